@@ -1,0 +1,9 @@
+/* commands: the subcommands of the `prismfarm` executable. Each takes the arguments after
+ * its own name (argv[0] is the subcommand) and returns the process exit status:
+ * 0 success, 1 failure at run time, 2 bad command line. */
+#ifndef PRISMFARM_COMMANDS_H
+#define PRISMFARM_COMMANDS_H
+
+int cmd_glass(int argc, char **argv);
+
+#endif
