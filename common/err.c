@@ -25,7 +25,13 @@ int err_prefix(err_t *err, const char *fmt, ...)
         vsnprintf(prefix, sizeof prefix, fmt, ap);
         va_end(ap);
         memcpy(old, err->msg, sizeof old);
-        snprintf(err->msg, sizeof err->msg, "%s%s", prefix, old);
+        /* Truncation is acceptable here: the message stays one readable, bounded line. */
+        size_t n = strlen(prefix);
+        memcpy(err->msg, prefix, n);
+        size_t room = sizeof err->msg - 1 - n;
+        size_t m = strnlen(old, room);
+        memcpy(err->msg + n, old, m);
+        err->msg[n + m] = 0;
     }
     return -1;
 }

@@ -1,0 +1,145 @@
+#include "tilebuf.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct tilebuf {
+    int x0, y0, w, h, nb;
+    double *sums;      /* [h][w][nb] */
+    uint64_t *counts;  /* [h][w] */
+    double *lum;       /* [h][w] */
+    double *lum_sq;    /* [h][w] */
+    uint64_t nonfinite;
+};
+
+tilebuf_t *tilebuf_new(int x0, int y0, int w, int h, int nbuckets, err_t *err)
+{
+    if (w <= 0 || h <= 0 || nbuckets <= 0 || x0 < 0 || y0 < 0) {
+        err_set(err, "tile %dx%d at (%d,%d) with %d buckets: sizes must be positive", w, h, x0,
+                y0, nbuckets);
+        return NULL;
+    }
+    size_t npix = (size_t)w * (size_t)h;
+    if (npix > ((size_t)1 << 31) / (size_t)nbuckets) {
+        err_set(err, "tile %dx%d with %d buckets is too large", w, h, nbuckets);
+        return NULL;
+    }
+    tilebuf_t *self = calloc(1, sizeof *self);
+    if (!self) {
+        err_set(err, "out of memory for a %dx%d tile", w, h);
+        return NULL;
+    }
+    *self = (tilebuf_t){.x0 = x0, .y0 = y0, .w = w, .h = h, .nb = nbuckets};
+    self->sums = calloc(npix * (size_t)nbuckets, sizeof *self->sums);
+    self->counts = calloc(npix, sizeof *self->counts);
+    self->lum = calloc(npix, sizeof *self->lum);
+    self->lum_sq = calloc(npix, sizeof *self->lum_sq);
+    if (!self->sums || !self->counts || !self->lum || !self->lum_sq) {
+        tilebuf_destroy(&self);
+        err_set(err, "out of memory for a %dx%d tile with %d buckets", w, h, nbuckets);
+        return NULL;
+    }
+    return self;
+}
+
+void tilebuf_destroy(tilebuf_t **self_p)
+{
+    if (!self_p || !*self_p)
+        return;
+    tilebuf_t *self = *self_p;
+    free(self->sums);
+    free(self->counts);
+    free(self->lum);
+    free(self->lum_sq);
+    free(self);
+    *self_p = NULL;
+}
+
+int tilebuf_x0(const tilebuf_t *self) { return self->x0; }
+int tilebuf_y0(const tilebuf_t *self) { return self->y0; }
+int tilebuf_width(const tilebuf_t *self) { return self->w; }
+int tilebuf_height(const tilebuf_t *self) { return self->h; }
+int tilebuf_nbuckets(const tilebuf_t *self) { return self->nb; }
+uint64_t tilebuf_nonfinite(const tilebuf_t *self) { return self->nonfinite; }
+const double *tilebuf_sums(const tilebuf_t *self) { return self->sums; }
+const uint64_t *tilebuf_counts(const tilebuf_t *self) { return self->counts; }
+
+static size_t pixel_index(const tilebuf_t *self, int x, int y)
+{
+    return (size_t)(y - self->y0) * (size_t)self->w + (size_t)(x - self->x0);
+}
+
+int tilebuf_add_sample(tilebuf_t *self, int x, int y, const double *buckets, double luminance)
+{
+    size_t p = pixel_index(self, x, y);
+    int finite = isfinite(luminance);
+    for (int b = 0; b < self->nb && finite; b++)
+        finite = isfinite(buckets[b]);
+    self->counts[p]++;
+    if (!finite) {
+        /* The sample still counts as taken: dropping it from the count too would bias the
+         * pixel toward the remaining (typically brighter) samples. */
+        self->nonfinite++;
+        return -1;
+    }
+    double *s = self->sums + p * (size_t)self->nb;
+    for (int b = 0; b < self->nb; b++)
+        s[b] += buckets[b];
+    self->lum[p] += luminance;
+    self->lum_sq[p] += luminance * luminance;
+    return 0;
+}
+
+double tilebuf_sum(const tilebuf_t *self, int x, int y, int bucket)
+{
+    return self->sums[pixel_index(self, x, y) * (size_t)self->nb + (size_t)bucket];
+}
+
+uint64_t tilebuf_count(const tilebuf_t *self, int x, int y)
+{
+    return self->counts[pixel_index(self, x, y)];
+}
+
+double tilebuf_luminance_sum(const tilebuf_t *self, int x, int y)
+{
+    return self->lum[pixel_index(self, x, y)];
+}
+
+double tilebuf_luminance_sq_sum(const tilebuf_t *self, int x, int y)
+{
+    return self->lum_sq[pixel_index(self, x, y)];
+}
+
+void tilebuf_mean(const tilebuf_t *self, int x, int y, double *out)
+{
+    size_t p = pixel_index(self, x, y);
+    uint64_t n = self->counts[p];
+    const double *s = self->sums + p * (size_t)self->nb;
+    for (int b = 0; b < self->nb; b++)
+        out[b] = n ? s[b] / (double)n : 0.0;
+}
+
+int tilebuf_merge(tilebuf_t *dst, const tilebuf_t *src, err_t *err)
+{
+    if (src->nb != dst->nb)
+        return err_set(err, "cannot merge a tile with %d buckets into a buffer with %d", src->nb,
+                       dst->nb);
+    if (src->x0 < dst->x0 || src->y0 < dst->y0 || src->x0 + src->w > dst->x0 + dst->w ||
+        src->y0 + src->h > dst->y0 + dst->h)
+        return err_set(err, "tile %dx%d at (%d,%d) lies outside the %dx%d buffer at (%d,%d)",
+                       src->w, src->h, src->x0, src->y0, dst->w, dst->h, dst->x0, dst->y0);
+    for (int y = 0; y < src->h; y++) {
+        for (int x = 0; x < src->w; x++) {
+            size_t ps = (size_t)y * (size_t)src->w + (size_t)x;
+            size_t pd = pixel_index(dst, src->x0 + x, src->y0 + y);
+            for (int b = 0; b < src->nb; b++)
+                dst->sums[pd * (size_t)dst->nb + (size_t)b] += src->sums[ps * (size_t)src->nb + (size_t)b];
+            dst->counts[pd] += src->counts[ps];
+            dst->lum[pd] += src->lum[ps];
+            dst->lum_sq[pd] += src->lum_sq[ps];
+        }
+    }
+    dst->nonfinite += src->nonfinite;
+    return 0;
+}

@@ -1,0 +1,49 @@
+/* tilebuf: a spectral framebuffer for a pixel rectangle: per pixel and bucket the sum of
+ * sample contributions (double), per pixel the number of samples taken and the sum of squared
+ * per-sample luminance (for error estimates). Tiles merge into a larger buffer by plain sums, so
+ * merging in a fixed order gives the same bytes whoever rendered the tiles. Non-finite
+ * contributions never enter the sums; they are counted instead. */
+#ifndef PRISMFARM_TILEBUF_H
+#define PRISMFARM_TILEBUF_H
+
+#include "err.h"
+
+#include <stdint.h>
+
+typedef struct tilebuf tilebuf_t;
+
+/* A buffer for pixels [x0, x0+w) x [y0, y0+h) with nbuckets spectral buckets, all zero. */
+tilebuf_t *tilebuf_new(int x0, int y0, int w, int h, int nbuckets, err_t *err);
+void tilebuf_destroy(tilebuf_t **self_p);
+
+int tilebuf_x0(const tilebuf_t *self);
+int tilebuf_y0(const tilebuf_t *self);
+int tilebuf_width(const tilebuf_t *self);
+int tilebuf_height(const tilebuf_t *self);
+int tilebuf_nbuckets(const tilebuf_t *self);
+
+/* Adds one finished sample of pixel (x, y) (absolute image coordinates): its per-bucket
+ * contributions and its luminance. A sample with any non-finite value is dropped whole and
+ * counted, so that one bad path never darkens or brightens a pixel. Returns 0, or -1 when the
+ * sample was dropped. */
+int tilebuf_add_sample(tilebuf_t *self, int x, int y, const double *buckets, double luminance);
+
+/* Sum over samples of the contribution to (x, y, bucket); samples taken at (x, y). */
+double tilebuf_sum(const tilebuf_t *self, int x, int y, int bucket);
+uint64_t tilebuf_count(const tilebuf_t *self, int x, int y);
+double tilebuf_luminance_sum(const tilebuf_t *self, int x, int y);
+double tilebuf_luminance_sq_sum(const tilebuf_t *self, int x, int y);
+uint64_t tilebuf_nonfinite(const tilebuf_t *self);
+
+/* Mean per bucket of pixel (x, y) into out[nbuckets] (zeros when no sample was taken). */
+void tilebuf_mean(const tilebuf_t *self, int x, int y, double *out);
+
+/* Adds src's sums, counts and non-finite count into dst. src must lie inside dst and have the
+ * same number of buckets. */
+int tilebuf_merge(tilebuf_t *dst, const tilebuf_t *src, err_t *err);
+
+/* Raw arrays, for encoding a tile into a message: sums are [h][w][nbuckets], the others [h][w]. */
+const double *tilebuf_sums(const tilebuf_t *self);
+const uint64_t *tilebuf_counts(const tilebuf_t *self);
+
+#endif
