@@ -29,7 +29,8 @@ int err_prefix(err_t *err, const char *fmt, ...)
         size_t n = strlen(prefix);
         memcpy(err->msg, prefix, n);
         size_t room = sizeof err->msg - 1 - n;
-        size_t m = strnlen(old, room);
+        const char *end = memchr(old, 0, room);
+        size_t m = end ? (size_t)(end - old) : room;
         memcpy(err->msg + n, old, m);
         err->msg[n + m] = 0;
     }

@@ -11,7 +11,7 @@ typedef enum { ANALYTIC_SPHERE, ANALYTIC_DISK } analytic_kind_t;
 
 typedef struct analytic {
     analytic_kind_t kind;
-    affine_t to_world, to_object;
+    transform_t to_world, to_object;
     double radius, height;
     uint32_t shape;
     int flip;
@@ -218,8 +218,8 @@ static int analytic_hit(const analytic_t *a, vec3_t o, vec3_t d, double tmin, do
 
 static void analytic_ray(const analytic_t *a, const struct RTCRay *ray, vec3_t *o, vec3_t *d)
 {
-    *o = affine_point(&a->to_object, vec3_make(ray->org_x, ray->org_y, ray->org_z));
-    *d = affine_vector(&a->to_object, vec3_make(ray->dir_x, ray->dir_y, ray->dir_z));
+    *o = transform_point(&a->to_object, vec3_make(ray->org_x, ray->org_y, ray->org_z));
+    *d = transform_vector(&a->to_object, vec3_make(ray->dir_x, ray->dir_y, ray->dir_z));
 }
 
 static void analytic_bounds(const struct RTCBoundsFunctionArguments *args)
@@ -230,7 +230,7 @@ static void analytic_bounds(const struct RTCBoundsFunctionArguments *args)
     double zhi = a->kind == ANALYTIC_SPHERE ? r : a->height;
     vec3_t lo = vec3_make(INFINITY, INFINITY, INFINITY), hi = vec3_scale(lo, -1.0);
     for (int c = 0; c < 8; c++) {
-        vec3_t p = affine_point(&a->to_world, vec3_make(c & 1 ? r : -r, c & 2 ? r : -r, c & 4 ? zhi : zlo));
+        vec3_t p = transform_point(&a->to_world, vec3_make(c & 1 ? r : -r, c & 2 ? r : -r, c & 4 ? zhi : zlo));
         lo = vec3_make(fmin(lo.x, p.x), fmin(lo.y, p.y), fmin(lo.z, p.z));
         hi = vec3_make(fmax(hi.x, p.x), fmax(hi.y, p.y), fmax(hi.z, p.z));
     }
@@ -288,8 +288,10 @@ static int add_analytic(geometry_t *self, analytic_t proto, err_t *err)
     if (!(proto.radius > 0.0) || !isfinite(proto.radius) || !isfinite(proto.height))
         return err_set(err, "shape %u: radius must be positive and finite, got %g", proto.shape,
                        proto.radius);
-    if (affine_invert(&proto.to_world, &proto.to_object))
-        return err_set(err, "shape %u: its transform is singular", proto.shape);
+    if (proto.to_world.singular || !transform_is_affine(&proto.to_world) ||
+        !transform_is_finite(&proto.to_world))
+        return err_set(err, "shape %u: its transform is singular or not affine", proto.shape);
+    proto.to_object = transform_inverse(proto.to_world);
     analytic_t *a = malloc(sizeof *a);
     if (!a)
         return err_set(err, "out of memory");
@@ -315,14 +317,14 @@ static int add_analytic(geometry_t *self, analytic_t proto, err_t *err)
     return 0;
 }
 
-int geometry_add_sphere(geometry_t *self, const affine_t *to_world, double radius, uint32_t shape,
+int geometry_add_sphere(geometry_t *self, const transform_t *to_world, double radius, uint32_t shape,
                         int flip, err_t *err)
 {
     return add_analytic(self, (analytic_t){.kind = ANALYTIC_SPHERE, .to_world = *to_world,
                                            .radius = radius, .shape = shape, .flip = flip}, err);
 }
 
-int geometry_add_disk(geometry_t *self, const affine_t *to_world, double radius, double height,
+int geometry_add_disk(geometry_t *self, const transform_t *to_world, double radius, double height,
                       uint32_t shape, int flip, err_t *err)
 {
     return add_analytic(self, (analytic_t){.kind = ANALYTIC_DISK, .to_world = *to_world,
@@ -374,7 +376,7 @@ int geometry_intersect(const geometry_t *self, vec3_t org, vec3_t dir, double tm
     } else {
         /* Embree found the shape in float; find the same root again in double so that hit
          * points stay accurate on large and tiny scenes. */
-        vec3_t o = affine_point(&a->to_object, org), d = affine_vector(&a->to_object, dir);
+        vec3_t o = transform_point(&a->to_object, org), d = transform_vector(&a->to_object, dir);
         double t;
         if (analytic_hit(a, o, d, tmin, out->t * (1.0 + 1e-4) + 1e-300, &t)) {
             out->t = t;
@@ -386,20 +388,20 @@ int geometry_intersect(const geometry_t *self, vec3_t org, vec3_t dir, double tm
             n_obj = po;
             double phi = atan2(po.y, po.x);
             if (phi < 0)
-                phi += 2.0 * M_PI;
+                phi += 2.0 * PF_PI;
             double ct = fmax(-1.0, fmin(1.0, po.z / a->radius));
-            out->u = phi / (2.0 * M_PI);
-            out->v = acos(ct) / M_PI;
+            out->u = phi / (2.0 * PF_PI);
+            out->v = acos(ct) / PF_PI;
         } else {
             n_obj = vec3_make(0, 0, 1);
             double phi = atan2(po.y, po.x);
             if (phi < 0)
-                phi += 2.0 * M_PI;
-            out->u = phi / (2.0 * M_PI);
+                phi += 2.0 * PF_PI;
+            out->u = phi / (2.0 * PF_PI);
             out->v = 1.0 - sqrt(po.x * po.x + po.y * po.y) / a->radius;
         }
-        ng = affine_normal(&a->to_object, n_obj);
-        out->p = affine_point(&a->to_world, a->kind == ANALYTIC_SPHERE
+        ng = transform_normal(&a->to_world, n_obj);
+        out->p = transform_point(&a->to_world, a->kind == ANALYTIC_SPHERE
                                                 ? vec3_scale(vec3_normalize(po), a->radius)
                                                 : vec3_make(po.x, po.y, a->height));
     }
@@ -423,55 +425,6 @@ void geometry_bounds(const geometry_t *self, vec3_t *lo, vec3_t *hi)
 {
     *lo = self->lo;
     *hi = self->hi;
-}
-
-affine_t affine_identity(void)
-{
-    return (affine_t){{{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}}};
-}
-
-vec3_t affine_point(const affine_t *a, vec3_t p)
-{
-    return vec3_make(a->m[0][0] * p.x + a->m[0][1] * p.y + a->m[0][2] * p.z + a->m[0][3],
-                     a->m[1][0] * p.x + a->m[1][1] * p.y + a->m[1][2] * p.z + a->m[1][3],
-                     a->m[2][0] * p.x + a->m[2][1] * p.y + a->m[2][2] * p.z + a->m[2][3]);
-}
-
-vec3_t affine_vector(const affine_t *a, vec3_t v)
-{
-    return vec3_make(a->m[0][0] * v.x + a->m[0][1] * v.y + a->m[0][2] * v.z,
-                     a->m[1][0] * v.x + a->m[1][1] * v.y + a->m[1][2] * v.z,
-                     a->m[2][0] * v.x + a->m[2][1] * v.y + a->m[2][2] * v.z);
-}
-
-vec3_t affine_normal(const affine_t *inv, vec3_t n)
-{
-    return vec3_make(inv->m[0][0] * n.x + inv->m[1][0] * n.y + inv->m[2][0] * n.z,
-                     inv->m[0][1] * n.x + inv->m[1][1] * n.y + inv->m[2][1] * n.z,
-                     inv->m[0][2] * n.x + inv->m[1][2] * n.y + inv->m[2][2] * n.z);
-}
-
-int affine_invert(const affine_t *a, affine_t *inv)
-{
-    const double(*m)[4] = a->m;
-    double c00 = m[1][1] * m[2][2] - m[1][2] * m[2][1];
-    double c01 = m[1][2] * m[2][0] - m[1][0] * m[2][2];
-    double c02 = m[1][0] * m[2][1] - m[1][1] * m[2][0];
-    double det = m[0][0] * c00 + m[0][1] * c01 + m[0][2] * c02;
-    if (!(fabs(det) > 0.0) || !isfinite(det))
-        return -1;
-    double id = 1.0 / det;
-    double r[3][3] = {
-        {c00 * id, (m[0][2] * m[2][1] - m[0][1] * m[2][2]) * id, (m[0][1] * m[1][2] - m[0][2] * m[1][1]) * id},
-        {c01 * id, (m[0][0] * m[2][2] - m[0][2] * m[2][0]) * id, (m[0][2] * m[1][0] - m[0][0] * m[1][2]) * id},
-        {c02 * id, (m[0][1] * m[2][0] - m[0][0] * m[2][1]) * id, (m[0][0] * m[1][1] - m[0][1] * m[1][0]) * id},
-    };
-    for (int i = 0; i < 3; i++) {
-        for (int j = 0; j < 3; j++)
-            inv->m[i][j] = r[i][j];
-        inv->m[i][3] = -(r[i][0] * m[0][3] + r[i][1] * m[1][3] + r[i][2] * m[2][3]);
-    }
-    return 0;
 }
 
 vec3_t geometry_offset(vec3_t p, vec3_t ng, vec3_t dir)

@@ -6,17 +6,13 @@
 #define PRISMFARM_GEOMETRY_H
 
 #include "err.h"
+#include "transform.h"
 #include "vec3.h"
 
 #include <stddef.h>
 #include <stdint.h>
 
 typedef struct geometry geometry_t;
-
-/* An affine object-to-world transform, rows of a 3x4 matrix: world = M * (x, y, z, 1). */
-typedef struct affine {
-    double m[3][4];
-} affine_t;
 
 typedef struct hit {
     double t;
@@ -35,11 +31,12 @@ void geometry_destroy(geometry_t **self_p);
  * geometric normal (pbrt's ReverseOrientation / handedness swap). */
 int geometry_add_mesh(geometry_t *self, const double *positions, size_t nverts,
                       const uint32_t *indices, size_t ntris, uint32_t shape, int flip, err_t *err);
-/* A sphere of the given radius at the object-space origin. */
-int geometry_add_sphere(geometry_t *self, const affine_t *to_world, double radius, uint32_t shape,
+/* A sphere of the given radius at the object-space origin; to_world must be affine and
+ * invertible. */
+int geometry_add_sphere(geometry_t *self, const transform_t *to_world, double radius, uint32_t shape,
                         int flip, err_t *err);
 /* A disk of the given radius at object-space z = height with normal +z. */
-int geometry_add_disk(geometry_t *self, const affine_t *to_world, double radius, double height,
+int geometry_add_disk(geometry_t *self, const transform_t *to_world, double radius, double height,
                       uint32_t shape, int flip, err_t *err);
 
 /* Builds the acceleration structure; no shape may be added afterwards. */
@@ -53,16 +50,6 @@ int geometry_occluded(const geometry_t *self, vec3_t org, vec3_t dir, double tmi
 
 /* Bounding box of everything added (valid after commit). */
 void geometry_bounds(const geometry_t *self, vec3_t *lo, vec3_t *hi);
-
-/* Helpers for affine transforms. */
-affine_t affine_identity(void);
-vec3_t affine_point(const affine_t *a, vec3_t p);
-vec3_t affine_vector(const affine_t *a, vec3_t v);
-/* Inverse of an affine transform; returns -1 when it is singular. */
-int affine_invert(const affine_t *a, affine_t *inv);
-/* Maps an object-space normal to world space given the INVERSE transform (normals go by the
- * inverse transpose). */
-vec3_t affine_normal(const affine_t *inverse, vec3_t n);
 
 /* Offsets a ray origin off a surface along its normal, far enough for float32 Embree
  * intersection at the point's magnitude (scenes span 1e-3 to 1e5). */

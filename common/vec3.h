@@ -5,6 +5,9 @@
 
 #include <math.h>
 
+/* π to double precision (strict C17 has no M_PI). */
+#define PF_PI 3.14159265358979323846
+
 typedef struct vec3 {
     double x, y, z;
 } vec3_t;

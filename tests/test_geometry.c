@@ -62,7 +62,7 @@ static void test_scaled_sphere(void **state)
     (void)state;
     err_t err;
     geometry_t *g = geometry_new(1, &err);
-    affine_t a = {{{2, 0, 0, 10}, {0, 1, 0, 0}, {0, 0, 1, 0}}};
+    transform_t a = transform_from_matrix((double[4][4]){{2, 0, 0, 10}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}});
     assert_int_equal(geometry_add_sphere(g, &a, 1.0, 3, 0, &err), 0);
     assert_int_equal(geometry_commit(g, &err), 0);
     hit_t h;
@@ -92,7 +92,7 @@ static void test_sphere_scales(void **state)
     for (int i = 0; i < 3; i++) {
         double s = scales[i];
         geometry_t *g = geometry_new(1, NULL);
-        affine_t a = {{{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 100 * s}}};
+        transform_t a = transform_translate(vec3_make(0, 0, 100 * s));
         assert_int_equal(geometry_add_sphere(g, &a, s, 0, 0, NULL), 0);
         assert_int_equal(geometry_commit(g, NULL), 0);
         hit_t h;
@@ -106,7 +106,7 @@ static void test_disk(void **state)
 {
     (void)state;
     geometry_t *g = geometry_new(1, NULL);
-    affine_t a = affine_identity();
+    transform_t a = transform_identity();
     assert_int_equal(geometry_add_disk(g, &a, 0.5, 2.0, 9, 0, NULL), 0);
     assert_int_equal(geometry_commit(g, NULL), 0);
     hit_t h;
@@ -134,10 +134,10 @@ static void test_bad_input(void **state)
     idx[2] = 2;
     assert_int_equal(geometry_add_mesh(g, pos, 3, idx, 1, 4, 0, &err), -1);
     assert_non_null(strstr(err.msg, "not finite"));
-    affine_t singular = {{{1, 0, 0, 0}, {0, 0, 0, 0}, {0, 0, 1, 0}}};
+    transform_t singular = transform_scale(1, 0, 1);
     assert_int_equal(geometry_add_sphere(g, &singular, 1.0, 5, 0, &err), -1);
     assert_non_null(strstr(err.msg, "singular"));
-    affine_t id = affine_identity();
+    transform_t id = transform_identity();
     assert_int_equal(geometry_add_sphere(g, &id, -1.0, 6, 0, &err), -1);
     assert_non_null(strstr(err.msg, "radius"));
     geometry_destroy(&g);
@@ -148,7 +148,7 @@ static void test_offset_escapes_surface(void **state)
     (void)state;
     /* A ray leaving a sphere surface far from the origin must not hit the same surface. */
     geometry_t *g = geometry_new(1, NULL);
-    affine_t a = {{{1, 0, 0, 1e5}, {0, 1, 0, 0}, {0, 0, 1, 0}}};
+    transform_t a = transform_translate(vec3_make(1e5, 0, 0));
     geometry_add_sphere(g, &a, 10.0, 0, 0, NULL);
     geometry_commit(g, NULL);
     hit_t h;

@@ -1,0 +1,166 @@
+/* scene: a scene ready to render -- shapes in Embree, materials, textures, lights, camera,
+ * film and integrator settings -- as the render kernels read it. scene_new gives an empty
+ * scene that a loader (scene_load.c, from a parsed pbrt file) or a test fills through the
+ * scene_add_* functions, then scene_finish builds the acceleration structure and light
+ * distribution. After scene_finish the scene is immutable and safe to share between threads. */
+#ifndef PRISMFARM_SCENE_H
+#define PRISMFARM_SCENE_H
+
+#include "alias.h"
+#include "dispersion.h"
+#include "err.h"
+#include "geometry.h"
+#include "spectral_grid.h"
+#include "spectrum.h"
+#include "texture.h"
+#include "transform.h"
+#include "vec3.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef enum material_kind {
+    MATERIAL_DIFFUSE,    /* Lambertian with a reflectance texture */
+    MATERIAL_CONDUCTOR,  /* perfect mirror: Fresnel from eta/k, or a reflectance texture */
+    MATERIAL_DIELECTRIC, /* smooth glass with an index-of-refraction model */
+    MATERIAL_INTERFACE,  /* no surface: rays pass straight through */
+} material_kind_t;
+
+typedef struct material {
+    material_kind_t kind;
+    char name[64];
+    const texture_t *reflectance; /* diffuse albedo; conductor reflectance when eta is NULL */
+    const spectrum_t *eta, *k;    /* conductor's complex index (both or neither) */
+    ior_model_t ior;              /* dielectric */
+    int dispersive;               /* dielectric whose index varies over the film's range */
+} material_t;
+
+typedef enum light_kind {
+    LIGHT_AREA,       /* "diffuse" area light on a shape: radiance L, cosine emission */
+    LIGHT_COLLIMATED, /* prismfarm's "collimated" area light: emits only along the normal */
+    LIGHT_POINT,      /* intensity I from a point */
+    LIGHT_SPOT,       /* point light limited to a cone with a smooth falloff */
+    LIGHT_DISTANT,    /* the sun: parallel light of irradiance L along dir */
+    LIGHT_INFINITE,   /* uniform environment radiance L */
+} light_kind_t;
+
+typedef struct light {
+    light_kind_t kind;
+    /* Emission spectrum with pbrt-v4's normalisation already applied: the spectrum divided
+     * by its photometric value and multiplied by "scale", so scale sets the brightness
+     * (luminance Y) and the spectrum the colour. */
+    const spectrum_t *spectrum;
+    double scale;     /* the multiplier to apply to spectrum_eval(spectrum, lambda) */
+    int shape;        /* area and collimated lights: index of the emitting shape */
+    int twosided;     /* area lights: emit from both sides */
+    vec3_t position;  /* point and spot */
+    vec3_t direction; /* spot axis and distant light: the direction light travels (unit) */
+    double cos_total_width, cos_falloff_start; /* spot */
+} light_t;
+
+typedef enum shape_kind { SHAPE_MESH, SHAPE_SPHERE, SHAPE_DISK } shape_kind_t;
+
+typedef struct shape {
+    shape_kind_t kind;
+    int material; /* index into materials */
+    int light;    /* index into lights, or -1 */
+    int flip;     /* reverse orientation (ReverseOrientation XOR handedness swap) */
+    transform_t to_world; /* spheres and disks (meshes are stored in world space) */
+    double radius, height;
+    /* Meshes, world space: positions xyz, 3 indices per triangle, optional per-vertex
+     * normals and uvs (NULL when absent). */
+    double *positions;
+    uint32_t *indices;
+    double *normals;
+    double *uvs;
+    size_t nverts, ntris;
+    /* Area sampling: total world-space area and, for meshes, a distribution over triangles
+     * by area. */
+    double area;
+    alias_t *triangles;
+} shape_t;
+
+typedef struct camera {
+    transform_t camera_to_world; /* pbrt camera space: looks down +z, +y up, +x right */
+    double fov_deg;              /* angle of the shorter image axis */
+    double lens_radius, focal_distance;
+} camera_t;
+
+typedef enum integrator_kind {
+    INTEGRATOR_SIMPLEPATH, /* the thesis's simple path tracer: no light sampling */
+    INTEGRATOR_PATH,       /* next-event estimation with MIS */
+    INTEGRATOR_WHITTED,    /* specular chains, shadow rays at the first diffuse hit */
+} integrator_kind_t;
+
+typedef enum dispersion_kind {
+    DISPERSION_HERO,   /* 4 continuous hero wavelengths, secondaries terminated at dispersion */
+    DISPERSION_FANOUT, /* the thesis: monochrome fan-out over the framebuffer buckets */
+} dispersion_kind_t;
+
+typedef struct render_settings {
+    integrator_kind_t integrator;
+    dispersion_kind_t dispersion;
+    int maxdepth;
+    int spp;
+    uint64_t seed;
+    int xres, yres;
+    spectral_grid_t grid;
+    int visible_sampling; /* hero: sample wavelengths by the visible pdf, not uniformly */
+    char filename[512];   /* output named by the scene's Film, may be empty */
+    int film_spectral;    /* Film "spectral" (else "rgb") */
+} render_settings_t;
+
+typedef struct scene {
+    geometry_t *geometry;
+    shape_t *shapes;
+    size_t nshapes;
+    material_t *materials;
+    size_t nmaterials;
+    light_t *lights;
+    size_t nlights;
+    alias_t *light_power; /* picks a light for next-event estimation */
+    texture_t **textures; /* owned */
+    size_t ntextures;
+    spectrum_t **spectra; /* owned */
+    size_t nspectra;
+    camera_t camera;
+    render_settings_t settings;
+    int has_dispersion;   /* any dispersive material: spectral fan-out is ever needed */
+    vec3_t bounds_lo, bounds_hi;
+    double scene_radius;  /* radius of a sphere around the bounds (distant light sampling) */
+} scene_t;
+
+scene_t *scene_new(err_t *err);
+void scene_destroy(scene_t **self_p);
+
+/* The scene owns what it is given from here on (also on failure). */
+int scene_own_texture(scene_t *self, texture_t *tex, err_t *err);
+int scene_own_spectrum(scene_t *self, spectrum_t *s, err_t *err);
+
+/* Returns the new material's index, or -1. */
+int scene_add_material(scene_t *self, const material_t *m, err_t *err);
+/* Returns the new light's index, or -1. Area lights are attached by scene_add_* shape calls. */
+int scene_add_light(scene_t *self, const light_t *l, err_t *err);
+/* Shapes: each returns the new shape's index, or -1. area_light is a light index or -1; the
+ * light's shape field is set here. Mesh arrays are copied. */
+int scene_add_mesh(scene_t *self, const double *positions, size_t nverts, const uint32_t *indices,
+                   size_t ntris, const double *normals, const double *uvs, int material,
+                   int area_light, int flip, err_t *err);
+int scene_add_sphere(scene_t *self, const transform_t *to_world, double radius, int material,
+                     int area_light, int flip, err_t *err);
+int scene_add_disk(scene_t *self, const transform_t *to_world, double radius, double height,
+                   int material, int area_light, int flip, err_t *err);
+
+/* Commits the geometry, sets has_dispersion from the materials over settings.grid and
+ * validates their index models there, and builds the light distribution. */
+int scene_finish(scene_t *self, err_t *err);
+
+/* Total emitted power of a light at the given wavelength grid's mean (used to pick lights in
+ * proportion to power). */
+double scene_light_power(const scene_t *self, const light_t *l);
+
+/* Default settings: path tracer, hero dispersion, maxdepth 5, 16 spp, seed 1,
+ * 1280x720 (pbrt-v4's default), the default spectral grid. */
+render_settings_t render_settings_default(void);
+
+#endif

@@ -1,0 +1,174 @@
+#include "lights.h"
+
+#include "sample.h"
+
+#include <math.h>
+
+static double light_value(const light_t *l, double lambda)
+{
+    return l->scale * spectrum_eval(l->spectrum, lambda);
+}
+
+/* Uniform point on a shape by area: returns the point and its unit normal (orientation as
+ * the geometry reports it, flipped by the shape's flip flag). */
+static int shape_sample(const shape_t *s, double u0, double u1, double u2, vec3_t *p, vec3_t *n)
+{
+    if (!(s->area > 0.0))
+        return 0;
+    if (s->kind == SHAPE_MESH) {
+        double pmf;
+        size_t t = alias_sample(s->triangles, u0, &pmf);
+        const double *a = s->positions + 3 * s->indices[3 * t];
+        const double *b = s->positions + 3 * s->indices[3 * t + 1];
+        const double *c = s->positions + 3 * s->indices[3 * t + 2];
+        vec3_t p0 = vec3_make(a[0], a[1], a[2]), p1 = vec3_make(b[0], b[1], b[2]),
+               p2 = vec3_make(c[0], c[1], c[2]);
+        *p = sample_triangle_point(p0, p1, p2, u1, u2);
+        *n = vec3_normalize(vec3_cross(vec3_sub(p1, p0), vec3_sub(p2, p0)));
+    } else if (s->kind == SHAPE_SPHERE) {
+        vec3_t q = sample_uniform_sphere(u1, u2);
+        *p = transform_point(&s->to_world, vec3_scale(q, s->radius));
+        *n = vec3_normalize(transform_normal(&s->to_world, q));
+    } else {
+        vec3_t q = vec3_scale(sample_concentric_disk(u1, u2), s->radius);
+        q.z = s->height;
+        *p = transform_point(&s->to_world, q);
+        *n = vec3_normalize(transform_normal(&s->to_world, vec3_make(0, 0, 1)));
+    }
+    if (s->flip)
+        *n = vec3_neg(*n);
+    return 1;
+}
+
+int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sample_t *out)
+{
+    if (!scene->light_power)
+        return 0;
+    double pmf;
+    size_t i = alias_sample(scene->light_power, u[0], &pmf);
+    if (!(pmf > 0.0))
+        return 0;
+    const light_t *l = &scene->lights[i];
+    out->light = (int)i;
+    out->is_delta = 0;
+    switch (l->kind) {
+    case LIGHT_AREA: {
+        const shape_t *s = &scene->shapes[l->shape];
+        vec3_t q, n;
+        if (!shape_sample(s, u[1], u[2], u[3], &q, &n))
+            return 0;
+        vec3_t d = vec3_sub(q, p);
+        double d2 = vec3_dot(d, d);
+        if (!(d2 > 0.0))
+            return 0;
+        double dist = sqrt(d2);
+        vec3_t wi = vec3_scale(d, 1.0 / dist);
+        double cos_l = fabs(vec3_dot(n, wi));
+        if (!(cos_l > 1e-12))
+            return 0;
+        out->wi = wi;
+        out->dist = dist;
+        out->p_light = q;
+        out->n_light = n;
+        out->pdf = pmf * d2 / (cos_l * s->area);
+        return isfinite(out->pdf);
+    }
+    case LIGHT_POINT:
+    case LIGHT_SPOT: {
+        vec3_t d = vec3_sub(l->position, p);
+        double dist = vec3_length(d);
+        if (!(dist > 0.0))
+            return 0;
+        out->wi = vec3_scale(d, 1.0 / dist);
+        out->dist = dist;
+        out->pdf = pmf;
+        out->is_delta = 1;
+        return 1;
+    }
+    case LIGHT_DISTANT:
+        out->wi = vec3_neg(l->direction);
+        out->dist = INFINITY;
+        out->pdf = pmf;
+        out->is_delta = 1;
+        return 1;
+    case LIGHT_INFINITE:
+        out->wi = sample_uniform_sphere(u[2], u[3]);
+        out->dist = INFINITY;
+        out->pdf = pmf * sample_uniform_sphere_pdf();
+        return 1;
+    case LIGHT_COLLIMATED:
+        return 0;
+    }
+    return 0;
+}
+
+double lights_area_radiance(const scene_t *scene, const light_t *l, vec3_t ng, vec3_t wo,
+                            double lambda)
+{
+    (void)scene;
+    if (l->kind != LIGHT_AREA)
+        return 0.0;
+    if (!l->twosided && vec3_dot(ng, wo) <= 0.0)
+        return 0.0;
+    return light_value(l, lambda);
+}
+
+double lights_sample_emission(const scene_t *scene, const light_sample_t *s, double lambda)
+{
+    const light_t *l = &scene->lights[s->light];
+    switch (l->kind) {
+    case LIGHT_AREA:
+        return lights_area_radiance(scene, l, s->n_light, vec3_neg(s->wi), lambda);
+    case LIGHT_POINT:
+        return light_value(l, lambda) / (s->dist * s->dist);
+    case LIGHT_SPOT: {
+        /* pbrt-v4 SpotLight: smoothstep falloff between the cone's inner and outer cosines. */
+        double c = vec3_dot(vec3_neg(s->wi), l->direction);
+        double a = l->cos_total_width, b = l->cos_falloff_start;
+        double f;
+        if (c >= b)
+            f = 1.0;
+        else if (c <= a)
+            f = 0.0;
+        else {
+            double t = (c - a) / (b - a);
+            f = t * t * (3.0 - 2.0 * t);
+        }
+        return f * light_value(l, lambda) / (s->dist * s->dist);
+    }
+    case LIGHT_DISTANT:
+    case LIGHT_INFINITE:
+        return light_value(l, lambda);
+    case LIGHT_COLLIMATED:
+        return 0.0;
+    }
+    return 0.0;
+}
+
+double lights_environment(const scene_t *scene, double lambda)
+{
+    double sum = 0.0;
+    for (size_t i = 0; i < scene->nlights; i++)
+        if (scene->lights[i].kind == LIGHT_INFINITE)
+            sum += light_value(&scene->lights[i], lambda);
+    return sum;
+}
+
+double lights_pdf(const scene_t *scene, int light, vec3_t p, vec3_t wi, vec3_t p_light, vec3_t ng)
+{
+    if (!scene->light_power || light < 0)
+        return 0.0;
+    double pmf = alias_pmf(scene->light_power, (size_t)light);
+    const light_t *l = &scene->lights[light];
+    if (l->kind == LIGHT_INFINITE)
+        return pmf * sample_uniform_sphere_pdf();
+    if (l->kind != LIGHT_AREA)
+        return 0.0;
+    const shape_t *s = &scene->shapes[l->shape];
+    vec3_t d = vec3_sub(p_light, p);
+    double d2 = vec3_dot(d, d);
+    double cos_l = fabs(vec3_dot(ng, wi));
+    if (!(cos_l > 1e-12) || !(s->area > 0.0))
+        return 0.0;
+    return pmf * d2 / (cos_l * s->area);
+}

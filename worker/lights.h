@@ -1,0 +1,44 @@
+/* lights: next-event estimation. Picks a light in proportion to its power, samples a point or
+ * direction on it as seen from a shading point, and evaluates emission, all with the pdfs that
+ * multiple importance sampling needs. Delta lights (point, spot, distant) are reached only
+ * here; a collimated area light is delta in direction and reached by neither camera paths nor
+ * light sampling (only by photons), as the thesis observed (fig. 6.7). */
+#ifndef PRISMFARM_LIGHTS_H
+#define PRISMFARM_LIGHTS_H
+
+#include "scene.h"
+
+typedef struct light_sample {
+    int light;      /* index into scene->lights */
+    vec3_t wi;      /* unit direction from the shading point toward the light */
+    double dist;    /* distance to the sampled point; INFINITY for distant and infinite lights */
+    double pdf;     /* pmf of the light times the solid-angle pdf (delta lights: the pmf) */
+    int is_delta;   /* point, spot or distant: no MIS, no BSDF sampling can hit it */
+    vec3_t p_light; /* area lights: the sampled point */
+    vec3_t n_light; /* area lights: the unit normal at the sampled point */
+} light_sample_t;
+
+/* Samples a light for shading point p with four uniform numbers: u[0] picks the light, u[1]
+ * a mesh light's triangle, u[2] and u[3] the point or direction. Returns 0 when nothing can be
+ * sampled (no lights, a collimated light, a zero-area light, a degenerate configuration). */
+int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sample_t *out);
+
+/* The emitted quantity that arrives at the shading point along the sample, at lambda: radiance
+ * for area and infinite lights, I/d^2 (times the spot falloff) for point and spot lights, the
+ * irradiance-defining L for distant lights. */
+double lights_sample_emission(const scene_t *scene, const light_sample_t *s, double lambda);
+
+/* Radiance leaving an area light's shape at a hit with unit normal ng toward direction wo
+ * (unit, pointing away from the surface); 0 on the back of a one-sided light. */
+double lights_area_radiance(const scene_t *scene, const light_t *l, vec3_t ng, vec3_t wo,
+                            double lambda);
+
+/* Environment radiance for a ray that left the scene (sum over infinite lights). */
+double lights_environment(const scene_t *scene, double lambda);
+
+/* The pdf lights_sample would have had for hitting light l at point p_light with normal ng,
+ * seen from p along unit wi (area lights), or along wi toward infinity (infinite lights). */
+double lights_pdf(const scene_t *scene, int light, vec3_t p, vec3_t wi, vec3_t p_light,
+                  vec3_t ng);
+
+#endif

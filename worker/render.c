@@ -1,0 +1,563 @@
+#include "render.h"
+
+#include "camera.h"
+#include "colour.h"
+#include "fanout.h"
+#include "fresnel.h"
+#include "lights.h"
+#include "rng.h"
+#include "sample.h"
+#include "wavelength.h"
+
+#include <complex.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define LANES RENDER_MAX_BUCKETS
+#define STACK_MAX 192
+/* Russian roulette starts after this many bounces (thesis eq. 2.32-2.33, PHYSICS.md). */
+#define RR_DEPTH 3
+#define RR_MIN 0.05
+/* Pass-through surfaces ("interface") do not count as bounces; this bounds them anyway. */
+#define MAX_PASSTHROUGH 64
+
+/* A path and the spectral lanes it carries. All lanes share the path's direction. A lane is a
+ * wavelength used for the physics and a throughput; `bucket` says where its light goes:
+ * a fixed framebuffer bucket (fan-out) or, when -1, the bucket containing lambda, weighted by
+ * 1/pdf (hero wavelengths, continuous). */
+typedef struct path {
+    vec3_t org, dir;
+    int n;
+    int depth;
+    int passthrough;
+    int specular;     /* the last bounce was specular (or this is the camera ray) */
+    double bsdf_pdf;  /* solid-angle pdf of the last diffuse bounce, for MIS */
+    vec3_t prev_p;    /* where the last bounce happened */
+    int mono;         /* every lane refracts alike: one physical wavelength */
+    int dispersed;    /* the path has had its first dispersive refraction */
+    /* The lanes come last so that a new path clears only the fields above. */
+    double lambda[LANES];
+    double beta[LANES];
+    double pdf[LANES];
+    int bucket[LANES];
+} path_t;
+
+typedef struct ctx {
+    const scene_t *scene;
+    const render_settings_t *rs;
+    const xyz_t *weights;
+    double *contrib;
+    rng_stream_t rng;
+    render_stats_t *stats;
+    path_t *stack;
+    int top;
+} ctx_t;
+
+static double next(ctx_t *c) { return rng_stream_next(&c->rng); }
+
+static double power_heuristic(double a, double b)
+{
+    double a2 = a * a, b2 = b * b;
+    return a2 + b2 > 0.0 ? a2 / (a2 + b2) : 0.0;
+}
+
+/* Adds light value(lane) * beta(lane) to the sample's buckets. */
+static void splat(ctx_t *c, const path_t *p, int j, double value)
+{
+    double v = value * p->beta[j];
+    if (v == 0.0)
+        return;
+    if (p->bucket[j] >= 0)
+        c->contrib[p->bucket[j]] += v;
+    else
+        spectral_grid_splat(c->rs->grid, c->contrib, p->lambda[j], v / WAVELENGTH_HERO_COUNT,
+                            p->pdf[j], SPECTRAL_SPLAT_BOX);
+}
+
+static double max_beta(const path_t *p)
+{
+    double m = 0.0;
+    for (int j = 0; j < p->n; j++)
+        m = fmax(m, fabs(p->beta[j]));
+    return m;
+}
+
+/* pbrt-v4 FrComplex: unpolarised Fresnel reflectance of a conductor with index eta + i k. */
+static double fresnel_conductor(double cos_i, double eta, double k)
+{
+    cos_i = fmin(1.0, fmax(0.0, cos_i));
+    double complex e = eta + I * k;
+    double sin2_i = 1.0 - cos_i * cos_i;
+    double complex sin2_t = sin2_i / (e * e);
+    double complex cos_t = csqrt(1.0 - sin2_t);
+    double complex r_parl = (e * cos_i - cos_t) / (e * cos_i + cos_t);
+    double complex r_perp = (cos_i - e * cos_t) / (cos_i + e * cos_t);
+    double r = 0.5 * (creal(r_parl * conj(r_parl)) + creal(r_perp * conj(r_perp)));
+    return isfinite(r) ? fmin(1.0, fmax(0.0, r)) : 1.0;
+}
+
+static int push(ctx_t *c, const path_t *p)
+{
+    if (c->top >= STACK_MAX)
+        return -1;
+    c->stack[c->top++] = *p;
+    return 0;
+}
+
+/* Emission seen by the path at a hit on an area light, or on leaving the scene. */
+static void add_emission_hit(ctx_t *c, const path_t *p, const hit_t *h, const light_t *l, int li)
+{
+    double w = 1.0;
+    if (c->rs->integrator == INTEGRATOR_PATH && !p->specular) {
+        double lp = lights_pdf(c->scene, li, p->prev_p, p->dir, h->p, h->ng);
+        w = power_heuristic(p->bsdf_pdf, lp);
+    }
+    vec3_t wo = vec3_neg(p->dir);
+    for (int j = 0; j < p->n; j++)
+        splat(c, p, j, w * lights_area_radiance(c->scene, l, h->ng, wo, p->lambda[j]));
+}
+
+static void add_environment(ctx_t *c, const path_t *p)
+{
+    double w = 1.0;
+    if (c->rs->integrator == INTEGRATOR_PATH && !p->specular) {
+        double lp = 0.0;
+        for (size_t i = 0; i < c->scene->nlights; i++)
+            if (c->scene->lights[i].kind == LIGHT_INFINITE)
+                lp += lights_pdf(c->scene, (int)i, p->prev_p, p->dir, p->prev_p, p->dir);
+        w = power_heuristic(p->bsdf_pdf, lp);
+    }
+    for (int j = 0; j < p->n; j++)
+        splat(c, p, j, w * lights_environment(c->scene, p->lambda[j]));
+}
+
+/* Next-event estimation at a diffuse point with normal n (facing the viewer). */
+static void direct_light(ctx_t *c, const path_t *p, const hit_t *h, vec3_t n, const double *albedo)
+{
+    double u[4];
+    for (int k = 0; k < 4; k++)
+        u[k] = next(c);
+    light_sample_t ls;
+    if (!lights_sample(c->scene, h->p, u, &ls))
+        return;
+    double cos_s = vec3_dot(n, ls.wi);
+    if (cos_s <= 0.0 || !(ls.pdf > 0.0))
+        return;
+    /* Both ends of the shadow ray are offset off their surfaces (toward each other), so that
+     * neither the shading point's surface nor the light's own surface blocks it. */
+    vec3_t o = geometry_offset(h->p, h->ng, ls.wi);
+    vec3_t dir = ls.wi;
+    double tmax = INFINITY;
+    if (!isinf(ls.dist)) {
+        vec3_t target = ls.dist > 0 && ls.is_delta ? vec3_fma(h->p, ls.wi, ls.dist)
+                                                   : geometry_offset(ls.p_light, ls.n_light, vec3_neg(ls.wi));
+        vec3_t d = vec3_sub(target, o);
+        tmax = vec3_length(d);
+        if (!(tmax > 0.0))
+            return;
+        dir = vec3_scale(d, 1.0 / tmax);
+        tmax *= 1.0 - 1e-7;
+    }
+    c->stats->rays++;
+    if (geometry_occluded(c->scene->geometry, o, dir, 0.0, tmax))
+        return;
+    double w = 1.0;
+    if (!ls.is_delta && c->rs->integrator == INTEGRATOR_PATH)
+        w = power_heuristic(ls.pdf, cos_s / PF_PI);
+    for (int j = 0; j < p->n; j++) {
+        double le = lights_sample_emission(c->scene, &ls, p->lambda[j]);
+        splat(c, p, j, w * albedo[j] / PF_PI * le * cos_s / ls.pdf);
+    }
+}
+
+/* Reflect-or-refract choice: with Whitted both branches are followed (the second pushed on
+ * the stack); otherwise one is chosen with probability prob_reflect and the weights divided
+ * by it. Returns 1 to take the reflection, 0 the refraction; *scale is the factor to apply
+ * to the chosen branch (1/probability, or 1 for Whitted). For Whitted the refraction branch
+ * is returned to the caller and the reflection pushed, when there is room. */
+static int choose_reflect(ctx_t *c, double prob_reflect, double *scale)
+{
+    if (prob_reflect >= 1.0) {
+        *scale = 1.0;
+        return 1;
+    }
+    if (prob_reflect <= 0.0) {
+        *scale = 1.0;
+        return 0;
+    }
+    double u = next(c);
+    if (u < prob_reflect) {
+        *scale = 1.0 / prob_reflect;
+        return 1;
+    }
+    *scale = 1.0 / (1.0 - prob_reflect);
+    return 0;
+}
+
+static void start_bounce(path_t *p, const hit_t *h, vec3_t dir, int specular, double pdf)
+{
+    p->prev_p = h->p;
+    p->org = geometry_offset(h->p, h->ng, dir);
+    p->dir = dir;
+    p->specular = specular;
+    p->bsdf_pdf = pdf;
+}
+
+/* Smooth dielectric. Returns 0 to continue the path, 1 when it ends (its sub-paths were
+ * pushed or it carries nothing). */
+static int scatter_dielectric(ctx_t *c, path_t *p, const hit_t *h, const material_t *m)
+{
+    const int whitted = c->rs->integrator == INTEGRATOR_WHITTED;
+    const double cos_d = vec3_dot(p->dir, h->ng);
+    const int entering = cos_d < 0.0;
+    vec3_t refl = fresnel_reflect(p->dir, h->ng);
+    const ior_model_t air = ior_constant(1.0);
+
+    if (!m->dispersive || p->mono) {
+        /* One index for every lane: constant glass, or a path that is already monochrome. */
+        double n = ior_eval(&m->ior, p->lambda[0]);
+        double n_i = entering ? 1.0 : n, n_t = entering ? n : 1.0;
+        fresnel_terms_t f = fresnel_dielectric_terms(-cos_d, 1.0, n);
+        vec3_t refr;
+        int ok = fresnel_refract(p->dir, h->ng, n_i / n_t, &refr);
+        double R = ok ? f.reflectance : 1.0;
+        if (whitted && R > 0.0 && R < 1.0) {
+            path_t r = *p;
+            for (int j = 0; j < r.n; j++)
+                r.beta[j] *= R;
+            start_bounce(&r, h, refl, 1, 0.0);
+            r.depth++;
+            if (push(c, &r) == 0) {
+                double t = (1.0 - R) * (n_i / n_t) * (n_i / n_t);
+                for (int j = 0; j < p->n; j++)
+                    p->beta[j] *= t;
+                start_bounce(p, h, refr, 1, 0.0);
+                return 0;
+            }
+        }
+        double scale;
+        if (choose_reflect(c, R, &scale)) {
+            for (int j = 0; j < p->n; j++)
+                p->beta[j] *= R * scale;
+            start_bounce(p, h, refl, 1, 0.0);
+        } else {
+            double t = (1.0 - R) * scale * (n_i / n_t) * (n_i / n_t);
+            for (int j = 0; j < p->n; j++)
+                p->beta[j] *= t;
+            start_bounce(p, h, refr, 1, 0.0);
+        }
+        return 0;
+    }
+
+    c->stats->dispersive++;
+    if (c->rs->dispersion == DISPERSION_HERO) {
+        /* The hero wavelength decides. Reflection keeps every lane (its direction does not
+         * depend on wavelength), weighted by R(lambda_j)/R(hero). Refraction sends each lane
+         * its own way: the secondaries end and the hero's weight is multiplied by the lane
+         * count (pbrt-v4 TerminateSecondary), so only the hero is splatted from here on
+         * (PHYSICS.md's trap). */
+        double R[LANES];
+        vec3_t refr;
+        double n0 = ior_eval(&m->ior, p->lambda[0]);
+        double n_i = entering ? 1.0 : n0, n_t = entering ? n0 : 1.0;
+        int ok = fresnel_refract(p->dir, h->ng, n_i / n_t, &refr);
+        for (int j = 0; j < p->n; j++) {
+            double n = ior_eval(&m->ior, p->lambda[j]);
+            R[j] = fresnel_dielectric(-cos_d, 1.0, n);
+        }
+        double R0 = ok ? R[0] : 1.0;
+        path_t refl_path;
+        int both = 0;
+        if (whitted && R0 > 0.0 && R0 < 1.0) {
+            refl_path = *p;
+            for (int j = 0; j < refl_path.n; j++)
+                refl_path.beta[j] *= R[j];
+            start_bounce(&refl_path, h, refl, 1, 0.0);
+            refl_path.depth++;
+            both = push(c, &refl_path) == 0;
+        }
+        double scale = 1.0;
+        int reflect = both ? 0 : choose_reflect(c, R0, &scale);
+        if (reflect) {
+            for (int j = 0; j < p->n; j++)
+                p->beta[j] *= R0 > 0.0 ? R[j] / R0 : 0.0;
+            start_bounce(p, h, refl, 1, 0.0);
+            return 0;
+        }
+        double t = (1.0 - R0) * scale * (n_i / n_t) * (n_i / n_t);
+        p->beta[0] *= t * p->n;
+        p->n = 1;
+        p->mono = 1;
+        p->dispersed = 1;
+        start_bounce(p, h, refr, 1, 0.0);
+        return 0;
+    }
+
+    /* The thesis's fan-out over the framebuffer buckets (5.3-5.4). */
+    const int nb = p->n;
+    double centres[LANES], ones[LANES], lam[LANES];
+    fanout_sample_t split[LANES];
+    fanout_ray_t rays[LANES];
+    fanout_poly_t poly;
+    for (int i = 0; i < nb; i++) {
+        centres[i] = p->lambda[i];
+        ones[i] = 1.0;
+    }
+    double shift = next(c) - 0.5;
+    if (fanout_split(centres, ones, nb, shift, split, NULL))
+        return 1;
+    for (int i = 0; i < nb; i++)
+        lam[i] = split[i].lambda_nm;
+    /* n is the outward normal, so air is always the outside medium. */
+    if (fanout_refract(&air, &m->ior, p->dir, h->ng, lam, nb, rays, &poly, NULL))
+        return 1;
+    double RP = poly.reflectance, TP = poly.transmittance;
+    int both = 0;
+    if (whitted && RP > 0.0 && RP < 1.0) {
+        path_t r = *p;
+        for (int j = 0; j < r.n; j++)
+            r.beta[j] *= RP;
+        start_bounce(&r, h, refl, 1, 0.0);
+        r.depth++;
+        both = push(c, &r) == 0;
+    }
+    double scale = 1.0;
+    int reflect = both ? 0 : choose_reflect(c, RP, &scale);
+    if (reflect) {
+        for (int j = 0; j < p->n; j++)
+            p->beta[j] *= RP * scale;
+        start_bounce(p, h, refl, 1, 0.0);
+        return 0;
+    }
+    if (!(TP > 0.0))
+        return 1;
+    /* Refraction of the polychrome ray: monochrome ray i carries bucket i's energy split
+     * (1-|S|, |S|) with its neighbour, with the Fresnel weight k t_i of eq. 5.3, scaled so
+     * that the weights average T_P (fanout.h); the reflect-or-refract choice already
+     * divided by (1 - R_P).
+     * All N rays are followed at the path's first dispersive refraction; at later ones (or
+     * if the branch stack is too full) one ray, chosen uniformly and weighted by N. */
+    int pick = -1;
+    double pick_scale = 1.0;
+    if (p->dispersed || c->top + nb > STACK_MAX) {
+        pick = (int)fmin(nb - 1, floor(next(c) * nb));
+        pick_scale = nb;
+    }
+    const path_t base = *p;
+    int have_current = 0;
+    for (int i = 0; i < nb; i++) {
+        if ((pick >= 0 && i != pick) || rays[i].tir || !(rays[i].transmittance > 0.0))
+            continue;
+        double ratio = rays[i].n_incident / rays[i].n_transmitted;
+        double w = rays[i].transmittance * scale * pick_scale * ratio * ratio;
+        path_t *q = have_current ? &c->stack[c->top++] : p;
+        memcpy(q, &base, offsetof(path_t, lambda));
+        q->n = 2;
+        q->lambda[0] = q->lambda[1] = lam[i];
+        q->bucket[0] = split[i].bucket[0];
+        q->bucket[1] = split[i].bucket[1];
+        q->beta[0] = base.beta[i] * split[i].energy[0] * w;
+        q->beta[1] = base.beta[i] * split[i].energy[1] * w;
+        q->pdf[0] = q->pdf[1] = 1.0;
+        q->mono = 1;
+        q->dispersed = 1;
+        start_bounce(q, h, rays[i].dir, 1, 0.0);
+        if (have_current)
+            q->depth++; /* the caller counts the current path's bounce */
+        have_current = 1;
+    }
+    return have_current ? 0 : 1;
+}
+
+/* Traces one path (and, via the stack, its branches) and splats what it finds. */
+static void trace(ctx_t *c, path_t *start)
+{
+    const scene_t *s = c->scene;
+    const int maxdepth = c->rs->maxdepth;
+    c->top = 0;
+    push(c, start);
+    while (c->top > 0) {
+        path_t *p = &c->stack[--c->top];
+        path_t cur = *p;
+        p = &cur;
+        for (;;) {
+            hit_t h;
+            c->stats->rays++;
+            if (!geometry_intersect(s->geometry, p->org, p->dir, 0.0, INFINITY, &h)) {
+                add_environment(c, p);
+                break;
+            }
+            const shape_t *sh = &s->shapes[h.shape];
+            if (sh->light >= 0 && s->lights[sh->light].kind == LIGHT_AREA)
+                add_emission_hit(c, p, &h, &s->lights[sh->light], sh->light);
+            const material_t *m = &s->materials[sh->material];
+            if (m->kind == MATERIAL_INTERFACE) {
+                if (++p->passthrough > MAX_PASSTHROUGH)
+                    break;
+                p->org = geometry_offset(h.p, h.ng, p->dir);
+                continue;
+            }
+            if (p->depth >= maxdepth)
+                break;
+            vec3_t wo = vec3_neg(p->dir);
+            if (m->kind == MATERIAL_DIFFUSE) {
+                vec3_t n = vec3_dot(h.ng, wo) >= 0.0 ? h.ng : vec3_neg(h.ng);
+                double albedo[LANES];
+                double u = h.u, v = h.v;
+                if (sh->kind == SHAPE_MESH && sh->uvs) {
+                    const uint32_t *ix = sh->indices + 3 * h.prim;
+                    const double *t0 = sh->uvs + 2 * ix[0], *t1 = sh->uvs + 2 * ix[1],
+                                 *t2 = sh->uvs + 2 * ix[2];
+                    double b0 = 1.0 - h.u - h.v;
+                    u = b0 * t0[0] + h.u * t1[0] + h.v * t2[0];
+                    v = b0 * t0[1] + h.u * t1[1] + h.v * t2[1];
+                }
+                for (int j = 0; j < p->n; j++)
+                    albedo[j] = m->reflectance ? texture_eval(m->reflectance, u, v, p->lambda[j]) : 0.5;
+                if (c->rs->integrator != INTEGRATOR_SIMPLEPATH)
+                    direct_light(c, p, &h, n, albedo);
+                if (c->rs->integrator == INTEGRATOR_WHITTED)
+                    break;
+                vec3_t local = sample_cosine_hemisphere(next(c), next(c));
+                vec3_t wi = sample_local_to_world(local, n);
+                double cos_i = vec3_dot(wi, n);
+                if (!(cos_i > 0.0))
+                    break;
+                for (int j = 0; j < p->n; j++)
+                    p->beta[j] *= albedo[j];
+                start_bounce(p, &h, wi, 0, cos_i / PF_PI);
+            } else if (m->kind == MATERIAL_CONDUCTOR) {
+                vec3_t n = vec3_dot(h.ng, wo) >= 0.0 ? h.ng : vec3_neg(h.ng);
+                double cos_i = vec3_dot(wo, n);
+                for (int j = 0; j < p->n; j++) {
+                    double f;
+                    if (m->eta && m->k)
+                        f = fresnel_conductor(cos_i, spectrum_eval(m->eta, p->lambda[j]),
+                                              spectrum_eval(m->k, p->lambda[j]));
+                    else if (m->reflectance)
+                        f = texture_eval(m->reflectance, h.u, h.v, p->lambda[j]);
+                    else
+                        f = 1.0;
+                    p->beta[j] *= f;
+                }
+                start_bounce(p, &h, fresnel_reflect(p->dir, n), 1, 0.0);
+            } else {
+                if (scatter_dielectric(c, p, &h, m))
+                    break;
+            }
+            p->depth++;
+            double mb = max_beta(p);
+            if (!(mb > 0.0))
+                break;
+            if (p->depth >= RR_DEPTH && c->rs->integrator != INTEGRATOR_WHITTED) {
+                double q = fmin(1.0, fmax(RR_MIN, mb));
+                if (q < 1.0) {
+                    if (next(c) >= q)
+                        break;
+                    for (int j = 0; j < p->n; j++)
+                        p->beta[j] /= q;
+                }
+            }
+        }
+    }
+}
+
+/* A permutation of the sample indices [0, spp) that differs between pixels (an odd multiplier
+ * and an offset, a bijection modulo a power of two), so that strata of the pixel position and
+ * of the wavelength are not correlated. Other spp values keep the identity. */
+static uint32_t permute(uint32_t s, uint32_t spp, uint64_t salt)
+{
+    if (spp == 0 || (spp & (spp - 1)) != 0 || s >= spp)
+        return s;
+    uint64_t hsh = salt * 0x9E3779B97F4A7C15ull;
+    uint32_t mult = (uint32_t)(hsh >> 32) | 1u;
+    return (s * mult + (uint32_t)hsh) & (spp - 1);
+}
+
+int render_tile(const scene_t *scene, int x0, int y0, int w, int h, uint32_t sample_begin,
+                uint32_t sample_end, tilebuf_t *out, render_stats_t *stats, err_t *err)
+{
+    const render_settings_t *rs = &scene->settings;
+    const int nb = rs->grid.n;
+    if (tilebuf_nbuckets(out) != nb)
+        return err_set(err, "tile buffer has %d buckets, the film %d", tilebuf_nbuckets(out), nb);
+    if (rs->dispersion == DISPERSION_FANOUT && nb > LANES)
+        return err_set(err, "fan-out dispersion supports at most %d buckets, the film has %d", LANES, nb);
+    if (x0 < 0 || y0 < 0 || x0 + w > rs->xres || y0 + h > rs->yres)
+        return err_set(err, "tile %dx%d at (%d,%d) lies outside the %dx%d image", w, h, x0, y0,
+                       rs->xres, rs->yres);
+    render_stats_t local = {0};
+    if (!stats)
+        stats = &local;
+    xyz_t *weights = malloc((size_t)nb * sizeof *weights);
+    double *contrib = malloc((size_t)nb * sizeof *contrib);
+    path_t *stack = malloc(STACK_MAX * sizeof *stack);
+    if (!weights || !contrib || !stack) {
+        free(weights);
+        free(contrib);
+        free(stack);
+        return err_set(err, "out of memory");
+    }
+    colour_grid_weights(rs->grid, weights);
+    ctx_t c = {.scene = scene, .rs = rs, .weights = weights, .contrib = contrib,
+               .stats = stats, .stack = stack};
+    const uint32_t spp = (uint32_t)rs->spp;
+    const uint32_t side = (uint32_t)lround(sqrt((double)spp));
+    for (int y = y0; y < y0 + h; y++) {
+        for (int x = x0; x < x0 + w; x++) {
+            uint64_t pixel = (uint64_t)y * (uint64_t)rs->xres + (uint64_t)x;
+            for (uint32_t s = sample_begin; s < sample_end; s++) {
+                c.rng = rng_stream_make(rs->seed, pixel, s);
+                memset(contrib, 0, (size_t)nb * sizeof *contrib);
+                path_t p;
+                memset(&p, 0, offsetof(path_t, lambda));
+                /* Stratified pixel positions (a side x side grid when spp is square) and
+                 * stratified hero wavelengths (when spp is a power of two). */
+                double jx = next(&c), jy = next(&c), ul = next(&c);
+                if (s < spp && side * side == spp) {
+                    uint32_t k = permute(s, spp, pixel);
+                    jx = ((k % side) + jx) / side;
+                    jy = ((k / side) + jy) / side;
+                }
+                if (s < spp && (spp & (spp - 1)) == 0)
+                    ul = (permute(s, spp, ~pixel) + ul) / spp;
+                double l1 = next(&c), l2 = next(&c);
+                camera_ray(&scene->camera, rs->xres, rs->yres, x + jx, y + jy, l1, l2, &p.org, &p.dir);
+                p.specular = 1;
+                p.prev_p = p.org;
+                if (rs->dispersion == DISPERSION_FANOUT) {
+                    p.n = nb;
+                    for (int i = 0; i < nb; i++) {
+                        p.lambda[i] = spectral_grid_centre(rs->grid, i);
+                        p.beta[i] = 1.0;
+                        p.pdf[i] = 1.0;
+                        p.bucket[i] = i;
+                    }
+                } else {
+                    wavelength_hero_t hw =
+                        rs->visible_sampling
+                            ? wavelength_hero_visible(ul)
+                            : wavelength_hero_uniform(ul, rs->grid.lambda_min, rs->grid.lambda_max);
+                    p.n = WAVELENGTH_HERO_COUNT;
+                    for (int j = 0; j < p.n; j++) {
+                        p.lambda[j] = hw.lambda[j];
+                        p.pdf[j] = hw.pdf[j];
+                        p.beta[j] = hw.pdf[j] > 0.0 ? 1.0 : 0.0;
+                        p.bucket[j] = -1;
+                    }
+                }
+                trace(&c, &p);
+                xyz_t xyz = colour_buckets_to_xyz_weighted(nb, weights, contrib);
+                if (tilebuf_add_sample(out, x, y, contrib, xyz.y))
+                    stats->nonfinite++;
+                stats->samples++;
+            }
+        }
+    }
+    free(weights);
+    free(contrib);
+    free(stack);
+    return 0;
+}
