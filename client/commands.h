@@ -5,5 +5,6 @@
 #define PRISMFARM_COMMANDS_H
 
 int cmd_glass(int argc, char **argv);
+int cmd_render(int argc, char **argv);
 
 #endif

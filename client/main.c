@@ -11,6 +11,7 @@ typedef struct command {
 } command_t;
 
 static const command_t COMMANDS[] = {
+    {"render", cmd_render, "render a scene on this machine and write EXR and PNG"},
     {"glass", cmd_glass, "list the glass catalogue and print refractive indices"},
 };
 

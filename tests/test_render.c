@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "glass.h"
+#include "local_render.h"
 #include "render.h"
 #include "scene.h"
 
@@ -212,6 +213,22 @@ static void test_tiles_are_deterministic(void **state)
             }
     tilebuf_destroy(&whole);
     tilebuf_destroy(&parts);
+
+    /* The threaded driver: identical bytes with 1, 2 and 3 threads and any tile size. */
+    tilebuf_t *img[3];
+    for (int k = 0; k < 3; k++) {
+        img[k] = tilebuf_new(0, 0, RES, RES, nb, &err);
+        local_render_opts_t o = {.threads = k + 1, .tile_size = k == 2 ? 3 : 4};
+        render_stats_t st = {0};
+        assert_int_equal(local_render(s, &o, img[k], &st, &err), 0);
+        assert_int_equal(st.samples, (uint64_t)RES * RES * 16);
+        assert_true(st.dispersive > 0);
+    }
+    for (int k = 1; k < 3; k++) {
+        assert_memory_equal(tilebuf_sums(img[0]), tilebuf_sums(img[k]), sizeof(double) * RES * RES * nb);
+        tilebuf_destroy(&img[k]);
+    }
+    tilebuf_destroy(&img[0]);
     scene_destroy(&s);
 }
 

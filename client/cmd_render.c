@@ -1,0 +1,268 @@
+/* prismfarm render: renders a scene on this machine's cores and writes the spectral EXR and a
+ * PNG preview. */
+#include "commands.h"
+
+#include "film.h"
+#include "local_render.h"
+#include "scene_load.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: prismfarm render SCENE.pbrt [options]\n"
+            "\n"
+            "Renders SCENE locally on all cores; writes a spectral OpenEXR (Fichet et al. layout,\n"
+            "float32, with linear sRGB R,G,B channels) and a tone-mapped PNG preview beside it.\n"
+            "Options override the scene file:\n"
+            "  -o, --output OUT.exr     output file (default: the Film's filename, else SCENE.exr)\n"
+            "  --spp N                  samples per pixel\n"
+            "  --res WxH                image resolution\n"
+            "  --threads N              render threads (default: all cores)\n"
+            "  --integrator NAME        path | simplepath | whitted\n"
+            "  --dispersion NAME        hero | fanout\n"
+            "  --seed N                 random seed (default: the Sampler's seed)\n"
+            "  --exposure STOPS         preview exposure (default 0)\n"
+            "  --quiet                  no progress output\n");
+}
+
+/* Parses a whole decimal integer in [lo, hi]. */
+static int parse_int(const char *flag, const char *s, long long lo, long long hi, long long *out)
+{
+    char *end;
+    errno = 0;
+    long long v = strtoll(s, &end, 10);
+    if (errno || end == s || *end || v < lo || v > hi) {
+        fprintf(stderr, "prismfarm render: %s expects an integer in %lld..%lld, got '%s'\n", flag, lo, hi, s);
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+typedef struct progress {
+    int tty, quiet;
+    int last_decile;
+} progress_t;
+
+static void on_progress(void *user, uint64_t done, uint64_t total, double elapsed)
+{
+    progress_t *p = user;
+    if (p->quiet || total == 0)
+        return;
+    double f = (double)done / (double)total;
+    double rate = elapsed > 0 ? done / elapsed : 0;
+    double eta = rate > 0 ? (total - done) / rate : 0;
+    if (p->tty) {
+        char bar[31];
+        int n = (int)(f * 30);
+        for (int i = 0; i < 30; i++)
+            bar[i] = i < n ? '#' : '.';
+        bar[30] = 0;
+        fprintf(stderr, "\r[%s] %5.1f%%  %.2f Msamples/s  ETA %.0fs   ", bar, 100 * f, rate / 1e6, eta);
+        if (done == total)
+            fputc('\n', stderr);
+    } else {
+        int decile = (int)(f * 10);
+        if (decile > p->last_decile || done == total) {
+            p->last_decile = decile;
+            fprintf(stderr, "render: %5.1f%%  %.2f Msamples/s  %.1fs elapsed, ETA %.0fs\n", 100 * f, rate / 1e6, elapsed, eta);
+        }
+    }
+}
+
+static int make_parent_dirs(const char *path)
+{
+    char buf[PATH_MAX];
+    snprintf(buf, sizeof buf, "%s", path);
+    for (char *p = buf + 1; *p; p++) {
+        if (*p != '/')
+            continue;
+        *p = 0;
+        if (mkdir(buf, 0777) && errno != EEXIST)
+            return -1;
+        *p = '/';
+    }
+    return 0;
+}
+
+int cmd_render(int argc, char **argv)
+{
+    const char *scene_path = NULL, *output = NULL;
+    scene_overrides_t ov = {.seed = -1};
+    long long threads = 0;
+    double exposure = 0;
+    int quiet = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        long long v;
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            usage(stdout);
+            return 0;
+        }
+        if (!strcmp(a, "--quiet")) {
+            quiet = 1;
+            continue;
+        }
+        if (a[0] == '-' && a[1]) {
+            if (i + 1 >= argc) {
+                fprintf(stderr, "prismfarm render: %s needs a value\n", a);
+                return 2;
+            }
+            const char *val = argv[++i];
+            if (!strcmp(a, "-o") || !strcmp(a, "--output"))
+                output = val;
+            else if (!strcmp(a, "--spp")) {
+                if (parse_int(a, val, 1, 1 << 24, &v))
+                    return 2;
+                ov.spp = (int)v;
+            } else if (!strcmp(a, "--threads")) {
+                if (parse_int(a, val, 1, 1024, &threads))
+                    return 2;
+            } else if (!strcmp(a, "--seed")) {
+                if (parse_int(a, val, 0, (long long)UINT32_MAX, &v))
+                    return 2;
+                ov.seed = v;
+            } else if (!strcmp(a, "--res")) {
+                int w, h;
+                char extra;
+                if (sscanf(val, "%dx%d%c", &w, &h, &extra) != 2 || w < 1 || h < 1 || w > 32768 || h > 32768) {
+                    fprintf(stderr, "prismfarm render: --res expects WxH with 1..32768 each, got '%s'\n", val);
+                    return 2;
+                }
+                ov.xres = w;
+                ov.yres = h;
+            } else if (!strcmp(a, "--integrator")) {
+                if (strcmp(val, "path") && strcmp(val, "simplepath") && strcmp(val, "whitted")) {
+                    fprintf(stderr, "prismfarm render: --integrator expects path, simplepath or whitted, got '%s'\n", val);
+                    return 2;
+                }
+                ov.integrator = val;
+            } else if (!strcmp(a, "--dispersion")) {
+                if (strcmp(val, "hero") && strcmp(val, "fanout")) {
+                    fprintf(stderr, "prismfarm render: --dispersion expects hero or fanout, got '%s'\n", val);
+                    return 2;
+                }
+                ov.dispersion = val;
+            } else if (!strcmp(a, "--exposure")) {
+                char *end;
+                exposure = strtod(val, &end);
+                if (end == val || *end || exposure < -30 || exposure > 30) {
+                    fprintf(stderr, "prismfarm render: --exposure expects stops in -30..30, got '%s'\n", val);
+                    return 2;
+                }
+            } else {
+                fprintf(stderr, "prismfarm render: unknown option '%s' (see prismfarm render --help)\n", a);
+                return 2;
+            }
+            continue;
+        }
+        if (scene_path) {
+            fprintf(stderr, "prismfarm render: more than one scene given ('%s' and '%s')\n", scene_path, a);
+            return 2;
+        }
+        scene_path = a;
+    }
+    if (!scene_path) {
+        usage(stderr);
+        return 2;
+    }
+
+    err_t err;
+    struct timespec t0, t1;
+    clock_gettime(CLOCK_MONOTONIC, &t0);
+    scene_t *scene = scene_load_file(scene_path, &ov, &err);
+    if (!scene) {
+        fprintf(stderr, "prismfarm render: %s\n", err.msg);
+        return 1;
+    }
+    const render_settings_t *rs = &scene->settings;
+
+    char exr[PATH_MAX], png[PATH_MAX];
+    if (output)
+        snprintf(exr, sizeof exr, "%s", output);
+    else if (rs->filename[0])
+        snprintf(exr, sizeof exr, "%s", rs->filename);
+    else {
+        const char *base = strrchr(scene_path, '/');
+        base = base ? base + 1 : scene_path;
+        size_t n = strlen(base);
+        if (n > 5 && !strcmp(base + n - 5, ".pbrt"))
+            n -= 5;
+        snprintf(exr, sizeof exr, "%.*s.exr", (int)n, base);
+    }
+    film_png_path(exr, png, sizeof png);
+    if (make_parent_dirs(exr)) {
+        fprintf(stderr, "prismfarm render: cannot create the folder for %s: %s\n", exr, strerror(errno));
+        scene_destroy(&scene);
+        return 1;
+    }
+
+    static const char *integ_names[] = {"simplepath", "path", "whitted"};
+    if (!quiet) {
+        fprintf(stderr, "render: %s, %dx%d, %d spp, integrator %s, %d buckets over %g-%g nm\n", scene_path,
+                rs->xres, rs->yres, rs->spp, integ_names[rs->integrator], rs->grid.n,
+                rs->grid.lambda_min, rs->grid.lambda_max);
+        if (scene->has_dispersion) {
+            fprintf(stderr, "render: dispersion on (%s) for:", rs->dispersion == DISPERSION_HERO ? "hero wavelengths" : "thesis fan-out");
+            for (size_t i = 0; i < scene->nmaterials; i++)
+                if (scene->materials[i].dispersive)
+                    fprintf(stderr, " '%s'", scene->materials[i].name);
+            fputc('\n', stderr);
+        } else {
+            fprintf(stderr, "render: dispersion off: no material's index varies over %g-%g nm\n",
+                    rs->grid.lambda_min, rs->grid.lambda_max);
+        }
+    }
+
+    err_t ierr;
+    tilebuf_t *image = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, &ierr);
+    if (!image) {
+        fprintf(stderr, "prismfarm render: %s\n", ierr.msg);
+        scene_destroy(&scene);
+        return 1;
+    }
+    progress_t prog = {.tty = isatty(STDERR_FILENO), .quiet = quiet, .last_decile = -1};
+    local_render_opts_t opts = {.threads = (int)threads, .progress = on_progress, .user = &prog};
+    render_stats_t st = {0};
+    int rc = 0;
+    if (local_render(scene, &opts, image, &st, &err)) {
+        fprintf(stderr, "prismfarm render: %s\n", err.msg);
+        rc = 1;
+    }
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    double secs = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+    if (rc == 0) {
+        char info[512];
+        snprintf(info, sizeof info,
+                 "scene=%s;spp=%d;integrator=%s;dispersion=%s;seed=%llu;samples=%llu;rays=%llu;"
+                 "nonfinite=%llu;seconds=%.3f",
+                 scene_path, rs->spp, integ_names[rs->integrator],
+                 scene->has_dispersion ? (rs->dispersion == DISPERSION_HERO ? "hero" : "fanout") : "off",
+                 (unsigned long long)rs->seed, (unsigned long long)st.samples,
+                 (unsigned long long)st.rays, (unsigned long long)st.nonfinite, secs);
+        film_output_t fo = {.exr_path = exr, .png_path = png, .spectral = 1,
+                            .tonemap = {.exposure_stops = exposure, .curve = COLOUR_CURVE_ACES},
+                            .info = info};
+        if (film_write(image, rs->grid, &fo, &err)) {
+            fprintf(stderr, "prismfarm render: %s\n", err.msg);
+            rc = 1;
+        } else {
+            printf("wrote %s (spectral, %d buckets) and %s\n", exr, rs->grid.n, png);
+            printf("%llu samples, %.1f M rays in %.2f s (%.2f M rays/s); %llu non-finite samples discarded\n",
+                   (unsigned long long)st.samples, st.rays / 1e6, secs, st.rays / 1e6 / (secs > 0 ? secs : 1),
+                   (unsigned long long)st.nonfinite);
+        }
+    }
+    tilebuf_destroy(&image);
+    scene_destroy(&scene);
+    return rc;
+}

@@ -1,0 +1,96 @@
+#include "film.h"
+
+#include "image_exr.h"
+#include "image_png.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+int film_to_rgb(const tilebuf_t *image, spectral_grid_t grid, float *rgb, err_t *err)
+{
+    int w = tilebuf_width(image), h = tilebuf_height(image), nb = tilebuf_nbuckets(image);
+    if (nb != grid.n)
+        return err_set(err, "image has %d buckets, the grid %d", nb, grid.n);
+    xyz_t *weights = malloc((size_t)nb * sizeof *weights);
+    double *mean = malloc((size_t)nb * sizeof *mean);
+    if (!weights || !mean) {
+        free(weights);
+        free(mean);
+        return err_set(err, "out of memory");
+    }
+    colour_grid_weights(grid, weights);
+    int x0 = tilebuf_x0(image), y0 = tilebuf_y0(image);
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            tilebuf_mean(image, x0 + x, y0 + y, mean);
+            rgb_t c = colour_xyz_to_linear_srgb(colour_buckets_to_xyz_weighted(nb, weights, mean));
+            float *o = rgb + 3 * ((size_t)y * (size_t)w + (size_t)x);
+            o[0] = (float)c.r;
+            o[1] = (float)c.g;
+            o[2] = (float)c.b;
+        }
+    free(weights);
+    free(mean);
+    return 0;
+}
+
+void film_png_path(const char *exr_path, char *buf, size_t size)
+{
+    size_t n = strlen(exr_path);
+    if (n >= 4 && !strcmp(exr_path + n - 4, ".exr"))
+        snprintf(buf, size, "%.*s.png", (int)(n - 4), exr_path);
+    else
+        snprintf(buf, size, "%s.png", exr_path);
+}
+
+int film_write(const tilebuf_t *image, spectral_grid_t grid, const film_output_t *out, err_t *err)
+{
+    int w = tilebuf_width(image), h = tilebuf_height(image), nb = tilebuf_nbuckets(image);
+    size_t npix = (size_t)w * (size_t)h;
+    float *rgb = malloc(npix * 3 * sizeof *rgb);
+    if (!rgb)
+        return err_set(err, "out of memory for a %dx%d image", w, h);
+    int r = film_to_rgb(image, grid, rgb, err);
+    if (!r && out->exr_path) {
+        if (out->spectral) {
+            float *spec = malloc(npix * (size_t)nb * sizeof *spec);
+            double *centres = malloc((size_t)nb * sizeof *centres);
+            double *mean = malloc((size_t)nb * sizeof *mean);
+            if (!spec || !centres || !mean) {
+                r = err_set(err, "out of memory for a %dx%d spectral image", w, h);
+            } else {
+                for (int b = 0; b < nb; b++)
+                    centres[b] = spectral_grid_centre(grid, b);
+                for (int y = 0; y < h; y++)
+                    for (int x = 0; x < w; x++) {
+                        tilebuf_mean(image, tilebuf_x0(image) + x, tilebuf_y0(image) + y, mean);
+                        float *o = spec + ((size_t)y * (size_t)w + (size_t)x) * (size_t)nb;
+                        for (int b = 0; b < nb; b++)
+                            o[b] = (float)mean[b];
+                    }
+                r = image_exr_write_spectral(out->exr_path, w, h, rgb, spec, nb, centres, NULL,
+                                             out->info, err);
+            }
+            free(spec);
+            free(centres);
+            free(mean);
+        } else {
+            r = image_exr_write_rgb(out->exr_path, w, h, rgb, 3, out->info, err);
+        }
+    }
+    if (!r && out->png_path) {
+        unsigned char *px = malloc(npix * 3);
+        if (!px) {
+            r = err_set(err, "out of memory");
+        } else {
+            for (size_t i = 0; i < npix; i++)
+                colour_tonemap_to_srgb8(out->tonemap, (rgb_t){rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]},
+                                        px + 3 * i);
+            r = image_png_write_rgb(out->png_path, w, h, px, err);
+            free(px);
+        }
+    }
+    free(rgb);
+    return r;
+}

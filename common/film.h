@@ -1,0 +1,28 @@
+/* film: turns a rendered spectral image (a tilebuf covering the whole image) into output
+ * files: a spectral OpenEXR (Fichet et al. 2021 layout, float32 buckets plus scene-linear sRGB
+ * R, G, B) or an RGB OpenEXR, and a tone-mapped PNG preview. Writes are atomic. */
+#ifndef PRISMFARM_FILM_H
+#define PRISMFARM_FILM_H
+
+#include "colour.h"
+#include "err.h"
+#include "spectral_grid.h"
+#include "tilebuf.h"
+
+typedef struct film_output {
+    const char *exr_path;   /* NULL: no EXR */
+    const char *png_path;   /* NULL: no PNG */
+    int spectral;           /* write the S0.* bucket channels as well as R, G, B */
+    colour_tonemap_t tonemap;
+    const char *info;       /* key=value text stored in the EXR's "prismfarm" attribute */
+} film_output_t;
+
+/* Per-pixel linear sRGB of the image's bucket means (rgb: w*h*3 floats, top row first). */
+int film_to_rgb(const tilebuf_t *image, spectral_grid_t grid, float *rgb, err_t *err);
+
+int film_write(const tilebuf_t *image, spectral_grid_t grid, const film_output_t *out, err_t *err);
+
+/* The PNG path beside an EXR path: "x.exr" -> "x.png" (any other name gets ".png" added). */
+void film_png_path(const char *exr_path, char *buf, size_t size);
+
+#endif

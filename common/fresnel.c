@@ -1,0 +1,91 @@
+#include "fresnel.h"
+
+#include <math.h>
+
+vec3_t fresnel_reflect(vec3_t d, vec3_t n)
+{
+    return vec3_fma(d, n, -2.0 * vec3_dot(d, n));
+}
+
+bool fresnel_refract(vec3_t d, vec3_t n, double eta_ratio, vec3_t *t)
+{
+    *t = vec3_make(0.0, 0.0, 0.0);
+    if (!(eta_ratio > 0.0) || !isfinite(eta_ratio))
+        return false;
+    /* Orient n against d so that cos_i = -d.n >= 0 whichever way the caller's normal faces. */
+    double cos_i = -vec3_dot(d, n);
+    if (cos_i < 0.0) {
+        n = vec3_neg(n);
+        cos_i = -cos_i;
+    }
+    cos_i = fmin(cos_i, 1.0);
+    double sin2_t = eta_ratio * eta_ratio * fmax(0.0, 1.0 - cos_i * cos_i);
+    if (sin2_t >= 1.0)
+        return false;
+    double cos_t = sqrt(1.0 - sin2_t);
+    /* t = eta d + (eta cos_i - cos_t) n: the tangential part of d scaled by eta (Snell), the
+     * normal part chosen so |t| = 1 (Heckbert & Hanrahan 1984; pbrt-v4 Refract). */
+    *t = vec3_normalize(vec3_fma(vec3_scale(d, eta_ratio), n, eta_ratio * cos_i - cos_t));
+    return true;
+}
+
+fresnel_terms_t fresnel_dielectric_terms(double cos_theta_i, double n_outside, double n_inside)
+{
+    fresnel_terms_t f = {.rs = 1.0,
+                         .rp = 1.0,
+                         .reflectance = 1.0,
+                         .transmittance = 0.0,
+                         .cos_t = 0.0,
+                         .n1 = n_outside,
+                         .n2 = n_inside,
+                         .tir = false};
+    if (!(n_outside > 0.0) || !(n_inside > 0.0) || !isfinite(n_outside) || !isfinite(n_inside))
+        return f;
+
+    /* fmin/fmax also map a NaN cosine to a finite one, so nothing below divides by NaN. */
+    double cos_i = fmin(fmax(cos_theta_i, -1.0), 1.0);
+    if (cos_i < 0.0) {
+        f.n1 = n_inside;
+        f.n2 = n_outside;
+        cos_i = -cos_i;
+    }
+    double n1 = f.n1, n2 = f.n2;
+    if (n1 == n2) {
+        f.rs = f.rp = 0.0;
+        f.reflectance = 0.0;
+        f.transmittance = 1.0;
+        f.cos_t = cos_i;
+        return f;
+    }
+
+    double eta = n1 / n2;
+    double sin2_t = eta * eta * fmax(0.0, 1.0 - cos_i * cos_i);
+    if (sin2_t >= 1.0) {
+        /* Beyond the critical angle asin(n2/n1): every polarisation is reflected. The cosine
+         * form gives r_s = r_p = 1 at cos_t = 0, so R is continuous across the critical angle. */
+        f.tir = true;
+        return f;
+    }
+    f.cos_t = sqrt(1.0 - sin2_t);
+    if (cos_i < FRESNEL_GRAZING_COS) {
+        /* Grazing: both coefficients tend to -1 (the numerators' n cos_i terms vanish). */
+        f.rs = f.rp = -1.0;
+        return f;
+    }
+
+    /* Both denominators are sums of positive terms here (cos_i >= 1e-6, n > 0): no 0/0. At
+     * the Brewster angle n2 cos_i = n1 cos_t and r_p is exactly the rounding of a difference,
+     * not a ratio of infinities as in the tan form. */
+    double rs = (n1 * cos_i - n2 * f.cos_t) / (n1 * cos_i + n2 * f.cos_t);
+    double rp = (n2 * cos_i - n1 * f.cos_t) / (n2 * cos_i + n1 * f.cos_t);
+    f.rs = rs;
+    f.rp = rp;
+    f.reflectance = 0.5 * (rs * rs + rp * rp);
+    f.transmittance = 1.0 - f.reflectance;
+    return f;
+}
+
+double fresnel_dielectric(double cos_theta_i, double n_outside, double n_inside)
+{
+    return fresnel_dielectric_terms(cos_theta_i, n_outside, n_inside).reflectance;
+}

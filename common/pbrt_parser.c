@@ -1,0 +1,1828 @@
+#define _XOPEN_SOURCE 700 /* realpath, strdup */
+
+#include "pbrt_parser.h"
+
+#include "mesh_import.h"
+#include "params.h"
+#include "pbrt_lexer.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+/* ------------------------------------------------------------------------------------------
+ * Parser state: pbrt-v4's graphics state (CTM, ReverseOrientation, current material and area
+ * light), saved by AttributeBegin / ObjectBegin / Import and restored at their end.
+ * ------------------------------------------------------------------------------------------ */
+
+enum { FRAME_ATTRIBUTE, FRAME_OBJECT, FRAME_IMPORT };
+
+typedef struct gstate {
+    transform_t ctm;
+    bool reverse;
+    int material;
+    int area_light;
+} gstate_t;
+
+typedef struct frame {
+    int kind;
+    const char *what; /* the directive that opened it, for messages */
+    pbrt_loc_t loc;
+    gstate_t gs;
+} frame_t;
+
+typedef struct coordsys {
+    char *name;
+    transform_t t;
+} coordsys_t;
+
+typedef struct parser {
+    scene_desc_t *scene;
+    err_t *err;
+    gstate_t gs;
+    frame_t *frames;
+    size_t nframes, cap_frames;
+    bool world;
+    pbrt_loc_t world_loc;
+    coordsys_t *cs;
+    size_t ncs, cap_cs;
+    int object; /* the object being defined, or -1 */
+    const char **pending; /* object name of each instance, resolved at the end */
+    size_t cap_pending;
+    char *open_files[PBRT_INCLUDE_DEPTH_MAX]; /* realpaths of the files being read */
+    int nopen;
+    size_t nfiles_read;
+    pbrt_lexer_t *lex;
+    const char *file; /* the file being read, as named in messages */
+} parser_t;
+
+#define NAME_MAX_LEN 4096
+
+typedef struct str_arg {
+    char s[NAME_MAX_LEN];
+    pbrt_loc_t loc;
+} str_arg_t;
+
+static const char *SAMPLERS[] = {"halton", "independent", "paddedsobol", "pmj02bn",
+                                 "sobol",  "stratified",  "zsobol"};
+static const char *INTEGRATORS[] = {"simplepath", "path", "whitted", "photon", "auto"};
+
+/* pbrt-v4 directives that prismfarm knows but does not support. */
+static const char *UNSUPPORTED_DIRECTIVES[] = {
+    "Accelerator", "ActiveTransform", "Attribute",   "ColorSpace", "MakeNamedMedium",
+    "MediumInterface", "Option",      "PixelFilter", "TransformTimes", "WorldEnd"};
+
+#define COUNT_OF(a) (sizeof(a) / sizeof((a)[0]))
+
+static bool in_list(const char *s, const char **list, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!strcmp(s, list[i]))
+            return true;
+    return false;
+}
+
+/* How a token reads in a message. */
+static void describe(const pbrt_token_t *t, char *buf, size_t n)
+{
+    switch (t->kind) {
+    case PBRT_TOKEN_EOF: snprintf(buf, n, "the end of the file"); break;
+    case PBRT_TOKEN_LBRACKET: snprintf(buf, n, "["); break;
+    case PBRT_TOKEN_RBRACKET: snprintf(buf, n, "]"); break;
+    case PBRT_TOKEN_STRING: snprintf(buf, n, "\"%.60s%s\"", t->text, t->len > 60 ? "..." : ""); break;
+    case PBRT_TOKEN_WORD: snprintf(buf, n, "%.60s%s", t->text, t->len > 60 ? "..." : ""); break;
+    }
+}
+
+/* ------------------------------------------------------------------------------------------
+ * Token-level helpers
+ * ------------------------------------------------------------------------------------------ */
+
+static int read_string(parser_t *P, const char *directive, pbrt_loc_t dloc, const char *what,
+                       str_arg_t *out)
+{
+    pbrt_token_t t;
+    if (pbrt_lexer_next(P->lex, &t, P->err) != 0)
+        return -1;
+    if (t.kind != PBRT_TOKEN_STRING) {
+        char d[96];
+        describe(&t, d, sizeof d);
+        return pbrt_error(P->err, t.kind == PBRT_TOKEN_EOF ? dloc : t.loc,
+                          "%s expects a quoted %s, got %s", directive, what, d);
+    }
+    if (t.len >= sizeof out->s)
+        return pbrt_error(P->err, t.loc, "%s: the %s is longer than %d characters", directive,
+                          what, NAME_MAX_LEN - 1);
+    if (strlen(t.text) != t.len)
+        return pbrt_error(P->err, t.loc, "%s: the %s contains a NUL byte", directive, what);
+    memcpy(out->s, t.text, t.len + 1);
+    out->loc = t.loc;
+    return 0;
+}
+
+static int number_error(parser_t *P, const pbrt_token_t *t, pbrt_loc_t dloc, const char *directive,
+                        int n, int i)
+{
+    char d[96];
+    describe(t, d, sizeof d);
+    if (t->kind == PBRT_TOKEN_WORD) {
+        double v;
+        if (pbrt_parse_number(t->text, &v) == -2)
+            return pbrt_error(P->err, t->loc, "non-finite number %s in %s", d, directive);
+    }
+    return pbrt_error(P->err, t->kind == PBRT_TOKEN_EOF ? dloc : t->loc,
+                      "%s expects %d numbers, got %s as number %d", directive, n, d, i + 1);
+}
+
+static int read_numbers(parser_t *P, const char *directive, pbrt_loc_t dloc, double *out, int n)
+{
+    for (int i = 0; i < n; i++) {
+        pbrt_token_t t;
+        if (pbrt_lexer_next(P->lex, &t, P->err) != 0)
+            return -1;
+        if (t.kind != PBRT_TOKEN_WORD || pbrt_parse_number(t.text, &out[i]) != 0)
+            return number_error(P, &t, dloc, directive, n, i);
+    }
+    return 0;
+}
+
+/* "[" 16 numbers "]", as Transform and ConcatTransform require. */
+static int read_matrix(parser_t *P, const char *directive, pbrt_loc_t dloc, double out[16])
+{
+    pbrt_token_t t;
+    char d[96];
+    if (pbrt_lexer_next(P->lex, &t, P->err) != 0)
+        return -1;
+    if (t.kind != PBRT_TOKEN_LBRACKET) {
+        describe(&t, d, sizeof d);
+        return pbrt_error(P->err, t.kind == PBRT_TOKEN_EOF ? dloc : t.loc,
+                          "%s expects [ and 16 numbers, got %s", directive, d);
+    }
+    for (int i = 0; i < 16; i++) {
+        if (pbrt_lexer_next(P->lex, &t, P->err) != 0)
+            return -1;
+        if (t.kind == PBRT_TOKEN_RBRACKET)
+            return pbrt_error(P->err, t.loc, "%s expects 16 numbers, got %d", directive, i);
+        if (t.kind != PBRT_TOKEN_WORD || pbrt_parse_number(t.text, &out[i]) != 0)
+            return number_error(P, &t, dloc, directive, 16, i);
+    }
+    if (pbrt_lexer_next(P->lex, &t, P->err) != 0)
+        return -1;
+    if (t.kind != PBRT_TOKEN_RBRACKET) {
+        describe(&t, d, sizeof d);
+        return pbrt_error(P->err, t.kind == PBRT_TOKEN_EOF ? dloc : t.loc,
+                          "%s expects ] after 16 numbers, got %s", directive, d);
+    }
+    return 0;
+}
+
+static int add_value(parser_t *P, params_t *ps, param_t *p, const pbrt_token_t *t)
+{
+    char d[96];
+    describe(t, d, sizeof d);
+    bool is_bool_word = t->kind == PBRT_TOKEN_WORD && (!strcmp(t->text, "true") ||
+                                                        !strcmp(t->text, "false"));
+    switch (p->type) {
+    case PARAM_STRING:
+    case PARAM_TEXTURE:
+        if (t->kind != PBRT_TOKEN_STRING)
+            return pbrt_error(P->err, t->loc, "\"%s %s\" needs quoted strings, got %s",
+                              p->type_name, p->name, d);
+        if (strlen(t->text) != t->len)
+            return pbrt_error(P->err, t->loc, "string value of \"%s %s\" contains a NUL byte",
+                              p->type_name, p->name);
+        return params_push_string(ps, p, t->text, P->err);
+    case PARAM_BOOL:
+        /* pbrt-v4 writes true/false bare; older files quote them. */
+        if (is_bool_word || (t->kind == PBRT_TOKEN_STRING &&
+                             (!strcmp(t->text, "true") || !strcmp(t->text, "false"))))
+            return params_push_bool(ps, p, !strcmp(t->text, "true"), P->err);
+        return pbrt_error(P->err, t->loc, "\"%s %s\" needs true or false, got %s", p->type_name,
+                          p->name, d);
+    case PARAM_SPECTRUM:
+        if (t->kind == PBRT_TOKEN_STRING) {
+            if (strlen(t->text) != t->len)
+                return pbrt_error(P->err, t->loc, "string value of \"%s %s\" contains a NUL byte",
+                                  p->type_name, p->name);
+            return params_push_string(ps, p, t->text, P->err);
+        }
+        break;
+    default: break;
+    }
+    if (t->kind != PBRT_TOKEN_WORD || is_bool_word)
+        return pbrt_error(P->err, t->loc, "\"%s %s\" needs numbers, got %s", p->type_name, p->name,
+                          d);
+    if (p->type == PARAM_INTEGER) {
+        int v;
+        int rc = pbrt_parse_int(t->text, &v);
+        if (rc == -2)
+            return pbrt_error(P->err, t->loc, "%s is out of range for \"%s %s\" (32-bit integers)",
+                              d, p->type_name, p->name);
+        if (rc != 0)
+            return pbrt_error(P->err, t->loc, "\"%s %s\" needs integers, got %s", p->type_name,
+                              p->name, d);
+        return params_push_number(ps, p, (double)v, P->err);
+    }
+    double v;
+    int rc = pbrt_parse_number(t->text, &v);
+    if (rc == -2)
+        return pbrt_error(P->err, t->loc, "non-finite number %s in \"%s %s\"", d, p->type_name,
+                          p->name);
+    if (rc != 0)
+        return pbrt_error(P->err, t->loc, "\"%s %s\" needs numbers, got %s", p->type_name, p->name,
+                          d);
+    return params_push_number(ps, p, v, P->err);
+}
+
+/* The parameter list after a directive: quoted "type name" declarations, each followed by one
+ * value or a bracketed list. It ends at the first token that is not a quoted string. */
+static params_t *read_params(parser_t *P, const char *context)
+{
+    params_t *ps = params_new(context, P->err);
+    if (!ps)
+        return NULL;
+    for (;;) {
+        pbrt_token_t t;
+        if (pbrt_lexer_peek(P->lex, &t, P->err) != 0)
+            goto fail;
+        if (t.kind != PBRT_TOKEN_STRING)
+            return ps;
+        if (pbrt_lexer_next(P->lex, &t, P->err) != 0)
+            goto fail;
+        if (strlen(t.text) != t.len) {
+            pbrt_error(P->err, t.loc, "parameter declaration contains a NUL byte");
+            goto fail;
+        }
+        param_t *p = params_declare(ps, t.text, t.loc, P->err);
+        if (!p)
+            goto fail;
+        if (pbrt_lexer_next(P->lex, &t, P->err) != 0)
+            goto fail;
+        if (t.kind == PBRT_TOKEN_LBRACKET) {
+            pbrt_loc_t open = t.loc;
+            for (;;) {
+                if (pbrt_lexer_next(P->lex, &t, P->err) != 0)
+                    goto fail;
+                if (t.kind == PBRT_TOKEN_RBRACKET)
+                    break;
+                if (t.kind == PBRT_TOKEN_EOF) {
+                    pbrt_error(P->err, open, "unterminated [ after \"%s %s\"", p->type_name,
+                               p->name);
+                    goto fail;
+                }
+                if (t.kind == PBRT_TOKEN_LBRACKET) {
+                    pbrt_error(P->err, t.loc, "unexpected [ inside the values of \"%s %s\"",
+                               p->type_name, p->name);
+                    goto fail;
+                }
+                if (add_value(P, ps, p, &t) != 0)
+                    goto fail;
+            }
+        } else if (t.kind == PBRT_TOKEN_RBRACKET || t.kind == PBRT_TOKEN_EOF) {
+            pbrt_error(P->err, p->loc, "missing value after \"%s %s\"", p->type_name, p->name);
+            goto fail;
+        } else if (add_value(P, ps, p, &t) != 0) {
+            goto fail;
+        }
+    }
+fail:
+    params_destroy(&ps);
+    return NULL;
+}
+
+/* ------------------------------------------------------------------------------------------
+ * State helpers
+ * ------------------------------------------------------------------------------------------ */
+
+static int need_world(parser_t *P, const char *directive, pbrt_loc_t loc)
+{
+    if (!P->world)
+        return pbrt_error(P->err, loc, "%s is only allowed after WorldBegin", directive);
+    return 0;
+}
+
+static int need_options(parser_t *P, const char *directive, pbrt_loc_t loc)
+{
+    if (P->world)
+        return pbrt_error(P->err, loc, "%s must come before WorldBegin (line %d)", directive,
+                          P->world_loc.line);
+    return 0;
+}
+
+/* A transform that a shape, light, camera or instance will use must be invertible, affine and
+ * finite, or the renderer would meet NaN. */
+static int check_transform(parser_t *P, const transform_t *t, const char *user, pbrt_loc_t loc)
+{
+    if (!transform_is_finite(t))
+        return pbrt_error(P->err, loc, "the current transform has non-finite entries, so %s "
+                                       "cannot use it", user);
+    if (!transform_is_affine(t))
+        return pbrt_error(P->err, loc, "the current transform is projective (its last row is not "
+                                       "0 0 0 1), so %s cannot use it", user);
+    if (t->singular)
+        return pbrt_error(P->err, loc, "the current transform is singular, so %s cannot use it",
+                          user);
+    for (int i = 0; i < 4; i++)
+        for (int j = 0; j < 4; j++)
+            if (!isfinite(t->m_inv[i][j]))
+                return pbrt_error(P->err, loc, "the current transform is singular, so %s "
+                                               "cannot use it", user);
+    return 0;
+}
+
+static int push_frame(parser_t *P, int kind, const char *what, pbrt_loc_t loc)
+{
+    if (P->nframes == P->cap_frames) {
+        size_t cap = P->cap_frames ? P->cap_frames * 2 : 16;
+        if (cap > 1u << 20)
+            return pbrt_error(P->err, loc, "%s nested more than a million deep", what);
+        frame_t *f = realloc(P->frames, cap * sizeof *f);
+        if (!f)
+            return pbrt_error(P->err, loc, "out of memory");
+        P->frames = f;
+        P->cap_frames = cap;
+    }
+    P->frames[P->nframes++] = (frame_t){kind, what, loc, P->gs};
+    return 0;
+}
+
+static int set_coordsys(parser_t *P, const char *name, transform_t t, pbrt_loc_t loc)
+{
+    for (size_t i = 0; i < P->ncs; i++)
+        if (!strcmp(P->cs[i].name, name)) {
+            P->cs[i].t = t;
+            return 0;
+        }
+    if (P->ncs == P->cap_cs) {
+        size_t cap = P->cap_cs ? P->cap_cs * 2 : 8;
+        coordsys_t *c = realloc(P->cs, cap * sizeof *c);
+        if (!c)
+            return pbrt_error(P->err, loc, "out of memory");
+        P->cs = c;
+        P->cap_cs = cap;
+    }
+    char *copy = strdup(name);
+    if (!copy)
+        return pbrt_error(P->err, loc, "out of memory");
+    P->cs[P->ncs++] = (coordsys_t){copy, t};
+    return 0;
+}
+
+/* dir(base) + name, unless name is absolute or base has no folder. */
+static char *resolve_path(const char *base, const char *name)
+{
+    const char *slash = strrchr(base, '/');
+    if (name[0] == '/' || !slash)
+        return strdup(name);
+    size_t dlen = (size_t)(slash - base) + 1;
+    char *out = malloc(dlen + strlen(name) + 1);
+    if (!out)
+        return NULL;
+    memcpy(out, base, dlen);
+    strcpy(out + dlen, name);
+    return out;
+}
+
+/* Resolves a file name given in the current file into a scene-owned string. */
+static const char *scene_path(parser_t *P, const char *name, pbrt_loc_t loc)
+{
+    char *path = resolve_path(P->file, name);
+    if (!path) {
+        pbrt_error(P->err, loc, "out of memory");
+        return NULL;
+    }
+    const char *s = scene_desc_strdup(P->scene, path, P->err);
+    free(path);
+    return s;
+}
+
+/* ------------------------------------------------------------------------------------------
+ * Spectra, float and spectrum inputs
+ * ------------------------------------------------------------------------------------------ */
+
+static scene_spectrum_t spectrum_constant(double v, pbrt_loc_t loc)
+{
+    return (scene_spectrum_t){.kind = SCENE_SPECTRUM_CONSTANT, .constant = v, .loc = loc};
+}
+
+static scene_spectrum_t spectrum_named(const char *name, pbrt_loc_t loc)
+{
+    return (scene_spectrum_t){.kind = SCENE_SPECTRUM_NAMED, .name = name, .loc = loc};
+}
+
+enum { SPECTRUM_ANY, SPECTRUM_ALBEDO };
+
+/* A spectrum-valued parameter in its raw form: float (constant), rgb, blackbody, or spectrum
+ * given as (lambda, value) pairs or by name (pbrt-v4 paramdict.cpp extractSpectrumArray). */
+static int spectrum_from_param(parser_t *P, params_t *ps, const param_t *p, int use,
+                               scene_spectrum_t *out)
+{
+    memset(out, 0, sizeof *out);
+    out->loc = p->loc;
+    switch (p->type) {
+    case PARAM_FLOAT:
+        if (p->count != 1)
+            return pbrt_error(P->err, p->loc, "expected 1 number after \"%s %s\", got %zu",
+                              p->type_name, p->name, p->count);
+        if (use == SPECTRUM_ALBEDO && (p->numbers[0] < 0.0 || p->numbers[0] > 1.0))
+            return pbrt_error(P->err, p->loc, "\"%s %s\" must be within [0, 1], got %g",
+                              p->type_name, p->name, p->numbers[0]);
+        out->kind = SCENE_SPECTRUM_CONSTANT;
+        out->constant = p->numbers[0];
+        return 0;
+    case PARAM_RGB:
+        if (p->count != 3)
+            return pbrt_error(P->err, p->loc, "expected 3 numbers after \"%s %s\", got %zu",
+                              p->type_name, p->name, p->count);
+        for (int i = 0; i < 3; i++) {
+            if (p->numbers[i] < 0.0)
+                return pbrt_error(P->err, p->loc, "\"%s %s\" has a negative component",
+                                  p->type_name, p->name);
+            if (use == SPECTRUM_ALBEDO && p->numbers[i] > 1.0)
+                return pbrt_error(P->err, p->loc, "\"%s %s\" has a component above 1 (a "
+                                                  "reflectance is at most 1)",
+                                  p->type_name, p->name);
+            out->rgb[i] = p->numbers[i];
+        }
+        out->kind = SCENE_SPECTRUM_RGB;
+        return 0;
+    case PARAM_BLACKBODY:
+        if (p->count != 1)
+            return pbrt_error(P->err, p->loc, "expected 1 number after \"%s %s\", got %zu "
+                                              "(pbrt-v4 takes only the temperature)",
+                              p->type_name, p->name, p->count);
+        if (!(p->numbers[0] > 0.0))
+            return pbrt_error(P->err, p->loc, "\"%s %s\" needs a temperature above 0 K, got %g",
+                              p->type_name, p->name, p->numbers[0]);
+        out->kind = SCENE_SPECTRUM_BLACKBODY;
+        out->temperature = p->numbers[0];
+        return 0;
+    case PARAM_SPECTRUM:
+        if (p->values == PARAM_VALUES_STRINGS) {
+            if (p->count != 1)
+                return pbrt_error(P->err, p->loc, "expected 1 string after \"%s %s\", got %zu",
+                                  p->type_name, p->name, p->count);
+            const char *name = p->strings[0];
+            if (strchr(name, '.') || strchr(name, '/'))
+                return pbrt_error(P->err, p->loc, "unsupported parameter value: spectrum files "
+                                                  "(\"%s\") are not supported; give (wavelength, "
+                                                  "value) pairs or a named spectrum",
+                                  name);
+            if (!*name)
+                return pbrt_error(P->err, p->loc, "empty spectrum name in \"%s %s\"",
+                                  p->type_name, p->name);
+            out->kind = SCENE_SPECTRUM_NAMED;
+            out->name = scene_desc_strdup(P->scene, name, P->err);
+            return out->name ? 0 : -1;
+        }
+        if (p->count == 0)
+            return pbrt_error(P->err, p->loc, "no values after \"%s %s\"", p->type_name, p->name);
+        if (p->count % 2 != 0)
+            return pbrt_error(P->err, p->loc, "\"%s %s\" needs (wavelength, value) pairs, got %zu "
+                                              "numbers",
+                              p->type_name, p->name, p->count);
+        size_t n = p->count / 2;
+        for (size_t i = 0; i < n; i++) {
+            double l = p->numbers[2 * i], v = p->numbers[2 * i + 1];
+            if (!(l > 0.0))
+                return pbrt_error(P->err, p->loc, "\"%s %s\": wavelength %g in pair %zu is not "
+                                                  "positive",
+                                  p->type_name, p->name, l, i + 1);
+            if (i > 0 && !(l > p->numbers[2 * i - 2]))
+                return pbrt_error(P->err, p->loc, "\"%s %s\": wavelengths must increase, but pair "
+                                                  "%zu has %g nm after %g nm",
+                                  p->type_name, p->name, i + 1, l, p->numbers[2 * i - 2]);
+            if (use == SPECTRUM_ALBEDO && (v < 0.0 || v > 1.0))
+                return pbrt_error(P->err, p->loc, "\"%s %s\": value %g in pair %zu is outside "
+                                                  "[0, 1] (a reflectance)",
+                                  p->type_name, p->name, v, i + 1);
+        }
+        double *lv = scene_desc_alloc(P->scene, 2 * n * sizeof *lv, P->err);
+        if (!lv)
+            return -1;
+        for (size_t i = 0; i < n; i++) {
+            lv[i] = p->numbers[2 * i];
+            lv[n + i] = p->numbers[2 * i + 1];
+        }
+        out->kind = SCENE_SPECTRUM_SAMPLED;
+        out->count = n;
+        out->lambda = lv;
+        out->value = lv + n;
+        return 0;
+    default: break;
+    }
+    char expected[256];
+    snprintf(expected, sizeof expected,
+             "\"spectrum %s\", \"rgb %s\", \"blackbody %s\" or \"float %s\"", p->name, p->name,
+             p->name, p->name);
+    return params_wrong_type(ps, p, expected, P->err);
+}
+
+static int get_spectrum(parser_t *P, params_t *ps, const char *name, scene_spectrum_t def,
+                        int use, scene_spectrum_t *out)
+{
+    param_t *p = params_find(ps, name);
+    if (!p) {
+        *out = def;
+        return 0;
+    }
+    return spectrum_from_param(P, ps, p, use, out);
+}
+
+static int texture_ref(parser_t *P, params_t *ps, const param_t *p, scene_texture_type_t type,
+                       int *out)
+{
+    (void)ps;
+    if (p->count != 1)
+        return pbrt_error(P->err, p->loc, "expected 1 string after \"%s %s\", got %zu",
+                          p->type_name, p->name, p->count);
+    int t = scene_desc_find_texture(P->scene, p->strings[0], type);
+    if (t >= 0) {
+        *out = t;
+        return 0;
+    }
+    const char *want = type == SCENE_TEXTURE_FLOAT ? "float" : "spectrum";
+    const char *other = type == SCENE_TEXTURE_FLOAT ? "spectrum" : "float";
+    if (scene_desc_find_texture(P->scene, p->strings[0],
+                                type == SCENE_TEXTURE_FLOAT ? SCENE_TEXTURE_SPECTRUM
+                                                            : SCENE_TEXTURE_FLOAT) >= 0)
+        return pbrt_error(P->err, p->loc, "texture \"%s\" is a %s texture, but \"%s\" needs a %s "
+                                          "texture",
+                          p->strings[0], other, p->name, want);
+    return pbrt_error(P->err, p->loc, "%s texture \"%s\" is not defined (a Texture must come "
+                                      "before its use)",
+                      want, p->strings[0]);
+}
+
+static int get_float_input(parser_t *P, params_t *ps, const char *name, double def,
+                           scene_float_input_t *out)
+{
+    out->texture = -1;
+    out->value = def;
+    param_t *p = params_find(ps, name);
+    if (!p)
+        return 0;
+    if (p->type == PARAM_TEXTURE)
+        return texture_ref(P, ps, p, SCENE_TEXTURE_FLOAT, &out->texture);
+    if (p->type != PARAM_FLOAT) {
+        char expected[160];
+        snprintf(expected, sizeof expected, "\"float %s\" or \"texture %s\"", name, name);
+        return params_wrong_type(ps, p, expected, P->err);
+    }
+    if (p->count != 1)
+        return pbrt_error(P->err, p->loc, "expected 1 number after \"%s %s\", got %zu",
+                          p->type_name, p->name, p->count);
+    out->value = p->numbers[0];
+    return 0;
+}
+
+static int get_spectrum_input(parser_t *P, params_t *ps, const char *name, scene_spectrum_t def,
+                              int use, scene_spectrum_input_t *out)
+{
+    out->texture = -1;
+    out->spectrum = def;
+    param_t *p = params_find(ps, name);
+    if (!p)
+        return 0;
+    if (p->type == PARAM_TEXTURE)
+        return texture_ref(P, ps, p, SCENE_TEXTURE_SPECTRUM, &out->texture);
+    return spectrum_from_param(P, ps, p, use, &out->spectrum);
+}
+
+static int check_positive(parser_t *P, params_t *ps, const char *name, double v)
+{
+    if (v > 0.0)
+        return 0;
+    param_t *p = params_find(ps, name);
+    return pbrt_error(P->err, p ? p->loc : (pbrt_loc_t){P->file, 0, 0},
+                      "\"%s %s\" must be greater than 0, got %g", p ? p->type_name : "float", name,
+                      v);
+}
+
+static int check_range(parser_t *P, params_t *ps, const char *name, double v, double lo,
+                       double hi)
+{
+    if (v >= lo && v <= hi)
+        return 0;
+    param_t *p = params_find(ps, name);
+    return pbrt_error(P->err, p ? p->loc : (pbrt_loc_t){P->file, 0, 0},
+                      "\"%s %s\" must be within [%g, %g], got %g", p ? p->type_name : "float",
+                      name, lo, hi, v);
+}
+
+/* ------------------------------------------------------------------------------------------
+ * Options: Camera, Film, Sampler, Integrator
+ * ------------------------------------------------------------------------------------------ */
+
+static int do_camera(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
+{
+    scene_camera_t *c = &P->scene->camera;
+    if (strcmp(type->s, "perspective") != 0)
+        return pbrt_error(P->err, type->loc, "unsupported camera \"%s\" (only \"perspective\")",
+                          type->s);
+    if (check_transform(P, &P->gs.ctm, "Camera", loc) != 0)
+        return -1;
+    c->type = "perspective";
+    c->loc = loc;
+    if (params_get_float(ps, "fov", 90.0, &c->fov, P->err) != 0 ||
+        params_get_float(ps, "lensradius", 0.0, &c->lensradius, P->err) != 0 ||
+        params_get_float(ps, "focaldistance", 1e6, &c->focaldistance, P->err) != 0)
+        return -1;
+    if (!(c->fov > 0.0 && c->fov < 180.0)) {
+        param_t *p = params_find(ps, "fov");
+        return pbrt_error(P->err, p->loc, "\"float fov\" must be between 0 and 180 degrees, "
+                                          "got %g",
+                          c->fov);
+    }
+    if (check_range(P, ps, "lensradius", c->lensradius, 0.0, INFINITY) != 0 ||
+        check_positive(P, ps, "focaldistance", c->focaldistance) != 0)
+        return -1;
+    /* pbrt-v4 scene.cpp: the CTM at Camera is camera-from-world, and the named coordinate
+     * system "camera" is its inverse. */
+    c->camera_from_world = P->gs.ctm;
+    return set_coordsys(P, "camera", transform_inverse(P->gs.ctm), loc);
+}
+
+static int do_film(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
+{
+    scene_film_t *f = &P->scene->film;
+    int nb_def;
+    double lmin_def, lmax_def;
+    if (!strcmp(type->s, "rgb")) {
+        f->type = SCENE_FILM_RGB;
+        nb_def = SCENE_RGB_NBUCKETS_DEFAULT;
+        lmin_def = SCENE_RGB_LAMBDA_MIN_DEFAULT;
+        lmax_def = SCENE_RGB_LAMBDA_MAX_DEFAULT;
+    } else if (!strcmp(type->s, "spectral")) {
+        f->type = SCENE_FILM_SPECTRAL;
+        nb_def = SCENE_SPECTRAL_NBUCKETS_DEFAULT;
+        lmin_def = SCENE_SPECTRAL_LAMBDA_MIN_DEFAULT;
+        lmax_def = SCENE_SPECTRAL_LAMBDA_MAX_DEFAULT;
+    } else {
+        return pbrt_error(P->err, type->loc, "unsupported film \"%s\" (\"rgb\" or \"spectral\")",
+                          type->s);
+    }
+    f->loc = loc;
+    const char *filename;
+    if (params_get_int(ps, "xresolution", SCENE_FILM_XRES_DEFAULT, &f->xres, P->err) != 0 ||
+        params_get_int(ps, "yresolution", SCENE_FILM_YRES_DEFAULT, &f->yres, P->err) != 0 ||
+        params_get_string(ps, "filename", "pbrt.exr", &filename, P->err) != 0 ||
+        params_get_int(ps, "nbuckets", nb_def, &f->nbuckets, P->err) != 0 ||
+        params_get_float(ps, "lambdamin", lmin_def, &f->lambda_min, P->err) != 0 ||
+        params_get_float(ps, "lambdamax", lmax_def, &f->lambda_max, P->err) != 0)
+        return -1;
+    if (check_range(P, ps, "xresolution", f->xres, 1, 65536) != 0 ||
+        check_range(P, ps, "yresolution", f->yres, 1, 65536) != 0 ||
+        check_range(P, ps, "nbuckets", f->nbuckets, 1, 1024) != 0 ||
+        check_range(P, ps, "lambdamin", f->lambda_min, 1.0, 100000.0) != 0 ||
+        check_range(P, ps, "lambdamax", f->lambda_max, 1.0, 100000.0) != 0)
+        return -1;
+    if (!(f->lambda_min < f->lambda_max))
+        return pbrt_error(P->err, loc, "Film: \"lambdamin\" (%g) must be below \"lambdamax\" (%g)",
+                          f->lambda_min, f->lambda_max);
+    f->filename = scene_desc_strdup(P->scene, filename, P->err);
+    return f->filename ? 0 : -1;
+}
+
+static int do_sampler(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
+{
+    scene_sampler_t *s = &P->scene->sampler;
+    if (!in_list(type->s, SAMPLERS, COUNT_OF(SAMPLERS)))
+        return pbrt_error(P->err, type->loc, "unsupported sampler \"%s\"", type->s);
+    s->type = scene_desc_strdup(P->scene, type->s, P->err);
+    if (!s->type)
+        return -1;
+    s->loc = loc;
+    if (params_get_int(ps, "seed", 0, &s->seed, P->err) != 0)
+        return -1;
+    if (!strcmp(type->s, "stratified")) {
+        /* pbrt-v4's stratified sampler takes a grid; every sampler here is one stratified
+         * sampler with xsamples * ysamples samples per pixel. */
+        int xs, ys;
+        bool jitter;
+        if (params_get_int(ps, "xsamples", 4, &xs, P->err) != 0 ||
+            params_get_int(ps, "ysamples", 4, &ys, P->err) != 0 ||
+            params_get_bool(ps, "jitter", true, &jitter, P->err) != 0 ||
+            check_range(P, ps, "xsamples", xs, 1, 65536) != 0 ||
+            check_range(P, ps, "ysamples", ys, 1, 65536) != 0)
+            return -1;
+        if ((long long)xs * ys > INT_MAX)
+            return pbrt_error(P->err, loc, "Sampler: xsamples * ysamples is too large");
+        s->pixelsamples = xs * ys;
+        return 0;
+    }
+    if (params_get_int(ps, "pixelsamples", 16, &s->pixelsamples, P->err) != 0 ||
+        check_range(P, ps, "pixelsamples", s->pixelsamples, 1, INT_MAX) != 0)
+        return -1;
+    return 0;
+}
+
+/* ------------------------------------------------------------------------------------------
+ * Materials
+ * ------------------------------------------------------------------------------------------ */
+
+static int get_roughness(parser_t *P, params_t *ps, scene_material_t *m)
+{
+    /* pbrt-v4 materials.cpp: "uroughness"/"vroughness" override "roughness" (default 0). */
+    param_t *u = params_find(ps, "uroughness"), *v = params_find(ps, "vroughness");
+    scene_float_input_t r = {-1, 0.0};
+    if ((!u || !v) && get_float_input(P, ps, "roughness", 0.0, &r) != 0)
+        return -1;
+    m->uroughness = r;
+    m->vroughness = r;
+    if (u && get_float_input(P, ps, "uroughness", 0.0, &m->uroughness) != 0)
+        return -1;
+    if (v && get_float_input(P, ps, "vroughness", 0.0, &m->vroughness) != 0)
+        return -1;
+    if ((m->uroughness.texture < 0 && m->uroughness.value < 0.0) ||
+        (m->vroughness.texture < 0 && m->vroughness.value < 0.0))
+        return pbrt_error(P->err, m->loc, "roughness must not be negative");
+    return params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err);
+}
+
+static int get_ior(parser_t *P, params_t *ps, scene_material_t *m)
+{
+    static const char *NAMES[] = {"eta", "glass", "sellmeier", "cauchy"};
+    param_t *given = NULL;
+    for (size_t i = 0; i < COUNT_OF(NAMES); i++) {
+        param_t *p = params_find(ps, NAMES[i]);
+        if (!p)
+            continue;
+        if (given)
+            return pbrt_error(P->err, p->loc, "give only one of \"eta\", \"glass\", \"sellmeier\" "
+                                              "and \"cauchy\" for %s (\"%s\" is already given)",
+                              params_context(ps), given->name);
+        given = p;
+    }
+    scene_ior_t *ior = &m->ior;
+    ior->loc = given ? given->loc : m->loc;
+    if (!given) {
+        ior->kind = SCENE_IOR_SPECTRUM;
+        ior->spectrum = spectrum_constant(1.5, m->loc); /* pbrt-v4's default eta */
+        return 0;
+    }
+    if (!strcmp(given->name, "eta")) {
+        if (given->type == PARAM_TEXTURE)
+            return pbrt_error(P->err, given->loc, "unsupported parameter \"texture eta\": the "
+                                                  "index of refraction cannot be a texture");
+        if (given->type != PARAM_FLOAT && given->type != PARAM_SPECTRUM)
+            return params_wrong_type(ps, given, "\"float eta\" or \"spectrum eta\"", P->err);
+        ior->kind = SCENE_IOR_SPECTRUM;
+        if (spectrum_from_param(P, ps, given, SPECTRUM_ANY, &ior->spectrum) != 0)
+            return -1;
+        if (ior->spectrum.kind == SCENE_SPECTRUM_CONSTANT && !(ior->spectrum.constant > 0.0))
+            return pbrt_error(P->err, given->loc, "\"float eta\" must be greater than 0, got %g",
+                              ior->spectrum.constant);
+        if (ior->spectrum.kind == SCENE_SPECTRUM_SAMPLED)
+            for (size_t i = 0; i < ior->spectrum.count; i++)
+                if (!(ior->spectrum.value[i] > 0.0))
+                    return pbrt_error(P->err, given->loc, "\"spectrum eta\": index %g in pair %zu "
+                                                          "is not positive",
+                                      ior->spectrum.value[i], i + 1);
+        return 0;
+    }
+    if (!strcmp(given->name, "glass")) {
+        const char *name;
+        if (params_get_string(ps, "glass", NULL, &name, P->err) != 0)
+            return -1;
+        if (!*name)
+            return pbrt_error(P->err, given->loc, "\"string glass\" is empty");
+        ior->kind = SCENE_IOR_GLASS;
+        ior->glass = scene_desc_strdup(P->scene, name, P->err);
+        return ior->glass ? 0 : -1;
+    }
+    if (given->type != PARAM_FLOAT) {
+        char expected[64];
+        snprintf(expected, sizeof expected, "\"float %s\"", given->name);
+        return params_wrong_type(ps, given, expected, P->err);
+    }
+    if (!strcmp(given->name, "sellmeier")) {
+        /* n^2 = 1 + sum B_i l^2 / (l^2 - C_i), l in um (PHYSICS.md). */
+        if (given->count < 2 || given->count % 2 != 0)
+            return pbrt_error(P->err, given->loc, "\"float sellmeier\" needs (B, C) pairs, got "
+                                                  "%zu numbers",
+                              given->count);
+        double *c = scene_desc_alloc(P->scene, given->count * sizeof *c, P->err);
+        if (!c)
+            return -1;
+        memcpy(c, given->numbers, given->count * sizeof *c);
+        ior->kind = SCENE_IOR_SELLMEIER;
+        ior->nterms = given->count / 2;
+        ior->sellmeier = c;
+        return 0;
+    }
+    /* cauchy: n = A + B / l^2, l in um */
+    if (given->count != 2)
+        return pbrt_error(P->err, given->loc, "expected 2 numbers after \"float cauchy\" (A B), "
+                                              "got %zu",
+                          given->count);
+    if (!(given->numbers[0] > 0.0))
+        return pbrt_error(P->err, given->loc, "\"float cauchy\": A must be greater than 0, got %g",
+                          given->numbers[0]);
+    ior->kind = SCENE_IOR_CAUCHY;
+    ior->cauchy[0] = given->numbers[0];
+    ior->cauchy[1] = given->numbers[1];
+    return 0;
+}
+
+static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_t type_loc,
+                          scene_material_t *m)
+{
+    if (!strcmp(type, "diffuse")) {
+        m->type = SCENE_MATERIAL_DIFFUSE;
+        return get_spectrum_input(P, ps, "reflectance", spectrum_constant(0.5, m->loc),
+                                  SPECTRUM_ALBEDO, &m->reflectance);
+    }
+    if (!strcmp(type, "conductor")) {
+        m->type = SCENE_MATERIAL_CONDUCTOR;
+        param_t *r = params_find(ps, "reflectance");
+        if (r && (params_find(ps, "eta") || params_find(ps, "k")))
+            return pbrt_error(P->err, r->loc, "conductor: give either \"reflectance\" or "
+                                              "\"eta\" and \"k\", not both");
+        m->use_reflectance = r != NULL;
+        if (get_spectrum_input(P, ps, "reflectance", spectrum_constant(1.0, m->loc),
+                               SPECTRUM_ALBEDO, &m->reflectance) != 0 ||
+            get_spectrum_input(P, ps, "eta", spectrum_named("metal-Cu-eta", m->loc), SPECTRUM_ANY,
+                               &m->eta) != 0 ||
+            get_spectrum_input(P, ps, "k", spectrum_named("metal-Cu-k", m->loc), SPECTRUM_ANY,
+                               &m->k) != 0)
+            return -1;
+        return get_roughness(P, ps, m);
+    }
+    if (!strcmp(type, "dielectric")) {
+        m->type = SCENE_MATERIAL_DIELECTRIC;
+        if (get_ior(P, ps, m) != 0)
+            return -1;
+        return get_roughness(P, ps, m);
+    }
+    if (!strcmp(type, "interface")) {
+        m->type = SCENE_MATERIAL_INTERFACE;
+        return 0;
+    }
+    return pbrt_error(P->err, type_loc, "unsupported material \"%s\" (\"diffuse\", \"conductor\", "
+                                        "\"dielectric\" or \"interface\")",
+                      type);
+}
+
+static int do_material(parser_t *P, params_t *ps, const str_arg_t *type, const char *name,
+                       pbrt_loc_t loc, pbrt_loc_t type_loc)
+{
+    int idx = scene_desc_add_material(P->scene, P->err);
+    if (idx < 0)
+        return -1;
+    scene_material_t *m = &P->scene->materials[idx];
+    m->loc = loc;
+    m->reflectance.texture = m->eta.texture = m->k.texture = -1;
+    m->uroughness.texture = m->vroughness.texture = -1;
+    if (name) {
+        m->name = scene_desc_strdup(P->scene, name, P->err);
+        if (!m->name)
+            return -1;
+    }
+    if (build_material(P, ps, type->s, type_loc, m) != 0)
+        return -1;
+    if (!name)
+        P->gs.material = idx;
+    return 0;
+}
+
+/* ------------------------------------------------------------------------------------------
+ * Textures
+ * ------------------------------------------------------------------------------------------ */
+
+static int tex_input(parser_t *P, params_t *ps, scene_texture_t *t, const char *name, double def,
+                     scene_float_input_t *f, scene_spectrum_input_t *s)
+{
+    if (t->type == SCENE_TEXTURE_FLOAT)
+        return get_float_input(P, ps, name, def, f);
+    return get_spectrum_input(P, ps, name, spectrum_constant(def, t->loc), SPECTRUM_ANY, s);
+}
+
+static bool ends_with_png(const char *s)
+{
+    size_t n = strlen(s);
+    return n >= 4 && !strcasecmp(s + n - 4, ".png");
+}
+
+static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const str_arg_t *type,
+                      const str_arg_t *cls, pbrt_loc_t loc)
+{
+    scene_texture_type_t tt;
+    if (!strcmp(type->s, "float"))
+        tt = SCENE_TEXTURE_FLOAT;
+    else if (!strcmp(type->s, "spectrum"))
+        tt = SCENE_TEXTURE_SPECTRUM;
+    else
+        return pbrt_error(P->err, type->loc, "texture type must be \"float\" or \"spectrum\", "
+                                             "got \"%s\"",
+                          type->s);
+    int prev = scene_desc_find_texture(P->scene, name->s, tt);
+    if (prev >= 0)
+        return pbrt_error(P->err, name->loc, "%s texture \"%s\" is already defined (line %d)",
+                          type->s, name->s, P->scene->textures[prev].loc.line);
+    static const struct {
+        const char *name;
+        scene_texture_class_t cls;
+    } CLASSES[] = {{"constant", SCENE_TEX_CONSTANT},
+                   {"checkerboard", SCENE_TEX_CHECKERBOARD},
+                   {"imagemap", SCENE_TEX_IMAGEMAP},
+                   {"scale", SCENE_TEX_SCALE},
+                   {"mix", SCENE_TEX_MIX}};
+    int cls_idx = -1;
+    for (size_t i = 0; i < COUNT_OF(CLASSES); i++)
+        if (!strcmp(cls->s, CLASSES[i].name))
+            cls_idx = (int)i;
+    if (cls_idx < 0)
+        return pbrt_error(P->err, cls->loc, "unsupported texture \"%s\" (\"constant\", "
+                                            "\"checkerboard\", \"imagemap\", \"scale\" or \"mix\")",
+                          cls->s);
+    if (check_transform(P, &P->gs.ctm, "Texture", loc) != 0)
+        return -1;
+    int idx = scene_desc_add_texture(P->scene, P->err);
+    if (idx < 0)
+        return -1;
+    scene_texture_t *t = &P->scene->textures[idx];
+    t->name = scene_desc_strdup(P->scene, name->s, P->err);
+    if (!t->name)
+        return -1;
+    t->type = tt;
+    t->cls = CLASSES[cls_idx].cls;
+    t->loc = loc;
+    t->to_world = P->gs.ctm;
+    t->float_in1.texture = t->float_in2.texture = t->amount.texture = -1;
+    t->spec_in1.texture = t->spec_in2.texture = -1;
+
+    const char *mapping;
+    if (params_get_string(ps, "mapping", "uv", &mapping, P->err) != 0)
+        return -1;
+    if (strcmp(mapping, "uv") != 0)
+        return pbrt_error(P->err, params_find(ps, "mapping")->loc,
+                          "unsupported texture mapping \"%s\" (only \"uv\")", mapping);
+    if (params_get_float(ps, "uscale", 1.0, &t->uscale, P->err) != 0 ||
+        params_get_float(ps, "vscale", 1.0, &t->vscale, P->err) != 0 ||
+        params_get_float(ps, "udelta", 0.0, &t->udelta, P->err) != 0 ||
+        params_get_float(ps, "vdelta", 0.0, &t->vdelta, P->err) != 0)
+        return -1;
+
+    /* Inputs and their defaults as pbrt-v4 textures.cpp creates them. */
+    switch (t->cls) {
+    case SCENE_TEX_CONSTANT:
+        return tex_input(P, ps, t, "value", 1.0, &t->float_in1, &t->spec_in1);
+    case SCENE_TEX_CHECKERBOARD: {
+        int dim;
+        if (params_get_int(ps, "dimension", 2, &dim, P->err) != 0)
+            return -1;
+        if (dim != 2)
+            return pbrt_error(P->err, params_find(ps, "dimension")->loc,
+                              "unsupported checkerboard dimension %d (only 2)", dim);
+        return tex_input(P, ps, t, "tex1", 1.0, &t->float_in1, &t->spec_in1) != 0 ||
+                       tex_input(P, ps, t, "tex2", 0.0, &t->float_in2, &t->spec_in2) != 0
+                   ? -1
+                   : 0;
+    }
+    case SCENE_TEX_SCALE:
+        return tex_input(P, ps, t, "tex", 1.0, &t->float_in1, &t->spec_in1) != 0 ||
+                       get_float_input(P, ps, "scale", 1.0, &t->amount) != 0
+                   ? -1
+                   : 0;
+    case SCENE_TEX_MIX:
+        return tex_input(P, ps, t, "tex1", 0.0, &t->float_in1, &t->spec_in1) != 0 ||
+                       tex_input(P, ps, t, "tex2", 1.0, &t->float_in2, &t->spec_in2) != 0 ||
+                       get_float_input(P, ps, "amount", 0.5, &t->amount) != 0
+                   ? -1
+                   : 0;
+    case SCENE_TEX_IMAGEMAP: break;
+    }
+    const char *filename, *wrap, *filter, *encoding;
+    if (params_get_string(ps, "filename", NULL, &filename, P->err) != 0 ||
+        params_get_string(ps, "wrap", "repeat", &wrap, P->err) != 0 ||
+        params_get_string(ps, "filter", "bilinear", &filter, P->err) != 0 ||
+        params_get_string(ps, "encoding", "sRGB", &encoding, P->err) != 0 ||
+        params_get_float(ps, "scale", 1.0, &t->image.scale, P->err) != 0 ||
+        params_get_bool(ps, "invert", false, &t->image.invert, P->err) != 0)
+        return -1;
+    if (!filename)
+        return pbrt_error(P->err, loc, "Texture \"imagemap\" needs \"string filename\"");
+    param_t *fp = params_find(ps, "filename");
+    if (!ends_with_png(filename))
+        return pbrt_error(P->err, fp->loc, "unsupported image \"%s\": image textures must be PNG "
+                                           "files",
+                          filename);
+    static const char *WRAPS[] = {"repeat", "black", "clamp"};
+    static const char *FILTERS[] = {"point", "bilinear", "trilinear", "ewa"};
+    if (!in_list(wrap, WRAPS, COUNT_OF(WRAPS)))
+        return pbrt_error(P->err, params_find(ps, "wrap")->loc,
+                          "unsupported wrap mode \"%s\" (\"repeat\", \"black\" or \"clamp\")", wrap);
+    if (!in_list(filter, FILTERS, COUNT_OF(FILTERS)))
+        return pbrt_error(P->err, params_find(ps, "filter")->loc,
+                          "unknown filter \"%s\" (\"point\", \"bilinear\", \"trilinear\" or "
+                          "\"ewa\")",
+                          filter);
+    double gamma;
+    char tail;
+    if (strcmp(encoding, "sRGB") != 0 && strcmp(encoding, "linear") != 0 &&
+        !(sscanf(encoding, "gamma %lf%c", &gamma, &tail) == 1 && isfinite(gamma) && gamma > 0.0))
+        return pbrt_error(P->err, params_find(ps, "encoding")->loc,
+                          "unknown encoding \"%s\" (\"sRGB\", \"linear\" or \"gamma G\")",
+                          encoding);
+    t->image.filename = scene_path(P, filename, fp->loc);
+    if (!t->image.filename)
+        return -1;
+    FILE *f = fopen(t->image.filename, "rb");
+    if (!f)
+        return pbrt_error(P->err, fp->loc, "cannot open image \"%s\": %s", t->image.filename,
+                          strerror(errno));
+    fclose(f);
+    t->image.wrap = scene_desc_strdup(P->scene, wrap, P->err);
+    t->image.filter = scene_desc_strdup(P->scene, filter, P->err);
+    t->image.encoding = scene_desc_strdup(P->scene, encoding, P->err);
+    return t->image.wrap && t->image.filter && t->image.encoding ? 0 : -1;
+}
+
+/* ------------------------------------------------------------------------------------------
+ * Lights
+ * ------------------------------------------------------------------------------------------ */
+
+static int do_area_light(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
+{
+    scene_area_light_type_t at;
+    if (!strcmp(type->s, "diffuse"))
+        at = SCENE_AREA_DIFFUSE;
+    else if (!strcmp(type->s, "collimated"))
+        at = SCENE_AREA_COLLIMATED;
+    else
+        return pbrt_error(P->err, type->loc, "unsupported area light \"%s\" (\"diffuse\" or "
+                                             "\"collimated\")",
+                          type->s);
+    int idx = scene_desc_add_area_light(P->scene, P->err);
+    if (idx < 0)
+        return -1;
+    scene_area_light_t *a = &P->scene->area_lights[idx];
+    a->type = at;
+    a->loc = loc;
+    /* pbrt-v4 lights default to the colour space's illuminant (D65 for sRGB). */
+    if (get_spectrum(P, ps, "L", spectrum_named("stdillum-D65", loc), SPECTRUM_ANY, &a->L) != 0 ||
+        params_get_float(ps, "scale", 1.0, &a->scale, P->err) != 0 ||
+        check_range(P, ps, "scale", a->scale, 0.0, INFINITY) != 0)
+        return -1;
+    if (at == SCENE_AREA_DIFFUSE &&
+        params_get_bool(ps, "twosided", false, &a->twosided, P->err) != 0)
+        return -1;
+    P->gs.area_light = idx;
+    return 0;
+}
+
+static int do_light(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
+{
+    static const struct {
+        const char *name;
+        scene_light_type_t type;
+    } TYPES[] = {{"point", SCENE_LIGHT_POINT},
+                 {"spot", SCENE_LIGHT_SPOT},
+                 {"distant", SCENE_LIGHT_DISTANT},
+                 {"infinite", SCENE_LIGHT_INFINITE}};
+    int ti = -1;
+    for (size_t i = 0; i < COUNT_OF(TYPES); i++)
+        if (!strcmp(type->s, TYPES[i].name))
+            ti = (int)i;
+    if (ti < 0)
+        return pbrt_error(P->err, type->loc, "unsupported light \"%s\" (\"point\", \"spot\", "
+                                             "\"distant\" or \"infinite\")",
+                          type->s);
+    if (check_transform(P, &P->gs.ctm, "LightSource", loc) != 0)
+        return -1;
+    int idx = scene_desc_add_light(P->scene, P->err);
+    if (idx < 0)
+        return -1;
+    scene_light_t *l = &P->scene->lights[idx];
+    l->type = TYPES[ti].type;
+    l->loc = loc;
+    l->to_world = P->gs.ctm;
+    const char *sname = (l->type == SCENE_LIGHT_POINT || l->type == SCENE_LIGHT_SPOT) ? "I" : "L";
+    if (get_spectrum(P, ps, sname, spectrum_named("stdillum-D65", loc), SPECTRUM_ANY,
+                     &l->spectrum) != 0 ||
+        params_get_float(ps, "scale", 1.0, &l->scale, P->err) != 0 ||
+        check_range(P, ps, "scale", l->scale, 0.0, INFINITY) != 0)
+        return -1;
+    if (l->type == SCENE_LIGHT_INFINITE)
+        return 0;
+    if (params_get_point3(ps, "from", vec3_make(0, 0, 0), &l->from, P->err) != 0)
+        return -1;
+    if (l->type == SCENE_LIGHT_POINT)
+        return 0;
+    if (params_get_point3(ps, "to", vec3_make(0, 0, 1), &l->to, P->err) != 0)
+        return -1;
+    if (vec3_length(vec3_sub(l->to, l->from)) == 0.0)
+        return pbrt_error(P->err, loc, "LightSource \"%s\": \"from\" and \"to\" are the same point",
+                          type->s);
+    if (l->type == SCENE_LIGHT_DISTANT)
+        return 0;
+    if (params_get_float(ps, "coneangle", 30.0, &l->coneangle, P->err) != 0 ||
+        params_get_float(ps, "conedeltaangle", 5.0, &l->conedeltaangle, P->err) != 0 ||
+        check_range(P, ps, "coneangle", l->coneangle, 0.0, 180.0) != 0 ||
+        check_range(P, ps, "conedeltaangle", l->conedeltaangle, 0.0, l->coneangle) != 0)
+        return -1;
+    return 0;
+}
+
+/* ------------------------------------------------------------------------------------------
+ * Shapes
+ * ------------------------------------------------------------------------------------------ */
+
+static double *copy_doubles(parser_t *P, const double *src, size_t n)
+{
+    double *d = scene_desc_alloc(P->scene, n * sizeof *d, P->err);
+    if (d)
+        memcpy(d, src, n * sizeof *d);
+    return d;
+}
+
+/* trianglemesh (3 indices per triangle) or bilinearmesh (4 per patch: p00 p10 p01 p11, split
+ * into (p00 p10 p11) and (p00 p11 p01), which keeps pbrt-v4's normal cross(p10-p00, p01-p00)
+ * equal to the triangles' cross(p0-p2, p1-p2)). */
+static int mesh_from_params(parser_t *P, params_t *ps, scene_shape_t *s, bool bilinear,
+                            pbrt_loc_t loc)
+{
+    param_t *pp, *pi, *pn, *puv;
+    if (params_get_array(ps, "P", PARAM_POINT3, &pp, P->err) != 0)
+        return -1;
+    if (!pp)
+        return pbrt_error(P->err, loc, "Shape \"%s\" needs \"point3 P\"", s->kind);
+    size_t nv = pp->count / 3;
+    if (nv >= UINT32_MAX)
+        return pbrt_error(P->err, pp->loc, "too many points in \"point3 P\"");
+    if (params_get_array(ps, "indices", PARAM_INTEGER, &pi, P->err) != 0)
+        return -1;
+    size_t per = bilinear ? 4 : 3;
+    size_t nprims;
+    if (!pi) {
+        /* pbrt-v4 allows omitting indices for a single triangle or patch. */
+        if (nv != per)
+            return pbrt_error(P->err, loc, "Shape \"%s\" without \"integer indices\" needs exactly "
+                                           "%zu points in \"point3 P\", got %zu",
+                              s->kind, per, nv);
+        nprims = 1;
+    } else {
+        if (pi->count % per != 0)
+            return pbrt_error(P->err, pi->loc, "expected a multiple of %zu numbers after \"%s "
+                                               "%s\", got %zu",
+                              per, pi->type_name, pi->name, pi->count);
+        for (size_t i = 0; i < pi->count; i++)
+            if (pi->numbers[i] < 0 || pi->numbers[i] >= (double)nv)
+                return pbrt_error(P->err, pi->loc, "index %.0f (entry %zu of \"integer indices\") "
+                                                   "is out of range: \"point3 P\" has %zu points",
+                                  pi->numbers[i], i + 1, nv);
+        nprims = pi->count / per;
+    }
+    if (params_get_array(ps, "N", PARAM_NORMAL3, &pn, P->err) != 0 ||
+        params_get_array(ps, "uv", PARAM_POINT2, &puv, P->err) != 0)
+        return -1;
+    if (pn && pn->count / 3 != nv)
+        return pbrt_error(P->err, pn->loc, "\"%s N\" has %zu normals but \"point3 P\" has %zu "
+                                           "points",
+                          pn->type_name, pn->count / 3, nv);
+    if (puv && puv->count / 2 != nv)
+        return pbrt_error(P->err, puv->loc, "\"%s uv\" has %zu entries but \"point3 P\" has %zu "
+                                            "points",
+                          puv->type_name, puv->count / 2, nv);
+    scene_mesh_t *m = &s->mesh;
+    m->nvertices = nv;
+    m->P = copy_doubles(P, pp->numbers, pp->count);
+    if (!m->P)
+        return -1;
+    if (pn && !(m->N = copy_doubles(P, pn->numbers, pn->count)))
+        return -1;
+    if (puv && !(m->uv = copy_doubles(P, puv->numbers, puv->count)))
+        return -1;
+    m->ntriangles = bilinear ? 2 * nprims : nprims;
+    uint32_t *idx = scene_desc_alloc(P->scene, m->ntriangles * 3 * sizeof *idx, P->err);
+    if (!idx)
+        return -1;
+    for (size_t i = 0; i < nprims; i++) {
+        uint32_t v[4];
+        for (size_t k = 0; k < per; k++)
+            v[k] = pi ? (uint32_t)pi->numbers[per * i + k] : (uint32_t)k;
+        if (bilinear) {
+            uint32_t *t = &idx[6 * i];
+            t[0] = v[0], t[1] = v[1], t[2] = v[3];
+            t[3] = v[0], t[4] = v[3], t[5] = v[2];
+        } else {
+            idx[3 * i] = v[0], idx[3 * i + 1] = v[1], idx[3 * i + 2] = v[2];
+        }
+    }
+    m->indices = idx;
+    return 0;
+}
+
+static int mesh_from_ply(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t loc)
+{
+    const char *filename;
+    if (params_get_string(ps, "filename", NULL, &filename, P->err) != 0)
+        return -1;
+    if (!filename)
+        return pbrt_error(P->err, loc, "Shape \"plymesh\" needs \"string filename\"");
+    param_t *fp = params_find(ps, "filename");
+    const char *path = scene_path(P, filename, fp->loc);
+    if (!path)
+        return -1;
+    mesh_data_t md;
+    err_t e;
+    if (mesh_import_ply(path, &md, &e) != 0)
+        return pbrt_error(P->err, fp->loc, "%s", e.msg);
+    scene_mesh_t *m = &s->mesh;
+    m->nvertices = md.nvertices;
+    m->ntriangles = md.ntriangles;
+    m->P = md.P;
+    m->N = md.N;
+    m->uv = md.uv;
+    m->indices = md.indices;
+    /* adopt frees on failure, so hand over every block before checking */
+    int rc = scene_desc_adopt(P->scene, md.P, P->err);
+    rc |= scene_desc_adopt(P->scene, md.N, P->err);
+    rc |= scene_desc_adopt(P->scene, md.uv, P->err);
+    rc |= scene_desc_adopt(P->scene, md.indices, P->err);
+    return rc ? -1 : 0;
+}
+
+static int do_shape(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
+{
+    static const struct {
+        const char *name;
+        scene_shape_type_t type;
+    } KINDS[] = {{"sphere", SCENE_SHAPE_SPHERE},
+                 {"disk", SCENE_SHAPE_DISK},
+                 {"trianglemesh", SCENE_SHAPE_MESH},
+                 {"plymesh", SCENE_SHAPE_MESH},
+                 {"bilinearmesh", SCENE_SHAPE_MESH}};
+    int ki = -1;
+    for (size_t i = 0; i < COUNT_OF(KINDS); i++)
+        if (!strcmp(type->s, KINDS[i].name))
+            ki = (int)i;
+    if (ki < 0)
+        return pbrt_error(P->err, type->loc, "unsupported shape \"%s\" (\"sphere\", \"disk\", "
+                                             "\"trianglemesh\", \"plymesh\" or \"bilinearmesh\")",
+                          type->s);
+    if (check_transform(P, &P->gs.ctm, "Shape", loc) != 0)
+        return -1;
+    bool in_object = P->object >= 0;
+    if (in_object && P->gs.area_light >= 0)
+        return pbrt_error(P->err, loc, "area lights are not supported inside ObjectBegin "
+                                       "(AreaLightSource at line %d)",
+                          P->scene->area_lights[P->gs.area_light].loc.line);
+    int idx = scene_desc_add_shape(P->scene, in_object, P->err);
+    if (idx < 0)
+        return -1;
+    scene_shape_t *s = in_object ? &P->scene->object_shapes[idx] : &P->scene->shapes[idx];
+    s->type = KINDS[ki].type;
+    s->kind = KINDS[ki].name;
+    s->loc = loc;
+    s->to_world = P->gs.ctm;
+    s->reverse_orientation = P->gs.reverse;
+    s->swaps_handedness = transform_swaps_handedness(&P->gs.ctm);
+    s->flip_normals = s->reverse_orientation != s->swaps_handedness;
+    s->material = P->gs.material;
+    s->area_light = P->gs.area_light;
+    switch (s->type) {
+    case SCENE_SHAPE_SPHERE:
+        if (params_get_float(ps, "radius", 1.0, &s->radius, P->err) != 0 ||
+            check_positive(P, ps, "radius", s->radius) != 0)
+            return -1;
+        return 0;
+    case SCENE_SHAPE_DISK: {
+        double inner;
+        if (params_get_float(ps, "radius", 1.0, &s->radius, P->err) != 0 ||
+            params_get_float(ps, "height", 0.0, &s->height, P->err) != 0 ||
+            params_get_float(ps, "innerradius", 0.0, &inner, P->err) != 0 ||
+            check_positive(P, ps, "radius", s->radius) != 0)
+            return -1;
+        if (inner != 0.0)
+            return pbrt_error(P->err, params_find(ps, "innerradius")->loc,
+                              "unsupported parameter value: \"float innerradius\" must be 0 "
+                              "(annuli are not supported)");
+        return 0;
+    }
+    case SCENE_SHAPE_MESH:
+        if (!strcmp(s->kind, "plymesh"))
+            return mesh_from_ply(P, ps, s, loc);
+        return mesh_from_params(P, ps, s, !strcmp(s->kind, "bilinearmesh"), loc);
+    }
+    return 0;
+}
+
+/* ------------------------------------------------------------------------------------------
+ * Directives
+ * ------------------------------------------------------------------------------------------ */
+
+static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from);
+
+/* Directives of the form: Name "type" params. */
+static int param_directive(parser_t *P, const char *dir, pbrt_loc_t loc)
+{
+    str_arg_t type;
+    const char *what = !strcmp(dir, "MakeNamedMaterial") ? "material name" : "type name";
+    if (read_string(P, dir, loc, what, &type) != 0)
+        return -1;
+    char context[192];
+    snprintf(context, sizeof context, "%s \"%.100s%s\"", dir, type.s,
+             strlen(type.s) > 100 ? "..." : "");
+    params_t *ps = read_params(P, context);
+    if (!ps)
+        return -1;
+    int rc = -1;
+    bool keep = false;
+    if (!strcmp(dir, "Camera")) {
+        rc = need_options(P, dir, loc) || do_camera(P, ps, &type, loc) ? -1 : 0;
+    } else if (!strcmp(dir, "Film")) {
+        rc = need_options(P, dir, loc) || do_film(P, ps, &type, loc) ? -1 : 0;
+    } else if (!strcmp(dir, "Sampler")) {
+        rc = need_options(P, dir, loc) || do_sampler(P, ps, &type, loc) ? -1 : 0;
+    } else if (!strcmp(dir, "Integrator")) {
+        if (need_options(P, dir, loc) != 0)
+            goto done;
+        if (!in_list(type.s, INTEGRATORS, COUNT_OF(INTEGRATORS))) {
+            pbrt_error(P->err, type.loc, "unsupported integrator \"%s\" (\"simplepath\", \"path\", "
+                                         "\"whitted\", \"photon\" or \"auto\")",
+                       type.s);
+            goto done;
+        }
+        scene_integrator_t *in = &P->scene->integrator;
+        in->type = scene_desc_strdup(P->scene, type.s, P->err);
+        if (!in->type)
+            goto done;
+        in->loc = loc;
+        params_destroy(&in->params);
+        in->params = ps; /* checked by the renderer, which knows what it uses */
+        keep = true;
+        rc = 0;
+        goto done;
+    } else if (!strcmp(dir, "Shape")) {
+        rc = need_world(P, dir, loc) || do_shape(P, ps, &type, loc) ? -1 : 0;
+    } else if (!strcmp(dir, "Material")) {
+        rc = need_world(P, dir, loc) || do_material(P, ps, &type, NULL, loc, type.loc) ? -1 : 0;
+    } else if (!strcmp(dir, "MakeNamedMaterial")) {
+        if (need_world(P, dir, loc) != 0)
+            goto done;
+        int prev = scene_desc_find_material(P->scene, type.s);
+        if (prev >= 0) {
+            pbrt_error(P->err, type.loc, "named material \"%s\" is already defined (line %d)",
+                       type.s, P->scene->materials[prev].loc.line);
+            goto done;
+        }
+        const char *mtype;
+        if (params_get_string(ps, "type", NULL, &mtype, P->err) != 0)
+            goto done;
+        if (!mtype) {
+            pbrt_error(P->err, loc, "MakeNamedMaterial \"%s\" needs \"string type\"", type.s);
+            goto done;
+        }
+        str_arg_t mt;
+        snprintf(mt.s, sizeof mt.s, "%s", mtype);
+        mt.loc = params_find(ps, "type")->loc;
+        rc = do_material(P, ps, &mt, type.s, loc, mt.loc);
+    } else if (!strcmp(dir, "AreaLightSource")) {
+        rc = need_world(P, dir, loc) || do_area_light(P, ps, &type, loc) ? -1 : 0;
+    } else if (!strcmp(dir, "LightSource")) {
+        rc = need_world(P, dir, loc) || do_light(P, ps, &type, loc) ? -1 : 0;
+    }
+    if (rc == 0)
+        rc = params_check_unused(ps, P->err);
+done:
+    if (!keep)
+        params_destroy(&ps);
+    return rc;
+}
+
+static int do_texture_directive(parser_t *P, pbrt_loc_t loc)
+{
+    str_arg_t name, type, cls;
+    if (read_string(P, "Texture", loc, "texture name", &name) != 0 ||
+        read_string(P, "Texture", loc, "texture type (\"float\" or \"spectrum\")", &type) != 0 ||
+        read_string(P, "Texture", loc, "texture class", &cls) != 0)
+        return -1;
+    char context[192];
+    snprintf(context, sizeof context, "Texture \"%.100s\"", cls.s);
+    params_t *ps = read_params(P, context);
+    if (!ps)
+        return -1;
+    int rc = need_world(P, "Texture", loc) || do_texture(P, ps, &name, &type, &cls, loc) ||
+                     params_check_unused(ps, P->err)
+                 ? -1
+                 : 0;
+    params_destroy(&ps);
+    return rc;
+}
+
+static int end_frame(parser_t *P, int kind, const char *dir, pbrt_loc_t loc)
+{
+    if (P->nframes == 0)
+        return pbrt_error(P->err, loc, "%s without a matching %s", dir,
+                          kind == FRAME_OBJECT ? "ObjectBegin" : "AttributeBegin");
+    frame_t *top = &P->frames[P->nframes - 1];
+    if (top->kind == FRAME_IMPORT)
+        return pbrt_error(P->err, loc, "%s without a matching %s in this imported file", dir,
+                          kind == FRAME_OBJECT ? "ObjectBegin" : "AttributeBegin");
+    if (top->kind != kind)
+        return pbrt_error(P->err, loc, "%s closes %s at line %d (mismatched nesting)", dir,
+                          top->what, top->loc.line);
+    P->gs = top->gs;
+    P->nframes--;
+    return 0;
+}
+
+static int do_object_begin(parser_t *P, pbrt_loc_t loc)
+{
+    str_arg_t name;
+    if (read_string(P, "ObjectBegin", loc, "object name", &name) != 0 ||
+        need_world(P, "ObjectBegin", loc) != 0)
+        return -1;
+    if (P->object >= 0)
+        return pbrt_error(P->err, loc, "ObjectBegin inside ObjectBegin \"%s\" (line %d)",
+                          P->scene->objects[P->object].name,
+                          P->scene->objects[P->object].loc.line);
+    int prev = scene_desc_find_object(P->scene, name.s);
+    if (prev >= 0)
+        return pbrt_error(P->err, name.loc, "object \"%s\" is already defined (line %d)", name.s,
+                          P->scene->objects[prev].loc.line);
+    if (push_frame(P, FRAME_OBJECT, "ObjectBegin", loc) != 0)
+        return -1;
+    int idx = scene_desc_add_object(P->scene, P->err);
+    if (idx < 0)
+        return -1;
+    scene_object_t *o = &P->scene->objects[idx];
+    o->name = scene_desc_strdup(P->scene, name.s, P->err);
+    if (!o->name)
+        return -1;
+    o->loc = loc;
+    o->first_shape = P->scene->nobject_shapes;
+    P->object = idx;
+    return 0;
+}
+
+static int do_object_end(parser_t *P, pbrt_loc_t loc)
+{
+    if (need_world(P, "ObjectEnd", loc) != 0)
+        return -1;
+    if (P->object < 0)
+        return pbrt_error(P->err, loc, "ObjectEnd without a matching ObjectBegin");
+    if (end_frame(P, FRAME_OBJECT, "ObjectEnd", loc) != 0)
+        return -1;
+    scene_object_t *o = &P->scene->objects[P->object];
+    o->nshapes = P->scene->nobject_shapes - o->first_shape;
+    P->object = -1;
+    return 0;
+}
+
+static int do_object_instance(parser_t *P, pbrt_loc_t loc)
+{
+    str_arg_t name;
+    if (read_string(P, "ObjectInstance", loc, "object name", &name) != 0 ||
+        need_world(P, "ObjectInstance", loc) != 0)
+        return -1;
+    if (P->object >= 0)
+        return pbrt_error(P->err, loc, "ObjectInstance inside ObjectBegin \"%s\" is not supported",
+                          P->scene->objects[P->object].name);
+    if (check_transform(P, &P->gs.ctm, "ObjectInstance", loc) != 0)
+        return -1;
+    int idx = scene_desc_add_instance(P->scene, P->err);
+    if (idx < 0)
+        return -1;
+    if ((size_t)idx >= P->cap_pending) {
+        size_t cap = P->scene->cap_instances;
+        const char **p = realloc(P->pending, cap * sizeof *p);
+        if (!p)
+            return pbrt_error(P->err, loc, "out of memory");
+        P->pending = p;
+        P->cap_pending = cap;
+    }
+    scene_instance_t *in = &P->scene->instances[idx];
+    in->object = -1;
+    in->loc = loc;
+    in->to_world = P->gs.ctm;
+    in->swaps_handedness = transform_swaps_handedness(&P->gs.ctm);
+    /* pbrt-v4 resolves instances at the end, so an object may be defined after its use. */
+    P->pending[idx] = scene_desc_strdup(P->scene, name.s, P->err);
+    return P->pending[idx] ? 0 : -1;
+}
+
+static int do_include(parser_t *P, bool import, pbrt_loc_t loc)
+{
+    const char *dir = import ? "Import" : "Include";
+    str_arg_t name;
+    if (read_string(P, dir, loc, "file name", &name) != 0)
+        return -1;
+    if (import && need_world(P, dir, loc) != 0)
+        return -1;
+    char *path = resolve_path(P->file, name.s);
+    if (!path)
+        return pbrt_error(P->err, loc, "out of memory");
+    /* Import reads the file with a copy of the graphics state: nothing it changes (CTM,
+     * material, attributes) leaks back into the importing file (pbrt-v4 CopyForImport). */
+    if (import && push_frame(P, FRAME_IMPORT, "Import", loc) != 0) {
+        free(path);
+        return -1;
+    }
+    const char *outer_file = P->file;
+    pbrt_lexer_t *outer_lex = P->lex;
+    int rc = parse_file(P, path, &name.loc);
+    free(path);
+    const char *inner_file = P->file;
+    P->file = outer_file;
+    P->lex = outer_lex;
+    if (rc != 0 || !import)
+        return rc;
+    frame_t *top = &P->frames[P->nframes - 1];
+    if (top->kind != FRAME_IMPORT)
+        return pbrt_error(P->err, top->loc, "%s has no matching end before the end of imported "
+                                            "file \"%s\"",
+                          top->what, inner_file);
+    P->gs = top->gs;
+    P->nframes--;
+    return 0;
+}
+
+static int do_transform_directive(parser_t *P, const char *dir, pbrt_loc_t loc)
+{
+    double v[16];
+    transform_t t;
+    err_t e;
+    if (!strcmp(dir, "Translate")) {
+        if (read_numbers(P, dir, loc, v, 3) != 0)
+            return -1;
+        t = transform_translate(vec3_make(v[0], v[1], v[2]));
+    } else if (!strcmp(dir, "Scale")) {
+        if (read_numbers(P, dir, loc, v, 3) != 0)
+            return -1;
+        t = transform_scale(v[0], v[1], v[2]);
+    } else if (!strcmp(dir, "Rotate")) {
+        if (read_numbers(P, dir, loc, v, 4) != 0)
+            return -1;
+        if (transform_rotate(v[0], vec3_make(v[1], v[2], v[3]), &t, &e) != 0)
+            return pbrt_error(P->err, loc, "Rotate: %s", e.msg);
+    } else if (!strcmp(dir, "LookAt")) {
+        if (read_numbers(P, dir, loc, v, 9) != 0)
+            return -1;
+        if (transform_look_at(vec3_make(v[0], v[1], v[2]), vec3_make(v[3], v[4], v[5]),
+                              vec3_make(v[6], v[7], v[8]), &t, &e) != 0)
+            return pbrt_error(P->err, loc, "%s", e.msg);
+    } else {
+        if (read_matrix(P, dir, loc, v) != 0)
+            return -1;
+        t = transform_from_pbrt_array(v);
+        if (!strcmp(dir, "Transform")) {
+            P->gs.ctm = t;
+            return 0;
+        }
+    }
+    P->gs.ctm = transform_compose(P->gs.ctm, t);
+    return 0;
+}
+
+static int directive(parser_t *P, const char *dir, pbrt_loc_t loc)
+{
+    static const char *PARAM_DIRECTIVES[] = {"Camera", "Film",     "Sampler",
+                                             "Integrator", "Shape", "Material",
+                                             "MakeNamedMaterial", "AreaLightSource", "LightSource"};
+    static const char *TRANSFORMS[] = {"Translate", "Scale",     "Rotate",
+                                       "LookAt",    "Transform", "ConcatTransform"};
+    if (in_list(dir, PARAM_DIRECTIVES, COUNT_OF(PARAM_DIRECTIVES)))
+        return param_directive(P, dir, loc);
+    if (in_list(dir, TRANSFORMS, COUNT_OF(TRANSFORMS)))
+        return do_transform_directive(P, dir, loc);
+    if (!strcmp(dir, "Identity")) {
+        P->gs.ctm = transform_identity();
+        return 0;
+    }
+    if (!strcmp(dir, "Texture"))
+        return do_texture_directive(P, loc);
+    if (!strcmp(dir, "AttributeBegin") || !strcmp(dir, "TransformBegin"))
+        /* pbrt-v4 reads the deprecated TransformBegin/End as AttributeBegin/End. */
+        return need_world(P, dir, loc) ||
+                       push_frame(P, FRAME_ATTRIBUTE,
+                                  dir[0] == 'A' ? "AttributeBegin" : "TransformBegin", loc)
+                   ? -1
+                   : 0;
+    if (!strcmp(dir, "AttributeEnd") || !strcmp(dir, "TransformEnd"))
+        return need_world(P, dir, loc) || end_frame(P, FRAME_ATTRIBUTE, dir, loc) ? -1 : 0;
+    if (!strcmp(dir, "ReverseOrientation")) {
+        if (need_world(P, dir, loc) != 0)
+            return -1;
+        P->gs.reverse = !P->gs.reverse;
+        return 0;
+    }
+    if (!strcmp(dir, "CoordinateSystem") || !strcmp(dir, "CoordSysTransform")) {
+        str_arg_t name;
+        if (read_string(P, dir, loc, "coordinate system name", &name) != 0)
+            return -1;
+        if (!strcmp(dir, "CoordinateSystem"))
+            return set_coordsys(P, name.s, P->gs.ctm, loc);
+        for (size_t i = 0; i < P->ncs; i++)
+            if (!strcmp(P->cs[i].name, name.s)) {
+                P->gs.ctm = P->cs[i].t;
+                return 0;
+            }
+        return pbrt_error(P->err, name.loc, "unknown coordinate system \"%s\"", name.s);
+    }
+    if (!strcmp(dir, "WorldBegin")) {
+        if (P->world)
+            return pbrt_error(P->err, loc, "WorldBegin appears twice (first at line %d)",
+                              P->world_loc.line);
+        P->world = true;
+        P->world_loc = loc;
+        P->gs.ctm = transform_identity();
+        return set_coordsys(P, "world", P->gs.ctm, loc);
+    }
+    if (!strcmp(dir, "Include") || !strcmp(dir, "Import"))
+        return do_include(P, !strcmp(dir, "Import"), loc);
+    if (!strcmp(dir, "ObjectBegin"))
+        return do_object_begin(P, loc);
+    if (!strcmp(dir, "ObjectEnd"))
+        return do_object_end(P, loc);
+    if (!strcmp(dir, "ObjectInstance"))
+        return do_object_instance(P, loc);
+    if (!strcmp(dir, "NamedMaterial")) {
+        str_arg_t name;
+        if (read_string(P, dir, loc, "material name", &name) != 0 || need_world(P, dir, loc) != 0)
+            return -1;
+        int m = scene_desc_find_material(P->scene, name.s);
+        if (m < 0)
+            return pbrt_error(P->err, name.loc, "named material \"%s\" is not defined "
+                                                "(MakeNamedMaterial must come before its use)",
+                              name.s);
+        P->gs.material = m;
+        return 0;
+    }
+    if (in_list(dir, UNSUPPORTED_DIRECTIVES, COUNT_OF(UNSUPPORTED_DIRECTIVES)))
+        return pbrt_error(P->err, loc, "unsupported directive %s", dir);
+    return pbrt_error(P->err, loc, "unknown directive %s", dir);
+}
+
+static int parse_tokens(parser_t *P)
+{
+    for (;;) {
+        pbrt_token_t t;
+        if (pbrt_lexer_next(P->lex, &t, P->err) != 0)
+            return -1;
+        if (t.kind == PBRT_TOKEN_EOF)
+            return 0;
+        if (t.kind != PBRT_TOKEN_WORD) {
+            char d[96];
+            describe(&t, d, sizeof d);
+            return pbrt_error(P->err, t.loc, "expected a directive, got %s", d);
+        }
+        char dir[64];
+        if (t.len >= sizeof dir) {
+            return pbrt_error(P->err, t.loc, "unknown directive %.40s...", t.text);
+        }
+        memcpy(dir, t.text, t.len + 1);
+        if (directive(P, dir, t.loc) != 0)
+            return -1;
+    }
+}
+
+/* Reads a whole file; a file that cannot be read names the Include that asked for it. */
+static char *read_file(parser_t *P, const char *path, const pbrt_loc_t *from, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        if (from)
+            pbrt_error(P->err, *from, "cannot open included file \"%s\": %s", path,
+                       strerror(errno));
+        else
+            err_set(P->err, "cannot open scene file \"%s\": %s", path, strerror(errno));
+        return NULL;
+    }
+    size_t cap = 1 << 16, n = 0;
+    char *buf = malloc(cap);
+    while (buf) {
+        size_t got = fread(buf + n, 1, cap - n, f);
+        n += got;
+        if (n < cap) {
+            if (ferror(f)) {
+                free(buf);
+                buf = NULL;
+                if (from)
+                    pbrt_error(P->err, *from, "cannot read included file \"%s\"", path);
+                else
+                    err_set(P->err, "cannot read scene file \"%s\"", path);
+                fclose(f);
+                return NULL;
+            }
+            break;
+        }
+        char *nb = cap <= SIZE_MAX / 2 ? realloc(buf, cap * 2) : NULL;
+        if (!nb)
+            free(buf);
+        buf = nb;
+        cap *= 2;
+    }
+    fclose(f);
+    if (!buf) {
+        err_set(P->err, "out of memory reading \"%s\"", path);
+        return NULL;
+    }
+    *len = n;
+    return buf;
+}
+
+static int parse_buffer(parser_t *P, const char *name, const char *text, size_t len)
+{
+    const char *file = scene_desc_strdup(P->scene, name, P->err);
+    if (!file)
+        return -1;
+    P->lex = pbrt_lexer_new(file, text, len, P->err);
+    if (!P->lex)
+        return -1;
+    P->file = file;
+    int rc = parse_tokens(P);
+    pbrt_lexer_destroy(&P->lex);
+    return rc;
+}
+
+static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from)
+{
+    if (from && P->nopen >= PBRT_INCLUDE_DEPTH_MAX)
+        return pbrt_error(P->err, *from, "Include/Import nested deeper than %d files",
+                          PBRT_INCLUDE_DEPTH_MAX);
+    if (from && ++P->nfiles_read > PBRT_FILES_MAX)
+        return pbrt_error(P->err, *from, "the scene reads more than %d files", PBRT_FILES_MAX);
+    size_t len;
+    char *text = read_file(P, path, from, &len);
+    if (!text)
+        return -1;
+    char *real = realpath(path, NULL);
+    if (!real) {
+        free(text);
+        return from ? pbrt_error(P->err, *from, "cannot resolve \"%s\": %s", path, strerror(errno))
+                    : err_set(P->err, "cannot resolve \"%s\": %s", path, strerror(errno));
+    }
+    for (int i = 0; i < P->nopen; i++)
+        if (!strcmp(P->open_files[i], real)) {
+            free(text);
+            free(real);
+            return pbrt_error(P->err, *from, "include cycle: \"%s\" is already being read", path);
+        }
+    P->open_files[P->nopen++] = real;
+    int rc = parse_buffer(P, path, text, len);
+    free(text);
+    free(P->open_files[--P->nopen]);
+    return rc;
+}
+
+/* End of the scene: everything opened must be closed, and instances must name objects. */
+static int finish(parser_t *P)
+{
+    if (P->nframes > 0) {
+        frame_t *top = &P->frames[P->nframes - 1];
+        return pbrt_error(P->err, top->loc, "%s has no matching end", top->what);
+    }
+    if (!P->world)
+        return err_set(P->err, "%s: the scene has no WorldBegin", P->file ? P->file : "scene");
+    for (size_t i = 0; i < P->scene->ninstances; i++) {
+        scene_instance_t *in = &P->scene->instances[i];
+        in->object = scene_desc_find_object(P->scene, P->pending[i]);
+        if (in->object < 0)
+            return pbrt_error(P->err, in->loc, "ObjectInstance: object \"%s\" is not defined",
+                              P->pending[i]);
+    }
+    return 0;
+}
+
+static scene_desc_t *run(const char *name, const char *text, size_t len, err_t *err)
+{
+    parser_t P = {0};
+    P.err = err;
+    P.object = -1;
+    P.scene = scene_desc_new(err);
+    if (!P.scene)
+        return NULL;
+    P.gs.ctm = transform_identity();
+    P.gs.material = 0;
+    P.gs.area_light = -1;
+    int rc = text ? parse_buffer(&P, name, text, len) : parse_file(&P, name, NULL);
+    if (rc == 0) {
+        P.file = scene_desc_strdup(P.scene, name, err);
+        rc = P.file ? finish(&P) : -1;
+    }
+    for (size_t i = 0; i < P.ncs; i++)
+        free(P.cs[i].name);
+    free(P.cs);
+    free(P.frames);
+    free(P.pending);
+    for (int i = 0; i < P.nopen; i++)
+        free(P.open_files[i]);
+    if (rc != 0)
+        scene_desc_destroy(&P.scene);
+    return P.scene;
+}
+
+scene_desc_t *pbrt_parse_file(const char *path, err_t *err) { return run(path, NULL, 0, err); }
+
+scene_desc_t *pbrt_parse_string(const char *text, size_t len, const char *name, err_t *err)
+{
+    return run(name ? name : "<string>", text ? text : "", text ? len : 0, err);
+}

@@ -1,0 +1,324 @@
+/* scene_desc: a parsed scene as plain data (camera, film, sampler, integrator, materials,
+ * textures, lights, shapes, object instances), filled by pbrt_parser and read by the renderer.
+ * Values keep the scene file's raw form (spectra as RGB / blackbody / named / sampled, the
+ * glass given by name or coefficients) with pbrt-v4's defaults filled in, and each carries its
+ * file:line:col so that the renderer can report what it cannot build precisely.
+ *
+ * Geometry stays in object space: every shape keeps its vertices as written plus its
+ * object-to-world transform (the CTM at the Shape directive), and the renderer applies it.
+ * Shapes between ObjectBegin/End go to object_shapes with the CTM of their definition; each
+ * ObjectInstance places an object with its own transform: world = instance * shape * p.
+ * Everything (strings, arrays, meshes) is owned by the scene_desc and freed with it. */
+#ifndef PRISMFARM_SCENE_DESC_H
+#define PRISMFARM_SCENE_DESC_H
+
+#include "err.h"
+#include "params.h"
+#include "pbrt_lexer.h"
+#include "transform.h"
+#include "vec3.h"
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+/* Film defaults. "spectral" follows pbrt-v4 (16 buckets over 360-830 nm) so that a pbrt-v4
+ * scene writes the channels pbrt-v4 would; "rgb" film uses prismfarm's own bucket grid
+ * (PHYSICS.md: 16 bins over 380-720 nm), which the rgb film also accepts as an extension. */
+#define SCENE_FILM_XRES_DEFAULT 1280
+#define SCENE_FILM_YRES_DEFAULT 720
+#define SCENE_SPECTRAL_NBUCKETS_DEFAULT 16
+#define SCENE_SPECTRAL_LAMBDA_MIN_DEFAULT 360.0
+#define SCENE_SPECTRAL_LAMBDA_MAX_DEFAULT 830.0
+#define SCENE_RGB_NBUCKETS_DEFAULT 16
+#define SCENE_RGB_LAMBDA_MIN_DEFAULT 380.0
+#define SCENE_RGB_LAMBDA_MAX_DEFAULT 720.0
+
+/* ---- spectra and texturable values ---- */
+
+typedef enum scene_spectrum_kind {
+    SCENE_SPECTRUM_CONSTANT,  /* "float x" v: the same value at every wavelength */
+    SCENE_SPECTRUM_RGB,       /* "rgb x" [r g b], components >= 0; the renderer uplifts */
+    SCENE_SPECTRUM_BLACKBODY, /* "blackbody x" T (kelvin, > 0), pbrt-v4's normalised Planck */
+    SCENE_SPECTRUM_NAMED,     /* "spectrum x" "stdillum-D65": the renderer resolves the name */
+    SCENE_SPECTRUM_SAMPLED,   /* "spectrum x" [l0 v0 l1 v1 ...]: lambda strictly increasing */
+} scene_spectrum_kind_t;
+
+typedef struct scene_spectrum {
+    scene_spectrum_kind_t kind;
+    double constant;    /* CONSTANT */
+    double rgb[3];      /* RGB */
+    double temperature; /* BLACKBODY */
+    const char *name;   /* NAMED */
+    size_t count;       /* SAMPLED: number of (lambda, value) pairs, >= 1 */
+    const double *lambda;
+    const double *value;
+    pbrt_loc_t loc; /* the parameter, or the directive when it is a default */
+} scene_spectrum_t;
+
+/* A float input of a material or texture: a constant, or a float texture. */
+typedef struct scene_float_input {
+    int texture; /* index into textures (of type float), or -1 */
+    double value;
+} scene_float_input_t;
+
+/* A spectrum input: a constant spectrum, or a spectrum texture. */
+typedef struct scene_spectrum_input {
+    int texture; /* index into textures (of type spectrum), or -1 */
+    scene_spectrum_t spectrum;
+} scene_spectrum_input_t;
+
+/* ---- textures ---- */
+
+typedef enum scene_texture_type { SCENE_TEXTURE_FLOAT, SCENE_TEXTURE_SPECTRUM } scene_texture_type_t;
+
+typedef enum scene_texture_class {
+    SCENE_TEX_CONSTANT,     /* "value"                  -> in1 */
+    SCENE_TEX_CHECKERBOARD, /* "tex1" (1), "tex2" (0)   -> in1, in2 (2D only) */
+    SCENE_TEX_IMAGEMAP,     /* "filename", ...          -> image */
+    SCENE_TEX_SCALE,        /* "tex" (1) * "scale" (1)  -> in1 * amount */
+    SCENE_TEX_MIX,          /* lerp("amount" (0.5), "tex1" (0), "tex2" (1)) -> in1, in2, amount */
+} scene_texture_class_t;
+
+typedef struct scene_texture {
+    const char *name;
+    scene_texture_type_t type;
+    scene_texture_class_t cls;
+    pbrt_loc_t loc;
+    transform_t to_world; /* the CTM at the Texture directive */
+    /* "uv" mapping (the only one supported): (u, v) -> (su * u + du, sv * v + dv). */
+    double uscale, vscale, udelta, vdelta;
+    /* Inputs: float_in* when type is FLOAT, spec_in* when type is SPECTRUM. */
+    scene_float_input_t float_in1, float_in2;
+    scene_spectrum_input_t spec_in1, spec_in2;
+    scene_float_input_t amount; /* MIX amount, SCALE scale */
+    struct {
+        const char *filename; /* resolved against the folder of the file that names it */
+        const char *wrap;     /* "repeat" (default), "black", "clamp" */
+        const char *filter;   /* "bilinear" (default), "point", "trilinear", "ewa" */
+        const char *encoding; /* "sRGB" (default), "linear" or "gamma G" */
+        double scale;         /* 1 */
+        bool invert;          /* false */
+    } image;
+} scene_texture_t;
+
+/* ---- materials ---- */
+
+typedef enum scene_material_type {
+    SCENE_MATERIAL_DIFFUSE,
+    SCENE_MATERIAL_CONDUCTOR,
+    SCENE_MATERIAL_DIELECTRIC,
+    SCENE_MATERIAL_INTERFACE, /* no surface: marks a boundary between media */
+} scene_material_type_t;
+
+typedef enum scene_ior_kind {
+    SCENE_IOR_SPECTRUM,  /* "float eta" 1.5 or "spectrum eta" "glass-BK7" or (lambda, n) pairs */
+    SCENE_IOR_GLASS,     /* extension "string glass" "N-BK7": a catalogue name */
+    SCENE_IOR_SELLMEIER, /* extension "float sellmeier" [B1 C1 B2 C2 ...], C in um^2 */
+    SCENE_IOR_CAUCHY,    /* extension "float cauchy" [A B]: n = A + B / lambda_um^2 */
+} scene_ior_kind_t;
+
+typedef struct scene_ior {
+    scene_ior_kind_t kind;
+    scene_spectrum_t spectrum; /* SPECTRUM */
+    const char *glass;         /* GLASS */
+    size_t nterms;             /* SELLMEIER: number of (B, C) pairs */
+    const double *sellmeier;   /* SELLMEIER: B1 C1 B2 C2 ... */
+    double cauchy[2];          /* CAUCHY: A, B (B in um^2) */
+    pbrt_loc_t loc;
+} scene_ior_t;
+
+typedef struct scene_material {
+    scene_material_type_t type;
+    const char *name; /* MakeNamedMaterial name, or NULL for Material */
+    pbrt_loc_t loc;
+    /* DIFFUSE (default 0.5), or CONDUCTOR when use_reflectance */
+    scene_spectrum_input_t reflectance;
+    /* CONDUCTOR: eta, k (default metal-Cu-eta, metal-Cu-k) unless use_reflectance */
+    bool use_reflectance;
+    scene_spectrum_input_t eta, k;
+    /* CONDUCTOR and DIELECTRIC: "roughness" sets both; 0 is a perfect mirror / smooth glass */
+    scene_float_input_t uroughness, vroughness;
+    bool remaproughness; /* true */
+    /* DIELECTRIC: the index of refraction (default constant 1.5) */
+    scene_ior_t ior;
+} scene_material_t;
+
+/* ---- lights ---- */
+
+typedef enum scene_light_type {
+    SCENE_LIGHT_POINT,    /* I, scale, from */
+    SCENE_LIGHT_SPOT,     /* I, scale, from, to, coneangle (30), conedeltaangle (5) */
+    SCENE_LIGHT_DISTANT,  /* L, scale, from (0,0,0), to (0,0,1): light travels from -> to */
+    SCENE_LIGHT_INFINITE, /* L (uniform), scale */
+} scene_light_type_t;
+
+typedef struct scene_light {
+    scene_light_type_t type;
+    pbrt_loc_t loc;
+    transform_t to_world;      /* the CTM at the LightSource directive */
+    scene_spectrum_t spectrum; /* I or L; default the colour space illuminant stdillum-D65 */
+    double scale;              /* 1 */
+    vec3_t from, to;           /* in light space: apply to_world */
+    double coneangle, conedeltaangle; /* degrees */
+} scene_light_t;
+
+typedef enum scene_area_light_type {
+    SCENE_AREA_DIFFUSE,    /* L, scale, twosided */
+    SCENE_AREA_COLLIMATED, /* extension: L, scale; emits only along the shape's normal */
+} scene_area_light_type_t;
+
+typedef struct scene_area_light {
+    scene_area_light_type_t type;
+    pbrt_loc_t loc;
+    scene_spectrum_t L; /* default stdillum-D65 */
+    double scale;       /* 1 */
+    bool twosided;      /* false */
+} scene_area_light_t;
+
+/* ---- shapes ---- */
+
+typedef enum scene_shape_type {
+    SCENE_SHAPE_SPHERE, /* radius (1) at the object-space origin */
+    SCENE_SHAPE_DISK,   /* radius (1) at z = height (0), normal +z */
+    SCENE_SHAPE_MESH,   /* triangles: trianglemesh, plymesh, or bilinearmesh split in two */
+} scene_shape_type_t;
+
+typedef struct scene_mesh {
+    size_t nvertices;
+    const double *P;  /* 3 per vertex */
+    const double *N;  /* 3 per vertex, or NULL */
+    const double *uv; /* 2 per vertex, or NULL */
+    size_t ntriangles;
+    const uint32_t *indices; /* 3 per triangle, each < nvertices */
+} scene_mesh_t;
+
+typedef struct scene_shape {
+    scene_shape_type_t type;
+    const char *kind; /* as written: "sphere", "disk", "trianglemesh", "plymesh", "bilinearmesh" */
+    pbrt_loc_t loc;
+    transform_t to_world;     /* object to world (or to instance space inside an object) */
+    bool reverse_orientation; /* ReverseOrientation was in effect */
+    bool swaps_handedness;    /* to_world flips handedness */
+    /* Flip the geometric normal: reverse_orientation XOR swaps_handedness (pbrt-v4). For an
+     * instanced shape, XOR the instance's swaps_handedness as well. */
+    bool flip_normals;
+    int material;   /* index into materials */
+    int area_light; /* index into area_lights, or -1 */
+    double radius;  /* SPHERE, DISK */
+    double height;  /* DISK */
+    scene_mesh_t mesh;
+} scene_shape_t;
+
+typedef struct scene_object {
+    const char *name;
+    pbrt_loc_t loc;
+    size_t first_shape; /* into object_shapes */
+    size_t nshapes;
+} scene_object_t;
+
+typedef struct scene_instance {
+    int object;
+    pbrt_loc_t loc;
+    transform_t to_world; /* the CTM at ObjectInstance: instance space to world */
+    bool swaps_handedness;
+} scene_instance_t;
+
+/* ---- options ---- */
+
+typedef struct scene_camera {
+    const char *type; /* "perspective" */
+    pbrt_loc_t loc;   /* line 0 when the scene has no Camera directive */
+    double fov;       /* degrees, of the shorter image axis (pbrt-v4); default 90 */
+    double lensradius;    /* 0: pinhole */
+    double focaldistance; /* 1e6 */
+    /* The CTM at the Camera directive (pbrt: camera-from-world); m_inv is world-from-camera.
+     * The camera looks down +z in camera space, +y up, +x to the image's right. */
+    transform_t camera_from_world;
+} scene_camera_t;
+
+typedef enum scene_film_type { SCENE_FILM_RGB, SCENE_FILM_SPECTRAL } scene_film_type_t;
+
+typedef struct scene_film {
+    scene_film_type_t type;
+    pbrt_loc_t loc;
+    int xres, yres;
+    const char *filename; /* as written ("pbrt.exr" by default) */
+    int nbuckets;
+    double lambda_min, lambda_max; /* nm */
+} scene_film_t;
+
+typedef struct scene_sampler {
+    const char *type; /* pbrt's sampler name as written; all map to one stratified sampler */
+    pbrt_loc_t loc;
+    int pixelsamples; /* 16; "stratified" gives xsamples * ysamples */
+    int seed;         /* 0 */
+} scene_sampler_t;
+
+typedef struct scene_integrator {
+    const char *type; /* "simplepath", "path", "whitted", "photon" or "auto" (the default) */
+    pbrt_loc_t loc;
+    /* The raw parameters, unchecked: the renderer looks up what it knows and then calls
+     * params_check_unused() to reject the rest. Never NULL. */
+    params_t *params;
+} scene_integrator_t;
+
+typedef struct scene_desc {
+    scene_camera_t camera;
+    scene_film_t film;
+    scene_sampler_t sampler;
+    scene_integrator_t integrator;
+
+    scene_material_t *materials; /* materials[0] is pbrt-v4's default diffuse 0.5 */
+    size_t nmaterials;
+    scene_texture_t *textures;
+    size_t ntextures;
+    scene_light_t *lights;
+    size_t nlights;
+    scene_area_light_t *area_lights;
+    size_t narea_lights;
+    scene_shape_t *shapes; /* world shapes */
+    size_t nshapes;
+    scene_object_t *objects;
+    size_t nobjects;
+    scene_shape_t *object_shapes;
+    size_t nobject_shapes;
+    scene_instance_t *instances;
+    size_t ninstances;
+
+    /* private: capacities and owned allocations */
+    size_t cap_materials, cap_textures, cap_lights, cap_area_lights, cap_shapes, cap_objects,
+        cap_object_shapes, cap_instances;
+    void **owned;
+    size_t nowned, cap_owned;
+} scene_desc_t;
+
+/* An empty scene with pbrt-v4's defaults (perspective camera at the origin, rgb film, the
+ * default diffuse material, "auto" integrator). */
+scene_desc_t *scene_desc_new(err_t *err);
+void scene_desc_destroy(scene_desc_t **self_p);
+
+/* Memory owned by the scene, freed by scene_desc_destroy. */
+void *scene_desc_alloc(scene_desc_t *self, size_t size, err_t *err);
+const char *scene_desc_strdup(scene_desc_t *self, const char *s, err_t *err);
+/* Hands a malloc'ed block to the scene (freed with it; freed at once on failure). */
+int scene_desc_adopt(scene_desc_t *self, void *ptr, err_t *err);
+
+/* Append a zeroed element and return its index (or -1 on out-of-memory). */
+int scene_desc_add_material(scene_desc_t *self, err_t *err);
+int scene_desc_add_texture(scene_desc_t *self, err_t *err);
+int scene_desc_add_light(scene_desc_t *self, err_t *err);
+int scene_desc_add_area_light(scene_desc_t *self, err_t *err);
+int scene_desc_add_shape(scene_desc_t *self, bool in_object, err_t *err);
+int scene_desc_add_object(scene_desc_t *self, err_t *err);
+int scene_desc_add_instance(scene_desc_t *self, err_t *err);
+
+/* Lookups by name (linear; -1 when absent). */
+int scene_desc_find_texture(const scene_desc_t *self, const char *name, scene_texture_type_t type);
+int scene_desc_find_material(const scene_desc_t *self, const char *name);
+int scene_desc_find_object(const scene_desc_t *self, const char *name);
+
+/* Totals over world shapes and instanced objects, for reports and tests. */
+size_t scene_desc_triangle_count(const scene_desc_t *self);
+
+#endif

@@ -1,0 +1,530 @@
+#include "scene_load.h"
+
+#include "cie.h"
+#include "glass.h"
+#include "image_png.h"
+#include "pbrt_parser.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef enum { SPEC_REFLECTANCE, SPEC_ILLUMINANT, SPEC_UNBOUNDED } spec_use_t;
+
+static spectrum_t *build_spectrum(const scene_spectrum_t *s, spec_use_t use, err_t *err)
+{
+    spectrum_t *r = NULL;
+    switch (s->kind) {
+    case SCENE_SPECTRUM_CONSTANT:
+        r = spectrum_new_constant(s->constant, err);
+        break;
+    case SCENE_SPECTRUM_RGB: {
+        rgb_t c = {s->rgb[0], s->rgb[1], s->rgb[2]};
+        if (use == SPEC_ILLUMINANT)
+            r = spectrum_new_rgb_illuminant(c, err);
+        else if (use == SPEC_REFLECTANCE)
+            r = spectrum_new_rgb_reflectance(c, err);
+        else {
+            /* An unbounded RGB (a conductor's eta or k): the uplift of the colour scaled into
+             * [0, 1] by its maximum, scaled back. */
+            double m = fmax(c.r, fmax(c.g, c.b));
+            if (!(m > 0)) {
+                r = spectrum_new_constant(0.0, err);
+            } else {
+                spectrum_t *u = spectrum_new_rgb_reflectance((rgb_t){c.r / m, c.g / m, c.b / m}, err);
+                r = u ? spectrum_new_scaled(u, m, err) : NULL;
+                spectrum_destroy(&u);
+            }
+        }
+        break;
+    }
+    case SCENE_SPECTRUM_BLACKBODY:
+        r = spectrum_new_blackbody(s->temperature, 1, err);
+        break;
+    case SCENE_SPECTRUM_NAMED:
+        if (!strcmp(s->name, "stdillum-D65"))
+            r = spectrum_new_cie_d65(err);
+        else if (!strcmp(s->name, "stdillum-A"))
+            r = spectrum_new_cie_a(err);
+        else {
+            pbrt_error(err, s->loc,
+                       "named spectrum \"%s\" is not available here (prismfarm knows stdillum-D65, "
+                       "stdillum-A and, for dielectric eta, the glass catalogue)",
+                       s->name);
+            return NULL;
+        }
+        break;
+    case SCENE_SPECTRUM_SAMPLED:
+        r = spectrum_new_tabulated(s->lambda, s->value, s->count, err);
+        break;
+    }
+    if (!r)
+        err_prefix(err, "%s:%d:%d: ", s->loc.file, s->loc.line, s->loc.col);
+    return r;
+}
+
+/* Builds a spectrum the scene owns. */
+static spectrum_t *owned_spectrum(scene_t *sc, const scene_spectrum_t *s, spec_use_t use, err_t *err)
+{
+    spectrum_t *r = build_spectrum(s, use, err);
+    if (!r || scene_own_spectrum(sc, r, err))
+        return NULL;
+    return r;
+}
+
+/* pbrt-v4 normalises every light's spectrum by its photometric value, so "scale" sets the
+ * luminance: here the result has luminance Y = 1 (Y = integral of s y-bar / integral of
+ * y-bar), and the light multiplies it by scale. */
+static spectrum_t *light_spectrum(scene_t *sc, const scene_spectrum_t *s, err_t *err)
+{
+    spectrum_t *raw = build_spectrum(s, SPEC_ILLUMINANT, err);
+    if (!raw)
+        return NULL;
+    double photometric = spectrum_photometric_light(raw);
+    if (!(photometric > 0.0) || !isfinite(photometric)) {
+        spectrum_destroy(&raw);
+        pbrt_error(err, s->loc, "light spectrum has no energy in the visible range (360-830 nm)");
+        return NULL;
+    }
+    spectrum_t *n = spectrum_new_scaled(raw, CIE_Y_INTEGRAL / photometric, err);
+    spectrum_destroy(&raw);
+    if (!n || scene_own_spectrum(sc, n, err))
+        return NULL;
+    return n;
+}
+
+typedef struct loader {
+    const scene_desc_t *desc;
+    scene_t *sc;
+    texture_t **tex;    /* by desc texture index (borrowed from the scene) */
+    int *area_light_of; /* unused */
+} loader_t;
+
+static const texture_t *spectrum_input(loader_t *L, const scene_spectrum_input_t *in, spec_use_t use,
+                                       err_t *err)
+{
+    if (in->texture >= 0)
+        return L->tex[in->texture];
+    spectrum_t *s = build_spectrum(&in->spectrum, use, err);
+    if (!s)
+        return NULL;
+    texture_t *t = texture_new_constant(s, err);
+    if (!t || scene_own_texture(L->sc, t, err))
+        return NULL;
+    return t;
+}
+
+static const texture_t *float_input(loader_t *L, const scene_float_input_t *in, err_t *err)
+{
+    if (in->texture >= 0)
+        return L->tex[in->texture];
+    texture_t *t = texture_new_constant_value(in->value, err);
+    if (!t || scene_own_texture(L->sc, t, err))
+        return NULL;
+    return t;
+}
+
+static double srgb_to_linear(double v)
+{
+    return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4);
+}
+
+static texture_t *image_texture(const scene_texture_t *t, err_t *err)
+{
+    if (strcmp(t->image.wrap, "repeat") != 0) {
+        pbrt_error(err, t->loc, "imagemap wrap \"%s\" is not supported (only \"repeat\")", t->image.wrap);
+        return NULL;
+    }
+    int linear = !strcmp(t->image.encoding, "linear");
+    if (!linear && strcmp(t->image.encoding, "sRGB") != 0) {
+        pbrt_error(err, t->loc, "imagemap encoding \"%s\" is not supported (\"sRGB\" or \"linear\")",
+                   t->image.encoding);
+        return NULL;
+    }
+    image_png_t *png = image_png_read(t->image.filename, err);
+    if (!png) {
+        err_prefix(err, "%s:%d:%d: ", t->loc.file, t->loc.line, t->loc.col);
+        return NULL;
+    }
+    int w = image_png_width(png), h = image_png_height(png);
+    const uint8_t *px = image_png_rgba(png);
+    float *rgb = malloc((size_t)w * (size_t)h * 3 * sizeof *rgb);
+    if (!rgb) {
+        image_png_destroy(&png);
+        err_set(err, "out of memory reading %s", t->image.filename);
+        return NULL;
+    }
+    for (size_t i = 0; i < (size_t)w * (size_t)h; i++)
+        for (int c = 0; c < 3; c++) {
+            double v = px[4 * i + c] / 255.0;
+            v = linear ? v : srgb_to_linear(v);
+            v *= t->image.scale;
+            rgb[3 * i + c] = (float)(t->image.invert ? 1.0 - v : v);
+        }
+    image_png_destroy(&png);
+    texture_t *tex = texture_new_image(rgb, w, h, t->uscale, t->vscale, err);
+    free(rgb);
+    return tex;
+}
+
+static int load_textures(loader_t *L, err_t *err)
+{
+    const scene_desc_t *d = L->desc;
+    for (size_t i = 0; i < d->ntextures; i++) {
+        const scene_texture_t *t = &d->textures[i];
+        int spectral = t->type == SCENE_TEXTURE_SPECTRUM;
+        const texture_t *a = NULL, *b = NULL;
+        if (t->udelta != 0.0 || t->vdelta != 0.0)
+            return pbrt_error(err, t->loc, "texture \"%s\": udelta/vdelta are not supported", t->name);
+        texture_t *made = NULL;
+        switch (t->cls) {
+        case SCENE_TEX_CONSTANT:
+            a = spectral ? spectrum_input(L, &t->spec_in1, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in1, err);
+            if (!a)
+                return -1;
+            L->tex[i] = (texture_t *)a;
+            continue;
+        case SCENE_TEX_CHECKERBOARD:
+            a = spectral ? spectrum_input(L, &t->spec_in1, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in1, err);
+            b = spectral ? spectrum_input(L, &t->spec_in2, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in2, err);
+            if (!a || !b)
+                return -1;
+            made = texture_new_checkerboard(a, b, t->uscale, t->vscale, err);
+            break;
+        case SCENE_TEX_SCALE: {
+            a = spectral ? spectrum_input(L, &t->spec_in1, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in1, err);
+            const texture_t *s = float_input(L, &t->amount, err);
+            if (!a || !s)
+                return -1;
+            made = texture_new_scale(a, s, err);
+            break;
+        }
+        case SCENE_TEX_MIX: {
+            a = spectral ? spectrum_input(L, &t->spec_in1, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in1, err);
+            b = spectral ? spectrum_input(L, &t->spec_in2, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in2, err);
+            const texture_t *m = float_input(L, &t->amount, err);
+            if (!a || !b || !m)
+                return -1;
+            made = texture_new_mix(a, b, m, err);
+            break;
+        }
+        case SCENE_TEX_IMAGEMAP:
+            made = image_texture(t, err);
+            break;
+        }
+        if (!made || scene_own_texture(L->sc, made, err))
+            return made ? -1 : pbrt_error(err, t->loc, "texture \"%s\": %s", t->name, err ? err->msg : "");
+        L->tex[i] = made;
+    }
+    return 0;
+}
+
+static int build_ior(const scene_ior_t *in, const char *material, ior_model_t *out, err_t *err)
+{
+    switch (in->kind) {
+    case SCENE_IOR_SPECTRUM:
+        if (in->spectrum.kind == SCENE_SPECTRUM_CONSTANT) {
+            *out = ior_constant(in->spectrum.constant);
+            return 0;
+        }
+        if (in->spectrum.kind == SCENE_SPECTRUM_NAMED) {
+            const glass_t *g = glass_lookup(in->spectrum.name, err);
+            if (!g)
+                return pbrt_error(err, in->loc, "material \"%s\": unknown glass \"%s\" (see prismfarm glass --list)",
+                                  material, in->spectrum.name);
+            *out = g->ior;
+            return 0;
+        }
+        return pbrt_error(err, in->loc,
+                          "material \"%s\": eta must be a number, a glass name, or given by \"string glass\", "
+                          "\"float sellmeier\" or \"float cauchy\"",
+                          material);
+    case SCENE_IOR_GLASS: {
+        const glass_t *g = glass_find(in->glass);
+        if (!g)
+            return pbrt_error(err, in->loc, "material \"%s\": unknown glass \"%s\" (see prismfarm glass --list)",
+                              material, in->glass);
+        *out = g->ior;
+        return 0;
+    }
+    case SCENE_IOR_SELLMEIER: {
+        double b[IOR_SELLMEIER_MAX_TERMS], c[IOR_SELLMEIER_MAX_TERMS];
+        if (in->nterms > IOR_SELLMEIER_MAX_TERMS)
+            return pbrt_error(err, in->loc, "material \"%s\": at most %d Sellmeier terms, got %zu", material,
+                              IOR_SELLMEIER_MAX_TERMS, in->nterms);
+        for (size_t i = 0; i < in->nterms; i++) {
+            b[i] = in->sellmeier[2 * i];
+            c[i] = in->sellmeier[2 * i + 1];
+        }
+        if (ior_sellmeier(out, 0.0, b, c, (int)in->nterms, err))
+            return err_prefix(err, "%s:%d:%d: ", in->loc.file, in->loc.line, in->loc.col);
+        return 0;
+    }
+    case SCENE_IOR_CAUCHY:
+        *out = ior_cauchy(in->cauchy[0], in->cauchy[1]);
+        return 0;
+    }
+    return err_set(err, "unknown index model");
+}
+
+static int load_materials(loader_t *L, err_t *err)
+{
+    const scene_desc_t *d = L->desc;
+    for (size_t i = 0; i < d->nmaterials; i++) {
+        const scene_material_t *dm = &d->materials[i];
+        material_t m = {0};
+        snprintf(m.name, sizeof m.name, "%s", dm->name ? dm->name : "(unnamed)");
+        int rough = dm->uroughness.texture >= 0 || dm->vroughness.texture >= 0 ||
+                    dm->uroughness.value != 0.0 || dm->vroughness.value != 0.0;
+        switch (dm->type) {
+        case SCENE_MATERIAL_DIFFUSE:
+            m.kind = MATERIAL_DIFFUSE;
+            if (!(m.reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)))
+                return -1;
+            break;
+        case SCENE_MATERIAL_CONDUCTOR:
+            m.kind = MATERIAL_CONDUCTOR;
+            if (rough)
+                return pbrt_error(err, dm->loc, "material \"%s\": rough conductors are not supported (roughness must be 0)", m.name);
+            if (dm->use_reflectance) {
+                if (!(m.reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)))
+                    return -1;
+            } else {
+                if (dm->eta.texture >= 0 || dm->k.texture >= 0)
+                    return pbrt_error(err, dm->loc, "material \"%s\": textured eta/k are not supported", m.name);
+                if (!(m.eta = owned_spectrum(L->sc, &dm->eta.spectrum, SPEC_UNBOUNDED, err)) ||
+                    !(m.k = owned_spectrum(L->sc, &dm->k.spectrum, SPEC_UNBOUNDED, err)))
+                    return -1;
+            }
+            break;
+        case SCENE_MATERIAL_DIELECTRIC:
+            m.kind = MATERIAL_DIELECTRIC;
+            if (rough)
+                return pbrt_error(err, dm->loc, "material \"%s\": rough dielectrics are not supported (roughness must be 0)", m.name);
+            if (build_ior(&dm->ior, m.name, &m.ior, err))
+                return -1;
+            break;
+        case SCENE_MATERIAL_INTERFACE:
+            m.kind = MATERIAL_INTERFACE;
+            break;
+        }
+        if (scene_add_material(L->sc, &m, err) < 0)
+            return -1;
+    }
+    return 0;
+}
+
+static int load_lights(loader_t *L, err_t *err)
+{
+    const scene_desc_t *d = L->desc;
+    for (size_t i = 0; i < d->nlights; i++) {
+        const scene_light_t *dl = &d->lights[i];
+        light_t l = {.scale = dl->scale, .shape = -1};
+        if (!(l.spectrum = light_spectrum(L->sc, &dl->spectrum, err)))
+            return -1;
+        vec3_t from = transform_point(&dl->to_world, dl->from);
+        vec3_t to = transform_point(&dl->to_world, dl->to);
+        vec3_t dir = vec3_sub(to, from);
+        switch (dl->type) {
+        case SCENE_LIGHT_POINT:
+            l.kind = LIGHT_POINT;
+            l.position = from;
+            break;
+        case SCENE_LIGHT_SPOT:
+            l.kind = LIGHT_SPOT;
+            l.position = from;
+            if (!(vec3_length(dir) > 0))
+                return pbrt_error(err, dl->loc, "spot light: \"from\" and \"to\" are the same point");
+            l.direction = vec3_normalize(dir);
+            l.cos_total_width = cos(dl->coneangle * PF_PI / 180.0);
+            l.cos_falloff_start = cos((dl->coneangle - dl->conedeltaangle) * PF_PI / 180.0);
+            break;
+        case SCENE_LIGHT_DISTANT:
+            l.kind = LIGHT_DISTANT;
+            if (!(vec3_length(dir) > 0))
+                return pbrt_error(err, dl->loc, "distant light: \"from\" and \"to\" are the same point");
+            l.direction = vec3_normalize(dir);
+            break;
+        case SCENE_LIGHT_INFINITE:
+            l.kind = LIGHT_INFINITE;
+            break;
+        }
+        if (scene_add_light(L->sc, &l, err) < 0)
+            return err_prefix(err, "%s:%d:%d: ", dl->loc.file, dl->loc.line, dl->loc.col);
+    }
+    return 0;
+}
+
+/* Adds one shape, placed by `place` (identity for world shapes, the instance transform for
+ * instanced ones). */
+static int load_shape(loader_t *L, const scene_shape_t *s, const transform_t *place, int extra_flip,
+                      err_t *err)
+{
+    const scene_desc_t *d = L->desc;
+    int light = -1;
+    if (s->area_light >= 0) {
+        const scene_area_light_t *a = &d->area_lights[s->area_light];
+        light_t l = {.kind = a->type == SCENE_AREA_COLLIMATED ? LIGHT_COLLIMATED : LIGHT_AREA,
+                     .scale = a->scale, .twosided = a->twosided};
+        if (!(l.spectrum = light_spectrum(L->sc, &a->L, err)))
+            return -1;
+        if ((light = scene_add_light(L->sc, &l, err)) < 0)
+            return err_prefix(err, "%s:%d:%d: ", a->loc.file, a->loc.line, a->loc.col);
+    }
+    transform_t to_world = transform_compose(*place, s->to_world);
+    int flip = s->flip_normals ^ extra_flip;
+    int r;
+    if (s->type == SCENE_SHAPE_SPHERE) {
+        r = scene_add_sphere(L->sc, &to_world, s->radius, s->material, light, flip, err);
+    } else if (s->type == SCENE_SHAPE_DISK) {
+        r = scene_add_disk(L->sc, &to_world, s->radius, s->height, s->material, light, flip, err);
+    } else {
+        const scene_mesh_t *m = &s->mesh;
+        double *P = malloc(3 * m->nvertices * sizeof *P);
+        double *N = m->N ? malloc(3 * m->nvertices * sizeof *N) : NULL;
+        if (!P || (m->N && !N)) {
+            free(P);
+            free(N);
+            return err_set(err, "out of memory for a mesh of %zu vertices", m->nvertices);
+        }
+        for (size_t v = 0; v < m->nvertices; v++) {
+            vec3_t p = transform_point(&to_world, vec3_make(m->P[3 * v], m->P[3 * v + 1], m->P[3 * v + 2]));
+            P[3 * v] = p.x;
+            P[3 * v + 1] = p.y;
+            P[3 * v + 2] = p.z;
+            if (N) {
+                vec3_t n = vec3_normalize(transform_normal(&to_world, vec3_make(m->N[3 * v], m->N[3 * v + 1], m->N[3 * v + 2])));
+                N[3 * v] = n.x;
+                N[3 * v + 1] = n.y;
+                N[3 * v + 2] = n.z;
+            }
+        }
+        r = scene_add_mesh(L->sc, P, m->nvertices, m->indices, m->ntriangles, N, m->uv, s->material, light, flip, err);
+        free(P);
+        free(N);
+    }
+    if (r < 0)
+        return err_prefix(err, "%s:%d:%d: Shape \"%s\": ", s->loc.file, s->loc.line, s->loc.col, s->kind);
+    return 0;
+}
+
+static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
+{
+    const scene_integrator_t *in = &L->desc->integrator;
+    render_settings_t *rs = &L->sc->settings;
+    params_t *p = in->params;
+    const char *type = ov && ov->integrator ? ov->integrator : in->type;
+    if (!strcmp(type, "path") || !strcmp(type, "auto"))
+        rs->integrator = INTEGRATOR_PATH;
+    else if (!strcmp(type, "simplepath"))
+        rs->integrator = INTEGRATOR_SIMPLEPATH;
+    else if (!strcmp(type, "whitted"))
+        rs->integrator = INTEGRATOR_WHITTED;
+    else
+        return pbrt_error(err, in->loc,
+                          "Integrator \"%s\" is not supported yet (use \"path\", \"simplepath\", "
+                          "\"whitted\" or \"auto\")",
+                          type);
+    int maxdepth;
+    const char *disp, *wl;
+    if (params_get_int(p, "maxdepth", 5, &maxdepth, err) ||
+        params_get_string(p, "dispersion", "hero", &disp, err) ||
+        params_get_string(p, "wavelengths", "uniform", &wl, err))
+        return -1;
+    if (maxdepth < 0 || maxdepth > 10000)
+        return pbrt_error(err, in->loc, "\"integer maxdepth\" must be in 0..10000, got %d", maxdepth);
+    rs->maxdepth = maxdepth;
+    if (ov && ov->dispersion)
+        disp = ov->dispersion;
+    if (!strcmp(disp, "hero"))
+        rs->dispersion = DISPERSION_HERO;
+    else if (!strcmp(disp, "fanout"))
+        rs->dispersion = DISPERSION_FANOUT;
+    else
+        return pbrt_error(err, in->loc, "\"string dispersion\" must be \"hero\" or \"fanout\", got \"%s\"", disp);
+    if (!strcmp(wl, "uniform"))
+        rs->visible_sampling = 0;
+    else if (!strcmp(wl, "visible"))
+        rs->visible_sampling = 1;
+    else
+        return pbrt_error(err, in->loc, "\"string wavelengths\" must be \"uniform\" or \"visible\", got \"%s\"", wl);
+    return params_check_unused(p, err);
+}
+
+static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
+{
+    const scene_desc_t *d = L->desc;
+    scene_t *sc = L->sc;
+    render_settings_t *rs = &sc->settings;
+    if (strcmp(d->camera.type, "perspective") != 0)
+        return pbrt_error(err, d->camera.loc, "Camera \"%s\" is not supported (only \"perspective\")", d->camera.type);
+    if (d->camera.camera_from_world.singular)
+        return pbrt_error(err, d->camera.loc, "the camera transform is singular");
+    sc->camera.camera_to_world = transform_inverse(d->camera.camera_from_world);
+    sc->camera.fov_deg = d->camera.fov;
+    sc->camera.lens_radius = d->camera.lensradius;
+    sc->camera.focal_distance = d->camera.focaldistance;
+    if (!(d->camera.fov > 0 && d->camera.fov < 180))
+        return pbrt_error(err, d->camera.loc, "\"float fov\" must be in (0, 180) degrees, got %g", d->camera.fov);
+    rs->xres = ov && ov->xres > 0 ? ov->xres : d->film.xres;
+    rs->yres = ov && ov->yres > 0 ? ov->yres : d->film.yres;
+    if (rs->xres <= 0 || rs->yres <= 0 || rs->xres > 32768 || rs->yres > 32768)
+        return pbrt_error(err, d->film.loc, "film resolution %dx%d is outside 1..32768", rs->xres, rs->yres);
+    if (spectral_grid_init(&rs->grid, d->film.nbuckets, d->film.lambda_min, d->film.lambda_max, err))
+        return err_prefix(err, "%s:%d:%d: Film: ", d->film.loc.file, d->film.loc.line, d->film.loc.col);
+    rs->film_spectral = d->film.type == SCENE_FILM_SPECTRAL;
+    snprintf(rs->filename, sizeof rs->filename, "%s", d->film.filename ? d->film.filename : "");
+    rs->spp = ov && ov->spp > 0 ? ov->spp : d->sampler.pixelsamples;
+    if (rs->spp <= 0 || rs->spp > (1 << 24))
+        return pbrt_error(err, d->sampler.loc, "pixelsamples must be in 1..%d, got %d", 1 << 24, rs->spp);
+    rs->seed = ov && ov->seed >= 0 ? (uint64_t)ov->seed : (uint64_t)(uint32_t)d->sampler.seed;
+    return load_integrator(L, ov, err);
+}
+
+scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t *err)
+{
+    scene_t *sc = scene_new(err);
+    if (!sc)
+        return NULL;
+    loader_t L = {.desc = desc, .sc = sc};
+    L.tex = calloc(desc->ntextures ? desc->ntextures : 1, sizeof *L.tex);
+    int r = L.tex ? 0 : err_set(err, "out of memory");
+    if (!r)
+        r = load_options(&L, ov, err);
+    if (!r)
+        r = load_textures(&L, err);
+    if (!r)
+        r = load_materials(&L, err);
+    if (!r)
+        r = load_lights(&L, err);
+    transform_t id = transform_identity();
+    for (size_t i = 0; !r && i < desc->nshapes; i++)
+        r = load_shape(&L, &desc->shapes[i], &id, 0, err);
+    /* Instances are flattened into world-space copies of their object's shapes. */
+    for (size_t i = 0; !r && i < desc->ninstances; i++) {
+        const scene_instance_t *in = &desc->instances[i];
+        const scene_object_t *o = &desc->objects[in->object];
+        for (size_t k = 0; !r && k < o->nshapes; k++)
+            r = load_shape(&L, &desc->object_shapes[o->first_shape + k], &in->to_world,
+                           in->swaps_handedness, err);
+    }
+    free(L.tex);
+    if (!r)
+        r = scene_finish(sc, err);
+    if (r) {
+        scene_destroy(&sc);
+        return NULL;
+    }
+    return sc;
+}
+
+scene_t *scene_load_file(const char *path, const scene_overrides_t *ov, err_t *err)
+{
+    scene_desc_t *d = pbrt_parse_file(path, err);
+    if (!d)
+        return NULL;
+    scene_t *s = scene_load(d, ov, err);
+    scene_desc_destroy(&d);
+    return s;
+}

@@ -1,0 +1,26 @@
+/* scene_load: builds a renderable scene (scene.h) from a parsed description (scene_desc.h):
+ * resolves spectra (uplifting RGB, normalising lights as pbrt-v4 does), glasses, textures and
+ * image files, transforms shapes to world space, and reads the integrator's parameters.
+ * Everything it cannot build fails with "file:line:col: what is wrong". */
+#ifndef PRISMFARM_SCENE_LOAD_H
+#define PRISMFARM_SCENE_LOAD_H
+
+#include "err.h"
+#include "scene.h"
+#include "scene_desc.h"
+
+/* Command-line overrides of the scene file; 0 / NULL / -1 leave the file's value. */
+typedef struct scene_overrides {
+    int spp;
+    int xres, yres;
+    long long seed;        /* -1: keep */
+    const char *integrator; /* "path", "simplepath", "whitted" */
+    const char *dispersion; /* "hero", "fanout" */
+} scene_overrides_t;
+
+scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t *err);
+
+/* Parses the file and loads it. */
+scene_t *scene_load_file(const char *path, const scene_overrides_t *ov, err_t *err);
+
+#endif

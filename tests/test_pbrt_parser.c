@@ -1,0 +1,901 @@
+/* pbrt_parser: every supported directive parses into the data pbrt-v4 gives it, each error
+ * case produces its exact located message, includes resolve relative to the including file,
+ * PLY files (ascii and binary) load with their vertex and face counts, and mutated scenes
+ * never crash the parser. Runs with the working directory tests/ (tests/CMakeLists.txt). */
+#define _XOPEN_SOURCE 700 /* mkdtemp */
+
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#include "mesh_import.h"
+#include "pbrt_parser.h"
+
+/* Values in the scene files are short decimals parsed by strtod (correctly rounded) and
+ * pushed through at most two 4x4 products of small integers: a few ulps, far below 1e-12. */
+#define TOL 1e-12
+
+static scene_desc_t *parse_ok(const char *path)
+{
+    err_t err = {{0}};
+    scene_desc_t *s = pbrt_parse_file(path, &err);
+    if (!s)
+        fail_msg("%s did not parse: %s", path, err.msg);
+    return s;
+}
+
+static scene_desc_t *parse_text_ok(const char *text)
+{
+    err_t err = {{0}};
+    scene_desc_t *s = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
+    if (!s)
+        fail_msg("did not parse: %s\n--\n%s", err.msg, text);
+    return s;
+}
+
+static void expect_error_named(const char *name, const char *text, const char *expected)
+{
+    err_t err = {{0}};
+    scene_desc_t *s = pbrt_parse_string(text, strlen(text), name, &err);
+    if (s) {
+        scene_desc_destroy(&s);
+        fail_msg("parsed but should have failed with: %s\n--\n%s", expected, text);
+    }
+    if (strcmp(err.msg, expected) != 0)
+        fail_msg("wrong message for\n%s\n  got:      %s\n  expected: %s", text, err.msg,
+                 expected);
+}
+
+static void expect_error(const char *text, const char *expected)
+{
+    expect_error_named("t.pbrt", text, expected);
+}
+
+static void assert_point(const transform_t *t, vec3_t p, double x, double y, double z)
+{
+    vec3_t q = transform_point(t, p);
+    if (fabs(q.x - x) > TOL || fabs(q.y - y) > TOL || fabs(q.z - z) > TOL)
+        fail_msg("mapped to (%.17g, %.17g, %.17g), expected (%g, %g, %g)", q.x, q.y, q.z, x, y, z);
+}
+
+static void assert_near(double got, double expected)
+{
+    if (fabs(got - expected) > TOL)
+        fail_msg("got %.17g, expected %.17g", got, expected);
+}
+
+/* ---- options ---- */
+
+static void test_options(void **state)
+{
+    (void)state;
+    scene_desc_t *s = parse_ok("data/scenes/options.pbrt");
+    assert_string_equal(s->camera.type, "perspective");
+    assert_near(s->camera.fov, 45);
+    assert_near(s->camera.lensradius, 0.1);
+    assert_near(s->camera.focaldistance, 5);
+    assert_int_equal(s->camera.loc.line, 3);
+    /* LookAt 0 0 -5  0 0 0  0 1 0: the world origin is 5 units ahead of the camera. */
+    assert_point(&s->camera.camera_from_world, vec3_make(0, 0, 0), 0, 0, 5);
+    assert_point(&s->camera.camera_from_world, vec3_make(1, 0, 0), 1, 0, 5);
+
+    assert_int_equal(s->film.type, SCENE_FILM_SPECTRAL);
+    assert_int_equal(s->film.xres, 320);
+    assert_int_equal(s->film.yres, 240);
+    assert_string_equal(s->film.filename, "out.exr");
+    assert_int_equal(s->film.nbuckets, 32);
+    assert_near(s->film.lambda_min, 300);
+    assert_near(s->film.lambda_max, 1000);
+
+    assert_string_equal(s->sampler.type, "halton");
+    assert_int_equal(s->sampler.pixelsamples, 64);
+
+    /* The renderer's side of the integrator contract: look up what it knows, then reject
+     * the rest with the parameter's location. */
+    assert_string_equal(s->integrator.type, "path");
+    params_t *ip = s->integrator.params;
+    assert_int_equal(params_count(ip), 4);
+    int maxdepth = 0, photons = 0;
+    const char *dispersion = NULL;
+    err_t err = {{0}};
+    assert_int_equal(params_get_int(ip, "maxdepth", 5, &maxdepth, &err), 0);
+    assert_int_equal(params_get_string(ip, "dispersion", "hero", &dispersion, &err), 0);
+    assert_int_equal(params_get_int(ip, "photons", 0, &photons, &err), 0);
+    assert_int_equal(maxdepth, 7);
+    assert_string_equal(dispersion, "fanout");
+    assert_int_equal(photons, 100000);
+    assert_int_equal(params_check_unused(ip, &err), -1);
+    assert_string_equal(err.msg, "data/scenes/options.pbrt:10:30: unsupported parameter \"bool "
+                                 "extra\" for Integrator \"path\"");
+    double wrong;
+    assert_int_equal(params_get_float(ip, "maxdepth", 0, &wrong, &err), -1);
+    assert_string_equal(err.msg, "data/scenes/options.pbrt:9:19: \"integer maxdepth\" has the "
+                                 "wrong type for Integrator \"path\": expected \"float maxdepth\"");
+    assert_int_equal(s->nshapes, 0);
+    scene_desc_destroy(&s);
+    assert_null(s);
+}
+
+static void test_defaults(void **state)
+{
+    (void)state;
+    scene_desc_t *s = parse_text_ok("WorldBegin\n");
+    /* pbrt-v4 defaults; the rgb film's bucket grid is prismfarm's (PHYSICS.md). */
+    assert_near(s->camera.fov, 90);
+    assert_true(transform_is_identity(&s->camera.camera_from_world));
+    assert_int_equal(s->film.type, SCENE_FILM_RGB);
+    assert_int_equal(s->film.xres, 1280);
+    assert_int_equal(s->film.yres, 720);
+    assert_string_equal(s->film.filename, "pbrt.exr");
+    assert_int_equal(s->film.nbuckets, 16);
+    assert_near(s->film.lambda_min, 380);
+    assert_near(s->film.lambda_max, 720);
+    assert_string_equal(s->sampler.type, "zsobol");
+    assert_int_equal(s->sampler.pixelsamples, 16);
+    assert_string_equal(s->integrator.type, "auto");
+    assert_int_equal(params_count(s->integrator.params), 0);
+    assert_int_equal(s->nmaterials, 1);
+    assert_int_equal(s->materials[0].type, SCENE_MATERIAL_DIFFUSE);
+    assert_int_equal(s->materials[0].reflectance.spectrum.kind, SCENE_SPECTRUM_CONSTANT);
+    assert_near(s->materials[0].reflectance.spectrum.constant, 0.5);
+    scene_desc_destroy(&s);
+
+    s = parse_text_ok("Film \"spectral\"\nSampler \"stratified\" \"integer xsamples\" 2 "
+                      "\"integer ysamples\" 3 \"bool jitter\" false\nWorldBegin\n");
+    assert_int_equal(s->film.nbuckets, 16);
+    assert_near(s->film.lambda_min, 360);
+    assert_near(s->film.lambda_max, 830);
+    assert_int_equal(s->sampler.pixelsamples, 6);
+    scene_desc_destroy(&s);
+}
+
+/* ---- materials and textures ---- */
+
+static void test_materials_and_textures(void **state)
+{
+    (void)state;
+    scene_desc_t *s = parse_ok("data/scenes/materials.pbrt");
+    assert_int_equal(s->ntextures, 5);
+    const scene_texture_t *t = s->textures;
+    assert_string_equal(t[0].name, "checks");
+    assert_int_equal(t[0].type, SCENE_TEXTURE_SPECTRUM);
+    assert_int_equal(t[0].cls, SCENE_TEX_CHECKERBOARD);
+    assert_near(t[0].uscale, 8);
+    assert_near(t[0].vscale, 4);
+    assert_near(t[0].udelta, 0);
+    assert_int_equal(t[0].spec_in1.spectrum.kind, SCENE_SPECTRUM_RGB);
+    assert_near(t[0].spec_in1.spectrum.rgb[1], 1);
+    assert_near(t[0].spec_in2.spectrum.rgb[2], 0);
+    assert_int_equal(t[1].type, SCENE_TEXTURE_FLOAT);
+    assert_int_equal(t[1].cls, SCENE_TEX_CONSTANT);
+    assert_near(t[1].float_in1.value, 0.25);
+    assert_int_equal(t[2].cls, SCENE_TEX_IMAGEMAP);
+    assert_string_equal(t[2].image.filename, "data/scenes/../scene_checker2x2.png");
+    assert_string_equal(t[2].image.wrap, "clamp");
+    assert_string_equal(t[2].image.filter, "bilinear");
+    assert_string_equal(t[2].image.encoding, "sRGB");
+    assert_near(t[2].image.scale, 1);
+    assert_false(t[2].image.invert);
+    assert_int_equal(t[3].cls, SCENE_TEX_SCALE);
+    assert_int_equal(t[3].spec_in1.texture, 0);
+    assert_near(t[3].amount.value, 0.5);
+    assert_int_equal(t[4].cls, SCENE_TEX_MIX);
+    assert_int_equal(t[4].spec_in1.texture, 0);
+    assert_int_equal(t[4].spec_in2.texture, -1);
+    assert_near(t[4].spec_in2.spectrum.rgb[0], 0.5);
+    assert_int_equal(t[4].amount.texture, 1);
+
+    assert_int_equal(s->nmaterials, 14);
+    const scene_material_t *m = s->materials;
+    assert_int_equal(m[1].type, SCENE_MATERIAL_DIFFUSE);
+    assert_int_equal(m[1].reflectance.texture, 0);
+    assert_null(m[1].name);
+    assert_int_equal(m[2].reflectance.spectrum.kind, SCENE_SPECTRUM_RGB);
+    assert_near(m[2].reflectance.spectrum.rgb[0], 0.2);
+    assert_near(m[2].reflectance.spectrum.rgb[2], 0.6);
+    const scene_spectrum_t *sp = &m[3].reflectance.spectrum;
+    assert_int_equal(sp->kind, SCENE_SPECTRUM_SAMPLED);
+    assert_int_equal(sp->count, 3);
+    assert_near(sp->lambda[2], 700);
+    assert_near(sp->value[1], 0.5);
+
+    assert_string_equal(m[4].name, "bk7");
+    assert_int_equal(m[4].type, SCENE_MATERIAL_DIELECTRIC);
+    assert_int_equal(m[4].ior.kind, SCENE_IOR_SPECTRUM);
+    assert_int_equal(m[4].ior.spectrum.kind, SCENE_SPECTRUM_NAMED);
+    assert_string_equal(m[4].ior.spectrum.name, "glass-BK7");
+    assert_int_equal(m[5].ior.kind, SCENE_IOR_GLASS);
+    assert_string_equal(m[5].ior.glass, "N-BK7");
+    assert_int_equal(m[6].ior.kind, SCENE_IOR_SELLMEIER);
+    assert_int_equal(m[6].ior.nterms, 3);
+    assert_near(m[6].ior.sellmeier[0], 1.03961212);
+    assert_near(m[6].ior.sellmeier[5], 103.560653);
+    assert_int_equal(m[7].ior.kind, SCENE_IOR_CAUCHY);
+    assert_near(m[7].ior.cauchy[0], 1.5046);
+    assert_near(m[7].ior.cauchy[1], 0.0042);
+    assert_int_equal(m[8].ior.spectrum.kind, SCENE_SPECTRUM_CONSTANT);
+    assert_near(m[8].ior.spectrum.constant, 1.33);
+    assert_near(m[9].ior.spectrum.constant, 1.5); /* pbrt-v4's default eta */
+    assert_near(m[9].uroughness.value, 0);
+
+    assert_int_equal(m[10].type, SCENE_MATERIAL_CONDUCTOR);
+    assert_false(m[10].use_reflectance);
+    assert_string_equal(m[10].eta.spectrum.name, "metal-Cu-eta"); /* pbrt-v4 default */
+    assert_string_equal(m[10].k.spectrum.name, "metal-Cu-k");
+    assert_near(m[10].uroughness.value, 0);
+    assert_true(m[10].remaproughness);
+    assert_string_equal(m[11].eta.spectrum.name, "metal-Au-eta");
+    assert_string_equal(m[11].k.spectrum.name, "metal-Au-k");
+    assert_int_equal(m[11].uroughness.texture, 1);
+    assert_int_equal(m[11].vroughness.texture, 1);
+    assert_true(m[12].use_reflectance);
+    assert_near(m[12].reflectance.spectrum.rgb[1], 0.8);
+    assert_near(m[12].uroughness.value, 0.1);
+    assert_near(m[12].vroughness.value, 0.2);
+    assert_false(m[12].remaproughness);
+    assert_int_equal(m[13].type, SCENE_MATERIAL_INTERFACE);
+
+    assert_int_equal(s->nshapes, 2);
+    assert_int_equal(s->shapes[0].material, 1);
+    assert_int_equal(s->shapes[1].material, 5); /* NamedMaterial "nbk7" */
+    scene_desc_destroy(&s);
+}
+
+/* ---- lights ---- */
+
+static void test_lights(void **state)
+{
+    (void)state;
+    scene_desc_t *s = parse_ok("data/scenes/lights.pbrt");
+    assert_int_equal(s->nlights, 5);
+    const scene_light_t *l = s->lights;
+    assert_int_equal(l[0].type, SCENE_LIGHT_INFINITE);
+    assert_int_equal(l[0].spectrum.kind, SCENE_SPECTRUM_RGB);
+    assert_near(l[0].spectrum.rgb[2], 0.3);
+    assert_near(l[0].scale, 2);
+    assert_int_equal(l[1].type, SCENE_LIGHT_POINT);
+    assert_int_equal(l[1].spectrum.kind, SCENE_SPECTRUM_BLACKBODY);
+    assert_near(l[1].spectrum.temperature, 3000);
+    assert_near(l[1].from.y, 2);
+    assert_int_equal(l[2].type, SCENE_LIGHT_SPOT);
+    assert_string_equal(l[2].spectrum.name, "stdillum-A");
+    assert_near(l[2].from.y, 5);
+    assert_near(l[2].to.y, 0);
+    assert_near(l[2].coneangle, 20);
+    assert_near(l[2].conedeltaangle, 4);
+    assert_point(&l[2].to_world, vec3_make(0, 0, 0), 0, 10, 0); /* CTM at the directive */
+    assert_int_equal(l[3].type, SCENE_LIGHT_DISTANT);
+    assert_int_equal(l[3].spectrum.kind, SCENE_SPECTRUM_SAMPLED);
+    assert_int_equal(l[3].spectrum.count, 3);
+    assert_near(l[3].spectrum.value[2], 3);
+    assert_near(l[3].scale, 0.5);
+    assert_true(transform_is_identity(&l[3].to_world));
+    /* pbrt-v4 defaults: the colour space illuminant, scale 1, at the origin */
+    assert_int_equal(l[4].spectrum.kind, SCENE_SPECTRUM_NAMED);
+    assert_string_equal(l[4].spectrum.name, "stdillum-D65");
+    assert_near(l[4].scale, 1);
+    assert_near(l[4].from.x, 0);
+
+    assert_int_equal(s->narea_lights, 2);
+    const scene_area_light_t *a = s->area_lights;
+    assert_int_equal(a[0].type, SCENE_AREA_DIFFUSE);
+    assert_near(a[0].L.temperature, 6500);
+    assert_near(a[0].scale, 3);
+    assert_true(a[0].twosided);
+    assert_int_equal(a[1].type, SCENE_AREA_COLLIMATED);
+    assert_string_equal(a[1].L.name, "stdillum-D65");
+    assert_near(a[1].scale, 10);
+    assert_false(a[1].twosided);
+
+    assert_int_equal(s->nshapes, 3);
+    assert_int_equal(s->shapes[0].area_light, 0);
+    assert_near(s->shapes[0].radius, 0.5);
+    assert_near(s->shapes[0].height, 1);
+    assert_int_equal(s->shapes[1].area_light, 1);
+    assert_int_equal(s->shapes[2].area_light, -1); /* AttributeEnd ended the area light */
+    scene_desc_destroy(&s);
+}
+
+/* ---- shapes ---- */
+
+/* pbrt-v4's triangle geometric normal, normalize(cross(p0 - p2, p1 - p2)) (shapes.h). */
+static vec3_t tri_normal(const scene_mesh_t *m, size_t t)
+{
+    vec3_t p[3];
+    for (int k = 0; k < 3; k++) {
+        const double *v = &m->P[3 * m->indices[3 * t + (size_t)k]];
+        p[k] = vec3_make(v[0], v[1], v[2]);
+    }
+    return vec3_normalize(vec3_cross(vec3_sub(p[0], p[2]), vec3_sub(p[1], p[2])));
+}
+
+static double mesh_area(const scene_mesh_t *m)
+{
+    double area = 0;
+    for (size_t t = 0; t < m->ntriangles; t++) {
+        vec3_t p[3];
+        for (int k = 0; k < 3; k++) {
+            const double *v = &m->P[3 * m->indices[3 * t + (size_t)k]];
+            p[k] = vec3_make(v[0], v[1], v[2]);
+        }
+        area += 0.5 * vec3_length(vec3_cross(vec3_sub(p[1], p[0]), vec3_sub(p[2], p[0])));
+    }
+    return area;
+}
+
+static void test_shapes(void **state)
+{
+    (void)state;
+    scene_desc_t *s = parse_ok("data/scenes/shapes.pbrt");
+    assert_int_equal(s->nshapes, 9);
+    const scene_shape_t *sh = s->shapes;
+
+    assert_int_equal(sh[0].type, SCENE_SHAPE_SPHERE);
+    assert_near(sh[0].radius, 0.5);
+    /* Translate 1 2 3, Scale 2 2 2: the scale applies first. */
+    assert_point(&sh[0].to_world, vec3_make(1, 0, 0), 3, 2, 3);
+    assert_false(sh[0].flip_normals);
+    assert_int_equal(sh[0].material, 0);
+    assert_string_equal(sh[0].loc.file, "data/scenes/shapes.pbrt");
+    assert_int_equal(sh[0].loc.line, 6);
+    assert_int_equal(sh[0].loc.col, 3);
+
+    assert_string_equal(sh[1].kind, "trianglemesh");
+    assert_int_equal(sh[1].mesh.nvertices, 3);
+    assert_int_equal(sh[1].mesh.ntriangles, 1);
+    assert_int_equal(sh[1].mesh.indices[2], 2);
+    assert_true(sh[1].reverse_orientation);
+    assert_false(sh[1].swaps_handedness);
+    assert_true(sh[1].flip_normals);
+
+    assert_int_equal(sh[2].mesh.nvertices, 4);
+    assert_int_equal(sh[2].mesh.ntriangles, 2);
+    assert_non_null(sh[2].mesh.N);
+    assert_non_null(sh[2].mesh.uv);
+    assert_near(sh[2].mesh.uv[5], 1);
+    assert_near(sh[2].mesh.N[11], 1);
+    assert_false(sh[2].reverse_orientation);
+    assert_true(sh[2].swaps_handedness); /* Scale -1 1 1 */
+    assert_true(sh[2].flip_normals);
+
+    assert_int_equal(sh[3].type, SCENE_SHAPE_DISK);
+    assert_true(sh[3].reverse_orientation && sh[3].swaps_handedness);
+    assert_false(sh[3].flip_normals); /* the two flips cancel, as in pbrt-v4 */
+    assert_near(sh[3].radius, 1);
+    assert_near(sh[3].height, 0);
+
+    /* A bilinear patch p00 p10 p01 p11 becomes two triangles with the patch's normal
+     * cross(p10 - p00, p01 - p00) = +z here. */
+    assert_string_equal(sh[4].kind, "bilinearmesh");
+    assert_int_equal(sh[4].mesh.ntriangles, 2);
+    const uint32_t want[6] = {0, 1, 3, 0, 3, 2};
+    for (int i = 0; i < 6; i++)
+        assert_int_equal(sh[4].mesh.indices[i], want[i]);
+    for (size_t t = 0; t < 2; t++)
+        assert_near(tri_normal(&sh[4].mesh, t).z, 1);
+    assert_near(mesh_area(&sh[4].mesh), 1);
+    assert_int_equal(sh[5].mesh.nvertices, 8);
+    assert_int_equal(sh[5].mesh.ntriangles, 4);
+
+    /* ascii PLY: 5 vertices, a unit quad split in two plus the triangle (0,0,0) (1,0,0)
+     * (.5,.5,1) of area |(1,0,0) x (.5,.5,1)| / 2 = sqrt(1.25) / 2. */
+    assert_string_equal(sh[6].kind, "plymesh");
+    assert_int_equal(sh[6].mesh.nvertices, 5);
+    assert_int_equal(sh[6].mesh.ntriangles, 3);
+    assert_non_null(sh[6].mesh.uv);
+    assert_null(sh[6].mesh.N);
+    assert_near(sh[6].mesh.P[14], 1);
+    assert_near(mesh_area(&sh[6].mesh), 1.0 + sqrt(1.25) / 2.0);
+    size_t up = 0;
+    for (size_t t = 0; t < 3; t++)
+        up += fabs(tri_normal(&sh[6].mesh, t).z - 1) < TOL;
+    assert_int_equal(up, 2); /* the quad keeps its winding (+z) */
+    /* binary PLY: the unit tetrahedron, area 3/2 + sqrt(3)/2, normals read from the file */
+    assert_int_equal(sh[7].mesh.nvertices, 4);
+    assert_int_equal(sh[7].mesh.ntriangles, 4);
+    assert_non_null(sh[7].mesh.N);
+    assert_null(sh[7].mesh.uv);
+    assert_near(sh[7].mesh.N[2], 1);
+    assert_near(mesh_area(&sh[7].mesh), 1.5 + sqrt(3.0) / 2.0);
+
+    assert_near(sh[8].radius, 2);
+    assert_near(sh[8].height, 0.5);
+    assert_int_equal(scene_desc_triangle_count(s), 1 + 2 + 2 + 4 + 3 + 4);
+    scene_desc_destroy(&s);
+}
+
+static void test_ply_import_direct(void **state)
+{
+    (void)state;
+    mesh_data_t m;
+    err_t err = {{0}};
+    assert_int_equal(mesh_import_ply("data/scenes/meshes/tetra_binary.ply", &m, &err), 0);
+    assert_int_equal(m.nvertices, 4);
+    assert_int_equal(m.ntriangles, 4);
+    mesh_data_free(&m);
+    assert_null(m.P);
+    assert_int_equal(mesh_import_ply("data/scenes/options.pbrt", &m, &err), -1);
+    assert_string_equal(err.msg, "\"data/scenes/options.pbrt\" is not a PLY file (it does not "
+                                 "start with \"ply\")");
+    assert_int_equal(mesh_import_ply("data/scenes/meshes/none.ply", &m, &err), -1);
+    assert_string_equal(err.msg, "cannot open PLY file \"data/scenes/meshes/none.ply\": No such "
+                                 "file or directory");
+
+    /* assimp does not check face indices; mesh_import does. */
+    char dir[] = "/tmp/prismfarm-ply-XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    char path[128];
+    snprintf(path, sizeof path, "%s/bad.ply", dir);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+          "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+          "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 7\n",
+          f);
+    fclose(f);
+    assert_int_equal(mesh_import_ply(path, &m, &err), -1);
+    char expected[256];
+    snprintf(expected, sizeof expected, "\"%s\": face 0 uses vertex 7 but there are only 3", path);
+    assert_string_equal(err.msg, expected);
+    unlink(path);
+    rmdir(dir);
+}
+
+/* ---- transforms, instances, includes ---- */
+
+static void test_transforms(void **state)
+{
+    (void)state;
+    scene_desc_t *s = parse_ok("data/scenes/transforms.pbrt");
+    assert_int_equal(s->nshapes, 7);
+    const scene_shape_t *sh = s->shapes;
+    assert_point(&sh[0].to_world, vec3_make(1, 0, 0), 0, 1, 0);   /* Rotate 90 0 0 1 */
+    assert_point(&sh[1].to_world, vec3_make(0, 0, 0), 3, 4, 5);   /* Transform, by columns */
+    assert_point(&sh[2].to_world, vec3_make(1, 1, 1), 5, 6, 7);   /* ConcatTransform scale 2 */
+    assert_true(transform_is_identity(&sh[3].to_world));         /* Identity */
+    assert_point(&sh[4].to_world, vec3_make(1, 1, 1), 5, 6, 7);   /* CoordSysTransform "here" */
+    /* CoordSysTransform "camera" is world-from-camera: the camera sits at (0,0,-5) and looks
+     * down world +z. */
+    assert_point(&sh[5].to_world, vec3_make(0, 0, 0), 0, 0, -5);
+    assert_point(&sh[5].to_world, vec3_make(0, 0, 1), 0, 0, -4);
+    assert_point(&sh[5].to_world, vec3_make(1, 0, 0), 1, 0, -5);
+    assert_true(transform_is_identity(&sh[6].to_world)); /* TransformBegin/End restored it */
+    scene_desc_destroy(&s);
+}
+
+static void test_instances(void **state)
+{
+    (void)state;
+    scene_desc_t *s = parse_ok("data/scenes/instances.pbrt");
+    assert_int_equal(s->nobjects, 2);
+    assert_string_equal(s->objects[0].name, "tri");
+    assert_int_equal(s->objects[0].first_shape, 0);
+    assert_int_equal(s->objects[0].nshapes, 2);
+    assert_string_equal(s->objects[1].name, "later");
+    assert_int_equal(s->objects[1].first_shape, 2);
+    assert_int_equal(s->objects[1].nshapes, 1);
+    assert_int_equal(s->nobject_shapes, 3);
+    /* object shapes keep the CTM of their definition */
+    assert_point(&s->object_shapes[0].to_world, vec3_make(0, 0, 0), 0, 0, 1);
+    assert_int_equal(s->object_shapes[0].mesh.ntriangles, 1);
+    assert_int_equal(s->ninstances, 2);
+    assert_int_equal(s->instances[0].object, 0);
+    assert_point(&s->instances[0].to_world, vec3_make(0, 0, 0), 10, 0, 0);
+    assert_false(s->instances[0].swaps_handedness);
+    assert_int_equal(s->instances[1].object, 1); /* defined after its use */
+    assert_true(s->instances[1].swaps_handedness);
+    assert_int_equal(s->nshapes, 1);
+    assert_true(transform_is_identity(&s->shapes[0].to_world));
+    assert_int_equal(scene_desc_triangle_count(s), 1);
+    scene_desc_destroy(&s);
+}
+
+static void test_includes(void **state)
+{
+    (void)state;
+    scene_desc_t *s = parse_ok("data/scenes/include_main.pbrt");
+    assert_int_equal(s->film.xres, 64);
+    assert_int_equal(s->film.yres, 48);
+    assert_int_equal(s->nshapes, 3);
+    const scene_shape_t *sh = s->shapes;
+    assert_near(sh[0].radius, 3);
+    assert_string_equal(sh[0].loc.file, "data/scenes/inc/deeper/sphere.pbrt");
+    assert_int_equal(sh[0].loc.line, 1);
+    assert_point(&sh[0].to_world, vec3_make(0, 0, 0), 0, 1, 0); /* Include is textual */
+    assert_near(sh[1].radius, 4);
+    assert_point(&sh[1].to_world, vec3_make(0, 0, 0), 100, 1, 0);
+    assert_int_equal(s->materials[sh[1].material].type, SCENE_MATERIAL_CONDUCTOR);
+    /* Import does not leak its CTM or material */
+    assert_near(sh[2].radius, 5);
+    assert_point(&sh[2].to_world, vec3_make(0, 0, 0), 0, 1, 0);
+    assert_int_equal(sh[2].material, 0);
+    scene_desc_destroy(&s);
+
+    expect_error_named("data/scenes/main.pbrt", "WorldBegin\nInclude \"inc/cycle_a.pbrt\"\n",
+                       "data/scenes/inc/cycle_b.pbrt:1:9: include cycle: "
+                       "\"data/scenes/inc/cycle_a.pbrt\" is already being read");
+    expect_error_named("data/scenes/main.pbrt", "WorldBegin\nInclude \"inc/missing.pbrt\"\n",
+                       "data/scenes/main.pbrt:2:9: cannot open included file "
+                       "\"data/scenes/inc/missing.pbrt\": No such file or directory");
+    expect_error("Import \"x.pbrt\"\n", "t.pbrt:1:1: Import is only allowed after WorldBegin");
+
+    err_t err = {{0}};
+    assert_null(pbrt_parse_file("data/scenes/none.pbrt", &err));
+    assert_string_equal(err.msg, "cannot open scene file \"data/scenes/none.pbrt\": No such file "
+                                 "or directory");
+
+    /* A chain f0 -> f1 -> ... deeper than the limit, and an Import that leaves an attribute
+     * block open; written to a temporary folder. */
+    char dir[] = "/tmp/prismfarm-inc-XXXXXX";
+    assert_non_null(mkdtemp(dir));
+    char path[128], expected[512];
+    for (int i = 0; i < PBRT_INCLUDE_DEPTH_MAX + 2; i++) {
+        snprintf(path, sizeof path, "%s/f%d.pbrt", dir, i);
+        FILE *f = fopen(path, "w");
+        assert_non_null(f);
+        fprintf(f, "Include \"f%d.pbrt\"\n", i + 1);
+        fclose(f);
+    }
+    snprintf(path, sizeof path, "%s/f0.pbrt", dir);
+    assert_null(pbrt_parse_file(path, &err));
+    snprintf(expected, sizeof expected, "%s/f%d.pbrt:1:9: Include/Import nested deeper than %d "
+                                        "files",
+             dir, PBRT_INCLUDE_DEPTH_MAX - 1, PBRT_INCLUDE_DEPTH_MAX);
+    assert_string_equal(err.msg, expected);
+    snprintf(path, sizeof path, "%s/open.pbrt", dir);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("AttributeBegin\n", f);
+    fclose(f);
+    char main_name[128];
+    snprintf(main_name, sizeof main_name, "%s/main.pbrt", dir);
+    snprintf(expected, sizeof expected, "%s:1:1: AttributeBegin has no matching end before the "
+                                        "end of imported file \"%s\"",
+             path, path);
+    expect_error_named(main_name, "WorldBegin\nImport \"open.pbrt\"\n", expected);
+    for (int i = 0; i < PBRT_INCLUDE_DEPTH_MAX + 2; i++) {
+        snprintf(path, sizeof path, "%s/f%d.pbrt", dir, i);
+        unlink(path);
+    }
+    snprintf(path, sizeof path, "%s/open.pbrt", dir);
+    unlink(path);
+    rmdir(dir);
+}
+
+/* ---- errors: each with its exact message ---- */
+
+static void test_error_messages(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *text, *msg;
+    } CASES[] = {
+        /* the issue's example */
+        {"WorldBegin\nLightSource \"point\" \"point3 from\" [1 2]\n",
+         "t.pbrt:2:21: expected 3 numbers after \"point3 from\", got 2"},
+        {"Frobnicate\n", "t.pbrt:1:1: unknown directive Frobnicate"},
+        {"PixelFilter \"gaussian\"\nWorldBegin\n", "t.pbrt:1:1: unsupported directive PixelFilter"},
+        {"WorldBegin\nShape \"sphere\" \"float zmin\" -1\n",
+         "t.pbrt:2:16: unsupported parameter \"float zmin\" for Shape \"sphere\""},
+        {"WorldBegin\nShape \"sphere\" \"integer radius\" 2\n",
+         "t.pbrt:2:16: \"integer radius\" has the wrong type for Shape \"sphere\": expected "
+         "\"float radius\""},
+        {"WorldBegin\nShape \"trianglemesh\" \"integer indices\" [0 1 2]\n",
+         "t.pbrt:2:1: Shape \"trianglemesh\" needs \"point3 P\""},
+        {"WorldBegin\nShape \"trianglemesh\"\n  \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"
+         "  \"integer indices\" [0 1 3]\n",
+         "t.pbrt:4:3: index 3 (entry 3 of \"integer indices\") is out of range: \"point3 P\" has 3 "
+         "points"},
+        {"WorldBegin\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0 1 1 0]\n",
+         "t.pbrt:2:1: Shape \"trianglemesh\" without \"integer indices\" needs exactly 3 points in "
+         "\"point3 P\", got 4"},
+        {"WorldBegin\nShape \"trianglemesh\"\n  \"point3 P\" [0 0 0 1 0 0 0 1 0]\n"
+         "  \"integer indices\" [0 1]\n",
+         "t.pbrt:4:3: expected a multiple of 3 numbers after \"integer indices\", got 2"},
+        {"WorldBegin\nShape \"trianglemesh\"\n  \"point3 P\" [0 0 0 1 0 0 0 1]\n",
+         "t.pbrt:3:3: expected a multiple of 3 numbers after \"point3 P\", got 8"},
+        {"WorldBegin\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n  \"normal N\" [0 0 1]\n",
+         "t.pbrt:3:3: \"normal N\" has 1 normals but \"point3 P\" has 3 points"},
+        {"WorldBegin\nShape \"sphere\" \"float radius\" 1e999\n",
+         "t.pbrt:2:31: non-finite number 1e999 in \"float radius\""},
+        {"WorldBegin\nShape \"sphere\" \"float radius\" nan\n",
+         "t.pbrt:2:31: \"float radius\" needs numbers, got nan"},
+        {"WorldBegin\nShape \"sphere\" \"float radius\" -2\n",
+         "t.pbrt:2:16: \"float radius\" must be greater than 0, got -2"},
+        {"WorldBegin\nAttributeEnd\n", "t.pbrt:2:1: AttributeEnd without a matching AttributeBegin"},
+        {"WorldBegin\nAttributeBegin\n", "t.pbrt:2:1: AttributeBegin has no matching end"},
+        {"WorldBegin\nObjectBegin \"a\"\nAttributeBegin\nObjectEnd\n",
+         "t.pbrt:4:1: ObjectEnd closes AttributeBegin at line 3 (mismatched nesting)"},
+        {"WorldBegin\nObjectEnd\n", "t.pbrt:2:1: ObjectEnd without a matching ObjectBegin"},
+        {"WorldBegin\nShape \"sphere", "t.pbrt:2:7: unterminated string (end of file before "
+                                         "the closing quote)"},
+        {"WorldBegin\nShape \"sphere\nShape \"sphere\"\n",
+         "t.pbrt:2:7: unterminated string (end of line before the closing quote)"},
+        {"WorldBegin\nShape \"sph\\qere\"\n", "t.pbrt:2:11: unknown escape sequence \"\\q\" in "
+                                              "string"},
+        {"WorldBegin\nShape \"sphere\" \"float radius\" [1\n",
+         "t.pbrt:2:31: unterminated [ after \"float radius\""},
+        {"WorldBegin\nShape \"sphere\" \"float radius\"\n",
+         "t.pbrt:2:16: missing value after \"float radius\""},
+        {"WorldBegin\nShape \"sphere\" \"float radius\" \"big\"\n",
+         "t.pbrt:2:31: \"float radius\" needs numbers, got \"big\""},
+        {"WorldBegin\nShape \"sphere\" \"float radius\" 1 \"float radius\" 2\n",
+         "t.pbrt:2:33: parameter \"radius\" is given twice for Shape \"sphere\" (first at 2:16)"},
+        {"WorldBegin\nShape \"sphere\" \"floot radius\" 1\n",
+         "t.pbrt:2:16: unknown parameter type \"floot\" in \"floot radius\""},
+        {"WorldBegin\nShape \"plymesh\" \"string filename\" nope.ply\n",
+         "t.pbrt:2:35: \"string filename\" needs quoted strings, got nope.ply"},
+        {"WorldBegin\nShape \"plymesh\" \"string filename\" \"nope.ply\"\n",
+         "t.pbrt:2:17: cannot open PLY file \"nope.ply\": No such file or directory"},
+        {"Film \"rgb\" \"integer xresolution\" 2.5\nWorldBegin\n",
+         "t.pbrt:1:34: \"integer xresolution\" needs integers, got 2.5"},
+        {"Film \"rgb\" \"integer xresolution\" 0\nWorldBegin\n",
+         "t.pbrt:1:12: \"integer xresolution\" must be within [1, 65536], got 0"},
+        {"Film \"spectral\" \"float lambdamin\" 700 \"float lambdamax\" 400\nWorldBegin\n",
+         "t.pbrt:1:1: Film: \"lambdamin\" (700) must be below \"lambdamax\" (400)"},
+        {"Film \"gbuffer\"\nWorldBegin\n",
+         "t.pbrt:1:6: unsupported film \"gbuffer\" (\"rgb\" or \"spectral\")"},
+        {"Integrator \"volpath\"\nWorldBegin\n",
+         "t.pbrt:1:12: unsupported integrator \"volpath\" (\"simplepath\", \"path\", \"whitted\", "
+         "\"photon\" or \"auto\")"},
+        {"Shape \"sphere\"\n", "t.pbrt:1:1: Shape is only allowed after WorldBegin"},
+        {"WorldBegin\nCamera \"perspective\"\n",
+         "t.pbrt:2:1: Camera must come before WorldBegin (line 1)"},
+        {"Camera \"orthographic\"\nWorldBegin\n",
+         "t.pbrt:1:8: unsupported camera \"orthographic\" (only \"perspective\")"},
+        {"Camera \"perspective\"\n", "t.pbrt: the scene has no WorldBegin"},
+        {"WorldBegin\nWorldBegin\n", "t.pbrt:2:1: WorldBegin appears twice (first at line 1)"},
+        {"LookAt 0 0 0 1 1 1 0 1\nWorldBegin\n",
+         "t.pbrt:2:1: LookAt expects 9 numbers, got WorldBegin as number 9"},
+        {"LookAt 0 0 0 0 0 1 0 0 1\nWorldBegin\n",
+         "t.pbrt:1:1: LookAt up vector is parallel to the viewing direction"},
+        {"Rotate 30 0 0 0\nWorldBegin\n", "t.pbrt:1:1: Rotate: rotation axis is the zero vector"},
+        {"Transform [1 0 0 0 1]\nWorldBegin\n", "t.pbrt:1:21: Transform expects 16 numbers, got 5"},
+        {"ConcatTransform 1 0\n", "t.pbrt:1:17: ConcatTransform expects [ and 16 numbers, got 1"},
+        {"WorldBegin\nScale 0 1 1\nShape \"sphere\"\n",
+         "t.pbrt:3:1: the current transform is singular, so Shape cannot use it"},
+        {"WorldBegin\nConcatTransform [1 0 0 0 0 1 0 0 0 0 1 1 0 0 0 1]\nShape \"sphere\"\n",
+         "t.pbrt:3:1: the current transform is projective (its last row is not 0 0 0 1), so Shape "
+         "cannot use it"},
+        {"WorldBegin\nCoordSysTransform \"nowhere\"\n",
+         "t.pbrt:2:19: unknown coordinate system \"nowhere\""},
+        {"WorldBegin\nObjectInstance \"x\"\n", "t.pbrt:2:1: ObjectInstance: object \"x\" is not "
+                                                "defined"},
+        {"WorldBegin\nObjectBegin \"a\"\nObjectEnd\nObjectBegin \"a\"\n",
+         "t.pbrt:4:13: object \"a\" is already defined (line 2)"},
+        {"WorldBegin\nObjectBegin \"a\"\nAreaLightSource \"diffuse\"\nShape \"sphere\"\n",
+         "t.pbrt:4:1: area lights are not supported inside ObjectBegin (AreaLightSource at line 3)"},
+        {"WorldBegin\nNamedMaterial \"glass\"\n",
+         "t.pbrt:2:15: named material \"glass\" is not defined (MakeNamedMaterial must come before "
+         "its use)"},
+        {"WorldBegin\nMakeNamedMaterial \"g\" \"string type\" \"dielectric\"\n"
+         "MakeNamedMaterial \"g\" \"string type\" \"dielectric\"\n",
+         "t.pbrt:3:19: named material \"g\" is already defined (line 2)"},
+        {"WorldBegin\nMakeNamedMaterial \"g\" \"float eta\" 1.5\n",
+         "t.pbrt:2:1: MakeNamedMaterial \"g\" needs \"string type\""},
+        {"WorldBegin\nMaterial \"diffuse\" \"texture reflectance\" \"nope\"\n",
+         "t.pbrt:2:20: spectrum texture \"nope\" is not defined (a Texture must come before its "
+         "use)"},
+        {"WorldBegin\nTexture \"r\" \"float\" \"constant\"\n"
+         "Material \"diffuse\" \"texture reflectance\" \"r\"\n",
+         "t.pbrt:3:20: texture \"r\" is a float texture, but \"reflectance\" needs a spectrum "
+         "texture"},
+        {"WorldBegin\nMaterial \"diffuse\" \"rgb reflectance\" [0.5 1.5 0.5]\n",
+         "t.pbrt:2:20: \"rgb reflectance\" has a component above 1 (a reflectance is at most 1)"},
+        {"WorldBegin\nMaterial \"coateddiffuse\"\n",
+         "t.pbrt:2:10: unsupported material \"coateddiffuse\" (\"diffuse\", \"conductor\", "
+         "\"dielectric\" or \"interface\")"},
+        {"WorldBegin\nMaterial \"dielectric\" \"float sellmeier\" [1 2 3]\n",
+         "t.pbrt:2:23: \"float sellmeier\" needs (B, C) pairs, got 3 numbers"},
+        {"WorldBegin\nMaterial \"dielectric\" \"float cauchy\" [1.5]\n",
+         "t.pbrt:2:23: expected 2 numbers after \"float cauchy\" (A B), got 1"},
+        {"WorldBegin\nMaterial \"dielectric\" \"float eta\" 1.5 \"string glass\" \"N-BK7\"\n",
+         "t.pbrt:2:39: give only one of \"eta\", \"glass\", \"sellmeier\" and \"cauchy\" for "
+         "Material \"dielectric\" (\"eta\" is already given)"},
+        {"WorldBegin\nMaterial \"conductor\" \"rgb reflectance\" [1 1 1] \"spectrum k\" "
+         "\"metal-Au-k\"\n",
+         "t.pbrt:2:22: conductor: give either \"reflectance\" or \"eta\" and \"k\", not both"},
+        {"WorldBegin\nLightSource \"point\" \"spectrum I\" [400 1 500]\n",
+         "t.pbrt:2:21: \"spectrum I\" needs (wavelength, value) pairs, got 3 numbers"},
+        {"WorldBegin\nLightSource \"point\" \"spectrum I\" [500 1 400 2]\n",
+         "t.pbrt:2:21: \"spectrum I\": wavelengths must increase, but pair 2 has 400 nm after 500 "
+         "nm"},
+        {"WorldBegin\nLightSource \"point\" \"spectrum I\" [500 1 \"x\"]\n",
+         "t.pbrt:2:21: \"spectrum I\" mixes numbers, strings and booleans"},
+        {"WorldBegin\nLightSource \"point\" \"spectrum I\" \"lamp.spd\"\n",
+         "t.pbrt:2:21: unsupported parameter value: spectrum files (\"lamp.spd\") are not "
+         "supported; give (wavelength, value) pairs or a named spectrum"},
+        {"WorldBegin\nLightSource \"point\" \"rgb I\" [1 -1 1]\n",
+         "t.pbrt:2:21: \"rgb I\" has a negative component"},
+        {"WorldBegin\nLightSource \"point\" \"blackbody I\" [3000 1]\n",
+         "t.pbrt:2:21: expected 1 number after \"blackbody I\", got 2 (pbrt-v4 takes only the "
+         "temperature)"},
+        {"WorldBegin\nLightSource \"goniometric\"\n",
+         "t.pbrt:2:13: unsupported light \"goniometric\" (\"point\", \"spot\", \"distant\" or "
+         "\"infinite\")"},
+        {"WorldBegin\nLightSource \"point\" \"string I\" \"x\"\n",
+         "t.pbrt:2:21: \"string I\" has the wrong type for LightSource \"point\": expected "
+         "\"spectrum I\", \"rgb I\", \"blackbody I\" or \"float I\""},
+        {"WorldBegin\nLightSource \"spot\" \"float coneangle\" 10 \"float conedeltaangle\" 20\n",
+         "t.pbrt:2:41: \"float conedeltaangle\" must be within [0, 10], got 20"},
+        {"WorldBegin\nAreaLightSource \"diffuse\" \"bool twosided\" 1\n",
+         "t.pbrt:2:43: \"bool twosided\" needs true or false, got 1"},
+        {"WorldBegin\nAreaLightSource \"collimated\" \"bool twosided\" true\n",
+         "t.pbrt:2:30: unsupported parameter \"bool twosided\" for AreaLightSource \"collimated\""},
+        {"WorldBegin\nShape \"disk\" \"float innerradius\" 0.5\n",
+         "t.pbrt:2:14: unsupported parameter value: \"float innerradius\" must be 0 (annuli are "
+         "not supported)"},
+        {"WorldBegin\nShape \"cylinder\"\n",
+         "t.pbrt:2:7: unsupported shape \"cylinder\" (\"sphere\", \"disk\", \"trianglemesh\", "
+         "\"plymesh\" or \"bilinearmesh\")"},
+        {"WorldBegin\nTexture \"t\" \"color\" \"constant\"\n",
+         "t.pbrt:2:13: texture type must be \"float\" or \"spectrum\", got \"color\""},
+        {"WorldBegin\nTexture \"t\" \"float\" \"fbm\"\n",
+         "t.pbrt:2:21: unsupported texture \"fbm\" (\"constant\", \"checkerboard\", \"imagemap\", "
+         "\"scale\" or \"mix\")"},
+        {"WorldBegin\nTexture \"t\" \"float\" \"imagemap\" \"string filename\" \"x.exr\"\n",
+         "t.pbrt:2:32: unsupported image \"x.exr\": image textures must be PNG files"},
+        {"WorldBegin\nTexture \"t\" \"float\" \"imagemap\" \"string filename\" \"x.png\"\n",
+         "t.pbrt:2:32: cannot open image \"x.png\": No such file or directory"},
+        {"WorldBegin\nTexture \"t\" \"float\" \"checkerboard\" \"integer dimension\" 3\n",
+         "t.pbrt:2:36: unsupported checkerboard dimension 3 (only 2)"},
+        {"WorldBegin\nTexture \"t\" \"float\" \"constant\" \"string mapping\" \"spherical\"\n",
+         "t.pbrt:2:32: unsupported texture mapping \"spherical\" (only \"uv\")"},
+        {"WorldBegin\n\"float radius\" 1\n", "t.pbrt:2:1: expected a directive, got \"float "
+                                             "radius\""},
+        {"WorldBegin\nShape \"sphere\" \"float radius\" [[1]]\n",
+         "t.pbrt:2:32: unexpected [ inside the values of \"float radius\""},
+        {"\xff\xfeW\0o\0", "t.pbrt:1:1: file is UTF-16 encoded; scenes must be ASCII or UTF-8"},
+    };
+    for (size_t i = 0; i < sizeof CASES / sizeof CASES[0]; i++)
+        expect_error(CASES[i].text, CASES[i].msg);
+}
+
+static void test_syntax_details(void **state)
+{
+    (void)state;
+    /* Comments, escapes, quoted booleans, a single value without brackets, "point" and
+     * "color" spellings, integers with signs and hex floats. */
+    scene_desc_t *s = parse_text_ok(
+        "# comment\nWorldBegin # trailing comment\n"
+        "AreaLightSource \"diffuse\" \"color L\" [1 2 3] \"bool twosided\" \"true\"\n"
+        "LightSource \"point\" \"point from\" [+1 -2 0x1p2]\n"
+        "MakeNamedMaterial \"a \\\"quoted\\\" name\" \"string type\" \"interface\"\n"
+        "NamedMaterial \"a \\\"quoted\\\" name\"\n"
+        "Shape \"sphere\" \"float radius\" .5e1\n");
+    assert_true(s->area_lights[0].twosided);
+    assert_int_equal(s->area_lights[0].L.kind, SCENE_SPECTRUM_RGB);
+    assert_near(s->area_lights[0].L.rgb[2], 3);
+    assert_near(s->lights[0].from.x, 1);
+    assert_near(s->lights[0].from.y, -2);
+    assert_near(s->lights[0].from.z, 4);
+    assert_string_equal(s->materials[1].name, "a \"quoted\" name");
+    assert_int_equal(s->shapes[0].material, 1);
+    assert_near(s->shapes[0].radius, 5);
+    assert_int_equal(s->shapes[0].area_light, 0);
+    scene_desc_destroy(&s);
+}
+
+/* ---- robustness: random mutations of the test scenes ---- */
+
+static uint64_t next_rand(uint64_t *x)
+{
+    /* xorshift64* (Vigna 2016): fixed seed, so a failure reproduces. */
+    *x ^= *x >> 12;
+    *x ^= *x << 25;
+    *x ^= *x >> 27;
+    return *x * 2685821657736338717ull;
+}
+
+static char *read_all(const char *path, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    char *buf = malloc(1 << 16);
+    *len = 0;
+    if (buf)
+        *len = fread(buf, 1, (1 << 16) - 1, f);
+    fclose(f);
+    return buf;
+}
+
+static void test_mutations_never_crash(void **state)
+{
+    (void)state;
+    static const char *FILES[] = {"data/scenes/options.pbrt",   "data/scenes/materials.pbrt",
+                                  "data/scenes/lights.pbrt",    "data/scenes/shapes.pbrt",
+                                  "data/scenes/transforms.pbrt", "data/scenes/instances.pbrt",
+                                  "data/scenes/include_main.pbrt"};
+    static const char *TOKENS[] = {"\"", "[", "]", "#", "\\", "\n", " ", "1e999", "-0", "true",
+                                   "AttributeBegin", "AttributeEnd", "ObjectBegin \"o\"",
+                                   "ObjectEnd", "ObjectInstance \"tri\"", "WorldBegin",
+                                   "Include \"inc/cycle_a.pbrt\"", "\"float radius\"",
+                                   "\"integer indices\" [0 1 9]", "Scale 0 0 0", "\"point3 P\""};
+    uint64_t rng = 0x9e3779b97f4a7c15ull;
+    size_t parsed = 0, failed = 0;
+    for (size_t fi = 0; fi < sizeof FILES / sizeof FILES[0]; fi++) {
+        size_t len = 0;
+        char *orig = read_all(FILES[fi], &len);
+        assert_non_null(orig);
+        char *buf = malloc(2 * len + 256);
+        assert_non_null(buf);
+        for (int iter = 0; iter < 150; iter++) {
+            memcpy(buf, orig, len);
+            size_t n = len;
+            int edits = 1 + (int)(next_rand(&rng) % 4);
+            for (int e = 0; e < edits && n > 0; e++) {
+                size_t at = next_rand(&rng) % n;
+                switch (next_rand(&rng) % 4) {
+                case 0: /* replace a byte */
+                    buf[at] = (char)(next_rand(&rng) % 256);
+                    break;
+                case 1: { /* delete a span */
+                    size_t k = 1 + next_rand(&rng) % 16;
+                    if (k > n - at)
+                        k = n - at;
+                    memmove(buf + at, buf + at + k, n - at - k);
+                    n -= k;
+                    break;
+                }
+                case 2: { /* insert a token */
+                    const char *tok = TOKENS[next_rand(&rng) % (sizeof TOKENS / sizeof TOKENS[0])];
+                    size_t k = strlen(tok);
+                    if (n + k > 2 * len + 200)
+                        break;
+                    memmove(buf + at + k, buf + at, n - at);
+                    memcpy(buf + at, tok, k);
+                    n += k;
+                    break;
+                }
+                default: { /* truncate */
+                    n = at;
+                    break;
+                }
+                }
+            }
+            err_t err = {{0}};
+            scene_desc_t *s = pbrt_parse_string(buf, n, FILES[fi], &err);
+            if (s) {
+                parsed++;
+                scene_desc_destroy(&s);
+            } else {
+                failed++;
+                assert_true(strlen(err.msg) > 0);
+            }
+        }
+        free(buf);
+        free(orig);
+    }
+    /* Both outcomes must occur, or the mutations test nothing. */
+    assert_true(parsed > 0);
+    assert_true(failed > 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_options),
+        cmocka_unit_test(test_defaults),
+        cmocka_unit_test(test_materials_and_textures),
+        cmocka_unit_test(test_lights),
+        cmocka_unit_test(test_shapes),
+        cmocka_unit_test(test_ply_import_direct),
+        cmocka_unit_test(test_transforms),
+        cmocka_unit_test(test_instances),
+        cmocka_unit_test(test_includes),
+        cmocka_unit_test(test_error_messages),
+        cmocka_unit_test(test_syntax_details),
+        cmocka_unit_test(test_mutations_never_crash),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
