@@ -1,0 +1,105 @@
+/* cli_run: runs the prismfarm executable ($PRISMFARM_BIN, set by ctest) as a child process
+ * for the command-line tests, capturing stdout and stderr separately. Header-only: each CLI
+ * test is its own executable. Include after cmocka.h. */
+#ifndef PRISMFARM_CLI_RUN_H
+#define PRISMFARM_CLI_RUN_H
+
+#include <errno.h>
+#include <poll.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/types.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#ifndef CLI_RUN_TIMEOUT_MS
+#define CLI_RUN_TIMEOUT_MS 10000
+#endif
+
+#define OUT_MAX 65536
+
+typedef struct run {
+    int status; /* exit code, or -1 if the process did not exit normally */
+    char out[OUT_MAX];
+    char err[OUT_MAX];
+} run_t;
+
+static run_t RESULT; /* one run at a time; large buffers stay off the stack */
+
+/* Runs $PRISMFARM_BIN with the given arguments (NULL-terminated), capturing stdout and
+ * stderr separately (poll, so neither pipe can fill and block the child). */
+static const run_t *run(const char *arg, ...)
+{
+    const char *bin = getenv("PRISMFARM_BIN");
+    if (!bin)
+        fail_msg("PRISMFARM_BIN is not set (run the test through ctest)");
+    char *argv[32];
+    int argc = 0;
+    argv[argc++] = (char *)bin;
+    va_list ap;
+    va_start(ap, arg);
+    for (const char *a = arg; a && argc < 31; a = va_arg(ap, const char *))
+        argv[argc++] = (char *)a;
+    va_end(ap);
+    argv[argc] = NULL;
+
+    int out_pipe[2], err_pipe[2];
+    assert_int_equal(pipe(out_pipe), 0);
+    assert_int_equal(pipe(err_pipe), 0);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        dup2(out_pipe[1], STDOUT_FILENO);
+        dup2(err_pipe[1], STDERR_FILENO);
+        close(out_pipe[0]);
+        close(out_pipe[1]);
+        close(err_pipe[0]);
+        close(err_pipe[1]);
+        execv(bin, argv);
+        _exit(127);
+    }
+    close(out_pipe[1]);
+    close(err_pipe[1]);
+    memset(&RESULT, 0, sizeof RESULT);
+    size_t used[2] = {0, 0};
+    char *bufs[2] = {RESULT.out, RESULT.err};
+    struct pollfd fds[2] = {{.fd = out_pipe[0], .events = POLLIN},
+                            {.fd = err_pipe[0], .events = POLLIN}};
+    int open_fds = 2;
+    while (open_fds > 0) {
+        if (poll(fds, 2, CLI_RUN_TIMEOUT_MS) <= 0) {
+            if (errno == EINTR)
+                continue;
+            fail_msg("prismfarm did not finish within %d ms", CLI_RUN_TIMEOUT_MS);
+        }
+        for (int k = 0; k < 2; k++) {
+            if (fds[k].fd < 0 || !(fds[k].revents & (POLLIN | POLLHUP | POLLERR)))
+                continue;
+            char chunk[4096];
+            ssize_t got = read(fds[k].fd, chunk, sizeof chunk);
+            if (got <= 0) {
+                close(fds[k].fd);
+                fds[k].fd = -1;
+                open_fds--;
+                continue;
+            }
+            size_t room = OUT_MAX - 1 - used[k];
+            size_t take = (size_t)got < room ? (size_t)got : room;
+            memcpy(bufs[k] + used[k], chunk, take);
+            used[k] += take;
+        }
+    }
+    int wstatus;
+    assert_int_equal(waitpid(pid, &wstatus, 0), pid);
+    RESULT.status = WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : -1;
+    return &RESULT;
+}
+
+static void expect_in(const char *haystack, const char *needle)
+{
+    if (!strstr(haystack, needle))
+        fail_msg("expected '%s' in output:\n%s", needle, haystack);
+}
+
+#endif

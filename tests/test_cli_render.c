@@ -1,0 +1,153 @@
+/* prismfarm render, run as a process: output files and their content, determinism across
+ * thread counts, and clear errors for bad command lines and broken scenes. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#define CLI_RUN_TIMEOUT_MS 120000
+#include "cli_run.h"
+#include "image_exr.h"
+
+#include <math.h>
+#include <sys/stat.h>
+
+static char DIR_[256];
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(DIR_, sizeof DIR_, "/tmp/prismfarm-test-render-XXXXXX");
+    return mkdtemp(DIR_) ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[512];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", DIR_);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+static const char *path_in(const char *name)
+{
+    static char buf[4][512];
+    static int k;
+    k = (k + 1) % 4;
+    snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
+    return buf[k];
+}
+
+static void test_renders_spectral_exr_and_png(void **state)
+{
+    (void)state;
+    const char *exr = path_in("sub/dir/tiny.exr");
+    const run_t *r = run("render", "data/render/tiny.pbrt", "-o", exr, "--threads", "2", NULL);
+    if (r->status != 0)
+        fail_msg("exit %d: %s", r->status, r->err);
+    expect_in(r->out, "wrote ");
+    expect_in(r->out, "0 non-finite samples");
+    expect_in(r->err, "dispersion on");
+    struct stat st;
+    assert_int_equal(stat(path_in("sub/dir/tiny.png"), &st), 0);
+    assert_true(st.st_size > 0);
+    err_t err;
+    image_exr_t *img = image_exr_read(exr, &err);
+    if (!img)
+        fail_msg("%s", err.msg);
+    assert_int_equal(image_exr_width(img), 24);
+    assert_int_equal(image_exr_height(img), 16);
+    assert_int_equal(image_exr_n_spectral(img), 8);
+    /* 8 buckets over 380-720 nm: centres 401.25, 443.75, ... */
+    assert_true(fabs(image_exr_wavelengths_nm(img)[0] - 401.25) < 1e-3);
+    const char *info = image_exr_attribute(img, "prismfarm");
+    assert_non_null(info);
+    assert_non_null(strstr(info, "nonfinite=0"));
+    assert_non_null(strstr(info, "dispersion=hero"));
+    const float *rgb = image_exr_rgb(img);
+    double sum = 0;
+    for (int i = 0; i < 24 * 16 * 3; i++) {
+        assert_true(isfinite(rgb[i]));
+        sum += rgb[i];
+    }
+    assert_true(sum > 0.0); /* the scene is lit */
+    image_exr_destroy(&img);
+}
+
+static void test_same_pixels_with_any_thread_count(void **state)
+{
+    (void)state;
+    const char *a = path_in("t1.exr"), *b = path_in("t2.exr");
+    assert_int_equal(run("render", "data/render/tiny.pbrt", "-o", a, "--threads", "1", "--quiet", NULL)->status, 0);
+    assert_int_equal(run("render", "data/render/tiny.pbrt", "-o", b, "--threads", "2", "--quiet",
+                         "--dispersion", "hero", NULL)->status, 0);
+    image_exr_t *x = image_exr_read(a, NULL), *y = image_exr_read(b, NULL);
+    assert_non_null(x);
+    assert_non_null(y);
+    assert_memory_equal(image_exr_spectral(x), image_exr_spectral(y), 24 * 16 * 8 * sizeof(float));
+    assert_memory_equal(image_exr_rgb(x), image_exr_rgb(y), 24 * 16 * 3 * sizeof(float));
+    image_exr_destroy(&x);
+    image_exr_destroy(&y);
+}
+
+static void test_overrides(void **state)
+{
+    (void)state;
+    const char *exr = path_in("small.exr");
+    const run_t *r = run("render", "data/render/tiny.pbrt", "-o", exr, "--res", "8x6", "--spp", "2",
+                         "--dispersion", "fanout", "--integrator", "whitted", NULL);
+    if (r->status != 0)
+        fail_msg("exit %d: %s", r->status, r->err);
+    expect_in(r->err, "8x6, 2 spp, integrator whitted");
+    image_exr_t *img = image_exr_read(exr, NULL);
+    assert_int_equal(image_exr_width(img), 8);
+    assert_non_null(strstr(image_exr_attribute(img, "prismfarm"), "dispersion=fanout"));
+    image_exr_destroy(&img);
+}
+
+static void test_bad_command_lines(void **state)
+{
+    (void)state;
+    const run_t *r = run("render", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "usage");
+    r = run("render", "data/render/tiny.pbrt", "--spp", "zero", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "--spp expects an integer");
+    r = run("render", "data/render/tiny.pbrt", "--res", "10x", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "--res expects WxH");
+    r = run("render", "data/render/tiny.pbrt", "--dispersion", "rainbow", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "--dispersion expects hero or fanout");
+    r = run("render", "data/render/tiny.pbrt", "--frobnicate", "1", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "unknown option '--frobnicate'");
+}
+
+static void test_broken_scene_names_file_and_line(void **state)
+{
+    (void)state;
+    const run_t *r = run("render", "data/render/broken.pbrt", "-o", path_in("broken.exr"), NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "data/render/broken.pbrt:4:");
+    r = run("render", "data/render/missing.pbrt", "-o", path_in("missing.exr"), NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "missing.pbrt");
+    struct stat st;
+    assert_int_not_equal(stat(path_in("broken.exr"), &st), 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_renders_spectral_exr_and_png),
+        cmocka_unit_test(test_same_pixels_with_any_thread_count),
+        cmocka_unit_test(test_overrides),
+        cmocka_unit_test(test_bad_command_lines),
+        cmocka_unit_test(test_broken_scene_names_file_and_line),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
