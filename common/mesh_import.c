@@ -45,8 +45,9 @@ static int fill(const struct aiScene *scene, const char *path, mesh_data_t *out,
         nverts += m->mNumVertices;
         for (unsigned f = 0; f < m->mNumFaces; f++) {
             if (m->mFaces[f].mNumIndices != 3)
-                return err_set(err, "\"%s\": face %u has %u vertices (points and lines are not "
-                                    "surfaces)",
+                return err_set(err,
+                               "\"%s\": face %u has %u vertices (points and lines are not "
+                               "surfaces)",
                                path, f, m->mFaces[f].mNumIndices);
             ntris++;
         }

@@ -3,8 +3,8 @@
 #include "params.h"
 
 #include <math.h>
-#include <stdio.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -26,30 +26,46 @@ static const struct {
     const char *word;
     param_type_t type;
 } TYPE_WORDS[] = {
-    {"integer", PARAM_INTEGER}, {"float", PARAM_FLOAT},       {"point2", PARAM_POINT2},
-    {"vector2", PARAM_VECTOR2}, {"point3", PARAM_POINT3},     {"point", PARAM_POINT3},
-    {"vector3", PARAM_VECTOR3}, {"vector", PARAM_VECTOR3},    {"normal3", PARAM_NORMAL3},
-    {"normal", PARAM_NORMAL3},  {"rgb", PARAM_RGB},           {"color", PARAM_RGB},
-    {"spectrum", PARAM_SPECTRUM}, {"blackbody", PARAM_BLACKBODY}, {"bool", PARAM_BOOL},
-    {"string", PARAM_STRING},   {"texture", PARAM_TEXTURE},
+    {"integer", PARAM_INTEGER},   {"float", PARAM_FLOAT},
+    {"point2", PARAM_POINT2},     {"vector2", PARAM_VECTOR2},
+    {"point3", PARAM_POINT3},     {"point", PARAM_POINT3},
+    {"vector3", PARAM_VECTOR3},   {"vector", PARAM_VECTOR3},
+    {"normal3", PARAM_NORMAL3},   {"normal", PARAM_NORMAL3},
+    {"rgb", PARAM_RGB},           {"color", PARAM_RGB},
+    {"spectrum", PARAM_SPECTRUM}, {"blackbody", PARAM_BLACKBODY},
+    {"bool", PARAM_BOOL},         {"string", PARAM_STRING},
+    {"texture", PARAM_TEXTURE},
 };
 
 const char *param_type_name(param_type_t type)
 {
     switch (type) {
-    case PARAM_INTEGER: return "integer";
-    case PARAM_FLOAT: return "float";
-    case PARAM_POINT2: return "point2";
-    case PARAM_VECTOR2: return "vector2";
-    case PARAM_POINT3: return "point3";
-    case PARAM_VECTOR3: return "vector3";
-    case PARAM_NORMAL3: return "normal3";
-    case PARAM_RGB: return "rgb";
-    case PARAM_SPECTRUM: return "spectrum";
-    case PARAM_BLACKBODY: return "blackbody";
-    case PARAM_BOOL: return "bool";
-    case PARAM_STRING: return "string";
-    case PARAM_TEXTURE: return "texture";
+    case PARAM_INTEGER:
+        return "integer";
+    case PARAM_FLOAT:
+        return "float";
+    case PARAM_POINT2:
+        return "point2";
+    case PARAM_VECTOR2:
+        return "vector2";
+    case PARAM_POINT3:
+        return "point3";
+    case PARAM_VECTOR3:
+        return "vector3";
+    case PARAM_NORMAL3:
+        return "normal3";
+    case PARAM_RGB:
+        return "rgb";
+    case PARAM_SPECTRUM:
+        return "spectrum";
+    case PARAM_BLACKBODY:
+        return "blackbody";
+    case PARAM_BOOL:
+        return "bool";
+    case PARAM_STRING:
+        return "string";
+    case PARAM_TEXTURE:
+        return "texture";
     }
     return "?";
 }
@@ -58,12 +74,15 @@ int param_type_arity(param_type_t type)
 {
     switch (type) {
     case PARAM_POINT2:
-    case PARAM_VECTOR2: return 2;
+    case PARAM_VECTOR2:
+        return 2;
     case PARAM_POINT3:
     case PARAM_VECTOR3:
     case PARAM_NORMAL3:
-    case PARAM_RGB: return 3;
-    default: return 1;
+    case PARAM_RGB:
+        return 3;
+    default:
+        return 1;
     }
 }
 
@@ -108,14 +127,23 @@ void params_destroy(params_t **self_p)
     *self_p = NULL;
 }
 
-size_t params_count(const params_t *self) { return self->count; }
+size_t params_count(const params_t *self)
+{
+    return self->count;
+}
 param_t *params_at(const params_t *self, size_t i)
 {
     return i < self->count ? &self->items[i]->p : NULL;
 }
-const char *params_context(const params_t *self) { return self->context; }
+const char *params_context(const params_t *self)
+{
+    return self->context;
+}
 
-static bool is_blank(char c) { return c == ' ' || c == '\t'; }
+static bool is_blank(char c)
+{
+    return c == ' ' || c == '\t';
+}
 
 param_t *params_declare(params_t *self, const char *decl, pbrt_loc_t loc, err_t *err)
 {
@@ -144,8 +172,8 @@ param_t *params_declare(params_t *self, const char *decl, pbrt_loc_t loc, err_t 
             !strncmp(TYPE_WORDS[i].word, type_start, type_len))
             type = (int)TYPE_WORDS[i].type;
     if (type < 0) {
-        pbrt_error(err, loc, "unknown parameter type \"%.*s\" in \"%s\"", (int)type_len,
-                   type_start, decl);
+        pbrt_error(err, loc, "unknown parameter type \"%.*s\" in \"%s\"", (int)type_len, type_start,
+                   decl);
         return NULL;
     }
     if (name_len == 0) {
@@ -153,15 +181,14 @@ param_t *params_declare(params_t *self, const char *decl, pbrt_loc_t loc, err_t 
         return NULL;
     }
     if (*p) {
-        pbrt_error(err, loc, "parameter declaration \"%s\" has more than a type and a name",
-                   decl);
+        pbrt_error(err, loc, "parameter declaration \"%s\" has more than a type and a name", decl);
         return NULL;
     }
     for (size_t i = 0; i < self->count; i++) {
         const param_t *q = &self->items[i]->p;
         if (strlen(q->name) == name_len && !strncmp(q->name, name_start, name_len)) {
-            pbrt_error(err, loc, "parameter \"%s\" is given twice for %s (first at %d:%d)",
-                       q->name, self->context, q->loc.line, q->loc.col);
+            pbrt_error(err, loc, "parameter \"%s\" is given twice for %s (first at %d:%d)", q->name,
+                       self->context, q->loc.line, q->loc.col);
             return NULL;
         }
     }
@@ -265,8 +292,8 @@ param_t *params_find(params_t *self, const char *name)
 
 int params_wrong_type(const params_t *self, const param_t *p, const char *expected, err_t *err)
 {
-    return pbrt_error(err, p->loc, "\"%s %s\" has the wrong type for %s: expected %s",
-                      p->type_name, p->name, self->context, expected);
+    return pbrt_error(err, p->loc, "\"%s %s\" has the wrong type for %s: expected %s", p->type_name,
+                      p->name, self->context, expected);
 }
 
 static int expect_type(const params_t *self, const param_t *p, param_type_t type, err_t *err)
@@ -282,9 +309,12 @@ static const char *unit_word(const param_t *p, size_t n)
 {
     switch (p->type) {
     case PARAM_STRING:
-    case PARAM_TEXTURE: return n == 1 ? "string" : "strings";
-    case PARAM_BOOL: return n == 1 ? "value" : "values";
-    default: return n == 1 ? "number" : "numbers";
+    case PARAM_TEXTURE:
+        return n == 1 ? "string" : "strings";
+    case PARAM_BOOL:
+        return n == 1 ? "value" : "values";
+    default:
+        return n == 1 ? "number" : "numbers";
     }
 }
 
@@ -292,8 +322,8 @@ static int expect_count(const param_t *p, size_t n, err_t *err)
 {
     if (p->count == n)
         return 0;
-    return pbrt_error(err, p->loc, "expected %zu %s after \"%s %s\", got %zu", n,
-                      unit_word(p, n), p->type_name, p->name, p->count);
+    return pbrt_error(err, p->loc, "expected %zu %s after \"%s %s\", got %zu", n, unit_word(p, n),
+                      p->type_name, p->name, p->count);
 }
 
 int params_get_int(params_t *self, const char *name, int def, int *out, err_t *err)
@@ -362,8 +392,7 @@ int params_get_point3(params_t *self, const char *name, vec3_t def, vec3_t *out,
     return 0;
 }
 
-int params_get_array(params_t *self, const char *name, param_type_t type, param_t **out,
-                     err_t *err)
+int params_get_array(params_t *self, const char *name, param_type_t type, param_t **out, err_t *err)
 {
     *out = NULL;
     param_t *p = params_find(self, name);
@@ -375,8 +404,9 @@ int params_get_array(params_t *self, const char *name, param_type_t type, param_
     if (p->count == 0)
         return pbrt_error(err, p->loc, "no values after \"%s %s\"", p->type_name, p->name);
     if (p->count % arity != 0)
-        return pbrt_error(err, p->loc, "expected a multiple of %zu numbers after \"%s %s\", got %zu",
-                          arity, p->type_name, p->name, p->count);
+        return pbrt_error(err, p->loc,
+                          "expected a multiple of %zu numbers after \"%s %s\", got %zu", arity,
+                          p->type_name, p->name, p->count);
     *out = p;
     return 0;
 }

@@ -91,8 +91,7 @@ int params_get_array(params_t *self, const char *name, param_type_t type, param_
 int params_check_unused(const params_t *self, err_t *err);
 
 /* Fails with `"integer radius" has the wrong type for CONTEXT: expected ...`. */
-int params_wrong_type(const params_t *self, const param_t *p, const char *expected,
-                      err_t *err);
+int params_wrong_type(const params_t *self, const param_t *p, const char *expected, err_t *err);
 
 const char *param_type_name(param_type_t type);
 /* Numbers per item: 1, 2 (point2, vector2) or 3 (point3, vector3, normal3, rgb). */

@@ -101,20 +101,40 @@ static void advance(pbrt_lexer_t *self)
     self->pos++;
 }
 
-static bool is_space(char c) { return c == ' ' || c == '\n' || c == '\t' || c == '\r'; }
+static bool is_space(char c)
+{
+    return c == ' ' || c == '\n' || c == '\t' || c == '\r';
+}
 
 static int decode_escape(char c, char *out)
 {
     switch (c) {
-    case 'b': *out = '\b'; return 0;
-    case 'f': *out = '\f'; return 0;
-    case 'n': *out = '\n'; return 0;
-    case 'r': *out = '\r'; return 0;
-    case 't': *out = '\t'; return 0;
-    case '\\': *out = '\\'; return 0;
-    case '\'': *out = '\''; return 0;
-    case '"': *out = '"'; return 0;
-    default: return -1;
+    case 'b':
+        *out = '\b';
+        return 0;
+    case 'f':
+        *out = '\f';
+        return 0;
+    case 'n':
+        *out = '\n';
+        return 0;
+    case 'r':
+        *out = '\r';
+        return 0;
+    case 't':
+        *out = '\t';
+        return 0;
+    case '\\':
+        *out = '\\';
+        return 0;
+    case '\'':
+        *out = '\'';
+        return 0;
+    case '"':
+        *out = '"';
+        return 0;
+    default:
+        return -1;
     }
 }
 
@@ -162,12 +182,14 @@ static int lex(pbrt_lexer_t *self, pbrt_token_t *tok, int slot, err_t *err)
         size_t n = 0;
         for (;;) {
             if (self->pos >= self->len)
-                return pbrt_error(err, loc, "unterminated string (end of file before the "
-                                            "closing quote)");
+                return pbrt_error(err, loc,
+                                  "unterminated string (end of file before the "
+                                  "closing quote)");
             char ch = self->text[self->pos];
             if (ch == '\n' || ch == '\r')
-                return pbrt_error(err, loc, "unterminated string (end of line before the "
-                                            "closing quote)");
+                return pbrt_error(err, loc,
+                                  "unterminated string (end of line before the "
+                                  "closing quote)");
             if (ch == '\0')
                 return pbrt_error(err, (pbrt_loc_t){self->file, self->line, self->col},
                                   "NUL byte in a string");

@@ -51,7 +51,7 @@ typedef struct parser {
     pbrt_loc_t world_loc;
     coordsys_t *cs;
     size_t ncs, cap_cs;
-    int object; /* the object being defined, or -1 */
+    int object;           /* the object being defined, or -1 */
     const char **pending; /* object name of each instance, resolved at the end */
     size_t cap_pending;
     char *open_files[PBRT_INCLUDE_DEPTH_MAX]; /* realpaths of the files being read */
@@ -74,8 +74,8 @@ static const char *INTEGRATORS[] = {"simplepath", "path", "whitted", "photon", "
 
 /* pbrt-v4 directives that prismfarm knows but does not support. */
 static const char *UNSUPPORTED_DIRECTIVES[] = {
-    "Accelerator", "ActiveTransform", "Attribute",   "ColorSpace", "MakeNamedMedium",
-    "MediumInterface", "Option",      "PixelFilter", "TransformTimes", "WorldEnd"};
+    "Accelerator",     "ActiveTransform", "Attribute",   "ColorSpace",     "MakeNamedMedium",
+    "MediumInterface", "Option",          "PixelFilter", "TransformTimes", "WorldEnd"};
 
 #define COUNT_OF(a) (sizeof(a) / sizeof((a)[0]))
 
@@ -91,11 +91,21 @@ static bool in_list(const char *s, const char **list, size_t n)
 static void describe(const pbrt_token_t *t, char *buf, size_t n)
 {
     switch (t->kind) {
-    case PBRT_TOKEN_EOF: snprintf(buf, n, "the end of the file"); break;
-    case PBRT_TOKEN_LBRACKET: snprintf(buf, n, "["); break;
-    case PBRT_TOKEN_RBRACKET: snprintf(buf, n, "]"); break;
-    case PBRT_TOKEN_STRING: snprintf(buf, n, "\"%.60s%s\"", t->text, t->len > 60 ? "..." : ""); break;
-    case PBRT_TOKEN_WORD: snprintf(buf, n, "%.60s%s", t->text, t->len > 60 ? "..." : ""); break;
+    case PBRT_TOKEN_EOF:
+        snprintf(buf, n, "the end of the file");
+        break;
+    case PBRT_TOKEN_LBRACKET:
+        snprintf(buf, n, "[");
+        break;
+    case PBRT_TOKEN_RBRACKET:
+        snprintf(buf, n, "]");
+        break;
+    case PBRT_TOKEN_STRING:
+        snprintf(buf, n, "\"%.60s%s\"", t->text, t->len > 60 ? "..." : "");
+        break;
+    case PBRT_TOKEN_WORD:
+        snprintf(buf, n, "%.60s%s", t->text, t->len > 60 ? "..." : "");
+        break;
     }
 }
 
@@ -116,8 +126,8 @@ static int read_string(parser_t *P, const char *directive, pbrt_loc_t dloc, cons
                           "%s expects a quoted %s, got %s", directive, what, d);
     }
     if (t.len >= sizeof out->s)
-        return pbrt_error(P->err, t.loc, "%s: the %s is longer than %d characters", directive,
-                          what, NAME_MAX_LEN - 1);
+        return pbrt_error(P->err, t.loc, "%s: the %s is longer than %d characters", directive, what,
+                          NAME_MAX_LEN - 1);
     if (strlen(t.text) != t.len)
         return pbrt_error(P->err, t.loc, "%s: the %s contains a NUL byte", directive, what);
     memcpy(out->s, t.text, t.len + 1);
@@ -185,8 +195,8 @@ static int add_value(parser_t *P, params_t *ps, param_t *p, const pbrt_token_t *
 {
     char d[96];
     describe(t, d, sizeof d);
-    bool is_bool_word = t->kind == PBRT_TOKEN_WORD && (!strcmp(t->text, "true") ||
-                                                        !strcmp(t->text, "false"));
+    bool is_bool_word =
+        t->kind == PBRT_TOKEN_WORD && (!strcmp(t->text, "true") || !strcmp(t->text, "false"));
     switch (p->type) {
     case PARAM_STRING:
     case PARAM_TEXTURE:
@@ -212,7 +222,8 @@ static int add_value(parser_t *P, params_t *ps, param_t *p, const pbrt_token_t *
             return params_push_string(ps, p, t->text, P->err);
         }
         break;
-    default: break;
+    default:
+        break;
     }
     if (t->kind != PBRT_TOKEN_WORD || is_bool_word)
         return pbrt_error(P->err, t->loc, "\"%s %s\" needs numbers, got %s", p->type_name, p->name,
@@ -319,19 +330,25 @@ static int need_options(parser_t *P, const char *directive, pbrt_loc_t loc)
 static int check_transform(parser_t *P, const transform_t *t, const char *user, pbrt_loc_t loc)
 {
     if (!transform_is_finite(t))
-        return pbrt_error(P->err, loc, "the current transform has non-finite entries, so %s "
-                                       "cannot use it", user);
+        return pbrt_error(P->err, loc,
+                          "the current transform has non-finite entries, so %s "
+                          "cannot use it",
+                          user);
     if (!transform_is_affine(t))
-        return pbrt_error(P->err, loc, "the current transform is projective (its last row is not "
-                                       "0 0 0 1), so %s cannot use it", user);
+        return pbrt_error(P->err, loc,
+                          "the current transform is projective (its last row is not "
+                          "0 0 0 1), so %s cannot use it",
+                          user);
     if (t->singular)
         return pbrt_error(P->err, loc, "the current transform is singular, so %s cannot use it",
                           user);
     for (int i = 0; i < 4; i++)
         for (int j = 0; j < 4; j++)
             if (!isfinite(t->m_inv[i][j]))
-                return pbrt_error(P->err, loc, "the current transform is singular, so %s "
-                                               "cannot use it", user);
+                return pbrt_error(P->err, loc,
+                                  "the current transform is singular, so %s "
+                                  "cannot use it",
+                                  user);
     return 0;
 }
 
@@ -444,8 +461,9 @@ static int spectrum_from_param(parser_t *P, params_t *ps, const param_t *p, int 
                 return pbrt_error(P->err, p->loc, "\"%s %s\" has a negative component",
                                   p->type_name, p->name);
             if (use == SPECTRUM_ALBEDO && p->numbers[i] > 1.0)
-                return pbrt_error(P->err, p->loc, "\"%s %s\" has a component above 1 (a "
-                                                  "reflectance is at most 1)",
+                return pbrt_error(P->err, p->loc,
+                                  "\"%s %s\" has a component above 1 (a "
+                                  "reflectance is at most 1)",
                                   p->type_name, p->name);
             out->rgb[i] = p->numbers[i];
         }
@@ -453,8 +471,9 @@ static int spectrum_from_param(parser_t *P, params_t *ps, const param_t *p, int 
         return 0;
     case PARAM_BLACKBODY:
         if (p->count != 1)
-            return pbrt_error(P->err, p->loc, "expected 1 number after \"%s %s\", got %zu "
-                                              "(pbrt-v4 takes only the temperature)",
+            return pbrt_error(P->err, p->loc,
+                              "expected 1 number after \"%s %s\", got %zu "
+                              "(pbrt-v4 takes only the temperature)",
                               p->type_name, p->name, p->count);
         if (!(p->numbers[0] > 0.0))
             return pbrt_error(P->err, p->loc, "\"%s %s\" needs a temperature above 0 K, got %g",
@@ -469,13 +488,14 @@ static int spectrum_from_param(parser_t *P, params_t *ps, const param_t *p, int 
                                   p->type_name, p->name, p->count);
             const char *name = p->strings[0];
             if (strchr(name, '.') || strchr(name, '/'))
-                return pbrt_error(P->err, p->loc, "unsupported parameter value: spectrum files "
-                                                  "(\"%s\") are not supported; give (wavelength, "
-                                                  "value) pairs or a named spectrum",
+                return pbrt_error(P->err, p->loc,
+                                  "unsupported parameter value: spectrum files "
+                                  "(\"%s\") are not supported; give (wavelength, "
+                                  "value) pairs or a named spectrum",
                                   name);
             if (!*name)
-                return pbrt_error(P->err, p->loc, "empty spectrum name in \"%s %s\"",
-                                  p->type_name, p->name);
+                return pbrt_error(P->err, p->loc, "empty spectrum name in \"%s %s\"", p->type_name,
+                                  p->name);
             out->kind = SCENE_SPECTRUM_NAMED;
             out->name = scene_desc_strdup(P->scene, name, P->err);
             return out->name ? 0 : -1;
@@ -483,23 +503,27 @@ static int spectrum_from_param(parser_t *P, params_t *ps, const param_t *p, int 
         if (p->count == 0)
             return pbrt_error(P->err, p->loc, "no values after \"%s %s\"", p->type_name, p->name);
         if (p->count % 2 != 0)
-            return pbrt_error(P->err, p->loc, "\"%s %s\" needs (wavelength, value) pairs, got %zu "
-                                              "numbers",
+            return pbrt_error(P->err, p->loc,
+                              "\"%s %s\" needs (wavelength, value) pairs, got %zu "
+                              "numbers",
                               p->type_name, p->name, p->count);
         size_t n = p->count / 2;
         for (size_t i = 0; i < n; i++) {
             double l = p->numbers[2 * i], v = p->numbers[2 * i + 1];
             if (!(l > 0.0))
-                return pbrt_error(P->err, p->loc, "\"%s %s\": wavelength %g in pair %zu is not "
-                                                  "positive",
+                return pbrt_error(P->err, p->loc,
+                                  "\"%s %s\": wavelength %g in pair %zu is not "
+                                  "positive",
                                   p->type_name, p->name, l, i + 1);
             if (i > 0 && !(l > p->numbers[2 * i - 2]))
-                return pbrt_error(P->err, p->loc, "\"%s %s\": wavelengths must increase, but pair "
-                                                  "%zu has %g nm after %g nm",
+                return pbrt_error(P->err, p->loc,
+                                  "\"%s %s\": wavelengths must increase, but pair "
+                                  "%zu has %g nm after %g nm",
                                   p->type_name, p->name, i + 1, l, p->numbers[2 * i - 2]);
             if (use == SPECTRUM_ALBEDO && (v < 0.0 || v > 1.0))
-                return pbrt_error(P->err, p->loc, "\"%s %s\": value %g in pair %zu is outside "
-                                                  "[0, 1] (a reflectance)",
+                return pbrt_error(P->err, p->loc,
+                                  "\"%s %s\": value %g in pair %zu is outside "
+                                  "[0, 1] (a reflectance)",
                                   p->type_name, p->name, v, i + 1);
         }
         double *lv = scene_desc_alloc(P->scene, 2 * n * sizeof *lv, P->err);
@@ -514,7 +538,8 @@ static int spectrum_from_param(parser_t *P, params_t *ps, const param_t *p, int 
         out->lambda = lv;
         out->value = lv + n;
         return 0;
-    default: break;
+    default:
+        break;
     }
     char expected[256];
     snprintf(expected, sizeof expected,
@@ -523,8 +548,8 @@ static int spectrum_from_param(parser_t *P, params_t *ps, const param_t *p, int 
     return params_wrong_type(ps, p, expected, P->err);
 }
 
-static int get_spectrum(parser_t *P, params_t *ps, const char *name, scene_spectrum_t def,
-                        int use, scene_spectrum_t *out)
+static int get_spectrum(parser_t *P, params_t *ps, const char *name, scene_spectrum_t def, int use,
+                        scene_spectrum_t *out)
 {
     param_t *p = params_find(ps, name);
     if (!p) {
@@ -551,11 +576,13 @@ static int texture_ref(parser_t *P, params_t *ps, const param_t *p, scene_textur
     if (scene_desc_find_texture(P->scene, p->strings[0],
                                 type == SCENE_TEXTURE_FLOAT ? SCENE_TEXTURE_SPECTRUM
                                                             : SCENE_TEXTURE_FLOAT) >= 0)
-        return pbrt_error(P->err, p->loc, "texture \"%s\" is a %s texture, but \"%s\" needs a %s "
-                                          "texture",
+        return pbrt_error(P->err, p->loc,
+                          "texture \"%s\" is a %s texture, but \"%s\" needs a %s "
+                          "texture",
                           p->strings[0], other, p->name, want);
-    return pbrt_error(P->err, p->loc, "%s texture \"%s\" is not defined (a Texture must come "
-                                      "before its use)",
+    return pbrt_error(P->err, p->loc,
+                      "%s texture \"%s\" is not defined (a Texture must come "
+                      "before its use)",
                       want, p->strings[0]);
 }
 
@@ -604,15 +631,14 @@ static int check_positive(parser_t *P, params_t *ps, const char *name, double v)
                       v);
 }
 
-static int check_range(parser_t *P, params_t *ps, const char *name, double v, double lo,
-                       double hi)
+static int check_range(parser_t *P, params_t *ps, const char *name, double v, double lo, double hi)
 {
     if (v >= lo && v <= hi)
         return 0;
     param_t *p = params_find(ps, name);
     return pbrt_error(P->err, p ? p->loc : (pbrt_loc_t){P->file, 0, 0},
-                      "\"%s %s\" must be within [%g, %g], got %g", p ? p->type_name : "float",
-                      name, lo, hi, v);
+                      "\"%s %s\" must be within [%g, %g], got %g", p ? p->type_name : "float", name,
+                      lo, hi, v);
 }
 
 /* ------------------------------------------------------------------------------------------
@@ -635,8 +661,9 @@ static int do_camera(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_
         return -1;
     if (!(c->fov > 0.0 && c->fov < 180.0)) {
         param_t *p = params_find(ps, "fov");
-        return pbrt_error(P->err, p->loc, "\"float fov\" must be between 0 and 180 degrees, "
-                                          "got %g",
+        return pbrt_error(P->err, p->loc,
+                          "\"float fov\" must be between 0 and 180 degrees, "
+                          "got %g",
                           c->fov);
     }
     if (check_range(P, ps, "lensradius", c->lensradius, 0.0, INFINITY) != 0 ||
@@ -754,8 +781,9 @@ static int get_ior(parser_t *P, params_t *ps, scene_material_t *m)
         if (!p)
             continue;
         if (given)
-            return pbrt_error(P->err, p->loc, "give only one of \"eta\", \"glass\", \"sellmeier\" "
-                                              "and \"cauchy\" for %s (\"%s\" is already given)",
+            return pbrt_error(P->err, p->loc,
+                              "give only one of \"eta\", \"glass\", \"sellmeier\" "
+                              "and \"cauchy\" for %s (\"%s\" is already given)",
                               params_context(ps), given->name);
         given = p;
     }
@@ -768,8 +796,9 @@ static int get_ior(parser_t *P, params_t *ps, scene_material_t *m)
     }
     if (!strcmp(given->name, "eta")) {
         if (given->type == PARAM_TEXTURE)
-            return pbrt_error(P->err, given->loc, "unsupported parameter \"texture eta\": the "
-                                                  "index of refraction cannot be a texture");
+            return pbrt_error(P->err, given->loc,
+                              "unsupported parameter \"texture eta\": the "
+                              "index of refraction cannot be a texture");
         if (given->type != PARAM_FLOAT && given->type != PARAM_SPECTRUM)
             return params_wrong_type(ps, given, "\"float eta\" or \"spectrum eta\"", P->err);
         ior->kind = SCENE_IOR_SPECTRUM;
@@ -781,8 +810,9 @@ static int get_ior(parser_t *P, params_t *ps, scene_material_t *m)
         if (ior->spectrum.kind == SCENE_SPECTRUM_SAMPLED)
             for (size_t i = 0; i < ior->spectrum.count; i++)
                 if (!(ior->spectrum.value[i] > 0.0))
-                    return pbrt_error(P->err, given->loc, "\"spectrum eta\": index %g in pair %zu "
-                                                          "is not positive",
+                    return pbrt_error(P->err, given->loc,
+                                      "\"spectrum eta\": index %g in pair %zu "
+                                      "is not positive",
                                       ior->spectrum.value[i], i + 1);
         return 0;
     }
@@ -804,8 +834,9 @@ static int get_ior(parser_t *P, params_t *ps, scene_material_t *m)
     if (!strcmp(given->name, "sellmeier")) {
         /* n^2 = 1 + sum B_i l^2 / (l^2 - C_i), l in um (PHYSICS.md). */
         if (given->count < 2 || given->count % 2 != 0)
-            return pbrt_error(P->err, given->loc, "\"float sellmeier\" needs (B, C) pairs, got "
-                                                  "%zu numbers",
+            return pbrt_error(P->err, given->loc,
+                              "\"float sellmeier\" needs (B, C) pairs, got "
+                              "%zu numbers",
                               given->count);
         double *c = scene_desc_alloc(P->scene, given->count * sizeof *c, P->err);
         if (!c)
@@ -818,8 +849,9 @@ static int get_ior(parser_t *P, params_t *ps, scene_material_t *m)
     }
     /* cauchy: n = A + B / l^2, l in um */
     if (given->count != 2)
-        return pbrt_error(P->err, given->loc, "expected 2 numbers after \"float cauchy\" (A B), "
-                                              "got %zu",
+        return pbrt_error(P->err, given->loc,
+                          "expected 2 numbers after \"float cauchy\" (A B), "
+                          "got %zu",
                           given->count);
     if (!(given->numbers[0] > 0.0))
         return pbrt_error(P->err, given->loc, "\"float cauchy\": A must be greater than 0, got %g",
@@ -842,8 +874,9 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
         m->type = SCENE_MATERIAL_CONDUCTOR;
         param_t *r = params_find(ps, "reflectance");
         if (r && (params_find(ps, "eta") || params_find(ps, "k")))
-            return pbrt_error(P->err, r->loc, "conductor: give either \"reflectance\" or "
-                                              "\"eta\" and \"k\", not both");
+            return pbrt_error(P->err, r->loc,
+                              "conductor: give either \"reflectance\" or "
+                              "\"eta\" and \"k\", not both");
         m->use_reflectance = r != NULL;
         if (get_spectrum_input(P, ps, "reflectance", spectrum_constant(1.0, m->loc),
                                SPECTRUM_ALBEDO, &m->reflectance) != 0 ||
@@ -864,8 +897,9 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
         m->type = SCENE_MATERIAL_INTERFACE;
         return 0;
     }
-    return pbrt_error(P->err, type_loc, "unsupported material \"%s\" (\"diffuse\", \"conductor\", "
-                                        "\"dielectric\" or \"interface\")",
+    return pbrt_error(P->err, type_loc,
+                      "unsupported material \"%s\" (\"diffuse\", \"conductor\", "
+                      "\"dielectric\" or \"interface\")",
                       type);
 }
 
@@ -918,8 +952,9 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
     else if (!strcmp(type->s, "spectrum"))
         tt = SCENE_TEXTURE_SPECTRUM;
     else
-        return pbrt_error(P->err, type->loc, "texture type must be \"float\" or \"spectrum\", "
-                                             "got \"%s\"",
+        return pbrt_error(P->err, type->loc,
+                          "texture type must be \"float\" or \"spectrum\", "
+                          "got \"%s\"",
                           type->s);
     int prev = scene_desc_find_texture(P->scene, name->s, tt);
     if (prev >= 0)
@@ -938,8 +973,9 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
         if (!strcmp(cls->s, CLASSES[i].name))
             cls_idx = (int)i;
     if (cls_idx < 0)
-        return pbrt_error(P->err, cls->loc, "unsupported texture \"%s\" (\"constant\", "
-                                            "\"checkerboard\", \"imagemap\", \"scale\" or \"mix\")",
+        return pbrt_error(P->err, cls->loc,
+                          "unsupported texture \"%s\" (\"constant\", "
+                          "\"checkerboard\", \"imagemap\", \"scale\" or \"mix\")",
                           cls->s);
     if (check_transform(P, &P->gs.ctm, "Texture", loc) != 0)
         return -1;
@@ -996,7 +1032,8 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
                        get_float_input(P, ps, "amount", 0.5, &t->amount) != 0
                    ? -1
                    : 0;
-    case SCENE_TEX_IMAGEMAP: break;
+    case SCENE_TEX_IMAGEMAP:
+        break;
     }
     const char *filename, *wrap, *filter, *encoding;
     if (params_get_string(ps, "filename", NULL, &filename, P->err) != 0 ||
@@ -1010,14 +1047,16 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
         return pbrt_error(P->err, loc, "Texture \"imagemap\" needs \"string filename\"");
     param_t *fp = params_find(ps, "filename");
     if (!ends_with_png(filename))
-        return pbrt_error(P->err, fp->loc, "unsupported image \"%s\": image textures must be PNG "
-                                           "files",
+        return pbrt_error(P->err, fp->loc,
+                          "unsupported image \"%s\": image textures must be PNG "
+                          "files",
                           filename);
     static const char *WRAPS[] = {"repeat", "black", "clamp"};
     static const char *FILTERS[] = {"point", "bilinear", "trilinear", "ewa"};
     if (!in_list(wrap, WRAPS, COUNT_OF(WRAPS)))
         return pbrt_error(P->err, params_find(ps, "wrap")->loc,
-                          "unsupported wrap mode \"%s\" (\"repeat\", \"black\" or \"clamp\")", wrap);
+                          "unsupported wrap mode \"%s\" (\"repeat\", \"black\" or \"clamp\")",
+                          wrap);
     if (!in_list(filter, FILTERS, COUNT_OF(FILTERS)))
         return pbrt_error(P->err, params_find(ps, "filter")->loc,
                           "unknown filter \"%s\" (\"point\", \"bilinear\", \"trilinear\" or "
@@ -1056,8 +1095,9 @@ static int do_area_light(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_
     else if (!strcmp(type->s, "collimated"))
         at = SCENE_AREA_COLLIMATED;
     else
-        return pbrt_error(P->err, type->loc, "unsupported area light \"%s\" (\"diffuse\" or "
-                                             "\"collimated\")",
+        return pbrt_error(P->err, type->loc,
+                          "unsupported area light \"%s\" (\"diffuse\" or "
+                          "\"collimated\")",
                           type->s);
     int idx = scene_desc_add_area_light(P->scene, P->err);
     if (idx < 0)
@@ -1091,8 +1131,9 @@ static int do_light(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
         if (!strcmp(type->s, TYPES[i].name))
             ti = (int)i;
     if (ti < 0)
-        return pbrt_error(P->err, type->loc, "unsupported light \"%s\" (\"point\", \"spot\", "
-                                             "\"distant\" or \"infinite\")",
+        return pbrt_error(P->err, type->loc,
+                          "unsupported light \"%s\" (\"point\", \"spot\", "
+                          "\"distant\" or \"infinite\")",
                           type->s);
     if (check_transform(P, &P->gs.ctm, "LightSource", loc) != 0)
         return -1;
@@ -1163,19 +1204,22 @@ static int mesh_from_params(parser_t *P, params_t *ps, scene_shape_t *s, bool bi
     if (!pi) {
         /* pbrt-v4 allows omitting indices for a single triangle or patch. */
         if (nv != per)
-            return pbrt_error(P->err, loc, "Shape \"%s\" without \"integer indices\" needs exactly "
-                                           "%zu points in \"point3 P\", got %zu",
+            return pbrt_error(P->err, loc,
+                              "Shape \"%s\" without \"integer indices\" needs exactly "
+                              "%zu points in \"point3 P\", got %zu",
                               s->kind, per, nv);
         nprims = 1;
     } else {
         if (pi->count % per != 0)
-            return pbrt_error(P->err, pi->loc, "expected a multiple of %zu numbers after \"%s "
-                                               "%s\", got %zu",
+            return pbrt_error(P->err, pi->loc,
+                              "expected a multiple of %zu numbers after \"%s "
+                              "%s\", got %zu",
                               per, pi->type_name, pi->name, pi->count);
         for (size_t i = 0; i < pi->count; i++)
             if (pi->numbers[i] < 0 || pi->numbers[i] >= (double)nv)
-                return pbrt_error(P->err, pi->loc, "index %.0f (entry %zu of \"integer indices\") "
-                                                   "is out of range: \"point3 P\" has %zu points",
+                return pbrt_error(P->err, pi->loc,
+                                  "index %.0f (entry %zu of \"integer indices\") "
+                                  "is out of range: \"point3 P\" has %zu points",
                                   pi->numbers[i], i + 1, nv);
         nprims = pi->count / per;
     }
@@ -1183,12 +1227,14 @@ static int mesh_from_params(parser_t *P, params_t *ps, scene_shape_t *s, bool bi
         params_get_array(ps, "uv", PARAM_POINT2, &puv, P->err) != 0)
         return -1;
     if (pn && pn->count / 3 != nv)
-        return pbrt_error(P->err, pn->loc, "\"%s N\" has %zu normals but \"point3 P\" has %zu "
-                                           "points",
+        return pbrt_error(P->err, pn->loc,
+                          "\"%s N\" has %zu normals but \"point3 P\" has %zu "
+                          "points",
                           pn->type_name, pn->count / 3, nv);
     if (puv && puv->count / 2 != nv)
-        return pbrt_error(P->err, puv->loc, "\"%s uv\" has %zu entries but \"point3 P\" has %zu "
-                                            "points",
+        return pbrt_error(P->err, puv->loc,
+                          "\"%s uv\" has %zu entries but \"point3 P\" has %zu "
+                          "points",
                           puv->type_name, puv->count / 2, nv);
     scene_mesh_t *m = &s->mesh;
     m->nvertices = nv;
@@ -1264,15 +1310,17 @@ static int do_shape(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
         if (!strcmp(type->s, KINDS[i].name))
             ki = (int)i;
     if (ki < 0)
-        return pbrt_error(P->err, type->loc, "unsupported shape \"%s\" (\"sphere\", \"disk\", "
-                                             "\"trianglemesh\", \"plymesh\" or \"bilinearmesh\")",
+        return pbrt_error(P->err, type->loc,
+                          "unsupported shape \"%s\" (\"sphere\", \"disk\", "
+                          "\"trianglemesh\", \"plymesh\" or \"bilinearmesh\")",
                           type->s);
     if (check_transform(P, &P->gs.ctm, "Shape", loc) != 0)
         return -1;
     bool in_object = P->object >= 0;
     if (in_object && P->gs.area_light >= 0)
-        return pbrt_error(P->err, loc, "area lights are not supported inside ObjectBegin "
-                                       "(AreaLightSource at line %d)",
+        return pbrt_error(P->err, loc,
+                          "area lights are not supported inside ObjectBegin "
+                          "(AreaLightSource at line %d)",
                           P->scene->area_lights[P->gs.area_light].loc.line);
     int idx = scene_desc_add_shape(P->scene, in_object, P->err);
     if (idx < 0)
@@ -1345,8 +1393,9 @@ static int param_directive(parser_t *P, const char *dir, pbrt_loc_t loc)
         if (need_options(P, dir, loc) != 0)
             goto done;
         if (!in_list(type.s, INTEGRATORS, COUNT_OF(INTEGRATORS))) {
-            pbrt_error(P->err, type.loc, "unsupported integrator \"%s\" (\"simplepath\", \"path\", "
-                                         "\"whitted\", \"photon\" or \"auto\")",
+            pbrt_error(P->err, type.loc,
+                       "unsupported integrator \"%s\" (\"simplepath\", \"path\", "
+                       "\"whitted\", \"photon\" or \"auto\")",
                        type.s);
             goto done;
         }
@@ -1442,8 +1491,7 @@ static int do_object_begin(parser_t *P, pbrt_loc_t loc)
         return -1;
     if (P->object >= 0)
         return pbrt_error(P->err, loc, "ObjectBegin inside ObjectBegin \"%s\" (line %d)",
-                          P->scene->objects[P->object].name,
-                          P->scene->objects[P->object].loc.line);
+                          P->scene->objects[P->object].name, P->scene->objects[P->object].loc.line);
     int prev = scene_desc_find_object(P->scene, name.s);
     if (prev >= 0)
         return pbrt_error(P->err, name.loc, "object \"%s\" is already defined (line %d)", name.s,
@@ -1537,8 +1585,9 @@ static int do_include(parser_t *P, bool import, pbrt_loc_t loc)
         return rc;
     frame_t *top = &P->frames[P->nframes - 1];
     if (top->kind != FRAME_IMPORT)
-        return pbrt_error(P->err, top->loc, "%s has no matching end before the end of imported "
-                                            "file \"%s\"",
+        return pbrt_error(P->err, top->loc,
+                          "%s has no matching end before the end of imported "
+                          "file \"%s\"",
                           top->what, inner_file);
     P->gs = top->gs;
     P->nframes--;
@@ -1584,9 +1633,10 @@ static int do_transform_directive(parser_t *P, const char *dir, pbrt_loc_t loc)
 
 static int directive(parser_t *P, const char *dir, pbrt_loc_t loc)
 {
-    static const char *PARAM_DIRECTIVES[] = {"Camera", "Film",     "Sampler",
-                                             "Integrator", "Shape", "Material",
-                                             "MakeNamedMaterial", "AreaLightSource", "LightSource"};
+    static const char *PARAM_DIRECTIVES[] = {
+        "Camera",     "Film",     "Sampler",           "Integrator",
+        "Shape",      "Material", "MakeNamedMaterial", "AreaLightSource",
+        "LightSource"};
     static const char *TRANSFORMS[] = {"Translate", "Scale",     "Rotate",
                                        "LookAt",    "Transform", "ConcatTransform"};
     if (in_list(dir, PARAM_DIRECTIVES, COUNT_OF(PARAM_DIRECTIVES)))
@@ -1650,8 +1700,9 @@ static int directive(parser_t *P, const char *dir, pbrt_loc_t loc)
             return -1;
         int m = scene_desc_find_material(P->scene, name.s);
         if (m < 0)
-            return pbrt_error(P->err, name.loc, "named material \"%s\" is not defined "
-                                                "(MakeNamedMaterial must come before its use)",
+            return pbrt_error(P->err, name.loc,
+                              "named material \"%s\" is not defined "
+                              "(MakeNamedMaterial must come before its use)",
                               name.s);
         P->gs.material = m;
         return 0;
@@ -1803,10 +1854,20 @@ static scene_desc_t *run(const char *name, const char *text, size_t len, err_t *
     P.gs.ctm = transform_identity();
     P.gs.material = 0;
     P.gs.area_light = -1;
+    /* Defaults that no directive set point at line 0 of the main file. */
+    const char *main_name = scene_desc_strdup(P.scene, name, err);
+    if (!main_name) {
+        scene_desc_destroy(&P.scene);
+        return NULL;
+    }
+    pbrt_loc_t none = {main_name, 0, 0};
+    P.scene->camera.loc = P.scene->film.loc = P.scene->sampler.loc = none;
+    P.scene->integrator.loc = none;
+    P.scene->materials[0].loc = P.scene->materials[0].reflectance.spectrum.loc = none;
     int rc = text ? parse_buffer(&P, name, text, len) : parse_file(&P, name, NULL);
     if (rc == 0) {
-        P.file = scene_desc_strdup(P.scene, name, err);
-        rc = P.file ? finish(&P) : -1;
+        P.file = main_name;
+        rc = finish(&P);
     }
     for (size_t i = 0; i < P.ncs; i++)
         free(P.cs[i].name);
@@ -1820,7 +1881,10 @@ static scene_desc_t *run(const char *name, const char *text, size_t len, err_t *
     return P.scene;
 }
 
-scene_desc_t *pbrt_parse_file(const char *path, err_t *err) { return run(path, NULL, 0, err); }
+scene_desc_t *pbrt_parse_file(const char *path, err_t *err)
+{
+    return run(path, NULL, 0, err);
+}
 
 scene_desc_t *pbrt_parse_string(const char *text, size_t len, const char *name, err_t *err)
 {

@@ -1,7 +1,26 @@
-/* pbrt_parser: reads a scene in pbrt-v4's file format (the subset in docs/scene-format.md,
- * with prismfarm's extensions) into a scene_desc, with pbrt-v4's meaning for every directive.
- * Anything outside the subset, any parameter a directive does not use, and any malformed
- * input fails with one message "file:line:col: what is wrong"; the parser never crashes. */
+/* pbrt_parser: reads a scene in pbrt-v4's file format into a scene_desc, with pbrt-v4's
+ * meaning for every directive it accepts. Anything outside the subset, any parameter a
+ * directive does not use, and any malformed input fails with one message
+ * "file:line:col: what is wrong"; the parser never crashes (fuzzed under ASan).
+ *
+ * The subset (user documentation: docs/scene-format.md):
+ *   transforms  LookAt Translate Scale Rotate Transform ConcatTransform Identity
+ *               CoordinateSystem CoordSysTransform ReverseOrientation
+ *   structure   WorldBegin AttributeBegin/End (TransformBegin/End as pbrt-v4 reads them)
+ *               Include Import ObjectBegin/End ObjectInstance
+ *   options     Camera "perspective", Film "rgb"|"spectral", Sampler (any pbrt-v4 name),
+ *               Integrator "simplepath"|"path"|"whitted"|"photon"|"auto" (raw parameters)
+ *   world       Shape sphere|disk|trianglemesh|plymesh|bilinearmesh; Material and
+ *               MakeNamedMaterial diffuse|conductor|dielectric|interface; NamedMaterial;
+ *               Texture constant|checkerboard|imagemap (PNG)|scale|mix ("uv" mapping);
+ *               AreaLightSource diffuse|collimated; LightSource point|spot|distant|infinite
+ *   extensions  dielectric "string glass", "float sellmeier" [B1 C1 ...], "float cauchy" [A B];
+ *               AreaLightSource "collimated"; rgb film "nbuckets"/"lambdamin"/"lambdamax"
+ * Deliberate differences from pbrt-v4, all stricter: named materials, textures and
+ * coordinate systems must be defined before use (objects may still be instanced before their
+ * definition, as in pbrt-v4); a parameter given twice is an error; spectrum files (.spd) and
+ * "power" on lights are not supported; file names resolve against the folder of the file that
+ * names them (pbrt-v4 uses the main file's folder). */
 #ifndef PRISMFARM_PBRT_PARSER_H
 #define PRISMFARM_PBRT_PARSER_H
 

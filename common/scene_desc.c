@@ -19,7 +19,7 @@ static int grow(void **array, size_t *count, size_t *cap, size_t elem, err_t *er
     return (int)(*count)++;
 }
 
-#define ADD(self, field, cap_field, err)                                                         \
+#define ADD(self, field, cap_field, err)                                                           \
     grow((void **)&(self)->field, &(self)->n##field, &(self)->cap_field, sizeof *(self)->field, err)
 
 int scene_desc_add_material(scene_desc_t *self, err_t *err)
@@ -30,7 +30,10 @@ int scene_desc_add_texture(scene_desc_t *self, err_t *err)
 {
     return ADD(self, textures, cap_textures, err);
 }
-int scene_desc_add_light(scene_desc_t *self, err_t *err) { return ADD(self, lights, cap_lights, err); }
+int scene_desc_add_light(scene_desc_t *self, err_t *err)
+{
+    return ADD(self, lights, cap_lights, err);
+}
 int scene_desc_add_area_light(scene_desc_t *self, err_t *err)
 {
     return ADD(self, area_lights, cap_area_lights, err);

@@ -70,7 +70,10 @@ typedef struct scene_spectrum_input {
 
 /* ---- textures ---- */
 
-typedef enum scene_texture_type { SCENE_TEXTURE_FLOAT, SCENE_TEXTURE_SPECTRUM } scene_texture_type_t;
+typedef enum scene_texture_type {
+    SCENE_TEXTURE_FLOAT,
+    SCENE_TEXTURE_SPECTRUM
+} scene_texture_type_t;
 
 typedef enum scene_texture_class {
     SCENE_TEX_CONSTANT,     /* "value"                  -> in1 */
@@ -156,10 +159,10 @@ typedef enum scene_light_type {
 typedef struct scene_light {
     scene_light_type_t type;
     pbrt_loc_t loc;
-    transform_t to_world;      /* the CTM at the LightSource directive */
-    scene_spectrum_t spectrum; /* I or L; default the colour space illuminant stdillum-D65 */
-    double scale;              /* 1 */
-    vec3_t from, to;           /* in light space: apply to_world */
+    transform_t to_world;             /* the CTM at the LightSource directive */
+    scene_spectrum_t spectrum;        /* I or L; default the colour space illuminant stdillum-D65 */
+    double scale;                     /* 1 */
+    vec3_t from, to;                  /* in light space: apply to_world */
     double coneangle, conedeltaangle; /* degrees */
 } scene_light_t;
 
@@ -227,9 +230,9 @@ typedef struct scene_instance {
 /* ---- options ---- */
 
 typedef struct scene_camera {
-    const char *type; /* "perspective" */
-    pbrt_loc_t loc;   /* line 0 when the scene has no Camera directive */
-    double fov;       /* degrees, of the shorter image axis (pbrt-v4); default 90 */
+    const char *type;     /* "perspective" */
+    pbrt_loc_t loc;       /* the directive; line 0 of the main file when it is absent */
+    double fov;           /* degrees, of the shorter image axis (pbrt-v4); default 90 */
     double lensradius;    /* 0: pinhole */
     double focaldistance; /* 1e6 */
     /* The CTM at the Camera directive (pbrt: camera-from-world); m_inv is world-from-camera.

@@ -57,14 +57,13 @@ int transform_rotate(double angle_deg, vec3_t axis, transform_t *out, err_t *err
     double theta = angle_deg * (PI / 180.0);
     double s = sin(theta), c = cos(theta);
     /* Rodrigues' rotation formula as a matrix (pbrt-v4 transform.h, Rotate(sin, cos, axis)). */
-    double m[4][4] = {
-        {a.x * a.x + (1 - a.x * a.x) * c, a.x * a.y * (1 - c) - a.z * s,
-         a.x * a.z * (1 - c) + a.y * s, 0},
-        {a.x * a.y * (1 - c) + a.z * s, a.y * a.y + (1 - a.y * a.y) * c,
-         a.y * a.z * (1 - c) - a.x * s, 0},
-        {a.x * a.z * (1 - c) - a.y * s, a.y * a.z * (1 - c) + a.x * s,
-         a.z * a.z + (1 - a.z * a.z) * c, 0},
-        {0, 0, 0, 1}};
+    double m[4][4] = {{a.x * a.x + (1 - a.x * a.x) * c, a.x * a.y * (1 - c) - a.z * s,
+                       a.x * a.z * (1 - c) + a.y * s, 0},
+                      {a.x * a.y * (1 - c) + a.z * s, a.y * a.y + (1 - a.y * a.y) * c,
+                       a.y * a.z * (1 - c) - a.x * s, 0},
+                      {a.x * a.z * (1 - c) - a.y * s, a.y * a.z * (1 - c) + a.x * s,
+                       a.z * a.z + (1 - a.z * a.z) * c, 0},
+                      {0, 0, 0, 1}};
     /* A rotation's inverse is its transpose. */
     double mi[4][4];
     for (int i = 0; i < 4; i++)

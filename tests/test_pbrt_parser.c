@@ -51,8 +51,7 @@ static void expect_error_named(const char *name, const char *text, const char *e
         fail_msg("parsed but should have failed with: %s\n--\n%s", expected, text);
     }
     if (strcmp(err.msg, expected) != 0)
-        fail_msg("wrong message for\n%s\n  got:      %s\n  expected: %s", text, err.msg,
-                 expected);
+        fail_msg("wrong message for\n%s\n  got:      %s\n  expected: %s", text, err.msg, expected);
 }
 
 static void expect_error(const char *text, const char *expected)
@@ -143,6 +142,10 @@ static void test_defaults(void **state)
     assert_int_equal(s->sampler.pixelsamples, 16);
     assert_string_equal(s->integrator.type, "auto");
     assert_int_equal(params_count(s->integrator.params), 0);
+    /* defaults point at line 0 of the main file, so messages about them still name it */
+    assert_string_equal(s->film.loc.file, "t.pbrt");
+    assert_int_equal(s->film.loc.line, 0);
+    assert_string_equal(s->camera.loc.file, "t.pbrt");
     assert_int_equal(s->nmaterials, 1);
     assert_int_equal(s->materials[0].type, SCENE_MATERIAL_DIFFUSE);
     assert_int_equal(s->materials[0].reflectance.spectrum.kind, SCENE_SPECTRUM_CONSTANT);
@@ -458,11 +461,11 @@ static void test_transforms(void **state)
     scene_desc_t *s = parse_ok("data/scenes/transforms.pbrt");
     assert_int_equal(s->nshapes, 7);
     const scene_shape_t *sh = s->shapes;
-    assert_point(&sh[0].to_world, vec3_make(1, 0, 0), 0, 1, 0);   /* Rotate 90 0 0 1 */
-    assert_point(&sh[1].to_world, vec3_make(0, 0, 0), 3, 4, 5);   /* Transform, by columns */
-    assert_point(&sh[2].to_world, vec3_make(1, 1, 1), 5, 6, 7);   /* ConcatTransform scale 2 */
-    assert_true(transform_is_identity(&sh[3].to_world));         /* Identity */
-    assert_point(&sh[4].to_world, vec3_make(1, 1, 1), 5, 6, 7);   /* CoordSysTransform "here" */
+    assert_point(&sh[0].to_world, vec3_make(1, 0, 0), 0, 1, 0); /* Rotate 90 0 0 1 */
+    assert_point(&sh[1].to_world, vec3_make(0, 0, 0), 3, 4, 5); /* Transform, by columns */
+    assert_point(&sh[2].to_world, vec3_make(1, 1, 1), 5, 6, 7); /* ConcatTransform scale 2 */
+    assert_true(transform_is_identity(&sh[3].to_world));        /* Identity */
+    assert_point(&sh[4].to_world, vec3_make(1, 1, 1), 5, 6, 7); /* CoordSysTransform "here" */
     /* CoordSysTransform "camera" is world-from-camera: the camera sits at (0,0,-5) and looks
      * down world +z. */
     assert_point(&sh[5].to_world, vec3_make(0, 0, 0), 0, 0, -5);
@@ -547,8 +550,9 @@ static void test_includes(void **state)
     }
     snprintf(path, sizeof path, "%s/f0.pbrt", dir);
     assert_null(pbrt_parse_file(path, &err));
-    snprintf(expected, sizeof expected, "%s/f%d.pbrt:1:9: Include/Import nested deeper than %d "
-                                        "files",
+    snprintf(expected, sizeof expected,
+             "%s/f%d.pbrt:1:9: Include/Import nested deeper than %d "
+             "files",
              dir, PBRT_INCLUDE_DEPTH_MAX - 1, PBRT_INCLUDE_DEPTH_MAX);
     assert_string_equal(err.msg, expected);
     snprintf(path, sizeof path, "%s/open.pbrt", dir);
@@ -558,8 +562,9 @@ static void test_includes(void **state)
     fclose(f);
     char main_name[128];
     snprintf(main_name, sizeof main_name, "%s/main.pbrt", dir);
-    snprintf(expected, sizeof expected, "%s:1:1: AttributeBegin has no matching end before the "
-                                        "end of imported file \"%s\"",
+    snprintf(expected, sizeof expected,
+             "%s:1:1: AttributeBegin has no matching end before the "
+             "end of imported file \"%s\"",
              path, path);
     expect_error_named(main_name, "WorldBegin\nImport \"open.pbrt\"\n", expected);
     for (int i = 0; i < PBRT_INCLUDE_DEPTH_MAX + 2; i++) {
@@ -603,7 +608,8 @@ static void test_error_messages(void **state)
          "t.pbrt:4:3: expected a multiple of 3 numbers after \"integer indices\", got 2"},
         {"WorldBegin\nShape \"trianglemesh\"\n  \"point3 P\" [0 0 0 1 0 0 0 1]\n",
          "t.pbrt:3:3: expected a multiple of 3 numbers after \"point3 P\", got 8"},
-        {"WorldBegin\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n  \"normal N\" [0 0 1]\n",
+        {"WorldBegin\nShape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0]\n  \"normal N\" [0 0 "
+         "1]\n",
          "t.pbrt:3:3: \"normal N\" has 1 normals but \"point3 P\" has 3 points"},
         {"WorldBegin\nShape \"sphere\" \"float radius\" 1e999\n",
          "t.pbrt:2:31: non-finite number 1e999 in \"float radius\""},
@@ -611,13 +617,14 @@ static void test_error_messages(void **state)
          "t.pbrt:2:31: \"float radius\" needs numbers, got nan"},
         {"WorldBegin\nShape \"sphere\" \"float radius\" -2\n",
          "t.pbrt:2:16: \"float radius\" must be greater than 0, got -2"},
-        {"WorldBegin\nAttributeEnd\n", "t.pbrt:2:1: AttributeEnd without a matching AttributeBegin"},
+        {"WorldBegin\nAttributeEnd\n",
+         "t.pbrt:2:1: AttributeEnd without a matching AttributeBegin"},
         {"WorldBegin\nAttributeBegin\n", "t.pbrt:2:1: AttributeBegin has no matching end"},
         {"WorldBegin\nObjectBegin \"a\"\nAttributeBegin\nObjectEnd\n",
          "t.pbrt:4:1: ObjectEnd closes AttributeBegin at line 3 (mismatched nesting)"},
         {"WorldBegin\nObjectEnd\n", "t.pbrt:2:1: ObjectEnd without a matching ObjectBegin"},
         {"WorldBegin\nShape \"sphere", "t.pbrt:2:7: unterminated string (end of file before "
-                                         "the closing quote)"},
+                                       "the closing quote)"},
         {"WorldBegin\nShape \"sphere\nShape \"sphere\"\n",
          "t.pbrt:2:7: unterminated string (end of line before the closing quote)"},
         {"WorldBegin\nShape \"sph\\qere\"\n", "t.pbrt:2:11: unknown escape sequence \"\\q\" in "
@@ -669,11 +676,12 @@ static void test_error_messages(void **state)
         {"WorldBegin\nCoordSysTransform \"nowhere\"\n",
          "t.pbrt:2:19: unknown coordinate system \"nowhere\""},
         {"WorldBegin\nObjectInstance \"x\"\n", "t.pbrt:2:1: ObjectInstance: object \"x\" is not "
-                                                "defined"},
+                                               "defined"},
         {"WorldBegin\nObjectBegin \"a\"\nObjectEnd\nObjectBegin \"a\"\n",
          "t.pbrt:4:13: object \"a\" is already defined (line 2)"},
         {"WorldBegin\nObjectBegin \"a\"\nAreaLightSource \"diffuse\"\nShape \"sphere\"\n",
-         "t.pbrt:4:1: area lights are not supported inside ObjectBegin (AreaLightSource at line 3)"},
+         "t.pbrt:4:1: area lights are not supported inside ObjectBegin (AreaLightSource at line "
+         "3)"},
         {"WorldBegin\nNamedMaterial \"glass\"\n",
          "t.pbrt:2:15: named material \"glass\" is not defined (MakeNamedMaterial must come before "
          "its use)"},
@@ -765,13 +773,13 @@ static void test_syntax_details(void **state)
     (void)state;
     /* Comments, escapes, quoted booleans, a single value without brackets, "point" and
      * "color" spellings, integers with signs and hex floats. */
-    scene_desc_t *s = parse_text_ok(
-        "# comment\nWorldBegin # trailing comment\n"
-        "AreaLightSource \"diffuse\" \"color L\" [1 2 3] \"bool twosided\" \"true\"\n"
-        "LightSource \"point\" \"point from\" [+1 -2 0x1p2]\n"
-        "MakeNamedMaterial \"a \\\"quoted\\\" name\" \"string type\" \"interface\"\n"
-        "NamedMaterial \"a \\\"quoted\\\" name\"\n"
-        "Shape \"sphere\" \"float radius\" .5e1\n");
+    scene_desc_t *s =
+        parse_text_ok("# comment\nWorldBegin # trailing comment\n"
+                      "AreaLightSource \"diffuse\" \"color L\" [1 2 3] \"bool twosided\" \"true\"\n"
+                      "LightSource \"point\" \"point from\" [+1 -2 0x1p2]\n"
+                      "MakeNamedMaterial \"a \\\"quoted\\\" name\" \"string type\" \"interface\"\n"
+                      "NamedMaterial \"a \\\"quoted\\\" name\"\n"
+                      "Shape \"sphere\" \"float radius\" .5e1\n");
     assert_true(s->area_lights[0].twosided);
     assert_int_equal(s->area_lights[0].L.kind, SCENE_SPECTRUM_RGB);
     assert_near(s->area_lights[0].L.rgb[2], 3);
@@ -812,15 +820,31 @@ static char *read_all(const char *path, size_t *len)
 static void test_mutations_never_crash(void **state)
 {
     (void)state;
-    static const char *FILES[] = {"data/scenes/options.pbrt",   "data/scenes/materials.pbrt",
-                                  "data/scenes/lights.pbrt",    "data/scenes/shapes.pbrt",
-                                  "data/scenes/transforms.pbrt", "data/scenes/instances.pbrt",
+    static const char *FILES[] = {"data/scenes/options.pbrt",     "data/scenes/materials.pbrt",
+                                  "data/scenes/lights.pbrt",      "data/scenes/shapes.pbrt",
+                                  "data/scenes/transforms.pbrt",  "data/scenes/instances.pbrt",
                                   "data/scenes/include_main.pbrt"};
-    static const char *TOKENS[] = {"\"", "[", "]", "#", "\\", "\n", " ", "1e999", "-0", "true",
-                                   "AttributeBegin", "AttributeEnd", "ObjectBegin \"o\"",
-                                   "ObjectEnd", "ObjectInstance \"tri\"", "WorldBegin",
-                                   "Include \"inc/cycle_a.pbrt\"", "\"float radius\"",
-                                   "\"integer indices\" [0 1 9]", "Scale 0 0 0", "\"point3 P\""};
+    static const char *TOKENS[] = {"\"",
+                                   "[",
+                                   "]",
+                                   "#",
+                                   "\\",
+                                   "\n",
+                                   " ",
+                                   "1e999",
+                                   "-0",
+                                   "true",
+                                   "AttributeBegin",
+                                   "AttributeEnd",
+                                   "ObjectBegin \"o\"",
+                                   "ObjectEnd",
+                                   "ObjectInstance \"tri\"",
+                                   "WorldBegin",
+                                   "Include \"inc/cycle_a.pbrt\"",
+                                   "\"float radius\"",
+                                   "\"integer indices\" [0 1 9]",
+                                   "Scale 0 0 0",
+                                   "\"point3 P\""};
     uint64_t rng = 0x9e3779b97f4a7c15ull;
     size_t parsed = 0, failed = 0;
     for (size_t fi = 0; fi < sizeof FILES / sizeof FILES[0]; fi++) {

@@ -18,8 +18,7 @@
 static void assert_vec(vec3_t got, double x, double y, double z)
 {
     if (fabs(got.x - x) > TOL || fabs(got.y - y) > TOL || fabs(got.z - z) > TOL)
-        fail_msg("got (%.17g, %.17g, %.17g), expected (%g, %g, %g)", got.x, got.y, got.z, x, y,
-                 z);
+        fail_msg("got (%.17g, %.17g, %.17g), expected (%g, %g, %g)", got.x, got.y, got.z, x, y, z);
 }
 
 static void assert_identity(const double m[4][4])
@@ -73,8 +72,8 @@ static void test_compose_order(void **state)
 {
     (void)state;
     /* pbrt's CTM = CTM * T: in "Translate 1 0 0  Scale 2 2 2" the scale applies first. */
-    transform_t ts = transform_compose(transform_translate(vec3_make(1, 0, 0)),
-                                       transform_scale(2, 2, 2));
+    transform_t ts =
+        transform_compose(transform_translate(vec3_make(1, 0, 0)), transform_scale(2, 2, 2));
     assert_vec(transform_point(&ts, vec3_make(1, 1, 1)), 3, 2, 2);
     transform_t inv = transform_inverse(ts);
     assert_vec(transform_point(&inv, vec3_make(3, 2, 2)), 1, 1, 1);
@@ -108,17 +107,17 @@ static void test_look_at_pbrt_convention(void **state)
     transform_t cfw;
     /* Eye on -z looking at the origin with +y up: camera space equals world space shifted by 5
      * along z, since pbrt's camera looks down +z and +x = up x dir = y x z = +x. */
-    assert_int_equal(transform_look_at(vec3_make(0, 0, -5), vec3_make(0, 0, 0), vec3_make(0, 1, 0),
-                                       &cfw, NULL),
-                     0);
+    assert_int_equal(
+        transform_look_at(vec3_make(0, 0, -5), vec3_make(0, 0, 0), vec3_make(0, 1, 0), &cfw, NULL),
+        0);
     assert_vec(transform_point(&cfw, vec3_make(0, 0, 0)), 0, 0, 5);
     assert_vec(transform_point(&cfw, vec3_make(1, 0, 0)), 1, 0, 5);
     assert_vec(transform_point(&cfw, vec3_make(0, 1, 0)), 0, 1, 5);
     /* Looking down world +x with +z up (left-handed): camera +x = up x dir = z x x = +y, so a
      * point on world +y appears on the image's right; +z stays up; depth is world x. */
-    assert_int_equal(transform_look_at(vec3_make(0, 0, 0), vec3_make(1, 0, 0), vec3_make(0, 0, 1),
-                                       &cfw, NULL),
-                     0);
+    assert_int_equal(
+        transform_look_at(vec3_make(0, 0, 0), vec3_make(1, 0, 0), vec3_make(0, 0, 1), &cfw, NULL),
+        0);
     assert_vec(transform_point(&cfw, vec3_make(0, 1, 0)), 1, 0, 0);
     assert_vec(transform_point(&cfw, vec3_make(0, 0, 1)), 0, 1, 0);
     assert_vec(transform_point(&cfw, vec3_make(2, 0, 0)), 0, 0, 2);
@@ -126,20 +125,20 @@ static void test_look_at_pbrt_convention(void **state)
     transform_t wfc = transform_inverse(cfw);
     assert_vec(transform_point(&wfc, vec3_make(0, 0, 0)), 0, 0, 0);
     /* An oblique case: the look-at point lies on the camera's +z axis at the eye distance. */
-    assert_int_equal(transform_look_at(vec3_make(1, 2, 3), vec3_make(4, 6, 3), vec3_make(0, 0, 1),
-                                       &cfw, NULL),
-                     0);
+    assert_int_equal(
+        transform_look_at(vec3_make(1, 2, 3), vec3_make(4, 6, 3), vec3_make(0, 0, 1), &cfw, NULL),
+        0);
     assert_vec(transform_point(&cfw, vec3_make(4, 6, 3)), 0, 0, 5);
     assert_false(transform_swaps_handedness(&cfw));
 
     err_t err;
-    assert_int_equal(transform_look_at(vec3_make(0, 0, 0), vec3_make(0, 1, 0), vec3_make(0, 2, 0),
-                                       &cfw, &err),
-                     -1);
+    assert_int_equal(
+        transform_look_at(vec3_make(0, 0, 0), vec3_make(0, 1, 0), vec3_make(0, 2, 0), &cfw, &err),
+        -1);
     assert_string_equal(err.msg, "LookAt up vector is parallel to the viewing direction");
-    assert_int_equal(transform_look_at(vec3_make(1, 1, 1), vec3_make(1, 1, 1), vec3_make(0, 1, 0),
-                                       &cfw, &err),
-                     -1);
+    assert_int_equal(
+        transform_look_at(vec3_make(1, 1, 1), vec3_make(1, 1, 1), vec3_make(0, 1, 0), &cfw, &err),
+        -1);
     assert_string_equal(err.msg, "LookAt eye and look-at point are the same point");
 }
 
@@ -163,8 +162,8 @@ static void test_handedness_and_singular(void **state)
     assert_true(transform_swaps_handedness(&m));
     transform_t m2 = transform_scale(-1, -1, 1);
     assert_false(transform_swaps_handedness(&m2));
-    assert_false(transform_swaps_handedness(&(transform_t){.m = {{1, 0, 0, 0}, {0, 1, 0, 0},
-                                                                 {0, 0, 1, 0}, {0, 0, 0, 1}}}));
+    assert_false(transform_swaps_handedness(
+        &(transform_t){.m = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}}}));
 
     transform_t z = transform_scale(0, 1, 1);
     assert_true(z.singular);

@@ -1,0 +1,29 @@
+/* bundle: the scene bundles that travel with jobs (proto_bundle_t, defined in proto.h): the path
+ * rules every bundle obeys, its content hash, and writing it into a folder. A bundle that passes
+ * proto_bundle_check can only create files below the folder it is extracted into. */
+#ifndef PRISMFARM_BUNDLE_H
+#define PRISMFARM_BUNDLE_H
+
+#include "proto.h"
+
+/* A path inside a bundle: 1..PROTO_MAX_STRING bytes of '/'-separated components, at most
+ * PROTO_MAX_PATH_DEPTH of them, each 1..PROTO_MAX_PATH_COMPONENT bytes, none "." or "..". No
+ * leading '/', no empty component ("a//b", trailing '/'), no backslash, no control character. */
+int proto_bundle_path_check(const char *path, err_t *err);
+
+/* Every path valid and unique, no file also used as a folder ("a" and "a/b"), main among the
+ * files, count and total size within limits (NULL: defaults). */
+int proto_bundle_check(const proto_bundle_t *bundle, const proto_limits_t *limits, err_t *err);
+
+/* The bundle's identity: lower-case hex SHA-256 over its canonical form (docs/protocol.md,
+ * "Scene bundles"), independent of the order of files. Fails only on a bundle that does not
+ * pass proto_bundle_check without limits, or when out of memory. */
+int proto_bundle_hash(const proto_bundle_t *bundle, char hex[PROTO_HASH_HEX + 1], err_t *err);
+
+/* Writes the bundle's files below dir (created if missing; its parent must exist), creating
+ * subfolders as needed. Never follows a symbolic link below dir: a link where a subfolder is
+ * expected is an error, and a link at a file's place is replaced, not written through. Each file
+ * is written to a temporary name, synced and renamed, so it appears whole or not at all. */
+int proto_bundle_extract(const proto_bundle_t *bundle, const char *dir, err_t *err);
+
+#endif

@@ -1,0 +1,247 @@
+/* proto: every message that master, workers and clients exchange, defined once, with its
+ * msgpack encoding and a strict decoder for untrusted bytes. The decoder never crashes, never
+ * allocates more than a small multiple of its input, and accepts only messages that proto_encode
+ * could have produced (same ranges, finite numbers, safe bundle paths). Wire format and field
+ * meanings: docs/protocol.md. */
+#ifndef PRISMFARM_PROTO_H
+#define PRISMFARM_PROTO_H
+
+#include "err.h"
+#include "scene_load.h"
+
+#include <msgpack.h>
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+/* The version carried by every message ("v"). A peer speaking another version is refused. */
+#define PROTO_VERSION 1
+
+/* Fixed bounds of the decoder (docs/protocol.md, "Limits"). */
+#define PROTO_MAX_DEPTH 16          /* msgpack nesting depth */
+#define PROTO_MAX_STRING 4096       /* bytes in any string (names, paths, error texts) */
+#define PROTO_MAX_LIST 100000       /* entries in any list (jobs, workers) */
+#define PROTO_MAX_TILE_SIDE 4096    /* tile width and height */
+#define PROTO_MAX_BUCKETS 1024      /* spectral buckets of a tile */
+#define PROTO_MAX_IMAGE_SIDE 65536  /* image resolution and tile corner coordinates */
+#define PROTO_MAX_THREADS 4096      /* worker threads */
+#define PROTO_MAX_PATH_DEPTH 32     /* components of a bundle path */
+#define PROTO_MAX_PATH_COMPONENT 200 /* bytes in one component (leaves room under NAME_MAX) */
+#define PROTO_HASH_HEX 64           /* a scene hash: lower-case hex SHA-256 */
+
+/* Defaults of the caller-configurable limits (proto_limits_t). */
+#define PROTO_MAX_BUNDLE_FILES 4096
+#define PROTO_MAX_BUNDLE_BYTES ((size_t)512 << 20)
+#define PROTO_MAX_MESSAGE_BYTES (PROTO_MAX_BUNDLE_BYTES + ((size_t)16 << 20))
+
+/* Return codes of proto_decode (and of net.h's functions, which add their own). */
+#define PROTO_EMALFORMED (-1) /* the bytes are not a valid message; err says which field */
+#define PROTO_EVERSION (-2)   /* a well-formed envelope with another "v": refuse the peer */
+
+typedef struct proto_limits {
+    size_t max_message_bytes; /* a whole encoded message; also ZMQ_MAXMSGSIZE in net.h */
+    size_t max_bundle_files;  /* files in a scene bundle */
+    size_t max_bundle_bytes;  /* sum of the sizes of a bundle's files */
+} proto_limits_t;
+
+/* PROTO_MAX_MESSAGE_BYTES, PROTO_MAX_BUNDLE_FILES, PROTO_MAX_BUNDLE_BYTES. */
+proto_limits_t proto_limits_default(void);
+
+typedef enum proto_type {
+    PROTO_NONE = 0,
+    /* worker -> master */
+    PROTO_HELLO,
+    PROTO_HEARTBEAT, /* also master -> worker */
+    PROTO_RESULT,
+    PROTO_TASK_FAILED,
+    PROTO_SCENE_REQUEST,
+    /* master -> worker */
+    PROTO_WELCOME,
+    PROTO_TASK,
+    PROTO_SCENE,
+    PROTO_CANCEL, /* also client -> master */
+    PROTO_REFUSE, /* to any peer; its layout never changes between versions */
+    /* client -> master */
+    PROTO_SUBMIT,
+    PROTO_STATUS,
+    PROTO_JOBS,
+    PROTO_WORKERS,
+    PROTO_FETCH,
+    /* master -> client */
+    PROTO_SUBMITTED,
+    PROTO_STATUS_REPLY,
+    PROTO_JOBS_REPLY,
+    PROTO_WORKERS_REPLY,
+    PROTO_FILE,
+    PROTO_ERROR, /* its layout never changes between versions */
+    PROTO_TYPE_COUNT
+} proto_type_t;
+
+/* What a task asks for and what its result carries. A job runs in phases of tasks of one kind;
+ * the photon batches of the photon issue will add a kind here. */
+typedef enum proto_kind {
+    PROTO_KIND_NONE = 0,
+    PROTO_KIND_CAMERA_TILE, /* "camera_tile": a pixel rectangle times a range of sample indices */
+    PROTO_KIND_COUNT
+} proto_kind_t;
+
+typedef enum proto_job_state {
+    PROTO_JOB_QUEUED,
+    PROTO_JOB_RUNNING,
+    PROTO_JOB_DONE,
+    PROTO_JOB_FAILED,
+    PROTO_JOB_CANCELLED,
+    PROTO_JOB_STATE_COUNT
+} proto_job_state_t;
+
+typedef enum proto_worker_state {
+    PROTO_WORKER_IDLE,
+    PROTO_WORKER_BUSY,
+    PROTO_WORKER_LOST, /* stopped heartbeating; its tasks went back to the queue */
+    PROTO_WORKER_STATE_COUNT
+} proto_worker_state_t;
+
+typedef enum proto_fetch_what { PROTO_FETCH_EXR, PROTO_FETCH_PNG, PROTO_FETCH_COUNT } proto_fetch_what_t;
+
+/* Job settings: mirror scene_overrides_t (0 / NULL / -1 keep the scene file's value). */
+typedef struct proto_settings {
+    int spp;                /* samples per pixel of the whole job; 0: the file's */
+    int xres, yres;         /* 0: the file's */
+    long long seed;         /* -1: the file's */
+    const char *integrator; /* NULL: the file's ("path", "simplepath", "whitted") */
+    const char *dispersion; /* NULL: the file's ("hero", "fanout") */
+} proto_settings_t;
+
+/* A scene bundle: the main scene file and every file it references, by relative path. Paths use
+ * '/', and are relative and normalised (bundle.h states the rules); each appears once. */
+typedef struct proto_bundle_file {
+    const char *path;
+    const uint8_t *data;
+    size_t size;
+} proto_bundle_file_t;
+
+typedef struct proto_bundle {
+    const char *main; /* the scene file to load; one of the files' paths */
+    const proto_bundle_file_t *files;
+    size_t nfiles;
+} proto_bundle_t;
+
+/* A camera tile: pixels [x0, x0+w) x [y0, y0+h), sample indices [sample_begin, sample_end). */
+typedef struct proto_tile {
+    int x0, y0, w, h;
+    uint32_t sample_begin, sample_end;
+} proto_tile_t;
+
+/* A camera tile's result: a tilebuf's contents (common/tilebuf.h), in its layout. */
+typedef struct proto_tile_result {
+    proto_tile_t rect;
+    int nbuckets;
+    const double *sums;     /* [h][w][nbuckets], all finite */
+    const uint64_t *counts; /* [h][w] samples taken */
+    const double *lum;      /* [h][w] sum of per-sample luminance, finite */
+    const double *lum_sq;   /* [h][w] sum of squared per-sample luminance, finite */
+    uint64_t nonfinite;     /* samples dropped for a NaN or Inf contribution */
+} proto_tile_result_t;
+
+typedef struct proto_task_stats {
+    uint64_t samples, rays, dispersive;
+    double elapsed; /* seconds of wall-clock time, finite, >= 0 */
+} proto_task_stats_t;
+
+typedef struct proto_job_info {
+    uint64_t id;
+    const char *name;
+    proto_job_state_t state;
+    uint64_t samples_done, samples_total; /* progress, in pixel samples */
+    double elapsed;                       /* seconds since the job started, finite, >= 0 */
+    const char *error;                    /* NULL unless failed */
+    uint64_t nonfinite;
+} proto_job_info_t;
+
+typedef struct proto_worker_info {
+    const char *name;
+    uint64_t id;
+    int threads;
+    proto_worker_state_t state;
+    uint64_t tasks_done;
+    double last_seen; /* seconds since its last message, finite, >= 0 */
+} proto_worker_info_t;
+
+/* One message. To send, fill the member named after the type and call proto_encode; pointers are
+ * only read. proto_decode fills it with copies it owns (nothing points into the input buffer, and
+ * arrays are aligned, host-endian); proto_msg_free releases them. proto_msg_free is harmless on a
+ * message the caller built, so every message can be freed the same way. */
+typedef struct proto_msg {
+    proto_type_t type;
+    int version; /* decode: the sender's; encode: 0 means PROTO_VERSION (others only for tests) */
+    union {
+        struct { const char *name; int threads; const char *software; } hello;
+        struct { uint64_t worker_id; uint32_t heartbeat_ms; } welcome;
+        struct {
+            uint64_t job, task;
+            uint32_t attempt;
+            char scene[PROTO_HASH_HEX + 1]; /* the bundle's proto_bundle_hash */
+            proto_settings_t settings;
+            proto_kind_t kind;
+            proto_tile_t tile; /* kind CAMERA_TILE */
+        } task;
+        struct {
+            uint64_t job, task;
+            uint32_t attempt;
+            proto_kind_t kind;
+            proto_tile_result_t tile; /* kind CAMERA_TILE */
+            proto_task_stats_t stats;
+        } result;
+        struct { uint64_t job, task; uint32_t attempt; const char *error; } task_failed;
+        struct { char scene[PROTO_HASH_HEX + 1]; } scene_request;
+        struct { char scene[PROTO_HASH_HEX + 1]; proto_bundle_t bundle; } scene;
+        struct { uint64_t job; } cancel;
+        struct { const char *reason; } refuse;
+        struct { const char *name; proto_settings_t settings; proto_bundle_t bundle; } submit;
+        struct { bool all; uint64_t job; /* when !all */ } status;
+        struct { uint64_t job; proto_fetch_what_t what; } fetch;
+        struct { uint64_t job; } submitted;
+        struct { const proto_job_info_t *jobs; size_t njobs; } status_reply, jobs_reply;
+        struct { const proto_worker_info_t *workers; size_t nworkers; } workers_reply;
+        struct { const char *name; const uint8_t *data; size_t size; } file;
+        struct { const char *message; } error;
+    };
+    struct proto_owned *owned; /* private: what proto_decode allocated */
+} proto_msg_t;
+
+/* Appends the encoding of msg to out (initialised by the caller with msgpack_sbuffer_init).
+ * Checks msg as the decoder would (ranges, finite values, bundle paths and limits) so that a
+ * peer never receives what it must reject; on failure out is left as it was. limits may be NULL
+ * (defaults). */
+int proto_encode(const proto_msg_t *msg, const proto_limits_t *limits, msgpack_sbuffer *out,
+                 err_t *err);
+
+/* Decodes one message from untrusted bytes. Returns 0; PROTO_EMALFORMED with err naming the
+ * message type and field ("RESULT: field 'sums' has 1000 bytes, expected 2048"); or
+ * PROTO_EVERSION when the envelope is well formed but "v" is not PROTO_VERSION: out->version is
+ * then the peer's, out->type PROTO_NONE, and proto_refuse_version builds the answer. REFUSE and
+ * ERROR decode whatever their version, so a refused peer can read why. On failure out holds
+ * nothing to free (proto_msg_free is still harmless). limits may be NULL (defaults). */
+int proto_decode(const void *data, size_t len, const proto_limits_t *limits, proto_msg_t *out,
+                 err_t *err);
+
+/* Releases what proto_decode allocated and zeroes the message. */
+void proto_msg_free(proto_msg_t *msg);
+
+/* "HELLO", "RESULT", ...: the type's name on the wire and in error messages ("?" if invalid). */
+const char *proto_type_name(proto_type_t type);
+const char *proto_kind_name(proto_kind_t kind);             /* "camera_tile" */
+const char *proto_job_state_name(proto_job_state_t state);  /* "queued", "running", ... */
+const char *proto_worker_state_name(proto_worker_state_t s); /* "idle", "busy", "lost" */
+const char *proto_fetch_what_name(proto_fetch_what_t what); /* "exr", "png" */
+
+/* A REFUSE for a peer that speaks peer_version, its reason written into *text:
+ * "protocol version 2 not supported by this master (speaks 1)". role names the refuser. */
+proto_msg_t proto_refuse_version(int peer_version, const char *role, err_t *text);
+
+/* The settings as the scene loader takes them (strings still point into settings). */
+scene_overrides_t proto_settings_to_overrides(const proto_settings_t *settings);
+proto_settings_t proto_settings_from_overrides(const scene_overrides_t *ov);
+
+#endif
