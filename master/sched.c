@@ -1,0 +1,527 @@
+#include "sched.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef enum { TASK_PENDING, TASK_RUNNING, TASK_DONE } task_state_t;
+
+typedef struct task {
+    task_state_t state;
+    uint32_t attempt;
+    int failures;
+    uint64_t owner; /* worker holding it while RUNNING */
+    double deadline;
+    tilebuf_t *result; /* done but not yet merged (an earlier pass of its tile is missing) */
+} task_t;
+
+typedef struct strike {
+    uint64_t worker;
+    int failures;
+} strike_t;
+
+typedef struct job {
+    uint64_t id;
+    job_state_t state;
+    int xres, yres, spp, tile, tiles_x;
+    spectral_grid_t grid;
+    int ntiles, npasses, passes_done;
+    uint32_t *pass_begin; /* npasses + 1 bounds */
+    task_t *tasks;        /* pass-major: task = pass * ntiles + tile */
+    int *next_pass;       /* per tile: the pass to merge next */
+    int *merged_in_pass;  /* per pass: tiles merged */
+    uint32_t first_pending; /* no PENDING task before this index */
+    uint32_t tasks_done;
+    uint64_t samples_done, samples_total;
+    tilebuf_t *image;
+    strike_t *strikes;
+    size_t nstrikes;
+    char error[512];
+} job_t;
+
+typedef struct worker {
+    uint64_t id;
+    int slots, busy;
+    double last_seen;
+    bool alive;
+    uint64_t tasks_done, tasks_failed;
+} worker_t;
+
+struct sched {
+    sched_config_t cfg;
+    job_t **jobs;
+    size_t njobs, cap_jobs;
+    worker_t *workers;
+    size_t nworkers, cap_workers;
+};
+
+sched_config_t sched_config_default(void)
+{
+    return (sched_config_t){.task_deadline_s = 120.0, .worker_timeout_s = 5.0,
+                            .max_task_failures = 4, .max_worker_job_failures = 2, .tile_size = 32};
+}
+
+const char *job_state_name(job_state_t s)
+{
+    static const char *names[] = {"queued", "running", "done", "failed", "cancelled"};
+    return (unsigned)s < 5 ? names[s] : "?";
+}
+
+sched_t *sched_new(const sched_config_t *cfg, err_t *err)
+{
+    sched_config_t c = cfg ? *cfg : sched_config_default();
+    if (!(c.task_deadline_s > 0) || !(c.worker_timeout_s > 0) || c.max_task_failures < 1 ||
+        c.max_worker_job_failures < 1 || c.tile_size < 1 || c.tile_size > 4096) {
+        err_set(err, "scheduler settings out of range (deadline %g s, timeout %g s, tile %d)",
+                c.task_deadline_s, c.worker_timeout_s, c.tile_size);
+        return NULL;
+    }
+    sched_t *self = calloc(1, sizeof *self);
+    if (!self) {
+        err_set(err, "out of memory");
+        return NULL;
+    }
+    self->cfg = c;
+    return self;
+}
+
+static void job_free(job_t *j)
+{
+    if (!j)
+        return;
+    if (j->tasks)
+        for (int i = 0; i < j->ntiles * j->npasses; i++)
+            tilebuf_destroy(&j->tasks[i].result);
+    free(j->tasks);
+    free(j->pass_begin);
+    free(j->next_pass);
+    free(j->merged_in_pass);
+    free(j->strikes);
+    tilebuf_destroy(&j->image);
+    free(j);
+}
+
+void sched_destroy(sched_t **self_p)
+{
+    if (!self_p || !*self_p)
+        return;
+    sched_t *self = *self_p;
+    for (size_t i = 0; i < self->njobs; i++)
+        job_free(self->jobs[i]);
+    free(self->jobs);
+    free(self->workers);
+    free(self);
+    *self_p = NULL;
+}
+
+static job_t *find_job(const sched_t *self, uint64_t id)
+{
+    for (size_t i = 0; i < self->njobs; i++)
+        if (self->jobs[i]->id == id)
+            return self->jobs[i];
+    return NULL;
+}
+
+static worker_t *find_worker(const sched_t *self, uint64_t id)
+{
+    for (size_t i = 0; i < self->nworkers; i++)
+        if (self->workers[i].id == id)
+            return &self->workers[i];
+    return NULL;
+}
+
+/* Pass bounds 0, 1, 2, 4, 8, ... spp: each pass doubles the samples so far, so a preview after
+ * pass k has 2^(k-1) samples per pixel and the number of passes grows only as log2(spp). */
+static int pass_bounds(int spp, uint32_t *out)
+{
+    int n = 0;
+    uint32_t b = 0;
+    if (out)
+        out[0] = 0;
+    while (b < (uint32_t)spp) {
+        b = b == 0 ? 1 : 2 * b;
+        if (b > (uint32_t)spp)
+            b = (uint32_t)spp;
+        n++;
+        if (out)
+            out[n] = b;
+    }
+    return n;
+}
+
+int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spectral_grid_t grid,
+                  err_t *err)
+{
+    if (find_job(self, id))
+        return err_set(err, "job %llu exists already", (unsigned long long)id);
+    if (xres < 1 || yres < 1 || xres > 65536 || yres > 65536 || spp < 1 || spp > (1 << 24))
+        return err_set(err, "job %llu: %dx%d pixels at %d spp is out of range", (unsigned long long)id,
+                       xres, yres, spp);
+    if (spectral_grid_validate(grid, err))
+        return -1;
+    job_t *j = calloc(1, sizeof *j);
+    if (!j)
+        return err_set(err, "out of memory");
+    j->id = id;
+    j->state = JOB_QUEUED;
+    j->xres = xres;
+    j->yres = yres;
+    j->spp = spp;
+    j->grid = grid;
+    j->tile = self->cfg.tile_size;
+    j->tiles_x = (xres + j->tile - 1) / j->tile;
+    j->ntiles = j->tiles_x * ((yres + j->tile - 1) / j->tile);
+    j->npasses = pass_bounds(spp, NULL);
+    j->pass_begin = malloc(((size_t)j->npasses + 1) * sizeof *j->pass_begin);
+    j->tasks = calloc((size_t)j->ntiles * (size_t)j->npasses, sizeof *j->tasks);
+    j->next_pass = calloc((size_t)j->ntiles, sizeof *j->next_pass);
+    j->merged_in_pass = calloc((size_t)j->npasses, sizeof *j->merged_in_pass);
+    j->image = tilebuf_new(0, 0, xres, yres, grid.n, err);
+    if (!j->pass_begin || !j->tasks || !j->next_pass || !j->merged_in_pass || !j->image) {
+        job_free(j);
+        return err_set(err, "out of memory for job %llu (%dx%d, %d buckets)", (unsigned long long)id,
+                       xres, yres, grid.n);
+    }
+    pass_bounds(spp, j->pass_begin);
+    j->samples_total = (uint64_t)xres * (uint64_t)yres * (uint64_t)spp;
+    if (self->njobs == self->cap_jobs) {
+        size_t cap = self->cap_jobs ? 2 * self->cap_jobs : 8;
+        job_t **p = realloc(self->jobs, cap * sizeof *p);
+        if (!p) {
+            job_free(j);
+            return err_set(err, "out of memory");
+        }
+        self->jobs = p;
+        self->cap_jobs = cap;
+    }
+    self->jobs[self->njobs++] = j;
+    return 0;
+}
+
+static void release_task(sched_t *self, task_t *t)
+{
+    if (t->state != TASK_RUNNING)
+        return;
+    worker_t *w = find_worker(self, t->owner);
+    if (w && w->busy > 0)
+        w->busy--;
+    t->state = TASK_PENDING;
+    t->owner = 0;
+}
+
+static void requeue(sched_t *self, job_t *j, uint32_t i)
+{
+    release_task(self, &j->tasks[i]);
+    if (i < j->first_pending)
+        j->first_pending = i;
+}
+
+/* Ends a job: running tasks are released (their workers' slots freed), held results freed. */
+static void finish_job(sched_t *self, job_t *j, job_state_t state)
+{
+    j->state = state;
+    for (int i = 0; i < j->ntiles * j->npasses; i++) {
+        release_task(self, &j->tasks[i]);
+        tilebuf_destroy(&j->tasks[i].result);
+    }
+}
+
+int sched_cancel_job(sched_t *self, uint64_t id, err_t *err)
+{
+    job_t *j = find_job(self, id);
+    if (!j)
+        return err_set(err, "no job %llu", (unsigned long long)id);
+    if (j->state == JOB_QUEUED || j->state == JOB_RUNNING)
+        finish_job(self, j, JOB_CANCELLED);
+    return 0;
+}
+
+int sched_remove_job(sched_t *self, uint64_t id, err_t *err)
+{
+    for (size_t i = 0; i < self->njobs; i++) {
+        job_t *j = self->jobs[i];
+        if (j->id != id)
+            continue;
+        if (j->state == JOB_QUEUED || j->state == JOB_RUNNING)
+            return err_set(err, "job %llu is still %s", (unsigned long long)id, job_state_name(j->state));
+        job_free(j);
+        memmove(&self->jobs[i], &self->jobs[i + 1], (self->njobs - i - 1) * sizeof *self->jobs);
+        self->njobs--;
+        return 0;
+    }
+    return err_set(err, "no job %llu", (unsigned long long)id);
+}
+
+int sched_worker_join(sched_t *self, uint64_t id, int slots, double now, err_t *err)
+{
+    if (slots < 1 || slots > 4096)
+        return err_set(err, "worker %llu: %d task slots is out of range", (unsigned long long)id, slots);
+    worker_t *w = find_worker(self, id);
+    if (!w) {
+        if (self->nworkers == self->cap_workers) {
+            size_t cap = self->cap_workers ? 2 * self->cap_workers : 8;
+            worker_t *p = realloc(self->workers, cap * sizeof *p);
+            if (!p)
+                return err_set(err, "out of memory");
+            self->workers = p;
+            self->cap_workers = cap;
+        }
+        w = &self->workers[self->nworkers++];
+        *w = (worker_t){.id = id};
+    } else {
+        /* A worker that joins again has lost whatever it was doing. */
+        sched_worker_leave(self, id);
+    }
+    w->slots = slots;
+    w->busy = 0;
+    w->alive = true;
+    w->last_seen = now;
+    return 0;
+}
+
+void sched_worker_seen(sched_t *self, uint64_t id, double now)
+{
+    worker_t *w = find_worker(self, id);
+    if (w && w->alive)
+        w->last_seen = now;
+}
+
+void sched_worker_leave(sched_t *self, uint64_t id)
+{
+    worker_t *w = find_worker(self, id);
+    if (!w)
+        return;
+    for (size_t k = 0; k < self->njobs; k++) {
+        job_t *j = self->jobs[k];
+        for (uint32_t i = 0; i < (uint32_t)(j->ntiles * j->npasses); i++)
+            if (j->tasks[i].state == TASK_RUNNING && j->tasks[i].owner == id)
+                requeue(self, j, i);
+    }
+    w->alive = false;
+    w->busy = 0;
+}
+
+static bool blocked(const sched_t *self, const job_t *j, uint64_t worker)
+{
+    for (size_t i = 0; i < j->nstrikes; i++)
+        if (j->strikes[i].worker == worker)
+            return j->strikes[i].failures >= self->cfg.max_worker_job_failures;
+    return false;
+}
+
+static void fill_task(const job_t *j, uint32_t i, sched_task_t *out)
+{
+    int pass = (int)(i / (uint32_t)j->ntiles), tile = (int)(i % (uint32_t)j->ntiles);
+    int x0 = (tile % j->tiles_x) * j->tile, y0 = (tile / j->tiles_x) * j->tile;
+    *out = (sched_task_t){
+        .job = j->id,
+        .task = i,
+        .attempt = j->tasks[i].attempt,
+        .x0 = x0,
+        .y0 = y0,
+        .w = j->xres - x0 < j->tile ? j->xres - x0 : j->tile,
+        .h = j->yres - y0 < j->tile ? j->yres - y0 : j->tile,
+        .sample_begin = j->pass_begin[pass],
+        .sample_end = j->pass_begin[pass + 1],
+        .pass = pass,
+    };
+}
+
+int sched_next_task(sched_t *self, uint64_t worker, double now, sched_task_t *out)
+{
+    worker_t *w = find_worker(self, worker);
+    if (!w || !w->alive || w->busy >= w->slots)
+        return 0;
+    for (size_t k = 0; k < self->njobs; k++) {
+        job_t *j = self->jobs[k];
+        if ((j->state != JOB_QUEUED && j->state != JOB_RUNNING) || blocked(self, j, worker))
+            continue;
+        uint32_t n = (uint32_t)(j->ntiles * j->npasses);
+        while (j->first_pending < n && j->tasks[j->first_pending].state != TASK_PENDING)
+            j->first_pending++;
+        for (uint32_t i = j->first_pending; i < n; i++) {
+            task_t *t = &j->tasks[i];
+            if (t->state != TASK_PENDING)
+                continue;
+            t->state = TASK_RUNNING;
+            t->owner = worker;
+            t->attempt++;
+            t->deadline = now + self->cfg.task_deadline_s;
+            w->busy++;
+            j->state = JOB_RUNNING;
+            fill_task(j, i, out);
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* Merges what can be merged of one tile, in pass order. */
+static int merge_tile(job_t *j, int tile, int *result, err_t *err)
+{
+    while (j->next_pass[tile] < j->npasses) {
+        int pass = j->next_pass[tile];
+        task_t *t = &j->tasks[(size_t)pass * (size_t)j->ntiles + (size_t)tile];
+        if (t->state != TASK_DONE || !t->result)
+            break;
+        if (tilebuf_merge(j->image, t->result, err))
+            return -1;
+        int w = tilebuf_width(t->result), h = tilebuf_height(t->result);
+        j->samples_done += (uint64_t)w * (uint64_t)h * (j->pass_begin[pass + 1] - j->pass_begin[pass]);
+        tilebuf_destroy(&t->result);
+        j->next_pass[tile]++;
+        if (++j->merged_in_pass[pass] == j->ntiles) {
+            j->passes_done++;
+            *result |= SCHED_PASS_DONE;
+        }
+    }
+    return 0;
+}
+
+int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task, uint32_t attempt,
+                    tilebuf_t **result, double now, err_t *err)
+{
+    (void)attempt;
+    tilebuf_t *r = *result;
+    *result = NULL;
+    sched_worker_seen(self, worker, now);
+    job_t *j = find_job(self, job);
+    if (!j || task >= (uint32_t)(j->ntiles * j->npasses)) {
+        tilebuf_destroy(&r);
+        return err_set(err, "result for unknown job %llu task %u", (unsigned long long)job, task);
+    }
+    task_t *t = &j->tasks[task];
+    if (j->state != JOB_RUNNING || t->state == TASK_DONE) {
+        /* Every attempt of a task gives the same bytes, so the first result wins. */
+        tilebuf_destroy(&r);
+        return SCHED_DUPLICATE;
+    }
+    sched_task_t expect;
+    fill_task(j, task, &expect);
+    if (!r || tilebuf_x0(r) != expect.x0 || tilebuf_y0(r) != expect.y0 || tilebuf_width(r) != expect.w ||
+        tilebuf_height(r) != expect.h || tilebuf_nbuckets(r) != j->grid.n) {
+        tilebuf_destroy(&r);
+        return err_set(err, "job %llu task %u: the result does not cover tile %dx%d at (%d,%d) with %d buckets",
+                       (unsigned long long)job, task, expect.w, expect.h, expect.x0, expect.y0, j->grid.n);
+    }
+    if (t->state == TASK_RUNNING && t->owner == worker)
+        release_task(self, t);
+    else if (t->state == TASK_RUNNING)
+        release_task(self, t); /* someone else holds a re-issued copy: no need to finish it */
+    t->state = TASK_DONE;
+    t->result = r;
+    j->tasks_done++;
+    worker_t *w = find_worker(self, worker);
+    if (w)
+        w->tasks_done++;
+    int out = SCHED_MERGED;
+    if (merge_tile(j, (int)(task % (uint32_t)j->ntiles), &out, err))
+        return -1;
+    if (j->passes_done == j->npasses) {
+        j->state = JOB_DONE;
+        out |= SCHED_JOB_DONE;
+    }
+    return out;
+}
+
+void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
+                       uint32_t attempt, const char *message)
+{
+    (void)attempt;
+    job_t *j = find_job(self, job);
+    worker_t *w = find_worker(self, worker);
+    if (w)
+        w->tasks_failed++;
+    if (!j || j->state != JOB_RUNNING || task >= (uint32_t)(j->ntiles * j->npasses))
+        return;
+    task_t *t = &j->tasks[task];
+    if (t->state == TASK_DONE)
+        return;
+    if (t->state == TASK_RUNNING && t->owner == worker)
+        requeue(self, j, task);
+    t->failures++;
+    size_t s = 0;
+    while (s < j->nstrikes && j->strikes[s].worker != worker)
+        s++;
+    if (s == j->nstrikes) {
+        strike_t *p = realloc(j->strikes, (j->nstrikes + 1) * sizeof *p);
+        if (p) {
+            j->strikes = p;
+            j->strikes[j->nstrikes++] = (strike_t){worker, 0};
+        }
+    }
+    if (s < j->nstrikes)
+        j->strikes[s].failures++;
+    if (t->failures >= self->cfg.max_task_failures) {
+        snprintf(j->error, sizeof j->error, "task %u failed %d times; last error: %s", task,
+                 t->failures, message ? message : "(none)");
+        finish_job(self, j, JOB_FAILED);
+    }
+}
+
+int sched_tick(sched_t *self, double now)
+{
+    int requeued = 0;
+    for (size_t i = 0; i < self->nworkers; i++) {
+        worker_t *w = &self->workers[i];
+        if (w->alive && now - w->last_seen > self->cfg.worker_timeout_s) {
+            requeued += w->busy;
+            sched_worker_leave(self, w->id);
+        }
+    }
+    for (size_t k = 0; k < self->njobs; k++) {
+        job_t *j = self->jobs[k];
+        if (j->state != JOB_RUNNING)
+            continue;
+        for (uint32_t i = 0; i < (uint32_t)(j->ntiles * j->npasses); i++)
+            if (j->tasks[i].state == TASK_RUNNING && j->tasks[i].deadline < now) {
+                requeue(self, j, i);
+                requeued++;
+            }
+    }
+    return requeued;
+}
+
+int sched_job_info(const sched_t *self, uint64_t id, sched_job_info_t *out)
+{
+    const job_t *j = find_job(self, id);
+    if (!j)
+        return -1;
+    uint32_t running = 0;
+    for (int i = 0; i < j->ntiles * j->npasses; i++)
+        running += j->tasks[i].state == TASK_RUNNING;
+    *out = (sched_job_info_t){
+        .id = j->id, .state = j->state, .xres = j->xres, .yres = j->yres, .spp = j->spp,
+        .grid = j->grid, .ntiles = j->ntiles, .npasses = j->npasses, .passes_done = j->passes_done,
+        .samples_done = j->samples_done, .samples_total = j->samples_total,
+        .nonfinite = tilebuf_nonfinite(j->image),
+        .tasks_total = (uint32_t)(j->ntiles * j->npasses), .tasks_done = j->tasks_done,
+        .tasks_running = running,
+    };
+    snprintf(out->error, sizeof out->error, "%s", j->error);
+    return 0;
+}
+
+const tilebuf_t *sched_job_image(const sched_t *self, uint64_t id)
+{
+    const job_t *j = find_job(self, id);
+    return j ? j->image : NULL;
+}
+
+size_t sched_jobs(const sched_t *self, uint64_t *ids, size_t max)
+{
+    for (size_t i = 0; i < self->njobs && i < max; i++)
+        ids[i] = self->jobs[i]->id;
+    return self->njobs;
+}
+
+size_t sched_workers(const sched_t *self, sched_worker_info_t *out, size_t max)
+{
+    for (size_t i = 0; i < self->nworkers && i < max; i++) {
+        const worker_t *w = &self->workers[i];
+        out[i] = (sched_worker_info_t){.id = w->id, .slots = w->slots, .busy = w->busy,
+                                       .tasks_done = w->tasks_done, .tasks_failed = w->tasks_failed,
+                                       .last_seen = w->last_seen, .alive = w->alive};
+    }
+    return self->nworkers;
+}

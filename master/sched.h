@@ -1,0 +1,111 @@
+/* sched: the master's bookkeeping for render jobs, without sockets or clocks. A job is split
+ * into camera tasks: tiles (pixel rectangles) times progressive passes (sample ranges 0-1, 1-2,
+ * 2-4, 4-8, ... up to the job's spp). Workers ask for tasks; results are merged into the job's
+ * spectral image per tile in pass order, so the image bytes do not depend on which worker ran
+ * what or when results arrived. Lost workers, missed deadlines and repeated failures are
+ * handled here: tasks go back to the queue, workers get blocked for a job, jobs fail with the
+ * error text. Time is passed in by the caller (seconds, monotonic), so tests can drive it. */
+#ifndef PRISMFARM_SCHED_H
+#define PRISMFARM_SCHED_H
+
+#include "err.h"
+#include "spectral_grid.h"
+#include "tilebuf.h"
+
+#include <stdbool.h>
+#include <stdint.h>
+
+typedef struct sched sched_t;
+
+typedef struct sched_config {
+    double task_deadline_s;       /* a task not back by then is issued again (default 120) */
+    double worker_timeout_s;      /* a worker silent this long is dead (default 5) */
+    int max_task_failures;        /* a task failing this often fails its job (default 4) */
+    int max_worker_job_failures;  /* a worker failing this often is blocked for the job (2) */
+    int tile_size;                /* default 32 */
+} sched_config_t;
+
+sched_config_t sched_config_default(void);
+
+typedef enum job_state { JOB_QUEUED, JOB_RUNNING, JOB_DONE, JOB_FAILED, JOB_CANCELLED } job_state_t;
+
+typedef struct sched_task {
+    uint64_t job;
+    uint32_t task;    /* index within the job: pass * ntiles + tile */
+    uint32_t attempt; /* increases each time the task is issued again */
+    int x0, y0, w, h;
+    uint32_t sample_begin, sample_end;
+    int pass;
+} sched_task_t;
+
+typedef struct sched_job_info {
+    uint64_t id;
+    job_state_t state;
+    int xres, yres, spp;
+    spectral_grid_t grid;
+    int ntiles, npasses, passes_done;
+    uint64_t samples_done, samples_total;
+    uint64_t nonfinite;
+    uint32_t tasks_total, tasks_done, tasks_running;
+    char error[512];
+} sched_job_info_t;
+
+sched_t *sched_new(const sched_config_t *cfg, err_t *err);
+void sched_destroy(sched_t **self_p);
+
+/* A new job of xres x yres pixels, spp samples each, with the given spectral grid. Jobs run
+ * in the order they were added. */
+int sched_add_job(sched_t *self, uint64_t job, int xres, int yres, int spp, spectral_grid_t grid,
+                  err_t *err);
+int sched_cancel_job(sched_t *self, uint64_t job, err_t *err);
+/* Forgets a finished, failed or cancelled job and frees its image. */
+int sched_remove_job(sched_t *self, uint64_t job, err_t *err);
+
+/* Workers are known by an id of the caller's choosing. slots: tasks it may hold at once. */
+int sched_worker_join(sched_t *self, uint64_t worker, int slots, double now, err_t *err);
+/* Any message from the worker counts as a sign of life. */
+void sched_worker_seen(sched_t *self, uint64_t worker, double now);
+/* The worker is gone: its tasks go back to the queue. */
+void sched_worker_leave(sched_t *self, uint64_t worker);
+
+/* Gives the worker its next task if it has a free slot and there is work it is not blocked
+ * from. Returns 1 with *out filled, 0 when there is nothing for it. */
+int sched_next_task(sched_t *self, uint64_t worker, double now, sched_task_t *out);
+
+typedef enum sched_result {
+    SCHED_MERGED = 1,        /* the result was new and is (or will be) in the image */
+    SCHED_DUPLICATE = 2,     /* the task was already done: result ignored */
+    SCHED_PASS_DONE = 4,     /* one or more whole passes are now merged: time for a preview */
+    SCHED_JOB_DONE = 8,      /* every pass is merged */
+} sched_result_t;
+
+/* A finished task. The result must cover exactly the task's tile with the job's buckets; the
+ * scheduler takes ownership of *result (and nulls it) whatever happens. Returns a mask of
+ * sched_result_t, or -1 with err for a result that does not match its task. */
+int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task, uint32_t attempt,
+                    tilebuf_t **result, double now, err_t *err);
+/* A task the worker could not do; message is kept as the job's error if it fails. */
+void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
+                       uint32_t attempt, const char *message);
+
+/* Deadlines and dead workers. Returns the number of tasks put back in the queue. */
+int sched_tick(sched_t *self, double now);
+
+int sched_job_info(const sched_t *self, uint64_t job, sched_job_info_t *out);
+/* The job's merged image (all passes merged so far); NULL for an unknown job. */
+const tilebuf_t *sched_job_image(const sched_t *self, uint64_t job);
+/* Jobs in order, for listings: fills up to max ids, returns the number of jobs. */
+size_t sched_jobs(const sched_t *self, uint64_t *ids, size_t max);
+
+typedef struct sched_worker_info {
+    uint64_t id;
+    int slots, busy;
+    uint64_t tasks_done, tasks_failed;
+    double last_seen;
+    bool alive;
+} sched_worker_info_t;
+size_t sched_workers(const sched_t *self, sched_worker_info_t *out, size_t max);
+
+const char *job_state_name(job_state_t s);
+
+#endif

@@ -1,0 +1,243 @@
+/* sched: the master's job bookkeeping, driven with a fake clock: task order, progressive
+ * passes, merge order independence, lost workers, deadlines, failures and blocking. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include <string.h>
+
+#include "sched.h"
+
+static spectral_grid_t grid4(void)
+{
+    spectral_grid_t g;
+    spectral_grid_init(&g, 4, 400, 700, NULL);
+    return g;
+}
+
+static sched_t *new_sched(int tile)
+{
+    sched_config_t c = sched_config_default();
+    c.tile_size = tile;
+    c.task_deadline_s = 10;
+    c.worker_timeout_s = 3;
+    sched_t *s = sched_new(&c, NULL);
+    assert_non_null(s);
+    return s;
+}
+
+/* A stand-in for a worker's render: every sample of pixel (x, y) adds x + 100 y + 0.001 s to
+ * bucket b scaled by b + 1, so sums depend on exactly which samples were merged. */
+static tilebuf_t *fake_result(const sched_task_t *t, int nb)
+{
+    tilebuf_t *r = tilebuf_new(t->x0, t->y0, t->w, t->h, nb, NULL);
+    double v[8];
+    for (int y = t->y0; y < t->y0 + t->h; y++)
+        for (int x = t->x0; x < t->x0 + t->w; x++)
+            for (uint32_t s = t->sample_begin; s < t->sample_end; s++) {
+                for (int b = 0; b < nb; b++)
+                    v[b] = (b + 1) * (x + 100.0 * y + 0.001 * s) * 1.0000001;
+                tilebuf_add_sample(r, x, y, v, v[0]);
+            }
+    return r;
+}
+
+static void test_passes_and_tiles(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(4);
+    err_t err;
+    /* 10x6 pixels in 4x4 tiles: 3 x 2 tiles; spp 5: passes [0,1) [1,2) [2,4) [4,5). */
+    assert_int_equal(sched_add_job(s, 7, 10, 6, 5, grid4(), &err), 0);
+    sched_job_info_t info;
+    assert_int_equal(sched_job_info(s, 7, &info), 0);
+    assert_int_equal(info.ntiles, 6);
+    assert_int_equal(info.npasses, 4);
+    assert_int_equal(info.state, JOB_QUEUED);
+    assert_int_equal(sched_worker_join(s, 1, 100, 0.0, &err), 0);
+    sched_task_t t;
+    uint32_t bounds[][2] = {{0, 1}, {1, 2}, {2, 4}, {4, 5}};
+    for (int pass = 0; pass < 4; pass++)
+        for (int tile = 0; tile < 6; tile++) {
+            assert_int_equal(sched_next_task(s, 1, 0.0, &t), 1);
+            assert_int_equal(t.pass, pass);
+            assert_int_equal(t.sample_begin, bounds[pass][0]);
+            assert_int_equal(t.sample_end, bounds[pass][1]);
+            assert_int_equal(t.x0, (tile % 3) * 4);
+            assert_int_equal(t.w, tile % 3 == 2 ? 2 : 4);
+            assert_int_equal(t.h, tile >= 3 ? 2 : 4);
+        }
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t), 0);
+    sched_destroy(&s);
+}
+
+/* Results merged in any arrival order give identical image bytes. */
+static void run_job(unsigned order_seed, tilebuf_t **image_out)
+{
+    sched_t *s = new_sched(4);
+    err_t err;
+    sched_add_job(s, 1, 10, 6, 9, grid4(), &err);
+    sched_worker_join(s, 1, 1000, 0.0, &err);
+    sched_task_t tasks[256];
+    int n = 0;
+    while (sched_next_task(s, 1, 0.0, &tasks[n]))
+        n++;
+    /* A fixed pseudo-random permutation of the completion order. */
+    unsigned x = order_seed;
+    for (int i = n - 1; i > 0; i--) {
+        x = x * 1103515245u + 12345u;
+        int k = (int)((x >> 8) % (unsigned)(i + 1));
+        sched_task_t tmp = tasks[i];
+        tasks[i] = tasks[k];
+        tasks[k] = tmp;
+    }
+    int passes_done = 0, job_done = 0;
+    for (int i = 0; i < n; i++) {
+        tilebuf_t *r = fake_result(&tasks[i], 4);
+        int m = sched_task_done(s, 1, 1, tasks[i].task, tasks[i].attempt, &r, 0.0, &err);
+        assert_true(m > 0 && (m & SCHED_MERGED));
+        assert_null(r);
+        passes_done += !!(m & SCHED_PASS_DONE);
+        job_done += !!(m & SCHED_JOB_DONE);
+    }
+    sched_job_info_t info;
+    sched_job_info(s, 1, &info);
+    assert_int_equal(info.state, JOB_DONE);
+    /* One result can complete several passes at once (it unblocks a tile's later passes). */
+    assert_int_equal(info.passes_done, info.npasses);
+    assert_true(passes_done >= 1 && passes_done <= info.npasses);
+    assert_int_equal(job_done, 1);
+    assert_int_equal(info.samples_done, info.samples_total);
+    const tilebuf_t *img = sched_job_image(s, 1);
+    *image_out = tilebuf_new(0, 0, 10, 6, 4, NULL);
+    tilebuf_merge(*image_out, img, NULL);
+    assert_int_equal(tilebuf_count(img, 9, 5), 9);
+    sched_destroy(&s);
+}
+
+static void test_merge_order_independent(void **state)
+{
+    (void)state;
+    tilebuf_t *a, *b, *c;
+    run_job(1, &a);
+    run_job(2, &b);
+    run_job(99, &c);
+    assert_memory_equal(tilebuf_sums(a), tilebuf_sums(b), 10 * 6 * 4 * sizeof(double));
+    assert_memory_equal(tilebuf_sums(a), tilebuf_sums(c), 10 * 6 * 4 * sizeof(double));
+    tilebuf_destroy(&a);
+    tilebuf_destroy(&b);
+    tilebuf_destroy(&c);
+}
+
+static void test_dead_worker_and_deadline(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(8);
+    err_t err;
+    sched_add_job(s, 3, 8, 8, 1, grid4(), &err); /* one task */
+    sched_worker_join(s, 10, 1, 0.0, &err);
+    sched_worker_join(s, 11, 1, 0.0, &err);
+    sched_task_t t, u;
+    assert_int_equal(sched_next_task(s, 10, 0.0, &t), 1);
+    assert_int_equal(sched_next_task(s, 11, 0.0, &u), 0); /* nothing left */
+    /* Worker 10 goes silent: after the timeout its task returns to the queue. */
+    sched_worker_seen(s, 11, 2.9);
+    assert_int_equal(sched_tick(s, 3.5), 1);
+    assert_int_equal(sched_next_task(s, 11, 3.5, &u), 1);
+    assert_int_equal(u.task, t.task);
+    assert_int_equal(u.attempt, 2);
+    /* Worker 11 misses the deadline: re-issued (to 11 again, the only live worker). */
+    sched_worker_seen(s, 11, 13.0);
+    assert_int_equal(sched_tick(s, 14.0), 1);
+    sched_task_t v;
+    assert_int_equal(sched_next_task(s, 11, 14.0, &v), 1);
+    assert_int_equal(v.attempt, 3);
+    /* The late first result is accepted (all attempts give the same bytes); the next is a
+     * duplicate. */
+    tilebuf_t *r = fake_result(&u, 4);
+    assert_true(sched_task_done(s, 11, 3, u.task, u.attempt, &r, 14.5, &err) & SCHED_JOB_DONE);
+    r = fake_result(&v, 4);
+    assert_int_equal(sched_task_done(s, 11, 3, v.task, v.attempt, &r, 14.6, &err), SCHED_DUPLICATE);
+    sched_worker_info_t w[4];
+    assert_int_equal(sched_workers(s, w, 4), 2);
+    assert_false(w[0].alive);
+    assert_true(w[1].alive);
+    assert_int_equal(w[1].busy, 0);
+    sched_destroy(&s);
+}
+
+static void test_failures_block_and_fail(void **state)
+{
+    (void)state;
+    sched_config_t c = sched_config_default();
+    c.tile_size = 8;
+    c.max_task_failures = 3;
+    c.max_worker_job_failures = 2;
+    sched_t *s = sched_new(&c, NULL);
+    err_t err;
+    sched_add_job(s, 5, 8, 8, 1, grid4(), &err);
+    sched_worker_join(s, 1, 1, 0.0, &err);
+    sched_worker_join(s, 2, 1, 0.0, &err);
+    sched_task_t t;
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t), 1);
+    sched_task_failed(s, 1, 5, t.task, t.attempt, "out of memory");
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t), 1);
+    sched_task_failed(s, 1, 5, t.task, t.attempt, "out of memory");
+    /* Worker 1 failed twice: blocked for job 5. */
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t), 0);
+    assert_int_equal(sched_next_task(s, 2, 0.0, &t), 1);
+    sched_task_failed(s, 2, 5, t.task, t.attempt, "scene.pbrt:3:1: bad");
+    sched_job_info_t info;
+    sched_job_info(s, 5, &info);
+    assert_int_equal(info.state, JOB_FAILED);
+    assert_non_null(strstr(info.error, "failed 3 times"));
+    assert_non_null(strstr(info.error, "scene.pbrt:3:1: bad"));
+    assert_int_equal(sched_next_task(s, 2, 0.0, &t), 0);
+    assert_int_equal(sched_remove_job(s, 5, &err), 0);
+    assert_int_equal(sched_job_info(s, 5, &info), -1);
+    sched_destroy(&s);
+}
+
+static void test_bad_results_and_jobs(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(4);
+    err_t err;
+    assert_int_equal(sched_add_job(s, 1, 0, 6, 4, grid4(), &err), -1);
+    assert_int_equal(sched_add_job(s, 1, 8, 8, 4, grid4(), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 8, 8, 4, grid4(), &err), -1);
+    assert_non_null(strstr(err.msg, "exists"));
+    sched_worker_join(s, 1, 4, 0, &err);
+    sched_task_t t;
+    sched_next_task(s, 1, 0, &t);
+    tilebuf_t *wrong = tilebuf_new(t.x0 + 1, t.y0, t.w - 1, t.h, 4, NULL);
+    assert_int_equal(sched_task_done(s, 1, 1, t.task, t.attempt, &wrong, 0, &err), -1);
+    assert_null(wrong);
+    assert_non_null(strstr(err.msg, "does not cover"));
+    tilebuf_t *r = fake_result(&t, 4);
+    assert_int_equal(sched_task_done(s, 1, 99, 0, 1, &r, 0, &err), -1);
+    assert_null(r);
+    /* Cancelling frees the worker's slots and ignores late results. */
+    assert_int_equal(sched_cancel_job(s, 1, &err), 0);
+    sched_worker_info_t w;
+    sched_workers(s, &w, 1);
+    assert_int_equal(w.busy, 0);
+    r = fake_result(&t, 4);
+    assert_int_equal(sched_task_done(s, 1, 1, t.task, t.attempt, &r, 0, &err), SCHED_DUPLICATE);
+    sched_destroy(&s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_passes_and_tiles),
+        cmocka_unit_test(test_merge_order_independent),
+        cmocka_unit_test(test_dead_worker_and_deadline),
+        cmocka_unit_test(test_failures_block_and_fail),
+        cmocka_unit_test(test_bad_results_and_jobs),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
