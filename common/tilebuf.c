@@ -64,6 +64,38 @@ int tilebuf_nbuckets(const tilebuf_t *self) { return self->nb; }
 uint64_t tilebuf_nonfinite(const tilebuf_t *self) { return self->nonfinite; }
 const double *tilebuf_sums(const tilebuf_t *self) { return self->sums; }
 const uint64_t *tilebuf_counts(const tilebuf_t *self) { return self->counts; }
+const double *tilebuf_luminance_sums(const tilebuf_t *self) { return self->lum; }
+const double *tilebuf_luminance_sq_sums(const tilebuf_t *self) { return self->lum_sq; }
+
+static int all_finite(const double *v, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(v[i]))
+            return 0;
+    return 1;
+}
+
+tilebuf_t *tilebuf_new_from(int x0, int y0, int w, int h, int nbuckets, const double *sums,
+                            const uint64_t *counts, const double *lum, const double *lum_sq,
+                            uint64_t nonfinite, err_t *err)
+{
+    tilebuf_t *self = tilebuf_new(x0, y0, w, h, nbuckets, err);
+    if (!self)
+        return NULL;
+    size_t npix = (size_t)w * (size_t)h;
+    if (!all_finite(sums, npix * (size_t)nbuckets) || !all_finite(lum, npix) ||
+        !all_finite(lum_sq, npix)) {
+        tilebuf_destroy(&self);
+        err_set(err, "tile %dx%d at (%d,%d) holds a non-finite sum", w, h, x0, y0);
+        return NULL;
+    }
+    memcpy(self->sums, sums, npix * (size_t)nbuckets * sizeof *sums);
+    memcpy(self->counts, counts, npix * sizeof *counts);
+    memcpy(self->lum, lum, npix * sizeof *lum);
+    memcpy(self->lum_sq, lum_sq, npix * sizeof *lum_sq);
+    self->nonfinite = nonfinite;
+    return self;
+}
 
 static size_t pixel_index(const tilebuf_t *self, int x, int y)
 {

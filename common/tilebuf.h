@@ -45,5 +45,13 @@ int tilebuf_merge(tilebuf_t *dst, const tilebuf_t *src, err_t *err);
 /* Raw arrays, for encoding a tile into a message: sums are [h][w][nbuckets], the others [h][w]. */
 const double *tilebuf_sums(const tilebuf_t *self);
 const uint64_t *tilebuf_counts(const tilebuf_t *self);
+const double *tilebuf_luminance_sums(const tilebuf_t *self);
+const double *tilebuf_luminance_sq_sums(const tilebuf_t *self);
+
+/* A tile rebuilt from those arrays (copied), e.g. from a decoded message. Every value must be
+ * finite (sums can only hold finite values); returns NULL with err otherwise. */
+tilebuf_t *tilebuf_new_from(int x0, int y0, int w, int h, int nbuckets, const double *sums,
+                            const uint64_t *counts, const double *lum, const double *lum_sq,
+                            uint64_t nonfinite, err_t *err);
 
 #endif

@@ -187,10 +187,9 @@ static int open_subdir(int parent, const char *name, const char *path, err_t *er
     int fd = openat(parent, name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
     if (fd < 0) {
         if (errno == ELOOP || errno == ENOTDIR)
-            return err_set(err, "refusing to write '%.64s': '%s' is not a plain folder (%s)",
-                           path, name, strerror(errno));
-        return err_set(err, "cannot open folder '%s' for '%.64s': %s", name, path,
-                       strerror(errno));
+            return err_set(err, "refusing to write '%.64s': '%s' is not a plain folder (%s)", path,
+                           name, strerror(errno));
+        return err_set(err, "cannot open folder '%s' for '%.64s': %s", name, path, strerror(errno));
     }
     return fd;
 }
@@ -211,8 +210,8 @@ static int write_all(int fd, const uint8_t *data, size_t n)
 }
 
 /* Writes one file into the folder dirfd under name, through a temporary file and a rename. */
-static int write_atomically(int dirfd, const char *name, const proto_bundle_file_t *f,
-                            size_t index, err_t *err)
+static int write_atomically(int dirfd, const char *name, const proto_bundle_file_t *f, size_t index,
+                            err_t *err)
 {
     char tmp[64];
     snprintf(tmp, sizeof tmp, ".pf-extract-%ld-%zu.tmp", (long)getpid(), index);

@@ -19,16 +19,18 @@
 #define PROTO_VERSION 1
 
 /* Fixed bounds of the decoder (docs/protocol.md, "Limits"). */
-#define PROTO_MAX_DEPTH 16          /* msgpack nesting depth */
-#define PROTO_MAX_STRING 4096       /* bytes in any string (names, paths, error texts) */
-#define PROTO_MAX_LIST 100000       /* entries in any list (jobs, workers) */
-#define PROTO_MAX_TILE_SIDE 4096    /* tile width and height */
-#define PROTO_MAX_BUCKETS 1024      /* spectral buckets of a tile */
-#define PROTO_MAX_IMAGE_SIDE 65536  /* image resolution and tile corner coordinates */
-#define PROTO_MAX_THREADS 4096      /* worker threads */
-#define PROTO_MAX_PATH_DEPTH 32     /* components of a bundle path */
+#define PROTO_MAX_DEPTH 16           /* msgpack nesting depth */
+#define PROTO_MAX_MAP_ENTRIES 256    /* entries in any map (messages have ~20 fields) */
+#define PROTO_MAX_OBJECTS (1 << 22)  /* msgpack objects in one message (msgpack-c: 24 B each) */
+#define PROTO_MAX_STRING 4096        /* bytes in any string (names, paths, error texts) */
+#define PROTO_MAX_LIST 100000        /* entries in any list (jobs, workers) */
+#define PROTO_MAX_TILE_SIDE 4096     /* tile width and height */
+#define PROTO_MAX_BUCKETS 1024       /* spectral buckets of a tile */
+#define PROTO_MAX_IMAGE_SIDE 65536   /* image resolution and tile corner coordinates */
+#define PROTO_MAX_THREADS 4096       /* worker threads */
+#define PROTO_MAX_PATH_DEPTH 32      /* components of a bundle path */
 #define PROTO_MAX_PATH_COMPONENT 200 /* bytes in one component (leaves room under NAME_MAX) */
-#define PROTO_HASH_HEX 64           /* a scene hash: lower-case hex SHA-256 */
+#define PROTO_HASH_HEX 64            /* a scene hash: lower-case hex SHA-256 */
 
 /* Defaults of the caller-configurable limits (proto_limits_t). */
 #define PROTO_MAX_BUNDLE_FILES 4096
@@ -102,7 +104,11 @@ typedef enum proto_worker_state {
     PROTO_WORKER_STATE_COUNT
 } proto_worker_state_t;
 
-typedef enum proto_fetch_what { PROTO_FETCH_EXR, PROTO_FETCH_PNG, PROTO_FETCH_COUNT } proto_fetch_what_t;
+typedef enum proto_fetch_what {
+    PROTO_FETCH_EXR,
+    PROTO_FETCH_PNG,
+    PROTO_FETCH_COUNT
+} proto_fetch_what_t;
 
 /* Job settings: mirror scene_overrides_t (0 / NULL / -1 keep the scene file's value). */
 typedef struct proto_settings {
@@ -175,9 +181,17 @@ typedef struct proto_worker_info {
 typedef struct proto_msg {
     proto_type_t type;
     int version; /* decode: the sender's; encode: 0 means PROTO_VERSION (others only for tests) */
+    /* HEARTBEAT (both ways), JOBS and WORKERS (client -> master) have no fields. */
     union {
-        struct { const char *name; int threads; const char *software; } hello;
-        struct { uint64_t worker_id; uint32_t heartbeat_ms; } welcome;
+        struct {
+            const char *name;
+            int threads;
+            const char *software;
+        } hello; /* worker -> master, first message of a connection */
+        struct {
+            uint64_t worker_id;
+            uint32_t heartbeat_ms; /* how often each side sends HEARTBEAT */
+        } welcome;                 /* master -> worker, answers HELLO */
         struct {
             uint64_t job, task;
             uint32_t attempt;
@@ -185,27 +199,64 @@ typedef struct proto_msg {
             proto_settings_t settings;
             proto_kind_t kind;
             proto_tile_t tile; /* kind CAMERA_TILE */
-        } task;
+        } task;                /* master -> worker */
         struct {
             uint64_t job, task;
             uint32_t attempt;
             proto_kind_t kind;
             proto_tile_result_t tile; /* kind CAMERA_TILE */
             proto_task_stats_t stats;
-        } result;
-        struct { uint64_t job, task; uint32_t attempt; const char *error; } task_failed;
-        struct { char scene[PROTO_HASH_HEX + 1]; } scene_request;
-        struct { char scene[PROTO_HASH_HEX + 1]; proto_bundle_t bundle; } scene;
-        struct { uint64_t job; } cancel;
-        struct { const char *reason; } refuse;
-        struct { const char *name; proto_settings_t settings; proto_bundle_t bundle; } submit;
-        struct { bool all; uint64_t job; /* when !all */ } status;
-        struct { uint64_t job; proto_fetch_what_t what; } fetch;
-        struct { uint64_t job; } submitted;
-        struct { const proto_job_info_t *jobs; size_t njobs; } status_reply, jobs_reply;
-        struct { const proto_worker_info_t *workers; size_t nworkers; } workers_reply;
-        struct { const char *name; const uint8_t *data; size_t size; } file;
-        struct { const char *message; } error;
+        } result; /* worker -> master */
+        struct {
+            uint64_t job, task;
+            uint32_t attempt;
+            const char *error;
+        } task_failed; /* worker -> master */
+        struct {
+            char scene[PROTO_HASH_HEX + 1];
+        } scene_request; /* worker -> master: send me this bundle */
+        struct {
+            char scene[PROTO_HASH_HEX + 1];
+            proto_bundle_t bundle;
+        } scene; /* master -> worker: scene must be the bundle's hash */
+        struct {
+            uint64_t job;
+        } cancel; /* client -> master, master -> worker */
+        struct {
+            const char *reason;
+        } refuse; /* master -> any peer; the peer should stop */
+        struct {
+            const char *name;
+            proto_settings_t settings;
+            proto_bundle_t bundle;
+        } submit; /* client -> master */
+        struct {
+            bool all;
+            uint64_t job; /* when !all */
+        } status;         /* client -> master; answered by STATUS_REPLY */
+        struct {
+            uint64_t job;
+            proto_fetch_what_t what;
+        } fetch; /* client -> master; answered by FILE */
+        struct {
+            uint64_t job;
+        } submitted; /* master -> client, answers SUBMIT */
+        struct {
+            const proto_job_info_t *jobs;
+            size_t njobs;
+        } status_reply, jobs_reply; /* master -> client, answer STATUS and JOBS */
+        struct {
+            const proto_worker_info_t *workers;
+            size_t nworkers;
+        } workers_reply; /* master -> client, answers WORKERS */
+        struct {
+            const char *name;
+            const uint8_t *data;
+            size_t size;
+        } file; /* master -> client */
+        struct {
+            const char *message;
+        } error; /* master -> client: a request failed */
     };
     struct proto_owned *owned; /* private: what proto_decode allocated */
 } proto_msg_t;
@@ -231,10 +282,10 @@ void proto_msg_free(proto_msg_t *msg);
 
 /* "HELLO", "RESULT", ...: the type's name on the wire and in error messages ("?" if invalid). */
 const char *proto_type_name(proto_type_t type);
-const char *proto_kind_name(proto_kind_t kind);             /* "camera_tile" */
-const char *proto_job_state_name(proto_job_state_t state);  /* "queued", "running", ... */
+const char *proto_kind_name(proto_kind_t kind);              /* "camera_tile" */
+const char *proto_job_state_name(proto_job_state_t state);   /* "queued", "running", ... */
 const char *proto_worker_state_name(proto_worker_state_t s); /* "idle", "busy", "lost" */
-const char *proto_fetch_what_name(proto_fetch_what_t what); /* "exr", "png" */
+const char *proto_fetch_what_name(proto_fetch_what_t what);  /* "exr", "png" */
 
 /* A REFUSE for a peer that speaks peer_version, its reason written into *text:
  * "protocol version 2 not supported by this master (speaks 1)". role names the refuser. */

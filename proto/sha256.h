@@ -12,10 +12,10 @@
 
 /* A hash in progress; a plain value (copy it to fork a computation). */
 typedef struct sha256 {
-    uint32_t h[8];    /* the intermediate hash value H(i) */
-    uint64_t nbytes;  /* message length so far */
+    uint32_t h[8];   /* the intermediate hash value H(i) */
+    uint64_t nbytes; /* message length so far */
     uint8_t block[64];
-    size_t nblock;    /* bytes waiting in block */
+    size_t nblock; /* bytes waiting in block */
 } sha256_t;
 
 void sha256_init(sha256_t *self);

@@ -1,0 +1,316 @@
+#include "net.h"
+
+#include <zmq.h>
+
+#include <errno.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+struct proto_net {
+    void *sock;
+    proto_net_kind_t kind;
+    proto_net_options_t opt;
+};
+
+proto_net_options_t proto_net_options_default(void)
+{
+    return (proto_net_options_t){
+        .limits = proto_limits_default(),
+        .sndhwm = 100,
+        .rcvhwm = 100,
+        .linger_ms = 1000,
+        .send_timeout_ms = 0,
+        /* zguide "Paranoid Pirate": interval 1 s, liveness 3. */
+        .heartbeat_ivl_ms = 1000,
+        .heartbeat_timeout_ms = 3000,
+        .heartbeat_ttl_ms = 3000,
+        .reconnect_ivl_ms = 100,
+        .reconnect_ivl_max_ms = 5000,
+    };
+}
+
+const char *proto_peer_str(const proto_peer_t *peer, char buf[PROTO_PEER_STR])
+{
+    size_t n = peer->len < sizeof peer->id ? peer->len : sizeof peer->id;
+    int printable = n > 0;
+    for (size_t i = 0; i < n && printable; i++)
+        printable = peer->id[i] >= 0x21 && peer->id[i] <= 0x7e;
+    if (printable) {
+        memcpy(buf, peer->id, n);
+        buf[n] = 0;
+        return buf;
+    }
+    static const char digits[] = "0123456789abcdef";
+    buf[0] = '0';
+    buf[1] = 'x';
+    for (size_t i = 0; i < n; i++) {
+        buf[2 + 2 * i] = digits[peer->id[i] >> 4];
+        buf[3 + 2 * i] = digits[peer->id[i] & 15];
+    }
+    buf[2 + 2 * n] = 0;
+    return buf;
+}
+
+/* The return code for a failed zmq call, from errno. */
+static int zmq_code(int e)
+{
+    switch (e) {
+    case EHOSTUNREACH:
+        return PROTO_EUNREACHABLE;
+    case EAGAIN:
+    case EINTR:
+        return PROTO_EAGAIN;
+    default:
+        return PROTO_ESOCKET;
+    }
+}
+
+static int set_int(void *sock, int option, const char *name, int value, err_t *err)
+{
+    if (zmq_setsockopt(sock, option, &value, sizeof value) != 0)
+        return err_set(err, "zmq_setsockopt(%s, %d): %s", name, value, zmq_strerror(zmq_errno()));
+    return 0;
+}
+
+static int configure(proto_net_t *self, err_t *err)
+{
+    const proto_net_options_t *o = &self->opt;
+    void *s = self->sock;
+    if (o->curve.server_public || o->curve.public_key || o->curve.secret_key)
+        return err_set(err, "CURVE keys given, but encryption is not implemented yet (issue 6)");
+    int64_t maxmsg = o->limits.max_message_bytes > (size_t)INT64_MAX
+                         ? INT64_MAX
+                         : (int64_t)o->limits.max_message_bytes;
+    if (zmq_setsockopt(s, ZMQ_MAXMSGSIZE, &maxmsg, sizeof maxmsg) != 0)
+        return err_set(err, "zmq_setsockopt(ZMQ_MAXMSGSIZE, %lld): %s", (long long)maxmsg,
+                       zmq_strerror(zmq_errno()));
+    if (set_int(s, ZMQ_SNDHWM, "ZMQ_SNDHWM", o->sndhwm, err) ||
+        set_int(s, ZMQ_RCVHWM, "ZMQ_RCVHWM", o->rcvhwm, err) ||
+        set_int(s, ZMQ_LINGER, "ZMQ_LINGER", o->linger_ms, err) ||
+        set_int(s, ZMQ_SNDTIMEO, "ZMQ_SNDTIMEO", o->send_timeout_ms, err) ||
+        set_int(s, ZMQ_HEARTBEAT_IVL, "ZMQ_HEARTBEAT_IVL", o->heartbeat_ivl_ms, err) ||
+        set_int(s, ZMQ_HEARTBEAT_TIMEOUT, "ZMQ_HEARTBEAT_TIMEOUT", o->heartbeat_timeout_ms, err) ||
+        set_int(s, ZMQ_HEARTBEAT_TTL, "ZMQ_HEARTBEAT_TTL", o->heartbeat_ttl_ms, err))
+        return -1;
+    if (self->kind == PROTO_NET_ROUTER) {
+        /* Without MANDATORY a ROUTER silently drops messages to unknown peers; with HANDOVER a
+         * reconnecting worker that reuses its routing id takes over its old connection. */
+        return set_int(s, ZMQ_ROUTER_MANDATORY, "ZMQ_ROUTER_MANDATORY", 1, err) ||
+                       set_int(s, ZMQ_ROUTER_HANDOVER, "ZMQ_ROUTER_HANDOVER", 1, err)
+                   ? -1
+                   : 0;
+    }
+    if (set_int(s, ZMQ_RECONNECT_IVL, "ZMQ_RECONNECT_IVL", o->reconnect_ivl_ms, err) ||
+        set_int(s, ZMQ_RECONNECT_IVL_MAX, "ZMQ_RECONNECT_IVL_MAX", o->reconnect_ivl_max_ms, err))
+        return -1;
+    if (o->routing_id) {
+        size_t n = strlen(o->routing_id);
+        if (n == 0 || n > 255)
+            return err_set(err, "routing id has %zu bytes, expected 1..255", n);
+        if (zmq_setsockopt(s, ZMQ_ROUTING_ID, o->routing_id, n) != 0)
+            return err_set(err, "zmq_setsockopt(ZMQ_ROUTING_ID, '%s'): %s", o->routing_id,
+                           zmq_strerror(zmq_errno()));
+    }
+    return 0;
+}
+
+proto_net_t *proto_net_new(void *zmq_ctx, proto_net_kind_t kind, const proto_net_options_t *options,
+                           err_t *err)
+{
+    if (kind != PROTO_NET_ROUTER && kind != PROTO_NET_DEALER) {
+        err_set(err, "socket kind %d is neither ROUTER nor DEALER", (int)kind);
+        return NULL;
+    }
+    proto_net_t *self = calloc(1, sizeof *self);
+    if (!self) {
+        err_set(err, "out of memory for a socket");
+        return NULL;
+    }
+    self->kind = kind;
+    self->opt = options ? *options : proto_net_options_default();
+    self->sock = zmq_socket(zmq_ctx, kind == PROTO_NET_ROUTER ? ZMQ_ROUTER : ZMQ_DEALER);
+    if (!self->sock) {
+        err_set(err, "zmq_socket(%s): %s", kind == PROTO_NET_ROUTER ? "ROUTER" : "DEALER",
+                zmq_strerror(zmq_errno()));
+        free(self);
+        return NULL;
+    }
+    if (configure(self, err) < 0) {
+        proto_net_destroy(&self);
+        return NULL;
+    }
+    return self;
+}
+
+void proto_net_destroy(proto_net_t **self_p)
+{
+    if (!self_p || !*self_p)
+        return;
+    proto_net_t *self = *self_p;
+    /* zmq_close fails only on something that is not a socket (ENOTSOCK), which self->sock
+     * always is; there is nobody to report to from a destructor. */
+    (void)zmq_close(self->sock);
+    free(self);
+    *self_p = NULL;
+}
+
+int proto_net_bind(proto_net_t *self, const char *endpoint, err_t *err)
+{
+    if (zmq_bind(self->sock, endpoint) != 0)
+        return err_set(err, "cannot bind %s: %s", endpoint, zmq_strerror(zmq_errno()));
+    return 0;
+}
+
+int proto_net_connect(proto_net_t *self, const char *endpoint, err_t *err)
+{
+    if (zmq_connect(self->sock, endpoint) != 0)
+        return err_set(err, "cannot connect to %s: %s", endpoint, zmq_strerror(zmq_errno()));
+    return 0;
+}
+
+int proto_net_endpoint(proto_net_t *self, char *buf, size_t size, err_t *err)
+{
+    size_t n = size;
+    if (zmq_getsockopt(self->sock, ZMQ_LAST_ENDPOINT, buf, &n) != 0)
+        return err_set(err, "zmq_getsockopt(ZMQ_LAST_ENDPOINT): %s", zmq_strerror(zmq_errno()));
+    return 0;
+}
+
+void *proto_net_socket(proto_net_t *self)
+{
+    return self->sock;
+}
+
+static void free_body(void *data, void *hint)
+{
+    (void)hint;
+    free(data);
+}
+
+int proto_net_send(proto_net_t *self, const proto_peer_t *to, const proto_msg_t *msg, err_t *err)
+{
+    char who[PROTO_PEER_STR] = "master";
+    if (self->kind == PROTO_NET_ROUTER) {
+        if (!to || to->len == 0 || to->len > sizeof to->id)
+            return err_set(err, "%s: a ROUTER needs a peer to send to", proto_type_name(msg->type)),
+                   PROTO_ESOCKET;
+        proto_peer_str(to, who);
+    } else if (to) {
+        return err_set(err, "%s: a DEALER sends to its connection, not to a peer",
+                       proto_type_name(msg->type)),
+               PROTO_ESOCKET;
+    }
+    msgpack_sbuffer sb;
+    msgpack_sbuffer_init(&sb);
+    if (proto_encode(msg, &self->opt.limits, &sb, err) < 0) {
+        msgpack_sbuffer_destroy(&sb);
+        return PROTO_EMALFORMED;
+    }
+    /* The encoded buffer becomes the frame without a copy; libzmq frees it once sent. */
+    size_t size = sb.size;
+    char *data = msgpack_sbuffer_release(&sb);
+    zmq_msg_t body;
+    if (zmq_msg_init_data(&body, data, size, free_body, NULL) != 0) {
+        int e = zmq_errno();
+        free(data);
+        return err_set(err, "%s to %s: zmq_msg_init_data: %s", proto_type_name(msg->type), who,
+                       zmq_strerror(e)),
+               PROTO_ESOCKET;
+    }
+    if (self->kind == PROTO_NET_ROUTER && zmq_send(self->sock, to->id, to->len, ZMQ_SNDMORE) < 0) {
+        int e = zmq_errno();
+        (void)zmq_msg_close(&body); /* frees data through free_body */
+        return err_set(err, "%s to %s: %s", proto_type_name(msg->type), who, zmq_strerror(e)),
+               zmq_code(e);
+    }
+    if (zmq_msg_send(&body, self->sock, 0) < 0) {
+        int e = zmq_errno();
+        (void)zmq_msg_close(&body); /* after a failed send the message is still ours */
+        return err_set(err, "%s to %s: %s", proto_type_name(msg->type), who, zmq_strerror(e)),
+               zmq_code(e);
+    }
+    return 0;
+}
+
+/* Reads and drops what is left of a multipart message; returns the frames dropped. */
+static int drain(void *sock)
+{
+    int more = 1, n = 0;
+    size_t len = sizeof more;
+    while (zmq_getsockopt(sock, ZMQ_RCVMORE, &more, &len) == 0 && more) {
+        zmq_msg_t f;
+        if (zmq_msg_init(&f) != 0)
+            break;
+        int rc = zmq_msg_recv(&f, sock, 0);
+        (void)zmq_msg_close(&f);
+        if (rc < 0)
+            break;
+        n++;
+    }
+    return n;
+}
+
+int proto_net_recv(proto_net_t *self, proto_peer_t *from, proto_msg_t *out, int timeout_ms,
+                   err_t *err)
+{
+    memset(out, 0, sizeof *out);
+    if (from)
+        from->len = 0;
+    if (self->kind == PROTO_NET_ROUTER && !from)
+        return err_set(err, "a ROUTER must say where the sender goes"), PROTO_ESOCKET;
+    int flags = 0;
+    if (timeout_ms >= 0) {
+        zmq_pollitem_t item = {.socket = self->sock, .events = ZMQ_POLLIN};
+        int n = zmq_poll(&item, 1, timeout_ms);
+        if (n < 0) {
+            int e = zmq_errno();
+            return err_set(err, "zmq_poll: %s", zmq_strerror(e)), zmq_code(e);
+        }
+        if (n == 0)
+            return err_set(err, "no message within %d ms", timeout_ms), PROTO_EAGAIN;
+        flags = ZMQ_DONTWAIT;
+    }
+    char who[PROTO_PEER_STR] = "master";
+    int more = 0;
+    size_t len = sizeof more;
+    if (self->kind == PROTO_NET_ROUTER) {
+        int n = zmq_recv(self->sock, from->id, sizeof from->id, flags);
+        if (n < 0) {
+            int e = zmq_errno();
+            return err_set(err, "receiving: %s", zmq_strerror(e)), zmq_code(e);
+        }
+        /* libzmq routing ids are at most 255 bytes, the size of id: never truncated. */
+        from->len = (size_t)n < sizeof from->id ? (size_t)n : sizeof from->id;
+        proto_peer_str(from, who);
+        if (zmq_getsockopt(self->sock, ZMQ_RCVMORE, &more, &len) != 0)
+            return err_set(err, "from %s: ZMQ_RCVMORE: %s", who, zmq_strerror(zmq_errno())),
+                   PROTO_ESOCKET;
+        if (!more)
+            return err_set(err, "from %s: a routing id without a message", who), PROTO_EMALFORMED;
+        flags = 0; /* the rest of a multipart message has already arrived */
+    }
+    zmq_msg_t body;
+    if (zmq_msg_init(&body) != 0)
+        return err_set(err, "zmq_msg_init: %s", zmq_strerror(zmq_errno())), PROTO_ESOCKET;
+    if (zmq_msg_recv(&body, self->sock, flags) < 0) {
+        int e = zmq_errno();
+        (void)zmq_msg_close(&body);
+        return err_set(err, "from %s: %s", who, zmq_strerror(e)), zmq_code(e);
+    }
+    int extra = drain(self->sock);
+    int rc;
+    if (extra > 0) {
+        err_set(err, "from %s: %d frames after the message, expected none", who, extra);
+        rc = PROTO_EMALFORMED;
+    } else
+        rc = proto_decode(zmq_msg_data(&body), zmq_msg_size(&body), &self->opt.limits, out, err);
+    if (zmq_msg_close(&body) != 0 && rc == 0) {
+        proto_msg_free(out);
+        return err_set(err, "zmq_msg_close: %s", zmq_strerror(zmq_errno())), PROTO_ESOCKET;
+    }
+    if (rc < 0 && extra == 0)
+        err_prefix(err, "from %s: ", who);
+    return rc;
+}

@@ -1,0 +1,90 @@
+/* net: ZeroMQ sockets set up the way the farm needs them (shared/LIBRARIES.md), and one proto
+ * message sent or received per call. A ROUTER reports unroutable peers instead of dropping
+ * messages, every socket has bounded queues, a frame-size cap and libzmq heartbeats, and every
+ * failure names the endpoint or peer and zmq_strerror.
+ *
+ * Framing (docs/protocol.md): a DEALER sends and receives exactly one frame, the encoded message;
+ * the ROUTER sees [peer routing id][message]. No empty delimiter frame (no REQ/REP peers); any
+ * other frame count is malformed. */
+#ifndef PRISMFARM_NET_H
+#define PRISMFARM_NET_H
+
+#include "err.h"
+#include "proto.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* Return codes beyond proto.h's PROTO_EMALFORMED and PROTO_EVERSION. */
+#define PROTO_ESOCKET (-3)      /* the socket is unusable (context terminated, ...): stop */
+#define PROTO_EUNREACHABLE (-4) /* ROUTER send: no connected peer with that routing id */
+#define PROTO_EAGAIN (-5)       /* nothing within the timeout, a full peer queue, or a signal */
+
+typedef enum proto_net_kind { PROTO_NET_ROUTER, PROTO_NET_DEALER } proto_net_kind_t;
+
+/* CURVE encryption and authentication: issue 6. Until then every key must be NULL. */
+typedef struct proto_net_curve {
+    const char *server_public; /* DEALER: the master's public key (Z85, 40 chars) */
+    const char *public_key;    /* this socket's key pair (Z85) */
+    const char *secret_key;
+} proto_net_curve_t;
+
+typedef struct proto_net_options {
+    proto_limits_t limits;    /* ZMQ_MAXMSGSIZE is limits.max_message_bytes; recv decodes with it */
+    int sndhwm, rcvhwm;       /* messages (not bytes) queued per peer each way */
+    int linger_ms;            /* how long closing waits for unsent messages */
+    int send_timeout_ms;      /* how long a send waits for room in the peer's queue; -1 forever */
+    int heartbeat_ivl_ms;     /* ZMQ_HEARTBEAT_IVL: libzmq pings this often */
+    int heartbeat_timeout_ms; /* ZMQ_HEARTBEAT_TIMEOUT: no traffic that long closes the link */
+    int heartbeat_ttl_ms;     /* ZMQ_HEARTBEAT_TTL: asks the remote side to time out after this */
+    int reconnect_ivl_ms, reconnect_ivl_max_ms; /* DEALER: reconnection back-off */
+    const char *routing_id; /* DEALER: 1..255 bytes, first byte not 0; NULL lets the ROUTER pick
+                             * one. With ROUTER_HANDOVER a reconnecting peer keeps its id. */
+    proto_net_curve_t curve;
+} proto_net_options_t;
+
+/* The defaults: proto_limits_default(), HWM 100 each way, linger 1000 ms, send timeout 0 (a send
+ * never blocks: a full queue is PROTO_EAGAIN), heartbeats 1000 / 3000 / 3000 ms (a dead peer is
+ * noticed within about 3 s), reconnect 100 ms doubling to 5000 ms. */
+proto_net_options_t proto_net_options_default(void);
+
+/* A peer as a ROUTER knows it: its routing id. */
+typedef struct proto_peer {
+    uint8_t id[255];
+    size_t len;
+} proto_peer_t;
+
+#define PROTO_PEER_STR 520
+/* The routing id for logs: as text when printable, else "0x" and hex. Returns buf. */
+const char *proto_peer_str(const proto_peer_t *peer, char buf[PROTO_PEER_STR]);
+
+typedef struct proto_net proto_net_t;
+
+/* A configured socket on the caller's ZeroMQ context. options NULL: the defaults. */
+proto_net_t *proto_net_new(void *zmq_ctx, proto_net_kind_t kind, const proto_net_options_t *options,
+                           err_t *err);
+/* Closes the socket (waiting at most linger_ms for unsent messages) and frees it. */
+void proto_net_destroy(proto_net_t **self_p);
+
+int proto_net_bind(proto_net_t *self, const char *endpoint, err_t *err);
+int proto_net_connect(proto_net_t *self, const char *endpoint, err_t *err);
+/* The endpoint last bound, with the port the system chose for "tcp://host:*". */
+int proto_net_endpoint(proto_net_t *self, char *buf, size_t size, err_t *err);
+
+/* The libzmq socket, for zmq_poll; do not send or receive on it directly. */
+void *proto_net_socket(proto_net_t *self);
+
+/* Encodes and sends msg; to is the destination on a ROUTER and must be NULL on a DEALER.
+ * Returns 0, PROTO_EMALFORMED (msg does not encode), PROTO_EUNREACHABLE, PROTO_EAGAIN or
+ * PROTO_ESOCKET. */
+int proto_net_send(proto_net_t *self, const proto_peer_t *to, const proto_msg_t *msg, err_t *err);
+
+/* Receives and decodes one message into out (free it with proto_msg_free), waiting at most
+ * timeout_ms (0: do not wait, -1: forever). On a ROUTER *from is the sender (from may be NULL on a
+ * DEALER). Returns 0; PROTO_EAGAIN when nothing came in time; PROTO_EMALFORMED or PROTO_EVERSION
+ * when a peer sent something undecodable (*from says who, so it can be refused: proto.h's
+ * proto_refuse_version); PROTO_ESOCKET. */
+int proto_net_recv(proto_net_t *self, proto_peer_t *from, proto_msg_t *out, int timeout_ms,
+                   err_t *err);
+
+#endif
