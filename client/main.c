@@ -12,6 +12,12 @@ typedef struct command {
 
 static const command_t COMMANDS[] = {
     {"render", cmd_render, "render a scene on this machine and write EXR and PNG"},
+    {"worker", cmd_worker, "render tasks for a master (a farm worker)"},
+    {"status", cmd_status, "show one job or all jobs of a master"},
+    {"jobs", cmd_jobs, "list a master's jobs"},
+    {"workers", cmd_workers, "list a master's workers"},
+    {"fetch", cmd_fetch, "download a finished job's EXR and PNG"},
+    {"cancel", cmd_cancel, "cancel a job"},
     {"glass", cmd_glass, "list the glass catalogue and print refractive indices"},
 };
 

@@ -1,0 +1,275 @@
+/* prismfarm status / jobs / workers / cancel / fetch: questions to a running master, answered
+ * as human-readable tables or, with --json, as JSON for scripts. */
+#include "commands.h"
+
+#include "client_rpc.h"
+
+#include <errno.h>
+#include <jansson.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct query_args {
+    const char *master;
+    int json;
+    const char *job; /* positional argument, if any */
+    const char *output;
+} query_args_t;
+
+/* Parses --master, --json, -o and at most one positional argument. */
+static int parse_args(const char *cmd, int argc, char **argv, query_args_t *q, int want_output)
+{
+    *q = (query_args_t){.master = client_default_master()};
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--json"))
+            q->json = 1;
+        else if (!strcmp(a, "--master") && i + 1 < argc)
+            q->master = argv[++i];
+        else if (want_output && (!strcmp(a, "-o") || !strcmp(a, "--output")) && i + 1 < argc)
+            q->output = argv[++i];
+        else if (a[0] == '-') {
+            fprintf(stderr, "prismfarm %s: unknown option '%s' (see prismfarm %s --help)\n", cmd, a, cmd);
+            return 2;
+        } else if (!q->job)
+            q->job = a;
+        else {
+            fprintf(stderr, "prismfarm %s: unexpected argument '%s'\n", cmd, a);
+            return 2;
+        }
+    }
+    return 0;
+}
+
+static int parse_job(const char *cmd, const char *s, uint64_t *out)
+{
+    char *end;
+    errno = 0;
+    unsigned long long v = s ? strtoull(s, &end, 10) : 0;
+    if (!s || errno || end == s || *end || v == 0 || s[0] == '-') {
+        fprintf(stderr, "prismfarm %s: expected a job id (a positive integer), got '%s'\n", cmd, s ? s : "");
+        return 2;
+    }
+    *out = v;
+    return 0;
+}
+
+static int call(const query_args_t *q, const char *cmd, const proto_msg_t *req, proto_msg_t *reply)
+{
+    err_t err;
+    client_rpc_t *rpc = client_rpc_new(q->master, NULL, &err);
+    int r = rpc ? client_rpc_call(rpc, req, reply, 10000, &err) : -1;
+    client_rpc_destroy(&rpc);
+    if (r)
+        fprintf(stderr, "prismfarm %s: %s\n", cmd, err.msg);
+    return r ? 1 : 0;
+}
+
+static json_t *job_json(const proto_job_info_t *j)
+{
+    json_t *o = json_object();
+    json_object_set_new(o, "id", json_integer((json_int_t)j->id));
+    json_object_set_new(o, "name", json_string(j->name ? j->name : ""));
+    json_object_set_new(o, "state", json_string(proto_job_state_name(j->state)));
+    json_object_set_new(o, "samples_done", json_integer((json_int_t)j->samples_done));
+    json_object_set_new(o, "samples_total", json_integer((json_int_t)j->samples_total));
+    json_object_set_new(o, "progress", json_real(j->samples_total ? (double)j->samples_done / (double)j->samples_total : 0.0));
+    json_object_set_new(o, "elapsed_s", json_real(j->elapsed));
+    json_object_set_new(o, "nonfinite", json_integer((json_int_t)j->nonfinite));
+    json_object_set_new(o, "error", j->error ? json_string(j->error) : json_null());
+    return o;
+}
+
+static void print_json(json_t *v)
+{
+    json_dumpf(v, stdout, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
+    fputc('\n', stdout);
+    json_decref(v);
+}
+
+static void print_jobs(const proto_job_info_t *jobs, size_t n, int json)
+{
+    if (json) {
+        json_t *arr = json_array();
+        for (size_t i = 0; i < n; i++)
+            json_array_append_new(arr, job_json(&jobs[i]));
+        print_json(arr);
+        return;
+    }
+    printf("%-6s %-20s %-10s %9s %9s %10s  %s\n", "ID", "NAME", "STATE", "PROGRESS", "ELAPSED", "NONFINITE", "ERROR");
+    for (size_t i = 0; i < n; i++) {
+        const proto_job_info_t *j = &jobs[i];
+        double p = j->samples_total ? 100.0 * (double)j->samples_done / (double)j->samples_total : 0;
+        printf("%-6llu %-20.20s %-10s %8.1f%% %8.1fs %10llu  %s\n", (unsigned long long)j->id,
+               j->name ? j->name : "", proto_job_state_name(j->state), p, j->elapsed,
+               (unsigned long long)j->nonfinite, j->error ? j->error : "");
+    }
+}
+
+int cmd_status(int argc, char **argv)
+{
+    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
+        printf("usage: prismfarm status [JOB] [--master ENDPOINT] [--json]\n"
+               "Shows one job, or every job, of the master.\n");
+        return 0;
+    }
+    query_args_t q;
+    int r = parse_args("status", argc, argv, &q, 0);
+    if (r)
+        return r;
+    proto_msg_t req = {.type = PROTO_STATUS, .status = {.all = q.job == NULL}};
+    if (q.job && parse_job("status", q.job, &req.status.job))
+        return 2;
+    proto_msg_t reply;
+    if (call(&q, "status", &req, &reply))
+        return 1;
+    print_jobs(reply.status_reply.jobs, reply.status_reply.njobs, q.json);
+    proto_msg_free(&reply);
+    return 0;
+}
+
+int cmd_jobs(int argc, char **argv)
+{
+    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
+        printf("usage: prismfarm jobs [--master ENDPOINT] [--json]\nLists the master's jobs.\n");
+        return 0;
+    }
+    query_args_t q;
+    int r = parse_args("jobs", argc, argv, &q, 0);
+    if (r)
+        return r;
+    if (q.job) {
+        fprintf(stderr, "prismfarm jobs: unexpected argument '%s'\n", q.job);
+        return 2;
+    }
+    proto_msg_t req = {.type = PROTO_JOBS}, reply;
+    if (call(&q, "jobs", &req, &reply))
+        return 1;
+    print_jobs(reply.jobs_reply.jobs, reply.jobs_reply.njobs, q.json);
+    proto_msg_free(&reply);
+    return 0;
+}
+
+int cmd_workers(int argc, char **argv)
+{
+    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
+        printf("usage: prismfarm workers [--master ENDPOINT] [--json]\nLists the workers the master knows.\n");
+        return 0;
+    }
+    query_args_t q;
+    int r = parse_args("workers", argc, argv, &q, 0);
+    if (r)
+        return r;
+    if (q.job) {
+        fprintf(stderr, "prismfarm workers: unexpected argument '%s'\n", q.job);
+        return 2;
+    }
+    proto_msg_t req = {.type = PROTO_WORKERS}, reply;
+    if (call(&q, "workers", &req, &reply))
+        return 1;
+    const proto_worker_info_t *w = reply.workers_reply.workers;
+    size_t n = reply.workers_reply.nworkers;
+    if (q.json) {
+        json_t *arr = json_array();
+        for (size_t i = 0; i < n; i++) {
+            json_t *o = json_object();
+            json_object_set_new(o, "id", json_integer((json_int_t)w[i].id));
+            json_object_set_new(o, "name", json_string(w[i].name ? w[i].name : ""));
+            json_object_set_new(o, "threads", json_integer(w[i].threads));
+            json_object_set_new(o, "state", json_string(proto_worker_state_name(w[i].state)));
+            json_object_set_new(o, "tasks_done", json_integer((json_int_t)w[i].tasks_done));
+            json_object_set_new(o, "last_seen_s", json_real(w[i].last_seen));
+            json_array_append_new(arr, o);
+        }
+        print_json(arr);
+    } else {
+        printf("%-6s %-24s %7s %-6s %10s %10s\n", "ID", "NAME", "THREADS", "STATE", "TASKS", "LAST SEEN");
+        for (size_t i = 0; i < n; i++)
+            printf("%-6llu %-24.24s %7d %-6s %10llu %9.1fs\n", (unsigned long long)w[i].id,
+                   w[i].name ? w[i].name : "", w[i].threads, proto_worker_state_name(w[i].state),
+                   (unsigned long long)w[i].tasks_done, w[i].last_seen);
+    }
+    proto_msg_free(&reply);
+    return 0;
+}
+
+int cmd_cancel(int argc, char **argv)
+{
+    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
+        printf("usage: prismfarm cancel JOB [--master ENDPOINT] [--json]\nCancels a job.\n");
+        return 0;
+    }
+    query_args_t q;
+    int r = parse_args("cancel", argc, argv, &q, 0);
+    if (r)
+        return r;
+    proto_msg_t req = {.type = PROTO_CANCEL}, reply;
+    if (parse_job("cancel", q.job, &req.cancel.job))
+        return 2;
+    if (call(&q, "cancel", &req, &reply))
+        return 1;
+    if (reply.type == PROTO_STATUS_REPLY)
+        print_jobs(reply.status_reply.jobs, reply.status_reply.njobs, q.json);
+    proto_msg_free(&reply);
+    return 0;
+}
+
+/* Fetches one output of a job into path; returns 0, 1 on failure (message printed). */
+int client_fetch_file(const char *master, uint64_t job, proto_fetch_what_t what, const char *path,
+                      const char *cmd)
+{
+    query_args_t q = {.master = master};
+    proto_msg_t req = {.type = PROTO_FETCH, .fetch = {.job = job, .what = what}}, reply;
+    if (call(&q, cmd, &req, &reply))
+        return 1;
+    if (reply.type != PROTO_FILE) {
+        fprintf(stderr, "prismfarm %s: the master answered %s, not FILE\n", cmd, proto_type_name(reply.type));
+        proto_msg_free(&reply);
+        return 1;
+    }
+    /* Written beside the target and renamed, so a failed fetch never leaves half a file. */
+    char tmp[4200];
+    snprintf(tmp, sizeof tmp, "%s.part", path);
+    FILE *f = fopen(tmp, "wb");
+    int ok = f && fwrite(reply.file.data, 1, reply.file.size, f) == reply.file.size;
+    ok = (f && fclose(f) == 0) && ok;
+    ok = ok && rename(tmp, path) == 0;
+    if (!ok) {
+        fprintf(stderr, "prismfarm %s: cannot write %s: %s\n", cmd, path, strerror(errno));
+        remove(tmp);
+    }
+    proto_msg_free(&reply);
+    return ok ? 0 : 1;
+}
+
+int cmd_fetch(int argc, char **argv)
+{
+    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
+        printf("usage: prismfarm fetch JOB -o OUT.exr [--master ENDPOINT]\n"
+               "Downloads a finished job's spectral EXR to OUT.exr and its preview to OUT.png.\n");
+        return 0;
+    }
+    query_args_t q;
+    int r = parse_args("fetch", argc, argv, &q, 1);
+    if (r)
+        return r;
+    uint64_t job;
+    if (parse_job("fetch", q.job, &job))
+        return 2;
+    if (!q.output) {
+        fprintf(stderr, "prismfarm fetch: -o OUT.exr is required\n");
+        return 2;
+    }
+    char png[4200];
+    size_t n = strlen(q.output);
+    if (n > 4 && !strcmp(q.output + n - 4, ".exr"))
+        snprintf(png, sizeof png, "%.*s.png", (int)(n - 4), q.output);
+    else
+        snprintf(png, sizeof png, "%s.png", q.output);
+    if (client_fetch_file(q.master, job, PROTO_FETCH_EXR, q.output, "fetch") ||
+        client_fetch_file(q.master, job, PROTO_FETCH_PNG, png, "fetch"))
+        return 1;
+    printf("wrote %s and %s\n", q.output, png);
+    return 0;
+}

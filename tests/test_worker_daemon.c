@@ -1,0 +1,230 @@
+/* worker_daemon against a fake master on inproc://: the HELLO / WELCOME / TASK /
+ * SCENE_REQUEST / SCENE / RESULT conversation, results equal to a local render_tile, a failed
+ * scene reported as TASK_FAILED, and reconnection when the master goes quiet. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <zmq.h>
+
+#include "bundle.h"
+#include "net.h"
+#include "render.h"
+#include "scene_load.h"
+#include "worker_daemon.h"
+
+typedef struct fixture {
+    void *ctx;
+    proto_net_t *router;
+    pthread_t thread;
+    volatile sig_atomic_t stop;
+    worker_opts_t opts;
+    int rc;
+    char cache[128];
+    uint8_t *scene_bytes;
+    size_t scene_size;
+} fixture_t;
+
+static void *run_worker(void *arg)
+{
+    fixture_t *f = arg;
+    err_t err;
+    f->rc = worker_run(&f->opts, &err);
+    if (f->rc)
+        fprintf(stderr, "worker_run: %s\n", err.msg);
+    return NULL;
+}
+
+static int setup(void **state)
+{
+    fixture_t *f = calloc(1, sizeof *f);
+    f->ctx = zmq_ctx_new();
+    f->router = proto_net_new(f->ctx, PROTO_NET_ROUTER, NULL, NULL);
+    if (!f->router || proto_net_bind(f->router, "inproc://master-workers", NULL))
+        return -1;
+    snprintf(f->cache, sizeof f->cache, "/tmp/prismfarm-test-worker-XXXXXX");
+    if (!mkdtemp(f->cache))
+        return -1;
+    FILE *in = fopen("data/render/tiny.pbrt", "rb");
+    if (!in)
+        return -1;
+    f->scene_bytes = malloc(1 << 16);
+    f->scene_size = fread(f->scene_bytes, 1, 1 << 16, in);
+    fclose(in);
+    f->opts = (worker_opts_t){.endpoint = "inproc://master-workers", .zmq_ctx = f->ctx, .threads = 2,
+                              .name = "test-worker", .cache_dir = f->cache, .stop = &f->stop,
+                              .reconnect_max_ms = 200};
+    pthread_create(&f->thread, NULL, run_worker, f);
+    *state = f;
+    return 0;
+}
+
+static int teardown(void **state)
+{
+    fixture_t *f = *state;
+    f->stop = 1;
+    pthread_join(f->thread, NULL);
+    proto_net_destroy(&f->router);
+    zmq_ctx_term(f->ctx);
+    char cmd[256];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", f->cache);
+    int r = system(cmd);
+    free(f->scene_bytes);
+    free(f);
+    return r == 0 ? 0 : -1;
+}
+
+/* Receives messages until one of the wanted type arrives (heartbeats are skipped). */
+static void expect(fixture_t *f, proto_type_t type, proto_peer_t *from, proto_msg_t *m)
+{
+    for (int tries = 0; tries < 400; tries++) {
+        err_t err;
+        int r = proto_net_recv(f->router, from, m, 50, &err);
+        if (r == PROTO_EAGAIN)
+            continue;
+        if (r != 0)
+            fail_msg("recv: %s", err.msg);
+        if (m->type == type)
+            return;
+        proto_msg_free(m);
+    }
+    fail_msg("no %s from the worker within 20 s", proto_type_name(type));
+}
+
+static proto_bundle_file_t FILES[1];
+
+static proto_bundle_t bundle_of(fixture_t *f, const char *name)
+{
+    FILES[0] = (proto_bundle_file_t){.path = name, .data = f->scene_bytes, .size = f->scene_size};
+    return (proto_bundle_t){.main = name, .files = FILES, .nfiles = 1};
+}
+
+static void send_to(fixture_t *f, const proto_peer_t *to, const proto_msg_t *m)
+{
+    err_t err;
+    if (proto_net_send(f->router, to, m, &err))
+        fail_msg("send %s: %s", proto_type_name(m->type), err.msg);
+}
+
+static void test_task_round_trip(void **state)
+{
+    fixture_t *f = *state;
+    proto_peer_t w;
+    proto_msg_t m;
+    expect(f, PROTO_HELLO, &w, &m);
+    assert_string_equal(m.hello.name, "test-worker");
+    assert_int_equal(m.hello.threads, 2);
+    proto_msg_free(&m);
+    proto_msg_t welcome = {.type = PROTO_WELCOME, .welcome = {.worker_id = 1, .heartbeat_ms = 1000}};
+    send_to(f, &w, &welcome);
+
+    proto_bundle_t b = bundle_of(f, "tiny.pbrt");
+    char hash[PROTO_HASH_HEX + 1];
+    assert_int_equal(proto_bundle_hash(&b, hash, NULL), 0);
+    proto_msg_t task = {.type = PROTO_TASK};
+    task.task.job = 7;
+    task.task.task = 3;
+    task.task.attempt = 1;
+    snprintf(task.task.scene, sizeof task.task.scene, "%s", hash);
+    task.task.settings = (proto_settings_t){.seed = -1, .dispersion = "fanout"};
+    task.task.kind = PROTO_KIND_CAMERA_TILE;
+    task.task.tile = (proto_tile_t){.x0 = 8, .y0 = 4, .w = 8, .h = 6, .sample_begin = 2, .sample_end = 4};
+    send_to(f, &w, &task);
+    expect(f, PROTO_SCENE_REQUEST, &w, &m);
+    assert_string_equal(m.scene_request.scene, hash);
+    proto_msg_free(&m);
+    proto_msg_t scene = {.type = PROTO_SCENE, .scene = {.bundle = b}};
+    snprintf(scene.scene.scene, sizeof scene.scene.scene, "%s", hash);
+    send_to(f, &w, &scene);
+    expect(f, PROTO_RESULT, &w, &m);
+    assert_int_equal(m.result.job, 7);
+    assert_int_equal(m.result.task, 3);
+    assert_int_equal(m.result.tile.rect.x0, 8);
+    assert_int_equal(m.result.tile.nbuckets, 8);
+
+    /* The same tile rendered here, with the same overrides, gives the same bytes. */
+    scene_overrides_t ov = {.seed = -1, .dispersion = "fanout"};
+    err_t err;
+    scene_t *sc = scene_load_file("data/render/tiny.pbrt", &ov, &err);
+    assert_non_null(sc);
+    tilebuf_t *t = tilebuf_new(8, 4, 8, 6, sc->settings.grid.n, &err);
+    assert_int_equal(render_tile(sc, 8, 4, 8, 6, 2, 4, t, NULL, &err), 0);
+    assert_memory_equal(m.result.tile.sums, tilebuf_sums(t), 8 * 6 * 8 * sizeof(double));
+    assert_memory_equal(m.result.tile.counts, tilebuf_counts(t), 8 * 6 * sizeof(uint64_t));
+    assert_true(m.result.stats.samples == 8 * 6 * 2);
+    proto_msg_free(&m);
+    tilebuf_destroy(&t);
+    scene_destroy(&sc);
+
+    /* A second task of the same scene needs no SCENE_REQUEST: the bundle is cached. */
+    task.task.task = 4;
+    task.task.tile.x0 = 0;
+    send_to(f, &w, &task);
+    expect(f, PROTO_RESULT, &w, &m);
+    assert_int_equal(m.result.task, 4);
+    proto_msg_free(&m);
+
+    /* A bundle whose scene is broken: the task fails with the loader's message. */
+    static const char broken[] = "WorldBegin\nShape \"sphere\" \"float radius\" [ 1 2 ]\n";
+    proto_bundle_file_t bf = {.path = "bad.pbrt", .data = (const uint8_t *)broken, .size = sizeof broken - 1};
+    proto_bundle_t bb = {.main = "bad.pbrt", .files = &bf, .nfiles = 1};
+    assert_int_equal(proto_bundle_hash(&bb, hash, NULL), 0);
+    task.task.job = 8;
+    snprintf(task.task.scene, sizeof task.task.scene, "%s", hash);
+    send_to(f, &w, &task);
+    expect(f, PROTO_SCENE_REQUEST, &w, &m);
+    proto_msg_free(&m);
+    scene.scene.bundle = bb;
+    snprintf(scene.scene.scene, sizeof scene.scene.scene, "%s", hash);
+    send_to(f, &w, &scene);
+    expect(f, PROTO_TASK_FAILED, &w, &m);
+    assert_int_equal(m.task_failed.job, 8);
+    if (!strstr(m.task_failed.error, "bad.pbrt:2:"))
+        fail_msg("unexpected error: %s", m.task_failed.error);
+    proto_msg_free(&m);
+
+    /* A SCENE whose bundle does not match its hash is rejected, never cached. */
+    task.task.job = 9;
+    snprintf(task.task.scene, sizeof task.task.scene, "%064d", 0);
+    send_to(f, &w, &task);
+    expect(f, PROTO_SCENE_REQUEST, &w, &m);
+    proto_msg_free(&m);
+    scene.scene.bundle = b;
+    snprintf(scene.scene.scene, sizeof scene.scene.scene, "%064d", 0);
+    err_t serr;
+    /* The encoder itself refuses a mismatching SCENE, so this cannot even be sent. */
+    assert_int_not_equal(proto_net_send(f->router, &w, &scene, &serr), 0);
+}
+
+/* A master that stops answering: the worker reconnects and says HELLO again. */
+static void test_reconnects_when_master_is_silent(void **state)
+{
+    fixture_t *f = *state;
+    proto_peer_t w;
+    proto_msg_t m;
+    expect(f, PROTO_HELLO, &w, &m);
+    proto_msg_free(&m);
+    proto_msg_t welcome = {.type = PROTO_WELCOME, .welcome = {.worker_id = 1, .heartbeat_ms = 100}};
+    send_to(f, &w, &welcome);
+    expect(f, PROTO_HEARTBEAT, &w, &m);
+    proto_msg_free(&m);
+    /* Say nothing: after 3 heartbeat intervals the worker gives up on this connection. */
+    expect(f, PROTO_HELLO, &w, &m);
+    proto_msg_free(&m);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_task_round_trip, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_reconnects_when_master_is_silent, setup, teardown),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,555 @@
+#include "worker_daemon.h"
+
+#include "bundle.h"
+#include "local_render.h"
+#include "net.h"
+#include "render.h"
+#include "scene_load.h"
+
+#include <errno.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+#include <zmq.h>
+#if defined(__SSE__)
+#include <pmmintrin.h>
+#include <xmmintrin.h>
+#endif
+
+#define MAX_SCENES 4 /* loaded scenes kept (one per job); the oldest unused one goes first */
+
+typedef struct job_scene {
+    uint64_t job;
+    char hash[PROTO_HASH_HEX + 1];
+    scene_t *scene;
+    char error[512];
+    int loading, users;
+    unsigned long stamp;
+} job_scene_t;
+
+typedef struct task {
+    struct task *next;
+    uint64_t job, id;
+    uint32_t attempt;
+    unsigned generation; /* connection generation that received it */
+    char hash[PROTO_HASH_HEX + 1];
+    proto_settings_t settings;
+    char strings[2][16];
+    proto_tile_t tile;
+    /* filled by the render thread */
+    tilebuf_t *result;
+    render_stats_t stats;
+    double elapsed;
+    char error[640];
+} task_t;
+
+typedef struct worker {
+    const worker_opts_t *opts;
+    char cache[512];
+    pthread_mutex_t lock;
+    pthread_cond_t wake;
+    task_t *queue, *queue_tail; /* ready to render */
+    task_t *parked;             /* waiting for their scene */
+    task_t *done;               /* rendered, to send */
+    job_scene_t scenes[MAX_SCENES];
+    unsigned long clock;
+    unsigned generation;
+    int quit;
+    uint64_t cancelled[64]; /* recently cancelled jobs */
+    int ncancelled;
+} worker_t;
+
+static double now_s(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static void logf_(const worker_t *w, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void logf_(const worker_t *w, const char *fmt, ...)
+{
+    if (!w->opts->verbose)
+        return;
+    va_list ap;
+    va_start(ap, fmt);
+    fprintf(stderr, "worker: ");
+    vfprintf(stderr, fmt, ap);
+    fputc('\n', stderr);
+    va_end(ap);
+}
+
+static void copy_settings(task_t *t, const proto_settings_t *s)
+{
+    t->settings = *s;
+    snprintf(t->strings[0], sizeof t->strings[0], "%s", s->integrator ? s->integrator : "");
+    snprintf(t->strings[1], sizeof t->strings[1], "%s", s->dispersion ? s->dispersion : "");
+    t->settings.integrator = s->integrator ? t->strings[0] : NULL;
+    t->settings.dispersion = s->dispersion ? t->strings[1] : NULL;
+}
+
+static int is_cancelled(const worker_t *w, uint64_t job)
+{
+    for (int i = 0; i < w->ncancelled; i++)
+        if (w->cancelled[i] == job)
+            return 1;
+    return 0;
+}
+
+static int bundle_ready(const worker_t *w, const char *hash)
+{
+    char path[700];
+    snprintf(path, sizeof path, "%s/%s/.complete", w->cache, hash);
+    return access(path, F_OK) == 0;
+}
+
+/* Finds or loads the scene of a task's job. Called by render threads with the lock held; the
+ * lock is released while loading so that other threads keep rendering. */
+static job_scene_t *acquire_scene(worker_t *w, const task_t *t, err_t *err)
+{
+    for (;;) {
+        job_scene_t *hit = NULL, *victim = NULL;
+        for (int i = 0; i < MAX_SCENES; i++) {
+            job_scene_t *s = &w->scenes[i];
+            if ((s->scene || s->loading || s->error[0]) && s->job == t->job) {
+                hit = s;
+                break;
+            }
+            if (!s->loading && s->users == 0 && (!victim || s->stamp < victim->stamp))
+                victim = s;
+        }
+        if (hit && hit->loading) {
+            pthread_cond_wait(&w->wake, &w->lock);
+            continue;
+        }
+        if (hit) {
+            if (hit->error[0]) {
+                err_set(err, "%s", hit->error);
+                return NULL;
+            }
+            hit->users++;
+            hit->stamp = ++w->clock;
+            return hit;
+        }
+        if (!victim) {
+            pthread_cond_wait(&w->wake, &w->lock);
+            continue;
+        }
+        scene_destroy(&victim->scene);
+        memset(victim, 0, sizeof *victim);
+        victim->job = t->job;
+        victim->loading = 1;
+        snprintf(victim->hash, sizeof victim->hash, "%s", t->hash);
+        char main_path[PROTO_MAX_STRING + 800], dir[700], mainname[PROTO_MAX_STRING + 1];
+        snprintf(dir, sizeof dir, "%s/%s", w->cache, t->hash);
+        /* The bundle's main file name was written next to it at extraction. */
+        char namefile[760];
+        snprintf(namefile, sizeof namefile, "%s/.main", dir);
+        pthread_mutex_unlock(&w->lock);
+        err_t lerr = {{0}};
+        scene_t *sc = NULL;
+        FILE *f = fopen(namefile, "r");
+        if (!f || !fgets(mainname, sizeof mainname, f)) {
+            err_set(&lerr, "scene %s: its bundle in %s is incomplete", t->hash, dir);
+        } else {
+            mainname[strcspn(mainname, "\n")] = 0;
+            snprintf(main_path, sizeof main_path, "%s/%s", dir, mainname);
+            scene_overrides_t ov = proto_settings_to_overrides(&t->settings);
+            sc = scene_load_file(main_path, &ov, &lerr);
+        }
+        if (f)
+            fclose(f);
+        pthread_mutex_lock(&w->lock);
+        victim->loading = 0;
+        victim->scene = sc;
+        victim->stamp = ++w->clock;
+        if (!sc)
+            snprintf(victim->error, sizeof victim->error, "%s", lerr.msg);
+        pthread_cond_broadcast(&w->wake);
+    }
+}
+
+static void *render_thread(void *arg)
+{
+    worker_t *w = arg;
+#if defined(__SSE__)
+    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+#endif
+    pthread_mutex_lock(&w->lock);
+    for (;;) {
+        while (!w->quit && !w->queue)
+            pthread_cond_wait(&w->wake, &w->lock);
+        if (w->quit)
+            break;
+        task_t *t = w->queue;
+        w->queue = t->next;
+        if (!w->queue)
+            w->queue_tail = NULL;
+        err_t err = {{0}};
+        job_scene_t *js = is_cancelled(w, t->job) ? NULL : acquire_scene(w, t, &err);
+        if (js) {
+            pthread_mutex_unlock(&w->lock);
+            double t0 = now_s();
+            const proto_tile_t *r = &t->tile;
+            t->result = tilebuf_new(r->x0, r->y0, r->w, r->h, js->scene->settings.grid.n, &err);
+            if (t->result && render_tile(js->scene, r->x0, r->y0, r->w, r->h, r->sample_begin,
+                                         r->sample_end, t->result, &t->stats, &err))
+                tilebuf_destroy(&t->result);
+            t->elapsed = now_s() - t0;
+            pthread_mutex_lock(&w->lock);
+            js->users--;
+            pthread_cond_broadcast(&w->wake);
+        }
+        if (!t->result)
+            snprintf(t->error, sizeof t->error, "%s", err.msg[0] ? err.msg : "job cancelled");
+        t->next = w->done;
+        w->done = t;
+    }
+    pthread_mutex_unlock(&w->lock);
+    return NULL;
+}
+
+static void free_list(task_t *t)
+{
+    while (t) {
+        task_t *n = t->next;
+        tilebuf_destroy(&t->result);
+        free(t);
+        t = n;
+    }
+}
+
+static int send_msg(worker_t *w, proto_net_t *net, const proto_msg_t *m)
+{
+    err_t err;
+    int r = proto_net_send(net, NULL, m, &err);
+    if (r)
+        logf_(w, "sending %s failed: %s", proto_type_name(m->type), err.msg);
+    return r;
+}
+
+/* Writes a received bundle into the cache: into a fresh folder first, then renamed into place,
+ * so a half-written bundle never looks complete. */
+static int store_bundle(worker_t *w, const char *hash, const proto_bundle_t *b, err_t *err)
+{
+    char have[PROTO_HASH_HEX + 1];
+    if (proto_bundle_hash(b, have, err))
+        return -1;
+    if (strcmp(have, hash) != 0)
+        return err_set(err, "scene bundle hashes to %s, not %s", have, hash);
+    if (bundle_ready(w, hash))
+        return 0;
+    char tmp[700], final[700], path[800];
+    snprintf(tmp, sizeof tmp, "%s/tmp-%s-%ld", w->cache, hash, (long)getpid());
+    snprintf(final, sizeof final, "%s/%s", w->cache, hash);
+    if (proto_bundle_extract(b, tmp, err))
+        return -1;
+    snprintf(path, sizeof path, "%s/.main", tmp);
+    FILE *f = fopen(path, "w");
+    if (!f || fprintf(f, "%s\n", b->main) < 0 || fclose(f) != 0)
+        return err_set(err, "cannot write %s: %s", path, strerror(errno));
+    snprintf(path, sizeof path, "%s/.complete", tmp);
+    f = fopen(path, "w");
+    if (!f || fclose(f) != 0)
+        return err_set(err, "cannot write %s: %s", path, strerror(errno));
+    if (rename(tmp, final) != 0 && !bundle_ready(w, hash))
+        return err_set(err, "cannot move %s to %s: %s", tmp, final, strerror(errno));
+    return 0;
+}
+
+static int make_dirs(const char *path)
+{
+    char buf[512];
+    snprintf(buf, sizeof buf, "%s", path);
+    for (char *p = buf + 1;; p++) {
+        if (*p == '/' || !*p) {
+            char c = *p;
+            *p = 0;
+            if (mkdir(buf, 0700) && errno != EEXIST)
+                return -1;
+            if (!c)
+                return 0;
+            *p = c;
+        }
+    }
+}
+
+int worker_run(const worker_opts_t *opts, err_t *err)
+{
+    worker_t w = {.opts = opts};
+    if (!opts->endpoint)
+        return err_set(err, "worker: no master endpoint");
+    if (opts->cache_dir)
+        snprintf(w.cache, sizeof w.cache, "%s", opts->cache_dir);
+    else
+        snprintf(w.cache, sizeof w.cache, "%s/prismfarm-worker-%ld",
+                 getenv("TMPDIR") ? getenv("TMPDIR") : "/tmp", (long)getuid());
+    if (make_dirs(w.cache))
+        return err_set(err, "worker: cannot create cache folder %s: %s", w.cache, strerror(errno));
+    int threads = opts->threads > 0 ? opts->threads : local_render_cores();
+    char name[256];
+    if (opts->name)
+        snprintf(name, sizeof name, "%s", opts->name);
+    else {
+        char host[200] = "host";
+        gethostname(host, sizeof host - 1);
+        snprintf(name, sizeof name, "%s:%ld", host, (long)getpid());
+    }
+    void *ctx = opts->zmq_ctx ? opts->zmq_ctx : zmq_ctx_new();
+    if (!ctx)
+        return err_set(err, "worker: zmq_ctx_new failed: %s", zmq_strerror(errno));
+    pthread_mutex_init(&w.lock, NULL);
+    pthread_cond_init(&w.wake, NULL);
+    pthread_t *th = calloc((size_t)threads, sizeof *th);
+    int started = 0;
+    while (th && started < threads && pthread_create(&th[started], NULL, render_thread, &w) == 0)
+        started++;
+    int rc = 0;
+    if (started == 0) {
+        rc = err_set(err, "worker: cannot start render threads");
+        goto out;
+    }
+
+    int heartbeat_ms = 1000, backoff_ms = 1000;
+    int reconnect_max = opts->reconnect_max_ms > 0 ? opts->reconnect_max_ms : 32000;
+    while (!*opts->stop && rc == 0) {
+        /* One connection: HELLO, then serve until the master goes quiet. */
+        proto_net_t *net = proto_net_new(ctx, PROTO_NET_DEALER, NULL, err);
+        if (!net || proto_net_connect(net, opts->endpoint, err)) {
+            proto_net_destroy(&net);
+            rc = -1;
+            break;
+        }
+        pthread_mutex_lock(&w.lock);
+        w.generation++;
+        unsigned gen = w.generation;
+        pthread_mutex_unlock(&w.lock);
+        proto_msg_t hello = {.type = PROTO_HELLO,
+                             .hello = {.name = name, .threads = started, .software = "prismfarm 0.1.0"}};
+        send_msg(&w, net, &hello);
+        logf_(&w, "connecting to %s as '%s' with %d threads", opts->endpoint, name, started);
+        double last_heard = now_s(), last_sent = now_s();
+        int welcomed = 0;
+        while (!*opts->stop) {
+            proto_msg_t m;
+            proto_peer_t from;
+            err_t rerr;
+            int r = proto_net_recv(net, &from, &m, 50, &rerr);
+            double now = now_s();
+            if (r == 0) {
+                last_heard = now;
+                switch (m.type) {
+                case PROTO_WELCOME:
+                    welcomed = 1;
+                    backoff_ms = 1000;
+                    if (m.welcome.heartbeat_ms >= 50 && m.welcome.heartbeat_ms <= 60000)
+                        heartbeat_ms = (int)m.welcome.heartbeat_ms;
+                    logf_(&w, "welcomed as worker %llu", (unsigned long long)m.welcome.worker_id);
+                    break;
+                case PROTO_TASK: {
+                    task_t *t = calloc(1, sizeof *t);
+                    if (!t)
+                        break;
+                    t->job = m.task.job;
+                    t->id = m.task.task;
+                    t->attempt = m.task.attempt;
+                    t->generation = gen;
+                    snprintf(t->hash, sizeof t->hash, "%s", m.task.scene);
+                    copy_settings(t, &m.task.settings);
+                    t->tile = m.task.tile;
+                    pthread_mutex_lock(&w.lock);
+                    for (int i = 0; i < w.ncancelled; i++)
+                        if (w.cancelled[i] == t->job) /* a re-submitted id is a new job */
+                            w.cancelled[i] = w.cancelled[--w.ncancelled];
+                    if (bundle_ready(&w, t->hash)) {
+                        if (w.queue_tail)
+                            w.queue_tail->next = t;
+                        else
+                            w.queue = t;
+                        w.queue_tail = t;
+                        pthread_cond_broadcast(&w.wake);
+                    } else {
+                        int asked = 0;
+                        for (task_t *p = w.parked; p; p = p->next)
+                            asked |= !strcmp(p->hash, t->hash);
+                        t->next = w.parked;
+                        w.parked = t;
+                        if (!asked) {
+                            proto_msg_t req = {.type = PROTO_SCENE_REQUEST};
+                            snprintf(req.scene_request.scene, sizeof req.scene_request.scene, "%s", t->hash);
+                            send_msg(&w, net, &req);
+                        }
+                    }
+                    pthread_mutex_unlock(&w.lock);
+                    break;
+                }
+                case PROTO_SCENE: {
+                    err_t serr;
+                    int ok = store_bundle(&w, m.scene.scene, &m.scene.bundle, &serr) == 0;
+                    if (!ok)
+                        logf_(&w, "scene %s rejected: %s", m.scene.scene, serr.msg);
+                    pthread_mutex_lock(&w.lock);
+                    task_t **pp = &w.parked;
+                    while (*pp) {
+                        task_t *t = *pp;
+                        if (strcmp(t->hash, m.scene.scene) != 0) {
+                            pp = &t->next;
+                            continue;
+                        }
+                        *pp = t->next;
+                        t->next = NULL;
+                        if (ok) {
+                            if (w.queue_tail)
+                                w.queue_tail->next = t;
+                            else
+                                w.queue = t;
+                            w.queue_tail = t;
+                        } else {
+                            snprintf(t->error, sizeof t->error, "scene bundle rejected: %s", serr.msg);
+                            t->next = w.done;
+                            w.done = t;
+                        }
+                    }
+                    pthread_cond_broadcast(&w.wake);
+                    pthread_mutex_unlock(&w.lock);
+                    break;
+                }
+                case PROTO_CANCEL: {
+                    pthread_mutex_lock(&w.lock);
+                    if (w.ncancelled == 64)
+                        memmove(w.cancelled, w.cancelled + 1, 63 * sizeof *w.cancelled), w.ncancelled--;
+                    w.cancelled[w.ncancelled++] = m.cancel.job;
+                    /* Queued tasks of the job go; the master reclaims their slots itself. */
+                    task_t **pp = &w.queue;
+                    w.queue_tail = NULL;
+                    while (*pp) {
+                        task_t *t = *pp;
+                        if (t->job == m.cancel.job) {
+                            *pp = t->next;
+                            free(t);
+                        } else {
+                            w.queue_tail = t;
+                            pp = &t->next;
+                        }
+                    }
+                    for (int i = 0; i < MAX_SCENES; i++)
+                        if (w.scenes[i].job == m.cancel.job && !w.scenes[i].users && !w.scenes[i].loading) {
+                            scene_destroy(&w.scenes[i].scene);
+                            memset(&w.scenes[i], 0, sizeof w.scenes[i]);
+                        }
+                    pthread_mutex_unlock(&w.lock);
+                    logf_(&w, "job %llu cancelled", (unsigned long long)m.cancel.job);
+                    break;
+                }
+                case PROTO_REFUSE:
+                    logf_(&w, "refused by the master: %s", m.refuse.reason);
+                    if (strstr(m.refuse.reason, "protocol version")) {
+                        rc = err_set(err, "worker: the master refused us: %s", m.refuse.reason);
+                    } else {
+                        /* Most likely the master restarted and forgot us: say HELLO again. */
+                        send_msg(&w, net, &hello);
+                    }
+                    break;
+                default:
+                    break;
+                }
+                proto_msg_free(&m);
+                if (rc)
+                    break;
+            } else if (r == PROTO_ESOCKET) {
+                logf_(&w, "socket error: %s", rerr.msg);
+                break;
+            } else if (r != PROTO_EAGAIN) {
+                logf_(&w, "ignored a bad message from the master: %s", rerr.msg);
+            }
+
+            /* Send what the render threads finished. */
+            pthread_mutex_lock(&w.lock);
+            task_t *done = w.done;
+            w.done = NULL;
+            pthread_mutex_unlock(&w.lock);
+            while (done) {
+                task_t *t = done;
+                done = t->next;
+                if (t->generation == gen && !is_cancelled(&w, t->job)) {
+                    proto_msg_t out;
+                    if (t->result) {
+                        const tilebuf_t *b = t->result;
+                        out = (proto_msg_t){.type = PROTO_RESULT};
+                        out.result.job = t->job;
+                        out.result.task = t->id;
+                        out.result.attempt = t->attempt;
+                        out.result.kind = PROTO_KIND_CAMERA_TILE;
+                        out.result.tile = (proto_tile_result_t){
+                            .rect = t->tile, .nbuckets = tilebuf_nbuckets(b), .sums = tilebuf_sums(b),
+                            .counts = tilebuf_counts(b), .lum = tilebuf_luminance_sums(b),
+                            .lum_sq = tilebuf_luminance_sq_sums(b), .nonfinite = tilebuf_nonfinite(b)};
+                        out.result.stats = (proto_task_stats_t){.samples = t->stats.samples, .rays = t->stats.rays,
+                                                                .dispersive = t->stats.dispersive,
+                                                                .elapsed = t->elapsed};
+                    } else {
+                        out = (proto_msg_t){.type = PROTO_TASK_FAILED};
+                        out.task_failed.job = t->job;
+                        out.task_failed.task = t->id;
+                        out.task_failed.attempt = t->attempt;
+                        out.task_failed.error = t->error;
+                    }
+                    if (send_msg(&w, net, &out) == 0)
+                        last_sent = now;
+                }
+                t->next = NULL;
+                free_list(t);
+            }
+
+            if (now - last_sent >= heartbeat_ms / 1000.0) {
+                proto_msg_t hb = {.type = PROTO_HEARTBEAT};
+                send_msg(&w, net, &hb);
+                last_sent = now;
+            }
+            if (now - last_heard > 3.0 * heartbeat_ms / 1000.0) {
+                logf_(&w, "the master is silent (%s); reconnecting in %d ms", welcomed ? "was connected" : "never answered", backoff_ms);
+                break;
+            }
+        }
+        proto_net_destroy(&net);
+        /* Whatever this connection held is the master's to reassign now. */
+        pthread_mutex_lock(&w.lock);
+        free_list(w.queue);
+        w.queue = w.queue_tail = NULL;
+        free_list(w.parked);
+        w.parked = NULL;
+        pthread_mutex_unlock(&w.lock);
+        if (*opts->stop || rc)
+            break;
+        for (int waited = 0; waited < backoff_ms && !*opts->stop; waited += 50) {
+            struct timespec ts = {0, 50 * 1000000L};
+            nanosleep(&ts, NULL);
+        }
+        backoff_ms = backoff_ms * 2 > reconnect_max ? reconnect_max : backoff_ms * 2;
+    }
+
+out:
+    pthread_mutex_lock(&w.lock);
+    w.quit = 1;
+    pthread_cond_broadcast(&w.wake);
+    pthread_mutex_unlock(&w.lock);
+    for (int i = 0; i < started; i++)
+        pthread_join(th[i], NULL);
+    free(th);
+    free_list(w.queue);
+    free_list(w.parked);
+    free_list(w.done);
+    for (int i = 0; i < MAX_SCENES; i++)
+        scene_destroy(&w.scenes[i].scene);
+    pthread_cond_destroy(&w.wake);
+    pthread_mutex_destroy(&w.lock);
+    if (!opts->zmq_ctx)
+        zmq_ctx_term(ctx);
+    return rc;
+}

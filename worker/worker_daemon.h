@@ -1,0 +1,28 @@
+/* worker_daemon: a render worker of the farm. Connects to the master, says HELLO, takes camera
+ * tasks, renders them on its threads with render_tile and sends the results back; heartbeats
+ * both ways, and reconnects with back-off when the master goes quiet (zguide's Paranoid
+ * Pirate). Scenes arrive as bundles, are checked against their hash, extracted only inside the
+ * worker's cache folder, and loaded once per job. */
+#ifndef PRISMFARM_WORKER_DAEMON_H
+#define PRISMFARM_WORKER_DAEMON_H
+
+#include "err.h"
+
+#include <signal.h>
+
+typedef struct worker_opts {
+    const char *endpoint;   /* the master's worker endpoint, e.g. tcp://host:5555 */
+    void *zmq_ctx;          /* NULL: the worker makes its own (inproc:// needs a shared one) */
+    int threads;            /* render threads = tasks held at once; 0: all cores */
+    const char *name;       /* shown by `prismfarm workers`; NULL: host name and pid */
+    const char *cache_dir;  /* where bundles are extracted; NULL: $TMPDIR/prismfarm-worker-<uid> */
+    volatile sig_atomic_t *stop; /* checked at least every 100 ms; non-zero ends worker_run */
+    int reconnect_max_ms;   /* back-off ceiling (default 32000) */
+    int verbose;            /* log events to stderr */
+} worker_opts_t;
+
+/* Runs until *stop is set (returns 0) or a fatal error (returns -1: the master refused this
+ * worker's protocol version, or the endpoint is invalid). */
+int worker_run(const worker_opts_t *opts, err_t *err);
+
+#endif
