@@ -4,6 +4,7 @@
 
 #include "film.h"
 #include "local_render.h"
+#include "progress.h"
 #include "scene_load.h"
 
 #include <errno.h>
@@ -48,35 +49,9 @@ static int parse_int(const char *flag, const char *s, long long lo, long long hi
     return 0;
 }
 
-typedef struct progress {
-    int tty, quiet;
-    int last_decile;
-} progress_t;
-
 static void on_progress(void *user, uint64_t done, uint64_t total, double elapsed)
 {
-    progress_t *p = user;
-    if (p->quiet || total == 0)
-        return;
-    double f = (double)done / (double)total;
-    double rate = elapsed > 0 ? done / elapsed : 0;
-    double eta = rate > 0 ? (total - done) / rate : 0;
-    if (p->tty) {
-        char bar[31];
-        int n = (int)(f * 30);
-        for (int i = 0; i < 30; i++)
-            bar[i] = i < n ? '#' : '.';
-        bar[30] = 0;
-        fprintf(stderr, "\r[%s] %5.1f%%  %.2f Msamples/s  ETA %.0fs   ", bar, 100 * f, rate / 1e6, eta);
-        if (done == total)
-            fputc('\n', stderr);
-    } else {
-        int decile = (int)(f * 10);
-        if (decile > p->last_decile || done == total) {
-            p->last_decile = decile;
-            fprintf(stderr, "render: %5.1f%%  %.2f Msamples/s  %.1fs elapsed, ETA %.0fs\n", 100 * f, rate / 1e6, elapsed, eta);
-        }
-    }
+    progress_update(user, done, total, elapsed);
 }
 
 static int make_parent_dirs(const char *path)
@@ -230,7 +205,7 @@ int cmd_render(int argc, char **argv)
         scene_destroy(&scene);
         return 1;
     }
-    progress_t prog = {.tty = isatty(STDERR_FILENO), .quiet = quiet, .last_decile = -1};
+    progress_t prog = progress_make("render", quiet);
     local_render_opts_t opts = {.threads = (int)threads, .progress = on_progress, .user = &prog};
     render_stats_t st = {0};
     int rc = 0;

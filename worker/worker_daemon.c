@@ -7,6 +7,7 @@
 #include "scene_load.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -62,6 +63,7 @@ typedef struct worker {
     int quit;
     uint64_t cancelled[64]; /* recently cancelled jobs */
     int ncancelled;
+    int wake_fd[2]; /* render threads write a byte here when a result is ready */
 } worker_t;
 
 static double now_s(void)
@@ -210,6 +212,11 @@ static void *render_thread(void *arg)
             snprintf(t->error, sizeof t->error, "%s", err.msg[0] ? err.msg : "job cancelled");
         t->next = w->done;
         w->done = t;
+        /* Wake the network loop at once rather than at its next poll timeout. */
+        char one = 1;
+        if (write(w->wake_fd[1], &one, 1) < 0) {
+            /* A full pipe already holds a wake-up: nothing is lost. */
+        }
     }
     pthread_mutex_unlock(&w->lock);
     return NULL;
@@ -304,6 +311,12 @@ int worker_run(const worker_opts_t *opts, err_t *err)
     void *ctx = opts->zmq_ctx ? opts->zmq_ctx : zmq_ctx_new();
     if (!ctx)
         return err_set(err, "worker: zmq_ctx_new failed: %s", zmq_strerror(errno));
+    if (pipe(w.wake_fd) != 0 || fcntl(w.wake_fd[0], F_SETFL, O_NONBLOCK) != 0 ||
+        fcntl(w.wake_fd[1], F_SETFL, O_NONBLOCK) != 0) {
+        if (!opts->zmq_ctx)
+            zmq_ctx_term(ctx);
+        return err_set(err, "worker: cannot create a pipe: %s", strerror(errno));
+    }
     pthread_mutex_init(&w.lock, NULL);
     pthread_cond_init(&w.wake, NULL);
     pthread_t *th = calloc((size_t)threads, sizeof *th);
@@ -340,7 +353,14 @@ int worker_run(const worker_opts_t *opts, err_t *err)
             proto_msg_t m;
             proto_peer_t from;
             err_t rerr;
-            int r = proto_net_recv(net, &from, &m, 50, &rerr);
+            zmq_pollitem_t items[2] = {{.socket = proto_net_socket(net), .events = ZMQ_POLLIN},
+                                       {.fd = w.wake_fd[0], .events = ZMQ_POLLIN}};
+            if (zmq_poll(items, 2, 50) > 0 && (items[1].revents & ZMQ_POLLIN)) {
+                char drain[64];
+                while (read(w.wake_fd[0], drain, sizeof drain) > 0) {
+                }
+            }
+            int r = proto_net_recv(net, &from, &m, 0, &rerr);
             double now = now_s();
             if (r == 0) {
                 last_heard = now;
@@ -549,6 +569,8 @@ out:
         scene_destroy(&w.scenes[i].scene);
     pthread_cond_destroy(&w.wake);
     pthread_mutex_destroy(&w.lock);
+    close(w.wake_fd[0]);
+    close(w.wake_fd[1]);
     if (!opts->zmq_ctx)
         zmq_ctx_term(ctx);
     return rc;

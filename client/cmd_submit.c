@@ -1,0 +1,258 @@
+/* prismfarm submit: bundles a scene with the files it reads, submits it to a master, prints
+ * the job id; with --wait follows the job with a progress bar and fetches the result. */
+#include "commands.h"
+
+#include "client_rpc.h"
+#include "progress.h"
+#include "scene_bundle.h"
+
+#include <errno.h>
+#include <jansson.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: prismfarm submit SCENE.pbrt [--master ENDPOINT] [options]\n"
+            "\n"
+            "Submits SCENE (and every file it includes) as a job; prints the job id.\n"
+            "  --master ENDPOINT   the master's client endpoint (default $PRISMFARM_MASTER or tcp://127.0.0.1:5556)\n"
+            "  --name NAME         job name (default: the scene file's name)\n"
+            "  --spp N, --res WxH, --seed N, --integrator NAME, --dispersion NAME\n"
+            "                      override the scene file, as for prismfarm render\n"
+            "  --wait              follow the job with a progress bar and fetch the result\n"
+            "  -o, --output OUT    with --wait: where the EXR goes (default NAME.exr); the PNG goes beside it\n"
+            "  --json              print the job id (and with --wait the final status) as JSON\n");
+}
+
+static int parse_int(const char *flag, const char *s, long long lo, long long hi, long long *out)
+{
+    char *end;
+    errno = 0;
+    long long v = strtoll(s, &end, 10);
+    if (errno || end == s || *end || v < lo || v > hi) {
+        fprintf(stderr, "prismfarm submit: %s expects an integer in %lld..%lld, got '%s'\n", flag, lo, hi, s);
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+static double now_s(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* Follows job until it ends; returns its final state or -1 on a lost master. */
+static int wait_for(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t *last, char *error, size_t esize)
+{
+    progress_t prog = progress_make("job", quiet);
+    double t0 = now_s();
+    for (;;) {
+        proto_msg_t req = {.type = PROTO_STATUS, .status = {.job = job}}, reply;
+        err_t err;
+        if (client_rpc_call(rpc, &req, &reply, 10000, &err)) {
+            snprintf(error, esize, "%s", err.msg);
+            return -1;
+        }
+        if (reply.type != PROTO_STATUS_REPLY || reply.status_reply.njobs != 1) {
+            snprintf(error, esize, "the master answered %s without the job", proto_type_name(reply.type));
+            proto_msg_free(&reply);
+            return -1;
+        }
+        proto_job_info_t j = reply.status_reply.jobs[0];
+        int state = (int)j.state;
+        snprintf(error, esize, "%s", j.error ? j.error : "");
+        *last = j;
+        last->name = NULL;
+        last->error = NULL;
+        if (j.samples_total)
+            progress_update(&prog, j.samples_done, j.samples_total, now_s() - t0);
+        proto_msg_free(&reply);
+        if (state == PROTO_JOB_DONE || state == PROTO_JOB_FAILED || state == PROTO_JOB_CANCELLED)
+            return state;
+        struct timespec ts = {0, 300 * 1000000L};
+        nanosleep(&ts, NULL);
+    }
+}
+
+int cmd_submit(int argc, char **argv)
+{
+    const char *scene = NULL, *master = client_default_master(), *name = NULL, *output = NULL;
+    scene_overrides_t ov = {.seed = -1};
+    int wait = 0, json = 0, quiet = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        long long v;
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            usage(stdout);
+            return 0;
+        }
+        if (!strcmp(a, "--wait")) {
+            wait = 1;
+            continue;
+        }
+        if (!strcmp(a, "--json")) {
+            json = 1;
+            continue;
+        }
+        if (!strcmp(a, "--quiet")) {
+            quiet = 1;
+            continue;
+        }
+        if (a[0] == '-') {
+            if (i + 1 >= argc) {
+                fprintf(stderr, "prismfarm submit: %s needs a value\n", a);
+                return 2;
+            }
+            const char *val = argv[++i];
+            if (!strcmp(a, "--master"))
+                master = val;
+            else if (!strcmp(a, "--name"))
+                name = val;
+            else if (!strcmp(a, "-o") || !strcmp(a, "--output"))
+                output = val;
+            else if (!strcmp(a, "--spp")) {
+                if (parse_int(a, val, 1, 1 << 24, &v))
+                    return 2;
+                ov.spp = (int)v;
+            } else if (!strcmp(a, "--seed")) {
+                if (parse_int(a, val, 0, 4294967295LL, &v))
+                    return 2;
+                ov.seed = v;
+            } else if (!strcmp(a, "--res")) {
+                int w, h;
+                char extra;
+                if (sscanf(val, "%dx%d%c", &w, &h, &extra) != 2 || w < 1 || h < 1 || w > 32768 || h > 32768) {
+                    fprintf(stderr, "prismfarm submit: --res expects WxH with 1..32768 each, got '%s'\n", val);
+                    return 2;
+                }
+                ov.xres = w;
+                ov.yres = h;
+            } else if (!strcmp(a, "--integrator")) {
+                if (strcmp(val, "path") && strcmp(val, "simplepath") && strcmp(val, "whitted")) {
+                    fprintf(stderr, "prismfarm submit: --integrator expects path, simplepath or whitted, got '%s'\n", val);
+                    return 2;
+                }
+                ov.integrator = val;
+            } else if (!strcmp(a, "--dispersion")) {
+                if (strcmp(val, "hero") && strcmp(val, "fanout")) {
+                    fprintf(stderr, "prismfarm submit: --dispersion expects hero or fanout, got '%s'\n", val);
+                    return 2;
+                }
+                ov.dispersion = val;
+            } else {
+                fprintf(stderr, "prismfarm submit: unknown option '%s' (see prismfarm submit --help)\n", a);
+                return 2;
+            }
+            continue;
+        }
+        if (scene) {
+            fprintf(stderr, "prismfarm submit: more than one scene given ('%s' and '%s')\n", scene, a);
+            return 2;
+        }
+        scene = a;
+    }
+    if (!scene) {
+        usage(stderr);
+        return 2;
+    }
+    if (output && !wait) {
+        fprintf(stderr, "prismfarm submit: -o needs --wait (or use prismfarm fetch JOB -o OUT later)\n");
+        return 2;
+    }
+    char namebuf[256];
+    if (!name) {
+        const char *base = strrchr(scene, '/');
+        base = base ? base + 1 : scene;
+        size_t n = strlen(base);
+        if (n > 5 && !strcmp(base + n - 5, ".pbrt"))
+            n -= 5;
+        snprintf(namebuf, sizeof namebuf, "%.*s", (int)n, base);
+        name = namebuf;
+    }
+
+    err_t err;
+    scene_bundle_t *b = scene_bundle_new(scene, &err);
+    if (!b) {
+        fprintf(stderr, "prismfarm submit: %s\n", err.msg);
+        return 1;
+    }
+    client_rpc_t *rpc = client_rpc_new(master, NULL, &err);
+    proto_msg_t req = {.type = PROTO_SUBMIT,
+                       .submit = {.name = name, .settings = proto_settings_from_overrides(&ov),
+                                  .bundle = *scene_bundle_get(b)}};
+    proto_msg_t reply;
+    int rc = 0;
+    if (!rpc || client_rpc_call(rpc, &req, &reply, 60000, &err)) {
+        fprintf(stderr, "prismfarm submit: %s\n", err.msg);
+        rc = 1;
+        goto out;
+    }
+    if (reply.type != PROTO_SUBMITTED) {
+        fprintf(stderr, "prismfarm submit: the master answered %s\n", proto_type_name(reply.type));
+        proto_msg_free(&reply);
+        rc = 1;
+        goto out;
+    }
+    uint64_t job = reply.submitted.job;
+    proto_msg_free(&reply);
+    if (!wait) {
+        if (json)
+            printf("{\"job\": %llu, \"name\": \"%s\"}\n", (unsigned long long)job, name);
+        else
+            printf("%llu\n", (unsigned long long)job);
+        goto out;
+    }
+    if (!quiet)
+        fprintf(stderr, "submit: job %llu (%s, %zu files, %zu bytes) on %s\n", (unsigned long long)job, name,
+                scene_bundle_get(b)->nfiles, scene_bundle_bytes(b), master);
+    proto_job_info_t last;
+    char error[600];
+    int state = wait_for(rpc, job, quiet, &last, error, sizeof error);
+    if (state != PROTO_JOB_DONE) {
+        fprintf(stderr, "prismfarm submit: job %llu %s%s%s\n", (unsigned long long)job,
+                state < 0 ? "lost" : proto_job_state_name((proto_job_state_t)state), error[0] ? ": " : "", error);
+        rc = 1;
+        goto out;
+    }
+    char exr[4096], png[4200];
+    snprintf(exr, sizeof exr, "%s", output ? output : name);
+    size_t n = strlen(exr);
+    if (!output)
+        snprintf(exr + n, sizeof exr - n, ".exr");
+    n = strlen(exr);
+    if (n > 4 && !strcmp(exr + n - 4, ".exr"))
+        snprintf(png, sizeof png, "%.*s.png", (int)(n - 4), exr);
+    else
+        snprintf(png, sizeof png, "%s.png", exr);
+    if (client_fetch_file(master, job, PROTO_FETCH_EXR, exr, "submit") ||
+        client_fetch_file(master, job, PROTO_FETCH_PNG, png, "submit")) {
+        rc = 1;
+        goto out;
+    }
+    if (json) {
+        json_t *o = json_object();
+        json_object_set_new(o, "job", json_integer((json_int_t)job));
+        json_object_set_new(o, "state", json_string("done"));
+        json_object_set_new(o, "exr", json_string(exr));
+        json_object_set_new(o, "png", json_string(png));
+        json_object_set_new(o, "elapsed_s", json_real(last.elapsed));
+        json_object_set_new(o, "nonfinite", json_integer((json_int_t)last.nonfinite));
+        json_dumpf(o, stdout, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
+        fputc('\n', stdout);
+        json_decref(o);
+    } else {
+        printf("job %llu done in %.1f s: wrote %s and %s; %llu non-finite samples discarded\n",
+               (unsigned long long)job, last.elapsed, exr, png, (unsigned long long)last.nonfinite);
+    }
+out:
+    client_rpc_destroy(&rpc);
+    scene_bundle_destroy(&b);
+    return rc;
+}

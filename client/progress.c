@@ -1,0 +1,37 @@
+#include "progress.h"
+
+#include <stdio.h>
+#include <unistd.h>
+
+progress_t progress_make(const char *label, int quiet)
+{
+    return (progress_t){.tty = isatty(STDERR_FILENO), .quiet = quiet, .last_decile = -1, .label = label};
+}
+
+void progress_update(progress_t *p, uint64_t done, uint64_t total, double elapsed)
+{
+    if (p->quiet || total == 0)
+        return;
+    double f = (double)done / (double)total;
+    double rate = elapsed > 0 ? (double)done / elapsed : 0;
+    double eta = rate > 0 ? (double)(total - done) / rate : 0;
+    const char *extra = p->extra ? p->extra : "";
+    if (p->tty) {
+        char bar[31];
+        int n = (int)(f * 30);
+        for (int i = 0; i < 30; i++)
+            bar[i] = i < n ? '#' : '.';
+        bar[30] = 0;
+        fprintf(stderr, "\r[%s] %5.1f%%  %.2f Msamples/s  ETA %.0fs %s  ", bar, 100 * f, rate / 1e6, eta, extra);
+        if (done >= total)
+            fputc('\n', stderr);
+    } else {
+        int decile = (int)(f * 10);
+        if (decile > p->last_decile || done >= total) {
+            p->last_decile = decile;
+            fprintf(stderr, "%s: %5.1f%%  %.2f Msamples/s  %.1fs elapsed, ETA %.0fs %s\n", p->label, 100 * f,
+                    rate / 1e6, elapsed, eta, extra);
+        }
+    }
+    fflush(stderr);
+}

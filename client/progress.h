@@ -1,0 +1,19 @@
+/* progress: the progress display of long commands: a bar with percent, rate and ETA redrawn in
+ * place on a terminal, or a plain line every 10 % when the output is not a terminal. */
+#ifndef PRISMFARM_PROGRESS_H
+#define PRISMFARM_PROGRESS_H
+
+#include <stdint.h>
+
+typedef struct progress {
+    int tty, quiet;
+    int last_decile;
+    const char *label; /* prefix of plain lines, e.g. "render" */
+    const char *extra; /* optional text after the rate, e.g. "3 workers" */
+} progress_t;
+
+progress_t progress_make(const char *label, int quiet);
+/* done of total units (samples) after elapsed seconds. */
+void progress_update(progress_t *p, uint64_t done, uint64_t total, double elapsed);
+
+#endif
