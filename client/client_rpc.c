@@ -68,8 +68,8 @@ int client_rpc_call(client_rpc_t *self, const proto_msg_t *req, proto_msg_t *rep
         return -1;
     r = proto_net_recv(self->net, NULL, reply, timeout_ms, err);
     if (r == PROTO_EAGAIN)
-        return err_set(err, "no answer from the master at %s within %d s: is it running?",
-                       self->endpoint, timeout_ms / 1000);
+        return err_set(err, "no answer from the master at %s within %.1f s: is it running?",
+                       self->endpoint, timeout_ms / 1000.0);
     if (r == PROTO_EVERSION)
         return err_set(err, "the master at %s speaks protocol version %d, this client %d",
                        self->endpoint, reply->version, PROTO_VERSION);

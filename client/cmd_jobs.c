@@ -3,6 +3,8 @@
 #include "commands.h"
 
 #include "client_rpc.h"
+#include "film.h"
+#include "job_follow.h"
 
 #include <errno.h>
 #include <jansson.h>
@@ -15,18 +17,28 @@ typedef struct query_args {
     int json;
     const char *job; /* positional argument, if any */
     const char *output;
+    int timeout_ms; /* how long to wait for the master's answer */
 } query_args_t;
 
 /* Parses --master, --json, -o and at most one positional argument. */
 static int parse_args(const char *cmd, int argc, char **argv, query_args_t *q, int want_output)
 {
-    *q = (query_args_t){.master = client_default_master()};
+    *q = (query_args_t){.master = client_default_master(), .timeout_ms = 10000};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
         if (!strcmp(a, "--json"))
             q->json = 1;
         else if (!strcmp(a, "--master") && i + 1 < argc)
             q->master = argv[++i];
+        else if (!strcmp(a, "--timeout") && i + 1 < argc) {
+            char *end;
+            double t = strtod(argv[++i], &end);
+            if (end == argv[i] || *end || !(t >= 0.1 && t <= 3600)) {
+                fprintf(stderr, "prismfarm %s: --timeout expects seconds in 0.1..3600, got '%s'\n", cmd, argv[i]);
+                return 2;
+            }
+            q->timeout_ms = (int)(t * 1000);
+        }
         else if (want_output && (!strcmp(a, "-o") || !strcmp(a, "--output")) && i + 1 < argc)
             q->output = argv[++i];
         else if (a[0] == '-') {
@@ -59,7 +71,7 @@ static int call(const query_args_t *q, const char *cmd, const proto_msg_t *req, 
 {
     err_t err;
     client_rpc_t *rpc = client_rpc_new(q->master, NULL, &err);
-    int r = rpc ? client_rpc_call(rpc, req, reply, 10000, &err) : -1;
+    int r = rpc ? client_rpc_call(rpc, req, reply, q->timeout_ms, &err) : -1;
     client_rpc_destroy(&rpc);
     if (r)
         fprintf(stderr, "prismfarm %s: %s\n", cmd, err.msg);
@@ -110,7 +122,7 @@ static void print_jobs(const proto_job_info_t *jobs, size_t n, int json)
 int cmd_status(int argc, char **argv)
 {
     if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
-        printf("usage: prismfarm status [JOB] [--master ENDPOINT] [--json]\n"
+        printf("usage: prismfarm status [JOB] [--master ENDPOINT] [--json] [--timeout S]\n"
                "Shows one job, or every job, of the master.\n");
         return 0;
     }
@@ -132,7 +144,7 @@ int cmd_status(int argc, char **argv)
 int cmd_jobs(int argc, char **argv)
 {
     if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
-        printf("usage: prismfarm jobs [--master ENDPOINT] [--json]\nLists the master's jobs.\n");
+        printf("usage: prismfarm jobs [--master ENDPOINT] [--json] [--timeout S]\nLists the master's jobs.\n");
         return 0;
     }
     query_args_t q;
@@ -154,7 +166,7 @@ int cmd_jobs(int argc, char **argv)
 int cmd_workers(int argc, char **argv)
 {
     if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
-        printf("usage: prismfarm workers [--master ENDPOINT] [--json]\nLists the workers the master knows.\n");
+        printf("usage: prismfarm workers [--master ENDPOINT] [--json] [--timeout S]\nLists the workers the master knows.\n");
         return 0;
     }
     query_args_t q;
@@ -197,7 +209,7 @@ int cmd_workers(int argc, char **argv)
 int cmd_cancel(int argc, char **argv)
 {
     if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
-        printf("usage: prismfarm cancel JOB [--master ENDPOINT] [--json]\nCancels a job.\n");
+        printf("usage: prismfarm cancel JOB [--master ENDPOINT] [--json] [--timeout S]\nCancels a job.\n");
         return 0;
     }
     query_args_t q;
@@ -215,38 +227,10 @@ int cmd_cancel(int argc, char **argv)
     return 0;
 }
 
-/* Fetches one output of a job into path; returns 0, 1 on failure (message printed). */
-int client_fetch_file(const char *master, uint64_t job, proto_fetch_what_t what, const char *path,
-                      const char *cmd)
-{
-    query_args_t q = {.master = master};
-    proto_msg_t req = {.type = PROTO_FETCH, .fetch = {.job = job, .what = what}}, reply;
-    if (call(&q, cmd, &req, &reply))
-        return 1;
-    if (reply.type != PROTO_FILE) {
-        fprintf(stderr, "prismfarm %s: the master answered %s, not FILE\n", cmd, proto_type_name(reply.type));
-        proto_msg_free(&reply);
-        return 1;
-    }
-    /* Written beside the target and renamed, so a failed fetch never leaves half a file. */
-    char tmp[4200];
-    snprintf(tmp, sizeof tmp, "%s.part", path);
-    FILE *f = fopen(tmp, "wb");
-    int ok = f && fwrite(reply.file.data, 1, reply.file.size, f) == reply.file.size;
-    ok = (f && fclose(f) == 0) && ok;
-    ok = ok && rename(tmp, path) == 0;
-    if (!ok) {
-        fprintf(stderr, "prismfarm %s: cannot write %s: %s\n", cmd, path, strerror(errno));
-        remove(tmp);
-    }
-    proto_msg_free(&reply);
-    return ok ? 0 : 1;
-}
-
 int cmd_fetch(int argc, char **argv)
 {
     if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
-        printf("usage: prismfarm fetch JOB -o OUT.exr [--master ENDPOINT]\n"
+        printf("usage: prismfarm fetch JOB -o OUT.exr [--master ENDPOINT] [--timeout S]\n"
                "Downloads a finished job's spectral EXR to OUT.exr and its preview to OUT.png.\n");
         return 0;
     }
@@ -262,13 +246,17 @@ int cmd_fetch(int argc, char **argv)
         return 2;
     }
     char png[4200];
-    size_t n = strlen(q.output);
-    if (n > 4 && !strcmp(q.output + n - 4, ".exr"))
-        snprintf(png, sizeof png, "%.*s.png", (int)(n - 4), q.output);
-    else
-        snprintf(png, sizeof png, "%s.png", q.output);
-    if (client_fetch_file(q.master, job, PROTO_FETCH_EXR, q.output, "fetch") ||
-        client_fetch_file(q.master, job, PROTO_FETCH_PNG, png, "fetch"))
+    film_png_path(q.output, png, sizeof png);
+    err_t err;
+    client_rpc_t *rpc = client_rpc_new(q.master, NULL, &err);
+    if (!rpc) {
+        fprintf(stderr, "prismfarm fetch: %s\n", err.msg);
+        return 1;
+    }
+    int failed = job_follow_fetch(rpc, job, PROTO_FETCH_EXR, q.output, "fetch") ||
+                 job_follow_fetch(rpc, job, PROTO_FETCH_PNG, png, "fetch");
+    client_rpc_destroy(&rpc);
+    if (failed)
         return 1;
     printf("wrote %s and %s\n", q.output, png);
     return 0;

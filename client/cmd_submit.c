@@ -3,7 +3,8 @@
 #include "commands.h"
 
 #include "client_rpc.h"
-#include "progress.h"
+#include "film.h"
+#include "job_follow.h"
 #include "scene_bundle.h"
 
 #include <errno.h>
@@ -11,7 +12,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 static void usage(FILE *out)
 {
@@ -39,46 +39,6 @@ static int parse_int(const char *flag, const char *s, long long lo, long long hi
     }
     *out = v;
     return 0;
-}
-
-static double now_s(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
-/* Follows job until it ends; returns its final state or -1 on a lost master. */
-static int wait_for(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t *last, char *error, size_t esize)
-{
-    progress_t prog = progress_make("job", quiet);
-    double t0 = now_s();
-    for (;;) {
-        proto_msg_t req = {.type = PROTO_STATUS, .status = {.job = job}}, reply;
-        err_t err;
-        if (client_rpc_call(rpc, &req, &reply, 10000, &err)) {
-            snprintf(error, esize, "%s", err.msg);
-            return -1;
-        }
-        if (reply.type != PROTO_STATUS_REPLY || reply.status_reply.njobs != 1) {
-            snprintf(error, esize, "the master answered %s without the job", proto_type_name(reply.type));
-            proto_msg_free(&reply);
-            return -1;
-        }
-        proto_job_info_t j = reply.status_reply.jobs[0];
-        int state = (int)j.state;
-        snprintf(error, esize, "%s", j.error ? j.error : "");
-        *last = j;
-        last->name = NULL;
-        last->error = NULL;
-        if (j.samples_total)
-            progress_update(&prog, j.samples_done, j.samples_total, now_s() - t0);
-        proto_msg_free(&reply);
-        if (state == PROTO_JOB_DONE || state == PROTO_JOB_FAILED || state == PROTO_JOB_CANCELLED)
-            return state;
-        struct timespec ts = {0, 300 * 1000000L};
-        nanosleep(&ts, NULL);
-    }
 }
 
 int cmd_submit(int argc, char **argv)
@@ -214,7 +174,7 @@ int cmd_submit(int argc, char **argv)
                 scene_bundle_get(b)->nfiles, scene_bundle_bytes(b), master);
     proto_job_info_t last;
     char error[600];
-    int state = wait_for(rpc, job, quiet, &last, error, sizeof error);
+    int state = job_follow_wait(rpc, job, quiet, &last, error, sizeof error);
     if (state != PROTO_JOB_DONE) {
         fprintf(stderr, "prismfarm submit: job %llu %s%s%s\n", (unsigned long long)job,
                 state < 0 ? "lost" : proto_job_state_name((proto_job_state_t)state), error[0] ? ": " : "", error);
@@ -222,17 +182,13 @@ int cmd_submit(int argc, char **argv)
         goto out;
     }
     char exr[4096], png[4200];
-    snprintf(exr, sizeof exr, "%s", output ? output : name);
-    size_t n = strlen(exr);
-    if (!output)
-        snprintf(exr + n, sizeof exr - n, ".exr");
-    n = strlen(exr);
-    if (n > 4 && !strcmp(exr + n - 4, ".exr"))
-        snprintf(png, sizeof png, "%.*s.png", (int)(n - 4), exr);
+    if (output)
+        snprintf(exr, sizeof exr, "%s", output);
     else
-        snprintf(png, sizeof png, "%s.png", exr);
-    if (client_fetch_file(master, job, PROTO_FETCH_EXR, exr, "submit") ||
-        client_fetch_file(master, job, PROTO_FETCH_PNG, png, "submit")) {
+        snprintf(exr, sizeof exr, "%s.exr", name);
+    film_png_path(exr, png, sizeof png);
+    if (job_follow_fetch(rpc, job, PROTO_FETCH_EXR, exr, "submit") ||
+        job_follow_fetch(rpc, job, PROTO_FETCH_PNG, png, "submit")) {
         rc = 1;
         goto out;
     }

@@ -7,15 +7,14 @@
 int cmd_glass(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_worker(int argc, char **argv);
+int cmd_master(int argc, char **argv);
+int cmd_local(int argc, char **argv);
+int cmd_submit(int argc, char **argv);
 int cmd_status(int argc, char **argv);
 int cmd_jobs(int argc, char **argv);
 int cmd_workers(int argc, char **argv);
 int cmd_cancel(int argc, char **argv);
 int cmd_fetch(int argc, char **argv);
 
-/* Downloads one output of a finished job (cmd_jobs.c); cmd names the command in messages. */
-#include "proto.h"
-int client_fetch_file(const char *master, uint64_t job, proto_fetch_what_t what, const char *path,
-                      const char *cmd);
 
 #endif

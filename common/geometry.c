@@ -3,36 +3,59 @@
 #include <embree3/rtcore.h>
 #include <float.h>
 #include <math.h>
+#include <stdatomic.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/types.h>
 
 typedef enum { ANALYTIC_SPHERE, ANALYTIC_DISK } analytic_kind_t;
 
 typedef struct analytic {
     analytic_kind_t kind;
-    transform_t to_world, to_object;
+    transform_t to_world, to_object; /* object space to the space of its group */
     double radius, height;
-    uint32_t shape;
-    int flip;
 } analytic_t;
 
-typedef struct mesh_info {
+/* A placed object: the group it instances and its transform, kept in double so that hits on
+ * instanced spheres and disks are refined as accurately as world ones. */
+typedef struct instance {
+    int group;
+    uint32_t id;
+    transform_t to_world, to_object;
+    int swaps; /* to_world swaps handedness */
+} instance_t;
+
+typedef enum { GEOM_MESH, GEOM_ANALYTIC, GEOM_INSTANCE } geom_kind_t;
+
+/* What one Embree geometry id of a group is. Analytic shapes and instances are allocated one
+ * by one because Embree keeps a pointer to each analytic shape as user data: they must not
+ * move when the array grows. */
+typedef struct geom_info {
+    geom_kind_t kind;
     uint32_t shape;
     int flip;
-} mesh_info_t;
+    analytic_t *analytic;
+    instance_t *instance;
+} geom_info_t;
+
+/* An Embree scene: group 0 is the world, group k > 0 is object k - 1. */
+typedef struct group {
+    RTCScene scene;
+    int committed;
+    size_t nshapes;
+    geom_info_t *info; /* by geomID */
+    size_t ngeoms, cap;
+    vec3_t lo, hi;
+} group_t;
 
 struct geometry {
     RTCDevice device;
-    RTCScene scene;
     char device_error[256];
-    int committed;
-    /* Per Embree geometry id: what it is. Analytic shapes live in their own array because
-     * Embree keeps a pointer to each as user data, so they must not move. */
-    analytic_t **analytic; /* by geomID, NULL for meshes */
-    mesh_info_t *mesh;      /* by geomID */
-    size_t ngeoms, cap;
-    vec3_t lo, hi;
+    atomic_llong memory; /* bytes, from Embree's memory monitor (called from build threads) */
+    group_t *groups;
+    size_t ngroups, cap_groups;
 };
 
 static void on_device_error(void *user, enum RTCError code, const char *str)
@@ -40,6 +63,16 @@ static void on_device_error(void *user, enum RTCError code, const char *str)
     geometry_t *self = user;
     snprintf(self->device_error, sizeof self->device_error, "Embree error %d: %s", (int)code,
              str ? str : "(no message)");
+}
+
+/* Embree calls this before each allocation with +bytes and after each release with -bytes
+ * (rtcSetDeviceMemoryMonitorFunction(3)); the running sum is what it holds. */
+static bool on_memory(void *user, ssize_t bytes, bool post)
+{
+    (void)post;
+    geometry_t *self = user;
+    atomic_fetch_add(&self->memory, (long long)bytes);
+    return true;
 }
 
 static int check_device(geometry_t *self, const char *what, err_t *err)
@@ -52,6 +85,35 @@ static int check_device(geometry_t *self, const char *what, err_t *err)
     return r;
 }
 
+static vec3_t empty_lo(void) { return vec3_make(INFINITY, INFINITY, INFINITY); }
+static vec3_t empty_hi(void) { return vec3_make(-INFINITY, -INFINITY, -INFINITY); }
+
+/* Appends a group with a new Embree scene; returns its index or -1. */
+static int new_group(geometry_t *self, err_t *err)
+{
+    if (self->ngroups == self->cap_groups) {
+        size_t cap = self->cap_groups ? 2 * self->cap_groups : 4;
+        group_t *g = realloc(self->groups, cap * sizeof *g);
+        if (!g)
+            return err_set(err, "out of memory");
+        self->groups = g;
+        self->cap_groups = cap;
+    }
+    group_t *g = &self->groups[self->ngroups];
+    memset(g, 0, sizeof *g);
+    g->lo = empty_lo();
+    g->hi = empty_hi();
+    g->scene = rtcNewScene(self->device);
+    if (!g->scene)
+        return check_device(self, "creating an Embree scene", err) ? -1 : err_set(err, "Embree: rtcNewScene failed");
+    self->ngroups++;
+    rtcSetSceneFlags(g->scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(g->scene, RTC_BUILD_QUALITY_HIGH);
+    if (check_device(self, "creating an Embree scene", err))
+        return -1;
+    return (int)(self->ngroups - 1);
+}
+
 geometry_t *geometry_new(int nthreads, err_t *err)
 {
     geometry_t *self = calloc(1, sizeof *self);
@@ -59,6 +121,7 @@ geometry_t *geometry_new(int nthreads, err_t *err)
         err_set(err, "out of memory");
         return NULL;
     }
+    atomic_init(&self->memory, 0);
     char config[64];
     snprintf(config, sizeof config, "threads=%d", nthreads > 0 ? nthreads : 0);
     self->device = rtcNewDevice(config);
@@ -69,12 +132,8 @@ geometry_t *geometry_new(int nthreads, err_t *err)
         return NULL;
     }
     rtcSetDeviceErrorFunction(self->device, on_device_error, self);
-    self->scene = rtcNewScene(self->device);
-    rtcSetSceneFlags(self->scene, RTC_SCENE_FLAG_ROBUST);
-    rtcSetSceneBuildQuality(self->scene, RTC_BUILD_QUALITY_HIGH);
-    self->lo = vec3_make(INFINITY, INFINITY, INFINITY);
-    self->hi = vec3_make(-INFINITY, -INFINITY, -INFINITY);
-    if (check_device(self, "creating the Embree scene", err)) {
+    rtcSetDeviceMemoryMonitorFunction(self->device, on_memory, self);
+    if (new_group(self, err) < 0) {
         geometry_destroy(&self);
         return NULL;
     }
@@ -86,56 +145,82 @@ void geometry_destroy(geometry_t **self_p)
     if (!self_p || !*self_p)
         return;
     geometry_t *self = *self_p;
-    if (self->scene)
-        rtcReleaseScene(self->scene);
+    /* The world (which references the objects' scenes through instances) goes first. */
+    for (size_t k = 0; k < self->ngroups; k++) {
+        group_t *g = &self->groups[k];
+        if (g->scene)
+            rtcReleaseScene(g->scene);
+        for (size_t i = 0; i < g->ngeoms; i++) {
+            free(g->info[i].analytic);
+            free(g->info[i].instance);
+        }
+        free(g->info);
+    }
+    free(self->groups);
     if (self->device)
         rtcReleaseDevice(self->device);
-    for (size_t i = 0; i < self->ngeoms; i++)
-        free(self->analytic[i]);
-    free(self->analytic);
-    free(self->mesh);
     free(self);
     *self_p = NULL;
 }
 
-static void grow_bounds(geometry_t *self, vec3_t p)
+static void grow_bounds(vec3_t *lo, vec3_t *hi, vec3_t p)
 {
-    self->lo = vec3_make(fmin(self->lo.x, p.x), fmin(self->lo.y, p.y), fmin(self->lo.z, p.z));
-    self->hi = vec3_make(fmax(self->hi.x, p.x), fmax(self->hi.y, p.y), fmax(self->hi.z, p.z));
+    *lo = vec3_make(fmin(lo->x, p.x), fmin(lo->y, p.y), fmin(lo->z, p.z));
+    *hi = vec3_make(fmax(hi->x, p.x), fmax(hi->y, p.y), fmax(hi->z, p.z));
 }
 
-static int record(geometry_t *self, unsigned id, analytic_t *a, uint32_t shape, int flip, err_t *err)
+static int record(group_t *g, unsigned id, geom_info_t info, err_t *err)
 {
-    if (id >= self->cap) {
-        size_t cap = self->cap ? self->cap * 2 : 16;
+    if (id >= g->cap) {
+        size_t cap = g->cap ? g->cap * 2 : 16;
         while (cap <= id)
             cap *= 2;
-        analytic_t **na = realloc(self->analytic, cap * sizeof *na);
-        if (na)
-            self->analytic = na;
-        mesh_info_t *nm = realloc(self->mesh, cap * sizeof *nm);
-        if (nm)
-            self->mesh = nm;
-        if (!na || !nm)
-            return err_set(err, "out of memory adding shape %u", shape);
-        for (size_t i = self->cap; i < cap; i++) {
-            self->analytic[i] = NULL;
-            self->mesh[i] = (mesh_info_t){0, 0};
-        }
-        self->cap = cap;
+        geom_info_t *ni = realloc(g->info, cap * sizeof *ni);
+        if (!ni)
+            return err_set(err, "out of memory adding shape %u", info.shape);
+        memset(ni + g->cap, 0, (cap - g->cap) * sizeof *ni);
+        g->info = ni;
+        g->cap = cap;
     }
-    self->analytic[id] = a;
-    self->mesh[id] = (mesh_info_t){shape, flip};
-    if (id + 1 > self->ngeoms)
-        self->ngeoms = id + 1;
+    g->info[id] = info;
+    if (id + 1 > g->ngeoms)
+        g->ngeoms = id + 1;
     return 0;
 }
 
-int geometry_add_mesh(geometry_t *self, const double *positions, size_t nverts,
-                      const uint32_t *indices, size_t ntris, uint32_t shape, int flip, err_t *err)
+/* The group a shape goes to, or NULL (with err) when the object is unknown or already placed. */
+static group_t *target(geometry_t *self, int object, uint32_t shape, err_t *err)
 {
-    if (self->committed)
-        return err_set(err, "shape %u added after the scene was committed", shape);
+    if (object < GEOMETRY_WORLD || (size_t)(object + 1) >= self->ngroups) {
+        err_set(err, "shape %u: there is no object %d", shape, object);
+        return NULL;
+    }
+    group_t *g = &self->groups[object + 1];
+    if (g->committed) {
+        if (object == GEOMETRY_WORLD)
+            err_set(err, "shape %u added after the scene was committed", shape);
+        else
+            err_set(err, "shape %u added to object %d after it was instanced", shape, object);
+        return NULL;
+    }
+    return g;
+}
+
+int geometry_object_new(geometry_t *self, err_t *err)
+{
+    if (self->groups[0].committed)
+        return err_set(err, "object added after the scene was committed");
+    int k = new_group(self, err);
+    return k < 0 ? -1 : k - 1;
+}
+
+int geometry_object_add_mesh(geometry_t *self, int object, const double *positions, size_t nverts,
+                             const uint32_t *indices, size_t ntris, uint32_t shape, int flip,
+                             err_t *err)
+{
+    group_t *grp = target(self, object, shape, err);
+    if (!grp)
+        return -1;
     if (nverts == 0 || ntris == 0)
         return err_set(err, "shape %u: a mesh needs vertices and triangles", shape);
     for (size_t i = 0; i < 3 * ntris; i++)
@@ -146,6 +231,8 @@ int geometry_add_mesh(geometry_t *self, const double *positions, size_t nverts,
         if (!isfinite(positions[i]))
             return err_set(err, "shape %u: vertex %zu is not finite", shape, i / 3);
     RTCGeometry g = rtcNewGeometry(self->device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    if (!g)
+        return check_device(self, "creating a mesh", err) ? -1 : err_set(err, "Embree: rtcNewGeometry failed");
     /* rtcSetNewGeometryBuffer pads the buffer as Embree's SSE loads require. */
     float *v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                        3 * sizeof(float), nverts);
@@ -156,19 +243,32 @@ int geometry_add_mesh(geometry_t *self, const double *positions, size_t nverts,
         return check_device(self, "allocating mesh buffers", err) ? -1
                                                                  : err_set(err, "out of memory");
     }
+    vec3_t lo = grp->lo, hi = grp->hi;
     for (size_t i = 0; i < nverts; i++) {
         v[3 * i + 0] = (float)positions[3 * i + 0];
         v[3 * i + 1] = (float)positions[3 * i + 1];
         v[3 * i + 2] = (float)positions[3 * i + 2];
-        grow_bounds(self, vec3_make(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]));
+        grow_bounds(&lo, &hi, vec3_make(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]));
     }
     memcpy(ix, indices, 3 * ntris * sizeof(unsigned));
     rtcCommitGeometry(g);
-    unsigned id = rtcAttachGeometry(self->scene, g);
+    unsigned id = rtcAttachGeometry(grp->scene, g);
     rtcReleaseGeometry(g);
     if (check_device(self, "adding a mesh", err))
         return -1;
-    return record(self, id, NULL, shape, flip, err);
+    if (record(grp, id, (geom_info_t){.kind = GEOM_MESH, .shape = shape, .flip = flip}, err))
+        return -1;
+    grp->lo = lo;
+    grp->hi = hi;
+    grp->nshapes++;
+    return 0;
+}
+
+int geometry_add_mesh(geometry_t *self, const double *positions, size_t nverts,
+                      const uint32_t *indices, size_t ntris, uint32_t shape, int flip, err_t *err)
+{
+    return geometry_object_add_mesh(self, GEOMETRY_WORLD, positions, nverts, indices, ntris, shape,
+                                    flip, err);
 }
 
 /* Ray-sphere and ray-disk intersection in object space (double precision). The object-space
@@ -181,9 +281,11 @@ static int analytic_hit(const analytic_t *a, vec3_t o, vec3_t d, double tmin, do
          * 4a(r² - |o - (o·d/|d|²) d|²) to avoid cancellation for distant spheres. */
         double A = vec3_dot(d, d);
         double B = 2.0 * vec3_dot(o, d);
+        if (A == 0.0)
+            return 0;
         vec3_t f = vec3_sub(o, vec3_scale(d, vec3_dot(o, d) / A));
         double disc = 4.0 * A * (a->radius * a->radius - vec3_dot(f, f));
-        if (disc < 0.0 || A == 0.0)
+        if (disc < 0.0)
             return 0;
         double root = sqrt(disc);
         double q = B < 0 ? -0.5 * (B - root) : -0.5 * (B + root);
@@ -216,24 +318,39 @@ static int analytic_hit(const analytic_t *a, vec3_t o, vec3_t d, double tmin, do
     return 1;
 }
 
+/* The ray Embree hands a user geometry is in the space of the geometry's group (already
+ * mapped by the instance, if any). */
 static void analytic_ray(const analytic_t *a, const struct RTCRay *ray, vec3_t *o, vec3_t *d)
 {
     *o = transform_point(&a->to_object, vec3_make(ray->org_x, ray->org_y, ray->org_z));
     *d = transform_vector(&a->to_object, vec3_make(ray->dir_x, ray->dir_y, ray->dir_z));
 }
 
-static void analytic_bounds(const struct RTCBoundsFunctionArguments *args)
+static void box_corners_bounds(const transform_t *t, vec3_t lo_in, vec3_t hi_in, vec3_t *lo,
+                               vec3_t *hi)
 {
-    const analytic_t *a = args->geometryUserPtr;
+    *lo = empty_lo();
+    *hi = empty_hi();
+    for (int c = 0; c < 8; c++) {
+        vec3_t p = transform_point(t, vec3_make(c & 1 ? hi_in.x : lo_in.x, c & 2 ? hi_in.y : lo_in.y,
+                                                c & 4 ? hi_in.z : lo_in.z));
+        grow_bounds(lo, hi, p);
+    }
+}
+
+static void analytic_box(const analytic_t *a, vec3_t *lo, vec3_t *hi)
+{
     double r = a->radius;
     double zlo = a->kind == ANALYTIC_SPHERE ? -r : a->height;
     double zhi = a->kind == ANALYTIC_SPHERE ? r : a->height;
-    vec3_t lo = vec3_make(INFINITY, INFINITY, INFINITY), hi = vec3_scale(lo, -1.0);
-    for (int c = 0; c < 8; c++) {
-        vec3_t p = transform_point(&a->to_world, vec3_make(c & 1 ? r : -r, c & 2 ? r : -r, c & 4 ? zhi : zlo));
-        lo = vec3_make(fmin(lo.x, p.x), fmin(lo.y, p.y), fmin(lo.z, p.z));
-        hi = vec3_make(fmax(hi.x, p.x), fmax(hi.y, p.y), fmax(hi.z, p.z));
-    }
+    box_corners_bounds(&a->to_world, vec3_make(-r, -r, zlo), vec3_make(r, r, zhi), lo, hi);
+}
+
+static void analytic_bounds(const struct RTCBoundsFunctionArguments *args)
+{
+    const analytic_t *a = args->geometryUserPtr;
+    vec3_t lo, hi;
+    analytic_box(a, &lo, &hi);
     /* Float rounding of the bounds must never cut off a hit. */
     double pad = 1e-6 * fmax(1.0, fmax(fmax(fabs(lo.x), fabs(hi.x)), fmax(fmax(fabs(lo.y), fabs(hi.y)),
                                                                            fmax(fabs(lo.z), fabs(hi.z)))));
@@ -255,11 +372,10 @@ static void analytic_intersect(const struct RTCIntersectFunctionNArguments *args
     if (!analytic_hit(a, o, d, rh->ray.tnear, rh->ray.tfar, &t))
         return;
     rh->ray.tfar = (float)t;
-    /* Object-space parameters; the geometry normal is computed again in double by
-     * geometry_intersect, so only a non-zero placeholder is stored here. */
-    vec3_t p = vec3_fma(o, d, t);
-    rh->hit.u = (float)p.x;
-    rh->hit.v = (float)p.y;
+    /* The normal and surface parameters are computed again in double by geometry_intersect,
+     * so only a non-zero placeholder normal is stored here. */
+    rh->hit.u = 0;
+    rh->hit.v = 0;
     rh->hit.Ng_x = 0;
     rh->hit.Ng_y = 0;
     rh->hit.Ng_z = 1;
@@ -281,63 +397,151 @@ static void analytic_occluded(const struct RTCOccludedFunctionNArguments *args)
         ray->tfar = -INFINITY;
 }
 
-static int add_analytic(geometry_t *self, analytic_t proto, err_t *err)
+static int transform_usable(const transform_t *t)
 {
-    if (self->committed)
-        return err_set(err, "shape %u added after the scene was committed", proto.shape);
+    return !t->singular && transform_is_affine(t) && transform_is_finite(t);
+}
+
+static int add_analytic(geometry_t *self, int object, analytic_t proto, uint32_t shape, int flip,
+                        err_t *err)
+{
+    group_t *grp = target(self, object, shape, err);
+    if (!grp)
+        return -1;
     if (!(proto.radius > 0.0) || !isfinite(proto.radius) || !isfinite(proto.height))
-        return err_set(err, "shape %u: radius must be positive and finite, got %g", proto.shape,
+        return err_set(err, "shape %u: radius must be positive and finite, got %g", shape,
                        proto.radius);
-    if (proto.to_world.singular || !transform_is_affine(&proto.to_world) ||
-        !transform_is_finite(&proto.to_world))
-        return err_set(err, "shape %u: its transform is singular or not affine", proto.shape);
+    if (!transform_usable(&proto.to_world))
+        return err_set(err, "shape %u: its transform is singular or not affine", shape);
     proto.to_object = transform_inverse(proto.to_world);
     analytic_t *a = malloc(sizeof *a);
     if (!a)
         return err_set(err, "out of memory");
     *a = proto;
     RTCGeometry g = rtcNewGeometry(self->device, RTC_GEOMETRY_TYPE_USER);
+    if (!g) {
+        free(a);
+        return check_device(self, "creating an analytic shape", err) ? -1 : err_set(err, "Embree: rtcNewGeometry failed");
+    }
     rtcSetGeometryUserPrimitiveCount(g, 1);
     rtcSetGeometryUserData(g, a);
     rtcSetGeometryBoundsFunction(g, analytic_bounds, NULL);
     rtcSetGeometryIntersectFunction(g, analytic_intersect);
     rtcSetGeometryOccludedFunction(g, analytic_occluded);
     rtcCommitGeometry(g);
-    unsigned id = rtcAttachGeometry(self->scene, g);
+    unsigned id = rtcAttachGeometry(grp->scene, g);
     rtcReleaseGeometry(g);
-    if (check_device(self, "adding an analytic shape", err) || record(self, id, a, a->shape, a->flip, err)) {
+    if (check_device(self, "adding an analytic shape", err) ||
+        record(grp, id, (geom_info_t){.kind = GEOM_ANALYTIC, .shape = shape, .flip = flip, .analytic = a},
+               err)) {
         free(a);
         return -1;
     }
-    struct RTCBounds b;
-    struct RTCBoundsFunctionArguments args = {.geometryUserPtr = a, .bounds_o = &b};
-    analytic_bounds(&args);
-    grow_bounds(self, vec3_make(b.lower_x, b.lower_y, b.lower_z));
-    grow_bounds(self, vec3_make(b.upper_x, b.upper_y, b.upper_z));
+    vec3_t lo, hi;
+    analytic_box(a, &lo, &hi);
+    grow_bounds(&grp->lo, &grp->hi, lo);
+    grow_bounds(&grp->lo, &grp->hi, hi);
+    grp->nshapes++;
     return 0;
+}
+
+int geometry_object_add_sphere(geometry_t *self, int object, const transform_t *to_world,
+                               double radius, uint32_t shape, int flip, err_t *err)
+{
+    return add_analytic(self, object,
+                        (analytic_t){.kind = ANALYTIC_SPHERE, .to_world = *to_world, .radius = radius},
+                        shape, flip, err);
+}
+
+int geometry_object_add_disk(geometry_t *self, int object, const transform_t *to_world,
+                             double radius, double height, uint32_t shape, int flip, err_t *err)
+{
+    return add_analytic(self, object,
+                        (analytic_t){.kind = ANALYTIC_DISK, .to_world = *to_world, .radius = radius,
+                                     .height = height},
+                        shape, flip, err);
 }
 
 int geometry_add_sphere(geometry_t *self, const transform_t *to_world, double radius, uint32_t shape,
                         int flip, err_t *err)
 {
-    return add_analytic(self, (analytic_t){.kind = ANALYTIC_SPHERE, .to_world = *to_world,
-                                           .radius = radius, .shape = shape, .flip = flip}, err);
+    return geometry_object_add_sphere(self, GEOMETRY_WORLD, to_world, radius, shape, flip, err);
 }
 
 int geometry_add_disk(geometry_t *self, const transform_t *to_world, double radius, double height,
                       uint32_t shape, int flip, err_t *err)
 {
-    return add_analytic(self, (analytic_t){.kind = ANALYTIC_DISK, .to_world = *to_world,
-                                           .radius = radius, .height = height, .shape = shape,
-                                           .flip = flip}, err);
+    return geometry_object_add_disk(self, GEOMETRY_WORLD, to_world, radius, height, shape, flip, err);
+}
+
+int geometry_add_instance(geometry_t *self, int object, const transform_t *to_world,
+                          uint32_t instance, err_t *err)
+{
+    group_t *world = &self->groups[0];
+    if (world->committed)
+        return err_set(err, "instance %u added after the scene was committed", instance);
+    if (object < 0 || (size_t)(object + 1) >= self->ngroups)
+        return err_set(err, "instance %u: there is no object %d", instance, object);
+    if (!transform_usable(to_world))
+        return err_set(err, "instance %u: its transform is singular or not affine", instance);
+    int k = object + 1;
+    if (self->groups[k].nshapes == 0)
+        return err_set(err, "instance %u: object %d has no shapes", instance, object);
+    /* Embree needs the instanced scene committed before the instance that refers to it. */
+    if (!self->groups[k].committed) {
+        rtcCommitScene(self->groups[k].scene);
+        if (check_device(self, "building an object's BVH", err))
+            return -1;
+        self->groups[k].committed = 1;
+    }
+    instance_t *in = malloc(sizeof *in);
+    if (!in)
+        return err_set(err, "out of memory");
+    *in = (instance_t){.group = k, .id = instance, .to_world = *to_world,
+                       .to_object = transform_inverse(*to_world),
+                       .swaps = transform_swaps_handedness(to_world)};
+    /* RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR: the three columns of the linear part, then the
+     * translation. */
+    float xfm[12];
+    for (int c = 0; c < 4; c++)
+        for (int r = 0; r < 3; r++)
+            xfm[3 * c + r] = (float)to_world->m[r][c];
+    RTCGeometry g = rtcNewGeometry(self->device, RTC_GEOMETRY_TYPE_INSTANCE);
+    if (!g) {
+        free(in);
+        return check_device(self, "creating an instance", err) ? -1 : err_set(err, "Embree: rtcNewGeometry failed");
+    }
+    rtcSetGeometryInstancedScene(g, self->groups[k].scene);
+    rtcSetGeometryTimeStepCount(g, 1);
+    rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, xfm);
+    rtcCommitGeometry(g);
+    unsigned id = rtcAttachGeometry(world->scene, g);
+    rtcReleaseGeometry(g);
+    if (check_device(self, "adding an instance", err) ||
+        record(world, id, (geom_info_t){.kind = GEOM_INSTANCE, .shape = instance, .instance = in}, err)) {
+        free(in);
+        return -1;
+    }
+    vec3_t lo, hi;
+    box_corners_bounds(to_world, self->groups[k].lo, self->groups[k].hi, &lo, &hi);
+    grow_bounds(&world->lo, &world->hi, lo);
+    grow_bounds(&world->lo, &world->hi, hi);
+    return 0;
 }
 
 int geometry_commit(geometry_t *self, err_t *err)
 {
-    rtcCommitScene(self->scene);
+    /* Objects never instanced are committed too, so that the device holds no half-built
+     * scene; they cost nothing in the world's BVH. */
+    for (size_t k = 1; k < self->ngroups; k++)
+        if (!self->groups[k].committed) {
+            rtcCommitScene(self->groups[k].scene);
+            self->groups[k].committed = 1;
+        }
+    rtcCommitScene(self->groups[0].scene);
     if (check_device(self, "building the scene's BVH", err))
         return -1;
-    self->committed = 1;
+    self->groups[0].committed = 1;
     return 0;
 }
 
@@ -349,6 +553,39 @@ static struct RTCRay make_ray(vec3_t org, vec3_t dir, double tmin, double tmax)
                            .mask = 0xFFFFFFFFu, .flags = 0};
 }
 
+/* Refines an analytic hit in double and fills its point (in the group's space), surface
+ * parameters and normal (in the group's space, not normalised). org and dir are in the
+ * group's space too. */
+static void analytic_surface(const analytic_t *a, vec3_t org, vec3_t dir, double tmin, hit_t *out,
+                             vec3_t *p, vec3_t *n)
+{
+    /* Embree found the shape in float; find the same root again in double so that hit
+     * points stay accurate on large and tiny scenes. */
+    vec3_t o = transform_point(&a->to_object, org), d = transform_vector(&a->to_object, dir);
+    double t;
+    if (analytic_hit(a, o, d, tmin, out->t * (1.0 + 1e-4) + 1e-300, &t))
+        out->t = t;
+    vec3_t po = vec3_fma(o, d, out->t);
+    vec3_t n_obj;
+    double phi = atan2(po.y, po.x);
+    if (phi < 0)
+        phi += 2.0 * PF_PI;
+    out->u = phi / (2.0 * PF_PI);
+    if (a->kind == ANALYTIC_SPHERE) {
+        n_obj = po;
+        /* pbrt-v4 Sphere: v runs from 0 at z = -r (theta = pi) to 1 at z = +r. */
+        double ct = fmax(-1.0, fmin(1.0, po.z / a->radius));
+        out->v = 1.0 - acos(ct) / PF_PI;
+        po = vec3_scale(vec3_normalize(po), a->radius);
+    } else {
+        n_obj = vec3_make(0, 0, 1);
+        out->v = 1.0 - sqrt(po.x * po.x + po.y * po.y) / a->radius;
+        po.z = a->height;
+    }
+    *n = transform_normal(&a->to_world, n_obj);
+    *p = transform_point(&a->to_world, po);
+}
+
 int geometry_intersect(const geometry_t *self, vec3_t org, vec3_t dir, double tmin, double tmax,
                        hit_t *out)
 {
@@ -357,56 +594,58 @@ int geometry_intersect(const geometry_t *self, vec3_t org, vec3_t dir, double tm
     struct RTCRayHit rh = {.ray = make_ray(org, dir, tmin, tmax)};
     rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-    rtcIntersect1(self->scene, &ctx, &rh);
+    rtcIntersect1(self->groups[0].scene, &ctx, &rh);
     unsigned id = rh.hit.geomID;
-    if (id == RTC_INVALID_GEOMETRY_ID || id >= self->ngeoms)
+    if (id == RTC_INVALID_GEOMETRY_ID)
         return 0;
-    const analytic_t *a = self->analytic[id];
+    const group_t *grp = &self->groups[0];
+    const instance_t *in = NULL;
+    if (rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID) {
+        unsigned iid = rh.hit.instID[0];
+        if (iid >= grp->ngeoms || grp->info[iid].kind != GEOM_INSTANCE)
+            return 0;
+        in = grp->info[iid].instance;
+        grp = &self->groups[in->group];
+    }
+    if (id >= grp->ngeoms || grp->info[id].kind == GEOM_INSTANCE)
+        return 0;
+    const geom_info_t *info = &grp->info[id];
     out->t = rh.ray.tfar;
-    out->p = vec3_fma(org, dir, out->t);
-    out->shape = self->mesh[id].shape;
+    out->shape = info->shape;
     out->prim = rh.hit.primID;
+    out->instance = in ? in->id : GEOMETRY_NO_INSTANCE;
+    /* Embree reports an instanced hit's normal in the object's space; the ray parameter t is
+     * the same in both spaces because the instance maps the direction without normalising. */
     vec3_t ng;
-    if (!a) {
+    int flip = info->flip;
+    if (info->kind == GEOM_MESH) {
         /* Embree's triangle normal has pbrt's orientation, (p0 - p2) x (p1 - p2)
-         * (tests/test_geometry.c checks it). */
+         * (tests/test_geometry.c checks it). Mapped by an instance as a normal it keeps the
+         * orientation the flattened triangle (whose cross product would turn with a
+         * handedness swap, and whose flip would undo it) has. */
         ng = vec3_make(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
         out->u = rh.hit.u;
         out->v = rh.hit.v;
+        out->p = vec3_fma(org, dir, out->t);
+        if (in)
+            ng = transform_normal(&in->to_world, ng);
     } else {
-        /* Embree found the shape in float; find the same root again in double so that hit
-         * points stay accurate on large and tiny scenes. */
-        vec3_t o = transform_point(&a->to_object, org), d = transform_vector(&a->to_object, dir);
-        double t;
-        if (analytic_hit(a, o, d, tmin, out->t * (1.0 + 1e-4) + 1e-300, &t)) {
-            out->t = t;
-            out->p = vec3_fma(org, dir, t);
-        }
-        vec3_t po = vec3_fma(o, d, out->t);
-        vec3_t n_obj;
-        if (a->kind == ANALYTIC_SPHERE) {
-            n_obj = po;
-            double phi = atan2(po.y, po.x);
-            if (phi < 0)
-                phi += 2.0 * PF_PI;
-            double ct = fmax(-1.0, fmin(1.0, po.z / a->radius));
-            out->u = phi / (2.0 * PF_PI);
-            out->v = acos(ct) / PF_PI;
+        vec3_t p;
+        if (in) {
+            vec3_t o = transform_point(&in->to_object, org), d = transform_vector(&in->to_object, dir);
+            analytic_surface(info->analytic, o, d, tmin, out, &p, &ng);
+            out->p = transform_point(&in->to_world, p);
+            ng = transform_normal(&in->to_world, ng);
+            /* A quadric's normal is mapped, not recomputed, so like a flattened one (whose
+             * flip includes the swap) it flips when the instance swaps handedness. */
+            flip ^= in->swaps;
         } else {
-            n_obj = vec3_make(0, 0, 1);
-            double phi = atan2(po.y, po.x);
-            if (phi < 0)
-                phi += 2.0 * PF_PI;
-            out->u = phi / (2.0 * PF_PI);
-            out->v = 1.0 - sqrt(po.x * po.x + po.y * po.y) / a->radius;
+            analytic_surface(info->analytic, org, dir, tmin, out, &p, &ng);
+            out->p = p;
         }
-        ng = transform_normal(&a->to_world, n_obj);
-        out->p = transform_point(&a->to_world, a->kind == ANALYTIC_SPHERE
-                                                ? vec3_scale(vec3_normalize(po), a->radius)
-                                                : vec3_make(po.x, po.y, a->height));
     }
     ng = vec3_normalize(ng);
-    if (self->mesh[id].flip)
+    if (flip)
         ng = vec3_neg(ng);
     out->ng = ng;
     return 1;
@@ -417,14 +656,20 @@ int geometry_occluded(const geometry_t *self, vec3_t org, vec3_t dir, double tmi
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     struct RTCRay ray = make_ray(org, dir, tmin, tmax);
-    rtcOccluded1(self->scene, &ctx, &ray);
+    rtcOccluded1(self->groups[0].scene, &ctx, &ray);
     return ray.tfar == -INFINITY;
 }
 
 void geometry_bounds(const geometry_t *self, vec3_t *lo, vec3_t *hi)
 {
-    *lo = self->lo;
-    *hi = self->hi;
+    *lo = self->groups[0].lo;
+    *hi = self->groups[0].hi;
+}
+
+size_t geometry_memory_bytes(const geometry_t *self)
+{
+    long long m = atomic_load(&((geometry_t *)self)->memory);
+    return m > 0 ? (size_t)m : 0;
 }
 
 vec3_t geometry_offset(vec3_t p, vec3_t ng, vec3_t dir)

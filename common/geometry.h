@@ -1,7 +1,9 @@
 /* geometry: the scene's surfaces in Embree, and ray queries against them.
  * Triangles go to Embree as they are; spheres and disks are analytic user geometries
  * intersected in double precision in their own object space, so any affine transform works
- * (an ellipsoid is a scaled sphere). Queries are thread-safe once committed. */
+ * (an ellipsoid is a scaled sphere). Objects hold shapes once, in their own space, and
+ * instances place them as Embree instances, so a thousand instances cost one copy of the
+ * shapes. Every hit comes back in world space. Queries are thread-safe once committed. */
 #ifndef PRISMFARM_GEOMETRY_H
 #define PRISMFARM_GEOMETRY_H
 
@@ -14,13 +16,20 @@
 
 typedef struct geometry geometry_t;
 
+/* hit.instance of a shape that is not instanced. */
+#define GEOMETRY_NO_INSTANCE UINT32_MAX
+/* The object argument that means "the world" rather than an instanced object. */
+#define GEOMETRY_WORLD (-1)
+
 typedef struct hit {
     double t;
-    vec3_t p;         /* world-space hit point */
-    vec3_t ng;        /* unit geometric normal in world space, outward per the shape's orientation */
-    double u, v;      /* barycentrics (triangles) or surface parameters (sphere, disk) */
-    uint32_t shape;   /* the caller's id given when the shape was added */
-    uint32_t prim;    /* triangle index within its mesh; 0 for analytic shapes */
+    vec3_t p;          /* world-space hit point */
+    vec3_t ng;         /* unit geometric normal in world space, outward per the shape's orientation */
+    double u, v;       /* barycentrics (triangles: p = (1-u-v) p0 + u p1 + v p2) or the surface
+                        * parameters (u, v) of pbrt-v4's sphere and disk */
+    uint32_t shape;    /* the caller's id given when the shape was added */
+    uint32_t prim;     /* triangle index within its mesh; 0 for analytic shapes */
+    uint32_t instance; /* the caller's id of the instance hit, or GEOMETRY_NO_INSTANCE */
 } hit_t;
 
 /* nthreads is a hint for Embree's BVH build (0: all cores). */
@@ -39,7 +48,26 @@ int geometry_add_sphere(geometry_t *self, const transform_t *to_world, double ra
 int geometry_add_disk(geometry_t *self, const transform_t *to_world, double radius, double height,
                       uint32_t shape, int flip, err_t *err);
 
-/* Builds the acceleration structure; no shape may be added afterwards. */
+/* A new, empty object (its own Embree scene); returns its id (>= 0) or -1. */
+int geometry_object_new(geometry_t *self, err_t *err);
+/* The same shapes added to an object (or to the world with GEOMETRY_WORLD), in the object's
+ * space. An object accepts shapes until its first instance is added. */
+int geometry_object_add_mesh(geometry_t *self, int object, const double *positions, size_t nverts,
+                             const uint32_t *indices, size_t ntris, uint32_t shape, int flip,
+                             err_t *err);
+int geometry_object_add_sphere(geometry_t *self, int object, const transform_t *to_world,
+                               double radius, uint32_t shape, int flip, err_t *err);
+int geometry_object_add_disk(geometry_t *self, int object, const transform_t *to_world,
+                             double radius, double height, uint32_t shape, int flip, err_t *err);
+/* Places a non-empty object in the world with to_world (affine, invertible, finite); the object
+ * is committed here, before its instance. Hits on it report `instance`. Normals follow what
+ * the flattened placement (every shape's transform composed with to_world) would give:
+ * triangles keep their orientation, spheres and disks flip under a to_world that swaps
+ * handedness, as pbrt-v4 flips a quadric whose own transform swaps it (shapes.h). */
+int geometry_add_instance(geometry_t *self, int object, const transform_t *to_world,
+                          uint32_t instance, err_t *err);
+
+/* Builds the acceleration structure; no shape or instance may be added afterwards. */
 int geometry_commit(geometry_t *self, err_t *err);
 
 /* Nearest hit along org + t*dir with t in (tmin, tmax); returns 1 on a hit, 0 on a miss. */
@@ -48,8 +76,12 @@ int geometry_intersect(const geometry_t *self, vec3_t org, vec3_t dir, double tm
 /* 1 when anything blocks org + t*dir for t in (tmin, tmax). */
 int geometry_occluded(const geometry_t *self, vec3_t org, vec3_t dir, double tmin, double tmax);
 
-/* Bounding box of everything added (valid after commit). */
+/* Bounding box of everything in the world, instances included (valid after commit). */
 void geometry_bounds(const geometry_t *self, vec3_t *lo, vec3_t *hi);
+
+/* Bytes Embree holds for this geometry right now (buffers, BVHs, instances), as its memory
+ * monitor callback reports them. */
+size_t geometry_memory_bytes(const geometry_t *self);
 
 /* Offsets a ray origin off a surface along its normal, far enough for float32 Embree
  * intersection at the point's magnitude (scenes span 1e-3 to 1e5). */

@@ -14,6 +14,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <unistd.h>
 
 /* ------------------------------------------------------------------------------------------
  * Parser state: pbrt-v4's graphics state (CTM, ReverseOrientation, current material and area
@@ -58,7 +59,8 @@ typedef struct parser {
     int nopen;
     size_t nfiles_read;
     pbrt_lexer_t *lex;
-    const char *file; /* the file being read, as named in messages */
+    const char *file;      /* the file being read, as named in messages */
+    const char *main_name; /* the main file: the base of pbrt-v4's file name rule */
 } parser_t;
 
 #define NAME_MAX_LEN 4096
@@ -405,10 +407,28 @@ static char *resolve_path(const char *base, const char *name)
     return out;
 }
 
+/* The path a file name written in the current file is opened by: against the folder of the
+ * current file; if nothing is there, against the main file's folder (pbrt-v4 resolves every
+ * name against the main file's folder); if neither exists, the first (so that the error names
+ * it). malloc'ed. */
+static char *locate(parser_t *P, const char *name)
+{
+    char *first = resolve_path(P->file, name);
+    if (!first || name[0] == '/' || access(first, F_OK) == 0)
+        return first;
+    char *second = resolve_path(P->main_name, name);
+    if (second && strcmp(second, first) != 0 && access(second, F_OK) == 0) {
+        free(first);
+        return second;
+    }
+    free(second);
+    return first;
+}
+
 /* Resolves a file name given in the current file into a scene-owned string. */
 static const char *scene_path(parser_t *P, const char *name, pbrt_loc_t loc)
 {
-    char *path = resolve_path(P->file, name);
+    char *path = locate(P, name);
     if (!path) {
         pbrt_error(P->err, loc, "out of memory");
         return NULL;
@@ -416,6 +436,159 @@ static const char *scene_path(parser_t *P, const char *name, pbrt_loc_t loc)
     const char *s = scene_desc_strdup(P->scene, path, P->err);
     free(path);
     return s;
+}
+
+/* Splits a '/'-separated path into its components, lexically normalised: empty and "."
+ * components dropped, "x/.." folded; a ".." that cannot fold is kept in a relative path and
+ * dropped at the root of an absolute one. The components point into *copy (malloc'ed, as is
+ * the returned array); NULL when out of memory. */
+static char **split_path(const char *path, char **copy, size_t *count)
+{
+    *copy = strdup(path);
+    char **parts = malloc((strlen(path) / 2 + 2) * sizeof *parts);
+    if (!*copy || !parts) {
+        free(*copy);
+        free(parts);
+        return NULL;
+    }
+    size_t n = 0;
+    char *save = NULL;
+    for (char *c = strtok_r(*copy, "/", &save); c; c = strtok_r(NULL, "/", &save)) {
+        if (!strcmp(c, "."))
+            continue;
+        if (!strcmp(c, "..")) {
+            if (n > 0 && strcmp(parts[n - 1], "..") != 0) {
+                n--;
+                continue;
+            }
+            if (path[0] == '/')
+                continue;
+        }
+        parts[n++] = c;
+    }
+    *count = n;
+    return parts;
+}
+
+/* Joins "../" times ups, then parts[from..n) with '/', after a leading '/' if absolute. */
+static char *join_path(bool absolute, size_t ups, char **parts, size_t from, size_t n)
+{
+    size_t len = 2 + 3 * ups;
+    for (size_t i = from; i < n; i++)
+        len += strlen(parts[i]) + 1;
+    char *out = malloc(len);
+    if (!out)
+        return NULL;
+    out[0] = 0;
+    if (absolute)
+        strcat(out, "/");
+    for (size_t k = 0; k < ups; k++)
+        strcat(out, k + 1 < ups || from < n ? "../" : "..");
+    for (size_t i = from; i < n; i++) {
+        strcat(out, parts[i]);
+        if (i + 1 < n)
+            strcat(out, "/");
+    }
+    return out;
+}
+
+static char *normalise_path(const char *path)
+{
+    char *copy;
+    size_t n;
+    char **parts = split_path(path, &copy, &n);
+    char *out = parts ? join_path(path[0] == '/', 0, parts, 0, n) : NULL;
+    free(parts);
+    free(copy);
+    return out;
+}
+
+/* The folder part of a file name ("" when it has none). malloc'ed. */
+static char *folder_of(const char *file)
+{
+    const char *slash = strrchr(file, '/');
+    size_t n = slash ? (size_t)(slash - file) + (slash == file ? 1 : 0) : 0;
+    char *d = malloc(n + 1);
+    if (d) {
+        memcpy(d, file, n);
+        d[n] = 0;
+    }
+    return d;
+}
+
+/* An absolute version of a relative path, against the working folder. malloc'ed. */
+static char *absolute_path(const char *path)
+{
+    char cwd[4096];
+    if (path[0] == '/' || !getcwd(cwd, sizeof cwd))
+        return strdup(path);
+    char *out = malloc(strlen(cwd) + strlen(path) + 2);
+    if (out)
+        sprintf(out, "%s/%s", cwd, path);
+    return out;
+}
+
+/* path relative to the folder dir, both relative or both absolute: as many ".." as dir has
+ * components beyond what the two share, then the rest of path. */
+static char *relative_to(const char *dir, const char *path)
+{
+    char *cd = NULL, *cp = NULL;
+    size_t nd = 0, np = 0;
+    char **d = split_path(dir, &cd, &nd), **p = split_path(path, &cp, &np);
+    char *out = NULL;
+    if (d && p) {
+        size_t common = 0;
+        while (common < nd && common < np && !strcmp(d[common], p[common]))
+            common++;
+        out = join_path(false, nd - common, p, common, np);
+    }
+    free(d);
+    free(p);
+    free(cd);
+    free(cp);
+    return out;
+}
+
+/* Records a file the scene read (once per relative path): its path as opened and its path
+ * relative to the main file's folder. */
+static int note_file(parser_t *P, scene_file_kind_t kind, const char *path, const char *name,
+                     pbrt_loc_t loc)
+{
+    bool named_absolute = name[0] == '/';
+    char *dir = folder_of(P->main_name), *rel = NULL;
+    if (dir && named_absolute) {
+        rel = normalise_path(path);
+    } else if (dir && (path[0] == '/') != (dir[0] == '/')) {
+        /* A relative name under an absolutely named folder, or the reverse: compare both as
+         * absolute paths. */
+        char *a = absolute_path(path), *b = absolute_path(dir);
+        rel = a && b ? relative_to(b, a) : NULL;
+        free(a);
+        free(b);
+    } else if (dir) {
+        rel = relative_to(dir, path);
+    }
+    free(dir);
+    if (!rel)
+        return pbrt_error(P->err, loc, "out of memory");
+    int rc = 0;
+    if (scene_desc_find_file(P->scene, rel) < 0) {
+        int idx = scene_desc_add_file(P->scene, P->err);
+        const char *sp = idx >= 0 ? scene_desc_strdup(P->scene, path, P->err) : NULL;
+        const char *sr = sp ? scene_desc_strdup(P->scene, rel, P->err) : NULL;
+        if (!sr) {
+            rc = -1;
+        } else {
+            scene_file_t *f = &P->scene->files[idx];
+            f->kind = kind;
+            f->path = sp;
+            f->relative = sr;
+            f->outside = named_absolute || !strcmp(rel, "..") || !strncmp(rel, "../", 3);
+            f->loc = loc;
+        }
+    }
+    free(rel);
+    return rc;
 }
 
 /* ------------------------------------------------------------------------------------------
@@ -1077,6 +1250,8 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
         return pbrt_error(P->err, fp->loc, "cannot open image \"%s\": %s", t->image.filename,
                           strerror(errno));
     fclose(f);
+    if (note_file(P, SCENE_FILE_IMAGE, t->image.filename, filename, fp->loc) != 0)
+        return -1;
     t->image.wrap = scene_desc_strdup(P->scene, wrap, P->err);
     t->image.filter = scene_desc_strdup(P->scene, filter, P->err);
     t->image.encoding = scene_desc_strdup(P->scene, encoding, P->err);
@@ -1108,7 +1283,8 @@ static int do_area_light(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_
     /* pbrt-v4 lights default to the colour space's illuminant (D65 for sRGB). */
     if (get_spectrum(P, ps, "L", spectrum_named("stdillum-D65", loc), SPECTRUM_ANY, &a->L) != 0 ||
         params_get_float(ps, "scale", 1.0, &a->scale, P->err) != 0 ||
-        check_range(P, ps, "scale", a->scale, 0.0, INFINITY) != 0)
+        check_range(P, ps, "scale", a->scale, 0.0, INFINITY) != 0 ||
+        params_get_float(ps, "power", -1.0, &a->power, P->err) != 0)
         return -1;
     if (at == SCENE_AREA_DIFFUSE &&
         params_get_bool(ps, "twosided", false, &a->twosided, P->err) != 0)
@@ -1145,10 +1321,15 @@ static int do_light(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
     l->loc = loc;
     l->to_world = P->gs.ctm;
     const char *sname = (l->type == SCENE_LIGHT_POINT || l->type == SCENE_LIGHT_SPOT) ? "I" : "L";
+    /* pbrt-v4 lights.cpp: point and spot lights take "power", distant and infinite lights
+     * "illuminance"; a value <= 0 means "not given". */
+    const char *pname = (l->type == SCENE_LIGHT_POINT || l->type == SCENE_LIGHT_SPOT) ? "power"
+                                                                                     : "illuminance";
     if (get_spectrum(P, ps, sname, spectrum_named("stdillum-D65", loc), SPECTRUM_ANY,
                      &l->spectrum) != 0 ||
         params_get_float(ps, "scale", 1.0, &l->scale, P->err) != 0 ||
-        check_range(P, ps, "scale", l->scale, 0.0, INFINITY) != 0)
+        check_range(P, ps, "scale", l->scale, 0.0, INFINITY) != 0 ||
+        params_get_float(ps, pname, -1.0, &l->power, P->err) != 0)
         return -1;
     if (l->type == SCENE_LIGHT_INFINITE)
         return 0;
@@ -1292,7 +1473,9 @@ static int mesh_from_ply(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t
     rc |= scene_desc_adopt(P->scene, md.N, P->err);
     rc |= scene_desc_adopt(P->scene, md.uv, P->err);
     rc |= scene_desc_adopt(P->scene, md.indices, P->err);
-    return rc ? -1 : 0;
+    if (rc)
+        return -1;
+    return note_file(P, SCENE_FILE_PLY, path, filename, fp->loc);
 }
 
 static int do_shape(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
@@ -1366,7 +1549,8 @@ static int do_shape(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
  * Directives
  * ------------------------------------------------------------------------------------------ */
 
-static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from);
+static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from,
+                      scene_file_kind_t kind, const char *name);
 
 /* Directives of the form: Name "type" params. */
 static int param_directive(parser_t *P, const char *dir, pbrt_loc_t loc)
@@ -1565,7 +1749,7 @@ static int do_include(parser_t *P, bool import, pbrt_loc_t loc)
         return -1;
     if (import && need_world(P, dir, loc) != 0)
         return -1;
-    char *path = resolve_path(P->file, name.s);
+    char *path = locate(P, name.s);
     if (!path)
         return pbrt_error(P->err, loc, "out of memory");
     /* Import reads the file with a copy of the graphics state: nothing it changes (CTM,
@@ -1576,7 +1760,7 @@ static int do_include(parser_t *P, bool import, pbrt_loc_t loc)
     }
     const char *outer_file = P->file;
     pbrt_lexer_t *outer_lex = P->lex;
-    int rc = parse_file(P, path, &name.loc);
+    int rc = parse_file(P, path, &name.loc, SCENE_FILE_INCLUDE, name.s);
     free(path);
     const char *inner_file = P->file;
     P->file = outer_file;
@@ -1794,7 +1978,10 @@ static int parse_buffer(parser_t *P, const char *name, const char *text, size_t 
     return rc;
 }
 
-static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from)
+/* Reads and parses one file: the main file (from NULL) or one named by Include/Import at
+ * *from, as `name`. */
+static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from,
+                      scene_file_kind_t kind, const char *name)
 {
     if (from && P->nopen >= PBRT_INCLUDE_DEPTH_MAX)
         return pbrt_error(P->err, *from, "Include/Import nested deeper than %d files",
@@ -1818,7 +2005,10 @@ static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from)
             return pbrt_error(P->err, *from, "include cycle: \"%s\" is already being read", path);
         }
     P->open_files[P->nopen++] = real;
-    int rc = parse_buffer(P, path, text, len);
+    pbrt_loc_t named = from ? *from : (pbrt_loc_t){P->main_name, 0, 0};
+    int rc = note_file(P, kind, path, name, named);
+    if (rc == 0)
+        rc = parse_buffer(P, path, text, len);
     free(text);
     free(P->open_files[--P->nopen]);
     return rc;
@@ -1864,7 +2054,9 @@ static scene_desc_t *run(const char *name, const char *text, size_t len, err_t *
     P.scene->camera.loc = P.scene->film.loc = P.scene->sampler.loc = none;
     P.scene->integrator.loc = none;
     P.scene->materials[0].loc = P.scene->materials[0].reflectance.spectrum.loc = none;
-    int rc = text ? parse_buffer(&P, name, text, len) : parse_file(&P, name, NULL);
+    P.main_name = main_name;
+    int rc = text ? parse_buffer(&P, name, text, len)
+                  : parse_file(&P, name, NULL, SCENE_FILE_MAIN, name);
     if (rc == 0) {
         P.file = main_name;
         rc = finish(&P);

@@ -18,9 +18,10 @@
  *               AreaLightSource "collimated"; rgb film "nbuckets"/"lambdamin"/"lambdamax"
  * Deliberate differences from pbrt-v4, all stricter: named materials, textures and
  * coordinate systems must be defined before use (objects may still be instanced before their
- * definition, as in pbrt-v4); a parameter given twice is an error; spectrum files (.spd) and
- * "power" on lights are not supported; file names resolve against the folder of the file that
- * names them (pbrt-v4 uses the main file's folder). */
+ * definition, as in pbrt-v4); a parameter given twice is an error; spectrum files (.spd) are
+ * not supported. A relative file name is looked up in the folder of the file that names it,
+ * then in the main file's folder (pbrt-v4's only rule). Every file read is listed in the
+ * scene_desc's files, with its path relative to the main file's folder, for bundling. */
 #ifndef PRISMFARM_PBRT_PARSER_H
 #define PRISMFARM_PBRT_PARSER_H
 
@@ -35,11 +36,13 @@
 #define PBRT_FILES_MAX 4096
 
 /* Parses the scene file at path. Include, Import, plymesh and imagemap file names resolve
- * against the folder of the file that names them. Returns NULL with err filled on failure. */
+ * against the folder of the file that names them, else of the main file. Returns NULL with err
+ * filled on failure. */
 scene_desc_t *pbrt_parse_file(const char *path, err_t *err);
 
 /* Parses scene text held in memory; name is used in messages and as the base for relative
- * file names (e.g. "tests/data/scenes/x.pbrt" resolves "inc.pbrt" in tests/data/scenes). */
+ * file names (e.g. "tests/data/scenes/x.pbrt" resolves "inc.pbrt" in tests/data/scenes). The
+ * text itself is not listed among the files read; the files it reads are. */
 scene_desc_t *pbrt_parse_string(const char *text, size_t len, const char *name, err_t *err);
 
 #endif

@@ -54,6 +54,7 @@ void scene_destroy(scene_t **self_p)
         alias_destroy(&s->triangles);
     }
     free(self->shapes);
+    free(self->instances);
     free(self->materials);
     free(self->lights);
     alias_destroy(&self->light_power);
@@ -148,12 +149,14 @@ static int check_refs(const scene_t *self, int material, int area_light, err_t *
     return 0;
 }
 
-static shape_t *new_shape(scene_t *self, int material, int area_light, int flip, err_t *err)
+static shape_t *new_shape(scene_t *self, int object, int material, int area_light, int flip,
+                          err_t *err)
 {
     long i = grow((void **)&self->shapes, &self->nshapes, sizeof *self->shapes, err);
     if (i < 0)
         return NULL;
     shape_t *s = &self->shapes[i];
+    s->object = object;
     s->material = material;
     s->light = area_light;
     s->flip = flip;
@@ -173,16 +176,32 @@ static void *copy_array(const void *src, size_t bytes, int *failed)
     return p;
 }
 
-int scene_add_mesh(scene_t *self, const double *positions, size_t nverts, const uint32_t *indices,
-                   size_t ntris, const double *normals, const double *uvs, int material,
-                   int area_light, int flip, err_t *err)
+static int check_object(const scene_t *self, int object, err_t *err)
 {
-    if (check_refs(self, material, area_light, err))
+    if (object < -1 || (object >= 0 && (size_t)object >= self->nobjects))
+        return err_set(err, "there is no object %d (the scene has %zu)", object, self->nobjects);
+    return 0;
+}
+
+static int add_mesh(scene_t *self, int object, const double *positions, size_t nverts,
+                    const uint32_t *indices, size_t ntris, const double *normals, const double *uvs,
+                    int material, int area_light, int flip, err_t *err)
+{
+    if (check_object(self, object, err) || check_refs(self, material, area_light, err))
         return -1;
+    if (normals)
+        for (size_t i = 0; i < 3 * nverts; i++)
+            if (!isfinite(normals[i]))
+                return err_set(err, "vertex normal %zu is not finite", i / 3);
+    if (uvs)
+        for (size_t i = 0; i < 2 * nverts; i++)
+            if (!isfinite(uvs[i]))
+                return err_set(err, "texture coordinate %zu is not finite", i / 2);
     uint32_t id = (uint32_t)self->nshapes;
-    if (geometry_add_mesh(self->geometry, positions, nverts, indices, ntris, id, flip, err))
+    if (geometry_object_add_mesh(self->geometry, object, positions, nverts, indices, ntris, id, flip,
+                                 err))
         return -1;
-    shape_t *s = new_shape(self, material, area_light, flip, err);
+    shape_t *s = new_shape(self, object, material, area_light, flip, err);
     if (!s)
         return -1;
     s->kind = SHAPE_MESH;
@@ -226,16 +245,17 @@ static double mapped_area_factor(const transform_t *t, vec3_t a, vec3_t b)
     return vec3_length(vec3_cross(transform_vector(t, a), transform_vector(t, b)));
 }
 
-static int add_analytic(scene_t *self, shape_kind_t kind, const transform_t *to_world,
+static int add_analytic(scene_t *self, int object, shape_kind_t kind, const transform_t *to_world,
                         double radius, double height, int material, int area_light, int flip,
                         err_t *err)
 {
-    if (check_refs(self, material, area_light, err))
+    if (check_object(self, object, err) || check_refs(self, material, area_light, err))
         return -1;
     uint32_t id = (uint32_t)self->nshapes;
     int r = kind == SHAPE_SPHERE
-                ? geometry_add_sphere(self->geometry, to_world, radius, id, flip, err)
-                : geometry_add_disk(self->geometry, to_world, radius, height, id, flip, err);
+                ? geometry_object_add_sphere(self->geometry, object, to_world, radius, id, flip, err)
+                : geometry_object_add_disk(self->geometry, object, to_world, radius, height, id,
+                                           flip, err);
     if (r)
         return -1;
     double area;
@@ -255,7 +275,7 @@ static int add_analytic(scene_t *self, shape_kind_t kind, const transform_t *to_
         area = PF_PI * radius * radius *
                mapped_area_factor(to_world, vec3_make(1, 0, 0), vec3_make(0, 1, 0));
     }
-    shape_t *s = new_shape(self, material, area_light, flip, err);
+    shape_t *s = new_shape(self, object, material, area_light, flip, err);
     if (!s)
         return -1;
     s->kind = kind;
@@ -268,16 +288,131 @@ static int add_analytic(scene_t *self, shape_kind_t kind, const transform_t *to_
     return (int)id;
 }
 
+int scene_add_mesh(scene_t *self, const double *positions, size_t nverts, const uint32_t *indices,
+                   size_t ntris, const double *normals, const double *uvs, int material,
+                   int area_light, int flip, err_t *err)
+{
+    return add_mesh(self, -1, positions, nverts, indices, ntris, normals, uvs, material, area_light,
+                    flip, err);
+}
+
 int scene_add_sphere(scene_t *self, const transform_t *to_world, double radius, int material,
                      int area_light, int flip, err_t *err)
 {
-    return add_analytic(self, SHAPE_SPHERE, to_world, radius, 0.0, material, area_light, flip, err);
+    return add_analytic(self, -1, SHAPE_SPHERE, to_world, radius, 0.0, material, area_light, flip,
+                        err);
 }
 
 int scene_add_disk(scene_t *self, const transform_t *to_world, double radius, double height,
                    int material, int area_light, int flip, err_t *err)
 {
-    return add_analytic(self, SHAPE_DISK, to_world, radius, height, material, area_light, flip, err);
+    return add_analytic(self, -1, SHAPE_DISK, to_world, radius, height, material, area_light, flip,
+                        err);
+}
+
+int scene_add_object(scene_t *self, err_t *err)
+{
+    int g = geometry_object_new(self->geometry, err);
+    if (g < 0)
+        return -1;
+    /* Scene objects and geometry objects are numbered alike. */
+    if ((size_t)g != self->nobjects)
+        return err_set(err, "object numbering went out of step (%d, %zu)", g, self->nobjects);
+    self->nobjects++;
+    return g;
+}
+
+int scene_add_object_mesh(scene_t *self, int object, const double *positions, size_t nverts,
+                          const uint32_t *indices, size_t ntris, const double *normals,
+                          const double *uvs, int material, int flip, err_t *err)
+{
+    if (object < 0)
+        return err_set(err, "scene_add_object_mesh needs an object, got %d", object);
+    return add_mesh(self, object, positions, nverts, indices, ntris, normals, uvs, material, -1,
+                    flip, err);
+}
+
+int scene_add_object_sphere(scene_t *self, int object, const transform_t *to_world, double radius,
+                            int material, int flip, err_t *err)
+{
+    if (object < 0)
+        return err_set(err, "scene_add_object_sphere needs an object, got %d", object);
+    return add_analytic(self, object, SHAPE_SPHERE, to_world, radius, 0.0, material, -1, flip, err);
+}
+
+int scene_add_object_disk(scene_t *self, int object, const transform_t *to_world, double radius,
+                          double height, int material, int flip, err_t *err)
+{
+    if (object < 0)
+        return err_set(err, "scene_add_object_disk needs an object, got %d", object);
+    return add_analytic(self, object, SHAPE_DISK, to_world, radius, height, material, -1, flip, err);
+}
+
+int scene_add_instance(scene_t *self, int object, const transform_t *to_world, err_t *err)
+{
+    if (object < 0 || (size_t)object >= self->nobjects)
+        return err_set(err, "there is no object %d to instance (the scene has %zu)", object,
+                       self->nobjects);
+    uint32_t id = (uint32_t)self->ninstances;
+    if (geometry_add_instance(self->geometry, object, to_world, id, err))
+        return -1;
+    long i = grow((void **)&self->instances, &self->ninstances, sizeof *self->instances, err);
+    if (i < 0)
+        return -1;
+    self->instances[i] = (instance_t){.object = object, .to_world = *to_world};
+    return (int)i;
+}
+
+vec3_t scene_mesh_normal(const shape_t *s, uint32_t prim, double b1, double b2)
+{
+    if (s->kind != SHAPE_MESH || !s->normals || prim >= s->ntris)
+        return vec3_make(0, 0, 0);
+    const uint32_t *ix = s->indices + 3 * (size_t)prim;
+    const double *n0 = s->normals + 3 * (size_t)ix[0], *n1 = s->normals + 3 * (size_t)ix[1],
+                 *n2 = s->normals + 3 * (size_t)ix[2];
+    double b0 = 1.0 - b1 - b2;
+    return vec3_make(b0 * n0[0] + b1 * n1[0] + b2 * n2[0], b0 * n0[1] + b1 * n1[1] + b2 * n2[1],
+                     b0 * n0[2] + b1 * n1[2] + b2 * n2[2]);
+}
+
+void scene_surface(const scene_t *self, const hit_t *h, surface_t *out)
+{
+    const shape_t *s = &self->shapes[h->shape];
+    out->shape = s;
+    out->material = &self->materials[s->material];
+    out->light = s->light;
+    out->p = h->p;
+    out->ng = h->ng;
+    out->ns = h->ng;
+    out->smooth = 0;
+    out->u = h->u;
+    out->v = h->v;
+    if (s->kind != SHAPE_MESH)
+        return;
+    const uint32_t *ix = s->indices + 3 * (size_t)h->prim;
+    if (s->uvs) {
+        const double *t0 = s->uvs + 2 * (size_t)ix[0], *t1 = s->uvs + 2 * (size_t)ix[1],
+                     *t2 = s->uvs + 2 * (size_t)ix[2];
+        double b0 = 1.0 - h->u - h->v;
+        out->u = b0 * t0[0] + h->u * t1[0] + h->v * t2[0];
+        out->v = b0 * t0[1] + h->u * t1[1] + h->v * t2[1];
+    } else {
+        /* pbrt-v4 Triangle: without "uv" the vertices have (0,0), (1,0), (1,1). */
+        out->u = h->u + h->v;
+        out->v = h->v;
+    }
+    if (!s->normals)
+        return;
+    vec3_t n = scene_mesh_normal(s, h->prim, h->u, h->v);
+    if (h->instance != GEOMETRY_NO_INSTANCE && h->instance < self->ninstances)
+        n = transform_normal(&self->instances[h->instance].to_world, n);
+    n = vec3_normalize(n);
+    if (!(vec3_dot(n, n) > 0.5))
+        return; /* the vertex normals cancel here: keep the geometric normal */
+    out->ns = n;
+    out->smooth = 1;
+    if (vec3_dot(out->ng, n) < 0.0)
+        out->ng = vec3_neg(out->ng);
 }
 
 double scene_light_power(const scene_t *self, const light_t *l)

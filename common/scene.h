@@ -2,7 +2,10 @@
  * film and integrator settings -- as the render kernels read it. scene_new gives an empty
  * scene that a loader (scene_load.c, from a parsed pbrt file) or a test fills through the
  * scene_add_* functions, then scene_finish builds the acceleration structure and light
- * distribution. After scene_finish the scene is immutable and safe to share between threads. */
+ * distribution. Objects hold shapes once and instances place them (Embree instances), so
+ * instancing costs no copies. scene_surface resolves any hit, instanced or not, to its shape,
+ * material, light, texture coordinates and world-space geometric and shading normals.
+ * After scene_finish the scene is immutable and safe to share between threads. */
 #ifndef PRISMFARM_SCENE_H
 #define PRISMFARM_SCENE_H
 
@@ -62,13 +65,15 @@ typedef enum shape_kind { SHAPE_MESH, SHAPE_SPHERE, SHAPE_DISK } shape_kind_t;
 
 typedef struct shape {
     shape_kind_t kind;
+    int object;   /* -1 for a world shape, else the object (placed by instances) it belongs to */
     int material; /* index into materials */
-    int light;    /* index into lights, or -1 */
+    int light;    /* index into lights, or -1 (always -1 in objects) */
     int flip;     /* reverse orientation (ReverseOrientation XOR handedness swap) */
-    transform_t to_world; /* spheres and disks (meshes are stored in world space) */
+    transform_t to_world; /* spheres and disks: to world, or to the object's space */
     double radius, height;
-    /* Meshes, world space: positions xyz, 3 indices per triangle, optional per-vertex
-     * normals and uvs (NULL when absent). */
+    /* Meshes, in world space (or the object's space): positions xyz, 3 indices per triangle,
+     * optional per-vertex normals (already flipped by ReverseOrientation, as pbrt-v4's
+     * TriangleMesh does) and uvs (NULL when absent). */
     double *positions;
     uint32_t *indices;
     double *normals;
@@ -79,6 +84,29 @@ typedef struct shape {
     double area;
     alias_t *triangles;
 } shape_t;
+
+/* An object placed in the world. */
+typedef struct instance {
+    int object;
+    transform_t to_world; /* the object's space to world */
+} instance_t;
+
+/* What a ray hit, resolved (scene_surface). */
+typedef struct surface {
+    const shape_t *shape;
+    const material_t *material;
+    int light;   /* the shape's area light (index into lights), or -1 */
+    vec3_t p;    /* world-space point */
+    /* Unit geometric normal in world space, outward as the shape's orientation says. A mesh
+     * with vertex normals turns it toward their side (pbrt-v4 Triangle: n = FaceForward(n, ns)),
+     * so the vertex normals decide which side is outside. */
+    vec3_t ng;
+    /* Unit shading normal in world space, on ng's side: the interpolated vertex normal, or ng
+     * when the mesh has none (or they interpolate to zero). */
+    vec3_t ns;
+    int smooth;  /* ns comes from vertex normals */
+    double u, v; /* texture coordinates (pbrt-v4's defaults where a mesh has no uv) */
+} surface_t;
 
 typedef struct camera {
     transform_t camera_to_world; /* pbrt camera space: looks down +z, +y up, +x right */
@@ -112,8 +140,11 @@ typedef struct render_settings {
 
 typedef struct scene {
     geometry_t *geometry;
-    shape_t *shapes;
+    shape_t *shapes; /* world and object shapes; hit_t.shape indexes this */
     size_t nshapes;
+    size_t nobjects;
+    instance_t *instances; /* hit_t.instance indexes this */
+    size_t ninstances;
     material_t *materials;
     size_t nmaterials;
     light_t *lights;
@@ -150,6 +181,27 @@ int scene_add_sphere(scene_t *self, const transform_t *to_world, double radius, 
                      int area_light, int flip, err_t *err);
 int scene_add_disk(scene_t *self, const transform_t *to_world, double radius, double height,
                    int material, int area_light, int flip, err_t *err);
+
+/* Objects: scene_add_object returns a new object's index (or -1); the scene_add_object_*
+ * functions add shapes in the object's own space (no area lights: pbrt-v4 has none in
+ * instances either) until scene_add_instance first places the object with to_world (affine,
+ * invertible). Each returns the new shape's or instance's index, or -1. */
+int scene_add_object(scene_t *self, err_t *err);
+int scene_add_object_mesh(scene_t *self, int object, const double *positions, size_t nverts,
+                          const uint32_t *indices, size_t ntris, const double *normals,
+                          const double *uvs, int material, int flip, err_t *err);
+int scene_add_object_sphere(scene_t *self, int object, const transform_t *to_world, double radius,
+                            int material, int flip, err_t *err);
+int scene_add_object_disk(scene_t *self, int object, const transform_t *to_world, double radius,
+                          double height, int material, int flip, err_t *err);
+int scene_add_instance(scene_t *self, int object, const transform_t *to_world, err_t *err);
+
+/* Resolves a hit from geometry_intersect on this scene. */
+void scene_surface(const scene_t *self, const hit_t *h, surface_t *out);
+
+/* A mesh's vertex normal interpolated at barycentrics (1 - b1 - b2, b1, b2) of triangle prim,
+ * in the mesh's own space and not normalised; the zero vector when the mesh has no normals. */
+vec3_t scene_mesh_normal(const shape_t *s, uint32_t prim, double b1, double b2);
 
 /* Commits the geometry, sets has_dispersion from the materials over settings.grid and
  * validates their index models there, and builds the light distribution. */

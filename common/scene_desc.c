@@ -53,6 +53,11 @@ int scene_desc_add_instance(scene_desc_t *self, err_t *err)
     return ADD(self, instances, cap_instances, err);
 }
 
+int scene_desc_add_file(scene_desc_t *self, err_t *err)
+{
+    return ADD(self, files, cap_files, err);
+}
+
 int scene_desc_adopt(scene_desc_t *self, void *ptr, err_t *err)
 {
     if (!ptr)
@@ -154,6 +159,7 @@ void scene_desc_destroy(scene_desc_t **self_p)
     free(self->objects);
     free(self->object_shapes);
     free(self->instances);
+    free(self->files);
     free(self);
     *self_p = NULL;
 }
@@ -178,6 +184,14 @@ int scene_desc_find_object(const scene_desc_t *self, const char *name)
 {
     for (size_t i = 0; i < self->nobjects; i++)
         if (!strcmp(self->objects[i].name, name))
+            return (int)i;
+    return -1;
+}
+
+int scene_desc_find_file(const scene_desc_t *self, const char *relative)
+{
+    for (size_t i = 0; i < self->nfiles; i++)
+        if (!strcmp(self->files[i].relative, relative))
             return (int)i;
     return -1;
 }

@@ -8,7 +8,12 @@
  * object-to-world transform (the CTM at the Shape directive), and the renderer applies it.
  * Shapes between ObjectBegin/End go to object_shapes with the CTM of their definition; each
  * ObjectInstance places an object with its own transform: world = instance * shape * p.
- * Everything (strings, arrays, meshes) is owned by the scene_desc and freed with it. */
+ * Everything (strings, arrays, meshes) is owned by the scene_desc and freed with it.
+ *
+ * files lists every file the parse read (the main file, Include/Import files, PLY meshes and
+ * imagemap PNGs), once each, in reading order, each with the path it was opened by and its
+ * path relative to the main file's folder, so that a client can bundle a scene with
+ * everything it needs and refuse files that lie outside that folder. */
 #ifndef PRISMFARM_SCENE_DESC_H
 #define PRISMFARM_SCENE_DESC_H
 
@@ -162,6 +167,9 @@ typedef struct scene_light {
     transform_t to_world;             /* the CTM at the LightSource directive */
     scene_spectrum_t spectrum;        /* I or L; default the colour space illuminant stdillum-D65 */
     double scale;                     /* 1 */
+    /* pbrt-v4's "power" (point, spot: the emitted power) or "illuminance" (distant: at normal
+     * incidence; infinite: on a surface facing the whole sky); -1 when not given. */
+    double power;
     vec3_t from, to;                  /* in light space: apply to_world */
     double coneangle, conedeltaangle; /* degrees */
 } scene_light_t;
@@ -176,6 +184,7 @@ typedef struct scene_area_light {
     pbrt_loc_t loc;
     scene_spectrum_t L; /* default stdillum-D65 */
     double scale;       /* 1 */
+    double power;       /* pbrt-v4's "power": the emitted power; -1 when not given */
     bool twosided;      /* false */
 } scene_area_light_t;
 
@@ -203,8 +212,9 @@ typedef struct scene_shape {
     transform_t to_world;     /* object to world (or to instance space inside an object) */
     bool reverse_orientation; /* ReverseOrientation was in effect */
     bool swaps_handedness;    /* to_world flips handedness */
-    /* Flip the geometric normal: reverse_orientation XOR swaps_handedness (pbrt-v4). For an
-     * instanced shape, XOR the instance's swaps_handedness as well. */
+    /* Flip the geometric normal: reverse_orientation XOR swaps_handedness (pbrt-v4). An
+     * instanced shape is oriented as if its transform were composed with the instance's
+     * (geometry.h, geometry_add_instance). */
     bool flip_normals;
     int material;   /* index into materials */
     int area_light; /* index into area_lights, or -1 */
@@ -226,6 +236,31 @@ typedef struct scene_instance {
     transform_t to_world; /* the CTM at ObjectInstance: instance space to world */
     bool swaps_handedness;
 } scene_instance_t;
+
+/* ---- files read ---- */
+
+typedef enum scene_file_kind {
+    SCENE_FILE_MAIN,    /* the scene file given to pbrt_parse_file */
+    SCENE_FILE_INCLUDE, /* named by Include or Import */
+    SCENE_FILE_PLY,     /* Shape "plymesh" "string filename" */
+    SCENE_FILE_IMAGE,   /* Texture "imagemap" "string filename" */
+} scene_file_kind_t;
+
+typedef struct scene_file {
+    scene_file_kind_t kind;
+    /* The path the file was opened by: the name resolved against the folder of the file that
+     * names it (or, failing that, the main file's folder, as pbrt-v4 does). */
+    const char *path;
+    /* The same file relative to the main file's folder, normalised lexically ("." and ".."
+     * resolved, symbolic links not followed): "inc/shapes.pbrt", "../meshes/a.ply". For a
+     * name written as an absolute path, the normalised absolute path. */
+    const char *relative;
+    /* The file is not inside the main file's folder tree (relative starts with "..") or was
+     * named by an absolute path: a bundle of the main folder cannot carry it, and a bundler
+     * should refuse the scene, naming `loc`. */
+    bool outside;
+    pbrt_loc_t loc; /* where it was first named; line 0 of the main file for the main file */
+} scene_file_t;
 
 /* ---- options ---- */
 
@@ -288,10 +323,12 @@ typedef struct scene_desc {
     size_t nobject_shapes;
     scene_instance_t *instances;
     size_t ninstances;
+    scene_file_t *files; /* every file read, once each (see the top of this header) */
+    size_t nfiles;
 
     /* private: capacities and owned allocations */
     size_t cap_materials, cap_textures, cap_lights, cap_area_lights, cap_shapes, cap_objects,
-        cap_object_shapes, cap_instances;
+        cap_object_shapes, cap_instances, cap_files;
     void **owned;
     size_t nowned, cap_owned;
 } scene_desc_t;
@@ -315,11 +352,14 @@ int scene_desc_add_area_light(scene_desc_t *self, err_t *err);
 int scene_desc_add_shape(scene_desc_t *self, bool in_object, err_t *err);
 int scene_desc_add_object(scene_desc_t *self, err_t *err);
 int scene_desc_add_instance(scene_desc_t *self, err_t *err);
+int scene_desc_add_file(scene_desc_t *self, err_t *err);
 
 /* Lookups by name (linear; -1 when absent). */
 int scene_desc_find_texture(const scene_desc_t *self, const char *name, scene_texture_type_t type);
 int scene_desc_find_material(const scene_desc_t *self, const char *name);
 int scene_desc_find_object(const scene_desc_t *self, const char *name);
+/* The entry whose relative path is relative (compared as strings), or -1. */
+int scene_desc_find_file(const scene_desc_t *self, const char *relative);
 
 /* Totals over world shapes and instanced objects, for reports and tests. */
 size_t scene_desc_triangle_count(const scene_desc_t *self);

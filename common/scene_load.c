@@ -73,15 +73,20 @@ static spectrum_t *owned_spectrum(scene_t *sc, const scene_spectrum_t *s, spec_u
     return r;
 }
 
-/* pbrt-v4 normalises every light's spectrum by its photometric value, so "scale" sets the
- * luminance: here the result has luminance Y = 1 (Y = integral of s y-bar / integral of
- * y-bar), and the light multiplies it by scale. */
+/* pbrt-v4 normalises every light's spectrum by its photometric value (SpectrumToPhotometric),
+ * so the spectrum gives the colour and "scale" the luminance: here the result has luminance
+ * Y = 1 (Y = integral of s y-bar / integral of y-bar), and the light multiplies it by scale.
+ * As in pbrt-v4, an "rgb" spectrum is normalised by its illuminant (D65) alone, so rgb
+ * [r g b] keeps the luminance of that colour (rgb [1 1 1] has Y = 1, [10 10 10] Y = 10).
+ * prismfarm's "float L" v (pbrt-v4 has none) is likewise not normalised: an equal-energy
+ * spectrum of luminance v. */
 static spectrum_t *light_spectrum(scene_t *sc, const scene_spectrum_t *s, err_t *err)
 {
     spectrum_t *raw = build_spectrum(s, SPEC_ILLUMINANT, err);
     if (!raw)
         return NULL;
-    double photometric = spectrum_photometric_light(raw);
+    double photometric = s->kind == SCENE_SPECTRUM_CONSTANT ? CIE_Y_INTEGRAL * (s->constant > 0 ? 1.0 : 0.0)
+                                                            : spectrum_photometric_light(raw);
     if (!(photometric > 0.0) || !isfinite(photometric)) {
         spectrum_destroy(&raw);
         pbrt_error(err, s->loc, "light spectrum has no energy in the visible range (360-830 nm)");
@@ -136,9 +141,13 @@ static texture_t *image_texture(const scene_texture_t *t, err_t *err)
         pbrt_error(err, t->loc, "imagemap wrap \"%s\" is not supported (only \"repeat\")", t->image.wrap);
         return NULL;
     }
+    /* pbrt-v4 ColorEncoding: "sRGB" (the default), "linear", or "gamma G" (v^G). */
     int linear = !strcmp(t->image.encoding, "linear");
-    if (!linear && strcmp(t->image.encoding, "sRGB") != 0) {
-        pbrt_error(err, t->loc, "imagemap encoding \"%s\" is not supported (\"sRGB\" or \"linear\")",
+    double gamma = 0.0;
+    char tail;
+    if (!linear && strcmp(t->image.encoding, "sRGB") != 0 &&
+        !(sscanf(t->image.encoding, "gamma %lf%c", &gamma, &tail) == 1 && isfinite(gamma) && gamma > 0.0)) {
+        pbrt_error(err, t->loc, "imagemap encoding \"%s\" is not supported (\"sRGB\", \"linear\" or \"gamma G\")",
                    t->image.encoding);
         return NULL;
     }
@@ -155,13 +164,20 @@ static texture_t *image_texture(const scene_texture_t *t, err_t *err)
         err_set(err, "out of memory reading %s", t->image.filename);
         return NULL;
     }
-    for (size_t i = 0; i < (size_t)w * (size_t)h; i++)
+    for (size_t i = 0; i < (size_t)w * (size_t)h; i++) {
         for (int c = 0; c < 3; c++) {
             double v = px[4 * i + c] / 255.0;
-            v = linear ? v : srgb_to_linear(v);
+            v = linear ? v : gamma > 0.0 ? pow(v, gamma) : srgb_to_linear(v);
             v *= t->image.scale;
-            rgb[3 * i + c] = (float)(t->image.invert ? 1.0 - v : v);
+            rgb[3 * i + c] = (float)(t->image.invert ? fmax(0.0, 1.0 - v) : v);
         }
+        /* A float texture reads the average of the channels (pbrt-v4 FloatImageTexture),
+         * which uplifts to a flat spectrum. */
+        if (t->type == SCENE_TEXTURE_FLOAT) {
+            float m = (rgb[3 * i] + rgb[3 * i + 1] + rgb[3 * i + 2]) / 3.0f;
+            rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = m;
+        }
+    }
     image_png_destroy(&png);
     texture_t *tex = texture_new_image(rgb, w, h, t->uscale, t->vscale, err);
     free(rgb);
@@ -350,21 +366,72 @@ static int load_lights(loader_t *L, err_t *err)
             l.kind = LIGHT_INFINITE;
             break;
         }
+        /* pbrt-v4 lights.cpp: with its spectrum normalised, a light of scale 1 has power (or
+         * illuminance) k_e; "power" / "illuminance" multiplies scale by target / k_e. */
+        if (dl->power > 0.0) {
+            double k_e = 1.0;
+            if (l.kind == LIGHT_POINT)
+                k_e = 4.0 * PF_PI;
+            else if (l.kind == LIGHT_SPOT)
+                k_e = 2.0 * PF_PI * (1.0 - 0.5 * (l.cos_falloff_start + l.cos_total_width));
+            else if (l.kind == LIGHT_INFINITE)
+                k_e = PF_PI; /* uniform radiance L gives illuminance pi L */
+            if (!(k_e > 0.0))
+                return pbrt_error(err, dl->loc, "\"power\" cannot be met by a spot light of zero width");
+            l.scale *= dl->power / k_e;
+        }
         if (scene_add_light(L->sc, &l, err) < 0)
             return err_prefix(err, "%s:%d:%d: ", dl->loc.file, dl->loc.line, dl->loc.col);
     }
     return 0;
 }
 
-/* Adds one shape, placed by `place` (identity for world shapes, the instance transform for
- * instanced ones). */
-static int load_shape(loader_t *L, const scene_shape_t *s, const transform_t *place, int extra_flip,
-                      err_t *err)
+/* pbrt-v4 DiffuseAreaLight "power": scale *= power / k_e with k_e = pi A (2 pi A when
+ * two-sided), A the area of the shape, so that the light emits that power. pbrt-v4 makes one
+ * light per triangle of a mesh, each emitting the whole power over its own area; prismfarm's
+ * light is the whole mesh, so it follows pbrt-v4 exactly when the triangles have equal areas
+ * (quads, regular meshes: n triangles emit n times the power) and refuses other meshes.
+ * A collimated light carries its radiance through its area: k_e = A. */
+static int area_light_power(loader_t *L, const scene_area_light_t *a, const shape_t *sh, light_t *l,
+                            err_t *err)
+{
+    (void)L;
+    double n = 1.0;
+    if (sh->kind == SHAPE_MESH) {
+        double first = -1.0;
+        for (size_t t = 0; t < sh->ntris; t++) {
+            const double *p0 = sh->positions + 3 * sh->indices[3 * t];
+            const double *p1 = sh->positions + 3 * sh->indices[3 * t + 1];
+            const double *p2 = sh->positions + 3 * sh->indices[3 * t + 2];
+            vec3_t e1 = vec3_make(p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]);
+            vec3_t e2 = vec3_make(p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]);
+            double area = 0.5 * vec3_length(vec3_cross(e1, e2));
+            if (first < 0.0)
+                first = area;
+            else if (fabs(area - first) > 1e-6 * first)
+                return pbrt_error(err, a->loc,
+                                  "\"power\" on a mesh whose triangles differ in area is not supported "
+                                  "(pbrt-v4 gives each triangle that power); use \"scale\"");
+        }
+        n = (double)sh->ntris;
+    }
+    double k_e = l->kind == LIGHT_COLLIMATED ? sh->area : PF_PI * sh->area * (l->twosided ? 2.0 : 1.0);
+    if (!(k_e > 0.0))
+        return pbrt_error(err, a->loc, "\"power\" on a shape of zero area");
+    l->scale *= n * a->power / k_e;
+    return 0;
+}
+
+/* Adds one shape to the world (object < 0, in world space) or to a scene object (in the
+ * object's space); the shape's own transform is applied here. */
+static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *err)
 {
     const scene_desc_t *d = L->desc;
     int light = -1;
     if (s->area_light >= 0) {
         const scene_area_light_t *a = &d->area_lights[s->area_light];
+        if (object >= 0)
+            return pbrt_error(err, s->loc, "area lights are not supported in instanced objects");
         light_t l = {.kind = a->type == SCENE_AREA_COLLIMATED ? LIGHT_COLLIMATED : LIGHT_AREA,
                      .scale = a->scale, .twosided = a->twosided};
         if (!(l.spectrum = light_spectrum(L->sc, &a->L, err)))
@@ -372,13 +439,16 @@ static int load_shape(loader_t *L, const scene_shape_t *s, const transform_t *pl
         if ((light = scene_add_light(L->sc, &l, err)) < 0)
             return err_prefix(err, "%s:%d:%d: ", a->loc.file, a->loc.line, a->loc.col);
     }
-    transform_t to_world = transform_compose(*place, s->to_world);
-    int flip = s->flip_normals ^ extra_flip;
+    const transform_t *to_world = &s->to_world;
+    int flip = s->flip_normals;
     int r;
     if (s->type == SCENE_SHAPE_SPHERE) {
-        r = scene_add_sphere(L->sc, &to_world, s->radius, s->material, light, flip, err);
+        r = object < 0 ? scene_add_sphere(L->sc, to_world, s->radius, s->material, light, flip, err)
+                       : scene_add_object_sphere(L->sc, object, to_world, s->radius, s->material, flip, err);
     } else if (s->type == SCENE_SHAPE_DISK) {
-        r = scene_add_disk(L->sc, &to_world, s->radius, s->height, s->material, light, flip, err);
+        r = object < 0 ? scene_add_disk(L->sc, to_world, s->radius, s->height, s->material, light, flip, err)
+                       : scene_add_object_disk(L->sc, object, to_world, s->radius, s->height, s->material,
+                                               flip, err);
     } else {
         const scene_mesh_t *m = &s->mesh;
         double *P = malloc(3 * m->nvertices * sizeof *P);
@@ -388,25 +458,71 @@ static int load_shape(loader_t *L, const scene_shape_t *s, const transform_t *pl
             free(N);
             return err_set(err, "out of memory for a mesh of %zu vertices", m->nvertices);
         }
+        /* pbrt-v4 TriangleMesh: vertex normals map as normals and turn with
+         * ReverseOrientation (not with a handedness swap). */
+        double nsign = s->reverse_orientation ? -1.0 : 1.0;
         for (size_t v = 0; v < m->nvertices; v++) {
-            vec3_t p = transform_point(&to_world, vec3_make(m->P[3 * v], m->P[3 * v + 1], m->P[3 * v + 2]));
+            vec3_t p = transform_point(to_world, vec3_make(m->P[3 * v], m->P[3 * v + 1], m->P[3 * v + 2]));
             P[3 * v] = p.x;
             P[3 * v + 1] = p.y;
             P[3 * v + 2] = p.z;
             if (N) {
-                vec3_t n = vec3_normalize(transform_normal(&to_world, vec3_make(m->N[3 * v], m->N[3 * v + 1], m->N[3 * v + 2])));
-                N[3 * v] = n.x;
-                N[3 * v + 1] = n.y;
-                N[3 * v + 2] = n.z;
+                vec3_t n = vec3_normalize(transform_normal(to_world, vec3_make(m->N[3 * v], m->N[3 * v + 1], m->N[3 * v + 2])));
+                N[3 * v] = nsign * n.x;
+                N[3 * v + 1] = nsign * n.y;
+                N[3 * v + 2] = nsign * n.z;
             }
         }
-        r = scene_add_mesh(L->sc, P, m->nvertices, m->indices, m->ntriangles, N, m->uv, s->material, light, flip, err);
+        r = object < 0 ? scene_add_mesh(L->sc, P, m->nvertices, m->indices, m->ntriangles, N, m->uv,
+                                        s->material, light, flip, err)
+                       : scene_add_object_mesh(L->sc, object, P, m->nvertices, m->indices, m->ntriangles,
+                                               N, m->uv, s->material, flip, err);
         free(P);
         free(N);
     }
     if (r < 0)
         return err_prefix(err, "%s:%d:%d: Shape \"%s\": ", s->loc.file, s->loc.line, s->loc.col, s->kind);
+    if (light >= 0 && d->area_lights[s->area_light].power > 0.0)
+        return area_light_power(L, &d->area_lights[s->area_light], &L->sc->shapes[r],
+                                &L->sc->lights[light], err);
     return 0;
+}
+
+/* ObjectInstance as Embree instances: each object that is instanced at least once becomes one
+ * scene object holding its shapes once, and every instance places it. Objects never
+ * instanced, and empty ones, are left out. */
+static int load_instances(loader_t *L, err_t *err)
+{
+    const scene_desc_t *d = L->desc;
+    if (d->ninstances == 0)
+        return 0;
+    int *made = malloc(d->nobjects * sizeof *made);
+    if (!made)
+        return err_set(err, "out of memory");
+    for (size_t i = 0; i < d->nobjects; i++)
+        made[i] = -1;
+    int r = 0;
+    for (size_t i = 0; !r && i < d->ninstances; i++) {
+        const scene_instance_t *in = &d->instances[i];
+        const scene_object_t *o = &d->objects[in->object];
+        if (o->nshapes == 0)
+            continue;
+        if (made[in->object] < 0) {
+            int obj = scene_add_object(L->sc, err);
+            if (obj < 0) {
+                r = -1;
+                break;
+            }
+            for (size_t k = 0; !r && k < o->nshapes; k++)
+                r = load_shape(L, &d->object_shapes[o->first_shape + k], obj, err);
+            made[in->object] = obj;
+        }
+        if (!r && scene_add_instance(L->sc, made[in->object], &in->to_world, err) < 0)
+            r = err_prefix(err, "%s:%d:%d: ObjectInstance \"%s\": ", in->loc.file, in->loc.line,
+                           in->loc.col, o->name);
+    }
+    free(made);
+    return r;
 }
 
 static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
@@ -449,6 +565,22 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
         rs->visible_sampling = 1;
     else
         return pbrt_error(err, in->loc, "\"string wavelengths\" must be \"uniform\" or \"visible\", got \"%s\"", wl);
+    if (rs->integrator == INTEGRATOR_PATH) {
+        /* pbrt-v4's PathIntegrator options: how lights are chosen does not change the image's
+         * expectation (prismfarm always picks by power), so any of pbrt-v4's choices is
+         * accepted; regularisation (a biased blur of specular paths) is not available. */
+        bool regularize;
+        const char *ls;
+        if (params_get_bool(p, "regularize", false, &regularize, err) ||
+            params_get_string(p, "lightsampler", "bvh", &ls, err))
+            return -1;
+        if (regularize)
+            return pbrt_error(err, params_find(p, "regularize")->loc,
+                              "unsupported parameter value: \"bool regularize\" must be false");
+        if (strcmp(ls, "bvh") != 0 && strcmp(ls, "power") != 0 && strcmp(ls, "uniform") != 0)
+            return pbrt_error(err, params_find(p, "lightsampler")->loc,
+                              "\"string lightsampler\" must be \"bvh\", \"power\" or \"uniform\", got \"%s\"", ls);
+    }
     return params_check_unused(p, err);
 }
 
@@ -498,17 +630,10 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
         r = load_materials(&L, err);
     if (!r)
         r = load_lights(&L, err);
-    transform_t id = transform_identity();
     for (size_t i = 0; !r && i < desc->nshapes; i++)
-        r = load_shape(&L, &desc->shapes[i], &id, 0, err);
-    /* Instances are flattened into world-space copies of their object's shapes. */
-    for (size_t i = 0; !r && i < desc->ninstances; i++) {
-        const scene_instance_t *in = &desc->instances[i];
-        const scene_object_t *o = &desc->objects[in->object];
-        for (size_t k = 0; !r && k < o->nshapes; k++)
-            r = load_shape(&L, &desc->object_shapes[o->first_shape + k], &in->to_world,
-                           in->swaps_handedness, err);
-    }
+        r = load_shape(&L, &desc->shapes[i], -1, err);
+    if (!r)
+        r = load_instances(&L, err);
     free(L.tex);
     if (!r)
         r = scene_finish(sc, err);

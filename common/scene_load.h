@@ -1,7 +1,9 @@
 /* scene_load: builds a renderable scene (scene.h) from a parsed description (scene_desc.h):
- * resolves spectra (uplifting RGB, normalising lights as pbrt-v4 does), glasses, textures and
- * image files, transforms shapes to world space, and reads the integrator's parameters.
- * Everything it cannot build fails with "file:line:col: what is wrong". */
+ * resolves spectra (uplifting RGB, normalising lights and applying "power"/"illuminance" as
+ * pbrt-v4 does), glasses, textures and image files, transforms shapes to world space, turns
+ * each instanced object into one scene object placed by Embree instances, and reads the
+ * integrator's parameters. Everything it cannot build fails with "file:line:col: what is
+ * wrong". docs/scene-format.md is the user's description of the result. */
 #ifndef PRISMFARM_SCENE_LOAD_H
 #define PRISMFARM_SCENE_LOAD_H
 

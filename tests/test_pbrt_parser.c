@@ -576,6 +576,101 @@ static void test_includes(void **state)
     rmdir(dir);
 }
 
+/* ---- the files a scene reads, for bundling ---- */
+
+static const scene_file_t *file_entry(const scene_desc_t *s, const char *relative)
+{
+    int i = scene_desc_find_file(s, relative);
+    if (i < 0)
+        fail_msg("no file \"%s\" among the %zu read", relative, s->nfiles);
+    return &s->files[i];
+}
+
+static void test_files_read(void **state)
+{
+    (void)state;
+    /* Includes and imports, nested, all inside the main file's folder, in reading order. */
+    scene_desc_t *s = parse_ok("data/scenes/include_main.pbrt");
+    static const struct {
+        const char *relative, *path;
+        scene_file_kind_t kind;
+        int line;
+    } INC[] = {
+        {"include_main.pbrt", "data/scenes/include_main.pbrt", SCENE_FILE_MAIN, 0},
+        {"inc/options.pbrt", "data/scenes/inc/options.pbrt", SCENE_FILE_INCLUDE, 2},
+        {"inc/shapes.pbrt", "data/scenes/inc/shapes.pbrt", SCENE_FILE_INCLUDE, 4},
+        {"inc/deeper/sphere.pbrt", "data/scenes/inc/deeper/sphere.pbrt", SCENE_FILE_INCLUDE, 3},
+        {"inc/imported.pbrt", "data/scenes/inc/imported.pbrt", SCENE_FILE_INCLUDE, 5},
+    };
+    assert_int_equal(s->nfiles, 5);
+    for (size_t i = 0; i < 5; i++) {
+        const scene_file_t *f = &s->files[i];
+        assert_string_equal(f->relative, INC[i].relative);
+        assert_string_equal(f->path, INC[i].path);
+        assert_int_equal(f->kind, INC[i].kind);
+        assert_int_equal(f->loc.line, INC[i].line);
+        assert_false(f->outside);
+    }
+    /* The nested include is located in the file that names it. */
+    assert_string_equal(s->files[3].loc.file, "data/scenes/inc/shapes.pbrt");
+    scene_desc_destroy(&s);
+
+    /* The same through a main path with "." and ".." in it: relative paths are normalised. */
+    s = parse_ok("data/./scenes/../scenes/include_main.pbrt");
+    assert_int_equal(s->nfiles, 5);
+    assert_string_equal(s->files[0].relative, "include_main.pbrt");
+    assert_string_equal(s->files[3].relative, "inc/deeper/sphere.pbrt");
+    assert_string_equal(s->files[3].path, "data/./scenes/../scenes/inc/deeper/sphere.pbrt");
+    scene_desc_destroy(&s);
+
+    /* PLY meshes inside the folder. */
+    s = parse_ok("data/scenes/shapes.pbrt");
+    assert_int_equal(s->nfiles, 3);
+    const scene_file_t *f = file_entry(s, "meshes/quad_tri_ascii.ply");
+    assert_int_equal(f->kind, SCENE_FILE_PLY);
+    assert_string_equal(f->path, "data/scenes/meshes/quad_tri_ascii.ply");
+    assert_int_equal(f->loc.line, 24);
+    assert_false(f->outside);
+    assert_int_equal(file_entry(s, "meshes/tetra_binary.ply")->kind, SCENE_FILE_PLY);
+    scene_desc_destroy(&s);
+
+    /* An image one folder up: recorded, and marked outside so that a bundler refuses it. */
+    s = parse_ok("data/scenes/materials.pbrt");
+    assert_int_equal(s->nfiles, 2);
+    f = file_entry(s, "../scene_checker2x2.png");
+    assert_int_equal(f->kind, SCENE_FILE_IMAGE);
+    assert_string_equal(f->path, "data/scenes/../scene_checker2x2.png");
+    assert_true(f->outside);
+    assert_int_equal(f->loc.line, 6);
+    assert_int_equal(f->loc.col, 37);
+    scene_desc_destroy(&s);
+
+    /* pbrt-v4's rule: inc/main_folder_rule.pbrt names "meshes/tetra_binary.ply" relative to
+     * the main file's folder; included twice, every file is listed once. */
+    s = parse_ok("data/scenes/main_folder_rule.pbrt");
+    assert_int_equal(s->nfiles, 3);
+    assert_int_equal(s->nshapes, 2);
+    f = file_entry(s, "meshes/tetra_binary.ply");
+    assert_string_equal(f->path, "data/scenes/meshes/tetra_binary.ply");
+    assert_string_equal(f->loc.file, "data/scenes/inc/main_folder_rule.pbrt");
+    assert_false(f->outside);
+    scene_desc_destroy(&s);
+
+    /* A file named by an absolute path is outside, whatever folder it is in; a scene parsed
+     * from memory lists only the files it read. */
+    char cwd[1024], text[1400];
+    assert_non_null(getcwd(cwd, sizeof cwd));
+    snprintf(text, sizeof text,
+             "WorldBegin\nShape \"plymesh\" \"string filename\" \"%s/data/scenes/meshes/tetra_binary.ply\"\n",
+             cwd);
+    s = parse_text_ok(text);
+    assert_int_equal(s->nfiles, 1);
+    assert_true(s->files[0].outside);
+    assert_int_equal(s->files[0].relative[0], '/');
+    assert_non_null(strstr(s->files[0].relative, "/data/scenes/meshes/tetra_binary.ply"));
+    scene_desc_destroy(&s);
+}
+
 /* ---- errors: each with its exact message ---- */
 
 static void test_error_messages(void **state)
@@ -917,6 +1012,7 @@ int main(void)
         cmocka_unit_test(test_transforms),
         cmocka_unit_test(test_instances),
         cmocka_unit_test(test_includes),
+        cmocka_unit_test(test_files_read),
         cmocka_unit_test(test_error_messages),
         cmocka_unit_test(test_syntax_details),
         cmocka_unit_test(test_mutations_never_crash),

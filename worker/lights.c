@@ -9,12 +9,14 @@ static double light_value(const light_t *l, double lambda)
     return l->scale * spectrum_eval(l->spectrum, lambda);
 }
 
-/* Uniform point on a shape by area: returns the point and its unit normal (orientation as
- * the geometry reports it, flipped by the shape's flip flag). */
+/* Uniform point on a shape by area: returns the point and its unit normal, oriented as
+ * scene_surface orients a hit there (the shape's flip flag, and for a mesh with vertex normals
+ * their side), so that emission seen by a hit and by a light sample agree. */
 static int shape_sample(const shape_t *s, double u0, double u1, double u2, vec3_t *p, vec3_t *n)
 {
     if (!(s->area > 0.0))
         return 0;
+    vec3_t ns = vec3_make(0, 0, 0);
     if (s->kind == SHAPE_MESH) {
         double pmf;
         size_t t = alias_sample(s->triangles, u0, &pmf);
@@ -23,8 +25,10 @@ static int shape_sample(const shape_t *s, double u0, double u1, double u2, vec3_
         const double *c = s->positions + 3 * s->indices[3 * t + 2];
         vec3_t p0 = vec3_make(a[0], a[1], a[2]), p1 = vec3_make(b[0], b[1], b[2]),
                p2 = vec3_make(c[0], c[1], c[2]);
-        *p = sample_triangle_point(p0, p1, p2, u1, u2);
+        sample_bary_t bc = sample_uniform_triangle(u1, u2);
+        *p = vec3_add(vec3_add(vec3_scale(p0, bc.b0), vec3_scale(p1, bc.b1)), vec3_scale(p2, bc.b2));
         *n = vec3_normalize(vec3_cross(vec3_sub(p1, p0), vec3_sub(p2, p0)));
+        ns = scene_mesh_normal(s, (uint32_t)t, bc.b1, bc.b2);
     } else if (s->kind == SHAPE_SPHERE) {
         vec3_t q = sample_uniform_sphere(u1, u2);
         *p = transform_point(&s->to_world, vec3_scale(q, s->radius));
@@ -36,6 +40,8 @@ static int shape_sample(const shape_t *s, double u0, double u1, double u2, vec3_
         *n = vec3_normalize(transform_normal(&s->to_world, vec3_make(0, 0, 1)));
     }
     if (s->flip)
+        *n = vec3_neg(*n);
+    if (vec3_dot(*n, ns) < 0.0)
         *n = vec3_neg(*n);
     return 1;
 }

@@ -107,16 +107,16 @@ static int push(ctx_t *c, const path_t *p)
 }
 
 /* Emission seen by the path at a hit on an area light, or on leaving the scene. */
-static void add_emission_hit(ctx_t *c, const path_t *p, const hit_t *h, const light_t *l, int li)
+static void add_emission_hit(ctx_t *c, const path_t *p, const surface_t *sf, const light_t *l, int li)
 {
     double w = 1.0;
     if (c->rs->integrator == INTEGRATOR_PATH && !p->specular) {
-        double lp = lights_pdf(c->scene, li, p->prev_p, p->dir, h->p, h->ng);
+        double lp = lights_pdf(c->scene, li, p->prev_p, p->dir, sf->p, sf->ng);
         w = power_heuristic(p->bsdf_pdf, lp);
     }
     vec3_t wo = vec3_neg(p->dir);
     for (int j = 0; j < p->n; j++)
-        splat(c, p, j, w * lights_area_radiance(c->scene, l, h->ng, wo, p->lambda[j]));
+        splat(c, p, j, w * lights_area_radiance(c->scene, l, sf->ng, wo, p->lambda[j]));
 }
 
 static void add_environment(ctx_t *c, const path_t *p)
@@ -133,25 +133,28 @@ static void add_environment(ctx_t *c, const path_t *p)
         splat(c, p, j, w * lights_environment(c->scene, p->lambda[j]));
 }
 
-/* Next-event estimation at a diffuse point with normal n (facing the viewer). */
-static void direct_light(ctx_t *c, const path_t *p, const hit_t *h, vec3_t n, const double *albedo)
+/* Next-event estimation at a diffuse point with shading normal n and geometric normal g, both
+ * facing the viewer. A light direction below either hemisphere contributes nothing (the
+ * shading-normal rule of scatter's diffuse branch). */
+static void direct_light(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t n, vec3_t g,
+                         const double *albedo)
 {
     double u[4];
     for (int k = 0; k < 4; k++)
         u[k] = next(c);
     light_sample_t ls;
-    if (!lights_sample(c->scene, h->p, u, &ls))
+    if (!lights_sample(c->scene, sf->p, u, &ls))
         return;
     double cos_s = vec3_dot(n, ls.wi);
-    if (cos_s <= 0.0 || !(ls.pdf > 0.0))
+    if (cos_s <= 0.0 || vec3_dot(g, ls.wi) <= 0.0 || !(ls.pdf > 0.0))
         return;
     /* Both ends of the shadow ray are offset off their surfaces (toward each other), so that
      * neither the shading point's surface nor the light's own surface blocks it. */
-    vec3_t o = geometry_offset(h->p, h->ng, ls.wi);
+    vec3_t o = geometry_offset(sf->p, sf->ng, ls.wi);
     vec3_t dir = ls.wi;
     double tmax = INFINITY;
     if (!isinf(ls.dist)) {
-        vec3_t target = ls.dist > 0 && ls.is_delta ? vec3_fma(h->p, ls.wi, ls.dist)
+        vec3_t target = ls.dist > 0 && ls.is_delta ? vec3_fma(sf->p, ls.wi, ls.dist)
                                                    : geometry_offset(ls.p_light, ls.n_light, vec3_neg(ls.wi));
         vec3_t d = vec3_sub(target, o);
         tmax = vec3_length(d);
@@ -196,7 +199,7 @@ static int choose_reflect(ctx_t *c, double prob_reflect, double *scale)
     return 0;
 }
 
-static void start_bounce(path_t *p, const hit_t *h, vec3_t dir, int specular, double pdf)
+static void start_bounce(path_t *p, const surface_t *h, vec3_t dir, int specular, double pdf)
 {
     p->prev_p = h->p;
     p->org = geometry_offset(h->p, h->ng, dir);
@@ -205,23 +208,50 @@ static void start_bounce(path_t *p, const hit_t *h, vec3_t dir, int specular, do
     p->bsdf_pdf = pdf;
 }
 
+/* Shading normals at specular surfaces (mirrors and glass). The interpolated normal gives the
+ * mirror and refraction directions and the Fresnel cosines, but it may disagree with the
+ * real surface: near a silhouette the incident direction can lie on the other side of it, or
+ * the mirror (or refracted) direction computed with it can point back through the geometric
+ * surface, which would leak light through the mesh. For such an event the geometric normal is
+ * used instead, for every branch of the event (the choice is made before any random choice,
+ * so reflection and refraction probabilities stay R and 1 - R and energy is conserved).
+ * eta_rel is n_incident / n_transmitted for glass, 0 for a mirror. Both normals are outward. */
+static vec3_t specular_normal(const surface_t *sf, vec3_t dir, double eta_rel)
+{
+    if (!sf->smooth)
+        return sf->ng;
+    double cg = vec3_dot(dir, sf->ng);
+    if (cg * vec3_dot(dir, sf->ns) <= 0.0)
+        return sf->ng;
+    /* The mirror direction must leave on the incident side, the refracted one continue. */
+    if (vec3_dot(fresnel_reflect(dir, sf->ns), sf->ng) * cg >= 0.0)
+        return sf->ng;
+    vec3_t t;
+    if (eta_rel > 0.0 && fresnel_refract(dir, sf->ns, eta_rel, &t) && vec3_dot(t, sf->ng) * cg <= 0.0)
+        return sf->ng;
+    return sf->ns;
+}
+
 /* Smooth dielectric. Returns 0 to continue the path, 1 when it ends (its sub-paths were
  * pushed or it carries nothing). */
-static int scatter_dielectric(ctx_t *c, path_t *p, const hit_t *h, const material_t *m)
+static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const material_t *m)
 {
     const int whitted = c->rs->integrator == INTEGRATOR_WHITTED;
-    const double cos_d = vec3_dot(p->dir, h->ng);
-    const int entering = cos_d < 0.0;
-    vec3_t refl = fresnel_reflect(p->dir, h->ng);
+    /* Which medium the path is in comes from the geometric surface alone. */
+    const int entering = vec3_dot(p->dir, h->ng) < 0.0;
     const ior_model_t air = ior_constant(1.0);
+    double n_hero = ior_eval(&m->ior, p->lambda[0]);
+    vec3_t nrm = specular_normal(h, p->dir, entering ? 1.0 / n_hero : n_hero);
+    const double cos_d = vec3_dot(p->dir, nrm);
+    vec3_t refl = fresnel_reflect(p->dir, nrm);
 
     if (!m->dispersive || p->mono) {
         /* One index for every lane: constant glass, or a path that is already monochrome. */
-        double n = ior_eval(&m->ior, p->lambda[0]);
+        double n = n_hero;
         double n_i = entering ? 1.0 : n, n_t = entering ? n : 1.0;
         fresnel_terms_t f = fresnel_dielectric_terms(-cos_d, 1.0, n);
         vec3_t refr;
-        int ok = fresnel_refract(p->dir, h->ng, n_i / n_t, &refr);
+        int ok = fresnel_refract(p->dir, nrm, n_i / n_t, &refr);
         double R = ok ? f.reflectance : 1.0;
         if (whitted && R > 0.0 && R < 1.0) {
             path_t r = *p;
@@ -260,9 +290,9 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const hit_t *h, const materia
          * (PHYSICS.md's trap). */
         double R[LANES];
         vec3_t refr;
-        double n0 = ior_eval(&m->ior, p->lambda[0]);
+        double n0 = n_hero;
         double n_i = entering ? 1.0 : n0, n_t = entering ? n0 : 1.0;
-        int ok = fresnel_refract(p->dir, h->ng, n_i / n_t, &refr);
+        int ok = fresnel_refract(p->dir, nrm, n_i / n_t, &refr);
         for (int j = 0; j < p->n; j++) {
             double n = ior_eval(&m->ior, p->lambda[j]);
             R[j] = fresnel_dielectric(-cos_d, 1.0, n);
@@ -310,9 +340,23 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const hit_t *h, const materia
         return 1;
     for (int i = 0; i < nb; i++)
         lam[i] = split[i].lambda_nm;
-    /* n is the outward normal, so air is always the outside medium. */
-    if (fanout_refract(&air, &m->ior, p->dir, h->ng, lam, nb, rays, &poly, NULL))
+    /* nrm is outward, so air is always the outside medium. The monochrome rays refract at
+     * slightly different angles: if one of them would cross the geometric surface the wrong
+     * way with the shading normal, the whole fan uses the geometric normal. */
+    if (fanout_refract(&air, &m->ior, p->dir, nrm, lam, nb, rays, &poly, NULL))
         return 1;
+    if (h->smooth && nrm.x == h->ns.x && nrm.y == h->ns.y && nrm.z == h->ns.z) {
+        double cg = vec3_dot(p->dir, h->ng);
+        int bad = 0;
+        for (int i = 0; i < nb; i++)
+            bad |= !rays[i].tir && vec3_dot(rays[i].dir, h->ng) * cg <= 0.0;
+        if (bad) {
+            nrm = h->ng;
+            refl = fresnel_reflect(p->dir, nrm);
+            if (fanout_refract(&air, &m->ior, p->dir, nrm, lam, nb, rays, &poly, NULL))
+                return 1;
+        }
+    }
     double RP = poly.reflectance, TP = poly.transmittance;
     int both = 0;
     if (whitted && RP > 0.0 && RP < 1.0) {
@@ -389,47 +433,46 @@ static void trace(ctx_t *c, path_t *start)
                 add_environment(c, p);
                 break;
             }
-            const shape_t *sh = &s->shapes[h.shape];
-            if (sh->light >= 0 && s->lights[sh->light].kind == LIGHT_AREA)
-                add_emission_hit(c, p, &h, &s->lights[sh->light], sh->light);
-            const material_t *m = &s->materials[sh->material];
+            surface_t sf;
+            scene_surface(s, &h, &sf);
+            if (sf.light >= 0 && s->lights[sf.light].kind == LIGHT_AREA)
+                add_emission_hit(c, p, &sf, &s->lights[sf.light], sf.light);
+            const material_t *m = sf.material;
             if (m->kind == MATERIAL_INTERFACE) {
                 if (++p->passthrough > MAX_PASSTHROUGH)
                     break;
-                p->org = geometry_offset(h.p, h.ng, p->dir);
+                p->org = geometry_offset(sf.p, sf.ng, p->dir);
                 continue;
             }
             if (p->depth >= maxdepth)
                 break;
             vec3_t wo = vec3_neg(p->dir);
             if (m->kind == MATERIAL_DIFFUSE) {
-                vec3_t n = vec3_dot(h.ng, wo) >= 0.0 ? h.ng : vec3_neg(h.ng);
+                /* Lambertian with the shading normal n: cosine sampling around it and the
+                 * cosine in light sampling. A direction below the geometric surface g (both
+                 * on the viewer's side) would pass through the mesh: it contributes nothing
+                 * and a sampled one ends the path, so no light leaks (a little energy is
+                 * lost where shading and geometric normals differ, as in pbrt-v3's BSDF::f). */
+                vec3_t g = vec3_dot(sf.ng, wo) >= 0.0 ? sf.ng : vec3_neg(sf.ng);
+                vec3_t n = vec3_dot(sf.ns, g) >= 0.0 ? sf.ns : vec3_neg(sf.ns);
                 double albedo[LANES];
-                double u = h.u, v = h.v;
-                if (sh->kind == SHAPE_MESH && sh->uvs) {
-                    const uint32_t *ix = sh->indices + 3 * h.prim;
-                    const double *t0 = sh->uvs + 2 * ix[0], *t1 = sh->uvs + 2 * ix[1],
-                                 *t2 = sh->uvs + 2 * ix[2];
-                    double b0 = 1.0 - h.u - h.v;
-                    u = b0 * t0[0] + h.u * t1[0] + h.v * t2[0];
-                    v = b0 * t0[1] + h.u * t1[1] + h.v * t2[1];
-                }
                 for (int j = 0; j < p->n; j++)
-                    albedo[j] = m->reflectance ? texture_eval(m->reflectance, u, v, p->lambda[j]) : 0.5;
+                    albedo[j] = m->reflectance ? texture_eval(m->reflectance, sf.u, sf.v, p->lambda[j]) : 0.5;
                 if (c->rs->integrator != INTEGRATOR_SIMPLEPATH)
-                    direct_light(c, p, &h, n, albedo);
+                    direct_light(c, p, &sf, n, g, albedo);
                 if (c->rs->integrator == INTEGRATOR_WHITTED)
                     break;
                 vec3_t local = sample_cosine_hemisphere(next(c), next(c));
                 vec3_t wi = sample_local_to_world(local, n);
                 double cos_i = vec3_dot(wi, n);
-                if (!(cos_i > 0.0))
+                if (!(cos_i > 0.0) || !(vec3_dot(wi, g) > 0.0))
                     break;
                 for (int j = 0; j < p->n; j++)
                     p->beta[j] *= albedo[j];
-                start_bounce(p, &h, wi, 0, cos_i / PF_PI);
+                start_bounce(p, &sf, wi, 0, cos_i / PF_PI);
             } else if (m->kind == MATERIAL_CONDUCTOR) {
-                vec3_t n = vec3_dot(h.ng, wo) >= 0.0 ? h.ng : vec3_neg(h.ng);
+                vec3_t ns = specular_normal(&sf, p->dir, 0.0);
+                vec3_t n = vec3_dot(ns, wo) >= 0.0 ? ns : vec3_neg(ns);
                 double cos_i = vec3_dot(wo, n);
                 for (int j = 0; j < p->n; j++) {
                     double f;
@@ -437,14 +480,14 @@ static void trace(ctx_t *c, path_t *start)
                         f = fresnel_conductor(cos_i, spectrum_eval(m->eta, p->lambda[j]),
                                               spectrum_eval(m->k, p->lambda[j]));
                     else if (m->reflectance)
-                        f = texture_eval(m->reflectance, h.u, h.v, p->lambda[j]);
+                        f = texture_eval(m->reflectance, sf.u, sf.v, p->lambda[j]);
                     else
                         f = 1.0;
                     p->beta[j] *= f;
                 }
-                start_bounce(p, &h, fresnel_reflect(p->dir, n), 1, 0.0);
+                start_bounce(p, &sf, fresnel_reflect(p->dir, n), 1, 0.0);
             } else {
-                if (scatter_dielectric(c, p, &h, m))
+                if (scatter_dielectric(c, p, &sf, m))
                     break;
             }
             p->depth++;

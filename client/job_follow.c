@@ -1,0 +1,76 @@
+#include "job_follow.h"
+
+#include "progress.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+#include <time.h>
+
+static double now_s(void)
+{
+    struct timespec t;
+    clock_gettime(CLOCK_MONOTONIC, &t);
+    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t *last,
+                    char *error, size_t esize)
+{
+    progress_t prog = progress_make("job", quiet);
+    double t0 = now_s();
+    for (;;) {
+        proto_msg_t req = {.type = PROTO_STATUS, .status = {.job = job}}, reply;
+        err_t err;
+        if (client_rpc_call(rpc, &req, &reply, 10000, &err)) {
+            snprintf(error, esize, "%s", err.msg);
+            return -1;
+        }
+        if (reply.type != PROTO_STATUS_REPLY || reply.status_reply.njobs != 1) {
+            snprintf(error, esize, "the master answered %s without the job", proto_type_name(reply.type));
+            proto_msg_free(&reply);
+            return -1;
+        }
+        proto_job_info_t j = reply.status_reply.jobs[0];
+        int state = (int)j.state;
+        snprintf(error, esize, "%s", j.error ? j.error : "");
+        *last = j;
+        last->name = NULL;
+        last->error = NULL;
+        if (j.samples_total)
+            progress_update(&prog, j.samples_done, j.samples_total, now_s() - t0);
+        proto_msg_free(&reply);
+        if (state == PROTO_JOB_DONE || state == PROTO_JOB_FAILED || state == PROTO_JOB_CANCELLED)
+            return state;
+        struct timespec ts = {0, 200 * 1000000L};
+        nanosleep(&ts, NULL);
+    }
+}
+
+int job_follow_fetch(client_rpc_t *rpc, uint64_t job, proto_fetch_what_t what, const char *path,
+                     const char *cmd)
+{
+    proto_msg_t req = {.type = PROTO_FETCH, .fetch = {.job = job, .what = what}}, reply;
+    err_t err;
+    if (client_rpc_call(rpc, &req, &reply, 60000, &err)) {
+        fprintf(stderr, "prismfarm %s: %s\n", cmd, err.msg);
+        return 1;
+    }
+    if (reply.type != PROTO_FILE) {
+        fprintf(stderr, "prismfarm %s: the master answered %s, not FILE\n", cmd, proto_type_name(reply.type));
+        proto_msg_free(&reply);
+        return 1;
+    }
+    char tmp[4200];
+    snprintf(tmp, sizeof tmp, "%s.part", path);
+    FILE *f = fopen(tmp, "wb");
+    int ok = f && fwrite(reply.file.data, 1, reply.file.size, f) == reply.file.size;
+    ok = (f && fclose(f) == 0) && ok;
+    ok = ok && rename(tmp, path) == 0;
+    if (!ok) {
+        fprintf(stderr, "prismfarm %s: cannot write %s: %s\n", cmd, path, strerror(errno));
+        remove(tmp);
+    }
+    proto_msg_free(&reply);
+    return ok ? 0 : 1;
+}

@@ -1,0 +1,20 @@
+/* job_follow: what `submit --wait` and `local` do after submitting: follow a job's progress
+ * until it ends, and download its outputs. */
+#ifndef PRISMFARM_JOB_FOLLOW_H
+#define PRISMFARM_JOB_FOLLOW_H
+
+#include "client_rpc.h"
+
+/* Polls the job's status, showing progress on stderr unless quiet, until it is done, failed or
+ * cancelled. Returns its final proto_job_state_t, or -1 when the master stopped answering;
+ * *last gets the final counters (name and error cleared), error the job's or the lost
+ * master's message. */
+int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t *last,
+                    char *error, size_t esize);
+
+/* Downloads one output of a job into path (written beside it and renamed). Returns 0, or 1
+ * with a message on stderr prefixed by "prismfarm CMD: ". */
+int job_follow_fetch(client_rpc_t *rpc, uint64_t job, proto_fetch_what_t what, const char *path,
+                     const char *cmd);
+
+#endif

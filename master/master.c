@@ -1,0 +1,1117 @@
+#define _XOPEN_SOURCE 700 /* realpath */
+#include "master.h"
+
+#include "bundle.h"
+#include "film.h"
+#include "net.h"
+#include "scene_load.h"
+#include "spool.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <stdarg.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <zmq.h>
+
+#define POLL_MS 100              /* longest wait on the sockets: the stop flag's latency */
+#define RECV_BURST 1000          /* messages taken from one socket per loop turn */
+#define MAX_LOST_WORKERS 256     /* lost workers still listed by WORKERS */
+#define FILE_OVERHEAD (64 << 10) /* room for a FILE message's envelope and name */
+
+typedef struct mworker {
+    uint64_t id;
+    proto_peer_t peer;
+    char *name;
+    int threads;
+    bool alive;
+    double last_seen;
+    /* A task the scheduler issued whose TASK found the peer's queue full: sent before any
+     * other. Only one, because dispatch stops at the first full queue. */
+    bool has_unsent;
+    sched_task_t unsent;
+} mworker_t;
+
+typedef struct mjob {
+    uint64_t id;
+    char *name;
+    char stem[88]; /* file-name form of the name: outputs are <stem>.exr and <stem>.png */
+    char hash[PROTO_HASH_HEX + 1];
+    proto_settings_t settings;           /* strings point into integrator / dispersion */
+    char integrator[65], dispersion[65]; /* protocol.md: names of at most 64 bytes */
+    int xres, yres, spp, ntiles;
+    uint64_t seed; /* the scene's, after the settings' override */
+    spectral_grid_t grid;
+    double submitted, started, finished; /* monotonic seconds; 0: not yet */
+    job_state_t state;
+    bool in_sched; /* false once finished: its image is on disk and the scheduler forgot it */
+    bool preview;  /* jobs/<id>/preview.png exists */
+    bool outputs;  /* jobs/<id>/<stem>.exr and .png exist */
+    uint64_t samples_done, samples_total, nonfinite; /* kept when the scheduler forgets it */
+    char *error;
+} mjob_t;
+
+typedef struct master {
+    const master_opts_t *opts;
+    proto_limits_t limits;
+    sched_t *sched;
+    spool_t *spool;
+    proto_net_t *wnet, *cnet;
+    mworker_t **workers;
+    size_t nworkers, cap_workers;
+    mjob_t **jobs; /* in id order */
+    size_t njobs, cap_jobs;
+    uint64_t last_job, last_worker;
+    sched_worker_info_t *winfo; /* scratch for sched_workers */
+    size_t cap_winfo;
+    double heartbeat_s, last_heartbeat;
+} master_t;
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+__attribute__((format(printf, 2, 3))) static void mlog(const master_t *m, const char *fmt, ...)
+{
+    if (!m->opts->verbose)
+        return;
+    char line[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(line, sizeof line, fmt, ap);
+    va_end(ap);
+    fprintf(stderr, "master: %s\n", line);
+}
+
+static char *dup_str(const char *s)
+{
+    size_t n = strlen(s) + 1;
+    char *d = malloc(n);
+    if (d)
+        memcpy(d, s, n);
+    return d;
+}
+
+master_opts_t master_opts_default(void)
+{
+    master_opts_t o = {
+        .worker_endpoint = "tcp://*:5555",
+        .client_endpoint = "tcp://*:5556",
+        .spool_dir = "prismfarm-spool",
+        .heartbeat_ms = 1000,
+        .sched = sched_config_default(),
+        .limits = proto_limits_default(),
+        .verbose = 1,
+    };
+    /* farm.md: a worker silent for 3 heartbeat intervals is dead (zguide's liveness 3). */
+    o.sched.worker_timeout_s = 3.0;
+    return o;
+}
+
+/* ---------------------------------------------------------------- lookups */
+
+static mworker_t *worker_by_peer(const master_t *m, const proto_peer_t *p)
+{
+    for (size_t i = 0; i < m->nworkers; i++)
+        if (m->workers[i]->peer.len == p->len && !memcmp(m->workers[i]->peer.id, p->id, p->len))
+            return m->workers[i];
+    return NULL;
+}
+
+static mjob_t *job_by_id(const master_t *m, uint64_t id)
+{
+    size_t lo = 0, hi = m->njobs;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (m->jobs[mid]->id < id)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < m->njobs && m->jobs[lo]->id == id ? m->jobs[lo] : NULL;
+}
+
+/* The scheduler's view of every worker, in m->winfo; returns the count. */
+static size_t sched_worker_table(master_t *m)
+{
+    size_t n = sched_workers(m->sched, m->winfo, m->cap_winfo);
+    if (n > m->cap_winfo) {
+        sched_worker_info_t *p = realloc(m->winfo, n * sizeof *p);
+        if (!p)
+            return m->cap_winfo;
+        m->winfo = p;
+        m->cap_winfo = n;
+        n = sched_workers(m->sched, m->winfo, m->cap_winfo);
+    }
+    return n;
+}
+
+static const sched_worker_info_t *sched_worker_of(master_t *m, size_t n, uint64_t id)
+{
+    for (size_t i = 0; i < n; i++)
+        if (m->winfo[i].id == id)
+            return &m->winfo[i];
+    return NULL;
+}
+
+/* ---------------------------------------------------------------- workers */
+
+static void worker_free(mworker_t *w)
+{
+    if (w) {
+        free(w->name);
+        free(w);
+    }
+}
+
+/* Forgets the lost worker seen longest ago once more than MAX_LOST_WORKERS are listed, so that
+ * workers that come and go do not grow the table for ever. Called between loops over the
+ * table only, never inside one. */
+static void prune_lost(master_t *m)
+{
+    size_t lost = 0, oldest = SIZE_MAX;
+    for (size_t i = 0; i < m->nworkers; i++)
+        if (!m->workers[i]->alive) {
+            lost++;
+            if (oldest == SIZE_MAX || m->workers[i]->last_seen < m->workers[oldest]->last_seen)
+                oldest = i;
+        }
+    if (lost <= MAX_LOST_WORKERS)
+        return;
+    worker_free(m->workers[oldest]);
+    memmove(&m->workers[oldest], &m->workers[oldest + 1],
+            (m->nworkers - oldest - 1) * sizeof *m->workers);
+    m->nworkers--;
+}
+
+static void worker_lost(master_t *m, mworker_t *w, const char *why)
+{
+    if (!w->alive)
+        return;
+    size_t n = sched_worker_table(m);
+    const sched_worker_info_t *si = sched_worker_of(m, n, w->id);
+    int busy = si ? si->busy : 0;
+    sched_worker_leave(m->sched, w->id);
+    w->alive = false;
+    w->has_unsent = false;
+    mlog(m, "worker %llu '%s' lost (%s); %d task%s back in the queue", (unsigned long long)w->id,
+         w->name, why, busy, busy == 1 ? "" : "s");
+}
+
+/* Sends to a worker; a peer that is no longer connected is lost. */
+static int send_worker(master_t *m, mworker_t *w, const proto_msg_t *msg)
+{
+    err_t err;
+    int rc = proto_net_send(m->wnet, &w->peer, msg, &err);
+    if (rc == PROTO_EUNREACHABLE)
+        worker_lost(m, w, "disconnected");
+    else if (rc < 0 && rc != PROTO_EAGAIN)
+        mlog(m, "cannot send to worker %llu: %s", (unsigned long long)w->id, err.msg);
+    return rc;
+}
+
+static void send_refuse(master_t *m, proto_net_t *net, const proto_peer_t *to, const char *reason)
+{
+    proto_msg_t r = {.type = PROTO_REFUSE, .refuse = {.reason = reason}};
+    err_t err;
+    if (to->len > 0 && proto_net_send(net, to, &r, &err) < 0)
+        mlog(m, "cannot send REFUSE: %s", err.msg);
+}
+
+static void cancel_on_workers(master_t *m, uint64_t job)
+{
+    proto_msg_t c = {.type = PROTO_CANCEL, .cancel = {.job = job}};
+    for (size_t i = 0; i < m->nworkers; i++) {
+        mworker_t *w = m->workers[i];
+        if (w->alive && w->has_unsent && w->unsent.job == job)
+            w->has_unsent = false;
+        if (w->alive)
+            (void)send_worker(m, w, &c);
+    }
+}
+
+/* ---------------------------------------------------------------- jobs */
+
+static void job_free(mjob_t *j)
+{
+    if (j) {
+        free(j->name);
+        free(j->error);
+        free(j);
+    }
+}
+
+static void job_set_error(mjob_t *j, const char *msg)
+{
+    free(j->error);
+    j->error = dup_str(msg);
+}
+
+/* The job's name as a file name: its last path component without ".pbrt", with anything but
+ * letters, digits, '.', '-' and '_' replaced, no leading '.', never "preview" (the progressive
+ * image's name). */
+static void make_stem(const char *name, char *out, size_t size)
+{
+    const char *base = strrchr(name, '/');
+    base = base && base[1] ? base + 1 : name;
+    size_t n = strlen(base);
+    if (n > 5 && !strcmp(base + n - 5, ".pbrt"))
+        n -= 5;
+    size_t k = 0;
+    for (size_t i = 0; i < n && k + 2 < size; i++) {
+        char c = base[i];
+        bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                  c == '-' || c == '_' || (c == '.' && k > 0);
+        out[k++] = ok ? c : '_';
+    }
+    out[k] = 0;
+    if (k == 0)
+        snprintf(out, size, "job");
+    else if (!strcmp(out, "preview"))
+        snprintf(out, size, "preview_");
+}
+
+static int write_image(master_t *m, mjob_t *j, bool final, err_t *err)
+{
+    char dir[PATH_MAX], exr[PATH_MAX + 100], png[PATH_MAX + 100];
+    if (spool_job_dir(m->spool, j->id, dir, sizeof dir, err) < 0)
+        return -1;
+    const tilebuf_t *image = sched_job_image(m->sched, j->id);
+    if (!image)
+        return err_set(err, "job %llu has no image", (unsigned long long)j->id);
+    char info[1024];
+    snprintf(info, sizeof info, "job=%llu;name=%s;scene=%s;spp=%d;xres=%d;yres=%d;seed=%llu",
+             (unsigned long long)j->id, j->stem, j->hash, j->spp, j->xres, j->yres,
+             (unsigned long long)j->seed);
+    film_output_t out = {
+        .spectral = 1, .tonemap = {.exposure_stops = 0, .curve = COLOUR_CURVE_ACES}, .info = info};
+    if (final) {
+        snprintf(exr, sizeof exr, "%s/%s.exr", dir, j->stem);
+        snprintf(png, sizeof png, "%s/%s.png", dir, j->stem);
+        out.exr_path = exr;
+    } else {
+        snprintf(png, sizeof png, "%s/preview.png", dir);
+    }
+    out.png_path = png;
+    return film_write(image, j->grid, &out, err);
+}
+
+/* Follows the scheduler's state of a job: logs the change and, once the job is over, writes
+ * its outputs (done), tells the workers to drop its tasks (failed, cancelled) and frees its
+ * image in the scheduler, keeping only the figures STATUS reports. */
+static void job_refresh(master_t *m, mjob_t *j, double now)
+{
+    sched_job_info_t info;
+    if (!j->in_sched || sched_job_info(m->sched, j->id, &info) < 0 || info.state == j->state)
+        return;
+    j->state = info.state;
+    if (info.state == JOB_RUNNING || info.state == JOB_QUEUED) {
+        if (info.state == JOB_RUNNING && j->started == 0)
+            j->started = now;
+        return;
+    }
+    if (j->started == 0)
+        j->started = now;
+    j->finished = now;
+    if (info.state == JOB_DONE) {
+        err_t err;
+        if (write_image(m, j, true, &err) < 0) {
+            char msg[600];
+            snprintf(msg, sizeof msg, "writing the outputs: %s", err.msg);
+            job_set_error(j, msg);
+            j->state = JOB_FAILED;
+            mlog(m, "job %llu '%s' failed: %s", (unsigned long long)j->id, j->name, msg);
+        } else {
+            j->outputs = true;
+            mlog(m, "job %llu '%s' done in %.2f s: %s/jobs/%llu/%s.exr", (unsigned long long)j->id,
+                 j->name, j->finished - j->started, spool_path(m->spool), (unsigned long long)j->id,
+                 j->stem);
+        }
+    } else if (info.state == JOB_FAILED) {
+        job_set_error(j, info.error[0] ? info.error : "failed");
+        mlog(m, "job %llu '%s' failed: %s", (unsigned long long)j->id, j->name, j->error);
+        cancel_on_workers(m, j->id);
+    } else {
+        mlog(m, "job %llu '%s' cancelled", (unsigned long long)j->id, j->name);
+        cancel_on_workers(m, j->id);
+    }
+    j->samples_done = info.samples_done;
+    j->samples_total = info.samples_total;
+    j->nonfinite = info.nonfinite;
+    err_t err;
+    if (sched_remove_job(m->sched, j->id, &err) < 0)
+        mlog(m, "job %llu: %s", (unsigned long long)j->id, err.msg);
+    else
+        j->in_sched = false;
+}
+
+static proto_job_state_t wire_state(job_state_t s)
+{
+    switch (s) {
+    case JOB_QUEUED:
+        return PROTO_JOB_QUEUED;
+    case JOB_RUNNING:
+        return PROTO_JOB_RUNNING;
+    case JOB_DONE:
+        return PROTO_JOB_DONE;
+    case JOB_FAILED:
+        return PROTO_JOB_FAILED;
+    case JOB_CANCELLED:
+        return PROTO_JOB_CANCELLED;
+    }
+    return PROTO_JOB_FAILED;
+}
+
+static proto_job_info_t job_wire_info(const master_t *m, const mjob_t *j, double now)
+{
+    proto_job_info_t o = {.id = j->id,
+                          .name = j->name,
+                          .state = wire_state(j->state),
+                          .samples_done = j->samples_done,
+                          .samples_total = j->samples_total,
+                          .nonfinite = j->nonfinite};
+    sched_job_info_t info;
+    if (j->in_sched && sched_job_info(m->sched, j->id, &info) == 0) {
+        o.samples_done = info.samples_done;
+        o.samples_total = info.samples_total;
+        o.nonfinite = info.nonfinite;
+    }
+    double secs = j->started > 0 ? (j->finished > 0 ? j->finished : now) - j->started : 0;
+    o.elapsed = secs > 0 ? secs : 0;
+    if (j->state == JOB_FAILED)
+        o.error = j->error ? j->error : "failed";
+    return o;
+}
+
+/* ---------------------------------------------------------------- dispatch */
+
+static int send_task(master_t *m, mworker_t *w, const sched_task_t *t, double now)
+{
+    mjob_t *j = job_by_id(m, t->job);
+    if (!j || !j->in_sched)
+        return 0; /* cancelled meanwhile: the scheduler already took the task back */
+    proto_msg_t msg = {.type = PROTO_TASK};
+    msg.task.job = t->job;
+    msg.task.task = t->task;
+    msg.task.attempt = t->attempt;
+    memcpy(msg.task.scene, j->hash, sizeof msg.task.scene);
+    msg.task.settings = j->settings;
+    msg.task.kind = PROTO_KIND_CAMERA_TILE;
+    msg.task.tile = (proto_tile_t){.x0 = t->x0,
+                                   .y0 = t->y0,
+                                   .w = t->w,
+                                   .h = t->h,
+                                   .sample_begin = t->sample_begin,
+                                   .sample_end = t->sample_end};
+    int rc = send_worker(m, w, &msg);
+    if (rc == 0 && j->started == 0) {
+        j->started = now;
+        j->state = JOB_RUNNING;
+        mlog(m, "job %llu '%s' started", (unsigned long long)j->id, j->name);
+    }
+    return rc;
+}
+
+/* Keeps every live worker's task slots full. */
+static void dispatch(master_t *m, double now)
+{
+    for (size_t i = 0; i < m->nworkers; i++) {
+        mworker_t *w = m->workers[i];
+        if (w->alive && w->has_unsent) {
+            int rc = send_task(m, w, &w->unsent, now);
+            if (rc == PROTO_EAGAIN)
+                continue;
+            w->has_unsent = false;
+        }
+        sched_task_t t;
+        while (w->alive && sched_next_task(m->sched, w->id, now, &t) == 1) {
+            int rc = send_task(m, w, &t, now);
+            if (rc == PROTO_EAGAIN) {
+                w->unsent = t;
+                w->has_unsent = true;
+            }
+            if (rc < 0)
+                break;
+        }
+    }
+}
+
+/* ---------------------------------------------------------------- worker messages */
+
+static void on_hello(master_t *m, const proto_peer_t *from, mworker_t *w, const proto_msg_t *msg,
+                     double now)
+{
+    bool again = w != NULL;
+    char who[PROTO_PEER_STR];
+    if (!w) {
+        if (m->nworkers == m->cap_workers) {
+            size_t cap = m->cap_workers ? 2 * m->cap_workers : 16;
+            mworker_t **p = realloc(m->workers, cap * sizeof *p);
+            if (!p) {
+                mlog(m, "out of memory for worker %s", proto_peer_str(from, who));
+                return;
+            }
+            m->workers = p;
+            m->cap_workers = cap;
+        }
+        w = calloc(1, sizeof *w);
+        if (!w) {
+            mlog(m, "out of memory for worker %s", proto_peer_str(from, who));
+            return;
+        }
+        w->id = ++m->last_worker;
+        w->peer = *from;
+        m->workers[m->nworkers++] = w;
+    }
+    char *name = dup_str(msg->hello.name);
+    if (name) {
+        free(w->name);
+        w->name = name;
+    } else if (!w->name) {
+        w->name = dup_str("?");
+    }
+    w->threads = msg->hello.threads;
+    err_t err;
+    if (sched_worker_join(m->sched, w->id, w->threads, now, &err) < 0) {
+        mlog(m, "worker %s refused: %s", proto_peer_str(from, who), err.msg);
+        w->alive = false;
+        send_refuse(m, m->wnet, from, err.msg);
+        return;
+    }
+    w->alive = true;
+    w->last_seen = now;
+    w->has_unsent = false;
+    proto_msg_t welcome = {
+        .type = PROTO_WELCOME,
+        .welcome = {.worker_id = w->id, .heartbeat_ms = (uint32_t)m->opts->heartbeat_ms}};
+    if (send_worker(m, w, &welcome) == 0)
+        mlog(m, "worker %llu '%s' %s from %s with %d thread%s (%s)", (unsigned long long)w->id,
+             w->name, again ? "joined again" : "joined", proto_peer_str(from, who), w->threads,
+             w->threads == 1 ? "" : "s", msg->hello.software);
+}
+
+/* The sample range of a task, as sched.c cuts passes: 0, 1, 2, 4, 8, ... up to spp. */
+static void pass_range(int spp, uint64_t pass, uint32_t *begin, uint32_t *end)
+{
+    uint64_t b = pass == 0 ? 0 : (uint64_t)1 << (pass - 1), e = (uint64_t)1 << pass;
+    *begin = (uint32_t)(b < (uint64_t)spp ? b : (uint64_t)spp);
+    *end = (uint32_t)(e < (uint64_t)spp ? e : (uint64_t)spp);
+}
+
+static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double now)
+{
+    const proto_tile_result_t *r = &msg->result.tile;
+    uint64_t job = msg->result.job, task = msg->result.task;
+    uint32_t attempt = msg->result.attempt;
+    mjob_t *j = job_by_id(m, job);
+    if (!j) {
+        mlog(m, "worker %llu sent a result for job %llu, which does not exist",
+             (unsigned long long)w->id, (unsigned long long)job);
+        return;
+    }
+    if (!j->in_sched)
+        return; /* finished already: a late copy of a re-issued task */
+    uint64_t pass = j->ntiles > 0 ? task / (uint64_t)j->ntiles : 0;
+    if (task > UINT32_MAX || pass >= 40) {
+        mlog(m, "worker %llu sent a result for job %llu task %llu, which does not exist",
+             (unsigned long long)w->id, (unsigned long long)job, (unsigned long long)task);
+        return;
+    }
+    uint32_t sb, se;
+    pass_range(j->spp, pass, &sb, &se);
+    err_t err;
+    int rc = -1;
+    if (r->rect.sample_begin != sb || r->rect.sample_end != se) {
+        err_set(&err, "the result covers samples [%u, %u), task %llu is samples [%u, %u)",
+                r->rect.sample_begin, r->rect.sample_end, (unsigned long long)task, sb, se);
+    } else {
+        tilebuf_t *tb = tilebuf_new_from(r->rect.x0, r->rect.y0, r->rect.w, r->rect.h, r->nbuckets,
+                                         r->sums, r->counts, r->lum, r->lum_sq, r->nonfinite, &err);
+        if (tb)
+            rc = sched_task_done(m->sched, w->id, job, (uint32_t)task, attempt, &tb, now, &err);
+    }
+    if (rc < 0) {
+        mlog(m, "bad result from worker %llu '%s' for job %llu: %s", (unsigned long long)w->id,
+             w->name, (unsigned long long)job, err.msg);
+        sched_task_failed(m->sched, w->id, job, (uint32_t)task, attempt, err.msg);
+    } else if ((rc & SCHED_PASS_DONE) && !(rc & SCHED_JOB_DONE)) {
+        sched_job_info_t info;
+        if (sched_job_info(m->sched, job, &info) == 0) {
+            if (write_image(m, j, false, &err) < 0) {
+                mlog(m, "job %llu: cannot write the preview: %s", (unsigned long long)job, err.msg);
+            } else {
+                j->preview = true;
+                mlog(m, "job %llu pass %d of %d merged (%u spp): preview written",
+                     (unsigned long long)job, info.passes_done, info.npasses,
+                     info.passes_done > 0 ? 1u << (info.passes_done - 1) : 0u);
+            }
+        }
+    }
+    job_refresh(m, j, now);
+}
+
+static void on_task_failed(master_t *m, mworker_t *w, const proto_msg_t *msg, double now)
+{
+    mjob_t *j = job_by_id(m, msg->task_failed.job);
+    if (!j || !j->in_sched || msg->task_failed.task > UINT32_MAX)
+        return;
+    mlog(m, "job %llu task %llu failed on worker %llu '%s': %s", (unsigned long long)j->id,
+         (unsigned long long)msg->task_failed.task, (unsigned long long)w->id, w->name,
+         msg->task_failed.error);
+    sched_task_failed(m->sched, w->id, j->id, (uint32_t)msg->task_failed.task,
+                      msg->task_failed.attempt, msg->task_failed.error);
+    job_refresh(m, j, now);
+}
+
+static void on_scene_request(master_t *m, mworker_t *w, const proto_msg_t *msg)
+{
+    proto_msg_t scene;
+    err_t err;
+    if (spool_scene_read(m->spool, msg->scene_request.scene, &m->limits, &scene, &err) < 0) {
+        mlog(m, "worker %llu asked for scene %.12s: %s", (unsigned long long)w->id,
+             msg->scene_request.scene, err.msg);
+        return;
+    }
+    if (send_worker(m, w, &scene) == 0)
+        mlog(m, "scene %.12s sent to worker %llu '%s'", msg->scene_request.scene,
+             (unsigned long long)w->id, w->name);
+    proto_msg_free(&scene);
+}
+
+static void on_worker_message(master_t *m, const proto_peer_t *from, const proto_msg_t *msg,
+                              double now)
+{
+    mworker_t *w = worker_by_peer(m, from);
+    if (msg->type == PROTO_HELLO) {
+        on_hello(m, from, w, msg, now);
+        return;
+    }
+    char who[PROTO_PEER_STR];
+    if (!w || !w->alive) {
+        /* A worker the master forgot (restarted) or gave up on (silent too long): its work is
+         * still good, but its slots were handed out again, so it must start afresh. */
+        if (w && msg->type == PROTO_RESULT)
+            on_result(m, w, msg, now);
+        mlog(m, "%s from %s, which has not said HELLO: refused", proto_type_name(msg->type),
+             proto_peer_str(from, who));
+        send_refuse(m, m->wnet, from, "unknown worker: send HELLO");
+        return;
+    }
+    w->last_seen = now;
+    sched_worker_seen(m->sched, w->id, now);
+    switch (msg->type) {
+    case PROTO_HEARTBEAT:
+        break;
+    case PROTO_RESULT:
+        on_result(m, w, msg, now);
+        break;
+    case PROTO_TASK_FAILED:
+        on_task_failed(m, w, msg, now);
+        break;
+    case PROTO_SCENE_REQUEST:
+        on_scene_request(m, w, msg);
+        break;
+    default: {
+        char reason[128];
+        snprintf(reason, sizeof reason, "%s is not a message for the master's worker endpoint",
+                 proto_type_name(msg->type));
+        mlog(m, "%s from worker %s: refused", proto_type_name(msg->type),
+             proto_peer_str(from, who));
+        send_refuse(m, m->wnet, from, reason);
+    }
+    }
+}
+
+/* ---------------------------------------------------------------- client messages */
+
+static void reply(master_t *m, const proto_peer_t *to, const proto_msg_t *msg)
+{
+    err_t err;
+    if (proto_net_send(m->cnet, to, msg, &err) < 0)
+        mlog(m, "cannot answer a client: %s", err.msg);
+}
+
+__attribute__((format(printf, 3, 4))) static void reply_error(master_t *m, const proto_peer_t *to,
+                                                              const char *fmt, ...)
+{
+    char text[PROTO_MAX_STRING];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    proto_msg_t e = {.type = PROTO_ERROR, .error = {.message = text}};
+    reply(m, to, &e);
+}
+
+/* Removes every occurrence of prefix from msg (the spool folder from the loader's messages, so
+ * that the client sees paths as they are in its bundle). */
+static void strip_all(char *msg, const char *prefix)
+{
+    size_t n = strlen(prefix);
+    char *p;
+    while (n > 0 && (p = strstr(msg, prefix)))
+        memmove(p, p + n, strlen(p + n) + 1);
+}
+
+static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
+{
+    const proto_bundle_t *b = &msg->submit.bundle;
+    char who[PROTO_PEER_STR];
+    proto_peer_str(from, who);
+    err_t err;
+    char hash[PROTO_HASH_HEX + 1];
+    if (proto_bundle_check(b, &m->limits, &err) < 0 || proto_bundle_hash(b, hash, &err) < 0) {
+        mlog(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
+        reply_error(m, from, "scene bundle refused: %s", err.msg);
+        return;
+    }
+    char dir[PATH_MAX];
+    bool staged;
+    if (spool_scene_stage(m->spool, b, hash, dir, sizeof dir, &staged, &err) < 0) {
+        mlog(m, "cannot store scene %.12s: %s", hash, err.msg);
+        reply_error(m, from, "the master cannot store the scene: %s", err.msg);
+        return;
+    }
+    size_t main_size = strlen(dir) + strlen(b->main) + 2;
+    char *main_path = malloc(main_size);
+    if (!main_path) {
+        spool_scene_discard(m->spool, dir, staged);
+        reply_error(m, from, "the master is out of memory");
+        return;
+    }
+    snprintf(main_path, main_size, "%s/%s", dir, b->main);
+    scene_overrides_t ov = proto_settings_to_overrides(&msg->submit.settings);
+    scene_t *scene = scene_load_file(main_path, &ov, &err);
+    free(main_path);
+    if (!scene) {
+        char prefix[PATH_MAX + 1];
+        char *real = realpath(dir, NULL);
+        if (real) {
+            snprintf(prefix, sizeof prefix, "%s/", real);
+            strip_all(err.msg, prefix);
+            free(real);
+        }
+        snprintf(prefix, sizeof prefix, "%s/", dir);
+        strip_all(err.msg, prefix);
+        spool_scene_discard(m->spool, dir, staged);
+        mlog(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
+        reply_error(m, from, "%s", err.msg);
+        return;
+    }
+    const render_settings_t rs = scene->settings;
+    scene_destroy(&scene);
+    if (spool_scene_commit(m->spool, b, hash, dir, staged, &m->limits, &err) < 0) {
+        spool_scene_discard(m->spool, dir, staged);
+        mlog(m, "cannot store scene %.12s: %s", hash, err.msg);
+        reply_error(m, from, "the master cannot store the scene: %s", err.msg);
+        return;
+    }
+    mjob_t *j = calloc(1, sizeof *j);
+    if (j)
+        j->name = dup_str(msg->submit.name);
+    if (j && j->name && m->njobs == m->cap_jobs) {
+        size_t cap = m->cap_jobs ? 2 * m->cap_jobs : 16;
+        mjob_t **p = realloc(m->jobs, cap * sizeof *p);
+        if (p) {
+            m->jobs = p;
+            m->cap_jobs = cap;
+        }
+    }
+    if (!j || !j->name || m->njobs == m->cap_jobs) {
+        job_free(j);
+        reply_error(m, from, "the master is out of memory");
+        return;
+    }
+    uint64_t id = m->last_job + 1;
+    if (sched_add_job(m->sched, id, rs.xres, rs.yres, rs.spp, rs.grid, &err) < 0) {
+        job_free(j);
+        mlog(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
+        reply_error(m, from, "%s", err.msg);
+        return;
+    }
+    m->last_job = id;
+    sched_job_info_t info;
+    (void)sched_job_info(m->sched, id, &info);
+    j->id = id;
+    make_stem(j->name, j->stem, sizeof j->stem);
+    memcpy(j->hash, hash, sizeof j->hash);
+    j->settings = msg->submit.settings;
+    j->settings.integrator = NULL;
+    j->settings.dispersion = NULL;
+    if (msg->submit.settings.integrator) {
+        snprintf(j->integrator, sizeof j->integrator, "%s", msg->submit.settings.integrator);
+        j->settings.integrator = j->integrator;
+    }
+    if (msg->submit.settings.dispersion) {
+        snprintf(j->dispersion, sizeof j->dispersion, "%s", msg->submit.settings.dispersion);
+        j->settings.dispersion = j->dispersion;
+    }
+    j->xres = rs.xres;
+    j->yres = rs.yres;
+    j->spp = rs.spp;
+    j->seed = rs.seed;
+    j->grid = rs.grid;
+    j->ntiles = info.ntiles;
+    j->submitted = now;
+    j->state = JOB_QUEUED;
+    j->in_sched = true;
+    j->samples_total = info.samples_total;
+    m->jobs[m->njobs++] = j;
+    proto_msg_t ok = {.type = PROTO_SUBMITTED, .submitted = {.job = id}};
+    reply(m, from, &ok);
+    mlog(m,
+         "job %llu '%s' submitted by %s: %dx%d, %d spp, %d buckets, %d tiles x %d passes, scene "
+         "%.12s%s",
+         (unsigned long long)id, j->name, who, rs.xres, rs.yres, rs.spp, rs.grid.n, info.ntiles,
+         info.npasses, hash, staged ? "" : " (stored already)");
+}
+
+static void reply_jobs(master_t *m, const proto_peer_t *to, proto_type_t type, const mjob_t *only,
+                       double now)
+{
+    size_t n = only ? 1 : m->njobs, first = 0;
+    if (n > PROTO_MAX_LIST) {
+        first = n - PROTO_MAX_LIST; /* the most recent ones */
+        n = PROTO_MAX_LIST;
+    }
+    proto_job_info_t *infos = n ? calloc(n, sizeof *infos) : NULL;
+    if (n && !infos) {
+        reply_error(m, to, "the master is out of memory");
+        return;
+    }
+    for (size_t i = 0; i < n; i++)
+        infos[i] = job_wire_info(m, only ? only : m->jobs[first + i], now);
+    proto_msg_t r = {.type = type};
+    if (type == PROTO_STATUS_REPLY)
+        r.status_reply.jobs = infos, r.status_reply.njobs = n;
+    else
+        r.jobs_reply.jobs = infos, r.jobs_reply.njobs = n;
+    reply(m, to, &r);
+    free(infos);
+}
+
+static void reply_workers(master_t *m, const proto_peer_t *to, double now)
+{
+    size_t ns = sched_worker_table(m), n = m->nworkers;
+    proto_worker_info_t *infos = n ? calloc(n, sizeof *infos) : NULL;
+    if (n && !infos) {
+        reply_error(m, to, "the master is out of memory");
+        return;
+    }
+    for (size_t i = 0; i < n; i++) {
+        const mworker_t *w = m->workers[i];
+        const sched_worker_info_t *si = sched_worker_of(m, ns, w->id);
+        double seen = now - w->last_seen;
+        infos[i] = (proto_worker_info_t){.name = w->name,
+                                         .id = w->id,
+                                         .threads = w->threads,
+                                         .state = !w->alive              ? PROTO_WORKER_LOST
+                                                  : (si && si->busy > 0) ? PROTO_WORKER_BUSY
+                                                                         : PROTO_WORKER_IDLE,
+                                         .tasks_done = si ? si->tasks_done : 0,
+                                         .last_seen = seen > 0 ? seen : 0};
+    }
+    proto_msg_t r = {.type = PROTO_WORKERS_REPLY,
+                     .workers_reply = {.workers = infos, .nworkers = n}};
+    reply(m, to, &r);
+    free(infos);
+}
+
+static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *msg)
+{
+    mjob_t *j = job_by_id(m, msg->fetch.job);
+    if (!j) {
+        reply_error(m, from, "no job %llu", (unsigned long long)msg->fetch.job);
+        return;
+    }
+    char path[PATH_MAX + 200], name[128];
+    const char *state = job_state_name(j->state);
+    if (j->outputs) {
+        const char *ext = msg->fetch.what == PROTO_FETCH_EXR ? "exr" : "png";
+        snprintf(path, sizeof path, "%s/jobs/%llu/%s.%s", spool_path(m->spool),
+                 (unsigned long long)j->id, j->stem, ext);
+        snprintf(name, sizeof name, "%s.%s", j->stem, ext);
+    } else if (msg->fetch.what == PROTO_FETCH_EXR) {
+        reply_error(m, from, "job %llu is %s: its EXR exists once it is done",
+                    (unsigned long long)j->id, state);
+        return;
+    } else if (j->preview) {
+        snprintf(path, sizeof path, "%s/jobs/%llu/preview.png", spool_path(m->spool),
+                 (unsigned long long)j->id);
+        snprintf(name, sizeof name, "%s-preview.png", j->stem);
+    } else {
+        reply_error(m, from, "job %llu is %s and has no image yet (a preview follows each pass)",
+                    (unsigned long long)j->id, state);
+        return;
+    }
+    uint8_t *data;
+    size_t size;
+    err_t err;
+    size_t max = m->limits.max_message_bytes > FILE_OVERHEAD
+                     ? m->limits.max_message_bytes - FILE_OVERHEAD
+                     : 0;
+    if (spool_read_file(path, max, &data, &size, &err) < 0) {
+        mlog(m, "fetch of job %llu: %s", (unsigned long long)j->id, err.msg);
+        reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
+        return;
+    }
+    proto_msg_t f = {.type = PROTO_FILE, .file = {.name = name, .data = data, .size = size}};
+    reply(m, from, &f);
+    free(data);
+}
+
+static void on_client_message(master_t *m, const proto_peer_t *from, const proto_msg_t *msg,
+                              double now)
+{
+    switch (msg->type) {
+    case PROTO_SUBMIT:
+        on_submit(m, from, msg, now);
+        break;
+    case PROTO_STATUS:
+        if (msg->status.all) {
+            reply_jobs(m, from, PROTO_STATUS_REPLY, NULL, now);
+        } else {
+            const mjob_t *j = job_by_id(m, msg->status.job);
+            if (j)
+                reply_jobs(m, from, PROTO_STATUS_REPLY, j, now);
+            else
+                reply_error(m, from, "no job %llu", (unsigned long long)msg->status.job);
+        }
+        break;
+    case PROTO_JOBS:
+        reply_jobs(m, from, PROTO_JOBS_REPLY, NULL, now);
+        break;
+    case PROTO_WORKERS:
+        reply_workers(m, from, now);
+        break;
+    case PROTO_FETCH:
+        on_fetch(m, from, msg);
+        break;
+    case PROTO_CANCEL: {
+        mjob_t *j = job_by_id(m, msg->cancel.job);
+        if (!j) {
+            reply_error(m, from, "no job %llu", (unsigned long long)msg->cancel.job);
+            break;
+        }
+        err_t err;
+        if (j->in_sched && sched_cancel_job(m->sched, j->id, &err) < 0)
+            mlog(m, "cancel: %s", err.msg);
+        job_refresh(m, j, now);
+        reply_jobs(m, from, PROTO_STATUS_REPLY, j, now);
+        break;
+    }
+    default: {
+        char who[PROTO_PEER_STR];
+        mlog(m, "%s from client %s: not a client request", proto_type_name(msg->type),
+             proto_peer_str(from, who));
+        reply_error(m, from, "%s is not a request the master's client endpoint answers",
+                    proto_type_name(msg->type));
+    }
+    }
+}
+
+/* ---------------------------------------------------------------- the loop */
+
+/* Takes what one socket holds (at most RECV_BURST messages). Returns -1 with err when the
+ * socket is unusable. */
+static int drain(master_t *m, bool workers, err_t *err)
+{
+    proto_net_t *net = workers ? m->wnet : m->cnet;
+    for (int k = 0; k < RECV_BURST; k++) {
+        proto_peer_t from;
+        proto_msg_t msg;
+        err_t rerr;
+        int rc = proto_net_recv(net, &from, &msg, 0, &rerr);
+        if (rc == PROTO_EAGAIN)
+            return 0;
+        if (rc == PROTO_ESOCKET)
+            return err_set(err, "%s socket: %s", workers ? "workers" : "clients", rerr.msg);
+        if (rc == PROTO_EVERSION) {
+            err_t text;
+            char who[PROTO_PEER_STR];
+            proto_msg_t refuse = proto_refuse_version(msg.version, "master", &text);
+            mlog(m, "%s %s speaks protocol version %d: refused", workers ? "worker" : "client",
+                 proto_peer_str(&from, who), msg.version);
+            if (from.len > 0 && proto_net_send(net, &from, &refuse, &rerr) < 0)
+                mlog(m, "cannot send REFUSE: %s", rerr.msg);
+            continue;
+        }
+        if (rc < 0) {
+            char reason[600];
+            mlog(m, "malformed message on the %s endpoint %s", workers ? "workers" : "clients",
+                 rerr.msg);
+            snprintf(reason, sizeof reason, "malformed message: %s", rerr.msg);
+            send_refuse(m, net, &from, reason);
+            continue;
+        }
+        double now = now_s();
+        if (workers)
+            on_worker_message(m, &from, &msg, now);
+        else
+            on_client_message(m, &from, &msg, now);
+        proto_msg_free(&msg);
+    }
+    return 0;
+}
+
+/* Dead workers, missed deadlines and heartbeats: the clock-driven part of a loop turn. busy is
+ * how long this turn's messages took to handle. */
+static void housekeeping(master_t *m, double now, double busy)
+{
+    /* A turn that took long (a big scene loaded, an EXR written) was time the master did not
+     * listen: the workers' silence during it says nothing about them. */
+    if (busy > 0.5 * m->opts->sched.worker_timeout_s)
+        for (size_t i = 0; i < m->nworkers; i++)
+            if (m->workers[i]->alive) {
+                m->workers[i]->last_seen = now;
+                sched_worker_seen(m->sched, m->workers[i]->id, now);
+            }
+    for (size_t i = 0; i < m->nworkers; i++) {
+        mworker_t *w = m->workers[i];
+        if (w->alive && now - w->last_seen > m->opts->sched.worker_timeout_s) {
+            char why[64];
+            snprintf(why, sizeof why, "silent for %.1f s", now - w->last_seen);
+            worker_lost(m, w, why);
+        }
+    }
+    int requeued = sched_tick(m->sched, now);
+    if (requeued > 0)
+        mlog(m, "%d task%s past the %.0f s deadline issued again", requeued,
+             requeued == 1 ? "" : "s", m->opts->sched.task_deadline_s);
+    /* The scheduler's and the master's idea of who is alive must agree. */
+    size_t ns = sched_worker_table(m);
+    for (size_t i = 0; i < m->nworkers; i++) {
+        const sched_worker_info_t *si = sched_worker_of(m, ns, m->workers[i]->id);
+        if (m->workers[i]->alive && (!si || !si->alive))
+            worker_lost(m, m->workers[i], "timed out");
+    }
+    if (now - m->last_heartbeat >= m->heartbeat_s) {
+        proto_msg_t hb = {.type = PROTO_HEARTBEAT};
+        for (size_t i = 0; i < m->nworkers; i++)
+            if (m->workers[i]->alive)
+                (void)send_worker(m, m->workers[i], &hb);
+        m->last_heartbeat = now;
+    }
+}
+
+static proto_net_t *open_router(master_t *m, void *ctx, const char *what, const char *endpoint,
+                                char *bound, size_t size, err_t *err)
+{
+    proto_net_options_t no = proto_net_options_default();
+    no.limits = m->limits;
+    proto_net_t *net = proto_net_new(ctx, PROTO_NET_ROUTER, &no, err);
+    if (!net) {
+        err_prefix(err, "%s endpoint: ", what);
+        return NULL;
+    }
+    if (proto_net_bind(net, endpoint, err) < 0 || proto_net_endpoint(net, bound, size, err) < 0) {
+        err_prefix(err, "%s endpoint: ", what);
+        proto_net_destroy(&net);
+        return NULL;
+    }
+    return net;
+}
+
+static int check_opts(const master_opts_t *o, err_t *err)
+{
+    if (!o || !o->worker_endpoint || !o->client_endpoint || !o->spool_dir || !o->stop)
+        return err_set(
+            err, "master: worker and client endpoints, spool folder and stop flag are required");
+    if (o->heartbeat_ms < 1 || o->heartbeat_ms > 3600000)
+        return err_set(err, "master: heartbeat %d ms is outside 1..3600000", o->heartbeat_ms);
+    return 0;
+}
+
+int master_run(const master_opts_t *opts, err_t *err)
+{
+    if (check_opts(opts, err) < 0)
+        return -1;
+    master_t *m = calloc(1, sizeof *m);
+    if (!m)
+        return err_set(err, "master: out of memory");
+    m->opts = opts;
+    m->limits = opts->limits;
+    m->heartbeat_s = opts->heartbeat_ms / 1000.0;
+    void *ctx = opts->zmq_ctx ? opts->zmq_ctx : zmq_ctx_new();
+    int rc = -1;
+    char wbound[512] = "", cbound[512] = "";
+    if (!ctx) {
+        err_set(err, "master: zmq_ctx_new: %s", zmq_strerror(zmq_errno()));
+        goto out;
+    }
+    if (!(m->spool = spool_new(opts->spool_dir, err))) {
+        err_prefix(err, "master: spool: ");
+        goto out;
+    }
+    m->last_job = spool_last_job_id(m->spool);
+    if (!(m->sched = sched_new(&opts->sched, err))) {
+        err_prefix(err, "master: ");
+        goto out;
+    }
+    if (!(m->wnet =
+              open_router(m, ctx, "workers", opts->worker_endpoint, wbound, sizeof wbound, err)) ||
+        !(m->cnet =
+              open_router(m, ctx, "clients", opts->client_endpoint, cbound, sizeof cbound, err)))
+        goto out;
+    char text[1200], path[PATH_MAX];
+    snprintf(text, sizeof text, "workers %s\nclients %s\n", wbound, cbound);
+    snprintf(path, sizeof path, "%s/endpoints", spool_path(m->spool));
+    if (spool_write_file(path, text, strlen(text), err) < 0) {
+        err_prefix(err, "master: ");
+        goto out;
+    }
+    mlog(m, "workers on %s, clients on %s, spool %s, next job %llu", wbound, cbound,
+         spool_path(m->spool), (unsigned long long)m->last_job + 1);
+    if (opts->ready)
+        opts->ready(opts->user, wbound, cbound);
+
+    m->last_heartbeat = now_s();
+    rc = 0;
+    while (!*opts->stop) {
+        zmq_pollitem_t items[2] = {{.socket = proto_net_socket(m->wnet), .events = ZMQ_POLLIN},
+                                   {.socket = proto_net_socket(m->cnet), .events = ZMQ_POLLIN}};
+        double until_hb = m->last_heartbeat + m->heartbeat_s - now_s();
+        int timeout = until_hb < POLL_MS / 1000.0 ? (int)(until_hb * 1000) : POLL_MS;
+        int n = zmq_poll(items, 2, timeout > 0 ? timeout : 0);
+        double polled = now_s();
+        if (n < 0 && zmq_errno() != EINTR) {
+            rc = err_set(err, "master: zmq_poll: %s", zmq_strerror(zmq_errno()));
+            break;
+        }
+        if (n > 0 && (((items[0].revents & ZMQ_POLLIN) && drain(m, true, err) < 0) ||
+                      ((items[1].revents & ZMQ_POLLIN) && drain(m, false, err) < 0))) {
+            err_prefix(err, "master: ");
+            rc = -1;
+            break;
+        }
+        double now = now_s();
+        housekeeping(m, now, now - polled);
+        dispatch(m, now);
+        prune_lost(m);
+    }
+    if (rc == 0)
+        mlog(m, "stopping");
+
+out:
+    proto_net_destroy(&m->wnet);
+    proto_net_destroy(&m->cnet);
+    if (ctx && !opts->zmq_ctx)
+        (void)zmq_ctx_term(ctx);
+    sched_destroy(&m->sched);
+    spool_destroy(&m->spool);
+    for (size_t i = 0; i < m->nworkers; i++)
+        worker_free(m->workers[i]);
+    free(m->workers);
+    for (size_t i = 0; i < m->njobs; i++)
+        job_free(m->jobs[i]);
+    free(m->jobs);
+    free(m->winfo);
+    free(m);
+    return rc;
+}

@@ -1,0 +1,46 @@
+/* master: the farm's master daemon. Binds a ROUTER for workers and one for clients, stores
+ * submitted scenes in its spool folder, cuts jobs into tasks with sched, hands them to workers,
+ * merges their results and writes each job's progressive preview and final spectral EXR and PNG
+ * (docs/farm.md). One thread, one loop: it never blocks longer than 100 ms on the network, and
+ * every malformed message is logged with its peer, refused, and survived. */
+#ifndef PRISMFARM_MASTER_H
+#define PRISMFARM_MASTER_H
+
+#include "err.h"
+#include "proto.h"
+#include "sched.h"
+
+#include <signal.h>
+
+/* Called once both endpoints are bound, with the endpoints as bound: a tcp endpoint whose port
+ * is '*' comes back with the port the system chose ("tcp://127.0.0.1:40123"). */
+typedef void (*master_ready_fn)(void *user, const char *worker_endpoint,
+                                const char *client_endpoint);
+
+typedef struct master_opts {
+    const char *worker_endpoint; /* ROUTER for workers: "tcp://HOST:5555", "inproc://w", ... */
+    const char *client_endpoint; /* ROUTER for clients */
+    const char *spool_dir;       /* scenes and outputs (created if missing) */
+    void *zmq_ctx;               /* NULL: the master makes its own (inproc:// needs a shared one) */
+    volatile sig_atomic_t *stop; /* checked at least every 100 ms; non-zero ends master_run */
+    int heartbeat_ms;            /* HEARTBEAT to workers this often; told to them in WELCOME */
+    sched_config_t sched;        /* tile size, deadlines; worker_timeout_s is the silence that
+                                  * makes a worker lost (default 3 heartbeats) */
+    proto_limits_t limits;       /* message and bundle sizes accepted */
+    int verbose;                 /* one line per event on stderr */
+    master_ready_fn ready;       /* may be NULL */
+    void *user;
+} master_opts_t;
+
+/* Workers on port 5555 and clients on port 5556 of every interface, spool "prismfarm-spool",
+ * heartbeat 1000 ms, worker timeout 3 s, sched_config_default() otherwise, proto_limits_default(),
+ * verbose. */
+master_opts_t master_opts_default(void);
+
+/* Runs the master until *opts->stop becomes non-zero (returns 0) or a fatal error (returns -1
+ * with err: an endpoint that cannot be bound, the spool folder unusable, the ZeroMQ context
+ * terminated). The bound endpoints are also written to <spool>/endpoints, one
+ * "workers ENDPOINT" and one "clients ENDPOINT" line, for scripts and tests. */
+int master_run(const master_opts_t *opts, err_t *err);
+
+#endif

@@ -1,0 +1,352 @@
+#include "spool.h"
+
+#include "bundle.h"
+
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* Deepest folder nesting rm_tree descends: bundles have at most PROTO_MAX_PATH_DEPTH
+ * components, so anything deeper was not made by the spool. */
+#define RM_TREE_DEPTH_MAX (PROTO_MAX_PATH_DEPTH + 4)
+
+struct spool {
+    char *dir;
+    unsigned long staged; /* counter naming folders in tmp/ */
+};
+
+/* mkdir -p: creates every missing folder of path. */
+static int make_dirs(const char *path, err_t *err)
+{
+    size_t n = strlen(path);
+    char *buf = malloc(n + 1);
+    if (!buf)
+        return err_set(err, "out of memory");
+    memcpy(buf, path, n + 1);
+    for (char *p = buf + 1;; p++) {
+        if (*p != '/' && *p)
+            continue;
+        char c = *p;
+        *p = 0;
+        if (mkdir(buf, 0755) < 0 && errno != EEXIST) {
+            int e = errno;
+            err_set(err, "cannot create folder '%s': %s", buf, strerror(e));
+            free(buf);
+            return -1;
+        }
+        if (!c)
+            break;
+        *p = c;
+    }
+    free(buf);
+    struct stat st;
+    if (stat(path, &st) < 0 || !S_ISDIR(st.st_mode))
+        return err_set(err, "'%s' is not a folder", path);
+    return 0;
+}
+
+/* Removes name (a file or a folder with everything below it) inside the folder parent, never
+ * following a symbolic link: a link is removed, not what it points to. */
+static int rm_tree_at(int parent, const char *name, int depth)
+{
+    if (unlinkat(parent, name, 0) == 0 || errno == ENOENT)
+        return 0;
+    if ((errno != EISDIR && errno != EPERM) || depth > RM_TREE_DEPTH_MAX)
+        return -1;
+    int fd = openat(parent, name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    if (fd < 0)
+        return -1;
+    DIR *d = fdopendir(fd);
+    if (!d) {
+        (void)close(fd);
+        return -1;
+    }
+    int rc = 0;
+    struct dirent *e;
+    while ((e = readdir(d)))
+        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..") &&
+            rm_tree_at(dirfd(d), e->d_name, depth + 1))
+            rc = -1;
+    if (closedir(d) < 0)
+        rc = -1;
+    if (unlinkat(parent, name, AT_REMOVEDIR) < 0 && errno != ENOENT)
+        rc = -1;
+    return rc;
+}
+
+static int rm_tree(const char *path)
+{
+    return rm_tree_at(AT_FDCWD, path, 0);
+}
+
+int spool_write_file(const char *path, const void *data, size_t size, err_t *err)
+{
+    char tmp[PATH_MAX];
+    if (snprintf(tmp, sizeof tmp, "%s.tmp%ld", path, (long)getpid()) >= (int)sizeof tmp)
+        return err_set(err, "path too long: '%s'", path);
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0644);
+    if (fd < 0)
+        return err_set(err, "cannot create '%s': %s", tmp, strerror(errno));
+    const uint8_t *p = data;
+    size_t left = size;
+    while (left > 0) {
+        ssize_t n = write(fd, p, left);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n < 0) {
+            int e = errno;
+            (void)close(fd);
+            (void)unlink(tmp);
+            return err_set(err, "cannot write '%s': %s", tmp, strerror(e));
+        }
+        p += n;
+        left -= (size_t)n;
+    }
+    if (fsync(fd) < 0 || close(fd) < 0) {
+        int e = errno;
+        (void)unlink(tmp);
+        return err_set(err, "cannot write '%s': %s", tmp, strerror(e));
+    }
+    if (rename(tmp, path) < 0) {
+        int e = errno;
+        (void)unlink(tmp);
+        return err_set(err, "cannot rename '%s' to '%s': %s", tmp, path, strerror(e));
+    }
+    return 0;
+}
+
+int spool_read_file(const char *path, size_t max, uint8_t **data, size_t *size, err_t *err)
+{
+    *data = NULL;
+    *size = 0;
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
+        return err_set(err, "cannot open '%s': %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fd, &st) < 0 || !S_ISREG(st.st_mode)) {
+        (void)close(fd);
+        return err_set(err, "'%s' is not a readable file", path);
+    }
+    if ((uint64_t)st.st_size > (uint64_t)max) {
+        (void)close(fd);
+        return err_set(err, "'%s' has %lld bytes, more than the %zu allowed", path,
+                       (long long)st.st_size, max);
+    }
+    size_t n = (size_t)st.st_size;
+    uint8_t *buf = malloc(n ? n : 1);
+    if (!buf) {
+        (void)close(fd);
+        return err_set(err, "out of memory for '%s' (%zu bytes)", path, n);
+    }
+    size_t got = 0;
+    while (got < n) {
+        ssize_t r = read(fd, buf + got, n - got);
+        if (r < 0 && errno == EINTR)
+            continue;
+        if (r <= 0) {
+            int e = r < 0 ? errno : EIO;
+            free(buf);
+            (void)close(fd);
+            return err_set(err, "cannot read '%s': %s", path, r < 0 ? strerror(e) : "file shrank");
+        }
+        got += (size_t)r;
+    }
+    (void)close(fd);
+    *data = buf;
+    *size = n;
+    return 0;
+}
+
+spool_t *spool_new(const char *dir, err_t *err)
+{
+    if (!dir || !*dir) {
+        err_set(err, "spool folder name is empty");
+        return NULL;
+    }
+    size_t n = strlen(dir);
+    if (n > PATH_MAX - 200) {
+        err_set(err, "spool folder name is too long (%zu bytes)", n);
+        return NULL;
+    }
+    spool_t *self = calloc(1, sizeof *self);
+    if (!self || !(self->dir = malloc(n + 1))) {
+        free(self);
+        err_set(err, "out of memory");
+        return NULL;
+    }
+    memcpy(self->dir, dir, n + 1);
+    while (n > 1 && self->dir[n - 1] == '/')
+        self->dir[--n] = 0;
+    char sub[PATH_MAX];
+    static const char *const subs[] = {"scenes", "jobs", "tmp"};
+    if (make_dirs(self->dir, err) < 0)
+        goto fail;
+    snprintf(sub, sizeof sub, "%s/tmp", self->dir);
+    if (rm_tree(sub) < 0) {
+        err_set(err, "cannot empty '%s': %s", sub, strerror(errno));
+        goto fail;
+    }
+    for (int i = 0; i < 3; i++) {
+        snprintf(sub, sizeof sub, "%s/%s", self->dir, subs[i]);
+        if (mkdir(sub, 0755) < 0 && errno != EEXIST) {
+            err_set(err, "cannot create folder '%s': %s", sub, strerror(errno));
+            goto fail;
+        }
+    }
+    return self;
+fail:
+    free(self->dir);
+    free(self);
+    return NULL;
+}
+
+void spool_destroy(spool_t **self_p)
+{
+    if (!self_p || !*self_p)
+        return;
+    free((*self_p)->dir);
+    free(*self_p);
+    *self_p = NULL;
+}
+
+const char *spool_path(const spool_t *self)
+{
+    return self->dir;
+}
+
+uint64_t spool_last_job_id(const spool_t *self)
+{
+    char path[PATH_MAX];
+    snprintf(path, sizeof path, "%s/jobs", self->dir);
+    DIR *d = opendir(path);
+    if (!d)
+        return 0;
+    uint64_t last = 0;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        const char *s = e->d_name;
+        if (!*s || strspn(s, "0123456789") != strlen(s) || strlen(s) > 19)
+            continue;
+        uint64_t v = strtoull(s, NULL, 10);
+        if (v > last)
+            last = v;
+    }
+    (void)closedir(d);
+    return last;
+}
+
+static void scene_paths(const spool_t *self, const char *hash, char *dir, char *file)
+{
+    snprintf(dir, PATH_MAX, "%s/scenes/%s", self->dir, hash);
+    snprintf(file, PATH_MAX, "%s/scenes/%s.scene", self->dir, hash);
+}
+
+static int check_hash(const char *hash, err_t *err)
+{
+    if (!hash || strlen(hash) != PROTO_HASH_HEX ||
+        strspn(hash, "0123456789abcdef") != PROTO_HASH_HEX)
+        return err_set(err, "'%.80s' is not a scene hash", hash ? hash : "(null)");
+    return 0;
+}
+
+int spool_scene_stage(spool_t *self, const proto_bundle_t *bundle, const char *hash, char *dir,
+                      size_t size, bool *staged, err_t *err)
+{
+    *staged = false;
+    if (check_hash(hash, err) < 0)
+        return -1;
+    char final[PATH_MAX], file[PATH_MAX];
+    scene_paths(self, hash, final, file);
+    struct stat st;
+    if (lstat(final, &st) == 0 && S_ISDIR(st.st_mode)) {
+        if (snprintf(dir, size, "%s", final) >= (int)size)
+            return err_set(err, "path too long: '%s'", final);
+        return 0;
+    }
+    if (snprintf(dir, size, "%s/tmp/%s.%lu", self->dir, hash, ++self->staged) >= (int)size)
+        return err_set(err, "path too long below '%s'", self->dir);
+    (void)rm_tree(dir);
+    if (proto_bundle_extract(bundle, dir, err) < 0) {
+        (void)rm_tree(dir);
+        return -1;
+    }
+    *staged = true;
+    return 0;
+}
+
+int spool_scene_commit(spool_t *self, const proto_bundle_t *bundle, const char *hash,
+                       const char *dir, bool staged, const proto_limits_t *limits, err_t *err)
+{
+    if (check_hash(hash, err) < 0)
+        return -1;
+    char final[PATH_MAX], file[PATH_MAX];
+    scene_paths(self, hash, final, file);
+    if (access(file, F_OK) < 0) {
+        proto_msg_t m = {.type = PROTO_SCENE, .scene = {.bundle = *bundle}};
+        memcpy(m.scene.scene, hash, PROTO_HASH_HEX + 1);
+        msgpack_sbuffer buf;
+        msgpack_sbuffer_init(&buf);
+        int rc = proto_encode(&m, limits, &buf, err);
+        if (rc == 0)
+            rc = spool_write_file(file, buf.data, buf.size, err);
+        msgpack_sbuffer_destroy(&buf);
+        if (rc < 0)
+            return err_prefix(err, "storing scene %.12s: ", hash);
+    }
+    if (staged && rename(dir, final) < 0) {
+        int e = errno;
+        /* Another submission of the same bundle got there first: keep that copy. */
+        if (e == EEXIST || e == ENOTEMPTY) {
+            (void)rm_tree(dir);
+            return 0;
+        }
+        return err_set(err, "cannot rename '%s' to '%s': %s", dir, final, strerror(e));
+    }
+    return 0;
+}
+
+void spool_scene_discard(spool_t *self, const char *dir, bool staged)
+{
+    (void)self;
+    if (staged)
+        (void)rm_tree(dir);
+}
+
+int spool_scene_read(spool_t *self, const char *hash, const proto_limits_t *limits,
+                     proto_msg_t *out, err_t *err)
+{
+    memset(out, 0, sizeof *out);
+    if (check_hash(hash, err) < 0)
+        return -1;
+    proto_limits_t lim = limits ? *limits : proto_limits_default();
+    char final[PATH_MAX], file[PATH_MAX];
+    scene_paths(self, hash, final, file);
+    uint8_t *data;
+    size_t size;
+    if (spool_read_file(file, lim.max_message_bytes, &data, &size, err) < 0)
+        return -1;
+    int rc = proto_decode(data, size, &lim, out, err);
+    free(data);
+    if (rc < 0)
+        return err_prefix(err, "'%s': ", file);
+    if (out->type != PROTO_SCENE || strcmp(out->scene.scene, hash) != 0) {
+        proto_msg_free(out);
+        return err_set(err, "'%s' does not hold scene %s", file, hash);
+    }
+    return 0;
+}
+
+int spool_job_dir(spool_t *self, uint64_t job, char *buf, size_t size, err_t *err)
+{
+    if (snprintf(buf, size, "%s/jobs/%llu", self->dir, (unsigned long long)job) >= (int)size)
+        return err_set(err, "path too long below '%s'", self->dir);
+    if (mkdir(buf, 0755) < 0 && errno != EEXIST)
+        return err_set(err, "cannot create folder '%s': %s", buf, strerror(errno));
+    return 0;
+}

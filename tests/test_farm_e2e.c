@@ -1,0 +1,213 @@
+/* The farm end to end, as users run it: `prismfarm local` with 1 and 3 workers, and separate
+ * master and worker processes on loopback TCP with a worker killed half-way, all giving
+ * bit-identical EXR pixel data; plus the client commands against a live master. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#define CLI_RUN_TIMEOUT_MS 120000
+#include "cli_run.h"
+#include "image_exr.h"
+
+#include <signal.h>
+#include <sys/stat.h>
+#include <time.h>
+
+static char DIR_[256];
+
+static int setup(void **state)
+{
+    (void)state;
+    snprintf(DIR_, sizeof DIR_, "/tmp/prismfarm-test-farm-XXXXXX");
+    return mkdtemp(DIR_) ? 0 : -1;
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    char cmd[512];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", DIR_);
+    return system(cmd) == 0 ? 0 : -1;
+}
+
+static const char *path_in(const char *name)
+{
+    static char buf[8][512];
+    static int k;
+    k = (k + 1) % 8;
+    snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
+    return buf[k];
+}
+
+static void assert_same_pixels(const char *a, const char *b)
+{
+    err_t err;
+    image_exr_t *x = image_exr_read(a, &err);
+    if (!x)
+        fail_msg("%s", err.msg);
+    image_exr_t *y = image_exr_read(b, &err);
+    if (!y)
+        fail_msg("%s", err.msg);
+    int w = image_exr_width(x), h = image_exr_height(x), n = image_exr_n_spectral(x);
+    assert_int_equal(w, image_exr_width(y));
+    assert_int_equal(h, image_exr_height(y));
+    assert_int_equal(n, image_exr_n_spectral(y));
+    assert_memory_equal(image_exr_spectral(x), image_exr_spectral(y), (size_t)w * h * n * sizeof(float));
+    assert_memory_equal(image_exr_rgb(x), image_exr_rgb(y), (size_t)w * h * 3 * sizeof(float));
+    image_exr_destroy(&x);
+    image_exr_destroy(&y);
+}
+
+/* Starts `prismfarm ARGS...` in the background with output to a log; returns its pid. */
+static pid_t spawn(const char *log, const char *arg, ...)
+{
+    const char *bin = getenv("PRISMFARM_BIN");
+    char *argv[32];
+    int argc = 0;
+    argv[argc++] = (char *)bin;
+    va_list ap;
+    va_start(ap, arg);
+    for (const char *a = arg; a && argc < 31; a = va_arg(ap, const char *))
+        argv[argc++] = (char *)a;
+    va_end(ap);
+    argv[argc] = NULL;
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        FILE *f = freopen(log, "w", stderr);
+        (void)f;
+        if (!freopen("/dev/null", "w", stdout))
+            _exit(126);
+        execv(bin, argv);
+        _exit(127);
+    }
+    return pid;
+}
+
+static void stop(pid_t pid, int sig)
+{
+    kill(pid, sig);
+    int st;
+    waitpid(pid, &st, 0);
+}
+
+static void sleep_ms(int ms)
+{
+    struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
+    nanosleep(&ts, NULL);
+}
+
+/* Reads "workers tcp://..." and "clients tcp://..." from the master's endpoints file. */
+static void read_endpoints(const char *spool, char *workers, char *clients)
+{
+    char path[600];
+    snprintf(path, sizeof path, "%s/endpoints", spool);
+    for (int i = 0; i < 200; i++) {
+        FILE *f = fopen(path, "r");
+        if (f) {
+            int got = fscanf(f, "workers %255s clients %255s", workers, clients);
+            fclose(f);
+            if (got == 2)
+                return;
+        }
+        sleep_ms(25);
+    }
+    fail_msg("the master did not write %s", path);
+}
+
+static void test_local_mode_any_worker_count(void **state)
+{
+    (void)state;
+    const run_t *r = run("local", "data/render/tiny.pbrt", "-o", path_in("one.exr"), "--workers", "1",
+                         "--threads", "1", "--tile", "8", "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("exit %d: %s", r->status, r->err);
+    expect_in(r->out, "wrote ");
+    r = run("local", "data/render/tiny.pbrt", "-o", path_in("three.exr"), "--workers", "3", "--threads", "1",
+            "--tile", "8", "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("exit %d: %s", r->status, r->err);
+    assert_same_pixels(path_in("one.exr"), path_in("three.exr"));
+    struct stat st;
+    assert_int_equal(stat(path_in("three.png"), &st), 0);
+}
+
+/* Separate processes over TCP on loopback; one worker is killed with SIGKILL while it holds
+ * tasks. Its tasks go back to the queue, and the result is the same bytes as with one worker. */
+static void test_processes_and_a_killed_worker(void **state)
+{
+    (void)state;
+    const char *spool = path_in("spool");
+    pid_t master = spawn(path_in("master.log"), "master", "--workers", "tcp://127.0.0.1:*", "--clients",
+                         "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "8", NULL);
+    char wep[256], cep[256];
+    read_endpoints(spool, wep, cep);
+    pid_t w1 = spawn(path_in("w1.log"), "worker", "--connect", wep, "--threads", "1", "--name", "w1", "--cache",
+                     path_in("c1"), NULL);
+    pid_t w2 = spawn(path_in("w2.log"), "worker", "--connect", wep, "--threads", "1", "--name", "w2", "--cache",
+                     path_in("c2"), NULL);
+
+    /* A job large enough to be caught half-way. */
+    const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "64", "--name", "big", NULL);
+    if (r->status != 0)
+        fail_msg("submit: exit %d: %s", r->status, r->err);
+    assert_string_equal(r->out, "1\n");
+    sleep_ms(300);
+    stop(w2, SIGKILL);
+    r = run("workers", "--master", cep, NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "w1");
+    /* Wait for the job with the surviving worker. */
+    for (int i = 0; i < 600; i++) {
+        r = run("status", "1", "--master", cep, "--json", NULL);
+        assert_int_equal(r->status, 0);
+        if (strstr(r->out, "\"done\"") || strstr(r->out, "\"failed\""))
+            break;
+        sleep_ms(100);
+    }
+    expect_in(r->out, "\"state\": \"done\"");
+    r = run("fetch", "1", "-o", path_in("killed.exr"), "--master", cep, NULL);
+    if (r->status != 0)
+        fail_msg("fetch: %s", r->err);
+    /* The same job with a single worker from the start. */
+    r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "64", "--name", "again", "--wait", "-o",
+            path_in("single.exr"), "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("submit --wait: exit %d: %s", r->status, r->err);
+    assert_same_pixels(path_in("killed.exr"), path_in("single.exr"));
+
+    /* Errors a user sees: a broken scene, a job that does not exist. */
+    r = run("submit", "data/render/broken.pbrt", "--master", cep, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "broken.pbrt:4:");
+    r = run("fetch", "99", "-o", path_in("none.exr"), "--master", cep, NULL);
+    assert_int_equal(r->status, 1);
+    r = run("jobs", "--master", cep, NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "big");
+    expect_in(r->out, "again");
+
+    stop(w1, SIGTERM);
+    stop(master, SIGTERM);
+}
+
+static void test_client_without_master(void **state)
+{
+    (void)state;
+    const run_t *r = run("jobs", "--master", "tcp://127.0.0.1:9", "--timeout", "0.5", NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "is it running?");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_local_mode_any_worker_count),
+        cmocka_unit_test(test_processes_and_a_killed_worker),
+        cmocka_unit_test(test_client_without_master),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}

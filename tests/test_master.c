@@ -1,0 +1,950 @@
+/* master: the daemon loop driven by fake workers and clients (proto_net DEALERs) over inproc://
+ * and tcp://127.0.0.1 with ports the system chooses. A job's life from SUBMIT to FETCH, with
+ * real render_tile results: the EXR holds exactly the sum of the tiles' passes in pass order
+ * (docs/farm.md), and matches a local render to float rounding; a broken scene refused with its
+ * file:line; a silent worker's tasks re-issued to another worker with identical pixel data;
+ * malformed bytes and another protocol version refused while the master keeps serving; cancel
+ * and repeated task failures. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include <dirent.h>
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <time.h>
+#include <unistd.h>
+#include <zmq.h>
+
+#include "bundle.h"
+#include "image_exr.h"
+#include "local_render.h"
+#include "master.h"
+#include "net.h"
+#include "render.h"
+#include "scene_load.h"
+#include "worker_daemon.h"
+
+/* The test scene: 24 x 16 pixels, 4 spp, 8 buckets (tests/data/render/tiny.pbrt). With 8-pixel
+ * tiles that is 3 x 2 = 6 tiles and, by farm.md's passes [0,1) [1,2) [2,4), 3 passes: 18 tasks. */
+#define TILE 8
+#define XRES 24
+#define YRES 16
+#define SPP 4
+#define NBUCKETS 8
+#define NTILES 6
+#define NTASKS 18
+#define HEARTBEAT_MS 100
+
+typedef struct fx {
+    void *ctx;
+    char spool[64];
+    master_opts_t opts;
+    volatile sig_atomic_t stop;
+    pthread_t thread;
+    int rc;
+    char err[512];
+    pthread_mutex_t lock;
+    pthread_cond_t cond;
+    int ready;
+    char wep[256], cep[256];
+    uint8_t *scene_bytes;
+    size_t scene_size;
+} fx_t;
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void sleep_ms(int ms)
+{
+    struct timespec ts = {.tv_sec = ms / 1000, .tv_nsec = (long)(ms % 1000) * 1000000L};
+    nanosleep(&ts, NULL);
+}
+
+static void on_ready(void *user, const char *wep, const char *cep)
+{
+    fx_t *f = user;
+    pthread_mutex_lock(&f->lock);
+    snprintf(f->wep, sizeof f->wep, "%s", wep);
+    snprintf(f->cep, sizeof f->cep, "%s", cep);
+    f->ready = 1;
+    pthread_cond_broadcast(&f->cond);
+    pthread_mutex_unlock(&f->lock);
+}
+
+static void *run_master(void *arg)
+{
+    fx_t *f = arg;
+    err_t err;
+    f->rc = master_run(&f->opts, &err);
+    if (f->rc)
+        snprintf(f->err, sizeof f->err, "%s", err.msg);
+    pthread_mutex_lock(&f->lock);
+    f->ready = f->ready ? f->ready : -1;
+    pthread_cond_broadcast(&f->cond);
+    pthread_mutex_unlock(&f->lock);
+    return NULL;
+}
+
+static uint8_t *read_all(const char *path, size_t *size)
+{
+    *size = 0;
+    FILE *in = fopen(path, "rb");
+    if (!in)
+        return NULL;
+    uint8_t *buf = malloc(1 << 16);
+    *size = fread(buf, 1, 1 << 16, in);
+    fclose(in);
+    return buf;
+}
+
+/* Starts a master on tcp://127.0.0.1 with system-chosen ports (tcp != 0) or on inproc://. */
+static int start(void **state, int tcp, int max_task_failures)
+{
+    static int counter;
+    fx_t *f = calloc(1, sizeof *f);
+    f->scene_bytes = read_all("data/render/tiny.pbrt", &f->scene_size);
+    if (!f->scene_bytes) {
+        fprintf(stderr, "cannot read data/render/tiny.pbrt: run from tests/ (ctest does)\n");
+        free(f);
+        return -1;
+    }
+    f->ctx = zmq_ctx_new();
+    snprintf(f->spool, sizeof f->spool, "/tmp/prismfarm-test-master-XXXXXX");
+    if (!f->ctx || !mkdtemp(f->spool))
+        return -1;
+    static char wep[64], cep[64];
+    counter++;
+    if (tcp) {
+        snprintf(wep, sizeof wep, "tcp://127.0.0.1:*");
+        snprintf(cep, sizeof cep, "tcp://127.0.0.1:*");
+    } else {
+        snprintf(wep, sizeof wep, "inproc://master-test-workers-%d", counter);
+        snprintf(cep, sizeof cep, "inproc://master-test-clients-%d", counter);
+    }
+    f->opts = master_opts_default();
+    f->opts.worker_endpoint = wep;
+    f->opts.client_endpoint = cep;
+    f->opts.spool_dir = f->spool;
+    f->opts.zmq_ctx = f->ctx;
+    f->opts.stop = &f->stop;
+    f->opts.heartbeat_ms = HEARTBEAT_MS;
+    f->opts.sched.tile_size = TILE;
+    /* Six heartbeats of silence: long enough that a loaded ASan run never loses a live fake
+     * worker, short enough to keep the lost-worker test near a second. */
+    f->opts.sched.worker_timeout_s = 6 * HEARTBEAT_MS / 1000.0;
+    f->opts.sched.max_task_failures = max_task_failures;
+    f->opts.sched.max_worker_job_failures = 10;
+    f->opts.verbose = getenv("PRISMFARM_TEST_VERBOSE") != NULL;
+    f->opts.ready = on_ready;
+    f->opts.user = f;
+    pthread_mutex_init(&f->lock, NULL);
+    pthread_cond_init(&f->cond, NULL);
+    pthread_create(&f->thread, NULL, run_master, f);
+    pthread_mutex_lock(&f->lock);
+    while (!f->ready)
+        pthread_cond_wait(&f->cond, &f->lock);
+    pthread_mutex_unlock(&f->lock);
+    if (f->ready < 0) {
+        fprintf(stderr, "master_run: %s\n", f->err);
+        return -1;
+    }
+    *state = f;
+    return 0;
+}
+
+static int setup_inproc(void **state)
+{
+    return start(state, 0, 4);
+}
+
+static int setup_tcp(void **state)
+{
+    return start(state, 1, 4);
+}
+
+static int setup_failing(void **state)
+{
+    return start(state, 0, 3);
+}
+
+static int teardown(void **state)
+{
+    fx_t *f = *state;
+    f->stop = 1;
+    pthread_join(f->thread, NULL);
+    int rc = f->rc;
+    zmq_ctx_term(f->ctx);
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", f->spool);
+    if (system(cmd) != 0)
+        rc = -1;
+    free(f->scene_bytes);
+    free(f);
+    return rc;
+}
+
+/* ---------------------------------------------------------------- peers */
+
+static proto_net_t *connect_to(fx_t *f, const char *endpoint)
+{
+    err_t err;
+    proto_net_t *n = proto_net_new(f->ctx, PROTO_NET_DEALER, NULL, &err);
+    if (!n || proto_net_connect(n, endpoint, &err))
+        fail_msg("connect %s: %s", endpoint, err.msg);
+    return n;
+}
+
+static void send_msg(proto_net_t *n, const proto_msg_t *m)
+{
+    err_t err;
+    if (proto_net_send(n, NULL, m, &err))
+        fail_msg("send %s: %s", proto_type_name(m->type), err.msg);
+}
+
+/* The next message other than HEARTBEAT within timeout_ms; fails the test otherwise. */
+static void recv_msg(proto_net_t *n, proto_msg_t *m, int timeout_ms)
+{
+    double end = now_s() + timeout_ms / 1000.0;
+    while (now_s() < end) {
+        err_t err;
+        int r = proto_net_recv(n, NULL, m, 20, &err);
+        if (r == PROTO_EAGAIN)
+            continue;
+        if (r)
+            fail_msg("recv: %s", err.msg);
+        if (m->type != PROTO_HEARTBEAT)
+            return;
+        proto_msg_free(m);
+    }
+    fail_msg("no message within %d ms", timeout_ms);
+}
+
+static void expect_type(proto_net_t *n, proto_type_t type, proto_msg_t *m)
+{
+    recv_msg(n, m, 5000);
+    if (m->type != type)
+        fail_msg("expected %s, got %s (%s)", proto_type_name(type), proto_type_name(m->type),
+                 m->type == PROTO_ERROR    ? m->error.message
+                 : m->type == PROTO_REFUSE ? m->refuse.reason
+                                           : "");
+}
+
+/* One client request and its reply. */
+static void call(fx_t *f, const proto_msg_t *req, proto_msg_t *reply)
+{
+    proto_net_t *c = connect_to(f, f->cep);
+    send_msg(c, req);
+    recv_msg(c, reply, 5000);
+    proto_net_destroy(&c);
+}
+
+static proto_bundle_file_t FILES[1];
+
+static proto_bundle_t tiny_bundle(fx_t *f)
+{
+    FILES[0] =
+        (proto_bundle_file_t){.path = "tiny.pbrt", .data = f->scene_bytes, .size = f->scene_size};
+    return (proto_bundle_t){.main = "tiny.pbrt", .files = FILES, .nfiles = 1};
+}
+
+static uint64_t submit_tiny(fx_t *f)
+{
+    proto_msg_t req = {.type = PROTO_SUBMIT,
+                       .submit = {.name = "tiny.pbrt",
+                                  .settings = {.spp = SPP, .seed = -1},
+                                  .bundle = tiny_bundle(f)}};
+    proto_msg_t r;
+    call(f, &req, &r);
+    if (r.type != PROTO_SUBMITTED)
+        fail_msg("SUBMIT answered %s: %s", proto_type_name(r.type),
+                 r.type == PROTO_ERROR ? r.error.message : "");
+    uint64_t id = r.submitted.job;
+    proto_msg_free(&r);
+    return id;
+}
+
+static proto_job_info_t status_of(fx_t *f, uint64_t job, char *error, size_t size)
+{
+    proto_msg_t req = {.type = PROTO_STATUS, .status = {.job = job}}, r;
+    call(f, &req, &r);
+    if (r.type != PROTO_STATUS_REPLY || r.status_reply.njobs != 1)
+        fail_msg("STATUS answered %s", proto_type_name(r.type));
+    proto_job_info_t info = r.status_reply.jobs[0];
+    if (error)
+        snprintf(error, size, "%s", info.error ? info.error : "");
+    info.name = NULL;
+    info.error = NULL;
+    proto_msg_free(&r);
+    return info;
+}
+
+static void wait_state(fx_t *f, uint64_t job, proto_job_state_t state)
+{
+    double end = now_s() + 5;
+    while (now_s() < end) {
+        if (status_of(f, job, NULL, 0).state == state)
+            return;
+        sleep_ms(10);
+    }
+    fail_msg("job %llu never became %s", (unsigned long long)job, proto_job_state_name(state));
+}
+
+/* ---------------------------------------------------------------- a fake worker */
+
+typedef struct fake_worker {
+    proto_net_t *net;
+    uint64_t id;
+    double last_sent;
+    scene_t *scene;
+    proto_msg_t queue[64]; /* tasks received, not yet answered */
+    int nqueue;
+} fake_worker_t;
+
+static void fw_send(fake_worker_t *w, const proto_msg_t *m)
+{
+    send_msg(w->net, m);
+    w->last_sent = now_s();
+}
+
+static void fw_hello(fx_t *f, fake_worker_t *w, const char *name, int threads)
+{
+    memset(w, 0, sizeof *w);
+    w->net = connect_to(f, f->wep);
+    proto_msg_t hello = {.type = PROTO_HELLO,
+                         .hello = {.name = name, .threads = threads, .software = "test"}};
+    fw_send(w, &hello);
+    proto_msg_t m;
+    expect_type(w->net, PROTO_WELCOME, &m);
+    assert_int_equal(m.welcome.heartbeat_ms, HEARTBEAT_MS);
+    w->id = m.welcome.worker_id;
+    proto_msg_free(&m);
+}
+
+static void fw_close(fake_worker_t *w)
+{
+    for (int i = 0; i < w->nqueue; i++)
+        proto_msg_free(&w->queue[i]);
+    scene_destroy(&w->scene);
+    proto_net_destroy(&w->net);
+}
+
+/* The next non-heartbeat message within timeout_ms, heartbeating meanwhile like a live worker;
+ * returns 0, or -1 on timeout. */
+static int fw_recv(fake_worker_t *w, proto_msg_t *m, int timeout_ms)
+{
+    double end = now_s() + timeout_ms / 1000.0;
+    while (now_s() < end) {
+        if (now_s() - w->last_sent > HEARTBEAT_MS / 1000.0) {
+            proto_msg_t hb = {.type = PROTO_HEARTBEAT};
+            fw_send(w, &hb);
+        }
+        err_t err;
+        int r = proto_net_recv(w->net, NULL, m, 20, &err);
+        if (r == PROTO_EAGAIN)
+            continue;
+        if (r)
+            fail_msg("worker recv: %s", err.msg);
+        if (m->type != PROTO_HEARTBEAT)
+            return 0;
+        proto_msg_free(m);
+    }
+    return -1;
+}
+
+/* Renders a TASK as a real worker would (render_tile with the task's settings). */
+static tilebuf_t *render_task(fake_worker_t *w, const proto_msg_t *t)
+{
+    err_t err;
+    if (!w->scene) {
+        scene_overrides_t ov = proto_settings_to_overrides(&t->task.settings);
+        w->scene = scene_load_file("data/render/tiny.pbrt", &ov, &err);
+        if (!w->scene)
+            fail_msg("%s", err.msg);
+    }
+    const proto_tile_t *r = &t->task.tile;
+    tilebuf_t *tb = tilebuf_new(r->x0, r->y0, r->w, r->h, w->scene->settings.grid.n, &err);
+    assert_non_null(tb);
+    if (render_tile(w->scene, r->x0, r->y0, r->w, r->h, r->sample_begin, r->sample_end, tb, NULL,
+                    &err))
+        fail_msg("render_tile: %s", err.msg);
+    return tb;
+}
+
+static void fw_result(fake_worker_t *w, const proto_msg_t *t, const tilebuf_t *tb)
+{
+    proto_msg_t out = {.type = PROTO_RESULT};
+    out.result.job = t->task.job;
+    out.result.task = t->task.task;
+    out.result.attempt = t->task.attempt;
+    out.result.kind = PROTO_KIND_CAMERA_TILE;
+    out.result.tile = (proto_tile_result_t){.rect = t->task.tile,
+                                            .nbuckets = tilebuf_nbuckets(tb),
+                                            .sums = tilebuf_sums(tb),
+                                            .counts = tilebuf_counts(tb),
+                                            .lum = tilebuf_luminance_sums(tb),
+                                            .lum_sq = tilebuf_luminance_sq_sums(tb),
+                                            .nonfinite = tilebuf_nonfinite(tb)};
+    out.result.stats = (proto_task_stats_t){.samples = 1};
+    fw_send(w, &out);
+}
+
+/* ---------------------------------------------------------------- the expected image */
+
+/* The job rendered here by farm.md's rule, independently of sched: 8-pixel tiles, passes of
+ * sample indices [0,1) [1,2) [2,4), each tile's passes summed in pass order. */
+static tilebuf_t *expected_image(void)
+{
+    err_t err;
+    scene_overrides_t ov = {.spp = SPP, .seed = -1};
+    scene_t *sc = scene_load_file("data/render/tiny.pbrt", &ov, &err);
+    assert_non_null(sc);
+    tilebuf_t *image = tilebuf_new(0, 0, XRES, YRES, NBUCKETS, &err);
+    static const uint32_t passes[][2] = {{0, 1}, {1, 2}, {2, 4}};
+    for (int p = 0; p < 3; p++)
+        for (int ty = 0; ty < YRES; ty += TILE)
+            for (int tx = 0; tx < XRES; tx += TILE) {
+                tilebuf_t *t = tilebuf_new(tx, ty, TILE, TILE, NBUCKETS, &err);
+                assert_int_equal(
+                    render_tile(sc, tx, ty, TILE, TILE, passes[p][0], passes[p][1], t, NULL, &err),
+                    0);
+                assert_int_equal(tilebuf_merge(image, t, &err), 0);
+                tilebuf_destroy(&t);
+            }
+    scene_destroy(&sc);
+    return image;
+}
+
+/* FETCHes the job's EXR and checks its spectral pixels: bit-identical (as float32) to the
+ * expected image's bucket means, and equal to a local render of the same scene (one render_tile
+ * over [0, 4) per tile) to float rounding. The two sums differ only in how 4 non-negative
+ * doubles are associated (relative difference < 4 * 2^-53), so after rounding to float32 they
+ * differ by at most one float ulp: a relative tolerance of 2^-22 (two ulps) is generous. */
+static void check_exr(fx_t *f, uint64_t job)
+{
+    proto_msg_t req = {.type = PROTO_FETCH, .fetch = {.job = job, .what = PROTO_FETCH_EXR}}, r;
+    call(f, &req, &r);
+    if (r.type != PROTO_FILE)
+        fail_msg("FETCH exr answered %s: %s", proto_type_name(r.type),
+                 r.type == PROTO_ERROR ? r.error.message : "");
+    assert_string_equal(r.file.name, "tiny.exr");
+    char path[128];
+    snprintf(path, sizeof path, "%s/fetched.exr", f->spool);
+    FILE *out = fopen(path, "wb");
+    assert_non_null(out);
+    assert_int_equal(fwrite(r.file.data, 1, r.file.size, out), r.file.size);
+    fclose(out);
+    proto_msg_free(&r);
+    err_t err;
+    image_exr_t *exr = image_exr_read(path, &err);
+    if (!exr)
+        fail_msg("%s", err.msg);
+    assert_int_equal(image_exr_width(exr), XRES);
+    assert_int_equal(image_exr_height(exr), YRES);
+    assert_int_equal(image_exr_n_spectral(exr), NBUCKETS);
+    const float *spec = image_exr_spectral(exr);
+
+    tilebuf_t *want = expected_image();
+    scene_overrides_t ov = {.spp = SPP, .seed = -1};
+    scene_t *sc = scene_load_file("data/render/tiny.pbrt", &ov, &err);
+    assert_non_null(sc);
+    tilebuf_t *local = tilebuf_new(0, 0, XRES, YRES, NBUCKETS, &err);
+    local_render_opts_t lo = {.threads = 1, .tile_size = TILE};
+    assert_int_equal(local_render(sc, &lo, local, NULL, &err), 0);
+    int exact = 0, near = 0, nonzero = 0;
+    double a[NBUCKETS], b[NBUCKETS];
+    for (int y = 0; y < YRES; y++)
+        for (int x = 0; x < XRES; x++) {
+            tilebuf_mean(want, x, y, a);
+            tilebuf_mean(local, x, y, b);
+            assert_true(tilebuf_count(want, x, y) == SPP);
+            for (int k = 0; k < NBUCKETS; k++) {
+                float got = spec[((size_t)y * XRES + (size_t)x) * NBUCKETS + (size_t)k];
+                exact += got == (float)a[k];
+                near += fabs((double)got - b[k]) <= 0x1p-22 * fmax(fabs((double)got), fabs(b[k]));
+                nonzero += got > 0;
+            }
+        }
+    assert_int_equal(exact, XRES * YRES * NBUCKETS);
+    assert_int_equal(near, XRES * YRES * NBUCKETS);
+    assert_true(nonzero > XRES * YRES * NBUCKETS / 2); /* a lit scene, not a black image */
+    tilebuf_destroy(&want);
+    tilebuf_destroy(&local);
+    scene_destroy(&sc);
+    image_exr_destroy(&exr);
+}
+
+static int count_entries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return -1;
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)))
+        n += strcmp(e->d_name, ".") && strcmp(e->d_name, "..");
+    closedir(d);
+    return n;
+}
+
+/* ---------------------------------------------------------------- tests */
+
+/* SUBMIT, TASKs, SCENE_REQUEST, RESULTs, a progressive preview, then the final EXR; over tcp
+ * with system-chosen ports. */
+static void test_job_life(void **state)
+{
+    fx_t *f = *state;
+    assert_non_null(strstr(f->wep, "tcp://127.0.0.1:"));
+    assert_null(strchr(f->wep, '*'));
+    char path[256], line[300];
+    snprintf(path, sizeof path, "%s/endpoints", f->spool);
+    FILE *ep = fopen(path, "r");
+    assert_non_null(ep);
+    assert_non_null(fgets(line, sizeof line, ep));
+    fclose(ep);
+    assert_true(!strncmp(line, "workers ", 8) && !strncmp(line + 8, f->wep, strlen(f->wep)));
+
+    uint64_t job = submit_tiny(f);
+    assert_true(job == 1);
+    proto_job_info_t info = status_of(f, job, NULL, 0);
+    assert_int_equal(info.state, PROTO_JOB_QUEUED);
+    assert_true(info.samples_total == (uint64_t)XRES * YRES * SPP);
+    proto_msg_t req = {.type = PROTO_FETCH, .fetch = {.job = job, .what = PROTO_FETCH_EXR}}, r;
+    call(f, &req, &r);
+    assert_int_equal(r.type, PROTO_ERROR);
+    proto_msg_free(&r);
+
+    fake_worker_t w;
+    fw_hello(f, &w, "fake", 2);
+    proto_bundle_t b = tiny_bundle(f);
+    char hash[PROTO_HASH_HEX + 1];
+    assert_int_equal(proto_bundle_hash(&b, hash, NULL), 0);
+    int done = 0, asked = 0, previewed = 0;
+    uint32_t seen[NTASKS] = {0};
+    while (done < NTASKS) {
+        proto_msg_t m;
+        if (fw_recv(&w, &m, 5000))
+            fail_msg("no task after %d results", done);
+        if (m.type == PROTO_SCENE) {
+            assert_string_equal(m.scene.scene, hash);
+            assert_string_equal(m.scene.bundle.main, "tiny.pbrt");
+            assert_int_equal(m.scene.bundle.nfiles, 1);
+            assert_int_equal(m.scene.bundle.files[0].size, f->scene_size);
+            assert_memory_equal(m.scene.bundle.files[0].data, f->scene_bytes, f->scene_size);
+            asked = 2;
+            proto_msg_free(&m);
+            continue;
+        }
+        assert_int_equal(m.type, PROTO_TASK);
+        assert_true(m.task.job == job);
+        assert_string_equal(m.task.scene, hash);
+        assert_int_equal(m.task.settings.spp, SPP);
+        assert_true(m.task.task < NTASKS);
+        if (!asked) {
+            proto_msg_t sr = {.type = PROTO_SCENE_REQUEST};
+            memcpy(sr.scene_request.scene, m.task.scene, sizeof sr.scene_request.scene);
+            fw_send(&w, &sr);
+            asked = 1;
+        }
+        seen[m.task.task]++;
+        tilebuf_t *tb = render_task(&w, &m);
+        fw_result(&w, &m, tb);
+        tilebuf_destroy(&tb);
+        proto_msg_free(&m);
+        done++;
+        if (done == NTILES) {
+            /* Pass 0 is whole: a preview PNG can be fetched while the job runs. */
+            proto_msg_t fr = {.type = PROTO_FETCH, .fetch = {.job = job, .what = PROTO_FETCH_PNG}};
+            for (int tries = 0; tries < 100 && !previewed; tries++) {
+                call(f, &fr, &r);
+                if (r.type == PROTO_FILE) {
+                    assert_string_equal(r.file.name, "tiny-preview.png");
+                    assert_memory_equal(r.file.data, "\x89PNG\r\n\x1a\n", 8);
+                    previewed = 1;
+                }
+                proto_msg_free(&r);
+                sleep_ms(10);
+            }
+        }
+    }
+    assert_int_equal(asked, 2);
+    assert_true(previewed);
+    for (int i = 0; i < NTASKS; i++)
+        assert_int_equal(seen[i], 1);
+    wait_state(f, job, PROTO_JOB_DONE);
+    info = status_of(f, job, NULL, 0);
+    assert_true(info.samples_done == (uint64_t)XRES * YRES * SPP);
+    assert_true(info.samples_done == info.samples_total);
+    assert_true(info.nonfinite == 0);
+    check_exr(f, job);
+    req.fetch.what = PROTO_FETCH_PNG;
+    call(f, &req, &r);
+    assert_int_equal(r.type, PROTO_FILE);
+    assert_string_equal(r.file.name, "tiny.png");
+    proto_msg_free(&r);
+
+    proto_msg_t wq = {.type = PROTO_WORKERS};
+    call(f, &wq, &r);
+    assert_int_equal(r.type, PROTO_WORKERS_REPLY);
+    assert_int_equal(r.workers_reply.nworkers, 1);
+    assert_string_equal(r.workers_reply.workers[0].name, "fake");
+    assert_true(r.workers_reply.workers[0].tasks_done == NTASKS);
+    assert_int_equal(r.workers_reply.workers[0].state, PROTO_WORKER_IDLE);
+    proto_msg_free(&r);
+    proto_msg_t jq = {.type = PROTO_JOBS};
+    call(f, &jq, &r);
+    assert_int_equal(r.type, PROTO_JOBS_REPLY);
+    assert_int_equal(r.jobs_reply.njobs, 1);
+    assert_string_equal(r.jobs_reply.jobs[0].name, "tiny.pbrt");
+    assert_int_equal(r.jobs_reply.jobs[0].state, PROTO_JOB_DONE);
+    proto_msg_free(&r);
+    fw_close(&w);
+}
+
+/* A scene that does not parse is refused at once with the loader's file:line:col, as the
+ * bundle names the file, and nothing of it stays in the spool. */
+static void test_broken_scene(void **state)
+{
+    fx_t *f = *state;
+    size_t size;
+    uint8_t *bytes = read_all("data/render/broken.pbrt", &size);
+    assert_non_null(bytes);
+    proto_bundle_file_t file = {.path = "scenes/broken.pbrt", .data = bytes, .size = size};
+    proto_msg_t req = {
+        .type = PROTO_SUBMIT,
+        .submit = {.name = "broken",
+                   .settings = {.seed = -1},
+                   .bundle = {.main = "scenes/broken.pbrt", .files = &file, .nfiles = 1}}};
+    proto_msg_t r;
+    call(f, &req, &r);
+    assert_int_equal(r.type, PROTO_ERROR);
+    /* Line 4 of broken.pbrt is the LookAt with too few numbers. */
+    if (strncmp(r.error.message, "scenes/broken.pbrt:4:", 21) || !strstr(r.error.message, "LookAt"))
+        fail_msg("unexpected error: %s", r.error.message);
+    assert_null(strstr(r.error.message, f->spool));
+    proto_msg_free(&r);
+
+    /* A valid scene with an override the loader rejects: also refused, naming the scene. */
+    req.submit.name = "tiny";
+    req.submit.bundle = tiny_bundle(f);
+    req.submit.settings.integrator = "bogus";
+    call(f, &req, &r);
+    assert_int_equal(r.type, PROTO_ERROR);
+    if (strncmp(r.error.message, "tiny.pbrt:", 10) || !strstr(r.error.message, "bogus"))
+        fail_msg("unexpected error: %s", r.error.message);
+    proto_msg_free(&r);
+    free(bytes);
+
+    char dir[128];
+    snprintf(dir, sizeof dir, "%s/scenes", f->spool);
+    assert_int_equal(count_entries(dir), 0);
+    snprintf(dir, sizeof dir, "%s/tmp", f->spool);
+    assert_int_equal(count_entries(dir), 0);
+    proto_msg_t jq = {.type = PROTO_JOBS};
+    call(f, &jq, &r);
+    assert_int_equal(r.type, PROTO_JOBS_REPLY);
+    assert_int_equal(r.jobs_reply.njobs, 0);
+    proto_msg_free(&r);
+}
+
+/* A worker that goes silent holding two tasks: after the timeout they are issued again to the
+ * other worker (attempt 2), the job completes with the same pixel data, and the silent worker is
+ * told to say HELLO again when it reappears. */
+static void test_silent_worker(void **state)
+{
+    fx_t *f = *state;
+    uint64_t job = submit_tiny(f);
+    fake_worker_t a, b;
+    double t0 = now_s(); /* before a's last message: its HELLO */
+    fw_hello(f, &a, "silent", 2);
+    proto_msg_t held[2];
+    for (int i = 0; i < 2; i++) {
+        expect_type(a.net, PROTO_TASK, &held[i]);
+        assert_true(held[i].task.attempt == 1);
+    }
+    fw_hello(f, &b, "steady", 2);
+    int results[NTASKS] = {0};
+    uint32_t reissued = 0;
+    int done = 0;
+    while (done < NTASKS) {
+        proto_msg_t m;
+        if (fw_recv(&b, &m, 5000))
+            fail_msg("worker b got nothing after %d results", done);
+        assert_int_equal(m.type, PROTO_TASK);
+        if (m.task.task == held[0].task.task || m.task.task == held[1].task.task) {
+            assert_true(m.task.attempt == 2);
+            reissued++;
+            /* Not before the worker timeout (0.6 s) has passed since a's HELLO. */
+            assert_true(now_s() - t0 >= f->opts.sched.worker_timeout_s);
+        }
+        tilebuf_t *tb = render_task(&b, &m);
+        fw_result(&b, &m, tb);
+        tilebuf_destroy(&tb);
+        results[m.task.task]++;
+        done++;
+        proto_msg_free(&m);
+    }
+    assert_int_equal(reissued, 2);
+    for (int i = 0; i < NTASKS; i++)
+        assert_int_equal(results[i], 1);
+    wait_state(f, job, PROTO_JOB_DONE);
+    check_exr(f, job);
+
+    proto_msg_t r;
+    proto_msg_t wq = {.type = PROTO_WORKERS};
+    call(f, &wq, &r);
+    assert_int_equal(r.workers_reply.nworkers, 2);
+    assert_string_equal(r.workers_reply.workers[0].name, "silent");
+    assert_int_equal(r.workers_reply.workers[0].state, PROTO_WORKER_LOST);
+    assert_true(r.workers_reply.workers[1].tasks_done == NTASKS);
+    proto_msg_free(&r);
+
+    /* The silent worker finally answers: its late result is harmless, and it must HELLO again. */
+    tilebuf_t *tb = render_task(&a, &held[0]);
+    fw_result(&a, &held[0], tb);
+    tilebuf_destroy(&tb);
+    expect_type(a.net, PROTO_REFUSE, &r);
+    assert_string_equal(r.refuse.reason, "unknown worker: send HELLO");
+    proto_msg_free(&r);
+    proto_msg_t hello = {.type = PROTO_HELLO,
+                         .hello = {.name = "silent", .threads = 2, .software = "test"}};
+    fw_send(&a, &hello);
+    expect_type(a.net, PROTO_WELCOME, &r);
+    assert_true(r.welcome.worker_id == a.id); /* the same connection keeps its id */
+    proto_msg_free(&r);
+    check_exr(f, job); /* the late copy changed nothing */
+    for (int i = 0; i < 2; i++)
+        proto_msg_free(&held[i]);
+    fw_close(&a);
+    fw_close(&b);
+}
+
+/* Garbage, extra frames, another protocol version and misdirected messages are refused, and the
+ * master keeps serving. */
+static void test_bad_peers(void **state)
+{
+    fx_t *f = *state;
+    proto_msg_t r;
+    const char *endpoints[2] = {f->wep, f->cep};
+    for (int k = 0; k < 2; k++) {
+        proto_net_t *n = connect_to(f, endpoints[k]);
+        void *s = proto_net_socket(n);
+        assert_int_equal(zmq_send(s, "\x81\xa1v", 3, 0), 3); /* a map cut short */
+        expect_type(n, PROTO_REFUSE, &r);
+        assert_non_null(strstr(r.refuse.reason, "malformed message"));
+        proto_msg_free(&r);
+        assert_int_equal(zmq_send(s, "a", 1, ZMQ_SNDMORE), 1);
+        assert_int_equal(zmq_send(s, "b", 1, 0), 1);
+        expect_type(n, PROTO_REFUSE, &r);
+        assert_non_null(strstr(r.refuse.reason, "frames after the message"));
+        proto_msg_free(&r);
+        /* protocol.md: a peer of another version is refused with this exact text. */
+        proto_msg_t hello = {.type = PROTO_HELLO,
+                             .version = 2,
+                             .hello = {.name = "future", .threads = 1, .software = "prismfarm 9"}};
+        send_msg(n, &hello);
+        expect_type(n, PROTO_REFUSE, &r);
+        assert_string_equal(r.refuse.reason,
+                            "protocol version 2 not supported by this master (speaks 1)");
+        proto_msg_free(&r);
+        proto_net_destroy(&n);
+    }
+    /* A worker message from a peer that never said HELLO. */
+    proto_net_t *w = connect_to(f, f->wep);
+    proto_msg_t hb = {.type = PROTO_HEARTBEAT};
+    send_msg(w, &hb);
+    expect_type(w, PROTO_REFUSE, &r);
+    assert_string_equal(r.refuse.reason, "unknown worker: send HELLO");
+    proto_msg_free(&r);
+    proto_net_destroy(&w);
+    /* A worker's message on the client endpoint, and questions about jobs that do not exist. */
+    proto_msg_t hello = {.type = PROTO_HELLO,
+                         .hello = {.name = "lost", .threads = 1, .software = "x"}};
+    call(f, &hello, &r);
+    assert_int_equal(r.type, PROTO_ERROR);
+    proto_msg_free(&r);
+    proto_msg_t st = {.type = PROTO_STATUS, .status = {.job = 42}};
+    call(f, &st, &r);
+    assert_int_equal(r.type, PROTO_ERROR);
+    assert_string_equal(r.error.message, "no job 42");
+    proto_msg_free(&r);
+    proto_msg_t fe = {.type = PROTO_FETCH, .fetch = {.job = 42, .what = PROTO_FETCH_PNG}};
+    call(f, &fe, &r);
+    assert_int_equal(r.type, PROTO_ERROR);
+    proto_msg_free(&r);
+    /* Still serving: a job runs to completion with a worker that joins now. */
+    uint64_t job = submit_tiny(f);
+    fake_worker_t fw;
+    fw_hello(f, &fw, "after", 4);
+    for (int done = 0; done < NTASKS; done++) {
+        proto_msg_t m;
+        if (fw_recv(&fw, &m, 5000))
+            fail_msg("no task");
+        assert_int_equal(m.type, PROTO_TASK);
+        tilebuf_t *tb = render_task(&fw, &m);
+        fw_result(&fw, &m, tb);
+        tilebuf_destroy(&tb);
+        proto_msg_free(&m);
+    }
+    wait_state(f, job, PROTO_JOB_DONE);
+    fw_close(&fw);
+}
+
+/* CANCEL stops a running job, tells its workers, and the next job proceeds; the scene of a
+ * second submission of the same bundle is stored once. */
+static void test_cancel(void **state)
+{
+    fx_t *f = *state;
+    uint64_t job = submit_tiny(f);
+    fake_worker_t w;
+    fw_hello(f, &w, "w", 2);
+    proto_msg_t t1, t2, r;
+    expect_type(w.net, PROTO_TASK, &t1);
+    expect_type(w.net, PROTO_TASK, &t2);
+    proto_msg_t c = {.type = PROTO_CANCEL, .cancel = {.job = job}};
+    call(f, &c, &r);
+    assert_int_equal(r.type, PROTO_STATUS_REPLY);
+    assert_int_equal(r.status_reply.njobs, 1);
+    assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_CANCELLED);
+    proto_msg_free(&r);
+    proto_msg_t m;
+    if (fw_recv(&w, &m, 5000))
+        fail_msg("no CANCEL for the worker");
+    assert_int_equal(m.type, PROTO_CANCEL);
+    assert_true(m.cancel.job == job);
+    proto_msg_free(&m);
+    /* A result that was already on its way is dropped. */
+    tilebuf_t *tb = render_task(&w, &t1);
+    fw_result(&w, &t1, tb);
+    tilebuf_destroy(&tb);
+    proto_msg_t fe = {.type = PROTO_FETCH, .fetch = {.job = job, .what = PROTO_FETCH_EXR}};
+    call(f, &fe, &r);
+    assert_int_equal(r.type, PROTO_ERROR);
+    assert_non_null(strstr(r.error.message, "cancelled"));
+    proto_msg_free(&r);
+    c.cancel.job = 77;
+    call(f, &c, &r);
+    assert_int_equal(r.type, PROTO_ERROR);
+    proto_msg_free(&r);
+
+    uint64_t job2 = submit_tiny(f);
+    assert_true(job2 == job + 1);
+    /* The worker's two slots were freed by the cancel: two tasks of the new job follow. */
+    for (int i = 0; i < 2; i++) {
+        if (fw_recv(&w, &m, 5000))
+            fail_msg("no task of the second job");
+        assert_int_equal(m.type, PROTO_TASK);
+        assert_true(m.task.job == job2);
+        proto_msg_free(&m);
+    }
+    char dir[128];
+    snprintf(dir, sizeof dir, "%s/scenes", f->spool);
+    assert_int_equal(count_entries(dir), 2); /* <hash>/ and <hash>.scene */
+    proto_msg_free(&t1);
+    proto_msg_free(&t2);
+    fw_close(&w);
+}
+
+/* A task that fails max_task_failures (3) times fails its job with the last error, and the
+ * workers are told to drop the job. */
+static void test_failing_task(void **state)
+{
+    fx_t *f = *state;
+    uint64_t job = submit_tiny(f);
+    fake_worker_t w;
+    fw_hello(f, &w, "clumsy", 1);
+    for (uint32_t attempt = 1; attempt <= 3; attempt++) {
+        proto_msg_t m;
+        expect_type(w.net, PROTO_TASK, &m);
+        /* One slot: the failed task is the first pending one, so it comes straight back. */
+        assert_true(m.task.task == 0);
+        assert_true(m.task.attempt == attempt);
+        proto_msg_t fail = {
+            .type = PROTO_TASK_FAILED,
+            .task_failed = {
+                .job = job, .task = 0, .attempt = attempt, .error = "scene.pbrt:3:7: boom"}};
+        fw_send(&w, &fail);
+        proto_msg_free(&m);
+    }
+    proto_msg_t m;
+    expect_type(w.net, PROTO_CANCEL, &m);
+    assert_true(m.cancel.job == job);
+    proto_msg_free(&m);
+    char error[600];
+    proto_job_info_t info = status_of(f, job, error, sizeof error);
+    assert_int_equal(info.state, PROTO_JOB_FAILED);
+    if (!strstr(error, "3 times") || !strstr(error, "last error: scene.pbrt:3:7: boom"))
+        fail_msg("unexpected error: %s", error);
+    fw_close(&w);
+}
+
+typedef struct real_worker {
+    worker_opts_t opts;
+    volatile sig_atomic_t stop;
+    char cache[64];
+    int rc;
+} real_worker_t;
+
+static void *run_worker(void *arg)
+{
+    real_worker_t *w = arg;
+    err_t err;
+    w->rc = worker_run(&w->opts, &err);
+    if (w->rc)
+        fprintf(stderr, "worker_run: %s\n", err.msg);
+    return NULL;
+}
+
+/* The farm's own worker daemon (worker/worker_daemon.h) against this master: the job completes
+ * with the same EXR pixels as the fake workers' and the expected image. */
+static void test_real_worker(void **state)
+{
+    fx_t *f = *state;
+    real_worker_t w = {.rc = 0};
+    snprintf(w.cache, sizeof w.cache, "/tmp/prismfarm-test-master-worker-XXXXXX");
+    assert_non_null(mkdtemp(w.cache));
+    w.opts = (worker_opts_t){.endpoint = f->wep,
+                             .zmq_ctx = f->ctx,
+                             .threads = 2,
+                             .name = "real",
+                             .cache_dir = w.cache,
+                             .stop = &w.stop,
+                             .reconnect_max_ms = 200,
+                             .verbose = f->opts.verbose};
+    pthread_t th;
+    pthread_create(&th, NULL, run_worker, &w);
+    uint64_t job = submit_tiny(f);
+    wait_state(f, job, PROTO_JOB_DONE);
+    check_exr(f, job);
+    w.stop = 1;
+    pthread_join(th, NULL);
+    assert_int_equal(w.rc, 0);
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", w.cache);
+    assert_int_equal(system(cmd), 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_setup_teardown(test_job_life, setup_tcp, teardown),
+        cmocka_unit_test_setup_teardown(test_broken_scene, setup_inproc, teardown),
+        cmocka_unit_test_setup_teardown(test_silent_worker, setup_inproc, teardown),
+        cmocka_unit_test_setup_teardown(test_bad_peers, setup_inproc, teardown),
+        cmocka_unit_test_setup_teardown(test_cancel, setup_inproc, teardown),
+        cmocka_unit_test_setup_teardown(test_failing_task, setup_failing, teardown),
+        cmocka_unit_test_setup_teardown(test_real_worker, setup_inproc, teardown),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

@@ -1,0 +1,149 @@
+/* prismfarm master, run as a process ($PRISMFARM_BIN): exit codes (0 on SIGTERM, 1 for an
+ * endpoint that cannot be bound, naming it, 2 for a bad command line), the endpoints file for
+ * system-chosen ports, and a client served over tcp by the separate process. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include "cli_run.h"
+
+#include "net.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <time.h>
+#include <zmq.h>
+
+static void sleep_ms(int ms)
+{
+    struct timespec ts = {.tv_sec = ms / 1000, .tv_nsec = (long)(ms % 1000) * 1000000L};
+    nanosleep(&ts, NULL);
+}
+
+static void test_command_line(void **state)
+{
+    (void)state;
+    const run_t *r = run("master", "--help", NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "usage: prismfarm master");
+    r = run("master", "--tile", "0", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "--tile expects an integer in 1..4096, got '0'");
+    r = run("master", "--heartbeat", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "--heartbeat needs a value");
+    r = run("master", "--frobnicate", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "unknown argument '--frobnicate'");
+}
+
+/* A port already taken: exit 1 with the endpoint in the message. */
+static void test_port_in_use(void **state)
+{
+    (void)state;
+    void *ctx = zmq_ctx_new();
+    proto_net_t *taken = proto_net_new(ctx, PROTO_NET_ROUTER, NULL, NULL);
+    assert_non_null(taken);
+    assert_int_equal(proto_net_bind(taken, "tcp://127.0.0.1:*", NULL), 0);
+    char ep[256];
+    assert_int_equal(proto_net_endpoint(taken, ep, sizeof ep, NULL), 0);
+    char spool[] = "/tmp/prismfarm-test-master-cli-XXXXXX";
+    assert_non_null(mkdtemp(spool));
+    const run_t *r =
+        run("master", "--workers", ep, "--clients", "tcp://127.0.0.1:*", "--spool", spool, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "workers endpoint");
+    expect_in(r->err, ep);
+    proto_net_destroy(&taken);
+    zmq_ctx_term(ctx);
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", spool);
+    assert_int_equal(system(cmd), 0);
+}
+
+/* A master process with system-chosen ports: it writes SPOOL/endpoints, answers a client over
+ * tcp, and exits 0 soon after SIGTERM. */
+static void test_serves_and_stops(void **state)
+{
+    (void)state;
+    const char *bin = getenv("PRISMFARM_BIN");
+    assert_non_null(bin);
+    char spool[] = "/tmp/prismfarm-test-master-cli-XXXXXX";
+    assert_non_null(mkdtemp(spool));
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        int null = open("/dev/null", O_WRONLY);
+        if (null >= 0)
+            dup2(null, STDERR_FILENO);
+        execl(bin, bin, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
+              "tcp://127.0.0.1:*", "--spool", spool, (char *)NULL);
+        _exit(127);
+    }
+    char path[128], line[300], cep[320] = "";
+    snprintf(path, sizeof path, "%s/endpoints", spool);
+    for (int tries = 0; tries < 500 && !cep[0]; tries++) {
+        FILE *f = fopen(path, "r");
+        if (f) {
+            while (fgets(line, sizeof line, f))
+                if (!strncmp(line, "clients ", 8)) {
+                    line[strcspn(line, "\n")] = 0;
+                    snprintf(cep, sizeof cep, "%s", line + 8);
+                }
+            fclose(f);
+        }
+        if (!cep[0])
+            sleep_ms(10);
+    }
+    if (!cep[0]) {
+        kill(pid, SIGKILL);
+        fail_msg("the master wrote no endpoints file within 5 s");
+    }
+    assert_non_null(strstr(cep, "tcp://127.0.0.1:"));
+
+    void *ctx = zmq_ctx_new();
+    proto_net_t *c = proto_net_new(ctx, PROTO_NET_DEALER, NULL, NULL);
+    assert_non_null(c);
+    assert_int_equal(proto_net_connect(c, cep, NULL), 0);
+    proto_msg_t req = {.type = PROTO_JOBS}, reply;
+    assert_int_equal(proto_net_send(c, NULL, &req, NULL), 0);
+    int rc = proto_net_recv(c, NULL, &reply, 5000, NULL);
+    assert_int_equal(rc, 0);
+    assert_int_equal(reply.type, PROTO_JOBS_REPLY);
+    assert_int_equal(reply.jobs_reply.njobs, 0);
+    proto_msg_free(&reply);
+    proto_net_destroy(&c);
+    zmq_ctx_term(ctx);
+
+    assert_int_equal(kill(pid, SIGTERM), 0);
+    int status = 0;
+    pid_t got = 0;
+    for (int tries = 0; tries < 300 && got == 0; tries++) {
+        got = waitpid(pid, &status, WNOHANG);
+        if (got == 0)
+            sleep_ms(10);
+    }
+    if (got != pid) {
+        kill(pid, SIGKILL);
+        waitpid(pid, &status, 0);
+        fail_msg("the master did not stop within 3 s of SIGTERM");
+    }
+    assert_true(WIFEXITED(status));
+    assert_int_equal(WEXITSTATUS(status), 0);
+    char cmd[128];
+    snprintf(cmd, sizeof cmd, "rm -rf '%s'", spool);
+    assert_int_equal(system(cmd), 0);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_command_line),
+        cmocka_unit_test(test_port_in_use),
+        cmocka_unit_test(test_serves_and_stops),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
