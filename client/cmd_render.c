@@ -3,6 +3,7 @@
 #include "commands.h"
 
 #include "film.h"
+#include "local_farm.h"
 #include "local_render.h"
 #include "progress.h"
 #include "scene_load.h"
@@ -21,13 +22,18 @@ static void usage(FILE *out)
     fprintf(out,
             "usage: prismfarm render SCENE.pbrt [options]\n"
             "\n"
-            "Renders SCENE locally on all cores; writes a spectral OpenEXR (Fichet et al. layout,\n"
-            "float32, with linear sRGB R,G,B channels) and a tone-mapped PNG preview beside it.\n"
+            "Renders SCENE on this machine through the farm's code path (a master and workers in\n"
+            "this process over inproc://); writes a spectral OpenEXR (Fichet et al. layout, float32,\n"
+            "with linear sRGB R,G,B channels) and a tone-mapped PNG preview beside it.\n"
             "Options override the scene file:\n"
             "  -o, --output OUT.exr     output file (default: the Film's filename, else SCENE.exr)\n"
             "  --spp N                  samples per pixel\n"
             "  --res WxH                image resolution\n"
-            "  --threads N              render threads (default: all cores)\n"
+            "  --threads N              render threads per worker (default: all cores / workers)\n"
+            "  --workers N              workers in this process (default 1)\n"
+            "  --tile N                 tile size in pixels (default 32)\n"
+            "  --direct                 render with plain threads, without the farm's master and\n"
+            "                           workers (same pixels up to rounding; for comparisons)\n"
             "  --integrator NAME        path | simplepath | whitted\n"
             "  --dispersion NAME        hero | fanout\n"
             "  --seed N                 random seed (default: the Sampler's seed)\n"
@@ -69,11 +75,60 @@ static int make_parent_dirs(const char *path)
     return 0;
 }
 
+/* The same render without the farm: threads of this process over tiles (--direct). */
+static int render_direct(const scene_t *scene, const char *scene_path, int threads, int quiet,
+                         const char *exr, const char *png, colour_tonemap_t tm,
+                         const struct timespec *t0)
+{
+    static const char *integ_names[] = {"simplepath", "path", "whitted"};
+    const render_settings_t *rs = &scene->settings;
+    err_t err;
+    tilebuf_t *image = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, &err);
+    if (!image) {
+        fprintf(stderr, "prismfarm render: %s\n", err.msg);
+        return 1;
+    }
+    progress_t prog = progress_make("render", quiet);
+    local_render_opts_t opts = {.threads = threads, .progress = on_progress, .user = &prog};
+    render_stats_t st = {0};
+    int rc = 0;
+    if (local_render(scene, &opts, image, &st, &err)) {
+        fprintf(stderr, "prismfarm render: %s\n", err.msg);
+        rc = 1;
+    }
+    struct timespec t1;
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    double secs = (double)(t1.tv_sec - t0->tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0->tv_nsec);
+    if (rc == 0) {
+        char info[512];
+        snprintf(info, sizeof info,
+                 "scene=%s;spp=%d;integrator=%s;dispersion=%s;seed=%llu;samples=%llu;rays=%llu;"
+                 "nonfinite=%llu;seconds=%.3f",
+                 scene_path, rs->spp, integ_names[rs->integrator],
+                 scene->has_dispersion ? (rs->dispersion == DISPERSION_HERO ? "hero" : "fanout") : "off",
+                 (unsigned long long)rs->seed, (unsigned long long)st.samples,
+                 (unsigned long long)st.rays, (unsigned long long)st.nonfinite, secs);
+        film_output_t fo = {.exr_path = exr, .png_path = png, .spectral = 1, .tonemap = tm, .info = info};
+        if (film_write(image, rs->grid, &fo, &err)) {
+            fprintf(stderr, "prismfarm render: %s\n", err.msg);
+            rc = 1;
+        } else {
+            printf("wrote %s (spectral, %d buckets) and %s\n", exr, rs->grid.n, png);
+            printf("%llu samples, %.1f M rays in %.2f s (%.2f M rays/s); %llu non-finite samples discarded\n",
+                   (unsigned long long)st.samples, st.rays / 1e6, secs, st.rays / 1e6 / (secs > 0 ? secs : 1),
+                   (unsigned long long)st.nonfinite);
+        }
+    }
+    tilebuf_destroy(&image);
+    return rc;
+}
+
 int cmd_render(int argc, char **argv)
 {
     const char *scene_path = NULL, *output = NULL;
     scene_overrides_t ov = {.seed = -1};
-    long long threads = 0;
+    long long threads = 0, workers = 1, tile = 0;
+    int direct = 0;
     double exposure = 0;
     int quiet = 0;
     for (int i = 1; i < argc; i++) {
@@ -85,6 +140,10 @@ int cmd_render(int argc, char **argv)
         }
         if (!strcmp(a, "--quiet")) {
             quiet = 1;
+            continue;
+        }
+        if (!strcmp(a, "--direct")) {
+            direct = 1;
             continue;
         }
         if (a[0] == '-' && a[1]) {
@@ -101,6 +160,12 @@ int cmd_render(int argc, char **argv)
                 ov.spp = (int)v;
             } else if (!strcmp(a, "--threads")) {
                 if (parse_int(a, val, 1, 1024, &threads))
+                    return 2;
+            } else if (!strcmp(a, "--workers")) {
+                if (parse_int(a, val, 1, 64, &workers))
+                    return 2;
+            } else if (!strcmp(a, "--tile")) {
+                if (parse_int(a, val, 1, 4096, &tile))
                     return 2;
             } else if (!strcmp(a, "--seed")) {
                 if (parse_int(a, val, 0, (long long)UINT32_MAX, &v))
@@ -152,7 +217,7 @@ int cmd_render(int argc, char **argv)
     }
 
     err_t err;
-    struct timespec t0, t1;
+    struct timespec t0;
     clock_gettime(CLOCK_MONOTONIC, &t0);
     scene_t *scene = scene_load_file(scene_path, &ov, &err);
     if (!scene) {
@@ -198,46 +263,38 @@ int cmd_render(int argc, char **argv)
         }
     }
 
-    err_t ierr;
-    tilebuf_t *image = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, &ierr);
-    if (!image) {
-        fprintf(stderr, "prismfarm render: %s\n", ierr.msg);
-        scene_destroy(&scene);
-        return 1;
-    }
-    progress_t prog = progress_make("render", quiet);
-    local_render_opts_t opts = {.threads = (int)threads, .progress = on_progress, .user = &prog};
-    render_stats_t st = {0};
     int rc = 0;
-    if (local_render(scene, &opts, image, &st, &err)) {
-        fprintf(stderr, "prismfarm render: %s\n", err.msg);
-        rc = 1;
-    }
-    clock_gettime(CLOCK_MONOTONIC, &t1);
-    double secs = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
-    if (rc == 0) {
-        char info[512];
-        snprintf(info, sizeof info,
-                 "scene=%s;spp=%d;integrator=%s;dispersion=%s;seed=%llu;samples=%llu;rays=%llu;"
-                 "nonfinite=%llu;seconds=%.3f",
-                 scene_path, rs->spp, integ_names[rs->integrator],
-                 scene->has_dispersion ? (rs->dispersion == DISPERSION_HERO ? "hero" : "fanout") : "off",
-                 (unsigned long long)rs->seed, (unsigned long long)st.samples,
-                 (unsigned long long)st.rays, (unsigned long long)st.nonfinite, secs);
-        film_output_t fo = {.exr_path = exr, .png_path = png, .spectral = 1,
-                            .tonemap = {.exposure_stops = exposure, .curve = COLOUR_CURVE_ACES},
-                            .info = info};
-        if (film_write(image, rs->grid, &fo, &err)) {
+    colour_tonemap_t tm = {.exposure_stops = exposure, .curve = COLOUR_CURVE_ACES};
+    if (direct) {
+        rc = render_direct(scene, scene_path, (int)threads, quiet, exr, png, tm, &t0);
+    } else {
+        /* The farm's code path: a master and workers in this process. */
+        const char *base = strrchr(scene_path, '/');
+        base = base ? base + 1 : scene_path;
+        char name[256];
+        size_t n = strlen(base);
+        if (n > 5 && !strcmp(base + n - 5, ".pbrt"))
+            n -= 5;
+        snprintf(name, sizeof name, "%.*s", (int)n, base);
+        int cores = local_render_cores();
+        local_farm_opts_t lo = {.scene = scene_path, .name = name, .exr_path = exr, .overrides = ov,
+                                .workers = (int)workers,
+                                .threads = threads ? (int)threads : (cores / (int)workers > 0 ? cores / (int)workers : 1),
+                                .tile = (int)tile, .quiet = quiet};
+        proto_job_info_t info;
+        rc = local_farm_run(&lo, &info);
+        if (rc == 0 && film_png_from_exr(exr, png, tm, &err)) {
             fprintf(stderr, "prismfarm render: %s\n", err.msg);
             rc = 1;
-        } else {
+        }
+        if (rc == 0) {
             printf("wrote %s (spectral, %d buckets) and %s\n", exr, rs->grid.n, png);
-            printf("%llu samples, %.1f M rays in %.2f s (%.2f M rays/s); %llu non-finite samples discarded\n",
-                   (unsigned long long)st.samples, st.rays / 1e6, secs, st.rays / 1e6 / (secs > 0 ? secs : 1),
-                   (unsigned long long)st.nonfinite);
+            printf("%llu samples in %.2f s (%.2f Msamples/s) on %d worker%s; %llu non-finite samples discarded\n",
+                   (unsigned long long)info.samples_done, info.elapsed,
+                   info.samples_done / 1e6 / (info.elapsed > 0 ? info.elapsed : 1), (int)workers,
+                   workers == 1 ? "" : "s", (unsigned long long)info.nonfinite);
         }
     }
-    tilebuf_destroy(&image);
     scene_destroy(&scene);
     return rc;
 }

@@ -8,7 +8,6 @@ int cmd_glass(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_worker(int argc, char **argv);
 int cmd_master(int argc, char **argv);
-int cmd_local(int argc, char **argv);
 int cmd_submit(int argc, char **argv);
 int cmd_status(int argc, char **argv);
 int cmd_jobs(int argc, char **argv);

@@ -11,8 +11,7 @@ typedef struct command {
 } command_t;
 
 static const command_t COMMANDS[] = {
-    {"render", cmd_render, "render a scene on this machine and write EXR and PNG"},
-    {"local", cmd_local, "render a scene through a master and workers in this process"},
+    {"render", cmd_render, "render a scene on this machine (a master and workers in-process)"},
     {"master", cmd_master, "run the farm's master: take jobs, hand tiles to workers, write outputs"},
     {"worker", cmd_worker, "render tasks for a master (a farm worker)"},
     {"submit", cmd_submit, "submit a scene to a master (--wait: follow it and fetch the result)"},

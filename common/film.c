@@ -44,6 +44,32 @@ void film_png_path(const char *exr_path, char *buf, size_t size)
         snprintf(buf, size, "%s.png", exr_path);
 }
 
+static int write_png(const char *path, int w, int h, const float *rgb, colour_tonemap_t tm,
+                     err_t *err)
+{
+    size_t npix = (size_t)w * (size_t)h;
+    unsigned char *px = malloc(npix * 3);
+    if (!px)
+        return err_set(err, "out of memory");
+    for (size_t i = 0; i < npix; i++)
+        colour_tonemap_to_srgb8(tm, (rgb_t){rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]}, px + 3 * i);
+    int r = image_png_write_rgb(path, w, h, px, err);
+    free(px);
+    return r;
+}
+
+int film_png_from_exr(const char *exr_path, const char *png_path, colour_tonemap_t tonemap,
+                      err_t *err)
+{
+    image_exr_t *img = image_exr_read(exr_path, err);
+    if (!img)
+        return -1;
+    int r = write_png(png_path, image_exr_width(img), image_exr_height(img), image_exr_rgb(img),
+                      tonemap, err);
+    image_exr_destroy(&img);
+    return r;
+}
+
 int film_write(const tilebuf_t *image, spectral_grid_t grid, const film_output_t *out, err_t *err)
 {
     int w = tilebuf_width(image), h = tilebuf_height(image), nb = tilebuf_nbuckets(image);
@@ -79,18 +105,8 @@ int film_write(const tilebuf_t *image, spectral_grid_t grid, const film_output_t
             r = image_exr_write_rgb(out->exr_path, w, h, rgb, 3, out->info, err);
         }
     }
-    if (!r && out->png_path) {
-        unsigned char *px = malloc(npix * 3);
-        if (!px) {
-            r = err_set(err, "out of memory");
-        } else {
-            for (size_t i = 0; i < npix; i++)
-                colour_tonemap_to_srgb8(out->tonemap, (rgb_t){rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]},
-                                        px + 3 * i);
-            r = image_png_write_rgb(out->png_path, w, h, px, err);
-            free(px);
-        }
-    }
+    if (!r && out->png_path)
+        r = write_png(out->png_path, w, h, rgb, out->tonemap, err);
     free(rgb);
     return r;
 }

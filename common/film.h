@@ -22,6 +22,10 @@ int film_to_rgb(const tilebuf_t *image, spectral_grid_t grid, float *rgb, err_t 
 
 int film_write(const tilebuf_t *image, spectral_grid_t grid, const film_output_t *out, err_t *err);
 
+/* Writes the tone-mapped PNG preview of an EXR file (its R, G, B channels). */
+int film_png_from_exr(const char *exr_path, const char *png_path, colour_tonemap_t tonemap,
+                      err_t *err);
+
 /* The PNG path beside an EXR path: "x.exr" -> "x.png" (any other name gets ".png" added). */
 void film_png_path(const char *exr_path, char *buf, size_t size);
 

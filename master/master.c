@@ -44,6 +44,7 @@ typedef struct mjob {
     char integrator[65], dispersion[65]; /* protocol.md: names of at most 64 bytes */
     int xres, yres, spp, ntiles;
     uint64_t seed; /* the scene's, after the settings' override */
+    const char *integrator_used, *dispersion_used; /* what the loaded scene runs with */
     spectral_grid_t grid;
     double submitted, started, finished; /* monotonic seconds; 0: not yet */
     job_state_t state;
@@ -285,10 +286,17 @@ static int write_image(master_t *m, mjob_t *j, bool final, err_t *err)
     const tilebuf_t *image = sched_job_image(m->sched, j->id);
     if (!image)
         return err_set(err, "job %llu has no image", (unsigned long long)j->id);
+    sched_job_info_t si;
+    if (sched_job_info(m->sched, j->id, &si) < 0)
+        return err_set(err, "job %llu is unknown to the scheduler", (unsigned long long)j->id);
     char info[1024];
-    snprintf(info, sizeof info, "job=%llu;name=%s;scene=%s;spp=%d;xres=%d;yres=%d;seed=%llu",
+    snprintf(info, sizeof info,
+             "job=%llu;name=%s;scene=%s;spp=%d;xres=%d;yres=%d;seed=%llu;integrator=%s;"
+             "dispersion=%s;samples=%llu;nonfinite=%llu;seconds=%.3f",
              (unsigned long long)j->id, j->stem, j->hash, j->spp, j->xres, j->yres,
-             (unsigned long long)j->seed);
+             (unsigned long long)j->seed, j->integrator_used, j->dispersion_used,
+             (unsigned long long)si.samples_done, (unsigned long long)si.nonfinite,
+             j->started > 0 ? now_s() - j->started : 0.0);
     film_output_t out = {
         .spectral = 1, .tonemap = {.exposure_stops = 0, .curve = COLOUR_CURVE_ACES}, .info = info};
     if (final) {
@@ -659,6 +667,20 @@ static void strip_all(char *msg, const char *prefix)
         memmove(p, p + n, strlen(p + n) + 1);
 }
 
+/* A loader message about a file outside the bundle ("/etc/passwd:1:1: unknown directive
+ * root:x:0:0...") would show the client a line of a file on the master's host: keep the path,
+ * drop the rest. After strip_all, bundle files are named relative to the bundle, so a location
+ * that is absolute or climbs out with ".." is outside it. */
+static void hide_outside(char *msg, size_t size)
+{
+    size_t n = strcspn(msg, ":");
+    if (msg[0] != '/' && strncmp(msg, "../", 3) != 0)
+        return;
+    char path[256];
+    snprintf(path, sizeof path, "%.*s", (int)(n < 200 ? n : 200), msg);
+    snprintf(msg, size, "the scene reads '%s', which is not in its bundle", path);
+}
+
 static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
 {
     const proto_bundle_t *b = &msg->submit.bundle;
@@ -699,12 +721,16 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
         }
         snprintf(prefix, sizeof prefix, "%s/", dir);
         strip_all(err.msg, prefix);
+        hide_outside(err.msg, sizeof err.msg);
         spool_scene_discard(m->spool, dir, staged);
         mlog(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
         reply_error(m, from, "%s", err.msg);
         return;
     }
     const render_settings_t rs = scene->settings;
+    static const char *integ_names[] = {"simplepath", "path", "whitted"};
+    const char *integ_used = integ_names[rs.integrator];
+    const char *disp_used = !scene->has_dispersion ? "off" : rs.dispersion == DISPERSION_HERO ? "hero" : "fanout";
     scene_destroy(&scene);
     if (spool_scene_commit(m->spool, b, hash, dir, staged, &m->limits, &err) < 0) {
         spool_scene_discard(m->spool, dir, staged);
@@ -756,6 +782,8 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     j->yres = rs.yres;
     j->spp = rs.spp;
     j->seed = rs.seed;
+    j->integrator_used = integ_used;
+    j->dispersion_used = disp_used;
     j->grid = rs.grid;
     j->ntiles = info.ntiles;
     j->submitted = now;

@@ -1,4 +1,4 @@
-/* The farm end to end, as users run it: `prismfarm local` with 1 and 3 workers, and separate
+/* The farm end to end, as users run it: `prismfarm render` (a master and workers in one process) with 1 and 3 workers, and separate
  * master and worker processes on loopback TCP with a worker killed half-way, all giving
  * bit-identical EXR pixel data; plus the client commands against a live master. */
 #include <setjmp.h>
@@ -118,15 +118,15 @@ static void read_endpoints(const char *spool, char *workers, char *clients)
     fail_msg("the master did not write %s", path);
 }
 
-static void test_local_mode_any_worker_count(void **state)
+static void test_render_any_worker_count(void **state)
 {
     (void)state;
-    const run_t *r = run("local", "data/render/tiny.pbrt", "-o", path_in("one.exr"), "--workers", "1",
+    const run_t *r = run("render", "data/render/tiny.pbrt", "-o", path_in("one.exr"), "--workers", "1",
                          "--threads", "1", "--tile", "8", "--quiet", NULL);
     if (r->status != 0)
         fail_msg("exit %d: %s", r->status, r->err);
     expect_in(r->out, "wrote ");
-    r = run("local", "data/render/tiny.pbrt", "-o", path_in("three.exr"), "--workers", "3", "--threads", "1",
+    r = run("render", "data/render/tiny.pbrt", "-o", path_in("three.exr"), "--workers", "3", "--threads", "1",
             "--tile", "8", "--quiet", NULL);
     if (r->status != 0)
         fail_msg("exit %d: %s", r->status, r->err);
@@ -205,7 +205,7 @@ static void test_client_without_master(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_local_mode_any_worker_count),
+        cmocka_unit_test(test_render_any_worker_count),
         cmocka_unit_test(test_processes_and_a_killed_worker),
         cmocka_unit_test(test_client_without_master),
     };

@@ -646,6 +646,23 @@ static void test_broken_scene(void **state)
     proto_msg_free(&r);
     free(bytes);
 
+    /* A scene that names a file outside its bundle: the answer names the file but never shows
+     * its contents (the first line of /etc/passwd starts "root:x:0:0"). */
+    static const char *const evil[] = {
+        "WorldBegin\nInclude \"/etc/passwd\"\n",
+        "WorldBegin\nInclude \"../../../../../../../../etc/passwd\"\n"};
+    for (int k = 0; k < 2; k++) {
+        proto_bundle_file_t ef = {
+            .path = "evil.pbrt", .data = (const uint8_t *)evil[k], .size = strlen(evil[k])};
+        req.submit.settings.integrator = NULL;
+        req.submit.bundle = (proto_bundle_t){.main = "evil.pbrt", .files = &ef, .nfiles = 1};
+        call(f, &req, &r);
+        assert_int_equal(r.type, PROTO_ERROR);
+        if (!strstr(r.error.message, "etc/passwd") || strstr(r.error.message, "root:"))
+            fail_msg("unexpected error: %s", r.error.message);
+        proto_msg_free(&r);
+    }
+
     char dir[128];
     snprintf(dir, sizeof dir, "%s/scenes", f->spool);
     assert_int_equal(count_entries(dir), 0);

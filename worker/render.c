@@ -215,9 +215,12 @@ static void start_bounce(path_t *p, const surface_t *h, vec3_t dir, int specular
  * surface, which would leak light through the mesh. For such an event the geometric normal is
  * used instead, for every branch of the event (the choice is made before any random choice,
  * so reflection and refraction probabilities stay R and 1 - R and energy is conserved).
- * eta_rel is n_incident / n_transmitted for glass, 0 for a mirror. Both normals are outward. */
-static vec3_t specular_normal(const surface_t *sf, vec3_t dir, double eta_rel)
+ * eta_rel is n_incident / n_transmitted for glass, 0 for a mirror. Both normals are outward.
+ * *shading (may be NULL) says whether the shading normal was chosen. */
+static vec3_t specular_normal(const surface_t *sf, vec3_t dir, double eta_rel, int *shading)
 {
+    if (shading)
+        *shading = 0;
     if (!sf->smooth)
         return sf->ng;
     double cg = vec3_dot(dir, sf->ng);
@@ -229,6 +232,8 @@ static vec3_t specular_normal(const surface_t *sf, vec3_t dir, double eta_rel)
     vec3_t t;
     if (eta_rel > 0.0 && fresnel_refract(dir, sf->ns, eta_rel, &t) && vec3_dot(t, sf->ng) * cg <= 0.0)
         return sf->ng;
+    if (shading)
+        *shading = 1;
     return sf->ns;
 }
 
@@ -241,7 +246,8 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
     const int entering = vec3_dot(p->dir, h->ng) < 0.0;
     const ior_model_t air = ior_constant(1.0);
     double n_hero = ior_eval(&m->ior, p->lambda[0]);
-    vec3_t nrm = specular_normal(h, p->dir, entering ? 1.0 / n_hero : n_hero);
+    int shading;
+    vec3_t nrm = specular_normal(h, p->dir, entering ? 1.0 / n_hero : n_hero, &shading);
     const double cos_d = vec3_dot(p->dir, nrm);
     vec3_t refl = fresnel_reflect(p->dir, nrm);
 
@@ -345,7 +351,7 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
      * way with the shading normal, the whole fan uses the geometric normal. */
     if (fanout_refract(&air, &m->ior, p->dir, nrm, lam, nb, rays, &poly, NULL))
         return 1;
-    if (h->smooth && nrm.x == h->ns.x && nrm.y == h->ns.y && nrm.z == h->ns.z) {
+    if (shading) {
         double cg = vec3_dot(p->dir, h->ng);
         int bad = 0;
         for (int i = 0; i < nb; i++)
@@ -471,7 +477,7 @@ static void trace(ctx_t *c, path_t *start)
                     p->beta[j] *= albedo[j];
                 start_bounce(p, &sf, wi, 0, cos_i / PF_PI);
             } else if (m->kind == MATERIAL_CONDUCTOR) {
-                vec3_t ns = specular_normal(&sf, p->dir, 0.0);
+                vec3_t ns = specular_normal(&sf, p->dir, 0.0, NULL);
                 vec3_t n = vec3_dot(ns, wo) >= 0.0 ? ns : vec3_neg(ns);
                 double cos_i = vec3_dot(wo, n);
                 for (int j = 0; j < p->n; j++) {

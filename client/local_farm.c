@@ -1,0 +1,166 @@
+#include "local_farm.h"
+
+#include "client_rpc.h"
+#include "job_follow.h"
+#include "master.h"
+#include "scene_bundle.h"
+#include "worker_daemon.h"
+
+#include <errno.h>
+#include <pthread.h>
+#include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+#include <zmq.h>
+
+typedef struct local_worker {
+    pthread_t thread;
+    worker_opts_t opts;
+    char name[32], cache[600];
+    int rc;
+    err_t err;
+} local_worker_t;
+
+typedef struct local_master {
+    pthread_t thread;
+    master_opts_t opts;
+    int rc;
+    err_t err;
+} local_master_t;
+
+static void *run_master(void *arg)
+{
+    local_master_t *m = arg;
+    m->rc = master_run(&m->opts, &m->err);
+    return NULL;
+}
+
+static void *run_worker(void *arg)
+{
+    local_worker_t *w = arg;
+    w->rc = worker_run(&w->opts, &w->err);
+    return NULL;
+}
+
+int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
+{
+    const char *scene = o->scene, *spool = o->spool, *name = o->name;
+    const scene_overrides_t ov = o->overrides;
+    const long long nworkers = o->workers, threads = o->threads, tile = o->tile;
+    const int quiet = o->quiet;
+    char spool_buf[512];
+    err_t err;
+    scene_bundle_t *bundle = scene_bundle_new(scene, &err);
+    if (!bundle) {
+        fprintf(stderr, "prismfarm render: %s\n", err.msg);
+        return 1;
+    }
+    int made_spool = 0;
+    if (!spool) {
+        snprintf(spool_buf, sizeof spool_buf, "%s/prismfarm-local-XXXXXX", getenv("TMPDIR") ? getenv("TMPDIR") : "/tmp");
+        if (!mkdtemp(spool_buf)) {
+            fprintf(stderr, "prismfarm render: cannot create a spool folder: %s\n", strerror(errno));
+            scene_bundle_destroy(&bundle);
+            return 1;
+        }
+        spool = spool_buf;
+        made_spool = 1;
+    }
+
+    /* inproc endpoints are private to this context; the pid keeps them unique in logs. */
+    char wep[64], cep[64];
+    snprintf(wep, sizeof wep, "inproc://local-workers-%ld", (long)getpid());
+    snprintf(cep, sizeof cep, "inproc://local-clients-%ld", (long)getpid());
+    void *ctx = zmq_ctx_new();
+    volatile sig_atomic_t stop_master = 0, stop_workers = 0;
+    local_master_t m = {.opts = master_opts_default()};
+    m.opts.worker_endpoint = wep;
+    m.opts.client_endpoint = cep;
+    m.opts.spool_dir = spool;
+    m.opts.zmq_ctx = ctx;
+    m.opts.stop = &stop_master;
+    m.opts.verbose = 0;
+    if (tile)
+        m.opts.sched.tile_size = (int)tile;
+    local_worker_t *workers = calloc((size_t)nworkers, sizeof *workers);
+    int rc = 0, master_started = 0, nstarted = 0;
+    client_rpc_t *rpc = NULL;
+    if (!ctx || !workers) {
+        fprintf(stderr, "prismfarm render: cannot set up ZeroMQ\n");
+        rc = 1;
+        goto out;
+    }
+    if (pthread_create(&m.thread, NULL, run_master, &m) != 0) {
+        fprintf(stderr, "prismfarm render: cannot start the master thread\n");
+        rc = 1;
+        goto out;
+    }
+    master_started = 1;
+    for (; nstarted < nworkers; nstarted++) {
+        local_worker_t *w = &workers[nstarted];
+        snprintf(w->name, sizeof w->name, "local-%d", nstarted + 1);
+        snprintf(w->cache, sizeof w->cache, "%s/worker-cache-%d", spool, nstarted + 1);
+        w->opts = (worker_opts_t){.endpoint = wep, .zmq_ctx = ctx, .threads = (int)threads, .name = w->name,
+                                  .cache_dir = w->cache, .stop = &stop_workers, .reconnect_max_ms = 1000};
+        if (pthread_create(&w->thread, NULL, run_worker, w) != 0)
+            break;
+    }
+    if (!quiet)
+        fprintf(stderr, "render: a master and %d worker%s x %lld threads in this process\n", nstarted,
+                nstarted == 1 ? "" : "s", threads);
+    rpc = client_rpc_new(cep, ctx, &err);
+    proto_msg_t req = {.type = PROTO_SUBMIT,
+                       .submit = {.name = name, .settings = proto_settings_from_overrides(&ov),
+                                  .bundle = *scene_bundle_get(bundle)}};
+    proto_msg_t reply;
+    if (!rpc || client_rpc_call(rpc, &req, &reply, 60000, &err)) {
+        fprintf(stderr, "prismfarm render: %s\n", err.msg);
+        rc = 1;
+        goto out;
+    }
+    uint64_t job = reply.type == PROTO_SUBMITTED ? reply.submitted.job : 0;
+    proto_msg_free(&reply);
+    char error[600];
+    int state = job_follow_wait(rpc, job, quiet, info, error, sizeof error);
+    if (state != PROTO_JOB_DONE) {
+        fprintf(stderr, "prismfarm render: job %s%s%s\n",
+                state < 0 ? "lost" : proto_job_state_name((proto_job_state_t)state), error[0] ? ": " : "", error);
+        rc = 1;
+        goto out;
+    }
+    if (job_follow_fetch(rpc, job, PROTO_FETCH_EXR, o->exr_path, "render")) {
+        rc = 1;
+        goto out;
+    }
+out:
+    client_rpc_destroy(&rpc);
+    /* Workers first, so that none is left talking to a master that has gone. */
+    stop_workers = 1;
+    for (int i = 0; i < nstarted; i++) {
+        pthread_join(workers[i].thread, NULL);
+        if (workers[i].rc && !rc)
+            fprintf(stderr, "prismfarm render: worker %d: %s\n", i + 1, workers[i].err.msg);
+    }
+    stop_master = 1;
+    if (master_started) {
+        pthread_join(m.thread, NULL);
+        if (m.rc) {
+            fprintf(stderr, "prismfarm render: master: %s\n", m.err.msg);
+            rc = 1;
+        }
+    }
+    free(workers);
+    if (ctx)
+        zmq_ctx_term(ctx);
+    if (made_spool) {
+        /* Outputs were copied out; the temporary spool goes. */
+        char cmd[700];
+        snprintf(cmd, sizeof cmd, "rm -rf '%s'", spool);
+        if (system(cmd) != 0)
+            fprintf(stderr, "prismfarm render: could not remove %s\n", spool);
+    }
+    scene_bundle_destroy(&bundle);
+    return rc;
+}

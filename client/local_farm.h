@@ -1,0 +1,26 @@
+/* local_farm: the farm in one process -- a master, N workers and a client over inproc://
+ * sockets on one ZeroMQ context -- so `prismfarm render` runs exactly the code a farm runs:
+ * bundling, scheduling, progressive passes, merging and outputs. */
+#ifndef PRISMFARM_LOCAL_FARM_H
+#define PRISMFARM_LOCAL_FARM_H
+
+#include "proto.h"
+#include "scene_load.h"
+
+typedef struct local_farm_opts {
+    const char *scene;    /* the scene file */
+    const char *name;     /* job name */
+    const char *exr_path; /* where the fetched EXR goes */
+    scene_overrides_t overrides;
+    int workers;          /* >= 1 */
+    int threads;          /* render threads per worker, >= 1 */
+    int tile;             /* tile size; 0: the scheduler's default */
+    const char *spool;    /* NULL: a temporary folder, removed afterwards */
+    int quiet;
+} local_farm_opts_t;
+
+/* Renders the scene and writes the EXR. Returns 0 with the finished job's counters in *info
+ * (name and error cleared), or 1 with a message on stderr. */
+int local_farm_run(const local_farm_opts_t *opts, proto_job_info_t *info);
+
+#endif
