@@ -2,6 +2,7 @@
  * PNG preview. */
 #include "commands.h"
 
+#include "cli_args.h"
 #include "film.h"
 #include "local_farm.h"
 #include "local_render.h"
@@ -27,32 +28,15 @@ static void usage(FILE *out)
             "with linear sRGB R,G,B channels) and a tone-mapped PNG preview beside it.\n"
             "Options override the scene file:\n"
             "  -o, --output OUT.exr     output file (default: the Film's filename, else SCENE.exr)\n"
-            "  --spp N                  samples per pixel\n"
-            "  --res WxH                image resolution\n"
+            CLI_OVERRIDES_HELP
             "  --threads N              render threads per worker (default: all cores / workers)\n"
             "  --workers N              workers in this process (default 1)\n"
             "  --tile N                 tile size in pixels (default 32)\n"
             "  --direct                 render with plain threads, without the farm's master and\n"
             "                           workers (same pixels up to rounding; for comparisons)\n"
-            "  --integrator NAME        path | simplepath | whitted\n"
-            "  --dispersion NAME        hero | fanout\n"
-            "  --seed N                 random seed (default: the Sampler's seed)\n"
+
             "  --exposure STOPS         preview exposure (default 0)\n"
             "  --quiet                  no progress output\n");
-}
-
-/* Parses a whole decimal integer in [lo, hi]. */
-static int parse_int(const char *flag, const char *s, long long lo, long long hi, long long *out)
-{
-    char *end;
-    errno = 0;
-    long long v = strtoll(s, &end, 10);
-    if (errno || end == s || *end || v < lo || v > hi) {
-        fprintf(stderr, "prismfarm render: %s expects an integer in %lld..%lld, got '%s'\n", flag, lo, hi, s);
-        return -1;
-    }
-    *out = v;
-    return 0;
 }
 
 static void on_progress(void *user, uint64_t done, uint64_t total, double elapsed)
@@ -133,7 +117,6 @@ int cmd_render(int argc, char **argv)
     int quiet = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
-        long long v;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             usage(stdout);
             return 0;
@@ -152,46 +135,22 @@ int cmd_render(int argc, char **argv)
                 return 2;
             }
             const char *val = argv[++i];
+            int handled = cli_parse_override("render", a, val, &ov);
+            if (handled < 0)
+                return 2;
+            if (handled)
+                continue;
             if (!strcmp(a, "-o") || !strcmp(a, "--output"))
                 output = val;
-            else if (!strcmp(a, "--spp")) {
-                if (parse_int(a, val, 1, 1 << 24, &v))
-                    return 2;
-                ov.spp = (int)v;
-            } else if (!strcmp(a, "--threads")) {
-                if (parse_int(a, val, 1, 1024, &threads))
+            else if (!strcmp(a, "--threads")) {
+                if (cli_parse_int("render", a, val, 1, 1024, &threads))
                     return 2;
             } else if (!strcmp(a, "--workers")) {
-                if (parse_int(a, val, 1, 64, &workers))
+                if (cli_parse_int("render", a, val, 1, 64, &workers))
                     return 2;
             } else if (!strcmp(a, "--tile")) {
-                if (parse_int(a, val, 1, 4096, &tile))
+                if (cli_parse_int("render", a, val, 1, 4096, &tile))
                     return 2;
-            } else if (!strcmp(a, "--seed")) {
-                if (parse_int(a, val, 0, (long long)UINT32_MAX, &v))
-                    return 2;
-                ov.seed = v;
-            } else if (!strcmp(a, "--res")) {
-                int w, h;
-                char extra;
-                if (sscanf(val, "%dx%d%c", &w, &h, &extra) != 2 || w < 1 || h < 1 || w > 32768 || h > 32768) {
-                    fprintf(stderr, "prismfarm render: --res expects WxH with 1..32768 each, got '%s'\n", val);
-                    return 2;
-                }
-                ov.xres = w;
-                ov.yres = h;
-            } else if (!strcmp(a, "--integrator")) {
-                if (strcmp(val, "path") && strcmp(val, "simplepath") && strcmp(val, "whitted")) {
-                    fprintf(stderr, "prismfarm render: --integrator expects path, simplepath or whitted, got '%s'\n", val);
-                    return 2;
-                }
-                ov.integrator = val;
-            } else if (!strcmp(a, "--dispersion")) {
-                if (strcmp(val, "hero") && strcmp(val, "fanout")) {
-                    fprintf(stderr, "prismfarm render: --dispersion expects hero or fanout, got '%s'\n", val);
-                    return 2;
-                }
-                ov.dispersion = val;
             } else if (!strcmp(a, "--exposure")) {
                 char *end;
                 exposure = strtod(val, &end);

@@ -2,6 +2,7 @@
  * the job id; with --wait follows the job with a progress bar and fetches the result. */
 #include "commands.h"
 
+#include "cli_args.h"
 #include "client_rpc.h"
 #include "film.h"
 #include "job_follow.h"
@@ -28,19 +29,6 @@ static void usage(FILE *out)
             "  --json              print the job id (and with --wait the final status) as JSON\n");
 }
 
-static int parse_int(const char *flag, const char *s, long long lo, long long hi, long long *out)
-{
-    char *end;
-    errno = 0;
-    long long v = strtoll(s, &end, 10);
-    if (errno || end == s || *end || v < lo || v > hi) {
-        fprintf(stderr, "prismfarm submit: %s expects an integer in %lld..%lld, got '%s'\n", flag, lo, hi, s);
-        return -1;
-    }
-    *out = v;
-    return 0;
-}
-
 int cmd_submit(int argc, char **argv)
 {
     const char *scene = NULL, *master = client_default_master(), *name = NULL, *output = NULL;
@@ -48,7 +36,6 @@ int cmd_submit(int argc, char **argv)
     int wait = 0, json = 0, quiet = 0;
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
-        long long v;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             usage(stdout);
             return 0;
@@ -71,42 +58,18 @@ int cmd_submit(int argc, char **argv)
                 return 2;
             }
             const char *val = argv[++i];
+            int handled = cli_parse_override("submit", a, val, &ov);
+            if (handled < 0)
+                return 2;
+            if (handled)
+                continue;
             if (!strcmp(a, "--master"))
                 master = val;
             else if (!strcmp(a, "--name"))
                 name = val;
             else if (!strcmp(a, "-o") || !strcmp(a, "--output"))
                 output = val;
-            else if (!strcmp(a, "--spp")) {
-                if (parse_int(a, val, 1, 1 << 24, &v))
-                    return 2;
-                ov.spp = (int)v;
-            } else if (!strcmp(a, "--seed")) {
-                if (parse_int(a, val, 0, 4294967295LL, &v))
-                    return 2;
-                ov.seed = v;
-            } else if (!strcmp(a, "--res")) {
-                int w, h;
-                char extra;
-                if (sscanf(val, "%dx%d%c", &w, &h, &extra) != 2 || w < 1 || h < 1 || w > 32768 || h > 32768) {
-                    fprintf(stderr, "prismfarm submit: --res expects WxH with 1..32768 each, got '%s'\n", val);
-                    return 2;
-                }
-                ov.xres = w;
-                ov.yres = h;
-            } else if (!strcmp(a, "--integrator")) {
-                if (strcmp(val, "path") && strcmp(val, "simplepath") && strcmp(val, "whitted")) {
-                    fprintf(stderr, "prismfarm submit: --integrator expects path, simplepath or whitted, got '%s'\n", val);
-                    return 2;
-                }
-                ov.integrator = val;
-            } else if (!strcmp(a, "--dispersion")) {
-                if (strcmp(val, "hero") && strcmp(val, "fanout")) {
-                    fprintf(stderr, "prismfarm submit: --dispersion expects hero or fanout, got '%s'\n", val);
-                    return 2;
-                }
-                ov.dispersion = val;
-            } else {
+            else {
                 fprintf(stderr, "prismfarm submit: unknown option '%s' (see prismfarm submit --help)\n", a);
                 return 2;
             }

@@ -1,0 +1,58 @@
+#include "cli_args.h"
+
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+int cli_parse_int(const char *cmd, const char *flag, const char *s, long long lo, long long hi,
+                  long long *out)
+{
+    char *end;
+    errno = 0;
+    long long v = strtoll(s, &end, 10);
+    if (errno || end == s || *end || v < lo || v > hi) {
+        fprintf(stderr, "prismfarm %s: %s expects an integer in %lld..%lld, got '%s'\n", cmd, flag, lo, hi, s);
+        return -1;
+    }
+    *out = v;
+    return 0;
+}
+
+int cli_parse_override(const char *cmd, const char *flag, const char *val, scene_overrides_t *ov)
+{
+    long long v;
+    if (!strcmp(flag, "--spp")) {
+        if (cli_parse_int(cmd, flag, val, 1, 1 << 24, &v))
+            return -1;
+        ov->spp = (int)v;
+    } else if (!strcmp(flag, "--seed")) {
+        if (cli_parse_int(cmd, flag, val, 0, 4294967295LL, &v))
+            return -1;
+        ov->seed = v;
+    } else if (!strcmp(flag, "--res")) {
+        int w, h;
+        char extra;
+        if (sscanf(val, "%dx%d%c", &w, &h, &extra) != 2 || w < 1 || h < 1 || w > 32768 || h > 32768) {
+            fprintf(stderr, "prismfarm %s: --res expects WxH with 1..32768 each, got '%s'\n", cmd, val);
+            return -1;
+        }
+        ov->xres = w;
+        ov->yres = h;
+    } else if (!strcmp(flag, "--integrator")) {
+        if (strcmp(val, "path") && strcmp(val, "simplepath") && strcmp(val, "whitted")) {
+            fprintf(stderr, "prismfarm %s: --integrator expects path, simplepath or whitted, got '%s'\n", cmd, val);
+            return -1;
+        }
+        ov->integrator = val;
+    } else if (!strcmp(flag, "--dispersion")) {
+        if (strcmp(val, "hero") && strcmp(val, "fanout")) {
+            fprintf(stderr, "prismfarm %s: --dispersion expects hero or fanout, got '%s'\n", cmd, val);
+            return -1;
+        }
+        ov->dispersion = val;
+    } else {
+        return 0;
+    }
+    return 1;
+}
