@@ -178,6 +178,13 @@ static void test_processes_and_a_killed_worker(void **state)
     if (r->status != 0)
         fail_msg("submit --wait: exit %d: %s", r->status, r->err);
     assert_same_pixels(path_in("killed.exr"), path_in("single.exr"));
+    /* And the same bytes as `prismfarm render` of the scene with the same seed and spp (another
+     * tile size changes nothing: passes are per job, so each pixel sums the same samples in the
+     * same order). */
+    r = run("render", "data/render/tiny.pbrt", "--spp", "64", "-o", path_in("render.exr"), "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("render: exit %d: %s", r->status, r->err);
+    assert_same_pixels(path_in("single.exr"), path_in("render.exr"));
 
     /* Errors a user sees: a broken scene, a job that does not exist. */
     r = run("submit", "data/render/broken.pbrt", "--master", cep, NULL);
