@@ -8,6 +8,7 @@ PACKAGES=(
   libzmq3-dev libmsgpack-dev libopenexr-dev openexr libembree-dev
   libpng-dev zlib1g-dev libassimp-dev libjansson-dev
   libcmocka-dev
+  iproute2
 )
 
 if [ "$(id -u)" -eq 0 ]; then
