@@ -1,4 +1,4 @@
-#define _XOPEN_SOURCE 700 /* realpath, strdup */
+#define _XOPEN_SOURCE 700 /* realpath, strdup, O_NOFOLLOW, O_CLOEXEC */
 
 #include "pbrt_parser.h"
 
@@ -7,13 +7,16 @@
 #include "pbrt_lexer.h"
 
 #include <errno.h>
+#include <fcntl.h>
 #include <limits.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 /* ------------------------------------------------------------------------------------------
@@ -61,6 +64,10 @@ typedef struct parser {
     pbrt_lexer_t *lex;
     const char *file;      /* the file being read, as named in messages */
     const char *main_name; /* the main file: the base of pbrt-v4's file name rule */
+    /* A confined parse (pbrt_parse_file_confined): the root folder, absolute and lexically
+     * normalised, and its realpath; both NULL when unconfined. */
+    char *root_lex, *root_real;
+    size_t bytes_charged; /* confined: bytes read and decoded so far (PBRT_TOTAL_BYTES_MAX) */
 } parser_t;
 
 #define NAME_MAX_LEN 4096
@@ -411,13 +418,15 @@ static char *resolve_path(const char *base, const char *name)
  * current file; if nothing is there, against the main file's folder (pbrt-v4 resolves every
  * name against the main file's folder); if neither exists, the first (so that the error names
  * it). malloc'ed. */
+static bool present(const parser_t *P, const char *path);
+
 static char *locate(parser_t *P, const char *name)
 {
     char *first = resolve_path(P->file, name);
-    if (!first || name[0] == '/' || access(first, F_OK) == 0)
+    if (!first || name[0] == '/' || present(P, first))
         return first;
     char *second = resolve_path(P->main_name, name);
-    if (second && strcmp(second, first) != 0 && access(second, F_OK) == 0) {
+    if (second && strcmp(second, first) != 0 && present(P, second)) {
         free(first);
         return second;
     }
@@ -547,6 +556,209 @@ static char *relative_to(const char *dir, const char *path)
     free(cd);
     free(cp);
     return out;
+}
+
+/* ------------------------------------------------------------------------------------------
+ * Confinement. A scene that came over the network (a bundle extracted into a folder) may
+ * name any path: "/etc/passwd", "../../x", a FIFO that blocks open() for ever, /dev/zero that
+ * never ends, a symbolic link to any of those. A confined parse reads only regular files that
+ * lie inside its root both lexically ("." and ".." folded) and after every symbolic link is
+ * followed (realpath), checks each with realpath and stat before opening it (neither opens
+ * the file), opens it without following a final link and without blocking, checks the open
+ * descriptor again, and reads at most PBRT_FILE_BYTES_MAX bytes of one file and
+ * PBRT_TOTAL_BYTES_MAX in all.
+ * ------------------------------------------------------------------------------------------ */
+
+/* A message at *from, or without a location for the main file (from NULL); returns -1. */
+__attribute__((format(printf, 3, 4))) static int fail_at(parser_t *P, const pbrt_loc_t *from,
+                                                         const char *fmt, ...)
+{
+    char msg[sizeof P->err->msg];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    return from ? pbrt_error(P->err, *from, "%s", msg) : err_set(P->err, "%s", msg);
+}
+
+/* Whether path (absolute, normalised) is the folder dir (same form) or lies under it. */
+static bool is_under(const char *dir, const char *path)
+{
+    size_t n = strlen(dir);
+    return !strncmp(path, dir, n) &&
+           (path[n] == 0 || path[n] == '/' || (n > 0 && dir[n - 1] == '/'));
+}
+
+/* The absolute, lexically normalised form of path. malloc'ed. */
+static char *lexical_path(const char *path)
+{
+    char *a = absolute_path(path);
+    char *n = a ? normalise_path(a) : NULL;
+    free(a);
+    return n;
+}
+
+/* -1: out of memory; 0: outside; 1: inside. Touches nothing on disk. */
+static int lexically_inside(const parser_t *P, const char *path)
+{
+    char *n = lexical_path(path);
+    int in = n ? is_under(P->root_lex, n) : -1;
+    free(n);
+    return in;
+}
+
+/* Whether a candidate file exists, without looking outside the root of a confined parse. */
+static bool present(const parser_t *P, const char *path)
+{
+    return (!P->root_lex || lexically_inside(P, path) == 1) && access(path, F_OK) == 0;
+}
+
+/* Counts bytes against the confined parse's total. */
+static int charge(parser_t *P, uint64_t bytes, const pbrt_loc_t *from)
+{
+    if (bytes > PBRT_TOTAL_BYTES_MAX - P->bytes_charged)
+        return fail_at(P, from, "the scene reads more than %zu bytes in all", PBRT_TOTAL_BYTES_MAX);
+    P->bytes_charged += (size_t)bytes;
+    return 0;
+}
+
+/* Checks, without opening it, the file path (written as name at *from; the main file when
+ * from is NULL; `what` says what it is, for messages): it must lie in the root lexically and
+ * after realpath, be a regular file and hold at most PBRT_FILE_BYTES_MAX bytes. Returns its
+ * real path (malloc'ed), or NULL with the message. */
+static char *confine(parser_t *P, const char *path, const char *name, const pbrt_loc_t *from,
+                     const char *what)
+{
+    int in = lexically_inside(P, path);
+    if (in < 0) {
+        fail_at(P, from, "out of memory");
+        return NULL;
+    }
+    if (!in) {
+        fail_at(P, from, "\"%s\" is outside the scene's folder", name);
+        return NULL;
+    }
+    char *real = realpath(path, NULL);
+    if (!real) {
+        fail_at(P, from, "cannot open %s \"%s\": %s", what, path, strerror(errno));
+        return NULL;
+    }
+    struct stat st;
+    if (!is_under(P->root_real, real)) {
+        fail_at(P, from, "\"%s\" is outside the scene's folder", name);
+    } else if (stat(real, &st) != 0) {
+        fail_at(P, from, "cannot open %s \"%s\": %s", what, path, strerror(errno));
+    } else if (!S_ISREG(st.st_mode)) {
+        fail_at(P, from, "\"%s\" is not a regular file", name);
+    } else if ((uint64_t)st.st_size > PBRT_FILE_BYTES_MAX) {
+        fail_at(P, from, "\"%s\" is larger than %zu bytes", name, PBRT_FILE_BYTES_MAX);
+    } else {
+        return real;
+    }
+    free(real);
+    return NULL;
+}
+
+/* Opens a file confine() accepted, checking the open descriptor again (the folder could have
+ * changed since): O_NOFOLLOW refuses a final symbolic link, O_NONBLOCK keeps a FIFO from
+ * blocking the open. Returns the descriptor and the file's size, or -1 with the message. */
+static int open_confined(parser_t *P, const char *real, const char *name, const char *path,
+                         const pbrt_loc_t *from, const char *what, size_t *size)
+{
+    int fd = open(real, O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0)
+        return errno == ELOOP
+                   ? fail_at(P, from, "\"%s\" is not a regular file", name)
+                   : fail_at(P, from, "cannot open %s \"%s\": %s", what, path, strerror(errno));
+    struct stat st;
+    int rc = 0;
+    if (fstat(fd, &st) != 0)
+        rc = fail_at(P, from, "cannot open %s \"%s\": %s", what, path, strerror(errno));
+    else if (!S_ISREG(st.st_mode))
+        rc = fail_at(P, from, "\"%s\" is not a regular file", name);
+    else if ((uint64_t)st.st_size > PBRT_FILE_BYTES_MAX)
+        rc = fail_at(P, from, "\"%s\" is larger than %zu bytes", name, PBRT_FILE_BYTES_MAX);
+    if (rc != 0) {
+        close(fd);
+        return -1;
+    }
+    *size = (size_t)st.st_size;
+    return fd;
+}
+
+/* Reads a whole file confine() accepted (its size as fstat gives it, charged to the total). */
+static char *read_confined(parser_t *P, const char *real, const char *name, const char *path,
+                           const pbrt_loc_t *from, const char *what, size_t *len)
+{
+    size_t size;
+    int fd = open_confined(P, real, name, path, from, what, &size);
+    if (fd < 0)
+        return NULL;
+    if (charge(P, size, from) != 0) {
+        close(fd);
+        return NULL;
+    }
+    char *buf = malloc(size + 1);
+    if (!buf) {
+        close(fd);
+        fail_at(P, from, "out of memory reading \"%s\"", path);
+        return NULL;
+    }
+    size_t n = 0;
+    while (n < size) {
+        ssize_t got = read(fd, buf + n, size - n);
+        if (got < 0 && errno == EINTR)
+            continue;
+        if (got <= 0) {
+            fail_at(P, from, "cannot read %s \"%s\": %s", what, path,
+                    got < 0 ? strerror(errno) : "it ended early");
+            free(buf);
+            close(fd);
+            return NULL;
+        }
+        n += (size_t)got;
+    }
+    close(fd);
+    *len = n;
+    return buf;
+}
+
+/* An imagemap PNG in a confined parse: its IHDR (PNG specification 11.2.2: the 8-byte
+ * signature, then a 13-byte chunk "IHDR" whose data begins with the width and height, 4 bytes
+ * big-endian each) says how many pixels decoding makes, 16 bytes each (the 8-bit RGBA that
+ * image_png decodes and the float RGB of the texture), charged with the file's own bytes
+ * before anything decodes it. A file that is not a PNG is left to the PNG reader's message. */
+static int check_png(parser_t *P, const char *real, const char *name, const char *path,
+                     const pbrt_loc_t *from)
+{
+    size_t size;
+    int fd = open_confined(P, real, name, path, from, "image", &size);
+    if (fd < 0)
+        return -1;
+    unsigned char h[24];
+    size_t n = 0;
+    while (n < sizeof h) {
+        ssize_t got = read(fd, h + n, sizeof h - n);
+        if (got < 0 && errno == EINTR)
+            continue;
+        if (got <= 0)
+            break;
+        n += (size_t)got;
+    }
+    close(fd);
+    uint64_t pixels = 0;
+    static const unsigned char SIG[12] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n', 0, 0, 0, 13};
+    if (n == sizeof h && !memcmp(h, SIG, sizeof SIG) && !memcmp(h + 12, "IHDR", 4)) {
+        uint64_t w = (uint64_t)h[16] << 24 | (uint64_t)h[17] << 16 | (uint64_t)h[18] << 8 | h[19];
+        uint64_t ht = (uint64_t)h[20] << 24 | (uint64_t)h[21] << 16 | (uint64_t)h[22] << 8 | h[23];
+        pixels = w * ht; /* each below 2^32: no overflow */
+    }
+    if (pixels > (PBRT_TOTAL_BYTES_MAX - P->bytes_charged) / 16)
+        return fail_at(P, from,
+                       "image \"%s\" decodes to %llu pixels, more than the scene may "
+                       "read (%zu bytes in all)",
+                       name, (unsigned long long)pixels, PBRT_TOTAL_BYTES_MAX);
+    return charge(P, size + 16 * pixels, from);
 }
 
 /* Records a file the scene read (once per relative path): its path as opened and its path
@@ -1242,15 +1454,29 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
         return pbrt_error(P->err, params_find(ps, "encoding")->loc,
                           "unknown encoding \"%s\" (\"sRGB\", \"linear\" or \"gamma G\")",
                           encoding);
-    t->image.filename = scene_path(P, filename, fp->loc);
-    if (!t->image.filename)
+    const char *path = scene_path(P, filename, fp->loc);
+    if (!path)
         return -1;
-    FILE *f = fopen(t->image.filename, "rb");
-    if (!f)
-        return pbrt_error(P->err, fp->loc, "cannot open image \"%s\": %s", t->image.filename,
-                          strerror(errno));
-    fclose(f);
-    if (note_file(P, SCENE_FILE_IMAGE, t->image.filename, filename, fp->loc) != 0)
+    if (P->root_real) {
+        /* The image is decoded later, by scene_load: it gets the checked real path, so that
+         * no symbolic link is followed again. */
+        char *real = confine(P, path, filename, &fp->loc, "image");
+        if (!real)
+            return -1;
+        int rc = check_png(P, real, filename, path, &fp->loc);
+        t->image.filename = rc == 0 ? scene_desc_strdup(P->scene, real, P->err) : NULL;
+        free(real);
+        if (!t->image.filename)
+            return -1;
+    } else {
+        FILE *f = fopen(path, "rb");
+        if (!f)
+            return pbrt_error(P->err, fp->loc, "cannot open image \"%s\": %s", path,
+                              strerror(errno));
+        fclose(f);
+        t->image.filename = path;
+    }
+    if (note_file(P, SCENE_FILE_IMAGE, path, filename, fp->loc) != 0)
         return -1;
     t->image.wrap = scene_desc_strdup(P->scene, wrap, P->err);
     t->image.filter = scene_desc_strdup(P->scene, filter, P->err);
@@ -1323,8 +1549,8 @@ static int do_light(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
     const char *sname = (l->type == SCENE_LIGHT_POINT || l->type == SCENE_LIGHT_SPOT) ? "I" : "L";
     /* pbrt-v4 lights.cpp: point and spot lights take "power", distant and infinite lights
      * "illuminance"; a value <= 0 means "not given". */
-    const char *pname = (l->type == SCENE_LIGHT_POINT || l->type == SCENE_LIGHT_SPOT) ? "power"
-                                                                                     : "illuminance";
+    const char *pname =
+        (l->type == SCENE_LIGHT_POINT || l->type == SCENE_LIGHT_SPOT) ? "power" : "illuminance";
     if (get_spectrum(P, ps, sname, spectrum_named("stdillum-D65", loc), SPECTRUM_ANY,
                      &l->spectrum) != 0 ||
         params_get_float(ps, "scale", 1.0, &l->scale, P->err) != 0 ||
@@ -1459,8 +1685,21 @@ static int mesh_from_ply(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t
         return -1;
     mesh_data_t md;
     err_t e;
-    if (mesh_import_ply(path, &md, &e) != 0)
+    if (P->root_real) {
+        size_t len;
+        char *real = confine(P, path, filename, &fp->loc, "PLY file");
+        char *buf =
+            real ? read_confined(P, real, filename, path, &fp->loc, "PLY file", &len) : NULL;
+        free(real);
+        if (!buf)
+            return -1;
+        int rc = mesh_import_ply_memory(buf, len, path, &md, &e);
+        free(buf);
+        if (rc != 0)
+            return pbrt_error(P->err, fp->loc, "%s", e.msg);
+    } else if (mesh_import_ply(path, &md, &e) != 0) {
         return pbrt_error(P->err, fp->loc, "%s", e.msg);
+    }
     scene_mesh_t *m = &s->mesh;
     m->nvertices = md.nvertices;
     m->ntriangles = md.ntriangles;
@@ -1549,8 +1788,8 @@ static int do_shape(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
  * Directives
  * ------------------------------------------------------------------------------------------ */
 
-static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from,
-                      scene_file_kind_t kind, const char *name);
+static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from, scene_file_kind_t kind,
+                      const char *name);
 
 /* Directives of the form: Name "type" params. */
 static int param_directive(parser_t *P, const char *dir, pbrt_loc_t loc)
@@ -1949,11 +2188,19 @@ static char *read_file(parser_t *P, const char *path, const pbrt_loc_t *from, si
             }
             break;
         }
-        char *nb = cap <= SIZE_MAX / 2 ? realloc(buf, cap * 2) : NULL;
+        /* The lexer counts lines and columns in int: a scene text is bounded. */
+        if (cap > PBRT_FILE_BYTES_MAX) {
+            free(buf);
+            fclose(f);
+            fail_at(P, from, "\"%s\" is larger than %zu bytes", path, PBRT_FILE_BYTES_MAX);
+            return NULL;
+        }
+        size_t grown = cap * 2 < PBRT_FILE_BYTES_MAX + 1 ? cap * 2 : PBRT_FILE_BYTES_MAX + 1;
+        char *nb = realloc(buf, grown);
         if (!nb)
             free(buf);
         buf = nb;
-        cap *= 2;
+        cap = grown;
     }
     fclose(f);
     if (!buf) {
@@ -1980,8 +2227,8 @@ static int parse_buffer(parser_t *P, const char *name, const char *text, size_t 
 
 /* Reads and parses one file: the main file (from NULL) or one named by Include/Import at
  * *from, as `name`. */
-static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from,
-                      scene_file_kind_t kind, const char *name)
+static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from, scene_file_kind_t kind,
+                      const char *name)
 {
     if (from && P->nopen >= PBRT_INCLUDE_DEPTH_MAX)
         return pbrt_error(P->err, *from, "Include/Import nested deeper than %d files",
@@ -1989,14 +2236,26 @@ static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from,
     if (from && ++P->nfiles_read > PBRT_FILES_MAX)
         return pbrt_error(P->err, *from, "the scene reads more than %d files", PBRT_FILES_MAX);
     size_t len;
-    char *text = read_file(P, path, from, &len);
-    if (!text)
-        return -1;
-    char *real = realpath(path, NULL);
-    if (!real) {
-        free(text);
-        return from ? pbrt_error(P->err, *from, "cannot resolve \"%s\": %s", path, strerror(errno))
-                    : err_set(P->err, "cannot resolve \"%s\": %s", path, strerror(errno));
+    char *text, *real;
+    if (P->root_real) {
+        const char *what = from ? "included file" : "scene file";
+        real = confine(P, path, name, from, what);
+        text = real ? read_confined(P, real, name, path, from, what, &len) : NULL;
+        if (!text) {
+            free(real);
+            return -1;
+        }
+    } else {
+        text = read_file(P, path, from, &len);
+        if (!text)
+            return -1;
+        real = realpath(path, NULL);
+        if (!real) {
+            free(text);
+            return from ? pbrt_error(P->err, *from, "cannot resolve \"%s\": %s", path,
+                                     strerror(errno))
+                        : err_set(P->err, "cannot resolve \"%s\": %s", path, strerror(errno));
+        }
     }
     for (int i = 0; i < P->nopen; i++)
         if (!strcmp(P->open_files[i], real)) {
@@ -2033,14 +2292,31 @@ static int finish(parser_t *P)
     return 0;
 }
 
-static scene_desc_t *run(const char *name, const char *text, size_t len, err_t *err)
+static scene_desc_t *run(const char *name, const char *text, size_t len, const char *root,
+                         err_t *err)
 {
     parser_t P = {0};
     P.err = err;
+    if (root) {
+        P.root_real = realpath(root, NULL);
+        if (!P.root_real) {
+            err_set(err, "cannot open the scene's folder \"%s\": %s", root, strerror(errno));
+            return NULL;
+        }
+        P.root_lex = lexical_path(root);
+        if (!P.root_lex) {
+            free(P.root_real);
+            err_set(err, "out of memory");
+            return NULL;
+        }
+    }
     P.object = -1;
     P.scene = scene_desc_new(err);
-    if (!P.scene)
+    if (!P.scene) {
+        free(P.root_real);
+        free(P.root_lex);
         return NULL;
+    }
     P.gs.ctm = transform_identity();
     P.gs.material = 0;
     P.gs.area_light = -1;
@@ -2048,6 +2324,8 @@ static scene_desc_t *run(const char *name, const char *text, size_t len, err_t *
     const char *main_name = scene_desc_strdup(P.scene, name, err);
     if (!main_name) {
         scene_desc_destroy(&P.scene);
+        free(P.root_real);
+        free(P.root_lex);
         return NULL;
     }
     pbrt_loc_t none = {main_name, 0, 0};
@@ -2068,6 +2346,8 @@ static scene_desc_t *run(const char *name, const char *text, size_t len, err_t *
     free(P.pending);
     for (int i = 0; i < P.nopen; i++)
         free(P.open_files[i]);
+    free(P.root_real);
+    free(P.root_lex);
     if (rc != 0)
         scene_desc_destroy(&P.scene);
     return P.scene;
@@ -2075,10 +2355,17 @@ static scene_desc_t *run(const char *name, const char *text, size_t len, err_t *
 
 scene_desc_t *pbrt_parse_file(const char *path, err_t *err)
 {
-    return run(path, NULL, 0, err);
+    return run(path, NULL, 0, NULL, err);
+}
+
+scene_desc_t *pbrt_parse_file_confined(const char *path, const char *root, err_t *err)
+{
+    if (!root)
+        return err_set(err, "a confined parse needs the scene's folder"), NULL;
+    return run(path, NULL, 0, root, err);
 }
 
 scene_desc_t *pbrt_parse_string(const char *text, size_t len, const char *name, err_t *err)
 {
-    return run(name ? name : "<string>", text ? text : "", text ? len : 0, err);
+    return run(name ? name : "<string>", text ? text : "", text ? len : 0, NULL, err);
 }

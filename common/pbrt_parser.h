@@ -35,10 +35,33 @@
 #define PBRT_INCLUDE_DEPTH_MAX 16
 #define PBRT_FILES_MAX 4096
 
+/* The largest scene text, PLY or PNG file read (any parse bounds scene texts, whose lines the
+ * lexer counts in int; a confined parse bounds every file): 512 MiB, PROTO_MAX_BUNDLE_BYTES
+ * (proto/proto.h), so no file of a bundle the farm accepts is refused. */
+#define PBRT_FILE_BYTES_MAX ((size_t)512 << 20)
+/* The most a confined parse reads in all: every file read, counted each time it is read
+ * (a file included or a PLY named many times counts each time), plus 16 bytes per pixel of
+ * every imagemap PNG (its RGBA decoding and the texture's float RGB), so that a scene of a few
+ * kilobytes cannot make the master or a worker read or decode gigabytes. Four times the
+ * largest bundle. */
+#define PBRT_TOTAL_BYTES_MAX ((size_t)2 << 30)
+
 /* Parses the scene file at path. Include, Import, plymesh and imagemap file names resolve
  * against the folder of the file that names them, else of the main file. Returns NULL with err
- * filled on failure. */
+ * filled on failure. For the user's own files (`prismfarm render`): any file the scene names
+ * is read. */
 scene_desc_t *pbrt_parse_file(const char *path, err_t *err);
+
+/* Parses a scene from an untrusted source whose files were extracted into the folder root
+ * (the master's spool/scenes/<hash>/, a worker's <cache>/<hash>/). Every file the scene reads
+ * (the main file, Include/Import, plymesh, imagemap) must be, after lexical normalisation and
+ * after following symbolic links (realpath), a regular file inside root; it is checked before
+ * it is opened, so a FIFO, a device or a file elsewhere is never opened. Anything else fails
+ * with "file:line:col: \"NAME\" is outside the scene's folder" or "... \"NAME\" is not a
+ * regular file" (NAME as the scene writes it; no location for the main file). A file over
+ * PBRT_FILE_BYTES_MAX or a scene over PBRT_TOTAL_BYTES_MAX fails too. The imagemap file
+ * names in the result are the checked real paths. */
+scene_desc_t *pbrt_parse_file_confined(const char *path, const char *root, err_t *err);
 
 /* Parses scene text held in memory; name is used in messages and as the base for relative
  * file names (e.g. "tests/data/scenes/x.pbrt" resolves "inc.pbrt" in tests/data/scenes). The

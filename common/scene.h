@@ -125,7 +125,20 @@ typedef enum dispersion_kind {
     DISPERSION_FANOUT, /* the thesis: monochrome fan-out over the framebuffer buckets */
 } dispersion_kind_t;
 
+/* Integrator "photon" (docs/rendering.md): a photon pass (worker/photon.h) fills a caustic
+ * store before the camera pass, which then gathers with `integrator` (path or Whitted). */
+typedef struct photon_settings {
+    int enabled;        /* the photon pass runs and the camera pass uses its store */
+    uint64_t photons;   /* photons emitted (before the energy rescale, N in Phi / N) */
+    double radius;      /* gather radius in scene units; 0: automatic (photon_gather_radius) */
+    int k;              /* > 0: the k nearest photons within radius; 0: every photon within it */
+    int maxdepth;       /* scattering events a photon may undergo */
+    double threshold;   /* Russian roulette below this fraction of the emitted power */
+    int monochromerays; /* rays followed per photon at a dispersive interface (only 1 yet) */
+} photon_settings_t;
+
 typedef struct render_settings {
+    /* The camera pass's integrator; with photon.enabled it is the gather (path or Whitted). */
     integrator_kind_t integrator;
     dispersion_kind_t dispersion;
     int maxdepth;
@@ -136,7 +149,10 @@ typedef struct render_settings {
     int visible_sampling; /* hero: sample wavelengths by the visible pdf, not uniformly */
     char filename[512];   /* output named by the scene's Film, may be empty */
     int film_spectral;    /* Film "spectral" (else "rgb") */
+    photon_settings_t photon;
 } render_settings_t;
+
+typedef struct scene_derived scene_derived_t;
 
 typedef struct scene {
     geometry_t *geometry;
@@ -159,6 +175,7 @@ typedef struct scene {
     int has_dispersion;   /* any dispersive material: spectral fan-out is ever needed */
     vec3_t bounds_lo, bounds_hi;
     double scene_radius;  /* radius of a sphere around the bounds (distant light sampling) */
+    scene_derived_t *derived; /* see scene_derived_get */
 } scene_t;
 
 scene_t *scene_new(err_t *err);
@@ -211,8 +228,21 @@ int scene_finish(scene_t *self, err_t *err);
  * proportion to power). */
 double scene_light_power(const scene_t *self, const light_t *l);
 
+/* Data that the render kernels derive from a finished scene on first use, such as the photon
+ * map: the first caller builds it with build(scene, err); concurrent callers wait and every
+ * caller gets the same object, which scene_destroy frees with destroy. One slot per scene (a
+ * second build function is refused). A failed build is remembered: every later call returns
+ * NULL with the same message, so all tiles of a job fail alike. The scene stays logically
+ * immutable: the derived data depends only on the scene. */
+typedef void *(*scene_derived_build_fn)(const scene_t *scene, err_t *err);
+typedef void (*scene_derived_destroy_fn)(void *data);
+void *scene_derived_get(const scene_t *self, scene_derived_build_fn build,
+                        scene_derived_destroy_fn destroy, err_t *err);
+
 /* Default settings: path tracer, hero dispersion, maxdepth 5, 16 spp, seed 1,
- * 1280x720 (pbrt-v4's default), the default spectral grid. */
+ * 1280x720 (pbrt-v4's default), the default spectral grid; no photon pass (its settings hold
+ * the "photon" integrator's defaults: 1e6 photons, automatic radius, maxdepth 5, threshold
+ * 0.01, one monochrome ray). */
 render_settings_t render_settings_default(void);
 
 #endif

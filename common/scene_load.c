@@ -525,22 +525,79 @@ static int load_instances(loader_t *L, err_t *err)
     return r;
 }
 
+/* Integrator "photon" (docs/rendering.md): the photon pass's parameters; the gather decides
+ * the camera pass's integrator. Read whenever the file names "photon", so that an override to
+ * another integrator does not leave them unused. */
+static int load_photon(loader_t *L, params_t *p, int enable, err_t *err)
+{
+    render_settings_t *rs = &L->sc->settings;
+    photon_settings_t *ph = &rs->photon;
+    int photons, k, mono;
+    double radius, threshold;
+    const char *store, *gather;
+    if (params_get_int(p, "photons", 1000000, &photons, err) ||
+        params_get_string(p, "store", "photonmap", &store, err) ||
+        params_get_float(p, "radius", 0.0, &radius, err) || params_get_int(p, "k", 0, &k, err) ||
+        params_get_string(p, "gather", "path", &gather, err) ||
+        params_get_float(p, "threshold", 0.01, &threshold, err) ||
+        params_get_int(p, "monochromerays", 1, &mono, err))
+        return -1;
+    if (photons < 1)
+        return pbrt_error(err, params_find(p, "photons")->loc, "\"integer photons\" must be at least 1, got %d", photons);
+    if (!strcmp(store, "lightmap"))
+        return pbrt_error(err, params_find(p, "store")->loc,
+                          "\"string store\" \"lightmap\" is not available yet: use \"photonmap\"");
+    if (strcmp(store, "photonmap") != 0)
+        return pbrt_error(err, params_find(p, "store")->loc,
+                          "\"string store\" must be \"photonmap\" (or, later, \"lightmap\"), got \"%s\"", store);
+    if (!(radius >= 0.0) || !isfinite(radius))
+        return pbrt_error(err, params_find(p, "radius")->loc, "\"float radius\" must be positive, got %g", radius);
+    if (params_find(p, "radius") && !(radius > 0.0))
+        return pbrt_error(err, params_find(p, "radius")->loc, "\"float radius\" must be positive, got %g", radius);
+    if (k < 0 || k > 1024)
+        return pbrt_error(err, params_find(p, "k")->loc, "\"integer k\" must be in 0..1024, got %d", k);
+    if (!(threshold >= 0.0 && threshold < 1.0))
+        return pbrt_error(err, params_find(p, "threshold")->loc, "\"float threshold\" must be in [0, 1), got %g", threshold);
+    if (mono != 1)
+        return pbrt_error(err, params_find(p, "monochromerays")->loc,
+                          "\"integer monochromerays\" %d is not available yet: photons follow one monochrome ray (1)", mono);
+    integrator_kind_t g;
+    if (!strcmp(gather, "path"))
+        g = INTEGRATOR_PATH;
+    else if (!strcmp(gather, "whitted"))
+        g = INTEGRATOR_WHITTED;
+    else
+        return pbrt_error(err, params_find(p, "gather")->loc, "\"string gather\" must be \"path\" or \"whitted\", got \"%s\"", gather);
+    if (!enable)
+        return 0;
+    rs->integrator = g;
+    ph->enabled = 1;
+    ph->photons = (uint64_t)photons;
+    ph->radius = radius;
+    ph->k = k;
+    ph->maxdepth = rs->maxdepth;
+    ph->threshold = threshold;
+    ph->monochromerays = mono;
+    return 0;
+}
+
 static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
 {
     const scene_integrator_t *in = &L->desc->integrator;
     render_settings_t *rs = &L->sc->settings;
     params_t *p = in->params;
     const char *type = ov && ov->integrator ? ov->integrator : in->type;
+    int photon = !strcmp(type, "photon");
     if (!strcmp(type, "path") || !strcmp(type, "auto"))
         rs->integrator = INTEGRATOR_PATH;
     else if (!strcmp(type, "simplepath"))
         rs->integrator = INTEGRATOR_SIMPLEPATH;
     else if (!strcmp(type, "whitted"))
         rs->integrator = INTEGRATOR_WHITTED;
-    else
+    else if (!photon)
         return pbrt_error(err, in->loc,
                           "Integrator \"%s\" is not supported yet (use \"path\", \"simplepath\", "
-                          "\"whitted\" or \"auto\")",
+                          "\"whitted\", \"photon\" or \"auto\")",
                           type);
     int maxdepth;
     const char *disp, *wl;
@@ -551,6 +608,8 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
     if (maxdepth < 0 || maxdepth > 10000)
         return pbrt_error(err, in->loc, "\"integer maxdepth\" must be in 0..10000, got %d", maxdepth);
     rs->maxdepth = maxdepth;
+    if ((photon || !strcmp(in->type, "photon")) && load_photon(L, p, photon, err))
+        return -1;
     if (ov && ov->dispersion)
         disp = ov->dispersion;
     if (!strcmp(disp, "hero"))
@@ -647,6 +706,17 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
 scene_t *scene_load_file(const char *path, const scene_overrides_t *ov, err_t *err)
 {
     scene_desc_t *d = pbrt_parse_file(path, err);
+    if (!d)
+        return NULL;
+    scene_t *s = scene_load(d, ov, err);
+    scene_desc_destroy(&d);
+    return s;
+}
+
+scene_t *scene_load_file_confined(const char *path, const char *root, const scene_overrides_t *ov,
+                                  err_t *err)
+{
+    scene_desc_t *d = pbrt_parse_file_confined(path, root, err);
     if (!d)
         return NULL;
     scene_t *s = scene_load(d, ov, err);

@@ -22,7 +22,13 @@ typedef struct scene_overrides {
 
 scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t *err);
 
-/* Parses the file and loads it. */
+/* Parses the file and loads it (the user's own files: whatever the scene names is read). */
 scene_t *scene_load_file(const char *path, const scene_overrides_t *ov, err_t *err);
+
+/* The same for a scene from an untrusted source extracted into the folder root (a bundle on
+ * the master or a worker): parsed by pbrt_parse_file_confined, so it reads only regular files
+ * inside root, within PBRT_FILE_BYTES_MAX each and PBRT_TOTAL_BYTES_MAX in all. */
+scene_t *scene_load_file_confined(const char *path, const char *root, const scene_overrides_t *ov,
+                                  err_t *err);
 
 #endif

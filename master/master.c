@@ -667,20 +667,6 @@ static void strip_all(char *msg, const char *prefix)
         memmove(p, p + n, strlen(p + n) + 1);
 }
 
-/* A loader message about a file outside the bundle ("/etc/passwd:1:1: unknown directive
- * root:x:0:0...") would show the client a line of a file on the master's host: keep the path,
- * drop the rest. After strip_all, bundle files are named relative to the bundle, so a location
- * that is absolute or climbs out with ".." is outside it. */
-static void hide_outside(char *msg, size_t size)
-{
-    size_t n = strcspn(msg, ":");
-    if (msg[0] != '/' && strncmp(msg, "../", 3) != 0)
-        return;
-    char path[256];
-    snprintf(path, sizeof path, "%.*s", (int)(n < 200 ? n : 200), msg);
-    snprintf(msg, size, "the scene reads '%s', which is not in its bundle", path);
-}
-
 static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
 {
     const proto_bundle_t *b = &msg->submit.bundle;
@@ -709,7 +695,9 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     }
     snprintf(main_path, main_size, "%s/%s", dir, b->main);
     scene_overrides_t ov = proto_settings_to_overrides(&msg->submit.settings);
-    scene_t *scene = scene_load_file(main_path, &ov, &err);
+    /* Confined to the bundle's folder: the scene reads nothing else, so no message can show
+     * the client a file of the master's host. */
+    scene_t *scene = scene_load_file_confined(main_path, dir, &ov, &err);
     free(main_path);
     if (!scene) {
         char prefix[PATH_MAX + 1];
@@ -721,7 +709,6 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
         }
         snprintf(prefix, sizeof prefix, "%s/", dir);
         strip_all(err.msg, prefix);
-        hide_outside(err.msg, sizeof err.msg);
         spool_scene_discard(m->spool, dir, staged);
         mlog(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
         reply_error(m, from, "%s", err.msg);

@@ -453,6 +453,145 @@ static void test_ply_import_direct(void **state)
     rmdir(dir);
 }
 
+static uint64_t next_rand(uint64_t *x);
+
+/* mesh_import checks a PLY file's structure before assimp reads it: the forms that real files
+ * use must still load. Big-endian floats are written byte by byte (IEEE 754: 1.0f is
+ * 3f 80 00 00, 2.0f 40 00 00 00, 3.0f 40 40 00 00), so the positions are exact. */
+static void test_ply_variants_still_load(void **state)
+{
+    (void)state;
+    mesh_data_t m;
+    err_t err = {{0}};
+    /* ascii with CRLF line ends, tabs and runs of spaces, exponents, a signed list length
+     * type, trailing blank lines: the quad_tri file's 5 vertices, 3 triangles. */
+    const char *crlf = "ply\r\nformat ascii 1.0\r\ncomment written on Windows\r\n"
+                       "obj_info made by hand\r\nelement vertex 5\r\nproperty float x\r\n"
+                       "property float y\r\nproperty double z\r\nelement face 2\r\n"
+                       "property list char int vertex_indices\r\nend_header\r\n"
+                       "0 0 0\r\n1e0 0 0\r\n1\t1  0\r\n0 1 0\r\n0.5 .5 +1.0E-0\r\n"
+                       "4 0 1 2 3\r\n3 0 1 4 \r\n\r\n";
+    if (mesh_import_ply_memory(crlf, strlen(crlf), "crlf.ply", &m, &err) != 0)
+        fail_msg("CRLF ascii PLY refused: %s", err.msg);
+    assert_int_equal(m.nvertices, 5);
+    assert_int_equal(m.ntriangles, 3);
+    assert_near(m.P[3 * 4 + 2], 1.0);
+    mesh_data_free(&m);
+
+    /* binary big-endian: one triangle (1,2,3) (3,2,1) (1,1,1) with a uchar colour each and an
+     * extra element that assimp skips. */
+    const char *hdr = "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\n"
+                      "property float y\nproperty float z\nproperty uchar red\nelement face 1\n"
+                      "property list uchar uint vertex_indices\nelement extra 2\n"
+                      "property list ushort short values\nend_header\n";
+    static const unsigned char one[4] = {0x3f, 0x80, 0, 0}, two[4] = {0x40, 0, 0, 0},
+                               three[4] = {0x40, 0x40, 0, 0};
+    const unsigned char *verts[3][3] = {{one, two, three}, {three, two, one}, {one, one, one}};
+    unsigned char buf[512];
+    size_t n = strlen(hdr);
+    memcpy(buf, hdr, n);
+    for (int v = 0; v < 3; v++) {
+        for (int c = 0; c < 3; c++, n += 4)
+            memcpy(buf + n, verts[v][c], 4);
+        buf[n++] = 200;
+    }
+    static const unsigned char face[13] = {3, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0, 2};
+    memcpy(buf + n, face, sizeof face);
+    n += sizeof face;
+    static const unsigned char extra[8] = {0, 1, 0xff, 0xff, 0, 1, 0, 7}; /* [-1], [7] */
+    memcpy(buf + n, extra, sizeof extra);
+    n += sizeof extra;
+    if (mesh_import_ply_memory(buf, n, "be.ply", &m, &err) != 0)
+        fail_msg("big-endian PLY refused: %s", err.msg);
+    assert_int_equal(m.nvertices, 3);
+    assert_int_equal(m.ntriangles, 1);
+    const double want[9] = {1, 2, 3, 3, 2, 1, 1, 1, 1};
+    for (int i = 0; i < 9; i++)
+        assert_near(m.P[i], want[i]);
+    mesh_data_free(&m);
+
+    /* One byte short of the extra element: the file ends inside it. */
+    assert_int_equal(mesh_import_ply_memory(buf, n - 1, "be.ply", &m, &err), -1);
+    assert_string_equal(err.msg, "\"be.ply\": extra 1 has a list of 1 values, more than the 1 "
+                                 "bytes left");
+    /* Values assimp would read differently from a whole token are refused. */
+    const char *comma = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                        "property float y\nproperty float z\nelement face 1\n"
+                        "property list uchar int vertex_indices\nend_header\n"
+                        "0 0 0\n1,5 0 0\n0 1 0\n3 0 1 2\n";
+    assert_int_equal(mesh_import_ply_memory(comma, strlen(comma), "c.ply", &m, &err), -1);
+    assert_string_equal(err.msg, "\"c.ply\": line 11: \"1,5\" is not a decimal number");
+}
+
+/* Random mutations of the test PLY files, with the tokens that make forged counts: every
+ * outcome is a mesh or a message, never a crash, a huge allocation (ASan reports those) or a
+ * long loop. */
+static void test_ply_mutations_never_crash(void **state)
+{
+    (void)state;
+    static const char *FILES[] = {"data/scenes/meshes/quad_tri_ascii.ply",
+                                  "data/scenes/meshes/tetra_binary.ply"};
+    static const char *TOKENS[] = {
+        "4294967295", "2147483648",       "-1",   "255", "\n",      " ", "\r\n", "list",
+        "uint",       "element face 9\n", "1e38", "nan", "\xff\xff"};
+    uint64_t rng = 0x243f6a8885a308d3ull;
+    size_t loaded = 0, refused = 0;
+    for (size_t fi = 0; fi < sizeof FILES / sizeof FILES[0]; fi++) {
+        FILE *f = fopen(FILES[fi], "rb");
+        assert_non_null(f);
+        char orig[4096];
+        size_t len = fread(orig, 1, sizeof orig, f);
+        fclose(f);
+        assert_true(len > 0 && len < sizeof orig);
+        char buf[4096 + 64];
+        for (int iter = 0; iter < 400; iter++) {
+            memcpy(buf, orig, len);
+            size_t n = len;
+            int edits = 1 + (int)(next_rand(&rng) % 3);
+            for (int e = 0; e < edits && n > 0; e++) {
+                size_t at = next_rand(&rng) % n;
+                switch (next_rand(&rng) % 4) {
+                case 0:
+                    buf[at] = (char)(next_rand(&rng) % 256);
+                    break;
+                case 1: {
+                    size_t k = 1 + next_rand(&rng) % 8;
+                    if (k > n - at)
+                        k = n - at;
+                    memmove(buf + at, buf + at + k, n - at - k);
+                    n -= k;
+                    break;
+                }
+                case 2: {
+                    const char *tok = TOKENS[next_rand(&rng) % (sizeof TOKENS / sizeof TOKENS[0])];
+                    size_t k = strlen(tok);
+                    if (n + k > sizeof buf)
+                        break;
+                    memmove(buf + at + k, buf + at, n - at);
+                    memcpy(buf + at, tok, k);
+                    n += k;
+                    break;
+                }
+                default:
+                    n = at;
+                    break;
+                }
+            }
+            mesh_data_t m;
+            err_t err = {{0}};
+            if (mesh_import_ply_memory(buf, n, "m.ply", &m, &err) == 0) {
+                loaded++;
+                mesh_data_free(&m);
+            } else {
+                refused++;
+                assert_true(strlen(err.msg) > 0);
+            }
+        }
+    }
+    assert_true(loaded > 0);
+    assert_true(refused > 0);
+}
+
 /* ---- transforms, instances, includes ---- */
 
 static void test_transforms(void **state)
@@ -661,7 +800,8 @@ static void test_files_read(void **state)
     char cwd[1024], text[1400];
     assert_non_null(getcwd(cwd, sizeof cwd));
     snprintf(text, sizeof text,
-             "WorldBegin\nShape \"plymesh\" \"string filename\" \"%s/data/scenes/meshes/tetra_binary.ply\"\n",
+             "WorldBegin\nShape \"plymesh\" \"string filename\" "
+             "\"%s/data/scenes/meshes/tetra_binary.ply\"\n",
              cwd);
     s = parse_text_ok(text);
     assert_int_equal(s->nfiles, 1);
@@ -1009,6 +1149,8 @@ int main(void)
         cmocka_unit_test(test_lights),
         cmocka_unit_test(test_shapes),
         cmocka_unit_test(test_ply_import_direct),
+        cmocka_unit_test(test_ply_variants_still_load),
+        cmocka_unit_test(test_ply_mutations_never_crash),
         cmocka_unit_test(test_transforms),
         cmocka_unit_test(test_instances),
         cmocka_unit_test(test_includes),

@@ -9,10 +9,7 @@ static double light_value(const light_t *l, double lambda)
     return l->scale * spectrum_eval(l->spectrum, lambda);
 }
 
-/* Uniform point on a shape by area: returns the point and its unit normal, oriented as
- * scene_surface orients a hit there (the shape's flip flag, and for a mesh with vertex normals
- * their side), so that emission seen by a hit and by a light sample agree. */
-static int shape_sample(const shape_t *s, double u0, double u1, double u2, vec3_t *p, vec3_t *n)
+int lights_sample_shape(const shape_t *s, double u0, double u1, double u2, vec3_t *p, vec3_t *n)
 {
     if (!(s->area > 0.0))
         return 0;
@@ -61,7 +58,7 @@ int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sampl
     case LIGHT_AREA: {
         const shape_t *s = &scene->shapes[l->shape];
         vec3_t q, n;
-        if (!shape_sample(s, u[1], u[2], u[3], &q, &n))
+        if (!lights_sample_shape(s, u[1], u[2], u[3], &q, &n))
             return 0;
         vec3_t d = vec3_sub(q, p);
         double d2 = vec3_dot(d, d);
@@ -127,21 +124,9 @@ double lights_sample_emission(const scene_t *scene, const light_sample_t *s, dou
         return lights_area_radiance(scene, l, s->n_light, vec3_neg(s->wi), lambda);
     case LIGHT_POINT:
         return light_value(l, lambda) / (s->dist * s->dist);
-    case LIGHT_SPOT: {
-        /* pbrt-v4 SpotLight: smoothstep falloff between the cone's inner and outer cosines. */
-        double c = vec3_dot(vec3_neg(s->wi), l->direction);
-        double a = l->cos_total_width, b = l->cos_falloff_start;
-        double f;
-        if (c >= b)
-            f = 1.0;
-        else if (c <= a)
-            f = 0.0;
-        else {
-            double t = (c - a) / (b - a);
-            f = t * t * (3.0 - 2.0 * t);
-        }
-        return f * light_value(l, lambda) / (s->dist * s->dist);
-    }
+    case LIGHT_SPOT:
+        return lights_spot_falloff(l, vec3_dot(vec3_neg(s->wi), l->direction)) * light_value(l, lambda) /
+               (s->dist * s->dist);
     case LIGHT_DISTANT:
     case LIGHT_INFINITE:
         return light_value(l, lambda);
@@ -149,6 +134,18 @@ double lights_sample_emission(const scene_t *scene, const light_sample_t *s, dou
         return 0.0;
     }
     return 0.0;
+}
+
+double lights_spot_falloff(const light_t *l, double cos_theta)
+{
+    /* pbrt-v4 SpotLight: smoothstep falloff between the cone's inner and outer cosines. */
+    double a = l->cos_total_width, b = l->cos_falloff_start;
+    if (cos_theta >= b)
+        return 1.0;
+    if (cos_theta <= a)
+        return 0.0;
+    double t = (cos_theta - a) / (b - a);
+    return t * t * (3.0 - 2.0 * t);
 }
 
 double lights_environment(const scene_t *scene, double lambda)

@@ -33,6 +33,16 @@ double lights_sample_emission(const scene_t *scene, const light_sample_t *s, dou
 double lights_area_radiance(const scene_t *scene, const light_t *l, vec3_t ng, vec3_t wo,
                             double lambda);
 
+/* Uniform point on a shape by area with u0 (a mesh's triangle), u1 and u2: the point and its
+ * unit normal, oriented as scene_surface orients a hit there (the shape's flip flag, and for a
+ * mesh with vertex normals their side), so that emission seen by a hit, by a light sample and
+ * by a photon agree. The pdf is 1 / shape->area. Returns 0 for a shape of zero area. */
+int lights_sample_shape(const shape_t *shape, double u0, double u1, double u2, vec3_t *p, vec3_t *n);
+
+/* A spot light's falloff at the cosine of the angle to its axis: 1 inside the inner cone, 0
+ * outside the outer one, pbrt-v4's smoothstep between. */
+double lights_spot_falloff(const light_t *l, double cos_theta);
+
 /* Environment radiance for a ray that left the scene (sum over infinite lights). */
 double lights_environment(const scene_t *scene, double lambda);
 

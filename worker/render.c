@@ -5,11 +5,12 @@
 #include "fanout.h"
 #include "fresnel.h"
 #include "lights.h"
+#include "photon.h"
 #include "rng.h"
 #include "sample.h"
+#include "specular.h"
 #include "wavelength.h"
 
-#include <complex.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdlib.h>
@@ -37,6 +38,10 @@ typedef struct path {
     vec3_t prev_p;    /* where the last bounce happened */
     int mono;         /* every lane refracts alike: one physical wavelength */
     int dispersed;    /* the path has had its first dispersive refraction */
+    /* The photon integrator's split: diffuse bounces so far, and whether a specular one
+     * followed the last. */
+    int diffuse_bounces;
+    int specular_since_diffuse;
     /* The lanes come last so that a new path clears only the fields above. */
     double lambda[LANES];
     double beta[LANES];
@@ -53,6 +58,11 @@ typedef struct ctx {
     render_stats_t *stats;
     path_t *stack;
     int top;
+    /* The photon integrator's caustic store, or NULL. */
+    const photon_map_t *photons;
+    double gather_radius;
+    int gather_k;
+    double *irradiance; /* grid.n buckets, for one estimate */
 } ctx_t;
 
 static double next(ctx_t *c) { return rng_stream_next(&c->rng); }
@@ -82,20 +92,6 @@ static double max_beta(const path_t *p)
     for (int j = 0; j < p->n; j++)
         m = fmax(m, fabs(p->beta[j]));
     return m;
-}
-
-/* pbrt-v4 FrComplex: unpolarised Fresnel reflectance of a conductor with index eta + i k. */
-static double fresnel_conductor(double cos_i, double eta, double k)
-{
-    cos_i = fmin(1.0, fmax(0.0, cos_i));
-    double complex e = eta + I * k;
-    double sin2_i = 1.0 - cos_i * cos_i;
-    double complex sin2_t = sin2_i / (e * e);
-    double complex cos_t = csqrt(1.0 - sin2_t);
-    double complex r_parl = (e * cos_i - cos_t) / (e * cos_i + cos_t);
-    double complex r_perp = (cos_i - e * cos_t) / (cos_i + e * cos_t);
-    double r = 0.5 * (creal(r_parl * conj(r_parl)) + creal(r_perp * conj(r_perp)));
-    return isfinite(r) ? fmin(1.0, fmax(0.0, r)) : 1.0;
 }
 
 static int push(ctx_t *c, const path_t *p)
@@ -175,6 +171,26 @@ static void direct_light(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t 
     }
 }
 
+/* The caustic store's share at a diffuse point with geometric normal g facing the viewer:
+ * Lambertian radiance (rho / pi) E_b from the photons' irradiance estimate (photon_map.h),
+ * for each lane the bucket its light goes to. Added at the path's first diffuse vertex (seen
+ * from the camera directly or through specular surfaces), where the store replaces exactly
+ * the paths that leave that vertex through specular surfaces to a light (trace does not
+ * count them). Later diffuse vertices are path traced as without photons: the store's
+ * light reflected diffusely again would be found there only by hitting a small, bright
+ * caustic by chance, which is the firefly the photons are meant to remove. */
+static void caustic_light(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t g,
+                          const double *albedo)
+{
+    if (!photon_map_irradiance(c->photons, sf->p, g, c->gather_radius, c->gather_k, c->irradiance))
+        return;
+    for (int j = 0; j < p->n; j++) {
+        int b = p->bucket[j] >= 0 ? p->bucket[j] : spectral_grid_index(c->rs->grid, p->lambda[j]);
+        if (b >= 0)
+            splat(c, p, j, albedo[j] / PF_PI * c->irradiance[b]);
+    }
+}
+
 /* Reflect-or-refract choice: with Whitted both branches are followed (the second pushed on
  * the stack); otherwise one is chosen with probability prob_reflect and the weights divided
  * by it. Returns 1 to take the reflection, 0 the refraction; *scale is the factor to apply
@@ -206,35 +222,6 @@ static void start_bounce(path_t *p, const surface_t *h, vec3_t dir, int specular
     p->dir = dir;
     p->specular = specular;
     p->bsdf_pdf = pdf;
-}
-
-/* Shading normals at specular surfaces (mirrors and glass). The interpolated normal gives the
- * mirror and refraction directions and the Fresnel cosines, but it may disagree with the
- * real surface: near a silhouette the incident direction can lie on the other side of it, or
- * the mirror (or refracted) direction computed with it can point back through the geometric
- * surface, which would leak light through the mesh. For such an event the geometric normal is
- * used instead, for every branch of the event (the choice is made before any random choice,
- * so reflection and refraction probabilities stay R and 1 - R and energy is conserved).
- * eta_rel is n_incident / n_transmitted for glass, 0 for a mirror. Both normals are outward.
- * *shading (may be NULL) says whether the shading normal was chosen. */
-static vec3_t specular_normal(const surface_t *sf, vec3_t dir, double eta_rel, int *shading)
-{
-    if (shading)
-        *shading = 0;
-    if (!sf->smooth)
-        return sf->ng;
-    double cg = vec3_dot(dir, sf->ng);
-    if (cg * vec3_dot(dir, sf->ns) <= 0.0)
-        return sf->ng;
-    /* The mirror direction must leave on the incident side, the refracted one continue. */
-    if (vec3_dot(fresnel_reflect(dir, sf->ns), sf->ng) * cg >= 0.0)
-        return sf->ng;
-    vec3_t t;
-    if (eta_rel > 0.0 && fresnel_refract(dir, sf->ns, eta_rel, &t) && vec3_dot(t, sf->ng) * cg <= 0.0)
-        return sf->ng;
-    if (shading)
-        *shading = 1;
-    return sf->ns;
 }
 
 /* Smooth dielectric. Returns 0 to continue the path, 1 when it ends (its sub-paths were
@@ -441,7 +428,11 @@ static void trace(ctx_t *c, path_t *start)
             }
             surface_t sf;
             scene_surface(s, &h, &sf);
-            if (sf.light >= 0 && s->lights[sf.light].kind == LIGHT_AREA)
+            /* With a caustic store, light that left an area light and reached the path's
+             * first diffuse vertex through specular surfaces only (L S+ D S* E) comes from
+             * the photons: the path that finds it the other way is not counted again. */
+            if (sf.light >= 0 && s->lights[sf.light].kind == LIGHT_AREA &&
+                !(c->photons && p->diffuse_bounces == 1 && p->specular_since_diffuse))
                 add_emission_hit(c, p, &sf, &s->lights[sf.light], sf.light);
             const material_t *m = sf.material;
             if (m->kind == MATERIAL_INTERFACE) {
@@ -466,6 +457,8 @@ static void trace(ctx_t *c, path_t *start)
                     albedo[j] = m->reflectance ? texture_eval(m->reflectance, sf.u, sf.v, p->lambda[j]) : 0.5;
                 if (c->rs->integrator != INTEGRATOR_SIMPLEPATH)
                     direct_light(c, p, &sf, n, g, albedo);
+                if (c->photons && p->diffuse_bounces == 0)
+                    caustic_light(c, p, &sf, g, albedo);
                 if (c->rs->integrator == INTEGRATOR_WHITTED)
                     break;
                 vec3_t local = sample_cosine_hemisphere(next(c), next(c));
@@ -476,23 +469,19 @@ static void trace(ctx_t *c, path_t *start)
                 for (int j = 0; j < p->n; j++)
                     p->beta[j] *= albedo[j];
                 start_bounce(p, &sf, wi, 0, cos_i / PF_PI);
+                p->diffuse_bounces++;
+                p->specular_since_diffuse = 0;
             } else if (m->kind == MATERIAL_CONDUCTOR) {
                 vec3_t ns = specular_normal(&sf, p->dir, 0.0, NULL);
                 vec3_t n = vec3_dot(ns, wo) >= 0.0 ? ns : vec3_neg(ns);
                 double cos_i = vec3_dot(wo, n);
-                for (int j = 0; j < p->n; j++) {
-                    double f;
-                    if (m->eta && m->k)
-                        f = fresnel_conductor(cos_i, spectrum_eval(m->eta, p->lambda[j]),
-                                              spectrum_eval(m->k, p->lambda[j]));
-                    else if (m->reflectance)
-                        f = texture_eval(m->reflectance, sf.u, sf.v, p->lambda[j]);
-                    else
-                        f = 1.0;
-                    p->beta[j] *= f;
-                }
+                for (int j = 0; j < p->n; j++)
+                    p->beta[j] *= specular_conductor_reflectance(m, &sf, cos_i, p->lambda[j]);
                 start_bounce(p, &sf, fresnel_reflect(p->dir, n), 1, 0.0);
+                p->specular_since_diffuse = 1;
             } else {
+                /* Set before the event, so that the branches it pushes carry it too. */
+                p->specular_since_diffuse = 1;
                 if (scatter_dielectric(c, p, &sf, m))
                     break;
             }
@@ -552,6 +541,23 @@ int render_tile(const scene_t *scene, int x0, int y0, int w, int h, uint32_t sam
     colour_grid_weights(rs->grid, weights);
     ctx_t c = {.scene = scene, .rs = rs, .weights = weights, .contrib = contrib,
                .stats = stats, .stack = stack};
+    double *irradiance = NULL;
+    if (rs->photon.enabled) {
+        c.photons = photon_pass_get(scene, NULL, NULL, err);
+        irradiance = malloc((size_t)nb * sizeof *irradiance);
+        if (!c.photons || !irradiance) {
+            if (c.photons)
+                err_set(err, "out of memory");
+            free(irradiance);
+            free(weights);
+            free(contrib);
+            free(stack);
+            return -1;
+        }
+        c.irradiance = irradiance;
+        c.gather_radius = photon_gather_radius(scene);
+        c.gather_k = rs->photon.k;
+    }
     const uint32_t spp = (uint32_t)rs->spp;
     const uint32_t side = (uint32_t)lround(sqrt((double)spp));
     for (int y = y0; y < y0 + h; y++) {
@@ -605,6 +611,7 @@ int render_tile(const scene_t *scene, int x0, int y0, int w, int h, uint32_t sam
             }
         }
     }
+    free(irradiance);
     free(weights);
     free(contrib);
     free(stack);

@@ -162,7 +162,7 @@ static job_scene_t *acquire_scene(worker_t *w, const task_t *t, err_t *err)
             mainname[strcspn(mainname, "\n")] = 0;
             snprintf(main_path, sizeof main_path, "%s/%s", dir, mainname);
             scene_overrides_t ov = proto_settings_to_overrides(&t->settings);
-            sc = scene_load_file(main_path, &ov, &lerr);
+            sc = scene_load_file_confined(main_path, dir, &ov, &lerr);
         }
         if (f)
             fclose(f);

@@ -1,0 +1,338 @@
+#!/usr/bin/env bash
+# The farm's benchmarks (issue 4), side by side in one run:
+#   1. overhead: one worker behind a master on loopback TCP (separate processes), and
+#      `prismfarm render` (the farm in one process), against `prismfarm render --direct` (plain
+#      threads) on the same job; target: within 5 %;
+#   2. scaling: two workers of one thread against one worker of one thread; target >= 1.8x on 2
+#      cores; --direct with 1 and 2 threads for reference;
+#   3. bytes on the wire per rendered pixel: the kernel's byte counters of the master's worker
+#      connection (ss -ti), against the protocol's payload (docs/protocol.md);
+#   4. rays/s of `prismfarm render --direct` for every scenes/*.pbrt at a small size.
+# Each figure is the median of --reps repetitions, the modes of one repetition run one after
+# the other so that they share the machine's state. Prints the tables and rewrites the part of
+# docs/performance.md between its "bench:begin" and "bench:end" markers.
+#
+# usage: bash bench/farm.sh [--reps N] [--build DIR] [--no-build] [--no-docs]
+#   --reps N    repetitions of every timing (default 5); the whole run takes about 4 minutes
+#               on 2 cores with 5
+#   --build DIR Release build folder (default build-bench in the repository); built first
+#   --no-build  use DIR/client/prismfarm as it is
+#   --no-docs   print the tables only
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+REPS=5
+BUILD=$ROOT/build-bench
+WRITE_DOCS=1
+DO_BUILD=1
+while (($#)); do
+  case $1 in
+    --reps) REPS=$2; shift 2 ;;
+    --build) BUILD=$2; shift 2 ;;
+    --no-docs) WRITE_DOCS=0; shift ;;
+    --no-build) DO_BUILD=0; shift ;;
+    -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
+    *) echo "bench/farm.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
+  esac
+done
+[[ $REPS =~ ^[1-9][0-9]*$ ]] || { echo "bench/farm.sh: --reps expects a positive integer" >&2; exit 2; }
+command -v ss >/dev/null || { echo "bench/farm.sh: needs ss (iproute2) for the wire bytes" >&2; exit 1; }
+
+if ((DO_BUILD)); then
+  echo "== building Release into $BUILD" >&2
+  cmake -S "$ROOT" -B "$BUILD" -DCMAKE_BUILD_TYPE=Release >/dev/null
+  cmake --build "$BUILD" -j"$(nproc)" --target prismfarm >/dev/null
+fi
+BIN=$BUILD/client/prismfarm
+[[ -x $BIN ]] || { echo "bench/farm.sh: no $BIN (build it, or drop --no-build)" >&2; exit 1; }
+
+NPROC=$(nproc)
+CPU=$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //')
+WORK=$(mktemp -d /tmp/prismfarm-bench-XXXXXX)
+PIDS=()
+cleanup() {
+  local p
+  for p in "${PIDS[@]}"; do kill "$p" 2>/dev/null || true; done
+  for p in "${PIDS[@]}"; do wait "$p" 2>/dev/null || true; done
+  rm -rf "$WORK"
+}
+trap cleanup EXIT
+
+# A sleep without a fork (read on a pipe nobody writes), so that waiting for a job costs the
+# render threads no CPU.
+exec {NAP_FD}<> <(:)
+nap() { read -r -t "$1" -u "$NAP_FD" _ || true; }
+elapsed() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", b - a }'; }
+# "median min max" of the arguments.
+stats() { printf '%s\n' "$@" | sort -g | awk '{ v[NR] = $1 } END {
+  m = NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2; printf "%.3f %.3f %.3f\n", m, v[1], v[NR] }'; }
+med() { stats "$@" | cut -d' ' -f1; }
+ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", a / b }'; }
+
+HZ=$(getconf CLK_TCK)
+# CPU seconds (user + system) of a running process, from /proc/PID/stat fields 14 and 15.
+cpu_of() { awk -v hz="$HZ" '{ sub(/^.*\) /, ""); printf "%.3f\n", ($12 + $13) / hz }' "/proc/$1/stat"; }
+# CHILD_CPU: CPU seconds of every child this shell has waited for, from bash's `times` (second
+# line), which must run in this shell itself (in a pipe or $(...) it would run in a subshell
+# that has no children) and is read back from a file.
+children_cpu() {
+  local file=$WORK/times.$BASHPID
+  times >"$file"
+  CHILD_CPU=$(awk 'NR == 2 { n = 0; for (i = 1; i <= 2; i++) { split($i, p, /[ms]/); n += p[1] * 60 + p[2] }
+                             printf "%.3f", n }' "$file")
+}
+
+# The two benchmark jobs: sizes that take a few seconds on one core.
+SCENES=(scenes/prism.pbrt tests/data/render/tiny.pbrt)
+declare -A ARGS=([scenes/prism.pbrt]="--res 240x180 --spp 24"
+                 [tests/data/render/tiny.pbrt]="--res 192x128 --spp 128")
+RAYS_ARGS="--res 160x120 --spp 16"
+
+# ---------------------------------------------------------------- the three ways to render
+# Each prints "WALL CPU" in seconds, and runs in a subshell of its own (see measure), so that
+# children_cpu counts its processes only.
+
+# `prismfarm render --direct`: process start to exit (scene load, render, EXR and PNG written).
+t_direct() { # scene threads [args]
+  local t0=$EPOCHREALTIME
+  # shellcheck disable=SC2086
+  "$BIN" render "$ROOT/$1" ${3:-${ARGS[$1]}} --direct --threads "$2" -o "$WORK/direct.exr" --quiet \
+    >"$WORK/direct.out"
+  local wall
+  wall=$(elapsed "$t0" "$EPOCHREALTIME")
+  children_cpu
+  echo "$wall $CHILD_CPU"
+}
+
+# `prismfarm render`: master and one worker in the process over inproc://.
+t_inproc() { # scene threads
+  local t0=$EPOCHREALTIME
+  # shellcheck disable=SC2086
+  "$BIN" render "$ROOT/$1" ${ARGS[$1]} --workers 1 --threads "$2" -o "$WORK/inproc.exr" --quiet >/dev/null
+  local wall
+  wall=$(elapsed "$t0" "$EPOCHREALTIME")
+  children_cpu
+  echo "$wall $CHILD_CPU"
+}
+
+declare -A CEP SPOOL WPORT FPIDS
+# A standing farm: a master and N workers of T threads, separate processes on loopback TCP.
+start_farm() { # name workers threads
+  local name=$1 n=$2 t=$3 spool=$WORK/$1 wep cep i
+  "$BIN" master --workers 'tcp://127.0.0.1:*' --clients 'tcp://127.0.0.1:*' --spool "$spool" \
+    2>"$WORK/$name-master.log" &
+  PIDS+=($!)
+  FPIDS[$name]=$!
+  for ((i = 0; i < 500; i++)); do [[ -s $spool/endpoints ]] && break; nap 0.01; done
+  wep=$(awk '$1 == "workers" { print $2 }' "$spool/endpoints")
+  cep=$(awk '$1 == "clients" { print $2 }' "$spool/endpoints")
+  for ((i = 1; i <= n; i++)); do
+    "$BIN" worker --connect "$wep" --threads "$t" --name "$name-w$i" --cache "$WORK/$name-cache$i" \
+      --quiet 2>>"$WORK/$name-workers.log" &
+    PIDS+=($!)
+    FPIDS[$name]+=" $!"
+  done
+  for ((i = 0; i < 500; i++)); do
+    (($("$BIN" workers --master "$cep" --json | grep -c '"state": "idle"') == n)) && break
+    nap 0.02
+  done
+  CEP[$name]=$cep SPOOL[$name]=$spool WPORT[$name]=${wep##*:}
+}
+
+farm_cpu() { # name: CPU seconds of its master and workers so far
+  local p sum=0
+  for p in ${FPIDS[$1]}; do sum=$(awk -v a="$sum" -v b="$(cpu_of "$p")" 'BEGIN { print a + b }'); done
+  echo "$sum"
+}
+
+# A job on a standing farm: from `prismfarm submit` to the final EXR in the master's spool
+# (written atomically, so its existence means the job is done). `submit --wait` would add up to
+# 200 ms of STATUS polling and the fetch. CPU: the client's, plus what the master and workers
+# used meanwhile. Leaves the job id in $WORK/last-job.
+t_farm() { # farm scene
+  local t0=$EPOCHREALTIME c0 id exr i
+  c0=$(farm_cpu "$1")
+  # shellcheck disable=SC2086
+  id=$("$BIN" submit "$ROOT/$2" --master "${CEP[$1]}" --name bench ${ARGS[$2]})
+  exr=${SPOOL[$1]}/jobs/$id/bench.exr
+  for ((i = 0; ; i++)); do
+    [[ -e $exr ]] && break
+    if ((i % 500 == 499)) && "$BIN" status "$id" --master "${CEP[$1]}" | grep -qE 'failed|cancelled'; then
+      echo "bench/farm.sh: job $id on farm $1 did not complete:" >&2
+      cat "$WORK/$1-master.log" >&2
+      exit 1
+    fi
+    nap 0.002
+  done
+  local wall c1
+  wall=$(elapsed "$t0" "$EPOCHREALTIME")
+  c1=$(farm_cpu "$1")
+  echo "$id" >"$WORK/last-job"
+  children_cpu
+  echo "$wall $(awk -v a="$c1" -v b="$c0" -v c="$CHILD_CPU" 'BEGIN { printf "%.3f", a - b + c }')"
+}
+
+# Runs one timing and appends its wall-clock and CPU seconds to W[key] and C[key].
+declare -A W C
+measure() { # key command args...
+  local key=$1 w c
+  shift
+  read -r w c < <("$@")
+  [[ -n ${c:-} ]] || { echo "bench/farm.sh: '$*' failed" >&2; exit 1; }
+  W[$key]+="$w " C[$key]+="$c "
+}
+
+# bytes_received and bytes_acked summed over the master's established connections on a port.
+wire() { # port
+  ss -tinH state established "( sport = :$1 )" | awk '
+    { for (i = 1; i <= NF; i++) { split($i, kv, ":")
+        if (kv[1] == "bytes_received") r += kv[2]; if (kv[1] == "bytes_acked") s += kv[2] } }
+    END { printf "%d %d\n", r, s }'
+}
+load() { cut -d' ' -f1 /proc/loadavg; }
+
+LOAD0=$(load)
+T0=$EPOCHREALTIME
+
+# ---------------------------------------------------------------- 1. overhead
+
+TN=$NPROC
+echo "== overhead: $REPS repetitions, $TN threads" >&2
+start_farm tcp1 1 "$TN"
+for s in "${SCENES[@]}"; do # warm-up: the worker fetches the scene, caches warm
+  measure warm t_direct "$s" "$TN"
+  measure warm t_farm tcp1 "$s"
+done
+for ((r = 1; r <= REPS; r++)); do
+  for s in "${SCENES[@]}"; do
+    measure "direct|$s" t_direct "$s" "$TN"
+    measure "inproc|$s" t_inproc "$s" "$TN"
+    measure "tcp|$s" t_farm tcp1 "$s"
+  done
+  echo "   repetition $r/$REPS done" >&2
+done
+
+# ---------------------------------------------------------------- 3. bytes on the wire
+
+echo "== bytes on the wire" >&2
+declare -A WIRE
+for s in "${SCENES[@]}"; do
+  read -r r0 s0 < <(wire "${WPORT[tcp1]}")
+  measure wire t_farm tcp1 "$s"
+  read -r r1 s1 < <(wire "${WPORT[tcp1]}")
+  # The master's log line for the job: "WxH, S spp, B buckets, T tiles x P passes".
+  line=$(grep "job $(cat "$WORK/last-job") 'bench' submitted" "$WORK/tcp1-master.log")
+  read -r xres yres spp nb tiles passes < <(sed -E \
+    's/.*: ([0-9]+)x([0-9]+), ([0-9]+) spp, ([0-9]+) buckets, ([0-9]+) tiles x ([0-9]+) passes.*/\1 \2 \3 \4 \5 \6/' <<<"$line")
+  WIRE[$s]="$xres $yres $spp $nb $tiles $passes $((r1 - r0)) $((s1 - s0))"
+done
+
+# ---------------------------------------------------------------- 2. scaling
+
+echo "== scaling: $REPS repetitions" >&2
+start_farm one 1 1
+start_farm two 2 1
+for s in "${SCENES[@]}"; do measure warm t_farm one "$s"; measure warm t_farm two "$s"; done
+for ((r = 1; r <= REPS; r++)); do
+  for s in "${SCENES[@]}"; do
+    measure "one|$s" t_farm one "$s"
+    measure "two|$s" t_farm two "$s"
+    measure "direct1|$s" t_direct "$s" 1
+    measure "direct2|$s" t_direct "$s" 2
+  done
+  echo "   repetition $r/$REPS done" >&2
+done
+
+# ---------------------------------------------------------------- 4. rays/s
+
+echo "== rays/s of every scene" >&2
+RAYS_REPS=3
+declare -A RAYS
+for f in "$ROOT"/scenes/*.pbrt; do
+  s=scenes/$(basename "$f")
+  for ((r = 1; r <= RAYS_REPS; r++)); do
+    measure "rays|$s" t_direct "$s" "$TN" "$RAYS_ARGS"
+    # "N samples, X M rays in Y s (Z M rays/s); ..."
+    RAYS[$s]+="$(sed -nE 's/.* \(([0-9.]+) M rays\/s\).*/\1/p' "$WORK/direct.out") "
+  done
+done
+LOAD1=$(load)
+MINUTES=$(awk -v a="$T0" -v b="$EPOCHREALTIME" 'BEGIN { printf "%.1f", (b - a) / 60 }')
+
+# ---------------------------------------------------------------- report
+
+# "median (min–max)" of a list of seconds.
+cell() { read -r m lo hi < <(stats $1); printf '%.2f (%.2f–%.2f)' "$m" "$lo" "$hi"; }
+verdict() { awk -v v="$1" -v t="$2" -v op="$3" 'BEGIN { ok = op == "<=" ? v <= t : v >= t; print ok ? "**met**" : "**missed**" }'; }
+job() { echo "\`$1 ${ARGS[$1]}\`"; }
+
+report() {
+  local s
+  echo "Measured $(date -u '+%Y-%m-%d %H:%M UTC') on $NPROC cores ($CPU), Linux $(uname -r),"
+  echo "commit $(git -C "$ROOT" rev-parse --short HEAD 2>/dev/null || echo unknown)$(git -C "$ROOT" diff --quiet 2>/dev/null || echo ' with local changes'),"
+  echo "Release build; $REPS repetitions per figure, shown as median (min–max) seconds; the run took"
+  echo "$MINUTES minutes; 1-minute load average $LOAD0 before and $LOAD1 after (other work on the machine"
+  echo "shows here: a load above about 0.5 means the timings shared the cores)."
+  echo
+  echo "**Overhead of the farm** ($TN threads everywhere; target: within 5 % of --direct)"
+  echo
+  echo "| job | --direct | render (in-process farm) | TCP farm, 1 worker | wall ratio in-process / TCP | CPU ratio in-process / TCP | target: wall ratio ≤ 1.05 |"
+  echo "| --- | --- | --- | --- | --- | --- | --- |"
+  for s in "${SCENES[@]}"; do
+    local d i f ri rf
+    d=$(med ${W[direct|$s]}); i=$(med ${W[inproc|$s]}); f=$(med ${W[tcp|$s]})
+    ri=$(ratio "$i" "$d"); rf=$(ratio "$f" "$d")
+    echo "| $(job "$s") | $(cell "${W[direct|$s]}") | $(cell "${W[inproc|$s]}") | $(cell "${W[tcp|$s]}") | $ri / $rf | $(ratio "$(med ${C[inproc|$s]})" "$(med ${C[direct|$s]})") / $(ratio "$(med ${C[tcp|$s]})" "$(med ${C[direct|$s]})") | in-process $(verdict "$ri" 1.05 '<='), TCP $(verdict "$rf" 1.05 '<=') |"
+  done
+  echo
+  echo "**Scaling** (TCP farm, workers of 1 thread each; target: 2 workers ≥ 1.8x one worker)"
+  echo
+  echo "| job | 1 worker | 2 workers | speed-up | target ≥ 1.8 | --direct 1 thread | --direct 2 threads | speed-up | 1-worker farm / --direct 1 thread (wall, CPU) |"
+  echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
+  for s in "${SCENES[@]}"; do
+    local a b c e sp sd
+    a=$(med ${W[one|$s]}); b=$(med ${W[two|$s]}); c=$(med ${W[direct1|$s]}); e=$(med ${W[direct2|$s]})
+    sp=$(ratio "$a" "$b"); sd=$(ratio "$c" "$e")
+    echo "| $(job "$s") | $(cell "${W[one|$s]}") | $(cell "${W[two|$s]}") | ${sp}x | $(verdict "$sp" 1.8 '>=') | $(cell "${W[direct1|$s]}") | $(cell "${W[direct2|$s]}") | ${sd}x | $(ratio "$a" "$c"), $(ratio "$(med ${C[one|$s]})" "$(med ${C[direct1|$s]})") |"
+  done
+  echo
+  echo "**Bytes on the wire** (one job on the 1-worker TCP farm: the kernel's byte counters of the master's"
+  echo "worker connection, \`ss -ti\` bytes_received and bytes_acked, i.e. TCP payload including ZMTP"
+  echo "framing and heartbeats; against the tile payload of docs/protocol.md, passes × pixels ×"
+  echo "(8·buckets + 24) bytes)"
+  echo
+  echo "| job | pixels | buckets | tiles × passes | worker → master, measured | tile payload | measured / payload | per pixel | per pixel and sample | master → worker |"
+  echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
+  for s in "${SCENES[@]}"; do
+    local xres yres spp nb tiles passes recv sent px payload
+    read -r xres yres spp nb tiles passes recv sent <<<"${WIRE[$s]}"
+    px=$((xres * yres)); payload=$((passes * px * (8 * nb + 24)))
+    echo "| $(job "$s") | $px | $nb | $tiles × $passes | $recv B | $payload B | $(ratio "$recv" "$payload") | $(awk -v a="$recv" -v b="$px" 'BEGIN { printf "%.1f B", a / b }') | $(awk -v a="$recv" -v b="$px" -v c="$spp" 'BEGIN { printf "%.2f B", a / b / c }') | $sent B |"
+  done
+  echo
+  echo "**Rays per second** of \`prismfarm render SCENE --direct --threads $TN $RAYS_ARGS\` (median of $RAYS_REPS)"
+  echo
+  echo "| scene | seconds | M rays/s |"
+  echo "| --- | --- | --- |"
+  for f in "$ROOT"/scenes/*.pbrt; do
+    s=scenes/$(basename "$f")
+    read -r m lo hi < <(stats ${RAYS[$s]})
+    echo "| \`$s\` | $(cell "${W[rays|$s]}") | $(printf '%.2f (%.2f–%.2f)' "$m" "$lo" "$hi") |"
+  done
+}
+
+report >"$WORK/report.md"
+cat "$WORK/report.md"
+
+if ((WRITE_DOCS)); then
+  DOC=$ROOT/docs/performance.md
+  if ! grep -q '<!-- bench:begin -->' "$DOC" 2>/dev/null; then
+    printf '\n<!-- bench:begin -->\n<!-- bench:end -->\n' >>"$DOC"
+  fi
+  awk -v rep="$WORK/report.md" '
+    /<!-- bench:begin -->/ { print; while ((getline l < rep) > 0) print l; skip = 1; next }
+    /<!-- bench:end -->/ { skip = 0 }
+    !skip' "$DOC" >"$WORK/doc.md"
+  cp "$WORK/doc.md" "$DOC"
+  echo "== wrote the tables into $DOC" >&2
+fi

@@ -1,0 +1,200 @@
+/* The photon integrator against plain path tracing on a caustic both can see: a small disk
+ * light above a glass ball (n = 1.5) that focuses it onto a diffuse floor inside the ball's
+ * shadow. The camera looks at the floor under the ball, so every pixel is caustic (L S+ D E),
+ * the light the photon integrator takes from its store and the path tracer finds by hitting
+ * the light through the ball. The two must agree on the mean, and the photon image must be
+ * far less noisy. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "colour.h"
+#include "photon.h"
+#include "render.h"
+#include "scene.h"
+
+#define RES 16
+
+static scene_t *ball_scene(int photons)
+{
+    err_t err;
+    scene_t *s = scene_new(&err);
+    assert_non_null(s);
+    render_settings_t *rs = &s->settings;
+    rs->integrator = INTEGRATOR_PATH;
+    rs->dispersion = DISPERSION_HERO;
+    rs->visible_sampling = 0;
+    rs->maxdepth = 8;
+    rs->xres = rs->yres = RES;
+    rs->seed = 5;
+    if (photons > 0) {
+        rs->photon.enabled = 1;
+        rs->photon.photons = (uint64_t)photons;
+        rs->photon.maxdepth = 8;
+        rs->photon.radius = 0.02;
+        rs->photon.k = 0;
+        rs->photon.threshold = 0.0;
+    }
+    /* Camera under the ball's rim, looking down at the floor point below its centre; the
+     * caustic fills the image. */
+    transform_t cam;
+    assert_int_equal(transform_look_at(vec3_make(0, 0.55, -1.1), vec3_make(0, 0, 0), vec3_make(0, 1, 0), &cam, &err), 0);
+    s->camera.camera_to_world = transform_inverse(cam);
+    s->camera.fov_deg = 20.0;
+
+    spectrum_t *white = spectrum_new_constant(1.0, &err), *grey = spectrum_new_constant(0.5, &err);
+    assert_int_equal(scene_own_spectrum(s, white, &err), 0);
+    texture_t *t = texture_new_constant(grey, &err);
+    assert_int_equal(scene_own_texture(s, t, &err), 0);
+    material_t floor_m = {.kind = MATERIAL_DIFFUSE, .reflectance = t}, glass = {.kind = MATERIAL_DIELECTRIC};
+    glass.ior = ior_constant(1.5);
+    int fm = scene_add_material(s, &floor_m, &err), gm = scene_add_material(s, &glass, &err);
+    /* Floor: a large disk at y = 0 facing up (+z of the disk turned onto +y). */
+    transform_t rx;
+    assert_int_equal(transform_rotate(-90.0, vec3_make(1, 0, 0), &rx, &err), 0);
+    assert_true(scene_add_disk(s, &rx, 20.0, 0.0, fm, -1, 0, &err) >= 0);
+    /* The ball: radius 1, centre 1.6 above the floor (paraxial focus of a ball lens
+     * nR / (2(n - 1)) = 1.5 from its centre for a distant source). */
+    transform_t ball = transform_translate(vec3_make(0, 1.6, 0));
+    assert_true(scene_add_sphere(s, &ball, 1.0, gm, -1, 0, &err) >= 0);
+    /* The light: a disk of radius 0.8 at y = 8, facing down, radiance 40: small (7 degrees
+     * across from the ball) but finite, so that the path tracer converges at test size. */
+    light_t l = {.kind = LIGHT_AREA, .spectrum = white, .scale = 40.0};
+    int li = scene_add_light(s, &l, &err);
+    transform_t up = transform_compose(transform_translate(vec3_make(0, 8, 0)), rx);
+    assert_true(scene_add_disk(s, &up, 0.8, 0.0, fm, li, 1, &err) >= 0);
+    if (scene_finish(s, &err))
+        fail_msg("%s", err.msg);
+    return s;
+}
+
+typedef struct image_stats {
+    double mean;     /* mean over pixels of the pixel's mean luminance */
+    double se;       /* its standard error from the per-sample variances */
+    double max;      /* largest pixel mean */
+    double var;      /* mean per-sample variance of luminance */
+    double buckets[64];
+} image_stats_t;
+
+static image_stats_t render(scene_t *s, int spp)
+{
+    err_t err;
+    s->settings.spp = spp;
+    int nb = s->settings.grid.n;
+    tilebuf_t *t = tilebuf_new(0, 0, RES, RES, nb, &err);
+    render_stats_t rst = {0};
+    if (render_tile(s, 0, 0, RES, RES, 0, (uint32_t)spp, t, &rst, &err))
+        fail_msg("render_tile: %s", err.msg);
+    assert_int_equal(rst.nonfinite, 0);
+    image_stats_t st = {0};
+    double var_sum = 0;
+    for (int y = 0; y < RES; y++)
+        for (int x = 0; x < RES; x++) {
+            double n = (double)tilebuf_count(t, x, y);
+            double m = tilebuf_luminance_sum(t, x, y) / n;
+            double v = fmax(0.0, tilebuf_luminance_sq_sum(t, x, y) / n - m * m);
+            st.mean += m;
+            st.max = fmax(st.max, m);
+            st.var += v;
+            var_sum += v / n;
+            for (int b = 0; b < nb; b++)
+                st.buckets[b] += tilebuf_sum(t, x, y, b) / n / (RES * RES);
+        }
+    st.mean /= RES * RES;
+    st.var /= RES * RES;
+    st.se = sqrt(var_sum) / (RES * RES);
+    tilebuf_destroy(&t);
+    return st;
+}
+
+/* The photon map's own noise in the image mean. Photon i, of luminance-weighted power a_i,
+ * adds to the mean over pixels in proportion to the pixel density at its landing point x:
+ * pixels per unit floor area = (pixels per steradian, proportional to 1 / cos^3 alpha off
+ * the axis) times (steradians per unit area, cos theta / d^2), so its share is
+ * a_i w_i with w_i = cos theta / (d^2 cos^3 alpha), and the mean's relative standard error is
+ * sqrt(sum (a_i w_i)^2) / sum a_i w_i over the photons in view (photons are independent). */
+static double map_relative_se(const scene_t *s)
+{
+    err_t err;
+    const photon_map_t *m = photon_pass_get(s, NULL, NULL, &err);
+    assert_non_null(m);
+    xyz_t wts[64];
+    colour_grid_weights(s->settings.grid, wts);
+    transform_t to_cam = transform_inverse(s->camera.camera_to_world);
+    vec3_t eye = transform_point(&s->camera.camera_to_world, vec3_make(0, 0, 0));
+    double tanh_ = tan(0.5 * s->camera.fov_deg * PF_PI / 180.0), sum = 0, sq = 0;
+    for (size_t i = 0; i < photon_map_count(m); i++) {
+        photon_info_t ph = photon_map_photon(m, i);
+        vec3_t q = transform_point(&to_cam, ph.p);
+        if (!(q.z > 0) || fabs(q.x / q.z) > tanh_ || fabs(q.y / q.z) > tanh_)
+            continue;
+        vec3_t to_eye = vec3_sub(eye, ph.p);
+        double d = vec3_length(to_eye), cos_t = fabs(vec3_dot(ph.normal, to_eye)) / d, cos_a = q.z / d;
+        double a = ph.power * wts[ph.bucket].y * cos_t / (d * d * cos_a * cos_a * cos_a);
+        sum += a;
+        sq += a * a;
+    }
+    assert_true(sum > 0);
+    return sqrt(sq) / sum;
+}
+
+/* Tolerance: the two means differ by the path tracer's noise (per-sample variances), the
+ * photon render's camera noise (likewise) and the photon map's noise (map_relative_se), all
+ * independent, so |photon - path| < 4 sigma of their sum; the kernel's blur (radius 0.02
+ * against a caustic 0.4 across, all inside the image but for a faint rim) moves light
+ * within the image and leaves the mean alone. At the test size sigma is about 0.9 %, so the
+ * 5 % the issue asks for is met with 4 sigma to spare. (With 4096 path samples and 2 million
+ * photons the two agree to 0.4 %, within sigma.) */
+static void test_caustic_agrees_with_path(void **state)
+{
+    (void)state;
+    scene_t *path = ball_scene(0), *ph = ball_scene(800000);
+    image_stats_t a = render(path, 2048), b = render(ph, 16);
+    double map_se = b.mean * map_relative_se(ph);
+    double se = sqrt(a.se * a.se + b.se * b.se + map_se * map_se);
+    print_message("caustic mean luminance: path %.4f +- %.4f (2048 spp), photon %.4f +- %.4f (16 spp) +- %.4f "
+                  "(800k photons): %+.2f%%, sigma %.2f%%\n",
+                  a.mean, a.se, b.mean, b.se, map_se, 100.0 * (b.mean / a.mean - 1.0), 100.0 * se / a.mean);
+    assert_true(fabs(b.mean - a.mean) < 4.0 * se);
+    assert_true(fabs(b.mean / a.mean - 1.0) < 0.05);
+    assert_true(4.0 * se / a.mean < 0.06);
+    /* Per bucket too (the light is white, the glass constant: every bucket alike), within
+     * 4 sigma scaled by sqrt(16) for the bucket's share of the samples. */
+    for (int k = 0; k < path->settings.grid.n; k++)
+        if (!(fabs(b.buckets[k] / a.buckets[k] - 1.0) < 4.0 * 4.0 * se / a.mean))
+            fail_msg("bucket %d: photon %.4f, path %.4f", k, b.buckets[k], a.buckets[k]);
+    /* Fireflies: at equal samples, the photon image's per-sample variance and its brightest
+     * pixel against the path tracer's. */
+    image_stats_t c = render(path, 16);
+    print_message("at 16 spp: per-sample luminance variance path %.3g, photon %.3g (%.0fx lower); brightest pixel "
+                  "path %.2f, photon %.2f (the caustic's peak is about 5)\n",
+                  c.var, b.var, c.var / b.var, c.max, b.max);
+    assert_true(b.var * 20.0 < c.var);
+    assert_true(b.max < c.max);
+    /* The thesis's combination: Whitted gather with fan-out dispersion over the same store
+     * sees the caustic too; it lacks only the diffuse interreflection the path gather adds. */
+    ph->settings.integrator = INTEGRATOR_WHITTED;
+    ph->settings.dispersion = DISPERSION_FANOUT;
+    image_stats_t d = render(ph, 4);
+    print_message("Whitted gather, fan-out: %.4f (%+.2f%% against the path gather)\n", d.mean, 100.0 * (d.mean / b.mean - 1.0));
+    /* Same store, so its noise cancels: 4 sigma of both renders' camera noise, plus 1 % for
+     * the floor's light that the ball returns to it (path gather only; measured 0.03 %). */
+    assert_true(fabs(d.mean - b.mean) < 4.0 * sqrt(b.se * b.se + d.se * d.se) + 0.01 * b.mean);
+    scene_destroy(&path);
+    scene_destroy(&ph);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_caustic_agrees_with_path),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}

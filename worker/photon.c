@@ -1,0 +1,576 @@
+#include "photon.h"
+
+#include "fresnel.h"
+#include "lights.h"
+#include "local_render.h"
+#include "rng.h"
+#include "sample.h"
+#include "specular.h"
+#include "wavelength.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#if defined(__SSE__)
+#include <pmmintrin.h>
+#include <xmmintrin.h>
+#endif
+
+/* Photon i draws its numbers from (seed ^ PHOTON_SEED_MIX, i, 0, dim): without the mix,
+ * photon i and pixel i's sample 0 would share every random number. */
+#define PHOTON_SEED_MIX 0x50484F544F4E5321ull /* "PHOTONS!" */
+/* Pass-through surfaces ("interface") are not bounces; this bounds them anyway. */
+#define MAX_PASSTHROUGH 64
+
+photon_job_t photon_job_from_settings(const render_settings_t *rs)
+{
+    return (photon_job_t){.seed = rs->seed, .maxdepth = rs->photon.maxdepth,
+                          .threshold = rs->photon.threshold, .policy = PHOTON_STORE_CAUSTIC};
+}
+
+double photon_gather_radius(const scene_t *scene)
+{
+    double r = scene->settings.photon.radius;
+    return r > 0.0 ? r : 0.01 * scene->scene_radius;
+}
+
+typedef struct tracer {
+    const scene_t *scene;
+    const photon_job_t *job;
+    alias_t *lights; /* the scene's power distribution without infinite lights */
+    /* Caustic store: a sphere around every mirror and glass surface. A photon whose first hit
+     * is diffuse is never stored, so photons are aimed at this sphere only (a bounding-sphere
+     * version of Jensen's projection maps, Jensen 2001 sec. 6.2.2); aim_ok is 0 when a light
+     * lies inside it, then that light emits everywhere. no_target: no specular surface at all,
+     * so no photon can ever be stored. */
+    int aim, no_target;
+    vec3_t aim_centre;
+    double aim_radius;
+    photon_map_t *out;
+    photon_stats_t *stats;
+    rng_stream_t rng;
+    uint64_t lambda_shift; /* the job's random shift of the wavelength sequence */
+} tracer_t;
+
+static double next(tracer_t *t) { return rng_stream_next(&t->rng); }
+
+/* Samples a direction toward the aim sphere from o: uniform in the cone that the sphere
+ * subtends. Returns the cone's solid angle 2 pi (1 - cos theta_max) (the inverse pdf), or 0
+ * when o is inside the sphere (no cone). */
+static double aim_cone(tracer_t *t, vec3_t o, vec3_t *dir)
+{
+    vec3_t d = vec3_sub(t->aim_centre, o);
+    double d2 = vec3_dot(d, d), r2 = t->aim_radius * t->aim_radius;
+    if (!(d2 > r2 * (1.0 + 1e-9)))
+        return 0.0;
+    double sin2 = r2 / d2;
+    double cos_max = sqrt(1.0 - sin2);
+    double u0 = next(t), u1 = next(t);
+    *dir = sample_local_to_world(sample_uniform_cone(u0, u1, cos_max), vec3_scale(d, 1.0 / sqrt(d2)));
+    /* 1 - cos_max without cancellation for small cones. */
+    return 2.0 * PF_PI * sin2 / (1.0 + cos_max);
+}
+
+/* Where a photon of light l starts, in which direction, and the light's spectral power
+ * Phi(lambda) that its sampling densities of position and direction turn into (W/nm):
+ *   diffuse area light, radiance L: a uniform point (pdf 1/A) and a cosine direction
+ *     (pdf cos/pi) give L cos / (cos/pi / A) = L pi A, twice that when two-sided (the side
+ *     is picked with probability 1/2); aimed, a uniform direction in the cone omega of the
+ *     aim sphere gives L cos A omega (0 below the surface);
+ *   collimated area light (its L is the beam's irradiance): uniform point, direction the
+ *     normal: L A;
+ *   point light, intensity I: uniform direction, 4 pi I; aimed, I omega;
+ *   spot light: uniform direction in the outer cone, I falloff(theta) 2 pi (1 - cos_max);
+ *     aimed, I falloff(theta) omega;
+ *   distant light, irradiance E: parallel rays through a disk perpendicular to the direction
+ *     (the bounding sphere's, radius R, or the aim sphere's), started upstream of the whole
+ *     scene: E pi R^2.
+ * Returns 0 when the light emits no photon (infinite lights, degenerate shapes). */
+static int emit(tracer_t *t, const light_t *l, double lambda, vec3_t *org, vec3_t *dir, double *phi)
+{
+    const scene_t *s = t->scene;
+    double value = l->scale * spectrum_eval(l->spectrum, lambda);
+    double omega;
+    switch (l->kind) {
+    case LIGHT_AREA:
+    case LIGHT_COLLIMATED: {
+        const shape_t *sh = &s->shapes[l->shape];
+        double u0 = next(t), u1 = next(t), u2 = next(t);
+        vec3_t p, n;
+        if (!lights_sample_shape(sh, u0, u1, u2, &p, &n))
+            return 0;
+        if (l->kind == LIGHT_COLLIMATED) {
+            *dir = n;
+            *phi = value * sh->area;
+        } else {
+            double side = 1.0;
+            if (l->twosided && next(t) < 0.5)
+                n = vec3_neg(n);
+            if (l->twosided)
+                side = 2.0;
+            if (t->aim && (omega = aim_cone(t, p, dir)) > 0.0) {
+                double cos_e = vec3_dot(*dir, n);
+                if (!(cos_e > 0.0))
+                    return 0;
+                *phi = value * cos_e * sh->area * side * omega;
+            } else {
+                double u3 = next(t), u4 = next(t);
+                *dir = sample_local_to_world(sample_cosine_hemisphere(u3, u4), n);
+                *phi = value * PF_PI * sh->area * side;
+            }
+        }
+        *org = geometry_offset(p, n, *dir);
+        return 1;
+    }
+    case LIGHT_POINT:
+        *org = l->position;
+        if (t->aim && (omega = aim_cone(t, l->position, dir)) > 0.0) {
+            *phi = value * omega;
+        } else {
+            double u0 = next(t), u1 = next(t);
+            *dir = sample_uniform_sphere(u0, u1);
+            *phi = value * 4.0 * PF_PI;
+        }
+        return 1;
+    case LIGHT_SPOT: {
+        double cmax = l->cos_total_width;
+        *org = l->position;
+        if (t->aim && (omega = aim_cone(t, l->position, dir)) > 0.0) {
+            *phi = value * lights_spot_falloff(l, vec3_dot(*dir, l->direction)) * omega;
+            return 1;
+        }
+        if (!(cmax < 1.0))
+            return 0;
+        double u0 = next(t), u1 = next(t);
+        vec3_t local = sample_uniform_cone(u0, u1, cmax);
+        *dir = sample_local_to_world(local, l->direction);
+        *phi = value * lights_spot_falloff(l, local.z) * 2.0 * PF_PI * (1.0 - cmax);
+        return 1;
+    }
+    case LIGHT_DISTANT: {
+        double u0 = next(t), u1 = next(t);
+        vec3_t scene_centre = vec3_scale(vec3_add(s->bounds_lo, s->bounds_hi), 0.5);
+        vec3_t centre = t->aim ? t->aim_centre : scene_centre;
+        double R = t->aim ? t->aim_radius : s->scene_radius;
+        vec3_t a, b;
+        vec3_basis(l->direction, &a, &b);
+        vec3_t q = sample_concentric_disk(u0, u1);
+        vec3_t p = vec3_add(centre, vec3_add(vec3_scale(a, R * q.x), vec3_scale(b, R * q.y)));
+        /* Back along the direction until upstream of the scene's bounding sphere, so that
+         * the photon crosses everything that could shade the aimed disk. */
+        double back = vec3_dot(vec3_sub(p, scene_centre), l->direction) + 1.05 * s->scene_radius;
+        *org = vec3_fma(p, l->direction, -back);
+        *dir = l->direction;
+        *phi = value * PF_PI * R * R;
+        return 1;
+    }
+    case LIGHT_INFINITE:
+        return 0;
+    }
+    return 0;
+}
+
+/* Grows the box lo..hi by the world-space corners of the box blo..bhi under to_world. */
+static void grow_box(vec3_t *lo, vec3_t *hi, const transform_t *to_world, vec3_t blo, vec3_t bhi)
+{
+    for (int c = 0; c < 8; c++) {
+        vec3_t q = vec3_make(c & 1 ? bhi.x : blo.x, c & 2 ? bhi.y : blo.y, c & 4 ? bhi.z : blo.z);
+        vec3_t w = to_world ? transform_point(to_world, q) : q;
+        *lo = vec3_make(fmin(lo->x, w.x), fmin(lo->y, w.y), fmin(lo->z, w.z));
+        *hi = vec3_make(fmax(hi->x, w.x), fmax(hi->y, w.y), fmax(hi->z, w.z));
+    }
+}
+
+/* The box of one shape in its own space (world space for world meshes). */
+static void shape_box(const shape_t *sh, vec3_t *lo, vec3_t *hi, transform_t *to_space, int *has_transform)
+{
+    *lo = vec3_make(INFINITY, INFINITY, INFINITY);
+    *hi = vec3_make(-INFINITY, -INFINITY, -INFINITY);
+    *has_transform = sh->kind != SHAPE_MESH;
+    if (sh->kind == SHAPE_MESH) {
+        for (size_t v = 0; v < sh->nverts; v++) {
+            vec3_t q = vec3_make(sh->positions[3 * v], sh->positions[3 * v + 1], sh->positions[3 * v + 2]);
+            grow_box(lo, hi, NULL, q, q);
+        }
+    } else {
+        double r = sh->radius;
+        double zlo = sh->kind == SHAPE_SPHERE ? -r : sh->height, zhi = sh->kind == SHAPE_SPHERE ? r : sh->height;
+        *lo = vec3_make(-r, -r, zlo);
+        *hi = vec3_make(r, r, zhi);
+        *to_space = sh->to_world;
+    }
+}
+
+/* The aim sphere: around the world-space boxes of every mirror and glass shape, instanced
+ * copies included. Returns 0 when there is none. */
+static int specular_sphere(const scene_t *s, vec3_t *centre, double *radius)
+{
+    vec3_t lo = vec3_make(INFINITY, INFINITY, INFINITY), hi = vec3_make(-INFINITY, -INFINITY, -INFINITY);
+    int any = 0;
+    for (size_t i = 0; i < s->nshapes; i++) {
+        const shape_t *sh = &s->shapes[i];
+        const material_t *m = &s->materials[sh->material];
+        if (m->kind != MATERIAL_DIELECTRIC && m->kind != MATERIAL_CONDUCTOR)
+            continue;
+        vec3_t blo, bhi;
+        transform_t own;
+        int has_own;
+        shape_box(sh, &blo, &bhi, &own, &has_own);
+        if (!(blo.x <= bhi.x))
+            continue;
+        if (has_own) {
+            vec3_t wlo = vec3_make(INFINITY, INFINITY, INFINITY), whi = vec3_neg(wlo);
+            grow_box(&wlo, &whi, &own, blo, bhi);
+            blo = wlo;
+            bhi = whi;
+        }
+        if (sh->object < 0) {
+            grow_box(&lo, &hi, NULL, blo, bhi);
+            any = 1;
+            continue;
+        }
+        for (size_t k = 0; k < s->ninstances; k++)
+            if (s->instances[k].object == sh->object) {
+                grow_box(&lo, &hi, &s->instances[k].to_world, blo, bhi);
+                any = 1;
+            }
+    }
+    if (!any)
+        return 0;
+    *centre = vec3_scale(vec3_add(lo, hi), 0.5);
+    double r = 0.5 * vec3_length(vec3_sub(hi, lo));
+    /* A margin for rounding, and for flat shapes (a mirror disk) a radius above zero. */
+    *radius = r * (1.0 + 1e-6) + 1e-9 * (1.0 + vec3_length(*centre));
+    return 1;
+}
+
+/* Traces photon i. Returns -1 only when the map cannot take a deposit. */
+static int trace_one(tracer_t *t, uint64_t i, err_t *err)
+{
+    const scene_t *s = t->scene;
+    const photon_job_t *job = t->job;
+    const spectral_grid_t grid = s->settings.grid;
+    photon_stats_t *st = t->stats;
+    t->rng = rng_stream_make(job->seed ^ PHOTON_SEED_MIX, i, 0);
+    double pmf;
+    const light_t *l = &s->lights[alias_sample(t->lights, next(t), &pmf)];
+    /* Wavelengths: the golden-ratio sequence u_i = frac(i / phi + shift) (a rank-1 lattice,
+     * in 64-bit fixed point so that it is exact), randomly shifted per job. Each u_i is
+     * uniform, so the estimate stays unbiased, and every bucket receives its share of any
+     * N photons to within a few, which removes the colour noise of independent draws. */
+    uint64_t ui = i * 0x9E3779B97F4A7C15ull + t->lambda_shift;
+    wavelength_sample_t ws = wavelength_sample_uniform((double)(ui >> 11) * 0x1p-53, grid.lambda_min, grid.lambda_max);
+    const double lambda = ws.lambda;
+    vec3_t org, dir;
+    double phi;
+    if (!(pmf > 0.0) || !(ws.pdf > 0.0) || !emit(t, l, lambda, &org, &dir, &phi))
+        return 0;
+    double w = phi / (pmf * ws.pdf);
+    if (!isfinite(w)) {
+        st->nonfinite++;
+        return 0;
+    }
+    st->power_emitted += w;
+    if (!(w > 0.0))
+        return 0;
+    const double w0 = w;
+    int depth = 0, specular = 0, diffuse = 0, passthrough = 0;
+    for (;;) {
+        hit_t h;
+        st->rays++;
+        if (!geometry_intersect(s->geometry, org, dir, 0.0, INFINITY, &h)) {
+            st->escaped++;
+            return 0;
+        }
+        surface_t sf;
+        scene_surface(s, &h, &sf);
+        const material_t *m = sf.material;
+        if (m->kind == MATERIAL_INTERFACE) {
+            if (++passthrough > MAX_PASSTHROUGH)
+                return 0;
+            org = geometry_offset(sf.p, sf.ng, dir);
+            continue;
+        }
+        if (m->kind == MATERIAL_DIFFUSE) {
+            /* The side the photon arrived on decides the normal stored and the hemisphere it
+             * leaves into: the geometric surface, so that no photon crosses a wall. */
+            vec3_t g = vec3_dot(sf.ng, dir) < 0.0 ? sf.ng : vec3_neg(sf.ng);
+            int store = job->policy == PHOTON_STORE_CAUSTIC ? specular > 0 && !diffuse : depth > 0;
+            if (store) {
+                if (photon_map_deposit(t->out, sf.p, dir, g, lambda, w, err))
+                    return -1;
+                st->deposited++;
+                st->power_deposited += w;
+            }
+            if (job->policy == PHOTON_STORE_CAUSTIC)
+                return 0;
+            if (depth >= job->maxdepth) {
+                st->culled++;
+                return 0;
+            }
+            /* Russian roulette on the albedo (thesis eq. 2.32): continue with probability rho
+             * and weight rho / rho = 1. */
+            double rho = m->reflectance ? texture_eval(m->reflectance, sf.u, sf.v, lambda) : 0.5;
+            if (!(next(t) < fmin(1.0, rho)))
+                return 0;
+            if (rho > 1.0)
+                w *= rho;
+            double u0 = next(t), u1 = next(t);
+            dir = sample_local_to_world(sample_cosine_hemisphere(u0, u1), g);
+            org = geometry_offset(sf.p, sf.ng, dir);
+            diffuse = 1;
+        } else {
+            if (depth >= job->maxdepth) {
+                st->culled++;
+                return 0;
+            }
+            if (m->kind == MATERIAL_CONDUCTOR) {
+                vec3_t ns = specular_normal(&sf, dir, 0.0, NULL);
+                vec3_t n = vec3_dot(ns, dir) < 0.0 ? ns : vec3_neg(ns);
+                w *= specular_conductor_reflectance(m, &sf, -vec3_dot(dir, n), lambda);
+                dir = fresnel_reflect(dir, n);
+            } else {
+                /* Smooth glass at the photon's own wavelength: Snell and the unpolarised
+                 * Fresnel reflectance R(lambda); reflect with probability R, refract with
+                 * 1 - R, so the weight stays (R / R). Flux crossing an interface takes T
+                 * alone, without the (n_t / n_i)^2 of radiance (PHYSICS.md). */
+                const int entering = vec3_dot(dir, sf.ng) < 0.0;
+                double n = ior_eval(&m->ior, lambda);
+                double eta_rel = entering ? 1.0 / n : n;
+                vec3_t nrm = specular_normal(&sf, dir, eta_rel, NULL);
+                vec3_t refr;
+                int ok = fresnel_refract(dir, nrm, eta_rel, &refr);
+                double R = ok ? fresnel_dielectric(-vec3_dot(dir, nrm), 1.0, n) : 1.0;
+                dir = next(t) < R ? fresnel_reflect(dir, nrm) : refr;
+            }
+            org = geometry_offset(sf.p, sf.ng, dir);
+            specular++;
+        }
+        depth++;
+        /* The power threshold (thesis 5.5) as Russian roulette, which keeps the estimate
+         * unbiased: below threshold * w0 the photon survives with probability
+         * (w / w0) / threshold and is scaled back up to threshold * w0. */
+        double frac = w / w0;
+        if (!(frac > 0.0))
+            return 0;
+        if (frac < job->threshold) {
+            double q = frac / job->threshold;
+            if (next(t) >= q) {
+                st->culled++;
+                return 0;
+            }
+            w /= q;
+        }
+    }
+}
+
+static alias_t *photon_lights(const scene_t *s, err_t *err)
+{
+    if (!s->light_power || s->nlights == 0) {
+        err_set(err, "the photon pass needs a light: the scene has none");
+        return NULL;
+    }
+    double *w = malloc(s->nlights * sizeof *w);
+    if (!w) {
+        err_set(err, "out of memory");
+        return NULL;
+    }
+    double total = 0.0;
+    for (size_t i = 0; i < s->nlights; i++)
+        total += w[i] = s->lights[i].kind == LIGHT_INFINITE ? 0.0 : alias_pmf(s->light_power, i);
+    alias_t *a = NULL;
+    if (total > 0.0)
+        a = alias_new(w, s->nlights, err);
+    else
+        err_set(err, "the photon pass needs a light other than an environment: environment lights emit no photons");
+    free(w);
+    return a;
+}
+
+int photon_trace(const scene_t *scene, const photon_job_t *job, uint64_t i0, uint64_t i1,
+                 photon_map_t *out, photon_stats_t *stats, err_t *err)
+{
+    if (i1 < i0)
+        return err_set(err, "photon range [%llu, %llu) is reversed", (unsigned long long)i0,
+                       (unsigned long long)i1);
+    spectral_grid_t g = photon_map_grid(out), sg = scene->settings.grid;
+    if (g.n != sg.n || g.lambda_min != sg.lambda_min || g.lambda_max != sg.lambda_max)
+        return err_set(err, "the photon map's wavelength grid is not the scene's");
+    if (job->maxdepth < 0 || !(job->threshold >= 0.0 && job->threshold < 1.0))
+        return err_set(err, "photon job: maxdepth %d or threshold %g out of range", job->maxdepth, job->threshold);
+    photon_stats_t local = {0};
+    tracer_t t = {.scene = scene, .job = job, .out = out, .stats = &local};
+    if (!(t.lights = photon_lights(scene, err)))
+        return -1;
+    /* Sample index 1 of photon 0 is no photon's number (photons use sample 0). */
+    t.lambda_shift = (uint64_t)(rng_uniform(job->seed ^ PHOTON_SEED_MIX, 0, 1, 0) * 0x1p53) << 11;
+    if (job->policy == PHOTON_STORE_CAUSTIC) {
+        t.aim = specular_sphere(scene, &t.aim_centre, &t.aim_radius);
+        t.no_target = !t.aim;
+    }
+    int r = 0;
+    for (uint64_t i = i0; i < i1 && !r && !t.no_target; i++)
+        r = trace_one(&t, i, err);
+    alias_destroy(&t.lights);
+    if (r)
+        return -1;
+    local.emitted = i1 - i0;
+    photon_map_add_emitted(out, i1 - i0);
+    if (stats) {
+        stats->emitted += local.emitted;
+        stats->deposited += local.deposited;
+        stats->rays += local.rays;
+        stats->escaped += local.escaped;
+        stats->culled += local.culled;
+        stats->nonfinite += local.nonfinite;
+        stats->power_emitted += local.power_emitted;
+        stats->power_deposited += local.power_deposited;
+    }
+    return 0;
+}
+
+typedef struct pass_part {
+    const scene_t *scene;
+    photon_job_t job;
+    uint64_t i0, i1;
+    photon_map_t *map;
+    photon_stats_t stats;
+    int failed;
+    err_t err;
+} pass_part_t;
+
+static void *pass_thread(void *arg)
+{
+    pass_part_t *pt = arg;
+#if defined(__SSE__)
+    /* As the render threads: denormals slow Embree and never matter here. */
+    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+#endif
+    pt->failed = photon_trace(pt->scene, &pt->job, pt->i0, pt->i1, pt->map, &pt->stats, &pt->err) != 0;
+    return NULL;
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+photon_map_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t *stats,
+                              double *seconds, err_t *err)
+{
+    const double t0 = now_s();
+    const render_settings_t *rs = &scene->settings;
+    const uint64_t total = rs->photon.photons;
+    if (nthreads <= 0)
+        nthreads = local_render_cores();
+    if ((uint64_t)nthreads > total)
+        nthreads = total > 0 ? (int)total : 1;
+    pass_part_t *parts = calloc((size_t)nthreads, sizeof *parts);
+    pthread_t *th = calloc((size_t)nthreads, sizeof *th);
+    photon_map_t *map = photon_map_new(rs->grid, err);
+    int r = parts && th && map ? 0 : -1;
+    if (r && map)
+        err_set(err, "out of memory");
+    int started = 0;
+    for (int k = 0; !r && k < nthreads; k++) {
+        pass_part_t *pt = &parts[k];
+        pt->scene = scene;
+        pt->job = photon_job_from_settings(rs);
+        pt->i0 = total * (uint64_t)k / (uint64_t)nthreads;
+        pt->i1 = total * (uint64_t)(k + 1) / (uint64_t)nthreads;
+        if (!(pt->map = photon_map_new(rs->grid, err)))
+            r = -1;
+    }
+    if (!r) {
+        for (; started < nthreads; started++)
+            if (pthread_create(&th[started], NULL, pass_thread, &parts[started]))
+                break;
+        /* Parts whose thread could not start run here, in order. */
+        for (int k = started; k < nthreads; k++)
+            pass_thread(&parts[k]);
+        for (int k = 0; k < started; k++)
+            pthread_join(th[k], NULL);
+    }
+    /* The merge in index order makes the map independent of the thread count. */
+    for (int k = 0; !r && parts && k < nthreads; k++) {
+        pass_part_t *pt = &parts[k];
+        if (pt->failed) {
+            if (err)
+                *err = pt->err;
+            r = -1;
+        } else {
+            r = photon_map_append(map, pt->map, err);
+        }
+        if (stats && !r) {
+            photon_stats_t *s = &pt->stats;
+            stats->emitted += s->emitted;
+            stats->deposited += s->deposited;
+            stats->rays += s->rays;
+            stats->escaped += s->escaped;
+            stats->culled += s->culled;
+            stats->nonfinite += s->nonfinite;
+            stats->power_emitted += s->power_emitted;
+            stats->power_deposited += s->power_deposited;
+        }
+    }
+    for (int k = 0; parts && k < nthreads; k++)
+        photon_map_destroy(&parts[k].map);
+    free(parts);
+    free(th);
+    if (!r)
+        r = photon_map_build(map, err);
+    if (r) {
+        photon_map_destroy(&map);
+        return NULL;
+    }
+    if (seconds)
+        *seconds = now_s() - t0;
+    return map;
+}
+
+typedef struct pass_result {
+    photon_map_t *map;
+    photon_stats_t stats;
+    double seconds;
+} pass_result_t;
+
+static void *pass_build(const scene_t *scene, err_t *err)
+{
+    pass_result_t *pr = calloc(1, sizeof *pr);
+    if (!pr) {
+        err_set(err, "out of memory");
+        return NULL;
+    }
+    pr->map = photon_pass_run(scene, 0, &pr->stats, &pr->seconds, err);
+    if (!pr->map) {
+        err_prefix(err, "photon pass: ");
+        free(pr);
+        return NULL;
+    }
+    return pr;
+}
+
+static void pass_free(void *data)
+{
+    pass_result_t *pr = data;
+    photon_map_destroy(&pr->map);
+    free(pr);
+}
+
+const photon_map_t *photon_pass_get(const scene_t *scene, photon_stats_t *stats, double *seconds,
+                                    err_t *err)
+{
+    const pass_result_t *pr = scene_derived_get(scene, pass_build, pass_free, err);
+    if (!pr)
+        return NULL;
+    if (stats)
+        *stats = pr->stats;
+    if (seconds)
+        *seconds = pr->seconds;
+    return pr->map;
+}

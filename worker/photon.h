@@ -1,0 +1,78 @@
+/* photon: the photon tracer (thesis alg. 4 and 5.5): shoots photons from the lights and
+ * deposits them where they land on diffuse surfaces, into a photon map (photon_map.h).
+ * photon_trace traces a range [i0, i1) of a job's photon indices; every random number of
+ * photon i is keyed by (job seed, i, 0, dimension) -- the seed mixed with a photon-pass
+ * constant so that photon i and pixel i never share numbers -- so a photon lands in the same
+ * place with the same power whatever batch traced it, and batches concatenated in index order
+ * give the same map as one batch. Deposits carry raw power: photon i of light l at wavelength
+ * lambda starts with Phi_l(lambda) / (p_l * p_lambda), and the map divides by the number of
+ * photons emitted only when it is queried. photon_pass_* run a job's whole photon pass on
+ * this machine and keep the map with the scene for the camera pass. */
+#ifndef PRISMFARM_PHOTON_H
+#define PRISMFARM_PHOTON_H
+
+#include "photon_map.h"
+#include "scene.h"
+
+#include <stdint.h>
+
+typedef enum photon_store_policy {
+    /* The caustic store of the photon integrator: a photon is deposited at its first diffuse
+     * hit only if every bounce before it was specular and there was at least one (L S+ D
+     * paths), and ends there. The camera pass traces every other path. */
+    PHOTON_STORE_CAUSTIC,
+    /* The thesis's store (alg. 4): deposits at every diffuse hit except a first hit straight
+     * from the light, and continues diffusely by Russian roulette on the albedo. */
+    PHOTON_STORE_ALL,
+} photon_store_policy_t;
+
+typedef struct photon_job {
+    uint64_t seed;    /* the job's seed (render_settings.seed) */
+    int maxdepth;     /* scattering events a photon may undergo; a hit after the last one is
+                       * still deposited */
+    double threshold; /* below this fraction of its emitted power a photon survives Russian
+                       * roulette with probability (fraction / threshold) and is scaled back up
+                       * (an unbiased cull); 0: never */
+    photon_store_policy_t policy;
+} photon_job_t;
+
+/* The job of the photon integrator as scene->settings describes it (caustic store). */
+photon_job_t photon_job_from_settings(const render_settings_t *rs);
+
+typedef struct photon_stats {
+    uint64_t emitted;      /* photon indices traced */
+    uint64_t deposited;    /* deposits made */
+    uint64_t rays;         /* intersection queries */
+    uint64_t escaped;      /* photons that left the scene */
+    uint64_t culled;       /* ended by the threshold roulette or the depth limit */
+    uint64_t nonfinite;    /* photons dropped because their power was not finite */
+    double power_emitted;  /* sum of raw emitted power (W/nm, as deposits) over photons */
+    double power_deposited;
+} photon_stats_t;
+
+/* Traces photons [i0, i1) of the job in scene and appends their deposits to out (unbuilt, on
+ * the scene's wavelength grid) in index order, adding i1 - i0 to its emitted count. Lights are
+ * chosen in proportion to their power (scene->light_power); infinite (environment) lights
+ * emit no photons: their caustics are left to the camera pass. Each photon carries one
+ * wavelength, uniform over the grid's range. Adds to *stats (may be NULL). */
+int photon_trace(const scene_t *scene, const photon_job_t *job, uint64_t i0, uint64_t i1,
+                 photon_map_t *out, photon_stats_t *stats, err_t *err);
+
+/* The whole photon pass of the scene's photon integrator on this machine: photons
+ * [0, settings.photon.photons) traced by nthreads threads (0: every core) in contiguous
+ * ranges merged in index order, then balanced. The map is the same whatever nthreads. */
+photon_map_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t *stats,
+                              double *seconds, err_t *err);
+
+/* The photon map the camera pass uses, made by photon_pass_run with every core on the first
+ * call and kept with the scene (scene_derived_get) until it is destroyed; *stats and *seconds
+ * (either may be NULL) receive the pass's figures. NULL on failure (the same error for every
+ * caller). Every worker of a farm job traces the whole photon set itself, deterministically. */
+const photon_map_t *photon_pass_get(const scene_t *scene, photon_stats_t *stats, double *seconds,
+                                    err_t *err);
+
+/* The gather radius: settings.photon.radius, or when that is 0 a hundredth of the radius of
+ * the scene's bounding sphere. */
+double photon_gather_radius(const scene_t *scene);
+
+#endif

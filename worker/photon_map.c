@@ -1,0 +1,392 @@
+#include "photon_map.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* 24 bytes. The kd-tree is implicit: the node of a range [lo, hi) is its middle element
+ * lo + (hi - lo) / 2, its children the ranges on either side; the split axis of a node is kept
+ * in the top two bits of `bucket`. */
+typedef struct photon {
+    float p[3];
+    float power;
+    uint16_t bucket; /* bits 0-13 the bucket, 14-15 the split axis */
+    uint16_t lambda; /* (lambda - lambda_min) / (lambda_max - lambda_min) * 65535 */
+    uint16_t dir;    /* octahedral, 8 bits per coordinate */
+    uint16_t normal;
+} photon_t;
+
+#define BUCKET_MASK 0x3FFFu
+#define AXIS_SHIFT 14
+
+struct photon_map {
+    spectral_grid_t grid;
+    photon_t *ph;
+    size_t n, cap;
+    uint64_t emitted;
+    int built;
+};
+
+/* Octahedral encoding of a unit vector (Meyer et al. 2010, "On floating-point normal
+ * vectors"): project onto |x| + |y| + |z| = 1, fold the lower half over the diagonals. */
+static uint16_t oct_encode(vec3_t v)
+{
+    double s = fabs(v.x) + fabs(v.y) + fabs(v.z);
+    if (!(s > 0.0))
+        return 0x8080;
+    double x = v.x / s, y = v.y / s;
+    if (v.z < 0.0) {
+        double ox = (1.0 - fabs(y)) * (x >= 0.0 ? 1.0 : -1.0);
+        double oy = (1.0 - fabs(x)) * (y >= 0.0 ? 1.0 : -1.0);
+        x = ox;
+        y = oy;
+    }
+    long qx = lround((x * 0.5 + 0.5) * 255.0), qy = lround((y * 0.5 + 0.5) * 255.0);
+    qx = qx < 0 ? 0 : qx > 255 ? 255 : qx;
+    qy = qy < 0 ? 0 : qy > 255 ? 255 : qy;
+    return (uint16_t)((qx << 8) | qy);
+}
+
+static vec3_t oct_decode(uint16_t e)
+{
+    double x = (e >> 8) / 255.0 * 2.0 - 1.0, y = (e & 0xFF) / 255.0 * 2.0 - 1.0;
+    double z = 1.0 - fabs(x) - fabs(y);
+    if (z < 0.0) {
+        double ox = (1.0 - fabs(y)) * (x >= 0.0 ? 1.0 : -1.0);
+        double oy = (1.0 - fabs(x)) * (y >= 0.0 ? 1.0 : -1.0);
+        x = ox;
+        y = oy;
+    }
+    return vec3_normalize(vec3_make(x, y, z));
+}
+
+photon_map_t *photon_map_new(spectral_grid_t grid, err_t *err)
+{
+    if (spectral_grid_validate(grid, err))
+        return NULL;
+    if (grid.n > (int)BUCKET_MASK + 1) {
+        err_set(err, "a photon map holds at most %u buckets, the grid has %d", BUCKET_MASK + 1, grid.n);
+        return NULL;
+    }
+    photon_map_t *self = calloc(1, sizeof *self);
+    if (!self) {
+        err_set(err, "out of memory");
+        return NULL;
+    }
+    self->grid = grid;
+    return self;
+}
+
+void photon_map_destroy(photon_map_t **self_p)
+{
+    if (!self_p || !*self_p)
+        return;
+    free((*self_p)->ph);
+    free(*self_p);
+    *self_p = NULL;
+}
+
+static int reserve(photon_map_t *self, size_t more, err_t *err)
+{
+    if (self->n + more <= self->cap)
+        return 0;
+    size_t cap = self->cap ? self->cap : 1024;
+    while (cap < self->n + more) {
+        if (cap > SIZE_MAX / 2 / sizeof(photon_t))
+            return err_set(err, "photon map too large (%zu photons)", self->n + more);
+        cap *= 2;
+    }
+    photon_t *p = realloc(self->ph, cap * sizeof *p);
+    if (!p)
+        return err_set(err, "out of memory for %zu photons (%zu MB)", cap, cap * sizeof *p >> 20);
+    self->ph = p;
+    self->cap = cap;
+    return 0;
+}
+
+int photon_map_deposit(photon_map_t *self, vec3_t p, vec3_t dir, vec3_t normal, double lambda,
+                       double power, err_t *err)
+{
+    if (self->built)
+        return err_set(err, "photon map: deposit after the kd-tree was built");
+    if (!isfinite(power) || power < 0.0 || (float)power > 3.0e38f || !isfinite(p.x) || !isfinite(p.y) ||
+        !isfinite(p.z))
+        return err_set(err, "photon map: non-finite deposit (power %g)", power);
+    int b = spectral_grid_index(self->grid, lambda);
+    if (b < 0)
+        return 0;
+    if (reserve(self, 1, err))
+        return -1;
+    double t = (lambda - self->grid.lambda_min) / (self->grid.lambda_max - self->grid.lambda_min);
+    photon_t *ph = &self->ph[self->n++];
+    ph->p[0] = (float)p.x;
+    ph->p[1] = (float)p.y;
+    ph->p[2] = (float)p.z;
+    ph->power = (float)power;
+    ph->bucket = (uint16_t)b;
+    ph->lambda = (uint16_t)lround(fmin(1.0, fmax(0.0, t)) * 65535.0);
+    ph->dir = oct_encode(dir);
+    ph->normal = oct_encode(normal);
+    return 0;
+}
+
+void photon_map_add_emitted(photon_map_t *self, uint64_t n) { self->emitted += n; }
+uint64_t photon_map_emitted(const photon_map_t *self) { return self->emitted; }
+size_t photon_map_count(const photon_map_t *self) { return self->n; }
+int photon_map_built(const photon_map_t *self) { return self->built; }
+spectral_grid_t photon_map_grid(const photon_map_t *self) { return self->grid; }
+size_t photon_map_photon_bytes(void) { return sizeof(photon_t); }
+
+size_t photon_map_memory_bytes(const photon_map_t *self)
+{
+    return sizeof *self + self->cap * sizeof(photon_t);
+}
+
+int photon_map_append(photon_map_t *dst, const photon_map_t *src, err_t *err)
+{
+    if (dst->built || src->built)
+        return err_set(err, "photon map: only unbuilt maps merge");
+    if (dst->grid.n != src->grid.n || dst->grid.lambda_min != src->grid.lambda_min ||
+        dst->grid.lambda_max != src->grid.lambda_max)
+        return err_set(err, "photon map: merging maps of different wavelength grids");
+    if (reserve(dst, src->n, err))
+        return -1;
+    if (src->n)
+        memcpy(dst->ph + dst->n, src->ph, src->n * sizeof *src->ph);
+    dst->n += src->n;
+    dst->emitted += src->emitted;
+    return 0;
+}
+
+photon_info_t photon_map_photon(const photon_map_t *self, size_t i)
+{
+    photon_info_t r = {0};
+    if (i >= self->n)
+        return r;
+    const photon_t *ph = &self->ph[i];
+    r.p = vec3_make(ph->p[0], ph->p[1], ph->p[2]);
+    r.dir = oct_decode(ph->dir);
+    r.normal = oct_decode(ph->normal);
+    r.lambda = self->grid.lambda_min + ph->lambda / 65535.0 * (self->grid.lambda_max - self->grid.lambda_min);
+    r.bucket = ph->bucket & BUCKET_MASK;
+    r.power = ph->power;
+    return r;
+}
+
+double photon_map_power_sum(const photon_map_t *self)
+{
+    double s = 0.0;
+    for (size_t i = 0; i < self->n; i++)
+        s += self->ph[i].power;
+    return s;
+}
+
+static void swap(photon_t *a, photon_t *b)
+{
+    photon_t t = *a;
+    *a = *b;
+    *b = t;
+}
+
+/* Reorders ph[lo, hi) so that ph[k] holds the element that sorting by coordinate `axis`
+ * would put there, everything before it <= and everything after it >= (Hoare's selection
+ * with a three-way partition, so runs of equal coordinates cost O(n), not O(n^2)). */
+static void select_kth(photon_t *ph, size_t lo, size_t hi, size_t k, int axis)
+{
+    while (hi - lo > 1) {
+        float a = ph[lo].p[axis], b = ph[lo + (hi - lo) / 2].p[axis], c = ph[hi - 1].p[axis];
+        float pivot = a < b ? (b < c ? b : (a < c ? c : a)) : (a < c ? a : (b < c ? c : b));
+        size_t lt = lo, i = lo, gt = hi;
+        while (i < gt) {
+            float v = ph[i].p[axis];
+            if (v < pivot)
+                swap(&ph[lt++], &ph[i++]);
+            else if (v > pivot)
+                swap(&ph[i], &ph[--gt]);
+            else
+                i++;
+        }
+        if (k < lt)
+            hi = lt;
+        else if (k >= gt)
+            lo = gt;
+        else
+            return;
+    }
+}
+
+static void build_range(photon_t *ph, size_t lo, size_t hi)
+{
+    while (hi - lo > 0) {
+        float mn[3] = {INFINITY, INFINITY, INFINITY}, mx[3] = {-INFINITY, -INFINITY, -INFINITY};
+        for (size_t i = lo; i < hi; i++)
+            for (int a = 0; a < 3; a++) {
+                mn[a] = fminf(mn[a], ph[i].p[a]);
+                mx[a] = fmaxf(mx[a], ph[i].p[a]);
+            }
+        int axis = 0;
+        for (int a = 1; a < 3; a++)
+            if (mx[a] - mn[a] > mx[axis] - mn[axis])
+                axis = a;
+        size_t mid = lo + (hi - lo) / 2;
+        select_kth(ph, lo, hi, mid, axis);
+        ph[mid].bucket = (uint16_t)((ph[mid].bucket & BUCKET_MASK) | (unsigned)axis << AXIS_SHIFT);
+        /* Recurse into the smaller side, loop on the larger: stack depth O(log n). */
+        if (mid - lo < hi - (mid + 1)) {
+            build_range(ph, lo, mid);
+            lo = mid + 1;
+        } else {
+            build_range(ph, mid + 1, hi);
+            hi = mid;
+        }
+    }
+}
+
+int photon_map_build(photon_map_t *self, err_t *err)
+{
+    if (self->built)
+        return err_set(err, "photon map: built twice");
+    if (self->n)
+        build_range(self->ph, 0, self->n);
+    self->built = 1;
+    return 0;
+}
+
+/* What a query collects. Photons pass the normal test when their normal is within 60 degrees
+ * of the query's. */
+typedef struct query {
+    const photon_t *ph;
+    double q[3];
+    vec3_t n;
+    double r2;         /* current search radius squared */
+    /* fixed radius */
+    double *E;
+    int used;
+    /* k nearest: a max-heap on distance */
+    int k, nheap;
+    double heap_d2[PHOTON_MAP_MAX_K];
+    uint32_t heap_i[PHOTON_MAP_MAX_K];
+} query_t;
+
+#define NORMAL_COS_MIN 0.5
+
+static int normal_ok(const query_t *qr, const photon_t *ph)
+{
+    return vec3_dot(oct_decode(ph->normal), qr->n) > NORMAL_COS_MIN;
+}
+
+static void heap_push(query_t *qr, double d2, uint32_t idx)
+{
+    if (qr->nheap < qr->k) {
+        int i = qr->nheap++;
+        while (i > 0) {
+            int parent = (i - 1) / 2;
+            if (qr->heap_d2[parent] >= d2)
+                break;
+            qr->heap_d2[i] = qr->heap_d2[parent];
+            qr->heap_i[i] = qr->heap_i[parent];
+            i = parent;
+        }
+        qr->heap_d2[i] = d2;
+        qr->heap_i[i] = idx;
+        if (qr->nheap == qr->k)
+            qr->r2 = qr->heap_d2[0];
+        return;
+    }
+    /* Full: replace the farthest and sift down. */
+    int i = 0, n = qr->nheap;
+    for (;;) {
+        int l = 2 * i + 1, r = l + 1, m = i;
+        double dm = d2;
+        if (l < n && qr->heap_d2[l] > dm) {
+            m = l;
+            dm = qr->heap_d2[l];
+        }
+        if (r < n && qr->heap_d2[r] > dm)
+            m = r;
+        if (m == i)
+            break;
+        qr->heap_d2[i] = qr->heap_d2[m];
+        qr->heap_i[i] = qr->heap_i[m];
+        i = m;
+    }
+    qr->heap_d2[i] = d2;
+    qr->heap_i[i] = idx;
+    qr->r2 = qr->heap_d2[0];
+}
+
+static void visit(query_t *qr, size_t lo, size_t hi)
+{
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        const photon_t *ph = &qr->ph[mid];
+        int axis = ph->bucket >> AXIS_SHIFT;
+        double d = qr->q[axis] - ph->p[axis];
+        double dx = qr->q[0] - ph->p[0], dy = qr->q[1] - ph->p[1], dz = qr->q[2] - ph->p[2];
+        double d2 = dx * dx + dy * dy + dz * dz;
+        /* Visit the near side first, so that a k-nearest search shrinks its radius early. */
+        size_t nlo = d < 0.0 ? lo : mid + 1, nhi = d < 0.0 ? mid : hi;
+        size_t flo = d < 0.0 ? mid + 1 : lo, fhi = d < 0.0 ? hi : mid;
+        visit(qr, nlo, nhi);
+        if (d2 <= qr->r2 && normal_ok(qr, ph)) {
+            if (qr->k > 0) {
+                if (qr->nheap < qr->k || d2 < qr->heap_d2[0])
+                    heap_push(qr, d2, (uint32_t)mid);
+            } else {
+                qr->E[ph->bucket & BUCKET_MASK] += ph->power;
+                qr->used++;
+            }
+        }
+        if (!(d * d <= qr->r2))
+            return;
+        lo = flo;
+        hi = fhi;
+    }
+}
+
+int photon_map_irradiance(const photon_map_t *self, vec3_t p, vec3_t n, double radius, int k,
+                          double *E)
+{
+    const int nb = self->grid.n;
+    for (int b = 0; b < nb; b++)
+        E[b] = 0.0;
+    if (!self->built || self->n == 0 || self->emitted == 0 || !(radius > 0.0) || !isfinite(radius))
+        return 0;
+    if (k > PHOTON_MAP_MAX_K)
+        k = PHOTON_MAP_MAX_K;
+    if (self->n > UINT32_MAX && k > 0)
+        k = 0; /* heap indices are 32-bit; such maps fall back to the fixed radius */
+    /* 12 kB on the stack: the k-nearest heap at its largest. */
+    query_t query, *qr = &query;
+    qr->ph = self->ph;
+    qr->q[0] = p.x;
+    qr->q[1] = p.y;
+    qr->q[2] = p.z;
+    qr->n = n;
+    qr->r2 = radius * radius;
+    qr->E = E;
+    qr->used = 0;
+    qr->k = k > 0 ? k : 0;
+    qr->nheap = 0;
+    visit(qr, 0, self->n);
+    double r2 = radius * radius;
+    int used = qr->used;
+    if (k > 0) {
+        for (int i = 0; i < qr->nheap; i++) {
+            const photon_t *ph = &self->ph[qr->heap_i[i]];
+            E[ph->bucket & BUCKET_MASK] += ph->power;
+        }
+        used = qr->nheap;
+        if (qr->nheap == k)
+            r2 = qr->heap_d2[0];
+    }
+    if (used == 0)
+        return 0;
+    /* A k-th neighbour at distance 0 (photons piled on one point) would divide by zero: the
+     * radius is kept above a millionth of the search radius. */
+    r2 = fmax(r2, 1e-12 * radius * radius);
+    double scale = 1.0 / ((double)self->emitted * spectral_grid_width(self->grid) * PF_PI * r2);
+    for (int b = 0; b < nb; b++)
+        E[b] *= scale;
+    return used;
+}

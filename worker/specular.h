@@ -1,0 +1,31 @@
+/* specular: mirrors and smooth glass as both the camera pass (render.c) and the photon pass
+ * (photon.c) see them, so that light follows the same specular chains in both directions:
+ * which normal a specular event uses (shading or geometric) and a conductor's reflectance.
+ * Pure functions of the surface and the direction. */
+#ifndef PRISMFARM_SPECULAR_H
+#define PRISMFARM_SPECULAR_H
+
+#include "scene.h"
+
+/* The normal a mirror or glass event at sf uses for a ray travelling along dir. The
+ * interpolated (shading) normal gives the mirror and refraction directions and the Fresnel
+ * cosines, but it may disagree with the real surface: near a silhouette the incident
+ * direction can lie on the other side of it, or the mirror (or refracted) direction computed
+ * with it can point back through the geometric surface, which would leak light through the
+ * mesh. For such an event the geometric normal is used instead, for every branch of the event
+ * (the choice is made before any random choice, so reflection and refraction probabilities
+ * stay R and 1 - R and energy is conserved). eta_rel is n_incident / n_transmitted for glass,
+ * 0 for a mirror. Both normals are outward. *shading (may be NULL) says whether the shading
+ * normal was chosen. */
+vec3_t specular_normal(const surface_t *sf, vec3_t dir, double eta_rel, int *shading);
+
+/* pbrt-v4 FrComplex: unpolarised Fresnel reflectance of a conductor with complex index
+ * eta + i k at cos_i (clamped to [0, 1]); in [0, 1], 1 if the result is not finite. */
+double specular_fresnel_conductor(double cos_i, double eta, double k);
+
+/* Reflectance of a conductor material at lambda for incidence cosine cos_i: the complex
+ * Fresnel term from eta and k, else its reflectance texture at (u, v), else 1. */
+double specular_conductor_reflectance(const material_t *m, const surface_t *sf, double cos_i,
+                                      double lambda);
+
+#endif
