@@ -67,6 +67,7 @@ elapsed() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", b - a }'; }
 stats() { printf '%s\n' "$@" | sort -g | awk '{ v[NR] = $1 } END {
   m = NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2; printf "%.3f %.3f %.3f\n", m, v[1], v[NR] }'; }
 med() { stats "$@" | cut -d' ' -f1; }
+least() { stats "$@" | cut -d' ' -f2; }
 ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", a / b }'; }
 
 HZ=$(getconf CLK_TCK)
@@ -148,10 +149,11 @@ farm_cpu() { # name: CPU seconds of its master and workers so far
 # A job on a standing farm: from `prismfarm submit` to the final EXR in the master's spool
 # (written atomically, so its existence means the job is done). `submit --wait` would add up to
 # 200 ms of STATUS polling and the fetch. CPU: the client's, plus what the master and workers
-# used meanwhile. Leaves the job id in $WORK/last-job.
+# used meanwhile; then the master's CPU alone. Leaves the job id in $WORK/last-job.
 t_farm() { # farm scene
-  local t0=$EPOCHREALTIME c0 id exr i
+  local t0=$EPOCHREALTIME c0 m0 id exr i master=${FPIDS[$1]%% *}
   c0=$(farm_cpu "$1")
+  m0=$(cpu_of "$master")
   # shellcheck disable=SC2086
   id=$("$BIN" submit "$ROOT/$2" --master "${CEP[$1]}" --name bench ${ARGS[$2]})
   exr=${SPOOL[$1]}/jobs/$id/bench.exr
@@ -164,22 +166,24 @@ t_farm() { # farm scene
     fi
     nap 0.002
   done
-  local wall c1
+  local wall c1 m1
   wall=$(elapsed "$t0" "$EPOCHREALTIME")
   c1=$(farm_cpu "$1")
+  m1=$(cpu_of "$master")
   echo "$id" >"$WORK/last-job"
   children_cpu
-  echo "$wall $(awk -v a="$c1" -v b="$c0" -v c="$CHILD_CPU" 'BEGIN { printf "%.3f", a - b + c }')"
+  echo "$wall $(awk -v a="$c1" -v b="$c0" -v c="$CHILD_CPU" 'BEGIN { printf "%.3f", a - b + c }') $(elapsed "$m0" "$m1")"
 }
 
-# Runs one timing and appends its wall-clock and CPU seconds to W[key] and C[key].
-declare -A W C
+# Runs one timing and appends its wall-clock and CPU seconds to W[key] and C[key] (and the
+# master's CPU seconds to M[key] for a farm job).
+declare -A W C M
 measure() { # key command args...
-  local key=$1 w c
+  local key=$1 w c m
   shift
-  read -r w c < <("$@")
+  read -r w c m < <("$@")
   [[ -n ${c:-} ]] || { echo "bench/farm.sh: '$*' failed" >&2; exit 1; }
-  W[$key]+="$w " C[$key]+="$c "
+  W[$key]+="$w " C[$key]+="$c " M[$key]+="${m:-0} "
 }
 
 # bytes_received and bytes_acked summed over the master's established connections on a port.
@@ -190,8 +194,11 @@ wire() { # port
     END { printf "%d %d\n", r, s }'
 }
 load() { cut -d' ' -f1 /proc/loadavg; }
+# Busy CPU ticks of the whole machine (user, nice, system, irq, softirq, steal).
+busy() { awk '$1 == "cpu" { print $2 + $3 + $4 + $7 + $8 + $9 }' /proc/stat; }
 
 LOAD0=$(load)
+BUSY0=$(busy)
 T0=$EPOCHREALTIME
 
 # ---------------------------------------------------------------- 1. overhead
@@ -257,6 +264,14 @@ for f in "$ROOT"/scenes/*.pbrt; do
   done
 done
 LOAD1=$(load)
+# How much of the machine other processes took meanwhile: every busy tick, less this run's own
+# CPU (the processes it waited for, and its standing farms).
+BUSY1=$(busy)
+children_cpu
+OURS=$CHILD_CPU
+for p in "${PIDS[@]}"; do OURS=$(awk -v a="$OURS" -v b="$(cpu_of "$p")" 'BEGIN { print a + b }'); done
+OTHERS=$(awk -v b0="$BUSY0" -v b1="$BUSY1" -v hz="$HZ" -v ours="$OURS" -v t0="$T0" -v t1="$EPOCHREALTIME" \
+  'BEGIN { o = ((b1 - b0) / hz - ours) / (t1 - t0); printf "%.2f", o < 0 ? 0 : o }')
 MINUTES=$(awk -v a="$T0" -v b="$EPOCHREALTIME" 'BEGIN { printf "%.1f", (b - a) / 60 }')
 
 # ---------------------------------------------------------------- report
@@ -270,30 +285,38 @@ report() {
   local s
   echo "Measured $(date -u '+%Y-%m-%d %H:%M UTC') on $NPROC cores ($CPU), Linux $(uname -r),"
   echo "commit $(git -C "$ROOT" rev-parse --short HEAD 2>/dev/null || echo unknown)$(git -C "$ROOT" diff --quiet 2>/dev/null || echo ' with local changes'),"
-  echo "Release build; $REPS repetitions per figure, shown as median (min–max) seconds; the run took"
-  echo "$MINUTES minutes; 1-minute load average $LOAD0 before and $LOAD1 after (other work on the machine"
-  echo "shows here: a load above about 0.5 means the timings shared the cores)."
+  echo "Release build; $REPS repetitions per figure, shown as median (min–max) seconds. The run took"
+  echo "$MINUTES minutes; other processes used **$OTHERS of the $NPROC cores** on average meanwhile (1-minute"
+  echo "load average $LOAD0 before, $LOAD1 after). Ratios are given for the medians and, after the"
+  echo "semicolon, for the minima (the least disturbed repetition); the verdict is the median's."
   echo
   echo "**Overhead of the farm** ($TN threads everywhere; target: within 5 % of --direct)"
   echo
-  echo "| job | --direct | render (in-process farm) | TCP farm, 1 worker | wall ratio in-process / TCP | CPU ratio in-process / TCP | target: wall ratio ≤ 1.05 |"
-  echo "| --- | --- | --- | --- | --- | --- | --- |"
+  echo "| job | --direct | render (in-process farm) | TCP farm, 1 worker | in-process / direct | TCP / direct | CPU seconds: in-process / direct, TCP / direct | master CPU per job | target ≤ 1.05 |"
+  echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
   for s in "${SCENES[@]}"; do
-    local d i f ri rf
-    d=$(med ${W[direct|$s]}); i=$(med ${W[inproc|$s]}); f=$(med ${W[tcp|$s]})
-    ri=$(ratio "$i" "$d"); rf=$(ratio "$f" "$d")
-    echo "| $(job "$s") | $(cell "${W[direct|$s]}") | $(cell "${W[inproc|$s]}") | $(cell "${W[tcp|$s]}") | $ri / $rf | $(ratio "$(med ${C[inproc|$s]})" "$(med ${C[direct|$s]})") / $(ratio "$(med ${C[tcp|$s]})" "$(med ${C[direct|$s]})") | in-process $(verdict "$ri" 1.05 '<='), TCP $(verdict "$rf" 1.05 '<=') |"
+    local ri rf
+    ri=$(ratio "$(med ${W[inproc|$s]})" "$(med ${W[direct|$s]})")
+    rf=$(ratio "$(med ${W[tcp|$s]})" "$(med ${W[direct|$s]})")
+    echo "| $(job "$s") | $(cell "${W[direct|$s]}") | $(cell "${W[inproc|$s]}") | $(cell "${W[tcp|$s]}")" \
+      "| $ri; $(ratio "$(least ${W[inproc|$s]})" "$(least ${W[direct|$s]})")" \
+      "| $rf; $(ratio "$(least ${W[tcp|$s]})" "$(least ${W[direct|$s]})")" \
+      "| $(ratio "$(med ${C[inproc|$s]})" "$(med ${C[direct|$s]})"), $(ratio "$(med ${C[tcp|$s]})" "$(med ${C[direct|$s]})")" \
+      "| $(printf '%.2f s' "$(med ${M[tcp|$s]})") | in-process $(verdict "$ri" 1.05 '<='), TCP $(verdict "$rf" 1.05 '<=') |"
   done
   echo
   echo "**Scaling** (TCP farm, workers of 1 thread each; target: 2 workers ≥ 1.8x one worker)"
   echo
-  echo "| job | 1 worker | 2 workers | speed-up | target ≥ 1.8 | --direct 1 thread | --direct 2 threads | speed-up | 1-worker farm / --direct 1 thread (wall, CPU) |"
+  echo "| job | 1 worker | 2 workers | speed-up | target ≥ 1.8 | --direct 1 thread | --direct 2 threads | speed-up | 1-worker farm / --direct 1 thread: wall, CPU |"
   echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
   for s in "${SCENES[@]}"; do
-    local a b c e sp sd
-    a=$(med ${W[one|$s]}); b=$(med ${W[two|$s]}); c=$(med ${W[direct1|$s]}); e=$(med ${W[direct2|$s]})
-    sp=$(ratio "$a" "$b"); sd=$(ratio "$c" "$e")
-    echo "| $(job "$s") | $(cell "${W[one|$s]}") | $(cell "${W[two|$s]}") | ${sp}x | $(verdict "$sp" 1.8 '>=') | $(cell "${W[direct1|$s]}") | $(cell "${W[direct2|$s]}") | ${sd}x | $(ratio "$a" "$c"), $(ratio "$(med ${C[one|$s]})" "$(med ${C[direct1|$s]})") |"
+    local sp
+    sp=$(ratio "$(med ${W[one|$s]})" "$(med ${W[two|$s]})")
+    echo "| $(job "$s") | $(cell "${W[one|$s]}") | $(cell "${W[two|$s]}")" \
+      "| ${sp}x; $(ratio "$(least ${W[one|$s]})" "$(least ${W[two|$s]})")x | $(verdict "$sp" 1.8 '>=')" \
+      "| $(cell "${W[direct1|$s]}") | $(cell "${W[direct2|$s]}")" \
+      "| $(ratio "$(med ${W[direct1|$s]})" "$(med ${W[direct2|$s]})")x; $(ratio "$(least ${W[direct1|$s]})" "$(least ${W[direct2|$s]})")x" \
+      "| $(ratio "$(med ${W[one|$s]})" "$(med ${W[direct1|$s]})"), $(ratio "$(med ${C[one|$s]})" "$(med ${C[direct1|$s]})") |"
   done
   echo
   echo "**Bytes on the wire** (one job on the 1-worker TCP farm: the kernel's byte counters of the master's"

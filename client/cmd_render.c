@@ -6,6 +6,7 @@
 #include "film.h"
 #include "local_farm.h"
 #include "local_render.h"
+#include "photon.h"
 #include "progress.h"
 #include "scene_load.h"
 
@@ -101,6 +102,12 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
             printf("%llu samples, %.1f M rays in %.2f s (%.2f M rays/s); %llu non-finite samples discarded\n",
                    (unsigned long long)st.samples, st.rays / 1e6, secs, st.rays / 1e6 / (secs > 0 ? secs : 1),
                    (unsigned long long)st.nonfinite);
+            photon_stats_t pst;
+            double psec;
+            const photon_map_t *pm = rs->photon.enabled ? photon_pass_get(scene, &pst, &psec, &err) : NULL;
+            if (pm)
+                printf("photon pass: %llu photons in %.2f s, %zu stored (%.1f MB)\n", (unsigned long long)pst.emitted,
+                       psec, photon_map_count(pm), photon_map_memory_bytes(pm) / 1e6);
         }
     }
     tilebuf_destroy(&image);
@@ -210,6 +217,9 @@ int cmd_render(int argc, char **argv)
         fprintf(stderr, "render: %s, %dx%d, %d spp, integrator %s, %d buckets over %g-%g nm\n", scene_path,
                 rs->xres, rs->yres, rs->spp, integ_names[rs->integrator], rs->grid.n,
                 rs->grid.lambda_min, rs->grid.lambda_max);
+        if (rs->photon.enabled)
+            fprintf(stderr, "render: photon integrator: %llu photons into a photon map, gathered by %s\n",
+                    (unsigned long long)rs->photon.photons, integ_names[rs->integrator]);
         if (scene->has_dispersion) {
             fprintf(stderr, "render: dispersion on (%s) for:", rs->dispersion == DISPERSION_HERO ? "hero wavelengths" : "thesis fan-out");
             for (size_t i = 0; i < scene->nmaterials; i++)

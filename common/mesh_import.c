@@ -27,12 +27,14 @@ void mesh_data_free(mesh_data_t *mesh)
  *    vertex) and each list from its length field (avList.resize(n)) before reading a value:
  *    a 200-byte file declaring 2^31 vertices asks for 24 GiB, one declaring 2^27 holds
  *    1.5 GiB and loops 20 s over lines that are not there (measured);
- *  - a face with no vertex index (an empty list, or a face element with texture coordinates
- *    but no index list) trips an ai_assert in its triangulation that aborts the process
- *    (Debian builds assimp with assertions; found by test_pbrt_parser's PLY mutations);
+ *  - a face with no vertex index (an empty list) trips an ai_assert in its triangulation that
+ *    aborts the process (Debian builds assimp with assertions; found by test_pbrt_parser's PLY
+ *    mutations), and a face element with texture coordinates but no index list crashes it;
  *  - triangulating a quad or polygon reads the positions of its indices before anything
- *    checks them, and per-face texture coordinates are stored through the face's indices;
- *  - a vertex property given as an empty list is read with front().
+ *    checks them (a quad with index 900000000 crashes it), and per-face texture coordinates
+ *    are stored through the face's indices;
+ *  - a comment or "obj_info" line among an element's properties, or a control character in a
+ *    header line, makes it read another header than the one written, and so another layout.
  * So the whole file is walked first, the way assimp reads it, and only this profile passes:
  * every count backed by bytes (a binary instance takes at least the sizes of its scalars and
  * list lengths, an ascii instance is one line with at least one character and one separator
@@ -246,12 +248,18 @@ static int ply_parse_header(const char *d, size_t len, const char *name, ply_hea
     const char *line, *tok, *end;
     size_t n, tn;
     bool cr, any_cr = false;
-    int lineno = 0;
+    int lineno = 0, aside = 0; /* aside: the first of the comment lines just read */
     while (ply_line(d, limit, &pos, &line, &n, &cr)) {
         lineno++;
         any_cr = any_cr || cr;
         const char *p = line;
         end = line + n;
+        /* assimp ends a header line at a NUL, '\f' or '\r' too: such bytes would make it read
+         * another header than this one. */
+        for (size_t i = 0; i < n; i++)
+            if ((unsigned char)line[i] < 0x20 && line[i] != '\t')
+                return err_set(err, "\"%s\": line %d of the PLY header holds a control character",
+                               name, lineno);
         if (lineno == 1) {
             if (!tok_is(line, n, "ply"))
                 return err_set(err, "\"%s\" is not a PLY file (it does not start with \"ply\")",
@@ -281,8 +289,20 @@ static int ply_parse_header(const char *d, size_t len, const char *name, ply_hea
                                (int)(fn < 40 ? fn : 40), fmt);
             continue;
         }
-        if (tok_is(tok, tn, "comment") || tok_is(tok, tn, "obj_info"))
+        /* assimp 5.2.5 ends an element's property list at a comment or obj_info line and
+         * drops the properties after it (so another layout): such lines may stand before the
+         * elements and after an element's last property only. */
+        if (tok_is(tok, tn, "comment") || tok_is(tok, tn, "obj_info")) {
+            if (!aside)
+                aside = lineno;
             continue;
+        }
+        if (aside && tok_is(tok, tn, "property"))
+            return err_set(err,
+                           "\"%s\": line %d: a comment or obj_info line may not stand among an "
+                           "element's properties",
+                           name, aside);
+        aside = 0;
         if (tok_is(tok, tn, "end_header")) {
             if (ply_token(&p, end, &tok, &tn))
                 return err_set(err, "\"%s\": line %d: text after end_header", name, lineno);

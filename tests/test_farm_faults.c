@@ -18,6 +18,7 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <time.h>
@@ -96,6 +97,9 @@ static pid_t spawn(const char *log, const char *arg, ...)
     pid_t pid = fork();
     assert_true(pid >= 0);
     if (pid == 0) {
+        /* Killed with the test, should ctest's timeout end it before its teardown. */
+        if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0)
+            _exit(125);
         if (!freopen(log, "w", stderr) || !freopen("/dev/null", "w", stdout))
             _exit(126);
         execv(bin, argv);

@@ -523,6 +523,96 @@ static void test_ply_variants_still_load(void **state)
     assert_string_equal(err.msg, "\"c.ply\": line 11: \"1,5\" is not a decimal number");
 }
 
+/* Files that assimp 5.2.5 (Debian 12) mishandles are refused before it reads them. Fed to
+ * aiImportFile directly (checked by hand), the empty face aborts the process, the face with
+ * texture coordinates and no indices and the quad with index 900000000 crash it (SIGSEGV);
+ * the comment, obj_info and NUL cases make it read another header than the one written
+ * (dropping y and z, or every property of the vertex). */
+static void expect_ply_refused(const char *text, size_t len, const char *expected)
+{
+    mesh_data_t m;
+    err_t err = {{0}};
+    if (mesh_import_ply_memory(text, len, "x.ply", &m, &err) == 0) {
+        mesh_data_free(&m);
+        fail_msg("accepted but should have failed with: %s", expected);
+    }
+    if (strcmp(err.msg, expected) != 0)
+        fail_msg("wrong message\n  got:      %s\n  expected: %s", err.msg, expected);
+}
+
+static void test_ply_unsafe_refused(void **state)
+{
+    (void)state;
+#define VERTS3                                                                                     \
+    "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"                \
+    "property float z\n"
+#define BODY4 "0 0 0\n1 0 0\n1 1 0\n0 1 0\n"
+    static const struct {
+        const char *text, *expected;
+    } CASES[] = {
+        /* A face with no index: assimp's TriangulateProcess asserts (abort). */
+        {VERTS3 "element face 1\nproperty list uchar int vertex_indices\nend_header\n" BODY4 "0\n",
+         "\"x.ply\": face 0 has 0 vertices (points and lines are not surfaces)"},
+        /* Texture coordinates but no index list: SIGSEGV in assimp. */
+        {VERTS3 "element face 1\nproperty list uchar float texcoord\nend_header\n" BODY4
+                "6 0 0 1 0 1 1\n",
+         "\"x.ply\": element face needs one vertex_indices list (and at most one texcoord "
+         "list)"},
+        /* A quad's triangulation reads its corners' positions before any index check. */
+        {VERTS3 "element face 1\nproperty list uchar int vertex_indices\nend_header\n" BODY4
+                "4 0 1 2 900000000\n",
+         "\"x.ply\": face 0 uses vertex 900000000 but there are only 4"},
+        {VERTS3 "element face 1\nproperty list uchar int vertex_indices\nend_header\n" BODY4
+                "4 0 1 2 9\n",
+         "\"x.ply\": face 0 uses vertex 9 but there are only 4"},
+        {VERTS3 "element face 1\nproperty list uchar int vertex_indices\nend_header\n" BODY4
+                "3 0 -1 2\n",
+         "\"x.ply\": face 0 uses a negative vertex index"},
+        /* Per-face texture coordinates are stored through the face's indices. */
+        {VERTS3 "element face 1\nproperty list uchar int vertex_indices\n"
+                "property list uchar float texcoord\nend_header\n" BODY4
+                "3 0 1 2 8 0 0 1 0 1 1 0 0\n",
+         "\"x.ply\": face 0 has 8 texture coordinates for 3 vertices (two per vertex)"},
+        /* assimp's loader expects single values for vertex properties. */
+        {"ply\nformat ascii 1.0\nelement vertex 3\nproperty list uchar float x\n"
+         "property float y\nproperty float z\nelement face 1\n"
+         "property list uchar int vertex_indices\nend_header\n0 0 0\n1 1 0 0\n1 0 1 0\n3 0 1 2\n",
+         "\"x.ply\": vertex properties must be single values, not lists"},
+        /* assimp drops the properties after a comment or obj_info line inside an element. */
+        {"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nobj_info made here\n"
+         "property float y\nproperty float z\nelement face 1\n"
+         "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+         "\"x.ply\": line 5: a comment or obj_info line may not stand among an element's "
+         "properties"},
+        {"ply\nformat ascii 1.0\nelement vertex 3\ncomment\nproperty float x\n"
+         "property float y\nproperty float z\nelement face 1\n"
+         "property list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+         "\"x.ply\": line 4: a comment or obj_info line may not stand among an element's "
+         "properties"},
+        {VERTS3 "element tristrips 1\nproperty list int int vertex_indices\nend_header\n" BODY4
+                "4 0 1 2 3\n",
+         "\"x.ply\": triangle strips (element tristrips) are not supported"},
+        {"ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+         "property float z\nend_header\n0 0 0\n1 0 0\n0 1 0\n",
+         "\"x.ply\" has no faces"},
+        {"ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\n"
+         "element vertex 3\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
+         "3 0 1 2\n0 0 0\n1 0 0\n0 1 0\n",
+         "\"x.ply\": element face comes before element vertex"},
+    };
+#undef VERTS3
+#undef BODY4
+    for (size_t i = 0; i < sizeof CASES / sizeof CASES[0]; i++)
+        expect_ply_refused(CASES[i].text, strlen(CASES[i].text), CASES[i].expected);
+    /* A NUL in a property name ends assimp's header line there (found by the mutations). */
+    static const char nul[] = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                              "property float \0\nproperty float z\nelement face 1\n"
+                              "property list uchar int vertex_indices\nend_header\n"
+                              "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    expect_ply_refused(nul, sizeof nul - 1,
+                       "\"x.ply\": line 5 of the PLY header holds a control character");
+}
+
 /* Random mutations of the test PLY files, with the tokens that make forged counts: every
  * outcome is a mesh or a message, never a crash, a huge allocation (ASan reports those) or a
  * long loop. */
@@ -1150,6 +1240,7 @@ int main(void)
         cmocka_unit_test(test_shapes),
         cmocka_unit_test(test_ply_import_direct),
         cmocka_unit_test(test_ply_variants_still_load),
+        cmocka_unit_test(test_ply_unsafe_refused),
         cmocka_unit_test(test_ply_mutations_never_crash),
         cmocka_unit_test(test_transforms),
         cmocka_unit_test(test_instances),

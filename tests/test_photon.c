@@ -8,6 +8,7 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+
 #include <cmocka.h>
 
 #include <math.h>
@@ -80,7 +81,8 @@ static photon_map_t *trace(const scene_t *s, photon_store_policy_t policy, int m
     err_t err;
     photon_map_t *m = photon_map_new(s->settings.grid, &err);
     assert_non_null(m);
-    photon_job_t job = {.seed = s->settings.seed, .maxdepth = maxdepth, .threshold = 0.0, .policy = policy};
+    photon_job_t job = {
+        .seed = s->settings.seed, .maxdepth = maxdepth, .threshold = 0.0, .policy = policy};
     memset(st, 0, sizeof *st);
     if (photon_trace(s, &job, 0, n, m, st, &err))
         fail_msg("photon_trace: %s", err.msg);
@@ -106,7 +108,10 @@ static void test_energy_closed_sphere(void **state)
     scene_t *s = new_scene();
     transform_t id = transform_identity();
     assert_true(scene_add_sphere(s, &id, 1.0, diffuse(s, rho), -1, 0, NULL) >= 0);
-    light_t l = {.kind = LIGHT_POINT, .spectrum = constant(s, 1.0), .scale = I, .position = vec3_make(0.1, -0.2, 0.05)};
+    light_t l = {.kind = LIGHT_POINT,
+                 .spectrum = constant(s, 1.0),
+                 .scale = I,
+                 .position = vec3_make(0.1, -0.2, 0.05)};
     assert_true(scene_add_light(s, &l, NULL) >= 0);
     finish(s);
     const uint64_t N = 100000;
@@ -119,7 +124,8 @@ static void test_energy_closed_sphere(void **state)
     double expect = rho * (1.0 - pow(rho, M)) / (1.0 - rho);
     double se = sqrt(rho / (double)N) / (1.0 - rho);
     double ratio = photon_map_power_sum(m) / st.power_emitted;
-    print_message("photon furnace: deposited / emitted = %.5f, expected %.5f (se %.5f)\n", ratio, expect, se);
+    print_message("photon furnace: deposited / emitted = %.5f, expected %.5f (se %.5f)\n", ratio,
+                  expect, se);
     assert_true(fabs(ratio - expect) < 4.0 * se);
     assert_true(ratio <= rho / (1.0 - rho) + 4.0 * se);
     assert_true(fabs(st.power_deposited / st.power_emitted - ratio) < 1e-6); /* float storage */
@@ -164,15 +170,20 @@ static void beam(scene_t *s, vec3_t at, vec3_t dir, double r)
     /* The disk's normal +z turned onto dir. */
     vec3_t z = vec3_normalize(dir), x, y;
     vec3_basis(z, &x, &y);
-    double m[4][4] = {{x.x, y.x, z.x, at.x}, {x.y, y.y, z.y, at.y}, {x.z, y.z, z.z, at.z}, {0, 0, 0, 1}};
+    double m[4][4] = {
+        {x.x, y.x, z.x, at.x}, {x.y, y.y, z.y, at.y}, {x.z, y.z, z.z, at.z}, {0, 0, 0, 1}};
     transform_t t = transform_from_matrix(m);
-    assert_true(scene_add_disk(s, &t, r, 0.0, material(s, MATERIAL_INTERFACE, NULL), li, 0, &err) >= 0);
+    assert_true(scene_add_disk(s, &t, r, 0.0, material(s, MATERIAL_INTERFACE, NULL), li, 0, &err) >=
+                0);
 }
 
 /* Transmittance of a slab at normal incidence with every internal reflection summed
  * (incoherently): T = (1 - R)^2 / (1 - R^2) = (1 - R) / (1 + R) with R = ((n-1)/(n+1))^2,
  * which is 2n / (n^2 + 1). */
-static double slab_t(double n) { return 2.0 * n / (n * n + 1.0); }
+static double slab_t(double n)
+{
+    return 2.0 * n / (n * n + 1.0);
+}
 
 /* A collimated beam through a non-absorbing N-SF11 slab at normal incidence onto a screen:
  * photons reflected back leave through the (pass-through) light, the rest land on the screen,
@@ -218,13 +229,15 @@ static void test_slab_transmittance(void **state)
         /* The bucket's photon count may differ from N/16 by a couple of photons. */
         double tol = 4.0 * se + 3.0 / (N / (double)NB);
         if (!(fabs(got - t) < tol))
-            fail_msg("bucket %d: transmitted %.4f, slab formula %.4f (tolerance %.4f)", b, got, t, tol);
+            fail_msg("bucket %d: transmitted %.4f, slab formula %.4f (tolerance %.4f)", b, got, t,
+                     tol);
         if (b == 0)
             first = got;
         last = got;
     }
-    print_message("N-SF11 slab: T = %.4f (violet bucket) .. %.4f (red), formula %.4f .. %.4f\n", first, last,
-                  slab_t(sellmeier(SF11_B, SF11_C, 390.625)), slab_t(sellmeier(SF11_B, SF11_C, 709.375)));
+    print_message("N-SF11 slab: T = %.4f (violet bucket) .. %.4f (red), formula %.4f .. %.4f\n",
+                  first, last, slab_t(sellmeier(SF11_B, SF11_C, 390.625)),
+                  slab_t(sellmeier(SF11_B, SF11_C, 709.375)));
     /* Nothing is absorbed: the rest was reflected back and escaped. */
     assert_true(photon_map_power_sum(m) <= st.power_emitted);
     photon_map_destroy(&m);
@@ -240,10 +253,10 @@ static void test_slab_transmittance(void **state)
 #define THROW 5.0
 
 typedef struct prism {
-    vec3_t v[3];      /* the triangle in the y = 0 plane */
-    vec3_t entry;     /* where the beam's axis meets the first face */
-    vec3_t exit_dir0; /* leaving direction at LAMBDA0 */
-    vec3_t exit0;     /* where it leaves at LAMBDA0 */
+    vec3_t v[3];               /* the triangle in the y = 0 plane */
+    vec3_t entry;              /* where the beam's axis meets the first face */
+    vec3_t exit_dir0;          /* leaving direction at LAMBDA0 */
+    vec3_t exit0;              /* where it leaves at LAMBDA0 */
     vec3_t screen_c, screen_e; /* screen centre and its horizontal axis */
 } prism_t;
 
@@ -294,7 +307,8 @@ static scene_t *prism_scene(prism_t *p)
     double a = -(i0 - APEX / 2.0), side = 0.1, h = side * sqrt(3.0) / 2.0;
     double uv[3][2] = {{0.0, h}, {-side / 2.0, 0.0}, {side / 2.0, 0.0}};
     for (int k = 0; k < 3; k++)
-        p->v[k] = vec3_make(uv[k][0] * cos(a) - uv[k][1] * sin(a), 0.0, uv[k][0] * sin(a) + uv[k][1] * cos(a));
+        p->v[k] = vec3_make(uv[k][0] * cos(a) - uv[k][1] * sin(a), 0.0,
+                            uv[k][0] * sin(a) + uv[k][1] * cos(a));
     p->entry = vec3_scale(vec3_add(p->v[0], p->v[1]), 0.5);
     vec3_t t;
     assert_true(snell(vec3_make(1, 0, 0), outward(p, 0, 1), 1.0, n0, &t));
@@ -313,9 +327,11 @@ static scene_t *prism_scene(prism_t *p)
         P[3 * k + 1] = k < 3 ? -0.1 : 0.1;
         P[3 * k + 2] = q.z;
     }
-    uint32_t tri[8][3] = {{0, 1, 2}, {3, 5, 4}, {0, 3, 4}, {0, 4, 1}, {1, 4, 5}, {1, 5, 2}, {2, 5, 3}, {2, 3, 0}};
+    uint32_t tri[8][3] = {{0, 1, 2}, {3, 5, 4}, {0, 3, 4}, {0, 4, 1},
+                          {1, 4, 5}, {1, 5, 2}, {2, 5, 3}, {2, 3, 0}};
     /* Orient every triangle outward (normal = (p0 - p2) x (p1 - p2), pbrt-v4's rule). */
-    vec3_t c = vec3_make((p->v[0].x + p->v[1].x + p->v[2].x) / 3, 0, (p->v[0].z + p->v[1].z + p->v[2].z) / 3);
+    vec3_t c = vec3_make((p->v[0].x + p->v[1].x + p->v[2].x) / 3, 0,
+                         (p->v[0].z + p->v[1].z + p->v[2].z) / 3);
     for (int k = 0; k < 8; k++) {
         vec3_t q[3];
         for (int j = 0; j < 3; j++)
@@ -328,8 +344,8 @@ static scene_t *prism_scene(prism_t *p)
             tri[k][1] = x;
         }
     }
-    assert_true(scene_add_mesh(s, P, 6, &tri[0][0], 8, NULL, NULL, material(s, MATERIAL_DIELECTRIC, "N-BK7"), -1, 0,
-                               NULL) >= 0);
+    assert_true(scene_add_mesh(s, P, 6, &tri[0][0], 8, NULL, NULL,
+                               material(s, MATERIAL_DIELECTRIC, "N-BK7"), -1, 0, NULL) >= 0);
     /* The screen: a 0.6 x 0.6 square. */
     vec3_t e = p->screen_e, y = vec3_make(0, 1, 0), sc = p->screen_c;
     double S[12];
@@ -375,7 +391,8 @@ static void test_prism_beam(void **state)
     double n0 = sellmeier(BK7_B, BK7_C, LAMBDA0);
     double dmin = 2.0 * asin(n0 * sin(APEX / 2.0)) - APEX;
     assert_true(fabs(dev0 - dmin) < 1e-9);
-    print_message("N-BK7 prism: n(%.3f nm) = %.5f, minimum deviation %.4f deg\n", LAMBDA0, n0, dmin * 180 / PF_PI);
+    print_message("N-BK7 prism: n(%.3f nm) = %.5f, minimum deviation %.4f deg\n", LAMBDA0, n0,
+                  dmin * 180 / PF_PI);
 
     const uint64_t N = 100000;
     photon_stats_t st;
@@ -395,7 +412,8 @@ static void test_prism_beam(void **state)
             vec3_t f1 = outward(&p, 0, 1), f2 = outward(&p, 0, 2);
             assert_true(snell(d, f1, 1.0, n, &t));
             assert_true(snell(t, vec3_neg(f2), n, 1.0, &o));
-            tt[b] += wgt / 24.0 * fresnel_t(-vec3_dot(d, f1), 1.0, n) * fresnel_t(vec3_dot(t, f2), n, 1.0);
+            tt[b] += wgt / 24.0 * fresnel_t(-vec3_dot(d, f1), 1.0, n) *
+                     fresnel_t(vec3_dot(t, f2), n, 1.0);
         }
         lo_pos[b] = land(&p, lo, NULL);
         hi_pos[b] = land(&p, hi, NULL);
@@ -423,17 +441,19 @@ static void test_prism_beam(void **state)
         double tol = 4.0 * se + 2e-6;
         worst = fmax(worst, fabs(mean - pred[b]) / spacing);
         if (!(fabs(mean - pred[b]) < tol))
-            fail_msg("bucket %d: centroid %.6f m, Snell %.6f m (tolerance %.6f, bucket spans %.6f m)", b, mean, pred[b],
-                     tol, spacing);
+            fail_msg(
+                "bucket %d: centroid %.6f m, Snell %.6f m (tolerance %.6f, bucket spans %.6f m)", b,
+                mean, pred[b], tol, spacing);
         /* The power that took the path: both faces' Fresnel transmittances. */
         double frac = pow_in[b] / (st.power_emitted / NB);
         double fse = sqrt(tt[b] * (1.0 - tt[b]) / (N / (double)NB));
         if (!(fabs(frac - tt[b]) < 4.0 * fse + 3.0 / (N / (double)NB)))
             fail_msg("bucket %d: fraction %.4f through both faces, Fresnel %.4f", b, frac, tt[b]);
     }
-    print_message("prism: buckets land %.1f mm (violet) to %.1f mm (red) from the minimum-deviation point; "
-                  "worst centroid error %.4f of a bucket's width\n",
-                  1e3 * pred[0], 1e3 * pred[NB - 1], worst);
+    print_message(
+        "prism: buckets land %.1f mm (violet) to %.1f mm (red) from the minimum-deviation point; "
+        "worst centroid error %.4f of a bucket's width\n",
+        1e3 * pred[0], 1e3 * pred[NB - 1], worst);
     /* The store resolves the buckets: a gather of a third of a bucket's width at bucket b's
      * landing point sees bucket b, and of buckets two away only the odd photon that took
      * another path through the prism (internal reflections): under 1/1000 of it. */
@@ -445,8 +465,8 @@ static void test_prism_beam(void **state)
         double r = fabs(hi_pos[b] - lo_pos[b]) / 3.0;
         assert_true(photon_map_irradiance(m, q, vec3_neg(p.exit_dir0), r, 0, E) > 0);
         if (!(E[b] > 0.0 && E[b - 2] < 1e-3 * E[b] && E[b + 2] < 1e-3 * E[b]))
-            fail_msg("bucket %d: gather of radius %.2g mm sees %g, buckets %d and %d %g and %g", b, 1e3 * r, E[b], b - 2,
-                     b + 2, E[b - 2], E[b + 2]);
+            fail_msg("bucket %d: gather of radius %.2g mm sees %g, buckets %d and %d %g and %g", b,
+                     1e3 * r, E[b], b - 2, b + 2, E[b - 2], E[b + 2]);
     }
     assert_true(photon_map_power_sum(m) <= st.power_emitted);
     photon_map_destroy(&m);
@@ -542,11 +562,43 @@ static void test_threshold_roulette(void **state)
     double kept = (double)photon_map_count(m) / (double)N;
     /* Survival is Bernoulli(0.6) at power 0.5: se of the power fraction 0.5 sqrt(0.24 / N). */
     double se = 0.5 * sqrt(0.24 / (double)N);
-    print_message("threshold: %.4f of the power deposited by %.3f of the photons (expected 0.3 by 0.6)\n", frac, kept);
+    print_message(
+        "threshold: %.4f of the power deposited by %.3f of the photons (expected 0.3 by 0.6)\n",
+        frac, kept);
     assert_true(fabs(frac - 0.3) < 4.0 * se);
     assert_true(fabs(kept - 0.6) < 4.0 * sqrt(0.24 / (double)N));
     for (size_t i = 0; i < photon_map_count(m); i += 97)
         assert_true(fabs(photon_map_photon(m, i).power / (st.power_emitted / N) - 0.5) < 1e-6);
+    photon_map_destroy(&m);
+    scene_destroy(&s);
+}
+
+/* A collimated beam straight onto a screen: no camera path can find that light, so the
+ * caustic store keeps its direct light too, every photon at full power on the beam's disk
+ * (no glass in the scene, so a point light beside it emits no photons at all). */
+static void test_collimated_direct(void **state)
+{
+    (void)state;
+    scene_t *s = new_scene();
+    beam(s, vec3_make(0, 0, -1), vec3_make(0, 0, 1), 0.05);
+    light_t pl = {.kind = LIGHT_POINT,
+                  .spectrum = constant(s, 1.0),
+                  .scale = 50.0,
+                  .position = vec3_make(0, 1, 0)};
+    assert_true(scene_add_light(s, &pl, NULL) >= 0);
+    transform_t screen = transform_translate(vec3_make(0, 0, 1));
+    assert_true(scene_add_disk(s, &screen, 2.0, 0.0, diffuse(s, 0.8), -1, 1, NULL) >= 0);
+    finish(s);
+    photon_stats_t st;
+    photon_map_t *m = trace(s, PHOTON_STORE_CAUSTIC, 5, 2000, &st);
+    assert_int_equal(photon_map_count(m), 2000);
+    assert_true(fabs(photon_map_power_sum(m) / st.power_emitted - 1.0) < 1e-6);
+    /* The beam's power: irradiance 1 over pi r^2, over the 340 nm range. */
+    assert_true(fabs(st.power_emitted / 2000.0 - PF_PI * 0.05 * 0.05 * 340.0) < 1e-9);
+    for (size_t i = 0; i < photon_map_count(m); i++) {
+        photon_info_t ph = photon_map_photon(m, i);
+        assert_true(hypot(ph.p.x, ph.p.y) <= 0.05 + 1e-6);
+    }
     photon_map_destroy(&m);
     scene_destroy(&s);
 }
@@ -568,18 +620,21 @@ static void expect_error(const char *integrator, const char *fragment)
     err_t err = {{0}};
     scene_t *s = load_text(text, &err);
     if (s || !strstr(err.msg, fragment))
-        fail_msg("%s: expected an error with '%s', got '%s'", integrator, fragment, s ? "(loaded)" : err.msg);
+        fail_msg("%s: expected an error with '%s', got '%s'", integrator, fragment,
+                 s ? "(loaded)" : err.msg);
 }
 
 static void test_scene_parameters(void **state)
 {
     (void)state;
     err_t err = {{0}};
-    scene_t *s = load_text("Integrator \"photon\" \"integer photons\" 12345 \"float radius\" 0.25 \"integer k\" 30\n"
-                           "  \"string gather\" \"whitted\" \"integer maxdepth\" 7 \"float threshold\" 0.05\n"
-                           "  \"string store\" \"photonmap\" \"integer monochromerays\" 1 \"string dispersion\" \"fanout\"\n"
-                           "WorldBegin\nLightSource \"point\"\n",
-                           &err);
+    scene_t *s = load_text(
+        "Integrator \"photon\" \"integer photons\" 12345 \"float radius\" 0.25 \"integer k\" 30\n"
+        "  \"string gather\" \"whitted\" \"integer maxdepth\" 7 \"float threshold\" 0.05\n"
+        "  \"string store\" \"photonmap\" \"integer monochromerays\" 1 \"string dispersion\" "
+        "\"fanout\"\n"
+        "WorldBegin\nLightSource \"point\"\n",
+        &err);
     if (!s)
         fail_msg("%s", err.msg);
     const render_settings_t *rs = &s->settings;
@@ -595,7 +650,8 @@ static void test_scene_parameters(void **state)
     assert_true(photon_gather_radius(s) == 0.25);
     scene_destroy(&s);
     /* Defaults: path gather, a million photons, automatic radius. */
-    s = load_text("Integrator \"photon\"\nWorldBegin\nLightSource \"point\"\nShape \"sphere\"\n", &err);
+    s = load_text("Integrator \"photon\"\nWorldBegin\nLightSource \"point\"\nShape \"sphere\"\n",
+                  &err);
     assert_non_null(s);
     assert_int_equal(s->settings.integrator, INTEGRATOR_PATH);
     assert_int_equal(s->settings.photon.photons, 1000000);
@@ -607,7 +663,8 @@ static void test_scene_parameters(void **state)
     assert_false(s->settings.photon.enabled);
     scene_destroy(&s);
     /* An override to another integrator leaves the photon parameters unused but accepted. */
-    const char *text = "Integrator \"photon\" \"integer photons\" 10\nWorldBegin\nLightSource \"point\"\n";
+    const char *text =
+        "Integrator \"photon\" \"integer photons\" 10\nWorldBegin\nLightSource \"point\"\n";
     scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
     scene_overrides_t ov = {.seed = -1, .integrator = "whitted"};
     s = scene_load(d, &ov, &err);
@@ -618,10 +675,12 @@ static void test_scene_parameters(void **state)
     assert_int_equal(s->settings.integrator, INTEGRATOR_WHITTED);
     scene_destroy(&s);
 
-    expect_error("Integrator \"photon\" \"string store\" \"lightmap\"", "\"lightmap\" is not available yet");
+    expect_error("Integrator \"photon\" \"string store\" \"lightmap\"",
+                 "\"lightmap\" is not available yet");
     expect_error("Integrator \"photon\" \"string store\" \"box\"", "must be \"photonmap\"");
     expect_error("Integrator \"photon\" \"integer monochromerays\" 16", "is not available yet");
-    expect_error("Integrator \"photon\" \"string gather\" \"simplepath\"", "\"string gather\" must be");
+    expect_error("Integrator \"photon\" \"string gather\" \"simplepath\"",
+                 "\"string gather\" must be");
     expect_error("Integrator \"photon\" \"integer photons\" 0", "at least 1");
     expect_error("Integrator \"photon\" \"float radius\" 0", "must be positive");
     expect_error("Integrator \"photon\" \"integer k\" 5000", "0..1024");
@@ -654,7 +713,8 @@ static void test_pass_kept_with_scene(void **state)
     light_t env = {.kind = LIGHT_INFINITE, .spectrum = constant(s, 1.0), .scale = 1.0};
     assert_true(scene_add_light(s, &env, NULL) >= 0);
     transform_t id = transform_identity();
-    assert_true(scene_add_sphere(s, &id, 1.0, material(s, MATERIAL_DIELECTRIC, "N-BK7"), -1, 0, NULL) >= 0);
+    assert_true(
+        scene_add_sphere(s, &id, 1.0, material(s, MATERIAL_DIELECTRIC, "N-BK7"), -1, 0, NULL) >= 0);
     finish(s);
     s->settings.photon.enabled = 1;
     s->settings.photon.photons = 10;
@@ -669,13 +729,10 @@ static void test_pass_kept_with_scene(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_energy_closed_sphere),
-        cmocka_unit_test(test_slab_transmittance),
-        cmocka_unit_test(test_prism_beam),
-        cmocka_unit_test(test_determinism),
-        cmocka_unit_test(test_threshold_roulette),
-        cmocka_unit_test(test_scene_parameters),
-        cmocka_unit_test(test_pass_kept_with_scene),
+        cmocka_unit_test(test_energy_closed_sphere), cmocka_unit_test(test_slab_transmittance),
+        cmocka_unit_test(test_prism_beam),           cmocka_unit_test(test_determinism),
+        cmocka_unit_test(test_threshold_roulette),   cmocka_unit_test(test_collimated_direct),
+        cmocka_unit_test(test_scene_parameters),     cmocka_unit_test(test_pass_kept_with_scene),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

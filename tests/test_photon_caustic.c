@@ -8,6 +8,7 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+
 #include <cmocka.h>
 
 #include <math.h>
@@ -45,7 +46,9 @@ static scene_t *ball_scene(int photons)
     /* Camera under the ball's rim, looking down at the floor point below its centre; the
      * caustic fills the image. */
     transform_t cam;
-    assert_int_equal(transform_look_at(vec3_make(0, 0.55, -1.1), vec3_make(0, 0, 0), vec3_make(0, 1, 0), &cam, &err), 0);
+    assert_int_equal(transform_look_at(vec3_make(0, 0.55, -1.1), vec3_make(0, 0, 0),
+                                       vec3_make(0, 1, 0), &cam, &err),
+                     0);
     s->camera.camera_to_world = transform_inverse(cam);
     s->camera.fov_deg = 20.0;
 
@@ -53,7 +56,8 @@ static scene_t *ball_scene(int photons)
     assert_int_equal(scene_own_spectrum(s, white, &err), 0);
     texture_t *t = texture_new_constant(grey, &err);
     assert_int_equal(scene_own_texture(s, t, &err), 0);
-    material_t floor_m = {.kind = MATERIAL_DIFFUSE, .reflectance = t}, glass = {.kind = MATERIAL_DIELECTRIC};
+    material_t floor_m = {.kind = MATERIAL_DIFFUSE, .reflectance = t},
+               glass = {.kind = MATERIAL_DIELECTRIC};
     glass.ior = ior_constant(1.5);
     int fm = scene_add_material(s, &floor_m, &err), gm = scene_add_material(s, &glass, &err);
     /* Floor: a large disk at y = 0 facing up (+z of the disk turned onto +y). */
@@ -76,10 +80,10 @@ static scene_t *ball_scene(int photons)
 }
 
 typedef struct image_stats {
-    double mean;     /* mean over pixels of the pixel's mean luminance */
-    double se;       /* its standard error from the per-sample variances */
-    double max;      /* largest pixel mean */
-    double var;      /* mean per-sample variance of luminance */
+    double mean; /* mean over pixels of the pixel's mean luminance */
+    double se;   /* its standard error from the per-sample variances */
+    double max;  /* largest pixel mean */
+    double var;  /* mean per-sample variance of luminance */
     double buckets[64];
 } image_stats_t;
 
@@ -136,7 +140,8 @@ static double map_relative_se(const scene_t *s)
         if (!(q.z > 0) || fabs(q.x / q.z) > tanh_ || fabs(q.y / q.z) > tanh_)
             continue;
         vec3_t to_eye = vec3_sub(eye, ph.p);
-        double d = vec3_length(to_eye), cos_t = fabs(vec3_dot(ph.normal, to_eye)) / d, cos_a = q.z / d;
+        double d = vec3_length(to_eye), cos_t = fabs(vec3_dot(ph.normal, to_eye)) / d,
+               cos_a = q.z / d;
         double a = ph.power * wts[ph.bucket].y * cos_t / (d * d * cos_a * cos_a * cos_a);
         sum += a;
         sq += a * a;
@@ -159,9 +164,11 @@ static void test_caustic_agrees_with_path(void **state)
     image_stats_t a = render(path, 2048), b = render(ph, 16);
     double map_se = b.mean * map_relative_se(ph);
     double se = sqrt(a.se * a.se + b.se * b.se + map_se * map_se);
-    print_message("caustic mean luminance: path %.4f +- %.4f (2048 spp), photon %.4f +- %.4f (16 spp) +- %.4f "
+    print_message("caustic mean luminance: path %.4f +- %.4f (2048 spp), photon %.4f +- %.4f (16 "
+                  "spp) +- %.4f "
                   "(800k photons): %+.2f%%, sigma %.2f%%\n",
-                  a.mean, a.se, b.mean, b.se, map_se, 100.0 * (b.mean / a.mean - 1.0), 100.0 * se / a.mean);
+                  a.mean, a.se, b.mean, b.se, map_se, 100.0 * (b.mean / a.mean - 1.0),
+                  100.0 * se / a.mean);
     assert_true(fabs(b.mean - a.mean) < 4.0 * se);
     assert_true(fabs(b.mean / a.mean - 1.0) < 0.05);
     assert_true(4.0 * se / a.mean < 0.06);
@@ -173,7 +180,8 @@ static void test_caustic_agrees_with_path(void **state)
     /* Fireflies: at equal samples, the photon image's per-sample variance and its brightest
      * pixel against the path tracer's. */
     image_stats_t c = render(path, 16);
-    print_message("at 16 spp: per-sample luminance variance path %.3g, photon %.3g (%.0fx lower); brightest pixel "
+    print_message("at 16 spp: per-sample luminance variance path %.3g, photon %.3g (%.0fx lower); "
+                  "brightest pixel "
                   "path %.2f, photon %.2f (the caustic's peak is about 5)\n",
                   c.var, b.var, c.var / b.var, c.max, b.max);
     assert_true(b.var * 20.0 < c.var);
@@ -183,7 +191,8 @@ static void test_caustic_agrees_with_path(void **state)
     ph->settings.integrator = INTEGRATOR_WHITTED;
     ph->settings.dispersion = DISPERSION_FANOUT;
     image_stats_t d = render(ph, 4);
-    print_message("Whitted gather, fan-out: %.4f (%+.2f%% against the path gather)\n", d.mean, 100.0 * (d.mean / b.mean - 1.0));
+    print_message("Whitted gather, fan-out: %.4f (%+.2f%% against the path gather)\n", d.mean,
+                  100.0 * (d.mean / b.mean - 1.0));
     /* Same store, so its noise cancels: 4 sigma of both renders' camera noise, plus 1 % for
      * the floor's light that the ball returns to it (path gather only; measured 0.03 %). */
     assert_true(fabs(d.mean - b.mean) < 4.0 * sqrt(b.se * b.se + d.se * d.se) + 0.01 * b.mean);
@@ -191,10 +200,53 @@ static void test_caustic_agrees_with_path(void **state)
     scene_destroy(&ph);
 }
 
+/* The farm's guarantee with photons: two workers that each load the scene and trace the
+ * photon pass themselves render a tile to the same bytes, and a tile rendered in pieces
+ * (sub-tiles and sample ranges, as the scheduler may cut it) sums to the same image. */
+static void test_workers_agree(void **state)
+{
+    (void)state;
+    err_t err;
+    scene_t *w1 = ball_scene(50000), *w2 = ball_scene(50000);
+    w1->settings.spp = w2->settings.spp = 4;
+    int nb = w1->settings.grid.n;
+    tilebuf_t *a = tilebuf_new(0, 0, RES, RES, nb, &err),
+              *b = tilebuf_new(0, 0, RES, RES, nb, &err);
+    assert_int_equal(render_tile(w1, 0, 0, RES, RES, 0, 4, a, NULL, &err), 0);
+    for (int y = 0; y < RES; y += 5)
+        for (int x = 0; x < RES; x += 7) {
+            int w = x + 7 > RES ? RES - x : 7, h = y + 5 > RES ? RES - y : 5;
+            for (uint32_t s0 = 0; s0 < 4; s0 += 3) {
+                tilebuf_t *t = tilebuf_new(x, y, w, h, nb, &err);
+                assert_int_equal(
+                    render_tile(w2, x, y, w, h, s0, s0 + 3 > 4 ? 4 : s0 + 3, t, NULL, &err), 0);
+                assert_int_equal(tilebuf_merge(b, t, &err), 0);
+                tilebuf_destroy(&t);
+            }
+        }
+    for (int y = 0; y < RES; y++)
+        for (int x = 0; x < RES; x++) {
+            assert_int_equal(tilebuf_count(a, x, y), tilebuf_count(b, x, y));
+            for (int k = 0; k < nb; k++)
+                assert_true(fabs(tilebuf_sum(a, x, y, k) - tilebuf_sum(b, x, y, k)) <=
+                            1e-12 * fabs(tilebuf_sum(a, x, y, k)));
+        }
+    /* Whole tiles are bit-identical. */
+    tilebuf_t *c = tilebuf_new(0, 0, RES, RES, nb, &err);
+    assert_int_equal(render_tile(w2, 0, 0, RES, RES, 0, 4, c, NULL, &err), 0);
+    assert_memory_equal(tilebuf_sums(a), tilebuf_sums(c), sizeof(double) * RES * RES * (size_t)nb);
+    tilebuf_destroy(&a);
+    tilebuf_destroy(&b);
+    tilebuf_destroy(&c);
+    scene_destroy(&w1);
+    scene_destroy(&w2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_caustic_agrees_with_path),
+        cmocka_unit_test(test_workers_agree),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

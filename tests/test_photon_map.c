@@ -4,6 +4,7 @@
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
+
 #include <cmocka.h>
 
 #include <math.h>
@@ -131,7 +132,8 @@ static void test_k_nearest_matches_brute_force(void **state)
         assert_int_equal(photon_map_irradiance(m, q, nz, rmax, K, E), K);
         for (int b = 0; b < 8; b++)
             if (!(fabs(E[b] - F[b]) <= 1e-12 * fmax(1.0, F[b])))
-                fail_msg("query %d bucket %d: k-nearest %.17g, brute force %.17g", k, b, E[b], F[b]);
+                fail_msg("query %d bucket %d: k-nearest %.17g, brute force %.17g", k, b, E[b],
+                         F[b]);
         /* Fewer than k within the radius: all of them, over the search radius. */
         double small = sqrt(d[9].d2 + 0.5 * (d[10].d2 - d[9].d2));
         assert_int_equal(photon_map_irradiance(m, q, nz, small, K, E), 10);
@@ -145,8 +147,9 @@ static void test_k_nearest_matches_brute_force(void **state)
 }
 
 /* n photons of raw power p deposited uniformly over a 1 x 1 square, n / 8 in each bucket:
- * the irradiance per bucket is (n / 8) p / (N_emitted * width * area) in expectation. A box kernel of radius r well inside the square sees about n pi r^2 photons,
- * so the estimate's relative standard error is 1 / sqrt(n pi r^2 / nbuckets) per bucket. */
+ * the irradiance per bucket is (n / 8) p / (N_emitted * width * area) in expectation. A box kernel
+ * of radius r well inside the square sees about n pi r^2 photons, so the estimate's relative
+ * standard error is 1 / sqrt(n pi r^2 / nbuckets) per bucket. */
 static void test_uniform_density(void **state)
 {
     (void)state;
@@ -201,7 +204,9 @@ static void test_append_and_build_are_deterministic(void **state)
     photon_map_t *a = photon_map_new(grid8(), &err), *b = photon_map_new(grid8(), &err);
     for (size_t i = 0; i < 3000; i++) {
         photon_info_t ph = photon_map_photon(whole, i);
-        assert_int_equal(photon_map_deposit(i < 1234 ? a : b, ph.p, ph.dir, ph.normal, ph.lambda, ph.power, &err), 0);
+        assert_int_equal(photon_map_deposit(i < 1234 ? a : b, ph.p, ph.dir, ph.normal, ph.lambda,
+                                            ph.power, &err),
+                         0);
     }
     photon_map_add_emitted(a, 400);
     photon_map_add_emitted(b, 600);
@@ -217,7 +222,9 @@ static void test_append_and_build_are_deterministic(void **state)
         assert_memory_equal(&x, &y, sizeof x);
     }
     /* A built map takes no more deposits or merges. */
-    assert_int_equal(photon_map_deposit(whole, vec3_make(0, 0, 0), vec3_make(0, 0, -1), vec3_make(0, 0, 1), 500, 1, &err), -1);
+    assert_int_equal(photon_map_deposit(whole, vec3_make(0, 0, 0), vec3_make(0, 0, -1),
+                                        vec3_make(0, 0, 1), 500, 1, &err),
+                     -1);
     assert_int_equal(photon_map_append(whole, a, &err), -1);
     photon_map_destroy(&a);
     photon_map_destroy(&b);
@@ -242,31 +249,45 @@ static void test_encoding(void **state)
             continue;
         dir = vec3_normalize(dir);
         double lambda = 400.0 + 320.0 * u[3];
-        assert_int_equal(photon_map_deposit(m, vec3_make(u[0], u[1], u[2]), dir, vec3_neg(dir), lambda, 2.5, &err), 0);
+        assert_int_equal(photon_map_deposit(m, vec3_make(u[0], u[1], u[2]), dir, vec3_neg(dir),
+                                            lambda, 2.5, &err),
+                         0);
         photon_info_t ph = photon_map_photon(m, photon_map_count(m) - 1);
         assert_true(vec3_dot(ph.dir, dir) > cos(1.5 * PF_PI / 180.0));
         assert_true(vec3_dot(ph.normal, vec3_neg(dir)) > cos(1.5 * PF_PI / 180.0));
         assert_true(fabs(ph.lambda - lambda) <= 0.5 * 320.0 / 65535.0 + 1e-9);
         assert_int_equal(ph.bucket, spectral_grid_index(grid8(), lambda));
-        assert_true(fabs(ph.p.x - u[0]) < 1e-7 && fabs(ph.p.y - u[1]) < 1e-7 && fabs(ph.p.z - u[2]) < 1e-7);
+        assert_true(fabs(ph.p.x - u[0]) < 1e-7 && fabs(ph.p.y - u[1]) < 1e-7 &&
+                    fabs(ph.p.z - u[2]) < 1e-7);
         assert_true(ph.power == 2.5);
     }
     size_t n = photon_map_count(m);
     /* Outside the grid: ignored; non-finite: refused. */
-    assert_int_equal(photon_map_deposit(m, vec3_make(0, 0, 0), vec3_make(0, 0, 1), vec3_make(0, 0, -1), 390.0, 1.0, &err), 0);
-    assert_int_equal(photon_map_deposit(m, vec3_make(0, 0, 0), vec3_make(0, 0, 1), vec3_make(0, 0, -1), 500.0, NAN, &err), -1);
-    assert_int_equal(photon_map_deposit(m, vec3_make(INFINITY, 0, 0), vec3_make(0, 0, 1), vec3_make(0, 0, -1), 500.0, 1.0, &err), -1);
-    assert_int_equal(photon_map_deposit(m, vec3_make(0, 0, 0), vec3_make(0, 0, 1), vec3_make(0, 0, -1), 500.0, -1.0, &err), -1);
+    assert_int_equal(photon_map_deposit(m, vec3_make(0, 0, 0), vec3_make(0, 0, 1),
+                                        vec3_make(0, 0, -1), 390.0, 1.0, &err),
+                     0);
+    assert_int_equal(photon_map_deposit(m, vec3_make(0, 0, 0), vec3_make(0, 0, 1),
+                                        vec3_make(0, 0, -1), 500.0, NAN, &err),
+                     -1);
+    assert_int_equal(photon_map_deposit(m, vec3_make(INFINITY, 0, 0), vec3_make(0, 0, 1),
+                                        vec3_make(0, 0, -1), 500.0, 1.0, &err),
+                     -1);
+    assert_int_equal(photon_map_deposit(m, vec3_make(0, 0, 0), vec3_make(0, 0, 1),
+                                        vec3_make(0, 0, -1), 500.0, -1.0, &err),
+                     -1);
     assert_int_equal(photon_map_count(m), n);
     /* 24 bytes a photon: 24 MB per million, plus the growth slack of the array. */
     assert_int_equal(photon_map_photon_bytes(), 24);
     assert_true(photon_map_memory_bytes(m) >= n * 24);
     /* Unbuilt, empty or bad radius: no estimate. */
     double E[8];
-    assert_int_equal(photon_map_irradiance(m, vec3_make(0.5, 0.5, 0.5), vec3_make(0, 0, 1), 0.1, 0, E), 0);
+    assert_int_equal(
+        photon_map_irradiance(m, vec3_make(0.5, 0.5, 0.5), vec3_make(0, 0, 1), 0.1, 0, E), 0);
     assert_int_equal(photon_map_build(m, &err), 0);
-    assert_int_equal(photon_map_irradiance(m, vec3_make(0.5, 0.5, 0.5), vec3_make(0, 0, 1), NAN, 0, E), 0);
-    assert_int_equal(photon_map_irradiance(m, vec3_make(0.5, 0.5, 0.5), vec3_make(0, 0, 1), -1.0, 0, E), 0);
+    assert_int_equal(
+        photon_map_irradiance(m, vec3_make(0.5, 0.5, 0.5), vec3_make(0, 0, 1), NAN, 0, E), 0);
+    assert_int_equal(
+        photon_map_irradiance(m, vec3_make(0.5, 0.5, 0.5), vec3_make(0, 0, 1), -1.0, 0, E), 0);
     for (int b = 0; b < 8; b++)
         assert_true(E[b] == 0.0);
     photon_map_destroy(&m);
@@ -280,16 +301,18 @@ static void test_coincident_photons(void **state)
     err_t err;
     photon_map_t *m = photon_map_new(grid8(), &err);
     for (int i = 0; i < 200000; i++)
-        assert_int_equal(photon_map_deposit(m, vec3_make(1, 2, 3), vec3_make(0, 0, -1), vec3_make(0, 0, 1),
-                                            401.0 + (i % 8) * 40.0, 1.0, &err),
+        assert_int_equal(photon_map_deposit(m, vec3_make(1, 2, 3), vec3_make(0, 0, -1),
+                                            vec3_make(0, 0, 1), 401.0 + (i % 8) * 40.0, 1.0, &err),
                          0);
     photon_map_add_emitted(m, 200000);
     assert_int_equal(photon_map_build(m, &err), 0);
     double E[8];
-    assert_int_equal(photon_map_irradiance(m, vec3_make(1, 2, 3), vec3_make(0, 0, 1), 0.1, 16, E), 16);
+    assert_int_equal(photon_map_irradiance(m, vec3_make(1, 2, 3), vec3_make(0, 0, 1), 0.1, 16, E),
+                     16);
     for (int b = 0; b < 8; b++)
         assert_true(isfinite(E[b]) && E[b] > 0.0);
-    assert_int_equal(photon_map_irradiance(m, vec3_make(1, 2, 3.05), vec3_make(0, 0, 1), 0.1, 0, E), 200000);
+    assert_int_equal(photon_map_irradiance(m, vec3_make(1, 2, 3.05), vec3_make(0, 0, 1), 0.1, 0, E),
+                     200000);
     photon_map_destroy(&m);
 }
 

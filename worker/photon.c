@@ -8,6 +8,7 @@
 #include "specular.h"
 #include "wavelength.h"
 
+#include <float.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdlib.h>
@@ -26,8 +27,10 @@
 
 photon_job_t photon_job_from_settings(const render_settings_t *rs)
 {
-    return (photon_job_t){.seed = rs->seed, .maxdepth = rs->photon.maxdepth,
-                          .threshold = rs->photon.threshold, .policy = PHOTON_STORE_CAUSTIC};
+    return (photon_job_t){.seed = rs->seed,
+                          .maxdepth = rs->photon.maxdepth,
+                          .threshold = rs->photon.threshold,
+                          .policy = PHOTON_STORE_CAUSTIC};
 }
 
 double photon_gather_radius(const scene_t *scene)
@@ -44,7 +47,7 @@ typedef struct tracer {
      * is diffuse is never stored, so photons are aimed at this sphere only (a bounding-sphere
      * version of Jensen's projection maps, Jensen 2001 sec. 6.2.2); aim_ok is 0 when a light
      * lies inside it, then that light emits everywhere. no_target: no specular surface at all,
-     * so no photon can ever be stored. */
+     * so only a collimated light's photons can be stored (the others are not emitted). */
     int aim, no_target;
     vec3_t aim_centre;
     double aim_radius;
@@ -54,7 +57,10 @@ typedef struct tracer {
     uint64_t lambda_shift; /* the job's random shift of the wavelength sequence */
 } tracer_t;
 
-static double next(tracer_t *t) { return rng_stream_next(&t->rng); }
+static double next(tracer_t *t)
+{
+    return rng_stream_next(&t->rng);
+}
 
 /* Samples a direction toward the aim sphere from o: uniform in the cone that the sphere
  * subtends. Returns the cone's solid angle 2 pi (1 - cos theta_max) (the inverse pdf), or 0
@@ -68,7 +74,8 @@ static double aim_cone(tracer_t *t, vec3_t o, vec3_t *dir)
     double sin2 = r2 / d2;
     double cos_max = sqrt(1.0 - sin2);
     double u0 = next(t), u1 = next(t);
-    *dir = sample_local_to_world(sample_uniform_cone(u0, u1, cos_max), vec3_scale(d, 1.0 / sqrt(d2)));
+    *dir =
+        sample_local_to_world(sample_uniform_cone(u0, u1, cos_max), vec3_scale(d, 1.0 / sqrt(d2)));
     /* 1 - cos_max without cancellation for small cones. */
     return 2.0 * PF_PI * sin2 / (1.0 + cos_max);
 }
@@ -184,19 +191,22 @@ static void grow_box(vec3_t *lo, vec3_t *hi, const transform_t *to_world, vec3_t
 }
 
 /* The box of one shape in its own space (world space for world meshes). */
-static void shape_box(const shape_t *sh, vec3_t *lo, vec3_t *hi, transform_t *to_space, int *has_transform)
+static void shape_box(const shape_t *sh, vec3_t *lo, vec3_t *hi, transform_t *to_space,
+                      int *has_transform)
 {
     *lo = vec3_make(INFINITY, INFINITY, INFINITY);
     *hi = vec3_make(-INFINITY, -INFINITY, -INFINITY);
     *has_transform = sh->kind != SHAPE_MESH;
     if (sh->kind == SHAPE_MESH) {
         for (size_t v = 0; v < sh->nverts; v++) {
-            vec3_t q = vec3_make(sh->positions[3 * v], sh->positions[3 * v + 1], sh->positions[3 * v + 2]);
+            vec3_t q =
+                vec3_make(sh->positions[3 * v], sh->positions[3 * v + 1], sh->positions[3 * v + 2]);
             grow_box(lo, hi, NULL, q, q);
         }
     } else {
         double r = sh->radius;
-        double zlo = sh->kind == SHAPE_SPHERE ? -r : sh->height, zhi = sh->kind == SHAPE_SPHERE ? r : sh->height;
+        double zlo = sh->kind == SHAPE_SPHERE ? -r : sh->height,
+               zhi = sh->kind == SHAPE_SPHERE ? r : sh->height;
         *lo = vec3_make(-r, -r, zlo);
         *hi = vec3_make(r, r, zhi);
         *to_space = sh->to_world;
@@ -207,7 +217,8 @@ static void shape_box(const shape_t *sh, vec3_t *lo, vec3_t *hi, transform_t *to
  * copies included. Returns 0 when there is none. */
 static int specular_sphere(const scene_t *s, vec3_t *centre, double *radius)
 {
-    vec3_t lo = vec3_make(INFINITY, INFINITY, INFINITY), hi = vec3_make(-INFINITY, -INFINITY, -INFINITY);
+    vec3_t lo = vec3_make(INFINITY, INFINITY, INFINITY),
+           hi = vec3_make(-INFINITY, -INFINITY, -INFINITY);
     int any = 0;
     for (size_t i = 0; i < s->nshapes; i++) {
         const shape_t *sh = &s->shapes[i];
@@ -261,7 +272,8 @@ static int trace_one(tracer_t *t, uint64_t i, err_t *err)
      * uniform, so the estimate stays unbiased, and every bucket receives its share of any
      * N photons to within a few, which removes the colour noise of independent draws. */
     uint64_t ui = i * 0x9E3779B97F4A7C15ull + t->lambda_shift;
-    wavelength_sample_t ws = wavelength_sample_uniform((double)(ui >> 11) * 0x1p-53, grid.lambda_min, grid.lambda_max);
+    wavelength_sample_t ws =
+        wavelength_sample_uniform((double)(ui >> 11) * 0x1p-53, grid.lambda_min, grid.lambda_max);
     const double lambda = ws.lambda;
     vec3_t org, dir;
     double phi;
@@ -276,6 +288,7 @@ static int trace_one(tracer_t *t, uint64_t i, err_t *err)
     if (!(w > 0.0))
         return 0;
     const double w0 = w;
+    const int collimated = l->kind == LIGHT_COLLIMATED;
     int depth = 0, specular = 0, diffuse = 0, passthrough = 0;
     for (;;) {
         hit_t h;
@@ -297,8 +310,19 @@ static int trace_one(tracer_t *t, uint64_t i, err_t *err)
             /* The side the photon arrived on decides the normal stored and the hemisphere it
              * leaves into: the geometric surface, so that no photon crosses a wall. */
             vec3_t g = vec3_dot(sf.ng, dir) < 0.0 ? sf.ng : vec3_neg(sf.ng);
-            int store = job->policy == PHOTON_STORE_CAUSTIC ? specular > 0 && !diffuse : depth > 0;
+            /* A collimated light is a delta in direction: no camera path or light sample ever
+             * finds it, so its direct light (L D) goes into the caustic store as well. */
+            int store = job->policy == PHOTON_STORE_CAUSTIC
+                            ? (specular > 0 || collimated) && !diffuse
+                            : depth > 0;
             if (store) {
+                /* Counted and dropped rather than stored (PHYSICS.md: no NaN or Inf in any
+                 * store); the map refuses them too. */
+                if (!(w <= FLT_MAX) || !isfinite(sf.p.x) || !isfinite(sf.p.y) ||
+                    !isfinite(sf.p.z)) {
+                    st->nonfinite++;
+                    return 0;
+                }
                 if (photon_map_deposit(t->out, sf.p, dir, g, lambda, w, err))
                     return -1;
                 st->deposited++;
@@ -366,8 +390,57 @@ static int trace_one(tracer_t *t, uint64_t i, err_t *err)
     }
 }
 
-static alias_t *photon_lights(const scene_t *s, err_t *err)
+/* The share of light l's power that an aimed emission sends toward the aim sphere, roughly
+ * (seen from the centre of an area light's shape), kept in [1e-3, 1] so that every light
+ * that can reach a specular surface keeps a chance. */
+static double aimed_share(const tracer_t *t, const light_t *l)
 {
+    const scene_t *s = t->scene;
+    if (!t->aim)
+        return 1.0;
+    double f = 1.0;
+    vec3_t from = l->position;
+    switch (l->kind) {
+    case LIGHT_COLLIMATED:
+    case LIGHT_INFINITE:
+        return 1.0;
+    case LIGHT_DISTANT:
+        f = t->aim_radius * t->aim_radius / (s->scene_radius * s->scene_radius);
+        break;
+    case LIGHT_AREA: {
+        vec3_t lo, hi;
+        transform_t own;
+        int has_own;
+        shape_box(&s->shapes[l->shape], &lo, &hi, &own, &has_own);
+        from = vec3_scale(vec3_add(lo, hi), 0.5);
+        if (has_own)
+            from = transform_point(&own, from);
+    }
+        /* fall through */
+    case LIGHT_POINT:
+    case LIGHT_SPOT: {
+        vec3_t d = vec3_sub(t->aim_centre, from);
+        double d2 = vec3_dot(d, d), r2 = t->aim_radius * t->aim_radius;
+        if (!(d2 > r2))
+            return 1.0;
+        double sin2 = r2 / d2, omega = 2.0 * PF_PI * sin2 / (1.0 + sqrt(1.0 - sin2));
+        f = l->kind == LIGHT_AREA    ? omega / PF_PI
+            : l->kind == LIGHT_POINT ? omega / (4.0 * PF_PI)
+                                     : omega / (2.0 * PF_PI * fmax(1e-9, 1.0 - l->cos_total_width));
+        break;
+    }
+    }
+    return fmin(1.0, fmax(1e-3, f));
+}
+
+/* Which light a photon comes from: in proportion to power (scene->light_power) and, when
+ * photons are aimed, to the share of it that heads for the specular surfaces, so that a
+ * narrow beam at a prism is not starved by a large room light of which only a sliver
+ * reaches the glass. Any choice with every useful light's probability above zero is
+ * unbiased, as each photon divides by it. Environment lights emit no photons. */
+static alias_t *photon_lights(const tracer_t *t, err_t *err)
+{
+    const scene_t *s = t->scene;
     if (!s->light_power || s->nlights == 0) {
         err_set(err, "the photon pass needs a light: the scene has none");
         return NULL;
@@ -378,13 +451,23 @@ static alias_t *photon_lights(const scene_t *s, err_t *err)
         return NULL;
     }
     double total = 0.0;
-    for (size_t i = 0; i < s->nlights; i++)
-        total += w[i] = s->lights[i].kind == LIGHT_INFINITE ? 0.0 : alias_pmf(s->light_power, i);
+    int others = 0;
+    for (size_t i = 0; i < s->nlights; i++) {
+        const light_t *l = &s->lights[i];
+        others |= l->kind != LIGHT_INFINITE;
+        int useless = l->kind == LIGHT_INFINITE || (t->no_target && l->kind != LIGHT_COLLIMATED);
+        total += w[i] = useless ? 0.0 : alias_pmf(s->light_power, i) * aimed_share(t, l);
+    }
     alias_t *a = NULL;
     if (total > 0.0)
         a = alias_new(w, s->nlights, err);
+    else if (!others)
+        err_set(err, "the photon pass needs a light other than an environment: environment lights "
+                     "emit no photons");
     else
-        err_set(err, "the photon pass needs a light other than an environment: environment lights emit no photons");
+        err_set(
+            err,
+            "no photon could be stored: the scene has no glass or mirror and no collimated light");
     free(w);
     return a;
 }
@@ -399,19 +482,23 @@ int photon_trace(const scene_t *scene, const photon_job_t *job, uint64_t i0, uin
     if (g.n != sg.n || g.lambda_min != sg.lambda_min || g.lambda_max != sg.lambda_max)
         return err_set(err, "the photon map's wavelength grid is not the scene's");
     if (job->maxdepth < 0 || !(job->threshold >= 0.0 && job->threshold < 1.0))
-        return err_set(err, "photon job: maxdepth %d or threshold %g out of range", job->maxdepth, job->threshold);
+        return err_set(err, "photon job: maxdepth %d or threshold %g out of range", job->maxdepth,
+                       job->threshold);
     photon_stats_t local = {0};
     tracer_t t = {.scene = scene, .job = job, .out = out, .stats = &local};
-    if (!(t.lights = photon_lights(scene, err)))
-        return -1;
-    /* Sample index 1 of photon 0 is no photon's number (photons use sample 0). */
-    t.lambda_shift = (uint64_t)(rng_uniform(job->seed ^ PHOTON_SEED_MIX, 0, 1, 0) * 0x1p53) << 11;
     if (job->policy == PHOTON_STORE_CAUSTIC) {
         t.aim = specular_sphere(scene, &t.aim_centre, &t.aim_radius);
         t.no_target = !t.aim;
     }
+    if (!(t.lights = photon_lights(&t, err))) {
+        if (!t.no_target)
+            return -1;
+        t.no_target = 2; /* nothing to trace: every photon is emitted and lost */
+    }
+    /* Sample index 1 of photon 0 is no photon's number (photons use sample 0). */
+    t.lambda_shift = (uint64_t)(rng_uniform(job->seed ^ PHOTON_SEED_MIX, 0, 1, 0) * 0x1p53) << 11;
     int r = 0;
-    for (uint64_t i = i0; i < i1 && !r && !t.no_target; i++)
+    for (uint64_t i = i0; i < i1 && !r && t.no_target != 2; i++)
         r = trace_one(&t, i, err);
     alias_destroy(&t.lights);
     if (r)
@@ -449,7 +536,8 @@ static void *pass_thread(void *arg)
     _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
     _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
 #endif
-    pt->failed = photon_trace(pt->scene, &pt->job, pt->i0, pt->i1, pt->map, &pt->stats, &pt->err) != 0;
+    pt->failed =
+        photon_trace(pt->scene, &pt->job, pt->i0, pt->i1, pt->map, &pt->stats, &pt->err) != 0;
     return NULL;
 }
 

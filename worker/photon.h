@@ -19,7 +19,9 @@
 typedef enum photon_store_policy {
     /* The caustic store of the photon integrator: a photon is deposited at its first diffuse
      * hit only if every bounce before it was specular and there was at least one (L S+ D
-     * paths), and ends there. The camera pass traces every other path. */
+     * paths), and ends there; a collimated light's photons also at a first hit straight from
+     * the light (no camera path can find that light). The camera pass traces every other
+     * path. */
     PHOTON_STORE_CAUSTIC,
     /* The thesis's store (alg. 4): deposits at every diffuse hit except a first hit straight
      * from the light, and continues diffusely by Russian roulette on the albedo. */
@@ -40,21 +42,25 @@ typedef struct photon_job {
 photon_job_t photon_job_from_settings(const render_settings_t *rs);
 
 typedef struct photon_stats {
-    uint64_t emitted;      /* photon indices traced */
-    uint64_t deposited;    /* deposits made */
-    uint64_t rays;         /* intersection queries */
-    uint64_t escaped;      /* photons that left the scene */
-    uint64_t culled;       /* ended by the threshold roulette or the depth limit */
-    uint64_t nonfinite;    /* photons dropped because their power was not finite */
-    double power_emitted;  /* sum of raw emitted power (W/nm, as deposits) over photons */
+    uint64_t emitted;     /* photon indices traced */
+    uint64_t deposited;   /* deposits made */
+    uint64_t rays;        /* intersection queries */
+    uint64_t escaped;     /* photons that left the scene */
+    uint64_t culled;      /* ended by the threshold roulette or the depth limit */
+    uint64_t nonfinite;   /* photons dropped because their power was not finite */
+    double power_emitted; /* sum of raw emitted power (W/nm, as deposits) over photons */
     double power_deposited;
 } photon_stats_t;
 
 /* Traces photons [i0, i1) of the job in scene and appends their deposits to out (unbuilt, on
- * the scene's wavelength grid) in index order, adding i1 - i0 to its emitted count. Lights are
- * chosen in proportion to their power (scene->light_power); infinite (environment) lights
- * emit no photons: their caustics are left to the camera pass. Each photon carries one
- * wavelength, uniform over the grid's range. Adds to *stats (may be NULL). */
+ * the scene's wavelength grid) in index order, adding i1 - i0 to its emitted count.
+ * Lights are chosen in proportion to their power (scene->light_power); for the caustic store
+ * photons are aimed at a sphere around every mirror and glass surface (a photon whose first
+ * hit is diffuse could never be stored) and lights are weighted by the share of their power
+ * that goes there. Infinite (environment) lights emit no photons: light from them through
+ * glass is left to the camera pass. Each photon carries one wavelength, uniform over the
+ * grid's range (a randomly shifted golden-ratio sequence over the photon index, so buckets
+ * get equal shares). Adds to *stats (may be NULL). */
 int photon_trace(const scene_t *scene, const photon_job_t *job, uint64_t i0, uint64_t i1,
                  photon_map_t *out, photon_stats_t *stats, err_t *err);
 

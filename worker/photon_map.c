@@ -1,5 +1,6 @@
 #include "photon_map.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -65,7 +66,8 @@ photon_map_t *photon_map_new(spectral_grid_t grid, err_t *err)
     if (spectral_grid_validate(grid, err))
         return NULL;
     if (grid.n > (int)BUCKET_MASK + 1) {
-        err_set(err, "a photon map holds at most %u buckets, the grid has %d", BUCKET_MASK + 1, grid.n);
+        err_set(err, "a photon map holds at most %u buckets, the grid has %d", BUCKET_MASK + 1,
+                grid.n);
         return NULL;
     }
     photon_map_t *self = calloc(1, sizeof *self);
@@ -109,8 +111,7 @@ int photon_map_deposit(photon_map_t *self, vec3_t p, vec3_t dir, vec3_t normal, 
 {
     if (self->built)
         return err_set(err, "photon map: deposit after the kd-tree was built");
-    if (!isfinite(power) || power < 0.0 || (float)power > 3.0e38f || !isfinite(p.x) || !isfinite(p.y) ||
-        !isfinite(p.z))
+    if (!(power >= 0.0 && power <= FLT_MAX) || !isfinite(p.x) || !isfinite(p.y) || !isfinite(p.z))
         return err_set(err, "photon map: non-finite deposit (power %g)", power);
     int b = spectral_grid_index(self->grid, lambda);
     if (b < 0)
@@ -130,12 +131,30 @@ int photon_map_deposit(photon_map_t *self, vec3_t p, vec3_t dir, vec3_t normal, 
     return 0;
 }
 
-void photon_map_add_emitted(photon_map_t *self, uint64_t n) { self->emitted += n; }
-uint64_t photon_map_emitted(const photon_map_t *self) { return self->emitted; }
-size_t photon_map_count(const photon_map_t *self) { return self->n; }
-int photon_map_built(const photon_map_t *self) { return self->built; }
-spectral_grid_t photon_map_grid(const photon_map_t *self) { return self->grid; }
-size_t photon_map_photon_bytes(void) { return sizeof(photon_t); }
+void photon_map_add_emitted(photon_map_t *self, uint64_t n)
+{
+    self->emitted += n;
+}
+uint64_t photon_map_emitted(const photon_map_t *self)
+{
+    return self->emitted;
+}
+size_t photon_map_count(const photon_map_t *self)
+{
+    return self->n;
+}
+int photon_map_built(const photon_map_t *self)
+{
+    return self->built;
+}
+spectral_grid_t photon_map_grid(const photon_map_t *self)
+{
+    return self->grid;
+}
+size_t photon_map_photon_bytes(void)
+{
+    return sizeof(photon_t);
+}
 
 size_t photon_map_memory_bytes(const photon_map_t *self)
 {
@@ -167,7 +186,8 @@ photon_info_t photon_map_photon(const photon_map_t *self, size_t i)
     r.p = vec3_make(ph->p[0], ph->p[1], ph->p[2]);
     r.dir = oct_decode(ph->dir);
     r.normal = oct_decode(ph->normal);
-    r.lambda = self->grid.lambda_min + ph->lambda / 65535.0 * (self->grid.lambda_max - self->grid.lambda_min);
+    r.lambda = self->grid.lambda_min +
+               ph->lambda / 65535.0 * (self->grid.lambda_max - self->grid.lambda_min);
     r.bucket = ph->bucket & BUCKET_MASK;
     r.power = ph->power;
     return r;
@@ -248,6 +268,14 @@ int photon_map_build(photon_map_t *self, err_t *err)
         return err_set(err, "photon map: built twice");
     if (self->n)
         build_range(self->ph, 0, self->n);
+    /* The map is read-only from here on: give back the growth slack. */
+    if (self->n && self->n < self->cap) {
+        photon_t *p = realloc(self->ph, self->n * sizeof *p);
+        if (p) {
+            self->ph = p;
+            self->cap = self->n;
+        }
+    }
     self->built = 1;
     return 0;
 }
@@ -258,7 +286,7 @@ typedef struct query {
     const photon_t *ph;
     double q[3];
     vec3_t n;
-    double r2;         /* current search radius squared */
+    double r2; /* current search radius squared */
     /* fixed radius */
     double *E;
     int used;

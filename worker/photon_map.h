@@ -73,9 +73,9 @@ size_t photon_map_photon_bytes(void);
  * written to E[0 .. grid.n - 1]. Photons count only when their normal lies within 60 degrees
  * of n (the unit normal on the side being looked at), so a wall's back and the other face
  * of a corner do not leak in. With k <= 0 every photon within `radius` counts (a box kernel,
- * r = radius); with 0 < k <= PHOTON_MAP_MAX_K the k nearest within `radius` count and r is the distance to the
- * k-th (radius when fewer are found). Returns the number of photons used; 0 (and E all zero)
- * on an unbuilt or empty map or a radius that is not finite and > 0. */
+ * r = radius); with 0 < k <= PHOTON_MAP_MAX_K the k nearest within `radius` count and r is the
+ * distance to the k-th (radius when fewer are found). Returns the number of photons used; 0 (and E
+ * all zero) on an unbuilt or empty map or a radius that is not finite and > 0. */
 #define PHOTON_MAP_MAX_K 1024
 int photon_map_irradiance(const photon_map_t *self, vec3_t p, vec3_t n, double radius, int k,
                           double *E);

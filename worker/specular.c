@@ -18,7 +18,8 @@ vec3_t specular_normal(const surface_t *sf, vec3_t dir, double eta_rel, int *sha
     if (vec3_dot(fresnel_reflect(dir, sf->ns), sf->ng) * cg >= 0.0)
         return sf->ng;
     vec3_t t;
-    if (eta_rel > 0.0 && fresnel_refract(dir, sf->ns, eta_rel, &t) && vec3_dot(t, sf->ng) * cg <= 0.0)
+    if (eta_rel > 0.0 && fresnel_refract(dir, sf->ns, eta_rel, &t) &&
+        vec3_dot(t, sf->ng) * cg <= 0.0)
         return sf->ng;
     if (shading)
         *shading = 1;
@@ -42,7 +43,8 @@ double specular_conductor_reflectance(const material_t *m, const surface_t *sf, 
                                       double lambda)
 {
     if (m->eta && m->k)
-        return specular_fresnel_conductor(cos_i, spectrum_eval(m->eta, lambda), spectrum_eval(m->k, lambda));
+        return specular_fresnel_conductor(cos_i, spectrum_eval(m->eta, lambda),
+                                          spectrum_eval(m->k, lambda));
     if (m->reflectance)
         return texture_eval(m->reflectance, sf->u, sf->v, lambda);
     return 1.0;
