@@ -9,6 +9,7 @@
 
 #define CLI_RUN_TIMEOUT_MS 120000
 #include "cli_run.h"
+#include "farm_testutil.h"
 #include "image_exr.h"
 
 #include <math.h>
@@ -19,16 +20,13 @@ static char DIR_[256];
 static int setup(void **state)
 {
     (void)state;
-    snprintf(DIR_, sizeof DIR_, "/tmp/prismfarm-test-render-XXXXXX");
-    return mkdtemp(DIR_) ? 0 : -1;
+    return testutil_mkdtemp(DIR_, sizeof DIR_, "render");
 }
 
 static int teardown(void **state)
 {
     (void)state;
-    char cmd[512];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", DIR_);
-    return system(cmd) == 0 ? 0 : -1;
+    return testutil_rmtree(DIR_);
 }
 
 static const char *path_in(const char *name)

@@ -10,6 +10,7 @@
 
 #define CLI_RUN_TIMEOUT_MS 120000
 #include "cli_run.h"
+#include "farm_testutil.h"
 #include "image_exr.h"
 
 #include <signal.h>
@@ -21,16 +22,13 @@ static char DIR_[256];
 static int setup(void **state)
 {
     (void)state;
-    snprintf(DIR_, sizeof DIR_, "/tmp/prismfarm-test-farm-XXXXXX");
-    return mkdtemp(DIR_) ? 0 : -1;
+    return testutil_mkdtemp(DIR_, sizeof DIR_, "farm");
 }
 
 static int teardown(void **state)
 {
     (void)state;
-    char cmd[512];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", DIR_);
-    return system(cmd) == 0 ? 0 : -1;
+    return testutil_rmtree(DIR_);
 }
 
 static const char *path_in(const char *name)
@@ -40,25 +38,6 @@ static const char *path_in(const char *name)
     k = (k + 1) % 8;
     snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
     return buf[k];
-}
-
-static void assert_same_pixels(const char *a, const char *b)
-{
-    err_t err;
-    image_exr_t *x = image_exr_read(a, &err);
-    if (!x)
-        fail_msg("%s", err.msg);
-    image_exr_t *y = image_exr_read(b, &err);
-    if (!y)
-        fail_msg("%s", err.msg);
-    int w = image_exr_width(x), h = image_exr_height(x), n = image_exr_n_spectral(x);
-    assert_int_equal(w, image_exr_width(y));
-    assert_int_equal(h, image_exr_height(y));
-    assert_int_equal(n, image_exr_n_spectral(y));
-    assert_memory_equal(image_exr_spectral(x), image_exr_spectral(y), (size_t)w * h * n * sizeof(float));
-    assert_memory_equal(image_exr_rgb(x), image_exr_rgb(y), (size_t)w * h * 3 * sizeof(float));
-    image_exr_destroy(&x);
-    image_exr_destroy(&y);
 }
 
 /* Starts `prismfarm ARGS...` in the background with output to a log; returns its pid. */
@@ -94,12 +73,6 @@ static void stop(pid_t pid, int sig)
     waitpid(pid, &st, 0);
 }
 
-static void sleep_ms(int ms)
-{
-    struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
-    nanosleep(&ts, NULL);
-}
-
 /* Reads "workers tcp://..." and "clients tcp://..." from the master's endpoints file. */
 static void read_endpoints(const char *spool, char *workers, char *clients)
 {
@@ -113,7 +86,7 @@ static void read_endpoints(const char *spool, char *workers, char *clients)
             if (got == 2)
                 return;
         }
-        sleep_ms(25);
+        testutil_sleep_ms(25);
     }
     fail_msg("the master did not write %s", path);
 }
@@ -130,7 +103,7 @@ static void test_render_any_worker_count(void **state)
             "--tile", "8", "--quiet", NULL);
     if (r->status != 0)
         fail_msg("exit %d: %s", r->status, r->err);
-    assert_same_pixels(path_in("one.exr"), path_in("three.exr"));
+    testutil_assert_same_pixels(path_in("one.exr"), path_in("three.exr"));
     struct stat st;
     assert_int_equal(stat(path_in("three.png"), &st), 0);
 }
@@ -155,7 +128,7 @@ static void test_processes_and_a_killed_worker(void **state)
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
     assert_string_equal(r->out, "1\n");
-    sleep_ms(300);
+    testutil_sleep_ms(300);
     stop(w2, SIGKILL);
     r = run("workers", "--master", cep, NULL);
     assert_int_equal(r->status, 0);
@@ -166,7 +139,7 @@ static void test_processes_and_a_killed_worker(void **state)
         assert_int_equal(r->status, 0);
         if (strstr(r->out, "\"done\"") || strstr(r->out, "\"failed\""))
             break;
-        sleep_ms(100);
+        testutil_sleep_ms(100);
     }
     expect_in(r->out, "\"state\": \"done\"");
     r = run("fetch", "1", "-o", path_in("killed.exr"), "--master", cep, NULL);
@@ -177,14 +150,14 @@ static void test_processes_and_a_killed_worker(void **state)
             path_in("single.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("submit --wait: exit %d: %s", r->status, r->err);
-    assert_same_pixels(path_in("killed.exr"), path_in("single.exr"));
+    testutil_assert_same_pixels(path_in("killed.exr"), path_in("single.exr"));
     /* And the same bytes as `prismfarm render` of the scene with the same seed and spp (another
      * tile size changes nothing: passes are per job, so each pixel sums the same samples in the
      * same order). */
     r = run("render", "data/render/tiny.pbrt", "--spp", "64", "-o", path_in("render.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("render: exit %d: %s", r->status, r->err);
-    assert_same_pixels(path_in("single.exr"), path_in("render.exr"));
+    testutil_assert_same_pixels(path_in("single.exr"), path_in("render.exr"));
 
     /* Errors a user sees: a broken scene, a job that does not exist. */
     r = run("submit", "data/render/broken.pbrt", "--master", cep, NULL);
