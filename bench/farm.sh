@@ -13,8 +13,7 @@
 # docs/performance.md between its "bench:begin" and "bench:end" markers.
 #
 # usage: bash bench/farm.sh [--reps N] [--build DIR] [--no-build] [--no-docs]
-#   --reps N    repetitions of every timing (default 5); the whole run takes about 4 minutes
-#               on 2 cores with 5
+#   --reps N    repetitions of every timing (default 5): about 4 minutes on 2 idle cores
 #   --build DIR Release build folder (default build-bench in the repository); built first
 #   --no-build  use DIR/client/prismfarm as it is
 #   --no-docs   print the tables only
@@ -27,11 +26,11 @@ WRITE_DOCS=1
 DO_BUILD=1
 while (($#)); do
   case $1 in
-    --reps) REPS=$2; shift 2 ;;
-    --build) BUILD=$2; shift 2 ;;
-    --no-docs) WRITE_DOCS=0; shift ;;
+    --reps) REPS=${2:-}; shift 2 ;;
+    --build) BUILD=${2:-}; shift 2 ;;
     --no-build) DO_BUILD=0; shift ;;
-    -h|--help) sed -n '2,20p' "$0"; exit 0 ;;
+    --no-docs) WRITE_DOCS=0; shift ;;
+    -h|--help) sed -n '2,19p' "$0"; exit 0 ;;
     *) echo "bench/farm.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -48,6 +47,7 @@ BIN=$BUILD/client/prismfarm
 
 NPROC=$(nproc)
 CPU=$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //')
+HZ=$(getconf CLK_TCK)
 WORK=$(mktemp -d /tmp/prismfarm-bench-XXXXXX)
 PIDS=()
 cleanup() {
@@ -58,19 +58,21 @@ cleanup() {
 }
 trap cleanup EXIT
 
+# ---------------------------------------------------------------- helpers
+
 # A sleep without a fork (read on a pipe nobody writes), so that waiting for a job costs the
 # render threads no CPU.
 exec {NAP_FD}<> <(:)
 nap() { read -r -t "$1" -u "$NAP_FD" _ || true; }
 elapsed() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", b - a }'; }
+add() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", a + b }'; }
+ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", a / b }'; }
 # "median min max" of the arguments.
 stats() { printf '%s\n' "$@" | sort -g | awk '{ v[NR] = $1 } END {
   m = NR % 2 ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2; printf "%.3f %.3f %.3f\n", m, v[1], v[NR] }'; }
 med() { stats "$@" | cut -d' ' -f1; }
 least() { stats "$@" | cut -d' ' -f2; }
-ratio() { awk -v a="$1" -v b="$2" 'BEGIN { printf "%.3f", a / b }'; }
 
-HZ=$(getconf CLK_TCK)
 # CPU seconds (user + system) of a running process, from /proc/PID/stat fields 14 and 15.
 cpu_of() { awk -v hz="$HZ" '{ sub(/^.*\) /, ""); printf "%.3f\n", ($12 + $13) / hz }' "/proc/$1/stat"; }
 # CHILD_CPU: CPU seconds of every child this shell has waited for, from bash's `times` (second
@@ -82,35 +84,51 @@ children_cpu() {
   CHILD_CPU=$(awk 'NR == 2 { n = 0; for (i = 1; i <= 2; i++) { split($i, p, /[ms]/); n += p[1] * 60 + p[2] }
                              printf "%.3f", n }' "$file")
 }
+load() { cut -d' ' -f1 /proc/loadavg; }
+# Busy CPU ticks of the whole machine (user, nice, system, irq, softirq, steal).
+busy() { awk '$1 == "cpu" { print $2 + $3 + $4 + $7 + $8 + $9 }' /proc/stat; }
 
-# The two benchmark jobs: sizes that take a few seconds on one core.
-SCENES=(scenes/prism.pbrt tests/data/render/tiny.pbrt)
-declare -A ARGS=([scenes/prism.pbrt]="--res 240x180 --spp 24"
-                 [tests/data/render/tiny.pbrt]="--res 192x128 --spp 128")
+# ---------------------------------------------------------------- the jobs
+
+# A job is a scene and the options that size it. tiny0 is tests/data/render/tiny.pbrt as
+# shipped (24x16, 4 spp): next to no rendering, so its times are the fixed costs of each mode.
+# The others take a few seconds on one core; prism96 is prism24 with 4x the samples, so the
+# two show how the overhead falls as a job grows.
+declare -A SCENE=([tiny0]=tests/data/render/tiny.pbrt
+                  [prism24]=scenes/prism.pbrt [prism96]=scenes/prism.pbrt
+                  [tiny128]=tests/data/render/tiny.pbrt)
+declare -A ARGS=([tiny0]="" [prism24]="--res 240x180 --spp 24" [prism96]="--res 240x180 --spp 96"
+                 [tiny128]="--res 192x128 --spp 128")
+OVERHEAD_JOBS=(tiny0 prism24 prism96 tiny128)
+SCALING_JOBS=(prism24 tiny128)
+WIRE_JOBS=(prism24 prism96 tiny128)
 RAYS_ARGS="--res 160x120 --spp 16"
+RAYS_REPS=3
+for f in "$ROOT"/scenes/*.pbrt; do
+  SCENE[rays:$(basename "$f")]=scenes/$(basename "$f") ARGS[rays:$(basename "$f")]=$RAYS_ARGS
+done
 
 # ---------------------------------------------------------------- the three ways to render
-# Each prints "WALL CPU" in seconds, and runs in a subshell of its own (see measure), so that
-# children_cpu counts its processes only.
+# Each prints "WALL CPU" in seconds (a farm job also the master's CPU), and runs in a subshell
+# of its own (see measure), so that children_cpu counts its processes only.
 
 # `prismfarm render --direct`: process start to exit (scene load, render, EXR and PNG written).
-t_direct() { # scene threads [args]
-  local t0=$EPOCHREALTIME
+t_direct() { # job threads
+  local t0=$EPOCHREALTIME wall
   # shellcheck disable=SC2086
-  "$BIN" render "$ROOT/$1" ${3:-${ARGS[$1]}} --direct --threads "$2" -o "$WORK/direct.exr" --quiet \
-    >"$WORK/direct.out"
-  local wall
+  "$BIN" render "$ROOT/${SCENE[$1]}" ${ARGS[$1]} --direct --threads "$2" -o "$WORK/direct.exr" \
+    --quiet >"$WORK/direct.out"
   wall=$(elapsed "$t0" "$EPOCHREALTIME")
   children_cpu
   echo "$wall $CHILD_CPU"
 }
 
-# `prismfarm render`: master and one worker in the process over inproc://.
-t_inproc() { # scene threads
-  local t0=$EPOCHREALTIME
+# `prismfarm render`: a master and one worker in the process over inproc://.
+t_inproc() { # job threads
+  local t0=$EPOCHREALTIME wall
   # shellcheck disable=SC2086
-  "$BIN" render "$ROOT/$1" ${ARGS[$1]} --workers 1 --threads "$2" -o "$WORK/inproc.exr" --quiet >/dev/null
-  local wall
+  "$BIN" render "$ROOT/${SCENE[$1]}" ${ARGS[$1]} --workers 1 --threads "$2" -o "$WORK/inproc.exr" \
+    --quiet >/dev/null
   wall=$(elapsed "$t0" "$EPOCHREALTIME")
   children_cpu
   echo "$wall $CHILD_CPU"
@@ -142,20 +160,20 @@ start_farm() { # name workers threads
 
 farm_cpu() { # name: CPU seconds of its master and workers so far
   local p sum=0
-  for p in ${FPIDS[$1]}; do sum=$(awk -v a="$sum" -v b="$(cpu_of "$p")" 'BEGIN { print a + b }'); done
+  for p in ${FPIDS[$1]}; do sum=$(add "$sum" "$(cpu_of "$p")"); done
   echo "$sum"
 }
 
 # A job on a standing farm: from `prismfarm submit` to the final EXR in the master's spool
 # (written atomically, so its existence means the job is done). `submit --wait` would add up to
 # 200 ms of STATUS polling and the fetch. CPU: the client's, plus what the master and workers
-# used meanwhile; then the master's CPU alone. Leaves the job id in $WORK/last-job.
-t_farm() { # farm scene
-  local t0=$EPOCHREALTIME c0 m0 id exr i master=${FPIDS[$1]%% *}
+# used meanwhile; then the master's alone. Leaves the job id in $WORK/last-job.
+t_farm() { # farm job
+  local t0=$EPOCHREALTIME c0 m0 c1 m1 id exr i wall master=${FPIDS[$1]%% *}
   c0=$(farm_cpu "$1")
   m0=$(cpu_of "$master")
   # shellcheck disable=SC2086
-  id=$("$BIN" submit "$ROOT/$2" --master "${CEP[$1]}" --name bench ${ARGS[$2]})
+  id=$("$BIN" submit "$ROOT/${SCENE[$2]}" --master "${CEP[$1]}" --name bench ${ARGS[$2]})
   exr=${SPOOL[$1]}/jobs/$id/bench.exr
   for ((i = 0; ; i++)); do
     [[ -e $exr ]] && break
@@ -166,13 +184,12 @@ t_farm() { # farm scene
     fi
     nap 0.002
   done
-  local wall c1 m1
   wall=$(elapsed "$t0" "$EPOCHREALTIME")
   c1=$(farm_cpu "$1")
   m1=$(cpu_of "$master")
   echo "$id" >"$WORK/last-job"
   children_cpu
-  echo "$wall $(awk -v a="$c1" -v b="$c0" -v c="$CHILD_CPU" 'BEGIN { printf "%.3f", a - b + c }') $(elapsed "$m0" "$m1")"
+  echo "$wall $(add "$(elapsed "$c0" "$c1")" "$CHILD_CPU") $(elapsed "$m0" "$m1")"
 }
 
 # Runs one timing and appends its wall-clock and CPU seconds to W[key] and C[key] (and the
@@ -193,9 +210,6 @@ wire() { # port
         if (kv[1] == "bytes_received") r += kv[2]; if (kv[1] == "bytes_acked") s += kv[2] } }
     END { printf "%d %d\n", r, s }'
 }
-load() { cut -d' ' -f1 /proc/loadavg; }
-# Busy CPU ticks of the whole machine (user, nice, system, irq, softirq, steal).
-busy() { awk '$1 == "cpu" { print $2 + $3 + $4 + $7 + $8 + $9 }' /proc/stat; }
 
 LOAD0=$(load)
 BUSY0=$(busy)
@@ -206,15 +220,15 @@ T0=$EPOCHREALTIME
 TN=$NPROC
 echo "== overhead: $REPS repetitions, $TN threads" >&2
 start_farm tcp1 1 "$TN"
-for s in "${SCENES[@]}"; do # warm-up: the worker fetches the scene, caches warm
-  measure warm t_direct "$s" "$TN"
-  measure warm t_farm tcp1 "$s"
+for j in "${OVERHEAD_JOBS[@]}"; do # warm-up: the worker fetches the scene, caches warm
+  measure warm t_direct "$j" "$TN"
+  measure warm t_farm tcp1 "$j"
 done
 for ((r = 1; r <= REPS; r++)); do
-  for s in "${SCENES[@]}"; do
-    measure "direct|$s" t_direct "$s" "$TN"
-    measure "inproc|$s" t_inproc "$s" "$TN"
-    measure "tcp|$s" t_farm tcp1 "$s"
+  for j in "${OVERHEAD_JOBS[@]}"; do
+    measure "direct|$j" t_direct "$j" "$TN"
+    measure "inproc|$j" t_inproc "$j" "$TN"
+    measure "tcp|$j" t_farm tcp1 "$j"
   done
   echo "   repetition $r/$REPS done" >&2
 done
@@ -223,15 +237,15 @@ done
 
 echo "== bytes on the wire" >&2
 declare -A WIRE
-for s in "${SCENES[@]}"; do
+for j in "${WIRE_JOBS[@]}"; do
   read -r r0 s0 < <(wire "${WPORT[tcp1]}")
-  measure wire t_farm tcp1 "$s"
+  measure wire t_farm tcp1 "$j"
   read -r r1 s1 < <(wire "${WPORT[tcp1]}")
   # The master's log line for the job: "WxH, S spp, B buckets, T tiles x P passes".
   line=$(grep "job $(cat "$WORK/last-job") 'bench' submitted" "$WORK/tcp1-master.log")
   read -r xres yres spp nb tiles passes < <(sed -E \
     's/.*: ([0-9]+)x([0-9]+), ([0-9]+) spp, ([0-9]+) buckets, ([0-9]+) tiles x ([0-9]+) passes.*/\1 \2 \3 \4 \5 \6/' <<<"$line")
-  WIRE[$s]="$xres $yres $spp $nb $tiles $passes $((r1 - r0)) $((s1 - s0))"
+  WIRE[$j]="$xres $yres $spp $nb $tiles $passes $((r1 - r0)) $((s1 - s0))"
 done
 
 # ---------------------------------------------------------------- 2. scaling
@@ -239,13 +253,13 @@ done
 echo "== scaling: $REPS repetitions" >&2
 start_farm one 1 1
 start_farm two 2 1
-for s in "${SCENES[@]}"; do measure warm t_farm one "$s"; measure warm t_farm two "$s"; done
+for j in "${SCALING_JOBS[@]}"; do measure warm t_farm one "$j"; measure warm t_farm two "$j"; done
 for ((r = 1; r <= REPS; r++)); do
-  for s in "${SCENES[@]}"; do
-    measure "one|$s" t_farm one "$s"
-    measure "two|$s" t_farm two "$s"
-    measure "direct1|$s" t_direct "$s" 1
-    measure "direct2|$s" t_direct "$s" 2
+  for j in "${SCALING_JOBS[@]}"; do
+    measure "one|$j" t_farm one "$j"
+    measure "two|$j" t_farm two "$j"
+    measure "direct1|$j" t_direct "$j" 1
+    measure "direct2|$j" t_direct "$j" 2
   done
   echo "   repetition $r/$REPS done" >&2
 done
@@ -253,23 +267,23 @@ done
 # ---------------------------------------------------------------- 4. rays/s
 
 echo "== rays/s of every scene" >&2
-RAYS_REPS=3
 declare -A RAYS
 for f in "$ROOT"/scenes/*.pbrt; do
-  s=scenes/$(basename "$f")
+  j=rays:$(basename "$f")
   for ((r = 1; r <= RAYS_REPS; r++)); do
-    measure "rays|$s" t_direct "$s" "$TN" "$RAYS_ARGS"
+    measure "$j" t_direct "$j" "$TN"
     # "N samples, X M rays in Y s (Z M rays/s); ..."
-    RAYS[$s]+="$(sed -nE 's/.* \(([0-9.]+) M rays\/s\).*/\1/p' "$WORK/direct.out") "
+    RAYS[$j]+="$(sed -nE 's/.* \(([0-9.]+) M rays\/s\).*/\1/p' "$WORK/direct.out") "
   done
 done
+
 LOAD1=$(load)
 # How much of the machine other processes took meanwhile: every busy tick, less this run's own
 # CPU (the processes it waited for, and its standing farms).
 BUSY1=$(busy)
 children_cpu
 OURS=$CHILD_CPU
-for p in "${PIDS[@]}"; do OURS=$(awk -v a="$OURS" -v b="$(cpu_of "$p")" 'BEGIN { print a + b }'); done
+for p in "${PIDS[@]}"; do OURS=$(add "$OURS" "$(cpu_of "$p")"); done
 OTHERS=$(awk -v b0="$BUSY0" -v b1="$BUSY1" -v hz="$HZ" -v ours="$OURS" -v t0="$T0" -v t1="$EPOCHREALTIME" \
   'BEGIN { o = ((b1 - b0) / hz - ours) / (t1 - t0); printf "%.2f", o < 0 ? 0 : o }')
 MINUTES=$(awk -v a="$T0" -v b="$EPOCHREALTIME" 'BEGIN { printf "%.1f", (b - a) / 60 }')
@@ -277,14 +291,16 @@ MINUTES=$(awk -v a="$T0" -v b="$EPOCHREALTIME" 'BEGIN { printf "%.1f", (b - a) /
 # ---------------------------------------------------------------- report
 
 # "median (min–max)" of a list of seconds.
-cell() { read -r m lo hi < <(stats $1); printf '%.2f (%.2f–%.2f)' "$m" "$lo" "$hi"; }
+cell() { local m lo hi; read -r m lo hi < <(stats $1); printf '%.2f (%.2f–%.2f)' "$m" "$lo" "$hi"; }
 verdict() { awk -v v="$1" -v t="$2" -v op="$3" 'BEGIN { ok = op == "<=" ? v <= t : v >= t; print ok ? "**met**" : "**missed**" }'; }
-job() { echo "\`$1 ${ARGS[$1]}\`"; }
+job() { echo "\`${SCENE[$1]}${ARGS[$1]:+ ${ARGS[$1]}}\`"; }
+# Ratio of two timings' medians, then of their minima: "1.050; 1.020".
+ratios() { echo "$(ratio "$(med ${W[$1]})" "$(med ${W[$2]})"); $(ratio "$(least ${W[$1]})" "$(least ${W[$2]})")"; }
 
 report() {
-  local s
+  local j f ri rf sp
   echo "Measured $(date -u '+%Y-%m-%d %H:%M UTC') on $NPROC cores ($CPU), Linux $(uname -r),"
-  echo "commit $(git -C "$ROOT" rev-parse --short HEAD 2>/dev/null || echo unknown)$(git -C "$ROOT" diff --quiet 2>/dev/null || echo ' with local changes'),"
+  echo "commit $(git -C "$ROOT" rev-parse --short HEAD 2>/dev/null || echo unknown)$([[ -z $(git -C "$ROOT" status --porcelain 2>/dev/null) ]] || echo ' with uncommitted changes'),"
   echo "Release build; $REPS repetitions per figure, shown as median (min–max) seconds. The run took"
   echo "$MINUTES minutes; other processes used **$OTHERS of the $NPROC cores** on average meanwhile (1-minute"
   echo "load average $LOAD0 before, $LOAD1 after). Ratios are given for the medians and, after the"
@@ -294,29 +310,26 @@ report() {
   echo
   echo "| job | --direct | render (in-process farm) | TCP farm, 1 worker | in-process / direct | TCP / direct | CPU seconds: in-process / direct, TCP / direct | master CPU per job | target ≤ 1.05 |"
   echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
-  for s in "${SCENES[@]}"; do
-    local ri rf
-    ri=$(ratio "$(med ${W[inproc|$s]})" "$(med ${W[direct|$s]})")
-    rf=$(ratio "$(med ${W[tcp|$s]})" "$(med ${W[direct|$s]})")
-    echo "| $(job "$s") | $(cell "${W[direct|$s]}") | $(cell "${W[inproc|$s]}") | $(cell "${W[tcp|$s]}")" \
-      "| $ri; $(ratio "$(least ${W[inproc|$s]})" "$(least ${W[direct|$s]})")" \
-      "| $rf; $(ratio "$(least ${W[tcp|$s]})" "$(least ${W[direct|$s]})")" \
-      "| $(ratio "$(med ${C[inproc|$s]})" "$(med ${C[direct|$s]})"), $(ratio "$(med ${C[tcp|$s]})" "$(med ${C[direct|$s]})")" \
-      "| $(printf '%.2f s' "$(med ${M[tcp|$s]})") | in-process $(verdict "$ri" 1.05 '<='), TCP $(verdict "$rf" 1.05 '<=') |"
+  for j in "${OVERHEAD_JOBS[@]}"; do
+    ri=$(ratio "$(med ${W[inproc|$j]})" "$(med ${W[direct|$j]})")
+    rf=$(ratio "$(med ${W[tcp|$j]})" "$(med ${W[direct|$j]})")
+    echo "| $(job "$j") | $(cell "${W[direct|$j]}") | $(cell "${W[inproc|$j]}") | $(cell "${W[tcp|$j]}")" \
+      "| $(ratios "inproc|$j" "direct|$j") | $(ratios "tcp|$j" "direct|$j")" \
+      "| $(ratio "$(med ${C[inproc|$j]})" "$(med ${C[direct|$j]})"), $(ratio "$(med ${C[tcp|$j]})" "$(med ${C[direct|$j]})")" \
+      "| $(printf '%.2f s' "$(med ${M[tcp|$j]})")" \
+      "| $([[ $j == tiny0 ]] && echo 'fixed costs, no target' || echo "in-process $(verdict "$ri" 1.05 '<='), TCP $(verdict "$rf" 1.05 '<=')") |"
   done
   echo
   echo "**Scaling** (TCP farm, workers of 1 thread each; target: 2 workers ≥ 1.8x one worker)"
   echo
   echo "| job | 1 worker | 2 workers | speed-up | target ≥ 1.8 | --direct 1 thread | --direct 2 threads | speed-up | 1-worker farm / --direct 1 thread: wall, CPU |"
   echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"
-  for s in "${SCENES[@]}"; do
-    local sp
-    sp=$(ratio "$(med ${W[one|$s]})" "$(med ${W[two|$s]})")
-    echo "| $(job "$s") | $(cell "${W[one|$s]}") | $(cell "${W[two|$s]}")" \
-      "| ${sp}x; $(ratio "$(least ${W[one|$s]})" "$(least ${W[two|$s]})")x | $(verdict "$sp" 1.8 '>=')" \
-      "| $(cell "${W[direct1|$s]}") | $(cell "${W[direct2|$s]}")" \
-      "| $(ratio "$(med ${W[direct1|$s]})" "$(med ${W[direct2|$s]})")x; $(ratio "$(least ${W[direct1|$s]})" "$(least ${W[direct2|$s]})")x" \
-      "| $(ratio "$(med ${W[one|$s]})" "$(med ${W[direct1|$s]})"), $(ratio "$(med ${C[one|$s]})" "$(med ${C[direct1|$s]})") |"
+  for j in "${SCALING_JOBS[@]}"; do
+    sp=$(ratio "$(med ${W[one|$j]})" "$(med ${W[two|$j]})")
+    echo "| $(job "$j") | $(cell "${W[one|$j]}") | $(cell "${W[two|$j]}") | $(ratios "one|$j" "two|$j")" \
+      "| $(verdict "$sp" 1.8 '>=') | $(cell "${W[direct1|$j]}") | $(cell "${W[direct2|$j]}")" \
+      "| $(ratios "direct1|$j" "direct2|$j")" \
+      "| $(ratio "$(med ${W[one|$j]})" "$(med ${W[direct1|$j]})"), $(ratio "$(med ${C[one|$j]})" "$(med ${C[direct1|$j]})") |"
   done
   echo
   echo "**Bytes on the wire** (one job on the 1-worker TCP farm: the kernel's byte counters of the master's"
@@ -326,11 +339,13 @@ report() {
   echo
   echo "| job | pixels | buckets | tiles × passes | worker → master, measured | tile payload | measured / payload | per pixel | per pixel and sample | master → worker |"
   echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
-  for s in "${SCENES[@]}"; do
+  for j in "${WIRE_JOBS[@]}"; do
     local xres yres spp nb tiles passes recv sent px payload
-    read -r xres yres spp nb tiles passes recv sent <<<"${WIRE[$s]}"
-    px=$((xres * yres)); payload=$((passes * px * (8 * nb + 24)))
-    echo "| $(job "$s") | $px | $nb | $tiles × $passes | $recv B | $payload B | $(ratio "$recv" "$payload") | $(awk -v a="$recv" -v b="$px" 'BEGIN { printf "%.1f B", a / b }') | $(awk -v a="$recv" -v b="$px" -v c="$spp" 'BEGIN { printf "%.2f B", a / b / c }') | $sent B |"
+    read -r xres yres spp nb tiles passes recv sent <<<"${WIRE[$j]}"
+    px=$((xres * yres)) payload=$((passes * xres * yres * (8 * nb + 24)))
+    echo "| $(job "$j") | $px | $nb | $tiles × $passes | $recv B | $payload B | $(ratio "$recv" "$payload")" \
+      "| $(awk -v a="$recv" -v b="$px" 'BEGIN { printf "%.1f B", a / b }')" \
+      "| $(awk -v a="$recv" -v b="$px" -v c="$spp" 'BEGIN { printf "%.2f B", a / b / c }') | $sent B |"
   done
   echo
   echo "**Rays per second** of \`prismfarm render SCENE --direct --threads $TN $RAYS_ARGS\` (median of $RAYS_REPS)"
@@ -338,9 +353,9 @@ report() {
   echo "| scene | seconds | M rays/s |"
   echo "| --- | --- | --- |"
   for f in "$ROOT"/scenes/*.pbrt; do
-    s=scenes/$(basename "$f")
-    read -r m lo hi < <(stats ${RAYS[$s]})
-    echo "| \`$s\` | $(cell "${W[rays|$s]}") | $(printf '%.2f (%.2f–%.2f)' "$m" "$lo" "$hi") |"
+    j=rays:$(basename "$f")
+    read -r m lo hi < <(stats ${RAYS[$j]})
+    echo "| \`${SCENE[$j]}\` | $(cell "${W[$j]}") | $(printf '%.2f (%.2f–%.2f)' "$m" "$lo" "$hi") |"
   done
 }
 

@@ -778,6 +778,11 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     j->in_sched = true;
     j->samples_total = info.samples_total;
     m->jobs[m->njobs++] = j;
+    /* The job's folder marks its id as used, so a restarted master never gives it out again
+     * (spool_last_job_id counts these folders), even if nothing was rendered yet. */
+    char jobdir[PATH_MAX];
+    if (spool_job_dir(m->spool, id, jobdir, sizeof jobdir, &err) < 0)
+        mlog(m, "job %llu: %s", (unsigned long long)id, err.msg);
     proto_msg_t ok = {.type = PROTO_SUBMITTED, .submitted = {.job = id}};
     reply(m, from, &ok);
     mlog(m,

@@ -333,7 +333,11 @@ int worker_run(const worker_opts_t *opts, err_t *err)
     int reconnect_max = opts->reconnect_max_ms > 0 ? opts->reconnect_max_ms : 32000;
     while (!*opts->stop && rc == 0) {
         /* One connection: HELLO, then serve until the master goes quiet. */
-        proto_net_t *net = proto_net_new(ctx, PROTO_NET_DEALER, NULL, err);
+        /* No linger: when this connection is given up, its unsent HELLO must not reach a
+         * master that comes up later, where it would show a second, ghost copy of us. */
+        proto_net_options_t nopt = proto_net_options_default();
+        nopt.linger_ms = 0;
+        proto_net_t *net = proto_net_new(ctx, PROTO_NET_DEALER, &nopt, err);
         if (!net || proto_net_connect(net, opts->endpoint, err)) {
             proto_net_destroy(&net);
             rc = -1;
