@@ -25,6 +25,17 @@ typedef struct run {
     char err[OUT_MAX];
 } run_t;
 
+/* Fills argv (size entries) with bin, then first and the NULL-terminated arguments after it,
+ * then NULL; arguments beyond the room are dropped. */
+static void cli_argv(char **argv, int size, const char *bin, const char *first, va_list rest)
+{
+    int argc = 0;
+    argv[argc++] = (char *)bin;
+    for (const char *a = first; a && argc < size - 1; a = va_arg(rest, const char *))
+        argv[argc++] = (char *)a;
+    argv[argc] = NULL;
+}
+
 static run_t RESULT; /* one run at a time; large buffers stay off the stack */
 
 /* Runs $PRISMFARM_BIN with the given arguments (NULL-terminated), capturing stdout and
@@ -35,14 +46,10 @@ static const run_t *run(const char *arg, ...)
     if (!bin)
         fail_msg("PRISMFARM_BIN is not set (run the test through ctest)");
     char *argv[32];
-    int argc = 0;
-    argv[argc++] = (char *)bin;
     va_list ap;
     va_start(ap, arg);
-    for (const char *a = arg; a && argc < 31; a = va_arg(ap, const char *))
-        argv[argc++] = (char *)a;
+    cli_argv(argv, 32, bin, arg, ap);
     va_end(ap);
-    argv[argc] = NULL;
 
     int out_pipe[2], err_pipe[2];
     assert_int_equal(pipe(out_pipe), 0);

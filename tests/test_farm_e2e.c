@@ -45,14 +45,10 @@ static pid_t spawn(const char *log, const char *arg, ...)
 {
     const char *bin = getenv("PRISMFARM_BIN");
     char *argv[32];
-    int argc = 0;
-    argv[argc++] = (char *)bin;
     va_list ap;
     va_start(ap, arg);
-    for (const char *a = arg; a && argc < 31; a = va_arg(ap, const char *))
-        argv[argc++] = (char *)a;
+    cli_argv(argv, 32, bin, arg, ap);
     va_end(ap);
-    argv[argc] = NULL;
     pid_t pid = fork();
     assert_true(pid >= 0);
     if (pid == 0) {

@@ -67,14 +67,10 @@ static pid_t spawn(const char *log, const char *arg, ...)
     if (!bin)
         fail_msg("PRISMFARM_BIN is not set (run the test through ctest)");
     char *argv[32];
-    int argc = 0;
-    argv[argc++] = (char *)bin;
     va_list ap;
     va_start(ap, arg);
-    for (const char *a = arg; a && argc < 31; a = va_arg(ap, const char *))
-        argv[argc++] = (char *)a;
+    cli_argv(argv, 32, bin, arg, ap);
     va_end(ap);
-    argv[argc] = NULL;
     int slot = 0;
     while (slot < MAX_CHILDREN && CHILDREN[slot] > 0)
         slot++;
