@@ -127,8 +127,17 @@ typedef enum dispersion_kind {
 
 /* Integrator "photon" (docs/rendering.md): a photon pass (worker/photon.h) fills a caustic
  * store before the camera pass, which then gathers with `integrator` (path or Whitted). */
+typedef enum photon_store_kind {
+    PHOTON_STORE_PHOTONMAP, /* a kd-tree of photons, density estimation at gather time */
+    PHOTON_STORE_LIGHTMAP,  /* per-surface texel grids (thesis ch. 6), read at gather time */
+} photon_store_kind_t;
+
 typedef struct photon_settings {
     int enabled;        /* the photon pass runs and the camera pass uses its store */
+    photon_store_kind_t store;
+    double lightmap_density; /* light-map texels per unit area (thesis: 400 to 1000) */
+    int mindepth;       /* scattering events before a photon may be stored (thesis: minimum
+                         * recursion depth); 1 = the caustic store's L S+ D */
     uint64_t photons;   /* photons emitted (before the energy rescale, N in Phi / N) */
     double radius;      /* gather radius in scene units; 0: automatic (photon_gather_radius) */
     int k;              /* > 0: the k nearest photons within radius; 0: every photon within it */

@@ -532,15 +532,17 @@ static int load_photon(loader_t *L, params_t *p, int enable, err_t *err)
 {
     render_settings_t *rs = &L->sc->settings;
     photon_settings_t *ph = &rs->photon;
-    int photons, k, mono;
-    double radius, threshold;
+    int photons, k, mono, mindepth;
+    double radius, threshold, density;
     const char *store, *gather;
     if (params_get_int(p, "photons", 1000000, &photons, err) ||
         params_get_string(p, "store", "photonmap", &store, err) ||
         params_get_float(p, "radius", 0.0, &radius, err) || params_get_int(p, "k", 0, &k, err) ||
         params_get_string(p, "gather", "path", &gather, err) ||
         params_get_float(p, "threshold", 0.01, &threshold, err) ||
-        params_get_int(p, "monochromerays", 1, &mono, err))
+        params_get_int(p, "monochromerays", 1, &mono, err) ||
+        params_get_float(p, "lightmapdensity", 400.0, &density, err) ||
+        params_get_int(p, "mindepth", 1, &mindepth, err))
         return -1;
     if (photons < 1)
         return pbrt_error(err, params_find(p, "photons")->loc, "\"integer photons\" must be at least 1, got %d", photons);
@@ -556,6 +558,11 @@ static int load_photon(loader_t *L, params_t *p, int enable, err_t *err)
         return pbrt_error(err, params_find(p, "radius")->loc, "\"float radius\" must be positive, got %g", radius);
     if (k < 0 || k > 1024)
         return pbrt_error(err, params_find(p, "k")->loc, "\"integer k\" must be in 0..1024, got %d", k);
+    if (!(density > 0.0 && density <= 1e7))
+        return pbrt_error(err, params_find(p, "lightmapdensity")->loc,
+                          "\"float lightmapdensity\" must be in (0, 1e7] texels per unit area, got %g", density);
+    if (mindepth < 1 || mindepth > 10000)
+        return pbrt_error(err, params_find(p, "mindepth")->loc, "\"integer mindepth\" must be in 1..10000, got %d", mindepth);
     if (!(threshold >= 0.0 && threshold < 1.0))
         return pbrt_error(err, params_find(p, "threshold")->loc, "\"float threshold\" must be in [0, 1), got %g", threshold);
     if (mono != 1)
@@ -578,6 +585,9 @@ static int load_photon(loader_t *L, params_t *p, int enable, err_t *err)
     ph->maxdepth = rs->maxdepth;
     ph->threshold = threshold;
     ph->monochromerays = mono;
+    ph->store = PHOTON_STORE_PHOTONMAP;
+    ph->lightmap_density = density;
+    ph->mindepth = mindepth;
     return 0;
 }
 
