@@ -685,7 +685,8 @@ static void test_scene_parameters(void **state)
     expect_error("Integrator \"photon\" \"float radius\" 0", "must be positive");
     expect_error("Integrator \"photon\" \"integer k\" 5000", "0..1024");
     expect_error("Integrator \"photon\" \"float threshold\" 1", "[0, 1)");
-    expect_error("Integrator \"photon\" \"integer mindepth\" 1", "mindepth");
+    expect_error("Integrator \"photon\" \"integer mindepth\" 0", "1..10000");
+    expect_error("Integrator \"photon\" \"float lightmapdensity\" -4", "texels per unit area");
     expect_error("Integrator \"path\" \"integer photons\" 5", "photons");
 }
 
