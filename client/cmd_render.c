@@ -104,10 +104,12 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
                    (unsigned long long)st.nonfinite);
             photon_stats_t pst;
             double psec;
-            const photon_map_t *pm = rs->photon.enabled ? photon_pass_get(scene, &pst, &psec, &err) : NULL;
-            if (pm)
-                printf("photon pass: %llu photons in %.2f s, %zu stored (%.1f MB)\n", (unsigned long long)pst.emitted,
-                       psec, photon_map_count(pm), photon_map_memory_bytes(pm) / 1e6);
+            const photon_store_t *ps = rs->photon.enabled ? photon_pass_get(scene, &pst, &psec, &err) : NULL;
+            if (ps)
+                printf("photon pass: %llu photons in %.2f s, %zu %s (%.1f MB)\n", (unsigned long long)pst.emitted,
+                       psec, photon_store_count(ps),
+                       photon_store_kind(ps) == PHOTON_STORE_LIGHTMAP ? "texels lit" : "stored",
+                       photon_store_memory_bytes(ps) / 1e6);
         }
     }
     tilebuf_destroy(&image);

@@ -513,6 +513,25 @@ int scene_finish(scene_t *self, err_t *err)
     return 0;
 }
 
+int scene_derived_set(const scene_t *self, scene_derived_build_fn build,
+                      scene_derived_destroy_fn destroy, void *data, err_t *err)
+{
+    scene_derived_t *d = self->derived;
+    if (!build || !data)
+        return err_set(err, "scene_derived_set: no build function or data");
+    pthread_mutex_lock(&d->lock);
+    int r = 0;
+    if (d->build || d->data || d->failed) {
+        r = err_set(err, "the scene's derived-data slot is taken already");
+    } else {
+        d->build = build;
+        d->destroy = destroy;
+        d->data = data;
+    }
+    pthread_mutex_unlock(&d->lock);
+    return r;
+}
+
 void *scene_derived_get(const scene_t *self, scene_derived_build_fn build,
                         scene_derived_destroy_fn destroy, err_t *err)
 {

@@ -247,6 +247,11 @@ typedef void *(*scene_derived_build_fn)(const scene_t *scene, err_t *err);
 typedef void (*scene_derived_destroy_fn)(void *data);
 void *scene_derived_get(const scene_t *self, scene_derived_build_fn build,
                         scene_derived_destroy_fn destroy, err_t *err);
+/* Puts data made elsewhere into the empty slot as if build had made it (so later
+ * scene_derived_get calls with build return it); the scene destroys it with destroy. Fails
+ * when the slot holds anything already (it may be in use). */
+int scene_derived_set(const scene_t *self, scene_derived_build_fn build,
+                      scene_derived_destroy_fn destroy, void *data, err_t *err);
 
 /* Default settings: path tracer, hero dispersion, maxdepth 5, 16 spp, seed 1,
  * 1280x720 (pbrt-v4's default), the default spectral grid; no photon pass (its settings hold

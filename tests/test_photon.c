@@ -75,19 +75,21 @@ static void finish(scene_t *s)
         fail_msg("scene_finish: %s", err.msg);
 }
 
-static photon_map_t *trace(const scene_t *s, photon_store_policy_t policy, int maxdepth, uint64_t n,
-                           photon_stats_t *st)
+/* Photons [0, n) into a new store (the scene's kind, a photon map unless a test says
+ * otherwise); the test reads the map through photon_store_map. */
+static photon_store_t *trace_store(const scene_t *s, photon_store_policy_t policy, int maxdepth,
+                                   uint64_t n, photon_stats_t *st)
 {
     err_t err;
-    photon_map_t *m = photon_map_new(s->settings.grid, &err);
+    photon_store_t *m = photon_store_new(s, &err);
     assert_non_null(m);
-    photon_job_t job = {
-        .seed = s->settings.seed, .maxdepth = maxdepth, .threshold = 0.0, .policy = policy};
+    photon_job_t job = {.seed = s->settings.seed, .maxdepth = maxdepth, .mindepth = 1,
+                        .threshold = 0.0, .monochromerays = 1, .policy = policy};
     memset(st, 0, sizeof *st);
     if (photon_trace(s, &job, 0, n, m, st, &err))
         fail_msg("photon_trace: %s", err.msg);
     assert_int_equal(st->emitted, n);
-    assert_int_equal(photon_map_emitted(m), n);
+    assert_int_equal(photon_store_emitted(m), n);
     assert_int_equal(st->nonfinite, 0);
     return m;
 }
@@ -116,7 +118,8 @@ static void test_energy_closed_sphere(void **state)
     finish(s);
     const uint64_t N = 100000;
     photon_stats_t st;
-    photon_map_t *m = trace(s, PHOTON_STORE_ALL, M, N, &st);
+    photon_store_t *ps = trace_store(s, PHOTON_STORE_ALL, M, N, &st);
+    const photon_map_t *m = photon_store_map(ps);
     /* Every photon starts with Phi(lambda) / p_lambda = 4 pi I (range) W/nm. */
     const double range = 720.0 - 380.0, w = 4.0 * PF_PI * I * range;
     assert_true(fabs(st.power_emitted / (double)N / w - 1.0) < 1e-12);
@@ -141,11 +144,11 @@ static void test_energy_closed_sphere(void **state)
         if (!(fabs(r - expect) < 4.0 * se * sqrt((double)NB) + 2e-3))
             fail_msg("bucket %d: deposited / emitted %.4f, expected %.4f", b, r, expect);
     }
-    photon_map_destroy(&m);
+    photon_store_destroy(&ps);
     /* The caustic store has nothing to hold here: no specular surface. */
-    m = trace(s, PHOTON_STORE_CAUSTIC, M, 1000, &st);
-    assert_int_equal(photon_map_count(m), 0);
-    photon_map_destroy(&m);
+    ps = trace_store(s, PHOTON_STORE_CAUSTIC, M, 1000, &st);
+    assert_int_equal(photon_map_count(photon_store_map(ps)), 0);
+    photon_store_destroy(&ps);
     scene_destroy(&s);
 }
 
@@ -205,7 +208,8 @@ static void test_slab_transmittance(void **state)
     finish(s);
     const uint64_t N = 400000;
     photon_stats_t st;
-    photon_map_t *m = trace(s, PHOTON_STORE_CAUSTIC, 200, N, &st);
+    photon_store_t *ps = trace_store(s, PHOTON_STORE_CAUSTIC, 200, N, &st);
+    const photon_map_t *m = photon_store_map(ps);
     const double per_bucket = st.power_emitted / NB;
     double dep[NB] = {0};
     for (size_t i = 0; i < photon_map_count(m); i++) {
@@ -240,7 +244,7 @@ static void test_slab_transmittance(void **state)
                   slab_t(sellmeier(SF11_B, SF11_C, 709.375)));
     /* Nothing is absorbed: the rest was reflected back and escaped. */
     assert_true(photon_map_power_sum(m) <= st.power_emitted);
-    photon_map_destroy(&m);
+    photon_store_destroy(&ps);
     scene_destroy(&s);
 }
 
@@ -396,7 +400,8 @@ static void test_prism_beam(void **state)
 
     const uint64_t N = 100000;
     photon_stats_t st;
-    photon_map_t *m = trace(s, PHOTON_STORE_CAUSTIC, 10, N, &st);
+    photon_store_t *ps = trace_store(s, PHOTON_STORE_CAUSTIC, 10, N, &st);
+    const photon_map_t *m = photon_store_map(ps);
     spectral_grid_t g = s->settings.grid;
     double pred[NB], lo_pos[NB], hi_pos[NB], tt[NB];
     for (int b = 0; b < NB; b++) {
@@ -458,7 +463,7 @@ static void test_prism_beam(void **state)
      * landing point sees bucket b, and of buckets two away only the odd photon that took
      * another path through the prism (internal reflections): under 1/1000 of it. */
     err_t err;
-    assert_int_equal(photon_map_build(m, &err), 0);
+    assert_int_equal(photon_store_finish(ps, &err), 0);
     for (int b = 2; b < NB - 2; b++) {
         double E[NB];
         vec3_t q = vec3_fma(p.screen_c, p.screen_e, pred[b]);
@@ -469,7 +474,7 @@ static void test_prism_beam(void **state)
                      1e3 * r, E[b], b - 2, b + 2, E[b - 2], E[b + 2]);
     }
     assert_true(photon_map_power_sum(m) <= st.power_emitted);
-    photon_map_destroy(&m);
+    photon_store_destroy(&ps);
     scene_destroy(&s);
 }
 
@@ -493,40 +498,51 @@ static void test_determinism(void **state)
     scene_t *s = prism_scene(&p);
     const uint64_t N = 20000;
     photon_stats_t st;
-    photon_map_t *whole = trace(s, PHOTON_STORE_CAUSTIC, 10, N, &st);
-    photon_map_t *merged = photon_map_new(s->settings.grid, &err);
+    photon_store_t *whole = trace_store(s, PHOTON_STORE_CAUSTIC, 10, N, &st);
+    photon_store_t *merged = photon_store_new(s, &err);
     uint64_t cuts[4] = {0, 1, 7777, N};
-    photon_job_t job = {.seed = s->settings.seed, .maxdepth = 10, .policy = PHOTON_STORE_CAUSTIC};
+    photon_job_t job = {.seed = s->settings.seed, .maxdepth = 10, .mindepth = 1,
+                        .monochromerays = 1, .policy = PHOTON_STORE_CAUSTIC};
     for (int k = 0; k < 3; k++) {
-        photon_map_t *part = photon_map_new(s->settings.grid, &err);
+        photon_store_t *part = photon_store_new(s, &err);
         assert_int_equal(photon_trace(s, &job, cuts[k], cuts[k + 1], part, NULL, &err), 0);
-        assert_int_equal(photon_map_append(merged, part, &err), 0);
-        photon_map_destroy(&part);
+        /* Through the wire form, as the farm's batches travel. */
+        uint8_t *bytes;
+        size_t len;
+        assert_int_equal(photon_store_encode(part, &bytes, &len, &err), 0);
+        photon_store_t *back = photon_store_decode(s, bytes, len, &err);
+        assert_non_null(back);
+        assert_int_equal(photon_store_merge(merged, back, &err), 0);
+        free(bytes);
+        photon_store_destroy(&back);
+        photon_store_destroy(&part);
     }
-    assert_same_maps(whole, merged);
-    assert_true(photon_map_count(whole) > N / 2);
+    assert_same_maps(photon_store_map(whole), photon_store_map(merged));
+    assert_int_equal(photon_store_emitted(merged), N);
+    assert_true(photon_store_count(whole) > N / 2);
     /* Another seed gives other photons. */
     job.seed = 8;
-    photon_map_t *other = photon_map_new(s->settings.grid, &err);
+    photon_store_t *other = photon_store_new(s, &err);
     assert_int_equal(photon_trace(s, &job, 0, 100, other, NULL, &err), 0);
-    photon_info_t x = photon_map_photon(whole, 0), y = photon_map_photon(other, 0);
+    photon_info_t x = photon_map_photon(photon_store_map(whole), 0),
+                  y = photon_map_photon(photon_store_map(other), 0);
     assert_true(memcmp(&x, &y, sizeof x) != 0);
-    photon_map_destroy(&other);
+    photon_store_destroy(&other);
 
     s->settings.photon.photons = N;
     s->settings.photon.maxdepth = 10;
     s->settings.photon.threshold = 0.0;
-    photon_map_t *one = photon_pass_run(s, 1, NULL, NULL, &err);
-    photon_map_t *three = photon_pass_run(s, 3, NULL, NULL, &err);
+    photon_store_t *one = photon_pass_run(s, 1, NULL, NULL, &err);
+    photon_store_t *three = photon_pass_run(s, 3, NULL, NULL, &err);
     assert_non_null(one);
     assert_non_null(three);
-    assert_same_maps(one, three);
-    assert_int_equal(photon_map_build(merged, &err), 0);
-    assert_same_maps(one, merged);
-    photon_map_destroy(&one);
-    photon_map_destroy(&three);
-    photon_map_destroy(&whole);
-    photon_map_destroy(&merged);
+    assert_same_maps(photon_store_map(one), photon_store_map(three));
+    assert_int_equal(photon_store_finish(merged, &err), 0);
+    assert_same_maps(photon_store_map(one), photon_store_map(merged));
+    photon_store_destroy(&one);
+    photon_store_destroy(&three);
+    photon_store_destroy(&whole);
+    photon_store_destroy(&merged);
     scene_destroy(&s);
 }
 
@@ -554,10 +570,12 @@ static void test_threshold_roulette(void **state)
     assert_true(scene_add_disk(s, &screen, 1.0, 0.0, diffuse(s, 0.5), -1, 0, &err) >= 0);
     finish(s);
     const uint64_t N = 40000;
-    photon_map_t *m = photon_map_new(s->settings.grid, &err);
-    photon_job_t job = {.seed = 3, .maxdepth = 5, .threshold = 0.5, .policy = PHOTON_STORE_CAUSTIC};
+    photon_store_t *ps = photon_store_new(s, &err);
+    const photon_map_t *m = photon_store_map(ps);
+    photon_job_t job = {.seed = 3, .maxdepth = 5, .mindepth = 1, .threshold = 0.5,
+                        .monochromerays = 1, .policy = PHOTON_STORE_CAUSTIC};
     photon_stats_t st = {0};
-    assert_int_equal(photon_trace(s, &job, 0, N, m, &st, &err), 0);
+    assert_int_equal(photon_trace(s, &job, 0, N, ps, &st, &err), 0);
     double frac = photon_map_power_sum(m) / st.power_emitted;
     double kept = (double)photon_map_count(m) / (double)N;
     /* Survival is Bernoulli(0.6) at power 0.5: se of the power fraction 0.5 sqrt(0.24 / N). */
@@ -569,7 +587,7 @@ static void test_threshold_roulette(void **state)
     assert_true(fabs(kept - 0.6) < 4.0 * sqrt(0.24 / (double)N));
     for (size_t i = 0; i < photon_map_count(m); i += 97)
         assert_true(fabs(photon_map_photon(m, i).power / (st.power_emitted / N) - 0.5) < 1e-6);
-    photon_map_destroy(&m);
+    photon_store_destroy(&ps);
     scene_destroy(&s);
 }
 
@@ -590,7 +608,8 @@ static void test_collimated_direct(void **state)
     assert_true(scene_add_disk(s, &screen, 2.0, 0.0, diffuse(s, 0.8), -1, 1, NULL) >= 0);
     finish(s);
     photon_stats_t st;
-    photon_map_t *m = trace(s, PHOTON_STORE_CAUSTIC, 5, 2000, &st);
+    photon_store_t *ps = trace_store(s, PHOTON_STORE_CAUSTIC, 5, 2000, &st);
+    const photon_map_t *m = photon_store_map(ps);
     assert_int_equal(photon_map_count(m), 2000);
     assert_true(fabs(photon_map_power_sum(m) / st.power_emitted - 1.0) < 1e-6);
     /* The beam's power: irradiance 1 over pi r^2, over the 340 nm range. */
@@ -599,7 +618,7 @@ static void test_collimated_direct(void **state)
         photon_info_t ph = photon_map_photon(m, i);
         assert_true(hypot(ph.p.x, ph.p.y) <= 0.05 + 1e-6);
     }
-    photon_map_destroy(&m);
+    photon_store_destroy(&ps);
     scene_destroy(&s);
 }
 
@@ -678,7 +697,7 @@ static void test_scene_parameters(void **state)
     expect_error("Integrator \"photon\" \"string store\" \"lightmap\"",
                  "\"lightmap\" is not available yet");
     expect_error("Integrator \"photon\" \"string store\" \"box\"", "must be \"photonmap\"");
-    expect_error("Integrator \"photon\" \"integer monochromerays\" 16", "is not available yet");
+    expect_error("Integrator \"photon\" \"integer monochromerays\" 65", "1..64");
     expect_error("Integrator \"photon\" \"string gather\" \"simplepath\"",
                  "\"string gather\" must be");
     expect_error("Integrator \"photon\" \"integer photons\" 0", "at least 1");
@@ -702,9 +721,9 @@ static void test_pass_kept_with_scene(void **state)
     s->settings.photon.photons = 5000;
     photon_stats_t st;
     double sec = -1;
-    const photon_map_t *a = photon_pass_get(s, &st, &sec, &err);
+    const photon_store_t *a = photon_pass_get(s, &st, &sec, &err);
     assert_non_null(a);
-    assert_true(photon_map_built(a));
+    assert_true(photon_store_finished(a));
     assert_int_equal(st.emitted, 5000);
     assert_true(sec >= 0.0);
     assert_ptr_equal(photon_pass_get(s, NULL, NULL, &err), a);

@@ -127,8 +127,9 @@ static image_stats_t render(scene_t *s, int spp)
 static double map_relative_se(const scene_t *s)
 {
     err_t err;
-    const photon_map_t *m = photon_pass_get(s, NULL, NULL, &err);
-    assert_non_null(m);
+    const photon_store_t *ps = photon_pass_get(s, NULL, NULL, &err);
+    assert_non_null(ps);
+    const photon_map_t *m = photon_store_map(ps);
     xyz_t wts[64];
     colour_grid_weights(s->settings.grid, wts);
     transform_t to_cam = transform_inverse(s->camera.camera_to_world);

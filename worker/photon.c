@@ -29,7 +29,9 @@ photon_job_t photon_job_from_settings(const render_settings_t *rs)
 {
     return (photon_job_t){.seed = rs->seed,
                           .maxdepth = rs->photon.maxdepth,
+                          .mindepth = rs->photon.mindepth,
                           .threshold = rs->photon.threshold,
+                          .monochromerays = rs->photon.monochromerays,
                           .policy = PHOTON_STORE_CAUSTIC};
 }
 
@@ -51,7 +53,7 @@ typedef struct tracer {
     int aim, no_target;
     vec3_t aim_centre;
     double aim_radius;
-    photon_map_t *out;
+    photon_store_t *out;
     photon_stats_t *stats;
     rng_stream_t rng;
     uint64_t lambda_shift; /* the job's random shift of the wavelength sequence */
@@ -80,8 +82,11 @@ static double aim_cone(tracer_t *t, vec3_t o, vec3_t *dir)
     return 2.0 * PF_PI * sin2 / (1.0 + cos_max);
 }
 
-/* Where a photon of light l starts, in which direction, and the light's spectral power
- * Phi(lambda) that its sampling densities of position and direction turn into (W/nm):
+/* Where a photon of light l starts, in which direction, and the factor G by which the
+ * light's spectral value (radiance, intensity or irradiance, l->scale * spectrum(lambda))
+ * becomes the spectral power Phi(lambda) = value * G (W/nm) that its sampling densities of
+ * position and direction turn into; G does not depend on the wavelength, so the lanes of a
+ * photon share one emission:
  *   diffuse area light, radiance L: a uniform point (pdf 1/A) and a cosine direction
  *     (pdf cos/pi) give L cos / (cos/pi / A) = L pi A, twice that when two-sided (the side
  *     is picked with probability 1/2); aimed, a uniform direction in the cone omega of the
@@ -95,10 +100,9 @@ static double aim_cone(tracer_t *t, vec3_t o, vec3_t *dir)
  *     (the bounding sphere's, radius R, or the aim sphere's), started upstream of the whole
  *     scene: E pi R^2.
  * Returns 0 when the light emits no photon (infinite lights, degenerate shapes). */
-static int emit(tracer_t *t, const light_t *l, double lambda, vec3_t *org, vec3_t *dir, double *phi)
+static int emit(tracer_t *t, const light_t *l, vec3_t *org, vec3_t *dir, double *geom)
 {
     const scene_t *s = t->scene;
-    double value = l->scale * spectrum_eval(l->spectrum, lambda);
     double omega;
     switch (l->kind) {
     case LIGHT_AREA:
@@ -110,7 +114,7 @@ static int emit(tracer_t *t, const light_t *l, double lambda, vec3_t *org, vec3_
             return 0;
         if (l->kind == LIGHT_COLLIMATED) {
             *dir = n;
-            *phi = value * sh->area;
+            *geom = sh->area;
         } else {
             double side = 1.0;
             if (l->twosided && next(t) < 0.5)
@@ -121,11 +125,11 @@ static int emit(tracer_t *t, const light_t *l, double lambda, vec3_t *org, vec3_
                 double cos_e = vec3_dot(*dir, n);
                 if (!(cos_e > 0.0))
                     return 0;
-                *phi = value * cos_e * sh->area * side * omega;
+                *geom = cos_e * sh->area * side * omega;
             } else {
                 double u3 = next(t), u4 = next(t);
                 *dir = sample_local_to_world(sample_cosine_hemisphere(u3, u4), n);
-                *phi = value * PF_PI * sh->area * side;
+                *geom = PF_PI * sh->area * side;
             }
         }
         *org = geometry_offset(p, n, *dir);
@@ -134,18 +138,18 @@ static int emit(tracer_t *t, const light_t *l, double lambda, vec3_t *org, vec3_
     case LIGHT_POINT:
         *org = l->position;
         if (t->aim && (omega = aim_cone(t, l->position, dir)) > 0.0) {
-            *phi = value * omega;
+            *geom = omega;
         } else {
             double u0 = next(t), u1 = next(t);
             *dir = sample_uniform_sphere(u0, u1);
-            *phi = value * 4.0 * PF_PI;
+            *geom = 4.0 * PF_PI;
         }
         return 1;
     case LIGHT_SPOT: {
         double cmax = l->cos_total_width;
         *org = l->position;
         if (t->aim && (omega = aim_cone(t, l->position, dir)) > 0.0) {
-            *phi = value * lights_spot_falloff(l, vec3_dot(*dir, l->direction)) * omega;
+            *geom = lights_spot_falloff(l, vec3_dot(*dir, l->direction)) * omega;
             return 1;
         }
         if (!(cmax < 1.0))
@@ -153,7 +157,7 @@ static int emit(tracer_t *t, const light_t *l, double lambda, vec3_t *org, vec3_
         double u0 = next(t), u1 = next(t);
         vec3_t local = sample_uniform_cone(u0, u1, cmax);
         *dir = sample_local_to_world(local, l->direction);
-        *phi = value * lights_spot_falloff(l, local.z) * 2.0 * PF_PI * (1.0 - cmax);
+        *geom = lights_spot_falloff(l, local.z) * 2.0 * PF_PI * (1.0 - cmax);
         return 1;
     }
     case LIGHT_DISTANT: {
@@ -170,7 +174,7 @@ static int emit(tracer_t *t, const light_t *l, double lambda, vec3_t *org, vec3_
         double back = vec3_dot(vec3_sub(p, scene_centre), l->direction) + 1.05 * s->scene_radius;
         *org = vec3_fma(p, l->direction, -back);
         *dir = l->direction;
-        *phi = value * PF_PI * R * R;
+        *geom = PF_PI * R * R;
         return 1;
     }
     case LIGHT_INFINITE:
@@ -257,7 +261,180 @@ static int specular_sphere(const scene_t *s, vec3_t *centre, double *radius)
     return 1;
 }
 
-/* Traces photon i. Returns -1 only when the map cannot take a deposit. */
+/* The most monochrome rays a photon may follow (photon_job_t.monochromerays). */
+#define MAX_LANES PHOTON_MAX_MONOCHROME_RAYS
+
+/* A photon in flight: one geometric ray carrying nl wavelengths ("lanes") that have refracted
+ * alike so far, each with its own raw power. */
+typedef struct flight {
+    vec3_t org, dir;
+    int nl;
+    double lambda[MAX_LANES];
+    double w[MAX_LANES];  /* raw power now, W/nm */
+    double w0[MAX_LANES]; /* raw power at emission, for the threshold */
+    int depth, specular, diffuse, passthrough;
+    int collimated;
+} flight_t;
+
+static int deposit_lanes(tracer_t *t, const flight_t *f, const hit_t *h, const surface_t *sf,
+                         vec3_t g, err_t *err)
+{
+    photon_stats_t *st = t->stats;
+    /* Counted and dropped rather than stored (PHYSICS.md: no NaN or Inf in any store); the
+     * store refuses them too. */
+    if (!isfinite(sf->p.x) || !isfinite(sf->p.y) || !isfinite(sf->p.z)) {
+        st->nonfinite++;
+        return 0;
+    }
+    for (int j = 0; j < f->nl; j++) {
+        if (!(f->w[j] <= FLT_MAX)) {
+            st->nonfinite++;
+            continue;
+        }
+        if (!(f->w[j] > 0.0))
+            continue;
+        if (photon_store_deposit(t->out, h, sf->p, f->dir, g, f->lambda[j], f->w[j], err))
+            return -1;
+        st->deposited++;
+        st->power_deposited += f->w[j];
+    }
+    return 0;
+}
+
+static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err);
+
+/* At a dispersive interface a photon of several lanes splits into one photon per lane (thesis
+ * 5.5, following every monochrome ray); each continues with numbers of its own, keyed by
+ * (photon, 2 + lane), so the result does not depend on the order they are traced in. */
+static int split_flight(tracer_t *t, const flight_t *f, uint64_t i, err_t *err)
+{
+    for (int j = 0; j < f->nl; j++) {
+        flight_t one = *f;
+        one.nl = 1;
+        one.lambda[0] = f->lambda[j];
+        one.w[0] = f->w[j];
+        one.w0[0] = f->w0[j];
+        t->rng = rng_stream_make(t->job->seed ^ PHOTON_SEED_MIX, i, 2 + (uint64_t)j);
+        if (trace_flight(t, &one, i, err))
+            return -1;
+    }
+    return 0;
+}
+
+/* Follows a photon until it is absorbed, escapes or is stored for good. Returns -1 only when
+ * the store cannot take a deposit. */
+static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
+{
+    const scene_t *s = t->scene;
+    const photon_job_t *job = t->job;
+    photon_stats_t *st = t->stats;
+    for (;;) {
+        hit_t h;
+        st->rays++;
+        if (!geometry_intersect(s->geometry, f->org, f->dir, 0.0, INFINITY, &h)) {
+            st->escaped++;
+            return 0;
+        }
+        surface_t sf;
+        scene_surface(s, &h, &sf);
+        const material_t *m = sf.material;
+        if (m->kind == MATERIAL_INTERFACE) {
+            if (++f->passthrough > MAX_PASSTHROUGH)
+                return 0;
+            f->org = geometry_offset(sf.p, sf.ng, f->dir);
+            continue;
+        }
+        if (m->kind == MATERIAL_DIFFUSE) {
+            /* The side the photon arrived on decides the normal stored and the hemisphere it
+             * leaves into: the geometric surface, so that no photon crosses a wall. */
+            vec3_t g = vec3_dot(sf.ng, f->dir) < 0.0 ? sf.ng : vec3_neg(sf.ng);
+            /* A collimated light is a delta in direction: no camera path or light sample ever
+             * finds it, so its direct light (L D) goes into the caustic store as well. */
+            int store = job->policy == PHOTON_STORE_CAUSTIC
+                            ? (f->specular >= job->mindepth || (f->collimated && !f->specular)) &&
+                                  !f->diffuse
+                            : f->depth >= job->mindepth;
+            if (store && deposit_lanes(t, f, &h, &sf, g, err))
+                return -1;
+            if (job->policy == PHOTON_STORE_CAUSTIC)
+                return 0;
+            if (f->depth >= job->maxdepth) {
+                st->culled++;
+                return 0;
+            }
+            /* Russian roulette on the albedo (thesis eq. 2.32): continue with probability
+             * q = the largest lane albedo, each lane weighted by rho_j / q. */
+            double rho[MAX_LANES], q = 0.0;
+            for (int j = 0; j < f->nl; j++) {
+                rho[j] = m->reflectance ? texture_eval(m->reflectance, sf.u, sf.v, f->lambda[j]) : 0.5;
+                q = fmax(q, rho[j]);
+            }
+            q = fmin(1.0, q);
+            if (!(next(t) < q))
+                return 0;
+            for (int j = 0; j < f->nl; j++)
+                f->w[j] *= rho[j] / q;
+            double u0 = next(t), u1 = next(t);
+            f->dir = sample_local_to_world(sample_cosine_hemisphere(u0, u1), g);
+            f->org = geometry_offset(sf.p, sf.ng, f->dir);
+            f->diffuse = 1;
+        } else {
+            if (f->depth >= job->maxdepth) {
+                st->culled++;
+                return 0;
+            }
+            if (m->kind == MATERIAL_CONDUCTOR) {
+                vec3_t ns = specular_normal(&sf, f->dir, 0.0, NULL);
+                vec3_t n = vec3_dot(ns, f->dir) < 0.0 ? ns : vec3_neg(ns);
+                for (int j = 0; j < f->nl; j++)
+                    f->w[j] *= specular_conductor_reflectance(m, &sf, -vec3_dot(f->dir, n), f->lambda[j]);
+                f->dir = fresnel_reflect(f->dir, n);
+            } else {
+                if (m->dispersive && f->nl > 1)
+                    return split_flight(t, f, i, err);
+                /* Smooth glass at the photon's wavelength (all lanes alike when the glass
+                 * does not disperse): Snell and the unpolarised Fresnel reflectance R;
+                 * reflect with probability R, refract with 1 - R, so the weight stays
+                 * (R / R). Flux crossing an interface takes T alone, without the
+                 * (n_t / n_i)^2 of radiance (PHYSICS.md). */
+                const int entering = vec3_dot(f->dir, sf.ng) < 0.0;
+                double n = ior_eval(&m->ior, f->lambda[0]);
+                double eta_rel = entering ? 1.0 / n : n;
+                vec3_t nrm = specular_normal(&sf, f->dir, eta_rel, NULL);
+                vec3_t refr;
+                int ok = fresnel_refract(f->dir, nrm, eta_rel, &refr);
+                double R = ok ? fresnel_dielectric(-vec3_dot(f->dir, nrm), 1.0, n) : 1.0;
+                f->dir = next(t) < R ? fresnel_reflect(f->dir, nrm) : refr;
+            }
+            f->org = geometry_offset(sf.p, sf.ng, f->dir);
+            f->specular++;
+        }
+        f->depth++;
+        /* The power threshold (thesis 5.5) as Russian roulette, which keeps the estimate
+         * unbiased: below threshold of its emitted power (the lanes' sum) the photon survives
+         * with probability (fraction / threshold) and is scaled back up. */
+        double sum = 0.0, sum0 = 0.0;
+        for (int j = 0; j < f->nl; j++) {
+            sum += f->w[j];
+            sum0 += f->w0[j];
+        }
+        double frac = sum / sum0;
+        if (!(frac > 0.0))
+            return 0;
+        if (frac < job->threshold) {
+            double q = frac / job->threshold;
+            if (next(t) >= q) {
+                st->culled++;
+                return 0;
+            }
+            for (int j = 0; j < f->nl; j++)
+                f->w[j] /= q;
+        }
+    }
+}
+
+/* Traces photon i: job->monochromerays lanes at stratified wavelengths. Returns -1 only when
+ * the store cannot take a deposit. */
 static int trace_one(tracer_t *t, uint64_t i, err_t *err)
 {
     const scene_t *s = t->scene;
@@ -267,127 +444,38 @@ static int trace_one(tracer_t *t, uint64_t i, err_t *err)
     t->rng = rng_stream_make(job->seed ^ PHOTON_SEED_MIX, i, 0);
     double pmf;
     const light_t *l = &s->lights[alias_sample(t->lights, next(t), &pmf)];
-    /* Wavelengths: the golden-ratio sequence u_i = frac(i / phi + shift) (a rank-1 lattice,
-     * in 64-bit fixed point so that it is exact), randomly shifted per job. Each u_i is
-     * uniform, so the estimate stays unbiased, and every bucket receives its share of any
-     * N photons to within a few, which removes the colour noise of independent draws. */
-    uint64_t ui = i * 0x9E3779B97F4A7C15ull + t->lambda_shift;
-    wavelength_sample_t ws =
-        wavelength_sample_uniform((double)(ui >> 11) * 0x1p-53, grid.lambda_min, grid.lambda_max);
-    const double lambda = ws.lambda;
     vec3_t org, dir;
-    double phi;
-    if (!(pmf > 0.0) || !(ws.pdf > 0.0) || !emit(t, l, lambda, &org, &dir, &phi))
+    double geom;
+    if (!(pmf > 0.0) || !emit(t, l, &org, &dir, &geom))
         return 0;
-    double w = phi / (pmf * ws.pdf);
-    if (!isfinite(w)) {
-        st->nonfinite++;
-        return 0;
+    /* Wavelengths: the golden-ratio sequence u_i = frac(i / phi + shift) (a rank-1 lattice,
+     * in 64-bit fixed point so that it is exact), randomly shifted per job, and for M lanes
+     * its rotations by k / M (hero-wavelength style, Wilkie et al. 2014). Each lane is
+     * uniform, so the estimate stays unbiased, and every bucket receives its share of any N
+     * photons to within a few, which removes the colour noise of independent draws. */
+    flight_t f = {.org = org, .dir = dir, .nl = job->monochromerays,
+                  .collimated = l->kind == LIGHT_COLLIMATED};
+    uint64_t ui = i * 0x9E3779B97F4A7C15ull + t->lambda_shift;
+    int alive = 0;
+    for (int j = 0; j < f.nl; j++) {
+        uint64_t uj = ui + (uint64_t)((double)j / f.nl * 0x1p64 * (1.0 - 0x1p-53));
+        wavelength_sample_t ws = wavelength_sample_uniform((double)(uj >> 11) * 0x1p-53,
+                                                           grid.lambda_min, grid.lambda_max);
+        double w = ws.pdf > 0.0
+                       ? l->scale * spectrum_eval(l->spectrum, ws.lambda) * geom / (pmf * ws.pdf)
+                       : 0.0;
+        f.lambda[j] = ws.lambda;
+        if (!isfinite(w)) {
+            st->nonfinite++;
+            w = 0.0;
+        }
+        st->power_emitted += w;
+        f.w[j] = f.w0[j] = w;
+        alive |= w > 0.0;
     }
-    st->power_emitted += w;
-    if (!(w > 0.0))
+    if (!alive)
         return 0;
-    const double w0 = w;
-    const int collimated = l->kind == LIGHT_COLLIMATED;
-    int depth = 0, specular = 0, diffuse = 0, passthrough = 0;
-    for (;;) {
-        hit_t h;
-        st->rays++;
-        if (!geometry_intersect(s->geometry, org, dir, 0.0, INFINITY, &h)) {
-            st->escaped++;
-            return 0;
-        }
-        surface_t sf;
-        scene_surface(s, &h, &sf);
-        const material_t *m = sf.material;
-        if (m->kind == MATERIAL_INTERFACE) {
-            if (++passthrough > MAX_PASSTHROUGH)
-                return 0;
-            org = geometry_offset(sf.p, sf.ng, dir);
-            continue;
-        }
-        if (m->kind == MATERIAL_DIFFUSE) {
-            /* The side the photon arrived on decides the normal stored and the hemisphere it
-             * leaves into: the geometric surface, so that no photon crosses a wall. */
-            vec3_t g = vec3_dot(sf.ng, dir) < 0.0 ? sf.ng : vec3_neg(sf.ng);
-            /* A collimated light is a delta in direction: no camera path or light sample ever
-             * finds it, so its direct light (L D) goes into the caustic store as well. */
-            int store = job->policy == PHOTON_STORE_CAUSTIC
-                            ? (specular > 0 || collimated) && !diffuse
-                            : depth > 0;
-            if (store) {
-                /* Counted and dropped rather than stored (PHYSICS.md: no NaN or Inf in any
-                 * store); the map refuses them too. */
-                if (!(w <= FLT_MAX) || !isfinite(sf.p.x) || !isfinite(sf.p.y) ||
-                    !isfinite(sf.p.z)) {
-                    st->nonfinite++;
-                    return 0;
-                }
-                if (photon_map_deposit(t->out, sf.p, dir, g, lambda, w, err))
-                    return -1;
-                st->deposited++;
-                st->power_deposited += w;
-            }
-            if (job->policy == PHOTON_STORE_CAUSTIC)
-                return 0;
-            if (depth >= job->maxdepth) {
-                st->culled++;
-                return 0;
-            }
-            /* Russian roulette on the albedo (thesis eq. 2.32): continue with probability rho
-             * and weight rho / rho = 1. */
-            double rho = m->reflectance ? texture_eval(m->reflectance, sf.u, sf.v, lambda) : 0.5;
-            if (!(next(t) < fmin(1.0, rho)))
-                return 0;
-            if (rho > 1.0)
-                w *= rho;
-            double u0 = next(t), u1 = next(t);
-            dir = sample_local_to_world(sample_cosine_hemisphere(u0, u1), g);
-            org = geometry_offset(sf.p, sf.ng, dir);
-            diffuse = 1;
-        } else {
-            if (depth >= job->maxdepth) {
-                st->culled++;
-                return 0;
-            }
-            if (m->kind == MATERIAL_CONDUCTOR) {
-                vec3_t ns = specular_normal(&sf, dir, 0.0, NULL);
-                vec3_t n = vec3_dot(ns, dir) < 0.0 ? ns : vec3_neg(ns);
-                w *= specular_conductor_reflectance(m, &sf, -vec3_dot(dir, n), lambda);
-                dir = fresnel_reflect(dir, n);
-            } else {
-                /* Smooth glass at the photon's own wavelength: Snell and the unpolarised
-                 * Fresnel reflectance R(lambda); reflect with probability R, refract with
-                 * 1 - R, so the weight stays (R / R). Flux crossing an interface takes T
-                 * alone, without the (n_t / n_i)^2 of radiance (PHYSICS.md). */
-                const int entering = vec3_dot(dir, sf.ng) < 0.0;
-                double n = ior_eval(&m->ior, lambda);
-                double eta_rel = entering ? 1.0 / n : n;
-                vec3_t nrm = specular_normal(&sf, dir, eta_rel, NULL);
-                vec3_t refr;
-                int ok = fresnel_refract(dir, nrm, eta_rel, &refr);
-                double R = ok ? fresnel_dielectric(-vec3_dot(dir, nrm), 1.0, n) : 1.0;
-                dir = next(t) < R ? fresnel_reflect(dir, nrm) : refr;
-            }
-            org = geometry_offset(sf.p, sf.ng, dir);
-            specular++;
-        }
-        depth++;
-        /* The power threshold (thesis 5.5) as Russian roulette, which keeps the estimate
-         * unbiased: below threshold * w0 the photon survives with probability
-         * (w / w0) / threshold and is scaled back up to threshold * w0. */
-        double frac = w / w0;
-        if (!(frac > 0.0))
-            return 0;
-        if (frac < job->threshold) {
-            double q = frac / job->threshold;
-            if (next(t) >= q) {
-                st->culled++;
-                return 0;
-            }
-            w /= q;
-        }
-    }
+    return trace_flight(t, &f, i, err);
 }
 
 /* The share of light l's power that an aimed emission sends toward the aim sphere, roughly
@@ -473,17 +561,15 @@ static alias_t *photon_lights(const tracer_t *t, err_t *err)
 }
 
 int photon_trace(const scene_t *scene, const photon_job_t *job, uint64_t i0, uint64_t i1,
-                 photon_map_t *out, photon_stats_t *stats, err_t *err)
+                 photon_store_t *out, photon_stats_t *stats, err_t *err)
 {
     if (i1 < i0)
         return err_set(err, "photon range [%llu, %llu) is reversed", (unsigned long long)i0,
                        (unsigned long long)i1);
-    spectral_grid_t g = photon_map_grid(out), sg = scene->settings.grid;
-    if (g.n != sg.n || g.lambda_min != sg.lambda_min || g.lambda_max != sg.lambda_max)
-        return err_set(err, "the photon map's wavelength grid is not the scene's");
-    if (job->maxdepth < 0 || !(job->threshold >= 0.0 && job->threshold < 1.0))
-        return err_set(err, "photon job: maxdepth %d or threshold %g out of range", job->maxdepth,
-                       job->threshold);
+    if (job->maxdepth < 0 || !(job->threshold >= 0.0 && job->threshold < 1.0) ||
+        job->mindepth < 0 || job->monochromerays < 1 || job->monochromerays > MAX_LANES)
+        return err_set(err, "photon job: maxdepth %d, mindepth %d, threshold %g or monochromerays %d out of range",
+                       job->maxdepth, job->mindepth, job->threshold, job->monochromerays);
     photon_stats_t local = {0};
     tracer_t t = {.scene = scene, .job = job, .out = out, .stats = &local};
     if (job->policy == PHOTON_STORE_CAUSTIC) {
@@ -495,7 +581,7 @@ int photon_trace(const scene_t *scene, const photon_job_t *job, uint64_t i0, uin
             return -1;
         t.no_target = 2; /* nothing to trace: every photon is emitted and lost */
     }
-    /* Sample index 1 of photon 0 is no photon's number (photons use sample 0). */
+    /* Sample index 1 of photon 0 is no photon's number (photons use samples 0 and 2 + lane). */
     t.lambda_shift = (uint64_t)(rng_uniform(job->seed ^ PHOTON_SEED_MIX, 0, 1, 0) * 0x1p53) << 11;
     int r = 0;
     for (uint64_t i = i0; i < i1 && !r && t.no_target != 2; i++)
@@ -503,26 +589,31 @@ int photon_trace(const scene_t *scene, const photon_job_t *job, uint64_t i0, uin
     alias_destroy(&t.lights);
     if (r)
         return -1;
-    local.emitted = i1 - i0;
-    photon_map_add_emitted(out, i1 - i0);
-    if (stats) {
-        stats->emitted += local.emitted;
-        stats->deposited += local.deposited;
-        stats->rays += local.rays;
-        stats->escaped += local.escaped;
-        stats->culled += local.culled;
-        stats->nonfinite += local.nonfinite;
-        stats->power_emitted += local.power_emitted;
-        stats->power_deposited += local.power_deposited;
-    }
+    /* Every lane is a monochrome photon of the estimate: the store divides by all of them. */
+    local.emitted = (i1 - i0) * (uint64_t)job->monochromerays;
+    photon_store_add_emitted(out, local.emitted);
+    if (stats)
+        photon_stats_add(stats, &local);
     return 0;
+}
+
+void photon_stats_add(photon_stats_t *sum, const photon_stats_t *s)
+{
+    sum->emitted += s->emitted;
+    sum->deposited += s->deposited;
+    sum->rays += s->rays;
+    sum->escaped += s->escaped;
+    sum->culled += s->culled;
+    sum->nonfinite += s->nonfinite;
+    sum->power_emitted += s->power_emitted;
+    sum->power_deposited += s->power_deposited;
 }
 
 typedef struct pass_part {
     const scene_t *scene;
     photon_job_t job;
     uint64_t i0, i1;
-    photon_map_t *map;
+    photon_store_t *store;
     photon_stats_t stats;
     int failed;
     err_t err;
@@ -537,7 +628,7 @@ static void *pass_thread(void *arg)
     _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
 #endif
     pt->failed =
-        photon_trace(pt->scene, &pt->job, pt->i0, pt->i1, pt->map, &pt->stats, &pt->err) != 0;
+        photon_trace(pt->scene, &pt->job, pt->i0, pt->i1, pt->store, &pt->stats, &pt->err) != 0;
     return NULL;
 }
 
@@ -548,8 +639,8 @@ static double now_s(void)
     return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-photon_map_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t *stats,
-                              double *seconds, err_t *err)
+photon_store_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t *stats,
+                                double *seconds, err_t *err)
 {
     const double t0 = now_s();
     const render_settings_t *rs = &scene->settings;
@@ -560,9 +651,9 @@ photon_map_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t
         nthreads = total > 0 ? (int)total : 1;
     pass_part_t *parts = calloc((size_t)nthreads, sizeof *parts);
     pthread_t *th = calloc((size_t)nthreads, sizeof *th);
-    photon_map_t *map = photon_map_new(rs->grid, err);
-    int r = parts && th && map ? 0 : -1;
-    if (r && map)
+    photon_store_t *store = photon_store_new(scene, err);
+    int r = parts && th && store ? 0 : -1;
+    if (r && store)
         err_set(err, "out of memory");
     int started = 0;
     for (int k = 0; !r && k < nthreads; k++) {
@@ -571,7 +662,7 @@ photon_map_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t
         pt->job = photon_job_from_settings(rs);
         pt->i0 = total * (uint64_t)k / (uint64_t)nthreads;
         pt->i1 = total * (uint64_t)(k + 1) / (uint64_t)nthreads;
-        if (!(pt->map = photon_map_new(rs->grid, err)))
+        if (!(pt->store = photon_store_new(scene, err)))
             r = -1;
     }
     if (!r) {
@@ -584,7 +675,8 @@ photon_map_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t
         for (int k = 0; k < started; k++)
             pthread_join(th[k], NULL);
     }
-    /* The merge in index order makes the map independent of the thread count. */
+    /* The merge in index order makes the store independent of the thread count, and equal to
+     * the farm's, which merges its batches in index order too. */
     for (int k = 0; !r && parts && k < nthreads; k++) {
         pass_part_t *pt = &parts[k];
         if (pt->failed) {
@@ -592,37 +684,30 @@ photon_map_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t
                 *err = pt->err;
             r = -1;
         } else {
-            r = photon_map_append(map, pt->map, err);
+            r = photon_store_merge(store, pt->store, err);
         }
-        if (stats && !r) {
-            photon_stats_t *s = &pt->stats;
-            stats->emitted += s->emitted;
-            stats->deposited += s->deposited;
-            stats->rays += s->rays;
-            stats->escaped += s->escaped;
-            stats->culled += s->culled;
-            stats->nonfinite += s->nonfinite;
-            stats->power_emitted += s->power_emitted;
-            stats->power_deposited += s->power_deposited;
-        }
+        if (stats && !r)
+            photon_stats_add(stats, &pt->stats);
     }
     for (int k = 0; parts && k < nthreads; k++)
-        photon_map_destroy(&parts[k].map);
+        photon_store_destroy(&parts[k].store);
     free(parts);
     free(th);
     if (!r)
-        r = photon_map_build(map, err);
+        r = photon_store_finish(store, err);
     if (r) {
-        photon_map_destroy(&map);
+        photon_store_destroy(&store);
         return NULL;
     }
     if (seconds)
         *seconds = now_s() - t0;
-    return map;
+    return store;
 }
 
+/* What the scene's derived-data slot holds for the camera pass: the store, traced here or
+ * installed from the farm. */
 typedef struct pass_result {
-    photon_map_t *map;
+    photon_store_t *store;
     photon_stats_t stats;
     double seconds;
 } pass_result_t;
@@ -634,8 +719,8 @@ static void *pass_build(const scene_t *scene, err_t *err)
         err_set(err, "out of memory");
         return NULL;
     }
-    pr->map = photon_pass_run(scene, 0, &pr->stats, &pr->seconds, err);
-    if (!pr->map) {
+    pr->store = photon_pass_run(scene, 0, &pr->stats, &pr->seconds, err);
+    if (!pr->store) {
         err_prefix(err, "photon pass: ");
         free(pr);
         return NULL;
@@ -646,12 +731,12 @@ static void *pass_build(const scene_t *scene, err_t *err)
 static void pass_free(void *data)
 {
     pass_result_t *pr = data;
-    photon_map_destroy(&pr->map);
+    photon_store_destroy(&pr->store);
     free(pr);
 }
 
-const photon_map_t *photon_pass_get(const scene_t *scene, photon_stats_t *stats, double *seconds,
-                                    err_t *err)
+const photon_store_t *photon_pass_get(const scene_t *scene, photon_stats_t *stats,
+                                      double *seconds, err_t *err)
 {
     const pass_result_t *pr = scene_derived_get(scene, pass_build, pass_free, err);
     if (!pr)
@@ -660,5 +745,21 @@ const photon_map_t *photon_pass_get(const scene_t *scene, photon_stats_t *stats,
         *stats = pr->stats;
     if (seconds)
         *seconds = pr->seconds;
-    return pr->map;
+    return pr->store;
+}
+
+int photon_pass_install(const scene_t *scene, photon_store_t **store, err_t *err)
+{
+    if (!*store || !photon_store_finished(*store))
+        return err_set(err, "photon pass: only a finished store can be installed");
+    pass_result_t *pr = calloc(1, sizeof *pr);
+    if (!pr)
+        return err_set(err, "out of memory");
+    pr->store = *store;
+    if (scene_derived_set(scene, pass_build, pass_free, pr, err)) {
+        free(pr);
+        return -1;
+    }
+    *store = NULL;
+    return 0;
 }

@@ -1,5 +1,6 @@
 /* photon: the photon tracer (thesis alg. 4 and 5.5): shoots photons from the lights and
- * deposits them where they land on diffuse surfaces, into a photon map (photon_map.h).
+ * deposits them where they land on diffuse surfaces, into a caustic store (photon_store.h:
+ * a photon map or light maps).
  * photon_trace traces a range [i0, i1) of a job's photon indices; every random number of
  * photon i is keyed by (job seed, i, 0, dimension) -- the seed mixed with a photon-pass
  * constant so that photon i and pixel i never share numbers -- so a photon lands in the same
@@ -7,11 +8,12 @@
  * give the same map as one batch. Deposits carry raw power: photon i of light l at wavelength
  * lambda starts with Phi_l(lambda) / (p_l * p_lambda), and the map divides by the number of
  * photons emitted only when it is queried. photon_pass_* run a job's whole photon pass on
- * this machine and keep the map with the scene for the camera pass. */
+ * this machine and keep the store with the scene for the camera pass; a farm worker installs
+ * the store the master merged from every worker's batches instead (photon_pass_install). */
 #ifndef PRISMFARM_PHOTON_H
 #define PRISMFARM_PHOTON_H
 
-#include "photon_map.h"
+#include "photon_store.h"
 #include "scene.h"
 
 #include <stdint.h>
@@ -32,6 +34,13 @@ typedef struct photon_job {
     uint64_t seed;    /* the job's seed (render_settings.seed) */
     int maxdepth;     /* scattering events a photon may undergo; a hit after the last one is
                        * still deposited */
+    int mindepth;     /* the thesis's minimum depth: the caustic store keeps a photon only after
+                       * this many specular events (1: L S+ D), the full store after this many
+                       * events of any kind; a collimated light's direct hits are kept always */
+    int monochromerays; /* wavelengths (lanes) a photon carries, 1..PHOTON_MAX_MONOCHROME_RAYS:
+                         * stratified over the film's range, travelling together until a
+                         * dispersive interface, where every one is followed as a photon of its
+                         * own (thesis 5.5); each counts as one emitted photon */
     double threshold; /* below this fraction of its emitted power a photon survives Russian
                        * roulette with probability (fraction / threshold) and is scaled back up
                        * (an unbiased cull); 0: never */
@@ -41,8 +50,10 @@ typedef struct photon_job {
 /* The job of the photon integrator as scene->settings describes it (caustic store). */
 photon_job_t photon_job_from_settings(const render_settings_t *rs);
 
+#define PHOTON_MAX_MONOCHROME_RAYS 64
+
 typedef struct photon_stats {
-    uint64_t emitted;     /* photon indices traced */
+    uint64_t emitted;     /* monochrome photons emitted: photon indices traced x lanes */
     uint64_t deposited;   /* deposits made */
     uint64_t rays;        /* intersection queries */
     uint64_t escaped;     /* photons that left the scene */
@@ -52,30 +63,38 @@ typedef struct photon_stats {
     double power_deposited;
 } photon_stats_t;
 
-/* Traces photons [i0, i1) of the job in scene and appends their deposits to out (unbuilt, on
- * the scene's wavelength grid) in index order, adding i1 - i0 to its emitted count.
+/* Traces photons [i0, i1) of the job in scene and deposits them into out (unfinished, made for
+ * this scene) in index order, adding (i1 - i0) x monochromerays to its emitted count.
  * Lights are chosen in proportion to their power (scene->light_power); for the caustic store
  * photons are aimed at a sphere around every mirror and glass surface (a photon whose first
  * hit is diffuse could never be stored) and lights are weighted by the share of their power
  * that goes there. Infinite (environment) lights emit no photons: light from them through
- * glass is left to the camera pass. Each photon carries one wavelength, uniform over the
- * grid's range (a randomly shifted golden-ratio sequence over the photon index, so buckets
- * get equal shares). Adds to *stats (may be NULL). */
+ * glass is left to the camera pass. Each lane carries one wavelength, uniform over the
+ * grid's range (a randomly shifted golden-ratio sequence over the photon index and its
+ * rotations, so buckets get equal shares). Adds to *stats (may be NULL). */
 int photon_trace(const scene_t *scene, const photon_job_t *job, uint64_t i0, uint64_t i1,
-                 photon_map_t *out, photon_stats_t *stats, err_t *err);
+                 photon_store_t *out, photon_stats_t *stats, err_t *err);
+
+void photon_stats_add(photon_stats_t *sum, const photon_stats_t *s);
 
 /* The whole photon pass of the scene's photon integrator on this machine: photons
  * [0, settings.photon.photons) traced by nthreads threads (0: every core) in contiguous
- * ranges merged in index order, then balanced. The map is the same whatever nthreads. */
-photon_map_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t *stats,
-                              double *seconds, err_t *err);
+ * ranges merged in index order, then finished. The store is the same whatever nthreads, and
+ * the same as a farm's that merged batches covering the same photons in index order. */
+photon_store_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t *stats,
+                                double *seconds, err_t *err);
 
-/* The photon map the camera pass uses, made by photon_pass_run with every core on the first
- * call and kept with the scene (scene_derived_get) until it is destroyed; *stats and *seconds
- * (either may be NULL) receive the pass's figures. NULL on failure (the same error for every
- * caller). Every worker of a farm job traces the whole photon set itself, deterministically. */
-const photon_map_t *photon_pass_get(const scene_t *scene, photon_stats_t *stats, double *seconds,
-                                    err_t *err);
+/* The store the camera pass uses: one installed by photon_pass_install, or else one made by
+ * photon_pass_run with every core on the first call; kept with the scene (scene_derived_get)
+ * until it is destroyed. *stats and *seconds (either may be NULL) receive the pass's figures
+ * (zero for an installed store). NULL on failure (the same error for every caller). */
+const photon_store_t *photon_pass_get(const scene_t *scene, photon_stats_t *stats,
+                                      double *seconds, err_t *err);
+
+/* Gives the scene a finished store made elsewhere (the master's merge of a farm job's
+ * batches) for its camera pass, before anything asked for one; takes ownership of *store and
+ * nulls it on success. */
+int photon_pass_install(const scene_t *scene, photon_store_t **store, err_t *err);
 
 /* The gather radius: settings.photon.radius, or when that is 0 a hundredth of the radius of
  * the scene's bounding sphere. */

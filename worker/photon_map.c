@@ -418,3 +418,145 @@ int photon_map_irradiance(const photon_map_t *self, vec3_t p, vec3_t n, double r
         E[b] *= scale;
     return used;
 }
+
+/* The wire form (photon_map_encode): a 32-byte header -- magic "PFPM", format version,
+ * bucket count, photon count, emitted count -- then 24 bytes per photon, every field little
+ * endian: x, y, z and power as IEEE float32, then bucket, lambda, dir and normal as uint16.
+ * It is the in-memory record without the kd-tree's axis bits, so encoding a map costs a copy
+ * and a decoded map appends and builds like a locally traced one. */
+#define WIRE_MAGIC 0x4D504650u /* "PFPM" read as a little-endian uint32 */
+#define WIRE_VERSION 1u
+#define WIRE_HEADER 32
+#define WIRE_RECORD 24
+
+static void put_u16(uint8_t *p, uint16_t v)
+{
+    p[0] = (uint8_t)v;
+    p[1] = (uint8_t)(v >> 8);
+}
+static void put_u32(uint8_t *p, uint32_t v)
+{
+    for (int i = 0; i < 4; i++)
+        p[i] = (uint8_t)(v >> (8 * i));
+}
+static void put_u64(uint8_t *p, uint64_t v)
+{
+    for (int i = 0; i < 8; i++)
+        p[i] = (uint8_t)(v >> (8 * i));
+}
+static void put_f32(uint8_t *p, float f)
+{
+    uint32_t u;
+    memcpy(&u, &f, sizeof u);
+    put_u32(p, u);
+}
+static uint16_t get_u16(const uint8_t *p)
+{
+    return (uint16_t)(p[0] | p[1] << 8);
+}
+static uint32_t get_u32(const uint8_t *p)
+{
+    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+static uint64_t get_u64(const uint8_t *p)
+{
+    return (uint64_t)get_u32(p) | (uint64_t)get_u32(p + 4) << 32;
+}
+static float get_f32(const uint8_t *p)
+{
+    uint32_t u = get_u32(p);
+    float f;
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+
+int photon_map_encode(const photon_map_t *self, uint8_t **out, size_t *out_len, err_t *err)
+{
+    *out = NULL;
+    *out_len = 0;
+    if (self->built)
+        return err_set(err, "photon map: only an unbuilt map (deposit order) can be encoded");
+    if (self->n > (SIZE_MAX - WIRE_HEADER) / WIRE_RECORD)
+        return err_set(err, "photon map too large to encode (%zu photons)", self->n);
+    size_t len = WIRE_HEADER + self->n * WIRE_RECORD;
+    uint8_t *b = malloc(len);
+    if (!b)
+        return err_set(err, "out of memory encoding %zu photons (%zu MB)", self->n, len >> 20);
+    put_u32(b, WIRE_MAGIC);
+    put_u32(b + 4, WIRE_VERSION);
+    put_u32(b + 8, (uint32_t)self->grid.n);
+    put_u32(b + 12, 0);
+    put_u64(b + 16, (uint64_t)self->n);
+    put_u64(b + 24, self->emitted);
+    for (size_t i = 0; i < self->n; i++) {
+        const photon_t *ph = &self->ph[i];
+        uint8_t *r = b + WIRE_HEADER + i * WIRE_RECORD;
+        for (int k = 0; k < 3; k++)
+            put_f32(r + 4 * k, ph->p[k]);
+        put_f32(r + 12, ph->power);
+        put_u16(r + 16, (uint16_t)(ph->bucket & BUCKET_MASK));
+        put_u16(r + 18, ph->lambda);
+        put_u16(r + 20, ph->dir);
+        put_u16(r + 22, ph->normal);
+    }
+    *out = b;
+    *out_len = len;
+    return 0;
+}
+
+photon_map_t *photon_map_decode(spectral_grid_t grid, const uint8_t *data, size_t len,
+                                err_t *err)
+{
+    if (len < WIRE_HEADER) {
+        err_set(err, "photon map data: %zu bytes, shorter than its %d-byte header", len, WIRE_HEADER);
+        return NULL;
+    }
+    if (get_u32(data) != WIRE_MAGIC) {
+        err_set(err, "photon map data: bad magic (not a prismfarm photon map)");
+        return NULL;
+    }
+    if (get_u32(data + 4) != WIRE_VERSION) {
+        err_set(err, "photon map data: format version %u, expected %u", get_u32(data + 4), WIRE_VERSION);
+        return NULL;
+    }
+    if (get_u32(data + 8) != (uint32_t)grid.n || get_u32(data + 12) != 0) {
+        err_set(err, "photon map data: %u buckets, the job's film has %d", get_u32(data + 8), grid.n);
+        return NULL;
+    }
+    uint64_t n = get_u64(data + 16);
+    if (n > (len - WIRE_HEADER) / WIRE_RECORD || (len - WIRE_HEADER) != n * WIRE_RECORD) {
+        err_set(err, "photon map data: %zu bytes do not hold the %llu photons the header names",
+                len, (unsigned long long)n);
+        return NULL;
+    }
+    photon_map_t *self = photon_map_new(grid, err);
+    if (!self)
+        return NULL;
+    if (reserve(self, (size_t)n, err)) {
+        photon_map_destroy(&self);
+        return NULL;
+    }
+    for (uint64_t i = 0; i < n; i++) {
+        const uint8_t *r = data + WIRE_HEADER + i * WIRE_RECORD;
+        photon_t *ph = &self->ph[i];
+        for (int k = 0; k < 3; k++)
+            ph->p[k] = get_f32(r + 4 * k);
+        ph->power = get_f32(r + 12);
+        ph->bucket = get_u16(r + 16);
+        ph->lambda = get_u16(r + 18);
+        ph->dir = get_u16(r + 20);
+        ph->normal = get_u16(r + 22);
+        /* The map is trusted by the renderer afterwards: no NaN, Inf, negative power or bucket
+         * outside the film may come in from the network. */
+        if (!isfinite(ph->p[0]) || !isfinite(ph->p[1]) || !isfinite(ph->p[2]) ||
+            !(ph->power >= 0.0f && ph->power <= FLT_MAX) || ph->bucket >= (unsigned)grid.n) {
+            err_set(err, "photon map data: photon %llu is invalid (position, power or bucket)",
+                    (unsigned long long)i);
+            photon_map_destroy(&self);
+            return NULL;
+        }
+    }
+    self->n = (size_t)n;
+    self->emitted = get_u64(data + 24);
+    return self;
+}

@@ -48,6 +48,15 @@ uint64_t photon_map_emitted(const photon_map_t *self);
  * emitted count. Both unbuilt, on the same grid. */
 int photon_map_append(photon_map_t *dst, const photon_map_t *src, err_t *err);
 
+/* The compact wire form of an unbuilt map (a batch's partial store, or the merged store the
+ * master sends to workers): 24 bytes per photon plus a 32-byte header holding the emitted
+ * count, little endian whatever the host. *out is malloc'ed. */
+int photon_map_encode(const photon_map_t *self, uint8_t **out, size_t *out_len, err_t *err);
+/* Decodes untrusted bytes for a film of the given grid into an unbuilt map: every length,
+ * count, position, power and bucket is checked, and anything wrong is an error naming it. */
+photon_map_t *photon_map_decode(spectral_grid_t grid, const uint8_t *data, size_t len,
+                                err_t *err);
+
 /* Balances the kd-tree (median splits on the widest axis; O(n log n)). The map is read-only
  * afterwards and safe to query from many threads. The result depends only on the deposits
  * and their order. */

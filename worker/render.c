@@ -38,8 +38,8 @@ typedef struct path {
     vec3_t prev_p;    /* where the last bounce happened */
     int mono;         /* every lane refracts alike: one physical wavelength */
     int dispersed;    /* the path has had its first dispersive refraction */
-    /* The photon integrator's split: diffuse bounces so far, and whether a specular one
-     * followed the last. */
+    /* The photon integrator's split: diffuse bounces so far, and specular ones since the
+     * last (or since the camera). */
     int diffuse_bounces;
     int specular_since_diffuse;
     /* The lanes come last so that a new path clears only the fields above. */
@@ -59,9 +59,8 @@ typedef struct ctx {
     path_t *stack;
     int top;
     /* The photon integrator's caustic store, or NULL. */
-    const photon_map_t *photons;
-    double gather_radius;
-    int gather_k;
+    const photon_store_t *photons;
+    int mindepth;       /* the store holds L S^k D paths with k >= mindepth */
     double *irradiance; /* grid.n buckets, for one estimate */
 } ctx_t;
 
@@ -172,17 +171,17 @@ static void direct_light(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t 
 }
 
 /* The caustic store's share at a diffuse point with geometric normal g facing the viewer:
- * Lambertian radiance (rho / pi) E_b from the photons' irradiance estimate (photon_map.h),
+ * Lambertian radiance (rho / pi) E_b from the store's irradiance (photon_store.h),
  * for each lane the bucket its light goes to. Added at the path's first diffuse vertex (seen
  * from the camera directly or through specular surfaces), where the store replaces exactly
  * the paths that leave that vertex through specular surfaces to a light (trace does not
  * count them). Later diffuse vertices are path traced as without photons: the store's
  * light reflected diffusely again would be found there only by hitting a small, bright
  * caustic by chance, which is the firefly the photons are meant to remove. */
-static void caustic_light(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t g,
-                          const double *albedo)
+static void caustic_light(ctx_t *c, const path_t *p, const hit_t *h, const surface_t *sf,
+                          vec3_t g, const double *albedo)
 {
-    if (!photon_map_irradiance(c->photons, sf->p, g, c->gather_radius, c->gather_k, c->irradiance))
+    if (!photon_store_irradiance(c->photons, h, sf->p, g, c->irradiance))
         return;
     for (int j = 0; j < p->n; j++) {
         int b = p->bucket[j] >= 0 ? p->bucket[j] : spectral_grid_index(c->rs->grid, p->lambda[j]);
@@ -429,10 +428,11 @@ static void trace(ctx_t *c, path_t *start)
             surface_t sf;
             scene_surface(s, &h, &sf);
             /* With a caustic store, light that left an area light and reached the path's
-             * first diffuse vertex through specular surfaces only (L S+ D S* E) comes from
-             * the photons: the path that finds it the other way is not counted again. */
+             * first diffuse vertex through mindepth or more specular surfaces only
+             * (L S+ D S* E) comes from the photons: the path that finds it the other way is
+             * not counted again. */
             if (sf.light >= 0 && s->lights[sf.light].kind == LIGHT_AREA &&
-                !(c->photons && p->diffuse_bounces == 1 && p->specular_since_diffuse))
+                !(c->photons && p->diffuse_bounces == 1 && p->specular_since_diffuse >= c->mindepth))
                 add_emission_hit(c, p, &sf, &s->lights[sf.light], sf.light);
             const material_t *m = sf.material;
             if (m->kind == MATERIAL_INTERFACE) {
@@ -458,7 +458,7 @@ static void trace(ctx_t *c, path_t *start)
                 if (c->rs->integrator != INTEGRATOR_SIMPLEPATH)
                     direct_light(c, p, &sf, n, g, albedo);
                 if (c->photons && p->diffuse_bounces == 0)
-                    caustic_light(c, p, &sf, g, albedo);
+                    caustic_light(c, p, &h, &sf, g, albedo);
                 if (c->rs->integrator == INTEGRATOR_WHITTED)
                     break;
                 vec3_t local = sample_cosine_hemisphere(next(c), next(c));
@@ -478,10 +478,10 @@ static void trace(ctx_t *c, path_t *start)
                 for (int j = 0; j < p->n; j++)
                     p->beta[j] *= specular_conductor_reflectance(m, &sf, cos_i, p->lambda[j]);
                 start_bounce(p, &sf, fresnel_reflect(p->dir, n), 1, 0.0);
-                p->specular_since_diffuse = 1;
+                p->specular_since_diffuse++;
             } else {
-                /* Set before the event, so that the branches it pushes carry it too. */
-                p->specular_since_diffuse = 1;
+                /* Counted before the event, so that the branches it pushes carry it too. */
+                p->specular_since_diffuse++;
                 if (scatter_dielectric(c, p, &sf, m))
                     break;
             }
@@ -555,8 +555,7 @@ int render_tile(const scene_t *scene, int x0, int y0, int w, int h, uint32_t sam
             return -1;
         }
         c.irradiance = irradiance;
-        c.gather_radius = photon_gather_radius(scene);
-        c.gather_k = rs->photon.k;
+        c.mindepth = rs->photon.mindepth;
     }
     const uint32_t spp = (uint32_t)rs->spp;
     const uint32_t side = (uint32_t)lround(sqrt((double)spp));

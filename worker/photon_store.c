@@ -1,0 +1,159 @@
+#include "photon_store.h"
+
+#include "photon.h"
+
+#include <stdlib.h>
+
+struct photon_store {
+    const scene_t *scene;
+    photon_store_kind_t kind;
+    photon_map_t *map;
+    int finished;
+};
+
+static photon_store_t *store_alloc(const scene_t *scene, err_t *err)
+{
+    photon_store_t *self = calloc(1, sizeof *self);
+    if (!self) {
+        err_set(err, "out of memory");
+        return NULL;
+    }
+    self->scene = scene;
+    self->kind = scene->settings.photon.store;
+    return self;
+}
+
+photon_store_t *photon_store_new(const scene_t *scene, err_t *err)
+{
+    photon_store_t *self = store_alloc(scene, err);
+    if (!self)
+        return NULL;
+    switch (self->kind) {
+    case PHOTON_STORE_PHOTONMAP:
+        self->map = photon_map_new(scene->settings.grid, err);
+        break;
+    default:
+        err_set(err, "photon store kind %d is not available", (int)self->kind);
+        break;
+    }
+    if (!self->map) {
+        free(self);
+        return NULL;
+    }
+    return self;
+}
+
+void photon_store_destroy(photon_store_t **self_p)
+{
+    if (!self_p || !*self_p)
+        return;
+    photon_map_destroy(&(*self_p)->map);
+    free(*self_p);
+    *self_p = NULL;
+}
+
+photon_store_kind_t photon_store_kind(const photon_store_t *self)
+{
+    return self->kind;
+}
+
+int photon_store_deposit(photon_store_t *self, const hit_t *h, vec3_t p, vec3_t dir, vec3_t n,
+                         double lambda, double power, err_t *err)
+{
+    (void)h;
+    if (self->finished)
+        return err_set(err, "photon store: deposit after it was finished");
+    return photon_map_deposit(self->map, p, dir, n, lambda, power, err);
+}
+
+void photon_store_add_emitted(photon_store_t *self, uint64_t n)
+{
+    photon_map_add_emitted(self->map, n);
+}
+
+uint64_t photon_store_emitted(const photon_store_t *self)
+{
+    return photon_map_emitted(self->map);
+}
+
+int photon_store_merge(photon_store_t *dst, const photon_store_t *src, err_t *err)
+{
+    if (dst->kind != src->kind)
+        return err_set(err, "photon store: cannot merge a %s into a %s",
+                       src->kind == PHOTON_STORE_LIGHTMAP ? "light map" : "photon map",
+                       dst->kind == PHOTON_STORE_LIGHTMAP ? "light map" : "photon map");
+    if (dst->finished || src->finished)
+        return err_set(err, "photon store: only unfinished stores merge");
+    return photon_map_append(dst->map, src->map, err);
+}
+
+int photon_store_finish(photon_store_t *self, err_t *err)
+{
+    if (self->finished)
+        return 0;
+    if (photon_map_build(self->map, err))
+        return -1;
+    self->finished = 1;
+    return 0;
+}
+
+int photon_store_finished(const photon_store_t *self)
+{
+    return self->finished;
+}
+
+int photon_store_encode(const photon_store_t *self, uint8_t **out, size_t *out_len, err_t *err)
+{
+    if (self->finished)
+        return err_set(err, "photon store: only an unfinished store can be encoded");
+    return photon_map_encode(self->map, out, out_len, err);
+}
+
+photon_store_t *photon_store_decode(const scene_t *scene, const uint8_t *data, size_t len,
+                                    err_t *err)
+{
+    photon_store_t *self = store_alloc(scene, err);
+    if (!self)
+        return NULL;
+    switch (self->kind) {
+    case PHOTON_STORE_PHOTONMAP:
+        self->map = photon_map_decode(scene->settings.grid, data, len, err);
+        break;
+    default:
+        err_set(err, "photon store kind %d is not available", (int)self->kind);
+        break;
+    }
+    if (!self->map) {
+        free(self);
+        return NULL;
+    }
+    return self;
+}
+
+int photon_store_irradiance(const photon_store_t *self, const hit_t *h, vec3_t p, vec3_t n,
+                            double *E)
+{
+    (void)h;
+    return photon_map_irradiance(self->map, p, n, photon_gather_radius(self->scene),
+                                 self->scene->settings.photon.k, E) > 0;
+}
+
+double photon_store_power_sum(const photon_store_t *self)
+{
+    return photon_map_power_sum(self->map);
+}
+
+size_t photon_store_count(const photon_store_t *self)
+{
+    return photon_map_count(self->map);
+}
+
+size_t photon_store_memory_bytes(const photon_store_t *self)
+{
+    return sizeof *self + photon_map_memory_bytes(self->map);
+}
+
+const photon_map_t *photon_store_map(const photon_store_t *self)
+{
+    return self->map;
+}

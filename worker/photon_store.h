@@ -1,0 +1,71 @@
+/* photon_store: the caustic store of the photon integrator, whichever kind the job chose
+ * (Integrator "photon" "string store"): a photon map (photon_map.h, density estimation over
+ * a kd-tree) or light maps (lightmap.h, per-surface texel grids). The photon tracer deposits
+ * into it, batches merge into it in batch order, the master ships it to workers in its wire
+ * form, and the camera pass asks it for irradiance at a diffuse hit. Power is raw throughout;
+ * both kinds divide by the photons emitted only when asked for irradiance, so merged batches,
+ * a re-run batch or a later refinement all come out normalised by what was actually emitted
+ * (PHYSICS.md, "Light maps and caustics"). */
+#ifndef PRISMFARM_PHOTON_STORE_H
+#define PRISMFARM_PHOTON_STORE_H
+
+#include "err.h"
+#include "geometry.h"
+#include "photon_map.h"
+#include "scene.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef struct photon_store photon_store_t;
+
+/* An empty store of the kind scene->settings.photon.store names, for the scene's film grid.
+ * The scene must outlive the store. */
+photon_store_t *photon_store_new(const scene_t *scene, err_t *err);
+void photon_store_destroy(photon_store_t **self_p);
+
+photon_store_kind_t photon_store_kind(const photon_store_t *self);
+
+/* A photon of raw spectral power `power` (W/nm) at wavelength lambda landed at hit h (point p,
+ * travelling along dir, arriving on the side of unit normal n). Wavelengths outside the film
+ * are ignored; a non-finite or negative power is an error. Not after photon_store_finish. */
+int photon_store_deposit(photon_store_t *self, const hit_t *h, vec3_t p, vec3_t dir, vec3_t n,
+                         double lambda, double power, err_t *err);
+
+void photon_store_add_emitted(photon_store_t *self, uint64_t n);
+/* Photons emitted into the store: the N of every estimate's 1/N. */
+uint64_t photon_store_emitted(const photon_store_t *self);
+
+/* Merges src into dst (same scene and kind, neither finished): dst's deposits then src's, and
+ * the emitted counts added. Merging batches in index order gives the store one pass over all
+ * of them would have given. */
+int photon_store_merge(photon_store_t *dst, const photon_store_t *src, err_t *err);
+
+/* Makes the store ready for queries (balances a photon map's kd-tree); read-only and safe for
+ * concurrent readers afterwards. */
+int photon_store_finish(photon_store_t *self, err_t *err);
+int photon_store_finished(const photon_store_t *self);
+
+/* The wire form of an unfinished store (malloc'ed into *out), and its strict decoder for
+ * untrusted bytes: the kind must be the scene's, every count and value is checked. */
+int photon_store_encode(const photon_store_t *self, uint8_t **out, size_t *out_len, err_t *err);
+photon_store_t *photon_store_decode(const scene_t *scene, const uint8_t *data, size_t len,
+                                    err_t *err);
+
+/* Spectral irradiance per film bucket at a diffuse hit seen from the side of unit normal n
+ * (E[0 .. grid.n - 1], W m^-2 nm^-1 averaged over each bucket): the photon map's density
+ * estimate with the scene's gather radius and k, or the light map's texel. Returns 1 when
+ * any power was found, else 0 with E zeroed. Only on a finished store. */
+int photon_store_irradiance(const photon_store_t *self, const hit_t *h, vec3_t p, vec3_t n,
+                            double *E);
+
+/* Sum of the raw power held (as photon_map_power_sum). */
+double photon_store_power_sum(const photon_store_t *self);
+/* Photons held (photon map) or texels with power (light map). */
+size_t photon_store_count(const photon_store_t *self);
+size_t photon_store_memory_bytes(const photon_store_t *self);
+
+/* The photon map inside a store of that kind, else NULL (tests and statistics). */
+const photon_map_t *photon_store_map(const photon_store_t *self);
+
+#endif
