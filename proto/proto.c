@@ -1,6 +1,7 @@
 #include "proto.h"
 
 #include "bundle.h"
+#include "sha256.h"
 
 #include <inttypes.h>
 #include <limits.h>
@@ -35,9 +36,12 @@ static const char *const TYPE_NAMES[PROTO_TYPE_COUNT] = {
     [PROTO_WORKERS_REPLY] = "WORKERS_REPLY",
     [PROTO_FILE] = "FILE",
     [PROTO_ERROR] = "ERROR",
+    [PROTO_STORE_REQUEST] = "STORE_REQUEST",
+    [PROTO_STORE] = "STORE",
 };
 static const char *const KIND_NAMES[PROTO_KIND_COUNT] = {
-    [PROTO_KIND_NONE] = "none", [PROTO_KIND_CAMERA_TILE] = "camera_tile"};
+    [PROTO_KIND_NONE] = "none", [PROTO_KIND_CAMERA_TILE] = "camera_tile",
+    [PROTO_KIND_PHOTON_BATCH] = "photon_batch"};
 static const char *const JOB_STATE_NAMES[PROTO_JOB_STATE_COUNT] = {"queued", "running", "done",
                                                                    "failed", "cancelled"};
 static const char *const WORKER_STATE_NAMES[PROTO_WORKER_STATE_COUNT] = {"idle", "busy", "lost"};
@@ -236,6 +240,15 @@ static int ck_settings(const cx_t *cx, const proto_settings_t *s)
 }
 
 /* Bounds that keep every size derived from a tile (w*h*nbuckets*8 bytes) far from overflow. */
+/* A photon range: non-empty, and below 2^62 photons so that counts times lanes fit. */
+static int ck_photons(const cx_t *cx, const char *field, const proto_photon_batch_t *b)
+{
+    if (!(b->end > b->first) || b->end > ((uint64_t)1 << 62))
+        return cx_fail(cx, field, "[%" PRIu64 ", %" PRIu64 ") is not a photon range", b->first,
+                       b->end);
+    return 0;
+}
+
 static int ck_tile(const cx_t *cx, const proto_tile_t *t)
 {
     if (ck_range(cx, "tile.x0", t->x0, 0, PROTO_MAX_IMAGE_SIDE - 1) ||
@@ -302,9 +315,10 @@ static int msg_check(const proto_msg_t *m, const proto_limits_t *lim, cx_t *cx)
                        ck_name(cx, "sw", m->hello.software, PROTO_MAX_STRING)
                    ? PROTO_EMALFORMED
                    : 0;
+    case PROTO_STATUS:
+        return m->status.all ? 0 : ck_range(cx, "wait", m->status.wait_ms, 0, PROTO_MAX_WAIT_MS);
     case PROTO_HEARTBEAT:
     case PROTO_CANCEL:
-    case PROTO_STATUS:
     case PROTO_JOBS:
     case PROTO_WORKERS:
     case PROTO_SUBMITTED:
@@ -314,18 +328,34 @@ static int msg_check(const proto_msg_t *m, const proto_limits_t *lim, cx_t *cx)
     case PROTO_TASK:
         if (ck_hash(cx, "scene", m->task.scene) || ck_settings(cx, &m->task.settings))
             return PROTO_EMALFORMED;
+        if (m->task.kind == PROTO_KIND_PHOTON_BATCH)
+            return ck_photons(cx, "photons", &m->task.photons);
         if (m->task.kind != PROTO_KIND_CAMERA_TILE)
             return cx_fail(cx, "kind", "is %d, not a task kind of version %d", (int)m->task.kind,
                            PROTO_VERSION);
+        if (m->task.store[0] && ck_hash(cx, "store", m->task.store))
+            return PROTO_EMALFORMED;
         return ck_tile(cx, &m->task.tile);
     case PROTO_RESULT:
+        if (ck_seconds(cx, "stats.secs", m->result.stats.elapsed))
+            return PROTO_EMALFORMED;
+        if (m->result.kind == PROTO_KIND_PHOTON_BATCH) {
+            const proto_photon_result_t *r = &m->result.photons;
+            if (ck_photons(cx, "photons", &r->range))
+                return PROTO_EMALFORMED;
+            if (r->size > 0 && !r->data)
+                return cx_fail(cx, "photons.data", "is missing");
+            /* At most 64 lanes a photon (worker/photon.h); more would scale the store down. */
+            if (r->emitted < r->range.end - r->range.first ||
+                (r->emitted - (r->range.end - r->range.first)) / 63 > r->range.end - r->range.first)
+                return cx_fail(cx, "photons.emitted", "is %" PRIu64 " for %" PRIu64 " photons",
+                               r->emitted, r->range.end - r->range.first);
+            return 0;
+        }
         if (m->result.kind != PROTO_KIND_CAMERA_TILE)
             return cx_fail(cx, "kind", "is %d, not a task kind of version %d", (int)m->result.kind,
                            PROTO_VERSION);
-        return ck_tile_result(cx, &m->result.tile) ||
-                       ck_seconds(cx, "stats.secs", m->result.stats.elapsed)
-                   ? PROTO_EMALFORMED
-                   : 0;
+        return ck_tile_result(cx, &m->result.tile);
     case PROTO_TASK_FAILED:
         return ck_text(cx, "error", m->task_failed.error);
     case PROTO_SCENE_REQUEST:
@@ -390,6 +420,21 @@ static int msg_check(const proto_msg_t *m, const proto_limits_t *lim, cx_t *cx)
         return 0;
     case PROTO_ERROR:
         return ck_text(cx, "msg", m->error.message);
+    case PROTO_STORE_REQUEST:
+        return ck_hash(cx, "store", m->store_request.store);
+    case PROTO_STORE: {
+        if (ck_hash(cx, "store", m->store.store))
+            return PROTO_EMALFORMED;
+        if (m->store.size > 0 && !m->store.data)
+            return cx_fail(cx, "data", "is missing");
+        /* Workers keep stores by this hash, as they keep scenes. */
+        char hex[PROTO_HASH_HEX + 1];
+        sha256_hex_of(m->store.size ? m->store.data : (const uint8_t *)"", m->store.size, hex);
+        if (strcmp(hex, m->store.store) != 0)
+            return cx_fail(cx, "store", "is %.12s..., but the data hash to %.12s...",
+                           m->store.store, hex);
+        return 0;
+    }
     case PROTO_NONE:
     case PROTO_TYPE_COUNT:
         break;
@@ -977,6 +1022,34 @@ static int rd_workers(rd_t *rd, const msgpack_object *o, const proto_worker_info
     return 0;
 }
 
+enum { PH_FIRST, PH_END, PH_EMITTED, PH_DATA, PH_NONFINITE, PH_N };
+static const char *const PHOTON_KEYS[PH_N] = {"first", "end", "emitted", "data", "nonfinite"};
+#define PHOTON_TASK_KEYS 2 /* a task's range has the first two */
+
+/* The "photons" map's range; vals (when not NULL) receives every key's value for the result. */
+static int rd_photon_range(rd_t *rd, const msgpack_object *o, const msgpack_object **vals,
+                           proto_photon_batch_t *b)
+{
+    const msgpack_object *own[PH_N];
+    const msgpack_object **v = vals ? vals : own;
+    if (rd_map(rd, "photons", o, PHOTON_KEYS, vals ? PH_N : PHOTON_TASK_KEYS, v) ||
+        rd_uint(rd, "photons.first", v[PH_FIRST], UINT64_MAX, &b->first) ||
+        rd_uint(rd, "photons.end", v[PH_END], UINT64_MAX, &b->end))
+        return PROTO_EMALFORMED;
+    return ck_photons(&rd->cx, "photons", b);
+}
+
+static int rd_photon_result(rd_t *rd, const msgpack_object *o, proto_photon_result_t *r)
+{
+    const msgpack_object *v[PH_N];
+    if (rd_photon_range(rd, o, v, &r->range) ||
+        rd_uint(rd, "photons.emitted", v[PH_EMITTED], UINT64_MAX, &r->emitted) ||
+        rd_uint(rd, "photons.nonfinite", v[PH_NONFINITE], UINT64_MAX, &r->nonfinite) ||
+        rd_bytes(rd, "photons.data", v[PH_DATA], &r->data, &r->size))
+        return PROTO_EMALFORMED;
+    return 0;
+}
+
 /* Every key any message body uses; each reader picks its own by index. */
 enum {
     K_NAME,
@@ -1000,12 +1073,15 @@ enum {
     K_WORKERS,
     K_DATA,
     K_MSG,
+    K_WAIT,
+    K_STORE,
+    K_PHOTONS,
     K_N
 };
 static const char *const BODY_KEYS[K_N] = {"name",    "threads", "sw",     "wid",    "hb",   "job",
                                            "task",    "att",     "scene",  "set",    "kind", "tile",
                                            "stats",   "error",   "bundle", "reason", "what", "jobs",
-                                           "workers", "data",    "msg"};
+                                           "workers", "data",    "msg",    "wait",   "store", "photons"};
 
 static int rd_kind(rd_t *rd, const msgpack_object *o, proto_kind_t *kind)
 {
@@ -1045,21 +1121,26 @@ static int rd_body(rd_t *rd, const msgpack_object *root)
             rd_uint(rd, "task", v[K_TASK], UINT64_MAX, &m->task.task) ||
             rd_u32(rd, "att", v[K_ATT], &m->task.attempt) ||
             rd_hash(rd, "scene", v[K_SCENE], m->task.scene) ||
-            rd_settings(rd, v[K_SET], &m->task.settings) || rd_kind(rd, v[K_KIND], &m->task.kind) ||
-            rd_map(rd, "tile", v[K_TILE], TILE_KEYS, TILE_TASK_KEYS, t) ||
+            rd_settings(rd, v[K_SET], &m->task.settings) || rd_kind(rd, v[K_KIND], &m->task.kind))
+            return PROTO_EMALFORMED;
+        if (m->task.kind == PROTO_KIND_PHOTON_BATCH)
+            return rd_photon_range(rd, v[K_PHOTONS], NULL, &m->task.photons);
+        if (v[K_STORE] && rd_hash(rd, "store", v[K_STORE], m->task.store))
+            return PROTO_EMALFORMED;
+        if (rd_map(rd, "tile", v[K_TILE], TILE_KEYS, TILE_TASK_KEYS, t) ||
             rd_tile_rect(rd, t, &m->task.tile))
             return PROTO_EMALFORMED;
         return 0;
     }
     case PROTO_RESULT:
-        return rd_uint(rd, "job", v[K_JOB], UINT64_MAX, &m->result.job) ||
-                       rd_uint(rd, "task", v[K_TASK], UINT64_MAX, &m->result.task) ||
-                       rd_u32(rd, "att", v[K_ATT], &m->result.attempt) ||
-                       rd_kind(rd, v[K_KIND], &m->result.kind) ||
-                       rd_tile_result(rd, v[K_TILE], &m->result.tile) ||
-                       rd_stats(rd, v[K_STATS], &m->result.stats)
-                   ? PROTO_EMALFORMED
-                   : 0;
+        if (rd_uint(rd, "job", v[K_JOB], UINT64_MAX, &m->result.job) ||
+            rd_uint(rd, "task", v[K_TASK], UINT64_MAX, &m->result.task) ||
+            rd_u32(rd, "att", v[K_ATT], &m->result.attempt) ||
+            rd_kind(rd, v[K_KIND], &m->result.kind) || rd_stats(rd, v[K_STATS], &m->result.stats))
+            return PROTO_EMALFORMED;
+        if (m->result.kind == PROTO_KIND_PHOTON_BATCH)
+            return rd_photon_result(rd, v[K_PHOTONS], &m->result.photons);
+        return rd_tile_result(rd, v[K_TILE], &m->result.tile);
     case PROTO_TASK_FAILED:
         return rd_uint(rd, "job", v[K_JOB], UINT64_MAX, &m->task_failed.job) ||
                        rd_uint(rd, "task", v[K_TASK], UINT64_MAX, &m->task_failed.task) ||
@@ -1086,7 +1167,12 @@ static int rd_body(rd_t *rd, const msgpack_object *root)
                    : 0;
     case PROTO_STATUS:
         m->status.all = v[K_JOB] == NULL;
-        return v[K_JOB] ? rd_uint(rd, "job", v[K_JOB], UINT64_MAX, &m->status.job) : 0;
+        if (v[K_JOB] && rd_uint(rd, "job", v[K_JOB], UINT64_MAX, &m->status.job))
+            return PROTO_EMALFORMED;
+        /* wait: optional, and meaningful for one job only (docs/protocol.md). */
+        return v[K_WAIT] && !m->status.all
+                   ? rd_u32(rd, "wait", v[K_WAIT], &m->status.wait_ms)
+                   : 0;
     case PROTO_FETCH:
         if (rd_uint(rd, "job", v[K_JOB], UINT64_MAX, &m->fetch.job) ||
             rd_enum(rd, "what", v[K_WHAT], FETCH_NAMES, PROTO_FETCH_COUNT, 0, &what))
@@ -1107,6 +1193,13 @@ static int rd_body(rd_t *rd, const msgpack_object *root)
                    : 0;
     case PROTO_ERROR:
         return rd_str(rd, "msg", v[K_MSG], &m->error.message);
+    case PROTO_STORE_REQUEST:
+        return rd_hash(rd, "store", v[K_STORE], m->store_request.store);
+    case PROTO_STORE:
+        return rd_hash(rd, "store", v[K_STORE], m->store.store) ||
+                       rd_bytes(rd, "data", v[K_DATA], &m->store.data, &m->store.size)
+                   ? PROTO_EMALFORMED
+                   : 0;
     case PROTO_NONE:
     case PROTO_TYPE_COUNT:
         break;
@@ -1324,9 +1417,14 @@ static size_t body_fields(const proto_msg_t *m)
     case PROTO_WELCOME:
         return 2;
     case PROTO_TASK:
-        return 7;
+        /* camera tiles: the tile, and the store when the job has one; batches: the range */
+        return 7 + (m->task.kind == PROTO_KIND_CAMERA_TILE && m->task.store[0]);
     case PROTO_RESULT:
         return 6;
+    case PROTO_STORE:
+        return 2;
+    case PROTO_STORE_REQUEST:
+        return 1;
     case PROTO_TASK_FAILED:
         return 4;
     case PROTO_SCENE:
@@ -1334,7 +1432,7 @@ static size_t body_fields(const proto_msg_t *m)
     case PROTO_SUBMIT:
         return 3;
     case PROTO_STATUS:
-        return m->status.all ? 0 : 1;
+        return m->status.all ? 0 : 1 + (m->status.wait_ms > 0);
     case PROTO_FETCH:
         return 2;
     case PROTO_FILE:
@@ -1372,10 +1470,37 @@ static void e_body(enc_t *e, const proto_msg_t *m)
         e_str(e, "scene", m->task.scene);
         e_settings(e, &m->task.settings);
         e_str(e, "kind", proto_kind_name(m->task.kind));
+        if (m->task.kind == PROTO_KIND_PHOTON_BATCH) {
+            e_map(e, "photons", PHOTON_TASK_KEYS);
+            e_uint(e, "first", m->task.photons.first);
+            e_uint(e, "end", m->task.photons.end);
+            break;
+        }
+        if (m->task.store[0])
+            e_str(e, "store", m->task.store);
         e_map(e, "tile", TILE_TASK_KEYS);
         e_tile_rect(e, &m->task.tile);
         break;
     case PROTO_RESULT: {
+        if (m->result.kind == PROTO_KIND_PHOTON_BATCH) {
+            const proto_photon_result_t *r = &m->result.photons;
+            e_uint(e, "job", m->result.job);
+            e_uint(e, "task", m->result.task);
+            e_uint(e, "att", m->result.attempt);
+            e_str(e, "kind", proto_kind_name(m->result.kind));
+            e_map(e, "photons", PH_N);
+            e_uint(e, "first", r->range.first);
+            e_uint(e, "end", r->range.end);
+            e_uint(e, "emitted", r->emitted);
+            e_bin(e, "data", r->data, r->size);
+            e_uint(e, "nonfinite", r->nonfinite);
+            e_map(e, "stats", ST_N);
+            e_uint(e, "samples", m->result.stats.samples);
+            e_uint(e, "rays", m->result.stats.rays);
+            e_uint(e, "disp", m->result.stats.dispersive);
+            e_float(e, "secs", m->result.stats.elapsed);
+            break;
+        }
         const proto_tile_result_t *r = &m->result.tile;
         size_t npix = (size_t)r->rect.w * (size_t)r->rect.h;
         e_uint(e, "job", m->result.job);
@@ -1424,6 +1549,8 @@ static void e_body(enc_t *e, const proto_msg_t *m)
     case PROTO_STATUS:
         if (!m->status.all)
             e_uint(e, "job", m->status.job);
+        if (!m->status.all && m->status.wait_ms > 0)
+            e_uint(e, "wait", m->status.wait_ms);
         break;
     case PROTO_FETCH:
         e_uint(e, "job", m->fetch.job);
@@ -1468,6 +1595,13 @@ static void e_body(enc_t *e, const proto_msg_t *m)
         break;
     case PROTO_ERROR:
         e_str(e, "msg", m->error.message);
+        break;
+    case PROTO_STORE_REQUEST:
+        e_str(e, "store", m->store_request.store);
+        break;
+    case PROTO_STORE:
+        e_str(e, "store", m->store.store);
+        e_bin(e, "data", m->store.data, m->store.size);
         break;
     default:
         break;

@@ -28,6 +28,7 @@
 #define PROTO_MAX_BUCKETS 1024       /* spectral buckets of a tile */
 #define PROTO_MAX_IMAGE_SIDE 65536   /* image resolution and tile corner coordinates */
 #define PROTO_MAX_THREADS 4096       /* worker threads */
+#define PROTO_MAX_WAIT_MS 60000      /* longest STATUS long-poll (client timeouts are longer) */
 #define PROTO_MAX_PATH_DEPTH 32      /* components of a bundle path */
 #define PROTO_MAX_PATH_COMPONENT 200 /* bytes in one component (leaves room under NAME_MAX) */
 #define PROTO_HASH_HEX 64            /* a scene hash: lower-case hex SHA-256 */
@@ -77,14 +78,18 @@ typedef enum proto_type {
     PROTO_WORKERS_REPLY,
     PROTO_FILE,
     PROTO_ERROR, /* its layout never changes between versions */
+    /* the photon pass's store (after the other types so that their numbers stay) */
+    PROTO_STORE_REQUEST, /* worker -> master: send me this photon store */
+    PROTO_STORE,         /* master -> worker: a job's merged photon store */
     PROTO_TYPE_COUNT
 } proto_type_t;
 
-/* What a task asks for and what its result carries. A job runs in phases of tasks of one kind;
- * the photon batches of the photon issue will add a kind here. */
+/* What a task asks for and what its result carries. A job runs in phases of tasks of one kind:
+ * a photon job's photon batches, then its camera tiles. */
 typedef enum proto_kind {
     PROTO_KIND_NONE = 0,
-    PROTO_KIND_CAMERA_TILE, /* "camera_tile": a pixel rectangle times a range of sample indices */
+    PROTO_KIND_CAMERA_TILE,  /* "camera_tile": a pixel rectangle times a range of sample indices */
+    PROTO_KIND_PHOTON_BATCH, /* "photon_batch": a range of the job's photon indices */
     PROTO_KIND_COUNT
 } proto_kind_t;
 
@@ -150,6 +155,21 @@ typedef struct proto_tile_result {
     uint64_t nonfinite;     /* samples dropped for a NaN or Inf contribution */
 } proto_tile_result_t;
 
+/* A photon batch: photon indices [first, end) of the job's photon pass (worker/photon.h). */
+typedef struct proto_photon_batch {
+    uint64_t first, end;
+} proto_photon_batch_t;
+
+/* A photon batch's result: the partial store in its wire form (worker/photon_store.h: raw
+ * power, nothing normalised), which the master decodes and checks against the job's scene. */
+typedef struct proto_photon_result {
+    proto_photon_batch_t range;
+    uint64_t emitted;    /* monochrome photons emitted: (end - first) x the job's lanes */
+    const uint8_t *data; /* the store's wire form */
+    size_t size;
+    uint64_t nonfinite;  /* photons dropped for a NaN or Inf power */
+} proto_photon_result_t;
+
 typedef struct proto_task_stats {
     uint64_t samples, rays, dispersive;
     double elapsed; /* seconds of wall-clock time, finite, >= 0 */
@@ -199,13 +219,18 @@ typedef struct proto_msg {
             proto_settings_t settings;
             proto_kind_t kind;
             proto_tile_t tile; /* kind CAMERA_TILE */
-        } task;                /* master -> worker */
+            /* kind CAMERA_TILE of a job with a photon pass: the hash of the merged store the
+             * tile must gather from (STORE_REQUEST fetches it); "" for other jobs */
+            char store[PROTO_HASH_HEX + 1];
+            proto_photon_batch_t photons; /* kind PHOTON_BATCH */
+        } task;                           /* master -> worker */
         struct {
             uint64_t job, task;
             uint32_t attempt;
             proto_kind_t kind;
-            proto_tile_result_t tile; /* kind CAMERA_TILE */
-            proto_task_stats_t stats;
+            proto_tile_result_t tile;      /* kind CAMERA_TILE */
+            proto_photon_result_t photons; /* kind PHOTON_BATCH */
+            proto_task_stats_t stats;      /* PHOTON_BATCH: samples are photons traced */
         } result; /* worker -> master */
         struct {
             uint64_t job, task;
@@ -232,8 +257,10 @@ typedef struct proto_msg {
         } submit; /* client -> master */
         struct {
             bool all;
-            uint64_t job; /* when !all */
-        } status;         /* client -> master; answered by STATUS_REPLY */
+            uint64_t job;     /* when !all */
+            uint32_t wait_ms; /* when !all: answer once the job is over or after this long,
+                               * at most PROTO_MAX_WAIT_MS; 0 answers at once */
+        } status;             /* client -> master; answered by STATUS_REPLY */
         struct {
             uint64_t job;
             proto_fetch_what_t what;
@@ -257,6 +284,14 @@ typedef struct proto_msg {
         struct {
             const char *message;
         } error; /* master -> client: a request failed */
+        struct {
+            char store[PROTO_HASH_HEX + 1];
+        } store_request; /* worker -> master */
+        struct {
+            char store[PROTO_HASH_HEX + 1]; /* SHA-256 of data */
+            const uint8_t *data;           /* the store's wire form */
+            size_t size;
+        } store; /* master -> worker */
     };
     struct proto_owned *owned; /* private: what proto_decode allocated */
 } proto_msg_t;

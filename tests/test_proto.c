@@ -18,6 +18,7 @@
 
 #include "bundle.h"
 #include "proto.h"
+#include "sha256.h"
 
 /* ---------------------------------------------------------------- sample messages */
 
@@ -163,6 +164,14 @@ static proto_msg_t sample(proto_type_t t)
     case PROTO_ERROR:
         m.error.message = "job 5 not found";
         break;
+    case PROTO_STORE_REQUEST:
+        memcpy(m.store_request.store, g_hash, sizeof g_hash);
+        break;
+    case PROTO_STORE:
+        m.store.data = g_png;
+        m.store.size = sizeof g_png;
+        sha256_hex_of(g_png, sizeof g_png, m.store.store);
+        break;
     default:
         break;
     }
@@ -238,9 +247,28 @@ static void assert_msg_equal(const proto_msg_t *a, const proto_msg_t *b)
         assert_string_equal(a->task.scene, b->task.scene);
         assert_settings_equal(&a->task.settings, &b->task.settings);
         assert_int_equal(a->task.kind, b->task.kind);
-        assert_tile_equal(&a->task.tile, &b->task.tile);
+        assert_string_equal(a->task.store, b->task.store);
+        if (a->task.kind == PROTO_KIND_PHOTON_BATCH) {
+            assert_int_equal(a->task.photons.first, b->task.photons.first);
+            assert_int_equal(a->task.photons.end, b->task.photons.end);
+        } else {
+            assert_tile_equal(&a->task.tile, &b->task.tile);
+        }
         break;
     case PROTO_RESULT: {
+        if (a->result.kind == PROTO_KIND_PHOTON_BATCH) {
+            const proto_photon_result_t *x = &a->result.photons, *y = &b->result.photons;
+            assert_int_equal(b->result.kind, PROTO_KIND_PHOTON_BATCH);
+            assert_int_equal(a->result.job, b->result.job);
+            assert_int_equal(x->range.first, y->range.first);
+            assert_int_equal(x->range.end, y->range.end);
+            assert_int_equal(x->emitted, y->emitted);
+            assert_int_equal(x->nonfinite, y->nonfinite);
+            assert_int_equal(x->size, y->size);
+            assert_memory_equal(x->data, y->data, x->size);
+            assert_int_equal(a->result.stats.samples, b->result.stats.samples);
+            break;
+        }
         const proto_tile_result_t *x = &a->result.tile, *y = &b->result.tile;
         size_t npix = (size_t)x->rect.w * (size_t)x->rect.h;
         assert_int_equal(a->result.job, b->result.job);
@@ -331,6 +359,14 @@ static void assert_msg_equal(const proto_msg_t *a, const proto_msg_t *b)
         break;
     case PROTO_ERROR:
         assert_string_equal(a->error.message, b->error.message);
+        break;
+    case PROTO_STORE_REQUEST:
+        assert_string_equal(a->store_request.store, b->store_request.store);
+        break;
+    case PROTO_STORE:
+        assert_string_equal(a->store.store, b->store.store);
+        assert_int_equal(a->store.size, b->store.size);
+        assert_memory_equal(a->store.data, b->store.data, a->store.size);
         break;
     default:
         break;
@@ -483,6 +519,60 @@ static void test_round_trip_every_type(void **state)
 }
 
 /* Decoded arrays must not point into the input (which the caller frees) and must be aligned. */
+/* The photon pass's messages: a batch task, its result with a partial store, a camera tile
+ * that names the merged store, and the store itself, which must hash to its name. */
+static void round_trip(const proto_msg_t *m)
+{
+    msgpack_sbuffer sb;
+    encode_ok(m, &sb);
+    proto_msg_t d;
+    err_t err = {""};
+    if (proto_decode(sb.data, sb.size, NULL, &d, &err) != 0)
+        fail_msg("decoding %s: %s", proto_type_name(m->type), err.msg);
+    assert_msg_equal(m, &d);
+    proto_msg_free(&d);
+    msgpack_sbuffer_destroy(&sb);
+}
+
+static void expect_encode_refused(const proto_msg_t *m, const char *needle)
+{
+    msgpack_sbuffer sb;
+    msgpack_sbuffer_init(&sb);
+    err_t err = {""};
+    assert_int_equal(proto_encode(m, NULL, &sb, &err), -1);
+    if (!strstr(err.msg, needle))
+        fail_msg("expected '%s' in '%s'", needle, err.msg);
+    msgpack_sbuffer_destroy(&sb);
+}
+
+static void test_photon_messages(void **state)
+{
+    (void)state;
+    proto_msg_t t = sample(PROTO_TASK);
+    t.task.kind = PROTO_KIND_PHOTON_BATCH;
+    t.task.photons = (proto_photon_batch_t){1000000, 1250000};
+    round_trip(&t);
+    proto_msg_t c = sample(PROTO_TASK);
+    memcpy(c.task.store, g_hash, sizeof g_hash);
+    round_trip(&c);
+    proto_msg_t r = sample(PROTO_RESULT);
+    r.result.kind = PROTO_KIND_PHOTON_BATCH;
+    r.result.photons = (proto_photon_result_t){
+        .range = {0, 4096}, .emitted = 4096 * 16, .data = g_png, .size = sizeof g_png, .nonfinite = 3};
+    round_trip(&r);
+    /* Limits: an empty range, and more than 64 lanes a photon. */
+    t.task.photons = (proto_photon_batch_t){5, 5};
+    expect_encode_refused(&t, "is not a photon range");
+    r.result.photons.emitted = 4096 * 65;
+    expect_encode_refused(&r, "photons.emitted");
+    r.result.photons.emitted = 4095;
+    expect_encode_refused(&r, "photons.emitted");
+    /* A STORE whose data do not hash to its name would poison a worker's cache. */
+    proto_msg_t st = sample(PROTO_STORE);
+    st.store.store[0] = st.store.store[0] == 'a' ? 'b' : 'a';
+    expect_encode_refused(&st, "but the data hash to");
+}
+
 static void test_decoded_message_owns_its_data(void **state)
 {
     (void)state;
@@ -1130,6 +1220,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip_every_type),
         cmocka_unit_test(test_decoded_message_owns_its_data),
+        cmocka_unit_test(test_photon_messages),
         cmocka_unit_test(test_status_all_and_optional_fields),
         cmocka_unit_test(test_settings_mirror_overrides),
         cmocka_unit_test(test_version_refusal),
