@@ -35,11 +35,6 @@ photon_job_t photon_job_from_settings(const render_settings_t *rs)
                           .policy = PHOTON_STORE_CAUSTIC};
 }
 
-double photon_gather_radius(const scene_t *scene)
-{
-    double r = scene->settings.photon.radius;
-    return r > 0.0 ? r : 0.01 * scene->scene_radius;
-}
 
 typedef struct tracer {
     const scene_t *scene;

@@ -96,8 +96,5 @@ const photon_store_t *photon_pass_get(const scene_t *scene, photon_stats_t *stat
  * nulls it on success. */
 int photon_pass_install(const scene_t *scene, photon_store_t **store, err_t *err);
 
-/* The gather radius: settings.photon.radius, or when that is 0 a hundredth of the radius of
- * the scene's bounding sphere. */
-double photon_gather_radius(const scene_t *scene);
 
 #endif

@@ -1,7 +1,5 @@
 #include "photon_store.h"
 
-#include "photon.h"
-
 #include <stdlib.h>
 
 struct photon_store {
@@ -21,6 +19,12 @@ static photon_store_t *store_alloc(const scene_t *scene, err_t *err)
     self->scene = scene;
     self->kind = scene->settings.photon.store;
     return self;
+}
+
+double photon_gather_radius(const scene_t *scene)
+{
+    double r = scene->settings.photon.radius;
+    return r > 0.0 ? r : 0.01 * scene->scene_radius;
 }
 
 photon_store_t *photon_store_new(const scene_t *scene, err_t *err)

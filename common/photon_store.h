@@ -65,6 +65,10 @@ double photon_store_power_sum(const photon_store_t *self);
 size_t photon_store_count(const photon_store_t *self);
 size_t photon_store_memory_bytes(const photon_store_t *self);
 
+/* The photon map's gather radius: settings.photon.radius, or when that is 0 a hundredth of
+ * the radius of the scene's bounding sphere. */
+double photon_gather_radius(const scene_t *scene);
+
 /* The photon map inside a store of that kind, else NULL (tests and statistics). */
 const photon_map_t *photon_store_map(const photon_store_t *self);
 
