@@ -87,5 +87,17 @@ void rng_uniform4(uint64_t seed, uint64_t index, uint32_t sample, uint32_t dim, 
 
 double rng_stream_next(rng_stream_t *s)
 {
-    return rng_uniform(s->seed, s->index, s->sample, s->next_dim++);
+    uint32_t dim = s->next_dim++;
+    if (dim & 1u) {
+        if (s->has_spare) {
+            s->has_spare = 0;
+            return s->spare;
+        }
+        return rng_uniform(s->seed, s->index, s->sample, dim);
+    }
+    uint32_t w[4];
+    rng_block(s->seed, s->index, s->sample, dim >> 1, w);
+    s->spare = rng_to_unit(w[2], w[3]);
+    s->has_spare = 1;
+    return rng_to_unit(w[0], w[1]);
 }

@@ -21,17 +21,21 @@ double rng_uniform(uint64_t seed, uint64_t index, uint32_t sample, uint32_t dim)
 void rng_uniform4(uint64_t seed, uint64_t index, uint32_t sample, uint32_t dim, double out[4]);
 
 /* A value-type cursor for code that just wants "the next number" of one sample; copying it
- * copies the position. next_dim wraps after 2^32 draws (no path uses that many). */
+ * copies the position. next_dim wraps after 2^32 draws (no path uses that many). One cipher
+ * call yields dimensions 2k and 2k + 1; the stream keeps the second for the next draw, so a
+ * stream costs half a cipher call per number and gives exactly rng_uniform's values. */
 typedef struct rng_stream {
     uint64_t seed;
     uint64_t index;
     uint32_t sample;
     uint32_t next_dim;
+    double spare; /* rng_uniform(..., next_dim) when next_dim is odd and has_spare */
+    int has_spare;
 } rng_stream_t;
 
 static inline rng_stream_t rng_stream_make(uint64_t seed, uint64_t index, uint32_t sample)
 {
-    return (rng_stream_t){seed, index, sample, 0};
+    return (rng_stream_t){seed, index, sample, 0, 0.0, 0};
 }
 
 /* Returns rng_uniform(s->seed, s->index, s->sample, s->next_dim) and advances next_dim. */
