@@ -758,3 +758,31 @@ int photon_pass_install(const scene_t *scene, photon_store_t **store, err_t *err
     *store = NULL;
     return 0;
 }
+
+int photon_batch_run(const scene_t *scene, uint64_t first, uint64_t end, uint8_t **out,
+                     size_t *out_len, photon_stats_t *stats, err_t *err)
+{
+    *out = NULL;
+    *out_len = 0;
+    photon_store_t *store = photon_store_new(scene, err);
+    if (!store)
+        return -1;
+    photon_job_t job = photon_job_from_settings(&scene->settings);
+    int r = photon_trace(scene, &job, first, end, store, stats, err);
+    if (!r)
+        r = photon_store_encode(store, out, out_len, err);
+    photon_store_destroy(&store);
+    return r;
+}
+
+int photon_pass_install_bytes(const scene_t *scene, const uint8_t *data, size_t len, err_t *err)
+{
+    photon_store_t *store = photon_store_decode(scene, data, len, err);
+    if (!store)
+        return err_prefix(err, "photon store: ");
+    int r = photon_store_finish(store, err);
+    if (!r)
+        r = photon_pass_install(scene, &store, err);
+    photon_store_destroy(&store);
+    return r;
+}

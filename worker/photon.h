@@ -97,4 +97,14 @@ const photon_store_t *photon_pass_get(const scene_t *scene, photon_stats_t *stat
 int photon_pass_install(const scene_t *scene, photon_store_t **store, err_t *err);
 
 
+/* A farm worker's photon batch: photons [first, end) of the scene's photon pass traced into a
+ * fresh store (the scene's kind) and encoded in its wire form (*out malloc'ed), raw and
+ * unnormalised, for the master to merge. Adds to *stats (may be NULL). */
+int photon_batch_run(const scene_t *scene, uint64_t first, uint64_t end, uint8_t **out,
+                     size_t *out_len, photon_stats_t *stats, err_t *err);
+
+/* The master's merged store, from its wire form, decoded (strictly), finished and installed
+ * for the scene's camera pass (photon_pass_install). */
+int photon_pass_install_bytes(const scene_t *scene, const uint8_t *data, size_t len, err_t *err);
+
 #endif
