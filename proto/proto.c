@@ -38,6 +38,7 @@ static const char *const TYPE_NAMES[PROTO_TYPE_COUNT] = {
     [PROTO_ERROR] = "ERROR",
     [PROTO_STORE_REQUEST] = "STORE_REQUEST",
     [PROTO_STORE] = "STORE",
+    [PROTO_REFINE] = "REFINE",
 };
 static const char *const KIND_NAMES[PROTO_KIND_COUNT] = {
     [PROTO_KIND_NONE] = "none", [PROTO_KIND_CAMERA_TILE] = "camera_tile",
@@ -422,6 +423,10 @@ static int msg_check(const proto_msg_t *m, const proto_limits_t *lim, cx_t *cx)
         return ck_text(cx, "msg", m->error.message);
     case PROTO_STORE_REQUEST:
         return ck_hash(cx, "store", m->store_request.store);
+    case PROTO_REFINE:
+        if (m->refine.photons == 0 || m->refine.photons > ((uint64_t)1 << 40))
+            return cx_fail(cx, "photons", "is %" PRIu64 ", expected 1 to 2^40", m->refine.photons);
+        return 0;
     case PROTO_STORE: {
         if (ck_hash(cx, "store", m->store.store))
             return PROTO_EMALFORMED;
@@ -1195,6 +1200,11 @@ static int rd_body(rd_t *rd, const msgpack_object *root)
         return rd_str(rd, "msg", v[K_MSG], &m->error.message);
     case PROTO_STORE_REQUEST:
         return rd_hash(rd, "store", v[K_STORE], m->store_request.store);
+    case PROTO_REFINE:
+        return rd_uint(rd, "job", v[K_JOB], UINT64_MAX, &m->refine.job) ||
+                       rd_uint(rd, "photons", v[K_PHOTONS], UINT64_MAX, &m->refine.photons)
+                   ? PROTO_EMALFORMED
+                   : 0;
     case PROTO_STORE:
         return rd_hash(rd, "store", v[K_STORE], m->store.store) ||
                        rd_bytes(rd, "data", v[K_DATA], &m->store.data, &m->store.size)
@@ -1422,6 +1432,7 @@ static size_t body_fields(const proto_msg_t *m)
     case PROTO_RESULT:
         return 6;
     case PROTO_STORE:
+    case PROTO_REFINE:
         return 2;
     case PROTO_STORE_REQUEST:
         return 1;
@@ -1602,6 +1613,10 @@ static void e_body(enc_t *e, const proto_msg_t *m)
     case PROTO_STORE:
         e_str(e, "store", m->store.store);
         e_bin(e, "data", m->store.data, m->store.size);
+        break;
+    case PROTO_REFINE:
+        e_uint(e, "job", m->refine.job);
+        e_uint(e, "photons", m->refine.photons);
         break;
     default:
         break;

@@ -81,6 +81,7 @@ typedef enum proto_type {
     /* the photon pass's store (after the other types so that their numbers stay) */
     PROTO_STORE_REQUEST, /* worker -> master: send me this photon store */
     PROTO_STORE,         /* master -> worker: a job's merged photon store */
+    PROTO_REFINE,        /* client -> master: more photons for a job; answered by SUBMITTED */
     PROTO_TYPE_COUNT
 } proto_type_t;
 
@@ -292,6 +293,10 @@ typedef struct proto_msg {
             const uint8_t *data;           /* the store's wire form */
             size_t size;
         } store; /* master -> worker */
+        struct {
+            uint64_t job;
+            uint64_t photons; /* photons to add to the job's photon pass, > 0 */
+        } refine;             /* client -> master */
     };
     struct proto_owned *owned; /* private: what proto_decode allocated */
 } proto_msg_t;

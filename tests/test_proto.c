@@ -167,6 +167,10 @@ static proto_msg_t sample(proto_type_t t)
     case PROTO_STORE_REQUEST:
         memcpy(m.store_request.store, g_hash, sizeof g_hash);
         break;
+    case PROTO_REFINE:
+        m.refine.job = 12;
+        m.refine.photons = 5000000;
+        break;
     case PROTO_STORE:
         m.store.data = g_png;
         m.store.size = sizeof g_png;
@@ -362,6 +366,10 @@ static void assert_msg_equal(const proto_msg_t *a, const proto_msg_t *b)
         break;
     case PROTO_STORE_REQUEST:
         assert_string_equal(a->store_request.store, b->store_request.store);
+        break;
+    case PROTO_REFINE:
+        assert_int_equal(a->refine.job, b->refine.job);
+        assert_int_equal(a->refine.photons, b->refine.photons);
         break;
     case PROTO_STORE:
         assert_string_equal(a->store.store, b->store.store);
@@ -571,6 +579,9 @@ static void test_photon_messages(void **state)
     proto_msg_t st = sample(PROTO_STORE);
     st.store.store[0] = st.store.store[0] == 'a' ? 'b' : 'a';
     expect_encode_refused(&st, "but the data hash to");
+    proto_msg_t rf = sample(PROTO_REFINE);
+    rf.refine.photons = 0;
+    expect_encode_refused(&rf, "expected 1 to 2^40");
 }
 
 static void test_decoded_message_owns_its_data(void **state)
