@@ -1,13 +1,19 @@
 #include "photon_store.h"
 
+#include "lightmap.h"
+
 #include <stdlib.h>
 
 struct photon_store {
     const scene_t *scene;
     photon_store_kind_t kind;
-    photon_map_t *map;
+    photon_map_t *map;     /* PHOTON_STORE_PHOTONMAP */
+    lightmap_t *lightmap;  /* PHOTON_STORE_LIGHTMAP */
     int finished;
 };
+
+/* A decoded light map may hold at most this much memory whatever its payload claims. */
+#define LIGHTMAP_DECODE_MAX ((size_t)4 << 30)
 
 static photon_store_t *store_alloc(const scene_t *scene, err_t *err)
 {
@@ -36,11 +42,12 @@ photon_store_t *photon_store_new(const scene_t *scene, err_t *err)
     case PHOTON_STORE_PHOTONMAP:
         self->map = photon_map_new(scene->settings.grid, err);
         break;
-    default:
-        err_set(err, "photon store kind %d is not available", (int)self->kind);
+    case PHOTON_STORE_LIGHTMAP:
+        self->lightmap = lightmap_new(scene, scene->settings.photon.lightmap_density,
+                                      scene->settings.grid, err);
         break;
     }
-    if (!self->map) {
+    if (!self->map && !self->lightmap) {
         free(self);
         return NULL;
     }
@@ -52,6 +59,7 @@ void photon_store_destroy(photon_store_t **self_p)
     if (!self_p || !*self_p)
         return;
     photon_map_destroy(&(*self_p)->map);
+    lightmap_destroy(&(*self_p)->lightmap);
     free(*self_p);
     *self_p = NULL;
 }
@@ -64,20 +72,24 @@ photon_store_kind_t photon_store_kind(const photon_store_t *self)
 int photon_store_deposit(photon_store_t *self, const hit_t *h, vec3_t p, vec3_t dir, vec3_t n,
                          double lambda, double power, err_t *err)
 {
-    (void)h;
     if (self->finished)
         return err_set(err, "photon store: deposit after it was finished");
+    if (self->lightmap)
+        return lightmap_deposit(self->lightmap, h, n, lambda, power, err);
     return photon_map_deposit(self->map, p, dir, n, lambda, power, err);
 }
 
 void photon_store_add_emitted(photon_store_t *self, uint64_t n)
 {
-    photon_map_add_emitted(self->map, n);
+    if (self->lightmap)
+        lightmap_add_emitted(self->lightmap, n);
+    else
+        photon_map_add_emitted(self->map, n);
 }
 
 uint64_t photon_store_emitted(const photon_store_t *self)
 {
-    return photon_map_emitted(self->map);
+    return self->lightmap ? lightmap_emitted(self->lightmap) : photon_map_emitted(self->map);
 }
 
 int photon_store_merge(photon_store_t *dst, const photon_store_t *src, err_t *err)
@@ -88,6 +100,8 @@ int photon_store_merge(photon_store_t *dst, const photon_store_t *src, err_t *er
                        dst->kind == PHOTON_STORE_LIGHTMAP ? "light map" : "photon map");
     if (dst->finished || src->finished)
         return err_set(err, "photon store: only unfinished stores merge");
+    if (dst->lightmap)
+        return lightmap_merge(dst->lightmap, src->lightmap, err);
     return photon_map_append(dst->map, src->map, err);
 }
 
@@ -95,7 +109,8 @@ int photon_store_finish(photon_store_t *self, err_t *err)
 {
     if (self->finished)
         return 0;
-    if (photon_map_build(self->map, err))
+    /* A light map needs nothing more: its texels are read as they are. */
+    if (self->map && photon_map_build(self->map, err))
         return -1;
     self->finished = 1;
     return 0;
@@ -110,6 +125,8 @@ int photon_store_encode(const photon_store_t *self, uint8_t **out, size_t *out_l
 {
     if (self->finished)
         return err_set(err, "photon store: only an unfinished store can be encoded");
+    if (self->lightmap)
+        return lightmap_encode(self->lightmap, out, out_len, err);
     return photon_map_encode(self->map, out, out_len, err);
 }
 
@@ -123,11 +140,12 @@ photon_store_t *photon_store_decode(const scene_t *scene, const uint8_t *data, s
     case PHOTON_STORE_PHOTONMAP:
         self->map = photon_map_decode(scene->settings.grid, data, len, err);
         break;
-    default:
-        err_set(err, "photon store kind %d is not available", (int)self->kind);
+    case PHOTON_STORE_LIGHTMAP:
+        self->lightmap = lightmap_decode(scene, scene->settings.photon.lightmap_density,
+                                         scene->settings.grid, data, len, LIGHTMAP_DECODE_MAX, err);
         break;
     }
-    if (!self->map) {
+    if (!self->map && !self->lightmap) {
         free(self);
         return NULL;
     }
@@ -137,24 +155,31 @@ photon_store_t *photon_store_decode(const scene_t *scene, const uint8_t *data, s
 int photon_store_irradiance(const photon_store_t *self, const hit_t *h, vec3_t p, vec3_t n,
                             double *E)
 {
-    (void)h;
+    if (self->lightmap)
+        return lightmap_irradiance(self->lightmap, h, n, E);
     return photon_map_irradiance(self->map, p, n, photon_gather_radius(self->scene),
                                  self->scene->settings.photon.k, E) > 0;
 }
 
 double photon_store_power_sum(const photon_store_t *self)
 {
-    return photon_map_power_sum(self->map);
+    return self->lightmap ? lightmap_power_sum(self->lightmap) : photon_map_power_sum(self->map);
 }
 
 size_t photon_store_count(const photon_store_t *self)
 {
-    return photon_map_count(self->map);
+    return self->lightmap ? lightmap_texels_used(self->lightmap) : photon_map_count(self->map);
 }
 
 size_t photon_store_memory_bytes(const photon_store_t *self)
 {
-    return sizeof *self + photon_map_memory_bytes(self->map);
+    return sizeof *self + (self->lightmap ? lightmap_memory_bytes(self->lightmap)
+                                          : photon_map_memory_bytes(self->map));
+}
+
+const lightmap_t *photon_store_lightmap(const photon_store_t *self)
+{
+    return self->lightmap;
 }
 
 const photon_map_t *photon_store_map(const photon_store_t *self)

@@ -11,6 +11,7 @@
 
 #include "err.h"
 #include "geometry.h"
+#include "lightmap.h"
 #include "photon_map.h"
 #include "scene.h"
 
@@ -69,7 +70,8 @@ size_t photon_store_memory_bytes(const photon_store_t *self);
  * the radius of the scene's bounding sphere. */
 double photon_gather_radius(const scene_t *scene);
 
-/* The photon map inside a store of that kind, else NULL (tests and statistics). */
+/* The photon map or light map inside a store of that kind, else NULL (tests and statistics). */
 const photon_map_t *photon_store_map(const photon_store_t *self);
+const lightmap_t *photon_store_lightmap(const photon_store_t *self);
 
 #endif

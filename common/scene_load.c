@@ -4,6 +4,7 @@
 #include "glass.h"
 #include "image_png.h"
 #include "pbrt_parser.h"
+#include "plan.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -546,12 +547,9 @@ static int load_photon(loader_t *L, params_t *p, int enable, err_t *err)
         return -1;
     if (photons < 1)
         return pbrt_error(err, params_find(p, "photons")->loc, "\"integer photons\" must be at least 1, got %d", photons);
-    if (!strcmp(store, "lightmap"))
+    if (strcmp(store, "photonmap") != 0 && strcmp(store, "lightmap") != 0)
         return pbrt_error(err, params_find(p, "store")->loc,
-                          "\"string store\" \"lightmap\" is not available yet: use \"photonmap\"");
-    if (strcmp(store, "photonmap") != 0)
-        return pbrt_error(err, params_find(p, "store")->loc,
-                          "\"string store\" must be \"photonmap\" (or, later, \"lightmap\"), got \"%s\"", store);
+                          "\"string store\" must be \"photonmap\" or \"lightmap\", got \"%s\"", store);
     if (!(radius >= 0.0) || !isfinite(radius))
         return pbrt_error(err, params_find(p, "radius")->loc, "\"float radius\" must be positive, got %g", radius);
     if (params_find(p, "radius") && !(radius > 0.0))
@@ -586,7 +584,7 @@ static int load_photon(loader_t *L, params_t *p, int enable, err_t *err)
     ph->maxdepth = rs->maxdepth;
     ph->threshold = threshold;
     ph->monochromerays = mono;
-    ph->store = PHOTON_STORE_PHOTONMAP;
+    ph->store = !strcmp(store, "lightmap") ? PHOTON_STORE_LIGHTMAP : PHOTON_STORE_PHOTONMAP;
     ph->lightmap_density = density;
     ph->mindepth = mindepth;
     return 0;
@@ -707,6 +705,9 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
     free(L.tex);
     if (!r)
         r = scene_finish(sc, err);
+    /* Integrator "auto" (also when the file names none) follows the plan (plan.h). */
+    if (!r)
+        r = plan_apply_auto(sc, desc, ov, err);
     if (r) {
         scene_destroy(&sc);
         return NULL;

@@ -694,9 +694,7 @@ static void test_scene_parameters(void **state)
     assert_int_equal(s->settings.integrator, INTEGRATOR_WHITTED);
     scene_destroy(&s);
 
-    expect_error("Integrator \"photon\" \"string store\" \"lightmap\"",
-                 "\"lightmap\" is not available yet");
-    expect_error("Integrator \"photon\" \"string store\" \"box\"", "must be \"photonmap\"");
+    expect_error("Integrator \"photon\" \"string store\" \"box\"", "must be \"photonmap\" or \"lightmap\"");
     expect_error("Integrator \"photon\" \"integer monochromerays\" 65", "1..64");
     expect_error("Integrator \"photon\" \"string gather\" \"simplepath\"",
                  "\"string gather\" must be");
