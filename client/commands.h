@@ -5,6 +5,7 @@
 #define PRISMFARM_COMMANDS_H
 
 int cmd_glass(int argc, char **argv);
+int cmd_plan(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_worker(int argc, char **argv);
 int cmd_master(int argc, char **argv);

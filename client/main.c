@@ -21,6 +21,7 @@ static const command_t COMMANDS[] = {
     {"fetch", cmd_fetch, "download a finished job's EXR and PNG"},
     {"cancel", cmd_cancel, "cancel a job"},
     {"glass", cmd_glass, "list the glass catalogue and print refractive indices"},
+    {"plan", cmd_plan, "print the effects a scene calls for (dispersion, photons) and why"},
 };
 
 #define COMMAND_COUNT (sizeof COMMANDS / sizeof COMMANDS[0])

@@ -1,0 +1,226 @@
+/* prismfarm plan: prints what a scene calls for -- wavelength splitting, spectral colour, the
+ * dispersion strategy, a photon pass and its parameters, the integrator -- and why, as a
+ * readable report or, with --json, as JSON (common/plan.h; docs/plan.md). */
+#include "commands.h"
+
+#include "cli_args.h"
+#include "pbrt_parser.h"
+#include "plan.h"
+#include "scene_load.h"
+
+#include <jansson.h>
+#include <stdio.h>
+#include <string.h>
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: prismfarm plan SCENE.pbrt [--json] [options]\n"
+            "\n"
+            "Prints the effect plan of SCENE: whether paths split their wavelengths (a dispersive\n"
+            "material), whether emission or reflectance varies with wavelength, the dispersion\n"
+            "strategy, whether a photon pass is needed (a delta, collimated, or small and bright\n"
+            "light reaching a mirror or glass that a diffuse surface sees) and its parameters,\n"
+            "and the integrator, each with the scene elements that caused it; then what is\n"
+            "switched off and why. Integrator \"auto\" (the default when the scene names none)\n"
+            "renders with this plan; an explicit integrator is kept and differences are noted.\n"
+            "Options override the scene file as for prismfarm render:\n"
+            "  --json                   print JSON instead of the report\n" CLI_OVERRIDES_HELP
+            "  --help                   this text\n"
+            "\n"
+            "exit status: 0 success, 1 the scene cannot be loaded, 2 bad command line\n");
+}
+
+static json_t *jstring_or_null(const char *s)
+{
+    return s && s[0] ? json_string(s) : json_null();
+}
+
+static json_t *plan_json(const char *path, const scene_t *scene, const plan_t *p)
+{
+    const render_settings_t *rs = &scene->settings;
+    const plan_request_t *q = plan_request(p);
+    plan_choice_t c = plan_choice(p);
+    json_t *o = json_object();
+    json_object_set_new(o, "scene", json_string(path));
+
+    json_t *req = json_object();
+    json_object_set_new(req, "integrator", json_string(q->integrator));
+    json_object_set_new(req, "integrator_named", json_boolean(q->integrator_named));
+    json_object_set_new(req, "overridden", json_boolean(q->overridden));
+    json_object_set_new(req, "dispersion", jstring_or_null(q->dispersion));
+    json_object_set_new(o, "request", req);
+
+    json_t *cur = json_object();
+    json_object_set_new(cur, "integrator", json_string(plan_integrator_name(rs->integrator)));
+    json_object_set_new(cur, "dispersion",
+                        json_string(rs->dispersion == DISPERSION_FANOUT ? "fanout" : "hero"));
+    json_object_set_new(cur, "photon", json_boolean(rs->photon.enabled));
+    json_object_set_new(cur, "photons",
+                        rs->photon.enabled ? json_integer((json_int_t)rs->photon.photons)
+                                           : json_null());
+    json_object_set_new(cur, "radius",
+                        rs->photon.enabled ? json_real(rs->photon.radius) : json_null());
+    json_object_set_new(o, "renders_with", cur);
+
+    json_t *ch = json_object();
+    json_object_set_new(ch, "integrator", json_string(plan_integrator_name(c.integrator)));
+    json_object_set_new(ch, "dispersion",
+                        json_string(c.dispersion == DISPERSION_FANOUT ? "fanout" : "hero"));
+    json_object_set_new(ch, "photon", json_boolean(c.photon));
+    json_object_set_new(ch, "photons",
+                        c.photon ? json_integer((json_int_t)c.photons) : json_null());
+    json_object_set_new(ch, "radius", c.photon ? json_real(c.radius) : json_null());
+    json_object_set_new(ch, "differs_from_request", json_boolean(c.differs));
+    json_object_set_new(o, "choice", ch);
+
+    json_t *ds = json_array(), *off = json_array();
+    for (size_t i = 0; i < plan_decision_count(p); i++) {
+        const plan_decision_t *d = plan_decision_at(p, i);
+        json_t *jd = json_object();
+        json_object_set_new(jd, "effect", json_string(d->effect_name));
+        json_object_set_new(jd, "on", json_boolean(d->on));
+        json_object_set_new(jd, "choice", json_string(d->choice));
+        json_object_set_new(jd, "reason", json_string(d->reason));
+        json_array_append_new(ds, jd);
+        if (!d->on)
+            json_array_append_new(off, json_string(d->effect_name));
+    }
+    json_object_set_new(o, "decisions", ds);
+    json_object_set_new(o, "switched_off", off);
+
+    json_t *ms = json_array();
+    for (size_t i = 0; i < plan_material_count(p); i++) {
+        const plan_material_t *m = plan_material_at(p, i);
+        json_t *jm = json_object();
+        json_object_set_new(jm, "index", json_integer(m->index));
+        json_object_set_new(jm, "name", json_string(m->name));
+        json_object_set_new(jm, "kind", json_string(plan_material_kind_name(m->kind)));
+        json_object_set_new(jm, "dispersive", json_boolean(m->dispersive));
+        json_object_set_new(jm, "spectral", json_boolean(m->spectral));
+        if (m->kind == MATERIAL_DIELECTRIC) {
+            json_object_set_new(jm, "n_lo", json_real(m->n_lo));
+            json_object_set_new(jm, "n_mid", json_real(m->n_mid));
+            json_object_set_new(jm, "n_hi", json_real(m->n_hi));
+            json_object_set_new(jm, "n_d", json_real(m->n_d));
+            json_object_set_new(jm, "v_d", m->has_v_d ? json_real(m->v_d) : json_null());
+            json_object_set_new(jm, "v_film", m->dispersive ? json_real(m->v_film) : json_null());
+        }
+        json_array_append_new(ms, jm);
+    }
+    json_object_set_new(o, "materials", ms);
+
+    json_t *ls = json_array();
+    for (size_t i = 0; i < plan_light_count(p); i++) {
+        const plan_light_t *l = plan_light_at(p, i);
+        json_t *jl = json_object();
+        json_object_set_new(jl, "index", json_integer(l->index));
+        json_object_set_new(jl, "kind", json_string(plan_light_kind_name(l->kind)));
+        json_object_set_new(jl, "shape", l->shape >= 0 ? json_integer(l->shape) : json_null());
+        json_object_set_new(jl, "power_share", json_real(l->power_share));
+        json_object_set_new(jl, "spectral", json_boolean(l->spectral));
+        json_object_set_new(jl, "solid_angle",
+                            l->solid_angle >= 0.0 ? json_real(l->solid_angle) : json_null());
+        json_object_set_new(jl, "small", json_boolean(l->small));
+        json_object_set_new(jl, "bright", json_boolean(l->bright));
+        json_object_set_new(jl, "reaches_specular", json_boolean(l->reaches_specular));
+        json_object_set_new(jl, "caustic", json_boolean(l->caustic));
+        json_object_set_new(jl, "direct", json_boolean(l->direct));
+        json_object_set_new(jl, "undecided", json_boolean(l->undecided));
+        json_object_set_new(jl, "glass",
+                            l->glass_material >= 0
+                                ? json_string(plan_material_at(p, (size_t)l->glass_material)->name)
+                                : json_null());
+        json_object_set_new(
+            jl, "receiver",
+            l->receiver_material >= 0
+                ? json_string(plan_material_at(p, (size_t)l->receiver_material)->name)
+                : json_null());
+        json_object_set_new(jl, "rays", json_integer((json_int_t)l->rays));
+        json_object_set_new(jl, "photons", json_string(plan_verdict_name(l->verdict)));
+        json_array_append_new(ls, jl);
+    }
+    json_object_set_new(o, "lights", ls);
+    json_object_set_new(o, "rays", json_integer((json_int_t)plan_rays(p)));
+    return o;
+}
+
+int cmd_plan(int argc, char **argv)
+{
+    const char *path = NULL;
+    int json = 0;
+    scene_overrides_t ov = {.seed = -1};
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            usage(stdout);
+            return 0;
+        }
+        if (!strcmp(a, "--json")) {
+            json = 1;
+        } else if (a[0] == '-' && a[1]) {
+            static const char *const OVERRIDES[] = {"--spp", "--res", "--seed", "--integrator",
+                                                    "--dispersion"};
+            int known = 0;
+            for (size_t k = 0; k < sizeof OVERRIDES / sizeof OVERRIDES[0]; k++)
+                known |= !strcmp(a, OVERRIDES[k]);
+            if (!known) {
+                fprintf(stderr, "prismfarm plan: unknown option '%s' (see prismfarm plan --help)\n",
+                        a);
+                return 2;
+            }
+            if (i + 1 >= argc) {
+                fprintf(stderr, "prismfarm plan: %s needs a value\n", a);
+                return 2;
+            }
+            if (cli_parse_override("plan", a, argv[i + 1], &ov) < 0)
+                return 2;
+            i++;
+        } else if (!path) {
+            path = a;
+        } else {
+            fprintf(stderr, "prismfarm plan: unexpected argument '%s' (one scene at a time)\n", a);
+            return 2;
+        }
+    }
+    if (!path) {
+        fprintf(stderr, "prismfarm plan: no scene given\n");
+        usage(stderr);
+        return 2;
+    }
+    err_t err;
+    scene_desc_t *desc = pbrt_parse_file(path, &err);
+    scene_t *scene = desc ? scene_load(desc, &ov, &err) : NULL;
+    plan_t *plan = NULL;
+    if (scene) {
+        plan_request_t req = plan_request_make(desc, &ov);
+        plan = plan_new(scene, &req, &err);
+    }
+    int rc = 0;
+    if (!plan) {
+        fprintf(stderr, "prismfarm plan: %s\n", err.msg);
+        rc = 1;
+    } else if (json) {
+        json_t *o = plan_json(path, scene, plan);
+        if (!o || json_dumpf(o, stdout, JSON_INDENT(2) | JSON_PRESERVE_ORDER) != 0) {
+            fprintf(stderr, "prismfarm plan: cannot write JSON\n");
+            rc = 1;
+        } else {
+            printf("\n");
+        }
+        json_decref(o);
+    } else {
+        const render_settings_t *rs = &scene->settings;
+        printf("plan for %s (%dx%d, %d spp, maxdepth %d, %d buckets over %g-%g nm)\n", path,
+               rs->xres, rs->yres, rs->spp, rs->maxdepth, rs->grid.n, rs->grid.lambda_min,
+               rs->grid.lambda_max);
+        if (plan_write_text(plan, stdout) != 0) {
+            fprintf(stderr, "prismfarm plan: cannot write the report\n");
+            rc = 1;
+        }
+    }
+    plan_destroy(&plan);
+    scene_destroy(&scene);
+    scene_desc_destroy(&desc);
+    return rc;
+}
