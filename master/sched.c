@@ -9,6 +9,7 @@ typedef enum { TASK_PENDING, TASK_RUNNING, TASK_DONE } task_state_t;
 typedef struct task {
     task_state_t state;
     uint32_t attempt;
+    uint32_t min_attempt; /* results of earlier attempts are stale (a refinement reset it) */
     int failures;
     uint64_t owner; /* worker holding it while RUNNING */
     double deadline;
@@ -28,6 +29,8 @@ typedef struct job {
     int ntiles, npasses, passes_done;
     uint32_t *pass_begin; /* npasses + 1 bounds */
     task_t *tasks;        /* pass-major: task = pass * ntiles + tile */
+    task_t *ptasks;       /* photon batches */
+    uint32_t nphoton, photon_done, first_pending_photon;
     int *next_pass;       /* per tile: the pass to merge next */
     int *merged_in_pass;  /* per pass: tiles merged */
     uint32_t first_pending; /* no PENDING task before this index */
@@ -93,6 +96,7 @@ static void job_free(job_t *j)
         for (int i = 0; i < j->ntiles * j->npasses; i++)
             tilebuf_destroy(&j->tasks[i].result);
     free(j->tasks);
+    free(j->ptasks);
     free(j->pass_begin);
     free(j->next_pass);
     free(j->merged_in_pass);
@@ -128,6 +132,21 @@ static worker_t *find_worker(const sched_t *self, uint64_t id)
         if (self->workers[i].id == id)
             return &self->workers[i];
     return NULL;
+}
+
+static uint32_t ncamera(const job_t *j)
+{
+    return (uint32_t)(j->ntiles * j->npasses);
+}
+
+/* The task of an id, camera or photon, or NULL for an id the job does not have. */
+static task_t *task_of(job_t *j, uint32_t id)
+{
+    if (id & SCHED_PHOTON_TASK) {
+        uint32_t b = id & ~SCHED_PHOTON_TASK;
+        return b < j->nphoton ? &j->ptasks[b] : NULL;
+    }
+    return id < ncamera(j) ? &j->tasks[id] : NULL;
 }
 
 /* Pass bounds 0, 1, 2, 4, 8, ... spp: each pass doubles the samples so far, so a preview after
@@ -211,9 +230,13 @@ static void release_task(sched_t *self, task_t *t)
 
 static void requeue(sched_t *self, job_t *j, uint32_t i)
 {
-    release_task(self, &j->tasks[i]);
-    if (i < j->first_pending)
+    release_task(self, task_of(j, i));
+    if (i & SCHED_PHOTON_TASK) {
+        if ((i & ~SCHED_PHOTON_TASK) < j->first_pending_photon)
+            j->first_pending_photon = i & ~SCHED_PHOTON_TASK;
+    } else if (i < j->first_pending) {
         j->first_pending = i;
+    }
 }
 
 /* Ends a job: running tasks are released (their workers' slots freed), held results freed. */
@@ -224,6 +247,71 @@ static void finish_job(sched_t *self, job_t *j, job_state_t state)
         release_task(self, &j->tasks[i]);
         tilebuf_destroy(&j->tasks[i].result);
     }
+    for (uint32_t b = 0; b < j->nphoton; b++)
+        release_task(self, &j->ptasks[b]);
+}
+
+static int grow_photon(job_t *j, uint32_t n, err_t *err)
+{
+    if (n == 0 || n > SCHED_PHOTON_TASK - 1 - j->nphoton)
+        return err_set(err, "job %llu: %u photon batches is out of range", (unsigned long long)j->id, n);
+    task_t *p = realloc(j->ptasks, (size_t)(j->nphoton + n) * sizeof *p);
+    if (!p)
+        return err_set(err, "out of memory");
+    memset(&p[j->nphoton], 0, (size_t)n * sizeof *p);
+    j->ptasks = p;
+    if (j->photon_done == j->nphoton)
+        j->first_pending_photon = j->nphoton;
+    j->nphoton += n;
+    return 0;
+}
+
+int sched_add_photon_batches(sched_t *self, uint64_t id, uint32_t n, err_t *err)
+{
+    job_t *j = find_job(self, id);
+    if (!j)
+        return err_set(err, "no job %llu", (unsigned long long)id);
+    if (j->state != JOB_QUEUED || j->tasks_done > 0)
+        return err_set(err, "job %llu has started: photon batches must come first", (unsigned long long)id);
+    return grow_photon(j, n, err);
+}
+
+int sched_refine_job(sched_t *self, uint64_t id, uint32_t n, err_t *err)
+{
+    job_t *j = find_job(self, id);
+    if (!j)
+        return err_set(err, "no job %llu", (unsigned long long)id);
+    if (j->state != JOB_DONE)
+        return err_set(err, "job %llu is %s: only a finished job can be refined", (unsigned long long)id,
+                       job_state_name(j->state));
+    if (j->nphoton == 0)
+        return err_set(err, "job %llu has no photon pass to refine", (unsigned long long)id);
+    tilebuf_t *image = tilebuf_new(0, 0, j->xres, j->yres, j->grid.n, err);
+    if (!image)
+        return -1;
+    if (grow_photon(j, n, err)) {
+        tilebuf_destroy(&image);
+        return -1;
+    }
+    /* The camera phase starts again from nothing: every tile gathers from the new store. */
+    tilebuf_destroy(&j->image);
+    j->image = image;
+    for (uint32_t i = 0; i < ncamera(j); i++) {
+        task_t *t = &j->tasks[i];
+        t->state = TASK_PENDING;
+        t->failures = 0;
+        t->min_attempt = t->attempt + 1;
+        tilebuf_destroy(&t->result);
+    }
+    memset(j->next_pass, 0, (size_t)j->ntiles * sizeof *j->next_pass);
+    memset(j->merged_in_pass, 0, (size_t)j->npasses * sizeof *j->merged_in_pass);
+    j->passes_done = 0;
+    j->first_pending = 0;
+    j->tasks_done = j->photon_done;
+    j->samples_done = 0;
+    j->error[0] = 0;
+    j->state = JOB_QUEUED;
+    return 0;
 }
 
 int sched_cancel_job(sched_t *self, uint64_t id, err_t *err)
@@ -254,7 +342,7 @@ int sched_remove_job(sched_t *self, uint64_t id, err_t *err)
 
 int sched_worker_join(sched_t *self, uint64_t id, int slots, double now, err_t *err)
 {
-    if (slots < 1 || slots > 4096)
+    if (slots < 1 || slots > 65536) /* a worker's threads (<= 4096) and its prefetch */
         return err_set(err, "worker %llu: %d task slots is out of range", (unsigned long long)id, slots);
     worker_t *w = find_worker(self, id);
     if (!w) {
@@ -296,6 +384,9 @@ void sched_worker_leave(sched_t *self, uint64_t id)
         for (uint32_t i = 0; i < (uint32_t)(j->ntiles * j->npasses); i++)
             if (j->tasks[i].state == TASK_RUNNING && j->tasks[i].owner == id)
                 requeue(self, j, i);
+        for (uint32_t b = 0; b < j->nphoton; b++)
+            if (j->ptasks[b].state == TASK_RUNNING && j->ptasks[b].owner == id)
+                requeue(self, j, SCHED_PHOTON_TASK | b);
     }
     w->alive = false;
     w->busy = 0;
@@ -324,7 +415,18 @@ static void fill_task(const job_t *j, uint32_t i, sched_task_t *out)
         .sample_begin = j->pass_begin[pass],
         .sample_end = j->pass_begin[pass + 1],
         .pass = pass,
+        .kind = SCHED_CAMERA,
     };
+}
+
+static void issue(sched_t *self, worker_t *w, job_t *j, task_t *t, double now)
+{
+    t->state = TASK_RUNNING;
+    t->owner = w->id;
+    t->attempt++;
+    t->deadline = now + self->cfg.task_deadline_s;
+    w->busy++;
+    j->state = JOB_RUNNING;
 }
 
 int sched_next_task(sched_t *self, uint64_t worker, double now, sched_task_t *out)
@@ -336,6 +438,19 @@ int sched_next_task(sched_t *self, uint64_t worker, double now, sched_task_t *ou
         job_t *j = self->jobs[k];
         if ((j->state != JOB_QUEUED && j->state != JOB_RUNNING) || blocked(self, j, worker))
             continue;
+        if (j->photon_done < j->nphoton) {
+            /* The photon phase: batches only; the camera tasks wait for the merged store. */
+            while (j->first_pending_photon < j->nphoton &&
+                   j->ptasks[j->first_pending_photon].state != TASK_PENDING)
+                j->first_pending_photon++;
+            if (j->first_pending_photon == j->nphoton)
+                continue;
+            uint32_t b = j->first_pending_photon;
+            issue(self, w, j, &j->ptasks[b], now);
+            *out = (sched_task_t){.job = j->id, .task = SCHED_PHOTON_TASK | b,
+                                  .attempt = j->ptasks[b].attempt, .kind = SCHED_PHOTON, .batch = b};
+            return 1;
+        }
         uint32_t n = (uint32_t)(j->ntiles * j->npasses);
         while (j->first_pending < n && j->tasks[j->first_pending].state != TASK_PENDING)
             j->first_pending++;
@@ -343,12 +458,7 @@ int sched_next_task(sched_t *self, uint64_t worker, double now, sched_task_t *ou
             task_t *t = &j->tasks[i];
             if (t->state != TASK_PENDING)
                 continue;
-            t->state = TASK_RUNNING;
-            t->owner = worker;
-            t->attempt++;
-            t->deadline = now + self->cfg.task_deadline_s;
-            w->busy++;
-            j->state = JOB_RUNNING;
+            issue(self, w, j, t, now);
             fill_task(j, i, out);
             return 1;
         }
@@ -378,10 +488,31 @@ static int merge_tile(job_t *j, int tile, int *result, err_t *err)
     return 0;
 }
 
+int sched_photon_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task, uint32_t attempt,
+                      double now, err_t *err)
+{
+    sched_worker_seen(self, worker, now);
+    job_t *j = find_job(self, job);
+    task_t *t = j && (task & SCHED_PHOTON_TASK) ? task_of(j, task) : NULL;
+    if (!t)
+        return err_set(err, "photon result for unknown job %llu task %u", (unsigned long long)job,
+                       task & ~SCHED_PHOTON_TASK);
+    /* Batches are the same photons whatever the attempt: the first result wins. */
+    if (j->state != JOB_RUNNING || t->state == TASK_DONE || attempt < t->min_attempt)
+        return SCHED_DUPLICATE;
+    release_task(self, t);
+    t->state = TASK_DONE;
+    j->tasks_done++;
+    j->photon_done++;
+    worker_t *w = find_worker(self, worker);
+    if (w)
+        w->tasks_done++;
+    return SCHED_MERGED | (j->photon_done == j->nphoton ? SCHED_PHASE_DONE : 0);
+}
+
 int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task, uint32_t attempt,
                     tilebuf_t **result, double now, err_t *err)
 {
-    (void)attempt;
     tilebuf_t *r = *result;
     *result = NULL;
     sched_worker_seen(self, worker, now);
@@ -391,8 +522,9 @@ int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
         return err_set(err, "result for unknown job %llu task %u", (unsigned long long)job, task);
     }
     task_t *t = &j->tasks[task];
-    if (j->state != JOB_RUNNING || t->state == TASK_DONE) {
-        /* Every attempt of a task gives the same bytes, so the first result wins. */
+    if (j->state != JOB_RUNNING || t->state == TASK_DONE || attempt < t->min_attempt) {
+        /* Every attempt of a task gives the same bytes, so the first result wins (attempts
+         * before a refinement gathered from the old store: they are stale). */
         tilebuf_destroy(&r);
         return SCHED_DUPLICATE;
     }
@@ -427,15 +559,14 @@ int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
 void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
                        uint32_t attempt, const char *message)
 {
-    (void)attempt;
     job_t *j = find_job(self, job);
     worker_t *w = find_worker(self, worker);
     if (w)
         w->tasks_failed++;
-    if (!j || j->state != JOB_RUNNING || task >= (uint32_t)(j->ntiles * j->npasses))
+    task_t *t = j ? task_of(j, task) : NULL;
+    if (!t || j->state != JOB_RUNNING)
         return;
-    task_t *t = &j->tasks[task];
-    if (t->state == TASK_DONE)
+    if (t->state == TASK_DONE || attempt < t->min_attempt)
         return;
     if (t->state == TASK_RUNNING && t->owner == worker)
         requeue(self, j, task);
@@ -453,8 +584,12 @@ void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t ta
     if (s < j->nstrikes)
         j->strikes[s].failures++;
     if (t->failures >= self->cfg.max_task_failures) {
-        snprintf(j->error, sizeof j->error, "task %u failed %d times; last error: %s", task,
-                 t->failures, message ? message : "(none)");
+        if (task & SCHED_PHOTON_TASK)
+            snprintf(j->error, sizeof j->error, "photon batch %u failed %d times; last error: %s",
+                     task & ~SCHED_PHOTON_TASK, t->failures, message ? message : "(none)");
+        else
+            snprintf(j->error, sizeof j->error, "task %u failed %d times; last error: %s", task,
+                     t->failures, message ? message : "(none)");
         finish_job(self, j, JOB_FAILED);
     }
 }
@@ -478,6 +613,11 @@ int sched_tick(sched_t *self, double now)
                 requeue(self, j, i);
                 requeued++;
             }
+        for (uint32_t b = 0; b < j->nphoton; b++)
+            if (j->ptasks[b].state == TASK_RUNNING && j->ptasks[b].deadline < now) {
+                requeue(self, j, SCHED_PHOTON_TASK | b);
+                requeued++;
+            }
     }
     return requeued;
 }
@@ -490,13 +630,15 @@ int sched_job_info(const sched_t *self, uint64_t id, sched_job_info_t *out)
     uint32_t running = 0;
     for (int i = 0; i < j->ntiles * j->npasses; i++)
         running += j->tasks[i].state == TASK_RUNNING;
+    for (uint32_t b = 0; b < j->nphoton; b++)
+        running += j->ptasks[b].state == TASK_RUNNING;
     *out = (sched_job_info_t){
         .id = j->id, .state = j->state, .xres = j->xres, .yres = j->yres, .spp = j->spp,
         .grid = j->grid, .ntiles = j->ntiles, .npasses = j->npasses, .passes_done = j->passes_done,
         .samples_done = j->samples_done, .samples_total = j->samples_total,
         .nonfinite = tilebuf_nonfinite(j->image),
-        .tasks_total = (uint32_t)(j->ntiles * j->npasses), .tasks_done = j->tasks_done,
-        .tasks_running = running,
+        .tasks_total = (uint32_t)(j->ntiles * j->npasses) + j->nphoton, .tasks_done = j->tasks_done,
+        .tasks_running = running, .photon_batches = j->nphoton, .photon_batches_done = j->photon_done,
     };
     snprintf(out->error, sizeof out->error, "%s", j->error);
     return 0;

@@ -1,6 +1,8 @@
 /* sched: the master's bookkeeping for render jobs, without sockets or clocks. A job is split
  * into camera tasks: tiles (pixel rectangles) times progressive passes (sample ranges 0-1, 1-2,
- * 2-4, 4-8, ... up to the job's spp). Workers ask for tasks; results are merged into the job's
+ * 2-4, 4-8, ... up to the job's spp). A job with a photon pass runs its photon batches first,
+ * as a phase of their own: no camera task is given out before every batch is done (the
+ * camera tasks gather from the merged store; the master merges the batches, photon_phase.h). Workers ask for tasks; results are merged into the job's
  * spectral image per tile in pass order, so the image bytes do not depend on which worker ran
  * what or when results arrived. Lost workers, missed deadlines and repeated failures are
  * handled here: tasks go back to the queue, workers get blocked for a job, jobs fail with the
@@ -29,11 +31,19 @@ sched_config_t sched_config_default(void);
 
 typedef enum job_state { JOB_QUEUED, JOB_RUNNING, JOB_DONE, JOB_FAILED, JOB_CANCELLED } job_state_t;
 
+/* Task ids of photon batches: SCHED_PHOTON_TASK | batch; camera tasks are pass * ntiles + tile
+ * and stay below it. */
+#define SCHED_PHOTON_TASK 0x80000000u
+
+typedef enum sched_kind { SCHED_CAMERA, SCHED_PHOTON } sched_kind_t;
+
 typedef struct sched_task {
     uint64_t job;
-    uint32_t task;    /* index within the job: pass * ntiles + tile */
+    uint32_t task;    /* camera: pass * ntiles + tile; photon: SCHED_PHOTON_TASK | batch */
     uint32_t attempt; /* increases each time the task is issued again */
-    int x0, y0, w, h;
+    sched_kind_t kind;
+    uint32_t batch;   /* photon: the batch's index */
+    int x0, y0, w, h; /* camera */
     uint32_t sample_begin, sample_end;
     int pass;
 } sched_task_t;
@@ -46,7 +56,8 @@ typedef struct sched_job_info {
     int ntiles, npasses, passes_done;
     uint64_t samples_done, samples_total;
     uint64_t nonfinite;
-    uint32_t tasks_total, tasks_done, tasks_running;
+    uint32_t tasks_total, tasks_done, tasks_running; /* photon batches included */
+    uint32_t photon_batches, photon_batches_done;
     char error[512];
 } sched_job_info_t;
 
@@ -57,6 +68,13 @@ void sched_destroy(sched_t **self_p);
  * in the order they were added. */
 int sched_add_job(sched_t *self, uint64_t job, int xres, int yres, int spp, spectral_grid_t grid,
                   err_t *err);
+/* Adds photon batches to a job that has not started (0..n-1 after any it has): its camera
+ * tasks wait until every batch is done. */
+int sched_add_photon_batches(sched_t *self, uint64_t job, uint32_t n, err_t *err);
+/* More photons for a finished job: n more batches, then the whole camera phase again from
+ * an empty image (the store it gathers from has changed). Results of the earlier camera
+ * phase that arrive late are ignored. */
+int sched_refine_job(sched_t *self, uint64_t job, uint32_t n, err_t *err);
 int sched_cancel_job(sched_t *self, uint64_t job, err_t *err);
 /* Forgets a finished, failed or cancelled job and frees its image. */
 int sched_remove_job(sched_t *self, uint64_t job, err_t *err);
@@ -77,6 +95,7 @@ typedef enum sched_result {
     SCHED_DUPLICATE = 2,     /* the task was already done: result ignored */
     SCHED_PASS_DONE = 4,     /* one or more whole passes are now merged: time for a preview */
     SCHED_JOB_DONE = 8,      /* every pass is merged */
+    SCHED_PHASE_DONE = 16,   /* every photon batch is done: the camera phase may start */
 } sched_result_t;
 
 /* A finished task. The result must cover exactly the task's tile with the job's buckets; the
@@ -84,7 +103,13 @@ typedef enum sched_result {
  * sched_result_t, or -1 with err for a result that does not match its task. */
 int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task, uint32_t attempt,
                     tilebuf_t **result, double now, err_t *err);
-/* A task the worker could not do; message is kept as the job's error if it fails. */
+/* A photon batch the master has merged (or kept for merging) successfully. Returns a mask of
+ * sched_result_t (SCHED_MERGED, SCHED_DUPLICATE, SCHED_PHASE_DONE), or -1 with err for a task
+ * that is not a photon batch of the job. */
+int sched_photon_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task, uint32_t attempt,
+                      double now, err_t *err);
+/* A task the worker could not do (camera or photon); message is kept as the job's error if it
+ * fails. */
 void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
                        uint32_t attempt, const char *message);
 
