@@ -165,9 +165,9 @@ farm_cpu() { # name: CPU seconds of its master and workers so far
 }
 
 # A job on a standing farm: from `prismfarm submit` to the final EXR in the master's spool
-# (written atomically, so its existence means the job is done). `submit --wait` would add up to
-# 200 ms of STATUS polling and the fetch. CPU: the client's, plus what the master and workers
-# used meanwhile; then the master's alone. Leaves the job id in $WORK/last-job.
+# (written atomically, so its existence means the job is done). `submit --wait` would add its
+# own start, the answer to its STATUS long poll and the fetch. CPU: the client's, plus what the
+# master and workers used meanwhile; then the master's alone. Leaves the job id in $WORK/last-job.
 t_farm() { # farm job
   local t0=$EPOCHREALTIME c0 m0 c1 m1 id exr i wall master=${FPIDS[$1]%% *}
   c0=$(farm_cpu "$1")

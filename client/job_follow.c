@@ -19,10 +19,15 @@ int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t
 {
     progress_t prog = progress_make("job", quiet);
     double t0 = now_s();
+    /* A long poll (docs/protocol.md, STATUS `wait`): the master answers as soon as the job is
+     * over, so its end is learnt at once, and otherwise after the wait, which paces the
+     * progress line; with no progress to show, few questions are asked. */
+    const uint32_t wait_ms = quiet ? 5000 : 200;
     for (;;) {
-        proto_msg_t req = {.type = PROTO_STATUS, .status = {.job = job}}, reply;
+        proto_msg_t req = {.type = PROTO_STATUS, .status = {.job = job, .wait_ms = wait_ms}}, reply;
         err_t err;
-        if (client_rpc_call(rpc, &req, &reply, 10000, &err)) {
+        double asked = now_s();
+        if (client_rpc_call(rpc, &req, &reply, (int)wait_ms + 10000, &err)) {
             snprintf(error, esize, "%s", err.msg);
             return -1;
         }
@@ -42,8 +47,13 @@ int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t
         proto_msg_free(&reply);
         if (state == PROTO_JOB_DONE || state == PROTO_JOB_FAILED || state == PROTO_JOB_CANCELLED)
             return state;
-        struct timespec ts = {0, 200 * 1000000L};
-        nanosleep(&ts, NULL);
+        /* A master that answered early with the job still running (one that holds too many
+         * long polls, or ignores `wait`) is asked again only after the wait. */
+        double left = wait_ms / 1000.0 - (now_s() - asked);
+        if (left > 0) {
+            struct timespec ts = {(time_t)left, (long)((left - (double)(time_t)left) * 1e9)};
+            nanosleep(&ts, NULL);
+        }
     }
 }
 

@@ -1,3 +1,4 @@
+#define _XOPEN_SOURCE 700 /* nftw */
 #include "local_farm.h"
 
 #include "client_rpc.h"
@@ -7,6 +8,7 @@
 #include "worker_daemon.h"
 
 #include <errno.h>
+#include <ftw.h>
 #include <pthread.h>
 #include <signal.h>
 #include <stdio.h>
@@ -44,6 +46,23 @@ static void *run_worker(void *arg)
     return NULL;
 }
 
+static int remove_entry(const char *path, const struct stat *st, int type, struct FTW *ftw)
+{
+    (void)st;
+    (void)ftw;
+    int rc = type == FTW_DP ? rmdir(path) : unlink(path);
+    if (rc != 0)
+        fprintf(stderr, "prismfarm render: cannot remove %s: %s\n", path, strerror(errno));
+    return 0; /* remove what can be removed */
+}
+
+/* Removes a folder and everything in it, without following symbolic links (FTW_PHYS) and
+ * without leaving its file system (FTW_MOUNT); children before their folder (FTW_DEPTH). */
+static int remove_tree(const char *dir)
+{
+    return nftw(dir, remove_entry, 16, FTW_DEPTH | FTW_PHYS | FTW_MOUNT);
+}
+
 int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
 {
     const char *scene = o->scene, *spool = o->spool, *name = o->name;
@@ -75,12 +94,20 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
     snprintf(cep, sizeof cep, "inproc://local-clients-%ld", (long)getpid());
     void *ctx = zmq_ctx_new();
     volatile sig_atomic_t stop_master = 0, stop_workers = 0;
+    /* Written to when the farm stops: the master's and workers' loops poll its read end, so
+     * they end at once instead of at their next poll timeout. */
+    int stop_pipe[2] = {-1, -1};
+    if (pipe(stop_pipe) != 0) {
+        fprintf(stderr, "prismfarm render: cannot create a pipe: %s\n", strerror(errno));
+        stop_pipe[0] = stop_pipe[1] = -1;
+    }
     local_master_t m = {.opts = master_opts_default()};
     m.opts.worker_endpoint = wep;
     m.opts.client_endpoint = cep;
     m.opts.spool_dir = spool;
     m.opts.zmq_ctx = ctx;
     m.opts.stop = &stop_master;
+    m.opts.stop_fd = stop_pipe[0] > 0 ? stop_pipe[0] : 0;
     m.opts.verbose = 0;
     if (tile)
         m.opts.sched.tile_size = (int)tile;
@@ -103,7 +130,9 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
         snprintf(w->name, sizeof w->name, "local-%d", nstarted + 1);
         snprintf(w->cache, sizeof w->cache, "%s/worker-cache-%d", spool, nstarted + 1);
         w->opts = (worker_opts_t){.endpoint = wep, .zmq_ctx = ctx, .threads = (int)threads, .name = w->name,
-                                  .cache_dir = w->cache, .stop = &stop_workers, .reconnect_max_ms = 1000};
+                                  .cache_dir = w->cache, .stop = &stop_workers,
+                                  .stop_fd = stop_pipe[0] > 0 ? stop_pipe[0] : 0,
+                                  .reconnect_max_ms = 1000};
         if (pthread_create(&w->thread, NULL, run_worker, w) != 0)
             break;
     }
@@ -136,14 +165,17 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
     }
 out:
     client_rpc_destroy(&rpc);
-    /* Workers first, so that none is left talking to a master that has gone. */
+    /* Master and workers stop together: nothing is left to render or to answer, and a
+     * worker's last messages to a master that has gone are simply dropped with its socket. */
     stop_workers = 1;
+    stop_master = 1;
+    if (stop_pipe[1] >= 0 && write(stop_pipe[1], "", 1) != 1)
+        fprintf(stderr, "prismfarm render: cannot wake the farm's threads: %s\n", strerror(errno));
     for (int i = 0; i < nstarted; i++) {
         pthread_join(workers[i].thread, NULL);
         if (workers[i].rc && !rc)
             fprintf(stderr, "prismfarm render: worker %d: %s\n", i + 1, workers[i].err.msg);
     }
-    stop_master = 1;
     if (master_started) {
         pthread_join(m.thread, NULL);
         if (m.rc) {
@@ -152,15 +184,14 @@ out:
         }
     }
     free(workers);
-    if (ctx)
-        zmq_ctx_term(ctx);
-    if (made_spool) {
-        /* Outputs were copied out; the temporary spool goes. */
-        char cmd[700];
-        snprintf(cmd, sizeof cmd, "rm -rf '%s'", spool);
-        if (system(cmd) != 0)
-            fprintf(stderr, "prismfarm render: could not remove %s\n", spool);
-    }
+    if (ctx && zmq_ctx_term(ctx) != 0)
+        fprintf(stderr, "prismfarm render: zmq_ctx_term: %s\n", zmq_strerror(zmq_errno()));
+    for (int i = 0; i < 2; i++)
+        if (stop_pipe[i] >= 0)
+            close(stop_pipe[i]);
+    /* Outputs were copied out; the temporary spool goes. */
+    if (made_spool && remove_tree(spool) != 0)
+        fprintf(stderr, "prismfarm render: could not remove %s: %s\n", spool, strerror(errno));
     scene_bundle_destroy(&bundle);
     return rc;
 }

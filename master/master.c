@@ -21,6 +21,7 @@
 #define RECV_BURST 1000          /* messages taken from one socket per loop turn */
 #define MAX_LOST_WORKERS 256     /* lost workers still listed by WORKERS */
 #define FILE_OVERHEAD (64 << 10) /* room for a FILE message's envelope and name */
+#define MAX_WAITERS 1024         /* STATUS long polls held at once; more are answered at once */
 
 typedef struct mworker {
     uint64_t id;
@@ -50,10 +51,18 @@ typedef struct mjob {
     job_state_t state;
     bool in_sched; /* false once finished: its image is on disk and the scheduler forgot it */
     bool preview;  /* jobs/<id>/preview.png exists */
+    double last_preview; /* when it was written; 0: never */
     bool outputs;  /* jobs/<id>/<stem>.exr and .png exist */
     uint64_t samples_done, samples_total, nonfinite; /* kept when the scheduler forgets it */
     char *error;
 } mjob_t;
+
+/* A client's STATUS with a wait: answered when its job is over or at the deadline. */
+typedef struct waiter {
+    proto_peer_t peer;
+    uint64_t job;
+    double deadline; /* monotonic seconds */
+} waiter_t;
 
 typedef struct master {
     const master_opts_t *opts;
@@ -69,6 +78,8 @@ typedef struct master {
     sched_worker_info_t *winfo; /* scratch for sched_workers */
     size_t cap_winfo;
     double heartbeat_s, last_heartbeat;
+    waiter_t waiters[MAX_WAITERS];
+    size_t nwaiters;
 } master_t;
 
 static double now_s(void)
@@ -108,6 +119,8 @@ master_opts_t master_opts_default(void)
         .heartbeat_ms = 1000,
         .sched = sched_config_default(),
         .limits = proto_limits_default(),
+        .task_prefetch = -1,
+        .preview_interval_s = 1.0,
         .verbose = 1,
     };
     /* farm.md: a worker silent for 3 heartbeat intervals is dead (zguide's liveness 3). */
@@ -485,8 +498,11 @@ static void on_hello(master_t *m, const proto_peer_t *from, mworker_t *w, const 
         w->name = dup_str("?");
     }
     w->threads = msg->hello.threads;
+    /* Slots beyond the threads: a thread that finishes a tile starts on a queued one while its
+     * result travels and the next TASK comes back (docs/performance.md). */
+    int prefetch = m->opts->task_prefetch < 0 ? w->threads : m->opts->task_prefetch;
     err_t err;
-    if (sched_worker_join(m->sched, w->id, w->threads, now, &err) < 0) {
+    if (sched_worker_join(m->sched, w->id, w->threads + prefetch, now, &err) < 0) {
         mlog(m, "worker %s refused: %s", proto_peer_str(from, who), err.msg);
         w->alive = false;
         send_refuse(m, m->wnet, from, err.msg);
@@ -548,13 +564,19 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
         mlog(m, "bad result from worker %llu '%s' for job %llu: %s", (unsigned long long)w->id,
              w->name, (unsigned long long)job, err.msg);
         sched_task_failed(m->sched, w->id, job, (uint32_t)task, attempt, err.msg);
-    } else if ((rc & SCHED_PASS_DONE) && !(rc & SCHED_JOB_DONE)) {
+    } else if ((rc & SCHED_PASS_DONE) && !(rc & SCHED_JOB_DONE) &&
+               now - (j->last_preview > 0 ? j->last_preview : j->started) >=
+                   m->opts->preview_interval_s) {
+        /* Short passes would write a PNG each, costing the master's CPU (which shares the
+         * cores with the workers' threads) for images nobody looks at that often; the final
+         * image is written when the job is done whatever the interval. */
         sched_job_info_t info;
         if (sched_job_info(m->sched, job, &info) == 0) {
             if (write_image(m, j, false, &err) < 0) {
                 mlog(m, "job %llu: cannot write the preview: %s", (unsigned long long)job, err.msg);
             } else {
                 j->preview = true;
+                j->last_preview = now;
                 mlog(m, "job %llu pass %d of %d merged (%u spp): preview written",
                      (unsigned long long)job, info.passes_done, info.npasses,
                      info.passes_done > 0 ? 1u << (info.passes_done - 1) : 0u);
@@ -637,6 +659,12 @@ static void on_worker_message(master_t *m, const proto_peer_t *from, const proto
 }
 
 /* ---------------------------------------------------------------- client messages */
+
+/* Done, failed or cancelled: what a STATUS long poll waits for. */
+static bool job_over(const mjob_t *j)
+{
+    return j->state == JOB_DONE || j->state == JOB_FAILED || j->state == JOB_CANCELLED;
+}
 
 static void reply(master_t *m, const proto_peer_t *to, const proto_msg_t *msg)
 {
@@ -898,10 +926,13 @@ static void on_client_message(master_t *m, const proto_peer_t *from, const proto
             reply_jobs(m, from, PROTO_STATUS_REPLY, NULL, now);
         } else {
             const mjob_t *j = job_by_id(m, msg->status.job);
-            if (j)
+            if (!j)
+                reply_error(m, from, "no job %llu", (unsigned long long)msg->status.job);
+            else if (msg->status.wait_ms == 0 || job_over(j) || m->nwaiters == MAX_WAITERS)
                 reply_jobs(m, from, PROTO_STATUS_REPLY, j, now);
             else
-                reply_error(m, from, "no job %llu", (unsigned long long)msg->status.job);
+                m->waiters[m->nwaiters++] = (waiter_t){
+                    .peer = *from, .job = j->id, .deadline = now + msg->status.wait_ms / 1000.0};
         }
         break;
     case PROTO_JOBS:
@@ -937,6 +968,29 @@ static void on_client_message(master_t *m, const proto_peer_t *from, const proto
 }
 
 /* ---------------------------------------------------------------- the loop */
+
+/* Answers the STATUS long polls whose job is over or whose wait ran out; returns the time
+ * until the next deadline in ms (at most POLL_MS), for the poll. */
+static int answer_waiters(master_t *m, double now)
+{
+    double next = now + POLL_MS / 1000.0;
+    size_t k = 0;
+    for (size_t i = 0; i < m->nwaiters; i++) {
+        waiter_t wt = m->waiters[i];
+        const mjob_t *j = job_by_id(m, wt.job);
+        if (!j || job_over(j) || now >= wt.deadline) {
+            if (j)
+                reply_jobs(m, &wt.peer, PROTO_STATUS_REPLY, j, now);
+            continue;
+        }
+        if (wt.deadline < next)
+            next = wt.deadline;
+        m->waiters[k++] = wt;
+    }
+    m->nwaiters = k;
+    double ms = (next - now) * 1000.0;
+    return ms <= 0 ? 0 : (int)ms + 1; /* rounded up: waking early would only poll again */
+}
 
 /* Takes what one socket holds (at most RECV_BURST messages). Returns -1 with err when the
  * socket is unusable. */
@@ -1093,12 +1147,17 @@ int master_run(const master_opts_t *opts, err_t *err)
 
     m->last_heartbeat = now_s();
     rc = 0;
+    int until_waiter = POLL_MS;
     while (!*opts->stop) {
-        zmq_pollitem_t items[2] = {{.socket = proto_net_socket(m->wnet), .events = ZMQ_POLLIN},
-                                   {.socket = proto_net_socket(m->cnet), .events = ZMQ_POLLIN}};
+        /* The stop descriptor, when given, ends the wait as soon as *stop is set. */
+        zmq_pollitem_t items[3] = {{.socket = proto_net_socket(m->wnet), .events = ZMQ_POLLIN},
+                                   {.socket = proto_net_socket(m->cnet), .events = ZMQ_POLLIN},
+                                   {.fd = opts->stop_fd, .events = ZMQ_POLLIN}};
         double until_hb = m->last_heartbeat + m->heartbeat_s - now_s();
         int timeout = until_hb < POLL_MS / 1000.0 ? (int)(until_hb * 1000) : POLL_MS;
-        int n = zmq_poll(items, 2, timeout > 0 ? timeout : 0);
+        if (until_waiter < timeout)
+            timeout = until_waiter;
+        int n = zmq_poll(items, opts->stop_fd > 0 ? 3 : 2, timeout > 0 ? timeout : 0);
         double polled = now_s();
         if (n < 0 && zmq_errno() != EINTR) {
             rc = err_set(err, "master: zmq_poll: %s", zmq_strerror(zmq_errno()));
@@ -1114,6 +1173,7 @@ int master_run(const master_opts_t *opts, err_t *err)
         housekeeping(m, now, now - polled);
         dispatch(m, now);
         prune_lost(m);
+        until_waiter = answer_waiters(m, now);
     }
     if (rc == 0)
         mlog(m, "stopping");

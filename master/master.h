@@ -2,7 +2,8 @@
  * submitted scenes in its spool folder, cuts jobs into tasks with sched, hands them to workers,
  * merges their results and writes each job's progressive preview and final spectral EXR and PNG
  * (docs/farm.md). One thread, one loop: it never blocks longer than 100 ms on the network, and
- * every malformed message is logged with its peer, refused, and survived. */
+ * every malformed message is logged with its peer, refused, and survived. A STATUS with a
+ * `wait` is answered when its job ends or the wait runs out (a long poll). */
 #ifndef PRISMFARM_MASTER_H
 #define PRISMFARM_MASTER_H
 
@@ -23,10 +24,17 @@ typedef struct master_opts {
     const char *spool_dir;       /* scenes and outputs (created if missing) */
     void *zmq_ctx;               /* NULL: the master makes its own (inproc:// needs a shared one) */
     volatile sig_atomic_t *stop; /* checked at least every 100 ms; non-zero ends master_run */
+    int stop_fd;                 /* > 0: a descriptor (a pipe's read end) made readable when
+                                  * *stop is set, so that the loop ends at once; 0: none */
     int heartbeat_ms;            /* HEARTBEAT to workers this often; told to them in WELCOME */
     sched_config_t sched;        /* tile size, deadlines; worker_timeout_s is the silence that
                                   * makes a worker lost (default 3 heartbeats) */
     proto_limits_t limits;       /* message and bundle sizes accepted */
+    int task_prefetch;           /* tasks a worker holds beyond its threads, so that a thread
+                                  * that finishes finds its next task queued instead of waiting
+                                  * for the round trip: -1 as many as it has threads, 0 none */
+    double preview_interval_s;   /* a progressive preview is written after a pass at most this
+                                  * often (0: after every pass); the final outputs always */
     int verbose;                 /* one line per event on stderr */
     master_ready_fn ready;       /* may be NULL */
     void *user;
@@ -34,7 +42,7 @@ typedef struct master_opts {
 
 /* Workers on port 5555 and clients on port 5556 of every interface, spool "prismfarm-spool",
  * heartbeat 1000 ms, worker timeout 3 s, sched_config_default() otherwise, proto_limits_default(),
- * verbose. */
+ * a worker holding twice its threads in tasks, a preview at most every second, verbose. */
 master_opts_t master_opts_default(void);
 
 /* Runs the master until *opts->stop becomes non-zero (returns 0) or a fatal error (returns -1

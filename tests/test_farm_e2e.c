@@ -13,7 +13,10 @@
 #include "farm_testutil.h"
 #include "image_exr.h"
 
+#include <dirent.h>
 #include <signal.h>
+#include <stdlib.h>
+#include <string.h>
 #include <sys/stat.h>
 #include <time.h>
 
@@ -87,14 +90,36 @@ static void read_endpoints(const char *spool, char *workers, char *clients)
     fail_msg("the master did not write %s", path);
 }
 
+/* Entries in a folder other than . and ..; -1 if it cannot be read. */
+static int count_entries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return -1;
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)))
+        n += strcmp(e->d_name, ".") && strcmp(e->d_name, "..");
+    closedir(d);
+    return n;
+}
+
 static void test_render_any_worker_count(void **state)
 {
     (void)state;
+    /* The in-process farm's temporary spool (the scene, the job's outputs, the worker's cache
+     * with the extracted bundle) goes in $TMPDIR and is removed, with everything in it. */
+    const char *tmp = path_in("tmp");
+    assert_int_equal(mkdir(tmp, 0700), 0);
+    assert_int_equal(setenv("TMPDIR", tmp, 1), 0);
     const run_t *r = run("render", "data/render/tiny.pbrt", "-o", path_in("one.exr"), "--workers", "1",
                          "--threads", "1", "--tile", "8", "--quiet", NULL);
+    assert_int_equal(unsetenv("TMPDIR"), 0);
     if (r->status != 0)
         fail_msg("exit %d: %s", r->status, r->err);
     expect_in(r->out, "wrote ");
+    if (count_entries(tmp) != 0)
+        fail_msg("%d entries left in the render's TMPDIR %s: %s", count_entries(tmp), tmp, r->err);
     r = run("render", "data/render/tiny.pbrt", "-o", path_in("three.exr"), "--workers", "3", "--threads", "1",
             "--tile", "8", "--quiet", NULL);
     if (r->status != 0)

@@ -434,7 +434,7 @@ static void test_client_killed_during_wait(void **state)
     pid_t client = spawn(clog, "submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "-o",
                          path_in("client-never.exr"), NULL);
     wait_log(clog, "submit: job 1 ", 20.0);
-    /* Its --wait loop asks STATUS every 200 ms: let it ask at least once. */
+    /* Its --wait loop holds a STATUS long poll at the master: let it ask at least once. */
     testutil_sleep_ms(300);
     stop(client, SIGKILL);
     assert_string_equal(job_state(cep, "1", NULL, 0), "queued");

@@ -4,7 +4,7 @@
  * (docs/farm.md), and matches a local render to float rounding; a broken scene refused with its
  * file:line; a silent worker's tasks re-issued to another worker with identical pixel data;
  * malformed bytes and another protocol version refused while the master keeps serving; cancel
- * and repeated task failures. */
+ * and repeated task failures; STATUS long polls, task prefetch and preview spacing. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -109,8 +109,9 @@ static uint8_t *read_all(const char *path, size_t *size)
     return buf;
 }
 
-/* Starts a master on tcp://127.0.0.1 with system-chosen ports (tcp != 0) or on inproc://. */
-static int start(void **state, int tcp, int max_task_failures)
+/* Starts a master on tcp://127.0.0.1 with system-chosen ports (tcp != 0) or on inproc://;
+ * prefetch 0 and a preview after every pass unless farm_defaults. */
+static int start(void **state, int tcp, int max_task_failures, int farm_defaults)
 {
     static int counter;
     fx_t *f = calloc(1, sizeof *f);
@@ -147,6 +148,16 @@ static int start(void **state, int tcp, int max_task_failures)
     f->opts.sched.max_task_failures = max_task_failures;
     f->opts.sched.max_worker_job_failures = 10;
     f->opts.verbose = getenv("PRISMFARM_TEST_VERBOSE") != NULL;
+    /* These tests count the TASKs a worker of N threads is sent and fetch the preview of the
+     * first pass: no prefetch, a preview after every pass. test_prefetch_and_previews sets
+     * the defaults back. */
+    f->opts.task_prefetch = 0;
+    f->opts.preview_interval_s = 0;
+    if (farm_defaults) {
+        f->opts.task_prefetch = master_opts_default().task_prefetch;
+        /* Far longer than the test job takes, however loaded the machine. */
+        f->opts.preview_interval_s = 30;
+    }
     f->opts.ready = on_ready;
     f->opts.user = f;
     pthread_mutex_init(&f->lock, NULL);
@@ -166,17 +177,22 @@ static int start(void **state, int tcp, int max_task_failures)
 
 static int setup_inproc(void **state)
 {
-    return start(state, 0, 4);
+    return start(state, 0, 4, 0);
 }
 
 static int setup_tcp(void **state)
 {
-    return start(state, 1, 4);
+    return start(state, 1, 4, 0);
 }
 
 static int setup_failing(void **state)
 {
-    return start(state, 0, 3);
+    return start(state, 0, 3, 0);
+}
+
+static int setup_defaults(void **state)
+{
+    return start(state, 0, 4, 1);
 }
 
 static int teardown(void **state)
@@ -952,6 +968,136 @@ static void test_real_worker(void **state)
     assert_int_equal(system(cmd), 0);
 }
 
+
+/* Serves every task of the job with a fake worker until `total` results are sent; returns
+ * the time the last one was sent. */
+static double fw_serve(fake_worker_t *w, int total)
+{
+    double last = 0;
+    for (int done = 0; done < total;) {
+        proto_msg_t m;
+        if (fw_recv(w, &m, 5000))
+            fail_msg("no task after %d results", done);
+        if (m.type == PROTO_TASK) {
+            tilebuf_t *tb = render_task(w, &m);
+            fw_result(w, &m, tb);
+            last = now_s();
+            tilebuf_destroy(&tb);
+            done++;
+        }
+        proto_msg_free(&m);
+    }
+    return last;
+}
+
+/* STATUS with `wait` (docs/protocol.md): held until the wait runs out while the job is
+ * queued, answered the moment the job is done however long the wait, and at once for a job
+ * that is over; `wait` beyond 60000 ms cannot be encoded, and a wait round-trips. */
+static void test_status_long_poll(void **state)
+{
+    fx_t *f = *state;
+    uint64_t job = submit_tiny(f);
+
+    /* No worker: the job stays queued, so the answer comes at the end of the wait (300 ms),
+     * not before; 3 s of slack covers a loaded sanitizer run. */
+    proto_msg_t req = {.type = PROTO_STATUS, .status = {.job = job, .wait_ms = 300}}, r;
+    double t0 = now_s();
+    call(f, &req, &r);
+    double waited = now_s() - t0;
+    assert_int_equal(r.type, PROTO_STATUS_REPLY);
+    assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_QUEUED);
+    proto_msg_free(&r);
+    if (waited < 0.3 || waited > 3.3)
+        fail_msg("a 300 ms long poll on a queued job was answered after %.3f s", waited);
+
+    /* A 30 s wait on a job that completes meanwhile: answered when the last result is merged.
+     * A poll every 200 ms would be up to 0.2 s late; the long poll is late by the merge, the
+     * EXR and a message (milliseconds), 1 s with sanitizers, far below the 30 s wait. */
+    proto_net_t *c = connect_to(f, f->cep);
+    req.status.wait_ms = 30000;
+    send_msg(c, &req);
+    fake_worker_t w;
+    fw_hello(f, &w, "fast", 2);
+    double last = fw_serve(&w, NTASKS);
+    recv_msg(c, &r, 5000);
+    double late = now_s() - last;
+    assert_int_equal(r.type, PROTO_STATUS_REPLY);
+    assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_DONE);
+    proto_msg_free(&r);
+    proto_net_destroy(&c);
+    if (late > 1.0)
+        fail_msg("the long poll was answered %.3f s after the last result", late);
+
+    /* The job is over: a long poll on it is answered at once. */
+    t0 = now_s();
+    call(f, &req, &r);
+    assert_int_equal(r.type, PROTO_STATUS_REPLY);
+    assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_DONE);
+    proto_msg_free(&r);
+    assert_true(now_s() - t0 < 1.0);
+
+    /* The field on the wire: in range round-trips, out of range is refused by the encoder. */
+    proto_limits_t lim = proto_limits_default();
+    msgpack_sbuffer buf;
+    msgpack_sbuffer_init(&buf);
+    req.status.wait_ms = 1234;
+    assert_int_equal(proto_encode(&req, &lim, &buf, NULL), 0);
+    proto_msg_t back;
+    assert_int_equal(proto_decode(buf.data, buf.size, &lim, &back, NULL), 0);
+    assert_int_equal(back.type, PROTO_STATUS);
+    assert_true(back.status.job == job && back.status.wait_ms == 1234);
+    proto_msg_free(&back);
+    msgpack_sbuffer_clear(&buf);
+    req.status.wait_ms = 60001;
+    err_t err;
+    assert_int_equal(proto_encode(&req, &lim, &buf, &err), PROTO_EMALFORMED);
+    assert_non_null(strstr(err.msg, "wait"));
+    msgpack_sbuffer_destroy(&buf);
+    fw_close(&w);
+}
+
+/* With the master's defaults, a worker of 2 threads is sent 4 tasks (twice its threads) and
+ * the next one only when a result comes back; a job whose passes all finish within the
+ * preview interval gets no preview, only its final EXR and PNG. */
+static void test_prefetch_and_previews(void **state)
+{
+    fx_t *f = *state;
+    uint64_t job = submit_tiny(f);
+    fake_worker_t w;
+    fw_hello(f, &w, "prefetching", 2);
+    proto_msg_t held[NTASKS];
+    int nheld = 0, done = 0;
+    for (; nheld < 4; nheld++)
+        expect_type(w.net, PROTO_TASK, &held[nheld]);
+    proto_msg_t m;
+    if (fw_recv(&w, &m, 300) == 0)
+        fail_msg("a fifth %s while 4 tasks are held by 2 threads", proto_type_name(m.type));
+    /* One result frees one slot: exactly one TASK follows. */
+    for (;;) {
+        tilebuf_t *tb = render_task(&w, &held[--nheld]);
+        fw_result(&w, &held[nheld], tb);
+        tilebuf_destroy(&tb);
+        proto_msg_free(&held[nheld]);
+        if (++done == NTASKS)
+            break;
+        if (done + nheld < NTASKS) {
+            expect_type(w.net, PROTO_TASK, &held[nheld]);
+            nheld++;
+            assert_true(nheld <= 4);
+        }
+        if (done == 1 && fw_recv(&w, &m, 100) == 0)
+            fail_msg("a second %s after one result", proto_type_name(m.type));
+    }
+    wait_state(f, job, PROTO_JOB_DONE);
+    check_exr(f, job);
+    char path[256];
+    snprintf(path, sizeof path, "%s/jobs/%llu/preview.png", f->spool, (unsigned long long)job);
+    assert_int_equal(access(path, F_OK), -1);
+    snprintf(path, sizeof path, "%s/jobs/%llu/tiny.png", f->spool, (unsigned long long)job);
+    assert_int_equal(access(path, F_OK), 0);
+    fw_close(&w);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -962,6 +1108,8 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_cancel, setup_inproc, teardown),
         cmocka_unit_test_setup_teardown(test_failing_task, setup_failing, teardown),
         cmocka_unit_test_setup_teardown(test_real_worker, setup_inproc, teardown),
+        cmocka_unit_test_setup_teardown(test_status_long_poll, setup_inproc, teardown),
+        cmocka_unit_test_setup_teardown(test_prefetch_and_previews, setup_defaults, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

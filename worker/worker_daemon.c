@@ -357,9 +357,11 @@ int worker_run(const worker_opts_t *opts, err_t *err)
             proto_msg_t m;
             proto_peer_t from;
             err_t rerr;
-            zmq_pollitem_t items[2] = {{.socket = proto_net_socket(net), .events = ZMQ_POLLIN},
-                                       {.fd = w.wake_fd[0], .events = ZMQ_POLLIN}};
-            if (zmq_poll(items, 2, 50) > 0 && (items[1].revents & ZMQ_POLLIN)) {
+            zmq_pollitem_t items[3] = {{.socket = proto_net_socket(net), .events = ZMQ_POLLIN},
+                                       {.fd = w.wake_fd[0], .events = ZMQ_POLLIN},
+                                       {.fd = opts->stop_fd, .events = ZMQ_POLLIN}};
+            if (zmq_poll(items, opts->stop_fd > 0 ? 3 : 2, 50) > 0 &&
+                (items[1].revents & ZMQ_POLLIN)) {
                 char drain[64];
                 while (read(w.wake_fd[0], drain, sizeof drain) > 0) {
                 }
@@ -552,8 +554,13 @@ int worker_run(const worker_opts_t *opts, err_t *err)
         if (*opts->stop || rc)
             break;
         for (int waited = 0; waited < backoff_ms && !*opts->stop; waited += 50) {
-            struct timespec ts = {0, 50 * 1000000L};
-            nanosleep(&ts, NULL);
+            /* A readable stop descriptor ends the wait at once; without one (or should it be
+             * unusable) the flag is looked at every 50 ms. */
+            zmq_pollitem_t stop_item = {.fd = opts->stop_fd, .events = ZMQ_POLLIN};
+            if (opts->stop_fd <= 0 || zmq_poll(&stop_item, 1, 50) < 0) {
+                struct timespec ts = {0, 50 * 1000000L};
+                nanosleep(&ts, NULL);
+            }
         }
         backoff_ms = backoff_ms * 2 > reconnect_max ? reconnect_max : backoff_ms * 2;
     }

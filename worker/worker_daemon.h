@@ -13,10 +13,13 @@
 typedef struct worker_opts {
     const char *endpoint;   /* the master's worker endpoint, e.g. tcp://host:5555 */
     void *zmq_ctx;          /* NULL: the worker makes its own (inproc:// needs a shared one) */
-    int threads;            /* render threads = tasks held at once; 0: all cores */
+    int threads;            /* render threads, told to the master in HELLO (it sends up to twice
+                             * as many tasks, so that a thread never waits for the next); 0: all cores */
     const char *name;       /* shown by `prismfarm workers`; NULL: host name and pid */
     const char *cache_dir;  /* where bundles are extracted; NULL: $TMPDIR/prismfarm-worker-<uid> */
     volatile sig_atomic_t *stop; /* checked at least every 100 ms; non-zero ends worker_run */
+    int stop_fd;            /* > 0: a descriptor (a pipe's read end) made readable when *stop
+                             * is set, so that the loop ends at once; 0: none */
     int reconnect_max_ms;   /* back-off ceiling (default 32000) */
     int verbose;            /* log events to stderr */
 } worker_opts_t;
