@@ -378,7 +378,8 @@ static int ply_check_elements(ply_header_t *h, const char *name, err_t *err)
     const ply_element_t *vertex = NULL, *face = NULL;
     for (size_t k = 0; k < h->nelements; k++) {
         ply_element_t *e = &h->elements[k];
-        const ply_prop_t *props = &h->props[e->first_prop];
+        /* props is NULL while no element has a property: no offset from it (C17 6.5.6). */
+        const ply_prop_t *props = e->nprops ? &h->props[e->first_prop] : NULL;
         if (!strcmp(e->name, "tristrips"))
             return err_set(err, "\"%s\": triangle strips (element tristrips) are not supported",
                            name);
@@ -484,7 +485,7 @@ static int ply_check_binary(const ply_header_t *h, const char *d, size_t len, co
     const unsigned char *u = (const unsigned char *)d;
     for (size_t k = 0; k < h->nelements; k++) {
         const ply_element_t *e = &h->elements[k];
-        const ply_prop_t *props = &h->props[e->first_prop];
+        const ply_prop_t *props = e->nprops ? &h->props[e->first_prop] : NULL;
         size_t min = 0;
         for (size_t j = 0; j < e->nprops; j++)
             min += props[j].list ? props[j].count.size : props[j].item.size;
@@ -548,7 +549,7 @@ static int ply_check_ascii(const ply_header_t *h, const char *d, size_t len, con
     bool cr;
     for (size_t k = 0; k < h->nelements; k++) {
         const ply_element_t *e = &h->elements[k];
-        const ply_prop_t *props = &h->props[e->first_prop];
+        const ply_prop_t *props = e->nprops ? &h->props[e->first_prop] : NULL;
         /* One character and one separator (space or line end) per property, except that the
          * file's last line may lack its '\n'. */
         if (ply_check_count(e, 2 * e->nprops, len - pos, 1, name, err) != 0)

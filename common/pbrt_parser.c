@@ -2148,6 +2148,13 @@ static int parse_tokens(parser_t *P)
             describe(&t, d, sizeof d);
             return pbrt_error(P->err, t.loc, "expected a directive, got %s", d);
         }
+        double number;
+        if (pbrt_parse_number(t.text, &number) != -1)
+            /* Most often one number too many after a transform ("Translate 1 2 3 4"). */
+            return pbrt_error(P->err, t.loc,
+                              "expected a directive, got the number %.40s (one too many for the "
+                              "directive before it?)",
+                              t.text);
         char dir[64];
         if (t.len >= sizeof dir) {
             return pbrt_error(P->err, t.loc, "unknown directive %.40s...", t.text);

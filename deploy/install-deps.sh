@@ -8,6 +8,7 @@ PACKAGES=(
   libzmq3-dev libmsgpack-dev libopenexr-dev openexr libembree-dev
   libpng-dev zlib1g-dev libassimp-dev libjansson-dev
   libcmocka-dev
+  clang libclang-rt-14-dev
   iproute2
 )
 
