@@ -14,6 +14,7 @@ int cmd_status(int argc, char **argv);
 int cmd_jobs(int argc, char **argv);
 int cmd_workers(int argc, char **argv);
 int cmd_cancel(int argc, char **argv);
+int cmd_refine(int argc, char **argv);
 int cmd_fetch(int argc, char **argv);
 
 

@@ -20,6 +20,7 @@ static const command_t COMMANDS[] = {
     {"workers", cmd_workers, "list a master's workers"},
     {"fetch", cmd_fetch, "download a finished job's EXR and PNG"},
     {"cancel", cmd_cancel, "cancel a job"},
+    {"refine", cmd_refine, "add photons to a finished photon job and render it again"},
     {"glass", cmd_glass, "list the glass catalogue and print refractive indices"},
     {"plan", cmd_plan, "print the effects a scene calls for (dispersion, photons) and why"},
 };

@@ -4,6 +4,7 @@
 #include "bundle.h"
 #include "film.h"
 #include "net.h"
+#include "photon_phase.h"
 #include "scene_load.h"
 #include "spool.h"
 
@@ -55,6 +56,16 @@ typedef struct mjob {
     bool outputs;  /* jobs/<id>/<stem>.exr and .png exist */
     uint64_t samples_done, samples_total, nonfinite; /* kept when the scheduler forgets it */
     char *error;
+    /* A job with a photon pass: its batches, their merge and the merged store (kept for
+     * refinement after the job is done). The scheduler's batch b is the phase's batch
+     * photon_base + b: a refinement adds its batches to a fresh scheduler job. */
+    photon_phase_t *photons;
+    uint32_t photon_base;
+    bool store_ready;
+    char store[PROTO_HASH_HEX + 1];
+    /* Bumped by each refinement and carried in the upper 32 bits of every task id on the wire,
+     * so a late result of an earlier round is told from the current one's. */
+    uint32_t round;
 } mjob_t;
 
 /* A client's STATUS with a wait: answered when its job is over or at the deadline. */
@@ -255,6 +266,7 @@ static void cancel_on_workers(master_t *m, uint64_t job)
 static void job_free(mjob_t *j)
 {
     if (j) {
+        photon_phase_destroy(&j->photons);
         free(j->name);
         free(j->error);
         free(j);
@@ -305,10 +317,11 @@ static int write_image(master_t *m, mjob_t *j, bool final, err_t *err)
     char info[1024];
     snprintf(info, sizeof info,
              "job=%llu;name=%s;scene=%s;spp=%d;xres=%d;yres=%d;seed=%llu;integrator=%s;"
-             "dispersion=%s;samples=%llu;nonfinite=%llu;seconds=%.3f",
+             "dispersion=%s;samples=%llu;nonfinite=%llu;photons=%llu;seconds=%.3f",
              (unsigned long long)j->id, j->stem, j->hash, j->spp, j->xres, j->yres,
              (unsigned long long)j->seed, j->integrator_used, j->dispersion_used,
              (unsigned long long)si.samples_done, (unsigned long long)si.nonfinite,
+             (unsigned long long)(j->photons ? photon_phase_stats(j->photons).photons : 0),
              j->started > 0 ? now_s() - j->started : 0.0);
     film_output_t out = {
         .spectral = 1, .tonemap = {.exposure_stops = 0, .curve = COLOUR_CURVE_ACES}, .info = info};
@@ -419,17 +432,25 @@ static int send_task(master_t *m, mworker_t *w, const sched_task_t *t, double no
         return 0; /* cancelled meanwhile: the scheduler already took the task back */
     proto_msg_t msg = {.type = PROTO_TASK};
     msg.task.job = t->job;
-    msg.task.task = t->task;
+    msg.task.task = (uint64_t)j->round << 32 | t->task;
     msg.task.attempt = t->attempt;
     memcpy(msg.task.scene, j->hash, sizeof msg.task.scene);
     msg.task.settings = j->settings;
-    msg.task.kind = PROTO_KIND_CAMERA_TILE;
-    msg.task.tile = (proto_tile_t){.x0 = t->x0,
-                                   .y0 = t->y0,
-                                   .w = t->w,
-                                   .h = t->h,
-                                   .sample_begin = t->sample_begin,
-                                   .sample_end = t->sample_end};
+    if (t->kind == SCHED_PHOTON) {
+        msg.task.kind = PROTO_KIND_PHOTON_BATCH;
+        msg.task.photons = photon_phase_batch(j->photons, j->photon_base + t->batch);
+    } else {
+        msg.task.kind = PROTO_KIND_CAMERA_TILE;
+        msg.task.tile = (proto_tile_t){.x0 = t->x0,
+                                       .y0 = t->y0,
+                                       .w = t->w,
+                                       .h = t->h,
+                                       .sample_begin = t->sample_begin,
+                                       .sample_end = t->sample_end};
+        /* The camera phase starts only after every batch is merged (sched.h). */
+        if (j->photons)
+            memcpy(msg.task.store, j->store, sizeof msg.task.store);
+    }
     int rc = send_worker(m, w, &msg);
     if (rc == 0 && j->started == 0) {
         j->started = now;
@@ -539,10 +560,45 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
              (unsigned long long)w->id, (unsigned long long)job);
         return;
     }
-    if (!j->in_sched)
-        return; /* finished already: a late copy of a re-issued task */
+    if (!j->in_sched || task >> 32 != j->round)
+        return; /* finished already, or of an earlier round: a late copy of a re-issued task */
+    task &= UINT32_MAX;
+    if (msg->result.kind == PROTO_KIND_PHOTON_BATCH || (task & SCHED_PHOTON_TASK)) {
+        err_t err;
+        int rc = -1;
+        uint32_t b = (uint32_t)task & ~SCHED_PHOTON_TASK;
+        if (msg->result.kind != PROTO_KIND_PHOTON_BATCH || !(task & SCHED_PHOTON_TASK) || !j->photons)
+            err_set(&err, "task %llu is not a photon batch of the job, or its result is not one",
+                    (unsigned long long)task);
+        else if ((rc = photon_phase_add(j->photons, j->photon_base + b, &msg->result.photons, &err)) >= 0)
+            rc = sched_photon_done(m->sched, w->id, job, (uint32_t)task, attempt, now, &err);
+        if (rc < 0) {
+            mlog(m, "bad photon batch from worker %llu '%s' for job %llu: %s",
+                 (unsigned long long)w->id, w->name, (unsigned long long)job, err.msg);
+            sched_task_failed(m->sched, w->id, job, (uint32_t)task, attempt, err.msg);
+        } else if (rc & SCHED_PHASE_DONE) {
+            const uint8_t *data;
+            size_t size;
+            const char *hash;
+            if (photon_phase_store(j->photons, &data, &size, &hash, &err) < 0) {
+                mlog(m, "job %llu: the merged photon store: %s", (unsigned long long)job, err.msg);
+                sched_fail_job(m->sched, job, err.msg);
+            } else {
+                memcpy(j->store, hash, sizeof j->store);
+                j->store_ready = true;
+                photon_phase_stats_t ps = photon_phase_stats(j->photons);
+                mlog(m,
+                     "job %llu photon pass merged: %llu photons in %u batches, %llu emitted, "
+                     "%.1f MB store %.12s",
+                     (unsigned long long)job, (unsigned long long)ps.photons, ps.batches,
+                     (unsigned long long)ps.emitted, size / 1e6, hash);
+            }
+        }
+        job_refresh(m, j, now);
+        return;
+    }
     uint64_t pass = j->ntiles > 0 ? task / (uint64_t)j->ntiles : 0;
-    if (task > UINT32_MAX || pass >= 40) {
+    if (pass >= 40) {
         mlog(m, "worker %llu sent a result for job %llu task %llu, which does not exist",
              (unsigned long long)w->id, (unsigned long long)job, (unsigned long long)task);
         return;
@@ -589,12 +645,12 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
 static void on_task_failed(master_t *m, mworker_t *w, const proto_msg_t *msg, double now)
 {
     mjob_t *j = job_by_id(m, msg->task_failed.job);
-    if (!j || !j->in_sched || msg->task_failed.task > UINT32_MAX)
+    if (!j || !j->in_sched || msg->task_failed.task >> 32 != j->round)
         return;
     mlog(m, "job %llu task %llu failed on worker %llu '%s': %s", (unsigned long long)j->id,
          (unsigned long long)msg->task_failed.task, (unsigned long long)w->id, w->name,
          msg->task_failed.error);
-    sched_task_failed(m->sched, w->id, j->id, (uint32_t)msg->task_failed.task,
+    sched_task_failed(m->sched, w->id, j->id, (uint32_t)(msg->task_failed.task & UINT32_MAX),
                       msg->task_failed.attempt, msg->task_failed.error);
     job_refresh(m, j, now);
 }
@@ -612,6 +668,33 @@ static void on_scene_request(master_t *m, mworker_t *w, const proto_msg_t *msg)
         mlog(m, "scene %.12s sent to worker %llu '%s'", msg->scene_request.scene,
              (unsigned long long)w->id, w->name);
     proto_msg_free(&scene);
+}
+
+/* A worker asks for a job's merged photon store by its hash. */
+static void on_store_request(master_t *m, mworker_t *w, const proto_msg_t *msg)
+{
+    for (size_t i = 0; i < m->njobs; i++) {
+        mjob_t *j = m->jobs[i];
+        if (!j->photons || !j->store_ready || strcmp(j->store, msg->store_request.store) != 0)
+            continue;
+        const uint8_t *data;
+        size_t size;
+        const char *hash;
+        err_t err;
+        if (photon_phase_store(j->photons, &data, &size, &hash, &err) < 0) {
+            mlog(m, "worker %llu asked for photon store %.12s: %s", (unsigned long long)w->id,
+                 msg->store_request.store, err.msg);
+            return;
+        }
+        proto_msg_t out = {.type = PROTO_STORE, .store = {.data = data, .size = size}};
+        memcpy(out.store.store, hash, sizeof out.store.store);
+        if (send_worker(m, w, &out) == 0)
+            mlog(m, "photon store %.12s (%.1f MB) sent to worker %llu '%s'", hash, size / 1e6,
+                 (unsigned long long)w->id, w->name);
+        return;
+    }
+    mlog(m, "worker %llu asked for photon store %.12s, which no job has", (unsigned long long)w->id,
+         msg->store_request.store);
 }
 
 static void on_worker_message(master_t *m, const proto_peer_t *from, const proto_msg_t *msg,
@@ -646,6 +729,9 @@ static void on_worker_message(master_t *m, const proto_peer_t *from, const proto
         break;
     case PROTO_SCENE_REQUEST:
         on_scene_request(m, w, msg);
+        break;
+    case PROTO_STORE_REQUEST:
+        on_store_request(m, w, msg);
         break;
     default: {
         char reason[128];
@@ -744,10 +830,21 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     }
     const render_settings_t rs = scene->settings;
     static const char *integ_names[] = {"simplepath", "path", "whitted"};
-    const char *integ_used = integ_names[rs.integrator];
+    const char *integ_used = !rs.photon.enabled                     ? integ_names[rs.integrator]
+                             : rs.integrator == INTEGRATOR_WHITTED ? "photon+whitted"
+                                                                   : "photon+path";
     const char *disp_used = !scene->has_dispersion ? "off" : rs.dispersion == DISPERSION_HERO ? "hero" : "fanout";
+    /* A photon job keeps its scene: the photon phase checks and merges the batches against it. */
+    photon_phase_t *phase = NULL;
+    if (rs.photon.enabled && !(phase = photon_phase_new(&scene, &err))) {
+        spool_scene_discard(m->spool, dir, staged);
+        mlog(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
+        reply_error(m, from, "%s", err.msg);
+        return;
+    }
     scene_destroy(&scene);
     if (spool_scene_commit(m->spool, b, hash, dir, staged, &m->limits, &err) < 0) {
+        photon_phase_destroy(&phase);
         spool_scene_discard(m->spool, dir, staged);
         mlog(m, "cannot store scene %.12s: %s", hash, err.msg);
         reply_error(m, from, "the master cannot store the scene: %s", err.msg);
@@ -764,13 +861,21 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
             m->cap_jobs = cap;
         }
     }
+    if (j)
+        j->photons = phase; /* freed with the job from here on */
+    else
+        photon_phase_destroy(&phase);
     if (!j || !j->name || m->njobs == m->cap_jobs) {
         job_free(j);
         reply_error(m, from, "the master is out of memory");
         return;
     }
     uint64_t id = m->last_job + 1;
-    if (sched_add_job(m->sched, id, rs.xres, rs.yres, rs.spp, rs.grid, &err) < 0) {
+    if (sched_add_job(m->sched, id, rs.xres, rs.yres, rs.spp, rs.grid, &err) < 0 ||
+        (j->photons &&
+         sched_add_photon_batches(m->sched, id, photon_phase_nbatches(j->photons), &err) < 0)) {
+        err_t ignore;
+        (void)sched_remove_job(m->sched, id, &ignore);
         job_free(j);
         mlog(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
         reply_error(m, from, "%s", err.msg);
@@ -814,10 +919,10 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     proto_msg_t ok = {.type = PROTO_SUBMITTED, .submitted = {.job = id}};
     reply(m, from, &ok);
     mlog(m,
-         "job %llu '%s' submitted by %s: %dx%d, %d spp, %d buckets, %d tiles x %d passes, scene "
-         "%.12s%s",
+         "job %llu '%s' submitted by %s: %dx%d, %d spp, %d buckets, %d tiles x %d passes, %u "
+         "photon batches, scene %.12s%s",
          (unsigned long long)id, j->name, who, rs.xres, rs.yres, rs.spp, rs.grid.n, info.ntiles,
-         info.npasses, hash, staged ? "" : " (stored already)");
+         info.npasses, info.photon_batches, hash, staged ? "" : " (stored already)");
 }
 
 static void reply_jobs(master_t *m, const proto_peer_t *to, proto_type_t type, const mjob_t *only,
@@ -914,6 +1019,63 @@ static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *m
     free(data);
 }
 
+/* More photons for a finished photon job: the phase appends batches, a fresh scheduler job
+ * runs them and then the whole camera phase again, gathering from the grown store; the job's
+ * outputs are rewritten when it is done. Tasks carry the new round, so late results of the old
+ * one are ignored. */
+static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
+{
+    mjob_t *j = job_by_id(m, msg->refine.job);
+    if (!j) {
+        reply_error(m, from, "no job %llu", (unsigned long long)msg->refine.job);
+        return;
+    }
+    if (!j->photons) {
+        reply_error(m, from, "job %llu has no photon pass to refine (its integrator is not \"photon\")",
+                    (unsigned long long)j->id);
+        return;
+    }
+    if (j->state != JOB_DONE || j->in_sched) {
+        reply_error(m, from, "job %llu is %s: only a finished job can be refined",
+                    (unsigned long long)j->id, job_state_name(j->state));
+        return;
+    }
+    err_t err;
+    uint32_t base = photon_phase_nbatches(j->photons);
+    if (photon_phase_refine(j->photons, msg->refine.photons, &err) < 0) {
+        reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
+        return;
+    }
+    uint32_t added = photon_phase_nbatches(j->photons) - base;
+    if (sched_add_job(m->sched, j->id, j->xres, j->yres, j->spp, j->grid, &err) < 0 ||
+        sched_add_photon_batches(m->sched, j->id, added, &err) < 0) {
+        err_t ignore;
+        (void)sched_remove_job(m->sched, j->id, &ignore);
+        /* The phase has batches nobody will run: the job can be neither rendered nor refined
+         * again, so it fails with the reason. */
+        mlog(m, "job %llu: refinement failed: %s", (unsigned long long)j->id, err.msg);
+        job_set_error(j, err.msg);
+        j->state = JOB_FAILED;
+        reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
+        return;
+    }
+    j->photon_base = base;
+    j->round++;
+    j->store_ready = false;
+    j->in_sched = true;
+    j->state = JOB_QUEUED;
+    j->started = j->finished = 0;
+    j->samples_done = 0;
+    j->submitted = now;
+    photon_phase_stats_t ps = photon_phase_stats(j->photons);
+    mlog(m, "job %llu '%s' refined: %llu more photons in %u batches (%llu so far), then the camera "
+         "phase again",
+         (unsigned long long)j->id, j->name, (unsigned long long)msg->refine.photons, added,
+         (unsigned long long)ps.photons);
+    proto_msg_t ok = {.type = PROTO_SUBMITTED, .submitted = {.job = j->id}};
+    reply(m, from, &ok);
+}
+
 static void on_client_message(master_t *m, const proto_peer_t *from, const proto_msg_t *msg,
                               double now)
 {
@@ -943,6 +1105,9 @@ static void on_client_message(master_t *m, const proto_peer_t *from, const proto
         break;
     case PROTO_FETCH:
         on_fetch(m, from, msg);
+        break;
+    case PROTO_REFINE:
+        on_refine(m, from, msg, now);
         break;
     case PROTO_CANCEL: {
         mjob_t *j = job_by_id(m, msg->cancel.job);

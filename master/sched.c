@@ -9,7 +9,6 @@ typedef enum { TASK_PENDING, TASK_RUNNING, TASK_DONE } task_state_t;
 typedef struct task {
     task_state_t state;
     uint32_t attempt;
-    uint32_t min_attempt; /* results of earlier attempts are stale (a refinement reset it) */
     int failures;
     uint64_t owner; /* worker holding it while RUNNING */
     double deadline;
@@ -276,44 +275,6 @@ int sched_add_photon_batches(sched_t *self, uint64_t id, uint32_t n, err_t *err)
     return grow_photon(j, n, err);
 }
 
-int sched_refine_job(sched_t *self, uint64_t id, uint32_t n, err_t *err)
-{
-    job_t *j = find_job(self, id);
-    if (!j)
-        return err_set(err, "no job %llu", (unsigned long long)id);
-    if (j->state != JOB_DONE)
-        return err_set(err, "job %llu is %s: only a finished job can be refined", (unsigned long long)id,
-                       job_state_name(j->state));
-    if (j->nphoton == 0)
-        return err_set(err, "job %llu has no photon pass to refine", (unsigned long long)id);
-    tilebuf_t *image = tilebuf_new(0, 0, j->xres, j->yres, j->grid.n, err);
-    if (!image)
-        return -1;
-    if (grow_photon(j, n, err)) {
-        tilebuf_destroy(&image);
-        return -1;
-    }
-    /* The camera phase starts again from nothing: every tile gathers from the new store. */
-    tilebuf_destroy(&j->image);
-    j->image = image;
-    for (uint32_t i = 0; i < ncamera(j); i++) {
-        task_t *t = &j->tasks[i];
-        t->state = TASK_PENDING;
-        t->failures = 0;
-        t->min_attempt = t->attempt + 1;
-        tilebuf_destroy(&t->result);
-    }
-    memset(j->next_pass, 0, (size_t)j->ntiles * sizeof *j->next_pass);
-    memset(j->merged_in_pass, 0, (size_t)j->npasses * sizeof *j->merged_in_pass);
-    j->passes_done = 0;
-    j->first_pending = 0;
-    j->tasks_done = j->photon_done;
-    j->samples_done = 0;
-    j->error[0] = 0;
-    j->state = JOB_QUEUED;
-    return 0;
-}
-
 int sched_cancel_job(sched_t *self, uint64_t id, err_t *err)
 {
     job_t *j = find_job(self, id);
@@ -322,6 +283,15 @@ int sched_cancel_job(sched_t *self, uint64_t id, err_t *err)
     if (j->state == JOB_QUEUED || j->state == JOB_RUNNING)
         finish_job(self, j, JOB_CANCELLED);
     return 0;
+}
+
+void sched_fail_job(sched_t *self, uint64_t id, const char *message)
+{
+    job_t *j = find_job(self, id);
+    if (!j || (j->state != JOB_QUEUED && j->state != JOB_RUNNING))
+        return;
+    snprintf(j->error, sizeof j->error, "%s", message ? message : "failed");
+    finish_job(self, j, JOB_FAILED);
 }
 
 int sched_remove_job(sched_t *self, uint64_t id, err_t *err)
@@ -497,8 +467,9 @@ int sched_photon_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t tas
     if (!t)
         return err_set(err, "photon result for unknown job %llu task %u", (unsigned long long)job,
                        task & ~SCHED_PHOTON_TASK);
+    (void)attempt;
     /* Batches are the same photons whatever the attempt: the first result wins. */
-    if (j->state != JOB_RUNNING || t->state == TASK_DONE || attempt < t->min_attempt)
+    if (j->state != JOB_RUNNING || t->state == TASK_DONE)
         return SCHED_DUPLICATE;
     release_task(self, t);
     t->state = TASK_DONE;
@@ -522,9 +493,9 @@ int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
         return err_set(err, "result for unknown job %llu task %u", (unsigned long long)job, task);
     }
     task_t *t = &j->tasks[task];
-    if (j->state != JOB_RUNNING || t->state == TASK_DONE || attempt < t->min_attempt) {
-        /* Every attempt of a task gives the same bytes, so the first result wins (attempts
-         * before a refinement gathered from the old store: they are stale). */
+    (void)attempt;
+    if (j->state != JOB_RUNNING || t->state == TASK_DONE) {
+        /* Every attempt of a task gives the same bytes, so the first result wins. */
         tilebuf_destroy(&r);
         return SCHED_DUPLICATE;
     }
@@ -566,7 +537,8 @@ void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t ta
     task_t *t = j ? task_of(j, task) : NULL;
     if (!t || j->state != JOB_RUNNING)
         return;
-    if (t->state == TASK_DONE || attempt < t->min_attempt)
+    (void)attempt;
+    if (t->state == TASK_DONE)
         return;
     if (t->state == TASK_RUNNING && t->owner == worker)
         requeue(self, j, task);

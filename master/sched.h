@@ -71,11 +71,9 @@ int sched_add_job(sched_t *self, uint64_t job, int xres, int yres, int spp, spec
 /* Adds photon batches to a job that has not started (0..n-1 after any it has): its camera
  * tasks wait until every batch is done. */
 int sched_add_photon_batches(sched_t *self, uint64_t job, uint32_t n, err_t *err);
-/* More photons for a finished job: n more batches, then the whole camera phase again from
- * an empty image (the store it gathers from has changed). Results of the earlier camera
- * phase that arrive late are ignored. */
-int sched_refine_job(sched_t *self, uint64_t job, uint32_t n, err_t *err);
 int sched_cancel_job(sched_t *self, uint64_t job, err_t *err);
+/* Ends a job as failed with message (the master could not finish what its tasks gave). */
+void sched_fail_job(sched_t *self, uint64_t job, const char *message);
 /* Forgets a finished, failed or cancelled job and frees its image. */
 int sched_remove_job(sched_t *self, uint64_t job, err_t *err);
 

@@ -1,7 +1,6 @@
 /* sched: the photon phase of a job. Batches go out first and camera tasks wait for all of
  * them; lost workers, deadlines and failures requeue batches like tiles; a batch failing too
- * often fails the job; a finished job refined with more photons runs its new batches and then
- * its whole camera phase again, ignoring late results of the old one. */
+ * often fails the job; the master can fail a job outright. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -146,62 +145,28 @@ static void test_deadline_and_failure(void **state)
     sched_destroy(&s);
 }
 
-static void test_refine(void **state)
+/* The master fails a job whose merged store it cannot make: running tasks are released. */
+static void test_fail_job(void **state)
 {
     (void)state;
     sched_t *s = new_sched();
     err_t err;
     assert_int_equal(sched_add_job(s, 3, 8, 4, 2, grid4(), &err), 0);
-    assert_int_equal(sched_worker_join(s, 10, 100, 0.0, &err), 0);
-    /* A job without a photon pass cannot be refined. */
-    assert_int_equal(sched_add_job(s, 4, 4, 4, 1, grid4(), &err), 0);
     assert_int_equal(sched_add_photon_batches(s, 3, 2, &err), 0);
+    assert_int_equal(sched_worker_join(s, 10, 100, 0.0, &err), 0);
     sched_task_t t;
-    for (int i = 0; i < 2; i++) {
-        assert_int_equal(sched_next_task(s, 10, 0.0, &t), 1);
-        assert_int_equal(sched_photon_done(s, 10, 3, t.task, t.attempt, 0.0, &err),
-                         SCHED_MERGED | (i == 1 ? SCHED_PHASE_DONE : 0));
-    }
-    /* Keep one camera result of the first round back, to deliver after the refinement. */
-    sched_task_t late;
-    assert_int_equal(sched_next_task(s, 10, 0.0, &late), 1);
-    tilebuf_t *late_r = result_for(&late);
-    assert_int_equal(sched_refine_job(s, 3, 1, &err), -1); /* still running */
-    assert_non_null(strstr(err.msg, "only a finished job"));
-    tilebuf_t *r = result_for(&late);
-    assert_true(sched_task_done(s, 10, 3, late.task, late.attempt, &r, 0.0, &err) > 0);
-    assert_int_equal(finish_camera(s, 10, 3, 0.0), 3);
+    assert_int_equal(sched_next_task(s, 10, 0.0, &t), 1);
+    sched_fail_job(s, 3, "the merged photon store: out of memory");
     sched_job_info_t info;
-    assert_int_equal(sched_job_info(s, 4, &info), 0);
-    assert_int_equal(info.state, JOB_DONE);
-    assert_int_equal(sched_refine_job(s, 4, 1, &err), -1);
-    assert_non_null(strstr(err.msg, "no photon pass"));
-    double before = tilebuf_sum(sched_job_image(s, 3), 0, 0, 0);
-    assert_true(before > 0.0);
-    assert_int_equal(sched_refine_job(s, 3, 2, &err), 0);
     assert_int_equal(sched_job_info(s, 3, &info), 0);
-    assert_int_equal(info.state, JOB_QUEUED);
-    assert_int_equal(info.photon_batches, 4);
-    assert_int_equal(info.photon_batches_done, 2);
-    assert_int_equal(info.passes_done, 0);
-    assert_int_equal(info.samples_done, 0);
-    assert_true(tilebuf_sum(sched_job_image(s, 3), 0, 0, 0) == 0.0);
-    /* The new batches, then the camera phase from scratch; the old round's late result is
-     * stale and ignored. */
-    for (int i = 0; i < 2; i++) {
-        assert_int_equal(sched_next_task(s, 10, 1.0, &t), 1);
-        assert_int_equal(t.kind, SCHED_PHOTON);
-        assert_int_equal(t.batch, 2 + i);
-        assert_int_equal(sched_photon_done(s, 10, 3, t.task, t.attempt, 1.0, &err),
-                         SCHED_MERGED | (i == 1 ? SCHED_PHASE_DONE : 0));
-    }
-    assert_int_equal(sched_task_done(s, 10, 3, late.task, late.attempt, &late_r, 1.0, &err),
-                     SCHED_DUPLICATE);
-    assert_int_equal(finish_camera(s, 10, 3, 1.0), 4);
+    assert_int_equal(info.state, JOB_FAILED);
+    assert_int_equal(info.tasks_running, 0);
+    assert_string_equal(info.error, "the merged photon store: out of memory");
+    assert_int_equal(sched_next_task(s, 10, 0.0, &t), 0);
+    /* Once over, a job stays as it ended. */
+    sched_fail_job(s, 3, "again");
     assert_int_equal(sched_job_info(s, 3, &info), 0);
-    assert_int_equal(info.state, JOB_DONE);
-    /* The image holds one round of samples: 2 spp of value 1 in bucket 0 per pixel. */
-    assert_true(tilebuf_sum(sched_job_image(s, 3), 0, 0, 0) == before);
+    assert_string_equal(info.error, "the merged photon store: out of memory");
     sched_destroy(&s);
 }
 
@@ -210,7 +175,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_batches_before_tiles),
         cmocka_unit_test(test_deadline_and_failure),
-        cmocka_unit_test(test_refine),
+        cmocka_unit_test(test_fail_job),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

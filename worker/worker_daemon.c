@@ -3,6 +3,7 @@
 #include "bundle.h"
 #include "local_render.h"
 #include "net.h"
+#include "photon.h"
 #include "render.h"
 #include "scene_load.h"
 
@@ -23,15 +24,28 @@
 #endif
 
 #define MAX_SCENES 4 /* loaded scenes kept (one per job); the oldest unused one goes first */
+#define MAX_STORES 4 /* photon stores kept (their wire form), by hash; the oldest unused goes */
 
 typedef struct job_scene {
     uint64_t job;
     char hash[PROTO_HASH_HEX + 1];
+    /* The photon store installed in the scene for its camera tasks, "" for none yet: a
+     * refined job's new store needs a scene of its own, as a store is installed once. */
+    char store[PROTO_HASH_HEX + 1];
     scene_t *scene;
     char error[512];
     int loading, users;
     unsigned long stamp;
 } job_scene_t;
+
+/* A photon store's wire form as the master sent it (STORE), until no task needs it. */
+typedef struct store_bytes {
+    char hash[PROTO_HASH_HEX + 1]; /* "" for an empty slot */
+    uint8_t *data;
+    size_t size;
+    int users; /* render threads installing it right now */
+    unsigned long stamp;
+} store_bytes_t;
 
 typedef struct task {
     struct task *next;
@@ -41,9 +55,16 @@ typedef struct task {
     char hash[PROTO_HASH_HEX + 1];
     proto_settings_t settings;
     char strings[2][16];
-    proto_tile_t tile;
+    proto_kind_t kind;
+    proto_tile_t tile;             /* camera tiles */
+    char store[PROTO_HASH_HEX + 1]; /* camera tiles of a photon job: the store to gather from */
+    proto_photon_batch_t photons;  /* photon batches */
     /* filled by the render thread */
     tilebuf_t *result;
+    uint8_t *photon_data; /* a batch's partial store, wire form */
+    size_t photon_size;
+    int ok;
+    photon_stats_t pstats;
     render_stats_t stats;
     double elapsed;
     char error[640];
@@ -58,6 +79,7 @@ typedef struct worker {
     task_t *parked;             /* waiting for their scene */
     task_t *done;               /* rendered, to send */
     job_scene_t scenes[MAX_SCENES];
+    store_bytes_t stores[MAX_STORES];
     unsigned long clock;
     unsigned generation;
     int quit;
@@ -110,6 +132,40 @@ static int bundle_ready(const worker_t *w, const char *hash)
     return access(path, F_OK) == 0;
 }
 
+static store_bytes_t *find_store(worker_t *w, const char *hash)
+{
+    for (int i = 0; i < MAX_STORES; i++)
+        if (w->stores[i].hash[0] && !strcmp(w->stores[i].hash, hash))
+            return &w->stores[i];
+    return NULL;
+}
+
+/* A task can run once its bundle is on disk and, for a tile that gathers from a photon store,
+ * the store is here. Called with the lock held. */
+static int task_ready(worker_t *w, const task_t *t)
+{
+    return bundle_ready(w, t->hash) && (!t->store[0] || find_store(w, t->store));
+}
+
+/* Installs the task's photon store into a freshly loaded scene (its derived-data slot is still
+ * empty). Called with the lock held; released while the store is decoded and built. */
+static int install_store(worker_t *w, job_scene_t *js, const task_t *t, err_t *err)
+{
+    store_bytes_t *sb = find_store(w, t->store);
+    if (!sb)
+        return err_set(err, "photon store %.12s is no longer held: the master will send it again",
+                       t->store);
+    sb->users++;
+    pthread_mutex_unlock(&w->lock);
+    int r = photon_pass_install_bytes(js->scene, sb->data, sb->size, err);
+    pthread_mutex_lock(&w->lock);
+    sb->users--;
+    sb->stamp = ++w->clock;
+    if (!r)
+        snprintf(js->store, sizeof js->store, "%s", t->store);
+    return r;
+}
+
 /* Finds or loads the scene of a task's job. Called by render threads with the lock held; the
  * lock is released while loading so that other threads keep rendering. */
 static job_scene_t *acquire_scene(worker_t *w, const task_t *t, err_t *err)
@@ -118,7 +174,10 @@ static job_scene_t *acquire_scene(worker_t *w, const task_t *t, err_t *err)
         job_scene_t *hit = NULL, *victim = NULL;
         for (int i = 0; i < MAX_SCENES; i++) {
             job_scene_t *s = &w->scenes[i];
-            if ((s->scene || s->loading || s->error[0]) && s->job == t->job) {
+            /* Photon batches take any scene of their job (they leave its store slot alone);
+             * a tile needs its store installed, or a scene with none yet to install it in. */
+            if ((s->scene || s->loading || s->error[0]) && s->job == t->job &&
+                (s->error[0] || !t->store[0] || !s->store[0] || !strcmp(s->store, t->store))) {
                 hit = s;
                 break;
             }
@@ -133,6 +192,16 @@ static job_scene_t *acquire_scene(worker_t *w, const task_t *t, err_t *err)
             if (hit->error[0]) {
                 err_set(err, "%s", hit->error);
                 return NULL;
+            }
+            if (t->store[0] && !hit->store[0]) {
+                /* Wait for the scene's own users to leave? No: batches do not touch the store
+                 * slot, and tiles of this job all want this store. */
+                hit->loading = 1;
+                int r = install_store(w, hit, t, err);
+                hit->loading = 0;
+                pthread_cond_broadcast(&w->wake);
+                if (r)
+                    return NULL;
             }
             hit->users++;
             hit->stamp = ++w->clock;
@@ -167,11 +236,18 @@ static job_scene_t *acquire_scene(worker_t *w, const task_t *t, err_t *err)
         if (f)
             fclose(f);
         pthread_mutex_lock(&w->lock);
-        victim->loading = 0;
         victim->scene = sc;
         victim->stamp = ++w->clock;
         if (!sc)
             snprintf(victim->error, sizeof victim->error, "%s", lerr.msg);
+        else if (t->store[0] && install_store(w, victim, t, &lerr)) {
+            /* The scene is fine for batches; this tile fails (and is tried again). */
+            victim->loading = 0;
+            pthread_cond_broadcast(&w->wake);
+            err_set(err, "%s", lerr.msg);
+            return NULL;
+        }
+        victim->loading = 0;
         pthread_cond_broadcast(&w->wake);
     }
 }
@@ -198,17 +274,23 @@ static void *render_thread(void *arg)
         if (js) {
             pthread_mutex_unlock(&w->lock);
             double t0 = now_s();
-            const proto_tile_t *r = &t->tile;
-            t->result = tilebuf_new(r->x0, r->y0, r->w, r->h, js->scene->settings.grid.n, &err);
-            if (t->result && render_tile(js->scene, r->x0, r->y0, r->w, r->h, r->sample_begin,
-                                         r->sample_end, t->result, &t->stats, &err))
-                tilebuf_destroy(&t->result);
+            if (t->kind == PROTO_KIND_PHOTON_BATCH) {
+                t->ok = photon_batch_run(js->scene, t->photons.first, t->photons.end,
+                                         &t->photon_data, &t->photon_size, &t->pstats, &err) == 0;
+            } else {
+                const proto_tile_t *r = &t->tile;
+                t->result = tilebuf_new(r->x0, r->y0, r->w, r->h, js->scene->settings.grid.n, &err);
+                if (t->result && render_tile(js->scene, r->x0, r->y0, r->w, r->h, r->sample_begin,
+                                             r->sample_end, t->result, &t->stats, &err))
+                    tilebuf_destroy(&t->result);
+                t->ok = t->result != NULL;
+            }
             t->elapsed = now_s() - t0;
             pthread_mutex_lock(&w->lock);
             js->users--;
             pthread_cond_broadcast(&w->wake);
         }
-        if (!t->result)
+        if (!t->ok)
             snprintf(t->error, sizeof t->error, "%s", err.msg[0] ? err.msg : "job cancelled");
         t->next = w->done;
         w->done = t;
@@ -227,6 +309,7 @@ static void free_list(task_t *t)
     while (t) {
         task_t *n = t->next;
         tilebuf_destroy(&t->result);
+        free(t->photon_data);
         free(t);
         t = n;
     }
@@ -388,12 +471,15 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                     t->generation = gen;
                     snprintf(t->hash, sizeof t->hash, "%s", m.task.scene);
                     copy_settings(t, &m.task.settings);
+                    t->kind = m.task.kind;
                     t->tile = m.task.tile;
+                    t->photons = m.task.photons;
+                    snprintf(t->store, sizeof t->store, "%s", m.task.store);
                     pthread_mutex_lock(&w.lock);
                     for (int i = 0; i < w.ncancelled; i++)
                         if (w.cancelled[i] == t->job) /* a re-submitted id is a new job */
                             w.cancelled[i] = w.cancelled[--w.ncancelled];
-                    if (bundle_ready(&w, t->hash)) {
+                    if (task_ready(&w, t)) {
                         if (w.queue_tail)
                             w.queue_tail->next = t;
                         else
@@ -401,17 +487,79 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                         w.queue_tail = t;
                         pthread_cond_broadcast(&w.wake);
                     } else {
-                        int asked = 0;
-                        for (task_t *p = w.parked; p; p = p->next)
-                            asked |= !strcmp(p->hash, t->hash);
+                        /* Ask once for whatever is missing: parked tasks already waiting for
+                         * the same bundle or store have asked. */
+                        int asked_scene = 0, asked_store = 0;
+                        for (task_t *p = w.parked; p; p = p->next) {
+                            asked_scene |= !strcmp(p->hash, t->hash);
+                            asked_store |= t->store[0] && !strcmp(p->store, t->store);
+                        }
                         t->next = w.parked;
                         w.parked = t;
-                        if (!asked) {
+                        if (!asked_scene && !bundle_ready(&w, t->hash)) {
                             proto_msg_t req = {.type = PROTO_SCENE_REQUEST};
                             snprintf(req.scene_request.scene, sizeof req.scene_request.scene, "%s", t->hash);
                             send_msg(&w, net, &req);
                         }
+                        if (!asked_store && t->store[0] && !find_store(&w, t->store)) {
+                            proto_msg_t req = {.type = PROTO_STORE_REQUEST};
+                            snprintf(req.store_request.store, sizeof req.store_request.store, "%s", t->store);
+                            send_msg(&w, net, &req);
+                        }
                     }
+                    pthread_mutex_unlock(&w.lock);
+                    break;
+                }
+                case PROTO_STORE: {
+                    /* Keep the store (its hash was checked when the message was decoded), then
+                     * start the tiles that waited for it. */
+                    pthread_mutex_lock(&w.lock);
+                    store_bytes_t *slot = find_store(&w, m.store.store);
+                    for (int i = 0; i < MAX_STORES && !slot; i++)
+                        if (!w.stores[i].hash[0])
+                            slot = &w.stores[i];
+                    for (int i = 0; i < MAX_STORES && !slot; i++) {
+                        store_bytes_t *c = &w.stores[i];
+                        if (!c->users && (!slot || c->stamp < slot->stamp))
+                            slot = c;
+                    }
+                    uint8_t *copy = slot ? malloc(m.store.size ? m.store.size : 1) : NULL;
+                    if (copy) {
+                        if (slot->hash[0] && strcmp(slot->hash, m.store.store) != 0)
+                            logf_(&w, "photon store %.12s dropped for %.12s", slot->hash, m.store.store);
+                        free(slot->data);
+                        memcpy(copy, m.store.data, m.store.size);
+                        slot->data = copy;
+                        slot->size = m.store.size;
+                        slot->stamp = ++w.clock;
+                        snprintf(slot->hash, sizeof slot->hash, "%s", m.store.store);
+                        logf_(&w, "photon store %.12s received (%zu bytes)", m.store.store, m.store.size);
+                    } else {
+                        logf_(&w, "no room for photon store %.12s: its tiles will fail and be re-sent",
+                              m.store.store);
+                    }
+                    task_t **pp = &w.parked;
+                    while (*pp) {
+                        task_t *t = *pp;
+                        if (strcmp(t->store, m.store.store) != 0 || (copy && !task_ready(&w, t))) {
+                            pp = &t->next;
+                            continue;
+                        }
+                        *pp = t->next;
+                        t->next = NULL;
+                        if (copy) {
+                            if (w.queue_tail)
+                                w.queue_tail->next = t;
+                            else
+                                w.queue = t;
+                            w.queue_tail = t;
+                        } else {
+                            snprintf(t->error, sizeof t->error, "no room for photon store %.12s", m.store.store);
+                            t->next = w.done;
+                            w.done = t;
+                        }
+                    }
+                    pthread_cond_broadcast(&w.wake);
                     pthread_mutex_unlock(&w.lock);
                     break;
                 }
@@ -424,7 +572,8 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                     task_t **pp = &w.parked;
                     while (*pp) {
                         task_t *t = *pp;
-                        if (strcmp(t->hash, m.scene.scene) != 0) {
+                        /* A tile whose photon store is still on its way stays parked. */
+                        if (strcmp(t->hash, m.scene.scene) != 0 || (ok && !task_ready(&w, t))) {
                             pp = &t->next;
                             continue;
                         }
@@ -505,7 +654,19 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                 done = t->next;
                 if (t->generation == gen && !is_cancelled(&w, t->job)) {
                     proto_msg_t out;
-                    if (t->result) {
+                    if (t->ok && t->kind == PROTO_KIND_PHOTON_BATCH) {
+                        out = (proto_msg_t){.type = PROTO_RESULT};
+                        out.result.job = t->job;
+                        out.result.task = t->id;
+                        out.result.attempt = t->attempt;
+                        out.result.kind = PROTO_KIND_PHOTON_BATCH;
+                        out.result.photons = (proto_photon_result_t){
+                            .range = t->photons, .emitted = t->pstats.emitted, .data = t->photon_data,
+                            .size = t->photon_size, .nonfinite = t->pstats.nonfinite};
+                        out.result.stats = (proto_task_stats_t){
+                            .samples = t->photons.end - t->photons.first, .rays = t->pstats.rays,
+                            .elapsed = t->elapsed};
+                    } else if (t->ok) {
                         const tilebuf_t *b = t->result;
                         out = (proto_msg_t){.type = PROTO_RESULT};
                         out.result.job = t->job;
@@ -578,6 +739,8 @@ out:
     free_list(w.done);
     for (int i = 0; i < MAX_SCENES; i++)
         scene_destroy(&w.scenes[i].scene);
+    for (int i = 0; i < MAX_STORES; i++)
+        free(w.stores[i].data);
     pthread_cond_destroy(&w.wake);
     pthread_mutex_destroy(&w.lock);
     close(w.wake_fd[0]);

@@ -1,0 +1,232 @@
+/* The photon pass on the farm (issue 5): photon batches traced by the workers, merged by the
+ * master in batch order and sent back as one store for the camera phase, give the pixels of
+ * `prismfarm render --direct` (one machine, every photon) -- with the photon map and with
+ * light maps, with one or two workers, with a worker killed during the photon phase -- and a
+ * job refined with more photons gives the pixels of the scene rendered with that many from the
+ * start. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#define CLI_RUN_TIMEOUT_MS 240000
+#include "cli_run.h"
+#include "farm_testutil.h"
+#include "image_exr.h"
+
+#include <signal.h>
+#include <stdlib.h>
+#include <string.h>
+
+static char DIR_[256];
+
+static int setup(void **state)
+{
+    (void)state;
+    return testutil_mkdtemp(DIR_, sizeof DIR_, "farm-photon");
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    return testutil_rmtree(DIR_);
+}
+
+static const char *path_in(const char *name)
+{
+    static char buf[8][512];
+    static int k;
+    k = (k + 1) % 8;
+    snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
+    return buf[k];
+}
+
+static pid_t spawn(const char *log, const char *arg, ...)
+{
+    const char *bin = getenv("PRISMFARM_BIN");
+    char *argv[32];
+    va_list ap;
+    va_start(ap, arg);
+    cli_argv(argv, 32, bin, arg, ap);
+    va_end(ap);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        FILE *f = freopen(log, "w", stderr);
+        (void)f;
+        if (!freopen("/dev/null", "w", stdout))
+            _exit(126);
+        execv(bin, argv);
+        _exit(127);
+    }
+    return pid;
+}
+
+static void stop(pid_t pid, int sig)
+{
+    kill(pid, sig);
+    int st;
+    waitpid(pid, &st, 0);
+}
+
+static void read_endpoints(const char *spool, char *workers, char *clients)
+{
+    char path[600];
+    snprintf(path, sizeof path, "%s/endpoints", spool);
+    for (int i = 0; i < 400; i++) {
+        FILE *f = fopen(path, "r");
+        if (f) {
+            int got = fscanf(f, "workers %255s clients %255s", workers, clients);
+            fclose(f);
+            if (got == 2)
+                return;
+        }
+        testutil_sleep_ms(25);
+    }
+    fail_msg("the master did not write %s", path);
+}
+
+static void render_direct(const char *scene, const char *out)
+{
+    const run_t *r = run("render", scene, "--direct", "-o", out, "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("render --direct %s: exit %d: %s", scene, r->status, r->err);
+}
+
+/* The in-process farm (`prismfarm render`) with two workers of one thread against --direct,
+ * for both stores. */
+static void test_in_process_both_stores(void **state)
+{
+    (void)state;
+    const char *scenes[] = {"data/photon/beam.pbrt", "data/photon/beam_lightmap.pbrt"};
+    for (int i = 0; i < 2; i++) {
+        render_direct(scenes[i], path_in("direct.exr"));
+        const run_t *r = run("render", scenes[i], "--workers", "2", "--threads", "1", "--tile", "16",
+                             "-o", path_in("farm.exr"), "--quiet", NULL);
+        if (r->status != 0)
+            fail_msg("render %s: exit %d: %s", scenes[i], r->status, r->err);
+        testutil_assert_same_pixels(path_in("direct.exr"), path_in("farm.exr"));
+    }
+}
+
+/* A job's EXR records its photons in the "prismfarm" attribute. */
+static void expect_photons(const char *exr, const char *photons)
+{
+    err_t err;
+    image_exr_t *x = image_exr_read(exr, &err);
+    if (!x)
+        fail_msg("%s", err.msg);
+    const char *info = image_exr_attribute(x, "prismfarm");
+    assert_non_null(info);
+    char want[64];
+    snprintf(want, sizeof want, "photons=%s;", photons);
+    if (!strstr(info, want))
+        fail_msg("expected '%s' in '%s'", want, info);
+    expect_in(info, "integrator=photon+path;");
+    image_exr_destroy(&x);
+}
+
+/* Separate master and worker processes: a job, its refinement, and a worker killed in the
+ * photon phase of a bigger job. */
+static void test_processes_refine_and_kill(void **state)
+{
+    (void)state;
+    const char *spool = path_in("spool");
+    pid_t master = spawn(path_in("master.log"), "master", "--workers", "tcp://127.0.0.1:*", "--clients",
+                         "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "16", NULL);
+    char wep[256], cep[256];
+    read_endpoints(spool, wep, cep);
+    pid_t w1 = spawn(path_in("w1.log"), "worker", "--connect", wep, "--threads", "1", "--name", "w1",
+                     "--cache", path_in("c1"), NULL);
+    pid_t w2 = spawn(path_in("w2.log"), "worker", "--connect", wep, "--threads", "1", "--name", "w2",
+                     "--cache", path_in("c2"), NULL);
+
+    const run_t *r = run("submit", "data/photon/beam.pbrt", "--master", cep, "--name", "beam", "--wait",
+                         "-o", path_in("job.exr"), "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("submit --wait: exit %d: %s", r->status, r->err);
+    render_direct("data/photon/beam.pbrt", path_in("direct.exr"));
+    testutil_assert_same_pixels(path_in("job.exr"), path_in("direct.exr"));
+    expect_photons(path_in("job.exr"), "30000");
+
+    /* 20000 more photons: the store then holds photons [0, 50000), as beam_more.pbrt's. */
+    r = run("refine", "1", "--photons", "20000", "--master", cep, "--wait", "-o", path_in("refined.exr"),
+            "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("refine --wait: exit %d: %s", r->status, r->err);
+    expect_in(r->out, "job 1 refined");
+    render_direct("data/photon/beam_more.pbrt", path_in("more.exr"));
+    testutil_assert_same_pixels(path_in("refined.exr"), path_in("more.exr"));
+    expect_photons(path_in("refined.exr"), "50000");
+
+    /* What refine refuses: a job that does not exist, bad arguments. */
+    r = run("refine", "7", "--photons", "10", "--master", cep, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "no job 7");
+    r = run("refine", "1", "--master", cep, NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "--photons N is required");
+    r = run("refine", "1", "--photons", "0", "--master", cep, NULL);
+    assert_int_equal(r->status, 2);
+
+    /* A job without a photon pass cannot be refined. */
+    r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--wait", "-o", path_in("tiny.exr"),
+            "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("submit tiny: exit %d: %s", r->status, r->err);
+    r = run("refine", "2", "--photons", "10", "--master", cep, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "has no photon pass");
+
+    /* A worker killed while it holds photon batches: they are traced again elsewhere and the
+     * pixels are those of one machine's pass. */
+    r = run("submit", "data/photon/beam_big.pbrt", "--master", cep, "--name", "big", NULL);
+    if (r->status != 0)
+        fail_msg("submit big: exit %d: %s", r->status, r->err);
+    assert_string_equal(r->out, "3\n");
+    testutil_sleep_ms(250);
+    stop(w2, SIGKILL);
+    for (int i = 0; i < 1200; i++) {
+        r = run("status", "3", "--master", cep, "--json", NULL);
+        assert_int_equal(r->status, 0);
+        if (strstr(r->out, "\"done\"") || strstr(r->out, "\"failed\""))
+            break;
+        testutil_sleep_ms(100);
+    }
+    expect_in(r->out, "\"state\": \"done\"");
+    r = run("fetch", "3", "-o", path_in("big.exr"), "--master", cep, NULL);
+    if (r->status != 0)
+        fail_msg("fetch: %s", r->err);
+    render_direct("data/photon/beam_big.pbrt", path_in("big_direct.exr"));
+    testutil_assert_same_pixels(path_in("big.exr"), path_in("big_direct.exr"));
+
+    stop(w1, SIGTERM);
+    stop(master, SIGTERM);
+    /* The master said what it did: batches merged, the store sent, the refinement. */
+    FILE *f = fopen(path_in("master.log"), "r");
+    assert_non_null(f);
+    static char log[1 << 20];
+    size_t n = fread(log, 1, sizeof log - 1, f);
+    log[n] = 0;
+    fclose(f);
+    expect_in(log, "job 1 photon pass merged: 30000 photons in 2 batches");
+    expect_in(log, "job 1 photon pass merged: 50000 photons in 3 batches");
+    expect_in(log, "job 1 'beam' refined: 20000 more photons in 1 batches");
+    expect_in(log, "photon store ");
+    /* w2 died holding batches of job 3 (it prefetches two): the photon phase could only end
+     * after the master gave them to w1. */
+    const char *lost = strstr(log, "'w2' lost"), *merged = strstr(log, "job 3 photon pass merged");
+    if (!lost || !merged || lost > merged)
+        fail_msg("expected w2 lost before job 3's photon pass merged:\n%s", log);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_in_process_both_stores),
+        cmocka_unit_test(test_processes_refine_and_kill),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
