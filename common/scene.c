@@ -1,5 +1,8 @@
 #include "scene.h"
 
+#include "cie.h"
+
+#include <float.h>
 #include <math.h>
 #include <pthread.h>
 #include <stdio.h>
@@ -30,7 +33,8 @@ render_settings_t render_settings_default(void)
         .filename = "",
         .film_spectral = 1,
         .photon = {.enabled = 0, .photons = 1000000, .radius = 0.0, .k = 0, .maxdepth = 5,
-                   .threshold = 0.01, .monochromerays = 1},
+                   .threshold = 0.01, .monochromerays = 1, .mindepth = 1,
+                   .store = PHOTON_STORE_PHOTONMAP, .lightmap_density = 400.0},
     };
 }
 
@@ -443,26 +447,43 @@ void scene_surface(const scene_t *self, const hit_t *h, surface_t *out)
         out->ng = vec3_neg(out->ng);
 }
 
-double scene_light_power(const scene_t *self, const light_t *l)
+/* Power of a light up to constant factors common to all lights (its geometric factor times
+ * its luminance), before any guard. */
+static double light_power_raw(const scene_t *self, const light_t *l)
 {
-    /* Power up to constant factors common to all lights, at the luminance-weighted mean:
-     * the spectra are normalised to luminance, so scale alone carries brightness. */
+    /* The luminance Y = scale * integral(L y-bar) / integral(y-bar). Not scale alone: the
+     * loader normalises named, blackbody and tabulated spectra to Y = 1, but a "float L" is
+     * not normalised and an rgb L keeps its colour's luminance (docs/scene-format.md), so a
+     * "float L" 1e9 sun had the power of a "float L" 1 lamp, and next-event estimation sent
+     * 96 % of its samples to a candle of 1e-3 beside it. */
+    double y = l->spectrum ? l->scale * spectrum_photometric(l->spectrum) / CIE_Y_INTEGRAL : l->scale;
     double r = self->scene_radius;
     switch (l->kind) {
     case LIGHT_AREA:
-        return l->scale * PF_PI * self->shapes[l->shape].area * (l->twosided ? 2.0 : 1.0);
+        return y * PF_PI * self->shapes[l->shape].area * (l->twosided ? 2.0 : 1.0);
     case LIGHT_COLLIMATED:
-        return l->scale * self->shapes[l->shape].area;
+        return y * self->shapes[l->shape].area;
     case LIGHT_POINT:
-        return l->scale * 4.0 * PF_PI;
+        return y * 4.0 * PF_PI;
     case LIGHT_SPOT:
-        return l->scale * 2.0 * PF_PI * (1.0 - 0.5 * (l->cos_falloff_start + l->cos_total_width));
+        return y * 2.0 * PF_PI * (1.0 - 0.5 * (l->cos_falloff_start + l->cos_total_width));
     case LIGHT_DISTANT:
-        return l->scale * PF_PI * r * r;
+        return y * PF_PI * r * r;
     case LIGHT_INFINITE:
-        return l->scale * 4.0 * PF_PI * PF_PI * r * r;
+        return y * 4.0 * PF_PI * PF_PI * r * r;
     }
     return 0.0;
+}
+
+double scene_light_power(const scene_t *self, const light_t *l)
+{
+    double p = light_power_raw(self, l);
+    if (!(p > 0.0))
+        return 0.0; /* also a NaN from an unusable spectrum: such a light is never picked */
+    /* A light so bright that its power overflows (a radiance near DBL_MAX) keeps the largest
+     * power that all the scene's lights can still sum to (alias tables refuse an infinite
+     * total), so it is still picked almost always, as its real power would have it. */
+    return fmin(p, DBL_MAX / (double)(self->nlights + 1));
 }
 
 int scene_finish(scene_t *self, err_t *err)

@@ -150,10 +150,11 @@ static void test_merge_in_batch_order(void **state)
 
 /* The caustic's energy per emitted monochrome photon, from a merged store: the power the
  * store holds divided by its emitted count. */
-static double energy_per_photon(uint64_t photons, int lanes, double *rel_se)
+static double energy_per_photon(uint64_t photons, int lanes, int visible, double *rel_se)
 {
     err_t err;
     scene_t *s = beam_scene(photons, lanes);
+    s->settings.visible_sampling = visible;
     photon_phase_t *ph = photon_phase_new(&s, &err);
     assert_non_null(ph);
     const scene_t *js = photon_phase_scene(ph);
@@ -192,8 +193,8 @@ static void test_monochrome_rays_keep_energy(void **state)
 {
     (void)state;
     double se1, se16;
-    double e1 = energy_per_photon(64000, 1, &se1);
-    double e16 = energy_per_photon(4000, 16, &se16);
+    double e1 = energy_per_photon(64000, 1, 0, &se1);
+    double e16 = energy_per_photon(4000, 16, 0, &se16);
     double diff = fabs(e16 / e1 - 1.0);
     print_message("caustic energy per monochrome photon: 1 lane %.6g (se %.2g), 16 lanes %.6g "
                   "(se %.2g): ratio %.4f\n",
@@ -204,11 +205,26 @@ static void test_monochrome_rays_keep_energy(void **state)
     assert_true(diff < 4.0 * sqrt(se1 * se1 + 16.0 * se16 * se16));
 }
 
+/* Wavelengths sampled by the eye's response (pdf divided out) deposit the same energy as
+ * uniform ones: the estimator is unbiased whatever the pdf. */
+static void test_visible_wavelengths_keep_energy(void **state)
+{
+    (void)state;
+    double seu, sev;
+    double eu = energy_per_photon(64000, 1, 0, &seu);
+    double ev = energy_per_photon(64000, 1, 1, &sev);
+    print_message("caustic energy per photon: uniform wavelengths %.6g (se %.2g), visible %.6g "
+                  "(se %.2g): ratio %.4f\n",
+                  eu, seu, ev, sev, ev / eu);
+    assert_true(fabs(ev / eu - 1.0) < 4.0 * sqrt(seu * seu + sev * sev));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_merge_in_batch_order),
         cmocka_unit_test(test_monochrome_rays_keep_energy),
+        cmocka_unit_test(test_visible_wavelengths_keep_energy),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

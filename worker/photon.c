@@ -32,6 +32,7 @@ photon_job_t photon_job_from_settings(const render_settings_t *rs)
                           .mindepth = rs->photon.mindepth,
                           .threshold = rs->photon.threshold,
                           .monochromerays = rs->photon.monochromerays,
+                          .visible = rs->visible_sampling,
                           .policy = PHOTON_STORE_CAUSTIC};
 }
 
@@ -454,8 +455,12 @@ static int trace_one(tracer_t *t, uint64_t i, err_t *err)
     int alive = 0;
     for (int j = 0; j < f.nl; j++) {
         uint64_t uj = ui + (uint64_t)((double)j / f.nl * 0x1p64 * (1.0 - 0x1p-53));
-        wavelength_sample_t ws = wavelength_sample_uniform((double)(uj >> 11) * 0x1p-53,
-                                                           grid.lambda_min, grid.lambda_max);
+        double u = (double)(uj >> 11) * 0x1p-53;
+        /* "wavelengths" "visible" samples by the eye's response (pbrt-v4's pdf, 360-830 nm);
+         * a lane outside the film's range is lost like any photon that leaves the scene. */
+        wavelength_sample_t ws = job->visible
+                                     ? wavelength_sample_visible(u)
+                                     : wavelength_sample_uniform(u, grid.lambda_min, grid.lambda_max);
         double w = ws.pdf > 0.0
                        ? l->scale * spectrum_eval(l->spectrum, ws.lambda) * geom / (pmf * ws.pdf)
                        : 0.0;

@@ -41,6 +41,8 @@ typedef struct photon_job {
                          * stratified over the film's range, travelling together until a
                          * dispersive interface, where every one is followed as a photon of its
                          * own (thesis 5.5); each counts as one emitted photon */
+    int visible;      /* wavelengths by the eye's response (Integrator "string wavelengths"
+                       * "visible"), the pdf divided out; else uniform over the film's range */
     double threshold; /* below this fraction of its emitted power a photon survives Russian
                        * roulette with probability (fraction / threshold) and is scaled back up
                        * (an unbiased cull); 0: never */
