@@ -80,6 +80,53 @@ photon_phase_t *photon_phase_new(scene_t **scene, err_t *err)
     return self;
 }
 
+photon_phase_t *photon_phase_restore(scene_t **scene, const uint8_t *data, size_t size,
+                                     uint64_t photons, err_t *err)
+{
+    photon_phase_t *self = calloc(1, sizeof *self);
+    if (!self) {
+        scene_destroy(scene);
+        err_set(err, "out of memory");
+        return NULL;
+    }
+    self->scene = *scene;
+    *scene = NULL;
+    const photon_settings_t *ph = &self->scene->settings.photon;
+    uint64_t lanes = (uint64_t)ph->monochromerays;
+    if (!ph->enabled || photons == 0 || photons > ((uint64_t)1 << 62)) {
+        err_set(err, "photon pass: nothing to restore (%" PRIu64 " photons)", photons);
+        photon_phase_destroy(&self);
+        return NULL;
+    }
+    self->batch_size = photon_phase_batch_size(ph->photons);
+    if (!(self->merged = photon_store_decode(self->scene, data, size, err))) {
+        err_prefix(err, "photon pass: the saved store: ");
+        photon_phase_destroy(&self);
+        return NULL;
+    }
+    if (photon_store_emitted(self->merged) != photons * lanes) {
+        err_set(err, "photon pass: the saved store has %" PRIu64 " photons emitted, expected %" PRIu64,
+                photon_store_emitted(self->merged), photons * lanes);
+        photon_phase_destroy(&self);
+        return NULL;
+    }
+    /* One batch, already merged: the batch size stays the pass's, so refinements cut the
+     * same batches as they would have without the restore. */
+    uint64_t bs = self->batch_size;
+    self->batch_size = photons;
+    int r = add_batches(self, photons, err);
+    self->batch_size = bs;
+    if (r) {
+        photon_phase_destroy(&self);
+        return NULL;
+    }
+    self->next = 1;
+    self->stats.batches_merged = 1;
+    self->stats.photons = photons;
+    self->stats.emitted = photons * lanes;
+    return self;
+}
+
 void photon_phase_destroy(photon_phase_t **self_p)
 {
     photon_phase_t *self = self_p ? *self_p : NULL;

@@ -38,6 +38,13 @@ uint64_t photon_phase_batch_size(uint64_t photons);
 photon_phase_t *photon_phase_new(scene_t **scene, err_t *err);
 void photon_phase_destroy(photon_phase_t **self_p);
 
+/* A finished pass brought back from the wire form of its merged store (the master keeps it on
+ * disk between a job's end and a refinement rather than in memory): photons [0, photons) as
+ * one merged batch. The store's emitted count must be photons times the scene's lanes. The
+ * phase owns *scene from here on (also on failure). */
+photon_phase_t *photon_phase_restore(scene_t **scene, const uint8_t *data, size_t size,
+                                     uint64_t photons, err_t *err);
+
 const scene_t *photon_phase_scene(const photon_phase_t *self);
 uint32_t photon_phase_nbatches(const photon_phase_t *self);
 proto_photon_batch_t photon_phase_batch(const photon_phase_t *self, uint32_t batch);

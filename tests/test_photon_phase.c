@@ -139,6 +139,34 @@ static void test_merge_in_batch_order(void **state)
     assert_int_equal(size, ref2_len);
     assert_memory_equal(data, ref2, size);
     assert_string_not_equal(hash, old_hash);
+    /* Saved and restored (as the master does between a job's end and a refinement): the same
+     * store, and a further refinement cuts the batches it would have cut. */
+    scene_t *again = beam_scene(50000, 1);
+    photon_phase_t *back = photon_phase_restore(&again, data, size, 80000, &err);
+    if (!back)
+        fail_msg("%s", err.msg);
+    assert_true(photon_phase_complete(back));
+    const uint8_t *d2;
+    size_t s2;
+    const char *h2;
+    assert_int_equal(photon_phase_store(back, &d2, &s2, &h2, &err), 0);
+    assert_int_equal(s2, size);
+    assert_memory_equal(d2, data, size);
+    assert_string_equal(h2, hash);
+    /* A saved store that does not match the photons claimed is refused. */
+    scene_t *third = beam_scene(50000, 1);
+    assert_null(photon_phase_restore(&third, data, size, 70000, &err));
+    assert_non_null(strstr(err.msg, "expected 70000"));
+    /* (data belongs to ph until its next refinement.) */
+    assert_int_equal(photon_phase_refine(back, 25000, &err), 0);
+    assert_int_equal(photon_phase_refine(ph, 25000, &err), 0);
+    assert_int_equal(photon_phase_nbatches(back), 3);
+    for (uint32_t i = 0; i < 2; i++) {
+        proto_photon_batch_t x = photon_phase_batch(back, 1 + i), y = photon_phase_batch(ph, 5 + i);
+        assert_int_equal(x.first, y.first);
+        assert_int_equal(x.end, y.end);
+    }
+    photon_phase_destroy(&back);
     free(ref2);
     free(r3.bytes);
     free(r4.bytes);
