@@ -70,11 +70,30 @@ int geometry_add_instance(geometry_t *self, int object, const transform_t *to_wo
 /* Builds the acceleration structure; no shape or instance may be added afterwards. */
 int geometry_commit(geometry_t *self, err_t *err);
 
-/* Nearest hit along org + t*dir with t in (tmin, tmax); returns 1 on a hit, 0 on a miss. */
+/* Nearest hit along org + t*dir with t in (tmin, tmax); returns 1 on a hit, 0 on a miss.
+ * A triangle counts only if org lies strictly on one side of its plane and dir points to the
+ * other (decided in double, so a ray leaving a triangle never hits it again whatever the
+ * triangle's size or distance); the hit point is rebuilt from barycentrics in double. */
 int geometry_intersect(const geometry_t *self, vec3_t org, vec3_t dir, double tmin, double tmax,
                        hit_t *out);
 /* 1 when anything blocks org + t*dir for t in (tmin, tmax). */
 int geometry_occluded(const geometry_t *self, vec3_t org, vec3_t dir, double tmin, double tmax);
+
+/* One query as Embree receives it: the float ray geometry_intersect or geometry_occluded
+ * builds from its arguments. */
+typedef struct geometry_query {
+    float org[3], tnear, dir[3], tfar;
+    int occluded; /* 1: geometry_occluded, 0: geometry_intersect */
+} geometry_query_t;
+typedef void (*geometry_query_fn)(void *user, const geometry_query_t *q);
+
+/* For benchmarks that replay a render's rays on Embree alone (bench/throughput.c): from now
+ * on fn(user, query) is called before every query, from the querying thread; NULL (the
+ * default) turns it off, leaving one pointer test per query. Set it only while no query is
+ * in flight. */
+void geometry_set_query_hook(geometry_t *self, geometry_query_fn fn, void *user);
+/* The world's Embree scene (an RTCScene) once committed, NULL before. */
+struct RTCSceneTy *geometry_embree_scene(const geometry_t *self);
 
 /* Bounding box of everything in the world, instances included (valid after commit). */
 void geometry_bounds(const geometry_t *self, vec3_t *lo, vec3_t *hi);
@@ -83,8 +102,11 @@ void geometry_bounds(const geometry_t *self, vec3_t *lo, vec3_t *hi);
  * monitor callback reports them. */
 size_t geometry_memory_bytes(const geometry_t *self);
 
-/* Offsets a ray origin off a surface along its normal, far enough for float32 Embree
- * intersection at the point's magnitude (scenes span 1e-3 to 1e5). */
+/* Offsets a ray origin off a surface along its normal, to dir's side, by 4e-6 of the point's
+ * largest coordinate (34 float ulps: Embree traces in float32). Purely relative, so a scene
+ * scaled by 1e-3 or 1e5 takes the same paths. Hit points are exact to double rounding and
+ * triangle hits are checked in double against the side a ray starts on, so no more is needed
+ * (tests/test_numeric_hard.c). */
 vec3_t geometry_offset(vec3_t p, vec3_t ng, vec3_t dir);
 
 #endif
