@@ -2,6 +2,15 @@
 
 #include <math.h>
 
+/* Snell: sin^2(theta_t) = eta^2 sin^2(theta_i), cos_i in [0, 1]. At normal incidence it is 0
+ * for any eta: written as a product, an eta^2 that overflows (indices 1e300 apart) would give
+ * Inf * 0 = NaN there. An overflowing product elsewhere is +Inf, read as total reflection. */
+static double sin2_transmitted(double eta, double cos_i)
+{
+    double sin2_i = fmax(0.0, 1.0 - cos_i * cos_i);
+    return sin2_i > 0.0 ? eta * eta * sin2_i : 0.0;
+}
+
 vec3_t fresnel_reflect(vec3_t d, vec3_t n)
 {
     return vec3_fma(d, n, -2.0 * vec3_dot(d, n));
@@ -19,7 +28,7 @@ bool fresnel_refract(vec3_t d, vec3_t n, double eta_ratio, vec3_t *t)
         cos_i = -cos_i;
     }
     cos_i = fmin(cos_i, 1.0);
-    double sin2_t = eta_ratio * eta_ratio * fmax(0.0, 1.0 - cos_i * cos_i);
+    double sin2_t = sin2_transmitted(eta_ratio, cos_i);
     if (sin2_t >= 1.0)
         return false;
     double cos_t = sqrt(1.0 - sin2_t);
@@ -58,8 +67,7 @@ fresnel_terms_t fresnel_dielectric_terms(double cos_theta_i, double n_outside, d
         return f;
     }
 
-    double eta = n1 / n2;
-    double sin2_t = eta * eta * fmax(0.0, 1.0 - cos_i * cos_i);
+    double sin2_t = sin2_transmitted(n1 / n2, cos_i);
     if (sin2_t >= 1.0) {
         /* Beyond the critical angle asin(n2/n1): every polarisation is reflected. The cosine
          * form gives r_s = r_p = 1 at cos_t = 0, so R is continuous across the critical angle. */

@@ -233,8 +233,10 @@ vec3_t scene_mesh_normal(const shape_t *s, uint32_t prim, double b1, double b2);
  * validates their index models there, and builds the light distribution. */
 int scene_finish(scene_t *self, err_t *err);
 
-/* Total emitted power of a light at the given wavelength grid's mean (used to pick lights in
- * proportion to power). */
+/* Emitted power of a light up to a factor common to all lights: its luminance (scale times
+ * its spectrum's Y) times its geometric factor (pi A for a one-sided area light, 4 pi for a
+ * point light, ...); used to pick lights in proportion to power. Finite and >= 0: 0 for a
+ * zero-area or black light, capped at DBL_MAX / (nlights + 1) so that the powers sum. */
 double scene_light_power(const scene_t *self, const light_t *l);
 
 /* Data that the render kernels derive from a finished scene on first use, such as the photon

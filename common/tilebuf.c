@@ -1,5 +1,6 @@
 #include "tilebuf.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -105,9 +106,13 @@ static size_t pixel_index(const tilebuf_t *self, int x, int y)
 int tilebuf_add_sample(tilebuf_t *self, int x, int y, const double *buckets, double luminance)
 {
     size_t p = pixel_index(self, x, y);
-    int finite = isfinite(luminance);
+    double *s = self->sums + p * (size_t)self->nb;
+    /* Finite values can still overflow a sum (two samples near DBL_MAX): such a sample is
+     * dropped like a non-finite one, so that the sums stay finite (tilebuf_new_from refuses
+     * anything else). */
+    int finite = isfinite(luminance) && isfinite(self->lum[p] + luminance);
     for (int b = 0; b < self->nb && finite; b++)
-        finite = isfinite(buckets[b]);
+        finite = isfinite(buckets[b]) && isfinite(s[b] + buckets[b]);
     self->counts[p]++;
     if (!finite) {
         /* The sample still counts as taken: dropping it from the count too would bias the
@@ -115,11 +120,12 @@ int tilebuf_add_sample(tilebuf_t *self, int x, int y, const double *buckets, dou
         self->nonfinite++;
         return -1;
     }
-    double *s = self->sums + p * (size_t)self->nb;
     for (int b = 0; b < self->nb; b++)
         s[b] += buckets[b];
     self->lum[p] += luminance;
-    self->lum_sq[p] += luminance * luminance;
+    /* Only error estimates read the squares: a luminance above 1.3e154, whose square is Inf,
+     * saturates them at DBL_MAX (an unbounded error) rather than losing its light. */
+    self->lum_sq[p] = fmin(self->lum_sq[p] + luminance * luminance, DBL_MAX);
     return 0;
 }
 

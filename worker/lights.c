@@ -9,6 +9,19 @@ static double light_value(const light_t *l, double lambda)
     return l->scale * spectrum_eval(l->spectrum, lambda);
 }
 
+/* The unit vector along c, or the zero vector when c has no direction. vec3_normalize alone
+ * fails for a sliver triangle: with components below 1e-154 the squares underflow, the
+ * length is 0 and c comes back unnormalised (a 1e-300-wide emitter then launched photons along
+ * a tiny, tangent "normal"). Scaling by the largest component first keeps the squares in
+ * range. */
+static vec3_t unit_or_zero(vec3_t c)
+{
+    double m = fmax(fabs(c.x), fmax(fabs(c.y), fabs(c.z)));
+    if (!(m > 0.0) || !isfinite(m))
+        return vec3_make(0.0, 0.0, 0.0);
+    return vec3_normalize(vec3_scale(c, 1.0 / m));
+}
+
 int lights_sample_shape(const shape_t *s, double u0, double u1, double u2, vec3_t *p, vec3_t *n)
 {
     if (!(s->area > 0.0))
@@ -24,7 +37,10 @@ int lights_sample_shape(const shape_t *s, double u0, double u1, double u2, vec3_
                p2 = vec3_make(c[0], c[1], c[2]);
         sample_bary_t bc = sample_uniform_triangle(u1, u2);
         *p = vec3_add(vec3_add(vec3_scale(p0, bc.b0), vec3_scale(p1, bc.b1)), vec3_scale(p2, bc.b2));
-        *n = vec3_normalize(vec3_cross(vec3_sub(p1, p0), vec3_sub(p2, p0)));
+        *n = unit_or_zero(vec3_cross(vec3_sub(p1, p0), vec3_sub(p2, p0)));
+        if (!(vec3_dot(*n, *n) > 0.5))
+            return 0; /* a triangle with no area (the alias table never picks one, but a
+                       * sliver whose area is below what its vertices can resolve) */
         ns = scene_mesh_normal(s, (uint32_t)t, bc.b1, bc.b2);
     } else if (s->kind == SHAPE_SPHERE) {
         vec3_t q = sample_uniform_sphere(u1, u2);

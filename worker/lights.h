@@ -36,7 +36,9 @@ double lights_area_radiance(const scene_t *scene, const light_t *l, vec3_t ng, v
 /* Uniform point on a shape by area with u0 (a mesh's triangle), u1 and u2: the point and its
  * unit normal, oriented as scene_surface orients a hit there (the shape's flip flag, and for a
  * mesh with vertex normals their side), so that emission seen by a hit, by a light sample and
- * by a photon agree. The pdf is 1 / shape->area. Returns 0 for a shape of zero area. */
+ * by a photon agree. The pdf is 1 / shape->area. Returns 0 for a shape of zero area (such a
+ * light emits nothing: its power L pi A is 0) or a triangle whose edges give no normal; a
+ * sliver of any positive width gets its unit normal. */
 int lights_sample_shape(const shape_t *shape, double u0, double u1, double u2, vec3_t *p, vec3_t *n);
 
 /* A spot light's falloff at the cosine of the angle to its axis: 1 inside the inner cone, 0

@@ -23,6 +23,12 @@
 #define RR_MIN 0.05
 /* Pass-through surfaces ("interface") do not count as bounces; this bounds them anyway. */
 #define MAX_PASSTHROUGH 64
+/* Whitted follows both branches of a glass event; with two glass objects facing each other
+ * that is a binary tree of depth maxdepth (ball above slab: x1.25 work per level, hours at
+ * 64). Past 2 maxdepth branches per lane of a camera sample (a chain, such as a slab's
+ * internal reflections, needs one per bounce and lane) it chooses one branch at random,
+ * weighted by 1/probability (unbiased), so the work stays linear in maxdepth. */
+#define WHITTED_BRANCHES_PER_BOUNCE 2
 
 /* A path and the spectral lanes it carries. All lanes share the path's direction. A lane is a
  * wavelength used for the physics and a throughput; `bucket` says where its light goes:
@@ -58,6 +64,8 @@ typedef struct ctx {
     render_stats_t *stats;
     path_t *stack;
     int top;
+    int branches;     /* Whitted branches pushed for the current camera sample */
+    int max_branches; /* WHITTED_BRANCHES_PER_BOUNCE x maxdepth x lanes */
     /* The photon integrator's caustic store, or NULL. */
     const photon_store_t *photons;
     int mindepth;       /* the store holds L S^k D paths with k >= mindepth */
@@ -80,9 +88,12 @@ static void splat(ctx_t *c, const path_t *p, int j, double value)
         return;
     if (p->bucket[j] >= 0)
         c->contrib[p->bucket[j]] += v;
-    else
-        spectral_grid_splat(c->rs->grid, c->contrib, p->lambda[j], v / WAVELENGTH_HERO_COUNT,
-                            p->pdf[j], SPECTRAL_SPLAT_BOX);
+    else if (spectral_grid_splat(c->rs->grid, c->contrib, p->lambda[j], v / WAVELENGTH_HERO_COUNT,
+                                 p->pdf[j], SPECTRAL_SPLAT_BOX))
+        /* The splat refuses a NaN or an overflow (value / (pdf width) > DBL_MAX). Poison the
+         * sample so that tilebuf_add_sample drops it whole and it is counted in
+         * render_stats_t.nonfinite, rather than losing this contribution silently. */
+        c->contrib[0] = NAN;
 }
 
 static double max_beta(const path_t *p)
@@ -98,6 +109,7 @@ static int push(ctx_t *c, const path_t *p)
     if (c->top >= STACK_MAX)
         return -1;
     c->stack[c->top++] = *p;
+    c->branches++;
     return 0;
 }
 
@@ -245,7 +257,7 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
         vec3_t refr;
         int ok = fresnel_refract(p->dir, nrm, n_i / n_t, &refr);
         double R = ok ? f.reflectance : 1.0;
-        if (whitted && R > 0.0 && R < 1.0) {
+        if (whitted && R > 0.0 && R < 1.0 && c->branches < c->max_branches) {
             path_t r = *p;
             for (int j = 0; j < r.n; j++)
                 r.beta[j] *= R;
@@ -292,7 +304,7 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
         double R0 = ok ? R[0] : 1.0;
         path_t refl_path;
         int both = 0;
-        if (whitted && R0 > 0.0 && R0 < 1.0) {
+        if (whitted && R0 > 0.0 && R0 < 1.0 && c->branches < c->max_branches) {
             refl_path = *p;
             for (int j = 0; j < refl_path.n; j++)
                 refl_path.beta[j] *= R[j];
@@ -351,7 +363,7 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
     }
     double RP = poly.reflectance, TP = poly.transmittance;
     int both = 0;
-    if (whitted && RP > 0.0 && RP < 1.0) {
+    if (whitted && RP > 0.0 && RP < 1.0 && c->branches < c->max_branches) {
         path_t r = *p;
         for (int j = 0; j < r.n; j++)
             r.beta[j] *= RP;
@@ -414,6 +426,7 @@ static void trace(ctx_t *c, path_t *start)
     const int maxdepth = c->rs->maxdepth;
     c->top = 0;
     push(c, start);
+    c->branches = 0;
     while (c->top > 0) {
         path_t *p = &c->stack[--c->top];
         path_t cur = *p;
@@ -540,7 +553,9 @@ int render_tile(const scene_t *scene, int x0, int y0, int w, int h, uint32_t sam
     }
     colour_grid_weights(rs->grid, weights);
     ctx_t c = {.scene = scene, .rs = rs, .weights = weights, .contrib = contrib,
-               .stats = stats, .stack = stack};
+               .stats = stats, .stack = stack,
+               .max_branches = WHITTED_BRANCHES_PER_BOUNCE * rs->maxdepth *
+                               (rs->dispersion == DISPERSION_FANOUT ? nb : WAVELENGTH_HERO_COUNT)};
     double *irradiance = NULL;
     if (rs->photon.enabled) {
         c.photons = photon_pass_get(scene, NULL, NULL, err);
