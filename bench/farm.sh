@@ -138,7 +138,7 @@ declare -A CEP SPOOL WPORT FPIDS
 # A standing farm: a master and N workers of T threads, separate processes on loopback TCP.
 start_farm() { # name workers threads
   local name=$1 n=$2 t=$3 spool=$WORK/$1 wep cep i
-  "$BIN" master --workers 'tcp://127.0.0.1:*' --clients 'tcp://127.0.0.1:*' --spool "$spool" \
+  "$BIN" master --workers 'tcp://127.0.0.1:*' --clients 'tcp://127.0.0.1:*' --spool "$spool" --insecure \
     2>"$WORK/$name-master.log" &
   PIDS+=($!)
   FPIDS[$name]=$!
@@ -146,13 +146,13 @@ start_farm() { # name workers threads
   wep=$(awk '$1 == "workers" { print $2 }' "$spool/endpoints")
   cep=$(awk '$1 == "clients" { print $2 }' "$spool/endpoints")
   for ((i = 1; i <= n; i++)); do
-    "$BIN" worker --connect "$wep" --threads "$t" --name "$name-w$i" --cache "$WORK/$name-cache$i" \
+    "$BIN" worker --connect "$wep" --insecure --threads "$t" --name "$name-w$i" --cache "$WORK/$name-cache$i" \
       --quiet 2>>"$WORK/$name-workers.log" &
     PIDS+=($!)
     FPIDS[$name]+=" $!"
   done
   for ((i = 0; i < 500; i++)); do
-    (($("$BIN" workers --master "$cep" --json | grep -c '"state": "idle"') == n)) && break
+    (($("$BIN" workers --master "$cep" --insecure --json | grep -c '"state": "idle"') == n)) && break
     nap 0.02
   done
   CEP[$name]=$cep SPOOL[$name]=$spool WPORT[$name]=${wep##*:}
@@ -173,11 +173,11 @@ t_farm() { # farm job
   c0=$(farm_cpu "$1")
   m0=$(cpu_of "$master")
   # shellcheck disable=SC2086
-  id=$("$BIN" submit "$ROOT/${SCENE[$2]}" --master "${CEP[$1]}" --name bench ${ARGS[$2]})
+  id=$("$BIN" submit "$ROOT/${SCENE[$2]}" --master "${CEP[$1]}" --insecure --name bench ${ARGS[$2]})
   exr=${SPOOL[$1]}/jobs/$id/bench.exr
   for ((i = 0; ; i++)); do
     [[ -e $exr ]] && break
-    if ((i % 500 == 499)) && "$BIN" status "$id" --master "${CEP[$1]}" | grep -qE 'failed|cancelled'; then
+    if ((i % 500 == 499)) && "$BIN" status "$id" --master "${CEP[$1]}" --insecure | grep -qE 'failed|cancelled'; then
       echo "bench/farm.sh: job $id on farm $1 did not complete:" >&2
       cat "$WORK/$1-master.log" >&2
       exit 1

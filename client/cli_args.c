@@ -1,5 +1,7 @@
 #include "cli_args.h"
 
+#include "proto.h"
+
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -55,4 +57,39 @@ int cli_parse_override(const char *cmd, const char *flag, const char *val, scene
         return 0;
     }
     return 1;
+}
+
+int cli_parse_stop(const char *cmd, const char *flag, const char *val, cli_stop_t *stop)
+{
+    char *end;
+    errno = 0;
+    if (!strcmp(flag, "--target-error")) {
+        double e = strtod(val, &end);
+        if (errno || end == val || *end || !(e > 0 && e < 1)) {
+            fprintf(stderr,
+                    "prismfarm %s: --target-error expects a relative error in (0, 1), e.g. 0.02, "
+                    "got '%s'\n",
+                    cmd, val);
+            return -1;
+        }
+        stop->target_error = e;
+        return 1;
+    }
+    if (!strcmp(flag, "--time-limit")) {
+        double t = strtod(val, &end);
+        double unit = !strcmp(end, "h")                  ? 3600
+                      : !strcmp(end, "m")                ? 60
+                      : !*end || !strcmp(end, "s")       ? 1
+                                                         : 0; /* 0: not a unit */
+        if (errno || end == val || unit == 0 || !(t > 0) || !(t * unit <= PROTO_MAX_TIME_LIMIT)) {
+            fprintf(stderr,
+                    "prismfarm %s: --time-limit expects seconds in (0, %.0f], optionally with s, "
+                    "m or h, got '%s'\n",
+                    cmd, PROTO_MAX_TIME_LIMIT, val);
+            return -1;
+        }
+        stop->time_limit = t * unit;
+        return 1;
+    }
+    return 0;
 }

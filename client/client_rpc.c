@@ -5,7 +5,10 @@
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <zmq.h>
+
+#define SLICE_MS 100 /* how often a waiting call looks at the connection's handshake */
 
 struct client_rpc {
     void *ctx;
@@ -20,8 +23,71 @@ const char *client_default_master(void)
     return e && *e ? e : "tcp://127.0.0.1:5556";
 }
 
-client_rpc_t *client_rpc_new(const char *endpoint, void *zmq_ctx, err_t *err)
+client_security_t client_security_default(void)
 {
+    const char *k = getenv("PRISMFARM_KEY"), *m = getenv("PRISMFARM_MASTER_KEY");
+    return (client_security_t){.key_file = k && *k ? k : NULL,
+                               .master_key_file = m && *m ? m : NULL};
+}
+
+int client_security_arg(const char *cmd, int argc, char **argv, int *i, client_security_t *sec)
+{
+    const char *a = argv[*i];
+    if (!strcmp(a, "--insecure")) {
+        sec->insecure = 1;
+        return 1;
+    }
+    if (strcmp(a, "--key") && strcmp(a, "--master-key"))
+        return 0;
+    if (*i + 1 >= argc) {
+        fprintf(stderr, "prismfarm %s: %s needs a value\n", cmd, a);
+        return -1;
+    }
+    const char *v = argv[++*i];
+    if (!strcmp(a, "--key"))
+        sec->key_file = v;
+    else
+        sec->master_key_file = v;
+    sec->keys_from_flags = 1;
+    return 1;
+}
+
+int client_security_load(const client_security_t *sec, const char *endpoint,
+                         proto_curve_pair_t *pair, char master_public[PROTO_CURVE_Z85 + 1],
+                         int *use_curve, err_t *err)
+{
+    *use_curve = 0;
+    if (sec->insecure && sec->keys_from_flags)
+        return err_set(err, "--insecure and --key/--master-key exclude each other: choose one");
+    /* --insecure overrides keys that only the environment gave. */
+    int key = sec->key_file && !sec->insecure, master = sec->master_key_file && !sec->insecure;
+    if (key != master)
+        return err_set(err, "%s",
+                       key ? "--key needs --master-key FILE.pub (or "
+                             "$PRISMFARM_MASTER_KEY), the master's public key"
+                           : "--master-key needs --key FILE (or $PRISMFARM_KEY), "
+                             "our own key pair");
+    if (proto_curve_require(endpoint, key, sec->insecure, "--key FILE and --master-key FILE.pub",
+                            err) < 0)
+        return -1;
+    if (!key)
+        return 0;
+    if (proto_curve_load_pair(sec->key_file, pair, err) < 0 ||
+        proto_curve_load_public(sec->master_key_file, master_public, err) < 0)
+        return -1;
+    *use_curve = 1;
+    return 0;
+}
+
+client_rpc_t *client_rpc_new(const char *endpoint, void *zmq_ctx, const client_security_t *sec,
+                             err_t *err)
+{
+    proto_curve_pair_t pair;
+    char master_public[PROTO_CURVE_Z85 + 1];
+    int curve = 0;
+    client_security_t none = {0};
+    if (client_security_load(sec ? sec : &none, endpoint, &pair, master_public, &curve, err) < 0)
+        return NULL;
     client_rpc_t *self = calloc(1, sizeof *self);
     if (!self) {
         err_set(err, "out of memory");
@@ -38,7 +104,12 @@ client_rpc_t *client_rpc_new(const char *endpoint, void *zmq_ctx, err_t *err)
     proto_net_options_t o = proto_net_options_default();
     o.linger_ms = 0;
     o.send_timeout_ms = 5000;
+    if (curve)
+        o.curve = (proto_net_curve_t){.server_public = master_public,
+                                      .public_key = pair.public_key,
+                                      .secret_key = pair.secret_key};
     self->net = proto_net_new(self->ctx, PROTO_NET_DEALER, &o, err);
+    memset(&pair, 0, sizeof pair); /* libzmq keeps its own copy */
     if (!self->net || proto_net_connect(self->net, endpoint, err)) {
         client_rpc_destroy(&self);
         return NULL;
@@ -66,17 +137,38 @@ int client_rpc_call(client_rpc_t *self, const proto_msg_t *req, proto_msg_t *rep
         return err_set(err, "cannot reach the master at %s: is it running?", self->endpoint);
     if (r)
         return -1;
-    r = proto_net_recv(self->net, NULL, reply, timeout_ms, err);
+    /* Waits in slices: a refused handshake or a dropped connection ends the wait at once, since
+     * no answer can come through it. */
+    char why[256];
+    proto_net_link_t link = PROTO_NET_LINK_NONE;
+    for (int waited = 0;;) {
+        int slice = timeout_ms < 0                   ? SLICE_MS
+                    : timeout_ms - waited < SLICE_MS ? timeout_ms - waited
+                                                     : SLICE_MS;
+        r = proto_net_recv(self->net, NULL, reply, slice, err);
+        if (r != PROTO_EAGAIN)
+            break;
+        waited += slice;
+        link = proto_net_link(self->net, why, sizeof why);
+        if (link == PROTO_NET_LINK_REFUSED || link == PROTO_NET_LINK_DROPPED)
+            return err_set(err, "the master at %s %s", self->endpoint, why);
+        if (timeout_ms >= 0 && waited >= timeout_ms)
+            break;
+    }
     if (r == PROTO_EAGAIN)
-        return err_set(err, "no answer from the master at %s within %.1f s: is it running?",
-                       self->endpoint, timeout_ms / 1000.0);
+        return err_set(err, "no answer from the master at %s within %.1f s: %s", self->endpoint,
+                       timeout_ms / 1000.0,
+                       link == PROTO_NET_LINK_UP
+                           ? "it accepted the connection, but is busy or stuck"
+                           : "is it running?");
     if (r == PROTO_EVERSION)
         return err_set(err, "the master at %s speaks protocol version %d, this client %d",
                        self->endpoint, reply->version, PROTO_VERSION);
     if (r)
         return -1;
     if (reply->type == PROTO_ERROR || reply->type == PROTO_REFUSE) {
-        err_set(err, "%s", reply->type == PROTO_ERROR ? reply->error.message : reply->refuse.reason);
+        err_set(err, "%s",
+                reply->type == PROTO_ERROR ? reply->error.message : reply->refuse.reason);
         proto_msg_free(reply);
         return -1;
     }

@@ -3,21 +3,56 @@
 #ifndef PRISMFARM_CLIENT_RPC_H
 #define PRISMFARM_CLIENT_RPC_H
 
+#include "curve.h"
 #include "err.h"
 #include "proto.h"
 
 /* The endpoint used when --master is not given: $PRISMFARM_MASTER, else tcp://127.0.0.1:5556. */
 const char *client_default_master(void);
 
+/* How a client (or worker) secures its link to the master (docs/security.md): its own key pair
+ * and the master's public key, or plain text by explicit choice. */
+typedef struct client_security {
+    const char *key_file;        /* NAME.key: our key pair (prismfarm keygen) */
+    const char *master_key_file; /* the master's NAME.pub */
+    int insecure;                /* plain text over tcp:// */
+    int keys_from_flags;         /* --key or --master-key was given (not only the environment) */
+} client_security_t;
+
+/* $PRISMFARM_KEY and $PRISMFARM_MASTER_KEY when set and not empty; not insecure. */
+client_security_t client_security_default(void);
+
+/* Takes argv[*i] when it is --key FILE, --master-key FILE or --insecure (advancing *i past a
+ * value) and returns 1; returns 0 for any other argument, and -1 after printing
+ * "prismfarm CMD: FLAG needs a value". */
+int client_security_arg(const char *cmd, int argc, char **argv, int *i, client_security_t *sec);
+
+/* Loads the keys sec names into *curve (pointing into *pair), after the farm's rule for endpoint
+ * (curve.h's proto_curve_require). --insecure discards keys that came from the environment only;
+ * with keys from flags it is an error. Also used by `prismfarm worker`. */
+int client_security_load(const client_security_t *sec, const char *endpoint,
+                         proto_curve_pair_t *pair, char master_public[PROTO_CURVE_Z85 + 1],
+                         int *use_curve, err_t *err);
+
+#define CLIENT_SECURITY_HELP                                                                       \
+    "  --key FILE          our key pair, NAME.key from prismfarm keygen (default "                 \
+    "$PRISMFARM_KEY)\n"                                                                            \
+    "  --master-key FILE   the master's public key, its NAME.pub (default "                        \
+    "$PRISMFARM_MASTER_KEY)\n"                                                                     \
+    "  --insecure          plain text over tcp:// instead of CURVE (a network you trust)\n"
+
 typedef struct client_rpc client_rpc_t;
 
-/* A connection to the master at endpoint; ctx NULL makes one. */
-client_rpc_t *client_rpc_new(const char *endpoint, void *zmq_ctx, err_t *err);
+/* A connection to the master at endpoint; ctx NULL makes one. sec NULL: no keys (plain text,
+ * allowed only on inproc:// and ipc://). */
+client_rpc_t *client_rpc_new(const char *endpoint, void *zmq_ctx, const client_security_t *sec,
+                             err_t *err);
 void client_rpc_destroy(client_rpc_t **self_p);
 
 /* Sends req and waits up to timeout_ms for the reply (free it with proto_msg_free). An ERROR or
  * REFUSE reply becomes -1 with its text in err; so does silence ("no answer from the master at
- * ENDPOINT within 10 s: is it running?"). */
+ * ENDPOINT within 10 s: is it running?"), and at once a refused handshake ("the master at
+ * ENDPOINT refused our key ...") or a dropped connection. */
 int client_rpc_call(client_rpc_t *self, const proto_msg_t *req, proto_msg_t *reply, int timeout_ms,
                     err_t *err);
 

@@ -18,14 +18,22 @@ typedef struct query_args {
     const char *job; /* positional argument, if any */
     const char *output;
     int timeout_ms; /* how long to wait for the master's answer */
+    client_security_t sec;
 } query_args_t;
 
-/* Parses --master, --json, -o and at most one positional argument. */
+/* Parses --master, --json, -o, the key options (client_rpc.h) and at most one positional
+ * argument. */
 static int parse_args(const char *cmd, int argc, char **argv, query_args_t *q, int want_output)
 {
-    *q = (query_args_t){.master = client_default_master(), .timeout_ms = 10000};
+    *q = (query_args_t){
+        .master = client_default_master(), .timeout_ms = 10000, .sec = client_security_default()};
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
+        int s = client_security_arg(cmd, argc, argv, &i, &q->sec);
+        if (s < 0)
+            return 2;
+        if (s)
+            continue;
         if (!strcmp(a, "--json"))
             q->json = 1;
         else if (!strcmp(a, "--master") && i + 1 < argc)
@@ -70,7 +78,7 @@ static int parse_job(const char *cmd, const char *s, uint64_t *out)
 static int call(const query_args_t *q, const char *cmd, const proto_msg_t *req, proto_msg_t *reply)
 {
     err_t err;
-    client_rpc_t *rpc = client_rpc_new(q->master, NULL, &err);
+    client_rpc_t *rpc = client_rpc_new(q->master, NULL, &q->sec, &err);
     int r = rpc ? client_rpc_call(rpc, req, reply, q->timeout_ms, &err) : -1;
     client_rpc_destroy(&rpc);
     if (r)
@@ -90,6 +98,12 @@ static json_t *job_json(const proto_job_info_t *j)
     json_object_set_new(o, "elapsed_s", json_real(j->elapsed));
     json_object_set_new(o, "nonfinite", json_integer((json_int_t)j->nonfinite));
     json_object_set_new(o, "error", j->error ? json_string(j->error) : json_null());
+    /* Accuracy (docs/farm.md): spp of the whole passes merged, the relative error estimate
+     * after the last one (null before the second pass), why a done job stopped early. */
+    json_object_set_new(o, "spp", json_integer((json_int_t)j->spp));
+    json_object_set_new(o, "rel_error", j->has_rel_error ? json_real(j->rel_error) : json_null());
+    json_object_set_new(o, "stop",
+                        j->stop != PROTO_STOP_NONE ? json_string(proto_stop_name(j->stop)) : json_null());
     return o;
 }
 
@@ -109,13 +123,21 @@ static void print_jobs(const proto_job_info_t *jobs, size_t n, int json)
         print_json(arr);
         return;
     }
-    printf("%-6s %-20s %-10s %9s %9s %10s  %s\n", "ID", "NAME", "STATE", "PROGRESS", "ELAPSED", "NONFINITE", "ERROR");
+    printf("%-6s %-20s %-10s %9s %8s %9s %9s %10s  %s\n", "ID", "NAME", "STATE", "PROGRESS", "SPP",
+           "REL.ERROR", "ELAPSED", "NONFINITE", "ERROR");
     for (size_t i = 0; i < n; i++) {
         const proto_job_info_t *j = &jobs[i];
         double p = j->samples_total ? 100.0 * (double)j->samples_done / (double)j->samples_total : 0;
-        printf("%-6llu %-20.20s %-10s %8.1f%% %8.1fs %10llu  %s\n", (unsigned long long)j->id,
-               j->name ? j->name : "", proto_job_state_name(j->state), p, j->elapsed,
-               (unsigned long long)j->nonfinite, j->error ? j->error : "");
+        char rel[32] = "-";
+        if (j->has_rel_error)
+            snprintf(rel, sizeof rel, "%.4f", j->rel_error);
+        const char *note = j->error                      ? j->error
+                           : j->stop == PROTO_STOP_TARGET ? "(stopped: target error reached)"
+                           : j->stop == PROTO_STOP_TIME   ? "(stopped: time limit reached)"
+                                                          : "";
+        printf("%-6llu %-20.20s %-10s %8.1f%% %8u %9s %8.1fs %10llu  %s\n", (unsigned long long)j->id,
+               j->name ? j->name : "", proto_job_state_name(j->state), p, j->spp, rel, j->elapsed,
+               (unsigned long long)j->nonfinite, note);
     }
 }
 
@@ -248,7 +270,7 @@ int cmd_fetch(int argc, char **argv)
     char png[4200];
     film_png_path(q.output, png, sizeof png);
     err_t err;
-    client_rpc_t *rpc = client_rpc_new(q.master, NULL, &err);
+    client_rpc_t *rpc = client_rpc_new(q.master, NULL, &q.sec, &err);
     if (!rpc) {
         fprintf(stderr, "prismfarm fetch: %s\n", err.msg);
         return 1;

@@ -19,7 +19,8 @@ static void usage(FILE *f)
     fprintf(f, "usage: prismfarm refine JOB --photons N [--master ENDPOINT] [--wait [-o OUT.exr]] [--quiet]\n"
                "Adds N photons to a finished job's photon pass (Integrator \"photon\"), then renders\n"
                "its image again from the grown store. With --wait, follows the job and downloads\n"
-               "the refined EXR and PNG (default name: refined-JOB.exr).\n");
+               "the refined EXR and PNG (default name: refined-JOB.exr).\n"
+               CLIENT_SECURITY_HELP);
 }
 
 int cmd_refine(int argc, char **argv)
@@ -27,8 +28,14 @@ int cmd_refine(int argc, char **argv)
     const char *master = client_default_master(), *job_s = NULL, *output = NULL;
     long long photons = 0;
     int wait = 0, quiet = 0;
+    client_security_t sec = client_security_default();
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
+        int s = client_security_arg("refine", argc, argv, &i, &sec);
+        if (s < 0)
+            return 2;
+        if (s)
+            continue;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             usage(stdout);
             return 0;
@@ -70,7 +77,7 @@ int cmd_refine(int argc, char **argv)
         return 2;
     }
     err_t err;
-    client_rpc_t *rpc = client_rpc_new(master, NULL, &err);
+    client_rpc_t *rpc = client_rpc_new(master, NULL, &sec, &err);
     proto_msg_t req = {.type = PROTO_REFINE, .refine = {.job = job, .photons = (uint64_t)photons}};
     proto_msg_t reply;
     if (!rpc || client_rpc_call(rpc, &req, &reply, 10000, &err)) {

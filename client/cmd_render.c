@@ -3,21 +3,28 @@
 #include "commands.h"
 
 #include "cli_args.h"
+#include "error_estimate.h"
 #include "film.h"
 #include "local_farm.h"
 #include "local_render.h"
 #include "photon.h"
 #include "progress.h"
 #include "scene_load.h"
+#include "sched.h"
 
 #include <errno.h>
 #include <limits.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
+#if defined(__SSE__)
+#include <pmmintrin.h>
+#include <xmmintrin.h>
+#endif
 
 static void usage(FILE *out)
 {
@@ -30,11 +37,13 @@ static void usage(FILE *out)
             "Options override the scene file:\n"
             "  -o, --output OUT.exr     output file (default: the Film's filename, else SCENE.exr)\n"
             CLI_OVERRIDES_HELP
+            CLI_STOP_HELP
             "  --threads N              render threads per worker (default: all cores / workers)\n"
             "  --workers N              workers in this process (default 1)\n"
             "  --tile N                 tile size in pixels (default 32)\n"
             "  --direct                 render with plain threads, without the farm's master and\n"
-            "                           workers (same pixels up to rounding; for comparisons)\n"
+            "                           workers (same pixels up to rounding; for comparisons; with\n"
+            "                           a stopping rule, in the farm's passes: the same pixels)\n"
 
             "  --exposure STOPS         preview exposure (default 0)\n"
             "  --quiet                  no progress output\n");
@@ -60,10 +69,186 @@ static int make_parent_dirs(const char *path)
     return 0;
 }
 
+static double seconds_since(const struct timespec *t0)
+{
+    struct timespec t1;
+    clock_gettime(CLOCK_MONOTONIC, &t1);
+    return (double)(t1.tv_sec - t0->tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0->tv_nsec);
+}
+
+/* One progressive pass of --direct with a stopping rule, shared by its threads. */
+typedef struct pass_run {
+    const scene_t *scene;
+    int tile, tiles_x, ntiles, next;
+    uint32_t sb, se;
+    tilebuf_t *pass;         /* this pass's samples over the whole image */
+    double deadline;         /* seconds since t0 after which the pass is dropped; 0: never */
+    const struct timespec *t0;
+    int failed, abandoned;
+    err_t err;
+    render_stats_t stats;
+    uint64_t samples_before; /* of the passes merged, for the progress line */
+    uint64_t samples_done, samples_total;
+    progress_t *prog;
+    pthread_mutex_t lock;
+} pass_run_t;
+
+static void *pass_thread(void *arg)
+{
+    pass_run_t *r = arg;
+    const render_settings_t *rs = &r->scene->settings;
+#if defined(__SSE__)
+    /* As every render thread (local_render.c, worker_daemon.c): Embree's advice, and the same
+     * floating-point mode as the farm's workers, so the bytes match theirs. */
+    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+#endif
+    for (;;) {
+        pthread_mutex_lock(&r->lock);
+        /* Past the time limit, a pass with tiles left is dropped: a tile already rendering
+         * finishes, no other starts (the farm's workers are told to cancel, as for a cancel). */
+        if (!r->failed && !r->abandoned && r->next < r->ntiles && r->deadline > 0 &&
+            seconds_since(r->t0) >= r->deadline)
+            r->abandoned = 1;
+        int t = r->failed || r->abandoned ? r->ntiles : r->next++;
+        pthread_mutex_unlock(&r->lock);
+        if (t >= r->ntiles)
+            return NULL;
+        int x0 = (t % r->tiles_x) * r->tile, y0 = (t / r->tiles_x) * r->tile;
+        int w = rs->xres - x0 < r->tile ? rs->xres - x0 : r->tile;
+        int h = rs->yres - y0 < r->tile ? rs->yres - y0 : r->tile;
+        err_t err;
+        render_stats_t st = {0};
+        tilebuf_t *buf = tilebuf_new(x0, y0, w, h, rs->grid.n, &err);
+        int rc = buf ? render_tile(r->scene, x0, y0, w, h, r->sb, r->se, buf, &st, &err) : -1;
+        pthread_mutex_lock(&r->lock);
+        if (rc == 0)
+            rc = tilebuf_merge(r->pass, buf, &err);
+        if (rc != 0 && !r->failed) {
+            r->failed = 1;
+            r->err = err;
+        }
+        r->stats.samples += st.samples;
+        r->stats.rays += st.rays;
+        r->stats.nonfinite += st.nonfinite;
+        r->stats.dispersive += st.dispersive;
+        r->samples_done += (uint64_t)w * (uint64_t)h * (r->se - r->sb);
+        progress_update(r->prog, r->samples_before + r->samples_done, r->samples_total, seconds_since(r->t0));
+        pthread_mutex_unlock(&r->lock);
+        tilebuf_destroy(&buf);
+    }
+}
+
+/* A pass record of --direct, as the master keeps them (docs/farm.md, "Accuracy"). */
+typedef struct direct_pass {
+    int pass, spp;
+    double elapsed;
+    error_estimate_t e;
+} direct_pass_t;
+
+/* --direct with a stopping rule: the farm's progressive passes (sched_pass_bounds) on threads
+ * of this process. Each pass is rendered tile by tile into a buffer of its own and merged into
+ * the image only when whole, in pass order: the per-pixel sums the farm's master makes, bit for
+ * bit. After each pass the error estimate decides, as on the master; a time limit drops the
+ * pass in flight (after the first). Returns 0 with the passes in hist[*nhist] and why it
+ * stopped, or -1 with err. */
+static int render_passes(const scene_t *scene, int threads, const cli_stop_t *stop, tilebuf_t *image,
+                         progress_t *prog, const struct timespec *t0, render_stats_t *stats,
+                         direct_pass_t *hist, int *nhist, proto_stop_t *why, err_t *err)
+{
+    const render_settings_t *rs = &scene->settings;
+    uint32_t bounds[64];
+    int npasses = sched_pass_bounds(rs->spp, bounds);
+    pass_run_t r = {.scene = scene, .tile = 32, .t0 = t0, .prog = prog,
+                    .samples_total = (uint64_t)rs->xres * (uint64_t)rs->yres * (uint64_t)rs->spp};
+    r.tiles_x = (rs->xres + r.tile - 1) / r.tile;
+    r.ntiles = r.tiles_x * ((rs->yres + r.tile - 1) / r.tile);
+    int n = threads > 0 ? threads : local_render_cores();
+    if (n > r.ntiles)
+        n = r.ntiles;
+    pthread_t *th = calloc((size_t)n, sizeof *th);
+    if (!th || pthread_mutex_init(&r.lock, NULL)) {
+        free(th);
+        return err_set(err, "out of memory for %d render threads", n);
+    }
+    *nhist = 0;
+    *why = PROTO_STOP_NONE;
+    int rc = 0;
+    for (int pass = 0; pass < npasses; pass++) {
+        r.sb = bounds[pass];
+        r.se = bounds[pass + 1];
+        r.next = r.failed = r.abandoned = 0;
+        r.samples_done = 0;
+        r.stats = (render_stats_t){0};
+        r.deadline = pass > 0 ? stop->time_limit : 0; /* the first pass always completes */
+        if (!(r.pass = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, err))) {
+            rc = -1;
+            break;
+        }
+        int started = 0;
+        for (; started < n; started++)
+            if (pthread_create(&th[started], NULL, pass_thread, &r))
+                break;
+        if (started == 0)
+            pass_thread(&r); /* no thread could start: render on this one */
+        for (int i = 0; i < started; i++)
+            pthread_join(th[i], NULL);
+        if (r.failed) {
+            *err = r.err;
+            rc = -1;
+        } else if (!r.abandoned) {
+            rc = tilebuf_merge(image, r.pass, err);
+        }
+        tilebuf_destroy(&r.pass);
+        if (rc || r.abandoned) {
+            *why = r.abandoned ? PROTO_STOP_TIME : *why;
+            break;
+        }
+        /* The counters describe the image: a dropped pass's work is not in them. */
+        stats->samples += r.stats.samples;
+        stats->rays += r.stats.rays;
+        stats->nonfinite += r.stats.nonfinite;
+        stats->dispersive += r.stats.dispersive;
+        r.samples_before += r.samples_done;
+        direct_pass_t *h = &hist[(*nhist)++];
+        *h = (direct_pass_t){.pass = pass + 1, .spp = (int)bounds[pass + 1], .elapsed = seconds_since(t0),
+                             .e = error_estimate_image(image)};
+        char extra[96];
+        if (h->e.valid)
+            snprintf(extra, sizeof extra, "%d spp, rel. error %.4f", h->spp, h->e.rel_rmse);
+        else
+            snprintf(extra, sizeof extra, "%d spp", h->spp);
+        prog->extra = extra;
+        progress_update(prog, r.samples_before, r.samples_total, h->elapsed);
+        prog->extra = NULL;
+        if (pass + 1 == npasses)
+            break;
+        if (stop->target_error > 0 && h->e.valid && h->e.rel_rmse <= stop->target_error)
+            *why = PROTO_STOP_TARGET;
+        else if (stop->time_limit > 0 && h->elapsed >= stop->time_limit)
+            *why = PROTO_STOP_TIME;
+        if (*why != PROTO_STOP_NONE)
+            break;
+    }
+    pthread_mutex_destroy(&r.lock);
+    free(th);
+    if (rc == 0 && *why != PROTO_STOP_NONE)
+        progress_end(prog, r.samples_before, r.samples_total, seconds_since(t0),
+                     *why == PROTO_STOP_TARGET ? "target error reached" : "time limit reached");
+    return rc;
+}
+
+static const char *stop_text(proto_stop_t why)
+{
+    return why == PROTO_STOP_TARGET ? " (target error reached)"
+           : why == PROTO_STOP_TIME ? " (time limit reached)"
+                                    : "";
+}
+
 /* The same render without the farm: threads of this process over tiles (--direct). */
 static int render_direct(const scene_t *scene, const char *scene_path, int threads, int quiet,
-                         const char *exr, const char *png, colour_tonemap_t tm,
-                         const struct timespec *t0)
+                         const cli_stop_t *stop, const char *exr, const char *png,
+                         colour_tonemap_t tm, const struct timespec *t0)
 {
     static const char *integ_names[] = {"simplepath", "path", "whitted"};
     const render_settings_t *rs = &scene->settings;
@@ -74,25 +259,51 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
         return 1;
     }
     progress_t prog = progress_make("render", quiet);
-    local_render_opts_t opts = {.threads = threads, .progress = on_progress, .user = &prog};
     render_stats_t st = {0};
     int rc = 0;
-    if (local_render(scene, &opts, image, &st, &err)) {
-        fprintf(stderr, "prismfarm render: %s\n", err.msg);
-        rc = 1;
+    direct_pass_t hist[64];
+    int nhist = 0;
+    proto_stop_t why = PROTO_STOP_NONE;
+    struct timespec start;
+    clock_gettime(CLOCK_MONOTONIC, &start);
+    if (stop->target_error > 0 || stop->time_limit > 0) {
+        if (render_passes(scene, threads, stop, image, &prog, &start, &st, hist, &nhist, &why, &err)) {
+            fprintf(stderr, "prismfarm render: %s\n", err.msg);
+            rc = 1;
+        }
+    } else {
+        local_render_opts_t opts = {.threads = threads, .progress = on_progress, .user = &prog};
+        if (local_render(scene, &opts, image, &st, &err)) {
+            fprintf(stderr, "prismfarm render: %s\n", err.msg);
+            rc = 1;
+        }
+        /* One record: every pass at once. */
+        hist[nhist++] = (direct_pass_t){.pass = sched_pass_bounds(rs->spp, NULL), .spp = rs->spp,
+                                        .elapsed = seconds_since(&start), .e = error_estimate_image(image)};
     }
-    struct timespec t1;
-    clock_gettime(CLOCK_MONOTONIC, &t1);
-    double secs = (double)(t1.tv_sec - t0->tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0->tv_nsec);
+    double secs = seconds_since(t0);
+    const direct_pass_t *last = nhist > 0 ? &hist[nhist - 1] : NULL;
     if (rc == 0) {
-        char info[512];
-        snprintf(info, sizeof info,
+        /* The accuracy keys as the master writes them (docs/farm.md, "Accuracy"). */
+        char info[4096], rel[32] = "none";
+        if (last && last->e.valid)
+            snprintf(rel, sizeof rel, "%.6g", last->e.rel_rmse);
+        int n = snprintf(info, sizeof info,
                  "scene=%s;spp=%d;integrator=%s;dispersion=%s;seed=%llu;samples=%llu;rays=%llu;"
-                 "nonfinite=%llu;seconds=%.3f",
+                 "nonfinite=%llu;seconds=%.3f;spp_done=%d;rel_rmse=%s;stop=%s;target_error=%g;"
+                 "time_limit=%g;history=",
                  scene_path, rs->spp, integ_names[rs->integrator],
                  scene->has_dispersion ? (rs->dispersion == DISPERSION_HERO ? "hero" : "fanout") : "off",
                  (unsigned long long)rs->seed, (unsigned long long)st.samples,
-                 (unsigned long long)st.rays, (unsigned long long)st.nonfinite, secs);
+                 (unsigned long long)st.rays, (unsigned long long)st.nonfinite, secs,
+                 last ? last->spp : 0, rel, proto_stop_name(why), stop->target_error, stop->time_limit);
+        for (int i = 0; i < nhist && n > 0 && (size_t)n < sizeof info; i++) {
+            char e[32] = "-";
+            if (hist[i].e.valid)
+                snprintf(e, sizeof e, "%.6g", hist[i].e.rel_rmse);
+            n += snprintf(info + n, sizeof info - (size_t)n, "%s%d:%d:%.3f:%s", i ? "," : "",
+                          hist[i].pass, hist[i].spp, hist[i].elapsed, e);
+        }
         film_output_t fo = {.exr_path = exr, .png_path = png, .spectral = 1, .tonemap = tm, .info = info};
         if (film_write(image, rs->grid, &fo, &err)) {
             fprintf(stderr, "prismfarm render: %s\n", err.msg);
@@ -102,6 +313,12 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
             printf("%llu samples, %.1f M rays in %.2f s (%.2f M rays/s); %llu non-finite samples discarded\n",
                    (unsigned long long)st.samples, st.rays / 1e6, secs, st.rays / 1e6 / (secs > 0 ? secs : 1),
                    (unsigned long long)st.nonfinite);
+            if (last && last->e.valid)
+                printf("%d of %d spp, relative error estimate %.4f%s\n", last->spp, rs->spp,
+                       last->e.rel_rmse, stop_text(why));
+            else if (last)
+                printf("%d of %d spp, no relative error estimate%s%s\n", last->spp, rs->spp,
+                       last->spp < 2 ? " (1 sample per pixel)" : "", stop_text(why));
             photon_stats_t pst;
             double psec;
             const photon_store_t *ps = rs->photon.enabled ? photon_pass_get(scene, &pst, &psec, &err) : NULL;
@@ -120,6 +337,7 @@ int cmd_render(int argc, char **argv)
 {
     const char *scene_path = NULL, *output = NULL;
     scene_overrides_t ov = {.seed = -1};
+    cli_stop_t stop = {0};
     long long threads = 0, workers = 1, tile = 0;
     int direct = 0;
     double exposure = 0;
@@ -145,6 +363,8 @@ int cmd_render(int argc, char **argv)
             }
             const char *val = argv[++i];
             int handled = cli_parse_override("render", a, val, &ov);
+            if (!handled)
+                handled = cli_parse_stop("render", a, val, &stop);
             if (handled < 0)
                 return 2;
             if (handled)
@@ -237,7 +457,7 @@ int cmd_render(int argc, char **argv)
     int rc = 0;
     colour_tonemap_t tm = {.exposure_stops = exposure, .curve = COLOUR_CURVE_ACES};
     if (direct) {
-        rc = render_direct(scene, scene_path, (int)threads, quiet, exr, png, tm, &t0);
+        rc = render_direct(scene, scene_path, (int)threads, quiet, &stop, exr, png, tm, &t0);
     } else {
         /* The farm's code path: a master and workers in this process. */
         const char *base = strrchr(scene_path, '/');
@@ -251,7 +471,8 @@ int cmd_render(int argc, char **argv)
         local_farm_opts_t lo = {.scene = scene_path, .name = name, .exr_path = exr, .overrides = ov,
                                 .workers = (int)workers,
                                 .threads = threads ? (int)threads : (cores / (int)workers > 0 ? cores / (int)workers : 1),
-                                .tile = (int)tile, .quiet = quiet};
+                                .tile = (int)tile, .quiet = quiet,
+                                .target_error = stop.target_error, .time_limit = stop.time_limit};
         proto_job_info_t info;
         rc = local_farm_run(&lo, &info);
         if (rc == 0 && film_png_from_exr(exr, png, tm, &err)) {
@@ -264,6 +485,12 @@ int cmd_render(int argc, char **argv)
                    (unsigned long long)info.samples_done, info.elapsed,
                    info.samples_done / 1e6 / (info.elapsed > 0 ? info.elapsed : 1), (int)workers,
                    workers == 1 ? "" : "s", (unsigned long long)info.nonfinite);
+            if (info.has_rel_error)
+                printf("%u of %d spp, relative error estimate %.4f%s\n", info.spp, rs->spp,
+                       info.rel_error, stop_text(info.stop));
+            else
+                printf("%u of %d spp, no relative error estimate%s%s\n", info.spp, rs->spp,
+                       info.spp < 2 ? " (1 sample per pixel)" : "", stop_text(info.stop));
         }
     }
     scene_destroy(&scene);

@@ -24,18 +24,28 @@ static void usage(FILE *out)
             "  --name NAME         job name (default: the scene file's name)\n"
             "  --spp N, --res WxH, --seed N, --integrator NAME, --dispersion NAME\n"
             "                      override the scene file, as for prismfarm render\n"
+            "  --target-error E    done at the first pass whose relative error estimate is <= E (0 < E < 1)\n"
+            "  --time-limit T      done at T seconds (or Ns, Nm, Nh) after the start, with the whole passes so far\n"
             "  --wait              follow the job with a progress bar and fetch the result\n"
             "  -o, --output OUT    with --wait: where the EXR goes (default NAME.exr); the PNG goes beside it\n"
-            "  --json              print the job id (and with --wait the final status) as JSON\n");
+            "  --json              print the job id (and with --wait the final status) as JSON\n"
+            CLIENT_SECURITY_HELP);
 }
 
 int cmd_submit(int argc, char **argv)
 {
     const char *scene = NULL, *master = client_default_master(), *name = NULL, *output = NULL;
     scene_overrides_t ov = {.seed = -1};
+    cli_stop_t stop = {0};
     int wait = 0, json = 0, quiet = 0;
+    client_security_t sec = client_security_default();
     for (int i = 1; i < argc; i++) {
         const char *a = argv[i];
+        int s = client_security_arg("submit", argc, argv, &i, &sec);
+        if (s < 0)
+            return 2;
+        if (s)
+            continue;
         if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
             usage(stdout);
             return 0;
@@ -59,6 +69,8 @@ int cmd_submit(int argc, char **argv)
             }
             const char *val = argv[++i];
             int handled = cli_parse_override("submit", a, val, &ov);
+            if (!handled)
+                handled = cli_parse_stop("submit", a, val, &stop);
             if (handled < 0)
                 return 2;
             if (handled)
@@ -106,10 +118,12 @@ int cmd_submit(int argc, char **argv)
         fprintf(stderr, "prismfarm submit: %s\n", err.msg);
         return 1;
     }
-    client_rpc_t *rpc = client_rpc_new(master, NULL, &err);
+    client_rpc_t *rpc = client_rpc_new(master, NULL, &sec, &err);
     proto_msg_t req = {.type = PROTO_SUBMIT,
                        .submit = {.name = name, .settings = proto_settings_from_overrides(&ov),
                                   .bundle = *scene_bundle_get(b)}};
+    req.submit.settings.target_error = stop.target_error;
+    req.submit.settings.time_limit = stop.time_limit;
     proto_msg_t reply;
     int rc = 0;
     if (!rpc || client_rpc_call(rpc, &req, &reply, 60000, &err)) {
@@ -163,12 +177,21 @@ int cmd_submit(int argc, char **argv)
         json_object_set_new(o, "png", json_string(png));
         json_object_set_new(o, "elapsed_s", json_real(last.elapsed));
         json_object_set_new(o, "nonfinite", json_integer((json_int_t)last.nonfinite));
+        json_object_set_new(o, "spp", json_integer((json_int_t)last.spp));
+        json_object_set_new(o, "rel_error", last.has_rel_error ? json_real(last.rel_error) : json_null());
+        json_object_set_new(o, "stop", last.stop != PROTO_STOP_NONE ? json_string(proto_stop_name(last.stop))
+                                                                    : json_null());
         json_dumpf(o, stdout, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
         fputc('\n', stdout);
         json_decref(o);
     } else {
         printf("job %llu done in %.1f s: wrote %s and %s; %llu non-finite samples discarded\n",
                (unsigned long long)job, last.elapsed, exr, png, (unsigned long long)last.nonfinite);
+        if (last.has_rel_error)
+            printf("%u spp, relative error estimate %.4f%s\n", last.spp, last.rel_error,
+                   last.stop == PROTO_STOP_TARGET ? " (target reached)"
+                   : last.stop == PROTO_STOP_TIME ? " (time limit reached)"
+                                                  : "");
     }
 out:
     client_rpc_destroy(&rpc);

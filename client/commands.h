@@ -16,6 +16,7 @@ int cmd_workers(int argc, char **argv);
 int cmd_cancel(int argc, char **argv);
 int cmd_refine(int argc, char **argv);
 int cmd_fetch(int argc, char **argv);
+int cmd_keygen(int argc, char **argv);
 
 
 #endif

@@ -42,8 +42,19 @@ int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t
         *last = j;
         last->name = NULL;
         last->error = NULL;
+        /* The accuracy so far, after the rate: whole passes merged and the error estimate. */
+        char extra[96] = "";
+        if (j.spp > 0 && j.has_rel_error)
+            snprintf(extra, sizeof extra, "%u spp, rel. error %.4f", j.spp, j.rel_error);
+        else if (j.spp > 0)
+            snprintf(extra, sizeof extra, "%u spp", j.spp);
+        prog.extra = extra;
         if (j.samples_total)
             progress_update(&prog, j.samples_done, j.samples_total, now_s() - t0);
+        if (state == PROTO_JOB_DONE && j.stop != PROTO_STOP_NONE)
+            progress_end(&prog, j.samples_done, j.samples_total, now_s() - t0,
+                         j.stop == PROTO_STOP_TARGET ? "target error reached" : "time limit reached");
+        prog.extra = NULL;
         proto_msg_free(&reply);
         if (state == PROTO_JOB_DONE || state == PROTO_JOB_FAILED || state == PROTO_JOB_CANCELLED)
             return state;

@@ -139,10 +139,12 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
     if (!quiet)
         fprintf(stderr, "render: a master and %d worker%s x %lld threads in this process\n", nstarted,
                 nstarted == 1 ? "" : "s", threads);
-    rpc = client_rpc_new(cep, ctx, &err);
+    rpc = client_rpc_new(cep, ctx, NULL, &err);
     proto_msg_t req = {.type = PROTO_SUBMIT,
                        .submit = {.name = name, .settings = proto_settings_from_overrides(&ov),
                                   .bundle = *scene_bundle_get(bundle)}};
+    req.submit.settings.target_error = o->target_error;
+    req.submit.settings.time_limit = o->time_limit;
     proto_msg_t reply;
     if (!rpc || client_rpc_call(rpc, &req, &reply, 60000, &err)) {
         fprintf(stderr, "prismfarm render: %s\n", err.msg);

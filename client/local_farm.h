@@ -17,10 +17,12 @@ typedef struct local_farm_opts {
     int tile;             /* tile size; 0: the scheduler's default */
     const char *spool;    /* NULL: a temporary folder, removed afterwards */
     int quiet;
+    double target_error;  /* the job's stopping rules (proto_settings_t); 0: none */
+    double time_limit;
 } local_farm_opts_t;
 
-/* Renders the scene and writes the EXR. Returns 0 with the finished job's counters in *info
- * (name and error cleared), or 1 with a message on stderr. */
+/* Renders the scene and writes the EXR. Returns 0 with the finished job's counters and accuracy
+ * in *info (name and error cleared), or 1 with a message on stderr. */
 int local_farm_run(const local_farm_opts_t *opts, proto_job_info_t *info);
 
 #endif

@@ -23,6 +23,7 @@ void progress_update(progress_t *p, uint64_t done, uint64_t total, double elapse
             bar[i] = i < n ? '#' : '.';
         bar[30] = 0;
         fprintf(stderr, "\r[%s] %5.1f%%  %.2f Msamples/s  ETA %.0fs %s  ", bar, 100 * f, rate / 1e6, eta, extra);
+        p->open_line = done < total;
         if (done >= total)
             fputc('\n', stderr);
     } else {
@@ -33,5 +34,18 @@ void progress_update(progress_t *p, uint64_t done, uint64_t total, double elapse
                     rate / 1e6, elapsed, eta, extra);
         }
     }
+    fflush(stderr);
+}
+
+void progress_end(progress_t *p, uint64_t done, uint64_t total, double elapsed, const char *why)
+{
+    if (p->quiet || total == 0 || done >= total)
+        return;
+    const char *extra = p->extra ? p->extra : "";
+    if (p->tty && p->open_line)
+        fputc('\n', stderr);
+    fprintf(stderr, "%s: %s after %.1fs: %s (%.1f%% of the samples asked)\n", p->label,
+            why ? why : "stopped", elapsed, extra, 100.0 * (double)done / (double)total);
+    p->open_line = 0;
     fflush(stderr);
 }

@@ -10,10 +10,13 @@ usage: deploy/install.sh [options]
 
 Builds prismfarm and installs, under PREFIX (default /usr/local):
   PREFIX/bin/prismfarm
-  PREFIX/share/doc/prismfarm/deploy.md
+  PREFIX/share/doc/prismfarm/deploy.md, security.md
   /etc/systemd/system/prismfarm-master.service, prismfarm-worker@.service
   /etc/prismfarm/master.env, worker.env        (examples, only if absent)
-and creates the system user `prismfarm` that the units run as. Then enable what the host is for:
+  /etc/prismfarm/keys/host.key, host.pub       (this host's CURVE key pair, only if absent)
+  /etc/prismfarm/authorized/                   (the master's authorised public keys)
+and creates the system user `prismfarm` that the units run as. Then exchange the public keys
+(docs/security.md) and enable what the host is for:
   systemctl enable --now prismfarm-master                  # the master host
   systemctl enable --now prismfarm-worker@MASTERHOST       # each render host
 Run deploy/install-deps.sh first (build dependencies, and the run-time libraries with them).
@@ -98,6 +101,7 @@ put_example() {
 
 put "$binary" "$prefix/bin/prismfarm" 0755
 put "$repo/docs/deploy.md" "$prefix/share/doc/prismfarm/deploy.md" 0644
+put "$repo/docs/security.md" "$prefix/share/doc/prismfarm/security.md" 0644
 for unit in prismfarm-master.service prismfarm-worker@.service; do
   sed -e "s|/usr/local/bin/prismfarm|$prefix/bin/prismfarm|g" \
       -e "s|/usr/local/share/doc/prismfarm|$prefix/share/doc/prismfarm|g" \
@@ -107,7 +111,35 @@ done
 put_example "$repo/deploy/systemd/master.env" /etc/prismfarm/master.env
 put_example "$repo/deploy/systemd/worker.env" /etc/prismfarm/worker.env
 
+# This host's key pair (docs/security.md), made once and never replaced (a new pair would lock
+# the host out until its new host.pub is authorised), owned by the user the units run as; and
+# the folder of public keys a master lets in.
+make_keys() {
+  local keys=$destdir/etc/prismfarm/keys auth=$destdir/etc/prismfarm/authorized
+  if [ -d "$auth" ]; then
+    echo "kept       $auth"
+  else
+    install -d -m 0755 "$auth"
+    echo "installed  $auth"
+  fi
+  if [ -e "$keys/host.key" ]; then
+    echo "kept       $keys/host.key"
+  else
+    "$binary" keygen host --dir "$keys" >/dev/null
+    echo "installed  $keys/host.key (secret, 0600) and host.pub"
+  fi
+  if [ -z "$destdir" ]; then
+    if getent passwd prismfarm >/dev/null; then
+      chown prismfarm:prismfarm "$keys" "$keys/host.key" "$keys/host.pub"
+      chmod 0700 "$keys"
+    else
+      echo "note: no user prismfarm: $keys stays root's (the units cannot read it)"
+    fi
+  fi
+}
+
 if [ -n "$destdir" ]; then
+  make_keys
   echo "staged under $destdir: no user created, systemd not reloaded"
   exit 0
 fi
@@ -121,6 +153,7 @@ if [ "$make_user" -eq 1 ]; then
     echo "created    user prismfarm"
   fi
 fi
+make_keys
 
 if [ "$changed_units" -eq 1 ]; then
   if [ -d /run/systemd/system ]; then

@@ -11,6 +11,7 @@ usage: deploy/start-workers.sh [options] start|stop|status [HOST...]
 
 Runs `prismfarm worker --connect ENDPOINT` on each HOST over ssh (one worker per host and
 master; a second `start` finds it running and leaves it), stops it, or says whether it runs.
+`start` needs the keys (paths on the hosts: docs/security.md) or --insecure.
 
 options:
   -m, --master M       the master: a host name or address (tcp://M:PORT), or a full worker
@@ -19,6 +20,11 @@ options:
   -f, --hosts FILE     more hosts, one per line: HOST [THREADS]; '#' starts a comment
   -t, --threads N      render threads per worker (default: every core of the host)
   -p, --port N         the master's worker port when --master is a host (default 5555)
+  -k, --key FILE       the worker's key pair on each host (NAME.key from prismfarm keygen,
+                       made on that host; its NAME.pub in the master's --authorized folder)
+  -K, --master-key FILE
+                       the master's public key (its NAME.pub) on each host
+      --insecure       plain text instead of CURVE (a network you trust)
       --bin PATH       prismfarm on the hosts (default: prismfarm, found in PATH)
       --cache DIR      scene cache on the hosts (default: the worker's own)
       --launcher L     auto (systemd-run --user if the host has a user manager, else
@@ -42,13 +48,16 @@ die_usage() {
 }
 
 # The part that runs on each host, as POSIX sh (the hosts' /bin/sh may be dash or busybox).
-# Arguments: ACTION ENDPOINT TAG THREADS BIN NAME CACHE LAUNCHER (empty = default).
+# Arguments: ACTION ENDPOINT TAG THREADS BIN NAME CACHE LAUNCHER KEY MASTER_KEY INSECURE
+# (empty = default; INSECURE is "insecure" or empty).
 read -r -d '' REMOTE_SCRIPT <<'REMOTE' || true
 # Everything sits in one function, parsed whole before it runs, with stdin from /dev/null:
 # the script itself arrives on stdin, and no command may eat the rest of it.
 remote_main() {
 set -u
-action=$1 ep=$2 tag=$3 threads=$4 bin=$5 name=$6 cache=$7 launcher=$8
+action=$1 ep=$2 tag=$3 threads=$4 bin=$5 name=$6 cache=$7 launcher=$8 key=$9
+shift 9
+master_key=$1 insecure=$2
 unit=prismfarm-worker-$tag
 state=${XDG_STATE_HOME:-$HOME/.local/state}/prismfarm
 pidf=$state/worker-$tag.pid
@@ -95,6 +104,15 @@ start)
   set -- worker --connect "$ep" --name "$name"
   if [ -n "$threads" ]; then set -- "$@" --threads "$threads"; fi
   if [ -n "$cache" ]; then set -- "$@" --cache "$cache"; fi
+  if [ -n "$insecure" ]; then
+    set -- "$@" --insecure
+  else
+    # The worker reads them as it starts: a missing file is reported now, not in its log.
+    for f in "$key" "$master_key"; do
+      [ -r "$f" ] || { echo "cannot read '$f' (make the keys on this host: docs/security.md)"; exit 1; }
+    done
+    set -- "$@" --key "$key" --master-key "$master_key"
+  fi
   if [ "$launcher" = systemd ]; then
     systemctl --user reset-failed "$unit" >/dev/null 2>&1 || true
     systemd-run --user --quiet --collect --unit="$unit" -p Restart=on-failure -p RestartSec=5 \
@@ -178,6 +196,9 @@ launcher=auto
 ssh_cmd=${PRISMFARM_SSH:-ssh -o BatchMode=yes -o ConnectTimeout=10}
 jobs=16
 dry=0
+key=
+master_key=
+insecure=
 args=()
 
 need() { [ "$2" -ge 2 ] || die_usage "$1 needs a value"; }
@@ -187,6 +208,9 @@ while [ $# -gt 0 ]; do
     -f|--hosts) need "$1" $#; hosts_file=$2; shift 2 ;;
     -t|--threads) need "$1" $#; threads=$2; shift 2 ;;
     -p|--port) need "$1" $#; port=$2; shift 2 ;;
+    -k|--key) need "$1" $#; key=$2; shift 2 ;;
+    -K|--master-key) need "$1" $#; master_key=$2; shift 2 ;;
+    --insecure) insecure=insecure; shift ;;
     --bin) need "$1" $#; bin=$2; shift 2 ;;
     --cache) need "$1" $#; cache=$2; shift 2 ;;
     --launcher) need "$1" $#; launcher=$2; shift 2 ;;
@@ -257,11 +281,18 @@ for h in "${args[@]:1}"; do
   add_host "$h" "" "argument"
 done
 [ ${#host_list[@]} -gt 0 ] || die_usage "no hosts: give them as arguments or with --hosts FILE"
+if [ -n "$insecure" ]; then
+  [ -z "$key$master_key" ] || die_usage "--insecure and --key/--master-key exclude each other"
+elif [ "$action" = start ]; then
+  [ -n "$key" ] && [ -n "$master_key" ] ||
+    die_usage "start needs --key FILE and --master-key FILE (paths on the hosts; docs/security.md), or --insecure"
+fi
 
 remote_command() {
   local host=$1 t=$2
-  printf 'sh -s -- %s %s %s %s %s %s %s %s' "$(q "$action")" "$(q "$endpoint")" "$(q "$tag")" \
-    "$(q "$t")" "$(q "$bin")" "$(q "${host#*@}")" "$(q "$cache")" "$(q "$launcher")"
+  printf 'sh -s -- %s %s %s %s %s %s %s %s %s %s %s' "$(q "$action")" "$(q "$endpoint")" \
+    "$(q "$tag")" "$(q "$t")" "$(q "$bin")" "$(q "${host#*@}")" "$(q "$cache")" "$(q "$launcher")" \
+    "$(q "$key")" "$(q "$master_key")" "$(q "$insecure")"
 }
 
 if [ "$dry" -eq 1 ]; then

@@ -2,11 +2,14 @@
 #include "master.h"
 
 #include "bundle.h"
+#include "curve.h"
+#include "error_estimate.h"
 #include "film.h"
 #include "net.h"
 #include "photon_phase.h"
 #include "scene_load.h"
 #include "spool.h"
+#include "zap.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -37,6 +40,16 @@ typedef struct mworker {
     sched_task_t unsent;
 } mworker_t;
 
+/* One merged pass of a job and the error estimate after it (docs/farm.md, "Accuracy"). */
+typedef struct pass_record {
+    int pass, spp;    /* passes merged (1-based) and samples per pixel they hold */
+    double elapsed;   /* seconds since the job started */
+    bool valid;       /* an estimate exists (not after the first pass: 1 sample per pixel) */
+    double rel_error; /* relative RMSE of the mean luminance, common/error_estimate.h */
+} pass_record_t;
+
+#define MAX_PASS_RECORDS 40 /* passes of a job: log2(2^24 spp) + 1 = 25, with room */
+
 typedef struct mjob {
     uint64_t id;
     char *name;
@@ -66,6 +79,12 @@ typedef struct mjob {
     /* Bumped by each refinement and carried in the upper 32 bits of every task id on the wire,
      * so a late result of an earlier round is told from the current one's. */
     uint32_t round;
+    /* Accuracy of the current round: a record per merged pass, the spp of the passes merged
+     * (kept when the scheduler forgets the job) and why it ended before its last pass. */
+    pass_record_t history[MAX_PASS_RECORDS];
+    int nhistory;
+    int spp_done;
+    proto_stop_t stop;
 } mjob_t;
 
 /* A client's STATUS with a wait: answered when its job is over or at the deadline. */
@@ -132,6 +151,7 @@ master_opts_t master_opts_default(void)
         .limits = proto_limits_default(),
         .task_prefetch = -1,
         .preview_interval_s = 1.0,
+        .max_jobs = 256,
         .verbose = 1,
     };
     /* farm.md: a worker silent for 3 heartbeat intervals is dead (zguide's liveness 3). */
@@ -303,6 +323,30 @@ static void make_stem(const char *name, char *out, size_t size)
         snprintf(out, size, "preview_");
 }
 
+/* The job's accuracy for the EXR's "prismfarm" attribute, appended to out:
+ * ";spp_done=S;rel_rmse=E|none;stop=none|target|time;target_error=..;time_limit=..;
+ * history=PASS:SPP:SECONDS:REL_RMSE,..." with "-" for a pass without an estimate. */
+static void accuracy_info(const mjob_t *j, int spp_done, char *out, size_t size)
+{
+    size_t n = strlen(out);
+    const pass_record_t *last = j->nhistory > 0 ? &j->history[j->nhistory - 1] : NULL;
+    char rel[32] = "none";
+    if (last && last->valid)
+        snprintf(rel, sizeof rel, "%.6g", last->rel_error);
+    n += (size_t)snprintf(out + n, n < size ? size - n : 0,
+                          ";spp_done=%d;rel_rmse=%s;stop=%s;target_error=%g;time_limit=%g;history=",
+                          spp_done, rel, proto_stop_name(j->stop), j->settings.target_error,
+                          j->settings.time_limit);
+    for (int i = 0; i < j->nhistory && n < size; i++) {
+        const pass_record_t *r = &j->history[i];
+        char e[32] = "-";
+        if (r->valid)
+            snprintf(e, sizeof e, "%.6g", r->rel_error);
+        n += (size_t)snprintf(out + n, size - n, "%s%d:%d:%.3f:%s", i ? "," : "", r->pass, r->spp,
+                              r->elapsed, e);
+    }
+}
+
 static int write_image(master_t *m, mjob_t *j, bool final, err_t *err)
 {
     char dir[PATH_MAX], exr[PATH_MAX + 100], png[PATH_MAX + 100];
@@ -314,7 +358,7 @@ static int write_image(master_t *m, mjob_t *j, bool final, err_t *err)
     sched_job_info_t si;
     if (sched_job_info(m->sched, j->id, &si) < 0)
         return err_set(err, "job %llu is unknown to the scheduler", (unsigned long long)j->id);
-    char info[1024];
+    char info[4096];
     snprintf(info, sizeof info,
              "job=%llu;name=%s;scene=%s;spp=%d;xres=%d;yres=%d;seed=%llu;integrator=%s;"
              "dispersion=%s;samples=%llu;nonfinite=%llu;photons=%llu;seconds=%.3f",
@@ -323,6 +367,7 @@ static int write_image(master_t *m, mjob_t *j, bool final, err_t *err)
              (unsigned long long)si.samples_done, (unsigned long long)si.nonfinite,
              (unsigned long long)(j->photons ? photon_phase_stats(j->photons).photons : 0),
              j->started > 0 ? now_s() - j->started : 0.0);
+    accuracy_info(j, si.spp_done, info, sizeof info);
     film_output_t out = {
         .spectral = 1, .tonemap = {.exposure_stops = 0, .curve = COLOUR_CURVE_ACES}, .info = info};
     if (final) {
@@ -355,6 +400,10 @@ static void job_refresh(master_t *m, mjob_t *j, double now)
     j->finished = now;
     if (info.state == JOB_DONE) {
         err_t err;
+        /* Ended before its last pass (target error, time limit): the tasks still out are of
+         * passes that will never be merged, so the workers drop them, as for a cancel. */
+        if (j->stop != PROTO_STOP_NONE)
+            cancel_on_workers(m, j->id);
         if (write_image(m, j, true, &err) < 0) {
             char msg[600];
             snprintf(msg, sizeof msg, "writing the outputs: %s", err.msg);
@@ -363,9 +412,17 @@ static void job_refresh(master_t *m, mjob_t *j, double now)
             mlog(m, "job %llu '%s' failed: %s", (unsigned long long)j->id, j->name, msg);
         } else {
             j->outputs = true;
-            mlog(m, "job %llu '%s' done in %.2f s: %s/jobs/%llu/%s.exr", (unsigned long long)j->id,
-                 j->name, j->finished - j->started, spool_path(m->spool), (unsigned long long)j->id,
-                 j->stem);
+            const pass_record_t *last = j->nhistory > 0 ? &j->history[j->nhistory - 1] : NULL;
+            char acc[160] = "";
+            if (last && last->valid)
+                snprintf(acc, sizeof acc, ", relative error %.4g", last->rel_error);
+            mlog(m, "job %llu '%s' done in %.2f s at %d of %d spp%s%s: %s/jobs/%llu/%s.exr",
+                 (unsigned long long)j->id, j->name, j->finished - j->started, info.spp_done,
+                 j->spp, acc,
+                 j->stop == PROTO_STOP_TARGET ? " (target error reached)"
+                 : j->stop == PROTO_STOP_TIME ? " (time limit reached)"
+                                              : "",
+                 spool_path(m->spool), (unsigned long long)j->id, j->stem);
         }
     } else if (info.state == JOB_FAILED) {
         job_set_error(j, info.error[0] ? info.error : "failed");
@@ -378,6 +435,7 @@ static void job_refresh(master_t *m, mjob_t *j, double now)
     j->samples_done = info.samples_done;
     j->samples_total = info.samples_total;
     j->nonfinite = info.nonfinite;
+    j->spp_done = info.spp_done;
     err_t err;
     if (sched_remove_job(m->sched, j->id, &err) < 0)
         mlog(m, "job %llu: %s", (unsigned long long)j->id, err.msg);
@@ -410,12 +468,20 @@ static proto_job_info_t job_wire_info(const master_t *m, const mjob_t *j, double
                           .samples_done = j->samples_done,
                           .samples_total = j->samples_total,
                           .nonfinite = j->nonfinite};
+    o.spp = (uint32_t)j->spp_done;
     sched_job_info_t info;
     if (j->in_sched && sched_job_info(m->sched, j->id, &info) == 0) {
         o.samples_done = info.samples_done;
         o.samples_total = info.samples_total;
         o.nonfinite = info.nonfinite;
+        o.spp = (uint32_t)info.spp_done;
     }
+    const pass_record_t *last = j->nhistory > 0 ? &j->history[j->nhistory - 1] : NULL;
+    if (last && last->valid) {
+        o.has_rel_error = true;
+        o.rel_error = last->rel_error;
+    }
+    o.stop = j->stop;
     double secs = j->started > 0 ? (j->finished > 0 ? j->finished : now) - j->started : 0;
     o.elapsed = secs > 0 ? secs : 0;
     if (j->state == JOB_FAILED)
@@ -549,6 +615,72 @@ static void pass_range(int spp, uint64_t pass, uint32_t *begin, uint32_t *end)
     *end = (uint32_t)(e < (uint64_t)spp ? e : (uint64_t)spp);
 }
 
+/* After a result that completed one or more passes. At each pass boundary: the error estimate
+ * of the image (exactly the passes merged when the job may end early: sched.h, whole passes),
+ * its record and log line, and the stopping rules, which end the job at the first boundary
+ * where the estimate is <= target_error or time_limit has passed. A job that goes on gets a
+ * preview, at most every preview_interval_s. */
+static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
+{
+    err_t err;
+    sched_job_info_t info;
+    while ((rc & SCHED_PASS_DONE) && sched_job_info(m->sched, j->id, &info) == 0) {
+        error_estimate_t e = error_estimate_image(sched_job_image(m->sched, j->id));
+        double elapsed = j->started > 0 && now > j->started ? now - j->started : 0;
+        if (j->nhistory < MAX_PASS_RECORDS)
+            j->history[j->nhistory++] =
+                (pass_record_t){.pass = info.passes_done, .spp = info.spp_done, .elapsed = elapsed,
+                                .valid = e.valid, .rel_error = e.valid ? e.rel_rmse : 0};
+        char est[64] = "no error estimate yet (1 sample per pixel)";
+        if (e.valid)
+            snprintf(est, sizeof est, "relative error %.4g", e.rel_rmse);
+        else if (e.saturated > 0)
+            snprintf(est, sizeof est, "no error estimate (%llu pixels beyond range)",
+                     (unsigned long long)e.saturated);
+        else if (e.pixels > 0)
+            snprintf(est, sizeof est, "no relative error (image mean %.3g)", e.mean);
+        mlog(m, "job %llu pass %d of %d merged: %d spp, %s after %.2f s", (unsigned long long)j->id,
+             info.passes_done, info.npasses, info.spp_done, est, elapsed);
+        proto_stop_t stop = PROTO_STOP_NONE;
+        if (info.state == JOB_RUNNING && info.whole_passes) {
+            if (j->settings.target_error > 0 && e.valid && e.rel_rmse <= j->settings.target_error)
+                stop = PROTO_STOP_TARGET;
+            else if (j->settings.time_limit > 0 && elapsed >= j->settings.time_limit)
+                stop = PROTO_STOP_TIME;
+        }
+        if (stop != PROTO_STOP_NONE) {
+            if (sched_finish_job_at_pass(m->sched, j->id, &err) < 0) {
+                mlog(m, "job %llu: cannot end it at pass %d: %s", (unsigned long long)j->id,
+                     info.passes_done, err.msg);
+            } else {
+                j->stop = stop;
+                return; /* job_refresh writes the outputs and tells the workers */
+            }
+        }
+        if (!(rc & SCHED_PASS_READY))
+            break;
+        rc = sched_merge_next_pass(m->sched, j->id, &err);
+        if (rc < 0) {
+            mlog(m, "job %llu: %s", (unsigned long long)j->id, err.msg);
+            sched_fail_job(m->sched, j->id, err.msg);
+            return;
+        }
+    }
+    /* Short passes would write a PNG each, costing the master's CPU (which shares the cores
+     * with the workers' threads) for images nobody looks at that often; the final image is
+     * written when the job is done whatever the interval. */
+    if (sched_job_info(m->sched, j->id, &info) < 0 || info.state != JOB_RUNNING ||
+        now - (j->last_preview > 0 ? j->last_preview : j->started) < m->opts->preview_interval_s)
+        return;
+    if (write_image(m, j, false, &err) < 0) {
+        mlog(m, "job %llu: cannot write the preview: %s", (unsigned long long)j->id, err.msg);
+    } else {
+        j->preview = true;
+        j->last_preview = now;
+        mlog(m, "job %llu preview written at %d spp", (unsigned long long)j->id, info.spp_done);
+    }
+}
+
 static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double now)
 {
     const proto_tile_result_t *r = &msg->result.tile;
@@ -620,24 +752,8 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
         mlog(m, "bad result from worker %llu '%s' for job %llu: %s", (unsigned long long)w->id,
              w->name, (unsigned long long)job, err.msg);
         sched_task_failed(m->sched, w->id, job, (uint32_t)task, attempt, err.msg);
-    } else if ((rc & SCHED_PASS_DONE) && !(rc & SCHED_JOB_DONE) &&
-               now - (j->last_preview > 0 ? j->last_preview : j->started) >=
-                   m->opts->preview_interval_s) {
-        /* Short passes would write a PNG each, costing the master's CPU (which shares the
-         * cores with the workers' threads) for images nobody looks at that often; the final
-         * image is written when the job is done whatever the interval. */
-        sched_job_info_t info;
-        if (sched_job_info(m->sched, job, &info) == 0) {
-            if (write_image(m, j, false, &err) < 0) {
-                mlog(m, "job %llu: cannot write the preview: %s", (unsigned long long)job, err.msg);
-            } else {
-                j->preview = true;
-                j->last_preview = now;
-                mlog(m, "job %llu pass %d of %d merged (%u spp): preview written",
-                     (unsigned long long)job, info.passes_done, info.npasses,
-                     info.passes_done > 0 ? 1u << (info.passes_done - 1) : 0u);
-            }
-        }
+    } else if (rc & SCHED_PASS_DONE) {
+        passes_merged(m, j, rc, now);
     }
     job_refresh(m, j, now);
 }
@@ -871,7 +987,11 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
         return;
     }
     uint64_t id = m->last_job + 1;
+    /* A job that may end early keeps whole passes only, so that it can end at any boundary. */
+    const proto_settings_t *set = &msg->submit.settings;
+    bool may_stop = set->target_error > 0 || set->time_limit > 0;
     if (sched_add_job(m->sched, id, rs.xres, rs.yres, rs.spp, rs.grid, &err) < 0 ||
+        (may_stop && sched_set_whole_passes(m->sched, id, &err) < 0) ||
         (j->photons &&
          sched_add_photon_batches(m->sched, id, photon_phase_nbatches(j->photons), &err) < 0)) {
         err_t ignore;
@@ -910,6 +1030,7 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     j->state = JOB_QUEUED;
     j->in_sched = true;
     j->samples_total = info.samples_total;
+    j->stop = PROTO_STOP_NONE;
     m->jobs[m->njobs++] = j;
     /* The job's folder marks its id as used, so a restarted master never gives it out again
      * (spool_last_job_id counts these folders), even if nothing was rendered yet. */
@@ -918,11 +1039,17 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
         mlog(m, "job %llu: %s", (unsigned long long)id, err.msg);
     proto_msg_t ok = {.type = PROTO_SUBMITTED, .submitted = {.job = id}};
     reply(m, from, &ok);
+    char rules[96] = "";
+    if (set->target_error > 0)
+        snprintf(rules, sizeof rules, ", target error %g", set->target_error);
+    if (set->time_limit > 0)
+        snprintf(rules + strlen(rules), sizeof rules - strlen(rules), ", time limit %g s",
+                 set->time_limit);
     mlog(m,
          "job %llu '%s' submitted by %s: %dx%d, %d spp, %d buckets, %d tiles x %d passes, %u "
-         "photon batches, scene %.12s%s",
+         "photon batches, scene %.12s%s%s",
          (unsigned long long)id, j->name, who, rs.xres, rs.yres, rs.spp, rs.grid.n, info.ntiles,
-         info.npasses, info.photon_batches, hash, staged ? "" : " (stored already)");
+         info.npasses, info.photon_batches, hash, staged ? "" : " (stored already)", rules);
 }
 
 static void reply_jobs(master_t *m, const proto_peer_t *to, proto_type_t type, const mjob_t *only,
@@ -1047,7 +1174,9 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
         return;
     }
     uint32_t added = photon_phase_nbatches(j->photons) - base;
+    bool may_stop = j->settings.target_error > 0 || j->settings.time_limit > 0;
     if (sched_add_job(m->sched, j->id, j->xres, j->yres, j->spp, j->grid, &err) < 0 ||
+        (may_stop && sched_set_whole_passes(m->sched, j->id, &err) < 0) ||
         sched_add_photon_batches(m->sched, j->id, added, &err) < 0) {
         err_t ignore;
         (void)sched_remove_job(m->sched, j->id, &ignore);
@@ -1066,6 +1195,8 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
     j->state = JOB_QUEUED;
     j->started = j->finished = 0;
     j->samples_done = 0;
+    j->nhistory = j->spp_done = 0; /* the round's accuracy, with its own stopping rules */
+    j->stop = PROTO_STOP_NONE;
     j->submitted = now;
     photon_phase_stats_t ps = photon_phase_stats(j->photons);
     mlog(m, "job %llu '%s' refined: %llu more photons in %u batches (%llu so far), then the camera "
@@ -1076,12 +1207,32 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
     reply(m, from, &ok);
 }
 
+/* opts->max_jobs: each unfinished job holds its framebuffer and scheduler state, so a client
+ * cannot make the master hold them without bound (docs/security.md). */
+static bool submit_room(master_t *m, const proto_peer_t *from, const proto_msg_t *msg)
+{
+    size_t open = 0;
+    for (size_t i = 0; i < m->njobs; i++)
+        open += !job_over(m->jobs[i]);
+    if (open < m->opts->max_jobs)
+        return true;
+    char who[PROTO_PEER_STR];
+    mlog(m, "submission '%s' from %s refused: %zu unfinished jobs, the limit", msg->submit.name,
+         proto_peer_str(from, who), open);
+    reply_error(m, from,
+                "the master holds %zu unfinished jobs, its limit (--max-jobs %zu): submit again "
+                "when one is done",
+                open, m->opts->max_jobs);
+    return false;
+}
+
 static void on_client_message(master_t *m, const proto_peer_t *from, const proto_msg_t *msg,
                               double now)
 {
     switch (msg->type) {
     case PROTO_SUBMIT:
-        on_submit(m, from, msg, now);
+        if (submit_room(m, from, msg))
+            on_submit(m, from, msg, now);
         break;
     case PROTO_STATUS:
         if (msg->status.all) {
@@ -1199,6 +1350,32 @@ static int drain(master_t *m, bool workers, err_t *err)
     return 0;
 }
 
+/* The time limits: a job past its limit with at least one whole pass ends now with the passes
+ * merged (the pass in flight is dropped, its tasks cancelled on the workers by job_refresh); one
+ * without a pass yet ends at its first pass boundary (passes_merged). */
+static void enforce_time_limits(master_t *m, double now)
+{
+    for (size_t i = 0; i < m->njobs; i++) {
+        mjob_t *j = m->jobs[i];
+        sched_job_info_t info;
+        if (!j->in_sched || !(j->settings.time_limit > 0) || j->started <= 0 ||
+            now - j->started < j->settings.time_limit ||
+            sched_job_info(m->sched, j->id, &info) < 0 || info.state != JOB_RUNNING ||
+            info.passes_done < 1)
+            continue;
+        err_t err;
+        if (sched_finish_job_at_pass(m->sched, j->id, &err) < 0) {
+            mlog(m, "job %llu: cannot end it at its time limit: %s", (unsigned long long)j->id,
+                 err.msg);
+            continue;
+        }
+        j->stop = PROTO_STOP_TIME;
+        mlog(m, "job %llu time limit %g s reached during pass %d: ends with %d spp",
+             (unsigned long long)j->id, j->settings.time_limit, info.passes_done + 1, info.spp_done);
+        job_refresh(m, j, now);
+    }
+}
+
 /* Dead workers, missed deadlines and heartbeats: the clock-driven part of a loop turn. busy is
  * how long this turn's messages took to handle. */
 static void housekeeping(master_t *m, double now, double busy)
@@ -1230,6 +1407,7 @@ static void housekeeping(master_t *m, double now, double busy)
         if (m->workers[i]->alive && (!si || !si->alive))
             worker_lost(m, m->workers[i], "timed out");
     }
+    enforce_time_limits(m, now);
     if (now - m->last_heartbeat >= m->heartbeat_s) {
         proto_msg_t hb = {.type = PROTO_HEARTBEAT};
         for (size_t i = 0; i < m->nworkers; i++)
@@ -1239,11 +1417,21 @@ static void housekeeping(master_t *m, double now, double busy)
     }
 }
 
+/* Clients send one request at a time: a few queued per connection is plenty, and the bound
+ * keeps what one connection can make the master buffer to this many messages (each at most
+ * limits.max_message_bytes). */
+#define CLIENT_RCVHWM 4
+
+/* A bound ROUTER; with secret_key a CURVE server whose ZAP domain names the endpoint. */
 static proto_net_t *open_router(master_t *m, void *ctx, const char *what, const char *endpoint,
-                                char *bound, size_t size, err_t *err)
+                                const char *secret_key, char *bound, size_t size, err_t *err)
 {
     proto_net_options_t no = proto_net_options_default();
     no.limits = m->limits;
+    no.curve.secret_key = secret_key;
+    no.curve.zap_domain = secret_key ? what : NULL;
+    if (!strcmp(what, "clients"))
+        no.rcvhwm = CLIENT_RCVHWM;
     proto_net_t *net = proto_net_new(ctx, PROTO_NET_ROUTER, &no, err);
     if (!net) {
         err_prefix(err, "%s endpoint: ", what);
@@ -1264,7 +1452,28 @@ static int check_opts(const master_opts_t *o, err_t *err)
             err, "master: worker and client endpoints, spool folder and stop flag are required");
     if (o->heartbeat_ms < 1 || o->heartbeat_ms > 3600000)
         return err_set(err, "master: heartbeat %d ms is outside 1..3600000", o->heartbeat_ms);
+    if (o->max_jobs < 1)
+        return err_set(err, "master: max_jobs is 0: no job could ever be submitted");
+    if (o->limits.max_bundle_bytes > o->limits.max_message_bytes)
+        return err_set(err, "master: bundles of %zu bytes cannot fit in messages of at most %zu",
+                       o->limits.max_bundle_bytes, o->limits.max_message_bytes);
+    if (!o->key_file != !o->authorized_dir)
+        return err_set(err, "master: %s",
+                       o->key_file ? "--key needs --authorized DIR, the public keys let in: "
+                                     "without it any peer that knows our public key would be"
+                       : "--authorized needs --key FILE, the master's own key pair");
+    const char *how = "the master --key FILE and --authorized DIR";
+    if (proto_curve_require(o->worker_endpoint, o->key_file, o->insecure, how, err) < 0 ||
+        proto_curve_require(o->client_endpoint, o->key_file, o->insecure, how, err) < 0)
+        return err_prefix(err, "master: ");
     return 0;
+}
+
+static void zap_log(void *user, const char *line)
+{
+    const master_t *m = user;
+    if (m->opts->verbose)
+        fprintf(stderr, "master: %s\n", line);
 }
 
 int master_run(const master_opts_t *opts, err_t *err)
@@ -1280,8 +1489,16 @@ int master_run(const master_opts_t *opts, err_t *err)
     void *ctx = opts->zmq_ctx ? opts->zmq_ctx : zmq_ctx_new();
     int rc = -1;
     char wbound[512] = "", cbound[512] = "";
+    proto_curve_pair_t keys = {0};
+    proto_zap_t *zap = NULL;
     if (!ctx) {
         err_set(err, "master: zmq_ctx_new: %s", zmq_strerror(zmq_errno()));
+        goto out;
+    }
+    /* The handler first: a CURVE server bound without one would let in every client. */
+    if (opts->key_file && (proto_curve_load_pair(opts->key_file, &keys, err) < 0 ||
+                           !(zap = proto_zap_new(ctx, opts->authorized_dir, zap_log, m, err)))) {
+        err_prefix(err, "master: ");
         goto out;
     }
     if (!(m->spool = spool_new(opts->spool_dir, err))) {
@@ -1293,11 +1510,17 @@ int master_run(const master_opts_t *opts, err_t *err)
         err_prefix(err, "master: ");
         goto out;
     }
-    if (!(m->wnet =
-              open_router(m, ctx, "workers", opts->worker_endpoint, wbound, sizeof wbound, err)) ||
-        !(m->cnet =
-              open_router(m, ctx, "clients", opts->client_endpoint, cbound, sizeof cbound, err)))
+    const char *secret = opts->key_file ? keys.secret_key : NULL;
+    if (!(m->wnet = open_router(m, ctx, "workers", opts->worker_endpoint, secret, wbound,
+                                sizeof wbound, err)) ||
+        !(m->cnet = open_router(m, ctx, "clients", opts->client_endpoint, secret, cbound,
+                                sizeof cbound, err)))
         goto out;
+    if (zap)
+        mlog(m, "CURVE: public key %s; %zu keys authorised in %s", keys.public_key,
+             proto_zap_stats(zap).keys, opts->authorized_dir);
+    else if (opts->insecure)
+        mlog(m, "plain text (--insecure): anyone who reaches the endpoints can connect");
     char text[1200], path[PATH_MAX];
     snprintf(text, sizeof text, "workers %s\nclients %s\n", wbound, cbound);
     snprintf(path, sizeof path, "%s/endpoints", spool_path(m->spool));
@@ -1346,6 +1569,8 @@ int master_run(const master_opts_t *opts, err_t *err)
 out:
     proto_net_destroy(&m->wnet);
     proto_net_destroy(&m->cnet);
+    proto_zap_destroy(&zap); /* after the servers it guards */
+    memset(&keys, 0, sizeof keys);
     if (ctx && !opts->zmq_ctx)
         (void)zmq_ctx_term(ctx);
     sched_destroy(&m->sched);

@@ -30,6 +30,14 @@ typedef struct master_opts {
     sched_config_t sched;        /* tile size, deadlines; worker_timeout_s is the silence that
                                   * makes a worker lost (default 3 heartbeats) */
     proto_limits_t limits;       /* message and bundle sizes accepted */
+    size_t max_jobs;             /* unfinished (queued or running) jobs held at once; a SUBMIT
+                                  * beyond them is refused */
+    /* Security (docs/security.md): with key_file both endpoints are CURVE servers that let in
+     * only the public keys of authorized_dir's *.pub files; without it a tcp:// endpoint
+     * needs insecure (plain text), and inproc:// and ipc:// need neither. */
+    const char *key_file;        /* the master's NAME.key (prismfarm keygen) */
+    const char *authorized_dir;  /* the workers' and clients' NAME.pub files */
+    int insecure;                /* plain text on network endpoints, by explicit choice */
     int task_prefetch;           /* tasks a worker holds beyond its threads, so that a thread
                                   * that finishes finds its next task queued instead of waiting
                                   * for the round trip: -1 as many as it has threads, 0 none */
@@ -42,12 +50,13 @@ typedef struct master_opts {
 
 /* Workers on port 5555 and clients on port 5556 of every interface, spool "prismfarm-spool",
  * heartbeat 1000 ms, worker timeout 3 s, sched_config_default() otherwise, proto_limits_default(),
- * a worker holding twice its threads in tasks, a preview at most every second, verbose. */
+ * 256 unfinished jobs, a worker holding twice its threads in tasks, a preview at most every
+ * second, verbose; no keys and not insecure (so tcp:// endpoints need keys or insecure). */
 master_opts_t master_opts_default(void);
 
 /* Runs the master until *opts->stop becomes non-zero (returns 0) or a fatal error (returns -1
- * with err: an endpoint that cannot be bound, the spool folder unusable, the ZeroMQ context
- * terminated). The bound endpoints are also written to <spool>/endpoints, one
+ * with err: a network endpoint without keys or insecure, an unreadable key or authorised folder,
+ * an endpoint that cannot be bound, the spool folder unusable, the ZeroMQ context terminated). The bound endpoints are also written to <spool>/endpoints, one
  * "workers ENDPOINT" and one "clients ENDPOINT" line, for scripts and tests. */
 int master_run(const master_opts_t *opts, err_t *err);
 

@@ -32,6 +32,8 @@ typedef struct job {
     uint32_t nphoton, photon_done, first_pending_photon;
     int *next_pass;       /* per tile: the pass to merge next */
     int *merged_in_pass;  /* per pass: tiles merged */
+    int *done_in_pass;    /* per pass: tiles done (merged or held) */
+    bool whole_passes;    /* merge a pass only once all its tiles are done (sched.h) */
     uint32_t first_pending; /* no PENDING task before this index */
     uint32_t tasks_done;
     uint64_t samples_done, samples_total;
@@ -99,6 +101,7 @@ static void job_free(job_t *j)
     free(j->pass_begin);
     free(j->next_pass);
     free(j->merged_in_pass);
+    free(j->done_in_pass);
     free(j->strikes);
     tilebuf_destroy(&j->image);
     free(j);
@@ -150,7 +153,7 @@ static task_t *task_of(job_t *j, uint32_t id)
 
 /* Pass bounds 0, 1, 2, 4, 8, ... spp: each pass doubles the samples so far, so a preview after
  * pass k has 2^(k-1) samples per pixel and the number of passes grows only as log2(spp). */
-static int pass_bounds(int spp, uint32_t *out)
+int sched_pass_bounds(int spp, uint32_t *out)
 {
     int n = 0;
     uint32_t b = 0;
@@ -189,18 +192,20 @@ int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spect
     j->tile = self->cfg.tile_size;
     j->tiles_x = (xres + j->tile - 1) / j->tile;
     j->ntiles = j->tiles_x * ((yres + j->tile - 1) / j->tile);
-    j->npasses = pass_bounds(spp, NULL);
+    j->npasses = sched_pass_bounds(spp, NULL);
     j->pass_begin = malloc(((size_t)j->npasses + 1) * sizeof *j->pass_begin);
     j->tasks = calloc((size_t)j->ntiles * (size_t)j->npasses, sizeof *j->tasks);
     j->next_pass = calloc((size_t)j->ntiles, sizeof *j->next_pass);
     j->merged_in_pass = calloc((size_t)j->npasses, sizeof *j->merged_in_pass);
+    j->done_in_pass = calloc((size_t)j->npasses, sizeof *j->done_in_pass);
     j->image = tilebuf_new(0, 0, xres, yres, grid.n, err);
-    if (!j->pass_begin || !j->tasks || !j->next_pass || !j->merged_in_pass || !j->image) {
+    if (!j->pass_begin || !j->tasks || !j->next_pass || !j->merged_in_pass || !j->done_in_pass ||
+        !j->image) {
         job_free(j);
         return err_set(err, "out of memory for job %llu (%dx%d, %d buckets)", (unsigned long long)id,
                        xres, yres, grid.n);
     }
-    pass_bounds(spp, j->pass_begin);
+    sched_pass_bounds(spp, j->pass_begin);
     j->samples_total = (uint64_t)xres * (uint64_t)yres * (uint64_t)spp;
     if (self->njobs == self->cap_jobs) {
         size_t cap = self->cap_jobs ? 2 * self->cap_jobs : 8;
@@ -273,6 +278,35 @@ int sched_add_photon_batches(sched_t *self, uint64_t id, uint32_t n, err_t *err)
     if (j->state != JOB_QUEUED || j->tasks_done > 0)
         return err_set(err, "job %llu has started: photon batches must come first", (unsigned long long)id);
     return grow_photon(j, n, err);
+}
+
+int sched_set_whole_passes(sched_t *self, uint64_t id, err_t *err)
+{
+    job_t *j = find_job(self, id);
+    if (!j)
+        return err_set(err, "no job %llu", (unsigned long long)id);
+    if ((j->state != JOB_QUEUED && j->state != JOB_RUNNING) || j->tasks_done > j->photon_done)
+        return err_set(err, "job %llu has merged camera results already: whole passes must be "
+                       "chosen before", (unsigned long long)id);
+    j->whole_passes = true;
+    return 0;
+}
+
+int sched_finish_job_at_pass(sched_t *self, uint64_t id, err_t *err)
+{
+    job_t *j = find_job(self, id);
+    if (!j)
+        return err_set(err, "no job %llu", (unsigned long long)id);
+    if (j->state != JOB_RUNNING)
+        return err_set(err, "job %llu is %s: only a running job can end at a pass",
+                       (unsigned long long)id, job_state_name(j->state));
+    if (!j->whole_passes)
+        return err_set(err, "job %llu merges tiles as they come: only a whole-pass job can end "
+                       "before its last pass", (unsigned long long)id);
+    if (j->passes_done < 1)
+        return err_set(err, "job %llu has no whole pass merged yet", (unsigned long long)id);
+    finish_job(self, j, JOB_DONE);
+    return 0;
 }
 
 int sched_cancel_job(sched_t *self, uint64_t id, err_t *err)
@@ -458,6 +492,57 @@ static int merge_tile(job_t *j, int tile, int *result, err_t *err)
     return 0;
 }
 
+/* Whole-pass jobs: merges the next pass if every tile of it is done, all tiles at once (tiles
+ * are disjoint, so each pixel still sums its passes in pass order: the bytes of merge_tile).
+ * One pass per call, so that the caller sees every pass boundary. */
+static int merge_whole_pass(job_t *j, int *result, err_t *err)
+{
+    int pass = j->passes_done;
+    if (pass >= j->npasses || j->done_in_pass[pass] < j->ntiles)
+        return 0;
+    for (int tile = 0; tile < j->ntiles; tile++) {
+        task_t *t = &j->tasks[(size_t)pass * (size_t)j->ntiles + (size_t)tile];
+        if (!t->result || j->next_pass[tile] != pass)
+            return err_set(err, "job %llu pass %d tile %d: result missing",
+                           (unsigned long long)j->id, pass, tile);
+        if (tilebuf_merge(j->image, t->result, err))
+            return -1;
+        int w = tilebuf_width(t->result), h = tilebuf_height(t->result);
+        j->samples_done +=
+            (uint64_t)w * (uint64_t)h * (j->pass_begin[pass + 1] - j->pass_begin[pass]);
+        tilebuf_destroy(&t->result);
+        j->next_pass[tile]++;
+        j->merged_in_pass[pass]++;
+    }
+    j->passes_done++;
+    *result |= SCHED_PASS_DONE;
+    if (j->passes_done < j->npasses && j->done_in_pass[j->passes_done] == j->ntiles)
+        *result |= SCHED_PASS_READY;
+    return 0;
+}
+
+static void check_job_done(job_t *j, int *result)
+{
+    if (j->passes_done == j->npasses && j->state == JOB_RUNNING) {
+        j->state = JOB_DONE;
+        *result |= SCHED_JOB_DONE;
+    }
+}
+
+int sched_merge_next_pass(sched_t *self, uint64_t id, err_t *err)
+{
+    job_t *j = find_job(self, id);
+    if (!j)
+        return err_set(err, "no job %llu", (unsigned long long)id);
+    int out = 0;
+    if (j->state != JOB_RUNNING || !j->whole_passes)
+        return 0;
+    if (merge_whole_pass(j, &out, err))
+        return -1;
+    check_job_done(j, &out);
+    return out;
+}
+
 int sched_photon_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task, uint32_t attempt,
                       double now, err_t *err)
 {
@@ -514,16 +599,15 @@ int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
     t->state = TASK_DONE;
     t->result = r;
     j->tasks_done++;
+    j->done_in_pass[task / (uint32_t)j->ntiles]++;
     worker_t *w = find_worker(self, worker);
     if (w)
         w->tasks_done++;
     int out = SCHED_MERGED;
-    if (merge_tile(j, (int)(task % (uint32_t)j->ntiles), &out, err))
+    if (j->whole_passes ? merge_whole_pass(j, &out, err)
+                        : merge_tile(j, (int)(task % (uint32_t)j->ntiles), &out, err))
         return -1;
-    if (j->passes_done == j->npasses) {
-        j->state = JOB_DONE;
-        out |= SCHED_JOB_DONE;
-    }
+    check_job_done(j, &out);
     return out;
 }
 
@@ -607,6 +691,7 @@ int sched_job_info(const sched_t *self, uint64_t id, sched_job_info_t *out)
     *out = (sched_job_info_t){
         .id = j->id, .state = j->state, .xres = j->xres, .yres = j->yres, .spp = j->spp,
         .grid = j->grid, .ntiles = j->ntiles, .npasses = j->npasses, .passes_done = j->passes_done,
+        .spp_done = (int)j->pass_begin[j->passes_done], .whole_passes = j->whole_passes,
         .samples_done = j->samples_done, .samples_total = j->samples_total,
         .nonfinite = tilebuf_nonfinite(j->image),
         .tasks_total = (uint32_t)(j->ntiles * j->npasses) + j->nphoton, .tasks_done = j->tasks_done,

@@ -4,9 +4,10 @@
  * as a phase of their own: no camera task is given out before every batch is done (the
  * camera tasks gather from the merged store; the master merges the batches, photon_phase.h). Workers ask for tasks; results are merged into the job's
  * spectral image per tile in pass order, so the image bytes do not depend on which worker ran
- * what or when results arrived. Lost workers, missed deadlines and repeated failures are
- * handled here: tasks go back to the queue, workers get blocked for a job, jobs fail with the
- * error text. Time is passed in by the caller (seconds, monotonic), so tests can drive it. */
+ * what or when results arrived; a job that may end early merges whole passes only and can be
+ * ended at any pass boundary (sched_set_whole_passes). Lost workers, missed deadlines and
+ * repeated failures are handled here: tasks go back to the queue, workers get blocked for a
+ * job, jobs fail with the error text. Time is passed in by the caller (seconds, monotonic), so tests can drive it. */
 #ifndef PRISMFARM_SCHED_H
 #define PRISMFARM_SCHED_H
 
@@ -54,12 +55,19 @@ typedef struct sched_job_info {
     int xres, yres, spp;
     spectral_grid_t grid;
     int ntiles, npasses, passes_done;
+    int spp_done;      /* samples per pixel of the passes done: bound passes_done of the cut */
+    bool whole_passes; /* sched_set_whole_passes was called */
     uint64_t samples_done, samples_total;
     uint64_t nonfinite;
     uint32_t tasks_total, tasks_done, tasks_running; /* photon batches included */
     uint32_t photon_batches, photon_batches_done;
     char error[512];
 } sched_job_info_t;
+
+/* The cut of spp samples into passes: bounds 0, 1, 2, 4, 8, ... spp into bounds[0..n] (when
+ * bounds is not NULL); returns n, the number of passes (0 for spp < 1). One cut for every
+ * consumer: the scheduler, the master's checks of results and `render --direct`. */
+int sched_pass_bounds(int spp, uint32_t *bounds);
 
 sched_t *sched_new(const sched_config_t *cfg, err_t *err);
 void sched_destroy(sched_t **self_p);
@@ -71,6 +79,22 @@ int sched_add_job(sched_t *self, uint64_t job, int xres, int yres, int spp, spec
 /* Adds photon batches to a job that has not started (0..n-1 after any it has): its camera
  * tasks wait until every batch is done. */
 int sched_add_photon_batches(sched_t *self, uint64_t job, uint32_t n, err_t *err);
+/* Whole passes for a job that may end early (a target error, a time limit; docs/farm.md,
+ * "Accuracy"): its image only ever holds whole passes -- results are kept until every tile of
+ * their pass is done, then the pass is merged at once -- so that at each pass boundary the image
+ * is exactly the passes merged so far (every pixel at the same spp), and
+ * sched_finish_job_at_pass can end the job there. The cost is memory: up to a pass of results held (a full image's worth of tiles) while
+ * a straggler finishes. Only before any camera result of the job arrived. */
+int sched_set_whole_passes(sched_t *self, uint64_t job, err_t *err);
+/* A whole-pass job merges one pass per call; when a result completes a pass whose next pass is
+ * complete too, the mask has SCHED_PASS_READY, and this merges the next one, with the same mask
+ * bits as sched_task_done (SCHED_PASS_DONE, SCHED_JOB_DONE, SCHED_PASS_READY). Returns 0 when
+ * no whole pass is waiting, -1 with err for an unknown job. */
+int sched_merge_next_pass(sched_t *self, uint64_t job, err_t *err);
+/* Ends a running whole-pass job as done with the passes merged so far (at least one): its
+ * image stays (every pixel at spp_done samples), running tasks are released and held results
+ * freed, as for a cancel; the caller tells the workers to drop the job's tasks. */
+int sched_finish_job_at_pass(sched_t *self, uint64_t job, err_t *err);
 int sched_cancel_job(sched_t *self, uint64_t job, err_t *err);
 /* Ends a job as failed with message (the master could not finish what its tasks gave). */
 void sched_fail_job(sched_t *self, uint64_t job, const char *message);
@@ -94,6 +118,8 @@ typedef enum sched_result {
     SCHED_PASS_DONE = 4,     /* one or more whole passes are now merged: time for a preview */
     SCHED_JOB_DONE = 8,      /* every pass is merged */
     SCHED_PHASE_DONE = 16,   /* every photon batch is done: the camera phase may start */
+    SCHED_PASS_READY = 32,   /* whole-pass job: the next pass is complete too and waits for
+                              * sched_merge_next_pass */
 } sched_result_t;
 
 /* A finished task. The result must cover exactly the task's tile with the job's buckets; the

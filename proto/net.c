@@ -1,17 +1,33 @@
 #include "net.h"
 
+#include "curve.h"
+
 #include <zmq.h>
 
 #include <errno.h>
+#include <stdbool.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
+
+/* The monitor events a DEALER watches to tell its user why a master does not answer. */
+#define LINK_EVENTS                                                                                \
+    (ZMQ_EVENT_CONNECTED | ZMQ_EVENT_DISCONNECTED | ZMQ_EVENT_HANDSHAKE_SUCCEEDED |                \
+     ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL | ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL |                  \
+     ZMQ_EVENT_HANDSHAKE_FAILED_AUTH)
+
+static int drain(void *sock);
 
 struct proto_net {
     void *sock;
     proto_net_kind_t kind;
     proto_net_options_t opt;
+    void *monitor;         /* DEALER: PAIR receiving the socket's monitor events */
+    proto_net_link_t link; /* what those events said last */
+    bool transport_up;     /* a connection is made and its handshake is under way */
+    char why[256];
 };
 
 proto_net_options_t proto_net_options_default(void)
@@ -74,12 +90,81 @@ static int set_int(void *sock, int option, const char *name, int value, err_t *e
     return 0;
 }
 
+static int set_key(void *sock, int option, const char *name, const char *z85, err_t *err)
+{
+    size_t n = strlen(z85);
+    if (n != 40)
+        return err_set(err, "%s: a key is 40 Z85 characters, got %zu", name, n);
+    /* 41 bytes: the Z85 text with its NUL (zmq_setsockopt's way of telling it from binary). */
+    if (zmq_setsockopt(sock, option, z85, n + 1) != 0)
+        return err_set(err, "zmq_setsockopt(%s): %s", name, zmq_strerror(zmq_errno()));
+    return 0;
+}
+
+static int configure_curve(proto_net_t *self, err_t *err)
+{
+    const proto_net_curve_t *c = &self->opt.curve;
+    void *s = self->sock;
+    if (!c->server_public && !c->public_key && !c->secret_key)
+        return c->zap_domain ? err_set(err, "a ZAP domain without CURVE keys") : 0;
+    if (proto_curve_available(err) < 0)
+        return -1;
+    if (self->kind == PROTO_NET_ROUTER) {
+        if (!c->secret_key || c->server_public || c->public_key)
+            return err_set(err, "a ROUTER is a CURVE server: it takes its secret key only");
+        if (set_int(s, ZMQ_CURVE_SERVER, "ZMQ_CURVE_SERVER", 1, err) ||
+            set_key(s, ZMQ_CURVE_SECRETKEY, "ZMQ_CURVE_SECRETKEY", c->secret_key, err))
+            return -1;
+        if (c->zap_domain &&
+            zmq_setsockopt(s, ZMQ_ZAP_DOMAIN, c->zap_domain, strlen(c->zap_domain)) != 0)
+            return err_set(err, "zmq_setsockopt(ZMQ_ZAP_DOMAIN): %s", zmq_strerror(zmq_errno()));
+        return 0;
+    }
+    if (!c->server_public || !c->public_key || !c->secret_key || c->zap_domain)
+        return err_set(err, "a CURVE client needs the server's public key and its own key "
+                            "pair (and no ZAP domain)");
+    return set_key(s, ZMQ_CURVE_SERVERKEY, "ZMQ_CURVE_SERVERKEY", c->server_public, err) ||
+                   set_key(s, ZMQ_CURVE_PUBLICKEY, "ZMQ_CURVE_PUBLICKEY", c->public_key, err) ||
+                   set_key(s, ZMQ_CURVE_SECRETKEY, "ZMQ_CURVE_SECRETKEY", c->secret_key, err)
+               ? -1
+               : 0;
+}
+
+/* A DEALER's monitor: libzmq publishes the socket's events on an inproc endpoint named after
+ * this object, and a PAIR of ours reads them (proto_net_link). */
+static int start_monitor(proto_net_t *self, void *ctx, err_t *err)
+{
+    /* The name of a closed monitor stays taken until libzmq reaps its socket, and a new object
+     * may get the old one's address: the clock and a retry make each name fresh. */
+    char addr[96];
+    int rc = -1;
+    for (int attempt = 0; attempt < 16 && rc != 0; attempt++) {
+        struct timespec ts;
+        clock_gettime(CLOCK_MONOTONIC, &ts);
+        snprintf(addr, sizeof addr, "inproc://prismfarm-net-monitor-%p-%llx-%d", (void *)self,
+                 (unsigned long long)ts.tv_sec * 1000000000ULL + (unsigned long long)ts.tv_nsec,
+                 attempt);
+        rc = zmq_socket_monitor(self->sock, addr, LINK_EVENTS);
+        if (rc != 0 && zmq_errno() != EADDRINUSE)
+            break;
+    }
+    if (rc != 0)
+        return err_set(err, "zmq_socket_monitor: %s", zmq_strerror(zmq_errno()));
+    int linger = 0;
+    if (!(self->monitor = zmq_socket(ctx, ZMQ_PAIR)))
+        return err_set(err, "zmq_socket(PAIR) for the monitor: %s", zmq_strerror(zmq_errno()));
+    if (zmq_setsockopt(self->monitor, ZMQ_LINGER, &linger, sizeof linger) != 0 ||
+        zmq_connect(self->monitor, addr) != 0)
+        return err_set(err, "monitor %s: %s", addr, zmq_strerror(zmq_errno()));
+    return 0;
+}
+
 static int configure(proto_net_t *self, err_t *err)
 {
     const proto_net_options_t *o = &self->opt;
     void *s = self->sock;
-    if (o->curve.server_public || o->curve.public_key || o->curve.secret_key)
-        return err_set(err, "CURVE keys given, but encryption is not implemented yet (issue 6)");
+    if (configure_curve(self, err) < 0)
+        return -1;
     int64_t maxmsg = o->limits.max_message_bytes > (size_t)INT64_MAX
                          ? INT64_MAX
                          : (int64_t)o->limits.max_message_bytes;
@@ -137,7 +222,8 @@ proto_net_t *proto_net_new(void *zmq_ctx, proto_net_kind_t kind, const proto_net
         free(self);
         return NULL;
     }
-    if (configure(self, err) < 0) {
+    if (configure(self, err) < 0 ||
+        (kind == PROTO_NET_DEALER && start_monitor(self, zmq_ctx, err) < 0)) {
         proto_net_destroy(&self);
         return NULL;
     }
@@ -149,6 +235,10 @@ void proto_net_destroy(proto_net_t **self_p)
     if (!self_p || !*self_p)
         return;
     proto_net_t *self = *self_p;
+    if (self->monitor) {
+        (void)zmq_socket_monitor(self->sock, NULL, 0);
+        (void)zmq_close(self->monitor);
+    }
     /* zmq_close fails only on something that is not a socket (ENOTSOCK), which self->sock
      * always is; there is nobody to report to from a destructor. */
     (void)zmq_close(self->sock);
@@ -176,6 +266,95 @@ int proto_net_endpoint(proto_net_t *self, char *buf, size_t size, err_t *err)
     if (zmq_getsockopt(self->sock, ZMQ_LAST_ENDPOINT, buf, &n) != 0)
         return err_set(err, "zmq_getsockopt(ZMQ_LAST_ENDPOINT): %s", zmq_strerror(zmq_errno()));
     return 0;
+}
+
+/* What one monitor event says about the link. */
+static void link_event(proto_net_t *self, unsigned event, uint32_t value)
+{
+    bool keys = self->opt.curve.secret_key != NULL;
+    switch (event) {
+    case ZMQ_EVENT_CONNECTED:
+        self->transport_up = true;
+        break;
+    case ZMQ_EVENT_HANDSHAKE_SUCCEEDED:
+        self->link = PROTO_NET_LINK_UP;
+        self->why[0] = 0;
+        break;
+    case ZMQ_EVENT_HANDSHAKE_FAILED_AUTH:
+        self->link = PROTO_NET_LINK_REFUSED;
+        snprintf(self->why, sizeof self->why,
+                 "refused our key (ZAP status %u): our .pub must be in its --authorized folder",
+                 (unsigned)value);
+        break;
+    case ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL:
+        self->link = PROTO_NET_LINK_REFUSED;
+        if (value == ZMQ_PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH)
+            snprintf(self->why, sizeof self->why, "%s",
+                     keys ? "does not use CURVE, and we do: it runs with --insecure?"
+                          : "requires CURVE: give our --key and its public key as --master-key");
+        else if (value == ZMQ_PROTOCOL_ERROR_ZMTP_CRYPTOGRAPHIC)
+            snprintf(self->why, sizeof self->why,
+                     "failed the CURVE handshake (a cryptographic error): is --master-key its "
+                     "public key?");
+        else
+            snprintf(self->why, sizeof self->why, "broke off the handshake (ZMTP error 0x%x)",
+                     (unsigned)value);
+        break;
+    case ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL:
+        self->link = PROTO_NET_LINK_REFUSED;
+        /* The other side closed during the handshake (EPIPE here): a CURVE server that cannot
+         * read our HELLO, or a mechanism mismatch seen from our side before its ERROR. */
+        snprintf(self->why, sizeof self->why, "broke off the %shandshake (%s): %s",
+                 keys ? "CURVE " : "", zmq_strerror((int)value),
+                 keys ? "is --master-key its public key, and does it use CURVE (not --insecure)?"
+                      : "it may require CURVE keys (--key and --master-key)");
+        break;
+    case ZMQ_EVENT_DISCONNECTED:
+        if (self->link == PROTO_NET_LINK_UP) {
+            self->link = PROTO_NET_LINK_DROPPED;
+            snprintf(self->why, sizeof self->why,
+                     "closed the connection (a message above its size limit, or a restart)");
+        } else if (self->transport_up && self->link != PROTO_NET_LINK_REFUSED) {
+            /* A CURVE server that cannot read our HELLO closes without a word. */
+            self->link = PROTO_NET_LINK_REFUSED;
+            snprintf(self->why, sizeof self->why, "%s",
+                     keys ? "closed the connection during the CURVE handshake: is --master-key "
+                            "its public key?"
+                          : "closed the connection during the handshake");
+        }
+        self->transport_up = false;
+        break;
+    default:
+        break;
+    }
+}
+
+proto_net_link_t proto_net_link(proto_net_t *self, char *why, size_t size)
+{
+    while (self->monitor) {
+        zmq_msg_t ev;
+        if (zmq_msg_init(&ev) != 0)
+            break;
+        if (zmq_msg_recv(&ev, self->monitor, ZMQ_DONTWAIT) < 0) {
+            (void)zmq_msg_close(&ev);
+            break;
+        }
+        /* libzmq 4.3 event: [u16 event, u32 value] in host order, then the endpoint. */
+        uint16_t event = 0;
+        uint32_t value = 0;
+        if (zmq_msg_size(&ev) >= 6) {
+            memcpy(&event, zmq_msg_data(&ev), 2);
+            memcpy(&value, (const char *)zmq_msg_data(&ev) + 2, 4);
+        }
+        int more = zmq_msg_more(&ev);
+        (void)zmq_msg_close(&ev);
+        if (more)
+            (void)drain(self->monitor);
+        link_event(self, event, value);
+    }
+    if (why && size > 0)
+        snprintf(why, size, "%s", self->why);
+    return self->link;
 }
 
 void *proto_net_socket(proto_net_t *self)

@@ -1,7 +1,8 @@
 /* net: ZeroMQ sockets set up the way the farm needs them (shared/LIBRARIES.md), and one proto
  * message sent or received per call. A ROUTER reports unroutable peers instead of dropping
- * messages, every socket has bounded queues, a frame-size cap and libzmq heartbeats, and every
- * failure names the endpoint or peer and zmq_strerror.
+ * messages, every socket has bounded queues, a frame-size cap and libzmq heartbeats, CURVE when
+ * given keys, and every failure names the endpoint or peer and zmq_strerror. A DEALER watches
+ * its handshake, so that a refused key is reported instead of waited for.
  *
  * Framing (docs/protocol.md): a DEALER sends and receives exactly one frame, the encoded message;
  * the ROUTER sees [peer routing id][message]. No empty delimiter frame (no REQ/REP peers); any
@@ -22,11 +23,15 @@
 
 typedef enum proto_net_kind { PROTO_NET_ROUTER, PROTO_NET_DEALER } proto_net_kind_t;
 
-/* CURVE encryption and authentication: issue 6. Until then every key must be NULL. */
+/* CURVE encryption and authentication (docs/security.md; keys from curve.h). All NULL: plain
+ * text. A ROUTER with secret_key is a CURVE server: its clients' keys are checked by the ZAP
+ * handler of its context (zap.h), which must run before the ROUTER binds. A DEALER with the three
+ * keys is a CURVE client of the server whose public key it holds. */
 typedef struct proto_net_curve {
     const char *server_public; /* DEALER: the master's public key (Z85, 40 chars) */
-    const char *public_key;    /* this socket's key pair (Z85) */
-    const char *secret_key;
+    const char *public_key;    /* DEALER: this socket's key pair (Z85) */
+    const char *secret_key;    /* DEALER: its secret; ROUTER: the server's secret key */
+    const char *zap_domain;    /* ROUTER: the ZAP domain, which tells the handler the endpoint */
 } proto_net_curve_t;
 
 typedef struct proto_net_options {
@@ -43,9 +48,9 @@ typedef struct proto_net_options {
     proto_net_curve_t curve;
 } proto_net_options_t;
 
-/* The defaults: proto_limits_default(), HWM 100 each way, linger 1000 ms, send timeout 0 (a send
- * never blocks: a full queue is PROTO_EAGAIN), heartbeats 1000 / 3000 / 3000 ms (a dead peer is
- * noticed within about 3 s), reconnect 100 ms doubling to 5000 ms. */
+/* The defaults: no CURVE, proto_limits_default(), HWM 100 each way, linger 1000 ms, send timeout 0
+ * (a send never blocks: a full queue is PROTO_EAGAIN), heartbeats 1000 / 3000 / 3000 ms (a dead
+ * peer is noticed within about 3 s), reconnect 100 ms doubling to 5000 ms. */
 proto_net_options_t proto_net_options_default(void);
 
 /* A peer as a ROUTER knows it: its routing id. */
@@ -70,6 +75,21 @@ int proto_net_bind(proto_net_t *self, const char *endpoint, err_t *err);
 int proto_net_connect(proto_net_t *self, const char *endpoint, err_t *err);
 /* The endpoint last bound, with the port the system chose for "tcp://host:*". */
 int proto_net_endpoint(proto_net_t *self, char *buf, size_t size, err_t *err);
+
+/* What a DEALER knows of its connection, from libzmq's monitor events. */
+typedef enum proto_net_link {
+    PROTO_NET_LINK_NONE,    /* no connection yet: nothing listens there, or still trying */
+    PROTO_NET_LINK_UP,      /* connected, and the handshake (CURVE or plain) succeeded */
+    PROTO_NET_LINK_REFUSED, /* the handshake failed: refused key, wrong server key, CURVE on
+                             * one side only */
+    PROTO_NET_LINK_DROPPED  /* was up, then the other side closed it (a message above its
+                             * ZMQ_MAXMSGSIZE, a restart) */
+} proto_net_link_t;
+
+/* Reads the DEALER's pending monitor events and returns the state they leave; for REFUSED and
+ * DROPPED, why (size bytes, may be NULL) says what happened in words for the user. A ROUTER
+ * always returns PROTO_NET_LINK_NONE. The state persists until an event changes it. */
+proto_net_link_t proto_net_link(proto_net_t *self, char *why, size_t size);
 
 /* The libzmq socket, for zmq_poll; do not send or receive on it directly. */
 void *proto_net_socket(proto_net_t *self);

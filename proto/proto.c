@@ -47,6 +47,7 @@ static const char *const JOB_STATE_NAMES[PROTO_JOB_STATE_COUNT] = {"queued", "ru
                                                                    "failed", "cancelled"};
 static const char *const WORKER_STATE_NAMES[PROTO_WORKER_STATE_COUNT] = {"idle", "busy", "lost"};
 static const char *const FETCH_NAMES[PROTO_FETCH_COUNT] = {"exr", "png"};
+static const char *const STOP_NAMES[PROTO_STOP_COUNT] = {"none", "target", "time"};
 
 static const char *name_of(const char *const *names, int count, int i)
 {
@@ -72,6 +73,10 @@ const char *proto_worker_state_name(proto_worker_state_t s)
 const char *proto_fetch_what_name(proto_fetch_what_t w)
 {
     return name_of(FETCH_NAMES, PROTO_FETCH_COUNT, (int)w);
+}
+const char *proto_stop_name(proto_stop_t s)
+{
+    return name_of(STOP_NAMES, PROTO_STOP_COUNT, (int)s);
 }
 
 proto_limits_t proto_limits_default(void)
@@ -237,6 +242,13 @@ static int ck_settings(const cx_t *cx, const proto_settings_t *s)
         return PROTO_EMALFORMED;
     if (s->dispersion && ck_name(cx, "set.disp", s->dispersion, SETTING_NAME_MAX))
         return PROTO_EMALFORMED;
+    /* 0 means "no rule" and is never written; anything else must be a usable rule. */
+    if (s->target_error != 0 && !(s->target_error > 0 && s->target_error < 1))
+        return cx_fail(cx, "set.tgt", "is %g, expected a relative error in (0, 1)",
+                       s->target_error);
+    if (s->time_limit != 0 && !(s->time_limit > 0 && s->time_limit <= PROTO_MAX_TIME_LIMIT))
+        return cx_fail(cx, "set.tlim", "is %g, expected seconds in (0, %g]", s->time_limit,
+                       PROTO_MAX_TIME_LIMIT);
     return 0;
 }
 
@@ -290,8 +302,12 @@ static int ck_job_info(cx_t *cx, const proto_job_info_t *j)
 {
     if (ck_name(cx, "name", j->name, PROTO_MAX_STRING) ||
         ck_range(cx, "state", j->state, 0, PROTO_JOB_STATE_COUNT - 1) ||
-        ck_seconds(cx, "secs", j->elapsed) || (j->error && ck_text(cx, "err", j->error)))
+        ck_seconds(cx, "secs", j->elapsed) || (j->error && ck_text(cx, "err", j->error)) ||
+        ck_range(cx, "spp", j->spp, 0, INT_MAX) ||
+        ck_range(cx, "stop", j->stop, 0, PROTO_STOP_COUNT - 1))
         return PROTO_EMALFORMED;
+    if (j->has_rel_error && !(isfinite(j->rel_error) && j->rel_error >= 0))
+        return cx_fail(cx, "rmse", "is %g, expected a finite relative error >= 0", j->rel_error);
     return 0;
 }
 
@@ -858,19 +874,34 @@ static int rd_list(rd_t *rd, const char *field, const msgpack_object *o, uint64_
 
 /* ---------------------------------------------------------------- per-type readers */
 
-enum { S_SPP, S_XRES, S_YRES, S_SEED, S_INTEG, S_DISP, S_N };
-static const char *const SETTINGS_KEYS[S_N] = {"spp", "xres", "yres", "seed", "integ", "disp"};
+/* An optional float: absent leaves *out as it is (the caller's "none"). */
+static int rd_opt_float(rd_t *rd, const char *field, const msgpack_object *o, double *out)
+{
+    return o ? rd_float(rd, field, o, out) : 0;
+}
+
+enum { S_SPP, S_XRES, S_YRES, S_SEED, S_INTEG, S_DISP, S_TGT, S_TLIM, S_N };
+static const char *const SETTINGS_KEYS[S_N] = {"spp",   "xres", "yres", "seed",
+                                               "integ", "disp", "tgt",  "tlim"};
 
 static int rd_settings(rd_t *rd, const msgpack_object *o, proto_settings_t *s)
 {
     const msgpack_object *v[S_N];
+    s->target_error = s->time_limit = 0;
     if (rd_map(rd, "set", o, SETTINGS_KEYS, S_N, v) || rd_int(rd, "set.spp", v[S_SPP], &s->spp) ||
         rd_int(rd, "set.xres", v[S_XRES], &s->xres) ||
         rd_int(rd, "set.yres", v[S_YRES], &s->yres) ||
         rd_sint(rd, "set.seed", v[S_SEED], &s->seed) ||
         rd_opt_str(rd, "set.integ", v[S_INTEG], &s->integrator) ||
-        rd_opt_str(rd, "set.disp", v[S_DISP], &s->dispersion))
+        rd_opt_str(rd, "set.disp", v[S_DISP], &s->dispersion) ||
+        rd_opt_float(rd, "set.tgt", v[S_TGT], &s->target_error) ||
+        rd_opt_float(rd, "set.tlim", v[S_TLIM], &s->time_limit))
         return PROTO_EMALFORMED;
+    /* Present means a rule: an explicit 0 is something the encoder never writes. */
+    if (v[S_TGT] && s->target_error == 0)
+        return cx_fail(&rd->cx, "set.tgt", "is 0: absent means no target");
+    if (v[S_TLIM] && s->time_limit == 0)
+        return cx_fail(&rd->cx, "set.tlim", "is 0: absent means no time limit");
     return 0;
 }
 
@@ -957,10 +988,12 @@ static int rd_stats(rd_t *rd, const msgpack_object *o, proto_task_stats_t *s)
     return 0;
 }
 
-enum { J_ID, J_NAME, J_STATE, J_DONE, J_TOTAL, J_SECS, J_NONFINITE, J_ERR, J_N };
-static const char *const JOB_KEYS[J_N] = {"id",    "name", "state",     "done",
-                                          "total", "secs", "nonfinite", "err"};
-#define JOB_REQUIRED_KEYS 7 /* all but "err" */
+enum {
+    J_ID, J_NAME, J_STATE, J_DONE, J_TOTAL, J_SECS, J_NONFINITE, J_ERR, J_SPP, J_RMSE, J_STOP, J_N
+};
+static const char *const JOB_KEYS[J_N] = {"id",   "name", "state",     "done", "total", "secs",
+                                          "nonfinite", "err", "spp", "rmse", "stop"};
+#define JOB_REQUIRED_KEYS 7 /* all but "err", "spp", "rmse" and "stop" */
 
 static int rd_jobs(rd_t *rd, const msgpack_object *o, const proto_job_info_t **out, size_t *nout)
 {
@@ -986,6 +1019,19 @@ static int rd_jobs(rd_t *rd, const msgpack_object *o, const proto_job_info_t **o
             rd_opt_str(rd, "err", v[J_ERR], &j->error))
             return PROTO_EMALFORMED;
         j->state = (proto_job_state_t)state;
+        /* Accuracy: absent is "0 spp", "no estimate", "not stopped early"; present is never
+         * those (the encoder omits them), so an explicit one is refused. */
+        uint64_t spp = 0;
+        int stop = PROTO_STOP_NONE;
+        if ((v[J_SPP] && (rd_uint(rd, "spp", v[J_SPP], INT_MAX, &spp) ||
+                          (spp == 0 && cx_fail(&rd->cx, "spp", "is 0: absent means none")))) ||
+            (v[J_RMSE] && rd_float(rd, "rmse", v[J_RMSE], &j->rel_error)) ||
+            (v[J_STOP] && rd_enum(rd, "stop", v[J_STOP], STOP_NAMES, PROTO_STOP_COUNT,
+                                  PROTO_STOP_TARGET, &stop)))
+            return PROTO_EMALFORMED;
+        j->spp = (uint32_t)spp;
+        j->has_rel_error = v[J_RMSE] != NULL; /* its range: ck_job_info, after decoding */
+        j->stop = (proto_stop_t)stop;
     }
     rd->cx.prefix[0] = 0;
     *out = jobs;
@@ -1385,7 +1431,8 @@ static void e_words(enc_t *e, const char *key, const void *words, size_t n)
 
 static void e_settings(enc_t *e, const proto_settings_t *s)
 {
-    e_map(e, "set", 4 + (s->integrator != NULL) + (s->dispersion != NULL));
+    e_map(e, "set", 4 + (s->integrator != NULL) + (s->dispersion != NULL) +
+                        (s->target_error != 0) + (s->time_limit != 0));
     e_uint(e, "spp", (uint64_t)s->spp);
     e_uint(e, "xres", (uint64_t)s->xres);
     e_uint(e, "yres", (uint64_t)s->yres);
@@ -1394,6 +1441,10 @@ static void e_settings(enc_t *e, const proto_settings_t *s)
         e_str(e, "integ", s->integrator);
     if (s->dispersion)
         e_str(e, "disp", s->dispersion);
+    if (s->target_error != 0)
+        e_float(e, "tgt", s->target_error);
+    if (s->time_limit != 0)
+        e_float(e, "tlim", s->time_limit);
 }
 
 static void e_bundle(enc_t *e, const proto_bundle_t *b)
@@ -1575,7 +1626,8 @@ static void e_body(enc_t *e, const proto_msg_t *m)
         e_array(e, "jobs", m->jobs_reply.njobs);
         for (size_t i = 0; i < m->jobs_reply.njobs; i++) {
             const proto_job_info_t *j = &m->jobs_reply.jobs[i];
-            e_map(e, NULL, JOB_REQUIRED_KEYS + (j->error != NULL));
+            e_map(e, NULL, JOB_REQUIRED_KEYS + (j->error != NULL) + (j->spp > 0) +
+                               j->has_rel_error + (j->stop != PROTO_STOP_NONE));
             e_uint(e, "id", j->id);
             e_str(e, "name", j->name);
             e_str(e, "state", proto_job_state_name(j->state));
@@ -1585,6 +1637,12 @@ static void e_body(enc_t *e, const proto_msg_t *m)
             e_uint(e, "nonfinite", j->nonfinite);
             if (j->error)
                 e_str(e, "err", j->error);
+            if (j->spp > 0)
+                e_uint(e, "spp", j->spp);
+            if (j->has_rel_error)
+                e_float(e, "rmse", j->rel_error);
+            if (j->stop != PROTO_STOP_NONE)
+                e_str(e, "stop", proto_stop_name(j->stop));
         }
         break;
     case PROTO_WORKERS_REPLY:

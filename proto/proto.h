@@ -32,6 +32,7 @@
 #define PROTO_MAX_PATH_DEPTH 32      /* components of a bundle path */
 #define PROTO_MAX_PATH_COMPONENT 200 /* bytes in one component (leaves room under NAME_MAX) */
 #define PROTO_HASH_HEX 64            /* a scene hash: lower-case hex SHA-256 */
+#define PROTO_MAX_TIME_LIMIT 31536000.0 /* a job's time limit, seconds (a year) */
 
 /* Defaults of the caller-configurable limits (proto_limits_t). */
 #define PROTO_MAX_BUNDLE_FILES 4096
@@ -110,19 +111,30 @@ typedef enum proto_worker_state {
     PROTO_WORKER_STATE_COUNT
 } proto_worker_state_t;
 
+/* Why a job that is done ended before its last pass (docs/farm.md, "Accuracy"). */
+typedef enum proto_stop {
+    PROTO_STOP_NONE,   /* every pass ran (absent on the wire) */
+    PROTO_STOP_TARGET, /* "target": the error estimate reached the settings' target_error */
+    PROTO_STOP_TIME,   /* "time": the settings' time_limit passed */
+    PROTO_STOP_COUNT
+} proto_stop_t;
+
 typedef enum proto_fetch_what {
     PROTO_FETCH_EXR,
     PROTO_FETCH_PNG,
     PROTO_FETCH_COUNT
 } proto_fetch_what_t;
 
-/* Job settings: mirror scene_overrides_t (0 / NULL / -1 keep the scene file's value). */
+/* Job settings: mirror scene_overrides_t (0 / NULL / -1 keep the scene file's value), then the
+ * stopping rules of a progressive job (0: none), which only the master reads. */
 typedef struct proto_settings {
     int spp;                /* samples per pixel of the whole job; 0: the file's */
     int xres, yres;         /* 0: the file's */
     long long seed;         /* -1: the file's */
     const char *integrator; /* NULL: the file's ("path", "simplepath", "whitted") */
     const char *dispersion; /* NULL: the file's ("hero", "fanout") */
+    double target_error;    /* 0, or 0 < E < 1: done at the first pass whose estimate is <= E */
+    double time_limit;      /* 0, or 0 < T <= PROTO_MAX_TIME_LIMIT seconds after the start */
 } proto_settings_t;
 
 /* A scene bundle: the main scene file and every file it references, by relative path. Paths use
@@ -184,6 +196,14 @@ typedef struct proto_job_info {
     double elapsed;                       /* seconds since the job started, finite, >= 0 */
     const char *error;                    /* NULL unless failed */
     uint64_t nonfinite;
+    /* Accuracy (optional on the wire): samples per pixel of the whole passes merged so far, the
+     * relative RMSE estimate after the last one (common/error_estimate.h; only when
+     * has_rel_error: a zeroed struct means "no estimate yet"), and why a done job stopped
+     * before its last pass. */
+    uint32_t spp;
+    bool has_rel_error;
+    double rel_error; /* finite, >= 0 */
+    proto_stop_t stop;
 } proto_job_info_t;
 
 typedef struct proto_worker_info {
@@ -326,6 +346,7 @@ const char *proto_kind_name(proto_kind_t kind);              /* "camera_tile" */
 const char *proto_job_state_name(proto_job_state_t state);   /* "queued", "running", ... */
 const char *proto_worker_state_name(proto_worker_state_t s); /* "idle", "busy", "lost" */
 const char *proto_fetch_what_name(proto_fetch_what_t what);  /* "exr", "png" */
+const char *proto_stop_name(proto_stop_t stop);              /* "none", "target", "time" */
 
 /* A REFUSE for a peer that speaks peer_version, its reason written into *text:
  * "protocol version 2 not supported by this master (speaks 1)". role names the refuser. */

@@ -26,6 +26,34 @@ static inline int testutil_rmtree(const char *dir)
     return system(cmd) == 0 ? 0 : -1;
 }
 
+/* The farm's CURVE keys for a test (docs/security.md), made with `$PRISMFARM_BIN keygen`:
+ * DIR/keys/master.key and .pub, DIR/keys/farm.key and .pub (shared by the test's workers and
+ * clients) and the master's authorised folder DIR/authorized holding farm.pub. PRISMFARM_KEY and
+ * PRISMFARM_MASTER_KEY are then set, so every worker and client the test starts uses them;
+ * master_key and authorized (size bytes each) get the master's --key and --authorized. */
+static inline int testutil_farm_keys(const char *dir, char *master_key, char *authorized,
+                                     size_t size)
+{
+    const char *bin = getenv("PRISMFARM_BIN");
+    char cmd[2400], farm_key[600], master_pub[600];
+    if (!bin)
+        return -1;
+    snprintf(cmd, sizeof cmd,
+             "'%s' keygen master --dir '%s/keys' >/dev/null && '%s' keygen farm --dir '%s/keys' "
+             ">/dev/null && mkdir -p '%s/authorized' && cp '%s/keys/farm.pub' '%s/authorized/'",
+             bin, dir, bin, dir, dir, dir, dir);
+    if (system(cmd) != 0)
+        return -1;
+    snprintf(master_key, size, "%s/keys/master.key", dir);
+    snprintf(authorized, size, "%s/authorized", dir);
+    snprintf(farm_key, sizeof farm_key, "%s/keys/farm.key", dir);
+    snprintf(master_pub, sizeof master_pub, "%s/keys/master.pub", dir);
+    return setenv("PRISMFARM_KEY", farm_key, 1) == 0 &&
+                   setenv("PRISMFARM_MASTER_KEY", master_pub, 1) == 0
+               ? 0
+               : -1;
+}
+
 static inline void testutil_sleep_ms(int ms)
 {
     struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};

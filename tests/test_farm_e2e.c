@@ -1,6 +1,7 @@
 /* The farm end to end, as users run it: `prismfarm render` (a master and workers in one process) with 1 and 3 workers, and separate
  * master and worker processes on loopback TCP with a worker killed half-way, all giving
- * bit-identical EXR pixel data; plus the client commands against a live master. */
+ * bit-identical EXR pixel data; plus the client commands against a live master. The TCP farm
+ * runs with CURVE keys (docs/security.md), as a real one does. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -21,11 +22,15 @@
 #include <time.h>
 
 static char DIR_[256];
+static char MASTER_KEY[600], AUTHORIZED[600]; /* the master's --key and --authorized */
 
 static int setup(void **state)
 {
     (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "farm");
+    return testutil_mkdtemp(DIR_, sizeof DIR_, "farm") < 0 ||
+                   testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0
+               ? -1
+               : 0;
 }
 
 static int teardown(void **state)
@@ -136,7 +141,8 @@ static void test_processes_and_a_killed_worker(void **state)
     (void)state;
     const char *spool = path_in("spool");
     pid_t master = spawn(path_in("master.log"), "master", "--workers", "tcp://127.0.0.1:*", "--clients",
-                         "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "8", NULL);
+                         "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "8",
+                         "--key", MASTER_KEY, "--authorized", AUTHORIZED, NULL);
     char wep[256], cep[256];
     read_endpoints(spool, wep, cep);
     pid_t w1 = spawn(path_in("w1.log"), "worker", "--connect", wep, "--threads", "1", "--name", "w1", "--cache",

@@ -3,7 +3,9 @@
  * the same endpoints and spool while workers wait, a client killed during `submit --wait`, and a
  * running job cancelled. Each job that completes is checked pixel for pixel against
  * `prismfarm render` of the same scene and settings (docs/farm.md: the image bytes do not depend
- * on who rendered what), so "completes" means "completes with the right image". */
+ * on who rendered what), so "completes" means "completes with the right image". The farm runs
+ * with CURVE keys (docs/security.md), so a restarted master must take its workers back through
+ * the handshake too. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -35,13 +37,17 @@
 #define MAX_CHILDREN 8
 
 static char DIR_[256];
+static char MASTER_KEY[600], AUTHORIZED[600]; /* the master's --key and --authorized */
 static int REF_MADE;
 static pid_t CHILDREN[MAX_CHILDREN];
 
 static int group_setup(void **state)
 {
     (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "faults");
+    return testutil_mkdtemp(DIR_, sizeof DIR_, "faults") < 0 ||
+                   testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0
+               ? -1
+               : 0;
 }
 
 static int group_teardown(void **state)
@@ -213,7 +219,8 @@ static void read_endpoints(const char *spool, char *workers, char *clients)
 static pid_t start_master(const char *log, const char *spool, const char *wep, const char *cep)
 {
     return spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool,
-                 "--heartbeat", HEARTBEAT_MS, "--tile", TILE, NULL);
+                 "--heartbeat", HEARTBEAT_MS, "--tile", TILE, "--key", MASTER_KEY, "--authorized",
+                 AUTHORIZED, NULL);
 }
 
 static pid_t start_worker(const char *log, const char *wep, const char *name, const char *cache)

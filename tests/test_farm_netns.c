@@ -3,8 +3,9 @@
  * network stack. A job submitted from the client host completes with pixel data identical to
  * `prismfarm render` of the same scene and seed; deploy/start-workers.sh, through an ssh
  * stand-in that enters a namespace, starts, reports and stops workers idempotently; and its
- * argument handling is checked with --dry-run. The namespace tests need root and iproute2 and
- * skip without them (PRISMFARM_REQUIRE_NETNS=1 turns the skip into a failure, for CI). */
+ * argument handling is checked with --dry-run. The farm runs with CURVE keys (docs/security.md),
+ * as across real hosts. The namespace tests need root and iproute2 and skip without them
+ * (PRISMFARM_REQUIRE_NETNS=1 turns the skip into a failure, for CI). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -41,6 +42,7 @@
 #define N_TASKS 30
 
 static char DIR_[256];
+static char MASTER_KEY[600], AUTHORIZED[600]; /* the master's --key and --authorized */
 static char PREFIX[64]; /* namespaces are PREFIX-m, -a, -b, -c and the switch PREFIX-sw */
 static bool HOSTS_CREATED;
 static pid_t SPAWNED[MAX_SPAWNED];
@@ -278,7 +280,12 @@ static int group_setup(void **state)
 {
     (void)state;
     snprintf(PREFIX, sizeof PREFIX, "pfnet-%ld", (long)getpid());
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "netns");
+    /* The namespaces share the file system: every "host" reads its keys from DIR_/keys, and
+     * workers and clients find theirs in PRISMFARM_KEY and PRISMFARM_MASTER_KEY. */
+    return testutil_mkdtemp(DIR_, sizeof DIR_, "netns") < 0 ||
+                   testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0
+               ? -1
+               : 0;
 }
 
 static int group_teardown(void **state)
@@ -326,7 +333,7 @@ static void start_master(const char *spool)
 {
     SPAWN(path_in("master.log").s, "ip", "netns", "exec", ns("m").s, bin(), "master", "--workers",
           MASTER_WORKERS_EP, "--clients", MASTER_CLIENTS_EP, "--spool", spool, "--heartbeat", "200",
-          "--tile", TILE);
+          "--tile", TILE, "--key", MASTER_KEY, "--authorized", AUTHORIZED);
     char path[600];
     snprintf(path, sizeof path, "%s/endpoints", spool);
     for (int i = 0; i < 400; i++) {
@@ -435,6 +442,7 @@ static int start_workers(const char *action, const char *log)
     snprintf(ssh, sizeof ssh, "bash %s ssh", source_path("tests/netns-hosts.sh").s);
     return RUN(log, 30000, "bash", source_path("deploy/start-workers.sh").s, "--ssh", ssh,
                "--launcher", "nohup", "--bin", bin(), "--master", "10.77.0.1", "--threads", "1",
+               "--key", getenv("PRISMFARM_KEY"), "--master-key", getenv("PRISMFARM_MASTER_KEY"),
                action, ns("a").s, ns("b").s);
 }
 
@@ -493,18 +501,23 @@ static void test_start_workers_arguments(void **state)
     const text_t script = source_path("deploy/start-workers.sh");
     const text_t log = path_in("dry.log");
 
-    /* A repeated host is contacted once; user@host names the worker after the host. */
+    /* A repeated host is contacted once; user@host names the worker after the host; the key
+     * paths (on the hosts) are handed over as given. */
     int st = RUN(log.s, 10000, "bash", script.s, "--dry-run", "start", "--master", "m1", "-t", "4",
-                 "h1", "user@h2", "h1");
+                 "-k", "keys/w.key", "--master-key", "/etc/pf/master.pub", "h1", "user@h2", "h1");
     expect_status(st, 0, "dry-run start", log.s);
     const char *out = slurp(log.s);
     expect_in(out, "\nssh -o BatchMode=yes -o ConnectTimeout=10 h1 sh -s -- 'start' "
                    "'tcp://m1:5555' 'm1-5555' '4' "
-                   "'prismfarm' 'h1' '' 'auto'\n");
+                   "'prismfarm' 'h1' '' 'auto' 'keys/w.key' '/etc/pf/master.pub' ''\n");
     expect_in(out, "\nssh -o BatchMode=yes -o ConnectTimeout=10 user@h2 sh -s -- 'start' "
                    "'tcp://m1:5555' 'm1-5555' "
-                   "'4' 'prismfarm' 'h2' '' 'auto'\n");
+                   "'4' 'prismfarm' 'h2' '' 'auto' 'keys/w.key' '/etc/pf/master.pub' ''\n");
     assert_int_equal(count_in(out, " sh -s -- "), 2);
+    st = RUN(log.s, 10000, "bash", script.s, "-n", "start", "-m", "m1", "--insecure", "h1");
+    expect_status(st, 0, "dry-run start --insecure", log.s);
+    expect_in(slurp(log.s), " h1 sh -s -- 'start' 'tcp://m1:5555' 'm1-5555' '' 'prismfarm' 'h1' "
+                            "'' 'auto' '' '' 'insecure'\n");
 
     /* A hosts file (comments, blank lines, a per-host thread count), hosts on the command line
      * after it, a full endpoint, another ssh. */
@@ -518,7 +531,7 @@ static void test_start_workers_arguments(void **state)
     out = slurp(log.s);
     expect_in(out, "\nssh -p 2222 r1 sh -s -- 'stop' 'tcp://10.0.0.9:7000' '10.0.0.9-7000' '8' "
                    "'prismfarm' 'r1' "
-                   "'/scratch/pf' 'auto'\n");
+                   "'/scratch/pf' 'auto' '' '' ''\n");
     expect_in(out, "\nssh -p 2222 r2 sh -s -- 'stop' 'tcp://10.0.0.9:7000' '10.0.0.9-7000' '' "
                    "'prismfarm' 'r2' ");
     expect_in(out, "\nssh -p 2222 r3 sh -s -- 'stop' ");
@@ -527,7 +540,7 @@ static void test_start_workers_arguments(void **state)
 
     /* Bad arguments: exit status 2 and a message naming what is wrong; nothing is contacted. */
     static const struct {
-        const char *args[8];
+        const char *args[10];
         const char *message;
     } bad[] = {
         {{"-n", NULL}, "expected an action"},
@@ -542,11 +555,15 @@ static void test_start_workers_arguments(void **state)
          "--launcher expects auto, systemd or nohup"},
         {{"-n", "start", "-m", "m a", "h", NULL}, "does not give an endpoint"},
         {{"-n", "start", "-m", "m", "--frobnicate", NULL}, "unknown option '--frobnicate'"},
+        {{"-n", "start", "-m", "m", "h", NULL}, "start needs --key FILE and --master-key FILE"},
+        {{"-n", "start", "-m", "m", "-k", "w.key", "h", NULL}, "or --insecure"},
+        {{"-n", "start", "-m", "m", "--insecure", "-k", "w.key", "h", NULL},
+         "--insecure and --key/--master-key exclude each other"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        const char *argv[12] = {"bash", script.s};
+        const char *argv[14] = {"bash", script.s};
         int n = 2;
-        for (int k = 0; k < 8 && bad[i].args[k]; k++)
+        for (int k = 0; k < 10 && bad[i].args[k]; k++)
             argv[n++] = bad[i].args[k];
         argv[n] = NULL;
         st = run_argv(log.s, 10000, argv);

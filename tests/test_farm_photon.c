@@ -21,11 +21,15 @@
 #include <string.h>
 
 static char DIR_[256];
+static char MASTER_KEY[600], AUTHORIZED[600]; /* the master's --key and --authorized (CURVE) */
 
 static int setup(void **state)
 {
     (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "farm-photon");
+    return testutil_mkdtemp(DIR_, sizeof DIR_, "farm-photon") < 0 ||
+                   testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0
+               ? -1
+               : 0;
 }
 
 static int teardown(void **state)
@@ -135,7 +139,8 @@ static void test_processes_refine_and_kill(void **state)
     (void)state;
     const char *spool = path_in("spool");
     pid_t master = spawn(path_in("master.log"), "master", "--workers", "tcp://127.0.0.1:*", "--clients",
-                         "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "16", NULL);
+                         "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "16",
+                         "--key", MASTER_KEY, "--authorized", AUTHORIZED, NULL);
     char wep[256], cep[256];
     read_endpoints(spool, wep, cep);
     pid_t w1 = spawn(path_in("w1.log"), "worker", "--connect", wep, "--threads", "1", "--name", "w1",

@@ -137,6 +137,7 @@ static int start(void **state, int tcp, int max_task_failures, int farm_defaults
     f->opts = master_opts_default();
     f->opts.worker_endpoint = wep;
     f->opts.client_endpoint = cep;
+    f->opts.insecure = tcp; /* plain text on the loopback; test_curve covers the keys */
     f->opts.spool_dir = f->spool;
     f->opts.zmq_ctx = f->ctx;
     f->opts.stop = &f->stop;

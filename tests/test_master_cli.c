@@ -1,6 +1,7 @@
 /* prismfarm master, run as a process ($PRISMFARM_BIN): exit codes (0 on SIGTERM, 1 for an
  * endpoint that cannot be bound, naming it, 2 for a bad command line), the endpoints file for
- * system-chosen ports, and a client served over tcp by the separate process. */
+ * system-chosen ports, and a client served over tcp by the separate process. These masters run in
+ * plain text (--insecure): the client here is a bare proto_net socket; test_curve checks keys. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -53,7 +54,8 @@ static void test_port_in_use(void **state)
     char spool[] = "/tmp/prismfarm-test-master-cli-XXXXXX";
     assert_non_null(mkdtemp(spool));
     const run_t *r =
-        run("master", "--workers", ep, "--clients", "tcp://127.0.0.1:*", "--spool", spool, NULL);
+        run("master", "--workers", ep, "--clients", "tcp://127.0.0.1:*", "--spool", spool,
+            "--insecure", NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "workers endpoint");
     expect_in(r->err, ep);
@@ -80,7 +82,7 @@ static void test_serves_and_stops(void **state)
         if (null >= 0)
             dup2(null, STDERR_FILENO);
         execl(bin, bin, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
-              "tcp://127.0.0.1:*", "--spool", spool, (char *)NULL);
+              "tcp://127.0.0.1:*", "--spool", spool, "--insecure", (char *)NULL);
         _exit(127);
     }
     char path[128], line[300], cep[320] = "";

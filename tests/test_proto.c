@@ -11,6 +11,7 @@
 #include <cmocka.h> /* after the four headers it needs */
 
 #include <float.h>
+#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -39,9 +40,15 @@ static const proto_bundle_t g_bundle = {"scene.pbrt", g_files, 3};
 static char g_hash[PROTO_HASH_HEX + 1];
 
 static const proto_job_info_t g_jobs[] = {
-    {1, "prism", PROTO_JOB_RUNNING, 1000, 65536, 12.5, NULL, 3},
-    {2, "gem fire", PROTO_JOB_FAILED, 7, 100, 0.0, "worker w1: scene.pbrt:3: unknown shape", 0},
-    {UINT64_MAX, "x", PROTO_JOB_CANCELLED, 0, 0, 1e9, NULL, UINT64_MAX},
+    /* running, 4 spp merged, an estimate of 1/16 (exact in binary) */
+    {1, "prism", PROTO_JOB_RUNNING, 1000, 65536, 12.5, NULL, 3, 4, true, 0.0625, PROTO_STOP_NONE},
+    {2, "gem fire", PROTO_JOB_FAILED, 7, 100, 0.0, "worker w1: scene.pbrt:3: unknown shape", 0, 0,
+     false, 0, PROTO_STOP_NONE},
+    {UINT64_MAX, "x", PROTO_JOB_CANCELLED, 0, 0, 1e9, NULL, UINT64_MAX, 0, false, 0,
+     PROTO_STOP_NONE},
+    /* done early: 64 of 1024 spp reached the target; an estimate of exactly 0 travels too */
+    {4, "prism fast", PROTO_JOB_DONE, 64 * 96, 1024 * 96, 0.75, NULL, 0, 64, true, 0.0,
+     PROTO_STOP_TARGET},
 };
 static const proto_worker_info_t g_workers[] = {
     {"node01", 7, 64, PROTO_WORKER_BUSY, 1234, 0.25},
@@ -71,7 +78,7 @@ static void fill_arrays(void)
     assert_int_equal(proto_bundle_hash(&g_bundle, g_hash, &err), 0);
 }
 
-static const proto_settings_t g_settings = {256, 640, 480, 42, "path", "fanout"};
+static const proto_settings_t g_settings = {256, 640, 480, 42, "path", "fanout", 0.01, 90.5};
 
 static proto_msg_t sample(proto_type_t t)
 {
@@ -91,7 +98,7 @@ static proto_msg_t sample(proto_type_t t)
         m.task.task = 4242;
         m.task.attempt = 2;
         memcpy(m.task.scene, g_hash, sizeof g_hash);
-        m.task.settings = (proto_settings_t){0, 0, 0, -1, NULL, NULL}; /* all "keep" */
+        m.task.settings = (proto_settings_t){0, 0, 0, -1, NULL, NULL, 0, 0}; /* all "keep" */
         m.task.kind = PROTO_KIND_CAMERA_TILE;
         m.task.tile = (proto_tile_t){64, 32, 32, 32, 100, 164};
         break;
@@ -150,7 +157,7 @@ static proto_msg_t sample(proto_type_t t)
         break;
     case PROTO_JOBS_REPLY:
         m.jobs_reply.jobs = g_jobs;
-        m.jobs_reply.njobs = 3;
+        m.jobs_reply.njobs = 4;
         break;
     case PROTO_WORKERS_REPLY:
         m.workers_reply.workers = g_workers;
@@ -219,6 +226,8 @@ static void assert_settings_equal(const proto_settings_t *a, const proto_setting
     assert_int_equal(a->seed, b->seed);
     assert_opt_string_equal(a->integrator, b->integrator);
     assert_opt_string_equal(a->dispersion, b->dispersion);
+    assert_true(a->target_error == b->target_error);
+    assert_true(a->time_limit == b->time_limit);
 }
 
 static void assert_tile_equal(const proto_tile_t *a, const proto_tile_t *b)
@@ -341,6 +350,10 @@ static void assert_msg_equal(const proto_msg_t *a, const proto_msg_t *b)
             assert_true(x->elapsed == y->elapsed);
             assert_opt_string_equal(x->error, y->error);
             assert_int_equal(x->nonfinite, y->nonfinite);
+            assert_int_equal(x->spp, y->spp);
+            assert_int_equal(x->has_rel_error, y->has_rel_error);
+            assert_true(!x->has_rel_error || x->rel_error == y->rel_error);
+            assert_int_equal(x->stop, y->stop);
         }
         break;
     case PROTO_WORKERS_REPLY:
@@ -619,6 +632,77 @@ static void test_status_all_and_optional_fields(void **state)
     /* Settings and job errors are optional; everything else is required. */
     expect_mutation_rejected(PROTO_SUBMIT, "set.integ", NULL, 0, NULL);
     expect_mutation_rejected(PROTO_JOBS_REPLY, "jobs.1.err", NULL, 0, NULL);
+    /* So are the stopping rules and a job's accuracy figures (an older peer's messages). */
+    expect_mutation_rejected(PROTO_SUBMIT, "set.tgt", NULL, 0, NULL);
+    expect_mutation_rejected(PROTO_SUBMIT, "set.tlim", NULL, 0, NULL);
+    expect_mutation_rejected(PROTO_JOBS_REPLY, "jobs.0.spp", NULL, 0, NULL);
+    expect_mutation_rejected(PROTO_JOBS_REPLY, "jobs.0.rmse", NULL, 0, NULL);
+    expect_mutation_rejected(PROTO_JOBS_REPLY, "jobs.3.stop", NULL, 0, NULL);
+    /* Absent means none: an empty job map keeps spp 0, no estimate, no early stop. */
+    proto_msg_t j = sample(PROTO_JOBS_REPLY);
+    mutate(&j, "jobs.0.rmse", NULL, &sb);
+    assert_int_equal(proto_decode(sb.data, sb.size, NULL, &d, &err), 0);
+    assert_false(d.jobs_reply.jobs[0].has_rel_error);
+    assert_int_equal(d.jobs_reply.jobs[0].spp, 4);
+    assert_int_equal(d.jobs_reply.jobs[1].spp, 0);
+    assert_int_equal(d.jobs_reply.jobs[1].stop, PROTO_STOP_NONE);
+    assert_int_equal(d.jobs_reply.jobs[3].stop, PROTO_STOP_TARGET);
+    proto_msg_free(&d);
+    msgpack_sbuffer_destroy(&sb);
+}
+
+/* The stopping rules and accuracy figures: ranges checked on both sides, values that the
+ * encoder never writes (an explicit 0, a NaN) refused. */
+static void test_accuracy_fields_strict(void **state)
+{
+    (void)state;
+    msgpack_object f;
+    f = (msgpack_object){.type = MSGPACK_OBJECT_FLOAT64, .via.f64 = 1.0};
+    expect_mutation_rejected(PROTO_SUBMIT, "set.tgt", &f, PROTO_EMALFORMED,
+                             "SUBMIT: field 'set.tgt' is 1, expected a relative error in (0, 1)");
+    f.via.f64 = 0.0;
+    expect_mutation_rejected(PROTO_SUBMIT, "set.tgt", &f, PROTO_EMALFORMED, "'set.tgt' is 0");
+    f.via.f64 = -0.5;
+    expect_mutation_rejected(PROTO_SUBMIT, "set.tgt", &f, PROTO_EMALFORMED, "'set.tgt' is -0.5");
+    f.via.f64 = NAN;
+    expect_mutation_rejected(PROTO_SUBMIT, "set.tgt", &f, PROTO_EMALFORMED, "'set.tgt' is nan");
+    f.via.f64 = 0.0;
+    expect_mutation_rejected(PROTO_SUBMIT, "set.tlim", &f, PROTO_EMALFORMED, "'set.tlim' is 0");
+    f.via.f64 = INFINITY;
+    expect_mutation_rejected(PROTO_SUBMIT, "set.tlim", &f, PROTO_EMALFORMED, "'set.tlim' is inf");
+    f.via.f64 = 4e7; /* beyond a year */
+    expect_mutation_rejected(PROTO_SUBMIT, "set.tlim", &f, PROTO_EMALFORMED, "'set.tlim' is 4e+07");
+    msgpack_object u = obj_uint(1);
+    expect_mutation_rejected(PROTO_SUBMIT, "set.tlim", &u, PROTO_EMALFORMED,
+                             "'set.tlim' is an unsigned integer, expected a float");
+    f.via.f64 = -0.25;
+    expect_mutation_rejected(PROTO_JOBS_REPLY, "jobs.0.rmse", &f, PROTO_EMALFORMED,
+                             "JOBS_REPLY: field 'jobs[0].rmse' is -0.25");
+    f.via.f64 = NAN;
+    expect_mutation_rejected(PROTO_JOBS_REPLY, "jobs.0.rmse", &f, PROTO_EMALFORMED,
+                             "'jobs[0].rmse' is nan");
+    u = obj_uint(0);
+    expect_mutation_rejected(PROTO_JOBS_REPLY, "jobs.0.spp", &u, PROTO_EMALFORMED,
+                             "'jobs[0].spp' is 0");
+    u = obj_uint((uint64_t)INT_MAX + 1);
+    expect_mutation_rejected(PROTO_JOBS_REPLY, "jobs.0.spp", &u, PROTO_EMALFORMED, "'jobs[0].spp'");
+    msgpack_object st = obj_str("none");
+    expect_mutation_rejected(PROTO_JOBS_REPLY, "jobs.3.stop", &st, PROTO_EMALFORMED,
+                             "'jobs[3].stop' is 'none', expected one of: target, time");
+    /* The encoder refuses what the decoder would. */
+    proto_job_info_t bad = g_jobs[0];
+    bad.rel_error = NAN;
+    proto_msg_t m = {.type = PROTO_JOBS_REPLY, .jobs_reply = {.jobs = &bad, .njobs = 1}};
+    msgpack_sbuffer sb;
+    msgpack_sbuffer_init(&sb);
+    err_t err;
+    assert_int_equal(proto_encode(&m, NULL, &sb, &err), PROTO_EMALFORMED);
+    assert_non_null(strstr(err.msg, "'jobs[0].rmse'"));
+    proto_msg_t sub = sample(PROTO_SUBMIT);
+    sub.submit.settings.target_error = 1.5;
+    assert_int_equal(proto_encode(&sub, NULL, &sb, &err), PROTO_EMALFORMED);
+    assert_non_null(strstr(err.msg, "'set.tgt'"));
+    msgpack_sbuffer_destroy(&sb);
 }
 
 static void test_settings_mirror_overrides(void **state)
@@ -632,6 +716,10 @@ static void test_settings_mirror_overrides(void **state)
     assert_string_equal(ov.integrator, "path");
     assert_string_equal(ov.dispersion, "fanout");
     proto_settings_t back = proto_settings_from_overrides(&ov);
+    /* The stopping rules are the master's, not the scene's: no override carries them. */
+    assert_true(back.target_error == 0 && back.time_limit == 0);
+    back.target_error = g_settings.target_error;
+    back.time_limit = g_settings.time_limit;
     assert_settings_equal(&back, &g_settings);
 }
 
@@ -1243,6 +1331,7 @@ int main(void)
         cmocka_unit_test(test_missing_and_wrong_type_fields),
         cmocka_unit_test(test_values_out_of_range),
         cmocka_unit_test(test_bins_of_wrong_length_and_nonfinite),
+        cmocka_unit_test(test_accuracy_fields_strict),
         cmocka_unit_test(test_bad_bundle_paths),
         cmocka_unit_test(test_bundle_limits_are_the_callers),
         cmocka_unit_test(test_list_bounds),

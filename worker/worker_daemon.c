@@ -1,6 +1,7 @@
 #include "worker_daemon.h"
 
 #include "bundle.h"
+#include "curve.h"
 #include "local_render.h"
 #include "net.h"
 #include "photon.h"
@@ -375,6 +376,9 @@ int worker_run(const worker_opts_t *opts, err_t *err)
     worker_t w = {.opts = opts};
     if (!opts->endpoint)
         return err_set(err, "worker: no master endpoint");
+    if (proto_curve_require(opts->endpoint, opts->curve.secret_key != NULL, opts->insecure,
+                            "--key FILE and --master-key FILE.pub", err) < 0)
+        return err_prefix(err, "worker: ");
     if (opts->cache_dir)
         snprintf(w.cache, sizeof w.cache, "%s", opts->cache_dir);
     else
@@ -420,6 +424,7 @@ int worker_run(const worker_opts_t *opts, err_t *err)
          * master that comes up later, where it would show a second, ghost copy of us. */
         proto_net_options_t nopt = proto_net_options_default();
         nopt.linger_ms = 0;
+        nopt.curve = opts->curve;
         proto_net_t *net = proto_net_new(ctx, PROTO_NET_DEALER, &nopt, err);
         if (!net || proto_net_connect(net, opts->endpoint, err)) {
             proto_net_destroy(&net);
@@ -700,7 +705,14 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                 last_sent = now;
             }
             if (now - last_heard > 3.0 * heartbeat_ms / 1000.0) {
-                logf_(&w, "the master is silent (%s); reconnecting in %d ms", welcomed ? "was connected" : "never answered", backoff_ms);
+                /* Why it never answered, when the handshake says: a refused key, CURVE on one
+                 * side only. */
+                char why[256];
+                proto_net_link_t link = proto_net_link(net, why, sizeof why);
+                logf_(&w, "the master is silent (%s%s%s); reconnecting in %d ms",
+                      welcomed ? "was connected" : "never answered",
+                      link == PROTO_NET_LINK_REFUSED ? ": it " : "",
+                      link == PROTO_NET_LINK_REFUSED ? why : "", backoff_ms);
                 break;
             }
         }

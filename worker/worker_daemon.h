@@ -7,6 +7,7 @@
 #define PRISMFARM_WORKER_DAEMON_H
 
 #include "err.h"
+#include "net.h"
 
 #include <signal.h>
 
@@ -22,10 +23,16 @@ typedef struct worker_opts {
                              * is set, so that the loop ends at once; 0: none */
     int reconnect_max_ms;   /* back-off ceiling (default 32000) */
     int verbose;            /* log events to stderr */
+    /* Security (docs/security.md): the three keys of a CURVE client (server_public: the
+     * master's), or plain text, which a network endpoint allows only with insecure. */
+    proto_net_curve_t curve;
+    int insecure;
 } worker_opts_t;
 
 /* Runs until *stop is set (returns 0) or a fatal error (returns -1: the master refused this
- * worker's protocol version, or the endpoint is invalid). */
+ * worker's protocol version, the endpoint is invalid, or a network endpoint has neither keys
+ * nor insecure). A master that refuses our key is logged and tried again with back-off: its
+ * operator may authorise the key meanwhile. */
 int worker_run(const worker_opts_t *opts, err_t *err);
 
 #endif

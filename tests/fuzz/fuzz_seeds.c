@@ -70,9 +70,11 @@ static int seeds_init(seeds_t *s, err_t *err)
     s->files[1] =
         (proto_bundle_file_t){"meshes/tri.ply", (const uint8_t *)PLY_TEXT, sizeof PLY_TEXT - 1};
     s->bundle = (proto_bundle_t){"scene.pbrt", s->files, 2};
-    s->jobs[0] = (proto_job_info_t){1, "prism", PROTO_JOB_RUNNING, 100, 4096, 2.5, NULL, 0};
+    s->jobs[0] = (proto_job_info_t){1, "prism", PROTO_JOB_RUNNING, 100, 4096, 2.5, NULL, 0,
+                                    0, false, 0, PROTO_STOP_NONE};
     s->jobs[1] = (proto_job_info_t){
-        2, "gem", PROTO_JOB_FAILED, 0, 64, 0.0, "scene.pbrt:3:7: unsupported shape \"torus\"", 1};
+        2, "gem", PROTO_JOB_FAILED, 0, 64, 0.0, "scene.pbrt:3:7: unsupported shape \"torus\"", 1,
+        0, false, 0, PROTO_STOP_NONE};
     s->workers[0] = (proto_worker_info_t){"node01", 1, 8, PROTO_WORKER_BUSY, 12, 0.5};
     s->workers[1] = (proto_worker_info_t){"node02", 2, 2, PROTO_WORKER_IDLE, 0, 1.0};
     memcpy(s->png, "\x89PNG\r\n\x1a\n", 8);
@@ -104,8 +106,8 @@ static proto_msg_t *add(seed_t out[NSEEDS_MAX], int *n, const char *name, proto_
  * with every setting, an empty JOBS_REPLY, TASK and RESULT of both kinds. Returns the count. */
 static int seeds_list(const seeds_t *s, seed_t out[NSEEDS_MAX])
 {
-    const proto_settings_t all = {64, 320, 240, 7, "whitted", "hero"};
-    const proto_settings_t keep = {0, 0, 0, -1, NULL, NULL};
+    const proto_settings_t all = {64, 320, 240, 7, "whitted", "hero", 0, 0};
+    const proto_settings_t keep = {0, 0, 0, -1, NULL, NULL, 0, 0};
     int n = 0;
 #define SEED(nm, ty) add(out, &n, nm, ty)
     proto_msg_t *m = SEED("hello", PROTO_HELLO);

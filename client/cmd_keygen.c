@@ -1,0 +1,83 @@
+/* prismfarm keygen: writes a CURVE key pair, NAME.key (secret, mode 0600) and NAME.pub, for a
+ * master, a worker or a client (docs/security.md). */
+#include "commands.h"
+
+#include "curve.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <stdio.h>
+#include <string.h>
+#include <sys/stat.h>
+
+static void usage(FILE *out)
+{
+    fprintf(out,
+            "usage: prismfarm keygen NAME [--dir DIR] [--force]\n"
+            "\n"
+            "Writes a CURVE key pair: DIR/NAME.key (the secret key, mode 0600: it never leaves\n"
+            "this host) and DIR/NAME.pub (the public key, to hand out). Copy a worker's or a\n"
+            "client's NAME.pub into the master's --authorized folder; give the master's NAME.pub\n"
+            "to its workers and clients (--master-key). See docs/security.md.\n"
+            "  --dir DIR   where the files go (default: the current folder; created, mode 0700,\n"
+            "              if missing)\n"
+            "  --force     replace an existing pair (hosts that trusted the old one must be\n"
+            "              given the new NAME.pub)\n");
+}
+
+int cmd_keygen(int argc, char **argv)
+{
+    const char *name = NULL, *dir = ".";
+    int force = 0;
+    for (int i = 1; i < argc; i++) {
+        const char *a = argv[i];
+        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
+            usage(stdout);
+            return 0;
+        }
+        if (!strcmp(a, "--force")) {
+            force = 1;
+        } else if (!strcmp(a, "--dir")) {
+            if (i + 1 >= argc || !*argv[i + 1]) {
+                fprintf(stderr, "prismfarm keygen: --dir needs a folder\n");
+                return 2;
+            }
+            dir = argv[++i];
+        } else if (a[0] == '-') {
+            fprintf(stderr, "prismfarm keygen: unknown option '%s' (see prismfarm keygen --help)\n",
+                    a);
+            return 2;
+        } else if (name) {
+            fprintf(stderr, "prismfarm keygen: one NAME only ('%s' and '%s' given)\n", name, a);
+            return 2;
+        } else {
+            name = a;
+        }
+    }
+    err_t err;
+    if (!name) {
+        usage(stderr);
+        return 2;
+    }
+    if (proto_curve_name_check(name, &err) < 0) {
+        fprintf(stderr, "prismfarm keygen: %s\n", err.msg);
+        return 2;
+    }
+    if (mkdir(dir, 0700) != 0 && errno != EEXIST) {
+        fprintf(stderr, "prismfarm keygen: cannot create %s: %s\n", dir, strerror(errno));
+        return 1;
+    }
+    proto_curve_pair_t pair;
+    char key_path[PATH_MAX], pub_path[PATH_MAX];
+    int rc =
+        proto_curve_generate(&pair, &err) < 0 ||
+        proto_curve_write(&pair, dir, name, force, key_path, pub_path, sizeof key_path, &err) < 0;
+    memset(&pair, 0, sizeof pair);
+    if (rc) {
+        fprintf(stderr, "prismfarm keygen: %s\n", err.msg);
+        return 1;
+    }
+    printf("wrote %s (secret: keep it on this host) and %s (public: hand it out)\n", key_path,
+           pub_path);
+    return 0;
+}

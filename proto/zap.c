@@ -1,0 +1,240 @@
+#include "zap.h"
+
+#include "curve.h"
+
+#include <zmq.h>
+
+#include <errno.h>
+#include <pthread.h>
+#include <stdarg.h>
+#include <stdatomic.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define ZAP_ENDPOINT "inproc://zeromq.zap.01" /* fixed by RFC 27 */
+#define ZAP_FRAMES 8                          /* a CURVE request has 7; more is malformed */
+#define ZAP_POLL_MS 100                       /* how long destroy may wait for the thread */
+
+struct proto_zap {
+    void *sock; /* REP, used by the thread only once it runs */
+    proto_curve_ring_t *ring;
+    proto_zap_log_fn log;
+    void *user;
+    pthread_t thread;
+    atomic_bool stop;
+    atomic_uint_least64_t accepted, refused;
+    atomic_size_t keys;
+};
+
+__attribute__((format(printf, 2, 3))) static void zlog(proto_zap_t *self, const char *fmt, ...)
+{
+    if (!self->log)
+        return;
+    char line[768];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(line, sizeof line, fmt, ap);
+    va_end(ap);
+    self->log(self->user, line);
+}
+
+/* A frame's bytes as text for a log: printable ASCII only, at most size - 1 bytes. */
+static const char *frame_text(zmq_msg_t *f, char *buf, size_t size)
+{
+    const unsigned char *d = zmq_msg_data(f);
+    size_t n = zmq_msg_size(f), k = 0;
+    for (size_t i = 0; i < n && k + 1 < size; i++)
+        buf[k++] = d[i] >= 0x20 && d[i] < 0x7f ? (char)d[i] : '?';
+    buf[k] = 0;
+    return k ? buf : "(unknown)";
+}
+
+static bool frame_is(zmq_msg_t *f, const char *s)
+{
+    size_t n = strlen(s);
+    return zmq_msg_size(f) == n && memcmp(zmq_msg_data(f), s, n) == 0;
+}
+
+/* Sends the reply frames; the request id is echoed (RFC 27). */
+static void send_reply(proto_zap_t *self, zmq_msg_t *request_id, const char *status,
+                       const char *text, const char *user_id)
+{
+    int rc = zmq_send(self->sock, "1.0", 3, ZMQ_SNDMORE);
+    if (rc >= 0)
+        rc = zmq_send(self->sock, request_id ? zmq_msg_data(request_id) : "",
+                      request_id ? zmq_msg_size(request_id) : 0, ZMQ_SNDMORE);
+    const char *rest[] = {status, text, user_id};
+    for (int i = 0; i < 3 && rc >= 0; i++)
+        rc = zmq_send(self->sock, rest[i], strlen(rest[i]), ZMQ_SNDMORE);
+    if (rc >= 0)
+        rc = zmq_send(self->sock, "", 0, 0); /* metadata: none */
+    if (rc < 0)
+        zlog(self, "ZAP: cannot answer libzmq: %s", zmq_strerror(zmq_errno()));
+}
+
+static void refresh(proto_zap_t *self, bool force)
+{
+    err_t err;
+    bool reloaded;
+    size_t before = proto_curve_ring_size(self->ring);
+    if (proto_curve_ring_refresh(self->ring, force, &reloaded, &err) < 0) {
+        zlog(self, "%s", err.msg);
+    } else if (reloaded) {
+        if (force && proto_curve_ring_size(self->ring) == before)
+            return; /* a stranger made us look: nothing to report */
+        atomic_store(&self->keys, proto_curve_ring_size(self->ring));
+        zlog(self, "authorised keys read again from %s: %zu keys", proto_curve_ring_dir(self->ring),
+             proto_curve_ring_size(self->ring));
+    }
+}
+
+/* Receives one request and answers it. Returns -1 when the socket is unusable. */
+static int handle(proto_zap_t *self)
+{
+    zmq_msg_t f[ZAP_FRAMES];
+    int n = 0, more = 1, rc = 0;
+    while (more) {
+        zmq_msg_t part;
+        if (zmq_msg_init(&part) != 0 || zmq_msg_recv(&part, self->sock, 0) < 0) {
+            int e = zmq_errno();
+            (void)zmq_msg_close(&part);
+            rc = e == ETERM || e == ENOTSOCK ? -1 : 0;
+            if (rc == 0)
+                zlog(self, "ZAP: receiving a request: %s", zmq_strerror(e));
+            goto out; /* a failed receive leaves the REP socket waiting for a request */
+        }
+        more = zmq_msg_more(&part);
+        if (n < ZAP_FRAMES)
+            f[n++] = part;
+        else
+            (void)zmq_msg_close(&part);
+    }
+    char domain[64], address[96];
+    if (n < 6 || !frame_is(&f[0], "1.0")) {
+        zlog(self, "ZAP: a malformed request (%d frames): refused", n);
+        send_reply(self, n >= 2 ? &f[1] : NULL, "500", "malformed ZAP request", "");
+        atomic_fetch_add(&self->refused, 1);
+        goto out;
+    }
+    frame_text(&f[2], domain, sizeof domain);
+    frame_text(&f[3], address, sizeof address);
+    if (!frame_is(&f[5], "CURVE") || n != 7 || zmq_msg_size(&f[6]) != PROTO_CURVE_BINARY) {
+        char mech[32];
+        zlog(self, "refused a connection to the %s endpoint from %s: mechanism %s, not CURVE",
+             domain, address, frame_text(&f[5], mech, sizeof mech));
+        send_reply(self, &f[1], "400", "CURVE required", "");
+        atomic_fetch_add(&self->refused, 1);
+        goto out;
+    }
+    const uint8_t *key = zmq_msg_data(&f[6]);
+    /* A changed folder is read again; an unknown key makes it read again at most once a
+     * second, which bounds what a flood of strangers costs. */
+    refresh(self, false);
+    const char *name = proto_curve_ring_find(self->ring, key);
+    if (!name) {
+        refresh(self, true);
+        name = proto_curve_ring_find(self->ring, key);
+    }
+    char z85[PROTO_CURVE_Z85 + 1];
+    if (!zmq_z85_encode(z85, key, PROTO_CURVE_BINARY))
+        snprintf(z85, sizeof z85, "(unprintable)");
+    if (!name) {
+        zlog(self, "refused a connection to the %s endpoint from %s: key %s is not in %s", domain,
+             address, z85, proto_curve_ring_dir(self->ring));
+        send_reply(self, &f[1], "400", "key not authorised", "");
+        atomic_fetch_add(&self->refused, 1);
+    } else {
+        zlog(self, "accepted key '%s' on the %s endpoint from %s", name, domain, address);
+        send_reply(self, &f[1], "200", "OK", name);
+        atomic_fetch_add(&self->accepted, 1);
+    }
+out:
+    for (int i = 0; i < n; i++)
+        (void)zmq_msg_close(&f[i]);
+    return rc;
+}
+
+static void *zap_thread(void *arg)
+{
+    proto_zap_t *self = arg;
+    while (!atomic_load(&self->stop)) {
+        zmq_pollitem_t item = {.socket = self->sock, .events = ZMQ_POLLIN};
+        int n = zmq_poll(&item, 1, ZAP_POLL_MS);
+        if (n < 0 && zmq_errno() == ETERM)
+            break;
+        if (n > 0 && handle(self) < 0)
+            break;
+    }
+    return NULL;
+}
+
+proto_zap_t *proto_zap_new(void *zmq_ctx, const char *authorized_dir, proto_zap_log_fn log,
+                           void *user, err_t *err)
+{
+    if (proto_curve_available(err) < 0)
+        return NULL;
+    proto_zap_t *self = calloc(1, sizeof *self);
+    if (!self) {
+        err_set(err, "ZAP: out of memory");
+        return NULL;
+    }
+    self->log = log;
+    self->user = user;
+    atomic_init(&self->stop, false);
+    atomic_init(&self->accepted, 0);
+    atomic_init(&self->refused, 0);
+    if (!(self->ring = proto_curve_ring_new(authorized_dir, err))) {
+        free(self);
+        return NULL;
+    }
+    atomic_init(&self->keys, proto_curve_ring_size(self->ring));
+    int linger = 0;
+    self->sock = zmq_socket(zmq_ctx, ZMQ_REP);
+    if (!self->sock) {
+        err_set(err, "ZAP: zmq_socket(REP): %s", zmq_strerror(zmq_errno()));
+        goto fail;
+    }
+    if (zmq_setsockopt(self->sock, ZMQ_LINGER, &linger, sizeof linger) != 0) {
+        err_set(err, "ZAP: zmq_setsockopt(ZMQ_LINGER): %s", zmq_strerror(zmq_errno()));
+        goto fail;
+    }
+    if (zmq_bind(self->sock, ZAP_ENDPOINT) != 0) {
+        err_set(err, "ZAP: cannot bind %s: %s%s", ZAP_ENDPOINT, zmq_strerror(zmq_errno()),
+                zmq_errno() == EADDRINUSE ? " (another handler runs on this ZeroMQ context)" : "");
+        goto fail;
+    }
+    int e = pthread_create(&self->thread, NULL, zap_thread, self);
+    if (e != 0) {
+        err_set(err, "ZAP: cannot start its thread: %s", strerror(e));
+        goto fail;
+    }
+    return self;
+fail:
+    if (self->sock)
+        (void)zmq_close(self->sock);
+    proto_curve_ring_destroy(&self->ring);
+    free(self);
+    return NULL;
+}
+
+void proto_zap_destroy(proto_zap_t **self_p)
+{
+    if (!self_p || !*self_p)
+        return;
+    proto_zap_t *self = *self_p;
+    atomic_store(&self->stop, true);
+    (void)pthread_join(self->thread, NULL);
+    (void)zmq_close(self->sock);
+    proto_curve_ring_destroy(&self->ring);
+    free(self);
+    *self_p = NULL;
+}
+
+proto_zap_stats_t proto_zap_stats(proto_zap_t *self)
+{
+    return (proto_zap_stats_t){.accepted = atomic_load(&self->accepted),
+                               .refused = atomic_load(&self->refused),
+                               .keys = atomic_load(&self->keys)};
+}

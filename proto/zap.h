@@ -1,0 +1,37 @@
+/* zap: the master's ZeroMQ authentication handler (ZeroMQ RFC 27, ZAP). A thread answers, for
+ * every CURVE server socket of its context, whether a connecting peer's public key is in the
+ * authorised folder (curve.h's ring), and logs each decision with the peer's address. Without a
+ * handler libzmq lets in any client that knows the server's public key (shared/LIBRARIES.md);
+ * with this one, only listed keys, and the folder is read again when it changes, so adding or
+ * removing a .pub needs no restart (connections already made stay). */
+#ifndef PRISMFARM_ZAP_H
+#define PRISMFARM_ZAP_H
+
+#include "err.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* One line of the handler's log (no newline); called from the handler's thread. */
+typedef void (*proto_zap_log_fn)(void *user, const char *line);
+
+typedef struct proto_zap proto_zap_t;
+
+/* Loads the authorised folder, binds inproc://zeromq.zap.01 on zmq_ctx (one handler per context)
+ * and starts the thread. Create it before binding the server sockets, and destroy it after
+ * closing them: a CURVE server that finds no handler accepts every client. log may be NULL. */
+proto_zap_t *proto_zap_new(void *zmq_ctx, const char *authorized_dir, proto_zap_log_fn log,
+                           void *user, err_t *err);
+
+/* Stops the thread (within 100 ms) and closes its socket. */
+void proto_zap_destroy(proto_zap_t **self_p);
+
+typedef struct proto_zap_stats {
+    uint64_t accepted, refused; /* decisions since proto_zap_new */
+    size_t keys;                /* keys authorised now */
+} proto_zap_stats_t;
+
+/* Safe to call from any thread. */
+proto_zap_stats_t proto_zap_stats(proto_zap_t *self);
+
+#endif

@@ -1,0 +1,497 @@
+/* CURVE on the farm (issue 6, docs/security.md). `prismfarm keygen` writes Z85 key files with the
+ * right modes, checked against libzmq's own zmq_curve_public and the key pair published in
+ * zmq_curve(7); malformed key files are refused naming file and line. A master with keys lets in
+ * an authorised worker and client (a job completes with the pixels of `prismfarm render`),
+ * refuses at once and says so to an unauthorised client, a plain-text client and a client holding
+ * the wrong master key, logs refusals with the peer's address, and picks up a .pub added to (or
+ * removed from) its folder without a restart. A tcp:// master without keys refuses to start
+ * unless --insecure, which runs a plain-text farm; ipc:// needs neither. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#define CLI_RUN_TIMEOUT_MS 60000
+#include "cli_run.h"
+#include "curve.h"
+#include "farm_testutil.h"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/stat.h>
+#include <zmq.h>
+
+/* The Z85 alphabet as ZeroMQ RFC 32 lists it, typed here rather than taken from the code. */
+static const char RFC32_Z85[] =
+    "0123456789abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ.-:+=^!/*?&<>()[]{}@%$#";
+
+/* The example server key pair of zmq_curve(7) ("EXAMPLE"), and its client public key. */
+#define DOC_SERVER_PUBLIC "rq:rM>}U?@Lns47E1%kR.o@n%FcmmsL/@{H8]yf7"
+#define DOC_SERVER_SECRET "JTKVSB%%)wK0E.X)V>+}o?pNmC{O&4W4b!Ni{Lh6"
+#define DOC_CLIENT_PUBLIC "Yne@$w-vo<fVvi]a<NY6T1ed:M$fCG*[IaLV{hID"
+
+static char DIR_[256];
+static char MASTER_KEY[600], AUTHORIZED[600];
+static char FARM_KEY[600], MASTER_PUB[600]; /* what PRISMFARM_KEY, _MASTER_KEY hold */
+
+static int group_setup(void **state)
+{
+    (void)state;
+    if (testutil_mkdtemp(DIR_, sizeof DIR_, "curve") < 0 ||
+        testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0)
+        return -1;
+    snprintf(FARM_KEY, sizeof FARM_KEY, "%s", getenv("PRISMFARM_KEY"));
+    snprintf(MASTER_PUB, sizeof MASTER_PUB, "%s", getenv("PRISMFARM_MASTER_KEY"));
+    return 0;
+}
+
+static int group_teardown(void **state)
+{
+    (void)state;
+    return testutil_rmtree(DIR_);
+}
+
+/* The keys in the environment on (the farm's) or off (none), for the children started next. */
+static void env_keys(int on)
+{
+    if (on) {
+        assert_int_equal(setenv("PRISMFARM_KEY", FARM_KEY, 1), 0);
+        assert_int_equal(setenv("PRISMFARM_MASTER_KEY", MASTER_PUB, 1), 0);
+    } else {
+        assert_int_equal(unsetenv("PRISMFARM_KEY"), 0);
+        assert_int_equal(unsetenv("PRISMFARM_MASTER_KEY"), 0);
+    }
+}
+
+static const char *path_in(const char *name)
+{
+    static char buf[16][600];
+    static int k;
+    k = (k + 1) % 16;
+    snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
+    return buf[k];
+}
+
+/* The whole file (at most 64 KiB) in a static buffer; "" when it cannot be read. */
+static const char *slurp(const char *path)
+{
+    static char buf[2][65536];
+    static int k;
+    k = 1 - k;
+    buf[k][0] = 0;
+    FILE *f = fopen(path, "r");
+    if (f) {
+        size_t n = fread(buf[k], 1, sizeof buf[k] - 1, f);
+        buf[k][n] = 0;
+        fclose(f);
+    }
+    return buf[k];
+}
+
+static void write_text(const char *path, const char *text, mode_t mode)
+{
+    int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC, mode);
+    assert_true(fd >= 0);
+    assert_int_equal(write(fd, text, strlen(text)), (ssize_t)strlen(text));
+    assert_int_equal(fchmod(fd, mode), 0);
+    assert_int_equal(close(fd), 0);
+}
+
+/* Starts `prismfarm ARGS...` in the background, stderr to log; returns its pid. */
+static pid_t spawn(const char *log, const char *arg, ...)
+{
+    const char *bin = getenv("PRISMFARM_BIN");
+    assert_non_null(bin);
+    char *argv[32];
+    va_list ap;
+    va_start(ap, arg);
+    cli_argv(argv, 32, bin, arg, ap);
+    va_end(ap);
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        if (!freopen(log, "w", stderr) || !freopen("/dev/null", "w", stdout))
+            _exit(126);
+        execv(bin, argv);
+        _exit(127);
+    }
+    return pid;
+}
+
+static void stop(pid_t pid)
+{
+    kill(pid, SIGTERM);
+    int st;
+    waitpid(pid, &st, 0);
+}
+
+static void read_endpoints(const char *spool, char *workers, char *clients, const char *log)
+{
+    char path[700];
+    snprintf(path, sizeof path, "%s/endpoints", spool);
+    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < 10.0; testutil_sleep_ms(10)) {
+        FILE *f = fopen(path, "r");
+        if (f) {
+            int got = fscanf(f, "workers %255s clients %255s", workers, clients);
+            fclose(f);
+            if (got == 2)
+                return;
+        }
+    }
+    fail_msg("the master did not write %s; its log:\n%s", path, slurp(log));
+}
+
+static void wait_log(const char *log, const char *text, double timeout_s)
+{
+    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < timeout_s; testutil_sleep_ms(20))
+        if (strstr(slurp(log), text))
+            return;
+    fail_msg("no '%s' in %s within %.0f s:\n%s", text, log, timeout_s, slurp(log));
+}
+
+/* The value of the "NAME = " line of a key file (40 characters), into out[41]. */
+static void key_line(const char *text, const char *name, char out[41])
+{
+    char key[32];
+    snprintf(key, sizeof key, "\n%s = ", name);
+    const char *p = strstr(text, key);
+    if (!p)
+        fail_msg("no '%s = ' line in:\n%s", name, text);
+    p += strlen(key);
+    size_t n = strcspn(p, "\n");
+    assert_int_equal(n, 40);
+    assert_int_equal(strspn(p, RFC32_Z85), 40);
+    memcpy(out, p, 40);
+    out[40] = 0;
+}
+
+static int mode_of(const char *path)
+{
+    struct stat st;
+    assert_int_equal(stat(path, &st), 0);
+    return (int)(st.st_mode & 0777);
+}
+
+/* keygen's files: modes 0600 and 0644, a comment header, Z85 keys, a public key that libzmq
+ * derives from the secret one; no overwrite without --force; names that are paths refused. */
+static void test_keygen_files(void **state)
+{
+    (void)state;
+    const char *dir = path_in("kg");
+    const run_t *r = run("keygen", "alice", "--dir", dir, NULL);
+    if (r->status != 0)
+        fail_msg("keygen: exit %d: %s", r->status, r->err);
+    char key[700], pub[700];
+    snprintf(key, sizeof key, "%s/alice.key", dir);
+    snprintf(pub, sizeof pub, "%s/alice.pub", dir);
+    expect_in(r->out, key);
+    expect_in(r->out, pub);
+    assert_int_equal(mode_of(key), 0600);
+    assert_int_equal(mode_of(pub), 0644);
+    assert_int_equal(mode_of(dir), 0700);
+
+    char key_text[1024], pub_text[1024];
+    snprintf(key_text, sizeof key_text, "%s", slurp(key));
+    snprintf(pub_text, sizeof pub_text, "%s", slurp(pub));
+    assert_true(key_text[0] == '#' && pub_text[0] == '#');
+    char public1[41], secret[41], public2[41], derived[41];
+    key_line(key_text, "public-key", public1);
+    key_line(key_text, "secret-key", secret);
+    key_line(pub_text, "public-key", public2);
+    assert_string_equal(public1, public2);
+    assert_null(strstr(pub_text, "secret"));
+    assert_int_equal(zmq_curve_public(derived, secret), 0);
+    assert_string_equal(derived, public1);
+
+    /* Not overwritten: exit 1, the files as they were. */
+    r = run("keygen", "alice", "--dir", dir, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "exists: not overwritten");
+    assert_string_equal(slurp(key), key_text);
+    assert_string_equal(slurp(pub), pub_text);
+    r = run("keygen", "alice", "--dir", dir, "--force", NULL);
+    assert_int_equal(r->status, 0);
+    char public3[41];
+    key_line(slurp(pub), "public-key", public3);
+    assert_string_not_equal(public3, public1);
+    assert_int_equal(mode_of(key), 0600);
+
+    /* A second name, a second key: 2^-256 odds of a repeat. */
+    r = run("keygen", "bob", "--dir", dir, NULL);
+    assert_int_equal(r->status, 0);
+    char bob[41];
+    snprintf(pub, sizeof pub, "%s/bob.pub", dir);
+    key_line(slurp(pub), "public-key", bob);
+    assert_string_not_equal(bob, public3);
+
+    static const char *const bad[] = {
+        "../evil", "a/b", "",
+        ".hidden", "-x",  "aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        r = run("keygen", bad[i], "--dir", dir, NULL);
+        if (r->status != 2)
+            fail_msg("keygen '%s': exit %d, expected 2: %s", bad[i], r->status, r->err);
+    }
+    struct stat st;
+    assert_int_not_equal(stat(path_in("evil.key"), &st), 0);
+}
+
+/* Key files read by hand-written examples: the zmq_curve(7) pair loads (with comments, blank
+ * lines, CRLF and spaces around '='); every malformed file is refused naming file, line and what
+ * was expected. */
+static void test_key_file_errors(void **state)
+{
+    (void)state;
+    err_t err;
+    proto_curve_pair_t pair;
+    char pub[41];
+    const char *p = path_in("doc.key");
+    write_text(p,
+               "# the example of zmq_curve(7)\r\n\r\n  public-key=" DOC_SERVER_PUBLIC
+               "\r\nsecret-key =   " DOC_SERVER_SECRET "  \r\n",
+               0600);
+    if (proto_curve_load_pair(p, &pair, &err) < 0)
+        fail_msg("%s", err.msg);
+    assert_string_equal(pair.public_key, DOC_SERVER_PUBLIC);
+    assert_string_equal(pair.secret_key, DOC_SERVER_SECRET);
+
+    /* Others may read it: refused like ssh refuses such a key. */
+    assert_int_equal(chmod(p, 0644), 0);
+    assert_int_equal(proto_curve_load_pair(p, &pair, &err), -1);
+    expect_in(err.msg, "chmod 600");
+    expect_in(err.msg, p);
+
+    static const struct {
+        const char *text;
+        const char *message;
+    } bad[] = {
+        {"# x\npublic-key = " DOC_SERVER_PUBLIC "\nhello\n", ":3: expected 'public-key = KEY'"},
+        {"public-key = rq:rM>}U?@Lns47E1%kR.o@n%FcmmsL/@{H8]yf\n", ":1: public-key has 39 "
+                                                                   "characters, expected 40"},
+        {"public-key = rq:rM>}U?@Lns47E1%kR.o@n%FcmmsL/@{H8]y\"7\n", ":1: public-key has a "
+                                                                     "character that is not Z85 "
+                                                                     "at column 39"},
+        {"public-key = " DOC_CLIENT_PUBLIC "\nsecret-key = " DOC_SERVER_SECRET "\n",
+         ":1: public-key is not the public half of secret-key (line 2)"},
+        {"public-key = " DOC_SERVER_PUBLIC "\n", "no 'secret-key = ...' line"},
+        {"public-key = " DOC_SERVER_PUBLIC "\npublic-key = " DOC_SERVER_PUBLIC "\n",
+         ":2: a second public-key (the first is on line 1)"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        write_text(p, bad[i].text, 0600);
+        if (proto_curve_load_pair(p, &pair, &err) == 0)
+            fail_msg("case %zu loaded", i);
+        char want[700];
+        snprintf(want, sizeof want, "%s%s", bad[i].message[0] == ':' ? p : "", bad[i].message);
+        expect_in(err.msg, want);
+    }
+    /* A secret key where a public one is expected: the file must not travel. */
+    write_text(p, "public-key = " DOC_SERVER_PUBLIC "\nsecret-key = " DOC_SERVER_SECRET "\n", 0600);
+    assert_int_equal(proto_curve_load_public(p, pub, &err), -1);
+    expect_in(err.msg, ":2: a secret key");
+    assert_int_equal(proto_curve_load_public(path_in("none.pub"), pub, &err), -1);
+    expect_in(err.msg, "none.pub: cannot open");
+    /* A .pub that is fine, and an authorised folder that holds a bad one. */
+    write_text(path_in("doc.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n", 0644);
+    assert_int_equal(proto_curve_load_public(path_in("doc.pub"), pub, &err), 0);
+    assert_string_equal(pub, DOC_CLIENT_PUBLIC);
+    const char *ring = path_in("ring");
+    assert_int_equal(mkdir(ring, 0700), 0);
+    write_text(path_in("ring/ok.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n", 0644);
+    write_text(path_in("ring/README"), "not a key, not a .pub: ignored\n", 0644);
+    proto_curve_ring_t *keys = proto_curve_ring_new(ring, &err);
+    assert_non_null(keys);
+    assert_int_equal(proto_curve_ring_size(keys), 1);
+    uint8_t bin[32];
+    assert_non_null(zmq_z85_decode(bin, DOC_CLIENT_PUBLIC));
+    assert_string_equal(proto_curve_ring_find(keys, bin), "ok");
+    assert_non_null(zmq_z85_decode(bin, DOC_SERVER_PUBLIC));
+    assert_null(proto_curve_ring_find(keys, bin));
+    proto_curve_ring_destroy(&keys);
+    write_text(path_in("ring/bad.pub"), "public-key = short\n", 0644);
+    assert_null(proto_curve_ring_new(ring, &err));
+    expect_in(err.msg, "ring/bad.pub:1: public-key has 5 characters");
+}
+
+/* A farm with keys: an authorised worker and client complete a job; an unauthorised client, a
+ * plain-text client and one with the wrong master key are told why at once; refusals are
+ * logged with the address; a .pub added to the folder is let in, and out again once removed. */
+static void test_farm_with_keys(void **state)
+{
+    (void)state;
+    env_keys(1);
+    const char *spool = path_in("spool"), *mlog = path_in("master.log");
+    pid_t master = spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
+                         "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "8",
+                         "--key", MASTER_KEY, "--authorized", AUTHORIZED, NULL);
+    char wep[256], cep[256];
+    read_endpoints(spool, wep, cep, mlog);
+    pid_t worker = spawn(path_in("w1.log"), "worker", "--connect", wep, "--threads", "1", "--name",
+                         "w1", "--cache", path_in("c1"), NULL);
+    const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "4", "--wait",
+                         "-o", path_in("farm.exr"), "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("submit --wait: exit %d: %s\nmaster log:\n%s", r->status, r->err, slurp(mlog));
+    r = run("render", "data/render/tiny.pbrt", "--spp", "4", "-o", path_in("render.exr"), "--quiet",
+            NULL);
+    assert_int_equal(r->status, 0);
+    testutil_assert_same_pixels(path_in("farm.exr"), path_in("render.exr"));
+    expect_in(slurp(mlog), "accepted key 'farm' on the workers endpoint from 127.0.0.1");
+    expect_in(slurp(mlog), "accepted key 'farm' on the clients endpoint from 127.0.0.1");
+
+    /* A stranger's key: refused by the handshake, reported at once (not after the 10 s
+     * timeout), and logged by the master with its address and key. */
+    r = run("keygen", "intruder", "--dir", path_in("keys"), NULL);
+    assert_int_equal(r->status, 0);
+    char intruder_key[700], intruder_pub[700], intruder[41];
+    snprintf(intruder_key, sizeof intruder_key, "%s", path_in("keys/intruder.key"));
+    snprintf(intruder_pub, sizeof intruder_pub, "%s", path_in("keys/intruder.pub"));
+    key_line(slurp(intruder_pub), "public-key", intruder);
+    double t0 = testutil_now_s();
+    r = run("jobs", "--master", cep, "--key", intruder_key, NULL);
+    double took = testutil_now_s() - t0;
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "refused our key (ZAP status 400)");
+    print_message("refused client told in %.2f s\n", took);
+    assert_true(took < 5.0);
+    char line[300];
+    snprintf(line, sizeof line,
+             "refused a connection to the clients endpoint from 127.0.0.1: key %s", intruder);
+    wait_log(mlog, line, 5.0);
+
+    /* A worker with that key never joins; the refusal is logged for the workers endpoint. */
+    pid_t stranger =
+        spawn(path_in("w2.log"), "worker", "--connect", wep, "--threads", "1", "--name", "stranger",
+              "--key", intruder_key, "--cache", path_in("c2"), NULL);
+    snprintf(line, sizeof line,
+             "refused a connection to the workers endpoint from 127.0.0.1: key %s", intruder);
+    wait_log(mlog, line, 5.0);
+    r = run("workers", "--master", cep, "--json", NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "\"w1\"");
+    assert_null(strstr(r->out, "stranger"));
+    stop(stranger);
+
+    /* No keys over tcp: the client refuses to send plain text unless told to. */
+    env_keys(0);
+    r = run("jobs", "--master", cep, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "--key FILE and --master-key FILE.pub");
+    expect_in(r->err, "--insecure");
+    /* Told to: the master's CURVE handshake refuses it. */
+    r = run("jobs", "--master", cep, "--insecure", NULL);
+    assert_int_equal(r->status, 1);
+    if (!strstr(r->err, "requires CURVE") && !strstr(r->err, "may require CURVE keys"))
+        fail_msg("a plain client was not told that the master requires CURVE: %s", r->err);
+    /* Our key, but another master's public key: the handshake cannot succeed. */
+    r = run("jobs", "--master", cep, "--key", FARM_KEY, "--master-key", intruder_pub, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "is --master-key its public key");
+    /* Half the keys. */
+    r = run("jobs", "--master", cep, "--key", FARM_KEY, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "--key needs --master-key");
+
+    /* Authorised while the master runs: its folder is read again. */
+    char cmd[1600];
+    snprintf(cmd, sizeof cmd, "cp '%s' '%s/'", intruder_pub, AUTHORIZED);
+    assert_int_equal(system(cmd), 0);
+    r = run("jobs", "--master", cep, "--key", intruder_key, "--master-key", MASTER_PUB, NULL);
+    if (r->status != 0)
+        fail_msg("a key added to the folder was not let in: %s\nmaster log:\n%s", r->err,
+                 slurp(mlog));
+    expect_in(r->out, "tiny");
+    char added[700];
+    snprintf(added, sizeof added, "%s/intruder.pub", AUTHORIZED);
+    assert_int_equal(unlink(added), 0);
+    r = run("jobs", "--master", cep, "--key", intruder_key, "--master-key", MASTER_PUB, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "refused our key");
+    stop(worker);
+    stop(master);
+}
+
+/* A tcp:// master without keys refuses to start, with the reason and the two ways out;
+ * inconsistent security options are bad command lines (status 2) too. */
+static void test_master_refuses_plain_tcp(void **state)
+{
+    (void)state;
+    const char *spool = path_in("nokeys-spool");
+    const run_t *r = run("master", "--workers", "tcp://127.0.0.1:*", "--clients",
+                         "tcp://127.0.0.1:*", "--spool", spool, NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "tcp://127.0.0.1:* is a network endpoint");
+    expect_in(r->err, "--key FILE and --authorized DIR");
+    expect_in(r->err, "--insecure");
+    expect_in(r->err, "docs/security.md");
+    struct stat st;
+    assert_int_not_equal(stat(spool, &st), 0); /* it started nothing */
+
+    r = run("master", "--spool", spool, "--key", MASTER_KEY, NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "--key needs --authorized DIR");
+    r = run("master", "--spool", spool, "--key", MASTER_KEY, "--authorized", AUTHORIZED,
+            "--insecure", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "exclude each other");
+    r = run("master", "--spool", spool, "--key", MASTER_PUB, "--authorized", AUTHORIZED, NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "no 'secret-key = ...' line");
+    r = run("master", "--spool", spool, "--key", MASTER_KEY, "--authorized", path_in("nowhere"),
+            NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "cannot open the folder");
+}
+
+/* --insecure: a plain-text farm on tcp:// completes a job, and says what it is; a client with
+ * keys is told the master does not use CURVE. On ipc:// no flag is needed. */
+static void test_insecure_and_local(void **state)
+{
+    (void)state;
+    env_keys(0);
+    const char *spool = path_in("plain-spool"), *mlog = path_in("plain-master.log");
+    pid_t master =
+        spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients", "tcp://127.0.0.1:*",
+              "--spool", spool, "--heartbeat", "200", "--tile", "8", "--insecure", NULL);
+    char wep[256], cep[256];
+    read_endpoints(spool, wep, cep, mlog);
+    expect_in(slurp(mlog), "plain text (--insecure)");
+    pid_t worker = spawn(path_in("plain-w.log"), "worker", "--connect", wep, "--threads", "1",
+                         "--name", "pw", "--cache", path_in("pc"), "--insecure", NULL);
+    const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "2", "--wait",
+                         "-o", path_in("plain.exr"), "--quiet", "--insecure", NULL);
+    if (r->status != 0)
+        fail_msg("submit --wait --insecure: exit %d: %s", r->status, r->err);
+    r = run("jobs", "--master", cep, "--key", FARM_KEY, "--master-key", MASTER_PUB, NULL);
+    assert_int_equal(r->status, 1);
+    if (!strstr(r->err, "does not use CURVE") && !strstr(r->err, "does it use CURVE"))
+        fail_msg("a CURVE client was not told the master runs in plain text: %s", r->err);
+    stop(worker);
+    stop(master);
+
+    /* ipc:// stays on this host: no keys, no flag. */
+    char wipc[700], cipc[700];
+    snprintf(wipc, sizeof wipc, "ipc://%s", path_in("w.ipc"));
+    snprintf(cipc, sizeof cipc, "ipc://%s", path_in("c.ipc"));
+    spool = path_in("ipc-spool");
+    mlog = path_in("ipc-master.log");
+    master = spawn(mlog, "master", "--workers", wipc, "--clients", cipc, "--spool", spool, NULL);
+    read_endpoints(spool, wep, cep, mlog);
+    r = run("jobs", "--master", cipc, NULL);
+    if (r->status != 0)
+        fail_msg("jobs over ipc://: exit %d: %s\nmaster log:\n%s", r->status, r->err, slurp(mlog));
+    stop(master);
+    env_keys(1);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_keygen_files),       cmocka_unit_test(test_key_file_errors),
+        cmocka_unit_test(test_farm_with_keys),     cmocka_unit_test(test_master_refuses_plain_tcp),
+        cmocka_unit_test(test_insecure_and_local),
+    };
+    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+}

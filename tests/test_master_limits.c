@@ -1,0 +1,231 @@
+/* The master's limits on what one client can make it hold (issue 6, docs/security.md), each
+ * refused with a message the client shows and the master surviving it: --max-jobs (unfinished
+ * jobs), --max-bundle-files and --max-bundle-mb (a scene bundle), --max-message-mb (any message:
+ * ZMQ_MAXMSGSIZE closes the sender's connection before the frame is buffered); and their command
+ * line. Bundle path rules (no "..", no absolute path) are tested where they are enforced:
+ * test_proto (decoder), test_proto_bundle (extraction), test_master (a scene including
+ * ../../etc/passwd). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#define CLI_RUN_TIMEOUT_MS 60000
+#include "cli_run.h"
+#include "farm_testutil.h"
+
+#include <signal.h>
+#include <sys/stat.h>
+
+static char DIR_[256];
+static char MASTER_KEY[600], AUTHORIZED[600];
+
+static int group_setup(void **state)
+{
+    (void)state;
+    return testutil_mkdtemp(DIR_, sizeof DIR_, "limits") < 0 ||
+                   testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0
+               ? -1
+               : 0;
+}
+
+static int group_teardown(void **state)
+{
+    (void)state;
+    return testutil_rmtree(DIR_);
+}
+
+static const char *path_in(const char *name)
+{
+    static char buf[16][600];
+    static int k;
+    k = (k + 1) % 16;
+    snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
+    return buf[k];
+}
+
+/* A master (keys, no workers) with extra options, NULL-terminated after the first; its client
+ * endpoint goes to cep. */
+static pid_t start_master(const char *name, char *cep, const char *opt, ...)
+{
+    const char *bin = getenv("PRISMFARM_BIN");
+    assert_non_null(bin);
+    char spool[600], log[600];
+    snprintf(spool, sizeof spool, "%s/%s-spool", DIR_, name);
+    snprintf(log, sizeof log, "%s/%s.log", DIR_, name);
+    char *argv[32] = {(char *)bin,         "master",       "--workers",
+                      "tcp://127.0.0.1:*", "--clients",    "tcp://127.0.0.1:*",
+                      "--spool",           spool,          "--key",
+                      MASTER_KEY,          "--authorized", AUTHORIZED};
+    int n = 12;
+    va_list ap;
+    va_start(ap, opt);
+    for (const char *a = opt; a && n < 31; a = va_arg(ap, const char *))
+        argv[n++] = (char *)a;
+    va_end(ap);
+    argv[n] = NULL;
+    pid_t pid = fork();
+    assert_true(pid >= 0);
+    if (pid == 0) {
+        if (!freopen(log, "w", stderr) || !freopen("/dev/null", "w", stdout))
+            _exit(126);
+        execv(bin, argv);
+        _exit(127);
+    }
+    char path[700], wep[256];
+    snprintf(path, sizeof path, "%s/endpoints", spool);
+    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < 10.0; testutil_sleep_ms(10)) {
+        FILE *f = fopen(path, "r");
+        if (f) {
+            int got = fscanf(f, "workers %255s clients %255s", wep, cep);
+            fclose(f);
+            if (got == 2)
+                return pid;
+        }
+    }
+    kill(pid, SIGKILL);
+    fail_msg("the master %s wrote no endpoints", name);
+    return -1;
+}
+
+static void stop(pid_t pid)
+{
+    kill(pid, SIGTERM);
+    int st;
+    waitpid(pid, &st, 0);
+}
+
+/* A scene folder: tiny.pbrt's content with an Include of each extra file, each holding
+ * `bytes` of comment lines (the parser reads them; the bundle carries them). */
+static const char *make_scene(const char *name, int extra_files, size_t bytes)
+{
+    const char *dir = path_in(name);
+    assert_int_equal(mkdir(dir, 0700), 0);
+    FILE *src = fopen("data/render/tiny.pbrt", "r");
+    assert_non_null(src);
+    static char main_path[700];
+    snprintf(main_path, sizeof main_path, "%s/main.pbrt", dir);
+    FILE *out = fopen(main_path, "w");
+    assert_non_null(out);
+    char line[512];
+    while (fgets(line, sizeof line, src)) {
+        fputs(line, out);
+        if (!strncmp(line, "WorldBegin", 10))
+            for (int i = 0; i < extra_files; i++)
+                fprintf(out, "Include \"part%d.pbrt\"\n", i);
+    }
+    fclose(src);
+    assert_int_equal(fclose(out), 0);
+    for (int i = 0; i < extra_files; i++) {
+        char path[760];
+        snprintf(path, sizeof path, "%s/part%d.pbrt", dir, i);
+        FILE *f = fopen(path, "w");
+        assert_non_null(f);
+        for (size_t done = 0; done < bytes; done += 64)
+            fputs("# padding padding padding padding padding padding padding padd\n", f);
+        assert_int_equal(fclose(f), 0);
+    }
+    return main_path;
+}
+
+/* --max-jobs 1: a second unfinished job is refused with the limit named; once the first is
+ * cancelled, a submission is taken again. */
+static void test_max_jobs(void **state)
+{
+    (void)state;
+    char cep[256];
+    pid_t master = start_master("jobs", cep, "--max-jobs", "1", NULL);
+    const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, NULL);
+    if (r->status != 0)
+        fail_msg("first submit: %s", r->err);
+    assert_string_equal(r->out, "1\n");
+    r = run("submit", "data/render/tiny.pbrt", "--master", cep, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "the master holds 1 unfinished jobs, its limit (--max-jobs 1)");
+    r = run("cancel", "1", "--master", cep, NULL);
+    assert_int_equal(r->status, 0);
+    r = run("submit", "data/render/tiny.pbrt", "--master", cep, NULL);
+    if (r->status != 0)
+        fail_msg("submit after the cancel: %s", r->err);
+    assert_string_equal(r->out, "2\n");
+    stop(master);
+}
+
+/* --max-bundle-files 2 and --max-bundle-mb 1: a bundle over either is refused with the limit,
+ * one within both is taken. */
+static void test_bundle_limits(void **state)
+{
+    (void)state;
+    char cep[256];
+    pid_t master =
+        start_master("bundle", cep, "--max-bundle-files", "2", "--max-bundle-mb", "1", NULL);
+    /* main.pbrt + 2 includes: 3 files. */
+    const run_t *r = run("submit", make_scene("three", 2, 64), "--master", cep, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "3");
+    expect_in(r->err, "at most 2");
+    /* main.pbrt + 1 include of 1.5 MiB: 2 files, over 1 MiB. */
+    r = run("submit", make_scene("big", 1, (size_t)3 << 19), "--master", cep, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "exceed 1048576 bytes");
+    r = run("submit", make_scene("fits", 1, 1000), "--master", cep, NULL);
+    if (r->status != 0)
+        fail_msg("a bundle within the limits: %s", r->err);
+    assert_string_equal(r->out, "1\n");
+    stop(master);
+}
+
+/* --max-message-mb 1: a 1.5 MiB submission never reaches the master's memory; the client is
+ * told the connection was closed (at once, not after its timeout) and the master goes on. */
+static void test_max_message(void **state)
+{
+    (void)state;
+    char cep[256];
+    pid_t master = start_master("message", cep, "--max-message-mb", "1", NULL);
+    double t0 = testutil_now_s();
+    const run_t *r = run("submit", make_scene("huge", 1, (size_t)3 << 19), "--master", cep, NULL);
+    double took = testutil_now_s() - t0;
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "closed the connection (a message above its size limit");
+    print_message("oversized submission refused in %.2f s\n", took);
+    assert_true(took < 30.0); /* the submit timeout is 60 s */
+    r = run("jobs", "--master", cep, NULL);
+    assert_int_equal(r->status, 0);
+    r = run("submit", "data/render/tiny.pbrt", "--master", cep, NULL);
+    assert_int_equal(r->status, 0);
+    stop(master);
+}
+
+static void test_command_line(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *args[4];
+        const char *message;
+    } bad[] = {
+        {{"--max-bundle-mb", "10", "--max-message-mb", "5"}, "--max-bundle-mb 10 exceeds"},
+        {{"--max-message-mb", "529"}, "--max-message-mb expects an integer in 1..528"},
+        {{"--max-bundle-mb", "0"}, "--max-bundle-mb expects an integer in 1..512"},
+        {{"--max-bundle-files", "4097"}, "--max-bundle-files expects an integer in 1..4096"},
+        {{"--max-jobs", "0"}, "--max-jobs expects an integer in 1..100000"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        const run_t *r = run("master", "--insecure", bad[i].args[0], bad[i].args[1], bad[i].args[2],
+                             bad[i].args[3], NULL);
+        assert_int_equal(r->status, 2);
+        expect_in(r->err, bad[i].message);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_max_jobs),
+        cmocka_unit_test(test_bundle_limits),
+        cmocka_unit_test(test_max_message),
+        cmocka_unit_test(test_command_line),
+    };
+    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+}
