@@ -73,6 +73,9 @@ typedef struct mjob {
      * refinement after the job is done). The scheduler's batch b is the phase's batch
      * photon_base + b: a refinement adds its batches to a fresh scheduler job. */
     photon_phase_t *photons;
+    bool photon_job;        /* the scene has a photon pass (photons may be on disk, below) */
+    char *main;             /* the bundle's main file, to load the scene again for a refinement */
+    uint64_t photons_saved; /* photons in jobs/<id>/photons.store when photons is NULL */
     uint32_t photon_base;
     bool store_ready;
     char store[PROTO_HASH_HEX + 1];
@@ -287,6 +290,7 @@ static void job_free(mjob_t *j)
 {
     if (j) {
         photon_phase_destroy(&j->photons);
+        free(j->main);
         free(j->name);
         free(j->error);
         free(j);
@@ -381,6 +385,34 @@ static int write_image(master_t *m, mjob_t *j, bool final, err_t *err)
     return film_write(image, j->grid, &out, err);
 }
 
+/* A photon job that is over gives back its store's memory: a finished job's merged store goes
+ * to jobs/<id>/photons.store (for a refinement, which loads the scene again and restores it),
+ * and the scene and batches are dropped; a failed or cancelled one cannot be refined. Kept in
+ * memory only if it cannot be written. */
+static void release_photons(master_t *m, mjob_t *j)
+{
+    if (!j->photons)
+        return;
+    err_t err;
+    char dir[PATH_MAX], path[PATH_MAX + 32];
+    const uint8_t *data;
+    size_t size;
+    const char *hash;
+    if (j->state == JOB_DONE) {
+        if (spool_job_dir(m->spool, j->id, dir, sizeof dir, &err) < 0 ||
+            photon_phase_store(j->photons, &data, &size, &hash, &err) < 0 ||
+            (snprintf(path, sizeof path, "%s/photons.store", dir),
+             spool_write_file(path, data, size, &err) < 0)) {
+            mlog(m, "job %llu: keeping its photon store in memory: %s", (unsigned long long)j->id,
+                 err.msg);
+            return;
+        }
+        j->photons_saved = photon_phase_stats(j->photons).photons;
+    }
+    photon_phase_destroy(&j->photons);
+    j->store_ready = false;
+}
+
 /* Follows the scheduler's state of a job: logs the change and, once the job is over, writes
  * its outputs (done), tells the workers to drop its tasks (failed, cancelled) and frees its
  * image in the scheduler, keeping only the figures STATUS reports. */
@@ -432,6 +464,7 @@ static void job_refresh(master_t *m, mjob_t *j, double now)
         mlog(m, "job %llu '%s' cancelled", (unsigned long long)j->id, j->name);
         cancel_on_workers(m, j->id);
     }
+    release_photons(m, j);
     j->samples_done = info.samples_done;
     j->samples_total = info.samples_total;
     j->nonfinite = info.nonfinite;
@@ -1007,6 +1040,14 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     j->id = id;
     make_stem(j->name, j->stem, sizeof j->stem);
     memcpy(j->hash, hash, sizeof j->hash);
+    j->photon_job = j->photons != NULL;
+    if (j->photon_job && !(j->main = dup_str(b->main))) {
+        err_t ignore;
+        (void)sched_remove_job(m->sched, id, &ignore);
+        job_free(j);
+        reply_error(m, from, "the master is out of memory");
+        return;
+    }
     j->settings = msg->submit.settings;
     j->settings.integrator = NULL;
     j->settings.dispersion = NULL;
@@ -1146,6 +1187,31 @@ static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *m
     free(data);
 }
 
+/* The photon pass of a finished job back from disk: its scene loaded again from the spool (as
+ * at submission, confined to the bundle's folder) and its merged store from photons.store. */
+static int restore_photons(master_t *m, mjob_t *j, err_t *err)
+{
+    char dir[PATH_MAX], path[PATH_MAX + 32], scene_dir[PATH_MAX], main_path[2 * PATH_MAX];
+    if (spool_job_dir(m->spool, j->id, dir, sizeof dir, err) < 0)
+        return -1;
+    snprintf(path, sizeof path, "%s/photons.store", dir);
+    snprintf(scene_dir, sizeof scene_dir, "%s/scenes/%s", spool_path(m->spool), j->hash);
+    snprintf(main_path, sizeof main_path, "%s/%s", scene_dir, j->main);
+    scene_overrides_t ov = proto_settings_to_overrides(&j->settings);
+    scene_t *scene = scene_load_file_confined(main_path, scene_dir, &ov, err);
+    if (!scene)
+        return -1;
+    uint8_t *data = NULL;
+    size_t size = 0;
+    if (spool_read_file(path, m->limits.max_message_bytes, &data, &size, err) < 0) {
+        scene_destroy(&scene);
+        return -1;
+    }
+    j->photons = photon_phase_restore(&scene, data, size, j->photons_saved, err);
+    free(data);
+    return j->photons ? 0 : -1;
+}
+
 /* More photons for a finished photon job: the phase appends batches, a fresh scheduler job
  * runs them and then the whole camera phase again, gathering from the grown store; the job's
  * outputs are rewritten when it is done. Tasks carry the new round, so late results of the old
@@ -1157,7 +1223,7 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "no job %llu", (unsigned long long)msg->refine.job);
         return;
     }
-    if (!j->photons) {
+    if (!j->photon_job) {
         reply_error(m, from, "job %llu has no photon pass to refine (its integrator is not \"photon\")",
                     (unsigned long long)j->id);
         return;
@@ -1168,6 +1234,12 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
         return;
     }
     err_t err;
+    if (!j->photons && restore_photons(m, j, &err) < 0) {
+        mlog(m, "job %llu: cannot refine: %s", (unsigned long long)j->id, err.msg);
+        reply_error(m, from, "job %llu: cannot restore its photon pass: %s", (unsigned long long)j->id,
+                    err.msg);
+        return;
+    }
     uint32_t base = photon_phase_nbatches(j->photons);
     if (photon_phase_refine(j->photons, msg->refine.photons, &err) < 0) {
         reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);

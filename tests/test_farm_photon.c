@@ -217,7 +217,11 @@ static void test_processes_refine_and_kill(void **state)
     log[n] = 0;
     fclose(f);
     expect_in(log, "job 1 photon pass merged: 30000 photons in 2 batches");
-    expect_in(log, "job 1 photon pass merged: 50000 photons in 3 batches");
+    /* The finished job's store went to disk and came back for the refinement: one batch for
+     * the first 30000 photons, one for the new 20000. */
+    expect_in(log, "job 1 photon pass merged: 50000 photons in 2 batches");
+    if (strstr(log, "keeping its photon store in memory"))
+        fail_msg("the master could not save a photon store:\n%s", log);
     expect_in(log, "job 1 'beam' refined: 20000 more photons in 1 batches");
     expect_in(log, "photon store ");
     /* w2 died holding batches of job 3 (it prefetches two): the photon phase could only end
