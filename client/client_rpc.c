@@ -15,6 +15,7 @@ struct client_rpc {
     int own_ctx;
     proto_net_t *net;
     char endpoint[256];
+    client_security_t sec; /* to connect again (client_rpc_reconnect) */
 };
 
 const char *client_default_master(void)
@@ -79,28 +80,14 @@ int client_security_load(const client_security_t *sec, const char *endpoint,
     return 0;
 }
 
-client_rpc_t *client_rpc_new(const char *endpoint, void *zmq_ctx, const client_security_t *sec,
-                             err_t *err)
+/* A DEALER connected to the endpoint with self->sec's keys, as self->net. */
+static int open_net(client_rpc_t *self, err_t *err)
 {
     proto_curve_pair_t pair;
     char master_public[PROTO_CURVE_Z85 + 1];
     int curve = 0;
-    client_security_t none = {0};
-    if (client_security_load(sec ? sec : &none, endpoint, &pair, master_public, &curve, err) < 0)
-        return NULL;
-    client_rpc_t *self = calloc(1, sizeof *self);
-    if (!self) {
-        err_set(err, "out of memory");
-        return NULL;
-    }
-    snprintf(self->endpoint, sizeof self->endpoint, "%s", endpoint);
-    self->ctx = zmq_ctx ? zmq_ctx : zmq_ctx_new();
-    self->own_ctx = !zmq_ctx;
-    if (!self->ctx) {
-        err_set(err, "zmq_ctx_new: %s", zmq_strerror(errno));
-        free(self);
-        return NULL;
-    }
+    if (client_security_load(&self->sec, self->endpoint, &pair, master_public, &curve, err) < 0)
+        return -1;
     proto_net_options_t o = proto_net_options_default();
     o.linger_ms = 0;
     o.send_timeout_ms = 5000;
@@ -110,11 +97,42 @@ client_rpc_t *client_rpc_new(const char *endpoint, void *zmq_ctx, const client_s
                                       .secret_key = pair.secret_key};
     self->net = proto_net_new(self->ctx, PROTO_NET_DEALER, &o, err);
     memset(&pair, 0, sizeof pair); /* libzmq keeps its own copy */
-    if (!self->net || proto_net_connect(self->net, endpoint, err)) {
+    if (!self->net || proto_net_connect(self->net, self->endpoint, err)) {
+        proto_net_destroy(&self->net);
+        return -1;
+    }
+    return 0;
+}
+
+client_rpc_t *client_rpc_new(const char *endpoint, void *zmq_ctx, const client_security_t *sec,
+                             err_t *err)
+{
+    client_rpc_t *self = calloc(1, sizeof *self);
+    if (!self) {
+        err_set(err, "out of memory");
+        return NULL;
+    }
+    snprintf(self->endpoint, sizeof self->endpoint, "%s", endpoint);
+    if (sec)
+        self->sec = *sec;
+    self->ctx = zmq_ctx ? zmq_ctx : zmq_ctx_new();
+    self->own_ctx = !zmq_ctx;
+    if (!self->ctx) {
+        err_set(err, "zmq_ctx_new: %s", zmq_strerror(errno));
+        free(self);
+        return NULL;
+    }
+    if (open_net(self, err) < 0) {
         client_rpc_destroy(&self);
         return NULL;
     }
     return self;
+}
+
+int client_rpc_reconnect(client_rpc_t *self, err_t *err)
+{
+    proto_net_destroy(&self->net);
+    return open_net(self, err);
 }
 
 void client_rpc_destroy(client_rpc_t **self_p)
@@ -134,7 +152,8 @@ int client_rpc_call(client_rpc_t *self, const proto_msg_t *req, proto_msg_t *rep
 {
     int r = proto_net_send(self->net, NULL, req, err);
     if (r == PROTO_EAGAIN)
-        return err_set(err, "cannot reach the master at %s: is it running?", self->endpoint);
+        return err_set(err, "cannot reach the master at %s: is it running?", self->endpoint),
+               CLIENT_RPC_UNREACHABLE;
     if (r)
         return -1;
     /* Waits in slices: a refused handshake or a dropped connection ends the wait at once, since
@@ -150,8 +169,11 @@ int client_rpc_call(client_rpc_t *self, const proto_msg_t *req, proto_msg_t *rep
             break;
         waited += slice;
         link = proto_net_link(self->net, why, sizeof why);
-        if (link == PROTO_NET_LINK_REFUSED || link == PROTO_NET_LINK_DROPPED)
+        if (link == PROTO_NET_LINK_REFUSED)
             return err_set(err, "the master at %s %s", self->endpoint, why);
+        if (link == PROTO_NET_LINK_DROPPED)
+            return err_set(err, "the master at %s %s", self->endpoint, why),
+                   CLIENT_RPC_UNREACHABLE;
         if (timeout_ms >= 0 && waited >= timeout_ms)
             break;
     }
@@ -160,7 +182,8 @@ int client_rpc_call(client_rpc_t *self, const proto_msg_t *req, proto_msg_t *rep
                        timeout_ms / 1000.0,
                        link == PROTO_NET_LINK_UP
                            ? "it accepted the connection, but is busy or stuck"
-                           : "is it running?");
+                           : "is it running?"),
+               CLIENT_RPC_UNREACHABLE;
     if (r == PROTO_EVERSION)
         return err_set(err, "the master at %s speaks protocol version %d, this client %d",
                        self->endpoint, reply->version, PROTO_VERSION);

@@ -50,10 +50,16 @@ client_rpc_t *client_rpc_new(const char *endpoint, void *zmq_ctx, const client_s
 void client_rpc_destroy(client_rpc_t **self_p);
 
 /* Sends req and waits up to timeout_ms for the reply (free it with proto_msg_free). An ERROR or
- * REFUSE reply becomes -1 with its text in err; so does silence ("no answer from the master at
- * ENDPOINT within 10 s: is it running?"), and at once a refused handshake ("the master at
- * ENDPOINT refused our key ...") or a dropped connection. */
+ * REFUSE reply becomes -1 with its text in err; so does at once a refused handshake ("the
+ * master at ENDPOINT refused our key ..."). Silence ("no answer from the master at ENDPOINT
+ * within 10 s: is it running?") and a dropped connection (a master restarting) return
+ * CLIENT_RPC_UNREACHABLE with the text in err: worth asking again after client_rpc_reconnect. */
+#define CLIENT_RPC_UNREACHABLE (-2)
 int client_rpc_call(client_rpc_t *self, const proto_msg_t *req, proto_msg_t *reply, int timeout_ms,
                     err_t *err);
+
+/* A fresh connection to the same master, with the same keys: whatever the old one still held
+ * (a request sent to a master that died, a late answer) is dropped with it. */
+int client_rpc_reconnect(client_rpc_t *self, err_t *err);
 
 #endif

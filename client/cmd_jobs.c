@@ -18,6 +18,7 @@ typedef struct query_args {
     const char *job; /* positional argument, if any */
     const char *output;
     int timeout_ms; /* how long to wait for the master's answer */
+    int wait, quiet; /* status: follow the job until it is over */
     client_security_t sec;
 } query_args_t;
 
@@ -36,6 +37,10 @@ static int parse_args(const char *cmd, int argc, char **argv, query_args_t *q, i
             continue;
         if (!strcmp(a, "--json"))
             q->json = 1;
+        else if (!strcmp(cmd, "status") && !strcmp(a, "--wait"))
+            q->wait = 1;
+        else if (!strcmp(cmd, "status") && !strcmp(a, "--quiet"))
+            q->quiet = 1;
         else if (!strcmp(a, "--master") && i + 1 < argc)
             q->master = argv[++i];
         else if (!strcmp(a, "--timeout") && i + 1 < argc) {
@@ -145,7 +150,10 @@ int cmd_status(int argc, char **argv)
 {
     if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
         printf("usage: prismfarm status [JOB] [--master ENDPOINT] [--json] [--timeout S]\n"
-               "Shows one job, or every job, of the master.\n");
+               "                        [--wait [--quiet]]\n"
+               "Shows one job, or every job, of the master. With --wait, follows JOB (a progress\n"
+               "line unless --quiet) until it is over, through a restart of the master, then\n"
+               "shows it; exits 0 when it is done, 1 when it failed or was cancelled.\n");
         return 0;
     }
     query_args_t q;
@@ -155,12 +163,32 @@ int cmd_status(int argc, char **argv)
     proto_msg_t req = {.type = PROTO_STATUS, .status = {.all = q.job == NULL}};
     if (q.job && parse_job("status", q.job, &req.status.job))
         return 2;
+    if (q.wait && !q.job) {
+        fprintf(stderr, "prismfarm status: --wait needs a job id\n");
+        return 2;
+    }
+    int over = -1;
+    if (q.wait) {
+        err_t err;
+        client_rpc_t *rpc = client_rpc_new(q.master, NULL, &q.sec, &err);
+        proto_job_info_t last;
+        char error[600] = "";
+        if (!rpc)
+            snprintf(error, sizeof error, "%s", err.msg);
+        else
+            over = job_follow_wait(rpc, req.status.job, q.quiet, &last, error, sizeof error);
+        client_rpc_destroy(&rpc);
+        if (over < 0) {
+            fprintf(stderr, "prismfarm status: %s\n", error);
+            return 1;
+        }
+    }
     proto_msg_t reply;
     if (call(&q, "status", &req, &reply))
         return 1;
     print_jobs(reply.status_reply.jobs, reply.status_reply.njobs, q.json);
     proto_msg_free(&reply);
-    return 0;
+    return over < 0 || over == PROTO_JOB_DONE ? 0 : 1;
 }
 
 int cmd_jobs(int argc, char **argv)

@@ -35,6 +35,8 @@ static void usage(FILE *out)
             "  --task-deadline S    a task not back after S seconds is issued again\n"
             "                       (1..86400, default 120)\n"
             "  --tile N             tile side in pixels, 1..4096 (default 32)\n"
+            "  --no-journal         keep no journal (SPOOL/journal.db): a restarted master then\n"
+            "                       forgets unfinished jobs (docs/reliability.md)\n"
             "  --quiet              no event log on stderr\n"
             "security (docs/security.md): a tcp:// endpoint needs --key and --authorized, or\n"
             "--insecure; inproc:// and ipc:// need neither\n"
@@ -82,6 +84,10 @@ int cmd_master(int argc, char **argv)
         }
         if (!strcmp(a, "--insecure")) {
             o.insecure = 1;
+            continue;
+        }
+        if (!strcmp(a, "--no-journal")) {
+            o.journal = 0;
             continue;
         }
         if (strcmp(a, "--workers") && strcmp(a, "--clients") && strcmp(a, "--spool") &&

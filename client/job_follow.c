@@ -7,6 +7,16 @@
 #include <string.h>
 #include <time.h>
 
+/* How long a master may be unreachable while a job is followed before the wait gives up. */
+#define JOB_FOLLOW_RECONNECT_S 120
+
+static void sleep_s(double s)
+{
+    struct timespec ts = {(time_t)s, (long)((s - (double)(time_t)s) * 1e9)};
+    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {
+    }
+}
+
 static double now_s(void)
 {
     struct timespec t;
@@ -23,14 +33,35 @@ int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t
      * over, so its end is learnt at once, and otherwise after the wait, which paces the
      * progress line; with no progress to show, few questions are asked. */
     const uint32_t wait_ms = quiet ? 5000 : 200;
+    double lost_since = 0; /* when the master stopped answering; 0: it answers */
     for (;;) {
         proto_msg_t req = {.type = PROTO_STATUS, .status = {.job = job, .wait_ms = wait_ms}}, reply;
         err_t err;
         double asked = now_s();
-        if (client_rpc_call(rpc, &req, &reply, (int)wait_ms + 10000, &err)) {
+        int rc = client_rpc_call(rpc, &req, &reply, (int)wait_ms + 10000, &err);
+        /* A master that went away (restarted, or a network cut) is asked again on a fresh
+         * connection for a while: a restarted master resumes the job from its journal
+         * (docs/reliability.md), so the wait goes on where it was. */
+        if (rc == CLIENT_RPC_UNREACHABLE) {
+            if (lost_since == 0) {
+                lost_since = asked;
+                if (!quiet)
+                    fprintf(stderr, "\nprismfarm: %s; asking again for up to %d s\n", err.msg,
+                            JOB_FOLLOW_RECONNECT_S);
+            }
+            err_t rerr;
+            if (now_s() - lost_since < JOB_FOLLOW_RECONNECT_S) {
+                sleep_s(1.0);
+                if (client_rpc_reconnect(rpc, &rerr) == 0)
+                    continue;
+                snprintf(err.msg, sizeof err.msg, "%s", rerr.msg);
+            }
+        }
+        if (rc) {
             snprintf(error, esize, "%s", err.msg);
             return -1;
         }
+        lost_since = 0;
         if (reply.type != PROTO_STATUS_REPLY || reply.status_reply.njobs != 1) {
             snprintf(error, esize, "the master answered %s without the job", proto_type_name(reply.type));
             proto_msg_free(&reply);

@@ -109,6 +109,7 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
     m.opts.stop = &stop_master;
     m.opts.stop_fd = stop_pipe[0] > 0 ? stop_pipe[0] : 0;
     m.opts.verbose = 0;
+    m.opts.journal = 0; /* the spool is a temporary folder that dies with this process */
     if (tile)
         m.opts.sched.tile_size = (int)tile;
     local_worker_t *workers = calloc((size_t)nworkers, sizeof *workers);

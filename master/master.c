@@ -5,12 +5,14 @@
 #include "curve.h"
 #include "error_estimate.h"
 #include "film.h"
+#include "journal.h"
 #include "net.h"
 #include "photon_phase.h"
 #include "scene_load.h"
 #include "spool.h"
 #include "zap.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <limits.h>
 #include <stdarg.h>
@@ -19,6 +21,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <unistd.h>
 #include <zmq.h>
 
 #define POLL_MS 100              /* longest wait on the sockets: the stop flag's latency */
@@ -74,7 +77,8 @@ typedef struct mjob {
      * photon_base + b: a refinement adds its batches to a fresh scheduler job. */
     photon_phase_t *photons;
     bool photon_job;        /* the scene has a photon pass (photons may be on disk, below) */
-    char *main;             /* the bundle's main file, to load the scene again for a refinement */
+    char *main;             /* the bundle's main file, to load the scene again (a refinement, a
+                             * restarted master) */
     uint64_t photons_saved; /* photons in jobs/<id>/photons.store when photons is NULL */
     uint32_t photon_base;
     bool store_ready;
@@ -88,6 +92,13 @@ typedef struct mjob {
     int nhistory;
     int spp_done;
     proto_stop_t stop;
+    /* The journal's view (journal.h): what the round's photon store holds when its phase is
+     * done, the photons this round added, the checkpoint file's generation, and the bytes of
+     * results journaled since it (a new checkpoint once they outgrow the image). */
+    uint64_t round_photons, refine_photons;
+    uint64_t checkpoint;
+    size_t journaled_bytes;
+    uint64_t checkpoint_samples; /* samples merged at the last checkpoint */
 } mjob_t;
 
 /* A client's STATUS with a wait: answered when its job is over or at the deadline. */
@@ -102,6 +113,7 @@ typedef struct master {
     proto_limits_t limits;
     sched_t *sched;
     spool_t *spool;
+    journal_t *journal; /* NULL without opts->journal */
     proto_net_t *wnet, *cnet;
     mworker_t **workers;
     size_t nworkers, cap_workers;
@@ -114,6 +126,8 @@ typedef struct master {
     waiter_t waiters[MAX_WAITERS];
     size_t nwaiters;
 } master_t;
+
+static bool job_over(const mjob_t *j);
 
 static double now_s(void)
 {
@@ -155,6 +169,7 @@ master_opts_t master_opts_default(void)
         .task_prefetch = -1,
         .preview_interval_s = 1.0,
         .max_jobs = 256,
+        .journal = 1,
         .verbose = 1,
     };
     /* farm.md: a worker silent for 3 heartbeat intervals is dead (zguide's liveness 3). */
@@ -385,6 +400,133 @@ static int write_image(master_t *m, mjob_t *j, bool final, err_t *err)
     return film_write(image, j->grid, &out, err);
 }
 
+/* ---------------------------------------------------------------- the journal */
+
+/* The job as journal.h keeps it; the strings point into j. */
+static journal_job_t job_record(const mjob_t *j, double now)
+{
+    journal_job_t r = {.id = j->id,
+                       .name = j->name,
+                       .hash = (char *)j->hash,
+                       .main = j->main,
+                       .settings = j->settings,
+                       .state = (int)j->state,
+                       .error = j->error,
+                       .round = j->round,
+                       .photon_base = j->photon_base,
+                       .photons_saved = j->photons_saved,
+                       .round_photons = j->round_photons,
+                       .refine_photons = j->refine_photons,
+                       .checkpoint = j->checkpoint,
+                       .stop = (int)j->stop,
+                       .outputs = j->outputs,
+                       .samples_done = j->samples_done,
+                       .samples_total = j->samples_total,
+                       .nonfinite = j->nonfinite,
+                       .spp_done = j->spp_done};
+    double end = j->finished > 0 ? j->finished : now;
+    r.elapsed = j->started > 0 && end > j->started ? end - j->started : 0;
+    return r;
+}
+
+static void checkpoint_path(const master_t *m, uint64_t job, uint64_t gen, char *buf, size_t size)
+{
+    snprintf(buf, size, "%s/jobs/%llu/checkpoint-%llu.bin", spool_path(m->spool),
+             (unsigned long long)job, (unsigned long long)gen);
+}
+
+/* A journal that cannot be written does not stop the farm: the job goes on and the log says
+ * what a restart would lose. */
+static void journal_failed(const master_t *m, const mjob_t *j, const err_t *err)
+{
+    mlog(m, "job %llu: journal: %s (a restarted master would not resume this job's latest "
+         "progress)", (unsigned long long)j->id, err->msg);
+}
+
+/* The job's state in the journal; a job that is over leaves no checkpoint behind. */
+static void journal_state(master_t *m, mjob_t *j, double now)
+{
+    if (!m->journal)
+        return;
+    err_t err;
+    journal_job_t r = job_record(j, now);
+    if (journal_set_state(m->journal, &r, &err) < 0) {
+        journal_failed(m, j, &err);
+        return;
+    }
+    if (job_over(j) && j->checkpoint > 0) {
+        char path[PATH_MAX + 64];
+        checkpoint_path(m, j->id, j->checkpoint, path, sizeof path);
+        (void)unlink(path); /* a leftover is removed at the next start (resume_jobs) */
+        j->checkpoint = 0;
+    }
+}
+
+/* Once the results journaled since the last checkpoint outgrow the image, the merged image is
+ * written as a new checkpoint and the results in it leave the journal: the spool holds at most
+ * about two images' worth per running job, and a restart replays at most one. */
+static void maybe_checkpoint(master_t *m, mjob_t *j, double now)
+{
+    sched_job_info_t info;
+    if (!m->journal || sched_job_info(m->sched, j->id, &info) < 0 || info.state != JOB_RUNNING ||
+        info.samples_done == j->checkpoint_samples)
+        return;
+    size_t image_bytes = (size_t)j->xres * (size_t)j->yres * ((size_t)j->grid.n + 3) * 8;
+    if (j->journaled_bytes < image_bytes)
+        return;
+    err_t err;
+    int *next = malloc((size_t)info.ntiles * sizeof *next);
+    char path[PATH_MAX + 64], old[PATH_MAX + 64];
+    uint64_t gen = j->checkpoint + 1;
+    checkpoint_path(m, j->id, gen, path, sizeof path);
+    checkpoint_path(m, j->id, j->checkpoint, old, sizeof old);
+    journal_job_t r = job_record(j, now);
+    if (!next) {
+        err_set(&err, "out of memory for a checkpoint");
+    } else if (sched_job_next_pass(m->sched, j->id, next, info.ntiles) < 0) {
+        err_set(&err, "the scheduler has no pass table for the job");
+    } else if (journal_write_checkpoint(path, sched_job_image(m->sched, j->id), next, info.ntiles,
+                                        &err) == 0 &&
+               journal_set_checkpoint(m->journal, j->id, j->round, gen, next, info.ntiles,
+                                      r.elapsed, &err) == 0) {
+        if (j->checkpoint > 0)
+            (void)unlink(old);
+        j->checkpoint = gen;
+        j->journaled_bytes = 0;
+        j->checkpoint_samples = info.samples_done;
+        free(next);
+        return;
+    } else {
+        (void)unlink(path);
+    }
+    free(next);
+    journal_failed(m, j, &err);
+    j->journaled_bytes = 0; /* try again after as many bytes, not after every result */
+}
+
+/* The merged photon store on disk as jobs/<id>/photons.store (atomically), and in the journal
+ * when there is one: a restarted master or a refinement loads it instead of tracing again. */
+static int save_store(master_t *m, mjob_t *j, err_t *err)
+{
+    char dir[PATH_MAX], path[PATH_MAX + 32];
+    const uint8_t *data;
+    size_t size;
+    const char *hash;
+    uint64_t photons = photon_phase_stats(j->photons).photons;
+    if (j->photons_saved == photons && photons > 0)
+        return 0;
+    if (spool_job_dir(m->spool, j->id, dir, sizeof dir, err) < 0 ||
+        photon_phase_store(j->photons, &data, &size, &hash, err) < 0)
+        return -1;
+    snprintf(path, sizeof path, "%s/photons.store", dir);
+    if (spool_write_file(path, data, size, err) < 0)
+        return -1;
+    j->photons_saved = photons;
+    if (m->journal && journal_set_photons_saved(m->journal, j->id, photons, err) < 0)
+        journal_failed(m, j, err);
+    return 0;
+}
+
 /* A photon job that is over gives back its store's memory: a finished job's merged store goes
  * to jobs/<id>/photons.store (for a refinement, which loads the scene again and restores it),
  * and the scene and batches are dropped; a failed or cancelled one cannot be refined. Kept in
@@ -394,20 +536,10 @@ static void release_photons(master_t *m, mjob_t *j)
     if (!j->photons)
         return;
     err_t err;
-    char dir[PATH_MAX], path[PATH_MAX + 32];
-    const uint8_t *data;
-    size_t size;
-    const char *hash;
-    if (j->state == JOB_DONE) {
-        if (spool_job_dir(m->spool, j->id, dir, sizeof dir, &err) < 0 ||
-            photon_phase_store(j->photons, &data, &size, &hash, &err) < 0 ||
-            (snprintf(path, sizeof path, "%s/photons.store", dir),
-             spool_write_file(path, data, size, &err) < 0)) {
-            mlog(m, "job %llu: keeping its photon store in memory: %s", (unsigned long long)j->id,
-                 err.msg);
-            return;
-        }
-        j->photons_saved = photon_phase_stats(j->photons).photons;
+    if (j->state == JOB_DONE && save_store(m, j, &err) < 0) {
+        mlog(m, "job %llu: keeping its photon store in memory: %s", (unsigned long long)j->id,
+             err.msg);
+        return;
     }
     photon_phase_destroy(&j->photons);
     j->store_ready = false;
@@ -469,6 +601,7 @@ static void job_refresh(master_t *m, mjob_t *j, double now)
     j->samples_total = info.samples_total;
     j->nonfinite = info.nonfinite;
     j->spp_done = info.spp_done;
+    journal_state(m, j, now);
     err_t err;
     if (sched_remove_job(m->sched, j->id, &err) < 0)
         mlog(m, "job %llu: %s", (unsigned long long)j->id, err.msg);
@@ -660,10 +793,17 @@ static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
     while ((rc & SCHED_PASS_DONE) && sched_job_info(m->sched, j->id, &info) == 0) {
         error_estimate_t e = error_estimate_image(sched_job_image(m->sched, j->id));
         double elapsed = j->started > 0 && now > j->started ? now - j->started : 0;
-        if (j->nhistory < MAX_PASS_RECORDS)
-            j->history[j->nhistory++] =
-                (pass_record_t){.pass = info.passes_done, .spp = info.spp_done, .elapsed = elapsed,
-                                .valid = e.valid, .rel_error = e.valid ? e.rel_rmse : 0};
+        /* A restarted master merging the journal's results again meets passes it recorded. */
+        bool known = j->nhistory > 0 && j->history[j->nhistory - 1].pass >= info.passes_done;
+        if (!known && j->nhistory < MAX_PASS_RECORDS) {
+            pass_record_t rec = {.pass = info.passes_done, .spp = info.spp_done, .elapsed = elapsed,
+                                 .valid = e.valid, .rel_error = e.valid ? e.rel_rmse : 0};
+            j->history[j->nhistory++] = rec;
+            journal_pass_t jp = {.pass = rec.pass, .spp = rec.spp, .elapsed = rec.elapsed,
+                                 .valid = rec.valid, .rel_error = rec.rel_error};
+            if (m->journal && journal_add_pass(m->journal, j->id, j->round, &jp, &err) < 0)
+                journal_failed(m, j, &err);
+        }
         char est[64] = "no error estimate yet (1 sample per pixel)";
         if (e.valid)
             snprintf(est, sizeof est, "relative error %.4g", e.rel_rmse);
@@ -714,6 +854,124 @@ static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
     }
 }
 
+/* Who a result came from: a worker, or the journal (id 0) when a restarted master merges
+ * what it had received before again. */
+typedef struct source {
+    uint64_t id;
+    const char *name;
+    bool replay;
+} source_t;
+
+/* The photon phase is merged: its store's hash names it in every camera task, and with a
+ * journal it goes to disk at once, so that a restart does not trace it again. */
+static void photon_phase_merged(master_t *m, mjob_t *j)
+{
+    err_t err;
+    const uint8_t *data;
+    size_t size;
+    const char *hash;
+    if (photon_phase_store(j->photons, &data, &size, &hash, &err) < 0) {
+        mlog(m, "job %llu: the merged photon store: %s", (unsigned long long)j->id, err.msg);
+        sched_fail_job(m->sched, j->id, err.msg);
+        return;
+    }
+    memcpy(j->store, hash, sizeof j->store);
+    j->store_ready = true;
+    photon_phase_stats_t ps = photon_phase_stats(j->photons);
+    mlog(m,
+         "job %llu photon pass merged: %llu photons in %u batches, %llu emitted, %.1f MB store "
+         "%.12s",
+         (unsigned long long)j->id, (unsigned long long)ps.photons, ps.batches,
+         (unsigned long long)ps.emitted, size / 1e6, hash);
+    if (m->journal && save_store(m, j, &err) < 0)
+        journal_failed(m, j, &err);
+}
+
+static void photon_result(master_t *m, mjob_t *j, const source_t *src, uint32_t task,
+                          uint32_t attempt, const proto_photon_result_t *r, double now)
+{
+    err_t err;
+    int rc = -1;
+    uint32_t b = task & ~SCHED_PHOTON_TASK;
+    if (!(task & SCHED_PHOTON_TASK) || !j->photons)
+        err_set(&err, "task %u is not a photon batch of the job, or its result is not one", task);
+    else if ((rc = photon_phase_add(j->photons, j->photon_base + b, r, &err)) >= 0)
+        rc = sched_photon_done(m->sched, src->id, j->id, task, attempt, now, &err);
+    if (rc < 0) {
+        mlog(m, "bad photon batch from %s %llu '%s' for job %llu: %s",
+             src->replay ? "the journal" : "worker", (unsigned long long)src->id, src->name,
+             (unsigned long long)j->id, err.msg);
+        sched_task_failed(m->sched, src->id, j->id, task, attempt, err.msg);
+        return;
+    }
+    if ((rc & SCHED_MERGED) && m->journal && !src->replay) {
+        uint8_t *blob;
+        size_t size;
+        if (journal_pack_photons(r, &blob, &size, &err) < 0) {
+            journal_failed(m, j, &err);
+        } else {
+            if (journal_add_result(m->journal, j->id, j->round, task, 1, (int)b, -1, blob, size,
+                                   &err) < 0)
+                journal_failed(m, j, &err);
+            free(blob);
+        }
+    }
+    if (rc & SCHED_PHASE_DONE)
+        photon_phase_merged(m, j);
+}
+
+/* A camera tile's result: tb (taken) covers samples [sb, se). wire is the result as received,
+ * journaled once merged; NULL for one replayed from the journal. */
+static void camera_result(master_t *m, mjob_t *j, const source_t *src, uint32_t task,
+                          uint32_t attempt, tilebuf_t *tb, uint32_t sb, uint32_t se,
+                          const proto_tile_result_t *wire, double now)
+{
+    uint64_t pass = j->ntiles > 0 ? task / (uint64_t)j->ntiles : 0;
+    if (pass >= 40) {
+        mlog(m, "%s %llu sent a result for job %llu task %u, which does not exist",
+             src->replay ? "the journal" : "worker", (unsigned long long)src->id,
+             (unsigned long long)j->id, task);
+        tilebuf_destroy(&tb);
+        return;
+    }
+    uint32_t pb, pe;
+    pass_range(j->spp, pass, &pb, &pe);
+    err_t err;
+    int rc = -1;
+    if (sb != pb || se != pe) {
+        tilebuf_destroy(&tb);
+        err_set(&err, "the result covers samples [%u, %u), task %u is samples [%u, %u)", sb, se,
+                task, pb, pe);
+    } else {
+        rc = sched_task_done(m->sched, src->id, j->id, task, attempt, &tb, now, &err);
+    }
+    if (rc < 0) {
+        mlog(m, "bad result from %s %llu '%s' for job %llu: %s",
+             src->replay ? "the journal" : "worker", (unsigned long long)src->id, src->name,
+             (unsigned long long)j->id, err.msg);
+        sched_task_failed(m->sched, src->id, j->id, task, attempt, err.msg);
+        return;
+    }
+    if ((rc & SCHED_MERGED) && m->journal && wire) {
+        uint8_t *blob;
+        size_t size;
+        int tile = (int)(task % (uint32_t)j->ntiles);
+        if (journal_pack_tile(wire, &blob, &size, &err) < 0) {
+            journal_failed(m, j, &err);
+        } else {
+            if (journal_add_result(m->journal, j->id, j->round, task, 0, tile, (int)pass, blob,
+                                   size, &err) < 0)
+                journal_failed(m, j, &err);
+            else
+                j->journaled_bytes += size;
+            free(blob);
+        }
+    }
+    if (rc & SCHED_PASS_DONE)
+        passes_merged(m, j, rc, now);
+    maybe_checkpoint(m, j, now);
+}
+
 static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double now)
 {
     const proto_tile_result_t *r = &msg->result.tile;
@@ -727,66 +985,29 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
     }
     if (!j->in_sched || task >> 32 != j->round)
         return; /* finished already, or of an earlier round: a late copy of a re-issued task */
-    task &= UINT32_MAX;
-    if (msg->result.kind == PROTO_KIND_PHOTON_BATCH || (task & SCHED_PHOTON_TASK)) {
-        err_t err;
-        int rc = -1;
-        uint32_t b = (uint32_t)task & ~SCHED_PHOTON_TASK;
-        if (msg->result.kind != PROTO_KIND_PHOTON_BATCH || !(task & SCHED_PHOTON_TASK) || !j->photons)
-            err_set(&err, "task %llu is not a photon batch of the job, or its result is not one",
-                    (unsigned long long)task);
-        else if ((rc = photon_phase_add(j->photons, j->photon_base + b, &msg->result.photons, &err)) >= 0)
-            rc = sched_photon_done(m->sched, w->id, job, (uint32_t)task, attempt, now, &err);
-        if (rc < 0) {
-            mlog(m, "bad photon batch from worker %llu '%s' for job %llu: %s",
-                 (unsigned long long)w->id, w->name, (unsigned long long)job, err.msg);
-            sched_task_failed(m->sched, w->id, job, (uint32_t)task, attempt, err.msg);
-        } else if (rc & SCHED_PHASE_DONE) {
-            const uint8_t *data;
-            size_t size;
-            const char *hash;
-            if (photon_phase_store(j->photons, &data, &size, &hash, &err) < 0) {
-                mlog(m, "job %llu: the merged photon store: %s", (unsigned long long)job, err.msg);
-                sched_fail_job(m->sched, job, err.msg);
-            } else {
-                memcpy(j->store, hash, sizeof j->store);
-                j->store_ready = true;
-                photon_phase_stats_t ps = photon_phase_stats(j->photons);
-                mlog(m,
-                     "job %llu photon pass merged: %llu photons in %u batches, %llu emitted, "
-                     "%.1f MB store %.12s",
-                     (unsigned long long)job, (unsigned long long)ps.photons, ps.batches,
-                     (unsigned long long)ps.emitted, size / 1e6, hash);
-            }
+    uint32_t t32 = (uint32_t)(task & UINT32_MAX);
+    source_t src = {.id = w->id, .name = w->name};
+    if (msg->result.kind == PROTO_KIND_PHOTON_BATCH || (t32 & SCHED_PHOTON_TASK)) {
+        if (msg->result.kind != PROTO_KIND_PHOTON_BATCH) {
+            mlog(m, "worker %llu '%s' sent a camera result for photon batch task %u of job %llu",
+                 (unsigned long long)w->id, w->name, t32, (unsigned long long)job);
+            sched_task_failed(m->sched, w->id, job, t32, attempt, "a camera result for a photon batch");
+        } else {
+            photon_result(m, j, &src, t32, attempt, &msg->result.photons, now);
         }
         job_refresh(m, j, now);
         return;
     }
-    uint64_t pass = j->ntiles > 0 ? task / (uint64_t)j->ntiles : 0;
-    if (pass >= 40) {
-        mlog(m, "worker %llu sent a result for job %llu task %llu, which does not exist",
-             (unsigned long long)w->id, (unsigned long long)job, (unsigned long long)task);
-        return;
-    }
-    uint32_t sb, se;
-    pass_range(j->spp, pass, &sb, &se);
     err_t err;
-    int rc = -1;
-    if (r->rect.sample_begin != sb || r->rect.sample_end != se) {
-        err_set(&err, "the result covers samples [%u, %u), task %llu is samples [%u, %u)",
-                r->rect.sample_begin, r->rect.sample_end, (unsigned long long)task, sb, se);
-    } else {
-        tilebuf_t *tb = tilebuf_new_from(r->rect.x0, r->rect.y0, r->rect.w, r->rect.h, r->nbuckets,
-                                         r->sums, r->counts, r->lum, r->lum_sq, r->nonfinite, &err);
-        if (tb)
-            rc = sched_task_done(m->sched, w->id, job, (uint32_t)task, attempt, &tb, now, &err);
-    }
-    if (rc < 0) {
+    tilebuf_t *tb = tilebuf_new_from(r->rect.x0, r->rect.y0, r->rect.w, r->rect.h, r->nbuckets,
+                                     r->sums, r->counts, r->lum, r->lum_sq, r->nonfinite, &err);
+    if (!tb) {
         mlog(m, "bad result from worker %llu '%s' for job %llu: %s", (unsigned long long)w->id,
              w->name, (unsigned long long)job, err.msg);
-        sched_task_failed(m->sched, w->id, job, (uint32_t)task, attempt, err.msg);
-    } else if (rc & SCHED_PASS_DONE) {
-        passes_merged(m, j, rc, now);
+        sched_task_failed(m->sched, w->id, job, t32, attempt, err.msg);
+    } else {
+        camera_result(m, j, &src, t32, attempt, tb, r->rect.sample_begin, r->rect.sample_end, r,
+                      now);
     }
     job_refresh(m, j, now);
 }
@@ -930,6 +1151,129 @@ static void strip_all(char *msg, const char *prefix)
         memmove(p, p + n, strlen(p + n) + 1);
 }
 
+/* The figures a job takes from its loaded scene: sizes, seed, grid, what it runs with. */
+static void job_take_scene(mjob_t *j, const scene_t *scene)
+{
+    static const char *integ_names[] = {"simplepath", "path", "whitted"};
+    const render_settings_t *rs = &scene->settings;
+    j->integrator_used = !rs->photon.enabled                     ? integ_names[rs->integrator]
+                         : rs->integrator == INTEGRATOR_WHITTED ? "photon+whitted"
+                                                                : "photon+path";
+    j->dispersion_used = !scene->has_dispersion                 ? "off"
+                         : rs->dispersion == DISPERSION_HERO ? "hero"
+                                                             : "fanout";
+    j->xres = rs->xres;
+    j->yres = rs->yres;
+    j->spp = rs->spp;
+    j->seed = rs->seed;
+    j->grid = rs->grid;
+}
+
+static void job_set_settings(mjob_t *j, const proto_settings_t *set)
+{
+    j->settings = *set;
+    j->settings.integrator = NULL;
+    j->settings.dispersion = NULL;
+    if (set->integrator) {
+        snprintf(j->integrator, sizeof j->integrator, "%s", set->integrator);
+        j->settings.integrator = j->integrator;
+    }
+    if (set->dispersion) {
+        snprintf(j->dispersion, sizeof j->dispersion, "%s", set->dispersion);
+        j->settings.dispersion = j->dispersion;
+    }
+}
+
+/* A job made from its scene, dir/main loaded with the settings and confined to dir (the scene
+ * reads nothing else, so no message can show a client a file of the master's host); a photon
+ * job gets a fresh photon phase, which keeps the scene to check and merge batches against.
+ * Not yet scheduled (job_schedule). */
+static mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
+                       const proto_settings_t *set, const char *dir, err_t *err)
+{
+    size_t main_size = strlen(dir) + strlen(main) + 2;
+    char *main_path = malloc(main_size);
+    mjob_t *j = calloc(1, sizeof *j);
+    if (!main_path || !j || !(j->name = dup_str(name)) || !(j->main = dup_str(main))) {
+        free(main_path);
+        job_free(j);
+        err_set(err, "the master is out of memory");
+        return NULL;
+    }
+    snprintf(main_path, main_size, "%s/%s", dir, main);
+    scene_overrides_t ov = proto_settings_to_overrides(set);
+    scene_t *scene = scene_load_file_confined(main_path, dir, &ov, err);
+    free(main_path);
+    if (!scene) {
+        job_free(j);
+        return NULL;
+    }
+    job_take_scene(j, scene);
+    bool photon = scene->settings.photon.enabled;
+    uint64_t photons = scene->settings.photon.photons;
+    if (photon && !(j->photons = photon_phase_new(&scene, err))) {
+        job_free(j);
+        return NULL;
+    }
+    scene_destroy(&scene);
+    j->id = id;
+    make_stem(j->name, j->stem, sizeof j->stem);
+    snprintf(j->hash, sizeof j->hash, "%s", hash);
+    job_set_settings(j, set);
+    j->photon_job = photon;
+    j->round_photons = photon ? photons : 0;
+    j->state = JOB_QUEUED;
+    j->stop = PROTO_STOP_NONE;
+    return j;
+}
+
+/* Adds a new job to the scheduler, with photon_batches batches before its camera phase and
+ * whole passes when it may end early, and to the master's list. */
+static int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err)
+{
+    if (m->njobs == m->cap_jobs) {
+        size_t cap = m->cap_jobs ? 2 * m->cap_jobs : 16;
+        mjob_t **p = realloc(m->jobs, cap * sizeof *p);
+        if (!p)
+            return err_set(err, "the master is out of memory");
+        m->jobs = p;
+        m->cap_jobs = cap;
+    }
+    bool may_stop = j->settings.target_error > 0 || j->settings.time_limit > 0;
+    sched_job_info_t info;
+    if (sched_add_job(m->sched, j->id, j->xres, j->yres, j->spp, j->grid, err) < 0)
+        return -1;
+    if ((may_stop && sched_set_whole_passes(m->sched, j->id, err) < 0) ||
+        (photon_batches > 0 && sched_add_photon_batches(m->sched, j->id, photon_batches, err) < 0) ||
+        sched_job_info(m->sched, j->id, &info) < 0) {
+        err_t ignore;
+        sched_cancel_job(m->sched, j->id, &ignore);
+        (void)sched_remove_job(m->sched, j->id, &ignore);
+        return -1;
+    }
+    j->ntiles = info.ntiles;
+    j->samples_total = info.samples_total;
+    j->in_sched = true;
+    m->jobs[m->njobs++] = j;
+    return 0;
+}
+
+/* Takes a job back out of the master's list and the scheduler (a submission that could not be
+ * journaled). */
+static void job_unschedule(master_t *m, mjob_t *j)
+{
+    err_t ignore;
+    (void)sched_cancel_job(m->sched, j->id, &ignore);
+    (void)sched_remove_job(m->sched, j->id, &ignore);
+    for (size_t i = 0; i < m->njobs; i++)
+        if (m->jobs[i] == j) {
+            memmove(&m->jobs[i], &m->jobs[i + 1], (m->njobs - i - 1) * sizeof *m->jobs);
+            m->njobs--;
+            break;
+        }
+    job_free(j);
+}
+
 static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
 {
     const proto_bundle_t *b = &msg->submit.bundle;
@@ -949,20 +1293,11 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "the master cannot store the scene: %s", err.msg);
         return;
     }
-    size_t main_size = strlen(dir) + strlen(b->main) + 2;
-    char *main_path = malloc(main_size);
-    if (!main_path) {
-        spool_scene_discard(m->spool, dir, staged);
-        reply_error(m, from, "the master is out of memory");
-        return;
-    }
-    snprintf(main_path, main_size, "%s/%s", dir, b->main);
-    scene_overrides_t ov = proto_settings_to_overrides(&msg->submit.settings);
-    /* Confined to the bundle's folder: the scene reads nothing else, so no message can show
-     * the client a file of the master's host. */
-    scene_t *scene = scene_load_file_confined(main_path, dir, &ov, &err);
-    free(main_path);
-    if (!scene) {
+    uint64_t id = m->last_job + 1;
+    const proto_settings_t *set = &msg->submit.settings;
+    mjob_t *j = job_new(id, msg->submit.name, hash, b->main, set, dir, &err);
+    if (!j) {
+        /* The client named files of its bundle, not the master's spool folder. */
         char prefix[PATH_MAX + 1];
         char *real = realpath(dir, NULL);
         if (real) {
@@ -977,102 +1312,30 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "%s", err.msg);
         return;
     }
-    const render_settings_t rs = scene->settings;
-    static const char *integ_names[] = {"simplepath", "path", "whitted"};
-    const char *integ_used = !rs.photon.enabled                     ? integ_names[rs.integrator]
-                             : rs.integrator == INTEGRATOR_WHITTED ? "photon+whitted"
-                                                                   : "photon+path";
-    const char *disp_used = !scene->has_dispersion ? "off" : rs.dispersion == DISPERSION_HERO ? "hero" : "fanout";
-    /* A photon job keeps its scene: the photon phase checks and merges the batches against it. */
-    photon_phase_t *phase = NULL;
-    if (rs.photon.enabled && !(phase = photon_phase_new(&scene, &err))) {
-        spool_scene_discard(m->spool, dir, staged);
-        mlog(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
-        reply_error(m, from, "%s", err.msg);
-        return;
-    }
-    scene_destroy(&scene);
     if (spool_scene_commit(m->spool, b, hash, dir, staged, &m->limits, &err) < 0) {
-        photon_phase_destroy(&phase);
+        job_free(j);
         spool_scene_discard(m->spool, dir, staged);
         mlog(m, "cannot store scene %.12s: %s", hash, err.msg);
         reply_error(m, from, "the master cannot store the scene: %s", err.msg);
         return;
     }
-    mjob_t *j = calloc(1, sizeof *j);
-    if (j)
-        j->name = dup_str(msg->submit.name);
-    if (j && j->name && m->njobs == m->cap_jobs) {
-        size_t cap = m->cap_jobs ? 2 * m->cap_jobs : 16;
-        mjob_t **p = realloc(m->jobs, cap * sizeof *p);
-        if (p) {
-            m->jobs = p;
-            m->cap_jobs = cap;
-        }
-    }
-    if (j)
-        j->photons = phase; /* freed with the job from here on */
-    else
-        photon_phase_destroy(&phase);
-    if (!j || !j->name || m->njobs == m->cap_jobs) {
-        job_free(j);
-        reply_error(m, from, "the master is out of memory");
-        return;
-    }
-    uint64_t id = m->last_job + 1;
-    /* A job that may end early keeps whole passes only, so that it can end at any boundary. */
-    const proto_settings_t *set = &msg->submit.settings;
-    bool may_stop = set->target_error > 0 || set->time_limit > 0;
-    if (sched_add_job(m->sched, id, rs.xres, rs.yres, rs.spp, rs.grid, &err) < 0 ||
-        (may_stop && sched_set_whole_passes(m->sched, id, &err) < 0) ||
-        (j->photons &&
-         sched_add_photon_batches(m->sched, id, photon_phase_nbatches(j->photons), &err) < 0)) {
-        err_t ignore;
-        (void)sched_remove_job(m->sched, id, &ignore);
+    if (job_schedule(m, j, j->photons ? photon_phase_nbatches(j->photons) : 0, &err) < 0) {
         job_free(j);
         mlog(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
         reply_error(m, from, "%s", err.msg);
         return;
     }
-    m->last_job = id;
-    sched_job_info_t info;
-    (void)sched_job_info(m->sched, id, &info);
-    j->id = id;
-    make_stem(j->name, j->stem, sizeof j->stem);
-    memcpy(j->hash, hash, sizeof j->hash);
-    j->photon_job = j->photons != NULL;
-    if (j->photon_job && !(j->main = dup_str(b->main))) {
-        err_t ignore;
-        (void)sched_remove_job(m->sched, id, &ignore);
-        job_free(j);
-        reply_error(m, from, "the master is out of memory");
+    j->submitted = now;
+    /* Journaled before it is acknowledged: a job the client was told about survives a
+     * restart. */
+    journal_job_t rec = job_record(j, now);
+    if (m->journal && journal_add_job(m->journal, &rec, &err) < 0) {
+        mlog(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
+        job_unschedule(m, j);
+        reply_error(m, from, "the master cannot journal the job: %s", err.msg);
         return;
     }
-    j->settings = msg->submit.settings;
-    j->settings.integrator = NULL;
-    j->settings.dispersion = NULL;
-    if (msg->submit.settings.integrator) {
-        snprintf(j->integrator, sizeof j->integrator, "%s", msg->submit.settings.integrator);
-        j->settings.integrator = j->integrator;
-    }
-    if (msg->submit.settings.dispersion) {
-        snprintf(j->dispersion, sizeof j->dispersion, "%s", msg->submit.settings.dispersion);
-        j->settings.dispersion = j->dispersion;
-    }
-    j->xres = rs.xres;
-    j->yres = rs.yres;
-    j->spp = rs.spp;
-    j->seed = rs.seed;
-    j->integrator_used = integ_used;
-    j->dispersion_used = disp_used;
-    j->grid = rs.grid;
-    j->ntiles = info.ntiles;
-    j->submitted = now;
-    j->state = JOB_QUEUED;
-    j->in_sched = true;
-    j->samples_total = info.samples_total;
-    j->stop = PROTO_STOP_NONE;
-    m->jobs[m->njobs++] = j;
+    m->last_job = id;
     /* The job's folder marks its id as used, so a restarted master never gives it out again
      * (spool_last_job_id counts these folders), even if nothing was rendered yet. */
     char jobdir[PATH_MAX];
@@ -1080,6 +1343,8 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
         mlog(m, "job %llu: %s", (unsigned long long)id, err.msg);
     proto_msg_t ok = {.type = PROTO_SUBMITTED, .submitted = {.job = id}};
     reply(m, from, &ok);
+    sched_job_info_t info;
+    (void)sched_job_info(m->sched, id, &info);
     char rules[96] = "";
     if (set->target_error > 0)
         snprintf(rules, sizeof rules, ", target error %g", set->target_error);
@@ -1089,7 +1354,7 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     mlog(m,
          "job %llu '%s' submitted by %s: %dx%d, %d spp, %d buckets, %d tiles x %d passes, %u "
          "photon batches, scene %.12s%s%s",
-         (unsigned long long)id, j->name, who, rs.xres, rs.yres, rs.spp, rs.grid.n, info.ntiles,
+         (unsigned long long)id, j->name, who, j->xres, j->yres, j->spp, j->grid.n, info.ntiles,
          info.npasses, info.photon_batches, hash, staged ? "" : " (stored already)", rules);
 }
 
@@ -1201,6 +1466,7 @@ static int restore_photons(master_t *m, mjob_t *j, err_t *err)
     scene_t *scene = scene_load_file_confined(main_path, scene_dir, &ov, err);
     if (!scene)
         return -1;
+    job_take_scene(j, scene); /* a job a restarted master read from its journal has no figures */
     uint8_t *data = NULL;
     size_t size = 0;
     if (spool_read_file(path, m->limits.max_message_bytes, &data, &size, err) < 0) {
@@ -1257,10 +1523,16 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
         mlog(m, "job %llu: refinement failed: %s", (unsigned long long)j->id, err.msg);
         job_set_error(j, err.msg);
         j->state = JOB_FAILED;
+        journal_state(m, j, now);
         reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
         return;
     }
+    sched_job_info_t info;
+    if (sched_job_info(m->sched, j->id, &info) == 0)
+        j->ntiles = info.ntiles;
     j->photon_base = base;
+    j->refine_photons = msg->refine.photons;
+    j->round_photons = photon_phase_stats(j->photons).photons + msg->refine.photons;
     j->round++;
     j->store_ready = false;
     j->in_sched = true;
@@ -1270,6 +1542,12 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
     j->nhistory = j->spp_done = 0; /* the round's accuracy, with its own stopping rules */
     j->stop = PROTO_STOP_NONE;
     j->submitted = now;
+    j->checkpoint = 0;
+    j->journaled_bytes = 0;
+    j->checkpoint_samples = 0;
+    journal_job_t rec = job_record(j, now);
+    if (m->journal && journal_set_round(m->journal, &rec, &err) < 0)
+        journal_failed(m, j, &err);
     photon_phase_stats_t ps = photon_phase_stats(j->photons);
     mlog(m, "job %llu '%s' refined: %llu more photons in %u batches (%llu so far), then the camera "
          "phase again",
@@ -1353,6 +1631,255 @@ static void on_client_message(master_t *m, const proto_peer_t *from, const proto
                     proto_type_name(msg->type));
     }
     }
+}
+
+/* ---------------------------------------------------------------- resuming from the journal */
+
+/* Removes jobs/<id>/checkpoint-*.bin other than generation keep (0: all): files a master
+ * killed between writing a checkpoint and journaling it, or between journaling the next one
+ * and removing this one, left behind. */
+static void remove_stale_checkpoints(master_t *m, uint64_t id, uint64_t keep)
+{
+    char dir[PATH_MAX];
+    snprintf(dir, sizeof dir, "%s/jobs/%llu", spool_path(m->spool), (unsigned long long)id);
+    DIR *d = opendir(dir);
+    if (!d)
+        return;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        unsigned long long gen;
+        char tail[8];
+        if (sscanf(e->d_name, "checkpoint-%llu.bi%1s", &gen, tail) != 2 ||
+            (gen == keep && !strstr(e->d_name, ".tmp")))
+            continue;
+        char path[PATH_MAX + 300];
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        (void)unlink(path);
+    }
+    (void)closedir(d);
+}
+
+/* A job of the journal as the master lists it without rendering it: one that is over, or one
+ * that cannot be resumed. */
+static mjob_t *job_from_record(const journal_job_t *r)
+{
+    mjob_t *j = calloc(1, sizeof *j);
+    if (!j || !(j->name = dup_str(r->name)) || !(j->main = dup_str(r->main)) ||
+        (r->error && !(j->error = dup_str(r->error)))) {
+        job_free(j);
+        return NULL;
+    }
+    j->id = r->id;
+    make_stem(j->name, j->stem, sizeof j->stem);
+    snprintf(j->hash, sizeof j->hash, "%s", r->hash);
+    job_set_settings(j, &r->settings);
+    j->state = (job_state_t)r->state;
+    j->outputs = r->outputs;
+    j->stop = (proto_stop_t)r->stop;
+    j->samples_done = r->samples_done;
+    j->samples_total = r->samples_total;
+    j->nonfinite = r->nonfinite;
+    j->spp_done = r->spp_done;
+    j->round = r->round;
+    j->photons_saved = r->photons_saved;
+    j->photon_job = r->photons_saved > 0;
+    j->round_photons = r->round_photons;
+    j->integrator_used = j->dispersion_used = "?";
+    return j;
+}
+
+static int jobs_append(master_t *m, mjob_t *j)
+{
+    if (m->njobs == m->cap_jobs) {
+        size_t cap = m->cap_jobs ? 2 * m->cap_jobs : 16;
+        mjob_t **p = realloc(m->jobs, cap * sizeof *p);
+        if (!p)
+            return -1;
+        m->jobs = p;
+        m->cap_jobs = cap;
+    }
+    m->jobs[m->njobs++] = j;
+    return 0;
+}
+
+typedef struct replay {
+    master_t *m;
+    mjob_t *j;
+    double now;
+    size_t results;
+} replay_t;
+
+static int replay_result(void *user, uint32_t task, int kind, const void *data, size_t size,
+                         err_t *err)
+{
+    replay_t *rp = user;
+    source_t src = {.id = 0, .name = "journal", .replay = true};
+    sched_job_info_t info;
+    if (sched_job_info(rp->m->sched, rp->j->id, &info) < 0)
+        return err_set(err, "the job left the scheduler during its replay");
+    if (info.state == JOB_QUEUED && sched_restore_job(rp->m->sched, rp->j->id, NULL, NULL, 0, err) < 0)
+        return -1;
+    if (info.state != JOB_QUEUED && info.state != JOB_RUNNING)
+        return 0; /* over already (the journal held more than it needed) */
+    if (kind == 1) {
+        proto_photon_result_t r;
+        if (journal_unpack_photons(data, size, &r, err) < 0)
+            return -1;
+        photon_result(rp->m, rp->j, &src, task, 0, &r, rp->now);
+    } else {
+        uint32_t sb, se;
+        tilebuf_t *tb = journal_unpack_tile(data, size, &sb, &se, err);
+        if (!tb)
+            return -1;
+        camera_result(rp->m, rp->j, &src, task, 0, tb, sb, se, NULL, rp->now);
+        rp->j->journaled_bytes += size;
+    }
+    rp->results++;
+    return 0;
+}
+
+/* An unfinished job of the journal back in the scheduler where the journal leaves it: its
+ * photon store from disk (or a fresh phase), its last checkpoint, its pass records, then every
+ * result journaled since, merged again in the scheduler's order. */
+static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *err)
+{
+    char dir[PATH_MAX];
+    snprintf(dir, sizeof dir, "%s/scenes/%s", spool_path(m->spool), r->hash);
+    mjob_t *j = job_new(r->id, r->name, r->hash, r->main, &r->settings, dir, err);
+    if (!j)
+        return -1;
+    j->round = r->round;
+    j->photons_saved = r->photons_saved;
+    j->round_photons = r->round_photons;
+    j->refine_photons = r->refine_photons;
+    j->submitted = now;
+    uint32_t batches = 0, photons_done = 0;
+    if (j->photons && r->photons_saved > 0) {
+        photon_phase_destroy(&j->photons);
+        if (restore_photons(m, j, err) < 0) {
+            job_free(j);
+            return -1;
+        }
+        uint32_t base = photon_phase_nbatches(j->photons);
+        if (r->photons_saved >= r->round_photons) {
+            batches = photons_done = base; /* the round's store is merged: camera phase */
+        } else if (photon_phase_refine(j->photons, r->round_photons - r->photons_saved, err) < 0) {
+            job_free(j);
+            return -1;
+        } else {
+            j->photon_base = base;
+            batches = photon_phase_nbatches(j->photons) - base;
+        }
+    } else if (j->photons) {
+        batches = photon_phase_nbatches(j->photons);
+    }
+    if (job_schedule(m, j, batches, err) < 0) {
+        job_free(j);
+        return -1;
+    }
+    /* From here on the job is listed: a failure fails it, with the reason. */
+    int rc = 0;
+    tilebuf_t *image = NULL;
+    int *next = NULL;
+    if (r->checkpoint > 0) {
+        char path[PATH_MAX + 64];
+        checkpoint_path(m, j->id, r->checkpoint, path, sizeof path);
+        if (!(next = malloc((size_t)j->ntiles * sizeof *next)))
+            rc = err_set(err, "out of memory");
+        else if ((rc = journal_read_checkpoint(path, j->xres, j->yres, j->grid.n, j->ntiles,
+                                               &image, next, err)) == 0)
+            j->checkpoint = r->checkpoint;
+    }
+    if (rc == 0 && (image || photons_done > 0))
+        rc = sched_restore_job(m->sched, j->id, &image, image ? next : NULL, photons_done, err);
+    free(next);
+    tilebuf_destroy(&image);
+    if (rc >= 0 && photons_done > 0)
+        photon_phase_merged(m, j);
+    if (rc >= 0) {
+        journal_pass_t passes[MAX_PASS_RECORDS];
+        int n = journal_passes(m->journal, j->id, j->round, passes, MAX_PASS_RECORDS, err);
+        rc = n < 0 ? -1 : 0;
+        for (int i = 0; i < n; i++)
+            j->history[j->nhistory++] =
+                (pass_record_t){.pass = passes[i].pass, .spp = passes[i].spp,
+                                .elapsed = passes[i].elapsed, .valid = passes[i].valid,
+                                .rel_error = passes[i].rel_error};
+    }
+    sched_job_info_t info;
+    if (rc >= 0 && sched_job_info(m->sched, j->id, &info) == 0) {
+        j->checkpoint_samples = info.samples_done;
+        if (info.state == JOB_RUNNING) {
+            j->started = now - r->elapsed;
+            j->state = JOB_RUNNING;
+        }
+    }
+    replay_t rp = {.m = m, .j = j, .now = now};
+    if (rc >= 0)
+        rc = journal_results(m->journal, j->id, j->round, replay_result, &rp, err);
+    if (rc < 0) {
+        char msg[600];
+        snprintf(msg, sizeof msg, "cannot resume it after the master restarted: %s", err->msg);
+        sched_fail_job(m->sched, j->id, msg);
+        job_refresh(m, j, now);
+        return 0; /* listed as failed, with the reason */
+    }
+    remove_stale_checkpoints(m, j->id, j->checkpoint);
+    if (sched_job_info(m->sched, j->id, &info) == 0)
+        mlog(m, "job %llu '%s' resumed: %d of %d passes merged, %llu of %llu samples, %u of %u "
+             "photon batches, %zu results from the journal",
+             (unsigned long long)j->id, j->name, info.passes_done, info.npasses,
+             (unsigned long long)info.samples_done, (unsigned long long)info.samples_total,
+             info.photon_batches_done, info.photon_batches, rp.results);
+    job_refresh(m, j, now);
+    return 0;
+}
+
+/* Every job of the journal: finished ones listed (their outputs stay fetchable, a photon job
+ * refinable), unfinished ones resumed. Job ids continue after the highest. */
+static int resume_jobs(master_t *m, err_t *err)
+{
+    journal_job_t *rows;
+    size_t n;
+    if (journal_jobs(m->journal, &rows, &n, err) < 0)
+        return -1;
+    double now = now_s();
+    int rc = 0;
+    for (size_t i = 0; i < n && rc == 0; i++) {
+        journal_job_t *r = &rows[i];
+        if (r->id > m->last_job)
+            m->last_job = r->id;
+        char jobdir[PATH_MAX];
+        if (spool_job_dir(m->spool, r->id, jobdir, sizeof jobdir, err) < 0) {
+            rc = -1;
+            break;
+        }
+        if (r->state == JOB_QUEUED || r->state == JOB_RUNNING) {
+            err_t jerr;
+            if (resume_job(m, r, now, &jerr) == 0)
+                continue;
+            /* Not even listed by resume_job (its scene cannot be loaded, say): listed as failed. */
+            char msg[600];
+            snprintf(msg, sizeof msg, "cannot resume it after the master restarted: %s", jerr.msg);
+            free(r->error);
+            r->error = dup_str(msg);
+            r->state = JOB_FAILED;
+            mlog(m, "job %llu '%s': %s", (unsigned long long)r->id, r->name, msg);
+        }
+        mjob_t *j = job_from_record(r);
+        if (!j || jobs_append(m, j) < 0) {
+            job_free(j);
+            rc = err_set(err, "out of memory for job %llu of the journal", (unsigned long long)r->id);
+            break;
+        }
+        remove_stale_checkpoints(m, j->id, 0);
+        if (r->state == JOB_FAILED && r->error && strstr(r->error, "after the master restarted"))
+            journal_state(m, j, now); /* failed just now: the journal learns why */
+    }
+    for (size_t i = 0; i < n; i++)
+        journal_job_clear(&rows[i]);
+    free(rows);
+    return rc;
 }
 
 /* ---------------------------------------------------------------- the loop */
@@ -1582,6 +2109,14 @@ int master_run(const master_opts_t *opts, err_t *err)
         err_prefix(err, "master: ");
         goto out;
     }
+    if (opts->journal) {
+        char jpath[PATH_MAX + 32];
+        snprintf(jpath, sizeof jpath, "%s/journal.db", spool_path(m->spool));
+        if (!(m->journal = journal_open(jpath, err)) || resume_jobs(m, err) < 0) {
+            err_prefix(err, "master: ");
+            goto out;
+        }
+    }
     const char *secret = opts->key_file ? keys.secret_key : NULL;
     if (!(m->wnet = open_router(m, ctx, "workers", opts->worker_endpoint, secret, wbound,
                                 sizeof wbound, err)) ||
@@ -1646,6 +2181,7 @@ out:
     if (ctx && !opts->zmq_ctx)
         (void)zmq_ctx_term(ctx);
     sched_destroy(&m->sched);
+    journal_close(&m->journal);
     spool_destroy(&m->spool);
     for (size_t i = 0; i < m->nworkers; i++)
         worker_free(m->workers[i]);

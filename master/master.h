@@ -41,6 +41,10 @@ typedef struct master_opts {
     int task_prefetch;           /* tasks a worker holds beyond its threads, so that a thread
                                   * that finishes finds its next task queued instead of waiting
                                   * for the round trip: -1 as many as it has threads, 0 none */
+    int journal;                 /* keep <spool>/journal.db (master/journal.h): a master
+                                  * restarted on the spool resumes every unfinished job with
+                                  * the pixels of an uninterrupted run; 0 for a master that
+                                  * lives and dies with its only client (`prismfarm render`) */
     double preview_interval_s;   /* a progressive preview is written after a pass at most this
                                   * often (0: after every pass); the final outputs always */
     int verbose;                 /* one line per event on stderr */
@@ -51,7 +55,7 @@ typedef struct master_opts {
 /* Workers on port 5555 and clients on port 5556 of every interface, spool "prismfarm-spool",
  * heartbeat 1000 ms, worker timeout 3 s, sched_config_default() otherwise, proto_limits_default(),
  * 256 unfinished jobs, a worker holding twice its threads in tasks, a preview at most every
- * second, verbose; no keys and not insecure (so tcp:// endpoints need keys or insecure). */
+ * second, a journal, verbose; no keys and not insecure (so tcp:// endpoints need keys or insecure). */
 master_opts_t master_opts_default(void);
 
 /* Runs the master until *opts->stop becomes non-zero (returns 0) or a fatal error (returns -1

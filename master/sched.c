@@ -120,6 +120,9 @@ void sched_destroy(sched_t **self_p)
     *self_p = NULL;
 }
 
+static void fill_task(const struct job *j, uint32_t i, sched_task_t *out);
+static void check_job_done(struct job *j, int *result);
+
 static job_t *find_job(const sched_t *self, uint64_t id)
 {
     for (size_t i = 0; i < self->njobs; i++)
@@ -307,6 +310,74 @@ int sched_finish_job_at_pass(sched_t *self, uint64_t id, err_t *err)
         return err_set(err, "job %llu has no whole pass merged yet", (unsigned long long)id);
     finish_job(self, j, JOB_DONE);
     return 0;
+}
+
+int sched_restore_job(sched_t *self, uint64_t id, tilebuf_t **image, const int *next_pass,
+                      uint32_t photons_done, err_t *err)
+{
+    tilebuf_t *img = image ? *image : NULL;
+    if (image)
+        *image = NULL;
+    job_t *j = find_job(self, id);
+    int rc = 0;
+    if (!j)
+        rc = err_set(err, "no job %llu", (unsigned long long)id);
+    else if (j->state != JOB_QUEUED || j->tasks_done > 0)
+        rc = err_set(err, "job %llu has started: its progress cannot be restored", (unsigned long long)id);
+    else if (photons_done > j->nphoton)
+        rc = err_set(err, "job %llu: %u photon batches done of %u", (unsigned long long)id,
+                     photons_done, j->nphoton);
+    else if (img && (tilebuf_x0(img) != 0 || tilebuf_y0(img) != 0 || tilebuf_width(img) != j->xres ||
+                     tilebuf_height(img) != j->yres || tilebuf_nbuckets(img) != j->grid.n))
+        rc = err_set(err, "job %llu: the restored image is not %dx%d with %d buckets",
+                     (unsigned long long)id, j->xres, j->yres, j->grid.n);
+    for (int t = 0; rc == 0 && next_pass && t < j->ntiles; t++)
+        if (next_pass[t] < 0 || next_pass[t] > j->npasses ||
+            (j->whole_passes && next_pass[t] != next_pass[0]))
+            rc = err_set(err, "job %llu: tile %d restored at pass %d of %d%s", (unsigned long long)id,
+                         t, next_pass[t], j->npasses, j->whole_passes ? " (not a whole pass)" : "");
+    if (rc == 0 && next_pass && !img)
+        rc = err_set(err, "job %llu: merged passes restored without their image", (unsigned long long)id);
+    if (rc < 0) {
+        tilebuf_destroy(&img);
+        return -1;
+    }
+    if (img) {
+        tilebuf_destroy(&j->image);
+        j->image = img;
+    }
+    for (int t = 0; next_pass && t < j->ntiles; t++) {
+        sched_task_t q;
+        fill_task(j, (uint32_t)t, &q);
+        for (int p = 0; p < next_pass[t]; p++) {
+            j->tasks[(size_t)p * (size_t)j->ntiles + (size_t)t].state = TASK_DONE;
+            j->tasks_done++;
+            j->done_in_pass[p]++;
+            j->merged_in_pass[p]++;
+            j->samples_done += (uint64_t)q.w * (uint64_t)q.h * (j->pass_begin[p + 1] - j->pass_begin[p]);
+        }
+        j->next_pass[t] = next_pass[t];
+    }
+    while (j->passes_done < j->npasses && j->merged_in_pass[j->passes_done] == j->ntiles)
+        j->passes_done++;
+    for (uint32_t b = 0; b < photons_done; b++) {
+        j->ptasks[b].state = TASK_DONE;
+        j->tasks_done++;
+        j->photon_done++;
+    }
+    j->state = JOB_RUNNING;
+    int out = 0;
+    check_job_done(j, &out);
+    return out & SCHED_JOB_DONE;
+}
+
+int sched_job_next_pass(const sched_t *self, uint64_t id, int *out, int n)
+{
+    const job_t *j = find_job(self, id);
+    if (!j || n < j->ntiles)
+        return -1;
+    memcpy(out, j->next_pass, (size_t)j->ntiles * sizeof *out);
+    return j->ntiles;
 }
 
 int sched_cancel_job(sched_t *self, uint64_t id, err_t *err)

@@ -95,6 +95,16 @@ int sched_merge_next_pass(sched_t *self, uint64_t job, err_t *err);
  * image stays (every pixel at spp_done samples), running tasks are released and held results
  * freed, as for a cancel; the caller tells the workers to drop the job's tasks. */
 int sched_finish_job_at_pass(sched_t *self, uint64_t job, err_t *err);
+/* A job's progress brought back from the master's journal (journal.h), before any task of it
+ * is issued: *image (the job's size and buckets; taken, also on failure) replaces its image,
+ * tile t's passes below next_pass[t] count as merged into it (for a whole-pass job every tile
+ * at the same pass), and photon batches [0, photons_done) as done. The job is running from here
+ * on; returns SCHED_JOB_DONE when that is every pass, else 0, or -1 with err. */
+int sched_restore_job(sched_t *self, uint64_t job, tilebuf_t **image, const int *next_pass,
+                      uint32_t photons_done, err_t *err);
+/* Per tile the pass it merges next (what a checkpoint of the image holds) into out[0..ntiles);
+ * returns ntiles, or -1 for an unknown job or n < ntiles. */
+int sched_job_next_pass(const sched_t *self, uint64_t job, int *out, int n);
 int sched_cancel_job(sched_t *self, uint64_t job, err_t *err);
 /* Ends a job as failed with message (the master could not finish what its tasks gave). */
 void sched_fail_job(sched_t *self, uint64_t job, const char *message);

@@ -1,15 +1,21 @@
 /* farm_testutil: helpers shared by the tests that run prismfarm processes: a scratch folder
- * per test group, sleeping, and comparing two EXRs' pixel data byte for byte. Header-only (each
- * test is its own executable); include after cmocka.h. */
+ * per test group, CURVE keys, starting and stopping `prismfarm master` / `worker` child
+ * processes and reading the endpoints a master chose, sleeping, and comparing two EXRs' pixel
+ * data byte for byte. Header-only (each test is its own executable); include after cmocka.h. */
 #ifndef PRISMFARM_FARM_TESTUTIL_H
 #define PRISMFARM_FARM_TESTUTIL_H
 
 #include "image_exr.h"
 
 #include <errno.h>
+#include <signal.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <sys/types.h>
+#include <sys/wait.h>
 #include <time.h>
+#include <unistd.h>
 
 /* Makes a fresh folder /tmp/prismfarm-test-NAME-XXXXXX into dir; returns 0 or -1. */
 static inline int testutil_mkdtemp(char *dir, size_t size, const char *name)
@@ -68,6 +74,84 @@ static inline double testutil_now_s(void)
     return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
+/* Starts `$PRISMFARM_BIN ARGS...` in the background (args: NULL-terminated, at most
+ * TESTUTIL_MAX_ARGS) with its stderr to log and its stdout to /dev/null, so that no child holds
+ * the test's own output open (ctest reads it until every writer is gone); returns its pid, or
+ * -1 when PRISMFARM_BIN is not set or fork fails. A child that cannot open its log or run the
+ * executable exits 126 or 127. */
+#define TESTUTIL_MAX_ARGS 48
+static inline pid_t testutil_spawn_argv(const char *log, const char *const *args)
+{
+    const char *bin = getenv("PRISMFARM_BIN");
+    if (!bin)
+        return -1;
+    char *argv[TESTUTIL_MAX_ARGS + 2];
+    int argc = 0;
+    argv[argc++] = (char *)bin;
+    for (int i = 0; args[i] && i < TESTUTIL_MAX_ARGS; i++)
+        argv[argc++] = (char *)args[i];
+    argv[argc] = NULL;
+    pid_t pid = fork();
+    if (pid == 0) {
+        if (!freopen(log, "w", stderr) || !freopen("/dev/null", "w", stdout))
+            _exit(126);
+        execv(bin, argv);
+        _exit(127);
+    }
+    return pid;
+}
+
+/* testutil_spawn_argv with the arguments listed; fails the test if the process cannot start. */
+static inline pid_t testutil_spawn(const char *log, const char *arg, ...)
+{
+    const char *args[TESTUTIL_MAX_ARGS + 1];
+    int n = 0;
+    va_list ap;
+    va_start(ap, arg);
+    for (const char *a = arg; a && n < TESTUTIL_MAX_ARGS; a = va_arg(ap, const char *))
+        args[n++] = a;
+    va_end(ap);
+    args[n] = NULL;
+    pid_t pid = testutil_spawn_argv(log, args);
+    if (pid < 0)
+        fail_msg("cannot start prismfarm %s (is PRISMFARM_BIN set?)", arg);
+    return pid;
+}
+
+/* Sends sig to pid and reaps it; returns its wait status, or -1 if it was not our child. */
+static inline int testutil_stop(pid_t pid, int sig)
+{
+    if (pid <= 0)
+        return -1;
+    kill(pid, sig);
+    int st;
+    while (waitpid(pid, &st, 0) < 0)
+        if (errno != EINTR)
+            return -1;
+    return st;
+}
+
+/* Reads "workers EP" and "clients EP" (workers and clients: 256 bytes each) from the endpoints
+ * file a master writes into its spool once its sockets are bound; fails the test if the file is
+ * not there within 10 s (a master starts in milliseconds, tens of them under a sanitizer). */
+static inline void testutil_read_endpoints(const char *spool, char *workers, char *clients)
+{
+    char path[600];
+    snprintf(path, sizeof path, "%s/endpoints", spool);
+    double deadline = testutil_now_s() + 10.0;
+    do {
+        FILE *f = fopen(path, "r");
+        if (f) {
+            int got = fscanf(f, "workers %255s clients %255s", workers, clients);
+            fclose(f);
+            if (got == 2)
+                return;
+        }
+        testutil_sleep_ms(25);
+    } while (testutil_now_s() < deadline);
+    fail_msg("the master did not write %s within 10 s", path);
+}
+
 /* Both EXRs have the same size and spectral channels and byte-identical spectral and RGB
  * pixel data. */
 static inline void testutil_assert_same_pixels(const char *a, const char *b)
@@ -83,7 +167,8 @@ static inline void testutil_assert_same_pixels(const char *a, const char *b)
     assert_int_equal(w, image_exr_width(y));
     assert_int_equal(h, image_exr_height(y));
     assert_int_equal(n, image_exr_n_spectral(y));
-    assert_memory_equal(image_exr_spectral(x), image_exr_spectral(y), (size_t)w * h * n * sizeof(float));
+    assert_memory_equal(image_exr_spectral(x), image_exr_spectral(y),
+                        (size_t)w * h * n * sizeof(float));
     assert_memory_equal(image_exr_rgb(x), image_exr_rgb(y), (size_t)w * h * 3 * sizeof(float));
     image_exr_destroy(&x);
     image_exr_destroy(&y);

@@ -340,8 +340,8 @@ static void test_worker_before_master(void **state)
 /* A master killed with SIGKILL while two workers render a job, restarted on the same endpoints
  * and spool. The workers notice and come back by themselves; a job submitted to the new master
  * completes with the right pixels, gets an id past those of the earlier run's outputs, and the
- * earlier run's outputs are left byte for byte as they were. (The old master's jobs are not
- * expected to survive: issue 6.) */
+ * earlier run's outputs are left byte for byte as they were. The job that was running is
+ * resumed from the journal (test_journal covers its pixels) and can be cancelled. */
 static void test_master_restarted(void **state)
 {
     (void)state;
@@ -380,6 +380,10 @@ static void test_master_restarted(void **state)
      * again") because the new master never knew them. */
     wait_log(mlog2, "'w1' joined", 15.0);
     wait_log(mlog2, "'w2' joined", 15.0);
+    wait_log(mlog2, "job 2 'long' resumed", 15.0);
+    r = run("cancel", "2", "--master", cep, NULL);
+    if (r->status != 0)
+        fail_msg("cancel of the resumed job: exit %d: %s", r->status, r->err);
     r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "--json", "-o",
             path_in("restart-second.exr"), "--quiet", NULL);
     if (r->status != 0)

@@ -1,0 +1,746 @@
+#include "journal.h"
+
+#include "spool.h"
+
+#include <limits.h>
+#include <sqlite3.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Bumped whenever a table or a blob changes meaning: a master never reads a journal it does
+ * not understand. */
+#define JOURNAL_VERSION 1
+
+#define TILE_MAGIC 0x4b544650u  /* "PFTK" in this host's order: a blob of another is refused */
+#define PHOT_MAGIC 0x48504650u  /* "PFPH" */
+#define CKPT_MAGIC 0x4b434650u  /* "PFCK" */
+#define MAX_IMAGE_SIDE 65536
+#define MAX_BUCKETS 1024
+
+struct journal {
+    sqlite3 *db;
+    char path[PATH_MAX];
+};
+
+static int db_error(journal_t *self, err_t *err, const char *what)
+{
+    return err_set(err, "journal %s: %s: %s", self->path, what, sqlite3_errmsg(self->db));
+}
+
+static int exec(journal_t *self, const char *sql, err_t *err)
+{
+    char *msg = NULL;
+    if (sqlite3_exec(self->db, sql, NULL, NULL, &msg) != SQLITE_OK) {
+        err_set(err, "journal %s: %s", self->path, msg ? msg : sqlite3_errmsg(self->db));
+        sqlite3_free(msg);
+        return -1;
+    }
+    return 0;
+}
+
+static int prepare(journal_t *self, const char *sql, sqlite3_stmt **st, err_t *err)
+{
+    if (sqlite3_prepare_v2(self->db, sql, -1, st, NULL) != SQLITE_OK)
+        return db_error(self, err, "prepare");
+    return 0;
+}
+
+/* Runs a statement that returns no rows; finalises it. */
+static int step_done(journal_t *self, sqlite3_stmt *st, const char *what, err_t *err)
+{
+    int rc = sqlite3_step(st);
+    int out = rc == SQLITE_DONE ? 0 : db_error(self, err, what);
+    sqlite3_finalize(st);
+    return out;
+}
+
+static int begin(journal_t *self, err_t *err)
+{
+    return exec(self, "BEGIN IMMEDIATE", err);
+}
+
+static int commit(journal_t *self, int rc, err_t *err)
+{
+    if (rc < 0) {
+        err_t ignore;
+        (void)exec(self, "ROLLBACK", &ignore);
+        return -1;
+    }
+    return exec(self, "COMMIT", err);
+}
+
+static const char *SCHEMA =
+    "CREATE TABLE IF NOT EXISTS meta(key TEXT PRIMARY KEY, value INTEGER NOT NULL);"
+    "CREATE TABLE IF NOT EXISTS jobs("
+    " id INTEGER PRIMARY KEY, name TEXT NOT NULL, hash TEXT NOT NULL, main TEXT NOT NULL,"
+    " spp INTEGER NOT NULL, xres INTEGER NOT NULL, yres INTEGER NOT NULL, seed INTEGER NOT NULL,"
+    " integrator TEXT, dispersion TEXT, target_error REAL NOT NULL, time_limit REAL NOT NULL,"
+    " state INTEGER NOT NULL, error TEXT, round INTEGER NOT NULL DEFAULT 0,"
+    " photon_base INTEGER NOT NULL DEFAULT 0, photons_saved INTEGER NOT NULL DEFAULT 0,"
+    " round_photons INTEGER NOT NULL DEFAULT 0, refine_photons INTEGER NOT NULL DEFAULT 0,"
+    " checkpoint INTEGER NOT NULL DEFAULT 0, elapsed REAL NOT NULL DEFAULT 0,"
+    " stop INTEGER NOT NULL DEFAULT 0, outputs INTEGER NOT NULL DEFAULT 0,"
+    " samples_done INTEGER NOT NULL DEFAULT 0, samples_total INTEGER NOT NULL DEFAULT 0,"
+    " nonfinite INTEGER NOT NULL DEFAULT 0, spp_done INTEGER NOT NULL DEFAULT 0);"
+    "CREATE TABLE IF NOT EXISTS results("
+    " job INTEGER NOT NULL, round INTEGER NOT NULL, task INTEGER NOT NULL, kind INTEGER NOT NULL,"
+    " tile INTEGER NOT NULL, pass INTEGER NOT NULL, data BLOB NOT NULL,"
+    " PRIMARY KEY(job, round, task));"
+    "CREATE TABLE IF NOT EXISTS passes("
+    " job INTEGER NOT NULL, round INTEGER NOT NULL, pass INTEGER NOT NULL, spp INTEGER NOT NULL,"
+    " elapsed REAL NOT NULL, valid INTEGER NOT NULL, rel_error REAL NOT NULL,"
+    " PRIMARY KEY(job, round, pass));";
+
+journal_t *journal_open(const char *path, err_t *err)
+{
+    journal_t *self = calloc(1, sizeof *self);
+    if (!self) {
+        err_set(err, "journal: out of memory");
+        return NULL;
+    }
+    snprintf(self->path, sizeof self->path, "%s", path);
+    if (sqlite3_open_v2(path, &self->db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, NULL) !=
+        SQLITE_OK) {
+        err_set(err, "journal %s: cannot open: %s", path,
+                self->db ? sqlite3_errmsg(self->db) : "out of memory");
+        journal_close(&self);
+        return NULL;
+    }
+    /* WAL with NORMAL sync: a commit is in the log before it returns, so a killed process
+     * loses nothing; only an operating-system crash can lose the last commits (sqlite.org,
+     * "Write-Ahead Logging"). The busy timeout covers a second process reading it (sqlite3). */
+    sqlite3_busy_timeout(self->db, 5000);
+    if (exec(self, "PRAGMA journal_mode=WAL; PRAGMA synchronous=NORMAL; PRAGMA foreign_keys=OFF",
+             err) < 0 ||
+        exec(self, SCHEMA, err) < 0) {
+        journal_close(&self);
+        return NULL;
+    }
+    sqlite3_stmt *st;
+    if (prepare(self, "SELECT value FROM meta WHERE key='version'", &st, err) < 0) {
+        journal_close(&self);
+        return NULL;
+    }
+    int rc = sqlite3_step(st);
+    long long version = rc == SQLITE_ROW ? sqlite3_column_int64(st, 0) : -1;
+    sqlite3_finalize(st);
+    if (rc != SQLITE_ROW && rc != SQLITE_DONE) {
+        db_error(self, err, "reading its version");
+        journal_close(&self);
+        return NULL;
+    }
+    if (version < 0) {
+        char sql[96];
+        snprintf(sql, sizeof sql, "INSERT INTO meta(key, value) VALUES('version', %d)",
+                 JOURNAL_VERSION);
+        if (exec(self, sql, err) < 0) {
+            journal_close(&self);
+            return NULL;
+        }
+    } else if (version != JOURNAL_VERSION) {
+        err_set(err, "journal %s: version %lld, this master reads version %d (move the spool "
+                     "aside or use a matching prismfarm)",
+                path, version, JOURNAL_VERSION);
+        journal_close(&self);
+        return NULL;
+    }
+    return self;
+}
+
+void journal_close(journal_t **self_p)
+{
+    if (!self_p || !*self_p)
+        return;
+    journal_t *self = *self_p;
+    if (self->db)
+        (void)sqlite3_close(self->db);
+    free(self);
+    *self_p = NULL;
+}
+
+void journal_job_clear(journal_job_t *j)
+{
+    if (!j)
+        return;
+    free(j->name);
+    free(j->hash);
+    free(j->main);
+    free(j->error);
+    j->name = j->hash = j->main = j->error = NULL;
+}
+
+static int bind_text_or_null(sqlite3_stmt *st, int i, const char *s)
+{
+    return s ? sqlite3_bind_text(st, i, s, -1, SQLITE_TRANSIENT) : sqlite3_bind_null(st, i);
+}
+
+int journal_add_job(journal_t *self, const journal_job_t *j, err_t *err)
+{
+    sqlite3_stmt *st;
+    if (prepare(self,
+                "INSERT OR REPLACE INTO jobs(id, name, hash, main, spp, xres, yres, seed, "
+                "integrator, dispersion, target_error, time_limit, state, round_photons, "
+                "samples_total) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, "
+                "?14, ?15)",
+                &st, err) < 0)
+        return -1;
+    sqlite3_bind_int64(st, 1, (sqlite3_int64)j->id);
+    sqlite3_bind_text(st, 2, j->name, -1, SQLITE_TRANSIENT);
+    sqlite3_bind_text(st, 3, j->hash, -1, SQLITE_TRANSIENT);
+    sqlite3_bind_text(st, 4, j->main, -1, SQLITE_TRANSIENT);
+    sqlite3_bind_int(st, 5, j->settings.spp);
+    sqlite3_bind_int(st, 6, j->settings.xres);
+    sqlite3_bind_int(st, 7, j->settings.yres);
+    sqlite3_bind_int64(st, 8, j->settings.seed);
+    bind_text_or_null(st, 9, j->settings.integrator);
+    bind_text_or_null(st, 10, j->settings.dispersion);
+    sqlite3_bind_double(st, 11, j->settings.target_error);
+    sqlite3_bind_double(st, 12, j->settings.time_limit);
+    sqlite3_bind_int(st, 13, j->state);
+    sqlite3_bind_int64(st, 14, (sqlite3_int64)j->round_photons);
+    sqlite3_bind_int64(st, 15, (sqlite3_int64)j->samples_total);
+    return step_done(self, st, "adding a job", err);
+}
+
+int journal_set_state(journal_t *self, const journal_job_t *j, err_t *err)
+{
+    bool over = j->state >= 2; /* JOB_DONE, JOB_FAILED, JOB_CANCELLED (sched.h) */
+    if (begin(self, err) < 0)
+        return -1;
+    sqlite3_stmt *st;
+    int rc = prepare(self,
+                     "UPDATE jobs SET state=?2, error=?3, stop=?4, outputs=?5, samples_done=?6, "
+                     "samples_total=?7, nonfinite=?8, spp_done=?9, elapsed=?10, "
+                     "checkpoint=CASE WHEN ?11 THEN 0 ELSE checkpoint END WHERE id=?1",
+                     &st, err);
+    if (rc == 0) {
+        sqlite3_bind_int64(st, 1, (sqlite3_int64)j->id);
+        sqlite3_bind_int(st, 2, j->state);
+        bind_text_or_null(st, 3, j->error);
+        sqlite3_bind_int(st, 4, j->stop);
+        sqlite3_bind_int(st, 5, j->outputs);
+        sqlite3_bind_int64(st, 6, (sqlite3_int64)j->samples_done);
+        sqlite3_bind_int64(st, 7, (sqlite3_int64)j->samples_total);
+        sqlite3_bind_int64(st, 8, (sqlite3_int64)j->nonfinite);
+        sqlite3_bind_int(st, 9, j->spp_done);
+        sqlite3_bind_double(st, 10, j->elapsed);
+        sqlite3_bind_int(st, 11, over);
+        rc = step_done(self, st, "setting a job's state", err);
+    }
+    if (rc == 0 && over) {
+        rc = prepare(self, "DELETE FROM results WHERE job=?1", &st, err);
+        if (rc == 0) {
+            sqlite3_bind_int64(st, 1, (sqlite3_int64)j->id);
+            rc = step_done(self, st, "dropping a finished job's results", err);
+        }
+    }
+    return commit(self, rc, err);
+}
+
+int journal_set_round(journal_t *self, const journal_job_t *j, err_t *err)
+{
+    if (begin(self, err) < 0)
+        return -1;
+    sqlite3_stmt *st;
+    int rc = prepare(self,
+                     "UPDATE jobs SET state=0, error=NULL, round=?2, photon_base=?3, "
+                     "round_photons=?4, refine_photons=?5, checkpoint=0, elapsed=0, stop=0, "
+                     "samples_done=0, spp_done=0 WHERE id=?1",
+                     &st, err);
+    if (rc == 0) {
+        sqlite3_bind_int64(st, 1, (sqlite3_int64)j->id);
+        sqlite3_bind_int64(st, 2, j->round);
+        sqlite3_bind_int64(st, 3, j->photon_base);
+        sqlite3_bind_int64(st, 4, (sqlite3_int64)j->round_photons);
+        sqlite3_bind_int64(st, 5, (sqlite3_int64)j->refine_photons);
+        rc = step_done(self, st, "starting a round", err);
+    }
+    if (rc == 0 && (rc = prepare(self, "DELETE FROM passes WHERE job=?1", &st, err)) == 0) {
+        sqlite3_bind_int64(st, 1, (sqlite3_int64)j->id);
+        rc = step_done(self, st, "dropping a round's passes", err);
+    }
+    if (rc == 0 && (rc = prepare(self, "DELETE FROM results WHERE job=?1", &st, err)) == 0) {
+        sqlite3_bind_int64(st, 1, (sqlite3_int64)j->id);
+        rc = step_done(self, st, "dropping a round's results", err);
+    }
+    return commit(self, rc, err);
+}
+
+int journal_set_photons_saved(journal_t *self, uint64_t job, uint64_t photons, err_t *err)
+{
+    if (begin(self, err) < 0)
+        return -1;
+    sqlite3_stmt *st;
+    int rc = prepare(self, "UPDATE jobs SET photons_saved=?2 WHERE id=?1", &st, err);
+    if (rc == 0) {
+        sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
+        sqlite3_bind_int64(st, 2, (sqlite3_int64)photons);
+        rc = step_done(self, st, "recording the photon store", err);
+    }
+    if (rc == 0 && (rc = prepare(self, "DELETE FROM results WHERE job=?1 AND kind=1", &st, err)) == 0) {
+        sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
+        rc = step_done(self, st, "dropping merged photon batches", err);
+    }
+    return commit(self, rc, err);
+}
+
+static char *col_dup(sqlite3_stmt *st, int i)
+{
+    const unsigned char *s = sqlite3_column_text(st, i);
+    return s ? strdup((const char *)s) : NULL;
+}
+
+int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err)
+{
+    *jobs = NULL;
+    *n = 0;
+    sqlite3_stmt *st;
+    if (prepare(self,
+                "SELECT id, name, hash, main, spp, xres, yres, seed, integrator, dispersion, "
+                "target_error, time_limit, state, error, round, photon_base, photons_saved, "
+                "round_photons, refine_photons, checkpoint, elapsed, stop, outputs, "
+                "samples_done, samples_total, nonfinite, spp_done FROM jobs ORDER BY id",
+                &st, err) < 0)
+        return -1;
+    size_t cap = 0;
+    int rc;
+    while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
+        if (*n == cap) {
+            size_t c = cap ? 2 * cap : 16;
+            journal_job_t *p = realloc(*jobs, c * sizeof *p);
+            if (!p) {
+                rc = SQLITE_NOMEM;
+                break;
+            }
+            *jobs = p;
+            cap = c;
+        }
+        journal_job_t *j = &(*jobs)[*n];
+        memset(j, 0, sizeof *j);
+        (*n)++;
+        j->id = (uint64_t)sqlite3_column_int64(st, 0);
+        j->name = col_dup(st, 1);
+        j->hash = col_dup(st, 2);
+        j->main = col_dup(st, 3);
+        j->settings.spp = sqlite3_column_int(st, 4);
+        j->settings.xres = sqlite3_column_int(st, 5);
+        j->settings.yres = sqlite3_column_int(st, 6);
+        j->settings.seed = sqlite3_column_int64(st, 7);
+        const unsigned char *s = sqlite3_column_text(st, 8);
+        if (s) {
+            snprintf(j->integrator, sizeof j->integrator, "%s", (const char *)s);
+            j->settings.integrator = j->integrator;
+        }
+        if ((s = sqlite3_column_text(st, 9))) {
+            snprintf(j->dispersion, sizeof j->dispersion, "%s", (const char *)s);
+            j->settings.dispersion = j->dispersion;
+        }
+        j->settings.target_error = sqlite3_column_double(st, 10);
+        j->settings.time_limit = sqlite3_column_double(st, 11);
+        j->state = sqlite3_column_int(st, 12);
+        j->error = col_dup(st, 13);
+        j->round = (uint32_t)sqlite3_column_int64(st, 14);
+        j->photon_base = (uint32_t)sqlite3_column_int64(st, 15);
+        j->photons_saved = (uint64_t)sqlite3_column_int64(st, 16);
+        j->round_photons = (uint64_t)sqlite3_column_int64(st, 17);
+        j->refine_photons = (uint64_t)sqlite3_column_int64(st, 18);
+        j->checkpoint = (uint64_t)sqlite3_column_int64(st, 19);
+        j->elapsed = sqlite3_column_double(st, 20);
+        j->stop = sqlite3_column_int(st, 21);
+        j->outputs = sqlite3_column_int(st, 22) != 0;
+        j->samples_done = (uint64_t)sqlite3_column_int64(st, 23);
+        j->samples_total = (uint64_t)sqlite3_column_int64(st, 24);
+        j->nonfinite = (uint64_t)sqlite3_column_int64(st, 25);
+        j->spp_done = sqlite3_column_int(st, 26);
+        if (!j->name || !j->hash || !j->main || j->state < 0 || j->state > 4) {
+            rc = SQLITE_CORRUPT;
+            break;
+        }
+    }
+    sqlite3_finalize(st);
+    if (rc != SQLITE_DONE) {
+        for (size_t i = 0; i < *n; i++)
+            journal_job_clear(&(*jobs)[i]);
+        free(*jobs);
+        *jobs = NULL;
+        *n = 0;
+        return err_set(err, "journal %s: reading the jobs: %s", self->path,
+                       rc == SQLITE_NOMEM     ? "out of memory"
+                       : rc == SQLITE_CORRUPT ? "a job row without its name, scene or state"
+                                              : sqlite3_errmsg(self->db));
+    }
+    return 0;
+}
+
+int journal_add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t task, int kind,
+                       int tile, int pass, const void *data, size_t size, err_t *err)
+{
+    sqlite3_stmt *st;
+    if (prepare(self,
+                "INSERT OR IGNORE INTO results(job, round, task, kind, tile, pass, data) "
+                "VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7)",
+                &st, err) < 0)
+        return -1;
+    sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
+    sqlite3_bind_int64(st, 2, round);
+    sqlite3_bind_int64(st, 3, task);
+    sqlite3_bind_int(st, 4, kind);
+    sqlite3_bind_int(st, 5, tile);
+    sqlite3_bind_int(st, 6, pass);
+    sqlite3_bind_blob64(st, 7, data, size, SQLITE_STATIC);
+    return step_done(self, st, "adding a result", err);
+}
+
+int journal_results(journal_t *self, uint64_t job, uint32_t round, journal_result_fn fn,
+                    void *user, err_t *err)
+{
+    sqlite3_stmt *st;
+    if (prepare(self,
+                "SELECT task, kind, data FROM results WHERE job=?1 AND round=?2 "
+                "ORDER BY kind DESC, pass, tile",
+                &st, err) < 0)
+        return -1;
+    sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
+    sqlite3_bind_int64(st, 2, round);
+    int rc, out = 0;
+    while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
+        const void *data = sqlite3_column_blob(st, 2);
+        size_t size = (size_t)sqlite3_column_bytes(st, 2);
+        if (fn(user, (uint32_t)sqlite3_column_int64(st, 0), sqlite3_column_int(st, 1), data, size,
+               err) < 0) {
+            out = -1;
+            break;
+        }
+    }
+    if (out == 0 && rc != SQLITE_DONE)
+        out = db_error(self, err, "reading results");
+    sqlite3_finalize(st);
+    return out;
+}
+
+int journal_set_checkpoint(journal_t *self, uint64_t job, uint32_t round, uint64_t gen,
+                           const int *next_pass, int ntiles, double elapsed, err_t *err)
+{
+    if (begin(self, err) < 0)
+        return -1;
+    sqlite3_stmt *st;
+    int rc = prepare(self, "UPDATE jobs SET checkpoint=?2, elapsed=?3 WHERE id=?1", &st, err);
+    if (rc == 0) {
+        sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
+        sqlite3_bind_int64(st, 2, (sqlite3_int64)gen);
+        sqlite3_bind_double(st, 3, elapsed);
+        rc = step_done(self, st, "recording a checkpoint", err);
+    }
+    sqlite3_stmt *del = NULL;
+    if (rc == 0)
+        rc = prepare(self,
+                     "DELETE FROM results WHERE job=?1 AND round=?2 AND kind=0 AND tile=?3 AND "
+                     "pass<?4",
+                     &del, err);
+    for (int t = 0; rc == 0 && t < ntiles; t++) {
+        sqlite3_bind_int64(del, 1, (sqlite3_int64)job);
+        sqlite3_bind_int64(del, 2, round);
+        sqlite3_bind_int(del, 3, t);
+        sqlite3_bind_int(del, 4, next_pass[t]);
+        if (sqlite3_step(del) != SQLITE_DONE)
+            rc = db_error(self, err, "dropping checkpointed results");
+        sqlite3_reset(del);
+    }
+    sqlite3_finalize(del); /* a no-op for NULL */
+    return commit(self, rc, err);
+}
+
+int journal_add_pass(journal_t *self, uint64_t job, uint32_t round, const journal_pass_t *p,
+                     err_t *err)
+{
+    if (begin(self, err) < 0)
+        return -1;
+    sqlite3_stmt *st;
+    int rc = prepare(self,
+                     "INSERT OR REPLACE INTO passes(job, round, pass, spp, elapsed, valid, "
+                     "rel_error) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7)",
+                     &st, err);
+    if (rc == 0) {
+        sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
+        sqlite3_bind_int64(st, 2, round);
+        sqlite3_bind_int(st, 3, p->pass);
+        sqlite3_bind_int(st, 4, p->spp);
+        sqlite3_bind_double(st, 5, p->elapsed);
+        sqlite3_bind_int(st, 6, p->valid);
+        sqlite3_bind_double(st, 7, p->rel_error);
+        rc = step_done(self, st, "adding a pass record", err);
+    }
+    if (rc == 0 && (rc = prepare(self, "UPDATE jobs SET elapsed=?2 WHERE id=?1", &st, err)) == 0) {
+        sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
+        sqlite3_bind_double(st, 2, p->elapsed);
+        rc = step_done(self, st, "recording the elapsed time", err);
+    }
+    return commit(self, rc, err);
+}
+
+int journal_passes(journal_t *self, uint64_t job, uint32_t round, journal_pass_t *out, int max,
+                   err_t *err)
+{
+    sqlite3_stmt *st;
+    if (prepare(self,
+                "SELECT pass, spp, elapsed, valid, rel_error FROM passes WHERE job=?1 AND "
+                "round=?2 ORDER BY pass",
+                &st, err) < 0)
+        return -1;
+    sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
+    sqlite3_bind_int64(st, 2, round);
+    int n = 0, rc;
+    while ((rc = sqlite3_step(st)) == SQLITE_ROW && n < max)
+        out[n++] = (journal_pass_t){.pass = sqlite3_column_int(st, 0),
+                                    .spp = sqlite3_column_int(st, 1),
+                                    .elapsed = sqlite3_column_double(st, 2),
+                                    .valid = sqlite3_column_int(st, 3) != 0,
+                                    .rel_error = sqlite3_column_double(st, 4)};
+    if (rc != SQLITE_DONE && rc != SQLITE_ROW) {
+        db_error(self, err, "reading pass records");
+        n = -1;
+    }
+    sqlite3_finalize(st);
+    return n;
+}
+
+/* ---------------------------------------------------------------- blobs */
+
+/* A reader over a blob that fails (and stays failed) on any short read. */
+typedef struct reader {
+    const uint8_t *p;
+    size_t left;
+    bool bad;
+} reader_t;
+
+static void rd(reader_t *r, void *out, size_t n)
+{
+    if (r->bad || r->left < n) {
+        r->bad = true;
+        memset(out, 0, n);
+        return;
+    }
+    memcpy(out, r->p, n);
+    r->p += n;
+    r->left -= n;
+}
+
+static uint32_t rd_u32(reader_t *r)
+{
+    uint32_t v;
+    rd(r, &v, sizeof v);
+    return v;
+}
+
+static uint64_t rd_u64(reader_t *r)
+{
+    uint64_t v;
+    rd(r, &v, sizeof v);
+    return v;
+}
+
+static uint8_t *wr(uint8_t *p, const void *src, size_t n)
+{
+    memcpy(p, src, n);
+    return p + n;
+}
+
+static uint8_t *wr_u32(uint8_t *p, uint32_t v)
+{
+    return wr(p, &v, sizeof v);
+}
+
+static uint8_t *wr_u64(uint8_t *p, uint64_t v)
+{
+    return wr(p, &v, sizeof v);
+}
+
+/* Bytes of a tile's arrays: sums [h][w][nb] and counts, lum, lum_sq [h][w], 8 bytes each. */
+static size_t tile_array_bytes(int w, int h, int nb)
+{
+    return (size_t)w * (size_t)h * ((size_t)nb + 3) * 8;
+}
+
+static bool tile_dims_ok(int x0, int y0, int w, int h, int nb)
+{
+    return x0 >= 0 && y0 >= 0 && w > 0 && h > 0 && w <= MAX_IMAGE_SIDE && h <= MAX_IMAGE_SIDE &&
+           x0 <= MAX_IMAGE_SIDE - w && y0 <= MAX_IMAGE_SIDE - h && nb > 0 && nb <= MAX_BUCKETS;
+}
+
+static uint8_t *pack_arrays(uint8_t *p, size_t px, int nb, const double *sums,
+                            const uint64_t *counts, const double *lum, const double *lum_sq)
+{
+    p = wr(p, sums, px * (size_t)nb * sizeof *sums);
+    p = wr(p, counts, px * sizeof *counts);
+    p = wr(p, lum, px * sizeof *lum);
+    return wr(p, lum_sq, px * sizeof *lum_sq);
+}
+
+/* The arrays at r's position for a w x h tile of nb buckets, checked and copied into a
+ * tilebuf (tilebuf_new_from refuses non-finite sums). */
+static tilebuf_t *unpack_arrays(reader_t *r, int x0, int y0, int w, int h, int nb,
+                                uint64_t nonfinite, err_t *err)
+{
+    size_t px = (size_t)w * (size_t)h, need = tile_array_bytes(w, h, nb);
+    if (r->bad || r->left < need) {
+        err_set(err, "a journal blob of %dx%d pixels and %d buckets is cut short", w, h, nb);
+        return NULL;
+    }
+    /* The blob's bytes need not be aligned for doubles: copy them out first. */
+    uint8_t *copy = malloc(need);
+    if (!copy) {
+        err_set(err, "out of memory for a %dx%d journal tile", w, h);
+        return NULL;
+    }
+    rd(r, copy, need);
+    const double *sums = (const double *)copy;
+    const uint64_t *counts = (const uint64_t *)(copy + px * (size_t)nb * 8);
+    const double *lum = (const double *)(copy + px * ((size_t)nb + 1) * 8);
+    const double *lum_sq = (const double *)(copy + px * ((size_t)nb + 2) * 8);
+    tilebuf_t *tb = tilebuf_new_from(x0, y0, w, h, nb, sums, counts, lum, lum_sq, nonfinite, err);
+    free(copy);
+    return tb;
+}
+
+int journal_pack_tile(const proto_tile_result_t *t, uint8_t **data, size_t *size, err_t *err)
+{
+    const proto_tile_t *q = &t->rect;
+    if (!tile_dims_ok(q->x0, q->y0, q->w, q->h, t->nbuckets))
+        return err_set(err, "journal: tile %dx%d at (%d,%d) with %d buckets is out of range", q->w,
+                       q->h, q->x0, q->y0, t->nbuckets);
+    size_t n = 4 + 7 * 4 + 8 + tile_array_bytes(q->w, q->h, t->nbuckets);
+    uint8_t *buf = malloc(n), *p = buf;
+    if (!buf)
+        return err_set(err, "journal: out of memory for a %zu-byte tile", n);
+    p = wr_u32(p, TILE_MAGIC);
+    p = wr_u32(p, (uint32_t)q->x0);
+    p = wr_u32(p, (uint32_t)q->y0);
+    p = wr_u32(p, (uint32_t)q->w);
+    p = wr_u32(p, (uint32_t)q->h);
+    p = wr_u32(p, (uint32_t)t->nbuckets);
+    p = wr_u32(p, q->sample_begin);
+    p = wr_u32(p, q->sample_end);
+    p = wr_u64(p, t->nonfinite);
+    p = pack_arrays(p, (size_t)q->w * (size_t)q->h, t->nbuckets, t->sums, t->counts, t->lum,
+                    t->lum_sq);
+    *data = buf;
+    *size = (size_t)(p - buf);
+    return 0;
+}
+
+tilebuf_t *journal_unpack_tile(const void *data, size_t size, uint32_t *sample_begin,
+                               uint32_t *sample_end, err_t *err)
+{
+    reader_t r = {.p = data, .left = size};
+    uint32_t magic = rd_u32(&r);
+    int x0 = (int)rd_u32(&r), y0 = (int)rd_u32(&r), w = (int)rd_u32(&r), h = (int)rd_u32(&r),
+        nb = (int)rd_u32(&r);
+    *sample_begin = rd_u32(&r);
+    *sample_end = rd_u32(&r);
+    uint64_t nonfinite = rd_u64(&r);
+    if (r.bad || magic != TILE_MAGIC || !tile_dims_ok(x0, y0, w, h, nb)) {
+        err_set(err, "a journal tile blob of %zu bytes has no valid header", size);
+        return NULL;
+    }
+    tilebuf_t *tb = unpack_arrays(&r, x0, y0, w, h, nb, nonfinite, err);
+    if (tb && r.left != 0) {
+        tilebuf_destroy(&tb);
+        err_set(err, "a journal tile blob has %zu bytes past its arrays", r.left);
+    }
+    return tb;
+}
+
+int journal_pack_photons(const proto_photon_result_t *r, uint8_t **data, size_t *size, err_t *err)
+{
+    size_t n = 4 + 4 * 8 + r->size;
+    uint8_t *buf = malloc(n), *p = buf;
+    if (!buf)
+        return err_set(err, "journal: out of memory for a %zu-byte photon batch", n);
+    p = wr_u32(p, PHOT_MAGIC);
+    p = wr_u64(p, r->range.first);
+    p = wr_u64(p, r->range.end);
+    p = wr_u64(p, r->emitted);
+    p = wr_u64(p, r->nonfinite);
+    if (r->size)
+        p = wr(p, r->data, r->size);
+    *data = buf;
+    *size = (size_t)(p - buf);
+    return 0;
+}
+
+int journal_unpack_photons(const void *data, size_t size, proto_photon_result_t *out, err_t *err)
+{
+    reader_t r = {.p = data, .left = size};
+    uint32_t magic = rd_u32(&r);
+    memset(out, 0, sizeof *out);
+    out->range.first = rd_u64(&r);
+    out->range.end = rd_u64(&r);
+    out->emitted = rd_u64(&r);
+    out->nonfinite = rd_u64(&r);
+    if (r.bad || magic != PHOT_MAGIC || out->range.end < out->range.first)
+        return err_set(err, "a journal photon blob of %zu bytes has no valid header", size);
+    out->data = r.p;
+    out->size = r.left;
+    return 0;
+}
+
+int journal_write_checkpoint(const char *path, const tilebuf_t *image, const int *next_pass,
+                             int ntiles, err_t *err)
+{
+    int x0 = tilebuf_x0(image), y0 = tilebuf_y0(image), w = tilebuf_width(image),
+        h = tilebuf_height(image), nb = tilebuf_nbuckets(image);
+    size_t n = 7 * 4 + 8 + tile_array_bytes(w, h, nb) + (size_t)ntiles * 4;
+    uint8_t *buf = malloc(n), *p = buf;
+    if (!buf)
+        return err_set(err, "journal: out of memory for a %zu-byte checkpoint", n);
+    p = wr_u32(p, CKPT_MAGIC);
+    p = wr_u32(p, (uint32_t)x0);
+    p = wr_u32(p, (uint32_t)y0);
+    p = wr_u32(p, (uint32_t)w);
+    p = wr_u32(p, (uint32_t)h);
+    p = wr_u32(p, (uint32_t)nb);
+    p = wr_u32(p, (uint32_t)ntiles);
+    p = wr_u64(p, tilebuf_nonfinite(image));
+    p = pack_arrays(p, (size_t)w * (size_t)h, nb, tilebuf_sums(image), tilebuf_counts(image),
+                    tilebuf_luminance_sums(image), tilebuf_luminance_sq_sums(image));
+    for (int t = 0; t < ntiles; t++)
+        p = wr_u32(p, (uint32_t)next_pass[t]);
+    int rc = spool_write_file(path, buf, (size_t)(p - buf), err);
+    free(buf);
+    return rc;
+}
+
+int journal_read_checkpoint(const char *path, int xres, int yres, int nbuckets, int ntiles,
+                            tilebuf_t **image, int *next_pass, err_t *err)
+{
+    *image = NULL;
+    uint8_t *data;
+    size_t size;
+    size_t max = 7 * 4 + 8 + tile_array_bytes(xres, yres, nbuckets) + (size_t)ntiles * 4;
+    if (spool_read_file(path, max, &data, &size, err) < 0)
+        return -1;
+    reader_t r = {.p = data, .left = size};
+    uint32_t magic = rd_u32(&r);
+    int x0 = (int)rd_u32(&r), y0 = (int)rd_u32(&r), w = (int)rd_u32(&r), h = (int)rd_u32(&r),
+        nb = (int)rd_u32(&r), nt = (int)rd_u32(&r);
+    uint64_t nonfinite = rd_u64(&r);
+    int rc = 0;
+    if (r.bad || magic != CKPT_MAGIC || x0 != 0 || y0 != 0 || w != xres || h != yres ||
+        nb != nbuckets || nt != ntiles) {
+        rc = err_set(err, "checkpoint %s is not a %dx%d image of %d buckets and %d tiles", path,
+                     xres, yres, nbuckets, ntiles);
+    } else if (!(*image = unpack_arrays(&r, 0, 0, w, h, nb, nonfinite, err))) {
+        rc = err_prefix(err, "checkpoint %s: ", path);
+    } else {
+        for (int t = 0; t < ntiles; t++)
+            next_pass[t] = (int)rd_u32(&r);
+        if (r.bad || r.left != 0) {
+            tilebuf_destroy(image);
+            rc = err_set(err, "checkpoint %s: its pass table is %s", path,
+                         r.bad ? "cut short" : "followed by extra bytes");
+        }
+    }
+    free(data);
+    return rc;
+}

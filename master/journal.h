@@ -1,0 +1,122 @@
+/* journal: what the master must not forget when it dies (docs/reliability.md). An SQLite
+ * database in the spool folder holds every job (its submission, state and round), the results
+ * it has received since the job's last checkpoint, and the accuracy record of each merged pass;
+ * checkpoint files hold a job's merged image and which passes of each tile it contains. A
+ * master restarted on the same spool reads it back and resumes each unfinished job where the
+ * journal leaves it, with the same pixels as a run that never stopped, since the results it
+ * replays and the ones still to come are merged in the same fixed order.
+ *
+ * Every change is one transaction, committed before the function returns (WAL, synchronous
+ * NORMAL): a master killed at any moment (SIGKILL) loses nothing it journaled; a power cut may
+ * lose the last few transactions, never the database's consistency. A checkpoint file is
+ * written (fsync'ed, renamed) before the transaction that names it. */
+#ifndef PRISMFARM_JOURNAL_H
+#define PRISMFARM_JOURNAL_H
+
+#include "err.h"
+#include "proto.h"
+#include "tilebuf.h"
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+typedef struct journal journal_t;
+
+/* A job as the journal keeps it. Strings are copies owned by the record (journal_job_clear). */
+typedef struct journal_job {
+    uint64_t id;
+    char *name, *hash, *main; /* the client's name, the bundle's hash and main file */
+    proto_settings_t settings;  /* integrator / dispersion point into the strings below */
+    char integrator[65], dispersion[65];
+    int state;   /* job_state_t */
+    char *error; /* NULL unless failed */
+    uint32_t round;          /* refinements so far (task ids carry it) */
+    uint32_t photon_base;    /* the round's first batch in the photon phase */
+    uint64_t photons_saved;  /* photons in jobs/<id>/photons.store (0: none) */
+    uint64_t round_photons;  /* photons the store holds once this round's photon phase is done */
+    uint64_t refine_photons; /* photons this round added (0 for round 0) */
+    uint64_t checkpoint;     /* generation of jobs/<id>/checkpoint-<gen>.bin (0: none) */
+    double elapsed;          /* seconds the round had run at its last journaled event */
+    int stop;                /* proto_stop_t of a job ended early */
+    bool outputs;            /* its final EXR and PNG exist */
+    uint64_t samples_done, samples_total, nonfinite;
+    int spp_done;
+} journal_job_t;
+
+void journal_job_clear(journal_job_t *j);
+
+/* One merged pass's accuracy record (master.c's pass_record). */
+typedef struct journal_pass {
+    int pass, spp;
+    double elapsed;
+    bool valid;
+    double rel_error;
+} journal_pass_t;
+
+/* Opens (creating if missing) the journal at path. A file that is not a journal of this
+ * version is an error naming it, never silently replaced. */
+journal_t *journal_open(const char *path, err_t *err);
+void journal_close(journal_t **self_p);
+
+/* A submitted job (state queued). */
+int journal_add_job(journal_t *self, const journal_job_t *job, err_t *err);
+/* The job's state, error, figures, stop rule and outputs flag. A job that is over (done,
+ * failed, cancelled) loses its results and checkpoint reference in the same transaction; the
+ * caller then removes the checkpoint file. */
+int journal_set_state(journal_t *self, const journal_job_t *job, err_t *err);
+/* A new round (a refinement): round, photon_base, round_photons, refine_photons, state queued;
+ * the earlier round's pass records are dropped. */
+int journal_set_round(journal_t *self, const journal_job_t *job, err_t *err);
+/* The merged photon store of the job is in jobs/<id>/photons.store with photons photons: the
+ * round's photon batch results are dropped. */
+int journal_set_photons_saved(journal_t *self, uint64_t job, uint64_t photons, err_t *err);
+
+/* Every job, in id order, into a malloc'ed array (free each with journal_job_clear, then the
+ * array). */
+int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err);
+
+/* A task's result, as received: kind 0 a camera tile (tile, pass), 1 a photon batch (tile =
+ * batch, pass = -1); data is the journal's blob (journal_pack_tile or the batch's wire form
+ * with its range, journal_pack_photons). A result already journaled is left as it is. */
+int journal_add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t task, int kind,
+                       int tile, int pass, const void *data, size_t size, err_t *err);
+
+typedef int (*journal_result_fn)(void *user, uint32_t task, int kind, const void *data,
+                                 size_t size, err_t *err);
+/* The round's journaled results in merge order (photon batches by batch, then camera tiles by
+ * pass and tile); stops at the first callback that returns -1. */
+int journal_results(journal_t *self, uint64_t job, uint32_t round, journal_result_fn fn,
+                    void *user, err_t *err);
+
+/* A checkpoint of generation gen is written: the job names it, its elapsed time is recorded,
+ * and the camera results now in it (tile t's passes below next_pass[t]) are dropped. */
+int journal_set_checkpoint(journal_t *self, uint64_t job, uint32_t round, uint64_t gen,
+                           const int *next_pass, int ntiles, double elapsed, err_t *err);
+
+/* A merged pass's record (replacing one of the same pass), with the round's elapsed time. */
+int journal_add_pass(journal_t *self, uint64_t job, uint32_t round, const journal_pass_t *p,
+                     err_t *err);
+/* The round's pass records in order, up to max; returns how many (or -1 with err). */
+int journal_passes(journal_t *self, uint64_t job, uint32_t round, journal_pass_t *out, int max,
+                   err_t *err);
+
+/* Blobs. A camera tile: its rectangle, samples and the tilebuf's arrays in this host's byte
+ * order (the journal never leaves the master's host; a header marks the order and a blob of
+ * another is refused). */
+int journal_pack_tile(const proto_tile_result_t *r, uint8_t **data, size_t *size, err_t *err);
+/* Back into a tilebuf and its sample range; the arrays are checked as a wire result is. */
+tilebuf_t *journal_unpack_tile(const void *data, size_t size, uint32_t *sample_begin,
+                               uint32_t *sample_end, err_t *err);
+int journal_pack_photons(const proto_photon_result_t *r, uint8_t **data, size_t *size, err_t *err);
+/* r's data points into data. */
+int journal_unpack_photons(const void *data, size_t size, proto_photon_result_t *r, err_t *err);
+
+/* A checkpoint file: the job's image and next_pass[ntiles], written atomically at path. */
+int journal_write_checkpoint(const char *path, const tilebuf_t *image, const int *next_pass,
+                             int ntiles, err_t *err);
+/* Reads one back; the image must be xres x yres with nbuckets and ntiles entries. */
+int journal_read_checkpoint(const char *path, int xres, int yres, int nbuckets, int ntiles,
+                            tilebuf_t **image, int *next_pass, err_t *err);
+
+#endif

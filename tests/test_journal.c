@@ -1,0 +1,561 @@
+/* The master's journal (master/journal.h, docs/reliability.md): its blobs and tables on their
+ * own, then whole farms on loopback whose master is killed with SIGKILL mid-job and started
+ * again on the same spool, and a farm whose master, workers and client are killed at seeded
+ * random moments: each job must end with exactly the pixels of a run that was never
+ * interrupted. The moments of the two targeted kills are read off the journal itself (a
+ * checkpoint and results after it, photon batches before the store), so they do not depend on
+ * the machine's speed. */
+#define CLI_RUN_TIMEOUT_MS 180000
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include "cli_run.h"
+#include "farm_testutil.h"
+#include "journal.h"
+#include "rng.h"
+
+#include <sqlite3.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#define SCENE "data/render/tiny.pbrt"
+#define SPP_LONG "32768" /* the random kills: 16 passes, long enough for several kills */
+#define PHOTON_SCENE "data/photon/beam_big.pbrt"
+#define SPP "16384"       /* tiny.pbrt: 15 passes, a few seconds on one core */
+#define PHOTON_SPP "1024" /* beam_big: 1.5 M photons, then a camera phase of 11 passes */
+#define TILE "8"
+#define HEARTBEAT "200"
+
+static char DIR_[256];
+
+static int group_setup(void **state)
+{
+    (void)state;
+    return testutil_mkdtemp(DIR_, sizeof DIR_, "journal");
+}
+
+static int group_teardown(void **state)
+{
+    (void)state;
+    return testutil_rmtree(DIR_);
+}
+
+static const char *path_in(const char *name)
+{
+    static char buf[16][512];
+    static int k;
+    k = (k + 1) % 16;
+    snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
+    return buf[k];
+}
+
+/* ---------------------------------------------------------------- blobs and tables */
+
+static void test_tile_blob_round_trip(void **state)
+{
+    (void)state;
+    enum { W = 3, H = 2, NB = 4 };
+    double sums[W * H * NB], lum[W * H], lum_sq[W * H];
+    uint64_t counts[W * H];
+    for (int i = 0; i < W * H * NB; i++)
+        sums[i] = 0.1 * i - 0.7;
+    for (int i = 0; i < W * H; i++) {
+        counts[i] = (uint64_t)(i + 1);
+        lum[i] = 1.0 / (i + 1);
+        lum_sq[i] = 3.0 * i;
+    }
+    proto_tile_result_t t = {.rect = {.x0 = 8, .y0 = 16, .w = W, .h = H, .sample_begin = 4,
+                                      .sample_end = 8},
+                             .nbuckets = NB, .sums = sums, .counts = counts, .lum = lum,
+                             .lum_sq = lum_sq, .nonfinite = 5};
+    uint8_t *blob;
+    size_t size;
+    err_t err;
+    assert_int_equal(journal_pack_tile(&t, &blob, &size, &err), 0);
+    uint32_t sb, se;
+    tilebuf_t *tb = journal_unpack_tile(blob, size, &sb, &se, &err);
+    assert_non_null(tb);
+    assert_int_equal(sb, 4);
+    assert_int_equal(se, 8);
+    assert_int_equal(tilebuf_x0(tb), 8);
+    assert_int_equal(tilebuf_y0(tb), 16);
+    assert_int_equal(tilebuf_width(tb), W);
+    assert_int_equal(tilebuf_nbuckets(tb), NB);
+    assert_int_equal(tilebuf_nonfinite(tb), 5);
+    assert_memory_equal(tilebuf_sums(tb), sums, sizeof sums);
+    assert_memory_equal(tilebuf_counts(tb), counts, sizeof counts);
+    assert_memory_equal(tilebuf_luminance_sums(tb), lum, sizeof lum);
+    assert_memory_equal(tilebuf_luminance_sq_sums(tb), lum_sq, sizeof lum_sq);
+    tilebuf_destroy(&tb);
+    /* Cut short, one byte too many, another magic, a non-finite sum: refused, never a tile. */
+    assert_null(journal_unpack_tile(blob, size - 1, &sb, &se, &err));
+    assert_non_null(strstr(err.msg, "cut short"));
+    uint8_t *longer = malloc(size + 1);
+    memcpy(longer, blob, size);
+    longer[size] = 0;
+    assert_null(journal_unpack_tile(longer, size + 1, &sb, &se, &err));
+    assert_non_null(strstr(err.msg, "past its arrays"));
+    free(longer);
+    blob[0] ^= 0xff;
+    assert_null(journal_unpack_tile(blob, size, &sb, &se, &err));
+    assert_non_null(strstr(err.msg, "no valid header"));
+    free(blob);
+    sums[5] = 1.0 / 0.0;
+    assert_int_equal(journal_pack_tile(&t, &blob, &size, &err), 0);
+    assert_null(journal_unpack_tile(blob, size, &sb, &se, &err));
+    free(blob);
+}
+
+static void test_photon_blob_round_trip(void **state)
+{
+    (void)state;
+    const uint8_t store[] = {'P', 'F', 'P', 'M', 1, 2, 3, 4, 5};
+    proto_photon_result_t r = {.range = {.first = 20000, .end = 40000}, .emitted = 320000,
+                               .data = store, .size = sizeof store, .nonfinite = 2};
+    uint8_t *blob;
+    size_t size;
+    err_t err;
+    assert_int_equal(journal_pack_photons(&r, &blob, &size, &err), 0);
+    proto_photon_result_t back;
+    assert_int_equal(journal_unpack_photons(blob, size, &back, &err), 0);
+    assert_int_equal(back.range.first, 20000);
+    assert_int_equal(back.range.end, 40000);
+    assert_int_equal(back.emitted, 320000);
+    assert_int_equal(back.nonfinite, 2);
+    assert_int_equal(back.size, sizeof store);
+    assert_memory_equal(back.data, store, sizeof store);
+    assert_int_equal(journal_unpack_photons(blob, 20, &back, &err), -1);
+    free(blob);
+}
+
+static void test_checkpoint_round_trip(void **state)
+{
+    (void)state;
+    err_t err;
+    tilebuf_t *img = tilebuf_new(0, 0, 5, 4, 3, &err);
+    assert_non_null(img);
+    for (int y = 0; y < 4; y++)
+        for (int x = 0; x < 5; x++) {
+            double b[3] = {x + 0.25, y * 1e-9, 1e12};
+            tilebuf_add_sample(img, x, y, b, x * y + 0.5);
+        }
+    int next[4] = {3, 2, 2, 0}, back[4];
+    const char *path = path_in("ckpt.bin");
+    assert_int_equal(journal_write_checkpoint(path, img, next, 4, &err), 0);
+    tilebuf_t *got = NULL;
+    assert_int_equal(journal_read_checkpoint(path, 5, 4, 3, 4, &got, back, &err), 0);
+    assert_memory_equal(back, next, sizeof next);
+    assert_memory_equal(tilebuf_sums(got), tilebuf_sums(img), 5 * 4 * 3 * sizeof(double));
+    assert_memory_equal(tilebuf_counts(got), tilebuf_counts(img), 5 * 4 * sizeof(uint64_t));
+    tilebuf_destroy(&got);
+    /* Another job's size, or a file cut short: an error naming the file. */
+    assert_int_equal(journal_read_checkpoint(path, 6, 4, 3, 4, &got, back, &err), -1);
+    assert_non_null(strstr(err.msg, "ckpt.bin"));
+    assert_int_equal(truncate(path, 60), 0);
+    assert_int_equal(journal_read_checkpoint(path, 5, 4, 3, 4, &got, back, &err), -1);
+    assert_null(got);
+    tilebuf_destroy(&img);
+}
+
+typedef struct seen {
+    uint32_t task[16];
+    int kind[16];
+    int n;
+} seen_t;
+
+static int collect(void *user, uint32_t task, int kind, const void *data, size_t size, err_t *err)
+{
+    (void)data;
+    (void)size;
+    (void)err;
+    seen_t *s = user;
+    if (s->n < 16) {
+        s->task[s->n] = task;
+        s->kind[s->n++] = kind;
+    }
+    return 0;
+}
+
+static void test_journal_tables(void **state)
+{
+    (void)state;
+    err_t err;
+    const char *path = path_in("tables.db");
+    journal_t *jn = journal_open(path, &err);
+    assert_non_null(jn);
+    journal_job_t job = {.id = 7, .name = "prism", .hash = "ab12", .main = "scene.pbrt",
+                         .settings = {.spp = 64, .seed = -1, .integrator = "path",
+                                      .target_error = 0.02},
+                         .state = 0, .round_photons = 30000, .samples_total = 999};
+    assert_int_equal(journal_add_job(jn, &job, &err), 0);
+    const uint8_t blob[4] = {1, 2, 3, 4};
+    /* ntiles 2: task = pass * 2 + tile; a photon batch. */
+    for (int pass = 0; pass < 2; pass++)
+        for (int tile = 0; tile < 2; tile++)
+            assert_int_equal(journal_add_result(jn, 7, 0, (uint32_t)(pass * 2 + tile), 0, tile,
+                                                pass, blob, sizeof blob, &err),
+                             0);
+    assert_int_equal(journal_add_result(jn, 7, 0, 0x80000001u, 1, 1, -1, blob, 4, &err), 0);
+    /* The same task again (a duplicate result) is ignored, not an error. */
+    assert_int_equal(journal_add_result(jn, 7, 0, 3, 0, 1, 1, blob, 4, &err), 0);
+    int next[2] = {1, 0};
+    assert_int_equal(journal_set_checkpoint(jn, 7, 0, 1, next, 2, 12.5, &err), 0);
+    seen_t s = {0};
+    assert_int_equal(journal_results(jn, 7, 0, collect, &s, &err), 0);
+    /* Photon batches first, then by pass and tile; tile 0's pass 0 is in the checkpoint. */
+    assert_int_equal(s.n, 4);
+    assert_int_equal(s.kind[0], 1);
+    assert_int_equal(s.task[1], 1);
+    assert_int_equal(s.task[2], 2);
+    assert_int_equal(s.task[3], 3);
+    assert_int_equal(journal_set_photons_saved(jn, 7, 30000, &err), 0);
+    journal_pass_t p = {.pass = 3, .spp = 4, .elapsed = 1.5, .valid = true, .rel_error = 0.25};
+    assert_int_equal(journal_add_pass(jn, 7, 0, &p, &err), 0);
+    journal_close(&jn);
+
+    /* Everything is there after a reopen. */
+    assert_non_null(jn = journal_open(path, &err));
+    journal_job_t *rows;
+    size_t n;
+    assert_int_equal(journal_jobs(jn, &rows, &n, &err), 0);
+    assert_int_equal(n, 1);
+    assert_string_equal(rows[0].name, "prism");
+    assert_string_equal(rows[0].main, "scene.pbrt");
+    assert_string_equal(rows[0].settings.integrator, "path");
+    assert_null(rows[0].settings.dispersion);
+    assert_int_equal(rows[0].settings.seed, -1);
+    assert_true(rows[0].settings.target_error == 0.02);
+    assert_int_equal(rows[0].checkpoint, 1);
+    assert_int_equal(rows[0].photons_saved, 30000);
+    assert_true(rows[0].elapsed == 1.5);
+    journal_job_clear(&rows[0]);
+    free(rows);
+    journal_pass_t ps[4];
+    assert_int_equal(journal_passes(jn, 7, 0, ps, 4, &err), 1);
+    assert_int_equal(ps[0].pass, 3);
+    s.n = 0;
+    assert_int_equal(journal_results(jn, 7, 0, collect, &s, &err), 0);
+    assert_int_equal(s.n, 3); /* the photon batch went with the saved store */
+    /* A job that is over keeps no results. */
+    job.state = 2;
+    assert_int_equal(journal_set_state(jn, &job, &err), 0);
+    s.n = 0;
+    assert_int_equal(journal_results(jn, 7, 0, collect, &s, &err), 0);
+    assert_int_equal(s.n, 0);
+    journal_close(&jn);
+
+    /* A journal of another version is refused with a message, not reused. */
+    sqlite3 *db;
+    assert_int_equal(sqlite3_open(path, &db), SQLITE_OK);
+    assert_int_equal(sqlite3_exec(db, "UPDATE meta SET value=7 WHERE key='version'", NULL, NULL, NULL),
+                     SQLITE_OK);
+    sqlite3_close(db);
+    assert_null(journal_open(path, &err));
+    assert_non_null(strstr(err.msg, "version 7"));
+    /* Not a database at all. */
+    FILE *f = fopen(path_in("junk.db"), "w");
+    fputs("this is not an SQLite file, it is a text file of some length...........", f);
+    fclose(f);
+    assert_null(journal_open(path_in("junk.db"), &err));
+    assert_non_null(strstr(err.msg, "junk.db"));
+}
+
+/* ---------------------------------------------------------------- farms */
+
+/* A number the journal of spool answers to sql (a COUNT or a column), or -1 when it cannot be
+ * read yet. */
+static long long journal_query(const char *spool, const char *sql)
+{
+    char path[600];
+    snprintf(path, sizeof path, "%s/journal.db", spool);
+    sqlite3 *db = NULL;
+    long long v = -1;
+    if (sqlite3_open_v2(path, &db, SQLITE_OPEN_READONLY, NULL) == SQLITE_OK) {
+        sqlite3_busy_timeout(db, 2000);
+        sqlite3_stmt *st;
+        if (sqlite3_prepare_v2(db, sql, -1, &st, NULL) == SQLITE_OK) {
+            if (sqlite3_step(st) == SQLITE_ROW)
+                v = sqlite3_column_int64(st, 0);
+            sqlite3_finalize(st);
+        }
+    }
+    sqlite3_close(db);
+    return v;
+}
+
+/* Waits until every sql of the NULL-terminated list answers at least 1. */
+static void wait_journal(const char *spool, double timeout_s, const char *what, ...)
+{
+    double deadline = testutil_now_s() + timeout_s;
+    for (;;) {
+        va_list ap;
+        va_start(ap, what);
+        int all = 1;
+        for (const char *sql = va_arg(ap, const char *); sql; sql = va_arg(ap, const char *))
+            all &= journal_query(spool, sql) >= 1;
+        va_end(ap);
+        if (all)
+            return;
+        if (testutil_now_s() > deadline)
+            fail_msg("the journal did not show %s within %.0f s", what, timeout_s);
+        testutil_sleep_ms(20);
+    }
+}
+
+static char *slurp(const char *path)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    static char buf[1 << 20];
+    size_t n = fread(buf, 1, sizeof buf - 1, f);
+    fclose(f);
+    buf[n] = 0;
+    return buf;
+}
+
+static pid_t start_master(const char *log, const char *spool, const char *wep, const char *cep)
+{
+    return testutil_spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool,
+                          "--heartbeat", HEARTBEAT, "--tile", TILE, "--insecure", NULL);
+}
+
+static pid_t start_worker(const char *log, const char *wep, const char *name)
+{
+    return testutil_spawn(log, "worker", "--connect", wep, "--threads", "1", "--name", name,
+                          "--insecure", NULL);
+}
+
+static const char *reference(const char *scene, const char *spp, const char *name)
+{
+    const char *ref = path_in(name);
+    struct stat st;
+    if (stat(ref, &st) == 0)
+        return ref;
+    const run_t *r = run("render", scene, "--spp", spp, "--workers", "1", "--threads", "2",
+                         "--tile", TILE, "-o", ref, "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("reference render of %s: exit %d: %s", scene, r->status, r->err);
+    return ref;
+}
+
+/* Follows job 1 to its end with a fresh client (`status --wait`), fetches it and compares it
+ * with ref. */
+static void finish_and_compare(const char *cep, const char *ref, const char *out,
+                               const char *mlog)
+{
+    const run_t *r = run("status", "1", "--wait", "--quiet", "--master", cep, "--insecure", NULL);
+    if (r->status != 0)
+        fail_msg("status 1 --wait: exit %d: %s\n%s\nmaster log:\n%s", r->status, r->err, r->out,
+                 slurp(mlog));
+    expect_in(r->out, " done ");
+    r = run("fetch", "1", "-o", out, "--master", cep, "--insecure", NULL);
+    if (r->status != 0)
+        fail_msg("fetch 1: exit %d: %s", r->status, r->err);
+    testutil_assert_same_pixels(out, ref);
+}
+
+/* A camera job whose master dies after a checkpoint, with results journaled after it: the
+ * restarted master restores the checkpoint, merges those results again and finishes with the
+ * pixels of an uninterrupted render. */
+static void test_master_killed_camera_job(void **state)
+{
+    (void)state;
+    const char *ref = reference(SCENE, SPP, "tiny-ref.exr");
+    const char *spool = path_in("cam-spool"), *mlog1 = path_in("cam-master1.log"),
+               *mlog2 = path_in("cam-master2.log");
+    pid_t master = start_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
+    char wep[256], cep[256];
+    testutil_read_endpoints(spool, wep, cep);
+    pid_t w = start_worker(path_in("cam-w.log"), wep, "w");
+    const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP, "--insecure", NULL);
+    if (r->status != 0)
+        fail_msg("submit: exit %d: %s", r->status, r->err);
+    assert_string_equal(r->out, "1\n");
+    wait_journal(spool, 120, "a checkpoint and results after it",
+                 "SELECT checkpoint FROM jobs WHERE id=1",
+                 "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
+    testutil_stop(master, SIGKILL);
+    long long ckpt = journal_query(spool, "SELECT checkpoint FROM jobs WHERE id=1");
+    long long kept = journal_query(spool, "SELECT COUNT(*) FROM results WHERE job=1");
+    print_message("master killed at checkpoint %lld with %lld results journaled after it\n", ckpt,
+                  kept);
+
+    master = start_master(mlog2, spool, wep, cep);
+    finish_and_compare(cep, ref, path_in("cam-out.exr"), mlog2);
+    const char *log = slurp(mlog2);
+    const char *resumed = strstr(log, "job 1 'tiny' resumed: ");
+    if (!resumed)
+        fail_msg("the restarted master did not resume job 1:\n%s", log);
+    int done, passes;
+    size_t replayed;
+    assert_int_equal(sscanf(resumed, "job 1 'tiny' resumed: %d of %d passes merged", &done, &passes),
+                     2);
+    assert_non_null(strstr(resumed, "results from the journal"));
+    assert_true(sscanf(strstr(resumed, "batches, ") + 9, "%zu", &replayed) == 1);
+    /* The checkpoint held passes, and the results after it were merged again, not rendered. */
+    assert_true(done >= 1);
+    assert_int_equal((long long)replayed, kept);
+    /* A finished job leaves neither results nor checkpoint files behind. */
+    assert_int_equal(journal_query(spool, "SELECT COUNT(*) FROM results"), 0);
+    assert_int_equal(journal_query(spool, "SELECT state FROM jobs WHERE id=1"), 2);
+    char ck[700];
+    snprintf(ck, sizeof ck, "%s/jobs/1/checkpoint-%lld.bin", spool, ckpt);
+    struct stat st;
+    assert_int_equal(stat(ck, &st), -1);
+    testutil_stop(w, SIGTERM);
+    testutil_stop(master, SIGTERM);
+}
+
+/* A photon job whose master dies twice: during the photon phase (batches journaled, no store
+ * yet) and during the camera phase (the store on disk): the same pixels as one machine's. */
+static void test_master_killed_photon_job(void **state)
+{
+    (void)state;
+    const char *ref = reference(PHOTON_SCENE, PHOTON_SPP, "beam-ref.exr");
+    const char *spool = path_in("ph-spool"), *mlog1 = path_in("ph-master1.log"),
+               *mlog2 = path_in("ph-master2.log"), *mlog3 = path_in("ph-master3.log");
+    pid_t master = start_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
+    char wep[256], cep[256];
+    testutil_read_endpoints(spool, wep, cep);
+    pid_t w1 = start_worker(path_in("ph-w1.log"), wep, "w1");
+    pid_t w2 = start_worker(path_in("ph-w2.log"), wep, "w2");
+    const run_t *r = run("submit", PHOTON_SCENE, "--master", cep, "--spp", PHOTON_SPP,
+                         "--insecure", NULL);
+    if (r->status != 0)
+        fail_msg("submit: exit %d: %s", r->status, r->err);
+    wait_journal(spool, 120, "a photon batch", "SELECT COUNT(*) FROM results WHERE kind=1", NULL);
+    testutil_stop(master, SIGKILL);
+    long long batches = journal_query(spool, "SELECT COUNT(*) FROM results WHERE kind=1");
+    long long saved = journal_query(spool, "SELECT photons_saved FROM jobs WHERE id=1");
+    print_message("master killed with %lld photon batches journaled, store saved: %lld\n",
+                  batches, saved);
+
+    master = start_master(mlog2, spool, wep, cep);
+    wait_journal(spool, 180, "the photon store and camera results",
+                 "SELECT photons_saved FROM jobs WHERE id=1",
+                 "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
+    testutil_stop(master, SIGKILL);
+    const char *log2 = slurp(mlog2);
+    if (!strstr(log2, "job 1 'beam_big' resumed: "))
+        fail_msg("the second master did not resume job 1:\n%s", log2);
+    if (saved == 0 && !strstr(log2, "photon batches, "))
+        fail_msg("no photon batches replayed:\n%s", log2);
+
+    master = start_master(mlog3, spool, wep, cep);
+    finish_and_compare(cep, ref, path_in("ph-out.exr"), mlog3);
+    /* The third master took the photon store from disk: no photon batch was traced again. */
+    const char *log3 = slurp(mlog3);
+    const char *resumed = strstr(log3, "job 1 'beam_big' resumed: ");
+    assert_non_null(resumed);
+    unsigned bd, bt;
+    const char *b = strstr(resumed, "samples, ");
+    assert_non_null(b);
+    assert_int_equal(sscanf(b, "samples, %u of %u photon batches", &bd, &bt), 2);
+    assert_int_equal(bd, bt);
+    testutil_stop(w1, SIGTERM);
+    testutil_stop(w2, SIGTERM);
+    testutil_stop(master, SIGTERM);
+}
+
+/* The master, the workers and the client killed (SIGKILL) at seeded random moments while a job
+ * renders, each started again after a short random pause; the job ends with the pixels of an
+ * uninterrupted render. PRISMFARM_KILL_SEED picks another schedule. */
+static void test_random_kills(void **state)
+{
+    (void)state;
+    const char *ref = reference(SCENE, SPP_LONG, "tiny-long-ref.exr");
+    const char *env = getenv("PRISMFARM_KILL_SEED");
+    uint64_t seed = env ? strtoull(env, NULL, 10) : 20261125;
+    rng_stream_t rng = rng_stream_make(seed, 0, 0);
+    const char *spool = path_in("rk-spool");
+    char mlog[64];
+    int nmaster = 1, nworker = 0, nclient = 1;
+    snprintf(mlog, sizeof mlog, "rk-master%d.log", nmaster);
+    pid_t master = start_master(path_in(mlog), spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
+    char wep[256], cep[256];
+    testutil_read_endpoints(spool, wep, cep);
+    pid_t workers[2];
+    for (int i = 0; i < 2; i++) {
+        char log[64], name[8];
+        snprintf(log, sizeof log, "rk-w%d-%d.log", i, nworker++);
+        snprintf(name, sizeof name, "w%d", i);
+        workers[i] = start_worker(path_in(log), wep, name);
+    }
+    pid_t client = testutil_spawn(path_in("rk-client1.log"), "submit", SCENE, "--master", cep,
+                                  "--spp", SPP_LONG, "--wait", "--quiet", "--insecure", "-o",
+                                  path_in("rk-client.exr"), NULL);
+    wait_journal(spool, 60, "the job", "SELECT COUNT(*) FROM jobs", NULL);
+    /* Each of master, worker and client once in a shuffled order, then random ones: at most
+     * eight kills, none after the job is done. */
+    int order[8] = {0, 1, 2};
+    for (int i = 2; i > 0; i--) {
+        int k = (int)(rng_stream_next(&rng) * (i + 1)), t = order[i];
+        order[i] = order[k];
+        order[k] = t;
+    }
+    for (int i = 3; i < 8; i++)
+        order[i] = (int)(rng_stream_next(&rng) * 3);
+    int kills = 0;
+    for (int i = 0; i < 8; i++) {
+        testutil_sleep_ms(200 + (int)(rng_stream_next(&rng) * 600));
+        if (journal_query(spool, "SELECT state FROM jobs WHERE id=1") >= 2)
+            break;
+        int pause = (int)(rng_stream_next(&rng) * 500);
+        if (order[i] == 0) {
+            testutil_stop(master, SIGKILL);
+            testutil_sleep_ms(pause);
+            snprintf(mlog, sizeof mlog, "rk-master%d.log", ++nmaster);
+            master = start_master(path_in(mlog), spool, wep, cep);
+        } else if (order[i] == 1) {
+            int k = rng_stream_next(&rng) < 0.5 ? 0 : 1;
+            testutil_stop(workers[k], SIGKILL);
+            testutil_sleep_ms(pause);
+            char log[64], name[8];
+            snprintf(log, sizeof log, "rk-w%d-%d.log", k, nworker++);
+            snprintf(name, sizeof name, "w%d", k);
+            workers[k] = start_worker(path_in(log), wep, name);
+        } else {
+            testutil_stop(client, SIGKILL);
+            testutil_sleep_ms(pause);
+            char log[64];
+            snprintf(log, sizeof log, "rk-client%d.log", ++nclient);
+            client = testutil_spawn(path_in(log), "status", "1", "--wait", "--quiet", "--master",
+                                    cep, "--insecure", NULL);
+        }
+        kills++;
+        print_message("seed %llu: kill %d: %s\n", (unsigned long long)seed, kills,
+                      order[i] == 0 ? "master" : order[i] == 1 ? "worker" : "client");
+    }
+    print_message("seed %llu: %d kills (%d masters, %d worker starts, %d clients)\n",
+                  (unsigned long long)seed, kills, nmaster, nworker, nclient);
+    /* Every kind was killed at least once before the job ended (the job is long enough). */
+    assert_true(kills >= 3);
+    finish_and_compare(cep, ref, path_in("rk-out.exr"), path_in(mlog));
+    /* The last client follows the job to its end by itself through any restarts. */
+    int st = testutil_stop(client, 0);
+    assert_true(WIFEXITED(st));
+    if (WEXITSTATUS(st) != 0)
+        fail_msg("the last client exited %d: %s", WEXITSTATUS(st), slurp(path_in("rk-client1.log")));
+    for (int i = 0; i < 2; i++)
+        testutil_stop(workers[i], SIGTERM);
+    testutil_stop(master, SIGTERM);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_tile_blob_round_trip),
+        cmocka_unit_test(test_photon_blob_round_trip),
+        cmocka_unit_test(test_checkpoint_round_trip),
+        cmocka_unit_test(test_journal_tables),
+        cmocka_unit_test(test_master_killed_camera_job),
+        cmocka_unit_test(test_master_killed_photon_job),
+        cmocka_unit_test(test_random_kills),
+    };
+    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+}
