@@ -755,7 +755,8 @@ static void on_hello(master_t *m, const proto_peer_t *from, mworker_t *w, const 
      * result travels and the next TASK comes back (docs/performance.md). */
     int prefetch = m->opts->task_prefetch < 0 ? w->threads : m->opts->task_prefetch;
     err_t err;
-    if (sched_worker_join(m->sched, w->id, w->threads + prefetch, now, &err) < 0) {
+    if (sched_worker_join(m->sched, w->id, w->threads + prefetch, now, &err) < 0 ||
+        sched_worker_set_threads(m->sched, w->id, w->threads, &err) < 0) {
         mlog(m, "worker %s refused: %s", proto_peer_str(from, who), err.msg);
         w->alive = false;
         send_refuse(m, m->wnet, from, err.msg);

@@ -46,6 +46,7 @@ typedef struct job {
 typedef struct worker {
     uint64_t id;
     int slots, busy;
+    int threads; /* tasks it runs at once; slots beyond them are prefetch (sched_worker_set_threads) */
     double last_seen;
     bool alive;
     uint64_t tasks_done, tasks_failed;
@@ -436,9 +437,22 @@ int sched_worker_join(sched_t *self, uint64_t id, int slots, double now, err_t *
         sched_worker_leave(self, id);
     }
     w->slots = slots;
+    w->threads = slots;
     w->busy = 0;
     w->alive = true;
     w->last_seen = now;
+    return 0;
+}
+
+int sched_worker_set_threads(sched_t *self, uint64_t id, int threads, err_t *err)
+{
+    worker_t *w = find_worker(self, id);
+    if (!w)
+        return err_set(err, "no worker %llu", (unsigned long long)id);
+    if (threads < 1 || threads > w->slots)
+        return err_set(err, "worker %llu: %d threads for %d slots", (unsigned long long)id,
+                       threads, w->slots);
+    w->threads = threads;
     return 0;
 }
 
@@ -504,10 +518,47 @@ static void issue(sched_t *self, worker_t *w, job_t *j, task_t *t, double now)
     j->state = JOB_RUNNING;
 }
 
+/* Up to limit + 1 tasks the worker could be given now (photon batches of a job in its photon
+ * phase, else camera tasks), counted in the order sched_next_task hands them out. */
+static uint32_t count_issuable(const sched_t *self, uint64_t worker, uint32_t limit)
+{
+    uint32_t n = 0;
+    for (size_t k = 0; k < self->njobs && n <= limit; k++) {
+        const job_t *j = self->jobs[k];
+        if ((j->state != JOB_QUEUED && j->state != JOB_RUNNING) || blocked(self, j, worker))
+            continue;
+        if (j->photon_done < j->nphoton) {
+            for (uint32_t b = j->first_pending_photon; b < j->nphoton && n <= limit; b++)
+                n += j->ptasks[b].state == TASK_PENDING;
+            continue;
+        }
+        uint32_t total = ncamera(j);
+        for (uint32_t i = j->first_pending; i < total && n <= limit; i++)
+            n += j->tasks[i].state == TASK_PENDING;
+    }
+    return n;
+}
+
+/* A task beyond the worker's threads (a prefetch) only while there are more tasks to give than
+ * other workers have idle threads: near the end of the work the last tasks go to threads that
+ * would otherwise idle, not into one worker's queue (docs/performance.md, "Scaling"). */
+static bool prefetch_allowed(const sched_t *self, const worker_t *w)
+{
+    uint32_t idle = 0;
+    for (size_t i = 0; i < self->nworkers; i++) {
+        const worker_t *o = &self->workers[i];
+        if (o != w && o->alive && o->busy < o->threads)
+            idle += (uint32_t)(o->threads - o->busy);
+    }
+    return count_issuable(self, w->id, idle) > idle;
+}
+
 int sched_next_task(sched_t *self, uint64_t worker, double now, sched_task_t *out)
 {
     worker_t *w = find_worker(self, worker);
     if (!w || !w->alive || w->busy >= w->slots)
+        return 0;
+    if (w->busy >= w->threads && !prefetch_allowed(self, w))
         return 0;
     for (size_t k = 0; k < self->njobs; k++) {
         job_t *j = self->jobs[k];

@@ -113,6 +113,10 @@ int sched_remove_job(sched_t *self, uint64_t job, err_t *err);
 
 /* Workers are known by an id of the caller's choosing. slots: tasks it may hold at once. */
 int sched_worker_join(sched_t *self, uint64_t worker, int slots, double now, err_t *err);
+/* Of its slots, the tasks the worker runs at once (default: all of them); the others are
+ * prefetch, filled only while more tasks wait than the other workers have idle threads, so
+ * that the last tasks of the work are not queued behind a busy worker while another idles. */
+int sched_worker_set_threads(sched_t *self, uint64_t worker, int threads, err_t *err);
 /* Any message from the worker counts as a sign of life. */
 void sched_worker_seen(sched_t *self, uint64_t worker, double now);
 /* The worker is gone: its tasks go back to the queue. */

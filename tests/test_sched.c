@@ -230,6 +230,122 @@ static void test_bad_results_and_jobs(void **state)
     sched_destroy(&s);
 }
 
+/* Prefetch shrinks at the end of the work: two workers of 1 thread and 2 slots each. While
+ * more tasks wait than the other worker has idle threads, the first may queue a second task;
+ * once they do not, the last task goes to the idle worker instead. */
+static void test_prefetch_shrinks_at_the_end(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(4);
+    err_t err;
+    /* One 4x4 tile, spp 4: passes [0,1) [1,2) [2,4), three tasks. */
+    assert_int_equal(sched_add_job(s, 1, 4, 4, 4, grid4(), &err), 0);
+    for (uint64_t w = 1; w <= 2; w++) {
+        assert_int_equal(sched_worker_join(s, w, 2, 0, &err), 0);
+        assert_int_equal(sched_worker_set_threads(s, w, 1, &err), 0);
+    }
+    assert_int_equal(sched_worker_set_threads(s, 9, 1, &err), -1);
+    assert_int_equal(sched_worker_set_threads(s, 1, 3, &err), -1);
+    sched_task_t a, b, c, d;
+    assert_int_equal(sched_next_task(s, 1, 0, &a), 1);
+    /* 2 tasks left, worker 2 has 1 idle thread: 2 > 1, so worker 1 may prefetch one. */
+    assert_int_equal(sched_next_task(s, 1, 0, &b), 1);
+    assert_int_equal(sched_next_task(s, 2, 0, &c), 1);
+    assert_int_equal(sched_next_task(s, 2, 0, &d), 0); /* nothing left */
+    sched_destroy(&s);
+
+    /* The same with two tasks: worker 1 takes one; the other is left for worker 2's idle
+     * thread rather than queued behind worker 1's. */
+    s = new_sched(4);
+    assert_int_equal(sched_add_job(s, 1, 4, 4, 2, grid4(), &err), 0);
+    for (uint64_t w = 1; w <= 2; w++) {
+        assert_int_equal(sched_worker_join(s, w, 2, 0, &err), 0);
+        assert_int_equal(sched_worker_set_threads(s, w, 1, &err), 0);
+    }
+    assert_int_equal(sched_next_task(s, 1, 0, &a), 1);
+    assert_int_equal(sched_next_task(s, 1, 0, &b), 0);
+    assert_int_equal(sched_next_task(s, 2, 0, &c), 1);
+    assert_int_not_equal(a.task, c.task);
+    /* A worker alone prefetches whatever is left: no thread elsewhere could take it. */
+    sched_worker_leave(s, 2);
+    assert_int_equal(sched_next_task(s, 1, 0, &b), 1);
+    assert_int_equal(b.task, c.task);
+    sched_destroy(&s);
+}
+
+/* A job restored from a checkpoint (the master's journal): the passes it holds count as
+ * merged, the rest is handed out and merged after them, and the image equals a run that
+ * merged everything itself. */
+static void test_restore_from_checkpoint(void **state)
+{
+    (void)state;
+    err_t err;
+    /* The uninterrupted run: 8x4 pixels, tiles of 4 (2 tiles), spp 4 (3 passes). */
+    sched_t *s = new_sched(4);
+    assert_int_equal(sched_add_job(s, 1, 8, 4, 4, grid4(), &err), 0);
+    sched_worker_join(s, 1, 64, 0, &err);
+    sched_task_t t;
+    while (sched_next_task(s, 1, 0, &t) == 1) {
+        tilebuf_t *r = fake_result(&t, 4);
+        assert_true(sched_task_done(s, 1, 1, t.task, t.attempt, &r, 0, &err) >= 0);
+    }
+    const tilebuf_t *full = sched_job_image(s, 1);
+
+    /* The interrupted one: tile 0 merged passes 0-1, tile 1 pass 0 (a checkpoint). */
+    sched_t *s2 = new_sched(4);
+    assert_int_equal(sched_add_job(s2, 1, 8, 4, 4, grid4(), &err), 0);
+    sched_worker_join(s2, 1, 64, 0, &err);
+    int next[2] = {2, 1};
+    tilebuf_t *img = tilebuf_new(0, 0, 8, 4, 4, &err);
+    sched_task_t q;
+    for (int tile = 0; tile < 2; tile++)
+        for (int pass = 0; pass < next[tile]; pass++) {
+            q = (sched_task_t){.x0 = 4 * tile, .y0 = 0, .w = 4, .h = 4};
+            uint32_t bounds[4];
+            sched_pass_bounds(4, bounds);
+            q.sample_begin = bounds[pass];
+            q.sample_end = bounds[pass + 1];
+            tilebuf_t *r = fake_result(&q, 4);
+            assert_int_equal(tilebuf_merge(img, r, &err), 0);
+            tilebuf_destroy(&r);
+        }
+    /* A pass table out of range, or an image of another size, is refused. */
+    int bad[2] = {4, 0};
+    tilebuf_t *small = tilebuf_new(0, 0, 4, 4, 4, &err);
+    assert_int_equal(sched_restore_job(s2, 1, &small, next, 0, &err), -1);
+    assert_null(small);
+    tilebuf_t *copy = tilebuf_new(0, 0, 8, 4, 4, &err);
+    assert_int_equal(sched_restore_job(s2, 1, &copy, bad, 0, &err), -1);
+    assert_int_equal(sched_restore_job(s2, 1, &img, next, 0, &err), 0);
+    assert_null(img);
+    int got[2];
+    assert_int_equal(sched_job_next_pass(s2, 1, got, 2), 2);
+    assert_memory_equal(got, next, sizeof next);
+    sched_job_info_t info;
+    assert_int_equal(sched_job_info(s2, 1, &info), 0);
+    assert_int_equal(info.state, JOB_RUNNING);
+    assert_int_equal(info.passes_done, 1);
+    assert_int_equal(info.samples_done, 16 * 2 + 16 * 1); /* passes 0-1 of tile 0, 0 of tile 1 */
+    /* Only the three missing tasks are handed out. */
+    int n = 0;
+    while (sched_next_task(s2, 1, 0, &t) == 1) {
+        assert_true((t.task % 2 == 0 && t.pass == 2) || (t.task % 2 == 1 && t.pass >= 1));
+        tilebuf_t *r = fake_result(&t, 4);
+        assert_true(sched_task_done(s2, 1, 1, t.task, t.attempt, &r, 0, &err) >= 0);
+        n++;
+    }
+    assert_int_equal(n, 3);
+    assert_int_equal(sched_job_info(s2, 1, &info), 0);
+    assert_int_equal(info.state, JOB_DONE);
+    const tilebuf_t *resumed = sched_job_image(s2, 1);
+    assert_memory_equal(tilebuf_sums(resumed), tilebuf_sums(full), 8 * 4 * 4 * sizeof(double));
+    assert_memory_equal(tilebuf_counts(resumed), tilebuf_counts(full), 8 * 4 * sizeof(uint64_t));
+    /* A started job cannot be restored again. */
+    assert_int_equal(sched_restore_job(s2, 1, NULL, NULL, 0, &err), -1);
+    sched_destroy(&s);
+    sched_destroy(&s2);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -238,6 +354,8 @@ int main(void)
         cmocka_unit_test(test_dead_worker_and_deadline),
         cmocka_unit_test(test_failures_block_and_fail),
         cmocka_unit_test(test_bad_results_and_jobs),
+        cmocka_unit_test(test_prefetch_shrinks_at_the_end),
+        cmocka_unit_test(test_restore_from_checkpoint),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
