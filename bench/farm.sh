@@ -136,10 +136,11 @@ t_inproc() { # job threads
 
 declare -A CEP SPOOL WPORT FPIDS
 # A standing farm: a master and N workers of T threads, separate processes on loopback TCP.
-start_farm() { # name workers threads
+start_farm() { # name workers threads [master options...]
   local name=$1 n=$2 t=$3 spool=$WORK/$1 wep cep i
+  shift 3
   "$BIN" master --workers 'tcp://127.0.0.1:*' --clients 'tcp://127.0.0.1:*' --spool "$spool" --insecure \
-    2>"$WORK/$name-master.log" &
+    "$@" 2>"$WORK/$name-master.log" &
   PIDS+=($!)
   FPIDS[$name]=$!
   for ((i = 0; i < 500; i++)); do [[ -s $spool/endpoints ]] && break; nap 0.01; done
@@ -220,15 +221,19 @@ T0=$EPOCHREALTIME
 TN=$NPROC
 echo "== overhead: $REPS repetitions, $TN threads" >&2
 start_farm tcp1 1 "$TN"
+# The same without the master's journal (docs/reliability.md): what keeping it costs.
+start_farm tcpnj 1 "$TN" --no-journal
 for j in "${OVERHEAD_JOBS[@]}"; do # warm-up: the worker fetches the scene, caches warm
   measure warm t_direct "$j" "$TN"
   measure warm t_farm tcp1 "$j"
+  measure warm t_farm tcpnj "$j"
 done
 for ((r = 1; r <= REPS; r++)); do
   for j in "${OVERHEAD_JOBS[@]}"; do
     measure "direct|$j" t_direct "$j" "$TN"
     measure "inproc|$j" t_inproc "$j" "$TN"
     measure "tcp|$j" t_farm tcp1 "$j"
+    measure "tcpnj|$j" t_farm tcpnj "$j"
   done
   echo "   repetition $r/$REPS done" >&2
 done
@@ -318,6 +323,16 @@ report() {
       "| $(ratio "$(med ${C[inproc|$j]})" "$(med ${C[direct|$j]})"), $(ratio "$(med ${C[tcp|$j]})" "$(med ${C[direct|$j]})")" \
       "| $(printf '%.2f s' "$(med ${M[tcp|$j]})")" \
       "| $([[ $j == tiny0 ]] && echo 'fixed costs, no target' || echo "in-process $(verdict "$ri" 1.05 '<='), TCP $(verdict "$rf" 1.05 '<=')") |"
+  done
+  echo
+  echo "**The journal's cost** (the TCP farm above against one whose master runs --no-journal; the"
+  echo "journal writes every result and a checkpoint of the image about once per pass)"
+  echo
+  echo "| job | TCP farm, journal | TCP farm, --no-journal | journal / none: wall; min | master CPU: journal, none |"
+  echo "| --- | --- | --- | --- | --- |"
+  for j in "${OVERHEAD_JOBS[@]}"; do
+    echo "| $(job "$j") | $(cell "${W[tcp|$j]}") | $(cell "${W[tcpnj|$j]}") | $(ratios "tcp|$j" "tcpnj|$j")" \
+      "| $(printf '%.2f s, %.2f s' "$(med ${M[tcp|$j]})" "$(med ${M[tcpnj|$j]})") |"
   done
   echo
   echo "**Scaling** (TCP farm, workers of 1 thread each; target: 2 workers ≥ 1.8x one worker)"

@@ -99,6 +99,7 @@ typedef struct mjob {
     uint64_t checkpoint;
     size_t journaled_bytes;
     uint64_t checkpoint_samples; /* samples merged at the last checkpoint */
+    double last_checkpoint;      /* when it was written (monotonic seconds; 0: none yet) */
 } mjob_t;
 
 /* A client's STATUS with a wait: answered when its job is over or at the deadline. */
@@ -463,8 +464,12 @@ static void journal_state(master_t *m, mjob_t *j, double now)
 }
 
 /* Once the results journaled since the last checkpoint outgrow the image, the merged image is
- * written as a new checkpoint and the results in it leave the journal: the spool holds at most
- * about two images' worth per running job, and a restart replays at most one. */
+ * written as a new checkpoint and the results in it leave the journal. Not more often than
+ * every CHECKPOINT_INTERVAL_S unless they outgrow it fourfold: a large image's checkpoint takes
+ * the master's loop a while (315 MB at 1920x1080 with 16 buckets), and early passes are short.
+ * So the spool holds at most about five images' worth per running job, and a restart replays
+ * at most four. */
+#define CHECKPOINT_INTERVAL_S 10.0
 static void maybe_checkpoint(master_t *m, mjob_t *j, double now)
 {
     sched_job_info_t info;
@@ -472,7 +477,8 @@ static void maybe_checkpoint(master_t *m, mjob_t *j, double now)
         info.samples_done == j->checkpoint_samples)
         return;
     size_t image_bytes = (size_t)j->xres * (size_t)j->yres * ((size_t)j->grid.n + 3) * 8;
-    if (j->journaled_bytes < image_bytes)
+    if (j->journaled_bytes < image_bytes ||
+        (j->journaled_bytes < 4 * image_bytes && now - j->last_checkpoint < CHECKPOINT_INTERVAL_S))
         return;
     err_t err;
     int *next = malloc((size_t)info.ntiles * sizeof *next);
@@ -494,6 +500,7 @@ static void maybe_checkpoint(master_t *m, mjob_t *j, double now)
         j->checkpoint = gen;
         j->journaled_bytes = 0;
         j->checkpoint_samples = info.samples_done;
+        j->last_checkpoint = now;
         free(next);
         return;
     } else {
@@ -502,6 +509,7 @@ static void maybe_checkpoint(master_t *m, mjob_t *j, double now)
     free(next);
     journal_failed(m, j, &err);
     j->journaled_bytes = 0; /* try again after as many bytes, not after every result */
+    j->last_checkpoint = now;
 }
 
 /* The merged photon store on disk as jobs/<id>/photons.store (atomically), and in the journal
