@@ -1,5 +1,7 @@
 #include "lightmap.h"
 
+#include "le_bytes.h"
+
 #include <float.h>
 #include <limits.h>
 #include <math.h>
@@ -762,53 +764,6 @@ double lightmap_density(const lightmap_t *self)
 #define WIRE_SURFACE 24
 #define WIRE_TEXEL (1 + 8 * ACC_BINS)
 
-static void put_u16(uint8_t *p, uint16_t v)
-{
-    p[0] = (uint8_t)v;
-    p[1] = (uint8_t)(v >> 8);
-}
-static void put_u32(uint8_t *p, uint32_t v)
-{
-    for (int i = 0; i < 4; i++)
-        p[i] = (uint8_t)(v >> (8 * i));
-}
-static void put_u64(uint8_t *p, uint64_t v)
-{
-    for (int i = 0; i < 8; i++)
-        p[i] = (uint8_t)(v >> (8 * i));
-}
-static void put_f64(uint8_t *p, double v)
-{
-    uint64_t u;
-    memcpy(&u, &v, sizeof u);
-    put_u64(p, u);
-}
-static uint16_t get_u16(const uint8_t *p)
-{
-    return (uint16_t)(p[0] | p[1] << 8);
-}
-static uint32_t get_u32(const uint8_t *p)
-{
-    uint32_t v = 0;
-    for (int i = 3; i >= 0; i--)
-        v = v << 8 | p[i];
-    return v;
-}
-static uint64_t get_u64(const uint8_t *p)
-{
-    uint64_t v = 0;
-    for (int i = 7; i >= 0; i--)
-        v = v << 8 | p[i];
-    return v;
-}
-static double get_f64(const uint8_t *p)
-{
-    uint64_t u = get_u64(p);
-    double v;
-    memcpy(&v, &u, sizeof v);
-    return v;
-}
-
 static int cmp_tiles(const void *a, const void *b)
 {
     return key_cmp(&(*(tile_t *const *)a)->key, &(*(tile_t *const *)b)->key);
@@ -878,28 +833,28 @@ int lightmap_encode(const lightmap_t *self, uint8_t **out, size_t *out_len, err_
         return err_set(err, "light map: out of memory encoding %zu bytes", raw_len);
     }
     uint8_t *p = raw;
-    put_u32(p, (uint32_t)nb);
-    put_u32(p + 4, 0);
-    put_f64(p + 8, self->grid.lambda_min);
-    put_f64(p + 16, self->grid.lambda_max);
-    put_f64(p + 24, self->density);
-    put_u64(p + 32, self->emitted);
-    put_u64(p + 40, nsurf);
+    le_put_u32(p, (uint32_t)nb);
+    le_put_u32(p + 4, 0);
+    le_put_f64(p + 8, self->grid.lambda_min);
+    le_put_f64(p + 16, self->grid.lambda_max);
+    le_put_f64(p + 24, self->density);
+    le_put_u64(p + 32, self->emitted);
+    le_put_u64(p + 40, nsurf);
     p += WIRE_HEAD;
     for (size_t i = 0; i < self->ntiles;) {
         size_t j = i;
         while (j < self->ntiles && same_surface(&tiles[j]->key, &tiles[i]->key))
             j++;
         const tile_key_t *k = &tiles[i]->key;
-        put_u32(p, k->instance);
-        put_u32(p + 4, k->shape);
-        put_u32(p + 8, k->prim);
-        put_u32(p + 12, k->side);
-        put_u64(p + 16, j - i);
+        le_put_u32(p, k->instance);
+        le_put_u32(p + 4, k->shape);
+        le_put_u32(p + 8, k->prim);
+        le_put_u32(p + 12, k->side);
+        le_put_u64(p + 16, j - i);
         p += WIRE_SURFACE;
         for (; i < j; i++) {
             const tile_t *t = tiles[i];
-            put_u64(p, t->key.tile);
+            le_put_u64(p, t->key.tile);
             p += 8;
             memset(p, 0, (size_t)mask_bytes);
             for (int b = 0; b < nb; b++)
@@ -911,14 +866,14 @@ int lightmap_encode(const lightmap_t *self, uint8_t **out, size_t *out_len, err_
                 if (!c)
                     continue;
                 uint16_t m = chunk_mask(c);
-                put_u16(p, m);
+                le_put_u16(p, m);
                 p += 2;
                 for (int s = 0; s < TILE_TEXELS; s++) {
                     if (!(m & (1u << s)))
                         continue;
                     *p++ = (uint8_t)c->top[s];
                     for (int q = 0; q < ACC_BINS; q++, p += 8)
-                        put_u64(p, c->acc[s][q]);
+                        le_put_u64(p, c->acc[s][q]);
                 }
             }
         }
@@ -931,9 +886,9 @@ int lightmap_encode(const lightmap_t *self, uint8_t **out, size_t *out_len, err_
         free(buf);
         return err_set(err, "light map: zlib compress2 failed (%d)", zr);
     }
-    put_u32(buf, WIRE_MAGIC);
-    put_u32(buf + 4, LIGHTMAP_WIRE_VERSION);
-    put_u64(buf + 8, raw_len);
+    le_put_u32(buf, WIRE_MAGIC);
+    le_put_u32(buf + 4, LIGHTMAP_WIRE_VERSION);
+    le_put_u64(buf + 8, raw_len);
     *out_len = WIRE_OUTER + (size_t)clen;
     uint8_t *shrunk = realloc(buf, *out_len);
     *out = shrunk ? shrunk : buf;
@@ -1010,19 +965,19 @@ static int decode_body(lightmap_t *self, reader_t *r, size_t max_bytes, err_t *e
     const uint8_t *h = take(r, WIRE_HEAD, "the header", err);
     if (!h)
         return -1;
-    if (get_u32(h) != (uint32_t)nb)
-        return err_set(err, "light map data: %u buckets, the job's film has %d", get_u32(h), nb);
-    if (get_u32(h + 4) != 0)
-        return err_set(err, "light map data: reserved field is %u, not 0", get_u32(h + 4));
-    if (get_f64(h + 8) != self->grid.lambda_min || get_f64(h + 16) != self->grid.lambda_max)
+    if (le_get_u32(h) != (uint32_t)nb)
+        return err_set(err, "light map data: %u buckets, the job's film has %d", le_get_u32(h), nb);
+    if (le_get_u32(h + 4) != 0)
+        return err_set(err, "light map data: reserved field is %u, not 0", le_get_u32(h + 4));
+    if (le_get_f64(h + 8) != self->grid.lambda_min || le_get_f64(h + 16) != self->grid.lambda_max)
         return err_set(err, "light map data: wavelength range [%g, %g] nm, the job's is [%g, %g]",
-                       get_f64(h + 8), get_f64(h + 16), self->grid.lambda_min,
+                       le_get_f64(h + 8), le_get_f64(h + 16), self->grid.lambda_min,
                        self->grid.lambda_max);
-    if (get_f64(h + 24) != self->density)
+    if (le_get_f64(h + 24) != self->density)
         return err_set(err, "light map data: density %g texels per unit area, the job's is %g",
-                       get_f64(h + 24), self->density);
-    self->emitted = get_u64(h + 32);
-    uint64_t nsurf = get_u64(h + 40);
+                       le_get_f64(h + 24), self->density);
+    self->emitted = le_get_u64(h + 32);
+    uint64_t nsurf = le_get_u64(h + 40);
     if (nsurf > r->left / WIRE_SURFACE)
         return err_set(err, "light map data: %llu surfaces cannot fit in the %zu bytes left",
                        (unsigned long long)nsurf, r->left);
@@ -1032,12 +987,12 @@ static int decode_body(lightmap_t *self, reader_t *r, size_t max_bytes, err_t *e
         const uint8_t *s = take(r, WIRE_SURFACE, "a surface", err);
         if (!s)
             return -1;
-        tile_key_t key = {.instance = get_u32(s),
-                          .shape = get_u32(s + 4),
-                          .prim = get_u32(s + 8),
-                          .side = get_u32(s + 12),
+        tile_key_t key = {.instance = le_get_u32(s),
+                          .shape = le_get_u32(s + 4),
+                          .prim = le_get_u32(s + 8),
+                          .side = le_get_u32(s + 12),
                           .tile = 0};
-        uint64_t ntiles = get_u64(s + 16);
+        uint64_t ntiles = le_get_u64(s + 16);
         grid_info_t g;
         if (grid_of(self, key.instance, key.shape, key.prim, &g, err))
             return err_prefix(err, "light map data: surface %llu: ", (unsigned long long)si);
@@ -1059,7 +1014,7 @@ static int decode_body(lightmap_t *self, reader_t *r, size_t max_bytes, err_t *e
             const uint8_t *th = take(r, min_tile, "a tile", err);
             if (!th)
                 return -1;
-            key.tile = get_u64(th);
+            key.tile = le_get_u64(th);
             if (key.tile / across >= down)
                 return err_set(err,
                                "light map data: surface %llu: tile %llu is outside its "
@@ -1088,7 +1043,7 @@ static int decode_body(lightmap_t *self, reader_t *r, size_t max_bytes, err_t *e
                 const uint8_t *mp = take(r, 2, "a texel mask", err);
                 if (!mp)
                     return -1;
-                uint16_t m = get_u16(mp);
+                uint16_t m = le_get_u16(mp);
                 if (!m)
                     return err_set(err,
                                    "light map data: surface %llu tile %llu bucket %d: empty "
@@ -1109,7 +1064,7 @@ static int decode_body(lightmap_t *self, reader_t *r, size_t max_bytes, err_t *e
                     int top = (int8_t)v[0];
                     uint64_t acc[ACC_BINS];
                     for (int q = 0; q < ACC_BINS; q++)
-                        acc[q] = get_u64(v + 1 + 8 * q);
+                        acc[q] = le_get_u64(v + 1 + 8 * q);
                     /* The store is trusted by the renderer afterwards: only canonical, finite
                      * sums come in. */
                     if (top < ACC_TOP_MIN || top > ACC_TOP_MAX || acc[0] == 0 ||
@@ -1146,16 +1101,16 @@ lightmap_t *lightmap_decode(const scene_t *scene, double density, spectral_grid_
         err_set(err, "light map data: %zu bytes, shorter than its %d-byte header", len, WIRE_OUTER);
         return NULL;
     }
-    if (get_u32(data) != WIRE_MAGIC) {
+    if (le_get_u32(data) != WIRE_MAGIC) {
         err_set(err, "light map data: bad magic (not a prismfarm light map)");
         return NULL;
     }
-    if (get_u32(data + 4) != LIGHTMAP_WIRE_VERSION) {
-        err_set(err, "light map data: format version %u, expected %u", get_u32(data + 4),
+    if (le_get_u32(data + 4) != LIGHTMAP_WIRE_VERSION) {
+        err_set(err, "light map data: format version %u, expected %u", le_get_u32(data + 4),
                 LIGHTMAP_WIRE_VERSION);
         return NULL;
     }
-    uint64_t raw_len = get_u64(data + 8);
+    uint64_t raw_len = le_get_u64(data + 8);
     if (raw_len > max_bytes) {
         err_set(err, "light map data: inflates to %llu bytes, more than the %zu allowed",
                 (unsigned long long)raw_len, max_bytes);

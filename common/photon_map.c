@@ -1,5 +1,7 @@
 #include "photon_map.h"
 
+#include "le_bytes.h"
+
 #include <float.h>
 #include <math.h>
 #include <stdlib.h>
@@ -429,47 +431,6 @@ int photon_map_irradiance(const photon_map_t *self, vec3_t p, vec3_t n, double r
 #define WIRE_HEADER 32
 #define WIRE_RECORD 24
 
-static void put_u16(uint8_t *p, uint16_t v)
-{
-    p[0] = (uint8_t)v;
-    p[1] = (uint8_t)(v >> 8);
-}
-static void put_u32(uint8_t *p, uint32_t v)
-{
-    for (int i = 0; i < 4; i++)
-        p[i] = (uint8_t)(v >> (8 * i));
-}
-static void put_u64(uint8_t *p, uint64_t v)
-{
-    for (int i = 0; i < 8; i++)
-        p[i] = (uint8_t)(v >> (8 * i));
-}
-static void put_f32(uint8_t *p, float f)
-{
-    uint32_t u;
-    memcpy(&u, &f, sizeof u);
-    put_u32(p, u);
-}
-static uint16_t get_u16(const uint8_t *p)
-{
-    return (uint16_t)(p[0] | p[1] << 8);
-}
-static uint32_t get_u32(const uint8_t *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-static uint64_t get_u64(const uint8_t *p)
-{
-    return (uint64_t)get_u32(p) | (uint64_t)get_u32(p + 4) << 32;
-}
-static float get_f32(const uint8_t *p)
-{
-    uint32_t u = get_u32(p);
-    float f;
-    memcpy(&f, &u, sizeof f);
-    return f;
-}
-
 int photon_map_encode(const photon_map_t *self, uint8_t **out, size_t *out_len, err_t *err)
 {
     *out = NULL;
@@ -482,22 +443,22 @@ int photon_map_encode(const photon_map_t *self, uint8_t **out, size_t *out_len, 
     uint8_t *b = malloc(len);
     if (!b)
         return err_set(err, "out of memory encoding %zu photons (%zu MB)", self->n, len >> 20);
-    put_u32(b, WIRE_MAGIC);
-    put_u32(b + 4, WIRE_VERSION);
-    put_u32(b + 8, (uint32_t)self->grid.n);
-    put_u32(b + 12, 0);
-    put_u64(b + 16, (uint64_t)self->n);
-    put_u64(b + 24, self->emitted);
+    le_put_u32(b, WIRE_MAGIC);
+    le_put_u32(b + 4, WIRE_VERSION);
+    le_put_u32(b + 8, (uint32_t)self->grid.n);
+    le_put_u32(b + 12, 0);
+    le_put_u64(b + 16, (uint64_t)self->n);
+    le_put_u64(b + 24, self->emitted);
     for (size_t i = 0; i < self->n; i++) {
         const photon_t *ph = &self->ph[i];
         uint8_t *r = b + WIRE_HEADER + i * WIRE_RECORD;
         for (int k = 0; k < 3; k++)
-            put_f32(r + 4 * k, ph->p[k]);
-        put_f32(r + 12, ph->power);
-        put_u16(r + 16, (uint16_t)(ph->bucket & BUCKET_MASK));
-        put_u16(r + 18, ph->lambda);
-        put_u16(r + 20, ph->dir);
-        put_u16(r + 22, ph->normal);
+            le_put_f32(r + 4 * k, ph->p[k]);
+        le_put_f32(r + 12, ph->power);
+        le_put_u16(r + 16, (uint16_t)(ph->bucket & BUCKET_MASK));
+        le_put_u16(r + 18, ph->lambda);
+        le_put_u16(r + 20, ph->dir);
+        le_put_u16(r + 22, ph->normal);
     }
     *out = b;
     *out_len = len;
@@ -511,19 +472,21 @@ photon_map_t *photon_map_decode(spectral_grid_t grid, const uint8_t *data, size_
         err_set(err, "photon map data: %zu bytes, shorter than its %d-byte header", len, WIRE_HEADER);
         return NULL;
     }
-    if (get_u32(data) != WIRE_MAGIC) {
+    if (le_get_u32(data) != WIRE_MAGIC) {
         err_set(err, "photon map data: bad magic (not a prismfarm photon map)");
         return NULL;
     }
-    if (get_u32(data + 4) != WIRE_VERSION) {
-        err_set(err, "photon map data: format version %u, expected %u", get_u32(data + 4), WIRE_VERSION);
+    if (le_get_u32(data + 4) != WIRE_VERSION) {
+        err_set(err, "photon map data: format version %u, expected %u", le_get_u32(data + 4),
+                WIRE_VERSION);
         return NULL;
     }
-    if (get_u32(data + 8) != (uint32_t)grid.n || get_u32(data + 12) != 0) {
-        err_set(err, "photon map data: %u buckets, the job's film has %d", get_u32(data + 8), grid.n);
+    if (le_get_u32(data + 8) != (uint32_t)grid.n || le_get_u32(data + 12) != 0) {
+        err_set(err, "photon map data: %u buckets, the job's film has %d", le_get_u32(data + 8),
+                grid.n);
         return NULL;
     }
-    uint64_t n = get_u64(data + 16);
+    uint64_t n = le_get_u64(data + 16);
     if (n > (len - WIRE_HEADER) / WIRE_RECORD || (len - WIRE_HEADER) != n * WIRE_RECORD) {
         err_set(err, "photon map data: %zu bytes do not hold the %llu photons the header names",
                 len, (unsigned long long)n);
@@ -540,12 +503,12 @@ photon_map_t *photon_map_decode(spectral_grid_t grid, const uint8_t *data, size_
         const uint8_t *r = data + WIRE_HEADER + i * WIRE_RECORD;
         photon_t *ph = &self->ph[i];
         for (int k = 0; k < 3; k++)
-            ph->p[k] = get_f32(r + 4 * k);
-        ph->power = get_f32(r + 12);
-        ph->bucket = get_u16(r + 16);
-        ph->lambda = get_u16(r + 18);
-        ph->dir = get_u16(r + 20);
-        ph->normal = get_u16(r + 22);
+            ph->p[k] = le_get_f32(r + 4 * k);
+        ph->power = le_get_f32(r + 12);
+        ph->bucket = le_get_u16(r + 16);
+        ph->lambda = le_get_u16(r + 18);
+        ph->dir = le_get_u16(r + 20);
+        ph->normal = le_get_u16(r + 22);
         /* The map is trusted by the renderer afterwards: no NaN, Inf, negative power or bucket
          * outside the film may come in from the network. */
         if (!isfinite(ph->p[0]) || !isfinite(ph->p[1]) || !isfinite(ph->p[2]) ||
@@ -557,6 +520,6 @@ photon_map_t *photon_map_decode(spectral_grid_t grid, const uint8_t *data, size_
         }
     }
     self->n = (size_t)n;
-    self->emitted = get_u64(data + 24);
+    self->emitted = le_get_u64(data + 24);
     return self;
 }

@@ -360,50 +360,6 @@ static void test_bad_flags(void **state)
     expect_in(r->out, "--time-limit T");
 }
 
-/* Starts `prismfarm ARGS...` in the background with stderr to a log; returns its pid. */
-static pid_t spawn(const char *log, const char *arg, ...)
-{
-    const char *bin = getenv("PRISMFARM_BIN");
-    char *argv[32];
-    va_list ap;
-    va_start(ap, arg);
-    cli_argv(argv, 32, bin, arg, ap);
-    va_end(ap);
-    pid_t pid = fork();
-    assert_true(pid >= 0);
-    if (pid == 0) {
-        if (!freopen(log, "w", stderr) || !freopen("/dev/null", "w", stdout))
-            _exit(126);
-        execv(bin, argv);
-        _exit(127);
-    }
-    return pid;
-}
-
-static void stop_process(pid_t pid)
-{
-    kill(pid, SIGTERM);
-    int st;
-    waitpid(pid, &st, 0);
-}
-
-static void read_endpoints(const char *spool, char *workers, char *clients)
-{
-    char path[600];
-    snprintf(path, sizeof path, "%s/endpoints", spool);
-    for (int i = 0; i < 400; i++) {
-        FILE *f = fopen(path, "r");
-        if (f) {
-            int got = fscanf(f, "workers %255s clients %255s", workers, clients);
-            fclose(f);
-            if (got == 2)
-                return;
-        }
-        testutil_sleep_ms(25);
-    }
-    fail_msg("the master did not write %s", path);
-}
-
 static char *slurp(const char *path)
 {
     static char buf[1 << 16];
@@ -427,12 +383,12 @@ static void test_farm_processes_report_accuracy(void **state)
     char wipc[600], cipc[600];
     snprintf(wipc, sizeof wipc, "ipc://%s", path_in("w.ipc"));
     snprintf(cipc, sizeof cipc, "ipc://%s", path_in("c.ipc"));
-    pid_t master = spawn(mlog, "master", "--workers", wipc, "--clients", cipc, "--spool", spool,
-                         "--heartbeat", "200", NULL);
+    pid_t master = testutil_spawn(mlog, "master", "--workers", wipc, "--clients", cipc, "--spool",
+                                  spool, "--heartbeat", "200", NULL);
     char wep[256], cep[256];
-    read_endpoints(spool, wep, cep);
-    pid_t worker = spawn(path_in("w.log"), "worker", "--connect", wep, "--threads", "2", "--name",
-                         "w1", "--cache", path_in("cache"), NULL);
+    testutil_read_endpoints(spool, wep, cep);
+    pid_t worker = testutil_spawn(path_in("w.log"), "worker", "--connect", wep, "--threads", "2",
+                                  "--name", "w1", "--cache", path_in("cache"), NULL);
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", "1024", "--target-error", "0.1",
                          "--wait", "--json", "-o", path_in("sub.exr"), "--quiet", NULL);
     if (r->status != 0)
@@ -472,8 +428,8 @@ static void test_farm_processes_report_accuracy(void **state)
     snprintf(line, sizeof line, "%8d %9.4f", spp, rel);
     expect_in(r->out, line);
 
-    stop_process(worker);
-    stop_process(master);
+    testutil_stop(worker, SIGTERM);
+    testutil_stop(master, SIGTERM);
     const char *log = slurp(mlog);
     expect_in(log, "pass 1 of 11 merged: 1 spp, no error estimate yet");
     expect_in(log, "pass 2 of 11 merged: 2 spp, relative error ");

@@ -48,53 +48,6 @@ static const char *path_in(const char *name)
     return buf[k];
 }
 
-/* Starts `prismfarm ARGS...` in the background with output to a log; returns its pid. */
-static pid_t spawn(const char *log, const char *arg, ...)
-{
-    const char *bin = getenv("PRISMFARM_BIN");
-    char *argv[32];
-    va_list ap;
-    va_start(ap, arg);
-    cli_argv(argv, 32, bin, arg, ap);
-    va_end(ap);
-    pid_t pid = fork();
-    assert_true(pid >= 0);
-    if (pid == 0) {
-        FILE *f = freopen(log, "w", stderr);
-        (void)f;
-        if (!freopen("/dev/null", "w", stdout))
-            _exit(126);
-        execv(bin, argv);
-        _exit(127);
-    }
-    return pid;
-}
-
-static void stop(pid_t pid, int sig)
-{
-    kill(pid, sig);
-    int st;
-    waitpid(pid, &st, 0);
-}
-
-/* Reads "workers tcp://..." and "clients tcp://..." from the master's endpoints file. */
-static void read_endpoints(const char *spool, char *workers, char *clients)
-{
-    char path[600];
-    snprintf(path, sizeof path, "%s/endpoints", spool);
-    for (int i = 0; i < 200; i++) {
-        FILE *f = fopen(path, "r");
-        if (f) {
-            int got = fscanf(f, "workers %255s clients %255s", workers, clients);
-            fclose(f);
-            if (got == 2)
-                return;
-        }
-        testutil_sleep_ms(25);
-    }
-    fail_msg("the master did not write %s", path);
-}
-
 /* Entries in a folder other than . and ..; -1 if it cannot be read. */
 static int count_entries(const char *dir)
 {
@@ -140,15 +93,16 @@ static void test_processes_and_a_killed_worker(void **state)
 {
     (void)state;
     const char *spool = path_in("spool");
-    pid_t master = spawn(path_in("master.log"), "master", "--workers", "tcp://127.0.0.1:*", "--clients",
-                         "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "8",
-                         "--key", MASTER_KEY, "--authorized", AUTHORIZED, NULL);
+    pid_t master =
+        testutil_spawn(path_in("master.log"), "master", "--workers", "tcp://127.0.0.1:*",
+                       "--clients", "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200",
+                       "--tile", "8", "--key", MASTER_KEY, "--authorized", AUTHORIZED, NULL);
     char wep[256], cep[256];
-    read_endpoints(spool, wep, cep);
-    pid_t w1 = spawn(path_in("w1.log"), "worker", "--connect", wep, "--threads", "1", "--name", "w1", "--cache",
-                     path_in("c1"), NULL);
-    pid_t w2 = spawn(path_in("w2.log"), "worker", "--connect", wep, "--threads", "1", "--name", "w2", "--cache",
-                     path_in("c2"), NULL);
+    testutil_read_endpoints(spool, wep, cep);
+    pid_t w1 = testutil_spawn(path_in("w1.log"), "worker", "--connect", wep, "--threads", "1",
+                              "--name", "w1", "--cache", path_in("c1"), NULL);
+    pid_t w2 = testutil_spawn(path_in("w2.log"), "worker", "--connect", wep, "--threads", "1",
+                              "--name", "w2", "--cache", path_in("c2"), NULL);
 
     /* A job large enough to be caught half-way. */
     const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "64", "--name", "big", NULL);
@@ -156,7 +110,7 @@ static void test_processes_and_a_killed_worker(void **state)
         fail_msg("submit: exit %d: %s", r->status, r->err);
     assert_string_equal(r->out, "1\n");
     testutil_sleep_ms(300);
-    stop(w2, SIGKILL);
+    testutil_stop(w2, SIGKILL);
     r = run("workers", "--master", cep, NULL);
     assert_int_equal(r->status, 0);
     expect_in(r->out, "w1");
@@ -197,8 +151,8 @@ static void test_processes_and_a_killed_worker(void **state)
     expect_in(r->out, "big");
     expect_in(r->out, "again");
 
-    stop(w1, SIGTERM);
-    stop(master, SIGTERM);
+    testutil_stop(w1, SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 static void test_client_without_master(void **state)

@@ -47,51 +47,6 @@ static const char *path_in(const char *name)
     return buf[k];
 }
 
-static pid_t spawn(const char *log, const char *arg, ...)
-{
-    const char *bin = getenv("PRISMFARM_BIN");
-    char *argv[32];
-    va_list ap;
-    va_start(ap, arg);
-    cli_argv(argv, 32, bin, arg, ap);
-    va_end(ap);
-    pid_t pid = fork();
-    assert_true(pid >= 0);
-    if (pid == 0) {
-        FILE *f = freopen(log, "w", stderr);
-        (void)f;
-        if (!freopen("/dev/null", "w", stdout))
-            _exit(126);
-        execv(bin, argv);
-        _exit(127);
-    }
-    return pid;
-}
-
-static void stop(pid_t pid, int sig)
-{
-    kill(pid, sig);
-    int st;
-    waitpid(pid, &st, 0);
-}
-
-static void read_endpoints(const char *spool, char *workers, char *clients)
-{
-    char path[600];
-    snprintf(path, sizeof path, "%s/endpoints", spool);
-    for (int i = 0; i < 400; i++) {
-        FILE *f = fopen(path, "r");
-        if (f) {
-            int got = fscanf(f, "workers %255s clients %255s", workers, clients);
-            fclose(f);
-            if (got == 2)
-                return;
-        }
-        testutil_sleep_ms(25);
-    }
-    fail_msg("the master did not write %s", path);
-}
-
 static void render_direct(const char *scene, const char *out)
 {
     const run_t *r = run("render", scene, "--direct", "-o", out, "--quiet", NULL);
@@ -138,18 +93,19 @@ static void test_processes_refine_and_kill(void **state)
 {
     (void)state;
     const char *spool = path_in("spool");
-    pid_t master = spawn(path_in("master.log"), "master", "--workers", "tcp://127.0.0.1:*", "--clients",
-                         "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "16",
-                         "--key", MASTER_KEY, "--authorized", AUTHORIZED, NULL);
+    pid_t master =
+        testutil_spawn(path_in("master.log"), "master", "--workers", "tcp://127.0.0.1:*",
+                       "--clients", "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200",
+                       "--tile", "16", "--key", MASTER_KEY, "--authorized", AUTHORIZED, NULL);
     char wep[256], cep[256];
-    read_endpoints(spool, wep, cep);
-    pid_t w1 = spawn(path_in("w1.log"), "worker", "--connect", wep, "--threads", "1", "--name", "w1",
-                     "--cache", path_in("c1"), NULL);
-    pid_t w2 = spawn(path_in("w2.log"), "worker", "--connect", wep, "--threads", "1", "--name", "w2",
-                     "--cache", path_in("c2"), NULL);
+    testutil_read_endpoints(spool, wep, cep);
+    pid_t w1 = testutil_spawn(path_in("w1.log"), "worker", "--connect", wep, "--threads", "1",
+                              "--name", "w1", "--cache", path_in("c1"), NULL);
+    pid_t w2 = testutil_spawn(path_in("w2.log"), "worker", "--connect", wep, "--threads", "1",
+                              "--name", "w2", "--cache", path_in("c2"), NULL);
 
-    const run_t *r = run("submit", "data/photon/beam.pbrt", "--master", cep, "--name", "beam", "--wait",
-                         "-o", path_in("job.exr"), "--quiet", NULL);
+    const run_t *r = run("submit", "data/photon/beam.pbrt", "--master", cep, "--name", "beam",
+                         "--wait", "-o", path_in("job.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("submit --wait: exit %d: %s", r->status, r->err);
     render_direct("data/photon/beam.pbrt", path_in("direct.exr"));
@@ -192,7 +148,7 @@ static void test_processes_refine_and_kill(void **state)
         fail_msg("submit big: exit %d: %s", r->status, r->err);
     assert_string_equal(r->out, "3\n");
     testutil_sleep_ms(250);
-    stop(w2, SIGKILL);
+    testutil_stop(w2, SIGKILL);
     for (int i = 0; i < 1200; i++) {
         r = run("status", "3", "--master", cep, "--json", NULL);
         assert_int_equal(r->status, 0);
@@ -207,8 +163,8 @@ static void test_processes_refine_and_kill(void **state)
     render_direct("data/photon/beam_big.pbrt", path_in("big_direct.exr"));
     testutil_assert_same_pixels(path_in("big.exr"), path_in("big_direct.exr"));
 
-    stop(w1, SIGTERM);
-    stop(master, SIGTERM);
+    testutil_stop(w1, SIGTERM);
+    testutil_stop(master, SIGTERM);
     /* The master said what it did: batches merged, the store sent, the refinement. */
     FILE *f = fopen(path_in("master.log"), "r");
     assert_non_null(f);

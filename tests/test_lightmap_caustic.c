@@ -29,66 +29,21 @@
 #include "photon.h"
 #include "render.h"
 #include "scene.h"
+#include "scene_builders.h"
 #include "scene_load.h"
 
 #define NB 16 /* the default grid: 16 buckets over 380-720 nm */
 
 /* ------------------------------------------------------------------------------------------ */
-/* Scene helpers (as test_photon.c). */
-
-static scene_t *new_scene(double density)
+/* The scenes of these tests: those of scene_builders.h (as test_photon.c's) with a light-map
+ * store of `density` texels per square metre, photons deposited from the first bounce. */
+static scene_t *lightmap_scene(double density)
 {
-    err_t err;
-    scene_t *s = scene_new(&err);
-    assert_non_null(s);
-    s->settings.seed = 7;
+    scene_t *s = sb_new_scene();
     s->settings.photon.store = PHOTON_STORE_LIGHTMAP;
     s->settings.photon.lightmap_density = density;
     s->settings.photon.mindepth = 1;
     return s;
-}
-
-static const spectrum_t *constant(scene_t *s, double v)
-{
-    err_t err;
-    spectrum_t *sp = spectrum_new_constant(v, &err);
-    assert_non_null(sp);
-    assert_int_equal(scene_own_spectrum(s, sp, &err), 0);
-    return sp;
-}
-
-static int diffuse(scene_t *s, double albedo)
-{
-    err_t err;
-    spectrum_t *sp = spectrum_new_constant(albedo, &err);
-    assert_non_null(sp);
-    texture_t *t = texture_new_constant(sp, &err); /* the texture owns sp */
-    assert_non_null(t);
-    assert_int_equal(scene_own_texture(s, t, &err), 0);
-    material_t m = {.kind = MATERIAL_DIFFUSE, .reflectance = t};
-    strcpy(m.name, "diffuse");
-    int i = scene_add_material(s, &m, &err);
-    assert_true(i >= 0);
-    return i;
-}
-
-static int material(scene_t *s, material_kind_t kind, const char *glass)
-{
-    err_t err;
-    material_t m = {.kind = kind};
-    if (glass)
-        m.ior = glass_find(glass)->ior;
-    snprintf(m.name, sizeof m.name, "%s", glass ? glass : "m");
-    int i = scene_add_material(s, &m, &err);
-    assert_true(i >= 0);
-    return i;
-}
-
-static void finish(scene_t *s)
-{
-    err_t err;
-    if (scene_finish(s, &err))
-        fail_msg("scene_finish: %s", err.msg);
 }
 
 static photon_job_t job_of(const scene_t *s, photon_store_policy_t policy, int maxdepth, int lanes)
@@ -124,165 +79,9 @@ static photon_store_t *trace_store(const scene_t *s, photon_store_policy_t polic
     return m;
 }
 
-/* SCHOTT Sellmeier coefficients (SCHOTT optical glass data sheets 2017), lambda in um. */
-static double sellmeier(const double B[3], const double C[3], double lambda_nm)
-{
-    double l2 = lambda_nm * lambda_nm * 1e-6;
-    return sqrt(1.0 + B[0] * l2 / (l2 - C[0]) + B[1] * l2 / (l2 - C[1]) + B[2] * l2 / (l2 - C[2]));
-}
-static const double SF11_B[3] = {1.73759695, 0.313747346, 1.89878101};
-static const double SF11_C[3] = {0.013188707, 0.0623068142, 155.23629};
-static const double BK7_B[3] = {1.03961212, 0.231792344, 1.01046945};
-static const double BK7_C[3] = {0.00600069867, 0.0200179144, 103.560653};
-
-/* A collimated disk light of radius r at `at`, emitting along `dir`, with irradiance 1. */
-static void beam(scene_t *s, vec3_t at, vec3_t dir, double r)
-{
-    err_t err;
-    light_t l = {.kind = LIGHT_COLLIMATED, .spectrum = constant(s, 1.0), .scale = 1.0};
-    int li = scene_add_light(s, &l, &err);
-    assert_true(li >= 0);
-    vec3_t z = vec3_normalize(dir), x, y;
-    vec3_basis(z, &x, &y);
-    double m[4][4] = {
-        {x.x, y.x, z.x, at.x}, {x.y, y.y, z.y, at.y}, {x.z, y.z, z.z, at.z}, {0, 0, 0, 1}};
-    transform_t t = transform_from_matrix(m);
-    assert_true(scene_add_disk(s, &t, r, 0.0, material(s, MATERIAL_INTERFACE, NULL), li, 0, &err) >=
-                0);
-}
-
-/* Unpolarised Fresnel transmittance, cosine form (Born & Wolf 1.5.2). */
-static double fresnel_t(double cos_i, double n1, double n2)
-{
-    double sin_t = n1 / n2 * sqrt(fmax(0.0, 1.0 - cos_i * cos_i));
-    if (sin_t >= 1.0)
-        return 0.0;
-    double cos_t = sqrt(1.0 - sin_t * sin_t);
-    double rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t);
-    double rp = (n2 * cos_i - n1 * cos_t) / (n2 * cos_i + n1 * cos_t);
-    return 1.0 - 0.5 * (rs * rs + rp * rp);
-}
-
 /* ------------------------------------------------------------------------------------------ */
-/* 1. The prism. Geometry as test_photon.c's: an equilateral N-BK7 prism (side 0.1, height 0.2,
- * axis y) at minimum deviation for LAMBDA0 (the centre of bucket 8) under a collimated beam
- * along +x of radius 0.5 mm through the middle of its first face, and a 0.6 x 0.6 screen 5 m
- * away perpendicular to the beam leaving at LAMBDA0. */
-#define LAMBDA0 560.625
-#define APEX (PF_PI / 3.0)
-#define THROW 5.0
-
-typedef struct prism {
-    vec3_t v[3];               /* the triangle in the y = 0 plane */
-    vec3_t entry;              /* where the beam's axis meets the first face */
-    vec3_t exit_dir0;          /* leaving direction at LAMBDA0 */
-    vec3_t exit0;              /* where it leaves at LAMBDA0 */
-    vec3_t screen_c, screen_e; /* screen centre and its horizontal axis */
-    int screen;                /* the screen's shape index */
-} prism_t;
-
-/* Snell's law in vector form (Born & Wolf 1.5): d unit, n unit facing the incident side. */
-static int snell(vec3_t d, vec3_t n, double n1, double n2, vec3_t *t)
-{
-    double c = -vec3_dot(d, n), eta = n1 / n2, k = 1.0 - eta * eta * (1.0 - c * c);
-    if (k < 0.0)
-        return 0;
-    *t = vec3_normalize(vec3_add(vec3_scale(d, eta), vec3_scale(n, eta * c - sqrt(k))));
-    return 1;
-}
-
-static vec3_t outward(const prism_t *p, int a, int b)
-{
-    vec3_t e = vec3_sub(p->v[b], p->v[a]);
-    vec3_t n = vec3_normalize(vec3_make(e.z, 0, -e.x));
-    vec3_t c = vec3_scale(vec3_add(vec3_add(p->v[0], p->v[1]), p->v[2]), 1.0 / 3.0);
-    return vec3_dot(n, vec3_sub(p->v[a], c)) < 0 ? vec3_neg(n) : n;
-}
-
-/* The central ray at wavelength lambda: into face (v0 v1), out of face (v0 v2), onto the
- * screen plane; returns its coordinate along screen_e and the deviation angle. */
-static double land(const prism_t *p, double lambda, double *deviation)
-{
-    double n = sellmeier(BK7_B, BK7_C, lambda);
-    vec3_t d = vec3_make(1, 0, 0), t = d, o = d;
-    assert_true(snell(d, outward(p, 0, 1), 1.0, n, &t));
-    vec3_t n2 = outward(p, 0, 2);
-    double s = vec3_dot(vec3_sub(p->v[0], p->entry), n2) / vec3_dot(t, n2);
-    vec3_t q = vec3_fma(p->entry, t, s);
-    assert_true(snell(t, vec3_neg(n2), n, 1.0, &o));
-    if (deviation)
-        *deviation = acos(fmin(1.0, vec3_dot(o, d)));
-    vec3_t sn = p->exit_dir0;
-    double u = vec3_dot(vec3_sub(p->screen_c, q), sn) / vec3_dot(o, sn);
-    return vec3_dot(vec3_sub(vec3_fma(q, o, u), p->screen_c), p->screen_e);
-}
-
-static scene_t *prism_scene(prism_t *p, double density)
-{
-    /* At minimum deviation the ray inside runs parallel to the base, so the beam meets the
-     * first face at i0 = asin(n0 sin(A/2)); the prism is turned so that the beam runs along
-     * +x. */
-    double n0 = sellmeier(BK7_B, BK7_C, LAMBDA0);
-    double i0 = asin(n0 * sin(APEX / 2.0));
-    double a = -(i0 - APEX / 2.0), side = 0.1, h = side * sqrt(3.0) / 2.0;
-    double uv[3][2] = {{0.0, h}, {-side / 2.0, 0.0}, {side / 2.0, 0.0}};
-    for (int k = 0; k < 3; k++)
-        p->v[k] = vec3_make(uv[k][0] * cos(a) - uv[k][1] * sin(a), 0.0,
-                            uv[k][0] * sin(a) + uv[k][1] * cos(a));
-    p->entry = vec3_scale(vec3_add(p->v[0], p->v[1]), 0.5);
-    vec3_t t = vec3_make(1, 0, 0);
-    assert_true(snell(vec3_make(1, 0, 0), outward(p, 0, 1), 1.0, n0, &t));
-    vec3_t n2 = outward(p, 0, 2);
-    p->exit0 = vec3_fma(p->entry, t, vec3_dot(vec3_sub(p->v[0], p->entry), n2) / vec3_dot(t, n2));
-    assert_true(snell(t, vec3_neg(n2), n0, 1.0, &p->exit_dir0));
-    p->screen_c = vec3_fma(p->exit0, p->exit_dir0, THROW);
-    p->screen_e = vec3_normalize(vec3_cross(vec3_make(0, 1, 0), p->exit_dir0));
-
-    scene_t *s = new_scene(density);
-    beam(s, vec3_fma(p->entry, vec3_make(1, 0, 0), -0.2), vec3_make(1, 0, 0), 0.0005);
-    double P[18];
-    for (int k = 0; k < 6; k++) {
-        vec3_t q = p->v[k % 3];
-        P[3 * k] = q.x;
-        P[3 * k + 1] = k < 3 ? -0.1 : 0.1;
-        P[3 * k + 2] = q.z;
-    }
-    uint32_t tri[8][3] = {{0, 1, 2}, {3, 5, 4}, {0, 3, 4}, {0, 4, 1},
-                          {1, 4, 5}, {1, 5, 2}, {2, 5, 3}, {2, 3, 0}};
-    /* Every triangle outward (normal = (p0 - p2) x (p1 - p2), pbrt-v4's rule). */
-    vec3_t c = vec3_make((p->v[0].x + p->v[1].x + p->v[2].x) / 3, 0,
-                         (p->v[0].z + p->v[1].z + p->v[2].z) / 3);
-    for (int k = 0; k < 8; k++) {
-        vec3_t q[3];
-        for (int j = 0; j < 3; j++)
-            q[j] = vec3_make(P[3 * tri[k][j]], P[3 * tri[k][j] + 1], P[3 * tri[k][j] + 2]);
-        vec3_t nrm = vec3_cross(vec3_sub(q[0], q[2]), vec3_sub(q[1], q[2]));
-        vec3_t mid = vec3_scale(vec3_add(vec3_add(q[0], q[1]), q[2]), 1.0 / 3.0);
-        if (vec3_dot(nrm, vec3_sub(mid, c)) < 0) {
-            uint32_t x = tri[k][0];
-            tri[k][0] = tri[k][1];
-            tri[k][1] = x;
-        }
-    }
-    assert_true(scene_add_mesh(s, P, 6, &tri[0][0], 8, NULL, NULL,
-                               material(s, MATERIAL_DIELECTRIC, "N-BK7"), -1, 0, NULL) >= 0);
-    vec3_t e = p->screen_e, y = vec3_make(0, 1, 0), sc = p->screen_c;
-    double S[12];
-    vec3_t corners[4] = {vec3_add(sc, vec3_add(vec3_scale(e, -0.3), vec3_scale(y, -0.3))),
-                         vec3_add(sc, vec3_add(vec3_scale(e, 0.3), vec3_scale(y, -0.3))),
-                         vec3_add(sc, vec3_add(vec3_scale(e, 0.3), vec3_scale(y, 0.3))),
-                         vec3_add(sc, vec3_add(vec3_scale(e, -0.3), vec3_scale(y, 0.3)))};
-    for (int k = 0; k < 4; k++) {
-        S[3 * k] = corners[k].x;
-        S[3 * k + 1] = corners[k].y;
-        S[3 * k + 2] = corners[k].z;
-    }
-    uint32_t sq[6] = {0, 1, 2, 0, 2, 3};
-    p->screen = scene_add_mesh(s, S, 4, sq, 2, NULL, NULL, diffuse(s, 0.8), -1, 0, NULL);
-    assert_true(p->screen >= 0);
-    finish(s);
-    return s;
-}
+/* 1. The prism of scene_builders.h (N-BK7 at minimum deviation for PRISM_LAMBDA0 under a
+ * collimated beam, a screen 5 m away), with a light-map store. */
 
 /* A screen point (x along screen_e, y along world y) sampled by a ray, and its texel. */
 typedef struct texel_sample {
@@ -320,7 +119,7 @@ typedef struct lit_texel {
  * onto the screen from the prism's side, every texel sampled at spacing h (a sixth of the
  * texel side, so that each texel's samples average to its centre). Returns the texels holding
  * power, in *out (malloc'ed). */
-static size_t lit_texels(const scene_t *s, const prism_t *p, const lightmap_t *lm, double x0,
+static size_t lit_texels(const scene_t *s, const sb_prism_t *p, const lightmap_t *lm, double x0,
                          double x1, double y0, double y1, double h, lit_texel_t **out)
 {
     err_t err;
@@ -368,13 +167,13 @@ static size_t lit_texels(const scene_t *s, const prism_t *p, const lightmap_t *l
 /* Per bucket b, where Snell's law at both faces puts the beam on the screen: at the bucket's
  * centre wavelength (centre[b]) and averaged over its wavelengths (avg[b], Simpson over 8
  * panels: the photons' wavelengths are uniform within the bucket), the bucket's span on the
- * screen, and the two faces' Fresnel transmittance averaged over it (tt[b]). At LAMBDA0 the
+ * screen, and the two faces' Fresnel transmittance averaged over it (tt[b]). At PRISM_LAMBDA0 the
  * deviation is the minimum-deviation formula D = 2 asin(n sin(A/2)) - A. */
 typedef struct prediction {
     double centre[NB], avg[NB], span[NB], tt[NB];
 } prediction_t;
 
-static prediction_t predict(const prism_t *p, spectral_grid_t g)
+static prediction_t predict(const sb_prism_t *p, spectral_grid_t g)
 {
     prediction_t pr;
     for (int b = 0; b < NB; b++) {
@@ -382,17 +181,17 @@ static prediction_t predict(const prism_t *p, spectral_grid_t g)
         pr.avg[b] = pr.tt[b] = 0.0;
         for (int k = 0; k <= 8; k++) {
             double lam = lo + (hi - lo) * k / 8.0, wgt = k == 0 || k == 8 ? 1 : k % 2 ? 4 : 2;
-            pr.avg[b] += wgt * land(p, lam, NULL) / 24.0;
-            double n = sellmeier(BK7_B, BK7_C, lam);
+            pr.avg[b] += wgt * sb_prism_land(p, lam, NULL) / 24.0;
+            double n = sb_sellmeier(SB_BK7_B, SB_BK7_C, lam);
             vec3_t d = vec3_make(1, 0, 0), t = d, o = d;
-            vec3_t f1 = outward(p, 0, 1), f2 = outward(p, 0, 2);
-            assert_true(snell(d, f1, 1.0, n, &t));
-            assert_true(snell(t, vec3_neg(f2), n, 1.0, &o));
-            pr.tt[b] += wgt / 24.0 * fresnel_t(-vec3_dot(d, f1), 1.0, n) *
-                        fresnel_t(vec3_dot(t, f2), n, 1.0);
+            vec3_t f1 = sb_prism_outward(p, 0, 1), f2 = sb_prism_outward(p, 0, 2);
+            assert_true(sb_snell(d, f1, 1.0, n, &t));
+            assert_true(sb_snell(t, vec3_neg(f2), n, 1.0, &o));
+            pr.tt[b] += wgt / 24.0 * sb_fresnel_t(-vec3_dot(d, f1), 1.0, n) *
+                        sb_fresnel_t(vec3_dot(t, f2), n, 1.0);
         }
-        pr.centre[b] = land(p, spectral_grid_centre(g, b), NULL);
-        pr.span[b] = fabs(land(p, hi, NULL) - land(p, lo, NULL));
+        pr.centre[b] = sb_prism_land(p, spectral_grid_centre(g, b), NULL);
+        pr.span[b] = fabs(sb_prism_land(p, hi, NULL) - sb_prism_land(p, lo, NULL));
     }
     return pr;
 }
@@ -418,13 +217,13 @@ static void test_prism_beam_lands(void **state)
     const uint64_t N = 100000;
     for (int di = 0; di < 2; di++) {
         const double d = densities[di], side = 1.0 / sqrt(d);
-        prism_t p;
-        scene_t *s = prism_scene(&p, d);
+        sb_prism_t p;
+        scene_t *s = sb_prism_build(&p, lightmap_scene(d));
         spectral_grid_t g = s->settings.grid;
         if (di == 0) {
-            double dev0, n0 = sellmeier(BK7_B, BK7_C, LAMBDA0);
-            assert_true(fabs(land(&p, LAMBDA0, &dev0)) < 1e-9);
-            assert_true(fabs(dev0 - (2.0 * asin(n0 * sin(APEX / 2.0)) - APEX)) < 1e-9);
+            double dev0, n0 = sb_sellmeier(SB_BK7_B, SB_BK7_C, PRISM_LAMBDA0);
+            assert_true(fabs(sb_prism_land(&p, PRISM_LAMBDA0, &dev0)) < 1e-9);
+            assert_true(fabs(dev0 - (2.0 * asin(n0 * sin(PRISM_APEX / 2.0)) - PRISM_APEX)) < 1e-9);
         }
         prediction_t pr = predict(&p, g);
         photon_stats_t st;
@@ -503,85 +302,9 @@ static void test_prism_beam_lands(void **state)
 
 static scene_t *ball_scene(int photons, photon_store_kind_t kind)
 {
-    err_t err;
-    scene_t *s = new_scene(BALL_DENSITY);
-    render_settings_t *rs = &s->settings;
-    rs->photon.store = kind;
-    rs->integrator = INTEGRATOR_PATH;
-    rs->dispersion = DISPERSION_HERO;
-    rs->visible_sampling = 0;
-    rs->maxdepth = 8;
-    rs->xres = rs->yres = RES;
-    rs->seed = 5;
-    if (photons > 0) {
-        rs->photon.enabled = 1;
-        rs->photon.photons = (uint64_t)photons;
-        rs->photon.maxdepth = 8;
-        rs->photon.radius = 0.02;
-        rs->photon.k = 0;
-        rs->photon.threshold = 0.0;
-    }
-    transform_t cam;
-    assert_int_equal(transform_look_at(vec3_make(0, 0.55, -1.1), vec3_make(0, 0, 0),
-                                       vec3_make(0, 1, 0), &cam, &err),
-                     0);
-    s->camera.camera_to_world = transform_inverse(cam);
-    s->camera.fov_deg = 20.0;
-    const spectrum_t *white = constant(s, 1.0);
-    int fm = diffuse(s, 0.5);
-    material_t glass = {.kind = MATERIAL_DIELECTRIC};
-    glass.ior = ior_constant(1.5);
-    int gm = scene_add_material(s, &glass, &err);
-    transform_t rx;
-    assert_int_equal(transform_rotate(-90.0, vec3_make(1, 0, 0), &rx, &err), 0);
-    assert_true(scene_add_disk(s, &rx, 20.0, 0.0, fm, -1, 0, &err) >= 0);
-    transform_t ball = transform_translate(vec3_make(0, 1.6, 0));
-    assert_true(scene_add_sphere(s, &ball, 1.0, gm, -1, 0, &err) >= 0);
-    light_t l = {.kind = LIGHT_AREA, .spectrum = white, .scale = 40.0};
-    int li = scene_add_light(s, &l, &err);
-    transform_t up = transform_compose(transform_translate(vec3_make(0, 8, 0)), rx);
-    assert_true(scene_add_disk(s, &up, 0.8, 0.0, fm, li, 1, &err) >= 0);
-    finish(s);
-    return s;
-}
-
-typedef struct image_stats {
-    double mean; /* mean over pixels of the pixel's mean luminance */
-    double se;   /* its standard error from the per-sample variances */
-    double max;  /* largest pixel mean */
-    double var;  /* mean per-sample variance of luminance */
-    double buckets[NB];
-} image_stats_t;
-
-static image_stats_t render(scene_t *s, int spp)
-{
-    err_t err;
-    s->settings.spp = spp;
-    tilebuf_t *t = tilebuf_new(0, 0, RES, RES, NB, &err);
-    assert_non_null(t);
-    render_stats_t rst = {0};
-    if (render_tile(s, 0, 0, RES, RES, 0, (uint32_t)spp, t, &rst, &err))
-        fail_msg("render_tile: %s", err.msg);
-    assert_int_equal(rst.nonfinite, 0);
-    image_stats_t st = {0};
-    double var_sum = 0;
-    for (int y = 0; y < RES; y++)
-        for (int x = 0; x < RES; x++) {
-            double n = (double)tilebuf_count(t, x, y);
-            double m = tilebuf_luminance_sum(t, x, y) / n;
-            double v = fmax(0.0, tilebuf_luminance_sq_sum(t, x, y) / n - m * m);
-            st.mean += m;
-            st.max = fmax(st.max, m);
-            st.var += v;
-            var_sum += v / n;
-            for (int b = 0; b < NB; b++)
-                st.buckets[b] += tilebuf_sum(t, x, y, b) / n / (RES * RES);
-        }
-    st.mean /= RES * RES;
-    st.var /= RES * RES;
-    st.se = sqrt(var_sum) / (RES * RES);
-    tilebuf_destroy(&t);
-    return st;
+    scene_t *s = lightmap_scene(BALL_DENSITY);
+    s->settings.photon.store = kind;
+    return sb_ball_build(s, photons, RES);
 }
 
 /* The store's own noise in the image mean, relative. The light map adds photon i, of
@@ -636,7 +359,8 @@ static void test_caustic_agrees_with_path(void **state)
     const int path_spp = 4096, photon_spp = 32, photons = 2000000;
     scene_t *path = ball_scene(0, PHOTON_STORE_LIGHTMAP);
     scene_t *ph = ball_scene(photons, PHOTON_STORE_LIGHTMAP);
-    image_stats_t a = render(path, path_spp), b = render(ph, photon_spp);
+    sb_image_stats_t a = sb_render_stats(path, RES, path_spp),
+                     b = sb_render_stats(ph, RES, photon_spp);
     err_t err;
     const photon_store_t *store = photon_pass_get(ph, NULL, NULL, &err);
     assert_non_null(store);
@@ -657,7 +381,7 @@ static void test_caustic_agrees_with_path(void **state)
             fail_msg("bucket %d: light map %.4f, path %.4f", k, b.buckets[k], a.buckets[k]);
     /* Fireflies: at equal samples, the light-map image's per-sample variance and brightest
      * pixel against the path tracer's. */
-    image_stats_t c = render(path, photon_spp);
+    sb_image_stats_t c = sb_render_stats(path, RES, photon_spp);
     print_message("at %d spp: per-sample luminance variance path %.3g, light map %.3g (%.0fx "
                   "lower); brightest pixel path %.2f, light map %.2f\n",
                   photon_spp, c.var, b.var, c.var / b.var, c.max, b.max);
@@ -668,7 +392,7 @@ static void test_caustic_agrees_with_path(void **state)
      * the floor's light that the ball returns to it (path gather only). */
     ph->settings.integrator = INTEGRATOR_WHITTED;
     ph->settings.dispersion = DISPERSION_FANOUT;
-    image_stats_t d = render(ph, 4);
+    sb_image_stats_t d = sb_render_stats(ph, RES, 4);
     print_message("Whitted gather, fan-out, light map: %.4f (%+.2f%% against the path gather)\n",
                   d.mean, 100.0 * (d.mean / b.mean - 1.0));
     assert_true(fabs(d.mean - b.mean) < 4.0 * sqrt(b.se * b.se + d.se * d.se) + 0.01 * b.mean);
@@ -697,16 +421,16 @@ static void test_energy_full_store(void **state)
     err_t err;
     const double rho = 0.5, I = 2.0, density = 400.0;
     const int M = 40;
-    scene_t *s = new_scene(density);
+    scene_t *s = lightmap_scene(density);
     transform_t id = transform_identity();
-    int sphere = scene_add_sphere(s, &id, 1.0, diffuse(s, rho), -1, 0, NULL);
+    int sphere = scene_add_sphere(s, &id, 1.0, sb_diffuse(s, rho), -1, 0, NULL);
     assert_true(sphere >= 0);
     light_t l = {.kind = LIGHT_POINT,
-                 .spectrum = constant(s, 1.0),
+                 .spectrum = sb_constant(s, 1.0),
                  .scale = I,
                  .position = vec3_make(0.1, -0.2, 0.05)};
     assert_true(scene_add_light(s, &l, NULL) >= 0);
-    finish(s);
+    sb_finish(s);
     const uint64_t N = 100000;
     photon_stats_t st;
     photon_store_t *ps = trace_store(s, PHOTON_STORE_ALL, M, N, &st);
@@ -786,13 +510,6 @@ static void test_energy_full_store(void **state)
     scene_destroy(&s);
 }
 
-/* Transmittance of a slab at normal incidence with every internal reflection summed
- * (incoherently): T = (1 - R) / (1 + R), R = ((n-1)/(n+1))^2, which is 2n / (n^2 + 1). */
-static double slab_t(double n)
-{
-    return 2.0 * n / (n * n + 1.0);
-}
-
 /* The caustic store behind a non-absorbing N-SF11 slab under a collimated beam at normal
  * incidence: the light map holds, per bucket, T(n) averaged over the bucket times the power
  * emitted in it (photons reflected back escape through the pass-through light), all on the
@@ -802,16 +519,16 @@ static double slab_t(double n)
 static void test_energy_caustic_store(void **state)
 {
     (void)state;
-    scene_t *s = new_scene(400.0);
-    beam(s, vec3_make(0, 0, -1), vec3_make(0, 0, 1), 0.05);
-    int glass = material(s, MATERIAL_DIELECTRIC, "N-SF11");
+    scene_t *s = lightmap_scene(400.0);
+    sb_beam(s, vec3_make(0, 0, -1), vec3_make(0, 0, 1), 0.05);
+    int glass = sb_material(s, MATERIAL_DIELECTRIC, "N-SF11");
     transform_t front = transform_identity(), back = transform_translate(vec3_make(0, 0, 0.1));
     assert_true(scene_add_disk(s, &front, 1.0, 0.0, glass, -1, 1, NULL) >= 0); /* normal -z */
     assert_true(scene_add_disk(s, &back, 1.0, 0.0, glass, -1, 0, NULL) >= 0);  /* normal +z */
     transform_t screen = transform_translate(vec3_make(0, 0, 1));
-    int scr = scene_add_disk(s, &screen, 2.0, 0.0, diffuse(s, 0.8), -1, 1, NULL); /* faces -z */
+    int scr = scene_add_disk(s, &screen, 2.0, 0.0, sb_diffuse(s, 0.8), -1, 1, NULL); /* faces -z */
     assert_true(scr >= 0);
-    finish(s);
+    sb_finish(s);
     const uint64_t N = 400000;
     photon_stats_t st;
     photon_store_t *ps = trace_store(s, PHOTON_STORE_CAUSTIC, 200, N, &st);
@@ -836,7 +553,7 @@ static void test_energy_caustic_store(void **state)
         double lo = spectral_grid_bucket_min(g, b), hi = spectral_grid_bucket_max(g, b), t = 0;
         for (int k = 0; k <= 8; k++) {
             double wgt = k == 0 || k == 8 ? 1 : k % 2 ? 4 : 2;
-            t += wgt * slab_t(sellmeier(SF11_B, SF11_C, lo + (hi - lo) * k / 8.0));
+            t += wgt * sb_slab_t(sb_sellmeier(SB_SF11_B, SB_SF11_C, lo + (hi - lo) * k / 8.0));
         }
         t /= 24.0;
         double got = dep[b] / per_bucket;
@@ -854,8 +571,8 @@ static void test_energy_caustic_store(void **state)
     assert_true(total <= st.power_emitted);
     print_message("N-SF11 slab, light map: T = %.4f (violet bucket) .. %.4f (red), formula %.4f "
                   ".. %.4f; held / emitted %.4f <= 1\n",
-                  first, last, slab_t(sellmeier(SF11_B, SF11_C, 390.625)),
-                  slab_t(sellmeier(SF11_B, SF11_C, 709.375)), total / st.power_emitted);
+                  first, last, sb_slab_t(sb_sellmeier(SB_SF11_B, SB_SF11_C, 390.625)),
+                  sb_slab_t(sb_sellmeier(SB_SF11_B, SB_SF11_C, 709.375)), total / st.power_emitted);
     photon_store_destroy(&ps);
     scene_destroy(&s);
 }
@@ -896,8 +613,8 @@ static photon_store_t *trace_range(const scene_t *s, uint64_t i0, uint64_t i1)
 /* The N-BK7 prism of test 1 (beam only) with the scene's photon job set for lanes. */
 static scene_t *bk7_scene(int lanes)
 {
-    prism_t p;
-    scene_t *s = prism_scene(&p, 1e4);
+    sb_prism_t p;
+    scene_t *s = sb_prism_build(&p, lightmap_scene(1e4));
     s->settings.photon.maxdepth = 10;
     s->settings.photon.threshold = 0.0;
     s->settings.photon.monochromerays = lanes;

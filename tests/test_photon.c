@@ -20,60 +20,10 @@
 #include "pbrt_parser.h"
 #include "photon.h"
 #include "scene.h"
+#include "scene_builders.h"
 #include "scene_load.h"
 
 #define NB 16 /* the default grid: 16 buckets over 380-720 nm */
-
-static scene_t *new_scene(void)
-{
-    err_t err;
-    scene_t *s = scene_new(&err);
-    assert_non_null(s);
-    s->settings.seed = 7;
-    return s;
-}
-
-static const spectrum_t *constant(scene_t *s, double v)
-{
-    err_t err;
-    spectrum_t *sp = spectrum_new_constant(v, &err);
-    assert_non_null(sp);
-    assert_int_equal(scene_own_spectrum(s, sp, &err), 0);
-    return sp;
-}
-
-static int diffuse(scene_t *s, double albedo)
-{
-    err_t err;
-    spectrum_t *sp = spectrum_new_constant(albedo, &err);
-    texture_t *t = texture_new_constant(sp, &err);
-    assert_non_null(t);
-    assert_int_equal(scene_own_texture(s, t, &err), 0);
-    material_t m = {.kind = MATERIAL_DIFFUSE, .reflectance = t};
-    strcpy(m.name, "diffuse");
-    int i = scene_add_material(s, &m, &err);
-    assert_true(i >= 0);
-    return i;
-}
-
-static int material(scene_t *s, material_kind_t kind, const char *glass)
-{
-    err_t err;
-    material_t m = {.kind = kind};
-    if (glass)
-        m.ior = glass_find(glass)->ior;
-    snprintf(m.name, sizeof m.name, "%s", glass ? glass : "m");
-    int i = scene_add_material(s, &m, &err);
-    assert_true(i >= 0);
-    return i;
-}
-
-static void finish(scene_t *s)
-{
-    err_t err;
-    if (scene_finish(s, &err))
-        fail_msg("scene_finish: %s", err.msg);
-}
 
 /* Photons [0, n) into a new store (the scene's kind, a photon map unless a test says
  * otherwise); the test reads the map through photon_store_map. */
@@ -107,15 +57,15 @@ static void test_energy_closed_sphere(void **state)
     (void)state;
     const double rho = 0.5, I = 2.0;
     const int M = 40;
-    scene_t *s = new_scene();
+    scene_t *s = sb_new_scene();
     transform_t id = transform_identity();
-    assert_true(scene_add_sphere(s, &id, 1.0, diffuse(s, rho), -1, 0, NULL) >= 0);
+    assert_true(scene_add_sphere(s, &id, 1.0, sb_diffuse(s, rho), -1, 0, NULL) >= 0);
     light_t l = {.kind = LIGHT_POINT,
-                 .spectrum = constant(s, 1.0),
+                 .spectrum = sb_constant(s, 1.0),
                  .scale = I,
                  .position = vec3_make(0.1, -0.2, 0.05)};
     assert_true(scene_add_light(s, &l, NULL) >= 0);
-    finish(s);
+    sb_finish(s);
     const uint64_t N = 100000;
     photon_stats_t st;
     photon_store_t *ps = trace_store(s, PHOTON_STORE_ALL, M, N, &st);
@@ -152,42 +102,6 @@ static void test_energy_closed_sphere(void **state)
     scene_destroy(&s);
 }
 
-/* SCHOTT Sellmeier coefficients (SCHOTT optical glass data sheets 2017), lambda in um. */
-static double sellmeier(const double B[3], const double C[3], double lambda_nm)
-{
-    double l2 = lambda_nm * lambda_nm * 1e-6;
-    return sqrt(1.0 + B[0] * l2 / (l2 - C[0]) + B[1] * l2 / (l2 - C[1]) + B[2] * l2 / (l2 - C[2]));
-}
-static const double SF11_B[3] = {1.73759695, 0.313747346, 1.89878101};
-static const double SF11_C[3] = {0.013188707, 0.0623068142, 155.23629};
-static const double BK7_B[3] = {1.03961212, 0.231792344, 1.01046945};
-static const double BK7_C[3] = {0.00600069867, 0.0200179144, 103.560653};
-
-/* A collimated disk light of radius r at `at`, emitting along `dir`, with irradiance 1. */
-static void beam(scene_t *s, vec3_t at, vec3_t dir, double r)
-{
-    err_t err;
-    light_t l = {.kind = LIGHT_COLLIMATED, .spectrum = constant(s, 1.0), .scale = 1.0};
-    int li = scene_add_light(s, &l, &err);
-    assert_true(li >= 0);
-    /* The disk's normal +z turned onto dir. */
-    vec3_t z = vec3_normalize(dir), x, y;
-    vec3_basis(z, &x, &y);
-    double m[4][4] = {
-        {x.x, y.x, z.x, at.x}, {x.y, y.y, z.y, at.y}, {x.z, y.z, z.z, at.z}, {0, 0, 0, 1}};
-    transform_t t = transform_from_matrix(m);
-    assert_true(scene_add_disk(s, &t, r, 0.0, material(s, MATERIAL_INTERFACE, NULL), li, 0, &err) >=
-                0);
-}
-
-/* Transmittance of a slab at normal incidence with every internal reflection summed
- * (incoherently): T = (1 - R)^2 / (1 - R^2) = (1 - R) / (1 + R) with R = ((n-1)/(n+1))^2,
- * which is 2n / (n^2 + 1). */
-static double slab_t(double n)
-{
-    return 2.0 * n / (n * n + 1.0);
-}
-
 /* A collimated beam through a non-absorbing N-SF11 slab at normal incidence onto a screen:
  * photons reflected back leave through the (pass-through) light, the rest land on the screen,
  * so the power deposited in bucket b is T(n) averaged over the bucket times the power emitted
@@ -197,15 +111,15 @@ static double slab_t(double n)
 static void test_slab_transmittance(void **state)
 {
     (void)state;
-    scene_t *s = new_scene();
-    beam(s, vec3_make(0, 0, -1), vec3_make(0, 0, 1), 0.05);
-    int glass = material(s, MATERIAL_DIELECTRIC, "N-SF11");
+    scene_t *s = sb_new_scene();
+    sb_beam(s, vec3_make(0, 0, -1), vec3_make(0, 0, 1), 0.05);
+    int glass = sb_material(s, MATERIAL_DIELECTRIC, "N-SF11");
     transform_t front = transform_identity(), back = transform_translate(vec3_make(0, 0, 0.1));
     assert_true(scene_add_disk(s, &front, 1.0, 0.0, glass, -1, 1, NULL) >= 0); /* normal -z */
     assert_true(scene_add_disk(s, &back, 1.0, 0.0, glass, -1, 0, NULL) >= 0);  /* normal +z */
     transform_t screen = transform_translate(vec3_make(0, 0, 1));
-    assert_true(scene_add_disk(s, &screen, 2.0, 0.0, diffuse(s, 0.8), -1, 1, NULL) >= 0);
-    finish(s);
+    assert_true(scene_add_disk(s, &screen, 2.0, 0.0, sb_diffuse(s, 0.8), -1, 1, NULL) >= 0);
+    sb_finish(s);
     const uint64_t N = 400000;
     photon_stats_t st;
     photon_store_t *ps = trace_store(s, PHOTON_STORE_CAUSTIC, 200, N, &st);
@@ -225,7 +139,7 @@ static void test_slab_transmittance(void **state)
         double lo = spectral_grid_bucket_min(g, b), hi = spectral_grid_bucket_max(g, b), t = 0;
         for (int k = 0; k <= 8; k++) {
             double wgt = k == 0 || k == 8 ? 1 : k % 2 ? 4 : 2;
-            t += wgt * slab_t(sellmeier(SF11_B, SF11_C, lo + (hi - lo) * k / 8.0));
+            t += wgt * sb_slab_t(sb_sellmeier(SB_SF11_B, SB_SF11_C, lo + (hi - lo) * k / 8.0));
         }
         t /= 24.0;
         double got = dep[b] / per_bucket;
@@ -240,162 +154,30 @@ static void test_slab_transmittance(void **state)
         last = got;
     }
     print_message("N-SF11 slab: T = %.4f (violet bucket) .. %.4f (red), formula %.4f .. %.4f\n",
-                  first, last, slab_t(sellmeier(SF11_B, SF11_C, 390.625)),
-                  slab_t(sellmeier(SF11_B, SF11_C, 709.375)));
+                  first, last, sb_slab_t(sb_sellmeier(SB_SF11_B, SB_SF11_C, 390.625)),
+                  sb_slab_t(sb_sellmeier(SB_SF11_B, SB_SF11_C, 709.375)));
     /* Nothing is absorbed: the rest was reflected back and escaped. */
     assert_true(photon_map_power_sum(m) <= st.power_emitted);
     photon_store_destroy(&ps);
     scene_destroy(&s);
 }
 
-/* The prism test's geometry: an equilateral N-BK7 prism (side 0.1, height 0.2, axis y) set at
- * minimum deviation for LAMBDA0 (the centre of bucket 8) under a collimated beam along +x of
- * radius 0.5 mm through the middle of its first face, and a screen 5 m away perpendicular to
- * the beam leaving at LAMBDA0. */
-#define LAMBDA0 560.625
-#define APEX (PF_PI / 3.0)
-#define THROW 5.0
-
-typedef struct prism {
-    vec3_t v[3];               /* the triangle in the y = 0 plane */
-    vec3_t entry;              /* where the beam's axis meets the first face */
-    vec3_t exit_dir0;          /* leaving direction at LAMBDA0 */
-    vec3_t exit0;              /* where it leaves at LAMBDA0 */
-    vec3_t screen_c, screen_e; /* screen centre and its horizontal axis */
-} prism_t;
-
-/* Snell's law in vector form (Born & Wolf 1.5): d unit, n unit facing the incident side. */
-static int snell(vec3_t d, vec3_t n, double n1, double n2, vec3_t *t)
-{
-    double c = -vec3_dot(d, n), eta = n1 / n2, k = 1.0 - eta * eta * (1.0 - c * c);
-    if (k < 0.0)
-        return 0;
-    *t = vec3_normalize(vec3_add(vec3_scale(d, eta), vec3_scale(n, eta * c - sqrt(k))));
-    return 1;
-}
-
-static vec3_t outward(const prism_t *p, int a, int b)
-{
-    vec3_t e = vec3_sub(p->v[b], p->v[a]);
-    vec3_t n = vec3_normalize(vec3_make(e.z, 0, -e.x));
-    vec3_t c = vec3_scale(vec3_add(vec3_add(p->v[0], p->v[1]), p->v[2]), 1.0 / 3.0);
-    return vec3_dot(n, vec3_sub(p->v[a], c)) < 0 ? vec3_neg(n) : n;
-}
-
-/* The central ray at wavelength lambda: into face (v0 v1), out of face (v0 v2), onto the
- * screen plane; returns its coordinate along screen_e and the deviation angle. */
-static double land(const prism_t *p, double lambda, double *deviation)
-{
-    double n = sellmeier(BK7_B, BK7_C, lambda);
-    vec3_t d = vec3_make(1, 0, 0), t, o;
-    assert_true(snell(d, outward(p, 0, 1), 1.0, n, &t));
-    vec3_t n2 = outward(p, 0, 2);
-    double s = vec3_dot(vec3_sub(p->v[0], p->entry), n2) / vec3_dot(t, n2);
-    vec3_t q = vec3_fma(p->entry, t, s);
-    assert_true(snell(t, vec3_neg(n2), n, 1.0, &o));
-    if (deviation)
-        *deviation = acos(fmin(1.0, vec3_dot(o, d)));
-    vec3_t sn = p->exit_dir0;
-    double u = vec3_dot(vec3_sub(p->screen_c, q), sn) / vec3_dot(o, sn);
-    return vec3_dot(vec3_sub(vec3_fma(q, o, u), p->screen_c), p->screen_e);
-}
-
-static scene_t *prism_scene(prism_t *p)
-{
-    /* In the prism's own frame the apex is up (+w), the base along u; at minimum deviation
-     * the ray inside runs parallel to the base, so the beam meets the first face at
-     * i0 = asin(n0 sin(A/2)) and travels at i0 - A/2 above the base. The frame is turned so
-     * that the beam runs along +x. */
-    double n0 = sellmeier(BK7_B, BK7_C, LAMBDA0);
-    double i0 = asin(n0 * sin(APEX / 2.0));
-    double a = -(i0 - APEX / 2.0), side = 0.1, h = side * sqrt(3.0) / 2.0;
-    double uv[3][2] = {{0.0, h}, {-side / 2.0, 0.0}, {side / 2.0, 0.0}};
-    for (int k = 0; k < 3; k++)
-        p->v[k] = vec3_make(uv[k][0] * cos(a) - uv[k][1] * sin(a), 0.0,
-                            uv[k][0] * sin(a) + uv[k][1] * cos(a));
-    p->entry = vec3_scale(vec3_add(p->v[0], p->v[1]), 0.5);
-    vec3_t t;
-    assert_true(snell(vec3_make(1, 0, 0), outward(p, 0, 1), 1.0, n0, &t));
-    vec3_t n2 = outward(p, 0, 2);
-    p->exit0 = vec3_fma(p->entry, t, vec3_dot(vec3_sub(p->v[0], p->entry), n2) / vec3_dot(t, n2));
-    assert_true(snell(t, vec3_neg(n2), n0, 1.0, &p->exit_dir0));
-    p->screen_c = vec3_fma(p->exit0, p->exit_dir0, THROW);
-    p->screen_e = vec3_normalize(vec3_cross(vec3_make(0, 1, 0), p->exit_dir0));
-
-    scene_t *s = new_scene();
-    beam(s, vec3_fma(p->entry, vec3_make(1, 0, 0), -0.2), vec3_make(1, 0, 0), 0.0005);
-    double P[18];
-    for (int k = 0; k < 6; k++) {
-        vec3_t q = p->v[k % 3];
-        P[3 * k] = q.x;
-        P[3 * k + 1] = k < 3 ? -0.1 : 0.1;
-        P[3 * k + 2] = q.z;
-    }
-    uint32_t tri[8][3] = {{0, 1, 2}, {3, 5, 4}, {0, 3, 4}, {0, 4, 1},
-                          {1, 4, 5}, {1, 5, 2}, {2, 5, 3}, {2, 3, 0}};
-    /* Orient every triangle outward (normal = (p0 - p2) x (p1 - p2), pbrt-v4's rule). */
-    vec3_t c = vec3_make((p->v[0].x + p->v[1].x + p->v[2].x) / 3, 0,
-                         (p->v[0].z + p->v[1].z + p->v[2].z) / 3);
-    for (int k = 0; k < 8; k++) {
-        vec3_t q[3];
-        for (int j = 0; j < 3; j++)
-            q[j] = vec3_make(P[3 * tri[k][j]], P[3 * tri[k][j] + 1], P[3 * tri[k][j] + 2]);
-        vec3_t nrm = vec3_cross(vec3_sub(q[0], q[2]), vec3_sub(q[1], q[2]));
-        vec3_t mid = vec3_scale(vec3_add(vec3_add(q[0], q[1]), q[2]), 1.0 / 3.0);
-        if (vec3_dot(nrm, vec3_sub(mid, c)) < 0) {
-            uint32_t x = tri[k][0];
-            tri[k][0] = tri[k][1];
-            tri[k][1] = x;
-        }
-    }
-    assert_true(scene_add_mesh(s, P, 6, &tri[0][0], 8, NULL, NULL,
-                               material(s, MATERIAL_DIELECTRIC, "N-BK7"), -1, 0, NULL) >= 0);
-    /* The screen: a 0.6 x 0.6 square. */
-    vec3_t e = p->screen_e, y = vec3_make(0, 1, 0), sc = p->screen_c;
-    double S[12];
-    vec3_t corners[4] = {vec3_add(sc, vec3_add(vec3_scale(e, -0.3), vec3_scale(y, -0.3))),
-                         vec3_add(sc, vec3_add(vec3_scale(e, 0.3), vec3_scale(y, -0.3))),
-                         vec3_add(sc, vec3_add(vec3_scale(e, 0.3), vec3_scale(y, 0.3))),
-                         vec3_add(sc, vec3_add(vec3_scale(e, -0.3), vec3_scale(y, 0.3)))};
-    for (int k = 0; k < 4; k++) {
-        S[3 * k] = corners[k].x;
-        S[3 * k + 1] = corners[k].y;
-        S[3 * k + 2] = corners[k].z;
-    }
-    uint32_t sq[6] = {0, 1, 2, 0, 2, 3};
-    assert_true(scene_add_mesh(s, S, 4, sq, 2, NULL, NULL, diffuse(s, 0.8), -1, 0, NULL) >= 0);
-    finish(s);
-    return s;
-}
-
-/* Unpolarised Fresnel transmittance, cosine form (Born & Wolf 1.5.2). */
-static double fresnel_t(double cos_i, double n1, double n2)
-{
-    double sin_t = n1 / n2 * sqrt(fmax(0.0, 1.0 - cos_i * cos_i));
-    if (sin_t >= 1.0)
-        return 0.0;
-    double cos_t = sqrt(1.0 - sin_t * sin_t);
-    double rs = (n1 * cos_i - n2 * cos_t) / (n1 * cos_i + n2 * cos_t);
-    double rp = (n2 * cos_i - n1 * cos_t) / (n2 * cos_i + n1 * cos_t);
-    return 1.0 - 0.5 * (rs * rs + rp * rp);
-}
-
-/* A collimated beam through the prism (geometry in prism_scene): per bucket, where Snell's
+/* A collimated beam through the prism (geometry in scene_builders.h): per bucket, where Snell's
  * law at both faces puts the beam on the screen, averaged over the bucket's wavelengths
  * (Simpson; the photons' wavelengths are uniform within it), against the centroid of the
  * bucket's photons; and the power that arrives, the two faces' Fresnel transmittances.
- * At LAMBDA0 the deviation is the minimum-deviation formula D = 2 asin(n sin(A/2)) - A. */
+ * At PRISM_LAMBDA0 the deviation is the minimum-deviation formula D = 2 asin(n sin(A/2)) - A. */
 static void test_prism_beam(void **state)
 {
     (void)state;
-    prism_t p;
-    scene_t *s = prism_scene(&p);
+    sb_prism_t p;
+    scene_t *s = sb_prism_build(&p, sb_new_scene());
     double dev0;
-    assert_true(fabs(land(&p, LAMBDA0, &dev0)) < 1e-9);
-    double n0 = sellmeier(BK7_B, BK7_C, LAMBDA0);
-    double dmin = 2.0 * asin(n0 * sin(APEX / 2.0)) - APEX;
+    assert_true(fabs(sb_prism_land(&p, PRISM_LAMBDA0, &dev0)) < 1e-9);
+    double n0 = sb_sellmeier(SB_BK7_B, SB_BK7_C, PRISM_LAMBDA0);
+    double dmin = 2.0 * asin(n0 * sin(PRISM_APEX / 2.0)) - PRISM_APEX;
     assert_true(fabs(dev0 - dmin) < 1e-9);
-    print_message("N-BK7 prism: n(%.3f nm) = %.5f, minimum deviation %.4f deg\n", LAMBDA0, n0,
+    print_message("N-BK7 prism: n(%.3f nm) = %.5f, minimum deviation %.4f deg\n", PRISM_LAMBDA0, n0,
                   dmin * 180 / PF_PI);
 
     const uint64_t N = 100000;
@@ -410,18 +192,18 @@ static void test_prism_beam(void **state)
         tt[b] = 0.0;
         for (int k = 0; k <= 8; k++) {
             double lam = lo + (hi - lo) * k / 8.0, wgt = k == 0 || k == 8 ? 1 : k % 2 ? 4 : 2;
-            pred[b] += wgt * land(&p, lam, NULL) / 24.0;
+            pred[b] += wgt * sb_prism_land(&p, lam, NULL) / 24.0;
             /* Transmittances of the central ray at both faces. */
-            double n = sellmeier(BK7_B, BK7_C, lam);
-            vec3_t d = vec3_make(1, 0, 0), t, o;
-            vec3_t f1 = outward(&p, 0, 1), f2 = outward(&p, 0, 2);
-            assert_true(snell(d, f1, 1.0, n, &t));
-            assert_true(snell(t, vec3_neg(f2), n, 1.0, &o));
-            tt[b] += wgt / 24.0 * fresnel_t(-vec3_dot(d, f1), 1.0, n) *
-                     fresnel_t(vec3_dot(t, f2), n, 1.0);
+            double n = sb_sellmeier(SB_BK7_B, SB_BK7_C, lam);
+            vec3_t d = vec3_make(1, 0, 0), t = d, o = d;
+            vec3_t f1 = sb_prism_outward(&p, 0, 1), f2 = sb_prism_outward(&p, 0, 2);
+            assert_true(sb_snell(d, f1, 1.0, n, &t));
+            assert_true(sb_snell(t, vec3_neg(f2), n, 1.0, &o));
+            tt[b] += wgt / 24.0 * sb_fresnel_t(-vec3_dot(d, f1), 1.0, n) *
+                     sb_fresnel_t(vec3_dot(t, f2), n, 1.0);
         }
-        lo_pos[b] = land(&p, lo, NULL);
-        hi_pos[b] = land(&p, hi, NULL);
+        lo_pos[b] = sb_prism_land(&p, lo, NULL);
+        hi_pos[b] = sb_prism_land(&p, hi, NULL);
     }
     /* Photons of bucket b on the screen within three buckets' spacing of the prediction. */
     double sum[NB] = {0}, sq[NB] = {0}, cnt[NB] = {0}, pow_in[NB] = {0};
@@ -494,8 +276,8 @@ static void test_determinism(void **state)
 {
     (void)state;
     err_t err;
-    prism_t p;
-    scene_t *s = prism_scene(&p);
+    sb_prism_t p;
+    scene_t *s = sb_prism_build(&p, sb_new_scene());
     const uint64_t N = 20000;
     photon_stats_t st;
     photon_store_t *whole = trace_store(s, PHOTON_STORE_CAUSTIC, 10, N, &st);
@@ -554,8 +336,8 @@ static void test_threshold_roulette(void **state)
 {
     (void)state;
     err_t err;
-    scene_t *s = new_scene();
-    beam(s, vec3_make(0, 0, -1), vec3_make(0, 0, 1), 0.05);
+    scene_t *s = sb_new_scene();
+    sb_beam(s, vec3_make(0, 0, -1), vec3_make(0, 0, 1), 0.05);
     spectrum_t *r = spectrum_new_constant(0.3, &err);
     texture_t *t = texture_new_constant(r, &err);
     assert_int_equal(scene_own_texture(s, t, &err), 0);
@@ -568,8 +350,8 @@ static void test_threshold_roulette(void **state)
     transform_t rs;
     assert_int_equal(transform_rotate(90.0, vec3_make(0, 1, 0), &rs, &err), 0);
     transform_t screen = transform_compose(transform_translate(vec3_make(-1, 0, 0)), rs);
-    assert_true(scene_add_disk(s, &screen, 1.0, 0.0, diffuse(s, 0.5), -1, 0, &err) >= 0);
-    finish(s);
+    assert_true(scene_add_disk(s, &screen, 1.0, 0.0, sb_diffuse(s, 0.5), -1, 0, &err) >= 0);
+    sb_finish(s);
     const uint64_t N = 40000;
     photon_store_t *ps = photon_store_new(s, &err);
     const photon_map_t *m = photon_store_map(ps);
@@ -598,16 +380,16 @@ static void test_threshold_roulette(void **state)
 static void test_collimated_direct(void **state)
 {
     (void)state;
-    scene_t *s = new_scene();
-    beam(s, vec3_make(0, 0, -1), vec3_make(0, 0, 1), 0.05);
+    scene_t *s = sb_new_scene();
+    sb_beam(s, vec3_make(0, 0, -1), vec3_make(0, 0, 1), 0.05);
     light_t pl = {.kind = LIGHT_POINT,
-                  .spectrum = constant(s, 1.0),
+                  .spectrum = sb_constant(s, 1.0),
                   .scale = 50.0,
                   .position = vec3_make(0, 1, 0)};
     assert_true(scene_add_light(s, &pl, NULL) >= 0);
     transform_t screen = transform_translate(vec3_make(0, 0, 1));
-    assert_true(scene_add_disk(s, &screen, 2.0, 0.0, diffuse(s, 0.8), -1, 1, NULL) >= 0);
-    finish(s);
+    assert_true(scene_add_disk(s, &screen, 2.0, 0.0, sb_diffuse(s, 0.8), -1, 1, NULL) >= 0);
+    sb_finish(s);
     photon_stats_t st;
     photon_store_t *ps = trace_store(s, PHOTON_STORE_CAUSTIC, 5, 2000, &st);
     const photon_map_t *m = photon_store_map(ps);
@@ -714,8 +496,8 @@ static void test_pass_kept_with_scene(void **state)
 {
     (void)state;
     err_t err;
-    prism_t p;
-    scene_t *s = prism_scene(&p);
+    sb_prism_t p;
+    scene_t *s = sb_prism_build(&p, sb_new_scene());
     s->settings.photon.enabled = 1;
     s->settings.photon.photons = 5000;
     photon_stats_t st;
@@ -728,13 +510,13 @@ static void test_pass_kept_with_scene(void **state)
     assert_ptr_equal(photon_pass_get(s, NULL, NULL, &err), a);
     scene_destroy(&s);
 
-    s = new_scene();
-    light_t env = {.kind = LIGHT_INFINITE, .spectrum = constant(s, 1.0), .scale = 1.0};
+    s = sb_new_scene();
+    light_t env = {.kind = LIGHT_INFINITE, .spectrum = sb_constant(s, 1.0), .scale = 1.0};
     assert_true(scene_add_light(s, &env, NULL) >= 0);
     transform_t id = transform_identity();
-    assert_true(
-        scene_add_sphere(s, &id, 1.0, material(s, MATERIAL_DIELECTRIC, "N-BK7"), -1, 0, NULL) >= 0);
-    finish(s);
+    assert_true(scene_add_sphere(s, &id, 1.0, sb_material(s, MATERIAL_DIELECTRIC, "N-BK7"), -1, 0,
+                                 NULL) >= 0);
+    sb_finish(s);
     s->settings.photon.enabled = 1;
     s->settings.photon.photons = 10;
     assert_null(photon_pass_get(s, NULL, NULL, &err));

@@ -20,102 +20,19 @@
 #include "photon.h"
 #include "render.h"
 #include "scene.h"
+#include "scene_builders.h"
 
 #define RES 16
 
+/* The caustic ball of scene_builders.h, RES x RES, with a photon pass of `photons` photons (none
+ * for 0). */
 static scene_t *ball_scene(int photons)
 {
     err_t err;
     scene_t *s = scene_new(&err);
-    assert_non_null(s);
-    render_settings_t *rs = &s->settings;
-    rs->integrator = INTEGRATOR_PATH;
-    rs->dispersion = DISPERSION_HERO;
-    rs->visible_sampling = 0;
-    rs->maxdepth = 8;
-    rs->xres = rs->yres = RES;
-    rs->seed = 5;
-    if (photons > 0) {
-        rs->photon.enabled = 1;
-        rs->photon.photons = (uint64_t)photons;
-        rs->photon.maxdepth = 8;
-        rs->photon.radius = 0.02;
-        rs->photon.k = 0;
-        rs->photon.threshold = 0.0;
-    }
-    /* Camera under the ball's rim, looking down at the floor point below its centre; the
-     * caustic fills the image. */
-    transform_t cam;
-    assert_int_equal(transform_look_at(vec3_make(0, 0.55, -1.1), vec3_make(0, 0, 0),
-                                       vec3_make(0, 1, 0), &cam, &err),
-                     0);
-    s->camera.camera_to_world = transform_inverse(cam);
-    s->camera.fov_deg = 20.0;
-
-    spectrum_t *white = spectrum_new_constant(1.0, &err), *grey = spectrum_new_constant(0.5, &err);
-    assert_int_equal(scene_own_spectrum(s, white, &err), 0);
-    texture_t *t = texture_new_constant(grey, &err);
-    assert_int_equal(scene_own_texture(s, t, &err), 0);
-    material_t floor_m = {.kind = MATERIAL_DIFFUSE, .reflectance = t},
-               glass = {.kind = MATERIAL_DIELECTRIC};
-    glass.ior = ior_constant(1.5);
-    int fm = scene_add_material(s, &floor_m, &err), gm = scene_add_material(s, &glass, &err);
-    /* Floor: a large disk at y = 0 facing up (+z of the disk turned onto +y). */
-    transform_t rx;
-    assert_int_equal(transform_rotate(-90.0, vec3_make(1, 0, 0), &rx, &err), 0);
-    assert_true(scene_add_disk(s, &rx, 20.0, 0.0, fm, -1, 0, &err) >= 0);
-    /* The ball: radius 1, centre 1.6 above the floor (paraxial focus of a ball lens
-     * nR / (2(n - 1)) = 1.5 from its centre for a distant source). */
-    transform_t ball = transform_translate(vec3_make(0, 1.6, 0));
-    assert_true(scene_add_sphere(s, &ball, 1.0, gm, -1, 0, &err) >= 0);
-    /* The light: a disk of radius 0.8 at y = 8, facing down, radiance 40: small (7 degrees
-     * across from the ball) but finite, so that the path tracer converges at test size. */
-    light_t l = {.kind = LIGHT_AREA, .spectrum = white, .scale = 40.0};
-    int li = scene_add_light(s, &l, &err);
-    transform_t up = transform_compose(transform_translate(vec3_make(0, 8, 0)), rx);
-    assert_true(scene_add_disk(s, &up, 0.8, 0.0, fm, li, 1, &err) >= 0);
-    if (scene_finish(s, &err))
-        fail_msg("%s", err.msg);
-    return s;
-}
-
-typedef struct image_stats {
-    double mean; /* mean over pixels of the pixel's mean luminance */
-    double se;   /* its standard error from the per-sample variances */
-    double max;  /* largest pixel mean */
-    double var;  /* mean per-sample variance of luminance */
-    double buckets[64];
-} image_stats_t;
-
-static image_stats_t render(scene_t *s, int spp)
-{
-    err_t err;
-    s->settings.spp = spp;
-    int nb = s->settings.grid.n;
-    tilebuf_t *t = tilebuf_new(0, 0, RES, RES, nb, &err);
-    render_stats_t rst = {0};
-    if (render_tile(s, 0, 0, RES, RES, 0, (uint32_t)spp, t, &rst, &err))
-        fail_msg("render_tile: %s", err.msg);
-    assert_int_equal(rst.nonfinite, 0);
-    image_stats_t st = {0};
-    double var_sum = 0;
-    for (int y = 0; y < RES; y++)
-        for (int x = 0; x < RES; x++) {
-            double n = (double)tilebuf_count(t, x, y);
-            double m = tilebuf_luminance_sum(t, x, y) / n;
-            double v = fmax(0.0, tilebuf_luminance_sq_sum(t, x, y) / n - m * m);
-            st.mean += m;
-            st.max = fmax(st.max, m);
-            st.var += v;
-            var_sum += v / n;
-            for (int b = 0; b < nb; b++)
-                st.buckets[b] += tilebuf_sum(t, x, y, b) / n / (RES * RES);
-        }
-    st.mean /= RES * RES;
-    st.var /= RES * RES;
-    st.se = sqrt(var_sum) / (RES * RES);
-    tilebuf_destroy(&t);
-    return st;
+    if (!s)
+        fail_msg("scene_new: %s", err.msg);
+    return sb_ball_build(s, photons, RES);
 }
 
 /* The photon map's own noise in the image mean. Photon i, of luminance-weighted power a_i,
@@ -162,7 +79,7 @@ static void test_caustic_agrees_with_path(void **state)
 {
     (void)state;
     scene_t *path = ball_scene(0), *ph = ball_scene(800000);
-    image_stats_t a = render(path, 2048), b = render(ph, 16);
+    sb_image_stats_t a = sb_render_stats(path, RES, 2048), b = sb_render_stats(ph, RES, 16);
     double map_se = b.mean * map_relative_se(ph);
     double se = sqrt(a.se * a.se + b.se * b.se + map_se * map_se);
     print_message("caustic mean luminance: path %.4f +- %.4f (2048 spp), photon %.4f +- %.4f (16 "
@@ -180,7 +97,7 @@ static void test_caustic_agrees_with_path(void **state)
             fail_msg("bucket %d: photon %.4f, path %.4f", k, b.buckets[k], a.buckets[k]);
     /* Fireflies: at equal samples, the photon image's per-sample variance and its brightest
      * pixel against the path tracer's. */
-    image_stats_t c = render(path, 16);
+    sb_image_stats_t c = sb_render_stats(path, RES, 16);
     print_message("at 16 spp: per-sample luminance variance path %.3g, photon %.3g (%.0fx lower); "
                   "brightest pixel "
                   "path %.2f, photon %.2f (the caustic's peak is about 5)\n",
@@ -191,7 +108,7 @@ static void test_caustic_agrees_with_path(void **state)
      * sees the caustic too; it lacks only the diffuse interreflection the path gather adds. */
     ph->settings.integrator = INTEGRATOR_WHITTED;
     ph->settings.dispersion = DISPERSION_FANOUT;
-    image_stats_t d = render(ph, 4);
+    sb_image_stats_t d = sb_render_stats(ph, RES, 4);
     print_message("Whitted gather, fan-out: %.4f (%+.2f%% against the path gather)\n", d.mean,
                   100.0 * (d.mean / b.mean - 1.0));
     /* Same store, so its noise cancels: 4 sigma of both renders' camera noise, plus 1 % for
