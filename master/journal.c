@@ -2,15 +2,20 @@
 
 #include "spool.h"
 
+#include <dirent.h>
+#include <errno.h>
+#include <fcntl.h>
 #include <limits.h>
 #include <sqlite3.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 /* Bumped whenever a table or a blob changes meaning: a master never reads a journal it does
  * not understand. */
-#define JOURNAL_VERSION 1
+#define JOURNAL_VERSION 2
 
 #define TILE_MAGIC 0x4b544650u  /* "PFTK" in this host's order: a blob of another is refused */
 #define PHOT_MAGIC 0x48504650u  /* "PFPH" */
@@ -20,7 +25,8 @@
 
 struct journal {
     sqlite3 *db;
-    char path[PATH_MAX];
+    char path[PATH_MAX]; /* the database */
+    char dir[PATH_MAX - 128]; /* the folder holding it and results/: room left for the names in it */
 };
 
 static int db_error(journal_t *self, err_t *err, const char *what)
@@ -85,21 +91,35 @@ static const char *SCHEMA =
     " nonfinite INTEGER NOT NULL DEFAULT 0, spp_done INTEGER NOT NULL DEFAULT 0);"
     "CREATE TABLE IF NOT EXISTS results("
     " job INTEGER NOT NULL, round INTEGER NOT NULL, task INTEGER NOT NULL, kind INTEGER NOT NULL,"
-    " tile INTEGER NOT NULL, pass INTEGER NOT NULL, data BLOB NOT NULL,"
+    " tile INTEGER NOT NULL, pass INTEGER NOT NULL, size INTEGER NOT NULL,"
     " PRIMARY KEY(job, round, task));"
     "CREATE TABLE IF NOT EXISTS passes("
     " job INTEGER NOT NULL, round INTEGER NOT NULL, pass INTEGER NOT NULL, spp INTEGER NOT NULL,"
     " elapsed REAL NOT NULL, valid INTEGER NOT NULL, rel_error REAL NOT NULL,"
     " PRIMARY KEY(job, round, pass));";
 
-journal_t *journal_open(const char *path, err_t *err)
+journal_t *journal_open(const char *dir, err_t *err)
 {
     journal_t *self = calloc(1, sizeof *self);
     if (!self) {
         err_set(err, "journal: out of memory");
         return NULL;
     }
-    snprintf(self->path, sizeof self->path, "%s", path);
+    if (strlen(dir) >= sizeof self->dir) {
+        err_set(err, "journal: folder name too long: '%s'", dir);
+        free(self);
+        return NULL;
+    }
+    snprintf(self->dir, sizeof self->dir, "%s", dir);
+    snprintf(self->path, sizeof self->path, "%s/journal.db", dir);
+    const char *path = self->path;
+    char results[PATH_MAX + 16];
+    snprintf(results, sizeof results, "%s/results", dir);
+    if ((mkdir(dir, 0755) < 0 && errno != EEXIST) || (mkdir(results, 0755) < 0 && errno != EEXIST)) {
+        err_set(err, "journal: cannot create '%s': %s", results, strerror(errno));
+        free(self);
+        return NULL;
+    }
     if (sqlite3_open_v2(path, &self->db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, NULL) !=
         SQLITE_OK) {
         err_set(err, "journal %s: cannot open: %s", path,
@@ -235,7 +255,11 @@ int journal_set_state(journal_t *self, const journal_job_t *j, err_t *err)
             rc = step_done(self, st, "dropping a finished job's results", err);
         }
     }
-    return commit(self, rc, err);
+    if (commit(self, rc, err) < 0)
+        return -1;
+    if (over)
+        journal_prune(self, j->id);
+    return 0;
 }
 
 int journal_set_round(journal_t *self, const journal_job_t *j, err_t *err)
@@ -264,7 +288,10 @@ int journal_set_round(journal_t *self, const journal_job_t *j, err_t *err)
         sqlite3_bind_int64(st, 1, (sqlite3_int64)j->id);
         rc = step_done(self, st, "dropping a round's results", err);
     }
-    return commit(self, rc, err);
+    if (commit(self, rc, err) < 0)
+        return -1;
+    journal_prune(self, j->id);
+    return 0;
 }
 
 int journal_set_photons_saved(journal_t *self, uint64_t job, uint64_t photons, err_t *err)
@@ -282,7 +309,10 @@ int journal_set_photons_saved(journal_t *self, uint64_t job, uint64_t photons, e
         sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
         rc = step_done(self, st, "dropping merged photon batches", err);
     }
-    return commit(self, rc, err);
+    if (commit(self, rc, err) < 0)
+        return -1;
+    journal_prune(self, job);
+    return 0;
 }
 
 static char *col_dup(sqlite3_stmt *st, int i)
@@ -373,12 +403,65 @@ int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err)
     return 0;
 }
 
+static void result_dir(const journal_t *self, uint64_t job, char *buf, size_t size)
+{
+    snprintf(buf, size, "%s/results/%llu", self->dir, (unsigned long long)job);
+}
+
+static void result_path(const journal_t *self, uint64_t job, uint32_t round, uint32_t task,
+                        char *buf, size_t size)
+{
+    snprintf(buf, size, "%s/results/%llu/%u-%u.bin", self->dir, (unsigned long long)job, round,
+             task);
+}
+
+/* The blob as a file, complete once renamed into place; not fsync'ed (journal.h). */
+static int write_result(const journal_t *self, uint64_t job, const char *path, const void *data,
+                        size_t size, err_t *err)
+{
+    char dir[PATH_MAX], tmp[PATH_MAX + 8];
+    result_dir(self, job, dir, sizeof dir);
+    if (strlen(path) >= PATH_MAX)
+        return err_set(err, "journal: path too long: '%s'", path);
+    if (mkdir(dir, 0755) < 0 && errno != EEXIST)
+        return err_set(err, "journal: cannot create '%s': %s", dir, strerror(errno));
+    snprintf(tmp, sizeof tmp, "%s.tmp", path);
+    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0644);
+    if (fd < 0)
+        return err_set(err, "journal: cannot create '%s': %s", tmp, strerror(errno));
+    const uint8_t *p = data;
+    size_t left = size;
+    while (left > 0) {
+        ssize_t n = write(fd, p, left);
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0) {
+            int e = n < 0 ? errno : ENOSPC;
+            (void)close(fd);
+            (void)unlink(tmp);
+            return err_set(err, "journal: cannot write '%s': %s", tmp, strerror(e));
+        }
+        p += n;
+        left -= (size_t)n;
+    }
+    if (close(fd) < 0 || rename(tmp, path) < 0) {
+        int e = errno;
+        (void)unlink(tmp);
+        return err_set(err, "journal: cannot write '%s': %s", path, strerror(e));
+    }
+    return 0;
+}
+
 int journal_add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t task, int kind,
                        int tile, int pass, const void *data, size_t size, err_t *err)
 {
+    char path[PATH_MAX + 64];
+    result_path(self, job, round, task, path, sizeof path);
+    if (write_result(self, job, path, data, size, err) < 0)
+        return -1;
     sqlite3_stmt *st;
     if (prepare(self,
-                "INSERT OR IGNORE INTO results(job, round, task, kind, tile, pass, data) "
+                "INSERT OR IGNORE INTO results(job, round, task, kind, tile, pass, size) "
                 "VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7)",
                 &st, err) < 0)
         return -1;
@@ -388,16 +471,17 @@ int journal_add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t t
     sqlite3_bind_int(st, 4, kind);
     sqlite3_bind_int(st, 5, tile);
     sqlite3_bind_int(st, 6, pass);
-    sqlite3_bind_blob64(st, 7, data, size, SQLITE_STATIC);
+    sqlite3_bind_int64(st, 7, (sqlite3_int64)size);
     return step_done(self, st, "adding a result", err);
 }
 
 int journal_results(journal_t *self, uint64_t job, uint32_t round, journal_result_fn fn,
-                    void *user, err_t *err)
+                    void *user, size_t *lost, err_t *err)
 {
+    *lost = 0;
     sqlite3_stmt *st;
     if (prepare(self,
-                "SELECT task, kind, data FROM results WHERE job=?1 AND round=?2 "
+                "SELECT task, kind, size FROM results WHERE job=?1 AND round=?2 "
                 "ORDER BY kind DESC, pass, tile",
                 &st, err) < 0)
         return -1;
@@ -405,10 +489,22 @@ int journal_results(journal_t *self, uint64_t job, uint32_t round, journal_resul
     sqlite3_bind_int64(st, 2, round);
     int rc, out = 0;
     while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
-        const void *data = sqlite3_column_blob(st, 2);
-        size_t size = (size_t)sqlite3_column_bytes(st, 2);
-        if (fn(user, (uint32_t)sqlite3_column_int64(st, 0), sqlite3_column_int(st, 1), data, size,
-               err) < 0) {
+        uint32_t task = (uint32_t)sqlite3_column_int64(st, 0);
+        size_t want = (size_t)sqlite3_column_int64(st, 2);
+        char path[PATH_MAX + 64];
+        result_path(self, job, round, task, path, sizeof path);
+        uint8_t *data;
+        size_t size;
+        err_t rerr;
+        if (spool_read_file(path, want, &data, &size, &rerr) < 0 || size != want) {
+            if (size != want)
+                free(data);
+            (*lost)++;
+            continue;
+        }
+        int r = fn(user, task, sqlite3_column_int(st, 1), data, size, err);
+        free(data);
+        if (r < 0) {
             out = -1;
             break;
         }
@@ -417,6 +513,68 @@ int journal_results(journal_t *self, uint64_t job, uint32_t round, journal_resul
         out = db_error(self, err, "reading results");
     sqlite3_finalize(st);
     return out;
+}
+
+static int cmp_key(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+void journal_prune(journal_t *self, uint64_t job)
+{
+    char dir[PATH_MAX];
+    result_dir(self, job, dir, sizeof dir);
+    DIR *d = opendir(dir);
+    if (!d)
+        return;
+    /* The (round, task) of every row of the job, sorted, to look the files up in. */
+    uint64_t *keys = NULL;
+    size_t n = 0, cap = 0;
+    sqlite3_stmt *st;
+    err_t ignore;
+    bool listed = prepare(self, "SELECT round, task FROM results WHERE job=?1", &st, &ignore) == 0;
+    if (listed) {
+        sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
+        int rc;
+        while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
+            if (n == cap) {
+                size_t c = cap ? 2 * cap : 64;
+                uint64_t *p = realloc(keys, c * sizeof *p);
+                if (!p)
+                    break;
+                keys = p;
+                cap = c;
+            }
+            keys[n++] = (uint64_t)sqlite3_column_int64(st, 0) << 32 |
+                        (uint32_t)sqlite3_column_int64(st, 1);
+        }
+        listed = rc == SQLITE_DONE;
+        sqlite3_finalize(st);
+    }
+    /* Without the list (a database error, no memory) nothing is removed. */
+    if (listed) {
+        qsort(keys, n, sizeof *keys, cmp_key);
+        struct dirent *e;
+        while ((e = readdir(d))) {
+            unsigned round, task;
+            int used = 0;
+            if (e->d_name[0] == '.')
+                continue;
+            bool ours = sscanf(e->d_name, "%u-%u.bin%n", &round, &task, &used) == 2 &&
+                        e->d_name[used] == 0;
+            uint64_t key = (uint64_t)round << 32 | task;
+            if (ours && bsearch(&key, keys, n, sizeof *keys, cmp_key))
+                continue;
+            char path[PATH_MAX + 300];
+            snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+            (void)unlink(path);
+        }
+    }
+    (void)closedir(d);
+    if (listed && n == 0)
+        (void)rmdir(dir);
+    free(keys);
 }
 
 int journal_set_checkpoint(journal_t *self, uint64_t job, uint32_t round, uint64_t gen,
@@ -448,7 +606,10 @@ int journal_set_checkpoint(journal_t *self, uint64_t job, uint32_t round, uint64
         sqlite3_reset(del);
     }
     sqlite3_finalize(del); /* a no-op for NULL */
-    return commit(self, rc, err);
+    if (commit(self, rc, err) < 0)
+        return -1;
+    journal_prune(self, job);
+    return 0;
 }
 
 int journal_add_pass(journal_t *self, uint64_t job, uint32_t round, const journal_pass_t *p,

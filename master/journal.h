@@ -1,14 +1,18 @@
 /* journal: what the master must not forget when it dies (docs/reliability.md). An SQLite
- * database in the spool folder holds every job (its submission, state and round), the results
- * it has received since the job's last checkpoint, and the accuracy record of each merged pass;
- * checkpoint files hold a job's merged image and which passes of each tile it contains. A
+ * database in the spool folder holds every job (its submission, state and round), a row for
+ * each result it has received since the job's last checkpoint (the result itself is a file of
+ * its own beside the database: large blobs in SQLite cost the master three times the CPU), and
+ * the accuracy record of each merged pass; checkpoint files hold a job's merged image and which
+ * passes of each tile it contains. A
  * master restarted on the same spool reads it back and resumes each unfinished job where the
  * journal leaves it, with the same pixels as a run that never stopped, since the results it
  * replays and the ones still to come are merged in the same fixed order.
  *
  * Every change is one transaction, committed before the function returns (WAL, synchronous
  * NORMAL): a master killed at any moment (SIGKILL) loses nothing it journaled; a power cut may
- * lose the last few transactions, never the database's consistency. A checkpoint file is
+ * lose the last few transactions, never the database's consistency. A result's file is complete
+ * (renamed into place) before its row is committed, but not fsync'ed: after a power cut it may
+ * be missing or short, and is then skipped (its task is rendered again). A checkpoint file is
  * written (fsync'ed, renamed) before the transaction that names it. */
 #ifndef PRISMFARM_JOURNAL_H
 #define PRISMFARM_JOURNAL_H
@@ -54,9 +58,10 @@ typedef struct journal_pass {
     double rel_error;
 } journal_pass_t;
 
-/* Opens (creating if missing) the journal at path. A file that is not a journal of this
- * version is an error naming it, never silently replaced. */
-journal_t *journal_open(const char *path, err_t *err);
+/* Opens (creating if missing) the journal in folder dir: dir/journal.db and dir/results/<job>/.
+ * A file that is not a journal of this version is an error naming it, never silently
+ * replaced. */
+journal_t *journal_open(const char *dir, err_t *err);
 void journal_close(journal_t **self_p);
 
 /* A submitted job (state queued). */
@@ -85,9 +90,14 @@ int journal_add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t t
 typedef int (*journal_result_fn)(void *user, uint32_t task, int kind, const void *data,
                                  size_t size, err_t *err);
 /* The round's journaled results in merge order (photon batches by batch, then camera tiles by
- * pass and tile); stops at the first callback that returns -1. */
+ * pass and tile); stops at the first callback that returns -1. A result whose file is missing
+ * or not of its recorded size is skipped and counted in *lost. */
 int journal_results(journal_t *self, uint64_t job, uint32_t round, journal_result_fn fn,
-                    void *user, err_t *err);
+                    void *user, size_t *lost, err_t *err);
+/* Removes the job's result files that no row names (left by a master killed between a commit
+ * and the removal of the files it dropped, or half written); with no rows left, the job's
+ * folder too. */
+void journal_prune(journal_t *self, uint64_t job);
 
 /* A checkpoint of generation gen is written: the job names it, its elapsed time is recorded,
  * and the camera results now in it (tile t's passes below next_pass[t]) are dropped. */

@@ -1824,8 +1824,13 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
         }
     }
     replay_t rp = {.m = m, .j = j, .now = now};
+    size_t lost = 0;
+    journal_prune(m->journal, j->id);
     if (rc >= 0)
-        rc = journal_results(m->journal, j->id, j->round, replay_result, &rp, err);
+        rc = journal_results(m->journal, j->id, j->round, replay_result, &rp, &lost, err);
+    if (lost > 0)
+        mlog(m, "job %llu: %zu journaled results lost their files (a power cut?): rendered again",
+             (unsigned long long)j->id, lost);
     if (rc < 0) {
         char msg[600];
         snprintf(msg, sizeof msg, "cannot resume it after the master restarted: %s", err->msg);
@@ -1882,6 +1887,7 @@ static int resume_jobs(master_t *m, err_t *err)
             break;
         }
         remove_stale_checkpoints(m, j->id, 0);
+        journal_prune(m->journal, j->id);
         if (r->state == JOB_FAILED && r->error && strstr(r->error, "after the master restarted"))
             journal_state(m, j, now); /* failed just now: the journal learns why */
     }
@@ -2119,9 +2125,7 @@ int master_run(const master_opts_t *opts, err_t *err)
         goto out;
     }
     if (opts->journal) {
-        char jpath[PATH_MAX + 32];
-        snprintf(jpath, sizeof jpath, "%s/journal.db", spool_path(m->spool));
-        if (!(m->journal = journal_open(jpath, err)) || resume_jobs(m, err) < 0) {
+        if (!(m->journal = journal_open(spool_path(m->spool), err)) || resume_jobs(m, err) < 0) {
             err_prefix(err, "master: ");
             goto out;
         }

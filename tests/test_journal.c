@@ -18,6 +18,7 @@
 #include "journal.h"
 #include "rng.h"
 
+#include <dirent.h>
 #include <sqlite3.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -161,6 +162,19 @@ static void test_checkpoint_round_trip(void **state)
     tilebuf_destroy(&img);
 }
 
+static int count_files(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return -1;
+    int n = 0;
+    struct dirent *e;
+    while ((e = readdir(d)))
+        n += e->d_name[0] != '.';
+    closedir(d);
+    return n;
+}
+
 typedef struct seen {
     uint32_t task[16];
     int kind[16];
@@ -184,8 +198,10 @@ static void test_journal_tables(void **state)
 {
     (void)state;
     err_t err;
-    const char *path = path_in("tables.db");
-    journal_t *jn = journal_open(path, &err);
+    const char *dir = path_in("tables");
+    char path[600];
+    snprintf(path, sizeof path, "%s/journal.db", dir);
+    journal_t *jn = journal_open(dir, &err);
     assert_non_null(jn);
     journal_job_t job = {.id = 7, .name = "prism", .hash = "ab12", .main = "scene.pbrt",
                          .settings = {.spp = 64, .seed = -1, .integrator = "path",
@@ -205,7 +221,8 @@ static void test_journal_tables(void **state)
     int next[2] = {1, 0};
     assert_int_equal(journal_set_checkpoint(jn, 7, 0, 1, next, 2, 12.5, &err), 0);
     seen_t s = {0};
-    assert_int_equal(journal_results(jn, 7, 0, collect, &s, &err), 0);
+    size_t lost;
+    assert_int_equal(journal_results(jn, 7, 0, collect, &s, &lost, &err), 0);
     /* Photon batches first, then by pass and tile; tile 0's pass 0 is in the checkpoint. */
     assert_int_equal(s.n, 4);
     assert_int_equal(s.kind[0], 1);
@@ -218,7 +235,7 @@ static void test_journal_tables(void **state)
     journal_close(&jn);
 
     /* Everything is there after a reopen. */
-    assert_non_null(jn = journal_open(path, &err));
+    assert_non_null(jn = journal_open(dir, &err));
     journal_job_t *rows;
     size_t n;
     assert_int_equal(journal_jobs(jn, &rows, &n, &err), 0);
@@ -238,14 +255,35 @@ static void test_journal_tables(void **state)
     assert_int_equal(journal_passes(jn, 7, 0, ps, 4, &err), 1);
     assert_int_equal(ps[0].pass, 3);
     s.n = 0;
-    assert_int_equal(journal_results(jn, 7, 0, collect, &s, &err), 0);
+    assert_int_equal(journal_results(jn, 7, 0, collect, &s, &lost, &err), 0);
     assert_int_equal(s.n, 3); /* the photon batch went with the saved store */
+    assert_int_equal(lost, 0);
+    /* Results live in files beside the database: one per row, the dropped ones removed. */
+    char rdir[700];
+    snprintf(rdir, sizeof rdir, "%s/results/7", dir);
+    assert_int_equal(count_files(rdir), 3);
+    /* A file lost (a power cut before it reached the disk) is skipped and counted, and a
+     * stray file no row names is pruned. */
+    char victim[800], stray[800];
+    snprintf(victim, sizeof victim, "%s/0-3.bin", rdir);
+    snprintf(stray, sizeof stray, "%s/0-9.bin.tmp", rdir);
+    assert_int_equal(unlink(victim), 0);
+    FILE *sf = fopen(stray, "w");
+    fclose(sf);
+    s.n = 0;
+    assert_int_equal(journal_results(jn, 7, 0, collect, &s, &lost, &err), 0);
+    assert_int_equal(s.n, 2);
+    assert_int_equal(lost, 1);
+    journal_prune(jn, 7);
+    assert_int_equal(count_files(rdir), 2);
     /* A job that is over keeps no results. */
     job.state = 2;
     assert_int_equal(journal_set_state(jn, &job, &err), 0);
     s.n = 0;
-    assert_int_equal(journal_results(jn, 7, 0, collect, &s, &err), 0);
+    assert_int_equal(journal_results(jn, 7, 0, collect, &s, &lost, &err), 0);
     assert_int_equal(s.n, 0);
+    struct stat st;
+    assert_int_equal(stat(rdir, &st), -1); /* the job's folder went with its last file */
     journal_close(&jn);
 
     /* A journal of another version is refused with a message, not reused. */
@@ -254,14 +292,15 @@ static void test_journal_tables(void **state)
     assert_int_equal(sqlite3_exec(db, "UPDATE meta SET value=7 WHERE key='version'", NULL, NULL, NULL),
                      SQLITE_OK);
     sqlite3_close(db);
-    assert_null(journal_open(path, &err));
+    assert_null(journal_open(dir, &err));
     assert_non_null(strstr(err.msg, "version 7"));
     /* Not a database at all. */
-    FILE *f = fopen(path_in("junk.db"), "w");
+    assert_int_equal(mkdir(path_in("junk"), 0755), 0);
+    FILE *f = fopen(path_in("junk/journal.db"), "w");
     fputs("this is not an SQLite file, it is a text file of some length...........", f);
     fclose(f);
-    assert_null(journal_open(path_in("junk.db"), &err));
-    assert_non_null(strstr(err.msg, "junk.db"));
+    assert_null(journal_open(path_in("junk"), &err));
+    assert_non_null(strstr(err.msg, "junk/journal.db"));
 }
 
 /* ---------------------------------------------------------------- farms */
