@@ -357,16 +357,48 @@ static char *slurp(const char *path)
     return buf;
 }
 
+/* Every process a farm test starts, so that a failing test leaves none running. */
+static pid_t KIDS[64];
+static int NKIDS;
+
+static pid_t track(pid_t pid)
+{
+    if (NKIDS < 64)
+        KIDS[NKIDS++] = pid;
+    return pid;
+}
+
+/* testutil_stop for a tracked process, which then leaves the list (its pid may be reused). */
+static int stop_kid(pid_t pid, int sig)
+{
+    for (int i = 0; i < NKIDS; i++)
+        if (KIDS[i] == pid) {
+            KIDS[i] = KIDS[--NKIDS];
+            break;
+        }
+    return testutil_stop(pid, sig);
+}
+
+static int kill_kids(void **state)
+{
+    (void)state;
+    for (int i = 0; i < NKIDS; i++)
+        if (kill(KIDS[i], SIGKILL) == 0)
+            (void)waitpid(KIDS[i], NULL, 0);
+    NKIDS = 0;
+    return 0;
+}
+
 static pid_t start_master(const char *log, const char *spool, const char *wep, const char *cep)
 {
-    return testutil_spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool,
-                          "--heartbeat", HEARTBEAT, "--tile", TILE, "--insecure", NULL);
+    return track(testutil_spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool,
+                          "--heartbeat", HEARTBEAT, "--tile", TILE, "--insecure", NULL));
 }
 
 static pid_t start_worker(const char *log, const char *wep, const char *name)
 {
-    return testutil_spawn(log, "worker", "--connect", wep, "--threads", "1", "--name", name,
-                          "--insecure", NULL);
+    return track(testutil_spawn(log, "worker", "--connect", wep, "--threads", "1", "--name", name,
+                                "--insecure", NULL));
 }
 
 static const char *reference(const char *scene, const char *spp, const char *name)
@@ -418,7 +450,7 @@ static void test_master_killed_camera_job(void **state)
     wait_journal(spool, 120, "a checkpoint and results after it",
                  "SELECT checkpoint FROM jobs WHERE id=1",
                  "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
-    testutil_stop(master, SIGKILL);
+    stop_kid(master, SIGKILL);
     long long ckpt = journal_query(spool, "SELECT checkpoint FROM jobs WHERE id=1");
     long long kept = journal_query(spool, "SELECT COUNT(*) FROM results WHERE job=1");
     print_message("master killed at checkpoint %lld with %lld results journaled after it\n", ckpt,
@@ -446,8 +478,8 @@ static void test_master_killed_camera_job(void **state)
     snprintf(ck, sizeof ck, "%s/jobs/1/checkpoint-%lld.bin", spool, ckpt);
     struct stat st;
     assert_int_equal(stat(ck, &st), -1);
-    testutil_stop(w, SIGTERM);
-    testutil_stop(master, SIGTERM);
+    stop_kid(w, SIGTERM);
+    stop_kid(master, SIGTERM);
 }
 
 /* A photon job whose master dies twice: during the photon phase (batches journaled, no store
@@ -468,7 +500,7 @@ static void test_master_killed_photon_job(void **state)
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
     wait_journal(spool, 120, "a photon batch", "SELECT COUNT(*) FROM results WHERE kind=1", NULL);
-    testutil_stop(master, SIGKILL);
+    stop_kid(master, SIGKILL);
     long long batches = journal_query(spool, "SELECT COUNT(*) FROM results WHERE kind=1");
     long long saved = journal_query(spool, "SELECT photons_saved FROM jobs WHERE id=1");
     print_message("master killed with %lld photon batches journaled, store saved: %lld\n",
@@ -478,7 +510,7 @@ static void test_master_killed_photon_job(void **state)
     wait_journal(spool, 180, "the photon store and camera results",
                  "SELECT photons_saved FROM jobs WHERE id=1",
                  "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
-    testutil_stop(master, SIGKILL);
+    stop_kid(master, SIGKILL);
     const char *log2 = slurp(mlog2);
     if (!strstr(log2, "job 1 'beam_big' resumed: "))
         fail_msg("the second master did not resume job 1:\n%s", log2);
@@ -496,9 +528,9 @@ static void test_master_killed_photon_job(void **state)
     assert_non_null(b);
     assert_int_equal(sscanf(b, "samples, %u of %u photon batches", &bd, &bt), 2);
     assert_int_equal(bd, bt);
-    testutil_stop(w1, SIGTERM);
-    testutil_stop(w2, SIGTERM);
-    testutil_stop(master, SIGTERM);
+    stop_kid(w1, SIGTERM);
+    stop_kid(w2, SIGTERM);
+    stop_kid(master, SIGTERM);
 }
 
 /* The master, the workers and the client killed (SIGKILL) at seeded random moments while a job
@@ -525,9 +557,9 @@ static void test_random_kills(void **state)
         snprintf(name, sizeof name, "w%d", i);
         workers[i] = start_worker(path_in(log), wep, name);
     }
-    pid_t client = testutil_spawn(path_in("rk-client1.log"), "submit", SCENE, "--master", cep,
-                                  "--spp", SPP_LONG, "--wait", "--quiet", "--insecure", "-o",
-                                  path_in("rk-client.exr"), NULL);
+    pid_t client = track(testutil_spawn(path_in("rk-client1.log"), "submit", SCENE, "--master",
+                                        cep, "--spp", SPP_LONG, "--wait", "--quiet",
+                                        "--insecure", "-o", path_in("rk-client.exr"), NULL));
     wait_journal(spool, 60, "the job", "SELECT COUNT(*) FROM jobs", NULL);
     /* Each of master, worker and client once in a shuffled order, then random ones: at most
      * eight kills, none after the job is done. */
@@ -546,25 +578,25 @@ static void test_random_kills(void **state)
             break;
         int pause = (int)(rng_stream_next(&rng) * 500);
         if (order[i] == 0) {
-            testutil_stop(master, SIGKILL);
+            stop_kid(master, SIGKILL);
             testutil_sleep_ms(pause);
             snprintf(mlog, sizeof mlog, "rk-master%d.log", ++nmaster);
             master = start_master(path_in(mlog), spool, wep, cep);
         } else if (order[i] == 1) {
             int k = rng_stream_next(&rng) < 0.5 ? 0 : 1;
-            testutil_stop(workers[k], SIGKILL);
+            stop_kid(workers[k], SIGKILL);
             testutil_sleep_ms(pause);
             char log[64], name[8];
             snprintf(log, sizeof log, "rk-w%d-%d.log", k, nworker++);
             snprintf(name, sizeof name, "w%d", k);
             workers[k] = start_worker(path_in(log), wep, name);
         } else {
-            testutil_stop(client, SIGKILL);
+            stop_kid(client, SIGKILL);
             testutil_sleep_ms(pause);
             char log[64];
             snprintf(log, sizeof log, "rk-client%d.log", ++nclient);
-            client = testutil_spawn(path_in(log), "status", "1", "--wait", "--quiet", "--master",
-                                    cep, "--insecure", NULL);
+            client = track(testutil_spawn(path_in(log), "status", "1", "--wait", "--quiet",
+                                          "--master", cep, "--insecure", NULL));
         }
         kills++;
         print_message("seed %llu: kill %d: %s\n", (unsigned long long)seed, kills,
@@ -576,13 +608,13 @@ static void test_random_kills(void **state)
     assert_true(kills >= 3);
     finish_and_compare(cep, ref, path_in("rk-out.exr"), path_in(mlog));
     /* The last client follows the job to its end by itself through any restarts. */
-    int st = testutil_stop(client, 0);
+    int st = stop_kid(client, 0);
     assert_true(WIFEXITED(st));
     if (WEXITSTATUS(st) != 0)
         fail_msg("the last client exited %d: %s", WEXITSTATUS(st), slurp(path_in("rk-client1.log")));
     for (int i = 0; i < 2; i++)
-        testutil_stop(workers[i], SIGTERM);
-    testutil_stop(master, SIGTERM);
+        stop_kid(workers[i], SIGTERM);
+    stop_kid(master, SIGTERM);
 }
 
 int main(void)
@@ -592,9 +624,9 @@ int main(void)
         cmocka_unit_test(test_photon_blob_round_trip),
         cmocka_unit_test(test_checkpoint_round_trip),
         cmocka_unit_test(test_journal_tables),
-        cmocka_unit_test(test_master_killed_camera_job),
-        cmocka_unit_test(test_master_killed_photon_job),
-        cmocka_unit_test(test_random_kills),
+        cmocka_unit_test_teardown(test_master_killed_camera_job, kill_kids),
+        cmocka_unit_test_teardown(test_master_killed_photon_job, kill_kids),
+        cmocka_unit_test_teardown(test_random_kills, kill_kids),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);
 }
