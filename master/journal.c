@@ -554,17 +554,18 @@ void journal_prune(journal_t *self, uint64_t job)
     }
     /* Without the list (a database error, no memory) nothing is removed. */
     if (listed) {
-        qsort(keys, n, sizeof *keys, cmp_key);
+        if (n > 0) /* qsort and bsearch take no NULL array, even empty */
+            qsort(keys, n, sizeof *keys, cmp_key);
         struct dirent *e;
         while ((e = readdir(d))) {
             unsigned round, task;
             int used = 0;
             if (e->d_name[0] == '.')
                 continue;
-            bool ours = sscanf(e->d_name, "%u-%u.bin%n", &round, &task, &used) == 2 &&
+            bool ours = sscanf(e->d_name, "%u-%u.bin%n", &round, &task, &used) == 2 && used > 0 &&
                         e->d_name[used] == 0;
             uint64_t key = (uint64_t)round << 32 | task;
-            if (ours && bsearch(&key, keys, n, sizeof *keys, cmp_key))
+            if (ours && n > 0 && bsearch(&key, keys, n, sizeof *keys, cmp_key))
                 continue;
             char path[PATH_MAX + 300];
             snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
