@@ -1,0 +1,210 @@
+/* bench_accuracy_diff: how far a rendered EXR is from a reference, for bench/accuracy.sh
+ * (issue 7). Compares the linear sRGB channels, so that images of any bucket count compare
+ * with one reference, and prints one line of key=value figures:
+ *   lum      relative RMSE of luminance, sqrt(mean_p (Y - Yr)^2) / mean_p Yr, over every pixel
+ *            (the measured counterpart of the job's own estimate, docs/farm.md "Accuracy");
+ *   col      relative colour error: the RMS over pixels of E = C - (Y / Yr) Cr (C the pixel's
+ *            R, G, B; the part of its error that a change of brightness alone cannot explain,
+ *            i.e. Y times the error of its chromaticity C / Y), per channel, over mean_p Yr;
+ *            pixels with Yr below --min-lum times the mean are left out (C / Yr is unstable);
+ *   y_ratio  mean Y / mean Yr and r_ratio, g_ratio, b_ratio likewise per channel: energy
+ *            lost or gained, or a colour cast;
+ *   est      the job's own relative error estimate (the EXR's "prismfarm" attribute rel_rmse),
+ *            "-" when the file has none; spp its spp_done and stop why it stopped (none, target,
+ *            time);
+ *   nonfinite  pixels of the test image with a NaN or an infinity (left out of every sum).
+ * With a second reference (an independent render, another seed) the reference is the mean of
+ * the two and the reference's own noise is printed as well: floor_lum and floor_col are the
+ * same figures for the first half against the mean. A - (A + B) / 2 = (A - B) / 2 has the
+ * variance 2 s^2 / 4 = s^2 / 2 of the mean itself when A and B are independent with variance
+ * s^2; E is linear in A - ref for a fixed reference, so this holds for col as well.
+ * usage: bench_accuracy_diff [--min-lum F] TEST.exr REF.exr [REF2.exr] */
+#include "image_exr.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Rec. 709 / sRGB luminance of linear R, G, B (IEC 61966-2-1: the Y row of the sRGB to XYZ
+ * matrix), the Y that colour.c's XYZ to linear sRGB conversion inverts. */
+static double luminance(const float *c)
+{
+    return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+}
+
+static bool finite3(const float *c)
+{
+    return isfinite(c[0]) && isfinite(c[1]) && isfinite(c[2]);
+}
+
+static image_exr_t *load(const char *path)
+{
+    err_t err;
+    image_exr_t *img = image_exr_read(path, &err);
+    if (!img)
+        fprintf(stderr, "bench_accuracy_diff: %s\n", err.msg);
+    return img;
+}
+
+/* The value of key in the "prismfarm" attribute's key=value;... text, into buf ("-" if none). */
+static void info_value(const image_exr_t *img, const char *key, char *buf, size_t size)
+{
+    snprintf(buf, size, "-");
+    const char *info = image_exr_attribute(img, "prismfarm");
+    size_t klen = strlen(key);
+    for (const char *p = info; p && *p;) {
+        if (!strncmp(p, key, klen) && p[klen] == '=') {
+            const char *v = p + klen + 1;
+            size_t n = strcspn(v, ";");
+            snprintf(buf, size, "%.*s", (int)n, v);
+            return;
+        }
+        p = strchr(p, ';');
+        if (p)
+            p++;
+    }
+}
+
+/* Keeps buf only if it is a finite number ("rel_rmse=none" when a job has no estimate yet). */
+static void keep_number(char *buf, size_t size)
+{
+    char *end = NULL;
+    double v = strtod(buf, &end);
+    if (end == buf || *end || !isfinite(v))
+        snprintf(buf, size, "-");
+}
+
+/* Sums of one image against the reference ref (3 floats a pixel). */
+typedef struct sums {
+    double sq_lum, sq_col, y, r, g, b;
+    long n, n_col, nonfinite;
+} sums_t;
+
+static sums_t compare(const float *test, const float *ref, size_t npix, double min_y)
+{
+    sums_t s = {0};
+    for (size_t i = 0; i < npix; i++) {
+        const float *c = test + 3 * i, *cr = ref + 3 * i;
+        if (!finite3(c)) {
+            s.nonfinite++;
+            continue;
+        }
+        if (!finite3(cr))
+            continue;
+        double y = luminance(c), yr = luminance(cr);
+        s.sq_lum += (y - yr) * (y - yr);
+        s.y += y;
+        s.r += c[0];
+        s.g += c[1];
+        s.b += c[2];
+        s.n++;
+        if (yr > min_y) {
+            double k = y / yr, e2 = 0.0;
+            for (int j = 0; j < 3; j++)
+                e2 += (c[j] - k * cr[j]) * (c[j] - k * cr[j]);
+            s.sq_col += e2 / 3.0;
+            s.n_col++;
+        }
+    }
+    return s;
+}
+
+static double safe_div(double a, double b)
+{
+    return b != 0.0 && isfinite(a / b) ? a / b : NAN;
+}
+
+static void print_value(const char *key, double v)
+{
+    if (isfinite(v))
+        printf(" %s=%.6g", key, v);
+    else
+        printf(" %s=-", key);
+}
+
+int main(int argc, char **argv)
+{
+    double min_lum = 0.01;
+    int a = 1;
+    if (a + 1 < argc && !strcmp(argv[a], "--min-lum")) {
+        min_lum = strtod(argv[a + 1], NULL);
+        a += 2;
+    }
+    if (argc - a < 2 || argc - a > 3 || !(min_lum >= 0.0)) {
+        fprintf(stderr, "usage: bench_accuracy_diff [--min-lum F] TEST.exr REF.exr [REF2.exr]\n");
+        return 2;
+    }
+    int n_img = argc - a, rc = 1;
+    image_exr_t *img[3] = {NULL, NULL, NULL};
+    float *ref = NULL;
+    for (int i = 0; i < n_img; i++)
+        if (!(img[i] = load(argv[a + i])))
+            goto done;
+    int w = image_exr_width(img[0]), h = image_exr_height(img[0]);
+    for (int i = 1; i < n_img; i++)
+        if (image_exr_width(img[i]) != w || image_exr_height(img[i]) != h) {
+            fprintf(stderr, "bench_accuracy_diff: %s is %dx%d, %s is %dx%d\n", argv[a], w, h,
+                    argv[a + i], image_exr_width(img[i]), image_exr_height(img[i]));
+            goto done;
+        }
+    size_t npix = (size_t)w * (size_t)h;
+    ref = malloc(npix * 3 * sizeof *ref);
+    if (!ref) {
+        fprintf(stderr, "bench_accuracy_diff: out of memory\n");
+        goto done;
+    }
+    const float *ra = image_exr_rgb(img[1]), *rb = n_img == 3 ? image_exr_rgb(img[2]) : ra;
+    for (size_t i = 0; i < 3 * npix; i++)
+        ref[i] = 0.5f * (ra[i] + rb[i]);
+
+    double mean_yr = 0.0, mr[3] = {0.0, 0.0, 0.0};
+    long n_ref = 0;
+    for (size_t i = 0; i < npix; i++)
+        if (finite3(ref + 3 * i)) {
+            mean_yr += luminance(ref + 3 * i);
+            for (int j = 0; j < 3; j++)
+                mr[j] += ref[3 * i + j];
+            n_ref++;
+        }
+    if (n_ref == 0 || !(mean_yr > 0.0)) {
+        fprintf(stderr, "bench_accuracy_diff: the reference has no light (mean luminance <= 0)\n");
+        goto done;
+    }
+    mean_yr /= (double)n_ref;
+    for (int j = 0; j < 3; j++)
+        mr[j] /= (double)n_ref;
+
+    sums_t s = compare(image_exr_rgb(img[0]), ref, npix, min_lum * mean_yr);
+    char est[64], spp[64], stop[64];
+    info_value(img[0], "rel_rmse", est, sizeof est);
+    keep_number(est, sizeof est);
+    info_value(img[0], "spp_done", spp, sizeof spp);
+    info_value(img[0], "stop", stop, sizeof stop);
+    printf("lum=%.6g", safe_div(sqrt(safe_div(s.sq_lum, (double)s.n)), mean_yr));
+    print_value("col", safe_div(sqrt(safe_div(s.sq_col, (double)s.n_col)), mean_yr));
+    print_value("y_ratio", safe_div(s.y / (double)s.n, mean_yr));
+    print_value("r_ratio", safe_div(s.r / (double)s.n, mr[0]));
+    print_value("g_ratio", safe_div(s.g / (double)s.n, mr[1]));
+    print_value("b_ratio", safe_div(s.b / (double)s.n, mr[2]));
+    printf(" est=%s spp=%s stop=%s nonfinite=%ld col_pixels=%ld", est, spp, stop, s.nonfinite,
+           s.n_col);
+
+    if (n_img == 3) {
+        sums_t f = compare(ra, ref, npix, min_lum * mean_yr);
+        print_value("floor_lum", safe_div(sqrt(safe_div(f.sq_lum, (double)f.n)), mean_yr));
+        print_value("floor_col", safe_div(sqrt(safe_div(f.sq_col, (double)f.n_col)), mean_yr));
+        info_value(img[1], "rel_rmse", est, sizeof est);
+        keep_number(est, sizeof est);
+        info_value(img[2], "rel_rmse", spp, sizeof spp);
+        keep_number(spp, sizeof spp);
+        printf(" ref_est=%s,%s", est, spp);
+    }
+    printf("\n");
+    rc = 0;
+done:
+    for (int i = 0; i < 3; i++)
+        image_exr_destroy(&img[i]);
+    free(ref);
+    return rc;
+}
