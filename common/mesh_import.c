@@ -1,9 +1,12 @@
 #include "mesh_import.h"
 
+#include "le_bytes.h"
+
 #include <assimp/cimport.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -34,12 +37,16 @@ void mesh_data_free(mesh_data_t *mesh)
  *    checks them (a quad with index 900000000 crashes it), and per-face texture coordinates
  *    are stored through the face's indices;
  *  - a comment or "obj_info" line among an element's properties, or a control character in a
- *    header line, makes it read another header than the one written, and so another layout.
+ *    header line, makes it read another header than the one written, and so another layout;
+ *  - reals beyond a float's range become infinite positions (it keeps floats);
+ *  - its triangulation step asserts (abort) on faces it miscounts, which fuzzed headers with
+ *    odd elements beside vertex and face still reached: so it is not used, and fill() splits
+ *    polygons itself.
  * So the whole file is walked first, the way assimp reads it, and only this profile passes:
  * every count backed by bytes (a binary instance takes at least the sizes of its scalars and
  * list lengths, an ascii instance is one line with at least one character and one separator
- * per property, a list of n values needs n values); one "vertex" element of scalars; one
- * "face" element, after it, with one integer list "vertex_indices" (or "vertex_index") of at
+ * per property, a list of n values needs n values); every real finite and within a float's
+ * range; one "vertex" element of scalars; one "face" element, after it, with one integer list "vertex_indices" (or "vertex_index") of at
  * least 3 indices below the vertex count and, if any, one list "texcoord" of two values per
  * index; no "tristrips". The grammar is stricter than assimp's (exact tokens, numbers spelt as
  * its readers strtoul10, strtol10 and fast_atoreal consume them whole), so that both read the
@@ -467,6 +474,29 @@ static int ply_check_index(const ply_header_t *h, uint64_t i, int sign, uint64_t
     return 0;
 }
 
+/* assimp keeps every PLY number as a float: a real beyond float's range becomes an infinity
+ * there, and infinite vertices make its triangulation abort (a fuzzer found it). */
+static bool ply_real_ok(double v)
+{
+    return isfinite(v) && fabs(v) <= FLT_MAX;
+}
+
+static int ply_real_error(const char *name, const char *element, uint64_t i, err_t *err)
+{
+    return err_set(err, "\"%s\": %s %llu has a number that is not finite or beyond a float's "
+                        "range (3.4e38)",
+                   name, element, (unsigned long long)i);
+}
+
+/* A binary float or double at b. */
+static double ply_read_real(const unsigned char *b, ply_type_t t, bool big)
+{
+    uint8_t c[8];
+    for (int i = 0; i < t.size; i++)
+        c[i] = b[big ? t.size - 1 - i : i]; /* into little-endian order */
+    return t.size == 4 ? (double)le_get_f32(c) : le_get_f64(c);
+}
+
 /* An unsigned or two's-complement integer of size bytes; *negative tells its sign. */
 static uint64_t ply_read_int(const unsigned char *b, ply_type_t t, bool big, bool *negative)
 {
@@ -502,6 +532,8 @@ static int ply_check_binary(const ply_header_t *h, const char *d, size_t len, co
                     return err_set(err, "\"%s\": the file ends inside %s %llu", name, e->name,
                                    (unsigned long long)i);
                 if (!pr->list) {
+                    if (pr->item.kind == PLY_REAL && !ply_real_ok(ply_read_real(u + pos, pr->item, big)))
+                        return ply_real_error(name, e->name, i, err);
                     pos += size;
                     continue;
                 }
@@ -530,6 +562,10 @@ static int ply_check_binary(const ply_header_t *h, const char *d, size_t len, co
                     has_tc = true;
                     ntc = n;
                 }
+                if (pr->item.kind == PLY_REAL)
+                    for (uint64_t v = 0; v < n; v++)
+                        if (!ply_real_ok(ply_read_real(u + pos + v * pr->item.size, pr->item, big)))
+                            return ply_real_error(name, e->name, i, err);
                 pos += (size_t)n * pr->item.size;
             }
             if (face && ply_check_face(i, nindices, has_tc, ntc, name, err) != 0)
@@ -595,6 +631,12 @@ static int ply_check_ascii(const ply_header_t *h, const char *d, size_t len, con
                                        pr->item.kind == PLY_REAL       ? " decimal"
                                        : pr->item.kind == PLY_UNSIGNED ? " non-negative integer"
                                                                        : "n integer");
+                    if (pr->item.kind == PLY_REAL) {
+                        char num[64];
+                        snprintf(num, sizeof num, "%.*s", (int)(tn < 63 ? tn : 63), tok);
+                        if (tn >= 63 || !ply_real_ok(strtod(num, NULL)))
+                            return ply_real_error(name, e->name, i, err);
+                    }
                     uint64_t idx = 0;
                     int sign = indices ? ply_count(tok, tn, true, &idx) : 1;
                     if (indices && sign == 0)
@@ -641,12 +683,12 @@ static int fill(const struct aiScene *scene, const char *path, mesh_data_t *out,
         const struct aiMesh *m = scene->mMeshes[i];
         nverts += m->mNumVertices;
         for (unsigned f = 0; f < m->mNumFaces; f++) {
-            if (m->mFaces[f].mNumIndices != 3)
+            if (m->mFaces[f].mNumIndices < 3)
                 return err_set(err,
                                "\"%s\": face %u has %u vertices (points and lines are not "
                                "surfaces)",
                                path, f, m->mFaces[f].mNumIndices);
-            ntris++;
+            ntris += m->mFaces[f].mNumIndices - 2;
         }
         normals = normals && m->mNormals;
         uvs = uvs && m->mTextureCoords[0];
@@ -693,15 +735,21 @@ static int fill(const struct aiScene *scene, const char *path, mesh_data_t *out,
                 out->uv[2 * (v0 + v) + 1] = uv->y;
             }
         }
-        /* Assimp's PLY reader does not check indices against the vertex count. */
-        for (unsigned f = 0; f < m->mNumFaces; f++, t++)
-            for (int k = 0; k < 3; k++) {
-                unsigned idx = m->mFaces[f].mIndices[k];
-                if (idx >= m->mNumVertices)
+        /* Assimp's PLY reader does not check indices against the vertex count. A polygon of n
+         * vertices becomes the fan (0, k, k+1), k = 1..n-2: right for the convex polygons
+         * exporters write (assimp's own ear-clipping step aborts on fuzzed files). */
+        for (unsigned f = 0; f < m->mNumFaces; f++) {
+            const struct aiFace *face = &m->mFaces[f];
+            for (unsigned k = 0; k < face->mNumIndices; k++)
+                if (face->mIndices[k] >= m->mNumVertices)
                     return err_set(err, "\"%s\": face %u uses vertex %u but there are only %u",
-                                   path, f, idx, m->mNumVertices);
-                out->indices[3 * t + (size_t)k] = (uint32_t)(v0 + idx);
+                                   path, f, face->mIndices[k], m->mNumVertices);
+            for (unsigned k = 1; k + 1 < face->mNumIndices; k++, t++) {
+                out->indices[3 * t] = (uint32_t)(v0 + face->mIndices[0]);
+                out->indices[3 * t + 1] = (uint32_t)(v0 + face->mIndices[k]);
+                out->indices[3 * t + 2] = (uint32_t)(v0 + face->mIndices[k + 1]);
             }
+        }
         v0 += m->mNumVertices;
     }
     return 0;
@@ -721,7 +769,7 @@ int mesh_import_ply_memory(const void *data, size_t len, const char *name, mesh_
     if (ply_check(d, len, name, err) != 0)
         return -1;
     const struct aiScene *scene =
-        aiImportFileFromMemory(d, (unsigned)len, aiProcess_Triangulate, "ply");
+        aiImportFileFromMemory(d, (unsigned)len, 0, "ply");
     if (!scene) {
         const char *why = aiGetErrorString();
         return err_set(err, "cannot read PLY file \"%s\": %s", name,
