@@ -3,10 +3,10 @@
  * each result it has received since the job's last checkpoint (the result itself is a file of
  * its own beside the database: large blobs in SQLite cost the master three times the CPU), and
  * the accuracy record of each merged pass; checkpoint files hold a job's merged image and which
- * passes of each tile it contains. A
- * master restarted on the same spool reads it back and resumes each unfinished job where the
- * journal leaves it, with the same pixels as a run that never stopped, since the results it
- * replays and the ones still to come are merged in the same fixed order.
+ * passes of each tile it contains. A master restarted on the same spool reads it back and
+ * resumes each unfinished job where the journal leaves it, with the same pixels as a run that
+ * never stopped, since the results it replays and the ones still to come are merged in the
+ * same fixed order.
  *
  * Every change is one transaction, committed before the function returns (WAL, synchronous
  * NORMAL): a master killed at any moment (SIGKILL) loses nothing it journaled; a power cut may
@@ -83,7 +83,8 @@ int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err);
 
 /* A task's result, as received: kind 0 a camera tile (tile, pass), 1 a photon batch (tile =
  * batch, pass = -1); data is the journal's blob (journal_pack_tile or the batch's wire form
- * with its range, journal_pack_photons). A result already journaled is left as it is. */
+ * with its range, journal_pack_photons), written to the result's file before the row is
+ * committed. A result journaled again (the same task: the same bytes) keeps its one row. */
 int journal_add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t task, int kind,
                        int tile, int pass, const void *data, size_t size, err_t *err);
 
