@@ -22,12 +22,18 @@ typedef struct photon {
 #define BUCKET_MASK 0x3FFFu
 #define AXIS_SHIFT 14
 
+/* Every octahedral code's unit vector: the gather's normal test decodes a normal per photon
+ * in range, which took an eighth of a caustic render's time; a table lookup gives exactly
+ * oct_decode's doubles. */
+#define OCT_CODES 65536
+
 struct photon_map {
     spectral_grid_t grid;
     photon_t *ph;
     size_t n, cap;
     uint64_t emitted;
     int built;
+    vec3_t *normals; /* [OCT_CODES], made by photon_map_build */
 };
 
 /* Octahedral encoding of a unit vector (Meyer et al. 2010, "On floating-point normal
@@ -86,6 +92,7 @@ void photon_map_destroy(photon_map_t **self_p)
     if (!self_p || !*self_p)
         return;
     free((*self_p)->ph);
+    free((*self_p)->normals);
     free(*self_p);
     *self_p = NULL;
 }
@@ -268,6 +275,11 @@ int photon_map_build(photon_map_t *self, err_t *err)
 {
     if (self->built)
         return err_set(err, "photon map: built twice");
+    self->normals = malloc(OCT_CODES * sizeof *self->normals);
+    if (!self->normals)
+        return err_set(err, "photon map: out of memory for its normal table");
+    for (uint32_t e = 0; e < OCT_CODES; e++)
+        self->normals[e] = oct_decode((uint16_t)e);
     if (self->n)
         build_range(self->ph, 0, self->n);
     /* The map is read-only from here on: give back the growth slack. */
@@ -286,6 +298,7 @@ int photon_map_build(photon_map_t *self, err_t *err)
  * of the query's. */
 typedef struct query {
     const photon_t *ph;
+    const vec3_t *normals; /* the map's decoded octahedral codes */
     double q[3];
     vec3_t n;
     double r2; /* current search radius squared */
@@ -302,7 +315,7 @@ typedef struct query {
 
 static int normal_ok(const query_t *qr, const photon_t *ph)
 {
-    return vec3_dot(oct_decode(ph->normal), qr->n) > NORMAL_COS_MIN;
+    return vec3_dot(qr->normals[ph->normal], qr->n) > NORMAL_COS_MIN;
 }
 
 static void heap_push(query_t *qr, double d2, uint32_t idx)
@@ -389,6 +402,7 @@ int photon_map_irradiance(const photon_map_t *self, vec3_t p, vec3_t n, double r
     /* 12 kB on the stack: the k-nearest heap at its largest. */
     query_t query, *qr = &query;
     qr->ph = self->ph;
+    qr->normals = self->normals;
     qr->q[0] = p.x;
     qr->q[1] = p.y;
     qr->q[2] = p.z;
