@@ -358,8 +358,34 @@ static void heap_push(query_t *qr, double d2, uint32_t idx)
     qr->r2 = qr->heap_d2[0];
 }
 
+/* One photon of the tree against the query: in range and facing the query's side. */
+static inline void consider(query_t *qr, size_t i)
+{
+    const photon_t *ph = &qr->ph[i];
+    double dx = qr->q[0] - ph->p[0], dy = qr->q[1] - ph->p[1], dz = qr->q[2] - ph->p[2];
+    double d2 = dx * dx + dy * dy + dz * dz;
+    if (d2 <= qr->r2 && normal_ok(qr, ph)) {
+        if (qr->k > 0) {
+            if (qr->nheap < qr->k || d2 < qr->heap_d2[0])
+                heap_push(qr, d2, (uint32_t)i);
+        } else {
+            qr->E[ph->bucket & BUCKET_MASK] += ph->power;
+            qr->used++;
+        }
+    }
+}
+
+/* Ranges this small are scanned in order rather than descended: the recursion's calls cost
+ * more than testing the few photons the split would have skipped. */
+#define LEAF_SCAN 16
+
 static void visit(query_t *qr, size_t lo, size_t hi)
 {
+    if (hi - lo <= LEAF_SCAN) {
+        for (size_t i = lo; i < hi; i++)
+            consider(qr, i);
+        return;
+    }
     while (lo < hi) {
         size_t mid = lo + (hi - lo) / 2;
         const photon_t *ph = &qr->ph[mid];
