@@ -25,6 +25,10 @@
 #endif
 
 #define MAX_SCENES 4 /* loaded scenes kept (one per job); the oldest unused one goes first */
+/* A master that says nothing while its connection stays up (libzmq's own heartbeats, answered
+ * by its I/O thread, keep a live process's link up; a dead host's drops within 3 s) is busy,
+ * not gone: its loop may be writing a large EXR or checkpoint. It is waited for this long. */
+#define MASTER_BUSY_MAX_S 60.0
 #define MAX_STORES 4 /* photon stores kept (their wire form), by hash; the oldest unused goes */
 
 typedef struct job_scene {
@@ -440,7 +444,7 @@ int worker_run(const worker_opts_t *opts, err_t *err)
         send_msg(&w, net, &hello);
         logf_(&w, "connecting to %s as '%s' with %d threads", opts->endpoint, name, started);
         double last_heard = now_s(), last_sent = now_s();
-        int welcomed = 0;
+        int welcomed = 0, busy_logged = 0;
         while (!*opts->stop) {
             proto_msg_t m;
             proto_peer_t from;
@@ -458,6 +462,7 @@ int worker_run(const worker_opts_t *opts, err_t *err)
             double now = now_s();
             if (r == 0) {
                 last_heard = now;
+                busy_logged = 0;
                 switch (m.type) {
                 case PROTO_WELCOME:
                     welcomed = 1;
@@ -709,6 +714,14 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                  * side only. */
                 char why[256];
                 proto_net_link_t link = proto_net_link(net, why, sizeof why);
+                if (welcomed && link == PROTO_NET_LINK_UP && now - last_heard < MASTER_BUSY_MAX_S) {
+                    if (!busy_logged)
+                        logf_(&w, "the master is silent but its connection is alive: it is busy, "
+                                  "waiting for it (up to %.0f s)",
+                              MASTER_BUSY_MAX_S);
+                    busy_logged = 1;
+                    continue;
+                }
                 logf_(&w, "the master is silent (%s%s%s); reconnecting in %d ms",
                       welcomed ? "was connected" : "never answered",
                       link == PROTO_NET_LINK_REFUSED ? ": it " : "",
