@@ -4,7 +4,6 @@
 
 #include <dirent.h>
 #include <errno.h>
-#include <fcntl.h>
 #include <limits.h>
 #include <sqlite3.h>
 #include <stdio.h>
@@ -419,36 +418,12 @@ static void result_path(const journal_t *self, uint64_t job, uint32_t round, uin
 static int write_result(const journal_t *self, uint64_t job, const char *path, const void *data,
                         size_t size, err_t *err)
 {
-    char dir[PATH_MAX], tmp[PATH_MAX + 8];
+    char dir[PATH_MAX];
     result_dir(self, job, dir, sizeof dir);
-    if (strlen(path) >= PATH_MAX)
-        return err_set(err, "journal: path too long: '%s'", path);
     if (mkdir(dir, 0755) < 0 && errno != EEXIST)
         return err_set(err, "journal: cannot create '%s': %s", dir, strerror(errno));
-    snprintf(tmp, sizeof tmp, "%s.tmp", path);
-    int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_CLOEXEC, 0644);
-    if (fd < 0)
-        return err_set(err, "journal: cannot create '%s': %s", tmp, strerror(errno));
-    const uint8_t *p = data;
-    size_t left = size;
-    while (left > 0) {
-        ssize_t n = write(fd, p, left);
-        if (n < 0 && errno == EINTR)
-            continue;
-        if (n <= 0) {
-            int e = n < 0 ? errno : ENOSPC;
-            (void)close(fd);
-            (void)unlink(tmp);
-            return err_set(err, "journal: cannot write '%s': %s", tmp, strerror(e));
-        }
-        p += n;
-        left -= (size_t)n;
-    }
-    if (close(fd) < 0 || rename(tmp, path) < 0) {
-        int e = errno;
-        (void)unlink(tmp);
-        return err_set(err, "journal: cannot write '%s': %s", path, strerror(e));
-    }
+    if (spool_write_file_sync(path, data, size, false, err) < 0)
+        return err_prefix(err, "journal: ");
     return 0;
 }
 

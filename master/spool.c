@@ -87,6 +87,12 @@ static int rm_tree(const char *path)
 
 int spool_write_file(const char *path, const void *data, size_t size, err_t *err)
 {
+    return spool_write_file_sync(path, data, size, true, err);
+}
+
+int spool_write_file_sync(const char *path, const void *data, size_t size, bool sync,
+                          err_t *err)
+{
     char tmp[PATH_MAX];
     if (snprintf(tmp, sizeof tmp, "%s.tmp%ld", path, (long)getpid()) >= (int)sizeof tmp)
         return err_set(err, "path too long: '%s'", path);
@@ -108,7 +114,7 @@ int spool_write_file(const char *path, const void *data, size_t size, err_t *err
         p += n;
         left -= (size_t)n;
     }
-    if (fsync(fd) < 0 || close(fd) < 0) {
+    if ((sync && fsync(fd) < 0) || close(fd) < 0) {
         int e = errno;
         (void)unlink(tmp);
         return err_set(err, "cannot write '%s': %s", tmp, strerror(e));
