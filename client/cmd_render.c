@@ -468,14 +468,18 @@ int cmd_render(int argc, char **argv)
             n -= 5;
         snprintf(name, sizeof name, "%.*s", (int)n, base);
         int cores = local_render_cores();
-        local_farm_opts_t lo = {.scene = scene_path, .name = name, .exr_path = exr, .overrides = ov,
+        /* The master writes its PNG with no exposure change: fetching it saves decoding the
+         * EXR and encoding the PNG again; another exposure is tone-mapped here from the EXR. */
+        bool master_png = exposure == 0;
+        local_farm_opts_t lo = {.scene = scene_path, .name = name, .exr_path = exr,
+                                .png_path = master_png ? png : NULL, .overrides = ov,
                                 .workers = (int)workers,
                                 .threads = threads ? (int)threads : (cores / (int)workers > 0 ? cores / (int)workers : 1),
                                 .tile = (int)tile, .quiet = quiet,
                                 .target_error = stop.target_error, .time_limit = stop.time_limit};
         proto_job_info_t info;
         rc = local_farm_run(&lo, &info);
-        if (rc == 0 && film_png_from_exr(exr, png, tm, &err)) {
+        if (rc == 0 && !master_png && film_png_from_exr(exr, png, tm, &err)) {
             fprintf(stderr, "prismfarm render: %s\n", err.msg);
             rc = 1;
         }

@@ -162,7 +162,8 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
         rc = 1;
         goto out;
     }
-    if (job_follow_fetch(rpc, job, PROTO_FETCH_EXR, o->exr_path, "render")) {
+    if (job_follow_fetch(rpc, job, PROTO_FETCH_EXR, o->exr_path, "render") ||
+        (o->png_path && job_follow_fetch(rpc, job, PROTO_FETCH_PNG, o->png_path, "render"))) {
         rc = 1;
         goto out;
     }

@@ -11,6 +11,7 @@ typedef struct local_farm_opts {
     const char *scene;    /* the scene file */
     const char *name;     /* job name */
     const char *exr_path; /* where the fetched EXR goes */
+    const char *png_path; /* where the master's PNG preview goes; NULL: not fetched */
     scene_overrides_t overrides;
     int workers;          /* >= 1 */
     int threads;          /* render threads per worker, >= 1 */
@@ -21,7 +22,7 @@ typedef struct local_farm_opts {
     double time_limit;
 } local_farm_opts_t;
 
-/* Renders the scene and writes the EXR. Returns 0 with the finished job's counters and accuracy
+/* Renders the scene and writes the EXR (and the master's PNG when png_path is set). Returns 0 with the finished job's counters and accuracy
  * in *info (name and error cleared), or 1 with a message on stderr. */
 int local_farm_run(const local_farm_opts_t *opts, proto_job_info_t *info);
 

@@ -395,6 +395,11 @@ static int exr_write_file(const char *path, int width, int height, const exr_sou
         rv = exr_add_part(ctx, NULL, EXR_STORAGE_SCANLINE, &part);
         if (rv == EXR_ERR_SUCCESS)
             rv = exr_initialize_required_attr_simple(ctx, part, width, height, EXR_COMPRESSION_ZIP);
+        /* Rendered float spectra are noise in their low bits: zlib's default level 6 shrank a
+         * 960x540 16-bucket image by 5 % more than level 1 at three times the time (0.6 s of
+         * a 1.7 s render), and the master writes this file while its workers wait. */
+        if (rv == EXR_ERR_SUCCESS)
+            rv = exr_set_zip_compression_level(ctx, part, 1);
         if (rv != EXR_ERR_SUCCESS)
             status =
                 err_set(err, "%s: cannot set up the image part: %s", path, exr_io_reason(&io, rv));
