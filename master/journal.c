@@ -4,6 +4,7 @@
 
 #include <dirent.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <limits.h>
 #include <sqlite3.h>
 #include <stdio.h>
@@ -11,10 +12,11 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
+#include <zlib.h>
 
 /* Bumped whenever a table or a blob changes meaning: a master never reads a journal it does
- * not understand. */
-#define JOURNAL_VERSION 2
+ * not understand. 4: tile blobs carry their sums' width, float32 sums when they fit. */
+#define JOURNAL_VERSION 4
 
 #define TILE_MAGIC 0x4b544650u  /* "PFTK" in this host's order: a blob of another is refused */
 #define PHOT_MAGIC 0x48504650u  /* "PFPH" */
@@ -22,10 +24,21 @@
 #define MAX_IMAGE_SIDE 65536
 #define MAX_BUCKETS 1024
 
+/* The segment a job's results are appended to (journal.h): open until the job's next prune. */
+typedef struct segment {
+    uint64_t job;
+    uint32_t seg;
+    int fd;
+    uint64_t size;
+} segment_t;
+
 struct journal {
     sqlite3 *db;
     char path[PATH_MAX]; /* the database */
     char dir[PATH_MAX - 128]; /* the folder holding it and results/: room left for the names in it */
+    sqlite3_stmt *add_result; /* prepared once: the master journals every result it receives */
+    segment_t *segs;          /* one per job being appended to */
+    size_t nsegs, capsegs;
 };
 
 static int db_error(journal_t *self, err_t *err, const char *what)
@@ -91,6 +104,7 @@ static const char *SCHEMA =
     "CREATE TABLE IF NOT EXISTS results("
     " job INTEGER NOT NULL, round INTEGER NOT NULL, task INTEGER NOT NULL, kind INTEGER NOT NULL,"
     " tile INTEGER NOT NULL, pass INTEGER NOT NULL, size INTEGER NOT NULL,"
+    " seg INTEGER NOT NULL, offset INTEGER NOT NULL, crc INTEGER NOT NULL,"
     " PRIMARY KEY(job, round, task));"
     "CREATE TABLE IF NOT EXISTS passes("
     " job INTEGER NOT NULL, round INTEGER NOT NULL, pass INTEGER NOT NULL, spp INTEGER NOT NULL,"
@@ -172,6 +186,10 @@ void journal_close(journal_t **self_p)
     if (!self_p || !*self_p)
         return;
     journal_t *self = *self_p;
+    for (size_t i = 0; i < self->nsegs; i++)
+        (void)close(self->segs[i].fd);
+    free(self->segs);
+    sqlite3_finalize(self->add_result); /* a no-op for NULL */
     if (self->db)
         (void)sqlite3_close(self->db);
     free(self);
@@ -407,39 +425,135 @@ static void result_dir(const journal_t *self, uint64_t job, char *buf, size_t si
     snprintf(buf, size, "%s/results/%llu", self->dir, (unsigned long long)job);
 }
 
-static void result_path(const journal_t *self, uint64_t job, uint32_t round, uint32_t task,
-                        char *buf, size_t size)
+static void segment_path(const journal_t *self, uint64_t job, uint32_t seg, char *buf,
+                         size_t size)
 {
-    snprintf(buf, size, "%s/results/%llu/%u-%u.bin", self->dir, (unsigned long long)job, round,
-             task);
+    snprintf(buf, size, "%s/results/%llu/%u.log", self->dir, (unsigned long long)job, seg);
 }
 
-/* The blob as a file, complete once renamed into place; not fsync'ed (journal.h). */
-static int write_result(const journal_t *self, uint64_t job, const char *path, const void *data,
-                        size_t size, err_t *err)
+/* "<seg>.log" -> seg; false for any other name. */
+static bool segment_name(const char *name, uint32_t *seg)
 {
+    unsigned v;
+    int used = 0;
+    if (sscanf(name, "%u.log%n", &v, &used) != 1 || used == 0 || name[used] != 0)
+        return false;
+    *seg = v;
+    return true;
+}
+
+static segment_t *segment_find(journal_t *self, uint64_t job)
+{
+    for (size_t i = 0; i < self->nsegs; i++)
+        if (self->segs[i].job == job)
+            return &self->segs[i];
+    return NULL;
+}
+
+static void segment_close(journal_t *self, uint64_t job)
+{
+    segment_t *g = segment_find(self, job);
+    if (!g)
+        return;
+    (void)close(g->fd);
+    *g = self->segs[--self->nsegs];
+}
+
+/* The job's open segment, or a new one numbered past every segment its rows or its folder
+ * name: a restarted master never appends to a file a killed one may have left half written. */
+static segment_t *segment_open(journal_t *self, uint64_t job, err_t *err)
+{
+    segment_t *g = segment_find(self, job);
+    if (g)
+        return g;
     char dir[PATH_MAX];
     result_dir(self, job, dir, sizeof dir);
-    if (mkdir(dir, 0755) < 0 && errno != EEXIST)
-        return err_set(err, "journal: cannot create '%s': %s", dir, strerror(errno));
-    if (spool_write_file_sync(path, data, size, false, err) < 0)
-        return err_prefix(err, "journal: ");
-    return 0;
+    if (mkdir(dir, 0755) < 0 && errno != EEXIST) {
+        err_set(err, "journal: cannot create '%s': %s", dir, strerror(errno));
+        return NULL;
+    }
+    uint32_t next = 1, seg;
+    sqlite3_stmt *st;
+    if (prepare(self, "SELECT MAX(seg) FROM results WHERE job=?1", &st, err) < 0)
+        return NULL;
+    sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
+    if (sqlite3_step(st) == SQLITE_ROW && sqlite3_column_type(st, 0) != SQLITE_NULL)
+        next = (uint32_t)sqlite3_column_int64(st, 0) + 1;
+    sqlite3_finalize(st);
+    DIR *d = opendir(dir);
+    if (!d) {
+        err_set(err, "journal: cannot read '%s': %s", dir, strerror(errno));
+        return NULL;
+    }
+    struct dirent *e;
+    while ((e = readdir(d)))
+        if (segment_name(e->d_name, &seg) && seg >= next)
+            next = seg + 1;
+    (void)closedir(d);
+    if (self->nsegs == self->capsegs) {
+        size_t c = self->capsegs ? 2 * self->capsegs : 4;
+        segment_t *p = realloc(self->segs, c * sizeof *p);
+        if (!p) {
+            err_set(err, "journal: out of memory");
+            return NULL;
+        }
+        self->segs = p;
+        self->capsegs = c;
+    }
+    char path[PATH_MAX + 64];
+    segment_path(self, job, next, path, sizeof path);
+    int fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (fd < 0) {
+        err_set(err, "journal: cannot create '%s': %s", path, strerror(errno));
+        return NULL;
+    }
+    g = &self->segs[self->nsegs++];
+    *g = (segment_t){.job = job, .seg = next, .fd = fd, .size = 0};
+    return g;
+}
+
+static uint32_t blob_crc(const void *data, size_t size)
+{
+    uLong c = crc32(0L, Z_NULL, 0);
+    const Bytef *p = data;
+    while (size > 0) { /* crc32 takes a uInt length */
+        uInt n = size > (1u << 30) ? (1u << 30) : (uInt)size;
+        c = crc32(c, p, n);
+        p += n;
+        size -= n;
+    }
+    return (uint32_t)c;
 }
 
 int journal_add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t task, int kind,
                        int tile, int pass, const void *data, size_t size, err_t *err)
 {
-    char path[PATH_MAX + 64];
-    result_path(self, job, round, task, path, sizeof path);
-    if (write_result(self, job, path, data, size, err) < 0)
+    segment_t *g = segment_open(self, job, err);
+    if (!g)
         return -1;
-    sqlite3_stmt *st;
-    if (prepare(self,
-                "INSERT OR IGNORE INTO results(job, round, task, kind, tile, pass, size) "
-                "VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7)",
-                &st, err) < 0)
+    const uint8_t *p = data;
+    uint64_t offset = g->size;
+    for (size_t done = 0; done < size;) {
+        ssize_t n = pwrite(g->fd, p + done, size - done, (off_t)(offset + done));
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0) {
+            char path[PATH_MAX + 64];
+            segment_path(self, job, g->seg, path, sizeof path);
+            err_set(err, "journal: cannot write to '%s': %s", path, n < 0 ? strerror(errno) : "no progress");
+            segment_close(self, job); /* its tail is unknown: the next result starts another */
+            return -1;
+        }
+        done += (size_t)n;
+    }
+    g->size += size;
+    if (!self->add_result &&
+        prepare(self,
+                "INSERT OR IGNORE INTO results(job, round, task, kind, tile, pass, size, seg, "
+                "offset, crc) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10)",
+                &self->add_result, err) < 0)
         return -1;
+    sqlite3_stmt *st = self->add_result;
     sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
     sqlite3_bind_int64(st, 2, round);
     sqlite3_bind_int64(st, 3, task);
@@ -447,7 +561,47 @@ int journal_add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t t
     sqlite3_bind_int(st, 5, tile);
     sqlite3_bind_int(st, 6, pass);
     sqlite3_bind_int64(st, 7, (sqlite3_int64)size);
-    return step_done(self, st, "adding a result", err);
+    sqlite3_bind_int64(st, 8, g->seg);
+    sqlite3_bind_int64(st, 9, (sqlite3_int64)offset);
+    sqlite3_bind_int64(st, 10, blob_crc(data, size));
+    int rc = sqlite3_step(st) == SQLITE_DONE ? 0 : db_error(self, err, "adding a result");
+    sqlite3_reset(st);
+    return rc;
+}
+
+/* A blob of the segment open in *fd (segment *open_seg), opening seg first when it differs.
+ * NULL when the file is missing, short, or the bytes are not the ones journaled. */
+static uint8_t *read_blob(const journal_t *self, uint64_t job, uint32_t seg, uint64_t offset,
+                          size_t size, uint32_t crc, int *fd, uint32_t *open_seg)
+{
+    if (*fd < 0 || *open_seg != seg) {
+        if (*fd >= 0)
+            (void)close(*fd);
+        char path[PATH_MAX + 64];
+        segment_path(self, job, seg, path, sizeof path);
+        *fd = open(path, O_RDONLY | O_CLOEXEC);
+        *open_seg = seg;
+        if (*fd < 0)
+            return NULL;
+    }
+    uint8_t *data = malloc(size ? size : 1);
+    if (!data)
+        return NULL;
+    for (size_t done = 0; done < size;) {
+        ssize_t n = pread(*fd, data + done, size - done, (off_t)(offset + done));
+        if (n < 0 && errno == EINTR)
+            continue;
+        if (n <= 0) {
+            free(data);
+            return NULL;
+        }
+        done += (size_t)n;
+    }
+    if (blob_crc(data, size) != crc) {
+        free(data);
+        return NULL;
+    }
+    return data;
 }
 
 int journal_results(journal_t *self, uint64_t job, uint32_t round, journal_result_fn fn,
@@ -456,24 +610,21 @@ int journal_results(journal_t *self, uint64_t job, uint32_t round, journal_resul
     *lost = 0;
     sqlite3_stmt *st;
     if (prepare(self,
-                "SELECT task, kind, size FROM results WHERE job=?1 AND round=?2 "
-                "ORDER BY kind DESC, pass, tile",
+                "SELECT task, kind, size, seg, offset, crc FROM results WHERE job=?1 AND "
+                "round=?2 ORDER BY kind DESC, pass, tile",
                 &st, err) < 0)
         return -1;
     sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
     sqlite3_bind_int64(st, 2, round);
-    int rc, out = 0;
+    int rc, out = 0, fd = -1;
+    uint32_t open_seg = 0;
     while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
         uint32_t task = (uint32_t)sqlite3_column_int64(st, 0);
-        size_t want = (size_t)sqlite3_column_int64(st, 2);
-        char path[PATH_MAX + 64];
-        result_path(self, job, round, task, path, sizeof path);
-        uint8_t *data;
-        size_t size;
-        err_t rerr;
-        if (spool_read_file(path, want, &data, &size, &rerr) < 0 || size != want) {
-            if (size != want)
-                free(data);
+        size_t size = (size_t)sqlite3_column_int64(st, 2);
+        uint8_t *data = read_blob(self, job, (uint32_t)sqlite3_column_int64(st, 3),
+                                  (uint64_t)sqlite3_column_int64(st, 4), size,
+                                  (uint32_t)sqlite3_column_int64(st, 5), &fd, &open_seg);
+        if (!data) {
             (*lost)++;
             continue;
         }
@@ -484,63 +635,51 @@ int journal_results(journal_t *self, uint64_t job, uint32_t round, journal_resul
             break;
         }
     }
+    if (fd >= 0)
+        (void)close(fd);
     if (out == 0 && rc != SQLITE_DONE)
         out = db_error(self, err, "reading results");
     sqlite3_finalize(st);
     return out;
 }
 
-static int cmp_key(const void *a, const void *b)
-{
-    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
-    return x < y ? -1 : x > y;
-}
-
 void journal_prune(journal_t *self, uint64_t job)
 {
+    /* The next result starts a segment of its own, so that this one can go once the rows in
+     * it are dropped (a checkpoint, the job's end). */
+    segment_close(self, job);
     char dir[PATH_MAX];
     result_dir(self, job, dir, sizeof dir);
     DIR *d = opendir(dir);
     if (!d)
         return;
-    /* The (round, task) of every row of the job, sorted, to look the files up in. */
-    uint64_t *keys = NULL;
-    size_t n = 0, cap = 0;
+    /* The segments the job's rows name: a handful (one per checkpoint interval). */
+    uint32_t used[64];
+    size_t n = 0;
+    bool listed = false;
     sqlite3_stmt *st;
     err_t ignore;
-    bool listed = prepare(self, "SELECT round, task FROM results WHERE job=?1", &st, &ignore) == 0;
-    if (listed) {
+    if (prepare(self, "SELECT DISTINCT seg FROM results WHERE job=?1", &st, &ignore) == 0) {
         sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
         int rc;
-        while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
-            if (n == cap) {
-                size_t c = cap ? 2 * cap : 64;
-                uint64_t *p = realloc(keys, c * sizeof *p);
-                if (!p)
-                    break;
-                keys = p;
-                cap = c;
-            }
-            keys[n++] = (uint64_t)sqlite3_column_int64(st, 0) << 32 |
-                        (uint32_t)sqlite3_column_int64(st, 1);
-        }
+        while ((rc = sqlite3_step(st)) == SQLITE_ROW && n < sizeof used / sizeof *used)
+            used[n++] = (uint32_t)sqlite3_column_int64(st, 0);
+        /* More segments than the list holds: keep every file rather than guess. */
         listed = rc == SQLITE_DONE;
         sqlite3_finalize(st);
     }
-    /* Without the list (a database error, no memory) nothing is removed. */
+    /* Without the list (a database error) nothing is removed. */
     if (listed) {
-        if (n > 0) /* qsort and bsearch take no NULL array, even empty */
-            qsort(keys, n, sizeof *keys, cmp_key);
         struct dirent *e;
         while ((e = readdir(d))) {
-            unsigned round, task;
-            int used = 0;
+            uint32_t seg;
             if (e->d_name[0] == '.')
                 continue;
-            bool ours = sscanf(e->d_name, "%u-%u.bin%n", &round, &task, &used) == 2 && used > 0 &&
-                        e->d_name[used] == 0;
-            uint64_t key = (uint64_t)round << 32 | task;
-            if (ours && n > 0 && bsearch(&key, keys, n, sizeof *keys, cmp_key))
+            bool keep = false;
+            if (segment_name(e->d_name, &seg))
+                for (size_t i = 0; i < n && !keep; i++)
+                    keep = used[i] == seg;
+            if (keep)
                 continue;
             char path[PATH_MAX + 300];
             snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
@@ -550,7 +689,6 @@ void journal_prune(journal_t *self, uint64_t job)
     (void)closedir(d);
     if (listed && n == 0)
         (void)rmdir(dir);
-    free(keys);
 }
 
 int journal_set_checkpoint(journal_t *self, uint64_t job, uint32_t round, uint64_t gen,

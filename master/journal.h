@@ -1,7 +1,9 @@
 /* journal: what the master must not forget when it dies (docs/reliability.md). An SQLite
  * database in the spool folder holds every job (its submission, state and round), a row for
- * each result it has received since the job's last checkpoint (the result itself is a file of
- * its own beside the database: large blobs in SQLite cost the master three times the CPU), and
+ * each result it has received since the job's last checkpoint (the result's bytes are appended
+ * to a segment file beside the database, results/<job>/<seg>.log, and the row names the
+ * segment, offset, size and CRC-32: large blobs in SQLite cost the master three times the CPU,
+ * and a file per result cost it a fifth of its time in creating, renaming and removing them), and
  * the accuracy record of each merged pass; checkpoint files hold a job's merged image and which
  * passes of each tile it contains. A master restarted on the same spool reads it back and
  * resumes each unfinished job where the journal leaves it, with the same pixels as a run that
@@ -10,9 +12,11 @@
  *
  * Every change is one transaction, committed before the function returns (WAL, synchronous
  * NORMAL): a master killed at any moment (SIGKILL) loses nothing it journaled; a power cut may
- * lose the last few transactions, never the database's consistency. A result's file is complete
- * (renamed into place) before its row is committed, but not fsync'ed: after a power cut it may
- * be missing or short, and is then skipped (its task is rendered again). A checkpoint file is
+ * lose the last few transactions, never the database's consistency. A result's bytes are written
+ * before its row is committed, but not fsync'ed: after a power cut they may be missing, short or
+ * other bytes (the CRC tells), and are then skipped (the task is rendered again). A segment is
+ * appended to by one master only (a restarted one starts a new segment) and is closed at the
+ * job's next prune, so that it can be removed once no row names it. A checkpoint file is
  * written (fsync'ed, renamed) before the transaction that names it. */
 #ifndef PRISMFARM_JOURNAL_H
 #define PRISMFARM_JOURNAL_H
@@ -58,7 +62,8 @@ typedef struct journal_pass {
     double rel_error;
 } journal_pass_t;
 
-/* Opens (creating if missing) the journal in folder dir: dir/journal.db and dir/results/<job>/.
+/* Opens (creating if missing) the journal in folder dir: dir/journal.db and dir/results/<job>/
+ * (the segments).
  * A file that is not a journal of this version is an error naming it, never silently
  * replaced. */
 journal_t *journal_open(const char *dir, err_t *err);
@@ -83,7 +88,7 @@ int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err);
 
 /* A task's result, as received: kind 0 a camera tile (tile, pass), 1 a photon batch (tile =
  * batch, pass = -1); data is the journal's blob (journal_pack_tile or the batch's wire form
- * with its range, journal_pack_photons), written to the result's file before the row is
+ * with its range, journal_pack_photons), appended to the job's open segment before the row is
  * committed. A result journaled again (the same task: the same bytes) keeps its one row. */
 int journal_add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t task, int kind,
                        int tile, int pass, const void *data, size_t size, err_t *err);
@@ -91,13 +96,13 @@ int journal_add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t t
 typedef int (*journal_result_fn)(void *user, uint32_t task, int kind, const void *data,
                                  size_t size, err_t *err);
 /* The round's journaled results in merge order (photon batches by batch, then camera tiles by
- * pass and tile); stops at the first callback that returns -1. A result whose file is missing
- * or not of its recorded size is skipped and counted in *lost. */
+ * pass and tile); stops at the first callback that returns -1. A result whose bytes are missing,
+ * short or fail their CRC is skipped and counted in *lost. */
 int journal_results(journal_t *self, uint64_t job, uint32_t round, journal_result_fn fn,
                     void *user, size_t *lost, err_t *err);
-/* Removes the job's result files that no row names (left by a master killed between a commit
- * and the removal of the files it dropped, or half written); with no rows left, the job's
- * folder too. */
+/* Closes the job's open segment (the next result starts another) and removes the files of its
+ * results folder that no row names (segments whose rows were all dropped, files left by a
+ * killed master); with no rows left, the folder too. */
 void journal_prune(journal_t *self, uint64_t job);
 
 /* A checkpoint of generation gen is written: the job names it, its elapsed time is recorded,

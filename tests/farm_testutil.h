@@ -24,6 +24,17 @@ static inline int testutil_mkdtemp(char *dir, size_t size, const char *name)
     return mkdtemp(dir) ? 0 : -1;
 }
 
+/* DIR/NAME in one of 16 rotating buffers: a test may hold that many paths at once (the
+ * arguments of one command line) without managing their storage. */
+static inline const char *testutil_path_in(const char *dir, const char *name)
+{
+    static char buf[16][512];
+    static int k;
+    k = (k + 1) % 16;
+    snprintf(buf[k], sizeof buf[k], "%s/%s", dir, name);
+    return buf[k];
+}
+
 /* Removes the folder and everything in it; returns 0 or -1. */
 static inline int testutil_rmtree(const char *dir)
 {

@@ -58,11 +58,7 @@ static int group_teardown(void **state)
 
 static const char *path_in(const char *name)
 {
-    static char buf[16][512];
-    static int k;
-    k = (k + 1) % 16;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
-    return buf[k];
+    return testutil_path_in(DIR_, name);
 }
 
 /* Starts `prismfarm ARGS...` in the background with stderr to a log; returns its pid. Every

@@ -258,31 +258,59 @@ static void test_journal_tables(void **state)
     assert_int_equal(journal_results(jn, 7, 0, collect, &s, &lost, &err), 0);
     assert_int_equal(s.n, 3); /* the photon batch went with the saved store */
     assert_int_equal(lost, 0);
-    /* Results live in files beside the database: one per row, the dropped ones removed. */
-    char rdir[700];
+    /* Results are appended to segment files beside the database: the six blobs above (the
+     * duplicate's bytes too, its row ignored) are in segment 1, which the rows still name. */
+    char rdir[700], seg1[800], stray[800];
     snprintf(rdir, sizeof rdir, "%s/results/7", dir);
-    assert_int_equal(count_files(rdir), 3);
-    /* A file lost (a power cut before it reached the disk) is skipped and counted, and a
-     * stray file no row names is pruned. */
-    char victim[800], stray[800];
-    snprintf(victim, sizeof victim, "%s/0-3.bin", rdir);
-    snprintf(stray, sizeof stray, "%s/0-9.bin.tmp", rdir);
-    assert_int_equal(unlink(victim), 0);
-    FILE *sf = fopen(stray, "w");
+    snprintf(seg1, sizeof seg1, "%s/1.log", rdir);
+    assert_int_equal(count_files(rdir), 1);
+    struct stat st;
+    assert_int_equal(stat(seg1, &st), 0);
+    assert_int_equal(st.st_size, 6 * 4);
+    /* A result journaled by this (reopened) master starts a segment of its own. */
+    assert_int_equal(journal_add_result(jn, 7, 0, 10, 0, 0, 5, blob, 4, &err), 0);
+    assert_int_equal(count_files(rdir), 2);
+    /* Bytes that are not the ones journaled (a power cut before they reached the disk) are
+     * skipped and counted: task 3's blob is the fourth in segment 1, at offset 12. */
+    FILE *sf = fopen(seg1, "r+b");
+    assert_non_null(sf);
+    assert_int_equal(fseek(sf, 12, SEEK_SET), 0);
+    assert_int_equal(fputc(0xee, sf), 0xee);
     fclose(sf);
     s.n = 0;
     assert_int_equal(journal_results(jn, 7, 0, collect, &s, &lost, &err), 0);
-    assert_int_equal(s.n, 2);
+    assert_int_equal(s.n, 3);
     assert_int_equal(lost, 1);
+    /* A segment cut short loses the results past its end: segment 2 emptied. */
+    char seg2[800];
+    snprintf(seg2, sizeof seg2, "%s/2.log", rdir);
+    assert_int_equal(truncate(seg2, 2), 0);
+    s.n = 0;
+    assert_int_equal(journal_results(jn, 7, 0, collect, &s, &lost, &err), 0);
+    assert_int_equal(s.n, 2);
+    assert_int_equal(lost, 2);
+    /* Stray files no row names are pruned (the old layout's result files, a temporary). */
+    snprintf(stray, sizeof stray, "%s/0-9.bin.tmp", rdir);
+    sf = fopen(stray, "w");
+    fclose(sf);
+    snprintf(stray, sizeof stray, "%s/9.log", rdir);
+    sf = fopen(stray, "w");
+    fclose(sf);
+    assert_int_equal(count_files(rdir), 4);
     journal_prune(jn, 7);
     assert_int_equal(count_files(rdir), 2);
+    /* A segment number is never reused, even past a stray file's. */
+    sf = fopen(stray, "w");
+    fclose(sf);
+    assert_int_equal(journal_add_result(jn, 7, 0, 11, 0, 1, 5, blob, 4, &err), 0);
+    snprintf(stray, sizeof stray, "%s/10.log", rdir);
+    assert_int_equal(stat(stray, &st), 0);
     /* A job that is over keeps no results. */
     job.state = 2;
     assert_int_equal(journal_set_state(jn, &job, &err), 0);
     s.n = 0;
     assert_int_equal(journal_results(jn, 7, 0, collect, &s, &lost, &err), 0);
     assert_int_equal(s.n, 0);
-    struct stat st;
     assert_int_equal(stat(rdir, &st), -1); /* the job's folder went with its last file */
     journal_close(&jn);
 

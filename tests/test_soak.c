@@ -111,11 +111,7 @@ static int teardown(void **state)
 
 static const char *path_in(const char *name)
 {
-    static char buf[8][512];
-    static int k;
-    k = (k + 1) % 8;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
-    return buf[k];
+    return testutil_path_in(DIR_, name);
 }
 
 /* The scene's path: tests/-relative, or in the source tree for ../ (ctest runs the test in
