@@ -11,6 +11,7 @@
 #include "cli_run.h"
 #include "farm_testutil.h"
 #include "image_exr.h"
+#include "image_png.h"
 
 #include <math.h>
 #include <sys/stat.h>
@@ -31,11 +32,7 @@ static int teardown(void **state)
 
 static const char *path_in(const char *name)
 {
-    static char buf[4][512];
-    static int k;
-    k = (k + 1) % 4;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
-    return buf[k];
+    return testutil_path_in(DIR_, name);
 }
 
 static void test_renders_spectral_exr_and_png(void **state)
@@ -72,6 +69,48 @@ static void test_renders_spectral_exr_and_png(void **state)
     }
     assert_true(sum > 0.0); /* the scene is lit */
     image_exr_destroy(&img);
+}
+
+/* The farm's PNG is the master's own (fetched, not made again from the EXR): the same pixels
+ * as --direct's; another exposure is tone-mapped by the client, and brightens the image. */
+static double png_mean(const char *path, const uint8_t *same_as)
+{
+    err_t err;
+    image_png_t *p = image_png_read(path, &err);
+    if (!p)
+        fail_msg("%s", err.msg);
+    assert_int_equal(image_png_width(p), 24);
+    assert_int_equal(image_png_height(p), 16);
+    const uint8_t *px = image_png_rgba(p);
+    if (same_as)
+        assert_memory_equal(px, same_as, 24 * 16 * 4);
+    double sum = 0;
+    for (int i = 0; i < 24 * 16 * 4; i++)
+        sum += (i % 4 == 3) ? 0 : px[i];
+    image_png_destroy(&p);
+    return sum / (24 * 16 * 3);
+}
+
+static void test_farm_png_matches_direct(void **state)
+{
+    (void)state;
+    assert_int_equal(run("render", "data/render/tiny.pbrt", "-o", path_in("d.exr"), "--direct",
+                         "--quiet", NULL)->status, 0);
+    assert_int_equal(run("render", "data/render/tiny.pbrt", "-o", path_in("f.exr"), "--quiet",
+                         NULL)->status, 0);
+    assert_int_equal(run("render", "data/render/tiny.pbrt", "-o", path_in("e.exr"), "--quiet",
+                         "--exposure", "1", NULL)->status, 0);
+    err_t err;
+    image_png_t *d = image_png_read(path_in("d.png"), &err);
+    if (!d)
+        fail_msg("%s", err.msg);
+    double direct = png_mean(path_in("d.png"), NULL);
+    double farm = png_mean(path_in("f.png"), image_png_rgba(d));
+    double brighter = png_mean(path_in("e.png"), NULL);
+    image_png_destroy(&d);
+    assert_true(farm == direct);
+    /* One stop doubles the linear values before the ACES curve: every lit 8-bit value rises. */
+    assert_true(brighter > farm + 5);
 }
 
 static void test_same_pixels_with_any_thread_count(void **state)
@@ -143,6 +182,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_renders_spectral_exr_and_png),
         cmocka_unit_test(test_same_pixels_with_any_thread_count),
+        cmocka_unit_test(test_farm_png_matches_direct),
         cmocka_unit_test(test_overrides),
         cmocka_unit_test(test_bad_command_lines),
         cmocka_unit_test(test_broken_scene_names_file_and_line),
