@@ -1,6 +1,7 @@
 /* worker_daemon against a fake master on inproc://: the HELLO / WELCOME / TASK /
  * SCENE_REQUEST / SCENE / RESULT conversation, results equal to a local render_tile, a failed
- * scene reported as TASK_FAILED, and reconnection when the master goes quiet. */
+ * scene reported as TASK_FAILED, and reconnection when the master goes quiet; over TCP, a busy
+ * master (silent, its link up) waited for and a closed one reconnected to. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -12,6 +13,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <zmq.h>
 
 #include "bundle.h"
@@ -28,6 +30,7 @@ typedef struct fixture {
     worker_opts_t opts;
     int rc;
     char cache[128];
+    char endpoint[256];
     uint8_t *scene_bytes;
     size_t scene_size;
 } fixture_t;
@@ -42,12 +45,13 @@ static void *run_worker(void *arg)
     return NULL;
 }
 
-static int setup(void **state)
+static int setup_at(void **state, const char *endpoint)
 {
     fixture_t *f = calloc(1, sizeof *f);
     f->ctx = zmq_ctx_new();
     f->router = proto_net_new(f->ctx, PROTO_NET_ROUTER, NULL, NULL);
-    if (!f->router || proto_net_bind(f->router, "inproc://master-workers", NULL))
+    if (!f->router || proto_net_bind(f->router, endpoint, NULL) ||
+        proto_net_endpoint(f->router, f->endpoint, sizeof f->endpoint, NULL))
         return -1;
     snprintf(f->cache, sizeof f->cache, "/tmp/prismfarm-test-worker-XXXXXX");
     if (!mkdtemp(f->cache))
@@ -58,12 +62,24 @@ static int setup(void **state)
     f->scene_bytes = malloc(1 << 16);
     f->scene_size = fread(f->scene_bytes, 1, 1 << 16, in);
     fclose(in);
-    f->opts = (worker_opts_t){.endpoint = "inproc://master-workers", .zmq_ctx = f->ctx, .threads = 2,
+    f->opts = (worker_opts_t){.endpoint = f->endpoint, .zmq_ctx = f->ctx, .threads = 2,
                               .name = "test-worker", .cache_dir = f->cache, .stop = &f->stop,
-                              .reconnect_max_ms = 200};
+                              .reconnect_max_ms = 200,
+                              .insecure = 1 /* loopback TCP in a test */};
     pthread_create(&f->thread, NULL, run_worker, f);
     *state = f;
     return 0;
+}
+
+static int setup(void **state)
+{
+    return setup_at(state, "inproc://master-workers");
+}
+
+/* Over TCP, where libzmq's handshake tells the worker its link is up. */
+static int setup_tcp(void **state)
+{
+    return setup_at(state, "tcp://127.0.0.1:*");
 }
 
 static int teardown(void **state)
@@ -220,11 +236,58 @@ static void test_reconnects_when_master_is_silent(void **state)
     proto_msg_free(&m);
 }
 
+/* A master whose loop is busy (a large EXR, a checkpoint) says nothing while its libzmq I/O
+ * thread keeps the TCP link up: the worker waits for it, sending heartbeats, instead of
+ * dropping the connection and the tasks it holds. When the master's socket really goes, the
+ * link drops and the worker says HELLO to the master that takes its place. */
+static void test_waits_for_busy_master_over_tcp(void **state)
+{
+    fixture_t *f = *state;
+    proto_peer_t w;
+    proto_msg_t m;
+    expect(f, PROTO_HELLO, &w, &m);
+    proto_msg_free(&m);
+    proto_msg_t welcome = {.type = PROTO_WELCOME, .welcome = {.worker_id = 1, .heartbeat_ms = 100}};
+    send_to(f, &w, &welcome);
+    /* 1.5 s of silence, five times the 3 heartbeats after which a dead master is given up. */
+    int heartbeats = 0;
+    for (int i = 0; i < 30; i++) {
+        err_t err;
+        int r = proto_net_recv(f->router, &w, &m, 50, &err);
+        if (r == PROTO_EAGAIN)
+            continue;
+        if (r != 0)
+            fail_msg("recv: %s", err.msg);
+        if (m.type == PROTO_HELLO)
+            fail_msg("the worker reconnected to a busy master after %d ms", i * 50);
+        heartbeats += m.type == PROTO_HEARTBEAT;
+        proto_msg_free(&m);
+    }
+    assert_true(heartbeats >= 5); /* one per 100 ms while it waits */
+    /* The master's socket closes; a new one binds the same port. */
+    proto_net_destroy(&f->router);
+    f->router = proto_net_new(f->ctx, PROTO_NET_ROUTER, NULL, NULL);
+    assert_non_null(f->router);
+    /* libzmq closes the old listener in its I/O thread, a moment after the socket. */
+    err_t err;
+    int bound = -1;
+    for (int i = 0; i < 100 && bound != 0; i++) {
+        bound = proto_net_bind(f->router, f->endpoint, &err);
+        if (bound != 0)
+            nanosleep(&(struct timespec){.tv_nsec = 20000000}, NULL);
+    }
+    if (bound != 0)
+        fail_msg("bind %s again: %s", f->endpoint, err.msg);
+    expect(f, PROTO_HELLO, &w, &m);
+    proto_msg_free(&m);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_task_round_trip, setup, teardown),
         cmocka_unit_test_setup_teardown(test_reconnects_when_master_is_silent, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_waits_for_busy_master_over_tcp, setup_tcp, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
