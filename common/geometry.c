@@ -768,6 +768,18 @@ size_t geometry_memory_bytes(const geometry_t *self)
     return m > 0 ? (size_t)m : 0;
 }
 
+/* fmax(|x|, fmax(|y|, |z|)) as libm's fmax gives it (a NaN argument yields the other; of
+ * equal ones the first), inline: gcc calls libm for fmax, and this runs for every ray. */
+static inline double fmax_inline(double a, double b)
+{
+    return (a >= b || isnan(b)) ? a : b;
+}
+
+static inline double max_abs3(vec3_t p)
+{
+    return fmax_inline(fabs(p.x), fmax_inline(fabs(p.y), fabs(p.z)));
+}
+
 vec3_t geometry_offset(vec3_t p, vec3_t ng, vec3_t dir)
 {
     /* Embree traces rays in float, so the new origin must stay on dir's side of the surface
@@ -779,7 +791,7 @@ vec3_t geometry_offset(vec3_t p, vec3_t ng, vec3_t dir)
      * the same paths (an absolute floor of 1e-7 let a glass sphere of radius 1e-3 release 0.3 %
      * of grazing light that the same sphere of radius 1 kept trapped); the 1e-30 floor only moves a
      * point at the origin itself off its surface, and is still a normal float. */
-    double mag = fmax(fabs(p.x), fmax(fabs(p.y), fabs(p.z)));
+    double mag = max_abs3(p);
     double eps = 4e-6 * mag + 1e-30;
     double side = vec3_dot(dir, ng) >= 0.0 ? 1.0 : -1.0;
     return vec3_fma(p, ng, side * eps);

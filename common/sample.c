@@ -10,9 +10,12 @@ static inline double sqrt_safe(double x)
     return sqrt(fmax(x, 0.0));
 }
 
+/* fmin(fmax(u, 0), 1) as libm gives it (NaN -> 0, -0 stays -0), without its two calls. */
 static inline double clamp01(double u)
 {
-    return fmin(fmax(u, 0.0), 1.0);
+    if (u > 0.0)
+        return u < 1.0 ? u : 1.0;
+    return u == 0.0 ? u : 0.0;
 }
 
 vec3_t sample_concentric_disk(double u1, double u2)

@@ -1,6 +1,7 @@
 #include "spectral_grid.h"
 
 #include <math.h>
+#include <stdlib.h>
 
 spectral_grid_t spectral_grid_default(void)
 {
@@ -97,6 +98,87 @@ int spectral_grid_splat(spectral_grid_t grid, double *buckets, double lambda_nm,
     }
     if (pos >= (double)(grid.n - 1)) {
         buckets[grid.n - 1] += contribution;
+        return 0;
+    }
+    int lo = (int)pos;
+    double f = pos - (double)lo;
+    buckets[lo] += (1.0 - f) * contribution;
+    buckets[lo + 1] += f * contribution;
+    return 0;
+}
+
+struct spectral_table {
+    spectral_grid_t grid;
+    double width; /* spectral_grid_width */
+    double min[]; /* [n]: spectral_grid_bucket_min of each bucket */
+};
+
+spectral_table_t *spectral_table_new(spectral_grid_t grid, err_t *err)
+{
+    if (spectral_grid_validate(grid, err))
+        return NULL;
+    spectral_table_t *self = malloc(sizeof *self + (size_t)grid.n * sizeof self->min[0]);
+    if (!self) {
+        err_set(err, "out of memory");
+        return NULL;
+    }
+    self->grid = grid;
+    self->width = spectral_grid_width(grid);
+    for (int i = 0; i < grid.n; i++)
+        self->min[i] = spectral_grid_bucket_min(grid, i);
+    return self;
+}
+
+void spectral_table_destroy(spectral_table_t **self_p)
+{
+    if (!self_p || !*self_p)
+        return;
+    free(*self_p);
+    *self_p = NULL;
+}
+
+int spectral_table_index(const spectral_table_t *self, double lambda_nm)
+{
+    const spectral_grid_t g = self->grid;
+    if (!isfinite(lambda_nm) || lambda_nm < g.lambda_min || lambda_nm > g.lambda_max)
+        return -1;
+    /* The same quotient as spectral_grid_index; it is >= 0 here, so truncation is its floor. */
+    double x = (lambda_nm - g.lambda_min) / (g.lambda_max - g.lambda_min) * (double)g.n;
+    int i = (int)x;
+    if (i >= g.n)
+        i = g.n - 1;
+    if (i > 0 && lambda_nm < self->min[i])
+        i--;
+    else if (i + 1 < g.n && lambda_nm >= self->min[i + 1])
+        i++;
+    return i;
+}
+
+int spectral_table_splat(const spectral_table_t *self, double *buckets, double lambda_nm,
+                         double value, double pdf, spectral_splat_t mode)
+{
+    /* spectral_grid_splat, step for step, with the table's boundaries and width. */
+    if (!isfinite(lambda_nm) || !isfinite(value) || !isfinite(pdf) || pdf <= 0.0)
+        return -1;
+    int i = spectral_table_index(self, lambda_nm);
+    if (i < 0)
+        return 0;
+    const spectral_grid_t g = self->grid;
+    double width = self->width;
+    double contribution = value / (pdf * width);
+    if (!isfinite(contribution))
+        return -1;
+    if (mode == SPECTRAL_SPLAT_BOX || g.n == 1) {
+        buckets[i] += contribution;
+        return 0;
+    }
+    double pos = (lambda_nm - g.lambda_min) / width - 0.5;
+    if (pos <= 0.0) {
+        buckets[0] += contribution;
+        return 0;
+    }
+    if (pos >= (double)(g.n - 1)) {
+        buckets[g.n - 1] += contribution;
         return 0;
     }
     int lo = (int)pos;

@@ -62,4 +62,17 @@ int spectral_grid_index(spectral_grid_t grid, double lambda_nm);
 int spectral_grid_splat(spectral_grid_t grid, double *buckets, double lambda_nm, double value,
                         double pdf, spectral_splat_t mode);
 
+/* A grid with its bucket boundaries and width computed once, for the renderer's inner loop:
+ * spectral_table_index and spectral_table_splat give exactly (bit for bit) what
+ * spectral_grid_index and spectral_grid_splat give for the grid, with two divisions instead of
+ * five and no call to floor. Immutable after spectral_table_new; may be shared by threads. */
+typedef struct spectral_table spectral_table_t;
+
+/* NULL with a message for an invalid grid (spectral_grid_validate) or no memory. */
+spectral_table_t *spectral_table_new(spectral_grid_t grid, err_t *err);
+void spectral_table_destroy(spectral_table_t **self_p);
+int spectral_table_index(const spectral_table_t *self, double lambda_nm);
+int spectral_table_splat(const spectral_table_t *self, double *buckets, double lambda_nm,
+                         double value, double pdf, spectral_splat_t mode);
+
 #endif

@@ -159,6 +159,13 @@ static double texel(const texture_t *t, int x, int y, double lambda)
     return spectrum_sigmoid((c[0] * lambda + c[1]) * lambda + c[2]);
 }
 
+/* Whether the integer-valued, finite x is odd: (long)fmod(x, 2) & 1 without the libm call.
+ * Every double of magnitude 2^53 or more is even; below that the conversion is exact. */
+static inline long odd(double x)
+{
+    return fabs(x) < 0x1p53 ? (long)((long long)x & 1) : 0;
+}
+
 double texture_eval(const texture_t *t, double u, double v, double lambda)
 {
     switch (t->kind) {
@@ -168,7 +175,7 @@ double texture_eval(const texture_t *t, double u, double v, double lambda)
         double fu = floor(u * t->uscale), fv = floor(v * t->vscale);
         if (!isfinite(fu) || !isfinite(fv))
             return texture_eval(t->a, u, v, lambda);
-        long parity = ((long)fmod(fu, 2.0) + (long)fmod(fv, 2.0)) & 1;
+        long parity = (odd(fu) + odd(fv)) & 1;
         return texture_eval(parity ? t->b : t->a, u, v, lambda);
     }
     case TEX_SCALE:

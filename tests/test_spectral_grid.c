@@ -1,6 +1,8 @@
 /* Tests for spectral_grid: bucket geometry for the bucket counts and ranges the renderer must
  * support, validation, exact energy conservation of one splat, and Monte-Carlo convergence of
- * splatted continuous-wavelength samples to the analytic bucket averages of a known spectrum. */
+ * splatted continuous-wavelength samples to the analytic bucket averages of a known spectrum;
+ * and that the precomputed table (spectral_table_t) gives the grid functions' results bit for
+ * bit, at every bucket boundary and the doubles next to it, where rounding decides. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -12,6 +14,7 @@
 #include "wavelength.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #define assert_near(a, b, tol)                                                                     \
@@ -269,6 +272,59 @@ static void test_mc_tent(void **state)
     }
 }
 
+/* The table must agree with spectral_grid_index and spectral_grid_splat exactly: the renderer
+ * switched to it on the promise that no pixel changes. Checked at every boundary (and one and
+ * two ulps either side, where the quotient can round across), at the range's ends, outside it,
+ * at non-finite inputs, and at 20000 random wavelengths per grid, for both splat modes. */
+static void check_table_against_grid(spectral_grid_t g)
+{
+    err_t err;
+    spectral_table_t *t = spectral_table_new(g, &err);
+    assert_non_null(t);
+    uint64_t rng = 0x5EEDull + (uint64_t)g.n;
+    for (int k = 0; k < 20000 + 6 * (g.n + 1) + 5; k++) {
+        double lambda;
+        if (k < 6 * (g.n + 1)) {
+            double b = k / 6 < g.n ? spectral_grid_bucket_min(g, k / 6) : g.lambda_max;
+            static const int steps[6] = {-2, -1, 0, 1, 2, 0};
+            lambda = b;
+            for (int s = 0; s < abs(steps[k % 6]); s++)
+                lambda = nextafter(lambda, steps[k % 6] < 0 ? -INFINITY : INFINITY);
+        } else if (k < 6 * (g.n + 1) + 5) {
+            static const double odd_ones[5] = {0.0, 1e300, -1.0, NAN, INFINITY};
+            lambda = odd_ones[k - 6 * (g.n + 1)];
+        } else {
+            double u = next_u(&rng);
+            lambda = g.lambda_min - 5.0 + u * (g.lambda_max - g.lambda_min + 10.0);
+        }
+        assert_int_equal(spectral_table_index(t, lambda), spectral_grid_index(g, lambda));
+        for (int mode = 0; mode < 2; mode++) {
+            spectral_splat_t m = mode ? SPECTRAL_SPLAT_TENT : SPECTRAL_SPLAT_BOX;
+            double a[SPECTRAL_GRID_MAX_BUCKETS] = {0}, b[SPECTRAL_GRID_MAX_BUCKETS] = {0};
+            double value = 0.5 + next_u(&rng), pdf = k % 97 == 0 ? 1e-310 : 0.002 + next_u(&rng);
+            int ra = spectral_table_splat(t, a, lambda, value, pdf, m);
+            int rb = spectral_grid_splat(g, b, lambda, value, pdf, m);
+            assert_int_equal(ra, rb);
+            assert_memory_equal(a, b, (size_t)g.n * sizeof a[0]);
+        }
+    }
+    spectral_table_destroy(&t);
+    assert_null(t);
+}
+
+static void test_table_matches_grid(void **state)
+{
+    (void)state;
+    for (size_t c = 0; c < sizeof COUNTS / sizeof COUNTS[0]; c++)
+        for (size_t r = 0; r < sizeof RANGES / sizeof RANGES[0]; r++)
+            check_table_against_grid((spectral_grid_t){COUNTS[c], RANGES[r][0], RANGES[r][1]});
+    /* One bucket, and a range whose boundaries are not representable (1/3 nm steps). */
+    check_table_against_grid((spectral_grid_t){1, 380.0, 720.0});
+    check_table_against_grid((spectral_grid_t){3, 400.0, 401.0});
+    err_t err;
+    assert_null(spectral_table_new((spectral_grid_t){0, 380.0, 720.0}, &err));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -277,6 +333,7 @@ int main(void)
         cmocka_unit_test(test_splat_conserves_one_sample),
         cmocka_unit_test(test_mc_box_converges_to_bucket_averages),
         cmocka_unit_test(test_mc_tent),
+        cmocka_unit_test(test_table_matches_grid),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

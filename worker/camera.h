@@ -11,4 +11,19 @@
 void camera_ray(const camera_t *cam, int xres, int yres, double fx, double fy, double u1,
                 double u2, vec3_t *org, vec3_t *dir);
 
+/* camera_ray's per-image constants (tan(fov/2) and the screen window's extents), computed
+ * once so that a renderer does not take a tangent per camera ray. camera_frame_ray(&f, ...)
+ * with f = camera_frame_make(cam, xres, yres) gives camera_ray(cam, xres, yres, ...) bit for
+ * bit. The frame points to cam, which must outlive it. */
+typedef struct camera_frame {
+    const camera_t *cam;
+    int xres, yres;
+    double tan_half; /* tan(fov / 2) */
+    double sx, sy;   /* the screen window's half-extents before tan_half */
+} camera_frame_t;
+
+camera_frame_t camera_frame_make(const camera_t *cam, int xres, int yres);
+void camera_frame_ray(const camera_frame_t *f, double fx, double fy, double u1, double u2,
+                      vec3_t *org, vec3_t *dir);
+
 #endif

@@ -121,35 +121,46 @@ int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sampl
     return 0;
 }
 
+double lights_value(const light_t *l, double lambda)
+{
+    return light_value(l, lambda);
+}
+
+int lights_area_faces(const light_t *l, vec3_t ng, vec3_t wo)
+{
+    return l->kind == LIGHT_AREA && (l->twosided || !(vec3_dot(ng, wo) <= 0.0));
+}
+
 double lights_area_radiance(const scene_t *scene, const light_t *l, vec3_t ng, vec3_t wo,
                             double lambda)
 {
     (void)scene;
-    if (l->kind != LIGHT_AREA)
-        return 0.0;
-    if (!l->twosided && vec3_dot(ng, wo) <= 0.0)
-        return 0.0;
-    return light_value(l, lambda);
+    return lights_area_faces(l, ng, wo) ? light_value(l, lambda) : 0.0;
 }
 
-double lights_sample_emission(const scene_t *scene, const light_sample_t *s, double lambda)
+double lights_sample_emission_of(const scene_t *scene, const light_sample_t *s, double value)
 {
     const light_t *l = &scene->lights[s->light];
     switch (l->kind) {
     case LIGHT_AREA:
-        return lights_area_radiance(scene, l, s->n_light, vec3_neg(s->wi), lambda);
+        return lights_area_faces(l, s->n_light, vec3_neg(s->wi)) ? value : 0.0;
     case LIGHT_POINT:
-        return light_value(l, lambda) / (s->dist * s->dist);
+        return value / (s->dist * s->dist);
     case LIGHT_SPOT:
-        return lights_spot_falloff(l, vec3_dot(vec3_neg(s->wi), l->direction)) * light_value(l, lambda) /
+        return lights_spot_falloff(l, vec3_dot(vec3_neg(s->wi), l->direction)) * value /
                (s->dist * s->dist);
     case LIGHT_DISTANT:
     case LIGHT_INFINITE:
-        return light_value(l, lambda);
+        return value;
     case LIGHT_COLLIMATED:
         return 0.0;
     }
     return 0.0;
+}
+
+double lights_sample_emission(const scene_t *scene, const light_sample_t *s, double lambda)
+{
+    return lights_sample_emission_of(scene, s, light_value(&scene->lights[s->light], lambda));
 }
 
 double lights_spot_falloff(const light_t *l, double cos_theta)

@@ -8,6 +8,7 @@
 #include "photon.h"
 #include "rng.h"
 #include "sample.h"
+#include "spectral_grid.h"
 #include "specular.h"
 #include "wavelength.h"
 
@@ -55,10 +56,26 @@ typedef struct path {
     int bucket[LANES];
 } path_t;
 
+/* Lights whose spectral values render keeps per lane (the first LE_CACHE_LIGHTS of the scene;
+ * the rest are evaluated every time), and the slot of the environment's sum. */
+#define LE_CACHE_LIGHTS 8
+#define LE_CACHE_ENV LE_CACHE_LIGHTS
+
+/* A light's spectral value at one lane's wavelength, remembered with that wavelength: a path's
+ * lanes keep their wavelengths from bounce to bounce, and every light sample and emission hit
+ * would evaluate the spectrum again (a blackbody's expm1 per lane). Keyed by the wavelength
+ * itself, so a lane whose wavelength changed misses and the value is always exactly what the
+ * evaluation gives. */
+typedef struct le_entry {
+    double lambda; /* NaN: empty */
+    double value;
+} le_entry_t;
+
 typedef struct ctx {
     const scene_t *scene;
     const render_settings_t *rs;
     const xyz_t *weights;
+    const spectral_table_t *table; /* rs->grid's boundaries, for the splats */
     double *contrib;
     rng_stream_t rng;
     render_stats_t *stats;
@@ -70,9 +87,47 @@ typedef struct ctx {
     const photon_store_t *photons;
     int mindepth;       /* the store holds L S^k D paths with k >= mindepth */
     double *irradiance; /* grid.n buckets, for one estimate */
+    le_entry_t le_cache[LE_CACHE_LIGHTS + 1][LANES];
 } ctx_t;
 
 static double next(ctx_t *c) { return rng_stream_next(&c->rng); }
+
+/* lights_value(light li, lambda) for lane j, through the cache. */
+static double light_value_lane(ctx_t *c, int li, int j, double lambda)
+{
+    const light_t *l = &c->scene->lights[li];
+    if (li >= LE_CACHE_LIGHTS)
+        return lights_value(l, lambda);
+    le_entry_t *e = &c->le_cache[li][j];
+    if (e->lambda != lambda) {
+        e->value = lights_value(l, lambda);
+        e->lambda = lambda;
+    }
+    return e->value;
+}
+
+/* lights_environment(lambda) for lane j, through the cache. */
+static double environment_lane(ctx_t *c, int j, double lambda)
+{
+    le_entry_t *e = &c->le_cache[LE_CACHE_ENV][j];
+    if (e->lambda != lambda) {
+        e->value = lights_environment(c->scene, lambda);
+        e->lambda = lambda;
+    }
+    return e->value;
+}
+
+/* Copies a path: its fields and its n live lanes (lanes past n are never read), not the
+ * LANES-long arrays whole (a path_t is about 2 kB; hero paths use 4 lanes). */
+static void path_copy(path_t *dst, const path_t *src)
+{
+    memcpy(dst, src, offsetof(path_t, lambda));
+    size_t n = (size_t)src->n;
+    memcpy(dst->lambda, src->lambda, n * sizeof src->lambda[0]);
+    memcpy(dst->beta, src->beta, n * sizeof src->beta[0]);
+    memcpy(dst->pdf, src->pdf, n * sizeof src->pdf[0]);
+    memcpy(dst->bucket, src->bucket, n * sizeof src->bucket[0]);
+}
 
 static double power_heuristic(double a, double b)
 {
@@ -88,8 +143,8 @@ static void splat(ctx_t *c, const path_t *p, int j, double value)
         return;
     if (p->bucket[j] >= 0)
         c->contrib[p->bucket[j]] += v;
-    else if (spectral_grid_splat(c->rs->grid, c->contrib, p->lambda[j], v / WAVELENGTH_HERO_COUNT,
-                                 p->pdf[j], SPECTRAL_SPLAT_BOX))
+    else if (spectral_table_splat(c->table, c->contrib, p->lambda[j], v / WAVELENGTH_HERO_COUNT,
+                                  p->pdf[j], SPECTRAL_SPLAT_BOX))
         /* The splat refuses a NaN or an overflow (value / (pdf width) > DBL_MAX). Poison the
          * sample so that tilebuf_add_sample drops it whole and it is counted in
          * render_stats_t.nonfinite, rather than losing this contribution silently. */
@@ -98,9 +153,14 @@ static void splat(ctx_t *c, const path_t *p, int j, double value)
 
 static double max_beta(const path_t *p)
 {
+    /* fmax(m, |beta|) written out (gcc calls libm for fmax): a NaN lane is skipped as fmax
+     * skips it, and m, never NaN, keeps its sign of zero. */
     double m = 0.0;
-    for (int j = 0; j < p->n; j++)
-        m = fmax(m, fabs(p->beta[j]));
+    for (int j = 0; j < p->n; j++) {
+        double a = fabs(p->beta[j]);
+        if (a > m)
+            m = a;
+    }
     return m;
 }
 
@@ -108,7 +168,7 @@ static int push(ctx_t *c, const path_t *p)
 {
     if (c->top >= STACK_MAX)
         return -1;
-    c->stack[c->top++] = *p;
+    path_copy(&c->stack[c->top++], p);
     c->branches++;
     return 0;
 }
@@ -121,9 +181,9 @@ static void add_emission_hit(ctx_t *c, const path_t *p, const surface_t *sf, con
         double lp = lights_pdf(c->scene, li, p->prev_p, p->dir, sf->p, sf->ng);
         w = power_heuristic(p->bsdf_pdf, lp);
     }
-    vec3_t wo = vec3_neg(p->dir);
+    const int faces = lights_area_faces(l, sf->ng, vec3_neg(p->dir));
     for (int j = 0; j < p->n; j++)
-        splat(c, p, j, w * lights_area_radiance(c->scene, l, sf->ng, wo, p->lambda[j]));
+        splat(c, p, j, w * (faces ? light_value_lane(c, li, j, p->lambda[j]) : 0.0));
 }
 
 static void add_environment(ctx_t *c, const path_t *p)
@@ -137,7 +197,7 @@ static void add_environment(ctx_t *c, const path_t *p)
         w = power_heuristic(p->bsdf_pdf, lp);
     }
     for (int j = 0; j < p->n; j++)
-        splat(c, p, j, w * lights_environment(c->scene, p->lambda[j]));
+        splat(c, p, j, w * environment_lane(c, j, p->lambda[j]));
 }
 
 /* Next-event estimation at a diffuse point with shading normal n and geometric normal g, both
@@ -177,7 +237,8 @@ static void direct_light(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t 
     if (!ls.is_delta && c->rs->integrator == INTEGRATOR_PATH)
         w = power_heuristic(ls.pdf, cos_s / PF_PI);
     for (int j = 0; j < p->n; j++) {
-        double le = lights_sample_emission(c->scene, &ls, p->lambda[j]);
+        double le = lights_sample_emission_of(c->scene, &ls,
+                                              light_value_lane(c, ls.light, j, p->lambda[j]));
         splat(c, p, j, w * albedo[j] / PF_PI * le * cos_s / ls.pdf);
     }
 }
@@ -196,7 +257,7 @@ static void caustic_light(ctx_t *c, const path_t *p, const hit_t *h, const surfa
     if (!photon_store_irradiance(c->photons, h, sf->p, g, c->irradiance))
         return;
     for (int j = 0; j < p->n; j++) {
-        int b = p->bucket[j] >= 0 ? p->bucket[j] : spectral_grid_index(c->rs->grid, p->lambda[j]);
+        int b = p->bucket[j] >= 0 ? p->bucket[j] : spectral_table_index(c->table, p->lambda[j]);
         if (b >= 0)
             splat(c, p, j, albedo[j] / PF_PI * c->irradiance[b]);
     }
@@ -258,7 +319,8 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
         int ok = fresnel_refract(p->dir, nrm, n_i / n_t, &refr);
         double R = ok ? f.reflectance : 1.0;
         if (whitted && R > 0.0 && R < 1.0 && c->branches < c->max_branches) {
-            path_t r = *p;
+            path_t r;
+            path_copy(&r, p);
             for (int j = 0; j < r.n; j++)
                 r.beta[j] *= R;
             start_bounce(&r, h, refl, 1, 0.0);
@@ -305,7 +367,7 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
         path_t refl_path;
         int both = 0;
         if (whitted && R0 > 0.0 && R0 < 1.0 && c->branches < c->max_branches) {
-            refl_path = *p;
+            path_copy(&refl_path, p);
             for (int j = 0; j < refl_path.n; j++)
                 refl_path.beta[j] *= R[j];
             start_bounce(&refl_path, h, refl, 1, 0.0);
@@ -364,7 +426,8 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
     double RP = poly.reflectance, TP = poly.transmittance;
     int both = 0;
     if (whitted && RP > 0.0 && RP < 1.0 && c->branches < c->max_branches) {
-        path_t r = *p;
+        path_t r;
+        path_copy(&r, p);
         for (int j = 0; j < r.n; j++)
             r.beta[j] *= RP;
         start_bounce(&r, h, refl, 1, 0.0);
@@ -393,7 +456,8 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
         pick = (int)fmin(nb - 1, floor(next(c) * nb));
         pick_scale = nb;
     }
-    const path_t base = *p;
+    path_t base;
+    path_copy(&base, p);
     int have_current = 0;
     for (int i = 0; i < nb; i++) {
         if ((pick >= 0 && i != pick) || rays[i].tir || !(rays[i].transmittance > 0.0))
@@ -425,12 +489,12 @@ static void trace(ctx_t *c, path_t *start)
     const scene_t *s = c->scene;
     const int maxdepth = c->rs->maxdepth;
     c->top = 0;
-    push(c, start);
     c->branches = 0;
-    while (c->top > 0) {
-        path_t *p = &c->stack[--c->top];
-        path_t cur = *p;
-        p = &cur;
+    /* The camera path first, then the branches it pushed, last pushed first. */
+    path_t cur;
+    path_copy(&cur, start);
+    for (;;) {
+        path_t *p = &cur;
         for (;;) {
             hit_t h;
             c->stats->rays++;
@@ -503,7 +567,10 @@ static void trace(ctx_t *c, path_t *start)
             if (!(mb > 0.0))
                 break;
             if (p->depth >= RR_DEPTH && c->rs->integrator != INTEGRATOR_WHITTED) {
-                double q = fmin(1.0, fmax(RR_MIN, mb));
+                /* fmin(1, fmax(RR_MIN, mb)) for the positive mb here, without libm calls. */
+                double q = mb > RR_MIN ? mb : RR_MIN;
+                if (q > 1.0)
+                    q = 1.0;
                 if (q < 1.0) {
                     if (next(c) >= q)
                         break;
@@ -512,6 +579,9 @@ static void trace(ctx_t *c, path_t *start)
                 }
             }
         }
+        if (c->top == 0)
+            break;
+        path_copy(&cur, &c->stack[--c->top]);
     }
 }
 
@@ -545,17 +615,24 @@ int render_tile(const scene_t *scene, int x0, int y0, int w, int h, uint32_t sam
     xyz_t *weights = malloc((size_t)nb * sizeof *weights);
     double *contrib = malloc((size_t)nb * sizeof *contrib);
     path_t *stack = malloc(STACK_MAX * sizeof *stack);
-    if (!weights || !contrib || !stack) {
+    spectral_table_t *table = spectral_table_new(rs->grid, err);
+    if (!weights || !contrib || !stack || !table) {
         free(weights);
         free(contrib);
         free(stack);
+        if (!table)
+            return -1;
+        spectral_table_destroy(&table);
         return err_set(err, "out of memory");
     }
     colour_grid_weights(rs->grid, weights);
     ctx_t c = {.scene = scene, .rs = rs, .weights = weights, .contrib = contrib,
-               .stats = stats, .stack = stack,
+               .table = table, .stats = stats, .stack = stack,
                .max_branches = WHITTED_BRANCHES_PER_BOUNCE * rs->maxdepth *
                                (rs->dispersion == DISPERSION_FANOUT ? nb : WAVELENGTH_HERO_COUNT)};
+    for (int i = 0; i <= LE_CACHE_LIGHTS; i++)
+        for (int j = 0; j < LANES; j++)
+            c.le_cache[i][j].lambda = NAN;
     double *irradiance = NULL;
     if (rs->photon.enabled) {
         c.photons = photon_pass_get(scene, NULL, NULL, err);
@@ -567,11 +644,13 @@ int render_tile(const scene_t *scene, int x0, int y0, int w, int h, uint32_t sam
             free(weights);
             free(contrib);
             free(stack);
+            spectral_table_destroy(&table);
             return -1;
         }
         c.irradiance = irradiance;
         c.mindepth = rs->photon.mindepth;
     }
+    const camera_frame_t frame = camera_frame_make(&scene->camera, rs->xres, rs->yres);
     const uint32_t spp = (uint32_t)rs->spp;
     const uint32_t side = (uint32_t)lround(sqrt((double)spp));
     for (int y = y0; y < y0 + h; y++) {
@@ -593,7 +672,7 @@ int render_tile(const scene_t *scene, int x0, int y0, int w, int h, uint32_t sam
                 if (s < spp && (spp & (spp - 1)) == 0)
                     ul = (permute(s, spp, ~pixel) + ul) / spp;
                 double l1 = next(&c), l2 = next(&c);
-                camera_ray(&scene->camera, rs->xres, rs->yres, x + jx, y + jy, l1, l2, &p.org, &p.dir);
+                camera_frame_ray(&frame, x + jx, y + jy, l1, l2, &p.org, &p.dir);
                 p.specular = 1;
                 p.prev_p = p.org;
                 if (rs->dispersion == DISPERSION_FANOUT) {
@@ -629,5 +708,6 @@ int render_tile(const scene_t *scene, int x0, int y0, int w, int h, uint32_t sam
     free(weights);
     free(contrib);
     free(stack);
+    spectral_table_destroy(&table);
     return 0;
 }
