@@ -350,14 +350,14 @@ report() {
   echo "**Bytes on the wire** (one job on the 1-worker TCP farm: the kernel's byte counters of the master's"
   echo "worker connection, \`ss -ti\` bytes_received and bytes_acked, i.e. TCP payload including ZMTP"
   echo "framing and heartbeats; against the tile payload of docs/protocol.md, passes × pixels ×"
-  echo "(8·buckets + 24) bytes)"
+  echo "(4·buckets + 24) bytes: float32 sums, float64 luminance sums, a uint64 count)"
   echo
   echo "| job | pixels | buckets | tiles × passes | worker → master, measured | tile payload | measured / payload | per pixel | per pixel and sample | master → worker |"
   echo "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |"
   for j in "${WIRE_JOBS[@]}"; do
     local xres yres spp nb tiles passes recv sent px payload
     read -r xres yres spp nb tiles passes recv sent <<<"${WIRE[$j]}"
-    px=$((xres * yres)) payload=$((passes * xres * yres * (8 * nb + 24)))
+    px=$((xres * yres)) payload=$((passes * xres * yres * (4 * nb + 24)))
     echo "| $(job "$j") | $px | $nb | $tiles × $passes | $recv B | $payload B | $(ratio "$recv" "$payload")" \
       "| $(awk -v a="$recv" -v b="$px" 'BEGIN { printf "%.1f B", a / b }')" \
       "| $(awk -v a="$recv" -v b="$px" -v c="$spp" 'BEGIN { printf "%.2f B", a / b / c }') | $sent B |"

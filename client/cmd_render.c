@@ -10,7 +10,7 @@
 #include "photon.h"
 #include "progress.h"
 #include "scene_load.h"
-#include "sched.h"
+#include "passes.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -146,7 +146,7 @@ typedef struct direct_pass {
     error_estimate_t e;
 } direct_pass_t;
 
-/* --direct with a stopping rule: the farm's progressive passes (sched_pass_bounds) on threads
+/* --direct with a stopping rule: the farm's progressive passes (passes_bounds) on threads
  * of this process. Each pass is rendered tile by tile into a buffer of its own and merged into
  * the image only when whole, in pass order: the per-pixel sums the farm's master makes, bit for
  * bit. After each pass the error estimate decides, as on the master; a time limit drops the
@@ -158,7 +158,7 @@ static int render_passes(const scene_t *scene, int threads, const cli_stop_t *st
 {
     const render_settings_t *rs = &scene->settings;
     uint32_t bounds[64];
-    int npasses = sched_pass_bounds(rs->spp, bounds);
+    int npasses = passes_bounds(rs->spp, bounds);
     pass_run_t r = {.scene = scene, .tile = 32, .t0 = t0, .prog = prog,
                     .samples_total = (uint64_t)rs->xres * (uint64_t)rs->yres * (uint64_t)rs->spp};
     r.tiles_x = (rs->xres + r.tile - 1) / r.tile;
@@ -197,6 +197,9 @@ static int render_passes(const scene_t *scene, int threads, const cli_stop_t *st
             *err = r.err;
             rc = -1;
         } else if (!r.abandoned) {
+            /* The pass's sums rounded as the farm's workers round theirs (tilebuf.h): the
+             * rule is per value, so rounding the whole pass equals rounding each tile. */
+            tilebuf_round_sums(r.pass);
             rc = tilebuf_merge(image, r.pass, err);
         }
         tilebuf_destroy(&r.pass);
@@ -278,7 +281,7 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
             rc = 1;
         }
         /* One record: every pass at once. */
-        hist[nhist++] = (direct_pass_t){.pass = sched_pass_bounds(rs->spp, NULL), .spp = rs->spp,
+        hist[nhist++] = (direct_pass_t){.pass = passes_bounds(rs->spp, NULL), .spp = rs->spp,
                                         .elapsed = seconds_since(&start), .e = error_estimate_image(image)};
     }
     double secs = seconds_since(t0);

@@ -181,3 +181,78 @@ int tilebuf_merge(tilebuf_t *dst, const tilebuf_t *src, err_t *err)
     dst->nonfinite += src->nonfinite;
     return 0;
 }
+
+void tilebuf_clear(tilebuf_t *self)
+{
+    size_t npix = (size_t)self->w * (size_t)self->h;
+    memset(self->sums, 0, npix * (size_t)self->nb * sizeof *self->sums);
+    memset(self->counts, 0, npix * sizeof *self->counts);
+    memset(self->lum, 0, npix * sizeof *self->lum);
+    memset(self->lum_sq, 0, npix * sizeof *self->lum_sq);
+    self->nonfinite = 0;
+}
+
+/* |s| as bits: for non-negative doubles the unsigned order of the bits is the numeric order,
+ * and integer compares are not touched by denormals-are-zero (an SSE compare of a subnormal
+ * double against 0 would say "equal" there). */
+static uint64_t abs_bits(double s)
+{
+    uint64_t b;
+    memcpy(&b, &s, sizeof b);
+    return b & ~((uint64_t)1 << 63);
+}
+
+static uint64_t bits_of(double v)
+{
+    uint64_t b;
+    memcpy(&b, &v, sizeof b);
+    return b;
+}
+
+double tilebuf_round_value(double s)
+{
+    /* FLT_MIN - 2^-150: the midpoint between FLT_MIN and the largest subnormal float, which
+     * rounds to FLT_MIN (its mantissa is even). FLT_MAX + 2^103: the midpoint between FLT_MAX and
+     * 2^128, which rounds to Inf (FLT_MAX's mantissa is odd). Both are exact doubles. */
+    const uint64_t lo = bits_of((double)FLT_MIN - 0x1p-150), min = bits_of((double)FLT_MIN),
+                   hi = bits_of((double)FLT_MAX + 0x1p103);
+    uint64_t a = abs_bits(s);
+    /* Below FLT_MIN the conversion is tiny before rounding, and flush-to-zero (x86 decides
+     * tininess before rounding for it) would give 0 where round to nearest gives FLT_MIN. */
+    if (a >= lo && a < min)
+        return copysign((double)FLT_MIN, s);
+    /* From FLT_MIN on, s and its float are normal: FTZ and DAZ cannot touch the conversion. */
+    if (a >= min && a < hi)
+        return (double)(float)s;
+    return s; /* zero (a float already), beyond float range, or too small to be a normal float */
+}
+
+bool tilebuf_is_float_value(double s)
+{
+    uint64_t a = abs_bits(s);
+    if (a == 0)
+        return true;
+    /* A normal float: biased double exponent 1023-126 .. 1023+127, and no mantissa bits below
+     * float's 23 (the low 52 - 23 = 29). */
+    uint64_t e = a >> 52;
+    return e >= 1023 - 126 && e <= 1023 + 127 && (a & (((uint64_t)1 << 29) - 1)) == 0;
+}
+
+size_t tilebuf_round_sums(tilebuf_t *self)
+{
+    size_t n = (size_t)self->w * (size_t)self->h * (size_t)self->nb, wide = 0;
+    for (size_t i = 0; i < n; i++) {
+        self->sums[i] = tilebuf_round_value(self->sums[i]);
+        wide += !tilebuf_is_float_value(self->sums[i]);
+    }
+    return wide;
+}
+
+bool tilebuf_sums_are_float(const tilebuf_t *self)
+{
+    size_t n = (size_t)self->w * (size_t)self->h * (size_t)self->nb;
+    for (size_t i = 0; i < n; i++)
+        if (!tilebuf_is_float_value(self->sums[i]))
+            return false;
+    return true;
+}

@@ -2,12 +2,16 @@
  * sample contributions (double), per pixel the number of samples taken and the sum of squared
  * per-sample luminance (for error estimates). Tiles merge into a larger buffer by plain sums, so
  * merging in a fixed order gives the same bytes whoever rendered the tiles. Non-finite
- * contributions never enter the sums; they are counted instead. */
+ * contributions never enter the sums; they are counted instead. A pass's sums are rounded to
+ * float32 values by one rule (tilebuf_round_sums) before they are merged, by the farm and by
+ * `render --direct` alike, which halves the bytes a tile travels and is kept in. */
 #ifndef PRISMFARM_TILEBUF_H
 #define PRISMFARM_TILEBUF_H
 
 #include "err.h"
 
+#include <stdbool.h>
+#include <stddef.h>
 #include <stdint.h>
 
 typedef struct tilebuf tilebuf_t;
@@ -41,6 +45,28 @@ void tilebuf_mean(const tilebuf_t *self, int x, int y, double *out);
 /* Adds src's sums, counts and non-finite count into dst. src must lie inside dst and have the
  * same number of buckets. */
 int tilebuf_merge(tilebuf_t *dst, const tilebuf_t *src, err_t *err);
+
+/* Every value to zero (a scratch buffer reused for the next pass). */
+void tilebuf_clear(tilebuf_t *self);
+
+/* The rounding of a pass's sums before they travel or are merged (docs/farm.md, "Same pixels"):
+ * s becomes (double)(float)s when that float is zero or normal and finite, i.e. when s == 0 or
+ * FLT_MIN - 2^-150 <= |s| < FLT_MAX + 2^103 (round to nearest, ties to even: the bounds are the
+ * midpoints below FLT_MIN and above FLT_MAX); otherwise s stays the double it is, so that a sum
+ * beyond float's range (huge radiance) or in its subnormal range loses nothing. The rule acts
+ * on each value alone, so the rounded values do not depend on the tile's size or shape. Decided
+ * on the bits, so that flush-to-zero and denormals-are-zero modes (render threads) do not change
+ * it. */
+double tilebuf_round_value(double s);
+/* Whether s is a value the rule leaves as a float32 (zero, or a normal finite float): such a
+ * value is carried exactly by 4 bytes. */
+bool tilebuf_is_float_value(double s);
+/* Applies tilebuf_round_value to every sum (lum and lum_sq stay double: an error estimate's
+ * lum_sq - lum^2/n cancels, float32 would leave noise). Returns how many sums stayed doubles:
+ * 0 when the tile travels as float32. */
+size_t tilebuf_round_sums(tilebuf_t *self);
+/* Whether every sum is a float value (tilebuf_is_float_value), e.g. after tilebuf_round_sums. */
+bool tilebuf_sums_are_float(const tilebuf_t *self);
 
 /* Raw arrays, for encoding a tile into a message: sums are [h][w][nbuckets], the others [h][w]. */
 const double *tilebuf_sums(const tilebuf_t *self);

@@ -1,6 +1,7 @@
 #include "journal.h"
 
 #include "spool.h"
+#include "tilebuf.h"
 
 #include <dirent.h>
 #include <errno.h>
@@ -878,13 +879,26 @@ static tilebuf_t *unpack_arrays(reader_t *r, int x0, int y0, int w, int h, int n
     return tb;
 }
 
+/* A tile blob: magic, x0, y0, w, h, nb, sb, se, the sums' width in bits (32 or 64), nonfinite,
+ * then sums [h][w][nb] at that width and counts, lum, lum_sq [h][w] at 8 bytes. Float32 sums
+ * are kept whenever every sum is a float value (tilebuf.h), as on the wire: half the writes,
+ * and the same doubles back. */
 int journal_pack_tile(const proto_tile_result_t *t, uint8_t **data, size_t *size, err_t *err)
 {
     const proto_tile_t *q = &t->rect;
     if (!tile_dims_ok(q->x0, q->y0, q->w, q->h, t->nbuckets))
         return err_set(err, "journal: tile %dx%d at (%d,%d) with %d buckets is out of range", q->w,
                        q->h, q->x0, q->y0, t->nbuckets);
-    size_t n = 4 + 7 * 4 + 8 + tile_array_bytes(q->w, q->h, t->nbuckets);
+    size_t px = (size_t)q->w * (size_t)q->h, ns = px * (size_t)t->nbuckets;
+    /* A decoded float32 result was checked by the decoder; anything else is checked here. */
+    bool narrow = t->sums_bits == 32;
+    if (!narrow) {
+        size_t i = 0;
+        while (i < ns && tilebuf_is_float_value(t->sums[i]))
+            i++;
+        narrow = i == ns;
+    }
+    size_t n = 4 + 8 * 4 + 8 + tile_array_bytes(q->w, q->h, t->nbuckets) - (narrow ? ns * 4 : 0);
     uint8_t *buf = malloc(n), *p = buf;
     if (!buf)
         return err_set(err, "journal: out of memory for a %zu-byte tile", n);
@@ -896,12 +910,50 @@ int journal_pack_tile(const proto_tile_result_t *t, uint8_t **data, size_t *size
     p = wr_u32(p, (uint32_t)t->nbuckets);
     p = wr_u32(p, q->sample_begin);
     p = wr_u32(p, q->sample_end);
+    p = wr_u32(p, narrow ? 32 : 64);
     p = wr_u64(p, t->nonfinite);
-    p = pack_arrays(p, (size_t)q->w * (size_t)q->h, t->nbuckets, t->sums, t->counts, t->lum,
-                    t->lum_sq);
+    if (narrow) {
+        for (size_t i = 0; i < ns; i++) {
+            float f = (float)t->sums[i]; /* exact: a float value */
+            p = wr(p, &f, sizeof f);
+        }
+        p = wr(p, t->counts, px * sizeof *t->counts);
+        p = wr(p, t->lum, px * sizeof *t->lum);
+        p = wr(p, t->lum_sq, px * sizeof *t->lum_sq);
+    } else {
+        p = pack_arrays(p, px, t->nbuckets, t->sums, t->counts, t->lum, t->lum_sq);
+    }
     *data = buf;
     *size = (size_t)(p - buf);
     return 0;
+}
+
+/* A blob's float32 sums widened into a float64 copy of its arrays, read as unpack_arrays reads
+ * a float64 blob. */
+static tilebuf_t *unpack_narrow(reader_t *r, int x0, int y0, int w, int h, int nb,
+                                uint64_t nonfinite, err_t *err)
+{
+    size_t ns = (size_t)w * (size_t)h * (size_t)nb, wide = tile_array_bytes(w, h, nb);
+    if (r->bad || r->left < wide - ns * 4) {
+        err_set(err, "a journal blob of %dx%d pixels and %d buckets is cut short", w, h, nb);
+        return NULL;
+    }
+    uint8_t *copy = malloc(wide);
+    if (!copy) {
+        err_set(err, "out of memory for a %dx%d journal tile", w, h);
+        return NULL;
+    }
+    for (size_t i = 0; i < ns; i++) {
+        float f;
+        rd(r, &f, sizeof f);
+        double d = f;
+        memcpy(copy + 8 * i, &d, sizeof d);
+    }
+    rd(r, copy + 8 * ns, wide - 8 * ns);
+    reader_t whole = {.p = copy, .left = wide};
+    tilebuf_t *tb = unpack_arrays(&whole, x0, y0, w, h, nb, nonfinite, err);
+    free(copy);
+    return tb;
 }
 
 tilebuf_t *journal_unpack_tile(const void *data, size_t size, uint32_t *sample_begin,
@@ -913,12 +965,15 @@ tilebuf_t *journal_unpack_tile(const void *data, size_t size, uint32_t *sample_b
         nb = (int)rd_u32(&r);
     *sample_begin = rd_u32(&r);
     *sample_end = rd_u32(&r);
+    uint32_t bits = rd_u32(&r);
     uint64_t nonfinite = rd_u64(&r);
-    if (r.bad || magic != TILE_MAGIC || !tile_dims_ok(x0, y0, w, h, nb)) {
+    if (r.bad || magic != TILE_MAGIC || !tile_dims_ok(x0, y0, w, h, nb) ||
+        (bits != 32 && bits != 64)) {
         err_set(err, "a journal tile blob of %zu bytes has no valid header", size);
         return NULL;
     }
-    tilebuf_t *tb = unpack_arrays(&r, x0, y0, w, h, nb, nonfinite, err);
+    tilebuf_t *tb = bits == 32 ? unpack_narrow(&r, x0, y0, w, h, nb, nonfinite, err)
+                               : unpack_arrays(&r, x0, y0, w, h, nb, nonfinite, err);
     if (tb && r.left != 0) {
         tilebuf_destroy(&tb);
         err_set(err, "a journal tile blob has %zu bytes past its arrays", r.left);

@@ -155,25 +155,6 @@ static task_t *task_of(job_t *j, uint32_t id)
     return id < ncamera(j) ? &j->tasks[id] : NULL;
 }
 
-/* Pass bounds 0, 1, 2, 4, 8, ... spp: each pass doubles the samples so far, so a preview after
- * pass k has 2^(k-1) samples per pixel and the number of passes grows only as log2(spp). */
-int sched_pass_bounds(int spp, uint32_t *out)
-{
-    int n = 0;
-    uint32_t b = 0;
-    if (out)
-        out[0] = 0;
-    while (b < (uint32_t)spp) {
-        b = b == 0 ? 1 : 2 * b;
-        if (b > (uint32_t)spp)
-            b = (uint32_t)spp;
-        n++;
-        if (out)
-            out[n] = b;
-    }
-    return n;
-}
-
 int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spectral_grid_t grid,
                   err_t *err)
 {
@@ -196,7 +177,7 @@ int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spect
     j->tile = self->cfg.tile_size;
     j->tiles_x = (xres + j->tile - 1) / j->tile;
     j->ntiles = j->tiles_x * ((yres + j->tile - 1) / j->tile);
-    j->npasses = sched_pass_bounds(spp, NULL);
+    j->npasses = passes_bounds(spp, NULL);
     j->pass_begin = malloc(((size_t)j->npasses + 1) * sizeof *j->pass_begin);
     j->tasks = calloc((size_t)j->ntiles * (size_t)j->npasses, sizeof *j->tasks);
     j->next_pass = calloc((size_t)j->ntiles, sizeof *j->next_pass);
@@ -209,7 +190,7 @@ int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spect
         return err_set(err, "out of memory for job %llu (%dx%d, %d buckets)", (unsigned long long)id,
                        xres, yres, grid.n);
     }
-    sched_pass_bounds(spp, j->pass_begin);
+    passes_bounds(spp, j->pass_begin);
     j->samples_total = (uint64_t)xres * (uint64_t)yres * (uint64_t)spp;
     if (self->njobs == self->cap_jobs) {
         size_t cap = self->cap_jobs ? 2 * self->cap_jobs : 8;

@@ -12,6 +12,7 @@
 #define PRISMFARM_SCHED_H
 
 #include "err.h"
+#include "passes.h"
 #include "spectral_grid.h"
 #include "tilebuf.h"
 
@@ -63,11 +64,6 @@ typedef struct sched_job_info {
     uint32_t photon_batches, photon_batches_done;
     char error[512];
 } sched_job_info_t;
-
-/* The cut of spp samples into passes: bounds 0, 1, 2, 4, 8, ... spp into bounds[0..n] (when
- * bounds is not NULL); returns n, the number of passes (0 for spp < 1). One cut for every
- * consumer: the scheduler, the master's checks of results and `render --direct`. */
-int sched_pass_bounds(int spp, uint32_t *bounds);
 
 sched_t *sched_new(const sched_config_t *cfg, err_t *err);
 void sched_destroy(sched_t **self_p);

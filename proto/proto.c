@@ -2,6 +2,7 @@
 
 #include "bundle.h"
 #include "sha256.h"
+#include "tilebuf.h"
 
 #include <inttypes.h>
 #include <limits.h>
@@ -285,14 +286,36 @@ static int ck_bundle(const cx_t *cx, const proto_bundle_t *b, const proto_limits
     return 0;
 }
 
+/* The width the sums travel at: 32 when every one is a float value (tilebuf.h), else 64. */
+static int sums_width(const proto_tile_result_t *r)
+{
+    if (r->sums_bits)
+        return r->sums_bits;
+    size_t n = (size_t)r->rect.w * (size_t)r->rect.h * (size_t)r->nbuckets;
+    for (size_t i = 0; i < n; i++)
+        if (!tilebuf_is_float_value(r->sums[i]))
+            return 64;
+    return 32;
+}
+
 static int ck_tile_result(const cx_t *cx, const proto_tile_result_t *r)
 {
     if (ck_tile(cx, &r->rect) || ck_range(cx, "tile.nb", r->nbuckets, 1, PROTO_MAX_BUCKETS))
         return PROTO_EMALFORMED;
+    /* 0 ("pick") only reaches here from proto_encode: the decoder sets 32 or 64. */
+    if (r->sums_bits != 0 && r->sums_bits != 32 && r->sums_bits != 64)
+        return cx_fail(cx, "tile.sums_bits", "is %d, expected 32 or 64", r->sums_bits);
     size_t npix = (size_t)r->rect.w * (size_t)r->rect.h;
     if (ck_finite(cx, "tile.sums", r->sums, npix * (size_t)r->nbuckets) ||
         ck_finite(cx, "tile.lum", r->lum, npix) || ck_finite(cx, "tile.lum2", r->lum_sq, npix))
         return PROTO_EMALFORMED;
+    /* Float32 sums hold zero or normal floats only (what tilebuf_round_sums leaves): a subnormal
+     * would be a value the sender's rounding rule keeps as a double. */
+    if (r->sums_bits == 32)
+        for (size_t i = 0; i < npix * (size_t)r->nbuckets; i++)
+            if (!tilebuf_is_float_value(r->sums[i]))
+                return cx_fail(cx, "tile.sums", "element %zu is %.17g, not a normal float32 value "
+                               "(sums_bits is 32)", i, r->sums[i]);
     if (!r->counts)
         return cx_fail(cx, "tile.counts", "is missing");
     return 0;
@@ -850,6 +873,27 @@ static void *rd_words(rd_t *rd, const char *field, const msgpack_object_bin *b)
     return w;
 }
 
+/* An array of float32 travels as a bin of little-endian 4-byte words; it is handed out as
+ * doubles (exact: every float is a double), aligned. */
+static double *rd_floats(rd_t *rd, const char *field, const msgpack_object_bin *b)
+{
+    size_t n = b->size / 4;
+    double *d = own_alloc(rd->m, n * sizeof *d);
+    if (!d) {
+        rd_oom(rd, field, n * sizeof *d);
+        return NULL;
+    }
+    const uint8_t *p = (const uint8_t *)b->ptr;
+    for (size_t i = 0; i < n; i++) {
+        uint32_t u = (uint32_t)p[4 * i] | (uint32_t)p[4 * i + 1] << 8 |
+                     (uint32_t)p[4 * i + 2] << 16 | (uint32_t)p[4 * i + 3] << 24;
+        float f;
+        memcpy(&f, &u, sizeof f);
+        d[i] = (double)f;
+    }
+    return d;
+}
+
 /* An array of maps each with at least `min_fields` entries: checked before anything is
  * allocated for it, so that a list costs at most a small multiple of its bytes. */
 static int rd_list(rd_t *rd, const char *field, const msgpack_object *o, uint64_t max,
@@ -935,9 +979,12 @@ static int rd_bundle(rd_t *rd, const msgpack_object *o, proto_bundle_t *b)
     return 0;
 }
 
-enum { T_X0, T_Y0, T_W, T_H, T_SB, T_SE, T_NB, T_SUMS, T_COUNTS, T_LUM, T_LUM2, T_NONFINITE, T_N };
-static const char *const TILE_KEYS[T_N] = {"x0", "y0",   "w",      "h",   "sb",   "se",
-                                           "nb", "sums", "counts", "lum", "lum2", "nonfinite"};
+enum {
+    T_X0, T_Y0, T_W, T_H, T_SB, T_SE, T_NB, T_SUMS, T_COUNTS, T_LUM, T_LUM2, T_NONFINITE, T_BITS, T_N
+};
+static const char *const TILE_KEYS[T_N] = {"x0",  "y0",        "w",        "h",     "sb",
+                                           "se",  "nb",        "sums",     "counts", "lum",
+                                           "lum2", "nonfinite", "sums_bits"};
 #define TILE_TASK_KEYS 6 /* a task's tile has the first six */
 
 static int rd_tile_rect(rd_t *rd, const msgpack_object **v, proto_tile_t *t)
@@ -958,15 +1005,21 @@ static int rd_tile_result(rd_t *rd, const msgpack_object *o, proto_tile_result_t
         ck_range(&rd->cx, "tile.nb", r->nbuckets, 1, PROTO_MAX_BUCKETS) ||
         rd_uint(rd, "tile.nonfinite", v[T_NONFINITE], UINT64_MAX, &r->nonfinite))
         return PROTO_EMALFORMED;
+    uint64_t bits;
+    if (rd_uint(rd, "tile.sums_bits", v[T_BITS], UINT64_MAX, &bits))
+        return PROTO_EMALFORMED;
+    if (bits != 32 && bits != 64)
+        return cx_fail(&rd->cx, "tile.sums_bits", "is %" PRIu64 ", expected 32 or 64", bits);
+    r->sums_bits = (int)bits;
     /* The ranges above bound these below 2^37 bytes: no overflow. */
     uint64_t npix = (uint64_t)r->rect.w * (uint64_t)r->rect.h;
-    const msgpack_object_bin *sums, *counts, *lum, *lum2;
-    if (rd_bin(rd, "tile.sums", v[T_SUMS], npix * (uint64_t)r->nbuckets * 8, &sums) ||
+    const msgpack_object_bin *sums = NULL, *counts = NULL, *lum = NULL, *lum2 = NULL;
+    if (rd_bin(rd, "tile.sums", v[T_SUMS], npix * (uint64_t)r->nbuckets * (bits / 8), &sums) ||
         rd_bin(rd, "tile.counts", v[T_COUNTS], npix * 8, &counts) ||
         rd_bin(rd, "tile.lum", v[T_LUM], npix * 8, &lum) ||
         rd_bin(rd, "tile.lum2", v[T_LUM2], npix * 8, &lum2))
         return PROTO_EMALFORMED;
-    if (!(r->sums = rd_words(rd, "tile.sums", sums)) ||
+    if (!(r->sums = bits == 32 ? rd_floats(rd, "tile.sums", sums) : rd_words(rd, "tile.sums", sums)) ||
         !(r->counts = rd_words(rd, "tile.counts", counts)) ||
         !(r->lum = rd_words(rd, "tile.lum", lum)) || !(r->lum_sq = rd_words(rd, "tile.lum2", lum2)))
         return PROTO_EMALFORMED;
@@ -1429,6 +1482,31 @@ static void e_words(enc_t *e, const char *key, const void *words, size_t n)
 #endif
 }
 
+/* Doubles that are float values (tilebuf_is_float_value) as a bin of little-endian float32s,
+ * packed a chunk at a time. */
+static void e_floats(enc_t *e, const char *key, const double *v, size_t n)
+{
+    if (n > UINT32_MAX / 4) {
+        e->failed = 1;
+        return;
+    }
+    e_key(e, key);
+    if (!e->failed)
+        e_check(e, msgpack_pack_bin(&e->pk, n * 4));
+    uint8_t le[4 * 512];
+    for (size_t i = 0; i < n && !e->failed;) {
+        size_t k = 0;
+        for (; k < 512 && i < n; k++, i++) {
+            float f = (float)v[i];
+            uint32_t u;
+            memcpy(&u, &f, sizeof u);
+            for (int b = 0; b < 4; b++)
+                le[4 * k + (size_t)b] = (uint8_t)(u >> (8 * b));
+        }
+        e_check(e, msgpack_pack_bin_body(&e->pk, le, 4 * k));
+    }
+}
+
 static void e_settings(enc_t *e, const proto_settings_t *s)
 {
     e_map(e, "set", 4 + (s->integrator != NULL) + (s->dispersion != NULL) +
@@ -1572,7 +1650,12 @@ static void e_body(enc_t *e, const proto_msg_t *m)
         e_map(e, "tile", T_N);
         e_tile_rect(e, &r->rect);
         e_uint(e, "nb", (uint64_t)r->nbuckets);
-        e_words(e, "sums", r->sums, npix * (size_t)r->nbuckets);
+        int bits = sums_width(r);
+        e_uint(e, "sums_bits", (uint64_t)bits);
+        if (bits == 32)
+            e_floats(e, "sums", r->sums, npix * (size_t)r->nbuckets);
+        else
+            e_words(e, "sums", r->sums, npix * (size_t)r->nbuckets);
         e_words(e, "counts", r->counts, npix);
         e_words(e, "lum", r->lum, npix);
         e_words(e, "lum2", r->lum_sq, npix);

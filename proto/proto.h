@@ -15,8 +15,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* The version carried by every message ("v"). A peer speaking another version is refused. */
-#define PROTO_VERSION 1
+/* The version carried by every message ("v"). A peer speaking another version is refused.
+ * 2: camera_tile results carry sums_bits and float32 sums. */
+#define PROTO_VERSION 2
 
 /* Fixed bounds of the decoder (docs/protocol.md, "Limits"). */
 #define PROTO_MAX_DEPTH 16           /* msgpack nesting depth */
@@ -157,7 +158,10 @@ typedef struct proto_tile {
     uint32_t sample_begin, sample_end;
 } proto_tile_t;
 
-/* A camera tile's result: a tilebuf's contents (common/tilebuf.h), in its layout. */
+/* A camera tile's result: a tilebuf's contents (common/tilebuf.h), in its layout. The sums travel
+ * as float32 when every one is a float value (tilebuf_is_float_value: zero or a normal float,
+ * what tilebuf_round_sums leaves in the common case), else as float64; lum and lum_sq always as
+ * float64. */
 typedef struct proto_tile_result {
     proto_tile_t rect;
     int nbuckets;
@@ -166,6 +170,10 @@ typedef struct proto_tile_result {
     const double *lum;      /* [h][w] sum of per-sample luminance, finite */
     const double *lum_sq;   /* [h][w] sum of squared per-sample luminance, finite */
     uint64_t nonfinite;     /* samples dropped for a NaN or Inf contribution */
+    /* Width of sums on the wire. Encode: 0 picks 32 when every sum is a float value, else 64;
+     * 32 (refused unless every sum is a float value) or 64 forces it. Decode: what came, 32 or
+     * 64 (the sums are handed out as doubles either way, equal to the values sent). */
+    int sums_bits;
 } proto_tile_result_t;
 
 /* A photon batch: photon indices [first, end) of the job's photon pass (worker/photon.h). */

@@ -1,6 +1,8 @@
 /* The farm end to end, as users run it: `prismfarm render` (a master and workers in one process) with 1 and 3 workers, and separate
  * master and worker processes on loopback TCP with a worker killed half-way, all giving
- * bit-identical EXR pixel data; plus the client commands against a live master. The TCP farm
+ * bit-identical EXR pixel data; the farm and `render --direct` giving the same pixels by
+ * construction (per-pass float32 rounding of tile sums, docs/farm.md "Same pixels"), also for
+ * sums beyond float's range; plus the client commands against a live master. The TCP farm
  * runs with CURVE keys (docs/security.md), as a real one does. */
 #include <setjmp.h>
 #include <stdarg.h>
@@ -13,6 +15,9 @@
 #include "cli_run.h"
 #include "farm_testutil.h"
 #include "image_exr.h"
+#include "passes.h"
+#include "render.h"
+#include "scene_load.h"
 
 #include <dirent.h>
 #include <signal.h>
@@ -20,6 +25,10 @@
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
+#if defined(__SSE__)
+#include <pmmintrin.h>
+#include <xmmintrin.h>
+#endif
 
 static char DIR_[256];
 static char MASTER_KEY[600], AUTHORIZED[600]; /* the master's --key and --authorized */
@@ -41,11 +50,7 @@ static int teardown(void **state)
 
 static const char *path_in(const char *name)
 {
-    static char buf[8][512];
-    static int k;
-    k = (k + 1) % 8;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
-    return buf[k];
+    return testutil_path_in(DIR_, name);
 }
 
 /* Entries in a folder other than . and ..; -1 if it cannot be read. */
@@ -85,6 +90,144 @@ static void test_render_any_worker_count(void **state)
     testutil_assert_same_pixels(path_in("one.exr"), path_in("three.exr"));
     struct stat st;
     assert_int_equal(stat(path_in("three.png"), &st), 0);
+}
+
+/* The image docs/farm.md ("Same pixels") defines, computed here from render_tile alone: per
+ * tile of size `tile` and per pass of the cut, the pass's sums rounded by tilebuf's rule, added
+ * in pass order. With rounded = 0, the plain sums of one render_tile call over all samples
+ * instead (what --direct summed before the rule). *wide counts pass sums that stayed doubles. */
+static tilebuf_t *reference_image(const char *scene_path, int spp, int tile, int rounded,
+                                  size_t *wide)
+{
+    err_t err;
+    scene_overrides_t ov = {.spp = spp, .seed = -1};
+    scene_t *sc = scene_load_file(scene_path, &ov, &err);
+    if (!sc)
+        fail_msg("%s", err.msg);
+    const render_settings_t *rs = &sc->settings;
+#if defined(__SSE__)
+    /* The floating-point mode of every render thread (worker_daemon.c, local_render.c). */
+    unsigned int csr = _mm_getcsr();
+    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+#endif
+    tilebuf_t *image = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, &err);
+    uint32_t b[PASSES_MAX_BOUNDS];
+    int npasses = passes_bounds(spp, b);
+    *wide = 0;
+    for (int y0 = 0; y0 < rs->yres; y0 += tile)
+        for (int x0 = 0; x0 < rs->xres; x0 += tile) {
+            int w = rs->xres - x0 < tile ? rs->xres - x0 : tile;
+            int h = rs->yres - y0 < tile ? rs->yres - y0 : tile;
+            for (int p = 0; p < (rounded ? npasses : 1); p++) {
+                tilebuf_t *t = tilebuf_new(x0, y0, w, h, rs->grid.n, &err);
+                assert_int_equal(render_tile(sc, x0, y0, w, h, rounded ? b[p] : 0,
+                                             rounded ? b[p + 1] : (uint32_t)spp, t, NULL, &err),
+                                 0);
+                if (rounded)
+                    *wide += tilebuf_round_sums(t);
+                assert_int_equal(tilebuf_merge(image, t, &err), 0);
+                tilebuf_destroy(&t);
+            }
+        }
+#if defined(__SSE__)
+    _mm_setcsr(csr);
+#endif
+    scene_destroy(&sc);
+    return image;
+}
+
+/* How many spectral values of the EXR differ from the float32 means of image. */
+static size_t exr_differences(const char *exr, const tilebuf_t *image)
+{
+    err_t err;
+    image_exr_t *x = image_exr_read(exr, &err);
+    if (!x)
+        fail_msg("%s", err.msg);
+    int w = image_exr_width(x), h = image_exr_height(x), nb = image_exr_n_spectral(x);
+    assert_int_equal(w, tilebuf_width(image));
+    assert_int_equal(h, tilebuf_height(image));
+    assert_int_equal(nb, tilebuf_nbuckets(image));
+    const float *spec = image_exr_spectral(x);
+    double mean[64];
+    size_t n = 0;
+    for (int y = 0; y < h; y++)
+        for (int px = 0; px < w; px++) {
+            tilebuf_mean(image, px, y, mean);
+            for (int k = 0; k < nb; k++) {
+                float want = (float)mean[k], got = spec[((size_t)y * (size_t)w + (size_t)px) * (size_t)nb + (size_t)k];
+                n += memcmp(&want, &got, sizeof want) != 0;
+            }
+        }
+    image_exr_destroy(&x);
+    return n;
+}
+
+/* Farm (2 workers of 1 thread, 7-pixel tiles: the last column and row are partial) against
+ * --direct (2 threads, its own 32-pixel tiles) at 24 spp (6 passes): the same pixels, and both
+ * exactly the reference image of docs/farm.md's rule. The check has teeth: the plain sums of
+ * one render_tile call (what --direct used to add) differ from it in some values. */
+static void expect_farm_is_direct(const char *scene_path, const char *name, size_t *wide_out)
+{
+    char farm[64], direct[64];
+    snprintf(farm, sizeof farm, "%s_farm.exr", name);
+    snprintf(direct, sizeof direct, "%s_direct.exr", name);
+    const run_t *r = run("render", scene_path, "--spp", "24", "-o", path_in(farm), "--workers", "2",
+                         "--threads", "1", "--tile", "7", "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("farm: exit %d: %s", r->status, r->err);
+    r = run("render", scene_path, "--spp", "24", "-o", path_in(direct), "--direct", "--threads", "2",
+            "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("--direct: exit %d: %s", r->status, r->err);
+    testutil_assert_same_pixels(path_in(farm), path_in(direct));
+    size_t wide;
+    tilebuf_t *ref = reference_image(scene_path, 24, 5, 1, &wide);
+    size_t d = exr_differences(path_in(farm), ref);
+    if (d != 0)
+        fail_msg("%s: %zu values of the farm's image differ from the reference", name, d);
+    tilebuf_destroy(&ref);
+    size_t unused;
+    tilebuf_t *plain = reference_image(scene_path, 24, 32, 0, &unused);
+    d = exr_differences(path_in(farm), plain);
+    print_message("%s: %zu of the pass sums stayed doubles; the unrounded sums differ in %zu "
+                  "values of the EXR\n", name, wide, d);
+    assert_true(d > 0);
+    tilebuf_destroy(&plain);
+    *wide_out = wide;
+}
+
+static void test_render_matches_direct(void **state)
+{
+    (void)state;
+    size_t wide;
+    expect_farm_is_direct("data/render/tiny.pbrt", "tiny", &wide);
+    assert_int_equal(wide, 0); /* every tile travelled as float32 */
+
+    /* A light of radiance 1e38 fills the middle of the view: a pass of 8 samples sums 8e38 >
+     * FLT_MAX (3.4e38) in the pixels that see it, so those tiles travel as float64 -- and the
+     * pixels are still --direct's. */
+    const char *huge = path_in("huge.pbrt");
+    FILE *f = fopen(huge, "w");
+    assert_non_null(f);
+    fprintf(f, "LookAt 0 0 -3  0 0 0  0 1 0\n"
+               "Camera \"perspective\" \"float fov\" [ 40 ]\n"
+               "Film \"spectral\" \"integer xresolution\" [ 16 ] \"integer yresolution\" [ 12 ]\n"
+               "    \"integer nbuckets\" [ 8 ]\n"
+               "Integrator \"path\" \"integer maxdepth\" [ 3 ]\n"
+               "WorldBegin\n"
+               "LightSource \"infinite\" \"float L\" [ 0.5 ]\n"
+               "AttributeBegin\n"
+               "AreaLightSource \"diffuse\" \"float L\" [ 1e38 ]\n"
+               "Shape \"trianglemesh\" \"point3 P\" [ -0.5 -0.5 0  0.5 -0.5 0  0.5 0.5 0  -0.5 0.5 0 ]\n"
+               "    \"integer indices\" [ 0 2 1  0 3 2 ]\n"
+               "AttributeEnd\n"
+               "Material \"dielectric\" \"string glass\" \"N-SF11\"\n"
+               "Translate 0.9 0.3 0\n"
+               "Shape \"sphere\" \"float radius\" [ 0.4 ]\n");
+    assert_int_equal(fclose(f), 0);
+    expect_farm_is_direct(huge, "huge", &wide);
+    assert_true(wide > 0);
 }
 
 /* Separate processes over TCP on loopback; one worker is killed with SIGKILL while it holds
@@ -167,6 +310,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_render_any_worker_count),
+        cmocka_unit_test(test_render_matches_direct),
         cmocka_unit_test(test_processes_and_a_killed_worker),
         cmocka_unit_test(test_client_without_master),
     };

@@ -47,11 +47,7 @@ static int group_teardown(void **state)
 
 static const char *path_in(const char *name)
 {
-    static char buf[16][512];
-    static int k;
-    k = (k + 1) % 16;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
-    return buf[k];
+    return testutil_path_in(DIR_, name);
 }
 
 /* ---------------------------------------------------------------- blobs and tables */
@@ -108,6 +104,37 @@ static void test_tile_blob_round_trip(void **state)
     sums[5] = 1.0 / 0.0;
     assert_int_equal(journal_pack_tile(&t, &blob, &size, &err), 0);
     assert_null(journal_unpack_tile(blob, size, &sb, &se, &err));
+    free(blob);
+
+    /* Sums that are float values (tilebuf_round_sums's output, as a float32 RESULT brings them)
+     * are kept as float32: a 44-byte header, 4 bytes a sum, 24 a pixel for counts, lum and
+     * lum_sq; they come back as the same doubles. One double among them keeps all at 8 bytes. */
+    for (int i = 0; i < W * H * NB; i++)
+        sums[i] = (double)(float)(0.1 * i - 0.7);
+    sums[3] = -0.0;
+    sums[4] = 0x1.fffffep127; /* FLT_MAX */
+    assert_int_equal(journal_pack_tile(&t, &blob, &size, &err), 0);
+    assert_int_equal(size, 44 + W * H * NB * 4 + W * H * 24);
+    tb = journal_unpack_tile(blob, size, &sb, &se, &err);
+    assert_non_null(tb);
+    assert_memory_equal(tilebuf_sums(tb), sums, sizeof sums);
+    assert_memory_equal(tilebuf_luminance_sq_sums(tb), lum_sq, sizeof lum_sq);
+    assert_int_equal(tilebuf_nonfinite(tb), 5);
+    tilebuf_destroy(&tb);
+    assert_null(journal_unpack_tile(blob, size - 1, &sb, &se, &err));
+    assert_non_null(strstr(err.msg, "cut short"));
+    uint32_t bits = 48; /* the width field, after magic and seven header words */
+    memcpy(blob + 32, &bits, 4);
+    assert_null(journal_unpack_tile(blob, size, &sb, &se, &err));
+    assert_non_null(strstr(err.msg, "no valid header"));
+    free(blob);
+    sums[4] = 1e-39; /* below float's normal range: a double */
+    assert_int_equal(journal_pack_tile(&t, &blob, &size, &err), 0);
+    assert_int_equal(size, 44 + W * H * NB * 8 + W * H * 24);
+    tb = journal_unpack_tile(blob, size, &sb, &se, &err);
+    assert_non_null(tb);
+    assert_memory_equal(tilebuf_sums(tb), sums, sizeof sums);
+    tilebuf_destroy(&tb);
     free(blob);
 }
 

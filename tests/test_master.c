@@ -396,6 +396,7 @@ static tilebuf_t *render_task(fake_worker_t *w, const proto_msg_t *t)
     if (render_tile(w->scene, r->x0, r->y0, r->w, r->h, r->sample_begin, r->sample_end, tb, NULL,
                     &err))
         fail_msg("render_tile: %s", err.msg);
+    tilebuf_round_sums(tb); /* as a real worker does before sending (tilebuf.h) */
     return tb;
 }
 
@@ -420,7 +421,8 @@ static void fw_result(fake_worker_t *w, const proto_msg_t *t, const tilebuf_t *t
 /* ---------------------------------------------------------------- the expected image */
 
 /* The job rendered here by farm.md's rule, independently of sched: 8-pixel tiles, passes of
- * sample indices [0,1) [1,2) [2,4), each tile's passes summed in pass order. */
+ * sample indices [0,1) [1,2) [2,4), each pass's sums rounded (tilebuf_round_sums) and each
+ * tile's passes summed in pass order. */
 static tilebuf_t *expected_image(void)
 {
     err_t err;
@@ -436,6 +438,7 @@ static tilebuf_t *expected_image(void)
                 assert_int_equal(
                     render_tile(sc, tx, ty, TILE, TILE, passes[p][0], passes[p][1], t, NULL, &err),
                     0);
+                tilebuf_round_sums(t);
                 assert_int_equal(tilebuf_merge(image, t, &err), 0);
                 tilebuf_destroy(&t);
             }
@@ -785,12 +788,12 @@ static void test_bad_peers(void **state)
         proto_msg_free(&r);
         /* protocol.md: a peer of another version is refused with this exact text. */
         proto_msg_t hello = {.type = PROTO_HELLO,
-                             .version = 2,
+                             .version = 3,
                              .hello = {.name = "future", .threads = 1, .software = "prismfarm 9"}};
         send_msg(n, &hello);
         expect_type(n, PROTO_REFUSE, &r);
         assert_string_equal(r.refuse.reason,
-                            "protocol version 2 not supported by this master (speaks 1)");
+                            "protocol version 3 not supported by this master (speaks 2)");
         proto_msg_free(&r);
         proto_net_destroy(&n);
     }

@@ -295,6 +295,8 @@ static void assert_msg_equal(const proto_msg_t *a, const proto_msg_t *b)
         assert_words_equal(x->lum, y->lum, npix);
         assert_words_equal(x->lum_sq, y->lum_sq, npix);
         assert_int_equal(x->nonfinite, y->nonfinite);
+        if (x->sums_bits) /* 0: the encoder picked */
+            assert_int_equal(x->sums_bits, y->sums_bits);
         assert_int_equal(a->result.stats.samples, b->result.stats.samples);
         assert_int_equal(a->result.stats.rays, b->result.stats.rays);
         assert_int_equal(a->result.stats.dispersive, b->result.stats.dispersive);
@@ -726,35 +728,43 @@ static void test_settings_mirror_overrides(void **state)
 static void test_version_refusal(void **state)
 {
     (void)state;
+    /* A peer of version 1 (float64 tile sums only) is refused by version 2. */
+    assert_int_equal(PROTO_VERSION, 2);
     proto_msg_t m = sample(PROTO_HELLO);
-    m.version = 2;
+    m.version = 1;
     msgpack_sbuffer sb;
     encode_ok(&m, &sb);
     proto_msg_t d;
     err_t err;
     assert_int_equal(proto_decode(sb.data, sb.size, NULL, &d, &err), PROTO_EVERSION);
-    assert_int_equal(d.version, 2);
+    assert_int_equal(d.version, 1);
     assert_int_equal(d.type, PROTO_NONE);
     assert_null(d.owned);
-    assert_string_equal(err.msg, "HELLO: protocol version 2 not supported (speaks 1)");
+    assert_string_equal(err.msg, "HELLO: protocol version 1 not supported (speaks 2)");
+    msgpack_sbuffer_destroy(&sb);
+    /* Its RESULT too, whatever it holds. */
+    m = sample(PROTO_RESULT);
+    m.version = 1;
+    encode_ok(&m, &sb);
+    assert_int_equal(proto_decode(sb.data, sb.size, NULL, &d, &err), PROTO_EVERSION);
     msgpack_sbuffer_destroy(&sb);
 
-    /* The answer, and a v2 peer's view of it: REFUSE decodes whatever its version. */
+    /* The answer, and a v1 peer's view of it: REFUSE decodes whatever its version. */
     err_t text;
     proto_msg_t refuse = proto_refuse_version(d.version, "master", &text);
     assert_string_equal(refuse.refuse.reason,
-                        "protocol version 2 not supported by this master (speaks 1)");
-    refuse.version = 2;
+                        "protocol version 1 not supported by this master (speaks 2)");
+    refuse.version = 1;
     encode_ok(&refuse, &sb);
     assert_int_equal(proto_decode(sb.data, sb.size, NULL, &d, &err), 0);
     assert_int_equal(d.type, PROTO_REFUSE);
-    assert_int_equal(d.version, 2);
+    assert_int_equal(d.version, 1);
     assert_string_equal(d.refuse.reason,
-                        "protocol version 2 not supported by this master (speaks 1)");
+                        "protocol version 1 not supported by this master (speaks 2)");
     proto_msg_free(&d);
     msgpack_sbuffer_destroy(&sb);
 
-    /* ERROR too; version 0 is as foreign as 2. */
+    /* ERROR too; version 0 is as foreign as 1. */
     proto_msg_t e = {.type = PROTO_ERROR, .version = 7, .error = {.message = "bye"}};
     encode_ok(&e, &sb);
     assert_int_equal(proto_decode(sb.data, sb.size, NULL, &d, &err), 0);
@@ -871,16 +881,17 @@ static void test_envelope_errors(void **state)
     expect_mutation_rejected(PROTO_HELLO, "v", NULL, PROTO_EMALFORMED, "field 'v' is missing");
     expect_mutation_rejected(PROTO_HELLO, "t", NULL, PROTO_EMALFORMED, "field 't' is missing");
     /* A known key twice; an unknown key is ignored (forward compatibility). */
-    const uint8_t dup[] = {0x83, 0xa1, 'v', 0x01, 0xa1, 't', 0xa3, 'J', 'O', 'B', 0xa1, 'v', 0x01};
+    const uint8_t V = PROTO_VERSION; /* a positive fixint */
+    const uint8_t dup[] = {0x83, 0xa1, 'v', V, 0xa1, 't', 0xa3, 'J', 'O', 'B', 0xa1, 'v', V};
     expect_reject(dup, sizeof dup, PROTO_EMALFORMED, "has the key 'v' twice");
-    const uint8_t extra[] = {0x83, 0xa1, 'v',  0x01, 0xa1, 't',  0xa4, 'J', 'O',
+    const uint8_t extra[] = {0x83, 0xa1, 'v',  V,    0xa1, 't',  0xa4, 'J', 'O',
                              'B',  'S',  0xa2, 'z',  'z',  0x92, 0x80, 0x90};
     proto_msg_t d;
     err_t err;
     assert_int_equal(proto_decode(extra, sizeof extra, NULL, &d, &err), 0);
     assert_int_equal(d.type, PROTO_JOBS);
     proto_msg_free(&d);
-    const uint8_t intkey[] = {0x83, 0xa1, 'v', 0x01, 0xa1, 't', 0xa4,
+    const uint8_t intkey[] = {0x83, 0xa1, 'v', V,    0xa1, 't', 0xa4,
                               'J',  'O',  'B', 'S',  0x01, 0x02};
     expect_reject(intkey, sizeof intkey, PROTO_EMALFORMED, "has a key that is an unsigned");
 }
@@ -923,6 +934,7 @@ static void test_missing_and_wrong_type_fields(void **state)
         {PROTO_RESULT, "tile.lum", "'tile.lum'"},
         {PROTO_RESULT, "tile.lum2", "'tile.lum2'"},
         {PROTO_RESULT, "tile.nonfinite", "'tile.nonfinite'"},
+        {PROTO_RESULT, "tile.sums_bits", "'tile.sums_bits'"},
         {PROTO_RESULT, "stats", "'stats'"},
         {PROTO_RESULT, "stats.secs", "'stats.secs'"},
         {PROTO_RESULT, "stats.rays", "'stats.rays'"},
@@ -1092,6 +1104,141 @@ static void test_bins_of_wrong_length_and_nonfinite(void **state)
                              "JOBS_REPLY: field 'jobs[1].secs' is -1");
 }
 
+/* A RESULT whose sums are all float values (tilebuf.h): zero of both signs, float's extremes,
+ * and values rounded to float as tilebuf_round_sums leaves them. */
+static double g_fsums[RPIX * RNB];
+
+static proto_msg_t float_result(void)
+{
+    for (int i = 0; i < RPIX * RNB; i++)
+        g_fsums[i] = (double)(float)((i - 30) * 0.1 + 1.0 / 3.0);
+    g_fsums[0] = -0.0;
+    g_fsums[1] = FLT_MIN;
+    g_fsums[2] = FLT_MAX;
+    g_fsums[3] = -FLT_MAX;
+    g_fsums[4] = 0.0;
+    proto_msg_t m = sample(PROTO_RESULT);
+    m.result.tile.sums = g_fsums;
+    return m;
+}
+
+/* Float32 sums as little-endian bytes, for patching a message. */
+static uint8_t *float_bytes(const float *v, size_t n)
+{
+    uint8_t *le = malloc(n * 4);
+    for (size_t i = 0; i < n; i++) {
+        uint32_t u;
+        memcpy(&u, &v[i], 4);
+        for (int b = 0; b < 4; b++)
+            le[4 * i + (size_t)b] = (uint8_t)(u >> (8 * b));
+    }
+    return le;
+}
+
+static void test_float32_sums(void **state)
+{
+    (void)state;
+    /* Both widths round-trip bit for bit: float values go as 32 bits when the sender lets the
+     * encoder pick (sums_bits 0) or asks for 32, as 64 when asked; other sums as 64. */
+    proto_msg_t m = float_result();
+    msgpack_sbuffer narrow, wide;
+    encode_ok(&m, &narrow);
+    proto_msg_t d;
+    err_t err = {""};
+    assert_int_equal(proto_decode(narrow.data, narrow.size, NULL, &d, &err), 0);
+    assert_int_equal(d.result.tile.sums_bits, 32);
+    assert_msg_equal(&m, &d);
+    assert_memory_equal(d.result.tile.sums, g_fsums, sizeof g_fsums); /* -0.0 kept too */
+    assert_int_equal((uintptr_t)d.result.tile.sums % _Alignof(double), 0);
+    /* Canonical: the decoded message (sums_bits 32) encodes to the same bytes. */
+    msgpack_sbuffer again;
+    encode_ok(&d, &again);
+    assert_int_equal(again.size, narrow.size);
+    assert_memory_equal(again.data, narrow.data, narrow.size);
+    msgpack_sbuffer_destroy(&again);
+    proto_msg_free(&d);
+    m.result.tile.sums_bits = 64;
+    encode_ok(&m, &wide);
+    assert_int_equal(proto_decode(wide.data, wide.size, NULL, &d, &err), 0);
+    assert_int_equal(d.result.tile.sums_bits, 64);
+    assert_memory_equal(d.result.tile.sums, g_fsums, sizeof g_fsums);
+    proto_msg_free(&d);
+    /* 60 sums: 240 bytes (bin 8 header, 2 bytes) instead of 480 (bin 16 header, 3 bytes). */
+    assert_int_equal(wide.size - narrow.size, 240 + 1);
+    m.result.tile.sums_bits = 32;
+    round_trip(&m);
+
+    /* The sample's sums (1/3, DBL_MAX, a double subnormal) are not float values: 64 bits. */
+    proto_msg_t m64 = sample(PROTO_RESULT);
+    msgpack_sbuffer sb;
+    encode_ok(&m64, &sb);
+    assert_int_equal(proto_decode(sb.data, sb.size, NULL, &d, &err), 0);
+    assert_int_equal(d.result.tile.sums_bits, 64);
+    proto_msg_free(&d);
+    msgpack_sbuffer_destroy(&sb);
+    m64.result.tile.sums_bits = 32;
+    expect_encode_refused(&m64, "RESULT: field 'tile.sums' element 1 is");
+    expect_encode_refused(&m64, "not a normal float32 value (sums_bits is 32)");
+    m64.result.tile.sums_bits = 16;
+    expect_encode_refused(&m64, "RESULT: field 'tile.sums_bits' is 16, expected 32 or 64");
+    m64.result.tile.sums_bits = 0;
+
+    /* The decoder: a length that is not the declared width's, an unknown width. */
+    msgpack_object w64 = obj_uint(64), w32 = obj_uint(32), w16 = obj_uint(16),
+                   wf = {.type = MSGPACK_OBJECT_FLOAT64, .via.f64 = 32.0};
+    m.result.tile.sums_bits = 0;
+    mutate(&m, "tile.sums_bits", &w64, &sb);
+    expect_reject(sb.data, sb.size, PROTO_EMALFORMED,
+                  "RESULT: field 'tile.sums' has 240 bytes, expected 480");
+    msgpack_sbuffer_destroy(&sb);
+    mutate(&m64, "tile.sums_bits", &w32, &sb);
+    expect_reject(sb.data, sb.size, PROTO_EMALFORMED,
+                  "RESULT: field 'tile.sums' has 480 bytes, expected 240");
+    msgpack_sbuffer_destroy(&sb);
+    mutate(&m, "tile.sums_bits", &w16, &sb);
+    expect_reject(sb.data, sb.size, PROTO_EMALFORMED,
+                  "RESULT: field 'tile.sums_bits' is 16, expected 32 or 64");
+    msgpack_sbuffer_destroy(&sb);
+    mutate(&m, "tile.sums_bits", &wf, &sb);
+    expect_reject(sb.data, sb.size, PROTO_EMALFORMED,
+                  "RESULT: field 'tile.sums_bits' is a float, expected an unsigned integer");
+    msgpack_sbuffer_destroy(&sb);
+
+    /* NaN, Inf and subnormal float32s: refused (a sender's rounding rule never sends them). */
+    float vals[RPIX * RNB];
+    for (int i = 0; i < RPIX * RNB; i++)
+        vals[i] = (float)g_fsums[i];
+    static const struct {
+        float v;
+        const char *needle;
+    } bad[] = {
+        {NAN, "RESULT: field 'tile.sums' element 59 is nan: results carry finite numbers only"},
+        {INFINITY, "RESULT: field 'tile.sums' element 59 is inf"},
+        {-INFINITY, "RESULT: field 'tile.sums' element 59 is -inf"},
+        {0x1p-149f, "element 59 is 1.4012984643248171e-45, not a normal float32 value"},
+        {-0x1p-127f, "element 59 is -5.8774717541114375e-39, not a normal float32 value"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        vals[RPIX * RNB - 1] = bad[i].v;
+        uint8_t *le = float_bytes(vals, RPIX * RNB);
+        msgpack_object bin = obj_bin(le, sizeof vals);
+        mutate(&m, "tile.sums", &bin, &sb);
+        expect_reject(sb.data, sb.size, PROTO_EMALFORMED, bad[i].needle);
+        msgpack_sbuffer_destroy(&sb);
+        free(le);
+    }
+    /* The same bytes with a normal float there decode. */
+    vals[RPIX * RNB - 1] = FLT_MIN;
+    uint8_t *le = float_bytes(vals, RPIX * RNB);
+    msgpack_object bin = obj_bin(le, sizeof vals);
+    mutate(&m, "tile.sums", &bin, &sb);
+    expect_reject(sb.data, sb.size, 0, NULL);
+    msgpack_sbuffer_destroy(&sb);
+    free(le);
+    msgpack_sbuffer_destroy(&narrow);
+    msgpack_sbuffer_destroy(&wide);
+}
+
 static void test_bad_bundle_paths(void **state)
 {
     (void)state;
@@ -1192,7 +1339,7 @@ static void test_list_bounds(void **state)
     msgpack_packer_init(&pk, &sb, msgpack_sbuffer_write);
     assert_int_equal(msgpack_pack_map(&pk, 3), 0);
     assert_int_equal(msgpack_pack_str_with_body(&pk, "v", 1), 0);
-    assert_int_equal(msgpack_pack_uint8(&pk, 1), 0);
+    assert_int_equal(msgpack_pack_uint8(&pk, PROTO_VERSION), 0);
     assert_int_equal(msgpack_pack_str_with_body(&pk, "t", 1), 0);
     assert_int_equal(msgpack_pack_str_with_body(&pk, "JOBS_REPLY", 10), 0);
     assert_int_equal(msgpack_pack_str_with_body(&pk, "jobs", 4), 0);
@@ -1206,7 +1353,7 @@ static void test_list_bounds(void **state)
     msgpack_sbuffer_clear(&sb);
     assert_int_equal(msgpack_pack_map(&pk, 3), 0);
     assert_int_equal(msgpack_pack_str_with_body(&pk, "v", 1), 0);
-    assert_int_equal(msgpack_pack_uint8(&pk, 1), 0);
+    assert_int_equal(msgpack_pack_uint8(&pk, PROTO_VERSION), 0);
     assert_int_equal(msgpack_pack_str_with_body(&pk, "t", 1), 0);
     assert_int_equal(msgpack_pack_str_with_body(&pk, "WORKERS_REPLY", 13), 0);
     assert_int_equal(msgpack_pack_str_with_body(&pk, "workers", 7), 0);
@@ -1331,6 +1478,7 @@ int main(void)
         cmocka_unit_test(test_missing_and_wrong_type_fields),
         cmocka_unit_test(test_values_out_of_range),
         cmocka_unit_test(test_bins_of_wrong_length_and_nonfinite),
+        cmocka_unit_test(test_float32_sums),
         cmocka_unit_test(test_accuracy_fields_strict),
         cmocka_unit_test(test_bad_bundle_paths),
         cmocka_unit_test(test_bundle_limits_are_the_callers),

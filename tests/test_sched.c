@@ -302,7 +302,7 @@ static void test_restore_from_checkpoint(void **state)
         for (int pass = 0; pass < next[tile]; pass++) {
             q = (sched_task_t){.x0 = 4 * tile, .y0 = 0, .w = 4, .h = 4};
             uint32_t bounds[4];
-            sched_pass_bounds(4, bounds);
+            passes_bounds(4, bounds);
             q.sample_begin = bounds[pass];
             q.sample_end = bounds[pass + 1];
             tilebuf_t *r = fake_result(&q, 4);

@@ -49,18 +49,23 @@ static tilebuf_t *fake_result(const sched_task_t *t)
 static void test_pass_bounds(void **state)
 {
     (void)state;
-    uint32_t b[32];
-    assert_int_equal(sched_pass_bounds(5, b), 4);
+    uint32_t b[PASSES_MAX_BOUNDS];
+    assert_int_equal(passes_bounds(5, b), 4);
     uint32_t want5[] = {0, 1, 2, 4, 5};
     assert_memory_equal(b, want5, sizeof want5);
-    assert_int_equal(sched_pass_bounds(1, b), 1);
+    assert_int_equal(passes_bounds(1, b), 1);
     assert_int_equal(b[1], 1);
-    assert_int_equal(sched_pass_bounds(8, b), 4); /* 0 1 2 4 8 */
+    assert_int_equal(passes_bounds(8, b), 4); /* 0 1 2 4 8 */
     assert_int_equal(b[4], 8);
     /* 2^24 spp: passes 1, 2, 4, ..., 2^24: 25 of them. */
-    assert_int_equal(sched_pass_bounds(1 << 24, b), 25);
+    assert_int_equal(passes_bounds(1 << 24, b), 25);
     assert_int_equal(b[25], 1u << 24);
-    assert_int_equal(sched_pass_bounds(0, NULL), 0);
+    assert_int_equal(passes_bounds(0, NULL), 0);
+    assert_int_equal(passes_bounds(-3, NULL), 0);
+    /* INT_MAX = 2^31 - 1: passes up to 2^30, then the rest: 32 passes, 33 bounds. */
+    assert_int_equal(passes_bounds(0x7fffffff, b), 32);
+    assert_int_equal(b[31], 1u << 30);
+    assert_int_equal(b[32], 0x7fffffffu);
 }
 
 /* All the tasks of a job on one worker with room for all of them. */

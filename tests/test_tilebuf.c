@@ -1,12 +1,19 @@
-/* tilebuf: sums, counts, non-finite rejection and merge order independence. */
+/* tilebuf: sums, counts, non-finite rejection, merge order independence, and the rounding of a
+ * pass's sums to float32 values (IEEE 754 round to nearest, ties to even, checked on values
+ * picked by hand around float's limits). */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <cmocka.h>
 
+#include <float.h>
 #include <math.h>
 #include <string.h>
+#if defined(__SSE__)
+#include <pmmintrin.h>
+#include <xmmintrin.h>
+#endif
 
 #include "tilebuf.h"
 
@@ -93,6 +100,113 @@ static void test_bad_sizes(void **state)
     assert_non_null(strstr(err.msg, "too large"));
 }
 
+static bool same_bits(double a, double b)
+{
+    return memcmp(&a, &b, sizeof a) == 0;
+}
+
+/* Inputs and the values IEEE 754 binary32 rounding (to nearest, ties to even) gives, or the input
+ * itself where the float would be Inf, subnormal or zero for a non-zero input. */
+static const struct {
+    double in, out;
+    bool is_float; /* out is a float value: travels in 4 bytes */
+} ROUND[] = {
+    {0.0, 0.0, true},
+    {-0.0, -0.0, true},
+    {1.0, 1.0, true},
+    {1.0 + 0x1p-30, 1.0, true},           /* far below half an ulp (2^-24) */
+    {1.0 + 0x1p-24, 1.0, true},           /* a tie: to the even 1.0 */
+    {1.0 + 3 * 0x1p-24, 1.0 + 0x1p-22, true}, /* a tie: to the even neighbour above */
+    {0.1, 0x1.99999ap-4, true},           /* 0.1f */
+    {-2.5e-3, -0x1.47ae14p-9, true},      /* -2.5e-3f */
+    {1e-39, 1e-39, false},                /* below FLT_MIN (1.18e-38): a float subnormal */
+    {-1e-39, -1e-39, false},
+    {0x1p-149, 0x1p-149, false},          /* float's smallest subnormal, exactly */
+    {DBL_MIN / 4, DBL_MIN / 4, false},    /* a double subnormal */
+    {0x1p-126, 0x1p-126, true},           /* FLT_MIN */
+    {0x1p-126 * (1 + 0x1p-30), 0x1p-126, true},
+    {0x1p-126 - 0x1p-150, 0x1p-126, true}, /* midpoint to the largest subnormal: to even FLT_MIN */
+    {0x1.fffffdfffffffp-127, 0x1.fffffdfffffffp-127, false}, /* just below it: a subnormal */
+    {0x1.fffffep127, 0x1.fffffep127, true}, /* FLT_MAX */
+    {0x1.fffffep127 + 0x1p102, 0x1.fffffep127, true}, /* below the midpoint to 2^128 */
+    {0x1.fffffep127 + 0x1p103, 0x1.fffffep127 + 0x1p103, false}, /* the midpoint: to Inf */
+    {-0x1.fffffep127 - 0x1p103, -0x1.fffffep127 - 0x1p103, false},
+    {3.5e38, 3.5e38, false},
+    {DBL_MAX, DBL_MAX, false},
+};
+
+static void check_round_table(void)
+{
+    for (size_t i = 0; i < sizeof ROUND / sizeof ROUND[0]; i++) {
+        double got = tilebuf_round_value(ROUND[i].in);
+        if (!same_bits(got, ROUND[i].out))
+            fail_msg("round(%a) = %a, expected %a", ROUND[i].in, got, ROUND[i].out);
+        if (tilebuf_is_float_value(got) != ROUND[i].is_float)
+            fail_msg("%a is %sa float value", got, ROUND[i].is_float ? "not " : "");
+        /* The rule is idempotent: a rounded sum merged again rounds to itself. */
+        if (!same_bits(tilebuf_round_value(got), got))
+            fail_msg("round(round(%a)) != round(%a)", ROUND[i].in, ROUND[i].in);
+    }
+}
+
+static void test_round_value(void **state)
+{
+    (void)state;
+    check_round_table();
+    /* The float values are exactly those a float holds: zero and the normal floats. */
+    assert_true(tilebuf_is_float_value(FLT_MIN) && tilebuf_is_float_value(-FLT_MAX));
+    assert_false(tilebuf_is_float_value(1.0 + 0x1p-30));
+    assert_false(tilebuf_is_float_value(0x1p128));
+    assert_false(tilebuf_is_float_value(INFINITY) || tilebuf_is_float_value(NAN));
+#if defined(__SSE__)
+    /* Render threads run with flush-to-zero and denormals-are-zero (Embree's advice): the same
+     * results there, subnormals included. */
+    unsigned int csr = _mm_getcsr();
+    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+    check_round_table();
+    _mm_setcsr(csr);
+#endif
+}
+
+static void test_round_sums(void **state)
+{
+    (void)state;
+    err_t err;
+    /* Three pixels, two buckets: one sum beyond float's range, one below its normal range. */
+    tilebuf_t *t = tilebuf_new(0, 0, 3, 1, 2, &err);
+    const double s0[2] = {1.0 + 0x1p-30, 1e-39}, s1[2] = {3.5e38, 0.1}, s2[2] = {0.0, FLT_MAX};
+    assert_int_equal(tilebuf_add_sample(t, 0, 0, s0, 1.0 + 0x1p-30), 0);
+    assert_int_equal(tilebuf_add_sample(t, 1, 0, s1, 0.1), 0);
+    assert_int_equal(tilebuf_add_sample(t, 2, 0, s2, 0.1), 0);
+    assert_false(tilebuf_sums_are_float(t));
+    assert_int_equal(tilebuf_round_sums(t), 2);
+    assert_false(tilebuf_sums_are_float(t));
+    const double want[6] = {1.0, 1e-39, 3.5e38, 0x1.99999ap-4, 0.0, FLT_MAX};
+    assert_memory_equal(tilebuf_sums(t), want, sizeof want);
+    /* Per value: a tile's other values (here the two wide ones) change nothing, so a pixel
+     * rounds the same in any tile. lum stays a double. */
+    tilebuf_t *one = tilebuf_new(0, 0, 1, 1, 2, &err);
+    assert_int_equal(tilebuf_add_sample(one, 0, 0, s0, 1.0 + 0x1p-30), 0);
+    assert_int_equal(tilebuf_round_sums(one), 1);
+    assert_true(same_bits(tilebuf_sum(one, 0, 0, 0), tilebuf_sum(t, 0, 0, 0)));
+    assert_true(tilebuf_luminance_sum(one, 0, 0) == 1.0 + 0x1p-30);
+    tilebuf_destroy(&one);
+    /* Every sum in float range: the whole tile is float values. */
+    tilebuf_t *f = tilebuf_new(5, 5, 2, 1, 2, &err);
+    const double s3[2] = {0.1, 1.0 + 0x1p-30};
+    assert_int_equal(tilebuf_add_sample(f, 5, 5, s3, 1.0), 0);
+    assert_int_equal(tilebuf_add_sample(f, 6, 5, s2, 1.0), 0);
+    assert_int_equal(tilebuf_round_sums(f), 0);
+    assert_true(tilebuf_sums_are_float(f));
+    /* Cleared: zeros everywhere, ready for the next pass. */
+    tilebuf_clear(f);
+    assert_true(tilebuf_sum(f, 6, 5, 1) == 0.0 && tilebuf_count(f, 6, 5) == 0 &&
+                tilebuf_luminance_sum(f, 5, 5) == 0.0 && tilebuf_nonfinite(f) == 0);
+    tilebuf_destroy(&f);
+    tilebuf_destroy(&t);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -100,6 +214,8 @@ int main(void)
         cmocka_unit_test(test_nonfinite_dropped_and_counted),
         cmocka_unit_test(test_merge),
         cmocka_unit_test(test_bad_sizes),
+        cmocka_unit_test(test_round_value),
+        cmocka_unit_test(test_round_sums),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -172,6 +172,9 @@ static void test_task_round_trip(void **state)
     assert_non_null(sc);
     tilebuf_t *t = tilebuf_new(8, 4, 8, 6, sc->settings.grid.n, &err);
     assert_int_equal(render_tile(sc, 8, 4, 8, 6, 2, 4, t, NULL, &err), 0);
+    /* The worker sends its pass's sums rounded by tilebuf's rule (float32 on the wire). */
+    assert_int_equal(tilebuf_round_sums(t), 0);
+    assert_int_equal(m.result.tile.sums_bits, 32);
     assert_memory_equal(m.result.tile.sums, tilebuf_sums(t), 8 * 6 * 8 * sizeof(double));
     assert_memory_equal(m.result.tile.counts, tilebuf_counts(t), 8 * 6 * sizeof(uint64_t));
     assert_true(m.result.stats.samples == 8 * 6 * 2);

@@ -1,6 +1,8 @@
 #define _GNU_SOURCE /* sched_getaffinity, CPU_COUNT */
 #include "local_render.h"
 
+#include "passes.h"
+
 #include <pthread.h>
 #include <sched.h>
 #include <stdlib.h>
@@ -42,6 +44,33 @@ int local_render_cores(void)
     return n > 0 ? (int)n : 1;
 }
 
+/* One tile as the farm renders and merges it (docs/farm.md, "Same pixels"): each pass of the
+ * cut (passes_bounds) rendered on its own into a scratch buffer, its sums rounded by the rule
+ * the workers apply before sending (tilebuf_round_sums), and added into acc in pass order --
+ * the arithmetic of the master's scheduler, which merges a tile's passes into its zeroed image
+ * in that order. Adding acc into the zeroed image afterwards changes no bit. */
+static int render_passes(const shared_t *sh, int x0, int y0, int w, int h, tilebuf_t *acc,
+                         render_stats_t *st, err_t *err)
+{
+    const render_settings_t *rs = &sh->scene->settings;
+    uint32_t bounds[PASSES_MAX_BOUNDS];
+    int npasses = passes_bounds(rs->spp, bounds);
+    tilebuf_t *pass = tilebuf_new(x0, y0, w, h, rs->grid.n, err);
+    if (!pass)
+        return -1;
+    int r = 0;
+    for (int p = 0; p < npasses && r == 0; p++) {
+        tilebuf_clear(pass);
+        r = render_tile(sh->scene, x0, y0, w, h, bounds[p], bounds[p + 1], pass, st, err);
+        if (r == 0) {
+            tilebuf_round_sums(pass);
+            r = tilebuf_merge(acc, pass, err);
+        }
+    }
+    tilebuf_destroy(&pass);
+    return r;
+}
+
 static void *worker_main(void *arg)
 {
     shared_t *sh = arg;
@@ -63,7 +92,7 @@ static void *worker_main(void *arg)
         err_t err;
         render_stats_t st = {0};
         tilebuf_t *buf = tilebuf_new(x0, y0, w, h, rs->grid.n, &err);
-        int r = buf ? render_tile(sh->scene, x0, y0, w, h, 0, (uint32_t)rs->spp, buf, &st, &err) : -1;
+        int r = buf ? render_passes(sh, x0, y0, w, h, buf, &st, &err) : -1;
         pthread_mutex_lock(&sh->lock);
         if (r == 0)
             r = tilebuf_merge(sh->image, buf, &err);

@@ -1,7 +1,8 @@
 /* local_render: renders a whole image on this machine's cores -- the engine behind
- * `prismfarm render` and the local farm mode. The image is cut into tiles handed to threads
- * from a shared counter; every pixel is rendered by exactly one render_tile call, so the
- * result is bit-identical whatever the number of threads. */
+ * `prismfarm render --direct`. The image is cut into tiles handed to threads from a shared
+ * counter; each tile is rendered pass by pass (common/passes.h), each pass's sums rounded by
+ * tilebuf_round_sums and added in pass order, which is the farm's arithmetic: the image is
+ * bit-identical to the farm's (any worker count, thread count or tile size), by construction. */
 #ifndef PRISMFARM_LOCAL_RENDER_H
 #define PRISMFARM_LOCAL_RENDER_H
 

@@ -677,14 +677,18 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                             .samples = t->photons.end - t->photons.first, .rays = t->pstats.rays,
                             .elapsed = t->elapsed};
                     } else if (t->ok) {
-                        const tilebuf_t *b = t->result;
+                        /* The pass's sums rounded by the one rule (tilebuf.h) that --direct
+                         * applies too: float32 on the wire unless a value needs a double. */
+                        tilebuf_t *b = t->result;
+                        int bits = tilebuf_round_sums(b) == 0 ? 32 : 64;
                         out = (proto_msg_t){.type = PROTO_RESULT};
                         out.result.job = t->job;
                         out.result.task = t->id;
                         out.result.attempt = t->attempt;
                         out.result.kind = PROTO_KIND_CAMERA_TILE;
                         out.result.tile = (proto_tile_result_t){
-                            .rect = t->tile, .nbuckets = tilebuf_nbuckets(b), .sums = tilebuf_sums(b),
+                            .rect = t->tile, .nbuckets = tilebuf_nbuckets(b), .sums_bits = bits,
+                            .sums = tilebuf_sums(b),
                             .counts = tilebuf_counts(b), .lum = tilebuf_luminance_sums(b),
                             .lum_sq = tilebuf_luminance_sq_sums(b), .nonfinite = tilebuf_nonfinite(b)};
                         out.result.stats = (proto_task_stats_t){.samples = t->stats.samples, .rays = t->stats.rays,

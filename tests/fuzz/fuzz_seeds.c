@@ -121,7 +121,7 @@ static int seeds_list(const seeds_t *s, seed_t out[NSEEDS_MAX])
     m->result.attempt = 1;
     m->result.kind = PROTO_KIND_CAMERA_TILE;
     m->result.tile =
-        (proto_tile_result_t){{4, 6, TW, TH, 0, 16}, TNB, s->sums, s->counts, s->lum, s->lum_sq, 0};
+        (proto_tile_result_t){{4, 6, TW, TH, 0, 16}, TNB, s->sums, s->counts, s->lum, s->lum_sq, 0, 0};
     m->result.stats = (proto_task_stats_t){64, 1000, 12, 0.01};
     m = SEED("task_failed", PROTO_TASK_FAILED);
     m->task_failed.job = 1;

@@ -8,6 +8,8 @@ case breaks one thing. A tiny msgpack packer is included so nothing needs instal
 """
 import struct
 
+V = 2  # PROTO_VERSION (proto/proto.h)
+
 
 class Raw(bytes):
     """Bytes copied into the message as they are (a hand-made or broken header)."""
@@ -55,13 +57,13 @@ def words(*xs, fmt="<d"):
 
 
 def hello(**over):
-    m = {"v": 1, "t": "HELLO", "name": "node01", "threads": 8, "sw": "prismfarm 0.1.0"}
+    m = {"v": V, "t": "HELLO", "name": "node01", "threads": 8, "sw": "prismfarm 0.1.0"}
     m.update(over)
     return m
 
 
 def submit(files, main="scene.pbrt"):
-    return {"v": 1, "t": "SUBMIT", "name": "prism",
+    return {"v": V, "t": "SUBMIT", "name": "prism",
             "set": {"spp": 0, "xres": 0, "yres": 0, "seed": -1},
             "bundle": {"main": main, "files": [{"path": p, "data": d} for p, d in files]}}
 
@@ -71,19 +73,19 @@ SCENE = b"WorldBegin\nShape \"sphere\"\n"
 
 def result(tile_over=None, stats_over=None):
     tile = {"x0": 0, "y0": 0, "w": 2, "h": 1, "sb": 0, "se": 4, "nb": 1,
-            "sums": words(0.5, 0.25), "counts": words(4, 4, fmt="<Q"),
+            "sums_bits": 64, "sums": words(0.5, 0.25), "counts": words(4, 4, fmt="<Q"),
             "lum": words(0.5, 0.25), "lum2": words(0.25, 0.0625), "nonfinite": 0}
     tile.update(tile_over or {})
     stats = {"samples": 8, "rays": 16, "disp": 0, "secs": 0.01}
     stats.update(stats_over or {})
-    return {"v": 1, "t": "RESULT", "job": 1, "task": 2, "att": 1, "kind": "camera_tile",
+    return {"v": V, "t": "RESULT", "job": 1, "task": 2, "att": 1, "kind": "camera_tile",
             "tile": tile, "stats": stats}
 
 
 def task(tile_over=None):
     tile = {"x0": 0, "y0": 0, "w": 8, "h": 8, "sb": 0, "se": 16}
     tile.update(tile_over or {})
-    return {"v": 1, "t": "TASK", "job": 1, "task": 2, "att": 1, "scene": "0" * 64,
+    return {"v": V, "t": "TASK", "job": 1, "task": 2, "att": 1, "scene": "0" * 64,
             "set": {"spp": 0, "xres": 0, "yres": 0, "seed": -1}, "kind": "camera_tile",
             "tile": tile}
 
@@ -94,17 +96,17 @@ NAN = float("nan")
 CASES = [
     ("empty", "no bytes at all", b""),
     ("not_a_map", "an array where the message map belongs", pack([1, "HELLO"])),
-    ("wrong_version", "a HELLO from protocol version 2", pack(hello(v=2))),
+    ("wrong_version", "a HELLO from protocol version 1 (float64 tile sums only)", pack(hello(v=1))),
     ("version_string", "\"v\" is the string \"1\"", pack(hello(v="1"))),
     ("unknown_type", "type \"HELO\"", pack(hello(t="HELO"))),
-    ("missing_type", "no \"t\"", pack({"v": 1, "name": "node01"})),
+    ("missing_type", "no \"t\"", pack({"v": V, "name": "node01"})),
     ("truncated", "a valid HELLO cut after half its bytes", HELLO[: len(HELLO) // 2]),
     ("trailing_bytes", "a valid HELLO followed by one nil", HELLO + b"\xc0"),
     ("depth_bomb", "40 nested one-element arrays", b"\x91" * 40 + b"\xc0"),
     ("oversize_array", "JOBS_REPLY whose jobs array claims 2^31-1 entries in 0 bytes",
-     pack({"v": 1, "t": "JOBS_REPLY", "jobs": Raw(b"\xdd\x7f\xff\xff\xff")})),
+     pack({"v": V, "t": "JOBS_REPLY", "jobs": Raw(b"\xdd\x7f\xff\xff\xff")})),
     ("oversize_bin", "FILE whose data claims 4 GiB - 1 bytes",
-     pack({"v": 1, "t": "FILE", "name": "x.png", "data": Raw(b"\xc6\xff\xff\xff\xff")})),
+     pack({"v": V, "t": "FILE", "name": "x.png", "data": Raw(b"\xc6\xff\xff\xff\xff")})),
     ("oversize_map", "a map header claiming 65536 entries", b"\xdf\x00\x01\x00\x00"),
     ("ext_type", "an ext object (never used by the protocol) as a value",
      pack(hello(name=Raw(b"\xd4\x01\x00")))),
@@ -113,19 +115,24 @@ CASES = [
     ("threads_negative", "HELLO threads -1", pack(hello(threads=-1))),
     ("name_nil", "HELLO name nil", pack(hello(name=None))),
     ("key_twice", "HELLO with the key \"name\" twice",
-     pack(Pairs([("v", 1), ("t", "HELLO"), ("name", "a"), ("name", "b"), ("threads", 8),
+     pack(Pairs([("v", V), ("t", "HELLO"), ("name", "a"), ("name", "b"), ("threads", 8),
                  ("sw", "x")]))),
     ("key_not_string", "HELLO with an integer key",
-     pack(Pairs([("v", 1), ("t", "HELLO"), (7, 1), ("name", "a"), ("threads", 8), ("sw", "x")]))),
+     pack(Pairs([("v", V), ("t", "HELLO"), (7, 1), ("name", "a"), ("threads", 8), ("sw", "x")]))),
     ("nul_in_name", "HELLO name with a NUL byte", pack(hello(name="no\0de"))),
     ("result_sums_short", "RESULT sums of 1 double for a 2x1 tile of 1 bucket",
      pack(result({"sums": words(0.5)}))),
     ("result_lum_nan", "RESULT lum holding a NaN", pack(result({"lum": words(NAN, 0.25)}))),
+    ("result_sums_f32_nan", "RESULT float32 sums holding a NaN",
+     pack(result({"sums_bits": 32, "sums": words(0.5, NAN, fmt="<f")}))),
+    ("result_sums_f32_long", "RESULT float64 bytes under sums_bits 32",
+     pack(result({"sums_bits": 32}))),
+    ("result_sums_bits", "RESULT sums_bits 16", pack(result({"sums_bits": 16}))),
     ("result_secs_nan", "RESULT stats secs NaN", pack(result(stats_over={"secs": NAN}))),
     ("result_no_samples", "RESULT tile with sb == se", pack(result({"sb": 4, "se": 4}))),
     ("task_tile_outside", "TASK tile x0 70000 (at most 65535)", pack(task({"x0": 70000}))),
     ("task_hash_upper", "TASK scene hash in upper-case hex", pack(task() | {"scene": "A" * 64})),
-    ("fetch_what", "FETCH what \"tiff\"", pack({"v": 1, "t": "FETCH", "job": 1, "what": "tiff"})),
+    ("fetch_what", "FETCH what \"tiff\"", pack({"v": V, "t": "FETCH", "job": 1, "what": "tiff"})),
     ("bundle_dotdot", "SUBMIT bundle path \"../escape.pbrt\"",
      pack(submit([("scene.pbrt", SCENE), ("../escape.pbrt", b"x")]))),
     ("bundle_absolute", "SUBMIT bundle path \"/etc/passwd\"",
@@ -139,7 +146,7 @@ CASES = [
     ("bundle_main_missing", "SUBMIT bundle whose main file is not among its files",
      pack(submit([("scene.pbrt", SCENE)], main="other.pbrt"))),
     ("scene_hash_mismatch", "SCENE whose hash is not its bundle's",
-     pack({"v": 1, "t": "SCENE", "scene": "0" * 64,
+     pack({"v": V, "t": "SCENE", "scene": "0" * 64,
            "bundle": {"main": "scene.pbrt", "files": [{"path": "scene.pbrt", "data": SCENE}]}})),
 ]
 
