@@ -74,15 +74,11 @@ int spectral_grid_index(spectral_grid_t grid, double lambda_nm)
     return i;
 }
 
-int spectral_grid_splat(spectral_grid_t grid, double *buckets, double lambda_nm, double value,
-                        double pdf, spectral_splat_t mode)
+/* The splat once bucket i (>= 0) of lambda_nm is known: shared by spectral_grid_splat and the
+ * table's, so that both give the same bits. */
+static int splat_in(spectral_grid_t grid, double width, int i, double *buckets, double lambda_nm,
+                    double value, double pdf, spectral_splat_t mode)
 {
-    if (!isfinite(lambda_nm) || !isfinite(value) || !isfinite(pdf) || pdf <= 0.0)
-        return -1;
-    int i = spectral_grid_index(grid, lambda_nm);
-    if (i < 0)
-        return 0;
-    double width = spectral_grid_width(grid);
     double contribution = value / (pdf * width);
     if (!isfinite(contribution))
         return -1; /* a tiny pdf can overflow the quotient */
@@ -105,6 +101,17 @@ int spectral_grid_splat(spectral_grid_t grid, double *buckets, double lambda_nm,
     buckets[lo] += (1.0 - f) * contribution;
     buckets[lo + 1] += f * contribution;
     return 0;
+}
+
+int spectral_grid_splat(spectral_grid_t grid, double *buckets, double lambda_nm, double value,
+                        double pdf, spectral_splat_t mode)
+{
+    if (!isfinite(lambda_nm) || !isfinite(value) || !isfinite(pdf) || pdf <= 0.0)
+        return -1;
+    int i = spectral_grid_index(grid, lambda_nm);
+    if (i < 0)
+        return 0;
+    return splat_in(grid, spectral_grid_width(grid), i, buckets, lambda_nm, value, pdf, mode);
 }
 
 struct spectral_table {
@@ -163,27 +170,5 @@ int spectral_table_splat(const spectral_table_t *self, double *buckets, double l
     int i = spectral_table_index(self, lambda_nm);
     if (i < 0)
         return 0;
-    const spectral_grid_t g = self->grid;
-    double width = self->width;
-    double contribution = value / (pdf * width);
-    if (!isfinite(contribution))
-        return -1;
-    if (mode == SPECTRAL_SPLAT_BOX || g.n == 1) {
-        buckets[i] += contribution;
-        return 0;
-    }
-    double pos = (lambda_nm - g.lambda_min) / width - 0.5;
-    if (pos <= 0.0) {
-        buckets[0] += contribution;
-        return 0;
-    }
-    if (pos >= (double)(g.n - 1)) {
-        buckets[g.n - 1] += contribution;
-        return 0;
-    }
-    int lo = (int)pos;
-    double f = pos - (double)lo;
-    buckets[lo] += (1.0 - f) * contribution;
-    buckets[lo + 1] += f * contribution;
-    return 0;
+    return splat_in(self->grid, self->width, i, buckets, lambda_nm, value, pdf, mode);
 }
