@@ -247,12 +247,3 @@ size_t tilebuf_round_sums(tilebuf_t *self)
     }
     return wide;
 }
-
-bool tilebuf_sums_are_float(const tilebuf_t *self)
-{
-    size_t n = (size_t)self->w * (size_t)self->h * (size_t)self->nb;
-    for (size_t i = 0; i < n; i++)
-        if (!tilebuf_is_float_value(self->sums[i]))
-            return false;
-    return true;
-}

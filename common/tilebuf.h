@@ -65,8 +65,6 @@ bool tilebuf_is_float_value(double s);
  * lum_sq - lum^2/n cancels, float32 would leave noise). Returns how many sums stayed doubles:
  * 0 when the tile travels as float32. */
 size_t tilebuf_round_sums(tilebuf_t *self);
-/* Whether every sum is a float value (tilebuf_is_float_value), e.g. after tilebuf_round_sums. */
-bool tilebuf_sums_are_float(const tilebuf_t *self);
 
 /* Raw arrays, for encoding a tile into a message: sums are [h][w][nbuckets], the others [h][w]. */
 const double *tilebuf_sums(const tilebuf_t *self);

@@ -222,16 +222,24 @@ static void test_task_round_trip(void **state)
     assert_int_not_equal(proto_net_send(f->router, &w, &scene, &serr), 0);
 }
 
+/* The worker's HELLO, answered by a WELCOME with heartbeats every heartbeat_ms; *w is it. */
+static void welcome(fixture_t *f, proto_peer_t *w, int heartbeat_ms)
+{
+    proto_msg_t m;
+    expect(f, PROTO_HELLO, w, &m);
+    proto_msg_free(&m);
+    proto_msg_t msg = {.type = PROTO_WELCOME,
+                       .welcome = {.worker_id = 1, .heartbeat_ms = heartbeat_ms}};
+    send_to(f, w, &msg);
+}
+
 /* A master that stops answering: the worker reconnects and says HELLO again. */
 static void test_reconnects_when_master_is_silent(void **state)
 {
     fixture_t *f = *state;
     proto_peer_t w;
     proto_msg_t m;
-    expect(f, PROTO_HELLO, &w, &m);
-    proto_msg_free(&m);
-    proto_msg_t welcome = {.type = PROTO_WELCOME, .welcome = {.worker_id = 1, .heartbeat_ms = 100}};
-    send_to(f, &w, &welcome);
+    welcome(f, &w, 100);
     expect(f, PROTO_HEARTBEAT, &w, &m);
     proto_msg_free(&m);
     /* Say nothing: after 3 heartbeat intervals the worker gives up on this connection. */
@@ -248,10 +256,7 @@ static void test_waits_for_busy_master_over_tcp(void **state)
     fixture_t *f = *state;
     proto_peer_t w;
     proto_msg_t m;
-    expect(f, PROTO_HELLO, &w, &m);
-    proto_msg_free(&m);
-    proto_msg_t welcome = {.type = PROTO_WELCOME, .welcome = {.worker_id = 1, .heartbeat_ms = 100}};
-    send_to(f, &w, &welcome);
+    welcome(f, &w, 100);
     /* 1.5 s of silence, five times the 3 heartbeats after which a dead master is given up. */
     int heartbeats = 0;
     for (int i = 0; i < 30; i++) {

@@ -131,13 +131,6 @@ int lights_area_faces(const light_t *l, vec3_t ng, vec3_t wo)
     return l->kind == LIGHT_AREA && (l->twosided || !(vec3_dot(ng, wo) <= 0.0));
 }
 
-double lights_area_radiance(const scene_t *scene, const light_t *l, vec3_t ng, vec3_t wo,
-                            double lambda)
-{
-    (void)scene;
-    return lights_area_faces(l, ng, wo) ? light_value(l, lambda) : 0.0;
-}
-
 double lights_sample_emission_of(const scene_t *scene, const light_sample_t *s, double value)
 {
     const light_t *l = &scene->lights[s->light];
@@ -156,11 +149,6 @@ double lights_sample_emission_of(const scene_t *scene, const light_sample_t *s, 
         return 0.0;
     }
     return 0.0;
-}
-
-double lights_sample_emission(const scene_t *scene, const light_sample_t *s, double lambda)
-{
-    return lights_sample_emission_of(scene, s, light_value(&scene->lights[s->light], lambda));
 }
 
 double lights_spot_falloff(const light_t *l, double cos_theta)

@@ -23,28 +23,19 @@ typedef struct light_sample {
  * sampled (no lights, a collimated light, a zero-area light, a degenerate configuration). */
 int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sample_t *out);
 
-/* The emitted quantity that arrives at the shading point along the sample, at lambda: radiance
- * for area and infinite lights, I/d^2 (times the spot falloff) for point and spot lights, the
- * irradiance-defining L for distant lights. */
-double lights_sample_emission(const scene_t *scene, const light_sample_t *s, double lambda);
-
 /* The light's spectral value at lambda: its spectrum times its scale, the factor every
- * emission query above multiplies in. A pure function of (l, lambda), so a caller may keep it
+ * emission query multiplies in. A pure function of (l, lambda), so a caller may keep it
  * (render.c keeps it per lane: a path's wavelengths rarely change, a blackbody costs an expm1). */
 double lights_value(const light_t *l, double lambda);
 
-/* lights_sample_emission with value = lights_value(light, lambda) already evaluated; the same
- * result bit for bit. */
+/* The emitted quantity that arrives at the shading point along the sample, given the light's
+ * value = lights_value(light, lambda): radiance for area and infinite lights, I/d^2 (times the
+ * spot falloff) for point and spot lights, the irradiance-defining L for distant lights. */
 double lights_sample_emission_of(const scene_t *scene, const light_sample_t *s, double value);
 
 /* Whether area light l emits toward wo (unit, away from the surface) at a point with unit
  * normal ng: a two-sided light always, a one-sided one on its front only. 0 for other kinds. */
 int lights_area_faces(const light_t *l, vec3_t ng, vec3_t wo);
-
-/* Radiance leaving an area light's shape at a hit with unit normal ng toward direction wo
- * (unit, pointing away from the surface); 0 on the back of a one-sided light. */
-double lights_area_radiance(const scene_t *scene, const light_t *l, vec3_t ng, vec3_t wo,
-                            double lambda);
 
 /* Uniform point on a shape by area with u0 (a mesh's triangle), u1 and u2: the point and its
  * unit normal, oriented as scene_surface orients a hit there (the shape's flip flag, and for a
