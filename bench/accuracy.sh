@@ -76,7 +76,7 @@ if ((DO_BUILD)); then
   cmake -S "$ROOT" -B "$BUILD" -DCMAKE_BUILD_TYPE=Release >/dev/null
   cmake --build "$BUILD" -j"$(nproc)" --target prismfarm bench_accuracy_diff >/dev/null
 fi
-BIN=$BUILD/client/prismfarm
+BIN=$BUILD/cli/prismfarm
 DIFF=$BUILD/bench/bench_accuracy_diff
 [[ -x $BIN && -x $DIFF ]] || die "no $BIN or $DIFF (build them, or drop --no-build)"
 

@@ -15,7 +15,7 @@
 # usage: bash bench/farm.sh [--reps N] [--build DIR] [--no-build] [--no-docs]
 #   --reps N    repetitions of every timing (default 5): about 10 minutes on 2 idle cores
 #   --build DIR Release build folder (default build-bench in the repository); built first
-#   --no-build  use DIR/client/prismfarm as it is
+#   --no-build  use DIR/cli/prismfarm as it is
 #   --no-docs   print the tables only
 set -euo pipefail
 
@@ -42,7 +42,7 @@ if ((DO_BUILD)); then
   cmake -S "$ROOT" -B "$BUILD" -DCMAKE_BUILD_TYPE=Release >/dev/null
   cmake --build "$BUILD" -j"$(nproc)" --target prismfarm >/dev/null
 fi
-BIN=$BUILD/client/prismfarm
+BIN=$BUILD/cli/prismfarm
 [[ -x $BIN ]] || { echo "bench/farm.sh: no $BIN (build it, or drop --no-build)" >&2; exit 1; }
 
 NPROC=$(nproc)

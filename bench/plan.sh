@@ -15,7 +15,7 @@
 # usage: bash bench/plan.sh [--reps N] [--build DIR] [--no-build] [--res WxH] [--spp N]
 #   --reps N    repetitions (default 5)
 #   --build DIR Release build folder (default build-bench in the repository); built first
-#   --no-build  use DIR/client/prismfarm as it is
+#   --no-build  use DIR/cli/prismfarm as it is
 #   --res WxH   image size (default 200x200); --spp N samples (default 16)
 set -euo pipefail
 
@@ -45,7 +45,7 @@ if ((DO_BUILD)); then
   cmake -S "$ROOT" -B "$BUILD" -DCMAKE_BUILD_TYPE=Release >/dev/null
   cmake --build "$BUILD" -j"$(nproc)" --target prismfarm >/dev/null
 fi
-BIN=$BUILD/client/prismfarm
+BIN=$BUILD/cli/prismfarm
 [[ -x $BIN ]] || { echo "bench/plan.sh: no $BIN (build it, or drop --no-build)" >&2; exit 1; }
 
 WORK=$(mktemp -d /tmp/prismfarm-plan-bench-XXXXXX)

@@ -5,5 +5,5 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 bash deploy/install-deps.sh
 bash deploy/build.sh release
-build/client/prismfarm render scenes/prism.pbrt -o out/prism.exr
+build/cli/prismfarm render scenes/prism.pbrt -o out/prism.exr
 echo "images: $(pwd)/out/prism.exr (spectral OpenEXR) and $(pwd)/out/prism.png (preview)"

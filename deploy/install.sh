@@ -63,7 +63,7 @@ repo=$(cd "$(dirname "$0")/.." && pwd)
 if [ -z "$binary" ]; then
   echo "install.sh: building (deploy/build.sh release)"
   bash "$repo/deploy/build.sh" release
-  binary=$repo/build/client/prismfarm
+  binary=$repo/build/cli/prismfarm
 fi
 if [ ! -x "$binary" ]; then
   echo "install.sh: '$binary' is not an executable" >&2

@@ -48,7 +48,7 @@ typedef struct pass_record {
     int pass, spp;    /* passes merged (1-based) and samples per pixel they hold */
     double elapsed;   /* seconds since the job started */
     bool valid;       /* an estimate exists (not after the first pass: 1 sample per pixel) */
-    double rel_error; /* relative RMSE of the mean luminance, common/error_estimate.h */
+    double rel_error; /* relative RMSE of the mean luminance, film/error_estimate.h */
 } pass_record_t;
 
 #define MAX_PASS_RECORDS 40 /* passes of a job: log2(2^24 spp) + 1 = 25, with room */

@@ -385,7 +385,7 @@ static int msg_check(const proto_msg_t *m, const proto_limits_t *lim, cx_t *cx)
                 return PROTO_EMALFORMED;
             if (r->size > 0 && !r->data)
                 return cx_fail(cx, "photons.data", "is missing");
-            /* At most 64 lanes a photon (worker/photon.h); more would scale the store down. */
+            /* At most 64 lanes a photon (render/photon.h); more would scale the store down. */
             if (r->emitted < r->range.end - r->range.first ||
                 (r->emitted - (r->range.end - r->range.first)) / 63 > r->range.end - r->range.first)
                 return cx_fail(cx, "photons.emitted", "is %" PRIu64 " for %" PRIu64 " photons",

@@ -158,7 +158,7 @@ typedef struct proto_tile {
     uint32_t sample_begin, sample_end;
 } proto_tile_t;
 
-/* A camera tile's result: a tilebuf's contents (common/tilebuf.h), in its layout. The sums travel
+/* A camera tile's result: a tilebuf's contents (film/tilebuf.h), in its layout. The sums travel
  * as float32 when every one is a float value (tilebuf_is_float_value: zero or a normal float,
  * what tilebuf_round_sums leaves in the common case), else as float64; lum and lum_sq always as
  * float64. */
@@ -176,7 +176,7 @@ typedef struct proto_tile_result {
     int sums_bits;
 } proto_tile_result_t;
 
-/* A photon batch: photon indices [first, end) of the job's photon pass (worker/photon.h). */
+/* A photon batch: photon indices [first, end) of the job's photon pass (render/photon.h). */
 typedef struct proto_photon_batch {
     uint64_t first, end;
 } proto_photon_batch_t;
@@ -205,7 +205,7 @@ typedef struct proto_job_info {
     const char *error;                    /* NULL unless failed */
     uint64_t nonfinite;
     /* Accuracy (optional on the wire): samples per pixel of the whole passes merged so far, the
-     * relative RMSE estimate after the last one (common/error_estimate.h; only when
+     * relative RMSE estimate after the last one (film/error_estimate.h; only when
      * has_rel_error: a zeroed struct means "no estimate yet"), and why a done job stopped
      * before its last pass. */
     uint32_t spp;

@@ -198,7 +198,7 @@ static void test_target_stops_early(void **state)
 /* The strong check. Pass p of any job is samples [2^(p-1), 2^p) of every pixel, whatever the
  * job asked for -- as long as the sample values do not depend on the total: render_tile
  * stratifies pixel positions over a square spp and wavelengths over a power-of-two spp
- * (worker/render.c), so only totals that are neither share their samples. 96 and 768 spp are
+ * (render/render.c), so only totals that are neither share their samples. 96 and 768 spp are
  * neither: stopped by the same target, they stop at the same pass (64 spp, not the last of
  * either) with byte-identical pixels. (A job asked for 64 spp from the start is stratified over
  * 64 and has other samples: that comparison only holds for a renderer whose samples ignore the

@@ -1,4 +1,4 @@
-/* The effect plan (common/plan.h): what every shipped scene calls for, one synthetic scene per
+/* The effect plan (scene/plan.h): what every shipped scene calls for, one synthetic scene per
  * rule, integrator "auto" following the plan, and "switching an absent effect off changes
  * nothing but time": pixel data compared bit for bit where the code makes them identical, and
  * within a tolerance derived from the samples where sampling differs. */

@@ -1,4 +1,4 @@
-/* net: messages over real ZeroMQ sockets made by proto/net.h. ROUTER <-> DEALER over inproc://
+/* net: messages over real ZeroMQ sockets made by net/net.h. ROUTER <-> DEALER over inproc://
  * (routing ids, replies, version refusal, malformed frames, ROUTER_MANDATORY reporting an
  * unknown peer) and over tcp://127.0.0.1 (a tile result arrives bit for bit; ZMQ_MAXMSGSIZE
  * from the limits cuts off a peer that sends a larger frame). */

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
-"""Generate common/cie_tables.c from the reference CSV files of ../shared/data.
+"""Generate spectral/cie_tables.c from the reference CSV files of ../shared/data.
 
-usage: tools/gen_cie_tables.py DATA_DIR > common/cie_tables.c
+usage: tools/gen_cie_tables.py DATA_DIR > spectral/cie_tables.c
 
 DATA_DIR holds cie1931_2deg_1nm.csv (CIE 1931 2 deg CMFs, 360-830 nm, 1 nm) and d65_5nm.csv
 (CIE D65, 300-830 nm, 5 nm). The numbers are copied as printed in the CSV (no rounding), and

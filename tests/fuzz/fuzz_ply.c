@@ -1,4 +1,4 @@
-/* fuzz_ply: libFuzzer harness for the PLY path (common/mesh_import.h): the structure check that
+/* fuzz_ply: libFuzzer harness for the PLY path (scenefile/mesh_import.h): the structure check that
  * runs before assimp, then assimp's PLY reader, then the conversion to a triangle mesh, from
  * memory as a confined scene parse calls it. A mesh that loads must hold what the header
  * promises of it: triangles whose indices lie below the vertex count and finite positions. */

@@ -1,21 +1,20 @@
-/* sha256: the SHA-256 hash of FIPS 180-4 (NIST, 2015), for content-addressing scene bundles.
+/* sha256: the SHA-256 hash of FIPS 180-4, for content-addressing scene bundles and photon
+ * stores, computed by libsodium (crypto_hash_sha256; already loaded through libzmq's CURVE).
  * Incremental: init, update any number of times with any split of the input, final. The digest
  * depends only on the bytes hashed, never on how they were split. */
 #ifndef PRISMFARM_SHA256_H
 #define PRISMFARM_SHA256_H
 
+#include <sodium/crypto_hash_sha256.h>
 #include <stddef.h>
 #include <stdint.h>
 
 #define SHA256_DIGEST_BYTES 32
 #define SHA256_HEX_CHARS 64
 
-/* A hash in progress; a plain value (copy it to fork a computation). */
+/* A hash in progress: libsodium's state, a plain value (copy it to fork a computation). */
 typedef struct sha256 {
-    uint32_t h[8];   /* the intermediate hash value H(i) */
-    uint64_t nbytes; /* message length so far */
-    uint8_t block[64];
-    size_t nblock; /* bytes waiting in block */
+    crypto_hash_sha256_state state;
 } sha256_t;
 
 void sha256_init(sha256_t *self);

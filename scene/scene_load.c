@@ -563,7 +563,7 @@ static int load_photon(loader_t *L, params_t *p, int enable, err_t *err)
         return pbrt_error(err, params_find(p, "mindepth")->loc, "\"integer mindepth\" must be in 1..10000, got %d", mindepth);
     if (!(threshold >= 0.0 && threshold < 1.0))
         return pbrt_error(err, params_find(p, "threshold")->loc, "\"float threshold\" must be in [0, 1), got %g", threshold);
-    /* 64: PHOTON_MAX_MONOCHROME_RAYS (worker/photon.h), the lanes a photon can carry. */
+    /* 64: PHOTON_MAX_MONOCHROME_RAYS (render/photon.h), the lanes a photon can carry. */
     if (mono < 1 || mono > 64)
         return pbrt_error(err, params_find(p, "monochromerays")->loc,
                           "\"integer monochromerays\" must be in 1..64, got %d", mono);

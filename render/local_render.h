@@ -1,6 +1,6 @@
 /* local_render: renders a whole image on this machine's cores -- the engine behind
  * `prismfarm render --direct`. The image is cut into tiles handed to threads from a shared
- * counter; each tile is rendered pass by pass (common/passes.h), each pass's sums rounded by
+ * counter; each tile is rendered pass by pass (film/passes.h), each pass's sums rounded by
  * tilebuf_round_sums and added in pass order, which is the farm's arithmetic: the image is
  * bit-identical to the farm's (any worker count, thread count or tile size), by construction. */
 #ifndef PRISMFARM_LOCAL_RENDER_H

@@ -1,6 +1,6 @@
 /* prismfarm plan: prints what a scene calls for -- wavelength splitting, spectral colour, the
  * dispersion strategy, a photon pass and its parameters, the integrator -- and why, as a
- * readable report or, with --json, as JSON (common/plan.h; docs/plan.md). */
+ * readable report or, with --json, as JSON (scene/plan.h; docs/plan.md). */
 #include "commands.h"
 
 #include "cli_args.h"

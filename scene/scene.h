@@ -125,7 +125,7 @@ typedef enum dispersion_kind {
     DISPERSION_FANOUT, /* the thesis: monochrome fan-out over the framebuffer buckets */
 } dispersion_kind_t;
 
-/* Integrator "photon" (docs/rendering.md): a photon pass (worker/photon.h) fills a caustic
+/* Integrator "photon" (docs/rendering.md): a photon pass (render/photon.h) fills a caustic
  * store before the camera pass, which then gathers with `integrator` (path or Whitted). */
 typedef enum photon_store_kind {
     PHOTON_STORE_PHOTONMAP, /* a kd-tree of photons, density estimation at gather time */

@@ -1,6 +1,6 @@
 /* passes: the cut of a pixel's samples into progressive passes, 0, 1, 2, 4, 8, ... spp -- one
  * cut for the farm's scheduler (master/sched.c) and for `prismfarm render --direct`
- * (worker/local_render.c), so that both sum the same per-pass tile sums in the same order and
+ * (render/local_render.c), so that both sum the same per-pass tile sums in the same order and
  * their images agree bit for bit (docs/farm.md, "Same pixels"). */
 #ifndef PRISMFARM_PASSES_H
 #define PRISMFARM_PASSES_H
