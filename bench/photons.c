@@ -16,6 +16,7 @@
 #include "camera.h"
 #include "lightmap.h"
 #include "local_render.h"
+#include "pool.h"
 #include "photon.h"
 #include "render.h"
 #include "scene_load.h"
@@ -148,15 +149,16 @@ static double trace_once(const scene_t *s, uint64_t n, int lanes, size_t *mem, s
     return t;
 }
 
-static void render_once(const scene_t *s, render_stats_t *st, double *wall, double *cpu)
+static void render_once(const scene_t *s, const photon_store_t *photons, render_stats_t *st,
+                        double *wall, double *cpu)
 {
     err_t err;
     tilebuf_t *img =
         tilebuf_new(0, 0, s->settings.xres, s->settings.yres, s->settings.grid.n, &err);
-    local_render_opts_t o = {.threads = 0};
+    local_render_opts_t o = {.threads = 0, .photons = photons};
     memset(st, 0, sizeof *st);
     double t0 = now_s(), c0 = proc_cpu_s();
-    if (!img || local_render(s, &o, img, st, &err))
+    if (!img || local_render(s, &o, img, st, NULL, &err))
         die(err.msg);
     *wall = now_s() - t0;
     *cpu = proc_cpu_s() - c0;
@@ -296,7 +298,7 @@ int main(int argc, char **argv)
         gather_cfg[ngather++] = c;
     }
 
-    int cores = local_render_cores();
+    int cores = pool_cores();
     char load0[64], load1[64];
     loadavg(load0, sizeof load0);
     scene_t *s = load(path, NULL, CAM_RES, 8);
@@ -376,7 +378,7 @@ int main(int argc, char **argv)
     double tp[50], cpp[50];
     render_stats_t pst_r;
     for (int r = 0; r < reps; r++)
-        render_once(p, &pst_r, &tp[r], &cpp[r]);
+        render_once(p, NULL, &pst_r, &tp[r], &cpp[r]);
     double mp = median(tp, reps), cmp = median(cpp, reps);
     uint64_t gphotons = 0;
     printf("\nThe gather (camera pass at %dx%d, 8 spp, path gather; stores traced "
@@ -392,14 +394,14 @@ int main(int argc, char **argv)
         scene_t *g = load(path, NULL, CAM_RES, 8);
         configure(g, &gather_cfg[c]);
         gphotons = g->settings.photon.photons;
-        const photon_store_t *st = photon_pass_get(g, NULL, NULL, &err);
+        photon_store_t *st = photon_pass_run(g, 0, NULL, NULL, &err);
         if (!st)
             die(err.msg);
         double found = 0, ns = gather_ns(st, pts, npts, &found);
         double tq[50], cq[50];
         render_stats_t a;
         for (int r = 0; r < reps; r++)
-            render_once(g, &a, &tq[r], &cq[r]);
+            render_once(g, st, &a, &tq[r], &cq[r]);
         double mq = median(tq, reps), cm = median(cq, reps);
         /* The photon map's wire form needs an unfinished map: 24 bytes a photon and a 32-byte
          * header (photon_map.h). */
@@ -407,6 +409,7 @@ int main(int argc, char **argv)
         printf("| %s | %.2f | %.3f | %.1f %% | %.0f | %.3f | %.3f | %+.1f %% |\n",
                gather_cfg[c].label, photon_store_memory_bytes(st) / 1e6, wire / 1e6, 100.0 * found,
                ns, cm, mq, 100.0 * (cm / cmp - 1.0));
+        photon_store_destroy(&st);
         scene_destroy(&g);
     }
     printf("\nStores of %llu photons (the scene's count); \"gather's cost\" is the camera pass's "

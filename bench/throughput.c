@@ -19,6 +19,7 @@
  *   repetition run one after the other so that they share the machine's state. Single-thread
  *   figures use CPU time, which moves much less than wall-clock time on a shared machine. */
 #include "local_render.h"
+#include "pool.h"
 #include "photon.h"
 #include "render.h"
 #include "scene_load.h"
@@ -208,17 +209,17 @@ typedef struct run {
     uint64_t rays;
 } run_t;
 
-static run_t render_run(const scene_t *s, int threads)
+static run_t render_run(const scene_t *s, const photon_store_t *photons, int threads)
 {
     err_t err;
     const render_settings_t *rs = &s->settings;
     tilebuf_t *img = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, &err);
     if (!img)
         die("tilebuf_new", err.msg);
-    local_render_opts_t o = {.threads = threads};
+    local_render_opts_t o = {.threads = threads, .photons = photons};
     render_stats_t st = {0};
     double w0 = wall_s(), c0 = process_cpu_s();
-    if (local_render(s, &o, img, &st, &err))
+    if (local_render(s, &o, img, &st, NULL, &err))
         die("local_render", err.msg);
     run_t r = {.wall = wall_s() - w0, .cpu = process_cpu_s() - c0, .rays = st.rays};
     tilebuf_destroy(&img);
@@ -506,7 +507,7 @@ static const char *base_name(const char *path)
     return s ? s + 1 : path;
 }
 
-static scene_t *load(const char *path, const options_t *o)
+static scene_t *load(const char *path, const options_t *o, photon_store_t **photons)
 {
     err_t err;
     scene_overrides_t ov = {.seed = -1, .xres = o->xres, .yres = o->yres, .spp = o->spp};
@@ -516,7 +517,7 @@ static scene_t *load(const char *path, const options_t *o)
     if (s->settings.photon.enabled) {
         /* The camera pass's store, traced now on every core so that no render below pays
          * for it (and its rays are not recorded). */
-        if (!photon_pass_get(s, NULL, NULL, &err))
+        if (!(*photons = photon_pass_run(s, 0, NULL, NULL, &err)))
             die(path, err.msg);
     }
     return s;
@@ -526,7 +527,8 @@ static void bench_scene(const char *path, const options_t *o, scene_figures_t *f
 {
     memset(f, 0, sizeof *f);
     snprintf(f->name, sizeof f->name, "%s", base_name(path));
-    scene_t *s = load(path, o);
+    photon_store_t *photons = NULL;
+    scene_t *s = load(path, o, &photons);
     f->photon = s->settings.photon.enabled;
     RTCScene rtc = geometry_embree_scene(s->geometry);
     if (!rtc)
@@ -536,7 +538,7 @@ static void bench_scene(const char *path, const options_t *o, scene_figures_t *f
      * since every random number depends on (seed, pixel, sample, dimension) only. */
     ray_log_t log = {0};
     geometry_set_query_hook(s->geometry, log_query, &log);
-    run_t rec = render_run(s, 1);
+    run_t rec = render_run(s, photons, 1);
     geometry_set_query_hook(s->geometry, NULL, NULL);
     if (log.failed)
         die(path, "out of memory recording the rays");
@@ -551,7 +553,7 @@ static void bench_scene(const char *path, const options_t *o, scene_figures_t *f
     double rc[THREADS_MAX + 1][REPS_MAX], pc1[REPS_MAX], kc[NMODES][REPS_MAX];
     for (int r = 0; r < o->reps; r++) {
         for (int t = 1; t <= o->threads; t++) {
-            run_t a = render_run(s, t);
+            run_t a = render_run(s, photons, t);
             run_t b = replay_run(rtc, &log, t, ref);
             rw[t][r] = a.wall;
             rc[t][r] = a.cpu;
@@ -584,6 +586,7 @@ static void bench_scene(const char *path, const options_t *o, scene_figures_t *f
     }
     free(ref);
     free(log.q);
+    photon_store_destroy(&photons);
     scene_destroy(&s);
 }
 
@@ -592,14 +595,16 @@ static void bench_scene(const char *path, const options_t *o, scene_figures_t *f
  * leave out the scene's loading and photon pass. */
 static void profile_scene(const char *path, const options_t *o)
 {
-    scene_t *s = load(path, o);
+    photon_store_t *photons = NULL;
+    scene_t *s = load(path, o, &photons);
     double w0 = wall_s();
     for (int r = 0; r < o->reps; r++) {
-        run_t a = render_run(s, 1);
+        run_t a = render_run(s, photons, 1);
         printf("%s: %llu rays in %.3f CPU s, %.2f M rays per CPU second\n", base_name(path),
                (unsigned long long)a.rays, a.cpu, safe_div((double)a.rays, a.cpu) / 1e6);
     }
     fprintf(stderr, "profile window %s: %.6f,%.6f\n", base_name(path), w0, wall_s());
+    photon_store_destroy(&photons);
     scene_destroy(&s);
 }
 
@@ -739,7 +744,7 @@ static void usage(void)
 int main(int argc, char **argv)
 {
     options_t o = {.xres = 160, .yres = 120, .spp = 16, .reps = 3,
-                   .threads = local_render_cores(), .photons = 100000};
+                   .threads = pool_cores(), .photons = 100000};
     const char **paths = xmalloc((size_t)argc * sizeof *paths);
     int npaths = 0;
     for (int i = 1; i < argc; i++) {
@@ -806,8 +811,8 @@ int main(int argc, char **argv)
 
     printf("Machine: %s, %d cores; Embree %d.%d.%d. Load average (1, 5, 15 min) %s before, %s "
            "after; other processes used %.2f of the %d cores on average during the %.0f s run.\n",
-           cpu, local_render_cores(), RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH,
-           load0, load1, others < 0 ? 0.0 : others, local_render_cores(), elapsed);
+           cpu, pool_cores(), RTC_VERSION_MAJOR, RTC_VERSION_MINOR, RTC_VERSION_PATCH,
+           load0, load1, others < 0 ? 0.0 : others, pool_cores(), elapsed);
     printf("Every scene at %dx%d, %d spp; median of %d repetitions.\n\n", o.xres, o.yres, o.spp,
            o.reps);
     report(f, npaths, &o);

@@ -42,8 +42,11 @@ int cli_parse_override(const char *cmd, const char *flag, const char *val, scene
         ov->xres = w;
         ov->yres = h;
     } else if (!strcmp(flag, "--integrator")) {
-        if (strcmp(val, "path") && strcmp(val, "simplepath") && strcmp(val, "whitted")) {
-            fprintf(stderr, "prismfarm %s: --integrator expects path, simplepath or whitted, got '%s'\n", cmd, val);
+        const integrator_name_t *named = integrators_find(val);
+        if (!named || !named->overridable) {
+            char names[INTEGRATORS_LIST_MAX];
+            integrators_list(true, names, sizeof names);
+            fprintf(stderr, "prismfarm %s: --integrator expects %s, got '%s'\n", cmd, names, val);
             return -1;
         }
         ov->integrator = val;

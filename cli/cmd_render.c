@@ -3,28 +3,28 @@
 #include "commands.h"
 
 #include "cli_args.h"
-#include "error_estimate.h"
+#include "clock.h"
 #include "film.h"
+#include "jobinfo.h"
 #include "local_farm.h"
 #include "local_render.h"
 #include "photon.h"
+#include "pool.h"
 #include "progress.h"
 #include "scene_load.h"
-#include "passes.h"
 
 #include <errno.h>
 #include <limits.h>
-#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
-#include <time.h>
 #include <unistd.h>
-#if defined(__SSE__)
-#include <pmmintrin.h>
-#include <xmmintrin.h>
-#endif
+
+/* The wire's reasons for an early end are film/stopping.h's, value for value. */
+_Static_assert((int)PROTO_STOP_TARGET == (int)STOPPING_TARGET &&
+                   (int)PROTO_STOP_TIME == (int)STOPPING_TIME,
+               "proto_stop_t and stopping_why_t differ");
 
 static void usage(FILE *out)
 {
@@ -69,176 +69,18 @@ static int make_parent_dirs(const char *path)
     return 0;
 }
 
-static double seconds_since(const struct timespec *t0)
+/* The progress line of --direct under a stopping rule: the spp and estimate of each pass. */
+static void on_pass(void *user, const pass_record_t *rec, uint64_t done, uint64_t total)
 {
-    struct timespec t1;
-    clock_gettime(CLOCK_MONOTONIC, &t1);
-    return (double)(t1.tv_sec - t0->tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0->tv_nsec);
-}
-
-/* One progressive pass of --direct with a stopping rule, shared by its threads. */
-typedef struct pass_run {
-    const scene_t *scene;
-    int tile, tiles_x, ntiles, next;
-    uint32_t sb, se;
-    tilebuf_t *pass;         /* this pass's samples over the whole image */
-    double deadline;         /* seconds since t0 after which the pass is dropped; 0: never */
-    const struct timespec *t0;
-    int failed, abandoned;
-    err_t err;
-    render_stats_t stats;
-    uint64_t samples_before; /* of the passes merged, for the progress line */
-    uint64_t samples_done, samples_total;
-    progress_t *prog;
-    pthread_mutex_t lock;
-} pass_run_t;
-
-static void *pass_thread(void *arg)
-{
-    pass_run_t *r = arg;
-    const render_settings_t *rs = &r->scene->settings;
-#if defined(__SSE__)
-    /* As every render thread (local_render.c, worker_daemon.c): Embree's advice, and the same
-     * floating-point mode as the farm's workers, so the bytes match theirs. */
-    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
-    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
-#endif
-    for (;;) {
-        pthread_mutex_lock(&r->lock);
-        /* Past the time limit, a pass with tiles left is dropped: a tile already rendering
-         * finishes, no other starts (the farm's workers are told to cancel, as for a cancel). */
-        if (!r->failed && !r->abandoned && r->next < r->ntiles && r->deadline > 0 &&
-            seconds_since(r->t0) >= r->deadline)
-            r->abandoned = 1;
-        int t = r->failed || r->abandoned ? r->ntiles : r->next++;
-        pthread_mutex_unlock(&r->lock);
-        if (t >= r->ntiles)
-            return NULL;
-        int x0 = (t % r->tiles_x) * r->tile, y0 = (t / r->tiles_x) * r->tile;
-        int w = rs->xres - x0 < r->tile ? rs->xres - x0 : r->tile;
-        int h = rs->yres - y0 < r->tile ? rs->yres - y0 : r->tile;
-        err_t err;
-        render_stats_t st = {0};
-        tilebuf_t *buf = tilebuf_new(x0, y0, w, h, rs->grid.n, &err);
-        int rc = buf ? render_tile(r->scene, x0, y0, w, h, r->sb, r->se, buf, &st, &err) : -1;
-        pthread_mutex_lock(&r->lock);
-        if (rc == 0)
-            rc = tilebuf_merge(r->pass, buf, &err);
-        if (rc != 0 && !r->failed) {
-            r->failed = 1;
-            r->err = err;
-        }
-        r->stats.samples += st.samples;
-        r->stats.rays += st.rays;
-        r->stats.nonfinite += st.nonfinite;
-        r->stats.dispersive += st.dispersive;
-        r->samples_done += (uint64_t)w * (uint64_t)h * (r->se - r->sb);
-        progress_update(r->prog, r->samples_before + r->samples_done, r->samples_total, seconds_since(r->t0));
-        pthread_mutex_unlock(&r->lock);
-        tilebuf_destroy(&buf);
-    }
-}
-
-/* A pass record of --direct, as the master keeps them (docs/farm.md, "Accuracy"). */
-typedef struct direct_pass {
-    int pass, spp;
-    double elapsed;
-    error_estimate_t e;
-} direct_pass_t;
-
-/* --direct with a stopping rule: the farm's progressive passes (passes_bounds) on threads
- * of this process. Each pass is rendered tile by tile into a buffer of its own and merged into
- * the image only when whole, in pass order: the per-pixel sums the farm's master makes, bit for
- * bit. After each pass the error estimate decides, as on the master; a time limit drops the
- * pass in flight (after the first). Returns 0 with the passes in hist[*nhist] and why it
- * stopped, or -1 with err. */
-static int render_passes(const scene_t *scene, int threads, const cli_stop_t *stop, tilebuf_t *image,
-                         progress_t *prog, const struct timespec *t0, render_stats_t *stats,
-                         direct_pass_t *hist, int *nhist, proto_stop_t *why, err_t *err)
-{
-    const render_settings_t *rs = &scene->settings;
-    uint32_t bounds[64];
-    int npasses = passes_bounds(rs->spp, bounds);
-    pass_run_t r = {.scene = scene, .tile = 32, .t0 = t0, .prog = prog,
-                    .samples_total = (uint64_t)rs->xres * (uint64_t)rs->yres * (uint64_t)rs->spp};
-    r.tiles_x = (rs->xres + r.tile - 1) / r.tile;
-    r.ntiles = r.tiles_x * ((rs->yres + r.tile - 1) / r.tile);
-    int n = threads > 0 ? threads : local_render_cores();
-    if (n > r.ntiles)
-        n = r.ntiles;
-    pthread_t *th = calloc((size_t)n, sizeof *th);
-    if (!th || pthread_mutex_init(&r.lock, NULL)) {
-        free(th);
-        return err_set(err, "out of memory for %d render threads", n);
-    }
-    *nhist = 0;
-    *why = PROTO_STOP_NONE;
-    int rc = 0;
-    for (int pass = 0; pass < npasses; pass++) {
-        r.sb = bounds[pass];
-        r.se = bounds[pass + 1];
-        r.next = r.failed = r.abandoned = 0;
-        r.samples_done = 0;
-        r.stats = (render_stats_t){0};
-        r.deadline = pass > 0 ? stop->time_limit : 0; /* the first pass always completes */
-        if (!(r.pass = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, err))) {
-            rc = -1;
-            break;
-        }
-        int started = 0;
-        for (; started < n; started++)
-            if (pthread_create(&th[started], NULL, pass_thread, &r))
-                break;
-        if (started == 0)
-            pass_thread(&r); /* no thread could start: render on this one */
-        for (int i = 0; i < started; i++)
-            pthread_join(th[i], NULL);
-        if (r.failed) {
-            *err = r.err;
-            rc = -1;
-        } else if (!r.abandoned) {
-            /* The pass's sums rounded as the farm's workers round theirs (tilebuf.h): the
-             * rule is per value, so rounding the whole pass equals rounding each tile. */
-            tilebuf_round_sums(r.pass);
-            rc = tilebuf_merge(image, r.pass, err);
-        }
-        tilebuf_destroy(&r.pass);
-        if (rc || r.abandoned) {
-            *why = r.abandoned ? PROTO_STOP_TIME : *why;
-            break;
-        }
-        /* The counters describe the image: a dropped pass's work is not in them. */
-        stats->samples += r.stats.samples;
-        stats->rays += r.stats.rays;
-        stats->nonfinite += r.stats.nonfinite;
-        stats->dispersive += r.stats.dispersive;
-        r.samples_before += r.samples_done;
-        direct_pass_t *h = &hist[(*nhist)++];
-        *h = (direct_pass_t){.pass = pass + 1, .spp = (int)bounds[pass + 1], .elapsed = seconds_since(t0),
-                             .e = error_estimate_image(image)};
-        char extra[96];
-        if (h->e.valid)
-            snprintf(extra, sizeof extra, "%d spp, rel. error %.4f", h->spp, h->e.rel_rmse);
-        else
-            snprintf(extra, sizeof extra, "%d spp", h->spp);
-        prog->extra = extra;
-        progress_update(prog, r.samples_before, r.samples_total, h->elapsed);
-        prog->extra = NULL;
-        if (pass + 1 == npasses)
-            break;
-        if (stop->target_error > 0 && h->e.valid && h->e.rel_rmse <= stop->target_error)
-            *why = PROTO_STOP_TARGET;
-        else if (stop->time_limit > 0 && h->elapsed >= stop->time_limit)
-            *why = PROTO_STOP_TIME;
-        if (*why != PROTO_STOP_NONE)
-            break;
-    }
-    pthread_mutex_destroy(&r.lock);
-    free(th);
-    if (rc == 0 && *why != PROTO_STOP_NONE)
-        progress_end(prog, r.samples_before, r.samples_total, seconds_since(t0),
-                     *why == PROTO_STOP_TARGET ? "target error reached" : "time limit reached");
-    return rc;
+    progress_t *prog = user;
+    char extra[96];
+    if (rec->valid)
+        snprintf(extra, sizeof extra, "%d spp, rel. error %.4f", rec->spp, rec->rel_error);
+    else
+        snprintf(extra, sizeof extra, "%d spp", rec->spp);
+    prog->extra = extra;
+    progress_update(prog, done, total, rec->elapsed);
+    prog->extra = NULL;
 }
 
 static const char *stop_text(proto_stop_t why)
@@ -248,12 +90,12 @@ static const char *stop_text(proto_stop_t why)
                                     : "";
 }
 
-/* The same render without the farm: threads of this process over tiles (--direct). */
+/* The same render without the farm: the photon pass, if any, then the camera pass on this
+ * process's threads (render/local_render.h; --direct). */
 static int render_direct(const scene_t *scene, const char *scene_path, int threads, int quiet,
                          const cli_stop_t *stop, const char *exr, const char *png,
-                         colour_tonemap_t tm, const struct timespec *t0)
+                         colour_tonemap_t tm, double t0)
 {
-    static const char *integ_names[] = {"simplepath", "path", "whitted"};
     const render_settings_t *rs = &scene->settings;
     err_t err;
     tilebuf_t *image = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, &err);
@@ -264,49 +106,43 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
     progress_t prog = progress_make("render", quiet);
     render_stats_t st = {0};
     int rc = 0;
-    direct_pass_t hist[64];
-    int nhist = 0;
-    proto_stop_t why = PROTO_STOP_NONE;
-    struct timespec start;
-    clock_gettime(CLOCK_MONOTONIC, &start);
-    if (stop->target_error > 0 || stop->time_limit > 0) {
-        if (render_passes(scene, threads, stop, image, &prog, &start, &st, hist, &nhist, &why, &err)) {
-            fprintf(stderr, "prismfarm render: %s\n", err.msg);
-            rc = 1;
-        }
-    } else {
-        local_render_opts_t opts = {.threads = threads, .progress = on_progress, .user = &prog};
-        if (local_render(scene, &opts, image, &st, &err)) {
-            fprintf(stderr, "prismfarm render: %s\n", err.msg);
-            rc = 1;
-        }
-        /* One record: every pass at once. */
-        hist[nhist++] = (direct_pass_t){.pass = passes_bounds(rs->spp, NULL), .spp = rs->spp,
-                                        .elapsed = seconds_since(&start), .e = error_estimate_image(image)};
+    double start = clock_now_s();
+    photon_stats_t pst = {0};
+    double psec = 0;
+    photon_store_t *photons = NULL;
+    if (rs->photon.enabled && !(photons = photon_pass_run(scene, threads, &pst, &psec, &err))) {
+        fprintf(stderr, "prismfarm render: photon pass: %s\n", err.msg);
+        tilebuf_destroy(&image);
+        return 1;
     }
-    double secs = seconds_since(t0);
-    const direct_pass_t *last = nhist > 0 ? &hist[nhist - 1] : NULL;
+    local_render_opts_t opts = {.threads = threads, .photons = photons, .t0 = start,
+                                .stop = {.target_error = stop->target_error,
+                                         .time_limit = stop->time_limit},
+                                .progress = on_progress, .pass_done = on_pass, .user = &prog};
+    local_render_result_t res;
+    if (local_render(scene, &opts, image, &st, &res, &err)) {
+        fprintf(stderr, "prismfarm render: %s\n", err.msg);
+        rc = 1;
+    } else if (res.why != STOPPING_NONE) {
+        progress_end(&prog, st.samples, (uint64_t)rs->xres * (uint64_t)rs->yres * (uint64_t)rs->spp,
+                     clock_now_s() - start,
+                     res.why == STOPPING_TARGET ? "target error reached" : "time limit reached");
+    }
+    double secs = clock_now_s() - t0;
+    const pass_record_t *last = rc == 0 && res.nhistory > 0 ? &res.history[res.nhistory - 1] : NULL;
     if (rc == 0) {
-        /* The accuracy keys as the master writes them (docs/farm.md, "Accuracy"). */
-        char info[4096], rel[32] = "none";
-        if (last && last->e.valid)
-            snprintf(rel, sizeof rel, "%.6g", last->e.rel_rmse);
-        int n = snprintf(info, sizeof info,
-                 "scene=%s;spp=%d;integrator=%s;dispersion=%s;seed=%llu;samples=%llu;rays=%llu;"
-                 "nonfinite=%llu;seconds=%.3f;spp_done=%d;rel_rmse=%s;stop=%s;target_error=%g;"
-                 "time_limit=%g;history=",
-                 scene_path, rs->spp, integ_names[rs->integrator],
-                 scene->has_dispersion ? (rs->dispersion == DISPERSION_HERO ? "hero" : "fanout") : "off",
-                 (unsigned long long)rs->seed, (unsigned long long)st.samples,
-                 (unsigned long long)st.rays, (unsigned long long)st.nonfinite, secs,
-                 last ? last->spp : 0, rel, proto_stop_name(why), stop->target_error, stop->time_limit);
-        for (int i = 0; i < nhist && n > 0 && (size_t)n < sizeof info; i++) {
-            char e[32] = "-";
-            if (hist[i].e.valid)
-                snprintf(e, sizeof e, "%.6g", hist[i].e.rel_rmse);
-            n += snprintf(info + n, sizeof info - (size_t)n, "%s%d:%d:%.3f:%s", i ? "," : "",
-                          hist[i].pass, hist[i].spp, hist[i].elapsed, e);
-        }
+        /* The record the master writes (docs/farm.md, "Accuracy"), from the same writer. */
+        char info[4096];
+        jobinfo_t ji = {.scene = scene_path, .spp = rs->spp, .xres = rs->xres, .yres = rs->yres,
+                        .seed = rs->seed,
+                        .integrator = integrators_used_name(rs->integrator, rs->photon.enabled),
+                        .dispersion = !scene->has_dispersion ? "off"
+                                      : rs->dispersion == DISPERSION_HERO ? "hero" : "fanout",
+                        .samples = st.samples, .nonfinite = st.nonfinite,
+                        .photons = pst.emitted, .rays = (int64_t)st.rays, .seconds = secs,
+                        .spp_done = last ? last->spp : 0, .stop = res.why,
+                        .rule = opts.stop, .history = res.history, .nhistory = res.nhistory};
+        jobinfo_format(&ji, info, sizeof info);
         film_output_t fo = {.exr_path = exr, .png_path = png, .spectral = 1, .tonemap = tm, .info = info};
         if (film_write(image, rs->grid, &fo, &err)) {
             fprintf(stderr, "prismfarm render: %s\n", err.msg);
@@ -316,22 +152,21 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
             printf("%llu samples, %.1f M rays in %.2f s (%.2f M rays/s); %llu non-finite samples discarded\n",
                    (unsigned long long)st.samples, st.rays / 1e6, secs, st.rays / 1e6 / (secs > 0 ? secs : 1),
                    (unsigned long long)st.nonfinite);
-            if (last && last->e.valid)
+            proto_stop_t why = (proto_stop_t)res.why;
+            if (last && last->valid)
                 printf("%d of %d spp, relative error estimate %.4f%s\n", last->spp, rs->spp,
-                       last->e.rel_rmse, stop_text(why));
+                       last->rel_error, stop_text(why));
             else if (last)
                 printf("%d of %d spp, no relative error estimate%s%s\n", last->spp, rs->spp,
                        last->spp < 2 ? " (1 sample per pixel)" : "", stop_text(why));
-            photon_stats_t pst;
-            double psec;
-            const photon_store_t *ps = rs->photon.enabled ? photon_pass_get(scene, &pst, &psec, &err) : NULL;
-            if (ps)
+            if (photons)
                 printf("photon pass: %llu photons in %.2f s, %zu %s (%.1f MB)\n", (unsigned long long)pst.emitted,
-                       psec, photon_store_count(ps),
-                       photon_store_kind(ps) == PHOTON_STORE_LIGHTMAP ? "texels lit" : "stored",
-                       photon_store_memory_bytes(ps) / 1e6);
+                       psec, photon_store_count(photons),
+                       photon_store_kind(photons) == PHOTON_STORE_LIGHTMAP ? "texels lit" : "stored",
+                       photon_store_memory_bytes(photons) / 1e6);
         }
     }
+    photon_store_destroy(&photons);
     tilebuf_destroy(&image);
     return rc;
 }
@@ -408,8 +243,7 @@ int cmd_render(int argc, char **argv)
     }
 
     err_t err;
-    struct timespec t0;
-    clock_gettime(CLOCK_MONOTONIC, &t0);
+    double t0 = clock_now_s();
     scene_t *scene = scene_load_file(scene_path, &ov, &err);
     if (!scene) {
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
@@ -437,14 +271,13 @@ int cmd_render(int argc, char **argv)
         return 1;
     }
 
-    static const char *integ_names[] = {"simplepath", "path", "whitted"};
     if (!quiet) {
         fprintf(stderr, "render: %s, %dx%d, %d spp, integrator %s, %d buckets over %g-%g nm\n", scene_path,
-                rs->xres, rs->yres, rs->spp, integ_names[rs->integrator], rs->grid.n,
+                rs->xres, rs->yres, rs->spp, integrators_kind_name(rs->integrator), rs->grid.n,
                 rs->grid.lambda_min, rs->grid.lambda_max);
         if (rs->photon.enabled)
             fprintf(stderr, "render: photon integrator: %llu photons into a photon map, gathered by %s\n",
-                    (unsigned long long)rs->photon.photons, integ_names[rs->integrator]);
+                    (unsigned long long)rs->photon.photons, integrators_kind_name(rs->integrator));
         if (scene->has_dispersion) {
             fprintf(stderr, "render: dispersion on (%s) for:", rs->dispersion == DISPERSION_HERO ? "hero wavelengths" : "thesis fan-out");
             for (size_t i = 0; i < scene->nmaterials; i++)
@@ -460,7 +293,7 @@ int cmd_render(int argc, char **argv)
     int rc = 0;
     colour_tonemap_t tm = {.exposure_stops = exposure, .curve = COLOUR_CURVE_ACES};
     if (direct) {
-        rc = render_direct(scene, scene_path, (int)threads, quiet, &stop, exr, png, tm, &t0);
+        rc = render_direct(scene, scene_path, (int)threads, quiet, &stop, exr, png, tm, t0);
     } else {
         /* The farm's code path: a master and workers in this process. */
         const char *base = strrchr(scene_path, '/');
@@ -470,7 +303,7 @@ int cmd_render(int argc, char **argv)
         if (n > 5 && !strcmp(base + n - 5, ".pbrt"))
             n -= 5;
         snprintf(name, sizeof name, "%.*s", (int)n, base);
-        int cores = local_render_cores();
+        int cores = pool_cores();
         /* The master writes its PNG with no exposure change: fetching it saves decoding the
          * EXR and encoding the PNG again; another exposure is tone-mapped here from the EXR. */
         bool master_png = exposure == 0;

@@ -1,5 +1,6 @@
 #include "job_follow.h"
 
+#include "clock.h"
 #include "progress.h"
 
 #include <errno.h>
@@ -10,25 +11,11 @@
 /* How long a master may be unreachable while a job is followed before the wait gives up. */
 #define JOB_FOLLOW_RECONNECT_S 120
 
-static void sleep_s(double s)
-{
-    struct timespec ts = {(time_t)s, (long)((s - (double)(time_t)s) * 1e9)};
-    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {
-    }
-}
-
-static double now_s(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
-
 int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t *last,
                     char *error, size_t esize)
 {
     progress_t prog = progress_make("job", quiet);
-    double t0 = now_s();
+    double t0 = clock_now_s();
     /* A long poll (docs/protocol.md, STATUS `wait`): the master answers as soon as the job is
      * over, so its end is learnt at once, and otherwise after the wait, which paces the
      * progress line; with no progress to show, few questions are asked. */
@@ -37,7 +24,7 @@ int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t
     for (;;) {
         proto_msg_t req = {.type = PROTO_STATUS, .status = {.job = job, .wait_ms = wait_ms}}, reply;
         err_t err;
-        double asked = now_s();
+        double asked = clock_now_s();
         int rc = client_rpc_call(rpc, &req, &reply, (int)wait_ms + 10000, &err);
         /* A master that went away (restarted, or a network cut) is asked again on a fresh
          * connection for a while: a restarted master resumes the job from its journal
@@ -50,8 +37,8 @@ int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t
                             JOB_FOLLOW_RECONNECT_S);
             }
             err_t rerr;
-            if (now_s() - lost_since < JOB_FOLLOW_RECONNECT_S) {
-                sleep_s(1.0);
+            if (clock_now_s() - lost_since < JOB_FOLLOW_RECONNECT_S) {
+                clock_sleep_s(1.0);
                 if (client_rpc_reconnect(rpc, &rerr) == 0)
                     continue;
                 snprintf(err.msg, sizeof err.msg, "%s", rerr.msg);
@@ -81,9 +68,9 @@ int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t
             snprintf(extra, sizeof extra, "%u spp", j.spp);
         prog.extra = extra;
         if (j.samples_total)
-            progress_update(&prog, j.samples_done, j.samples_total, now_s() - t0);
+            progress_update(&prog, j.samples_done, j.samples_total, clock_now_s() - t0);
         if (state == PROTO_JOB_DONE && j.stop != PROTO_STOP_NONE)
-            progress_end(&prog, j.samples_done, j.samples_total, now_s() - t0,
+            progress_end(&prog, j.samples_done, j.samples_total, clock_now_s() - t0,
                          j.stop == PROTO_STOP_TARGET ? "target error reached" : "time limit reached");
         prog.extra = NULL;
         proto_msg_free(&reply);
@@ -91,7 +78,7 @@ int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t
             return state;
         /* A master that answered early with the job still running (one that holds too many
          * long polls, or ignores `wait`) is asked again only after the wait. */
-        double left = wait_ms / 1000.0 - (now_s() - asked);
+        double left = wait_ms / 1000.0 - (clock_now_s() - asked);
         if (left > 0) {
             struct timespec ts = {(time_t)left, (long)((left - (double)(time_t)left) * 1e9)};
             nanosleep(&ts, NULL);

@@ -14,4 +14,8 @@
  * the number of passes: pass p covers sample indices [bounds[p], bounds[p+1]). 0 for spp < 1. */
 int passes_bounds(int spp, uint32_t *bounds);
 
+/* Pass pass's sample range [*begin, *end) of the same cut; an empty range at spp past the
+ * last pass. */
+void passes_range(int spp, uint64_t pass, uint32_t *begin, uint32_t *end);
+
 #endif

@@ -4,9 +4,12 @@
 #include "bundle.h"
 #include "curve.h"
 #include "error_estimate.h"
+#include "clock.h"
 #include "film.h"
+#include "jobinfo.h"
 #include "journal.h"
 #include "net.h"
+#include "passes.h"
 #include "photon_phase.h"
 #include "scene_load.h"
 #include "spool.h"
@@ -23,6 +26,12 @@
 #include <time.h>
 #include <unistd.h>
 #include <zmq.h>
+
+/* The wire's reasons for an early end are film/stopping.h's, value for value. */
+_Static_assert((int)PROTO_STOP_NONE == (int)STOPPING_NONE &&
+                   (int)PROTO_STOP_TARGET == (int)STOPPING_TARGET &&
+                   (int)PROTO_STOP_TIME == (int)STOPPING_TIME,
+               "proto_stop_t and stopping_why_t differ");
 
 #define POLL_MS 100              /* longest wait on the sockets: the stop flag's latency */
 #define RECV_BURST 1000          /* messages taken from one socket per loop turn */
@@ -44,14 +53,6 @@ typedef struct mworker {
 } mworker_t;
 
 /* One merged pass of a job and the error estimate after it (docs/farm.md, "Accuracy"). */
-typedef struct pass_record {
-    int pass, spp;    /* passes merged (1-based) and samples per pixel they hold */
-    double elapsed;   /* seconds since the job started */
-    bool valid;       /* an estimate exists (not after the first pass: 1 sample per pixel) */
-    double rel_error; /* relative RMSE of the mean luminance, film/error_estimate.h */
-} pass_record_t;
-
-#define MAX_PASS_RECORDS 40 /* passes of a job: log2(2^24 spp) + 1 = 25, with room */
 
 typedef struct mjob {
     uint64_t id;
@@ -88,7 +89,7 @@ typedef struct mjob {
     uint32_t round;
     /* Accuracy of the current round: a record per merged pass, the spp of the passes merged
      * (kept when the scheduler forgets the job) and why it ended before its last pass. */
-    pass_record_t history[MAX_PASS_RECORDS];
+    pass_record_t history[STOPPING_MAX_RECORDS];
     int nhistory;
     int spp_done;
     proto_stop_t stop;
@@ -130,12 +131,6 @@ typedef struct master {
 
 static bool job_over(const mjob_t *j);
 
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 __attribute__((format(printf, 2, 3))) static void mlog(const master_t *m, const char *fmt, ...)
 {
@@ -343,30 +338,6 @@ static void make_stem(const char *name, char *out, size_t size)
         snprintf(out, size, "preview_");
 }
 
-/* The job's accuracy for the EXR's "prismfarm" attribute, appended to out:
- * ";spp_done=S;rel_rmse=E|none;stop=none|target|time;target_error=..;time_limit=..;
- * history=PASS:SPP:SECONDS:REL_RMSE,..." with "-" for a pass without an estimate. */
-static void accuracy_info(const mjob_t *j, int spp_done, char *out, size_t size)
-{
-    size_t n = strlen(out);
-    const pass_record_t *last = j->nhistory > 0 ? &j->history[j->nhistory - 1] : NULL;
-    char rel[32] = "none";
-    if (last && last->valid)
-        snprintf(rel, sizeof rel, "%.6g", last->rel_error);
-    n += (size_t)snprintf(out + n, n < size ? size - n : 0,
-                          ";spp_done=%d;rel_rmse=%s;stop=%s;target_error=%g;time_limit=%g;history=",
-                          spp_done, rel, proto_stop_name(j->stop), j->settings.target_error,
-                          j->settings.time_limit);
-    for (int i = 0; i < j->nhistory && n < size; i++) {
-        const pass_record_t *r = &j->history[i];
-        char e[32] = "-";
-        if (r->valid)
-            snprintf(e, sizeof e, "%.6g", r->rel_error);
-        n += (size_t)snprintf(out + n, size - n, "%s%d:%d:%.3f:%s", i ? "," : "", r->pass, r->spp,
-                              r->elapsed, e);
-    }
-}
-
 static int write_image(master_t *m, mjob_t *j, bool final, err_t *err)
 {
     char dir[PATH_MAX], exr[PATH_MAX + 100], png[PATH_MAX + 100];
@@ -379,15 +350,17 @@ static int write_image(master_t *m, mjob_t *j, bool final, err_t *err)
     if (sched_job_info(m->sched, j->id, &si) < 0)
         return err_set(err, "job %llu is unknown to the scheduler", (unsigned long long)j->id);
     char info[4096];
-    snprintf(info, sizeof info,
-             "job=%llu;name=%s;scene=%s;spp=%d;xres=%d;yres=%d;seed=%llu;integrator=%s;"
-             "dispersion=%s;samples=%llu;nonfinite=%llu;photons=%llu;seconds=%.3f",
-             (unsigned long long)j->id, j->stem, j->hash, j->spp, j->xres, j->yres,
-             (unsigned long long)j->seed, j->integrator_used, j->dispersion_used,
-             (unsigned long long)si.samples_done, (unsigned long long)si.nonfinite,
-             (unsigned long long)(j->photons ? photon_phase_stats(j->photons).photons : 0),
-             j->started > 0 ? now_s() - j->started : 0.0);
-    accuracy_info(j, si.spp_done, info, sizeof info);
+    jobinfo_t ji = {.job = j->id, .name = j->stem, .scene = j->hash, .spp = j->spp,
+                    .xres = j->xres, .yres = j->yres, .seed = j->seed,
+                    .integrator = j->integrator_used, .dispersion = j->dispersion_used,
+                    .samples = si.samples_done, .nonfinite = si.nonfinite,
+                    .photons = j->photons ? photon_phase_stats(j->photons).photons : 0,
+                    .rays = -1, .seconds = j->started > 0 ? clock_now_s() - j->started : 0.0,
+                    .spp_done = si.spp_done, .stop = (stopping_why_t)j->stop,
+                    .rule = {.target_error = j->settings.target_error,
+                             .time_limit = j->settings.time_limit},
+                    .history = j->history, .nhistory = j->nhistory};
+    jobinfo_format(&ji, info, sizeof info);
     film_output_t out = {
         .spectral = 1, .tonemap = {.exposure_stops = 0, .curve = COLOUR_CURVE_ACES}, .info = info};
     if (final) {
@@ -782,14 +755,6 @@ static void on_hello(master_t *m, const proto_peer_t *from, mworker_t *w, const 
              w->threads == 1 ? "" : "s", msg->hello.software);
 }
 
-/* The sample range of a task, as sched.c cuts passes: 0, 1, 2, 4, 8, ... up to spp. */
-static void pass_range(int spp, uint64_t pass, uint32_t *begin, uint32_t *end)
-{
-    uint64_t b = pass == 0 ? 0 : (uint64_t)1 << (pass - 1), e = (uint64_t)1 << pass;
-    *begin = (uint32_t)(b < (uint64_t)spp ? b : (uint64_t)spp);
-    *end = (uint32_t)(e < (uint64_t)spp ? e : (uint64_t)spp);
-}
-
 /* After a result that completed one or more passes. At each pass boundary: the error estimate
  * of the image (exactly the passes merged when the job may end early: sched.h, whole passes),
  * its record and log line, and the stopping rules, which end the job at the first boundary
@@ -804,9 +769,8 @@ static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
         double elapsed = j->started > 0 && now > j->started ? now - j->started : 0;
         /* A restarted master merging the journal's results again meets passes it recorded. */
         bool known = j->nhistory > 0 && j->history[j->nhistory - 1].pass >= info.passes_done;
-        if (!known && j->nhistory < MAX_PASS_RECORDS) {
-            pass_record_t rec = {.pass = info.passes_done, .spp = info.spp_done, .elapsed = elapsed,
-                                 .valid = e.valid, .rel_error = e.valid ? e.rel_rmse : 0};
+        if (!known && j->nhistory < STOPPING_MAX_RECORDS) {
+            pass_record_t rec = stopping_record(info.passes_done, info.spp_done, elapsed, &e);
             j->history[j->nhistory++] = rec;
             journal_pass_t jp = {.pass = rec.pass, .spp = rec.spp, .elapsed = rec.elapsed,
                                  .valid = rec.valid, .rel_error = rec.rel_error};
@@ -825,10 +789,9 @@ static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
              info.passes_done, info.npasses, info.spp_done, est, elapsed);
         proto_stop_t stop = PROTO_STOP_NONE;
         if (info.state == JOB_RUNNING && info.whole_passes) {
-            if (j->settings.target_error > 0 && e.valid && e.rel_rmse <= j->settings.target_error)
-                stop = PROTO_STOP_TARGET;
-            else if (j->settings.time_limit > 0 && elapsed >= j->settings.time_limit)
-                stop = PROTO_STOP_TIME;
+            stopping_rule_t rule = {.target_error = j->settings.target_error,
+                                    .time_limit = j->settings.time_limit};
+            stop = (proto_stop_t)stopping_decide(&rule, &e, elapsed);
         }
         if (stop != PROTO_STOP_NONE) {
             if (sched_finish_job_at_pass(m->sched, j->id, &err) < 0) {
@@ -944,7 +907,7 @@ static void camera_result(master_t *m, mjob_t *j, const source_t *src, uint32_t 
         return;
     }
     uint32_t pb, pe;
-    pass_range(j->spp, pass, &pb, &pe);
+    passes_range(j->spp, pass, &pb, &pe);
     err_t err;
     int rc = -1;
     if (sb != pb || se != pe) {
@@ -1163,11 +1126,8 @@ static void strip_all(char *msg, const char *prefix)
 /* The figures a job takes from its loaded scene: sizes, seed, grid, what it runs with. */
 static void job_take_scene(mjob_t *j, const scene_t *scene)
 {
-    static const char *integ_names[] = {"simplepath", "path", "whitted"};
     const render_settings_t *rs = &scene->settings;
-    j->integrator_used = !rs->photon.enabled                     ? integ_names[rs->integrator]
-                         : rs->integrator == INTEGRATOR_WHITTED ? "photon+whitted"
-                                                                : "photon+path";
+    j->integrator_used = integrators_used_name(rs->integrator, rs->photon.enabled);
     j->dispersion_used = !scene->has_dispersion                 ? "off"
                          : rs->dispersion == DISPERSION_HERO ? "hero"
                                                              : "fanout";
@@ -1806,8 +1766,8 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
     if (rc >= 0 && photons_done > 0)
         photon_phase_merged(m, j);
     if (rc >= 0) {
-        journal_pass_t passes[MAX_PASS_RECORDS];
-        int n = journal_passes(m->journal, j->id, j->round, passes, MAX_PASS_RECORDS, err);
+        journal_pass_t passes[STOPPING_MAX_RECORDS];
+        int n = journal_passes(m->journal, j->id, j->round, passes, STOPPING_MAX_RECORDS, err);
         rc = n < 0 ? -1 : 0;
         for (int i = 0; i < n; i++)
             j->history[j->nhistory++] =
@@ -1857,7 +1817,7 @@ static int resume_jobs(master_t *m, err_t *err)
     size_t n;
     if (journal_jobs(m->journal, &rows, &n, err) < 0)
         return -1;
-    double now = now_s();
+    double now = clock_now_s();
     int rc = 0;
     for (size_t i = 0; i < n && rc == 0; i++) {
         journal_job_t *r = &rows[i];
@@ -1954,7 +1914,7 @@ static int drain(master_t *m, bool workers, err_t *err)
             send_refuse(m, net, &from, reason);
             continue;
         }
-        double now = now_s();
+        double now = clock_now_s();
         if (workers)
             on_worker_message(m, &from, &msg, now);
         else
@@ -2153,7 +2113,7 @@ int master_run(const master_opts_t *opts, err_t *err)
     if (opts->ready)
         opts->ready(opts->user, wbound, cbound);
 
-    m->last_heartbeat = now_s();
+    m->last_heartbeat = clock_now_s();
     rc = 0;
     int until_waiter = POLL_MS;
     while (!*opts->stop) {
@@ -2161,12 +2121,12 @@ int master_run(const master_opts_t *opts, err_t *err)
         zmq_pollitem_t items[3] = {{.socket = proto_net_socket(m->wnet), .events = ZMQ_POLLIN},
                                    {.socket = proto_net_socket(m->cnet), .events = ZMQ_POLLIN},
                                    {.fd = opts->stop_fd, .events = ZMQ_POLLIN}};
-        double until_hb = m->last_heartbeat + m->heartbeat_s - now_s();
+        double until_hb = m->last_heartbeat + m->heartbeat_s - clock_now_s();
         int timeout = until_hb < POLL_MS / 1000.0 ? (int)(until_hb * 1000) : POLL_MS;
         if (until_waiter < timeout)
             timeout = until_waiter;
         int n = zmq_poll(items, opts->stop_fd > 0 ? 3 : 2, timeout > 0 ? timeout : 0);
-        double polled = now_s();
+        double polled = clock_now_s();
         if (n < 0 && zmq_errno() != EINTR) {
             rc = err_set(err, "master: zmq_poll: %s", zmq_strerror(zmq_errno()));
             break;
@@ -2177,7 +2137,7 @@ int master_run(const master_opts_t *opts, err_t *err)
             rc = -1;
             break;
         }
-        double now = now_s();
+        double now = clock_now_s();
         housekeeping(m, now, now - polled);
         dispatch(m, now);
         prune_lost(m);

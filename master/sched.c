@@ -1,5 +1,7 @@
 #include "sched.h"
 
+#include "tilegrid.h"
+
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -23,7 +25,8 @@ typedef struct strike {
 typedef struct job {
     uint64_t id;
     job_state_t state;
-    int xres, yres, spp, tile, tiles_x;
+    int xres, yres, spp;
+    tilegrid_t tiles;
     spectral_grid_t grid;
     int ntiles, npasses, passes_done;
     uint32_t *pass_begin; /* npasses + 1 bounds */
@@ -174,9 +177,8 @@ int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spect
     j->yres = yres;
     j->spp = spp;
     j->grid = grid;
-    j->tile = self->cfg.tile_size;
-    j->tiles_x = (xres + j->tile - 1) / j->tile;
-    j->ntiles = j->tiles_x * ((yres + j->tile - 1) / j->tile);
+    j->tiles = tilegrid_make(xres, yres, self->cfg.tile_size);
+    j->ntiles = tilegrid_count(&j->tiles);
     j->npasses = passes_bounds(spp, NULL);
     j->pass_begin = malloc(((size_t)j->npasses + 1) * sizeof *j->pass_begin);
     j->tasks = calloc((size_t)j->ntiles * (size_t)j->npasses, sizeof *j->tasks);
@@ -473,15 +475,16 @@ static bool blocked(const sched_t *self, const job_t *j, uint64_t worker)
 static void fill_task(const job_t *j, uint32_t i, sched_task_t *out)
 {
     int pass = (int)(i / (uint32_t)j->ntiles), tile = (int)(i % (uint32_t)j->ntiles);
-    int x0 = (tile % j->tiles_x) * j->tile, y0 = (tile / j->tiles_x) * j->tile;
+    int x0, y0, w, h;
+    tilegrid_rect(&j->tiles, tile, &x0, &y0, &w, &h);
     *out = (sched_task_t){
         .job = j->id,
         .task = i,
         .attempt = j->tasks[i].attempt,
         .x0 = x0,
         .y0 = y0,
-        .w = j->xres - x0 < j->tile ? j->xres - x0 : j->tile,
-        .h = j->yres - y0 < j->tile ? j->yres - y0 : j->tile,
+        .w = w,
+        .h = h,
         .sample_begin = j->pass_begin[pass],
         .sample_end = j->pass_begin[pass + 1],
         .pass = pass,

@@ -1,5 +1,7 @@
 #include "curve.h"
 
+#include "clock.h"
+
 #include <zmq.h>
 
 #include <dirent.h>
@@ -369,13 +371,6 @@ struct proto_curve_ring {
     bool failed;      /* the last attempt failed: not tried again within a second */
 };
 
-static double mono_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
 /* Reads every *.pub of dir into *keys (allocated) and the folder's identity into st. */
 static int ring_load(const char *dir, ring_key_t **keys, size_t *n, struct stat *st, err_t *err)
 {
@@ -463,7 +458,7 @@ proto_curve_ring_t *proto_curve_ring_new(const char *dir, err_t *err)
     self->dev = st.st_dev;
     self->ino = st.st_ino;
     self->mtime = st.st_mtim;
-    self->loaded_at = mono_s();
+    self->loaded_at = clock_now_s();
     return self;
 }
 
@@ -489,7 +484,7 @@ int proto_curve_ring_refresh(proto_curve_ring_t *self, bool force, bool *reloade
     bool changed = st.st_dev != self->dev || st.st_ino != self->ino ||
                    st.st_mtim.tv_sec != self->mtime.tv_sec ||
                    st.st_mtim.tv_nsec != self->mtime.tv_nsec;
-    double now = mono_s();
+    double now = clock_now_s();
     bool due = now - self->loaded_at >= 1.0;
     if (!(changed && (due || !self->failed)) && !(force && due))
         return 0;

@@ -1,67 +1,56 @@
-#define _GNU_SOURCE /* sched_getaffinity, CPU_COUNT */
 #include "local_render.h"
 
+#include "clock.h"
+#include "error_estimate.h"
 #include "passes.h"
+#include "pool.h"
+#include "tilegrid.h"
 
 #include <pthread.h>
-#include <sched.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
-#include <unistd.h>
-#if defined(__SSE__)
-#include <pmmintrin.h>
-#include <xmmintrin.h>
-#endif
 
 typedef struct shared {
     const scene_t *scene;
     const local_render_opts_t *opts;
-    tilebuf_t *image;
-    int tile, tiles_x, tiles_y, ntiles;
-    int next;   /* next tile to hand out */
-    int failed; /* first error stops the others */
-    err_t err;
-    render_stats_t stats;
-    uint64_t samples_done, samples_total;
-    struct timespec start;
+    tilegrid_t grid;
+    uint32_t bounds[PASSES_MAX_BOUNDS];
+    int npasses;
+    tilebuf_t *target;   /* where finished tiles are merged: the image, or the pass's buffer */
+    int pass;            /* under a stopping rule: the pass being rendered */
+    double deadline;     /* under a stopping rule: clock after which the pass is dropped; 0 never */
+    render_stats_t stats;       /* of the tiles merged into target */
+    render_stats_t image_stats; /* under a stopping rule: of the passes merged into the image */
+    uint64_t samples_before, samples_done, samples_total;
+    double t0;
     pthread_mutex_t lock;
 } shared_t;
 
-static double seconds_since(const struct timespec *t0)
+static void stats_add(render_stats_t *sum, const render_stats_t *s)
 {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)(t.tv_sec - t0->tv_sec) + 1e-9 * (double)(t.tv_nsec - t0->tv_nsec);
+    sum->samples += s->samples;
+    sum->rays += s->rays;
+    sum->nonfinite += s->nonfinite;
+    sum->dispersive += s->dispersive;
 }
 
-int local_render_cores(void)
+/* Samples [sb, se) of one tile into acc, pass by pass as the farm renders and merges them
+ * (docs/farm.md, "Same pixels"): each pass of the cut rendered on its own into a scratch
+ * buffer, its sums rounded by the rule the workers apply before sending (tilebuf_round_sums),
+ * and added into acc in pass order -- the arithmetic of the master's scheduler, which merges a
+ * tile's passes into its zeroed image in that order. Adding acc into the zeroed image
+ * afterwards changes no bit. */
+static int render_passes(const shared_t *sh, int x0, int y0, int w, int h, int p0, int p1,
+                         tilebuf_t *acc, render_stats_t *st, err_t *err)
 {
-    cpu_set_t set;
-    if (sched_getaffinity(0, sizeof set, &set) == 0 && CPU_COUNT(&set) > 0)
-        return CPU_COUNT(&set);
-    long n = sysconf(_SC_NPROCESSORS_ONLN);
-    return n > 0 ? (int)n : 1;
-}
-
-/* One tile as the farm renders and merges it (docs/farm.md, "Same pixels"): each pass of the
- * cut (passes_bounds) rendered on its own into a scratch buffer, its sums rounded by the rule
- * the workers apply before sending (tilebuf_round_sums), and added into acc in pass order --
- * the arithmetic of the master's scheduler, which merges a tile's passes into its zeroed image
- * in that order. Adding acc into the zeroed image afterwards changes no bit. */
-static int render_passes(const shared_t *sh, int x0, int y0, int w, int h, tilebuf_t *acc,
-                         render_stats_t *st, err_t *err)
-{
-    const render_settings_t *rs = &sh->scene->settings;
-    uint32_t bounds[PASSES_MAX_BOUNDS];
-    int npasses = passes_bounds(rs->spp, bounds);
-    tilebuf_t *pass = tilebuf_new(x0, y0, w, h, rs->grid.n, err);
+    tilebuf_t *pass = tilebuf_new(x0, y0, w, h, sh->scene->settings.grid.n, err);
     if (!pass)
         return -1;
     int r = 0;
-    for (int p = 0; p < npasses && r == 0; p++) {
+    for (int p = p0; p < p1 && r == 0; p++) {
         tilebuf_clear(pass);
-        r = render_tile(sh->scene, x0, y0, w, h, bounds[p], bounds[p + 1], pass, st, err);
+        r = render_tile(sh->scene, sh->opts->photons, x0, y0, w, h, sh->bounds[p],
+                        sh->bounds[p + 1], pass, st, err);
         if (r == 0) {
             tilebuf_round_sums(pass);
             r = tilebuf_merge(acc, pass, err);
@@ -71,94 +60,116 @@ static int render_passes(const shared_t *sh, int x0, int y0, int w, int h, tileb
     return r;
 }
 
-static void *worker_main(void *arg)
+/* One tile of the grid: every pass (no stopping rule), or the current pass. */
+static int render_one(void *user, int t, err_t *err)
 {
-    shared_t *sh = arg;
-#if defined(__SSE__)
-    /* Embree's advice: denormals slow its traversal and never matter for images. */
-    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
-    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
-#endif
-    const render_settings_t *rs = &sh->scene->settings;
-    for (;;) {
-        pthread_mutex_lock(&sh->lock);
-        int t = sh->failed ? sh->ntiles : sh->next++;
-        pthread_mutex_unlock(&sh->lock);
-        if (t >= sh->ntiles)
-            break;
-        int x0 = (t % sh->tiles_x) * sh->tile, y0 = (t / sh->tiles_x) * sh->tile;
-        int w = rs->xres - x0 < sh->tile ? rs->xres - x0 : sh->tile;
-        int h = rs->yres - y0 < sh->tile ? rs->yres - y0 : sh->tile;
-        err_t err;
-        render_stats_t st = {0};
-        tilebuf_t *buf = tilebuf_new(x0, y0, w, h, rs->grid.n, &err);
-        int r = buf ? render_passes(sh, x0, y0, w, h, buf, &st, &err) : -1;
-        pthread_mutex_lock(&sh->lock);
-        if (r == 0)
-            r = tilebuf_merge(sh->image, buf, &err);
-        if (r != 0 && !sh->failed) {
-            sh->failed = 1;
-            sh->err = err;
-        }
-        sh->stats.samples += st.samples;
-        sh->stats.rays += st.rays;
-        sh->stats.nonfinite += st.nonfinite;
-        sh->stats.dispersive += st.dispersive;
-        sh->samples_done += (uint64_t)w * (uint64_t)h * (uint64_t)rs->spp;
-        if (sh->opts->progress && !sh->failed)
-            sh->opts->progress(sh->opts->user, sh->samples_done, sh->samples_total,
-                               seconds_since(&sh->start));
-        pthread_mutex_unlock(&sh->lock);
-        tilebuf_destroy(&buf);
+    shared_t *sh = user;
+    const bool by_pass = stopping_active(&sh->opts->stop);
+    /* Past the time limit a pass with tiles left is dropped: a tile already rendering finishes,
+     * no other starts (the farm's workers are told to cancel, as for a cancel). */
+    if (by_pass && sh->deadline > 0 && clock_now_s() >= sh->deadline)
+        return 1;
+    int x0, y0, w, h;
+    tilegrid_rect(&sh->grid, t, &x0, &y0, &w, &h);
+    render_stats_t st = {0};
+    tilebuf_t *buf = tilebuf_new(x0, y0, w, h, sh->scene->settings.grid.n, err);
+    int p0 = by_pass ? sh->pass : 0, p1 = by_pass ? sh->pass + 1 : sh->npasses;
+    int r = buf ? render_passes(sh, x0, y0, w, h, p0, p1, buf, &st, err) : -1;
+    pthread_mutex_lock(&sh->lock);
+    if (r == 0)
+        r = tilebuf_merge(sh->target, buf, err);
+    if (r == 0) {
+        stats_add(&sh->stats, &st);
+        sh->samples_done += (uint64_t)w * (uint64_t)h * (sh->bounds[p1] - sh->bounds[p0]);
+        if (sh->opts->progress)
+            sh->opts->progress(sh->opts->user, sh->samples_before + sh->samples_done,
+                               sh->samples_total, clock_now_s() - sh->t0);
     }
-    return NULL;
+    pthread_mutex_unlock(&sh->lock);
+    tilebuf_destroy(&buf);
+    return r;
+}
+
+/* Under a stopping rule: pass after pass over the whole image, each rendered into a buffer of
+ * its own and merged into the image only when whole, in pass order (the per-pixel sums the
+ * farm's master makes, bit for bit); after each the rule decides, as on the master. */
+static int render_by_pass(shared_t *sh, tilebuf_t *image, local_render_result_t *res, err_t *err)
+{
+    const render_settings_t *rs = &sh->scene->settings;
+    const local_render_opts_t *o = sh->opts;
+    int n = tilegrid_count(&sh->grid);
+    for (int pass = 0; pass < sh->npasses; pass++) {
+        tilebuf_t *buf = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, err);
+        if (!buf)
+            return -1;
+        sh->target = buf;
+        sh->pass = pass;
+        sh->samples_done = 0;
+        sh->stats = (render_stats_t){0};
+        /* The first pass always completes. */
+        sh->deadline = pass > 0 && o->stop.time_limit > 0 ? sh->t0 + o->stop.time_limit : 0;
+        int r = pool_for(o->threads, n, render_one, sh, err);
+        if (r == 0) {
+            /* The pass's sums rounded as the farm's workers round theirs (tilebuf.h): the rule
+             * is per value, so rounding the whole pass equals rounding each tile. */
+            tilebuf_round_sums(buf);
+            r = tilebuf_merge(image, buf, err);
+        }
+        tilebuf_destroy(&buf);
+        if (r < 0)
+            return -1;
+        if (r > 0) {
+            res->why = STOPPING_TIME;
+            return 0;
+        }
+        /* The counters describe the image: a dropped pass's work is not in them. */
+        stats_add(&sh->image_stats, &sh->stats);
+        sh->samples_before += sh->samples_done;
+        error_estimate_t e = error_estimate_image(image);
+        double elapsed = clock_now_s() - sh->t0;
+        pass_record_t *rec = &res->history[res->nhistory++];
+        *rec = stopping_record(pass + 1, (int)sh->bounds[pass + 1], elapsed, &e);
+        if (o->pass_done)
+            o->pass_done(o->user, rec, sh->samples_before, sh->samples_total);
+        if (pass + 1 < sh->npasses && (res->why = stopping_decide(&o->stop, &e, elapsed)) != STOPPING_NONE)
+            return 0;
+    }
+    return 0;
 }
 
 int local_render(const scene_t *scene, const local_render_opts_t *opts, tilebuf_t *image,
-                 render_stats_t *stats, err_t *err)
+                 render_stats_t *stats, local_render_result_t *result, err_t *err)
 {
     const render_settings_t *rs = &scene->settings;
     if (tilebuf_x0(image) != 0 || tilebuf_y0(image) != 0 || tilebuf_width(image) != rs->xres ||
         tilebuf_height(image) != rs->yres || tilebuf_nbuckets(image) != rs->grid.n)
         return err_set(err, "the image buffer does not match the %dx%d film with %d buckets",
                        rs->xres, rs->yres, rs->grid.n);
-    shared_t sh = {.scene = scene, .opts = opts, .image = image};
-    sh.tile = opts->tile_size > 0 ? opts->tile_size : 32;
-    sh.tiles_x = (rs->xres + sh.tile - 1) / sh.tile;
-    sh.tiles_y = (rs->yres + sh.tile - 1) / sh.tile;
-    sh.ntiles = sh.tiles_x * sh.tiles_y;
+    local_render_result_t local;
+    local_render_result_t *res = result ? result : &local;
+    memset(res, 0, sizeof *res);
+    shared_t sh = {.scene = scene, .opts = opts, .target = image};
+    sh.grid = tilegrid_make(rs->xres, rs->yres, opts->tile_size > 0 ? opts->tile_size : 32);
+    sh.npasses = passes_bounds(rs->spp, sh.bounds);
     sh.samples_total = (uint64_t)rs->xres * (uint64_t)rs->yres * (uint64_t)rs->spp;
-    clock_gettime(CLOCK_MONOTONIC, &sh.start);
+    sh.t0 = opts->t0 > 0 ? opts->t0 : clock_now_s();
     if (pthread_mutex_init(&sh.lock, NULL))
         return err_set(err, "cannot create a mutex");
-    int n = opts->threads > 0 ? opts->threads : local_render_cores();
-    if (n > sh.ntiles)
-        n = sh.ntiles;
-    pthread_t *th = calloc((size_t)n, sizeof *th);
-    if (!th) {
-        pthread_mutex_destroy(&sh.lock);
-        return err_set(err, "out of memory");
+    int r;
+    if (stopping_active(&opts->stop)) {
+        r = render_by_pass(&sh, image, res, err);
+        sh.stats = sh.image_stats;
+    } else {
+        r = pool_for(opts->threads, tilegrid_count(&sh.grid), render_one, &sh, err) ? -1 : 0;
+        if (r == 0) {
+            /* One record: every pass at once. */
+            error_estimate_t e = error_estimate_image(image);
+            res->history[res->nhistory++] =
+                stopping_record(sh.npasses, rs->spp, clock_now_s() - sh.t0, &e);
+        }
     }
-    int started = 0;
-    for (; started < n; started++)
-        if (pthread_create(&th[started], NULL, worker_main, &sh))
-            break;
-    if (started == 0)
-        worker_main(&sh); /* no thread could start: render on this one */
-    for (int i = 0; i < started; i++)
-        pthread_join(th[i], NULL);
-    free(th);
     pthread_mutex_destroy(&sh.lock);
-    if (stats) {
-        stats->samples += sh.stats.samples;
-        stats->rays += sh.stats.rays;
-        stats->nonfinite += sh.stats.nonfinite;
-        stats->dispersive += sh.stats.dispersive;
-    }
-    if (sh.failed) {
-        if (err)
-            *err = sh.err;
-        return -1;
-    }
-    return 0;
+    if (r == 0 && stats)
+        stats_add(stats, &sh.stats);
+    return r;
 }

@@ -1,30 +1,48 @@
 /* local_render: renders a whole image on this machine's cores -- the engine behind
- * `prismfarm render --direct`. The image is cut into tiles handed to threads from a shared
- * counter; each tile is rendered pass by pass (film/passes.h), each pass's sums rounded by
- * tilebuf_round_sums and added in pass order, which is the farm's arithmetic: the image is
- * bit-identical to the farm's (any worker count, thread count or tile size), by construction. */
+ * `prismfarm render --direct`, benchmarks and tests. The image is cut into tiles (film/tilegrid)
+ * run on the thread pool (base/pool); each tile is rendered pass by pass (film/passes), each
+ * pass's sums rounded by tilebuf_round_sums and added in pass order, which is the farm's
+ * arithmetic: the image is bit-identical to the farm's (any worker count, thread count or tile
+ * size), by construction. With a stopping rule (film/stopping) the passes run one after the
+ * other over the whole image and the rule decides at each boundary, as the master does. */
 #ifndef PRISMFARM_LOCAL_RENDER_H
 #define PRISMFARM_LOCAL_RENDER_H
 
 #include "render.h"
+#include "stopping.h"
 
 /* Called from one thread at a time, after each finished tile. */
 typedef void (*local_render_progress_fn)(void *user, uint64_t samples_done, uint64_t samples_total,
                                          double elapsed_s);
 
+/* Called after each pass merged under a stopping rule, from the calling thread. */
+typedef void (*local_render_pass_fn)(void *user, const pass_record_t *rec, uint64_t samples_done,
+                                     uint64_t samples_total);
+
 typedef struct local_render_opts {
-    int threads;   /* 0: all cores */
-    int tile_size; /* 0: 32 */
+    int threads;                     /* 0: all cores */
+    int tile_size;                   /* 0: 32 */
+    const photon_store_t *photons;   /* the photon pass's store (render_tile), if the scene has one */
+    stopping_rule_t stop;            /* none: every pass, tile by tile */
+    double t0;                       /* clock_now_s() when the job started (its elapsed times and
+                                      * time limit count from it); 0: at the call */
     local_render_progress_fn progress;
+    local_render_pass_fn pass_done;
     void *user;
 } local_render_opts_t;
 
-/* Renders samples [0, scene->settings.spp) of every pixel into image, which must cover the
- * whole image with the film's bucket count. */
-int local_render(const scene_t *scene, const local_render_opts_t *opts, tilebuf_t *image,
-                 render_stats_t *stats, err_t *err);
+typedef struct local_render_result {
+    pass_record_t history[STOPPING_MAX_RECORDS]; /* one per pass under a stopping rule; else one
+                                                  * record for all the passes at once */
+    int nhistory;
+    stopping_why_t why; /* why it ended before the last pass */
+} local_render_result_t;
 
-/* Cores available to this process. */
-int local_render_cores(void);
+/* Renders samples [0, scene->settings.spp) of every pixel into image, which must be zero and
+ * cover the whole image with the film's bucket count; under a stopping rule, the passes up to
+ * the boundary where the rule stopped (a time limit drops the pass in flight, never the first).
+ * Adds to *stats the work that is in the image; fills *result (both may be NULL). */
+int local_render(const scene_t *scene, const local_render_opts_t *opts, tilebuf_t *image,
+                 render_stats_t *stats, local_render_result_t *result, err_t *err);
 
 #endif

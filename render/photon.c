@@ -1,8 +1,10 @@
 #include "photon.h"
 
+#include "clock.h"
+#include "pool.h"
+
 #include "fresnel.h"
 #include "lights.h"
-#include "local_render.h"
 #include "rng.h"
 #include "sample.h"
 #include "specular.h"
@@ -10,14 +12,8 @@
 
 #include <float.h>
 #include <math.h>
-#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
-#if defined(__SSE__)
-#include <pmmintrin.h>
-#include <xmmintrin.h>
-#endif
 
 /* Photon i draws its numbers from (seed ^ PHOTON_SEED_MIX, i, 0, dim): without the mix,
  * photon i and pixel i's sample 0 would share every random number. */
@@ -615,47 +611,29 @@ typedef struct pass_part {
     uint64_t i0, i1;
     photon_store_t *store;
     photon_stats_t stats;
-    int failed;
-    err_t err;
 } pass_part_t;
 
-static void *pass_thread(void *arg)
+static int pass_trace(void *user, int k, err_t *err)
 {
-    pass_part_t *pt = arg;
-#if defined(__SSE__)
-    /* As the render threads: denormals slow Embree and never matter here. */
-    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
-    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
-#endif
-    pt->failed =
-        photon_trace(pt->scene, &pt->job, pt->i0, pt->i1, pt->store, &pt->stats, &pt->err) != 0;
-    return NULL;
-}
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+    pass_part_t *pt = &((pass_part_t *)user)[k];
+    return photon_trace(pt->scene, &pt->job, pt->i0, pt->i1, pt->store, &pt->stats, err) ? -1 : 0;
 }
 
 photon_store_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t *stats,
                                 double *seconds, err_t *err)
 {
-    const double t0 = now_s();
+    const double t0 = clock_now_s();
     const render_settings_t *rs = &scene->settings;
     const uint64_t total = rs->photon.photons;
     if (nthreads <= 0)
-        nthreads = local_render_cores();
+        nthreads = pool_cores();
     if ((uint64_t)nthreads > total)
         nthreads = total > 0 ? (int)total : 1;
     pass_part_t *parts = calloc((size_t)nthreads, sizeof *parts);
-    pthread_t *th = calloc((size_t)nthreads, sizeof *th);
     photon_store_t *store = photon_store_new(scene, err);
-    int r = parts && th && store ? 0 : -1;
+    int r = parts && store ? 0 : -1;
     if (r && store)
         err_set(err, "out of memory");
-    int started = 0;
     for (int k = 0; !r && k < nthreads; k++) {
         pass_part_t *pt = &parts[k];
         pt->scene = scene;
@@ -665,34 +643,18 @@ photon_store_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats
         if (!(pt->store = photon_store_new(scene, err)))
             r = -1;
     }
-    if (!r) {
-        for (; started < nthreads; started++)
-            if (pthread_create(&th[started], NULL, pass_thread, &parts[started]))
-                break;
-        /* Parts whose thread could not start run here, in order. */
-        for (int k = started; k < nthreads; k++)
-            pass_thread(&parts[k]);
-        for (int k = 0; k < started; k++)
-            pthread_join(th[k], NULL);
-    }
+    if (!r && pool_for(nthreads, nthreads, pass_trace, parts, err) != 0)
+        r = -1;
     /* The merge in index order makes the store independent of the thread count, and equal to
      * the farm's, which merges its batches in index order too. */
-    for (int k = 0; !r && parts && k < nthreads; k++) {
-        pass_part_t *pt = &parts[k];
-        if (pt->failed) {
-            if (err)
-                *err = pt->err;
-            r = -1;
-        } else {
-            r = photon_store_merge(store, pt->store, err);
-        }
+    for (int k = 0; !r && k < nthreads; k++) {
+        r = photon_store_merge(store, parts[k].store, err);
         if (stats && !r)
-            photon_stats_add(stats, &pt->stats);
+            photon_stats_add(stats, &parts[k].stats);
     }
     for (int k = 0; parts && k < nthreads; k++)
         photon_store_destroy(&parts[k].store);
     free(parts);
-    free(th);
     if (!r)
         r = photon_store_finish(store, err);
     if (r) {
@@ -700,68 +662,8 @@ photon_store_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats
         return NULL;
     }
     if (seconds)
-        *seconds = now_s() - t0;
+        *seconds = clock_now_s() - t0;
     return store;
-}
-
-/* What the scene's derived-data slot holds for the camera pass: the store, traced here or
- * installed from the farm. */
-typedef struct pass_result {
-    photon_store_t *store;
-    photon_stats_t stats;
-    double seconds;
-} pass_result_t;
-
-static void *pass_build(const scene_t *scene, err_t *err)
-{
-    pass_result_t *pr = calloc(1, sizeof *pr);
-    if (!pr) {
-        err_set(err, "out of memory");
-        return NULL;
-    }
-    pr->store = photon_pass_run(scene, 0, &pr->stats, &pr->seconds, err);
-    if (!pr->store) {
-        err_prefix(err, "photon pass: ");
-        free(pr);
-        return NULL;
-    }
-    return pr;
-}
-
-static void pass_free(void *data)
-{
-    pass_result_t *pr = data;
-    photon_store_destroy(&pr->store);
-    free(pr);
-}
-
-const photon_store_t *photon_pass_get(const scene_t *scene, photon_stats_t *stats,
-                                      double *seconds, err_t *err)
-{
-    const pass_result_t *pr = scene_derived_get(scene, pass_build, pass_free, err);
-    if (!pr)
-        return NULL;
-    if (stats)
-        *stats = pr->stats;
-    if (seconds)
-        *seconds = pr->seconds;
-    return pr->store;
-}
-
-int photon_pass_install(const scene_t *scene, photon_store_t **store, err_t *err)
-{
-    if (!*store || !photon_store_finished(*store))
-        return err_set(err, "photon pass: only a finished store can be installed");
-    pass_result_t *pr = calloc(1, sizeof *pr);
-    if (!pr)
-        return err_set(err, "out of memory");
-    pr->store = *store;
-    if (scene_derived_set(scene, pass_build, pass_free, pr, err)) {
-        free(pr);
-        return -1;
-    }
-    *store = NULL;
-    return 0;
 }
 
 int photon_batch_run(const scene_t *scene, uint64_t first, uint64_t end, uint8_t **out,
@@ -780,14 +682,17 @@ int photon_batch_run(const scene_t *scene, uint64_t first, uint64_t end, uint8_t
     return r;
 }
 
-int photon_pass_install_bytes(const scene_t *scene, const uint8_t *data, size_t len, err_t *err)
+photon_store_t *photon_pass_from_wire(const scene_t *scene, const uint8_t *data, size_t len,
+                                      err_t *err)
 {
     photon_store_t *store = photon_store_decode(scene, data, len, err);
-    if (!store)
-        return err_prefix(err, "photon store: ");
-    int r = photon_store_finish(store, err);
-    if (!r)
-        r = photon_pass_install(scene, &store, err);
-    photon_store_destroy(&store);
-    return r;
+    if (!store) {
+        err_prefix(err, "photon store: ");
+        return NULL;
+    }
+    if (photon_store_finish(store, err)) {
+        photon_store_destroy(&store);
+        return NULL;
+    }
+    return store;
 }

@@ -7,9 +7,9 @@
  * place with the same power whatever batch traced it, and batches concatenated in index order
  * give the same map as one batch. Deposits carry raw power: photon i of light l at wavelength
  * lambda starts with Phi_l(lambda) / (p_l * p_lambda), and the map divides by the number of
- * photons emitted only when it is queried. photon_pass_* run a job's whole photon pass on
- * this machine and keep the store with the scene for the camera pass; a farm worker installs
- * the store the master merged from every worker's batches instead (photon_pass_install). */
+ * photons emitted only when it is queried. photon_pass_run runs a job's whole photon pass on
+ * this machine; a farm worker decodes the store the master merged from every worker's batches
+ * instead (photon_pass_from_wire). Either is handed to render_tile by its caller. */
 #ifndef PRISMFARM_PHOTON_H
 #define PRISMFARM_PHOTON_H
 
@@ -86,27 +86,15 @@ void photon_stats_add(photon_stats_t *sum, const photon_stats_t *s);
 photon_store_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t *stats,
                                 double *seconds, err_t *err);
 
-/* The store the camera pass uses: one installed by photon_pass_install, or else one made by
- * photon_pass_run with every core on the first call; kept with the scene (scene_derived_get)
- * until it is destroyed. *stats and *seconds (either may be NULL) receive the pass's figures
- * (zero for an installed store). NULL on failure (the same error for every caller). */
-const photon_store_t *photon_pass_get(const scene_t *scene, photon_stats_t *stats,
-                                      double *seconds, err_t *err);
-
-/* Gives the scene a finished store made elsewhere (the master's merge of a farm job's
- * batches) for its camera pass, before anything asked for one; takes ownership of *store and
- * nulls it on success. */
-int photon_pass_install(const scene_t *scene, photon_store_t **store, err_t *err);
-
-
 /* A farm worker's photon batch: photons [first, end) of the scene's photon pass traced into a
  * fresh store (the scene's kind) and encoded in its wire form (*out malloc'ed), raw and
  * unnormalised, for the master to merge. Adds to *stats (may be NULL). */
 int photon_batch_run(const scene_t *scene, uint64_t first, uint64_t end, uint8_t **out,
                      size_t *out_len, photon_stats_t *stats, err_t *err);
 
-/* The master's merged store, from its wire form, decoded (strictly), finished and installed
- * for the scene's camera pass (photon_pass_install). */
-int photon_pass_install_bytes(const scene_t *scene, const uint8_t *data, size_t len, err_t *err);
+/* The master's merged store from its wire form, decoded (strictly) and finished, for the
+ * camera pass's render_tile; NULL with err if the bytes are not a store of this scene. */
+photon_store_t *photon_pass_from_wire(const scene_t *scene, const uint8_t *data, size_t len,
+                                      err_t *err);
 
 #endif

@@ -5,7 +5,6 @@
 #include "fanout.h"
 #include "fresnel.h"
 #include "lights.h"
-#include "photon.h"
 #include "rng.h"
 #include "sample.h"
 #include "spectral_grid.h"
@@ -597,8 +596,9 @@ static uint32_t permute(uint32_t s, uint32_t spp, uint64_t salt)
     return (s * mult + (uint32_t)hsh) & (spp - 1);
 }
 
-int render_tile(const scene_t *scene, int x0, int y0, int w, int h, uint32_t sample_begin,
-                uint32_t sample_end, tilebuf_t *out, render_stats_t *stats, err_t *err)
+int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int y0, int w, int h,
+                uint32_t sample_begin, uint32_t sample_end, tilebuf_t *out, render_stats_t *stats,
+                err_t *err)
 {
     const render_settings_t *rs = &scene->settings;
     const int nb = rs->grid.n;
@@ -609,6 +609,9 @@ int render_tile(const scene_t *scene, int x0, int y0, int w, int h, uint32_t sam
     if (x0 < 0 || y0 < 0 || x0 + w > rs->xres || y0 + h > rs->yres)
         return err_set(err, "tile %dx%d at (%d,%d) lies outside the %dx%d image", w, h, x0, y0,
                        rs->xres, rs->yres);
+    if (rs->photon.enabled && (!photons || !photon_store_finished(photons)))
+        return err_set(err, "the photon integrator's camera pass needs the finished store of its "
+                            "photon pass");
     render_stats_t local = {0};
     if (!stats)
         stats = &local;
@@ -635,11 +638,10 @@ int render_tile(const scene_t *scene, int x0, int y0, int w, int h, uint32_t sam
             c.le_cache[i][j].lambda = NAN;
     double *irradiance = NULL;
     if (rs->photon.enabled) {
-        c.photons = photon_pass_get(scene, NULL, NULL, err);
+        c.photons = photons;
         irradiance = malloc((size_t)nb * sizeof *irradiance);
-        if (!c.photons || !irradiance) {
-            if (c.photons)
-                err_set(err, "out of memory");
+        if (!irradiance) {
+            err_set(err, "out of memory");
             free(irradiance);
             free(weights);
             free(contrib);

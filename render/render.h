@@ -7,6 +7,7 @@
 #define PRISMFARM_RENDER_H
 
 #include "err.h"
+#include "photon_store.h"
 #include "scene.h"
 #include "tilebuf.h"
 
@@ -20,10 +21,13 @@ typedef struct render_stats {
 } render_stats_t;
 
 /* Renders pixels [x0, x0+w) x [y0, y0+h) for sample indices [sample_begin, sample_end) into
- * out, which must cover that rectangle and have scene->settings.grid.n buckets. Adds to *stats
- * (which may be NULL). */
-int render_tile(const scene_t *scene, int x0, int y0, int w, int h, uint32_t sample_begin,
-                uint32_t sample_end, tilebuf_t *out, render_stats_t *stats, err_t *err);
+ * out, which must cover that rectangle and have scene->settings.grid.n buckets. photons is the
+ * finished caustic store of the scene's photon pass (photon.h: photon_pass_run on this machine,
+ * or the farm's merged store), required when settings.photon.enabled and ignored otherwise.
+ * Adds to *stats (which may be NULL). */
+int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int y0, int w, int h,
+                uint32_t sample_begin, uint32_t sample_end, tilebuf_t *out, render_stats_t *stats,
+                err_t *err);
 
 /* The most lanes a path can carry: fan-out needs one per bucket. */
 #define RENDER_MAX_BUCKETS 64

@@ -161,18 +161,6 @@ typedef struct found {
     int receiver_material;
 } found_t;
 
-const char *plan_integrator_name(integrator_kind_t kind)
-{
-    switch (kind) {
-    case INTEGRATOR_SIMPLEPATH:
-        return "simplepath";
-    case INTEGRATOR_PATH:
-        return "path";
-    case INTEGRATOR_WHITTED:
-        return "whitted";
-    }
-    return "?";
-}
 
 const char *plan_light_kind_name(light_kind_t kind)
 {
@@ -1365,11 +1353,11 @@ static void current_settings(const plan_t *p, char *buf, size_t n)
 {
     if (p->current_photon.enabled)
         snprintf(buf, n, "photon (%s gather, %llu photons), %s",
-                 plan_integrator_name(p->current_integrator),
+                 integrators_kind_name(p->current_integrator),
                  (unsigned long long)p->current_photon.photons,
                  dispersion_name(p->current_dispersion));
     else
-        snprintf(buf, n, "%s, %s", plan_integrator_name(p->current_integrator),
+        snprintf(buf, n, "%s, %s", integrators_kind_name(p->current_integrator),
                  dispersion_name(p->current_dispersion));
 }
 

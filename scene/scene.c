@@ -4,19 +4,9 @@
 
 #include <float.h>
 #include <math.h>
-#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-struct scene_derived {
-    pthread_mutex_t lock;
-    scene_derived_build_fn build; /* who built (or tried to build) the slot; NULL: empty */
-    scene_derived_destroy_fn destroy;
-    void *data;
-    int failed;
-    char error[sizeof(((err_t *)0)->msg)];
-};
 
 render_settings_t render_settings_default(void)
 {
@@ -45,17 +35,8 @@ scene_t *scene_new(err_t *err)
         err_set(err, "out of memory");
         return NULL;
     }
-    self->derived = calloc(1, sizeof *self->derived);
-    if (!self->derived || pthread_mutex_init(&self->derived->lock, NULL)) {
-        err_set(err, self->derived ? "cannot create a mutex" : "out of memory");
-        free(self->derived);
-        free(self);
-        return NULL;
-    }
     self->geometry = geometry_new(0, err);
     if (!self->geometry) {
-        pthread_mutex_destroy(&self->derived->lock);
-        free(self->derived);
         free(self);
         return NULL;
     }
@@ -70,12 +51,6 @@ void scene_destroy(scene_t **self_p)
     if (!self_p || !*self_p)
         return;
     scene_t *self = *self_p;
-    if (self->derived) {
-        if (self->derived->data && self->derived->destroy)
-            self->derived->destroy(self->derived->data);
-        pthread_mutex_destroy(&self->derived->lock);
-        free(self->derived);
-    }
     geometry_destroy(&self->geometry);
     for (size_t i = 0; i < self->nshapes; i++) {
         shape_t *s = &self->shapes[i];
@@ -532,56 +507,4 @@ int scene_finish(scene_t *self, err_t *err)
             return -1;
     }
     return 0;
-}
-
-int scene_derived_set(const scene_t *self, scene_derived_build_fn build,
-                      scene_derived_destroy_fn destroy, void *data, err_t *err)
-{
-    scene_derived_t *d = self->derived;
-    if (!build || !data)
-        return err_set(err, "scene_derived_set: no build function or data");
-    pthread_mutex_lock(&d->lock);
-    int r = 0;
-    if (d->build || d->data || d->failed) {
-        r = err_set(err, "the scene's derived-data slot is taken already");
-    } else {
-        d->build = build;
-        d->destroy = destroy;
-        d->data = data;
-    }
-    pthread_mutex_unlock(&d->lock);
-    return r;
-}
-
-void *scene_derived_get(const scene_t *self, scene_derived_build_fn build,
-                        scene_derived_destroy_fn destroy, err_t *err)
-{
-    scene_derived_t *d = self->derived;
-    if (!build) {
-        err_set(err, "scene_derived_get: no build function");
-        return NULL;
-    }
-    /* Held during the build: callers that need the data cannot proceed without it anyway. */
-    pthread_mutex_lock(&d->lock);
-    void *r = NULL;
-    if (d->build && d->build != build) {
-        err_set(err, "the scene's derived-data slot holds another kind of data");
-    } else if (d->failed) {
-        err_set(err, "%s", d->error);
-    } else if (d->data) {
-        r = d->data;
-    } else {
-        err_t local = {{0}};
-        d->build = build;
-        d->destroy = destroy;
-        d->data = build(self, &local);
-        if (!d->data) {
-            d->failed = 1;
-            snprintf(d->error, sizeof d->error, "%s", local.msg[0] ? local.msg : "building derived scene data failed");
-            err_set(err, "%s", d->error);
-        }
-        r = d->data;
-    }
-    pthread_mutex_unlock(&d->lock);
-    return r;
 }

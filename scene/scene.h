@@ -13,6 +13,7 @@
 #include "dispersion.h"
 #include "err.h"
 #include "geometry.h"
+#include "integrators.h"
 #include "spectral_grid.h"
 #include "spectrum.h"
 #include "texture.h"
@@ -114,12 +115,6 @@ typedef struct camera {
     double lens_radius, focal_distance;
 } camera_t;
 
-typedef enum integrator_kind {
-    INTEGRATOR_SIMPLEPATH, /* the thesis's simple path tracer: no light sampling */
-    INTEGRATOR_PATH,       /* next-event estimation with MIS */
-    INTEGRATOR_WHITTED,    /* specular chains, shadow rays at the first diffuse hit */
-} integrator_kind_t;
-
 typedef enum dispersion_kind {
     DISPERSION_HERO,   /* 4 continuous hero wavelengths, secondaries terminated at dispersion */
     DISPERSION_FANOUT, /* the thesis: monochrome fan-out over the framebuffer buckets */
@@ -161,8 +156,6 @@ typedef struct render_settings {
     photon_settings_t photon;
 } render_settings_t;
 
-typedef struct scene_derived scene_derived_t;
-
 typedef struct scene {
     geometry_t *geometry;
     shape_t *shapes; /* world and object shapes; hit_t.shape indexes this */
@@ -184,7 +177,6 @@ typedef struct scene {
     int has_dispersion;   /* any dispersive material: spectral fan-out is ever needed */
     vec3_t bounds_lo, bounds_hi;
     double scene_radius;  /* radius of a sphere around the bounds (distant light sampling) */
-    scene_derived_t *derived; /* see scene_derived_get */
 } scene_t;
 
 scene_t *scene_new(err_t *err);
@@ -238,22 +230,6 @@ int scene_finish(scene_t *self, err_t *err);
  * point light, ...); used to pick lights in proportion to power. Finite and >= 0: 0 for a
  * zero-area or black light, capped at DBL_MAX / (nlights + 1) so that the powers sum. */
 double scene_light_power(const scene_t *self, const light_t *l);
-
-/* Data that the render kernels derive from a finished scene on first use, such as the photon
- * map: the first caller builds it with build(scene, err); concurrent callers wait and every
- * caller gets the same object, which scene_destroy frees with destroy. One slot per scene (a
- * second build function is refused). A failed build is remembered: every later call returns
- * NULL with the same message, so all tiles of a job fail alike. The scene stays logically
- * immutable: the derived data depends only on the scene. */
-typedef void *(*scene_derived_build_fn)(const scene_t *scene, err_t *err);
-typedef void (*scene_derived_destroy_fn)(void *data);
-void *scene_derived_get(const scene_t *self, scene_derived_build_fn build,
-                        scene_derived_destroy_fn destroy, err_t *err);
-/* Puts data made elsewhere into the empty slot as if build had made it (so later
- * scene_derived_get calls with build return it); the scene destroys it with destroy. Fails
- * when the slot holds anything already (it may be in use). */
-int scene_derived_set(const scene_t *self, scene_derived_build_fn build,
-                      scene_derived_destroy_fn destroy, void *data, err_t *err);
 
 /* Default settings: path tracer, hero dispersion, maxdepth 5, 16 spp, seed 1,
  * 1280x720 (pbrt-v4's default), the default spectral grid; no photon pass (its settings hold

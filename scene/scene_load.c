@@ -596,18 +596,15 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
     render_settings_t *rs = &L->sc->settings;
     params_t *p = in->params;
     const char *type = ov && ov->integrator ? ov->integrator : in->type;
-    int photon = !strcmp(type, "photon");
-    if (!strcmp(type, "path") || !strcmp(type, "auto"))
-        rs->integrator = INTEGRATOR_PATH;
-    else if (!strcmp(type, "simplepath"))
-        rs->integrator = INTEGRATOR_SIMPLEPATH;
-    else if (!strcmp(type, "whitted"))
-        rs->integrator = INTEGRATOR_WHITTED;
-    else if (!photon)
-        return pbrt_error(err, in->loc,
-                          "Integrator \"%s\" is not supported yet (use \"path\", \"simplepath\", "
-                          "\"whitted\", \"photon\" or \"auto\")",
-                          type);
+    const integrator_name_t *named = integrators_find(type);
+    if (!named) {
+        char names[INTEGRATORS_LIST_MAX];
+        integrators_list(false, names, sizeof names);
+        return pbrt_error(err, in->loc, "Integrator \"%s\" is not supported yet (use %s)", type,
+                          names);
+    }
+    int photon = named->photon;
+    rs->integrator = named->kind;
     int maxdepth;
     const char *disp, *wl;
     if (params_get_int(p, "maxdepth", 5, &maxdepth, err) ||

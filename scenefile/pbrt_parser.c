@@ -2,6 +2,8 @@
 
 #include "pbrt_parser.h"
 
+#include "integrators.h"
+
 #include "mesh_import.h"
 #include "params.h"
 #include "pbrt_lexer.h"
@@ -79,7 +81,6 @@ typedef struct str_arg {
 
 static const char *SAMPLERS[] = {"halton", "independent", "paddedsobol", "pmj02bn",
                                  "sobol",  "stratified",  "zsobol"};
-static const char *INTEGRATORS[] = {"simplepath", "path", "whitted", "photon", "auto"};
 
 /* pbrt-v4 directives that prismfarm knows but does not support. */
 static const char *UNSUPPORTED_DIRECTIVES[] = {
@@ -1815,11 +1816,10 @@ static int param_directive(parser_t *P, const char *dir, pbrt_loc_t loc)
     } else if (!strcmp(dir, "Integrator")) {
         if (need_options(P, dir, loc) != 0)
             goto done;
-        if (!in_list(type.s, INTEGRATORS, COUNT_OF(INTEGRATORS))) {
-            pbrt_error(P->err, type.loc,
-                       "unsupported integrator \"%s\" (\"simplepath\", \"path\", "
-                       "\"whitted\", \"photon\" or \"auto\")",
-                       type.s);
+        if (!integrators_find(type.s)) {
+            char names[INTEGRATORS_LIST_MAX];
+            integrators_list(false, names, sizeof names);
+            pbrt_error(P->err, type.loc, "unsupported integrator \"%s\" (%s)", type.s, names);
             goto done;
         }
         scene_integrator_t *in = &P->scene->integrator;

@@ -9,6 +9,7 @@
 #define PRISMFARM_SCENE_BUILDERS_H
 
 #include "glass.h"
+#include "photon.h"
 #include "render.h"
 #include "scene.h"
 
@@ -318,7 +319,10 @@ typedef struct sb_image_stats {
     double buckets[64]; /* mean spectral value per bucket */
 } sb_image_stats_t;
 
-static inline sb_image_stats_t sb_render_stats(scene_t *s, int res, int spp)
+/* The image statistics of s rendered at res x res and spp, its camera pass gathering from
+ * photons (the store of its photon pass, NULL without one). */
+static inline sb_image_stats_t sb_render_stats_with(scene_t *s, const photon_store_t *photons,
+                                                    int res, int spp)
 {
     err_t err;
     s->settings.spp = spp;
@@ -327,7 +331,7 @@ static inline sb_image_stats_t sb_render_stats(scene_t *s, int res, int spp)
     tilebuf_t *t = tilebuf_new(0, 0, res, res, nb, &err);
     assert_non_null(t);
     render_stats_t rst = {0};
-    if (render_tile(s, 0, 0, res, res, 0, (uint32_t)spp, t, &rst, &err))
+    if (render_tile(s, photons, 0, 0, res, res, 0, (uint32_t)spp, t, &rst, &err))
         fail_msg("render_tile: %s", err.msg);
     assert_int_equal(rst.nonfinite, 0);
     sb_image_stats_t st = {0};
@@ -348,6 +352,18 @@ static inline sb_image_stats_t sb_render_stats(scene_t *s, int res, int spp)
     st.var /= res * res;
     st.se = sqrt(var_sum) / (res * res);
     tilebuf_destroy(&t);
+    return st;
+}
+
+/* sb_render_stats_with the scene's own photon pass, traced on every core first if it has one. */
+static inline sb_image_stats_t sb_render_stats(scene_t *s, int res, int spp)
+{
+    err_t err;
+    photon_store_t *photons = NULL;
+    if (s->settings.photon.enabled && !(photons = photon_pass_run(s, 0, NULL, NULL, &err)))
+        fail_msg("photon pass: %s", err.msg);
+    sb_image_stats_t st = sb_render_stats_with(s, photons, res, spp);
+    photon_store_destroy(&photons);
     return st;
 }
 

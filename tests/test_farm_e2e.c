@@ -121,7 +121,7 @@ static tilebuf_t *reference_image(const char *scene_path, int spp, int tile, int
             int h = rs->yres - y0 < tile ? rs->yres - y0 : tile;
             for (int p = 0; p < (rounded ? npasses : 1); p++) {
                 tilebuf_t *t = tilebuf_new(x0, y0, w, h, rs->grid.n, &err);
-                assert_int_equal(render_tile(sc, x0, y0, w, h, rounded ? b[p] : 0,
+                assert_int_equal(render_tile(sc, NULL, x0, y0, w, h, rounded ? b[p] : 0,
                                              rounded ? b[p + 1] : (uint32_t)spp, t, NULL, &err),
                                  0);
                 if (rounded)

@@ -359,11 +359,11 @@ static void test_caustic_agrees_with_path(void **state)
     const int path_spp = 4096, photon_spp = 32, photons = 2000000;
     scene_t *path = ball_scene(0, PHOTON_STORE_LIGHTMAP);
     scene_t *ph = ball_scene(photons, PHOTON_STORE_LIGHTMAP);
-    sb_image_stats_t a = sb_render_stats(path, RES, path_spp),
-                     b = sb_render_stats(ph, RES, photon_spp);
     err_t err;
-    const photon_store_t *store = photon_pass_get(ph, NULL, NULL, &err);
+    photon_store_t *store = photon_pass_run(ph, 0, NULL, NULL, &err);
     assert_non_null(store);
+    sb_image_stats_t a = sb_render_stats(path, RES, path_spp),
+                     b = sb_render_stats_with(ph, store, RES, photon_spp);
     assert_int_equal(photon_store_kind(store), PHOTON_STORE_LIGHTMAP);
     double map_se = b.mean * store_relative_se((uint64_t)photons, 200000);
     double se = sqrt(a.se * a.se + b.se * b.se + map_se * map_se);
@@ -392,10 +392,11 @@ static void test_caustic_agrees_with_path(void **state)
      * the floor's light that the ball returns to it (path gather only). */
     ph->settings.integrator = INTEGRATOR_WHITTED;
     ph->settings.dispersion = DISPERSION_FANOUT;
-    sb_image_stats_t d = sb_render_stats(ph, RES, 4);
+    sb_image_stats_t d = sb_render_stats_with(ph, store, RES, 4);
     print_message("Whitted gather, fan-out, light map: %.4f (%+.2f%% against the path gather)\n",
                   d.mean, 100.0 * (d.mean / b.mean - 1.0));
     assert_true(fabs(d.mean - b.mean) < 4.0 * sqrt(b.se * b.se + d.se * d.se) + 0.01 * b.mean);
+    photon_store_destroy(&store);
     scene_destroy(&path);
     scene_destroy(&ph);
 }

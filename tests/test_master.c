@@ -393,7 +393,7 @@ static tilebuf_t *render_task(fake_worker_t *w, const proto_msg_t *t)
     const proto_tile_t *r = &t->task.tile;
     tilebuf_t *tb = tilebuf_new(r->x0, r->y0, r->w, r->h, w->scene->settings.grid.n, &err);
     assert_non_null(tb);
-    if (render_tile(w->scene, r->x0, r->y0, r->w, r->h, r->sample_begin, r->sample_end, tb, NULL,
+    if (render_tile(w->scene, NULL, r->x0, r->y0, r->w, r->h, r->sample_begin, r->sample_end, tb, NULL,
                     &err))
         fail_msg("render_tile: %s", err.msg);
     tilebuf_round_sums(tb); /* as a real worker does before sending (tilebuf.h) */
@@ -436,7 +436,7 @@ static tilebuf_t *expected_image(void)
             for (int tx = 0; tx < XRES; tx += TILE) {
                 tilebuf_t *t = tilebuf_new(tx, ty, TILE, TILE, NBUCKETS, &err);
                 assert_int_equal(
-                    render_tile(sc, tx, ty, TILE, TILE, passes[p][0], passes[p][1], t, NULL, &err),
+                    render_tile(sc, NULL, tx, ty, TILE, TILE, passes[p][0], passes[p][1], t, NULL, &err),
                     0);
                 tilebuf_round_sums(t);
                 assert_int_equal(tilebuf_merge(image, t, &err), 0);
@@ -481,7 +481,7 @@ static void check_exr(fx_t *f, uint64_t job)
     assert_non_null(sc);
     tilebuf_t *local = tilebuf_new(0, 0, XRES, YRES, NBUCKETS, &err);
     local_render_opts_t lo = {.threads = 1, .tile_size = TILE};
-    assert_int_equal(local_render(sc, &lo, local, NULL, &err), 0);
+    assert_int_equal(local_render(sc, &lo, local, NULL, NULL, &err), 0);
     int exact = 0, near = 0, nonzero = 0;
     double a[NBUCKETS], b[NBUCKETS];
     for (int y = 0; y < YRES; y++)

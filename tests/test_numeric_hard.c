@@ -741,7 +741,7 @@ static void render_image(const scene_t *s, image_t *im)
     assert_non_null(t);
     render_stats_t st = {0};
     local_render_opts_t o = {.threads = 2, .tile_size = 4};
-    if (local_render(s, &o, t, &st, &err))
+    if (local_render(s, &o, t, &st, NULL, &err))
         fail_msg("local_render: %s", err.msg);
     memset(im, 0, sizeof *im);
     im->nonfinite = st.nonfinite;
@@ -1350,7 +1350,7 @@ static void test_nonfinite_counted(void **state)
         tilebuf_t *t = tilebuf_new(0, 0, RES, RES, NB, &err);
         render_stats_t st = {0};
         local_render_opts_t o = {.threads = 2, .tile_size = 3};
-        assert_int_equal(local_render(s, &o, t, &st, &err), 0);
+        assert_int_equal(local_render(s, &o, t, &st, NULL, &err), 0);
         uint64_t taken = 0;
         for (int y = 0; y < RES; y++)
             for (int x = 0; x < RES; x++) {

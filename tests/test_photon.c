@@ -490,9 +490,9 @@ static void test_scene_parameters(void **state)
     expect_error("Integrator \"path\" \"integer photons\" 5", "photons");
 }
 
-/* The lazily built pass: the same map for every caller, figures reported, and a scene whose
- * only light is an environment (which emits no photons) fails with a clear message. */
-static void test_pass_kept_with_scene(void **state)
+/* The pass on this machine: a finished store, its figures reported, and a scene whose only
+ * light is an environment (which emits no photons) fails with a clear message. */
+static void test_pass_run_reports(void **state)
 {
     (void)state;
     err_t err;
@@ -502,12 +502,14 @@ static void test_pass_kept_with_scene(void **state)
     s->settings.photon.photons = 5000;
     photon_stats_t st;
     double sec = -1;
-    const photon_store_t *a = photon_pass_get(s, &st, &sec, &err);
+    photon_stats_t st_zero = {0};
+    st = st_zero;
+    photon_store_t *a = photon_pass_run(s, 2, &st, &sec, &err);
     assert_non_null(a);
     assert_true(photon_store_finished(a));
     assert_int_equal(st.emitted, 5000);
     assert_true(sec >= 0.0);
-    assert_ptr_equal(photon_pass_get(s, NULL, NULL, &err), a);
+    photon_store_destroy(&a);
     scene_destroy(&s);
 
     s = sb_new_scene();
@@ -519,11 +521,18 @@ static void test_pass_kept_with_scene(void **state)
     sb_finish(s);
     s->settings.photon.enabled = 1;
     s->settings.photon.photons = 10;
-    assert_null(photon_pass_get(s, NULL, NULL, &err));
+    assert_null(photon_pass_run(s, 1, NULL, NULL, &err));
     assert_non_null(strstr(err.msg, "environment"));
     err.msg[0] = 0;
-    assert_null(photon_pass_get(s, NULL, NULL, &err));
+    assert_null(photon_pass_run(s, 2, NULL, NULL, &err));
     assert_non_null(strstr(err.msg, "environment"));
+    /* The camera pass of a photon scene refuses to run without the store. */
+    tilebuf_t *t = tilebuf_new(0, 0, 4, 4, s->settings.grid.n, &err);
+    assert_non_null(t);
+    s->settings.xres = s->settings.yres = 4;
+    assert_int_equal(render_tile(s, NULL, 0, 0, 4, 4, 0, 1, t, NULL, &err), -1);
+    assert_non_null(strstr(err.msg, "photon pass"));
+    tilebuf_destroy(&t);
     scene_destroy(&s);
 }
 
@@ -533,7 +542,7 @@ int main(void)
         cmocka_unit_test(test_energy_closed_sphere), cmocka_unit_test(test_slab_transmittance),
         cmocka_unit_test(test_prism_beam),           cmocka_unit_test(test_determinism),
         cmocka_unit_test(test_threshold_roulette),   cmocka_unit_test(test_collimated_direct),
-        cmocka_unit_test(test_scene_parameters),     cmocka_unit_test(test_pass_kept_with_scene),
+        cmocka_unit_test(test_scene_parameters),     cmocka_unit_test(test_pass_run_reports),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -41,11 +41,8 @@ static scene_t *ball_scene(int photons)
  * the axis) times (steradians per unit area, cos theta / d^2), so its share is
  * a_i w_i with w_i = cos theta / (d^2 cos^3 alpha), and the mean's relative standard error is
  * sqrt(sum (a_i w_i)^2) / sum a_i w_i over the photons in view (photons are independent). */
-static double map_relative_se(const scene_t *s)
+static double map_relative_se(const scene_t *s, const photon_store_t *ps)
 {
-    err_t err;
-    const photon_store_t *ps = photon_pass_get(s, NULL, NULL, &err);
-    assert_non_null(ps);
     const photon_map_t *m = photon_store_map(ps);
     xyz_t wts[64];
     colour_grid_weights(s->settings.grid, wts);
@@ -79,8 +76,12 @@ static void test_caustic_agrees_with_path(void **state)
 {
     (void)state;
     scene_t *path = ball_scene(0), *ph = ball_scene(800000);
-    sb_image_stats_t a = sb_render_stats(path, RES, 2048), b = sb_render_stats(ph, RES, 16);
-    double map_se = b.mean * map_relative_se(ph);
+    err_t err;
+    photon_store_t *store = photon_pass_run(ph, 0, NULL, NULL, &err);
+    assert_non_null(store);
+    sb_image_stats_t a = sb_render_stats(path, RES, 2048),
+                     b = sb_render_stats_with(ph, store, RES, 16);
+    double map_se = b.mean * map_relative_se(ph, store);
     double se = sqrt(a.se * a.se + b.se * b.se + map_se * map_se);
     print_message("caustic mean luminance: path %.4f +- %.4f (2048 spp), photon %.4f +- %.4f (16 "
                   "spp) +- %.4f "
@@ -108,12 +109,13 @@ static void test_caustic_agrees_with_path(void **state)
      * sees the caustic too; it lacks only the diffuse interreflection the path gather adds. */
     ph->settings.integrator = INTEGRATOR_WHITTED;
     ph->settings.dispersion = DISPERSION_FANOUT;
-    sb_image_stats_t d = sb_render_stats(ph, RES, 4);
+    sb_image_stats_t d = sb_render_stats_with(ph, store, RES, 4);
     print_message("Whitted gather, fan-out: %.4f (%+.2f%% against the path gather)\n", d.mean,
                   100.0 * (d.mean / b.mean - 1.0));
     /* Same store, so its noise cancels: 4 sigma of both renders' camera noise, plus 1 % for
      * the floor's light that the ball returns to it (path gather only; measured 0.03 %). */
     assert_true(fabs(d.mean - b.mean) < 4.0 * sqrt(b.se * b.se + d.se * d.se) + 0.01 * b.mean);
+    photon_store_destroy(&store);
     scene_destroy(&path);
     scene_destroy(&ph);
 }
@@ -127,17 +129,22 @@ static void test_workers_agree(void **state)
     err_t err;
     scene_t *w1 = ball_scene(50000), *w2 = ball_scene(50000);
     w1->settings.spp = w2->settings.spp = 4;
+    /* Each worker traces the photon pass itself, with its own thread count. */
+    photon_store_t *p1 = photon_pass_run(w1, 1, NULL, NULL, &err),
+                   *p2 = photon_pass_run(w2, 3, NULL, NULL, &err);
+    assert_non_null(p1);
+    assert_non_null(p2);
     int nb = w1->settings.grid.n;
     tilebuf_t *a = tilebuf_new(0, 0, RES, RES, nb, &err),
               *b = tilebuf_new(0, 0, RES, RES, nb, &err);
-    assert_int_equal(render_tile(w1, 0, 0, RES, RES, 0, 4, a, NULL, &err), 0);
+    assert_int_equal(render_tile(w1, p1, 0, 0, RES, RES, 0, 4, a, NULL, &err), 0);
     for (int y = 0; y < RES; y += 5)
         for (int x = 0; x < RES; x += 7) {
             int w = x + 7 > RES ? RES - x : 7, h = y + 5 > RES ? RES - y : 5;
             for (uint32_t s0 = 0; s0 < 4; s0 += 3) {
                 tilebuf_t *t = tilebuf_new(x, y, w, h, nb, &err);
                 assert_int_equal(
-                    render_tile(w2, x, y, w, h, s0, s0 + 3 > 4 ? 4 : s0 + 3, t, NULL, &err), 0);
+                    render_tile(w2, p2, x, y, w, h, s0, s0 + 3 > 4 ? 4 : s0 + 3, t, NULL, &err), 0);
                 assert_int_equal(tilebuf_merge(b, t, &err), 0);
                 tilebuf_destroy(&t);
             }
@@ -151,11 +158,13 @@ static void test_workers_agree(void **state)
         }
     /* Whole tiles are bit-identical. */
     tilebuf_t *c = tilebuf_new(0, 0, RES, RES, nb, &err);
-    assert_int_equal(render_tile(w2, 0, 0, RES, RES, 0, 4, c, NULL, &err), 0);
+    assert_int_equal(render_tile(w2, p2, 0, 0, RES, RES, 0, 4, c, NULL, &err), 0);
     assert_memory_equal(tilebuf_sums(a), tilebuf_sums(c), sizeof(double) * RES * RES * (size_t)nb);
     tilebuf_destroy(&a);
     tilebuf_destroy(&b);
     tilebuf_destroy(&c);
+    photon_store_destroy(&p1);
+    photon_store_destroy(&p2);
     scene_destroy(&w1);
     scene_destroy(&w2);
 }

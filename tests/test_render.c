@@ -55,7 +55,7 @@ static stats_t render_stats(scene_t *s)
     int nb = s->settings.grid.n;
     tilebuf_t *t = tilebuf_new(0, 0, RES, RES, nb, &err);
     render_stats_t rs = {0};
-    if (render_tile(s, 0, 0, RES, RES, 0, (uint32_t)s->settings.spp, t, &rs, &err))
+    if (render_tile(s, NULL, 0, 0, RES, RES, 0, (uint32_t)s->settings.spp, t, &rs, &err))
         fail_msg("render_tile: %s", err.msg);
     stats_t st = {.nonfinite = rs.nonfinite};
     int npix = RES * RES;
@@ -254,12 +254,12 @@ static void test_tiles_are_deterministic(void **state)
     int nb = s->settings.grid.n;
     tilebuf_t *whole = tilebuf_new(0, 0, RES, RES, nb, &err);
     tilebuf_t *parts = tilebuf_new(0, 0, RES, RES, nb, &err);
-    assert_int_equal(render_tile(s, 0, 0, RES, RES, 0, 16, whole, NULL, &err), 0);
+    assert_int_equal(render_tile(s, NULL, 0, 0, RES, RES, 0, 16, whole, NULL, &err), 0);
     for (int ty = 0; ty < RES; ty += 4)
         for (int tx = 0; tx < RES; tx += 4)
             for (uint32_t s0 = 0; s0 < 16; s0 += 8) {
                 tilebuf_t *tile = tilebuf_new(tx, ty, 4, 4, nb, &err);
-                assert_int_equal(render_tile(s, tx, ty, 4, 4, s0, s0 + 8, tile, NULL, &err), 0);
+                assert_int_equal(render_tile(s, NULL, tx, ty, 4, 4, s0, s0 + 8, tile, NULL, &err), 0);
                 assert_int_equal(tilebuf_merge(parts, tile, &err), 0);
                 tilebuf_destroy(&tile);
             }
@@ -280,7 +280,7 @@ static void test_tiles_are_deterministic(void **state)
         img[k] = tilebuf_new(0, 0, RES, RES, nb, &err);
         local_render_opts_t o = {.threads = k + 1, .tile_size = k == 2 ? 3 : 4};
         render_stats_t st = {0};
-        assert_int_equal(local_render(s, &o, img[k], &st, &err), 0);
+        assert_int_equal(local_render(s, &o, img[k], &st, NULL, &err), 0);
         assert_int_equal(st.samples, (uint64_t)RES * RES * 16);
         assert_true(st.dispersive > 0);
     }

@@ -112,7 +112,7 @@ static tilebuf_t *render(scene_t *s, uint64_t *nonfinite)
     int w = s->settings.xres, h = s->settings.yres;
     tilebuf_t *t = tilebuf_new(0, 0, w, h, s->settings.grid.n, &err);
     render_stats_t st = {0};
-    if (render_tile(s, 0, 0, w, h, 0, (uint32_t)s->settings.spp, t, &st, &err))
+    if (render_tile(s, NULL, 0, 0, w, h, 0, (uint32_t)s->settings.spp, t, &st, &err))
         fail_msg("render_tile: %s", err.msg);
     *nonfinite = st.nonfinite;
     return t;

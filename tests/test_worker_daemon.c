@@ -171,7 +171,7 @@ static void test_task_round_trip(void **state)
     scene_t *sc = scene_load_file("data/render/tiny.pbrt", &ov, &err);
     assert_non_null(sc);
     tilebuf_t *t = tilebuf_new(8, 4, 8, 6, sc->settings.grid.n, &err);
-    assert_int_equal(render_tile(sc, 8, 4, 8, 6, 2, 4, t, NULL, &err), 0);
+    assert_int_equal(render_tile(sc, NULL, 8, 4, 8, 6, 2, 4, t, NULL, &err), 0);
     /* The worker sends its pass's sums rounded by tilebuf's rule (float32 on the wire). */
     assert_int_equal(tilebuf_round_sums(t), 0);
     assert_int_equal(m.result.tile.sums_bits, 32);

@@ -2,9 +2,10 @@
 
 #include "bundle.h"
 #include "curve.h"
-#include "local_render.h"
+#include "clock.h"
 #include "net.h"
 #include "photon.h"
+#include "pool.h"
 #include "render.h"
 #include "scene_load.h"
 
@@ -19,10 +20,6 @@
 #include <time.h>
 #include <unistd.h>
 #include <zmq.h>
-#if defined(__SSE__)
-#include <pmmintrin.h>
-#include <xmmintrin.h>
-#endif
 
 #define MAX_SCENES 4 /* loaded scenes kept (one per job); the oldest unused one goes first */
 /* A master that says nothing while its connection stays up (libzmq's own heartbeats, answered
@@ -34,10 +31,11 @@
 typedef struct job_scene {
     uint64_t job;
     char hash[PROTO_HASH_HEX + 1];
-    /* The photon store installed in the scene for its camera tasks, "" for none yet: a
-     * refined job's new store needs a scene of its own, as a store is installed once. */
+    /* The photon store decoded for the scene's camera tasks (photons), "" for none yet: a
+     * refined job's new store needs a scene of its own, as a store is decoded once. */
     char store[PROTO_HASH_HEX + 1];
     scene_t *scene;
+    photon_store_t *photons;
     char error[512];
     int loading, users;
     unsigned long stamp;
@@ -93,11 +91,12 @@ typedef struct worker {
     int wake_fd[2]; /* render threads write a byte here when a result is ready */
 } worker_t;
 
-static double now_s(void)
+/* Frees a scene slot's scene and store and empties it. */
+static void job_scene_clear(job_scene_t *js)
 {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+    scene_destroy(&js->scene);
+    photon_store_destroy(&js->photons);
+    memset(js, 0, sizeof *js);
 }
 
 static void logf_(const worker_t *w, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
@@ -152,8 +151,8 @@ static int task_ready(worker_t *w, const task_t *t)
     return bundle_ready(w, t->hash) && (!t->store[0] || find_store(w, t->store));
 }
 
-/* Installs the task's photon store into a freshly loaded scene (its derived-data slot is still
- * empty). Called with the lock held; released while the store is decoded and built. */
+/* Decodes the task's photon store for a scene slot that has none yet. Called with the lock
+ * held; released while the store is decoded and built. */
 static int install_store(worker_t *w, job_scene_t *js, const task_t *t, err_t *err)
 {
     store_bytes_t *sb = find_store(w, t->store);
@@ -162,8 +161,10 @@ static int install_store(worker_t *w, job_scene_t *js, const task_t *t, err_t *e
                        t->store);
     sb->users++;
     pthread_mutex_unlock(&w->lock);
-    int r = photon_pass_install_bytes(js->scene, sb->data, sb->size, err);
+    photon_store_t *store = photon_pass_from_wire(js->scene, sb->data, sb->size, err);
     pthread_mutex_lock(&w->lock);
+    int r = store ? 0 : -1;
+    js->photons = store;
     sb->users--;
     sb->stamp = ++w->clock;
     if (!r)
@@ -216,8 +217,7 @@ static job_scene_t *acquire_scene(worker_t *w, const task_t *t, err_t *err)
             pthread_cond_wait(&w->wake, &w->lock);
             continue;
         }
-        scene_destroy(&victim->scene);
-        memset(victim, 0, sizeof *victim);
+        job_scene_clear(victim);
         victim->job = t->job;
         victim->loading = 1;
         snprintf(victim->hash, sizeof victim->hash, "%s", t->hash);
@@ -257,13 +257,10 @@ static job_scene_t *acquire_scene(worker_t *w, const task_t *t, err_t *err)
     }
 }
 
+/* One of the pool's render threads (base/pool.h sets their floating-point mode). */
 static void *render_thread(void *arg)
 {
     worker_t *w = arg;
-#if defined(__SSE__)
-    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
-    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
-#endif
     pthread_mutex_lock(&w->lock);
     for (;;) {
         while (!w->quit && !w->queue)
@@ -278,19 +275,19 @@ static void *render_thread(void *arg)
         job_scene_t *js = is_cancelled(w, t->job) ? NULL : acquire_scene(w, t, &err);
         if (js) {
             pthread_mutex_unlock(&w->lock);
-            double t0 = now_s();
+            double t0 = clock_now_s();
             if (t->kind == PROTO_KIND_PHOTON_BATCH) {
                 t->ok = photon_batch_run(js->scene, t->photons.first, t->photons.end,
                                          &t->photon_data, &t->photon_size, &t->pstats, &err) == 0;
             } else {
                 const proto_tile_t *r = &t->tile;
                 t->result = tilebuf_new(r->x0, r->y0, r->w, r->h, js->scene->settings.grid.n, &err);
-                if (t->result && render_tile(js->scene, r->x0, r->y0, r->w, r->h, r->sample_begin,
+                if (t->result && render_tile(js->scene, js->photons, r->x0, r->y0, r->w, r->h, r->sample_begin,
                                              r->sample_end, t->result, &t->stats, &err))
                     tilebuf_destroy(&t->result);
                 t->ok = t->result != NULL;
             }
-            t->elapsed = now_s() - t0;
+            t->elapsed = clock_now_s() - t0;
             pthread_mutex_lock(&w->lock);
             js->users--;
             pthread_cond_broadcast(&w->wake);
@@ -390,7 +387,7 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                  getenv("TMPDIR") ? getenv("TMPDIR") : "/tmp", (long)getuid());
     if (make_dirs(w.cache))
         return err_set(err, "worker: cannot create cache folder %s: %s", w.cache, strerror(errno));
-    int threads = opts->threads > 0 ? opts->threads : local_render_cores();
+    int threads = opts->threads > 0 ? opts->threads : pool_cores();
     char name[256];
     if (opts->name)
         snprintf(name, sizeof name, "%s", opts->name);
@@ -410,13 +407,11 @@ int worker_run(const worker_opts_t *opts, err_t *err)
     }
     pthread_mutex_init(&w.lock, NULL);
     pthread_cond_init(&w.wake, NULL);
-    pthread_t *th = calloc((size_t)threads, sizeof *th);
-    int started = 0;
-    while (th && started < threads && pthread_create(&th[started], NULL, render_thread, &w) == 0)
-        started++;
+    err_t perr;
+    pool_t *pool = pool_start(threads, render_thread, &w, &perr);
     int rc = 0;
-    if (started == 0) {
-        rc = err_set(err, "worker: cannot start render threads");
+    if (!pool) {
+        rc = err_set(err, "worker: cannot start render threads: %s", perr.msg);
         goto out;
     }
 
@@ -440,10 +435,10 @@ int worker_run(const worker_opts_t *opts, err_t *err)
         unsigned gen = w.generation;
         pthread_mutex_unlock(&w.lock);
         proto_msg_t hello = {.type = PROTO_HELLO,
-                             .hello = {.name = name, .threads = started, .software = "prismfarm 0.1.0"}};
+                             .hello = {.name = name, .threads = pool_size(pool), .software = "prismfarm 0.1.0"}};
         send_msg(&w, net, &hello);
-        logf_(&w, "connecting to %s as '%s' with %d threads", opts->endpoint, name, started);
-        double last_heard = now_s(), last_sent = now_s();
+        logf_(&w, "connecting to %s as '%s' with %d threads", opts->endpoint, name, pool_size(pool));
+        double last_heard = clock_now_s(), last_sent = clock_now_s();
         int welcomed = 0, busy_logged = 0;
         while (!*opts->stop) {
             proto_msg_t m;
@@ -459,7 +454,7 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                 }
             }
             int r = proto_net_recv(net, &from, &m, 0, &rerr);
-            double now = now_s();
+            double now = clock_now_s();
             if (r == 0) {
                 last_heard = now;
                 busy_logged = 0;
@@ -625,8 +620,7 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                     }
                     for (int i = 0; i < MAX_SCENES; i++)
                         if (w.scenes[i].job == m.cancel.job && !w.scenes[i].users && !w.scenes[i].loading) {
-                            scene_destroy(&w.scenes[i].scene);
-                            memset(&w.scenes[i], 0, sizeof w.scenes[i]);
+                            job_scene_clear(&w.scenes[i]);
                         }
                     pthread_mutex_unlock(&w.lock);
                     logf_(&w, "job %llu cancelled", (unsigned long long)m.cancel.job);
@@ -760,14 +754,12 @@ out:
     w.quit = 1;
     pthread_cond_broadcast(&w.wake);
     pthread_mutex_unlock(&w.lock);
-    for (int i = 0; i < started; i++)
-        pthread_join(th[i], NULL);
-    free(th);
+    pool_join(&pool);
     free_list(w.queue);
     free_list(w.parked);
     free_list(w.done);
     for (int i = 0; i < MAX_SCENES; i++)
-        scene_destroy(&w.scenes[i].scene);
+        job_scene_clear(&w.scenes[i]);
     for (int i = 0; i < MAX_STORES; i++)
         free(w.stores[i].data);
     pthread_cond_destroy(&w.wake);

@@ -1,0 +1,41 @@
+/* integrators: the one table of integrator names prismfarm knows -- what a scene file's
+ * `Integrator` may say (the parser), what each means (the loader), what `--integrator` accepts
+ * (the command line) and how an output names what ran (the master, `render`, `plan`). A name is
+ * a camera-pass integrator, optionally after a photon pass. */
+#ifndef PRISMFARM_INTEGRATORS_H
+#define PRISMFARM_INTEGRATORS_H
+
+#include <stdbool.h>
+#include <stddef.h>
+
+/* The camera pass's integrator. */
+typedef enum integrator_kind {
+    INTEGRATOR_SIMPLEPATH, /* the thesis's simple path tracer: no light sampling */
+    INTEGRATOR_PATH,       /* next-event estimation with MIS */
+    INTEGRATOR_WHITTED,    /* specular chains, shadow rays at the first diffuse hit */
+} integrator_kind_t;
+
+typedef struct integrator_name {
+    const char *name;
+    integrator_kind_t kind; /* the camera pass it runs (photon: its "gather" may change it) */
+    bool photon;            /* a photon pass comes first */
+    bool overridable;       /* `--integrator` may choose it for any scene */
+} integrator_name_t;
+
+/* The entry named name, or NULL if prismfarm knows no integrator of that name. */
+const integrator_name_t *integrators_find(const char *name);
+
+/* "simplepath", "path" or "whitted". */
+const char *integrators_kind_name(integrator_kind_t kind);
+
+/* What ran, as outputs name it: the kind's name, or "photon+path" / "photon+whitted" after a
+ * photon pass. */
+const char *integrators_used_name(integrator_kind_t kind, bool photon);
+
+/* Every name for a message, quoted, in table order: "\"simplepath\", ..., \"photon\" or \"auto\"";
+ * with overridable_only, only the names `--integrator` takes, unquoted: "simplepath, path or
+ * whitted". Cut to fit buf (INTEGRATORS_LIST_MAX is always enough). */
+#define INTEGRATORS_LIST_MAX 128
+void integrators_list(bool overridable_only, char *buf, size_t size);
+
+#endif
