@@ -3,6 +3,7 @@
 #include "clock.h"
 #include "error_estimate.h"
 #include "passes.h"
+#include "photon.h"
 #include "pool.h"
 #include "tilegrid.h"
 
@@ -153,8 +154,19 @@ int local_render(const scene_t *scene, const local_render_opts_t *opts, tilebuf_
     sh.npasses = passes_bounds(rs->spp, sh.bounds);
     sh.samples_total = (uint64_t)rs->xres * (uint64_t)rs->yres * (uint64_t)rs->spp;
     sh.t0 = opts->t0 > 0 ? opts->t0 : clock_now_s();
-    if (pthread_mutex_init(&sh.lock, NULL))
+    photon_store_t *traced = NULL;
+    local_render_opts_t with_store;
+    if (rs->photon.enabled && !opts->photons) {
+        if (!(traced = photon_pass_run(scene, opts->threads, NULL, NULL, err)))
+            return err_prefix(err, "photon pass: ");
+        with_store = *opts;
+        with_store.photons = traced;
+        sh.opts = opts = &with_store;
+    }
+    if (pthread_mutex_init(&sh.lock, NULL)) {
+        photon_store_destroy(&traced);
         return err_set(err, "cannot create a mutex");
+    }
     int r;
     if (stopping_active(&opts->stop)) {
         r = render_by_pass(&sh, image, res, err);
@@ -169,6 +181,7 @@ int local_render(const scene_t *scene, const local_render_opts_t *opts, tilebuf_
         }
     }
     pthread_mutex_destroy(&sh.lock);
+    photon_store_destroy(&traced);
     if (r == 0 && stats)
         stats_add(stats, &sh.stats);
     return r;

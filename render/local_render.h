@@ -22,7 +22,8 @@ typedef void (*local_render_pass_fn)(void *user, const pass_record_t *rec, uint6
 typedef struct local_render_opts {
     int threads;                     /* 0: all cores */
     int tile_size;                   /* 0: 32 */
-    const photon_store_t *photons;   /* the photon pass's store (render_tile), if the scene has one */
+    const photon_store_t *photons;   /* the photon pass's store (render_tile) for a scene with a
+                                      * photon pass; NULL: local_render traces it first */
     stopping_rule_t stop;            /* none: every pass, tile by tile */
     double t0;                       /* clock_now_s() when the job started (its elapsed times and
                                       * time limit count from it); 0: at the call */

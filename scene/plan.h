@@ -13,7 +13,7 @@
 #include "err.h"
 #include "scene.h"
 #include "scene_desc.h"
-#include "scene_load.h"
+#include "overrides.h"
 
 #include <stddef.h>
 #include <stdint.h>

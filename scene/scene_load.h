@@ -8,17 +8,9 @@
 #define PRISMFARM_SCENE_LOAD_H
 
 #include "err.h"
+#include "overrides.h"
 #include "scene.h"
 #include "scene_desc.h"
-
-/* Command-line overrides of the scene file; 0 / NULL / -1 leave the file's value. */
-typedef struct scene_overrides {
-    int spp;
-    int xres, yres;
-    long long seed;        /* -1: keep */
-    const char *integrator; /* "path", "simplepath", "whitted" */
-    const char *dispersion; /* "hero", "fanout" */
-} scene_overrides_t;
 
 scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t *err);
 

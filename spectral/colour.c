@@ -1,7 +1,5 @@
 #include "colour.h"
 
-#include "spectrum.h"
-
 #include <math.h>
 
 /* IEC 61966-2-1:1999 matrices (../shared/data/srgb_matrices.txt). The standard prints the
@@ -17,18 +15,6 @@ static const double SRGB_TO_XYZ[3][3] = {
     {0.2126, 0.7152, 0.0722},
     {0.0193, 0.1192, 0.9505},
 };
-
-xyz_t colour_spectrum_to_xyz(const spectrum_t *s)
-{
-    double x = 0.0, y = 0.0, z = 0.0;
-    for (int i = 0; i < CIE_SAMPLE_COUNT; i++) {
-        double v = spectrum_eval(s, CIE_LAMBDA_MIN + (double)i);
-        x += v * cie_x_table[i];
-        y += v * cie_y_table[i];
-        z += v * cie_z_table[i];
-    }
-    return (xyz_t){x / CIE_Y_INTEGRAL, y / CIE_Y_INTEGRAL, z / CIE_Y_INTEGRAL};
-}
 
 void colour_grid_weights(spectral_grid_t grid, xyz_t *weights)
 {

@@ -13,12 +13,6 @@ typedef struct rgb {
     double r, g, b;
 } rgb_t;
 
-typedef struct spectrum spectrum_t; /* spectrum.h */
-
-/* XYZ = sum over lambda = 360, 361, ..., 830 nm of s(lambda) * cmf(lambda) * 1 nm, divided
- * by CIE_Y_INTEGRAL. spectrum_eval is called 471 times. */
-xyz_t colour_spectrum_to_xyz(const spectrum_t *s);
-
 /* weights[i] = integral of the CMFs over bucket i (clipped to 360-830 nm; buckets outside
  * the visible range weigh 0) / CIE_Y_INTEGRAL, so that XYZ = sum_i buckets[i] * weights[i]
  * treats each bucket as its average spectral value held over its width. weights has grid.n

@@ -609,3 +609,15 @@ spectrum_t *spectrum_new_rgb_illuminant(rgb_t rgb, err_t *err)
     }
     return s;
 }
+
+xyz_t spectrum_to_xyz(const spectrum_t *s)
+{
+    double x = 0.0, y = 0.0, z = 0.0;
+    for (int i = 0; i < CIE_SAMPLE_COUNT; i++) {
+        double v = spectrum_eval(s, CIE_LAMBDA_MIN + (double)i);
+        x += v * cie_x_table[i];
+        y += v * cie_y_table[i];
+        z += v * cie_z_table[i];
+    }
+    return (xyz_t){x / CIE_Y_INTEGRAL, y / CIE_Y_INTEGRAL, z / CIE_Y_INTEGRAL};
+}

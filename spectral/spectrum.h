@@ -69,6 +69,10 @@ spectrum_kind_t spectrum_kind(const spectrum_t *self);
  * CIE_Y_INTEGRAL, so a constant 1 gives CIE_Y_INTEGRAL). */
 double spectrum_photometric(const spectrum_t *self);
 
+/* XYZ = sum over lambda = 360, 361, ..., 830 nm of s(lambda) * cmf(lambda) * 1 nm, divided
+ * by CIE_Y_INTEGRAL. spectrum_eval is called 471 times. */
+xyz_t spectrum_to_xyz(const spectrum_t *s);
+
 /* pbrt-v4's SpectrumToPhotometric, by which lights divide their spectrum: the same as
  * spectrum_photometric except that for an RGB illuminant only its D65 part counts (times any
  * spectrum_new_scaled factor), so an rgb "L" keeps its colour's own brightness. */

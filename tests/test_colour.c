@@ -25,7 +25,7 @@
 static xyz_t xyz_of(spectrum_t *s)
 {
     assert_non_null(s);
-    return colour_spectrum_to_xyz(s);
+    return spectrum_to_xyz(s);
 }
 
 /* The CIE_Y integral: pbrt-v4 publishes CIE_Y_integral = 106.856895 for its float32 copy of the
