@@ -1,6 +1,7 @@
 #include "job_follow.h"
 
 #include "clock.h"
+#include "files.h"
 #include "progress.h"
 
 #include <errno.h>
@@ -100,16 +101,9 @@ int job_follow_fetch(client_rpc_t *rpc, uint64_t job, proto_fetch_what_t what, c
         proto_msg_free(&reply);
         return 1;
     }
-    char tmp[4200];
-    snprintf(tmp, sizeof tmp, "%s.part", path);
-    FILE *f = fopen(tmp, "wb");
-    int ok = f && fwrite(reply.file.data, 1, reply.file.size, f) == reply.file.size;
-    ok = (f && fclose(f) == 0) && ok;
-    ok = ok && rename(tmp, path) == 0;
-    if (!ok) {
-        fprintf(stderr, "prismfarm %s: cannot write %s: %s\n", cmd, path, strerror(errno));
-        remove(tmp);
-    }
+    int ok = files_write_atomic(path, reply.file.data, reply.file.size, true, &err) == 0;
+    if (!ok)
+        fprintf(stderr, "prismfarm %s: cannot write %s: %s\n", cmd, path, err.msg);
     proto_msg_free(&reply);
     return ok ? 0 : 1;
 }

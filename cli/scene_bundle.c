@@ -1,5 +1,7 @@
 #include "scene_bundle.h"
 
+#include "files.h"
+
 #include "bundle.h"
 #include "pbrt_parser.h"
 
@@ -30,46 +32,6 @@ void scene_bundle_destroy(scene_bundle_t **self_p)
     free(self->files);
     free(self);
     *self_p = NULL;
-}
-
-static uint8_t *read_file(const char *path, size_t *size, err_t *err)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f) {
-        err_set(err, "cannot read %s: %s", path, strerror(errno));
-        return NULL;
-    }
-    size_t cap = 1 << 16, n = 0;
-    uint8_t *buf = malloc(cap);
-    while (buf) {
-        size_t got = fread(buf + n, 1, cap - n, f);
-        n += got;
-        if (n < cap)
-            break;
-        if (cap > PROTO_MAX_BUNDLE_BYTES) {
-            free(buf);
-            fclose(f);
-            err_set(err, "%s is larger than a bundle may be (%zu bytes)", path, (size_t)PROTO_MAX_BUNDLE_BYTES);
-            return NULL;
-        }
-        uint8_t *p = realloc(buf, cap * 2);
-        if (!p) {
-            free(buf);
-            buf = NULL;
-            break;
-        }
-        buf = p;
-        cap *= 2;
-    }
-    int bad = ferror(f);
-    fclose(f);
-    if (!buf || bad) {
-        free(buf);
-        err_set(err, "cannot read %s", path);
-        return NULL;
-    }
-    *size = n;
-    return buf;
 }
 
 scene_bundle_t *scene_bundle_new(const char *scene_path, err_t *err)
@@ -103,8 +65,7 @@ scene_bundle_t *scene_bundle_new(const char *scene_path, err_t *err)
         }
         self->paths[i] = strdup(rel);
         size_t size = 0;
-        self->data[i] = read_file(sf->path, &size, err);
-        if (!self->paths[i] || !self->data[i])
+        if (!self->paths[i] || files_read(sf->path, PROTO_MAX_BUNDLE_BYTES, &self->data[i], &size, err))
             goto fail;
         self->n = i + 1;
         self->files[i] = (proto_bundle_file_t){.path = self->paths[i], .data = self->data[i], .size = size};
