@@ -204,7 +204,7 @@ static int check_header_independently(const char *path, char names[][IMAGE_EXR_C
     assert_int_equal(storage, EXR_STORAGE_SCANLINE);
     exr_attr_chromaticities_t chr;
     assert_int_equal(exr_attr_get_chromaticities(ctx, 0, "chromaticities", &chr), EXR_ERR_SUCCESS);
-    /* IEC 61966-2-1 / Rec. 709 primaries and D65 (../shared/data/srgb_matrices.txt). */
+    /* IEC 61966-2-1 / Rec. 709 primaries and D65 (data/srgb_matrices.txt). */
     assert_true(chr.red_x == 0.64f && chr.red_y == 0.33f && chr.green_x == 0.30f &&
                 chr.green_y == 0.60f && chr.blue_x == 0.15f && chr.blue_y == 0.06f &&
                 chr.white_x == 0.3127f && chr.white_y == 0.3290f);
