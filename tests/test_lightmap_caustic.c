@@ -654,9 +654,9 @@ static double energy_per_photon(scene_t *(*make)(int), int lanes, uint64_t n, in
 }
 
 /* Following 16 monochrome rays per photon creates 16 photons from each; the light map divides
- * by the photons actually emitted (the thesis's missing post-pass, PHYSICS.md), so the caustic
- * energy per emitted photon is that of 1 ray per photon, within 4 standard errors of the
- * difference. Two scenes: the N-BK7 prism under its beam alone (the energy varies only by
+ * by the photons actually emitted (the thesis's missing post-pass, docs/physics.md §4.4), so
+ * the caustic energy per emitted photon is that of 1 ray per photon, within 4 standard errors
+ * of the difference. Two scenes: the N-BK7 prism under its beam alone (the energy varies only by
  * the Fresnel choices, a sharp test) and the shipped prism_beam, whose ceiling light's photons
  * mostly miss the prism (a photon's 16 rays then count as one: a wider test). */
 static void test_monochrome_rays_keep_energy(void **state)

@@ -128,7 +128,7 @@ static void test_defaults(void **state)
 {
     (void)state;
     scene_desc_t *s = parse_text_ok("WorldBegin\n");
-    /* pbrt-v4 defaults; the rgb film's bucket grid is prismfarm's (PHYSICS.md). */
+    /* pbrt-v4 defaults; the rgb film's bucket grid is prismfarm's (docs/physics.md §1.2). */
     assert_near(s->camera.fov, 90);
     assert_true(transform_is_identity(&s->camera.camera_from_world));
     assert_int_equal(s->film.type, SCENE_FILM_RGB);
