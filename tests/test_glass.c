@@ -148,7 +148,7 @@ static void test_aliases_and_case(void **state)
     assert_string_equal(err.msg, "unknown glass 'unobtainium'");
 }
 
-/* Every name the issue lists exists. */
+/* Every material docs/core.md lists is in the catalogue. */
 static void test_required_entries(void **state)
 {
     (void)state;

@@ -909,7 +909,7 @@ static void test_error_messages(void **state)
     static const struct {
         const char *text, *msg;
     } CASES[] = {
-        /* the example */
+        /* the example of docs/scene-format.md */
         {"WorldBegin\nLightSource \"point\" \"point3 from\" [1 2]\n",
          "t.pbrt:2:21: expected 3 numbers after \"point3 from\", got 2"},
         {"Frobnicate\n", "t.pbrt:1:1: unknown directive Frobnicate"},
