@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Accuracy against time (issue 7): the real error of `prismfarm render --direct` against a
+# Accuracy against time (docs/accuracy.md): the real error of `prismfarm render --direct` against a
 # high-quality reference, as a function of CPU time, for each knob:
 #   samples per pixel (every curve: 1, 4, 16, ... spp until a point would cost more than --cap),
 #   spectral buckets (8, 16, 32, 45; the reference has 64), dispersion strategy (hero, fanout),

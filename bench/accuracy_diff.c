@@ -1,5 +1,5 @@
 /* bench_accuracy_diff: how far a rendered EXR is from a reference, for bench/accuracy.sh
- * (issue 7). Compares the linear sRGB channels, so that images of any bucket count compare
+ * (docs/accuracy.md). Compares the linear sRGB channels, so that images of any bucket count compare
  * with one reference, and prints one line of key=value figures:
  *   lum      relative RMSE of luminance, sqrt(mean_p (Y - Yr)^2) / mean_p Yr, over every pixel
  *            (the measured counterpart of the job's own estimate, docs/farm.md "Accuracy");

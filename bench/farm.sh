@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The farm's benchmarks (issue 4), side by side in one run:
+# The farm's benchmarks (docs/performance.md), side by side in one run:
 #   1. overhead: one worker behind a master on loopback TCP (separate processes), and
 #      `prismfarm render` (the farm in one process), against `prismfarm render --direct` (plain
 #      threads) on the same job; target: within 5 %;

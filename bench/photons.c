@@ -1,4 +1,4 @@
-/* bench_photons: the photon pass's figures for docs/performance.md (issue 5's benchmarks), for
+/* bench_photons: the photon pass's figures for docs/performance.md ("The photon pass"), for
  * each caustic store -- the photon map and light maps at one or more texel densities:
  *   1. photons traced per CPU second of one thread on scenes/prism_beam.pbrt at its own depth
  *      (target: over 1 million per core), for 1 and 16 monochrome rays per photon, and the

@@ -1,4 +1,4 @@
-/* bench_throughput: how close the path tracer comes to Embree's own speed (issue 7's benchmarks).
+/* bench_throughput: how close the path tracer comes to Embree's own speed (docs/throughput.md).
  * For every scene, at a small size:
  *   1. rays per second of the renderer (render_stats rays over local_render's time) with one
  *      thread and with every core;

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The renderer's throughput against Embree's (issue 7), in one run:
+# The renderer's throughput against Embree's (docs/throughput.md), in one run:
 #   bench_throughput on every scenes/*.pbrt (rays/s of the path tracer with 1 thread and every
 #   core, the same rays replayed on Embree alone with rtcIntersect1/rtcOccluded1 and with its
 #   stream and packet queries, local_render's scaling over 1..N threads, photons per CPU second),

@@ -1,7 +1,7 @@
-/* prismfarm refine: more photons for a finished photon job (issue 5). The master traces the
- * new batches on its workers, merges them into the job's store with the same rescaling (by
- * every photon emitted so far) and renders the camera phase again; --wait follows the job and
- * downloads the refined image. */
+/* prismfarm refine: more photons for a finished photon job (docs/farm.md, "Photon jobs"). The
+ * master traces the new batches on its workers, merges them into the job's store with the same
+ * rescaling (by every photon emitted so far; docs/physics.md §5.2) and renders the camera phase
+ * again; --wait follows the job and downloads the refined image. */
 #include "commands.h"
 
 #include "cli_args.h"

@@ -415,7 +415,7 @@ static int exr_write_file(const char *path, int width, int height, const exr_sou
     }
     if (status == 0) {
         /* R, G, B are linear sRGB: the Rec. 709 primaries and the D65 white point of
-         * IEC 61966-2-1 (../shared/data/srgb_matrices.txt). */
+         * IEC 61966-2-1 (data/srgb_matrices.txt). */
         const exr_attr_chromaticities_t srgb = {0.6400f, 0.3300f, 0.3000f, 0.6000f,
                                                 0.1500f, 0.0600f, 0.3127f, 0.3290f};
         rv = exr_attr_set_chromaticities(ctx, part, "chromaticities", &srgb);

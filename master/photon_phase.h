@@ -6,7 +6,7 @@
  * photon_pass_run. The post-pass rescale is the merged emitted count: the store divides by the
  * monochrome photons actually emitted, so several lanes a photon, a batch lost and traced
  * again (duplicates are ignored) or batches added later by `prismfarm refine` all come out
- * with the right energy (PHYSICS.md, "Light maps and caustics"). */
+ * with the right energy (docs/physics.md §4.4, §5.2: the thesis's rescale post-pass). */
 #ifndef PRISMFARM_PHOTON_PHASE_H
 #define PRISMFARM_PHOTON_PHASE_H
 

@@ -1,8 +1,11 @@
-/* net: ZeroMQ sockets set up the way the farm needs them (shared/LIBRARIES.md), and one proto
- * message sent or received per call. A ROUTER reports unroutable peers instead of dropping
- * messages, every socket has bounded queues, a frame-size cap and libzmq heartbeats, CURVE when
- * given keys, and every failure names the endpoint or peer and zmq_strerror. A DEALER watches
- * its handshake, so that a refused key is reported instead of waited for.
+/* net: ZeroMQ sockets set up the way the farm needs them, and one proto message sent or received
+ * per call. libzmq's defaults do not suit a farm (a ROUTER silently drops messages to unknown
+ * peers and above its high-water mark, which counts messages, not bytes; any frame size is
+ * accepted; a dead peer goes unnoticed), so here a ROUTER reports unroutable peers instead of
+ * dropping messages (ZMQ_ROUTER_MANDATORY), every socket has bounded queues, a frame-size cap
+ * (ZMQ_MAXMSGSIZE) and libzmq heartbeats, CURVE when given keys, and every failure names the
+ * endpoint or peer and zmq_strerror. A DEALER watches its handshake, so that a refused key is
+ * reported instead of waited for.
  *
  * Framing (docs/protocol.md): a DEALER sends and receives exactly one frame, the encoded message;
  * the ROUTER sees [peer routing id][message]. No empty delimiter frame (no REQ/REP peers); any

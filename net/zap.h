@@ -1,9 +1,10 @@
 /* zap: the master's ZeroMQ authentication handler (ZeroMQ RFC 27, ZAP). A thread answers, for
  * every CURVE server socket of its context, whether a connecting peer's public key is in the
  * authorised folder (curve.h's ring), and logs each decision with the peer's address. Without a
- * handler libzmq lets in any client that knows the server's public key (shared/LIBRARIES.md);
- * with this one, only listed keys, and the folder is read again when it changes, so adding or
- * removing a .pub needs no restart (connections already made stay). */
+ * handler bound at inproc://zeromq.zap.01, libzmq 4.3 lets in any client that knows the
+ * server's public key (docs/security.md, "How it works"); with this one, only listed keys, and
+ * the folder is read again when it changes, so adding or removing a .pub needs no restart
+ * (connections already made stay). */
 #ifndef PRISMFARM_ZAP_H
 #define PRISMFARM_ZAP_H
 

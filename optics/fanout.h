@@ -88,8 +88,9 @@ typedef struct fanout_poly {
  * direction, the Fresnel transmittance t_i (cosine form) and TIR, then scales the t_i by
  * k = T_P / mean(t_i) (fanout_fresnel_scale), with T_P the polychrome transmittance at the
  * mean indices, so that R_P + mean(k t_i) = 1. The caller weights ray i by k t_i and the
- * energies of fanout_split; radiance crossing into a denser medium also takes the factor
- * (n_transmitted / n_incident)^2 (PHYSICS.md), which is left to the caller.
+ * energies of fanout_split; radiance carried along the ray also takes the factor
+ * (n_transmitted / n_incident)^2, a camera path, which carries light the other way,
+ * (n_incident / n_transmitted)^2 (docs/physics.md §3.4): that is left to the caller.
  * In the degenerate case sum t_i = 0 with T_P > 0 (every wavelength
  * totally reflected but the mean-index ray not, possible only through rounding, since the
  * ratio of mean indices is a weighted mean of the per-wavelength ratios; or grazing

@@ -18,9 +18,13 @@
  * refractiveindex.info database (polyanskiy/refractiveindex.info-database,
  * database/data-nk/...), which copies the SCHOTT Zemax catalogue 2017-01-20b for the SCHOTT
  * glasses (20 C, indices relative to air) and the cited papers for the crystals and water.
- * ../shared/data/glasses_sellmeier.csv holds the same numbers; SF5, SF10 and SF11 are not in
- * it and were read from glass/schott/SF5.yml, SF10.yml, SF11.yml of that database.
- * Catalogue n_d / v_d are noted for each SCHOTT glass (tests/test_glass.c checks them). */
+ * Every entry but SF5, SF10 and SF11 was taken from data/glasses_sellmeier.csv, the table of
+ * these coefficients read from that database with each row's source file (data/README.md):
+ * the digits are the table's, down to the C values it squared from the database's C in um.
+ * SF5, SF10 and SF11 were read from glass/schott/SF5.yml, SF10.yml, SF11.yml of the same
+ * database and have since been added to the table. tests/test_glass.c checks every entry against the table,
+ * coefficient for coefficient, and the SCHOTT glasses' n_d / v_d (noted for each) against the
+ * datasheets. */
 static const glass_t CATALOGUE[] = {
     /* SCHOTT N-BK7, glass/schott/N-BK7.yml; datasheet n_d 1.51680, v_d 64.17. pbrt-v4's
      * "glass-BK7"; the lead-containing predecessor BK7 had the same catalogue n_d and v_d. */

@@ -1,5 +1,5 @@
-/* lightmap: the light-map store of the photon integrator (thesis ch. 6; PHYSICS.md "Light maps
- * and caustics"): per-surface texel grids of a given density (texels per unit area) on every
+/* lightmap: the light-map store of the photon integrator (thesis 5.5 and 6.3; docs/physics.md
+ * §5.1): per-surface texel grids of a given density (texels per unit area) on every
  * triangle, sphere and disk of a scene, each texel holding the raw spectral power that photons
  * deposited on it, per framebuffer bucket. Storage is sparse (only 4x4-texel tiles, and within
  * them only the buckets, that received power are allocated). Each texel's sum is a binned

@@ -5,8 +5,8 @@
  * point, from every photon within a radius or from the k nearest.
  * Power is stored raw (unnormalised, see photon.h); a map also counts the photons emitted to
  * make it, and the estimate divides by that count, so maps traced in separate batches merge by
- * concatenation and are rescaled once, by the photons actually emitted (PHYSICS.md, "Light
- * maps and caustics"). 24 bytes per photon; building and queries are deterministic. */
+ * concatenation and are rescaled once, by the photons actually emitted (docs/physics.md
+ * §5.2). 24 bytes per photon; building and queries are deterministic. */
 #ifndef PRISMFARM_PHOTON_MAP_H
 #define PRISMFARM_PHOTON_MAP_H
 

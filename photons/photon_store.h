@@ -5,7 +5,7 @@
  * form, and the camera pass asks it for irradiance at a diffuse hit. Power is raw throughout;
  * both kinds divide by the photons emitted only when asked for irradiance, so merged batches,
  * a re-run batch or a later refinement all come out normalised by what was actually emitted
- * (PHYSICS.md, "Light maps and caustics"). */
+ * (docs/physics.md §5.2). */
 #ifndef PRISMFARM_PHOTON_STORE_H
 #define PRISMFARM_PHOTON_STORE_H
 

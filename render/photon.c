@@ -272,8 +272,8 @@ static int deposit_lanes(tracer_t *t, const flight_t *f, const hit_t *h, const s
                          vec3_t g, err_t *err)
 {
     photon_stats_t *st = t->stats;
-    /* Counted and dropped rather than stored (PHYSICS.md: no NaN or Inf in any store); the
-     * store refuses them too. */
+    /* Counted and dropped rather than stored (docs/physics.md §6.4: no NaN or Inf in any
+     * store); the store refuses them too. */
     if (!isfinite(sf->p.x) || !isfinite(sf->p.y) || !isfinite(sf->p.z)) {
         st->nonfinite++;
         return 0;
@@ -388,7 +388,7 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
                  * does not disperse): Snell and the unpolarised Fresnel reflectance R;
                  * reflect with probability R, refract with 1 - R, so the weight stays
                  * (R / R). Flux crossing an interface takes T alone, without the
-                 * (n_t / n_i)^2 of radiance (PHYSICS.md). */
+                 * (n_t / n_i)^2 of radiance (docs/physics.md §3.4). */
                 const int entering = vec3_dot(f->dir, sf.ng) < 0.0;
                 double n = ior_eval(&m->ior, f->lambda[0]);
                 double eta_rel = entering ? 1.0 / n : n;

@@ -18,7 +18,8 @@
 
 #define LANES RENDER_MAX_BUCKETS
 #define STACK_MAX 192
-/* Russian roulette starts after this many bounces (thesis eq. 2.32-2.33, PHYSICS.md). */
+/* Russian roulette starts after this many bounces (thesis eq. 2.32-2.33; docs/physics.md
+ * §2.5). */
 #define RR_DEPTH 3
 #define RR_MIN 0.05
 /* Pass-through surfaces ("interface") do not count as bounces; this bounds them anyway. */
@@ -352,7 +353,7 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
          * depend on wavelength), weighted by R(lambda_j)/R(hero). Refraction sends each lane
          * its own way: the secondaries end and the hero's weight is multiplied by the lane
          * count (pbrt-v4 TerminateSecondary), so only the hero is splatted from here on
-         * (PHYSICS.md's trap). */
+         * (the trap of docs/physics.md §4.5). */
         double R[LANES];
         vec3_t refr;
         double n0 = n_hero;

@@ -1218,7 +1218,7 @@ static int get_ior(parser_t *P, params_t *ps, scene_material_t *m)
         return params_wrong_type(ps, given, expected, P->err);
     }
     if (!strcmp(given->name, "sellmeier")) {
-        /* n^2 = 1 + sum B_i l^2 / (l^2 - C_i), l in um (PHYSICS.md). */
+        /* n^2 = 1 + sum B_i l^2 / (l^2 - C_i), l in um (docs/physics.md §3.3). */
         if (given->count < 2 || given->count % 2 != 0)
             return pbrt_error(P->err, given->loc,
                               "\"float sellmeier\" needs (B, C) pairs, got "

@@ -29,7 +29,8 @@
 
 /* Film defaults. "spectral" follows pbrt-v4 (16 buckets over 360-830 nm) so that a pbrt-v4
  * scene writes the channels pbrt-v4 would; "rgb" film uses prismfarm's own bucket grid
- * (PHYSICS.md: 16 bins over 380-720 nm), which the rgb film also accepts as an extension. */
+ * (docs/physics.md §1.2: 16 bins over 380-720 nm), which the rgb film also accepts as an
+ * extension. */
 #define SCENE_FILM_XRES_DEFAULT 1280
 #define SCENE_FILM_YRES_DEFAULT 720
 #define SCENE_SPECTRAL_NBUCKETS_DEFAULT 16

@@ -24,7 +24,8 @@ typedef struct xyz {
  * cie_y_integral_value in the generated tables. */
 #define CIE_Y_INTEGRAL 106.856917101
 
-/* Generated from ../shared/data by tools/gen_cie_tables.py (spectral/cie_tables.c). */
+/* Generated from data/cie1931_2deg_1nm.csv and data/d65_5nm.csv by tools/gen_cie_tables.py
+ * (spectral/cie_tables.c; sources in data/README.md). */
 extern const double cie_x_table[CIE_SAMPLE_COUNT];
 extern const double cie_y_table[CIE_SAMPLE_COUNT];
 extern const double cie_z_table[CIE_SAMPLE_COUNT];

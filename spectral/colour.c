@@ -2,9 +2,11 @@
 
 #include <math.h>
 
-/* IEC 61966-2-1:1999 matrices (../shared/data/srgb_matrices.txt). The standard prints the
- * sRGB -> XYZ matrix at 4 decimals and its inverse at 8 decimals; the 8-decimal matrix is the
- * exact inverse of the 4-decimal one to 3e-9, so the pair round-trips. */
+/* IEC 61966-2-1:1999 matrices (data/srgb_matrices.txt). SRGB_TO_XYZ is the standard's
+ * 4-decimal matrix and XYZ_TO_SRGB its inverse to 8 decimals (the 4-decimal inverse printed
+ * beside it, 3.2406 ..., is this one rounded), so the pair round-trips: their product is the
+ * identity to 4e-9. (Derived afresh from the primaries and the white point, the inverse would
+ * be 3.24096994 ..., different in the fourth decimal: data/README.md.) */
 static const double XYZ_TO_SRGB[3][3] = {
     {3.24062548, -1.53720797, -0.49862860},
     {-0.96893071, 1.87575606, 0.04151752},

@@ -22,8 +22,9 @@ xyz_t colour_buckets_to_xyz_weighted(int n, const xyz_t *weights, const double *
 /* The same without precomputed weights (recomputes them: about 500 operations per call). */
 xyz_t colour_buckets_to_xyz(spectral_grid_t grid, const double *buckets);
 
-/* IEC 61966-2-1 matrices: XYZ -> sRGB is the standard's 8-decimal inverse of its 4-decimal
- * sRGB -> XYZ matrix; the two are inverses to 3e-9. D65 white; no chromatic adaptation. */
+/* IEC 61966-2-1 matrices: sRGB -> XYZ is the standard's 4-decimal matrix, XYZ -> sRGB its
+ * inverse rounded to 8 decimals; the two are inverses to 4e-9 (data/srgb_matrices.txt). D65
+ * white; no chromatic adaptation. */
 rgb_t colour_xyz_to_linear_srgb(xyz_t xyz);
 xyz_t colour_linear_srgb_to_xyz(rgb_t rgb);
 

@@ -36,8 +36,8 @@
 #define ALARM_S 20
 #define ENTRY_SECONDS_MAX 2.0
 
-/* The gallery must keep at least these many entries of each kind (the issue asks for 25
- * broken scenes). */
+/* The gallery must keep at least these many entries of each kind (25 broken scenes at the
+ * least, and as many malformed messages), so that it cannot quietly shrink. */
 #define MIN_SCENES 25
 #define MIN_MESSAGES 25
 

@@ -10,8 +10,9 @@
 
 #include "cli_run.h"
 
-/* The issue's acceptance line, and the SCHOTT N-BK7 datasheet: n_F 1.52238, n_d 1.51680,
- * n_C 1.51432, v_d 64.17. */
+/* `prismfarm glass N-BK7` prints the catalogue's Fraunhofer-line indices and Abbe number,
+ * which must be the SCHOTT N-BK7 datasheet's: n_F 1.52238, n_d 1.51680, n_C 1.51432,
+ * v_d 64.17. */
 static void test_nbk7_default(void **state)
 {
     (void)state;

@@ -81,10 +81,10 @@ static void test_cie_integrate(void **state)
     assert_near(cie_cmf_integrate(200.0, 359.0).y, 0.0, 0.0);
 }
 
-/* PHYSICS.md: a D65 spectrum of any scale maps to the sRGB white (0.3127, 0.3290) within 1e-3.
- * Tighter: CIE 15:2004 gives the D65 chromaticity computed from the tables as (0.31271,
- * 0.32902); the 1 nm sum over linearly interpolated 5 nm data moves it by under 3e-5
- * (../shared/data/srgb_matrices.txt recomputes 0.31273, 0.32902). */
+/* docs/physics.md §1.3: a D65 spectrum of any scale maps to the sRGB white (0.3127, 0.3290)
+ * within 1e-3. Tighter: CIE 15:2004 gives the D65 chromaticity computed from the tables as
+ * (0.31271, 0.32902); the 1 nm sum over linearly interpolated 5 nm data moves it by under 3e-5
+ * (data/srgb_matrices.txt recomputes 0.31273, 0.32902). */
 static void test_d65_chromaticity_any_scale(void **state)
 {
     (void)state;

@@ -1,4 +1,4 @@
-/* CURVE on the farm (issue 6, docs/security.md). `prismfarm keygen` writes Z85 key files with the
+/* CURVE on the farm (docs/security.md). `prismfarm keygen` writes Z85 key files with the
  * right modes, checked against libzmq's own zmq_curve_public and the key pair published in
  * zmq_curve(7); malformed key files are refused naming file and line. A master with keys lets in
  * an authorised worker and client (a job completes with the pixels of `prismfarm render`),

@@ -33,8 +33,8 @@
 #define LMAX 720.0
 #define WIDTH ((LMAX - LMIN) / N)
 
-/* Sums of 16 to 32 terms near 1 round by a few 1e-16: 1e-12 relative is the brief's bound
- * and leaves four orders of margin. */
+/* Sums of 16 to 32 terms near 1 round by a few 1e-16: a bound of 1e-12 relative leaves four
+ * orders of margin. */
 #define SUM_TOL 1e-12
 
 static void grid(double *lambda)

@@ -1,4 +1,4 @@
-/* The photon pass on the farm (issue 5): photon batches traced by the workers, merged by the
+/* The photon pass on the farm (docs/farm.md, "Photon jobs"): photon batches traced by the workers, merged by the
  * master in batch order and sent back as one store for the camera phase, give the pixels of
  * `prismfarm render --direct` (one machine, every photon) -- with the photon map and with
  * light maps, with one or two workers, with a worker killed during the photon phase -- and a

@@ -1,5 +1,6 @@
-/* glass: the catalogue against published datasheet indices and Abbe numbers, its lookup
- * rules (aliases, pbrt-v4 names, case), and that every entry is physical over 360-830 nm. */
+/* glass: the catalogue against published datasheet indices and Abbe numbers and against the
+ * coefficient table it was taken from (data/glasses_sellmeier.csv), its lookup rules (aliases,
+ * pbrt-v4 names, case), and that every entry is physical over 360-830 nm. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -10,6 +11,8 @@
 #include <ctype.h>
 #include <math.h>
 #include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "dispersion.h"
@@ -26,7 +29,7 @@
 /* SCHOTT datasheet values (n_d to 5 decimals, v_d to 2), typed in from the SCHOTT optical
  * glass data sheets / Zemax catalogue 2017-01-20b as given in the SPECS "nd" and "Vd" fields
  * of refractiveindex.info-database data-nk/glass/schott/<glass>.yml (and the nd_cat, vd_cat
- * columns of ../shared/data/glasses_sellmeier.csv). SF5, SF10, SF11 from SF5.yml, SF10.yml,
+ * columns of data/glasses_sellmeier.csv). SF5, SF10, SF11 from SF5.yml, SF10.yml,
  * SF11.yml of the same database. */
 typedef struct datasheet {
     const char *name;
@@ -145,7 +148,7 @@ static void test_aliases_and_case(void **state)
     assert_string_equal(err.msg, "unknown glass 'unobtainium'");
 }
 
-/* Every name the issue lists exists. */
+/* Every material docs/core.md lists is in the catalogue. */
 static void test_required_entries(void **state)
 {
     (void)state;
@@ -201,12 +204,175 @@ static void test_catalogue_consistent(void **state)
                 fail_msg("'%s' and '%s' name different entries", names[i], names[j]);
 }
 
+/* data/glasses_sellmeier.csv (data/README.md) against the compiled catalogue: each row's
+ * coefficients are the catalogue entry's, exactly (the same decimal strings, so the same
+ * doubles), and its n_d, n_F, n_C recomputed from them (printed to 6 decimals) are what
+ * ior_eval gives; every catalogue entry has its row. Two rows are other fits of materials
+ * the catalogue takes from elsewhere (data/README.md) and are only checked to be physical. */
+static const struct {
+    const char *row, *entry; /* entry NULL: a fit the catalogue does not use */
+} DATA_ROWS[] = {
+    {"N-BK7", "N-BK7"},
+    {"N-SF11", "N-SF11"},
+    {"N-LASF9", "N-LASF9"},
+    {"F2", "F2"},
+    {"N-SF6", "N-SF6"},
+    {"N-BAF10", "N-BAF10"},
+    {"LASF35", "LASF35"},
+    {"N-FK51A", "N-FK51A"},
+    {"FusedSilica_Malitson1965", "fused-silica"},
+    {"Water_Daimon2007_20C", "water"},
+    {"Diamond_Peter1923", "diamond"},
+    {"Sapphire_o_Malitson1962", "sapphire"},
+    {"Sapphire_o_MalitsonDodge1972", NULL},
+    {"CaF2_Malitson1963", NULL},
+    {"CaF2_Li1980", "CaF2"},
+    {"SF5", "SF5"},
+    {"SF10", "SF10"},
+    {"SF11", "SF11"},
+};
+#define DATA_ROW_COUNT (sizeof DATA_ROWS / sizeof DATA_ROWS[0])
+
+/* Columns of the file: material, A0, B1, B2, B3, C1_um2, C2_um2, C3_um2, B4, C4_um2, nd_cat,
+ * vd_cat, nd_calc, nF_calc, nC_calc, vd_calc, source_file, notes. */
+enum {
+    COL_NAME,
+    COL_A0,
+    COL_B1,
+    COL_C1 = 5,
+    COL_B4 = 8,
+    COL_C4,
+    COL_ND_CALC = 12,
+    COL_NF_CALC,
+    COL_NC_CALC,
+    COL_COUNT = 18
+};
+
+/* Splits one CSV line in place at commas outside double quotes (quotes removed). */
+static int split_csv(char *line, char **field, int max)
+{
+    int n = 0;
+    char *out = line, *start = line;
+    bool quoted = false;
+    for (char *p = line;; p++) {
+        if (*p == '"') {
+            quoted = !quoted;
+            continue;
+        }
+        if ((*p == ',' && !quoted) || *p == '\0' || *p == '\n' || *p == '\r') {
+            char end = *p;
+            *out++ = '\0';
+            if (n < max)
+                field[n] = start;
+            n++;
+            if (end != ',')
+                return n;
+            start = out;
+            continue;
+        }
+        *out++ = *p;
+    }
+}
+
+static double number(const char *s, const char *row, const char *column)
+{
+    char *end;
+    double v = strtod(s, &end);
+    if (end == s || *end != '\0')
+        fail_msg("%s: column %s: '%s' is not a number", row, column, s);
+    return v;
+}
+
+static void test_catalogue_matches_data(void **state)
+{
+    (void)state;
+    const char *dir = getenv("PRISMFARM_SOURCE_DIR");
+    char path[1024];
+    snprintf(path, sizeof path, "%s/data/glasses_sellmeier.csv", dir ? dir : "..");
+    FILE *f = fopen(path, "r");
+    if (!f)
+        fail_msg("cannot open %s", path);
+    bool seen_row[DATA_ROW_COUNT] = {false};
+    bool seen_entry[256] = {false};
+    assert_true(glass_count() <= 256);
+    char line[2048];
+    while (fgets(line, sizeof line, f)) {
+        if (line[0] == '#' || line[0] == '\n' || !strncmp(line, "material,", 9))
+            continue;
+        char *col[COL_COUNT];
+        int n = split_csv(line, col, COL_COUNT);
+        if (n != COL_COUNT)
+            fail_msg("%s: a row of %d columns, expected %d", path, n, COL_COUNT);
+        size_t r = 0;
+        while (r < DATA_ROW_COUNT && strcmp(DATA_ROWS[r].row, col[COL_NAME]) != 0)
+            r++;
+        if (r == DATA_ROW_COUNT)
+            fail_msg("%s: row '%s' is not known to this test", path, col[COL_NAME]);
+        assert_false(seen_row[r]);
+        seen_row[r] = true;
+
+        /* The row as a model: B1..B3 with C1..C3, then B4 with C4; empty cells end the terms. */
+        double b[4], c[4];
+        int terms = 0;
+        for (int k = 0; k < 4; k++) {
+            const char *bs = col[k < 3 ? COL_B1 + k : COL_B4];
+            const char *cs = col[k < 3 ? COL_C1 + k : COL_C4];
+            if (!*bs && !*cs)
+                break;
+            b[k] = number(bs, col[COL_NAME], "B");
+            c[k] = number(cs, col[COL_NAME], "C");
+            terms++;
+        }
+        double a0 = number(col[COL_A0], col[COL_NAME], "A0");
+        ior_model_t model;
+        err_t err;
+        assert_int_equal(ior_sellmeier(&model, a0, b, c, terms, &err), 0);
+        if (ior_validate(&model, col[COL_NAME], 360.0, 830.0, &err) != 0)
+            fail_msg("%s", err.msg);
+        const double lines_nm[3] = {IOR_LAMBDA_D_NM, IOR_LAMBDA_F_NM, IOR_LAMBDA_C_NM};
+        for (int k = 0; k < 3; k++) {
+            double calc = number(col[COL_ND_CALC + k], col[COL_NAME], "n_calc");
+            if (!(fabs(ior_eval(&model, lines_nm[k]) - calc) <= 5.1e-7))
+                fail_msg("%s: n(%.4f nm) = %.7f, the file's recomputed %.6f", col[COL_NAME],
+                         lines_nm[k], ior_eval(&model, lines_nm[k]), calc);
+        }
+        if (!DATA_ROWS[r].entry)
+            continue;
+
+        const glass_t *g = glass_find(DATA_ROWS[r].entry);
+        assert_non_null(g);
+        assert_string_equal(g->name, DATA_ROWS[r].entry);
+        for (int i = 0; i < glass_count(); i++)
+            if (glass_get(i) == g) {
+                assert_false(seen_entry[i]);
+                seen_entry[i] = true;
+            }
+        const ior_sellmeier_coefs_t *s = &g->ior.sellmeier;
+        assert_int_equal(g->ior.kind, IOR_SELLMEIER);
+        if (s->terms != terms || s->a0 != a0)
+            fail_msg("%s: %d terms, A0 %.17g; %s has %d terms, A0 %.17g", g->name, s->terms, s->a0,
+                     col[COL_NAME], terms, a0);
+        for (int k = 0; k < terms; k++)
+            if (s->b[k] != b[k] || s->c_um2[k] != c[k])
+                fail_msg("%s term %d: B %.17g C %.17g; %s has B %.17g C %.17g", g->name, k + 1,
+                         s->b[k], s->c_um2[k], col[COL_NAME], b[k], c[k]);
+    }
+    fclose(f);
+    for (size_t r = 0; r < DATA_ROW_COUNT; r++)
+        if (!seen_row[r])
+            fail_msg("%s has no row '%s'", path, DATA_ROWS[r].row);
+    for (int i = 0; i < glass_count(); i++)
+        if (!seen_entry[i])
+            fail_msg("catalogue entry %s has no row in %s", glass_get(i)->name, path);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_schott_datasheet), cmocka_unit_test(test_nbk7_e_line),
-        cmocka_unit_test(test_other_materials),  cmocka_unit_test(test_aliases_and_case),
-        cmocka_unit_test(test_required_entries), cmocka_unit_test(test_catalogue_consistent),
+        cmocka_unit_test(test_schott_datasheet),       cmocka_unit_test(test_nbk7_e_line),
+        cmocka_unit_test(test_other_materials),        cmocka_unit_test(test_aliases_and_case),
+        cmocka_unit_test(test_required_entries),       cmocka_unit_test(test_catalogue_consistent),
+        cmocka_unit_test(test_catalogue_matches_data),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -109,7 +109,7 @@ static void test_channel_name_format(void **state)
         double nm;
         const char *name;
     } cases[] = {
-        {550.0, "S0.550,000000nm"},   /* the example of the issue and the paper */
+        {550.0, "S0.550,000000nm"},   /* the example of Fichet et al. 2021 (docs/core.md) */
         {390.625, "S0.390,625000nm"}, /* bucket 0 of 16 over 380-720 nm */
         {1000.0, "S0.1000,000000nm"},
         {0.5, "S0.0,500000nm"},
@@ -204,7 +204,7 @@ static int check_header_independently(const char *path, char names[][IMAGE_EXR_C
     assert_int_equal(storage, EXR_STORAGE_SCANLINE);
     exr_attr_chromaticities_t chr;
     assert_int_equal(exr_attr_get_chromaticities(ctx, 0, "chromaticities", &chr), EXR_ERR_SUCCESS);
-    /* IEC 61966-2-1 / Rec. 709 primaries and D65 (../shared/data/srgb_matrices.txt). */
+    /* IEC 61966-2-1 / Rec. 709 primaries and D65 (data/srgb_matrices.txt). */
     assert_true(chr.red_x == 0.64f && chr.red_y == 0.33f && chr.green_x == 0.30f &&
                 chr.green_y == 0.60f && chr.blue_x == 0.15f && chr.blue_y == 0.06f &&
                 chr.white_x == 0.3127f && chr.white_y == 0.3290f);
@@ -281,7 +281,7 @@ static void roundtrip_spectral(int width, int height, int n)
     float *spectral = make_values(n_pixels * (size_t)n, 5);
     double *centres = malloc((size_t)n * sizeof *centres);
     assert_non_null(centres);
-    /* The issue's default range, 380-720 nm, split into n equal buckets. */
+    /* The default film range, 380-720 nm (docs/physics.md §1.2), split into n equal buckets. */
     for (int k = 0; k < n; k++)
         centres[k] = 380.0 + (k + 0.5) * (720.0 - 380.0) / n;
     err_t err = {{0}};

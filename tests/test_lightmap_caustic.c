@@ -199,10 +199,10 @@ static prediction_t predict(const sb_prism_t *p, spectral_grid_t g)
 /* The light map's centroids per bucket against Snell's law, at a texel side of 1 cm (a bucket
  * spans 4 mm (red) to 24 mm (violet) on the screen: neighbouring buckets share texels) and of
  * 1 mm (a bucket spans several texels).
- * Tolerance: the issue's one texel side, 1 / sqrt(density). The centroid of texel centres
- * differs from the photons' own centroid by the quantisation to texels (under half a texel
- * where the beam, 1 mm tall, sits inside one row of texels; averaging out along a bucket that
- * spans many), plus the photons' noise: 4 standard errors of the mean of N/16 positions
+ * Tolerance: one texel side, 1 / sqrt(density), the light map's resolution. The centroid of
+ * texel centres differs from the photons' own centroid by the quantisation to texels (under
+ * half a texel where the beam, 1 mm tall, sits inside one row of texels; averaging out along a
+ * bucket that spans many), plus the photons' noise: 4 standard errors of the mean of N/16 positions
  * spread over a bucket's span, 4 x 24 mm / sqrt(12 x 6250) = 0.35 mm at worst (red buckets:
  * 0.06 mm). The oracle is the bucket-averaged landing point; the centre wavelength's lies
  * within 0.18 mm of it (printed), and the centroid is asserted within a texel of both.
@@ -351,7 +351,7 @@ static double store_relative_se(uint64_t n, uint64_t n_twin)
  * (both from per-sample variances) and the light map's (store_relative_se), independent, so
  * |photon - path| < 4 sigma of their sum. The texels' box filter moves light by a centimetre
  * within an image 43 cm across that holds the whole caustic but for a faint rim, and leaves
- * the mean alone. The sizes make 4 sigma 2.6 %, under the issue's 3 %, which is asserted as
+ * the mean alone. The sizes make 4 sigma 2.6 %, under a fixed 3 % bound, which is asserted as
  * well (the whole test costs about 3 CPU seconds, 6.5 in the sanitizer build). */
 static void test_caustic_agrees_with_path(void **state)
 {
@@ -655,9 +655,9 @@ static double energy_per_photon(scene_t *(*make)(int), int lanes, uint64_t n, in
 }
 
 /* Following 16 monochrome rays per photon creates 16 photons from each; the light map divides
- * by the photons actually emitted (the thesis's missing post-pass, PHYSICS.md), so the caustic
- * energy per emitted photon is that of 1 ray per photon, within 4 standard errors of the
- * difference. Two scenes: the N-BK7 prism under its beam alone (the energy varies only by
+ * by the photons actually emitted (the thesis's missing post-pass, docs/physics.md §4.4), so
+ * the caustic energy per emitted photon is that of 1 ray per photon, within 4 standard errors
+ * of the difference. Two scenes: the N-BK7 prism under its beam alone (the energy varies only by
  * the Fresnel choices, a sharp test) and the shipped prism_beam, whose ceiling light's photons
  * mostly miss the prism (a photon's 16 rays then count as one: a wider test). */
 static void test_monochrome_rays_keep_energy(void **state)

@@ -1,4 +1,4 @@
-/* The master's limits on what one client can make it hold (issue 6, docs/security.md), each
+/* The master's limits on what one client can make it hold (docs/security.md, "Limits"), each
  * refused with a message the client shows and the master surviving it: --max-jobs (unfinished
  * jobs), --max-bundle-files and --max-bundle-mb (a scene bundle), --max-message-mb (any message:
  * ZMQ_MAXMSGSIZE closes the sender's connection before the frame is buffered); and their command

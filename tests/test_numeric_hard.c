@@ -1,9 +1,10 @@
-/* Numerically hard cases (issue 6): the optics at the exact angles where formulas degenerate
- * (normal, Brewster, critical, grazing down to denormals), fan-outs where every wavelength is
- * totally reflected, Sellmeier at and next to a pole, ray offsetting at scales 1e-3 and 1e5;
- * then whole renders of small pbrt scenes at those extremes, for every integrator and both
- * dispersion strategies. Every number must be finite and every image statistic within
- * bounds derived from optics or from the sample count, never from the code under test. */
+/* Numerically hard cases (docs/reliability.md; docs/physics.md §6): the optics at the exact
+ * angles where formulas degenerate (normal, Brewster, critical, grazing down to denormals),
+ * fan-outs where every wavelength is totally reflected, Sellmeier at and next to a pole, ray
+ * offsetting at scales 1e-3 and 1e5; then whole renders of small pbrt scenes at those
+ * extremes, for every integrator and both dispersion strategies. Every number must be finite
+ * and every image statistic within bounds derived from optics or from the sample count, never
+ * from the code under test. */
 /* cmocka.h needs these headers first. */
 /* clang-format off */
 #include <setjmp.h>
@@ -115,7 +116,7 @@ static void test_fresnel_normal(void **state)
     assert_true(fabs(fresnel_dielectric(1.0 + 1e-15, 1.0, 1.5) - 0.04) < 1e-15);
 }
 
-/* Brewster's angle atan(n2/n1): r_p = 0 (PHYSICS.md's oracle) where the tan form is inf/inf;
+/* Brewster's angle atan(n2/n1): r_p = 0 (docs/physics.md §7.2) where the tan form is inf/inf;
  * there r_s = (1 - m^2)/(1 + m^2) with m = n2/n1, since cos_t = sin_i and tan_i = m. */
 static void test_fresnel_brewster(void **state)
 {
@@ -219,9 +220,9 @@ static void test_fresnel_critical(void **state)
     }
 }
 
-/* Grazing incidence: cos 1e-6 (the issue's bound), 1e-7, 1e-12, subnormals, +-0: R = 1 in
- * the limit (cosine form: both r -> -1), T = 0, nothing non-finite, from both sides and for
- * a nearly index-matched interface; refraction directions unit length. */
+/* Grazing incidence: cos 1e-6 (FRESNEL_GRAZING_COS, optics/fresnel.h), 1e-7, 1e-12,
+ * subnormals, +-0: R = 1 in the limit (cosine form: both r -> -1), T = 0, nothing non-finite,
+ * from both sides and for a nearly index-matched interface; refraction directions unit length. */
 static void test_fresnel_grazing(void **state)
 {
     (void)state;
@@ -861,7 +862,8 @@ static int glass_box(char *buf, size_t size, const char *glass, double x0, doubl
  *                float ulps) above it;
  *   VIEW_EDGE:   the eye exactly in the plane of the top face: rays run within a few float
  *                ulps of the face and its front edge (see test_float_resolution).
- * Nothing absorbs, so every pixel and bucket is 1 (PHYSICS.md's furnace invariant). */
+ * Nothing absorbs, so every pixel and bucket is 1 (the furnace invariant, docs/physics.md
+ * §7.1). */
 enum { VIEW_WIDE, VIEW_SPHERE, VIEW_SLAB, VIEW_EDGE };
 
 static void furnace_text(char *buf, size_t size, const char *integ, const char *disp, double scale,
@@ -1316,16 +1318,15 @@ static void test_zero_area_light(void **state)
  * alike (they are what `prismfarm render` and the farm report with the job); a dropped sample
  * still counts as taken (tilebuf.h). Injected by overflow: the camera sits inside a glass
  * sphere (n = 1.5) and sees, through it, a light of radiance 1e308. Leaving the glass, a
- * camera path's throughput gets T (n_i/n_t)^2 = 0.96 * 2.25 = 2.16 (PHYSICS.md), so the sample
- * is 2.16e308 > DBL_MAX in every bucket: exactly the samples whose ray reaches the light are
- * dropped (every path to the light leaves the sphere, so none reaches it with less); what is
- * stored stays finite. The control, without the glass and with L = 1e150, drops nothing.
+ * camera path's throughput gets T (n_i/n_t)^2 = 0.96 * 2.25 = 2.16 (docs/physics.md §3.4), so
+ * the sample is 2.16e308 > DBL_MAX in every bucket: exactly the samples whose ray reaches the
+ * light are dropped (every path to the light leaves the sphere, so none reaches it with less);
+ * what is stored stays finite. The control, without the glass and with L = 1e150, drops nothing.
  * (The light is a 0.5-wide quad so that its power L pi A stays finite for the light
- * distribution.) Fan-out only: with hero wavelengths the overflow happens
- * inside spectral_grid_splat, whose refusal render.c ignores, so such a sample loses that
- * contribution silently instead of being counted -- see the report of issue 6 for the patch.
- * Likewise luminances between 1.3e154 and DBL_MAX are kept while their squares overflow the
- * tile buffer's square sums (tilebuf.c patch in the same report). */
+ * distribution.) The test uses fan-out: with hero wavelengths the overflow happens inside
+ * spectral_grid_splat instead, whose refusal render.c's splat turns into a NaN so that the
+ * sample is dropped and counted the same way. Luminances between 1.3e154 and DBL_MAX are kept,
+ * their squares capped at DBL_MAX in the tile buffer's square sums (tilebuf.c). */
 static void test_nonfinite_counted(void **state)
 {
     (void)state;
@@ -1389,8 +1390,8 @@ static void test_nonfinite_counted(void **state)
 }
 
 /* Where float32 geometry cannot tell which side a ray is on, the image stays finite and only
- * loses or gains what one unmatched interface crossing can carry. Two known cases (PHYSICS.md's
- * furnace invariant fails inside them; see the report of issue 6):
+ * loses or gains what one unmatched interface crossing can carry. Two known cases (the furnace
+ * invariant of docs/physics.md §7.1 fails inside them: float32 geometry, §6.5):
  *  - a glass ball resting on a glass slab, seen at the contact point with a 1e-4-degree view:
  *    within the offset band around the contact (4e-6 of the coordinates), a ray leaving the
  *    ball starts inside the slab, leaves glass it never entered and gains (n_i/n_t)^2 = n^2;

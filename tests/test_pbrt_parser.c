@@ -128,7 +128,7 @@ static void test_defaults(void **state)
 {
     (void)state;
     scene_desc_t *s = parse_text_ok("WorldBegin\n");
-    /* pbrt-v4 defaults; the rgb film's bucket grid is prismfarm's (PHYSICS.md). */
+    /* pbrt-v4 defaults; the rgb film's bucket grid is prismfarm's (docs/physics.md §1.2). */
     assert_near(s->camera.fov, 90);
     assert_true(transform_is_identity(&s->camera.camera_from_world));
     assert_int_equal(s->film.type, SCENE_FILM_RGB);
@@ -909,7 +909,7 @@ static void test_error_messages(void **state)
     static const struct {
         const char *text, *msg;
     } CASES[] = {
-        /* the example */
+        /* the example of docs/scene-format.md */
         {"WorldBegin\nLightSource \"point\" \"point3 from\" [1 2]\n",
          "t.pbrt:2:21: expected 3 numbers after \"point3 from\", got 2"},
         {"Frobnicate\n", "t.pbrt:1:1: unknown directive Frobnicate"},

@@ -171,7 +171,8 @@ static void test_closed_sphere_whitted(void **state) { (void)state; closed_spher
 
 /* A slab at normal incidence in front of a uniform emitter transmits, with all its internal
  * reflections, T = (1-R)^2 (1 + R^2 + R^4 + ...) = (1-R)/(1+R) = 2n/(n^2+1) of the emitted
- * radiance (PHYSICS.md's oracle). Per bucket, with n at the bucket's centre, within 1 %. */
+ * radiance (an oracle of docs/physics.md §7.2). Per bucket, with n at the bucket's centre,
+ * within 1 %. */
 static void slab(integrator_kind_t integ, dispersion_kind_t disp, const char *glass_name)
 {
     err_t err;

@@ -1,6 +1,6 @@
-/* The farm under load (issue 6): one `prismfarm master`, 6 `prismfarm worker` processes of one
- * thread and 4 client processes queueing 50 jobs between them, all over loopback TCP with CURVE
- * keys (docs/security.md), as a real farm runs. Two workers, chosen by a seeded generator, are
+/* The farm under load (docs/reliability.md, "Load"): one `prismfarm master`, 6 `prismfarm
+ * worker` processes of one thread and 4 client processes queueing 50 jobs between them, all
+ * over loopback TCP with CURVE keys (docs/security.md), as a real farm runs. Two workers, chosen by a seeded generator, are
  * killed with SIGKILL at seeded points of the run and started again. Every job must complete
  * with the pixels of `prismfarm render --direct` of its scene and seed (byte for byte: the farm
  * guarantees it), the master's peak memory must stay under a bound derived from what it holds,

@@ -114,8 +114,8 @@ static void test_blackbody_stefan_boltzmann(void **state)
 }
 
 /* Wien's displacement law: the peak of B(lambda) is at 2897.77 um K / T. The peak is found by
- * golden-section search to 1e-4 nm; the tolerance 0.5 nm is the brief's. The normalised
- * spectrum (pbrt-v4) is 1 at that peak and below 1 elsewhere. */
+ * golden-section search to 1e-4 nm; the tolerance is 0.5 nm. The normalised spectrum (pbrt-v4)
+ * is 1 at that peak and below 1 elsewhere. */
 static double golden_max(const spectrum_t *s, double a, double b)
 {
     const double g = 0.5 * (sqrt(5.0) - 1.0);
@@ -218,7 +218,7 @@ static double max_diff(rgb_t a, rgb_t b)
     return fmax(fabs(a.r - b.r), fmax(fabs(a.g - b.g), fabs(a.b - b.b)));
 }
 
-/* Jakob & Hanika 2019 uplift: round trip within 2e-3 (the brief's bound; the solver reaches
+/* Jakob & Hanika 2019 uplift: round trip within 2e-3 (a fixed bound; the solver reaches
  * ~1e-10 on reachable colours, greys are off by the 1.8e-4 between the sRGB matrix's white
  * and the tabulated D65), values in [0, 1] everywhere (checked 200-2000 nm), greys exactly
  * flat. */
