@@ -15,6 +15,7 @@
  * machine may be shared: the load average is printed before and after. */
 #include "camera.h"
 #include "lightmap.h"
+#include "clock.h"
 #include "local_render.h"
 #include "pool.h"
 #include "photon.h"
@@ -26,13 +27,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
-
-static double now_s(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
-}
 
 /* CPU time of this thread: the single-core figures use it, as it moves much less than
  * wall-clock time when other processes share the cores. */
@@ -157,10 +151,10 @@ static void render_once(const scene_t *s, const photon_store_t *photons, render_
         tilebuf_new(0, 0, s->settings.xres, s->settings.yres, s->settings.grid.n, &err);
     local_render_opts_t o = {.threads = 0, .photons = photons};
     memset(st, 0, sizeof *st);
-    double t0 = now_s(), c0 = proc_cpu_s();
+    double t0 = clock_now_s(), c0 = proc_cpu_s();
     if (!img || local_render(s, &o, img, st, NULL, &err))
         die(err.msg);
-    *wall = now_s() - t0;
+    *wall = clock_now_s() - t0;
     *cpu = proc_cpu_s() - c0;
     tilebuf_destroy(&img);
 }
@@ -356,11 +350,11 @@ int main(int argc, char **argv)
         configure(s, &trace_cfg[c]);
         s->settings.photon.photons = photons * (uint64_t)cores;
         for (int r = 0; r < reps; r++) {
-            double c0 = proc_cpu_s(), t0 = now_s();
+            double c0 = proc_cpu_s(), t0 = clock_now_s();
             photon_store_t *st = photon_pass_run(s, 0, NULL, NULL, &err);
             if (!st)
                 die(err.msg);
-            t[r] = now_s() - t0;
+            t[r] = clock_now_s() - t0;
             cp[r] = proc_cpu_s() - c0;
             photon_store_destroy(&st);
         }

@@ -36,10 +36,6 @@
 #include <sys/resource.h>
 #include <time.h>
 #include <unistd.h>
-#if defined(__SSE__)
-#include <pmmintrin.h>
-#include <xmmintrin.h>
-#endif
 
 #define REPS_MAX 50
 #define THREADS_MAX 64
@@ -93,15 +89,6 @@ static void *xaligned(size_t align, size_t n)
     if (!p)
         die("aligned_alloc", "out of memory");
     return p;
-}
-
-/* Embree's advice, as local_render's threads follow it: denormals slow its traversal. */
-static void denormals_off(void)
-{
-#if defined(__SSE__)
-    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
-    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
-#endif
 }
 
 /* ------------------------------------------------------------------ the machine */
@@ -240,7 +227,7 @@ typedef struct replay_part {
 static void *replay_thread(void *arg)
 {
     replay_part_t *p = arg;
-    denormals_off();
+    pool_fp_mode_set(); /* the compute threads' mode (base/pool.h) */
     for (size_t i = 0; i < p->n; i++)
         p->rh[i] = rayhit_of(&p->q[i]);
     struct RTCIntersectContext ctx;
@@ -787,7 +774,7 @@ int main(int argc, char **argv)
         for (size_t i = 0; i < g.gl_pathc; i++)
             paths[npaths++] = g.gl_pathv[i];
     }
-    denormals_off(); /* the photon figures trace on this thread */
+    pool_fp_mode_set(); /* the photon figures trace on this thread */
     if (o.profile) {
         for (int i = 0; i < npaths; i++)
             profile_scene(paths[i], &o);
