@@ -1,6 +1,6 @@
 #include "worker_daemon.h"
 
-#include "bundle.h"
+#include "bundle_cache.h"
 #include "curve.h"
 #include "clock.h"
 #include "net.h"
@@ -16,7 +16,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 #include <zmq.h>
@@ -75,7 +74,7 @@ typedef struct task {
 
 typedef struct worker {
     const worker_opts_t *opts;
-    char cache[512];
+    bundle_cache_t bundles;
     pthread_mutex_t lock;
     pthread_cond_t wake;
     task_t *queue, *queue_tail; /* ready to render */
@@ -129,13 +128,6 @@ static int is_cancelled(const worker_t *w, uint64_t job)
     return 0;
 }
 
-static int bundle_ready(const worker_t *w, const char *hash)
-{
-    char path[700];
-    snprintf(path, sizeof path, "%s/%s/.complete", w->cache, hash);
-    return access(path, F_OK) == 0;
-}
-
 static store_bytes_t *find_store(worker_t *w, const char *hash)
 {
     for (int i = 0; i < MAX_STORES; i++)
@@ -148,7 +140,7 @@ static store_bytes_t *find_store(worker_t *w, const char *hash)
  * the store is here. Called with the lock held. */
 static int task_ready(worker_t *w, const task_t *t)
 {
-    return bundle_ready(w, t->hash) && (!t->store[0] || find_store(w, t->store));
+    return bundle_cache_has(&w->bundles, t->hash) && (!t->store[0] || find_store(w, t->store));
 }
 
 /* Decodes the task's photon store for a scene slot that has none yet. Called with the lock
@@ -221,25 +213,10 @@ static job_scene_t *acquire_scene(worker_t *w, const task_t *t, err_t *err)
         victim->job = t->job;
         victim->loading = 1;
         snprintf(victim->hash, sizeof victim->hash, "%s", t->hash);
-        char main_path[PROTO_MAX_STRING + 800], dir[700], mainname[PROTO_MAX_STRING + 1];
-        snprintf(dir, sizeof dir, "%s/%s", w->cache, t->hash);
-        /* The bundle's main file name was written next to it at extraction. */
-        char namefile[760];
-        snprintf(namefile, sizeof namefile, "%s/.main", dir);
         pthread_mutex_unlock(&w->lock);
         err_t lerr = {{0}};
-        scene_t *sc = NULL;
-        FILE *f = fopen(namefile, "r");
-        if (!f || !fgets(mainname, sizeof mainname, f)) {
-            err_set(&lerr, "scene %s: its bundle in %s is incomplete", t->hash, dir);
-        } else {
-            mainname[strcspn(mainname, "\n")] = 0;
-            snprintf(main_path, sizeof main_path, "%s/%s", dir, mainname);
-            scene_overrides_t ov = proto_settings_to_overrides(&t->settings);
-            sc = scene_load_file_confined(main_path, dir, &ov, &lerr);
-        }
-        if (f)
-            fclose(f);
+        scene_overrides_t ov = proto_settings_to_overrides(&t->settings);
+        scene_t *sc = bundle_cache_load(&w->bundles, t->hash, &ov, &lerr);
         pthread_mutex_lock(&w->lock);
         victim->scene = sc;
         victim->stamp = ++w->clock;
@@ -326,52 +303,6 @@ static int send_msg(worker_t *w, proto_net_t *net, const proto_msg_t *m)
     return r;
 }
 
-/* Writes a received bundle into the cache: into a fresh folder first, then renamed into place,
- * so a half-written bundle never looks complete. */
-static int store_bundle(worker_t *w, const char *hash, const proto_bundle_t *b, err_t *err)
-{
-    char have[PROTO_HASH_HEX + 1];
-    if (proto_bundle_hash(b, have, err))
-        return -1;
-    if (strcmp(have, hash) != 0)
-        return err_set(err, "scene bundle hashes to %s, not %s", have, hash);
-    if (bundle_ready(w, hash))
-        return 0;
-    char tmp[700], final[700], path[800];
-    snprintf(tmp, sizeof tmp, "%s/tmp-%s-%ld", w->cache, hash, (long)getpid());
-    snprintf(final, sizeof final, "%s/%s", w->cache, hash);
-    if (proto_bundle_extract(b, tmp, err))
-        return -1;
-    snprintf(path, sizeof path, "%s/.main", tmp);
-    FILE *f = fopen(path, "w");
-    if (!f || fprintf(f, "%s\n", b->main) < 0 || fclose(f) != 0)
-        return err_set(err, "cannot write %s: %s", path, strerror(errno));
-    snprintf(path, sizeof path, "%s/.complete", tmp);
-    f = fopen(path, "w");
-    if (!f || fclose(f) != 0)
-        return err_set(err, "cannot write %s: %s", path, strerror(errno));
-    if (rename(tmp, final) != 0 && !bundle_ready(w, hash))
-        return err_set(err, "cannot move %s to %s: %s", tmp, final, strerror(errno));
-    return 0;
-}
-
-static int make_dirs(const char *path)
-{
-    char buf[512];
-    snprintf(buf, sizeof buf, "%s", path);
-    for (char *p = buf + 1;; p++) {
-        if (*p == '/' || !*p) {
-            char c = *p;
-            *p = 0;
-            if (mkdir(buf, 0700) && errno != EEXIST)
-                return -1;
-            if (!c)
-                return 0;
-            *p = c;
-        }
-    }
-}
-
 int worker_run(const worker_opts_t *opts, err_t *err)
 {
     worker_t w = {.opts = opts};
@@ -380,13 +311,9 @@ int worker_run(const worker_opts_t *opts, err_t *err)
     if (proto_curve_require(opts->endpoint, opts->curve.secret_key != NULL, opts->insecure,
                             "--key FILE and --master-key FILE.pub", err) < 0)
         return err_prefix(err, "worker: ");
-    if (opts->cache_dir)
-        snprintf(w.cache, sizeof w.cache, "%s", opts->cache_dir);
-    else
-        snprintf(w.cache, sizeof w.cache, "%s/prismfarm-worker-%ld",
-                 getenv("TMPDIR") ? getenv("TMPDIR") : "/tmp", (long)getuid());
-    if (make_dirs(w.cache))
-        return err_set(err, "worker: cannot create cache folder %s: %s", w.cache, strerror(errno));
+    if (bundle_cache_open(&w.bundles, opts->cache_dir))
+        return err_set(err, "worker: cannot create cache folder %s: %s", w.bundles.dir,
+                       strerror(errno));
     int threads = opts->threads > 0 ? opts->threads : pool_cores();
     char name[256];
     if (opts->name)
@@ -501,7 +428,7 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                         }
                         t->next = w.parked;
                         w.parked = t;
-                        if (!asked_scene && !bundle_ready(&w, t->hash)) {
+                        if (!asked_scene && !bundle_cache_has(&w.bundles, t->hash)) {
                             proto_msg_t req = {.type = PROTO_SCENE_REQUEST};
                             snprintf(req.scene_request.scene, sizeof req.scene_request.scene, "%s", t->hash);
                             send_msg(&w, net, &req);
@@ -570,7 +497,7 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                 }
                 case PROTO_SCENE: {
                     err_t serr;
-                    int ok = store_bundle(&w, m.scene.scene, &m.scene.bundle, &serr) == 0;
+                    int ok = bundle_cache_put(&w.bundles, m.scene.scene, &m.scene.bundle, &serr) == 0;
                     if (!ok)
                         logf_(&w, "scene %s rejected: %s", m.scene.scene, serr.msg);
                     pthread_mutex_lock(&w.lock);
