@@ -8,6 +8,7 @@
 #include "pool.h"
 #include "render.h"
 #include "scene_load.h"
+#include "store_cache.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -25,7 +26,6 @@
  * by its I/O thread, keep a live process's link up; a dead host's drops within 3 s) is busy,
  * not gone: its loop may be writing a large EXR or checkpoint. It is waited for this long. */
 #define MASTER_BUSY_MAX_S 60.0
-#define MAX_STORES 4 /* photon stores kept (their wire form), by hash; the oldest unused goes */
 
 typedef struct job_scene {
     uint64_t job;
@@ -39,15 +39,6 @@ typedef struct job_scene {
     int loading, users;
     unsigned long stamp;
 } job_scene_t;
-
-/* A photon store's wire form as the master sent it (STORE), until no task needs it. */
-typedef struct store_bytes {
-    char hash[PROTO_HASH_HEX + 1]; /* "" for an empty slot */
-    uint8_t *data;
-    size_t size;
-    int users; /* render threads installing it right now */
-    unsigned long stamp;
-} store_bytes_t;
 
 typedef struct task {
     struct task *next;
@@ -81,7 +72,7 @@ typedef struct worker {
     task_t *parked;             /* waiting for their scene */
     task_t *done;               /* rendered, to send */
     job_scene_t scenes[MAX_SCENES];
-    store_bytes_t stores[MAX_STORES];
+    store_cache_t stores;
     unsigned long clock;
     unsigned generation;
     int quit;
@@ -128,37 +119,27 @@ static int is_cancelled(const worker_t *w, uint64_t job)
     return 0;
 }
 
-static store_bytes_t *find_store(worker_t *w, const char *hash)
-{
-    for (int i = 0; i < MAX_STORES; i++)
-        if (w->stores[i].hash[0] && !strcmp(w->stores[i].hash, hash))
-            return &w->stores[i];
-    return NULL;
-}
-
 /* A task can run once its bundle is on disk and, for a tile that gathers from a photon store,
  * the store is here. Called with the lock held. */
 static int task_ready(worker_t *w, const task_t *t)
 {
-    return bundle_cache_has(&w->bundles, t->hash) && (!t->store[0] || find_store(w, t->store));
+    return bundle_cache_has(&w->bundles, t->hash) && (!t->store[0] || store_cache_find(&w->stores, t->store));
 }
 
 /* Decodes the task's photon store for a scene slot that has none yet. Called with the lock
  * held; released while the store is decoded and built. */
 static int install_store(worker_t *w, job_scene_t *js, const task_t *t, err_t *err)
 {
-    store_bytes_t *sb = find_store(w, t->store);
+    store_bytes_t *sb = store_cache_hold(&w->stores, t->store);
     if (!sb)
         return err_set(err, "photon store %.12s is no longer held: the master will send it again",
                        t->store);
-    sb->users++;
     pthread_mutex_unlock(&w->lock);
     photon_store_t *store = photon_pass_from_wire(js->scene, sb->data, sb->size, err);
     pthread_mutex_lock(&w->lock);
     int r = store ? 0 : -1;
     js->photons = store;
-    sb->users--;
-    sb->stamp = ++w->clock;
+    store_cache_release(&w->stores, sb);
     if (!r)
         snprintf(js->store, sizeof js->store, "%s", t->store);
     return r;
@@ -433,7 +414,7 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                             snprintf(req.scene_request.scene, sizeof req.scene_request.scene, "%s", t->hash);
                             send_msg(&w, net, &req);
                         }
-                        if (!asked_store && t->store[0] && !find_store(&w, t->store)) {
+                        if (!asked_store && t->store[0] && !store_cache_find(&w.stores, t->store)) {
                             proto_msg_t req = {.type = PROTO_STORE_REQUEST};
                             snprintf(req.store_request.store, sizeof req.store_request.store, "%s", t->store);
                             send_msg(&w, net, &req);
@@ -446,25 +427,12 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                     /* Keep the store (its hash was checked when the message was decoded), then
                      * start the tiles that waited for it. */
                     pthread_mutex_lock(&w.lock);
-                    store_bytes_t *slot = find_store(&w, m.store.store);
-                    for (int i = 0; i < MAX_STORES && !slot; i++)
-                        if (!w.stores[i].hash[0])
-                            slot = &w.stores[i];
-                    for (int i = 0; i < MAX_STORES && !slot; i++) {
-                        store_bytes_t *c = &w.stores[i];
-                        if (!c->users && (!slot || c->stamp < slot->stamp))
-                            slot = c;
-                    }
-                    uint8_t *copy = slot ? malloc(m.store.size ? m.store.size : 1) : NULL;
-                    if (copy) {
-                        if (slot->hash[0] && strcmp(slot->hash, m.store.store) != 0)
-                            logf_(&w, "photon store %.12s dropped for %.12s", slot->hash, m.store.store);
-                        free(slot->data);
-                        memcpy(copy, m.store.data, m.store.size);
-                        slot->data = copy;
-                        slot->size = m.store.size;
-                        slot->stamp = ++w.clock;
-                        snprintf(slot->hash, sizeof slot->hash, "%s", m.store.store);
+                    char dropped[PROTO_HASH_HEX + 1];
+                    int kept = store_cache_put(&w.stores, m.store.store, m.store.data, m.store.size,
+                                               dropped) == 0;
+                    if (kept) {
+                        if (dropped[0])
+                            logf_(&w, "photon store %.12s dropped for %.12s", dropped, m.store.store);
                         logf_(&w, "photon store %.12s received (%zu bytes)", m.store.store, m.store.size);
                     } else {
                         logf_(&w, "no room for photon store %.12s: its tiles will fail and be re-sent",
@@ -473,13 +441,13 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                     task_t **pp = &w.parked;
                     while (*pp) {
                         task_t *t = *pp;
-                        if (strcmp(t->store, m.store.store) != 0 || (copy && !task_ready(&w, t))) {
+                        if (strcmp(t->store, m.store.store) != 0 || (kept && !task_ready(&w, t))) {
                             pp = &t->next;
                             continue;
                         }
                         *pp = t->next;
                         t->next = NULL;
-                        if (copy) {
+                        if (kept) {
                             if (w.queue_tail)
                                 w.queue_tail->next = t;
                             else
@@ -687,8 +655,7 @@ out:
     free_list(w.done);
     for (int i = 0; i < MAX_SCENES; i++)
         job_scene_clear(&w.scenes[i]);
-    for (int i = 0; i < MAX_STORES; i++)
-        free(w.stores[i].data);
+    store_cache_clear(&w.stores);
     pthread_cond_destroy(&w.wake);
     pthread_mutex_destroy(&w.lock);
     close(w.wake_fd[0]);
