@@ -7,7 +7,7 @@
 #include "photon.h"
 #include "pool.h"
 #include "render.h"
-#include "scene_load.h"
+#include "scene_cache.h"
 #include "store_cache.h"
 
 #include <errno.h>
@@ -21,24 +21,10 @@
 #include <unistd.h>
 #include <zmq.h>
 
-#define MAX_SCENES 4 /* loaded scenes kept (one per job); the oldest unused one goes first */
 /* A master that says nothing while its connection stays up (libzmq's own heartbeats, answered
  * by its I/O thread, keep a live process's link up; a dead host's drops within 3 s) is busy,
  * not gone: its loop may be writing a large EXR or checkpoint. It is waited for this long. */
 #define MASTER_BUSY_MAX_S 60.0
-
-typedef struct job_scene {
-    uint64_t job;
-    char hash[PROTO_HASH_HEX + 1];
-    /* The photon store decoded for the scene's camera tasks (photons), "" for none yet: a
-     * refined job's new store needs a scene of its own, as a store is decoded once. */
-    char store[PROTO_HASH_HEX + 1];
-    scene_t *scene;
-    photon_store_t *photons;
-    char error[512];
-    int loading, users;
-    unsigned long stamp;
-} job_scene_t;
 
 typedef struct task {
     struct task *next;
@@ -71,23 +57,14 @@ typedef struct worker {
     task_t *queue, *queue_tail; /* ready to render */
     task_t *parked;             /* waiting for their scene */
     task_t *done;               /* rendered, to send */
-    job_scene_t scenes[MAX_SCENES];
+    scene_cache_t scenes;
     store_cache_t stores;
-    unsigned long clock;
     unsigned generation;
     int quit;
     uint64_t cancelled[64]; /* recently cancelled jobs */
     int ncancelled;
     int wake_fd[2]; /* render threads write a byte here when a result is ready */
 } worker_t;
-
-/* Frees a scene slot's scene and store and empties it. */
-static void job_scene_clear(job_scene_t *js)
-{
-    scene_destroy(&js->scene);
-    photon_store_destroy(&js->photons);
-    memset(js, 0, sizeof *js);
-}
 
 static void logf_(const worker_t *w, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void logf_(const worker_t *w, const char *fmt, ...)
@@ -126,95 +103,6 @@ static int task_ready(worker_t *w, const task_t *t)
     return bundle_cache_has(&w->bundles, t->hash) && (!t->store[0] || store_cache_find(&w->stores, t->store));
 }
 
-/* Decodes the task's photon store for a scene slot that has none yet. Called with the lock
- * held; released while the store is decoded and built. */
-static int install_store(worker_t *w, job_scene_t *js, const task_t *t, err_t *err)
-{
-    store_bytes_t *sb = store_cache_hold(&w->stores, t->store);
-    if (!sb)
-        return err_set(err, "photon store %.12s is no longer held: the master will send it again",
-                       t->store);
-    pthread_mutex_unlock(&w->lock);
-    photon_store_t *store = photon_pass_from_wire(js->scene, sb->data, sb->size, err);
-    pthread_mutex_lock(&w->lock);
-    int r = store ? 0 : -1;
-    js->photons = store;
-    store_cache_release(&w->stores, sb);
-    if (!r)
-        snprintf(js->store, sizeof js->store, "%s", t->store);
-    return r;
-}
-
-/* Finds or loads the scene of a task's job. Called by render threads with the lock held; the
- * lock is released while loading so that other threads keep rendering. */
-static job_scene_t *acquire_scene(worker_t *w, const task_t *t, err_t *err)
-{
-    for (;;) {
-        job_scene_t *hit = NULL, *victim = NULL;
-        for (int i = 0; i < MAX_SCENES; i++) {
-            job_scene_t *s = &w->scenes[i];
-            /* Photon batches take any scene of their job (they leave its store slot alone);
-             * a tile needs its store installed, or a scene with none yet to install it in. */
-            if ((s->scene || s->loading || s->error[0]) && s->job == t->job &&
-                (s->error[0] || !t->store[0] || !s->store[0] || !strcmp(s->store, t->store))) {
-                hit = s;
-                break;
-            }
-            if (!s->loading && s->users == 0 && (!victim || s->stamp < victim->stamp))
-                victim = s;
-        }
-        if (hit && hit->loading) {
-            pthread_cond_wait(&w->wake, &w->lock);
-            continue;
-        }
-        if (hit) {
-            if (hit->error[0]) {
-                err_set(err, "%s", hit->error);
-                return NULL;
-            }
-            if (t->store[0] && !hit->store[0]) {
-                /* Wait for the scene's own users to leave? No: batches do not touch the store
-                 * slot, and tiles of this job all want this store. */
-                hit->loading = 1;
-                int r = install_store(w, hit, t, err);
-                hit->loading = 0;
-                pthread_cond_broadcast(&w->wake);
-                if (r)
-                    return NULL;
-            }
-            hit->users++;
-            hit->stamp = ++w->clock;
-            return hit;
-        }
-        if (!victim) {
-            pthread_cond_wait(&w->wake, &w->lock);
-            continue;
-        }
-        job_scene_clear(victim);
-        victim->job = t->job;
-        victim->loading = 1;
-        snprintf(victim->hash, sizeof victim->hash, "%s", t->hash);
-        pthread_mutex_unlock(&w->lock);
-        err_t lerr = {{0}};
-        scene_overrides_t ov = proto_settings_to_overrides(&t->settings);
-        scene_t *sc = bundle_cache_load(&w->bundles, t->hash, &ov, &lerr);
-        pthread_mutex_lock(&w->lock);
-        victim->scene = sc;
-        victim->stamp = ++w->clock;
-        if (!sc)
-            snprintf(victim->error, sizeof victim->error, "%s", lerr.msg);
-        else if (t->store[0] && install_store(w, victim, t, &lerr)) {
-            /* The scene is fine for batches; this tile fails (and is tried again). */
-            victim->loading = 0;
-            pthread_cond_broadcast(&w->wake);
-            err_set(err, "%s", lerr.msg);
-            return NULL;
-        }
-        victim->loading = 0;
-        pthread_cond_broadcast(&w->wake);
-    }
-}
-
 /* One of the pool's render threads (base/pool.h sets their floating-point mode). */
 static void *render_thread(void *arg)
 {
@@ -230,7 +118,7 @@ static void *render_thread(void *arg)
         if (!w->queue)
             w->queue_tail = NULL;
         err_t err = {{0}};
-        job_scene_t *js = is_cancelled(w, t->job) ? NULL : acquire_scene(w, t, &err);
+        job_scene_t *js = is_cancelled(w, t->job) ? NULL : scene_cache_acquire(&w->scenes, t->job, t->hash, t->store, &t->settings, &err);
         if (js) {
             pthread_mutex_unlock(&w->lock);
             double t0 = clock_now_s();
@@ -247,8 +135,7 @@ static void *render_thread(void *arg)
             }
             t->elapsed = clock_now_s() - t0;
             pthread_mutex_lock(&w->lock);
-            js->users--;
-            pthread_cond_broadcast(&w->wake);
+            scene_cache_release(&w->scenes, js);
         }
         if (!t->ok)
             snprintf(t->error, sizeof t->error, "%s", err.msg[0] ? err.msg : "job cancelled");
@@ -315,6 +202,7 @@ int worker_run(const worker_opts_t *opts, err_t *err)
     }
     pthread_mutex_init(&w.lock, NULL);
     pthread_cond_init(&w.wake, NULL);
+    scene_cache_init(&w.scenes, &w.lock, &w.wake, &w.bundles, &w.stores);
     err_t perr;
     pool_t *pool = pool_start(threads, render_thread, &w, &perr);
     int rc = 0;
@@ -513,10 +401,7 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                             pp = &t->next;
                         }
                     }
-                    for (int i = 0; i < MAX_SCENES; i++)
-                        if (w.scenes[i].job == m.cancel.job && !w.scenes[i].users && !w.scenes[i].loading) {
-                            job_scene_clear(&w.scenes[i]);
-                        }
+                    scene_cache_drop_job(&w.scenes, m.cancel.job);
                     pthread_mutex_unlock(&w.lock);
                     logf_(&w, "job %llu cancelled", (unsigned long long)m.cancel.job);
                     break;
@@ -653,8 +538,7 @@ out:
     free_list(w.queue);
     free_list(w.parked);
     free_list(w.done);
-    for (int i = 0; i < MAX_SCENES; i++)
-        job_scene_clear(&w.scenes[i]);
+    scene_cache_clear(&w.scenes);
     store_cache_clear(&w.stores);
     pthread_cond_destroy(&w.wake);
     pthread_mutex_destroy(&w.lock);
