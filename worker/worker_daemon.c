@@ -9,6 +9,7 @@
 #include "render.h"
 #include "scene_cache.h"
 #include "store_cache.h"
+#include "task_queue.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -26,43 +27,16 @@
  * not gone: its loop may be writing a large EXR or checkpoint. It is waited for this long. */
 #define MASTER_BUSY_MAX_S 60.0
 
-typedef struct task {
-    struct task *next;
-    uint64_t job, id;
-    uint32_t attempt;
-    unsigned generation; /* connection generation that received it */
-    char hash[PROTO_HASH_HEX + 1];
-    proto_settings_t settings;
-    char strings[2][16];
-    proto_kind_t kind;
-    proto_tile_t tile;             /* camera tiles */
-    char store[PROTO_HASH_HEX + 1]; /* camera tiles of a photon job: the store to gather from */
-    proto_photon_batch_t photons;  /* photon batches */
-    /* filled by the render thread */
-    tilebuf_t *result;
-    uint8_t *photon_data; /* a batch's partial store, wire form */
-    size_t photon_size;
-    int ok;
-    photon_stats_t pstats;
-    render_stats_t stats;
-    double elapsed;
-    char error[640];
-} task_t;
-
 typedef struct worker {
     const worker_opts_t *opts;
     bundle_cache_t bundles;
     pthread_mutex_t lock;
     pthread_cond_t wake;
-    task_t *queue, *queue_tail; /* ready to render */
-    task_t *parked;             /* waiting for their scene */
-    task_t *done;               /* rendered, to send */
+    task_queue_t tasks;
     scene_cache_t scenes;
     store_cache_t stores;
     unsigned generation;
     int quit;
-    uint64_t cancelled[64]; /* recently cancelled jobs */
-    int ncancelled;
     int wake_fd[2]; /* render threads write a byte here when a result is ready */
 } worker_t;
 
@@ -79,28 +53,32 @@ static void logf_(const worker_t *w, const char *fmt, ...)
     va_end(ap);
 }
 
-static void copy_settings(task_t *t, const proto_settings_t *s)
-{
-    t->settings = *s;
-    snprintf(t->strings[0], sizeof t->strings[0], "%s", s->integrator ? s->integrator : "");
-    snprintf(t->strings[1], sizeof t->strings[1], "%s", s->dispersion ? s->dispersion : "");
-    t->settings.integrator = s->integrator ? t->strings[0] : NULL;
-    t->settings.dispersion = s->dispersion ? t->strings[1] : NULL;
-}
-
-static int is_cancelled(const worker_t *w, uint64_t job)
-{
-    for (int i = 0; i < w->ncancelled; i++)
-        if (w->cancelled[i] == job)
-            return 1;
-    return 0;
-}
-
 /* A task can run once its bundle is on disk and, for a tile that gathers from a photon store,
  * the store is here. Called with the lock held. */
 static int task_ready(worker_t *w, const task_t *t)
 {
     return bundle_cache_has(&w->bundles, t->hash) && (!t->store[0] || store_cache_find(&w->stores, t->store));
+}
+
+/* What arrived (a bundle or a photon store, by hash) and whether it was kept. */
+struct arrival {
+    worker_t *w;
+    const char *hash;
+    int kept;
+};
+
+/* The parked tasks to take when a bundle arrived: its tasks, unless kept and a tile's photon
+ * store is still on its way (it stays parked). */
+static bool wants_scene(const task_t *t, void *arg)
+{
+    const struct arrival *a = arg;
+    return !(strcmp(t->hash, a->hash) != 0 || (a->kept && !task_ready(a->w, t)));
+}
+
+static bool wants_store(const task_t *t, void *arg)
+{
+    const struct arrival *a = arg;
+    return !(strcmp(t->store, a->hash) != 0 || (a->kept && !task_ready(a->w, t)));
 }
 
 /* One of the pool's render threads (base/pool.h sets their floating-point mode). */
@@ -109,16 +87,13 @@ static void *render_thread(void *arg)
     worker_t *w = arg;
     pthread_mutex_lock(&w->lock);
     for (;;) {
-        while (!w->quit && !w->queue)
+        while (!w->quit && !w->tasks.ready)
             pthread_cond_wait(&w->wake, &w->lock);
         if (w->quit)
             break;
-        task_t *t = w->queue;
-        w->queue = t->next;
-        if (!w->queue)
-            w->queue_tail = NULL;
+        task_t *t = task_queue_pop(&w->tasks);
         err_t err = {{0}};
-        job_scene_t *js = is_cancelled(w, t->job) ? NULL : scene_cache_acquire(&w->scenes, t->job, t->hash, t->store, &t->settings, &err);
+        job_scene_t *js = task_queue_is_cancelled(&w->tasks, t->job) ? NULL : scene_cache_acquire(&w->scenes, t->job, t->hash, t->store, &t->settings, &err);
         if (js) {
             pthread_mutex_unlock(&w->lock);
             double t0 = clock_now_s();
@@ -139,8 +114,7 @@ static void *render_thread(void *arg)
         }
         if (!t->ok)
             snprintf(t->error, sizeof t->error, "%s", err.msg[0] ? err.msg : "job cancelled");
-        t->next = w->done;
-        w->done = t;
+        task_queue_finish(&w->tasks, t);
         /* Wake the network loop at once rather than at its next poll timeout. */
         char one = 1;
         if (write(w->wake_fd[1], &one, 1) < 0) {
@@ -149,17 +123,6 @@ static void *render_thread(void *arg)
     }
     pthread_mutex_unlock(&w->lock);
     return NULL;
-}
-
-static void free_list(task_t *t)
-{
-    while (t) {
-        task_t *n = t->next;
-        tilebuf_destroy(&t->result);
-        free(t->photon_data);
-        free(t);
-        t = n;
-    }
 }
 
 static int send_msg(worker_t *w, proto_net_t *net, const proto_msg_t *m)
@@ -263,40 +226,20 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                     logf_(&w, "welcomed as worker %llu", (unsigned long long)m.welcome.worker_id);
                     break;
                 case PROTO_TASK: {
-                    task_t *t = calloc(1, sizeof *t);
+                    task_t *t = task_new(&m, gen);
                     if (!t)
                         break;
-                    t->job = m.task.job;
-                    t->id = m.task.task;
-                    t->attempt = m.task.attempt;
-                    t->generation = gen;
-                    snprintf(t->hash, sizeof t->hash, "%s", m.task.scene);
-                    copy_settings(t, &m.task.settings);
-                    t->kind = m.task.kind;
-                    t->tile = m.task.tile;
-                    t->photons = m.task.photons;
-                    snprintf(t->store, sizeof t->store, "%s", m.task.store);
                     pthread_mutex_lock(&w.lock);
-                    for (int i = 0; i < w.ncancelled; i++)
-                        if (w.cancelled[i] == t->job) /* a re-submitted id is a new job */
-                            w.cancelled[i] = w.cancelled[--w.ncancelled];
+                    /* a re-submitted id is a new job */
+                    task_queue_uncancel(&w.tasks, t->job);
                     if (task_ready(&w, t)) {
-                        if (w.queue_tail)
-                            w.queue_tail->next = t;
-                        else
-                            w.queue = t;
-                        w.queue_tail = t;
+                        task_queue_push(&w.tasks, t);
                         pthread_cond_broadcast(&w.wake);
                     } else {
                         /* Ask once for whatever is missing: parked tasks already waiting for
                          * the same bundle or store have asked. */
-                        int asked_scene = 0, asked_store = 0;
-                        for (task_t *p = w.parked; p; p = p->next) {
-                            asked_scene |= !strcmp(p->hash, t->hash);
-                            asked_store |= t->store[0] && !strcmp(p->store, t->store);
-                        }
-                        t->next = w.parked;
-                        w.parked = t;
+                        bool asked_scene, asked_store;
+                        task_queue_park(&w.tasks, t, &asked_scene, &asked_store);
                         if (!asked_scene && !bundle_cache_has(&w.bundles, t->hash)) {
                             proto_msg_t req = {.type = PROTO_SCENE_REQUEST};
                             snprintf(req.scene_request.scene, sizeof req.scene_request.scene, "%s", t->hash);
@@ -326,27 +269,10 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                         logf_(&w, "no room for photon store %.12s: its tiles will fail and be re-sent",
                               m.store.store);
                     }
-                    task_t **pp = &w.parked;
-                    while (*pp) {
-                        task_t *t = *pp;
-                        if (strcmp(t->store, m.store.store) != 0 || (kept && !task_ready(&w, t))) {
-                            pp = &t->next;
-                            continue;
-                        }
-                        *pp = t->next;
-                        t->next = NULL;
-                        if (kept) {
-                            if (w.queue_tail)
-                                w.queue_tail->next = t;
-                            else
-                                w.queue = t;
-                            w.queue_tail = t;
-                        } else {
-                            snprintf(t->error, sizeof t->error, "no room for photon store %.12s", m.store.store);
-                            t->next = w.done;
-                            w.done = t;
-                        }
-                    }
+                    char why[sizeof ((task_t *)0)->error];
+                    snprintf(why, sizeof why, "no room for photon store %.12s", m.store.store);
+                    struct arrival a = {&w, m.store.store, kept};
+                    task_queue_unpark(&w.tasks, wants_store, &a, kept ? NULL : why);
                     pthread_cond_broadcast(&w.wake);
                     pthread_mutex_unlock(&w.lock);
                     break;
@@ -357,50 +283,17 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                     if (!ok)
                         logf_(&w, "scene %s rejected: %s", m.scene.scene, serr.msg);
                     pthread_mutex_lock(&w.lock);
-                    task_t **pp = &w.parked;
-                    while (*pp) {
-                        task_t *t = *pp;
-                        /* A tile whose photon store is still on its way stays parked. */
-                        if (strcmp(t->hash, m.scene.scene) != 0 || (ok && !task_ready(&w, t))) {
-                            pp = &t->next;
-                            continue;
-                        }
-                        *pp = t->next;
-                        t->next = NULL;
-                        if (ok) {
-                            if (w.queue_tail)
-                                w.queue_tail->next = t;
-                            else
-                                w.queue = t;
-                            w.queue_tail = t;
-                        } else {
-                            snprintf(t->error, sizeof t->error, "scene bundle rejected: %s", serr.msg);
-                            t->next = w.done;
-                            w.done = t;
-                        }
-                    }
+                    char why[sizeof ((task_t *)0)->error];
+                    snprintf(why, sizeof why, "scene bundle rejected: %s", ok ? "" : serr.msg);
+                    struct arrival a = {&w, m.scene.scene, ok};
+                    task_queue_unpark(&w.tasks, wants_scene, &a, ok ? NULL : why);
                     pthread_cond_broadcast(&w.wake);
                     pthread_mutex_unlock(&w.lock);
                     break;
                 }
                 case PROTO_CANCEL: {
                     pthread_mutex_lock(&w.lock);
-                    if (w.ncancelled == 64)
-                        memmove(w.cancelled, w.cancelled + 1, 63 * sizeof *w.cancelled), w.ncancelled--;
-                    w.cancelled[w.ncancelled++] = m.cancel.job;
-                    /* Queued tasks of the job go; the master reclaims their slots itself. */
-                    task_t **pp = &w.queue;
-                    w.queue_tail = NULL;
-                    while (*pp) {
-                        task_t *t = *pp;
-                        if (t->job == m.cancel.job) {
-                            *pp = t->next;
-                            free(t);
-                        } else {
-                            w.queue_tail = t;
-                            pp = &t->next;
-                        }
-                    }
+                    task_queue_cancel(&w.tasks, m.cancel.job);
                     scene_cache_drop_job(&w.scenes, m.cancel.job);
                     pthread_mutex_unlock(&w.lock);
                     logf_(&w, "job %llu cancelled", (unsigned long long)m.cancel.job);
@@ -430,13 +323,12 @@ int worker_run(const worker_opts_t *opts, err_t *err)
 
             /* Send what the render threads finished. */
             pthread_mutex_lock(&w.lock);
-            task_t *done = w.done;
-            w.done = NULL;
+            task_t *done = task_queue_take_done(&w.tasks);
             pthread_mutex_unlock(&w.lock);
             while (done) {
                 task_t *t = done;
                 done = t->next;
-                if (t->generation == gen && !is_cancelled(&w, t->job)) {
+                if (t->generation == gen && !task_queue_is_cancelled(&w.tasks, t->job)) {
                     proto_msg_t out;
                     if (t->ok && t->kind == PROTO_KIND_PHOTON_BATCH) {
                         out = (proto_msg_t){.type = PROTO_RESULT};
@@ -479,7 +371,7 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                         last_sent = now;
                 }
                 t->next = NULL;
-                free_list(t);
+                task_list_free(t);
             }
 
             if (now - last_sent >= heartbeat_ms / 1000.0) {
@@ -510,10 +402,7 @@ int worker_run(const worker_opts_t *opts, err_t *err)
         proto_net_destroy(&net);
         /* Whatever this connection held is the master's to reassign now. */
         pthread_mutex_lock(&w.lock);
-        free_list(w.queue);
-        w.queue = w.queue_tail = NULL;
-        free_list(w.parked);
-        w.parked = NULL;
+        task_queue_abandon(&w.tasks);
         pthread_mutex_unlock(&w.lock);
         if (*opts->stop || rc)
             break;
@@ -535,9 +424,7 @@ out:
     pthread_cond_broadcast(&w.wake);
     pthread_mutex_unlock(&w.lock);
     pool_join(&pool);
-    free_list(w.queue);
-    free_list(w.parked);
-    free_list(w.done);
+    task_queue_clear(&w.tasks);
     scene_cache_clear(&w.scenes);
     store_cache_clear(&w.stores);
     pthread_cond_destroy(&w.wake);
