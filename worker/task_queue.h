@@ -47,9 +47,9 @@ task_t *task_new(const proto_msg_t *m, unsigned generation);
 void task_list_free(task_t *t);
 
 typedef struct task_queue {
-    task_t *ready, *ready_tail; /* ready to render */
-    task_t *parked;             /* waiting for their scene */
-    task_t *done;               /* rendered, to send */
+    task_t *ready, *ready_tail;               /* ready to render */
+    task_t *parked;                           /* waiting for their bundle or photon store */
+    task_t *done;                             /* rendered, to send */
     uint64_t cancelled[TASK_QUEUE_CANCELLED]; /* recently cancelled jobs */
     int ncancelled;
 } task_queue_t;
