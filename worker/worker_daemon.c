@@ -13,7 +13,6 @@
 #include <pthread.h>
 #include <stdio.h>
 #include <string.h>
-#include <time.h>
 #include <unistd.h>
 #include <zmq.h>
 
@@ -142,10 +141,8 @@ static void backoff_wait(worker_t *w)
         /* A readable stop descriptor ends the wait at once; without one (or should it be
          * unusable) the flag is looked at every 50 ms. */
         zmq_pollitem_t stop_item = {.fd = opts->stop_fd, .events = ZMQ_POLLIN};
-        if (opts->stop_fd <= 0 || zmq_poll(&stop_item, 1, 50) < 0) {
-            struct timespec ts = {0, 50 * 1000000L};
-            nanosleep(&ts, NULL);
-        }
+        if (opts->stop_fd <= 0 || zmq_poll(&stop_item, 1, 50) < 0)
+            clock_sleep_s(0.050);
     }
     w->backoff_ms =
         w->backoff_ms * 2 > w->reconnect_max_ms ? w->reconnect_max_ms : w->backoff_ms * 2;
