@@ -32,8 +32,9 @@
 #   --keep DIR  keep BASE_REV's renders in DIR/<full commit id>/ and reuse them: a second run
 #               neither builds nor renders BASE_REV (only combinations missing from DIR are
 #               rendered). The working tree's renders of the last run are left in DIR/current/
-#               for a look at any difference. A cache is only as good as the machine it was made
-#               on: delete DIR/<commit> after a compiler or library upgrade.
+#               for a look at any difference. Runs given the same DIR wait for each other. A
+#               cache is only as good as the machine it was made on: delete DIR/<commit> after a
+#               compiler or library upgrade.
 #   environment: PIXELS_JOBS (build parallelism, default 2), PIXELS_TIMEOUT (seconds per
 #               render, default 600)
 #
@@ -149,18 +150,23 @@ for f in "${scene_files[@]}"; do
   done
 done
 
-# Where the renders go.
+# Where the renders go: the working tree's in the temporary folder (copied to DIR/current at
+# the end), BASE_REV's in DIR/<commit> with --keep. Runs sharing DIR take turns (a lock on
+# DIR/.lock, held until this script exits).
+CUR_OUT=$WORK/current
 if [[ -n $KEEP ]]; then
+  exec 9>>"$KEEP/.lock"
+  if ! flock -n 9; then
+    log "another run is using $KEEP: waiting for it to finish ..."
+    flock 9
+  fi
   BASE_OUT=$KEEP/$BASE_SHA
-  CUR_OUT=$KEEP/current
   if [[ -d $BASE_OUT && "$(cat "$BASE_OUT/settings" 2>/dev/null)" != "$SETTINGS" ]]; then
     log "the renders in $BASE_OUT were made with other settings: rendering them again"
     rm -rf "$BASE_OUT"
   fi
-  rm -rf "$CUR_OUT"
 else
   BASE_OUT=$WORK/base
-  CUR_OUT=$WORK/current
 fi
 mkdir -p "$BASE_OUT" "$CUR_OUT"
 echo "$SETTINGS" >"$BASE_OUT/settings"
@@ -251,6 +257,11 @@ for c in "${combos[@]}"; do
   fi
   rows+=("| $name | $label | $disp | $mode | $result |")
 done
+
+if [[ -n $KEEP ]]; then
+  rm -rf "$KEEP/current"
+  cp -a "$CUR_OUT" "$KEEP/current"
+fi
 
 echo "Pixels of $(git rev-parse --short HEAD)$(git diff --quiet HEAD -- 2>/dev/null || echo ' + uncommitted changes') against $BASE_REV ($BASE_SHA), $RES, $SPP spp, --threads $THREADS:"
 echo
