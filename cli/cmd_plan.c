@@ -10,9 +10,8 @@
 
 #include <jansson.h>
 #include <stdio.h>
-#include <string.h>
 
-static void usage(FILE *out)
+static void usage(FILE *out, const cli_opt_t *opts)
 {
     fprintf(out,
             "usage: prismfarm plan SCENE.pbrt [--json] [options]\n"
@@ -24,11 +23,10 @@ static void usage(FILE *out)
             "and the integrator, each with the scene elements that caused it; then what is\n"
             "switched off and why. Integrator \"auto\" (the default when the scene names none)\n"
             "renders with this plan; an explicit integrator is kept and differences are noted.\n"
-            "Options override the scene file as for prismfarm render:\n"
-            "  --json                   print JSON instead of the report\n" CLI_OVERRIDES_HELP
-            "  --help                   this text\n"
-            "\n"
-            "exit status: 0 success, 1 the scene cannot be loaded, 2 bad command line\n");
+            "Options override the scene file as for prismfarm render:\n");
+    cli_args_help(out, opts);
+    fprintf(out, "\n"
+                 "exit status: 0 success, 1 the scene cannot be loaded, 2 bad command line\n");
 }
 
 static json_t *jstring_or_null(const char *s)
@@ -147,47 +145,30 @@ static json_t *plan_json(const char *path, const scene_t *scene, const plan_t *p
 
 int cmd_plan(int argc, char **argv)
 {
-    const char *path = NULL;
     int json = 0;
     scene_overrides_t ov = {.seed = -1};
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            usage(stdout);
-            return 0;
-        }
-        if (!strcmp(a, "--json")) {
-            json = 1;
-        } else if (a[0] == '-' && a[1]) {
-            static const char *const OVERRIDES[] = {"--spp", "--res", "--seed", "--integrator",
-                                                    "--dispersion"};
-            int known = 0;
-            for (size_t k = 0; k < sizeof OVERRIDES / sizeof OVERRIDES[0]; k++)
-                known |= !strcmp(a, OVERRIDES[k]);
-            if (!known) {
-                fprintf(stderr, "prismfarm plan: unknown option '%s' (see prismfarm plan --help)\n",
-                        a);
-                return 2;
-            }
-            if (i + 1 >= argc) {
-                fprintf(stderr, "prismfarm plan: %s needs a value\n", a);
-                return 2;
-            }
-            if (cli_parse_override("plan", a, argv[i + 1], &ov) < 0)
-                return 2;
-            i++;
-        } else if (!path) {
-            path = a;
-        } else {
-            fprintf(stderr, "prismfarm plan: unexpected argument '%s' (one scene at a time)\n", a);
-            return 2;
-        }
-    }
-    if (!path) {
-        fprintf(stderr, "prismfarm plan: no scene given\n");
-        usage(stderr);
+    const cli_opt_t opts[] = {
+        CLI_OPT_JSON(.dst = &json, .help = "print JSON instead of the report"),
+        CLI_OPT_GROUP(CLI_OVERRIDE_OPTS, .dst = &ov),
+        CLI_OPT_HELP,
+        {0},
+    };
+    int first;
+    const cli_cmd_t cmd = {.name = "plan", .opts = opts, .usage = usage};
+    int parsed = cli_args_parse(&cmd, argc, argv, &first);
+    if (parsed != CLI_ARGS_GO)
+        return parsed;
+    if (argc - first > 1) {
+        fprintf(stderr, "prismfarm plan: unexpected argument '%s' (one scene at a time)\n",
+                argv[first + 1]);
         return 2;
     }
+    if (first == argc) {
+        fprintf(stderr, "prismfarm plan: no scene given\n");
+        usage(stderr, opts);
+        return 2;
+    }
+    const char *path = argv[first];
     err_t err;
     scene_desc_t *desc = pbrt_parse_file(path, &err);
     scene_t *scene = desc ? scene_load(desc, &ov, &err) : NULL;

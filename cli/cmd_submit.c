@@ -8,95 +8,58 @@
 #include "job_follow.h"
 #include "scene_bundle.h"
 
-#include <errno.h>
 #include <jansson.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-static void usage(FILE *out)
+static void usage(FILE *out, const cli_opt_t *opts)
 {
-    fprintf(out,
-            "usage: prismfarm submit SCENE.pbrt [--master ENDPOINT] [options]\n"
-            "\n"
-            "Submits SCENE (and every file it includes) as a job; prints the job id.\n"
-            "  --master ENDPOINT   the master's client endpoint (default $PRISMFARM_MASTER or tcp://127.0.0.1:5556)\n"
-            "  --name NAME         job name (default: the scene file's name)\n"
-            "  --spp N, --res WxH, --seed N, --integrator NAME, --dispersion NAME\n"
-            "                      override the scene file, as for prismfarm render\n"
-            "  --target-error E    done at the first pass whose relative error estimate is <= E (0 < E < 1)\n"
-            "  --time-limit T      done at T seconds (or Ns, Nm, Nh) after the start, with the whole passes so far\n"
-            "  --wait              follow the job with a progress bar and fetch the result\n"
-            "  -o, --output OUT    with --wait: where the EXR goes (default NAME.exr); the PNG goes beside it\n"
-            "  --json              print the job id (and with --wait the final status) as JSON\n"
-            CLIENT_SECURITY_HELP);
+    fprintf(out, "usage: prismfarm submit SCENE.pbrt [--master ENDPOINT] [options]\n"
+                 "\n"
+                 "Submits SCENE (and every file it includes) as a job; prints the job id.\n");
+    cli_args_help(out, opts);
 }
 
 int cmd_submit(int argc, char **argv)
 {
-    const char *scene = NULL, *master = client_default_master(), *name = NULL, *output = NULL;
+    const char *master = client_default_master(), *name = NULL, *output = NULL;
     scene_overrides_t ov = {.seed = -1};
     cli_stop_t stop = {0};
     int wait = 0, json = 0, quiet = 0;
     client_security_t sec = client_security_default();
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int s = client_security_arg("submit", argc, argv, &i, &sec);
-        if (s < 0)
-            return 2;
-        if (s)
-            continue;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            usage(stdout);
-            return 0;
-        }
-        if (!strcmp(a, "--wait")) {
-            wait = 1;
-            continue;
-        }
-        if (!strcmp(a, "--json")) {
-            json = 1;
-            continue;
-        }
-        if (!strcmp(a, "--quiet")) {
-            quiet = 1;
-            continue;
-        }
-        if (a[0] == '-') {
-            if (i + 1 >= argc) {
-                fprintf(stderr, "prismfarm submit: %s needs a value\n", a);
-                return 2;
-            }
-            const char *val = argv[++i];
-            int handled = cli_parse_override("submit", a, val, &ov);
-            if (!handled)
-                handled = cli_parse_stop("submit", a, val, &stop);
-            if (handled < 0)
-                return 2;
-            if (handled)
-                continue;
-            if (!strcmp(a, "--master"))
-                master = val;
-            else if (!strcmp(a, "--name"))
-                name = val;
-            else if (!strcmp(a, "-o") || !strcmp(a, "--output"))
-                output = val;
-            else {
-                fprintf(stderr, "prismfarm submit: unknown option '%s' (see prismfarm submit --help)\n", a);
-                return 2;
-            }
-            continue;
-        }
-        if (scene) {
-            fprintf(stderr, "prismfarm submit: more than one scene given ('%s' and '%s')\n", scene, a);
-            return 2;
-        }
-        scene = a;
-    }
-    if (!scene) {
-        usage(stderr);
+    const cli_opt_t opts[] = {
+        CLI_OPT_MASTER(.dst = &master),
+        {.name = "name", .kind = CLI_STRING, .dst = &name, .arg = "NAME",
+         .help = "job name (default: the scene file's name)"},
+        CLI_OPT_GROUP(CLI_OVERRIDE_OPTS, .dst = &ov),
+        CLI_OPT_GROUP(CLI_STOP_OPTS, .dst = &stop),
+        {.name = "wait", .kind = CLI_FLAG, .dst = &wait,
+         .help = "follow the job with a progress bar and fetch the result"},
+        {.name = "output", .letter = 'o', .kind = CLI_STRING, .dst = &output, .arg = "OUT",
+         .help = "with --wait: where the EXR goes (default NAME.exr); the PNG goes beside it"},
+        CLI_OPT_JSON(.dst = &json,
+                     .help = "print the job id (and with --wait the final status) as JSON"),
+        CLI_OPT_QUIET(.dst = &quiet, .help = "with --wait: no progress bar"),
+        CLI_OPT_GROUP(CLI_SECURITY_OPTS, .dst = &sec),
+        CLI_OPT_HELP,
+        {0},
+    };
+    int first;
+    const cli_cmd_t cmd = {.name = "submit", .opts = opts, .usage = usage};
+    int parsed = cli_args_parse(&cmd, argc, argv, &first);
+    if (parsed != CLI_ARGS_GO)
+        return parsed;
+    if (argc - first > 1) {
+        fprintf(stderr, "prismfarm submit: more than one scene given ('%s' and '%s')\n",
+                argv[first], argv[first + 1]);
         return 2;
     }
+    if (first == argc) {
+        usage(stderr, opts);
+        return 2;
+    }
+    const char *scene = argv[first];
     if (output && !wait) {
         fprintf(stderr, "prismfarm submit: -o needs --wait (or use prismfarm fetch JOB -o OUT later)\n");
         return 2;
