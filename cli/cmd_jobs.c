@@ -3,13 +3,13 @@
 #include "commands.h"
 
 #include "cli_args.h"
+#include "cli_json.h"
 #include "client_rpc.h"
 #include "film.h"
 #include "job_follow.h"
 
 #include <errno.h>
 #include <stddef.h>
-#include <jansson.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -87,14 +87,14 @@ static json_t *job_json(const proto_job_info_t *j)
 {
     json_t *o = json_object();
     json_object_set_new(o, "id", json_integer((json_int_t)j->id));
-    json_object_set_new(o, "name", json_string(j->name ? j->name : ""));
+    json_object_set_new(o, "name", cli_json_string(j->name));
     json_object_set_new(o, "state", json_string(proto_job_state_name(j->state)));
     json_object_set_new(o, "samples_done", json_integer((json_int_t)j->samples_done));
     json_object_set_new(o, "samples_total", json_integer((json_int_t)j->samples_total));
     json_object_set_new(o, "progress", json_real(j->samples_total ? (double)j->samples_done / (double)j->samples_total : 0.0));
     json_object_set_new(o, "elapsed_s", json_real(j->elapsed));
     json_object_set_new(o, "nonfinite", json_integer((json_int_t)j->nonfinite));
-    json_object_set_new(o, "error", j->error ? json_string(j->error) : json_null());
+    json_object_set_new(o, "error", j->error ? cli_json_string(j->error) : json_null());
     /* Accuracy (docs/farm.md): spp of the whole passes merged, the relative error estimate
      * after the last one (null before the second pass), why a done job stopped early. */
     json_object_set_new(o, "spp", json_integer((json_int_t)j->spp));
@@ -104,20 +104,13 @@ static json_t *job_json(const proto_job_info_t *j)
     return o;
 }
 
-static void print_json(json_t *v)
-{
-    json_dumpf(v, stdout, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
-    fputc('\n', stdout);
-    json_decref(v);
-}
-
 static void print_jobs(const proto_job_info_t *jobs, size_t n, int json)
 {
     if (json) {
         json_t *arr = json_array();
         for (size_t i = 0; i < n; i++)
             json_array_append_new(arr, job_json(&jobs[i]));
-        print_json(arr);
+        cli_json_print(arr, JSON_INDENT(2));
         return;
     }
     printf("%-6s %-20s %-10s %9s %8s %9s %9s %10s  %s\n", "ID", "NAME", "STATE", "PROGRESS", "SPP",
@@ -254,14 +247,14 @@ int cmd_workers(int argc, char **argv)
         for (size_t i = 0; i < n; i++) {
             json_t *o = json_object();
             json_object_set_new(o, "id", json_integer((json_int_t)w[i].id));
-            json_object_set_new(o, "name", json_string(w[i].name ? w[i].name : ""));
+            json_object_set_new(o, "name", cli_json_string(w[i].name));
             json_object_set_new(o, "threads", json_integer(w[i].threads));
             json_object_set_new(o, "state", json_string(proto_worker_state_name(w[i].state)));
             json_object_set_new(o, "tasks_done", json_integer((json_int_t)w[i].tasks_done));
             json_object_set_new(o, "last_seen_s", json_real(w[i].last_seen));
             json_array_append_new(arr, o);
         }
-        print_json(arr);
+        cli_json_print(arr, JSON_INDENT(2));
     } else {
         printf("%-6s %-24s %7s %-6s %10s %10s\n", "ID", "NAME", "THREADS", "STATE", "TASKS", "LAST SEEN");
         for (size_t i = 0; i < n; i++)

@@ -3,12 +3,12 @@
 #include "commands.h"
 
 #include "cli_args.h"
+#include "cli_json.h"
 #include "client_rpc.h"
 #include "film.h"
 #include "job_follow.h"
 #include "scene_bundle.h"
 
-#include <jansson.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -103,10 +103,14 @@ int cmd_submit(int argc, char **argv)
     uint64_t job = reply.submitted.job;
     proto_msg_free(&reply);
     if (!wait) {
-        if (json)
-            printf("{\"job\": %llu, \"name\": \"%s\"}\n", (unsigned long long)job, name);
-        else
+        if (json) {
+            json_t *o = json_object();
+            json_object_set_new(o, "job", json_integer((json_int_t)job));
+            json_object_set_new(o, "name", cli_json_string(name));
+            cli_json_print(o, 0);
+        } else {
             printf("%llu\n", (unsigned long long)job);
+        }
         goto out;
     }
     if (!quiet)
@@ -136,17 +140,15 @@ int cmd_submit(int argc, char **argv)
         json_t *o = json_object();
         json_object_set_new(o, "job", json_integer((json_int_t)job));
         json_object_set_new(o, "state", json_string("done"));
-        json_object_set_new(o, "exr", json_string(exr));
-        json_object_set_new(o, "png", json_string(png));
+        json_object_set_new(o, "exr", cli_json_string(exr));
+        json_object_set_new(o, "png", cli_json_string(png));
         json_object_set_new(o, "elapsed_s", json_real(last.elapsed));
         json_object_set_new(o, "nonfinite", json_integer((json_int_t)last.nonfinite));
         json_object_set_new(o, "spp", json_integer((json_int_t)last.spp));
         json_object_set_new(o, "rel_error", last.has_rel_error ? json_real(last.rel_error) : json_null());
         json_object_set_new(o, "stop", last.stop != PROTO_STOP_NONE ? json_string(proto_stop_name(last.stop))
                                                                     : json_null());
-        json_dumpf(o, stdout, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
-        fputc('\n', stdout);
-        json_decref(o);
+        cli_json_print(o, JSON_INDENT(2));
     } else {
         printf("job %llu done in %.1f s: wrote %s and %s; %llu non-finite samples discarded\n",
                (unsigned long long)job, last.elapsed, exr, png, (unsigned long long)last.nonfinite);
