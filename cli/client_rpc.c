@@ -31,28 +31,6 @@ client_security_t client_security_default(void)
                                .master_key_file = m && *m ? m : NULL};
 }
 
-int client_security_arg(const char *cmd, int argc, char **argv, int *i, client_security_t *sec)
-{
-    const char *a = argv[*i];
-    if (!strcmp(a, "--insecure")) {
-        sec->insecure = 1;
-        return 1;
-    }
-    if (strcmp(a, "--key") && strcmp(a, "--master-key"))
-        return 0;
-    if (*i + 1 >= argc) {
-        fprintf(stderr, "prismfarm %s: %s needs a value\n", cmd, a);
-        return -1;
-    }
-    const char *v = argv[++*i];
-    if (!strcmp(a, "--key"))
-        sec->key_file = v;
-    else
-        sec->master_key_file = v;
-    sec->keys_from_flags = 1;
-    return 1;
-}
-
 int client_security_load(const client_security_t *sec, const char *endpoint,
                          proto_curve_pair_t *pair, char master_public[PROTO_CURVE_Z85 + 1],
                          int *use_curve, err_t *err)

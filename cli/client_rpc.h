@@ -11,7 +11,8 @@
 const char *client_default_master(void);
 
 /* How a client (or worker) secures its link to the master (docs/security.md): its own key pair
- * and the master's public key, or plain text by explicit choice. */
+ * and the master's public key, or plain text by explicit choice (the options --key, --master-key
+ * and --insecure: cli_args.h's CLI_SECURITY_OPTS). */
 typedef struct client_security {
     const char *key_file;        /* NAME.key: our key pair (prismfarm keygen) */
     const char *master_key_file; /* the master's NAME.pub */
@@ -22,24 +23,12 @@ typedef struct client_security {
 /* $PRISMFARM_KEY and $PRISMFARM_MASTER_KEY when set and not empty; not insecure. */
 client_security_t client_security_default(void);
 
-/* Takes argv[*i] when it is --key FILE, --master-key FILE or --insecure (advancing *i past a
- * value) and returns 1; returns 0 for any other argument, and -1 after printing
- * "prismfarm CMD: FLAG needs a value". */
-int client_security_arg(const char *cmd, int argc, char **argv, int *i, client_security_t *sec);
-
 /* Loads the keys sec names into *curve (pointing into *pair), after the farm's rule for endpoint
  * (curve.h's proto_curve_require). --insecure discards keys that came from the environment only;
  * with keys from flags it is an error. Also used by `prismfarm worker`. */
 int client_security_load(const client_security_t *sec, const char *endpoint,
                          proto_curve_pair_t *pair, char master_public[PROTO_CURVE_Z85 + 1],
                          int *use_curve, err_t *err);
-
-#define CLIENT_SECURITY_HELP                                                                       \
-    "  --key FILE          our key pair, NAME.key from prismfarm keygen (default "                 \
-    "$PRISMFARM_KEY)\n"                                                                            \
-    "  --master-key FILE   the master's public key, its NAME.pub (default "                        \
-    "$PRISMFARM_MASTER_KEY)\n"                                                                     \
-    "  --insecure          plain text over tcp:// instead of CURVE (a network you trust)\n"
 
 typedef struct client_rpc client_rpc_t;
 

@@ -2,6 +2,7 @@
  * glass or of a Sellmeier/Cauchy model given on the command line. */
 #include "commands.h"
 
+#include "cli_args.h"
 #include "dispersion.h"
 #include "err.h"
 #include "glass.h"
@@ -15,8 +16,10 @@
 #define GLASS_CMD_MIN_NM 100.0
 #define GLASS_CMD_MAX_NM 10000.0
 #define GLASS_CMD_MAX_NUMBERS (1 + 2 * IOR_SELLMEIER_MAX_TERMS)
+#define GLASS_STR(x) #x
+#define GLASS_XSTR(x) GLASS_STR(x) /* a macro's value as a string literal */
 
-static void print_usage(FILE *out)
+static void print_usage(FILE *out, const cli_opt_t *opts)
 {
     fprintf(out,
             "usage: prismfarm glass --list\n"
@@ -27,16 +30,12 @@ static void print_usage(FILE *out)
             "Prints the refractive index of a catalogue glass (NAME or an alias, any case) at\n"
             "the given wavelengths in nanometres (%g to %g), or by default n_F (%.4f nm),\n"
             "n_d (%.4f nm), n_C (%.4f nm) and the Abbe number v_d = (n_d - 1) / (n_F - n_C).\n"
+            "\n",
+            GLASS_CMD_MIN_NM, GLASS_CMD_MAX_NM, IOR_LAMBDA_F_NM, IOR_LAMBDA_D_NM, IOR_LAMBDA_C_NM);
+    cli_args_help(out, opts);
+    fprintf(out,
             "\n"
-            "  --list       print the catalogue: name, n_d, v_d, source, aliases\n"
-            "  --sellmeier  a custom model n^2 = 1 + A0 + sum B_i L^2 / (L^2 - C_i), L in um,\n"
-            "               C_i in um^2, up to %d terms; an odd count of numbers starts with A0\n"
-            "  --cauchy     a custom model n = A + B / L^2, L in um, B in um^2\n"
-            "  --help       this text\n"
-            "\n"
-            "exit status: 0 success, 1 unknown glass or unphysical model, 2 bad command line\n",
-            GLASS_CMD_MIN_NM, GLASS_CMD_MAX_NM, IOR_LAMBDA_F_NM, IOR_LAMBDA_D_NM, IOR_LAMBDA_C_NM,
-            IOR_SELLMEIER_MAX_TERMS);
+            "exit status: 0 success, 1 unknown glass or unphysical model, 2 bad command line\n");
 }
 
 static int print_list(void)
@@ -179,42 +178,55 @@ static int print_indices(const char *name, const ior_model_t *model, const char 
 
 int cmd_glass(int argc, char **argv)
 {
-    if (argc < 2) {
-        print_usage(stderr);
-        return 2;
-    }
-    const char *first = argv[1];
-    if (!strcmp(first, "--help") || !strcmp(first, "-h")) {
-        print_usage(stdout);
-        return 0;
-    }
-    if (!strcmp(first, "--list")) {
-        if (argc > 2) {
-            fprintf(stderr, "prismfarm glass: --list takes no arguments (got '%s')\n", argv[2]);
+    /* The first argument chooses: --list, a model (the rest its wavelengths) or a NAME (the
+     * rest its wavelengths, which may look like options: "-5" is a bad wavelength). */
+    int list = 0;
+    const char *sellmeier = NULL, *cauchy = NULL;
+    const cli_opt_t opts[] = {
+        {.name = "list", .kind = CLI_FLAG, .dst = &list, .last = 1,
+         .help = "print the catalogue: name, n_d, v_d, source, aliases"},
+        {.name = "sellmeier", .kind = CLI_STRING, .dst = &sellmeier, .last = 1,
+         .need = "a comma-separated list of numbers", .arg = "LIST",
+         .help = "a custom model n^2 = 1 + A0 + sum B_i L^2 / (L^2 - C_i), L in um, C_i in um^2, "
+                 "up to " GLASS_XSTR(IOR_SELLMEIER_MAX_TERMS) " terms; an odd count of numbers "
+                 "starts with A0"},
+        {.name = "cauchy", .kind = CLI_STRING, .dst = &cauchy, .last = 1,
+         .need = "a comma-separated list of numbers", .arg = "A,B",
+         .help = "a custom model n = A + B / L^2, L in um, B in um^2"},
+        CLI_OPT_HELP,
+        {0},
+    };
+    int at;
+    const cli_cmd_t cmd = {
+        .name = "glass", .opts = opts, .usage = print_usage, .stop_at_operand = 1};
+    int parsed = cli_args_parse(&cmd, argc, argv, &at);
+    if (parsed != CLI_ARGS_GO)
+        return parsed;
+    char **rest = argv + at;
+    int nrest = argc - at;
+    if (list) {
+        if (nrest > 0) {
+            fprintf(stderr, "prismfarm glass: --list takes no arguments (got '%s')\n", rest[0]);
             return 2;
         }
         return print_list();
     }
-    if (!strcmp(first, "--sellmeier") || !strcmp(first, "--cauchy")) {
-        if (argc < 3) {
-            fprintf(stderr, "prismfarm glass: %s needs a comma-separated list of numbers\n", first);
-            return 2;
-        }
+    if (sellmeier || cauchy) {
+        const char *option = sellmeier ? "--sellmeier" : "--cauchy";
+        const char *numbers = sellmeier ? sellmeier : cauchy;
         ior_model_t model;
-        if (model_from_options(first, argv[2], &model) != 0)
+        if (model_from_options(option, numbers, &model) != 0)
             return 2;
         char heading[256];
-        snprintf(heading, sizeof heading, "custom %s model %s", ior_kind_name(model.kind), argv[2]);
-        return print_indices("custom", &model, heading, argv + 3, argc - 3);
+        snprintf(heading, sizeof heading, "custom %s model %s", ior_kind_name(model.kind), numbers);
+        return print_indices("custom", &model, heading, rest, nrest);
     }
-    if (first[0] == '-') {
-        fprintf(stderr, "prismfarm glass: unknown option '%s' (see prismfarm glass --help)\n",
-                first);
+    if (nrest == 0) {
+        print_usage(stderr, opts);
         return 2;
     }
-
     err_t err;
-    const glass_t *g = glass_lookup(first, &err);
+    const glass_t *g = glass_lookup(rest[0], &err);
     if (!g) {
         fprintf(stderr, "prismfarm glass: %s (see prismfarm glass --list)\n", err.msg);
         return 1;
@@ -222,5 +234,5 @@ int cmd_glass(int argc, char **argv)
     char heading[256];
     snprintf(heading, sizeof heading, "%s: %s; %s, %s", g->name, g->description,
              ior_kind_name(g->ior.kind), g->source);
-    return print_indices(g->name, &g->ior, heading, argv + 2, argc - 2);
+    return print_indices(g->name, &g->ior, heading, rest + 1, nrest - 1);
 }

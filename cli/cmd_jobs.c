@@ -2,12 +2,14 @@
  * as human-readable tables or, with --json, as JSON for scripts. */
 #include "commands.h"
 
+#include "cli_args.h"
+#include "cli_json.h"
 #include "client_rpc.h"
 #include "film.h"
 #include "job_follow.h"
 
 #include <errno.h>
-#include <jansson.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,56 +17,46 @@
 typedef struct query_args {
     const char *master;
     int json;
-    const char *job; /* positional argument, if any */
+    const char *job; /* the operand, if any */
     const char *output;
-    int timeout_ms; /* how long to wait for the master's answer */
+    double timeout_s; /* how long to wait for the master's answer */
+    int timeout_ms;
     int wait, quiet; /* status: follow the job until it is over */
     client_security_t sec;
 } query_args_t;
 
-/* Parses --master, --json, -o, the key options (client_rpc.h) and at most one positional
- * argument. */
-static int parse_args(const char *cmd, int argc, char **argv, query_args_t *q, int want_output)
+/* The options of every question: --master, --timeout and the keys. */
+static const cli_opt_t QUERY_OPTS[] = {
+    CLI_OPT_MASTER(.off = offsetof(query_args_t, master)),
+    {.name = "timeout", .kind = CLI_DOUBLE, .off = offsetof(query_args_t, timeout_s), .lo = 0.1,
+     .hi = 3600, .unit = "seconds", .arg = "S",
+     .help = "how long to wait for the master's answer (default 10)"},
+    CLI_OPT_GROUP(CLI_SECURITY_OPTS, .off = offsetof(query_args_t, sec)),
+    {0},
+};
+
+static query_args_t query_args_default(void)
 {
-    *q = (query_args_t){
-        .master = client_default_master(), .timeout_ms = 10000, .sec = client_security_default()};
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int s = client_security_arg(cmd, argc, argv, &i, &q->sec);
-        if (s < 0)
-            return 2;
-        if (s)
-            continue;
-        if (!strcmp(a, "--json"))
-            q->json = 1;
-        else if (!strcmp(cmd, "status") && !strcmp(a, "--wait"))
-            q->wait = 1;
-        else if (!strcmp(cmd, "status") && !strcmp(a, "--quiet"))
-            q->quiet = 1;
-        else if (!strcmp(a, "--master") && i + 1 < argc)
-            q->master = argv[++i];
-        else if (!strcmp(a, "--timeout") && i + 1 < argc) {
-            char *end;
-            double t = strtod(argv[++i], &end);
-            if (end == argv[i] || *end || !(t >= 0.1 && t <= 3600)) {
-                fprintf(stderr, "prismfarm %s: --timeout expects seconds in 0.1..3600, got '%s'\n", cmd, argv[i]);
-                return 2;
-            }
-            q->timeout_ms = (int)(t * 1000);
-        }
-        else if (want_output && (!strcmp(a, "-o") || !strcmp(a, "--output")) && i + 1 < argc)
-            q->output = argv[++i];
-        else if (a[0] == '-') {
-            fprintf(stderr, "prismfarm %s: unknown option '%s' (see prismfarm %s --help)\n", cmd, a, cmd);
-            return 2;
-        } else if (!q->job)
-            q->job = a;
-        else {
-            fprintf(stderr, "prismfarm %s: unexpected argument '%s'\n", cmd, a);
-            return 2;
-        }
+    return (query_args_t){.master = client_default_master(), .timeout_s = 10,
+                          .sec = client_security_default()};
+}
+
+/* Parses the command line of cmd into *q: its options, then at most max_jobs operands (the
+ * job id). */
+static int parse_args(const cli_cmd_t *cmd, int argc, char **argv, query_args_t *q, int max_jobs)
+{
+    int first;
+    int parsed = cli_args_parse(cmd, argc, argv, &first);
+    if (parsed != CLI_ARGS_GO)
+        return parsed;
+    if (argc - first > max_jobs) {
+        fprintf(stderr, "prismfarm %s: unexpected argument '%s'\n", cmd->name,
+                argv[first + max_jobs]);
+        return 2;
     }
-    return 0;
+    q->job = first < argc ? argv[first] : NULL;
+    q->timeout_ms = (int)(q->timeout_s * 1000);
+    return CLI_ARGS_GO;
 }
 
 static int parse_job(const char *cmd, const char *s, uint64_t *out)
@@ -95,14 +87,14 @@ static json_t *job_json(const proto_job_info_t *j)
 {
     json_t *o = json_object();
     json_object_set_new(o, "id", json_integer((json_int_t)j->id));
-    json_object_set_new(o, "name", json_string(j->name ? j->name : ""));
+    json_object_set_new(o, "name", cli_json_string(j->name));
     json_object_set_new(o, "state", json_string(proto_job_state_name(j->state)));
     json_object_set_new(o, "samples_done", json_integer((json_int_t)j->samples_done));
     json_object_set_new(o, "samples_total", json_integer((json_int_t)j->samples_total));
     json_object_set_new(o, "progress", json_real(j->samples_total ? (double)j->samples_done / (double)j->samples_total : 0.0));
     json_object_set_new(o, "elapsed_s", json_real(j->elapsed));
     json_object_set_new(o, "nonfinite", json_integer((json_int_t)j->nonfinite));
-    json_object_set_new(o, "error", j->error ? json_string(j->error) : json_null());
+    json_object_set_new(o, "error", j->error ? cli_json_string(j->error) : json_null());
     /* Accuracy (docs/farm.md): spp of the whole passes merged, the relative error estimate
      * after the last one (null before the second pass), why a done job stopped early. */
     json_object_set_new(o, "spp", json_integer((json_int_t)j->spp));
@@ -112,20 +104,13 @@ static json_t *job_json(const proto_job_info_t *j)
     return o;
 }
 
-static void print_json(json_t *v)
-{
-    json_dumpf(v, stdout, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
-    fputc('\n', stdout);
-    json_decref(v);
-}
-
 static void print_jobs(const proto_job_info_t *jobs, size_t n, int json)
 {
     if (json) {
         json_t *arr = json_array();
         for (size_t i = 0; i < n; i++)
             json_array_append_new(arr, job_json(&jobs[i]));
-        print_json(arr);
+        cli_json_print(arr, JSON_INDENT(2));
         return;
     }
     printf("%-6s %-20s %-10s %9s %8s %9s %9s %10s  %s\n", "ID", "NAME", "STATE", "PROGRESS", "SPP",
@@ -146,19 +131,32 @@ static void print_jobs(const proto_job_info_t *jobs, size_t n, int json)
     }
 }
 
+static void status_usage(FILE *out, const cli_opt_t *opts)
+{
+    fprintf(out,
+            "usage: prismfarm status [JOB] [--master ENDPOINT] [--json] [--timeout S]\n"
+            "                        [--wait [--quiet]]\n"
+            "Shows one job, or every job, of the master. With --wait, follows JOB (a progress\n"
+            "line unless --quiet) until it is over, through a restart of the master, then\n"
+            "shows it; exits 0 when it is done, 1 when it failed or was cancelled.\n");
+    cli_args_help(out, opts);
+}
+
 int cmd_status(int argc, char **argv)
 {
-    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
-        printf("usage: prismfarm status [JOB] [--master ENDPOINT] [--json] [--timeout S]\n"
-               "                        [--wait [--quiet]]\n"
-               "Shows one job, or every job, of the master. With --wait, follows JOB (a progress\n"
-               "line unless --quiet) until it is over, through a restart of the master, then\n"
-               "shows it; exits 0 when it is done, 1 when it failed or was cancelled.\n");
-        return 0;
-    }
-    query_args_t q;
-    int r = parse_args("status", argc, argv, &q, 0);
-    if (r)
+    query_args_t q = query_args_default();
+    const cli_opt_t opts[] = {
+        CLI_OPT_GROUP(QUERY_OPTS, .dst = &q),
+        CLI_OPT_JSON(.dst = &q.json, .help = "print the job or jobs as JSON"),
+        {.name = "wait", .kind = CLI_FLAG, .dst = &q.wait,
+         .help = "follow JOB until it is over, then show it"},
+        CLI_OPT_QUIET(.dst = &q.quiet, .help = "with --wait: no progress line"),
+        CLI_OPT_HELP,
+        {0},
+    };
+    const cli_cmd_t cmd = {.name = "status", .opts = opts, .usage = status_usage};
+    int r = parse_args(&cmd, argc, argv, &q, 1);
+    if (r != CLI_ARGS_GO)
         return r;
     proto_msg_t req = {.type = PROTO_STATUS, .status = {.all = q.job == NULL}};
     if (q.job && parse_job("status", q.job, &req.status.job))
@@ -191,20 +189,26 @@ int cmd_status(int argc, char **argv)
     return over < 0 || over == PROTO_JOB_DONE ? 0 : 1;
 }
 
+static void jobs_usage(FILE *out, const cli_opt_t *opts)
+{
+    fprintf(out, "usage: prismfarm jobs [--master ENDPOINT] [--json] [--timeout S]\n"
+                 "Lists the master's jobs.\n");
+    cli_args_help(out, opts);
+}
+
 int cmd_jobs(int argc, char **argv)
 {
-    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
-        printf("usage: prismfarm jobs [--master ENDPOINT] [--json] [--timeout S]\nLists the master's jobs.\n");
-        return 0;
-    }
-    query_args_t q;
-    int r = parse_args("jobs", argc, argv, &q, 0);
-    if (r)
+    query_args_t q = query_args_default();
+    const cli_opt_t opts[] = {
+        CLI_OPT_GROUP(QUERY_OPTS, .dst = &q),
+        CLI_OPT_JSON(.dst = &q.json, .help = "print the jobs as JSON"),
+        CLI_OPT_HELP,
+        {0},
+    };
+    const cli_cmd_t cmd = {.name = "jobs", .opts = opts, .usage = jobs_usage};
+    int r = parse_args(&cmd, argc, argv, &q, 0);
+    if (r != CLI_ARGS_GO)
         return r;
-    if (q.job) {
-        fprintf(stderr, "prismfarm jobs: unexpected argument '%s'\n", q.job);
-        return 2;
-    }
     proto_msg_t req = {.type = PROTO_JOBS}, reply;
     if (call(&q, "jobs", &req, &reply))
         return 1;
@@ -213,20 +217,26 @@ int cmd_jobs(int argc, char **argv)
     return 0;
 }
 
+static void workers_usage(FILE *out, const cli_opt_t *opts)
+{
+    fprintf(out, "usage: prismfarm workers [--master ENDPOINT] [--json] [--timeout S]\n"
+                 "Lists the workers the master knows.\n");
+    cli_args_help(out, opts);
+}
+
 int cmd_workers(int argc, char **argv)
 {
-    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
-        printf("usage: prismfarm workers [--master ENDPOINT] [--json] [--timeout S]\nLists the workers the master knows.\n");
-        return 0;
-    }
-    query_args_t q;
-    int r = parse_args("workers", argc, argv, &q, 0);
-    if (r)
+    query_args_t q = query_args_default();
+    const cli_opt_t opts[] = {
+        CLI_OPT_GROUP(QUERY_OPTS, .dst = &q),
+        CLI_OPT_JSON(.dst = &q.json, .help = "print the workers as JSON"),
+        CLI_OPT_HELP,
+        {0},
+    };
+    const cli_cmd_t cmd = {.name = "workers", .opts = opts, .usage = workers_usage};
+    int r = parse_args(&cmd, argc, argv, &q, 0);
+    if (r != CLI_ARGS_GO)
         return r;
-    if (q.job) {
-        fprintf(stderr, "prismfarm workers: unexpected argument '%s'\n", q.job);
-        return 2;
-    }
     proto_msg_t req = {.type = PROTO_WORKERS}, reply;
     if (call(&q, "workers", &req, &reply))
         return 1;
@@ -237,14 +247,14 @@ int cmd_workers(int argc, char **argv)
         for (size_t i = 0; i < n; i++) {
             json_t *o = json_object();
             json_object_set_new(o, "id", json_integer((json_int_t)w[i].id));
-            json_object_set_new(o, "name", json_string(w[i].name ? w[i].name : ""));
+            json_object_set_new(o, "name", cli_json_string(w[i].name));
             json_object_set_new(o, "threads", json_integer(w[i].threads));
             json_object_set_new(o, "state", json_string(proto_worker_state_name(w[i].state)));
             json_object_set_new(o, "tasks_done", json_integer((json_int_t)w[i].tasks_done));
             json_object_set_new(o, "last_seen_s", json_real(w[i].last_seen));
             json_array_append_new(arr, o);
         }
-        print_json(arr);
+        cli_json_print(arr, JSON_INDENT(2));
     } else {
         printf("%-6s %-24s %7s %-6s %10s %10s\n", "ID", "NAME", "THREADS", "STATE", "TASKS", "LAST SEEN");
         for (size_t i = 0; i < n; i++)
@@ -256,15 +266,25 @@ int cmd_workers(int argc, char **argv)
     return 0;
 }
 
+static void cancel_usage(FILE *out, const cli_opt_t *opts)
+{
+    fprintf(out, "usage: prismfarm cancel JOB [--master ENDPOINT] [--json] [--timeout S]\n"
+                 "Cancels a job.\n");
+    cli_args_help(out, opts);
+}
+
 int cmd_cancel(int argc, char **argv)
 {
-    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
-        printf("usage: prismfarm cancel JOB [--master ENDPOINT] [--json] [--timeout S]\nCancels a job.\n");
-        return 0;
-    }
-    query_args_t q;
-    int r = parse_args("cancel", argc, argv, &q, 0);
-    if (r)
+    query_args_t q = query_args_default();
+    const cli_opt_t opts[] = {
+        CLI_OPT_GROUP(QUERY_OPTS, .dst = &q),
+        CLI_OPT_JSON(.dst = &q.json, .help = "print the cancelled job as JSON"),
+        CLI_OPT_HELP,
+        {0},
+    };
+    const cli_cmd_t cmd = {.name = "cancel", .opts = opts, .usage = cancel_usage};
+    int r = parse_args(&cmd, argc, argv, &q, 1);
+    if (r != CLI_ARGS_GO)
         return r;
     proto_msg_t req = {.type = PROTO_CANCEL}, reply;
     if (parse_job("cancel", q.job, &req.cancel.job))
@@ -277,16 +297,30 @@ int cmd_cancel(int argc, char **argv)
     return 0;
 }
 
+static void fetch_usage(FILE *out, const cli_opt_t *opts)
+{
+    fprintf(out,
+            "usage: prismfarm fetch JOB -o OUT.exr [--master ENDPOINT] [--timeout S]\n"
+            "Downloads a finished job's spectral EXR to OUT.exr and its preview to OUT.png.\n");
+    cli_args_help(out, opts);
+}
+
 int cmd_fetch(int argc, char **argv)
 {
-    if (argc > 1 && (!strcmp(argv[1], "--help") || !strcmp(argv[1], "-h"))) {
-        printf("usage: prismfarm fetch JOB -o OUT.exr [--master ENDPOINT] [--timeout S]\n"
-               "Downloads a finished job's spectral EXR to OUT.exr and its preview to OUT.png.\n");
-        return 0;
-    }
-    query_args_t q;
-    int r = parse_args("fetch", argc, argv, &q, 1);
-    if (r)
+    query_args_t q = query_args_default();
+    const cli_opt_t opts[] = {
+        {.name = "output", .letter = 'o', .kind = CLI_STRING, .dst = &q.output, .arg = "OUT.exr",
+         .help = "where the EXR goes (required); the PNG goes beside it"},
+        CLI_OPT_GROUP(QUERY_OPTS, .dst = &q),
+        /* Taken, as by the other questions, for scripts that pass it to all of them; fetch
+         * prints no JSON. */
+        CLI_OPT_JSON(.dst = &q.json),
+        CLI_OPT_HELP,
+        {0},
+    };
+    const cli_cmd_t cmd = {.name = "fetch", .opts = opts, .usage = fetch_usage};
+    int r = parse_args(&cmd, argc, argv, &q, 1);
+    if (r != CLI_ARGS_GO)
         return r;
     uint64_t job;
     if (parse_job("fetch", q.job, &job))

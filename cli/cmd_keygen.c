@@ -2,6 +2,7 @@
  * master, a worker or a client (docs/security.md). */
 #include "commands.h"
 
+#include "cli_args.h"
 #include "curve.h"
 
 #include <errno.h>
@@ -10,7 +11,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-static void usage(FILE *out)
+static void usage(FILE *out, const cli_opt_t *opts)
 {
     fprintf(out,
             "usage: prismfarm keygen NAME [--dir DIR] [--force]\n"
@@ -18,45 +19,38 @@ static void usage(FILE *out)
             "Writes a CURVE key pair: DIR/NAME.key (the secret key, mode 0600: it never leaves\n"
             "this host) and DIR/NAME.pub (the public key, to hand out). Copy a worker's or a\n"
             "client's NAME.pub into the master's --authorized folder; give the master's NAME.pub\n"
-            "to its workers and clients (--master-key). See docs/security.md.\n"
-            "  --dir DIR   where the files go (default: the current folder; created, mode 0700,\n"
-            "              if missing)\n"
-            "  --force     replace an existing pair (hosts that trusted the old one must be\n"
-            "              given the new NAME.pub)\n");
+            "to its workers and clients (--master-key). See docs/security.md.\n");
+    cli_args_help(out, opts);
 }
 
 int cmd_keygen(int argc, char **argv)
 {
-    const char *name = NULL, *dir = ".";
+    const char *dir = ".";
     int force = 0;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            usage(stdout);
-            return 0;
-        }
-        if (!strcmp(a, "--force")) {
-            force = 1;
-        } else if (!strcmp(a, "--dir")) {
-            if (i + 1 >= argc || !*argv[i + 1]) {
-                fprintf(stderr, "prismfarm keygen: --dir needs a folder\n");
-                return 2;
-            }
-            dir = argv[++i];
-        } else if (a[0] == '-') {
-            fprintf(stderr, "prismfarm keygen: unknown option '%s' (see prismfarm keygen --help)\n",
-                    a);
-            return 2;
-        } else if (name) {
-            fprintf(stderr, "prismfarm keygen: one NAME only ('%s' and '%s' given)\n", name, a);
-            return 2;
-        } else {
-            name = a;
-        }
+    const cli_opt_t opts[] = {
+        {.name = "dir", .kind = CLI_STRING, .dst = &dir, .need = "a folder", .arg = "DIR",
+         .help = "where the files go (default: the current folder; created, mode 0700, if "
+                 "missing)"},
+        {.name = "force", .kind = CLI_FLAG, .dst = &force,
+         .help = "replace an existing pair (hosts that trusted the old one must be given the new "
+                 "NAME.pub)"},
+        CLI_OPT_HELP,
+        {0},
+    };
+    int first;
+    const cli_cmd_t cmd = {.name = "keygen", .opts = opts, .usage = usage};
+    int parsed = cli_args_parse(&cmd, argc, argv, &first);
+    if (parsed != CLI_ARGS_GO)
+        return parsed;
+    if (argc - first > 1) {
+        fprintf(stderr, "prismfarm keygen: one NAME only ('%s' and '%s' given)\n", argv[first],
+                argv[first + 1]);
+        return 2;
     }
+    const char *name = first < argc ? argv[first] : NULL;
     err_t err;
     if (!name) {
-        usage(stderr);
+        usage(stderr, opts);
         return 2;
     }
     if (proto_curve_name_check(name, &err) < 0) {

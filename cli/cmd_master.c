@@ -1,13 +1,13 @@
 /* prismfarm master: runs the farm's master daemon (master/master.h) until SIGINT or SIGTERM. */
 #include "commands.h"
 
+#include "cli_args.h"
 #include "curve.h"
 #include "master.h"
 
 #include <errno.h>
 #include <signal.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 
 static volatile sig_atomic_t STOP; /* set by the signal handler: the only state it may touch */
@@ -18,139 +18,99 @@ static void on_signal(int sig)
     STOP = 1;
 }
 
-static void usage(FILE *out)
+static void usage(FILE *out, const cli_opt_t *opts)
 {
     fprintf(out,
             "usage: prismfarm master [options]\n"
             "\n"
             "Runs the farm's master: takes jobs from clients (prismfarm submit), cuts them into\n"
             "tiles, hands them to workers (prismfarm worker) and writes each job's progressive\n"
-            "preview and final spectral EXR and PNG into SPOOL/jobs/<id>/. Stops on Ctrl-C.\n"
-            "  --workers ENDPOINT   where workers connect (default tcp://*:5555)\n"
-            "  --clients ENDPOINT   where clients connect (default tcp://*:5556)\n"
-            "                       a port '*' lets the system choose: see SPOOL/endpoints\n"
-            "  --spool DIR          scenes and outputs (default ./prismfarm-spool)\n"
-            "  --heartbeat MS       heartbeat interval, 50..60000 (default 1000); a worker\n"
-            "                       silent for 3 intervals is lost and its tasks re-issued\n"
-            "  --task-deadline S    a task not back after S seconds is issued again\n"
-            "                       (1..86400, default 120)\n"
-            "  --tile N             tile side in pixels, 1..4096 (default 32)\n"
-            "  --no-journal         keep no journal (SPOOL/journal.db): a restarted master then\n"
-            "                       forgets unfinished jobs (docs/reliability.md)\n"
-            "  --quiet              no event log on stderr\n"
-            "security (docs/security.md): a tcp:// endpoint needs --key and --authorized, or\n"
-            "--insecure; inproc:// and ipc:// need neither\n"
-            "  --key FILE           the master's key pair, NAME.key from prismfarm keygen\n"
-            "  --authorized DIR     the workers' and clients' NAME.pub files: only they get in\n"
-            "                       (read again when the folder changes: no restart needed)\n"
-            "  --insecure           plain text, anyone who reaches the ports gets in\n"
-            "limits (what one client can make the master hold):\n"
-            "  --max-jobs N         unfinished jobs held at once, 1..100000 (default 256)\n"
-            "  --max-message-mb N   largest message, 1..528 MiB (default 528); a peer sending a\n"
-            "                       larger one is disconnected\n"
-            "  --max-bundle-mb N    largest scene bundle, 1..512 MiB (default 512, at most the\n"
-            "                       message size)\n"
-            "  --max-bundle-files N files in a scene bundle, 1..4096 (default 4096)\n");
-}
-
-static int parse_int(const char *flag, const char *s, long lo, long hi, long *out)
-{
-    char *end;
-    errno = 0;
-    long v = strtol(s, &end, 10);
-    if (errno || end == s || *end || v < lo || v > hi) {
-        fprintf(stderr, "prismfarm master: %s expects an integer in %ld..%ld, got '%s'\n", flag, lo,
-                hi, s);
-        return -1;
-    }
-    *out = v;
-    return 0;
+            "preview and final spectral EXR and PNG into SPOOL/jobs/<id>/. Stops on Ctrl-C.\n");
+    cli_args_help(out, opts);
 }
 
 int cmd_master(int argc, char **argv)
 {
     master_opts_t o = master_opts_default();
-    long message_mb = 0, bundle_mb = 0; /* 0: not given */
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        long v;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            usage(stdout);
-            return 0;
-        }
-        if (!strcmp(a, "--quiet")) {
-            o.verbose = 0;
-            continue;
-        }
-        if (!strcmp(a, "--insecure")) {
-            o.insecure = 1;
-            continue;
-        }
-        if (!strcmp(a, "--no-journal")) {
-            o.journal = 0;
-            continue;
-        }
-        if (strcmp(a, "--workers") && strcmp(a, "--clients") && strcmp(a, "--spool") &&
-            strcmp(a, "--heartbeat") && strcmp(a, "--task-deadline") && strcmp(a, "--tile") &&
-            strcmp(a, "--key") && strcmp(a, "--authorized") && strcmp(a, "--max-jobs") &&
-            strcmp(a, "--max-message-mb") && strcmp(a, "--max-bundle-mb") &&
-            strcmp(a, "--max-bundle-files")) {
-            fprintf(stderr,
-                    "prismfarm master: unknown argument '%s' (see prismfarm master --help)\n", a);
-            return 2;
-        }
-        if (i + 1 >= argc) {
-            fprintf(stderr, "prismfarm master: %s needs a value\n", a);
-            return 2;
-        }
-        const char *val = argv[++i];
-        if (!strcmp(a, "--workers")) {
-            o.worker_endpoint = val;
-        } else if (!strcmp(a, "--clients")) {
-            o.client_endpoint = val;
-        } else if (!strcmp(a, "--spool")) {
-            if (!*val) {
-                fprintf(stderr, "prismfarm master: --spool needs a folder name\n");
-                return 2;
-            }
-            o.spool_dir = val;
-        } else if (!strcmp(a, "--heartbeat")) {
-            /* 50 ms is the shortest interval workers accept from WELCOME. */
-            if (parse_int(a, val, 50, 60000, &v))
-                return 2;
-            o.heartbeat_ms = (int)v;
-        } else if (!strcmp(a, "--task-deadline")) {
-            if (parse_int(a, val, 1, 86400, &v))
-                return 2;
-            o.sched.task_deadline_s = (double)v;
-        } else if (!strcmp(a, "--key")) {
-            o.key_file = val;
-        } else if (!strcmp(a, "--authorized")) {
-            o.authorized_dir = val;
-        } else if (!strcmp(a, "--max-jobs")) {
-            if (parse_int(a, val, 1, 100000, &v))
-                return 2;
-            o.max_jobs = (size_t)v;
-        } else if (!strcmp(a, "--max-message-mb")) {
-            /* Only lower than the default: workers and clients keep theirs, and a larger
-             * message from the master would make them drop the connection. */
-            if (parse_int(a, val, 1, (long)(PROTO_MAX_MESSAGE_BYTES >> 20), &v))
-                return 2;
-            message_mb = v;
-        } else if (!strcmp(a, "--max-bundle-mb")) {
-            if (parse_int(a, val, 1, (long)(PROTO_MAX_BUNDLE_BYTES >> 20), &v))
-                return 2;
-            bundle_mb = v;
-        } else if (!strcmp(a, "--max-bundle-files")) {
-            if (parse_int(a, val, 1, PROTO_MAX_BUNDLE_FILES, &v))
-                return 2;
-            o.limits.max_bundle_files = (size_t)v;
-        } else {
-            if (parse_int(a, val, 1, 4096, &v))
-                return 2;
-            o.sched.tile_size = (int)v;
-        }
+    int quiet = 0, no_journal = 0;
+    int heartbeat_ms = 0, deadline_s = 0, tile = 0, max_jobs = 0, message_mb = 0, bundle_mb = 0,
+        bundle_files = 0; /* 0: not given */
+    const cli_opt_t opts[] = {
+        {.name = "workers", .kind = CLI_STRING, .dst = &o.worker_endpoint, .arg = "ENDPOINT",
+         .help = "where workers connect (default tcp://*:5555)"},
+        {.name = "clients", .kind = CLI_STRING, .dst = &o.client_endpoint, .arg = "ENDPOINT",
+         .help = "where clients connect (default tcp://*:5556)\n"
+                 "a port '*' lets the system choose: see SPOOL/endpoints"},
+        {.name = "spool", .kind = CLI_STRING, .dst = &o.spool_dir, .need = "a folder name",
+         .arg = "DIR", .help = "scenes and outputs (default ./prismfarm-spool)"},
+        /* 50 ms is the shortest interval workers accept from WELCOME. */
+        {.name = "heartbeat", .kind = CLI_INT, .dst = &heartbeat_ms, .lo = 50, .hi = 60000,
+         .arg = "MS",
+         .help = "heartbeat interval, 50..60000 (default 1000); a worker silent for 3 intervals "
+                 "is lost and its tasks re-issued"},
+        {.name = "task-deadline", .kind = CLI_INT, .dst = &deadline_s, .lo = 1, .hi = 86400,
+         .arg = "S",
+         .help = "a task not back after S seconds is issued again (1..86400, default 120)"},
+        {.name = "tile", .kind = CLI_INT, .dst = &tile, .lo = 1, .hi = 4096, .arg = "N",
+         .help = "tile side in pixels, 1..4096 (default 32)"},
+        {.name = "no-journal", .kind = CLI_FLAG, .dst = &no_journal,
+         .help = "keep no journal (SPOOL/journal.db): a restarted master then forgets unfinished "
+                 "jobs (docs/reliability.md)"},
+        CLI_OPT_QUIET(.dst = &quiet, .help = "no event log on stderr"),
+        {.kind = CLI_TEXT,
+         .help = "security (docs/security.md): a tcp:// endpoint needs --key and --authorized, or\n"
+                 "--insecure; inproc:// and ipc:// need neither\n"},
+        {.name = "key", .kind = CLI_STRING, .dst = &o.key_file, .arg = "FILE",
+         .help = "the master's key pair, NAME.key from prismfarm keygen"},
+        {.name = "authorized", .kind = CLI_STRING, .dst = &o.authorized_dir, .arg = "DIR",
+         .help = "the workers' and clients' NAME.pub files: only they get in (read again when "
+                 "the folder changes: no restart needed)"},
+        {.name = "insecure", .kind = CLI_FLAG, .dst = &o.insecure,
+         .help = "plain text, anyone who reaches the ports gets in"},
+        {.kind = CLI_TEXT, .help = "limits (what one client can make the master hold):\n"},
+        {.name = "max-jobs", .kind = CLI_INT, .dst = &max_jobs, .lo = 1, .hi = 100000, .arg = "N",
+         .help = "unfinished jobs held at once, 1..100000 (default 256)"},
+        /* Only lower than the default: workers and clients keep theirs, and a larger message
+         * from the master would make them drop the connection. */
+        {.name = "max-message-mb", .kind = CLI_INT, .dst = &message_mb, .lo = 1,
+         .hi = (double)(PROTO_MAX_MESSAGE_BYTES >> 20), .arg = "N",
+         .help = "largest message, 1..528 MiB (default 528); a peer sending a larger one is "
+                 "disconnected"},
+        {.name = "max-bundle-mb", .kind = CLI_INT, .dst = &bundle_mb, .lo = 1,
+         .hi = (double)(PROTO_MAX_BUNDLE_BYTES >> 20), .arg = "N",
+         .help = "largest scene bundle, 1..512 MiB (default 512, at most the message size)"},
+        {.name = "max-bundle-files", .kind = CLI_INT, .dst = &bundle_files, .lo = 1,
+         .hi = PROTO_MAX_BUNDLE_FILES, .arg = "N",
+         .help = "files in a scene bundle, 1..4096 (default 4096)"},
+        CLI_OPT_HELP,
+        {0},
+    };
+    int first;
+    const cli_cmd_t cmd = {
+        .name = "master", .opts = opts, .usage = usage, .unknown = "argument"};
+    int parsed = cli_args_parse(&cmd, argc,
+                                argv, &first);
+    if (parsed != CLI_ARGS_GO)
+        return parsed;
+    if (first < argc) {
+        fprintf(stderr, "prismfarm master: unknown argument '%s' (see prismfarm master --help)\n",
+                argv[first]);
+        return 2;
     }
+    if (quiet)
+        o.verbose = 0;
+    if (no_journal)
+        o.journal = 0;
+    if (heartbeat_ms)
+        o.heartbeat_ms = heartbeat_ms;
+    if (deadline_s)
+        o.sched.task_deadline_s = deadline_s;
+    if (tile)
+        o.sched.tile_size = tile;
+    if (max_jobs)
+        o.max_jobs = (size_t)max_jobs;
+    if (bundle_files)
+        o.limits.max_bundle_files = (size_t)bundle_files;
     o.sched.worker_timeout_s = 3.0 * o.heartbeat_ms / 1000.0;
     if (message_mb)
         o.limits.max_message_bytes = (size_t)message_mb << 20;
@@ -162,7 +122,7 @@ int cmd_master(int argc, char **argv)
         fprintf(stderr,
                 "prismfarm master: --max-bundle-mb %ld exceeds --max-message-mb %ld: a "
                 "bundle travels in one message\n",
-                bundle_mb, (long)(o.limits.max_message_bytes >> 20));
+                (long)bundle_mb, (long)(o.limits.max_message_bytes >> 20));
         return 2;
     }
     /* The security choice and the keys are checked before anything starts: a mistake there is

@@ -4,15 +4,14 @@
 #include "commands.h"
 
 #include "cli_args.h"
+#include "cli_json.h"
 #include "pbrt_parser.h"
 #include "plan.h"
 #include "scene_load.h"
 
-#include <jansson.h>
 #include <stdio.h>
-#include <string.h>
 
-static void usage(FILE *out)
+static void usage(FILE *out, const cli_opt_t *opts)
 {
     fprintf(out,
             "usage: prismfarm plan SCENE.pbrt [--json] [options]\n"
@@ -24,16 +23,15 @@ static void usage(FILE *out)
             "and the integrator, each with the scene elements that caused it; then what is\n"
             "switched off and why. Integrator \"auto\" (the default when the scene names none)\n"
             "renders with this plan; an explicit integrator is kept and differences are noted.\n"
-            "Options override the scene file as for prismfarm render:\n"
-            "  --json                   print JSON instead of the report\n" CLI_OVERRIDES_HELP
-            "  --help                   this text\n"
-            "\n"
-            "exit status: 0 success, 1 the scene cannot be loaded, 2 bad command line\n");
+            "Options override the scene file as for prismfarm render:\n");
+    cli_args_help(out, opts);
+    fprintf(out, "\n"
+                 "exit status: 0 success, 1 the scene cannot be loaded, 2 bad command line\n");
 }
 
 static json_t *jstring_or_null(const char *s)
 {
-    return s && s[0] ? json_string(s) : json_null();
+    return s && s[0] ? cli_json_string(s) : json_null();
 }
 
 static json_t *plan_json(const char *path, const scene_t *scene, const plan_t *p)
@@ -42,10 +40,10 @@ static json_t *plan_json(const char *path, const scene_t *scene, const plan_t *p
     const plan_request_t *q = plan_request(p);
     plan_choice_t c = plan_choice(p);
     json_t *o = json_object();
-    json_object_set_new(o, "scene", json_string(path));
+    json_object_set_new(o, "scene", cli_json_string(path));
 
     json_t *req = json_object();
-    json_object_set_new(req, "integrator", json_string(q->integrator));
+    json_object_set_new(req, "integrator", cli_json_string(q->integrator));
     json_object_set_new(req, "integrator_named", json_boolean(q->integrator_named));
     json_object_set_new(req, "overridden", json_boolean(q->overridden));
     json_object_set_new(req, "dispersion", jstring_or_null(q->dispersion));
@@ -78,13 +76,13 @@ static json_t *plan_json(const char *path, const scene_t *scene, const plan_t *p
     for (size_t i = 0; i < plan_decision_count(p); i++) {
         const plan_decision_t *d = plan_decision_at(p, i);
         json_t *jd = json_object();
-        json_object_set_new(jd, "effect", json_string(d->effect_name));
+        json_object_set_new(jd, "effect", cli_json_string(d->effect_name));
         json_object_set_new(jd, "on", json_boolean(d->on));
-        json_object_set_new(jd, "choice", json_string(d->choice));
-        json_object_set_new(jd, "reason", json_string(d->reason));
+        json_object_set_new(jd, "choice", cli_json_string(d->choice));
+        json_object_set_new(jd, "reason", cli_json_string(d->reason));
         json_array_append_new(ds, jd);
         if (!d->on)
-            json_array_append_new(off, json_string(d->effect_name));
+            json_array_append_new(off, cli_json_string(d->effect_name));
     }
     json_object_set_new(o, "decisions", ds);
     json_object_set_new(o, "switched_off", off);
@@ -94,7 +92,7 @@ static json_t *plan_json(const char *path, const scene_t *scene, const plan_t *p
         const plan_material_t *m = plan_material_at(p, i);
         json_t *jm = json_object();
         json_object_set_new(jm, "index", json_integer(m->index));
-        json_object_set_new(jm, "name", json_string(m->name));
+        json_object_set_new(jm, "name", cli_json_string(m->name));
         json_object_set_new(jm, "kind", json_string(plan_material_kind_name(m->kind)));
         json_object_set_new(jm, "dispersive", json_boolean(m->dispersive));
         json_object_set_new(jm, "spectral", json_boolean(m->spectral));
@@ -127,14 +125,15 @@ static json_t *plan_json(const char *path, const scene_t *scene, const plan_t *p
         json_object_set_new(jl, "caustic", json_boolean(l->caustic));
         json_object_set_new(jl, "direct", json_boolean(l->direct));
         json_object_set_new(jl, "undecided", json_boolean(l->undecided));
-        json_object_set_new(jl, "glass",
-                            l->glass_material >= 0
-                                ? json_string(plan_material_at(p, (size_t)l->glass_material)->name)
-                                : json_null());
+        json_object_set_new(
+            jl, "glass",
+            l->glass_material >= 0
+                ? cli_json_string(plan_material_at(p, (size_t)l->glass_material)->name)
+                : json_null());
         json_object_set_new(
             jl, "receiver",
             l->receiver_material >= 0
-                ? json_string(plan_material_at(p, (size_t)l->receiver_material)->name)
+                ? cli_json_string(plan_material_at(p, (size_t)l->receiver_material)->name)
                 : json_null());
         json_object_set_new(jl, "rays", json_integer((json_int_t)l->rays));
         json_object_set_new(jl, "photons", json_string(plan_verdict_name(l->verdict)));
@@ -147,47 +146,30 @@ static json_t *plan_json(const char *path, const scene_t *scene, const plan_t *p
 
 int cmd_plan(int argc, char **argv)
 {
-    const char *path = NULL;
     int json = 0;
     scene_overrides_t ov = {.seed = -1};
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            usage(stdout);
-            return 0;
-        }
-        if (!strcmp(a, "--json")) {
-            json = 1;
-        } else if (a[0] == '-' && a[1]) {
-            static const char *const OVERRIDES[] = {"--spp", "--res", "--seed", "--integrator",
-                                                    "--dispersion"};
-            int known = 0;
-            for (size_t k = 0; k < sizeof OVERRIDES / sizeof OVERRIDES[0]; k++)
-                known |= !strcmp(a, OVERRIDES[k]);
-            if (!known) {
-                fprintf(stderr, "prismfarm plan: unknown option '%s' (see prismfarm plan --help)\n",
-                        a);
-                return 2;
-            }
-            if (i + 1 >= argc) {
-                fprintf(stderr, "prismfarm plan: %s needs a value\n", a);
-                return 2;
-            }
-            if (cli_parse_override("plan", a, argv[i + 1], &ov) < 0)
-                return 2;
-            i++;
-        } else if (!path) {
-            path = a;
-        } else {
-            fprintf(stderr, "prismfarm plan: unexpected argument '%s' (one scene at a time)\n", a);
-            return 2;
-        }
-    }
-    if (!path) {
-        fprintf(stderr, "prismfarm plan: no scene given\n");
-        usage(stderr);
+    const cli_opt_t opts[] = {
+        CLI_OPT_JSON(.dst = &json, .help = "print JSON instead of the report"),
+        CLI_OPT_GROUP(CLI_OVERRIDE_OPTS, .dst = &ov),
+        CLI_OPT_HELP,
+        {0},
+    };
+    int first;
+    const cli_cmd_t cmd = {.name = "plan", .opts = opts, .usage = usage};
+    int parsed = cli_args_parse(&cmd, argc, argv, &first);
+    if (parsed != CLI_ARGS_GO)
+        return parsed;
+    if (argc - first > 1) {
+        fprintf(stderr, "prismfarm plan: unexpected argument '%s' (one scene at a time)\n",
+                argv[first + 1]);
         return 2;
     }
+    if (first == argc) {
+        fprintf(stderr, "prismfarm plan: no scene given\n");
+        usage(stderr, opts);
+        return 2;
+    }
+    const char *path = argv[first];
     err_t err;
     scene_desc_t *desc = pbrt_parse_file(path, &err);
     scene_t *scene = desc ? scene_load(desc, &ov, &err) : NULL;
@@ -201,14 +183,10 @@ int cmd_plan(int argc, char **argv)
         fprintf(stderr, "prismfarm plan: %s\n", err.msg);
         rc = 1;
     } else if (json) {
-        json_t *o = plan_json(path, scene, plan);
-        if (!o || json_dumpf(o, stdout, JSON_INDENT(2) | JSON_PRESERVE_ORDER) != 0) {
+        if (cli_json_print(plan_json(path, scene, plan), JSON_INDENT(2)) != 0) {
             fprintf(stderr, "prismfarm plan: cannot write JSON\n");
             rc = 1;
-        } else {
-            printf("\n");
         }
-        json_decref(o);
     } else {
         const render_settings_t *rs = &scene->settings;
         printf("plan for %s (%dx%d, %d spp, maxdepth %d, %d buckets over %g-%g nm)\n", path,

@@ -14,52 +14,46 @@
 #include <stdlib.h>
 #include <string.h>
 
-static void usage(FILE *f)
+static void usage(FILE *out, const cli_opt_t *opts)
 {
-    fprintf(f, "usage: prismfarm refine JOB --photons N [--master ENDPOINT] [--wait [-o OUT.exr]] [--quiet]\n"
-               "Adds N photons to a finished job's photon pass (Integrator \"photon\"), then renders\n"
-               "its image again from the grown store. With --wait, follows the job and downloads\n"
-               "the refined EXR and PNG (default name: refined-JOB.exr).\n"
-               CLIENT_SECURITY_HELP);
+    fprintf(out,
+            "usage: prismfarm refine JOB --photons N [--master ENDPOINT] [--wait [-o OUT.exr]]\n"
+            "                        [--quiet]\n"
+            "Adds N photons to a finished job's photon pass (Integrator \"photon\"), then renders\n"
+            "its image again from the grown store. With --wait, follows the job and downloads\n"
+            "the refined EXR and PNG (default name: refined-JOB.exr).\n");
+    cli_args_help(out, opts);
 }
 
 int cmd_refine(int argc, char **argv)
 {
-    const char *master = client_default_master(), *job_s = NULL, *output = NULL;
+    const char *master = client_default_master(), *output = NULL;
     long long photons = 0;
     int wait = 0, quiet = 0;
     client_security_t sec = client_security_default();
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int s = client_security_arg("refine", argc, argv, &i, &sec);
-        if (s < 0)
-            return 2;
-        if (s)
-            continue;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            usage(stdout);
-            return 0;
-        } else if (!strcmp(a, "--photons") && i + 1 < argc) {
-            if (cli_parse_int("refine", "--photons", argv[++i], 1, 1LL << 40, &photons))
-                return 2;
-        } else if (!strcmp(a, "--master") && i + 1 < argc) {
-            master = argv[++i];
-        } else if ((!strcmp(a, "-o") || !strcmp(a, "--output")) && i + 1 < argc) {
-            output = argv[++i];
-        } else if (!strcmp(a, "--wait")) {
-            wait = 1;
-        } else if (!strcmp(a, "--quiet")) {
-            quiet = 1;
-        } else if (a[0] == '-') {
-            fprintf(stderr, "prismfarm refine: unknown option '%s' (see prismfarm refine --help)\n", a);
-            return 2;
-        } else if (!job_s) {
-            job_s = a;
-        } else {
-            fprintf(stderr, "prismfarm refine: unexpected argument '%s'\n", a);
-            return 2;
-        }
+    const cli_opt_t opts[] = {
+        {.name = "photons", .kind = CLI_LLONG, .dst = &photons, .lo = 1, .hi = 1LL << 40,
+         .arg = "N", .help = "photons to add (required)"},
+        CLI_OPT_MASTER(.dst = &master),
+        {.name = "wait", .kind = CLI_FLAG, .dst = &wait,
+         .help = "follow the job and download the refined EXR and PNG"},
+        {.name = "output", .letter = 'o', .kind = CLI_STRING, .dst = &output, .arg = "OUT.exr",
+         .help = "with --wait: where the EXR goes (default refined-JOB.exr)"},
+        CLI_OPT_QUIET(.dst = &quiet, .help = "with --wait: no progress bar"),
+        CLI_OPT_GROUP(CLI_SECURITY_OPTS, .dst = &sec),
+        CLI_OPT_HELP,
+        {0},
+    };
+    int first;
+    const cli_cmd_t cmd = {.name = "refine", .opts = opts, .usage = usage};
+    int parsed = cli_args_parse(&cmd, argc, argv, &first);
+    if (parsed != CLI_ARGS_GO)
+        return parsed;
+    if (argc - first > 1) {
+        fprintf(stderr, "prismfarm refine: unexpected argument '%s'\n", argv[first + 1]);
+        return 2;
     }
+    const char *job_s = first < argc ? argv[first] : NULL;
     char *end;
     errno = 0;
     unsigned long long job = job_s ? strtoull(job_s, &end, 10) : 0;

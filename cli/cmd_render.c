@@ -26,7 +26,7 @@ _Static_assert((int)PROTO_STOP_TARGET == (int)STOPPING_TARGET &&
                    (int)PROTO_STOP_TIME == (int)STOPPING_TIME,
                "proto_stop_t and stopping_why_t differ");
 
-static void usage(FILE *out)
+static void usage(FILE *out, const cli_opt_t *opts)
 {
     fprintf(out,
             "usage: prismfarm render SCENE.pbrt [options]\n"
@@ -34,19 +34,8 @@ static void usage(FILE *out)
             "Renders SCENE on this machine through the farm's code path (a master and workers in\n"
             "this process over inproc://); writes a spectral OpenEXR (Fichet et al. layout, float32,\n"
             "with linear sRGB R,G,B channels) and a tone-mapped PNG preview beside it.\n"
-            "Options override the scene file:\n"
-            "  -o, --output OUT.exr     output file (default: the Film's filename, else SCENE.exr)\n"
-            CLI_OVERRIDES_HELP
-            CLI_STOP_HELP
-            "  --threads N              render threads per worker (default: all cores / workers)\n"
-            "  --workers N              workers in this process (default 1)\n"
-            "  --tile N                 tile size in pixels (default 32)\n"
-            "  --direct                 render with plain threads, without the farm's master and\n"
-            "                           workers (same pixels up to rounding; for comparisons; with\n"
-            "                           a stopping rule, in the farm's passes: the same pixels)\n"
-
-            "  --exposure STOPS         preview exposure (default 0)\n"
-            "  --quiet                  no progress output\n");
+            "Options override the scene file:\n");
+    cli_args_help(out, opts);
 }
 
 static void on_progress(void *user, uint64_t done, uint64_t total, double elapsed)
@@ -180,65 +169,40 @@ int cmd_render(int argc, char **argv)
     int direct = 0;
     double exposure = 0;
     int quiet = 0;
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            usage(stdout);
-            return 0;
-        }
-        if (!strcmp(a, "--quiet")) {
-            quiet = 1;
-            continue;
-        }
-        if (!strcmp(a, "--direct")) {
-            direct = 1;
-            continue;
-        }
-        if (a[0] == '-' && a[1]) {
-            if (i + 1 >= argc) {
-                fprintf(stderr, "prismfarm render: %s needs a value\n", a);
-                return 2;
-            }
-            const char *val = argv[++i];
-            int handled = cli_parse_override("render", a, val, &ov);
-            if (!handled)
-                handled = cli_parse_stop("render", a, val, &stop);
-            if (handled < 0)
-                return 2;
-            if (handled)
-                continue;
-            if (!strcmp(a, "-o") || !strcmp(a, "--output"))
-                output = val;
-            else if (!strcmp(a, "--threads")) {
-                if (cli_parse_int("render", a, val, 1, 1024, &threads))
-                    return 2;
-            } else if (!strcmp(a, "--workers")) {
-                if (cli_parse_int("render", a, val, 1, 64, &workers))
-                    return 2;
-            } else if (!strcmp(a, "--tile")) {
-                if (cli_parse_int("render", a, val, 1, 4096, &tile))
-                    return 2;
-            } else if (!strcmp(a, "--exposure")) {
-                char *end;
-                exposure = strtod(val, &end);
-                if (end == val || *end || exposure < -30 || exposure > 30) {
-                    fprintf(stderr, "prismfarm render: --exposure expects stops in -30..30, got '%s'\n", val);
-                    return 2;
-                }
-            } else {
-                fprintf(stderr, "prismfarm render: unknown option '%s' (see prismfarm render --help)\n", a);
-                return 2;
-            }
-            continue;
-        }
-        if (scene_path) {
-            fprintf(stderr, "prismfarm render: more than one scene given ('%s' and '%s')\n", scene_path, a);
-            return 2;
-        }
-        scene_path = a;
+    const cli_opt_t opts[] = {
+        {.name = "output", .letter = 'o', .kind = CLI_STRING, .dst = &output, .arg = "OUT.exr",
+         .help = "output file (default: the Film's filename, else SCENE.exr)"},
+        CLI_OPT_GROUP(CLI_OVERRIDE_OPTS, .dst = &ov),
+        CLI_OPT_GROUP(CLI_STOP_OPTS, .dst = &stop),
+        {.name = "threads", .kind = CLI_LLONG, .dst = &threads, .lo = 1, .hi = 1024, .arg = "N",
+         .help = "render threads per worker (default: all cores / workers)"},
+        {.name = "workers", .kind = CLI_LLONG, .dst = &workers, .lo = 1, .hi = 64, .arg = "N",
+         .help = "workers in this process (default 1)"},
+        {.name = "tile", .kind = CLI_LLONG, .dst = &tile, .lo = 1, .hi = 4096, .arg = "N",
+         .help = "tile size in pixels (default 32)"},
+        {.name = "direct", .kind = CLI_FLAG, .dst = &direct,
+         .help = "render with plain threads, without the farm's master and workers (same pixels "
+                 "up to rounding; for comparisons; with a stopping rule, in the farm's passes: "
+                 "the same pixels)"},
+        {.name = "exposure", .kind = CLI_DOUBLE, .dst = &exposure, .lo = -30, .hi = 30,
+         .unit = "stops", .arg = "STOPS", .help = "preview exposure (default 0)"},
+        CLI_OPT_QUIET(.dst = &quiet, .help = "no progress output"),
+        CLI_OPT_HELP,
+        {0},
+    };
+    int first;
+    const cli_cmd_t cmd = {.name = "render", .opts = opts, .usage = usage};
+    int parsed = cli_args_parse(&cmd, argc, argv, &first);
+    if (parsed != CLI_ARGS_GO)
+        return parsed;
+    if (argc - first > 1) {
+        fprintf(stderr, "prismfarm render: more than one scene given ('%s' and '%s')\n",
+                argv[first], argv[first + 1]);
+        return 2;
     }
+    scene_path = first < argc ? argv[first] : NULL;
     if (!scene_path) {
-        usage(stderr);
+        usage(stderr, opts);
         return 2;
     }
 

@@ -3,100 +3,63 @@
 #include "commands.h"
 
 #include "cli_args.h"
+#include "cli_json.h"
 #include "client_rpc.h"
 #include "film.h"
 #include "job_follow.h"
 #include "scene_bundle.h"
 
-#include <errno.h>
-#include <jansson.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
-static void usage(FILE *out)
+static void usage(FILE *out, const cli_opt_t *opts)
 {
-    fprintf(out,
-            "usage: prismfarm submit SCENE.pbrt [--master ENDPOINT] [options]\n"
-            "\n"
-            "Submits SCENE (and every file it includes) as a job; prints the job id.\n"
-            "  --master ENDPOINT   the master's client endpoint (default $PRISMFARM_MASTER or tcp://127.0.0.1:5556)\n"
-            "  --name NAME         job name (default: the scene file's name)\n"
-            "  --spp N, --res WxH, --seed N, --integrator NAME, --dispersion NAME\n"
-            "                      override the scene file, as for prismfarm render\n"
-            "  --target-error E    done at the first pass whose relative error estimate is <= E (0 < E < 1)\n"
-            "  --time-limit T      done at T seconds (or Ns, Nm, Nh) after the start, with the whole passes so far\n"
-            "  --wait              follow the job with a progress bar and fetch the result\n"
-            "  -o, --output OUT    with --wait: where the EXR goes (default NAME.exr); the PNG goes beside it\n"
-            "  --json              print the job id (and with --wait the final status) as JSON\n"
-            CLIENT_SECURITY_HELP);
+    fprintf(out, "usage: prismfarm submit SCENE.pbrt [--master ENDPOINT] [options]\n"
+                 "\n"
+                 "Submits SCENE (and every file it includes) as a job; prints the job id.\n");
+    cli_args_help(out, opts);
 }
 
 int cmd_submit(int argc, char **argv)
 {
-    const char *scene = NULL, *master = client_default_master(), *name = NULL, *output = NULL;
+    const char *master = client_default_master(), *name = NULL, *output = NULL;
     scene_overrides_t ov = {.seed = -1};
     cli_stop_t stop = {0};
     int wait = 0, json = 0, quiet = 0;
     client_security_t sec = client_security_default();
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int s = client_security_arg("submit", argc, argv, &i, &sec);
-        if (s < 0)
-            return 2;
-        if (s)
-            continue;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            usage(stdout);
-            return 0;
-        }
-        if (!strcmp(a, "--wait")) {
-            wait = 1;
-            continue;
-        }
-        if (!strcmp(a, "--json")) {
-            json = 1;
-            continue;
-        }
-        if (!strcmp(a, "--quiet")) {
-            quiet = 1;
-            continue;
-        }
-        if (a[0] == '-') {
-            if (i + 1 >= argc) {
-                fprintf(stderr, "prismfarm submit: %s needs a value\n", a);
-                return 2;
-            }
-            const char *val = argv[++i];
-            int handled = cli_parse_override("submit", a, val, &ov);
-            if (!handled)
-                handled = cli_parse_stop("submit", a, val, &stop);
-            if (handled < 0)
-                return 2;
-            if (handled)
-                continue;
-            if (!strcmp(a, "--master"))
-                master = val;
-            else if (!strcmp(a, "--name"))
-                name = val;
-            else if (!strcmp(a, "-o") || !strcmp(a, "--output"))
-                output = val;
-            else {
-                fprintf(stderr, "prismfarm submit: unknown option '%s' (see prismfarm submit --help)\n", a);
-                return 2;
-            }
-            continue;
-        }
-        if (scene) {
-            fprintf(stderr, "prismfarm submit: more than one scene given ('%s' and '%s')\n", scene, a);
-            return 2;
-        }
-        scene = a;
-    }
-    if (!scene) {
-        usage(stderr);
+    const cli_opt_t opts[] = {
+        CLI_OPT_MASTER(.dst = &master),
+        {.name = "name", .kind = CLI_STRING, .dst = &name, .arg = "NAME",
+         .help = "job name (default: the scene file's name)"},
+        CLI_OPT_GROUP(CLI_OVERRIDE_OPTS, .dst = &ov),
+        CLI_OPT_GROUP(CLI_STOP_OPTS, .dst = &stop),
+        {.name = "wait", .kind = CLI_FLAG, .dst = &wait,
+         .help = "follow the job with a progress bar and fetch the result"},
+        {.name = "output", .letter = 'o', .kind = CLI_STRING, .dst = &output, .arg = "OUT",
+         .help = "with --wait: where the EXR goes (default NAME.exr); the PNG goes beside it"},
+        CLI_OPT_JSON(.dst = &json,
+                     .help = "print the job id (and with --wait the final status) as JSON"),
+        CLI_OPT_QUIET(.dst = &quiet, .help = "with --wait: no progress bar"),
+        CLI_OPT_GROUP(CLI_SECURITY_OPTS, .dst = &sec),
+        CLI_OPT_HELP,
+        {0},
+    };
+    int first;
+    const cli_cmd_t cmd = {.name = "submit", .opts = opts, .usage = usage};
+    int parsed = cli_args_parse(&cmd, argc, argv, &first);
+    if (parsed != CLI_ARGS_GO)
+        return parsed;
+    if (argc - first > 1) {
+        fprintf(stderr, "prismfarm submit: more than one scene given ('%s' and '%s')\n",
+                argv[first], argv[first + 1]);
         return 2;
     }
+    if (first == argc) {
+        usage(stderr, opts);
+        return 2;
+    }
+    const char *scene = argv[first];
     if (output && !wait) {
         fprintf(stderr, "prismfarm submit: -o needs --wait (or use prismfarm fetch JOB -o OUT later)\n");
         return 2;
@@ -140,10 +103,14 @@ int cmd_submit(int argc, char **argv)
     uint64_t job = reply.submitted.job;
     proto_msg_free(&reply);
     if (!wait) {
-        if (json)
-            printf("{\"job\": %llu, \"name\": \"%s\"}\n", (unsigned long long)job, name);
-        else
+        if (json) {
+            json_t *o = json_object();
+            json_object_set_new(o, "job", json_integer((json_int_t)job));
+            json_object_set_new(o, "name", cli_json_string(name));
+            cli_json_print(o, 0);
+        } else {
             printf("%llu\n", (unsigned long long)job);
+        }
         goto out;
     }
     if (!quiet)
@@ -173,17 +140,15 @@ int cmd_submit(int argc, char **argv)
         json_t *o = json_object();
         json_object_set_new(o, "job", json_integer((json_int_t)job));
         json_object_set_new(o, "state", json_string("done"));
-        json_object_set_new(o, "exr", json_string(exr));
-        json_object_set_new(o, "png", json_string(png));
+        json_object_set_new(o, "exr", cli_json_string(exr));
+        json_object_set_new(o, "png", cli_json_string(png));
         json_object_set_new(o, "elapsed_s", json_real(last.elapsed));
         json_object_set_new(o, "nonfinite", json_integer((json_int_t)last.nonfinite));
         json_object_set_new(o, "spp", json_integer((json_int_t)last.spp));
         json_object_set_new(o, "rel_error", last.has_rel_error ? json_real(last.rel_error) : json_null());
         json_object_set_new(o, "stop", last.stop != PROTO_STOP_NONE ? json_string(proto_stop_name(last.stop))
                                                                     : json_null());
-        json_dumpf(o, stdout, JSON_INDENT(2) | JSON_PRESERVE_ORDER);
-        fputc('\n', stdout);
-        json_decref(o);
+        cli_json_print(o, JSON_INDENT(2));
     } else {
         printf("job %llu done in %.1f s: wrote %s and %s; %llu non-finite samples discarded\n",
                (unsigned long long)job, last.elapsed, exr, png, (unsigned long long)last.nonfinite);

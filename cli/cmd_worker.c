@@ -1,12 +1,12 @@
 /* prismfarm worker: runs a render worker that serves a master until interrupted. */
 #include "commands.h"
 
+#include "cli_args.h"
 #include "client_rpc.h"
 #include "worker_daemon.h"
 
 #include <signal.h>
 #include <stdio.h>
-#include <stdlib.h>
 #include <string.h>
 
 static volatile sig_atomic_t stop_flag;
@@ -17,63 +17,48 @@ static void on_signal(int sig)
     stop_flag = 1;
 }
 
-static void usage(FILE *out)
+static void usage(FILE *out, const cli_opt_t *opts)
 {
     fprintf(out, "usage: prismfarm worker --connect tcp://HOST:5555 --key FILE --master-key FILE [options]\n"
                  "\n"
-                 "Renders tasks for the master until interrupted (Ctrl-C or SIGTERM).\n"
-                 "  --connect ENDPOINT   the master's worker endpoint (required)\n"
-                 "  --threads N          render threads, and tasks held at once (default: all cores)\n"
-                 "  --name NAME          shown by `prismfarm workers` (default: host:pid)\n"
-                 "  --cache DIR          where scene bundles are kept (default: $TMPDIR/prismfarm-worker-UID)\n"
-                 "  --quiet              log nothing\n"
-                 "A tcp:// master needs keys (docs/security.md) or --insecure:\n"
-                 CLIENT_SECURITY_HELP);
+                 "Renders tasks for the master until interrupted (Ctrl-C or SIGTERM).\n");
+    cli_args_help(out, opts);
 }
 
 int cmd_worker(int argc, char **argv)
 {
     worker_opts_t o = {.verbose = 1, .stop = &stop_flag};
     client_security_t sec = client_security_default();
-    for (int i = 1; i < argc; i++) {
-        const char *a = argv[i];
-        int s = client_security_arg("worker", argc, argv, &i, &sec);
-        if (s < 0)
-            return 2;
-        if (s)
-            continue;
-        if (!strcmp(a, "--help") || !strcmp(a, "-h")) {
-            usage(stdout);
-            return 0;
-        }
-        if (!strcmp(a, "--quiet")) {
-            o.verbose = 0;
-            continue;
-        }
-        if (i + 1 >= argc || strncmp(a, "--", 2) != 0) {
-            fprintf(stderr, "prismfarm worker: unexpected argument '%s' (see prismfarm worker --help)\n", a);
-            return 2;
-        }
-        const char *v = argv[++i];
-        if (!strcmp(a, "--connect"))
-            o.endpoint = v;
-        else if (!strcmp(a, "--name"))
-            o.name = v;
-        else if (!strcmp(a, "--cache"))
-            o.cache_dir = v;
-        else if (!strcmp(a, "--threads")) {
-            char *end;
-            long n = strtol(v, &end, 10);
-            if (end == v || *end || n < 1 || n > 1024) {
-                fprintf(stderr, "prismfarm worker: --threads expects an integer in 1..1024, got '%s'\n", v);
-                return 2;
-            }
-            o.threads = (int)n;
-        } else {
-            fprintf(stderr, "prismfarm worker: unknown option '%s' (see prismfarm worker --help)\n", a);
-            return 2;
-        }
+    int quiet = 0;
+    const cli_opt_t opts[] = {
+        {.name = "connect", .kind = CLI_STRING, .dst = &o.endpoint, .arg = "ENDPOINT",
+         .help = "the master's worker endpoint (required)"},
+        {.name = "threads", .kind = CLI_INT, .dst = &o.threads, .lo = 1, .hi = 1024, .arg = "N",
+         .help = "render threads, and tasks held at once (default: all cores)"},
+        {.name = "name", .kind = CLI_STRING, .dst = &o.name, .arg = "NAME",
+         .help = "shown by `prismfarm workers` (default: host:pid)"},
+        {.name = "cache", .kind = CLI_STRING, .dst = &o.cache_dir, .arg = "DIR",
+         .help = "where scene bundles are kept (default: $TMPDIR/prismfarm-worker-UID)"},
+        CLI_OPT_QUIET(.dst = &quiet, .help = "log nothing"),
+        {.kind = CLI_TEXT,
+         .help = "A tcp:// master needs keys (docs/security.md) or --insecure:\n"},
+        CLI_OPT_GROUP(CLI_SECURITY_OPTS, .dst = &sec),
+        CLI_OPT_HELP,
+        {0},
+    };
+    int first;
+    const cli_cmd_t cmd = {.name = "worker", .opts = opts, .usage = usage};
+    int parsed = cli_args_parse(&cmd, argc, argv, &first);
+    if (parsed != CLI_ARGS_GO)
+        return parsed;
+    if (first < argc) {
+        fprintf(stderr,
+                "prismfarm worker: unexpected argument '%s' (see prismfarm worker --help)\n",
+                argv[first]);
+        return 2;
     }
+    if (quiet)
+        o.verbose = 0;
     if (!o.endpoint) {
         fprintf(stderr, "prismfarm worker: --connect ENDPOINT is required\n");
         return 2;

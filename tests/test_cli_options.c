@@ -1,0 +1,190 @@
+/* The option parser every prismfarm command shares (cli/cli_args.h), run as the executable:
+ * options before and after the operands (also under POSIXLY_CORRECT), --opt=value and -oVALUE,
+ * "--" ending the options, no abbreviations, -h anywhere, and errors that name the flag and its
+ * bad value; each command's --help lists the options it takes, the shared ones included. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#define CLI_RUN_TIMEOUT_MS 120000
+#include "cli_run.h"
+#include "farm_testutil.h"
+
+#include <sys/stat.h>
+
+#define SCENE "data/render/tiny.pbrt"
+
+static char DIR_[256];
+
+static int setup(void **state)
+{
+    (void)state;
+    return testutil_mkdtemp(DIR_, sizeof DIR_, "options");
+}
+
+static int teardown(void **state)
+{
+    (void)state;
+    return testutil_rmtree(DIR_);
+}
+
+static const char *path_in(const char *name)
+{
+    return testutil_path_in(DIR_, name);
+}
+
+static int exists(const char *path)
+{
+    struct stat st;
+    return stat(path, &st) == 0;
+}
+
+static void expect_fails(const run_t *r, const char *message)
+{
+    if (r->status != 2)
+        fail_msg("exit %d, expected 2 (stderr: %s)", r->status, r->err);
+    expect_in(r->err, message);
+    assert_string_equal(r->out, "");
+}
+
+/* The options are found wherever they stand, in each spelling; a 4x4 render at 1 spp is quick. */
+static void test_spellings_and_order(void **state)
+{
+    (void)state;
+    char out[512];
+    snprintf(out, sizeof out, "-o%s", path_in("attached.exr"));
+    const run_t *r = run("render", "--spp=1", "--res", "4x4", out, SCENE, "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("render: exit %d: %s", r->status, r->err);
+    assert_true(exists(path_in("attached.exr")));
+    expect_in(r->out, "1 of 1 spp");
+
+    r = run("render", SCENE, "--res=4x4", "--spp", "1", "--output", path_in("after.exr"), "--quiet",
+            "--direct", NULL);
+    if (r->status != 0)
+        fail_msg("render: exit %d: %s", r->status, r->err);
+    assert_true(exists(path_in("after.exr")));
+
+    /* POSIXLY_CORRECT stops a plain getopt at the first operand; the options after it still
+     * count. */
+    setenv("POSIXLY_CORRECT", "1", 1);
+    r = run("render", SCENE, "--spp", "1", "--res", "4x4", "-o", path_in("posix.exr"), "--quiet",
+            NULL);
+    unsetenv("POSIXLY_CORRECT");
+    if (r->status != 0)
+        fail_msg("render under POSIXLY_CORRECT: exit %d: %s", r->status, r->err);
+    assert_true(exists(path_in("posix.exr")));
+
+    /* "--" ends the options: what follows is an operand even when it looks like an option. */
+    expect_fails(run("render", "--", SCENE, "--spp", NULL), "more than one scene given");
+    r = run("glass", "--", "N-BK7", NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "n_d = 1.51680");
+    r = run("glass", "--cauchy=1.5,0.005", "500", NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "n(500 nm) = 1.52000");
+}
+
+/* Bad command lines exit 2 with a message naming the flag (and the bad value). */
+static void test_errors(void **state)
+{
+    (void)state;
+    expect_fails(run("render", SCENE, "--frobnicate", NULL),
+                 "prismfarm render: unknown option '--frobnicate' (see prismfarm render --help)");
+    expect_fails(run("render", SCENE, "-x", NULL), "prismfarm render: unknown option '-x'");
+    /* getopt_long's abbreviations are refused: --sp is no --spp. */
+    expect_fails(run("render", SCENE, "--sp", "4", "-o", path_in("abbrev.exr"), NULL),
+                 "unknown option '--sp'");
+    expect_fails(run("submit", SCENE, "--ma", "tcp://x:1", NULL), "unknown option '--ma'");
+    expect_fails(run("render", SCENE, "--spp", NULL), "prismfarm render: --spp needs a value");
+    expect_fails(run("fetch", "1", "-o", NULL), "prismfarm fetch: -o needs a value");
+    expect_fails(run("jobs", "--master", NULL), "prismfarm jobs: --master needs a value");
+    expect_fails(run("worker", "--connect", NULL), "prismfarm worker: --connect needs a value");
+    expect_fails(run("submit", SCENE, "--key", NULL), "prismfarm submit: --key needs a value");
+    expect_fails(run("render", SCENE, "--spp=0", NULL),
+                 "prismfarm render: --spp expects an integer in 1..16777216, got '0'");
+    expect_fails(run("render", SCENE, "--quiet=yes", NULL),
+                 "prismfarm render: --quiet takes no value, got '--quiet=yes'");
+    expect_fails(run("render", SCENE, "--exposure", "nan", NULL),
+                 "--exposure expects stops in -30..30, got 'nan'");
+    expect_fails(run("jobs", "--timeout", "0", NULL),
+                 "prismfarm jobs: --timeout expects seconds in 0.1..3600, got '0'");
+    expect_fails(run("refine", "3", "--photons", "-1", NULL),
+                 "--photons expects an integer in 1..1099511627776, got '-1'");
+    expect_fails(run("keygen", "k", "--dir", "", NULL), "prismfarm keygen: --dir needs a folder");
+    expect_fails(run("master", "--spool", "", NULL),
+                 "prismfarm master: --spool needs a folder name");
+    expect_fails(run("master", "stray", NULL), "prismfarm master: unknown argument 'stray'");
+    expect_fails(run("worker", "stray", NULL), "prismfarm worker: unexpected argument 'stray'");
+    expect_fails(run("jobs", "7", NULL), "prismfarm jobs: unexpected argument '7'");
+    expect_fails(run("status", "1", "2", NULL), "prismfarm status: unexpected argument '2'");
+    expect_fails(run("plan", SCENE, SCENE, NULL), "unexpected argument 'data/render/tiny.pbrt'");
+    expect_fails(run("keygen", "a", "b", NULL), "one NAME only ('a' and 'b' given)");
+    /* Errors come in the order of the arguments. */
+    expect_fails(run("render", "--spp", "x", SCENE, "--res", "0x0", NULL), "--spp expects");
+    expect_fails(run("render", "--res", "0x0", SCENE, "--spp", "x", NULL), "--res expects");
+}
+
+/* -h and --help anywhere print the usage with every option the command takes, exit 0. */
+static void test_help(void **state)
+{
+    (void)state;
+    static const struct {
+        const char *cmd;
+        const char *options[8];
+    } want[] = {
+        {"render",
+         {"-o, --output OUT.exr", "--spp N", "--res WxH", "--dispersion NAME", "--target-error E",
+          "--time-limit T", "--exposure STOPS", "--direct"}},
+        {"submit",
+         {"--master ENDPOINT", "--name NAME", "--seed N", "--wait", "-o, --output OUT", "--json",
+          "--master-key FILE", "--insecure"}},
+        {"status",
+         {"--master ENDPOINT", "--timeout S", "--json", "--wait", "--quiet", "--key FILE"}},
+        {"jobs", {"--master ENDPOINT", "--timeout S", "--json"}},
+        {"workers", {"--master ENDPOINT", "--json"}},
+        {"cancel", {"--master ENDPOINT", "--json"}},
+        {"fetch", {"-o, --output OUT.exr", "--master ENDPOINT", "--timeout S"}},
+        {"refine", {"--photons N", "--master ENDPOINT", "--wait", "-o, --output OUT.exr"}},
+        {"plan", {"--json", "--spp N", "--integrator NAME"}},
+        {"glass", {"--list", "--sellmeier LIST", "--cauchy A,B", "-h, --help"}},
+        {"keygen", {"--dir DIR", "--force"}},
+        {"master",
+         {"--workers ENDPOINT", "--heartbeat MS", "--no-journal", "--key FILE", "--authorized DIR",
+          "--max-bundle-files N"}},
+        {"worker", {"--connect ENDPOINT", "--threads N", "--cache DIR", "--master-key FILE"}},
+    };
+    for (size_t i = 0; i < sizeof want / sizeof want[0]; i++) {
+        const run_t *r = run(want[i].cmd, "--help", NULL);
+        if (r->status != 0)
+            fail_msg("%s --help: exit %d", want[i].cmd, r->status);
+        char usage[64];
+        snprintf(usage, sizeof usage, "usage: prismfarm %s", want[i].cmd);
+        expect_in(r->out, usage);
+        for (int k = 0; k < 8 && want[i].options[k]; k++)
+            expect_in(r->out, want[i].options[k]);
+    }
+    const run_t *r = run("render", SCENE, "--spp", "4", "-h", NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "usage: prismfarm render");
+    r = run("status", "3", "--help", NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "usage: prismfarm status");
+    /* glass reads NAME's wavelengths after it as they are. */
+    r = run("glass", "N-BK7", "--help", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "bad wavelength '--help'");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_spellings_and_order),
+        cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_help),
+    };
+    return cmocka_run_group_tests(tests, setup, teardown);
+}
