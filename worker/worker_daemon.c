@@ -150,7 +150,7 @@ static void backoff_wait(worker_t *w)
 
 int worker_run(const worker_opts_t *opts, err_t *err)
 {
-    worker_t w = {.opts = opts};
+    worker_t w = {.opts = opts, .verbose = opts->verbose};
     if (!opts->endpoint)
         return err_set(err, "worker: no master endpoint");
     if (proto_curve_require(opts->endpoint, opts->curve.secret_key != NULL, opts->insecure,

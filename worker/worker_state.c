@@ -5,7 +5,7 @@
 
 void worker_log(const worker_t *w, const char *fmt, ...)
 {
-    if (!w->opts->verbose)
+    if (!w->verbose)
         return;
     va_list ap;
     va_start(ap, fmt);

@@ -11,9 +11,13 @@
 #include "scene_cache.h"
 #include "store_cache.h"
 #include "task_queue.h"
-#include "worker_daemon.h"
 
 #include <pthread.h>
+#include <stdbool.h>
+
+/* worker_daemon.h's options: the loop reads them; the parts below it see only what they need
+ * (verbose), so that no module under the daemon includes the daemon's header. */
+struct worker_opts;
 
 /* One connection to the master, from HELLO until it is given up. */
 typedef struct worker_conn {
@@ -26,7 +30,8 @@ typedef struct worker_conn {
 } worker_conn_t;
 
 typedef struct worker {
-    const worker_opts_t *opts;
+    const struct worker_opts *opts;
+    bool verbose; /* the options' verbose, for worker_log */
     char name[256]; /* told in HELLO */
     int threads;    /* render threads running, told in HELLO */
     /* Set up before the render threads start and not changed after; its files are its state. */
