@@ -1,0 +1,188 @@
+#include "persist.h"
+
+#include "jobs.h"
+#include "scene_load.h"
+
+#include <dirent.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+journal_job_t persist_record(const mjob_t *j, double now)
+{
+    journal_job_t r = {.id = j->id,
+                       .name = j->name,
+                       .hash = (char *)j->hash,
+                       .main = j->main,
+                       .settings = j->settings,
+                       .state = (int)j->state,
+                       .error = j->error,
+                       .round = j->round,
+                       .photon_base = j->photon_base,
+                       .photons_saved = j->photons_saved,
+                       .round_photons = j->round_photons,
+                       .refine_photons = j->refine_photons,
+                       .checkpoint = j->checkpoint,
+                       .stop = (int)j->stop,
+                       .outputs = j->outputs,
+                       .samples_done = j->samples_done,
+                       .samples_total = j->samples_total,
+                       .nonfinite = j->nonfinite,
+                       .spp_done = j->spp_done};
+    double end = j->finished > 0 ? j->finished : now;
+    r.elapsed = j->started > 0 && end > j->started ? end - j->started : 0;
+    return r;
+}
+
+void persist_checkpoint_path(const master_t *m, uint64_t job, uint64_t gen, char *buf,
+                             size_t size)
+{
+    snprintf(buf, size, "%s/jobs/%llu/checkpoint-%llu.bin", spool_path(m->spool),
+             (unsigned long long)job, (unsigned long long)gen);
+}
+
+/* The files a master killed between writing a checkpoint and journaling it, or between
+ * journaling the next one and removing this one, left behind. */
+void persist_remove_stale_checkpoints(master_t *m, uint64_t id, uint64_t keep)
+{
+    char dir[PATH_MAX];
+    snprintf(dir, sizeof dir, "%s/jobs/%llu", spool_path(m->spool), (unsigned long long)id);
+    DIR *d = opendir(dir);
+    if (!d)
+        return;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        unsigned long long gen;
+        char tail[8];
+        if (sscanf(e->d_name, "checkpoint-%llu.bi%1s", &gen, tail) != 2 ||
+            (gen == keep && !strstr(e->d_name, ".tmp")))
+            continue;
+        char path[PATH_MAX + 300];
+        snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
+        (void)unlink(path);
+    }
+    (void)closedir(d);
+}
+
+void persist_failed(const master_t *m, const mjob_t *j, const err_t *err)
+{
+    master_log(m,
+               "job %llu: journal: %s (a restarted master would not resume this job's latest "
+               "progress)",
+               (unsigned long long)j->id, err->msg);
+}
+
+void persist_state(master_t *m, mjob_t *j, double now)
+{
+    if (!m->journal)
+        return;
+    err_t err;
+    journal_job_t r = persist_record(j, now);
+    if (journal_set_state(m->journal, &r, &err) < 0) {
+        persist_failed(m, j, &err);
+        return;
+    }
+    if (job_over(j) && j->checkpoint > 0) {
+        char path[PATH_MAX + 64];
+        persist_checkpoint_path(m, j->id, j->checkpoint, path, sizeof path);
+        (void)unlink(path); /* a leftover is removed at the next start (resume_jobs) */
+        j->checkpoint = 0;
+    }
+}
+
+/* Once the results journaled since the last checkpoint outgrow the image, the merged image is
+ * written as a new checkpoint and the results in it leave the journal. Not more often than
+ * every CHECKPOINT_INTERVAL_S unless they outgrow it fourfold: a large image's checkpoint takes
+ * the master's loop a while (315 MB at 1920x1080 with 16 buckets), and early passes are short.
+ * So the spool holds at most about five images' worth per running job, and a restart replays
+ * at most four. */
+#define CHECKPOINT_INTERVAL_S 10.0
+void persist_maybe_checkpoint(master_t *m, mjob_t *j, double now)
+{
+    sched_job_info_t info;
+    if (!m->journal || sched_job_info(m->sched, j->id, &info) < 0 || info.state != JOB_RUNNING ||
+        info.samples_done == j->checkpoint_samples)
+        return;
+    size_t image_bytes = (size_t)j->xres * (size_t)j->yres * ((size_t)j->grid.n + 3) * 8;
+    if (j->journaled_bytes < image_bytes ||
+        (j->journaled_bytes < 4 * image_bytes && now - j->last_checkpoint < CHECKPOINT_INTERVAL_S))
+        return;
+    err_t err;
+    int *next = malloc((size_t)info.ntiles * sizeof *next);
+    char path[PATH_MAX + 64], old[PATH_MAX + 64];
+    uint64_t gen = j->checkpoint + 1;
+    persist_checkpoint_path(m, j->id, gen, path, sizeof path);
+    persist_checkpoint_path(m, j->id, j->checkpoint, old, sizeof old);
+    journal_job_t r = persist_record(j, now);
+    if (!next) {
+        err_set(&err, "out of memory for a checkpoint");
+    } else if (sched_job_next_pass(m->sched, j->id, next, info.ntiles) < 0) {
+        err_set(&err, "the scheduler has no pass table for the job");
+    } else if (journal_write_checkpoint(path, sched_job_image(m->sched, j->id), next, info.ntiles,
+                                        &err) == 0 &&
+               journal_set_checkpoint(m->journal, j->id, j->round, gen, next, info.ntiles,
+                                      r.elapsed, &err) == 0) {
+        if (j->checkpoint > 0)
+            (void)unlink(old);
+        j->checkpoint = gen;
+        j->journaled_bytes = 0;
+        j->checkpoint_samples = info.samples_done;
+        j->last_checkpoint = now;
+        free(next);
+        return;
+    } else {
+        (void)unlink(path);
+    }
+    free(next);
+    persist_failed(m, j, &err);
+    j->journaled_bytes = 0; /* try again after as many bytes, not after every result */
+    j->last_checkpoint = now;
+}
+
+/* A restarted master or a refinement loads the store instead of tracing again. */
+int persist_save_photons(master_t *m, mjob_t *j, err_t *err)
+{
+    char dir[PATH_MAX], path[PATH_MAX + 32];
+    const uint8_t *data;
+    size_t size;
+    const char *hash;
+    uint64_t photons = photon_phase_stats(j->photons).photons;
+    if (j->photons_saved == photons && photons > 0)
+        return 0;
+    if (spool_job_dir(m->spool, j->id, dir, sizeof dir, err) < 0 ||
+        photon_phase_store(j->photons, &data, &size, &hash, err) < 0)
+        return -1;
+    snprintf(path, sizeof path, "%s/photons.store", dir);
+    if (spool_write_file(path, data, size, err) < 0)
+        return -1;
+    j->photons_saved = photons;
+    if (m->journal && journal_set_photons_saved(m->journal, j->id, photons, err) < 0)
+        persist_failed(m, j, err);
+    return 0;
+}
+
+int persist_load_photons(master_t *m, mjob_t *j, err_t *err)
+{
+    char dir[PATH_MAX], path[PATH_MAX + 32], scene_dir[PATH_MAX], main_path[2 * PATH_MAX];
+    if (spool_job_dir(m->spool, j->id, dir, sizeof dir, err) < 0)
+        return -1;
+    snprintf(path, sizeof path, "%s/photons.store", dir);
+    snprintf(scene_dir, sizeof scene_dir, "%s/scenes/%s", spool_path(m->spool), j->hash);
+    snprintf(main_path, sizeof main_path, "%s/%s", scene_dir, j->main);
+    scene_overrides_t ov = proto_settings_to_overrides(&j->settings);
+    scene_t *scene = scene_load_file_confined(main_path, scene_dir, &ov, err);
+    if (!scene)
+        return -1;
+    job_take_scene(j, scene); /* a job a restarted master read from its journal has no figures */
+    uint8_t *data = NULL;
+    size_t size = 0;
+    if (spool_read_file(path, m->limits.max_message_bytes, &data, &size, err) < 0) {
+        scene_destroy(&scene);
+        return -1;
+    }
+    j->photons = photon_phase_restore(&scene, data, size, j->photons_saved, err);
+    free(data);
+    return j->photons ? 0 : -1;
+}
