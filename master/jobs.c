@@ -55,7 +55,7 @@ bool job_over(const mjob_t *j)
 void job_free(mjob_t *j)
 {
     if (j) {
-        photon_phase_destroy(&j->photons);
+        photon_phase_destroy(&j->photons.phase);
         free(j->main);
         free(j->name);
         free(j->error);
@@ -96,15 +96,15 @@ static void make_stem(const char *name, char *out, size_t size)
 void job_take_scene(mjob_t *j, const scene_t *scene)
 {
     const render_settings_t *rs = &scene->settings;
-    j->integrator_used = integrators_used_name(rs->integrator, rs->photon.enabled);
-    j->dispersion_used = !scene->has_dispersion                 ? "off"
-                         : rs->dispersion == DISPERSION_HERO ? "hero"
-                                                             : "fanout";
-    j->xres = rs->xres;
-    j->yres = rs->yres;
-    j->spp = rs->spp;
-    j->seed = rs->seed;
-    j->grid = rs->grid;
+    j->scene.integrator = integrators_used_name(rs->integrator, rs->photon.enabled);
+    j->scene.dispersion = !scene->has_dispersion              ? "off"
+                          : rs->dispersion == DISPERSION_HERO ? "hero"
+                                                              : "fanout";
+    j->scene.xres = rs->xres;
+    j->scene.yres = rs->yres;
+    j->scene.spp = rs->spp;
+    j->scene.seed = rs->seed;
+    j->scene.grid = rs->grid;
 }
 
 static void job_set_settings(mjob_t *j, const proto_settings_t *set)
@@ -147,7 +147,7 @@ mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *mai
     job_take_scene(j, scene);
     bool photon = scene->settings.photon.enabled;
     uint64_t photons = scene->settings.photon.photons;
-    if (photon && !(j->photons = photon_phase_new(&scene, err))) {
+    if (photon && !(j->photons.phase = photon_phase_new(&scene, err))) {
         job_free(j);
         return NULL;
     }
@@ -156,10 +156,10 @@ mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *mai
     make_stem(j->name, j->stem, sizeof j->stem);
     snprintf(j->hash, sizeof j->hash, "%s", hash);
     job_set_settings(j, set);
-    j->photon_job = photon;
-    j->round_photons = photon ? photons : 0;
+    j->photons.enabled = photon;
+    j->journal.round_photons = photon ? photons : 0;
     j->state = JOB_QUEUED;
-    j->stop = PROTO_STOP_NONE;
+    j->accuracy.stop = PROTO_STOP_NONE;
     return j;
 }
 
@@ -176,17 +176,17 @@ mjob_t *job_from_record(const journal_job_t *r)
     snprintf(j->hash, sizeof j->hash, "%s", r->hash);
     job_set_settings(j, &r->settings);
     j->state = (job_state_t)r->state;
-    j->outputs = r->outputs;
-    j->stop = (proto_stop_t)r->stop;
-    j->samples_done = r->samples_done;
-    j->samples_total = r->samples_total;
-    j->nonfinite = r->nonfinite;
-    j->spp_done = r->spp_done;
-    j->round = r->round;
-    j->photons_saved = r->photons_saved;
-    j->photon_job = r->photons_saved > 0;
-    j->round_photons = r->round_photons;
-    j->integrator_used = j->dispersion_used = "?";
+    j->outputs.final = r->outputs;
+    j->accuracy.stop = (proto_stop_t)r->stop;
+    j->sched.samples_done = r->samples_done;
+    j->sched.samples_total = r->samples_total;
+    j->sched.nonfinite = r->nonfinite;
+    j->accuracy.spp_done = r->spp_done;
+    j->sched.round = r->round;
+    j->photons.saved = r->photons_saved;
+    j->photons.enabled = r->photons_saved > 0;
+    j->journal.round_photons = r->round_photons;
+    j->scene.integrator = j->scene.dispersion = "?";
     return j;
 }
 
@@ -196,19 +196,21 @@ int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err)
         return err_set(err, "the master is out of memory");
     bool may_stop = j->settings.target_error > 0 || j->settings.time_limit > 0;
     sched_job_info_t info;
-    if (sched_add_job(m->sched, j->id, j->xres, j->yres, j->spp, j->grid, err) < 0)
+    if (sched_add_job(m->sched, j->id, j->scene.xres, j->scene.yres, j->scene.spp, j->scene.grid,
+                      err) < 0)
         return -1;
     if ((may_stop && sched_set_whole_passes(m->sched, j->id, err) < 0) ||
-        (photon_batches > 0 && sched_add_photon_batches(m->sched, j->id, photon_batches, err) < 0) ||
+        (photon_batches > 0 &&
+         sched_add_photon_batches(m->sched, j->id, photon_batches, err) < 0) ||
         sched_job_info(m->sched, j->id, &info) < 0) {
         err_t ignore;
         sched_cancel_job(m->sched, j->id, &ignore);
         (void)sched_remove_job(m->sched, j->id, &ignore);
         return -1;
     }
-    j->ntiles = info.ntiles;
-    j->samples_total = info.samples_total;
-    j->in_sched = true;
+    j->sched.ntiles = info.ntiles;
+    j->sched.samples_total = info.samples_total;
+    j->sched.known = true;
     m->jobs[m->njobs++] = j;
     return 0;
 }
@@ -240,16 +242,26 @@ int job_write_image(master_t *m, mjob_t *j, bool final, err_t *err)
     if (sched_job_info(m->sched, j->id, &si) < 0)
         return err_set(err, "job %llu is unknown to the scheduler", (unsigned long long)j->id);
     char info[4096];
-    jobinfo_t ji = {.job = j->id, .name = j->stem, .scene = j->hash, .spp = j->spp,
-                    .xres = j->xres, .yres = j->yres, .seed = j->seed,
-                    .integrator = j->integrator_used, .dispersion = j->dispersion_used,
-                    .samples = si.samples_done, .nonfinite = si.nonfinite,
-                    .photons = j->photons ? photon_phase_stats(j->photons).photons : 0,
-                    .rays = -1, .seconds = j->started > 0 ? clock_now_s() - j->started : 0.0,
-                    .spp_done = si.spp_done, .stop = (stopping_why_t)j->stop,
-                    .rule = {.target_error = j->settings.target_error,
-                             .time_limit = j->settings.time_limit},
-                    .history = j->history, .nhistory = j->nhistory};
+    jobinfo_t ji = {
+        .job = j->id,
+        .name = j->stem,
+        .scene = j->hash,
+        .spp = j->scene.spp,
+        .xres = j->scene.xres,
+        .yres = j->scene.yres,
+        .seed = j->scene.seed,
+        .integrator = j->scene.integrator,
+        .dispersion = j->scene.dispersion,
+        .samples = si.samples_done,
+        .nonfinite = si.nonfinite,
+        .photons = j->photons.phase ? photon_phase_stats(j->photons.phase).photons : 0,
+        .rays = -1,
+        .seconds = j->started > 0 ? clock_now_s() - j->started : 0.0,
+        .spp_done = si.spp_done,
+        .stop = (stopping_why_t)j->accuracy.stop,
+        .rule = {.target_error = j->settings.target_error, .time_limit = j->settings.time_limit},
+        .history = j->accuracy.history,
+        .nhistory = j->accuracy.nhistory};
     jobinfo_format(&ji, info, sizeof info);
     film_output_t out = {
         .spectral = 1, .tonemap = {.exposure_stops = 0, .curve = COLOUR_CURVE_ACES}, .info = info};
@@ -261,7 +273,7 @@ int job_write_image(master_t *m, mjob_t *j, bool final, err_t *err)
         snprintf(png, sizeof png, "%s/preview.png", dir);
     }
     out.png_path = png;
-    return film_write(image, j->grid, &out, err);
+    return film_write(image, j->scene.grid, &out, err);
 }
 
 /* A photon job that is over gives back its store's memory: a finished job's merged store goes
@@ -270,22 +282,22 @@ int job_write_image(master_t *m, mjob_t *j, bool final, err_t *err)
  * memory only if it cannot be written. */
 static void release_photons(master_t *m, mjob_t *j)
 {
-    if (!j->photons)
+    if (!j->photons.phase)
         return;
     err_t err;
     if (j->state == JOB_DONE && persist_save_photons(m, j, &err) < 0) {
-        master_log(m, "job %llu: keeping its photon store in memory: %s",
-                   (unsigned long long)j->id, err.msg);
+        master_log(m, "job %llu: keeping its photon store in memory: %s", (unsigned long long)j->id,
+                   err.msg);
         return;
     }
-    photon_phase_destroy(&j->photons);
-    j->store_ready = false;
+    photon_phase_destroy(&j->photons.phase);
+    j->photons.store_ready = false;
 }
 
 void job_refresh(master_t *m, mjob_t *j, double now)
 {
     sched_job_info_t info;
-    if (!j->in_sched || sched_job_info(m->sched, j->id, &info) < 0 || info.state == j->state)
+    if (!j->sched.known || sched_job_info(m->sched, j->id, &info) < 0 || info.state == j->state)
         return;
     j->state = info.state;
     if (info.state == JOB_RUNNING || info.state == JOB_QUEUED) {
@@ -300,7 +312,7 @@ void job_refresh(master_t *m, mjob_t *j, double now)
         err_t err;
         /* Ended before its last pass (target error, time limit): the tasks still out are of
          * passes that will never be merged, so the workers drop them, as for a cancel. */
-        if (j->stop != PROTO_STOP_NONE)
+        if (j->accuracy.stop != PROTO_STOP_NONE)
             peers_cancel_job(m, j->id);
         if (job_write_image(m, j, true, &err) < 0) {
             char msg[600];
@@ -309,17 +321,18 @@ void job_refresh(master_t *m, mjob_t *j, double now)
             j->state = JOB_FAILED;
             master_log(m, "job %llu '%s' failed: %s", (unsigned long long)j->id, j->name, msg);
         } else {
-            j->outputs = true;
-            const pass_record_t *last = j->nhistory > 0 ? &j->history[j->nhistory - 1] : NULL;
+            j->outputs.final = true;
+            const pass_record_t *last =
+                j->accuracy.nhistory > 0 ? &j->accuracy.history[j->accuracy.nhistory - 1] : NULL;
             char acc[160] = "";
             if (last && last->valid)
                 snprintf(acc, sizeof acc, ", relative error %.4g", last->rel_error);
             master_log(m, "job %llu '%s' done in %.2f s at %d of %d spp%s%s: %s/jobs/%llu/%s.exr",
-                       (unsigned long long)j->id, j->name, j->finished - j->started,
-                       info.spp_done, j->spp, acc,
-                       j->stop == PROTO_STOP_TARGET ? " (target error reached)"
-                       : j->stop == PROTO_STOP_TIME ? " (time limit reached)"
-                                                    : "",
+                       (unsigned long long)j->id, j->name, j->finished - j->started, info.spp_done,
+                       j->scene.spp, acc,
+                       j->accuracy.stop == PROTO_STOP_TARGET ? " (target error reached)"
+                       : j->accuracy.stop == PROTO_STOP_TIME ? " (time limit reached)"
+                                                             : "",
                        spool_path(m->spool), (unsigned long long)j->id, j->stem);
         }
     } else if (info.state == JOB_FAILED) {
@@ -331,16 +344,16 @@ void job_refresh(master_t *m, mjob_t *j, double now)
         peers_cancel_job(m, j->id);
     }
     release_photons(m, j);
-    j->samples_done = info.samples_done;
-    j->samples_total = info.samples_total;
-    j->nonfinite = info.nonfinite;
-    j->spp_done = info.spp_done;
+    j->sched.samples_done = info.samples_done;
+    j->sched.samples_total = info.samples_total;
+    j->sched.nonfinite = info.nonfinite;
+    j->accuracy.spp_done = info.spp_done;
     persist_state(m, j, now);
     err_t err;
     if (sched_remove_job(m->sched, j->id, &err) < 0)
         master_log(m, "job %llu: %s", (unsigned long long)j->id, err.msg);
     else
-        j->in_sched = false;
+        j->sched.known = false;
 }
 
 /* The time limits: a job past its limit with at least one whole pass ends now with the passes
@@ -351,7 +364,7 @@ void jobs_enforce_time_limits(master_t *m, double now)
     for (size_t i = 0; i < m->njobs; i++) {
         mjob_t *j = m->jobs[i];
         sched_job_info_t info;
-        if (!j->in_sched || !(j->settings.time_limit > 0) || j->started <= 0 ||
+        if (!j->sched.known || !(j->settings.time_limit > 0) || j->started <= 0 ||
             now - j->started < j->settings.time_limit ||
             sched_job_info(m->sched, j->id, &info) < 0 || info.state != JOB_RUNNING ||
             info.passes_done < 1)
@@ -362,7 +375,7 @@ void jobs_enforce_time_limits(master_t *m, double now)
                        (unsigned long long)j->id, err.msg);
             continue;
         }
-        j->stop = PROTO_STOP_TIME;
+        j->accuracy.stop = PROTO_STOP_TIME;
         master_log(m, "job %llu time limit %g s reached during pass %d: ends with %d spp",
                    (unsigned long long)j->id, j->settings.time_limit, info.passes_done + 1,
                    info.spp_done);

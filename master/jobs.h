@@ -1,8 +1,8 @@
 /* jobs: a job's life in the master, from its scene to its outputs. The master's list (m->jobs,
- * in id order) holds every job it knows, over or not; a job is in the scheduler (in_sched) from
- * job_schedule until job_refresh sees it over, writes its outputs through film (the spectral
- * EXR with its job info, and the PNG), tells the workers to drop its tasks and has the
- * scheduler forget it, keeping only the figures STATUS reports. A job's scene is loaded
+ * in id order) holds every job it knows, over or not; a job is in the scheduler (sched.known)
+ * from job_schedule until job_refresh sees it over, writes its outputs through film (the
+ * spectral EXR with its job info, and the PNG), tells the workers to drop its tasks and has
+ * the scheduler forget it, keeping only the figures STATUS reports. A job's scene is loaded
  * confined to its bundle's folder, so no message can show a client a file of the master's
  * host. */
 #ifndef PRISMFARM_JOBS_H

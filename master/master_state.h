@@ -40,55 +40,72 @@ typedef struct mworker {
     sched_task_t unsent;
 } mworker_t;
 
-/* One merged pass of a job and the error estimate after it (docs/farm.md, "Accuracy"). */
-
+/* A job, in the master's list from its submission (or the journal) on. Its fields by concern:
+ * what was submitted, what its scene says, its place in the scheduler, its outputs, its photon
+ * phase, its accuracy and the journal's view of it. */
 typedef struct mjob {
     uint64_t id;
     char *name;
     char stem[88]; /* file-name form of the name: outputs are <stem>.exr and <stem>.png */
     char hash[PROTO_HASH_HEX + 1];
+    char *main; /* the bundle's main file, to load the scene again (a refinement, a restarted
+                 * master) */
     proto_settings_t settings;           /* strings point into integrator / dispersion */
     char integrator[65], dispersion[65]; /* protocol.md: names of at most 64 bytes */
-    int xres, yres, spp, ntiles;
-    uint64_t seed; /* the scene's, after the settings' override */
-    const char *integrator_used, *dispersion_used; /* what the loaded scene runs with */
-    spectral_grid_t grid;
-    double submitted, started, finished; /* monotonic seconds; 0: not yet */
     job_state_t state;
-    bool in_sched; /* false once finished: its image is on disk and the scheduler forgot it */
-    bool preview;  /* jobs/<id>/preview.png exists */
-    double last_preview; /* when it was written; 0: never */
-    bool outputs;  /* jobs/<id>/<stem>.exr and .png exist */
-    uint64_t samples_done, samples_total, nonfinite; /* kept when the scheduler forgets it */
     char *error;
+    double submitted, started, finished; /* monotonic seconds; 0: not yet */
+    /* The figures it takes from its loaded scene (job_take_scene). */
+    struct {
+        int xres, yres, spp;
+        uint64_t seed;                       /* the scene's, after the settings' override */
+        const char *integrator, *dispersion; /* what the loaded scene runs with */
+        spectral_grid_t grid;
+    } scene;
+    /* Its place in the scheduler. */
+    struct {
+        bool known; /* false once finished: its image is on disk and the scheduler forgot it */
+        int ntiles;
+        /* Bumped by each refinement and carried in the upper 32 bits of every task id on the
+         * wire, so a late result of an earlier round is told from the current one's. */
+        uint32_t round;
+        uint64_t samples_done, samples_total, nonfinite; /* kept when the scheduler forgets it */
+    } sched;
+    struct {
+        bool preview;        /* jobs/<id>/preview.png exists */
+        double last_preview; /* when it was written; 0: never */
+        bool final;          /* jobs/<id>/<stem>.exr and .png exist */
+    } outputs;
     /* A job with a photon pass: its batches, their merge and the merged store (kept for
      * refinement after the job is done). The scheduler's batch b is the phase's batch
-     * photon_base + b: a refinement adds its batches to a fresh scheduler job. */
-    photon_phase_t *photons;
-    bool photon_job;        /* the scene has a photon pass (photons may be on disk, below) */
-    char *main;             /* the bundle's main file, to load the scene again (a refinement, a
-                             * restarted master) */
-    uint64_t photons_saved; /* photons in jobs/<id>/photons.store when photons is NULL */
-    uint32_t photon_base;
-    bool store_ready;
-    char store[PROTO_HASH_HEX + 1];
-    /* Bumped by each refinement and carried in the upper 32 bits of every task id on the wire,
-     * so a late result of an earlier round is told from the current one's. */
-    uint32_t round;
-    /* Accuracy of the current round: a record per merged pass, the spp of the passes merged
-     * (kept when the scheduler forgets the job) and why it ended before its last pass. */
-    pass_record_t history[STOPPING_MAX_RECORDS];
-    int nhistory;
-    int spp_done;
-    proto_stop_t stop;
+     * base + b: a refinement adds its batches to a fresh scheduler job. */
+    struct {
+        photon_phase_t *phase;
+        bool enabled;     /* the scene has a photon pass (phase may be on disk, below) */
+        uint64_t saved;   /* photons in jobs/<id>/photons.store when phase is NULL */
+        uint32_t base;    /* the round's first batch */
+        bool store_ready; /* the round's batches are merged: store names the merged store */
+        char store[PROTO_HASH_HEX + 1]; /* its hash, in every camera task (STORE_REQUEST) */
+    } photons;
+    /* Accuracy of the current round: a record per merged pass (film/stopping.h: one merged pass
+     * of a job and the error estimate after it; docs/farm.md, "Accuracy"), the spp of the passes
+     * merged (kept when the scheduler forgets the job) and why it ended before its last pass. */
+    struct {
+        pass_record_t history[STOPPING_MAX_RECORDS];
+        int nhistory;
+        int spp_done;
+        proto_stop_t stop;
+    } accuracy;
     /* The journal's view (journal.h): what the round's photon store holds when its phase is
      * done, the photons this round added, the checkpoint file's generation, and the bytes of
      * results journaled since it (a new checkpoint once they outgrow the image). */
-    uint64_t round_photons, refine_photons;
-    uint64_t checkpoint;
-    size_t journaled_bytes;
-    uint64_t checkpoint_samples; /* samples merged at the last checkpoint */
-    double last_checkpoint;      /* when it was written (monotonic seconds; 0: none yet) */
+    struct {
+        uint64_t round_photons, refine_photons;
+        uint64_t checkpoint;
+        size_t bytes;
+        uint64_t checkpoint_samples; /* samples merged at the last checkpoint */
+        double last_checkpoint;      /* when it was written (monotonic seconds; 0: none yet) */
+    } journal;
 } mjob_t;
 
 /* A client's STATUS with a wait: answered when its job is over or at the deadline. */

@@ -22,13 +22,17 @@ static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
         error_estimate_t e = error_estimate_image(sched_job_image(m->sched, j->id));
         double elapsed = j->started > 0 && now > j->started ? now - j->started : 0;
         /* A restarted master merging the journal's results again meets passes it recorded. */
-        bool known = j->nhistory > 0 && j->history[j->nhistory - 1].pass >= info.passes_done;
-        if (!known && j->nhistory < STOPPING_MAX_RECORDS) {
+        bool known = j->accuracy.nhistory > 0 &&
+                     j->accuracy.history[j->accuracy.nhistory - 1].pass >= info.passes_done;
+        if (!known && j->accuracy.nhistory < STOPPING_MAX_RECORDS) {
             pass_record_t rec = stopping_record(info.passes_done, info.spp_done, elapsed, &e);
-            j->history[j->nhistory++] = rec;
-            journal_pass_t jp = {.pass = rec.pass, .spp = rec.spp, .elapsed = rec.elapsed,
-                                 .valid = rec.valid, .rel_error = rec.rel_error};
-            if (m->journal && journal_add_pass(m->journal, j->id, j->round, &jp, &err) < 0)
+            j->accuracy.history[j->accuracy.nhistory++] = rec;
+            journal_pass_t jp = {.pass = rec.pass,
+                                 .spp = rec.spp,
+                                 .elapsed = rec.elapsed,
+                                 .valid = rec.valid,
+                                 .rel_error = rec.rel_error};
+            if (m->journal && journal_add_pass(m->journal, j->id, j->sched.round, &jp, &err) < 0)
                 persist_failed(m, j, &err);
         }
         char est[64] = "no error estimate yet (1 sample per pixel)";
@@ -53,7 +57,7 @@ static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
                 master_log(m, "job %llu: cannot end it at pass %d: %s", (unsigned long long)j->id,
                            info.passes_done, err.msg);
             } else {
-                j->stop = stop;
+                j->accuracy.stop = stop;
                 return; /* job_refresh writes the outputs and tells the workers */
             }
         }
@@ -70,14 +74,14 @@ static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
      * with the workers' threads) for images nobody looks at that often; the final image is
      * written when the job is done whatever the interval. */
     if (sched_job_info(m->sched, j->id, &info) < 0 || info.state != JOB_RUNNING ||
-        now - (j->last_preview > 0 ? j->last_preview : j->started) < m->opts->preview_interval_s)
+        now - (j->outputs.last_preview > 0 ? j->outputs.last_preview : j->started) <
+            m->opts->preview_interval_s)
         return;
     if (job_write_image(m, j, false, &err) < 0) {
-        master_log(m, "job %llu: cannot write the preview: %s", (unsigned long long)j->id,
-                   err.msg);
+        master_log(m, "job %llu: cannot write the preview: %s", (unsigned long long)j->id, err.msg);
     } else {
-        j->preview = true;
-        j->last_preview = now;
+        j->outputs.preview = true;
+        j->outputs.last_preview = now;
         master_log(m, "job %llu preview written at %d spp", (unsigned long long)j->id,
                    info.spp_done);
     }
@@ -89,15 +93,14 @@ void merge_photon_phase_done(master_t *m, mjob_t *j)
     const uint8_t *data;
     size_t size;
     const char *hash;
-    if (photon_phase_store(j->photons, &data, &size, &hash, &err) < 0) {
-        master_log(m, "job %llu: the merged photon store: %s", (unsigned long long)j->id,
-                   err.msg);
+    if (photon_phase_store(j->photons.phase, &data, &size, &hash, &err) < 0) {
+        master_log(m, "job %llu: the merged photon store: %s", (unsigned long long)j->id, err.msg);
         sched_fail_job(m->sched, j->id, err.msg);
         return;
     }
-    memcpy(j->store, hash, sizeof j->store);
-    j->store_ready = true;
-    photon_phase_stats_t ps = photon_phase_stats(j->photons);
+    memcpy(j->photons.store, hash, sizeof j->photons.store);
+    j->photons.store_ready = true;
+    photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);
     master_log(m,
                "job %llu photon pass merged: %llu photons in %u batches, %llu emitted, %.1f MB "
                "store %.12s",
@@ -113,9 +116,9 @@ void merge_photon_batch(master_t *m, mjob_t *j, const merge_source_t *src, uint3
     err_t err;
     int rc = -1;
     uint32_t b = task & ~SCHED_PHOTON_TASK;
-    if (!(task & SCHED_PHOTON_TASK) || !j->photons)
+    if (!(task & SCHED_PHOTON_TASK) || !j->photons.phase)
         err_set(&err, "task %u is not a photon batch of the job, or its result is not one", task);
-    else if ((rc = photon_phase_add(j->photons, j->photon_base + b, r, &err)) >= 0)
+    else if ((rc = photon_phase_add(j->photons.phase, j->photons.base + b, r, &err)) >= 0)
         rc = sched_photon_done(m->sched, src->id, j->id, task, attempt, now, &err);
     if (rc < 0) {
         master_log(m, "bad photon batch from %s %llu '%s' for job %llu: %s",
@@ -130,8 +133,8 @@ void merge_photon_batch(master_t *m, mjob_t *j, const merge_source_t *src, uint3
         if (journal_pack_photons(r, &blob, &size, &err) < 0) {
             persist_failed(m, j, &err);
         } else {
-            if (journal_add_result(m->journal, j->id, j->round, task, 1, (int)b, -1, blob, size,
-                                   &err) < 0)
+            if (journal_add_result(m->journal, j->id, j->sched.round, task, 1, (int)b, -1, blob,
+                                   size, &err) < 0)
                 persist_failed(m, j, &err);
             free(blob);
         }
@@ -144,7 +147,7 @@ void merge_camera_tile(master_t *m, mjob_t *j, const merge_source_t *src, uint32
                        uint32_t attempt, tilebuf_t *tb, uint32_t sb, uint32_t se,
                        const proto_tile_result_t *wire, double now)
 {
-    uint64_t pass = j->ntiles > 0 ? task / (uint64_t)j->ntiles : 0;
+    uint64_t pass = j->sched.ntiles > 0 ? task / (uint64_t)j->sched.ntiles : 0;
     if (pass >= 40) {
         master_log(m, "%s %llu sent a result for job %llu task %u, which does not exist",
                    src->replay ? "the journal" : "worker", (unsigned long long)src->id,
@@ -153,7 +156,7 @@ void merge_camera_tile(master_t *m, mjob_t *j, const merge_source_t *src, uint32
         return;
     }
     uint32_t pb, pe;
-    passes_range(j->spp, pass, &pb, &pe);
+    passes_range(j->scene.spp, pass, &pb, &pe);
     err_t err;
     int rc = -1;
     if (sb != pb || se != pe) {
@@ -173,15 +176,15 @@ void merge_camera_tile(master_t *m, mjob_t *j, const merge_source_t *src, uint32
     if ((rc & SCHED_MERGED) && m->journal && wire) {
         uint8_t *blob;
         size_t size;
-        int tile = (int)(task % (uint32_t)j->ntiles);
+        int tile = (int)(task % (uint32_t)j->sched.ntiles);
         if (journal_pack_tile(wire, &blob, &size, &err) < 0) {
             persist_failed(m, j, &err);
         } else {
-            if (journal_add_result(m->journal, j->id, j->round, task, 0, tile, (int)pass, blob,
-                                   size, &err) < 0)
+            if (journal_add_result(m->journal, j->id, j->sched.round, task, 0, tile, (int)pass,
+                                   blob, size, &err) < 0)
                 persist_failed(m, j, &err);
             else
-                j->journaled_bytes += size;
+                j->journal.bytes += size;
             free(blob);
         }
     }

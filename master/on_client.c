@@ -55,23 +55,24 @@ static proto_job_info_t job_wire_info(const master_t *m, const mjob_t *j, double
     proto_job_info_t o = {.id = j->id,
                           .name = j->name,
                           .state = wire_state(j->state),
-                          .samples_done = j->samples_done,
-                          .samples_total = j->samples_total,
-                          .nonfinite = j->nonfinite};
-    o.spp = (uint32_t)j->spp_done;
+                          .samples_done = j->sched.samples_done,
+                          .samples_total = j->sched.samples_total,
+                          .nonfinite = j->sched.nonfinite};
+    o.spp = (uint32_t)j->accuracy.spp_done;
     sched_job_info_t info;
-    if (j->in_sched && sched_job_info(m->sched, j->id, &info) == 0) {
+    if (j->sched.known && sched_job_info(m->sched, j->id, &info) == 0) {
         o.samples_done = info.samples_done;
         o.samples_total = info.samples_total;
         o.nonfinite = info.nonfinite;
         o.spp = (uint32_t)info.spp_done;
     }
-    const pass_record_t *last = j->nhistory > 0 ? &j->history[j->nhistory - 1] : NULL;
+    const pass_record_t *last =
+        j->accuracy.nhistory > 0 ? &j->accuracy.history[j->accuracy.nhistory - 1] : NULL;
     if (last && last->valid) {
         o.has_rel_error = true;
         o.rel_error = last->rel_error;
     }
-    o.stop = j->stop;
+    o.stop = j->accuracy.stop;
     double secs = j->started > 0 ? (j->finished > 0 ? j->finished : now) - j->started : 0;
     o.elapsed = secs > 0 ? secs : 0;
     if (j->state == JOB_FAILED)
@@ -134,7 +135,8 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "the master cannot store the scene: %s", err.msg);
         return;
     }
-    if (job_schedule(m, j, j->photons ? photon_phase_nbatches(j->photons) : 0, &err) < 0) {
+    if (job_schedule(m, j, j->photons.phase ? photon_phase_nbatches(j->photons.phase) : 0, &err) <
+        0) {
         job_free(j);
         master_log(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
         reply_error(m, from, "%s", err.msg);
@@ -169,8 +171,8 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     master_log(m,
                "job %llu '%s' submitted by %s: %dx%d, %d spp, %d buckets, %d tiles x %d passes, "
                "%u photon batches, scene %.12s%s%s",
-               (unsigned long long)id, j->name, who, j->xres, j->yres, j->spp, j->grid.n,
-               info.ntiles, info.npasses, info.photon_batches, hash,
+               (unsigned long long)id, j->name, who, j->scene.xres, j->scene.yres, j->scene.spp,
+               j->scene.grid.n, info.ntiles, info.npasses, info.photon_batches, hash,
                staged ? "" : " (stored already)", rules);
 }
 
@@ -256,8 +258,8 @@ static void on_status(master_t *m, const proto_peer_t *from, const proto_msg_t *
     else if (msg->status.wait_ms == 0 || job_over(j) || m->nwaiters == MAX_WAITERS)
         reply_jobs(m, from, PROTO_STATUS_REPLY, j, now);
     else
-        m->waiters[m->nwaiters++] = (waiter_t){
-            .peer = *from, .job = j->id, .deadline = now + msg->status.wait_ms / 1000.0};
+        m->waiters[m->nwaiters++] =
+            (waiter_t){.peer = *from, .job = j->id, .deadline = now + msg->status.wait_ms / 1000.0};
 }
 
 static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *msg)
@@ -269,7 +271,7 @@ static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *m
     }
     char path[PATH_MAX + 200], name[128];
     const char *state = job_state_name(j->state);
-    if (j->outputs) {
+    if (j->outputs.final) {
         const char *ext = msg->fetch.what == PROTO_FETCH_EXR ? "exr" : "png";
         snprintf(path, sizeof path, "%s/jobs/%llu/%s.%s", spool_path(m->spool),
                  (unsigned long long)j->id, j->stem, ext);
@@ -278,7 +280,7 @@ static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *m
         reply_error(m, from, "job %llu is %s: its EXR exists once it is done",
                     (unsigned long long)j->id, state);
         return;
-    } else if (j->preview) {
+    } else if (j->outputs.preview) {
         snprintf(path, sizeof path, "%s/jobs/%llu/preview.png", spool_path(m->spool),
                  (unsigned long long)j->id);
         snprintf(name, sizeof name, "%s-preview.png", j->stem);
@@ -314,32 +316,33 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "no job %llu", (unsigned long long)msg->refine.job);
         return;
     }
-    if (!j->photon_job) {
+    if (!j->photons.enabled) {
         reply_error(m, from,
                     "job %llu has no photon pass to refine (its integrator is not \"photon\")",
                     (unsigned long long)j->id);
         return;
     }
-    if (j->state != JOB_DONE || j->in_sched) {
+    if (j->state != JOB_DONE || j->sched.known) {
         reply_error(m, from, "job %llu is %s: only a finished job can be refined",
                     (unsigned long long)j->id, job_state_name(j->state));
         return;
     }
     err_t err;
-    if (!j->photons && persist_load_photons(m, j, &err) < 0) {
+    if (!j->photons.phase && persist_load_photons(m, j, &err) < 0) {
         master_log(m, "job %llu: cannot refine: %s", (unsigned long long)j->id, err.msg);
         reply_error(m, from, "job %llu: cannot restore its photon pass: %s",
                     (unsigned long long)j->id, err.msg);
         return;
     }
-    uint32_t base = photon_phase_nbatches(j->photons);
-    if (photon_phase_refine(j->photons, msg->refine.photons, &err) < 0) {
+    uint32_t base = photon_phase_nbatches(j->photons.phase);
+    if (photon_phase_refine(j->photons.phase, msg->refine.photons, &err) < 0) {
         reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
         return;
     }
-    uint32_t added = photon_phase_nbatches(j->photons) - base;
+    uint32_t added = photon_phase_nbatches(j->photons.phase) - base;
     bool may_stop = j->settings.target_error > 0 || j->settings.time_limit > 0;
-    if (sched_add_job(m->sched, j->id, j->xres, j->yres, j->spp, j->grid, &err) < 0 ||
+    if (sched_add_job(m->sched, j->id, j->scene.xres, j->scene.yres, j->scene.spp, j->scene.grid,
+                      &err) < 0 ||
         (may_stop && sched_set_whole_passes(m->sched, j->id, &err) < 0) ||
         sched_add_photon_batches(m->sched, j->id, added, &err) < 0) {
         err_t ignore;
@@ -355,26 +358,27 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
     }
     sched_job_info_t info;
     if (sched_job_info(m->sched, j->id, &info) == 0)
-        j->ntiles = info.ntiles;
-    j->photon_base = base;
-    j->refine_photons = msg->refine.photons;
-    j->round_photons = photon_phase_stats(j->photons).photons + msg->refine.photons;
-    j->round++;
-    j->store_ready = false;
-    j->in_sched = true;
+        j->sched.ntiles = info.ntiles;
+    j->photons.base = base;
+    j->journal.refine_photons = msg->refine.photons;
+    j->journal.round_photons = photon_phase_stats(j->photons.phase).photons + msg->refine.photons;
+    j->sched.round++;
+    j->photons.store_ready = false;
+    j->sched.known = true;
     j->state = JOB_QUEUED;
     j->started = j->finished = 0;
-    j->samples_done = 0;
-    j->nhistory = j->spp_done = 0; /* the round's accuracy, with its own stopping rules */
-    j->stop = PROTO_STOP_NONE;
+    j->sched.samples_done = 0;
+    j->accuracy.nhistory = j->accuracy.spp_done =
+        0; /* the round's accuracy, with its own stopping rules */
+    j->accuracy.stop = PROTO_STOP_NONE;
     j->submitted = now;
-    j->checkpoint = 0;
-    j->journaled_bytes = 0;
-    j->checkpoint_samples = 0;
+    j->journal.checkpoint = 0;
+    j->journal.bytes = 0;
+    j->journal.checkpoint_samples = 0;
     journal_job_t rec = persist_record(j, now);
     if (m->journal && journal_set_round(m->journal, &rec, &err) < 0)
         persist_failed(m, j, &err);
-    photon_phase_stats_t ps = photon_phase_stats(j->photons);
+    photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);
     master_log(m,
                "job %llu '%s' refined: %llu more photons in %u batches (%llu so far), then the "
                "camera phase again",
@@ -392,7 +396,7 @@ static void on_cancel(master_t *m, const proto_peer_t *from, const proto_msg_t *
         return;
     }
     err_t err;
-    if (j->in_sched && sched_cancel_job(m->sched, j->id, &err) < 0)
+    if (j->sched.known && sched_cancel_job(m->sched, j->id, &err) < 0)
         master_log(m, "cancel: %s", err.msg);
     job_refresh(m, j, now);
     reply_jobs(m, from, PROTO_STATUS_REPLY, j, now);

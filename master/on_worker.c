@@ -59,7 +59,7 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
                    (unsigned long long)w->id, (unsigned long long)job);
         return;
     }
-    if (!j->in_sched || task >> 32 != j->round)
+    if (!j->sched.known || task >> 32 != j->sched.round)
         return; /* finished already, or of an earlier round: a late copy of a re-issued task */
     uint32_t t32 = (uint32_t)(task & UINT32_MAX);
     merge_source_t src = {.id = w->id, .name = w->name};
@@ -85,8 +85,8 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
                    (unsigned long long)w->id, w->name, (unsigned long long)job, err.msg);
         sched_task_failed(m->sched, w->id, job, t32, attempt, err.msg);
     } else {
-        merge_camera_tile(m, j, &src, t32, attempt, tb, r->rect.sample_begin, r->rect.sample_end,
-                          r, now);
+        merge_camera_tile(m, j, &src, t32, attempt, tb, r->rect.sample_begin, r->rect.sample_end, r,
+                          now);
     }
     job_refresh(m, j, now);
 }
@@ -94,7 +94,7 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
 static void on_task_failed(master_t *m, mworker_t *w, const proto_msg_t *msg, double now)
 {
     mjob_t *j = jobs_find(m, msg->task_failed.job);
-    if (!j || !j->in_sched || msg->task_failed.task >> 32 != j->round)
+    if (!j || !j->sched.known || msg->task_failed.task >> 32 != j->sched.round)
         return;
     master_log(m, "job %llu task %llu failed on worker %llu '%s': %s", (unsigned long long)j->id,
                (unsigned long long)msg->task_failed.task, (unsigned long long)w->id, w->name,
@@ -124,22 +124,23 @@ static void on_store_request(master_t *m, mworker_t *w, const proto_msg_t *msg)
 {
     for (size_t i = 0; i < m->njobs; i++) {
         mjob_t *j = m->jobs[i];
-        if (!j->photons || !j->store_ready || strcmp(j->store, msg->store_request.store) != 0)
+        if (!j->photons.phase || !j->photons.store_ready ||
+            strcmp(j->photons.store, msg->store_request.store) != 0)
             continue;
         const uint8_t *data;
         size_t size;
         const char *hash;
         err_t err;
-        if (photon_phase_store(j->photons, &data, &size, &hash, &err) < 0) {
-            master_log(m, "worker %llu asked for photon store %.12s: %s",
-                       (unsigned long long)w->id, msg->store_request.store, err.msg);
+        if (photon_phase_store(j->photons.phase, &data, &size, &hash, &err) < 0) {
+            master_log(m, "worker %llu asked for photon store %.12s: %s", (unsigned long long)w->id,
+                       msg->store_request.store, err.msg);
             return;
         }
         proto_msg_t out = {.type = PROTO_STORE, .store = {.data = data, .size = size}};
         memcpy(out.store.store, hash, sizeof out.store.store);
         if (peers_send(m, w, &out) == 0)
-            master_log(m, "photon store %.12s (%.1f MB) sent to worker %llu '%s'", hash,
-                       size / 1e6, (unsigned long long)w->id, w->name);
+            master_log(m, "photon store %.12s (%.1f MB) sent to worker %llu '%s'", hash, size / 1e6,
+                       (unsigned long long)w->id, w->name);
         return;
     }
     master_log(m, "worker %llu asked for photon store %.12s, which no job has",

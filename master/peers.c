@@ -131,17 +131,17 @@ void peers_cancel_job(master_t *m, uint64_t job)
 static int send_task(master_t *m, mworker_t *w, const sched_task_t *t, double now)
 {
     mjob_t *j = jobs_find(m, t->job);
-    if (!j || !j->in_sched)
+    if (!j || !j->sched.known)
         return 0; /* cancelled meanwhile: the scheduler already took the task back */
     proto_msg_t msg = {.type = PROTO_TASK};
     msg.task.job = t->job;
-    msg.task.task = (uint64_t)j->round << 32 | t->task;
+    msg.task.task = (uint64_t)j->sched.round << 32 | t->task;
     msg.task.attempt = t->attempt;
     memcpy(msg.task.scene, j->hash, sizeof msg.task.scene);
     msg.task.settings = j->settings;
     if (t->kind == SCHED_PHOTON) {
         msg.task.kind = PROTO_KIND_PHOTON_BATCH;
-        msg.task.photons = photon_phase_batch(j->photons, j->photon_base + t->batch);
+        msg.task.photons = photon_phase_batch(j->photons.phase, j->photons.base + t->batch);
     } else {
         msg.task.kind = PROTO_KIND_CAMERA_TILE;
         msg.task.tile = (proto_tile_t){.x0 = t->x0,
@@ -151,8 +151,8 @@ static int send_task(master_t *m, mworker_t *w, const sched_task_t *t, double no
                                        .sample_begin = t->sample_begin,
                                        .sample_end = t->sample_end};
         /* The camera phase starts only after every batch is merged (sched.h). */
-        if (j->photons)
-            memcpy(msg.task.store, j->store, sizeof msg.task.store);
+        if (j->photons.phase)
+            memcpy(msg.task.store, j->photons.store, sizeof msg.task.store);
     }
     int rc = peers_send(m, w, &msg);
     if (rc == 0 && j->started == 0) {

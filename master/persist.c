@@ -19,25 +19,24 @@ journal_job_t persist_record(const mjob_t *j, double now)
                        .settings = j->settings,
                        .state = (int)j->state,
                        .error = j->error,
-                       .round = j->round,
-                       .photon_base = j->photon_base,
-                       .photons_saved = j->photons_saved,
-                       .round_photons = j->round_photons,
-                       .refine_photons = j->refine_photons,
-                       .checkpoint = j->checkpoint,
-                       .stop = (int)j->stop,
-                       .outputs = j->outputs,
-                       .samples_done = j->samples_done,
-                       .samples_total = j->samples_total,
-                       .nonfinite = j->nonfinite,
-                       .spp_done = j->spp_done};
+                       .round = j->sched.round,
+                       .photon_base = j->photons.base,
+                       .photons_saved = j->photons.saved,
+                       .round_photons = j->journal.round_photons,
+                       .refine_photons = j->journal.refine_photons,
+                       .checkpoint = j->journal.checkpoint,
+                       .stop = (int)j->accuracy.stop,
+                       .outputs = j->outputs.final,
+                       .samples_done = j->sched.samples_done,
+                       .samples_total = j->sched.samples_total,
+                       .nonfinite = j->sched.nonfinite,
+                       .spp_done = j->accuracy.spp_done};
     double end = j->finished > 0 ? j->finished : now;
     r.elapsed = j->started > 0 && end > j->started ? end - j->started : 0;
     return r;
 }
 
-void persist_checkpoint_path(const master_t *m, uint64_t job, uint64_t gen, char *buf,
-                             size_t size)
+void persist_checkpoint_path(const master_t *m, uint64_t job, uint64_t gen, char *buf, size_t size)
 {
     snprintf(buf, size, "%s/jobs/%llu/checkpoint-%llu.bin", spool_path(m->spool),
              (unsigned long long)job, (unsigned long long)gen);
@@ -84,11 +83,11 @@ void persist_state(master_t *m, mjob_t *j, double now)
         persist_failed(m, j, &err);
         return;
     }
-    if (job_over(j) && j->checkpoint > 0) {
+    if (job_over(j) && j->journal.checkpoint > 0) {
         char path[PATH_MAX + 64];
-        persist_checkpoint_path(m, j->id, j->checkpoint, path, sizeof path);
+        persist_checkpoint_path(m, j->id, j->journal.checkpoint, path, sizeof path);
         (void)unlink(path); /* a leftover is removed at the next start (resume_jobs) */
-        j->checkpoint = 0;
+        j->journal.checkpoint = 0;
     }
 }
 
@@ -103,18 +102,20 @@ void persist_maybe_checkpoint(master_t *m, mjob_t *j, double now)
 {
     sched_job_info_t info;
     if (!m->journal || sched_job_info(m->sched, j->id, &info) < 0 || info.state != JOB_RUNNING ||
-        info.samples_done == j->checkpoint_samples)
+        info.samples_done == j->journal.checkpoint_samples)
         return;
-    size_t image_bytes = (size_t)j->xres * (size_t)j->yres * ((size_t)j->grid.n + 3) * 8;
-    if (j->journaled_bytes < image_bytes ||
-        (j->journaled_bytes < 4 * image_bytes && now - j->last_checkpoint < CHECKPOINT_INTERVAL_S))
+    size_t image_bytes =
+        (size_t)j->scene.xres * (size_t)j->scene.yres * ((size_t)j->scene.grid.n + 3) * 8;
+    if (j->journal.bytes < image_bytes ||
+        (j->journal.bytes < 4 * image_bytes &&
+         now - j->journal.last_checkpoint < CHECKPOINT_INTERVAL_S))
         return;
     err_t err;
     int *next = malloc((size_t)info.ntiles * sizeof *next);
     char path[PATH_MAX + 64], old[PATH_MAX + 64];
-    uint64_t gen = j->checkpoint + 1;
+    uint64_t gen = j->journal.checkpoint + 1;
     persist_checkpoint_path(m, j->id, gen, path, sizeof path);
-    persist_checkpoint_path(m, j->id, j->checkpoint, old, sizeof old);
+    persist_checkpoint_path(m, j->id, j->journal.checkpoint, old, sizeof old);
     journal_job_t r = persist_record(j, now);
     if (!next) {
         err_set(&err, "out of memory for a checkpoint");
@@ -122,14 +123,14 @@ void persist_maybe_checkpoint(master_t *m, mjob_t *j, double now)
         err_set(&err, "the scheduler has no pass table for the job");
     } else if (journal_write_checkpoint(path, sched_job_image(m->sched, j->id), next, info.ntiles,
                                         &err) == 0 &&
-               journal_set_checkpoint(m->journal, j->id, j->round, gen, next, info.ntiles,
+               journal_set_checkpoint(m->journal, j->id, j->sched.round, gen, next, info.ntiles,
                                       r.elapsed, &err) == 0) {
-        if (j->checkpoint > 0)
+        if (j->journal.checkpoint > 0)
             (void)unlink(old);
-        j->checkpoint = gen;
-        j->journaled_bytes = 0;
-        j->checkpoint_samples = info.samples_done;
-        j->last_checkpoint = now;
+        j->journal.checkpoint = gen;
+        j->journal.bytes = 0;
+        j->journal.checkpoint_samples = info.samples_done;
+        j->journal.last_checkpoint = now;
         free(next);
         return;
     } else {
@@ -137,8 +138,8 @@ void persist_maybe_checkpoint(master_t *m, mjob_t *j, double now)
     }
     free(next);
     persist_failed(m, j, &err);
-    j->journaled_bytes = 0; /* try again after as many bytes, not after every result */
-    j->last_checkpoint = now;
+    j->journal.bytes = 0; /* try again after as many bytes, not after every result */
+    j->journal.last_checkpoint = now;
 }
 
 /* A restarted master or a refinement loads the store instead of tracing again. */
@@ -148,16 +149,16 @@ int persist_save_photons(master_t *m, mjob_t *j, err_t *err)
     const uint8_t *data;
     size_t size;
     const char *hash;
-    uint64_t photons = photon_phase_stats(j->photons).photons;
-    if (j->photons_saved == photons && photons > 0)
+    uint64_t photons = photon_phase_stats(j->photons.phase).photons;
+    if (j->photons.saved == photons && photons > 0)
         return 0;
     if (spool_job_dir(m->spool, j->id, dir, sizeof dir, err) < 0 ||
-        photon_phase_store(j->photons, &data, &size, &hash, err) < 0)
+        photon_phase_store(j->photons.phase, &data, &size, &hash, err) < 0)
         return -1;
     snprintf(path, sizeof path, "%s/photons.store", dir);
     if (spool_write_file(path, data, size, err) < 0)
         return -1;
-    j->photons_saved = photons;
+    j->photons.saved = photons;
     if (m->journal && journal_set_photons_saved(m->journal, j->id, photons, err) < 0)
         persist_failed(m, j, err);
     return 0;
@@ -182,7 +183,7 @@ int persist_load_photons(master_t *m, mjob_t *j, err_t *err)
         scene_destroy(&scene);
         return -1;
     }
-    j->photons = photon_phase_restore(&scene, data, size, j->photons_saved, err);
+    j->photons.phase = photon_phase_restore(&scene, data, size, j->photons.saved, err);
     free(data);
-    return j->photons ? 0 : -1;
+    return j->photons.phase ? 0 : -1;
 }

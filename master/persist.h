@@ -13,8 +13,7 @@
 journal_job_t persist_record(const mjob_t *j, double now);
 
 /* jobs/<job>/checkpoint-<gen>.bin of the spool, in buf. */
-void persist_checkpoint_path(const master_t *m, uint64_t job, uint64_t gen, char *buf,
-                             size_t size);
+void persist_checkpoint_path(const master_t *m, uint64_t job, uint64_t gen, char *buf, size_t size);
 /* Removes jobs/<id>/checkpoint-*.bin other than generation keep (0: all). */
 void persist_remove_stale_checkpoints(master_t *m, uint64_t id, uint64_t keep);
 

@@ -41,7 +41,7 @@ static int replay_result(void *user, uint32_t task, int kind, const void *data, 
         if (!tb)
             return -1;
         merge_camera_tile(rp->m, rp->j, &src, task, 0, tb, sb, se, NULL, rp->now);
-        rp->j->journaled_bytes += size;
+        rp->j->journal.bytes += size;
     }
     rp->results++;
     return 0;
@@ -57,30 +57,31 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
     mjob_t *j = job_new(r->id, r->name, r->hash, r->main, &r->settings, dir, err);
     if (!j)
         return -1;
-    j->round = r->round;
-    j->photons_saved = r->photons_saved;
-    j->round_photons = r->round_photons;
-    j->refine_photons = r->refine_photons;
+    j->sched.round = r->round;
+    j->photons.saved = r->photons_saved;
+    j->journal.round_photons = r->round_photons;
+    j->journal.refine_photons = r->refine_photons;
     j->submitted = now;
     uint32_t batches = 0, photons_done = 0;
-    if (j->photons && r->photons_saved > 0) {
-        photon_phase_destroy(&j->photons);
+    if (j->photons.phase && r->photons_saved > 0) {
+        photon_phase_destroy(&j->photons.phase);
         if (persist_load_photons(m, j, err) < 0) {
             job_free(j);
             return -1;
         }
-        uint32_t base = photon_phase_nbatches(j->photons);
+        uint32_t base = photon_phase_nbatches(j->photons.phase);
         if (r->photons_saved >= r->round_photons) {
             batches = photons_done = base; /* the round's store is merged: camera phase */
-        } else if (photon_phase_refine(j->photons, r->round_photons - r->photons_saved, err) < 0) {
+        } else if (photon_phase_refine(j->photons.phase, r->round_photons - r->photons_saved, err) <
+                   0) {
             job_free(j);
             return -1;
         } else {
-            j->photon_base = base;
-            batches = photon_phase_nbatches(j->photons) - base;
+            j->photons.base = base;
+            batches = photon_phase_nbatches(j->photons.phase) - base;
         }
-    } else if (j->photons) {
-        batches = photon_phase_nbatches(j->photons);
+    } else if (j->photons.phase) {
+        batches = photon_phase_nbatches(j->photons.phase);
     }
     if (job_schedule(m, j, batches, err) < 0) {
         job_free(j);
@@ -93,11 +94,11 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
     if (r->checkpoint > 0) {
         char path[PATH_MAX + 64];
         persist_checkpoint_path(m, j->id, r->checkpoint, path, sizeof path);
-        if (!(next = malloc((size_t)j->ntiles * sizeof *next)))
+        if (!(next = malloc((size_t)j->sched.ntiles * sizeof *next)))
             rc = err_set(err, "out of memory");
-        else if ((rc = journal_read_checkpoint(path, j->xres, j->yres, j->grid.n, j->ntiles,
-                                               &image, next, err)) == 0)
-            j->checkpoint = r->checkpoint;
+        else if ((rc = journal_read_checkpoint(path, j->scene.xres, j->scene.yres, j->scene.grid.n,
+                                               j->sched.ntiles, &image, next, err)) == 0)
+            j->journal.checkpoint = r->checkpoint;
     }
     if (rc == 0 && (image || photons_done > 0))
         rc = sched_restore_job(m->sched, j->id, &image, image ? next : NULL, photons_done, err);
@@ -107,17 +108,20 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
         merge_photon_phase_done(m, j);
     if (rc >= 0) {
         journal_pass_t passes[STOPPING_MAX_RECORDS];
-        int n = journal_passes(m->journal, j->id, j->round, passes, STOPPING_MAX_RECORDS, err);
+        int n =
+            journal_passes(m->journal, j->id, j->sched.round, passes, STOPPING_MAX_RECORDS, err);
         rc = n < 0 ? -1 : 0;
         for (int i = 0; i < n; i++)
-            j->history[j->nhistory++] =
-                (pass_record_t){.pass = passes[i].pass, .spp = passes[i].spp,
-                                .elapsed = passes[i].elapsed, .valid = passes[i].valid,
+            j->accuracy.history[j->accuracy.nhistory++] =
+                (pass_record_t){.pass = passes[i].pass,
+                                .spp = passes[i].spp,
+                                .elapsed = passes[i].elapsed,
+                                .valid = passes[i].valid,
                                 .rel_error = passes[i].rel_error};
     }
     sched_job_info_t info;
     if (rc >= 0 && sched_job_info(m->sched, j->id, &info) == 0) {
-        j->checkpoint_samples = info.samples_done;
+        j->journal.checkpoint_samples = info.samples_done;
         if (info.state == JOB_RUNNING) {
             j->started = now - r->elapsed;
             j->state = JOB_RUNNING;
@@ -127,7 +131,7 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
     size_t lost = 0;
     journal_prune(m->journal, j->id);
     if (rc >= 0)
-        rc = journal_results(m->journal, j->id, j->round, replay_result, &rp, &lost, err);
+        rc = journal_results(m->journal, j->id, j->sched.round, replay_result, &rp, &lost, err);
     if (lost > 0)
         master_log(m,
                    "job %llu: %zu journaled results lost their files (a power cut?): rendered "
@@ -140,7 +144,7 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
         job_refresh(m, j, now);
         return 0; /* listed as failed, with the reason */
     }
-    persist_remove_stale_checkpoints(m, j->id, j->checkpoint);
+    persist_remove_stale_checkpoints(m, j->id, j->journal.checkpoint);
     if (sched_job_info(m->sched, j->id, &info) == 0)
         master_log(m,
                    "job %llu '%s' resumed: %d of %d passes merged, %llu of %llu samples, %u of %u "
