@@ -47,11 +47,6 @@ int jobs_append(master_t *m, mjob_t *j)
     return 0;
 }
 
-bool job_over(const mjob_t *j)
-{
-    return j->state == JOB_DONE || j->state == JOB_FAILED || j->state == JOB_CANCELLED;
-}
-
 void job_free(mjob_t *j)
 {
     if (j) {
@@ -93,7 +88,8 @@ static void make_stem(const char *name, char *out, size_t size)
         snprintf(out, size, "preview_");
 }
 
-void job_take_scene(mjob_t *j, const scene_t *scene)
+/* The figures a job takes from its loaded scene: sizes, seed, grid, what it runs with. */
+static void job_take_scene(mjob_t *j, const scene_t *scene)
 {
     const render_settings_t *rs = &scene->settings;
     j->scene.integrator = integrators_used_name(rs->integrator, rs->photon.enabled);
@@ -188,6 +184,30 @@ mjob_t *job_from_record(const journal_job_t *r)
     j->journal.round_photons = r->round_photons;
     j->scene.integrator = j->scene.dispersion = "?";
     return j;
+}
+
+int job_restore_photons(master_t *m, mjob_t *j, err_t *err)
+{
+    char dir[PATH_MAX], path[PATH_MAX + 32], scene_dir[PATH_MAX], main_path[2 * PATH_MAX];
+    if (spool_job_dir(m->spool, j->id, dir, sizeof dir, err) < 0)
+        return -1;
+    snprintf(path, sizeof path, "%s/photons.store", dir);
+    snprintf(scene_dir, sizeof scene_dir, "%s/scenes/%s", spool_path(m->spool), j->hash);
+    snprintf(main_path, sizeof main_path, "%s/%s", scene_dir, j->main);
+    scene_overrides_t ov = proto_settings_to_overrides(&j->settings);
+    scene_t *scene = scene_load_file_confined(main_path, scene_dir, &ov, err);
+    if (!scene)
+        return -1;
+    job_take_scene(j, scene); /* a job a restarted master read from its journal has no figures */
+    uint8_t *data = NULL;
+    size_t size = 0;
+    if (spool_read_file(path, m->limits.max_message_bytes, &data, &size, err) < 0) {
+        scene_destroy(&scene);
+        return -1;
+    }
+    j->photons.phase = photon_phase_restore(&scene, data, size, j->photons.saved, err);
+    free(data);
+    return j->photons.phase ? 0 : -1;
 }
 
 int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err)

@@ -9,15 +9,11 @@
 #define PRISMFARM_JOBS_H
 
 #include "master_state.h"
-#include "scene.h"
 
 /* The job with this id; NULL if none. */
 mjob_t *jobs_find(const master_t *m, uint64_t id);
 /* Appends a job to the list (its id above every other's); -1 when out of memory. */
 int jobs_append(master_t *m, mjob_t *j);
-
-/* Done, failed or cancelled: what a STATUS long poll waits for. */
-bool job_over(const mjob_t *j);
 
 /* A job made from its scene, dir/main loaded with the settings and confined to dir; a photon
  * job gets a fresh photon phase. Not yet scheduled (job_schedule). NULL with err. */
@@ -27,9 +23,10 @@ mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *mai
  * that cannot be resumed. NULL when out of memory. */
 mjob_t *job_from_record(const journal_job_t *r);
 void job_free(mjob_t *j);
+/* The photon pass of a finished job back from disk: its scene loaded again from the spool (as
+ * at submission, confined to the bundle's folder) and its merged store from photons.store. */
+int job_restore_photons(master_t *m, mjob_t *j, err_t *err);
 
-/* The figures a job takes from its loaded scene: sizes, seed, grid, what it runs with. */
-void job_take_scene(mjob_t *j, const scene_t *scene);
 void job_set_error(mjob_t *j, const char *msg);
 
 /* Adds a new job to the scheduler, with photon_batches batches before its camera phase and

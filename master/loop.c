@@ -8,6 +8,7 @@
 
 #include "clock.h"
 #include "curve.h"
+#include "dispatch.h"
 #include "jobs.h"
 #include "master_state.h"
 #include "on_client.h"
@@ -249,7 +250,7 @@ int master_run(const master_opts_t *opts, err_t *err)
         }
         double now = clock_now_s();
         housekeeping(m, now, now - polled);
-        peers_dispatch(m, now);
+        dispatch_tasks(m, now);
         peers_prune_lost(m);
         until_waiter = on_client_answer_waiters(m, now);
     }

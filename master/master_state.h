@@ -1,8 +1,9 @@
 /* master_state: the master daemon's state, an internal header shared by the files of master/
  * that make the daemon (cli/ and tests/ use master.h). One thread owns it all: master_run's loop
- * (loop.c) hands each message to a handler (on_worker.c, on_client.c) and each turn's clock work
- * to peers.c and jobs.c, and they change it in place; nothing here is locked or copied. The
- * helpers below are the few every file needs: the log, a string copy, a REFUSE. */
+ * (loop.c) hands each message to a handler (on_worker.c, on_client.c) and each turn's clock
+ * work to peers.c, jobs.c and dispatch.c, and they change it in place; nothing here is locked
+ * or copied. The helpers below are the few every file needs: a job's end, the log, a string
+ * copy, a REFUSE. */
 #ifndef PRISMFARM_MASTER_STATE_H
 #define PRISMFARM_MASTER_STATE_H
 
@@ -133,6 +134,12 @@ typedef struct master {
     waiter_t waiters[MAX_WAITERS];
     size_t nwaiters;
 } master_t;
+
+/* Done, failed or cancelled: what a STATUS long poll waits for. */
+static inline bool job_over(const mjob_t *j)
+{
+    return j->state == JOB_DONE || j->state == JOB_FAILED || j->state == JOB_CANCELLED;
+}
 
 /* A line "master: ..." on stderr when opts->verbose. */
 __attribute__((format(printf, 2, 3))) void master_log(const master_t *m, const char *fmt, ...);

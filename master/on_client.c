@@ -328,7 +328,7 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
         return;
     }
     err_t err;
-    if (!j->photons.phase && persist_load_photons(m, j, &err) < 0) {
+    if (!j->photons.phase && job_restore_photons(m, j, &err) < 0) {
         master_log(m, "job %llu: cannot refine: %s", (unsigned long long)j->id, err.msg);
         reply_error(m, from, "job %llu: cannot restore its photon pass: %s",
                     (unsigned long long)j->id, err.msg);

@@ -1,9 +1,8 @@
-/* peers: the master's table of workers (master_state.h's m->workers) and what it says to them.
- * A worker joins by HELLO (on_worker.c) and stays in the table, alive or lost; a lost worker's
- * tasks are back in the scheduler's queue the moment it is marked lost, and a peer that can no
- * longer be reached is lost at the first send. Every live worker's task slots are kept full
- * (peers_dispatch), at most one TASK waiting for room in its queue. The master and the
- * scheduler always agree on who is alive. */
+/* peers: the master's table of workers (master_state.h's m->workers) and what it says to them
+ * beyond tasks (dispatch.h). A worker joins by HELLO (on_worker.c) and stays in the table,
+ * alive or lost; a lost worker's tasks are back in the scheduler's queue the moment it is
+ * marked lost, and a peer that can no longer be reached is lost at the first send. The master
+ * and the scheduler always agree on who is alive. */
 #ifndef PRISMFARM_PEERS_H
 #define PRISMFARM_PEERS_H
 
@@ -31,8 +30,6 @@ void peers_prune_lost(master_t *m);
 int peers_send(master_t *m, mworker_t *w, const proto_msg_t *msg);
 /* CANCEL {job} to every live worker, and the job's unsent task dropped. */
 void peers_cancel_job(master_t *m, uint64_t job);
-/* Keeps every live worker's task slots full. */
-void peers_dispatch(master_t *m, double now);
 
 /* The workers' silence: a turn of the loop that took busy seconds, more than half the worker
  * timeout, counts as a sign of life for every worker; a worker silent longer than the timeout

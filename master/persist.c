@@ -1,8 +1,5 @@
 #include "persist.h"
 
-#include "jobs.h"
-#include "scene_load.h"
-
 #include <dirent.h>
 #include <limits.h>
 #include <stdio.h>
@@ -162,28 +159,4 @@ int persist_save_photons(master_t *m, mjob_t *j, err_t *err)
     if (m->journal && journal_set_photons_saved(m->journal, j->id, photons, err) < 0)
         persist_failed(m, j, err);
     return 0;
-}
-
-int persist_load_photons(master_t *m, mjob_t *j, err_t *err)
-{
-    char dir[PATH_MAX], path[PATH_MAX + 32], scene_dir[PATH_MAX], main_path[2 * PATH_MAX];
-    if (spool_job_dir(m->spool, j->id, dir, sizeof dir, err) < 0)
-        return -1;
-    snprintf(path, sizeof path, "%s/photons.store", dir);
-    snprintf(scene_dir, sizeof scene_dir, "%s/scenes/%s", spool_path(m->spool), j->hash);
-    snprintf(main_path, sizeof main_path, "%s/%s", scene_dir, j->main);
-    scene_overrides_t ov = proto_settings_to_overrides(&j->settings);
-    scene_t *scene = scene_load_file_confined(main_path, scene_dir, &ov, err);
-    if (!scene)
-        return -1;
-    job_take_scene(j, scene); /* a job a restarted master read from its journal has no figures */
-    uint8_t *data = NULL;
-    size_t size = 0;
-    if (spool_read_file(path, m->limits.max_message_bytes, &data, &size, err) < 0) {
-        scene_destroy(&scene);
-        return -1;
-    }
-    j->photons.phase = photon_phase_restore(&scene, data, size, j->photons.saved, err);
-    free(data);
-    return j->photons.phase ? 0 : -1;
 }

@@ -28,10 +28,7 @@ void persist_state(master_t *m, mjob_t *j, double now);
 void persist_maybe_checkpoint(master_t *m, mjob_t *j, double now);
 
 /* The merged photon store on disk as jobs/<id>/photons.store (atomically), and in the journal
- * when there is one. */
+ * when there is one (jobs.c's job_restore_photons reads it back). */
 int persist_save_photons(master_t *m, mjob_t *j, err_t *err);
-/* The photon pass of a finished job back from disk: its scene loaded again from the spool (as
- * at submission, confined to the bundle's folder) and its merged store from photons.store. */
-int persist_load_photons(master_t *m, mjob_t *j, err_t *err);
 
 #endif

@@ -65,7 +65,7 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
     uint32_t batches = 0, photons_done = 0;
     if (j->photons.phase && r->photons_saved > 0) {
         photon_phase_destroy(&j->photons.phase);
-        if (persist_load_photons(m, j, err) < 0) {
+        if (job_restore_photons(m, j, err) < 0) {
             job_free(j);
             return -1;
         }
