@@ -54,7 +54,7 @@ typedef struct journal_job {
 
 void journal_job_clear(journal_job_t *j);
 
-/* One merged pass's accuracy record (master.c's pass_record). */
+/* One merged pass's accuracy record (film/stopping.h's pass_record_t). */
 typedef struct journal_pass {
     int pass, spp;
     double elapsed;

@@ -1,0 +1,404 @@
+#include "jobs.h"
+
+#include "clock.h"
+#include "film.h"
+#include "jobinfo.h"
+#include "peers.h"
+#include "persist.h"
+#include "scene_load.h"
+
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* Room for one more job in the list. */
+static int jobs_reserve(master_t *m)
+{
+    if (m->njobs == m->cap_jobs) {
+        size_t cap = m->cap_jobs ? 2 * m->cap_jobs : 16;
+        mjob_t **p = realloc(m->jobs, cap * sizeof *p);
+        if (!p)
+            return -1;
+        m->jobs = p;
+        m->cap_jobs = cap;
+    }
+    return 0;
+}
+
+mjob_t *jobs_find(const master_t *m, uint64_t id)
+{
+    size_t lo = 0, hi = m->njobs;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (m->jobs[mid]->id < id)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo < m->njobs && m->jobs[lo]->id == id ? m->jobs[lo] : NULL;
+}
+
+int jobs_append(master_t *m, mjob_t *j)
+{
+    if (jobs_reserve(m) < 0)
+        return -1;
+    m->jobs[m->njobs++] = j;
+    return 0;
+}
+
+void job_free(mjob_t *j)
+{
+    if (j) {
+        photon_phase_destroy(&j->photons.phase);
+        free(j->main);
+        free(j->name);
+        free(j->error);
+        free(j);
+    }
+}
+
+void job_set_error(mjob_t *j, const char *msg)
+{
+    free(j->error);
+    j->error = master_strdup(msg);
+}
+
+/* The job's name as a file name: its last path component without ".pbrt", with anything but
+ * letters, digits, '.', '-' and '_' replaced, no leading '.', never "preview" (the progressive
+ * image's name). */
+static void make_stem(const char *name, char *out, size_t size)
+{
+    const char *base = strrchr(name, '/');
+    base = base && base[1] ? base + 1 : name;
+    size_t n = strlen(base);
+    if (n > 5 && !strcmp(base + n - 5, ".pbrt"))
+        n -= 5;
+    size_t k = 0;
+    for (size_t i = 0; i < n && k + 2 < size; i++) {
+        char c = base[i];
+        bool ok = (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                  c == '-' || c == '_' || (c == '.' && k > 0);
+        out[k++] = ok ? c : '_';
+    }
+    out[k] = 0;
+    if (k == 0)
+        snprintf(out, size, "job");
+    else if (!strcmp(out, "preview"))
+        snprintf(out, size, "preview_");
+}
+
+/* The figures a job takes from its loaded scene: sizes, seed, grid, what it runs with. */
+static void job_take_scene(mjob_t *j, const scene_t *scene)
+{
+    const render_settings_t *rs = &scene->settings;
+    j->scene.integrator = integrators_used_name(rs->integrator, rs->photon.enabled);
+    j->scene.dispersion = !scene->has_dispersion              ? "off"
+                          : rs->dispersion == DISPERSION_HERO ? "hero"
+                                                              : "fanout";
+    j->scene.xres = rs->xres;
+    j->scene.yres = rs->yres;
+    j->scene.spp = rs->spp;
+    j->scene.seed = rs->seed;
+    j->scene.grid = rs->grid;
+}
+
+static void job_set_settings(mjob_t *j, const proto_settings_t *set)
+{
+    j->settings = *set;
+    j->settings.integrator = NULL;
+    j->settings.dispersion = NULL;
+    if (set->integrator) {
+        snprintf(j->integrator, sizeof j->integrator, "%s", set->integrator);
+        j->settings.integrator = j->integrator;
+    }
+    if (set->dispersion) {
+        snprintf(j->dispersion, sizeof j->dispersion, "%s", set->dispersion);
+        j->settings.dispersion = j->dispersion;
+    }
+}
+
+/* The scene reads nothing outside dir, so no message can show a client a file of the master's
+ * host; a photon job's phase keeps the scene to check and merge batches against. */
+mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
+                const proto_settings_t *set, const char *dir, err_t *err)
+{
+    size_t main_size = strlen(dir) + strlen(main) + 2;
+    char *main_path = malloc(main_size);
+    mjob_t *j = calloc(1, sizeof *j);
+    if (!main_path || !j || !(j->name = master_strdup(name)) || !(j->main = master_strdup(main))) {
+        free(main_path);
+        job_free(j);
+        err_set(err, "the master is out of memory");
+        return NULL;
+    }
+    snprintf(main_path, main_size, "%s/%s", dir, main);
+    scene_overrides_t ov = proto_settings_to_overrides(set);
+    scene_t *scene = scene_load_file_confined(main_path, dir, &ov, err);
+    free(main_path);
+    if (!scene) {
+        job_free(j);
+        return NULL;
+    }
+    job_take_scene(j, scene);
+    bool photon = scene->settings.photon.enabled;
+    uint64_t photons = scene->settings.photon.photons;
+    if (photon && !(j->photons.phase = photon_phase_new(&scene, err))) {
+        job_free(j);
+        return NULL;
+    }
+    scene_destroy(&scene);
+    j->id = id;
+    make_stem(j->name, j->stem, sizeof j->stem);
+    snprintf(j->hash, sizeof j->hash, "%s", hash);
+    job_set_settings(j, set);
+    j->photons.enabled = photon;
+    j->journal.round_photons = photon ? photons : 0;
+    j->state = JOB_QUEUED;
+    j->accuracy.stop = PROTO_STOP_NONE;
+    return j;
+}
+
+mjob_t *job_from_record(const journal_job_t *r)
+{
+    mjob_t *j = calloc(1, sizeof *j);
+    if (!j || !(j->name = master_strdup(r->name)) || !(j->main = master_strdup(r->main)) ||
+        (r->error && !(j->error = master_strdup(r->error)))) {
+        job_free(j);
+        return NULL;
+    }
+    j->id = r->id;
+    make_stem(j->name, j->stem, sizeof j->stem);
+    snprintf(j->hash, sizeof j->hash, "%s", r->hash);
+    job_set_settings(j, &r->settings);
+    j->state = (job_state_t)r->state;
+    j->outputs.final = r->outputs;
+    j->accuracy.stop = (proto_stop_t)r->stop;
+    j->sched.samples_done = r->samples_done;
+    j->sched.samples_total = r->samples_total;
+    j->sched.nonfinite = r->nonfinite;
+    j->accuracy.spp_done = r->spp_done;
+    j->sched.round = r->round;
+    j->photons.saved = r->photons_saved;
+    j->photons.enabled = r->photons_saved > 0;
+    j->journal.round_photons = r->round_photons;
+    j->scene.integrator = j->scene.dispersion = "?";
+    return j;
+}
+
+int job_restore_photons(master_t *m, mjob_t *j, err_t *err)
+{
+    char dir[PATH_MAX], path[PATH_MAX + 32], scene_dir[PATH_MAX], main_path[2 * PATH_MAX];
+    if (spool_job_dir(m->spool, j->id, dir, sizeof dir, err) < 0)
+        return -1;
+    snprintf(path, sizeof path, "%s/photons.store", dir);
+    snprintf(scene_dir, sizeof scene_dir, "%s/scenes/%s", spool_path(m->spool), j->hash);
+    snprintf(main_path, sizeof main_path, "%s/%s", scene_dir, j->main);
+    scene_overrides_t ov = proto_settings_to_overrides(&j->settings);
+    scene_t *scene = scene_load_file_confined(main_path, scene_dir, &ov, err);
+    if (!scene)
+        return -1;
+    job_take_scene(j, scene); /* a job a restarted master read from its journal has no figures */
+    uint8_t *data = NULL;
+    size_t size = 0;
+    if (spool_read_file(path, m->limits.max_message_bytes, &data, &size, err) < 0) {
+        scene_destroy(&scene);
+        return -1;
+    }
+    j->photons.phase = photon_phase_restore(&scene, data, size, j->photons.saved, err);
+    free(data);
+    return j->photons.phase ? 0 : -1;
+}
+
+int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err)
+{
+    if (jobs_reserve(m) < 0)
+        return err_set(err, "the master is out of memory");
+    bool may_stop = j->settings.target_error > 0 || j->settings.time_limit > 0;
+    sched_job_info_t info;
+    if (sched_add_job(m->sched, j->id, j->scene.xres, j->scene.yres, j->scene.spp, j->scene.grid,
+                      err) < 0)
+        return -1;
+    if ((may_stop && sched_set_whole_passes(m->sched, j->id, err) < 0) ||
+        (photon_batches > 0 &&
+         sched_add_photon_batches(m->sched, j->id, photon_batches, err) < 0) ||
+        sched_job_info(m->sched, j->id, &info) < 0) {
+        err_t ignore;
+        sched_cancel_job(m->sched, j->id, &ignore);
+        (void)sched_remove_job(m->sched, j->id, &ignore);
+        return -1;
+    }
+    j->sched.ntiles = info.ntiles;
+    j->sched.samples_total = info.samples_total;
+    j->sched.known = true;
+    m->jobs[m->njobs++] = j;
+    return 0;
+}
+
+/* For a submission that could not be journaled. */
+void job_unschedule(master_t *m, mjob_t *j)
+{
+    err_t ignore;
+    (void)sched_cancel_job(m->sched, j->id, &ignore);
+    (void)sched_remove_job(m->sched, j->id, &ignore);
+    for (size_t i = 0; i < m->njobs; i++)
+        if (m->jobs[i] == j) {
+            memmove(&m->jobs[i], &m->jobs[i + 1], (m->njobs - i - 1) * sizeof *m->jobs);
+            m->njobs--;
+            break;
+        }
+    job_free(j);
+}
+
+int job_write_image(master_t *m, mjob_t *j, bool final, err_t *err)
+{
+    char dir[PATH_MAX], exr[PATH_MAX + 100], png[PATH_MAX + 100];
+    if (spool_job_dir(m->spool, j->id, dir, sizeof dir, err) < 0)
+        return -1;
+    const tilebuf_t *image = sched_job_image(m->sched, j->id);
+    if (!image)
+        return err_set(err, "job %llu has no image", (unsigned long long)j->id);
+    sched_job_info_t si;
+    if (sched_job_info(m->sched, j->id, &si) < 0)
+        return err_set(err, "job %llu is unknown to the scheduler", (unsigned long long)j->id);
+    char info[4096];
+    jobinfo_t ji = {
+        .job = j->id,
+        .name = j->stem,
+        .scene = j->hash,
+        .spp = j->scene.spp,
+        .xres = j->scene.xres,
+        .yres = j->scene.yres,
+        .seed = j->scene.seed,
+        .integrator = j->scene.integrator,
+        .dispersion = j->scene.dispersion,
+        .samples = si.samples_done,
+        .nonfinite = si.nonfinite,
+        .photons = j->photons.phase ? photon_phase_stats(j->photons.phase).photons : 0,
+        .rays = -1,
+        .seconds = j->started > 0 ? clock_now_s() - j->started : 0.0,
+        .spp_done = si.spp_done,
+        .stop = (stopping_why_t)j->accuracy.stop,
+        .rule = {.target_error = j->settings.target_error, .time_limit = j->settings.time_limit},
+        .history = j->accuracy.history,
+        .nhistory = j->accuracy.nhistory};
+    jobinfo_format(&ji, info, sizeof info);
+    film_output_t out = {
+        .spectral = 1, .tonemap = {.exposure_stops = 0, .curve = COLOUR_CURVE_ACES}, .info = info};
+    if (final) {
+        snprintf(exr, sizeof exr, "%s/%s.exr", dir, j->stem);
+        snprintf(png, sizeof png, "%s/%s.png", dir, j->stem);
+        out.exr_path = exr;
+    } else {
+        snprintf(png, sizeof png, "%s/preview.png", dir);
+    }
+    out.png_path = png;
+    return film_write(image, j->scene.grid, &out, err);
+}
+
+/* A photon job that is over gives back its store's memory: a finished job's merged store goes
+ * to jobs/<id>/photons.store (for a refinement, which loads the scene again and restores it),
+ * and the scene and batches are dropped; a failed or cancelled one cannot be refined. Kept in
+ * memory only if it cannot be written. */
+static void release_photons(master_t *m, mjob_t *j)
+{
+    if (!j->photons.phase)
+        return;
+    err_t err;
+    if (j->state == JOB_DONE && persist_save_photons(m, j, &err) < 0) {
+        master_log(m, "job %llu: keeping its photon store in memory: %s", (unsigned long long)j->id,
+                   err.msg);
+        return;
+    }
+    photon_phase_destroy(&j->photons.phase);
+    j->photons.store_ready = false;
+}
+
+void job_refresh(master_t *m, mjob_t *j, double now)
+{
+    sched_job_info_t info;
+    if (!j->sched.known || sched_job_info(m->sched, j->id, &info) < 0 || info.state == j->state)
+        return;
+    j->state = info.state;
+    if (info.state == JOB_RUNNING || info.state == JOB_QUEUED) {
+        if (info.state == JOB_RUNNING && j->started == 0)
+            j->started = now;
+        return;
+    }
+    if (j->started == 0)
+        j->started = now;
+    j->finished = now;
+    if (info.state == JOB_DONE) {
+        err_t err;
+        /* Ended before its last pass (target error, time limit): the tasks still out are of
+         * passes that will never be merged, so the workers drop them, as for a cancel. */
+        if (j->accuracy.stop != PROTO_STOP_NONE)
+            peers_cancel_job(m, j->id);
+        if (job_write_image(m, j, true, &err) < 0) {
+            char msg[600];
+            snprintf(msg, sizeof msg, "writing the outputs: %s", err.msg);
+            job_set_error(j, msg);
+            j->state = JOB_FAILED;
+            master_log(m, "job %llu '%s' failed: %s", (unsigned long long)j->id, j->name, msg);
+        } else {
+            j->outputs.final = true;
+            const pass_record_t *last =
+                j->accuracy.nhistory > 0 ? &j->accuracy.history[j->accuracy.nhistory - 1] : NULL;
+            char acc[160] = "";
+            if (last && last->valid)
+                snprintf(acc, sizeof acc, ", relative error %.4g", last->rel_error);
+            master_log(m, "job %llu '%s' done in %.2f s at %d of %d spp%s%s: %s/jobs/%llu/%s.exr",
+                       (unsigned long long)j->id, j->name, j->finished - j->started, info.spp_done,
+                       j->scene.spp, acc,
+                       j->accuracy.stop == PROTO_STOP_TARGET ? " (target error reached)"
+                       : j->accuracy.stop == PROTO_STOP_TIME ? " (time limit reached)"
+                                                             : "",
+                       spool_path(m->spool), (unsigned long long)j->id, j->stem);
+        }
+    } else if (info.state == JOB_FAILED) {
+        job_set_error(j, info.error[0] ? info.error : "failed");
+        master_log(m, "job %llu '%s' failed: %s", (unsigned long long)j->id, j->name, j->error);
+        peers_cancel_job(m, j->id);
+    } else {
+        master_log(m, "job %llu '%s' cancelled", (unsigned long long)j->id, j->name);
+        peers_cancel_job(m, j->id);
+    }
+    release_photons(m, j);
+    j->sched.samples_done = info.samples_done;
+    j->sched.samples_total = info.samples_total;
+    j->sched.nonfinite = info.nonfinite;
+    j->accuracy.spp_done = info.spp_done;
+    persist_state(m, j, now);
+    err_t err;
+    if (sched_remove_job(m->sched, j->id, &err) < 0)
+        master_log(m, "job %llu: %s", (unsigned long long)j->id, err.msg);
+    else
+        j->sched.known = false;
+}
+
+/* The time limits: a job past its limit with at least one whole pass ends now with the passes
+ * merged (the pass in flight is dropped, its tasks cancelled on the workers by job_refresh); one
+ * without a pass yet ends at its first pass boundary (merge.c). */
+void jobs_enforce_time_limits(master_t *m, double now)
+{
+    for (size_t i = 0; i < m->njobs; i++) {
+        mjob_t *j = m->jobs[i];
+        sched_job_info_t info;
+        if (!j->sched.known || !(j->settings.time_limit > 0) || j->started <= 0 ||
+            now - j->started < j->settings.time_limit ||
+            sched_job_info(m->sched, j->id, &info) < 0 || info.state != JOB_RUNNING ||
+            info.passes_done < 1)
+            continue;
+        err_t err;
+        if (sched_finish_job_at_pass(m->sched, j->id, &err) < 0) {
+            master_log(m, "job %llu: cannot end it at its time limit: %s",
+                       (unsigned long long)j->id, err.msg);
+            continue;
+        }
+        j->accuracy.stop = PROTO_STOP_TIME;
+        master_log(m, "job %llu time limit %g s reached during pass %d: ends with %d spp",
+                   (unsigned long long)j->id, j->settings.time_limit, info.passes_done + 1,
+                   info.spp_done);
+        job_refresh(m, j, now);
+    }
+}

@@ -1,0 +1,51 @@
+/* jobs: a job's life in the master, from its scene to its outputs. The master's list (m->jobs,
+ * in id order) holds every job it knows, over or not; a job is in the scheduler (sched.known)
+ * from job_schedule until job_refresh sees it over, writes its outputs through film (the
+ * spectral EXR with its job info, and the PNG), tells the workers to drop its tasks and has
+ * the scheduler forget it, keeping only the figures STATUS reports. A job's scene is loaded
+ * confined to its bundle's folder, so no message can show a client a file of the master's
+ * host. */
+#ifndef PRISMFARM_JOBS_H
+#define PRISMFARM_JOBS_H
+
+#include "master_state.h"
+
+/* The job with this id; NULL if none. */
+mjob_t *jobs_find(const master_t *m, uint64_t id);
+/* Appends a job to the list (its id above every other's); -1 when out of memory. */
+int jobs_append(master_t *m, mjob_t *j);
+
+/* A job made from its scene, dir/main loaded with the settings and confined to dir; a photon
+ * job gets a fresh photon phase. Not yet scheduled (job_schedule). NULL with err. */
+mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
+                const proto_settings_t *set, const char *dir, err_t *err);
+/* A job of the journal as the master lists it without rendering it: one that is over, or one
+ * that cannot be resumed. NULL when out of memory. */
+mjob_t *job_from_record(const journal_job_t *r);
+void job_free(mjob_t *j);
+/* The photon pass of a finished job back from disk: its scene loaded again from the spool (as
+ * at submission, confined to the bundle's folder) and its merged store from photons.store. */
+int job_restore_photons(master_t *m, mjob_t *j, err_t *err);
+
+void job_set_error(mjob_t *j, const char *msg);
+
+/* Adds a new job to the scheduler, with photon_batches batches before its camera phase and
+ * whole passes when it may end early, and to the master's list. */
+int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err);
+/* Takes a job back out of the master's list and the scheduler, and frees it. */
+void job_unschedule(master_t *m, mjob_t *j);
+
+/* The job's image as the scheduler holds it: final, jobs/<id>/<stem>.exr and .png; else the
+ * progressive jobs/<id>/preview.png. */
+int job_write_image(master_t *m, mjob_t *j, bool final, err_t *err);
+
+/* Follows the scheduler's state of a job: logs the change and, once the job is over, writes
+ * its outputs (done), tells the workers to drop its tasks (failed, cancelled) and frees its
+ * image in the scheduler, keeping only the figures STATUS reports. */
+void job_refresh(master_t *m, mjob_t *j, double now);
+
+/* Ends every running job past its time limit that has a whole pass (docs/farm.md,
+ * "Accuracy"). */
+void jobs_enforce_time_limits(master_t *m, double now);
+
+#endif

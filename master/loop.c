@@ -1,0 +1,279 @@
+/* loop: master_run (master.h). Checks the options, opens the spool, the scheduler and the
+ * journal (resuming its jobs), binds the two ROUTERs (CURVE servers behind a ZAP handler when
+ * keyed), then turns: a poll of at most POLL_MS on both sockets and the stop descriptor, every
+ * message that arrived handed to on_worker or on_client, then the clock's work (lost workers,
+ * deadlines, time limits, heartbeats), the workers' task slots filled and the long polls
+ * answered. Everything it opened is closed on the way out, in the order the ZAP handler needs. */
+#include "master.h"
+
+#include "clock.h"
+#include "curve.h"
+#include "dispatch.h"
+#include "jobs.h"
+#include "master_state.h"
+#include "on_client.h"
+#include "on_worker.h"
+#include "peers.h"
+#include "resume.h"
+#include "zap.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <zmq.h>
+
+#define RECV_BURST 1000 /* messages taken from one socket per loop turn */
+
+master_opts_t master_opts_default(void)
+{
+    master_opts_t o = {
+        .worker_endpoint = "tcp://*:5555",
+        .client_endpoint = "tcp://*:5556",
+        .spool_dir = "prismfarm-spool",
+        .heartbeat_ms = 1000,
+        .sched = sched_config_default(),
+        .limits = proto_limits_default(),
+        .task_prefetch = -1,
+        .preview_interval_s = 1.0,
+        .max_jobs = 256,
+        .journal = 1,
+        .verbose = 1,
+    };
+    /* farm.md: a worker silent for 3 heartbeat intervals is dead (zguide's liveness 3). */
+    o.sched.worker_timeout_s = 3.0;
+    return o;
+}
+
+/* Takes what one socket holds (at most RECV_BURST messages). Returns -1 with err when the
+ * socket is unusable. */
+static int drain(master_t *m, bool workers, err_t *err)
+{
+    proto_net_t *net = workers ? m->wnet : m->cnet;
+    for (int k = 0; k < RECV_BURST; k++) {
+        proto_peer_t from;
+        proto_msg_t msg;
+        err_t rerr;
+        int rc = proto_net_recv(net, &from, &msg, 0, &rerr);
+        if (rc == PROTO_EAGAIN)
+            return 0;
+        if (rc == PROTO_ESOCKET)
+            return err_set(err, "%s socket: %s", workers ? "workers" : "clients", rerr.msg);
+        if (rc == PROTO_EVERSION) {
+            err_t text;
+            char who[PROTO_PEER_STR];
+            proto_msg_t refuse = proto_refuse_version(msg.version, "master", &text);
+            master_log(m, "%s %s speaks protocol version %d: refused",
+                       workers ? "worker" : "client", proto_peer_str(&from, who), msg.version);
+            if (from.len > 0 && proto_net_send(net, &from, &refuse, &rerr) < 0)
+                master_log(m, "cannot send REFUSE: %s", rerr.msg);
+            continue;
+        }
+        if (rc < 0) {
+            char reason[600];
+            master_log(m, "malformed message on the %s endpoint %s",
+                       workers ? "workers" : "clients", rerr.msg);
+            snprintf(reason, sizeof reason, "malformed message: %s", rerr.msg);
+            master_refuse(m, net, &from, reason);
+            continue;
+        }
+        double now = clock_now_s();
+        if (workers)
+            on_worker_message(m, &from, &msg, now);
+        else
+            on_client_message(m, &from, &msg, now);
+        proto_msg_free(&msg);
+    }
+    return 0;
+}
+
+/* Dead workers, missed deadlines and heartbeats: the clock-driven part of a loop turn. busy is
+ * how long this turn's messages took to handle. */
+static void housekeeping(master_t *m, double now, double busy)
+{
+    peers_check_silence(m, now, busy);
+    int requeued = sched_tick(m->sched, now);
+    if (requeued > 0)
+        master_log(m, "%d task%s past the %.0f s deadline issued again", requeued,
+                   requeued == 1 ? "" : "s", m->opts->sched.task_deadline_s);
+    peers_agree_with_sched(m);
+    jobs_enforce_time_limits(m, now);
+    peers_heartbeat(m, now);
+}
+
+/* Clients send one request at a time: a few queued per connection is plenty, and the bound
+ * keeps what one connection can make the master buffer to this many messages (each at most
+ * limits.max_message_bytes). */
+#define CLIENT_RCVHWM 4
+
+/* A bound ROUTER; with secret_key a CURVE server whose ZAP domain names the endpoint. */
+static proto_net_t *open_router(master_t *m, void *ctx, const char *what, const char *endpoint,
+                                const char *secret_key, char *bound, size_t size, err_t *err)
+{
+    proto_net_options_t no = proto_net_options_default();
+    no.limits = m->limits;
+    no.curve.secret_key = secret_key;
+    no.curve.zap_domain = secret_key ? what : NULL;
+    if (!strcmp(what, "clients"))
+        no.rcvhwm = CLIENT_RCVHWM;
+    proto_net_t *net = proto_net_new(ctx, PROTO_NET_ROUTER, &no, err);
+    if (!net) {
+        err_prefix(err, "%s endpoint: ", what);
+        return NULL;
+    }
+    if (proto_net_bind(net, endpoint, err) < 0 || proto_net_endpoint(net, bound, size, err) < 0) {
+        err_prefix(err, "%s endpoint: ", what);
+        proto_net_destroy(&net);
+        return NULL;
+    }
+    return net;
+}
+
+static int check_opts(const master_opts_t *o, err_t *err)
+{
+    if (!o || !o->worker_endpoint || !o->client_endpoint || !o->spool_dir || !o->stop)
+        return err_set(
+            err, "master: worker and client endpoints, spool folder and stop flag are required");
+    if (o->heartbeat_ms < 1 || o->heartbeat_ms > 3600000)
+        return err_set(err, "master: heartbeat %d ms is outside 1..3600000", o->heartbeat_ms);
+    if (o->max_jobs < 1)
+        return err_set(err, "master: max_jobs is 0: no job could ever be submitted");
+    if (o->limits.max_bundle_bytes > o->limits.max_message_bytes)
+        return err_set(err, "master: bundles of %zu bytes cannot fit in messages of at most %zu",
+                       o->limits.max_bundle_bytes, o->limits.max_message_bytes);
+    if (!o->key_file != !o->authorized_dir)
+        return err_set(err, "master: %s",
+                       o->key_file ? "--key needs --authorized DIR, the public keys let in: "
+                                     "without it any peer that knows our public key would be"
+                                   : "--authorized needs --key FILE, the master's own key pair");
+    const char *how = "the master --key FILE and --authorized DIR";
+    if (proto_curve_require(o->worker_endpoint, o->key_file, o->insecure, how, err) < 0 ||
+        proto_curve_require(o->client_endpoint, o->key_file, o->insecure, how, err) < 0)
+        return err_prefix(err, "master: ");
+    return 0;
+}
+
+static void zap_log(void *user, const char *line)
+{
+    const master_t *m = user;
+    if (m->opts->verbose)
+        fprintf(stderr, "master: %s\n", line);
+}
+
+int master_run(const master_opts_t *opts, err_t *err)
+{
+    if (check_opts(opts, err) < 0)
+        return -1;
+    master_t *m = calloc(1, sizeof *m);
+    if (!m)
+        return err_set(err, "master: out of memory");
+    m->opts = opts;
+    m->limits = opts->limits;
+    m->heartbeat_s = opts->heartbeat_ms / 1000.0;
+    void *ctx = opts->zmq_ctx ? opts->zmq_ctx : zmq_ctx_new();
+    int rc = -1;
+    char wbound[512] = "", cbound[512] = "";
+    proto_curve_pair_t keys = {0};
+    proto_zap_t *zap = NULL;
+    if (!ctx) {
+        err_set(err, "master: zmq_ctx_new: %s", zmq_strerror(zmq_errno()));
+        goto out;
+    }
+    /* The handler first: a CURVE server bound without one would let in every client. */
+    if (opts->key_file && (proto_curve_load_pair(opts->key_file, &keys, err) < 0 ||
+                           !(zap = proto_zap_new(ctx, opts->authorized_dir, zap_log, m, err)))) {
+        err_prefix(err, "master: ");
+        goto out;
+    }
+    if (!(m->spool = spool_new(opts->spool_dir, err))) {
+        err_prefix(err, "master: spool: ");
+        goto out;
+    }
+    m->last_job = spool_last_job_id(m->spool);
+    if (!(m->sched = sched_new(&opts->sched, err))) {
+        err_prefix(err, "master: ");
+        goto out;
+    }
+    if (opts->journal) {
+        if (!(m->journal = journal_open(spool_path(m->spool), err)) || resume_jobs(m, err) < 0) {
+            err_prefix(err, "master: ");
+            goto out;
+        }
+    }
+    const char *secret = opts->key_file ? keys.secret_key : NULL;
+    if (!(m->wnet = open_router(m, ctx, "workers", opts->worker_endpoint, secret, wbound,
+                                sizeof wbound, err)) ||
+        !(m->cnet = open_router(m, ctx, "clients", opts->client_endpoint, secret, cbound,
+                                sizeof cbound, err)))
+        goto out;
+    if (zap)
+        master_log(m, "CURVE: public key %s; %zu keys authorised in %s", keys.public_key,
+                   proto_zap_stats(zap).keys, opts->authorized_dir);
+    else if (opts->insecure)
+        master_log(m, "plain text (--insecure): anyone who reaches the endpoints can connect");
+    char text[1200], path[PATH_MAX];
+    snprintf(text, sizeof text, "workers %s\nclients %s\n", wbound, cbound);
+    snprintf(path, sizeof path, "%s/endpoints", spool_path(m->spool));
+    if (spool_write_file(path, text, strlen(text), err) < 0) {
+        err_prefix(err, "master: ");
+        goto out;
+    }
+    master_log(m, "workers on %s, clients on %s, spool %s, next job %llu", wbound, cbound,
+               spool_path(m->spool), (unsigned long long)m->last_job + 1);
+    if (opts->ready)
+        opts->ready(opts->user, wbound, cbound);
+
+    m->last_heartbeat = clock_now_s();
+    rc = 0;
+    int until_waiter = POLL_MS;
+    while (!*opts->stop) {
+        /* The stop descriptor, when given, ends the wait as soon as *stop is set. */
+        zmq_pollitem_t items[3] = {{.socket = proto_net_socket(m->wnet), .events = ZMQ_POLLIN},
+                                   {.socket = proto_net_socket(m->cnet), .events = ZMQ_POLLIN},
+                                   {.fd = opts->stop_fd, .events = ZMQ_POLLIN}};
+        double until_hb = m->last_heartbeat + m->heartbeat_s - clock_now_s();
+        int timeout = until_hb < POLL_MS / 1000.0 ? (int)(until_hb * 1000) : POLL_MS;
+        if (until_waiter < timeout)
+            timeout = until_waiter;
+        int n = zmq_poll(items, opts->stop_fd > 0 ? 3 : 2, timeout > 0 ? timeout : 0);
+        double polled = clock_now_s();
+        if (n < 0 && zmq_errno() != EINTR) {
+            rc = err_set(err, "master: zmq_poll: %s", zmq_strerror(zmq_errno()));
+            break;
+        }
+        if (n > 0 && (((items[0].revents & ZMQ_POLLIN) && drain(m, true, err) < 0) ||
+                      ((items[1].revents & ZMQ_POLLIN) && drain(m, false, err) < 0))) {
+            err_prefix(err, "master: ");
+            rc = -1;
+            break;
+        }
+        double now = clock_now_s();
+        housekeeping(m, now, now - polled);
+        dispatch_tasks(m, now);
+        peers_prune_lost(m);
+        until_waiter = on_client_answer_waiters(m, now);
+    }
+    if (rc == 0)
+        master_log(m, "stopping");
+
+out:
+    proto_net_destroy(&m->wnet);
+    proto_net_destroy(&m->cnet);
+    proto_zap_destroy(&zap); /* after the servers it guards */
+    memset(&keys, 0, sizeof keys);
+    if (ctx && !opts->zmq_ctx)
+        (void)zmq_ctx_term(ctx);
+    sched_destroy(&m->sched);
+    journal_close(&m->journal);
+    spool_destroy(&m->spool);
+    for (size_t i = 0; i < m->nworkers; i++)
+        peers_free(m->workers[i]);
+    free(m->workers);
+    for (size_t i = 0; i < m->njobs; i++)
+        job_free(m->jobs[i]);
+    free(m->jobs);
+    free(m->winfo);
+    free(m);
+    return rc;
+}

@@ -1,0 +1,35 @@
+#include "master_state.h"
+
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+void master_log(const master_t *m, const char *fmt, ...)
+{
+    if (!m->opts->verbose)
+        return;
+    char line[1024];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(line, sizeof line, fmt, ap);
+    va_end(ap);
+    fprintf(stderr, "master: %s\n", line);
+}
+
+char *master_strdup(const char *s)
+{
+    size_t n = strlen(s) + 1;
+    char *d = malloc(n);
+    if (d)
+        memcpy(d, s, n);
+    return d;
+}
+
+void master_refuse(master_t *m, proto_net_t *net, const proto_peer_t *to, const char *reason)
+{
+    proto_msg_t r = {.type = PROTO_REFUSE, .refuse = {.reason = reason}};
+    err_t err;
+    if (to->len > 0 && proto_net_send(net, to, &r, &err) < 0)
+        master_log(m, "cannot send REFUSE: %s", err.msg);
+}

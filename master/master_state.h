@@ -1,0 +1,154 @@
+/* master_state: the master daemon's state, an internal header shared by the files of master/
+ * that make the daemon (cli/ and tests/ use master.h). One thread owns it all: master_run's loop
+ * (loop.c) hands each message to a handler (on_worker.c, on_client.c) and each turn's clock
+ * work to peers.c, jobs.c and dispatch.c, and they change it in place; nothing here is locked
+ * or copied. The helpers below are the few every file needs: a job's end, the log, a string
+ * copy, a REFUSE. */
+#ifndef PRISMFARM_MASTER_STATE_H
+#define PRISMFARM_MASTER_STATE_H
+
+#include "journal.h"
+#include "master.h"
+#include "net.h"
+#include "photon_phase.h"
+#include "sched.h"
+#include "spool.h"
+#include "stopping.h"
+
+#include <stdbool.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#define POLL_MS 100      /* longest wait on the sockets: the stop flag's latency */
+#define MAX_WAITERS 1024 /* STATUS long polls held at once; more are answered at once */
+
+/* The wire's reasons for an early end are film/stopping.h's, value for value. */
+_Static_assert((int)PROTO_STOP_NONE == (int)STOPPING_NONE &&
+                   (int)PROTO_STOP_TARGET == (int)STOPPING_TARGET &&
+                   (int)PROTO_STOP_TIME == (int)STOPPING_TIME,
+               "proto_stop_t and stopping_why_t differ");
+
+typedef struct mworker {
+    uint64_t id;
+    proto_peer_t peer;
+    char *name;
+    int threads;
+    bool alive;
+    double last_seen;
+    /* A task the scheduler issued whose TASK found the peer's queue full: sent before any
+     * other. Only one, because dispatch stops at the first full queue. */
+    bool has_unsent;
+    sched_task_t unsent;
+} mworker_t;
+
+/* A job, in the master's list from its submission (or the journal) on. Its fields by concern:
+ * what was submitted, what its scene says, its place in the scheduler, its outputs, its photon
+ * phase, its accuracy and the journal's view of it. */
+typedef struct mjob {
+    uint64_t id;
+    char *name;
+    char stem[88]; /* file-name form of the name: outputs are <stem>.exr and <stem>.png */
+    char hash[PROTO_HASH_HEX + 1];
+    char *main; /* the bundle's main file, to load the scene again (a refinement, a restarted
+                 * master) */
+    proto_settings_t settings;           /* strings point into integrator / dispersion */
+    char integrator[65], dispersion[65]; /* protocol.md: names of at most 64 bytes */
+    job_state_t state;
+    char *error;
+    double submitted, started, finished; /* monotonic seconds; 0: not yet */
+    /* The figures it takes from its loaded scene (job_take_scene). */
+    struct {
+        int xres, yres, spp;
+        uint64_t seed;                       /* the scene's, after the settings' override */
+        const char *integrator, *dispersion; /* what the loaded scene runs with */
+        spectral_grid_t grid;
+    } scene;
+    /* Its place in the scheduler. */
+    struct {
+        bool known; /* false once finished: its image is on disk and the scheduler forgot it */
+        int ntiles;
+        /* Bumped by each refinement and carried in the upper 32 bits of every task id on the
+         * wire, so a late result of an earlier round is told from the current one's. */
+        uint32_t round;
+        uint64_t samples_done, samples_total, nonfinite; /* kept when the scheduler forgets it */
+    } sched;
+    struct {
+        bool preview;        /* jobs/<id>/preview.png exists */
+        double last_preview; /* when it was written; 0: never */
+        bool final;          /* jobs/<id>/<stem>.exr and .png exist */
+    } outputs;
+    /* A job with a photon pass: its batches, their merge and the merged store (kept for
+     * refinement after the job is done). The scheduler's batch b is the phase's batch
+     * base + b: a refinement adds its batches to a fresh scheduler job. */
+    struct {
+        photon_phase_t *phase;
+        bool enabled;     /* the scene has a photon pass (phase may be on disk, below) */
+        uint64_t saved;   /* photons in jobs/<id>/photons.store when phase is NULL */
+        uint32_t base;    /* the round's first batch */
+        bool store_ready; /* the round's batches are merged: store names the merged store */
+        char store[PROTO_HASH_HEX + 1]; /* its hash, in every camera task (STORE_REQUEST) */
+    } photons;
+    /* Accuracy of the current round: a record per merged pass (film/stopping.h: one merged pass
+     * of a job and the error estimate after it; docs/farm.md, "Accuracy"), the spp of the passes
+     * merged (kept when the scheduler forgets the job) and why it ended before its last pass. */
+    struct {
+        pass_record_t history[STOPPING_MAX_RECORDS];
+        int nhistory;
+        int spp_done;
+        proto_stop_t stop;
+    } accuracy;
+    /* The journal's view (journal.h): what the round's photon store holds when its phase is
+     * done, the photons this round added, the checkpoint file's generation, and the bytes of
+     * results journaled since it (a new checkpoint once they outgrow the image). */
+    struct {
+        uint64_t round_photons, refine_photons;
+        uint64_t checkpoint;
+        size_t bytes;
+        uint64_t checkpoint_samples; /* samples merged at the last checkpoint */
+        double last_checkpoint;      /* when it was written (monotonic seconds; 0: none yet) */
+    } journal;
+} mjob_t;
+
+/* A client's STATUS with a wait: answered when its job is over or at the deadline. */
+typedef struct waiter {
+    proto_peer_t peer;
+    uint64_t job;
+    double deadline; /* monotonic seconds */
+} waiter_t;
+
+typedef struct master {
+    const master_opts_t *opts;
+    proto_limits_t limits;
+    sched_t *sched;
+    spool_t *spool;
+    journal_t *journal; /* NULL without opts->journal */
+    proto_net_t *wnet, *cnet;
+    mworker_t **workers;
+    size_t nworkers, cap_workers;
+    mjob_t **jobs; /* in id order */
+    size_t njobs, cap_jobs;
+    uint64_t last_job, last_worker;
+    sched_worker_info_t *winfo; /* scratch for sched_workers */
+    size_t cap_winfo;
+    double heartbeat_s, last_heartbeat;
+    waiter_t waiters[MAX_WAITERS];
+    size_t nwaiters;
+} master_t;
+
+/* Done, failed or cancelled: what a STATUS long poll waits for. */
+static inline bool job_over(const mjob_t *j)
+{
+    return j->state == JOB_DONE || j->state == JOB_FAILED || j->state == JOB_CANCELLED;
+}
+
+/* A line "master: ..." on stderr when opts->verbose. */
+__attribute__((format(printf, 2, 3))) void master_log(const master_t *m, const char *fmt, ...);
+
+/* A malloc'ed copy of s; NULL when out of memory. */
+char *master_strdup(const char *s);
+
+/* REFUSE {reason} to a peer of net (nothing to a peer without a routing id); a failure is
+ * logged. */
+void master_refuse(master_t *m, proto_net_t *net, const proto_peer_t *to, const char *reason);
+
+#endif

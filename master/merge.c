@@ -1,0 +1,194 @@
+#include "merge.h"
+
+#include "error_estimate.h"
+#include "jobs.h"
+#include "passes.h"
+#include "persist.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* After a result that completed one or more passes. At each pass boundary: the error estimate
+ * of the image (exactly the passes merged when the job may end early: sched.h, whole passes),
+ * its record and log line, and the stopping rules, which end the job at the first boundary
+ * where the estimate is <= target_error or time_limit has passed. A job that goes on gets a
+ * preview, at most every preview_interval_s. */
+static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
+{
+    err_t err;
+    sched_job_info_t info;
+    while ((rc & SCHED_PASS_DONE) && sched_job_info(m->sched, j->id, &info) == 0) {
+        error_estimate_t e = error_estimate_image(sched_job_image(m->sched, j->id));
+        double elapsed = j->started > 0 && now > j->started ? now - j->started : 0;
+        /* A restarted master merging the journal's results again meets passes it recorded. */
+        bool known = j->accuracy.nhistory > 0 &&
+                     j->accuracy.history[j->accuracy.nhistory - 1].pass >= info.passes_done;
+        if (!known && j->accuracy.nhistory < STOPPING_MAX_RECORDS) {
+            pass_record_t rec = stopping_record(info.passes_done, info.spp_done, elapsed, &e);
+            j->accuracy.history[j->accuracy.nhistory++] = rec;
+            journal_pass_t jp = {.pass = rec.pass,
+                                 .spp = rec.spp,
+                                 .elapsed = rec.elapsed,
+                                 .valid = rec.valid,
+                                 .rel_error = rec.rel_error};
+            if (m->journal && journal_add_pass(m->journal, j->id, j->sched.round, &jp, &err) < 0)
+                persist_failed(m, j, &err);
+        }
+        char est[64] = "no error estimate yet (1 sample per pixel)";
+        if (e.valid)
+            snprintf(est, sizeof est, "relative error %.4g", e.rel_rmse);
+        else if (e.saturated > 0)
+            snprintf(est, sizeof est, "no error estimate (%llu pixels beyond range)",
+                     (unsigned long long)e.saturated);
+        else if (e.pixels > 0)
+            snprintf(est, sizeof est, "no relative error (image mean %.3g)", e.mean);
+        master_log(m, "job %llu pass %d of %d merged: %d spp, %s after %.2f s",
+                   (unsigned long long)j->id, info.passes_done, info.npasses, info.spp_done, est,
+                   elapsed);
+        proto_stop_t stop = PROTO_STOP_NONE;
+        if (info.state == JOB_RUNNING && info.whole_passes) {
+            stopping_rule_t rule = {.target_error = j->settings.target_error,
+                                    .time_limit = j->settings.time_limit};
+            stop = (proto_stop_t)stopping_decide(&rule, &e, elapsed);
+        }
+        if (stop != PROTO_STOP_NONE) {
+            if (sched_finish_job_at_pass(m->sched, j->id, &err) < 0) {
+                master_log(m, "job %llu: cannot end it at pass %d: %s", (unsigned long long)j->id,
+                           info.passes_done, err.msg);
+            } else {
+                j->accuracy.stop = stop;
+                return; /* job_refresh writes the outputs and tells the workers */
+            }
+        }
+        if (!(rc & SCHED_PASS_READY))
+            break;
+        rc = sched_merge_next_pass(m->sched, j->id, &err);
+        if (rc < 0) {
+            master_log(m, "job %llu: %s", (unsigned long long)j->id, err.msg);
+            sched_fail_job(m->sched, j->id, err.msg);
+            return;
+        }
+    }
+    /* Short passes would write a PNG each, costing the master's CPU (which shares the cores
+     * with the workers' threads) for images nobody looks at that often; the final image is
+     * written when the job is done whatever the interval. */
+    if (sched_job_info(m->sched, j->id, &info) < 0 || info.state != JOB_RUNNING ||
+        now - (j->outputs.last_preview > 0 ? j->outputs.last_preview : j->started) <
+            m->opts->preview_interval_s)
+        return;
+    if (job_write_image(m, j, false, &err) < 0) {
+        master_log(m, "job %llu: cannot write the preview: %s", (unsigned long long)j->id, err.msg);
+    } else {
+        j->outputs.preview = true;
+        j->outputs.last_preview = now;
+        master_log(m, "job %llu preview written at %d spp", (unsigned long long)j->id,
+                   info.spp_done);
+    }
+}
+
+void merge_photon_phase_done(master_t *m, mjob_t *j)
+{
+    err_t err;
+    const uint8_t *data;
+    size_t size;
+    const char *hash;
+    if (photon_phase_store(j->photons.phase, &data, &size, &hash, &err) < 0) {
+        master_log(m, "job %llu: the merged photon store: %s", (unsigned long long)j->id, err.msg);
+        sched_fail_job(m->sched, j->id, err.msg);
+        return;
+    }
+    memcpy(j->photons.store, hash, sizeof j->photons.store);
+    j->photons.store_ready = true;
+    photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);
+    master_log(m,
+               "job %llu photon pass merged: %llu photons in %u batches, %llu emitted, %.1f MB "
+               "store %.12s",
+               (unsigned long long)j->id, (unsigned long long)ps.photons, ps.batches,
+               (unsigned long long)ps.emitted, size / 1e6, hash);
+    if (m->journal && persist_save_photons(m, j, &err) < 0)
+        persist_failed(m, j, &err);
+}
+
+void merge_photon_batch(master_t *m, mjob_t *j, const merge_source_t *src, uint32_t task,
+                        uint32_t attempt, const proto_photon_result_t *r, double now)
+{
+    err_t err;
+    int rc = -1;
+    uint32_t b = task & ~SCHED_PHOTON_TASK;
+    if (!(task & SCHED_PHOTON_TASK) || !j->photons.phase)
+        err_set(&err, "task %u is not a photon batch of the job, or its result is not one", task);
+    else if ((rc = photon_phase_add(j->photons.phase, j->photons.base + b, r, &err)) >= 0)
+        rc = sched_photon_done(m->sched, src->id, j->id, task, attempt, now, &err);
+    if (rc < 0) {
+        master_log(m, "bad photon batch from %s %llu '%s' for job %llu: %s",
+                   src->replay ? "the journal" : "worker", (unsigned long long)src->id, src->name,
+                   (unsigned long long)j->id, err.msg);
+        sched_task_failed(m->sched, src->id, j->id, task, attempt, err.msg);
+        return;
+    }
+    if ((rc & SCHED_MERGED) && m->journal && !src->replay) {
+        uint8_t *blob;
+        size_t size;
+        if (journal_pack_photons(r, &blob, &size, &err) < 0) {
+            persist_failed(m, j, &err);
+        } else {
+            if (journal_add_result(m->journal, j->id, j->sched.round, task, 1, (int)b, -1, blob,
+                                   size, &err) < 0)
+                persist_failed(m, j, &err);
+            free(blob);
+        }
+    }
+    if (rc & SCHED_PHASE_DONE)
+        merge_photon_phase_done(m, j);
+}
+
+void merge_camera_tile(master_t *m, mjob_t *j, const merge_source_t *src, uint32_t task,
+                       uint32_t attempt, tilebuf_t *tb, uint32_t sb, uint32_t se,
+                       const proto_tile_result_t *wire, double now)
+{
+    uint64_t pass = j->sched.ntiles > 0 ? task / (uint64_t)j->sched.ntiles : 0;
+    if (pass >= 40) {
+        master_log(m, "%s %llu sent a result for job %llu task %u, which does not exist",
+                   src->replay ? "the journal" : "worker", (unsigned long long)src->id,
+                   (unsigned long long)j->id, task);
+        tilebuf_destroy(&tb);
+        return;
+    }
+    uint32_t pb, pe;
+    passes_range(j->scene.spp, pass, &pb, &pe);
+    err_t err;
+    int rc = -1;
+    if (sb != pb || se != pe) {
+        tilebuf_destroy(&tb);
+        err_set(&err, "the result covers samples [%u, %u), task %u is samples [%u, %u)", sb, se,
+                task, pb, pe);
+    } else {
+        rc = sched_task_done(m->sched, src->id, j->id, task, attempt, &tb, now, &err);
+    }
+    if (rc < 0) {
+        master_log(m, "bad result from %s %llu '%s' for job %llu: %s",
+                   src->replay ? "the journal" : "worker", (unsigned long long)src->id, src->name,
+                   (unsigned long long)j->id, err.msg);
+        sched_task_failed(m->sched, src->id, j->id, task, attempt, err.msg);
+        return;
+    }
+    if ((rc & SCHED_MERGED) && m->journal && wire) {
+        uint8_t *blob;
+        size_t size;
+        int tile = (int)(task % (uint32_t)j->sched.ntiles);
+        if (journal_pack_tile(wire, &blob, &size, &err) < 0) {
+            persist_failed(m, j, &err);
+        } else {
+            if (journal_add_result(m->journal, j->id, j->sched.round, task, 0, tile, (int)pass,
+                                   blob, size, &err) < 0)
+                persist_failed(m, j, &err);
+            else
+                j->journal.bytes += size;
+            free(blob);
+        }
+    }
+    if (rc & SCHED_PASS_DONE)
+        passes_merged(m, j, rc, now);
+    persist_maybe_checkpoint(m, j, now);
+}

@@ -1,0 +1,459 @@
+#define _XOPEN_SOURCE 700 /* realpath */
+#include "on_client.h"
+
+#include "bundle.h"
+#include "jobs.h"
+#include "peers.h"
+#include "persist.h"
+
+#include <limits.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define FILE_OVERHEAD (64 << 10) /* room for a FILE message's envelope and name */
+
+static void reply(master_t *m, const proto_peer_t *to, const proto_msg_t *msg)
+{
+    err_t err;
+    if (proto_net_send(m->cnet, to, msg, &err) < 0)
+        master_log(m, "cannot answer a client: %s", err.msg);
+}
+
+__attribute__((format(printf, 3, 4))) static void reply_error(master_t *m, const proto_peer_t *to,
+                                                              const char *fmt, ...)
+{
+    char text[PROTO_MAX_STRING];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    proto_msg_t e = {.type = PROTO_ERROR, .error = {.message = text}};
+    reply(m, to, &e);
+}
+
+static proto_job_state_t wire_state(job_state_t s)
+{
+    switch (s) {
+    case JOB_QUEUED:
+        return PROTO_JOB_QUEUED;
+    case JOB_RUNNING:
+        return PROTO_JOB_RUNNING;
+    case JOB_DONE:
+        return PROTO_JOB_DONE;
+    case JOB_FAILED:
+        return PROTO_JOB_FAILED;
+    case JOB_CANCELLED:
+        return PROTO_JOB_CANCELLED;
+    }
+    return PROTO_JOB_FAILED;
+}
+
+static proto_job_info_t job_wire_info(const master_t *m, const mjob_t *j, double now)
+{
+    proto_job_info_t o = {.id = j->id,
+                          .name = j->name,
+                          .state = wire_state(j->state),
+                          .samples_done = j->sched.samples_done,
+                          .samples_total = j->sched.samples_total,
+                          .nonfinite = j->sched.nonfinite};
+    o.spp = (uint32_t)j->accuracy.spp_done;
+    sched_job_info_t info;
+    if (j->sched.known && sched_job_info(m->sched, j->id, &info) == 0) {
+        o.samples_done = info.samples_done;
+        o.samples_total = info.samples_total;
+        o.nonfinite = info.nonfinite;
+        o.spp = (uint32_t)info.spp_done;
+    }
+    const pass_record_t *last =
+        j->accuracy.nhistory > 0 ? &j->accuracy.history[j->accuracy.nhistory - 1] : NULL;
+    if (last && last->valid) {
+        o.has_rel_error = true;
+        o.rel_error = last->rel_error;
+    }
+    o.stop = j->accuracy.stop;
+    double secs = j->started > 0 ? (j->finished > 0 ? j->finished : now) - j->started : 0;
+    o.elapsed = secs > 0 ? secs : 0;
+    if (j->state == JOB_FAILED)
+        o.error = j->error ? j->error : "failed";
+    return o;
+}
+
+/* Removes every occurrence of prefix from msg (the spool folder from the loader's messages, so
+ * that the client sees paths as they are in its bundle). */
+static void strip_all(char *msg, const char *prefix)
+{
+    size_t n = strlen(prefix);
+    char *p;
+    while (n > 0 && (p = strstr(msg, prefix)))
+        memmove(p, p + n, strlen(p + n) + 1);
+}
+
+static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
+{
+    const proto_bundle_t *b = &msg->submit.bundle;
+    char who[PROTO_PEER_STR];
+    proto_peer_str(from, who);
+    err_t err;
+    char hash[PROTO_HASH_HEX + 1];
+    if (proto_bundle_check(b, &m->limits, &err) < 0 || proto_bundle_hash(b, hash, &err) < 0) {
+        master_log(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
+        reply_error(m, from, "scene bundle refused: %s", err.msg);
+        return;
+    }
+    char dir[PATH_MAX];
+    bool staged;
+    if (spool_scene_stage(m->spool, b, hash, dir, sizeof dir, &staged, &err) < 0) {
+        master_log(m, "cannot store scene %.12s: %s", hash, err.msg);
+        reply_error(m, from, "the master cannot store the scene: %s", err.msg);
+        return;
+    }
+    uint64_t id = m->last_job + 1;
+    const proto_settings_t *set = &msg->submit.settings;
+    mjob_t *j = job_new(id, msg->submit.name, hash, b->main, set, dir, &err);
+    if (!j) {
+        /* The client named files of its bundle, not the master's spool folder. */
+        char prefix[PATH_MAX + 1];
+        char *real = realpath(dir, NULL);
+        if (real) {
+            snprintf(prefix, sizeof prefix, "%s/", real);
+            strip_all(err.msg, prefix);
+            free(real);
+        }
+        snprintf(prefix, sizeof prefix, "%s/", dir);
+        strip_all(err.msg, prefix);
+        spool_scene_discard(m->spool, dir, staged);
+        master_log(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
+        reply_error(m, from, "%s", err.msg);
+        return;
+    }
+    if (spool_scene_commit(m->spool, b, hash, dir, staged, &m->limits, &err) < 0) {
+        job_free(j);
+        spool_scene_discard(m->spool, dir, staged);
+        master_log(m, "cannot store scene %.12s: %s", hash, err.msg);
+        reply_error(m, from, "the master cannot store the scene: %s", err.msg);
+        return;
+    }
+    if (job_schedule(m, j, j->photons.phase ? photon_phase_nbatches(j->photons.phase) : 0, &err) <
+        0) {
+        job_free(j);
+        master_log(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
+        reply_error(m, from, "%s", err.msg);
+        return;
+    }
+    j->submitted = now;
+    /* Journaled before it is acknowledged: a job the client was told about survives a
+     * restart. */
+    journal_job_t rec = persist_record(j, now);
+    if (m->journal && journal_add_job(m->journal, &rec, &err) < 0) {
+        master_log(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
+        job_unschedule(m, j);
+        reply_error(m, from, "the master cannot journal the job: %s", err.msg);
+        return;
+    }
+    m->last_job = id;
+    /* The job's folder marks its id as used, so a restarted master never gives it out again
+     * (spool_last_job_id counts these folders), even if nothing was rendered yet. */
+    char jobdir[PATH_MAX];
+    if (spool_job_dir(m->spool, id, jobdir, sizeof jobdir, &err) < 0)
+        master_log(m, "job %llu: %s", (unsigned long long)id, err.msg);
+    proto_msg_t ok = {.type = PROTO_SUBMITTED, .submitted = {.job = id}};
+    reply(m, from, &ok);
+    sched_job_info_t info;
+    (void)sched_job_info(m->sched, id, &info);
+    char rules[96] = "";
+    if (set->target_error > 0)
+        snprintf(rules, sizeof rules, ", target error %g", set->target_error);
+    if (set->time_limit > 0)
+        snprintf(rules + strlen(rules), sizeof rules - strlen(rules), ", time limit %g s",
+                 set->time_limit);
+    master_log(m,
+               "job %llu '%s' submitted by %s: %dx%d, %d spp, %d buckets, %d tiles x %d passes, "
+               "%u photon batches, scene %.12s%s%s",
+               (unsigned long long)id, j->name, who, j->scene.xres, j->scene.yres, j->scene.spp,
+               j->scene.grid.n, info.ntiles, info.npasses, info.photon_batches, hash,
+               staged ? "" : " (stored already)", rules);
+}
+
+/* opts->max_jobs: each unfinished job holds its framebuffer and scheduler state, so a client
+ * cannot make the master hold them without bound (docs/security.md). */
+static bool submit_room(master_t *m, const proto_peer_t *from, const proto_msg_t *msg)
+{
+    size_t open = 0;
+    for (size_t i = 0; i < m->njobs; i++)
+        open += !job_over(m->jobs[i]);
+    if (open < m->opts->max_jobs)
+        return true;
+    char who[PROTO_PEER_STR];
+    master_log(m, "submission '%s' from %s refused: %zu unfinished jobs, the limit",
+               msg->submit.name, proto_peer_str(from, who), open);
+    reply_error(m, from,
+                "the master holds %zu unfinished jobs, its limit (--max-jobs %zu): submit again "
+                "when one is done",
+                open, m->opts->max_jobs);
+    return false;
+}
+
+static void reply_jobs(master_t *m, const proto_peer_t *to, proto_type_t type, const mjob_t *only,
+                       double now)
+{
+    size_t n = only ? 1 : m->njobs, first = 0;
+    if (n > PROTO_MAX_LIST) {
+        first = n - PROTO_MAX_LIST; /* the most recent ones */
+        n = PROTO_MAX_LIST;
+    }
+    proto_job_info_t *infos = n ? calloc(n, sizeof *infos) : NULL;
+    if (n && !infos) {
+        reply_error(m, to, "the master is out of memory");
+        return;
+    }
+    for (size_t i = 0; i < n; i++)
+        infos[i] = job_wire_info(m, only ? only : m->jobs[first + i], now);
+    proto_msg_t r = {.type = type};
+    if (type == PROTO_STATUS_REPLY)
+        r.status_reply.jobs = infos, r.status_reply.njobs = n;
+    else
+        r.jobs_reply.jobs = infos, r.jobs_reply.njobs = n;
+    reply(m, to, &r);
+    free(infos);
+}
+
+static void reply_workers(master_t *m, const proto_peer_t *to, double now)
+{
+    size_t ns = peers_sched_table(m), n = m->nworkers;
+    proto_worker_info_t *infos = n ? calloc(n, sizeof *infos) : NULL;
+    if (n && !infos) {
+        reply_error(m, to, "the master is out of memory");
+        return;
+    }
+    for (size_t i = 0; i < n; i++) {
+        const mworker_t *w = m->workers[i];
+        const sched_worker_info_t *si = peers_sched_info(m, ns, w->id);
+        double seen = now - w->last_seen;
+        infos[i] = (proto_worker_info_t){.name = w->name,
+                                         .id = w->id,
+                                         .threads = w->threads,
+                                         .state = !w->alive              ? PROTO_WORKER_LOST
+                                                  : (si && si->busy > 0) ? PROTO_WORKER_BUSY
+                                                                         : PROTO_WORKER_IDLE,
+                                         .tasks_done = si ? si->tasks_done : 0,
+                                         .last_seen = seen > 0 ? seen : 0};
+    }
+    proto_msg_t r = {.type = PROTO_WORKERS_REPLY,
+                     .workers_reply = {.workers = infos, .nworkers = n}};
+    reply(m, to, &r);
+    free(infos);
+}
+
+static void on_status(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
+{
+    if (msg->status.all) {
+        reply_jobs(m, from, PROTO_STATUS_REPLY, NULL, now);
+        return;
+    }
+    const mjob_t *j = jobs_find(m, msg->status.job);
+    if (!j)
+        reply_error(m, from, "no job %llu", (unsigned long long)msg->status.job);
+    else if (msg->status.wait_ms == 0 || job_over(j) || m->nwaiters == MAX_WAITERS)
+        reply_jobs(m, from, PROTO_STATUS_REPLY, j, now);
+    else
+        m->waiters[m->nwaiters++] =
+            (waiter_t){.peer = *from, .job = j->id, .deadline = now + msg->status.wait_ms / 1000.0};
+}
+
+static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *msg)
+{
+    mjob_t *j = jobs_find(m, msg->fetch.job);
+    if (!j) {
+        reply_error(m, from, "no job %llu", (unsigned long long)msg->fetch.job);
+        return;
+    }
+    char path[PATH_MAX + 200], name[128];
+    const char *state = job_state_name(j->state);
+    if (j->outputs.final) {
+        const char *ext = msg->fetch.what == PROTO_FETCH_EXR ? "exr" : "png";
+        snprintf(path, sizeof path, "%s/jobs/%llu/%s.%s", spool_path(m->spool),
+                 (unsigned long long)j->id, j->stem, ext);
+        snprintf(name, sizeof name, "%s.%s", j->stem, ext);
+    } else if (msg->fetch.what == PROTO_FETCH_EXR) {
+        reply_error(m, from, "job %llu is %s: its EXR exists once it is done",
+                    (unsigned long long)j->id, state);
+        return;
+    } else if (j->outputs.preview) {
+        snprintf(path, sizeof path, "%s/jobs/%llu/preview.png", spool_path(m->spool),
+                 (unsigned long long)j->id);
+        snprintf(name, sizeof name, "%s-preview.png", j->stem);
+    } else {
+        reply_error(m, from, "job %llu is %s and has no image yet (a preview follows each pass)",
+                    (unsigned long long)j->id, state);
+        return;
+    }
+    uint8_t *data;
+    size_t size;
+    err_t err;
+    size_t max = m->limits.max_message_bytes > FILE_OVERHEAD
+                     ? m->limits.max_message_bytes - FILE_OVERHEAD
+                     : 0;
+    if (spool_read_file(path, max, &data, &size, &err) < 0) {
+        master_log(m, "fetch of job %llu: %s", (unsigned long long)j->id, err.msg);
+        reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
+        return;
+    }
+    proto_msg_t f = {.type = PROTO_FILE, .file = {.name = name, .data = data, .size = size}};
+    reply(m, from, &f);
+    free(data);
+}
+
+/* More photons for a finished photon job: the phase appends batches, a fresh scheduler job
+ * runs them and then the whole camera phase again, gathering from the grown store; the job's
+ * outputs are rewritten when it is done. Tasks carry the new round, so late results of the old
+ * one are ignored. */
+static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
+{
+    mjob_t *j = jobs_find(m, msg->refine.job);
+    if (!j) {
+        reply_error(m, from, "no job %llu", (unsigned long long)msg->refine.job);
+        return;
+    }
+    if (!j->photons.enabled) {
+        reply_error(m, from,
+                    "job %llu has no photon pass to refine (its integrator is not \"photon\")",
+                    (unsigned long long)j->id);
+        return;
+    }
+    if (j->state != JOB_DONE || j->sched.known) {
+        reply_error(m, from, "job %llu is %s: only a finished job can be refined",
+                    (unsigned long long)j->id, job_state_name(j->state));
+        return;
+    }
+    err_t err;
+    if (!j->photons.phase && job_restore_photons(m, j, &err) < 0) {
+        master_log(m, "job %llu: cannot refine: %s", (unsigned long long)j->id, err.msg);
+        reply_error(m, from, "job %llu: cannot restore its photon pass: %s",
+                    (unsigned long long)j->id, err.msg);
+        return;
+    }
+    uint32_t base = photon_phase_nbatches(j->photons.phase);
+    if (photon_phase_refine(j->photons.phase, msg->refine.photons, &err) < 0) {
+        reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
+        return;
+    }
+    uint32_t added = photon_phase_nbatches(j->photons.phase) - base;
+    bool may_stop = j->settings.target_error > 0 || j->settings.time_limit > 0;
+    if (sched_add_job(m->sched, j->id, j->scene.xres, j->scene.yres, j->scene.spp, j->scene.grid,
+                      &err) < 0 ||
+        (may_stop && sched_set_whole_passes(m->sched, j->id, &err) < 0) ||
+        sched_add_photon_batches(m->sched, j->id, added, &err) < 0) {
+        err_t ignore;
+        (void)sched_remove_job(m->sched, j->id, &ignore);
+        /* The phase has batches nobody will run: the job can be neither rendered nor refined
+         * again, so it fails with the reason. */
+        master_log(m, "job %llu: refinement failed: %s", (unsigned long long)j->id, err.msg);
+        job_set_error(j, err.msg);
+        j->state = JOB_FAILED;
+        persist_state(m, j, now);
+        reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
+        return;
+    }
+    sched_job_info_t info;
+    if (sched_job_info(m->sched, j->id, &info) == 0)
+        j->sched.ntiles = info.ntiles;
+    j->photons.base = base;
+    j->journal.refine_photons = msg->refine.photons;
+    j->journal.round_photons = photon_phase_stats(j->photons.phase).photons + msg->refine.photons;
+    j->sched.round++;
+    j->photons.store_ready = false;
+    j->sched.known = true;
+    j->state = JOB_QUEUED;
+    j->started = j->finished = 0;
+    j->sched.samples_done = 0;
+    j->accuracy.nhistory = j->accuracy.spp_done =
+        0; /* the round's accuracy, with its own stopping rules */
+    j->accuracy.stop = PROTO_STOP_NONE;
+    j->submitted = now;
+    j->journal.checkpoint = 0;
+    j->journal.bytes = 0;
+    j->journal.checkpoint_samples = 0;
+    journal_job_t rec = persist_record(j, now);
+    if (m->journal && journal_set_round(m->journal, &rec, &err) < 0)
+        persist_failed(m, j, &err);
+    photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);
+    master_log(m,
+               "job %llu '%s' refined: %llu more photons in %u batches (%llu so far), then the "
+               "camera phase again",
+               (unsigned long long)j->id, j->name, (unsigned long long)msg->refine.photons, added,
+               (unsigned long long)ps.photons);
+    proto_msg_t ok = {.type = PROTO_SUBMITTED, .submitted = {.job = j->id}};
+    reply(m, from, &ok);
+}
+
+static void on_cancel(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
+{
+    mjob_t *j = jobs_find(m, msg->cancel.job);
+    if (!j) {
+        reply_error(m, from, "no job %llu", (unsigned long long)msg->cancel.job);
+        return;
+    }
+    err_t err;
+    if (j->sched.known && sched_cancel_job(m->sched, j->id, &err) < 0)
+        master_log(m, "cancel: %s", err.msg);
+    job_refresh(m, j, now);
+    reply_jobs(m, from, PROTO_STATUS_REPLY, j, now);
+}
+
+void on_client_message(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
+{
+    switch (msg->type) {
+    case PROTO_SUBMIT:
+        if (submit_room(m, from, msg))
+            on_submit(m, from, msg, now);
+        break;
+    case PROTO_STATUS:
+        on_status(m, from, msg, now);
+        break;
+    case PROTO_JOBS:
+        reply_jobs(m, from, PROTO_JOBS_REPLY, NULL, now);
+        break;
+    case PROTO_WORKERS:
+        reply_workers(m, from, now);
+        break;
+    case PROTO_FETCH:
+        on_fetch(m, from, msg);
+        break;
+    case PROTO_REFINE:
+        on_refine(m, from, msg, now);
+        break;
+    case PROTO_CANCEL:
+        on_cancel(m, from, msg, now);
+        break;
+    default: {
+        char who[PROTO_PEER_STR];
+        master_log(m, "%s from client %s: not a client request", proto_type_name(msg->type),
+                   proto_peer_str(from, who));
+        reply_error(m, from, "%s is not a request the master's client endpoint answers",
+                    proto_type_name(msg->type));
+    }
+    }
+}
+
+int on_client_answer_waiters(master_t *m, double now)
+{
+    double next = now + POLL_MS / 1000.0;
+    size_t k = 0;
+    for (size_t i = 0; i < m->nwaiters; i++) {
+        waiter_t wt = m->waiters[i];
+        const mjob_t *j = jobs_find(m, wt.job);
+        if (!j || job_over(j) || now >= wt.deadline) {
+            if (j)
+                reply_jobs(m, &wt.peer, PROTO_STATUS_REPLY, j, now);
+            continue;
+        }
+        if (wt.deadline < next)
+            next = wt.deadline;
+        m->waiters[k++] = wt;
+    }
+    m->nwaiters = k;
+    double ms = (next - now) * 1000.0;
+    return ms <= 0 ? 0 : (int)ms + 1; /* rounded up: waking early would only poll again */
+}

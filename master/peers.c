@@ -1,0 +1,169 @@
+#include "peers.h"
+
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define MAX_LOST_WORKERS 256 /* lost workers still listed by WORKERS */
+
+mworker_t *peers_find(const master_t *m, const proto_peer_t *p)
+{
+    for (size_t i = 0; i < m->nworkers; i++)
+        if (m->workers[i]->peer.len == p->len && !memcmp(m->workers[i]->peer.id, p->id, p->len))
+            return m->workers[i];
+    return NULL;
+}
+
+mworker_t *peers_add(master_t *m, const proto_peer_t *from)
+{
+    char who[PROTO_PEER_STR];
+    if (m->nworkers == m->cap_workers) {
+        size_t cap = m->cap_workers ? 2 * m->cap_workers : 16;
+        mworker_t **p = realloc(m->workers, cap * sizeof *p);
+        if (!p) {
+            master_log(m, "out of memory for worker %s", proto_peer_str(from, who));
+            return NULL;
+        }
+        m->workers = p;
+        m->cap_workers = cap;
+    }
+    mworker_t *w = calloc(1, sizeof *w);
+    if (!w) {
+        master_log(m, "out of memory for worker %s", proto_peer_str(from, who));
+        return NULL;
+    }
+    w->id = ++m->last_worker;
+    w->peer = *from;
+    m->workers[m->nworkers++] = w;
+    return w;
+}
+
+void peers_free(mworker_t *w)
+{
+    if (w) {
+        free(w->name);
+        free(w);
+    }
+}
+
+size_t peers_sched_table(master_t *m)
+{
+    size_t n = sched_workers(m->sched, m->winfo, m->cap_winfo);
+    if (n > m->cap_winfo) {
+        sched_worker_info_t *p = realloc(m->winfo, n * sizeof *p);
+        if (!p)
+            return m->cap_winfo;
+        m->winfo = p;
+        m->cap_winfo = n;
+        n = sched_workers(m->sched, m->winfo, m->cap_winfo);
+    }
+    return n;
+}
+
+const sched_worker_info_t *peers_sched_info(master_t *m, size_t n, uint64_t id)
+{
+    for (size_t i = 0; i < n; i++)
+        if (m->winfo[i].id == id)
+            return &m->winfo[i];
+    return NULL;
+}
+
+/* Forgets the lost worker seen longest ago once more than MAX_LOST_WORKERS are listed, so that
+ * workers that come and go do not grow the table for ever. Called between loops over the
+ * table only, never inside one. */
+void peers_prune_lost(master_t *m)
+{
+    size_t lost = 0, oldest = SIZE_MAX;
+    for (size_t i = 0; i < m->nworkers; i++)
+        if (!m->workers[i]->alive) {
+            lost++;
+            if (oldest == SIZE_MAX || m->workers[i]->last_seen < m->workers[oldest]->last_seen)
+                oldest = i;
+        }
+    if (lost <= MAX_LOST_WORKERS)
+        return;
+    peers_free(m->workers[oldest]);
+    memmove(&m->workers[oldest], &m->workers[oldest + 1],
+            (m->nworkers - oldest - 1) * sizeof *m->workers);
+    m->nworkers--;
+}
+
+void peers_lost(master_t *m, mworker_t *w, const char *why)
+{
+    if (!w->alive)
+        return;
+    size_t n = peers_sched_table(m);
+    const sched_worker_info_t *si = peers_sched_info(m, n, w->id);
+    int busy = si ? si->busy : 0;
+    sched_worker_leave(m->sched, w->id);
+    w->alive = false;
+    w->has_unsent = false;
+    master_log(m, "worker %llu '%s' lost (%s); %d task%s back in the queue",
+               (unsigned long long)w->id, w->name, why, busy, busy == 1 ? "" : "s");
+}
+
+int peers_send(master_t *m, mworker_t *w, const proto_msg_t *msg)
+{
+    err_t err;
+    int rc = proto_net_send(m->wnet, &w->peer, msg, &err);
+    if (rc == PROTO_EUNREACHABLE)
+        peers_lost(m, w, "disconnected");
+    else if (rc < 0 && rc != PROTO_EAGAIN)
+        master_log(m, "cannot send to worker %llu: %s", (unsigned long long)w->id, err.msg);
+    return rc;
+}
+
+void peers_cancel_job(master_t *m, uint64_t job)
+{
+    proto_msg_t c = {.type = PROTO_CANCEL, .cancel = {.job = job}};
+    for (size_t i = 0; i < m->nworkers; i++) {
+        mworker_t *w = m->workers[i];
+        if (w->alive && w->has_unsent && w->unsent.job == job)
+            w->has_unsent = false;
+        if (w->alive)
+            (void)peers_send(m, w, &c);
+    }
+}
+
+void peers_check_silence(master_t *m, double now, double busy)
+{
+    /* A turn that took long (a big scene loaded, an EXR written) was time the master did not
+     * listen: the workers' silence during it says nothing about them. */
+    if (busy > 0.5 * m->opts->sched.worker_timeout_s)
+        for (size_t i = 0; i < m->nworkers; i++)
+            if (m->workers[i]->alive) {
+                m->workers[i]->last_seen = now;
+                sched_worker_seen(m->sched, m->workers[i]->id, now);
+            }
+    for (size_t i = 0; i < m->nworkers; i++) {
+        mworker_t *w = m->workers[i];
+        if (w->alive && now - w->last_seen > m->opts->sched.worker_timeout_s) {
+            char why[64];
+            snprintf(why, sizeof why, "silent for %.1f s", now - w->last_seen);
+            peers_lost(m, w, why);
+        }
+    }
+}
+
+void peers_agree_with_sched(master_t *m)
+{
+    /* The scheduler's and the master's idea of who is alive must agree. */
+    size_t ns = peers_sched_table(m);
+    for (size_t i = 0; i < m->nworkers; i++) {
+        const sched_worker_info_t *si = peers_sched_info(m, ns, m->workers[i]->id);
+        if (m->workers[i]->alive && (!si || !si->alive))
+            peers_lost(m, m->workers[i], "timed out");
+    }
+}
+
+void peers_heartbeat(master_t *m, double now)
+{
+    if (now - m->last_heartbeat >= m->heartbeat_s) {
+        proto_msg_t hb = {.type = PROTO_HEARTBEAT};
+        for (size_t i = 0; i < m->nworkers; i++)
+            if (m->workers[i]->alive)
+                (void)peers_send(m, m->workers[i], &hb);
+        m->last_heartbeat = now;
+    }
+}

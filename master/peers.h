@@ -1,0 +1,43 @@
+/* peers: the master's table of workers (master_state.h's m->workers) and what it says to them
+ * beyond tasks (dispatch.h). A worker joins by HELLO (on_worker.c) and stays in the table,
+ * alive or lost; a lost worker's tasks are back in the scheduler's queue the moment it is
+ * marked lost, and a peer that can no longer be reached is lost at the first send. The master
+ * and the scheduler always agree on who is alive. */
+#ifndef PRISMFARM_PEERS_H
+#define PRISMFARM_PEERS_H
+
+#include "master_state.h"
+
+/* The worker with this routing id, alive or lost; NULL if none. */
+mworker_t *peers_find(const master_t *m, const proto_peer_t *p);
+/* A new worker in the table with the next worker id; NULL (logged) when out of memory. */
+mworker_t *peers_add(master_t *m, const proto_peer_t *from);
+void peers_free(mworker_t *w);
+
+/* The scheduler's view of every worker, in m->winfo; returns the count. */
+size_t peers_sched_table(master_t *m);
+/* The entry for worker id among the n of m->winfo; NULL if none. */
+const sched_worker_info_t *peers_sched_info(master_t *m, size_t n, uint64_t id);
+
+/* The worker is gone (why, for the log): its tasks go back to the queue. Nothing for a worker
+ * lost already. */
+void peers_lost(master_t *m, mworker_t *w, const char *why);
+/* Forgets the lost worker seen longest ago once more than MAX_LOST_WORKERS are listed. */
+void peers_prune_lost(master_t *m);
+
+/* Sends to a worker; a peer that is no longer connected is lost. Returns proto_net_send's
+ * code. */
+int peers_send(master_t *m, mworker_t *w, const proto_msg_t *msg);
+/* CANCEL {job} to every live worker, and the job's unsent task dropped. */
+void peers_cancel_job(master_t *m, uint64_t job);
+
+/* The workers' silence: a turn of the loop that took busy seconds, more than half the worker
+ * timeout, counts as a sign of life for every worker; a worker silent longer than the timeout
+ * is lost. */
+void peers_check_silence(master_t *m, double now, double busy);
+/* Every worker the scheduler timed out is lost for the master too. */
+void peers_agree_with_sched(master_t *m);
+/* HEARTBEAT to every live worker, once every heartbeat interval. */
+void peers_heartbeat(master_t *m, double now);
+
+#endif

@@ -1,0 +1,34 @@
+/* persist: what the master writes so that a restart loses nothing (docs/reliability.md): a job's
+ * record and state in the journal (journal.h), its checkpoints (jobs/<id>/checkpoint-<gen>.bin,
+ * named here and nowhere else) and its merged photon store (jobs/<id>/photons.store). Every
+ * function does nothing without a journal except the photon store, which a refinement needs
+ * too. A journal that cannot be written does not stop the farm: the job goes on and the log
+ * says what a restart would lose. */
+#ifndef PRISMFARM_PERSIST_H
+#define PRISMFARM_PERSIST_H
+
+#include "master_state.h"
+
+/* The job as journal.h keeps it; the strings point into j. */
+journal_job_t persist_record(const mjob_t *j, double now);
+
+/* jobs/<job>/checkpoint-<gen>.bin of the spool, in buf. */
+void persist_checkpoint_path(const master_t *m, uint64_t job, uint64_t gen, char *buf, size_t size);
+/* Removes jobs/<id>/checkpoint-*.bin other than generation keep (0: all). */
+void persist_remove_stale_checkpoints(master_t *m, uint64_t id, uint64_t keep);
+
+/* Logs a journal failure and what a restart would lose by it. */
+void persist_failed(const master_t *m, const mjob_t *j, const err_t *err);
+
+/* The job's state in the journal; a job that is over leaves no checkpoint behind. */
+void persist_state(master_t *m, mjob_t *j, double now);
+
+/* A new checkpoint of a running job once the results journaled since the last one outgrow
+ * its image (and not too often); nothing otherwise. */
+void persist_maybe_checkpoint(master_t *m, mjob_t *j, double now);
+
+/* The merged photon store on disk as jobs/<id>/photons.store (atomically), and in the journal
+ * when there is one (jobs.c's job_restore_photons reads it back). */
+int persist_save_photons(master_t *m, mjob_t *j, err_t *err);
+
+#endif

@@ -1,0 +1,204 @@
+#include "resume.h"
+
+#include "clock.h"
+#include "jobs.h"
+#include "merge.h"
+#include "persist.h"
+
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct replay {
+    master_t *m;
+    mjob_t *j;
+    double now;
+    size_t results;
+} replay_t;
+
+static int replay_result(void *user, uint32_t task, int kind, const void *data, size_t size,
+                         err_t *err)
+{
+    replay_t *rp = user;
+    merge_source_t src = {.id = 0, .name = "journal", .replay = true};
+    sched_job_info_t info;
+    if (sched_job_info(rp->m->sched, rp->j->id, &info) < 0)
+        return err_set(err, "the job left the scheduler during its replay");
+    if (info.state == JOB_QUEUED &&
+        sched_restore_job(rp->m->sched, rp->j->id, NULL, NULL, 0, err) < 0)
+        return -1;
+    if (info.state != JOB_QUEUED && info.state != JOB_RUNNING)
+        return 0; /* over already (the journal held more than it needed) */
+    if (kind == 1) {
+        proto_photon_result_t r;
+        if (journal_unpack_photons(data, size, &r, err) < 0)
+            return -1;
+        merge_photon_batch(rp->m, rp->j, &src, task, 0, &r, rp->now);
+    } else {
+        uint32_t sb, se;
+        tilebuf_t *tb = journal_unpack_tile(data, size, &sb, &se, err);
+        if (!tb)
+            return -1;
+        merge_camera_tile(rp->m, rp->j, &src, task, 0, tb, sb, se, NULL, rp->now);
+        rp->j->journal.bytes += size;
+    }
+    rp->results++;
+    return 0;
+}
+
+/* An unfinished job of the journal back in the scheduler where the journal leaves it: its
+ * photon store from disk (or a fresh phase), its last checkpoint, its pass records, then every
+ * result journaled since, merged again in the scheduler's order. */
+static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *err)
+{
+    char dir[PATH_MAX];
+    snprintf(dir, sizeof dir, "%s/scenes/%s", spool_path(m->spool), r->hash);
+    mjob_t *j = job_new(r->id, r->name, r->hash, r->main, &r->settings, dir, err);
+    if (!j)
+        return -1;
+    j->sched.round = r->round;
+    j->photons.saved = r->photons_saved;
+    j->journal.round_photons = r->round_photons;
+    j->journal.refine_photons = r->refine_photons;
+    j->submitted = now;
+    uint32_t batches = 0, photons_done = 0;
+    if (j->photons.phase && r->photons_saved > 0) {
+        photon_phase_destroy(&j->photons.phase);
+        if (job_restore_photons(m, j, err) < 0) {
+            job_free(j);
+            return -1;
+        }
+        uint32_t base = photon_phase_nbatches(j->photons.phase);
+        if (r->photons_saved >= r->round_photons) {
+            batches = photons_done = base; /* the round's store is merged: camera phase */
+        } else if (photon_phase_refine(j->photons.phase, r->round_photons - r->photons_saved, err) <
+                   0) {
+            job_free(j);
+            return -1;
+        } else {
+            j->photons.base = base;
+            batches = photon_phase_nbatches(j->photons.phase) - base;
+        }
+    } else if (j->photons.phase) {
+        batches = photon_phase_nbatches(j->photons.phase);
+    }
+    if (job_schedule(m, j, batches, err) < 0) {
+        job_free(j);
+        return -1;
+    }
+    /* From here on the job is listed: a failure fails it, with the reason. */
+    int rc = 0;
+    tilebuf_t *image = NULL;
+    int *next = NULL;
+    if (r->checkpoint > 0) {
+        char path[PATH_MAX + 64];
+        persist_checkpoint_path(m, j->id, r->checkpoint, path, sizeof path);
+        if (!(next = malloc((size_t)j->sched.ntiles * sizeof *next)))
+            rc = err_set(err, "out of memory");
+        else if ((rc = journal_read_checkpoint(path, j->scene.xres, j->scene.yres, j->scene.grid.n,
+                                               j->sched.ntiles, &image, next, err)) == 0)
+            j->journal.checkpoint = r->checkpoint;
+    }
+    if (rc == 0 && (image || photons_done > 0))
+        rc = sched_restore_job(m->sched, j->id, &image, image ? next : NULL, photons_done, err);
+    free(next);
+    tilebuf_destroy(&image);
+    if (rc >= 0 && photons_done > 0)
+        merge_photon_phase_done(m, j);
+    if (rc >= 0) {
+        journal_pass_t passes[STOPPING_MAX_RECORDS];
+        int n =
+            journal_passes(m->journal, j->id, j->sched.round, passes, STOPPING_MAX_RECORDS, err);
+        rc = n < 0 ? -1 : 0;
+        for (int i = 0; i < n; i++)
+            j->accuracy.history[j->accuracy.nhistory++] =
+                (pass_record_t){.pass = passes[i].pass,
+                                .spp = passes[i].spp,
+                                .elapsed = passes[i].elapsed,
+                                .valid = passes[i].valid,
+                                .rel_error = passes[i].rel_error};
+    }
+    sched_job_info_t info;
+    if (rc >= 0 && sched_job_info(m->sched, j->id, &info) == 0) {
+        j->journal.checkpoint_samples = info.samples_done;
+        if (info.state == JOB_RUNNING) {
+            j->started = now - r->elapsed;
+            j->state = JOB_RUNNING;
+        }
+    }
+    replay_t rp = {.m = m, .j = j, .now = now};
+    size_t lost = 0;
+    journal_prune(m->journal, j->id);
+    if (rc >= 0)
+        rc = journal_results(m->journal, j->id, j->sched.round, replay_result, &rp, &lost, err);
+    if (lost > 0)
+        master_log(m,
+                   "job %llu: %zu journaled results lost their files (a power cut?): rendered "
+                   "again",
+                   (unsigned long long)j->id, lost);
+    if (rc < 0) {
+        char msg[600];
+        snprintf(msg, sizeof msg, "cannot resume it after the master restarted: %s", err->msg);
+        sched_fail_job(m->sched, j->id, msg);
+        job_refresh(m, j, now);
+        return 0; /* listed as failed, with the reason */
+    }
+    persist_remove_stale_checkpoints(m, j->id, j->journal.checkpoint);
+    if (sched_job_info(m->sched, j->id, &info) == 0)
+        master_log(m,
+                   "job %llu '%s' resumed: %d of %d passes merged, %llu of %llu samples, %u of %u "
+                   "photon batches, %zu results from the journal",
+                   (unsigned long long)j->id, j->name, info.passes_done, info.npasses,
+                   (unsigned long long)info.samples_done, (unsigned long long)info.samples_total,
+                   info.photon_batches_done, info.photon_batches, rp.results);
+    job_refresh(m, j, now);
+    return 0;
+}
+
+int resume_jobs(master_t *m, err_t *err)
+{
+    journal_job_t *rows;
+    size_t n;
+    if (journal_jobs(m->journal, &rows, &n, err) < 0)
+        return -1;
+    double now = clock_now_s();
+    int rc = 0;
+    for (size_t i = 0; i < n && rc == 0; i++) {
+        journal_job_t *r = &rows[i];
+        if (r->id > m->last_job)
+            m->last_job = r->id;
+        char jobdir[PATH_MAX];
+        if (spool_job_dir(m->spool, r->id, jobdir, sizeof jobdir, err) < 0) {
+            rc = -1;
+            break;
+        }
+        if (r->state == JOB_QUEUED || r->state == JOB_RUNNING) {
+            err_t jerr;
+            if (resume_job(m, r, now, &jerr) == 0)
+                continue;
+            /* Not even listed by resume_job (its scene cannot be loaded, say): listed as failed. */
+            char msg[600];
+            snprintf(msg, sizeof msg, "cannot resume it after the master restarted: %s", jerr.msg);
+            free(r->error);
+            r->error = master_strdup(msg);
+            r->state = JOB_FAILED;
+            master_log(m, "job %llu '%s': %s", (unsigned long long)r->id, r->name, msg);
+        }
+        mjob_t *j = job_from_record(r);
+        if (!j || jobs_append(m, j) < 0) {
+            job_free(j);
+            rc = err_set(err, "out of memory for job %llu of the journal",
+                         (unsigned long long)r->id);
+            break;
+        }
+        persist_remove_stale_checkpoints(m, j->id, 0);
+        journal_prune(m->journal, j->id);
+        if (r->state == JOB_FAILED && r->error && strstr(r->error, "after the master restarted"))
+            persist_state(m, j, now); /* failed just now: the journal learns why */
+    }
+    for (size_t i = 0; i < n; i++)
+        journal_job_clear(&rows[i]);
+    free(rows);
+    return rc;
+}
