@@ -210,11 +210,18 @@ int job_restore_photons(master_t *m, mjob_t *j, err_t *err)
     return j->photons.phase ? 0 : -1;
 }
 
+stopping_rule_t job_stopping_rule(const mjob_t *j)
+{
+    return (stopping_rule_t){.target_error = j->settings.target_error,
+                             .time_limit = j->settings.time_limit};
+}
+
 int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err)
 {
     if (jobs_reserve(m) < 0)
         return err_set(err, "the master is out of memory");
-    bool may_stop = j->settings.target_error > 0 || j->settings.time_limit > 0;
+    stopping_rule_t rule = job_stopping_rule(j);
+    bool may_stop = stopping_active(&rule);
     sched_job_info_t info;
     if (sched_add_job(m->sched, j->id, j->scene.xres, j->scene.yres, j->scene.spp, j->scene.grid,
                       err) < 0)
@@ -279,7 +286,7 @@ int job_write_image(master_t *m, mjob_t *j, bool final, err_t *err)
         .seconds = j->started > 0 ? clock_now_s() - j->started : 0.0,
         .spp_done = si.spp_done,
         .stop = (stopping_why_t)j->accuracy.stop,
-        .rule = {.target_error = j->settings.target_error, .time_limit = j->settings.time_limit},
+        .rule = job_stopping_rule(j),
         .history = j->accuracy.history,
         .nhistory = j->accuracy.nhistory};
     jobinfo_format(&ji, info, sizeof info);

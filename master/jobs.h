@@ -29,6 +29,9 @@ int job_restore_photons(master_t *m, mjob_t *j, err_t *err);
 
 void job_set_error(mjob_t *j, const char *msg);
 
+/* The job's stopping rule (film/stopping.h), from its settings. */
+stopping_rule_t job_stopping_rule(const mjob_t *j);
+
 /* Adds a new job to the scheduler, with photon_batches batches before its camera phase and
  * whole passes when it may end early, and to the master's list. */
 int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err);

@@ -48,8 +48,7 @@ static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
                    elapsed);
         proto_stop_t stop = PROTO_STOP_NONE;
         if (info.state == JOB_RUNNING && info.whole_passes) {
-            stopping_rule_t rule = {.target_error = j->settings.target_error,
-                                    .time_limit = j->settings.time_limit};
+            stopping_rule_t rule = job_stopping_rule(j);
             stop = (proto_stop_t)stopping_decide(&rule, &e, elapsed);
         }
         if (stop != PROTO_STOP_NONE) {

@@ -340,12 +340,16 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
         return;
     }
     uint32_t added = photon_phase_nbatches(j->photons.phase) - base;
-    bool may_stop = j->settings.target_error > 0 || j->settings.time_limit > 0;
+    stopping_rule_t rule = job_stopping_rule(j);
+    bool may_stop = stopping_active(&rule);
     if (sched_add_job(m->sched, j->id, j->scene.xres, j->scene.yres, j->scene.spp, j->scene.grid,
                       &err) < 0 ||
         (may_stop && sched_set_whole_passes(m->sched, j->id, &err) < 0) ||
         sched_add_photon_batches(m->sched, j->id, added, &err) < 0) {
         err_t ignore;
+        /* A queued job cannot be removed: cancel it first (as job_schedule does), or its
+         * tasks would go on being dispatched to nobody. */
+        (void)sched_cancel_job(m->sched, j->id, &ignore);
         (void)sched_remove_job(m->sched, j->id, &ignore);
         /* The phase has batches nobody will run: the job can be neither rendered nor refined
          * again, so it fails with the reason. */
