@@ -1,6 +1,5 @@
 #include "proto.h"
 
-#include "bundle.h"
 #include "sha256.h"
 #include "tilebuf.h"
 
@@ -78,13 +77,6 @@ const char *proto_fetch_what_name(proto_fetch_what_t w)
 const char *proto_stop_name(proto_stop_t s)
 {
     return name_of(STOP_NAMES, PROTO_STOP_COUNT, (int)s);
-}
-
-proto_limits_t proto_limits_default(void)
-{
-    return (proto_limits_t){.max_message_bytes = PROTO_MAX_MESSAGE_BYTES,
-                            .max_bundle_files = PROTO_MAX_BUNDLE_FILES,
-                            .max_bundle_bytes = PROTO_MAX_BUNDLE_BYTES};
 }
 
 proto_msg_t proto_refuse_version(int peer_version, const char *role, err_t *text)

@@ -6,7 +6,9 @@
 #ifndef PRISMFARM_PROTO_H
 #define PRISMFARM_PROTO_H
 
+#include "bundle.h"
 #include "err.h"
+#include "proto_limits.h"
 #include "scene_load.h"
 
 #include <msgpack.h>
@@ -19,39 +21,9 @@
  * 2: camera_tile results carry sums_bits and float32 sums. */
 #define PROTO_VERSION 2
 
-/* Fixed bounds of the decoder (docs/protocol.md, "Limits"). */
-#define PROTO_MAX_DEPTH 16           /* msgpack nesting depth */
-#define PROTO_MAX_MAP_ENTRIES 256    /* entries in any map (messages have ~20 fields) */
-#define PROTO_MAX_OBJECTS (1 << 22)  /* msgpack objects in one message (msgpack-c: 24 B each) */
-#define PROTO_MAX_STRING 4096        /* bytes in any string (names, paths, error texts) */
-#define PROTO_MAX_LIST 100000        /* entries in any list (jobs, workers) */
-#define PROTO_MAX_TILE_SIDE 4096     /* tile width and height */
-#define PROTO_MAX_BUCKETS 1024       /* spectral buckets of a tile */
-#define PROTO_MAX_IMAGE_SIDE 65536   /* image resolution and tile corner coordinates */
-#define PROTO_MAX_THREADS 4096       /* worker threads */
-#define PROTO_MAX_WAIT_MS 60000      /* longest STATUS long-poll (client timeouts are longer) */
-#define PROTO_MAX_PATH_DEPTH 32      /* components of a bundle path */
-#define PROTO_MAX_PATH_COMPONENT 200 /* bytes in one component (leaves room under NAME_MAX) */
-#define PROTO_HASH_HEX 64            /* a scene hash: lower-case hex SHA-256 */
-#define PROTO_MAX_TIME_LIMIT 31536000.0 /* a job's time limit, seconds (a year) */
-
-/* Defaults of the caller-configurable limits (proto_limits_t). */
-#define PROTO_MAX_BUNDLE_FILES 4096
-#define PROTO_MAX_BUNDLE_BYTES ((size_t)512 << 20)
-#define PROTO_MAX_MESSAGE_BYTES (PROTO_MAX_BUNDLE_BYTES + ((size_t)16 << 20))
-
 /* Return codes of proto_decode (and of net.h's functions, which add their own). */
 #define PROTO_EMALFORMED (-1) /* the bytes are not a valid message; err says which field */
 #define PROTO_EVERSION (-2)   /* a well-formed envelope with another "v": refuse the peer */
-
-typedef struct proto_limits {
-    size_t max_message_bytes; /* a whole encoded message; also ZMQ_MAXMSGSIZE in net.h */
-    size_t max_bundle_files;  /* files in a scene bundle */
-    size_t max_bundle_bytes;  /* sum of the sizes of a bundle's files */
-} proto_limits_t;
-
-/* PROTO_MAX_MESSAGE_BYTES, PROTO_MAX_BUNDLE_FILES, PROTO_MAX_BUNDLE_BYTES. */
-proto_limits_t proto_limits_default(void);
 
 typedef enum proto_type {
     PROTO_NONE = 0,
@@ -137,20 +109,6 @@ typedef struct proto_settings {
     double target_error;    /* 0, or 0 < E < 1: done at the first pass whose estimate is <= E */
     double time_limit;      /* 0, or 0 < T <= PROTO_MAX_TIME_LIMIT seconds after the start */
 } proto_settings_t;
-
-/* A scene bundle: the main scene file and every file it references, by relative path. Paths use
- * '/', and are relative and normalised (bundle.h states the rules); each appears once. */
-typedef struct proto_bundle_file {
-    const char *path;
-    const uint8_t *data;
-    size_t size;
-} proto_bundle_file_t;
-
-typedef struct proto_bundle {
-    const char *main; /* the scene file to load; one of the files' paths */
-    const proto_bundle_file_t *files;
-    size_t nfiles;
-} proto_bundle_t;
 
 /* A camera tile: pixels [x0, x0+w) x [y0, y0+h), sample indices [sample_begin, sample_end). */
 typedef struct proto_tile {
