@@ -9,6 +9,7 @@
 #include "net.h"
 #include "photon_phase.h"
 #include "scene_load.h"
+#include "settings.h"
 #include "spool.h"
 #include "zap.h"
 
@@ -1210,7 +1211,7 @@ static mjob_t *job_new(uint64_t id, const char *name, const char *hash, const ch
         return NULL;
     }
     snprintf(main_path, main_size, "%s/%s", dir, main);
-    scene_overrides_t ov = proto_settings_to_overrides(set);
+    scene_overrides_t ov = settings_to_overrides(set);
     scene_t *scene = scene_load_file_confined(main_path, dir, &ov, err);
     free(main_path);
     if (!scene) {
@@ -1471,7 +1472,7 @@ static int restore_photons(master_t *m, mjob_t *j, err_t *err)
     snprintf(path, sizeof path, "%s/photons.store", dir);
     snprintf(scene_dir, sizeof scene_dir, "%s/scenes/%s", spool_path(m->spool), j->hash);
     snprintf(main_path, sizeof main_path, "%s/%s", scene_dir, j->main);
-    scene_overrides_t ov = proto_settings_to_overrides(&j->settings);
+    scene_overrides_t ov = settings_to_overrides(&j->settings);
     scene_t *scene = scene_load_file_confined(main_path, scene_dir, &ov, err);
     if (!scene)
         return -1;

@@ -86,26 +86,6 @@ proto_msg_t proto_refuse_version(int peer_version, const char *role, err_t *text
     return (proto_msg_t){.type = PROTO_REFUSE, .refuse = {.reason = text->msg}};
 }
 
-scene_overrides_t proto_settings_to_overrides(const proto_settings_t *s)
-{
-    return (scene_overrides_t){.spp = s->spp,
-                               .xres = s->xres,
-                               .yres = s->yres,
-                               .seed = s->seed,
-                               .integrator = s->integrator,
-                               .dispersion = s->dispersion};
-}
-
-proto_settings_t proto_settings_from_overrides(const scene_overrides_t *ov)
-{
-    return (proto_settings_t){.spp = ov->spp,
-                              .xres = ov->xres,
-                              .yres = ov->yres,
-                              .seed = ov->seed,
-                              .integrator = ov->integrator,
-                              .dispersion = ov->dispersion};
-}
-
 /* ---------------------------------------------------------------- owned memory */
 
 /* Everything proto_decode allocates hangs on one list, so that proto_msg_free can release a

@@ -9,7 +9,6 @@
 #include "bundle.h"
 #include "err.h"
 #include "proto_limits.h"
-#include "scene_load.h"
 
 #include <msgpack.h>
 
@@ -98,8 +97,9 @@ typedef enum proto_fetch_what {
     PROTO_FETCH_COUNT
 } proto_fetch_what_t;
 
-/* Job settings: mirror scene_overrides_t (0 / NULL / -1 keep the scene file's value), then the
- * stopping rules of a progressive job (0: none), which only the master reads. */
+/* Job settings: mirror scene_overrides_t (scene/scene_load.h; settings/settings.h converts: 0 /
+ * NULL / -1 keep the scene file's value), then the stopping rules of a progressive job (0: none),
+ * which only the master reads. */
 typedef struct proto_settings {
     int spp;                /* samples per pixel of the whole job; 0: the file's */
     int xres, yres;         /* 0: the file's */
@@ -317,9 +317,5 @@ const char *proto_stop_name(proto_stop_t stop);              /* "none", "target"
 /* A REFUSE for a peer that speaks peer_version, its reason written into *text:
  * "protocol version 2 not supported by this master (speaks 1)". role names the refuser. */
 proto_msg_t proto_refuse_version(int peer_version, const char *role, err_t *text);
-
-/* The settings as the scene loader takes them (strings still point into settings). */
-scene_overrides_t proto_settings_to_overrides(const proto_settings_t *settings);
-proto_settings_t proto_settings_from_overrides(const scene_overrides_t *ov);
 
 #endif

@@ -707,24 +707,6 @@ static void test_accuracy_fields_strict(void **state)
     msgpack_sbuffer_destroy(&sb);
 }
 
-static void test_settings_mirror_overrides(void **state)
-{
-    (void)state;
-    scene_overrides_t ov = proto_settings_to_overrides(&g_settings);
-    assert_int_equal(ov.spp, 256);
-    assert_int_equal(ov.xres, 640);
-    assert_int_equal(ov.yres, 480);
-    assert_int_equal(ov.seed, 42);
-    assert_string_equal(ov.integrator, "path");
-    assert_string_equal(ov.dispersion, "fanout");
-    proto_settings_t back = proto_settings_from_overrides(&ov);
-    /* The stopping rules are the master's, not the scene's: no override carries them. */
-    assert_true(back.target_error == 0 && back.time_limit == 0);
-    back.target_error = g_settings.target_error;
-    back.time_limit = g_settings.time_limit;
-    assert_settings_equal(&back, &g_settings);
-}
-
 static void test_version_refusal(void **state)
 {
     (void)state;
@@ -1468,7 +1450,6 @@ int main(void)
         cmocka_unit_test(test_decoded_message_owns_its_data),
         cmocka_unit_test(test_photon_messages),
         cmocka_unit_test(test_status_all_and_optional_fields),
-        cmocka_unit_test(test_settings_mirror_overrides),
         cmocka_unit_test(test_version_refusal),
         cmocka_unit_test(test_truncated_at_every_byte),
         cmocka_unit_test(test_lying_container_headers),

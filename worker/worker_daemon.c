@@ -7,6 +7,7 @@
 #include "photon.h"
 #include "render.h"
 #include "scene_load.h"
+#include "settings.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -235,7 +236,7 @@ static job_scene_t *acquire_scene(worker_t *w, const task_t *t, err_t *err)
         } else {
             mainname[strcspn(mainname, "\n")] = 0;
             snprintf(main_path, sizeof main_path, "%s/%s", dir, mainname);
-            scene_overrides_t ov = proto_settings_to_overrides(&t->settings);
+            scene_overrides_t ov = settings_to_overrides(&t->settings);
             sc = scene_load_file_confined(main_path, dir, &ov, &lerr);
         }
         if (f)
