@@ -1,8 +1,8 @@
 #include "proto.h"
 
 #include "sha256.h"
-#include "tilebuf.h"
 
+#include <float.h>
 #include <inttypes.h>
 #include <limits.h>
 #include <math.h>
@@ -258,14 +258,30 @@ static int ck_bundle(const cx_t *cx, const proto_bundle_t *b, const proto_limits
     return 0;
 }
 
-/* The width the sums travel at: 32 when every one is a float value (tilebuf.h), else 64. */
+/* A double that 4 bytes carry exactly and that the decoder takes back: zero, or a normal float
+ * (a subnormal float32 on the wire is refused). The same values as film/tilebuf.h's
+ * tilebuf_is_float_value, which its rounding rule leaves; test_proto checks the two agree. Zero
+ * is told by its bits: under denormals-are-zero (the render threads' mode) a subnormal double
+ * compares equal to 0. The comparisons and the round trip act on normal numbers only, which
+ * neither that mode nor flush-to-zero changes. */
+static bool is_float32_value(double v)
+{
+    uint64_t bits;
+    memcpy(&bits, &v, sizeof bits);
+    if ((bits & ~((uint64_t)1 << 63)) == 0)
+        return true;
+    double a = fabs(v);
+    return a >= FLT_MIN && a <= FLT_MAX && (double)(float)v == v;
+}
+
+/* The width the sums travel at: 32 when every one is a float32 value, else 64. */
 static int sums_width(const proto_tile_result_t *r)
 {
     if (r->sums_bits)
         return r->sums_bits;
     size_t n = (size_t)r->rect.w * (size_t)r->rect.h * (size_t)r->nbuckets;
     for (size_t i = 0; i < n; i++)
-        if (!tilebuf_is_float_value(r->sums[i]))
+        if (!is_float32_value(r->sums[i]))
             return 64;
     return 32;
 }
@@ -285,7 +301,7 @@ static int ck_tile_result(const cx_t *cx, const proto_tile_result_t *r)
      * would be a value the sender's rounding rule keeps as a double. */
     if (r->sums_bits == 32)
         for (size_t i = 0; i < npix * (size_t)r->nbuckets; i++)
-            if (!tilebuf_is_float_value(r->sums[i]))
+            if (!is_float32_value(r->sums[i]))
                 return cx_fail(cx, "tile.sums", "element %zu is %.17g, not a normal float32 value "
                                "(sums_bits is 32)", i, r->sums[i]);
     if (!r->counts)
@@ -1454,7 +1470,7 @@ static void e_words(enc_t *e, const char *key, const void *words, size_t n)
 #endif
 }
 
-/* Doubles that are float values (tilebuf_is_float_value) as a bin of little-endian float32s,
+/* Doubles that are float32 values (is_float32_value) as a bin of little-endian float32s,
  * packed a chunk at a time. */
 static void e_floats(enc_t *e, const char *key, const double *v, size_t n)
 {

@@ -117,9 +117,8 @@ typedef struct proto_tile {
 } proto_tile_t;
 
 /* A camera tile's result: a tilebuf's contents (film/tilebuf.h), in its layout. The sums travel
- * as float32 when every one is a float value (tilebuf_is_float_value: zero or a normal float,
- * what tilebuf_round_sums leaves in the common case), else as float64; lum and lum_sq always as
- * float64. */
+ * as float32 when every one is a float32 value (zero or a normal float: what tilebuf_round_sums
+ * leaves in the common case), else as float64; lum and lum_sq always as float64. */
 typedef struct proto_tile_result {
     proto_tile_t rect;
     int nbuckets;
@@ -128,8 +127,8 @@ typedef struct proto_tile_result {
     const double *lum;      /* [h][w] sum of per-sample luminance, finite */
     const double *lum_sq;   /* [h][w] sum of squared per-sample luminance, finite */
     uint64_t nonfinite;     /* samples dropped for a NaN or Inf contribution */
-    /* Width of sums on the wire. Encode: 0 picks 32 when every sum is a float value, else 64;
-     * 32 (refused unless every sum is a float value) or 64 forces it. Decode: what came, 32 or
+    /* Width of sums on the wire. Encode: 0 picks 32 when every sum is a float32 value, else 64;
+     * 32 (refused unless every sum is a float32 value) or 64 forces it. Decode: what came, 32 or
      * 64 (the sums are handed out as doubles either way, equal to the values sent). */
     int sums_bits;
 } proto_tile_result_t;
