@@ -8,6 +8,7 @@
 #include "film.h"
 #include "job_follow.h"
 #include "scene_bundle.h"
+#include "settings.h"
 
 #include <stdio.h>
 #include <stdlib.h>
@@ -83,7 +84,7 @@ int cmd_submit(int argc, char **argv)
     }
     client_rpc_t *rpc = client_rpc_new(master, NULL, &sec, &err);
     proto_msg_t req = {.type = PROTO_SUBMIT,
-                       .submit = {.name = name, .settings = proto_settings_from_overrides(&ov),
+                       .submit = {.name = name, .settings = settings_from_overrides(&ov),
                                   .bundle = *scene_bundle_get(b)}};
     req.submit.settings.target_error = stop.target_error;
     req.submit.settings.time_limit = stop.time_limit;

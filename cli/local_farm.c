@@ -5,6 +5,7 @@
 #include "job_follow.h"
 #include "master.h"
 #include "scene_bundle.h"
+#include "settings.h"
 #include "worker_daemon.h"
 
 #include <errno.h>
@@ -142,7 +143,7 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
                 nstarted == 1 ? "" : "s", threads);
     rpc = client_rpc_new(cep, ctx, NULL, &err);
     proto_msg_t req = {.type = PROTO_SUBMIT,
-                       .submit = {.name = name, .settings = proto_settings_from_overrides(&ov),
+                       .submit = {.name = name, .settings = settings_from_overrides(&ov),
                                   .bundle = *scene_bundle_get(bundle)}};
     req.submit.settings.target_error = o->target_error;
     req.submit.settings.time_limit = o->time_limit;

@@ -6,6 +6,7 @@
 #include "peers.h"
 #include "persist.h"
 #include "scene_load.h"
+#include "settings.h"
 
 #include <limits.h>
 #include <stdio.h>
@@ -133,7 +134,7 @@ mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *mai
         return NULL;
     }
     snprintf(main_path, main_size, "%s/%s", dir, main);
-    scene_overrides_t ov = proto_settings_to_overrides(set);
+    scene_overrides_t ov = settings_to_overrides(set);
     scene_t *scene = scene_load_file_confined(main_path, dir, &ov, err);
     free(main_path);
     if (!scene) {
@@ -194,7 +195,7 @@ int job_restore_photons(master_t *m, mjob_t *j, err_t *err)
     snprintf(path, sizeof path, "%s/photons.store", dir);
     snprintf(scene_dir, sizeof scene_dir, "%s/scenes/%s", spool_path(m->spool), j->hash);
     snprintf(main_path, sizeof main_path, "%s/%s", scene_dir, j->main);
-    scene_overrides_t ov = proto_settings_to_overrides(&j->settings);
+    scene_overrides_t ov = settings_to_overrides(&j->settings);
     scene_t *scene = scene_load_file_confined(main_path, scene_dir, &ov, err);
     if (!scene)
         return -1;

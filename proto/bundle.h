@@ -1,10 +1,30 @@
-/* bundle: the scene bundles that travel with jobs (proto_bundle_t, defined in proto.h): the path
- * rules every bundle obeys, its content hash, and writing it into a folder. A bundle that passes
- * proto_bundle_check can only create files below the folder it is extracted into. */
+/* bundle: the scene bundles that travel with jobs (in SUBMIT and SCENE, proto.h): the path rules
+ * every bundle obeys, its content hash, and writing it into a folder. A bundle that passes
+ * proto_bundle_check can only create files below the folder it is extracted into. It sits below
+ * the codec, which checks and hashes the bundles it carries, and knows nothing of messages. */
 #ifndef PRISMFARM_BUNDLE_H
 #define PRISMFARM_BUNDLE_H
 
-#include "proto.h"
+#include "err.h"
+#include "proto_limits.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* A scene bundle: the main scene file and every file it references, by relative path. Paths use
+ * '/', and are relative and normalised (proto_bundle_path_check states the rules); each appears
+ * once. */
+typedef struct proto_bundle_file {
+    const char *path;
+    const uint8_t *data;
+    size_t size;
+} proto_bundle_file_t;
+
+typedef struct proto_bundle {
+    const char *main; /* the scene file to load; one of the files' paths */
+    const proto_bundle_file_t *files;
+    size_t nfiles;
+} proto_bundle_t;
 
 /* A path inside a bundle: 1..PROTO_MAX_STRING bytes of '/'-separated components, at most
  * PROTO_MAX_PATH_DEPTH of them, each 1..PROTO_MAX_PATH_COMPONENT bytes, none "." or "..". No

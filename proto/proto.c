@@ -1,9 +1,8 @@
 #include "proto.h"
 
-#include "bundle.h"
 #include "sha256.h"
-#include "tilebuf.h"
 
+#include <float.h>
 #include <inttypes.h>
 #include <limits.h>
 #include <math.h>
@@ -80,38 +79,11 @@ const char *proto_stop_name(proto_stop_t s)
     return name_of(STOP_NAMES, PROTO_STOP_COUNT, (int)s);
 }
 
-proto_limits_t proto_limits_default(void)
-{
-    return (proto_limits_t){.max_message_bytes = PROTO_MAX_MESSAGE_BYTES,
-                            .max_bundle_files = PROTO_MAX_BUNDLE_FILES,
-                            .max_bundle_bytes = PROTO_MAX_BUNDLE_BYTES};
-}
-
 proto_msg_t proto_refuse_version(int peer_version, const char *role, err_t *text)
 {
     err_set(text, "protocol version %d not supported by this %s (speaks %d)", peer_version, role,
             PROTO_VERSION);
     return (proto_msg_t){.type = PROTO_REFUSE, .refuse = {.reason = text->msg}};
-}
-
-scene_overrides_t proto_settings_to_overrides(const proto_settings_t *s)
-{
-    return (scene_overrides_t){.spp = s->spp,
-                               .xres = s->xres,
-                               .yres = s->yres,
-                               .seed = s->seed,
-                               .integrator = s->integrator,
-                               .dispersion = s->dispersion};
-}
-
-proto_settings_t proto_settings_from_overrides(const scene_overrides_t *ov)
-{
-    return (proto_settings_t){.spp = ov->spp,
-                              .xres = ov->xres,
-                              .yres = ov->yres,
-                              .seed = ov->seed,
-                              .integrator = ov->integrator,
-                              .dispersion = ov->dispersion};
 }
 
 /* ---------------------------------------------------------------- owned memory */
@@ -144,15 +116,17 @@ void proto_msg_free(proto_msg_t *msg)
     memset(msg, 0, sizeof *msg);
 }
 
-/* ---------------------------------------------------------------- checks shared by both ways */
+/* ---------------------------------------------------------------- error context */
 
 /* Context for error messages: "TYPE: field 'prefix.field' what is wrong". */
 typedef struct cx {
     const char *type;
-    char prefix[40]; /* "jobs[12]." inside lists, else "" */
+    char prefix[40]; /* the maps and list entries around the field: "tile.", "jobs[12].", "" */
+    const proto_limits_t *lim;
     err_t *err;
 } cx_t;
 
+/* Fails naming prefix + field, or, when field is NULL, the enclosing map itself ("tile"). */
 __attribute__((format(printf, 3, 4))) static int cx_fail(const cx_t *cx, const char *field,
                                                          const char *fmt, ...)
 {
@@ -161,330 +135,822 @@ __attribute__((format(printf, 3, 4))) static int cx_fail(const cx_t *cx, const c
     va_start(ap, fmt);
     vsnprintf(what, sizeof what, fmt, ap);
     va_end(ap);
-    err_set(cx->err, "%s: field '%s%s' %s", cx->type, cx->prefix, field, what);
+    if (field)
+        err_set(cx->err, "%s: field '%s%s' %s", cx->type, cx->prefix, field, what);
+    else
+        err_set(cx->err, "%s: field '%.*s' %s", cx->type, (int)strlen(cx->prefix) - 1, cx->prefix,
+                what);
     return PROTO_EMALFORMED;
 }
 
-static int ck_range(const cx_t *cx, const char *field, long long v, long long lo, long long hi)
+/* Enters the map under key, or its list entry index (when >= 0); returns what cx_leave needs. */
+static size_t cx_enter(cx_t *cx, const char *key, long long index)
 {
-    if (v < lo || v > hi)
-        return cx_fail(cx, field, "is %lld, expected %lld..%lld", v, lo, hi);
+    size_t n = strlen(cx->prefix);
+    if (index < 0)
+        snprintf(cx->prefix + n, sizeof cx->prefix - n, "%s.", key);
+    else
+        snprintf(cx->prefix + n, sizeof cx->prefix - n, "%s[%lld].", key, index);
+    return n;
+}
+
+static void cx_leave(cx_t *cx, size_t n)
+{
+    cx->prefix[n] = 0;
+}
+
+/* ---------------------------------------------------------------- the field tables */
+
+/* Every message body, and every map inside one, is described once, by a table of its fields:
+ * the key, how the value is stored and sent, where it is in its struct, when it is on the wire
+ * and which values it may hold. Generic walks over a table encode it (write_fields), decode it
+ * (read_fields), check it (check_fields, on both sides) and count a map's entries
+ * (count_fields), so adding a field is adding its line. What is not a plain value (blobs, arrays
+ * of words, the float32-or-float64 tile sums, maps, lists of maps) has a type of its own, handled
+ * in one case of each walk. Rules that span fields (a tile inside the image, a SCENE's hash)
+ * belong to the table as a whole (shape_t.check). */
+
+typedef enum ftype {
+    FT_U64,       /* uint64_t: uint */
+    FT_U32,       /* uint32_t: uint <= UINT32_MAX */
+    FT_INT,       /* int: uint <= INT_MAX (every int field's range starts at 0 or more) */
+    FT_SINT,      /* long long: int */
+    FT_FLOAT,     /* double: float64 (float32 accepted) */
+    FT_STR,       /* const char *: str, copied NUL-terminated */
+    FT_HASH,      /* char[PROTO_HASH_HEX + 1]: str of PROTO_HASH_HEX bytes */
+    FT_ENUM,      /* an enum: str, one of .names from .names->first on */
+    FT_BYTES,     /* const uint8_t *, with its size_t size at .aux: bin */
+    FT_WORDS,     /* const double * or const uint64_t *, .count of them: bin of LE 8-byte words */
+    FT_SUMS_BITS, /* int: the width of the FT_SUMS at .aux, 32 or 64 (in C, 0 lets it pick) */
+    FT_SUMS,      /* const double *, .count of them: bin of LE float32s or float64s, as the
+                   * FT_SUMS_BITS at .aux says */
+    FT_MAP,       /* a struct: a map of .sub's fields */
+    FT_LIST,      /* const T *, with its size_t count at .aux: an array of maps of .sub's fields */
+    FT_FLAT,      /* a struct whose fields (.sub) sit among this map's own (a result's tile rect) */
+} ftype_t;
+
+/* When a field is on the wire. An absent optional field decodes as zero or clears its flag. */
+typedef enum presence {
+    ALWAYS,      /* required */
+    UNLESS_ZERO, /* omitted when 0, NULL or "" (an enum: its value 0) */
+    IF_FLAG,     /* there when the bool at .flag is true; decoding sets the flag */
+    UNLESS_FLAG, /* there when the bool at .flag is false; decoding sets the flag */
+} presence_t;
+
+typedef struct names {
+    const char *const *names;
+    int count;
+    int first; /* the wire carries names[first..count); those before are for C only ("none") */
+} names_t;
+
+typedef struct field field_t;
+typedef struct shape shape_t;
+
+struct field {
+    const char *key; /* also its name in errors, after the enclosing maps' */
+    ftype_t type;
+    size_t at;  /* offset of the value in the struct the table describes */
+    size_t aux; /* FT_BYTES, FT_LIST: offset of the size_t length; FT_SUMS(_BITS): of its twin */
+    presence_t presence;
+    size_t flag;                   /* IF_FLAG, UNLESS_FLAG: offset of the bool */
+    const char *absent;            /* UNLESS_ZERO: when set, a 0 on the wire is refused,
+                                    * "absent means <absent>" (the encoder omits it instead) */
+    bool (*when)(const void *obj); /* NULL, or the field belongs to the struct only when true
+                                    * (a TASK's tile only in a camera task); else never sent and
+                                    * ignored when received */
+    int (*check)(const cx_t *cx, const field_t *f, const void *obj); /* the value's rule */
+    long long lo, hi;                 /* ck_range's bounds; ck_name's, ck_list's maximum */
+    const names_t *names;             /* FT_ENUM */
+    const shape_t *sub;               /* FT_MAP, FT_LIST, FT_FLAT */
+    size_t (*count)(const void *obj); /* FT_WORDS, FT_SUMS, FT_SUMS_BITS: the array's length */
+};
+
+struct shape {
+    const field_t *fields;
+    size_t nfields;
+    size_t size;                                   /* sizeof the struct: a list's stride */
+    int (*check)(const cx_t *cx, const void *obj); /* across fields, after them; or NULL */
+};
+
+/* FT_LIST's .hi for the files of a bundle: the caller's proto_limits_t.max_bundle_files. */
+#define CALLER_BUNDLE_FILES (-1)
+/* Keys in one map, its flat sub-tables included (a RESULT's tile has 13). */
+#define MAX_KEYS 16
+
+/* The value of a field, by its type, in the struct obj. */
+#define VALUE(type, obj, off) (*(type *)((char *)(obj) + (off)))
+#define CVALUE(type, obj, off) (*(const type *)((const char *)(obj) + (off)))
+
+/* Enums are read and written as the int they are. */
+_Static_assert(sizeof(proto_kind_t) == sizeof(int) && sizeof(proto_job_state_t) == sizeof(int) &&
+                   sizeof(proto_worker_state_t) == sizeof(int) &&
+                   sizeof(proto_fetch_what_t) == sizeof(int) && sizeof(proto_stop_t) == sizeof(int),
+               "enum fields are accessed as int");
+
+/* Pointer members have many types (const double *, const proto_job_info_t *, ...): they are
+ * copied as bytes rather than accessed through another pointer type. */
+static const void *ptr_of(const void *obj, size_t off)
+{
+    const void *p;
+    memcpy(&p, (const char *)obj + off, sizeof p);
+    return p;
+}
+
+static void set_ptr(void *obj, size_t off, const void *p)
+{
+    memcpy((char *)obj + off, &p, sizeof p);
+}
+
+static long long int_of(const field_t *f, const void *obj)
+{
+    switch (f->type) {
+    case FT_U32:
+        return CVALUE(uint32_t, obj, f->at);
+    case FT_SINT:
+        return CVALUE(long long, obj, f->at);
+    default: /* FT_INT, FT_ENUM, FT_SUMS_BITS */
+        return CVALUE(int, obj, f->at);
+    }
+}
+
+static bool is_zero(const field_t *f, const void *obj)
+{
+    switch (f->type) {
+    case FT_U64:
+        return CVALUE(uint64_t, obj, f->at) == 0;
+    case FT_FLOAT:
+        return CVALUE(double, obj, f->at) == 0;
+    case FT_STR:
+        return ptr_of(obj, f->at) == NULL;
+    case FT_HASH:
+        return CVALUE(char, obj, f->at) == 0;
+    default:
+        return int_of(f, obj) == 0;
+    }
+}
+
+/* Whether f is in the encoding of obj. */
+static bool present(const field_t *f, const void *obj)
+{
+    if (f->when && !f->when(obj))
+        return false;
+    switch (f->presence) {
+    case UNLESS_ZERO:
+        return !is_zero(f, obj);
+    case IF_FLAG:
+        return CVALUE(bool, obj, f->flag);
+    case UNLESS_FLAG:
+        return !CVALUE(bool, obj, f->flag);
+    case ALWAYS:
+        break;
+    }
+    return true;
+}
+
+/* The entries of the map that obj encodes to. */
+static size_t count_fields(const shape_t *s, const void *obj)
+{
+    size_t n = 0;
+    for (size_t i = 0; i < s->nfields; i++) {
+        const field_t *f = &s->fields[i];
+        if (f->type == FT_FLAT)
+            n += count_fields(f->sub, (const char *)obj + f->at);
+        else
+            n += present(f, obj);
+    }
+    return n;
+}
+
+/* The entries every map of this table has, whatever its values. */
+static uint32_t required_fields(const shape_t *s)
+{
+    uint32_t n = 0;
+    for (size_t i = 0; i < s->nfields; i++) {
+        const field_t *f = &s->fields[i];
+        if (f->type == FT_FLAT)
+            n += required_fields(f->sub);
+        else
+            n += f->presence == ALWAYS && !f->when;
+    }
+    return n;
+}
+
+/* ---------------------------------------------------------------- value rules */
+
+static int ck_range(const cx_t *cx, const field_t *f, const void *obj)
+{
+    long long v = int_of(f, obj);
+    if (v < f->lo || v > f->hi)
+        return cx_fail(cx, f->key, "is %lld, expected %lld..%lld", v, f->lo, f->hi);
+    return 0;
+}
+
+/* An enum set by the caller: one of its values. */
+static int ck_enum(const cx_t *cx, const field_t *f, const void *obj)
+{
+    long long v = int_of(f, obj);
+    if (v < 0 || v >= f->names->count)
+        return cx_fail(cx, f->key, "is %lld, expected 0..%d", v, f->names->count - 1);
+    return 0;
+}
+
+/* A task's or a result's kind, which decides the fields after it. */
+static int ck_kind(const cx_t *cx, const field_t *f, const void *obj)
+{
+    long long v = int_of(f, obj);
+    if (v != PROTO_KIND_CAMERA_TILE && v != PROTO_KIND_PHOTON_BATCH)
+        return cx_fail(cx, f->key, "is %lld, not a task kind of version %d", v, PROTO_VERSION);
     return 0;
 }
 
 /* Free text (error messages, reasons): any bytes but NUL, bounded. */
-static int ck_text(const cx_t *cx, const char *field, const char *s)
+static int ck_text(const cx_t *cx, const field_t *f, const void *obj)
 {
+    const char *s = ptr_of(obj, f->at);
     if (!s)
-        return cx_fail(cx, field, "is missing");
+        return cx_fail(cx, f->key, "is missing");
     size_t n = strlen(s);
     if (n > PROTO_MAX_STRING)
-        return cx_fail(cx, field, "has %zu bytes, at most %d allowed", n, PROTO_MAX_STRING);
+        return cx_fail(cx, f->key, "has %zu bytes, at most %d allowed", n, PROTO_MAX_STRING);
     return 0;
 }
 
-/* Names shown in tables and logs: non-empty, bounded, no control characters (a name must not be
- * able to move a terminal's cursor). */
-static int ck_name(const cx_t *cx, const char *field, const char *s, size_t max)
+/* Names shown in tables and logs: non-empty, at most .hi bytes, no control characters (a name
+ * must not be able to move a terminal's cursor). */
+static int ck_name(const cx_t *cx, const field_t *f, const void *obj)
 {
+    const char *s = ptr_of(obj, f->at);
     if (!s)
-        return cx_fail(cx, field, "is missing");
+        return cx_fail(cx, f->key, "is missing");
     size_t n = strlen(s);
     if (n == 0)
-        return cx_fail(cx, field, "is empty");
-    if (n > max)
-        return cx_fail(cx, field, "has %zu bytes, at most %zu allowed", n, max);
+        return cx_fail(cx, f->key, "is empty");
+    if (n > (size_t)f->hi)
+        return cx_fail(cx, f->key, "has %zu bytes, at most %lld allowed", n, f->hi);
     for (size_t i = 0; i < n; i++) {
         unsigned char c = (unsigned char)s[i];
         if (c < 0x20 || c == 0x7f)
-            return cx_fail(cx, field, "has a control character 0x%02x at byte %zu", c, i);
+            return cx_fail(cx, f->key, "has a control character 0x%02x at byte %zu", c, i);
     }
     return 0;
 }
 
-static int ck_hash(const cx_t *cx, const char *field, const char *h)
+static int ck_hash(const cx_t *cx, const field_t *f, const void *obj)
 {
+    const char *h = (const char *)obj + f->at;
     for (int i = 0; i < PROTO_HASH_HEX; i++)
         if (!((h[i] >= '0' && h[i] <= '9') || (h[i] >= 'a' && h[i] <= 'f')))
-            return cx_fail(cx, field, "is not %d lower-case hex digits (SHA-256)", PROTO_HASH_HEX);
+            return cx_fail(cx, f->key, "is not %d lower-case hex digits (SHA-256)", PROTO_HASH_HEX);
     if (h[PROTO_HASH_HEX] != 0)
-        return cx_fail(cx, field, "is longer than %d hex digits", PROTO_HASH_HEX);
+        return cx_fail(cx, f->key, "is longer than %d hex digits", PROTO_HASH_HEX);
     return 0;
 }
 
-static int ck_seconds(const cx_t *cx, const char *field, double v)
+static int ck_seconds(const cx_t *cx, const field_t *f, const void *obj)
 {
+    double v = CVALUE(double, obj, f->at);
     if (!isfinite(v) || v < 0)
-        return cx_fail(cx, field, "is %g, expected a finite number of seconds >= 0", v);
+        return cx_fail(cx, f->key, "is %g, expected a finite number of seconds >= 0", v);
     return 0;
 }
 
-static int ck_finite(const cx_t *cx, const char *field, const double *a, size_t n)
+static int ck_target_error(const cx_t *cx, const field_t *f, const void *obj)
 {
+    double v = CVALUE(double, obj, f->at);
+    if (!(v > 0 && v < 1))
+        return cx_fail(cx, f->key, "is %g, expected a relative error in (0, 1)", v);
+    return 0;
+}
+
+static int ck_time_limit(const cx_t *cx, const field_t *f, const void *obj)
+{
+    double v = CVALUE(double, obj, f->at);
+    if (!(v > 0 && v <= PROTO_MAX_TIME_LIMIT))
+        return cx_fail(cx, f->key, "is %g, expected seconds in (0, %g]", v, PROTO_MAX_TIME_LIMIT);
+    return 0;
+}
+
+static int ck_rel_error(const cx_t *cx, const field_t *f, const void *obj)
+{
+    double v = CVALUE(double, obj, f->at);
+    if (!(isfinite(v) && v >= 0))
+        return cx_fail(cx, f->key, "is %g, expected a finite relative error >= 0", v);
+    return 0;
+}
+
+static int ck_photon_count(const cx_t *cx, const field_t *f, const void *obj)
+{
+    uint64_t v = CVALUE(uint64_t, obj, f->at);
+    if (v == 0 || v > ((uint64_t)1 << 40))
+        return cx_fail(cx, f->key, "is %" PRIu64 ", expected 1 to 2^40", v);
+    return 0;
+}
+
+static int ck_bytes(const cx_t *cx, const field_t *f, const void *obj)
+{
+    if (CVALUE(size_t, obj, f->aux) > 0 && !ptr_of(obj, f->at))
+        return cx_fail(cx, f->key, "is missing");
+    return 0;
+}
+
+static int ck_list(const cx_t *cx, const field_t *f, const void *obj)
+{
+    size_t n = CVALUE(size_t, obj, f->aux);
+    if (n > (size_t)f->hi)
+        return cx_fail(cx, f->key, "has %zu entries, at most %lld allowed", n, f->hi);
+    if (n > 0 && !ptr_of(obj, f->at))
+        return cx_fail(cx, f->key, "is missing");
+    return 0;
+}
+
+/* An array of words of any value (counts). */
+static int ck_words(const cx_t *cx, const field_t *f, const void *obj)
+{
+    if (f->count(obj) > 0 && !ptr_of(obj, f->at))
+        return cx_fail(cx, f->key, "is missing");
+    return 0;
+}
+
+static int ck_finite(const cx_t *cx, const field_t *f, const void *obj)
+{
+    const double *a = ptr_of(obj, f->at);
+    size_t n = f->count(obj);
     if (n > 0 && !a)
-        return cx_fail(cx, field, "is missing");
+        return cx_fail(cx, f->key, "is missing");
     for (size_t i = 0; i < n; i++)
         if (!isfinite(a[i]))
-            return cx_fail(cx, field, "element %zu is %g: results carry finite numbers only", i,
+            return cx_fail(cx, f->key, "element %zu is %g: results carry finite numbers only", i,
                            a[i]);
     return 0;
 }
 
-#define SETTING_NAME_MAX 64
-
-static int ck_settings(const cx_t *cx, const proto_settings_t *s)
+/* A double that 4 bytes carry exactly and that the decoder takes back: zero, or a normal float
+ * (a subnormal float32 on the wire is refused). The same values as film/tilebuf.h's
+ * tilebuf_is_float_value, which its rounding rule leaves; test_proto checks the two agree. Zero
+ * is told by its bits: under denormals-are-zero (the render threads' mode) a subnormal double
+ * compares equal to 0. The comparisons and the round trip act on normal numbers only, which
+ * neither that mode nor flush-to-zero changes. */
+static bool is_float32_value(double v)
 {
-    if (ck_range(cx, "set.spp", s->spp, 0, INT_MAX) ||
-        ck_range(cx, "set.xres", s->xres, 0, PROTO_MAX_IMAGE_SIDE) ||
-        ck_range(cx, "set.yres", s->yres, 0, PROTO_MAX_IMAGE_SIDE) ||
-        ck_range(cx, "set.seed", s->seed, -1, LLONG_MAX))
-        return PROTO_EMALFORMED;
-    if (s->integrator && ck_name(cx, "set.integ", s->integrator, SETTING_NAME_MAX))
-        return PROTO_EMALFORMED;
-    if (s->dispersion && ck_name(cx, "set.disp", s->dispersion, SETTING_NAME_MAX))
-        return PROTO_EMALFORMED;
-    /* 0 means "no rule" and is never written; anything else must be a usable rule. */
-    if (s->target_error != 0 && !(s->target_error > 0 && s->target_error < 1))
-        return cx_fail(cx, "set.tgt", "is %g, expected a relative error in (0, 1)",
-                       s->target_error);
-    if (s->time_limit != 0 && !(s->time_limit > 0 && s->time_limit <= PROTO_MAX_TIME_LIMIT))
-        return cx_fail(cx, "set.tlim", "is %g, expected seconds in (0, %g]", s->time_limit,
-                       PROTO_MAX_TIME_LIMIT);
-    return 0;
+    uint64_t bits;
+    memcpy(&bits, &v, sizeof bits);
+    if ((bits & ~((uint64_t)1 << 63)) == 0)
+        return true;
+    double a = fabs(v);
+    return a >= FLT_MIN && a <= FLT_MAX && (double)(float)v == v;
 }
 
-/* Bounds that keep every size derived from a tile (w*h*nbuckets*8 bytes) far from overflow. */
-/* A photon range: non-empty, and below 2^62 photons so that counts times lanes fit. */
-static int ck_photons(const cx_t *cx, const char *field, const proto_photon_batch_t *b)
+/* The width the sums travel at: the one asked for, else 32 when every sum is a float32 value,
+ * else 64. */
+static int sums_width(int bits, const double *sums, size_t n)
 {
-    if (!(b->end > b->first) || b->end > ((uint64_t)1 << 62))
-        return cx_fail(cx, field, "[%" PRIu64 ", %" PRIu64 ") is not a photon range", b->first,
-                       b->end);
-    return 0;
-}
-
-static int ck_tile(const cx_t *cx, const proto_tile_t *t)
-{
-    if (ck_range(cx, "tile.x0", t->x0, 0, PROTO_MAX_IMAGE_SIDE - 1) ||
-        ck_range(cx, "tile.y0", t->y0, 0, PROTO_MAX_IMAGE_SIDE - 1) ||
-        ck_range(cx, "tile.w", t->w, 1, PROTO_MAX_TILE_SIDE) ||
-        ck_range(cx, "tile.h", t->h, 1, PROTO_MAX_TILE_SIDE))
-        return PROTO_EMALFORMED;
-    if (t->x0 + t->w > PROTO_MAX_IMAGE_SIDE || t->y0 + t->h > PROTO_MAX_IMAGE_SIDE)
-        return cx_fail(cx, "tile", "%dx%d at (%d,%d) reaches beyond %d pixels", t->w, t->h, t->x0,
-                       t->y0, PROTO_MAX_IMAGE_SIDE);
-    if (t->sample_end <= t->sample_begin)
-        return cx_fail(cx, "tile.se", "is %" PRIu32 ", expected more than tile.sb (%" PRIu32 ")",
-                       t->sample_end, t->sample_begin);
-    return 0;
-}
-
-static int ck_bundle(const cx_t *cx, const proto_bundle_t *b, const proto_limits_t *lim)
-{
-    if (proto_bundle_check(b, lim, cx->err) < 0)
-        return err_prefix(cx->err, "%s: field 'bundle': ", cx->type), PROTO_EMALFORMED;
-    return 0;
-}
-
-/* The width the sums travel at: 32 when every one is a float value (tilebuf.h), else 64. */
-static int sums_width(const proto_tile_result_t *r)
-{
-    if (r->sums_bits)
-        return r->sums_bits;
-    size_t n = (size_t)r->rect.w * (size_t)r->rect.h * (size_t)r->nbuckets;
+    if (bits)
+        return bits;
     for (size_t i = 0; i < n; i++)
-        if (!tilebuf_is_float_value(r->sums[i]))
+        if (!is_float32_value(sums[i]))
             return 64;
     return 32;
 }
 
-static int ck_tile_result(const cx_t *cx, const proto_tile_result_t *r)
+/* 0 ("pick") only reaches here from proto_encode: the decoder takes 32 or 64 only. */
+static int ck_sums_bits(const cx_t *cx, const field_t *f, const void *obj)
 {
-    if (ck_tile(cx, &r->rect) || ck_range(cx, "tile.nb", r->nbuckets, 1, PROTO_MAX_BUCKETS))
-        return PROTO_EMALFORMED;
-    /* 0 ("pick") only reaches here from proto_encode: the decoder sets 32 or 64. */
-    if (r->sums_bits != 0 && r->sums_bits != 32 && r->sums_bits != 64)
-        return cx_fail(cx, "tile.sums_bits", "is %d, expected 32 or 64", r->sums_bits);
-    size_t npix = (size_t)r->rect.w * (size_t)r->rect.h;
-    if (ck_finite(cx, "tile.sums", r->sums, npix * (size_t)r->nbuckets) ||
-        ck_finite(cx, "tile.lum", r->lum, npix) || ck_finite(cx, "tile.lum2", r->lum_sq, npix))
+    int bits = CVALUE(int, obj, f->at);
+    if (bits != 0 && bits != 32 && bits != 64)
+        return cx_fail(cx, f->key, "is %d, expected 32 or 64", bits);
+    return 0;
+}
+
+static int ck_sums(const cx_t *cx, const field_t *f, const void *obj)
+{
+    if (ck_finite(cx, f, obj))
         return PROTO_EMALFORMED;
     /* Float32 sums hold zero or normal floats only (what tilebuf_round_sums leaves): a subnormal
      * would be a value the sender's rounding rule keeps as a double. */
-    if (r->sums_bits == 32)
-        for (size_t i = 0; i < npix * (size_t)r->nbuckets; i++)
-            if (!tilebuf_is_float_value(r->sums[i]))
-                return cx_fail(cx, "tile.sums", "element %zu is %.17g, not a normal float32 value "
-                               "(sums_bits is 32)", i, r->sums[i]);
-    if (!r->counts)
-        return cx_fail(cx, "tile.counts", "is missing");
+    const double *a = ptr_of(obj, f->at);
+    if (CVALUE(int, obj, f->aux) == 32)
+        for (size_t i = 0, n = f->count(obj); i < n; i++)
+            if (!is_float32_value(a[i]))
+                return cx_fail(cx, f->key,
+                               "element %zu is %.17g, not a normal float32 value (sums_bits is "
+                               "32)",
+                               i, a[i]);
     return 0;
 }
 
-static int ck_job_info(cx_t *cx, const proto_job_info_t *j)
+/* ---------------------------------------------------------------- rules across fields */
+
+/* The bounds of the fields keep every size derived from a tile (w*h*nbuckets*8 bytes) far from
+ * overflow; here the tile must also lie inside the image and take samples. */
+static int ck_tile_rect(const cx_t *cx, const void *obj)
 {
-    if (ck_name(cx, "name", j->name, PROTO_MAX_STRING) ||
-        ck_range(cx, "state", j->state, 0, PROTO_JOB_STATE_COUNT - 1) ||
-        ck_seconds(cx, "secs", j->elapsed) || (j->error && ck_text(cx, "err", j->error)) ||
-        ck_range(cx, "spp", j->spp, 0, INT_MAX) ||
-        ck_range(cx, "stop", j->stop, 0, PROTO_STOP_COUNT - 1))
-        return PROTO_EMALFORMED;
-    if (j->has_rel_error && !(isfinite(j->rel_error) && j->rel_error >= 0))
-        return cx_fail(cx, "rmse", "is %g, expected a finite relative error >= 0", j->rel_error);
+    const proto_tile_t *t = obj;
+    if (t->x0 + t->w > PROTO_MAX_IMAGE_SIDE || t->y0 + t->h > PROTO_MAX_IMAGE_SIDE)
+        return cx_fail(cx, NULL, "%dx%d at (%d,%d) reaches beyond %d pixels", t->w, t->h, t->x0,
+                       t->y0, PROTO_MAX_IMAGE_SIDE);
+    if (t->sample_end <= t->sample_begin)
+        return cx_fail(cx, "se", "is %" PRIu32 ", expected more than %ssb (%" PRIu32 ")",
+                       t->sample_end, cx->prefix, t->sample_begin);
     return 0;
 }
 
-static int ck_worker_info(cx_t *cx, const proto_worker_info_t *w)
+/* A photon range: non-empty, and below 2^62 photons so that counts times lanes fit. */
+static int ck_photon_range(const cx_t *cx, const void *obj)
 {
-    if (ck_name(cx, "name", w->name, PROTO_MAX_STRING) ||
-        ck_range(cx, "threads", w->threads, 1, PROTO_MAX_THREADS) ||
-        ck_range(cx, "state", w->state, 0, PROTO_WORKER_STATE_COUNT - 1) ||
-        ck_seconds(cx, "seen", w->last_seen))
-        return PROTO_EMALFORMED;
+    const proto_photon_batch_t *b = obj;
+    if (!(b->end > b->first) || b->end > ((uint64_t)1 << 62))
+        return cx_fail(cx, NULL, "[%" PRIu64 ", %" PRIu64 ") is not a photon range", b->first,
+                       b->end);
     return 0;
 }
 
-/* The message's values as the protocol allows them: the same checks run before encoding and
- * after decoding, so that encode never produces what decode rejects. */
-static int msg_check(const proto_msg_t *m, const proto_limits_t *lim, cx_t *cx)
+/* At most 64 lanes a photon (render/photon.h); more would scale the store down. */
+static int ck_photon_result(const cx_t *cx, const void *obj)
 {
-    switch (m->type) {
-    case PROTO_HELLO:
-        return ck_name(cx, "name", m->hello.name, PROTO_MAX_STRING) ||
-                       ck_range(cx, "threads", m->hello.threads, 1, PROTO_MAX_THREADS) ||
-                       ck_name(cx, "sw", m->hello.software, PROTO_MAX_STRING)
-                   ? PROTO_EMALFORMED
-                   : 0;
-    case PROTO_STATUS:
-        return m->status.all ? 0 : ck_range(cx, "wait", m->status.wait_ms, 0, PROTO_MAX_WAIT_MS);
-    case PROTO_HEARTBEAT:
-    case PROTO_CANCEL:
-    case PROTO_JOBS:
-    case PROTO_WORKERS:
-    case PROTO_SUBMITTED:
-        return 0;
-    case PROTO_WELCOME:
-        return ck_range(cx, "hb", m->welcome.heartbeat_ms, 1, 3600000);
-    case PROTO_TASK:
-        if (ck_hash(cx, "scene", m->task.scene) || ck_settings(cx, &m->task.settings))
+    const proto_photon_result_t *r = obj;
+    uint64_t n = r->range.end - r->range.first;
+    if (r->emitted < n || (r->emitted - n) / 63 > n)
+        return cx_fail(cx, "emitted", "is %" PRIu64 " for %" PRIu64 " photons", r->emitted, n);
+    return 0;
+}
+
+/* bundle.c's rules, which cover its fields: paths, each once, main among them, the caller's
+ * limits. */
+static int ck_bundle(const cx_t *cx, const void *obj)
+{
+    if (proto_bundle_check(obj, cx->lim, cx->err) < 0)
+        return err_prefix(cx->err, "%s: field '%.*s': ", cx->type, (int)strlen(cx->prefix) - 1,
+                          cx->prefix),
+               PROTO_EMALFORMED;
+    return 0;
+}
+
+/* Workers cache scenes by this hash: a SCENE whose bundle does not match it would poison the
+ * cache of every later job that names the same hash. */
+static int ck_scene_hash(const cx_t *cx, const void *obj)
+{
+    const proto_msg_t *m = obj;
+    char hex[PROTO_HASH_HEX + 1];
+    if (proto_bundle_hash(&m->scene.bundle, hex, cx->err) < 0)
+        return err_prefix(cx->err, "%s: ", cx->type), PROTO_EMALFORMED;
+    if (strcmp(hex, m->scene.scene) != 0)
+        return cx_fail(cx, "scene", "is %.12s..., but the bundle hashes to %.12s...",
+                       m->scene.scene, hex);
+    return 0;
+}
+
+/* Workers keep stores by this hash, as they keep scenes. */
+static int ck_store_hash(const cx_t *cx, const void *obj)
+{
+    const proto_msg_t *m = obj;
+    char hex[PROTO_HASH_HEX + 1];
+    sha256_hex_of(m->store.size ? m->store.data : (const uint8_t *)"", m->store.size, hex);
+    if (strcmp(hex, m->store.store) != 0)
+        return cx_fail(cx, "store", "is %.12s..., but the data hash to %.12s...", m->store.store,
+                       hex);
+    return 0;
+}
+
+/* ---------------------------------------------------------------- the tables */
+
+#define N(a) (sizeof(a) / sizeof(a)[0])
+#define F(k, t, offset) .key = (k), .type = (t), .at = (offset)
+#define RANGE(a, b) .check = ck_range, .lo = (a), .hi = (b)
+#define NAME(max) .check = ck_name, .hi = (max)
+#define ENUM(n) .names = &(n), .check = ck_enum
+/* A shape_t's initializer: {SHAPE(...)} */
+#define SHAPE(type, fields, rule) (fields), N(fields), sizeof(type), (rule)
+
+#define SETTING_NAME_MAX 64
+
+static const names_t KINDS = {KIND_NAMES, PROTO_KIND_COUNT, PROTO_KIND_CAMERA_TILE};
+static const names_t JOB_STATES = {JOB_STATE_NAMES, PROTO_JOB_STATE_COUNT, 0};
+static const names_t WORKER_STATES = {WORKER_STATE_NAMES, PROTO_WORKER_STATE_COUNT, 0};
+static const names_t FETCH_WHATS = {FETCH_NAMES, PROTO_FETCH_COUNT, 0};
+static const names_t STOPS = {STOP_NAMES, PROTO_STOP_COUNT, PROTO_STOP_TARGET};
+
+#define SET(m) offsetof(proto_settings_t, m)
+static const field_t SETTINGS_FIELDS[] = {
+    {F("spp", FT_INT, SET(spp)), RANGE(0, INT_MAX)},
+    {F("xres", FT_INT, SET(xres)), RANGE(0, PROTO_MAX_IMAGE_SIDE)},
+    {F("yres", FT_INT, SET(yres)), RANGE(0, PROTO_MAX_IMAGE_SIDE)},
+    {F("seed", FT_SINT, SET(seed)), RANGE(-1, LLONG_MAX)},
+    {F("integ", FT_STR, SET(integrator)), .presence = UNLESS_ZERO, NAME(SETTING_NAME_MAX)},
+    {F("disp", FT_STR, SET(dispersion)), .presence = UNLESS_ZERO, NAME(SETTING_NAME_MAX)},
+    /* 0 means "no rule" and is never written; anything else must be a usable rule. */
+    {F("tgt", FT_FLOAT, SET(target_error)), .presence = UNLESS_ZERO, .absent = "no target",
+     .check = ck_target_error},
+    {F("tlim", FT_FLOAT, SET(time_limit)), .presence = UNLESS_ZERO, .absent = "no time limit",
+     .check = ck_time_limit},
+};
+static const shape_t SETTINGS = {SHAPE(proto_settings_t, SETTINGS_FIELDS, NULL)};
+
+#define RECT(m) offsetof(proto_tile_t, m)
+static const field_t RECT_FIELDS[] = {
+    {F("x0", FT_INT, RECT(x0)), RANGE(0, PROTO_MAX_IMAGE_SIDE - 1)},
+    {F("y0", FT_INT, RECT(y0)), RANGE(0, PROTO_MAX_IMAGE_SIDE - 1)},
+    {F("w", FT_INT, RECT(w)), RANGE(1, PROTO_MAX_TILE_SIDE)},
+    {F("h", FT_INT, RECT(h)), RANGE(1, PROTO_MAX_TILE_SIDE)},
+    {F("sb", FT_U32, RECT(sample_begin))},
+    {F("se", FT_U32, RECT(sample_end))},
+};
+static const shape_t TILE_RECT = {SHAPE(proto_tile_t, RECT_FIELDS, ck_tile_rect)};
+
+static size_t tile_pixels(const void *obj)
+{
+    const proto_tile_result_t *r = obj;
+    return (size_t)r->rect.w * (size_t)r->rect.h;
+}
+
+static size_t tile_values(const void *obj)
+{
+    return tile_pixels(obj) * (size_t)((const proto_tile_result_t *)obj)->nbuckets;
+}
+
+/* The rect and nb come first, checked, so that the bins' lengths derived from them (below 2^37
+ * bytes) are known before the bins are read. */
+#define TR(m) offsetof(proto_tile_result_t, m)
+static const field_t TILE_RESULT_FIELDS[] = {
+    {F(NULL, FT_FLAT, TR(rect)), .sub = &TILE_RECT},
+    {F("nb", FT_INT, TR(nbuckets)), RANGE(1, PROTO_MAX_BUCKETS)},
+    {F("sums_bits", FT_SUMS_BITS, TR(sums_bits)), .aux = TR(sums), .count = tile_values,
+     .check = ck_sums_bits},
+    {F("sums", FT_SUMS, TR(sums)), .aux = TR(sums_bits), .count = tile_values, .check = ck_sums},
+    {F("counts", FT_WORDS, TR(counts)), .count = tile_pixels, .check = ck_words},
+    {F("lum", FT_WORDS, TR(lum)), .count = tile_pixels, .check = ck_finite},
+    {F("lum2", FT_WORDS, TR(lum_sq)), .count = tile_pixels, .check = ck_finite},
+    {F("nonfinite", FT_U64, TR(nonfinite))},
+};
+static const shape_t TILE_RESULT = {SHAPE(proto_tile_result_t, TILE_RESULT_FIELDS, NULL)};
+
+#define PB(m) offsetof(proto_photon_batch_t, m)
+static const field_t PHOTON_RANGE_FIELDS[] = {
+    {F("first", FT_U64, PB(first))},
+    {F("end", FT_U64, PB(end))},
+};
+static const shape_t PHOTON_RANGE = {
+    SHAPE(proto_photon_batch_t, PHOTON_RANGE_FIELDS, ck_photon_range)};
+
+#define PR(m) offsetof(proto_photon_result_t, m)
+static const field_t PHOTON_RESULT_FIELDS[] = {
+    {F(NULL, FT_FLAT, PR(range)), .sub = &PHOTON_RANGE},
+    {F("emitted", FT_U64, PR(emitted))},
+    {F("data", FT_BYTES, PR(data)), .aux = PR(size), .check = ck_bytes},
+    {F("nonfinite", FT_U64, PR(nonfinite))},
+};
+static const shape_t PHOTON_RESULT = {
+    SHAPE(proto_photon_result_t, PHOTON_RESULT_FIELDS, ck_photon_result)};
+
+#define ST(m) offsetof(proto_task_stats_t, m)
+static const field_t STATS_FIELDS[] = {
+    {F("samples", FT_U64, ST(samples))},
+    {F("rays", FT_U64, ST(rays))},
+    {F("disp", FT_U64, ST(dispersive))},
+    {F("secs", FT_FLOAT, ST(elapsed)), .check = ck_seconds},
+};
+static const shape_t STATS = {SHAPE(proto_task_stats_t, STATS_FIELDS, NULL)};
+
+/* A bundle's fields have no rules of their own: bundle.c's cover them all (ck_bundle). */
+#define BF(m) offsetof(proto_bundle_file_t, m)
+static const field_t BUNDLE_FILE_FIELDS[] = {
+    {F("path", FT_STR, BF(path))},
+    {F("data", FT_BYTES, BF(data)), .aux = BF(size)},
+};
+static const shape_t BUNDLE_FILE = {SHAPE(proto_bundle_file_t, BUNDLE_FILE_FIELDS, NULL)};
+
+#define BU(m) offsetof(proto_bundle_t, m)
+static const field_t BUNDLE_FIELDS[] = {
+    {F("main", FT_STR, BU(main))},
+    {F("files", FT_LIST, BU(files)), .aux = BU(nfiles), .sub = &BUNDLE_FILE,
+     .hi = CALLER_BUNDLE_FILES},
+};
+static const shape_t BUNDLE = {SHAPE(proto_bundle_t, BUNDLE_FIELDS, ck_bundle)};
+
+/* Accuracy (spp, rmse, stop): absent is "0 spp", "no estimate", "not stopped early"; present is
+ * never those (the encoder omits them), so an explicit one is refused. */
+#define JI(m) offsetof(proto_job_info_t, m)
+static const field_t JOB_FIELDS[] = {
+    {F("id", FT_U64, JI(id))},
+    {F("name", FT_STR, JI(name)), NAME(PROTO_MAX_STRING)},
+    {F("state", FT_ENUM, JI(state)), ENUM(JOB_STATES)},
+    {F("done", FT_U64, JI(samples_done))},
+    {F("total", FT_U64, JI(samples_total))},
+    {F("secs", FT_FLOAT, JI(elapsed)), .check = ck_seconds},
+    {F("nonfinite", FT_U64, JI(nonfinite))},
+    {F("err", FT_STR, JI(error)), .presence = UNLESS_ZERO, .check = ck_text},
+    {F("spp", FT_U32, JI(spp)), .presence = UNLESS_ZERO, .absent = "none", RANGE(0, INT_MAX)},
+    {F("rmse", FT_FLOAT, JI(rel_error)), .presence = IF_FLAG, .flag = JI(has_rel_error),
+     .check = ck_rel_error},
+    {F("stop", FT_ENUM, JI(stop)), .presence = UNLESS_ZERO, ENUM(STOPS)},
+};
+static const shape_t JOB_INFO = {SHAPE(proto_job_info_t, JOB_FIELDS, NULL)};
+
+#define WI(m) offsetof(proto_worker_info_t, m)
+static const field_t WORKER_FIELDS[] = {
+    {F("name", FT_STR, WI(name)), NAME(PROTO_MAX_STRING)},
+    {F("id", FT_U64, WI(id))},
+    {F("threads", FT_INT, WI(threads)), RANGE(1, PROTO_MAX_THREADS)},
+    {F("state", FT_ENUM, WI(state)), ENUM(WORKER_STATES)},
+    {F("done", FT_U64, WI(tasks_done))},
+    {F("seen", FT_FLOAT, WI(last_seen)), .check = ck_seconds},
+};
+static const shape_t WORKER_INFO = {SHAPE(proto_worker_info_t, WORKER_FIELDS, NULL)};
+
+/* Which fields a task and a result have: those of their kind. */
+static bool task_is_tile(const void *m)
+{
+    return ((const proto_msg_t *)m)->task.kind == PROTO_KIND_CAMERA_TILE;
+}
+static bool task_is_batch(const void *m)
+{
+    return ((const proto_msg_t *)m)->task.kind == PROTO_KIND_PHOTON_BATCH;
+}
+static bool result_is_tile(const void *m)
+{
+    return ((const proto_msg_t *)m)->result.kind == PROTO_KIND_CAMERA_TILE;
+}
+static bool result_is_batch(const void *m)
+{
+    return ((const proto_msg_t *)m)->result.kind == PROTO_KIND_PHOTON_BATCH;
+}
+/* A STATUS's wait is for one job only (docs/protocol.md). */
+static bool status_of_one_job(const void *m)
+{
+    return !((const proto_msg_t *)m)->status.all;
+}
+
+/* The bodies, in the order of their keys on the wire. */
+#define M(m) offsetof(proto_msg_t, m)
+static const field_t HELLO_FIELDS[] = {
+    {F("name", FT_STR, M(hello.name)), NAME(PROTO_MAX_STRING)},
+    {F("threads", FT_INT, M(hello.threads)), RANGE(1, PROTO_MAX_THREADS)},
+    {F("sw", FT_STR, M(hello.software)), NAME(PROTO_MAX_STRING)},
+};
+static const field_t WELCOME_FIELDS[] = {
+    {F("wid", FT_U64, M(welcome.worker_id))},
+    {F("hb", FT_U32, M(welcome.heartbeat_ms)), RANGE(1, 3600000)},
+};
+static const field_t TASK_FIELDS[] = {
+    {F("job", FT_U64, M(task.job))},
+    {F("task", FT_U64, M(task.task))},
+    {F("att", FT_U32, M(task.attempt))},
+    {F("scene", FT_HASH, M(task.scene)), .check = ck_hash},
+    {F("set", FT_MAP, M(task.settings)), .sub = &SETTINGS},
+    {F("kind", FT_ENUM, M(task.kind)), .names = &KINDS, .check = ck_kind},
+    {F("photons", FT_MAP, M(task.photons)), .when = task_is_batch, .sub = &PHOTON_RANGE},
+    {F("store", FT_HASH, M(task.store)), .when = task_is_tile, .presence = UNLESS_ZERO,
+     .check = ck_hash},
+    {F("tile", FT_MAP, M(task.tile)), .when = task_is_tile, .sub = &TILE_RECT},
+};
+static const field_t RESULT_FIELDS[] = {
+    {F("job", FT_U64, M(result.job))},
+    {F("task", FT_U64, M(result.task))},
+    {F("att", FT_U32, M(result.attempt))},
+    {F("kind", FT_ENUM, M(result.kind)), .names = &KINDS, .check = ck_kind},
+    {F("tile", FT_MAP, M(result.tile)), .when = result_is_tile, .sub = &TILE_RESULT},
+    {F("photons", FT_MAP, M(result.photons)), .when = result_is_batch, .sub = &PHOTON_RESULT},
+    {F("stats", FT_MAP, M(result.stats)), .sub = &STATS},
+};
+static const field_t TASK_FAILED_FIELDS[] = {
+    {F("job", FT_U64, M(task_failed.job))},
+    {F("task", FT_U64, M(task_failed.task))},
+    {F("att", FT_U32, M(task_failed.attempt))},
+    {F("error", FT_STR, M(task_failed.error)), .check = ck_text},
+};
+static const field_t SCENE_REQUEST_FIELDS[] = {
+    {F("scene", FT_HASH, M(scene_request.scene)), .check = ck_hash},
+};
+static const field_t SCENE_FIELDS[] = {
+    {F("scene", FT_HASH, M(scene.scene)), .check = ck_hash},
+    {F("bundle", FT_MAP, M(scene.bundle)), .sub = &BUNDLE},
+};
+static const field_t CANCEL_FIELDS[] = {
+    {F("job", FT_U64, M(cancel.job))},
+};
+static const field_t REFUSE_FIELDS[] = {
+    {F("reason", FT_STR, M(refuse.reason)), .check = ck_text},
+};
+static const field_t SUBMIT_FIELDS[] = {
+    {F("name", FT_STR, M(submit.name)), NAME(PROTO_MAX_STRING)},
+    {F("set", FT_MAP, M(submit.settings)), .sub = &SETTINGS},
+    {F("bundle", FT_MAP, M(submit.bundle)), .sub = &BUNDLE},
+};
+static const field_t STATUS_FIELDS[] = {
+    {F("job", FT_U64, M(status.job)), .presence = UNLESS_FLAG, .flag = M(status.all)},
+    {F("wait", FT_U32, M(status.wait_ms)), .when = status_of_one_job, .presence = UNLESS_ZERO,
+     RANGE(0, PROTO_MAX_WAIT_MS)},
+};
+static const field_t FETCH_FIELDS[] = {
+    {F("job", FT_U64, M(fetch.job))},
+    {F("what", FT_ENUM, M(fetch.what)), ENUM(FETCH_WHATS)},
+};
+static const field_t SUBMITTED_FIELDS[] = {
+    {F("job", FT_U64, M(submitted.job))},
+};
+/* status_reply and jobs_reply share one layout. */
+static const field_t JOBS_REPLY_FIELDS[] = {
+    {F("jobs", FT_LIST, M(jobs_reply.jobs)), .aux = M(jobs_reply.njobs), .sub = &JOB_INFO,
+     .check = ck_list, .hi = PROTO_MAX_LIST},
+};
+static const field_t WORKERS_REPLY_FIELDS[] = {
+    {F("workers", FT_LIST, M(workers_reply.workers)), .aux = M(workers_reply.nworkers),
+     .sub = &WORKER_INFO, .check = ck_list, .hi = PROTO_MAX_LIST},
+};
+static const field_t FILE_FIELDS[] = {
+    {F("name", FT_STR, M(file.name)), NAME(PROTO_MAX_STRING)},
+    {F("data", FT_BYTES, M(file.data)), .aux = M(file.size), .check = ck_bytes},
+};
+static const field_t ERROR_FIELDS[] = {
+    {F("msg", FT_STR, M(error.message)), .check = ck_text},
+};
+static const field_t STORE_REQUEST_FIELDS[] = {
+    {F("store", FT_HASH, M(store_request.store)), .check = ck_hash},
+};
+static const field_t STORE_FIELDS[] = {
+    {F("store", FT_HASH, M(store.store)), .check = ck_hash},
+    {F("data", FT_BYTES, M(store.data)), .aux = M(store.size), .check = ck_bytes},
+};
+static const field_t REFINE_FIELDS[] = {
+    {F("job", FT_U64, M(refine.job))},
+    {F("photons", FT_U64, M(refine.photons)), .check = ck_photon_count},
+};
+
+/* HEARTBEAT, JOBS and WORKERS have no fields: their entries stay zero. */
+#define BODY(fields, rule) SHAPE(proto_msg_t, fields, rule)
+static const shape_t BODIES[PROTO_TYPE_COUNT] = {
+    [PROTO_HELLO] = {BODY(HELLO_FIELDS, NULL)},
+    [PROTO_RESULT] = {BODY(RESULT_FIELDS, NULL)},
+    [PROTO_TASK_FAILED] = {BODY(TASK_FAILED_FIELDS, NULL)},
+    [PROTO_SCENE_REQUEST] = {BODY(SCENE_REQUEST_FIELDS, NULL)},
+    [PROTO_WELCOME] = {BODY(WELCOME_FIELDS, NULL)},
+    [PROTO_TASK] = {BODY(TASK_FIELDS, NULL)},
+    [PROTO_SCENE] = {BODY(SCENE_FIELDS, ck_scene_hash)},
+    [PROTO_CANCEL] = {BODY(CANCEL_FIELDS, NULL)},
+    [PROTO_REFUSE] = {BODY(REFUSE_FIELDS, NULL)},
+    [PROTO_SUBMIT] = {BODY(SUBMIT_FIELDS, NULL)},
+    [PROTO_STATUS] = {BODY(STATUS_FIELDS, NULL)},
+    [PROTO_FETCH] = {BODY(FETCH_FIELDS, NULL)},
+    [PROTO_SUBMITTED] = {BODY(SUBMITTED_FIELDS, NULL)},
+    [PROTO_STATUS_REPLY] = {BODY(JOBS_REPLY_FIELDS, NULL)},
+    [PROTO_JOBS_REPLY] = {BODY(JOBS_REPLY_FIELDS, NULL)},
+    [PROTO_WORKERS_REPLY] = {BODY(WORKERS_REPLY_FIELDS, NULL)},
+    [PROTO_FILE] = {BODY(FILE_FIELDS, NULL)},
+    [PROTO_ERROR] = {BODY(ERROR_FIELDS, NULL)},
+    [PROTO_STORE_REQUEST] = {BODY(STORE_REQUEST_FIELDS, NULL)},
+    [PROTO_STORE] = {BODY(STORE_FIELDS, ck_store_hash)},
+    [PROTO_REFINE] = {BODY(REFINE_FIELDS, NULL)},
+};
+
+/* The body of a message type, NULL for none (PROTO_NONE, out of range). */
+static const shape_t *body_of(proto_type_t type)
+{
+    return type > PROTO_NONE && type < PROTO_TYPE_COUNT ? &BODIES[type] : NULL;
+}
+
+/* ---------------------------------------------------------------- checking */
+
+static int check_fields(cx_t *cx, const shape_t *s, const void *obj);
+
+/* One field's rule, and those of what it holds. */
+static int check_field(cx_t *cx, const field_t *f, const void *obj)
+{
+    const char *p = (const char *)obj + f->at;
+    switch (f->type) {
+    case FT_FLAT:
+        return check_fields(cx, f->sub, p);
+    case FT_MAP: {
+        size_t at = cx_enter(cx, f->key, -1);
+        int rc = check_fields(cx, f->sub, p);
+        cx_leave(cx, at);
+        return rc;
+    }
+    case FT_LIST: {
+        if (f->check && f->check(cx, f, obj))
             return PROTO_EMALFORMED;
-        if (m->task.kind == PROTO_KIND_PHOTON_BATCH)
-            return ck_photons(cx, "photons", &m->task.photons);
-        if (m->task.kind != PROTO_KIND_CAMERA_TILE)
-            return cx_fail(cx, "kind", "is %d, not a task kind of version %d", (int)m->task.kind,
-                           PROTO_VERSION);
-        if (m->task.store[0] && ck_hash(cx, "store", m->task.store))
-            return PROTO_EMALFORMED;
-        return ck_tile(cx, &m->task.tile);
-    case PROTO_RESULT:
-        if (ck_seconds(cx, "stats.secs", m->result.stats.elapsed))
-            return PROTO_EMALFORMED;
-        if (m->result.kind == PROTO_KIND_PHOTON_BATCH) {
-            const proto_photon_result_t *r = &m->result.photons;
-            if (ck_photons(cx, "photons", &r->range))
+        /* No table: nothing inside to check (the list's own rule or its map's says so). */
+        const char *items = ptr_of(obj, f->at);
+        for (size_t i = 0, n = CVALUE(size_t, obj, f->aux); items && i < n; i++) {
+            size_t at = cx_enter(cx, f->key, (long long)i);
+            if (check_fields(cx, f->sub, items + i * f->sub->size))
                 return PROTO_EMALFORMED;
-            if (r->size > 0 && !r->data)
-                return cx_fail(cx, "photons.data", "is missing");
-            /* At most 64 lanes a photon (render/photon.h); more would scale the store down. */
-            if (r->emitted < r->range.end - r->range.first ||
-                (r->emitted - (r->range.end - r->range.first)) / 63 > r->range.end - r->range.first)
-                return cx_fail(cx, "photons.emitted", "is %" PRIu64 " for %" PRIu64 " photons",
-                               r->emitted, r->range.end - r->range.first);
-            return 0;
+            cx_leave(cx, at);
         }
-        if (m->result.kind != PROTO_KIND_CAMERA_TILE)
-            return cx_fail(cx, "kind", "is %d, not a task kind of version %d", (int)m->result.kind,
-                           PROTO_VERSION);
-        return ck_tile_result(cx, &m->result.tile);
-    case PROTO_TASK_FAILED:
-        return ck_text(cx, "error", m->task_failed.error);
-    case PROTO_SCENE_REQUEST:
-        return ck_hash(cx, "scene", m->scene_request.scene);
-    case PROTO_SCENE: {
-        if (ck_hash(cx, "scene", m->scene.scene) || ck_bundle(cx, &m->scene.bundle, lim))
+        return 0;
+    }
+    default:
+        return f->check ? f->check(cx, f, obj) : 0;
+    }
+}
+
+/* The values of obj as the protocol allows them, field by field in table order, then across
+ * them. proto_encode runs this before writing a byte; the decoder runs the same rules as it
+ * reads (read_fields), so that encode never produces what decode rejects. */
+static int check_fields(cx_t *cx, const shape_t *s, const void *obj)
+{
+    for (size_t i = 0; i < s->nfields; i++)
+        if (present(&s->fields[i], obj) && check_field(cx, &s->fields[i], obj))
             return PROTO_EMALFORMED;
-        /* Workers cache scenes by this hash: a SCENE whose bundle does not match it would
-         * poison the cache of every later job that names the same hash. */
-        char hex[PROTO_HASH_HEX + 1];
-        if (proto_bundle_hash(&m->scene.bundle, hex, cx->err) < 0)
-            return err_prefix(cx->err, "%s: ", cx->type), PROTO_EMALFORMED;
-        if (strcmp(hex, m->scene.scene) != 0)
-            return cx_fail(cx, "scene", "is %.12s..., but the bundle hashes to %.12s...",
-                           m->scene.scene, hex);
-        return 0;
-    }
-    case PROTO_REFUSE:
-        return ck_text(cx, "reason", m->refuse.reason);
-    case PROTO_SUBMIT:
-        return ck_name(cx, "name", m->submit.name, PROTO_MAX_STRING) ||
-                       ck_settings(cx, &m->submit.settings) || ck_bundle(cx, &m->submit.bundle, lim)
-                   ? PROTO_EMALFORMED
-                   : 0;
-    case PROTO_FETCH:
-        return ck_range(cx, "what", m->fetch.what, 0, PROTO_FETCH_COUNT - 1);
-    case PROTO_STATUS_REPLY:
-    case PROTO_JOBS_REPLY: {
-        /* status_reply and jobs_reply share one layout. */
-        size_t n = m->jobs_reply.njobs;
-        if (n > PROTO_MAX_LIST)
-            return cx_fail(cx, "jobs", "has %zu entries, at most %d allowed", n, PROTO_MAX_LIST);
-        if (n > 0 && !m->jobs_reply.jobs)
-            return cx_fail(cx, "jobs", "is missing");
-        int rc = 0;
-        for (size_t i = 0; i < n && rc == 0; i++) {
-            snprintf(cx->prefix, sizeof cx->prefix, "jobs[%zu].", i);
-            rc = ck_job_info(cx, &m->jobs_reply.jobs[i]);
-        }
-        cx->prefix[0] = 0;
-        return rc;
-    }
-    case PROTO_WORKERS_REPLY: {
-        size_t n = m->workers_reply.nworkers;
-        if (n > PROTO_MAX_LIST)
-            return cx_fail(cx, "workers", "has %zu entries, at most %d allowed", n, PROTO_MAX_LIST);
-        if (n > 0 && !m->workers_reply.workers)
-            return cx_fail(cx, "workers", "is missing");
-        int rc = 0;
-        for (size_t i = 0; i < n && rc == 0; i++) {
-            snprintf(cx->prefix, sizeof cx->prefix, "workers[%zu].", i);
-            rc = ck_worker_info(cx, &m->workers_reply.workers[i]);
-        }
-        cx->prefix[0] = 0;
-        return rc;
-    }
-    case PROTO_FILE:
-        if (ck_name(cx, "name", m->file.name, PROTO_MAX_STRING))
-            return PROTO_EMALFORMED;
-        if (m->file.size > 0 && !m->file.data)
-            return cx_fail(cx, "data", "is missing");
-        return 0;
-    case PROTO_ERROR:
-        return ck_text(cx, "msg", m->error.message);
-    case PROTO_STORE_REQUEST:
-        return ck_hash(cx, "store", m->store_request.store);
-    case PROTO_REFINE:
-        if (m->refine.photons == 0 || m->refine.photons > ((uint64_t)1 << 40))
-            return cx_fail(cx, "photons", "is %" PRIu64 ", expected 1 to 2^40", m->refine.photons);
-        return 0;
-    case PROTO_STORE: {
-        if (ck_hash(cx, "store", m->store.store))
-            return PROTO_EMALFORMED;
-        if (m->store.size > 0 && !m->store.data)
-            return cx_fail(cx, "data", "is missing");
-        /* Workers keep stores by this hash, as they keep scenes. */
-        char hex[PROTO_HASH_HEX + 1];
-        sha256_hex_of(m->store.size ? m->store.data : (const uint8_t *)"", m->store.size, hex);
-        if (strcmp(hex, m->store.store) != 0)
-            return cx_fail(cx, "store", "is %.12s..., but the data hash to %.12s...",
-                           m->store.store, hex);
-        return 0;
-    }
-    case PROTO_NONE:
-    case PROTO_TYPE_COUNT:
-        break;
-    }
-    return err_set(cx->err, "message type %d is not a protocol message", (int)m->type),
-           PROTO_EMALFORMED;
+    return s->check ? s->check(cx, obj) : 0;
 }
 
 /* ---------------------------------------------------------------- bounded msgpack walker */
@@ -632,7 +1098,6 @@ static int walk(const uint8_t *p, size_t len, err_t *err)
 typedef struct rd {
     cx_t cx;
     proto_msg_t *m; /* owner of the copies */
-    const proto_limits_t *lim;
 } rd_t;
 
 static const char *obj_kind(const msgpack_object *o)
@@ -717,24 +1182,6 @@ static int rd_uint(rd_t *rd, const char *field, const msgpack_object *o, uint64_
     return 0;
 }
 
-static int rd_u32(rd_t *rd, const char *field, const msgpack_object *o, uint32_t *out)
-{
-    uint64_t v = 0;
-    if (rd_uint(rd, field, o, UINT32_MAX, &v))
-        return PROTO_EMALFORMED;
-    *out = (uint32_t)v;
-    return 0;
-}
-
-static int rd_int(rd_t *rd, const char *field, const msgpack_object *o, int *out)
-{
-    uint64_t v = 0;
-    if (rd_uint(rd, field, o, INT_MAX, &v))
-        return PROTO_EMALFORMED;
-    *out = (int)v;
-    return 0;
-}
-
 static int rd_sint(rd_t *rd, const char *field, const msgpack_object *o, long long *out)
 {
     if (!o)
@@ -783,32 +1230,26 @@ static int rd_str(rd_t *rd, const char *field, const msgpack_object *o, const ch
     return 0;
 }
 
-static int rd_opt_str(rd_t *rd, const char *field, const msgpack_object *o, const char **out)
-{
-    *out = NULL;
-    return o ? rd_str(rd, field, o, out) : 0;
-}
-
-static int rd_enum(rd_t *rd, const char *field, const msgpack_object *o, const char *const *names,
-                   int count, int first, int *out)
+static int rd_enum(rd_t *rd, const char *field, const msgpack_object *o, const names_t *e, int *out)
 {
     if (rd_expect(rd, field, o, MSGPACK_OBJECT_STR, "a string"))
         return PROTO_EMALFORMED;
-    for (int i = first; i < count; i++)
-        if (o->via.str.size == strlen(names[i]) &&
-            memcmp(o->via.str.ptr, names[i], o->via.str.size) == 0) {
+    for (int i = e->first; i < e->count; i++)
+        if (o->via.str.size == strlen(e->names[i]) &&
+            memcmp(o->via.str.ptr, e->names[i], o->via.str.size) == 0) {
             *out = i;
             return 0;
         }
     char known[200] = "";
-    for (int i = first; i < count; i++) {
+    for (int i = e->first; i < e->count; i++) {
         size_t used = strlen(known);
-        snprintf(known + used, sizeof known - used, "%s%s", i > first ? ", " : "", names[i]);
+        snprintf(known + used, sizeof known - used, "%s%s", i > e->first ? ", " : "", e->names[i]);
     }
     return cx_fail(&rd->cx, field, "is '%.*s', expected one of: %s",
                    (int)(o->via.str.size < 40 ? o->via.str.size : 40), o->via.str.ptr, known);
 }
 
+/* A hash's bytes; its digits are the field's rule (ck_hash). */
 static int rd_hash(rd_t *rd, const char *field, const msgpack_object *o,
                    char out[PROTO_HASH_HEX + 1])
 {
@@ -819,10 +1260,10 @@ static int rd_hash(rd_t *rd, const char *field, const msgpack_object *o,
                        o->via.str.size, PROTO_HASH_HEX);
     memcpy(out, o->via.str.ptr, PROTO_HASH_HEX);
     out[PROTO_HASH_HEX] = 0;
-    return ck_hash(&rd->cx, field, out);
+    return 0;
 }
 
-/* A bin of exactly `expected` bytes (when expected != SIZE_MAX); returns its bytes in *raw. */
+/* A bin of exactly `expected` bytes (when expected != UINT64_MAX); returns its bytes in *raw. */
 static int rd_bin(rd_t *rd, const char *field, const msgpack_object *o, uint64_t expected,
                   const msgpack_object_bin **raw)
 {
@@ -916,404 +1357,208 @@ static int rd_list(rd_t *rd, const char *field, const msgpack_object *o, uint64_
     return 0;
 }
 
-/* ---------------------------------------------------------------- per-type readers */
+/* ---------------------------------------------------------------- decoding by the tables */
 
-/* An optional float: absent leaves *out as it is (the caller's "none"). */
-static int rd_opt_float(rd_t *rd, const char *field, const msgpack_object *o, double *out)
+/* The keys of s, its flat sub-tables' in their place: the order read_fields takes them in. */
+static int shape_keys(rd_t *rd, const shape_t *s, const char **keys, size_t *n)
 {
-    return o ? rd_float(rd, field, o, out) : 0;
-}
-
-enum { S_SPP, S_XRES, S_YRES, S_SEED, S_INTEG, S_DISP, S_TGT, S_TLIM, S_N };
-static const char *const SETTINGS_KEYS[S_N] = {"spp",   "xres", "yres", "seed",
-                                               "integ", "disp", "tgt",  "tlim"};
-
-static int rd_settings(rd_t *rd, const msgpack_object *o, proto_settings_t *s)
-{
-    const msgpack_object *v[S_N];
-    s->target_error = s->time_limit = 0;
-    if (rd_map(rd, "set", o, SETTINGS_KEYS, S_N, v) || rd_int(rd, "set.spp", v[S_SPP], &s->spp) ||
-        rd_int(rd, "set.xres", v[S_XRES], &s->xres) ||
-        rd_int(rd, "set.yres", v[S_YRES], &s->yres) ||
-        rd_sint(rd, "set.seed", v[S_SEED], &s->seed) ||
-        rd_opt_str(rd, "set.integ", v[S_INTEG], &s->integrator) ||
-        rd_opt_str(rd, "set.disp", v[S_DISP], &s->dispersion) ||
-        rd_opt_float(rd, "set.tgt", v[S_TGT], &s->target_error) ||
-        rd_opt_float(rd, "set.tlim", v[S_TLIM], &s->time_limit))
-        return PROTO_EMALFORMED;
-    /* Present means a rule: an explicit 0 is something the encoder never writes. */
-    if (v[S_TGT] && s->target_error == 0)
-        return cx_fail(&rd->cx, "set.tgt", "is 0: absent means no target");
-    if (v[S_TLIM] && s->time_limit == 0)
-        return cx_fail(&rd->cx, "set.tlim", "is 0: absent means no time limit");
-    return 0;
-}
-
-enum { B_MAIN, B_FILES, B_N };
-static const char *const BUNDLE_KEYS[B_N] = {"main", "files"};
-enum { F_PATH, F_DATA, F_N };
-static const char *const FILE_KEYS[F_N] = {"path", "data"};
-
-static int rd_bundle(rd_t *rd, const msgpack_object *o, proto_bundle_t *b)
-{
-    const msgpack_object *v[B_N];
-    uint32_t n;
-    if (rd_map(rd, "bundle", o, BUNDLE_KEYS, B_N, v) ||
-        rd_str(rd, "bundle.main", v[B_MAIN], &b->main) ||
-        rd_list(rd, "bundle.files", v[B_FILES], rd->lim->max_bundle_files, F_N, &n))
-        return PROTO_EMALFORMED;
-    proto_bundle_file_t *files = own_alloc(rd->m, (size_t)n * sizeof *files);
-    if (!files)
-        return rd_oom(rd, "bundle.files", (size_t)n * sizeof *files);
-    for (uint32_t i = 0; i < n; i++) {
-        const msgpack_object *f[F_N];
-        snprintf(rd->cx.prefix, sizeof rd->cx.prefix, "bundle.files[%" PRIu32 "].", i);
-        if (rd_map(rd, "", &v[B_FILES]->via.array.ptr[i], FILE_KEYS, F_N, f) ||
-            rd_str(rd, "path", f[F_PATH], &files[i].path) ||
-            rd_bytes(rd, "data", f[F_DATA], &files[i].data, &files[i].size))
-            return PROTO_EMALFORMED;
+    for (size_t i = 0; i < s->nfields; i++) {
+        const field_t *f = &s->fields[i];
+        if (f->type == FT_FLAT) {
+            if (shape_keys(rd, f->sub, keys, n))
+                return PROTO_EMALFORMED;
+        } else if (*n == MAX_KEYS) {
+            return err_set(rd->cx.err, "%s: a map of more than %d keys (proto.c's MAX_KEYS)",
+                           rd->cx.type, MAX_KEYS),
+                   PROTO_EMALFORMED;
+        } else {
+            keys[(*n)++] = f->key;
+        }
     }
-    rd->cx.prefix[0] = 0;
-    b->files = files;
-    b->nfiles = n;
     return 0;
 }
 
-enum {
-    T_X0, T_Y0, T_W, T_H, T_SB, T_SE, T_NB, T_SUMS, T_COUNTS, T_LUM, T_LUM2, T_NONFINITE, T_BITS, T_N
-};
-static const char *const TILE_KEYS[T_N] = {"x0",  "y0",        "w",        "h",     "sb",
-                                           "se",  "nb",        "sums",     "counts", "lum",
-                                           "lum2", "nonfinite", "sums_bits"};
-#define TILE_TASK_KEYS 6 /* a task's tile has the first six */
-
-static int rd_tile_rect(rd_t *rd, const msgpack_object **v, proto_tile_t *t)
+/* The value of each of s's keys in the map o (named field in errors). */
+static int map_values(rd_t *rd, const char *field, const msgpack_object *o, const shape_t *s,
+                      const msgpack_object **vals)
 {
-    if (rd_int(rd, "tile.x0", v[T_X0], &t->x0) || rd_int(rd, "tile.y0", v[T_Y0], &t->y0) ||
-        rd_int(rd, "tile.w", v[T_W], &t->w) || rd_int(rd, "tile.h", v[T_H], &t->h) ||
-        rd_u32(rd, "tile.sb", v[T_SB], &t->sample_begin) ||
-        rd_u32(rd, "tile.se", v[T_SE], &t->sample_end))
+    const char *keys[MAX_KEYS];
+    size_t n = 0;
+    if (shape_keys(rd, s, keys, &n))
         return PROTO_EMALFORMED;
-    return ck_tile(&rd->cx, t);
+    return rd_map(rd, field, o, keys, n, vals);
 }
 
-static int rd_tile_result(rd_t *rd, const msgpack_object *o, proto_tile_result_t *r)
+static int read_fields(rd_t *rd, const shape_t *s, const msgpack_object *const *vals, size_t *k,
+                       void *obj);
+
+/* A list of maps: its count and entries checked before anything is allocated for it (rd_list),
+ * the entries zeroed so that absent optional fields read as zero. */
+static int read_list(rd_t *rd, const field_t *f, const msgpack_object *o, void *obj)
 {
-    const msgpack_object *v[T_N];
-    if (rd_map(rd, "tile", o, TILE_KEYS, T_N, v) || rd_tile_rect(rd, v, &r->rect) ||
-        rd_int(rd, "tile.nb", v[T_NB], &r->nbuckets) ||
-        ck_range(&rd->cx, "tile.nb", r->nbuckets, 1, PROTO_MAX_BUCKETS) ||
-        rd_uint(rd, "tile.nonfinite", v[T_NONFINITE], UINT64_MAX, &r->nonfinite))
+    uint64_t max = f->hi == CALLER_BUNDLE_FILES ? rd->cx.lim->max_bundle_files : (uint64_t)f->hi;
+    uint32_t n = 0;
+    if (rd_list(rd, f->key, o, max, required_fields(f->sub), &n))
         return PROTO_EMALFORMED;
-    uint64_t bits;
-    if (rd_uint(rd, "tile.sums_bits", v[T_BITS], UINT64_MAX, &bits))
-        return PROTO_EMALFORMED;
-    if (bits != 32 && bits != 64)
-        return cx_fail(&rd->cx, "tile.sums_bits", "is %" PRIu64 ", expected 32 or 64", bits);
-    r->sums_bits = (int)bits;
-    /* The ranges above bound these below 2^37 bytes: no overflow. */
-    uint64_t npix = (uint64_t)r->rect.w * (uint64_t)r->rect.h;
-    const msgpack_object_bin *sums = NULL, *counts = NULL, *lum = NULL, *lum2 = NULL;
-    if (rd_bin(rd, "tile.sums", v[T_SUMS], npix * (uint64_t)r->nbuckets * (bits / 8), &sums) ||
-        rd_bin(rd, "tile.counts", v[T_COUNTS], npix * 8, &counts) ||
-        rd_bin(rd, "tile.lum", v[T_LUM], npix * 8, &lum) ||
-        rd_bin(rd, "tile.lum2", v[T_LUM2], npix * 8, &lum2))
-        return PROTO_EMALFORMED;
-    if (!(r->sums = bits == 32 ? rd_floats(rd, "tile.sums", sums) : rd_words(rd, "tile.sums", sums)) ||
-        !(r->counts = rd_words(rd, "tile.counts", counts)) ||
-        !(r->lum = rd_words(rd, "tile.lum", lum)) || !(r->lum_sq = rd_words(rd, "tile.lum2", lum2)))
-        return PROTO_EMALFORMED;
-    return 0;
-}
-
-enum { ST_SAMPLES, ST_RAYS, ST_DISP, ST_SECS, ST_N };
-static const char *const STATS_KEYS[ST_N] = {"samples", "rays", "disp", "secs"};
-
-static int rd_stats(rd_t *rd, const msgpack_object *o, proto_task_stats_t *s)
-{
-    const msgpack_object *v[ST_N];
-    if (rd_map(rd, "stats", o, STATS_KEYS, ST_N, v) ||
-        rd_uint(rd, "stats.samples", v[ST_SAMPLES], UINT64_MAX, &s->samples) ||
-        rd_uint(rd, "stats.rays", v[ST_RAYS], UINT64_MAX, &s->rays) ||
-        rd_uint(rd, "stats.disp", v[ST_DISP], UINT64_MAX, &s->dispersive) ||
-        rd_float(rd, "stats.secs", v[ST_SECS], &s->elapsed))
-        return PROTO_EMALFORMED;
-    return 0;
-}
-
-enum {
-    J_ID, J_NAME, J_STATE, J_DONE, J_TOTAL, J_SECS, J_NONFINITE, J_ERR, J_SPP, J_RMSE, J_STOP, J_N
-};
-static const char *const JOB_KEYS[J_N] = {"id",   "name", "state",     "done", "total", "secs",
-                                          "nonfinite", "err", "spp", "rmse", "stop"};
-#define JOB_REQUIRED_KEYS 7 /* all but "err", "spp", "rmse" and "stop" */
-
-static int rd_jobs(rd_t *rd, const msgpack_object *o, const proto_job_info_t **out, size_t *nout)
-{
-    uint32_t n;
-    if (rd_list(rd, "jobs", o, PROTO_MAX_LIST, JOB_REQUIRED_KEYS, &n))
-        return PROTO_EMALFORMED;
-    proto_job_info_t *jobs = own_alloc(rd->m, (size_t)n * sizeof *jobs);
-    if (!jobs)
-        return rd_oom(rd, "jobs", (size_t)n * sizeof *jobs);
+    size_t bytes = (size_t)n * f->sub->size;
+    char *items = own_alloc(rd->m, bytes);
+    if (!items)
+        return rd_oom(rd, f->key, bytes);
+    memset(items, 0, bytes);
     for (uint32_t i = 0; i < n; i++) {
-        const msgpack_object *v[J_N];
-        proto_job_info_t *j = &jobs[i];
-        int state = 0;
-        snprintf(rd->cx.prefix, sizeof rd->cx.prefix, "jobs[%" PRIu32 "].", i);
-        if (rd_map(rd, "", &o->via.array.ptr[i], JOB_KEYS, J_N, v) ||
-            rd_uint(rd, "id", v[J_ID], UINT64_MAX, &j->id) ||
-            rd_str(rd, "name", v[J_NAME], &j->name) ||
-            rd_enum(rd, "state", v[J_STATE], JOB_STATE_NAMES, PROTO_JOB_STATE_COUNT, 0, &state) ||
-            rd_uint(rd, "done", v[J_DONE], UINT64_MAX, &j->samples_done) ||
-            rd_uint(rd, "total", v[J_TOTAL], UINT64_MAX, &j->samples_total) ||
-            rd_float(rd, "secs", v[J_SECS], &j->elapsed) ||
-            rd_uint(rd, "nonfinite", v[J_NONFINITE], UINT64_MAX, &j->nonfinite) ||
-            rd_opt_str(rd, "err", v[J_ERR], &j->error))
+        const msgpack_object *vals[MAX_KEYS];
+        size_t k = 0, at = cx_enter(&rd->cx, f->key, i);
+        if (map_values(rd, "", &o->via.array.ptr[i], f->sub, vals) ||
+            read_fields(rd, f->sub, vals, &k, items + (size_t)i * f->sub->size))
             return PROTO_EMALFORMED;
-        j->state = (proto_job_state_t)state;
-        /* Accuracy: absent is "0 spp", "no estimate", "not stopped early"; present is never
-         * those (the encoder omits them), so an explicit one is refused. */
-        uint64_t spp = 0;
-        int stop = PROTO_STOP_NONE;
-        if ((v[J_SPP] && (rd_uint(rd, "spp", v[J_SPP], INT_MAX, &spp) ||
-                          (spp == 0 && cx_fail(&rd->cx, "spp", "is 0: absent means none")))) ||
-            (v[J_RMSE] && rd_float(rd, "rmse", v[J_RMSE], &j->rel_error)) ||
-            (v[J_STOP] && rd_enum(rd, "stop", v[J_STOP], STOP_NAMES, PROTO_STOP_COUNT,
-                                  PROTO_STOP_TARGET, &stop)))
-            return PROTO_EMALFORMED;
-        j->spp = (uint32_t)spp;
-        j->has_rel_error = v[J_RMSE] != NULL; /* its range: ck_job_info, after decoding */
-        j->stop = (proto_stop_t)stop;
+        cx_leave(&rd->cx, at);
     }
-    rd->cx.prefix[0] = 0;
-    *out = jobs;
-    *nout = n;
+    set_ptr(obj, f->at, items);
+    VALUE(size_t, obj, f->aux) = n;
     return 0;
 }
 
-enum { W_NAME, W_ID, W_THREADS, W_STATE, W_DONE, W_SEEN, W_N };
-static const char *const WORKER_KEYS[W_N] = {"name", "id", "threads", "state", "done", "seen"};
-
-static int rd_workers(rd_t *rd, const msgpack_object *o, const proto_worker_info_t **out,
-                      size_t *nout)
+/* One value, present in the map, into obj. */
+static int read_value(rd_t *rd, const field_t *f, const msgpack_object *v, void *obj)
 {
-    uint32_t n;
-    if (rd_list(rd, "workers", o, PROTO_MAX_LIST, W_N, &n))
-        return PROTO_EMALFORMED;
-    proto_worker_info_t *ws = own_alloc(rd->m, (size_t)n * sizeof *ws);
-    if (!ws)
-        return rd_oom(rd, "workers", (size_t)n * sizeof *ws);
-    for (uint32_t i = 0; i < n; i++) {
-        const msgpack_object *v[W_N];
-        proto_worker_info_t *w = &ws[i];
-        int state = 0;
-        snprintf(rd->cx.prefix, sizeof rd->cx.prefix, "workers[%" PRIu32 "].", i);
-        if (rd_map(rd, "", &o->via.array.ptr[i], WORKER_KEYS, W_N, v) ||
-            rd_str(rd, "name", v[W_NAME], &w->name) ||
-            rd_uint(rd, "id", v[W_ID], UINT64_MAX, &w->id) ||
-            rd_int(rd, "threads", v[W_THREADS], &w->threads) ||
-            rd_enum(rd, "state", v[W_STATE], WORKER_STATE_NAMES, PROTO_WORKER_STATE_COUNT, 0,
-                    &state) ||
-            rd_uint(rd, "done", v[W_DONE], UINT64_MAX, &w->tasks_done) ||
-            rd_float(rd, "seen", v[W_SEEN], &w->last_seen))
+    void *p = (char *)obj + f->at;
+    const msgpack_object_bin *bin = NULL;
+    uint64_t u = 0;
+    switch (f->type) {
+    case FT_U64:
+        return rd_uint(rd, f->key, v, UINT64_MAX, p);
+    case FT_U32:
+        if (rd_uint(rd, f->key, v, UINT32_MAX, &u))
             return PROTO_EMALFORMED;
-        w->state = (proto_worker_state_t)state;
-    }
-    rd->cx.prefix[0] = 0;
-    *out = ws;
-    *nout = n;
-    return 0;
-}
-
-enum { PH_FIRST, PH_END, PH_EMITTED, PH_DATA, PH_NONFINITE, PH_N };
-static const char *const PHOTON_KEYS[PH_N] = {"first", "end", "emitted", "data", "nonfinite"};
-#define PHOTON_TASK_KEYS 2 /* a task's range has the first two */
-
-/* The "photons" map's range; vals (when not NULL) receives every key's value for the result. */
-static int rd_photon_range(rd_t *rd, const msgpack_object *o, const msgpack_object **vals,
-                           proto_photon_batch_t *b)
-{
-    const msgpack_object *own[PH_N];
-    const msgpack_object **v = vals ? vals : own;
-    if (rd_map(rd, "photons", o, PHOTON_KEYS, vals ? PH_N : PHOTON_TASK_KEYS, v) ||
-        rd_uint(rd, "photons.first", v[PH_FIRST], UINT64_MAX, &b->first) ||
-        rd_uint(rd, "photons.end", v[PH_END], UINT64_MAX, &b->end))
-        return PROTO_EMALFORMED;
-    return ck_photons(&rd->cx, "photons", b);
-}
-
-static int rd_photon_result(rd_t *rd, const msgpack_object *o, proto_photon_result_t *r)
-{
-    const msgpack_object *v[PH_N];
-    if (rd_photon_range(rd, o, v, &r->range) ||
-        rd_uint(rd, "photons.emitted", v[PH_EMITTED], UINT64_MAX, &r->emitted) ||
-        rd_uint(rd, "photons.nonfinite", v[PH_NONFINITE], UINT64_MAX, &r->nonfinite) ||
-        rd_bytes(rd, "photons.data", v[PH_DATA], &r->data, &r->size))
-        return PROTO_EMALFORMED;
-    return 0;
-}
-
-/* Every key any message body uses; each reader picks its own by index. */
-enum {
-    K_NAME,
-    K_THREADS,
-    K_SW,
-    K_WID,
-    K_HB,
-    K_JOB,
-    K_TASK,
-    K_ATT,
-    K_SCENE,
-    K_SET,
-    K_KIND,
-    K_TILE,
-    K_STATS,
-    K_ERROR,
-    K_BUNDLE,
-    K_REASON,
-    K_WHAT,
-    K_JOBS,
-    K_WORKERS,
-    K_DATA,
-    K_MSG,
-    K_WAIT,
-    K_STORE,
-    K_PHOTONS,
-    K_N
-};
-static const char *const BODY_KEYS[K_N] = {"name",    "threads", "sw",     "wid",    "hb",   "job",
-                                           "task",    "att",     "scene",  "set",    "kind", "tile",
-                                           "stats",   "error",   "bundle", "reason", "what", "jobs",
-                                           "workers", "data",    "msg",    "wait",   "store", "photons"};
-
-static int rd_kind(rd_t *rd, const msgpack_object *o, proto_kind_t *kind)
-{
-    int k = 0;
-    if (rd_enum(rd, "kind", o, KIND_NAMES, PROTO_KIND_COUNT, PROTO_KIND_CAMERA_TILE, &k))
-        return PROTO_EMALFORMED;
-    *kind = (proto_kind_t)k;
-    return 0;
-}
-
-static int rd_body(rd_t *rd, const msgpack_object *root)
-{
-    proto_msg_t *m = rd->m;
-    const msgpack_object *v[K_N];
-    if (rd_map(rd, "(message)", root, BODY_KEYS, K_N, v))
-        return PROTO_EMALFORMED;
-    int what = 0;
-    switch (m->type) {
-    case PROTO_HELLO:
-        return rd_str(rd, "name", v[K_NAME], &m->hello.name) ||
-                       rd_int(rd, "threads", v[K_THREADS], &m->hello.threads) ||
-                       rd_str(rd, "sw", v[K_SW], &m->hello.software)
-                   ? PROTO_EMALFORMED
-                   : 0;
-    case PROTO_HEARTBEAT:
-    case PROTO_JOBS:
-    case PROTO_WORKERS:
+        *(uint32_t *)p = (uint32_t)u;
         return 0;
-    case PROTO_WELCOME:
-        return rd_uint(rd, "wid", v[K_WID], UINT64_MAX, &m->welcome.worker_id) ||
-                       rd_u32(rd, "hb", v[K_HB], &m->welcome.heartbeat_ms)
-                   ? PROTO_EMALFORMED
-                   : 0;
-    case PROTO_TASK: {
-        const msgpack_object *t[T_N];
-        if (rd_uint(rd, "job", v[K_JOB], UINT64_MAX, &m->task.job) ||
-            rd_uint(rd, "task", v[K_TASK], UINT64_MAX, &m->task.task) ||
-            rd_u32(rd, "att", v[K_ATT], &m->task.attempt) ||
-            rd_hash(rd, "scene", v[K_SCENE], m->task.scene) ||
-            rd_settings(rd, v[K_SET], &m->task.settings) || rd_kind(rd, v[K_KIND], &m->task.kind))
+    case FT_INT:
+        if (rd_uint(rd, f->key, v, INT_MAX, &u))
             return PROTO_EMALFORMED;
-        if (m->task.kind == PROTO_KIND_PHOTON_BATCH)
-            return rd_photon_range(rd, v[K_PHOTONS], NULL, &m->task.photons);
-        if (v[K_STORE] && rd_hash(rd, "store", v[K_STORE], m->task.store))
+        *(int *)p = (int)u;
+        return 0;
+    case FT_SINT:
+        return rd_sint(rd, f->key, v, p);
+    case FT_FLOAT:
+        return rd_float(rd, f->key, v, p);
+    case FT_STR:
+        return rd_str(rd, f->key, v, p);
+    case FT_HASH:
+        return rd_hash(rd, f->key, v, p);
+    case FT_ENUM:
+        return rd_enum(rd, f->key, v, f->names, p);
+    case FT_BYTES:
+        return rd_bytes(rd, f->key, v, p, &VALUE(size_t, obj, f->aux));
+    case FT_WORDS: {
+        /* The ranges of the fields before bound this below 2^37 bytes: no overflow. */
+        if (rd_bin(rd, f->key, v, (uint64_t)f->count(obj) * 8, &bin))
             return PROTO_EMALFORMED;
-        if (rd_map(rd, "tile", v[K_TILE], TILE_KEYS, TILE_TASK_KEYS, t) ||
-            rd_tile_rect(rd, t, &m->task.tile))
+        const void *words = rd_words(rd, f->key, bin);
+        set_ptr(obj, f->at, words);
+        return words ? 0 : PROTO_EMALFORMED;
+    }
+    case FT_SUMS_BITS:
+        /* Refused at once, not by the rule after it: the sums' length depends on it. */
+        if (rd_uint(rd, f->key, v, UINT64_MAX, &u))
             return PROTO_EMALFORMED;
+        if (u != 32 && u != 64)
+            return cx_fail(&rd->cx, f->key, "is %" PRIu64 ", expected 32 or 64", u);
+        *(int *)p = (int)u;
+        return 0;
+    case FT_SUMS: {
+        int bits = VALUE(int, obj, f->aux);
+        if (rd_bin(rd, f->key, v, (uint64_t)f->count(obj) * (uint64_t)(bits / 8), &bin))
+            return PROTO_EMALFORMED;
+        const void *sums = bits == 32 ? rd_floats(rd, f->key, bin) : rd_words(rd, f->key, bin);
+        set_ptr(obj, f->at, sums);
+        return sums ? 0 : PROTO_EMALFORMED;
+    }
+    case FT_MAP: {
+        const msgpack_object *vals[MAX_KEYS];
+        size_t k = 0;
+        if (map_values(rd, f->key, v, f->sub, vals))
+            return PROTO_EMALFORMED;
+        size_t at = cx_enter(&rd->cx, f->key, -1);
+        if (read_fields(rd, f->sub, vals, &k, p))
+            return PROTO_EMALFORMED;
+        cx_leave(&rd->cx, at);
         return 0;
     }
-    case PROTO_RESULT:
-        if (rd_uint(rd, "job", v[K_JOB], UINT64_MAX, &m->result.job) ||
-            rd_uint(rd, "task", v[K_TASK], UINT64_MAX, &m->result.task) ||
-            rd_u32(rd, "att", v[K_ATT], &m->result.attempt) ||
-            rd_kind(rd, v[K_KIND], &m->result.kind) || rd_stats(rd, v[K_STATS], &m->result.stats))
-            return PROTO_EMALFORMED;
-        if (m->result.kind == PROTO_KIND_PHOTON_BATCH)
-            return rd_photon_result(rd, v[K_PHOTONS], &m->result.photons);
-        return rd_tile_result(rd, v[K_TILE], &m->result.tile);
-    case PROTO_TASK_FAILED:
-        return rd_uint(rd, "job", v[K_JOB], UINT64_MAX, &m->task_failed.job) ||
-                       rd_uint(rd, "task", v[K_TASK], UINT64_MAX, &m->task_failed.task) ||
-                       rd_u32(rd, "att", v[K_ATT], &m->task_failed.attempt) ||
-                       rd_str(rd, "error", v[K_ERROR], &m->task_failed.error)
-                   ? PROTO_EMALFORMED
-                   : 0;
-    case PROTO_SCENE_REQUEST:
-        return rd_hash(rd, "scene", v[K_SCENE], m->scene_request.scene);
-    case PROTO_SCENE:
-        return rd_hash(rd, "scene", v[K_SCENE], m->scene.scene) ||
-                       rd_bundle(rd, v[K_BUNDLE], &m->scene.bundle)
-                   ? PROTO_EMALFORMED
-                   : 0;
-    case PROTO_CANCEL:
-        return rd_uint(rd, "job", v[K_JOB], UINT64_MAX, &m->cancel.job);
-    case PROTO_REFUSE:
-        return rd_str(rd, "reason", v[K_REASON], &m->refuse.reason);
-    case PROTO_SUBMIT:
-        return rd_str(rd, "name", v[K_NAME], &m->submit.name) ||
-                       rd_settings(rd, v[K_SET], &m->submit.settings) ||
-                       rd_bundle(rd, v[K_BUNDLE], &m->submit.bundle)
-                   ? PROTO_EMALFORMED
-                   : 0;
-    case PROTO_STATUS:
-        m->status.all = v[K_JOB] == NULL;
-        if (v[K_JOB] && rd_uint(rd, "job", v[K_JOB], UINT64_MAX, &m->status.job))
-            return PROTO_EMALFORMED;
-        /* wait: optional, and meaningful for one job only (docs/protocol.md). */
-        return v[K_WAIT] && !m->status.all
-                   ? rd_u32(rd, "wait", v[K_WAIT], &m->status.wait_ms)
-                   : 0;
-    case PROTO_FETCH:
-        if (rd_uint(rd, "job", v[K_JOB], UINT64_MAX, &m->fetch.job) ||
-            rd_enum(rd, "what", v[K_WHAT], FETCH_NAMES, PROTO_FETCH_COUNT, 0, &what))
-            return PROTO_EMALFORMED;
-        m->fetch.what = (proto_fetch_what_t)what;
-        return 0;
-    case PROTO_SUBMITTED:
-        return rd_uint(rd, "job", v[K_JOB], UINT64_MAX, &m->submitted.job);
-    case PROTO_STATUS_REPLY:
-    case PROTO_JOBS_REPLY:
-        return rd_jobs(rd, v[K_JOBS], &m->jobs_reply.jobs, &m->jobs_reply.njobs);
-    case PROTO_WORKERS_REPLY:
-        return rd_workers(rd, v[K_WORKERS], &m->workers_reply.workers, &m->workers_reply.nworkers);
-    case PROTO_FILE:
-        return rd_str(rd, "name", v[K_NAME], &m->file.name) ||
-                       rd_bytes(rd, "data", v[K_DATA], &m->file.data, &m->file.size)
-                   ? PROTO_EMALFORMED
-                   : 0;
-    case PROTO_ERROR:
-        return rd_str(rd, "msg", v[K_MSG], &m->error.message);
-    case PROTO_STORE_REQUEST:
-        return rd_hash(rd, "store", v[K_STORE], m->store_request.store);
-    case PROTO_REFINE:
-        return rd_uint(rd, "job", v[K_JOB], UINT64_MAX, &m->refine.job) ||
-                       rd_uint(rd, "photons", v[K_PHOTONS], UINT64_MAX, &m->refine.photons)
-                   ? PROTO_EMALFORMED
-                   : 0;
-    case PROTO_STORE:
-        return rd_hash(rd, "store", v[K_STORE], m->store.store) ||
-                       rd_bytes(rd, "data", v[K_DATA], &m->store.data, &m->store.size)
-                   ? PROTO_EMALFORMED
-                   : 0;
-    case PROTO_NONE:
-    case PROTO_TYPE_COUNT:
-        break;
+    case FT_LIST:
+        return read_list(rd, f, v, obj);
+    case FT_FLAT:
+        break; /* read by read_fields, from the same map */
     }
-    return err_set(rd->cx.err, "message type %d has no reader", (int)m->type), PROTO_EMALFORMED;
+    return err_set(rd->cx.err, "%s: field '%s' has no reader", rd->cx.type, f->key),
+           PROTO_EMALFORMED;
+}
+
+/* Reads s's fields from vals (the values of shape_keys(s), from *k on) into obj, each checked as
+ * soon as it is read, as check_fields would, so that what a later field's length depends on is
+ * known to be in range; then the rule across them. */
+static int read_fields(rd_t *rd, const shape_t *s, const msgpack_object *const *vals, size_t *k,
+                       void *obj)
+{
+    for (size_t i = 0; i < s->nfields; i++) {
+        const field_t *f = &s->fields[i];
+        if (f->type == FT_FLAT) {
+            if (read_fields(rd, f->sub, vals, k, (char *)obj + f->at))
+                return PROTO_EMALFORMED;
+            continue;
+        }
+        const msgpack_object *v = vals[(*k)++];
+        if (f->when && !f->when(obj))
+            continue; /* another kind's field: ignored */
+        switch (f->presence) {
+        case ALWAYS: /* absent: rd_* say "is missing" */
+        case UNLESS_ZERO:
+            break;
+        case IF_FLAG:
+            VALUE(bool, obj, f->flag) = v != NULL;
+            break;
+        case UNLESS_FLAG:
+            VALUE(bool, obj, f->flag) = v == NULL;
+            break;
+        }
+        if (!v && f->presence != ALWAYS)
+            continue;
+        if (read_value(rd, f, v, obj))
+            return PROTO_EMALFORMED;
+        if (f->absent && is_zero(f, obj))
+            return cx_fail(&rd->cx, f->key, "is 0: absent means %s", f->absent);
+        if (f->check && f->check(&rd->cx, f, obj))
+            return PROTO_EMALFORMED;
+    }
+    return s->check ? s->check(&rd->cx, obj) : 0;
+}
+
+/* A key that any message body uses may appear once in every message, of a type that uses it
+ * or not; other keys are ignored, so that a newer peer can add optional fields. */
+static bool is_body_key(const msgpack_object_str *key)
+{
+    for (int t = PROTO_NONE + 1; t < PROTO_TYPE_COUNT; t++)
+        for (size_t i = 0; i < BODIES[t].nfields; i++) {
+            const char *k = BODIES[t].fields[i].key;
+            if (key->size == strlen(k) && memcmp(key->ptr, k, key->size) == 0)
+                return true;
+        }
+    return false;
+}
+
+static int rd_body_keys(rd_t *rd, const msgpack_object *root)
+{
+    const msgpack_object_kv *kv = root->via.map.ptr;
+    for (uint32_t i = 0; i < root->via.map.size; i++) {
+        const msgpack_object_str *key = &kv[i].key.via.str; /* a string: decode_root checked */
+        if (!is_body_key(key))
+            continue;
+        for (uint32_t j = 0; j < i; j++)
+            if (kv[j].key.via.str.size == key->size &&
+                memcmp(kv[j].key.via.str.ptr, key->ptr, key->size) == 0)
+                return cx_fail(&rd->cx, "(message)", "has the key '%.*s' twice", (int)key->size,
+                               key->ptr);
+    }
+    return 0;
 }
 
 enum { E_V, E_T, E_N };
@@ -1322,11 +1567,11 @@ static const char *const ENVELOPE_KEYS[E_N] = {"v", "t"};
 static int decode_root(const msgpack_object *root, const proto_limits_t *lim, proto_msg_t *m,
                        err_t *err)
 {
-    rd_t rd = {.cx = {.type = "message", .err = err}, .m = m, .lim = lim};
+    rd_t rd = {.cx = {.type = "message", .lim = lim, .err = err}, .m = m};
     const msgpack_object *v[E_N];
     if (root->type != MSGPACK_OBJECT_MAP)
         return err_set(err, "message is %s, expected a map", obj_kind(root)), PROTO_EMALFORMED;
-    uint64_t version;
+    uint64_t version = 0;
     if (rd_map(&rd, "(message)", root, ENVELOPE_KEYS, E_N, v) ||
         rd_uint(&rd, "v", v[E_V], INT_MAX, &version) ||
         rd_expect(&rd, "t", v[E_T], MSGPACK_OBJECT_STR, "a string"))
@@ -1349,9 +1594,11 @@ static int decode_root(const msgpack_object *root, const proto_limits_t *lim, pr
                PROTO_EVERSION;
     m->type = type;
     rd.cx.type = TYPE_NAMES[type];
-    if (rd_body(&rd, root))
+    const msgpack_object *vals[MAX_KEYS];
+    size_t k = 0;
+    if (rd_body_keys(&rd, root) || map_values(&rd, "(message)", root, body_of(type), vals))
         return PROTO_EMALFORMED;
-    return msg_check(m, lim, &rd.cx);
+    return read_fields(&rd, body_of(type), vals, &k, m);
 }
 
 int proto_decode(const void *data, size_t len, const proto_limits_t *limits, proto_msg_t *out,
@@ -1387,7 +1634,7 @@ int proto_decode(const void *data, size_t len, const proto_limits_t *limits, pro
     return rc;
 }
 
-/* ---------------------------------------------------------------- encoder */
+/* ---------------------------------------------------------------- encoding by the tables */
 
 /* A packer with a sticky failure flag: every msgpack-c return is checked, once, at the end. */
 typedef struct enc {
@@ -1401,57 +1648,44 @@ static void e_check(enc_t *e, int rc)
         e->failed = 1;
 }
 
-static void e_key(enc_t *e, const char *key)
+static void e_str(enc_t *e, const char *s)
 {
-    if (key && !e->failed)
-        e_check(e, msgpack_pack_str_with_body(&e->pk, key, strlen(key)));
-}
-
-static void e_uint(enc_t *e, const char *key, uint64_t v)
-{
-    e_key(e, key);
-    if (!e->failed)
-        e_check(e, msgpack_pack_uint64(&e->pk, v));
-}
-
-static void e_sint(enc_t *e, const char *key, long long v)
-{
-    e_key(e, key);
-    if (!e->failed)
-        e_check(e, msgpack_pack_int64(&e->pk, v));
-}
-
-static void e_float(enc_t *e, const char *key, double v)
-{
-    e_key(e, key);
-    if (!e->failed)
-        e_check(e, msgpack_pack_double(&e->pk, v));
-}
-
-static void e_str(enc_t *e, const char *key, const char *s)
-{
-    e_key(e, key);
     if (!e->failed)
         e_check(e, msgpack_pack_str_with_body(&e->pk, s, strlen(s)));
 }
 
-static void e_map(enc_t *e, const char *key, size_t n)
+static void e_uint(enc_t *e, uint64_t v)
 {
-    e_key(e, key);
+    if (!e->failed)
+        e_check(e, msgpack_pack_uint64(&e->pk, v));
+}
+
+static void e_sint(enc_t *e, long long v)
+{
+    if (!e->failed)
+        e_check(e, msgpack_pack_int64(&e->pk, v));
+}
+
+static void e_float(enc_t *e, double v)
+{
+    if (!e->failed)
+        e_check(e, msgpack_pack_double(&e->pk, v));
+}
+
+static void e_map(enc_t *e, size_t n)
+{
     if (!e->failed)
         e_check(e, msgpack_pack_map(&e->pk, n));
 }
 
-static void e_array(enc_t *e, const char *key, size_t n)
+static void e_array(enc_t *e, size_t n)
 {
-    e_key(e, key);
     if (!e->failed)
         e_check(e, msgpack_pack_array(&e->pk, n));
 }
 
-static void e_bin(enc_t *e, const char *key, const void *data, size_t n)
+static void e_bin(enc_t *e, const void *data, size_t n)
 {
-    e_key(e, key);
     if (n > UINT32_MAX)
         e->failed = 1;
     if (!e->failed)
@@ -1459,16 +1693,15 @@ static void e_bin(enc_t *e, const char *key, const void *data, size_t n)
 }
 
 /* 8-byte words (doubles or uint64) as a bin of little-endian words. */
-static void e_words(enc_t *e, const char *key, const void *words, size_t n)
+static void e_words(enc_t *e, const void *words, size_t n)
 {
     if (n > UINT32_MAX / 8) {
         e->failed = 1;
         return;
     }
 #if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__
-    e_bin(e, key, words, n * 8);
+    e_bin(e, words, n * 8);
 #else
-    e_key(e, key);
     if (!e->failed)
         e_check(e, msgpack_pack_bin(&e->pk, n * 8));
     for (size_t i = 0; i < n && !e->failed; i++) {
@@ -1482,15 +1715,14 @@ static void e_words(enc_t *e, const char *key, const void *words, size_t n)
 #endif
 }
 
-/* Doubles that are float values (tilebuf_is_float_value) as a bin of little-endian float32s,
+/* Doubles that are float32 values (is_float32_value) as a bin of little-endian float32s,
  * packed a chunk at a time. */
-static void e_floats(enc_t *e, const char *key, const double *v, size_t n)
+static void e_floats(enc_t *e, const double *v, size_t n)
 {
     if (n > UINT32_MAX / 4) {
         e->failed = 1;
         return;
     }
-    e_key(e, key);
     if (!e->failed)
         e_check(e, msgpack_pack_bin(&e->pk, n * 4));
     uint8_t le[4 * 512];
@@ -1507,260 +1739,84 @@ static void e_floats(enc_t *e, const char *key, const double *v, size_t n)
     }
 }
 
-static void e_settings(enc_t *e, const proto_settings_t *s)
-{
-    e_map(e, "set", 4 + (s->integrator != NULL) + (s->dispersion != NULL) +
-                        (s->target_error != 0) + (s->time_limit != 0));
-    e_uint(e, "spp", (uint64_t)s->spp);
-    e_uint(e, "xres", (uint64_t)s->xres);
-    e_uint(e, "yres", (uint64_t)s->yres);
-    e_sint(e, "seed", s->seed);
-    if (s->integrator)
-        e_str(e, "integ", s->integrator);
-    if (s->dispersion)
-        e_str(e, "disp", s->dispersion);
-    if (s->target_error != 0)
-        e_float(e, "tgt", s->target_error);
-    if (s->time_limit != 0)
-        e_float(e, "tlim", s->time_limit);
-}
+static void write_fields(enc_t *e, const shape_t *s, const void *obj);
 
-static void e_bundle(enc_t *e, const proto_bundle_t *b)
+static void write_value(enc_t *e, const field_t *f, const void *obj)
 {
-    e_map(e, "bundle", 2);
-    e_str(e, "main", b->main);
-    e_array(e, "files", b->nfiles);
-    for (size_t i = 0; i < b->nfiles; i++) {
-        e_map(e, NULL, 2);
-        e_str(e, "path", b->files[i].path);
-        e_bin(e, "data", b->files[i].data, b->files[i].size);
-    }
-}
-
-static void e_tile_rect(enc_t *e, const proto_tile_t *t)
-{
-    e_uint(e, "x0", (uint64_t)t->x0);
-    e_uint(e, "y0", (uint64_t)t->y0);
-    e_uint(e, "w", (uint64_t)t->w);
-    e_uint(e, "h", (uint64_t)t->h);
-    e_uint(e, "sb", t->sample_begin);
-    e_uint(e, "se", t->sample_end);
-}
-
-/* The number of body fields of each type, for the map header. */
-static size_t body_fields(const proto_msg_t *m)
-{
-    switch (m->type) {
-    case PROTO_HELLO:
-        return 3;
-    case PROTO_WELCOME:
-        return 2;
-    case PROTO_TASK:
-        /* camera tiles: the tile, and the store when the job has one; batches: the range */
-        return 7 + (m->task.kind == PROTO_KIND_CAMERA_TILE && m->task.store[0]);
-    case PROTO_RESULT:
-        return 6;
-    case PROTO_STORE:
-    case PROTO_REFINE:
-        return 2;
-    case PROTO_STORE_REQUEST:
-        return 1;
-    case PROTO_TASK_FAILED:
-        return 4;
-    case PROTO_SCENE:
-        return 2;
-    case PROTO_SUBMIT:
-        return 3;
-    case PROTO_STATUS:
-        return m->status.all ? 0 : 1 + (m->status.wait_ms > 0);
-    case PROTO_FETCH:
-        return 2;
-    case PROTO_FILE:
-        return 2;
-    case PROTO_SCENE_REQUEST:
-    case PROTO_CANCEL:
-    case PROTO_REFUSE:
-    case PROTO_SUBMITTED:
-    case PROTO_STATUS_REPLY:
-    case PROTO_JOBS_REPLY:
-    case PROTO_WORKERS_REPLY:
-    case PROTO_ERROR:
-        return 1;
-    default:
-        return 0;
-    }
-}
-
-static void e_body(enc_t *e, const proto_msg_t *m)
-{
-    switch (m->type) {
-    case PROTO_HELLO:
-        e_str(e, "name", m->hello.name);
-        e_uint(e, "threads", (uint64_t)m->hello.threads);
-        e_str(e, "sw", m->hello.software);
+    const char *p = (const char *)obj + f->at;
+    switch (f->type) {
+    case FT_U64:
+        e_uint(e, CVALUE(uint64_t, obj, f->at));
         break;
-    case PROTO_WELCOME:
-        e_uint(e, "wid", m->welcome.worker_id);
-        e_uint(e, "hb", m->welcome.heartbeat_ms);
+    case FT_U32:
+    case FT_INT: /* >= 0: its rule said so */
+        e_uint(e, (uint64_t)int_of(f, obj));
         break;
-    case PROTO_TASK:
-        e_uint(e, "job", m->task.job);
-        e_uint(e, "task", m->task.task);
-        e_uint(e, "att", m->task.attempt);
-        e_str(e, "scene", m->task.scene);
-        e_settings(e, &m->task.settings);
-        e_str(e, "kind", proto_kind_name(m->task.kind));
-        if (m->task.kind == PROTO_KIND_PHOTON_BATCH) {
-            e_map(e, "photons", PHOTON_TASK_KEYS);
-            e_uint(e, "first", m->task.photons.first);
-            e_uint(e, "end", m->task.photons.end);
-            break;
-        }
-        if (m->task.store[0])
-            e_str(e, "store", m->task.store);
-        e_map(e, "tile", TILE_TASK_KEYS);
-        e_tile_rect(e, &m->task.tile);
+    case FT_SINT:
+        e_sint(e, CVALUE(long long, obj, f->at));
         break;
-    case PROTO_RESULT: {
-        if (m->result.kind == PROTO_KIND_PHOTON_BATCH) {
-            const proto_photon_result_t *r = &m->result.photons;
-            e_uint(e, "job", m->result.job);
-            e_uint(e, "task", m->result.task);
-            e_uint(e, "att", m->result.attempt);
-            e_str(e, "kind", proto_kind_name(m->result.kind));
-            e_map(e, "photons", PH_N);
-            e_uint(e, "first", r->range.first);
-            e_uint(e, "end", r->range.end);
-            e_uint(e, "emitted", r->emitted);
-            e_bin(e, "data", r->data, r->size);
-            e_uint(e, "nonfinite", r->nonfinite);
-            e_map(e, "stats", ST_N);
-            e_uint(e, "samples", m->result.stats.samples);
-            e_uint(e, "rays", m->result.stats.rays);
-            e_uint(e, "disp", m->result.stats.dispersive);
-            e_float(e, "secs", m->result.stats.elapsed);
-            break;
-        }
-        const proto_tile_result_t *r = &m->result.tile;
-        size_t npix = (size_t)r->rect.w * (size_t)r->rect.h;
-        e_uint(e, "job", m->result.job);
-        e_uint(e, "task", m->result.task);
-        e_uint(e, "att", m->result.attempt);
-        e_str(e, "kind", proto_kind_name(m->result.kind));
-        e_map(e, "tile", T_N);
-        e_tile_rect(e, &r->rect);
-        e_uint(e, "nb", (uint64_t)r->nbuckets);
-        int bits = sums_width(r);
-        e_uint(e, "sums_bits", (uint64_t)bits);
-        if (bits == 32)
-            e_floats(e, "sums", r->sums, npix * (size_t)r->nbuckets);
+    case FT_FLOAT:
+        e_float(e, CVALUE(double, obj, f->at));
+        break;
+    case FT_STR:
+        e_str(e, ptr_of(obj, f->at));
+        break;
+    case FT_HASH:
+        e_str(e, p);
+        break;
+    case FT_ENUM:
+        e_str(e, f->names->names[int_of(f, obj)]);
+        break;
+    case FT_BYTES:
+        e_bin(e, ptr_of(obj, f->at), CVALUE(size_t, obj, f->aux));
+        break;
+    case FT_WORDS:
+        e_words(e, ptr_of(obj, f->at), f->count(obj));
+        break;
+    case FT_SUMS_BITS:
+        e_uint(e,
+               (uint64_t)sums_width(CVALUE(int, obj, f->at), ptr_of(obj, f->aux), f->count(obj)));
+        break;
+    case FT_SUMS: {
+        const double *sums = ptr_of(obj, f->at);
+        size_t n = f->count(obj);
+        if (sums_width(CVALUE(int, obj, f->aux), sums, n) == 32)
+            e_floats(e, sums, n);
         else
-            e_words(e, "sums", r->sums, npix * (size_t)r->nbuckets);
-        e_words(e, "counts", r->counts, npix);
-        e_words(e, "lum", r->lum, npix);
-        e_words(e, "lum2", r->lum_sq, npix);
-        e_uint(e, "nonfinite", r->nonfinite);
-        e_map(e, "stats", ST_N);
-        e_uint(e, "samples", m->result.stats.samples);
-        e_uint(e, "rays", m->result.stats.rays);
-        e_uint(e, "disp", m->result.stats.dispersive);
-        e_float(e, "secs", m->result.stats.elapsed);
+            e_words(e, sums, n);
         break;
     }
-    case PROTO_TASK_FAILED:
-        e_uint(e, "job", m->task_failed.job);
-        e_uint(e, "task", m->task_failed.task);
-        e_uint(e, "att", m->task_failed.attempt);
-        e_str(e, "error", m->task_failed.error);
+    case FT_MAP:
+        e_map(e, count_fields(f->sub, p));
+        write_fields(e, f->sub, p);
         break;
-    case PROTO_SCENE_REQUEST:
-        e_str(e, "scene", m->scene_request.scene);
-        break;
-    case PROTO_SCENE:
-        e_str(e, "scene", m->scene.scene);
-        e_bundle(e, &m->scene.bundle);
-        break;
-    case PROTO_CANCEL:
-        e_uint(e, "job", m->cancel.job);
-        break;
-    case PROTO_REFUSE:
-        e_str(e, "reason", m->refuse.reason);
-        break;
-    case PROTO_SUBMIT:
-        e_str(e, "name", m->submit.name);
-        e_settings(e, &m->submit.settings);
-        e_bundle(e, &m->submit.bundle);
-        break;
-    case PROTO_STATUS:
-        if (!m->status.all)
-            e_uint(e, "job", m->status.job);
-        if (!m->status.all && m->status.wait_ms > 0)
-            e_uint(e, "wait", m->status.wait_ms);
-        break;
-    case PROTO_FETCH:
-        e_uint(e, "job", m->fetch.job);
-        e_str(e, "what", proto_fetch_what_name(m->fetch.what));
-        break;
-    case PROTO_SUBMITTED:
-        e_uint(e, "job", m->submitted.job);
-        break;
-    case PROTO_STATUS_REPLY:
-    case PROTO_JOBS_REPLY:
-        e_array(e, "jobs", m->jobs_reply.njobs);
-        for (size_t i = 0; i < m->jobs_reply.njobs; i++) {
-            const proto_job_info_t *j = &m->jobs_reply.jobs[i];
-            e_map(e, NULL, JOB_REQUIRED_KEYS + (j->error != NULL) + (j->spp > 0) +
-                               j->has_rel_error + (j->stop != PROTO_STOP_NONE));
-            e_uint(e, "id", j->id);
-            e_str(e, "name", j->name);
-            e_str(e, "state", proto_job_state_name(j->state));
-            e_uint(e, "done", j->samples_done);
-            e_uint(e, "total", j->samples_total);
-            e_float(e, "secs", j->elapsed);
-            e_uint(e, "nonfinite", j->nonfinite);
-            if (j->error)
-                e_str(e, "err", j->error);
-            if (j->spp > 0)
-                e_uint(e, "spp", j->spp);
-            if (j->has_rel_error)
-                e_float(e, "rmse", j->rel_error);
-            if (j->stop != PROTO_STOP_NONE)
-                e_str(e, "stop", proto_stop_name(j->stop));
+    case FT_LIST: {
+        const char *items = ptr_of(obj, f->at);
+        size_t n = CVALUE(size_t, obj, f->aux);
+        e_array(e, n);
+        for (size_t i = 0; i < n; i++) {
+            const char *item = items + i * f->sub->size;
+            e_map(e, count_fields(f->sub, item));
+            write_fields(e, f->sub, item);
         }
         break;
-    case PROTO_WORKERS_REPLY:
-        e_array(e, "workers", m->workers_reply.nworkers);
-        for (size_t i = 0; i < m->workers_reply.nworkers; i++) {
-            const proto_worker_info_t *w = &m->workers_reply.workers[i];
-            e_map(e, NULL, W_N);
-            e_str(e, "name", w->name);
-            e_uint(e, "id", w->id);
-            e_uint(e, "threads", (uint64_t)w->threads);
-            e_str(e, "state", proto_worker_state_name(w->state));
-            e_uint(e, "done", w->tasks_done);
-            e_float(e, "seen", w->last_seen);
-        }
+    }
+    case FT_FLAT:
+        write_fields(e, f->sub, p);
         break;
-    case PROTO_FILE:
-        e_str(e, "name", m->file.name);
-        e_bin(e, "data", m->file.data, m->file.size);
-        break;
-    case PROTO_ERROR:
-        e_str(e, "msg", m->error.message);
-        break;
-    case PROTO_STORE_REQUEST:
-        e_str(e, "store", m->store_request.store);
-        break;
-    case PROTO_STORE:
-        e_str(e, "store", m->store.store);
-        e_bin(e, "data", m->store.data, m->store.size);
-        break;
-    case PROTO_REFINE:
-        e_uint(e, "job", m->refine.job);
-        e_uint(e, "photons", m->refine.photons);
-        break;
-    default:
-        break;
+    }
+}
+
+/* The entries of obj's map, in table order (so equal messages give equal bytes). */
+static void write_fields(enc_t *e, const shape_t *s, const void *obj)
+{
+    for (size_t i = 0; i < s->nfields; i++) {
+        const field_t *f = &s->fields[i];
+        if (!present(f, obj))
+            continue;
+        if (f->type != FT_FLAT)
+            e_str(e, f->key);
+        write_value(e, f, obj);
     }
 }
 
@@ -1768,18 +1824,23 @@ int proto_encode(const proto_msg_t *msg, const proto_limits_t *limits, msgpack_s
                  err_t *err)
 {
     proto_limits_t lim = limits ? *limits : proto_limits_default();
-    cx_t cx = {.type = proto_type_name(msg->type), .err = err};
+    cx_t cx = {.type = proto_type_name(msg->type), .lim = &lim, .err = err};
+    const shape_t *body = body_of(msg->type);
     if (msg->version < 0)
         return err_set(err, "%s: version %d is negative", cx.type, msg->version);
-    if (msg_check(msg, &lim, &cx) < 0)
+    if (!body)
+        return err_set(err, "message type %d is not a protocol message", (int)msg->type);
+    if (check_fields(&cx, body, msg) < 0)
         return -1;
     size_t start = out->size;
     enc_t e = {.failed = 0};
     msgpack_packer_init(&e.pk, out, msgpack_sbuffer_write);
-    e_map(&e, NULL, 2 + body_fields(msg));
-    e_uint(&e, "v", (uint64_t)(msg->version ? msg->version : PROTO_VERSION));
-    e_str(&e, "t", proto_type_name(msg->type));
-    e_body(&e, msg);
+    e_map(&e, 2 + count_fields(body, msg));
+    e_str(&e, "v");
+    e_uint(&e, (uint64_t)(msg->version ? msg->version : PROTO_VERSION));
+    e_str(&e, "t");
+    e_str(&e, proto_type_name(msg->type));
+    write_fields(&e, body, msg);
     if (e.failed) {
         out->size = start;
         return err_set(err, "%s: out of memory while encoding", cx.type);

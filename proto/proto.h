@@ -6,8 +6,9 @@
 #ifndef PRISMFARM_PROTO_H
 #define PRISMFARM_PROTO_H
 
+#include "bundle.h"
 #include "err.h"
-#include "scene_load.h"
+#include "proto_limits.h"
 
 #include <msgpack.h>
 
@@ -19,39 +20,9 @@
  * 2: camera_tile results carry sums_bits and float32 sums. */
 #define PROTO_VERSION 2
 
-/* Fixed bounds of the decoder (docs/protocol.md, "Limits"). */
-#define PROTO_MAX_DEPTH 16           /* msgpack nesting depth */
-#define PROTO_MAX_MAP_ENTRIES 256    /* entries in any map (messages have ~20 fields) */
-#define PROTO_MAX_OBJECTS (1 << 22)  /* msgpack objects in one message (msgpack-c: 24 B each) */
-#define PROTO_MAX_STRING 4096        /* bytes in any string (names, paths, error texts) */
-#define PROTO_MAX_LIST 100000        /* entries in any list (jobs, workers) */
-#define PROTO_MAX_TILE_SIDE 4096     /* tile width and height */
-#define PROTO_MAX_BUCKETS 1024       /* spectral buckets of a tile */
-#define PROTO_MAX_IMAGE_SIDE 65536   /* image resolution and tile corner coordinates */
-#define PROTO_MAX_THREADS 4096       /* worker threads */
-#define PROTO_MAX_WAIT_MS 60000      /* longest STATUS long-poll (client timeouts are longer) */
-#define PROTO_MAX_PATH_DEPTH 32      /* components of a bundle path */
-#define PROTO_MAX_PATH_COMPONENT 200 /* bytes in one component (leaves room under NAME_MAX) */
-#define PROTO_HASH_HEX 64            /* a scene hash: lower-case hex SHA-256 */
-#define PROTO_MAX_TIME_LIMIT 31536000.0 /* a job's time limit, seconds (a year) */
-
-/* Defaults of the caller-configurable limits (proto_limits_t). */
-#define PROTO_MAX_BUNDLE_FILES 4096
-#define PROTO_MAX_BUNDLE_BYTES ((size_t)512 << 20)
-#define PROTO_MAX_MESSAGE_BYTES (PROTO_MAX_BUNDLE_BYTES + ((size_t)16 << 20))
-
 /* Return codes of proto_decode (and of net.h's functions, which add their own). */
 #define PROTO_EMALFORMED (-1) /* the bytes are not a valid message; err says which field */
 #define PROTO_EVERSION (-2)   /* a well-formed envelope with another "v": refuse the peer */
-
-typedef struct proto_limits {
-    size_t max_message_bytes; /* a whole encoded message; also ZMQ_MAXMSGSIZE in net.h */
-    size_t max_bundle_files;  /* files in a scene bundle */
-    size_t max_bundle_bytes;  /* sum of the sizes of a bundle's files */
-} proto_limits_t;
-
-/* PROTO_MAX_MESSAGE_BYTES, PROTO_MAX_BUNDLE_FILES, PROTO_MAX_BUNDLE_BYTES. */
-proto_limits_t proto_limits_default(void);
 
 typedef enum proto_type {
     PROTO_NONE = 0,
@@ -126,8 +97,9 @@ typedef enum proto_fetch_what {
     PROTO_FETCH_COUNT
 } proto_fetch_what_t;
 
-/* Job settings: mirror scene_overrides_t (0 / NULL / -1 keep the scene file's value), then the
- * stopping rules of a progressive job (0: none), which only the master reads. */
+/* Job settings: mirror scene_overrides_t (scene/scene_load.h; settings/settings.h converts: 0 /
+ * NULL / -1 keep the scene file's value), then the stopping rules of a progressive job (0: none),
+ * which only the master reads. */
 typedef struct proto_settings {
     int spp;                /* samples per pixel of the whole job; 0: the file's */
     int xres, yres;         /* 0: the file's */
@@ -138,20 +110,6 @@ typedef struct proto_settings {
     double time_limit;      /* 0, or 0 < T <= PROTO_MAX_TIME_LIMIT seconds after the start */
 } proto_settings_t;
 
-/* A scene bundle: the main scene file and every file it references, by relative path. Paths use
- * '/', and are relative and normalised (bundle.h states the rules); each appears once. */
-typedef struct proto_bundle_file {
-    const char *path;
-    const uint8_t *data;
-    size_t size;
-} proto_bundle_file_t;
-
-typedef struct proto_bundle {
-    const char *main; /* the scene file to load; one of the files' paths */
-    const proto_bundle_file_t *files;
-    size_t nfiles;
-} proto_bundle_t;
-
 /* A camera tile: pixels [x0, x0+w) x [y0, y0+h), sample indices [sample_begin, sample_end). */
 typedef struct proto_tile {
     int x0, y0, w, h;
@@ -159,9 +117,8 @@ typedef struct proto_tile {
 } proto_tile_t;
 
 /* A camera tile's result: a tilebuf's contents (film/tilebuf.h), in its layout. The sums travel
- * as float32 when every one is a float value (tilebuf_is_float_value: zero or a normal float,
- * what tilebuf_round_sums leaves in the common case), else as float64; lum and lum_sq always as
- * float64. */
+ * as float32 when every one is a float32 value (zero or a normal float: what tilebuf_round_sums
+ * leaves in the common case), else as float64; lum and lum_sq always as float64. */
 typedef struct proto_tile_result {
     proto_tile_t rect;
     int nbuckets;
@@ -170,8 +127,8 @@ typedef struct proto_tile_result {
     const double *lum;      /* [h][w] sum of per-sample luminance, finite */
     const double *lum_sq;   /* [h][w] sum of squared per-sample luminance, finite */
     uint64_t nonfinite;     /* samples dropped for a NaN or Inf contribution */
-    /* Width of sums on the wire. Encode: 0 picks 32 when every sum is a float value, else 64;
-     * 32 (refused unless every sum is a float value) or 64 forces it. Decode: what came, 32 or
+    /* Width of sums on the wire. Encode: 0 picks 32 when every sum is a float32 value, else 64;
+     * 32 (refused unless every sum is a float32 value) or 64 forces it. Decode: what came, 32 or
      * 64 (the sums are handed out as doubles either way, equal to the values sent). */
     int sums_bits;
 } proto_tile_result_t;
@@ -359,9 +316,5 @@ const char *proto_stop_name(proto_stop_t stop);              /* "none", "target"
 /* A REFUSE for a peer that speaks peer_version, its reason written into *text:
  * "protocol version 2 not supported by this master (speaks 1)". role names the refuser. */
 proto_msg_t proto_refuse_version(int peer_version, const char *role, err_t *text);
-
-/* The settings as the scene loader takes them (strings still point into settings). */
-scene_overrides_t proto_settings_to_overrides(const proto_settings_t *settings);
-proto_settings_t proto_settings_from_overrides(const scene_overrides_t *ov);
 
 #endif

@@ -30,6 +30,7 @@
 #include "net.h"
 #include "render.h"
 #include "scene_load.h"
+#include "settings.h"
 #include "worker_daemon.h"
 
 /* The test scene: 24 x 16 pixels, 4 spp, 8 buckets (tests/data/render/tiny.pbrt). With 8-pixel
@@ -385,7 +386,7 @@ static tilebuf_t *render_task(fake_worker_t *w, const proto_msg_t *t)
 {
     err_t err;
     if (!w->scene) {
-        scene_overrides_t ov = proto_settings_to_overrides(&t->task.settings);
+        scene_overrides_t ov = settings_to_overrides(&t->task.settings);
         w->scene = scene_load_file("data/render/tiny.pbrt", &ov, &err);
         if (!w->scene)
             fail_msg("%s", err.msg);

@@ -20,6 +20,11 @@
 #include "bundle.h"
 #include "proto.h"
 #include "sha256.h"
+#include "tilebuf.h"
+
+#if defined(__SSE__)
+#include <pmmintrin.h>
+#endif
 
 /* ---------------------------------------------------------------- sample messages */
 
@@ -705,24 +710,6 @@ static void test_accuracy_fields_strict(void **state)
     assert_int_equal(proto_encode(&sub, NULL, &sb, &err), PROTO_EMALFORMED);
     assert_non_null(strstr(err.msg, "'set.tgt'"));
     msgpack_sbuffer_destroy(&sb);
-}
-
-static void test_settings_mirror_overrides(void **state)
-{
-    (void)state;
-    scene_overrides_t ov = proto_settings_to_overrides(&g_settings);
-    assert_int_equal(ov.spp, 256);
-    assert_int_equal(ov.xres, 640);
-    assert_int_equal(ov.yres, 480);
-    assert_int_equal(ov.seed, 42);
-    assert_string_equal(ov.integrator, "path");
-    assert_string_equal(ov.dispersion, "fanout");
-    proto_settings_t back = proto_settings_from_overrides(&ov);
-    /* The stopping rules are the master's, not the scene's: no override carries them. */
-    assert_true(back.target_error == 0 && back.time_limit == 0);
-    back.target_error = g_settings.target_error;
-    back.time_limit = g_settings.time_limit;
-    assert_settings_equal(&back, &g_settings);
 }
 
 static void test_version_refusal(void **state)
@@ -1454,6 +1441,79 @@ static void test_fuzz_mutations(void **state)
     print_message("fuzz: %d of %d mutations decoded as valid messages\n", accepted, ROUNDS);
 }
 
+/* The width the encoder picks for v alone (sums_bits 0), after checking that v comes back with
+ * its bits. */
+static int picked_width(double v)
+{
+    proto_msg_t m = sample(PROTO_RESULT);
+    uint64_t count = 1;
+    double zero = 0;
+    m.result.tile.rect = (proto_tile_t){0, 0, 1, 1, 0, 1};
+    m.result.tile.nbuckets = 1;
+    m.result.tile.sums = &v;
+    m.result.tile.counts = &count;
+    m.result.tile.lum = m.result.tile.lum_sq = &zero;
+    msgpack_sbuffer sb;
+    encode_ok(&m, &sb);
+    proto_msg_t d;
+    err_t err = {""};
+    if (proto_decode(sb.data, sb.size, NULL, &d, &err) != 0)
+        fail_msg("decoding a sum of %a: %s", v, err.msg);
+    assert_memory_equal(d.result.tile.sums, &v, sizeof v);
+    int bits = d.result.tile.sums_bits;
+    proto_msg_free(&d);
+    msgpack_sbuffer_destroy(&sb);
+    return bits;
+}
+
+/* proto's own float32 test decides the width as film's rule reads its rounded values
+ * (tilebuf_is_float_value): zero of both signs and normal floats go as 32 bits, everything else
+ * as 64, in the default floating-point mode and in the render threads' flush-to-zero and
+ * denormals-are-zero mode. */
+static void test_float32_width_matches_tilebuf(void **state)
+{
+    (void)state;
+    static const double edges[] = {0.0, -0.0, 1.0, -1.0, 1.0 / 3.0, (double)(1.0f / 3.0f),
+                                   FLT_MIN, -FLT_MIN, FLT_MAX, -FLT_MAX, 0x1p-126 - 0x1p-149,
+                                   0x1p-149, -0x1p-149, 0x1p-127, (double)FLT_MIN * (1 - 0x1p-53),
+                                   0x1p128, -0x1p128, (double)FLT_MAX + 0x1p103, 1.0 + 0x1p-23,
+                                   1.0 + 0x1p-24, 1.0 + 0x1p-52, DBL_MIN, DBL_MIN / 4, -DBL_MIN / 4,
+                                   DBL_MAX, 0x1p-1074, 65504.0, 16777217.0, 16777216.0};
+    for (int mode = 0; mode < 2; mode++) {
+#if defined(__SSE__)
+        unsigned int csr = _mm_getcsr();
+        if (mode == 1) {
+            _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
+            _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
+        }
+#else
+        if (mode == 1)
+            break;
+#endif
+        for (size_t i = 0; i < sizeof edges / sizeof edges[0]; i++)
+            if (picked_width(edges[i]) != (tilebuf_is_float_value(edges[i]) ? 32 : 64))
+                fail_msg("mode %d: %a goes as %d bits", mode, edges[i], picked_width(edges[i]));
+        /* Random bit patterns, and random doubles near float's exponent range with a mantissa
+         * that float may or may not hold. */
+        uint64_t seed = 0x2545F4914F6CDD1DULL;
+        for (int i = 0; i < 20000; i++) {
+            uint64_t bits = xorshift(&seed);
+            if (i % 2)
+                bits = (bits & 0x800FFFFFE0000000ULL) | (uint64_t)(1023 - 130 + i % 262) << 52 |
+                       (i % 4 == 1 ? 0 : bits & 0x1FFFFFFF);
+            double v;
+            memcpy(&v, &bits, sizeof v);
+            if (!isfinite(v))
+                continue; /* refused by the encoder whatever its width */
+            if (picked_width(v) != (tilebuf_is_float_value(v) ? 32 : 64))
+                fail_msg("mode %d: %a goes as %d bits", mode, v, picked_width(v));
+        }
+#if defined(__SSE__)
+        _mm_setcsr(csr);
+#endif
+    }
+}
+
 static int setup(void **state)
 {
     (void)state;
@@ -1468,7 +1528,6 @@ int main(void)
         cmocka_unit_test(test_decoded_message_owns_its_data),
         cmocka_unit_test(test_photon_messages),
         cmocka_unit_test(test_status_all_and_optional_fields),
-        cmocka_unit_test(test_settings_mirror_overrides),
         cmocka_unit_test(test_version_refusal),
         cmocka_unit_test(test_truncated_at_every_byte),
         cmocka_unit_test(test_lying_container_headers),
@@ -1479,6 +1538,7 @@ int main(void)
         cmocka_unit_test(test_values_out_of_range),
         cmocka_unit_test(test_bins_of_wrong_length_and_nonfinite),
         cmocka_unit_test(test_float32_sums),
+        cmocka_unit_test(test_float32_width_matches_tilebuf),
         cmocka_unit_test(test_accuracy_fields_strict),
         cmocka_unit_test(test_bad_bundle_paths),
         cmocka_unit_test(test_bundle_limits_are_the_callers),

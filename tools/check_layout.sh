@@ -19,9 +19,10 @@ declare -A ALLOWED=(
   [render]="photons film scene scenefile imageio optics sampling spectral base"
   [proto]="base"
   [net]="proto base"
-  [master]="net proto photons film scene scenefile imageio optics sampling spectral base"
-  [worker]="render net proto photons film scene scenefile imageio optics sampling spectral base"
-  [cli]="master worker render net proto photons film scene scenefile imageio optics sampling spectral base"
+  [settings]="proto scene scenefile imageio optics sampling spectral base"
+  [master]="settings net proto photons film scene scenefile imageio optics sampling spectral base"
+  [worker]="settings render net proto photons film scene scenefile imageio optics sampling spectral base"
+  [cli]="master worker settings render net proto photons film scene scenefile imageio optics sampling spectral base"
 )
 FOLDERS="${!ALLOWED[*]}"
 status=0

@@ -1,6 +1,7 @@
 #include "scene_cache.h"
 
 #include "photon.h"
+#include "settings.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -88,7 +89,7 @@ job_scene_t *scene_cache_acquire(scene_cache_t *self, uint64_t job, const char *
         snprintf(victim->hash, sizeof victim->hash, "%s", hash);
         pthread_mutex_unlock(self->lock);
         err_t lerr = {{0}};
-        scene_overrides_t ov = proto_settings_to_overrides(settings);
+        scene_overrides_t ov = settings_to_overrides(settings);
         scene_t *sc = bundle_cache_load(self->bundles, hash, &ov, &lerr);
         pthread_mutex_lock(self->lock);
         victim->scene = sc;

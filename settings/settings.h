@@ -1,0 +1,21 @@
+/* settings: a job's settings between the wire and the scene loader. proto_settings_t (proto/)
+ * is what a SUBMIT and a TASK carry; scene_overrides_t (scene/) is what the loader takes. The
+ * conversion lives here, in a module above both, because neither may see the other: proto/
+ * depends on base/ alone, and the scene knows nothing of messages. The master, the worker and
+ * the CLI, which each see both, link it. Values pass unchanged (0, NULL and -1 still mean "the
+ * scene file's"); strings still point into the struct they came from. */
+#ifndef PRISMFARM_SETTINGS_H
+#define PRISMFARM_SETTINGS_H
+
+#include "proto.h"
+#include "scene_load.h"
+
+/* The settings as the scene loader takes them. The stopping rules (target_error, time_limit)
+ * are the master's, not the scene's: no override carries them. */
+scene_overrides_t settings_to_overrides(const proto_settings_t *settings);
+
+/* The settings of a job the user asked for with these overrides: no stopping rules (0), which
+ * the caller sets from its own options. */
+proto_settings_t settings_from_overrides(const scene_overrides_t *ov);
+
+#endif
