@@ -82,6 +82,7 @@ typedef struct worker {
     pthread_cond_t wake;
     task_t *queue, *queue_tail; /* ready to render */
     task_t *parked;             /* waiting for their scene */
+    task_t *running;            /* being rendered */
     task_t *done;               /* rendered, to send */
     job_scene_t scenes[MAX_SCENES];
     store_bytes_t stores[MAX_STORES];
@@ -128,6 +129,18 @@ static int is_cancelled(const worker_t *w, uint64_t job)
         if (w->cancelled[i] == job)
             return 1;
     return 0;
+}
+
+/* How many tasks of job the worker holds: queued, parked, being rendered, rendered and not yet
+ * sent, or in `also` (the list the network loop is sending). Called with the lock held. */
+static int job_tasks_held(const worker_t *w, uint64_t job, const task_t *also)
+{
+    const task_t *lists[] = {w->queue, w->parked, w->running, w->done, also};
+    int n = 0;
+    for (size_t i = 0; i < sizeof lists / sizeof *lists; i++)
+        for (const task_t *t = lists[i]; t; t = t->next)
+            n += t->job == job;
+    return n;
 }
 
 static int bundle_ready(const worker_t *w, const char *hash)
@@ -274,6 +287,8 @@ static void *render_thread(void *arg)
         w->queue = t->next;
         if (!w->queue)
             w->queue_tail = NULL;
+        t->next = w->running;
+        w->running = t;
         err_t err = {{0}};
         job_scene_t *js = is_cancelled(w, t->job) ? NULL : acquire_scene(w, t, &err);
         if (js) {
@@ -297,6 +312,11 @@ static void *render_thread(void *arg)
         }
         if (!t->ok)
             snprintf(t->error, sizeof t->error, "%s", err.msg[0] ? err.msg : "job cancelled");
+        for (task_t **pp = &w->running; *pp; pp = &(*pp)->next)
+            if (*pp == t) {
+                *pp = t->next;
+                break;
+            }
         t->next = w->done;
         w->done = t;
         /* Wake the network loop at once rather than at its next poll timeout. */
@@ -610,7 +630,9 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                     if (w.ncancelled == 64)
                         memmove(w.cancelled, w.cancelled + 1, 63 * sizeof *w.cancelled), w.ncancelled--;
                     w.cancelled[w.ncancelled++] = m.cancel.job;
-                    /* Queued tasks of the job go; the master reclaims their slots itself. */
+                    /* Queued tasks of the job go, and those waiting for its scene; the master
+                     * reclaims their slots itself. Tasks being rendered finish, unsent. */
+                    int dropped = 0;
                     task_t **pp = &w.queue;
                     w.queue_tail = NULL;
                     while (*pp) {
@@ -618,8 +640,19 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                         if (t->job == m.cancel.job) {
                             *pp = t->next;
                             free(t);
+                            dropped++;
                         } else {
                             w.queue_tail = t;
+                            pp = &t->next;
+                        }
+                    }
+                    for (pp = &w.parked; *pp;) {
+                        task_t *t = *pp;
+                        if (t->job == m.cancel.job) {
+                            *pp = t->next;
+                            free(t);
+                            dropped++;
+                        } else {
                             pp = &t->next;
                         }
                     }
@@ -628,8 +661,13 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                             scene_destroy(&w.scenes[i].scene);
                             memset(&w.scenes[i], 0, sizeof w.scenes[i]);
                         }
+                    int held = job_tasks_held(&w, m.cancel.job, NULL);
                     pthread_mutex_unlock(&w.lock);
-                    logf_(&w, "job %llu cancelled", (unsigned long long)m.cancel.job);
+                    logf_(&w, "job %llu cancelled (%d task%s dropped, %d in flight)",
+                          (unsigned long long)m.cancel.job, dropped, dropped == 1 ? "" : "s", held);
+                    /* Said once the worker holds none of the job's tasks: nothing of it runs. */
+                    if (held == 0)
+                        logf_(&w, "job %llu: all its tasks stopped", (unsigned long long)m.cancel.job);
                     break;
                 }
                 case PROTO_REFUSE:
@@ -662,7 +700,8 @@ int worker_run(const worker_opts_t *opts, err_t *err)
             while (done) {
                 task_t *t = done;
                 done = t->next;
-                if (t->generation == gen && !is_cancelled(&w, t->job)) {
+                int cancelled = is_cancelled(&w, t->job);
+                if (t->generation == gen && !cancelled) {
                     proto_msg_t out;
                     if (t->ok && t->kind == PROTO_KIND_PHOTON_BATCH) {
                         out = (proto_msg_t){.type = PROTO_RESULT};
@@ -704,8 +743,16 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                     if (send_msg(&w, net, &out) == 0)
                         last_sent = now;
                 }
+                uint64_t job = t->job;
                 t->next = NULL;
                 free_list(t);
+                if (cancelled) {
+                    pthread_mutex_lock(&w.lock);
+                    int held = job_tasks_held(&w, job, done);
+                    pthread_mutex_unlock(&w.lock);
+                    if (held == 0)
+                        logf_(&w, "job %llu: all its tasks stopped", (unsigned long long)job);
+                }
             }
 
             if (now - last_sent >= heartbeat_ms / 1000.0) {
