@@ -289,8 +289,8 @@ static void run_kind(void **state, kind_t a, kind_t b, size_t min, const char *w
         n++;
         bad += !run_entry(g, e);
     }
-    print_message("%zu %s, %zu not as expected; slowest %.3f CPU s (%s)\n", n, what, bad, g->slowest,
-                  g->slowest_file ? g->slowest_file : "-");
+    print_message("%zu %s, %zu not as expected; slowest %.3f CPU s (%s)\n", n, what, bad,
+                  g->slowest, g->slowest_file ? g->slowest_file : "-");
     assert_int_equal(bad, 0);
     assert_true(n >= min);
 }

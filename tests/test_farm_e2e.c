@@ -260,7 +260,8 @@ static void test_processes_and_a_killed_worker(void **state)
     /* A job large enough to be caught half-way: w2 is killed once the job has started (both
      * workers were sent tasks), with the job still running or already done -- either way its
      * pixels must be those of one worker. */
-    r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "64", "--name", "big", NULL);
+    r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "64", "--name", "big",
+            NULL);
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
     assert_string_equal(r->out, "1\n");

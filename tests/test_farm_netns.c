@@ -241,7 +241,9 @@ static int other_names(const char *json, const char *a, const char *b)
     for (const char *p = strstr(json, "\"name\": \""); p; p = strstr(p + 1, "\"name\": \"")) {
         const char *v = p + strlen("\"name\": \"");
         size_t len = strcspn(v, "\"");
-        n += !(len == strlen(a) && !strncmp(v, a, len)) && !(len == strlen(b) && !strncmp(v, b, len));
+        bool is_a = len == strlen(a) && !strncmp(v, a, len);
+        bool is_b = len == strlen(b) && !strncmp(v, b, len);
+        n += !is_a && !is_b;
     }
     return n;
 }

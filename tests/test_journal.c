@@ -557,7 +557,8 @@ static void test_master_killed_photon_job(void **state)
                          "--insecure", NULL);
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
-    wait_journal(spool, test_wait_s(), "a photon batch", "SELECT COUNT(*) FROM results WHERE kind=1", NULL);
+    wait_journal(spool, test_wait_s(), "a photon batch",
+                 "SELECT COUNT(*) FROM results WHERE kind=1", NULL);
     stop_kid(master, SIGKILL);
     long long batches = journal_query(spool, "SELECT COUNT(*) FROM results WHERE kind=1");
     long long saved = journal_query(spool, "SELECT photons_saved FROM jobs WHERE id=1");
@@ -645,7 +646,8 @@ static void test_random_kills(void **state)
         int done = 0;
         for (double until = testutil_now_s() + test_wait_s();; testutil_sleep_ms(20)) {
             done = journal_query(spool, "SELECT state FROM jobs WHERE id=1") >= 2;
-            if (done || journal_query(spool, "SELECT MAX(pass) FROM passes WHERE job=1") >= at_pass[i])
+            if (done ||
+                journal_query(spool, "SELECT MAX(pass) FROM passes WHERE job=1") >= at_pass[i])
                 break;
             if (testutil_now_s() > until)
                 fail_msg("seed %llu: pass %d of job 1 not journaled after %.0f s",

@@ -306,8 +306,8 @@ static void test_rgb_uplift_timing(void **state)
             iters += fit.iterations;
         }
     double per = (cpu_seconds() - t0) / (reps * 5);
-    print_message("JH uplift: %.1f CPU us per solve, %.1f Gauss-Newton steps on average\n", per * 1e6,
-                  (double)iters / (reps * 5));
+    print_message("JH uplift: %.1f CPU us per solve, %.1f Gauss-Newton steps on average\n",
+                  per * 1e6, (double)iters / (reps * 5));
     assert_true(per < 0.05);
 }
 

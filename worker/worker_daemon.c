@@ -667,7 +667,8 @@ int worker_run(const worker_opts_t *opts, err_t *err)
                           (unsigned long long)m.cancel.job, dropped, dropped == 1 ? "" : "s", held);
                     /* Said once the worker holds none of the job's tasks: nothing of it runs. */
                     if (held == 0)
-                        logf_(&w, "job %llu: all its tasks stopped", (unsigned long long)m.cancel.job);
+                        logf_(&w, "job %llu: all its tasks stopped",
+                              (unsigned long long)m.cancel.job);
                     break;
                 }
                 case PROTO_REFUSE:
