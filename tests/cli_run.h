@@ -6,6 +6,7 @@
 
 #include <errno.h>
 #include <poll.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -13,9 +14,19 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include "test_wait.h"
+
+/* How long a command may stay silent (no output, not exited) before it is taken for hung,
+ * killed and the test failed: a test's own CLI_RUN_TIMEOUT_MS for its long renders, and never
+ * less than the overall deadline of a wait (test_wait.h), so that a loaded machine's slowness
+ * is never read as a hang. */
 #ifndef CLI_RUN_TIMEOUT_MS
-#define CLI_RUN_TIMEOUT_MS 10000
+#define CLI_RUN_TIMEOUT_MS 0
 #endif
+static int cli_run_timeout_ms(void)
+{
+    return CLI_RUN_TIMEOUT_MS > test_wait_ms() ? CLI_RUN_TIMEOUT_MS : test_wait_ms();
+}
 
 #define OUT_MAX 65536
 
@@ -75,10 +86,18 @@ static const run_t *run(const char *arg, ...)
                             {.fd = err_pipe[0], .events = POLLIN}};
     int open_fds = 2;
     while (open_fds > 0) {
-        if (poll(fds, 2, CLI_RUN_TIMEOUT_MS) <= 0) {
-            if (errno == EINTR)
-                continue;
-            fail_msg("prismfarm did not finish within %d ms", CLI_RUN_TIMEOUT_MS);
+        int ready = poll(fds, 2, cli_run_timeout_ms());
+        if (ready < 0 && errno == EINTR)
+            continue;
+        if (ready <= 0) {
+            int st;
+            kill(pid, SIGKILL);
+            waitpid(pid, &st, 0);
+            for (int k = 0; k < 2; k++)
+                if (fds[k].fd >= 0)
+                    close(fds[k].fd);
+            fail_msg("prismfarm %s said nothing for %d ms and did not exit: killed", arg,
+                     cli_run_timeout_ms());
         }
         for (int k = 0; k < 2; k++) {
             if (fds[k].fd < 0 || !(fds[k].revents & (POLLIN | POLLHUP | POLLERR)))

@@ -6,12 +6,14 @@
 #define PRISMFARM_FARM_TESTUTIL_H
 
 #include "image_exr.h"
+#include "test_wait.h"
 
 #include <errno.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -85,6 +87,45 @@ static inline double testutil_now_s(void)
     return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
+/* Whether the file at path (a log) holds needle; a file not there yet holds nothing. */
+static inline int testutil_file_has(const char *path, const char *needle)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return 0;
+    size_t cap = 1 << 16, n = 0;
+    char *buf = malloc(cap + 1);
+    if (!buf) {
+        fclose(f);
+        return 0;
+    }
+    for (size_t got; (got = fread(buf + n, 1, cap - n, f)) > 0;) {
+        n += got;
+        if (n == cap) {
+            char *p = realloc(buf, 2 * cap + 1);
+            if (!p)
+                break;
+            buf = p;
+            cap *= 2;
+        }
+    }
+    fclose(f);
+    buf[n] = 0;
+    int found = strstr(buf, needle) != NULL;
+    free(buf);
+    return found;
+}
+
+/* Waits until the file at path holds needle (a log line the process writes when the event
+ * happens), up to the deadline of a wait (test_wait.h); fails the test otherwise. */
+static inline void testutil_wait_file_has(const char *path, const char *needle)
+{
+    for (double until = testutil_now_s() + test_wait_s(); !testutil_file_has(path, needle);
+         testutil_sleep_ms(10))
+        if (testutil_now_s() > until)
+            fail_msg("no '%s' in %s after %.0f s", needle, path, test_wait_s());
+}
+
 /* Starts `$PRISMFARM_BIN ARGS...` in the background (args: NULL-terminated, at most
  * TESTUTIL_MAX_ARGS) with its stderr to log and its stdout to /dev/null, so that no child holds
  * the test's own output open (ctest reads it until every writer is gone); returns its pid, or
@@ -144,12 +185,12 @@ static inline int testutil_stop(pid_t pid, int sig)
 
 /* Reads "workers EP" and "clients EP" (workers and clients: 256 bytes each) from the endpoints
  * file a master writes into its spool once its sockets are bound; fails the test if the file is
- * not there within 10 s (a master starts in milliseconds, tens of them under a sanitizer). */
+ * not there within the deadline of a wait (test_wait.h; a master starts in milliseconds). */
 static inline void testutil_read_endpoints(const char *spool, char *workers, char *clients)
 {
     char path[600];
     snprintf(path, sizeof path, "%s/endpoints", spool);
-    double deadline = testutil_now_s() + 10.0;
+    double deadline = testutil_now_s() + test_wait_s();
     do {
         FILE *f = fopen(path, "r");
         if (f) {
@@ -160,7 +201,7 @@ static inline void testutil_read_endpoints(const char *spool, char *workers, cha
         }
         testutil_sleep_ms(25);
     } while (testutil_now_s() < deadline);
-    fail_msg("the master did not write %s within 10 s", path);
+    fail_msg("the master did not write %s within %.0f s", path, test_wait_s());
 }
 
 /* Both EXRs have the same size and spectral channels and byte-identical spectral and RGB

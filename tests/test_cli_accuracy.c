@@ -238,7 +238,14 @@ static double summary_seconds(const char *out)
     return strtod(p + strlen(" M rays in "), NULL);
 }
 
-/* A job of 2^20 spp under a time limit: it ends near the limit, at a pass boundary, with
+/* How late after its limit a time-limited job may end: the master looks at the clock at least
+ * every 100 ms (its poll) and the outputs of 384 pixels take milliseconds, but a machine busy
+ * with other work can stretch both by any amount, so the bound is far above them and far below
+ * the hours the job's 2^20 spp would take: it tells a job stopped by its limit from one that
+ * was not, never a loaded machine from an idle one. */
+#define LIMIT_SLACK_S 30.0
+
+/* A job of 2^20 spp under a time limit: it ends after the limit, at a pass boundary, with
  * whole passes. Whole passes are checked byte for byte: a job of the same spp stopped by a
  * target equal to the time-limited job's last estimate ends at the same pass, and a pixel with
  * part of one more pass would differ. */
@@ -258,17 +265,17 @@ static void test_time_limit(void **state)
     assert_string_equal(a.stop, "time");
     assert_true(is_power_of_two(a.spp_done) && a.spp_done < 1048576);
     assert_int_equal(a.samples, (unsigned long long)PIXELS * (unsigned long long)a.spp_done);
-    /* Near the limit: the master looks at the clock at least every 100 ms (its poll) and the
-     * outputs of 384 pixels take milliseconds; 0.5 s of slack covers a loaded or sanitized
-     * build. The job's clock starts with its first task, after the scene is bundled, sent and
-     * loaded, so it is within the command's wall time. */
-    if (!(secs >= limit && secs <= limit + 0.5))
+    /* Not before the limit, and not far after it (LIMIT_SLACK_S). The job's clock starts with
+     * its first task, after the scene is bundled, sent and loaded, so it is within the
+     * command's wall time. */
+    print_message("a %.1f s limit: the job ran %.3f s\n", limit, secs);
+    if (!(secs >= limit && secs <= limit + LIMIT_SLACK_S))
         fail_msg("the job ran %.3f s under a %.1f s limit", secs, limit);
     assert_true(wall >= secs);
     assert_true(a.rel > 0);
     /* The next pass would have needed as long as all before it: ending at the limit left it
      * unfinished, the last pass merged ended before the limit. */
-    assert_true(a.secs[a.n - 1] < limit + 0.5);
+    assert_true(a.secs[a.n - 1] < limit + LIMIT_SLACK_S);
 
     /* Whole passes, byte for byte: the target just above the last estimate (which the
      * attribute holds to 6 digits) is first reached at that pass, unless an earlier pass was
@@ -296,7 +303,7 @@ static void test_time_limit(void **state)
     assert_int_equal(d.samples, (unsigned long long)PIXELS * (unsigned long long)d.spp_done);
     assert_true(d.rel > 0); /* the first passes take milliseconds: more than one ran */
     /* The limit, plus the tile in flight (at most what the last pass took) and loading. */
-    assert_true(summary_seconds(r->out) < 0.3 + 0.5 + 1.0);
+    assert_true(summary_seconds(r->out) < 0.3 + LIMIT_SLACK_S);
     /* Its bytes are the farm's at that pass: the farm's job cut by the same kind of target. */
     target = d.rel * (1 + 2e-6);
     for (int i = 0; i + 1 < d.n; i++)

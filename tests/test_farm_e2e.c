@@ -246,24 +246,37 @@ static void test_processes_and_a_killed_worker(void **state)
                               "--name", "w1", "--cache", path_in("c1"), NULL);
     pid_t w2 = testutil_spawn(path_in("w2.log"), "worker", "--connect", wep, "--threads", "1",
                               "--name", "w2", "--cache", path_in("c2"), NULL);
+    /* Both in service before the job, so that both are given its first tasks. */
+    const run_t *r = NULL;
+    for (double until = testutil_now_s() + test_wait_s();; testutil_sleep_ms(50)) {
+        r = run("workers", "--master", cep, NULL);
+        assert_int_equal(r->status, 0);
+        if (strstr(r->out, "w1") && strstr(r->out, "w2"))
+            break;
+        if (testutil_now_s() > until)
+            fail_msg("w1 and w2 not both listed after %.0f s:\n%s", test_wait_s(), r->out);
+    }
 
-    /* A job large enough to be caught half-way. */
-    const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "64", "--name", "big", NULL);
+    /* A job large enough to be caught half-way: w2 is killed once the job has started (both
+     * workers were sent tasks), with the job still running or already done -- either way its
+     * pixels must be those of one worker. */
+    r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "64", "--name", "big",
+            NULL);
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
     assert_string_equal(r->out, "1\n");
-    testutil_sleep_ms(300);
+    testutil_wait_file_has(path_in("master.log"), "job 1 'big' started");
     testutil_stop(w2, SIGKILL);
     r = run("workers", "--master", cep, NULL);
     assert_int_equal(r->status, 0);
     expect_in(r->out, "w1");
     /* Wait for the job with the surviving worker. */
-    for (int i = 0; i < 600; i++) {
+    for (double until = testutil_now_s() + test_wait_s();; testutil_sleep_ms(100)) {
         r = run("status", "1", "--master", cep, "--json", NULL);
         assert_int_equal(r->status, 0);
-        if (strstr(r->out, "\"done\"") || strstr(r->out, "\"failed\""))
+        if (strstr(r->out, "\"done\"") || strstr(r->out, "\"failed\"") ||
+            testutil_now_s() > until)
             break;
-        testutil_sleep_ms(100);
     }
     expect_in(r->out, "\"state\": \"done\"");
     r = run("fetch", "1", "-o", path_in("killed.exr"), "--master", cep, NULL);

@@ -83,6 +83,20 @@ static void expect_photons(const char *exr, const char *photons)
     image_exr_destroy(&x);
 }
 
+/* The state ("idle", "busy", "lost") the master lists for the first worker of this name in
+ * `workers --json` output, into state[32]; "" when it lists none. */
+static void worker_state(const char *json, const char *name, char *state)
+{
+    char key[64];
+    snprintf(key, sizeof key, "\"name\": \"%s\"", name);
+    state[0] = 0;
+    const char *at = strstr(json, key);
+    const char *end = at ? strchr(at, '}') : NULL;
+    const char *s = at ? strstr(at, "\"state\": \"") : NULL;
+    if (s && (!end || s < end))
+        sscanf(s + strlen("\"state\": \""), "%31[a-z]", state);
+}
+
 /* Separate master and worker processes: a job, its refinement, and a worker killed in the
  * photon phase of a bigger job. */
 static void test_processes_refine_and_kill(void **state)
@@ -143,14 +157,24 @@ static void test_processes_refine_and_kill(void **state)
     if (r->status != 0)
         fail_msg("submit big: exit %d: %s", r->status, r->err);
     assert_string_equal(r->out, "3\n");
-    testutil_sleep_ms(250);
+    /* Killed once the master lists it busy: it holds batches of the job's photon phase. */
+    for (double until = testutil_now_s() + test_wait_s();; testutil_sleep_ms(20)) {
+        r = run("workers", "--master", cep, "--json", NULL);
+        assert_int_equal(r->status, 0);
+        char state[32];
+        worker_state(r->out, "w2", state);
+        if (!strcmp(state, "busy"))
+            break;
+        if (testutil_now_s() > until)
+            fail_msg("w2 not busy with job 3 after %.0f s:\n%s", test_wait_s(), r->out);
+    }
     testutil_stop(w2, SIGKILL);
-    for (int i = 0; i < 1200; i++) {
+    for (double until = testutil_now_s() + test_wait_s();; testutil_sleep_ms(100)) {
         r = run("status", "3", "--master", cep, "--json", NULL);
         assert_int_equal(r->status, 0);
-        if (strstr(r->out, "\"done\"") || strstr(r->out, "\"failed\""))
+        if (strstr(r->out, "\"done\"") || strstr(r->out, "\"failed\"") ||
+            testutil_now_s() > until)
             break;
-        testutil_sleep_ms(100);
     }
     expect_in(r->out, "\"state\": \"done\"");
     r = run("fetch", "3", "-o", path_in("big.exr"), "--master", cep, NULL);

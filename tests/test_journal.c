@@ -24,10 +24,13 @@
 #include <sys/stat.h>
 
 #define SCENE "data/render/tiny.pbrt"
-#define SPP_LONG "32768" /* the random kills: 16 passes, long enough for several kills */
+/* The random kills: 14 passes, 2^(p-14) of the samples done after pass p; the kills wait for
+ * passes (test_random_kills), not for the clock. About 5 CPU s in a Release build. */
+#define SPP_LONG "8192"
+#define NPASSES_LONG 14
 #define PHOTON_SCENE "data/photon/beam_big.pbrt"
-#define SPP "16384"       /* tiny.pbrt: 15 passes, a few seconds on one core */
-#define PHOTON_SPP "1024" /* beam_big: 1.5 M photons, then a camera phase of 11 passes */
+#define SPP "4096"       /* tiny.pbrt: 13 passes, 2.5 CPU s in a Release build */
+#define PHOTON_SPP "256" /* beam_big: 1.5 M photons, then a camera phase of 9 passes */
 #define TILE "8"
 #define HEARTBEAT "200"
 
@@ -369,7 +372,7 @@ static long long journal_query(const char *spool, const char *sql)
     sqlite3 *db = NULL;
     long long v = -1;
     if (sqlite3_open_v2(path, &db, SQLITE_OPEN_READONLY, NULL) == SQLITE_OK) {
-        sqlite3_busy_timeout(db, 2000);
+        sqlite3_busy_timeout(db, test_wait_ms());
         sqlite3_stmt *st;
         if (sqlite3_prepare_v2(db, sql, -1, &st, NULL) == SQLITE_OK) {
             if (sqlite3_step(st) == SQLITE_ROW)
@@ -502,7 +505,7 @@ static void test_master_killed_camera_job(void **state)
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
     assert_string_equal(r->out, "1\n");
-    wait_journal(spool, 120, "a checkpoint and results after it",
+    wait_journal(spool, test_wait_s(), "a checkpoint and results after it",
                  "SELECT checkpoint FROM jobs WHERE id=1",
                  "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
     stop_kid(master, SIGKILL);
@@ -554,7 +557,8 @@ static void test_master_killed_photon_job(void **state)
                          "--insecure", NULL);
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
-    wait_journal(spool, 120, "a photon batch", "SELECT COUNT(*) FROM results WHERE kind=1", NULL);
+    wait_journal(spool, test_wait_s(), "a photon batch",
+                 "SELECT COUNT(*) FROM results WHERE kind=1", NULL);
     stop_kid(master, SIGKILL);
     long long batches = journal_query(spool, "SELECT COUNT(*) FROM results WHERE kind=1");
     long long saved = journal_query(spool, "SELECT photons_saved FROM jobs WHERE id=1");
@@ -562,7 +566,7 @@ static void test_master_killed_photon_job(void **state)
                   batches, saved);
 
     master = start_master(mlog2, spool, wep, cep);
-    wait_journal(spool, 180, "the photon store and camera results",
+    wait_journal(spool, 1.5 * test_wait_s(), "the photon store and camera results",
                  "SELECT photons_saved FROM jobs WHERE id=1",
                  "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
     stop_kid(master, SIGKILL);
@@ -590,7 +594,13 @@ static void test_master_killed_photon_job(void **state)
 
 /* The master, the workers and the client killed (SIGKILL) at seeded random moments while a job
  * renders, each started again after a short random pause; the job ends with the pixels of an
- * uninterrupted render. PRISMFARM_KILL_SEED picks another schedule. */
+ * uninterrupted render. PRISMFARM_KILL_SEED picks another schedule. The moments are tied to the
+ * job's progress as the journal records it, not to the clock, so that the kills fall while the
+ * job runs on a machine of any speed: kill i waits until at least at_pass[i] of the job's
+ * NPASSES_LONG passes are journaled, then a random pause. Passes double in samples, so after
+ * pass p the job has 2^(p - NPASSES_LONG) of its samples: the first three kills (one of each
+ * kind) wait for passes NPASSES_LONG - 10 to NPASSES_LONG - 7, with 127/128 of the job or more
+ * still to render; the others for up to pass NPASSES_LONG - 2, and only while the job runs. */
 static void test_random_kills(void **state)
 {
     (void)state;
@@ -615,10 +625,10 @@ static void test_random_kills(void **state)
     pid_t client = track(testutil_spawn(path_in("rk-client1.log"), "submit", SCENE, "--master",
                                         cep, "--spp", SPP_LONG, "--wait", "--quiet",
                                         "--insecure", "-o", path_in("rk-client.exr"), NULL));
-    wait_journal(spool, 60, "the job", "SELECT COUNT(*) FROM jobs", NULL);
+    wait_journal(spool, test_wait_s(), "the job", "SELECT COUNT(*) FROM jobs", NULL);
     /* Each of master, worker and client once in a shuffled order, then random ones: at most
      * eight kills, none after the job is done. */
-    int order[8] = {0, 1, 2};
+    int order[8] = {0, 1, 2}, at_pass[8];
     for (int i = 2; i > 0; i--) {
         int k = (int)(rng_stream_next(&rng) * (i + 1)), t = order[i];
         order[i] = order[k];
@@ -626,12 +636,34 @@ static void test_random_kills(void **state)
     }
     for (int i = 3; i < 8; i++)
         order[i] = (int)(rng_stream_next(&rng) * 3);
+    for (int i = 0; i < 8; i++) {
+        at_pass[i] = NPASSES_LONG - (i < 3 ? 10 : 6) + (int)(rng_stream_next(&rng) * 4);
+        if (i > 0 && at_pass[i] < at_pass[i - 1])
+            at_pass[i] = at_pass[i - 1];
+    }
     int kills = 0;
     for (int i = 0; i < 8; i++) {
-        testutil_sleep_ms(200 + (int)(rng_stream_next(&rng) * 600));
-        if (journal_query(spool, "SELECT state FROM jobs WHERE id=1") >= 2)
+        int done = 0;
+        for (double until = testutil_now_s() + test_wait_s();; testutil_sleep_ms(20)) {
+            done = journal_query(spool, "SELECT state FROM jobs WHERE id=1") >= 2;
+            if (done ||
+                journal_query(spool, "SELECT MAX(pass) FROM passes WHERE job=1") >= at_pass[i])
+                break;
+            if (testutil_now_s() > until)
+                fail_msg("seed %llu: pass %d of job 1 not journaled after %.0f s",
+                         (unsigned long long)seed, at_pass[i], test_wait_s());
+        }
+        if (!done) {
+            testutil_sleep_ms((int)(rng_stream_next(&rng) * 100));
+            done = journal_query(spool, "SELECT state FROM jobs WHERE id=1") >= 2;
+        }
+        if (done) {
+            if (i < 3)
+                fail_msg("seed %llu: job 1 ended before kill %d (at pass %d)",
+                         (unsigned long long)seed, i + 1, at_pass[i]);
             break;
-        int pause = (int)(rng_stream_next(&rng) * 500);
+        }
+        int pause = (int)(rng_stream_next(&rng) * 300);
         if (order[i] == 0) {
             stop_kid(master, SIGKILL);
             testutil_sleep_ms(pause);
@@ -654,8 +686,8 @@ static void test_random_kills(void **state)
                                           "--master", cep, "--insecure", NULL));
         }
         kills++;
-        print_message("seed %llu: kill %d: %s\n", (unsigned long long)seed, kills,
-                      order[i] == 0 ? "master" : order[i] == 1 ? "worker" : "client");
+        print_message("seed %llu: kill %d at pass %d: %s\n", (unsigned long long)seed, kills,
+                      at_pass[i], order[i] == 0 ? "master" : order[i] == 1 ? "worker" : "client");
     }
     print_message("seed %llu: %d kills (%d masters, %d worker starts, %d clients)\n",
                   (unsigned long long)seed, kills, nmaster, nworker, nclient);

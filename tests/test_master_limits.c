@@ -76,7 +76,8 @@ static pid_t start_master(const char *name, char *cep, const char *opt, ...)
     }
     char path[700], wep[256];
     snprintf(path, sizeof path, "%s/endpoints", spool);
-    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < 10.0; testutil_sleep_ms(10)) {
+    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < test_wait_s();
+         testutil_sleep_ms(10)) {
         FILE *f = fopen(path, "r");
         if (f) {
             int got = fscanf(f, "workers %255s clients %255s", wep, cep);

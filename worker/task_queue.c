@@ -60,7 +60,8 @@ task_t *task_queue_pop(task_queue_t *self)
     self->ready = t->next;
     if (!self->ready)
         self->ready_tail = NULL;
-    t->next = NULL;
+    t->next = self->running;
+    self->running = t;
     return t;
 }
 
@@ -97,6 +98,11 @@ void task_queue_unpark(task_queue_t *self, task_pick_fn pick, void *arg, const c
 
 void task_queue_finish(task_queue_t *self, task_t *t)
 {
+    for (task_t **pp = &self->running; *pp; pp = &(*pp)->next)
+        if (*pp == t) {
+            *pp = t->next;
+            break;
+        }
     t->next = self->done;
     self->done = t;
 }
@@ -108,7 +114,7 @@ task_t *task_queue_take_done(task_queue_t *self)
     return done;
 }
 
-void task_queue_cancel(task_queue_t *self, uint64_t job)
+int task_queue_cancel(task_queue_t *self, uint64_t job)
 {
     if (self->ncancelled == TASK_QUEUE_CANCELLED) {
         memmove(self->cancelled, self->cancelled + 1,
@@ -116,7 +122,9 @@ void task_queue_cancel(task_queue_t *self, uint64_t job)
         self->ncancelled--;
     }
     self->cancelled[self->ncancelled++] = job;
-    /* Queued tasks of the job go; the master reclaims their slots itself. */
+    /* Queued tasks of the job go, and those waiting for its scene; the master reclaims their
+     * slots itself. Tasks being rendered finish, unsent. */
+    int dropped = 0;
     task_t **pp = &self->ready;
     self->ready_tail = NULL;
     while (*pp) {
@@ -124,11 +132,33 @@ void task_queue_cancel(task_queue_t *self, uint64_t job)
         if (t->job == job) {
             *pp = t->next;
             free(t);
+            dropped++;
         } else {
             self->ready_tail = t;
             pp = &t->next;
         }
     }
+    for (pp = &self->parked; *pp;) {
+        task_t *t = *pp;
+        if (t->job == job) {
+            *pp = t->next;
+            free(t);
+            dropped++;
+        } else {
+            pp = &t->next;
+        }
+    }
+    return dropped;
+}
+
+int task_queue_held(const task_queue_t *self, uint64_t job, const task_t *also)
+{
+    const task_t *lists[] = {self->ready, self->parked, self->running, self->done, also};
+    int n = 0;
+    for (size_t i = 0; i < sizeof lists / sizeof *lists; i++)
+        for (const task_t *t = lists[i]; t; t = t->next)
+            n += t->job == job;
+    return n;
 }
 
 bool task_queue_is_cancelled(const task_queue_t *self, uint64_t job)

@@ -1,6 +1,6 @@
 /* task_queue: the worker's tasks from their TASK message to their result. A task is ready (in
- * arrival order, for the render threads), parked (waiting for its bundle or photon store) or
- * done (rendered or failed, for the loop to send); the queue also remembers the jobs cancelled
+ * arrival order, for the render threads), parked (waiting for its bundle or photon store),
+ * running (taken by a render thread) or done (rendered or failed, for the loop to send); the queue also remembers the jobs cancelled
  * lately, so that results of their tasks still in flight are dropped. It does no locking: the
  * worker calls it under its lock. */
 #ifndef PRISMFARM_TASK_QUEUE_H
@@ -49,12 +49,14 @@ void task_list_free(task_t *t);
 typedef struct task_queue {
     task_t *ready, *ready_tail;               /* ready to render */
     task_t *parked;                           /* waiting for their bundle or photon store */
+    task_t *running;                          /* taken by a render thread */
     task_t *done;                             /* rendered, to send */
     uint64_t cancelled[TASK_QUEUE_CANCELLED]; /* recently cancelled jobs */
     int ncancelled;
 } task_queue_t;
 
-/* Appends t to the ready tasks / takes the first ready one (NULL if none). */
+/* Appends t to the ready tasks / takes the first ready one (NULL if none), which is running
+ * until task_queue_finish. */
 void task_queue_push(task_queue_t *self, task_t *t);
 task_t *task_queue_pop(task_queue_t *self);
 
@@ -67,12 +69,17 @@ void task_queue_park(task_queue_t *self, task_t *t, bool *scene_asked, bool *sto
 typedef bool (*task_pick_fn)(const task_t *t, void *arg);
 void task_queue_unpark(task_queue_t *self, task_pick_fn pick, void *arg, const char *error);
 
-/* Puts t among the done tasks / takes them all (a list, newest first). */
+/* Puts t (running or not) among the done tasks / takes them all (a list, newest first). */
 void task_queue_finish(task_queue_t *self, task_t *t);
 task_t *task_queue_take_done(task_queue_t *self);
 
-/* Remembers job as cancelled and frees its ready tasks. */
-void task_queue_cancel(task_queue_t *self, uint64_t job);
+/* Remembers job as cancelled and frees its ready and parked tasks; returns how many. Its
+ * running tasks finish, their results unsent. */
+int task_queue_cancel(task_queue_t *self, uint64_t job);
+
+/* How many tasks of job the queue holds (ready, parked, running or done), plus those in the
+ * list also (the done tasks the loop is sending; may be NULL). */
+int task_queue_held(const task_queue_t *self, uint64_t job, const task_t *also);
 bool task_queue_is_cancelled(const task_queue_t *self, uint64_t job);
 /* Forgets that job was cancelled: a task of that id again is of a new job. */
 void task_queue_uncancel(task_queue_t *self, uint64_t job);

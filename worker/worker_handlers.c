@@ -123,11 +123,17 @@ static void on_scene(worker_t *w, const proto_msg_t *m)
 
 static void on_cancel(worker_t *w, const proto_msg_t *m)
 {
+    uint64_t job = m->cancel.job;
     pthread_mutex_lock(&w->lock);
-    task_queue_cancel(&w->tasks, m->cancel.job);
-    scene_cache_drop_job(&w->scenes, m->cancel.job);
+    int dropped = task_queue_cancel(&w->tasks, job);
+    scene_cache_drop_job(&w->scenes, job);
+    int held = task_queue_held(&w->tasks, job, NULL);
     pthread_mutex_unlock(&w->lock);
-    worker_log(w, "job %llu cancelled", (unsigned long long)m->cancel.job);
+    worker_log(w, "job %llu cancelled (%d task%s dropped, %d in flight)", (unsigned long long)job,
+               dropped, dropped == 1 ? "" : "s", held);
+    /* Said once the worker holds none of the job's tasks: nothing of it runs. */
+    if (held == 0)
+        worker_log(w, "job %llu: all its tasks stopped", (unsigned long long)job);
 }
 
 static int on_refuse(worker_t *w, const proto_msg_t *m, err_t *err)
@@ -226,12 +232,21 @@ void worker_send_results(worker_t *w, double now)
         task_t *t = done;
         done = t->next;
         /* The cancelled jobs are read without the lock: this thread is their only writer. */
-        if (t->generation == w->conn.generation && !task_queue_is_cancelled(&w->tasks, t->job)) {
+        bool cancelled = task_queue_is_cancelled(&w->tasks, t->job);
+        if (t->generation == w->conn.generation && !cancelled) {
             proto_msg_t out = result_message(t);
             if (worker_send(w, &out) == 0)
                 w->conn.last_sent = now;
         }
+        uint64_t job = t->job;
         t->next = NULL;
         task_list_free(t);
+        if (cancelled) {
+            pthread_mutex_lock(&w->lock);
+            int held = task_queue_held(&w->tasks, job, done);
+            pthread_mutex_unlock(&w->lock);
+            if (held == 0)
+                worker_log(w, "job %llu: all its tasks stopped", (unsigned long long)job);
+        }
     }
 }
