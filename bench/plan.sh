@@ -83,7 +83,7 @@ if grep -q dielectric "$WORK/auto_noglass.pbrt"; then
 fi
 # A mirror facing the open sky above a grey floor, under a point light: light reaches the
 # mirror, but no diffuse surface sees its face, so there is no caustic path; photons are
-# still aimed at the mirror and traced (tests/test_plan.c has the same scene).
+# still aimed at the mirror and traced (tests/unit/test_plan.c has the same scene).
 mirror_scene() { # out integrator-line
   cat >"$1" <<SCENE
 LookAt 0 2.5 -4  0 -0.3 0  0 1 0

@@ -22,7 +22,7 @@
  * these coefficients read from that database with each row's source file (data/README.md):
  * the digits are the table's, down to the C values it squared from the database's C in um.
  * SF5, SF10 and SF11 were read from glass/schott/SF5.yml, SF10.yml, SF11.yml of the same
- * database and have since been added to the table. tests/test_glass.c checks every entry against the table,
+ * database and have since been added to the table. tests/unit/test_glass.c checks every entry against the table,
  * coefficient for coefficient, and the SCHOTT glasses' n_d / v_d (noted for each) against the
  * datasheets. */
 static const glass_t CATALOGUE[] = {

@@ -32,7 +32,7 @@
  * nm^-1 averaged over bucket b, where P_b is the texel's raw power (W/nm, photon.h).
  *
  * Size: 33 bytes per texel and bucket with power (in chunks of 16 texels of one bucket) plus
- * 160 bytes per 4x4 tile at 16 buckets. Measured (tests/test_lightmap.c): a dispersed caustic of
+ * 160 bytes per 4x4 tile at 16 buckets. Measured (tests/unit/test_lightmap.c): a dispersed caustic of
  * 1e6 photons on a 10x10 screen at 1600 texels per unit area (160178 texels) touches 7216 texels
  * and holds 1.05 MB (about 1 byte per photon); it encodes to 0.16 MB, against 20.5 MB for the
  * screen's texels as dense doubles. */

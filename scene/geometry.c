@@ -701,7 +701,7 @@ int geometry_intersect(const geometry_t *self, vec3_t org, vec3_t dir, double tm
     int flip = info->flip;
     if (info->kind == GEOM_MESH) {
         /* Embree's triangle normal has pbrt's orientation, (p0 - p2) x (p1 - p2)
-         * (tests/test_geometry.c checks it). Mapped by an instance as a normal it keeps the
+         * (tests/unit/test_geometry.c checks it). Mapped by an instance as a normal it keeps the
          * orientation the flattened triangle (whose cross product would turn with a
          * handedness swap, and whose flip would undo it) has. */
         ng = vec3_make(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);

@@ -106,7 +106,7 @@ size_t geometry_memory_bytes(const geometry_t *self);
  * largest coordinate (34 float ulps: Embree traces in float32). Purely relative, so a scene
  * scaled by 1e-3 or 1e5 takes the same paths. Hit points are exact to double rounding and
  * triangle hits are checked in double against the side a ray starts on, so no more is needed
- * (tests/test_numeric_hard.c). */
+ * (tests/unit/test_numeric_hard.c). */
 vec3_t geometry_offset(vec3_t p, vec3_t ng, vec3_t dir);
 
 #endif

@@ -1,4 +1,4 @@
-/* The farm across hosts: network namespaces on one bridge (tests/netns-hosts.sh) stand in for a
+/* The farm across hosts: network namespaces on one bridge (tests/support/netns-hosts.sh) stand in for a
  * master host (10.77.0.1), two worker hosts (.2, .3) and a client host (.4), each with its own
  * network stack. A job submitted from the client host completes with pixel data identical to
  * `prismfarm render` of the same scene and seed; deploy/start-workers.sh, through an ssh
@@ -284,7 +284,7 @@ static void hosts_up(void)
 {
     const char *require = getenv("PRISMFARM_REQUIRE_NETNS");
     bool required = require && strcmp(require, "1") == 0;
-    const text_t script = source_path("tests/netns-hosts.sh");
+    const text_t script = source_path("tests/support/netns-hosts.sh");
     const text_t log = path_in("netns.log");
     if (geteuid() != 0) {
         if (required)
@@ -471,7 +471,7 @@ static bool process_gone(pid_t pid)
 static int start_workers(const char *action, const char *log)
 {
     char ssh[600];
-    snprintf(ssh, sizeof ssh, "bash %s ssh", source_path("tests/netns-hosts.sh").s);
+    snprintf(ssh, sizeof ssh, "bash %s ssh", source_path("tests/support/netns-hosts.sh").s);
     return RUN(log, 30000, "bash", source_path("deploy/start-workers.sh").s, "--ssh", ssh,
                "--launcher", "nohup", "--bin", bin(), "--master", "10.77.0.1", "--threads", "1",
                "--key", getenv("PRISMFARM_KEY"), "--master-key", getenv("PRISMFARM_MASTER_KEY"),

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Pretend hosts on one machine for tests/test_farm_netns.c: each "host" is a network namespace
+# Pretend hosts on one machine for tests/farm/test_farm_netns.c: each "host" is a network namespace
 # PREFIX-NAME whose eth0 (one end of a veth pair) is plugged into a bridge in a switch namespace
 # PREFIX-sw. Nothing is added to the caller's namespace, so concurrent runs with different
 # prefixes cannot collide even with the same addresses. Needs root and iproute2.

@@ -16,6 +16,7 @@
 #include "farm_testutil.h"
 #include "image_exr.h"
 #include "passes.h"
+#include "pool.h"
 #include "render.h"
 #include "scene_load.h"
 
@@ -106,11 +107,10 @@ static tilebuf_t *reference_image(const char *scene_path, int spp, int tile, int
         fail_msg("%s", err.msg);
     const render_settings_t *rs = &sc->settings;
 #if defined(__SSE__)
-    /* The floating-point mode of every render thread (worker_daemon.c, local_render.c). */
+    /* The floating-point mode of every render thread (base/pool.h sets it). */
     unsigned int csr = _mm_getcsr();
-    _MM_SET_FLUSH_ZERO_MODE(_MM_FLUSH_ZERO_ON);
-    _MM_SET_DENORMALS_ZERO_MODE(_MM_DENORMALS_ZERO_ON);
 #endif
+    pool_fp_mode_set();
     tilebuf_t *image = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, &err);
     uint32_t b[PASSES_MAX_BOUNDS];
     int npasses = passes_bounds(spp, b);
