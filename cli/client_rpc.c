@@ -13,7 +13,7 @@
 struct client_rpc {
     void *ctx;
     int own_ctx;
-    proto_net_t *net;
+    net_t *net;
     char endpoint[256];
     client_security_t sec; /* to connect again (client_rpc_reconnect) */
 };
@@ -32,7 +32,7 @@ client_security_t client_security_default(void)
 }
 
 int client_security_load(const client_security_t *sec, const char *endpoint,
-                         proto_curve_pair_t *pair, char master_public[PROTO_CURVE_Z85 + 1],
+                         curve_pair_t *pair, char master_public[CURVE_Z85 + 1],
                          int *use_curve, err_t *err)
 {
     *use_curve = 0;
@@ -46,13 +46,13 @@ int client_security_load(const client_security_t *sec, const char *endpoint,
                              "$PRISMFARM_MASTER_KEY), the master's public key"
                            : "--master-key needs --key FILE (or $PRISMFARM_KEY), "
                              "our own key pair");
-    if (proto_curve_require(endpoint, key, sec->insecure, "--key FILE and --master-key FILE.pub",
+    if (curve_require(endpoint, key, sec->insecure, "--key FILE and --master-key FILE.pub",
                             err) < 0)
         return -1;
     if (!key)
         return 0;
-    if (proto_curve_load_pair(sec->key_file, pair, err) < 0 ||
-        proto_curve_load_public(sec->master_key_file, master_public, err) < 0)
+    if (curve_load_pair(sec->key_file, pair, err) < 0 ||
+        curve_load_public(sec->master_key_file, master_public, err) < 0)
         return -1;
     *use_curve = 1;
     return 0;
@@ -61,22 +61,22 @@ int client_security_load(const client_security_t *sec, const char *endpoint,
 /* A DEALER connected to the endpoint with self->sec's keys, as self->net. */
 static int open_net(client_rpc_t *self, err_t *err)
 {
-    proto_curve_pair_t pair;
-    char master_public[PROTO_CURVE_Z85 + 1];
+    curve_pair_t pair;
+    char master_public[CURVE_Z85 + 1];
     int curve = 0;
     if (client_security_load(&self->sec, self->endpoint, &pair, master_public, &curve, err) < 0)
         return -1;
-    proto_net_options_t o = proto_net_options_default();
+    net_options_t o = net_options_default();
     o.linger_ms = 0;
     o.send_timeout_ms = 5000;
     if (curve)
-        o.curve = (proto_net_curve_t){.server_public = master_public,
+        o.curve = (net_curve_t){.server_public = master_public,
                                       .public_key = pair.public_key,
                                       .secret_key = pair.secret_key};
-    self->net = proto_net_new(self->ctx, PROTO_NET_DEALER, &o, err);
+    self->net = net_new(self->ctx, NET_DEALER, &o, err);
     memset(&pair, 0, sizeof pair); /* libzmq keeps its own copy */
-    if (!self->net || proto_net_connect(self->net, self->endpoint, err)) {
-        proto_net_destroy(&self->net);
+    if (!self->net || net_connect(self->net, self->endpoint, err)) {
+        net_destroy(&self->net);
         return -1;
     }
     return 0;
@@ -109,7 +109,7 @@ client_rpc_t *client_rpc_new(const char *endpoint, void *zmq_ctx, const client_s
 
 int client_rpc_reconnect(client_rpc_t *self, err_t *err)
 {
-    proto_net_destroy(&self->net);
+    net_destroy(&self->net);
     return open_net(self, err);
 }
 
@@ -118,7 +118,7 @@ void client_rpc_destroy(client_rpc_t **self_p)
     if (!self_p || !*self_p)
         return;
     client_rpc_t *self = *self_p;
-    proto_net_destroy(&self->net);
+    net_destroy(&self->net);
     if (self->own_ctx && self->ctx)
         zmq_ctx_term(self->ctx);
     free(self);
@@ -128,7 +128,7 @@ void client_rpc_destroy(client_rpc_t **self_p)
 int client_rpc_call(client_rpc_t *self, const proto_msg_t *req, proto_msg_t *reply, int timeout_ms,
                     err_t *err)
 {
-    int r = proto_net_send(self->net, NULL, req, err);
+    int r = net_send(self->net, NULL, req, err);
     if (r == PROTO_EAGAIN)
         return err_set(err, "cannot reach the master at %s: is it running?", self->endpoint),
                CLIENT_RPC_UNREACHABLE;
@@ -137,19 +137,19 @@ int client_rpc_call(client_rpc_t *self, const proto_msg_t *req, proto_msg_t *rep
     /* Waits in slices: a refused handshake or a dropped connection ends the wait at once, since
      * no answer can come through it. */
     char why[256];
-    proto_net_link_t link = PROTO_NET_LINK_NONE;
+    net_link_t link = NET_LINK_NONE;
     for (int waited = 0;;) {
         int slice = timeout_ms < 0                   ? SLICE_MS
                     : timeout_ms - waited < SLICE_MS ? timeout_ms - waited
                                                      : SLICE_MS;
-        r = proto_net_recv(self->net, NULL, reply, slice, err);
+        r = net_recv(self->net, NULL, reply, slice, err);
         if (r != PROTO_EAGAIN)
             break;
         waited += slice;
-        link = proto_net_link(self->net, why, sizeof why);
-        if (link == PROTO_NET_LINK_REFUSED)
+        link = net_link(self->net, why, sizeof why);
+        if (link == NET_LINK_REFUSED)
             return err_set(err, "the master at %s %s", self->endpoint, why);
-        if (link == PROTO_NET_LINK_DROPPED)
+        if (link == NET_LINK_DROPPED)
             return err_set(err, "the master at %s %s", self->endpoint, why),
                    CLIENT_RPC_UNREACHABLE;
         if (timeout_ms >= 0 && waited >= timeout_ms)
@@ -158,7 +158,7 @@ int client_rpc_call(client_rpc_t *self, const proto_msg_t *req, proto_msg_t *rep
     if (r == PROTO_EAGAIN)
         return err_set(err, "no answer from the master at %s within %.1f s: %s", self->endpoint,
                        timeout_ms / 1000.0,
-                       link == PROTO_NET_LINK_UP
+                       link == NET_LINK_UP
                            ? "it accepted the connection, but is busy or stuck"
                            : "is it running?"),
                CLIENT_RPC_UNREACHABLE;

@@ -24,10 +24,10 @@ typedef struct client_security {
 client_security_t client_security_default(void);
 
 /* Loads the keys sec names into *curve (pointing into *pair), after the farm's rule for endpoint
- * (curve.h's proto_curve_require). --insecure discards keys that came from the environment only;
+ * (curve.h's curve_require). --insecure discards keys that came from the environment only;
  * with keys from flags it is an error. Also used by `prismfarm worker`. */
 int client_security_load(const client_security_t *sec, const char *endpoint,
-                         proto_curve_pair_t *pair, char master_public[PROTO_CURVE_Z85 + 1],
+                         curve_pair_t *pair, char master_public[CURVE_Z85 + 1],
                          int *use_curve, err_t *err);
 
 typedef struct client_rpc client_rpc_t;

@@ -53,7 +53,7 @@ int cmd_keygen(int argc, char **argv)
         usage(stderr, opts);
         return 2;
     }
-    if (proto_curve_name_check(name, &err) < 0) {
+    if (curve_name_check(name, &err) < 0) {
         fprintf(stderr, "prismfarm keygen: %s\n", err.msg);
         return 2;
     }
@@ -61,11 +61,11 @@ int cmd_keygen(int argc, char **argv)
         fprintf(stderr, "prismfarm keygen: cannot create %s: %s\n", dir, strerror(errno));
         return 1;
     }
-    proto_curve_pair_t pair;
+    curve_pair_t pair;
     char key_path[PATH_MAX], pub_path[PATH_MAX];
     int rc =
-        proto_curve_generate(&pair, &err) < 0 ||
-        proto_curve_write(&pair, dir, name, force, key_path, pub_path, sizeof key_path, &err) < 0;
+        curve_generate(&pair, &err) < 0 ||
+        curve_write(&pair, dir, name, force, key_path, pub_path, sizeof key_path, &err) < 0;
     memset(&pair, 0, sizeof pair);
     if (rc) {
         fprintf(stderr, "prismfarm keygen: %s\n", err.msg);

@@ -135,18 +135,18 @@ int cmd_master(int argc, char **argv)
         return 2;
     }
     const char *how = "--key FILE and --authorized DIR";
-    if (proto_curve_require(o.worker_endpoint, o.key_file, o.insecure, how, &err) < 0 ||
-        proto_curve_require(o.client_endpoint, o.key_file, o.insecure, how, &err) < 0) {
+    if (curve_require(o.worker_endpoint, o.key_file, o.insecure, how, &err) < 0 ||
+        curve_require(o.client_endpoint, o.key_file, o.insecure, how, &err) < 0) {
         fprintf(stderr, "prismfarm master: %s\n", err.msg);
         return 2;
     }
     if (o.key_file) {
-        proto_curve_pair_t pair;
-        proto_curve_ring_t *ring = NULL;
-        int bad = proto_curve_load_pair(o.key_file, &pair, &err) < 0 ||
-                  !(ring = proto_curve_ring_new(o.authorized_dir, &err));
+        curve_pair_t pair;
+        curve_ring_t *ring = NULL;
+        int bad = curve_load_pair(o.key_file, &pair, &err) < 0 ||
+                  !(ring = curve_ring_new(o.authorized_dir, &err));
         memset(&pair, 0, sizeof pair);
-        proto_curve_ring_destroy(&ring);
+        curve_ring_destroy(&ring);
         if (bad) {
             fprintf(stderr, "prismfarm master: %s\n", err.msg);
             return 2;

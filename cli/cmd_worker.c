@@ -64,8 +64,8 @@ int cmd_worker(int argc, char **argv)
         return 2;
     }
     /* A missing or unreadable key is a configuration error that no restart fixes: status 2. */
-    proto_curve_pair_t pair;
-    char master_public[PROTO_CURVE_Z85 + 1];
+    curve_pair_t pair;
+    char master_public[CURVE_Z85 + 1];
     int curve;
     err_t err;
     if (client_security_load(&sec, o.endpoint, &pair, master_public, &curve, &err) < 0) {
@@ -73,7 +73,7 @@ int cmd_worker(int argc, char **argv)
         return 2;
     }
     if (curve)
-        o.curve = (proto_net_curve_t){.server_public = master_public,
+        o.curve = (net_curve_t){.server_public = master_public,
                                       .public_key = pair.public_key,
                                       .secret_key = pair.secret_key};
     o.insecure = sec.insecure;

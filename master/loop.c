@@ -50,12 +50,12 @@ master_opts_t master_opts_default(void)
  * socket is unusable. */
 static int drain(master_t *m, bool workers, err_t *err)
 {
-    proto_net_t *net = workers ? m->wnet : m->cnet;
+    net_t *net = workers ? m->wnet : m->cnet;
     for (int k = 0; k < RECV_BURST; k++) {
         proto_peer_t from;
         proto_msg_t msg;
         err_t rerr;
-        int rc = proto_net_recv(net, &from, &msg, 0, &rerr);
+        int rc = net_recv(net, &from, &msg, 0, &rerr);
         if (rc == PROTO_EAGAIN)
             return 0;
         if (rc == PROTO_ESOCKET)
@@ -66,7 +66,7 @@ static int drain(master_t *m, bool workers, err_t *err)
             proto_msg_t refuse = proto_refuse_version(msg.version, "master", &text);
             master_log(m, "%s %s speaks protocol version %d: refused",
                        workers ? "worker" : "client", proto_peer_str(&from, who), msg.version);
-            if (from.len > 0 && proto_net_send(net, &from, &refuse, &rerr) < 0)
+            if (from.len > 0 && net_send(net, &from, &refuse, &rerr) < 0)
                 master_log(m, "cannot send REFUSE: %s", rerr.msg);
             continue;
         }
@@ -108,23 +108,23 @@ static void housekeeping(master_t *m, double now, double busy)
 #define CLIENT_RCVHWM 4
 
 /* A bound ROUTER; with secret_key a CURVE server whose ZAP domain names the endpoint. */
-static proto_net_t *open_router(master_t *m, void *ctx, const char *what, const char *endpoint,
+static net_t *open_router(master_t *m, void *ctx, const char *what, const char *endpoint,
                                 const char *secret_key, char *bound, size_t size, err_t *err)
 {
-    proto_net_options_t no = proto_net_options_default();
+    net_options_t no = net_options_default();
     no.limits = m->limits;
     no.curve.secret_key = secret_key;
     no.curve.zap_domain = secret_key ? what : NULL;
     if (!strcmp(what, "clients"))
         no.rcvhwm = CLIENT_RCVHWM;
-    proto_net_t *net = proto_net_new(ctx, PROTO_NET_ROUTER, &no, err);
+    net_t *net = net_new(ctx, NET_ROUTER, &no, err);
     if (!net) {
         err_prefix(err, "%s endpoint: ", what);
         return NULL;
     }
-    if (proto_net_bind(net, endpoint, err) < 0 || proto_net_endpoint(net, bound, size, err) < 0) {
+    if (net_bind(net, endpoint, err) < 0 || net_endpoint(net, bound, size, err) < 0) {
         err_prefix(err, "%s endpoint: ", what);
-        proto_net_destroy(&net);
+        net_destroy(&net);
         return NULL;
     }
     return net;
@@ -148,8 +148,8 @@ static int check_opts(const master_opts_t *o, err_t *err)
                                      "without it any peer that knows our public key would be"
                                    : "--authorized needs --key FILE, the master's own key pair");
     const char *how = "the master --key FILE and --authorized DIR";
-    if (proto_curve_require(o->worker_endpoint, o->key_file, o->insecure, how, err) < 0 ||
-        proto_curve_require(o->client_endpoint, o->key_file, o->insecure, how, err) < 0)
+    if (curve_require(o->worker_endpoint, o->key_file, o->insecure, how, err) < 0 ||
+        curve_require(o->client_endpoint, o->key_file, o->insecure, how, err) < 0)
         return err_prefix(err, "master: ");
     return 0;
 }
@@ -174,15 +174,15 @@ int master_run(const master_opts_t *opts, err_t *err)
     void *ctx = opts->zmq_ctx ? opts->zmq_ctx : zmq_ctx_new();
     int rc = -1;
     char wbound[512] = "", cbound[512] = "";
-    proto_curve_pair_t keys = {0};
-    proto_zap_t *zap = NULL;
+    curve_pair_t keys = {0};
+    zap_t *zap = NULL;
     if (!ctx) {
         err_set(err, "master: zmq_ctx_new: %s", zmq_strerror(zmq_errno()));
         goto out;
     }
     /* The handler first: a CURVE server bound without one would let in every client. */
-    if (opts->key_file && (proto_curve_load_pair(opts->key_file, &keys, err) < 0 ||
-                           !(zap = proto_zap_new(ctx, opts->authorized_dir, zap_log, m, err)))) {
+    if (opts->key_file && (curve_load_pair(opts->key_file, &keys, err) < 0 ||
+                           !(zap = zap_new(ctx, opts->authorized_dir, zap_log, m, err)))) {
         err_prefix(err, "master: ");
         goto out;
     }
@@ -209,7 +209,7 @@ int master_run(const master_opts_t *opts, err_t *err)
         goto out;
     if (zap)
         master_log(m, "CURVE: public key %s; %zu keys authorised in %s", keys.public_key,
-                   proto_zap_stats(zap).keys, opts->authorized_dir);
+                   zap_stats(zap).keys, opts->authorized_dir);
     else if (opts->insecure)
         master_log(m, "plain text (--insecure): anyone who reaches the endpoints can connect");
     char text[1200], path[PATH_MAX];
@@ -229,8 +229,8 @@ int master_run(const master_opts_t *opts, err_t *err)
     int until_waiter = POLL_MS;
     while (!*opts->stop) {
         /* The stop descriptor, when given, ends the wait as soon as *stop is set. */
-        zmq_pollitem_t items[3] = {{.socket = proto_net_socket(m->wnet), .events = ZMQ_POLLIN},
-                                   {.socket = proto_net_socket(m->cnet), .events = ZMQ_POLLIN},
+        zmq_pollitem_t items[3] = {{.socket = net_socket(m->wnet), .events = ZMQ_POLLIN},
+                                   {.socket = net_socket(m->cnet), .events = ZMQ_POLLIN},
                                    {.fd = opts->stop_fd, .events = ZMQ_POLLIN}};
         double until_hb = m->last_heartbeat + m->heartbeat_s - clock_now_s();
         int timeout = until_hb < POLL_MS / 1000.0 ? (int)(until_hb * 1000) : POLL_MS;
@@ -258,9 +258,9 @@ int master_run(const master_opts_t *opts, err_t *err)
         master_log(m, "stopping");
 
 out:
-    proto_net_destroy(&m->wnet);
-    proto_net_destroy(&m->cnet);
-    proto_zap_destroy(&zap); /* after the servers it guards */
+    net_destroy(&m->wnet);
+    net_destroy(&m->cnet);
+    zap_destroy(&zap); /* after the servers it guards */
     memset(&keys, 0, sizeof keys);
     if (ctx && !opts->zmq_ctx)
         (void)zmq_ctx_term(ctx);

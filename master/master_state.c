@@ -26,10 +26,10 @@ char *master_strdup(const char *s)
     return d;
 }
 
-void master_refuse(master_t *m, proto_net_t *net, const proto_peer_t *to, const char *reason)
+void master_refuse(master_t *m, net_t *net, const proto_peer_t *to, const char *reason)
 {
     proto_msg_t r = {.type = PROTO_REFUSE, .refuse = {.reason = reason}};
     err_t err;
-    if (to->len > 0 && proto_net_send(net, to, &r, &err) < 0)
+    if (to->len > 0 && net_send(net, to, &r, &err) < 0)
         master_log(m, "cannot send REFUSE: %s", err.msg);
 }

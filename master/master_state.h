@@ -122,7 +122,7 @@ typedef struct master {
     sched_t *sched;
     spool_t *spool;
     journal_t *journal; /* NULL without opts->journal */
-    proto_net_t *wnet, *cnet;
+    net_t *wnet, *cnet;
     mworker_t **workers;
     size_t nworkers, cap_workers;
     mjob_t **jobs; /* in id order */
@@ -149,6 +149,6 @@ char *master_strdup(const char *s);
 
 /* REFUSE {reason} to a peer of net (nothing to a peer without a routing id); a failure is
  * logged. */
-void master_refuse(master_t *m, proto_net_t *net, const proto_peer_t *to, const char *reason);
+void master_refuse(master_t *m, net_t *net, const proto_peer_t *to, const char *reason);
 
 #endif

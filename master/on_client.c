@@ -17,7 +17,7 @@
 static void reply(master_t *m, const proto_peer_t *to, const proto_msg_t *msg)
 {
     err_t err;
-    if (proto_net_send(m->cnet, to, msg, &err) < 0)
+    if (net_send(m->cnet, to, msg, &err) < 0)
         master_log(m, "cannot answer a client: %s", err.msg);
 }
 

@@ -106,7 +106,7 @@ void peers_lost(master_t *m, mworker_t *w, const char *why)
 int peers_send(master_t *m, mworker_t *w, const proto_msg_t *msg)
 {
     err_t err;
-    int rc = proto_net_send(m->wnet, &w->peer, msg, &err);
+    int rc = net_send(m->wnet, &w->peer, msg, &err);
     if (rc == PROTO_EUNREACHABLE)
         peers_lost(m, w, "disconnected");
     else if (rc < 0 && rc != PROTO_EAGAIN)

@@ -25,7 +25,7 @@ void peers_lost(master_t *m, mworker_t *w, const char *why);
 /* Forgets the lost worker seen longest ago once more than MAX_LOST_WORKERS are listed. */
 void peers_prune_lost(master_t *m);
 
-/* Sends to a worker; a peer that is no longer connected is lost. Returns proto_net_send's
+/* Sends to a worker; a peer that is no longer connected is lost. Returns net_send's
  * code. */
 int peers_send(master_t *m, mworker_t *w, const proto_msg_t *msg);
 /* CANCEL {job} to every live worker, and the job's unsent task dropped. */

@@ -19,7 +19,7 @@
 static const char Z85[] = "0123456789abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
                           ".-:+=^!/*?&<>()[]{}@%$#";
 
-int proto_curve_available(err_t *err)
+int curve_available(err_t *err)
 {
     if (!zmq_has("curve"))
         return err_set(err, "this libzmq was built without CURVE (libsodium): encryption is "
@@ -27,20 +27,20 @@ int proto_curve_available(err_t *err)
     return 0;
 }
 
-int proto_curve_generate(proto_curve_pair_t *out, err_t *err)
+int curve_generate(curve_pair_t *out, err_t *err)
 {
-    if (proto_curve_available(err) < 0)
+    if (curve_available(err) < 0)
         return -1;
     if (zmq_curve_keypair(out->public_key, out->secret_key) != 0)
         return err_set(err, "zmq_curve_keypair: %s", zmq_strerror(zmq_errno()));
     return 0;
 }
 
-int proto_curve_name_check(const char *name, err_t *err)
+int curve_name_check(const char *name, err_t *err)
 {
     size_t n = name ? strlen(name) : 0;
-    if (n == 0 || n > PROTO_CURVE_NAME_MAX)
-        return err_set(err, "a key name has 1..%d characters, got %zu", PROTO_CURVE_NAME_MAX, n);
+    if (n == 0 || n > CURVE_NAME_MAX)
+        return err_set(err, "a key name has 1..%d characters, got %zu", CURVE_NAME_MAX, n);
     if (name[0] == '.' || name[0] == '-')
         return err_set(err, "key name '%s' starts with '%c': expected a letter, digit or '_'", name,
                        name[0]);
@@ -54,18 +54,18 @@ int proto_curve_name_check(const char *name, err_t *err)
     return 0;
 }
 
-bool proto_curve_endpoint_local(const char *endpoint)
+bool curve_endpoint_local(const char *endpoint)
 {
     return endpoint &&
            (strncmp(endpoint, "inproc://", 9) == 0 || strncmp(endpoint, "ipc://", 6) == 0);
 }
 
-int proto_curve_require(const char *endpoint, bool have_keys, bool insecure, const char *how_keys,
+int curve_require(const char *endpoint, bool have_keys, bool insecure, const char *how_keys,
                         err_t *err)
 {
     if (have_keys && insecure)
         return err_set(err, "--insecure and CURVE keys exclude each other: choose one");
-    if (have_keys || insecure || proto_curve_endpoint_local(endpoint))
+    if (have_keys || insecure || curve_endpoint_local(endpoint))
         return 0;
     return err_set(err,
                    "%s is a network endpoint: without CURVE keys its traffic is plain text and "
@@ -85,7 +85,7 @@ static void wipe(void *p, size_t n)
 }
 
 typedef struct keyfile {
-    char public_key[PROTO_CURVE_Z85 + 1], secret_key[PROTO_CURVE_Z85 + 1];
+    char public_key[CURVE_Z85 + 1], secret_key[CURVE_Z85 + 1];
     int public_line, secret_line; /* 0: absent */
 } keyfile_t;
 
@@ -94,17 +94,17 @@ typedef struct keyfile {
 static int z85_check(const char *path, int line, const char *what, const char *v, size_t n,
                      err_t *err)
 {
-    if (n != PROTO_CURVE_Z85)
+    if (n != CURVE_Z85)
         return err_set(err,
                        "%s:%d: %s has %zu characters, expected %d (Z85, as prismfarm keygen "
                        "writes it)",
-                       path, line, what, n, PROTO_CURVE_Z85);
+                       path, line, what, n, CURVE_Z85);
     for (size_t i = 0; i < n; i++)
         if (!strchr(Z85, v[i]) || v[i] == '\0')
             return err_set(err, "%s:%d: %s has a character that is not Z85 at column %zu", path,
                            line, what, i + 1);
-    char z[PROTO_CURVE_Z85 + 1];
-    uint8_t bin[PROTO_CURVE_BINARY];
+    char z[CURVE_Z85 + 1];
+    uint8_t bin[CURVE_BINARY];
     memcpy(z, v, n);
     z[n] = 0;
     if (!zmq_z85_decode(bin, z))
@@ -153,14 +153,14 @@ static int parse_keyfile(const char *path, const char *text, size_t size, keyfil
         if (z85_check(path, line, what, s + v, len - v, err) < 0)
             return -1;
         char *dst = is_public ? out->public_key : out->secret_key;
-        memcpy(dst, s + v, PROTO_CURVE_Z85);
-        dst[PROTO_CURVE_Z85] = 0;
+        memcpy(dst, s + v, CURVE_Z85);
+        dst[CURVE_Z85] = 0;
         *seen = line;
     }
     return 0;
 }
 
-/* Reads the whole key file (at most PROTO_CURVE_FILE_MAX bytes) and parses it; *mode gets its
+/* Reads the whole key file (at most CURVE_FILE_MAX bytes) and parses it; *mode gets its
  * permission bits. */
 static int read_keyfile(const char *path, keyfile_t *out, mode_t *mode, err_t *err)
 {
@@ -178,7 +178,7 @@ static int read_keyfile(const char *path, keyfile_t *out, mode_t *mode, err_t *e
         return err_set(err, "%s: not a regular file", path);
     }
     *mode = st.st_mode & 07777;
-    char text[PROTO_CURVE_FILE_MAX + 1];
+    char text[CURVE_FILE_MAX + 1];
     size_t size = 0;
     for (;;) {
         ssize_t got = read(fd, text + size, sizeof text - size);
@@ -195,7 +195,7 @@ static int read_keyfile(const char *path, keyfile_t *out, mode_t *mode, err_t *e
         if (size == sizeof text) {
             close(fd);
             return err_set(err, "%s: larger than %d bytes: not a prismfarm key file", path,
-                           PROTO_CURVE_FILE_MAX);
+                           CURVE_FILE_MAX);
         }
     }
     close(fd);
@@ -208,7 +208,7 @@ static int read_keyfile(const char *path, keyfile_t *out, mode_t *mode, err_t *e
     return rc;
 }
 
-int proto_curve_load_pair(const char *path, proto_curve_pair_t *out, err_t *err)
+int curve_load_pair(const char *path, curve_pair_t *out, err_t *err)
 {
     keyfile_t k;
     mode_t mode;
@@ -231,8 +231,8 @@ int proto_curve_load_pair(const char *path, proto_curve_pair_t *out, err_t *err)
                      "%s: a secret key readable or writable by group or others (mode %04o): "
                      "chmod 600 %s",
                      path, (unsigned)mode, path);
-    char derived[PROTO_CURVE_Z85 + 1];
-    if (rc == 0 && proto_curve_available(err) < 0)
+    char derived[CURVE_Z85 + 1];
+    if (rc == 0 && curve_available(err) < 0)
         rc = -1;
     else if (rc == 0 && zmq_curve_public(derived, k.secret_key) != 0)
         rc = err_set(err, "%s:%d: zmq_curve_public: %s", path, k.secret_line,
@@ -248,7 +248,7 @@ int proto_curve_load_pair(const char *path, proto_curve_pair_t *out, err_t *err)
     return rc;
 }
 
-int proto_curve_load_public(const char *path, char out[PROTO_CURVE_Z85 + 1], err_t *err)
+int curve_load_public(const char *path, char out[CURVE_Z85 + 1], err_t *err)
 {
     keyfile_t k;
     mode_t mode;
@@ -256,7 +256,7 @@ int proto_curve_load_public(const char *path, char out[PROTO_CURVE_Z85 + 1], err
         return -1;
     int secret = k.secret_line, has_public = k.public_line;
     if (has_public)
-        memcpy(out, k.public_key, PROTO_CURVE_Z85 + 1);
+        memcpy(out, k.public_key, CURVE_Z85 + 1);
     wipe(&k, sizeof k);
     if (secret)
         return err_set(err,
@@ -309,10 +309,10 @@ static int write_file(const char *dir, const char *final, const char *text, mode
     return rc;
 }
 
-int proto_curve_write(const proto_curve_pair_t *pair, const char *dir, const char *name,
+int curve_write(const curve_pair_t *pair, const char *dir, const char *name,
                       bool overwrite, char *key_path, char *pub_path, size_t size, err_t *err)
 {
-    if (proto_curve_name_check(name, err) < 0)
+    if (curve_name_check(name, err) < 0)
         return -1;
     if (snprintf(key_path, size, "%s/%s.key", dir, name) >= (int)size ||
         snprintf(pub_path, size, "%s/%s.pub", dir, name) >= (int)size)
@@ -356,11 +356,11 @@ int proto_curve_write(const proto_curve_pair_t *pair, const char *dir, const cha
 /* ---------------------------------------------------------------- the authorised folder */
 
 typedef struct ring_key {
-    uint8_t key[PROTO_CURVE_BINARY];
-    char name[PROTO_CURVE_NAME_MAX + 1];
+    uint8_t key[CURVE_BINARY];
+    char name[CURVE_NAME_MAX + 1];
 } ring_key_t;
 
-struct proto_curve_ring {
+struct curve_ring {
     char *dir;
     ring_key_t *keys;
     size_t n;
@@ -394,7 +394,7 @@ static int ring_load(const char *dir, ring_key_t **keys, size_t *n, struct stat 
             continue;
         char name[256], path[PATH_MAX];
         snprintf(name, sizeof name, "%.*s", (int)(len - 4), e->d_name);
-        if (proto_curve_name_check(name, err) < 0) {
+        if (curve_name_check(name, err) < 0) {
             rc = err_prefix(err, "authorised keys: %s/%s: ", dir, e->d_name);
             break;
         }
@@ -402,13 +402,13 @@ static int ring_load(const char *dir, ring_key_t **keys, size_t *n, struct stat 
             rc = err_set(err, "authorised keys: %s/%s: path too long", dir, e->d_name);
             break;
         }
-        if (*n == PROTO_CURVE_RING_MAX) {
+        if (*n == CURVE_RING_MAX) {
             rc = err_set(err, "authorised keys: %s holds more than %d .pub files", dir,
-                         PROTO_CURVE_RING_MAX);
+                         CURVE_RING_MAX);
             break;
         }
-        char z85[PROTO_CURVE_Z85 + 1];
-        if (proto_curve_load_public(path, z85, err) < 0) {
+        char z85[CURVE_Z85 + 1];
+        if (curve_load_public(path, z85, err) < 0) {
             rc = err_prefix(err, "authorised keys: ");
             break;
         }
@@ -426,7 +426,7 @@ static int ring_load(const char *dir, ring_key_t **keys, size_t *n, struct stat 
             rc = err_set(err, "authorised keys: %s: bad Z85", path);
             break;
         }
-        memcpy(k->name, name, strlen(name) + 1); /* name_check: at most PROTO_CURVE_NAME_MAX */
+        memcpy(k->name, name, strlen(name) + 1); /* name_check: at most CURVE_NAME_MAX */
         errno = 0;
     }
     if (rc == 0 && errno != 0)
@@ -440,9 +440,9 @@ static int ring_load(const char *dir, ring_key_t **keys, size_t *n, struct stat 
     return rc;
 }
 
-proto_curve_ring_t *proto_curve_ring_new(const char *dir, err_t *err)
+curve_ring_t *curve_ring_new(const char *dir, err_t *err)
 {
-    proto_curve_ring_t *self = calloc(1, sizeof *self);
+    curve_ring_t *self = calloc(1, sizeof *self);
     size_t n = dir ? strlen(dir) + 1 : 0;
     if (!self || !dir || !(self->dir = malloc(n))) {
         free(self);
@@ -452,7 +452,7 @@ proto_curve_ring_t *proto_curve_ring_new(const char *dir, err_t *err)
     memcpy(self->dir, dir, n);
     struct stat st;
     if (ring_load(dir, &self->keys, &self->n, &st, err) < 0) {
-        proto_curve_ring_destroy(&self);
+        curve_ring_destroy(&self);
         return NULL;
     }
     self->dev = st.st_dev;
@@ -462,18 +462,18 @@ proto_curve_ring_t *proto_curve_ring_new(const char *dir, err_t *err)
     return self;
 }
 
-void proto_curve_ring_destroy(proto_curve_ring_t **self_p)
+void curve_ring_destroy(curve_ring_t **self_p)
 {
     if (!self_p || !*self_p)
         return;
-    proto_curve_ring_t *self = *self_p;
+    curve_ring_t *self = *self_p;
     free(self->keys);
     free(self->dir);
     free(self);
     *self_p = NULL;
 }
 
-int proto_curve_ring_refresh(proto_curve_ring_t *self, bool force, bool *reloaded, err_t *err)
+int curve_ring_refresh(curve_ring_t *self, bool force, bool *reloaded, err_t *err)
 {
     if (reloaded)
         *reloaded = false;
@@ -505,21 +505,21 @@ int proto_curve_ring_refresh(proto_curve_ring_t *self, bool force, bool *reloade
     return 0;
 }
 
-const char *proto_curve_ring_find(const proto_curve_ring_t *self,
-                                  const uint8_t key[PROTO_CURVE_BINARY])
+const char *curve_ring_find(const curve_ring_t *self,
+                                  const uint8_t key[CURVE_BINARY])
 {
     for (size_t i = 0; i < self->n; i++)
-        if (memcmp(self->keys[i].key, key, PROTO_CURVE_BINARY) == 0)
+        if (memcmp(self->keys[i].key, key, CURVE_BINARY) == 0)
             return self->keys[i].name;
     return NULL;
 }
 
-size_t proto_curve_ring_size(const proto_curve_ring_t *self)
+size_t curve_ring_size(const curve_ring_t *self)
 {
     return self->n;
 }
 
-const char *proto_curve_ring_dir(const proto_curve_ring_t *self)
+const char *curve_ring_dir(const curve_ring_t *self)
 {
     return self->dir;
 }

@@ -11,71 +11,71 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#define PROTO_CURVE_Z85 40    /* a 32-byte key in Z85 text (ZeroMQ RFC 32) */
-#define PROTO_CURVE_BINARY 32 /* the key itself */
-#define PROTO_CURVE_NAME_MAX 64
-#define PROTO_CURVE_FILE_MAX 4096  /* bytes in a key file: anything larger is not one */
-#define PROTO_CURVE_RING_MAX 10000 /* keys in an authorised folder */
+#define CURVE_Z85 40    /* a 32-byte key in Z85 text (ZeroMQ RFC 32) */
+#define CURVE_BINARY 32 /* the key itself */
+#define CURVE_NAME_MAX 64
+#define CURVE_FILE_MAX 4096  /* bytes in a key file: anything larger is not one */
+#define CURVE_RING_MAX 10000 /* keys in an authorised folder */
 
 /* A key pair in Z85, NUL-terminated. */
-typedef struct proto_curve_pair {
-    char public_key[PROTO_CURVE_Z85 + 1];
-    char secret_key[PROTO_CURVE_Z85 + 1];
-} proto_curve_pair_t;
+typedef struct curve_pair {
+    char public_key[CURVE_Z85 + 1];
+    char secret_key[CURVE_Z85 + 1];
+} curve_pair_t;
 
 /* 0 when libzmq can do CURVE (zmq_has("curve"): built with libsodium), else -1 naming why. */
-int proto_curve_available(err_t *err);
+int curve_available(err_t *err);
 
 /* A fresh key pair (zmq_curve_keypair). */
-int proto_curve_generate(proto_curve_pair_t *out, err_t *err);
+int curve_generate(curve_pair_t *out, err_t *err);
 
-/* A key name, as in NAME.key: 1..PROTO_CURVE_NAME_MAX characters of [A-Za-z0-9._-], not starting
+/* A key name, as in NAME.key: 1..CURVE_NAME_MAX characters of [A-Za-z0-9._-], not starting
  * with '.' or '-' (no path, no hidden file, no option look-alike). */
-int proto_curve_name_check(const char *name, err_t *err);
+int curve_name_check(const char *name, err_t *err);
 
 /* Writes dir/NAME.key (mode 0600: the pair) and dir/NAME.pub (mode 0644: the public key), each
  * opening with '#' comment lines, through a temporary file that is synced and then linked (or,
  * with overwrite, renamed) into place. Without overwrite an existing NAME.key or NAME.pub is an
  * error and nothing is written. The two paths go to key_path and pub_path (size bytes each). */
-int proto_curve_write(const proto_curve_pair_t *pair, const char *dir, const char *name,
+int curve_write(const curve_pair_t *pair, const char *dir, const char *name,
                       bool overwrite, char *key_path, char *pub_path, size_t size, err_t *err);
 
 /* Reads a NAME.key: its "public-key = Z85" and "secret-key = Z85" lines ('#' comments and blank
  * lines aside). Fails when the file is readable or writable by group or others, when a line is
  * anything else, or when the public key is not the secret key's. */
-int proto_curve_load_pair(const char *path, proto_curve_pair_t *out, err_t *err);
+int curve_load_pair(const char *path, curve_pair_t *out, err_t *err);
 
 /* Reads the public key of a NAME.pub. A secret-key line is an error: a .pub travels between
  * hosts and must never carry a secret. */
-int proto_curve_load_public(const char *path, char out[PROTO_CURVE_Z85 + 1], err_t *err);
+int curve_load_public(const char *path, char out[CURVE_Z85 + 1], err_t *err);
 
 /* Whether endpoint stays on this host (inproc:// or ipc://), where plain text needs no flag. */
-bool proto_curve_endpoint_local(const char *endpoint);
+bool curve_endpoint_local(const char *endpoint);
 
 /* The farm's rule for an endpoint: a network one (anything but inproc:// and ipc://) needs CURVE
  * keys (have_keys) or an explicit insecure, and not both. On refusal err says so and ends with
  * how_keys ("--key and --authorized"), the flags that give keys. */
-int proto_curve_require(const char *endpoint, bool have_keys, bool insecure, const char *how_keys,
+int curve_require(const char *endpoint, bool have_keys, bool insecure, const char *how_keys,
                         err_t *err);
 
 /* The public keys in a folder's *.pub files (hidden files and other names ignored), each named
  * by its file name without ".pub". */
-typedef struct proto_curve_ring proto_curve_ring_t;
+typedef struct curve_ring curve_ring_t;
 
-/* Loads dir; any unreadable or malformed .pub, or more than PROTO_CURVE_RING_MAX, is an error. */
-proto_curve_ring_t *proto_curve_ring_new(const char *dir, err_t *err);
-void proto_curve_ring_destroy(proto_curve_ring_t **self_p);
+/* Loads dir; any unreadable or malformed .pub, or more than CURVE_RING_MAX, is an error. */
+curve_ring_t *curve_ring_new(const char *dir, err_t *err);
+void curve_ring_destroy(curve_ring_t **self_p);
 
 /* Loads the folder again when it may have changed: its modification time or inode differ from
  * the last load, or force is set and the last load is at least a second old (an addition made
  * within the file system's time granularity). On failure the keys loaded before stay, and -1
  * with err says why. *reloaded (may be NULL) says whether the keys were replaced. */
-int proto_curve_ring_refresh(proto_curve_ring_t *self, bool force, bool *reloaded, err_t *err);
+int curve_ring_refresh(curve_ring_t *self, bool force, bool *reloaded, err_t *err);
 
 /* The name of the file that holds key (32 bytes), or NULL when none does. */
-const char *proto_curve_ring_find(const proto_curve_ring_t *self,
-                                  const uint8_t key[PROTO_CURVE_BINARY]);
-size_t proto_curve_ring_size(const proto_curve_ring_t *self);
-const char *proto_curve_ring_dir(const proto_curve_ring_t *self);
+const char *curve_ring_find(const curve_ring_t *self,
+                                  const uint8_t key[CURVE_BINARY]);
+size_t curve_ring_size(const curve_ring_t *self);
+const char *curve_ring_dir(const curve_ring_t *self);
 
 #endif

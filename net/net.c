@@ -20,19 +20,19 @@
 
 static int drain(void *sock);
 
-struct proto_net {
+struct net {
     void *sock;
-    proto_net_kind_t kind;
-    proto_net_options_t opt;
+    net_kind_t kind;
+    net_options_t opt;
     void *monitor;         /* DEALER: PAIR receiving the socket's monitor events */
-    proto_net_link_t link; /* what those events said last */
+    net_link_t link; /* what those events said last */
     bool transport_up;     /* a connection is made and its handshake is under way */
     char why[256];
 };
 
-proto_net_options_t proto_net_options_default(void)
+net_options_t net_options_default(void)
 {
-    return (proto_net_options_t){
+    return (net_options_t){
         .limits = proto_limits_default(),
         .sndhwm = 100,
         .rcvhwm = 100,
@@ -101,15 +101,15 @@ static int set_key(void *sock, int option, const char *name, const char *z85, er
     return 0;
 }
 
-static int configure_curve(proto_net_t *self, err_t *err)
+static int configure_curve(net_t *self, err_t *err)
 {
-    const proto_net_curve_t *c = &self->opt.curve;
+    const net_curve_t *c = &self->opt.curve;
     void *s = self->sock;
     if (!c->server_public && !c->public_key && !c->secret_key)
         return c->zap_domain ? err_set(err, "a ZAP domain without CURVE keys") : 0;
-    if (proto_curve_available(err) < 0)
+    if (curve_available(err) < 0)
         return -1;
-    if (self->kind == PROTO_NET_ROUTER) {
+    if (self->kind == NET_ROUTER) {
         if (!c->secret_key || c->server_public || c->public_key)
             return err_set(err, "a ROUTER is a CURVE server: it takes its secret key only");
         if (set_int(s, ZMQ_CURVE_SERVER, "ZMQ_CURVE_SERVER", 1, err) ||
@@ -131,8 +131,8 @@ static int configure_curve(proto_net_t *self, err_t *err)
 }
 
 /* A DEALER's monitor: libzmq publishes the socket's events on an inproc endpoint named after
- * this object, and a PAIR of ours reads them (proto_net_link). */
-static int start_monitor(proto_net_t *self, void *ctx, err_t *err)
+ * this object, and a PAIR of ours reads them (net_link). */
+static int start_monitor(net_t *self, void *ctx, err_t *err)
 {
     /* The name of a closed monitor stays taken until libzmq reaps its socket, and a new object
      * may get the old one's address: the clock and a retry make each name fresh. */
@@ -159,9 +159,9 @@ static int start_monitor(proto_net_t *self, void *ctx, err_t *err)
     return 0;
 }
 
-static int configure(proto_net_t *self, err_t *err)
+static int configure(net_t *self, err_t *err)
 {
-    const proto_net_options_t *o = &self->opt;
+    const net_options_t *o = &self->opt;
     void *s = self->sock;
     if (configure_curve(self, err) < 0)
         return -1;
@@ -179,7 +179,7 @@ static int configure(proto_net_t *self, err_t *err)
         set_int(s, ZMQ_HEARTBEAT_TIMEOUT, "ZMQ_HEARTBEAT_TIMEOUT", o->heartbeat_timeout_ms, err) ||
         set_int(s, ZMQ_HEARTBEAT_TTL, "ZMQ_HEARTBEAT_TTL", o->heartbeat_ttl_ms, err))
         return -1;
-    if (self->kind == PROTO_NET_ROUTER) {
+    if (self->kind == NET_ROUTER) {
         /* Without MANDATORY a ROUTER silently drops messages to unknown peers; with HANDOVER a
          * reconnecting worker that reuses its routing id takes over its old connection. */
         return set_int(s, ZMQ_ROUTER_MANDATORY, "ZMQ_ROUTER_MANDATORY", 1, err) ||
@@ -201,40 +201,40 @@ static int configure(proto_net_t *self, err_t *err)
     return 0;
 }
 
-proto_net_t *proto_net_new(void *zmq_ctx, proto_net_kind_t kind, const proto_net_options_t *options,
+net_t *net_new(void *zmq_ctx, net_kind_t kind, const net_options_t *options,
                            err_t *err)
 {
-    if (kind != PROTO_NET_ROUTER && kind != PROTO_NET_DEALER) {
+    if (kind != NET_ROUTER && kind != NET_DEALER) {
         err_set(err, "socket kind %d is neither ROUTER nor DEALER", (int)kind);
         return NULL;
     }
-    proto_net_t *self = calloc(1, sizeof *self);
+    net_t *self = calloc(1, sizeof *self);
     if (!self) {
         err_set(err, "out of memory for a socket");
         return NULL;
     }
     self->kind = kind;
-    self->opt = options ? *options : proto_net_options_default();
-    self->sock = zmq_socket(zmq_ctx, kind == PROTO_NET_ROUTER ? ZMQ_ROUTER : ZMQ_DEALER);
+    self->opt = options ? *options : net_options_default();
+    self->sock = zmq_socket(zmq_ctx, kind == NET_ROUTER ? ZMQ_ROUTER : ZMQ_DEALER);
     if (!self->sock) {
-        err_set(err, "zmq_socket(%s): %s", kind == PROTO_NET_ROUTER ? "ROUTER" : "DEALER",
+        err_set(err, "zmq_socket(%s): %s", kind == NET_ROUTER ? "ROUTER" : "DEALER",
                 zmq_strerror(zmq_errno()));
         free(self);
         return NULL;
     }
     if (configure(self, err) < 0 ||
-        (kind == PROTO_NET_DEALER && start_monitor(self, zmq_ctx, err) < 0)) {
-        proto_net_destroy(&self);
+        (kind == NET_DEALER && start_monitor(self, zmq_ctx, err) < 0)) {
+        net_destroy(&self);
         return NULL;
     }
     return self;
 }
 
-void proto_net_destroy(proto_net_t **self_p)
+void net_destroy(net_t **self_p)
 {
     if (!self_p || !*self_p)
         return;
-    proto_net_t *self = *self_p;
+    net_t *self = *self_p;
     if (self->monitor) {
         (void)zmq_socket_monitor(self->sock, NULL, 0);
         (void)zmq_close(self->monitor);
@@ -246,21 +246,21 @@ void proto_net_destroy(proto_net_t **self_p)
     *self_p = NULL;
 }
 
-int proto_net_bind(proto_net_t *self, const char *endpoint, err_t *err)
+int net_bind(net_t *self, const char *endpoint, err_t *err)
 {
     if (zmq_bind(self->sock, endpoint) != 0)
         return err_set(err, "cannot bind %s: %s", endpoint, zmq_strerror(zmq_errno()));
     return 0;
 }
 
-int proto_net_connect(proto_net_t *self, const char *endpoint, err_t *err)
+int net_connect(net_t *self, const char *endpoint, err_t *err)
 {
     if (zmq_connect(self->sock, endpoint) != 0)
         return err_set(err, "cannot connect to %s: %s", endpoint, zmq_strerror(zmq_errno()));
     return 0;
 }
 
-int proto_net_endpoint(proto_net_t *self, char *buf, size_t size, err_t *err)
+int net_endpoint(net_t *self, char *buf, size_t size, err_t *err)
 {
     size_t n = size;
     if (zmq_getsockopt(self->sock, ZMQ_LAST_ENDPOINT, buf, &n) != 0)
@@ -269,7 +269,7 @@ int proto_net_endpoint(proto_net_t *self, char *buf, size_t size, err_t *err)
 }
 
 /* What one monitor event says about the link. */
-static void link_event(proto_net_t *self, unsigned event, uint32_t value)
+static void link_event(net_t *self, unsigned event, uint32_t value)
 {
     bool keys = self->opt.curve.secret_key != NULL;
     switch (event) {
@@ -277,17 +277,17 @@ static void link_event(proto_net_t *self, unsigned event, uint32_t value)
         self->transport_up = true;
         break;
     case ZMQ_EVENT_HANDSHAKE_SUCCEEDED:
-        self->link = PROTO_NET_LINK_UP;
+        self->link = NET_LINK_UP;
         self->why[0] = 0;
         break;
     case ZMQ_EVENT_HANDSHAKE_FAILED_AUTH:
-        self->link = PROTO_NET_LINK_REFUSED;
+        self->link = NET_LINK_REFUSED;
         snprintf(self->why, sizeof self->why,
                  "refused our key (ZAP status %u): our .pub must be in its --authorized folder",
                  (unsigned)value);
         break;
     case ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL:
-        self->link = PROTO_NET_LINK_REFUSED;
+        self->link = NET_LINK_REFUSED;
         if (value == ZMQ_PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH)
             snprintf(self->why, sizeof self->why, "%s",
                      keys ? "does not use CURVE, and we do: it runs with --insecure?"
@@ -301,7 +301,7 @@ static void link_event(proto_net_t *self, unsigned event, uint32_t value)
                      (unsigned)value);
         break;
     case ZMQ_EVENT_HANDSHAKE_FAILED_NO_DETAIL:
-        self->link = PROTO_NET_LINK_REFUSED;
+        self->link = NET_LINK_REFUSED;
         /* The other side closed during the handshake (EPIPE here): a CURVE server that cannot
          * read our HELLO, or a mechanism mismatch seen from our side before its ERROR. */
         snprintf(self->why, sizeof self->why, "broke off the %shandshake (%s): %s",
@@ -310,13 +310,13 @@ static void link_event(proto_net_t *self, unsigned event, uint32_t value)
                       : "it may require CURVE keys (--key and --master-key)");
         break;
     case ZMQ_EVENT_DISCONNECTED:
-        if (self->link == PROTO_NET_LINK_UP) {
-            self->link = PROTO_NET_LINK_DROPPED;
+        if (self->link == NET_LINK_UP) {
+            self->link = NET_LINK_DROPPED;
             snprintf(self->why, sizeof self->why,
                      "closed the connection (a message above its size limit, or a restart)");
-        } else if (self->transport_up && self->link != PROTO_NET_LINK_REFUSED) {
+        } else if (self->transport_up && self->link != NET_LINK_REFUSED) {
             /* A CURVE server that cannot read our HELLO closes without a word. */
-            self->link = PROTO_NET_LINK_REFUSED;
+            self->link = NET_LINK_REFUSED;
             snprintf(self->why, sizeof self->why, "%s",
                      keys ? "closed the connection during the CURVE handshake: is --master-key "
                             "its public key?"
@@ -329,7 +329,7 @@ static void link_event(proto_net_t *self, unsigned event, uint32_t value)
     }
 }
 
-proto_net_link_t proto_net_link(proto_net_t *self, char *why, size_t size)
+net_link_t net_link(net_t *self, char *why, size_t size)
 {
     while (self->monitor) {
         zmq_msg_t ev;
@@ -357,7 +357,7 @@ proto_net_link_t proto_net_link(proto_net_t *self, char *why, size_t size)
     return self->link;
 }
 
-void *proto_net_socket(proto_net_t *self)
+void *net_socket(net_t *self)
 {
     return self->sock;
 }
@@ -368,10 +368,10 @@ static void free_body(void *data, void *hint)
     free(data);
 }
 
-int proto_net_send(proto_net_t *self, const proto_peer_t *to, const proto_msg_t *msg, err_t *err)
+int net_send(net_t *self, const proto_peer_t *to, const proto_msg_t *msg, err_t *err)
 {
     char who[PROTO_PEER_STR] = "master";
-    if (self->kind == PROTO_NET_ROUTER) {
+    if (self->kind == NET_ROUTER) {
         if (!to || to->len == 0 || to->len > sizeof to->id)
             return err_set(err, "%s: a ROUTER needs a peer to send to", proto_type_name(msg->type)),
                    PROTO_ESOCKET;
@@ -398,7 +398,7 @@ int proto_net_send(proto_net_t *self, const proto_peer_t *to, const proto_msg_t 
                        zmq_strerror(e)),
                PROTO_ESOCKET;
     }
-    if (self->kind == PROTO_NET_ROUTER && zmq_send(self->sock, to->id, to->len, ZMQ_SNDMORE) < 0) {
+    if (self->kind == NET_ROUTER && zmq_send(self->sock, to->id, to->len, ZMQ_SNDMORE) < 0) {
         int e = zmq_errno();
         (void)zmq_msg_close(&body); /* frees data through free_body */
         return err_set(err, "%s to %s: %s", proto_type_name(msg->type), who, zmq_strerror(e)),
@@ -431,13 +431,13 @@ static int drain(void *sock)
     return n;
 }
 
-int proto_net_recv(proto_net_t *self, proto_peer_t *from, proto_msg_t *out, int timeout_ms,
+int net_recv(net_t *self, proto_peer_t *from, proto_msg_t *out, int timeout_ms,
                    err_t *err)
 {
     memset(out, 0, sizeof *out);
     if (from)
         from->len = 0;
-    if (self->kind == PROTO_NET_ROUTER && !from)
+    if (self->kind == NET_ROUTER && !from)
         return err_set(err, "a ROUTER must say where the sender goes"), PROTO_ESOCKET;
     int flags = 0;
     if (timeout_ms >= 0) {
@@ -454,7 +454,7 @@ int proto_net_recv(proto_net_t *self, proto_peer_t *from, proto_msg_t *out, int 
     char who[PROTO_PEER_STR] = "master";
     int more = 0;
     size_t len = sizeof more;
-    if (self->kind == PROTO_NET_ROUTER) {
+    if (self->kind == NET_ROUTER) {
         int n = zmq_recv(self->sock, from->id, sizeof from->id, flags);
         if (n < 0) {
             int e = zmq_errno();

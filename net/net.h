@@ -24,20 +24,20 @@
 #define PROTO_EUNREACHABLE (-4) /* ROUTER send: no connected peer with that routing id */
 #define PROTO_EAGAIN (-5)       /* nothing within the timeout, a full peer queue, or a signal */
 
-typedef enum proto_net_kind { PROTO_NET_ROUTER, PROTO_NET_DEALER } proto_net_kind_t;
+typedef enum net_kind { NET_ROUTER, NET_DEALER } net_kind_t;
 
 /* CURVE encryption and authentication (docs/security.md; keys from curve.h). All NULL: plain
  * text. A ROUTER with secret_key is a CURVE server: its clients' keys are checked by the ZAP
  * handler of its context (zap.h), which must run before the ROUTER binds. A DEALER with the three
  * keys is a CURVE client of the server whose public key it holds. */
-typedef struct proto_net_curve {
+typedef struct net_curve {
     const char *server_public; /* DEALER: the master's public key (Z85, 40 chars) */
     const char *public_key;    /* DEALER: this socket's key pair (Z85) */
     const char *secret_key;    /* DEALER: its secret; ROUTER: the server's secret key */
     const char *zap_domain;    /* ROUTER: the ZAP domain, which tells the handler the endpoint */
-} proto_net_curve_t;
+} net_curve_t;
 
-typedef struct proto_net_options {
+typedef struct net_options {
     proto_limits_t limits;    /* ZMQ_MAXMSGSIZE is limits.max_message_bytes; recv decodes with it */
     int sndhwm, rcvhwm;       /* messages (not bytes) queued per peer each way */
     int linger_ms;            /* how long closing waits for unsent messages */
@@ -48,13 +48,13 @@ typedef struct proto_net_options {
     int reconnect_ivl_ms, reconnect_ivl_max_ms; /* DEALER: reconnection back-off */
     const char *routing_id; /* DEALER: 1..255 bytes, first byte not 0; NULL lets the ROUTER pick
                              * one. With ROUTER_HANDOVER a reconnecting peer keeps its id. */
-    proto_net_curve_t curve;
-} proto_net_options_t;
+    net_curve_t curve;
+} net_options_t;
 
 /* The defaults: no CURVE, proto_limits_default(), HWM 100 each way, linger 1000 ms, send timeout 0
  * (a send never blocks: a full queue is PROTO_EAGAIN), heartbeats 1000 / 3000 / 3000 ms (a dead
  * peer is noticed within about 3 s), reconnect 100 ms doubling to 5000 ms. */
-proto_net_options_t proto_net_options_default(void);
+net_options_t net_options_default(void);
 
 /* A peer as a ROUTER knows it: its routing id. */
 typedef struct proto_peer {
@@ -66,48 +66,48 @@ typedef struct proto_peer {
 /* The routing id for logs: as text when printable, else "0x" and hex. Returns buf. */
 const char *proto_peer_str(const proto_peer_t *peer, char buf[PROTO_PEER_STR]);
 
-typedef struct proto_net proto_net_t;
+typedef struct net net_t;
 
 /* A configured socket on the caller's ZeroMQ context. options NULL: the defaults. */
-proto_net_t *proto_net_new(void *zmq_ctx, proto_net_kind_t kind, const proto_net_options_t *options,
+net_t *net_new(void *zmq_ctx, net_kind_t kind, const net_options_t *options,
                            err_t *err);
 /* Closes the socket (waiting at most linger_ms for unsent messages) and frees it. */
-void proto_net_destroy(proto_net_t **self_p);
+void net_destroy(net_t **self_p);
 
-int proto_net_bind(proto_net_t *self, const char *endpoint, err_t *err);
-int proto_net_connect(proto_net_t *self, const char *endpoint, err_t *err);
+int net_bind(net_t *self, const char *endpoint, err_t *err);
+int net_connect(net_t *self, const char *endpoint, err_t *err);
 /* The endpoint last bound, with the port the system chose for "tcp://host:*". */
-int proto_net_endpoint(proto_net_t *self, char *buf, size_t size, err_t *err);
+int net_endpoint(net_t *self, char *buf, size_t size, err_t *err);
 
 /* What a DEALER knows of its connection, from libzmq's monitor events. */
-typedef enum proto_net_link {
-    PROTO_NET_LINK_NONE,    /* no connection yet: nothing listens there, or still trying */
-    PROTO_NET_LINK_UP,      /* connected, and the handshake (CURVE or plain) succeeded */
-    PROTO_NET_LINK_REFUSED, /* the handshake failed: refused key, wrong server key, CURVE on
+typedef enum net_link {
+    NET_LINK_NONE,    /* no connection yet: nothing listens there, or still trying */
+    NET_LINK_UP,      /* connected, and the handshake (CURVE or plain) succeeded */
+    NET_LINK_REFUSED, /* the handshake failed: refused key, wrong server key, CURVE on
                              * one side only */
-    PROTO_NET_LINK_DROPPED  /* was up, then the other side closed it (a message above its
+    NET_LINK_DROPPED  /* was up, then the other side closed it (a message above its
                              * ZMQ_MAXMSGSIZE, a restart) */
-} proto_net_link_t;
+} net_link_t;
 
 /* Reads the DEALER's pending monitor events and returns the state they leave; for REFUSED and
  * DROPPED, why (size bytes, may be NULL) says what happened in words for the user. A ROUTER
- * always returns PROTO_NET_LINK_NONE. The state persists until an event changes it. */
-proto_net_link_t proto_net_link(proto_net_t *self, char *why, size_t size);
+ * always returns NET_LINK_NONE. The state persists until an event changes it. */
+net_link_t net_link(net_t *self, char *why, size_t size);
 
 /* The libzmq socket, for zmq_poll; do not send or receive on it directly. */
-void *proto_net_socket(proto_net_t *self);
+void *net_socket(net_t *self);
 
 /* Encodes and sends msg; to is the destination on a ROUTER and must be NULL on a DEALER.
  * Returns 0, PROTO_EMALFORMED (msg does not encode), PROTO_EUNREACHABLE, PROTO_EAGAIN or
  * PROTO_ESOCKET. */
-int proto_net_send(proto_net_t *self, const proto_peer_t *to, const proto_msg_t *msg, err_t *err);
+int net_send(net_t *self, const proto_peer_t *to, const proto_msg_t *msg, err_t *err);
 
 /* Receives and decodes one message into out (free it with proto_msg_free), waiting at most
  * timeout_ms (0: do not wait, -1: forever). On a ROUTER *from is the sender (from may be NULL on a
  * DEALER). Returns 0; PROTO_EAGAIN when nothing came in time; PROTO_EMALFORMED or PROTO_EVERSION
  * when a peer sent something undecodable (*from says who, so it can be refused: proto.h's
  * proto_refuse_version); PROTO_ESOCKET. */
-int proto_net_recv(proto_net_t *self, proto_peer_t *from, proto_msg_t *out, int timeout_ms,
+int net_recv(net_t *self, proto_peer_t *from, proto_msg_t *out, int timeout_ms,
                    err_t *err);
 
 #endif

@@ -17,10 +17,10 @@
 #define ZAP_FRAMES 8                          /* a CURVE request has 7; more is malformed */
 #define ZAP_POLL_MS 100                       /* how long destroy may wait for the thread */
 
-struct proto_zap {
+struct zap {
     void *sock; /* REP, used by the thread only once it runs */
-    proto_curve_ring_t *ring;
-    proto_zap_log_fn log;
+    curve_ring_t *ring;
+    zap_log_fn log;
     void *user;
     pthread_t thread;
     atomic_bool stop;
@@ -28,7 +28,7 @@ struct proto_zap {
     atomic_size_t keys;
 };
 
-__attribute__((format(printf, 2, 3))) static void zlog(proto_zap_t *self, const char *fmt, ...)
+__attribute__((format(printf, 2, 3))) static void zlog(zap_t *self, const char *fmt, ...)
 {
     if (!self->log)
         return;
@@ -58,7 +58,7 @@ static bool frame_is(zmq_msg_t *f, const char *s)
 }
 
 /* Sends the reply frames; the request id is echoed (RFC 27). */
-static void send_reply(proto_zap_t *self, zmq_msg_t *request_id, const char *status,
+static void send_reply(zap_t *self, zmq_msg_t *request_id, const char *status,
                        const char *text, const char *user_id)
 {
     int rc = zmq_send(self->sock, "1.0", 3, ZMQ_SNDMORE);
@@ -74,24 +74,24 @@ static void send_reply(proto_zap_t *self, zmq_msg_t *request_id, const char *sta
         zlog(self, "ZAP: cannot answer libzmq: %s", zmq_strerror(zmq_errno()));
 }
 
-static void refresh(proto_zap_t *self, bool force)
+static void refresh(zap_t *self, bool force)
 {
     err_t err;
     bool reloaded;
-    size_t before = proto_curve_ring_size(self->ring);
-    if (proto_curve_ring_refresh(self->ring, force, &reloaded, &err) < 0) {
+    size_t before = curve_ring_size(self->ring);
+    if (curve_ring_refresh(self->ring, force, &reloaded, &err) < 0) {
         zlog(self, "%s", err.msg);
     } else if (reloaded) {
-        if (force && proto_curve_ring_size(self->ring) == before)
+        if (force && curve_ring_size(self->ring) == before)
             return; /* a stranger made us look: nothing to report */
-        atomic_store(&self->keys, proto_curve_ring_size(self->ring));
-        zlog(self, "authorised keys read again from %s: %zu keys", proto_curve_ring_dir(self->ring),
-             proto_curve_ring_size(self->ring));
+        atomic_store(&self->keys, curve_ring_size(self->ring));
+        zlog(self, "authorised keys read again from %s: %zu keys", curve_ring_dir(self->ring),
+             curve_ring_size(self->ring));
     }
 }
 
 /* Receives one request and answers it. Returns -1 when the socket is unusable. */
-static int handle(proto_zap_t *self)
+static int handle(zap_t *self)
 {
     zmq_msg_t f[ZAP_FRAMES];
     int n = 0, more = 1, rc = 0;
@@ -120,7 +120,7 @@ static int handle(proto_zap_t *self)
     }
     frame_text(&f[2], domain, sizeof domain);
     frame_text(&f[3], address, sizeof address);
-    if (!frame_is(&f[5], "CURVE") || n != 7 || zmq_msg_size(&f[6]) != PROTO_CURVE_BINARY) {
+    if (!frame_is(&f[5], "CURVE") || n != 7 || zmq_msg_size(&f[6]) != CURVE_BINARY) {
         char mech[32];
         zlog(self, "refused a connection to the %s endpoint from %s: mechanism %s, not CURVE",
              domain, address, frame_text(&f[5], mech, sizeof mech));
@@ -132,17 +132,17 @@ static int handle(proto_zap_t *self)
     /* A changed folder is read again; an unknown key makes it read again at most once a
      * second, which bounds what a flood of strangers costs. */
     refresh(self, false);
-    const char *name = proto_curve_ring_find(self->ring, key);
+    const char *name = curve_ring_find(self->ring, key);
     if (!name) {
         refresh(self, true);
-        name = proto_curve_ring_find(self->ring, key);
+        name = curve_ring_find(self->ring, key);
     }
-    char z85[PROTO_CURVE_Z85 + 1];
-    if (!zmq_z85_encode(z85, key, PROTO_CURVE_BINARY))
+    char z85[CURVE_Z85 + 1];
+    if (!zmq_z85_encode(z85, key, CURVE_BINARY))
         snprintf(z85, sizeof z85, "(unprintable)");
     if (!name) {
         zlog(self, "refused a connection to the %s endpoint from %s: key %s is not in %s", domain,
-             address, z85, proto_curve_ring_dir(self->ring));
+             address, z85, curve_ring_dir(self->ring));
         send_reply(self, &f[1], "400", "key not authorised", "");
         atomic_fetch_add(&self->refused, 1);
     } else {
@@ -158,7 +158,7 @@ out:
 
 static void *zap_thread(void *arg)
 {
-    proto_zap_t *self = arg;
+    zap_t *self = arg;
     while (!atomic_load(&self->stop)) {
         zmq_pollitem_t item = {.socket = self->sock, .events = ZMQ_POLLIN};
         int n = zmq_poll(&item, 1, ZAP_POLL_MS);
@@ -170,12 +170,12 @@ static void *zap_thread(void *arg)
     return NULL;
 }
 
-proto_zap_t *proto_zap_new(void *zmq_ctx, const char *authorized_dir, proto_zap_log_fn log,
+zap_t *zap_new(void *zmq_ctx, const char *authorized_dir, zap_log_fn log,
                            void *user, err_t *err)
 {
-    if (proto_curve_available(err) < 0)
+    if (curve_available(err) < 0)
         return NULL;
-    proto_zap_t *self = calloc(1, sizeof *self);
+    zap_t *self = calloc(1, sizeof *self);
     if (!self) {
         err_set(err, "ZAP: out of memory");
         return NULL;
@@ -185,11 +185,11 @@ proto_zap_t *proto_zap_new(void *zmq_ctx, const char *authorized_dir, proto_zap_
     atomic_init(&self->stop, false);
     atomic_init(&self->accepted, 0);
     atomic_init(&self->refused, 0);
-    if (!(self->ring = proto_curve_ring_new(authorized_dir, err))) {
+    if (!(self->ring = curve_ring_new(authorized_dir, err))) {
         free(self);
         return NULL;
     }
-    atomic_init(&self->keys, proto_curve_ring_size(self->ring));
+    atomic_init(&self->keys, curve_ring_size(self->ring));
     int linger = 0;
     self->sock = zmq_socket(zmq_ctx, ZMQ_REP);
     if (!self->sock) {
@@ -214,27 +214,27 @@ proto_zap_t *proto_zap_new(void *zmq_ctx, const char *authorized_dir, proto_zap_
 fail:
     if (self->sock)
         (void)zmq_close(self->sock);
-    proto_curve_ring_destroy(&self->ring);
+    curve_ring_destroy(&self->ring);
     free(self);
     return NULL;
 }
 
-void proto_zap_destroy(proto_zap_t **self_p)
+void zap_destroy(zap_t **self_p)
 {
     if (!self_p || !*self_p)
         return;
-    proto_zap_t *self = *self_p;
+    zap_t *self = *self_p;
     atomic_store(&self->stop, true);
     (void)pthread_join(self->thread, NULL);
     (void)zmq_close(self->sock);
-    proto_curve_ring_destroy(&self->ring);
+    curve_ring_destroy(&self->ring);
     free(self);
     *self_p = NULL;
 }
 
-proto_zap_stats_t proto_zap_stats(proto_zap_t *self)
+zap_stats_t zap_stats(zap_t *self)
 {
-    return (proto_zap_stats_t){.accepted = atomic_load(&self->accepted),
+    return (zap_stats_t){.accepted = atomic_load(&self->accepted),
                                .refused = atomic_load(&self->refused),
                                .keys = atomic_load(&self->keys)};
 }

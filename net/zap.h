@@ -14,25 +14,25 @@
 #include <stdint.h>
 
 /* One line of the handler's log (no newline); called from the handler's thread. */
-typedef void (*proto_zap_log_fn)(void *user, const char *line);
+typedef void (*zap_log_fn)(void *user, const char *line);
 
-typedef struct proto_zap proto_zap_t;
+typedef struct zap zap_t;
 
 /* Loads the authorised folder, binds inproc://zeromq.zap.01 on zmq_ctx (one handler per context)
  * and starts the thread. Create it before binding the server sockets, and destroy it after
  * closing them: a CURVE server that finds no handler accepts every client. log may be NULL. */
-proto_zap_t *proto_zap_new(void *zmq_ctx, const char *authorized_dir, proto_zap_log_fn log,
+zap_t *zap_new(void *zmq_ctx, const char *authorized_dir, zap_log_fn log,
                            void *user, err_t *err);
 
 /* Stops the thread (within 100 ms) and closes its socket. */
-void proto_zap_destroy(proto_zap_t **self_p);
+void zap_destroy(zap_t **self_p);
 
-typedef struct proto_zap_stats {
-    uint64_t accepted, refused; /* decisions since proto_zap_new */
+typedef struct zap_stats {
+    uint64_t accepted, refused; /* decisions since zap_new */
     size_t keys;                /* keys authorised now */
-} proto_zap_stats_t;
+} zap_stats_t;
 
 /* Safe to call from any thread. */
-proto_zap_stats_t proto_zap_stats(proto_zap_t *self);
+zap_stats_t zap_stats(zap_t *self);
 
 #endif

@@ -26,13 +26,13 @@ static int conn_open(worker_t *w, void *ctx, err_t *err)
 {
     /* No linger: when this connection is given up, its unsent HELLO must not reach a master
      * that comes up later, where it would show a second, ghost copy of us. */
-    proto_net_options_t nopt = proto_net_options_default();
+    net_options_t nopt = net_options_default();
     nopt.linger_ms = 0;
     nopt.curve = w->opts->curve;
     w->conn = (worker_conn_t){0};
-    w->conn.net = proto_net_new(ctx, PROTO_NET_DEALER, &nopt, err);
-    if (!w->conn.net || proto_net_connect(w->conn.net, w->opts->endpoint, err)) {
-        proto_net_destroy(&w->conn.net);
+    w->conn.net = net_new(ctx, NET_DEALER, &nopt, err);
+    if (!w->conn.net || net_connect(w->conn.net, w->opts->endpoint, err)) {
+        net_destroy(&w->conn.net);
         return -1;
     }
     pthread_mutex_lock(&w->lock);
@@ -50,7 +50,7 @@ static int conn_open(worker_t *w, void *ctx, err_t *err)
 /* Waits up to 50 ms for a message, a result from a render thread or the stop descriptor. */
 static void conn_wait(worker_t *w)
 {
-    zmq_pollitem_t items[3] = {{.socket = proto_net_socket(w->conn.net), .events = ZMQ_POLLIN},
+    zmq_pollitem_t items[3] = {{.socket = net_socket(w->conn.net), .events = ZMQ_POLLIN},
                                {.fd = w->wake_fd[0], .events = ZMQ_POLLIN},
                                {.fd = w->opts->stop_fd, .events = ZMQ_POLLIN}};
     if (zmq_poll(items, w->opts->stop_fd > 0 ? 3 : 2, 50) > 0 && (items[1].revents & ZMQ_POLLIN)) {
@@ -74,8 +74,8 @@ static int conn_cron(worker_t *w, double now)
         return 0;
     /* Why it never answered, when the handshake says: a refused key, CURVE on one side only. */
     char why[256];
-    proto_net_link_t link = proto_net_link(c->net, why, sizeof why);
-    if (c->welcomed && link == PROTO_NET_LINK_UP && now - c->last_heard < MASTER_BUSY_MAX_S) {
+    net_link_t link = net_link(c->net, why, sizeof why);
+    if (c->welcomed && link == NET_LINK_UP && now - c->last_heard < MASTER_BUSY_MAX_S) {
         if (!c->busy_logged)
             worker_log(w,
                        "the master is silent but its connection is alive: it is busy, "
@@ -86,8 +86,8 @@ static int conn_cron(worker_t *w, double now)
     }
     worker_log(w, "the master is silent (%s%s%s); reconnecting in %d ms",
                c->welcomed ? "was connected" : "never answered",
-               link == PROTO_NET_LINK_REFUSED ? ": it " : "",
-               link == PROTO_NET_LINK_REFUSED ? why : "", w->backoff_ms);
+               link == NET_LINK_REFUSED ? ": it " : "",
+               link == NET_LINK_REFUSED ? why : "", w->backoff_ms);
     return 1;
 }
 
@@ -101,7 +101,7 @@ static int conn_serve(worker_t *w, err_t *err)
         proto_msg_t m;
         proto_peer_t from;
         err_t rerr;
-        int r = proto_net_recv(w->conn.net, &from, &m, 0, &rerr);
+        int r = net_recv(w->conn.net, &from, &m, 0, &rerr);
         double now = clock_now_s();
         if (r == 0) {
             /* Any message is a sign of life. */
@@ -126,7 +126,7 @@ static int conn_serve(worker_t *w, err_t *err)
 
 static void conn_close(worker_t *w)
 {
-    proto_net_destroy(&w->conn.net);
+    net_destroy(&w->conn.net);
     /* Whatever this connection held is the master's to reassign now. */
     pthread_mutex_lock(&w->lock);
     task_queue_abandon(&w->tasks);
@@ -153,7 +153,7 @@ int worker_run(const worker_opts_t *opts, err_t *err)
     worker_t w = {.opts = opts, .verbose = opts->verbose};
     if (!opts->endpoint)
         return err_set(err, "worker: no master endpoint");
-    if (proto_curve_require(opts->endpoint, opts->curve.secret_key != NULL, opts->insecure,
+    if (curve_require(opts->endpoint, opts->curve.secret_key != NULL, opts->insecure,
                             "--key FILE and --master-key FILE.pub", err) < 0)
         return err_prefix(err, "worker: ");
     if (bundle_cache_open(&w.bundles, opts->cache_dir))

@@ -25,7 +25,7 @@ typedef struct worker_opts {
     int verbose;            /* log events to stderr */
     /* Security (docs/security.md): the three keys of a CURVE client (server_public: the
      * master's), or plain text, which a network endpoint allows only with insecure. */
-    proto_net_curve_t curve;
+    net_curve_t curve;
     int insecure;
 } worker_opts_t;
 

@@ -18,7 +18,7 @@ void worker_log(const worker_t *w, const char *fmt, ...)
 int worker_send(worker_t *w, const proto_msg_t *m)
 {
     err_t err;
-    int r = proto_net_send(w->conn.net, NULL, m, &err);
+    int r = net_send(w->conn.net, NULL, m, &err);
     if (r)
         worker_log(w, "sending %s failed: %s", proto_type_name(m->type), err.msg);
     return r;

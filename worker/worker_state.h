@@ -21,7 +21,7 @@ struct worker_opts;
 
 /* One connection to the master, from HELLO until it is given up. */
 typedef struct worker_conn {
-    proto_net_t *net;
+    net_t *net;
     unsigned generation; /* its tasks carry this; results of older connections are dropped */
     double last_heard;   /* clock_now_s of the master's last message */
     double last_sent;    /* ... of our last message */

@@ -53,11 +53,11 @@ static void test_port_in_use(void **state)
 {
     (void)state;
     void *ctx = zmq_ctx_new();
-    proto_net_t *taken = proto_net_new(ctx, PROTO_NET_ROUTER, NULL, NULL);
+    net_t *taken = net_new(ctx, NET_ROUTER, NULL, NULL);
     assert_non_null(taken);
-    assert_int_equal(proto_net_bind(taken, "tcp://127.0.0.1:*", NULL), 0);
+    assert_int_equal(net_bind(taken, "tcp://127.0.0.1:*", NULL), 0);
     char ep[256];
-    assert_int_equal(proto_net_endpoint(taken, ep, sizeof ep, NULL), 0);
+    assert_int_equal(net_endpoint(taken, ep, sizeof ep, NULL), 0);
     char spool[] = "/tmp/prismfarm-test-master-cli-XXXXXX";
     assert_non_null(mkdtemp(spool));
     const run_t *r =
@@ -66,7 +66,7 @@ static void test_port_in_use(void **state)
     assert_int_equal(r->status, 1);
     expect_in(r->err, "workers endpoint");
     expect_in(r->err, ep);
-    proto_net_destroy(&taken);
+    net_destroy(&taken);
     zmq_ctx_term(ctx);
     char cmd[128];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", spool);
@@ -114,17 +114,17 @@ static void test_serves_and_stops(void **state)
     assert_non_null(strstr(cep, "tcp://127.0.0.1:"));
 
     void *ctx = zmq_ctx_new();
-    proto_net_t *c = proto_net_new(ctx, PROTO_NET_DEALER, NULL, NULL);
+    net_t *c = net_new(ctx, NET_DEALER, NULL, NULL);
     assert_non_null(c);
-    assert_int_equal(proto_net_connect(c, cep, NULL), 0);
+    assert_int_equal(net_connect(c, cep, NULL), 0);
     proto_msg_t req = {.type = PROTO_JOBS}, reply;
-    assert_int_equal(proto_net_send(c, NULL, &req, NULL), 0);
-    int rc = proto_net_recv(c, NULL, &reply, test_wait_ms(), NULL);
+    assert_int_equal(net_send(c, NULL, &req, NULL), 0);
+    int rc = net_recv(c, NULL, &reply, test_wait_ms(), NULL);
     assert_int_equal(rc, 0);
     assert_int_equal(reply.type, PROTO_JOBS_REPLY);
     assert_int_equal(reply.jobs_reply.njobs, 0);
     proto_msg_free(&reply);
-    proto_net_destroy(&c);
+    net_destroy(&c);
     zmq_ctx_term(ctx);
 
     assert_int_equal(kill(pid, SIGTERM), 0);

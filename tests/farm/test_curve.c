@@ -248,21 +248,21 @@ static void test_key_file_errors(void **state)
 {
     (void)state;
     err_t err;
-    proto_curve_pair_t pair;
+    curve_pair_t pair;
     char pub[41];
     const char *p = path_in("doc.key");
     write_text(p,
                "# the example of zmq_curve(7)\r\n\r\n  public-key=" DOC_SERVER_PUBLIC
                "\r\nsecret-key =   " DOC_SERVER_SECRET "  \r\n",
                0600);
-    if (proto_curve_load_pair(p, &pair, &err) < 0)
+    if (curve_load_pair(p, &pair, &err) < 0)
         fail_msg("%s", err.msg);
     assert_string_equal(pair.public_key, DOC_SERVER_PUBLIC);
     assert_string_equal(pair.secret_key, DOC_SERVER_SECRET);
 
     /* Others may read it: refused like ssh refuses such a key. */
     assert_int_equal(chmod(p, 0644), 0);
-    assert_int_equal(proto_curve_load_pair(p, &pair, &err), -1);
+    assert_int_equal(curve_load_pair(p, &pair, &err), -1);
     expect_in(err.msg, "chmod 600");
     expect_in(err.msg, p);
 
@@ -284,7 +284,7 @@ static void test_key_file_errors(void **state)
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         write_text(p, bad[i].text, 0600);
-        if (proto_curve_load_pair(p, &pair, &err) == 0)
+        if (curve_load_pair(p, &pair, &err) == 0)
             fail_msg("case %zu loaded", i);
         char want[700];
         snprintf(want, sizeof want, "%s%s", bad[i].message[0] == ':' ? p : "", bad[i].message);
@@ -292,29 +292,29 @@ static void test_key_file_errors(void **state)
     }
     /* A secret key where a public one is expected: the file must not travel. */
     write_text(p, "public-key = " DOC_SERVER_PUBLIC "\nsecret-key = " DOC_SERVER_SECRET "\n", 0600);
-    assert_int_equal(proto_curve_load_public(p, pub, &err), -1);
+    assert_int_equal(curve_load_public(p, pub, &err), -1);
     expect_in(err.msg, ":2: a secret key");
-    assert_int_equal(proto_curve_load_public(path_in("none.pub"), pub, &err), -1);
+    assert_int_equal(curve_load_public(path_in("none.pub"), pub, &err), -1);
     expect_in(err.msg, "none.pub: cannot open");
     /* A .pub that is fine, and an authorised folder that holds a bad one. */
     write_text(path_in("doc.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n", 0644);
-    assert_int_equal(proto_curve_load_public(path_in("doc.pub"), pub, &err), 0);
+    assert_int_equal(curve_load_public(path_in("doc.pub"), pub, &err), 0);
     assert_string_equal(pub, DOC_CLIENT_PUBLIC);
     const char *ring = path_in("ring");
     assert_int_equal(mkdir(ring, 0700), 0);
     write_text(path_in("ring/ok.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n", 0644);
     write_text(path_in("ring/README"), "not a key, not a .pub: ignored\n", 0644);
-    proto_curve_ring_t *keys = proto_curve_ring_new(ring, &err);
+    curve_ring_t *keys = curve_ring_new(ring, &err);
     assert_non_null(keys);
-    assert_int_equal(proto_curve_ring_size(keys), 1);
+    assert_int_equal(curve_ring_size(keys), 1);
     uint8_t bin[32];
     assert_non_null(zmq_z85_decode(bin, DOC_CLIENT_PUBLIC));
-    assert_string_equal(proto_curve_ring_find(keys, bin), "ok");
+    assert_string_equal(curve_ring_find(keys, bin), "ok");
     assert_non_null(zmq_z85_decode(bin, DOC_SERVER_PUBLIC));
-    assert_null(proto_curve_ring_find(keys, bin));
-    proto_curve_ring_destroy(&keys);
+    assert_null(curve_ring_find(keys, bin));
+    curve_ring_destroy(&keys);
     write_text(path_in("ring/bad.pub"), "public-key = short\n", 0644);
-    assert_null(proto_curve_ring_new(ring, &err));
+    assert_null(curve_ring_new(ring, &err));
     expect_in(err.msg, "ring/bad.pub:1: public-key has 5 characters");
 }
 

@@ -349,7 +349,7 @@ static int hosts_teardown(void **state)
     if (HOSTS_CREATED) {
         char cmd[1024];
         /* netns-hosts.sh down also kills what start-workers.sh left running in the hosts. */
-        snprintf(cmd, sizeof cmd, "bash '%s/tests/netns-hosts.sh' down '%s' >'%s/down.log' 2>&1",
+        snprintf(cmd, sizeof cmd, "bash '%s/tests/support/netns-hosts.sh' down '%s' >'%s/down.log' 2>&1",
                  getenv("PRISMFARM_SOURCE_DIR"), PREFIX, DIR_);
         rc = system(cmd) == 0 ? 0 : -1;
         if (rc != 0)

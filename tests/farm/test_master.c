@@ -226,29 +226,29 @@ static int teardown(void **state)
 
 /* ---------------------------------------------------------------- peers */
 
-static proto_net_t *connect_to(fx_t *f, const char *endpoint)
+static net_t *connect_to(fx_t *f, const char *endpoint)
 {
     err_t err;
-    proto_net_t *n = proto_net_new(f->ctx, PROTO_NET_DEALER, NULL, &err);
-    if (!n || proto_net_connect(n, endpoint, &err))
+    net_t *n = net_new(f->ctx, NET_DEALER, NULL, &err);
+    if (!n || net_connect(n, endpoint, &err))
         fail_msg("connect %s: %s", endpoint, err.msg);
     return n;
 }
 
-static void send_msg(proto_net_t *n, const proto_msg_t *m)
+static void send_msg(net_t *n, const proto_msg_t *m)
 {
     err_t err;
-    if (proto_net_send(n, NULL, m, &err))
+    if (net_send(n, NULL, m, &err))
         fail_msg("send %s: %s", proto_type_name(m->type), err.msg);
 }
 
 /* The next message other than HEARTBEAT within timeout_ms; fails the test otherwise. */
-static void recv_msg(proto_net_t *n, proto_msg_t *m, int timeout_ms)
+static void recv_msg(net_t *n, proto_msg_t *m, int timeout_ms)
 {
     double end = now_s() + timeout_ms / 1000.0;
     while (now_s() < end) {
         err_t err;
-        int r = proto_net_recv(n, NULL, m, 20, &err);
+        int r = net_recv(n, NULL, m, 20, &err);
         if (r == PROTO_EAGAIN)
             continue;
         if (r)
@@ -260,7 +260,7 @@ static void recv_msg(proto_net_t *n, proto_msg_t *m, int timeout_ms)
     fail_msg("no message within %d ms", timeout_ms);
 }
 
-static void expect_type(proto_net_t *n, proto_type_t type, proto_msg_t *m)
+static void expect_type(net_t *n, proto_type_t type, proto_msg_t *m)
 {
     recv_msg(n, m, test_wait_ms());
     if (m->type != type)
@@ -273,10 +273,10 @@ static void expect_type(proto_net_t *n, proto_type_t type, proto_msg_t *m)
 /* One client request and its reply. */
 static void call(fx_t *f, const proto_msg_t *req, proto_msg_t *reply)
 {
-    proto_net_t *c = connect_to(f, f->cep);
+    net_t *c = connect_to(f, f->cep);
     send_msg(c, req);
     recv_msg(c, reply, test_wait_ms());
-    proto_net_destroy(&c);
+    net_destroy(&c);
 }
 
 static proto_bundle_file_t FILES[1];
@@ -333,7 +333,7 @@ static void wait_state(fx_t *f, uint64_t job, proto_job_state_t state)
 /* ---------------------------------------------------------------- a fake worker */
 
 typedef struct fake_worker {
-    proto_net_t *net;
+    net_t *net;
     uint64_t id;
     double last_sent;
     scene_t *scene;
@@ -366,7 +366,7 @@ static void fw_close(fake_worker_t *w)
     for (int i = 0; i < w->nqueue; i++)
         proto_msg_free(&w->queue[i]);
     scene_destroy(&w->scene);
-    proto_net_destroy(&w->net);
+    net_destroy(&w->net);
 }
 
 /* The next non-heartbeat message within timeout_ms, heartbeating meanwhile like a live worker;
@@ -380,7 +380,7 @@ static int fw_recv(fake_worker_t *w, proto_msg_t *m, int timeout_ms)
             fw_send(w, &hb);
         }
         err_t err;
-        int r = proto_net_recv(w->net, NULL, m, 20, &err);
+        int r = net_recv(w->net, NULL, m, 20, &err);
         if (r == PROTO_EAGAIN)
             continue;
         if (r)
@@ -813,8 +813,8 @@ static void test_bad_peers(void **state)
     proto_msg_t r;
     const char *endpoints[2] = {f->wep, f->cep};
     for (int k = 0; k < 2; k++) {
-        proto_net_t *n = connect_to(f, endpoints[k]);
-        void *s = proto_net_socket(n);
+        net_t *n = connect_to(f, endpoints[k]);
+        void *s = net_socket(n);
         assert_int_equal(zmq_send(s, "\x81\xa1v", 3, 0), 3); /* a map cut short */
         expect_type(n, PROTO_REFUSE, &r);
         assert_non_null(strstr(r.refuse.reason, "malformed message"));
@@ -833,16 +833,16 @@ static void test_bad_peers(void **state)
         assert_string_equal(r.refuse.reason,
                             "protocol version 3 not supported by this master (speaks 2)");
         proto_msg_free(&r);
-        proto_net_destroy(&n);
+        net_destroy(&n);
     }
     /* A worker message from a peer that never said HELLO. */
-    proto_net_t *w = connect_to(f, f->wep);
+    net_t *w = connect_to(f, f->wep);
     proto_msg_t hb = {.type = PROTO_HEARTBEAT};
     send_msg(w, &hb);
     expect_type(w, PROTO_REFUSE, &r);
     assert_string_equal(r.refuse.reason, "unknown worker: send HELLO");
     proto_msg_free(&r);
-    proto_net_destroy(&w);
+    net_destroy(&w);
     /* A worker's message on the client endpoint, and questions about jobs that do not exist. */
     proto_msg_t hello = {.type = PROTO_HELLO,
                          .hello = {.name = "lost", .threads = 1, .software = "x"}};
@@ -1058,7 +1058,7 @@ static void test_status_long_poll(void **state)
      * and the reply is late by the merge, the EXR and a message; a master that answered only at
      * the end of the wait would answer 60 s after the question, one that polls rarely would
      * answer late by its period. Half the wait tells the two apart on any machine. */
-    proto_net_t *c = connect_to(f, f->cep);
+    net_t *c = connect_to(f, f->cep);
     req.status.wait_ms = 60000;
     double asked = now_s();
     send_msg(c, &req);
@@ -1070,7 +1070,7 @@ static void test_status_long_poll(void **state)
     assert_int_equal(r.type, PROTO_STATUS_REPLY);
     assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_DONE);
     proto_msg_free(&r);
-    proto_net_destroy(&c);
+    net_destroy(&c);
     print_message("long poll answered %.3f s after the last result\n", late);
     if (waited_all > 30.0)
         fail_msg("the long poll was answered %.3f s after it was asked (%.3f s after the last "

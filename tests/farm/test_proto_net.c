@@ -21,52 +21,52 @@
 
 typedef struct pair {
     void *ctx;
-    proto_net_t *router, *dealer;
+    net_t *router, *dealer;
 } pair_t;
 
-static void open_pair(pair_t *p, const char *endpoint, const proto_net_options_t *router_opt,
+static void open_pair(pair_t *p, const char *endpoint, const net_options_t *router_opt,
                       const char *dealer_id)
 {
     err_t err = {""};
     p->ctx = zmq_ctx_new();
     assert_non_null(p->ctx);
-    p->router = proto_net_new(p->ctx, PROTO_NET_ROUTER, router_opt, &err);
+    p->router = net_new(p->ctx, NET_ROUTER, router_opt, &err);
     if (!p->router)
         fail_msg("%s", err.msg);
-    if (proto_net_bind(p->router, endpoint, &err) != 0)
+    if (net_bind(p->router, endpoint, &err) != 0)
         fail_msg("%s", err.msg);
     char bound[256];
-    assert_int_equal(proto_net_endpoint(p->router, bound, sizeof bound, &err), 0);
-    proto_net_options_t o = proto_net_options_default();
+    assert_int_equal(net_endpoint(p->router, bound, sizeof bound, &err), 0);
+    net_options_t o = net_options_default();
     o.routing_id = dealer_id;
     o.send_timeout_ms = WAIT_MS;
-    p->dealer = proto_net_new(p->ctx, PROTO_NET_DEALER, &o, &err);
+    p->dealer = net_new(p->ctx, NET_DEALER, &o, &err);
     if (!p->dealer)
         fail_msg("%s", err.msg);
-    if (proto_net_connect(p->dealer, bound, &err) != 0)
+    if (net_connect(p->dealer, bound, &err) != 0)
         fail_msg("%s", err.msg);
 }
 
 static void close_pair(pair_t *p)
 {
-    proto_net_destroy(&p->dealer);
-    proto_net_destroy(&p->router);
+    net_destroy(&p->dealer);
+    net_destroy(&p->router);
     assert_null(p->router);
     assert_int_equal(zmq_ctx_term(p->ctx), 0);
 }
 
-static void send_ok(proto_net_t *s, const proto_peer_t *to, const proto_msg_t *m)
+static void send_ok(net_t *s, const proto_peer_t *to, const proto_msg_t *m)
 {
     err_t err = {""};
-    int rc = proto_net_send(s, to, m, &err);
+    int rc = net_send(s, to, m, &err);
     if (rc != 0)
         fail_msg("send %s: %d %s", proto_type_name(m->type), rc, err.msg);
 }
 
-static void recv_ok(proto_net_t *s, proto_peer_t *from, proto_msg_t *m)
+static void recv_ok(net_t *s, proto_peer_t *from, proto_msg_t *m)
 {
     err_t err = {""};
-    int rc = proto_net_recv(s, from, m, WAIT_MS, &err);
+    int rc = net_recv(s, from, m, WAIT_MS, &err);
     if (rc != 0)
         fail_msg("recv: %d %s", rc, err.msg);
 }
@@ -99,22 +99,22 @@ static void test_router_dealer_inproc(void **state)
 
     /* Nothing more is coming: a short wait times out. */
     err_t err = {""};
-    assert_int_equal(proto_net_recv(p.dealer, NULL, &got, 20, &err), PROTO_EAGAIN);
-    assert_int_equal(proto_net_recv(p.dealer, NULL, &got, 0, &err), PROTO_EAGAIN);
+    assert_int_equal(net_recv(p.dealer, NULL, &got, 20, &err), PROTO_EAGAIN);
+    assert_int_equal(net_recv(p.dealer, NULL, &got, 0, &err), PROTO_EAGAIN);
 
     /* ROUTER_MANDATORY: a message to a peer that never connected is an error, not silence. */
     proto_peer_t nobody = {.len = 6};
     memcpy(nobody.id, "nobody", 6);
     proto_msg_t hb = {.type = PROTO_HEARTBEAT};
-    assert_int_equal(proto_net_send(p.router, &nobody, &hb, &err), PROTO_EUNREACHABLE);
+    assert_int_equal(net_send(p.router, &nobody, &hb, &err), PROTO_EUNREACHABLE);
     assert_non_null(strstr(err.msg, "HEARTBEAT to nobody"));
     assert_non_null(strstr(err.msg, zmq_strerror(EHOSTUNREACH)));
     /* Misuse is refused too. */
-    assert_int_equal(proto_net_send(p.router, NULL, &hb, &err), PROTO_ESOCKET);
-    assert_int_equal(proto_net_send(p.dealer, &from, &hb, &err), PROTO_ESOCKET);
+    assert_int_equal(net_send(p.router, NULL, &hb, &err), PROTO_ESOCKET);
+    assert_int_equal(net_send(p.dealer, &from, &hb, &err), PROTO_ESOCKET);
     /* A message that does not encode is not sent. */
     proto_msg_t bad = {.type = PROTO_HELLO, .hello = {.name = "", .threads = 1, .software = "x"}};
-    assert_int_equal(proto_net_send(p.dealer, NULL, &bad, &err), PROTO_EMALFORMED);
+    assert_int_equal(net_send(p.dealer, NULL, &bad, &err), PROTO_EMALFORMED);
     assert_non_null(strstr(err.msg, "HELLO: field 'name' is empty"));
     close_pair(&p);
 }
@@ -133,7 +133,7 @@ static void test_refusal_and_malformed_frames(void **state)
                          .version = 3,
                          .hello = {.name = "future", .threads = 1, .software = "9.0"}};
     send_ok(p.dealer, NULL, &hello);
-    assert_int_equal(proto_net_recv(p.router, &from, &got, WAIT_MS, &err), PROTO_EVERSION);
+    assert_int_equal(net_recv(p.router, &from, &got, WAIT_MS, &err), PROTO_EVERSION);
     char who[PROTO_PEER_STR];
     assert_string_equal(proto_peer_str(&from, who), "w2");
     assert_int_equal(got.version, 3);
@@ -147,14 +147,14 @@ static void test_refusal_and_malformed_frames(void **state)
     proto_msg_free(&got);
 
     /* Garbage bytes: an error naming the sender; the socket stays usable. */
-    void *raw = proto_net_socket(p.dealer);
+    void *raw = net_socket(p.dealer);
     assert_int_equal(zmq_send(raw, "\xdd\x10\x00\x00\x00", 5, 0), 5);
-    assert_int_equal(proto_net_recv(p.router, &from, &got, WAIT_MS, &err), PROTO_EMALFORMED);
+    assert_int_equal(net_recv(p.router, &from, &got, WAIT_MS, &err), PROTO_EMALFORMED);
     assert_non_null(strstr(err.msg, "from w2: malformed msgpack"));
     /* Two frames (a REQ-style delimiter): refused as framing, and both frames consumed. */
     assert_int_equal(zmq_send(raw, "", 0, ZMQ_SNDMORE), 0);
     assert_int_equal(zmq_send(raw, "\x80", 1, 0), 1);
-    assert_int_equal(proto_net_recv(p.router, &from, &got, WAIT_MS, &err), PROTO_EMALFORMED);
+    assert_int_equal(net_recv(p.router, &from, &got, WAIT_MS, &err), PROTO_EMALFORMED);
     assert_non_null(strstr(err.msg, "1 frames after the message"));
     proto_msg_t hb = {.type = PROTO_HEARTBEAT};
     send_ok(p.dealer, NULL, &hb);
@@ -168,14 +168,14 @@ static void test_curve_incomplete(void **state)
 {
     (void)state;
     void *ctx = zmq_ctx_new();
-    proto_net_options_t o = proto_net_options_default();
+    net_options_t o = net_options_default();
     o.curve.server_public = "rq:rM>}U?@Lns47E1%kR.o@n%FcmmsL/@{H8]yf7";
     err_t err = {""};
-    assert_null(proto_net_new(ctx, PROTO_NET_DEALER, &o, &err));
+    assert_null(net_new(ctx, NET_DEALER, &o, &err));
     assert_non_null(strstr(err.msg, "needs the server's public key and its own key pair"));
-    o = proto_net_options_default();
+    o = net_options_default();
     o.sndhwm = -5; /* libzmq refuses it, and the message says which option */
-    assert_null(proto_net_new(ctx, PROTO_NET_ROUTER, &o, &err));
+    assert_null(net_new(ctx, NET_ROUTER, &o, &err));
     assert_non_null(strstr(err.msg, "ZMQ_SNDHWM, -5"));
     assert_int_equal(zmq_ctx_term(ctx), 0);
 }
@@ -194,7 +194,7 @@ static void test_tcp_result_and_maxmsgsize(void **state)
         lum[i] = 0.1 * i;
         lum_sq[i] = 0.01 * i * i;
     }
-    proto_net_options_t ro = proto_net_options_default();
+    net_options_t ro = net_options_default();
     ro.limits.max_message_bytes = 64 * 1024;
     pair_t p;
     open_pair(&p, "tcp://127.0.0.1:*", &ro, "tcp-worker");
@@ -236,7 +236,7 @@ static void test_tcp_result_and_maxmsgsize(void **state)
         if (sent * 100 > WAIT_MS)
             fail_msg("no message from the reconnected dealer within %d ms", WAIT_MS);
         send_ok(p.dealer, NULL, &hb);
-        r = proto_net_recv(p.router, &from, &got, 100, &err);
+        r = net_recv(p.router, &from, &got, 100, &err);
     }
     if (r != 0)
         fail_msg("recv after the oversized frame: %d %s", r, err.msg);

@@ -25,7 +25,7 @@
 
 typedef struct fixture {
     void *ctx;
-    proto_net_t *router;
+    net_t *router;
     pthread_t thread;
     volatile sig_atomic_t stop;
     worker_opts_t opts;
@@ -57,9 +57,9 @@ static int setup_at(void **state, const char *endpoint)
 {
     fixture_t *f = calloc(1, sizeof *f);
     f->ctx = zmq_ctx_new();
-    f->router = proto_net_new(f->ctx, PROTO_NET_ROUTER, NULL, NULL);
-    if (!f->router || proto_net_bind(f->router, endpoint, NULL) ||
-        proto_net_endpoint(f->router, f->endpoint, sizeof f->endpoint, NULL))
+    f->router = net_new(f->ctx, NET_ROUTER, NULL, NULL);
+    if (!f->router || net_bind(f->router, endpoint, NULL) ||
+        net_endpoint(f->router, f->endpoint, sizeof f->endpoint, NULL))
         return -1;
     snprintf(f->cache, sizeof f->cache, "/tmp/prismfarm-test-worker-XXXXXX");
     if (!mkdtemp(f->cache))
@@ -95,7 +95,7 @@ static int teardown(void **state)
     fixture_t *f = *state;
     f->stop = 1;
     pthread_join(f->thread, NULL);
-    proto_net_destroy(&f->router);
+    net_destroy(&f->router);
     zmq_ctx_term(f->ctx);
     char cmd[256];
     snprintf(cmd, sizeof cmd, "rm -rf '%s'", f->cache);
@@ -111,7 +111,7 @@ static void expect(fixture_t *f, proto_type_t type, proto_peer_t *from, proto_ms
 {
     for (double until = now_s() + test_wait_s(); now_s() < until;) {
         err_t err;
-        int r = proto_net_recv(f->router, from, m, 50, &err);
+        int r = net_recv(f->router, from, m, 50, &err);
         if (r == PROTO_EAGAIN)
             continue;
         if (r != 0)
@@ -134,7 +134,7 @@ static proto_bundle_t bundle_of(fixture_t *f, const char *name)
 static void send_to(fixture_t *f, const proto_peer_t *to, const proto_msg_t *m)
 {
     err_t err;
-    if (proto_net_send(f->router, to, m, &err))
+    if (net_send(f->router, to, m, &err))
         fail_msg("send %s: %s", proto_type_name(m->type), err.msg);
 }
 
@@ -228,7 +228,7 @@ static void test_task_round_trip(void **state)
     snprintf(scene.scene.scene, sizeof scene.scene.scene, "%064d", 0);
     err_t serr;
     /* The encoder itself refuses a mismatching SCENE, so this cannot even be sent. */
-    assert_int_not_equal(proto_net_send(f->router, &w, &scene, &serr), 0);
+    assert_int_not_equal(net_send(f->router, &w, &scene, &serr), 0);
 }
 
 /* The worker's HELLO, answered by a WELCOME with heartbeats every heartbeat_ms; *w is it. */
@@ -275,7 +275,7 @@ static void test_waits_for_busy_master_over_tcp(void **state)
         if (now_s() - t0 > test_wait_s())
             fail_msg("%d heartbeats from the worker in %.0f s", heartbeats, test_wait_s());
         err_t err;
-        int r = proto_net_recv(f->router, &w, &m, 50, &err);
+        int r = net_recv(f->router, &w, &m, 50, &err);
         if (r == PROTO_EAGAIN)
             continue;
         if (r != 0)
@@ -287,14 +287,14 @@ static void test_waits_for_busy_master_over_tcp(void **state)
         proto_msg_free(&m);
     }
     /* The master's socket closes; a new one binds the same port. */
-    proto_net_destroy(&f->router);
-    f->router = proto_net_new(f->ctx, PROTO_NET_ROUTER, NULL, NULL);
+    net_destroy(&f->router);
+    f->router = net_new(f->ctx, NET_ROUTER, NULL, NULL);
     assert_non_null(f->router);
     /* libzmq closes the old listener in its I/O thread, a moment after the socket. */
     err_t err;
     int bound = -1;
     for (double until = now_s() + test_wait_s(); bound != 0 && now_s() < until;) {
-        bound = proto_net_bind(f->router, f->endpoint, &err);
+        bound = net_bind(f->router, f->endpoint, &err);
         if (bound != 0)
             nanosleep(&(struct timespec){.tv_nsec = 20000000}, NULL);
     }
