@@ -44,7 +44,8 @@ static int parse_integrator(const char *cmd, const char *flag, const char *val, 
 
 static int parse_dispersion(const char *cmd, const char *flag, const char *val, void *dst)
 {
-    if (strcmp(val, "hero") && strcmp(val, "fanout")) {
+    dispersion_kind_t kind;
+    if (!integrators_dispersion_find(val, &kind)) {
         fprintf(stderr, "prismfarm %s: %s expects hero or fanout, got '%s'\n", cmd, flag, val);
         return -1;
     }

@@ -52,7 +52,7 @@ static json_t *plan_json(const char *path, const scene_t *scene, const plan_t *p
     json_t *cur = json_object();
     json_object_set_new(cur, "integrator", json_string(integrators_kind_name(rs->integrator)));
     json_object_set_new(cur, "dispersion",
-                        json_string(rs->dispersion == DISPERSION_FANOUT ? "fanout" : "hero"));
+                        json_string(integrators_dispersion_name(rs->dispersion)));
     json_object_set_new(cur, "photon", json_boolean(rs->photon.enabled));
     json_object_set_new(cur, "photons",
                         rs->photon.enabled ? json_integer((json_int_t)rs->photon.photons)
@@ -64,7 +64,7 @@ static json_t *plan_json(const char *path, const scene_t *scene, const plan_t *p
     json_t *ch = json_object();
     json_object_set_new(ch, "integrator", json_string(integrators_kind_name(c.integrator)));
     json_object_set_new(ch, "dispersion",
-                        json_string(c.dispersion == DISPERSION_FANOUT ? "fanout" : "hero"));
+                        json_string(integrators_dispersion_name(c.dispersion)));
     json_object_set_new(ch, "photon", json_boolean(c.photon));
     json_object_set_new(ch, "photons",
                         c.photon ? json_integer((json_int_t)c.photons) : json_null());

@@ -125,8 +125,8 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
         jobinfo_t ji = {.scene = scene_path, .spp = rs->spp, .xres = rs->xres, .yres = rs->yres,
                         .seed = rs->seed,
                         .integrator = integrators_used_name(rs->integrator, rs->photon.enabled),
-                        .dispersion = !scene->has_dispersion ? "off"
-                                      : rs->dispersion == DISPERSION_HERO ? "hero" : "fanout",
+                        .dispersion = integrators_dispersion_used(rs->dispersion,
+                                                                  scene->has_dispersion),
                         .samples = st.samples, .nonfinite = st.nonfinite,
                         .photons = pst.emitted, .rays = (int64_t)st.rays, .seconds = secs,
                         .spp_done = last ? last->spp : 0, .stop = res.why,

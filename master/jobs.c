@@ -94,9 +94,7 @@ static void job_take_scene(mjob_t *j, const scene_t *scene)
 {
     const render_settings_t *rs = &scene->settings;
     j->scene.integrator = integrators_used_name(rs->integrator, rs->photon.enabled);
-    j->scene.dispersion = !scene->has_dispersion              ? "off"
-                          : rs->dispersion == DISPERSION_HERO ? "hero"
-                                                              : "fanout";
+    j->scene.dispersion = integrators_dispersion_used(rs->dispersion, scene->has_dispersion);
     j->scene.xres = rs->xres;
     j->scene.yres = rs->yres;
     j->scene.spp = rs->spp;

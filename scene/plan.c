@@ -209,10 +209,6 @@ const char *plan_verdict_name(plan_verdict_t verdict)
     return "?";
 }
 
-static const char *dispersion_name(dispersion_kind_t d)
-{
-    return d == DISPERSION_FANOUT ? "fanout" : "hero";
-}
 
 static void copy_word(char *dst, size_t n, const char *src)
 {
@@ -916,10 +912,11 @@ static int decide_strategy(plan_t *p, const scene_t *s)
     text_t c = {0}, r = {0};
     int n = s->settings.grid.n;
     int asked = p->req.dispersion[0] != 0;
-    dispersion_kind_t d =
-        asked && !strcmp(p->req.dispersion, "fanout") ? DISPERSION_FANOUT : DISPERSION_HERO;
+    dispersion_kind_t d = DISPERSION_HERO;
+    if (asked && !integrators_dispersion_find(p->req.dispersion, &d))
+        d = DISPERSION_HERO; /* the loader refused any other name already */
     p->choice.dispersion = d;
-    text_add(&c, "%s", dispersion_name(d));
+    text_add(&c, "%s", integrators_dispersion_name(d));
     if (asked)
         text_add(&r, "\"%s\" is asked for by the %s. ", p->req.dispersion,
                  p->req.dispersion_overridden ? "command line" : "scene");
@@ -1355,10 +1352,10 @@ static void current_settings(const plan_t *p, char *buf, size_t n)
         snprintf(buf, n, "photon (%s gather, %llu photons), %s",
                  integrators_kind_name(p->current_integrator),
                  (unsigned long long)p->current_photon.photons,
-                 dispersion_name(p->current_dispersion));
+                 integrators_dispersion_name(p->current_dispersion));
     else
         snprintf(buf, n, "%s, %s", integrators_kind_name(p->current_integrator),
-                 dispersion_name(p->current_dispersion));
+                 integrators_dispersion_name(p->current_dispersion));
 }
 
 int plan_write_text(const plan_t *p, FILE *out)

@@ -115,11 +115,6 @@ typedef struct camera {
     double lens_radius, focal_distance;
 } camera_t;
 
-typedef enum dispersion_kind {
-    DISPERSION_HERO,   /* 4 continuous hero wavelengths, secondaries terminated at dispersion */
-    DISPERSION_FANOUT, /* the thesis: monochrome fan-out over the framebuffer buckets */
-} dispersion_kind_t;
-
 /* Integrator "photon" (docs/rendering.md): a photon pass (render/photon.h) fills a caustic
  * store before the camera pass, which then gathers with `integrator` (path or Whitted). */
 typedef enum photon_store_kind {

@@ -608,7 +608,7 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
     int maxdepth;
     const char *disp, *wl;
     if (params_get_int(p, "maxdepth", 5, &maxdepth, err) ||
-        params_get_string(p, "dispersion", "hero", &disp, err) ||
+        params_get_string(p, "dispersion", integrators_dispersion_name(DISPERSION_HERO), &disp, err) ||
         params_get_string(p, "wavelengths", "uniform", &wl, err))
         return -1;
     if (maxdepth < 0 || maxdepth > 10000)
@@ -618,11 +618,7 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
         return -1;
     if (ov && ov->dispersion)
         disp = ov->dispersion;
-    if (!strcmp(disp, "hero"))
-        rs->dispersion = DISPERSION_HERO;
-    else if (!strcmp(disp, "fanout"))
-        rs->dispersion = DISPERSION_FANOUT;
-    else
+    if (!integrators_dispersion_find(disp, &rs->dispersion))
         return pbrt_error(err, in->loc, "\"string dispersion\" must be \"hero\" or \"fanout\", got \"%s\"", disp);
     if (!strcmp(wl, "uniform"))
         rs->visible_sampling = 0;

@@ -55,3 +55,25 @@ void integrators_list(bool overridable_only, char *buf, size_t size)
         k++;
     }
 }
+
+static const char *const DISPERSIONS[] = {[DISPERSION_HERO] = "hero", [DISPERSION_FANOUT] = "fanout"};
+
+const char *integrators_dispersion_name(dispersion_kind_t kind)
+{
+    return kind == DISPERSION_FANOUT ? DISPERSIONS[DISPERSION_FANOUT] : DISPERSIONS[DISPERSION_HERO];
+}
+
+bool integrators_dispersion_find(const char *name, dispersion_kind_t *kind)
+{
+    for (int k = DISPERSION_HERO; name && k <= DISPERSION_FANOUT; k++)
+        if (!strcmp(DISPERSIONS[k], name)) {
+            *kind = (dispersion_kind_t)k;
+            return true;
+        }
+    return false;
+}
+
+const char *integrators_dispersion_used(dispersion_kind_t kind, bool dispersive)
+{
+    return dispersive ? integrators_dispersion_name(kind) : "off";
+}

@@ -1,4 +1,5 @@
-/* integrators: the one table of integrator names prismfarm knows -- what a scene file's
+/* integrators: the one table of integrator names prismfarm knows, and of the dispersion
+ * strategies an integrator's "string dispersion" names -- what a scene file's
  * `Integrator` may say (the parser), what each means (the loader), what `--integrator` accepts
  * (the command line) and how an output names what ran (the master, `render`, `plan`). A name is
  * a camera-pass integrator, optionally after a photon pass. */
@@ -14,6 +15,22 @@ typedef enum integrator_kind {
     INTEGRATOR_PATH,       /* next-event estimation with MIS */
     INTEGRATOR_WHITTED,    /* specular chains, shadow rays at the first diffuse hit */
 } integrator_kind_t;
+
+/* How a path carries wavelengths through a dispersive interface (docs/rendering.md). */
+typedef enum dispersion_kind {
+    DISPERSION_HERO,   /* 4 continuous hero wavelengths, secondaries terminated at dispersion */
+    DISPERSION_FANOUT, /* the thesis: monochrome fan-out over the framebuffer buckets */
+} dispersion_kind_t;
+
+/* "hero" or "fanout". */
+const char *integrators_dispersion_name(dispersion_kind_t kind);
+
+/* The strategy named name into *kind; false if there is none of that name. */
+bool integrators_dispersion_find(const char *name, dispersion_kind_t *kind);
+
+/* What ran, as outputs name it: "off" when the scene has no dispersive material, else the
+ * strategy's name. */
+const char *integrators_dispersion_used(dispersion_kind_t kind, bool dispersive);
 
 typedef struct integrator_name {
     const char *name;
