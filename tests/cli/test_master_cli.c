@@ -10,6 +10,7 @@
 #include <cmocka.h>
 
 #include "cli_run.h"
+#include "clock.h"
 
 #include "net.h"
 
@@ -22,13 +23,6 @@ static void sleep_ms(int ms)
 {
     struct timespec ts = {.tv_sec = ms / 1000, .tv_nsec = (long)(ms % 1000) * 1000000L};
     nanosleep(&ts, NULL);
-}
-
-static double now_s(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
 static void test_command_line(void **state)
@@ -94,7 +88,7 @@ static void test_serves_and_stops(void **state)
     }
     char path[128], line[300], cep[320] = "";
     snprintf(path, sizeof path, "%s/endpoints", spool);
-    for (double until = now_s() + test_wait_s(); !cep[0] && now_s() < until;) {
+    for (double until = clock_now_s() + test_wait_s(); !cep[0] && clock_now_s() < until;) {
         FILE *f = fopen(path, "r");
         if (f) {
             while (fgets(line, sizeof line, f))
@@ -130,7 +124,7 @@ static void test_serves_and_stops(void **state)
     assert_int_equal(kill(pid, SIGTERM), 0);
     int status = 0;
     pid_t got = 0;
-    for (double until = now_s() + test_wait_s(); got == 0 && now_s() < until;) {
+    for (double until = clock_now_s() + test_wait_s(); got == 0 && clock_now_s() < until;) {
         got = waitpid(pid, &status, WNOHANG);
         if (got == 0)
             sleep_ms(10);

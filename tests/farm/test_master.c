@@ -24,6 +24,7 @@
 #include <zmq.h>
 
 #include "bundle.h"
+#include "clock.h"
 #include "image_exr.h"
 #include "local_render.h"
 #include "master.h"
@@ -60,13 +61,6 @@ typedef struct fx {
     uint8_t *scene_bytes;
     size_t scene_size;
 } fx_t;
-
-static double now_s(void)
-{
-    struct timespec ts;
-    clock_gettime(CLOCK_MONOTONIC, &ts);
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
 
 static void sleep_ms(int ms)
 {
@@ -245,8 +239,8 @@ static void send_msg(net_t *n, const proto_msg_t *m)
 /* The next message other than HEARTBEAT within timeout_ms; fails the test otherwise. */
 static void recv_msg(net_t *n, proto_msg_t *m, int timeout_ms)
 {
-    double end = now_s() + timeout_ms / 1000.0;
-    while (now_s() < end) {
+    double end = clock_now_s() + timeout_ms / 1000.0;
+    while (clock_now_s() < end) {
         err_t err;
         int r = net_recv(n, NULL, m, 20, &err);
         if (r == PROTO_EAGAIN)
@@ -321,8 +315,8 @@ static proto_job_info_t status_of(fx_t *f, uint64_t job, char *error, size_t siz
 
 static void wait_state(fx_t *f, uint64_t job, proto_job_state_t state)
 {
-    double end = now_s() + test_wait_s();
-    while (now_s() < end) {
+    double end = clock_now_s() + test_wait_s();
+    while (clock_now_s() < end) {
         if (status_of(f, job, NULL, 0).state == state)
             return;
         sleep_ms(10);
@@ -344,7 +338,7 @@ typedef struct fake_worker {
 static void fw_send(fake_worker_t *w, const proto_msg_t *m)
 {
     send_msg(w->net, m);
-    w->last_sent = now_s();
+    w->last_sent = clock_now_s();
 }
 
 static void fw_hello(fx_t *f, fake_worker_t *w, const char *name, int threads)
@@ -373,9 +367,9 @@ static void fw_close(fake_worker_t *w)
  * returns 0, or -1 on timeout. */
 static int fw_recv(fake_worker_t *w, proto_msg_t *m, int timeout_ms)
 {
-    double end = now_s() + timeout_ms / 1000.0;
-    while (now_s() < end) {
-        if (now_s() - w->last_sent > HEARTBEAT_MS / 1000.0) {
+    double end = clock_now_s() + timeout_ms / 1000.0;
+    while (clock_now_s() < end) {
+        if (clock_now_s() - w->last_sent > HEARTBEAT_MS / 1000.0) {
             proto_msg_t hb = {.type = PROTO_HEARTBEAT};
             fw_send(w, &hb);
         }
@@ -598,7 +592,7 @@ static void test_job_life(void **state)
         if (done == NTILES) {
             /* Pass 0 is whole: a preview PNG can be fetched while the job runs. */
             proto_msg_t fr = {.type = PROTO_FETCH, .fetch = {.job = job, .what = PROTO_FETCH_PNG}};
-            for (double until = now_s() + test_wait_s(); !previewed && now_s() < until;) {
+            for (double until = clock_now_s() + test_wait_s(); !previewed && clock_now_s() < until;) {
                 call(f, &fr, &r);
                 if (r.type == PROTO_FILE) {
                     assert_string_equal(r.file.name, "tiny-preview.png");
@@ -736,18 +730,18 @@ static void test_silent_worker(void **state)
     fx_t *f = *state;
     uint64_t job = submit_tiny(f);
     fake_worker_t a, b;
-    double t0 = now_s(); /* before a's last message: its HELLO */
+    double t0 = clock_now_s(); /* before a's last message: its HELLO */
     fw_hello(f, &a, "silent", 2);
     proto_msg_t held[2];
     for (int i = 0; i < 2; i++) {
         expect_type(a.net, PROTO_TASK, &held[i]);
         assert_true(held[i].task.attempt == 1);
     }
-    for (double until = now_s() + test_wait_s(); worker_state_of(f, a.id) != PROTO_WORKER_LOST;
+    for (double until = clock_now_s() + test_wait_s(); worker_state_of(f, a.id) != PROTO_WORKER_LOST;
          sleep_ms(20))
-        if (now_s() > until)
+        if (clock_now_s() > until)
             fail_msg("the silent worker is not lost after %.0f s", test_wait_s());
-    assert_true(now_s() - t0 >= f->opts.sched.worker_timeout_s);
+    assert_true(clock_now_s() - t0 >= f->opts.sched.worker_timeout_s);
     fw_hello(f, &b, "steady", 2);
     int results[NTASKS] = {0};
     uint32_t reissued = 0;
@@ -761,7 +755,7 @@ static void test_silent_worker(void **state)
             assert_true(m.task.attempt == 2);
             reissued++;
             /* Not before the worker timeout has passed since a's HELLO. */
-            assert_true(now_s() - t0 >= f->opts.sched.worker_timeout_s);
+            assert_true(clock_now_s() - t0 >= f->opts.sched.worker_timeout_s);
         }
         tilebuf_t *tb = render_task(&b, &m);
         fw_result(&b, &m, tb);
@@ -1023,7 +1017,7 @@ static double fw_serve(fake_worker_t *w, int total)
         if (m.type == PROTO_TASK) {
             tilebuf_t *tb = render_task(w, &m);
             fw_result(w, &m, tb);
-            last = now_s();
+            last = clock_now_s();
             tilebuf_destroy(&tb);
             done++;
         }
@@ -1044,9 +1038,9 @@ static void test_status_long_poll(void **state)
      * not before -- and then, not at the end of some longer wait: well before the 60 s the
      * next step waits (however loaded the machine, a held reply is due at 300 ms). */
     proto_msg_t req = {.type = PROTO_STATUS, .status = {.job = job, .wait_ms = 300}}, r;
-    double t0 = now_s();
+    double t0 = clock_now_s();
     call(f, &req, &r);
-    double waited = now_s() - t0;
+    double waited = clock_now_s() - t0;
     assert_int_equal(r.type, PROTO_STATUS_REPLY);
     assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_QUEUED);
     proto_msg_free(&r);
@@ -1060,13 +1054,13 @@ static void test_status_long_poll(void **state)
      * answer late by its period. Half the wait tells the two apart on any machine. */
     net_t *c = connect_to(f, f->cep);
     req.status.wait_ms = 60000;
-    double asked = now_s();
+    double asked = clock_now_s();
     send_msg(c, &req);
     fake_worker_t w;
     fw_hello(f, &w, "fast", 2);
     double last = fw_serve(&w, NTASKS);
     recv_msg(c, &r, 2 * 60000);
-    double late = now_s() - last, waited_all = now_s() - asked;
+    double late = clock_now_s() - last, waited_all = clock_now_s() - asked;
     assert_int_equal(r.type, PROTO_STATUS_REPLY);
     assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_DONE);
     proto_msg_free(&r);
@@ -1077,13 +1071,13 @@ static void test_status_long_poll(void **state)
                  "result), not when the job was done", waited_all, late);
 
     /* The job is over: a long poll on it is answered at once, not after its 60 s. */
-    t0 = now_s();
+    t0 = clock_now_s();
     call(f, &req, &r);
     assert_int_equal(r.type, PROTO_STATUS_REPLY);
     assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_DONE);
     proto_msg_free(&r);
-    if (now_s() - t0 > 30.0)
-        fail_msg("a long poll on a finished job was answered after %.3f s", now_s() - t0);
+    if (clock_now_s() - t0 > 30.0)
+        fail_msg("a long poll on a finished job was answered after %.3f s", clock_now_s() - t0);
 
     /* The field on the wire: in range round-trips, out of range is refused by the encoder. */
     proto_limits_t lim = proto_limits_default();

@@ -17,10 +17,11 @@
 #include <zmq.h>
 
 #include "bundle.h"
+#include "clock.h"
 #include "net.h"
-#include "test_wait.h"
 #include "render.h"
 #include "scene_load.h"
+#include "test_wait.h"
 #include "worker_daemon.h"
 
 typedef struct fixture {
@@ -44,13 +45,6 @@ static void *run_worker(void *arg)
     if (f->rc)
         fprintf(stderr, "worker_run: %s\n", err.msg);
     return NULL;
-}
-
-static double now_s(void)
-{
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
 static int setup_at(void **state, const char *endpoint)
@@ -109,7 +103,7 @@ static int teardown(void **state)
  * deadline of a wait (test_wait.h). */
 static void expect(fixture_t *f, proto_type_t type, proto_peer_t *from, proto_msg_t *m)
 {
-    for (double until = now_s() + test_wait_s(); now_s() < until;) {
+    for (double until = clock_now_s() + test_wait_s(); clock_now_s() < until;) {
         err_t err;
         int r = net_recv(f->router, from, m, 50, &err);
         if (r == PROTO_EAGAIN)
@@ -270,9 +264,9 @@ static void test_waits_for_busy_master_over_tcp(void **state)
      * then seen 1.5 s of silence, five times the 3 heartbeats after which a dead master is given
      * up, however slowly this machine runs it -- and has gone on heartbeating, not said HELLO. */
     int heartbeats = 0;
-    double t0 = now_s();
+    double t0 = clock_now_s();
     while (heartbeats < 15) {
-        if (now_s() - t0 > test_wait_s())
+        if (clock_now_s() - t0 > test_wait_s())
             fail_msg("%d heartbeats from the worker in %.0f s", heartbeats, test_wait_s());
         err_t err;
         int r = net_recv(f->router, &w, &m, 50, &err);
@@ -282,7 +276,7 @@ static void test_waits_for_busy_master_over_tcp(void **state)
             fail_msg("recv: %s", err.msg);
         if (m.type == PROTO_HELLO)
             fail_msg("the worker reconnected to a busy master after %d heartbeats (%.2f s)",
-                     heartbeats, now_s() - t0);
+                     heartbeats, clock_now_s() - t0);
         heartbeats += m.type == PROTO_HEARTBEAT;
         proto_msg_free(&m);
     }
@@ -293,7 +287,7 @@ static void test_waits_for_busy_master_over_tcp(void **state)
     /* libzmq closes the old listener in its I/O thread, a moment after the socket. */
     err_t err;
     int bound = -1;
-    for (double until = now_s() + test_wait_s(); bound != 0 && now_s() < until;) {
+    for (double until = clock_now_s() + test_wait_s(); bound != 0 && clock_now_s() < until;) {
         bound = net_bind(f->router, f->endpoint, &err);
         if (bound != 0)
             nanosleep(&(struct timespec){.tv_nsec = 20000000}, NULL);

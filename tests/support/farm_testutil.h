@@ -5,6 +5,7 @@
 #ifndef PRISMFARM_FARM_TESTUTIL_H
 #define PRISMFARM_FARM_TESTUTIL_H
 
+#include "clock.h"
 #include "image_exr.h"
 #include "test_wait.h"
 
@@ -73,18 +74,15 @@ static inline int testutil_farm_keys(const char *dir, char *master_key, char *au
                : -1;
 }
 
+/* The clock and sleep of base/clock.h, under the names the farm tests use. */
 static inline void testutil_sleep_ms(int ms)
 {
-    struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
-    while (nanosleep(&ts, &ts) != 0 && errno == EINTR) {
-    }
+    clock_sleep_s(ms / 1000.0);
 }
 
 static inline double testutil_now_s(void)
 {
-    struct timespec t;
-    clock_gettime(CLOCK_MONOTONIC, &t);
-    return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+    return clock_now_s();
 }
 
 /* Whether the file at path (a log) holds needle; a file not there yet holds nothing. */
