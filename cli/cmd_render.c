@@ -181,9 +181,9 @@ int cmd_render(int argc, char **argv)
         {.name = "tile", .kind = CLI_LLONG, .dst = &tile, .lo = 1, .hi = 4096, .arg = "N",
          .help = "tile size in pixels (default 32)"},
         {.name = "direct", .kind = CLI_FLAG, .dst = &direct,
-         .help = "render with plain threads, without the farm's master and workers (same pixels "
-                 "up to rounding; for comparisons; with a stopping rule, in the farm's passes: "
-                 "the same pixels)"},
+         .help = "render on this process's threads, without the farm's master and workers: the "
+                 "same passes, rounding and merge order, so the same pixels (docs/farm.md, "
+                 "\"Same pixels\")"},
         {.name = "exposure", .kind = CLI_DOUBLE, .dst = &exposure, .lo = -30, .hi = 30,
          .unit = "stops", .arg = "STOPS", .help = "preview exposure (default 0)"},
         CLI_OPT_QUIET(.dst = &quiet, .help = "no progress output"),
