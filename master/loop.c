@@ -145,7 +145,7 @@ static int check_opts(const master_opts_t *o, err_t *err)
     if (!o->key_file != !o->authorized_dir)
         return err_set(err, "master: %s",
                        o->key_file ? "--key needs --authorized DIR, the public keys let in: "
-                                     "without it any peer that knows our public key would be"
+                                     "without it any peer that knows our public key would be let in"
                                    : "--authorized needs --key FILE, the master's own key pair");
     const char *how = "the master --key FILE and --authorized DIR";
     if (curve_require(o->worker_endpoint, o->key_file, o->insecure, how, err) < 0 ||

@@ -160,8 +160,10 @@ void on_worker_message(master_t *m, const proto_peer_t *from, const proto_msg_t 
          * still good, but its slots were handed out again, so it must start afresh. */
         if (w && msg->type == PROTO_RESULT)
             on_result(m, w, msg, now);
-        master_log(m, "%s from %s, which has not said HELLO: refused", proto_type_name(msg->type),
-                   proto_peer_str(from, who));
+        master_log(m, "%s from %s, %s: refused", proto_type_name(msg->type),
+                   proto_peer_str(from, who),
+                   w ? "a worker given up as lost, which must say HELLO again"
+                     : "which has not said HELLO");
         master_refuse(m, m->wnet, from, "unknown worker: send HELLO");
         return;
     }

@@ -47,6 +47,24 @@ static int replay_result(void *user, uint32_t task, int kind, const void *data, 
     return 0;
 }
 
+/* The job's pass records of its current round, from the journal. */
+static int load_passes(master_t *m, mjob_t *j, err_t *err)
+{
+    journal_pass_t passes[STOPPING_MAX_RECORDS];
+    int n = journal_passes(m->journal, j->id, j->sched.round, passes, STOPPING_MAX_RECORDS, err);
+    if (n < 0)
+        return -1;
+    j->accuracy.nhistory = 0;
+    for (int i = 0; i < n; i++)
+        j->accuracy.history[j->accuracy.nhistory++] =
+            (pass_record_t){.pass = passes[i].pass,
+                            .spp = passes[i].spp,
+                            .elapsed = passes[i].elapsed,
+                            .valid = passes[i].valid,
+                            .rel_error = passes[i].rel_error};
+    return 0;
+}
+
 /* An unfinished job of the journal back in the scheduler where the journal leaves it: its
  * photon store from disk (or a fresh phase), its last checkpoint, its pass records, then every
  * result journaled since, merged again in the scheduler's order. */
@@ -106,19 +124,8 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
     tilebuf_destroy(&image);
     if (rc >= 0 && photons_done > 0)
         merge_photon_phase_done(m, j);
-    if (rc >= 0) {
-        journal_pass_t passes[STOPPING_MAX_RECORDS];
-        int n =
-            journal_passes(m->journal, j->id, j->sched.round, passes, STOPPING_MAX_RECORDS, err);
-        rc = n < 0 ? -1 : 0;
-        for (int i = 0; i < n; i++)
-            j->accuracy.history[j->accuracy.nhistory++] =
-                (pass_record_t){.pass = passes[i].pass,
-                                .spp = passes[i].spp,
-                                .elapsed = passes[i].elapsed,
-                                .valid = passes[i].valid,
-                                .rel_error = passes[i].rel_error};
-    }
+    if (rc >= 0)
+        rc = load_passes(m, j, err);
     sched_job_info_t info;
     if (rc >= 0 && sched_job_info(m->sched, j->id, &info) == 0) {
         j->journal.checkpoint_samples = info.samples_done;
@@ -192,6 +199,16 @@ int resume_jobs(master_t *m, err_t *err)
                          (unsigned long long)r->id);
             break;
         }
+        /* A job that ended before the restart shows what it showed then: the time it ran and
+         * its last error estimate. */
+        if (r->elapsed > 0) {
+            j->started = now - r->elapsed;
+            j->finished = now;
+        }
+        err_t perr;
+        if (load_passes(m, j, &perr) < 0)
+            master_log(m, "job %llu: its pass records cannot be read: %s",
+                       (unsigned long long)j->id, perr.msg);
         persist_remove_stale_checkpoints(m, j->id, 0);
         journal_prune(m->journal, j->id);
         if (r->state == JOB_FAILED && r->error && strstr(r->error, "after the master restarted"))

@@ -19,6 +19,7 @@
 #include "rng.h"
 
 #include <dirent.h>
+#include <math.h>
 #include <sqlite3.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -488,6 +489,15 @@ static void finish_and_compare(const char *cep, const char *ref, const char *out
     testutil_assert_same_pixels(out, ref);
 }
 
+/* The number after "key": in a command's --json text; false if the key is absent or null. */
+static bool json_number(const char *json, const char *key, double *v)
+{
+    char k[64];
+    snprintf(k, sizeof k, "\"%s\":", key);
+    const char *p = strstr(json, k);
+    return p && sscanf(p + strlen(k), " %lf", v) == 1;
+}
+
 /* A camera job whose master dies after a checkpoint, with results journaled after it: the
  * restarted master restores the checkpoint, merges those results again and finishes with the
  * pixels of an uninterrupted render. */
@@ -536,6 +546,23 @@ static void test_master_killed_camera_job(void **state)
     snprintf(ck, sizeof ck, "%s/jobs/1/checkpoint-%lld.bin", spool, ckpt);
     struct stat st;
     assert_int_equal(stat(ck, &st), -1);
+    /* A master started once more lists the finished job as it was: the time it ran and its
+     * last error estimate come from the journal. */
+    const run_t *before = run("status", "1", "--json", "--master", cep, "--insecure", NULL);
+    assert_int_equal(before->status, 0);
+    double el0 = 0, re0 = 0, el1 = 0, re1 = 0;
+    assert_true(json_number(before->out, "elapsed_s", &el0));
+    assert_true(json_number(before->out, "rel_error", &re0));
+    stop_kid(master, SIGTERM);
+    master = start_master(path_in("cam-master3.log"), spool, wep, cep);
+    const run_t *after = run("status", "1", "--json", "--master", cep, "--insecure", NULL);
+    if (after->status != 0)
+        fail_msg("status 1 after the restart: exit %d: %s", after->status, after->err);
+    if (!json_number(after->out, "elapsed_s", &el1) || !json_number(after->out, "rel_error", &re1))
+        fail_msg("the restarted master lost the finished job's figures:\n%s", after->out);
+    assert_true(el0 > 0 && el1 > 0);
+    assert_true(fabs(el1 - el0) <= 0.01 * el0 + 1e-3);
+    assert_true(re1 == re0);
     stop_kid(w, SIGTERM);
     stop_kid(master, SIGTERM);
 }
