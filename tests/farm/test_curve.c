@@ -32,25 +32,15 @@ static const char RFC32_Z85[] =
 #define DOC_SERVER_SECRET "JTKVSB%%)wK0E.X)V>+}o?pNmC{O&4W4b!Ni{Lh6"
 #define DOC_CLIENT_PUBLIC "Yne@$w-vo<fVvi]a<NY6T1ed:M$fCG*[IaLV{hID"
 
-static char DIR_[256];
-static char MASTER_KEY[600], AUTHORIZED[600];
 static char FARM_KEY[600], MASTER_PUB[600]; /* what PRISMFARM_KEY, _MASTER_KEY hold */
 
 static int group_setup(void **state)
 {
-    (void)state;
-    if (testutil_mkdtemp(DIR_, sizeof DIR_, "curve") < 0 ||
-        testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0)
+    if (testutil_scratch_keys_setup(state) < 0)
         return -1;
     snprintf(FARM_KEY, sizeof FARM_KEY, "%s", getenv("PRISMFARM_KEY"));
     snprintf(MASTER_PUB, sizeof MASTER_PUB, "%s", getenv("PRISMFARM_MASTER_KEY"));
     return 0;
-}
-
-static int group_teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
 }
 
 /* The keys in the environment on (the farm's) or off (none), for the children started next. */
@@ -63,15 +53,6 @@ static void env_keys(int on)
         assert_int_equal(unsetenv("PRISMFARM_KEY"), 0);
         assert_int_equal(unsetenv("PRISMFARM_MASTER_KEY"), 0);
     }
-}
-
-static const char *path_in(const char *name)
-{
-    static char buf[16][600];
-    static int k;
-    k = (k + 1) % 16;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
-    return buf[k];
 }
 
 /* The whole file (at most 64 KiB) in a static buffer; "" when it cannot be read. */
@@ -182,7 +163,7 @@ static int mode_of(const char *path)
 static void test_keygen_files(void **state)
 {
     (void)state;
-    const char *dir = path_in("kg");
+    const char *dir = testutil_scratch("kg");
     const run_t *r = run("keygen", "alice", "--dir", dir, NULL);
     if (r->status != 0)
         fail_msg("keygen: exit %d: %s", r->status, r->err);
@@ -238,7 +219,7 @@ static void test_keygen_files(void **state)
             fail_msg("keygen '%s': exit %d, expected 2: %s", bad[i], r->status, r->err);
     }
     struct stat st;
-    assert_int_not_equal(stat(path_in("evil.key"), &st), 0);
+    assert_int_not_equal(stat(testutil_scratch("evil.key"), &st), 0);
 }
 
 /* Key files read by hand-written examples: the zmq_curve(7) pair loads (with comments, blank
@@ -250,7 +231,7 @@ static void test_key_file_errors(void **state)
     err_t err;
     curve_pair_t pair;
     char pub[41];
-    const char *p = path_in("doc.key");
+    const char *p = testutil_scratch("doc.key");
     write_text(p,
                "# the example of zmq_curve(7)\r\n\r\n  public-key=" DOC_SERVER_PUBLIC
                "\r\nsecret-key =   " DOC_SERVER_SECRET "  \r\n",
@@ -294,16 +275,16 @@ static void test_key_file_errors(void **state)
     write_text(p, "public-key = " DOC_SERVER_PUBLIC "\nsecret-key = " DOC_SERVER_SECRET "\n", 0600);
     assert_int_equal(curve_load_public(p, pub, &err), -1);
     expect_in(err.msg, ":2: a secret key");
-    assert_int_equal(curve_load_public(path_in("none.pub"), pub, &err), -1);
+    assert_int_equal(curve_load_public(testutil_scratch("none.pub"), pub, &err), -1);
     expect_in(err.msg, "none.pub: cannot open");
     /* A .pub that is fine, and an authorised folder that holds a bad one. */
-    write_text(path_in("doc.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n", 0644);
-    assert_int_equal(curve_load_public(path_in("doc.pub"), pub, &err), 0);
+    write_text(testutil_scratch("doc.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n", 0644);
+    assert_int_equal(curve_load_public(testutil_scratch("doc.pub"), pub, &err), 0);
     assert_string_equal(pub, DOC_CLIENT_PUBLIC);
-    const char *ring = path_in("ring");
+    const char *ring = testutil_scratch("ring");
     assert_int_equal(mkdir(ring, 0700), 0);
-    write_text(path_in("ring/ok.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n", 0644);
-    write_text(path_in("ring/README"), "not a key, not a .pub: ignored\n", 0644);
+    write_text(testutil_scratch("ring/ok.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n", 0644);
+    write_text(testutil_scratch("ring/README"), "not a key, not a .pub: ignored\n", 0644);
     curve_ring_t *keys = curve_ring_new(ring, &err);
     assert_non_null(keys);
     assert_int_equal(curve_ring_size(keys), 1);
@@ -313,7 +294,7 @@ static void test_key_file_errors(void **state)
     assert_non_null(zmq_z85_decode(bin, DOC_SERVER_PUBLIC));
     assert_null(curve_ring_find(keys, bin));
     curve_ring_destroy(&keys);
-    write_text(path_in("ring/bad.pub"), "public-key = short\n", 0644);
+    write_text(testutil_scratch("ring/bad.pub"), "public-key = short\n", 0644);
     assert_null(curve_ring_new(ring, &err));
     expect_in(err.msg, "ring/bad.pub:1: public-key has 5 characters");
 }
@@ -325,33 +306,34 @@ static void test_farm_with_keys(void **state)
 {
     (void)state;
     env_keys(1);
-    const char *spool = path_in("spool"), *mlog = path_in("master.log");
-    pid_t master = spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
-                         "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "8",
-                         "--key", MASTER_KEY, "--authorized", AUTHORIZED, NULL);
+    const char *spool = testutil_scratch("spool"), *mlog = testutil_scratch("master.log");
+    pid_t master =
+        spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients", "tcp://127.0.0.1:*",
+              "--spool", spool, "--heartbeat", "200", "--tile", "8", "--key", testutil_master_key(),
+              "--authorized", testutil_authorized(), NULL);
     char wep[256], cep[256];
     read_endpoints(spool, wep, cep, mlog);
-    pid_t worker = spawn(path_in("w1.log"), "worker", "--connect", wep, "--threads", "1", "--name",
-                         "w1", "--cache", path_in("c1"), NULL);
+    pid_t worker = spawn(testutil_scratch("w1.log"), "worker", "--connect", wep, "--threads", "1",
+                         "--name", "w1", "--cache", testutil_scratch("c1"), NULL);
     const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "4", "--wait",
-                         "-o", path_in("farm.exr"), "--quiet", NULL);
+                         "-o", testutil_scratch("farm.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("submit --wait: exit %d: %s\nmaster log:\n%s", r->status, r->err, slurp(mlog));
-    r = run("render", "data/render/tiny.pbrt", "--spp", "4", "-o", path_in("render.exr"), "--quiet",
-            NULL);
+    r = run("render", "data/render/tiny.pbrt", "--spp", "4", "-o", testutil_scratch("render.exr"),
+            "--quiet", NULL);
     assert_int_equal(r->status, 0);
-    testutil_assert_same_pixels(path_in("farm.exr"), path_in("render.exr"));
+    testutil_assert_same_pixels(testutil_scratch("farm.exr"), testutil_scratch("render.exr"));
     expect_in(slurp(mlog), "accepted key 'farm' on the workers endpoint from 127.0.0.1");
     expect_in(slurp(mlog), "accepted key 'farm' on the clients endpoint from 127.0.0.1");
 
     /* A stranger's key: refused by the handshake, reported at once -- well before the 60 s
      * answer timeout the client is given, which it would otherwise wait out -- and logged by
      * the master with its address and key. */
-    r = run("keygen", "intruder", "--dir", path_in("keys"), NULL);
+    r = run("keygen", "intruder", "--dir", testutil_scratch("keys"), NULL);
     assert_int_equal(r->status, 0);
     char intruder_key[700], intruder_pub[700], intruder[41];
-    snprintf(intruder_key, sizeof intruder_key, "%s", path_in("keys/intruder.key"));
-    snprintf(intruder_pub, sizeof intruder_pub, "%s", path_in("keys/intruder.pub"));
+    snprintf(intruder_key, sizeof intruder_key, "%s", testutil_scratch("keys/intruder.key"));
+    snprintf(intruder_pub, sizeof intruder_pub, "%s", testutil_scratch("keys/intruder.pub"));
     key_line(slurp(intruder_pub), "public-key", intruder);
     double t0 = testutil_now_s();
     r = run("jobs", "--master", cep, "--key", intruder_key, "--timeout", "60", NULL);
@@ -367,8 +349,8 @@ static void test_farm_with_keys(void **state)
 
     /* A worker with that key never joins; the refusal is logged for the workers endpoint. */
     pid_t stranger =
-        spawn(path_in("w2.log"), "worker", "--connect", wep, "--threads", "1", "--name", "stranger",
-              "--key", intruder_key, "--cache", path_in("c2"), NULL);
+        spawn(testutil_scratch("w2.log"), "worker", "--connect", wep, "--threads", "1", "--name",
+              "stranger", "--key", intruder_key, "--cache", testutil_scratch("c2"), NULL);
     snprintf(line, sizeof line,
              "refused a connection to the workers endpoint from 127.0.0.1: key %s", intruder);
     wait_log(mlog, line);
@@ -400,7 +382,7 @@ static void test_farm_with_keys(void **state)
 
     /* Authorised while the master runs: its folder is read again. */
     char cmd[1600];
-    snprintf(cmd, sizeof cmd, "cp '%s' '%s/'", intruder_pub, AUTHORIZED);
+    snprintf(cmd, sizeof cmd, "cp '%s' '%s/'", intruder_pub, testutil_authorized());
     assert_int_equal(system(cmd), 0);
     r = run("jobs", "--master", cep, "--key", intruder_key, "--master-key", MASTER_PUB, NULL);
     if (r->status != 0)
@@ -408,7 +390,7 @@ static void test_farm_with_keys(void **state)
                  slurp(mlog));
     expect_in(r->out, "tiny");
     char added[700];
-    snprintf(added, sizeof added, "%s/intruder.pub", AUTHORIZED);
+    snprintf(added, sizeof added, "%s/intruder.pub", testutil_authorized());
     assert_int_equal(unlink(added), 0);
     r = run("jobs", "--master", cep, "--key", intruder_key, "--master-key", MASTER_PUB, NULL);
     assert_int_equal(r->status, 1);
@@ -422,7 +404,7 @@ static void test_farm_with_keys(void **state)
 static void test_master_refuses_plain_tcp(void **state)
 {
     (void)state;
-    const char *spool = path_in("nokeys-spool");
+    const char *spool = testutil_scratch("nokeys-spool");
     const run_t *r = run("master", "--workers", "tcp://127.0.0.1:*", "--clients",
                          "tcp://127.0.0.1:*", "--spool", spool, NULL);
     assert_int_equal(r->status, 2);
@@ -433,18 +415,19 @@ static void test_master_refuses_plain_tcp(void **state)
     struct stat st;
     assert_int_not_equal(stat(spool, &st), 0); /* it started nothing */
 
-    r = run("master", "--spool", spool, "--key", MASTER_KEY, NULL);
+    r = run("master", "--spool", spool, "--key", testutil_master_key(), NULL);
     assert_int_equal(r->status, 2);
     expect_in(r->err, "--key needs --authorized DIR");
-    r = run("master", "--spool", spool, "--key", MASTER_KEY, "--authorized", AUTHORIZED,
-            "--insecure", NULL);
+    r = run("master", "--spool", spool, "--key", testutil_master_key(), "--authorized",
+            testutil_authorized(), "--insecure", NULL);
     assert_int_equal(r->status, 2);
     expect_in(r->err, "exclude each other");
-    r = run("master", "--spool", spool, "--key", MASTER_PUB, "--authorized", AUTHORIZED, NULL);
+    r = run("master", "--spool", spool, "--key", MASTER_PUB, "--authorized", testutil_authorized(),
+            NULL);
     assert_int_equal(r->status, 2);
     expect_in(r->err, "no 'secret-key = ...' line");
-    r = run("master", "--spool", spool, "--key", MASTER_KEY, "--authorized", path_in("nowhere"),
-            NULL);
+    r = run("master", "--spool", spool, "--key", testutil_master_key(), "--authorized",
+            testutil_scratch("nowhere"), NULL);
     assert_int_equal(r->status, 2);
     expect_in(r->err, "cannot open the folder");
 }
@@ -455,17 +438,19 @@ static void test_insecure_and_local(void **state)
 {
     (void)state;
     env_keys(0);
-    const char *spool = path_in("plain-spool"), *mlog = path_in("plain-master.log");
+    const char *spool = testutil_scratch("plain-spool"),
+               *mlog = testutil_scratch("plain-master.log");
     pid_t master =
         spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients", "tcp://127.0.0.1:*",
               "--spool", spool, "--heartbeat", "200", "--tile", "8", "--insecure", NULL);
     char wep[256], cep[256];
     read_endpoints(spool, wep, cep, mlog);
     expect_in(slurp(mlog), "plain text (--insecure)");
-    pid_t worker = spawn(path_in("plain-w.log"), "worker", "--connect", wep, "--threads", "1",
-                         "--name", "pw", "--cache", path_in("pc"), "--insecure", NULL);
+    pid_t worker =
+        spawn(testutil_scratch("plain-w.log"), "worker", "--connect", wep, "--threads", "1",
+              "--name", "pw", "--cache", testutil_scratch("pc"), "--insecure", NULL);
     const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "2", "--wait",
-                         "-o", path_in("plain.exr"), "--quiet", "--insecure", NULL);
+                         "-o", testutil_scratch("plain.exr"), "--quiet", "--insecure", NULL);
     if (r->status != 0)
         fail_msg("submit --wait --insecure: exit %d: %s", r->status, r->err);
     r = run("jobs", "--master", cep, "--key", FARM_KEY, "--master-key", MASTER_PUB, NULL);
@@ -477,10 +462,10 @@ static void test_insecure_and_local(void **state)
 
     /* ipc:// stays on this host: no keys, no flag. */
     char wipc[700], cipc[700];
-    snprintf(wipc, sizeof wipc, "ipc://%s", path_in("w.ipc"));
-    snprintf(cipc, sizeof cipc, "ipc://%s", path_in("c.ipc"));
-    spool = path_in("ipc-spool");
-    mlog = path_in("ipc-master.log");
+    snprintf(wipc, sizeof wipc, "ipc://%s", testutil_scratch("w.ipc"));
+    snprintf(cipc, sizeof cipc, "ipc://%s", testutil_scratch("c.ipc"));
+    spool = testutil_scratch("ipc-spool");
+    mlog = testutil_scratch("ipc-master.log");
     master = spawn(mlog, "master", "--workers", wipc, "--clients", cipc, "--spool", spool, NULL);
     read_endpoints(spool, wep, cep, mlog);
     r = run("jobs", "--master", cipc, NULL);
@@ -497,5 +482,5 @@ int main(void)
         cmocka_unit_test(test_farm_with_keys),     cmocka_unit_test(test_master_refuses_plain_tcp),
         cmocka_unit_test(test_insecure_and_local),
     };
-    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+    return cmocka_run_group_tests(tests, group_setup, testutil_scratch_teardown);
 }

@@ -39,30 +39,8 @@
 #define TILE "8"
 #define MAX_CHILDREN 8
 
-static char DIR_[256];
-static char MASTER_KEY[600], AUTHORIZED[600]; /* the master's --key and --authorized */
 static int REF_MADE;
 static pid_t CHILDREN[MAX_CHILDREN];
-
-static int group_setup(void **state)
-{
-    (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "faults") < 0 ||
-                   testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0
-               ? -1
-               : 0;
-}
-
-static int group_teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
-}
-
-static const char *path_in(const char *name)
-{
-    return testutil_path_in(DIR_, name);
-}
 
 /* Starts `prismfarm ARGS...` in the background with stderr to a log; returns its pid. Every
  * child is remembered, so that a failed assertion cannot leave daemons behind (teardown). */
@@ -221,9 +199,9 @@ static void read_endpoints(const char *spool, char *workers, char *clients)
 
 static pid_t start_master(const char *log, const char *spool, const char *wep, const char *cep)
 {
-    return spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool,
-                 "--heartbeat", HEARTBEAT_MS, "--tile", TILE, "--key", MASTER_KEY, "--authorized",
-                 AUTHORIZED, NULL);
+    return spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool, "--heartbeat",
+                 HEARTBEAT_MS, "--tile", TILE, "--key", testutil_master_key(), "--authorized",
+                 testutil_authorized(), NULL);
 }
 
 static pid_t start_worker(const char *log, const char *wep, const char *name, const char *cache)
@@ -267,7 +245,7 @@ static unsigned long long json_job(const char *out)
  * in one process), made once. */
 static const char *reference(void)
 {
-    const char *ref = path_in("reference.exr");
+    const char *ref = testutil_scratch("reference.exr");
     if (!REF_MADE) {
         const run_t *r = run("render", SCENE, "--spp", SPP_DONE, "--workers", "1", "--threads",
                              "1", "--tile", TILE, "-o", ref, "--quiet", NULL);
@@ -306,20 +284,22 @@ static void test_worker_before_master(void **state)
     const char *ref = reference();
     char wep[64];
     snprintf(wep, sizeof wep, "tcp://127.0.0.1:%d", free_port());
-    const char *wlog = path_in("early-worker.log"), *spool = path_in("early-spool");
-    pid_t w = start_worker(wlog, wep, "early", path_in("early-cache"));
+    const char *wlog = testutil_scratch("early-worker.log"),
+               *spool = testutil_scratch("early-spool");
+    pid_t w = start_worker(wlog, wep, "early", testutil_scratch("early-cache"));
     wait_log(wlog, "the master is silent");
-    pid_t master = start_master(path_in("early-master.log"), spool, wep, "tcp://127.0.0.1:*");
+    pid_t master =
+        start_master(testutil_scratch("early-master.log"), spool, wep, "tcp://127.0.0.1:*");
     char wbound[256], cep[256];
     read_endpoints(spool, wbound, cep);
     assert_string_equal(wbound, wep);
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "-o",
-                         path_in("early.exr"), "--quiet", NULL);
+                         testutil_scratch("early.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("submit --wait: exit %d: %s\nworker log:\n%s", r->status, r->err,
                  slurp(wlog, NULL));
-    assert_same_pixels(path_in("early.exr"), ref);
-    assert_true(log_has(path_in("early-master.log"), "'early' joined"));
+    assert_same_pixels(testutil_scratch("early.exr"), ref);
+    assert_true(log_has(testutil_scratch("early-master.log"), "'early' joined"));
     stop(w, SIGTERM);
     stop(master, SIGTERM);
 }
@@ -333,16 +313,19 @@ static void test_master_restarted(void **state)
 {
     (void)state;
     const char *ref = reference();
-    const char *spool = path_in("restart-spool");
-    const char *mlog1 = path_in("restart-master1.log"), *mlog2 = path_in("restart-master2.log");
+    const char *spool = testutil_scratch("restart-spool");
+    const char *mlog1 = testutil_scratch("restart-master1.log"),
+               *mlog2 = testutil_scratch("restart-master2.log");
     pid_t master = start_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
     read_endpoints(spool, wep, cep);
-    pid_t w1 = start_worker(path_in("restart-w1.log"), wep, "w1", path_in("restart-c1"));
-    pid_t w2 = start_worker(path_in("restart-w2.log"), wep, "w2", path_in("restart-c2"));
+    pid_t w1 =
+        start_worker(testutil_scratch("restart-w1.log"), wep, "w1", testutil_scratch("restart-c1"));
+    pid_t w2 =
+        start_worker(testutil_scratch("restart-w2.log"), wep, "w2", testutil_scratch("restart-c2"));
 
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "-o",
-                         path_in("restart-first.exr"), "--quiet", NULL);
+                         testutil_scratch("restart-first.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("submit --wait: exit %d: %s", r->status, r->err);
     expect_in(r->out, "job 1 done");
@@ -372,7 +355,7 @@ static void test_master_restarted(void **state)
     if (r->status != 0)
         fail_msg("cancel of the resumed job: exit %d: %s", r->status, r->err);
     r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "--json", "-o",
-            path_in("restart-second.exr"), "--quiet", NULL);
+            testutil_scratch("restart-second.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("submit --wait to the new master: exit %d: %s\nmaster log:\n%s", r->status,
                  r->err, slurp(mlog2, NULL));
@@ -380,7 +363,7 @@ static void test_master_restarted(void **state)
     /* Jobs 1 and 2 have folders in the spool: the new master must count past them. */
     if (id <= 2)
         fail_msg("the restarted master gave job id %llu, which the earlier run used", id);
-    assert_same_pixels(path_in("restart-second.exr"), ref);
+    assert_same_pixels(testutil_scratch("restart-second.exr"), ref);
     size_t size_now;
     char *bytes_now = slurp(first_exr, &size_now);
     assert_non_null(bytes_now);
@@ -399,8 +382,8 @@ static void test_master_restarted(void **state)
 static void test_restart_does_not_reuse_queued_job_id(void **state)
 {
     (void)state;
-    const char *spool = path_in("ids-spool");
-    pid_t master = start_master(path_in("ids-master1.log"), spool, "tcp://127.0.0.1:*",
+    const char *spool = testutil_scratch("ids-spool");
+    pid_t master = start_master(testutil_scratch("ids-master1.log"), spool, "tcp://127.0.0.1:*",
                                 "tcp://127.0.0.1:*");
     char wep[256], cep[256];
     read_endpoints(spool, wep, cep);
@@ -408,7 +391,7 @@ static void test_restart_does_not_reuse_queued_job_id(void **state)
     assert_int_equal(r->status, 0);
     assert_string_equal(r->out, "1\n");
     stop(master, SIGKILL);
-    master = start_master(path_in("ids-master2.log"), spool, wep, cep);
+    master = start_master(testutil_scratch("ids-master2.log"), spool, wep, cep);
     r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, NULL);
     assert_int_equal(r->status, 0);
     unsigned long long id = strtoull(r->out, NULL, 10);
@@ -424,27 +407,29 @@ static void test_client_killed_during_wait(void **state)
 {
     (void)state;
     const char *ref = reference();
-    const char *spool = path_in("client-spool"), *clog = path_in("client.log");
-    pid_t master = start_master(path_in("client-master.log"), spool, "tcp://127.0.0.1:*",
+    const char *spool = testutil_scratch("client-spool"), *clog = testutil_scratch("client.log");
+    pid_t master = start_master(testutil_scratch("client-master.log"), spool, "tcp://127.0.0.1:*",
                                 "tcp://127.0.0.1:*");
     char wep[256], cep[256];
     read_endpoints(spool, wep, cep);
     pid_t client = spawn(clog, "submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "-o",
-                         path_in("client-never.exr"), NULL);
+                         testutil_scratch("client-never.exr"), NULL);
     /* Its --wait loop has had an answer to a STATUS long poll (its progress line) and asks
      * again: it dies mid-wait. */
     wait_log(clog, "job:   0.0%");
     stop(client, SIGKILL);
     assert_string_equal(job_state(cep, "1", NULL), "queued");
 
-    pid_t w = start_worker(path_in("client-w.log"), wep, "w", path_in("client-cache"));
+    pid_t w =
+        start_worker(testutil_scratch("client-w.log"), wep, "w", testutil_scratch("client-cache"));
     const char *s = job_state(cep, "1", "done|failed|cancelled");
     assert_string_equal(s, "done");
-    const run_t *r = run("fetch", "1", "-o", path_in("client-fetched.exr"), "--master", cep, NULL);
+    const run_t *r =
+        run("fetch", "1", "-o", testutil_scratch("client-fetched.exr"), "--master", cep, NULL);
     if (r->status != 0)
         fail_msg("fetch: exit %d: %s", r->status, r->err);
-    assert_false(file_exists(path_in("client-never.exr")));
-    assert_same_pixels(path_in("client-fetched.exr"), ref);
+    assert_false(file_exists(testutil_scratch("client-never.exr")));
+    assert_same_pixels(testutil_scratch("client-fetched.exr"), ref);
     stop(w, SIGTERM);
     stop(master, SIGTERM);
 }
@@ -456,14 +441,15 @@ static void test_cancel_running_job(void **state)
 {
     (void)state;
     const char *ref = reference();
-    const char *spool = path_in("cancel-spool");
-    const char *wlog1 = path_in("cancel-w1.log"), *wlog2 = path_in("cancel-w2.log");
-    pid_t master = start_master(path_in("cancel-master.log"), spool, "tcp://127.0.0.1:*",
+    const char *spool = testutil_scratch("cancel-spool");
+    const char *wlog1 = testutil_scratch("cancel-w1.log"),
+               *wlog2 = testutil_scratch("cancel-w2.log");
+    pid_t master = start_master(testutil_scratch("cancel-master.log"), spool, "tcp://127.0.0.1:*",
                                 "tcp://127.0.0.1:*");
     char wep[256], cep[256];
     read_endpoints(spool, wep, cep);
-    pid_t w1 = start_worker(wlog1, wep, "w1", path_in("cancel-c1"));
-    pid_t w2 = start_worker(wlog2, wep, "w2", path_in("cancel-c2"));
+    pid_t w1 = start_worker(wlog1, wep, "w1", testutil_scratch("cancel-c1"));
+    pid_t w2 = start_worker(wlog2, wep, "w2", testutil_scratch("cancel-c2"));
 
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP_FOREVER, "--name", "long",
                          NULL);
@@ -503,13 +489,13 @@ static void test_cancel_running_job(void **state)
     }
 
     r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "--json", "-o",
-            path_in("cancel-next.exr"), "--quiet", NULL);
+            testutil_scratch("cancel-next.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("submit --wait after the cancel: exit %d: %s", r->status, r->err);
     assert_int_equal(json_job(r->out), 2);
-    assert_same_pixels(path_in("cancel-next.exr"), ref);
+    assert_same_pixels(testutil_scratch("cancel-next.exr"), ref);
     assert_string_equal(job_state(cep, "1", NULL), "cancelled");
-    r = run("fetch", "1", "-o", path_in("cancel-none.exr"), "--master", cep, NULL);
+    r = run("fetch", "1", "-o", testutil_scratch("cancel-none.exr"), "--master", cep, NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "cancelled");
     stop(w1, SIGTERM);
@@ -526,5 +512,5 @@ int main(void)
         cmocka_unit_test_teardown(test_client_killed_during_wait, teardown),
         cmocka_unit_test_teardown(test_cancel_running_job, teardown),
     };
-    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_keys_setup, testutil_scratch_teardown);
 }

@@ -41,8 +41,6 @@
 #define TILE "8"
 #define N_TASKS 30
 
-static char DIR_[256];
-static char MASTER_KEY[600], AUTHORIZED[600]; /* the master's --key and --authorized */
 static char PREFIX[64]; /* namespaces are PREFIX-m, -a, -b, -c and the switch PREFIX-sw */
 static bool HOSTS_CREATED;
 static pid_t SPAWNED[MAX_SPAWNED];
@@ -66,7 +64,7 @@ typedef struct text {
 static text_t path_in(const char *name)
 {
     text_t t;
-    snprintf(t.s, sizeof t.s, "%s/%s", DIR_, name);
+    snprintf(t.s, sizeof t.s, "%s/%s", testutil_scratch_dir(), name);
     return t;
 }
 
@@ -309,20 +307,11 @@ static void hosts_up(void)
 
 static int group_setup(void **state)
 {
-    (void)state;
     snprintf(PREFIX, sizeof PREFIX, "pfnet-%ld", (long)getpid());
-    /* The namespaces share the file system: every "host" reads its keys from DIR_/keys, and
-     * workers and clients find theirs in PRISMFARM_KEY and PRISMFARM_MASTER_KEY. */
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "netns") < 0 ||
-                   testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0
-               ? -1
-               : 0;
-}
-
-static int group_teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
+    /* The namespaces share the file system: every "host" reads its keys from the scratch
+     * folder's keys/, and workers and clients find theirs in PRISMFARM_KEY and
+     * PRISMFARM_MASTER_KEY. */
+    return testutil_scratch_keys_setup(state);
 }
 
 /* Ends what the test started (SIGTERM, then SIGKILL after 3 s) and deletes the namespaces,
@@ -349,8 +338,9 @@ static int hosts_teardown(void **state)
     if (HOSTS_CREATED) {
         char cmd[1024];
         /* netns-hosts.sh down also kills what start-workers.sh left running in the hosts. */
-        snprintf(cmd, sizeof cmd, "bash '%s/tests/support/netns-hosts.sh' down '%s' >'%s/down.log' 2>&1",
-                 getenv("PRISMFARM_SOURCE_DIR"), PREFIX, DIR_);
+        snprintf(cmd, sizeof cmd,
+                 "bash '%s/tests/support/netns-hosts.sh' down '%s' >'%s/down.log' 2>&1",
+                 getenv("PRISMFARM_SOURCE_DIR"), PREFIX, testutil_scratch_dir());
         rc = system(cmd) == 0 ? 0 : -1;
         if (rc != 0)
             fprintf(stderr, "teardown: could not delete the namespaces %s-*\n", PREFIX);
@@ -363,8 +353,8 @@ static int hosts_teardown(void **state)
 static void start_master(const char *spool)
 {
     SPAWN(path_in("master.log").s, "ip", "netns", "exec", ns("m").s, bin(), "master", "--workers",
-          MASTER_WORKERS_EP, "--clients", MASTER_CLIENTS_EP, "--spool", spool,
-          "--tile", TILE, "--key", MASTER_KEY, "--authorized", AUTHORIZED);
+          MASTER_WORKERS_EP, "--clients", MASTER_CLIENTS_EP, "--spool", spool, "--tile", TILE,
+          "--key", testutil_master_key(), "--authorized", testutil_authorized());
     char path[600];
     snprintf(path, sizeof path, "%s/endpoints", spool);
     for (double until = testutil_now_s() + test_wait_s(); testutil_now_s() < until;) {
@@ -621,5 +611,5 @@ int main(void)
         cmocka_unit_test_teardown(test_job_across_hosts, hosts_teardown),
         cmocka_unit_test_teardown(test_start_workers_over_ssh, hosts_teardown),
     };
-    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+    return cmocka_run_group_tests(tests, group_setup, testutil_scratch_teardown);
 }

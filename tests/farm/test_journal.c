@@ -34,25 +34,6 @@
 #define TILE "8"
 #define HEARTBEAT "200"
 
-static char DIR_[256];
-
-static int group_setup(void **state)
-{
-    (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "journal");
-}
-
-static int group_teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
-}
-
-static const char *path_in(const char *name)
-{
-    return testutil_path_in(DIR_, name);
-}
-
 /* ---------------------------------------------------------------- blobs and tables */
 
 static void test_tile_blob_round_trip(void **state)
@@ -175,7 +156,7 @@ static void test_checkpoint_round_trip(void **state)
             tilebuf_add_sample(img, x, y, b, x * y + 0.5);
         }
     int next[4] = {3, 2, 2, 0}, back[4];
-    const char *path = path_in("ckpt.bin");
+    const char *path = testutil_scratch("ckpt.bin");
     assert_int_equal(journal_write_checkpoint(path, img, next, 4, &err), 0);
     tilebuf_t *got = NULL;
     assert_int_equal(journal_read_checkpoint(path, 5, 4, 3, 4, &got, back, &err), 0);
@@ -228,7 +209,7 @@ static void test_journal_tables(void **state)
 {
     (void)state;
     err_t err;
-    const char *dir = path_in("tables");
+    const char *dir = testutil_scratch("tables");
     char path[600];
     snprintf(path, sizeof path, "%s/journal.db", dir);
     journal_t *jn = journal_open(dir, &err);
@@ -353,11 +334,11 @@ static void test_journal_tables(void **state)
     assert_null(journal_open(dir, &err));
     assert_non_null(strstr(err.msg, "version 7"));
     /* Not a database at all. */
-    assert_int_equal(mkdir(path_in("junk"), 0755), 0);
-    FILE *f = fopen(path_in("junk/journal.db"), "w");
+    assert_int_equal(mkdir(testutil_scratch("junk"), 0755), 0);
+    FILE *f = fopen(testutil_scratch("junk/journal.db"), "w");
     fputs("this is not an SQLite file, it is a text file of some length...........", f);
     fclose(f);
-    assert_null(journal_open(path_in("junk"), &err));
+    assert_null(journal_open(testutil_scratch("junk"), &err));
     assert_non_null(strstr(err.msg, "junk/journal.db"));
 }
 
@@ -461,7 +442,7 @@ static pid_t start_worker(const char *log, const char *wep, const char *name)
 
 static const char *reference(const char *scene, const char *spp, const char *name)
 {
-    const char *ref = path_in(name);
+    const char *ref = testutil_scratch(name);
     struct stat st;
     if (stat(ref, &st) == 0)
         return ref;
@@ -495,12 +476,12 @@ static void test_master_killed_camera_job(void **state)
 {
     (void)state;
     const char *ref = reference(SCENE, SPP, "tiny-ref.exr");
-    const char *spool = path_in("cam-spool"), *mlog1 = path_in("cam-master1.log"),
-               *mlog2 = path_in("cam-master2.log");
+    const char *spool = testutil_scratch("cam-spool"), *mlog1 = testutil_scratch("cam-master1.log"),
+               *mlog2 = testutil_scratch("cam-master2.log");
     pid_t master = start_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
     testutil_read_endpoints(spool, wep, cep);
-    pid_t w = start_worker(path_in("cam-w.log"), wep, "w");
+    pid_t w = start_worker(testutil_scratch("cam-w.log"), wep, "w");
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP, "--insecure", NULL);
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
@@ -515,7 +496,7 @@ static void test_master_killed_camera_job(void **state)
                   kept);
 
     master = start_master(mlog2, spool, wep, cep);
-    finish_and_compare(cep, ref, path_in("cam-out.exr"), mlog2);
+    finish_and_compare(cep, ref, testutil_scratch("cam-out.exr"), mlog2);
     const char *log = slurp(mlog2);
     const char *resumed = strstr(log, "job 1 'tiny' resumed: ");
     if (!resumed)
@@ -546,13 +527,14 @@ static void test_master_killed_photon_job(void **state)
 {
     (void)state;
     const char *ref = reference(PHOTON_SCENE, PHOTON_SPP, "beam-ref.exr");
-    const char *spool = path_in("ph-spool"), *mlog1 = path_in("ph-master1.log"),
-               *mlog2 = path_in("ph-master2.log"), *mlog3 = path_in("ph-master3.log");
+    const char *spool = testutil_scratch("ph-spool"), *mlog1 = testutil_scratch("ph-master1.log"),
+               *mlog2 = testutil_scratch("ph-master2.log"),
+               *mlog3 = testutil_scratch("ph-master3.log");
     pid_t master = start_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
     testutil_read_endpoints(spool, wep, cep);
-    pid_t w1 = start_worker(path_in("ph-w1.log"), wep, "w1");
-    pid_t w2 = start_worker(path_in("ph-w2.log"), wep, "w2");
+    pid_t w1 = start_worker(testutil_scratch("ph-w1.log"), wep, "w1");
+    pid_t w2 = start_worker(testutil_scratch("ph-w2.log"), wep, "w2");
     const run_t *r = run("submit", PHOTON_SCENE, "--master", cep, "--spp", PHOTON_SPP,
                          "--insecure", NULL);
     if (r->status != 0)
@@ -577,7 +559,7 @@ static void test_master_killed_photon_job(void **state)
         fail_msg("no photon batches replayed:\n%s", log2);
 
     master = start_master(mlog3, spool, wep, cep);
-    finish_and_compare(cep, ref, path_in("ph-out.exr"), mlog3);
+    finish_and_compare(cep, ref, testutil_scratch("ph-out.exr"), mlog3);
     /* The third master took the photon store from disk: no photon batch was traced again. */
     const char *log3 = slurp(mlog3);
     const char *resumed = strstr(log3, "job 1 'beam_big' resumed: ");
@@ -608,11 +590,12 @@ static void test_random_kills(void **state)
     const char *env = getenv("PRISMFARM_KILL_SEED");
     uint64_t seed = env ? strtoull(env, NULL, 10) : 20261125;
     rng_stream_t rng = rng_stream_make(seed, 0, 0);
-    const char *spool = path_in("rk-spool");
+    const char *spool = testutil_scratch("rk-spool");
     char mlog[64];
     int nmaster = 1, nworker = 0, nclient = 1;
     snprintf(mlog, sizeof mlog, "rk-master%d.log", nmaster);
-    pid_t master = start_master(path_in(mlog), spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
+    pid_t master =
+        start_master(testutil_scratch(mlog), spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
     testutil_read_endpoints(spool, wep, cep);
     pid_t workers[2];
@@ -620,11 +603,11 @@ static void test_random_kills(void **state)
         char log[64], name[8];
         snprintf(log, sizeof log, "rk-w%d-%d.log", i, nworker++);
         snprintf(name, sizeof name, "w%d", i);
-        workers[i] = start_worker(path_in(log), wep, name);
+        workers[i] = start_worker(testutil_scratch(log), wep, name);
     }
-    pid_t client = track(testutil_spawn(path_in("rk-client1.log"), "submit", SCENE, "--master",
-                                        cep, "--spp", SPP_LONG, "--wait", "--quiet",
-                                        "--insecure", "-o", path_in("rk-client.exr"), NULL));
+    pid_t client = track(testutil_spawn(
+        testutil_scratch("rk-client1.log"), "submit", SCENE, "--master", cep, "--spp", SPP_LONG,
+        "--wait", "--quiet", "--insecure", "-o", testutil_scratch("rk-client.exr"), NULL));
     wait_journal(spool, test_wait_s(), "the job", "SELECT COUNT(*) FROM jobs", NULL);
     /* Each of master, worker and client once in a shuffled order, then random ones: at most
      * eight kills, none after the job is done. */
@@ -668,7 +651,7 @@ static void test_random_kills(void **state)
             stop_kid(master, SIGKILL);
             testutil_sleep_ms(pause);
             snprintf(mlog, sizeof mlog, "rk-master%d.log", ++nmaster);
-            master = start_master(path_in(mlog), spool, wep, cep);
+            master = start_master(testutil_scratch(mlog), spool, wep, cep);
         } else if (order[i] == 1) {
             int k = rng_stream_next(&rng) < 0.5 ? 0 : 1;
             stop_kid(workers[k], SIGKILL);
@@ -676,13 +659,13 @@ static void test_random_kills(void **state)
             char log[64], name[8];
             snprintf(log, sizeof log, "rk-w%d-%d.log", k, nworker++);
             snprintf(name, sizeof name, "w%d", k);
-            workers[k] = start_worker(path_in(log), wep, name);
+            workers[k] = start_worker(testutil_scratch(log), wep, name);
         } else {
             stop_kid(client, SIGKILL);
             testutil_sleep_ms(pause);
             char log[64];
             snprintf(log, sizeof log, "rk-client%d.log", ++nclient);
-            client = track(testutil_spawn(path_in(log), "status", "1", "--wait", "--quiet",
+            client = track(testutil_spawn(testutil_scratch(log), "status", "1", "--wait", "--quiet",
                                           "--master", cep, "--insecure", NULL));
         }
         kills++;
@@ -693,12 +676,13 @@ static void test_random_kills(void **state)
                   (unsigned long long)seed, kills, nmaster, nworker, nclient);
     /* Every kind was killed at least once before the job ended (the job is long enough). */
     assert_true(kills >= 3);
-    finish_and_compare(cep, ref, path_in("rk-out.exr"), path_in(mlog));
+    finish_and_compare(cep, ref, testutil_scratch("rk-out.exr"), testutil_scratch(mlog));
     /* The last client follows the job to its end by itself through any restarts. */
     int st = stop_kid(client, 0);
     assert_true(WIFEXITED(st));
     if (WEXITSTATUS(st) != 0)
-        fail_msg("the last client exited %d: %s", WEXITSTATUS(st), slurp(path_in("rk-client1.log")));
+        fail_msg("the last client exited %d: %s", WEXITSTATUS(st),
+                 slurp(testutil_scratch("rk-client1.log")));
     for (int i = 0; i < 2; i++)
         stop_kid(workers[i], SIGTERM);
     stop_kid(master, SIGTERM);
@@ -715,5 +699,5 @@ int main(void)
         cmocka_unit_test_teardown(test_master_killed_photon_job, kill_kids),
         cmocka_unit_test_teardown(test_random_kills, kill_kids),
     };
-    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

@@ -19,33 +19,6 @@
 #include <signal.h>
 #include <sys/stat.h>
 
-static char DIR_[256];
-static char MASTER_KEY[600], AUTHORIZED[600];
-
-static int group_setup(void **state)
-{
-    (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "limits") < 0 ||
-                   testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0
-               ? -1
-               : 0;
-}
-
-static int group_teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
-}
-
-static const char *path_in(const char *name)
-{
-    static char buf[16][600];
-    static int k;
-    k = (k + 1) % 16;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
-    return buf[k];
-}
-
 /* A master (keys, no workers) with extra options, NULL-terminated after the first; its client
  * endpoint goes to cep. */
 static pid_t start_master(const char *name, char *cep, const char *opt, ...)
@@ -53,12 +26,14 @@ static pid_t start_master(const char *name, char *cep, const char *opt, ...)
     const char *bin = getenv("PRISMFARM_BIN");
     assert_non_null(bin);
     char spool[600], log[600];
-    snprintf(spool, sizeof spool, "%s/%s-spool", DIR_, name);
-    snprintf(log, sizeof log, "%s/%s.log", DIR_, name);
-    char *argv[32] = {(char *)bin,         "master",       "--workers",
-                      "tcp://127.0.0.1:*", "--clients",    "tcp://127.0.0.1:*",
-                      "--spool",           spool,          "--key",
-                      MASTER_KEY,          "--authorized", AUTHORIZED};
+    snprintf(spool, sizeof spool, "%s/%s-spool", testutil_scratch_dir(), name);
+    snprintf(log, sizeof log, "%s/%s.log", testutil_scratch_dir(), name);
+    char *argv[32] = {(char *)bin,    "master",
+                      "--workers",    "tcp://127.0.0.1:*",
+                      "--clients",    "tcp://127.0.0.1:*",
+                      "--spool",      spool,
+                      "--key",        (char *)testutil_master_key(),
+                      "--authorized", (char *)testutil_authorized()};
     int n = 12;
     va_list ap;
     va_start(ap, opt);
@@ -102,7 +77,7 @@ static void stop(pid_t pid)
  * `bytes` of comment lines (the parser reads them; the bundle carries them). */
 static const char *make_scene(const char *name, int extra_files, size_t bytes)
 {
-    const char *dir = path_in(name);
+    const char *dir = testutil_scratch(name);
     assert_int_equal(mkdir(dir, 0700), 0);
     FILE *src = fopen("data/render/tiny.pbrt", "r");
     assert_non_null(src);
@@ -228,5 +203,5 @@ int main(void)
         cmocka_unit_test(test_max_message),
         cmocka_unit_test(test_command_line),
     };
-    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_keys_setup, testutil_scratch_teardown);
 }

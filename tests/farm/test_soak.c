@@ -63,9 +63,6 @@ static const variant_t VARIANTS[] = {
 #define N_VARIANTS (int)(sizeof VARIANTS / sizeof *VARIANTS)
 #define RES "24x16"
 
-static char DIR_[256];
-static char MASTER_KEY[600], AUTHORIZED[600]; /* the master's --key and --authorized */
-
 /* Every process the test started and has not reaped, so that a failed test leaves none behind
  * (they would keep running, and CI waits for them). */
 static pid_t LIVE[N_WORKERS + N_KILLS + N_CLIENTS + 1];
@@ -88,27 +85,12 @@ static int live_stop(pid_t pid, int sig)
     return testutil_stop(pid, sig);
 }
 
-static int setup(void **state)
-{
-    (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "soak") < 0 ||
-                   testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0
-               ? -1
-               : 0;
-}
-
 static int teardown(void **state)
 {
-    (void)state;
     for (size_t i = 0; i < sizeof LIVE / sizeof *LIVE; i++)
         if (LIVE[i] > 0)
             live_stop(LIVE[i], SIGKILL);
-    return testutil_rmtree(DIR_);
-}
-
-static const char *path_in(const char *name)
-{
-    return testutil_path_in(DIR_, name);
+    return testutil_scratch_teardown(state);
 }
 
 /* The scene's path: tests/-relative, or in the source tree for ../ (ctest runs the test in
@@ -292,7 +274,7 @@ static int client_main(int k, const char *cep, double deadline)
                 continue;
             char idtext[32];
             snprintf(idtext, sizeof idtext, "%lu", id[j]);
-            snprintf(exr, sizeof exr, "%s/job-%02d.exr", DIR_, j);
+            snprintf(exr, sizeof exr, "%s/job-%02d.exr", testutil_scratch_dir(), j);
             const char *fetch[] = {"fetch", idtext, "-o", exr, "--master", cep, NULL};
             rc = client_command(fetch, out, sizeof out,
                                 min_d(COMMAND_TIMEOUT_S, deadline - testutil_now_s()));
@@ -314,7 +296,7 @@ static int client_main(int k, const char *cep, double deadline)
 static pid_t start_client(int k, const char *cep, double deadline)
 {
     char log[512];
-    snprintf(log, sizeof log, "%s/client-%d.log", DIR_, k);
+    snprintf(log, sizeof log, "%s/client-%d.log", testutil_scratch_dir(), k);
     fflush(stdout);
     fflush(stderr);
     pid_t pid = fork();
@@ -339,8 +321,8 @@ static pid_t start_worker(int i, int gen, const char *wep)
     snprintf(name, sizeof name, "w%d", i);
     snprintf(log, sizeof log, "w%d-%d.log", i, gen);
     snprintf(cache, sizeof cache, "cache-%d", i);
-    snprintf(logpath, sizeof logpath, "%s", path_in(log));
-    snprintf(cachepath, sizeof cachepath, "%s", path_in(cache));
+    snprintf(logpath, sizeof logpath, "%s", testutil_scratch(log));
+    snprintf(cachepath, sizeof cachepath, "%s", testutil_scratch(cache));
     pid_t pid = testutil_spawn(logpath, "worker", "--connect", wep, "--threads", "1", "--name",
                                name, "--cache", cachepath, NULL);
     live_add(pid);
@@ -372,7 +354,7 @@ static int count_fetched(void)
         char name[32];
         struct stat st;
         snprintf(name, sizeof name, "job-%02d.exr", j);
-        n += stat(path_in(name), &st) == 0;
+        n += stat(testutil_scratch(name), &st) == 0;
     }
     return n;
 }
@@ -451,8 +433,8 @@ static void test_soak(void **state)
         snprintf(ref, sizeof ref, "ref-%d.exr", v);
         const variant_t *va = &VARIANTS[v];
         const run_t *r = run("render", scene_path(va, path, sizeof path), "--direct", "--res", RES,
-                             "--spp", va->spp, "--seed", va->seed, "-o", path_in(ref), "--quiet",
-                             va->flag, va->value, NULL);
+                             "--spp", va->spp, "--seed", va->seed, "-o", testutil_scratch(ref),
+                             "--quiet", va->flag, va->value, NULL);
         if (r->status != 0)
             fail_msg("render --direct of variant %d (%s): exit %d: %s", v, va->scene, r->status,
                      r->err);
@@ -476,12 +458,13 @@ static void test_soak(void **state)
     for (int i = 0; i < N_KILLS; i++)
         restart_after[i] = 0.2 + 0.6 * rng_uniform(SOAK_SEED, 1, 0, (uint32_t)i);
 
-    const char *spool = path_in("spool");
+    const char *spool = testutil_scratch("spool");
     char mlog[512];
-    snprintf(mlog, sizeof mlog, "%s", path_in("master.log"));
-    pid_t master = testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
-                                  "tcp://127.0.0.1:*", "--spool", spool, "--tile", "8", "--key",
-                                  MASTER_KEY, "--authorized", AUTHORIZED, NULL);
+    snprintf(mlog, sizeof mlog, "%s", testutil_scratch("master.log"));
+    pid_t master =
+        testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
+                       "tcp://127.0.0.1:*", "--spool", spool, "--tile", "8", "--key",
+                       testutil_master_key(), "--authorized", testutil_authorized(), NULL);
     live_add(master);
     char wep[256], cep[256];
     testutil_read_endpoints(spool, wep, cep);
@@ -527,7 +510,7 @@ static void test_soak(void **state)
                 char log[32];
                 snprintf(log, sizeof log, "w%d-%d.log", i, gen[i]);
                 fail_msg("worker w%d died by itself (status %d):\n%s", i, st,
-                         tail_of(path_in(log), 1000));
+                         tail_of(testutil_scratch(log), 1000));
             }
         }
         for (int k = 0; k < N_CLIENTS; k++) {
@@ -542,7 +525,8 @@ static void test_soak(void **state)
                     char log[64];
                     snprintf(log, sizeof log, "client-%d.log", k);
                     fail_msg("client %d failed (status %d):\n%s\nmaster log ends:\n%s", k,
-                             client_status[k], tail_of(path_in(log), 1500), tail_of(mlog, 1500));
+                             client_status[k], tail_of(testutil_scratch(log), 1500),
+                             tail_of(mlog, 1500));
                 }
             }
         }
@@ -594,8 +578,8 @@ static void test_soak(void **state)
         snprintf(job, sizeof job, "job-%02d.exr", j);
         snprintf(ref, sizeof ref, "ref-%d.exr", j % N_VARIANTS);
         char a[512];
-        snprintf(a, sizeof a, "%s", path_in(job));
-        if (!same_pixels(a, path_in(ref), why, sizeof why))
+        snprintf(a, sizeof a, "%s", testutil_scratch(job));
+        if (!same_pixels(a, testutil_scratch(ref), why, sizeof why))
             fail_msg("job %d (variant %d, %s seed %s): %s against render --direct", j,
                      j % N_VARIANTS, VARIANTS[j % N_VARIANTS].scene, VARIANTS[j % N_VARIANTS].seed,
                      why);
@@ -670,5 +654,5 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_soak),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_keys_setup, teardown);
 }

@@ -1,11 +1,12 @@
-/* farm_testutil: helpers shared by the tests that run prismfarm processes: a scratch folder
- * per test group, CURVE keys, starting and stopping `prismfarm master` / `worker` child
- * processes and reading the endpoints a master chose, sleeping, and comparing two EXRs' pixel
+/* farm_testutil: helpers shared by the tests that run prismfarm processes (with the scratch
+ * folder of files_testutil.h): CURVE keys, starting and stopping `prismfarm master` / `worker`
+ * child processes and reading the endpoints a master chose, sleeping, and comparing two EXRs' pixel
  * data byte for byte. Header-only (each test is its own executable); include after cmocka.h. */
 #ifndef PRISMFARM_FARM_TESTUTIL_H
 #define PRISMFARM_FARM_TESTUTIL_H
 
 #include "clock.h"
+#include "files_testutil.h"
 #include "image_exr.h"
 #include "test_wait.h"
 
@@ -19,32 +20,6 @@
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
-
-/* Makes a fresh folder /tmp/prismfarm-test-NAME-XXXXXX into dir; returns 0 or -1. */
-static inline int testutil_mkdtemp(char *dir, size_t size, const char *name)
-{
-    snprintf(dir, size, "/tmp/prismfarm-test-%s-XXXXXX", name);
-    return mkdtemp(dir) ? 0 : -1;
-}
-
-/* DIR/NAME in one of 16 rotating buffers: a test may hold that many paths at once (the
- * arguments of one command line) without managing their storage. */
-static inline const char *testutil_path_in(const char *dir, const char *name)
-{
-    static char buf[16][512];
-    static int k;
-    k = (k + 1) % 16;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", dir, name);
-    return buf[k];
-}
-
-/* Removes the folder and everything in it; returns 0 or -1. */
-static inline int testutil_rmtree(const char *dir)
-{
-    char cmd[600];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd) == 0 ? 0 : -1;
-}
 
 /* The farm's CURVE keys for a test (docs/security.md), made with `$PRISMFARM_BIN keygen`:
  * DIR/keys/master.key and .pub, DIR/keys/farm.key and .pub (shared by the test's workers and
@@ -72,6 +47,34 @@ static inline int testutil_farm_keys(const char *dir, char *master_key, char *au
                    setenv("PRISMFARM_MASTER_KEY", master_pub, 1) == 0
                ? 0
                : -1;
+}
+
+/* The master's --key and --authorized made by testutil_scratch_keys_setup ("" before). */
+static inline char *testutil_keys_buf(int which)
+{
+    static char keys[2][600];
+    return keys[which];
+}
+
+static inline const char *testutil_master_key(void)
+{
+    return testutil_keys_buf(0);
+}
+
+static inline const char *testutil_authorized(void)
+{
+    return testutil_keys_buf(1);
+}
+
+/* The scratch folder (files_testutil.h) with the farm's keys in it (testutil_farm_keys), as a
+ * cmocka setup; returns 0 or -1. */
+static inline int testutil_scratch_keys_setup(void **state)
+{
+    return testutil_scratch_setup(state) < 0 ||
+                   testutil_farm_keys(testutil_scratch_dir(), testutil_keys_buf(0),
+                                      testutil_keys_buf(1), 600) < 0
+               ? -1
+               : 0;
 }
 
 /* The clock and sleep of base/clock.h, under the names the farm tests use. */
