@@ -346,17 +346,6 @@ static void test_bad_flags(void **state)
     expect_in(r->out, "--time-limit T");
 }
 
-static char *slurp(const char *path)
-{
-    static char buf[1 << 16];
-    FILE *f = fopen(path, "r");
-    assert_non_null(f);
-    size_t n = fread(buf, 1, sizeof buf - 1, f);
-    buf[n] = 0;
-    fclose(f);
-    return buf;
-}
-
 /* A master and a worker as processes (over ipc://, which needs no keys: docs/security.md):
  * submit --wait --json reports spp, the estimate and the stop; `jobs --json` and the `status`
  * table show them; the master logs each pass. */
@@ -417,10 +406,9 @@ static void test_farm_processes_report_accuracy(void **state)
 
     testutil_stop(worker, SIGTERM);
     testutil_stop(master, SIGTERM);
-    const char *log = slurp(mlog);
-    expect_in(log, "pass 1 of 11 merged: 1 spp, no error estimate yet");
-    expect_in(log, "pass 2 of 11 merged: 2 spp, relative error ");
-    expect_in(log, "(target error reached)");
+    testutil_expect_file_has(mlog, "pass 1 of 11 merged: 1 spp, no error estimate yet");
+    testutil_expect_file_has(mlog, "pass 2 of 11 merged: 2 spp, relative error ");
+    testutil_expect_file_has(mlog, "(target error reached)");
 }
 
 int main(void)

@@ -55,31 +55,6 @@ static void env_keys(int on)
     }
 }
 
-/* The whole file (at most 64 KiB) in a static buffer; "" when it cannot be read. */
-static const char *slurp(const char *path)
-{
-    static char buf[2][65536];
-    static int k;
-    k = 1 - k;
-    buf[k][0] = 0;
-    FILE *f = fopen(path, "r");
-    if (f) {
-        size_t n = fread(buf[k], 1, sizeof buf[k] - 1, f);
-        buf[k][n] = 0;
-        fclose(f);
-    }
-    return buf[k];
-}
-
-static void write_text(const char *path, const char *text, mode_t mode)
-{
-    int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC, mode);
-    assert_true(fd >= 0);
-    assert_int_equal(write(fd, text, strlen(text)), (ssize_t)strlen(text));
-    assert_int_equal(fchmod(fd, mode), 0);
-    assert_int_equal(close(fd), 0);
-}
-
 /* Starts `prismfarm ARGS...` in the background, stderr to log; returns its pid. */
 static pid_t spawn(const char *log, const char *arg, ...)
 {
@@ -122,17 +97,7 @@ static void read_endpoints(const char *spool, char *workers, char *clients, cons
                 return;
         }
     }
-    fail_msg("the master did not write %s; its log:\n%s", path, slurp(log));
-}
-
-/* Waits until the log holds text, up to the deadline of a wait (test_wait.h). */
-static void wait_log(const char *log, const char *text)
-{
-    double timeout_s = test_wait_s();
-    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < timeout_s; testutil_sleep_ms(20))
-        if (strstr(slurp(log), text))
-            return;
-    fail_msg("no '%s' in %s within %.0f s:\n%s", text, log, timeout_s, slurp(log));
+    testutil_fail_quoting(log, "the master did not write %s; its log:", path);
 }
 
 /* The value of the "NAME = " line of a key file (40 characters), into out[41]. */
@@ -149,6 +114,16 @@ static void key_line(const char *text, const char *name, char out[41])
     assert_int_equal(strspn(p, RFC32_Z85), 40);
     memcpy(out, p, 40);
     out[40] = 0;
+}
+
+/* key_line of the key file at path. */
+static void key_file_line(const char *path, const char *name, char out[41])
+{
+    char *text = testutil_slurp(path, NULL);
+    if (!text)
+        fail_msg("cannot read %s", path);
+    key_line(text, name, out);
+    free(text);
 }
 
 static int mode_of(const char *path)
@@ -176,10 +151,8 @@ static void test_keygen_files(void **state)
     assert_int_equal(mode_of(pub), 0644);
     assert_int_equal(mode_of(dir), 0700);
 
-    char key_text[1024], pub_text[1024];
-    snprintf(key_text, sizeof key_text, "%s", slurp(key));
-    snprintf(pub_text, sizeof pub_text, "%s", slurp(pub));
-    assert_true(key_text[0] == '#' && pub_text[0] == '#');
+    char *key_text = testutil_slurp(key, NULL), *pub_text = testutil_slurp(pub, NULL);
+    assert_true(key_text && pub_text && key_text[0] == '#' && pub_text[0] == '#');
     char public1[41], secret[41], public2[41], derived[41];
     key_line(key_text, "public-key", public1);
     key_line(key_text, "secret-key", secret);
@@ -193,12 +166,18 @@ static void test_keygen_files(void **state)
     r = run("keygen", "alice", "--dir", dir, NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "exists: not overwritten");
-    assert_string_equal(slurp(key), key_text);
-    assert_string_equal(slurp(pub), pub_text);
+    char *key_now = testutil_slurp(key, NULL), *pub_now = testutil_slurp(pub, NULL);
+    assert_true(key_now && pub_now);
+    assert_string_equal(key_now, key_text);
+    assert_string_equal(pub_now, pub_text);
+    free(key_now);
+    free(pub_now);
+    free(key_text);
+    free(pub_text);
     r = run("keygen", "alice", "--dir", dir, "--force", NULL);
     assert_int_equal(r->status, 0);
     char public3[41];
-    key_line(slurp(pub), "public-key", public3);
+    key_file_line(pub, "public-key", public3);
     assert_string_not_equal(public3, public1);
     assert_int_equal(mode_of(key), 0600);
 
@@ -207,7 +186,7 @@ static void test_keygen_files(void **state)
     assert_int_equal(r->status, 0);
     char bob[41];
     snprintf(pub, sizeof pub, "%s/bob.pub", dir);
-    key_line(slurp(pub), "public-key", bob);
+    key_file_line(pub, "public-key", bob);
     assert_string_not_equal(bob, public3);
 
     static const char *const bad[] = {
@@ -232,10 +211,10 @@ static void test_key_file_errors(void **state)
     curve_pair_t pair;
     char pub[41];
     const char *p = testutil_scratch("doc.key");
-    write_text(p,
-               "# the example of zmq_curve(7)\r\n\r\n  public-key=" DOC_SERVER_PUBLIC
-               "\r\nsecret-key =   " DOC_SERVER_SECRET "  \r\n",
-               0600);
+    testutil_write_text(p,
+                        "# the example of zmq_curve(7)\r\n\r\n  public-key=" DOC_SERVER_PUBLIC
+                        "\r\nsecret-key =   " DOC_SERVER_SECRET "  \r\n",
+                        0600);
     if (curve_load_pair(p, &pair, &err) < 0)
         fail_msg("%s", err.msg);
     assert_string_equal(pair.public_key, DOC_SERVER_PUBLIC);
@@ -264,7 +243,7 @@ static void test_key_file_errors(void **state)
          ":2: a second public-key (the first is on line 1)"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        write_text(p, bad[i].text, 0600);
+        testutil_write_text(p, bad[i].text, 0600);
         if (curve_load_pair(p, &pair, &err) == 0)
             fail_msg("case %zu loaded", i);
         char want[700];
@@ -272,19 +251,21 @@ static void test_key_file_errors(void **state)
         expect_in(err.msg, want);
     }
     /* A secret key where a public one is expected: the file must not travel. */
-    write_text(p, "public-key = " DOC_SERVER_PUBLIC "\nsecret-key = " DOC_SERVER_SECRET "\n", 0600);
+    testutil_write_text(
+        p, "public-key = " DOC_SERVER_PUBLIC "\nsecret-key = " DOC_SERVER_SECRET "\n", 0600);
     assert_int_equal(curve_load_public(p, pub, &err), -1);
     expect_in(err.msg, ":2: a secret key");
     assert_int_equal(curve_load_public(testutil_scratch("none.pub"), pub, &err), -1);
     expect_in(err.msg, "none.pub: cannot open");
     /* A .pub that is fine, and an authorised folder that holds a bad one. */
-    write_text(testutil_scratch("doc.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n", 0644);
+    testutil_write_text(testutil_scratch("doc.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n", 0644);
     assert_int_equal(curve_load_public(testutil_scratch("doc.pub"), pub, &err), 0);
     assert_string_equal(pub, DOC_CLIENT_PUBLIC);
     const char *ring = testutil_scratch("ring");
     assert_int_equal(mkdir(ring, 0700), 0);
-    write_text(testutil_scratch("ring/ok.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n", 0644);
-    write_text(testutil_scratch("ring/README"), "not a key, not a .pub: ignored\n", 0644);
+    testutil_write_text(testutil_scratch("ring/ok.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n",
+                        0644);
+    testutil_write_text(testutil_scratch("ring/README"), "not a key, not a .pub: ignored\n", 0644);
     curve_ring_t *keys = curve_ring_new(ring, &err);
     assert_non_null(keys);
     assert_int_equal(curve_ring_size(keys), 1);
@@ -294,7 +275,7 @@ static void test_key_file_errors(void **state)
     assert_non_null(zmq_z85_decode(bin, DOC_SERVER_PUBLIC));
     assert_null(curve_ring_find(keys, bin));
     curve_ring_destroy(&keys);
-    write_text(testutil_scratch("ring/bad.pub"), "public-key = short\n", 0644);
+    testutil_write_text(testutil_scratch("ring/bad.pub"), "public-key = short\n", 0644);
     assert_null(curve_ring_new(ring, &err));
     expect_in(err.msg, "ring/bad.pub:1: public-key has 5 characters");
 }
@@ -318,13 +299,13 @@ static void test_farm_with_keys(void **state)
     const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "4", "--wait",
                          "-o", testutil_scratch("farm.exr"), "--quiet", NULL);
     if (r->status != 0)
-        fail_msg("submit --wait: exit %d: %s\nmaster log:\n%s", r->status, r->err, slurp(mlog));
+        testutil_fail_quoting(mlog, "submit --wait: exit %d: %s\nmaster log:", r->status, r->err);
     r = run("render", "data/render/tiny.pbrt", "--spp", "4", "-o", testutil_scratch("render.exr"),
             "--quiet", NULL);
     assert_int_equal(r->status, 0);
     testutil_assert_same_pixels(testutil_scratch("farm.exr"), testutil_scratch("render.exr"));
-    expect_in(slurp(mlog), "accepted key 'farm' on the workers endpoint from 127.0.0.1");
-    expect_in(slurp(mlog), "accepted key 'farm' on the clients endpoint from 127.0.0.1");
+    testutil_expect_file_has(mlog, "accepted key 'farm' on the workers endpoint from 127.0.0.1");
+    testutil_expect_file_has(mlog, "accepted key 'farm' on the clients endpoint from 127.0.0.1");
 
     /* A stranger's key: refused by the handshake, reported at once -- well before the 60 s
      * answer timeout the client is given, which it would otherwise wait out -- and logged by
@@ -334,7 +315,7 @@ static void test_farm_with_keys(void **state)
     char intruder_key[700], intruder_pub[700], intruder[41];
     snprintf(intruder_key, sizeof intruder_key, "%s", testutil_scratch("keys/intruder.key"));
     snprintf(intruder_pub, sizeof intruder_pub, "%s", testutil_scratch("keys/intruder.pub"));
-    key_line(slurp(intruder_pub), "public-key", intruder);
+    key_file_line(intruder_pub, "public-key", intruder);
     double t0 = testutil_now_s();
     r = run("jobs", "--master", cep, "--key", intruder_key, "--timeout", "60", NULL);
     double took = testutil_now_s() - t0;
@@ -345,7 +326,7 @@ static void test_farm_with_keys(void **state)
     char line[300];
     snprintf(line, sizeof line,
              "refused a connection to the clients endpoint from 127.0.0.1: key %s", intruder);
-    wait_log(mlog, line);
+    testutil_wait_file_has(mlog, line);
 
     /* A worker with that key never joins; the refusal is logged for the workers endpoint. */
     pid_t stranger =
@@ -353,7 +334,7 @@ static void test_farm_with_keys(void **state)
               "stranger", "--key", intruder_key, "--cache", testutil_scratch("c2"), NULL);
     snprintf(line, sizeof line,
              "refused a connection to the workers endpoint from 127.0.0.1: key %s", intruder);
-    wait_log(mlog, line);
+    testutil_wait_file_has(mlog, line);
     r = run("workers", "--master", cep, "--json", NULL);
     assert_int_equal(r->status, 0);
     expect_in(r->out, "\"w1\"");
@@ -386,8 +367,8 @@ static void test_farm_with_keys(void **state)
     assert_int_equal(system(cmd), 0);
     r = run("jobs", "--master", cep, "--key", intruder_key, "--master-key", MASTER_PUB, NULL);
     if (r->status != 0)
-        fail_msg("a key added to the folder was not let in: %s\nmaster log:\n%s", r->err,
-                 slurp(mlog));
+        testutil_fail_quoting(mlog,
+                              "a key added to the folder was not let in: %s\nmaster log:", r->err);
     expect_in(r->out, "tiny");
     char added[700];
     snprintf(added, sizeof added, "%s/intruder.pub", testutil_authorized());
@@ -445,7 +426,7 @@ static void test_insecure_and_local(void **state)
               "--spool", spool, "--heartbeat", "200", "--tile", "8", "--insecure", NULL);
     char wep[256], cep[256];
     read_endpoints(spool, wep, cep, mlog);
-    expect_in(slurp(mlog), "plain text (--insecure)");
+    testutil_expect_file_has(mlog, "plain text (--insecure)");
     pid_t worker =
         spawn(testutil_scratch("plain-w.log"), "worker", "--connect", wep, "--threads", "1",
               "--name", "pw", "--cache", testutil_scratch("pc"), "--insecure", NULL);
@@ -470,7 +451,8 @@ static void test_insecure_and_local(void **state)
     read_endpoints(spool, wep, cep, mlog);
     r = run("jobs", "--master", cipc, NULL);
     if (r->status != 0)
-        fail_msg("jobs over ipc://: exit %d: %s\nmaster log:\n%s", r->status, r->err, slurp(mlog));
+        testutil_fail_quoting(mlog, "jobs over ipc://: exit %d: %s\nmaster log:", r->status,
+                              r->err);
     stop(master);
     env_keys(1);
 }

@@ -31,20 +31,6 @@
 #include <xmmintrin.h>
 #endif
 
-/* Entries in a folder other than . and ..; -1 if it cannot be read. */
-static int count_entries(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return -1;
-    int n = 0;
-    struct dirent *e;
-    while ((e = readdir(d)))
-        n += strcmp(e->d_name, ".") && strcmp(e->d_name, "..");
-    closedir(d);
-    return n;
-}
-
 static void test_render_any_worker_count(void **state)
 {
     (void)state;
@@ -59,8 +45,9 @@ static void test_render_any_worker_count(void **state)
     if (r->status != 0)
         fail_msg("exit %d: %s", r->status, r->err);
     expect_in(r->out, "wrote ");
-    if (count_entries(tmp) != 0)
-        fail_msg("%d entries left in the render's TMPDIR %s: %s", count_entries(tmp), tmp, r->err);
+    if (testutil_count_entries(tmp) != 0)
+        fail_msg("%d entries left in the render's TMPDIR %s: %s", testutil_count_entries(tmp), tmp,
+                 r->err);
     r = run("render", "data/render/tiny.pbrt", "-o", testutil_scratch("three.exr"), "--workers",
             "3", "--threads", "1", "--tile", "8", "--quiet", NULL);
     if (r->status != 0)

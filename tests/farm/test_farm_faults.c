@@ -109,53 +109,6 @@ static int file_exists(const char *path)
     return stat(path, &st) == 0;
 }
 
-/* The whole of a small file (a log, an EXR), NUL-terminated; *size without the NUL. */
-static char *slurp(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    char *buf = NULL;
-    size_t n = 0, cap = 0;
-    for (;;) {
-        if (cap - n < 4096) {
-            char *p = realloc(buf, cap + 65536);
-            assert_non_null(p);
-            buf = p;
-            cap += 65536;
-        }
-        size_t got = fread(buf + n, 1, cap - n - 1, f);
-        n += got;
-        if (got == 0)
-            break;
-    }
-    fclose(f);
-    buf[n] = 0;
-    if (size)
-        *size = n;
-    return buf;
-}
-
-static int log_has(const char *log, const char *needle)
-{
-    char *text = slurp(log, NULL);
-    int found = text && strstr(text, needle);
-    free(text);
-    return found;
-}
-
-/* Waits until the log holds needle; fails naming what was awaited, with the log, after the
- * deadline of a wait (test_wait.h). */
-static void wait_log(const char *log, const char *needle)
-{
-    double timeout_s = test_wait_s();
-    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < timeout_s; testutil_sleep_ms(10))
-        if (log_has(log, needle))
-            return;
-    char *text = slurp(log, NULL);
-    fail_msg("no '%s' in %s within %.0f s:\n%s", needle, log, timeout_s, text ? text : "(none)");
-}
-
 static void wait_file(const char *path)
 {
     double timeout_s = test_wait_s();
@@ -287,7 +240,7 @@ static void test_worker_before_master(void **state)
     const char *wlog = testutil_scratch("early-worker.log"),
                *spool = testutil_scratch("early-spool");
     pid_t w = start_worker(wlog, wep, "early", testutil_scratch("early-cache"));
-    wait_log(wlog, "the master is silent");
+    testutil_wait_file_has(wlog, "the master is silent");
     pid_t master =
         start_master(testutil_scratch("early-master.log"), spool, wep, "tcp://127.0.0.1:*");
     char wbound[256], cep[256];
@@ -296,10 +249,9 @@ static void test_worker_before_master(void **state)
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "-o",
                          testutil_scratch("early.exr"), "--quiet", NULL);
     if (r->status != 0)
-        fail_msg("submit --wait: exit %d: %s\nworker log:\n%s", r->status, r->err,
-                 slurp(wlog, NULL));
+        testutil_fail_quoting(wlog, "submit --wait: exit %d: %s\nworker log:", r->status, r->err);
     assert_same_pixels(testutil_scratch("early.exr"), ref);
-    assert_true(log_has(testutil_scratch("early-master.log"), "'early' joined"));
+    assert_true(testutil_file_has(testutil_scratch("early-master.log"), "'early' joined"));
     stop(w, SIGTERM);
     stop(master, SIGTERM);
 }
@@ -332,7 +284,7 @@ static void test_master_restarted(void **state)
     char first_exr[600];
     snprintf(first_exr, sizeof first_exr, "%s/jobs/1/tiny.exr", spool);
     size_t first_size;
-    char *first_bytes = slurp(first_exr, &first_size);
+    char *first_bytes = testutil_slurp(first_exr, &first_size);
     assert_non_null(first_bytes);
     assert_true(first_size > 0);
 
@@ -348,24 +300,24 @@ static void test_master_restarted(void **state)
     master = start_master(mlog2, spool, wep, cep);
     /* Both workers say HELLO to the new master without being restarted: "joined" (not "joined
      * again") because the new master never knew them. */
-    wait_log(mlog2, "'w1' joined");
-    wait_log(mlog2, "'w2' joined");
-    wait_log(mlog2, "job 2 'long' resumed");
+    testutil_wait_file_has(mlog2, "'w1' joined");
+    testutil_wait_file_has(mlog2, "'w2' joined");
+    testutil_wait_file_has(mlog2, "job 2 'long' resumed");
     r = run("cancel", "2", "--master", cep, NULL);
     if (r->status != 0)
         fail_msg("cancel of the resumed job: exit %d: %s", r->status, r->err);
     r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "--json", "-o",
             testutil_scratch("restart-second.exr"), "--quiet", NULL);
     if (r->status != 0)
-        fail_msg("submit --wait to the new master: exit %d: %s\nmaster log:\n%s", r->status,
-                 r->err, slurp(mlog2, NULL));
+        testutil_fail_quoting(
+            mlog2, "submit --wait to the new master: exit %d: %s\nmaster log:", r->status, r->err);
     unsigned long long id = json_job(r->out);
     /* Jobs 1 and 2 have folders in the spool: the new master must count past them. */
     if (id <= 2)
         fail_msg("the restarted master gave job id %llu, which the earlier run used", id);
     assert_same_pixels(testutil_scratch("restart-second.exr"), ref);
     size_t size_now;
-    char *bytes_now = slurp(first_exr, &size_now);
+    char *bytes_now = testutil_slurp(first_exr, &size_now);
     assert_non_null(bytes_now);
     assert_int_equal(size_now, first_size);
     assert_memory_equal(bytes_now, first_bytes, first_size);
@@ -416,7 +368,7 @@ static void test_client_killed_during_wait(void **state)
                          testutil_scratch("client-never.exr"), NULL);
     /* Its --wait loop has had an answer to a STATUS long poll (its progress line) and asks
      * again: it dies mid-wait. */
-    wait_log(clog, "job:   0.0%");
+    testutil_wait_file_has(clog, "job:   0.0%");
     stop(client, SIGKILL);
     assert_string_equal(job_state(cep, "1", NULL), "queued");
 
@@ -466,12 +418,12 @@ static void test_cancel_running_job(void **state)
         fail_msg("cancel: exit %d: %s", r->status, r->err);
     expect_in(r->out, "\"state\": \"cancelled\"");
     assert_string_equal(job_state(cep, "1", NULL), "cancelled");
-    wait_log(wlog1, "job 1 cancelled");
-    wait_log(wlog2, "job 1 cancelled");
+    testutil_wait_file_has(wlog1, "job 1 cancelled");
+    testutil_wait_file_has(wlog2, "job 1 cancelled");
     /* Stopped, as the workers see it: the tasks queued at the cancel were dropped, a task in
      * flight finished and was dropped unsent, and none of the job's tasks is left to run. */
-    wait_log(wlog1, "job 1: all its tasks stopped");
-    wait_log(wlog2, "job 1: all its tasks stopped");
+    testutil_wait_file_has(wlog1, "job 1: all its tasks stopped");
+    testutil_wait_file_has(wlog2, "job 1: all its tasks stopped");
 
     /* Idle as the master sees them. */
     double t0 = testutil_now_s();

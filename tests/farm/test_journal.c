@@ -173,19 +173,6 @@ static void test_checkpoint_round_trip(void **state)
     tilebuf_destroy(&img);
 }
 
-static int count_files(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return -1;
-    int n = 0;
-    struct dirent *e;
-    while ((e = readdir(d)))
-        n += e->d_name[0] != '.';
-    closedir(d);
-    return n;
-}
-
 typedef struct seen {
     uint32_t task[16];
     int kind[16];
@@ -274,13 +261,13 @@ static void test_journal_tables(void **state)
     char rdir[700], seg1[800], stray[800];
     snprintf(rdir, sizeof rdir, "%s/results/7", dir);
     snprintf(seg1, sizeof seg1, "%s/1.log", rdir);
-    assert_int_equal(count_files(rdir), 1);
+    assert_int_equal(testutil_count_entries(rdir), 1);
     struct stat st;
     assert_int_equal(stat(seg1, &st), 0);
     assert_int_equal(st.st_size, 6 * 4);
     /* A result journaled by this (reopened) master starts a segment of its own. */
     assert_int_equal(journal_add_result(jn, 7, 0, 10, 0, 0, 5, blob, 4, &err), 0);
-    assert_int_equal(count_files(rdir), 2);
+    assert_int_equal(testutil_count_entries(rdir), 2);
     /* Bytes that are not the ones journaled (a power cut before they reached the disk) are
      * skipped and counted: task 3's blob is the fourth in segment 1, at offset 12. */
     FILE *sf = fopen(seg1, "r+b");
@@ -307,9 +294,9 @@ static void test_journal_tables(void **state)
     snprintf(stray, sizeof stray, "%s/9.log", rdir);
     sf = fopen(stray, "w");
     fclose(sf);
-    assert_int_equal(count_files(rdir), 4);
+    assert_int_equal(testutil_count_entries(rdir), 4);
     journal_prune(jn, 7);
-    assert_int_equal(count_files(rdir), 2);
+    assert_int_equal(testutil_count_entries(rdir), 2);
     /* A segment number is never reused, even past a stray file's. */
     sf = fopen(stray, "w");
     fclose(sf);
@@ -384,18 +371,6 @@ static void wait_journal(const char *spool, double timeout_s, const char *what, 
     }
 }
 
-static char *slurp(const char *path)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    static char buf[1 << 20];
-    size_t n = fread(buf, 1, sizeof buf - 1, f);
-    fclose(f);
-    buf[n] = 0;
-    return buf;
-}
-
 /* Every process a farm test starts, so that a failing test leaves none running. */
 static pid_t KIDS[64];
 static int NKIDS;
@@ -460,8 +435,8 @@ static void finish_and_compare(const char *cep, const char *ref, const char *out
 {
     const run_t *r = run("status", "1", "--wait", "--quiet", "--master", cep, "--insecure", NULL);
     if (r->status != 0)
-        fail_msg("status 1 --wait: exit %d: %s\n%s\nmaster log:\n%s", r->status, r->err, r->out,
-                 slurp(mlog));
+        testutil_fail_quoting(mlog, "status 1 --wait: exit %d: %s\n%s\nmaster log:", r->status,
+                              r->err, r->out);
     expect_in(r->out, " done ");
     r = run("fetch", "1", "-o", out, "--master", cep, "--insecure", NULL);
     if (r->status != 0)
@@ -497,10 +472,12 @@ static void test_master_killed_camera_job(void **state)
 
     master = start_master(mlog2, spool, wep, cep);
     finish_and_compare(cep, ref, testutil_scratch("cam-out.exr"), mlog2);
-    const char *log = slurp(mlog2);
-    const char *resumed = strstr(log, "job 1 'tiny' resumed: ");
-    if (!resumed)
-        fail_msg("the restarted master did not resume job 1:\n%s", log);
+    char *log = testutil_slurp(mlog2, NULL);
+    const char *resumed = log ? strstr(log, "job 1 'tiny' resumed: ") : NULL;
+    if (!resumed) {
+        free(log);
+        testutil_fail_quoting(mlog2, "the restarted master did not resume job 1:");
+    }
     int done, passes;
     size_t replayed;
     assert_int_equal(sscanf(resumed, "job 1 'tiny' resumed: %d of %d passes merged", &done, &passes),
@@ -510,6 +487,7 @@ static void test_master_killed_camera_job(void **state)
     /* The checkpoint held passes, and the results after it were merged again, not rendered. */
     assert_true(done >= 1);
     assert_int_equal((long long)replayed, kept);
+    free(log);
     /* A finished job leaves neither results nor checkpoint files behind. */
     assert_int_equal(journal_query(spool, "SELECT COUNT(*) FROM results"), 0);
     assert_int_equal(journal_query(spool, "SELECT state FROM jobs WHERE id=1"), 2);
@@ -552,16 +530,16 @@ static void test_master_killed_photon_job(void **state)
                  "SELECT photons_saved FROM jobs WHERE id=1",
                  "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
     stop_kid(master, SIGKILL);
-    const char *log2 = slurp(mlog2);
-    if (!strstr(log2, "job 1 'beam_big' resumed: "))
-        fail_msg("the second master did not resume job 1:\n%s", log2);
-    if (saved == 0 && !strstr(log2, "photon batches, "))
-        fail_msg("no photon batches replayed:\n%s", log2);
+    if (!testutil_file_has(mlog2, "job 1 'beam_big' resumed: "))
+        testutil_fail_quoting(mlog2, "the second master did not resume job 1:");
+    if (saved == 0 && !testutil_file_has(mlog2, "photon batches, "))
+        testutil_fail_quoting(mlog2, "no photon batches replayed:");
 
     master = start_master(mlog3, spool, wep, cep);
     finish_and_compare(cep, ref, testutil_scratch("ph-out.exr"), mlog3);
     /* The third master took the photon store from disk: no photon batch was traced again. */
-    const char *log3 = slurp(mlog3);
+    char *log3 = testutil_slurp(mlog3, NULL);
+    assert_non_null(log3);
     const char *resumed = strstr(log3, "job 1 'beam_big' resumed: ");
     assert_non_null(resumed);
     unsigned bd, bt;
@@ -569,6 +547,7 @@ static void test_master_killed_photon_job(void **state)
     assert_non_null(b);
     assert_int_equal(sscanf(b, "samples, %u of %u photon batches", &bd, &bt), 2);
     assert_int_equal(bd, bt);
+    free(log3);
     stop_kid(w1, SIGTERM);
     stop_kid(w2, SIGTERM);
     stop_kid(master, SIGTERM);
@@ -681,8 +660,8 @@ static void test_random_kills(void **state)
     int st = stop_kid(client, 0);
     assert_true(WIFEXITED(st));
     if (WEXITSTATUS(st) != 0)
-        fail_msg("the last client exited %d: %s", WEXITSTATUS(st),
-                 slurp(testutil_scratch("rk-client1.log")));
+        testutil_fail_quoting(testutil_scratch("rk-client1.log"),
+                              "the last client exited %d:", WEXITSTATUS(st));
     for (int i = 0; i < 2; i++)
         stop_kid(workers[i], SIGTERM);
     stop_kid(master, SIGTERM);

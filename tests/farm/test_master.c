@@ -25,6 +25,7 @@
 
 #include "bundle.h"
 #include "clock.h"
+#include "files_testutil.h"
 #include "image_exr.h"
 #include "local_render.h"
 #include "master.h"
@@ -93,18 +94,6 @@ static void *run_master(void *arg)
     return NULL;
 }
 
-static uint8_t *read_all(const char *path, size_t *size)
-{
-    *size = 0;
-    FILE *in = fopen(path, "rb");
-    if (!in)
-        return NULL;
-    uint8_t *buf = malloc(1 << 16);
-    *size = fread(buf, 1, 1 << 16, in);
-    fclose(in);
-    return buf;
-}
-
 /* Starts a master on tcp://127.0.0.1 with system-chosen ports (tcp != 0) or on inproc://;
  * prefetch 0 and a preview after every pass unless farm_defaults. A worker silent for
  * worker_timeout_s is lost; 0 means never in a test (the deadline of a wait, test_wait.h). */
@@ -113,7 +102,7 @@ static int start(void **state, int tcp, int max_task_failures, int farm_defaults
 {
     static int counter;
     fx_t *f = calloc(1, sizeof *f);
-    f->scene_bytes = read_all("data/render/tiny.pbrt", &f->scene_size);
+    f->scene_bytes = (uint8_t *)testutil_slurp("data/render/tiny.pbrt", &f->scene_size);
     if (!f->scene_bytes) {
         fprintf(stderr, "cannot read data/render/tiny.pbrt: run from tests/ (ctest does)\n");
         free(f);
@@ -511,19 +500,6 @@ static void check_exr(fx_t *f, uint64_t job)
     image_exr_destroy(&exr);
 }
 
-static int count_entries(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return -1;
-    int n = 0;
-    struct dirent *e;
-    while ((e = readdir(d)))
-        n += strcmp(e->d_name, ".") && strcmp(e->d_name, "..");
-    closedir(d);
-    return n;
-}
-
 /* ---------------------------------------------------------------- tests */
 
 /* SUBMIT, TASKs, SCENE_REQUEST, RESULTs, a progressive preview, then the final EXR; over tcp
@@ -644,7 +620,7 @@ static void test_broken_scene(void **state)
 {
     fx_t *f = *state;
     size_t size;
-    uint8_t *bytes = read_all("data/render/broken.pbrt", &size);
+    uint8_t *bytes = (uint8_t *)testutil_slurp("data/render/broken.pbrt", &size);
     assert_non_null(bytes);
     proto_bundle_file_t file = {.path = "scenes/broken.pbrt", .data = bytes, .size = size};
     proto_msg_t req = {
@@ -691,9 +667,9 @@ static void test_broken_scene(void **state)
 
     char dir[128];
     snprintf(dir, sizeof dir, "%s/scenes", f->spool);
-    assert_int_equal(count_entries(dir), 0);
+    assert_int_equal(testutil_count_entries(dir), 0);
     snprintf(dir, sizeof dir, "%s/tmp", f->spool);
-    assert_int_equal(count_entries(dir), 0);
+    assert_int_equal(testutil_count_entries(dir), 0);
     proto_msg_t jq = {.type = PROTO_JOBS};
     call(f, &jq, &r);
     assert_int_equal(r.type, PROTO_JOBS_REPLY);
@@ -919,7 +895,7 @@ static void test_cancel(void **state)
     }
     char dir[128];
     snprintf(dir, sizeof dir, "%s/scenes", f->spool);
-    assert_int_equal(count_entries(dir), 2); /* <hash>/ and <hash>.scene */
+    assert_int_equal(testutil_count_entries(dir), 2); /* <hash>/ and <hash>.scene */
     proto_msg_free(&t1);
     proto_msg_free(&t2);
     fw_close(&w);

@@ -414,15 +414,6 @@ static long asan_quarantine_mb(void)
 }
 #endif
 
-/* Occurrences of needle in haystack. */
-static int count_in(const char *haystack, const char *needle)
-{
-    int n = 0;
-    for (const char *p = strstr(haystack, needle); p; p = strstr(p + 1, needle))
-        n++;
-    return n;
-}
-
 static void test_soak(void **state)
 {
     (void)state;
@@ -549,7 +540,7 @@ static void test_soak(void **state)
     /* The master's view: 50 jobs done; the 2 killed workers lost, 6 in service. */
     const run_t *r = run("jobs", "--master", cep, "--json", NULL);
     assert_int_equal(r->status, 0);
-    assert_int_equal(count_in(r->out, "\"state\": \"done\""), N_JOBS);
+    assert_int_equal(testutil_count_in(r->out, "\"state\": \"done\""), N_JOBS);
     /* A worker is lost after 3 silent heartbeats (3 s) and a restarted one is in service once
      * it has said hello: wait for both (test_wait.h). Six workers in service, the two killed
      * ones lost; a worker that fell silent under load and reconnected is listed lost too (under
@@ -558,8 +549,9 @@ static void test_soak(void **state)
     for (double until = testutil_now_s() + test_wait_s();;) {
         r = run("workers", "--master", cep, "--json", NULL);
         assert_int_equal(r->status, 0);
-        lost = count_in(r->out, "\"state\": \"lost\"");
-        serving = count_in(r->out, "\"state\": \"idle\"") + count_in(r->out, "\"state\": \"busy\"");
+        lost = testutil_count_in(r->out, "\"state\": \"lost\"");
+        serving = testutil_count_in(r->out, "\"state\": \"idle\"") +
+                  testutil_count_in(r->out, "\"state\": \"busy\"");
         if ((lost >= N_KILLS && serving == N_WORKERS) || testutil_now_s() > until)
             break;
         testutil_sleep_ms(200);

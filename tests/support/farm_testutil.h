@@ -88,43 +88,15 @@ static inline double testutil_now_s(void)
     return clock_now_s();
 }
 
-/* Whether the file at path (a log) holds needle; a file not there yet holds nothing. */
-static inline int testutil_file_has(const char *path, const char *needle)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return 0;
-    size_t cap = 1 << 16, n = 0;
-    char *buf = malloc(cap + 1);
-    if (!buf) {
-        fclose(f);
-        return 0;
-    }
-    for (size_t got; (got = fread(buf + n, 1, cap - n, f)) > 0;) {
-        n += got;
-        if (n == cap) {
-            char *p = realloc(buf, 2 * cap + 1);
-            if (!p)
-                break;
-            buf = p;
-            cap *= 2;
-        }
-    }
-    fclose(f);
-    buf[n] = 0;
-    int found = strstr(buf, needle) != NULL;
-    free(buf);
-    return found;
-}
-
 /* Waits until the file at path holds needle (a log line the process writes when the event
- * happens), up to the deadline of a wait (test_wait.h); fails the test otherwise. */
+ * happens), up to the deadline of a wait (test_wait.h); fails the test otherwise, quoting the
+ * file. */
 static inline void testutil_wait_file_has(const char *path, const char *needle)
 {
     for (double until = testutil_now_s() + test_wait_s(); !testutil_file_has(path, needle);
          testutil_sleep_ms(10))
         if (testutil_now_s() > until)
-            fail_msg("no '%s' in %s after %.0f s", needle, path, test_wait_s());
+            testutil_fail_quoting(path, "no '%s' in %s after %.0f s:", needle, path, test_wait_s());
 }
 
 /* Starts `$PRISMFARM_BIN ARGS...` in the background (args: NULL-terminated, at most

@@ -1,8 +1,10 @@
 /* files_testutil: the file helpers the tests share. A scratch folder per test executable
  * (testutil_scratch_setup and testutil_scratch_teardown as cmocka's group setup and teardown,
  * testutil_scratch(NAME) for a path in it), or a fresh folder of one's own (testutil_mkdtemp,
- * testutil_path_in, testutil_rmtree). Header-only (each test is its own executable); include
- * after cmocka.h. */
+ * testutil_path_in, testutil_rmtree); a whole file read into memory (testutil_slurp), a text file
+ * written with a mode, a folder's entries counted, a text looked for in a file (a log) and in a
+ * string, and a failure that quotes a file. Header-only (each test is its own executable);
+ * include after cmocka.h. */
 #ifndef PRISMFARM_FILES_TESTUTIL_H
 #define PRISMFARM_FILES_TESTUTIL_H
 
@@ -94,6 +96,119 @@ static inline int testutil_scratch_teardown(void **state)
 static inline const char *testutil_scratch(const char *name)
 {
     return testutil_path_in(testutil_scratch_dir(), name);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Files. */
+
+/* The whole file at path in a new buffer (malloc: the caller frees it), with a NUL after its
+ * bytes; *size (if size is not NULL) gets their number, without the NUL. NULL, and *size 0, when
+ * the file cannot be opened. Running out of memory fails the test. */
+static inline char *testutil_slurp(const char *path, size_t *size)
+{
+    if (size)
+        *size = 0;
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        return NULL;
+    size_t cap = 1 << 16, n = 0;
+    char *buf = malloc(cap + 1);
+    for (size_t got; buf && (got = fread(buf + n, 1, cap - n, f)) > 0;) {
+        n += got;
+        if (n == cap) {
+            char *p = realloc(buf, 2 * cap + 1);
+            if (!p)
+                free(buf);
+            buf = p;
+            cap *= 2;
+        }
+    }
+    fclose(f);
+    if (!buf)
+        fail_msg("out of memory reading %s", path);
+    buf[n] = '\0';
+    if (size)
+        *size = n;
+    return buf;
+}
+
+/* How many times needle occurs in haystack (overlapping occurrences too). */
+static inline int testutil_count_in(const char *haystack, const char *needle)
+{
+    int n = 0;
+    for (const char *p = strstr(haystack, needle); p; p = strstr(p + 1, needle))
+        n++;
+    return n;
+}
+
+/* How many times the file at path (a log) holds needle; a file not there holds it 0 times. */
+static inline int testutil_file_count(const char *path, const char *needle)
+{
+    char *text = testutil_slurp(path, NULL);
+    int n = text ? testutil_count_in(text, needle) : 0;
+    free(text);
+    return n;
+}
+
+/* Whether the file at path (a log) holds needle; a file not there yet holds nothing. */
+static inline int testutil_file_has(const char *path, const char *needle)
+{
+    char *text = testutil_slurp(path, NULL);
+    int found = text && strstr(text, needle);
+    free(text);
+    return found;
+}
+
+/* Prints the whole file at path (a log) with cmocka's print_error, for a failure message, or
+ * "(no file)" when there is none. */
+static inline void testutil_print_file(const char *path)
+{
+    char *text = testutil_slurp(path, NULL);
+    print_error("%s\n", text ? text : "(no file)");
+    free(text);
+}
+
+/* fail_msg(fmt, ...) with the whole file at path (a log) quoted on the lines after the message.
+ * The text is freed before the test fails, so that a failure adds no leak report of its own. */
+#define testutil_fail_quoting(path, fmt, ...)                                                      \
+    do {                                                                                           \
+        print_error("ERROR: " fmt "\n", ##__VA_ARGS__);                                            \
+        testutil_print_file(path);                                                                 \
+        fail();                                                                                    \
+    } while (0)
+
+/* Fails the test, quoting the file, unless the file at path holds needle. */
+#define testutil_expect_file_has(path, needle)                                                     \
+    do {                                                                                           \
+        const char *path_ = (path), *needle_ = (needle);                                           \
+        if (!testutil_file_has(path_, needle_))                                                    \
+            testutil_fail_quoting(path_, "expected '%s' in %s:", needle_, path_);                  \
+    } while (0)
+
+/* Writes text to the file at path (created or emptied) and gives the file the mode (chmod, so
+ * whatever the umask); fails the test if any step does. */
+static inline void testutil_write_text(const char *path, const char *text, mode_t mode)
+{
+    int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC, mode);
+    if (fd < 0)
+        fail_msg("cannot write %s: %s", path, strerror(errno));
+    size_t len = strlen(text);
+    assert_int_equal(write(fd, text, len), (ssize_t)len);
+    assert_int_equal(fchmod(fd, mode), 0);
+    assert_int_equal(close(fd), 0);
+}
+
+/* The entries of a folder other than . and ..; -1 if it cannot be read. */
+static inline int testutil_count_entries(const char *dir)
+{
+    DIR *d = opendir(dir);
+    if (!d)
+        return -1;
+    int n = 0;
+    for (struct dirent *e; (e = readdir(d));)
+        n += strcmp(e->d_name, ".") && strcmp(e->d_name, "..");
+    closedir(d);
+    return n;
 }
 
 #endif

@@ -17,6 +17,7 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "files_testutil.h"
 #include "mesh_import.h"
 #include "pbrt_parser.h"
 
@@ -1129,19 +1130,6 @@ static uint64_t next_rand(uint64_t *x)
     return *x * 2685821657736338717ull;
 }
 
-static char *read_all(const char *path, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    char *buf = malloc(1 << 16);
-    *len = 0;
-    if (buf)
-        *len = fread(buf, 1, (1 << 16) - 1, f);
-    fclose(f);
-    return buf;
-}
-
 static void test_mutations_never_crash(void **state)
 {
     (void)state;
@@ -1174,7 +1162,7 @@ static void test_mutations_never_crash(void **state)
     size_t parsed = 0, failed = 0;
     for (size_t fi = 0; fi < sizeof FILES / sizeof FILES[0]; fi++) {
         size_t len = 0;
-        char *orig = read_all(FILES[fi], &len);
+        char *orig = testutil_slurp(FILES[fi], &len);
         assert_non_null(orig);
         char *buf = malloc(2 * len + 256);
         assert_non_null(buf);
