@@ -163,25 +163,24 @@ static void test_processes_refine_and_kill(void **state)
     testutil_stop(w1, SIGTERM);
     testutil_stop(master, SIGTERM);
     /* The master said what it did: batches merged, the store sent, the refinement. */
-    FILE *f = fopen(testutil_scratch("master.log"), "r");
-    assert_non_null(f);
-    static char log[1 << 20];
-    size_t n = fread(log, 1, sizeof log - 1, f);
-    log[n] = 0;
-    fclose(f);
-    expect_in(log, "job 1 photon pass merged: 30000 photons in 2 batches");
+    const char *mlog = testutil_scratch("master.log");
+    testutil_expect_file_has(mlog, "job 1 photon pass merged: 30000 photons in 2 batches");
     /* The finished job's store went to disk and came back for the refinement: one batch for
      * the first 30000 photons, one for the new 20000. */
-    expect_in(log, "job 1 photon pass merged: 50000 photons in 2 batches");
-    if (strstr(log, "keeping its photon store in memory"))
-        fail_msg("the master could not save a photon store:\n%s", log);
-    expect_in(log, "job 1 'beam' refined: 20000 more photons in 1 batches");
-    expect_in(log, "photon store ");
+    testutil_expect_file_has(mlog, "job 1 photon pass merged: 50000 photons in 2 batches");
+    if (testutil_file_has(mlog, "keeping its photon store in memory"))
+        testutil_fail_quoting(mlog, "the master could not save a photon store:");
+    testutil_expect_file_has(mlog, "job 1 'beam' refined: 20000 more photons in 1 batches");
+    testutil_expect_file_has(mlog, "photon store ");
     /* w2 died holding batches of job 3 (it prefetches two): the photon phase could only end
      * after the master gave them to w1. */
+    char *log = testutil_slurp(mlog, NULL);
+    assert_non_null(log);
     const char *lost = strstr(log, "'w2' lost"), *merged = strstr(log, "job 3 photon pass merged");
-    if (!lost || !merged || lost > merged)
-        fail_msg("expected w2 lost before job 3's photon pass merged:\n%s", log);
+    int in_order = lost && merged && lost < merged;
+    free(log);
+    if (!in_order)
+        testutil_fail_quoting(mlog, "expected w2 lost before job 3's photon pass merged:");
 }
 
 int main(void)

@@ -364,16 +364,7 @@ static int count_fetched(void)
  * log's wording changed). */
 static int count_done(const char *mlog)
 {
-    static char log[1 << 20];
-    int done = 0;
-    FILE *f = fopen(mlog, "r");
-    if (f) {
-        size_t n = fread(log, 1, sizeof log - 1, f);
-        log[n] = 0;
-        fclose(f);
-        for (const char *p = strstr(log, "' done in "); p; p = strstr(p + 1, "' done in "))
-            done++;
-    }
+    int done = testutil_file_count(mlog, "' done in ");
     int fetched = count_fetched();
     return done > fetched ? done : fetched;
 }
@@ -618,23 +609,22 @@ static void test_soak(void **state)
 
     /* The master saw both kills, and they cost it tasks: a killed worker's tasks went back in
      * the queue and were rendered elsewhere (the pixels above say so too). */
-    static char log[1 << 20];
-    FILE *f = fopen(mlog, "r");
-    assert_non_null(f);
-    size_t n = fread(log, 1, sizeof log - 1, f);
-    log[n] = 0;
-    fclose(f);
+    char *log = testutil_slurp(mlog, NULL);
+    assert_non_null(log);
     int back = 0;
     for (int i = 0; i < N_KILLS; i++) {
         char needle[32];
         snprintf(needle, sizeof needle, "'w%d' lost", victim[i]);
         const char *p = strstr(log, needle);
-        if (!p)
+        if (!p) {
+            free(log);
             fail_msg("the master never lost w%d:\n%s", victim[i], tail_of(mlog, 1500));
+        }
         const char *q = strstr(p, "); ");
         if (q)
             back += atoi(q + 3);
     }
+    free(log);
     print_message("soak: %d tasks of the killed workers went back in the queue; %d other "
                   "worker losses (silent under load, reconnected)\n",
                   back, lost - N_KILLS);

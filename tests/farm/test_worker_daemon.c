@@ -18,6 +18,7 @@
 
 #include "bundle.h"
 #include "clock.h"
+#include "files_testutil.h"
 #include "net.h"
 #include "render.h"
 #include "scene_load.h"
@@ -58,12 +59,9 @@ static int setup_at(void **state, const char *endpoint)
     snprintf(f->cache, sizeof f->cache, "/tmp/prismfarm-test-worker-XXXXXX");
     if (!mkdtemp(f->cache))
         return -1;
-    FILE *in = fopen("data/render/tiny.pbrt", "rb");
-    if (!in)
+    f->scene_bytes = (uint8_t *)testutil_slurp("data/render/tiny.pbrt", &f->scene_size);
+    if (!f->scene_bytes)
         return -1;
-    f->scene_bytes = malloc(1 << 16);
-    f->scene_size = fread(f->scene_bytes, 1, 1 << 16, in);
-    fclose(in);
     f->opts = (worker_opts_t){.endpoint = f->endpoint, .zmq_ctx = f->ctx, .threads = 2,
                               .name = "test-worker", .cache_dir = f->cache, .stop = &f->stop,
                               .reconnect_max_ms = 200,

@@ -10,6 +10,7 @@
 #include <cmocka.h>
 
 #include "cli_run.h"
+#include "files_testutil.h"
 
 #include "pbrt_parser.h"
 #include "photon.h"
@@ -203,12 +204,8 @@ static void test_cornell_without_glass(void **state)
     (void)state;
     char path[1024];
     snprintf(path, sizeof path, "%s/scenes/cornell.pbrt", source_dir());
-    FILE *f = fopen(path, "r");
-    assert_non_null(f);
-    static char text[16384];
-    size_t n = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[n] = 0;
+    char *text = testutil_slurp(path, NULL);
+    assert_non_null(text);
     char *glass = strstr(text, "AttributeBegin\n  Material \"dielectric\"");
     assert_non_null(glass);
     *glass = 0;
@@ -218,6 +215,7 @@ static void test_cornell_without_glass(void **state)
     assert_non_null(strstr(plan_decision_of(l.plan, PLAN_SPLITTING)->reason, "no glass"));
     assert_int_equal(plan_rays(l.plan), 0);
     loaded_free(&l);
+    free(text);
 }
 
 static void test_shipped_prism(void **state)
