@@ -361,7 +361,7 @@ static void test_farm_processes_report_accuracy(void **state)
     pid_t master = testutil_spawn(mlog, "master", "--workers", wipc, "--clients", cipc, "--spool",
                                   spool, "--heartbeat", "200", NULL);
     char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep);
+    testutil_read_endpoints(spool, wep, cep, mlog);
     pid_t worker =
         testutil_spawn(testutil_scratch("w.log"), "worker", "--connect", wep, "--threads", "2",
                        "--name", "w1", "--cache", testutil_scratch("cache"), NULL);

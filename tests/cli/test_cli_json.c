@@ -68,7 +68,7 @@ static void test_names_round_trip(void **state)
     pid_t master = testutil_spawn(testutil_scratch("master.log"), "master", "--workers", wipc,
                                   "--clients", cipc, "--spool", spool, "--heartbeat", "200", NULL);
     char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep);
+    testutil_read_endpoints(spool, wep, cep, testutil_scratch("master.log"));
 
     /* A name with a newline never gets to the master, nor to the output. */
     const run_t *r = run("submit", SCENE, "--master", cep, "--name", "two\nlines", "--json", NULL);

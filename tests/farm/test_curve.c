@@ -55,51 +55,6 @@ static void env_keys(int on)
     }
 }
 
-/* Starts `prismfarm ARGS...` in the background, stderr to log; returns its pid. */
-static pid_t spawn(const char *log, const char *arg, ...)
-{
-    const char *bin = getenv("PRISMFARM_BIN");
-    assert_non_null(bin);
-    char *argv[32];
-    va_list ap;
-    va_start(ap, arg);
-    cli_argv(argv, 32, bin, arg, ap);
-    va_end(ap);
-    pid_t pid = fork();
-    assert_true(pid >= 0);
-    if (pid == 0) {
-        if (!freopen(log, "w", stderr) || !freopen("/dev/null", "w", stdout))
-            _exit(126);
-        execv(bin, argv);
-        _exit(127);
-    }
-    return pid;
-}
-
-static void stop(pid_t pid)
-{
-    kill(pid, SIGTERM);
-    int st;
-    waitpid(pid, &st, 0);
-}
-
-static void read_endpoints(const char *spool, char *workers, char *clients, const char *log)
-{
-    char path[700];
-    snprintf(path, sizeof path, "%s/endpoints", spool);
-    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < test_wait_s();
-         testutil_sleep_ms(10)) {
-        FILE *f = fopen(path, "r");
-        if (f) {
-            int got = fscanf(f, "workers %255s clients %255s", workers, clients);
-            fclose(f);
-            if (got == 2)
-                return;
-        }
-    }
-    testutil_fail_quoting(log, "the master did not write %s; its log:", path);
-}
-
 /* The value of the "NAME = " line of a key file (40 characters), into out[41]. */
 static void key_line(const char *text, const char *name, char out[41])
 {
@@ -289,13 +244,14 @@ static void test_farm_with_keys(void **state)
     env_keys(1);
     const char *spool = testutil_scratch("spool"), *mlog = testutil_scratch("master.log");
     pid_t master =
-        spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients", "tcp://127.0.0.1:*",
-              "--spool", spool, "--heartbeat", "200", "--tile", "8", "--key", testutil_master_key(),
-              "--authorized", testutil_authorized(), NULL);
+        testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
+                       "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "8",
+                       "--key", testutil_master_key(), "--authorized", testutil_authorized(), NULL);
     char wep[256], cep[256];
-    read_endpoints(spool, wep, cep, mlog);
-    pid_t worker = spawn(testutil_scratch("w1.log"), "worker", "--connect", wep, "--threads", "1",
-                         "--name", "w1", "--cache", testutil_scratch("c1"), NULL);
+    testutil_read_endpoints(spool, wep, cep, mlog);
+    pid_t worker =
+        testutil_spawn(testutil_scratch("w1.log"), "worker", "--connect", wep, "--threads", "1",
+                       "--name", "w1", "--cache", testutil_scratch("c1"), NULL);
     const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "4", "--wait",
                          "-o", testutil_scratch("farm.exr"), "--quiet", NULL);
     if (r->status != 0)
@@ -329,9 +285,9 @@ static void test_farm_with_keys(void **state)
     testutil_wait_file_has(mlog, line);
 
     /* A worker with that key never joins; the refusal is logged for the workers endpoint. */
-    pid_t stranger =
-        spawn(testutil_scratch("w2.log"), "worker", "--connect", wep, "--threads", "1", "--name",
-              "stranger", "--key", intruder_key, "--cache", testutil_scratch("c2"), NULL);
+    pid_t stranger = testutil_spawn(testutil_scratch("w2.log"), "worker", "--connect", wep,
+                                    "--threads", "1", "--name", "stranger", "--key", intruder_key,
+                                    "--cache", testutil_scratch("c2"), NULL);
     snprintf(line, sizeof line,
              "refused a connection to the workers endpoint from 127.0.0.1: key %s", intruder);
     testutil_wait_file_has(mlog, line);
@@ -339,7 +295,7 @@ static void test_farm_with_keys(void **state)
     assert_int_equal(r->status, 0);
     expect_in(r->out, "\"w1\"");
     assert_null(strstr(r->out, "stranger"));
-    stop(stranger);
+    testutil_stop(stranger, SIGTERM);
 
     /* No keys over tcp: the client refuses to send plain text unless told to. */
     env_keys(0);
@@ -376,8 +332,8 @@ static void test_farm_with_keys(void **state)
     r = run("jobs", "--master", cep, "--key", intruder_key, "--master-key", MASTER_PUB, NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "refused our key");
-    stop(worker);
-    stop(master);
+    testutil_stop(worker, SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 /* A tcp:// master without keys refuses to start, with the reason and the two ways out;
@@ -421,15 +377,15 @@ static void test_insecure_and_local(void **state)
     env_keys(0);
     const char *spool = testutil_scratch("plain-spool"),
                *mlog = testutil_scratch("plain-master.log");
-    pid_t master =
-        spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients", "tcp://127.0.0.1:*",
-              "--spool", spool, "--heartbeat", "200", "--tile", "8", "--insecure", NULL);
+    pid_t master = testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
+                                  "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200",
+                                  "--tile", "8", "--insecure", NULL);
     char wep[256], cep[256];
-    read_endpoints(spool, wep, cep, mlog);
+    testutil_read_endpoints(spool, wep, cep, mlog);
     testutil_expect_file_has(mlog, "plain text (--insecure)");
     pid_t worker =
-        spawn(testutil_scratch("plain-w.log"), "worker", "--connect", wep, "--threads", "1",
-              "--name", "pw", "--cache", testutil_scratch("pc"), "--insecure", NULL);
+        testutil_spawn(testutil_scratch("plain-w.log"), "worker", "--connect", wep, "--threads",
+                       "1", "--name", "pw", "--cache", testutil_scratch("pc"), "--insecure", NULL);
     const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "2", "--wait",
                          "-o", testutil_scratch("plain.exr"), "--quiet", "--insecure", NULL);
     if (r->status != 0)
@@ -438,8 +394,8 @@ static void test_insecure_and_local(void **state)
     assert_int_equal(r->status, 1);
     if (!strstr(r->err, "does not use CURVE") && !strstr(r->err, "does it use CURVE"))
         fail_msg("a CURVE client was not told the master runs in plain text: %s", r->err);
-    stop(worker);
-    stop(master);
+    testutil_stop(worker, SIGTERM);
+    testutil_stop(master, SIGTERM);
 
     /* ipc:// stays on this host: no keys, no flag. */
     char wipc[700], cipc[700];
@@ -447,13 +403,14 @@ static void test_insecure_and_local(void **state)
     snprintf(cipc, sizeof cipc, "ipc://%s", testutil_scratch("c.ipc"));
     spool = testutil_scratch("ipc-spool");
     mlog = testutil_scratch("ipc-master.log");
-    master = spawn(mlog, "master", "--workers", wipc, "--clients", cipc, "--spool", spool, NULL);
-    read_endpoints(spool, wep, cep, mlog);
+    master = testutil_spawn(mlog, "master", "--workers", wipc, "--clients", cipc, "--spool", spool,
+                            NULL);
+    testutil_read_endpoints(spool, wep, cep, mlog);
     r = run("jobs", "--master", cipc, NULL);
     if (r->status != 0)
         testutil_fail_quoting(mlog, "jobs over ipc://: exit %d: %s\nmaster log:", r->status,
                               r->err);
-    stop(master);
+    testutil_stop(master, SIGTERM);
     env_keys(1);
 }
 

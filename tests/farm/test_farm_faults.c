@@ -21,7 +21,6 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <signal.h>
-#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <time.h>
@@ -37,71 +36,8 @@
  * can be silent for half a second, and one lost then misses the CANCEL the test waits for. */
 #define HEARTBEAT_MS "1000"
 #define TILE "8"
-#define MAX_CHILDREN 8
 
 static int REF_MADE;
-static pid_t CHILDREN[MAX_CHILDREN];
-
-/* Starts `prismfarm ARGS...` in the background with stderr to a log; returns its pid. Every
- * child is remembered, so that a failed assertion cannot leave daemons behind (teardown). */
-static pid_t spawn(const char *log, const char *arg, ...)
-{
-    const char *bin = getenv("PRISMFARM_BIN");
-    if (!bin)
-        fail_msg("PRISMFARM_BIN is not set (run the test through ctest)");
-    char *argv[32];
-    va_list ap;
-    va_start(ap, arg);
-    cli_argv(argv, 32, bin, arg, ap);
-    va_end(ap);
-    int slot = 0;
-    while (slot < MAX_CHILDREN && CHILDREN[slot] > 0)
-        slot++;
-    assert_true(slot < MAX_CHILDREN);
-    pid_t pid = fork();
-    assert_true(pid >= 0);
-    if (pid == 0) {
-        /* Killed with the test, should ctest's timeout end it before its teardown. */
-        if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0)
-            _exit(125);
-        if (!freopen(log, "w", stderr) || !freopen("/dev/null", "w", stdout))
-            _exit(126);
-        execv(bin, argv);
-        _exit(127);
-    }
-    CHILDREN[slot] = pid;
-    return pid;
-}
-
-/* Sends sig and waits for the process to end, up to the deadline of a wait (test_wait.h); a
- * daemon that ignores SIGTERM fails the test (and is killed) rather than hanging it. */
-static void stop(pid_t pid, int sig)
-{
-    for (int i = 0; i < MAX_CHILDREN; i++)
-        if (CHILDREN[i] == pid)
-            CHILDREN[i] = 0;
-    assert_int_equal(kill(pid, sig), 0);
-    int st;
-    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < test_wait_s(); testutil_sleep_ms(10))
-        if (waitpid(pid, &st, WNOHANG) == pid)
-            return;
-    kill(pid, SIGKILL);
-    waitpid(pid, &st, 0);
-    fail_msg("process %ld did not end within %.0f s of signal %d", (long)pid, test_wait_s(), sig);
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    for (int i = 0; i < MAX_CHILDREN; i++)
-        if (CHILDREN[i] > 0) {
-            int st;
-            kill(CHILDREN[i], SIGKILL);
-            waitpid(CHILDREN[i], &st, 0);
-            CHILDREN[i] = 0;
-        }
-    return 0;
-}
 
 static int file_exists(const char *path)
 {
@@ -132,35 +68,17 @@ static int free_port(void)
     return ntohs(a.sin_port);
 }
 
-/* Reads "workers tcp://..." and "clients tcp://..." from a master's endpoints file. */
-static void read_endpoints(const char *spool, char *workers, char *clients)
-{
-    char path[600];
-    snprintf(path, sizeof path, "%s/endpoints", spool);
-    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < test_wait_s();
-         testutil_sleep_ms(10)) {
-        FILE *f = fopen(path, "r");
-        if (f) {
-            int got = fscanf(f, "workers %255s clients %255s", workers, clients);
-            fclose(f);
-            if (got == 2)
-                return;
-        }
-    }
-    fail_msg("the master did not write %s", path);
-}
-
 static pid_t start_master(const char *log, const char *spool, const char *wep, const char *cep)
 {
-    return spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool, "--heartbeat",
-                 HEARTBEAT_MS, "--tile", TILE, "--key", testutil_master_key(), "--authorized",
-                 testutil_authorized(), NULL);
+    return testutil_spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool,
+                          "--heartbeat", HEARTBEAT_MS, "--tile", TILE, "--key",
+                          testutil_master_key(), "--authorized", testutil_authorized(), NULL);
 }
 
 static pid_t start_worker(const char *log, const char *wep, const char *name, const char *cache)
 {
-    return spawn(log, "worker", "--connect", wep, "--threads", "1", "--name", name, "--cache",
-                 cache, NULL);
+    return testutil_spawn(log, "worker", "--connect", wep, "--threads", "1", "--name", name,
+                          "--cache", cache, NULL);
 }
 
 /* `prismfarm status JOB --json`'s state, polled until it is one of want ("done|failed") or the
@@ -244,7 +162,7 @@ static void test_worker_before_master(void **state)
     pid_t master =
         start_master(testutil_scratch("early-master.log"), spool, wep, "tcp://127.0.0.1:*");
     char wbound[256], cep[256];
-    read_endpoints(spool, wbound, cep);
+    testutil_read_endpoints(spool, wbound, cep, testutil_scratch("early-master.log"));
     assert_string_equal(wbound, wep);
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "-o",
                          testutil_scratch("early.exr"), "--quiet", NULL);
@@ -252,8 +170,8 @@ static void test_worker_before_master(void **state)
         testutil_fail_quoting(wlog, "submit --wait: exit %d: %s\nworker log:", r->status, r->err);
     assert_same_pixels(testutil_scratch("early.exr"), ref);
     assert_true(testutil_file_has(testutil_scratch("early-master.log"), "'early' joined"));
-    stop(w, SIGTERM);
-    stop(master, SIGTERM);
+    testutil_stop(w, SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 /* A master killed with SIGKILL while two workers render a job, restarted on the same endpoints
@@ -270,7 +188,7 @@ static void test_master_restarted(void **state)
                *mlog2 = testutil_scratch("restart-master2.log");
     pid_t master = start_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
-    read_endpoints(spool, wep, cep);
+    testutil_read_endpoints(spool, wep, cep, mlog1);
     pid_t w1 =
         start_worker(testutil_scratch("restart-w1.log"), wep, "w1", testutil_scratch("restart-c1"));
     pid_t w2 =
@@ -295,7 +213,7 @@ static void test_master_restarted(void **state)
     char preview[600];
     snprintf(preview, sizeof preview, "%s/jobs/2/preview.png", spool);
     wait_file(preview);
-    stop(master, SIGKILL);
+    testutil_stop(master, SIGKILL);
 
     master = start_master(mlog2, spool, wep, cep);
     /* Both workers say HELLO to the new master without being restarted: "joined" (not "joined
@@ -323,9 +241,9 @@ static void test_master_restarted(void **state)
     assert_memory_equal(bytes_now, first_bytes, first_size);
     free(bytes_now);
     free(first_bytes);
-    stop(w1, SIGTERM);
-    stop(w2, SIGTERM);
-    stop(master, SIGTERM);
+    testutil_stop(w1, SIGTERM);
+    testutil_stop(w2, SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 /* The id a killed master gave a job that was only queued (no output folder yet) must not be
@@ -338,16 +256,16 @@ static void test_restart_does_not_reuse_queued_job_id(void **state)
     pid_t master = start_master(testutil_scratch("ids-master1.log"), spool, "tcp://127.0.0.1:*",
                                 "tcp://127.0.0.1:*");
     char wep[256], cep[256];
-    read_endpoints(spool, wep, cep);
+    testutil_read_endpoints(spool, wep, cep, testutil_scratch("ids-master1.log"));
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, NULL);
     assert_int_equal(r->status, 0);
     assert_string_equal(r->out, "1\n");
-    stop(master, SIGKILL);
+    testutil_stop(master, SIGKILL);
     master = start_master(testutil_scratch("ids-master2.log"), spool, wep, cep);
     r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, NULL);
     assert_int_equal(r->status, 0);
     unsigned long long id = strtoull(r->out, NULL, 10);
-    stop(master, SIGTERM);
+    testutil_stop(master, SIGTERM);
     /* The killed master's queued job 1 left its folder in the spool: its id is not reused. */
     assert_true(id >= 2);
 }
@@ -363,13 +281,13 @@ static void test_client_killed_during_wait(void **state)
     pid_t master = start_master(testutil_scratch("client-master.log"), spool, "tcp://127.0.0.1:*",
                                 "tcp://127.0.0.1:*");
     char wep[256], cep[256];
-    read_endpoints(spool, wep, cep);
-    pid_t client = spawn(clog, "submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "-o",
-                         testutil_scratch("client-never.exr"), NULL);
+    testutil_read_endpoints(spool, wep, cep, testutil_scratch("client-master.log"));
+    pid_t client = testutil_spawn(clog, "submit", SCENE, "--master", cep, "--spp", SPP_DONE,
+                                  "--wait", "-o", testutil_scratch("client-never.exr"), NULL);
     /* Its --wait loop has had an answer to a STATUS long poll (its progress line) and asks
      * again: it dies mid-wait. */
     testutil_wait_file_has(clog, "job:   0.0%");
-    stop(client, SIGKILL);
+    testutil_stop(client, SIGKILL);
     assert_string_equal(job_state(cep, "1", NULL), "queued");
 
     pid_t w =
@@ -382,8 +300,8 @@ static void test_client_killed_during_wait(void **state)
         fail_msg("fetch: exit %d: %s", r->status, r->err);
     assert_false(file_exists(testutil_scratch("client-never.exr")));
     assert_same_pixels(testutil_scratch("client-fetched.exr"), ref);
-    stop(w, SIGTERM);
-    stop(master, SIGTERM);
+    testutil_stop(w, SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 /* `prismfarm cancel` on a running job: its status says cancelled (and stays so), it has no EXR
@@ -399,7 +317,7 @@ static void test_cancel_running_job(void **state)
     pid_t master = start_master(testutil_scratch("cancel-master.log"), spool, "tcp://127.0.0.1:*",
                                 "tcp://127.0.0.1:*");
     char wep[256], cep[256];
-    read_endpoints(spool, wep, cep);
+    testutil_read_endpoints(spool, wep, cep, testutil_scratch("cancel-master.log"));
     pid_t w1 = start_worker(wlog1, wep, "w1", testutil_scratch("cancel-c1"));
     pid_t w2 = start_worker(wlog2, wep, "w2", testutil_scratch("cancel-c2"));
 
@@ -450,19 +368,20 @@ static void test_cancel_running_job(void **state)
     r = run("fetch", "1", "-o", testutil_scratch("cancel-none.exr"), "--master", cep, NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "cancelled");
-    stop(w1, SIGTERM);
-    stop(w2, SIGTERM);
-    stop(master, SIGTERM);
+    testutil_stop(w1, SIGTERM);
+    testutil_stop(w2, SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test_teardown(test_worker_before_master, teardown),
-        cmocka_unit_test_teardown(test_master_restarted, teardown),
-        cmocka_unit_test_teardown(test_restart_does_not_reuse_queued_job_id, teardown),
-        cmocka_unit_test_teardown(test_client_killed_during_wait, teardown),
-        cmocka_unit_test_teardown(test_cancel_running_job, teardown),
+        cmocka_unit_test_teardown(test_worker_before_master, testutil_kill_children),
+        cmocka_unit_test_teardown(test_master_restarted, testutil_kill_children),
+        cmocka_unit_test_teardown(test_restart_does_not_reuse_queued_job_id,
+                                  testutil_kill_children),
+        cmocka_unit_test_teardown(test_client_killed_during_wait, testutil_kill_children),
+        cmocka_unit_test_teardown(test_cancel_running_job, testutil_kill_children),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_keys_setup, testutil_scratch_teardown);
 }

@@ -334,15 +334,8 @@ static void start_master(const char *spool)
     SPAWN(path_in("master.log").s, "ip", "netns", "exec", ns("m").s, bin(), "master", "--workers",
           MASTER_WORKERS_EP, "--clients", MASTER_CLIENTS_EP, "--spool", spool, "--tile", TILE,
           "--key", testutil_master_key(), "--authorized", testutil_authorized());
-    char path[600];
-    snprintf(path, sizeof path, "%s/endpoints", spool);
-    for (double until = testutil_now_s() + test_wait_s(); testutil_now_s() < until;) {
-        if (testutil_file_has(path, "clients "))
-            return;
-        testutil_sleep_ms(25);
-    }
-    testutil_fail_quoting(path_in("master.log").s,
-                          "the master wrote no %s in %.0f s; its log:", path, test_wait_s());
+    char wep[256], cep[256];
+    testutil_read_endpoints(spool, wep, cep, path_in("master.log").s);
 }
 
 /* The in-process render the farm's results must match, made once for the tests that need it. */

@@ -85,7 +85,7 @@ static void test_processes_refine_and_kill(void **state)
         "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "16", "--key",
         testutil_master_key(), "--authorized", testutil_authorized(), NULL);
     char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep);
+    testutil_read_endpoints(spool, wep, cep, testutil_scratch("master.log"));
     pid_t w1 = testutil_spawn(testutil_scratch("w1.log"), "worker", "--connect", wep, "--threads",
                               "1", "--name", "w1", "--cache", testutil_scratch("c1"), NULL);
     pid_t w2 = testutil_spawn(testutil_scratch("w2.log"), "worker", "--connect", wep, "--threads",

@@ -371,48 +371,16 @@ static void wait_journal(const char *spool, double timeout_s, const char *what, 
     }
 }
 
-/* Every process a farm test starts, so that a failing test leaves none running. */
-static pid_t KIDS[64];
-static int NKIDS;
-
-static pid_t track(pid_t pid)
-{
-    if (NKIDS < 64)
-        KIDS[NKIDS++] = pid;
-    return pid;
-}
-
-/* testutil_stop for a tracked process, which then leaves the list (its pid may be reused). */
-static int stop_kid(pid_t pid, int sig)
-{
-    for (int i = 0; i < NKIDS; i++)
-        if (KIDS[i] == pid) {
-            KIDS[i] = KIDS[--NKIDS];
-            break;
-        }
-    return testutil_stop(pid, sig);
-}
-
-static int kill_kids(void **state)
-{
-    (void)state;
-    for (int i = 0; i < NKIDS; i++)
-        if (kill(KIDS[i], SIGKILL) == 0)
-            (void)waitpid(KIDS[i], NULL, 0);
-    NKIDS = 0;
-    return 0;
-}
-
 static pid_t start_master(const char *log, const char *spool, const char *wep, const char *cep)
 {
-    return track(testutil_spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool,
-                          "--heartbeat", HEARTBEAT, "--tile", TILE, "--insecure", NULL));
+    return testutil_spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool,
+                          "--heartbeat", HEARTBEAT, "--tile", TILE, "--insecure", NULL);
 }
 
 static pid_t start_worker(const char *log, const char *wep, const char *name)
 {
-    return track(testutil_spawn(log, "worker", "--connect", wep, "--threads", "1", "--name", name,
-                                "--insecure", NULL));
+    return testutil_spawn(log, "worker", "--connect", wep, "--threads", "1", "--name", name,
+                          "--insecure", NULL);
 }
 
 static const char *reference(const char *scene, const char *spp, const char *name)
@@ -455,7 +423,7 @@ static void test_master_killed_camera_job(void **state)
                *mlog2 = testutil_scratch("cam-master2.log");
     pid_t master = start_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep);
+    testutil_read_endpoints(spool, wep, cep, mlog1);
     pid_t w = start_worker(testutil_scratch("cam-w.log"), wep, "w");
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP, "--insecure", NULL);
     if (r->status != 0)
@@ -464,7 +432,7 @@ static void test_master_killed_camera_job(void **state)
     wait_journal(spool, test_wait_s(), "a checkpoint and results after it",
                  "SELECT checkpoint FROM jobs WHERE id=1",
                  "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
-    stop_kid(master, SIGKILL);
+    testutil_stop(master, SIGKILL);
     long long ckpt = journal_query(spool, "SELECT checkpoint FROM jobs WHERE id=1");
     long long kept = journal_query(spool, "SELECT COUNT(*) FROM results WHERE job=1");
     print_message("master killed at checkpoint %lld with %lld results journaled after it\n", ckpt,
@@ -495,8 +463,8 @@ static void test_master_killed_camera_job(void **state)
     snprintf(ck, sizeof ck, "%s/jobs/1/checkpoint-%lld.bin", spool, ckpt);
     struct stat st;
     assert_int_equal(stat(ck, &st), -1);
-    stop_kid(w, SIGTERM);
-    stop_kid(master, SIGTERM);
+    testutil_stop(w, SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 /* A photon job whose master dies twice: during the photon phase (batches journaled, no store
@@ -510,7 +478,7 @@ static void test_master_killed_photon_job(void **state)
                *mlog3 = testutil_scratch("ph-master3.log");
     pid_t master = start_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep);
+    testutil_read_endpoints(spool, wep, cep, mlog1);
     pid_t w1 = start_worker(testutil_scratch("ph-w1.log"), wep, "w1");
     pid_t w2 = start_worker(testutil_scratch("ph-w2.log"), wep, "w2");
     const run_t *r = run("submit", PHOTON_SCENE, "--master", cep, "--spp", PHOTON_SPP,
@@ -519,7 +487,7 @@ static void test_master_killed_photon_job(void **state)
         fail_msg("submit: exit %d: %s", r->status, r->err);
     wait_journal(spool, test_wait_s(), "a photon batch",
                  "SELECT COUNT(*) FROM results WHERE kind=1", NULL);
-    stop_kid(master, SIGKILL);
+    testutil_stop(master, SIGKILL);
     long long batches = journal_query(spool, "SELECT COUNT(*) FROM results WHERE kind=1");
     long long saved = journal_query(spool, "SELECT photons_saved FROM jobs WHERE id=1");
     print_message("master killed with %lld photon batches journaled, store saved: %lld\n",
@@ -529,7 +497,7 @@ static void test_master_killed_photon_job(void **state)
     wait_journal(spool, 1.5 * test_wait_s(), "the photon store and camera results",
                  "SELECT photons_saved FROM jobs WHERE id=1",
                  "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
-    stop_kid(master, SIGKILL);
+    testutil_stop(master, SIGKILL);
     if (!testutil_file_has(mlog2, "job 1 'beam_big' resumed: "))
         testutil_fail_quoting(mlog2, "the second master did not resume job 1:");
     if (saved == 0 && !testutil_file_has(mlog2, "photon batches, "))
@@ -548,9 +516,9 @@ static void test_master_killed_photon_job(void **state)
     assert_int_equal(sscanf(b, "samples, %u of %u photon batches", &bd, &bt), 2);
     assert_int_equal(bd, bt);
     free(log3);
-    stop_kid(w1, SIGTERM);
-    stop_kid(w2, SIGTERM);
-    stop_kid(master, SIGTERM);
+    testutil_stop(w1, SIGTERM);
+    testutil_stop(w2, SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 /* The master, the workers and the client killed (SIGKILL) at seeded random moments while a job
@@ -565,18 +533,21 @@ static void test_master_killed_photon_job(void **state)
 static void test_random_kills(void **state)
 {
     (void)state;
-    const char *ref = reference(SCENE, SPP_LONG, "tiny-long-ref.exr");
+    /* Kept in buffers of their own: the loop below takes more paths from testutil_scratch than
+     * its rotating buffers hold. */
+    char ref[512], spool[512];
+    snprintf(ref, sizeof ref, "%s", reference(SCENE, SPP_LONG, "tiny-long-ref.exr"));
+    snprintf(spool, sizeof spool, "%s", testutil_scratch("rk-spool"));
     const char *env = getenv("PRISMFARM_KILL_SEED");
     uint64_t seed = env ? strtoull(env, NULL, 10) : 20261125;
     rng_stream_t rng = rng_stream_make(seed, 0, 0);
-    const char *spool = testutil_scratch("rk-spool");
     char mlog[64];
     int nmaster = 1, nworker = 0, nclient = 1;
     snprintf(mlog, sizeof mlog, "rk-master%d.log", nmaster);
     pid_t master =
         start_master(testutil_scratch(mlog), spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep);
+    testutil_read_endpoints(spool, wep, cep, testutil_scratch(mlog));
     pid_t workers[2];
     for (int i = 0; i < 2; i++) {
         char log[64], name[8];
@@ -584,9 +555,9 @@ static void test_random_kills(void **state)
         snprintf(name, sizeof name, "w%d", i);
         workers[i] = start_worker(testutil_scratch(log), wep, name);
     }
-    pid_t client = track(testutil_spawn(
-        testutil_scratch("rk-client1.log"), "submit", SCENE, "--master", cep, "--spp", SPP_LONG,
-        "--wait", "--quiet", "--insecure", "-o", testutil_scratch("rk-client.exr"), NULL));
+    pid_t client = testutil_spawn(testutil_scratch("rk-client1.log"), "submit", SCENE, "--master",
+                                  cep, "--spp", SPP_LONG, "--wait", "--quiet", "--insecure", "-o",
+                                  testutil_scratch("rk-client.exr"), NULL);
     wait_journal(spool, test_wait_s(), "the job", "SELECT COUNT(*) FROM jobs", NULL);
     /* Each of master, worker and client once in a shuffled order, then random ones: at most
      * eight kills, none after the job is done. */
@@ -627,25 +598,25 @@ static void test_random_kills(void **state)
         }
         int pause = (int)(rng_stream_next(&rng) * 300);
         if (order[i] == 0) {
-            stop_kid(master, SIGKILL);
+            testutil_stop(master, SIGKILL);
             testutil_sleep_ms(pause);
             snprintf(mlog, sizeof mlog, "rk-master%d.log", ++nmaster);
             master = start_master(testutil_scratch(mlog), spool, wep, cep);
         } else if (order[i] == 1) {
             int k = rng_stream_next(&rng) < 0.5 ? 0 : 1;
-            stop_kid(workers[k], SIGKILL);
+            testutil_stop(workers[k], SIGKILL);
             testutil_sleep_ms(pause);
             char log[64], name[8];
             snprintf(log, sizeof log, "rk-w%d-%d.log", k, nworker++);
             snprintf(name, sizeof name, "w%d", k);
             workers[k] = start_worker(testutil_scratch(log), wep, name);
         } else {
-            stop_kid(client, SIGKILL);
+            testutil_stop(client, SIGKILL);
             testutil_sleep_ms(pause);
             char log[64];
             snprintf(log, sizeof log, "rk-client%d.log", ++nclient);
-            client = track(testutil_spawn(testutil_scratch(log), "status", "1", "--wait", "--quiet",
-                                          "--master", cep, "--insecure", NULL));
+            client = testutil_spawn(testutil_scratch(log), "status", "1", "--wait", "--quiet",
+                                    "--master", cep, "--insecure", NULL);
         }
         kills++;
         print_message("seed %llu: kill %d at pass %d: %s\n", (unsigned long long)seed, kills,
@@ -657,14 +628,14 @@ static void test_random_kills(void **state)
     assert_true(kills >= 3);
     finish_and_compare(cep, ref, testutil_scratch("rk-out.exr"), testutil_scratch(mlog));
     /* The last client follows the job to its end by itself through any restarts. */
-    int st = stop_kid(client, 0);
+    int st = testutil_stop(client, 0);
     assert_true(WIFEXITED(st));
     if (WEXITSTATUS(st) != 0)
         testutil_fail_quoting(testutil_scratch("rk-client1.log"),
                               "the last client exited %d:", WEXITSTATUS(st));
     for (int i = 0; i < 2; i++)
-        stop_kid(workers[i], SIGTERM);
-    stop_kid(master, SIGTERM);
+        testutil_stop(workers[i], SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 int main(void)
@@ -674,9 +645,9 @@ int main(void)
         cmocka_unit_test(test_photon_blob_round_trip),
         cmocka_unit_test(test_checkpoint_round_trip),
         cmocka_unit_test(test_journal_tables),
-        cmocka_unit_test_teardown(test_master_killed_camera_job, kill_kids),
-        cmocka_unit_test_teardown(test_master_killed_photon_job, kill_kids),
-        cmocka_unit_test_teardown(test_random_kills, kill_kids),
+        cmocka_unit_test_teardown(test_master_killed_camera_job, testutil_kill_children),
+        cmocka_unit_test_teardown(test_master_killed_photon_job, testutil_kill_children),
+        cmocka_unit_test_teardown(test_random_kills, testutil_kill_children),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

@@ -25,7 +25,7 @@
 
 #include "bundle.h"
 #include "clock.h"
-#include "files_testutil.h"
+#include "farm_testutil.h"
 #include "image_exr.h"
 #include "local_render.h"
 #include "master.h"
@@ -62,12 +62,6 @@ typedef struct fx {
     uint8_t *scene_bytes;
     size_t scene_size;
 } fx_t;
-
-static void sleep_ms(int ms)
-{
-    struct timespec ts = {.tv_sec = ms / 1000, .tv_nsec = (long)(ms % 1000) * 1000000L};
-    nanosleep(&ts, NULL);
-}
 
 static void on_ready(void *user, const char *wep, const char *cep)
 {
@@ -308,7 +302,7 @@ static void wait_state(fx_t *f, uint64_t job, proto_job_state_t state)
     while (clock_now_s() < end) {
         if (status_of(f, job, NULL, 0).state == state)
             return;
-        sleep_ms(10);
+        testutil_sleep_ms(10);
     }
     fail_msg("job %llu never became %s", (unsigned long long)job, proto_job_state_name(state));
 }
@@ -576,7 +570,7 @@ static void test_job_life(void **state)
                     previewed = 1;
                 }
                 proto_msg_free(&r);
-                sleep_ms(10);
+                testutil_sleep_ms(10);
             }
         }
     }
@@ -713,8 +707,8 @@ static void test_silent_worker(void **state)
         expect_type(a.net, PROTO_TASK, &held[i]);
         assert_true(held[i].task.attempt == 1);
     }
-    for (double until = clock_now_s() + test_wait_s(); worker_state_of(f, a.id) != PROTO_WORKER_LOST;
-         sleep_ms(20))
+    for (double until = clock_now_s() + test_wait_s();
+         worker_state_of(f, a.id) != PROTO_WORKER_LOST; testutil_sleep_ms(20))
         if (clock_now_s() > until)
             fail_msg("the silent worker is not lost after %.0f s", test_wait_s());
     assert_true(clock_now_s() - t0 >= f->opts.sched.worker_timeout_s);

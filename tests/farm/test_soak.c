@@ -63,33 +63,11 @@ static const variant_t VARIANTS[] = {
 #define N_VARIANTS (int)(sizeof VARIANTS / sizeof *VARIANTS)
 #define RES "24x16"
 
-/* Every process the test started and has not reaped, so that a failed test leaves none behind
- * (they would keep running, and CI waits for them). */
-static pid_t LIVE[N_WORKERS + N_KILLS + N_CLIENTS + 1];
-
-static void live_add(pid_t pid)
-{
-    for (size_t i = 0; i < sizeof LIVE / sizeof *LIVE; i++)
-        if (LIVE[i] <= 0) {
-            LIVE[i] = pid;
-            return;
-        }
-    fail_msg("more processes than the test plans for");
-}
-
-static int live_stop(pid_t pid, int sig)
-{
-    for (size_t i = 0; i < sizeof LIVE / sizeof *LIVE; i++)
-        if (LIVE[i] == pid)
-            LIVE[i] = 0;
-    return testutil_stop(pid, sig);
-}
-
+/* Every process the test started and has not reaped is killed, so that a failed test leaves
+ * none behind (they would keep running, and CI waits for them). */
 static int teardown(void **state)
 {
-    for (size_t i = 0; i < sizeof LIVE / sizeof *LIVE; i++)
-        if (LIVE[i] > 0)
-            live_stop(LIVE[i], SIGKILL);
+    testutil_kill_children(state);
     return testutil_scratch_teardown(state);
 }
 
@@ -307,7 +285,7 @@ static pid_t start_client(int k, const char *cep, double deadline)
         setvbuf(stderr, NULL, _IOLBF, 0);
         _exit(client_main(k, cep, deadline));
     }
-    live_add(pid);
+    testutil_track_child(pid);
     return pid;
 }
 
@@ -323,10 +301,8 @@ static pid_t start_worker(int i, int gen, const char *wep)
     snprintf(cache, sizeof cache, "cache-%d", i);
     snprintf(logpath, sizeof logpath, "%s", testutil_scratch(log));
     snprintf(cachepath, sizeof cachepath, "%s", testutil_scratch(cache));
-    pid_t pid = testutil_spawn(logpath, "worker", "--connect", wep, "--threads", "1", "--name",
-                               name, "--cache", cachepath, NULL);
-    live_add(pid);
-    return pid;
+    return testutil_spawn(logpath, "worker", "--connect", wep, "--threads", "1", "--name", name,
+                          "--cache", cachepath, NULL);
 }
 
 /* A kB figure of /proc/PID/status ("VmHWM", "VmRSS"), or -1. */
@@ -447,9 +423,8 @@ static void test_soak(void **state)
         testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
                        "tcp://127.0.0.1:*", "--spool", spool, "--tile", "8", "--key",
                        testutil_master_key(), "--authorized", testutil_authorized(), NULL);
-    live_add(master);
     char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep);
+    testutil_read_endpoints(spool, wep, cep, mlog);
     long idle_kb = proc_kb(master, "VmRSS");
     assert_true(idle_kb > 0);
     pid_t worker[N_WORKERS];
@@ -476,7 +451,7 @@ static void test_soak(void **state)
         if (done >= N_JOBS && all_done == 0)
             all_done = testutil_now_s() - t0;
         if (killed < N_KILLS && done >= at_done[killed]) {
-            live_stop(worker[victim[killed]], SIGKILL);
+            testutil_stop(worker[victim[killed]], SIGKILL);
             killed_at[killed] = testutil_now_s();
             done_at_kill[killed] = done;
             killed++;
@@ -499,9 +474,7 @@ static void test_soak(void **state)
             int st;
             if (client_status[k] == -2 && waitpid(client[k], &st, WNOHANG) == client[k]) {
                 client_status[k] = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-                for (size_t i = 0; i < sizeof LIVE / sizeof *LIVE; i++)
-                    if (LIVE[i] == client[k])
-                        LIVE[i] = 0;
+                testutil_forget_child(client[k]);
                 running--;
                 if (client_status[k] != 0) {
                     char log[64];
@@ -602,8 +575,8 @@ static void test_soak(void **state)
         fail_msg("the master's peak RSS %ld kB is over the bound %ld kB", peak_kb, bound_kb);
 
     for (int i = 0; i < N_WORKERS; i++)
-        live_stop(worker[i], SIGTERM);
-    int st = live_stop(master, SIGTERM);
+        testutil_stop(worker[i], SIGTERM);
+    int st = testutil_stop(master, SIGTERM);
     if (!(WIFEXITED(st) && WEXITSTATUS(st) == 0))
         fail_msg("the master did not stop cleanly (status %d):\n%s", st, tail_of(mlog, 1500));
 

@@ -1,7 +1,9 @@
 /* farm_testutil: helpers shared by the tests that run prismfarm processes (with the scratch
- * folder of files_testutil.h): CURVE keys, starting and stopping `prismfarm master` / `worker`
- * child processes and reading the endpoints a master chose, sleeping, and comparing two EXRs' pixel
- * data byte for byte. Header-only (each test is its own executable); include after cmocka.h. */
+ * folder and file helpers of files_testutil.h): CURVE keys, sleeping and the clock, waiting for a
+ * log line, starting `prismfarm master` / `worker` child processes, stopping them within a
+ * deadline, killing those a failed test left, reading the endpoints a master chose, and comparing
+ * two EXRs' pixel data byte for byte. Header-only (each test is its own executable); include after
+ * cmocka.h. */
 #ifndef PRISMFARM_FARM_TESTUTIL_H
 #define PRISMFARM_FARM_TESTUTIL_H
 
@@ -16,6 +18,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/prctl.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <time.h>
@@ -99,11 +102,58 @@ static inline void testutil_wait_file_has(const char *path, const char *needle)
             testutil_fail_quoting(path, "no '%s' in %s after %.0f s:", needle, path, test_wait_s());
 }
 
+/* The children the test started (testutil_spawn, or its own fork handed to
+ * testutil_track_child) and has not reaped, so that a failing test leaves none running:
+ * testutil_kill_children, a cmocka teardown, kills and reaps them. */
+#define TESTUTIL_MAX_CHILDREN 64
+static inline pid_t *testutil_children(void)
+{
+    static pid_t kids[TESTUTIL_MAX_CHILDREN];
+    return kids;
+}
+
+/* Adds pid to the children testutil_kill_children ends; fails the test when they are full. */
+static inline void testutil_track_child(pid_t pid)
+{
+    pid_t *kids = testutil_children();
+    for (int i = 0; i < TESTUTIL_MAX_CHILDREN; i++)
+        if (kids[i] <= 0) {
+            kids[i] = pid;
+            return;
+        }
+    fail_msg("more than %d child processes at once", TESTUTIL_MAX_CHILDREN);
+}
+
+/* Takes pid off that list: the test reaped it itself (its pid may be reused). */
+static inline void testutil_forget_child(pid_t pid)
+{
+    pid_t *kids = testutil_children();
+    for (int i = 0; i < TESTUTIL_MAX_CHILDREN; i++)
+        if (kids[i] == pid)
+            kids[i] = 0;
+}
+
+/* Kills (SIGKILL) and reaps every child still on the list: a cmocka teardown; returns 0. */
+static inline int testutil_kill_children(void **state)
+{
+    (void)state;
+    pid_t *kids = testutil_children();
+    for (int i = 0; i < TESTUTIL_MAX_CHILDREN; i++)
+        if (kids[i] > 0) {
+            if (kill(kids[i], SIGKILL) == 0)
+                (void)waitpid(kids[i], NULL, 0);
+            kids[i] = 0;
+        }
+    return 0;
+}
+
 /* Starts `$PRISMFARM_BIN ARGS...` in the background (args: NULL-terminated, at most
  * TESTUTIL_MAX_ARGS) with its stderr to log and its stdout to /dev/null, so that no child holds
  * the test's own output open (ctest reads it until every writer is gone); returns its pid, or
- * -1 when PRISMFARM_BIN is not set or fork fails. A child that cannot open its log or run the
- * executable exits 126 or 127. */
+ * -1 when PRISMFARM_BIN is not set or fork fails. The child goes on the list of
+ * testutil_kill_children, and dies with the test should ctest's timeout end the test before its
+ * teardown. A child that cannot arrange that, open its log or run the executable exits 125, 126
+ * or 127. */
 #define TESTUTIL_MAX_ARGS 48
 static inline pid_t testutil_spawn_argv(const char *log, const char *const *args)
 {
@@ -118,11 +168,15 @@ static inline pid_t testutil_spawn_argv(const char *log, const char *const *args
     argv[argc] = NULL;
     pid_t pid = fork();
     if (pid == 0) {
+        if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0)
+            _exit(125);
         if (!freopen(log, "w", stderr) || !freopen("/dev/null", "w", stdout))
             _exit(126);
         execv(bin, argv);
         _exit(127);
     }
+    if (pid > 0)
+        testutil_track_child(pid);
     return pid;
 }
 
@@ -143,25 +197,39 @@ static inline pid_t testutil_spawn(const char *log, const char *arg, ...)
     return pid;
 }
 
-/* Sends sig to pid and reaps it; returns its wait status, or -1 if it was not our child. */
+/* Sends sig to the child pid (0: none, to wait for it to end by itself) and reaps it within the
+ * deadline of a wait (test_wait.h); returns its wait status. A child still running then is
+ * killed and fails the test (a daemon that ignores SIGTERM fails it rather than hangs it), as
+ * does a pid that cannot be signalled (not a child, or one already reaped). */
 static inline int testutil_stop(pid_t pid, int sig)
 {
-    if (pid <= 0)
-        return -1;
-    kill(pid, sig);
+    testutil_forget_child(pid);
+    if (pid <= 0 || kill(pid, sig) != 0)
+        fail_msg("cannot signal process %ld: %s", (long)pid, strerror(errno));
     int st;
-    while (waitpid(pid, &st, 0) < 0)
-        if (errno != EINTR)
-            return -1;
-    return st;
+    for (double until = testutil_now_s() + test_wait_s();; testutil_sleep_ms(10)) {
+        pid_t got = waitpid(pid, &st, WNOHANG);
+        if (got == pid)
+            return st;
+        if (got < 0 && errno != EINTR)
+            fail_msg("waitpid(%ld): %s", (long)pid, strerror(errno));
+        if (testutil_now_s() > until) {
+            kill(pid, SIGKILL);
+            waitpid(pid, &st, 0);
+            fail_msg("process %ld did not end within %.0f s of signal %d", (long)pid, test_wait_s(),
+                     sig);
+        }
+    }
 }
 
 /* Reads "workers EP" and "clients EP" (workers and clients: 256 bytes each) from the endpoints
  * file a master writes into its spool once its sockets are bound; fails the test if the file is
- * not there within the deadline of a wait (test_wait.h; a master starts in milliseconds). */
-static inline void testutil_read_endpoints(const char *spool, char *workers, char *clients)
+ * not there within the deadline of a wait (test_wait.h; a master starts in milliseconds),
+ * quoting the master's log unless log is NULL. */
+static inline void testutil_read_endpoints(const char *spool, char *workers, char *clients,
+                                           const char *log)
 {
-    char path[600];
+    char path[1024];
     snprintf(path, sizeof path, "%s/endpoints", spool);
     double deadline = testutil_now_s() + test_wait_s();
     do {
@@ -174,6 +242,9 @@ static inline void testutil_read_endpoints(const char *spool, char *workers, cha
         }
         testutil_sleep_ms(25);
     } while (testutil_now_s() < deadline);
+    if (log)
+        testutil_fail_quoting(log, "the master did not write %s within %.0f s; its log:", path,
+                              test_wait_s());
     fail_msg("the master did not write %s within %.0f s", path, test_wait_s());
 }
 
