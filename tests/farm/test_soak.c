@@ -75,11 +75,8 @@ static int teardown(void **state)
  * tests/, but PRISMFARM_SOURCE_DIR says where the tree is). */
 static const char *scene_path(const variant_t *v, char *buf, size_t size)
 {
-    const char *src = getenv("PRISMFARM_SOURCE_DIR");
-    if (src && !strncmp(v->scene, "../", 3))
-        snprintf(buf, size, "%s/%s", src, v->scene + 3);
-    else
-        snprintf(buf, size, "%s", v->scene);
+    snprintf(buf, size, "%s",
+             strncmp(v->scene, "../", 3) ? v->scene : testutil_source_path(v->scene + 3));
     return buf;
 }
 

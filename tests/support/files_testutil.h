@@ -1,10 +1,10 @@
 /* files_testutil: the file helpers the tests share. A scratch folder per test executable
  * (testutil_scratch_setup and testutil_scratch_teardown as cmocka's group setup and teardown,
  * testutil_scratch(NAME) for a path in it), or a fresh folder of one's own (testutil_mkdtemp,
- * testutil_path_in, testutil_rmtree); a whole file read into memory (testutil_slurp), a text file
- * written with a mode, a folder's entries counted, a text looked for in a file (a log) and in a
- * string, and a failure that quotes a file. Header-only (each test is its own executable);
- * include after cmocka.h. */
+ * testutil_path_in, testutil_rmtree); paths in the source tree; a whole file read into memory
+ * (testutil_slurp), a text file written with a mode, a folder's entries counted, a text looked for
+ * in a file (a log) and in a string, and a failure that quotes a file. Header-only (each test is
+ * its own executable); include after cmocka.h. */
 #ifndef PRISMFARM_FILES_TESTUTIL_H
 #define PRISMFARM_FILES_TESTUTIL_H
 
@@ -96,6 +96,23 @@ static inline int testutil_scratch_teardown(void **state)
 static inline const char *testutil_scratch(const char *name)
 {
     return testutil_path_in(testutil_scratch_dir(), name);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* The source tree. */
+
+/* The source tree's folder: $PRISMFARM_SOURCE_DIR, which ctest sets, or "..", the parent of
+ * tests/, where ctest runs the tests. */
+static inline const char *testutil_source_dir(void)
+{
+    const char *src = getenv("PRISMFARM_SOURCE_DIR");
+    return src ? src : "..";
+}
+
+/* The path REL in the source tree, in testutil_path_in's rotating buffers. */
+static inline const char *testutil_source_path(const char *rel)
+{
+    return testutil_path_in(testutil_source_dir(), rel);
 }
 
 /* ------------------------------------------------------------------------------------------ */

@@ -16,6 +16,7 @@
 #include <string.h>
 
 #include "dispersion.h"
+#include "files_testutil.h"
 #include "glass.h"
 #include "numeric_testutil.h"
 
@@ -279,9 +280,7 @@ static double number(const char *s, const char *row, const char *column)
 static void test_catalogue_matches_data(void **state)
 {
     (void)state;
-    const char *dir = getenv("PRISMFARM_SOURCE_DIR");
-    char path[1024];
-    snprintf(path, sizeof path, "%s/data/glasses_sellmeier.csv", dir ? dir : "..");
+    const char *path = testutil_source_path("data/glasses_sellmeier.csv");
     FILE *f = fopen(path, "r");
     if (!f)
         fail_msg("cannot open %s", path);

@@ -58,16 +58,10 @@ static loaded_t load(const char *path, const char *text, const scene_overrides_t
     return l;
 }
 
-static const char *source_dir(void)
-{
-    const char *d = getenv("PRISMFARM_SOURCE_DIR");
-    return d ? d : "..";
-}
-
 static loaded_t load_shipped(const char *name)
 {
     char path[1024];
-    snprintf(path, sizeof path, "%s/scenes/%s", source_dir(), name);
+    snprintf(path, sizeof path, "%s/scenes/%s", testutil_source_dir(), name);
     /* Small images: the photon parameters scale with the film, nothing else does. */
     scene_overrides_t ov = {.xres = 160, .yres = 120, .seed = -1};
     return load(path, NULL, &ov);
@@ -203,7 +197,7 @@ static void test_cornell_without_glass(void **state)
 {
     (void)state;
     char path[1024];
-    snprintf(path, sizeof path, "%s/scenes/cornell.pbrt", source_dir());
+    snprintf(path, sizeof path, "%s/scenes/cornell.pbrt", testutil_source_dir());
     char *text = testutil_slurp(path, NULL);
     assert_non_null(text);
     char *glass = strstr(text, "AttributeBegin\n  Material \"dielectric\"");
@@ -324,7 +318,7 @@ static void test_every_shipped_scene(void **state)
 {
     (void)state;
     char pattern[1024];
-    snprintf(pattern, sizeof pattern, "%s/scenes/*.pbrt", source_dir());
+    snprintf(pattern, sizeof pattern, "%s/scenes/*.pbrt", testutil_source_dir());
     glob_t g;
     assert_int_equal(glob(pattern, 0, NULL, &g), 0);
     assert_true(g.gl_pathc >= 5);
@@ -717,7 +711,7 @@ static void test_cli_plan(void **state)
 {
     (void)state;
     char path[1024];
-    snprintf(path, sizeof path, "%s/scenes/prism_beam.pbrt", source_dir());
+    snprintf(path, sizeof path, "%s/scenes/prism_beam.pbrt", testutil_source_dir());
     const run_t *r = run("plan", path, "--res", "160x120", NULL);
     assert_int_equal(r->status, 0);
     expect_in(r->out, "photon pass");
@@ -727,7 +721,7 @@ static void test_cli_plan(void **state)
     assert_int_equal(r->status, 0);
     expect_in(r->out, "\"switched_off\"");
     expect_in(r->out, "\"photon\": true");
-    snprintf(path, sizeof path, "%s/scenes/cornell.pbrt", source_dir());
+    snprintf(path, sizeof path, "%s/scenes/cornell.pbrt", testutil_source_dir());
     r = run("plan", path, "--json", NULL);
     assert_int_equal(r->status, 0);
     expect_in(r->out, "\"photon pass\"");
