@@ -2,9 +2,9 @@
  * (testutil_scratch_setup and testutil_scratch_teardown as cmocka's group setup and teardown,
  * testutil_scratch(NAME) for a path in it), or a fresh folder of one's own (testutil_mkdtemp,
  * testutil_path_in, testutil_rmtree); paths in the source tree; a whole file read into memory
- * (testutil_slurp), a text file written with a mode, a folder's entries counted, a text looked for
- * in a file (a log) and in a string, and a failure that quotes a file. Header-only (each test is
- * its own executable); include after cmocka.h. */
+ * (testutil_slurp), a text file written with a mode, a file cut short, a folder's entries counted,
+ * a text looked for in a file (a log) and in a string, and a failure that quotes a file.
+ * Header-only (each test is its own executable); include after cmocka.h. */
 #ifndef PRISMFARM_FILES_TESTUTIL_H
 #define PRISMFARM_FILES_TESTUTIL_H
 
@@ -213,6 +213,23 @@ static inline void testutil_write_text(const char *path, const char *text, mode_
     assert_int_equal(write(fd, text, len), (ssize_t)len);
     assert_int_equal(fchmod(fd, mode), 0);
     assert_int_equal(close(fd), 0);
+}
+
+/* Writes the first keep bytes of the file src to dst: a file cut short. Fails the test unless
+ * src has that many. */
+static inline void testutil_truncate_copy(const char *src, const char *dst, long keep)
+{
+    FILE *in = fopen(src, "rb");
+    assert_non_null(in);
+    char *buf = malloc((size_t)keep);
+    assert_non_null(buf);
+    assert_int_equal(fread(buf, 1, (size_t)keep, in), (size_t)keep);
+    fclose(in);
+    FILE *out = fopen(dst, "wb");
+    assert_non_null(out);
+    assert_int_equal(fwrite(buf, 1, (size_t)keep, out), (size_t)keep);
+    assert_int_equal(fclose(out), 0);
+    free(buf);
 }
 
 /* The entries of a folder other than . and ..; -1 if it cannot be read. */

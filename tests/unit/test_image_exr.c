@@ -670,10 +670,7 @@ static void test_not_an_exr(void **state)
 {
     (void)state;
     const char *path = testutil_scratch("text.exr");
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs("P3\n1 1\n255\n0 0 0\n", f);
-    assert_int_equal(fclose(f), 0);
+    testutil_write_text(path, "P3\n1 1\n255\n0 0 0\n", 0644);
     err_t err;
     assert_null(image_exr_read(path, &err));
     assert_non_null(strstr(err.msg, path));
@@ -682,21 +679,6 @@ static void test_not_an_exr(void **state)
     path = testutil_scratch("missing.exr");
     assert_null(image_exr_read(path, &err));
     assert_non_null(strstr(err.msg, "cannot open"));
-}
-
-static void truncate_copy(const char *src, const char *dst, long keep)
-{
-    FILE *in = fopen(src, "rb");
-    assert_non_null(in);
-    char *buf = malloc((size_t)keep);
-    assert_non_null(buf);
-    assert_int_equal(fread(buf, 1, (size_t)keep, in), (size_t)keep);
-    fclose(in);
-    FILE *out = fopen(dst, "wb");
-    assert_non_null(out);
-    assert_int_equal(fwrite(buf, 1, (size_t)keep, out), (size_t)keep);
-    assert_int_equal(fclose(out), 0);
-    free(buf);
 }
 
 static void test_truncated_exr(void **state)
@@ -710,7 +692,7 @@ static void test_truncated_exr(void **state)
     /* Cut in the pixel data, in the offset table, and inside the header. */
     const long keep[] = {(long)st.st_size / 2, (long)st.st_size - 1, 700, 40};
     for (size_t i = 0; i < sizeof keep / sizeof keep[0]; i++) {
-        truncate_copy(path, cut, keep[i]);
+        testutil_truncate_copy(path, cut, keep[i]);
         err_t err;
         image_exr_t *img = image_exr_read(cut, &err);
         if (img != NULL)

@@ -219,21 +219,6 @@ static void test_other_colour_types(void **state)
     image_png_destroy(&img);
 }
 
-static void truncate_copy(const char *src, const char *dst, long keep)
-{
-    FILE *in = fopen(src, "rb");
-    assert_non_null(in);
-    char *buf = malloc((size_t)keep);
-    assert_non_null(buf);
-    assert_int_equal(fread(buf, 1, (size_t)keep, in), (size_t)keep);
-    fclose(in);
-    FILE *out = fopen(dst, "wb");
-    assert_non_null(out);
-    assert_int_equal(fwrite(buf, 1, (size_t)keep, out), (size_t)keep);
-    assert_int_equal(fclose(out), 0);
-    free(buf);
-}
-
 static void test_truncated(void **state)
 {
     (void)state;
@@ -250,7 +235,7 @@ static void test_truncated(void **state)
     /* In the image data, just before IEND's CRC, inside IHDR. */
     const long keep[] = {(long)st.st_size / 2, (long)st.st_size - 1, 20};
     for (size_t i = 0; i < sizeof keep / sizeof keep[0]; i++) {
-        truncate_copy(path, cut, keep[i]);
+        testutil_truncate_copy(path, cut, keep[i]);
         image_png_t *img = image_png_read(cut, &err);
         if (img != NULL)
             fail_msg("a file cut to %ld of %ld bytes was read", keep[i], (long)st.st_size);
@@ -258,7 +243,7 @@ static void test_truncated(void **state)
         if (strstr(err.msg, "truncated") == NULL)
             fail_msg("cut to %ld bytes: message does not say truncated: %s", keep[i], err.msg);
     }
-    truncate_copy(path, cut, 5);
+    testutil_truncate_copy(path, cut, 5);
     assert_null(image_png_read(cut, &err));
     assert_non_null(strstr(err.msg, "not a PNG file"));
 }
@@ -267,10 +252,7 @@ static void test_not_a_png(void **state)
 {
     (void)state;
     const char *path = testutil_scratch("text.png");
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs("this is not an image at all\n", f);
-    assert_int_equal(fclose(f), 0);
+    testutil_write_text(path, "this is not an image at all\n", 0644);
     err_t err;
     assert_null(image_png_read(path, &err));
     assert_non_null(strstr(err.msg, path));
@@ -281,7 +263,7 @@ static void test_not_a_png(void **state)
     uint8_t *rgb = make_pixels(4, 4, 3);
     assert_int_equal(image_png_write_rgb(path, 4, 4, rgb, &err), 0);
     free(rgb);
-    f = fopen(path, "r+b");
+    FILE *f = fopen(path, "r+b");
     assert_non_null(f);
     assert_int_equal(fseek(f, 16, SEEK_SET), 0); /* IHDR width */
     assert_int_equal(fputc(0x7f, f), 0x7f);
