@@ -243,15 +243,12 @@ static void test_farm_with_keys(void **state)
     (void)state;
     env_keys(1);
     const char *spool = testutil_scratch("spool"), *mlog = testutil_scratch("master.log");
-    pid_t master =
-        testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
-                       "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "8",
-                       "--key", testutil_master_key(), "--authorized", testutil_authorized(), NULL);
+    pid_t master = testutil_start_master(mlog, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*",
+                                         "--heartbeat", "200", "--tile", "8", NULL);
     char wep[256], cep[256];
     testutil_read_endpoints(spool, wep, cep, mlog);
     pid_t worker =
-        testutil_spawn(testutil_scratch("w1.log"), "worker", "--connect", wep, "--threads", "1",
-                       "--name", "w1", "--cache", testutil_scratch("c1"), NULL);
+        testutil_start_worker(testutil_scratch("w1.log"), wep, "w1", testutil_scratch("c1"));
     const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "4", "--wait",
                          "-o", testutil_scratch("farm.exr"), "--quiet", NULL);
     if (r->status != 0)

@@ -200,16 +200,13 @@ static void test_processes_and_a_killed_worker(void **state)
 {
     (void)state;
     const char *spool = testutil_scratch("spool");
-    pid_t master = testutil_spawn(
-        testutil_scratch("master.log"), "master", "--workers", "tcp://127.0.0.1:*", "--clients",
-        "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "8", "--key",
-        testutil_master_key(), "--authorized", testutil_authorized(), NULL);
+    pid_t master =
+        testutil_start_master(testutil_scratch("master.log"), spool, "tcp://127.0.0.1:*",
+                              "tcp://127.0.0.1:*", "--heartbeat", "200", "--tile", "8", NULL);
     char wep[256], cep[256];
     testutil_read_endpoints(spool, wep, cep, testutil_scratch("master.log"));
-    pid_t w1 = testutil_spawn(testutil_scratch("w1.log"), "worker", "--connect", wep, "--threads",
-                              "1", "--name", "w1", "--cache", testutil_scratch("c1"), NULL);
-    pid_t w2 = testutil_spawn(testutil_scratch("w2.log"), "worker", "--connect", wep, "--threads",
-                              "1", "--name", "w2", "--cache", testutil_scratch("c2"), NULL);
+    pid_t w1 = testutil_start_worker(testutil_scratch("w1.log"), wep, "w1", testutil_scratch("c1"));
+    pid_t w2 = testutil_start_worker(testutil_scratch("w2.log"), wep, "w2", testutil_scratch("c2"));
     /* Both in service before the job, so that both are given its first tasks. */
     const run_t *r = NULL;
     for (double until = testutil_now_s() + test_wait_s();; testutil_sleep_ms(50)) {

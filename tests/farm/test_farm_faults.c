@@ -70,15 +70,8 @@ static int free_port(void)
 
 static pid_t start_master(const char *log, const char *spool, const char *wep, const char *cep)
 {
-    return testutil_spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool,
-                          "--heartbeat", HEARTBEAT_MS, "--tile", TILE, "--key",
-                          testutil_master_key(), "--authorized", testutil_authorized(), NULL);
-}
-
-static pid_t start_worker(const char *log, const char *wep, const char *name, const char *cache)
-{
-    return testutil_spawn(log, "worker", "--connect", wep, "--threads", "1", "--name", name,
-                          "--cache", cache, NULL);
+    return testutil_start_master(log, spool, wep, cep, "--heartbeat", HEARTBEAT_MS, "--tile", TILE,
+                                 NULL);
 }
 
 /* `prismfarm status JOB --json`'s state, polled until it is one of want ("done|failed") or the
@@ -157,7 +150,7 @@ static void test_worker_before_master(void **state)
     snprintf(wep, sizeof wep, "tcp://127.0.0.1:%d", free_port());
     const char *wlog = testutil_scratch("early-worker.log"),
                *spool = testutil_scratch("early-spool");
-    pid_t w = start_worker(wlog, wep, "early", testutil_scratch("early-cache"));
+    pid_t w = testutil_start_worker(wlog, wep, "early", testutil_scratch("early-cache"));
     testutil_wait_file_has(wlog, "the master is silent");
     pid_t master =
         start_master(testutil_scratch("early-master.log"), spool, wep, "tcp://127.0.0.1:*");
@@ -189,10 +182,10 @@ static void test_master_restarted(void **state)
     pid_t master = start_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
     testutil_read_endpoints(spool, wep, cep, mlog1);
-    pid_t w1 =
-        start_worker(testutil_scratch("restart-w1.log"), wep, "w1", testutil_scratch("restart-c1"));
-    pid_t w2 =
-        start_worker(testutil_scratch("restart-w2.log"), wep, "w2", testutil_scratch("restart-c2"));
+    pid_t w1 = testutil_start_worker(testutil_scratch("restart-w1.log"), wep, "w1",
+                                     testutil_scratch("restart-c1"));
+    pid_t w2 = testutil_start_worker(testutil_scratch("restart-w2.log"), wep, "w2",
+                                     testutil_scratch("restart-c2"));
 
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "-o",
                          testutil_scratch("restart-first.exr"), "--quiet", NULL);
@@ -290,8 +283,8 @@ static void test_client_killed_during_wait(void **state)
     testutil_stop(client, SIGKILL);
     assert_string_equal(job_state(cep, "1", NULL), "queued");
 
-    pid_t w =
-        start_worker(testutil_scratch("client-w.log"), wep, "w", testutil_scratch("client-cache"));
+    pid_t w = testutil_start_worker(testutil_scratch("client-w.log"), wep, "w",
+                                    testutil_scratch("client-cache"));
     const char *s = job_state(cep, "1", "done|failed|cancelled");
     assert_string_equal(s, "done");
     const run_t *r =
@@ -318,8 +311,8 @@ static void test_cancel_running_job(void **state)
                                 "tcp://127.0.0.1:*");
     char wep[256], cep[256];
     testutil_read_endpoints(spool, wep, cep, testutil_scratch("cancel-master.log"));
-    pid_t w1 = start_worker(wlog1, wep, "w1", testutil_scratch("cancel-c1"));
-    pid_t w2 = start_worker(wlog2, wep, "w2", testutil_scratch("cancel-c2"));
+    pid_t w1 = testutil_start_worker(wlog1, wep, "w1", testutil_scratch("cancel-c1"));
+    pid_t w2 = testutil_start_worker(wlog2, wep, "w2", testutil_scratch("cancel-c2"));
 
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP_FOREVER, "--name", "long",
                          NULL);

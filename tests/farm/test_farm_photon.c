@@ -80,16 +80,13 @@ static void test_processes_refine_and_kill(void **state)
 {
     (void)state;
     const char *spool = testutil_scratch("spool");
-    pid_t master = testutil_spawn(
-        testutil_scratch("master.log"), "master", "--workers", "tcp://127.0.0.1:*", "--clients",
-        "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "16", "--key",
-        testutil_master_key(), "--authorized", testutil_authorized(), NULL);
+    pid_t master =
+        testutil_start_master(testutil_scratch("master.log"), spool, "tcp://127.0.0.1:*",
+                              "tcp://127.0.0.1:*", "--heartbeat", "200", "--tile", "16", NULL);
     char wep[256], cep[256];
     testutil_read_endpoints(spool, wep, cep, testutil_scratch("master.log"));
-    pid_t w1 = testutil_spawn(testutil_scratch("w1.log"), "worker", "--connect", wep, "--threads",
-                              "1", "--name", "w1", "--cache", testutil_scratch("c1"), NULL);
-    pid_t w2 = testutil_spawn(testutil_scratch("w2.log"), "worker", "--connect", wep, "--threads",
-                              "1", "--name", "w2", "--cache", testutil_scratch("c2"), NULL);
+    pid_t w1 = testutil_start_worker(testutil_scratch("w1.log"), wep, "w1", testutil_scratch("c1"));
+    pid_t w2 = testutil_start_worker(testutil_scratch("w2.log"), wep, "w2", testutil_scratch("c2"));
 
     const run_t *r = run("submit", "data/photon/beam.pbrt", "--master", cep, "--name", "beam",
                          "--wait", "-o", testutil_scratch("job.exr"), "--quiet", NULL);

@@ -26,27 +26,16 @@ static pid_t start_master(const char *name, char *cep, const char *opt, ...)
     char spool[600], log[600];
     snprintf(spool, sizeof spool, "%s/%s-spool", testutil_scratch_dir(), name);
     snprintf(log, sizeof log, "%s/%s.log", testutil_scratch_dir(), name);
-    const char *args[TESTUTIL_MAX_ARGS + 1] = {"master",
-                                               "--workers",
-                                               "tcp://127.0.0.1:*",
-                                               "--clients",
-                                               "tcp://127.0.0.1:*",
-                                               "--spool",
-                                               spool,
-                                               "--key",
-                                               testutil_master_key(),
-                                               "--authorized",
-                                               testutil_authorized()};
-    int n = 11;
+    const char *opts[TESTUTIL_MAX_ARGS + 1];
+    int n = 0;
     va_list ap;
     va_start(ap, opt);
     for (const char *a = opt; a && n < TESTUTIL_MAX_ARGS; a = va_arg(ap, const char *))
-        args[n++] = a;
+        opts[n++] = a;
     va_end(ap);
-    args[n] = NULL;
-    pid_t pid = testutil_spawn_argv(log, args);
-    if (pid < 0)
-        fail_msg("cannot start the master %s (is PRISMFARM_BIN set?)", name);
+    opts[n] = NULL;
+    pid_t pid =
+        testutil_start_master_argv(log, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*", opts);
     char wep[256];
     testutil_read_endpoints(spool, wep, cep, log);
     return pid;

@@ -298,8 +298,7 @@ static pid_t start_worker(int i, int gen, const char *wep)
     snprintf(cache, sizeof cache, "cache-%d", i);
     snprintf(logpath, sizeof logpath, "%s", testutil_scratch(log));
     snprintf(cachepath, sizeof cachepath, "%s", testutil_scratch(cache));
-    return testutil_spawn(logpath, "worker", "--connect", wep, "--threads", "1", "--name", name,
-                          "--cache", cachepath, NULL);
+    return testutil_start_worker(logpath, wep, name, cachepath);
 }
 
 /* A kB figure of /proc/PID/status ("VmHWM", "VmRSS"), or -1. */
@@ -416,10 +415,8 @@ static void test_soak(void **state)
     const char *spool = testutil_scratch("spool");
     char mlog[512];
     snprintf(mlog, sizeof mlog, "%s", testutil_scratch("master.log"));
-    pid_t master =
-        testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
-                       "tcp://127.0.0.1:*", "--spool", spool, "--tile", "8", "--key",
-                       testutil_master_key(), "--authorized", testutil_authorized(), NULL);
+    pid_t master = testutil_start_master(mlog, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*",
+                                         "--tile", "8", NULL);
     char wep[256], cep[256];
     testutil_read_endpoints(spool, wep, cep, mlog);
     long idle_kb = proc_kb(master, "VmRSS");

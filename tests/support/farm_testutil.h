@@ -197,6 +197,60 @@ static inline pid_t testutil_spawn(const char *log, const char *arg, ...)
     return pid;
 }
 
+/* `prismfarm master` on the endpoints wep and cep ("tcp://127.0.0.1:*": ports the system
+ * chooses) with its spool and the CURVE keys of testutil_scratch_keys_setup, its stderr to log,
+ * and the options opts (NULL-terminated, at most TESTUTIL_MAX_ARGS - 10) after; returns its pid
+ * (testutil_read_endpoints gives the endpoints it bound). Fails the test if it cannot start. */
+static inline pid_t testutil_start_master_argv(const char *log, const char *spool, const char *wep,
+                                               const char *cep, const char *const *opts)
+{
+    const char *args[TESTUTIL_MAX_ARGS + 1] = {"master",
+                                               "--workers",
+                                               wep,
+                                               "--clients",
+                                               cep,
+                                               "--spool",
+                                               spool,
+                                               "--key",
+                                               testutil_master_key(),
+                                               "--authorized",
+                                               testutil_authorized()};
+    int n = 11;
+    for (int i = 0; opts && opts[i] && n < TESTUTIL_MAX_ARGS; i++)
+        args[n++] = opts[i];
+    args[n] = NULL;
+    pid_t pid = testutil_spawn_argv(log, args);
+    if (pid < 0)
+        fail_msg("cannot start prismfarm master (is PRISMFARM_BIN set?)");
+    return pid;
+}
+
+/* testutil_start_master_argv with the options listed (NULL-terminated; NULL alone for none). */
+static inline pid_t testutil_start_master(const char *log, const char *spool, const char *wep,
+                                          const char *cep, ...)
+{
+    const char *opts[TESTUTIL_MAX_ARGS + 1];
+    int n = 0;
+    va_list ap;
+    va_start(ap, cep);
+    for (const char *a = va_arg(ap, const char *); a && n < TESTUTIL_MAX_ARGS;
+         a = va_arg(ap, const char *))
+        opts[n++] = a;
+    va_end(ap);
+    opts[n] = NULL;
+    return testutil_start_master_argv(log, spool, wep, cep, opts);
+}
+
+/* `prismfarm worker` of one thread named name, with its bundle cache, serving the master at wep
+ * (its CURVE keys from PRISMFARM_KEY and PRISMFARM_MASTER_KEY, testutil_farm_keys), its stderr to
+ * log; returns its pid. */
+static inline pid_t testutil_start_worker(const char *log, const char *wep, const char *name,
+                                          const char *cache)
+{
+    return testutil_spawn(log, "worker", "--connect", wep, "--threads", "1", "--name", name,
+                          "--cache", cache, NULL);
+}
+
 /* Sends sig to the child pid (0: none, to wait for it to end by itself) and reaps it within the
  * deadline of a wait (test_wait.h); returns its wait status. A child still running then is
  * killed and fails the test (a daemon that ignores SIGTERM fails it rather than hangs it), as
