@@ -13,6 +13,7 @@
 
 #include <cmocka.h>
 
+#include "cli_run.h"
 #include "farm_testutil.h"
 #include "image_exr.h"
 
@@ -145,12 +146,6 @@ static void expect_status(int status, int want, const char *what, const char *lo
     if (status != want)
         testutil_fail_quoting(log, "%s: exit status %d, expected %d; its output:", what, status,
                               want);
-}
-
-static void expect_in(const char *haystack, const char *needle)
-{
-    if (!strstr(haystack, needle))
-        fail_msg("expected '%s' in:\n%s", needle, haystack);
 }
 
 /* In the JSON array of `prismfarm workers --json` (flat objects), the integer field of the
