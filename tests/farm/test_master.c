@@ -103,8 +103,7 @@ static int start(void **state, int tcp, int max_task_failures, int farm_defaults
         return -1;
     }
     f->ctx = zmq_ctx_new();
-    snprintf(f->spool, sizeof f->spool, "/tmp/prismfarm-test-master-XXXXXX");
-    if (!f->ctx || !mkdtemp(f->spool))
+    if (!f->ctx || testutil_mkdtemp(f->spool, sizeof f->spool, "master") < 0)
         return -1;
     static char wep[64], cep[64];
     counter++;
@@ -192,9 +191,7 @@ static int teardown(void **state)
     pthread_join(f->thread, NULL);
     int rc = f->rc;
     zmq_ctx_term(f->ctx);
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", f->spool);
-    if (system(cmd) != 0)
+    if (testutil_rmtree(f->spool) != 0)
         rc = -1;
     free(f->scene_bytes);
     free(f);
@@ -951,8 +948,7 @@ static void test_real_worker(void **state)
 {
     fx_t *f = *state;
     real_worker_t w = {.rc = 0};
-    snprintf(w.cache, sizeof w.cache, "/tmp/prismfarm-test-master-worker-XXXXXX");
-    assert_non_null(mkdtemp(w.cache));
+    assert_int_equal(testutil_mkdtemp(w.cache, sizeof w.cache, "master-worker"), 0);
     w.opts = (worker_opts_t){.endpoint = f->wep,
                              .zmq_ctx = f->ctx,
                              .threads = 2,
@@ -969,9 +965,7 @@ static void test_real_worker(void **state)
     w.stop = 1;
     pthread_join(th, NULL);
     assert_int_equal(w.rc, 0);
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", w.cache);
-    assert_int_equal(system(cmd), 0);
+    assert_int_equal(testutil_rmtree(w.cache), 0);
 }
 
 
