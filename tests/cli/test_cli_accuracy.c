@@ -23,25 +23,6 @@
 #define SCENE "data/render/tiny.pbrt" /* 24 x 16 pixels */
 #define PIXELS (24 * 16)
 
-static char DIR_[256];
-
-static int setup(void **state)
-{
-    (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "accuracy");
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
-}
-
-static const char *path_in(const char *name)
-{
-    return testutil_path_in(DIR_, name);
-}
-
 /* The accuracy keys of an EXR's "prismfarm" attribute (docs/farm.md, "Accuracy"). */
 typedef struct acc {
     int spp, spp_done;
@@ -155,17 +136,17 @@ static void test_target_stops_early(void **state)
 {
     (void)state;
     const run_t *r = render_ok(SCENE, "--spp", "1024", "--target-error", "0.1", "-o",
-                               path_in("t10.exr"), "--threads", "2", NULL);
+                               testutil_scratch("t10.exr"), "--threads", "2", NULL);
     expect_in(r->out, "relative error estimate");
     expect_in(r->out, "(target error reached)");
     expect_in(r->err, "target error reached after");
     expect_in(r->err, "of the samples asked)");
-    acc_t loose = read_acc(path_in("t10.exr"));
+    acc_t loose = read_acc(testutil_scratch("t10.exr"));
     expect_target_stop(&loose, 1024, 0.1);
 
-    render_ok(SCENE, "--spp", "1024", "--target-error", "0.05", "-o", path_in("t05.exr"), "--quiet",
-              NULL);
-    acc_t strict = read_acc(path_in("t05.exr"));
+    render_ok(SCENE, "--spp", "1024", "--target-error", "0.05", "-o", testutil_scratch("t05.exr"),
+              "--quiet", NULL);
+    acc_t strict = read_acc(testutil_scratch("t05.exr"));
     expect_target_stop(&strict, 1024, 0.05);
     assert_true(strict.spp_done > loose.spp_done);
     /* The same samples up to the looser stop: the same estimates there. */
@@ -174,25 +155,26 @@ static void test_target_stops_early(void **state)
 
     /* Any worker count and tile size, and --direct (plain threads, the same passes): the same
      * pass, the same bytes. */
-    render_ok(SCENE, "--spp", "1024", "--target-error", "0.1", "-o", path_in("t10w3.exr"),
+    render_ok(SCENE, "--spp", "1024", "--target-error", "0.1", "-o", testutil_scratch("t10w3.exr"),
               "--workers", "3", "--threads", "1", "--tile", "8", "--quiet", NULL);
-    render_ok(SCENE, "--spp", "1024", "--target-error", "0.1", "-o", path_in("t10d.exr"),
+    render_ok(SCENE, "--spp", "1024", "--target-error", "0.1", "-o", testutil_scratch("t10d.exr"),
               "--direct", "--threads", "3", "--quiet", NULL);
-    acc_t w3 = read_acc(path_in("t10w3.exr")), direct = read_acc(path_in("t10d.exr"));
+    acc_t w3 = read_acc(testutil_scratch("t10w3.exr")),
+          direct = read_acc(testutil_scratch("t10d.exr"));
     assert_int_equal(w3.spp_done, loose.spp_done);
     assert_int_equal(direct.spp_done, loose.spp_done);
     assert_true(direct.rel == loose.rel);
-    testutil_assert_same_pixels(path_in("t10.exr"), path_in("t10w3.exr"));
-    testutil_assert_same_pixels(path_in("t10.exr"), path_in("t10d.exr"));
+    testutil_assert_same_pixels(testutil_scratch("t10.exr"), testutil_scratch("t10w3.exr"));
+    testutil_assert_same_pixels(testutil_scratch("t10.exr"), testutil_scratch("t10d.exr"));
 
     /* A target never reached: every pass runs, and the job is the plain one of that spp. */
-    render_ok(SCENE, "--spp", "16", "--target-error", "0.001", "-o", path_in("all.exr"), "--quiet",
-              NULL);
-    render_ok(SCENE, "--spp", "16", "-o", path_in("plain.exr"), "--quiet", NULL);
-    acc_t all = read_acc(path_in("all.exr"));
+    render_ok(SCENE, "--spp", "16", "--target-error", "0.001", "-o", testutil_scratch("all.exr"),
+              "--quiet", NULL);
+    render_ok(SCENE, "--spp", "16", "-o", testutil_scratch("plain.exr"), "--quiet", NULL);
+    acc_t all = read_acc(testutil_scratch("all.exr"));
     assert_int_equal(all.spp_done, 16);
     assert_string_equal(all.stop, "none");
-    testutil_assert_same_pixels(path_in("all.exr"), path_in("plain.exr"));
+    testutil_assert_same_pixels(testutil_scratch("all.exr"), testutil_scratch("plain.exr"));
 }
 
 /* The strong check. Pass p of any job is samples [2^(p-1), 2^p) of every pixel, whatever the
@@ -206,22 +188,22 @@ static void test_target_stops_early(void **state)
 static void test_jobs_share_their_passes(void **state)
 {
     (void)state;
-    render_ok(SCENE, "--spp", "96", "--target-error", "0.08", "-o", path_in("s96.exr"), "--quiet",
-              NULL);
-    render_ok(SCENE, "--spp", "768", "--target-error", "0.08", "-o", path_in("s768.exr"),
+    render_ok(SCENE, "--spp", "96", "--target-error", "0.08", "-o", testutil_scratch("s96.exr"),
+              "--quiet", NULL);
+    render_ok(SCENE, "--spp", "768", "--target-error", "0.08", "-o", testutil_scratch("s768.exr"),
               "--workers", "2", "--tile", "8", "--quiet", NULL);
-    acc_t a = read_acc(path_in("s96.exr")), b = read_acc(path_in("s768.exr"));
+    acc_t a = read_acc(testutil_scratch("s96.exr")), b = read_acc(testutil_scratch("s768.exr"));
     expect_target_stop(&a, 96, 0.08);
     expect_target_stop(&b, 768, 0.08);
     assert_int_equal(a.spp_done, b.spp_done);
     for (int i = 0; i < a.n; i++)
         assert_true(a.hrel[i] == b.hrel[i]);
-    testutil_assert_same_pixels(path_in("s96.exr"), path_in("s768.exr"));
+    testutil_assert_same_pixels(testutil_scratch("s96.exr"), testutil_scratch("s768.exr"));
     /* And the 96-spp job run to its end went on from the same 64 spp: its history agrees up to
      * there. */
-    render_ok(SCENE, "--spp", "96", "-o", path_in("p96.exr"), "--direct", "--target-error",
+    render_ok(SCENE, "--spp", "96", "-o", testutil_scratch("p96.exr"), "--direct", "--target-error",
               "0.0001", "--quiet", NULL);
-    acc_t c = read_acc(path_in("p96.exr"));
+    acc_t c = read_acc(testutil_scratch("p96.exr"));
     assert_int_equal(c.spp_done, 96);
     for (int i = 0; i < a.n; i++)
         assert_true(c.hrel[i] == a.hrel[i]);
@@ -256,12 +238,12 @@ static void test_time_limit(void **state)
     double t0 = testutil_now_s();
     /* Tiles of 8 pixels: 6 tasks a pass, several passes in flight at the limit. */
     const run_t *r =
-        render_ok(SCENE, "--spp", "1048576", "--time-limit", "0.6", "-o", path_in("time.exr"),
-                  "--threads", "2", "--tile", "8", "--quiet", NULL);
+        render_ok(SCENE, "--spp", "1048576", "--time-limit", "0.6", "-o",
+                  testutil_scratch("time.exr"), "--threads", "2", "--tile", "8", "--quiet", NULL);
     double wall = testutil_now_s() - t0;
     expect_in(r->out, "(time limit reached)");
     double secs = summary_seconds(r->out);
-    acc_t a = read_acc(path_in("time.exr"));
+    acc_t a = read_acc(testutil_scratch("time.exr"));
     assert_string_equal(a.stop, "time");
     assert_true(is_power_of_two(a.spp_done) && a.spp_done < 1048576);
     assert_int_equal(a.samples, (unsigned long long)PIXELS * (unsigned long long)a.spp_done);
@@ -287,17 +269,17 @@ static void test_time_limit(void **state)
                      a.hrel[i], target);
     char tgt[32];
     snprintf(tgt, sizeof tgt, "%.9g", target);
-    render_ok(SCENE, "--spp", "1048576", "--target-error", tgt, "-o", path_in("time_t.exr"),
-              "--quiet", NULL);
-    acc_t b = read_acc(path_in("time_t.exr"));
+    render_ok(SCENE, "--spp", "1048576", "--target-error", tgt, "-o",
+              testutil_scratch("time_t.exr"), "--quiet", NULL);
+    acc_t b = read_acc(testutil_scratch("time_t.exr"));
     assert_int_equal(b.spp_done, a.spp_done);
-    testutil_assert_same_pixels(path_in("time.exr"), path_in("time_t.exr"));
+    testutil_assert_same_pixels(testutil_scratch("time.exr"), testutil_scratch("time_t.exr"));
 
     /* --direct under a limit: the pass in flight is dropped, whole passes stay. */
-    r = render_ok(SCENE, "--spp", "1048576", "--time-limit", "0.3", "-o", path_in("time_d.exr"),
-                  "--direct", "--threads", "2", "--quiet", NULL);
+    r = render_ok(SCENE, "--spp", "1048576", "--time-limit", "0.3", "-o",
+                  testutil_scratch("time_d.exr"), "--direct", "--threads", "2", "--quiet", NULL);
     expect_in(r->out, "(time limit reached)");
-    acc_t d = read_acc(path_in("time_d.exr"));
+    acc_t d = read_acc(testutil_scratch("time_d.exr"));
     assert_string_equal(d.stop, "time");
     assert_true(is_power_of_two(d.spp_done));
     assert_int_equal(d.samples, (unsigned long long)PIXELS * (unsigned long long)d.spp_done);
@@ -311,16 +293,16 @@ static void test_time_limit(void **state)
             fail_msg("pass %d already had %g <= %g: pick another scene for this check", d.pass[i],
                      d.hrel[i], target);
     snprintf(tgt, sizeof tgt, "%.9g", target);
-    render_ok(SCENE, "--spp", "1048576", "--target-error", tgt, "-o", path_in("time_dt.exr"),
-              "--quiet", NULL);
-    assert_int_equal(read_acc(path_in("time_dt.exr")).spp_done, d.spp_done);
-    testutil_assert_same_pixels(path_in("time_d.exr"), path_in("time_dt.exr"));
+    render_ok(SCENE, "--spp", "1048576", "--target-error", tgt, "-o",
+              testutil_scratch("time_dt.exr"), "--quiet", NULL);
+    assert_int_equal(read_acc(testutil_scratch("time_dt.exr")).spp_done, d.spp_done);
+    testutil_assert_same_pixels(testutil_scratch("time_d.exr"), testutil_scratch("time_dt.exr"));
 
     /* A limit shorter than the first pass: the job still ends with that pass (at least one),
      * which has 1 sample per pixel and so no estimate. */
-    r = render_ok(SCENE, "--spp", "1024", "--time-limit", "0.001", "-o", path_in("first.exr"),
-                  "--quiet", NULL);
-    acc_t f = read_acc(path_in("first.exr"));
+    r = render_ok(SCENE, "--spp", "1024", "--time-limit", "0.001", "-o",
+                  testutil_scratch("first.exr"), "--quiet", NULL);
+    acc_t f = read_acc(testutil_scratch("first.exr"));
     assert_int_equal(f.spp_done, 1);
     assert_string_equal(f.stop, "time");
     assert_true(f.rel < 0);
@@ -349,12 +331,13 @@ static void test_bad_flags(void **state)
         expect_in(r->err, "--time-limit expects seconds");
     }
     /* Suffixes: 2h is 7200 s, far more than 2 spp take: every pass runs. */
-    render_ok(SCENE, "--spp", "2", "--time-limit", "2h", "-o", path_in("2h.exr"), "--quiet", NULL);
-    acc_t a = read_acc(path_in("2h.exr"));
+    render_ok(SCENE, "--spp", "2", "--time-limit", "2h", "-o", testutil_scratch("2h.exr"),
+              "--quiet", NULL);
+    acc_t a = read_acc(testutil_scratch("2h.exr"));
     assert_int_equal(a.spp_done, 2);
     assert_string_equal(a.stop, "none");
     err_t err;
-    image_exr_t *img = image_exr_read(path_in("2h.exr"), &err);
+    image_exr_t *img = image_exr_read(testutil_scratch("2h.exr"), &err);
     assert_non_null(img);
     expect_in(image_exr_attribute(img, "prismfarm"), "time_limit=7200;");
     image_exr_destroy(&img);
@@ -363,37 +346,27 @@ static void test_bad_flags(void **state)
     expect_in(r->out, "--time-limit T");
 }
 
-static char *slurp(const char *path)
-{
-    static char buf[1 << 16];
-    FILE *f = fopen(path, "r");
-    assert_non_null(f);
-    size_t n = fread(buf, 1, sizeof buf - 1, f);
-    buf[n] = 0;
-    fclose(f);
-    return buf;
-}
-
 /* A master and a worker as processes (over ipc://, which needs no keys: docs/security.md):
  * submit --wait --json reports spp, the estimate and the stop; `jobs --json` and the `status`
  * table show them; the master logs each pass. */
 static void test_farm_processes_report_accuracy(void **state)
 {
     (void)state;
-    const char *spool = path_in("spool");
+    const char *spool = testutil_scratch("spool");
     char mlog[512];
-    snprintf(mlog, sizeof mlog, "%s", path_in("master.log"));
+    snprintf(mlog, sizeof mlog, "%s", testutil_scratch("master.log"));
     char wipc[600], cipc[600];
-    snprintf(wipc, sizeof wipc, "ipc://%s", path_in("w.ipc"));
-    snprintf(cipc, sizeof cipc, "ipc://%s", path_in("c.ipc"));
+    snprintf(wipc, sizeof wipc, "ipc://%s", testutil_scratch("w.ipc"));
+    snprintf(cipc, sizeof cipc, "ipc://%s", testutil_scratch("c.ipc"));
     pid_t master = testutil_spawn(mlog, "master", "--workers", wipc, "--clients", cipc, "--spool",
                                   spool, "--heartbeat", "200", NULL);
     char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep);
-    pid_t worker = testutil_spawn(path_in("w.log"), "worker", "--connect", wep, "--threads", "2",
-                                  "--name", "w1", "--cache", path_in("cache"), NULL);
+    testutil_read_endpoints(spool, wep, cep, mlog);
+    pid_t worker =
+        testutil_spawn(testutil_scratch("w.log"), "worker", "--connect", wep, "--threads", "2",
+                       "--name", "w1", "--cache", testutil_scratch("cache"), NULL);
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", "1024", "--target-error", "0.1",
-                         "--wait", "--json", "-o", path_in("sub.exr"), "--quiet", NULL);
+                         "--wait", "--json", "-o", testutil_scratch("sub.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
     expect_in(r->out, "\"stop\": \"target\"");
@@ -405,13 +378,13 @@ static void test_farm_processes_report_accuracy(void **state)
     assert_non_null(p);
     int spp = atoi(p + strlen("\"spp\": "));
     /* The same pass as `render` of the same job (test_target_stops_early's 64-ish spp). */
-    acc_t a = read_acc(path_in("sub.exr"));
+    acc_t a = read_acc(testutil_scratch("sub.exr"));
     assert_int_equal(spp, a.spp_done);
     assert_true(a.rel == rel || fabs(a.rel / rel - 1) < 1e-5); /* 6 digits in the attribute */
 
     /* A job without rules: all its spp, an estimate, no stop. */
     r = run("submit", SCENE, "--master", cep, "--spp", "8", "--wait", "--json", "-o",
-            path_in("plain.exr"), "--quiet", NULL);
+            testutil_scratch("plain.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
     expect_in(r->out, "\"spp\": 8");
@@ -433,10 +406,9 @@ static void test_farm_processes_report_accuracy(void **state)
 
     testutil_stop(worker, SIGTERM);
     testutil_stop(master, SIGTERM);
-    const char *log = slurp(mlog);
-    expect_in(log, "pass 1 of 11 merged: 1 spp, no error estimate yet");
-    expect_in(log, "pass 2 of 11 merged: 2 spp, relative error ");
-    expect_in(log, "(target error reached)");
+    testutil_expect_file_has(mlog, "pass 1 of 11 merged: 1 spp, no error estimate yet");
+    testutil_expect_file_has(mlog, "pass 2 of 11 merged: 2 spp, relative error ");
+    testutil_expect_file_has(mlog, "(target error reached)");
 }
 
 int main(void)
@@ -448,5 +420,5 @@ int main(void)
         cmocka_unit_test(test_bad_flags),
         cmocka_unit_test(test_farm_processes_report_accuracy),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

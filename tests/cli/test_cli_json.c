@@ -23,25 +23,6 @@
 #define AWKWARD_NAME "a \"quoted\" back\\slash {name}, caf\xc3\xa9"
 #define AWKWARD_PATH "a \"q\" back\\slash\nnew line\ttab\x01 end"
 
-static char DIR_[256];
-
-static int setup(void **state)
-{
-    (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "json");
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
-}
-
-static const char *path_in(const char *name)
-{
-    return testutil_path_in(DIR_, name);
-}
-
 /* stdout of a command that succeeded, parsed; the caller releases it. */
 static json_t *parse_out(const run_t *r, const char *what)
 {
@@ -80,14 +61,14 @@ static json_t *job_in(json_t *jobs, json_int_t id)
 static void test_names_round_trip(void **state)
 {
     (void)state;
-    const char *spool = path_in("spool");
+    const char *spool = testutil_scratch("spool");
     char wipc[600], cipc[600];
-    snprintf(wipc, sizeof wipc, "ipc://%s", path_in("w.ipc"));
-    snprintf(cipc, sizeof cipc, "ipc://%s", path_in("c.ipc"));
-    pid_t master = testutil_spawn(path_in("master.log"), "master", "--workers", wipc, "--clients",
-                                  cipc, "--spool", spool, "--heartbeat", "200", NULL);
+    snprintf(wipc, sizeof wipc, "ipc://%s", testutil_scratch("w.ipc"));
+    snprintf(cipc, sizeof cipc, "ipc://%s", testutil_scratch("c.ipc"));
+    pid_t master = testutil_spawn(testutil_scratch("master.log"), "master", "--workers", wipc,
+                                  "--clients", cipc, "--spool", spool, "--heartbeat", "200", NULL);
     char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep);
+    testutil_read_endpoints(spool, wep, cep, testutil_scratch("master.log"));
 
     /* A name with a newline never gets to the master, nor to the output. */
     const run_t *r = run("submit", SCENE, "--master", cep, "--name", "two\nlines", "--json", NULL);
@@ -124,11 +105,12 @@ static void test_names_round_trip(void **state)
     json_decref(v);
 
     /* A worker with an awkward name, then the jobs done, with awkward output paths. */
-    pid_t worker = testutil_spawn(path_in("worker.log"), "worker", "--connect", wep, "--threads",
-                                  "2", "--name", AWKWARD_NAME, "--cache", path_in("cache"), NULL);
+    pid_t worker =
+        testutil_spawn(testutil_scratch("worker.log"), "worker", "--connect", wep, "--threads", "2",
+                       "--name", AWKWARD_NAME, "--cache", testutil_scratch("cache"), NULL);
     char exr[600], png[600];
-    snprintf(exr, sizeof exr, "%s", path_in(AWKWARD_PATH ".exr"));
-    snprintf(png, sizeof png, "%s", path_in(AWKWARD_PATH ".png"));
+    snprintf(exr, sizeof exr, "%s", testutil_scratch(AWKWARD_PATH ".exr"));
+    snprintf(png, sizeof png, "%s", testutil_scratch(AWKWARD_PATH ".png"));
     v = parse_out(run("submit", SCENE, "--master", cep, "--spp", "2", "--name", AWKWARD_NAME,
                       "--wait", "--json", "-o", exr, "--quiet", NULL),
                   "submit --wait --json");
@@ -153,7 +135,7 @@ static void test_plan_scene_path(void **state)
 {
     (void)state;
     char dir[600], scene[700];
-    snprintf(dir, sizeof dir, "%s", path_in(AWKWARD_PATH));
+    snprintf(dir, sizeof dir, "%s", testutil_scratch(AWKWARD_PATH));
     assert_int_equal(mkdir(dir, 0777), 0);
     snprintf(scene, sizeof scene, "%s/tiny.pbrt", dir);
     FILE *in = fopen(SCENE, "rb"), *out = fopen(scene, "wb");
@@ -177,5 +159,5 @@ int main(void)
         cmocka_unit_test(test_names_round_trip),
         cmocka_unit_test(test_plan_scene_path),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

@@ -17,25 +17,6 @@
 
 #define SCENE "data/render/tiny.pbrt"
 
-static char DIR_[256];
-
-static int setup(void **state)
-{
-    (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "options");
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
-}
-
-static const char *path_in(const char *name)
-{
-    return testutil_path_in(DIR_, name);
-}
-
 static int exists(const char *path)
 {
     struct stat st;
@@ -55,28 +36,28 @@ static void test_spellings_and_order(void **state)
 {
     (void)state;
     char out[512];
-    snprintf(out, sizeof out, "-o%s", path_in("attached.exr"));
+    snprintf(out, sizeof out, "-o%s", testutil_scratch("attached.exr"));
     const run_t *r = run("render", "--spp=1", "--res", "4x4", out, SCENE, "--quiet", NULL);
     if (r->status != 0)
         fail_msg("render: exit %d: %s", r->status, r->err);
-    assert_true(exists(path_in("attached.exr")));
+    assert_true(exists(testutil_scratch("attached.exr")));
     expect_in(r->out, "1 of 1 spp");
 
-    r = run("render", SCENE, "--res=4x4", "--spp", "1", "--output", path_in("after.exr"), "--quiet",
-            "--direct", NULL);
+    r = run("render", SCENE, "--res=4x4", "--spp", "1", "--output", testutil_scratch("after.exr"),
+            "--quiet", "--direct", NULL);
     if (r->status != 0)
         fail_msg("render: exit %d: %s", r->status, r->err);
-    assert_true(exists(path_in("after.exr")));
+    assert_true(exists(testutil_scratch("after.exr")));
 
     /* POSIXLY_CORRECT stops a plain getopt at the first operand; the options after it still
      * count. */
     setenv("POSIXLY_CORRECT", "1", 1);
-    r = run("render", SCENE, "--spp", "1", "--res", "4x4", "-o", path_in("posix.exr"), "--quiet",
-            NULL);
+    r = run("render", SCENE, "--spp", "1", "--res", "4x4", "-o", testutil_scratch("posix.exr"),
+            "--quiet", NULL);
     unsetenv("POSIXLY_CORRECT");
     if (r->status != 0)
         fail_msg("render under POSIXLY_CORRECT: exit %d: %s", r->status, r->err);
-    assert_true(exists(path_in("posix.exr")));
+    assert_true(exists(testutil_scratch("posix.exr")));
 
     /* "--" ends the options: what follows is an operand even when it looks like an option. */
     expect_fails(run("render", "--", SCENE, "--spp", NULL), "more than one scene given");
@@ -96,7 +77,7 @@ static void test_errors(void **state)
                  "prismfarm render: unknown option '--frobnicate' (see prismfarm render --help)");
     expect_fails(run("render", SCENE, "-x", NULL), "prismfarm render: unknown option '-x'");
     /* getopt_long's abbreviations are refused: --sp is no --spp. */
-    expect_fails(run("render", SCENE, "--sp", "4", "-o", path_in("abbrev.exr"), NULL),
+    expect_fails(run("render", SCENE, "--sp", "4", "-o", testutil_scratch("abbrev.exr"), NULL),
                  "unknown option '--sp'");
     expect_fails(run("submit", SCENE, "--ma", "tcp://x:1", NULL), "unknown option '--ma'");
     expect_fails(run("render", SCENE, "--spp", NULL), "prismfarm render: --spp needs a value");
@@ -186,5 +167,5 @@ int main(void)
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_help),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

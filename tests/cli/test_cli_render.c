@@ -16,29 +16,10 @@
 #include <math.h>
 #include <sys/stat.h>
 
-static char DIR_[256];
-
-static int setup(void **state)
-{
-    (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "render");
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
-}
-
-static const char *path_in(const char *name)
-{
-    return testutil_path_in(DIR_, name);
-}
-
 static void test_renders_spectral_exr_and_png(void **state)
 {
     (void)state;
-    const char *exr = path_in("sub/dir/tiny.exr");
+    const char *exr = testutil_scratch("sub/dir/tiny.exr");
     const run_t *r = run("render", "data/render/tiny.pbrt", "-o", exr, "--threads", "2", NULL);
     if (r->status != 0)
         fail_msg("exit %d: %s", r->status, r->err);
@@ -46,7 +27,7 @@ static void test_renders_spectral_exr_and_png(void **state)
     expect_in(r->out, "0 non-finite samples");
     expect_in(r->err, "dispersion on");
     struct stat st;
-    assert_int_equal(stat(path_in("sub/dir/tiny.png"), &st), 0);
+    assert_int_equal(stat(testutil_scratch("sub/dir/tiny.png"), &st), 0);
     assert_true(st.st_size > 0);
     err_t err;
     image_exr_t *img = image_exr_read(exr, &err);
@@ -94,19 +75,25 @@ static double png_mean(const char *path, const uint8_t *same_as)
 static void test_farm_png_matches_direct(void **state)
 {
     (void)state;
-    assert_int_equal(run("render", "data/render/tiny.pbrt", "-o", path_in("d.exr"), "--direct",
-                         "--quiet", NULL)->status, 0);
-    assert_int_equal(run("render", "data/render/tiny.pbrt", "-o", path_in("f.exr"), "--quiet",
-                         NULL)->status, 0);
-    assert_int_equal(run("render", "data/render/tiny.pbrt", "-o", path_in("e.exr"), "--quiet",
-                         "--exposure", "1", NULL)->status, 0);
+    assert_int_equal(run("render", "data/render/tiny.pbrt", "-o", testutil_scratch("d.exr"),
+                         "--direct", "--quiet", NULL)
+                         ->status,
+                     0);
+    assert_int_equal(
+        run("render", "data/render/tiny.pbrt", "-o", testutil_scratch("f.exr"), "--quiet", NULL)
+            ->status,
+        0);
+    assert_int_equal(run("render", "data/render/tiny.pbrt", "-o", testutil_scratch("e.exr"),
+                         "--quiet", "--exposure", "1", NULL)
+                         ->status,
+                     0);
     err_t err;
-    image_png_t *d = image_png_read(path_in("d.png"), &err);
+    image_png_t *d = image_png_read(testutil_scratch("d.png"), &err);
     if (!d)
         fail_msg("%s", err.msg);
-    double direct = png_mean(path_in("d.png"), NULL);
-    double farm = png_mean(path_in("f.png"), image_png_rgba(d));
-    double brighter = png_mean(path_in("e.png"), NULL);
+    double direct = png_mean(testutil_scratch("d.png"), NULL);
+    double farm = png_mean(testutil_scratch("f.png"), image_png_rgba(d));
+    double brighter = png_mean(testutil_scratch("e.png"), NULL);
     image_png_destroy(&d);
     assert_true(farm == direct);
     /* One stop doubles the linear values before the ACES curve: every lit 8-bit value rises. */
@@ -116,7 +103,7 @@ static void test_farm_png_matches_direct(void **state)
 static void test_same_pixels_with_any_thread_count(void **state)
 {
     (void)state;
-    const char *a = path_in("t1.exr"), *b = path_in("t2.exr");
+    const char *a = testutil_scratch("t1.exr"), *b = testutil_scratch("t2.exr");
     assert_int_equal(run("render", "data/render/tiny.pbrt", "-o", a, "--threads", "1", "--quiet", NULL)->status, 0);
     assert_int_equal(run("render", "data/render/tiny.pbrt", "-o", b, "--threads", "2", "--quiet",
                          "--dispersion", "hero", NULL)->status, 0);
@@ -132,7 +119,7 @@ static void test_same_pixels_with_any_thread_count(void **state)
 static void test_overrides(void **state)
 {
     (void)state;
-    const char *exr = path_in("small.exr");
+    const char *exr = testutil_scratch("small.exr");
     const run_t *r = run("render", "data/render/tiny.pbrt", "-o", exr, "--res", "8x6", "--spp", "2",
                          "--dispersion", "fanout", "--integrator", "whitted", NULL);
     if (r->status != 0)
@@ -167,14 +154,15 @@ static void test_bad_command_lines(void **state)
 static void test_broken_scene_names_file_and_line(void **state)
 {
     (void)state;
-    const run_t *r = run("render", "data/render/broken.pbrt", "-o", path_in("broken.exr"), NULL);
+    const run_t *r =
+        run("render", "data/render/broken.pbrt", "-o", testutil_scratch("broken.exr"), NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "data/render/broken.pbrt:4:");
-    r = run("render", "data/render/missing.pbrt", "-o", path_in("missing.exr"), NULL);
+    r = run("render", "data/render/missing.pbrt", "-o", testutil_scratch("missing.exr"), NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "missing.pbrt");
     struct stat st;
-    assert_int_not_equal(stat(path_in("broken.exr"), &st), 0);
+    assert_int_not_equal(stat(testutil_scratch("broken.exr"), &st), 0);
 }
 
 int main(void)
@@ -187,5 +175,5 @@ int main(void)
         cmocka_unit_test(test_bad_command_lines),
         cmocka_unit_test(test_broken_scene_names_file_and_line),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

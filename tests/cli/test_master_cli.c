@@ -10,7 +10,7 @@
 #include <cmocka.h>
 
 #include "cli_run.h"
-#include "clock.h"
+#include "farm_testutil.h"
 
 #include "net.h"
 
@@ -18,12 +18,6 @@
 #include <signal.h>
 #include <time.h>
 #include <zmq.h>
-
-static void sleep_ms(int ms)
-{
-    struct timespec ts = {.tv_sec = ms / 1000, .tv_nsec = (long)(ms % 1000) * 1000000L};
-    nanosleep(&ts, NULL);
-}
 
 static void test_command_line(void **state)
 {
@@ -52,8 +46,7 @@ static void test_port_in_use(void **state)
     assert_int_equal(net_bind(taken, "tcp://127.0.0.1:*", NULL), 0);
     char ep[256];
     assert_int_equal(net_endpoint(taken, ep, sizeof ep, NULL), 0);
-    char spool[] = "/tmp/prismfarm-test-master-cli-XXXXXX";
-    assert_non_null(mkdtemp(spool));
+    const char *spool = testutil_scratch("port-spool");
     const run_t *r =
         run("master", "--workers", ep, "--clients", "tcp://127.0.0.1:*", "--spool", spool,
             "--insecure", NULL);
@@ -62,9 +55,6 @@ static void test_port_in_use(void **state)
     expect_in(r->err, ep);
     net_destroy(&taken);
     zmq_ctx_term(ctx);
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", spool);
-    assert_int_equal(system(cmd), 0);
 }
 
 /* A master process with system-chosen ports: it writes SPOOL/endpoints, answers a client over
@@ -72,39 +62,11 @@ static void test_port_in_use(void **state)
 static void test_serves_and_stops(void **state)
 {
     (void)state;
-    const char *bin = getenv("PRISMFARM_BIN");
-    assert_non_null(bin);
-    char spool[] = "/tmp/prismfarm-test-master-cli-XXXXXX";
-    assert_non_null(mkdtemp(spool));
-    pid_t pid = fork();
-    assert_true(pid >= 0);
-    if (pid == 0) {
-        int null = open("/dev/null", O_WRONLY);
-        if (null >= 0)
-            dup2(null, STDERR_FILENO);
-        execl(bin, bin, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
-              "tcp://127.0.0.1:*", "--spool", spool, "--insecure", (char *)NULL);
-        _exit(127);
-    }
-    char path[128], line[300], cep[320] = "";
-    snprintf(path, sizeof path, "%s/endpoints", spool);
-    for (double until = clock_now_s() + test_wait_s(); !cep[0] && clock_now_s() < until;) {
-        FILE *f = fopen(path, "r");
-        if (f) {
-            while (fgets(line, sizeof line, f))
-                if (!strncmp(line, "clients ", 8)) {
-                    line[strcspn(line, "\n")] = 0;
-                    snprintf(cep, sizeof cep, "%s", line + 8);
-                }
-            fclose(f);
-        }
-        if (!cep[0])
-            sleep_ms(10);
-    }
-    if (!cep[0]) {
-        kill(pid, SIGKILL);
-        fail_msg("the master wrote no endpoints file within %.0f s", test_wait_s());
-    }
+    const char *spool = testutil_scratch("spool");
+    pid_t pid = testutil_spawn("/dev/null", "master", "--workers", "tcp://127.0.0.1:*", "--clients",
+                               "tcp://127.0.0.1:*", "--spool", spool, "--insecure", NULL);
+    char wep[256], cep[256];
+    testutil_read_endpoints(spool, wep, cep, NULL);
     assert_non_null(strstr(cep, "tcp://127.0.0.1:"));
 
     void *ctx = zmq_ctx_new();
@@ -121,24 +83,9 @@ static void test_serves_and_stops(void **state)
     net_destroy(&c);
     zmq_ctx_term(ctx);
 
-    assert_int_equal(kill(pid, SIGTERM), 0);
-    int status = 0;
-    pid_t got = 0;
-    for (double until = clock_now_s() + test_wait_s(); got == 0 && clock_now_s() < until;) {
-        got = waitpid(pid, &status, WNOHANG);
-        if (got == 0)
-            sleep_ms(10);
-    }
-    if (got != pid) {
-        kill(pid, SIGKILL);
-        waitpid(pid, &status, 0);
-        fail_msg("the master did not stop within %.0f s of SIGTERM", test_wait_s());
-    }
+    int status = testutil_stop(pid, SIGTERM);
     assert_true(WIFEXITED(status));
     assert_int_equal(WEXITSTATUS(status), 0);
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", spool);
-    assert_int_equal(system(cmd), 0);
 }
 
 int main(void)
@@ -146,7 +93,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_command_line),
         cmocka_unit_test(test_port_in_use),
-        cmocka_unit_test(test_serves_and_stops),
+        cmocka_unit_test_teardown(test_serves_and_stops, testutil_kill_children),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

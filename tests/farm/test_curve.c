@@ -32,25 +32,15 @@ static const char RFC32_Z85[] =
 #define DOC_SERVER_SECRET "JTKVSB%%)wK0E.X)V>+}o?pNmC{O&4W4b!Ni{Lh6"
 #define DOC_CLIENT_PUBLIC "Yne@$w-vo<fVvi]a<NY6T1ed:M$fCG*[IaLV{hID"
 
-static char DIR_[256];
-static char MASTER_KEY[600], AUTHORIZED[600];
 static char FARM_KEY[600], MASTER_PUB[600]; /* what PRISMFARM_KEY, _MASTER_KEY hold */
 
 static int group_setup(void **state)
 {
-    (void)state;
-    if (testutil_mkdtemp(DIR_, sizeof DIR_, "curve") < 0 ||
-        testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0)
+    if (testutil_scratch_keys_setup(state) < 0)
         return -1;
     snprintf(FARM_KEY, sizeof FARM_KEY, "%s", getenv("PRISMFARM_KEY"));
     snprintf(MASTER_PUB, sizeof MASTER_PUB, "%s", getenv("PRISMFARM_MASTER_KEY"));
     return 0;
-}
-
-static int group_teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
 }
 
 /* The keys in the environment on (the farm's) or off (none), for the children started next. */
@@ -63,95 +53,6 @@ static void env_keys(int on)
         assert_int_equal(unsetenv("PRISMFARM_KEY"), 0);
         assert_int_equal(unsetenv("PRISMFARM_MASTER_KEY"), 0);
     }
-}
-
-static const char *path_in(const char *name)
-{
-    static char buf[16][600];
-    static int k;
-    k = (k + 1) % 16;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
-    return buf[k];
-}
-
-/* The whole file (at most 64 KiB) in a static buffer; "" when it cannot be read. */
-static const char *slurp(const char *path)
-{
-    static char buf[2][65536];
-    static int k;
-    k = 1 - k;
-    buf[k][0] = 0;
-    FILE *f = fopen(path, "r");
-    if (f) {
-        size_t n = fread(buf[k], 1, sizeof buf[k] - 1, f);
-        buf[k][n] = 0;
-        fclose(f);
-    }
-    return buf[k];
-}
-
-static void write_text(const char *path, const char *text, mode_t mode)
-{
-    int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC, mode);
-    assert_true(fd >= 0);
-    assert_int_equal(write(fd, text, strlen(text)), (ssize_t)strlen(text));
-    assert_int_equal(fchmod(fd, mode), 0);
-    assert_int_equal(close(fd), 0);
-}
-
-/* Starts `prismfarm ARGS...` in the background, stderr to log; returns its pid. */
-static pid_t spawn(const char *log, const char *arg, ...)
-{
-    const char *bin = getenv("PRISMFARM_BIN");
-    assert_non_null(bin);
-    char *argv[32];
-    va_list ap;
-    va_start(ap, arg);
-    cli_argv(argv, 32, bin, arg, ap);
-    va_end(ap);
-    pid_t pid = fork();
-    assert_true(pid >= 0);
-    if (pid == 0) {
-        if (!freopen(log, "w", stderr) || !freopen("/dev/null", "w", stdout))
-            _exit(126);
-        execv(bin, argv);
-        _exit(127);
-    }
-    return pid;
-}
-
-static void stop(pid_t pid)
-{
-    kill(pid, SIGTERM);
-    int st;
-    waitpid(pid, &st, 0);
-}
-
-static void read_endpoints(const char *spool, char *workers, char *clients, const char *log)
-{
-    char path[700];
-    snprintf(path, sizeof path, "%s/endpoints", spool);
-    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < test_wait_s();
-         testutil_sleep_ms(10)) {
-        FILE *f = fopen(path, "r");
-        if (f) {
-            int got = fscanf(f, "workers %255s clients %255s", workers, clients);
-            fclose(f);
-            if (got == 2)
-                return;
-        }
-    }
-    fail_msg("the master did not write %s; its log:\n%s", path, slurp(log));
-}
-
-/* Waits until the log holds text, up to the deadline of a wait (test_wait.h). */
-static void wait_log(const char *log, const char *text)
-{
-    double timeout_s = test_wait_s();
-    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < timeout_s; testutil_sleep_ms(20))
-        if (strstr(slurp(log), text))
-            return;
-    fail_msg("no '%s' in %s within %.0f s:\n%s", text, log, timeout_s, slurp(log));
 }
 
 /* The value of the "NAME = " line of a key file (40 characters), into out[41]. */
@@ -170,6 +71,16 @@ static void key_line(const char *text, const char *name, char out[41])
     out[40] = 0;
 }
 
+/* key_line of the key file at path. */
+static void key_file_line(const char *path, const char *name, char out[41])
+{
+    char *text = testutil_slurp(path, NULL);
+    if (!text)
+        fail_msg("cannot read %s", path);
+    key_line(text, name, out);
+    free(text);
+}
+
 static int mode_of(const char *path)
 {
     struct stat st;
@@ -182,7 +93,7 @@ static int mode_of(const char *path)
 static void test_keygen_files(void **state)
 {
     (void)state;
-    const char *dir = path_in("kg");
+    const char *dir = testutil_scratch("kg");
     const run_t *r = run("keygen", "alice", "--dir", dir, NULL);
     if (r->status != 0)
         fail_msg("keygen: exit %d: %s", r->status, r->err);
@@ -195,10 +106,8 @@ static void test_keygen_files(void **state)
     assert_int_equal(mode_of(pub), 0644);
     assert_int_equal(mode_of(dir), 0700);
 
-    char key_text[1024], pub_text[1024];
-    snprintf(key_text, sizeof key_text, "%s", slurp(key));
-    snprintf(pub_text, sizeof pub_text, "%s", slurp(pub));
-    assert_true(key_text[0] == '#' && pub_text[0] == '#');
+    char *key_text = testutil_slurp(key, NULL), *pub_text = testutil_slurp(pub, NULL);
+    assert_true(key_text && pub_text && key_text[0] == '#' && pub_text[0] == '#');
     char public1[41], secret[41], public2[41], derived[41];
     key_line(key_text, "public-key", public1);
     key_line(key_text, "secret-key", secret);
@@ -212,12 +121,18 @@ static void test_keygen_files(void **state)
     r = run("keygen", "alice", "--dir", dir, NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "exists: not overwritten");
-    assert_string_equal(slurp(key), key_text);
-    assert_string_equal(slurp(pub), pub_text);
+    char *key_now = testutil_slurp(key, NULL), *pub_now = testutil_slurp(pub, NULL);
+    assert_true(key_now && pub_now);
+    assert_string_equal(key_now, key_text);
+    assert_string_equal(pub_now, pub_text);
+    free(key_now);
+    free(pub_now);
+    free(key_text);
+    free(pub_text);
     r = run("keygen", "alice", "--dir", dir, "--force", NULL);
     assert_int_equal(r->status, 0);
     char public3[41];
-    key_line(slurp(pub), "public-key", public3);
+    key_file_line(pub, "public-key", public3);
     assert_string_not_equal(public3, public1);
     assert_int_equal(mode_of(key), 0600);
 
@@ -226,7 +141,7 @@ static void test_keygen_files(void **state)
     assert_int_equal(r->status, 0);
     char bob[41];
     snprintf(pub, sizeof pub, "%s/bob.pub", dir);
-    key_line(slurp(pub), "public-key", bob);
+    key_file_line(pub, "public-key", bob);
     assert_string_not_equal(bob, public3);
 
     static const char *const bad[] = {
@@ -238,7 +153,7 @@ static void test_keygen_files(void **state)
             fail_msg("keygen '%s': exit %d, expected 2: %s", bad[i], r->status, r->err);
     }
     struct stat st;
-    assert_int_not_equal(stat(path_in("evil.key"), &st), 0);
+    assert_int_not_equal(stat(testutil_scratch("evil.key"), &st), 0);
 }
 
 /* Key files read by hand-written examples: the zmq_curve(7) pair loads (with comments, blank
@@ -250,11 +165,11 @@ static void test_key_file_errors(void **state)
     err_t err;
     curve_pair_t pair;
     char pub[41];
-    const char *p = path_in("doc.key");
-    write_text(p,
-               "# the example of zmq_curve(7)\r\n\r\n  public-key=" DOC_SERVER_PUBLIC
-               "\r\nsecret-key =   " DOC_SERVER_SECRET "  \r\n",
-               0600);
+    const char *p = testutil_scratch("doc.key");
+    testutil_write_text(p,
+                        "# the example of zmq_curve(7)\r\n\r\n  public-key=" DOC_SERVER_PUBLIC
+                        "\r\nsecret-key =   " DOC_SERVER_SECRET "  \r\n",
+                        0600);
     if (curve_load_pair(p, &pair, &err) < 0)
         fail_msg("%s", err.msg);
     assert_string_equal(pair.public_key, DOC_SERVER_PUBLIC);
@@ -283,7 +198,7 @@ static void test_key_file_errors(void **state)
          ":2: a second public-key (the first is on line 1)"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
-        write_text(p, bad[i].text, 0600);
+        testutil_write_text(p, bad[i].text, 0600);
         if (curve_load_pair(p, &pair, &err) == 0)
             fail_msg("case %zu loaded", i);
         char want[700];
@@ -291,19 +206,21 @@ static void test_key_file_errors(void **state)
         expect_in(err.msg, want);
     }
     /* A secret key where a public one is expected: the file must not travel. */
-    write_text(p, "public-key = " DOC_SERVER_PUBLIC "\nsecret-key = " DOC_SERVER_SECRET "\n", 0600);
+    testutil_write_text(
+        p, "public-key = " DOC_SERVER_PUBLIC "\nsecret-key = " DOC_SERVER_SECRET "\n", 0600);
     assert_int_equal(curve_load_public(p, pub, &err), -1);
     expect_in(err.msg, ":2: a secret key");
-    assert_int_equal(curve_load_public(path_in("none.pub"), pub, &err), -1);
+    assert_int_equal(curve_load_public(testutil_scratch("none.pub"), pub, &err), -1);
     expect_in(err.msg, "none.pub: cannot open");
     /* A .pub that is fine, and an authorised folder that holds a bad one. */
-    write_text(path_in("doc.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n", 0644);
-    assert_int_equal(curve_load_public(path_in("doc.pub"), pub, &err), 0);
+    testutil_write_text(testutil_scratch("doc.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n", 0644);
+    assert_int_equal(curve_load_public(testutil_scratch("doc.pub"), pub, &err), 0);
     assert_string_equal(pub, DOC_CLIENT_PUBLIC);
-    const char *ring = path_in("ring");
+    const char *ring = testutil_scratch("ring");
     assert_int_equal(mkdir(ring, 0700), 0);
-    write_text(path_in("ring/ok.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n", 0644);
-    write_text(path_in("ring/README"), "not a key, not a .pub: ignored\n", 0644);
+    testutil_write_text(testutil_scratch("ring/ok.pub"), "public-key = " DOC_CLIENT_PUBLIC "\n",
+                        0644);
+    testutil_write_text(testutil_scratch("ring/README"), "not a key, not a .pub: ignored\n", 0644);
     curve_ring_t *keys = curve_ring_new(ring, &err);
     assert_non_null(keys);
     assert_int_equal(curve_ring_size(keys), 1);
@@ -313,7 +230,7 @@ static void test_key_file_errors(void **state)
     assert_non_null(zmq_z85_decode(bin, DOC_SERVER_PUBLIC));
     assert_null(curve_ring_find(keys, bin));
     curve_ring_destroy(&keys);
-    write_text(path_in("ring/bad.pub"), "public-key = short\n", 0644);
+    testutil_write_text(testutil_scratch("ring/bad.pub"), "public-key = short\n", 0644);
     assert_null(curve_ring_new(ring, &err));
     expect_in(err.msg, "ring/bad.pub:1: public-key has 5 characters");
 }
@@ -325,34 +242,33 @@ static void test_farm_with_keys(void **state)
 {
     (void)state;
     env_keys(1);
-    const char *spool = path_in("spool"), *mlog = path_in("master.log");
-    pid_t master = spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
-                         "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200", "--tile", "8",
-                         "--key", MASTER_KEY, "--authorized", AUTHORIZED, NULL);
+    const char *spool = testutil_scratch("spool"), *mlog = testutil_scratch("master.log");
+    pid_t master = testutil_start_master(mlog, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*",
+                                         "--heartbeat", "200", "--tile", "8", NULL);
     char wep[256], cep[256];
-    read_endpoints(spool, wep, cep, mlog);
-    pid_t worker = spawn(path_in("w1.log"), "worker", "--connect", wep, "--threads", "1", "--name",
-                         "w1", "--cache", path_in("c1"), NULL);
+    testutil_read_endpoints(spool, wep, cep, mlog);
+    pid_t worker =
+        testutil_start_worker(testutil_scratch("w1.log"), wep, "w1", testutil_scratch("c1"));
     const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "4", "--wait",
-                         "-o", path_in("farm.exr"), "--quiet", NULL);
+                         "-o", testutil_scratch("farm.exr"), "--quiet", NULL);
     if (r->status != 0)
-        fail_msg("submit --wait: exit %d: %s\nmaster log:\n%s", r->status, r->err, slurp(mlog));
-    r = run("render", "data/render/tiny.pbrt", "--spp", "4", "-o", path_in("render.exr"), "--quiet",
-            NULL);
+        testutil_fail_quoting(mlog, "submit --wait: exit %d: %s\nmaster log:", r->status, r->err);
+    r = run("render", "data/render/tiny.pbrt", "--spp", "4", "-o", testutil_scratch("render.exr"),
+            "--quiet", NULL);
     assert_int_equal(r->status, 0);
-    testutil_assert_same_pixels(path_in("farm.exr"), path_in("render.exr"));
-    expect_in(slurp(mlog), "accepted key 'farm' on the workers endpoint from 127.0.0.1");
-    expect_in(slurp(mlog), "accepted key 'farm' on the clients endpoint from 127.0.0.1");
+    testutil_assert_same_pixels(testutil_scratch("farm.exr"), testutil_scratch("render.exr"));
+    testutil_expect_file_has(mlog, "accepted key 'farm' on the workers endpoint from 127.0.0.1");
+    testutil_expect_file_has(mlog, "accepted key 'farm' on the clients endpoint from 127.0.0.1");
 
     /* A stranger's key: refused by the handshake, reported at once -- well before the 60 s
      * answer timeout the client is given, which it would otherwise wait out -- and logged by
      * the master with its address and key. */
-    r = run("keygen", "intruder", "--dir", path_in("keys"), NULL);
+    r = run("keygen", "intruder", "--dir", testutil_scratch("keys"), NULL);
     assert_int_equal(r->status, 0);
     char intruder_key[700], intruder_pub[700], intruder[41];
-    snprintf(intruder_key, sizeof intruder_key, "%s", path_in("keys/intruder.key"));
-    snprintf(intruder_pub, sizeof intruder_pub, "%s", path_in("keys/intruder.pub"));
-    key_line(slurp(intruder_pub), "public-key", intruder);
+    snprintf(intruder_key, sizeof intruder_key, "%s", testutil_scratch("keys/intruder.key"));
+    snprintf(intruder_pub, sizeof intruder_pub, "%s", testutil_scratch("keys/intruder.pub"));
+    key_file_line(intruder_pub, "public-key", intruder);
     double t0 = testutil_now_s();
     r = run("jobs", "--master", cep, "--key", intruder_key, "--timeout", "60", NULL);
     double took = testutil_now_s() - t0;
@@ -363,20 +279,20 @@ static void test_farm_with_keys(void **state)
     char line[300];
     snprintf(line, sizeof line,
              "refused a connection to the clients endpoint from 127.0.0.1: key %s", intruder);
-    wait_log(mlog, line);
+    testutil_wait_file_has(mlog, line);
 
     /* A worker with that key never joins; the refusal is logged for the workers endpoint. */
-    pid_t stranger =
-        spawn(path_in("w2.log"), "worker", "--connect", wep, "--threads", "1", "--name", "stranger",
-              "--key", intruder_key, "--cache", path_in("c2"), NULL);
+    pid_t stranger = testutil_spawn(testutil_scratch("w2.log"), "worker", "--connect", wep,
+                                    "--threads", "1", "--name", "stranger", "--key", intruder_key,
+                                    "--cache", testutil_scratch("c2"), NULL);
     snprintf(line, sizeof line,
              "refused a connection to the workers endpoint from 127.0.0.1: key %s", intruder);
-    wait_log(mlog, line);
+    testutil_wait_file_has(mlog, line);
     r = run("workers", "--master", cep, "--json", NULL);
     assert_int_equal(r->status, 0);
     expect_in(r->out, "\"w1\"");
     assert_null(strstr(r->out, "stranger"));
-    stop(stranger);
+    testutil_stop(stranger, SIGTERM);
 
     /* No keys over tcp: the client refuses to send plain text unless told to. */
     env_keys(0);
@@ -400,21 +316,21 @@ static void test_farm_with_keys(void **state)
 
     /* Authorised while the master runs: its folder is read again. */
     char cmd[1600];
-    snprintf(cmd, sizeof cmd, "cp '%s' '%s/'", intruder_pub, AUTHORIZED);
+    snprintf(cmd, sizeof cmd, "cp '%s' '%s/'", intruder_pub, testutil_authorized());
     assert_int_equal(system(cmd), 0);
     r = run("jobs", "--master", cep, "--key", intruder_key, "--master-key", MASTER_PUB, NULL);
     if (r->status != 0)
-        fail_msg("a key added to the folder was not let in: %s\nmaster log:\n%s", r->err,
-                 slurp(mlog));
+        testutil_fail_quoting(mlog,
+                              "a key added to the folder was not let in: %s\nmaster log:", r->err);
     expect_in(r->out, "tiny");
     char added[700];
-    snprintf(added, sizeof added, "%s/intruder.pub", AUTHORIZED);
+    snprintf(added, sizeof added, "%s/intruder.pub", testutil_authorized());
     assert_int_equal(unlink(added), 0);
     r = run("jobs", "--master", cep, "--key", intruder_key, "--master-key", MASTER_PUB, NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "refused our key");
-    stop(worker);
-    stop(master);
+    testutil_stop(worker, SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 /* A tcp:// master without keys refuses to start, with the reason and the two ways out;
@@ -422,7 +338,7 @@ static void test_farm_with_keys(void **state)
 static void test_master_refuses_plain_tcp(void **state)
 {
     (void)state;
-    const char *spool = path_in("nokeys-spool");
+    const char *spool = testutil_scratch("nokeys-spool");
     const run_t *r = run("master", "--workers", "tcp://127.0.0.1:*", "--clients",
                          "tcp://127.0.0.1:*", "--spool", spool, NULL);
     assert_int_equal(r->status, 2);
@@ -433,18 +349,19 @@ static void test_master_refuses_plain_tcp(void **state)
     struct stat st;
     assert_int_not_equal(stat(spool, &st), 0); /* it started nothing */
 
-    r = run("master", "--spool", spool, "--key", MASTER_KEY, NULL);
+    r = run("master", "--spool", spool, "--key", testutil_master_key(), NULL);
     assert_int_equal(r->status, 2);
     expect_in(r->err, "--key needs --authorized DIR");
-    r = run("master", "--spool", spool, "--key", MASTER_KEY, "--authorized", AUTHORIZED,
-            "--insecure", NULL);
+    r = run("master", "--spool", spool, "--key", testutil_master_key(), "--authorized",
+            testutil_authorized(), "--insecure", NULL);
     assert_int_equal(r->status, 2);
     expect_in(r->err, "exclude each other");
-    r = run("master", "--spool", spool, "--key", MASTER_PUB, "--authorized", AUTHORIZED, NULL);
+    r = run("master", "--spool", spool, "--key", MASTER_PUB, "--authorized", testutil_authorized(),
+            NULL);
     assert_int_equal(r->status, 2);
     expect_in(r->err, "no 'secret-key = ...' line");
-    r = run("master", "--spool", spool, "--key", MASTER_KEY, "--authorized", path_in("nowhere"),
-            NULL);
+    r = run("master", "--spool", spool, "--key", testutil_master_key(), "--authorized",
+            testutil_scratch("nowhere"), NULL);
     assert_int_equal(r->status, 2);
     expect_in(r->err, "cannot open the folder");
 }
@@ -455,38 +372,42 @@ static void test_insecure_and_local(void **state)
 {
     (void)state;
     env_keys(0);
-    const char *spool = path_in("plain-spool"), *mlog = path_in("plain-master.log");
-    pid_t master =
-        spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients", "tcp://127.0.0.1:*",
-              "--spool", spool, "--heartbeat", "200", "--tile", "8", "--insecure", NULL);
+    const char *spool = testutil_scratch("plain-spool"),
+               *mlog = testutil_scratch("plain-master.log");
+    pid_t master = testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
+                                  "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200",
+                                  "--tile", "8", "--insecure", NULL);
     char wep[256], cep[256];
-    read_endpoints(spool, wep, cep, mlog);
-    expect_in(slurp(mlog), "plain text (--insecure)");
-    pid_t worker = spawn(path_in("plain-w.log"), "worker", "--connect", wep, "--threads", "1",
-                         "--name", "pw", "--cache", path_in("pc"), "--insecure", NULL);
+    testutil_read_endpoints(spool, wep, cep, mlog);
+    testutil_expect_file_has(mlog, "plain text (--insecure)");
+    pid_t worker =
+        testutil_spawn(testutil_scratch("plain-w.log"), "worker", "--connect", wep, "--threads",
+                       "1", "--name", "pw", "--cache", testutil_scratch("pc"), "--insecure", NULL);
     const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "2", "--wait",
-                         "-o", path_in("plain.exr"), "--quiet", "--insecure", NULL);
+                         "-o", testutil_scratch("plain.exr"), "--quiet", "--insecure", NULL);
     if (r->status != 0)
         fail_msg("submit --wait --insecure: exit %d: %s", r->status, r->err);
     r = run("jobs", "--master", cep, "--key", FARM_KEY, "--master-key", MASTER_PUB, NULL);
     assert_int_equal(r->status, 1);
     if (!strstr(r->err, "does not use CURVE") && !strstr(r->err, "does it use CURVE"))
         fail_msg("a CURVE client was not told the master runs in plain text: %s", r->err);
-    stop(worker);
-    stop(master);
+    testutil_stop(worker, SIGTERM);
+    testutil_stop(master, SIGTERM);
 
     /* ipc:// stays on this host: no keys, no flag. */
     char wipc[700], cipc[700];
-    snprintf(wipc, sizeof wipc, "ipc://%s", path_in("w.ipc"));
-    snprintf(cipc, sizeof cipc, "ipc://%s", path_in("c.ipc"));
-    spool = path_in("ipc-spool");
-    mlog = path_in("ipc-master.log");
-    master = spawn(mlog, "master", "--workers", wipc, "--clients", cipc, "--spool", spool, NULL);
-    read_endpoints(spool, wep, cep, mlog);
+    snprintf(wipc, sizeof wipc, "ipc://%s", testutil_scratch("w.ipc"));
+    snprintf(cipc, sizeof cipc, "ipc://%s", testutil_scratch("c.ipc"));
+    spool = testutil_scratch("ipc-spool");
+    mlog = testutil_scratch("ipc-master.log");
+    master = testutil_spawn(mlog, "master", "--workers", wipc, "--clients", cipc, "--spool", spool,
+                            NULL);
+    testutil_read_endpoints(spool, wep, cep, mlog);
     r = run("jobs", "--master", cipc, NULL);
     if (r->status != 0)
-        fail_msg("jobs over ipc://: exit %d: %s\nmaster log:\n%s", r->status, r->err, slurp(mlog));
-    stop(master);
+        testutil_fail_quoting(mlog, "jobs over ipc://: exit %d: %s\nmaster log:", r->status,
+                              r->err);
+    testutil_stop(master, SIGTERM);
     env_keys(1);
 }
 
@@ -497,5 +418,5 @@ int main(void)
         cmocka_unit_test(test_farm_with_keys),     cmocka_unit_test(test_master_refuses_plain_tcp),
         cmocka_unit_test(test_insecure_and_local),
     };
-    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+    return cmocka_run_group_tests(tests, group_setup, testutil_scratch_teardown);
 }

@@ -31,66 +31,30 @@
 #include <xmmintrin.h>
 #endif
 
-static char DIR_[256];
-static char MASTER_KEY[600], AUTHORIZED[600]; /* the master's --key and --authorized */
-
-static int setup(void **state)
-{
-    (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "farm") < 0 ||
-                   testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0
-               ? -1
-               : 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
-}
-
-static const char *path_in(const char *name)
-{
-    return testutil_path_in(DIR_, name);
-}
-
-/* Entries in a folder other than . and ..; -1 if it cannot be read. */
-static int count_entries(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return -1;
-    int n = 0;
-    struct dirent *e;
-    while ((e = readdir(d)))
-        n += strcmp(e->d_name, ".") && strcmp(e->d_name, "..");
-    closedir(d);
-    return n;
-}
-
 static void test_render_any_worker_count(void **state)
 {
     (void)state;
     /* The in-process farm's temporary spool (the scene, the job's outputs, the worker's cache
      * with the extracted bundle) goes in $TMPDIR and is removed, with everything in it. */
-    const char *tmp = path_in("tmp");
+    const char *tmp = testutil_scratch("tmp");
     assert_int_equal(mkdir(tmp, 0700), 0);
     assert_int_equal(setenv("TMPDIR", tmp, 1), 0);
-    const run_t *r = run("render", "data/render/tiny.pbrt", "-o", path_in("one.exr"), "--workers", "1",
-                         "--threads", "1", "--tile", "8", "--quiet", NULL);
+    const run_t *r = run("render", "data/render/tiny.pbrt", "-o", testutil_scratch("one.exr"),
+                         "--workers", "1", "--threads", "1", "--tile", "8", "--quiet", NULL);
     assert_int_equal(unsetenv("TMPDIR"), 0);
     if (r->status != 0)
         fail_msg("exit %d: %s", r->status, r->err);
     expect_in(r->out, "wrote ");
-    if (count_entries(tmp) != 0)
-        fail_msg("%d entries left in the render's TMPDIR %s: %s", count_entries(tmp), tmp, r->err);
-    r = run("render", "data/render/tiny.pbrt", "-o", path_in("three.exr"), "--workers", "3", "--threads", "1",
-            "--tile", "8", "--quiet", NULL);
+    if (testutil_count_entries(tmp) != 0)
+        fail_msg("%d entries left in the render's TMPDIR %s: %s", testutil_count_entries(tmp), tmp,
+                 r->err);
+    r = run("render", "data/render/tiny.pbrt", "-o", testutil_scratch("three.exr"), "--workers",
+            "3", "--threads", "1", "--tile", "8", "--quiet", NULL);
     if (r->status != 0)
         fail_msg("exit %d: %s", r->status, r->err);
-    testutil_assert_same_pixels(path_in("one.exr"), path_in("three.exr"));
+    testutil_assert_same_pixels(testutil_scratch("one.exr"), testutil_scratch("three.exr"));
     struct stat st;
-    assert_int_equal(stat(path_in("three.png"), &st), 0);
+    assert_int_equal(stat(testutil_scratch("three.png"), &st), 0);
 }
 
 /* The image docs/farm.md ("Same pixels") defines, computed here from render_tile alone: per
@@ -172,24 +136,24 @@ static void expect_farm_is_direct(const char *scene_path, const char *name, size
     char farm[64], direct[64];
     snprintf(farm, sizeof farm, "%s_farm.exr", name);
     snprintf(direct, sizeof direct, "%s_direct.exr", name);
-    const run_t *r = run("render", scene_path, "--spp", "24", "-o", path_in(farm), "--workers", "2",
-                         "--threads", "1", "--tile", "7", "--quiet", NULL);
+    const run_t *r = run("render", scene_path, "--spp", "24", "-o", testutil_scratch(farm),
+                         "--workers", "2", "--threads", "1", "--tile", "7", "--quiet", NULL);
     if (r->status != 0)
         fail_msg("farm: exit %d: %s", r->status, r->err);
-    r = run("render", scene_path, "--spp", "24", "-o", path_in(direct), "--direct", "--threads", "2",
-            "--quiet", NULL);
+    r = run("render", scene_path, "--spp", "24", "-o", testutil_scratch(direct), "--direct",
+            "--threads", "2", "--quiet", NULL);
     if (r->status != 0)
         fail_msg("--direct: exit %d: %s", r->status, r->err);
-    testutil_assert_same_pixels(path_in(farm), path_in(direct));
+    testutil_assert_same_pixels(testutil_scratch(farm), testutil_scratch(direct));
     size_t wide;
     tilebuf_t *ref = reference_image(scene_path, 24, 5, 1, &wide);
-    size_t d = exr_differences(path_in(farm), ref);
+    size_t d = exr_differences(testutil_scratch(farm), ref);
     if (d != 0)
         fail_msg("%s: %zu values of the farm's image differ from the reference", name, d);
     tilebuf_destroy(&ref);
     size_t unused;
     tilebuf_t *plain = reference_image(scene_path, 24, 32, 0, &unused);
-    d = exr_differences(path_in(farm), plain);
+    d = exr_differences(testutil_scratch(farm), plain);
     print_message("%s: %zu of the pass sums stayed doubles; the unrounded sums differ in %zu "
                   "values of the EXR\n", name, wide, d);
     assert_true(d > 0);
@@ -207,7 +171,7 @@ static void test_render_matches_direct(void **state)
     /* A light of radiance 1e38 fills the middle of the view: a pass of 8 samples sums 8e38 >
      * FLT_MAX (3.4e38) in the pixels that see it, so those tiles travel as float64 -- and the
      * pixels are still --direct's. */
-    const char *huge = path_in("huge.pbrt");
+    const char *huge = testutil_scratch("huge.pbrt");
     FILE *f = fopen(huge, "w");
     assert_non_null(f);
     fprintf(f, "LookAt 0 0 -3  0 0 0  0 1 0\n"
@@ -235,17 +199,14 @@ static void test_render_matches_direct(void **state)
 static void test_processes_and_a_killed_worker(void **state)
 {
     (void)state;
-    const char *spool = path_in("spool");
+    const char *spool = testutil_scratch("spool");
     pid_t master =
-        testutil_spawn(path_in("master.log"), "master", "--workers", "tcp://127.0.0.1:*",
-                       "--clients", "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200",
-                       "--tile", "8", "--key", MASTER_KEY, "--authorized", AUTHORIZED, NULL);
+        testutil_start_master(testutil_scratch("master.log"), spool, "tcp://127.0.0.1:*",
+                              "tcp://127.0.0.1:*", "--heartbeat", "200", "--tile", "8", NULL);
     char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep);
-    pid_t w1 = testutil_spawn(path_in("w1.log"), "worker", "--connect", wep, "--threads", "1",
-                              "--name", "w1", "--cache", path_in("c1"), NULL);
-    pid_t w2 = testutil_spawn(path_in("w2.log"), "worker", "--connect", wep, "--threads", "1",
-                              "--name", "w2", "--cache", path_in("c2"), NULL);
+    testutil_read_endpoints(spool, wep, cep, testutil_scratch("master.log"));
+    pid_t w1 = testutil_start_worker(testutil_scratch("w1.log"), wep, "w1", testutil_scratch("c1"));
+    pid_t w2 = testutil_start_worker(testutil_scratch("w2.log"), wep, "w2", testutil_scratch("c2"));
     /* Both in service before the job, so that both are given its first tasks. */
     const run_t *r = NULL;
     for (double until = testutil_now_s() + test_wait_s();; testutil_sleep_ms(50)) {
@@ -265,7 +226,7 @@ static void test_processes_and_a_killed_worker(void **state)
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
     assert_string_equal(r->out, "1\n");
-    testutil_wait_file_has(path_in("master.log"), "job 1 'big' started");
+    testutil_wait_file_has(testutil_scratch("master.log"), "job 1 'big' started");
     testutil_stop(w2, SIGKILL);
     r = run("workers", "--master", cep, NULL);
     assert_int_equal(r->status, 0);
@@ -279,28 +240,29 @@ static void test_processes_and_a_killed_worker(void **state)
             break;
     }
     expect_in(r->out, "\"state\": \"done\"");
-    r = run("fetch", "1", "-o", path_in("killed.exr"), "--master", cep, NULL);
+    r = run("fetch", "1", "-o", testutil_scratch("killed.exr"), "--master", cep, NULL);
     if (r->status != 0)
         fail_msg("fetch: %s", r->err);
     /* The same job with a single worker from the start. */
-    r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "64", "--name", "again", "--wait", "-o",
-            path_in("single.exr"), "--quiet", NULL);
+    r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "64", "--name", "again",
+            "--wait", "-o", testutil_scratch("single.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("submit --wait: exit %d: %s", r->status, r->err);
-    testutil_assert_same_pixels(path_in("killed.exr"), path_in("single.exr"));
+    testutil_assert_same_pixels(testutil_scratch("killed.exr"), testutil_scratch("single.exr"));
     /* And the same bytes as `prismfarm render` of the scene with the same seed and spp (another
      * tile size changes nothing: passes are per job, so each pixel sums the same samples in the
      * same order). */
-    r = run("render", "data/render/tiny.pbrt", "--spp", "64", "-o", path_in("render.exr"), "--quiet", NULL);
+    r = run("render", "data/render/tiny.pbrt", "--spp", "64", "-o", testutil_scratch("render.exr"),
+            "--quiet", NULL);
     if (r->status != 0)
         fail_msg("render: exit %d: %s", r->status, r->err);
-    testutil_assert_same_pixels(path_in("single.exr"), path_in("render.exr"));
+    testutil_assert_same_pixels(testutil_scratch("single.exr"), testutil_scratch("render.exr"));
 
     /* Errors a user sees: a broken scene, a job that does not exist. */
     r = run("submit", "data/render/broken.pbrt", "--master", cep, NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "broken.pbrt:4:");
-    r = run("fetch", "99", "-o", path_in("none.exr"), "--master", cep, NULL);
+    r = run("fetch", "99", "-o", testutil_scratch("none.exr"), "--master", cep, NULL);
     assert_int_equal(r->status, 1);
     r = run("jobs", "--master", cep, NULL);
     assert_int_equal(r->status, 0);
@@ -327,5 +289,5 @@ int main(void)
         cmocka_unit_test(test_processes_and_a_killed_worker),
         cmocka_unit_test(test_client_without_master),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_keys_setup, testutil_scratch_teardown);
 }

@@ -21,7 +21,6 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <signal.h>
-#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <time.h>
@@ -37,145 +36,13 @@
  * can be silent for half a second, and one lost then misses the CANCEL the test waits for. */
 #define HEARTBEAT_MS "1000"
 #define TILE "8"
-#define MAX_CHILDREN 8
 
-static char DIR_[256];
-static char MASTER_KEY[600], AUTHORIZED[600]; /* the master's --key and --authorized */
 static int REF_MADE;
-static pid_t CHILDREN[MAX_CHILDREN];
-
-static int group_setup(void **state)
-{
-    (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "faults") < 0 ||
-                   testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0
-               ? -1
-               : 0;
-}
-
-static int group_teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
-}
-
-static const char *path_in(const char *name)
-{
-    return testutil_path_in(DIR_, name);
-}
-
-/* Starts `prismfarm ARGS...` in the background with stderr to a log; returns its pid. Every
- * child is remembered, so that a failed assertion cannot leave daemons behind (teardown). */
-static pid_t spawn(const char *log, const char *arg, ...)
-{
-    const char *bin = getenv("PRISMFARM_BIN");
-    if (!bin)
-        fail_msg("PRISMFARM_BIN is not set (run the test through ctest)");
-    char *argv[32];
-    va_list ap;
-    va_start(ap, arg);
-    cli_argv(argv, 32, bin, arg, ap);
-    va_end(ap);
-    int slot = 0;
-    while (slot < MAX_CHILDREN && CHILDREN[slot] > 0)
-        slot++;
-    assert_true(slot < MAX_CHILDREN);
-    pid_t pid = fork();
-    assert_true(pid >= 0);
-    if (pid == 0) {
-        /* Killed with the test, should ctest's timeout end it before its teardown. */
-        if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0)
-            _exit(125);
-        if (!freopen(log, "w", stderr) || !freopen("/dev/null", "w", stdout))
-            _exit(126);
-        execv(bin, argv);
-        _exit(127);
-    }
-    CHILDREN[slot] = pid;
-    return pid;
-}
-
-/* Sends sig and waits for the process to end, up to the deadline of a wait (test_wait.h); a
- * daemon that ignores SIGTERM fails the test (and is killed) rather than hanging it. */
-static void stop(pid_t pid, int sig)
-{
-    for (int i = 0; i < MAX_CHILDREN; i++)
-        if (CHILDREN[i] == pid)
-            CHILDREN[i] = 0;
-    assert_int_equal(kill(pid, sig), 0);
-    int st;
-    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < test_wait_s(); testutil_sleep_ms(10))
-        if (waitpid(pid, &st, WNOHANG) == pid)
-            return;
-    kill(pid, SIGKILL);
-    waitpid(pid, &st, 0);
-    fail_msg("process %ld did not end within %.0f s of signal %d", (long)pid, test_wait_s(), sig);
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    for (int i = 0; i < MAX_CHILDREN; i++)
-        if (CHILDREN[i] > 0) {
-            int st;
-            kill(CHILDREN[i], SIGKILL);
-            waitpid(CHILDREN[i], &st, 0);
-            CHILDREN[i] = 0;
-        }
-    return 0;
-}
 
 static int file_exists(const char *path)
 {
     struct stat st;
     return stat(path, &st) == 0;
-}
-
-/* The whole of a small file (a log, an EXR), NUL-terminated; *size without the NUL. */
-static char *slurp(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    char *buf = NULL;
-    size_t n = 0, cap = 0;
-    for (;;) {
-        if (cap - n < 4096) {
-            char *p = realloc(buf, cap + 65536);
-            assert_non_null(p);
-            buf = p;
-            cap += 65536;
-        }
-        size_t got = fread(buf + n, 1, cap - n - 1, f);
-        n += got;
-        if (got == 0)
-            break;
-    }
-    fclose(f);
-    buf[n] = 0;
-    if (size)
-        *size = n;
-    return buf;
-}
-
-static int log_has(const char *log, const char *needle)
-{
-    char *text = slurp(log, NULL);
-    int found = text && strstr(text, needle);
-    free(text);
-    return found;
-}
-
-/* Waits until the log holds needle; fails naming what was awaited, with the log, after the
- * deadline of a wait (test_wait.h). */
-static void wait_log(const char *log, const char *needle)
-{
-    double timeout_s = test_wait_s();
-    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < timeout_s; testutil_sleep_ms(10))
-        if (log_has(log, needle))
-            return;
-    char *text = slurp(log, NULL);
-    fail_msg("no '%s' in %s within %.0f s:\n%s", needle, log, timeout_s, text ? text : "(none)");
 }
 
 static void wait_file(const char *path)
@@ -201,35 +68,10 @@ static int free_port(void)
     return ntohs(a.sin_port);
 }
 
-/* Reads "workers tcp://..." and "clients tcp://..." from a master's endpoints file. */
-static void read_endpoints(const char *spool, char *workers, char *clients)
-{
-    char path[600];
-    snprintf(path, sizeof path, "%s/endpoints", spool);
-    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < test_wait_s();
-         testutil_sleep_ms(10)) {
-        FILE *f = fopen(path, "r");
-        if (f) {
-            int got = fscanf(f, "workers %255s clients %255s", workers, clients);
-            fclose(f);
-            if (got == 2)
-                return;
-        }
-    }
-    fail_msg("the master did not write %s", path);
-}
-
 static pid_t start_master(const char *log, const char *spool, const char *wep, const char *cep)
 {
-    return spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool,
-                 "--heartbeat", HEARTBEAT_MS, "--tile", TILE, "--key", MASTER_KEY, "--authorized",
-                 AUTHORIZED, NULL);
-}
-
-static pid_t start_worker(const char *log, const char *wep, const char *name, const char *cache)
-{
-    return spawn(log, "worker", "--connect", wep, "--threads", "1", "--name", name, "--cache",
-                 cache, NULL);
+    return testutil_start_master(log, spool, wep, cep, "--heartbeat", HEARTBEAT_MS, "--tile", TILE,
+                                 NULL);
 }
 
 /* `prismfarm status JOB --json`'s state, polled until it is one of want ("done|failed") or the
@@ -267,7 +109,7 @@ static unsigned long long json_job(const char *out)
  * in one process), made once. */
 static const char *reference(void)
 {
-    const char *ref = path_in("reference.exr");
+    const char *ref = testutil_scratch("reference.exr");
     if (!REF_MADE) {
         const run_t *r = run("render", SCENE, "--spp", SPP_DONE, "--workers", "1", "--threads",
                              "1", "--tile", TILE, "-o", ref, "--quiet", NULL);
@@ -306,22 +148,23 @@ static void test_worker_before_master(void **state)
     const char *ref = reference();
     char wep[64];
     snprintf(wep, sizeof wep, "tcp://127.0.0.1:%d", free_port());
-    const char *wlog = path_in("early-worker.log"), *spool = path_in("early-spool");
-    pid_t w = start_worker(wlog, wep, "early", path_in("early-cache"));
-    wait_log(wlog, "the master is silent");
-    pid_t master = start_master(path_in("early-master.log"), spool, wep, "tcp://127.0.0.1:*");
+    const char *wlog = testutil_scratch("early-worker.log"),
+               *spool = testutil_scratch("early-spool");
+    pid_t w = testutil_start_worker(wlog, wep, "early", testutil_scratch("early-cache"));
+    testutil_wait_file_has(wlog, "the master is silent");
+    pid_t master =
+        start_master(testutil_scratch("early-master.log"), spool, wep, "tcp://127.0.0.1:*");
     char wbound[256], cep[256];
-    read_endpoints(spool, wbound, cep);
+    testutil_read_endpoints(spool, wbound, cep, testutil_scratch("early-master.log"));
     assert_string_equal(wbound, wep);
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "-o",
-                         path_in("early.exr"), "--quiet", NULL);
+                         testutil_scratch("early.exr"), "--quiet", NULL);
     if (r->status != 0)
-        fail_msg("submit --wait: exit %d: %s\nworker log:\n%s", r->status, r->err,
-                 slurp(wlog, NULL));
-    assert_same_pixels(path_in("early.exr"), ref);
-    assert_true(log_has(path_in("early-master.log"), "'early' joined"));
-    stop(w, SIGTERM);
-    stop(master, SIGTERM);
+        testutil_fail_quoting(wlog, "submit --wait: exit %d: %s\nworker log:", r->status, r->err);
+    assert_same_pixels(testutil_scratch("early.exr"), ref);
+    assert_true(testutil_file_has(testutil_scratch("early-master.log"), "'early' joined"));
+    testutil_stop(w, SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 /* A master killed with SIGKILL while two workers render a job, restarted on the same endpoints
@@ -333,23 +176,26 @@ static void test_master_restarted(void **state)
 {
     (void)state;
     const char *ref = reference();
-    const char *spool = path_in("restart-spool");
-    const char *mlog1 = path_in("restart-master1.log"), *mlog2 = path_in("restart-master2.log");
+    const char *spool = testutil_scratch("restart-spool");
+    const char *mlog1 = testutil_scratch("restart-master1.log"),
+               *mlog2 = testutil_scratch("restart-master2.log");
     pid_t master = start_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
-    read_endpoints(spool, wep, cep);
-    pid_t w1 = start_worker(path_in("restart-w1.log"), wep, "w1", path_in("restart-c1"));
-    pid_t w2 = start_worker(path_in("restart-w2.log"), wep, "w2", path_in("restart-c2"));
+    testutil_read_endpoints(spool, wep, cep, mlog1);
+    pid_t w1 = testutil_start_worker(testutil_scratch("restart-w1.log"), wep, "w1",
+                                     testutil_scratch("restart-c1"));
+    pid_t w2 = testutil_start_worker(testutil_scratch("restart-w2.log"), wep, "w2",
+                                     testutil_scratch("restart-c2"));
 
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "-o",
-                         path_in("restart-first.exr"), "--quiet", NULL);
+                         testutil_scratch("restart-first.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("submit --wait: exit %d: %s", r->status, r->err);
     expect_in(r->out, "job 1 done");
     char first_exr[600];
     snprintf(first_exr, sizeof first_exr, "%s/jobs/1/tiny.exr", spool);
     size_t first_size;
-    char *first_bytes = slurp(first_exr, &first_size);
+    char *first_bytes = testutil_slurp(first_exr, &first_size);
     assert_non_null(first_bytes);
     assert_true(first_size > 0);
 
@@ -360,37 +206,37 @@ static void test_master_restarted(void **state)
     char preview[600];
     snprintf(preview, sizeof preview, "%s/jobs/2/preview.png", spool);
     wait_file(preview);
-    stop(master, SIGKILL);
+    testutil_stop(master, SIGKILL);
 
     master = start_master(mlog2, spool, wep, cep);
     /* Both workers say HELLO to the new master without being restarted: "joined" (not "joined
      * again") because the new master never knew them. */
-    wait_log(mlog2, "'w1' joined");
-    wait_log(mlog2, "'w2' joined");
-    wait_log(mlog2, "job 2 'long' resumed");
+    testutil_wait_file_has(mlog2, "'w1' joined");
+    testutil_wait_file_has(mlog2, "'w2' joined");
+    testutil_wait_file_has(mlog2, "job 2 'long' resumed");
     r = run("cancel", "2", "--master", cep, NULL);
     if (r->status != 0)
         fail_msg("cancel of the resumed job: exit %d: %s", r->status, r->err);
     r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "--json", "-o",
-            path_in("restart-second.exr"), "--quiet", NULL);
+            testutil_scratch("restart-second.exr"), "--quiet", NULL);
     if (r->status != 0)
-        fail_msg("submit --wait to the new master: exit %d: %s\nmaster log:\n%s", r->status,
-                 r->err, slurp(mlog2, NULL));
+        testutil_fail_quoting(
+            mlog2, "submit --wait to the new master: exit %d: %s\nmaster log:", r->status, r->err);
     unsigned long long id = json_job(r->out);
     /* Jobs 1 and 2 have folders in the spool: the new master must count past them. */
     if (id <= 2)
         fail_msg("the restarted master gave job id %llu, which the earlier run used", id);
-    assert_same_pixels(path_in("restart-second.exr"), ref);
+    assert_same_pixels(testutil_scratch("restart-second.exr"), ref);
     size_t size_now;
-    char *bytes_now = slurp(first_exr, &size_now);
+    char *bytes_now = testutil_slurp(first_exr, &size_now);
     assert_non_null(bytes_now);
     assert_int_equal(size_now, first_size);
     assert_memory_equal(bytes_now, first_bytes, first_size);
     free(bytes_now);
     free(first_bytes);
-    stop(w1, SIGTERM);
-    stop(w2, SIGTERM);
-    stop(master, SIGTERM);
+    testutil_stop(w1, SIGTERM);
+    testutil_stop(w2, SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 /* The id a killed master gave a job that was only queued (no output folder yet) must not be
@@ -399,20 +245,20 @@ static void test_master_restarted(void **state)
 static void test_restart_does_not_reuse_queued_job_id(void **state)
 {
     (void)state;
-    const char *spool = path_in("ids-spool");
-    pid_t master = start_master(path_in("ids-master1.log"), spool, "tcp://127.0.0.1:*",
+    const char *spool = testutil_scratch("ids-spool");
+    pid_t master = start_master(testutil_scratch("ids-master1.log"), spool, "tcp://127.0.0.1:*",
                                 "tcp://127.0.0.1:*");
     char wep[256], cep[256];
-    read_endpoints(spool, wep, cep);
+    testutil_read_endpoints(spool, wep, cep, testutil_scratch("ids-master1.log"));
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, NULL);
     assert_int_equal(r->status, 0);
     assert_string_equal(r->out, "1\n");
-    stop(master, SIGKILL);
-    master = start_master(path_in("ids-master2.log"), spool, wep, cep);
+    testutil_stop(master, SIGKILL);
+    master = start_master(testutil_scratch("ids-master2.log"), spool, wep, cep);
     r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, NULL);
     assert_int_equal(r->status, 0);
     unsigned long long id = strtoull(r->out, NULL, 10);
-    stop(master, SIGTERM);
+    testutil_stop(master, SIGTERM);
     /* The killed master's queued job 1 left its folder in the spool: its id is not reused. */
     assert_true(id >= 2);
 }
@@ -424,29 +270,31 @@ static void test_client_killed_during_wait(void **state)
 {
     (void)state;
     const char *ref = reference();
-    const char *spool = path_in("client-spool"), *clog = path_in("client.log");
-    pid_t master = start_master(path_in("client-master.log"), spool, "tcp://127.0.0.1:*",
+    const char *spool = testutil_scratch("client-spool"), *clog = testutil_scratch("client.log");
+    pid_t master = start_master(testutil_scratch("client-master.log"), spool, "tcp://127.0.0.1:*",
                                 "tcp://127.0.0.1:*");
     char wep[256], cep[256];
-    read_endpoints(spool, wep, cep);
-    pid_t client = spawn(clog, "submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "-o",
-                         path_in("client-never.exr"), NULL);
+    testutil_read_endpoints(spool, wep, cep, testutil_scratch("client-master.log"));
+    pid_t client = testutil_spawn(clog, "submit", SCENE, "--master", cep, "--spp", SPP_DONE,
+                                  "--wait", "-o", testutil_scratch("client-never.exr"), NULL);
     /* Its --wait loop has had an answer to a STATUS long poll (its progress line) and asks
      * again: it dies mid-wait. */
-    wait_log(clog, "job:   0.0%");
-    stop(client, SIGKILL);
+    testutil_wait_file_has(clog, "job:   0.0%");
+    testutil_stop(client, SIGKILL);
     assert_string_equal(job_state(cep, "1", NULL), "queued");
 
-    pid_t w = start_worker(path_in("client-w.log"), wep, "w", path_in("client-cache"));
+    pid_t w = testutil_start_worker(testutil_scratch("client-w.log"), wep, "w",
+                                    testutil_scratch("client-cache"));
     const char *s = job_state(cep, "1", "done|failed|cancelled");
     assert_string_equal(s, "done");
-    const run_t *r = run("fetch", "1", "-o", path_in("client-fetched.exr"), "--master", cep, NULL);
+    const run_t *r =
+        run("fetch", "1", "-o", testutil_scratch("client-fetched.exr"), "--master", cep, NULL);
     if (r->status != 0)
         fail_msg("fetch: exit %d: %s", r->status, r->err);
-    assert_false(file_exists(path_in("client-never.exr")));
-    assert_same_pixels(path_in("client-fetched.exr"), ref);
-    stop(w, SIGTERM);
-    stop(master, SIGTERM);
+    assert_false(file_exists(testutil_scratch("client-never.exr")));
+    assert_same_pixels(testutil_scratch("client-fetched.exr"), ref);
+    testutil_stop(w, SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 /* `prismfarm cancel` on a running job: its status says cancelled (and stays so), it has no EXR
@@ -456,14 +304,15 @@ static void test_cancel_running_job(void **state)
 {
     (void)state;
     const char *ref = reference();
-    const char *spool = path_in("cancel-spool");
-    const char *wlog1 = path_in("cancel-w1.log"), *wlog2 = path_in("cancel-w2.log");
-    pid_t master = start_master(path_in("cancel-master.log"), spool, "tcp://127.0.0.1:*",
+    const char *spool = testutil_scratch("cancel-spool");
+    const char *wlog1 = testutil_scratch("cancel-w1.log"),
+               *wlog2 = testutil_scratch("cancel-w2.log");
+    pid_t master = start_master(testutil_scratch("cancel-master.log"), spool, "tcp://127.0.0.1:*",
                                 "tcp://127.0.0.1:*");
     char wep[256], cep[256];
-    read_endpoints(spool, wep, cep);
-    pid_t w1 = start_worker(wlog1, wep, "w1", path_in("cancel-c1"));
-    pid_t w2 = start_worker(wlog2, wep, "w2", path_in("cancel-c2"));
+    testutil_read_endpoints(spool, wep, cep, testutil_scratch("cancel-master.log"));
+    pid_t w1 = testutil_start_worker(wlog1, wep, "w1", testutil_scratch("cancel-c1"));
+    pid_t w2 = testutil_start_worker(wlog2, wep, "w2", testutil_scratch("cancel-c2"));
 
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP_FOREVER, "--name", "long",
                          NULL);
@@ -480,12 +329,12 @@ static void test_cancel_running_job(void **state)
         fail_msg("cancel: exit %d: %s", r->status, r->err);
     expect_in(r->out, "\"state\": \"cancelled\"");
     assert_string_equal(job_state(cep, "1", NULL), "cancelled");
-    wait_log(wlog1, "job 1 cancelled");
-    wait_log(wlog2, "job 1 cancelled");
+    testutil_wait_file_has(wlog1, "job 1 cancelled");
+    testutil_wait_file_has(wlog2, "job 1 cancelled");
     /* Stopped, as the workers see it: the tasks queued at the cancel were dropped, a task in
      * flight finished and was dropped unsent, and none of the job's tasks is left to run. */
-    wait_log(wlog1, "job 1: all its tasks stopped");
-    wait_log(wlog2, "job 1: all its tasks stopped");
+    testutil_wait_file_has(wlog1, "job 1: all its tasks stopped");
+    testutil_wait_file_has(wlog2, "job 1: all its tasks stopped");
 
     /* Idle as the master sees them. */
     double t0 = testutil_now_s();
@@ -503,28 +352,29 @@ static void test_cancel_running_job(void **state)
     }
 
     r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, "--wait", "--json", "-o",
-            path_in("cancel-next.exr"), "--quiet", NULL);
+            testutil_scratch("cancel-next.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("submit --wait after the cancel: exit %d: %s", r->status, r->err);
     assert_int_equal(json_job(r->out), 2);
-    assert_same_pixels(path_in("cancel-next.exr"), ref);
+    assert_same_pixels(testutil_scratch("cancel-next.exr"), ref);
     assert_string_equal(job_state(cep, "1", NULL), "cancelled");
-    r = run("fetch", "1", "-o", path_in("cancel-none.exr"), "--master", cep, NULL);
+    r = run("fetch", "1", "-o", testutil_scratch("cancel-none.exr"), "--master", cep, NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "cancelled");
-    stop(w1, SIGTERM);
-    stop(w2, SIGTERM);
-    stop(master, SIGTERM);
+    testutil_stop(w1, SIGTERM);
+    testutil_stop(w2, SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test_teardown(test_worker_before_master, teardown),
-        cmocka_unit_test_teardown(test_master_restarted, teardown),
-        cmocka_unit_test_teardown(test_restart_does_not_reuse_queued_job_id, teardown),
-        cmocka_unit_test_teardown(test_client_killed_during_wait, teardown),
-        cmocka_unit_test_teardown(test_cancel_running_job, teardown),
+        cmocka_unit_test_teardown(test_worker_before_master, testutil_kill_children),
+        cmocka_unit_test_teardown(test_master_restarted, testutil_kill_children),
+        cmocka_unit_test_teardown(test_restart_does_not_reuse_queued_job_id,
+                                  testutil_kill_children),
+        cmocka_unit_test_teardown(test_client_killed_during_wait, testutil_kill_children),
+        cmocka_unit_test_teardown(test_cancel_running_job, testutil_kill_children),
     };
-    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_keys_setup, testutil_scratch_teardown);
 }

@@ -13,6 +13,7 @@
 
 #include <cmocka.h>
 
+#include "cli_run.h"
 #include "farm_testutil.h"
 #include "image_exr.h"
 
@@ -31,7 +32,6 @@
 #define MASTER_WORKERS_EP "tcp://10.77.0.1:5555"
 #define MASTER_CLIENTS_EP "tcp://10.77.0.1:5556"
 #define MAX_SPAWNED 8
-#define LOG_MAX 65536
 
 /* The scene and its settings, for the farm and for the reference render alike. tiny.pbrt is
  * 24x16 pixels; with 8-pixel tiles and 16 samples per pixel the master cuts 3 x 2 tiles times
@@ -41,13 +41,10 @@
 #define TILE "8"
 #define N_TASKS 30
 
-static char DIR_[256];
-static char MASTER_KEY[600], AUTHORIZED[600]; /* the master's --key and --authorized */
 static char PREFIX[64]; /* namespaces are PREFIX-m, -a, -b, -c and the switch PREFIX-sw */
 static bool HOSTS_CREATED;
 static pid_t SPAWNED[MAX_SPAWNED];
 static int N_SPAWNED;
-static char LOG_BUF[2][LOG_MAX]; /* two logs at a time (see slurp); off the stack */
 
 static const char *bin(void)
 {
@@ -66,7 +63,7 @@ typedef struct text {
 static text_t path_in(const char *name)
 {
     text_t t;
-    snprintf(t.s, sizeof t.s, "%s/%s", DIR_, name);
+    snprintf(t.s, sizeof t.s, "%s/%s", testutil_scratch_dir(), name);
     return t;
 }
 
@@ -85,23 +82,6 @@ static text_t ns(const char *host)
     text_t t;
     snprintf(t.s, sizeof t.s, "%s-%s", PREFIX, host);
     return t;
-}
-
-/* The whole file (up to LOG_MAX - 1 bytes), empty when it cannot be read. The two buffers
- * alternate, so that one message can quote two logs. */
-static const char *slurp(const char *path)
-{
-    static int k;
-    k = 1 - k;
-    char *buf = LOG_BUF[k];
-    buf[0] = '\0';
-    FILE *f = fopen(path, "r");
-    if (!f)
-        return buf;
-    size_t n = fread(buf, 1, LOG_MAX - 1, f);
-    buf[n] = '\0';
-    fclose(f);
-    return buf;
 }
 
 /* The child's side of run_argv and spawn_argv: stdin from /dev/null, stdout and stderr to log. */
@@ -139,8 +119,8 @@ static int run_argv(const char *log, int timeout_ms, const char *const *argv)
         if (waited >= timeout_ms) {
             kill(pid, SIGKILL);
             waitpid(pid, &st, 0);
-            fail_msg("'%s %s' did not finish within %d ms; its output:\n%s", argv[0],
-                     argv[1] ? argv[1] : "", timeout_ms, slurp(log));
+            testutil_fail_quoting(log, "'%s %s' did not finish within %d ms; its output:", argv[0],
+                                  argv[1] ? argv[1] : "", timeout_ms);
         }
         testutil_sleep_ms(10);
     }
@@ -164,22 +144,8 @@ static pid_t spawn_argv(const char *log, const char *const *argv)
 static void expect_status(int status, int want, const char *what, const char *log)
 {
     if (status != want)
-        fail_msg("%s: exit status %d, expected %d; its output:\n%s", what, status, want,
-                 slurp(log));
-}
-
-static void expect_in(const char *haystack, const char *needle)
-{
-    if (!strstr(haystack, needle))
-        fail_msg("expected '%s' in:\n%s", needle, haystack);
-}
-
-static int count_in(const char *haystack, const char *needle)
-{
-    int n = 0;
-    for (const char *p = strstr(haystack, needle); p; p = strstr(p + 1, needle))
-        n++;
-    return n;
+        testutil_fail_quoting(log, "%s: exit status %d, expected %d; its output:", what, status,
+                              want);
 }
 
 /* In the JSON array of `prismfarm workers --json` (flat objects), the integer field of the
@@ -249,21 +215,25 @@ static int other_names(const char *json, const char *a, const char *b)
 }
 
 /* Asks the master, from the client host, for its workers until every name is there and alive
- * (idle or busy); returns the JSON. */
-static const char *wait_for_workers(const char *name1, const char *name2)
+ * (idle or busy); returns the JSON (the caller frees it). */
+static char *wait_for_workers(const char *name1, const char *name2)
 {
     const text_t log = path_in("workers.json");
     for (double until = testutil_now_s() + test_wait_s(); testutil_now_s() < until;) {
         int st = RUN(log.s, 10000, "ip", "netns", "exec", ns("c").s, bin(), "workers", "--master",
                      MASTER_CLIENTS_EP, "--json", "--timeout", "1");
-        const char *json = slurp(log.s);
-        if (st == 0 && worker_alive(json, name1) && worker_alive(json, name2))
+        char *json = testutil_slurp(log.s, NULL);
+        if (st == 0 && json && worker_alive(json, name1) && worker_alive(json, name2))
             return json;
+        free(json);
         testutil_sleep_ms(100);
     }
-    fail_msg("workers '%s' and '%s' did not both join the master within %.0f s; last "
-             "answer:\n%s\nmaster log:\n%s",
-             name1, name2, test_wait_s(), slurp(log.s), slurp(path_in("master.log").s));
+    print_error("last answer of `workers`:\n");
+    testutil_print_file(log.s);
+    testutil_fail_quoting(path_in("master.log").s,
+                          "workers '%s' and '%s' did not both join the master within %.0f s; "
+                          "master log:",
+                          name1, name2, test_wait_s());
     return NULL;
 }
 
@@ -294,11 +264,13 @@ static void hosts_up(void)
     }
     /* Namespaces left by an earlier run that was killed before its teardown. */
     if (RUN(log.s, 20000, "bash", script.s, "reap", "pfnet") != 0)
-        fail_msg("netns-hosts.sh reap: %s", slurp(log.s));
+        testutil_fail_quoting(log.s, "netns-hosts.sh reap:");
     if (RUN(log.s, 20000, "bash", script.s, "check", PREFIX) != 0) {
         if (required)
-            fail_msg("PRISMFARM_REQUIRE_NETNS=1 but: %s", slurp(log.s));
-        print_message("[  SKIP    ] network namespaces unavailable here: %s", slurp(log.s));
+            testutil_fail_quoting(log.s, "PRISMFARM_REQUIRE_NETNS=1 but:");
+        char *why = testutil_slurp(log.s, NULL);
+        print_message("[  SKIP    ] network namespaces unavailable here: %s", why ? why : "");
+        free(why);
         skip();
     }
     HOSTS_CREATED = true;
@@ -309,20 +281,11 @@ static void hosts_up(void)
 
 static int group_setup(void **state)
 {
-    (void)state;
     snprintf(PREFIX, sizeof PREFIX, "pfnet-%ld", (long)getpid());
-    /* The namespaces share the file system: every "host" reads its keys from DIR_/keys, and
-     * workers and clients find theirs in PRISMFARM_KEY and PRISMFARM_MASTER_KEY. */
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "netns") < 0 ||
-                   testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0
-               ? -1
-               : 0;
-}
-
-static int group_teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
+    /* The namespaces share the file system: every "host" reads its keys from the scratch
+     * folder's keys/, and workers and clients find theirs in PRISMFARM_KEY and
+     * PRISMFARM_MASTER_KEY. */
+    return testutil_scratch_keys_setup(state);
 }
 
 /* Ends what the test started (SIGTERM, then SIGKILL after 3 s) and deletes the namespaces,
@@ -349,8 +312,9 @@ static int hosts_teardown(void **state)
     if (HOSTS_CREATED) {
         char cmd[1024];
         /* netns-hosts.sh down also kills what start-workers.sh left running in the hosts. */
-        snprintf(cmd, sizeof cmd, "bash '%s/tests/support/netns-hosts.sh' down '%s' >'%s/down.log' 2>&1",
-                 getenv("PRISMFARM_SOURCE_DIR"), PREFIX, DIR_);
+        snprintf(cmd, sizeof cmd,
+                 "bash '%s/tests/support/netns-hosts.sh' down '%s' >'%s/down.log' 2>&1",
+                 getenv("PRISMFARM_SOURCE_DIR"), PREFIX, testutil_scratch_dir());
         rc = system(cmd) == 0 ? 0 : -1;
         if (rc != 0)
             fprintf(stderr, "teardown: could not delete the namespaces %s-*\n", PREFIX);
@@ -363,18 +327,10 @@ static int hosts_teardown(void **state)
 static void start_master(const char *spool)
 {
     SPAWN(path_in("master.log").s, "ip", "netns", "exec", ns("m").s, bin(), "master", "--workers",
-          MASTER_WORKERS_EP, "--clients", MASTER_CLIENTS_EP, "--spool", spool,
-          "--tile", TILE, "--key", MASTER_KEY, "--authorized", AUTHORIZED);
-    char path[600];
-    snprintf(path, sizeof path, "%s/endpoints", spool);
-    for (double until = testutil_now_s() + test_wait_s(); testutil_now_s() < until;) {
-        const char *e = slurp(path);
-        if (strstr(e, "clients "))
-            return;
-        testutil_sleep_ms(25);
-    }
-    fail_msg("the master wrote no %s in %.0f s; its log:\n%s", path, test_wait_s(),
-             slurp(path_in("master.log").s));
+          MASTER_WORKERS_EP, "--clients", MASTER_CLIENTS_EP, "--spool", spool, "--tile", TILE,
+          "--key", testutil_master_key(), "--authorized", testutil_authorized());
+    char wep[256], cep[256];
+    testutil_read_endpoints(spool, wep, cep, path_in("master.log").s);
 }
 
 /* The in-process render the farm's results must match, made once for the tests that need it. */
@@ -395,9 +351,12 @@ static void submit_and_wait(const char *out)
     const text_t log = path_in("submit.log");
     int st = RUN(log.s, 60000, "ip", "netns", "exec", ns("c").s, bin(), "submit", SCENE, "--master",
                  MASTER_CLIENTS_EP, "--spp", SPP, "--wait", "-o", out, "--quiet");
-    if (st != 0)
-        fail_msg("submit --wait from the client host: exit %d:\n%s\nmaster log:\n%s", st,
-                 slurp(log.s), slurp(path_in("master.log").s));
+    if (st != 0) {
+        print_error("submit's output:\n");
+        testutil_print_file(log.s);
+        testutil_fail_quoting(path_in("master.log").s,
+                              "submit --wait from the client host: exit %d; master log:", st);
+    }
 }
 
 /* A master host, two worker hosts and a client host: the job crosses the bridge both ways and
@@ -412,7 +371,7 @@ static void test_job_across_hosts(void **state)
           MASTER_WORKERS_EP, "--threads", "1", "--name", "host-a", "--cache", path_in("cache-a").s);
     SPAWN(path_in("worker-b.log").s, "ip", "netns", "exec", ns("b").s, bin(), "worker", "--connect",
           MASTER_WORKERS_EP, "--threads", "1", "--name", "host-b", "--cache", path_in("cache-b").s);
-    wait_for_workers("host-a", "host-b");
+    free(wait_for_workers("host-a", "host-b"));
 
     /* The client host has its own network stack: the master is not on its loopback. */
     const text_t log = path_in("loopback.log");
@@ -425,9 +384,10 @@ static void test_job_across_hosts(void **state)
 
     /* Both worker hosts rendered: each was given a task when the job started (one slot each),
      * and together they returned at least the job's 30 tasks (more if one was re-issued). */
-    const char *json = wait_for_workers("host-a", "host-b");
+    char *json = wait_for_workers("host-a", "host-b");
     long done_a = worker_tasks_done(json, "host-a");
     long done_b = worker_tasks_done(json, "host-b");
+    free(json);
     print_message("tasks done: host-a %ld, host-b %ld\n", done_a, done_b);
     assert_true(done_a >= 1);
     assert_true(done_b >= 1);
@@ -493,38 +453,45 @@ static void test_start_workers_over_ssh(void **state)
 
     int st = start_workers("start", log.s);
     expect_status(st, 0, "start-workers.sh start", log.s);
-    pid_t pid_a = started_pid(slurp(log.s), host_a.s);
-    pid_t pid_b = started_pid(slurp(log.s), host_b.s);
-    wait_for_workers(host_a.s, host_b.s);
+    char *out = testutil_slurp(log.s, NULL);
+    assert_non_null(out);
+    pid_t pid_a = started_pid(out, host_a.s);
+    pid_t pid_b = started_pid(out, host_b.s);
+    free(out);
+    free(wait_for_workers(host_a.s, host_b.s));
 
     st = start_workers("start", log.s);
     expect_status(st, 0, "start-workers.sh start, again", log.s);
-    assert_int_equal(count_in(slurp(log.s), ": already running (pid "), 2);
+    assert_int_equal(testutil_file_count(log.s, ": already running (pid "), 2);
     /* Still one worker per host: no third name has joined. */
-    const char *json = wait_for_workers(host_a.s, host_b.s);
-    if (other_names(json, host_a.s, host_b.s) != 0)
-        fail_msg("a worker other than %s and %s joined:\n%s", host_a.s, host_b.s, json);
+    char *json = wait_for_workers(host_a.s, host_b.s);
+    int others = other_names(json, host_a.s, host_b.s);
+    if (others != 0)
+        print_error("%s\n", json);
+    free(json);
+    if (others != 0)
+        fail_msg("a worker other than %s and %s joined (the list above)", host_a.s, host_b.s);
 
     st = start_workers("status", log.s);
     expect_status(st, 0, "start-workers.sh status", log.s);
-    assert_int_equal(count_in(slurp(log.s), ": running (pid "), 2);
+    assert_int_equal(testutil_file_count(log.s, ": running (pid "), 2);
 
     submit_and_wait(path_in("ssh.exr").s);
     assert_same_pixels(path_in("ref.exr").s, path_in("ssh.exr").s);
 
     st = start_workers("stop", log.s);
     expect_status(st, 0, "start-workers.sh stop", log.s);
-    assert_int_equal(count_in(slurp(log.s), ": stopped (pid "), 2);
-    expect_in(slurp(log.s), "SIGTERM)"); /* they stopped when asked, within 10 s */
+    assert_int_equal(testutil_file_count(log.s, ": stopped (pid "), 2);
+    testutil_expect_file_has(log.s, "SIGTERM)"); /* they stopped when asked, within 10 s */
     assert_true(process_gone(pid_a));
     assert_true(process_gone(pid_b));
 
     st = start_workers("status", log.s);
     expect_status(st, 3, "start-workers.sh status after stop", log.s);
-    assert_int_equal(count_in(slurp(log.s), ": not running"), 2);
+    assert_int_equal(testutil_file_count(log.s, ": not running"), 2);
     st = start_workers("stop", log.s);
     expect_status(st, 0, "start-workers.sh stop, again", log.s);
-    assert_int_equal(count_in(slurp(log.s), ": not running"), 2);
+    assert_int_equal(testutil_file_count(log.s, ": not running"), 2);
 }
 
 /* The commands --dry-run prints, and the refusals of bad arguments (no root, no ssh needed). */
@@ -539,29 +506,31 @@ static void test_start_workers_arguments(void **state)
     int st = RUN(log.s, 10000, "bash", script.s, "--dry-run", "start", "--master", "m1", "-t", "4",
                  "-k", "keys/w.key", "--master-key", "/etc/pf/master.pub", "h1", "user@h2", "h1");
     expect_status(st, 0, "dry-run start", log.s);
-    const char *out = slurp(log.s);
+    char *out = testutil_slurp(log.s, NULL);
+    assert_non_null(out);
     expect_in(out, "\nssh -o BatchMode=yes -o ConnectTimeout=10 h1 sh -s -- 'start' "
                    "'tcp://m1:5555' 'm1-5555' '4' "
                    "'prismfarm' 'h1' '' 'auto' 'keys/w.key' '/etc/pf/master.pub' ''\n");
     expect_in(out, "\nssh -o BatchMode=yes -o ConnectTimeout=10 user@h2 sh -s -- 'start' "
                    "'tcp://m1:5555' 'm1-5555' "
                    "'4' 'prismfarm' 'h2' '' 'auto' 'keys/w.key' '/etc/pf/master.pub' ''\n");
-    assert_int_equal(count_in(out, " sh -s -- "), 2);
+    assert_int_equal(testutil_count_in(out, " sh -s -- "), 2);
+    free(out);
     st = RUN(log.s, 10000, "bash", script.s, "-n", "start", "-m", "m1", "--insecure", "h1");
     expect_status(st, 0, "dry-run start --insecure", log.s);
-    expect_in(slurp(log.s), " h1 sh -s -- 'start' 'tcp://m1:5555' 'm1-5555' '' 'prismfarm' 'h1' "
-                            "'' 'auto' '' '' 'insecure'\n");
+    testutil_expect_file_has(log.s,
+                             " h1 sh -s -- 'start' 'tcp://m1:5555' 'm1-5555' '' 'prismfarm' 'h1' "
+                             "'' 'auto' '' '' 'insecure'\n");
 
     /* A hosts file (comments, blank lines, a per-host thread count), hosts on the command line
      * after it, a full endpoint, another ssh. */
-    FILE *f = fopen(path_in("hosts").s, "w");
-    assert_non_null(f);
-    fputs("# render nodes\nr1 8   # the big one\n\n   r2\n", f);
-    assert_int_equal(fclose(f), 0);
+    testutil_write_text(path_in("hosts").s, "# render nodes\nr1 8   # the big one\n\n   r2\n",
+                        0644);
     st = RUN(log.s, 10000, "bash", script.s, "-n", "--hosts", path_in("hosts").s, "--master",
              "tcp://10.0.0.9:7000", "--ssh", "ssh -p 2222", "--cache", "/scratch/pf", "stop", "r3");
     expect_status(st, 0, "dry-run stop with a hosts file", log.s);
-    out = slurp(log.s);
+    out = testutil_slurp(log.s, NULL);
+    assert_non_null(out);
     expect_in(out, "\nssh -p 2222 r1 sh -s -- 'stop' 'tcp://10.0.0.9:7000' '10.0.0.9-7000' '8' "
                    "'prismfarm' 'r1' "
                    "'/scratch/pf' 'auto' '' '' ''\n");
@@ -570,6 +539,7 @@ static void test_start_workers_arguments(void **state)
     expect_in(out, "\nssh -p 2222 r3 sh -s -- 'stop' ");
     assert_true(strstr(out, " r1 ") < strstr(out, " r2 ") &&
                 strstr(out, " r2 ") < strstr(out, " r3 "));
+    free(out);
 
     /* Bad arguments: exit status 2 and a message naming what is wrong; nothing is contacted. */
     static const struct {
@@ -601,17 +571,14 @@ static void test_start_workers_arguments(void **state)
         argv[n] = NULL;
         st = run_argv(log.s, 10000, argv);
         expect_status(st, 2, bad[i].message, log.s);
-        expect_in(slurp(log.s), bad[i].message);
-        assert_null(strstr(slurp(log.s), " sh -s -- "));
+        testutil_expect_file_has(log.s, bad[i].message);
+        assert_false(testutil_file_has(log.s, " sh -s -- "));
     }
-    f = fopen(path_in("hosts").s, "w");
-    assert_non_null(f);
-    fputs("r1\nr2 8 extra\n", f);
-    assert_int_equal(fclose(f), 0);
+    testutil_write_text(path_in("hosts").s, "r1\nr2 8 extra\n", 0644);
     st = RUN(log.s, 10000, "bash", script.s, "-n", "start", "-m", "m", "--hosts",
              path_in("hosts").s);
     expect_status(st, 2, "a hosts file line with three words", log.s);
-    expect_in(slurp(log.s), "hosts:2: expected HOST [THREADS]");
+    testutil_expect_file_has(log.s, "hosts:2: expected HOST [THREADS]");
 }
 
 int main(void)
@@ -621,5 +588,5 @@ int main(void)
         cmocka_unit_test_teardown(test_job_across_hosts, hosts_teardown),
         cmocka_unit_test_teardown(test_start_workers_over_ssh, hosts_teardown),
     };
-    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+    return cmocka_run_group_tests(tests, group_setup, testutil_scratch_teardown);
 }

@@ -20,29 +20,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static char DIR_[256];
-static char MASTER_KEY[600], AUTHORIZED[600]; /* the master's --key and --authorized (CURVE) */
-
-static int setup(void **state)
-{
-    (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "farm-photon") < 0 ||
-                   testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0
-               ? -1
-               : 0;
-}
-
-static int teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
-}
-
-static const char *path_in(const char *name)
-{
-    return testutil_path_in(DIR_, name);
-}
-
 static void render_direct(const char *scene, const char *out)
 {
     const run_t *r = run("render", scene, "--direct", "-o", out, "--quiet", NULL);
@@ -57,12 +34,12 @@ static void test_in_process_both_stores(void **state)
     (void)state;
     const char *scenes[] = {"data/photon/beam.pbrt", "data/photon/beam_lightmap.pbrt"};
     for (int i = 0; i < 2; i++) {
-        render_direct(scenes[i], path_in("direct.exr"));
-        const run_t *r = run("render", scenes[i], "--workers", "2", "--threads", "1", "--tile", "16",
-                             "-o", path_in("farm.exr"), "--quiet", NULL);
+        render_direct(scenes[i], testutil_scratch("direct.exr"));
+        const run_t *r = run("render", scenes[i], "--workers", "2", "--threads", "1", "--tile",
+                             "16", "-o", testutil_scratch("farm.exr"), "--quiet", NULL);
         if (r->status != 0)
             fail_msg("render %s: exit %d: %s", scenes[i], r->status, r->err);
-        testutil_assert_same_pixels(path_in("direct.exr"), path_in("farm.exr"));
+        testutil_assert_same_pixels(testutil_scratch("direct.exr"), testutil_scratch("farm.exr"));
     }
 }
 
@@ -102,35 +79,32 @@ static void worker_state(const char *json, const char *name, char *state)
 static void test_processes_refine_and_kill(void **state)
 {
     (void)state;
-    const char *spool = path_in("spool");
+    const char *spool = testutil_scratch("spool");
     pid_t master =
-        testutil_spawn(path_in("master.log"), "master", "--workers", "tcp://127.0.0.1:*",
-                       "--clients", "tcp://127.0.0.1:*", "--spool", spool, "--heartbeat", "200",
-                       "--tile", "16", "--key", MASTER_KEY, "--authorized", AUTHORIZED, NULL);
+        testutil_start_master(testutil_scratch("master.log"), spool, "tcp://127.0.0.1:*",
+                              "tcp://127.0.0.1:*", "--heartbeat", "200", "--tile", "16", NULL);
     char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep);
-    pid_t w1 = testutil_spawn(path_in("w1.log"), "worker", "--connect", wep, "--threads", "1",
-                              "--name", "w1", "--cache", path_in("c1"), NULL);
-    pid_t w2 = testutil_spawn(path_in("w2.log"), "worker", "--connect", wep, "--threads", "1",
-                              "--name", "w2", "--cache", path_in("c2"), NULL);
+    testutil_read_endpoints(spool, wep, cep, testutil_scratch("master.log"));
+    pid_t w1 = testutil_start_worker(testutil_scratch("w1.log"), wep, "w1", testutil_scratch("c1"));
+    pid_t w2 = testutil_start_worker(testutil_scratch("w2.log"), wep, "w2", testutil_scratch("c2"));
 
     const run_t *r = run("submit", "data/photon/beam.pbrt", "--master", cep, "--name", "beam",
-                         "--wait", "-o", path_in("job.exr"), "--quiet", NULL);
+                         "--wait", "-o", testutil_scratch("job.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("submit --wait: exit %d: %s", r->status, r->err);
-    render_direct("data/photon/beam.pbrt", path_in("direct.exr"));
-    testutil_assert_same_pixels(path_in("job.exr"), path_in("direct.exr"));
-    expect_photons(path_in("job.exr"), "30000");
+    render_direct("data/photon/beam.pbrt", testutil_scratch("direct.exr"));
+    testutil_assert_same_pixels(testutil_scratch("job.exr"), testutil_scratch("direct.exr"));
+    expect_photons(testutil_scratch("job.exr"), "30000");
 
     /* 20000 more photons: the store then holds photons [0, 50000), as beam_more.pbrt's. */
-    r = run("refine", "1", "--photons", "20000", "--master", cep, "--wait", "-o", path_in("refined.exr"),
-            "--quiet", NULL);
+    r = run("refine", "1", "--photons", "20000", "--master", cep, "--wait", "-o",
+            testutil_scratch("refined.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("refine --wait: exit %d: %s", r->status, r->err);
     expect_in(r->out, "job 1 refined");
-    render_direct("data/photon/beam_more.pbrt", path_in("more.exr"));
-    testutil_assert_same_pixels(path_in("refined.exr"), path_in("more.exr"));
-    expect_photons(path_in("refined.exr"), "50000");
+    render_direct("data/photon/beam_more.pbrt", testutil_scratch("more.exr"));
+    testutil_assert_same_pixels(testutil_scratch("refined.exr"), testutil_scratch("more.exr"));
+    expect_photons(testutil_scratch("refined.exr"), "50000");
 
     /* What refine refuses: a job that does not exist, bad arguments. */
     r = run("refine", "7", "--photons", "10", "--master", cep, NULL);
@@ -143,8 +117,8 @@ static void test_processes_refine_and_kill(void **state)
     assert_int_equal(r->status, 2);
 
     /* A job without a photon pass cannot be refined. */
-    r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--wait", "-o", path_in("tiny.exr"),
-            "--quiet", NULL);
+    r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--wait", "-o",
+            testutil_scratch("tiny.exr"), "--quiet", NULL);
     if (r->status != 0)
         fail_msg("submit tiny: exit %d: %s", r->status, r->err);
     r = run("refine", "2", "--photons", "10", "--master", cep, NULL);
@@ -177,34 +151,33 @@ static void test_processes_refine_and_kill(void **state)
             break;
     }
     expect_in(r->out, "\"state\": \"done\"");
-    r = run("fetch", "3", "-o", path_in("big.exr"), "--master", cep, NULL);
+    r = run("fetch", "3", "-o", testutil_scratch("big.exr"), "--master", cep, NULL);
     if (r->status != 0)
         fail_msg("fetch: %s", r->err);
-    render_direct("data/photon/beam_big.pbrt", path_in("big_direct.exr"));
-    testutil_assert_same_pixels(path_in("big.exr"), path_in("big_direct.exr"));
+    render_direct("data/photon/beam_big.pbrt", testutil_scratch("big_direct.exr"));
+    testutil_assert_same_pixels(testutil_scratch("big.exr"), testutil_scratch("big_direct.exr"));
 
     testutil_stop(w1, SIGTERM);
     testutil_stop(master, SIGTERM);
     /* The master said what it did: batches merged, the store sent, the refinement. */
-    FILE *f = fopen(path_in("master.log"), "r");
-    assert_non_null(f);
-    static char log[1 << 20];
-    size_t n = fread(log, 1, sizeof log - 1, f);
-    log[n] = 0;
-    fclose(f);
-    expect_in(log, "job 1 photon pass merged: 30000 photons in 2 batches");
+    const char *mlog = testutil_scratch("master.log");
+    testutil_expect_file_has(mlog, "job 1 photon pass merged: 30000 photons in 2 batches");
     /* The finished job's store went to disk and came back for the refinement: one batch for
      * the first 30000 photons, one for the new 20000. */
-    expect_in(log, "job 1 photon pass merged: 50000 photons in 2 batches");
-    if (strstr(log, "keeping its photon store in memory"))
-        fail_msg("the master could not save a photon store:\n%s", log);
-    expect_in(log, "job 1 'beam' refined: 20000 more photons in 1 batches");
-    expect_in(log, "photon store ");
+    testutil_expect_file_has(mlog, "job 1 photon pass merged: 50000 photons in 2 batches");
+    if (testutil_file_has(mlog, "keeping its photon store in memory"))
+        testutil_fail_quoting(mlog, "the master could not save a photon store:");
+    testutil_expect_file_has(mlog, "job 1 'beam' refined: 20000 more photons in 1 batches");
+    testutil_expect_file_has(mlog, "photon store ");
     /* w2 died holding batches of job 3 (it prefetches two): the photon phase could only end
      * after the master gave them to w1. */
+    char *log = testutil_slurp(mlog, NULL);
+    assert_non_null(log);
     const char *lost = strstr(log, "'w2' lost"), *merged = strstr(log, "job 3 photon pass merged");
-    if (!lost || !merged || lost > merged)
-        fail_msg("expected w2 lost before job 3's photon pass merged:\n%s", log);
+    int in_order = lost && merged && lost < merged;
+    free(log);
+    if (!in_order)
+        testutil_fail_quoting(mlog, "expected w2 lost before job 3's photon pass merged:");
 }
 
 int main(void)
@@ -213,5 +186,5 @@ int main(void)
         cmocka_unit_test(test_in_process_both_stores),
         cmocka_unit_test(test_processes_refine_and_kill),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_keys_setup, testutil_scratch_teardown);
 }

@@ -35,25 +35,6 @@
 #define TILE "8"
 #define HEARTBEAT "200"
 
-static char DIR_[256];
-
-static int group_setup(void **state)
-{
-    (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "journal");
-}
-
-static int group_teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
-}
-
-static const char *path_in(const char *name)
-{
-    return testutil_path_in(DIR_, name);
-}
-
 /* ---------------------------------------------------------------- blobs and tables */
 
 static void test_tile_blob_round_trip(void **state)
@@ -176,7 +157,7 @@ static void test_checkpoint_round_trip(void **state)
             tilebuf_add_sample(img, x, y, b, x * y + 0.5);
         }
     int next[4] = {3, 2, 2, 0}, back[4];
-    const char *path = path_in("ckpt.bin");
+    const char *path = testutil_scratch("ckpt.bin");
     assert_int_equal(journal_write_checkpoint(path, img, next, 4, &err), 0);
     tilebuf_t *got = NULL;
     assert_int_equal(journal_read_checkpoint(path, 5, 4, 3, 4, &got, back, &err), 0);
@@ -191,19 +172,6 @@ static void test_checkpoint_round_trip(void **state)
     assert_int_equal(journal_read_checkpoint(path, 5, 4, 3, 4, &got, back, &err), -1);
     assert_null(got);
     tilebuf_destroy(&img);
-}
-
-static int count_files(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return -1;
-    int n = 0;
-    struct dirent *e;
-    while ((e = readdir(d)))
-        n += e->d_name[0] != '.';
-    closedir(d);
-    return n;
 }
 
 typedef struct seen {
@@ -229,7 +197,7 @@ static void test_journal_tables(void **state)
 {
     (void)state;
     err_t err;
-    const char *dir = path_in("tables");
+    const char *dir = testutil_scratch("tables");
     char path[600];
     snprintf(path, sizeof path, "%s/journal.db", dir);
     journal_t *jn = journal_open(dir, &err);
@@ -294,13 +262,13 @@ static void test_journal_tables(void **state)
     char rdir[700], seg1[800], stray[800];
     snprintf(rdir, sizeof rdir, "%s/results/7", dir);
     snprintf(seg1, sizeof seg1, "%s/1.log", rdir);
-    assert_int_equal(count_files(rdir), 1);
+    assert_int_equal(testutil_count_entries(rdir), 1);
     struct stat st;
     assert_int_equal(stat(seg1, &st), 0);
     assert_int_equal(st.st_size, 6 * 4);
     /* A result journaled by this (reopened) master starts a segment of its own. */
     assert_int_equal(journal_add_result(jn, 7, 0, 10, 0, 0, 5, blob, 4, &err), 0);
-    assert_int_equal(count_files(rdir), 2);
+    assert_int_equal(testutil_count_entries(rdir), 2);
     /* Bytes that are not the ones journaled (a power cut before they reached the disk) are
      * skipped and counted: task 3's blob is the fourth in segment 1, at offset 12. */
     FILE *sf = fopen(seg1, "r+b");
@@ -327,9 +295,9 @@ static void test_journal_tables(void **state)
     snprintf(stray, sizeof stray, "%s/9.log", rdir);
     sf = fopen(stray, "w");
     fclose(sf);
-    assert_int_equal(count_files(rdir), 4);
+    assert_int_equal(testutil_count_entries(rdir), 4);
     journal_prune(jn, 7);
-    assert_int_equal(count_files(rdir), 2);
+    assert_int_equal(testutil_count_entries(rdir), 2);
     /* A segment number is never reused, even past a stray file's. */
     sf = fopen(stray, "w");
     fclose(sf);
@@ -354,11 +322,11 @@ static void test_journal_tables(void **state)
     assert_null(journal_open(dir, &err));
     assert_non_null(strstr(err.msg, "version 7"));
     /* Not a database at all. */
-    assert_int_equal(mkdir(path_in("junk"), 0755), 0);
-    FILE *f = fopen(path_in("junk/journal.db"), "w");
+    assert_int_equal(mkdir(testutil_scratch("junk"), 0755), 0);
+    FILE *f = fopen(testutil_scratch("junk/journal.db"), "w");
     fputs("this is not an SQLite file, it is a text file of some length...........", f);
     fclose(f);
-    assert_null(journal_open(path_in("junk"), &err));
+    assert_null(journal_open(testutil_scratch("junk"), &err));
     assert_non_null(strstr(err.msg, "junk/journal.db"));
 }
 
@@ -404,65 +372,21 @@ static void wait_journal(const char *spool, double timeout_s, const char *what, 
     }
 }
 
-static char *slurp(const char *path)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    static char buf[1 << 20];
-    size_t n = fread(buf, 1, sizeof buf - 1, f);
-    fclose(f);
-    buf[n] = 0;
-    return buf;
-}
-
-/* Every process a farm test starts, so that a failing test leaves none running. */
-static pid_t KIDS[64];
-static int NKIDS;
-
-static pid_t track(pid_t pid)
-{
-    if (NKIDS < 64)
-        KIDS[NKIDS++] = pid;
-    return pid;
-}
-
-/* testutil_stop for a tracked process, which then leaves the list (its pid may be reused). */
-static int stop_kid(pid_t pid, int sig)
-{
-    for (int i = 0; i < NKIDS; i++)
-        if (KIDS[i] == pid) {
-            KIDS[i] = KIDS[--NKIDS];
-            break;
-        }
-    return testutil_stop(pid, sig);
-}
-
-static int kill_kids(void **state)
-{
-    (void)state;
-    for (int i = 0; i < NKIDS; i++)
-        if (kill(KIDS[i], SIGKILL) == 0)
-            (void)waitpid(KIDS[i], NULL, 0);
-    NKIDS = 0;
-    return 0;
-}
-
 static pid_t start_master(const char *log, const char *spool, const char *wep, const char *cep)
 {
-    return track(testutil_spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool,
-                          "--heartbeat", HEARTBEAT, "--tile", TILE, "--insecure", NULL));
+    return testutil_spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool,
+                          "--heartbeat", HEARTBEAT, "--tile", TILE, "--insecure", NULL);
 }
 
 static pid_t start_worker(const char *log, const char *wep, const char *name)
 {
-    return track(testutil_spawn(log, "worker", "--connect", wep, "--threads", "1", "--name", name,
-                                "--insecure", NULL));
+    return testutil_spawn(log, "worker", "--connect", wep, "--threads", "1", "--name", name,
+                          "--insecure", NULL);
 }
 
 static const char *reference(const char *scene, const char *spp, const char *name)
 {
-    const char *ref = path_in(name);
+    const char *ref = testutil_scratch(name);
     struct stat st;
     if (stat(ref, &st) == 0)
         return ref;
@@ -480,8 +404,8 @@ static void finish_and_compare(const char *cep, const char *ref, const char *out
 {
     const run_t *r = run("status", "1", "--wait", "--quiet", "--master", cep, "--insecure", NULL);
     if (r->status != 0)
-        fail_msg("status 1 --wait: exit %d: %s\n%s\nmaster log:\n%s", r->status, r->err, r->out,
-                 slurp(mlog));
+        testutil_fail_quoting(mlog, "status 1 --wait: exit %d: %s\n%s\nmaster log:", r->status,
+                              r->err, r->out);
     expect_in(r->out, " done ");
     r = run("fetch", "1", "-o", out, "--master", cep, "--insecure", NULL);
     if (r->status != 0)
@@ -505,12 +429,12 @@ static void test_master_killed_camera_job(void **state)
 {
     (void)state;
     const char *ref = reference(SCENE, SPP, "tiny-ref.exr");
-    const char *spool = path_in("cam-spool"), *mlog1 = path_in("cam-master1.log"),
-               *mlog2 = path_in("cam-master2.log");
+    const char *spool = testutil_scratch("cam-spool"), *mlog1 = testutil_scratch("cam-master1.log"),
+               *mlog2 = testutil_scratch("cam-master2.log");
     pid_t master = start_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep);
-    pid_t w = start_worker(path_in("cam-w.log"), wep, "w");
+    testutil_read_endpoints(spool, wep, cep, mlog1);
+    pid_t w = start_worker(testutil_scratch("cam-w.log"), wep, "w");
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP, "--insecure", NULL);
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
@@ -518,18 +442,20 @@ static void test_master_killed_camera_job(void **state)
     wait_journal(spool, test_wait_s(), "a checkpoint and results after it",
                  "SELECT checkpoint FROM jobs WHERE id=1",
                  "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
-    stop_kid(master, SIGKILL);
+    testutil_stop(master, SIGKILL);
     long long ckpt = journal_query(spool, "SELECT checkpoint FROM jobs WHERE id=1");
     long long kept = journal_query(spool, "SELECT COUNT(*) FROM results WHERE job=1");
     print_message("master killed at checkpoint %lld with %lld results journaled after it\n", ckpt,
                   kept);
 
     master = start_master(mlog2, spool, wep, cep);
-    finish_and_compare(cep, ref, path_in("cam-out.exr"), mlog2);
-    const char *log = slurp(mlog2);
-    const char *resumed = strstr(log, "job 1 'tiny' resumed: ");
-    if (!resumed)
-        fail_msg("the restarted master did not resume job 1:\n%s", log);
+    finish_and_compare(cep, ref, testutil_scratch("cam-out.exr"), mlog2);
+    char *log = testutil_slurp(mlog2, NULL);
+    const char *resumed = log ? strstr(log, "job 1 'tiny' resumed: ") : NULL;
+    if (!resumed) {
+        free(log);
+        testutil_fail_quoting(mlog2, "the restarted master did not resume job 1:");
+    }
     int done, passes;
     size_t replayed;
     assert_int_equal(sscanf(resumed, "job 1 'tiny' resumed: %d of %d passes merged", &done, &passes),
@@ -539,6 +465,7 @@ static void test_master_killed_camera_job(void **state)
     /* The checkpoint held passes, and the results after it were merged again, not rendered. */
     assert_true(done >= 1);
     assert_int_equal((long long)replayed, kept);
+    free(log);
     /* A finished job leaves neither results nor checkpoint files behind. */
     assert_int_equal(journal_query(spool, "SELECT COUNT(*) FROM results"), 0);
     assert_int_equal(journal_query(spool, "SELECT state FROM jobs WHERE id=1"), 2);
@@ -553,8 +480,8 @@ static void test_master_killed_camera_job(void **state)
     double el0 = 0, re0 = 0, el1 = 0, re1 = 0;
     assert_true(json_number(before->out, "elapsed_s", &el0));
     assert_true(json_number(before->out, "rel_error", &re0));
-    stop_kid(master, SIGTERM);
-    master = start_master(path_in("cam-master3.log"), spool, wep, cep);
+    testutil_stop(master, SIGTERM);
+    master = start_master(testutil_scratch("cam-master3.log"), spool, wep, cep);
     const run_t *after = run("status", "1", "--json", "--master", cep, "--insecure", NULL);
     if (after->status != 0)
         fail_msg("status 1 after the restart: exit %d: %s", after->status, after->err);
@@ -563,8 +490,8 @@ static void test_master_killed_camera_job(void **state)
     assert_true(el0 > 0 && el1 > 0);
     assert_true(fabs(el1 - el0) <= 0.01 * el0 + 1e-3);
     assert_true(re1 == re0);
-    stop_kid(w, SIGTERM);
-    stop_kid(master, SIGTERM);
+    testutil_stop(w, SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 /* A photon job whose master dies twice: during the photon phase (batches journaled, no store
@@ -573,20 +500,21 @@ static void test_master_killed_photon_job(void **state)
 {
     (void)state;
     const char *ref = reference(PHOTON_SCENE, PHOTON_SPP, "beam-ref.exr");
-    const char *spool = path_in("ph-spool"), *mlog1 = path_in("ph-master1.log"),
-               *mlog2 = path_in("ph-master2.log"), *mlog3 = path_in("ph-master3.log");
+    const char *spool = testutil_scratch("ph-spool"), *mlog1 = testutil_scratch("ph-master1.log"),
+               *mlog2 = testutil_scratch("ph-master2.log"),
+               *mlog3 = testutil_scratch("ph-master3.log");
     pid_t master = start_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep);
-    pid_t w1 = start_worker(path_in("ph-w1.log"), wep, "w1");
-    pid_t w2 = start_worker(path_in("ph-w2.log"), wep, "w2");
+    testutil_read_endpoints(spool, wep, cep, mlog1);
+    pid_t w1 = start_worker(testutil_scratch("ph-w1.log"), wep, "w1");
+    pid_t w2 = start_worker(testutil_scratch("ph-w2.log"), wep, "w2");
     const run_t *r = run("submit", PHOTON_SCENE, "--master", cep, "--spp", PHOTON_SPP,
                          "--insecure", NULL);
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
     wait_journal(spool, test_wait_s(), "a photon batch",
                  "SELECT COUNT(*) FROM results WHERE kind=1", NULL);
-    stop_kid(master, SIGKILL);
+    testutil_stop(master, SIGKILL);
     long long batches = journal_query(spool, "SELECT COUNT(*) FROM results WHERE kind=1");
     long long saved = journal_query(spool, "SELECT photons_saved FROM jobs WHERE id=1");
     print_message("master killed with %lld photon batches journaled, store saved: %lld\n",
@@ -596,17 +524,17 @@ static void test_master_killed_photon_job(void **state)
     wait_journal(spool, 1.5 * test_wait_s(), "the photon store and camera results",
                  "SELECT photons_saved FROM jobs WHERE id=1",
                  "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
-    stop_kid(master, SIGKILL);
-    const char *log2 = slurp(mlog2);
-    if (!strstr(log2, "job 1 'beam_big' resumed: "))
-        fail_msg("the second master did not resume job 1:\n%s", log2);
-    if (saved == 0 && !strstr(log2, "photon batches, "))
-        fail_msg("no photon batches replayed:\n%s", log2);
+    testutil_stop(master, SIGKILL);
+    if (!testutil_file_has(mlog2, "job 1 'beam_big' resumed: "))
+        testutil_fail_quoting(mlog2, "the second master did not resume job 1:");
+    if (saved == 0 && !testutil_file_has(mlog2, "photon batches, "))
+        testutil_fail_quoting(mlog2, "no photon batches replayed:");
 
     master = start_master(mlog3, spool, wep, cep);
-    finish_and_compare(cep, ref, path_in("ph-out.exr"), mlog3);
+    finish_and_compare(cep, ref, testutil_scratch("ph-out.exr"), mlog3);
     /* The third master took the photon store from disk: no photon batch was traced again. */
-    const char *log3 = slurp(mlog3);
+    char *log3 = testutil_slurp(mlog3, NULL);
+    assert_non_null(log3);
     const char *resumed = strstr(log3, "job 1 'beam_big' resumed: ");
     assert_non_null(resumed);
     unsigned bd, bt;
@@ -614,9 +542,10 @@ static void test_master_killed_photon_job(void **state)
     assert_non_null(b);
     assert_int_equal(sscanf(b, "samples, %u of %u photon batches", &bd, &bt), 2);
     assert_int_equal(bd, bt);
-    stop_kid(w1, SIGTERM);
-    stop_kid(w2, SIGTERM);
-    stop_kid(master, SIGTERM);
+    free(log3);
+    testutil_stop(w1, SIGTERM);
+    testutil_stop(w2, SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 /* The master, the workers and the client killed (SIGKILL) at seeded random moments while a job
@@ -631,27 +560,31 @@ static void test_master_killed_photon_job(void **state)
 static void test_random_kills(void **state)
 {
     (void)state;
-    const char *ref = reference(SCENE, SPP_LONG, "tiny-long-ref.exr");
+    /* Kept in buffers of their own: the loop below takes more paths from testutil_scratch than
+     * its rotating buffers hold. */
+    char ref[512], spool[512];
+    snprintf(ref, sizeof ref, "%s", reference(SCENE, SPP_LONG, "tiny-long-ref.exr"));
+    snprintf(spool, sizeof spool, "%s", testutil_scratch("rk-spool"));
     const char *env = getenv("PRISMFARM_KILL_SEED");
     uint64_t seed = env ? strtoull(env, NULL, 10) : 20261125;
     rng_stream_t rng = rng_stream_make(seed, 0, 0);
-    const char *spool = path_in("rk-spool");
     char mlog[64];
     int nmaster = 1, nworker = 0, nclient = 1;
     snprintf(mlog, sizeof mlog, "rk-master%d.log", nmaster);
-    pid_t master = start_master(path_in(mlog), spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
+    pid_t master =
+        start_master(testutil_scratch(mlog), spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep);
+    testutil_read_endpoints(spool, wep, cep, testutil_scratch(mlog));
     pid_t workers[2];
     for (int i = 0; i < 2; i++) {
         char log[64], name[8];
         snprintf(log, sizeof log, "rk-w%d-%d.log", i, nworker++);
         snprintf(name, sizeof name, "w%d", i);
-        workers[i] = start_worker(path_in(log), wep, name);
+        workers[i] = start_worker(testutil_scratch(log), wep, name);
     }
-    pid_t client = track(testutil_spawn(path_in("rk-client1.log"), "submit", SCENE, "--master",
-                                        cep, "--spp", SPP_LONG, "--wait", "--quiet",
-                                        "--insecure", "-o", path_in("rk-client.exr"), NULL));
+    pid_t client = testutil_spawn(testutil_scratch("rk-client1.log"), "submit", SCENE, "--master",
+                                  cep, "--spp", SPP_LONG, "--wait", "--quiet", "--insecure", "-o",
+                                  testutil_scratch("rk-client.exr"), NULL);
     wait_journal(spool, test_wait_s(), "the job", "SELECT COUNT(*) FROM jobs", NULL);
     /* Each of master, worker and client once in a shuffled order, then random ones: at most
      * eight kills, none after the job is done. */
@@ -692,25 +625,25 @@ static void test_random_kills(void **state)
         }
         int pause = (int)(rng_stream_next(&rng) * 300);
         if (order[i] == 0) {
-            stop_kid(master, SIGKILL);
+            testutil_stop(master, SIGKILL);
             testutil_sleep_ms(pause);
             snprintf(mlog, sizeof mlog, "rk-master%d.log", ++nmaster);
-            master = start_master(path_in(mlog), spool, wep, cep);
+            master = start_master(testutil_scratch(mlog), spool, wep, cep);
         } else if (order[i] == 1) {
             int k = rng_stream_next(&rng) < 0.5 ? 0 : 1;
-            stop_kid(workers[k], SIGKILL);
+            testutil_stop(workers[k], SIGKILL);
             testutil_sleep_ms(pause);
             char log[64], name[8];
             snprintf(log, sizeof log, "rk-w%d-%d.log", k, nworker++);
             snprintf(name, sizeof name, "w%d", k);
-            workers[k] = start_worker(path_in(log), wep, name);
+            workers[k] = start_worker(testutil_scratch(log), wep, name);
         } else {
-            stop_kid(client, SIGKILL);
+            testutil_stop(client, SIGKILL);
             testutil_sleep_ms(pause);
             char log[64];
             snprintf(log, sizeof log, "rk-client%d.log", ++nclient);
-            client = track(testutil_spawn(path_in(log), "status", "1", "--wait", "--quiet",
-                                          "--master", cep, "--insecure", NULL));
+            client = testutil_spawn(testutil_scratch(log), "status", "1", "--wait", "--quiet",
+                                    "--master", cep, "--insecure", NULL);
         }
         kills++;
         print_message("seed %llu: kill %d at pass %d: %s\n", (unsigned long long)seed, kills,
@@ -720,15 +653,16 @@ static void test_random_kills(void **state)
                   (unsigned long long)seed, kills, nmaster, nworker, nclient);
     /* Every kind was killed at least once before the job ended (the job is long enough). */
     assert_true(kills >= 3);
-    finish_and_compare(cep, ref, path_in("rk-out.exr"), path_in(mlog));
+    finish_and_compare(cep, ref, testutil_scratch("rk-out.exr"), testutil_scratch(mlog));
     /* The last client follows the job to its end by itself through any restarts. */
-    int st = stop_kid(client, 0);
+    int st = testutil_stop(client, 0);
     assert_true(WIFEXITED(st));
     if (WEXITSTATUS(st) != 0)
-        fail_msg("the last client exited %d: %s", WEXITSTATUS(st), slurp(path_in("rk-client1.log")));
+        testutil_fail_quoting(testutil_scratch("rk-client1.log"),
+                              "the last client exited %d:", WEXITSTATUS(st));
     for (int i = 0; i < 2; i++)
-        stop_kid(workers[i], SIGTERM);
-    stop_kid(master, SIGTERM);
+        testutil_stop(workers[i], SIGTERM);
+    testutil_stop(master, SIGTERM);
 }
 
 int main(void)
@@ -738,9 +672,9 @@ int main(void)
         cmocka_unit_test(test_photon_blob_round_trip),
         cmocka_unit_test(test_checkpoint_round_trip),
         cmocka_unit_test(test_journal_tables),
-        cmocka_unit_test_teardown(test_master_killed_camera_job, kill_kids),
-        cmocka_unit_test_teardown(test_master_killed_photon_job, kill_kids),
-        cmocka_unit_test_teardown(test_random_kills, kill_kids),
+        cmocka_unit_test_teardown(test_master_killed_camera_job, testutil_kill_children),
+        cmocka_unit_test_teardown(test_master_killed_photon_job, testutil_kill_children),
+        cmocka_unit_test_teardown(test_random_kills, testutil_kill_children),
     };
-    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

@@ -25,6 +25,7 @@
 
 #include "bundle.h"
 #include "clock.h"
+#include "farm_testutil.h"
 #include "image_exr.h"
 #include "local_render.h"
 #include "master.h"
@@ -62,12 +63,6 @@ typedef struct fx {
     size_t scene_size;
 } fx_t;
 
-static void sleep_ms(int ms)
-{
-    struct timespec ts = {.tv_sec = ms / 1000, .tv_nsec = (long)(ms % 1000) * 1000000L};
-    nanosleep(&ts, NULL);
-}
-
 static void on_ready(void *user, const char *wep, const char *cep)
 {
     fx_t *f = user;
@@ -93,18 +88,6 @@ static void *run_master(void *arg)
     return NULL;
 }
 
-static uint8_t *read_all(const char *path, size_t *size)
-{
-    *size = 0;
-    FILE *in = fopen(path, "rb");
-    if (!in)
-        return NULL;
-    uint8_t *buf = malloc(1 << 16);
-    *size = fread(buf, 1, 1 << 16, in);
-    fclose(in);
-    return buf;
-}
-
 /* Starts a master on tcp://127.0.0.1 with system-chosen ports (tcp != 0) or on inproc://;
  * prefetch 0 and a preview after every pass unless farm_defaults. A worker silent for
  * worker_timeout_s is lost; 0 means never in a test (the deadline of a wait, test_wait.h). */
@@ -113,15 +96,14 @@ static int start(void **state, int tcp, int max_task_failures, int farm_defaults
 {
     static int counter;
     fx_t *f = calloc(1, sizeof *f);
-    f->scene_bytes = read_all("data/render/tiny.pbrt", &f->scene_size);
+    f->scene_bytes = (uint8_t *)testutil_slurp("data/render/tiny.pbrt", &f->scene_size);
     if (!f->scene_bytes) {
         fprintf(stderr, "cannot read data/render/tiny.pbrt: run from tests/ (ctest does)\n");
         free(f);
         return -1;
     }
     f->ctx = zmq_ctx_new();
-    snprintf(f->spool, sizeof f->spool, "/tmp/prismfarm-test-master-XXXXXX");
-    if (!f->ctx || !mkdtemp(f->spool))
+    if (!f->ctx || testutil_mkdtemp(f->spool, sizeof f->spool, "master") < 0)
         return -1;
     static char wep[64], cep[64];
     counter++;
@@ -209,9 +191,7 @@ static int teardown(void **state)
     pthread_join(f->thread, NULL);
     int rc = f->rc;
     zmq_ctx_term(f->ctx);
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", f->spool);
-    if (system(cmd) != 0)
+    if (testutil_rmtree(f->spool) != 0)
         rc = -1;
     free(f->scene_bytes);
     free(f);
@@ -319,7 +299,7 @@ static void wait_state(fx_t *f, uint64_t job, proto_job_state_t state)
     while (clock_now_s() < end) {
         if (status_of(f, job, NULL, 0).state == state)
             return;
-        sleep_ms(10);
+        testutil_sleep_ms(10);
     }
     fail_msg("job %llu never became %s", (unsigned long long)job, proto_job_state_name(state));
 }
@@ -511,19 +491,6 @@ static void check_exr(fx_t *f, uint64_t job)
     image_exr_destroy(&exr);
 }
 
-static int count_entries(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return -1;
-    int n = 0;
-    struct dirent *e;
-    while ((e = readdir(d)))
-        n += strcmp(e->d_name, ".") && strcmp(e->d_name, "..");
-    closedir(d);
-    return n;
-}
-
 /* ---------------------------------------------------------------- tests */
 
 /* SUBMIT, TASKs, SCENE_REQUEST, RESULTs, a progressive preview, then the final EXR; over tcp
@@ -600,7 +567,7 @@ static void test_job_life(void **state)
                     previewed = 1;
                 }
                 proto_msg_free(&r);
-                sleep_ms(10);
+                testutil_sleep_ms(10);
             }
         }
     }
@@ -644,7 +611,7 @@ static void test_broken_scene(void **state)
 {
     fx_t *f = *state;
     size_t size;
-    uint8_t *bytes = read_all("data/render/broken.pbrt", &size);
+    uint8_t *bytes = (uint8_t *)testutil_slurp("data/render/broken.pbrt", &size);
     assert_non_null(bytes);
     proto_bundle_file_t file = {.path = "scenes/broken.pbrt", .data = bytes, .size = size};
     proto_msg_t req = {
@@ -691,9 +658,9 @@ static void test_broken_scene(void **state)
 
     char dir[128];
     snprintf(dir, sizeof dir, "%s/scenes", f->spool);
-    assert_int_equal(count_entries(dir), 0);
+    assert_int_equal(testutil_count_entries(dir), 0);
     snprintf(dir, sizeof dir, "%s/tmp", f->spool);
-    assert_int_equal(count_entries(dir), 0);
+    assert_int_equal(testutil_count_entries(dir), 0);
     proto_msg_t jq = {.type = PROTO_JOBS};
     call(f, &jq, &r);
     assert_int_equal(r.type, PROTO_JOBS_REPLY);
@@ -737,8 +704,8 @@ static void test_silent_worker(void **state)
         expect_type(a.net, PROTO_TASK, &held[i]);
         assert_true(held[i].task.attempt == 1);
     }
-    for (double until = clock_now_s() + test_wait_s(); worker_state_of(f, a.id) != PROTO_WORKER_LOST;
-         sleep_ms(20))
+    for (double until = clock_now_s() + test_wait_s();
+         worker_state_of(f, a.id) != PROTO_WORKER_LOST; testutil_sleep_ms(20))
         if (clock_now_s() > until)
             fail_msg("the silent worker is not lost after %.0f s", test_wait_s());
     assert_true(clock_now_s() - t0 >= f->opts.sched.worker_timeout_s);
@@ -919,7 +886,7 @@ static void test_cancel(void **state)
     }
     char dir[128];
     snprintf(dir, sizeof dir, "%s/scenes", f->spool);
-    assert_int_equal(count_entries(dir), 2); /* <hash>/ and <hash>.scene */
+    assert_int_equal(testutil_count_entries(dir), 2); /* <hash>/ and <hash>.scene */
     proto_msg_free(&t1);
     proto_msg_free(&t2);
     fw_close(&w);
@@ -981,8 +948,7 @@ static void test_real_worker(void **state)
 {
     fx_t *f = *state;
     real_worker_t w = {.rc = 0};
-    snprintf(w.cache, sizeof w.cache, "/tmp/prismfarm-test-master-worker-XXXXXX");
-    assert_non_null(mkdtemp(w.cache));
+    assert_int_equal(testutil_mkdtemp(w.cache, sizeof w.cache, "master-worker"), 0);
     w.opts = (worker_opts_t){.endpoint = f->wep,
                              .zmq_ctx = f->ctx,
                              .threads = 2,
@@ -999,9 +965,7 @@ static void test_real_worker(void **state)
     w.stop = 1;
     pthread_join(th, NULL);
     assert_int_equal(w.rc, 0);
-    char cmd[128];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", w.cache);
-    assert_int_equal(system(cmd), 0);
+    assert_int_equal(testutil_rmtree(w.cache), 0);
 }
 
 

@@ -19,90 +19,33 @@
 #include <signal.h>
 #include <sys/stat.h>
 
-static char DIR_[256];
-static char MASTER_KEY[600], AUTHORIZED[600];
-
-static int group_setup(void **state)
-{
-    (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "limits") < 0 ||
-                   testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0
-               ? -1
-               : 0;
-}
-
-static int group_teardown(void **state)
-{
-    (void)state;
-    return testutil_rmtree(DIR_);
-}
-
-static const char *path_in(const char *name)
-{
-    static char buf[16][600];
-    static int k;
-    k = (k + 1) % 16;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", DIR_, name);
-    return buf[k];
-}
-
 /* A master (keys, no workers) with extra options, NULL-terminated after the first; its client
  * endpoint goes to cep. */
 static pid_t start_master(const char *name, char *cep, const char *opt, ...)
 {
-    const char *bin = getenv("PRISMFARM_BIN");
-    assert_non_null(bin);
     char spool[600], log[600];
-    snprintf(spool, sizeof spool, "%s/%s-spool", DIR_, name);
-    snprintf(log, sizeof log, "%s/%s.log", DIR_, name);
-    char *argv[32] = {(char *)bin,         "master",       "--workers",
-                      "tcp://127.0.0.1:*", "--clients",    "tcp://127.0.0.1:*",
-                      "--spool",           spool,          "--key",
-                      MASTER_KEY,          "--authorized", AUTHORIZED};
-    int n = 12;
+    snprintf(spool, sizeof spool, "%s/%s-spool", testutil_scratch_dir(), name);
+    snprintf(log, sizeof log, "%s/%s.log", testutil_scratch_dir(), name);
+    const char *opts[TESTUTIL_MAX_ARGS + 1];
+    int n = 0;
     va_list ap;
     va_start(ap, opt);
-    for (const char *a = opt; a && n < 31; a = va_arg(ap, const char *))
-        argv[n++] = (char *)a;
+    for (const char *a = opt; a && n < TESTUTIL_MAX_ARGS; a = va_arg(ap, const char *))
+        opts[n++] = a;
     va_end(ap);
-    argv[n] = NULL;
-    pid_t pid = fork();
-    assert_true(pid >= 0);
-    if (pid == 0) {
-        if (!freopen(log, "w", stderr) || !freopen("/dev/null", "w", stdout))
-            _exit(126);
-        execv(bin, argv);
-        _exit(127);
-    }
-    char path[700], wep[256];
-    snprintf(path, sizeof path, "%s/endpoints", spool);
-    for (double t0 = testutil_now_s(); testutil_now_s() - t0 < test_wait_s();
-         testutil_sleep_ms(10)) {
-        FILE *f = fopen(path, "r");
-        if (f) {
-            int got = fscanf(f, "workers %255s clients %255s", wep, cep);
-            fclose(f);
-            if (got == 2)
-                return pid;
-        }
-    }
-    kill(pid, SIGKILL);
-    fail_msg("the master %s wrote no endpoints", name);
-    return -1;
-}
-
-static void stop(pid_t pid)
-{
-    kill(pid, SIGTERM);
-    int st;
-    waitpid(pid, &st, 0);
+    opts[n] = NULL;
+    pid_t pid =
+        testutil_start_master_argv(log, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*", opts);
+    char wep[256];
+    testutil_read_endpoints(spool, wep, cep, log);
+    return pid;
 }
 
 /* A scene folder: tiny.pbrt's content with an Include of each extra file, each holding
  * `bytes` of comment lines (the parser reads them; the bundle carries them). */
 static const char *make_scene(const char *name, int extra_files, size_t bytes)
 {
-    const char *dir = path_in(name);
+    const char *dir = testutil_scratch(name);
     assert_int_equal(mkdir(dir, 0700), 0);
     FILE *src = fopen("data/render/tiny.pbrt", "r");
     assert_non_null(src);
@@ -151,7 +94,7 @@ static void test_max_jobs(void **state)
     if (r->status != 0)
         fail_msg("submit after the cancel: %s", r->err);
     assert_string_equal(r->out, "2\n");
-    stop(master);
+    testutil_stop(master, SIGTERM);
 }
 
 /* --max-bundle-files 2 and --max-bundle-mb 1: a bundle over either is refused with the limit,
@@ -175,7 +118,7 @@ static void test_bundle_limits(void **state)
     if (r->status != 0)
         fail_msg("a bundle within the limits: %s", r->err);
     assert_string_equal(r->out, "1\n");
-    stop(master);
+    testutil_stop(master, SIGTERM);
 }
 
 /* --max-message-mb 1: a 1.5 MiB submission never reaches the master's memory; the client is
@@ -196,7 +139,7 @@ static void test_max_message(void **state)
     assert_int_equal(r->status, 0);
     r = run("submit", "data/render/tiny.pbrt", "--master", cep, NULL);
     assert_int_equal(r->status, 0);
-    stop(master);
+    testutil_stop(master, SIGTERM);
 }
 
 static void test_command_line(void **state)
@@ -223,10 +166,10 @@ static void test_command_line(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_max_jobs),
-        cmocka_unit_test(test_bundle_limits),
-        cmocka_unit_test(test_max_message),
+        cmocka_unit_test_teardown(test_max_jobs, testutil_kill_children),
+        cmocka_unit_test_teardown(test_bundle_limits, testutil_kill_children),
+        cmocka_unit_test_teardown(test_max_message, testutil_kill_children),
         cmocka_unit_test(test_command_line),
     };
-    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_keys_setup, testutil_scratch_teardown);
 }

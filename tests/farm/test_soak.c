@@ -63,63 +63,20 @@ static const variant_t VARIANTS[] = {
 #define N_VARIANTS (int)(sizeof VARIANTS / sizeof *VARIANTS)
 #define RES "24x16"
 
-static char DIR_[256];
-static char MASTER_KEY[600], AUTHORIZED[600]; /* the master's --key and --authorized */
-
-/* Every process the test started and has not reaped, so that a failed test leaves none behind
- * (they would keep running, and CI waits for them). */
-static pid_t LIVE[N_WORKERS + N_KILLS + N_CLIENTS + 1];
-
-static void live_add(pid_t pid)
-{
-    for (size_t i = 0; i < sizeof LIVE / sizeof *LIVE; i++)
-        if (LIVE[i] <= 0) {
-            LIVE[i] = pid;
-            return;
-        }
-    fail_msg("more processes than the test plans for");
-}
-
-static int live_stop(pid_t pid, int sig)
-{
-    for (size_t i = 0; i < sizeof LIVE / sizeof *LIVE; i++)
-        if (LIVE[i] == pid)
-            LIVE[i] = 0;
-    return testutil_stop(pid, sig);
-}
-
-static int setup(void **state)
-{
-    (void)state;
-    return testutil_mkdtemp(DIR_, sizeof DIR_, "soak") < 0 ||
-                   testutil_farm_keys(DIR_, MASTER_KEY, AUTHORIZED, sizeof MASTER_KEY) < 0
-               ? -1
-               : 0;
-}
-
+/* Every process the test started and has not reaped is killed, so that a failed test leaves
+ * none behind (they would keep running, and CI waits for them). */
 static int teardown(void **state)
 {
-    (void)state;
-    for (size_t i = 0; i < sizeof LIVE / sizeof *LIVE; i++)
-        if (LIVE[i] > 0)
-            live_stop(LIVE[i], SIGKILL);
-    return testutil_rmtree(DIR_);
-}
-
-static const char *path_in(const char *name)
-{
-    return testutil_path_in(DIR_, name);
+    testutil_kill_children(state);
+    return testutil_scratch_teardown(state);
 }
 
 /* The scene's path: tests/-relative, or in the source tree for ../ (ctest runs the test in
  * tests/, but PRISMFARM_SOURCE_DIR says where the tree is). */
 static const char *scene_path(const variant_t *v, char *buf, size_t size)
 {
-    const char *src = getenv("PRISMFARM_SOURCE_DIR");
-    if (src && !strncmp(v->scene, "../", 3))
-        snprintf(buf, size, "%s/%s", src, v->scene + 3);
-    else
-        snprintf(buf, size, "%s", v->scene);
+    snprintf(buf, size, "%s",
+             strncmp(v->scene, "../", 3) ? v->scene : testutil_source_path(v->scene + 3));
     return buf;
 }
 
@@ -292,7 +249,7 @@ static int client_main(int k, const char *cep, double deadline)
                 continue;
             char idtext[32];
             snprintf(idtext, sizeof idtext, "%lu", id[j]);
-            snprintf(exr, sizeof exr, "%s/job-%02d.exr", DIR_, j);
+            snprintf(exr, sizeof exr, "%s/job-%02d.exr", testutil_scratch_dir(), j);
             const char *fetch[] = {"fetch", idtext, "-o", exr, "--master", cep, NULL};
             rc = client_command(fetch, out, sizeof out,
                                 min_d(COMMAND_TIMEOUT_S, deadline - testutil_now_s()));
@@ -314,7 +271,7 @@ static int client_main(int k, const char *cep, double deadline)
 static pid_t start_client(int k, const char *cep, double deadline)
 {
     char log[512];
-    snprintf(log, sizeof log, "%s/client-%d.log", DIR_, k);
+    snprintf(log, sizeof log, "%s/client-%d.log", testutil_scratch_dir(), k);
     fflush(stdout);
     fflush(stderr);
     pid_t pid = fork();
@@ -325,7 +282,7 @@ static pid_t start_client(int k, const char *cep, double deadline)
         setvbuf(stderr, NULL, _IOLBF, 0);
         _exit(client_main(k, cep, deadline));
     }
-    live_add(pid);
+    testutil_track_child(pid);
     return pid;
 }
 
@@ -339,12 +296,9 @@ static pid_t start_worker(int i, int gen, const char *wep)
     snprintf(name, sizeof name, "w%d", i);
     snprintf(log, sizeof log, "w%d-%d.log", i, gen);
     snprintf(cache, sizeof cache, "cache-%d", i);
-    snprintf(logpath, sizeof logpath, "%s", path_in(log));
-    snprintf(cachepath, sizeof cachepath, "%s", path_in(cache));
-    pid_t pid = testutil_spawn(logpath, "worker", "--connect", wep, "--threads", "1", "--name",
-                               name, "--cache", cachepath, NULL);
-    live_add(pid);
-    return pid;
+    snprintf(logpath, sizeof logpath, "%s", testutil_scratch(log));
+    snprintf(cachepath, sizeof cachepath, "%s", testutil_scratch(cache));
+    return testutil_start_worker(logpath, wep, name, cachepath);
 }
 
 /* A kB figure of /proc/PID/status ("VmHWM", "VmRSS"), or -1. */
@@ -372,7 +326,7 @@ static int count_fetched(void)
         char name[32];
         struct stat st;
         snprintf(name, sizeof name, "job-%02d.exr", j);
-        n += stat(path_in(name), &st) == 0;
+        n += stat(testutil_scratch(name), &st) == 0;
     }
     return n;
 }
@@ -382,16 +336,7 @@ static int count_fetched(void)
  * log's wording changed). */
 static int count_done(const char *mlog)
 {
-    static char log[1 << 20];
-    int done = 0;
-    FILE *f = fopen(mlog, "r");
-    if (f) {
-        size_t n = fread(log, 1, sizeof log - 1, f);
-        log[n] = 0;
-        fclose(f);
-        for (const char *p = strstr(log, "' done in "); p; p = strstr(p + 1, "' done in "))
-            done++;
-    }
+    int done = testutil_file_count(mlog, "' done in ");
     int fetched = count_fetched();
     return done > fetched ? done : fetched;
 }
@@ -432,15 +377,6 @@ static long asan_quarantine_mb(void)
 }
 #endif
 
-/* Occurrences of needle in haystack. */
-static int count_in(const char *haystack, const char *needle)
-{
-    int n = 0;
-    for (const char *p = strstr(haystack, needle); p; p = strstr(p + 1, needle))
-        n++;
-    return n;
-}
-
 static void test_soak(void **state)
 {
     (void)state;
@@ -451,8 +387,8 @@ static void test_soak(void **state)
         snprintf(ref, sizeof ref, "ref-%d.exr", v);
         const variant_t *va = &VARIANTS[v];
         const run_t *r = run("render", scene_path(va, path, sizeof path), "--direct", "--res", RES,
-                             "--spp", va->spp, "--seed", va->seed, "-o", path_in(ref), "--quiet",
-                             va->flag, va->value, NULL);
+                             "--spp", va->spp, "--seed", va->seed, "-o", testutil_scratch(ref),
+                             "--quiet", va->flag, va->value, NULL);
         if (r->status != 0)
             fail_msg("render --direct of variant %d (%s): exit %d: %s", v, va->scene, r->status,
                      r->err);
@@ -476,15 +412,13 @@ static void test_soak(void **state)
     for (int i = 0; i < N_KILLS; i++)
         restart_after[i] = 0.2 + 0.6 * rng_uniform(SOAK_SEED, 1, 0, (uint32_t)i);
 
-    const char *spool = path_in("spool");
+    const char *spool = testutil_scratch("spool");
     char mlog[512];
-    snprintf(mlog, sizeof mlog, "%s", path_in("master.log"));
-    pid_t master = testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
-                                  "tcp://127.0.0.1:*", "--spool", spool, "--tile", "8", "--key",
-                                  MASTER_KEY, "--authorized", AUTHORIZED, NULL);
-    live_add(master);
+    snprintf(mlog, sizeof mlog, "%s", testutil_scratch("master.log"));
+    pid_t master = testutil_start_master(mlog, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*",
+                                         "--tile", "8", NULL);
     char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep);
+    testutil_read_endpoints(spool, wep, cep, mlog);
     long idle_kb = proc_kb(master, "VmRSS");
     assert_true(idle_kb > 0);
     pid_t worker[N_WORKERS];
@@ -511,7 +445,7 @@ static void test_soak(void **state)
         if (done >= N_JOBS && all_done == 0)
             all_done = testutil_now_s() - t0;
         if (killed < N_KILLS && done >= at_done[killed]) {
-            live_stop(worker[victim[killed]], SIGKILL);
+            testutil_stop(worker[victim[killed]], SIGKILL);
             killed_at[killed] = testutil_now_s();
             done_at_kill[killed] = done;
             killed++;
@@ -527,22 +461,21 @@ static void test_soak(void **state)
                 char log[32];
                 snprintf(log, sizeof log, "w%d-%d.log", i, gen[i]);
                 fail_msg("worker w%d died by itself (status %d):\n%s", i, st,
-                         tail_of(path_in(log), 1000));
+                         tail_of(testutil_scratch(log), 1000));
             }
         }
         for (int k = 0; k < N_CLIENTS; k++) {
             int st;
             if (client_status[k] == -2 && waitpid(client[k], &st, WNOHANG) == client[k]) {
                 client_status[k] = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-                for (size_t i = 0; i < sizeof LIVE / sizeof *LIVE; i++)
-                    if (LIVE[i] == client[k])
-                        LIVE[i] = 0;
+                testutil_forget_child(client[k]);
                 running--;
                 if (client_status[k] != 0) {
                     char log[64];
                     snprintf(log, sizeof log, "client-%d.log", k);
                     fail_msg("client %d failed (status %d):\n%s\nmaster log ends:\n%s", k,
-                             client_status[k], tail_of(path_in(log), 1500), tail_of(mlog, 1500));
+                             client_status[k], tail_of(testutil_scratch(log), 1500),
+                             tail_of(mlog, 1500));
                 }
             }
         }
@@ -565,7 +498,7 @@ static void test_soak(void **state)
     /* The master's view: 50 jobs done; the 2 killed workers lost, 6 in service. */
     const run_t *r = run("jobs", "--master", cep, "--json", NULL);
     assert_int_equal(r->status, 0);
-    assert_int_equal(count_in(r->out, "\"state\": \"done\""), N_JOBS);
+    assert_int_equal(testutil_count_in(r->out, "\"state\": \"done\""), N_JOBS);
     /* A worker is lost after 3 silent heartbeats (3 s) and a restarted one is in service once
      * it has said hello: wait for both (test_wait.h). Six workers in service, the two killed
      * ones lost; a worker that fell silent under load and reconnected is listed lost too (under
@@ -574,8 +507,9 @@ static void test_soak(void **state)
     for (double until = testutil_now_s() + test_wait_s();;) {
         r = run("workers", "--master", cep, "--json", NULL);
         assert_int_equal(r->status, 0);
-        lost = count_in(r->out, "\"state\": \"lost\"");
-        serving = count_in(r->out, "\"state\": \"idle\"") + count_in(r->out, "\"state\": \"busy\"");
+        lost = testutil_count_in(r->out, "\"state\": \"lost\"");
+        serving = testutil_count_in(r->out, "\"state\": \"idle\"") +
+                  testutil_count_in(r->out, "\"state\": \"busy\"");
         if ((lost >= N_KILLS && serving == N_WORKERS) || testutil_now_s() > until)
             break;
         testutil_sleep_ms(200);
@@ -594,8 +528,8 @@ static void test_soak(void **state)
         snprintf(job, sizeof job, "job-%02d.exr", j);
         snprintf(ref, sizeof ref, "ref-%d.exr", j % N_VARIANTS);
         char a[512];
-        snprintf(a, sizeof a, "%s", path_in(job));
-        if (!same_pixels(a, path_in(ref), why, sizeof why))
+        snprintf(a, sizeof a, "%s", testutil_scratch(job));
+        if (!same_pixels(a, testutil_scratch(ref), why, sizeof why))
             fail_msg("job %d (variant %d, %s seed %s): %s against render --direct", j,
                      j % N_VARIANTS, VARIANTS[j % N_VARIANTS].scene, VARIANTS[j % N_VARIANTS].seed,
                      why);
@@ -635,30 +569,29 @@ static void test_soak(void **state)
         fail_msg("the master's peak RSS %ld kB is over the bound %ld kB", peak_kb, bound_kb);
 
     for (int i = 0; i < N_WORKERS; i++)
-        live_stop(worker[i], SIGTERM);
-    int st = live_stop(master, SIGTERM);
+        testutil_stop(worker[i], SIGTERM);
+    int st = testutil_stop(master, SIGTERM);
     if (!(WIFEXITED(st) && WEXITSTATUS(st) == 0))
         fail_msg("the master did not stop cleanly (status %d):\n%s", st, tail_of(mlog, 1500));
 
     /* The master saw both kills, and they cost it tasks: a killed worker's tasks went back in
      * the queue and were rendered elsewhere (the pixels above say so too). */
-    static char log[1 << 20];
-    FILE *f = fopen(mlog, "r");
-    assert_non_null(f);
-    size_t n = fread(log, 1, sizeof log - 1, f);
-    log[n] = 0;
-    fclose(f);
+    char *log = testutil_slurp(mlog, NULL);
+    assert_non_null(log);
     int back = 0;
     for (int i = 0; i < N_KILLS; i++) {
         char needle[32];
         snprintf(needle, sizeof needle, "'w%d' lost", victim[i]);
         const char *p = strstr(log, needle);
-        if (!p)
+        if (!p) {
+            free(log);
             fail_msg("the master never lost w%d:\n%s", victim[i], tail_of(mlog, 1500));
+        }
         const char *q = strstr(p, "); ");
         if (q)
             back += atoi(q + 3);
     }
+    free(log);
     print_message("soak: %d tasks of the killed workers went back in the queue; %d other "
                   "worker losses (silent under load, reconnected)\n",
                   back, lost - N_KILLS);
@@ -670,5 +603,5 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_soak),
     };
-    return cmocka_run_group_tests(tests, setup, teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_keys_setup, teardown);
 }

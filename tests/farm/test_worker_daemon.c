@@ -18,6 +18,7 @@
 
 #include "bundle.h"
 #include "clock.h"
+#include "files_testutil.h"
 #include "net.h"
 #include "render.h"
 #include "scene_load.h"
@@ -55,15 +56,11 @@ static int setup_at(void **state, const char *endpoint)
     if (!f->router || net_bind(f->router, endpoint, NULL) ||
         net_endpoint(f->router, f->endpoint, sizeof f->endpoint, NULL))
         return -1;
-    snprintf(f->cache, sizeof f->cache, "/tmp/prismfarm-test-worker-XXXXXX");
-    if (!mkdtemp(f->cache))
+    if (testutil_mkdtemp(f->cache, sizeof f->cache, "worker") < 0)
         return -1;
-    FILE *in = fopen("data/render/tiny.pbrt", "rb");
-    if (!in)
+    f->scene_bytes = (uint8_t *)testutil_slurp("data/render/tiny.pbrt", &f->scene_size);
+    if (!f->scene_bytes)
         return -1;
-    f->scene_bytes = malloc(1 << 16);
-    f->scene_size = fread(f->scene_bytes, 1, 1 << 16, in);
-    fclose(in);
     f->opts = (worker_opts_t){.endpoint = f->endpoint, .zmq_ctx = f->ctx, .threads = 2,
                               .name = "test-worker", .cache_dir = f->cache, .stop = &f->stop,
                               .reconnect_max_ms = 200,
@@ -91,12 +88,10 @@ static int teardown(void **state)
     pthread_join(f->thread, NULL);
     net_destroy(&f->router);
     zmq_ctx_term(f->ctx);
-    char cmd[256];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", f->cache);
-    int r = system(cmd);
+    int r = testutil_rmtree(f->cache);
     free(f->scene_bytes);
     free(f);
-    return r == 0 ? 0 : -1;
+    return r;
 }
 
 /* Receives messages until one of the wanted type arrives (heartbeats are skipped), up to the

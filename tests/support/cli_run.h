@@ -1,6 +1,7 @@
 /* cli_run: runs the prismfarm executable ($PRISMFARM_BIN, set by ctest) as a child process
- * for the command-line tests, capturing stdout and stderr separately. Header-only: each CLI
- * test is its own executable. Include after cmocka.h. */
+ * for the command-line tests, capturing stdout and stderr separately, and expect_in for a text
+ * a test expects in an output. Header-only: each CLI test is its own executable. Include after
+ * cmocka.h. */
 #ifndef PRISMFARM_CLI_RUN_H
 #define PRISMFARM_CLI_RUN_H
 
@@ -23,7 +24,7 @@
 #ifndef CLI_RUN_TIMEOUT_MS
 #define CLI_RUN_TIMEOUT_MS 0
 #endif
-static int cli_run_timeout_ms(void)
+static inline int cli_run_timeout_ms(void)
 {
     return CLI_RUN_TIMEOUT_MS > test_wait_ms() ? CLI_RUN_TIMEOUT_MS : test_wait_ms();
 }
@@ -38,7 +39,7 @@ typedef struct run {
 
 /* Fills argv (size entries) with bin, then first and the NULL-terminated arguments after it,
  * then NULL; arguments beyond the room are dropped. */
-static void cli_argv(char **argv, int size, const char *bin, const char *first, va_list rest)
+static inline void cli_argv(char **argv, int size, const char *bin, const char *first, va_list rest)
 {
     int argc = 0;
     argv[argc++] = (char *)bin;
@@ -47,11 +48,16 @@ static void cli_argv(char **argv, int size, const char *bin, const char *first, 
     argv[argc] = NULL;
 }
 
-static run_t RESULT; /* one run at a time; large buffers stay off the stack */
+/* The one run at a time: large buffers stay off the stack. */
+static inline run_t *cli_run_result(void)
+{
+    static run_t result;
+    return &result;
+}
 
 /* Runs $PRISMFARM_BIN with the given arguments (NULL-terminated), capturing stdout and
  * stderr separately (poll, so neither pipe can fill and block the child). */
-static const run_t *run(const char *arg, ...)
+static inline const run_t *run(const char *arg, ...)
 {
     const char *bin = getenv("PRISMFARM_BIN");
     if (!bin)
@@ -79,9 +85,10 @@ static const run_t *run(const char *arg, ...)
     }
     close(out_pipe[1]);
     close(err_pipe[1]);
-    memset(&RESULT, 0, sizeof RESULT);
+    run_t *result = cli_run_result();
+    memset(result, 0, sizeof *result);
     size_t used[2] = {0, 0};
-    char *bufs[2] = {RESULT.out, RESULT.err};
+    char *bufs[2] = {result->out, result->err};
     struct pollfd fds[2] = {{.fd = out_pipe[0], .events = POLLIN},
                             {.fd = err_pipe[0], .events = POLLIN}};
     int open_fds = 2;
@@ -118,11 +125,11 @@ static const run_t *run(const char *arg, ...)
     }
     int wstatus;
     assert_int_equal(waitpid(pid, &wstatus, 0), pid);
-    RESULT.status = WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : -1;
-    return &RESULT;
+    result->status = WIFEXITED(wstatus) ? WEXITSTATUS(wstatus) : -1;
+    return result;
 }
 
-static void expect_in(const char *haystack, const char *needle)
+static inline void expect_in(const char *haystack, const char *needle)
 {
     if (!strstr(haystack, needle))
         fail_msg("expected '%s' in output:\n%s", needle, haystack);

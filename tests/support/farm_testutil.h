@@ -1,11 +1,14 @@
-/* farm_testutil: helpers shared by the tests that run prismfarm processes: a scratch folder
- * per test group, CURVE keys, starting and stopping `prismfarm master` / `worker` child
- * processes and reading the endpoints a master chose, sleeping, and comparing two EXRs' pixel
- * data byte for byte. Header-only (each test is its own executable); include after cmocka.h. */
+/* farm_testutil: helpers shared by the tests that run prismfarm processes (with the scratch
+ * folder and file helpers of files_testutil.h): CURVE keys, sleeping and the clock, waiting for a
+ * log line, starting `prismfarm master` / `worker` child processes, stopping them within a
+ * deadline, killing those a failed test left, reading the endpoints a master chose, and comparing
+ * two EXRs' pixel data byte for byte. Header-only (each test is its own executable); include after
+ * cmocka.h. */
 #ifndef PRISMFARM_FARM_TESTUTIL_H
 #define PRISMFARM_FARM_TESTUTIL_H
 
 #include "clock.h"
+#include "files_testutil.h"
 #include "image_exr.h"
 #include "test_wait.h"
 
@@ -15,36 +18,12 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/prctl.h>
+#include <sys/stat.h>
 #include <sys/types.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
-
-/* Makes a fresh folder /tmp/prismfarm-test-NAME-XXXXXX into dir; returns 0 or -1. */
-static inline int testutil_mkdtemp(char *dir, size_t size, const char *name)
-{
-    snprintf(dir, size, "/tmp/prismfarm-test-%s-XXXXXX", name);
-    return mkdtemp(dir) ? 0 : -1;
-}
-
-/* DIR/NAME in one of 16 rotating buffers: a test may hold that many paths at once (the
- * arguments of one command line) without managing their storage. */
-static inline const char *testutil_path_in(const char *dir, const char *name)
-{
-    static char buf[16][512];
-    static int k;
-    k = (k + 1) % 16;
-    snprintf(buf[k], sizeof buf[k], "%s/%s", dir, name);
-    return buf[k];
-}
-
-/* Removes the folder and everything in it; returns 0 or -1. */
-static inline int testutil_rmtree(const char *dir)
-{
-    char cmd[600];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", dir);
-    return system(cmd) == 0 ? 0 : -1;
-}
 
 /* The farm's CURVE keys for a test (docs/security.md), made with `$PRISMFARM_BIN keygen`:
  * DIR/keys/master.key and .pub, DIR/keys/farm.key and .pub (shared by the test's workers and
@@ -74,6 +53,34 @@ static inline int testutil_farm_keys(const char *dir, char *master_key, char *au
                : -1;
 }
 
+/* The master's --key and --authorized made by testutil_scratch_keys_setup ("" before). */
+static inline char *testutil_keys_buf(int which)
+{
+    static char keys[2][600];
+    return keys[which];
+}
+
+static inline const char *testutil_master_key(void)
+{
+    return testutil_keys_buf(0);
+}
+
+static inline const char *testutil_authorized(void)
+{
+    return testutil_keys_buf(1);
+}
+
+/* The scratch folder (files_testutil.h) with the farm's keys in it (testutil_farm_keys), as a
+ * cmocka setup; returns 0 or -1. */
+static inline int testutil_scratch_keys_setup(void **state)
+{
+    return testutil_scratch_setup(state) < 0 ||
+                   testutil_farm_keys(testutil_scratch_dir(), testutil_keys_buf(0),
+                                      testutil_keys_buf(1), 600) < 0
+               ? -1
+               : 0;
+}
+
 /* The clock and sleep of base/clock.h, under the names the farm tests use. */
 static inline void testutil_sleep_ms(int ms)
 {
@@ -85,50 +92,69 @@ static inline double testutil_now_s(void)
     return clock_now_s();
 }
 
-/* Whether the file at path (a log) holds needle; a file not there yet holds nothing. */
-static inline int testutil_file_has(const char *path, const char *needle)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return 0;
-    size_t cap = 1 << 16, n = 0;
-    char *buf = malloc(cap + 1);
-    if (!buf) {
-        fclose(f);
-        return 0;
-    }
-    for (size_t got; (got = fread(buf + n, 1, cap - n, f)) > 0;) {
-        n += got;
-        if (n == cap) {
-            char *p = realloc(buf, 2 * cap + 1);
-            if (!p)
-                break;
-            buf = p;
-            cap *= 2;
-        }
-    }
-    fclose(f);
-    buf[n] = 0;
-    int found = strstr(buf, needle) != NULL;
-    free(buf);
-    return found;
-}
-
 /* Waits until the file at path holds needle (a log line the process writes when the event
- * happens), up to the deadline of a wait (test_wait.h); fails the test otherwise. */
+ * happens), up to the deadline of a wait (test_wait.h); fails the test otherwise, quoting the
+ * file. */
 static inline void testutil_wait_file_has(const char *path, const char *needle)
 {
     for (double until = testutil_now_s() + test_wait_s(); !testutil_file_has(path, needle);
          testutil_sleep_ms(10))
         if (testutil_now_s() > until)
-            fail_msg("no '%s' in %s after %.0f s", needle, path, test_wait_s());
+            testutil_fail_quoting(path, "no '%s' in %s after %.0f s:", needle, path, test_wait_s());
+}
+
+/* The children the test started (testutil_spawn, or its own fork handed to
+ * testutil_track_child) and has not reaped, so that a failing test leaves none running:
+ * testutil_kill_children, a cmocka teardown, kills and reaps them. */
+#define TESTUTIL_MAX_CHILDREN 64
+static inline pid_t *testutil_children(void)
+{
+    static pid_t kids[TESTUTIL_MAX_CHILDREN];
+    return kids;
+}
+
+/* Adds pid to the children testutil_kill_children ends; fails the test when they are full. */
+static inline void testutil_track_child(pid_t pid)
+{
+    pid_t *kids = testutil_children();
+    for (int i = 0; i < TESTUTIL_MAX_CHILDREN; i++)
+        if (kids[i] <= 0) {
+            kids[i] = pid;
+            return;
+        }
+    fail_msg("more than %d child processes at once", TESTUTIL_MAX_CHILDREN);
+}
+
+/* Takes pid off that list: the test reaped it itself (its pid may be reused). */
+static inline void testutil_forget_child(pid_t pid)
+{
+    pid_t *kids = testutil_children();
+    for (int i = 0; i < TESTUTIL_MAX_CHILDREN; i++)
+        if (kids[i] == pid)
+            kids[i] = 0;
+}
+
+/* Kills (SIGKILL) and reaps every child still on the list: a cmocka teardown; returns 0. */
+static inline int testutil_kill_children(void **state)
+{
+    (void)state;
+    pid_t *kids = testutil_children();
+    for (int i = 0; i < TESTUTIL_MAX_CHILDREN; i++)
+        if (kids[i] > 0) {
+            if (kill(kids[i], SIGKILL) == 0)
+                (void)waitpid(kids[i], NULL, 0);
+            kids[i] = 0;
+        }
+    return 0;
 }
 
 /* Starts `$PRISMFARM_BIN ARGS...` in the background (args: NULL-terminated, at most
  * TESTUTIL_MAX_ARGS) with its stderr to log and its stdout to /dev/null, so that no child holds
  * the test's own output open (ctest reads it until every writer is gone); returns its pid, or
- * -1 when PRISMFARM_BIN is not set or fork fails. A child that cannot open its log or run the
- * executable exits 126 or 127. */
+ * -1 when PRISMFARM_BIN is not set or fork fails. The child goes on the list of
+ * testutil_kill_children, and dies with the test should ctest's timeout end the test before its
+ * teardown. A child that cannot arrange that, open its log or run the executable exits 125, 126
+ * or 127. */
 #define TESTUTIL_MAX_ARGS 48
 static inline pid_t testutil_spawn_argv(const char *log, const char *const *args)
 {
@@ -143,11 +169,15 @@ static inline pid_t testutil_spawn_argv(const char *log, const char *const *args
     argv[argc] = NULL;
     pid_t pid = fork();
     if (pid == 0) {
+        if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0)
+            _exit(125);
         if (!freopen(log, "w", stderr) || !freopen("/dev/null", "w", stdout))
             _exit(126);
         execv(bin, argv);
         _exit(127);
     }
+    if (pid > 0)
+        testutil_track_child(pid);
     return pid;
 }
 
@@ -168,25 +198,93 @@ static inline pid_t testutil_spawn(const char *log, const char *arg, ...)
     return pid;
 }
 
-/* Sends sig to pid and reaps it; returns its wait status, or -1 if it was not our child. */
+/* `prismfarm master` on the endpoints wep and cep ("tcp://127.0.0.1:*": ports the system
+ * chooses) with its spool and the CURVE keys of testutil_scratch_keys_setup, its stderr to log,
+ * and the options opts (NULL-terminated, at most TESTUTIL_MAX_ARGS - 10) after; returns its pid
+ * (testutil_read_endpoints gives the endpoints it bound). Fails the test if it cannot start. */
+static inline pid_t testutil_start_master_argv(const char *log, const char *spool, const char *wep,
+                                               const char *cep, const char *const *opts)
+{
+    const char *args[TESTUTIL_MAX_ARGS + 1] = {"master",
+                                               "--workers",
+                                               wep,
+                                               "--clients",
+                                               cep,
+                                               "--spool",
+                                               spool,
+                                               "--key",
+                                               testutil_master_key(),
+                                               "--authorized",
+                                               testutil_authorized()};
+    int n = 11;
+    for (int i = 0; opts && opts[i] && n < TESTUTIL_MAX_ARGS; i++)
+        args[n++] = opts[i];
+    args[n] = NULL;
+    pid_t pid = testutil_spawn_argv(log, args);
+    if (pid < 0)
+        fail_msg("cannot start prismfarm master (is PRISMFARM_BIN set?)");
+    return pid;
+}
+
+/* testutil_start_master_argv with the options listed (NULL-terminated; NULL alone for none). */
+static inline pid_t testutil_start_master(const char *log, const char *spool, const char *wep,
+                                          const char *cep, ...)
+{
+    const char *opts[TESTUTIL_MAX_ARGS + 1];
+    int n = 0;
+    va_list ap;
+    va_start(ap, cep);
+    for (const char *a = va_arg(ap, const char *); a && n < TESTUTIL_MAX_ARGS;
+         a = va_arg(ap, const char *))
+        opts[n++] = a;
+    va_end(ap);
+    opts[n] = NULL;
+    return testutil_start_master_argv(log, spool, wep, cep, opts);
+}
+
+/* `prismfarm worker` of one thread named name, with its bundle cache, serving the master at wep
+ * (its CURVE keys from PRISMFARM_KEY and PRISMFARM_MASTER_KEY, testutil_farm_keys), its stderr to
+ * log; returns its pid. */
+static inline pid_t testutil_start_worker(const char *log, const char *wep, const char *name,
+                                          const char *cache)
+{
+    return testutil_spawn(log, "worker", "--connect", wep, "--threads", "1", "--name", name,
+                          "--cache", cache, NULL);
+}
+
+/* Sends sig to the child pid (0: none, to wait for it to end by itself) and reaps it within the
+ * deadline of a wait (test_wait.h); returns its wait status. A child still running then is
+ * killed and fails the test (a daemon that ignores SIGTERM fails it rather than hangs it), as
+ * does a pid that cannot be signalled (not a child, or one already reaped). */
 static inline int testutil_stop(pid_t pid, int sig)
 {
-    if (pid <= 0)
-        return -1;
-    kill(pid, sig);
+    testutil_forget_child(pid);
+    if (pid <= 0 || kill(pid, sig) != 0)
+        fail_msg("cannot signal process %ld: %s", (long)pid, strerror(errno));
     int st;
-    while (waitpid(pid, &st, 0) < 0)
-        if (errno != EINTR)
-            return -1;
-    return st;
+    for (double until = testutil_now_s() + test_wait_s();; testutil_sleep_ms(10)) {
+        pid_t got = waitpid(pid, &st, WNOHANG);
+        if (got == pid)
+            return st;
+        if (got < 0 && errno != EINTR)
+            fail_msg("waitpid(%ld): %s", (long)pid, strerror(errno));
+        if (testutil_now_s() > until) {
+            kill(pid, SIGKILL);
+            waitpid(pid, &st, 0);
+            fail_msg("process %ld did not end within %.0f s of signal %d", (long)pid, test_wait_s(),
+                     sig);
+        }
+    }
 }
 
 /* Reads "workers EP" and "clients EP" (workers and clients: 256 bytes each) from the endpoints
  * file a master writes into its spool once its sockets are bound; fails the test if the file is
- * not there within the deadline of a wait (test_wait.h; a master starts in milliseconds). */
-static inline void testutil_read_endpoints(const char *spool, char *workers, char *clients)
+ * not there within the deadline of a wait (test_wait.h; a master starts in milliseconds),
+ * quoting the master's log unless log is NULL. */
+static inline void testutil_read_endpoints(const char *spool, char *workers, char *clients,
+                                           const char *log)
 {
-    char path[600];
+    char path[1024];
     snprintf(path, sizeof path, "%s/endpoints", spool);
     double deadline = testutil_now_s() + test_wait_s();
     do {
@@ -199,13 +297,21 @@ static inline void testutil_read_endpoints(const char *spool, char *workers, cha
         }
         testutil_sleep_ms(25);
     } while (testutil_now_s() < deadline);
+    if (log)
+        testutil_fail_quoting(log, "the master did not write %s within %.0f s; its log:", path,
+                              test_wait_s());
     fail_msg("the master did not write %s within %.0f s", path, test_wait_s());
 }
 
 /* Both EXRs have the same size and spectral channels and byte-identical spectral and RGB
- * pixel data. */
+ * pixel data. Two paths to the same file fail: the comparison would prove nothing (a path held
+ * too long in testutil_scratch's rotating buffers shows that way). */
 static inline void testutil_assert_same_pixels(const char *a, const char *b)
 {
+    struct stat sa, sb;
+    if (!strcmp(a, b) || (stat(a, &sa) == 0 && stat(b, &sb) == 0 && sa.st_dev == sb.st_dev &&
+                          sa.st_ino == sb.st_ino))
+        fail_msg("%s and %s are the same file: nothing to compare", a, b);
     err_t err;
     image_exr_t *x = image_exr_read(a, &err);
     if (!x)

@@ -1,17 +1,20 @@
-/* scene_builders: the scenes the photon tests build through the scene API, and the optics
- * oracles that go with them (test_photon.c, test_photon_caustic.c, test_lightmap_caustic.c):
- * diffuse and glass materials, a collimated beam, an equilateral N-BK7 prism at minimum
- * deviation with its screen, a glass ball focusing a disk light onto a floor, and the image
- * statistics of a rendered tile. Every oracle here is computed from its formula (SCHOTT
- * Sellmeier coefficients written out), never taken from the renderer. Header-only (each test is
- * its own executable); include after cmocka.h. Names start with sb_ (scene builder). */
+/* scene_builders: the scenes the rendering and photon tests build through the scene API, and the
+ * optics oracles that go with them (test_photon.c, test_photon_caustic.c,
+ * test_lightmap_caustic.c): a scene for the camera pass and its camera, diffuse and glass
+ * materials, a collimated beam, an equilateral N-BK7 prism at minimum deviation with its screen,
+ * a glass ball focusing a disk light onto a floor, and the image statistics of a rendered tile;
+ * and scenes loaded from pbrt-v4 text or a file. Every oracle here is computed from its formula
+ * (SCHOTT Sellmeier coefficients written out), never taken from the renderer. Header-only (each
+ * test is its own executable); include after cmocka.h. Names start with sb_ (scene builder). */
 #ifndef PRISMFARM_SCENE_BUILDERS_H
 #define PRISMFARM_SCENE_BUILDERS_H
 
 #include "glass.h"
+#include "pbrt_parser.h"
 #include "photon.h"
 #include "render.h"
 #include "scene.h"
+#include "scene_load.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -29,6 +32,34 @@ static inline scene_t *sb_new_scene(void)
         fail_msg("scene_new: %s", err.msg);
     s->settings.seed = 7;
     return s;
+}
+
+/* An empty scene for the camera-pass tests: the integrator and dispersion strategy, res x res
+ * pixels at spp, maxdepth 64, wavelengths sampled uniformly (no visible-importance sampling),
+ * scene_new's seed. */
+static inline scene_t *sb_render_scene(integrator_kind_t integ, dispersion_kind_t disp, int res,
+                                       int spp)
+{
+    err_t err;
+    scene_t *s = scene_new(&err);
+    assert_non_null(s);
+    s->settings.integrator = integ;
+    s->settings.dispersion = disp;
+    s->settings.spp = spp;
+    s->settings.maxdepth = 64;
+    s->settings.xres = res;
+    s->settings.yres = res;
+    s->settings.visible_sampling = 0;
+    return s;
+}
+
+/* The camera at eye looking at at (+y up) with a field of view of fov degrees. */
+static inline void sb_look_at(scene_t *s, vec3_t eye, vec3_t at, double fov)
+{
+    transform_t cam;
+    assert_int_equal(transform_look_at(eye, at, vec3_make(0, 1, 0), &cam, NULL), 0);
+    s->camera.camera_to_world = transform_inverse(cam);
+    s->camera.fov_deg = fov;
 }
 
 /* A constant spectrum owned by the scene. */
@@ -365,6 +396,39 @@ static inline sb_image_stats_t sb_render_stats(scene_t *s, int res, int spp)
     sb_image_stats_t st = sb_render_stats_with(s, photons, res, spp);
     photon_store_destroy(&photons);
     return st;
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* Scenes loaded from pbrt-v4. */
+
+/* The scene of a pbrt-v4 text (t.pbrt in messages) with its own settings. With err NULL it must
+ * load: an error fails the test, quoting the text; otherwise NULL, and the error in *err. */
+static inline scene_t *sb_load_text(const char *text, err_t *err)
+{
+    err_t own = {{0}};
+    err_t *e = err ? err : &own;
+    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", e);
+    if (!d && !err)
+        fail_msg("parse: %s\n--\n%s", own.msg, text);
+    if (!d)
+        return NULL;
+    scene_t *s = scene_load(d, NULL, e);
+    scene_desc_destroy(&d);
+    if (!s && !err)
+        fail_msg("load: %s\n--\n%s", own.msg, text);
+    return s;
+}
+
+/* The scene of the pbrt-v4 file at path with its own settings (seed included); an error fails
+ * the test. */
+static inline scene_t *sb_load_file(const char *path)
+{
+    err_t err;
+    scene_overrides_t ov = {.seed = -1};
+    scene_t *s = scene_load_file(path, &ov, &err);
+    if (!s)
+        fail_msg("%s", err.msg);
+    return s;
 }
 
 #endif

@@ -12,16 +12,8 @@
 #include <string.h>
 
 #include "alias.h"
+#include "numeric_testutil.h"
 #include "rng.h"
-
-/* Wilson-Hilferty approximation of the chi-square quantile with df degrees of freedom at the
- * standard-normal quantile z; z = 4.75 is an upper tail of 1e-6. */
-static double chi2_quantile(double df, double z)
-{
-    double h = 2.0 / (9.0 * df);
-    double c = 1.0 - h + z * sqrt(h);
-    return df * c * c * c;
-}
 
 /* Neumaier's compensated sum, so the test's own rounding (~n eps for n = 1e6, 2e-10) does not
  * swamp the 1e-12 it checks. */
@@ -122,7 +114,7 @@ static void test_frequencies(void **state)
         chi2 += (count[i] - e) * (count[i] - e) / e;
         df++;
     }
-    double limit = chi2_quantile(df, 4.75);
+    double limit = testutil_chi2_quantile(df, 4.75);
     assert_int_equal(df, 8);
     assert_true(limit > 28.0 && limit < 60.0);
     print_message("chi2 = %.2f (df %d, limit %.1f)\n", chi2, df, limit);
@@ -221,7 +213,7 @@ static void test_large_wide_range(void **state)
             e_acc = c_acc = 0.0;
         }
     }
-    double limit = chi2_quantile(df, 4.75);
+    double limit = testutil_chi2_quantile(df, 4.75);
     print_message("decade chi2 = %.2f (df %d, limit %.1f)\n", chi2, df, limit);
     assert_true(df >= 5);
     assert_true(chi2 < limit);

@@ -27,6 +27,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "files_testutil.h"
 #include "proto.h"
 #include "scene_load.h"
 
@@ -132,9 +133,7 @@ static void parse_manifest(gallery_t *g)
 
 static int setup(void **state)
 {
-    const char *src = getenv("PRISMFARM_SOURCE_DIR");
-    char dir[4096];
-    snprintf(dir, sizeof dir, "%s%s", src ? src : "..", "/tests/bad");
+    const char *dir = testutil_source_path("tests/bad");
     if (chdir(dir) != 0) {
         fprintf(stderr, "cannot enter %s\n", dir);
         return -1;

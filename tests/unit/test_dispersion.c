@@ -11,14 +11,7 @@
 #include <string.h>
 
 #include "dispersion.h"
-
-/* |a - b| <= tol, printing both values when it fails (cmocka 1.1.6 has no double assert). */
-#define assert_close(a, b, tol)                                                                    \
-    do {                                                                                           \
-        double a_ = (a), b_ = (b), t_ = (tol);                                                     \
-        if (!(fabs(a_ - b_) <= t_))                                                                \
-            fail_msg("%s = %.17g, expected %.17g +- %g", #a, a_, b_, t_);                          \
-    } while (0)
+#include "numeric_testutil.h"
 
 /* Models with closed-form values are exact up to a few roundings of numbers near 1. */
 #define EXACT 1e-14
@@ -42,15 +35,15 @@ static void test_cauchy(void **state)
 {
     (void)state;
     ior_model_t m = ior_cauchy(1.5, 0.005);
-    assert_close(ior_eval(&m, 500.0), 1.52, EXACT);
-    assert_close(ior_eval(&m, 1000.0), 1.505, EXACT);
+    testutil_assert_near(ior_eval(&m, 500.0), 1.52, EXACT);
+    testutil_assert_near(ior_eval(&m, 1000.0), 1.505, EXACT);
     assert_true(ior_is_dispersive(&m, 380.0, 720.0));
     /* Abbe number from the definition, worked by hand: n_F - n_C = B (1/L_F^2 - 1/L_C^2). */
     double lf = IOR_LAMBDA_F_NM * 1e-3, lc = IOR_LAMBDA_C_NM * 1e-3, ld = IOR_LAMBDA_D_NM * 1e-3;
     double expected = (0.5 + 0.005 / (ld * ld)) / (0.005 * (1.0 / (lf * lf) - 1.0 / (lc * lc)));
     double vd;
     assert_true(ior_abbe_number(&m, &vd));
-    assert_close(vd, expected, 1e-9);
+    testutil_assert_near(vd, expected, 1e-9);
     /* B = 1e-9 um^2 moves n by 5e-9 over 380-720 nm: below IOR_DISPERSIVE_EPSILON. */
     ior_model_t flat = ior_cauchy(1.5, 1e-9);
     assert_false(ior_is_dispersive(&flat, 380.0, 720.0));
@@ -67,21 +60,21 @@ static void test_sellmeier_closed_forms(void **state)
     ior_model_t m;
     double b1[] = {1.0}, c0[] = {0.0};
     assert_int_equal(ior_sellmeier(&m, 0.0, b1, c0, 1, NULL), 0);
-    assert_close(ior_eval(&m, 400.0), sqrt(2.0), EXACT);
-    assert_close(ior_eval(&m, 700.0), sqrt(2.0), EXACT);
+    testutil_assert_near(ior_eval(&m, 400.0), sqrt(2.0), EXACT);
+    testutil_assert_near(ior_eval(&m, 700.0), sqrt(2.0), EXACT);
     /* A Sellmeier model can be non-dispersive: the renderer must not fan out for it. */
     assert_false(ior_is_dispersive(&m, 380.0, 720.0));
 
     assert_int_equal(ior_sellmeier(&m, 1.0, NULL, NULL, 0, NULL), 0);
-    assert_close(ior_eval(&m, 550.0), sqrt(2.0), EXACT);
+    testutil_assert_near(ior_eval(&m, 550.0), sqrt(2.0), EXACT);
 
     double bh[] = {0.5};
     assert_int_equal(ior_sellmeier(&m, 0.5, bh, c0, 1, NULL), 0);
-    assert_close(ior_eval(&m, 550.0), sqrt(2.0), EXACT);
+    testutil_assert_near(ior_eval(&m, 550.0), sqrt(2.0), EXACT);
 
     double cq[] = {0.25};
     assert_int_equal(ior_sellmeier(&m, 0.0, b1, cq, 1, NULL), 0);
-    assert_close(ior_eval(&m, 1000.0), sqrt(7.0 / 3.0), EXACT);
+    testutil_assert_near(ior_eval(&m, 1000.0), sqrt(7.0 / 3.0), EXACT);
 }
 
 /* Terms add: six terms B_i = 0.1, C_i = 0 give n^2 = 1.6 exactly; seven are refused. */
@@ -91,7 +84,7 @@ static void test_sellmeier_term_count(void **state)
     double b[7] = {0.1, 0.1, 0.1, 0.1, 0.1, 0.1, 0.1}, c[7] = {0};
     ior_model_t m = ior_constant(9.0);
     assert_int_equal(ior_sellmeier(&m, 0.0, b, c, IOR_SELLMEIER_MAX_TERMS, NULL), 0);
-    assert_close(ior_eval(&m, 500.0), sqrt(1.6), EXACT);
+    testutil_assert_near(ior_eval(&m, 500.0), sqrt(1.6), EXACT);
     err_t err;
     ior_model_t untouched = ior_constant(9.0);
     assert_int_equal(ior_sellmeier(&untouched, 0.0, b, c, 7, &err), -1);
@@ -127,7 +120,7 @@ static void test_pole_rejected_with_material(void **state)
     assert_int_equal(ior_validate(&m, "zero-b", 380.0, 720.0, &err), 0);
     /* At 500 nm the zero term is 0 * 0.25 / 0 (once a NaN): only the second term counts,
      * n^2 = 1 + 0.2 * 0.25 / 0.24. */
-    assert_close(ior_eval(&m, 500.0), sqrt(1.0 + 0.05 / 0.24), EXACT);
+    testutil_assert_near(ior_eval(&m, 500.0), sqrt(1.0 + 0.05 / 0.24), EXACT);
 }
 
 /* B = -0.5, C = 0.09 um^2 (pole at 300 nm, outside the range): at 380 nm

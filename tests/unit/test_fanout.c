@@ -18,14 +18,7 @@
 #include "fanout.h"
 #include "fresnel.h"
 #include "glass.h"
-
-/* |a - b| <= tol, printing both values when it fails (cmocka 1.1.6 has no double assert). */
-#define assert_close(a, b, tol)                                                                    \
-    do {                                                                                           \
-        double a_ = (a), b_ = (b), t_ = (tol);                                                     \
-        if (!(fabs(a_ - b_) <= t_))                                                                \
-            fail_msg("%s = %.17g, expected %.17g +- %g", #a, a_, b_, t_);                          \
-    } while (0)
+#include "numeric_testutil.h"
 
 #define PI 3.14159265358979323846
 #define N 16
@@ -41,16 +34,6 @@ static void grid(double *lambda)
 {
     for (int i = 0; i < N; i++)
         lambda[i] = LMIN + (i + 0.5) * WIDTH;
-}
-
-/* splitmix64 (Steele, Lea, Flood 2014), fixed seed: the test's own deterministic stream. */
-static double uniform(uint64_t *state)
-{
-    uint64_t z = (*state += 0x9e3779b97f4a7c15ULL);
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
-    z ^= z >> 31;
-    return (double)(z >> 11) * 0x1.0p-53;
 }
 
 static double total(const fanout_sample_t *s, int count)
@@ -80,14 +63,14 @@ static void check_split(const double *energy, double shift)
         assert_int_equal(s[i].bucket[0], i);
         assert_true(s[i].bucket[1] >= 0 && s[i].bucket[1] < N);
         assert_true(abs(s[i].bucket[1] - i) <= 1);
-        assert_close(s[i].energy[0] + s[i].energy[1], energy[i], 1e-15 * fabs(energy[i]));
+        testutil_assert_near(s[i].energy[0] + s[i].energy[1], energy[i], 1e-15 * fabs(energy[i]));
         assert_true(s[i].lambda_nm >= LMIN - 1e-9 && s[i].lambda_nm <= LMAX + 1e-9);
         /* lambda' lies in bucket i: within half a bucket of its centre. */
         assert_true(fabs(s[i].lambda_nm - lambda[i]) <= 0.5 * WIDTH + 1e-9);
         bool end = (i == 0 && shift < 0) || (i == N - 1 && shift > 0);
         if (!end && shift != 0.0) {
             assert_int_equal(s[i].bucket[1], i + (shift > 0 ? 1 : -1));
-            assert_close(s[i].energy[1], fabs(shift) * energy[i], 1e-15 * fabs(energy[i]));
+            testutil_assert_near(s[i].energy[1], fabs(shift) * energy[i], 1e-15 * fabs(energy[i]));
         } else {
             assert_true(s[i].energy[1] == 0.0);
         }
@@ -105,7 +88,7 @@ static void test_split_conserves_energy(void **state)
         check_split(energy, shifts[k]);
     uint64_t rng = 20240601;
     for (int k = 0; k < 2000; k++)
-        check_split(energy, uniform(&rng) - 0.5);
+        check_split(energy, testutil_splitmix_u(&rng) - 0.5);
 }
 
 /* Energy only in the first or only in the last bucket: the end rule must keep it all. */
@@ -127,13 +110,13 @@ static void test_split_end_buckets(void **state)
     energy[N - 1] = 3.0;
     fanout_sample_t s[N];
     assert_int_equal(fanout_split(lambda, energy, N, -0.5, s, NULL), 0);
-    assert_close(s[0].lambda_nm, LMIN, 1e-12);
+    testutil_assert_near(s[0].lambda_nm, LMIN, 1e-12);
     assert_true(s[0].energy[0] == 1.0 && s[0].energy[1] == 0.0);
     assert_int_equal(fanout_split(lambda, energy, N, 0.5, s, NULL), 0);
-    assert_close(s[N - 1].lambda_nm, LMAX, 1e-12);
+    testutil_assert_near(s[N - 1].lambda_nm, LMAX, 1e-12);
     assert_true(s[N - 1].energy[0] == 3.0);
     /* ... and bucket 0 at S = +0.5 sits on its upper edge with the energy halved. */
-    assert_close(s[0].lambda_nm, LMIN + WIDTH, 1e-12);
+    testutil_assert_near(s[0].lambda_nm, LMIN + WIDTH, 1e-12);
     assert_true(s[0].energy[0] == 0.5 && s[0].energy[1] == 0.5 && s[0].bucket[1] == 1);
 }
 
@@ -155,7 +138,8 @@ static void test_split_covers_buckets(void **state)
     uint64_t rng = 7;
     fanout_sample_t s[N];
     for (int k = 0; k < 4000; k++) {
-        assert_int_equal(fanout_split(lambda, energy, N, uniform(&rng) - 0.5, s, NULL), 0);
+        assert_int_equal(fanout_split(lambda, energy, N, testutil_splitmix_u(&rng) - 0.5, s, NULL),
+                         0);
         for (int i = 0; i < N; i++) {
             lo[i] = fmin(lo[i], s[i].lambda_nm);
             hi[i] = fmax(hi[i], s[i].lambda_nm);
@@ -196,13 +180,13 @@ static void test_fresnel_scale(void **state)
     (void)state;
     double t[3] = {0.9, 0.6, 0.3}, scaled[4];
     double k = fanout_fresnel_scale(t, 3, 0.45, scaled);
-    assert_close(k, 0.75, 1e-15);
-    assert_close(scaled[0], 0.675, 1e-15);
-    assert_close(scaled[1], 0.45, 1e-15);
-    assert_close(scaled[2], 0.225, 1e-15);
+    testutil_assert_near(k, 0.75, 1e-15);
+    testutil_assert_near(scaled[0], 0.675, 1e-15);
+    testutil_assert_near(scaled[1], 0.45, 1e-15);
+    testutil_assert_near(scaled[2], 0.225, 1e-15);
     double flat[4] = {0.96, 0.96, 0.96, 0.96};
-    assert_close(fanout_fresnel_scale(flat, 4, 0.96, scaled), 1.0, 1e-15);
-    assert_close(scaled[3], 0.96, 1e-15);
+    testutil_assert_near(fanout_fresnel_scale(flat, 4, 0.96, scaled), 1.0, 1e-15);
+    testutil_assert_near(scaled[3], 0.96, 1e-15);
 
     /* Every wavelength totally reflected: k = 0, nothing transmitted, nothing non-finite. */
     double zero[4] = {0, 0, 0, 0}, out[4] = {9, 9, 9, 9};
@@ -255,29 +239,29 @@ static void test_refract_into_glass(void **state)
         assert_true(rays[i].n_incident == 1.0);
         assert_true(rays[i].n_transmitted == ior_eval(glass, lambda[i]));
         double sin_t = vec3_length(vec3_cross(rays[i].dir, n));
-        assert_close(sin(PI / 4), rays[i].n_transmitted * sin_t, 1e-12);
-        assert_close(vec3_length(rays[i].dir), 1.0, 1e-12);
+        testutil_assert_near(sin(PI / 4), rays[i].n_transmitted * sin_t, 1e-12);
+        testutil_assert_near(vec3_length(rays[i].dir), 1.0, 1e-12);
         assert_true(rays[i].dir.z < 0.0);
         if (i > 0) /* longer wavelength, lower n, bent less: larger x component */
             assert_true(rays[i].dir.x > rays[i - 1].dir.x);
         sum += rays[i].transmittance;
         sum_t += 1.0 - fresnel_dielectric(-vec3_dot(d, n), 1.0, rays[i].n_transmitted);
     }
-    assert_close(poly.reflectance + sum / N, 1.0, 1e-12);
-    assert_close(poly.scale * sum_t / N, poly.transmittance, 1e-12);
+    testutil_assert_near(poly.reflectance + sum / N, 1.0, 1e-12);
+    testutil_assert_near(poly.scale * sum_t / N, poly.transmittance, 1e-12);
     /* Dispersion changes t_i by well under 1% here, so k is close to 1. */
-    assert_close(poly.scale, 1.0, 1e-2);
+    testutil_assert_near(poly.scale, 1.0, 1e-2);
     /* The polychrome ray, refracted at the mean index, lies between blue and red. */
     assert_true(poly.refract_dir.x > rays[0].dir.x && poly.refract_dir.x < rays[N - 1].dir.x);
     /* A non-dispersive medium makes every monochrome ray the polychrome one: k = 1. */
     ior_model_t flat = ior_constant(1.5);
     assert_int_equal(fanout_refract(&air, &flat, d, n, lambda, N, rays, &poly, &err), 0);
-    assert_close(poly.scale, 1.0, 1e-14);
+    testutil_assert_near(poly.scale, 1.0, 1e-14);
     /* T_P at 45 degrees into n = 1.5, by hand: cos_t = sqrt(1 - 0.5 / 2.25), r_s = -0.3033370,
      * r_p = r_s^2 = 0.0920134 (Abeles: r_p = r_s^2 at 45 degrees), T = 1 - (r_s^2 + r_p^2)/2. */
-    assert_close(poly.transmittance, 0.94976009, 1e-8);
+    testutil_assert_near(poly.transmittance, 0.94976009, 1e-8);
     for (int i = 0; i < N; i++)
-        assert_close(rays[i].transmittance, poly.transmittance, 1e-15);
+        testutil_assert_near(rays[i].transmittance, poly.transmittance, 1e-15);
 }
 
 /* Leaving N-SF11 (n 1.77-1.81, critical angles 33.5-34.4 degrees). At 60 degrees every
@@ -316,7 +300,7 @@ static void test_refract_total_reflection(void **state)
         sum += rays[i].transmittance;
     }
     assert_true(reflected > 0 && reflected < N);
-    assert_close(poly.reflectance + sum / N, 1.0, 1e-12);
+    testutil_assert_near(poly.reflectance + sum / N, 1.0, 1e-12);
 
     /* Grazing (d in the surface): nothing gets through, nothing non-finite. */
     d = vec3_make(1.0, 0.0, 0.0);

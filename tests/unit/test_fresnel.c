@@ -14,14 +14,7 @@
 #include "dispersion.h"
 #include "fresnel.h"
 #include "glass.h"
-
-/* |a - b| <= tol, printing both values when it fails (cmocka 1.1.6 has no double assert). */
-#define assert_close(a, b, tol)                                                                    \
-    do {                                                                                           \
-        double a_ = (a), b_ = (b), t_ = (tol);                                                     \
-        if (!(fabs(a_ - b_) <= t_))                                                                \
-            fail_msg("%s = %.17g, expected %.17g +- %g", #a, a_, b_, t_);                          \
-    } while (0)
+#include "numeric_testutil.h"
 
 #define PI 3.14159265358979323846
 
@@ -41,13 +34,13 @@ static void test_normal_incidence(void **state)
     for (size_t i = 0; i < sizeof pairs / sizeof pairs[0]; i++) {
         double n1 = pairs[i][0], n2 = pairs[i][1];
         double expected = ((n1 - n2) / (n1 + n2)) * ((n1 - n2) / (n1 + n2));
-        assert_close(fresnel_dielectric(1.0, n1, n2), expected, 1e-15);
-        assert_close(fresnel_dielectric(-1.0, n1, n2), expected, 1e-15);
+        testutil_assert_near(fresnel_dielectric(1.0, n1, n2), expected, 1e-15);
+        testutil_assert_near(fresnel_dielectric(-1.0, n1, n2), expected, 1e-15);
         fresnel_terms_t f = fresnel_dielectric_terms(1.0, n1, n2);
-        assert_close(f.transmittance, 1.0 - expected, 1e-15);
+        testutil_assert_near(f.transmittance, 1.0 - expected, 1e-15);
         assert_false(f.tir);
     }
-    assert_close(fresnel_dielectric(1.0, 1.0, 1.5), 0.04, 1e-15);
+    testutil_assert_near(fresnel_dielectric(1.0, 1.0, 1.5), 0.04, 1e-15);
     /* Equal indices: no interface at all, at every angle including grazing. */
     assert_true(fresnel_dielectric(1.0, 1.5, 1.5) == 0.0);
     assert_true(fresnel_dielectric(0.0, 1.5, 1.5) == 0.0);
@@ -70,7 +63,7 @@ static void test_brewster(void **state)
         assert_true(fabs(g.rp) < 1e-12);
         assert_true(g.n1 == n_in && g.n2 == n_out);
         /* R = r_s^2 / 2 there. */
-        assert_close(f.reflectance, 0.5 * f.rs * f.rs, 1e-15);
+        testutil_assert_near(f.reflectance, 0.5 * f.rs * f.rs, 1e-15);
     }
 }
 
@@ -103,7 +96,7 @@ static void test_critical_angle(void **state)
             double cos_t = sqrt(2.0 * delta / tan(theta_c));
             double t_asym = 2.0 * cos_t * (n2 / n1 + n1 / n2) / cos(theta_c);
             /* first-order expansion: relative error O(sqrt(delta)) < 1e-2 here */
-            assert_close(f.transmittance, t_asym, 1e-2 * t_asym);
+            testutil_assert_near(f.transmittance, t_asym, 1e-2 * t_asym);
         }
     }
     assert_true(previous_t < 1e-3);
@@ -198,8 +191,8 @@ static void test_directions(void **state)
         if (fabs(cos_i) < 1e-3)
             continue;
         vec3_t r = fresnel_reflect(d, n);
-        assert_close(vec3_length(r), 1.0, 1e-12);
-        assert_close(vec3_dot(r, n), cos_i, 1e-12);
+        testutil_assert_near(vec3_length(r), 1.0, 1e-12);
+        testutil_assert_near(vec3_dot(r, n), cos_i, 1e-12);
         for (int order = 0; order < 2; order++) {
             double n1 = order ? 1.7847 : 1.0, n2 = order ? 1.0 : 1.7847;
             vec3_t t, t_flipped;
@@ -214,11 +207,11 @@ static void test_directions(void **state)
                 continue;
             }
             refracted++;
-            assert_close(vec3_length(t), 1.0, 1e-12);
-            assert_close(vec3_length(vec3_sub(t, t_flipped)), 0.0, 1e-15);
+            testutil_assert_near(vec3_length(t), 1.0, 1e-12);
+            testutil_assert_near(vec3_length(vec3_sub(t, t_flipped)), 0.0, 1e-15);
             double sin_t = vec3_length(vec3_cross(t, n));
-            assert_close(n1 * sin_i, n2 * sin_t, 1e-12);
-            assert_close(vec3_dot(t, vec3_cross(d, n)), 0.0, 1e-12);
+            testutil_assert_near(n1 * sin_i, n2 * sin_t, 1e-12);
+            testutil_assert_near(vec3_dot(t, vec3_cross(d, n)), 0.0, 1e-12);
             /* transmitted ray continues across the surface: same side as d */
             assert_true(vec3_dot(t, n) * vec3_dot(d, n) > 0.0);
         }
@@ -229,7 +222,7 @@ static void test_directions(void **state)
     assert_false(fresnel_refract(vec3_make(0, 0, -1), vec3_make(0, 0, 1), 0.0, &t));
     /* Normal incidence goes straight through. */
     assert_true(fresnel_refract(vec3_make(0, 0, -1), vec3_make(0, 0, 1), 1.0 / 1.5, &t));
-    assert_close(t.z, -1.0, 1e-15);
+    testutil_assert_near(t.z, -1.0, 1e-15);
 }
 
 /* Deviation of a ray through a prism of apex angle A in the x-y plane, apex up, symmetric
@@ -267,8 +260,8 @@ static void test_prism_minimum_deviation(void **state)
         double dev = NAN;
         vec3_t inside = {NAN, NAN, NAN};
         assert_true(prism_deviation(n, apex, asin(n * sin(apex / 2)), &dev, &inside));
-        assert_close(dev, expected, 1e-12);
-        assert_close(inside.y, 0.0, 1e-12);
+        testutil_assert_near(dev, expected, 1e-12);
+        testutil_assert_near(inside.y, 0.0, 1e-12);
 
         double lo = 35.0 * PI / 180.0, hi = 85.0 * PI / 180.0;
         const double g = (sqrt(5.0) - 1.0) / 2.0;
@@ -290,7 +283,7 @@ static void test_prism_minimum_deviation(void **state)
                 assert_true(prism_deviation(n, apex, b, &fb, NULL));
             }
         }
-        assert_close(fmin(fa, fb), expected, 1e-12);
+        testutil_assert_near(fmin(fa, fb), expected, 1e-12);
         d_min[l] = expected;
     }
     assert_true(d_min[0] > d_min[1] && d_min[1] > d_min[2]);

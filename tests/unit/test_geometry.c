@@ -9,12 +9,7 @@
 #include <string.h>
 
 #include "geometry.h"
-
-static void assert_near(double a, double b, double tol)
-{
-    if (!(fabs(a - b) <= tol))
-        fail_msg("%.12g differs from %.12g by more than %g", a, b, tol);
-}
+#include "numeric_testutil.h"
 
 /* A counter-clockwise triangle (seen from +z) has its normal toward +z in pbrt's convention:
  * cross(p0 - p2, p1 - p2). */
@@ -30,9 +25,9 @@ static void test_triangle_normal_follows_pbrt(void **state)
     assert_int_equal(geometry_commit(g, &err), 0);
     hit_t h;
     assert_int_equal(geometry_intersect(g, vec3_make(0.25, 0.25, 5), vec3_make(0, 0, -1), 0, INFINITY, &h), 1);
-    assert_near(h.t, 5.0, 1e-6);
+    testutil_assert_near(h.t, 5.0, 1e-6);
     assert_int_equal(h.shape, 7);
-    assert_near(h.ng.z, 1.0, 1e-12);
+    testutil_assert_near(h.ng.z, 1.0, 1e-12);
     /* Misses beside the triangle and beyond tmax. */
     assert_int_equal(geometry_intersect(g, vec3_make(0.75, 0.75, 5), vec3_make(0, 0, -1), 0, INFINITY, &h), 0);
     assert_int_equal(geometry_intersect(g, vec3_make(0.25, 0.25, 5), vec3_make(0, 0, -1), 0, 4.0, &h), 0);
@@ -52,7 +47,7 @@ static void test_flipped_mesh(void **state)
     assert_int_equal(geometry_commit(g, NULL), 0);
     hit_t h;
     assert_int_equal(geometry_intersect(g, vec3_make(0.2, 0.2, 1), vec3_make(0, 0, -1), 0, INFINITY, &h), 1);
-    assert_near(h.ng.z, -1.0, 1e-12);
+    testutil_assert_near(h.ng.z, -1.0, 1e-12);
     geometry_destroy(&g);
 }
 
@@ -67,20 +62,20 @@ static void test_scaled_sphere(void **state)
     assert_int_equal(geometry_commit(g, &err), 0);
     hit_t h;
     assert_int_equal(geometry_intersect(g, vec3_make(0, 0, 0), vec3_make(1, 0, 0), 0, INFINITY, &h), 1);
-    assert_near(h.t, 8.0, 1e-9);
-    assert_near(h.ng.x, -1.0, 1e-12);
+    testutil_assert_near(h.t, 8.0, 1e-9);
+    testutil_assert_near(h.ng.x, -1.0, 1e-12);
     /* From inside, the far wall at x = 12 with the outward normal. */
     assert_int_equal(geometry_intersect(g, vec3_make(10, 0, 0), vec3_make(1, 0, 0), 0, INFINITY, &h), 1);
-    assert_near(h.t, 2.0, 1e-9);
-    assert_near(h.ng.x, 1.0, 1e-12);
+    testutil_assert_near(h.t, 2.0, 1e-9);
+    testutil_assert_near(h.ng.x, 1.0, 1e-12);
     /* The normal on an ellipsoid at (10 + 2 cos θ, sin θ, 0) is ∝ (cos θ / 2, sin θ, 0). */
     double th = 0.7;
     vec3_t target = vec3_make(10 + 2 * cos(th), sin(th), 0);
     vec3_t n = vec3_normalize(vec3_make(cos(th) / 2, sin(th), 0));
     vec3_t org = vec3_fma(target, n, 3.0);
     assert_int_equal(geometry_intersect(g, org, vec3_neg(n), 0, INFINITY, &h), 1);
-    assert_near(h.t, 3.0, 1e-9);
-    assert_near(vec3_dot(h.ng, n), 1.0, 1e-9);
+    testutil_assert_near(h.t, 3.0, 1e-9);
+    testutil_assert_near(vec3_dot(h.ng, n), 1.0, 1e-9);
     geometry_destroy(&g);
 }
 
@@ -97,7 +92,7 @@ static void test_sphere_scales(void **state)
         assert_int_equal(geometry_commit(g, NULL), 0);
         hit_t h;
         assert_int_equal(geometry_intersect(g, vec3_make(0, 0, 0), vec3_make(0, 0, 1), 0, INFINITY, &h), 1);
-        assert_near(h.t, 99 * s, 1e-9 * s * 100);
+        testutil_assert_near(h.t, 99 * s, 1e-9 * s * 100);
         geometry_destroy(&g);
     }
 }
@@ -111,8 +106,8 @@ static void test_disk(void **state)
     assert_int_equal(geometry_commit(g, NULL), 0);
     hit_t h;
     assert_int_equal(geometry_intersect(g, vec3_make(0.3, 0.3, 0), vec3_make(0, 0, 1), 0, INFINITY, &h), 1);
-    assert_near(h.t, 2.0, 1e-12);
-    assert_near(h.ng.z, 1.0, 1e-12);
+    testutil_assert_near(h.t, 2.0, 1e-12);
+    testutil_assert_near(h.ng.z, 1.0, 1e-12);
     assert_int_equal(h.shape, 9);
     /* (0.4, 0.4) lies outside radius 0.5. */
     assert_int_equal(geometry_intersect(g, vec3_make(0.4, 0.4, 0), vec3_make(0, 0, 1), 0, INFINITY, &h), 0);

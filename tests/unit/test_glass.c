@@ -16,15 +16,9 @@
 #include <string.h>
 
 #include "dispersion.h"
+#include "files_testutil.h"
 #include "glass.h"
-
-/* |a - b| <= tol, printing both values when it fails (cmocka 1.1.6 has no double assert). */
-#define assert_close(a, b, tol)                                                                    \
-    do {                                                                                           \
-        double a_ = (a), b_ = (b), t_ = (tol);                                                     \
-        if (!(fabs(a_ - b_) <= t_))                                                                \
-            fail_msg("%s = %.17g, expected %.17g +- %g", #a, a_, b_, t_);                          \
-    } while (0)
+#include "numeric_testutil.h"
 
 /* SCHOTT datasheet values (n_d to 5 decimals, v_d to 2), typed in from the SCHOTT optical
  * glass data sheets / Zemax catalogue 2017-01-20b as given in the SPECS "nd" and "Vd" fields
@@ -72,7 +66,7 @@ static void test_nbk7_e_line(void **state)
     (void)state;
     const glass_t *g = glass_find("N-BK7");
     assert_non_null(g);
-    assert_close(ior_eval(&g->ior, IOR_LAMBDA_E_NM), 1.51872, ND_TOL);
+    testutil_assert_near(ior_eval(&g->ior, IOR_LAMBDA_E_NM), 1.51872, ND_TOL);
 }
 
 /* Non-SCHOTT entries against handbook values (coarser, as those are quoted):
@@ -90,25 +84,25 @@ static void test_other_materials(void **state)
     const glass_t *w = glass_find("water");
     assert_non_null(w);
     assert_int_equal(w->ior.sellmeier.terms, 4);
-    assert_close(ior_eval(&w->ior, 589.29), 1.33335, 1e-4);
+    testutil_assert_near(ior_eval(&w->ior, 589.29), 1.33335, 1e-4);
 
     const glass_t *d = glass_find("diamond");
     assert_non_null(d);
     assert_int_equal(d->ior.sellmeier.terms, 2);
-    assert_close(ior_eval(&d->ior, IOR_LAMBDA_D_NM), 2.4175, 5e-4);
+    testutil_assert_near(ior_eval(&d->ior, IOR_LAMBDA_D_NM), 2.4175, 5e-4);
 
     const glass_t *s = glass_find("fused silica");
     assert_non_null(s);
-    assert_close(ior_eval(&s->ior, IOR_LAMBDA_D_NM), 1.45846, 5e-5);
+    testutil_assert_near(ior_eval(&s->ior, IOR_LAMBDA_D_NM), 1.45846, 5e-5);
 
     const glass_t *c = glass_find("CaF2");
     assert_non_null(c);
     assert_true(c->ior.sellmeier.a0 != 0.0); /* Li 1980's constant term is in use */
-    assert_close(ior_eval(&c->ior, IOR_LAMBDA_D_NM), 1.43385, 5e-5);
+    testutil_assert_near(ior_eval(&c->ior, IOR_LAMBDA_D_NM), 1.43385, 5e-5);
 
     const glass_t *a = glass_find("sapphire");
     assert_non_null(a);
-    assert_close(ior_eval(&a->ior, IOR_LAMBDA_D_NM), 1.7682, 2e-4);
+    testutil_assert_near(ior_eval(&a->ior, IOR_LAMBDA_D_NM), 1.7682, 2e-4);
 }
 
 static void expect_alias(const char *alias, const char *name)
@@ -286,9 +280,7 @@ static double number(const char *s, const char *row, const char *column)
 static void test_catalogue_matches_data(void **state)
 {
     (void)state;
-    const char *dir = getenv("PRISMFARM_SOURCE_DIR");
-    char path[1024];
-    snprintf(path, sizeof path, "%s/data/glasses_sellmeier.csv", dir ? dir : "..");
+    const char *path = testutil_source_path("data/glasses_sellmeier.csv");
     FILE *f = fopen(path, "r");
     if (!f)
         fail_msg("cannot open %s", path);

@@ -11,7 +11,6 @@
 /* cmocka needs the four headers above first */
 #include <cmocka.h>
 
-#include <dirent.h>
 #include <float.h>
 #include <math.h>
 #include <openexr.h>
@@ -22,6 +21,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "files_testutil.h"
 #include "image_exr.h"
 
 /* The layout's reference pattern (paper section 3, reference code's channelType), with the
@@ -29,40 +29,6 @@
 static const char *const LAYOUT_REGEX =
     "^((S([0-3]))|T)\\.([0-9]*,?[0-9]*([Ee][+-]?[0-9]+)?)(Y|Z|E|P|T|G|M|k|h|da|d|c|m|u|n|p)?"
     "(m|Hz)$";
-
-static char g_dir[64];
-
-static int group_setup(void **state)
-{
-    (void)state;
-    snprintf(g_dir, sizeof g_dir, "/tmp/prismfarm-test-exr-XXXXXX");
-    return mkdtemp(g_dir) == NULL ? -1 : 0;
-}
-
-static int group_teardown(void **state)
-{
-    (void)state;
-    DIR *d = opendir(g_dir);
-    if (d == NULL)
-        return -1;
-    struct dirent *e;
-    char path[512];
-    while ((e = readdir(d)) != NULL) {
-        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0)
-            continue;
-        snprintf(path, sizeof path, "%s/%s", g_dir, e->d_name);
-        if (unlink(path) != 0)
-            rmdir(path);
-    }
-    closedir(d);
-    return rmdir(g_dir);
-}
-
-static const char *tmp_path(char *buf, size_t size, const char *name)
-{
-    snprintf(buf, size, "%s/%s", g_dir, name);
-    return buf;
-}
 
 static bool matches_layout_regex(const char *name)
 {
@@ -220,8 +186,7 @@ static int check_header_independently(const char *path, char names[][IMAGE_EXR_C
 
 static void roundtrip_rgb(int width, int height, int channels)
 {
-    char path[128];
-    tmp_path(path, sizeof path, "rgb.exr");
+    const char *path = testutil_scratch("rgb.exr");
     size_t count = (size_t)width * (size_t)height * (size_t)channels;
     float *rgb = make_values(count, (size_t)width);
     err_t err = {{0}};
@@ -274,8 +239,7 @@ static void test_rgb_roundtrip(void **state)
 
 static void roundtrip_spectral(int width, int height, int n)
 {
-    char path[128];
-    tmp_path(path, sizeof path, "spectral.exr");
+    const char *path = testutil_scratch("spectral.exr");
     size_t n_pixels = (size_t)width * (size_t)height;
     float *rgb = make_values(n_pixels * 3, 11);
     float *spectral = make_values(n_pixels * (size_t)n, 5);
@@ -346,8 +310,7 @@ static void test_spectral_roundtrip(void **state)
 static void test_spectral_sorted_by_wavelength(void **state)
 {
     (void)state;
-    char path[128];
-    tmp_path(path, sizeof path, "unsorted.exr");
+    const char *path = testutil_scratch("unsorted.exr");
     const double centres[4] = {700.0, 400.0, 1000.0, 550.0};
     const float rgb[3] = {1.0f, 2.0f, 3.0f};
     const float spectral[4] = {70.0f, 40.0f, 100.0f, 55.0f}; /* one pixel */
@@ -432,8 +395,7 @@ static void test_exrheader_lists_layout(void **state)
         print_message("exrheader not found (Debian package 'openexr'): test skipped\n");
         skip();
     }
-    char path[128];
-    tmp_path(path, sizeof path, "header.exr");
+    const char *path = testutil_scratch("header.exr");
     float *rgb, *spectral;
     write_test_spectral(path, 7, 5, 16, &rgb, &spectral);
     char cmd[1200];
@@ -465,9 +427,8 @@ static void test_tiled_files_from_exrmaketiled(void **state)
         print_message("exrmaketiled not found (Debian package 'openexr'): test skipped\n");
         skip();
     }
-    char src[128], dst[128], cmd[1400];
-    tmp_path(src, sizeof src, "scan.exr");
-    tmp_path(dst, sizeof dst, "tiled.exr");
+    char cmd[1400];
+    const char *src = testutil_scratch("scan.exr"), *dst = testutil_scratch("tiled.exr");
     const int w = 37, h = 21, n = 16;
     float *rgb, *spectral;
     write_test_spectral(src, w, h, n, &rgb, &spectral);
@@ -654,8 +615,7 @@ static void test_handbuilt_half_file(void **state)
     memcpy(&first, &probe, 1);
     assert_int_equal(first, 1); /* the offset table patch assumes a little-endian host */
 
-    char path[128];
-    tmp_path(path, sizeof path, "hand.exr");
+    const char *path = testutil_scratch("hand.exr");
     /* Sorted as the format requires; 0,55 um is 550 nm, 4,5E2 nm is 450 nm. */
     const char *const names[] = {"A", "B", "G", "R", "S0.0,55um", "S0.4,5E2nm", "Z"};
     build_half_file(path, names, 7);
@@ -691,8 +651,7 @@ static void test_handbuilt_half_file(void **state)
 static void test_missing_channel(void **state)
 {
     (void)state;
-    char path[128];
-    tmp_path(path, sizeof path, "nogreen.exr");
+    const char *path = testutil_scratch("nogreen.exr");
     const char *const names[] = {"B", "R", "S0.550nm"};
     build_half_file(path, names, 3);
     err_t err;
@@ -700,7 +659,7 @@ static void test_missing_channel(void **state)
     assert_non_null(strstr(err.msg, path));
     assert_non_null(strstr(err.msg, "no channel named 'G'"));
 
-    tmp_path(path, sizeof path, "dup.exr");
+    path = testutil_scratch("dup.exr");
     const char *const dup[] = {"B", "G", "R", "S0.550,0nm", "S0.550nm"};
     build_half_file(path, dup, 5);
     assert_null(image_exr_read(path, &err));
@@ -710,43 +669,22 @@ static void test_missing_channel(void **state)
 static void test_not_an_exr(void **state)
 {
     (void)state;
-    char path[128];
-    tmp_path(path, sizeof path, "text.exr");
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs("P3\n1 1\n255\n0 0 0\n", f);
-    assert_int_equal(fclose(f), 0);
+    const char *path = testutil_scratch("text.exr");
+    testutil_write_text(path, "P3\n1 1\n255\n0 0 0\n", 0644);
     err_t err;
     assert_null(image_exr_read(path, &err));
     assert_non_null(strstr(err.msg, path));
     assert_non_null(strstr(err.msg, "not an OpenEXR file"));
 
-    tmp_path(path, sizeof path, "missing.exr");
+    path = testutil_scratch("missing.exr");
     assert_null(image_exr_read(path, &err));
     assert_non_null(strstr(err.msg, "cannot open"));
-}
-
-static void truncate_copy(const char *src, const char *dst, long keep)
-{
-    FILE *in = fopen(src, "rb");
-    assert_non_null(in);
-    char *buf = malloc((size_t)keep);
-    assert_non_null(buf);
-    assert_int_equal(fread(buf, 1, (size_t)keep, in), (size_t)keep);
-    fclose(in);
-    FILE *out = fopen(dst, "wb");
-    assert_non_null(out);
-    assert_int_equal(fwrite(buf, 1, (size_t)keep, out), (size_t)keep);
-    assert_int_equal(fclose(out), 0);
-    free(buf);
 }
 
 static void test_truncated_exr(void **state)
 {
     (void)state;
-    char path[128], cut[128];
-    tmp_path(path, sizeof path, "whole.exr");
-    tmp_path(cut, sizeof cut, "cut.exr");
+    const char *path = testutil_scratch("whole.exr"), *cut = testutil_scratch("cut.exr");
     float *rgb, *spectral;
     write_test_spectral(path, 40, 40, 8, &rgb, &spectral);
     struct stat st;
@@ -754,7 +692,7 @@ static void test_truncated_exr(void **state)
     /* Cut in the pixel data, in the offset table, and inside the header. */
     const long keep[] = {(long)st.st_size / 2, (long)st.st_size - 1, 700, 40};
     for (size_t i = 0; i < sizeof keep / sizeof keep[0]; i++) {
-        truncate_copy(path, cut, keep[i]);
+        testutil_truncate_copy(path, cut, keep[i]);
         err_t err;
         image_exr_t *img = image_exr_read(cut, &err);
         if (img != NULL)
@@ -768,8 +706,7 @@ static void test_truncated_exr(void **state)
 static void test_write_errors(void **state)
 {
     (void)state;
-    char path[128];
-    tmp_path(path, sizeof path, "bad.exr");
+    const char *path = testutil_scratch("bad.exr");
     float px[8] = {1, 2, 3, 4, 5, 6, 7, 8};
     err_t err;
     assert_int_equal(image_exr_write_rgb(path, 1, 1, px, 2, NULL, &err), -1);
@@ -795,8 +732,8 @@ static void test_write_errors(void **state)
 static void test_failed_write_keeps_old_file(void **state)
 {
     (void)state;
-    char path[128], tmp[160];
-    tmp_path(path, sizeof path, "keep.exr");
+    char tmp[160];
+    const char *path = testutil_scratch("keep.exr");
     snprintf(tmp, sizeof tmp, "%s.tmp", path);
     const float old_px[3] = {0.25f, 0.5f, 0.75f};
     err_t err;
@@ -828,5 +765,5 @@ int main(void)
         cmocka_unit_test(test_write_errors),
         cmocka_unit_test(test_failed_write_keeps_old_file),
     };
-    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

@@ -12,7 +12,6 @@
 /* cmocka needs the four headers above first */
 #include <cmocka.h>
 
-#include <dirent.h>
 #include <png.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -21,41 +20,8 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "files_testutil.h"
 #include "image_png.h"
-
-static char g_dir[64];
-
-static int group_setup(void **state)
-{
-    (void)state;
-    snprintf(g_dir, sizeof g_dir, "/tmp/prismfarm-test-png-XXXXXX");
-    return mkdtemp(g_dir) == NULL ? -1 : 0;
-}
-
-static int group_teardown(void **state)
-{
-    (void)state;
-    DIR *d = opendir(g_dir);
-    if (d == NULL)
-        return -1;
-    struct dirent *e;
-    char path[512];
-    while ((e = readdir(d)) != NULL) {
-        if (strcmp(e->d_name, ".") == 0 || strcmp(e->d_name, "..") == 0)
-            continue;
-        snprintf(path, sizeof path, "%s/%s", g_dir, e->d_name);
-        if (unlink(path) != 0)
-            rmdir(path);
-    }
-    closedir(d);
-    return rmdir(g_dir);
-}
-
-static const char *tmp_path(char *buf, size_t size, const char *name)
-{
-    snprintf(buf, size, "%s/%s", g_dir, name);
-    return buf;
-}
 
 /* A byte pattern that exercises every value and differs between neighbours, so a swapped
  * channel, row or column shows. */
@@ -74,8 +40,7 @@ static uint8_t *make_pixels(int width, int height, uint32_t seed)
 
 static void roundtrip(int width, int height)
 {
-    char path[128];
-    tmp_path(path, sizeof path, "rt.png");
+    const char *path = testutil_scratch("rt.png");
     uint8_t *rgb = make_pixels(width, height, (uint32_t)(width * 1000 + height));
     err_t err = {{0}};
     if (image_png_write_rgb(path, width, height, rgb, &err) != 0)
@@ -118,8 +83,7 @@ static uint32_t be32(const unsigned char *p)
 static void test_srgb_chunks(void **state)
 {
     (void)state;
-    char path[128];
-    tmp_path(path, sizeof path, "chunks.png");
+    const char *path = testutil_scratch("chunks.png");
     uint8_t *rgb = make_pixels(5, 3, 1);
     err_t err;
     assert_int_equal(image_png_write_rgb(path, 5, 3, rgb, &err), 0);
@@ -196,10 +160,10 @@ static void write_simplified(const char *path, png_uint_32 format, int width, in
 static void test_other_colour_types(void **state)
 {
     (void)state;
-    char path[128];
+    const char *path;
     err_t err;
 
-    tmp_path(path, sizeof path, "grey.png");
+    path = testutil_scratch("grey.png");
     const uint8_t grey[6] = {0, 1, 127, 128, 254, 255};
     write_simplified(path, PNG_FORMAT_GRAY, 3, 2, grey, NULL, 0);
     image_png_t *img = image_png_read(path, &err);
@@ -212,7 +176,7 @@ static void test_other_colour_types(void **state)
     }
     image_png_destroy(&img);
 
-    tmp_path(path, sizeof path, "grey_alpha.png");
+    path = testutil_scratch("grey_alpha.png");
     const uint8_t ga[4] = {10, 0, 200, 255}; /* two pixels: (grey, alpha) */
     write_simplified(path, PNG_FORMAT_GA, 2, 1, ga, NULL, 0);
     img = image_png_read(path, &err);
@@ -222,7 +186,7 @@ static void test_other_colour_types(void **state)
     assert_memory_equal(image_png_rgba(img), want_ga, 8);
     image_png_destroy(&img);
 
-    tmp_path(path, sizeof path, "rgba.png");
+    path = testutil_scratch("rgba.png");
     const uint8_t rgba[8] = {1, 2, 3, 4, 250, 251, 252, 253};
     write_simplified(path, PNG_FORMAT_RGBA, 1, 2, rgba, NULL, 0);
     img = image_png_read(path, &err);
@@ -232,7 +196,7 @@ static void test_other_colour_types(void **state)
     image_png_destroy(&img);
 
     /* A palette with transparency: written as PLTE + tRNS, read back as RGBA. */
-    tmp_path(path, sizeof path, "palette.png");
+    path = testutil_scratch("palette.png");
     const uint8_t colormap[3 * 4] = {255, 0, 0, 255, 0, 255, 0, 128, 0, 0, 255, 0};
     const uint8_t indices[4] = {0, 1, 2, 1};
     write_simplified(path, PNG_FORMAT_RGBA | PNG_FORMAT_FLAG_COLORMAP, 4, 1, indices, colormap, 3);
@@ -244,7 +208,7 @@ static void test_other_colour_types(void **state)
     image_png_destroy(&img);
 
     /* 16-bit linear grey: the reader keeps the high byte (png_set_strip_16). */
-    tmp_path(path, sizeof path, "grey16.png");
+    path = testutil_scratch("grey16.png");
     const uint16_t g16[3] = {0x0000, 0xABCD, 0xFFFF};
     write_simplified(path, PNG_FORMAT_LINEAR_Y, 3, 1, g16, NULL, 0);
     img = image_png_read(path, &err);
@@ -255,27 +219,10 @@ static void test_other_colour_types(void **state)
     image_png_destroy(&img);
 }
 
-static void truncate_copy(const char *src, const char *dst, long keep)
-{
-    FILE *in = fopen(src, "rb");
-    assert_non_null(in);
-    char *buf = malloc((size_t)keep);
-    assert_non_null(buf);
-    assert_int_equal(fread(buf, 1, (size_t)keep, in), (size_t)keep);
-    fclose(in);
-    FILE *out = fopen(dst, "wb");
-    assert_non_null(out);
-    assert_int_equal(fwrite(buf, 1, (size_t)keep, out), (size_t)keep);
-    assert_int_equal(fclose(out), 0);
-    free(buf);
-}
-
 static void test_truncated(void **state)
 {
     (void)state;
-    char path[128], cut[128];
-    tmp_path(path, sizeof path, "whole.png");
-    tmp_path(cut, sizeof cut, "cut.png");
+    const char *path = testutil_scratch("whole.png"), *cut = testutil_scratch("cut.png");
     /* Pseudo-random pixels barely compress, so the file is long and a cut lands in IDAT. */
     uint8_t *rgb = make_pixels(64, 64, 7);
     err_t err;
@@ -288,7 +235,7 @@ static void test_truncated(void **state)
     /* In the image data, just before IEND's CRC, inside IHDR. */
     const long keep[] = {(long)st.st_size / 2, (long)st.st_size - 1, 20};
     for (size_t i = 0; i < sizeof keep / sizeof keep[0]; i++) {
-        truncate_copy(path, cut, keep[i]);
+        testutil_truncate_copy(path, cut, keep[i]);
         image_png_t *img = image_png_read(cut, &err);
         if (img != NULL)
             fail_msg("a file cut to %ld of %ld bytes was read", keep[i], (long)st.st_size);
@@ -296,7 +243,7 @@ static void test_truncated(void **state)
         if (strstr(err.msg, "truncated") == NULL)
             fail_msg("cut to %ld bytes: message does not say truncated: %s", keep[i], err.msg);
     }
-    truncate_copy(path, cut, 5);
+    testutil_truncate_copy(path, cut, 5);
     assert_null(image_png_read(cut, &err));
     assert_non_null(strstr(err.msg, "not a PNG file"));
 }
@@ -304,23 +251,19 @@ static void test_truncated(void **state)
 static void test_not_a_png(void **state)
 {
     (void)state;
-    char path[128];
-    tmp_path(path, sizeof path, "text.png");
-    FILE *f = fopen(path, "w");
-    assert_non_null(f);
-    fputs("this is not an image at all\n", f);
-    assert_int_equal(fclose(f), 0);
+    const char *path = testutil_scratch("text.png");
+    testutil_write_text(path, "this is not an image at all\n", 0644);
     err_t err;
     assert_null(image_png_read(path, &err));
     assert_non_null(strstr(err.msg, path));
     assert_non_null(strstr(err.msg, "not a PNG file"));
 
     /* A PNG signature followed by a chunk whose CRC is wrong. */
-    tmp_path(path, sizeof path, "badcrc.png");
+    path = testutil_scratch("badcrc.png");
     uint8_t *rgb = make_pixels(4, 4, 3);
     assert_int_equal(image_png_write_rgb(path, 4, 4, rgb, &err), 0);
     free(rgb);
-    f = fopen(path, "r+b");
+    FILE *f = fopen(path, "r+b");
     assert_non_null(f);
     assert_int_equal(fseek(f, 16, SEEK_SET), 0); /* IHDR width */
     assert_int_equal(fputc(0x7f, f), 0x7f);
@@ -328,7 +271,7 @@ static void test_not_a_png(void **state)
     assert_null(image_png_read(path, &err));
     assert_non_null(strstr(err.msg, path));
 
-    tmp_path(path, sizeof path, "missing.png");
+    path = testutil_scratch("missing.png");
     assert_null(image_png_read(path, &err));
     assert_non_null(strstr(err.msg, "cannot open"));
 }
@@ -336,8 +279,8 @@ static void test_not_a_png(void **state)
 static void test_write_errors(void **state)
 {
     (void)state;
-    char path[128], tmp[160];
-    tmp_path(path, sizeof path, "keep.png");
+    char tmp[160];
+    const char *path = testutil_scratch("keep.png");
     snprintf(tmp, sizeof tmp, "%s.tmp", path);
     const uint8_t old_px[3] = {10, 20, 30}, new_px[3] = {99, 99, 99};
     err_t err;
@@ -365,5 +308,5 @@ int main(void)
         cmocka_unit_test(test_other_colour_types), cmocka_unit_test(test_truncated),
         cmocka_unit_test(test_not_a_png),          cmocka_unit_test(test_write_errors),
     };
-    return cmocka_run_group_tests(tests, group_setup, group_teardown);
+    return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

@@ -16,16 +16,11 @@
 #include <string.h>
 
 #include "geometry.h"
+#include "numeric_testutil.h"
 #include "pbrt_parser.h"
 #include "render.h"
 #include "scene.h"
 #include "scene_load.h"
-
-static void assert_near(double a, double b, double tol, const char *what)
-{
-    if (!(fabs(a - b) <= tol))
-        fail_msg("%s: %.12g differs from %.12g by more than %g", what, a, b, tol);
-}
 
 static void assert_vec_near(vec3_t a, vec3_t b, double tol, const char *what)
 {
@@ -69,19 +64,19 @@ static void test_instanced_hits_and_normals(void **state)
     assert_int_equal(geometry_intersect(g, vec3_make(5, 0, -5), vec3_make(0, 0, 1), 0, INFINITY, &h), 1);
     assert_int_equal(h.shape, 10);
     assert_int_equal(h.instance, 100);
-    assert_near(h.t, 4.0, 1e-9, "t");
+    testutil_assert_near(h.t, 4.0, 1e-9);
     assert_vec_near(h.p, vec3_make(5, 0, -1), 1e-9, "p");
     assert_vec_near(h.ng, vec3_make(0, 0, -1), 1e-12, "ng");
     /* pbrt-v4's sphere (u, v) at the point (0, 0, -1) of the sphere: v = 0 at z = -r. */
-    assert_near(h.v, 0.0, 1e-9, "v");
+    testutil_assert_near(h.v, 0.0, 1e-9);
     /* Off-centre: the point (0.6, 0, -0.8) of the sphere, normal (0.6, 0, -0.8). */
     assert_int_equal(geometry_intersect(g, vec3_make(5.6, 0, -5), vec3_make(0, 0, 1), 0, INFINITY, &h), 1);
-    assert_near(h.t, 4.2, 1e-9, "t");
+    testutil_assert_near(h.t, 4.2, 1e-9);
     assert_vec_near(h.ng, vec3_make(0.6, 0, -0.8), 1e-9, "ng");
     /* Sphere of the mirrored instance b: same point, normal flipped. */
     assert_int_equal(geometry_intersect(g, vec3_make(-5.6, 0, -5), vec3_make(0, 0, 1), 0, INFINITY, &h), 1);
     assert_int_equal(h.instance, 101);
-    assert_near(h.t, 4.2, 1e-9, "t");
+    testutil_assert_near(h.t, 4.2, 1e-9);
     assert_vec_near(h.p, vec3_make(-5.6, 0, -0.8), 1e-9, "p");
     assert_vec_near(h.ng, vec3_make(0.6, 0, 0.8), 1e-9, "ng");
     /* Square of instance a at x in [6, 7], from +z: normal +z; barycentrics of (6.75, 0.5):
@@ -90,11 +85,11 @@ static void test_instanced_hits_and_normals(void **state)
     assert_int_equal(h.shape, 11);
     assert_int_equal(h.prim, 0);
     assert_int_equal(h.instance, 100);
-    assert_near(h.t, 3.0, 1e-6, "t");
+    testutil_assert_near(h.t, 3.0, 1e-6);
     assert_vec_near(h.ng, vec3_make(0, 0, 1), 1e-9, "ng");
     /* (6.75, 0.5) = (1 - u - v) (6, 0) + u (7, 0) + v (7, 1): v = 0.5, u = 0.25. */
-    assert_near(h.u, 0.25, 1e-6, "u");
-    assert_near(h.v, 0.5, 1e-6, "v");
+    testutil_assert_near(h.u, 0.25, 1e-6);
+    testutil_assert_near(h.v, 0.5, 1e-6);
     /* Square of the mirrored instance at x in [-7, -6]: still +z. */
     assert_int_equal(geometry_intersect(g, vec3_make(-6.5, 0.5, 3), vec3_make(0, 0, -1), 0, INFINITY, &h), 1);
     assert_int_equal(h.shape, 11);
@@ -182,11 +177,11 @@ static void test_instance_equals_flattened(void **state)
         }
         assert_int_equal(a.shape, b.shape);
         hits[a.shape]++;
-        assert_near(a.t, b.t, 1e-4, "t");
+        testutil_assert_near(a.t, b.t, 1e-4);
         assert_vec_near(a.p, b.p, 1e-4, "p");
         assert_vec_near(a.ng, b.ng, 1e-4, "ng");
-        assert_near(a.u, b.u, 1e-4, "u");
-        assert_near(a.v, b.v, 1e-4, "v");
+        testutil_assert_near(a.u, b.u, 1e-4);
+        testutil_assert_near(a.v, b.v, 1e-4);
         assert_int_equal(a.prim, b.prim);
         assert_int_equal(b.instance, GEOMETRY_NO_INSTANCE);
         assert_int_equal(a.instance, 0);
@@ -230,8 +225,8 @@ static void test_surface_of_instanced_mesh(void **state)
     assert_ptr_equal(sf.shape, &s->shapes[sh]);
     assert_ptr_equal(sf.material, &s->materials[1]);
     assert_int_equal(sf.light, -1);
-    assert_near(sf.u, 1.5, 1e-6, "u");
-    assert_near(sf.v, 0.25, 1e-6, "v");
+    testutil_assert_near(sf.u, 1.5, 1e-6);
+    testutil_assert_near(sf.v, 0.25, 1e-6);
     assert_vec_near(sf.ng, vec3_make(0, 0, 1), 1e-9, "ng");
     /* Normal (1, 0, 1): the scale maps it to (1/2, 0, 1), the rotation to (0, 1/2, 1). */
     assert_vec_near(sf.ns, vec3_normalize(vec3_make(0, 0.5, 1)), 1e-9, "ns");

@@ -19,6 +19,7 @@
 #include "lightmap.h"
 #include "rng.h"
 #include "scene.h"
+#include "scene_builders.h"
 
 #define NB 4 /* buckets of grid4(): 80 nm each over 400-720 nm */
 
@@ -27,28 +28,6 @@ static spectral_grid_t grid4(void)
     spectral_grid_t g;
     assert_int_equal(spectral_grid_init(&g, NB, 400.0, 720.0, NULL), 0);
     return g;
-}
-
-static int diffuse(scene_t *s)
-{
-    err_t err;
-    spectrum_t *sp = spectrum_new_constant(0.5, &err);
-    assert_non_null(sp);
-    texture_t *t = texture_new_constant(sp, &err);
-    assert_non_null(t);
-    assert_int_equal(scene_own_texture(s, t, &err), 0);
-    material_t m = {.kind = MATERIAL_DIFFUSE, .reflectance = t};
-    strcpy(m.name, "diffuse");
-    int i = scene_add_material(s, &m, &err);
-    assert_true(i >= 0);
-    return i;
-}
-
-static void finish(scene_t *s)
-{
-    err_t err;
-    if (scene_finish(s, &err))
-        fail_msg("scene_finish: %s", err.msg);
 }
 
 /* A w x h rectangle in the plane z = z0 from (x0, y0): triangles (0,1,2) and (0,2,3). */
@@ -174,8 +153,9 @@ static void test_uniform_quad(void **state)
     scene_t *s = scene_new(&err);
     double P[12];
     rect(0, 0, 2, 1, 0, P); /* two triangles of area 1 */
-    assert_int_equal(scene_add_mesh(s, P, 4, RECT_IDX, 2, NULL, NULL, diffuse(s), -1, 0, &err), 0);
-    finish(s);
+    assert_int_equal(
+        scene_add_mesh(s, P, 4, RECT_IDX, 2, NULL, NULL, sb_diffuse(s, 0.5), -1, 0, &err), 0);
+    sb_finish(s);
     const double A = 2.0, density = 100.0; /* m = 10: 100 texels of 0.01 per triangle */
     lightmap_t *m = new_map(s, density);
     assert_int_equal(texels_of(m, GEOMETRY_NO_INSTANCE, 0, 0), 100);
@@ -244,13 +224,13 @@ static void test_uniform_sphere_and_disk(void **state)
     (void)state;
     err_t err;
     scene_t *s = scene_new(&err);
-    int mat = diffuse(s);
+    int mat = sb_diffuse(s, 0.5);
     transform_t ts =
         transform_compose(transform_translate(vec3_make(3, 0, 0)), transform_scale(1.5, 1.5, 1.5));
     assert_int_equal(scene_add_sphere(s, &ts, 1.0, mat, -1, 0, &err), 0);
     transform_t td = transform_translate(vec3_make(-3, 0, 0));
     assert_int_equal(scene_add_disk(s, &td, 1.0, 0.0, mat, -1, 0, &err), 1);
-    finish(s);
+    sb_finish(s);
     lightmap_t *m = new_map(s, 10.0);
     const uint64_t Ts = texels_of(m, GEOMETRY_NO_INSTANCE, 0, 0);
     const uint64_t Td = texels_of(m, GEOMETRY_NO_INSTANCE, 1, 0);
@@ -308,7 +288,7 @@ static void test_texel_areas(void **state)
     (void)state;
     err_t err;
     scene_t *s = scene_new(&err);
-    int mat = diffuse(s);
+    int mat = sb_diffuse(s, 0.5);
     transform_t rot;
     assert_int_equal(transform_rotate(37.0, vec3_make(1, 2, 3), &rot, &err), 0);
     /* 0: sphere of world radius 3 (radius 1.5 scaled by 2, rotated, moved) */
@@ -330,7 +310,7 @@ static void test_texel_areas(void **state)
     transform_t te =
         transform_compose(transform_translate(vec3_make(-10, 0, 0)), transform_scale(1, 1, 2));
     assert_int_equal(scene_add_sphere(s, &te, 1.0, mat, -1, 0, &err), 4);
-    finish(s);
+    sb_finish(s);
     const double d = 400.0;
     lightmap_t *m = new_map(s, d);
     const uint32_t W = GEOMETRY_NO_INSTANCE;
@@ -397,7 +377,7 @@ static void test_instances(void **state)
     (void)state;
     err_t err;
     scene_t *s = scene_new(&err);
-    int mat = diffuse(s);
+    int mat = sb_diffuse(s, 0.5);
     int obj = scene_add_object(s, &err);
     assert_true(obj >= 0);
     double P[12];
@@ -410,7 +390,7 @@ static void test_instances(void **state)
         transform_compose(transform_translate(vec3_make(0, 5, 0)), transform_scale(2, 2, 2));
     assert_int_equal(scene_add_instance(s, obj, &ta, &err), 0);
     assert_int_equal(scene_add_instance(s, obj, &tb, &err), 1);
-    finish(s);
+    sb_finish(s);
     const double d = 200.0;
     lightmap_t *m = new_map(s, d);
     /* Triangles: m = ceil(sqrt(0.5 * 200)) = 10 in A, ceil(sqrt(2 * 200)) = 20 in B; disks:
@@ -473,7 +453,7 @@ static scene_t *mixed_scene(void)
 {
     err_t err;
     scene_t *s = scene_new(&err);
-    int mat = diffuse(s);
+    int mat = sb_diffuse(s, 0.5);
     double P[12];
     rect(0, 0, 2, 1, 0, P);
     assert_int_equal(scene_add_mesh(s, P, 4, RECT_IDX, 2, NULL, NULL, mat, -1, 0, &err), 0);
@@ -484,7 +464,7 @@ static scene_t *mixed_scene(void)
     assert_int_equal(scene_add_object_disk(s, obj, &id, 1.0, 0.0, mat, 0, &err), 2);
     transform_t ti = transform_translate(vec3_make(-5, 0, 0));
     assert_int_equal(scene_add_instance(s, obj, &ti, &err), 0);
-    finish(s);
+    sb_finish(s);
     return s;
 }
 
@@ -605,8 +585,9 @@ static void test_caustic_size(void **state)
     scene_t *s = scene_new(&err);
     double P[12];
     rect(0, 0, 10, 10, 0, P);
-    assert_int_equal(scene_add_mesh(s, P, 4, RECT_IDX, 2, NULL, NULL, diffuse(s), -1, 0, &err), 0);
-    finish(s);
+    assert_int_equal(
+        scene_add_mesh(s, P, 4, RECT_IDX, 2, NULL, NULL, sb_diffuse(s, 0.5), -1, 0, &err), 0);
+    sb_finish(s);
     spectral_grid_t g16 = spectral_grid_default(); /* the film's usual 16 buckets */
     lightmap_t *m = lightmap_new(s, 1600.0, g16, &err);
     assert_non_null(m);

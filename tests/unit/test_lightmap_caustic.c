@@ -24,6 +24,7 @@
 #include <string.h>
 
 #include "colour.h"
+#include "files_testutil.h"
 #include "glass.h"
 #include "lightmap.h"
 #include "photon.h"
@@ -584,14 +585,7 @@ static void test_energy_caustic_store(void **state)
 
 static scene_t *beam_scene(int lanes)
 {
-    err_t err;
-    const char *src = getenv("PRISMFARM_SOURCE_DIR");
-    char path[4096];
-    snprintf(path, sizeof path, "%s/scenes/prism_beam.pbrt", src ? src : "..");
-    scene_overrides_t ov = {.seed = -1};
-    scene_t *s = scene_load_file(path, &ov, &err);
-    if (!s)
-        fail_msg("%s", err.msg);
+    scene_t *s = sb_load_file(testutil_source_path("scenes/prism_beam.pbrt"));
     s->settings.photon.store = PHOTON_STORE_LIGHTMAP;
     s->settings.photon.lightmap_density = 400.0;
     s->settings.photon.monochromerays = lanes;

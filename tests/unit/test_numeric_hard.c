@@ -32,6 +32,7 @@
 #include "render.h"
 #include "sample.h"
 #include "scene.h"
+#include "scene_builders.h"
 #include "scene_load.h"
 #include "specular.h"
 #include "tilebuf.h"
@@ -703,20 +704,10 @@ static const char *const DISPERSIONS[] = {"hero", "fanout"};
  * RES x RES pixels, SPP samples each, NB buckets. */
 enum { RES = 8, SPP = 32, NB = 8 };
 
-static scene_t *load_text(const char *text, err_t *err)
-{
-    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "hard.pbrt", err);
-    if (!d)
-        return NULL;
-    scene_t *s = scene_load(d, NULL, err);
-    scene_desc_destroy(&d);
-    return s;
-}
-
 static scene_t *must_load(const char *text)
 {
     err_t err = {{0}};
-    scene_t *s = load_text(text, &err);
+    scene_t *s = sb_load_text(text, &err);
     if (!s)
         fail_msg("scene refused: %s\n%s", err.msg, text);
     return s;
@@ -1055,7 +1046,7 @@ static void test_sellmeier_pole_scene(void **state)
                      "Shape \"sphere\" \"float radius\" 1\n",
                      inside ? "0.14478" : "0.14432");
             err_t err = {{0}};
-            scene_t *s = load_text(text, &err);
+            scene_t *s = sb_load_text(text, &err);
             if (inside) {
                 assert_null(s);
                 if (!strstr(err.msg, "Sellmeier pole at 380.5 nm"))
@@ -1309,9 +1300,9 @@ static void test_zero_area_light(void **state)
     const char *bad = "WorldBegin\nAttributeBegin\nAreaLightSource \"diffuse\" \"float power\" 10\n"
                       "Shape \"trianglemesh\" \"point3 P\" [" DEGENERATE_P "] \"integer indices\" "
                       "[" DEGENERATE_I "]\nAttributeEnd\n";
-    assert_null(load_text(bad, &err));
+    assert_null(sb_load_text(bad, &err));
     assert_non_null(strstr(err.msg, "zero area"));
-    assert_non_null(strstr(err.msg, "hard.pbrt:3:"));
+    assert_non_null(strstr(err.msg, "t.pbrt:3:"));
 }
 
 /* Non-finite samples are dropped whole and counted, by render_stats_t and by the tile buffer

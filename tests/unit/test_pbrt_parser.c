@@ -17,7 +17,9 @@
 #include <string.h>
 #include <unistd.h>
 
+#include "files_testutil.h"
 #include "mesh_import.h"
+#include "numeric_testutil.h"
 #include "pbrt_parser.h"
 
 /* Values in the scene files are short decimals parsed by strtod (correctly rounded) and
@@ -66,12 +68,6 @@ static void assert_point(const transform_t *t, vec3_t p, double x, double y, dou
         fail_msg("mapped to (%.17g, %.17g, %.17g), expected (%g, %g, %g)", q.x, q.y, q.z, x, y, z);
 }
 
-static void assert_near(double got, double expected)
-{
-    if (fabs(got - expected) > TOL)
-        fail_msg("got %.17g, expected %.17g", got, expected);
-}
-
 /* ---- options ---- */
 
 static void test_options(void **state)
@@ -79,9 +75,9 @@ static void test_options(void **state)
     (void)state;
     scene_desc_t *s = parse_ok("data/scenes/options.pbrt");
     assert_string_equal(s->camera.type, "perspective");
-    assert_near(s->camera.fov, 45);
-    assert_near(s->camera.lensradius, 0.1);
-    assert_near(s->camera.focaldistance, 5);
+    testutil_assert_near(s->camera.fov, 45, TOL);
+    testutil_assert_near(s->camera.lensradius, 0.1, TOL);
+    testutil_assert_near(s->camera.focaldistance, 5, TOL);
     assert_int_equal(s->camera.loc.line, 3);
     /* LookAt 0 0 -5  0 0 0  0 1 0: the world origin is 5 units ahead of the camera. */
     assert_point(&s->camera.camera_from_world, vec3_make(0, 0, 0), 0, 0, 5);
@@ -92,8 +88,8 @@ static void test_options(void **state)
     assert_int_equal(s->film.yres, 240);
     assert_string_equal(s->film.filename, "out.exr");
     assert_int_equal(s->film.nbuckets, 32);
-    assert_near(s->film.lambda_min, 300);
-    assert_near(s->film.lambda_max, 1000);
+    testutil_assert_near(s->film.lambda_min, 300, TOL);
+    testutil_assert_near(s->film.lambda_max, 1000, TOL);
 
     assert_string_equal(s->sampler.type, "halton");
     assert_int_equal(s->sampler.pixelsamples, 64);
@@ -129,15 +125,15 @@ static void test_defaults(void **state)
     (void)state;
     scene_desc_t *s = parse_text_ok("WorldBegin\n");
     /* pbrt-v4 defaults; the rgb film's bucket grid is prismfarm's (docs/physics.md §1.2). */
-    assert_near(s->camera.fov, 90);
+    testutil_assert_near(s->camera.fov, 90, TOL);
     assert_true(transform_is_identity(&s->camera.camera_from_world));
     assert_int_equal(s->film.type, SCENE_FILM_RGB);
     assert_int_equal(s->film.xres, 1280);
     assert_int_equal(s->film.yres, 720);
     assert_string_equal(s->film.filename, "pbrt.exr");
     assert_int_equal(s->film.nbuckets, 16);
-    assert_near(s->film.lambda_min, 380);
-    assert_near(s->film.lambda_max, 720);
+    testutil_assert_near(s->film.lambda_min, 380, TOL);
+    testutil_assert_near(s->film.lambda_max, 720, TOL);
     assert_string_equal(s->sampler.type, "zsobol");
     assert_int_equal(s->sampler.pixelsamples, 16);
     assert_string_equal(s->integrator.type, "auto");
@@ -149,14 +145,14 @@ static void test_defaults(void **state)
     assert_int_equal(s->nmaterials, 1);
     assert_int_equal(s->materials[0].type, SCENE_MATERIAL_DIFFUSE);
     assert_int_equal(s->materials[0].reflectance.spectrum.kind, SCENE_SPECTRUM_CONSTANT);
-    assert_near(s->materials[0].reflectance.spectrum.constant, 0.5);
+    testutil_assert_near(s->materials[0].reflectance.spectrum.constant, 0.5, TOL);
     scene_desc_destroy(&s);
 
     s = parse_text_ok("Film \"spectral\"\nSampler \"stratified\" \"integer xsamples\" 2 "
                       "\"integer ysamples\" 3 \"bool jitter\" false\nWorldBegin\n");
     assert_int_equal(s->film.nbuckets, 16);
-    assert_near(s->film.lambda_min, 360);
-    assert_near(s->film.lambda_max, 830);
+    testutil_assert_near(s->film.lambda_min, 360, TOL);
+    testutil_assert_near(s->film.lambda_max, 830, TOL);
     assert_int_equal(s->sampler.pixelsamples, 6);
     scene_desc_destroy(&s);
 }
@@ -172,29 +168,29 @@ static void test_materials_and_textures(void **state)
     assert_string_equal(t[0].name, "checks");
     assert_int_equal(t[0].type, SCENE_TEXTURE_SPECTRUM);
     assert_int_equal(t[0].cls, SCENE_TEX_CHECKERBOARD);
-    assert_near(t[0].uscale, 8);
-    assert_near(t[0].vscale, 4);
-    assert_near(t[0].udelta, 0);
+    testutil_assert_near(t[0].uscale, 8, TOL);
+    testutil_assert_near(t[0].vscale, 4, TOL);
+    testutil_assert_near(t[0].udelta, 0, TOL);
     assert_int_equal(t[0].spec_in1.spectrum.kind, SCENE_SPECTRUM_RGB);
-    assert_near(t[0].spec_in1.spectrum.rgb[1], 1);
-    assert_near(t[0].spec_in2.spectrum.rgb[2], 0);
+    testutil_assert_near(t[0].spec_in1.spectrum.rgb[1], 1, TOL);
+    testutil_assert_near(t[0].spec_in2.spectrum.rgb[2], 0, TOL);
     assert_int_equal(t[1].type, SCENE_TEXTURE_FLOAT);
     assert_int_equal(t[1].cls, SCENE_TEX_CONSTANT);
-    assert_near(t[1].float_in1.value, 0.25);
+    testutil_assert_near(t[1].float_in1.value, 0.25, TOL);
     assert_int_equal(t[2].cls, SCENE_TEX_IMAGEMAP);
     assert_string_equal(t[2].image.filename, "data/scenes/../scene_checker2x2.png");
     assert_string_equal(t[2].image.wrap, "clamp");
     assert_string_equal(t[2].image.filter, "bilinear");
     assert_string_equal(t[2].image.encoding, "sRGB");
-    assert_near(t[2].image.scale, 1);
+    testutil_assert_near(t[2].image.scale, 1, TOL);
     assert_false(t[2].image.invert);
     assert_int_equal(t[3].cls, SCENE_TEX_SCALE);
     assert_int_equal(t[3].spec_in1.texture, 0);
-    assert_near(t[3].amount.value, 0.5);
+    testutil_assert_near(t[3].amount.value, 0.5, TOL);
     assert_int_equal(t[4].cls, SCENE_TEX_MIX);
     assert_int_equal(t[4].spec_in1.texture, 0);
     assert_int_equal(t[4].spec_in2.texture, -1);
-    assert_near(t[4].spec_in2.spectrum.rgb[0], 0.5);
+    testutil_assert_near(t[4].spec_in2.spectrum.rgb[0], 0.5, TOL);
     assert_int_equal(t[4].amount.texture, 1);
 
     assert_int_equal(s->nmaterials, 14);
@@ -203,13 +199,13 @@ static void test_materials_and_textures(void **state)
     assert_int_equal(m[1].reflectance.texture, 0);
     assert_null(m[1].name);
     assert_int_equal(m[2].reflectance.spectrum.kind, SCENE_SPECTRUM_RGB);
-    assert_near(m[2].reflectance.spectrum.rgb[0], 0.2);
-    assert_near(m[2].reflectance.spectrum.rgb[2], 0.6);
+    testutil_assert_near(m[2].reflectance.spectrum.rgb[0], 0.2, TOL);
+    testutil_assert_near(m[2].reflectance.spectrum.rgb[2], 0.6, TOL);
     const scene_spectrum_t *sp = &m[3].reflectance.spectrum;
     assert_int_equal(sp->kind, SCENE_SPECTRUM_SAMPLED);
     assert_int_equal(sp->count, 3);
-    assert_near(sp->lambda[2], 700);
-    assert_near(sp->value[1], 0.5);
+    testutil_assert_near(sp->lambda[2], 700, TOL);
+    testutil_assert_near(sp->value[1], 0.5, TOL);
 
     assert_string_equal(m[4].name, "bk7");
     assert_int_equal(m[4].type, SCENE_MATERIAL_DIELECTRIC);
@@ -220,30 +216,30 @@ static void test_materials_and_textures(void **state)
     assert_string_equal(m[5].ior.glass, "N-BK7");
     assert_int_equal(m[6].ior.kind, SCENE_IOR_SELLMEIER);
     assert_int_equal(m[6].ior.nterms, 3);
-    assert_near(m[6].ior.sellmeier[0], 1.03961212);
-    assert_near(m[6].ior.sellmeier[5], 103.560653);
+    testutil_assert_near(m[6].ior.sellmeier[0], 1.03961212, TOL);
+    testutil_assert_near(m[6].ior.sellmeier[5], 103.560653, TOL);
     assert_int_equal(m[7].ior.kind, SCENE_IOR_CAUCHY);
-    assert_near(m[7].ior.cauchy[0], 1.5046);
-    assert_near(m[7].ior.cauchy[1], 0.0042);
+    testutil_assert_near(m[7].ior.cauchy[0], 1.5046, TOL);
+    testutil_assert_near(m[7].ior.cauchy[1], 0.0042, TOL);
     assert_int_equal(m[8].ior.spectrum.kind, SCENE_SPECTRUM_CONSTANT);
-    assert_near(m[8].ior.spectrum.constant, 1.33);
-    assert_near(m[9].ior.spectrum.constant, 1.5); /* pbrt-v4's default eta */
-    assert_near(m[9].uroughness.value, 0);
+    testutil_assert_near(m[8].ior.spectrum.constant, 1.33, TOL);
+    testutil_assert_near(m[9].ior.spectrum.constant, 1.5, TOL); /* pbrt-v4's default eta */
+    testutil_assert_near(m[9].uroughness.value, 0, TOL);
 
     assert_int_equal(m[10].type, SCENE_MATERIAL_CONDUCTOR);
     assert_false(m[10].use_reflectance);
     assert_string_equal(m[10].eta.spectrum.name, "metal-Cu-eta"); /* pbrt-v4 default */
     assert_string_equal(m[10].k.spectrum.name, "metal-Cu-k");
-    assert_near(m[10].uroughness.value, 0);
+    testutil_assert_near(m[10].uroughness.value, 0, TOL);
     assert_true(m[10].remaproughness);
     assert_string_equal(m[11].eta.spectrum.name, "metal-Au-eta");
     assert_string_equal(m[11].k.spectrum.name, "metal-Au-k");
     assert_int_equal(m[11].uroughness.texture, 1);
     assert_int_equal(m[11].vroughness.texture, 1);
     assert_true(m[12].use_reflectance);
-    assert_near(m[12].reflectance.spectrum.rgb[1], 0.8);
-    assert_near(m[12].uroughness.value, 0.1);
-    assert_near(m[12].vroughness.value, 0.2);
+    testutil_assert_near(m[12].reflectance.spectrum.rgb[1], 0.8, TOL);
+    testutil_assert_near(m[12].uroughness.value, 0.1, TOL);
+    testutil_assert_near(m[12].vroughness.value, 0.2, TOL);
     assert_false(m[12].remaproughness);
     assert_int_equal(m[13].type, SCENE_MATERIAL_INTERFACE);
 
@@ -263,46 +259,46 @@ static void test_lights(void **state)
     const scene_light_t *l = s->lights;
     assert_int_equal(l[0].type, SCENE_LIGHT_INFINITE);
     assert_int_equal(l[0].spectrum.kind, SCENE_SPECTRUM_RGB);
-    assert_near(l[0].spectrum.rgb[2], 0.3);
-    assert_near(l[0].scale, 2);
+    testutil_assert_near(l[0].spectrum.rgb[2], 0.3, TOL);
+    testutil_assert_near(l[0].scale, 2, TOL);
     assert_int_equal(l[1].type, SCENE_LIGHT_POINT);
     assert_int_equal(l[1].spectrum.kind, SCENE_SPECTRUM_BLACKBODY);
-    assert_near(l[1].spectrum.temperature, 3000);
-    assert_near(l[1].from.y, 2);
+    testutil_assert_near(l[1].spectrum.temperature, 3000, TOL);
+    testutil_assert_near(l[1].from.y, 2, TOL);
     assert_int_equal(l[2].type, SCENE_LIGHT_SPOT);
     assert_string_equal(l[2].spectrum.name, "stdillum-A");
-    assert_near(l[2].from.y, 5);
-    assert_near(l[2].to.y, 0);
-    assert_near(l[2].coneangle, 20);
-    assert_near(l[2].conedeltaangle, 4);
+    testutil_assert_near(l[2].from.y, 5, TOL);
+    testutil_assert_near(l[2].to.y, 0, TOL);
+    testutil_assert_near(l[2].coneangle, 20, TOL);
+    testutil_assert_near(l[2].conedeltaangle, 4, TOL);
     assert_point(&l[2].to_world, vec3_make(0, 0, 0), 0, 10, 0); /* CTM at the directive */
     assert_int_equal(l[3].type, SCENE_LIGHT_DISTANT);
     assert_int_equal(l[3].spectrum.kind, SCENE_SPECTRUM_SAMPLED);
     assert_int_equal(l[3].spectrum.count, 3);
-    assert_near(l[3].spectrum.value[2], 3);
-    assert_near(l[3].scale, 0.5);
+    testutil_assert_near(l[3].spectrum.value[2], 3, TOL);
+    testutil_assert_near(l[3].scale, 0.5, TOL);
     assert_true(transform_is_identity(&l[3].to_world));
     /* pbrt-v4 defaults: the colour space illuminant, scale 1, at the origin */
     assert_int_equal(l[4].spectrum.kind, SCENE_SPECTRUM_NAMED);
     assert_string_equal(l[4].spectrum.name, "stdillum-D65");
-    assert_near(l[4].scale, 1);
-    assert_near(l[4].from.x, 0);
+    testutil_assert_near(l[4].scale, 1, TOL);
+    testutil_assert_near(l[4].from.x, 0, TOL);
 
     assert_int_equal(s->narea_lights, 2);
     const scene_area_light_t *a = s->area_lights;
     assert_int_equal(a[0].type, SCENE_AREA_DIFFUSE);
-    assert_near(a[0].L.temperature, 6500);
-    assert_near(a[0].scale, 3);
+    testutil_assert_near(a[0].L.temperature, 6500, TOL);
+    testutil_assert_near(a[0].scale, 3, TOL);
     assert_true(a[0].twosided);
     assert_int_equal(a[1].type, SCENE_AREA_COLLIMATED);
     assert_string_equal(a[1].L.name, "stdillum-D65");
-    assert_near(a[1].scale, 10);
+    testutil_assert_near(a[1].scale, 10, TOL);
     assert_false(a[1].twosided);
 
     assert_int_equal(s->nshapes, 3);
     assert_int_equal(s->shapes[0].area_light, 0);
-    assert_near(s->shapes[0].radius, 0.5);
-    assert_near(s->shapes[0].height, 1);
+    testutil_assert_near(s->shapes[0].radius, 0.5, TOL);
+    testutil_assert_near(s->shapes[0].height, 1, TOL);
     assert_int_equal(s->shapes[1].area_light, 1);
     assert_int_equal(s->shapes[2].area_light, -1); /* AttributeEnd ended the area light */
     scene_desc_destroy(&s);
@@ -343,7 +339,7 @@ static void test_shapes(void **state)
     const scene_shape_t *sh = s->shapes;
 
     assert_int_equal(sh[0].type, SCENE_SHAPE_SPHERE);
-    assert_near(sh[0].radius, 0.5);
+    testutil_assert_near(sh[0].radius, 0.5, TOL);
     /* Translate 1 2 3, Scale 2 2 2: the scale applies first. */
     assert_point(&sh[0].to_world, vec3_make(1, 0, 0), 3, 2, 3);
     assert_false(sh[0].flip_normals);
@@ -364,8 +360,8 @@ static void test_shapes(void **state)
     assert_int_equal(sh[2].mesh.ntriangles, 2);
     assert_non_null(sh[2].mesh.N);
     assert_non_null(sh[2].mesh.uv);
-    assert_near(sh[2].mesh.uv[5], 1);
-    assert_near(sh[2].mesh.N[11], 1);
+    testutil_assert_near(sh[2].mesh.uv[5], 1, TOL);
+    testutil_assert_near(sh[2].mesh.N[11], 1, TOL);
     assert_false(sh[2].reverse_orientation);
     assert_true(sh[2].swaps_handedness); /* Scale -1 1 1 */
     assert_true(sh[2].flip_normals);
@@ -373,8 +369,8 @@ static void test_shapes(void **state)
     assert_int_equal(sh[3].type, SCENE_SHAPE_DISK);
     assert_true(sh[3].reverse_orientation && sh[3].swaps_handedness);
     assert_false(sh[3].flip_normals); /* the two flips cancel, as in pbrt-v4 */
-    assert_near(sh[3].radius, 1);
-    assert_near(sh[3].height, 0);
+    testutil_assert_near(sh[3].radius, 1, TOL);
+    testutil_assert_near(sh[3].height, 0, TOL);
 
     /* A bilinear patch p00 p10 p01 p11 becomes two triangles with the patch's normal
      * cross(p10 - p00, p01 - p00) = +z here. */
@@ -384,8 +380,8 @@ static void test_shapes(void **state)
     for (int i = 0; i < 6; i++)
         assert_int_equal(sh[4].mesh.indices[i], want[i]);
     for (size_t t = 0; t < 2; t++)
-        assert_near(tri_normal(&sh[4].mesh, t).z, 1);
-    assert_near(mesh_area(&sh[4].mesh), 1);
+        testutil_assert_near(tri_normal(&sh[4].mesh, t).z, 1, TOL);
+    testutil_assert_near(mesh_area(&sh[4].mesh), 1, TOL);
     assert_int_equal(sh[5].mesh.nvertices, 8);
     assert_int_equal(sh[5].mesh.ntriangles, 4);
 
@@ -396,8 +392,8 @@ static void test_shapes(void **state)
     assert_int_equal(sh[6].mesh.ntriangles, 3);
     assert_non_null(sh[6].mesh.uv);
     assert_null(sh[6].mesh.N);
-    assert_near(sh[6].mesh.P[14], 1);
-    assert_near(mesh_area(&sh[6].mesh), 1.0 + sqrt(1.25) / 2.0);
+    testutil_assert_near(sh[6].mesh.P[14], 1, TOL);
+    testutil_assert_near(mesh_area(&sh[6].mesh), 1.0 + sqrt(1.25) / 2.0, TOL);
     size_t up = 0;
     for (size_t t = 0; t < 3; t++)
         up += fabs(tri_normal(&sh[6].mesh, t).z - 1) < TOL;
@@ -407,11 +403,11 @@ static void test_shapes(void **state)
     assert_int_equal(sh[7].mesh.ntriangles, 4);
     assert_non_null(sh[7].mesh.N);
     assert_null(sh[7].mesh.uv);
-    assert_near(sh[7].mesh.N[2], 1);
-    assert_near(mesh_area(&sh[7].mesh), 1.5 + sqrt(3.0) / 2.0);
+    testutil_assert_near(sh[7].mesh.N[2], 1, TOL);
+    testutil_assert_near(mesh_area(&sh[7].mesh), 1.5 + sqrt(3.0) / 2.0, TOL);
 
-    assert_near(sh[8].radius, 2);
-    assert_near(sh[8].height, 0.5);
+    testutil_assert_near(sh[8].radius, 2, TOL);
+    testutil_assert_near(sh[8].height, 0.5, TOL);
     assert_int_equal(scene_desc_triangle_count(s), 1 + 2 + 2 + 4 + 3 + 4);
     scene_desc_destroy(&s);
 }
@@ -475,7 +471,7 @@ static void test_ply_variants_still_load(void **state)
         fail_msg("CRLF ascii PLY refused: %s", err.msg);
     assert_int_equal(m.nvertices, 5);
     assert_int_equal(m.ntriangles, 3);
-    assert_near(m.P[3 * 4 + 2], 1.0);
+    testutil_assert_near(m.P[3 * 4 + 2], 1.0, TOL);
     mesh_data_free(&m);
 
     /* binary big-endian: one triangle (1,2,3) (3,2,1) (1,1,1) with a uchar colour each and an
@@ -507,7 +503,7 @@ static void test_ply_variants_still_load(void **state)
     assert_int_equal(m.ntriangles, 1);
     const double want[9] = {1, 2, 3, 3, 2, 1, 1, 1, 1};
     for (int i = 0; i < 9; i++)
-        assert_near(m.P[i], want[i]);
+        testutil_assert_near(m.P[i], want[i], TOL);
     mesh_data_free(&m);
 
     /* One byte short of the extra element: the file ends inside it. */
@@ -739,15 +735,15 @@ static void test_includes(void **state)
     assert_int_equal(s->film.yres, 48);
     assert_int_equal(s->nshapes, 3);
     const scene_shape_t *sh = s->shapes;
-    assert_near(sh[0].radius, 3);
+    testutil_assert_near(sh[0].radius, 3, TOL);
     assert_string_equal(sh[0].loc.file, "data/scenes/inc/deeper/sphere.pbrt");
     assert_int_equal(sh[0].loc.line, 1);
     assert_point(&sh[0].to_world, vec3_make(0, 0, 0), 0, 1, 0); /* Include is textual */
-    assert_near(sh[1].radius, 4);
+    testutil_assert_near(sh[1].radius, 4, TOL);
     assert_point(&sh[1].to_world, vec3_make(0, 0, 0), 100, 1, 0);
     assert_int_equal(s->materials[sh[1].material].type, SCENE_MATERIAL_CONDUCTOR);
     /* Import does not leak its CTM or material */
-    assert_near(sh[2].radius, 5);
+    testutil_assert_near(sh[2].radius, 5, TOL);
     assert_point(&sh[2].to_world, vec3_make(0, 0, 0), 0, 1, 0);
     assert_int_equal(sh[2].material, 0);
     scene_desc_destroy(&s);
@@ -1107,13 +1103,13 @@ static void test_syntax_details(void **state)
                       "Shape \"sphere\" \"float radius\" .5e1\n");
     assert_true(s->area_lights[0].twosided);
     assert_int_equal(s->area_lights[0].L.kind, SCENE_SPECTRUM_RGB);
-    assert_near(s->area_lights[0].L.rgb[2], 3);
-    assert_near(s->lights[0].from.x, 1);
-    assert_near(s->lights[0].from.y, -2);
-    assert_near(s->lights[0].from.z, 4);
+    testutil_assert_near(s->area_lights[0].L.rgb[2], 3, TOL);
+    testutil_assert_near(s->lights[0].from.x, 1, TOL);
+    testutil_assert_near(s->lights[0].from.y, -2, TOL);
+    testutil_assert_near(s->lights[0].from.z, 4, TOL);
     assert_string_equal(s->materials[1].name, "a \"quoted\" name");
     assert_int_equal(s->shapes[0].material, 1);
-    assert_near(s->shapes[0].radius, 5);
+    testutil_assert_near(s->shapes[0].radius, 5, TOL);
     assert_int_equal(s->shapes[0].area_light, 0);
     scene_desc_destroy(&s);
 }
@@ -1127,19 +1123,6 @@ static uint64_t next_rand(uint64_t *x)
     *x ^= *x << 25;
     *x ^= *x >> 27;
     return *x * 2685821657736338717ull;
-}
-
-static char *read_all(const char *path, size_t *len)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    char *buf = malloc(1 << 16);
-    *len = 0;
-    if (buf)
-        *len = fread(buf, 1, (1 << 16) - 1, f);
-    fclose(f);
-    return buf;
 }
 
 static void test_mutations_never_crash(void **state)
@@ -1174,7 +1157,7 @@ static void test_mutations_never_crash(void **state)
     size_t parsed = 0, failed = 0;
     for (size_t fi = 0; fi < sizeof FILES / sizeof FILES[0]; fi++) {
         size_t len = 0;
-        char *orig = read_all(FILES[fi], &len);
+        char *orig = testutil_slurp(FILES[fi], &len);
         assert_non_null(orig);
         char *buf = malloc(2 * len + 256);
         assert_non_null(buf);

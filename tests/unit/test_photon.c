@@ -405,22 +405,12 @@ static void test_collimated_direct(void **state)
     scene_destroy(&s);
 }
 
-static scene_t *load_text(const char *text, err_t *err)
-{
-    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", err);
-    if (!d)
-        return NULL;
-    scene_t *s = scene_load(d, NULL, err);
-    scene_desc_destroy(&d);
-    return s;
-}
-
 static void expect_error(const char *integrator, const char *fragment)
 {
     char text[1024];
     snprintf(text, sizeof text, "%s\nWorldBegin\nLightSource \"point\"\n", integrator);
     err_t err = {{0}};
-    scene_t *s = load_text(text, &err);
+    scene_t *s = sb_load_text(text, &err);
     if (s || !strstr(err.msg, fragment))
         fail_msg("%s: expected an error with '%s', got '%s'", integrator, fragment,
                  s ? "(loaded)" : err.msg);
@@ -430,7 +420,7 @@ static void test_scene_parameters(void **state)
 {
     (void)state;
     err_t err = {{0}};
-    scene_t *s = load_text(
+    scene_t *s = sb_load_text(
         "Integrator \"photon\" \"integer photons\" 12345 \"float radius\" 0.25 \"integer k\" 30\n"
         "  \"string gather\" \"whitted\" \"integer maxdepth\" 7 \"float threshold\" 0.05\n"
         "  \"string store\" \"photonmap\" \"integer monochromerays\" 1 \"string dispersion\" "
@@ -452,8 +442,8 @@ static void test_scene_parameters(void **state)
     assert_true(photon_gather_radius(s) == 0.25);
     scene_destroy(&s);
     /* Defaults: path gather, a million photons, automatic radius. */
-    s = load_text("Integrator \"photon\"\nWorldBegin\nLightSource \"point\"\nShape \"sphere\"\n",
-                  &err);
+    s = sb_load_text("Integrator \"photon\"\nWorldBegin\nLightSource \"point\"\nShape \"sphere\"\n",
+                     &err);
     assert_non_null(s);
     assert_int_equal(s->settings.integrator, INTEGRATOR_PATH);
     assert_int_equal(s->settings.photon.photons, 1000000);
@@ -461,7 +451,7 @@ static void test_scene_parameters(void **state)
     assert_true(fabs(photon_gather_radius(s) - 0.01 * s->scene_radius) < 1e-15);
     scene_destroy(&s);
     /* Other integrators have no photon pass. */
-    s = load_text("Integrator \"path\"\nWorldBegin\nLightSource \"point\"\n", &err);
+    s = sb_load_text("Integrator \"path\"\nWorldBegin\nLightSource \"point\"\n", &err);
     assert_false(s->settings.photon.enabled);
     scene_destroy(&s);
     /* An override to another integrator leaves the photon parameters unused but accepted. */

@@ -9,8 +9,10 @@
 #include <stdint.h>
 #include <cmocka.h>
 
+#include "files_testutil.h"
 #include "photon.h"
 #include "photon_phase.h"
+#include "scene_builders.h"
 #include "scene_load.h"
 
 #include <math.h>
@@ -20,14 +22,7 @@
 
 static scene_t *beam_scene(uint64_t photons, int lanes)
 {
-    err_t err;
-    const char *src = getenv("PRISMFARM_SOURCE_DIR");
-    char path[4096];
-    snprintf(path, sizeof path, "%s/scenes/prism_beam.pbrt", src ? src : "..");
-    scene_overrides_t ov = {.seed = -1};
-    scene_t *s = scene_load_file(path, &ov, &err);
-    if (!s)
-        fail_msg("%s", err.msg);
+    scene_t *s = sb_load_file(testutil_source_path("scenes/prism_beam.pbrt"));
     s->settings.photon.photons = photons;
     s->settings.photon.monochromerays = lanes;
     return s;

@@ -10,6 +10,7 @@
 #include <cmocka.h>
 
 #include "cli_run.h"
+#include "files_testutil.h"
 
 #include "pbrt_parser.h"
 #include "photon.h"
@@ -57,16 +58,10 @@ static loaded_t load(const char *path, const char *text, const scene_overrides_t
     return l;
 }
 
-static const char *source_dir(void)
-{
-    const char *d = getenv("PRISMFARM_SOURCE_DIR");
-    return d ? d : "..";
-}
-
 static loaded_t load_shipped(const char *name)
 {
     char path[1024];
-    snprintf(path, sizeof path, "%s/scenes/%s", source_dir(), name);
+    snprintf(path, sizeof path, "%s/scenes/%s", testutil_source_dir(), name);
     /* Small images: the photon parameters scale with the film, nothing else does. */
     scene_overrides_t ov = {.xres = 160, .yres = 120, .seed = -1};
     return load(path, NULL, &ov);
@@ -202,13 +197,9 @@ static void test_cornell_without_glass(void **state)
 {
     (void)state;
     char path[1024];
-    snprintf(path, sizeof path, "%s/scenes/cornell.pbrt", source_dir());
-    FILE *f = fopen(path, "r");
-    assert_non_null(f);
-    static char text[16384];
-    size_t n = fread(text, 1, sizeof text - 1, f);
-    fclose(f);
-    text[n] = 0;
+    snprintf(path, sizeof path, "%s/scenes/cornell.pbrt", testutil_source_dir());
+    char *text = testutil_slurp(path, NULL);
+    assert_non_null(text);
     char *glass = strstr(text, "AttributeBegin\n  Material \"dielectric\"");
     assert_non_null(glass);
     *glass = 0;
@@ -218,6 +209,7 @@ static void test_cornell_without_glass(void **state)
     assert_non_null(strstr(plan_decision_of(l.plan, PLAN_SPLITTING)->reason, "no glass"));
     assert_int_equal(plan_rays(l.plan), 0);
     loaded_free(&l);
+    free(text);
 }
 
 static void test_shipped_prism(void **state)
@@ -326,7 +318,7 @@ static void test_every_shipped_scene(void **state)
 {
     (void)state;
     char pattern[1024];
-    snprintf(pattern, sizeof pattern, "%s/scenes/*.pbrt", source_dir());
+    snprintf(pattern, sizeof pattern, "%s/scenes/*.pbrt", testutil_source_dir());
     glob_t g;
     assert_int_equal(glob(pattern, 0, NULL, &g), 0);
     assert_true(g.gl_pathc >= 5);
@@ -719,7 +711,7 @@ static void test_cli_plan(void **state)
 {
     (void)state;
     char path[1024];
-    snprintf(path, sizeof path, "%s/scenes/prism_beam.pbrt", source_dir());
+    snprintf(path, sizeof path, "%s/scenes/prism_beam.pbrt", testutil_source_dir());
     const run_t *r = run("plan", path, "--res", "160x120", NULL);
     assert_int_equal(r->status, 0);
     expect_in(r->out, "photon pass");
@@ -729,7 +721,7 @@ static void test_cli_plan(void **state)
     assert_int_equal(r->status, 0);
     expect_in(r->out, "\"switched_off\"");
     expect_in(r->out, "\"photon\": true");
-    snprintf(path, sizeof path, "%s/scenes/cornell.pbrt", source_dir());
+    snprintf(path, sizeof path, "%s/scenes/cornell.pbrt", testutil_source_dir());
     r = run("plan", path, "--json", NULL);
     assert_int_equal(r->status, 0);
     expect_in(r->out, "\"photon pass\"");

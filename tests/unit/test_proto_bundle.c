@@ -19,6 +19,7 @@
 #include <unistd.h>
 
 #include "bundle.h"
+#include "files_testutil.h"
 #include "sha256.h"
 
 static void test_sha256_nist_vectors(void **state)
@@ -135,37 +136,6 @@ static void test_bundle_hash_is_the_documented_form(void **state)
     assert_non_null(strstr(err.msg, "'..' component"));
 }
 
-static char *read_file(const char *path, size_t *size)
-{
-    FILE *f = fopen(path, "rb");
-    if (!f)
-        return NULL;
-    static char buf[4096];
-    *size = fread(buf, 1, sizeof buf, f);
-    fclose(f);
-    return buf;
-}
-
-static int count_entries(const char *dir)
-{
-    DIR *d = opendir(dir);
-    if (!d)
-        return -1;
-    int n = 0;
-    for (struct dirent *e; (e = readdir(d));)
-        if (strcmp(e->d_name, ".") && strcmp(e->d_name, ".."))
-            n++;
-    closedir(d);
-    return n;
-}
-
-static void remove_tree(const char *path)
-{
-    char cmd[600];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", path);
-    assert_int_equal(system(cmd), 0);
-}
-
 static void test_extract_writes_every_file(void **state)
 {
     (void)state;
@@ -179,19 +149,20 @@ static void test_extract_writes_every_file(void **state)
     for (size_t i = 0; i < 3; i++) {
         snprintf(path, sizeof path, "%s/%s", dir, g_files[i].path);
         size_t n = 0;
-        const char *data = read_file(path, &n);
+        char *data = testutil_slurp(path, &n);
         assert_non_null(data);
         assert_int_equal(n, g_files[i].size);
         if (n)
             assert_memory_equal(data, g_files[i].data, n);
+        free(data);
     }
     /* No temporary file is left behind, and extracting again (a retried job) overwrites. */
-    assert_int_equal(count_entries(dir), 3); /* scene.pbrt, meshes, textures */
+    assert_int_equal(testutil_count_entries(dir), 3); /* scene.pbrt, meshes, textures */
     assert_int_equal(proto_bundle_extract(&g_bundle, dir, &err), 0);
-    assert_int_equal(count_entries(dir), 3);
+    assert_int_equal(testutil_count_entries(dir), 3);
     snprintf(path, sizeof path, "%s/meshes", dir);
-    assert_int_equal(count_entries(path), 1);
-    remove_tree(root);
+    assert_int_equal(testutil_count_entries(path), 1);
+    assert_int_equal(testutil_rmtree(root), 0);
 }
 
 static void test_extract_refuses_symlink_tricks(void **state)
@@ -211,7 +182,7 @@ static void test_extract_refuses_symlink_tricks(void **state)
     err_t err = {""};
     assert_int_equal(proto_bundle_extract(&g_bundle, dir, &err), -1);
     assert_non_null(strstr(err.msg, "'meshes' is not a plain folder"));
-    assert_int_equal(count_entries(outside), 0);
+    assert_int_equal(testutil_count_entries(outside), 0);
     assert_int_equal(unlink(link), 0);
 
     /* A link where a file of the bundle goes: it is replaced, its target left untouched. */
@@ -228,10 +199,12 @@ static void test_extract_refuses_symlink_tricks(void **state)
     assert_int_equal(lstat(link, &st), 0);
     assert_true(S_ISREG(st.st_mode));
     size_t n = 0;
-    const char *data = read_file(target, &n);
+    char *data = testutil_slurp(target, &n);
+    assert_non_null(data);
     assert_int_equal(n, 7);
     assert_memory_equal(data, "keep me", 7);
-    assert_int_equal(count_entries(outside), 1);
+    free(data);
+    assert_int_equal(testutil_count_entries(outside), 1);
 
     /* A bundle that breaks the path rules writes nothing at all. */
     proto_bundle_file_t bad[2] = {{"ok.txt", g_mesh, 1}, {"../escape", g_mesh, 1}};
@@ -243,7 +216,7 @@ static void test_extract_refuses_symlink_tricks(void **state)
     assert_int_equal(access(dir2, F_OK), -1);
     snprintf(target, sizeof target, "%s/escape", root);
     assert_int_equal(access(target, F_OK), -1);
-    remove_tree(root);
+    assert_int_equal(testutil_rmtree(root), 0);
 }
 
 int main(void)

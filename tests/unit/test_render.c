@@ -15,31 +15,9 @@
 #include "local_render.h"
 #include "render.h"
 #include "scene.h"
+#include "scene_builders.h"
 
 static const int RES = 8;
-
-static scene_t *new_scene(integrator_kind_t integ, dispersion_kind_t disp, int spp)
-{
-    err_t err;
-    scene_t *s = scene_new(&err);
-    assert_non_null(s);
-    s->settings.integrator = integ;
-    s->settings.dispersion = disp;
-    s->settings.spp = spp;
-    s->settings.maxdepth = 64;
-    s->settings.xres = RES;
-    s->settings.yres = RES;
-    s->settings.visible_sampling = 0;
-    return s;
-}
-
-static void look_at(scene_t *s, vec3_t eye, vec3_t at, double fov)
-{
-    transform_t cam;
-    assert_int_equal(transform_look_at(eye, at, vec3_make(0, 1, 0), &cam, NULL), 0);
-    s->camera.camera_to_world = transform_inverse(cam);
-    s->camera.fov_deg = fov;
-}
 
 typedef struct stats {
     double mean[64];
@@ -92,8 +70,8 @@ static void assert_buckets(const stats_t *st, int nb, double expect, double k_se
 static void furnace(integrator_kind_t integ, dispersion_kind_t disp, const char *glass_name)
 {
     err_t err;
-    scene_t *s = new_scene(integ, disp, 64);
-    look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 20);
+    scene_t *s = sb_render_scene(integ, disp, RES, 64);
+    sb_look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 20);
     spectrum_t *env = spectrum_new_constant(1.0, &err);
     assert_non_null(env);
     light_t l = {.kind = LIGHT_INFINITE, .spectrum = env, .scale = 1.0};
@@ -146,8 +124,8 @@ static void test_furnace_dispersive_whitted_fanout(void **state) { (void)state; 
 static void closed_sphere(integrator_kind_t integ, double expect)
 {
     err_t err;
-    scene_t *s = new_scene(integ, DISPERSION_HERO, 64);
-    look_at(s, vec3_make(0, 0, 0), vec3_make(0, 0, 1), 60);
+    scene_t *s = sb_render_scene(integ, DISPERSION_HERO, RES, 64);
+    sb_look_at(s, vec3_make(0, 0, 0), vec3_make(0, 0, 1), 60);
     spectrum_t *le = spectrum_new_constant(0.5, &err);
     scene_own_spectrum(s, le, &err);
     texture_t *rho = texture_new_constant_value(0.5, &err);
@@ -179,12 +157,12 @@ static void slab(integrator_kind_t integ, dispersion_kind_t disp, const char *gl
     /* Each sample reflects or refracts at random: enough samples for a standard error well
      * under the 1 % tolerance (about 0.2 % per bucket here). */
     int spp = integ == INTEGRATOR_WHITTED ? 4 : disp == DISPERSION_HERO ? 8192 : 1024;
-    scene_t *s = new_scene(integ, disp, spp);
+    scene_t *s = sb_render_scene(integ, disp, RES, spp);
     /* A hero sample that refracts carries one wavelength into one bucket: fewer, wider
      * buckets keep the per-bucket sample count up. */
     if (disp == DISPERSION_HERO)
         spectral_grid_init(&s->settings.grid, 8, 380, 720, NULL);
-    look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 4);
+    sb_look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 4);
     spectrum_t *le = spectrum_new_constant(1.0, &err);
     scene_own_spectrum(s, le, &err);
     light_t l = {.kind = LIGHT_AREA, .spectrum = le, .scale = 1.0};
@@ -236,8 +214,8 @@ static void test_tiles_are_deterministic(void **state)
 {
     (void)state;
     err_t err;
-    scene_t *s = new_scene(INTEGRATOR_PATH, DISPERSION_FANOUT, 16);
-    look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 30);
+    scene_t *s = sb_render_scene(INTEGRATOR_PATH, DISPERSION_FANOUT, RES, 16);
+    sb_look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 30);
     spectrum_t *env = spectrum_new_constant(1.0, &err);
     scene_own_spectrum(s, env, &err);
     light_t l = {.kind = LIGHT_INFINITE, .spectrum = env, .scale = 1.0};

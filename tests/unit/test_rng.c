@@ -11,6 +11,7 @@
 #include <stdlib.h>
 #include <time.h>
 
+#include "numeric_testutil.h"
 #include "rng.h"
 
 /* Known-answer vectors published with Random123 (D. E. Shaw Research, examples/kat_vectors):
@@ -147,15 +148,6 @@ static void test_key_components_matter(void **state)
     assert_true(rng_uniform(1, 2, 3, 6) != base);
 }
 
-/* Wilson-Hilferty approximation of the chi-square quantile with df degrees of freedom at
- * standard-normal quantile z (accurate to < 0.1 % for df > 30). */
-static double chi2_quantile(double df, double z)
-{
-    double h = 2.0 / (9.0 * df);
-    double c = 1.0 - h + z * sqrt(h);
-    return df * c * c * c;
-}
-
 /* 1e6 draws over a million pixel indices of one seed:
  * - the mean of U(0,1) is 1/2 with standard error sqrt(1/12 / N) = 2.9e-4; accept 4 sigma;
  * - no draw is 1.0 (nor negative);
@@ -194,7 +186,7 @@ static void test_statistics(void **state)
     double expected = (double)N / BUCKETS, chi2 = 0.0;
     for (int b = 0; b < BUCKETS; b++)
         chi2 += (count[b] - expected) * (count[b] - expected) / expected;
-    double limit = chi2_quantile(BUCKETS - 1, 4.75);
+    double limit = testutil_chi2_quantile(BUCKETS - 1, 4.75);
     /* the 1e-6 quantile can be checked loosely by hand: mean 999, sd sqrt(2 * 999) = 44.7 */
     assert_true(limit > 999 + 4.0 * 44.7 && limit < 999 + 6.0 * 44.7);
     assert_true(chi2 < limit);

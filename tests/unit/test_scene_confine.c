@@ -31,6 +31,7 @@
 #include <time.h>
 #include <unistd.h>
 
+#include "files_testutil.h"
 #include "image_png.h"
 #include "mesh_import.h"
 #include "pbrt_parser.h"
@@ -45,18 +46,9 @@
 #define FAST_S 1.0
 
 typedef struct fixture {
-    char base[64];    /* /tmp/prismfarm-confine-XXXXXX */
+    char base[64];    /* /tmp/prismfarm-test-confine-XXXXXX */
     char bundle[128]; /* base/bundle: the scene's folder */
 } fixture_t;
-
-static void write_text(const char *path, const char *text)
-{
-    FILE *f = fopen(path, "wb");
-    if (!f)
-        fail_msg("cannot write %s: %s", path, strerror(errno));
-    assert_int_equal(fwrite(text, 1, strlen(text), f), strlen(text));
-    assert_int_equal(fclose(f), 0);
-}
 
 static void write_bytes(const char *path, const void *data, size_t n)
 {
@@ -201,7 +193,7 @@ static void expect_refused(const fixture_t *fx, const char *text, const char *lo
 {
     char path[256], expected[700];
     in_bundle(fx, "scene.pbrt", path, sizeof path);
-    write_text(path, text);
+    testutil_write_text(path, text, 0644);
     snprintf(expected, sizeof expected, "%s:%s", path, located);
     parse_job_t j = {path, fx->bundle};
     expect_outcome(run_in_child(job_parse, &j), text, expected);
@@ -218,8 +210,7 @@ static int setup(void **state)
 {
     fixture_t *fx = calloc(1, sizeof *fx);
     assert_non_null(fx);
-    snprintf(fx->base, sizeof fx->base, "/tmp/prismfarm-confine-XXXXXX");
-    assert_non_null(mkdtemp(fx->base));
+    assert_int_equal(testutil_mkdtemp(fx->base, sizeof fx->base, "confine"), 0);
     snprintf(fx->bundle, sizeof fx->bundle, "%s/bundle", fx->base);
     char p[256];
     const char *dirs[] = {"", "/sub", "/sub/deeper", "/meshes", "/tex"};
@@ -228,31 +219,42 @@ static int setup(void **state)
         assert_int_equal(mkdir(p, 0700), 0);
     }
     snprintf(p, sizeof p, "%s/outside.pbrt", fx->base);
-    write_text(p, "AttributeBegin\nAttributeEnd\n");
+    testutil_write_text(p, "AttributeBegin\nAttributeEnd\n", 0644);
     snprintf(p, sizeof p, "%s/outside.ply", fx->base);
-    write_text(p, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                  "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
-                  "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+    testutil_write_text(
+        p,
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+        "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+        0644);
 
     in_bundle(fx, "main.pbrt", p, sizeof p);
-    write_text(p, "LookAt 0 0 -5  0 0 0  0 1 0\n"
-                  "Camera \"perspective\" \"float fov\" 45\n"
-                  "Film \"rgb\" \"integer xresolution\" 8 \"integer yresolution\" 8\n"
-                  "WorldBegin\n"
-                  "LightSource \"point\" \"point3 from\" [0 0 -4]\n"
-                  "Include \"sub/inc.pbrt\"\n"
-                  "Include \"alias.pbrt\"\n");
+    testutil_write_text(p,
+                        "LookAt 0 0 -5  0 0 0  0 1 0\n"
+                        "Camera \"perspective\" \"float fov\" 45\n"
+                        "Film \"rgb\" \"integer xresolution\" 8 \"integer yresolution\" 8\n"
+                        "WorldBegin\n"
+                        "LightSource \"point\" \"point3 from\" [0 0 -4]\n"
+                        "Include \"sub/inc.pbrt\"\n"
+                        "Include \"alias.pbrt\"\n",
+                        0644);
     in_bundle(fx, "sub/inc.pbrt", p, sizeof p);
-    write_text(p, "Include \"deeper/more.pbrt\"\n"
-                  "Texture \"t\" \"spectrum\" \"imagemap\" \"string filename\" \"tex/t.png\"\n"
-                  "Material \"diffuse\" \"texture reflectance\" \"t\"\n"
-                  "Shape \"plymesh\" \"string filename\" \"../meshes/tri.ply\"\n");
+    testutil_write_text(
+        p,
+        "Include \"deeper/more.pbrt\"\n"
+        "Texture \"t\" \"spectrum\" \"imagemap\" \"string filename\" \"tex/t.png\"\n"
+        "Material \"diffuse\" \"texture reflectance\" \"t\"\n"
+        "Shape \"plymesh\" \"string filename\" \"../meshes/tri.ply\"\n",
+        0644);
     in_bundle(fx, "sub/deeper/more.pbrt", p, sizeof p);
-    write_text(p, "Shape \"sphere\" \"float radius\" 0.5\n");
+    testutil_write_text(p, "Shape \"sphere\" \"float radius\" 0.5\n", 0644);
     in_bundle(fx, "meshes/tri.ply", p, sizeof p);
-    write_text(p, "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
-                  "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
-                  "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+    testutil_write_text(
+        p,
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+        "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+        "end_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+        0644);
     in_bundle(fx, "tex/t.png", p, sizeof p);
     uint8_t rgb[6] = {128, 128, 128, 200, 100, 0};
     err_t err;
@@ -283,9 +285,7 @@ static int setup(void **state)
 static int teardown(void **state)
 {
     fixture_t *fx = *state;
-    char cmd[160];
-    snprintf(cmd, sizeof cmd, "rm -rf '%s'", fx->base);
-    if (system(cmd) != 0)
+    if (testutil_rmtree(fx->base) != 0)
         fprintf(stderr, "could not remove %s\n", fx->base);
     free(fx);
     return 0;
@@ -403,7 +403,7 @@ static void test_ply_counts(void **state)
     snprintf(text, sizeof text, "%s%s", PLY_BOMB_HEADER, PLY_BOMB_BODY);
     assert_int_equal(strlen(text), 200);
     in_bundle(fx, "big.ply", path, sizeof path);
-    write_text(path, text);
+    testutil_write_text(path, text, 0644);
     /* After the header, the file holds the 26 bytes of PLY_BOMB_BODY. */
     snprintf(expected, sizeof expected,
              "2:17: \"%s\": PLY element \"vertex\" declares 2147483648 instances but only 26 "
@@ -529,7 +529,7 @@ static void test_legitimate_scene_loads(void **state)
     /* The unconfined parse of a user's own files still reads outside the folder (the
      * client's bundler refuses such scenes before they travel). */
     in_bundle(fx, "scene.pbrt", main_path, sizeof main_path);
-    write_text(main_path, "WorldBegin\nInclude \"../outside.pbrt\"\n");
+    testutil_write_text(main_path, "WorldBegin\nInclude \"../outside.pbrt\"\n", 0644);
     d = pbrt_parse_file(main_path, &err);
     if (!d)
         fail_msg("the unconfined parse failed: %s", err.msg);

@@ -20,20 +20,8 @@
 #include "cie.h"
 #include "image_png.h"
 #include "pbrt_parser.h"
+#include "scene_builders.h"
 #include "scene_load.h"
-
-static scene_t *load_text(const char *text)
-{
-    err_t err = {{0}};
-    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
-    if (!d)
-        fail_msg("parse: %s\n--\n%s", err.msg, text);
-    scene_t *s = scene_load(d, NULL, &err);
-    scene_desc_destroy(&d);
-    if (!s)
-        fail_msg("load: %s\n--\n%s", err.msg, text);
-    return s;
-}
 
 static void expect_load_error(const char *text, const char *expected)
 {
@@ -70,15 +58,17 @@ static double light_luminance(const light_t *l)
 static void test_light_normalisation(void **state)
 {
     (void)state;
-    scene_t *s = load_text("WorldBegin\n"
-                           "LightSource \"point\" \"blackbody I\" 3000 \"float scale\" 3\n"
-                           "LightSource \"point\" \"spectrum I\" \"stdillum-A\" \"float scale\" 2\n"
-                           "LightSource \"point\" \"spectrum I\" [400 1 500 8 700 3]\n"
-                           "LightSource \"point\" \"rgb I\" [1 1 1]\n"
-                           "LightSource \"point\" \"rgb I\" [10 10 10] \"float scale\" 0.5\n"
-                           "LightSource \"point\" \"rgb I\" [0.8 0.4 0.1]\n"
-                           "LightSource \"point\" \"float I\" 5\n"
-                           "LightSource \"point\"\n");
+    scene_t *s =
+        sb_load_text("WorldBegin\n"
+                     "LightSource \"point\" \"blackbody I\" 3000 \"float scale\" 3\n"
+                     "LightSource \"point\" \"spectrum I\" \"stdillum-A\" \"float scale\" 2\n"
+                     "LightSource \"point\" \"spectrum I\" [400 1 500 8 700 3]\n"
+                     "LightSource \"point\" \"rgb I\" [1 1 1]\n"
+                     "LightSource \"point\" \"rgb I\" [10 10 10] \"float scale\" 0.5\n"
+                     "LightSource \"point\" \"rgb I\" [0.8 0.4 0.1]\n"
+                     "LightSource \"point\" \"float I\" 5\n"
+                     "LightSource \"point\"\n",
+                     NULL);
     assert_int_equal(s->nlights, 8);
     /* Spectra are divided by their photometric value: "scale" is the luminance. */
     assert_rel(light_luminance(&s->lights[0]), 3.0, TOL, "blackbody");
@@ -106,20 +96,23 @@ static void test_light_normalisation(void **state)
 static void test_power_and_illuminance(void **state)
 {
     (void)state;
-    scene_t *s = load_text("WorldBegin\n"
-                           "LightSource \"point\" \"float power\" 100\n"
-                           "LightSource \"spot\" \"float power\" 100 \"float coneangle\" 40 "
-                           "\"float conedeltaangle\" 10 \"float scale\" 2\n"
-                           "LightSource \"distant\" \"float illuminance\" 7\n"
-                           "LightSource \"infinite\" \"float illuminance\" 7\n"
-                           "AttributeBegin\n"
-                           "  AreaLightSource \"diffuse\" \"float power\" 100\n"
-                           "  Shape \"sphere\" \"float radius\" 2\n"
-                           "AttributeEnd\n"
-                           "AttributeBegin\n"
-                           "  AreaLightSource \"diffuse\" \"float power\" 100 \"bool twosided\" true\n"
-                           "  Shape \"trianglemesh\" \"point3 P\" [0 0 0 2 0 0 2 2 0 0 2 0] \"integer indices\" [0 1 2 0 2 3]\n"
-                           "AttributeEnd\n");
+    scene_t *s =
+        sb_load_text("WorldBegin\n"
+                     "LightSource \"point\" \"float power\" 100\n"
+                     "LightSource \"spot\" \"float power\" 100 \"float coneangle\" 40 "
+                     "\"float conedeltaangle\" 10 \"float scale\" 2\n"
+                     "LightSource \"distant\" \"float illuminance\" 7\n"
+                     "LightSource \"infinite\" \"float illuminance\" 7\n"
+                     "AttributeBegin\n"
+                     "  AreaLightSource \"diffuse\" \"float power\" 100\n"
+                     "  Shape \"sphere\" \"float radius\" 2\n"
+                     "AttributeEnd\n"
+                     "AttributeBegin\n"
+                     "  AreaLightSource \"diffuse\" \"float power\" 100 \"bool twosided\" true\n"
+                     "  Shape \"trianglemesh\" \"point3 P\" [0 0 0 2 0 0 2 2 0 0 2 0] \"integer "
+                     "indices\" [0 1 2 0 2 3]\n"
+                     "AttributeEnd\n",
+                     NULL);
     assert_int_equal(s->nlights, 6);
     /* pbrt-v4 lights.cpp, with the spectrum normalised to luminance 1:
      * point: I = power / (4 pi). */
@@ -180,7 +173,7 @@ static void test_imagemap_encodings(void **state)
              "Material \"diffuse\" \"texture reflectance\" \"g\"\n"
              "Material \"diffuse\" \"texture reflectance\" \"m\"\n",
              path, path, path, path);
-    scene_t *s = load_text(text);
+    scene_t *s = sb_load_text(text, NULL);
     /* Texel centres: (0.25, 0.5) is the grey, (0.75, 0.5) the colour. A grey uplifts to a flat
      * spectrum of exactly its value. */
     double v = 128 / 255.0;
@@ -199,15 +192,17 @@ static void test_imagemap_encodings(void **state)
 static void test_surface_conventions(void **state)
 {
     (void)state;
-    scene_t *s = load_text("WorldBegin\n"
-                           /* 0: no uv: pbrt-v4 gives the vertices (0,0), (1,0), (1,1) */
-                           "Shape \"trianglemesh\" \"point3 P\" [0 0 0 4 0 0 4 4 0]\n"
-                           /* 1: a sphere at x = 10 */
-                           "AttributeBegin\nTranslate 10 0 0\nShape \"sphere\"\nAttributeEnd\n"
-                           /* 2: normals (0 0 1) under ReverseOrientation, wound to face -z */
-                           "AttributeBegin\nReverseOrientation\nTranslate 20 0 0\n"
-                           "Shape \"trianglemesh\" \"point3 P\" [0 0 0 0 4 0 4 0 0] \"normal N\" [0 0 1 0 0 1 0 0 1]\n"
-                           "AttributeEnd\n");
+    scene_t *s = sb_load_text(
+        "WorldBegin\n"
+        /* 0: no uv: pbrt-v4 gives the vertices (0,0), (1,0), (1,1) */
+        "Shape \"trianglemesh\" \"point3 P\" [0 0 0 4 0 0 4 4 0]\n"
+        /* 1: a sphere at x = 10 */
+        "AttributeBegin\nTranslate 10 0 0\nShape \"sphere\"\nAttributeEnd\n"
+        /* 2: normals (0 0 1) under ReverseOrientation, wound to face -z */
+        "AttributeBegin\nReverseOrientation\nTranslate 20 0 0\n"
+        "Shape \"trianglemesh\" \"point3 P\" [0 0 0 0 4 0 4 0 0] \"normal N\" [0 0 1 0 0 1 0 0 1]\n"
+        "AttributeEnd\n",
+        NULL);
     hit_t h;
     surface_t sf;
     /* (3, 1) = 0.25 p0 + 0.5 p1 + 0.25 p2: uv = 0.5 (1, 0) + 0.25 (1, 1) = (0.75, 0.25). */
@@ -240,8 +235,10 @@ static void test_surface_conventions(void **state)
 static void test_integrator_options(void **state)
 {
     (void)state;
-    scene_t *s = load_text("Integrator \"path\" \"string lightsampler\" \"power\" \"bool regularize\" false\n"
-                           "WorldBegin\n");
+    scene_t *s = sb_load_text(
+        "Integrator \"path\" \"string lightsampler\" \"power\" \"bool regularize\" false\n"
+        "WorldBegin\n",
+        NULL);
     assert_int_equal(s->settings.integrator, INTEGRATOR_PATH);
     scene_destroy(&s);
     expect_load_error("Integrator \"path\" \"bool regularize\" true\nWorldBegin\n",

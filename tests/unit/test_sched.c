@@ -10,13 +10,7 @@
 #include <string.h>
 
 #include "sched.h"
-
-static spectral_grid_t grid4(void)
-{
-    spectral_grid_t g;
-    spectral_grid_init(&g, 4, 400, 700, NULL);
-    return g;
-}
+#include "sched_testutil.h"
 
 static sched_t *new_sched(int tile)
 {
@@ -51,7 +45,7 @@ static void test_passes_and_tiles(void **state)
     sched_t *s = new_sched(4);
     err_t err;
     /* 10x6 pixels in 4x4 tiles: 3 x 2 tiles; spp 5: passes [0,1) [1,2) [2,4) [4,5). */
-    assert_int_equal(sched_add_job(s, 7, 10, 6, 5, grid4(), &err), 0);
+    assert_int_equal(sched_add_job(s, 7, 10, 6, 5, testutil_grid(4), &err), 0);
     sched_job_info_t info;
     assert_int_equal(sched_job_info(s, 7, &info), 0);
     assert_int_equal(info.ntiles, 6);
@@ -79,21 +73,12 @@ static void run_job(unsigned order_seed, tilebuf_t **image_out)
 {
     sched_t *s = new_sched(4);
     err_t err;
-    sched_add_job(s, 1, 10, 6, 9, grid4(), &err);
+    sched_add_job(s, 1, 10, 6, 9, testutil_grid(4), &err);
     sched_worker_join(s, 1, 1000, 0.0, &err);
     sched_task_t tasks[256];
-    int n = 0;
-    while (sched_next_task(s, 1, 0.0, &tasks[n]))
-        n++;
+    int n = testutil_take_all(s, tasks, 256);
     /* A fixed pseudo-random permutation of the completion order. */
-    unsigned x = order_seed;
-    for (int i = n - 1; i > 0; i--) {
-        x = x * 1103515245u + 12345u;
-        int k = (int)((x >> 8) % (unsigned)(i + 1));
-        sched_task_t tmp = tasks[i];
-        tasks[i] = tasks[k];
-        tasks[k] = tmp;
-    }
+    testutil_shuffle_tasks(tasks, n, order_seed);
     int passes_done = 0, job_done = 0;
     for (int i = 0; i < n; i++) {
         tilebuf_t *r = fake_result(&tasks[i], 4);
@@ -137,7 +122,7 @@ static void test_dead_worker_and_deadline(void **state)
     (void)state;
     sched_t *s = new_sched(8);
     err_t err;
-    sched_add_job(s, 3, 8, 8, 1, grid4(), &err); /* one task */
+    sched_add_job(s, 3, 8, 8, 1, testutil_grid(4), &err); /* one task */
     sched_worker_join(s, 10, 1, 0.0, &err);
     sched_worker_join(s, 11, 1, 0.0, &err);
     sched_task_t t, u;
@@ -178,7 +163,7 @@ static void test_failures_block_and_fail(void **state)
     c.max_worker_job_failures = 2;
     sched_t *s = sched_new(&c, NULL);
     err_t err;
-    sched_add_job(s, 5, 8, 8, 1, grid4(), &err);
+    sched_add_job(s, 5, 8, 8, 1, testutil_grid(4), &err);
     sched_worker_join(s, 1, 1, 0.0, &err);
     sched_worker_join(s, 2, 1, 0.0, &err);
     sched_task_t t;
@@ -206,9 +191,9 @@ static void test_bad_results_and_jobs(void **state)
     (void)state;
     sched_t *s = new_sched(4);
     err_t err;
-    assert_int_equal(sched_add_job(s, 1, 0, 6, 4, grid4(), &err), -1);
-    assert_int_equal(sched_add_job(s, 1, 8, 8, 4, grid4(), &err), 0);
-    assert_int_equal(sched_add_job(s, 1, 8, 8, 4, grid4(), &err), -1);
+    assert_int_equal(sched_add_job(s, 1, 0, 6, 4, testutil_grid(4), &err), -1);
+    assert_int_equal(sched_add_job(s, 1, 8, 8, 4, testutil_grid(4), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 8, 8, 4, testutil_grid(4), &err), -1);
     assert_non_null(strstr(err.msg, "exists"));
     sched_worker_join(s, 1, 4, 0, &err);
     sched_task_t t;
@@ -239,7 +224,7 @@ static void test_prefetch_shrinks_at_the_end(void **state)
     sched_t *s = new_sched(4);
     err_t err;
     /* One 4x4 tile, spp 4: passes [0,1) [1,2) [2,4), three tasks. */
-    assert_int_equal(sched_add_job(s, 1, 4, 4, 4, grid4(), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 4, 4, 4, testutil_grid(4), &err), 0);
     for (uint64_t w = 1; w <= 2; w++) {
         assert_int_equal(sched_worker_join(s, w, 2, 0, &err), 0);
         assert_int_equal(sched_worker_set_threads(s, w, 1, &err), 0);
@@ -257,7 +242,7 @@ static void test_prefetch_shrinks_at_the_end(void **state)
     /* The same with two tasks: worker 1 takes one; the other is left for worker 2's idle
      * thread rather than queued behind worker 1's. */
     s = new_sched(4);
-    assert_int_equal(sched_add_job(s, 1, 4, 4, 2, grid4(), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 4, 4, 2, testutil_grid(4), &err), 0);
     for (uint64_t w = 1; w <= 2; w++) {
         assert_int_equal(sched_worker_join(s, w, 2, 0, &err), 0);
         assert_int_equal(sched_worker_set_threads(s, w, 1, &err), 0);
@@ -282,7 +267,7 @@ static void test_restore_from_checkpoint(void **state)
     err_t err;
     /* The uninterrupted run: 8x4 pixels, tiles of 4 (2 tiles), spp 4 (3 passes). */
     sched_t *s = new_sched(4);
-    assert_int_equal(sched_add_job(s, 1, 8, 4, 4, grid4(), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 8, 4, 4, testutil_grid(4), &err), 0);
     sched_worker_join(s, 1, 64, 0, &err);
     sched_task_t t;
     while (sched_next_task(s, 1, 0, &t) == 1) {
@@ -293,7 +278,7 @@ static void test_restore_from_checkpoint(void **state)
 
     /* The interrupted one: tile 0 merged passes 0-1, tile 1 pass 0 (a checkpoint). */
     sched_t *s2 = new_sched(4);
-    assert_int_equal(sched_add_job(s2, 1, 8, 4, 4, grid4(), &err), 0);
+    assert_int_equal(sched_add_job(s2, 1, 8, 4, 4, testutil_grid(4), &err), 0);
     sched_worker_join(s2, 1, 64, 0, &err);
     int next[2] = {2, 1};
     tilebuf_t *img = tilebuf_new(0, 0, 8, 4, 4, &err);

@@ -11,13 +11,7 @@
 #include <string.h>
 
 #include "sched.h"
-
-static spectral_grid_t grid4(void)
-{
-    spectral_grid_t g;
-    spectral_grid_init(&g, 4, 400, 700, NULL);
-    return g;
-}
+#include "sched_testutil.h"
 
 static sched_t *new_sched(void)
 {
@@ -68,7 +62,7 @@ static void test_batches_before_tiles(void **state)
     sched_t *s = new_sched();
     err_t err;
     /* 8x4 pixels in 4x4 tiles, 2 spp: 2 tiles x 2 passes; 3 photon batches. */
-    assert_int_equal(sched_add_job(s, 1, 8, 4, 2, grid4(), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 8, 4, 2, testutil_grid(4), &err), 0);
     assert_int_equal(sched_add_photon_batches(s, 1, 3, &err), 0);
     assert_int_equal(sched_worker_join(s, 10, 100, 0.0, &err), 0);
     assert_int_equal(sched_worker_join(s, 11, 100, 0.0, &err), 0);
@@ -119,7 +113,7 @@ static void test_deadline_and_failure(void **state)
     (void)state;
     sched_t *s = new_sched();
     err_t err;
-    assert_int_equal(sched_add_job(s, 2, 4, 4, 1, grid4(), &err), 0);
+    assert_int_equal(sched_add_job(s, 2, 4, 4, 1, testutil_grid(4), &err), 0);
     assert_int_equal(sched_add_photon_batches(s, 2, 2, &err), 0);
     assert_int_equal(sched_worker_join(s, 10, 1, 0.0, &err), 0);
     sched_task_t a, b;
@@ -151,7 +145,7 @@ static void test_fail_job(void **state)
     (void)state;
     sched_t *s = new_sched();
     err_t err;
-    assert_int_equal(sched_add_job(s, 3, 8, 4, 2, grid4(), &err), 0);
+    assert_int_equal(sched_add_job(s, 3, 8, 4, 2, testutil_grid(4), &err), 0);
     assert_int_equal(sched_add_photon_batches(s, 3, 2, &err), 0);
     assert_int_equal(sched_worker_join(s, 10, 100, 0.0, &err), 0);
     sched_task_t t;

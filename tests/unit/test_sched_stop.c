@@ -11,15 +11,9 @@
 #include <string.h>
 
 #include "sched.h"
+#include "sched_testutil.h"
 
 #define NB 3
-
-static spectral_grid_t grid3(void)
-{
-    spectral_grid_t g;
-    spectral_grid_init(&g, NB, 400, 700, NULL);
-    return g;
-}
 
 static sched_t *new_sched(void)
 {
@@ -68,15 +62,6 @@ static void test_pass_bounds(void **state)
     assert_int_equal(b[32], 0x7fffffffu);
 }
 
-/* All the tasks of a job on one worker with room for all of them. */
-static int take_all(sched_t *s, sched_task_t *tasks, int max)
-{
-    int n = 0;
-    while (n < max && sched_next_task(s, 1, 0.0, &tasks[n]))
-        n++;
-    return n;
-}
-
 /* Results in reverse order: the last pass completes first, but is merged only after every
  * earlier one, one boundary per call, with SCHED_PASS_READY saying another is waiting. */
 static void test_whole_passes_one_boundary_at_a_time(void **state)
@@ -85,11 +70,11 @@ static void test_whole_passes_one_boundary_at_a_time(void **state)
     sched_t *s = new_sched();
     err_t err;
     /* 8x8 pixels in 4x4 tiles: 4 tiles; spp 8: passes [0,1) [1,2) [2,4) [4,8). */
-    assert_int_equal(sched_add_job(s, 1, 8, 8, 8, grid3(), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 8, 8, 8, testutil_grid(NB), &err), 0);
     assert_int_equal(sched_set_whole_passes(s, 1, &err), 0);
     assert_int_equal(sched_worker_join(s, 1, 100, 0.0, &err), 0);
     sched_task_t t[16];
-    assert_int_equal(take_all(s, t, 16), 16);
+    assert_int_equal(testutil_take_all(s, t, 16), 16);
     sched_job_info_t info;
     for (int i = 15; i >= 1; i--) {
         tilebuf_t *r = fake_result(&t[i]);
@@ -130,20 +115,13 @@ static tilebuf_t *run_job(int spp, int stop_after, unsigned order_seed, bool who
 {
     sched_t *s = new_sched();
     err_t err;
-    assert_int_equal(sched_add_job(s, 9, 10, 6, spp, grid3(), &err), 0);
+    assert_int_equal(sched_add_job(s, 9, 10, 6, spp, testutil_grid(NB), &err), 0);
     if (whole)
         assert_int_equal(sched_set_whole_passes(s, 9, &err), 0);
     assert_int_equal(sched_worker_join(s, 1, 1000, 0.0, &err), 0);
     sched_task_t tasks[256];
-    int n = take_all(s, tasks, 256);
-    unsigned x = order_seed;
-    for (int i = n - 1; i > 0; i--) {
-        x = x * 1103515245u + 12345u;
-        int k = (int)((x >> 8) % (unsigned)(i + 1));
-        sched_task_t tmp = tasks[i];
-        tasks[i] = tasks[k];
-        tasks[k] = tmp;
-    }
+    int n = testutil_take_all(s, tasks, 256);
+    testutil_shuffle_tasks(tasks, n, order_seed);
     sched_job_info_t info;
     for (int i = 0; i < n; i++) {
         tilebuf_t *r = fake_result(&tasks[i]);
@@ -209,8 +187,9 @@ static void test_finish_releases_tasks(void **state)
     (void)state;
     sched_t *s = new_sched();
     err_t err;
-    assert_int_equal(sched_add_job(s, 1, 4, 4, 16, grid3(), &err), 0); /* one tile, 5 passes */
-    assert_int_equal(sched_add_job(s, 2, 4, 4, 1, grid3(), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 4, 4, 16, testutil_grid(NB), &err),
+                     0); /* one tile, 5 passes */
+    assert_int_equal(sched_add_job(s, 2, 4, 4, 1, testutil_grid(NB), &err), 0);
     assert_int_equal(sched_set_whole_passes(s, 1, &err), 0);
     assert_int_equal(sched_worker_join(s, 1, 3, 0.0, &err), 0);
     sched_task_t t[3];
@@ -257,7 +236,7 @@ static void test_refusals(void **state)
     assert_non_null(strstr(err.msg, "no job 5"));
     assert_int_equal(sched_finish_job_at_pass(s, 5, &err), -1);
     assert_int_equal(sched_merge_next_pass(s, 5, &err), -1);
-    assert_int_equal(sched_add_job(s, 5, 8, 4, 4, grid3(), &err), 0); /* two tiles */
+    assert_int_equal(sched_add_job(s, 5, 8, 4, 4, testutil_grid(NB), &err), 0); /* two tiles */
     assert_int_equal(sched_worker_join(s, 1, 10, 0.0, &err), 0);
     sched_task_t t;
     assert_int_equal(sched_next_task(s, 1, 0.0, &t), 1);
@@ -287,7 +266,7 @@ static void test_whole_passes_with_lost_worker(void **state)
     (void)state;
     sched_t *s = new_sched();
     err_t err;
-    assert_int_equal(sched_add_job(s, 9, 10, 6, 8, grid3(), &err), 0);
+    assert_int_equal(sched_add_job(s, 9, 10, 6, 8, testutil_grid(NB), &err), 0);
     assert_int_equal(sched_set_whole_passes(s, 9, &err), 0);
     assert_int_equal(sched_worker_join(s, 1, 2, 0.0, &err), 0);
     assert_int_equal(sched_worker_join(s, 2, 1000, 0.0, &err), 0);

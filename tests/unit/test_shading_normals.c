@@ -17,6 +17,7 @@
 #include "glass.h"
 #include "render.h"
 #include "scene.h"
+#include "scene_builders.h"
 
 typedef struct mesh {
     double P[3 * 1024], N[3 * 1024];
@@ -61,29 +62,6 @@ static void uv_sphere(mesh_t *m, int nlon, int nlat)
 #undef RING
 }
 
-static scene_t *new_scene(integrator_kind_t integ, int res, int spp)
-{
-    err_t err;
-    scene_t *s = scene_new(&err);
-    assert_non_null(s);
-    s->settings.integrator = integ;
-    s->settings.dispersion = DISPERSION_FANOUT; /* lanes at bucket centres: no colour noise */
-    s->settings.spp = spp;
-    s->settings.maxdepth = 64;
-    s->settings.xres = res;
-    s->settings.yres = res;
-    s->settings.visible_sampling = 0;
-    return s;
-}
-
-static void look_at(scene_t *s, vec3_t eye, vec3_t at, double fov)
-{
-    transform_t cam;
-    assert_int_equal(transform_look_at(eye, at, vec3_make(0, 1, 0), &cam, NULL), 0);
-    s->camera.camera_to_world = transform_inverse(cam);
-    s->camera.fov_deg = fov;
-}
-
 static int add_constant_light(scene_t *s, light_t l, double value)
 {
     err_t err;
@@ -97,14 +75,8 @@ static int add_constant_light(scene_t *s, light_t l, double value)
     return i;
 }
 
-static int add_diffuse(scene_t *s, double rho)
-{
-    err_t err;
-    texture_t *t = texture_new_constant_value(rho, &err);
-    assert_int_equal(scene_own_texture(s, t, &err), 0);
-    material_t m = {.kind = MATERIAL_DIFFUSE, .reflectance = t};
-    return scene_add_material(s, &m, &err);
-}
+/* The scenes here render with fan-out dispersion (sb_render_scene's DISPERSION_FANOUT): lanes at
+ * bucket centres, so no colour noise. */
 
 static tilebuf_t *render(scene_t *s, uint64_t *nonfinite)
 {
@@ -132,10 +104,10 @@ static void render_sphere(int smooth, double *img)
     err_t err;
     static mesh_t m;
     uv_sphere(&m, 12, 6);
-    scene_t *s = new_scene(INTEGRATOR_WHITTED, RES, 4);
-    look_at(s, vec3_make(0, 0, EYE_Z), vec3_make(0, 0, 0), FOV);
+    scene_t *s = sb_render_scene(INTEGRATOR_WHITTED, DISPERSION_FANOUT, RES, 4);
+    sb_look_at(s, vec3_make(0, 0, EYE_Z), vec3_make(0, 0, 0), FOV);
     add_constant_light(s, (light_t){.kind = LIGHT_DISTANT, .direction = vec3_normalize(vec3_make(1, -1, 1))}, 1.0);
-    int md = add_diffuse(s, 0.8);
+    int md = sb_diffuse(s, 0.8);
     assert_true(scene_add_mesh(s, m.P, m.nv, m.I, m.nt, smooth ? m.N : NULL, NULL, md, -1, 0, &err) >= 0);
     assert_int_equal(scene_finish(s, &err), 0);
     uint64_t bad;
@@ -217,14 +189,14 @@ static void test_low_poly_sphere_shades_smoothly(void **state)
 static void leak(integrator_kind_t integ)
 {
     err_t err;
-    scene_t *s = new_scene(integ, 8, 64);
-    look_at(s, vec3_make(0, 3, 0.01), vec3_make(0, 0, 0), 30);
+    scene_t *s = sb_render_scene(integ, DISPERSION_FANOUT, 8, 64);
+    sb_look_at(s, vec3_make(0, 3, 0.01), vec3_make(0, 0, 0), 30);
     /* A 200 x 200 floor at y = 0 facing +y, its vertex normals leaning 80 degrees toward +x. */
     double P[12] = {-100, 0, -100, 100, 0, -100, 100, 0, 100, -100, 0, 100};
     uint32_t I[6] = {0, 2, 1, 0, 3, 2};
     double c = cos(80 * PF_PI / 180), sn = sin(80 * PF_PI / 180);
     double N[12] = {sn, c, 0, sn, c, 0, sn, c, 0, sn, c, 0};
-    int md = add_diffuse(s, 0.9);
+    int md = sb_diffuse(s, 0.9);
     int sh = scene_add_mesh(s, P, 4, I, 2, N, NULL, md, -1, 0, &err);
     assert_true(sh >= 0);
     /* The only light: below the floor, off to the side, facing up toward its underside, where
@@ -269,9 +241,9 @@ static void furnace(material_t m, dispersion_kind_t disp, integrator_kind_t inte
     err_t err;
     static mesh_t mesh;
     uv_sphere(&mesh, 16, 8);
-    scene_t *s = new_scene(integ, 8, 64);
+    scene_t *s = sb_render_scene(integ, DISPERSION_FANOUT, 8, 64);
     s->settings.dispersion = disp;
-    look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 20);
+    sb_look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 20);
     add_constant_light(s, (light_t){.kind = LIGHT_INFINITE}, 1.0);
     int mi = scene_add_material(s, &m, &err);
     assert_true(scene_add_mesh(s, mesh.P, mesh.nv, mesh.I, mesh.nt, mesh.N, NULL, mi, -1, 0, &err) >= 0);
@@ -326,14 +298,14 @@ static void test_mesh_light_side_follows_normals(void **state)
 {
     (void)state;
     err_t err;
-    scene_t *s = new_scene(INTEGRATOR_PATH, 4, 4);
-    look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 10);
+    scene_t *s = sb_render_scene(INTEGRATOR_PATH, DISPERSION_FANOUT, 4, 4);
+    sb_look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 10);
     /* A one-sided quad light at z = 0 wound to face +z (away from the camera), with vertex
      * normals toward -z: pbrt-v4 turns the geometric normal to them, so it faces the camera. */
     double P[12] = {-5, -5, 0, 5, -5, 0, 5, 5, 0, -5, 5, 0};
     uint32_t I[6] = {0, 1, 2, 0, 2, 3};
     double N[12] = {0, 0, -1, 0, 0, -1, 0, 0, -1, 0, 0, -1};
-    int md = add_diffuse(s, 0.0);
+    int md = sb_diffuse(s, 0.0);
     int li = add_constant_light(s, (light_t){.kind = LIGHT_AREA}, 2.0);
     assert_true(scene_add_mesh(s, P, 4, I, 2, N, NULL, md, li, 0, &err) >= 0);
     assert_int_equal(scene_finish(s, &err), 0);

@@ -10,30 +10,13 @@
 
 #include <cmocka.h>
 
+#include "numeric_testutil.h"
 #include "spectral_grid.h"
 #include "wavelength.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-
-#define assert_near(a, b, tol)                                                                     \
-    do {                                                                                           \
-        double a_ = (a), b_ = (b), t_ = (tol);                                                     \
-        if (!(fabs(a_ - b_) <= t_))                                                                \
-            fail_msg("%s = %.10g, expected %.10g within %.3g (off by %.3g)", #a, a_, b_, t_,       \
-                     fabs(a_ - b_));                                                               \
-    } while (0)
-
-/* splitmix64 (Steele et al. 2014): a fixed-seed stream of doubles in [0, 1) for the tests. */
-static double next_u(uint64_t *state)
-{
-    uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    z ^= z >> 31;
-    return (double)(z >> 11) * 0x1.0p-53;
-}
 
 static const int COUNTS[] = {8, 16, 32, 45};
 static const double RANGES[][2] = {{380.0, 720.0}, {300.0, 1000.0}, {360.0, 830.0}};
@@ -43,11 +26,11 @@ static void test_geometry(void **state)
     (void)state;
     spectral_grid_t d = spectral_grid_default();
     assert_int_equal(d.n, 16);
-    assert_near(d.lambda_min, 380.0, 0.0);
-    assert_near(d.lambda_max, 720.0, 0.0);
-    assert_near(spectral_grid_width(d), 21.25, 1e-12);
-    assert_near(spectral_grid_centre(d, 0), 390.625, 1e-12);
-    assert_near(spectral_grid_centre(d, 15), 709.375, 1e-12);
+    testutil_assert_near(d.lambda_min, 380.0, 0.0);
+    testutil_assert_near(d.lambda_max, 720.0, 0.0);
+    testutil_assert_near(spectral_grid_width(d), 21.25, 1e-12);
+    testutil_assert_near(spectral_grid_centre(d, 0), 390.625, 1e-12);
+    testutil_assert_near(spectral_grid_centre(d, 15), 709.375, 1e-12);
     assert_int_equal(spectral_grid_index(d, 380.0), 0);
     assert_int_equal(spectral_grid_index(d, 401.25), 1); /* bucket boundaries belong upward */
     assert_int_equal(spectral_grid_index(d, 401.2499), 0);
@@ -65,14 +48,14 @@ static void test_geometry(void **state)
             for (int i = 0; i < g.n; i++) {
                 double lo = spectral_grid_bucket_min(g, i), hi = spectral_grid_bucket_max(g, i);
                 total += hi - lo;
-                assert_near(hi - lo, spectral_grid_width(g), 1e-9);
-                assert_near(spectral_grid_centre(g, i), 0.5 * (lo + hi), 1e-9);
+                testutil_assert_near(hi - lo, spectral_grid_width(g), 1e-9);
+                testutil_assert_near(spectral_grid_centre(g, i), 0.5 * (lo + hi), 1e-9);
                 assert_int_equal(spectral_grid_index(g, spectral_grid_centre(g, i)), i);
                 assert_int_equal(spectral_grid_index(g, lo), i);
                 assert_int_equal(spectral_grid_index(g, nextafter(hi, 0.0)), i);
             }
-            assert_near(total, RANGES[r][1] - RANGES[r][0], 1e-9);
-            assert_near(spectral_grid_bucket_max(g, g.n - 1), RANGES[r][1], 0.0);
+            testutil_assert_near(total, RANGES[r][1] - RANGES[r][0], 1e-9);
+            testutil_assert_near(spectral_grid_bucket_max(g, g.n - 1), RANGES[r][1], 0.0);
         }
 }
 
@@ -92,7 +75,7 @@ static void test_validation(void **state)
     assert_int_equal(spectral_grid_init(&g, 16, 380, INFINITY, &err), -1);
     /* A failed init leaves the grid as it was. */
     assert_int_equal(g.n, 16);
-    assert_near(g.lambda_max, 720.0, 0.0);
+    testutil_assert_near(g.lambda_max, 720.0, 0.0);
 }
 
 /* One splat: sum(buckets) * width = value / pdf exactly, for either mode, anywhere in the
@@ -123,7 +106,7 @@ static void test_splat_conserves_one_sample(void **state)
                         sum += b[i] * w;
                         touched += b[i] != 0.0;
                     }
-                    assert_near(sum, 2.5 / 0.004, 1e-9);
+                    testutil_assert_near(sum, 2.5 / 0.004, 1e-9);
                     assert_true(touched >= 1 && touched <= (mode == SPECTRAL_SPLAT_BOX ? 1 : 2));
                 }
         }
@@ -132,8 +115,8 @@ static void test_splat_conserves_one_sample(void **state)
     double b[16] = {0};
     double w = spectral_grid_width(d);
     spectral_grid_splat(d, b, spectral_grid_centre(d, 3) + 0.25 * w, 1.0, 1.0, SPECTRAL_SPLAT_TENT);
-    assert_near(b[3], 0.75 / w, 1e-14);
-    assert_near(b[4], 0.25 / w, 1e-14);
+    testutil_assert_near(b[3], 0.75 / w, 1e-14);
+    testutil_assert_near(b[4], 0.25 / w, 1e-14);
     /* Outside the range nothing is deposited; invalid samples are refused, never deposited. */
     memset(b, 0, sizeof b);
     assert_int_equal(spectral_grid_splat(d, b, 379.0, 1.0, 1.0, SPECTRAL_SPLAT_BOX), 0);
@@ -143,7 +126,7 @@ static void test_splat_conserves_one_sample(void **state)
     assert_int_equal(spectral_grid_splat(d, b, INFINITY, 1.0, 1.0, SPECTRAL_SPLAT_TENT), -1);
     assert_int_equal(spectral_grid_splat(d, b, 500.0, 1.0, 1e-320, SPECTRAL_SPLAT_BOX), -1);
     for (int i = 0; i < 16; i++)
-        assert_near(b[i], 0.0, 0.0);
+        testutil_assert_near(b[i], 0.0, 0.0);
 }
 
 /* A known spectrum with its antiderivative: S = 1 + 0.5 sin(lambda/23) + 0.002 lambda. */
@@ -169,9 +152,9 @@ static void run_mc(spectral_grid_t g, spectral_splat_t mode, int visible, int sa
     memset(&acc, 0, sizeof acc);
     uint64_t rng = seed;
     for (int s = 0; s < samples; s++) {
-        wavelength_sample_t ws =
-            visible ? wavelength_sample_visible(next_u(&rng))
-                    : wavelength_sample_uniform(next_u(&rng), g.lambda_min, g.lambda_max);
+        wavelength_sample_t ws = visible ? wavelength_sample_visible(testutil_splitmix_u(&rng))
+                                         : wavelength_sample_uniform(testutil_splitmix_u(&rng),
+                                                                     g.lambda_min, g.lambda_max);
         double b[64] = {0};
         assert_int_equal(spectral_grid_splat(g, b, ws.lambda, known_s(ws.lambda), ws.pdf, mode), 0);
         for (int i = 0; i < g.n; i++) {
@@ -243,7 +226,7 @@ static void test_mc_tent(void **state)
         double sum_lin[64] = {0}, sum_lin2[64] = {0};
         for (int s = 0; s < samples; s++) {
             wavelength_sample_t ws =
-                wavelength_sample_uniform(next_u(&rng), g.lambda_min, g.lambda_max);
+                wavelength_sample_uniform(testutil_splitmix_u(&rng), g.lambda_min, g.lambda_max);
             double b[64] = {0}, bl[64] = {0};
             spectral_grid_splat(g, b, ws.lambda, known_s(ws.lambda), ws.pdf, SPECTRAL_SPLAT_TENT);
             spectral_grid_splat(g, bl, ws.lambda, linear_s(ws.lambda), ws.pdf, SPECTRAL_SPLAT_TENT);
@@ -294,14 +277,15 @@ static void check_table_against_grid(spectral_grid_t g)
             static const double odd_ones[5] = {0.0, 1e300, -1.0, NAN, INFINITY};
             lambda = odd_ones[k - 6 * (g.n + 1)];
         } else {
-            double u = next_u(&rng);
+            double u = testutil_splitmix_u(&rng);
             lambda = g.lambda_min - 5.0 + u * (g.lambda_max - g.lambda_min + 10.0);
         }
         assert_int_equal(spectral_table_index(t, lambda), spectral_grid_index(g, lambda));
         for (int mode = 0; mode < 2; mode++) {
             spectral_splat_t m = mode ? SPECTRAL_SPLAT_TENT : SPECTRAL_SPLAT_BOX;
             double a[SPECTRAL_GRID_MAX_BUCKETS] = {0}, b[SPECTRAL_GRID_MAX_BUCKETS] = {0};
-            double value = 0.5 + next_u(&rng), pdf = k % 97 == 0 ? 1e-310 : 0.002 + next_u(&rng);
+            double value = 0.5 + testutil_splitmix_u(&rng),
+                   pdf = k % 97 == 0 ? 1e-310 : 0.002 + testutil_splitmix_u(&rng);
             int ra = spectral_table_splat(t, a, lambda, value, pdf, m);
             int rb = spectral_grid_splat(g, b, lambda, value, pdf, m);
             assert_int_equal(ra, rb);

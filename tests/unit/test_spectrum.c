@@ -11,20 +11,13 @@
 
 #include "cie.h"
 #include "colour.h"
+#include "numeric_testutil.h"
 #include "spectrum.h"
 
 #include <math.h>
 #include <pthread.h>
 #include <string.h>
 #include <time.h>
-
-#define assert_near(a, b, tol)                                                                     \
-    do {                                                                                           \
-        double a_ = (a), b_ = (b), t_ = (tol);                                                     \
-        if (!(fabs(a_ - b_) <= t_))                                                                \
-            fail_msg("%s = %.10g, expected %.10g within %.3g (off by %.3g)", #a, a_, b_, t_,       \
-                     fabs(a_ - b_));                                                               \
-    } while (0)
 
 #define assert_contains(haystack, needle)                                                          \
     do {                                                                                           \
@@ -46,19 +39,19 @@ static void test_tabulated(void **state)
     assert_non_null(s);
     assert_int_equal(spectrum_kind(s), SPECTRUM_TABULATED);
     for (double x = 400.0; x <= 700.0; x += 3.7)
-        assert_near(spectrum_eval(s, x), 2.0 * x + 1.0, 1e-10);
-    assert_near(spectrum_eval(s, 433.0), 867.0, 0.0);
-    assert_near(spectrum_eval(s, 300.0), 801.0, 0.0);
-    assert_near(spectrum_eval(s, 900.0), 1401.0, 0.0);
-    assert_near(spectrum_eval(s, NAN), 0.0, 0.0);
+        testutil_assert_near(spectrum_eval(s, x), 2.0 * x + 1.0, 1e-10);
+    testutil_assert_near(spectrum_eval(s, 433.0), 867.0, 0.0);
+    testutil_assert_near(spectrum_eval(s, 300.0), 801.0, 0.0);
+    testutil_assert_near(spectrum_eval(s, 900.0), 1401.0, 0.0);
+    testutil_assert_near(spectrum_eval(s, NAN), 0.0, 0.0);
 
     /* A scaled copy is independent of its source. */
     spectrum_t *k = spectrum_new_scaled(s, -0.5, &err);
     spectrum_destroy(&s);
     assert_null(s);
-    assert_near(spectrum_eval(k, 500.0), -0.5 * 1001.0, 1e-10);
+    testutil_assert_near(spectrum_eval(k, 500.0), -0.5 * 1001.0, 1e-10);
     spectrum_t *k2 = spectrum_new_scaled(k, 4.0, &err);
-    assert_near(spectrum_eval(k2, 500.0), -2.0 * 1001.0, 1e-10);
+    testutil_assert_near(spectrum_eval(k2, 500.0), -2.0 * 1001.0, 1e-10);
     spectrum_destroy(&k);
     spectrum_destroy(&k2);
     assert_null(spectrum_new_scaled(k2 = spectrum_new_constant(1.0, &err), NAN, &err));
@@ -69,8 +62,8 @@ static void test_tabulated(void **state)
     /* One pair is a constant. */
     s = spectrum_new_tabulated((double[]){550.0}, (double[]){0.25}, 1, &err);
     assert_non_null(s);
-    assert_near(spectrum_eval(s, 380.0), 0.25, 0.0);
-    assert_near(spectrum_eval(s, 780.0), 0.25, 0.0);
+    testutil_assert_near(spectrum_eval(s, 380.0), 0.25, 0.0);
+    testutil_assert_near(spectrum_eval(s, 780.0), 0.25, 0.0);
     spectrum_destroy(&s);
 
     /* Validation names the pair at fault (counting from 1). */
@@ -108,7 +101,7 @@ static void test_blackbody_stefan_boltzmann(void **state)
         }
         double exitance = 3.14159265358979323846 * sum * h;
         double sigma_t4 = 5.670374419e-8 * pow(temps[t], 4.0);
-        assert_near(exitance / sigma_t4, 1.0, 1e-6);
+        testutil_assert_near(exitance / sigma_t4, 1.0, 1e-6);
         spectrum_destroy(&b);
     }
 }
@@ -140,15 +133,15 @@ static void test_blackbody_wien(void **state)
         spectrum_t *b = spectrum_new_blackbody(temps[t], 1, &err);
         assert_non_null(b);
         double peak = golden_max(b, 50.0, 5000.0);
-        assert_near(peak, 2897.77e3 / temps[t], 0.5);
-        assert_near(spectrum_eval(b, peak), 1.0, 1e-9);
+        testutil_assert_near(peak, 2897.77e3 / temps[t], 0.5);
+        testutil_assert_near(spectrum_eval(b, peak), 1.0, 1e-9);
         assert_true(spectrum_eval(b, peak * 0.9) < 1.0 && spectrum_eval(b, peak * 1.1) < 1.0);
         spectrum_destroy(&b);
     }
     /* Far in the Wien tail exp() overflows: the value is 0, not NaN. */
     spectrum_t *cold = spectrum_new_blackbody(300.0, 0, &err);
-    assert_near(spectrum_eval(cold, 1.0), 0.0, 0.0);
-    assert_near(spectrum_eval(cold, -5.0), 0.0, 0.0);
+    testutil_assert_near(spectrum_eval(cold, 1.0), 0.0, 0.0);
+    testutil_assert_near(spectrum_eval(cold, -5.0), 0.0, 0.0);
     spectrum_destroy(&cold);
     assert_null(spectrum_new_blackbody(0.0, 0, &err));
     assert_contains(err.msg, "temperature");
@@ -169,15 +162,15 @@ static void test_cie_illuminants(void **state)
     const double value[] = {6.14461778,   9.79509961,   14.70803845,  59.86109896, 100.0,
                             129.04273891, 198.26122323, 241.67538835, 261.60233977};
     for (int i = 0; i < 9; i++)
-        assert_near(spectrum_eval(a, lambda[i]), value[i], 1e-7 * value[i] + 1e-8);
-    assert_near(spectrum_eval(a, 300.0), 0.930483, 1e-6);
+        testutil_assert_near(spectrum_eval(a, lambda[i]), value[i], 1e-7 * value[i] + 1e-8);
+    testutil_assert_near(spectrum_eval(a, 300.0), 0.930483, 1e-6);
     spectrum_destroy(&a);
 
     spectrum_t *d = spectrum_new_cie_d65(&err);
-    assert_near(spectrum_eval(d, 560.0), 100.0, 1e-12);
-    assert_near(spectrum_eval(d, 600.0), 90.0062, 1e-9);
-    assert_near(spectrum_eval(d, 602.5), 0.5 * (90.0062 + 89.8026), 1e-9);
-    assert_near(spectrum_eval(d, 250.0), 0.0, 0.0);
+    testutil_assert_near(spectrum_eval(d, 560.0), 100.0, 1e-12);
+    testutil_assert_near(spectrum_eval(d, 600.0), 90.0062, 1e-9);
+    testutil_assert_near(spectrum_eval(d, 602.5), 0.5 * (90.0062 + 89.8026), 1e-9);
+    testutil_assert_near(spectrum_eval(d, 250.0), 0.0, 0.0);
     spectrum_destroy(&d);
 }
 
@@ -189,12 +182,12 @@ static void test_photometric(void **state)
     (void)state;
     err_t err;
     spectrum_t *one = spectrum_new_constant(1.0, &err);
-    assert_near(spectrum_photometric(one), 106.856895, 5e-5);
-    assert_near(spectrum_photometric_light(one), spectrum_photometric(one), 0.0);
+    testutil_assert_near(spectrum_photometric(one), 106.856895, 5e-5);
+    testutil_assert_near(spectrum_photometric_light(one), spectrum_photometric(one), 0.0);
     spectrum_destroy(&one);
     spectrum_t *tri =
         spectrum_new_tabulated((double[]){554, 555, 556}, (double[]){0, 1, 0}, 3, &err);
-    assert_near(spectrum_photometric(tri), 1.0, 1e-15);
+    testutil_assert_near(spectrum_photometric(tri), 1.0, 1e-15);
     spectrum_destroy(&tri);
 }
 
@@ -262,7 +255,7 @@ static void test_rgb_uplift_round_trip(void **state)
     assert_int_equal(spectrum_sigmoid_fit((rgb_t){1.5, -0.2, 0.5}, &a, &err), 0);
     assert_int_equal(spectrum_sigmoid_fit((rgb_t){1.0, 0.0, 0.5}, &b, &err), 0);
     assert_true(memcmp(a.c, b.c, sizeof a.c) == 0);
-    assert_near(a.target.r, 1.0, 0.0);
+    testutil_assert_near(a.target.r, 1.0, 0.0);
     assert_int_equal(spectrum_sigmoid_fit((rgb_t){NAN, 0.0, 0.5}, &a, &err), -1);
     assert_contains(err.msg, "finite");
     assert_null(spectrum_new_rgb_reflectance((rgb_t){0.1, INFINITY, 0.1}, &err));
@@ -273,10 +266,10 @@ static void test_rgb_uplift_round_trip(void **state)
     assert_int_equal(spectrum_sigmoid_fit((rgb_t){1.0, 1.0, 0.9999}, &a, &err), 0);
     print_message("JH uplift: residual for the unreachable (1, 1, 0.9999): %.3g\n", a.residual);
     assert_true(a.residual < 5e-4);
-    assert_near(spectrum_sigmoid(1e300), 1.0, 0.0);
-    assert_near(spectrum_sigmoid(-1e300), 0.0, 0.0);
-    assert_near(spectrum_sigmoid(0.0), 0.5, 0.0);
-    assert_near(spectrum_sigmoid(1.0), 0.5 + 0.5 / sqrt(2.0), 1e-15);
+    testutil_assert_near(spectrum_sigmoid(1e300), 1.0, 0.0);
+    testutil_assert_near(spectrum_sigmoid(-1e300), 0.0, 0.0);
+    testutil_assert_near(spectrum_sigmoid(0.0), 0.5, 0.0);
+    testutil_assert_near(spectrum_sigmoid(1.0), 0.5 + 0.5 / sqrt(2.0), 1e-15);
 }
 
 /* CPU seconds this process has used: unlike the wall clock, it does not grow while other work
@@ -325,10 +318,10 @@ static void test_rgb_illuminant(void **state)
         xyz_t got = spectrum_to_xyz(s);
         xyz_t want = colour_linear_srgb_to_xyz(colours[i]);
         double scale = want.x + want.y + want.z;
-        assert_near(got.x / scale, want.x / scale, 2e-3);
-        assert_near(got.y / scale, want.y / scale, 2e-3);
-        assert_near(got.z / scale, want.z / scale, 2e-3);
-        assert_near(spectrum_photometric_light(s), CIE_Y_INTEGRAL, 1e-9);
+        testutil_assert_near(got.x / scale, want.x / scale, 2e-3);
+        testutil_assert_near(got.y / scale, want.y / scale, 2e-3);
+        testutil_assert_near(got.z / scale, want.z / scale, 2e-3);
+        testutil_assert_near(spectrum_photometric_light(s), CIE_Y_INTEGRAL, 1e-9);
         for (double l = 300.0; l <= 830.0; l += 1.0)
             assert_true(spectrum_eval(s, l) >= 0.0);
         spectrum_destroy(&s);
@@ -336,16 +329,16 @@ static void test_rgb_illuminant(void **state)
     spectrum_t *w = spectrum_new_rgb_illuminant((rgb_t){1, 1, 1}, &err);
     double x, y;
     colour_xyz_to_xy(spectrum_to_xyz(w), &x, &y);
-    assert_near(x, 0.3127, 1e-3);
-    assert_near(y, 0.3290, 1e-3);
-    assert_near(spectrum_to_xyz(w).y, 1.0, 2e-4);
+    testutil_assert_near(x, 0.3127, 1e-3);
+    testutil_assert_near(y, 0.3290, 1e-3);
+    testutil_assert_near(spectrum_to_xyz(w).y, 1.0, 2e-4);
     spectrum_t *w2 = spectrum_new_scaled(w, 3.0, &err);
-    assert_near(spectrum_photometric_light(w2), 3.0 * CIE_Y_INTEGRAL, 1e-9);
+    testutil_assert_near(spectrum_photometric_light(w2), 3.0 * CIE_Y_INTEGRAL, 1e-9);
     spectrum_destroy(&w);
     spectrum_destroy(&w2);
     spectrum_t *k = spectrum_new_rgb_illuminant((rgb_t){0, 0, 0}, &err);
     for (double l = 300.0; l <= 830.0; l += 10.0)
-        assert_near(spectrum_eval(k, l), 0.0, 0.0);
+        testutil_assert_near(spectrum_eval(k, l), 0.0, 0.0);
     spectrum_destroy(&k);
     assert_null(spectrum_new_rgb_illuminant((rgb_t){-1, 0, 0}, &err));
     assert_contains(err.msg, ">= 0");
@@ -398,7 +391,7 @@ static void test_concurrent_eval(void **state)
         assert_memory_equal(jobs[t].out, serial.out, sizeof serial.out);
     }
     for (int s = 0; s < 6; s++) {
-        assert_near(spectrum_eval(spectra[s], NAN), 0.0, 0.0);
+        testutil_assert_near(spectrum_eval(spectra[s], NAN), 0.0, 0.0);
         spectrum_destroy(&spectra[s]);
     }
 }

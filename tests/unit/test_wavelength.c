@@ -10,27 +10,10 @@
 #include <cmocka.h>
 
 #include "cie.h"
+#include "numeric_testutil.h"
 #include "wavelength.h"
 
 #include <math.h>
-
-#define assert_near(a, b, tol)                                                                     \
-    do {                                                                                           \
-        double a_ = (a), b_ = (b), t_ = (tol);                                                     \
-        if (!(fabs(a_ - b_) <= t_))                                                                \
-            fail_msg("%s = %.10g, expected %.10g within %.3g (off by %.3g)", #a, a_, b_, t_,       \
-                     fabs(a_ - b_));                                                               \
-    } while (0)
-
-/* splitmix64 (Steele et al. 2014): a fixed-seed stream of doubles in [0, 1). */
-static double next_u(uint64_t *state)
-{
-    uint64_t z = (*state += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    z ^= z >> 31;
-    return (double)(z >> 11) * 0x1.0p-53;
-}
 
 /* Composite Simpson integral of the visible pdf over [a, b] with 2n panels (error ~1e-13 for
  * n = 2000 on this smooth integrand). */
@@ -48,13 +31,13 @@ static double integrate_visible_pdf(double a, double b, int n)
 static void test_visible_pdf_normalised(void **state)
 {
     (void)state;
-    assert_near(wavelength_pdf_visible(538.0), 0.0039398042, 1e-10);
-    assert_near(integrate_visible_pdf(360.0, 830.0, 2000), 1.0, 1e-10);
-    assert_near(wavelength_pdf_visible(359.9), 0.0, 0.0);
-    assert_near(wavelength_pdf_visible(830.1), 0.0, 0.0);
-    assert_near(wavelength_pdf_visible(NAN), 0.0, 0.0);
-    assert_near(wavelength_pdf_uniform(500.0, 380.0, 720.0), 1.0 / 340.0, 1e-15);
-    assert_near(wavelength_pdf_uniform(300.0, 380.0, 720.0), 0.0, 0.0);
+    testutil_assert_near(wavelength_pdf_visible(538.0), 0.0039398042, 1e-10);
+    testutil_assert_near(integrate_visible_pdf(360.0, 830.0, 2000), 1.0, 1e-10);
+    testutil_assert_near(wavelength_pdf_visible(359.9), 0.0, 0.0);
+    testutil_assert_near(wavelength_pdf_visible(830.1), 0.0, 0.0);
+    testutil_assert_near(wavelength_pdf_visible(NAN), 0.0, 0.0);
+    testutil_assert_near(wavelength_pdf_uniform(500.0, 380.0, 720.0), 1.0 / 340.0, 1e-15);
+    testutil_assert_near(wavelength_pdf_uniform(300.0, 380.0, 720.0), 0.0, 0.0);
 }
 
 /* The inverse CDF: the pdf's integral from 360 nm to lambda(u) is u (to the Simpson error,
@@ -65,13 +48,14 @@ static void test_visible_inverse_cdf(void **state)
     for (double u = 0.05; u < 1.0; u += 0.05) {
         wavelength_sample_t s = wavelength_sample_visible(u);
         assert_true(s.lambda >= 360.0 && s.lambda <= 830.0);
-        assert_near(integrate_visible_pdf(360.0, s.lambda, 2000), u, 1e-9);
-        assert_near(s.pdf, wavelength_pdf_visible(s.lambda), 0.0);
+        testutil_assert_near(integrate_visible_pdf(360.0, s.lambda, 2000), u, 1e-9);
+        testutil_assert_near(s.pdf, wavelength_pdf_visible(s.lambda), 0.0);
     }
-    assert_near(wavelength_sample_visible(0.0).lambda, 360.0, 1e-9);
-    assert_near(wavelength_sample_visible(nextafter(1.0, 0.0)).lambda, 830.0, 1e-6);
-    assert_near(wavelength_sample_visible(0.5).lambda,
-                538.0 + atanh(0.5 * (tanh(0.0072 * 292) - tanh(0.0072 * 178))) / 0.0072, 1e-9);
+    testutil_assert_near(wavelength_sample_visible(0.0).lambda, 360.0, 1e-9);
+    testutil_assert_near(wavelength_sample_visible(nextafter(1.0, 0.0)).lambda, 830.0, 1e-6);
+    testutil_assert_near(wavelength_sample_visible(0.5).lambda,
+                         538.0 + atanh(0.5 * (tanh(0.0072 * 292) - tanh(0.0072 * 178))) / 0.0072,
+                         1e-9);
     /* Out-of-range u is clamped, never NaN. */
     assert_true(wavelength_sample_visible(-3.0).pdf > 0.0);
     assert_true(wavelength_sample_visible(7.0).pdf > 0.0);
@@ -91,7 +75,7 @@ static void test_histograms(void **state)
     double count[BINS] = {0};
     uint64_t rng = 42;
     for (int s = 0; s < samples; s++) {
-        double l = wavelength_sample_visible(next_u(&rng)).lambda;
+        double l = wavelength_sample_visible(testutil_splitmix_u(&rng)).lambda;
         int b = (int)((l - 360.0) / 10.0);
         count[b < BINS ? b : BINS - 1] += 1.0;
     }
@@ -105,7 +89,7 @@ static void test_histograms(void **state)
 
     double ucount[34] = {0};
     for (int s = 0; s < samples; s++) {
-        wavelength_sample_t w = wavelength_sample_uniform(next_u(&rng), 380.0, 720.0);
+        wavelength_sample_t w = wavelength_sample_uniform(testutil_splitmix_u(&rng), 380.0, 720.0);
         assert_true(w.lambda >= 380.0 && w.lambda <= 720.0);
         int b = (int)((w.lambda - 380.0) / 10.0);
         ucount[b < 34 ? b : 33] += 1.0;
@@ -128,7 +112,8 @@ static void test_hero_rotations(void **state)
     uint64_t rng = 7;
     const double ranges[][2] = {{380.0, 720.0}, {300.0, 1000.0}, {360.0, 830.0}};
     for (int i = 0; i < 2000; i++) {
-        double u = i < 3 ? (double[]){0.0, 0.75, nextafter(1.0, 0.0)}[i] : next_u(&rng);
+        double u =
+            i < 3 ? (double[]){0.0, 0.75, nextafter(1.0, 0.0)}[i] : testutil_splitmix_u(&rng);
         for (int r = 0; r < 3; r++) {
             double lo = ranges[r][0], hi = ranges[r][1], range = hi - lo;
             wavelength_hero_t h = wavelength_hero_uniform(u, lo, hi);
@@ -138,18 +123,18 @@ static void test_hero_rotations(void **state)
                  * rotation, and u just below 1 rounds lambda_0 onto lambda_max. */
                 double f = (h.lambda[0] - lo) / range + j / 4.0;
                 double d = fabs(h.lambda[j] - (lo + (f - floor(f)) * range));
-                assert_near(fmin(d, range - d), 0.0, 1e-9);
-                assert_near(h.pdf[j], 1.0 / range, 1e-15);
+                testutil_assert_near(fmin(d, range - d), 0.0, 1e-9);
+                testutil_assert_near(h.pdf[j], 1.0 / range, 1e-15);
             }
         }
         wavelength_hero_t v = wavelength_hero_visible(u);
         for (int j = 0; j < WAVELENGTH_HERO_COUNT; j++) {
             assert_true(v.lambda[j] >= 360.0 && v.lambda[j] <= 830.0);
-            assert_near(v.pdf[j], wavelength_pdf_visible(v.lambda[j]), 0.0);
+            testutil_assert_near(v.pdf[j], wavelength_pdf_visible(v.lambda[j]), 0.0);
             if (i % 100 == 0) {
                 double uj = u + j / 4.0;
                 uj -= floor(uj);
-                assert_near(integrate_visible_pdf(360.0, v.lambda[j], 1000), uj, 1e-8);
+                testutil_assert_near(integrate_visible_pdf(360.0, v.lambda[j], 1000), uj, 1e-8);
             }
         }
     }
@@ -167,8 +152,9 @@ static void test_hero_estimator_unbiased(void **state)
             uint64_t rng = 1000u + (uint64_t)(2 * terminate + visible);
             double sum = 0.0, sum2 = 0.0;
             for (int s = 0; s < samples; s++) {
-                wavelength_hero_t h = visible ? wavelength_hero_visible(next_u(&rng))
-                                              : wavelength_hero_uniform(next_u(&rng), 360.0, 830.0);
+                wavelength_hero_t h =
+                    visible ? wavelength_hero_visible(testutil_splitmix_u(&rng))
+                            : wavelength_hero_uniform(testutil_splitmix_u(&rng), 360.0, 830.0);
                 if (terminate) {
                     wavelength_hero_terminate_secondary(&h);
                     assert_true(wavelength_hero_is_terminated(&h));
@@ -193,8 +179,8 @@ static void test_hero_estimator_unbiased(void **state)
     assert_false(wavelength_hero_is_terminated(&h));
     wavelength_hero_terminate_secondary(&h);
     wavelength_hero_terminate_secondary(&h);
-    assert_near(h.pdf[0], p0 / 4.0, 0.0);
-    assert_near(h.pdf[1] + h.pdf[2] + h.pdf[3], 0.0, 0.0);
+    testutil_assert_near(h.pdf[0], p0 / 4.0, 0.0);
+    testutil_assert_near(h.pdf[1] + h.pdf[2] + h.pdf[3], 0.0, 0.0);
 }
 
 int main(void)
