@@ -8,7 +8,7 @@
 #define PRISMFARM_SETTINGS_H
 
 #include "proto.h"
-#include "scene_load.h"
+#include "overrides.h"
 
 /* The settings as the scene loader takes them. The stopping rules (target_error, time_limit)
  * are the master's, not the scene's: no override carries them. */
