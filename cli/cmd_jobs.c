@@ -7,6 +7,7 @@
 #include "client_rpc.h"
 #include "film.h"
 #include "job_follow.h"
+#include "stopping.h"
 
 #include <errno.h>
 #include <stddef.h>
@@ -121,10 +122,11 @@ static void print_jobs(const proto_job_info_t *jobs, size_t n, int json)
         char rel[32] = "-";
         if (j->has_rel_error)
             snprintf(rel, sizeof rel, "%.4f", j->rel_error);
-        const char *note = j->error                      ? j->error
-                           : j->stop == PROTO_STOP_TARGET ? "(stopped: target error reached)"
-                           : j->stop == PROTO_STOP_TIME   ? "(stopped: time limit reached)"
-                                                          : "";
+        char note[PROTO_MAX_STRING + 32] = "";
+        if (j->error)
+            snprintf(note, sizeof note, "%s", j->error);
+        else if (j->stop != PROTO_STOP_NONE)
+            snprintf(note, sizeof note, "(stopped: %s)", stopping_reason((stopping_why_t)j->stop));
         printf("%-6llu %-20.20s %-10s %8.1f%% %8u %9s %8.1fs %10llu  %s\n", (unsigned long long)j->id,
                j->name ? j->name : "", proto_job_state_name(j->state), p, j->spp, rel, j->elapsed,
                (unsigned long long)j->nonfinite, note);

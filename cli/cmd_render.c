@@ -72,11 +72,12 @@ static void on_pass(void *user, const pass_record_t *rec, uint64_t done, uint64_
     prog->extra = NULL;
 }
 
-static const char *stop_text(proto_stop_t why)
+/* " (target error reached)" after the spp line of a job that stopped early, else "". */
+static const char *stop_text(proto_stop_t why, char *buf, size_t size)
 {
-    return why == PROTO_STOP_TARGET ? " (target error reached)"
-           : why == PROTO_STOP_TIME ? " (time limit reached)"
-                                    : "";
+    const char *r = stopping_reason((stopping_why_t)why);
+    snprintf(buf, size, "%s%s%s", *r ? " (" : "", r, *r ? ")" : "");
+    return buf;
 }
 
 /* The same render without the farm: the photon pass, if any, then the camera pass on this
@@ -114,11 +115,11 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
         rc = 1;
     } else if (res.why != STOPPING_NONE) {
         progress_end(&prog, st.samples, (uint64_t)rs->xres * (uint64_t)rs->yres * (uint64_t)rs->spp,
-                     clock_now_s() - start,
-                     res.why == STOPPING_TARGET ? "target error reached" : "time limit reached");
+                     clock_now_s() - start, stopping_reason(res.why));
     }
     double secs = clock_now_s() - t0;
     const pass_record_t *last = rc == 0 && res.nhistory > 0 ? &res.history[res.nhistory - 1] : NULL;
+    char stop_buf[64];
     if (rc == 0) {
         /* The record the master writes (docs/farm.md, "Accuracy"), from the same writer. */
         char info[4096];
@@ -144,10 +145,10 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
             proto_stop_t why = (proto_stop_t)res.why;
             if (last && last->valid)
                 printf("%d of %d spp, relative error estimate %.4f%s\n", last->spp, rs->spp,
-                       last->rel_error, stop_text(why));
+                       last->rel_error, stop_text(why, stop_buf, sizeof stop_buf));
             else if (last)
                 printf("%d of %d spp, no relative error estimate%s%s\n", last->spp, rs->spp,
-                       last->spp < 2 ? " (1 sample per pixel)" : "", stop_text(why));
+                       last->spp < 2 ? " (1 sample per pixel)" : "", stop_text(why, stop_buf, sizeof stop_buf));
             if (photons)
                 printf("photon pass: %llu photons in %.2f s, %zu %s (%.1f MB)\n", (unsigned long long)pst.emitted,
                        psec, photon_store_count(photons),
@@ -278,6 +279,7 @@ int cmd_render(int argc, char **argv)
                                 .tile = (int)tile, .quiet = quiet,
                                 .target_error = stop.target_error, .time_limit = stop.time_limit};
         proto_job_info_t info;
+        char stop_buf[64];
         rc = local_farm_run(&lo, &info);
         if (rc == 0 && !master_png && film_png_from_exr(exr, png, tm, &err)) {
             fprintf(stderr, "prismfarm render: %s\n", err.msg);
@@ -291,10 +293,10 @@ int cmd_render(int argc, char **argv)
                    workers == 1 ? "" : "s", (unsigned long long)info.nonfinite);
             if (info.has_rel_error)
                 printf("%u of %d spp, relative error estimate %.4f%s\n", info.spp, rs->spp,
-                       info.rel_error, stop_text(info.stop));
+                       info.rel_error, stop_text(info.stop, stop_buf, sizeof stop_buf));
             else
                 printf("%u of %d spp, no relative error estimate%s%s\n", info.spp, rs->spp,
-                       info.spp < 2 ? " (1 sample per pixel)" : "", stop_text(info.stop));
+                       info.spp < 2 ? " (1 sample per pixel)" : "", stop_text(info.stop, stop_buf, sizeof stop_buf));
         }
     }
     scene_destroy(&scene);

@@ -3,6 +3,7 @@
 #include "clock.h"
 #include "files.h"
 #include "progress.h"
+#include "stopping.h"
 
 #include <errno.h>
 #include <stdio.h>
@@ -72,7 +73,7 @@ int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t
             progress_update(&prog, j.samples_done, j.samples_total, clock_now_s() - t0);
         if (state == PROTO_JOB_DONE && j.stop != PROTO_STOP_NONE)
             progress_end(&prog, j.samples_done, j.samples_total, clock_now_s() - t0,
-                         j.stop == PROTO_STOP_TARGET ? "target error reached" : "time limit reached");
+                         stopping_reason((stopping_why_t)j.stop));
         prog.extra = NULL;
         proto_msg_free(&reply);
         if (state == PROTO_JOB_DONE || state == PROTO_JOB_FAILED || state == PROTO_JOB_CANCELLED)

@@ -5,6 +5,13 @@ const char *stopping_name(stopping_why_t why)
     return why == STOPPING_TARGET ? "target" : why == STOPPING_TIME ? "time" : "none";
 }
 
+const char *stopping_reason(stopping_why_t why)
+{
+    return why == STOPPING_TARGET ? "target error reached"
+           : why == STOPPING_TIME ? "time limit reached"
+                                  : "";
+}
+
 bool stopping_active(const stopping_rule_t *rule)
 {
     return rule->target_error > 0 || rule->time_limit > 0;

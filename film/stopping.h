@@ -20,6 +20,10 @@ typedef enum stopping_why {
 /* "none", "target", "time". */
 const char *stopping_name(stopping_why_t why);
 
+/* Why, in words for logs and progress lines: "target error reached", "time limit reached",
+ * "" for none. */
+const char *stopping_reason(stopping_why_t why);
+
 /* The rule of a job: target_error in (0, 1) or 0 for none; time_limit in seconds, 0 for none. */
 typedef struct stopping_rule {
     double target_error, time_limit;

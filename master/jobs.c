@@ -1,6 +1,7 @@
 #include "jobs.h"
 
 #include "clock.h"
+#include "files.h"
 #include "film.h"
 #include "jobinfo.h"
 #include "peers.h"
@@ -200,7 +201,7 @@ int job_restore_photons(master_t *m, mjob_t *j, err_t *err)
     job_take_scene(j, scene); /* a job a restarted master read from its journal has no figures */
     uint8_t *data = NULL;
     size_t size = 0;
-    if (spool_read_file(path, m->limits.max_message_bytes, &data, &size, err) < 0) {
+    if (files_read(path, m->limits.max_message_bytes, &data, &size, err) < 0) {
         scene_destroy(&scene);
         return -1;
     }
@@ -353,12 +354,10 @@ void job_refresh(master_t *m, mjob_t *j, double now)
             char acc[160] = "";
             if (last && last->valid)
                 snprintf(acc, sizeof acc, ", relative error %.4g", last->rel_error);
-            master_log(m, "job %llu '%s' done in %.2f s at %d of %d spp%s%s: %s/jobs/%llu/%s.exr",
+            const char *why = stopping_reason((stopping_why_t)j->accuracy.stop);
+            master_log(m, "job %llu '%s' done in %.2f s at %d of %d spp%s%s%s%s: %s/jobs/%llu/%s.exr",
                        (unsigned long long)j->id, j->name, j->finished - j->started, info.spp_done,
-                       j->scene.spp, acc,
-                       j->accuracy.stop == PROTO_STOP_TARGET ? " (target error reached)"
-                       : j->accuracy.stop == PROTO_STOP_TIME ? " (time limit reached)"
-                                                             : "",
+                       j->scene.spp, acc, *why ? " (" : "", why, *why ? ")" : "",
                        spool_path(m->spool), (unsigned long long)j->id, j->stem);
         }
     } else if (info.state == JOB_FAILED) {

@@ -1,6 +1,6 @@
 #include "journal.h"
 
-#include "spool.h"
+#include "files.h"
 #include "tilebuf.h"
 
 #include <dirent.h>
@@ -1036,7 +1036,7 @@ int journal_write_checkpoint(const char *path, const tilebuf_t *image, const int
                     tilebuf_luminance_sums(image), tilebuf_luminance_sq_sums(image));
     for (int t = 0; t < ntiles; t++)
         p = wr_u32(p, (uint32_t)next_pass[t]);
-    int rc = spool_write_file(path, buf, (size_t)(p - buf), err);
+    int rc = files_write_atomic(path, buf, (size_t)(p - buf), true, err);
     free(buf);
     return rc;
 }
@@ -1048,7 +1048,7 @@ int journal_read_checkpoint(const char *path, int xres, int yres, int nbuckets, 
     uint8_t *data;
     size_t size;
     size_t max = 7 * 4 + 8 + tile_array_bytes(xres, yres, nbuckets) + (size_t)ntiles * 4;
-    if (spool_read_file(path, max, &data, &size, err) < 0)
+    if (files_read(path, max, &data, &size, err) < 0)
         return -1;
     reader_t r = {.p = data, .left = size};
     uint32_t magic = rd_u32(&r);

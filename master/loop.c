@@ -9,6 +9,7 @@
 #include "clock.h"
 #include "curve.h"
 #include "dispatch.h"
+#include "files.h"
 #include "jobs.h"
 #include "master_state.h"
 #include "on_client.h"
@@ -215,7 +216,7 @@ int master_run(const master_opts_t *opts, err_t *err)
     char text[1200], path[PATH_MAX];
     snprintf(text, sizeof text, "workers %s\nclients %s\n", wbound, cbound);
     snprintf(path, sizeof path, "%s/endpoints", spool_path(m->spool));
-    if (spool_write_file(path, text, strlen(text), err) < 0) {
+    if (files_write_atomic(path, text, strlen(text), true, err) < 0) {
         err_prefix(err, "master: ");
         goto out;
     }

@@ -2,6 +2,7 @@
 #include "on_client.h"
 
 #include "bundle.h"
+#include "files.h"
 #include "jobs.h"
 #include "peers.h"
 #include "persist.h"
@@ -295,7 +296,7 @@ static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *m
     size_t max = m->limits.max_message_bytes > FILE_OVERHEAD
                      ? m->limits.max_message_bytes - FILE_OVERHEAD
                      : 0;
-    if (spool_read_file(path, max, &data, &size, &err) < 0) {
+    if (files_read(path, max, &data, &size, &err) < 0) {
         master_log(m, "fetch of job %llu: %s", (unsigned long long)j->id, err.msg);
         reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
         return;

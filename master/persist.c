@@ -1,5 +1,7 @@
 #include "persist.h"
 
+#include "files.h"
+
 #include <dirent.h>
 #include <limits.h>
 #include <stdio.h>
@@ -153,7 +155,7 @@ int persist_save_photons(master_t *m, mjob_t *j, err_t *err)
         photon_phase_store(j->photons.phase, &data, &size, &hash, err) < 0)
         return -1;
     snprintf(path, sizeof path, "%s/photons.store", dir);
-    if (spool_write_file(path, data, size, err) < 0)
+    if (files_write_atomic(path, data, size, true, err) < 0)
         return -1;
     j->photons.saved = photons;
     if (m->journal && journal_set_photons_saved(m->journal, j->id, photons, err) < 0)

@@ -87,22 +87,6 @@ static int rm_tree(const char *path)
     return rm_tree_at(AT_FDCWD, path, 0);
 }
 
-int spool_write_file(const char *path, const void *data, size_t size, err_t *err)
-{
-    return spool_write_file_sync(path, data, size, true, err);
-}
-
-int spool_write_file_sync(const char *path, const void *data, size_t size, bool sync,
-                          err_t *err)
-{
-    return files_write_atomic(path, data, size, sync, err);
-}
-
-int spool_read_file(const char *path, size_t max, uint8_t **data, size_t *size, err_t *err)
-{
-    return files_read(path, max, data, size, err);
-}
-
 spool_t *spool_new(const char *dir, err_t *err)
 {
     if (!dir || !*dir) {
@@ -234,7 +218,7 @@ int spool_scene_commit(spool_t *self, const proto_bundle_t *bundle, const char *
         msgpack_sbuffer_init(&buf);
         int rc = proto_encode(&m, limits, &buf, err);
         if (rc == 0)
-            rc = spool_write_file(file, buf.data, buf.size, err);
+            rc = files_write_atomic(file, buf.data, buf.size, true, err);
         msgpack_sbuffer_destroy(&buf);
         if (rc < 0)
             return err_prefix(err, "storing scene %.12s: ", hash);
@@ -269,7 +253,7 @@ int spool_scene_read(spool_t *self, const char *hash, const proto_limits_t *limi
     scene_paths(self, hash, final, file);
     uint8_t *data;
     size_t size;
-    if (spool_read_file(file, lim.max_message_bytes, &data, &size, err) < 0)
+    if (files_read(file, lim.max_message_bytes, &data, &size, err) < 0)
         return -1;
     int rc = proto_decode(data, size, &lim, out, err);
     free(data);

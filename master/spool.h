@@ -50,14 +50,4 @@ int spool_scene_read(spool_t *self, const char *hash, const proto_limits_t *limi
 /* jobs/<id>/, created if missing; its path in buf. */
 int spool_job_dir(spool_t *self, uint64_t job, char *buf, size_t size, err_t *err);
 
-/* Writes a whole file atomically: a temporary file beside path, fsync, rename. */
-int spool_write_file(const char *path, const void *data, size_t size, err_t *err);
-/* The same, with the fsync only when sync: a file that need survive the process, not the
- * machine (the journal's results), is complete once renamed, and costs no disk flush. */
-int spool_write_file_sync(const char *path, const void *data, size_t size, bool sync,
-                          err_t *err);
-
-/* Reads a whole file of at most max bytes into a malloc'ed buffer. */
-int spool_read_file(const char *path, size_t max, uint8_t **data, size_t *size, err_t *err);
-
 #endif
