@@ -1,5 +1,6 @@
 #include "fresnel.h"
 
+#include <complex.h>
 #include <math.h>
 
 /* Snell: sin^2(theta_t) = eta^2 sin^2(theta_i), cos_i in [0, 1]. At normal incidence it is 0
@@ -96,4 +97,20 @@ fresnel_terms_t fresnel_dielectric_terms(double cos_theta_i, double n_outside, d
 double fresnel_dielectric(double cos_theta_i, double n_outside, double n_inside)
 {
     return fresnel_dielectric_terms(cos_theta_i, n_outside, n_inside).reflectance;
+}
+
+double fresnel_conductor(double cos_i, double eta, double k)
+{
+    cos_i = fmin(1.0, fabs(cos_i));
+    if (!(cos_i >= 0.0)) /* NaN */
+        cos_i = 0.0;
+    if (!isfinite(eta) || !isfinite(k))
+        return 1.0;
+    double complex e = eta + I * k;
+    double sin2_i = fmax(0.0, 1.0 - cos_i * cos_i);
+    double complex cos_t = csqrt(1.0 - sin2_i / (e * e));
+    double complex r_parl = (e * cos_i - cos_t) / (e * cos_i + cos_t);
+    double complex r_perp = (cos_i - e * cos_t) / (cos_i + e * cos_t);
+    double r = 0.5 * (creal(r_parl * conj(r_parl)) + creal(r_perp * conj(r_perp)));
+    return isfinite(r) ? fmin(1.0, fmax(0.0, r)) : 1.0;
 }

@@ -50,4 +50,13 @@ fresnel_terms_t fresnel_dielectric_terms(double cos_theta_i, double n_outside, d
 /* The reflectance R of fresnel_dielectric_terms. */
 double fresnel_dielectric(double cos_theta_i, double n_outside, double n_inside);
 
+/* Unpolarised reflectance of a conductor of complex relative index eta + i k (Born & Wolf
+ * sec. 14.2; pbrt-v4 FrComplex): the cosine form above with a complex n2 / n1 and a complex
+ * cos_t = sqrt(1 - sin^2_i / (eta + i k)^2). Light reaches a conductor only from outside, so
+ * the side of cos_i is ignored (|cos_i|, clamped to 1). k = 0 is the dielectric case (eta < 1
+ * reflects totally beyond its critical angle); eta = 0 with k > 0 is a perfect mirror, R = 1
+ * at every angle; a result that is not finite (eta = k = 0, non-finite indices) reads as 1.
+ * Always in [0, 1]. */
+double fresnel_conductor(double cos_i, double eta, double k);
+
 #endif

@@ -1,0 +1,585 @@
+#include "layered.h"
+
+#include "fresnel.h"
+#include "lobe.h"
+
+#include <float.h>
+#include <math.h>
+#include <stdint.h>
+#include <string.h>
+
+/* Lanes [lo, lo + n) walked together: they share the coating index eta. */
+typedef struct group {
+    const bsdf_t *b;
+    int lo, n;
+    double eta;
+    bool albedo; /* some lane of the group has a scattering medium */
+} group_t;
+
+enum { TOP, BOTTOM };
+
+/* One interface sample for the group: a lane-independent direction and pdf, per-lane f. */
+typedef struct isample {
+    vec3_t wi;
+    double f[BSDF_MAX_LANES];
+    double pdf;
+    int flags;
+} isample_t;
+
+static group_t group_make(const bsdf_t *b, int lo, int n)
+{
+    group_t g = {b, lo, n, b->eta[lo], false};
+    for (int i = 0; i < n; i++)
+        if (b->albedo[lo + i] > 0.0)
+            g.albedo = true;
+    return g;
+}
+
+static double max_lane(const double *v, int n)
+{
+    double m = 0.0;
+    for (int i = 0; i < n; i++)
+        m = fmax(m, v[i]);
+    return m;
+}
+
+static double next_u(rng_stream_t *rng)
+{
+    return fmin(rng_stream_next(rng), 1.0 - DBL_EPSILON / 2.0);
+}
+
+/* The power heuristic with one sample each (Veach & Guibas 1995). */
+static double power_heuristic(double f, double g)
+{
+    double f2 = f * f, g2 = g * g;
+    if (isinf(f2))
+        return 1.0;
+    return f2 + g2 > 0.0 ? f2 / (f2 + g2) : 0.0;
+}
+
+/* Transmittance of a unit-extinction slab crossed over height dz along w (pbrt-v4
+ * LayeredBxDF::Tr): exp(-|dz / w.z|); no height, no attenuation. */
+static double layer_tr(double dz, vec3_t w)
+{
+    if (fabs(dz) <= DBL_MIN)
+        return 1.0;
+    double t = exp(-fabs(dz / w.z));
+    return isfinite(t) ? t : 0.0;
+}
+
+/* Henyey & Greenstein 1941 with pbrt-v4's convention: both directions point away from the
+ * scattering point, so forward scattering (g > 0) is wi = -wo, cos = wo.wi = -1. */
+static double hg_p(vec3_t wo, vec3_t wi, double g)
+{
+    double denom = 1.0 + g * g + 2.0 * g * vec3_dot(wo, wi);
+    if (!(denom > 0.0))
+        return 0.0;
+    return lobe_finite((1.0 - g * g) / (4.0 * PF_PI * denom * sqrt(denom)));
+}
+
+/* Inversion of HG's cumulative distribution in cos (pbrt-v4 SampleHenyeyGreenstein), then a
+ * uniform azimuth about wo. */
+static vec3_t hg_sample(vec3_t wo, double g, double u1, double u2, double *pdf)
+{
+    double c;
+    if (fabs(g) < 1e-3) {
+        c = 1.0 - 2.0 * u1;
+    } else {
+        double s = (1.0 - g * g) / (1.0 + g - 2.0 * g * u1);
+        c = -(1.0 + g * g - s * s) / (2.0 * g);
+    }
+    c = fmin(1.0, fmax(-1.0, c));
+    double sn = sqrt(fmax(0.0, 1.0 - c * c)), phi = 2.0 * PF_PI * u2;
+    vec3_t t, bt;
+    vec3_basis(wo, &t, &bt);
+    vec3_t wi = vec3_add(vec3_add(vec3_scale(t, sn * cos(phi)), vec3_scale(bt, sn * sin(phi))),
+                         vec3_scale(wo, c));
+    *pdf = hg_p(wo, wi, g);
+    return wi;
+}
+
+/* ---- The two interfaces ---- */
+
+static bool iface_specular(const group_t *g, int which)
+{
+    if (which == TOP)
+        return lobe_dielectric_specular(&g->b->mf, g->eta);
+    return g->b->kind == BSDF_COATED_CONDUCTOR && lobe_conductor_specular(&g->b->mf_base);
+}
+
+static void iface_f(const group_t *g, int which, vec3_t wo, vec3_t wi, bsdf_mode_t mode,
+                    double *f)
+{
+    const bsdf_t *b = g->b;
+    if (which == TOP) {
+        double v = lobe_dielectric_f(&b->mf, g->eta, mode, wo, wi);
+        for (int i = 0; i < g->n; i++)
+            f[i] = v;
+        return;
+    }
+    for (int i = 0; i < g->n; i++) {
+        int j = g->lo + i;
+        f[i] = b->kind == BSDF_COATED_CONDUCTOR
+                   ? lobe_conductor_f(&b->mf_base, b->cond_eta[j], b->cond_k[j], wo, wi)
+                   : lobe_diffuse_f(b->reflectance[j], wo, wi);
+    }
+}
+
+static double iface_pdf(const group_t *g, int which, vec3_t wo, vec3_t wi, int allowed)
+{
+    const bsdf_t *b = g->b;
+    if (which == TOP)
+        return lobe_dielectric_pdf(&b->mf, g->eta, wo, wi, allowed);
+    return b->kind == BSDF_COATED_CONDUCTOR ? lobe_conductor_pdf(&b->mf_base, wo, wi, allowed)
+                                            : lobe_diffuse_pdf(wo, wi, allowed);
+}
+
+/* pbrt-v4's test after every interface sample: a sample, some f, pdf > 0, wi off the plane. */
+static bool iface_sample(const group_t *g, int which, vec3_t wo, double uc, double u1, double u2,
+                         bsdf_mode_t mode, int allowed, isample_t *s)
+{
+    const bsdf_t *b = g->b;
+    lobe_sample_t ls = {0};
+    if (g->n < 1)
+        return false;
+    if (which == TOP) {
+        if (!lobe_dielectric_sample(&b->mf, g->eta, mode, wo, uc, u1, u2, allowed, &ls))
+            return false;
+        for (int i = 0; i < g->n; i++)
+            s->f[i] = ls.f;
+    } else {
+        /* The base's direction does not depend on the lane's reflectance or conductor index,
+         * so each lane's sample with the same uniforms has the same wi; only f differs. */
+        for (int i = 0; i < g->n; i++) {
+            int j = g->lo + i;
+            bool ok = b->kind == BSDF_COATED_CONDUCTOR
+                          ? lobe_conductor_sample(&b->mf_base, b->cond_eta[j], b->cond_k[j], wo,
+                                                  u1, u2, allowed, &ls)
+                          : lobe_diffuse_sample(b->reflectance[j], wo, u1, u2, allowed, &ls);
+            if (!ok)
+                return false;
+            s->f[i] = ls.f;
+        }
+    }
+    s->wi = ls.wi;
+    s->pdf = ls.pdf;
+    s->flags = ls.flags;
+    return max_lane(s->f, g->n) > 0.0 && s->pdf > 0.0 && s->wi.z != 0.0;
+}
+
+static bsdf_mode_t adjoint(bsdf_mode_t m)
+{
+    return m == BSDF_RADIANCE ? BSDF_IMPORTANCE : BSDF_RADIANCE;
+}
+
+static double thickness_of(const bsdf_t *b)
+{
+    return fmax(b->thickness, DBL_MIN);
+}
+
+static int nsamples_of(const bsdf_t *b)
+{
+    return b->nsamples > 0 ? b->nsamples : 1;
+}
+
+/* A sample of the exponential free-flight distance along w in a unit-extinction medium,
+ * projected on z: -ln(1 - u) |w.z|. */
+static double free_flight_dz(double u, vec3_t w)
+{
+    return -log1p(-u) * fabs(w.z);
+}
+
+/* ---- f: pbrt-v4 LayeredBxDF::f, the estimator of Guo et al. 2018 sec. 5 with NEE through
+ * the exit interface and MIS against the phase function or the other interface ---- */
+
+static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *f)
+{
+    const bsdf_t *b = g->b;
+    const int n = g->n, ns = nsamples_of(b);
+    const double th = thickness_of(b);
+    if (wo.z < 0.0) { /* two-sided: seen from below, it is the same coating */
+        wo = vec3_neg(wo);
+        wi = vec3_neg(wi);
+    }
+    bool same = wo.z * wi.z > 0.0;
+    int exit_if = same ? TOP : BOTTOM, nonexit_if = same ? BOTTOM : TOP;
+    double exit_z = same ? th : 0.0;
+    bool exit_spec = iface_specular(g, exit_if), nonexit_spec = iface_specular(g, nonexit_if);
+    double tmp[BSDF_MAX_LANES], beta[BSDF_MAX_LANES];
+
+    for (int i = 0; i < n; i++)
+        f[i] = 0.0;
+    if (same) {
+        iface_f(g, TOP, wo, wi, b->mode, tmp);
+        for (int i = 0; i < n; i++)
+            f[i] = ns * tmp[i];
+    }
+    for (int s = 0; s < ns; s++) {
+        isample_t wos, wis, bs;
+        double uc = next_u(rng), u1 = next_u(rng), u2 = next_u(rng);
+        if (!iface_sample(g, TOP, wo, uc, u1, u2, b->mode, LOBE_T, &wos))
+            continue;
+        /* The adjoint walk from wi: a "virtual light" through the exit interface. */
+        uc = next_u(rng), u1 = next_u(rng), u2 = next_u(rng);
+        if (!iface_sample(g, exit_if, wi, uc, u1, u2, adjoint(b->mode), LOBE_T, &wis))
+            continue;
+        for (int i = 0; i < n; i++)
+            beta[i] = wos.f[i] * fabs(wos.wi.z) / wos.pdf;
+        double z = th;
+        vec3_t w = wos.wi;
+        for (int depth = 0; depth < b->maxdepth; depth++) {
+            double bmax = max_lane(beta, n);
+            if (depth > 3 && bmax < 0.25) { /* Russian roulette */
+                double q = fmax(0.0, 1.0 - bmax);
+                if (next_u(rng) < q)
+                    break;
+                for (int i = 0; i < n; i++)
+                    beta[i] /= 1.0 - q;
+            }
+            if (!g->albedo) {
+                z = z == th ? 0.0 : th;
+                double tr = layer_tr(th, w);
+                for (int i = 0; i < n; i++)
+                    beta[i] *= tr;
+            } else {
+                double dz = free_flight_dz(next_u(rng), w);
+                double zp = w.z > 0.0 ? z + dz : z - dz;
+                if (zp == z)
+                    continue;
+                if (0.0 < zp && zp < th) {
+                    /* Scattering in the medium: NEE through the exit along wis, MIS-weighted
+                     * against the phase function's own sampling of that direction. */
+                    double ph = hg_p(vec3_neg(w), vec3_neg(wis.wi), b->g);
+                    double wt = exit_spec ? 1.0 : power_heuristic(wis.pdf, ph);
+                    double tr = layer_tr(zp - exit_z, wis.wi);
+                    for (int i = 0; i < n; i++)
+                        f[i] += beta[i] * b->albedo[g->lo + i] * ph * wt * tr * wis.f[i] / wis.pdf;
+                    double ppdf;
+                    u1 = next_u(rng), u2 = next_u(rng);
+                    vec3_t pwi = hg_sample(vec3_neg(w), b->g, u1, u2, &ppdf);
+                    if (!(ppdf > 0.0) || pwi.z == 0.0)
+                        continue;
+                    /* p / pdf = 1 for the exactly sampled phase function. */
+                    for (int i = 0; i < n; i++)
+                        beta[i] *= b->albedo[g->lo + i];
+                    w = pwi;
+                    z = zp;
+                    if (((z < exit_z && w.z > 0.0) || (z > exit_z && w.z < 0.0)) && !exit_spec) {
+                        iface_f(g, exit_if, vec3_neg(w), wi, b->mode, tmp);
+                        if (max_lane(tmp, n) > 0.0) {
+                            double epdf = iface_pdf(g, exit_if, vec3_neg(w), wi, LOBE_T);
+                            double wt2 = power_heuristic(ppdf, epdf);
+                            double tr2 = layer_tr(zp - exit_z, pwi);
+                            for (int i = 0; i < n; i++)
+                                f[i] += beta[i] * tr2 * tmp[i] * wt2;
+                        }
+                    }
+                    continue;
+                }
+                z = fmin(fmax(zp, 0.0), th);
+            }
+            if (z == exit_z) {
+                uc = next_u(rng), u1 = next_u(rng), u2 = next_u(rng);
+                if (!iface_sample(g, exit_if, vec3_neg(w), uc, u1, u2, b->mode, LOBE_R, &bs))
+                    break;
+                for (int i = 0; i < n; i++)
+                    beta[i] *= bs.f[i] * fabs(bs.wi.z) / bs.pdf;
+                w = bs.wi;
+            } else {
+                if (!nonexit_spec) {
+                    /* NEE at the far interface along the presampled wis. */
+                    double wt = 1.0;
+                    if (!exit_spec)
+                        wt = power_heuristic(wis.pdf, iface_pdf(g, nonexit_if, vec3_neg(w),
+                                                                 vec3_neg(wis.wi), LOBE_ALL));
+                    iface_f(g, nonexit_if, vec3_neg(w), vec3_neg(wis.wi), b->mode, tmp);
+                    double c = fabs(wis.wi.z) * wt * layer_tr(th, wis.wi) / wis.pdf;
+                    for (int i = 0; i < n; i++)
+                        f[i] += beta[i] * tmp[i] * c * wis.f[i];
+                }
+                uc = next_u(rng), u1 = next_u(rng), u2 = next_u(rng);
+                if (!iface_sample(g, nonexit_if, vec3_neg(w), uc, u1, u2, b->mode, LOBE_R, &bs))
+                    break;
+                for (int i = 0; i < n; i++)
+                    beta[i] *= bs.f[i] * fabs(bs.wi.z) / bs.pdf;
+                w = bs.wi;
+                if (!exit_spec) {
+                    iface_f(g, exit_if, vec3_neg(w), wi, b->mode, tmp);
+                    if (max_lane(tmp, n) > 0.0) {
+                        double wt = 1.0;
+                        if (!nonexit_spec)
+                            wt = power_heuristic(
+                                bs.pdf, iface_pdf(g, exit_if, vec3_neg(w), wi, LOBE_T));
+                        double tr = layer_tr(th, bs.wi);
+                        for (int i = 0; i < n; i++)
+                            f[i] += beta[i] * tr * tmp[i] * wt;
+                    }
+                }
+            }
+        }
+    }
+    for (int i = 0; i < n; i++)
+        f[i] = lobe_finite(f[i] / ns);
+}
+
+/* ---- pdf: pbrt-v4 LayeredBxDF::PDF, the TRT / TT approximations mixed with a uniform
+ * sphere: 0.1 / (4 pi) + 0.9 estimate ---- */
+
+static double group_pdf(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng)
+{
+    const bsdf_t *b = g->b;
+    const int ns = nsamples_of(b);
+    if (wo.z < 0.0) {
+        wo = vec3_neg(wo);
+        wi = vec3_neg(wi);
+    }
+    bool same = wo.z * wi.z > 0.0;
+    double sum = same ? ns * iface_pdf(g, TOP, wo, wi, LOBE_R) : 0.0;
+    for (int s = 0; s < ns; s++) {
+        isample_t wos, wis, rs;
+        double a[9];
+        for (int k = 0; k < 9; k++)
+            a[k] = next_u(rng);
+        if (same) {
+            bool ok_o = iface_sample(g, TOP, wo, a[0], a[1], a[2], b->mode, LOBE_T, &wos);
+            bool ok_i = iface_sample(g, TOP, wi, a[3], a[4], a[5], adjoint(b->mode), LOBE_T, &wis);
+            if (!ok_o || !ok_i)
+                continue;
+            if (iface_specular(g, TOP)) {
+                sum += iface_pdf(g, BOTTOM, vec3_neg(wos.wi), vec3_neg(wis.wi), LOBE_ALL);
+            } else if (iface_sample(g, BOTTOM, vec3_neg(wos.wi), a[6], a[7], a[8], b->mode,
+                                    LOBE_ALL, &rs)) {
+                if (iface_specular(g, BOTTOM)) {
+                    sum += iface_pdf(g, TOP, vec3_neg(rs.wi), wi, LOBE_ALL);
+                } else {
+                    /* MIS of the two ways to estimate the product of the three pdfs. */
+                    double rpdf = iface_pdf(g, BOTTOM, vec3_neg(wos.wi), vec3_neg(wis.wi), LOBE_ALL);
+                    sum += power_heuristic(wis.pdf, rpdf) * rpdf;
+                    double tpdf = iface_pdf(g, TOP, vec3_neg(rs.wi), wi, LOBE_ALL);
+                    sum += power_heuristic(rs.pdf, tpdf) * tpdf;
+                }
+            }
+        } else {
+            if (!iface_sample(g, TOP, wo, a[0], a[1], a[2], b->mode, LOBE_ALL, &wos) ||
+                (wos.flags & BSDF_REFLECTION))
+                continue;
+            if (!iface_sample(g, BOTTOM, wi, a[3], a[4], a[5], adjoint(b->mode), LOBE_ALL, &wis) ||
+                (wis.flags & BSDF_REFLECTION))
+                continue;
+            if (iface_specular(g, TOP))
+                sum += iface_pdf(g, BOTTOM, vec3_neg(wos.wi), wi, LOBE_ALL);
+            else if (iface_specular(g, BOTTOM))
+                sum += iface_pdf(g, TOP, wo, vec3_neg(wis.wi), LOBE_ALL);
+            else
+                sum += 0.5 * (iface_pdf(g, TOP, wo, vec3_neg(wis.wi), LOBE_ALL) +
+                              iface_pdf(g, BOTTOM, vec3_neg(wos.wi), wi, LOBE_ALL));
+        }
+    }
+    return lobe_finite(0.1 / (4.0 * PF_PI) + 0.9 * sum / ns);
+}
+
+/* ---- Sample_f: pbrt-v4 LayeredBxDF::Sample_f, a random walk until the path leaves ---- */
+
+static bool group_sample(const group_t *g, vec3_t wo, double uc, double u1, double u2,
+                         rng_stream_t *rng, double *f, double *pdf_out, vec3_t *wi_out,
+                         int *flags_out)
+{
+    const bsdf_t *b = g->b;
+    const int n = g->n;
+    const double th = thickness_of(b);
+    bool flip = wo.z < 0.0;
+    if (flip)
+        wo = vec3_neg(wo);
+    isample_t bs;
+    if (!iface_sample(g, TOP, wo, uc, u1, u2, b->mode, LOBE_ALL, &bs))
+        return false;
+    if (bs.flags & BSDF_REFLECTION) {
+        memcpy(f, bs.f, sizeof(double) * (size_t)n);
+        *pdf_out = bs.pdf;
+        *wi_out = flip ? vec3_neg(bs.wi) : bs.wi;
+        *flags_out = bs.flags;
+        return true;
+    }
+    vec3_t w = bs.wi;
+    bool specular_path = bs.flags & BSDF_SPECULAR;
+    for (int i = 0; i < n; i++)
+        f[i] = bs.f[i] * fabs(bs.wi.z);
+    double pdf = bs.pdf, z = th;
+    for (int depth = 0; depth < b->maxdepth; depth++) {
+        double rr = max_lane(f, n) / pdf;
+        if (depth > 3 && rr < 0.25) {
+            double q = fmax(0.0, 1.0 - rr);
+            if (next_u(rng) < q)
+                return false;
+            pdf *= 1.0 - q;
+        }
+        if (w.z == 0.0)
+            return false;
+        if (g->albedo) {
+            double dz = free_flight_dz(next_u(rng), w);
+            double zp = w.z > 0.0 ? z + dz : z - dz;
+            if (zp == z)
+                return false;
+            if (0.0 < zp && zp < th) {
+                double ppdf, a1 = next_u(rng), a2 = next_u(rng);
+                vec3_t pwi = hg_sample(vec3_neg(w), b->g, a1, a2, &ppdf);
+                if (!(ppdf > 0.0) || pwi.z == 0.0)
+                    return false;
+                for (int i = 0; i < n; i++)
+                    f[i] *= b->albedo[g->lo + i] * ppdf;
+                pdf *= ppdf;
+                specular_path = false;
+                w = pwi;
+                z = zp;
+                continue;
+            }
+            z = fmin(fmax(zp, 0.0), th);
+        } else {
+            z = z == th ? 0.0 : th;
+            double tr = layer_tr(th, w);
+            for (int i = 0; i < n; i++)
+                f[i] *= tr;
+        }
+        int which = z == 0.0 ? BOTTOM : TOP;
+        double c = next_u(rng), a1 = next_u(rng), a2 = next_u(rng);
+        if (!iface_sample(g, which, vec3_neg(w), c, a1, a2, b->mode, LOBE_ALL, &bs))
+            return false;
+        for (int i = 0; i < n; i++)
+            f[i] *= bs.f[i];
+        pdf *= bs.pdf;
+        specular_path = specular_path && (bs.flags & BSDF_SPECULAR);
+        w = bs.wi;
+        if (bs.flags & BSDF_TRANSMISSION) {
+            int flags = wo.z * w.z > 0.0 ? BSDF_REFLECTION : BSDF_TRANSMISSION;
+            if (specular_path)
+                flags |= BSDF_SPECULAR;
+            *wi_out = flip ? vec3_neg(w) : w;
+            *pdf_out = pdf;
+            *flags_out = flags;
+            for (int i = 0; i < n; i++)
+                f[i] = lobe_finite(f[i]);
+            return lobe_finite(pdf) > 0.0;
+        }
+        for (int i = 0; i < n; i++)
+            f[i] *= fabs(bs.wi.z);
+    }
+    return false;
+}
+
+/* ---- The lanes ---- */
+
+static bool eta_same(double a, double b)
+{
+    return fabs(a - b) <= 1e-9 * fabs(b);
+}
+
+static bool coating_disperses(const bsdf_t *b)
+{
+    for (int j = 1; j < b->n; j++)
+        if (!eta_same(b->eta[j], b->eta[0]))
+            return true;
+    return false;
+}
+
+/* A stream keyed by the directions' bits, for callers that pass none (pbrt-v4 hashes wo and
+ * wi the same way). */
+static rng_stream_t direction_stream(vec3_t a, vec3_t b)
+{
+    uint64_t h[2] = {0x243F6A8885A308D3ull, 0x13198A2E03707344ull};
+    double v[6] = {a.x, a.y, a.z, b.x, b.y, b.z};
+    for (int k = 0; k < 6; k++) {
+        uint64_t bits;
+        memcpy(&bits, &v[k], sizeof bits);
+        h[k / 3] = (h[k / 3] ^ bits) * 0x100000001B3ull;
+        h[k / 3] ^= h[k / 3] >> 29;
+    }
+    return rng_stream_make(h[0], h[1], 0);
+}
+
+void layered_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *f)
+{
+    rng_stream_t local = direction_stream(wo, wi);
+    if (!rng)
+        rng = &local;
+    if (!coating_disperses(b)) {
+        group_t g = group_make(b, 0, b->n);
+        group_eval(&g, wo, wi, rng, f);
+        return;
+    }
+    for (int j = 0; j < b->n; j++) {
+        group_t g = group_make(b, j, 1);
+        group_eval(&g, wo, wi, rng, &f[j]);
+    }
+}
+
+void layered_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *pdf)
+{
+    rng_stream_t local = direction_stream(wi, wo);
+    if (!rng)
+        rng = &local;
+    if (!coating_disperses(b)) {
+        group_t g = group_make(b, 0, b->n);
+        double p = group_pdf(&g, wo, wi, rng);
+        for (int j = 0; j < b->n; j++)
+            pdf[j] = p;
+        return;
+    }
+    for (int j = 0; j < b->n; j++) {
+        group_t g = group_make(b, j, 1);
+        pdf[j] = group_pdf(&g, wo, wi, rng);
+    }
+}
+
+bool layered_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, double u2,
+                    rng_stream_t *rng, bsdf_sample_t *out)
+{
+    rng_stream_t local = direction_stream(wo, vec3_make(uc, u1, u2));
+    if (!rng)
+        rng = &local;
+    out->pdf_is_estimate = true;
+    out->eta = 1.0;
+    if (!coating_disperses(b)) {
+        group_t g = group_make(b, 0, b->n);
+        double pdf;
+        if (!group_sample(&g, wo, uc, u1, u2, rng, out->f, &pdf, &out->wi, &out->flags))
+            return false;
+        for (int j = 0; j < b->n; j++)
+            out->pdf[j] = pdf;
+        return true;
+    }
+    group_t g = group_make(b, hero, 1);
+    double fh, pdfh;
+    if (!group_sample(&g, wo, uc, u1, u2, rng, &fh, &pdfh, &out->wi, &out->flags))
+        return false;
+    /* The top's mirror reflection is the one delta direction every lane shares; its weight is
+     * the lane's own Fresnel reflectance (the probability of that lobe under its sampling). */
+    bool top_mirror = (out->flags & BSDF_SPECULAR) && (out->flags & BSDF_REFLECTION) &&
+                      lobe_dielectric_specular(&b->mf, b->eta[hero]) &&
+                      fabs(out->wi.x + wo.x) + fabs(out->wi.y + wo.y) < 1e-12;
+    for (int j = 0; j < b->n; j++) {
+        if (j == hero) {
+            out->f[j] = fh;
+            out->pdf[j] = pdfh;
+        } else if (out->flags & BSDF_SPECULAR) {
+            double r = top_mirror ? fresnel_dielectric(fabs(wo.z), 1.0, b->eta[j]) : 0.0;
+            out->f[j] = lobe_finite(r / fabs(out->wi.z));
+            out->pdf[j] = r;
+        } else {
+            group_t gj = group_make(b, j, 1);
+            group_eval(&gj, wo, out->wi, rng, &out->f[j]);
+            out->pdf[j] = group_pdf(&gj, wo, out->wi, rng);
+        }
+    }
+    return true;
+}
+
+bool layered_is_specular(const bsdf_t *b)
+{
+    if (b->kind != BSDF_COATED_CONDUCTOR || !microfacet_smooth(&b->mf) ||
+        !microfacet_smooth(&b->mf_base))
+        return false;
+    for (int j = 0; j < b->n; j++)
+        if (b->albedo[j] > 0.0)
+            return false;
+    return true;
+}

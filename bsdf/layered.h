@@ -1,0 +1,26 @@
+/* layered: pbrt-v4's LayeredBxDF (Guo et al. 2018, "Position-Free Monte Carlo Simulation for
+ * Arbitrary Layered BSDFs"; pbrt-v4 sec. 14.3) for the coated models of bsdf.h: a dielectric
+ * interface on top, a diffuse or conductor base, a homogeneous Henyey-Greenstein medium of
+ * unit extinction between them, two-sided (a wo below is flipped to the top). f, the sampled
+ * weights and the pdf are stochastic estimates whose randomness comes from the rng stream
+ * only (a NULL stream is replaced by one keyed by the directions' bits, so the value is then
+ * a pure function of the arguments, as in pbrt-v4). Internal to bsdf/.
+ *
+ * Lanes: when every lane has the same coating eta, one walk (its directions are
+ * lane-independent) carries every lane's throughput, and the pdf is the same for every lane.
+ * When the coating disperses, each lane is estimated by its own walk: a sample's direction
+ * comes from the hero's walk and each other lane gets its own estimate of f and pdf at that
+ * direction (0 for a specular direction other than the top's mirror reflection). */
+#ifndef PRISMFARM_LAYERED_H
+#define PRISMFARM_LAYERED_H
+
+#include "bsdf.h"
+
+void layered_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *f);
+void layered_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *pdf);
+bool layered_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, double u2,
+                    rng_stream_t *rng, bsdf_sample_t *out);
+/* Only delta lobes: smooth coating over a smooth conductor with no medium. */
+bool layered_is_specular(const bsdf_t *b);
+
+#endif

@@ -1,0 +1,57 @@
+/* lobe: the single-lane scattering lobes the bsdf models are built from (pbrt-v4's
+ * DiffuseBxDF, ConductorBxDF and DielectricBxDF for one wavelength), in the local frame, with
+ * pbrt-v4's reflection/transmission restriction of sampling (BxDFReflTransFlags) that the
+ * layered walk needs. Internal to bsdf/: bsdf.h is the interface. Every value returned is
+ * finite and >= 0; a lobe that cannot sample returns false. */
+#ifndef PRISMFARM_LOBE_H
+#define PRISMFARM_LOBE_H
+
+#include "bsdf.h"
+
+/* Which parts of a lobe a sample may come from (pbrt-v4 BxDFReflTransFlags). */
+enum { LOBE_R = 1, LOBE_T = 2, LOBE_ALL = 3 };
+
+typedef struct lobe_sample {
+    vec3_t wi;
+    double f;   /* without the cosine; for a delta lobe, includes 1 / |cos wi| */
+    double pdf; /* solid angle, or the discrete lobe probability for a delta lobe */
+    int flags;  /* BSDF_REFLECTION / BSDF_TRANSMISSION | BSDF_SPECULAR */
+    double eta; /* relative index along wi (transmission), else 1 */
+} lobe_sample_t;
+
+/* f must stay finite: a density that overflows (measure-zero directions) reads as 0. */
+static inline double lobe_finite(double x)
+{
+    return isfinite(x) && x > 0.0 ? x : 0.0;
+}
+
+/* Lambertian reflection of reflectance r (pbrt-v4 DiffuseBxDF). */
+double lobe_diffuse_f(double r, vec3_t wo, vec3_t wi);
+double lobe_diffuse_pdf(vec3_t wo, vec3_t wi, int allowed);
+bool lobe_diffuse_sample(double r, vec3_t wo, double u1, double u2, int allowed,
+                         lobe_sample_t *out);
+
+/* Microfacet (or, when mf is smooth, mirror) reflection of a conductor eta + i k (pbrt-v4
+ * ConductorBxDF); reflects on both sides. */
+bool lobe_conductor_specular(const microfacet_t *mf);
+double lobe_conductor_f(const microfacet_t *mf, double eta, double k, vec3_t wo, vec3_t wi);
+double lobe_conductor_pdf(const microfacet_t *mf, vec3_t wo, vec3_t wi, int allowed);
+bool lobe_conductor_sample(const microfacet_t *mf, double eta, double k, vec3_t wo, double u1,
+                           double u2, int allowed, lobe_sample_t *out);
+
+/* A dielectric interface of relative index eta (inside over outside, +z outside): smooth
+ * (delta) when mf is smooth or eta == 1, else pbrt-v4's rough dielectric with the
+ * generalized half vector (Walter et al. 2007). */
+bool lobe_dielectric_specular(const microfacet_t *mf, double eta);
+double lobe_dielectric_f(const microfacet_t *mf, double eta, bsdf_mode_t mode, vec3_t wo,
+                         vec3_t wi);
+double lobe_dielectric_pdf(const microfacet_t *mf, double eta, vec3_t wo, vec3_t wi,
+                           int allowed);
+bool lobe_dielectric_sample(const microfacet_t *mf, double eta, bsdf_mode_t mode, vec3_t wo,
+                            double uc, double u1, double u2, int allowed, lobe_sample_t *out);
+
+/* The smooth dielectric's refraction of wo (either side) with pbrt-v4's Refract: false under
+ * total internal reflection; *etap is the relative index along wi. */
+bool lobe_refract(vec3_t wo, vec3_t n, double eta, double *etap, vec3_t *wi);
+
+#endif
