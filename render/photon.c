@@ -7,6 +7,7 @@
 #include "lights.h"
 #include "rng.h"
 #include "sample.h"
+#include "shading.h"
 #include "specular.h"
 #include "wavelength.h"
 
@@ -219,7 +220,9 @@ static int specular_sphere(const scene_t *s, vec3_t *centre, double *radius)
     for (size_t i = 0; i < s->nshapes; i++) {
         const shape_t *sh = &s->shapes[i];
         const material_t *m = &s->materials[sh->material];
-        if (m->kind != MATERIAL_DIELECTRIC && m->kind != MATERIAL_CONDUCTOR)
+        /* Aim at what the pass follows: smooth mirrors and glass (a roughness texture may be
+         * smooth in places). */
+        if ((m->kind != MATERIAL_DIELECTRIC && m->kind != MATERIAL_CONDUCTOR) || m->rough)
             continue;
         vec3_t blo, bhi;
         transform_t own;
@@ -330,6 +333,8 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
         surface_t sf;
         scene_surface(s, &h, &sf);
         const material_t *m = sf.material;
+        if (m->kind == MATERIAL_MIX)
+            m = shading_resolve(s, m, &sf, next(t));
         if (m->kind == MATERIAL_INTERFACE) {
             if (++f->passthrough > MAX_PASSTHROUGH)
                 return 0;
@@ -370,6 +375,11 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
             f->dir = sample_local_to_world(sample_cosine_hemisphere(u0, u1), g);
             f->org = geometry_offset(sf.p, sf.ng, f->dir);
             f->diffuse = 1;
+        } else if (!shading_is_delta(m, &sf)) {
+            /* The stores hold light that reached a diffuse surface through smooth mirrors and
+             * glass only (L S+ D); the camera pass path traces everything through any other
+             * surface (render.c's CHAIN_BROKEN), so a photon ends here. */
+            return 0;
         } else {
             if (f->depth >= job->maxdepth) {
                 st->culled++;

@@ -7,6 +7,7 @@
 #include "lights.h"
 #include "rng.h"
 #include "sample.h"
+#include "shading.h"
 #include "spectral_grid.h"
 #include "specular.h"
 #include "wavelength.h"
@@ -200,39 +201,60 @@ static void add_environment(ctx_t *c, const path_t *p)
         splat(c, p, j, w * environment_lane(c, j, p->lambda[j]));
 }
 
+/* Samples a light for next-event estimation at sf and traces its shadow ray: 1 with *ls when
+ * the light is sampled and visible, 0 otherwise. accept(wi) decides, before the shadow ray,
+ * whether the direction can contribute at all. */
+static int light_visible(ctx_t *c, const surface_t *sf, light_sample_t *ls,
+                         int (*accept)(const void *, vec3_t), const void *arg)
+{
+    double u[4];
+    for (int k = 0; k < 4; k++)
+        u[k] = next(c);
+    if (!lights_sample(c->scene, sf->p, u, ls))
+        return 0;
+    if (!accept(arg, ls->wi) || !(ls->pdf > 0.0))
+        return 0;
+    /* Both ends of the shadow ray are offset off their surfaces (toward each other), so that
+     * neither the shading point's surface nor the light's own surface blocks it. */
+    vec3_t o = geometry_offset(sf->p, sf->ng, ls->wi);
+    vec3_t dir = ls->wi;
+    double tmax = INFINITY;
+    if (!isinf(ls->dist)) {
+        vec3_t target = ls->dist > 0 && ls->is_delta ? vec3_fma(sf->p, ls->wi, ls->dist)
+                                                     : geometry_offset(ls->p_light, ls->n_light, vec3_neg(ls->wi));
+        vec3_t d = vec3_sub(target, o);
+        tmax = vec3_length(d);
+        if (!(tmax > 0.0))
+            return 0;
+        dir = vec3_scale(d, 1.0 / tmax);
+        tmax *= 1.0 - 1e-7;
+    }
+    c->stats->rays++;
+    return !geometry_occluded(c->scene->geometry, o, dir, 0.0, tmax);
+}
+
+typedef struct hemispheres {
+    vec3_t n, g;
+} hemispheres_t;
+
+/* Above both the shading normal n and the geometric normal g. */
+static int above_both(const void *arg, vec3_t wi)
+{
+    const hemispheres_t *h = arg;
+    return vec3_dot(h->n, wi) > 0.0 && vec3_dot(h->g, wi) > 0.0;
+}
+
 /* Next-event estimation at a diffuse point with shading normal n and geometric normal g, both
  * facing the viewer. A light direction below either hemisphere contributes nothing (the
  * shading-normal rule of scatter's diffuse branch). */
 static void direct_light(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t n, vec3_t g,
                          const double *albedo)
 {
-    double u[4];
-    for (int k = 0; k < 4; k++)
-        u[k] = next(c);
     light_sample_t ls;
-    if (!lights_sample(c->scene, sf->p, u, &ls))
+    const hemispheres_t hs = {n, g};
+    if (!light_visible(c, sf, &ls, above_both, &hs))
         return;
     double cos_s = vec3_dot(n, ls.wi);
-    if (cos_s <= 0.0 || vec3_dot(g, ls.wi) <= 0.0 || !(ls.pdf > 0.0))
-        return;
-    /* Both ends of the shadow ray are offset off their surfaces (toward each other), so that
-     * neither the shading point's surface nor the light's own surface blocks it. */
-    vec3_t o = geometry_offset(sf->p, sf->ng, ls.wi);
-    vec3_t dir = ls.wi;
-    double tmax = INFINITY;
-    if (!isinf(ls.dist)) {
-        vec3_t target = ls.dist > 0 && ls.is_delta ? vec3_fma(sf->p, ls.wi, ls.dist)
-                                                   : geometry_offset(ls.p_light, ls.n_light, vec3_neg(ls.wi));
-        vec3_t d = vec3_sub(target, o);
-        tmax = vec3_length(d);
-        if (!(tmax > 0.0))
-            return;
-        dir = vec3_scale(d, 1.0 / tmax);
-        tmax *= 1.0 - 1e-7;
-    }
-    c->stats->rays++;
-    if (geometry_occluded(c->scene->geometry, o, dir, 0.0, tmax))
-        return;
     double w = 1.0;
     if (!ls.is_delta && c->rs->integrator == INTEGRATOR_PATH)
         w = power_heuristic(ls.pdf, cos_s / PF_PI);
@@ -240,6 +262,61 @@ static void direct_light(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t 
         double le = lights_sample_emission_of(c->scene, &ls,
                                               light_value_lane(c, ls.light, j, p->lambda[j]));
         splat(c, p, j, w * albedo[j] / PF_PI * le * cos_s / ls.pdf);
+    }
+}
+
+/* A direction on the side of the geometric surface that its local z says (the shading frame
+ * and the real surface agree), so that no sampled or light direction passes through a mesh
+ * where shading and geometric normals differ. */
+typedef struct sides {
+    const shading_frame_t *frame;
+    vec3_t ng;
+} sides_t;
+
+static int sides_agree(const void *arg, vec3_t wi)
+{
+    const sides_t *s = arg;
+    double zs = vec3_dot(wi, s->frame->z), zg = vec3_dot(wi, s->ng);
+    return zs * zg > 0.0;
+}
+
+/* The pdf a BSDF-sampled direction had, from the lanes' own pdfs: their mean when the lobe
+ * was chosen by a uniformly random lane (spectral MIS: sampling from the mixture of the
+ * lanes' lobes), the hero's alone when lane 0 sampled. */
+static double lanes_pdf(const double *pdf, int n, int mixture)
+{
+    if (!mixture)
+        return pdf[0];
+    double sum = 0.0;
+    for (int j = 0; j < n; j++)
+        sum += pdf[j];
+    return sum / n;
+}
+
+/* Next-event estimation at a surface with a non-delta bsdf b, the lanes weighted by MIS
+ * against the BSDF sampling that lanes_pdf describes. */
+static void direct_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, const bsdf_t *b,
+                              const shading_frame_t *fr, vec3_t wo_local, int mixture)
+{
+    light_sample_t ls;
+    const sides_t sd = {fr, sf->ng};
+    if (!light_visible(c, sf, &ls, sides_agree, &sd))
+        return;
+    vec3_t wi = shading_to_local(fr, ls.wi);
+    double f[LANES], pdf[LANES];
+    bsdf_eval(b, wo_local, wi, &c->rng, f);
+    double w = 1.0;
+    if (!ls.is_delta && c->rs->integrator == INTEGRATOR_PATH) {
+        bsdf_pdf(b, wo_local, wi, &c->rng, pdf);
+        w = power_heuristic(ls.pdf, lanes_pdf(pdf, p->n, mixture));
+    }
+    const double cos_i = fabs(wi.z);
+    for (int j = 0; j < p->n; j++) {
+        if (!(f[j] > 0.0))
+            continue;
+        double le = lights_sample_emission_of(c->scene, &ls,
+                                              light_value_lane(c, ls.light, j, p->lambda[j]));
+        splat(c, p, j, w * f[j] * cos_i * le / ls.pdf);
     }
 }
 
@@ -483,6 +560,73 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
     return have_current ? 0 : 1;
 }
 
+/* The photon integrator's split counts only the smooth mirrors and glass that the photon pass
+ * follows as specular (L S+ D); any other surface breaks the chain, so that light through
+ * it is path traced and never both gathered and found (docs/rendering.md). */
+#define CHAIN_BROKEN (-(1 << 20))
+
+/* Every surface that is not Lambertian, a smooth mirror or smooth glass: its bsdf/ model,
+ * with next-event estimation where it has a non-delta lobe. Returns 0 to continue the path,
+ * 1 when it ends.
+ *
+ * Lanes: the direction is sampled from one lane's lobe. With spectral MIS (the default) that
+ * lane is chosen uniformly at random, so the direction's density is the mixture of the
+ * lanes' densities, mean_k pdf_k(wi), and lane j is weighted f_j |cos| / mean_k pdf_k: every
+ * lane keeps a bounded weight even where the lobes differ (a rough dispersive dielectric
+ * refracts each wavelength into its own lobe), instead of ending. With "spectralmis" false,
+ * a surface whose lobes differ ends the secondary lanes as pbrt-v4 does (the hero, lane 0,
+ * carries n times its weight). Lanes whose lobes agree give the same numbers either way. */
+static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material_t *m)
+{
+    bsdf_t b;
+    shading_bsdf(m, sf, p->lambda, p->n, BSDF_RADIANCE, &b);
+    const vec3_t wo_world = vec3_neg(p->dir);
+    const shading_frame_t fr = shading_frame_make(sf, wo_world);
+    const vec3_t wo = shading_to_local(&fr, wo_world);
+    if (!(wo.z != 0.0))
+        return 1;
+    const int terminate = !c->rs->spectral_mis && p->n > 1 && bsdf_lanes_disperse(&b);
+    const int mixture = !terminate && p->n > 1;
+    const int delta = bsdf_is_specular(&b);
+    if (!delta && c->rs->integrator != INTEGRATOR_SIMPLEPATH)
+        direct_light_bsdf(c, p, sf, &b, &fr, wo, mixture);
+    if (!delta && c->rs->integrator == INTEGRATOR_WHITTED)
+        return 1;
+    int hero = 0;
+    if (mixture) {
+        hero = (int)(next(c) * p->n);
+        if (hero >= p->n)
+            hero = p->n - 1;
+    }
+    double uc = next(c), u1 = next(c), u2 = next(c);
+    bsdf_sample_t bs;
+    if (!bsdf_sample(&b, wo, hero, uc, u1, u2, &c->rng, &bs))
+        return 1;
+    const vec3_t wi = shading_to_world(&fr, bs.wi);
+    const sides_t sd = {&fr, sf->ng};
+    if (!sides_agree(&sd, wi))
+        return 1;
+    const double cos_i = fabs(bs.wi.z);
+    double pdf = lanes_pdf(bs.pdf, p->n, mixture);
+    if (!(pdf > 0.0))
+        return 1;
+    if (terminate) {
+        p->beta[0] *= bs.f[0] * cos_i / bs.pdf[0] * p->n;
+        p->n = 1;
+        p->mono = 1;
+        p->dispersed = 1;
+    } else {
+        for (int j = 0; j < p->n; j++)
+            p->beta[j] *= bs.f[j] * cos_i / pdf;
+    }
+    const int specular = (bs.flags & BSDF_SPECULAR) != 0;
+    start_bounce(p, sf, wi, specular, specular ? 0.0 : pdf);
+    if (!specular)
+        p->diffuse_bounces++;
+    p->specular_since_diffuse = CHAIN_BROKEN;
+    return 0;
+}
+
 /* Traces one path (and, via the stack, its branches) and splats what it finds. */
 static void trace(ctx_t *c, path_t *start)
 {
@@ -512,6 +656,8 @@ static void trace(ctx_t *c, path_t *start)
                 !(c->photons && p->diffuse_bounces == 1 && p->specular_since_diffuse >= c->mindepth))
                 add_emission_hit(c, p, &sf, &s->lights[sf.light], sf.light);
             const material_t *m = sf.material;
+            if (m->kind == MATERIAL_MIX)
+                m = shading_resolve(s, m, &sf, next(c));
             if (m->kind == MATERIAL_INTERFACE) {
                 if (++p->passthrough > MAX_PASSTHROUGH)
                     break;
@@ -548,6 +694,9 @@ static void trace(ctx_t *c, path_t *start)
                 start_bounce(p, &sf, wi, 0, cos_i / PF_PI);
                 p->diffuse_bounces++;
                 p->specular_since_diffuse = 0;
+            } else if (!shading_is_delta(m, &sf)) {
+                if (scatter_bsdf(c, p, &sf, m))
+                    break;
             } else if (m->kind == MATERIAL_CONDUCTOR) {
                 vec3_t ns = specular_normal(&sf, p->dir, 0.0, NULL);
                 vec3_t n = vec3_dot(ns, wo) >= 0.0 ? ns : vec3_neg(ns);

@@ -192,6 +192,16 @@ const char *plan_material_kind_name(material_kind_t kind)
         return "dielectric";
     case MATERIAL_INTERFACE:
         return "interface";
+    case MATERIAL_THIN_DIELECTRIC:
+        return "thindielectric";
+    case MATERIAL_DIFFUSE_TRANSMISSION:
+        return "diffusetransmission";
+    case MATERIAL_COATED_DIFFUSE:
+        return "coateddiffuse";
+    case MATERIAL_COATED_CONDUCTOR:
+        return "coatedconductor";
+    case MATERIAL_MIX:
+        return "mix";
     }
     return "?";
 }
@@ -305,9 +315,17 @@ static int texture_varies(const texture_t *t, spectral_grid_t g)
     return 0;
 }
 
-static int is_specular(material_kind_t k)
+/* A smooth mirror or glass: what carries a caustic (and what the photon pass follows). */
+static int is_specular(const material_t *m)
 {
-    return k == MATERIAL_CONDUCTOR || k == MATERIAL_DIELECTRIC;
+    return (m->kind == MATERIAL_CONDUCTOR || m->kind == MATERIAL_DIELECTRIC) && !m->rough;
+}
+
+/* A material with an index of refraction (glass, or a coating's interface). */
+static int has_ior(material_kind_t k)
+{
+    return k == MATERIAL_DIELECTRIC || k == MATERIAL_THIN_DIELECTRIC ||
+           k == MATERIAL_COATED_DIFFUSE || k == MATERIAL_COATED_CONDUCTOR;
 }
 
 /* A diffuse surface that reflects some light at the hit (a black light fixture does not: a
@@ -453,7 +471,7 @@ static long specular_placements(const scene_t *s, placement_t **out, double **cd
     size_t n = 0, cap = 0;
     for (size_t i = 0; i < s->nshapes && n < PLAN_PLACEMENTS_MAX; i++) {
         const shape_t *sh = &s->shapes[i];
-        if (!is_specular(s->materials[sh->material].kind))
+        if (!is_specular(&s->materials[sh->material]))
             continue;
         if (sh->kind == SHAPE_MESH && !(cdfs[i] = mesh_cdf(sh))) {
             free(pl);
@@ -555,7 +573,7 @@ static int follow(tracer_t *t, int n, uint64_t key, spectral_grid_t g, found_t *
                 f->receiver_material = material_index(s, sf.material);
                 return 1;
             }
-            if (is_specular(sf.material->kind) && a.hops < t->max_hops)
+            if (is_specular(sf.material) && a.hops < t->max_hops)
                 enqueue(t, &n, &sf, dir, a.hops + 1, a.root_material);
         }
     }
@@ -616,7 +634,7 @@ static int light_to_placement(tracer_t *t, int li, const placement_t *pl, int j,
             org = geometry_offset(lp, ln, dir);
         }
         surface_t sf;
-        if (!first_surface(t, org, dir, &sf) || !is_specular(sf.material->kind))
+        if (!first_surface(t, org, dir, &sf) || !is_specular(sf.material))
             continue;
         *reached = 1;
         enqueue(t, &n, &sf, dir, 1, material_index(s, sf.material));
@@ -651,7 +669,7 @@ static int beam(tracer_t *t, int li, spectral_grid_t g, int *reached, int *direc
             if (!*direct)
                 *receiver = material_index(s, sf.material);
             *direct = 1;
-        } else if (is_specular(sf.material->kind)) {
+        } else if (is_specular(sf.material)) {
             *reached = 1;
             enqueue(t, &n, &sf, ln, 1, material_index(s, sf.material));
         }
@@ -777,7 +795,7 @@ static void plan_materials(plan_t *p, const scene_t *s)
         else if (m->kind == MATERIAL_CONDUCTOR)
             pm->spectral = m->eta ? spectrum_varies(m->eta, g) || spectrum_varies(m->k, g)
                                   : texture_varies(m->reflectance, g);
-        if (m->kind == MATERIAL_DIELECTRIC) {
+        if (has_ior(m->kind)) {
             pm->n_lo = ior_eval(&m->ior, g.lambda_min);
             pm->n_hi = ior_eval(&m->ior, g.lambda_max);
             pm->n_mid = ior_eval(&m->ior, mid);
@@ -808,7 +826,7 @@ static int decide_splitting(plan_t *p, const scene_t *s)
     spectral_grid_t g = s->settings.grid;
     int ndisp = 0, nconst = 0;
     for (size_t i = 0; i < p->nmaterials; i++)
-        if (p->materials[i].kind == MATERIAL_DIELECTRIC) {
+        if (has_ior(p->materials[i].kind)) {
             if (p->materials[i].dispersive)
                 ndisp++;
             else
@@ -832,7 +850,7 @@ static int decide_splitting(plan_t *p, const scene_t *s)
             text_add(&r, " Constant-index glass does not split: ");
             k = 0;
             for (size_t i = 0; i < p->nmaterials; i++)
-                if (p->materials[i].kind == MATERIAL_DIELECTRIC && !p->materials[i].dispersive) {
+                if (has_ior(p->materials[i].kind) && !p->materials[i].dispersive) {
                     text_add(&r, "%s", k++ ? ", " : "");
                     describe_dielectric(&r, &p->materials[i], g);
                 }
@@ -846,7 +864,7 @@ static int decide_splitting(plan_t *p, const scene_t *s)
             text_add(&r, " (constant: ");
             int k = 0;
             for (size_t i = 0; i < p->nmaterials; i++)
-                if (p->materials[i].kind == MATERIAL_DIELECTRIC) {
+                if (has_ior(p->materials[i].kind)) {
                     text_add(&r, "%s", k++ ? ", " : "");
                     describe_dielectric(&r, &p->materials[i], g);
                 }
@@ -1375,8 +1393,8 @@ int plan_write_text(const plan_t *p, FILE *out)
     }
     int any = 0;
     for (size_t i = 0; i < p->nmaterials; i++)
-        any |= p->materials[i].kind == MATERIAL_DIELECTRIC ||
-               p->materials[i].kind == MATERIAL_CONDUCTOR;
+        any |= has_ior(p->materials[i].kind) || p->materials[i].kind == MATERIAL_CONDUCTOR ||
+               p->materials[i].kind == MATERIAL_COATED_CONDUCTOR;
     if (any) {
         fprintf(out, "\nMIRRORS AND GLASS\n%-16s %-11s %-6s %-9s %-9s %-8s %-9s %s\n", "material",
                 "kind", "disp.", "n_lo", "n_hi", "dn", "n_d", "v_d");
@@ -1384,9 +1402,10 @@ int plan_write_text(const plan_t *p, FILE *out)
             const plan_material_t *m = &p->materials[i];
             if (m->kind == MATERIAL_CONDUCTOR)
                 fprintf(out, "%-16s %-11s %-6s\n", m->name, "conductor", "-");
-            if (m->kind != MATERIAL_DIELECTRIC)
+            if (!has_ior(m->kind))
                 continue;
-            fprintf(out, "%-16s %-11s %-6s %-9.5f %-9.5f %-8.5f %-9.5f ", m->name, "dielectric",
+            fprintf(out, "%-16s %-11s %-6s %-9.5f %-9.5f %-8.5f %-9.5f ", m->name,
+                    plan_material_kind_name(m->kind),
                     m->dispersive ? "yes" : "no", m->n_lo, m->n_hi, m->n_lo - m->n_hi, m->n_d);
             if (m->has_v_d)
                 fprintf(out, "%.2f\n", m->v_d);

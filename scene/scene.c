@@ -13,6 +13,7 @@ render_settings_t render_settings_default(void)
     return (render_settings_t){
         .integrator = INTEGRATOR_PATH,
         .dispersion = DISPERSION_HERO,
+        .spectral_mis = 1,
         .maxdepth = 5,
         .spp = 16,
         .seed = 1,
@@ -477,11 +478,15 @@ int scene_finish(scene_t *self, err_t *err)
     self->has_dispersion = 0;
     for (size_t i = 0; i < self->nmaterials; i++) {
         material_t *m = &self->materials[i];
-        if (m->kind != MATERIAL_DIELECTRIC)
+        if (m->kind != MATERIAL_DIELECTRIC && m->kind != MATERIAL_THIN_DIELECTRIC &&
+            m->kind != MATERIAL_COATED_DIFFUSE && m->kind != MATERIAL_COATED_CONDUCTOR)
             continue;
         if (ior_validate(&m->ior, m->name, g.lambda_min, g.lambda_max, err))
             return -1;
-        m->dispersive = ior_is_dispersive(&m->ior, g.lambda_min, g.lambda_max);
+        /* A thin slab transmits straight through at every wavelength: its index changes
+         * weights, never directions, so it never splits a path's wavelengths. */
+        m->dispersive = m->kind != MATERIAL_THIN_DIELECTRIC &&
+                        ior_is_dispersive(&m->ior, g.lambda_min, g.lambda_max);
         self->has_dispersion |= m->dispersive;
     }
     for (size_t i = 0; i < self->nlights; i++) {

@@ -25,18 +25,46 @@
 
 typedef enum material_kind {
     MATERIAL_DIFFUSE,    /* Lambertian with a reflectance texture */
-    MATERIAL_CONDUCTOR,  /* perfect mirror: Fresnel from eta/k, or a reflectance texture */
-    MATERIAL_DIELECTRIC, /* smooth glass with an index-of-refraction model */
+    MATERIAL_CONDUCTOR,  /* Fresnel from eta/k (or a reflectance); a mirror when smooth */
+    MATERIAL_DIELECTRIC, /* glass with an index-of-refraction model; smooth or rough */
     MATERIAL_INTERFACE,  /* no surface: rays pass straight through */
+    MATERIAL_THIN_DIELECTRIC,      /* a thin slab: reflection and straight transmission */
+    MATERIAL_DIFFUSE_TRANSMISSION, /* Lambertian reflection and transmission */
+    MATERIAL_COATED_DIFFUSE,       /* a dielectric coat over a medium over a diffuse base */
+    MATERIAL_COATED_CONDUCTOR,     /* a dielectric coat over a medium over a conductor */
+    MATERIAL_MIX,                  /* one of two materials, chosen per hit by amount */
 } material_kind_t;
 
+/* The numbers of a material; textures are NULL where the material has no such input (a
+ * NULL roughness is 0). The models themselves are bsdf/'s (pbrt-v4's BxDFs). */
 typedef struct material {
     material_kind_t kind;
     char name[64];
-    const texture_t *reflectance; /* diffuse albedo; conductor reflectance when eta is NULL */
-    const spectrum_t *eta, *k;    /* conductor's complex index (both or neither) */
-    ior_model_t ior;              /* dielectric */
-    int dispersive;               /* dielectric whose index varies over the film's range */
+    /* diffuse albedo, coated diffuse base, diffuse transmission reflectance; a conductor's
+     * reflectance when eta is NULL */
+    const texture_t *reflectance;
+    const texture_t *transmittance; /* diffuse transmission */
+    double scale;                   /* diffuse transmission: multiplies both */
+    /* conductor's (or coated conductor's base) complex index (both or neither) */
+    const spectrum_t *eta, *k;
+    /* dielectric, thin dielectric, and the coatings' interface */
+    ior_model_t ior;
+    int dispersive; /* the index varies over the film's range */
+    /* Roughness (NULL: 0) of the conductor, dielectric or coating interface, and of a coated
+     * conductor's base; remapped by pbrt-v4's RoughnessToAlpha when remaproughness. */
+    const texture_t *uroughness, *vroughness;
+    const texture_t *base_uroughness, *base_vroughness;
+    int remaproughness;
+    /* A conductor or dielectric whose constant roughness pbrt-v4 calls effectively smooth
+     * (smooth: the delta code everywhere) or not (rough: nowhere); neither when a texture
+     * decides per hit. Set by the loader; a material without roughness is smooth anyway. */
+    int smooth, rough;
+    /* coated: the medium between interface and base */
+    const texture_t *thickness, *albedo, *g;
+    int maxdepth, nsamples;
+    /* mix: two material indices and the probability of the second */
+    int mix[2];
+    const texture_t *amount;
 } material_t;
 
 typedef enum light_kind {
@@ -146,6 +174,10 @@ typedef struct render_settings {
     int xres, yres;
     spectral_grid_t grid;
     int visible_sampling; /* hero: sample wavelengths by the visible pdf, not uniformly */
+    /* At a rough surface whose lanes' lobes differ (a rough dispersive dielectric), weight
+     * the lanes by spectral MIS (render.c) rather than ending the secondary lanes as pbrt-v4
+     * does ("bool spectralmis", default true). */
+    int spectral_mis;
     char filename[512];   /* output named by the scene's Film, may be empty */
     int film_spectral;    /* Film "spectral" (else "rgb") */
     photon_settings_t photon;

@@ -2,6 +2,7 @@
 
 #include "cie.h"
 #include "glass.h"
+#include "microfacet.h"
 #include "image_png.h"
 #include "pbrt_parser.h"
 #include "plan.h"
@@ -285,6 +286,40 @@ static int build_ior(const scene_ior_t *in, const char *material, ior_model_t *o
     return err_set(err, "unknown index model");
 }
 
+/* A roughness input: NULL when it is the constant 0 (the smooth case needs no texture). */
+static int roughness_input(loader_t *L, const scene_float_input_t *in, const texture_t **out,
+                           err_t *err)
+{
+    *out = NULL;
+    if (in->texture < 0 && in->value == 0.0)
+        return 0;
+    return (*out = float_input(L, in, err)) ? 0 : -1;
+}
+
+/* A conductor's eta and k (or its reflectance, pbrt-v4's alternative). */
+static int conductor_inputs(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+{
+    if (dm->use_reflectance)
+        return (m->reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) ? 0 : -1;
+    if (dm->eta.texture >= 0 || dm->k.texture >= 0)
+        return pbrt_error(err, dm->loc, "material \"%s\": textured eta/k are not supported", m->name);
+    return (m->eta = owned_spectrum(L->sc, &dm->eta.spectrum, SPEC_UNBOUNDED, err)) &&
+                   (m->k = owned_spectrum(L->sc, &dm->k.spectrum, SPEC_UNBOUNDED, err))
+               ? 0
+               : -1;
+}
+
+static int layer_inputs(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+{
+    m->maxdepth = dm->maxdepth;
+    m->nsamples = dm->nsamples;
+    return (m->thickness = float_input(L, &dm->thickness, err)) &&
+                   (m->g = float_input(L, &dm->g, err)) &&
+                   (m->albedo = spectrum_input(L, &dm->albedo, SPEC_REFLECTANCE, err))
+               ? 0
+               : -1;
+}
+
 static int load_materials(loader_t *L, err_t *err)
 {
     const scene_desc_t *d = L->desc;
@@ -292,39 +327,79 @@ static int load_materials(loader_t *L, err_t *err)
         const scene_material_t *dm = &d->materials[i];
         material_t m = {0};
         snprintf(m.name, sizeof m.name, "%s", dm->name ? dm->name : "(unnamed)");
-        int rough = dm->uroughness.texture >= 0 || dm->vroughness.texture >= 0 ||
-                    dm->uroughness.value != 0.0 || dm->vroughness.value != 0.0;
+        m.remaproughness = dm->remaproughness;
+        m.mix[0] = m.mix[1] = -1;
+        const int has_roughness = dm->type == SCENE_MATERIAL_CONDUCTOR ||
+                                  dm->type == SCENE_MATERIAL_DIELECTRIC ||
+                                  dm->type == SCENE_MATERIAL_COATEDDIFFUSE ||
+                                  dm->type == SCENE_MATERIAL_COATEDCONDUCTOR;
+        if (has_roughness && (roughness_input(L, &dm->uroughness, &m.uroughness, err) ||
+                              roughness_input(L, &dm->vroughness, &m.vroughness, err)))
+            return -1;
+        if (dm->type == SCENE_MATERIAL_COATEDCONDUCTOR &&
+            (roughness_input(L, &dm->base_uroughness, &m.base_uroughness, err) ||
+             roughness_input(L, &dm->base_vroughness, &m.base_vroughness, err)))
+            return -1;
+        int rc = 0;
         switch (dm->type) {
         case SCENE_MATERIAL_DIFFUSE:
             m.kind = MATERIAL_DIFFUSE;
-            if (!(m.reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)))
-                return -1;
+            rc = (m.reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) ? 0 : -1;
             break;
         case SCENE_MATERIAL_CONDUCTOR:
             m.kind = MATERIAL_CONDUCTOR;
-            if (rough)
-                return pbrt_error(err, dm->loc, "material \"%s\": rough conductors are not supported (roughness must be 0)", m.name);
-            if (dm->use_reflectance) {
-                if (!(m.reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)))
-                    return -1;
-            } else {
-                if (dm->eta.texture >= 0 || dm->k.texture >= 0)
-                    return pbrt_error(err, dm->loc, "material \"%s\": textured eta/k are not supported", m.name);
-                if (!(m.eta = owned_spectrum(L->sc, &dm->eta.spectrum, SPEC_UNBOUNDED, err)) ||
-                    !(m.k = owned_spectrum(L->sc, &dm->k.spectrum, SPEC_UNBOUNDED, err)))
-                    return -1;
-            }
+            rc = conductor_inputs(L, dm, &m, err);
             break;
         case SCENE_MATERIAL_DIELECTRIC:
             m.kind = MATERIAL_DIELECTRIC;
-            if (rough)
-                return pbrt_error(err, dm->loc, "material \"%s\": rough dielectrics are not supported (roughness must be 0)", m.name);
-            if (build_ior(&dm->ior, m.name, &m.ior, err))
-                return -1;
+            rc = build_ior(&dm->ior, m.name, &m.ior, err);
+            break;
+        case SCENE_MATERIAL_THINDIELECTRIC:
+            m.kind = MATERIAL_THIN_DIELECTRIC;
+            rc = build_ior(&dm->ior, m.name, &m.ior, err);
+            break;
+        case SCENE_MATERIAL_DIFFUSETRANSMISSION:
+            m.kind = MATERIAL_DIFFUSE_TRANSMISSION;
+            m.scale = dm->scale;
+            rc = (m.reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) &&
+                         (m.transmittance = spectrum_input(L, &dm->transmittance, SPEC_REFLECTANCE, err))
+                     ? 0
+                     : -1;
+            break;
+        case SCENE_MATERIAL_COATEDDIFFUSE:
+            m.kind = MATERIAL_COATED_DIFFUSE;
+            rc = (m.reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) &&
+                         !build_ior(&dm->ior, m.name, &m.ior, err) && !layer_inputs(L, dm, &m, err)
+                     ? 0
+                     : -1;
+            break;
+        case SCENE_MATERIAL_COATEDCONDUCTOR:
+            m.kind = MATERIAL_COATED_CONDUCTOR;
+            rc = conductor_inputs(L, dm, &m, err) || build_ior(&dm->ior, m.name, &m.ior, err) ||
+                         layer_inputs(L, dm, &m, err)
+                     ? -1
+                     : 0;
+            break;
+        case SCENE_MATERIAL_MIX:
+            m.kind = MATERIAL_MIX;
+            m.mix[0] = dm->mix[0];
+            m.mix[1] = dm->mix[1];
+            rc = (m.amount = float_input(L, &dm->amount, err)) ? 0 : -1;
             break;
         case SCENE_MATERIAL_INTERFACE:
             m.kind = MATERIAL_INTERFACE;
             break;
+        }
+        if (rc)
+            return -1;
+        /* Smooth everywhere: constant roughness that pbrt-v4 calls effectively smooth. A
+         * roughness texture may still be smooth at a hit; render decides there. */
+        if ((m.kind == MATERIAL_CONDUCTOR || m.kind == MATERIAL_DIELECTRIC) &&
+            dm->uroughness.texture < 0 && dm->vroughness.texture < 0) {
+            microfacet_t mf = microfacet_make(dm->uroughness.value, dm->vroughness.value,
+                                              dm->remaproughness);
+            m.smooth = microfacet_smooth(&mf);
+            m.rough = !m.smooth;
         }
         if (scene_add_material(L->sc, &m, err) < 0)
             return -1;
@@ -607,13 +682,16 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
     rs->integrator = named->kind;
     int maxdepth;
     const char *disp, *wl;
+    bool spectral_mis;
     if (params_get_int(p, "maxdepth", 5, &maxdepth, err) ||
+        params_get_bool(p, "spectralmis", true, &spectral_mis, err) ||
         params_get_string(p, "dispersion", integrators_dispersion_name(DISPERSION_HERO), &disp, err) ||
         params_get_string(p, "wavelengths", "uniform", &wl, err))
         return -1;
     if (maxdepth < 0 || maxdepth > 10000)
         return pbrt_error(err, in->loc, "\"integer maxdepth\" must be in 0..10000, got %d", maxdepth);
     rs->maxdepth = maxdepth;
+    rs->spectral_mis = spectral_mis;
     if ((photon || !strcmp(in->type, "photon")) && load_photon(L, p, photon, err))
         return -1;
     if (ov && ov->dispersion)

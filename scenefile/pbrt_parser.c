@@ -1139,38 +1139,50 @@ static int do_sampler(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc
  * Materials
  * ------------------------------------------------------------------------------------------ */
 
-static int get_roughness(parser_t *P, params_t *ps, scene_material_t *m)
+/* pbrt-v4 materials.cpp: "<prefix>uroughness"/"<prefix>vroughness" override
+ * "<prefix>roughness" (default 0); the prefix is "" or a layer's ("interface.",
+ * "conductor."). */
+static int get_roughness(parser_t *P, params_t *ps, scene_material_t *m, const char *prefix,
+                         scene_float_input_t *uout, scene_float_input_t *vout)
 {
-    /* pbrt-v4 materials.cpp: "uroughness"/"vroughness" override "roughness" (default 0). */
-    param_t *u = params_find(ps, "uroughness"), *v = params_find(ps, "vroughness");
+    char un[48], vn[48], rn[48];
+    snprintf(un, sizeof un, "%suroughness", prefix);
+    snprintf(vn, sizeof vn, "%svroughness", prefix);
+    snprintf(rn, sizeof rn, "%sroughness", prefix);
+    param_t *u = params_find(ps, un), *v = params_find(ps, vn);
     scene_float_input_t r = {-1, 0.0};
-    if ((!u || !v) && get_float_input(P, ps, "roughness", 0.0, &r) != 0)
+    if ((!u || !v) && get_float_input(P, ps, rn, 0.0, &r) != 0)
         return -1;
-    m->uroughness = r;
-    m->vroughness = r;
-    if (u && get_float_input(P, ps, "uroughness", 0.0, &m->uroughness) != 0)
+    *uout = r;
+    *vout = r;
+    if (u && get_float_input(P, ps, un, 0.0, uout) != 0)
         return -1;
-    if (v && get_float_input(P, ps, "vroughness", 0.0, &m->vroughness) != 0)
+    if (v && get_float_input(P, ps, vn, 0.0, vout) != 0)
         return -1;
-    if ((m->uroughness.texture < 0 && m->uroughness.value < 0.0) ||
-        (m->vroughness.texture < 0 && m->vroughness.value < 0.0))
-        return pbrt_error(P->err, m->loc, "roughness must not be negative");
-    return params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err);
+    if ((uout->texture < 0 && !(uout->value >= 0.0)) || (vout->texture < 0 && !(vout->value >= 0.0)))
+        return pbrt_error(P->err, m->loc, "%sroughness must not be negative", prefix);
+    return 0;
 }
 
-static int get_ior(parser_t *P, params_t *ps, scene_material_t *m)
+/* The index of refraction of a dielectric or of a coating's interface: "<prefix>eta" (pbrt-v4)
+ * or prismfarm's "<prefix>glass", "<prefix>sellmeier", "<prefix>cauchy". */
+static int get_ior(parser_t *P, params_t *ps, scene_material_t *m, const char *prefix)
 {
     static const char *NAMES[] = {"eta", "glass", "sellmeier", "cauchy"};
+    char names[COUNT_OF(NAMES)][48];
+    for (size_t i = 0; i < COUNT_OF(NAMES); i++)
+        snprintf(names[i], sizeof names[i], "%s%s", prefix, NAMES[i]);
     param_t *given = NULL;
     for (size_t i = 0; i < COUNT_OF(NAMES); i++) {
-        param_t *p = params_find(ps, NAMES[i]);
+        param_t *p = params_find(ps, names[i]);
         if (!p)
             continue;
         if (given)
             return pbrt_error(P->err, p->loc,
-                              "give only one of \"eta\", \"glass\", \"sellmeier\" "
-                              "and \"cauchy\" for %s (\"%s\" is already given)",
-                              params_context(ps), given->name);
+                              "give only one of \"%s\", \"%s\", \"%s\" "
+                              "and \"%s\" for %s (\"%s\" is already given)",
+                              names[0], names[1], names[2], names[3], params_context(ps),
+                              given->name);
         given = p;
     }
     scene_ior_t *ior = &m->ior;
@@ -1180,19 +1192,24 @@ static int get_ior(parser_t *P, params_t *ps, scene_material_t *m)
         ior->spectrum = spectrum_constant(1.5, m->loc); /* pbrt-v4's default eta */
         return 0;
     }
-    if (!strcmp(given->name, "eta")) {
+    const char *kind = given->name + strlen(prefix);
+    if (!strcmp(kind, "eta")) {
         if (given->type == PARAM_TEXTURE)
             return pbrt_error(P->err, given->loc,
-                              "unsupported parameter \"texture eta\": the "
-                              "index of refraction cannot be a texture");
-        if (given->type != PARAM_FLOAT && given->type != PARAM_SPECTRUM)
-            return params_wrong_type(ps, given, "\"float eta\" or \"spectrum eta\"", P->err);
+                              "unsupported parameter \"texture %s\": the "
+                              "index of refraction cannot be a texture", given->name);
+        if (given->type != PARAM_FLOAT && given->type != PARAM_SPECTRUM) {
+            char expected[128];
+            snprintf(expected, sizeof expected, "\"float %s\" or \"spectrum %s\"", given->name,
+                     given->name);
+            return params_wrong_type(ps, given, expected, P->err);
+        }
         ior->kind = SCENE_IOR_SPECTRUM;
         if (spectrum_from_param(P, ps, given, SPECTRUM_ANY, &ior->spectrum) != 0)
             return -1;
         if (ior->spectrum.kind == SCENE_SPECTRUM_CONSTANT && !(ior->spectrum.constant > 0.0))
-            return pbrt_error(P->err, given->loc, "\"float eta\" must be greater than 0, got %g",
-                              ior->spectrum.constant);
+            return pbrt_error(P->err, given->loc, "\"float %s\" must be greater than 0, got %g",
+                              given->name, ior->spectrum.constant);
         if (ior->spectrum.kind == SCENE_SPECTRUM_SAMPLED)
             for (size_t i = 0; i < ior->spectrum.count; i++)
                 if (!(ior->spectrum.value[i] > 0.0))
@@ -1202,12 +1219,12 @@ static int get_ior(parser_t *P, params_t *ps, scene_material_t *m)
                                       ior->spectrum.value[i], i + 1);
         return 0;
     }
-    if (!strcmp(given->name, "glass")) {
+    if (!strcmp(kind, "glass")) {
         const char *name;
-        if (params_get_string(ps, "glass", NULL, &name, P->err) != 0)
+        if (params_get_string(ps, given->name, NULL, &name, P->err) != 0)
             return -1;
         if (!*name)
-            return pbrt_error(P->err, given->loc, "\"string glass\" is empty");
+            return pbrt_error(P->err, given->loc, "\"string %s\" is empty", given->name);
         ior->kind = SCENE_IOR_GLASS;
         ior->glass = scene_desc_strdup(P->scene, name, P->err);
         return ior->glass ? 0 : -1;
@@ -1217,7 +1234,7 @@ static int get_ior(parser_t *P, params_t *ps, scene_material_t *m)
         snprintf(expected, sizeof expected, "\"float %s\"", given->name);
         return params_wrong_type(ps, given, expected, P->err);
     }
-    if (!strcmp(given->name, "sellmeier")) {
+    if (!strcmp(kind, "sellmeier")) {
         /* n^2 = 1 + sum B_i l^2 / (l^2 - C_i), l in um (docs/physics.md §3.3). */
         if (given->count < 2 || given->count % 2 != 0)
             return pbrt_error(P->err, given->loc,
@@ -1248,6 +1265,70 @@ static int get_ior(parser_t *P, params_t *ps, scene_material_t *m)
     return 0;
 }
 
+/* A conductor's complex index or reflectance, as pbrt-v4's ConductorMaterial reads them
+ * ("eta", "k", "reflectance") and CoatedConductorMaterial ("conductor.eta", "conductor.k",
+ * "reflectance"). */
+static int get_conductor(parser_t *P, params_t *ps, scene_material_t *m, const char *prefix)
+{
+    char en[48], kn[48];
+    snprintf(en, sizeof en, "%seta", prefix);
+    snprintf(kn, sizeof kn, "%sk", prefix);
+    param_t *r = params_find(ps, "reflectance");
+    if (r && (params_find(ps, en) || params_find(ps, kn)))
+        return pbrt_error(P->err, r->loc, "%s: give either \"reflectance\" or \"%s\" and \"%s\", not both",
+                          params_context(ps), en, kn);
+    m->use_reflectance = r != NULL;
+    return get_spectrum_input(P, ps, "reflectance", spectrum_constant(1.0, m->loc), SPECTRUM_ALBEDO,
+                              &m->reflectance) ||
+                   get_spectrum_input(P, ps, en, spectrum_named("metal-Cu-eta", m->loc), SPECTRUM_ANY,
+                                      &m->eta) ||
+                   get_spectrum_input(P, ps, kn, spectrum_named("metal-Cu-k", m->loc), SPECTRUM_ANY,
+                                      &m->k)
+               ? -1
+               : 0;
+}
+
+/* The medium of pbrt-v4's layered materials (coateddiffuse, coatedconductor). */
+static int get_layer(parser_t *P, params_t *ps, scene_material_t *m)
+{
+    if (get_float_input(P, ps, "thickness", 0.01, &m->thickness) != 0 ||
+        get_float_input(P, ps, "g", 0.0, &m->g) != 0 ||
+        get_spectrum_input(P, ps, "albedo", spectrum_constant(0.0, m->loc), SPECTRUM_ALBEDO,
+                           &m->albedo) != 0 ||
+        params_get_int(ps, "maxdepth", 10, &m->maxdepth, P->err) != 0 ||
+        params_get_int(ps, "nsamples", 1, &m->nsamples, P->err) != 0 ||
+        check_range(P, ps, "maxdepth", m->maxdepth, 1, 1000) != 0 ||
+        check_range(P, ps, "nsamples", m->nsamples, 1, 1000) != 0)
+        return -1;
+    if (m->thickness.texture < 0 && !(m->thickness.value > 0.0))
+        return check_positive(P, ps, "thickness", m->thickness.value);
+    if (m->g.texture < 0 && !(m->g.value > -1.0 && m->g.value < 1.0))
+        return check_range(P, ps, "g", m->g.value, -0.999, 0.999);
+    return 0;
+}
+
+static int get_mix(parser_t *P, params_t *ps, scene_material_t *m)
+{
+    param_t *p = params_find(ps, "materials");
+    if (!p)
+        return pbrt_error(P->err, m->loc, "mix: \"string materials\" (two named materials) is missing");
+    if (p->type != PARAM_STRING)
+        return params_wrong_type(ps, p, "\"string materials\"", P->err);
+    p->used = true;
+    if (p->count != 2)
+        return pbrt_error(P->err, p->loc, "expected 2 material names after \"string materials\", got %zu",
+                          p->count);
+    for (int i = 0; i < 2; i++) {
+        m->mix[i] = scene_desc_find_material(P->scene, p->strings[i]);
+        if (m->mix[i] < 0)
+            return pbrt_error(P->err, p->loc,
+                              "mix: named material \"%s\" is not defined (a MakeNamedMaterial must "
+                              "come before the mix that uses it)",
+                              p->strings[i]);
+    }
+    return get_float_input(P, ps, "amount", 0.5, &m->amount);
+}
+
 static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_t type_loc,
                           scene_material_t *m)
 {
@@ -1258,34 +1339,67 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
     }
     if (!strcmp(type, "conductor")) {
         m->type = SCENE_MATERIAL_CONDUCTOR;
-        param_t *r = params_find(ps, "reflectance");
-        if (r && (params_find(ps, "eta") || params_find(ps, "k")))
-            return pbrt_error(P->err, r->loc,
-                              "conductor: give either \"reflectance\" or "
-                              "\"eta\" and \"k\", not both");
-        m->use_reflectance = r != NULL;
-        if (get_spectrum_input(P, ps, "reflectance", spectrum_constant(1.0, m->loc),
-                               SPECTRUM_ALBEDO, &m->reflectance) != 0 ||
-            get_spectrum_input(P, ps, "eta", spectrum_named("metal-Cu-eta", m->loc), SPECTRUM_ANY,
-                               &m->eta) != 0 ||
-            get_spectrum_input(P, ps, "k", spectrum_named("metal-Cu-k", m->loc), SPECTRUM_ANY,
-                               &m->k) != 0)
-            return -1;
-        return get_roughness(P, ps, m);
+        return get_conductor(P, ps, m, "") ||
+                       get_roughness(P, ps, m, "", &m->uroughness, &m->vroughness) ||
+                       params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err)
+                   ? -1
+                   : 0;
     }
     if (!strcmp(type, "dielectric")) {
         m->type = SCENE_MATERIAL_DIELECTRIC;
-        if (get_ior(P, ps, m) != 0)
+        return get_ior(P, ps, m, "") || get_roughness(P, ps, m, "", &m->uroughness, &m->vroughness) ||
+                       params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err)
+                   ? -1
+                   : 0;
+    }
+    if (!strcmp(type, "thindielectric")) {
+        m->type = SCENE_MATERIAL_THINDIELECTRIC;
+        return get_ior(P, ps, m, "");
+    }
+    if (!strcmp(type, "diffusetransmission")) {
+        m->type = SCENE_MATERIAL_DIFFUSETRANSMISSION;
+        if (get_spectrum_input(P, ps, "reflectance", spectrum_constant(0.25, m->loc), SPECTRUM_ALBEDO,
+                               &m->reflectance) != 0 ||
+            get_spectrum_input(P, ps, "transmittance", spectrum_constant(0.25, m->loc),
+                               SPECTRUM_ALBEDO, &m->transmittance) != 0 ||
+            params_get_float(ps, "scale", 1.0, &m->scale, P->err) != 0)
             return -1;
-        return get_roughness(P, ps, m);
+        return m->scale >= 0.0 ? 0 : check_range(P, ps, "scale", m->scale, 0.0, 1.0);
+    }
+    if (!strcmp(type, "coateddiffuse")) {
+        m->type = SCENE_MATERIAL_COATEDDIFFUSE;
+        return get_spectrum_input(P, ps, "reflectance", spectrum_constant(0.5, m->loc),
+                                  SPECTRUM_ALBEDO, &m->reflectance) ||
+                       get_ior(P, ps, m, "") ||
+                       get_roughness(P, ps, m, "", &m->uroughness, &m->vroughness) ||
+                       params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err) ||
+                       get_layer(P, ps, m)
+                   ? -1
+                   : 0;
+    }
+    if (!strcmp(type, "coatedconductor")) {
+        m->type = SCENE_MATERIAL_COATEDCONDUCTOR;
+        return get_conductor(P, ps, m, "conductor.") || get_ior(P, ps, m, "interface.") ||
+                       get_roughness(P, ps, m, "interface.", &m->uroughness, &m->vroughness) ||
+                       get_roughness(P, ps, m, "conductor.", &m->base_uroughness,
+                                     &m->base_vroughness) ||
+                       params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err) ||
+                       get_layer(P, ps, m)
+                   ? -1
+                   : 0;
+    }
+    if (!strcmp(type, "mix")) {
+        m->type = SCENE_MATERIAL_MIX;
+        return get_mix(P, ps, m);
     }
     if (!strcmp(type, "interface")) {
         m->type = SCENE_MATERIAL_INTERFACE;
         return 0;
     }
     return pbrt_error(P->err, type_loc,
-                      "unsupported material \"%s\" (\"diffuse\", \"conductor\", "
-                      "\"dielectric\" or \"interface\")",
+                      "unsupported material \"%s\" (\"diffuse\", \"conductor\", \"dielectric\", "
+                      "\"thindielectric\", \"diffusetransmission\", \"coateddiffuse\", "
+                      "\"coatedconductor\", \"mix\" or \"interface\")",
                       type);
 }
 
@@ -1299,6 +1413,11 @@ static int do_material(parser_t *P, params_t *ps, const str_arg_t *type, const c
     m->loc = loc;
     m->reflectance.texture = m->eta.texture = m->k.texture = -1;
     m->uroughness.texture = m->vroughness.texture = -1;
+    m->base_uroughness.texture = m->base_vroughness.texture = -1;
+    m->transmittance.texture = m->albedo.texture = -1;
+    m->thickness.texture = m->g.texture = m->amount.texture = -1;
+    m->mix[0] = m->mix[1] = -1;
+    m->remaproughness = true;
     if (name) {
         m->name = scene_desc_strdup(P->scene, name, P->err);
         if (!m->name)

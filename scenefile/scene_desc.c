@@ -136,7 +136,13 @@ scene_desc_t *scene_desc_new(err_t *err)
     }
     scene_material_t *mat = &self->materials[m];
     mat->type = SCENE_MATERIAL_DIFFUSE;
-    mat->reflectance.texture = -1;
+    mat->reflectance.texture = mat->eta.texture = mat->k.texture = -1;
+    mat->uroughness.texture = mat->vroughness.texture = -1;
+    mat->base_uroughness.texture = mat->base_vroughness.texture = -1;
+    mat->transmittance.texture = mat->albedo.texture = -1;
+    mat->thickness.texture = mat->g.texture = mat->amount.texture = -1;
+    mat->mix[0] = mat->mix[1] = -1;
+    mat->remaproughness = true;
     mat->reflectance.spectrum.kind = SCENE_SPECTRUM_CONSTANT;
     mat->reflectance.spectrum.constant = 0.5;
     return self;

@@ -118,6 +118,11 @@ typedef enum scene_material_type {
     SCENE_MATERIAL_CONDUCTOR,
     SCENE_MATERIAL_DIELECTRIC,
     SCENE_MATERIAL_INTERFACE, /* no surface: marks a boundary between media */
+    SCENE_MATERIAL_THINDIELECTRIC,
+    SCENE_MATERIAL_DIFFUSETRANSMISSION,
+    SCENE_MATERIAL_COATEDDIFFUSE,
+    SCENE_MATERIAL_COATEDCONDUCTOR,
+    SCENE_MATERIAL_MIX,
 } scene_material_type_t;
 
 typedef enum scene_ior_kind {
@@ -141,16 +146,35 @@ typedef struct scene_material {
     scene_material_type_t type;
     const char *name; /* MakeNamedMaterial name, or NULL for Material */
     pbrt_loc_t loc;
-    /* DIFFUSE (default 0.5), or CONDUCTOR when use_reflectance */
+    /* DIFFUSE (0.5), COATEDDIFFUSE (0.5), DIFFUSETRANSMISSION (0.25), or CONDUCTOR and
+     * COATEDCONDUCTOR when use_reflectance */
     scene_spectrum_input_t reflectance;
-    /* CONDUCTOR: eta, k (default metal-Cu-eta, metal-Cu-k) unless use_reflectance */
+    /* CONDUCTOR and COATEDCONDUCTOR ("conductor.eta", "conductor.k"): eta, k (default
+     * metal-Cu-eta, metal-Cu-k) unless use_reflectance */
     bool use_reflectance;
     scene_spectrum_input_t eta, k;
-    /* CONDUCTOR and DIELECTRIC: "roughness" sets both; 0 is a perfect mirror / smooth glass */
+    /* CONDUCTOR and DIELECTRIC, and the coatings' interface ("interface.roughness" for
+     * COATEDCONDUCTOR): "roughness" sets both; 0 is a perfect mirror / smooth glass */
     scene_float_input_t uroughness, vroughness;
+    /* COATEDCONDUCTOR: the conductor's "conductor.uroughness", "conductor.vroughness" */
+    scene_float_input_t base_uroughness, base_vroughness;
     bool remaproughness; /* true */
-    /* DIELECTRIC: the index of refraction (default constant 1.5) */
+    /* DIELECTRIC, THINDIELECTRIC and the coatings' interface ("interface.eta" for
+     * COATEDCONDUCTOR): the index of refraction (default constant 1.5) */
     scene_ior_t ior;
+    /* DIFFUSETRANSMISSION: "transmittance" (0.25), and "scale" (1) multiplying both */
+    scene_spectrum_input_t transmittance;
+    double scale;
+    /* COATEDDIFFUSE, COATEDCONDUCTOR: the medium between interface and base (pbrt-v4's
+     * LayeredBxDF): "thickness" (0.01), "albedo" (0), "g" (0), "maxdepth" (10),
+     * "nsamples" (1) */
+    scene_float_input_t thickness, g;
+    scene_spectrum_input_t albedo;
+    int maxdepth, nsamples;
+    /* MIX: the two named materials (indices into materials) and "amount" (0.5): the second
+     * is chosen with probability amount */
+    int mix[2];
+    scene_float_input_t amount;
 } scene_material_t;
 
 /* ---- lights ---- */

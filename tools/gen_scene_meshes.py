@@ -89,7 +89,124 @@ def gem():
           outward(verts, tris, (0.0, (crown_h - pav_h) / 3, 0.0)))
 
 
+def brilliant():
+    """A round brilliant (57 facets, after Tolkowsky's proportions: table 53 %, crown angle
+    34.5 deg, pavilion angle 40.75 deg, a thin girdle), girdle radius 1, girdle centre at y = 0.
+    Table, 8 star facets, 8 bezel kites, 16 upper girdle facets; 16 girdle faces; 16 lower
+    girdle facets and 8 pavilion mains to a pointed culet."""
+    n = 8
+    table_r = 0.53
+    crown_h = (1.0 - table_r) * math.tan(math.radians(34.5))
+    pav_h = math.tan(math.radians(40.75))
+    g = 0.015  # half the girdle's thickness
+    verts = []
+
+    def ring(count, r, y, phase):
+        first = len(verts)
+        for i in range(count):
+            a = 2 * math.pi * (i + phase) / count
+            verts.append((r * math.cos(a), y, r * math.sin(a)))
+        return first
+
+    table = ring(n, table_r, g + crown_h, 0.0)
+    # Bezel tips between the table corners, on the crown slope at 3/4 of the way out.
+    bez_r = table_r + 0.55 * (1.0 - table_r)
+    bezel = ring(n, bez_r, g + crown_h * (1.0 - bez_r) / (1.0 - table_r), 0.5)
+    top = ring(2 * n, 1.0, g, 0.0)
+    bottom = ring(2 * n, 1.0, -g, 0.0)
+    # Lower girdle facets meet the mains at 3/4 of the way down, between the mains.
+    low_r = 0.45
+    lower = ring(n, low_r, -g - pav_h * (1.0 - low_r), 0.5)
+    culet = len(verts)
+    verts.append((0.0, -g - pav_h, 0.0))
+    centre = len(verts)
+    verts.append((0.0, g + crown_h, 0.0))
+    tris = []
+    for i in range(n):
+        j = (i + 1) % n
+        tris.append((centre, table + i, table + j))  # table
+        tris.append((table + i, table + j, bezel + i))  # star
+        # upper girdle: bezel tip i to the girdle points 2i+1 .. 2i+2 .. 2i+3 (its own
+        # kite's lower edge), split at the middle point
+        g0, g1, g2 = top + (2 * i) % (2 * n), top + (2 * i + 1) % (2 * n), top + (2 * i + 2) % (2 * n)
+        tris += [(bezel + i, g0, g1), (bezel + i, g1, g2)]
+        # bezel kite around table corner j: star tips i and j, girdle point 2j
+        tris += [(table + j, bezel + i, g2), (table + j, g2, bezel + j)]
+    for i in range(2 * n):  # girdle
+        j = (i + 1) % (2 * n)
+        tris += [(top + i, bottom + i, bottom + j), (top + i, bottom + j, top + j)]
+    for i in range(n):
+        g0, g1, g2 = (bottom + (2 * i + k) % (2 * n) for k in range(3))
+        tris += [(lower + i, g0, g1), (lower + i, g1, g2)]  # lower girdle
+        j = (i + 1) % n
+        tris += [(culet, lower + i, g2), (culet, g2, lower + j)]  # pavilion main at 2i+2
+    write("brilliant.pbrt", "Round brilliant, 57 facets, girdle radius 1", verts,
+          outward(verts, tris, (0.0, 0.0, 0.0)))
+
+
+def tube(verts, tris, a, b, r, sides=10):
+    """A closed tube of radius r from a to b (both ends capped)."""
+    d = sub(b, a)
+    length = math.sqrt(dot(d, d))
+    w = tuple(x / length for x in d)
+    u = cross(w, (0.0, 1.0, 0.0) if abs(w[1]) < 0.9 else (1.0, 0.0, 0.0))
+    lu = math.sqrt(dot(u, u))
+    u = tuple(x / lu for x in u)
+    v = cross(w, u)
+    first = len(verts)
+    for end in (a, b):
+        for k in range(sides):
+            t = 2 * math.pi * k / sides
+            verts.append(tuple(end[m] + r * (math.cos(t) * u[m] + math.sin(t) * v[m]) for m in range(3)))
+    ca, cb = len(verts), len(verts) + 1
+    verts += [a, b]
+    mid = tuple((a[m] + b[m]) / 2 for m in range(3))
+    own = []
+    for k in range(sides):
+        l = (k + 1) % sides
+        own += [(first + k, first + l, first + sides + l), (first + k, first + sides + l, first + sides + k)]
+        own += [(ca, first + l, first + k), (cb, first + sides + k, first + sides + l)]
+    # Outward from the tube's axis for the sides, along the axis for the caps.
+    for t in own:
+        p0, p1, p2 = (verts[i] for i in t)
+        n = cross(sub(p1, p0), sub(p2, p0))
+        c = tuple((p0[m] + p1[m] + p2[m]) / 3 for m in range(3))
+        along = dot(sub(c, a), w)
+        axis_pt = tuple(a[m] + along * w[m] for m in range(3))
+        if t[0] in (ca, cb):
+            out = sub(c, mid)
+        else:
+            out = sub(c, axis_pt)
+        tris.append(t if dot(n, out) > 0 else (t[0], t[2], t[1]))
+
+
+def setting():
+    """A six-prong solitaire setting for brilliant.pbrt (girdle radius 1 at y = 0): a ring
+    (gallery) under the girdle and six prongs that rise from below the pavilion, hug the
+    girdle and bend over the crown's edge."""
+    verts, tris = [], []
+    prongs = 6
+    for i in range(prongs):
+        a = 2 * math.pi * (i + 0.5) / prongs
+        c, s = math.cos(a), math.sin(a)
+        pts = [(0.35 * c, -1.25, 0.35 * s), (0.80 * c, -0.45, 0.80 * s), (1.04 * c, 0.0, 1.04 * s),
+               (0.98 * c, 0.16, 0.98 * s), (0.86 * c, 0.22, 0.86 * s)]
+        for k in range(len(pts) - 1):
+            tube(verts, tris, pts[k], pts[k + 1], 0.075)
+    # The gallery: a polygonal ring of tubes under the girdle, joining the prongs.
+    ring = 24
+    for i in range(ring):
+        a0, a1 = 2 * math.pi * i / ring, 2 * math.pi * (i + 1) / ring
+        tube(verts, tris, (0.78 * math.cos(a0), -0.5, 0.78 * math.sin(a0)),
+             (0.78 * math.cos(a1), -0.5, 0.78 * math.sin(a1)), 0.06, 8)
+    # A stem under the prongs' base.
+    tube(verts, tris, (0.0, -1.25, 0.0), (0.0, -1.75, 0.0), 0.38, 24)
+    write("setting.pbrt", "Six-prong setting for brilliant.pbrt", verts, tris)
+
+
 if __name__ == "__main__":
     os.makedirs(OUT, exist_ok=True)
     prism()
     gem()
+    brilliant()
+    setting()

@@ -249,6 +249,69 @@ static void test_materials_and_textures(void **state)
     scene_desc_destroy(&s);
 }
 
+/* pbrt-v4's layered, transmissive and mix materials: parameter names and defaults as
+ * materials.cpp reads them. */
+static void test_more_materials(void **state)
+{
+    (void)state;
+    scene_desc_t *s = parse_ok("data/scenes/layered.pbrt");
+    const scene_material_t *m = s->materials;
+    assert_int_equal(s->nmaterials, 10);
+    /* coateddiffuse defaults */
+    assert_int_equal(m[1].type, SCENE_MATERIAL_COATEDDIFFUSE);
+    testutil_assert_near(m[1].reflectance.spectrum.constant, 0.5, TOL);
+    testutil_assert_near(m[1].ior.spectrum.constant, 1.5, TOL);
+    testutil_assert_near(m[1].uroughness.value, 0, TOL);
+    testutil_assert_near(m[1].thickness.value, 0.01, TOL);
+    testutil_assert_near(m[1].albedo.spectrum.constant, 0, TOL);
+    testutil_assert_near(m[1].g.value, 0, TOL);
+    assert_int_equal(m[1].maxdepth, 10);
+    assert_int_equal(m[1].nsamples, 1);
+    assert_true(m[1].remaproughness);
+    /* coateddiffuse, everything given */
+    testutil_assert_near(m[2].reflectance.spectrum.rgb[2], 0.3, TOL);
+    testutil_assert_near(m[2].uroughness.value, 0.05, TOL);
+    testutil_assert_near(m[2].vroughness.value, 0.05, TOL);
+    testutil_assert_near(m[2].ior.spectrum.constant, 1.6, TOL);
+    testutil_assert_near(m[2].thickness.value, 0.02, TOL);
+    testutil_assert_near(m[2].albedo.spectrum.rgb[0], 0.5, TOL);
+    testutil_assert_near(m[2].g.value, 0.3, TOL);
+    assert_int_equal(m[2].maxdepth, 20);
+    assert_int_equal(m[2].nsamples, 4);
+    assert_false(m[2].remaproughness);
+    /* coatedconductor: interface.* and conductor.* */
+    assert_int_equal(m[3].type, SCENE_MATERIAL_COATEDCONDUCTOR);
+    testutil_assert_near(m[3].uroughness.value, 0.02, TOL);
+    testutil_assert_near(m[3].base_uroughness.value, 0.002, TOL);
+    testutil_assert_near(m[3].base_vroughness.value, 0.002, TOL);
+    assert_string_equal(m[3].eta.spectrum.name, "metal-Au-eta");
+    assert_string_equal(m[3].k.spectrum.name, "metal-Au-k");
+    testutil_assert_near(m[3].ior.spectrum.constant, 1.4, TOL);
+    assert_false(m[3].use_reflectance);
+    assert_string_equal(m[4].eta.spectrum.name, "metal-Cu-eta"); /* pbrt-v4's default */
+    testutil_assert_near(m[4].ior.spectrum.constant, 1.5, TOL);
+    /* diffusetransmission: reflectance 0.25 by default */
+    assert_int_equal(m[5].type, SCENE_MATERIAL_DIFFUSETRANSMISSION);
+    testutil_assert_near(m[5].reflectance.spectrum.constant, 0.25, TOL);
+    testutil_assert_near(m[5].transmittance.spectrum.rgb[1], 0.5, TOL);
+    testutil_assert_near(m[5].scale, 0.9, TOL);
+    assert_int_equal(m[6].type, SCENE_MATERIAL_THINDIELECTRIC);
+    testutil_assert_near(m[6].ior.spectrum.constant, 1.52, TOL);
+    /* mix: the names resolve to the named materials' indices */
+    assert_int_equal(m[7].type, SCENE_MATERIAL_MIX);
+    assert_int_equal(m[7].mix[0], 1);
+    assert_int_equal(m[7].mix[1], 6);
+    assert_int_equal(m[7].amount.texture, 0);
+    assert_int_equal(m[8].mix[0], 5);
+    assert_int_equal(m[8].mix[1], 7);
+    testutil_assert_near(m[8].amount.value, 0.5, TOL);
+    /* an anisotropic rough dielectric */
+    assert_int_equal(m[9].type, SCENE_MATERIAL_DIELECTRIC);
+    testutil_assert_near(m[9].uroughness.value, 0.1, TOL);
+    testutil_assert_near(m[9].vroughness.value, 0.3, TOL);
+    scene_desc_destroy(&s);
+}
+
 /* ---- lights ---- */
 
 static void test_lights(void **state)
@@ -1020,9 +1083,28 @@ static void test_error_messages(void **state)
          "texture"},
         {"WorldBegin\nMaterial \"diffuse\" \"rgb reflectance\" [0.5 1.5 0.5]\n",
          "t.pbrt:2:20: \"rgb reflectance\" has a component above 1 (a reflectance is at most 1)"},
-        {"WorldBegin\nMaterial \"coateddiffuse\"\n",
-         "t.pbrt:2:10: unsupported material \"coateddiffuse\" (\"diffuse\", \"conductor\", "
-         "\"dielectric\" or \"interface\")"},
+        {"WorldBegin\nMaterial \"hair\"\n",
+         "t.pbrt:2:10: unsupported material \"hair\" (\"diffuse\", \"conductor\", \"dielectric\", "
+         "\"thindielectric\", \"diffusetransmission\", \"coateddiffuse\", \"coatedconductor\", "
+         "\"mix\" or \"interface\")"},
+        {"WorldBegin\nMaterial \"mix\" \"string materials\" [\"a\" \"b\"]\n",
+         "t.pbrt:2:16: mix: named material \"a\" is not defined (a MakeNamedMaterial must come "
+         "before the mix that uses it)"},
+        {"WorldBegin\nMakeNamedMaterial \"a\" \"string type\" \"diffuse\"\n"
+         "Material \"mix\" \"string materials\" [\"a\"]\n",
+         "t.pbrt:3:16: expected 2 material names after \"string materials\", got 1"},
+        {"WorldBegin\nMaterial \"mix\"\n",
+         "t.pbrt:2:1: mix: \"string materials\" (two named materials) is missing"},
+        {"WorldBegin\nMaterial \"coateddiffuse\" \"float thickness\" [0]\n",
+         "t.pbrt:2:26: \"float thickness\" must be greater than 0, got 0"},
+        {"WorldBegin\nMaterial \"coateddiffuse\" \"float g\" [1]\n",
+         "t.pbrt:2:26: \"float g\" must be within [-0.999, 0.999], got 1"},
+        {"WorldBegin\nMaterial \"coatedconductor\" \"float conductor.roughness\" [-1]\n",
+         "t.pbrt:2:1: conductor.roughness must not be negative"},
+        {"WorldBegin\nMaterial \"coatedconductor\" \"rgb reflectance\" [1 1 1] "
+         "\"spectrum conductor.k\" \"metal-Au-k\"\n",
+         "t.pbrt:2:28: Material \"coatedconductor\": give either \"reflectance\" or "
+         "\"conductor.eta\" and \"conductor.k\", not both"},
         {"WorldBegin\nMaterial \"dielectric\" \"float sellmeier\" [1 2 3]\n",
          "t.pbrt:2:23: \"float sellmeier\" needs (B, C) pairs, got 3 numbers"},
         {"WorldBegin\nMaterial \"dielectric\" \"float cauchy\" [1.5]\n",
@@ -1032,7 +1114,8 @@ static void test_error_messages(void **state)
          "Material \"dielectric\" (\"eta\" is already given)"},
         {"WorldBegin\nMaterial \"conductor\" \"rgb reflectance\" [1 1 1] \"spectrum k\" "
          "\"metal-Au-k\"\n",
-         "t.pbrt:2:22: conductor: give either \"reflectance\" or \"eta\" and \"k\", not both"},
+         "t.pbrt:2:22: Material \"conductor\": give either \"reflectance\" or \"eta\" and "
+         "\"k\", not both"},
         {"WorldBegin\nLightSource \"point\" \"spectrum I\" [400 1 500]\n",
          "t.pbrt:2:21: \"spectrum I\" needs (wavelength, value) pairs, got 3 numbers"},
         {"WorldBegin\nLightSource \"point\" \"spectrum I\" [500 1 400 2]\n",
@@ -1219,6 +1302,7 @@ int main(void)
         cmocka_unit_test(test_options),
         cmocka_unit_test(test_defaults),
         cmocka_unit_test(test_materials_and_textures),
+        cmocka_unit_test(test_more_materials),
         cmocka_unit_test(test_lights),
         cmocka_unit_test(test_shapes),
         cmocka_unit_test(test_ply_import_direct),

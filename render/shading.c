@@ -1,0 +1,155 @@
+#include "shading.h"
+
+#include "microfacet.h"
+
+#include <math.h>
+
+/* pbrt-v4 nests mixes without a limit; a cycle cannot be written (a mix names materials
+ * defined before it), so this only bounds a pathological chain. */
+#define MIX_DEPTH_MAX 32
+
+const material_t *shading_resolve(const scene_t *scene, const material_t *m, const surface_t *sf,
+                                  double u)
+{
+    for (int d = 0; m->kind == MATERIAL_MIX && d < MIX_DEPTH_MAX; d++) {
+        double a = m->amount ? texture_eval(m->amount, sf->u, sf->v, 550.0) : 0.5;
+        int second = a >= 1.0 || (a > 0.0 && u < a);
+        /* Rescale u so that a nested mix gets a fresh uniform (stratification survives). */
+        if (a > 0.0 && a < 1.0)
+            u = second ? u / a : (u - a) / (1.0 - a);
+        m = &scene->materials[m->mix[second]];
+    }
+    return m;
+}
+
+static double roughness_at(const texture_t *t, const surface_t *sf)
+{
+    return t ? texture_eval(t, sf->u, sf->v, 550.0) : 0.0;
+}
+
+static microfacet_t distribution(const texture_t *u, const texture_t *v, int remap,
+                                 const surface_t *sf)
+{
+    return microfacet_make(roughness_at(u, sf), roughness_at(v, sf), remap);
+}
+
+int shading_is_delta(const material_t *m, const surface_t *sf)
+{
+    if (m->kind != MATERIAL_CONDUCTOR && m->kind != MATERIAL_DIELECTRIC)
+        return 0;
+    if (m->smooth || m->rough)
+        return m->smooth;
+    microfacet_t mf = distribution(m->uroughness, m->vroughness, m->remaproughness, sf);
+    return microfacet_smooth(&mf);
+}
+
+static double clamp01(double v) { return v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; }
+
+/* A conductor's complex index at lambda: its eta and k, or pbrt-v4's reading of a
+ * reflectance r (ConductorMaterial): eta 1 and k = 2 sqrt(r) / sqrt(1 - r), whose Fresnel
+ * reflectance at normal incidence is r. */
+static void conductor_index(const material_t *m, const surface_t *sf, double lambda, double *eta,
+                            double *k)
+{
+    if (m->eta && m->k) {
+        *eta = spectrum_eval(m->eta, lambda);
+        *k = spectrum_eval(m->k, lambda);
+        return;
+    }
+    double r = m->reflectance ? texture_eval(m->reflectance, sf->u, sf->v, lambda) : 1.0;
+    r = fmin(fmax(r, 0.0), 0.9999);
+    *eta = 1.0;
+    *k = 2.0 * sqrt(r) / sqrt(1.0 - r);
+}
+
+static void layer(const material_t *m, const surface_t *sf, const double *lambda, int n, bsdf_t *b)
+{
+    double th = m->thickness ? texture_eval(m->thickness, sf->u, sf->v, 550.0) : 0.01;
+    b->thickness = fmax(th, 1e-7); /* pbrt-v4: max(thickness, epsilon) */
+    double g = m->g ? texture_eval(m->g, sf->u, sf->v, 550.0) : 0.0;
+    b->g = fmin(fmax(g, -0.999), 0.999);
+    b->maxdepth = m->maxdepth > 0 ? m->maxdepth : 10;
+    b->nsamples = m->nsamples > 0 ? m->nsamples : 1;
+    for (int j = 0; j < n; j++)
+        b->albedo[j] = m->albedo ? clamp01(texture_eval(m->albedo, sf->u, sf->v, lambda[j])) : 0.0;
+}
+
+/* pbrt-v4 replaces a zero index by 1 (a coating of eta 0 is no coating). */
+static double coat_eta(const material_t *m, double lambda)
+{
+    double e = ior_eval(&m->ior, lambda);
+    return e > 0.0 ? e : 1.0;
+}
+
+void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda, int n,
+                  bsdf_mode_t mode, bsdf_t *b)
+{
+    b->mode = mode;
+    b->n = n;
+    b->mf = distribution(m->uroughness, m->vroughness, m->remaproughness, sf);
+    b->mf_base = distribution(m->base_uroughness, m->base_vroughness, m->remaproughness, sf);
+    switch (m->kind) {
+    case MATERIAL_CONDUCTOR:
+        b->kind = BSDF_CONDUCTOR;
+        for (int j = 0; j < n; j++)
+            conductor_index(m, sf, lambda[j], &b->cond_eta[j], &b->cond_k[j]);
+        return;
+    case MATERIAL_DIELECTRIC:
+    case MATERIAL_THIN_DIELECTRIC:
+        b->kind = m->kind == MATERIAL_DIELECTRIC ? BSDF_DIELECTRIC : BSDF_THIN_DIELECTRIC;
+        for (int j = 0; j < n; j++)
+            b->eta[j] = ior_eval(&m->ior, lambda[j]);
+        return;
+    case MATERIAL_DIFFUSE_TRANSMISSION:
+        b->kind = BSDF_DIFFUSE_TRANSMISSION;
+        for (int j = 0; j < n; j++) {
+            b->reflectance[j] = clamp01(m->scale * texture_eval(m->reflectance, sf->u, sf->v, lambda[j]));
+            b->transmittance[j] =
+                clamp01(m->scale * texture_eval(m->transmittance, sf->u, sf->v, lambda[j]));
+        }
+        return;
+    case MATERIAL_COATED_DIFFUSE:
+        b->kind = BSDF_COATED_DIFFUSE;
+        layer(m, sf, lambda, n, b);
+        for (int j = 0; j < n; j++) {
+            b->eta[j] = coat_eta(m, lambda[j]);
+            b->reflectance[j] = clamp01(texture_eval(m->reflectance, sf->u, sf->v, lambda[j]));
+        }
+        return;
+    case MATERIAL_COATED_CONDUCTOR:
+        b->kind = BSDF_COATED_CONDUCTOR;
+        layer(m, sf, lambda, n, b);
+        for (int j = 0; j < n; j++) {
+            b->eta[j] = coat_eta(m, lambda[j]);
+            /* pbrt-v4 CoatedConductorMaterial: the conductor's index relative to the coat. */
+            conductor_index(m, sf, lambda[j], &b->cond_eta[j], &b->cond_k[j]);
+            b->cond_eta[j] /= b->eta[j];
+            b->cond_k[j] /= b->eta[j];
+        }
+        return;
+    case MATERIAL_DIFFUSE:
+    default:
+        b->kind = BSDF_DIFFUSE;
+        for (int j = 0; j < n; j++)
+            b->reflectance[j] = m->reflectance ? clamp01(texture_eval(m->reflectance, sf->u, sf->v, lambda[j])) : 0.5;
+        return;
+    }
+}
+
+shading_frame_t shading_frame_make(const surface_t *sf, vec3_t wo)
+{
+    shading_frame_t f;
+    f.z = vec3_dot(wo, sf->ns) * vec3_dot(wo, sf->ng) > 0.0 ? sf->ns : sf->ng;
+    vec3_basis(f.z, &f.x, &f.y);
+    return f;
+}
+
+vec3_t shading_to_local(const shading_frame_t *f, vec3_t w)
+{
+    return vec3_make(vec3_dot(w, f->x), vec3_dot(w, f->y), vec3_dot(w, f->z));
+}
+
+vec3_t shading_to_world(const shading_frame_t *f, vec3_t w)
+{
+    return vec3_add(vec3_add(vec3_scale(f->x, w.x), vec3_scale(f->y, w.y)), vec3_scale(f->z, w.z));
+}
