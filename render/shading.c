@@ -45,19 +45,22 @@ int shading_is_delta(const material_t *m, const surface_t *sf)
 
 static double clamp01(double v) { return v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; }
 
-/* A conductor's complex index at lambda: its eta and k, or pbrt-v4's reading of a
- * reflectance r (ConductorMaterial): eta 1 and k = 2 sqrt(r) / sqrt(1 - r), whose Fresnel
- * reflectance at normal incidence is r. */
-static void conductor_index(const material_t *m, const surface_t *sf, double lambda, double *eta,
-                            double *k)
+void shading_conductor_index(const material_t *m, const surface_t *sf, double lambda, double *eta,
+                             double *k)
 {
     if (m->eta && m->k) {
         *eta = spectrum_eval(m->eta, lambda);
         *k = spectrum_eval(m->k, lambda);
         return;
     }
-    double r = m->reflectance ? texture_eval(m->reflectance, sf->u, sf->v, lambda) : 1.0;
-    r = fmin(fmax(r, 0.0), 0.9999);
+    if (!m->reflectance) {
+        /* No index and no reflectance (a scene built in code): a perfect mirror,
+         * eta 0 and k > 0 (fresnel_conductor's R = 1). */
+        *eta = 0.0;
+        *k = 1.0;
+        return;
+    }
+    double r = fmin(fmax(texture_eval(m->reflectance, sf->u, sf->v, lambda), 0.0), 0.9999);
     *eta = 1.0;
     *k = 2.0 * sqrt(r) / sqrt(1.0 - r);
 }
@@ -92,7 +95,7 @@ void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda
     case MATERIAL_CONDUCTOR:
         b->kind = BSDF_CONDUCTOR;
         for (int j = 0; j < n; j++)
-            conductor_index(m, sf, lambda[j], &b->cond_eta[j], &b->cond_k[j]);
+            shading_conductor_index(m, sf, lambda[j], &b->cond_eta[j], &b->cond_k[j]);
         return;
     case MATERIAL_DIELECTRIC:
     case MATERIAL_THIN_DIELECTRIC:
@@ -122,7 +125,7 @@ void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda
         for (int j = 0; j < n; j++) {
             b->eta[j] = coat_eta(m, lambda[j]);
             /* pbrt-v4 CoatedConductorMaterial: the conductor's index relative to the coat. */
-            conductor_index(m, sf, lambda[j], &b->cond_eta[j], &b->cond_k[j]);
+            shading_conductor_index(m, sf, lambda[j], &b->cond_eta[j], &b->cond_k[j]);
             b->cond_eta[j] /= b->eta[j];
             b->cond_k[j] /= b->eta[j];
         }

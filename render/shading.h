@@ -24,6 +24,13 @@ int shading_is_delta(const material_t *m, const surface_t *sf);
 void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda, int n,
                   bsdf_mode_t mode, bsdf_t *b);
 
+/* A conductor's (or coated conductor's base) complex index at lambda: its eta and k, or
+ * pbrt-v4's reading of a reflectance r (ConductorMaterial): eta 1 and
+ * k = 2 sqrt(r) / sqrt(1 - r), r clamped to [0, 0.9999], whose Fresnel reflectance at normal
+ * incidence is r. */
+void shading_conductor_index(const material_t *m, const surface_t *sf, double lambda, double *eta,
+                             double *k);
+
 /* The local shading frame at sf for outgoing direction wo: z the shading normal (outward),
  * x and y a tangent basis. Where wo lies on different sides of the shading and the geometric
  * normal (near a smooth mesh's silhouette) z is the geometric normal, as specular_normal

@@ -1,8 +1,8 @@
 #include "specular.h"
 
 #include "fresnel.h"
+#include "shading.h"
 
-#include <complex.h>
 #include <math.h>
 
 vec3_t specular_normal(const surface_t *sf, vec3_t dir, double eta_rel, int *shading)
@@ -26,26 +26,10 @@ vec3_t specular_normal(const surface_t *sf, vec3_t dir, double eta_rel, int *sha
     return sf->ns;
 }
 
-double specular_fresnel_conductor(double cos_i, double eta, double k)
-{
-    cos_i = fmin(1.0, fmax(0.0, cos_i));
-    double complex e = eta + I * k;
-    double sin2_i = 1.0 - cos_i * cos_i;
-    double complex sin2_t = sin2_i / (e * e);
-    double complex cos_t = csqrt(1.0 - sin2_t);
-    double complex r_parl = (e * cos_i - cos_t) / (e * cos_i + cos_t);
-    double complex r_perp = (cos_i - e * cos_t) / (cos_i + e * cos_t);
-    double r = 0.5 * (creal(r_parl * conj(r_parl)) + creal(r_perp * conj(r_perp)));
-    return isfinite(r) ? fmin(1.0, fmax(0.0, r)) : 1.0;
-}
-
 double specular_conductor_reflectance(const material_t *m, const surface_t *sf, double cos_i,
                                       double lambda)
 {
-    if (m->eta && m->k)
-        return specular_fresnel_conductor(cos_i, spectrum_eval(m->eta, lambda),
-                                          spectrum_eval(m->k, lambda));
-    if (m->reflectance)
-        return texture_eval(m->reflectance, sf->u, sf->v, lambda);
-    return 1.0;
+    double eta, k;
+    shading_conductor_index(m, sf, lambda, &eta, &k);
+    return fresnel_conductor(cos_i, eta, k);
 }

@@ -19,12 +19,8 @@
  * normal was chosen. */
 vec3_t specular_normal(const surface_t *sf, vec3_t dir, double eta_rel, int *shading);
 
-/* pbrt-v4 FrComplex: unpolarised Fresnel reflectance of a conductor with complex index
- * eta + i k at cos_i (clamped to [0, 1]); in [0, 1], 1 if the result is not finite. */
-double specular_fresnel_conductor(double cos_i, double eta, double k);
-
-/* Reflectance of a conductor material at lambda for incidence cosine cos_i: the complex
- * Fresnel term from eta and k, else its reflectance texture at (u, v), else 1. */
+/* Reflectance of a smooth conductor material at lambda for incidence cosine cos_i: the
+ * complex Fresnel term (fresnel_conductor) of its index, shading_conductor_index. */
 double specular_conductor_reflectance(const material_t *m, const surface_t *sf, double cos_i,
                                       double lambda);
 

@@ -16,6 +16,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "fresnel.h"
 #include "glass.h"
 #include "pbrt_parser.h"
 #include "photon.h"
@@ -329,9 +330,11 @@ static void test_determinism(void **state)
     scene_destroy(&s);
 }
 
-/* The power threshold is an unbiased cull: behind a mirror of reflectance 0.3 a photon falls
- * to 0.3 of its power; with threshold 0.5 it survives with probability 0.6 at 0.5, so the
- * deposited power keeps its expectation (0.3 per photon) with fewer photons. */
+/* The power threshold is an unbiased cull: behind a mirror of reflectance 0.3 (pbrt-v4's
+ * reading: eta 1, k = 2 sqrt(0.3) / sqrt(0.7), so R = 0.3 at normal incidence and R45 at the
+ * 45 degrees here) a photon falls to R45 of its power; with threshold 0.5 it survives with
+ * probability R45 / 0.5 at 0.5, so the deposited power keeps its expectation (R45 per photon)
+ * with fewer photons. */
 static void test_threshold_roulette(void **state)
 {
     (void)state;
@@ -361,13 +364,16 @@ static void test_threshold_roulette(void **state)
     assert_int_equal(photon_trace(s, &job, 0, N, ps, &st, &err), 0);
     double frac = photon_map_power_sum(m) / st.power_emitted;
     double kept = (double)photon_map_count(m) / (double)N;
-    /* Survival is Bernoulli(0.6) at power 0.5: se of the power fraction 0.5 sqrt(0.24 / N). */
-    double se = 0.5 * sqrt(0.24 / (double)N);
-    print_message(
-        "threshold: %.4f of the power deposited by %.3f of the photons (expected 0.3 by 0.6)\n",
-        frac, kept);
-    assert_true(fabs(frac - 0.3) < 4.0 * se);
-    assert_true(fabs(kept - 0.6) < 4.0 * sqrt(0.24 / (double)N));
+    const double r45 = fresnel_conductor(sqrt(0.5), 1.0, 2.0 * sqrt(0.3) / sqrt(0.7));
+    const double q = r45 / 0.5; /* survival probability */
+    assert_true(r45 > 0.3 && r45 < 0.5);
+    /* Survival is Bernoulli(q) at power 0.5: se of the power fraction 0.5 sqrt(q (1-q) / N). */
+    double se = 0.5 * sqrt(q * (1 - q) / (double)N);
+    print_message("threshold: %.4f of the power deposited by %.3f of the photons (expected %.4f "
+                  "by %.3f)\n",
+                  frac, kept, r45, q);
+    assert_true(fabs(frac - r45) < 4.0 * se);
+    assert_true(fabs(kept - q) < 4.0 * sqrt(q * (1 - q) / (double)N));
     for (size_t i = 0; i < photon_map_count(m); i += 97)
         assert_true(fabs(photon_map_photon(m, i).power / (st.power_emitted / N) - 0.5) < 1e-6);
     photon_store_destroy(&ps);
