@@ -24,8 +24,8 @@ static bool coated(const bsdf_t *b)
     return b->kind == BSDF_COATED_DIFFUSE || b->kind == BSDF_COATED_CONDUCTOR;
 }
 
-/* pbrt-v4 ThinDielectricBxDF: the slab's inter-reflections summed as a geometric series,
- * R' = R + T^2 R / (1 - R^2) (pbrt-v4 eq. 9.? "ThinDielectric"), T' = 1 - R'. */
+/* pbrt-v4 ThinDielectricBxDF (4th ed. sec. 9.5.3): the slab's inter-reflections summed as a
+ * geometric series, R' = R + T^2 R / (1 - R^2), T' = 1 - R'. */
 static double thin_reflectance(double cos_o, double eta)
 {
     double r = fresnel_dielectric(fabs(cos_o), 1.0, eta), t = 1.0 - r;

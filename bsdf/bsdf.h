@@ -16,72 +16,32 @@
  * argument); every lane's f and pdf at that direction are returned, so a renderer may weight
  * the lanes by spectral MIS (the pdfs differ where the lanes' indices differ: a rough
  * dispersive dielectric) or terminate the lanes whose pdf is 0 (a smooth dispersive
- * refraction, where only the hero's direction has any density). */
+ * refraction, where only the hero's direction has any density).
+ *
+ * Delta lobes per lane: a smooth mirror direction is every lane's (f[j] |cos| = lane j's
+ * reflectance, pdf[j] = lane j's probability of that lobe); a smooth refraction is shared by
+ * the lanes whose eta equals the hero's within 1e-9 (relative), the others get f = pdf = 0.
+ * eta exactly 1 is pbrt-v4's pass-through (wi = -wo, weight 1) at any roughness.
+ *
+ * The coated models are pbrt-v4's stochastic LayeredBxDF: bsdf_eval's f, bsdf_pdf and the
+ * sample are Monte-Carlo estimates (pdf_is_estimate is set) whose randomness comes only from
+ * rng (rng_stream_next; NULL: a stream keyed by the arguments' bits, so the result is then a
+ * pure function of them). Their pdf is pbrt-v4's approximation for MIS, not the density of
+ * their sampling (it integrates to more than 1); the sample's f / pdf is an unbiased weight.
+ * When every lane has the same coating eta one walk carries every lane; when the coating
+ * disperses each lane is estimated by its own walk (the hero's walk picks the direction; the
+ * other lanes get their own f and pdf estimates there, 0 for a specular path other than the
+ * top's mirror reflection). One departure from pbrt-v4: f's next-event estimate through the
+ * exit interface is MIS-weighed against that interface's own sampling density
+ * PDF(wi, -w), where pbrt-v4 uses PDF(-w, wi) and is biased by ~10 % (docs/physics.md §10). */
 #ifndef PRISMFARM_BSDF_H
 #define PRISMFARM_BSDF_H
 
-#include "microfacet.h"
+#include "bsdf_types.h"
 #include "rng.h"
 #include "vec3.h"
 
 #include <stdbool.h>
-
-/* At least the renderer's lane count (render.h RENDER_MAX_BUCKETS). */
-#define BSDF_MAX_LANES 64
-
-typedef enum bsdf_kind {
-    BSDF_DIFFUSE,              /* Lambertian: reflectance[j] */
-    BSDF_DIFFUSE_TRANSMISSION, /* Lambertian reflection reflectance[j], transmission transmittance[j] */
-    BSDF_CONDUCTOR,            /* Fresnel of the complex index cond_eta[j] + i cond_k[j]; mf (smooth: mirror) */
-    BSDF_DIELECTRIC,           /* index eta[j] (inside over outside, +z is outside); mf (smooth: delta) */
-    BSDF_THIN_DIELECTRIC,      /* a thin slab of index eta[j]: reflection and straight transmission */
-    BSDF_COATED_DIFFUSE,       /* dielectric interface (eta[j], mf) over a medium (thickness, albedo[j], g)
-                                * over Lambertian reflectance[j] */
-    BSDF_COATED_CONDUCTOR,     /* dielectric interface (eta[j], mf) over a medium over a conductor
-                                * (cond_eta[j], cond_k[j] relative to the coating, mf_base) */
-} bsdf_kind_t;
-
-/* pbrt-v4's TransportMode: radiance for camera paths, importance for light (photon) paths;
- * it decides the 1/eta^2 scaling of refracted radiance. */
-typedef enum bsdf_mode { BSDF_RADIANCE, BSDF_IMPORTANCE } bsdf_mode_t;
-
-/* What a sample or a lobe is. */
-enum {
-    BSDF_REFLECTION = 1,
-    BSDF_TRANSMISSION = 2,
-    BSDF_SPECULAR = 4, /* a delta lobe: f and pdf are the weights of a Dirac, not densities */
-};
-
-typedef struct bsdf {
-    bsdf_kind_t kind;
-    bsdf_mode_t mode;
-    int n; /* lanes, 1..BSDF_MAX_LANES */
-    microfacet_t mf;      /* conductor, dielectric, coating interface */
-    microfacet_t mf_base; /* coated conductor: the conductor under the coating */
-    double eta[BSDF_MAX_LANES];
-    double cond_eta[BSDF_MAX_LANES], cond_k[BSDF_MAX_LANES];
-    double reflectance[BSDF_MAX_LANES];
-    double transmittance[BSDF_MAX_LANES];
-    /* Layered (coated) models: the medium between interface and base, and the random walk. */
-    double thickness;               /* pbrt-v4 default 0.01 */
-    double albedo[BSDF_MAX_LANES];  /* medium single-scattering albedo, 0: no medium */
-    double g;                       /* Henyey-Greenstein asymmetry */
-    int maxdepth, nsamples;         /* pbrt-v4 defaults 10 and 1 */
-} bsdf_t;
-
-typedef struct bsdf_sample {
-    vec3_t wi;
-    int flags;                  /* BSDF_REFLECTION or BSDF_TRANSMISSION, | BSDF_SPECULAR */
-    /* Per lane: f (without the cosine) and the pdf of wi under lane j's own sampling (solid
-     * angle; for a delta lobe, the discrete probability of choosing this lobe for lanes whose
-     * delta direction is wi, and 0 for lanes whose delta direction is elsewhere). For a delta
-     * lobe f[j] / pdf[j] * |cos| is the usual weight, i.e. f includes 1/|cos|. */
-    double f[BSDF_MAX_LANES];
-    double pdf[BSDF_MAX_LANES];
-    double eta; /* the hero's relative index along wi (transmission), 1 for reflection */
-    /* The stochastic layered models: pdf is an estimate (pbrt-v4 pdfIsProportional). */
-    bool pdf_is_estimate;
-} bsdf_sample_t;
 
 /* Samples a direction from lane hero's lobes for outgoing wo (unit, local frame) with the
  * uniforms uc (lobe choice) and u1, u2 (direction); rng supplies the layered models' random

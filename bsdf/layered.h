@@ -14,7 +14,8 @@
 #ifndef PRISMFARM_LAYERED_H
 #define PRISMFARM_LAYERED_H
 
-#include "bsdf.h"
+#include "bsdf_types.h"
+#include "rng.h"
 
 void layered_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *f);
 void layered_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *pdf);

@@ -115,8 +115,9 @@ bool lobe_dielectric_specular(const microfacet_t *mf, double eta)
     return eta == 1.0 || microfacet_smooth(mf);
 }
 
-/* pbrt-v4 Refract (eq. 4.? of its scattering.h): n faces wo's side after the flip; eta is
- * inverted for light leaving the inside. */
+/* Snell's law in vector form (Heckbert & Hanrahan 1984; pbrt-v4 Refract, the 4th edition's
+ * sec. 9.3): wi = -wo / eta + (cos_i / eta - cos_t) n, with n turned to wo's side
+ * and eta inverted for light leaving the inside. */
 bool lobe_refract(vec3_t wo, vec3_t n, double eta, double *etap, vec3_t *wi)
 {
     double cos_i = vec3_dot(n, wo);

@@ -6,7 +6,9 @@
 #ifndef PRISMFARM_LOBE_H
 #define PRISMFARM_LOBE_H
 
-#include "bsdf.h"
+#include "bsdf_types.h"
+
+#include <math.h>
 
 /* Which parts of a lobe a sample may come from (pbrt-v4 BxDFReflTransFlags). */
 enum { LOBE_R = 1, LOBE_T = 2, LOBE_ALL = 3 };

@@ -37,7 +37,8 @@ double microfacet_lambda(const microfacet_t *m, vec3_t w);
 double microfacet_g1(const microfacet_t *m, vec3_t w);
 double microfacet_g(const microfacet_t *m, vec3_t wo, vec3_t wi);
 /* D_w(wm) = G1(w) / |cos w| D(wm) max(0, w . wm): the density of normals visible from w,
- * which is also the pdf of microfacet_sample_wm. */
+ * which is also the pdf of microfacet_sample_wm. A w below the plane is first flipped to +z
+ * (as microfacet_sample_wm does), so wm is always on the +z side. */
 double microfacet_pdf(const microfacet_t *m, vec3_t w, vec3_t wm);
 /* A visible normal for direction w (on either side: the normal returned is on w's side of
  * the macro surface's plane flipped to +z as pbrt-v4 does) from two uniforms in [0, 1). */

@@ -1,0 +1,69 @@
+/* bsdf_types: the plain data of bsdf.h (the model's parameters, its samples, the lobe flags
+ * and the transport mode), in their own header so that bsdf/'s internal modules (lobe,
+ * layered) can use them without a circle through bsdf.h. Include bsdf.h, not this. */
+#ifndef PRISMFARM_BSDF_TYPES_H
+#define PRISMFARM_BSDF_TYPES_H
+
+#include "microfacet.h"
+#include "vec3.h"
+
+#include <stdbool.h>
+
+/* At least the renderer's lane count (render.h RENDER_MAX_BUCKETS). */
+#define BSDF_MAX_LANES 64
+
+typedef enum bsdf_kind {
+    BSDF_DIFFUSE,              /* Lambertian: reflectance[j] */
+    BSDF_DIFFUSE_TRANSMISSION, /* Lambertian reflection reflectance[j], transmission transmittance[j] */
+    BSDF_CONDUCTOR,            /* Fresnel of the complex index cond_eta[j] + i cond_k[j]; mf (smooth: mirror) */
+    BSDF_DIELECTRIC,           /* index eta[j] (inside over outside, +z is outside); mf (smooth: delta) */
+    BSDF_THIN_DIELECTRIC,      /* a thin slab of index eta[j]: reflection and straight transmission */
+    BSDF_COATED_DIFFUSE,       /* dielectric interface (eta[j], mf) over a medium (thickness, albedo[j], g)
+                                * over Lambertian reflectance[j] */
+    BSDF_COATED_CONDUCTOR,     /* dielectric interface (eta[j], mf) over a medium over a conductor
+                                * (cond_eta[j], cond_k[j] relative to the coating, mf_base) */
+} bsdf_kind_t;
+
+/* pbrt-v4's TransportMode: radiance for camera paths, importance for light (photon) paths;
+ * it decides the 1/eta^2 scaling of refracted radiance. */
+typedef enum bsdf_mode { BSDF_RADIANCE, BSDF_IMPORTANCE } bsdf_mode_t;
+
+/* What a sample or a lobe is. */
+enum {
+    BSDF_REFLECTION = 1,
+    BSDF_TRANSMISSION = 2,
+    BSDF_SPECULAR = 4, /* a delta lobe: f and pdf are the weights of a Dirac, not densities */
+};
+
+typedef struct bsdf {
+    bsdf_kind_t kind;
+    bsdf_mode_t mode;
+    int n; /* lanes, 1..BSDF_MAX_LANES */
+    microfacet_t mf;      /* conductor, dielectric, coating interface */
+    microfacet_t mf_base; /* coated conductor: the conductor under the coating */
+    double eta[BSDF_MAX_LANES];
+    double cond_eta[BSDF_MAX_LANES], cond_k[BSDF_MAX_LANES];
+    double reflectance[BSDF_MAX_LANES];
+    double transmittance[BSDF_MAX_LANES];
+    /* Layered (coated) models: the medium between interface and base, and the random walk. */
+    double thickness;               /* pbrt-v4 default 0.01 */
+    double albedo[BSDF_MAX_LANES];  /* medium single-scattering albedo, 0: no medium */
+    double g;                       /* Henyey-Greenstein asymmetry */
+    int maxdepth, nsamples;         /* pbrt-v4 defaults 10 and 1 */
+} bsdf_t;
+
+typedef struct bsdf_sample {
+    vec3_t wi;
+    int flags;                  /* BSDF_REFLECTION or BSDF_TRANSMISSION, | BSDF_SPECULAR */
+    /* Per lane: f (without the cosine) and the pdf of wi under lane j's own sampling (solid
+     * angle; for a delta lobe, the discrete probability of choosing this lobe for lanes whose
+     * delta direction is wi, and 0 for lanes whose delta direction is elsewhere). For a delta
+     * lobe f[j] / pdf[j] * |cos| is the usual weight, i.e. f includes 1/|cos|. */
+    double f[BSDF_MAX_LANES];
+    double pdf[BSDF_MAX_LANES];
+    double eta; /* the hero's relative index along wi (transmission), 1 for reflection */
+    /* The stochastic layered models: pdf is an estimate (pbrt-v4 pdfIsProportional). */
+    bool pdf_is_estimate;
+} bsdf_sample_t;
+
+#endif
