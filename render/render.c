@@ -585,8 +585,12 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
     const vec3_t wo = shading_to_local(&fr, wo_world);
     if (!(wo.z != 0.0))
         return 1;
-    const int terminate = !c->rs->spectral_mis && p->n > 1 && bsdf_lanes_disperse(&b);
-    const int mixture = !terminate && p->n > 1;
+    /* The coated models' sample gives each lane an unbiased weight f / pdf, but their pdf is
+     * pbrt-v4's approximation for MIS, not a density: their lanes cannot be mixed, and a
+     * dispersive coat ends the secondaries as pbrt-v4 does. */
+    const int layered = b.kind == BSDF_COATED_DIFFUSE || b.kind == BSDF_COATED_CONDUCTOR;
+    const int terminate = (!c->rs->spectral_mis || layered) && p->n > 1 && bsdf_lanes_disperse(&b);
+    const int mixture = !terminate && !layered && p->n > 1;
     const int delta = bsdf_is_specular(&b);
     if (!delta && c->rs->integrator != INTEGRATOR_SIMPLEPATH)
         direct_light_bsdf(c, p, sf, &b, &fr, wo, mixture);
@@ -610,17 +614,29 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
     double pdf = lanes_pdf(bs.pdf, p->n, mixture);
     if (!(pdf > 0.0))
         return 1;
+    const int specular = (bs.flags & BSDF_SPECULAR) != 0;
     if (terminate) {
         p->beta[0] *= bs.f[0] * cos_i / bs.pdf[0] * p->n;
         p->n = 1;
         p->mono = 1;
         p->dispersed = 1;
+    } else if (bs.pdf_is_estimate) {
+        for (int j = 0; j < p->n; j++)
+            p->beta[j] *= bs.pdf[j] > 0.0 ? bs.f[j] * cos_i / bs.pdf[j] : 0.0;
     } else {
         for (int j = 0; j < p->n; j++)
             p->beta[j] *= bs.f[j] * cos_i / pdf;
     }
-    const int specular = (bs.flags & BSDF_SPECULAR) != 0;
-    start_bounce(p, sf, wi, specular, specular ? 0.0 : pdf);
+    /* The emission this direction finds is weighed against light sampling with the pdf that
+     * next-event estimation uses: for the coated models bsdf_pdf's estimate (pbrt-v4 does the
+     * same when its sample's pdf is only proportional). */
+    double mis_pdf = pdf;
+    if (bs.pdf_is_estimate && !specular) {
+        double pdfs[LANES];
+        bsdf_pdf(&b, wo, bs.wi, &c->rng, pdfs);
+        mis_pdf = pdfs[0];
+    }
+    start_bounce(p, sf, wi, specular, specular ? 0.0 : mis_pdf);
     if (!specular)
         p->diffuse_bounces++;
     p->specular_since_diffuse = CHAIN_BROKEN;
