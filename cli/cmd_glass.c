@@ -6,6 +6,7 @@
 #include "dispersion.h"
 #include "err.h"
 #include "glass.h"
+#include "named_spectra.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -56,6 +57,18 @@ static int print_list(void)
         for (int k = 0; k < GLASS_MAX_ALIASES && g->aliases[k]; k++)
             printf("%s%s", k ? ", " : "", g->aliases[k]);
         printf("\n");
+    }
+    /* pbrt-v4's glass-* names mean its tabulated tables in "spectrum eta" (docs/scene-format.md). */
+    printf("\npbrt-v4's tabulated glasses (\"spectrum eta\" \"NAME\"; as \"string glass\" the aliases "
+           "above):\n");
+    for (int i = 0; i < named_spectra_count(); i++) {
+        const named_spectrum_t *e = named_spectra_get(i);
+        if (e->kind != NAMED_SPECTRUM_GLASS_ETA)
+            continue;
+        ior_model_t m;
+        if (ior_tabulated(&m, e->lambda, e->value, e->count, NULL) == 0)
+            printf("%-14s %.5f  %.0f-%.0f nm, pbrt-v4 spectrum.cpp\n", e->name, ior_eval(&m, IOR_LAMBDA_D_NM),
+                   e->lambda[0], e->lambda[e->count - 1]);
     }
     return 0;
 }

@@ -40,6 +40,48 @@ int ior_sellmeier(ior_model_t *out, double a0, const double *b, const double *c_
     return 0;
 }
 
+int ior_tabulated(ior_model_t *out, const double *lambda_nm, const double *n, size_t count,
+                  err_t *err)
+{
+    if (count == 0 || !lambda_nm || !n)
+        return err_set(err, "tabulated index: needs at least one (wavelength, n) pair");
+    for (size_t i = 0; i < count; i++) {
+        if (!isfinite(lambda_nm[i]) || !(lambda_nm[i] > 0.0) || !isfinite(n[i]))
+            return err_set(err,
+                           "tabulated index: pair %zu (%g nm, n %g) is not a finite positive "
+                           "wavelength with a finite index",
+                           i + 1, lambda_nm[i], n[i]);
+        if (i > 0 && !(lambda_nm[i] > lambda_nm[i - 1]))
+            return err_set(err,
+                           "tabulated index: wavelengths must increase, but pair %zu has %g nm "
+                           "after %g nm",
+                           i + 1, lambda_nm[i], lambda_nm[i - 1]);
+    }
+    *out = (ior_model_t){.kind = IOR_TABULATED,
+                         .table = {.count = count, .lambda_nm = lambda_nm, .n = n}};
+    return 0;
+}
+
+/* Piecewise linear between the pairs, the end values held outside. */
+static double table_eval(const ior_table_t *t, double lambda)
+{
+    size_t count = t->count;
+    if (lambda <= t->lambda_nm[0])
+        return t->n[0];
+    if (lambda >= t->lambda_nm[count - 1])
+        return t->n[count - 1];
+    size_t lo = 0, hi = count - 1; /* lambda_nm[lo] < lambda < lambda_nm[hi] */
+    while (hi - lo > 1) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (t->lambda_nm[mid] <= lambda)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    double f = (lambda - t->lambda_nm[lo]) / (t->lambda_nm[hi] - t->lambda_nm[lo]);
+    return t->n[lo] + f * (t->n[hi] - t->n[lo]);
+}
+
 /* The unguarded index: n^2 for Sellmeier, n itself for the other kinds (where n^2 would hide
  * a negative n). May be negative, infinite or NaN; ior_eval and ior_validate guard it. */
 static double eval_raw(const ior_model_t *m, double lambda_nm)
@@ -59,6 +101,8 @@ static double eval_raw(const ior_model_t *m, double lambda_nm)
                 n2 += m->sellmeier.b[i] * l2 / (l2 - m->sellmeier.c_um2[i]);
         return n2;
     }
+    case IOR_TABULATED:
+        return table_eval(&m->table, lambda_nm);
     }
     return NAN;
 }
@@ -86,6 +130,13 @@ static bool coefs_finite(const ior_model_t *m)
             return false;
         for (int i = 0; i < m->sellmeier.terms; i++)
             if (!isfinite(m->sellmeier.b[i]) || !isfinite(m->sellmeier.c_um2[i]))
+                return false;
+        return true;
+    case IOR_TABULATED:
+        if (m->table.count == 0 || !m->table.lambda_nm || !m->table.n)
+            return false;
+        for (size_t i = 0; i < m->table.count; i++)
+            if (!isfinite(m->table.lambda_nm[i]) || !isfinite(m->table.n[i]))
                 return false;
         return true;
     }
@@ -118,6 +169,18 @@ int ior_validate(const ior_model_t *model, const char *material, double lambda_m
         }
     }
 
+    /* A piecewise linear n is positive over the range when it is at the ends and at the
+     * tabulated wavelengths between them (the grid below checks the ends). */
+    if (model->kind == IOR_TABULATED)
+        for (size_t i = 0; i < model->table.count; i++) {
+            double lambda = model->table.lambda_nm[i];
+            if (lambda > lambda_min_nm && lambda < lambda_max_nm && !(model->table.n[i] > 0.0))
+                return err_set(err,
+                               "material '%s': tabulated n = %.6g at %.1f nm: no real "
+                               "refractive index there (sampled range %g-%g nm)",
+                               name, model->table.n[i], lambda, lambda_min_nm, lambda_max_nm);
+        }
+
     double span = lambda_max_nm - lambda_min_nm;
     long samples = (long)ceil(span / VALIDATE_STEP_NM) + 1;
     if (samples > VALIDATE_MAX_SAMPLES)
@@ -148,6 +211,15 @@ bool ior_is_dispersive(const ior_model_t *model, double lambda_min_nm, double la
         lo = fmin(lo, n);
         hi = fmax(hi, n);
     }
+    if (model->kind == IOR_TABULATED)
+        for (size_t i = 0; i < model->table.count; i++) {
+            double lambda = model->table.lambda_nm[i];
+            if (lambda > lambda_min_nm && lambda < lambda_max_nm) {
+                double n = ior_eval(model, lambda);
+                lo = fmin(lo, n);
+                hi = fmax(hi, n);
+            }
+        }
     return hi - lo > IOR_DISPERSIVE_EPSILON;
 }
 
@@ -173,6 +245,8 @@ const char *ior_kind_name(ior_kind_t kind)
         return "Cauchy";
     case IOR_SELLMEIER:
         return "Sellmeier";
+    case IOR_TABULATED:
+        return "tabulated";
     }
     return "unknown";
 }

@@ -3,6 +3,7 @@
 #include "cie.h"
 #include "glass.h"
 #include "microfacet.h"
+#include "named_spectra.h"
 #include "image_png.h"
 #include "pbrt_parser.h"
 #include "plan.h"
@@ -13,6 +14,43 @@
 #include <string.h>
 
 typedef enum { SPEC_REFLECTANCE, SPEC_ILLUMINANT, SPEC_UNBOUNDED } spec_use_t;
+
+/* The message for a string that is neither a named spectrum nor a file (pbrt-v4 looks for the
+ * name first, then for a file; the parser found no file). */
+static void unknown_spectrum(const scene_spectrum_t *s, const char *what, err_t *err)
+{
+    char names[1024];
+    pbrt_error(err, s->loc, "\"%s\" is neither a named spectrum nor a spectrum file (looked for %s); %s: %s",
+               s->name, s->searched ? s->searched : "no file", what, named_spectra_list(names, sizeof names));
+}
+
+/* A named spectrum (pbrt-v4 spectrum.cpp Spectra::Init). stdillum-D65 and stdillum-A keep
+ * prismfarm's CIE D65 table (data/d65_5nm.csv: pbrt-v4's table within 5.5e-8 relative) and the
+ * CIE formula for A (pbrt-v4 tabulates it at 5 nm), so lights, which normalise their spectrum
+ * anyway, are as before; used otherwise they are normalised to luminance 1 as pbrt-v4 does. */
+static spectrum_t *named_spectrum(const scene_spectrum_t *s, spec_use_t use, err_t *err)
+{
+    const named_spectrum_t *e = named_spectra_find(s->name);
+    if (!e) {
+        unknown_spectrum(s, "named spectra", err);
+        return NULL;
+    }
+    spectrum_t *r = NULL;
+    int d65 = !strcmp(s->name, "stdillum-D65"), a = !strcmp(s->name, "stdillum-A");
+    if (d65 || a) {
+        r = d65 ? spectrum_new_cie_d65(err) : spectrum_new_cie_a(err);
+        if (r && use != SPEC_ILLUMINANT) {
+            spectrum_t *n = spectrum_new_scaled(r, CIE_Y_INTEGRAL / spectrum_photometric(r), err);
+            spectrum_destroy(&r);
+            r = n;
+        }
+    } else {
+        r = named_spectrum_new(e, err);
+    }
+    if (!r)
+        err_prefix(err, "%s:%d:%d: ", s->loc.file, s->loc.line, s->loc.col);
+    return r;
+}
 
 static spectrum_t *build_spectrum(const scene_spectrum_t *s, spec_use_t use, err_t *err)
 {
@@ -45,20 +83,16 @@ static spectrum_t *build_spectrum(const scene_spectrum_t *s, spec_use_t use, err
         r = spectrum_new_blackbody(s->temperature, 1, err);
         break;
     case SCENE_SPECTRUM_NAMED:
-        if (!strcmp(s->name, "stdillum-D65"))
-            r = spectrum_new_cie_d65(err);
-        else if (!strcmp(s->name, "stdillum-A"))
-            r = spectrum_new_cie_a(err);
-        else {
-            pbrt_error(err, s->loc,
-                       "named spectrum \"%s\" is not available here (prismfarm knows stdillum-D65, "
-                       "stdillum-A and, for dielectric eta, the glass catalogue)",
-                       s->name);
-            return NULL;
-        }
+        r = named_spectrum(s, use, err);
+        if (!r)
+            return NULL; /* the message names the parameter */
         break;
     case SCENE_SPECTRUM_SAMPLED:
-        r = spectrum_new_tabulated(s->lambda, s->value, s->count, err);
+        /* pbrt-v4 takes a named spectrum before a file of the same name. */
+        if (s->file && named_spectra_find(s->name))
+            r = named_spectrum(s, use, err);
+        else
+            r = spectrum_new_tabulated(s->lambda, s->value, s->count, err);
         break;
     }
     if (!r)
@@ -238,26 +272,63 @@ static int load_textures(loader_t *L, err_t *err)
     return 0;
 }
 
-static int build_ior(const scene_ior_t *in, const char *material, ior_model_t *out, err_t *err)
+/* A tabulated index the scene owns: the pairs are copied into a spectrum the scene keeps, whose
+ * arrays the model borrows (IOR_TABULATED's lifetime rule: as long as the scene). */
+static int tabulated_ior(scene_t *sc, const double *lambda, const double *n, size_t count, const pbrt_loc_t *loc,
+                         ior_model_t *out, err_t *err)
+{
+    spectrum_t *copy = spectrum_new_tabulated(lambda, n, count, err);
+    if (!copy || scene_own_spectrum(sc, copy, err))
+        return copy ? -1 : pbrt_error(err, *loc, "%s", err ? err->msg : "");
+    size_t k;
+    const double *l, *v;
+    spectrum_tabulated_pairs(copy, &k, &l, &v);
+    if (ior_tabulated(out, l, v, k, err))
+        return pbrt_error(err, *loc, "%s", err ? err->msg : "");
+    return 0;
+}
+
+static int build_ior(scene_t *sc, const scene_ior_t *in, const char *material, ior_model_t *out, err_t *err)
 {
     switch (in->kind) {
-    case SCENE_IOR_SPECTRUM:
-        if (in->spectrum.kind == SCENE_SPECTRUM_CONSTANT) {
-            *out = ior_constant(in->spectrum.constant);
+    case SCENE_IOR_SPECTRUM: {
+        const scene_spectrum_t *sp = &in->spectrum;
+        if (sp->kind == SCENE_SPECTRUM_CONSTANT) {
+            *out = ior_constant(sp->constant);
             return 0;
         }
-        if (in->spectrum.kind == SCENE_SPECTRUM_NAMED) {
-            const glass_t *g = glass_lookup(in->spectrum.name, err);
-            if (!g)
-                return pbrt_error(err, in->loc, "material \"%s\": unknown glass \"%s\" (see prismfarm glass --list)",
-                                  material, in->spectrum.name);
-            *out = g->ior;
+        /* pbrt-v4's named spectra first (its glass-* tables), then prismfarm's catalogue names. */
+        const named_spectrum_t *e =
+            sp->kind == SCENE_SPECTRUM_NAMED || (sp->kind == SCENE_SPECTRUM_SAMPLED && sp->file) ? named_spectra_find(sp->name)
+                                                                                              : NULL;
+        if (e && e->kind == NAMED_SPECTRUM_ILLUMINANT)
+            return pbrt_error(err, in->loc, "material \"%s\": \"%s\" is an illuminant, not an index of refraction", material,
+                              sp->name);
+        if (e) {
+            if (ior_tabulated(out, e->lambda, e->value, e->count, err)) /* static tables */
+                return pbrt_error(err, in->loc, "material \"%s\": %s", material, err ? err->msg : "");
             return 0;
         }
+        if (sp->kind == SCENE_SPECTRUM_NAMED) {
+            const glass_t *g = glass_find(sp->name);
+            if (g) {
+                *out = g->ior;
+                return 0;
+            }
+            char names[1024];
+            return pbrt_error(err, in->loc,
+                              "material \"%s\": \"%s\" is neither a named spectrum, a glass of the catalogue "
+                              "(prismfarm glass --list) nor a spectrum file (looked for %s); named spectra: %s",
+                              material, sp->name, sp->searched ? sp->searched : "no file",
+                              named_spectra_list(names, sizeof names));
+        }
+        if (sp->kind == SCENE_SPECTRUM_SAMPLED)
+            return tabulated_ior(sc, sp->lambda, sp->value, sp->count, &in->loc, out, err);
         return pbrt_error(err, in->loc,
-                          "material \"%s\": eta must be a number, a glass name, or given by \"string glass\", "
-                          "\"float sellmeier\" or \"float cauchy\"",
+                          "material \"%s\": eta must be a number, (wavelength, n) pairs, a spectrum file, a glass name, or "
+                          "given by \"string glass\", \"float sellmeier\" or \"float cauchy\"",
                           material);
+    }
     case SCENE_IOR_GLASS: {
         const glass_t *g = glass_find(in->glass);
         if (!g)
@@ -352,11 +423,11 @@ static int load_materials(loader_t *L, err_t *err)
             break;
         case SCENE_MATERIAL_DIELECTRIC:
             m.kind = MATERIAL_DIELECTRIC;
-            rc = build_ior(&dm->ior, m.name, &m.ior, err);
+            rc = build_ior(L->sc, &dm->ior, m.name, &m.ior, err);
             break;
         case SCENE_MATERIAL_THINDIELECTRIC:
             m.kind = MATERIAL_THIN_DIELECTRIC;
-            rc = build_ior(&dm->ior, m.name, &m.ior, err);
+            rc = build_ior(L->sc, &dm->ior, m.name, &m.ior, err);
             break;
         case SCENE_MATERIAL_DIFFUSETRANSMISSION:
             m.kind = MATERIAL_DIFFUSE_TRANSMISSION;
@@ -369,13 +440,13 @@ static int load_materials(loader_t *L, err_t *err)
         case SCENE_MATERIAL_COATEDDIFFUSE:
             m.kind = MATERIAL_COATED_DIFFUSE;
             rc = (m.reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) &&
-                         !build_ior(&dm->ior, m.name, &m.ior, err) && !layer_inputs(L, dm, &m, err)
+                         !build_ior(L->sc, &dm->ior, m.name, &m.ior, err) && !layer_inputs(L, dm, &m, err)
                      ? 0
                      : -1;
             break;
         case SCENE_MATERIAL_COATEDCONDUCTOR:
             m.kind = MATERIAL_COATED_CONDUCTOR;
-            rc = conductor_inputs(L, dm, &m, err) || build_ior(&dm->ior, m.name, &m.ior, err) ||
+            rc = conductor_inputs(L, dm, &m, err) || build_ior(L->sc, &dm->ior, m.name, &m.ior, err) ||
                          layer_inputs(L, dm, &m, err)
                      ? -1
                      : 0;

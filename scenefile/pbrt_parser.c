@@ -820,6 +820,218 @@ static scene_spectrum_t spectrum_named(const char *name, pbrt_loc_t loc)
 
 enum { SPECTRUM_ANY, SPECTRUM_ALBEDO };
 
+/* A number of a spectrum file and the line it is on. */
+typedef struct spd_number {
+    double v;
+    int line;
+} spd_number_t;
+
+/* pbrt-v4's spectrum file (util/file.cpp ReadFloatFile, spectrum.cpp
+ * PiecewiseLinearSpectrum::Read): numbers -- a run of [0-9.eE+-] that starts with a digit,
+ * '.', '+' or '-' -- separated by white space, '#' to the end of the line a comment; the
+ * numbers are (wavelength nm, value) pairs, wavelengths strictly increasing. pbrt-v4 also
+ * skips other text with a warning (so a comma separates numbers too); prismfarm accepts commas
+ * and refuses any other text, naming the line. Fills out (SAMPLED, arrays in the scene). */
+static int parse_spd(parser_t *P, const param_t *p, const char *path, const char *text, size_t len,
+                     int use, scene_spectrum_t *out)
+{
+    size_t cap = 64, n = 0;
+    spd_number_t *num = malloc(cap * sizeof *num);
+    if (!num)
+        return pbrt_error(P->err, p->loc, "out of memory reading spectrum file \"%s\"", path);
+    int line = 1, rc = 0;
+    for (size_t i = 0; i < len && rc == 0;) {
+        char c = text[i];
+        if (c == '\n') {
+            line++;
+            i++;
+        } else if (c == '#') {
+            while (i < len && text[i] != '\n')
+                i++;
+        } else if (c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v' || c == ',') {
+            i++;
+        } else if ((c >= '0' && c <= '9') || c == '.' || c == '+' || c == '-') {
+            size_t j = i;
+            while (j < len && ((text[j] >= '0' && text[j] <= '9') || text[j] == '.' ||
+                               text[j] == 'e' || text[j] == 'E' || text[j] == '+' || text[j] == '-'))
+                j++;
+            char tok[64];
+            size_t tl = j - i < sizeof tok - 1 ? j - i : sizeof tok - 1;
+            memcpy(tok, text + i, tl);
+            tok[tl] = 0;
+            char *end = NULL;
+            double v = j - i < sizeof tok - 1 ? strtod(tok, &end) : NAN;
+            if (!end || *end || !isfinite(v)) {
+                rc = pbrt_error(P->err, p->loc,
+                                "spectrum file \"%s\", line %d: \"%s\" is not a finite number",
+                                path, line, tok);
+                break;
+            }
+            if (n == cap) {
+                spd_number_t *grown = realloc(num, 2 * cap * sizeof *num);
+                if (!grown) {
+                    rc = pbrt_error(P->err, p->loc, "out of memory reading spectrum file \"%s\"",
+                                    path);
+                    break;
+                }
+                num = grown;
+                cap *= 2;
+            }
+            num[n++] = (spd_number_t){v, line};
+            i = j;
+        } else {
+            char shown[24];
+            size_t k = 0;
+            while (i + k < len && k < 16 && text[i + k] != '\n' && text[i + k] != '\r')
+                k++;
+            memcpy(shown, text + i, k);
+            shown[k] = 0;
+            rc = pbrt_error(P->err, p->loc,
+                            "spectrum file \"%s\", line %d: unexpected text \"%s\" (expected "
+                            "numbers, '#' comments, spaces or commas)",
+                            path, line, shown);
+        }
+    }
+    if (rc == 0 && n == 0)
+        rc = pbrt_error(P->err, p->loc, "spectrum file \"%s\" holds no numbers", path);
+    if (rc == 0 && n % 2 != 0)
+        rc = pbrt_error(P->err, p->loc,
+                        "spectrum file \"%s\" holds %zu numbers, an odd count: it needs "
+                        "(wavelength, value) pairs (the last number is on line %d)",
+                        path, n, num[n - 1].line);
+    for (size_t i = 0; rc == 0 && i < n / 2; i++) {
+        const spd_number_t *l = &num[2 * i], *v = &num[2 * i + 1];
+        if (!(l->v > 0.0))
+            rc = pbrt_error(P->err, p->loc,
+                            "spectrum file \"%s\", line %d: wavelength %g nm is not positive",
+                            path, l->line, l->v);
+        else if (i > 0 && !(l->v > num[2 * i - 2].v))
+            rc = pbrt_error(P->err, p->loc,
+                            "spectrum file \"%s\", line %d: wavelength %g nm does not follow %g "
+                            "nm (line %d): wavelengths must increase",
+                            path, l->line, l->v, num[2 * i - 2].v, num[2 * i - 2].line);
+        else if (use == SPECTRUM_ALBEDO && (v->v < 0.0 || v->v > 1.0))
+            rc = pbrt_error(P->err, p->loc,
+                            "spectrum file \"%s\", line %d: value %g is outside [0, 1] (a "
+                            "reflectance)",
+                            path, v->line, v->v);
+    }
+    double *lv = rc == 0 ? scene_desc_alloc(P->scene, n * sizeof *lv, P->err) : NULL;
+    if (rc == 0 && !lv)
+        rc = -1;
+    if (rc == 0) {
+        size_t pairs = n / 2;
+        for (size_t i = 0; i < pairs; i++) {
+            lv[i] = num[2 * i].v;
+            lv[pairs + i] = num[2 * i + 1].v;
+        }
+        out->kind = SCENE_SPECTRUM_SAMPLED;
+        out->count = pairs;
+        out->lambda = lv;
+        out->value = lv + pairs;
+    }
+    free(num);
+    return rc;
+}
+
+/* Reads a whole spectrum file of the user's own (unconfined) scene. */
+static char *read_spd_unconfined(parser_t *P, const param_t *p, const char *path, size_t *len)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) {
+        pbrt_error(P->err, p->loc, "cannot open spectrum file \"%s\": %s", path, strerror(errno));
+        return NULL;
+    }
+    size_t cap = 4096, n = 0;
+    char *buf = malloc(cap);
+    while (buf) {
+        n += fread(buf + n, 1, cap - n, f);
+        if (n < cap)
+            break;
+        if (cap > PBRT_FILE_BYTES_MAX) {
+            free(buf);
+            fclose(f);
+            pbrt_error(P->err, p->loc, "\"%s\" is larger than %zu bytes", path, PBRT_FILE_BYTES_MAX);
+            return NULL;
+        }
+        char *nb = realloc(buf, cap * 2);
+        if (!nb)
+            free(buf);
+        buf = nb;
+        cap *= 2;
+    }
+    int bad = ferror(f);
+    fclose(f);
+    if (!buf || bad) {
+        free(buf);
+        pbrt_error(P->err, p->loc, "cannot read spectrum file \"%s\"", path);
+        return NULL;
+    }
+    *len = n;
+    return buf;
+}
+
+/* A string given for a spectrum (pbrt-v4 paramdict.cpp: a named spectrum, else a spectrum file
+ * resolved like every file name). The parser cannot know the names (they live in spectral/,
+ * which scenefile does not use), so: a name that is a file -- in the current file's folder,
+ * else the main file's (pbrt-v4's rule), inside the root of a confined parse -- or that holds a
+ * '/' is read as a spectrum file now, listed among the files read (so bundles carry it) and
+ * confined like a PLY; any other string is kept as NAMED with the files looked for, and the
+ * loader resolves it or names both. A file named like a named spectrum ("glass-BK7" with no
+ * extension) is read, but the loader gives the named spectrum precedence, as pbrt-v4 does. */
+static int spectrum_string(parser_t *P, const param_t *p, const char *name, int use,
+                           scene_spectrum_t *out)
+{
+    char *first = resolve_path(P->file, name), *second = resolve_path(P->main_name, name);
+    if (!first || !second) {
+        free(first);
+        free(second);
+        return pbrt_error(P->err, p->loc, "out of memory");
+    }
+    bool two = name[0] != '/' && strcmp(first, second) != 0;
+    const char *path = present(P, first) ? first : two && present(P, second) ? second : NULL;
+    char searched[2 * NAME_MAX_LEN + 16];
+    if (two)
+        snprintf(searched, sizeof searched, "\"%s\" and \"%s\"", first, second);
+    else
+        snprintf(searched, sizeof searched, "\"%s\"", first);
+    int rc = 0;
+    if (!path && !strchr(name, '/')) {
+        out->kind = SCENE_SPECTRUM_NAMED;
+        out->name = scene_desc_strdup(P->scene, name, P->err);
+        out->searched = out->name ? scene_desc_strdup(P->scene, searched, P->err) : NULL;
+        rc = out->searched ? 0 : -1;
+    } else if (!path && !(P->root_lex && lexically_inside(P, first) == 0)) {
+        rc = pbrt_error(P->err, p->loc,
+                        "\"%s\" is not a named spectrum, and no spectrum file is there (looked "
+                        "for %s)",
+                        name, searched);
+    } else {
+        /* Outside a confined parse's root, confine() refuses it with its usual message. */
+        const char *use_path = path ? path : first;
+        size_t len = 0;
+        char *buf = NULL;
+        if (P->root_real) {
+            char *real = confine(P, use_path, name, &p->loc, "spectrum file");
+            buf = real ? read_confined(P, real, name, use_path, &p->loc, "spectrum file", &len)
+                       : NULL;
+            free(real);
+        } else {
+            buf = read_spd_unconfined(P, p, use_path, &len);
+        }
+        rc = buf ? parse_spd(P, p, use_path, buf, len, use, out) : -1;
+        free(buf);
+        if (rc == 0) {
+            out->name = scene_desc_strdup(P->scene, name, P->err);
+            out->file = out->name ? scene_desc_strdup(P->scene, use_path, P->err) : NULL;
+            rc = out->file ? note_file(P, SCENE_FILE_SPECTRUM, use_path, name, p->loc) : -1;
+        }
+    }
+    free(first);
+    free(second);
+    return rc;
+}
+
 /* A spectrum-valued parameter in its raw form: float (constant), rgb, blackbody, or spectrum
  * given as (lambda, value) pairs or by name (pbrt-v4 paramdict.cpp extractSpectrumArray). */
 static int spectrum_from_param(parser_t *P, params_t *ps, const param_t *p, int use,
@@ -873,18 +1085,10 @@ static int spectrum_from_param(parser_t *P, params_t *ps, const param_t *p, int 
                 return pbrt_error(P->err, p->loc, "expected 1 string after \"%s %s\", got %zu",
                                   p->type_name, p->name, p->count);
             const char *name = p->strings[0];
-            if (strchr(name, '.') || strchr(name, '/'))
-                return pbrt_error(P->err, p->loc,
-                                  "unsupported parameter value: spectrum files "
-                                  "(\"%s\") are not supported; give (wavelength, "
-                                  "value) pairs or a named spectrum",
-                                  name);
             if (!*name)
                 return pbrt_error(P->err, p->loc, "empty spectrum name in \"%s %s\"", p->type_name,
                                   p->name);
-            out->kind = SCENE_SPECTRUM_NAMED;
-            out->name = scene_desc_strdup(P->scene, name, P->err);
-            return out->name ? 0 : -1;
+            return spectrum_string(P, p, name, use, out);
         }
         if (p->count == 0)
             return pbrt_error(P->err, p->loc, "no values after \"%s %s\"", p->type_name, p->name);

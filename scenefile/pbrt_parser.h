@@ -18,8 +18,8 @@
  *               AreaLightSource "collimated"; rgb film "nbuckets"/"lambdamin"/"lambdamax"
  * Deliberate differences from pbrt-v4, all stricter: named materials, textures and
  * coordinate systems must be defined before use (objects may still be instanced before their
- * definition, as in pbrt-v4); a parameter given twice is an error; spectrum files (.spd) are
- * not supported. A relative file name is looked up in the folder of the file that names it,
+ * definition, as in pbrt-v4); a parameter given twice is an error. A "spectrum" string that
+ * names a file is read as a pbrt-v4 spectrum file (others are left to the loader as names). A relative file name is looked up in the folder of the file that names it,
  * then in the main file's folder (pbrt-v4's only rule). Every file read is listed in the
  * scene_desc's files, with its path relative to the main file's folder, for bundling. */
 #ifndef PRISMFARM_PBRT_PARSER_H
@@ -46,7 +46,7 @@
  * largest bundle. */
 #define PBRT_TOTAL_BYTES_MAX ((size_t)2 << 30)
 
-/* Parses the scene file at path. Include, Import, plymesh and imagemap file names resolve
+/* Parses the scene file at path. Include, Import, plymesh, imagemap and spectrum file names resolve
  * against the folder of the file that names them, else of the main file. Returns NULL with err
  * filled on failure. For the user's own files (`prismfarm render`): any file the scene names
  * is read. */
@@ -54,7 +54,7 @@ scene_desc_t *pbrt_parse_file(const char *path, err_t *err);
 
 /* Parses a scene from an untrusted source whose files were extracted into the folder root
  * (the master's spool/scenes/<hash>/, a worker's <cache>/<hash>/). Every file the scene reads
- * (the main file, Include/Import, plymesh, imagemap) must be, after lexical normalisation and
+ * (the main file, Include/Import, plymesh, imagemap, spectrum files) must be, after lexical normalisation and
  * after following symbolic links (realpath), a regular file inside root; it is checked before
  * it is opened, so a FIFO, a device or a file elsewhere is never opened. Anything else fails
  * with "file:line:col: \"NAME\" is outside the scene's folder" or "... \"NAME\" is not a

@@ -46,8 +46,8 @@ typedef enum scene_spectrum_kind {
     SCENE_SPECTRUM_CONSTANT,  /* "float x" v: the same value at every wavelength */
     SCENE_SPECTRUM_RGB,       /* "rgb x" [r g b], components >= 0; the renderer uplifts */
     SCENE_SPECTRUM_BLACKBODY, /* "blackbody x" T (kelvin, > 0), pbrt-v4's normalised Planck */
-    SCENE_SPECTRUM_NAMED,     /* "spectrum x" "stdillum-D65": the renderer resolves the name */
-    SCENE_SPECTRUM_SAMPLED,   /* "spectrum x" [l0 v0 l1 v1 ...]: lambda strictly increasing */
+    SCENE_SPECTRUM_NAMED,     /* "spectrum x" "stdillum-D65" naming no file: the renderer resolves the name */
+    SCENE_SPECTRUM_SAMPLED,   /* "spectrum x" [l0 v0 l1 v1 ...] or a spectrum file: lambda strictly increasing */
 } scene_spectrum_kind_t;
 
 typedef struct scene_spectrum {
@@ -55,7 +55,9 @@ typedef struct scene_spectrum {
     double constant;    /* CONSTANT */
     double rgb[3];      /* RGB */
     double temperature; /* BLACKBODY */
-    const char *name;   /* NAMED */
+    const char *name;   /* NAMED; SAMPLED read from a file: the name as written */
+    const char *file;   /* SAMPLED read from a spectrum file: the path it was read by, else NULL */
+    const char *searched; /* NAMED: the files looked for under that name ("\"a\" and \"b\"") */
     size_t count;       /* SAMPLED: number of (lambda, value) pairs, >= 1 */
     const double *lambda;
     const double *value;
@@ -269,6 +271,7 @@ typedef enum scene_file_kind {
     SCENE_FILE_INCLUDE, /* named by Include or Import */
     SCENE_FILE_PLY,     /* Shape "plymesh" "string filename" */
     SCENE_FILE_IMAGE,   /* Texture "imagemap" "string filename" */
+    SCENE_FILE_SPECTRUM, /* "spectrum x" "file.spd": a pbrt-v4 spectrum file */
 } scene_file_kind_t;
 
 typedef struct scene_file {

@@ -14,6 +14,7 @@ struct spectrum {
     size_t n; /* TABULATED: n pairs, lambda strictly increasing */
     double *lambda;
     double *value;
+    int zero_outside; /* TABULATED: 0 outside [lambda[0], lambda[n-1]], not the end values */
 
     double kelvin; /* BLACKBODY */
     double bb_norm;
@@ -71,8 +72,8 @@ spectrum_t *spectrum_new_constant(double value, err_t *err)
     return s;
 }
 
-spectrum_t *spectrum_new_tabulated(const double *lambda_nm, const double *value, size_t n,
-                                   err_t *err)
+static spectrum_t *tabulated(const double *lambda_nm, const double *value, size_t n,
+                             int zero_outside, err_t *err)
 {
     if (n == 0 || !lambda_nm || !value) {
         err_set(err, "tabulated spectrum: needs at least one (lambda, value) pair, got %zu", n);
@@ -107,7 +108,31 @@ spectrum_t *spectrum_new_tabulated(const double *lambda_nm, const double *value,
     }
     memcpy(s->lambda, lambda_nm, n * sizeof *s->lambda);
     memcpy(s->value, value, n * sizeof *s->value);
+    s->zero_outside = zero_outside;
     return s;
+}
+
+spectrum_t *spectrum_new_tabulated(const double *lambda_nm, const double *value, size_t n,
+                                   err_t *err)
+{
+    return tabulated(lambda_nm, value, n, 0, err);
+}
+
+spectrum_t *spectrum_new_tabulated_zero_outside(const double *lambda_nm, const double *value,
+                                                size_t n, err_t *err)
+{
+    return tabulated(lambda_nm, value, n, 1, err);
+}
+
+bool spectrum_tabulated_pairs(const spectrum_t *self, size_t *n, const double **lambda_nm,
+                              const double **value)
+{
+    if (!self || self->kind != SPECTRUM_TABULATED)
+        return false;
+    *n = self->n;
+    *lambda_nm = self->lambda;
+    *value = self->value;
+    return true;
 }
 
 /* Planck's law per nm of wavelength; expm1 keeps the Rayleigh-Jeans end accurate and an
@@ -215,6 +240,8 @@ double spectrum_sigmoid(double x)
 static double tabulated_eval(const spectrum_t *s, double lambda)
 {
     size_t n = s->n;
+    if (s->zero_outside && (lambda < s->lambda[0] || lambda > s->lambda[n - 1]))
+        return 0.0;
     if (lambda <= s->lambda[0])
         return s->value[0];
     if (lambda >= s->lambda[n - 1])

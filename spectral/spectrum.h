@@ -8,6 +8,7 @@
 #include "colour.h"
 #include "err.h"
 
+#include <stdbool.h>
 #include <stddef.h>
 
 typedef struct spectrum spectrum_t;
@@ -30,6 +31,11 @@ spectrum_t *spectrum_new_constant(double value, err_t *err);
  * error names the first bad pair. */
 spectrum_t *spectrum_new_tabulated(const double *lambda_nm, const double *value, size_t n,
                                    err_t *err);
+
+/* The same, but 0 outside [lambda_nm[0], lambda_nm[n-1]] (pbrt-v4 PiecewiseLinearSpectrum),
+ * for the named illuminant tables, which pbrt-v4 defines only over their range. */
+spectrum_t *spectrum_new_tabulated_zero_outside(const double *lambda_nm, const double *value,
+                                                size_t n, err_t *err);
 
 /* Planck's law B(lambda, T) = 2 h c^2 / lambda^5 / (exp(h c / (lambda k T)) - 1), in
  * W m^-2 sr^-1 nm^-1 (CODATA 2018 constants), kelvin finite and > 0. With normalise, divided
@@ -59,6 +65,11 @@ spectrum_t *spectrum_new_rgb_reflectance(rgb_t rgb, err_t *err);
 spectrum_t *spectrum_new_rgb_illuminant(rgb_t rgb, err_t *err);
 
 void spectrum_destroy(spectrum_t **self_p);
+
+/* A tabulated spectrum's own pairs (unscaled), alive as long as the spectrum: true and *n,
+ * *lambda_nm, *value filled for SPECTRUM_TABULATED, false for any other kind. */
+bool spectrum_tabulated_pairs(const spectrum_t *self, size_t *n, const double **lambda_nm,
+                              const double **value);
 
 /* The spectrum at lambda_nm; 0 for a non-finite lambda. */
 double spectrum_eval(const spectrum_t *self, double lambda_nm);

@@ -130,7 +130,8 @@ static void test_furnace_transmission(void **state)
  * measurable, while the default 0.01 absorbs about 8 % (exp(-0.01 / |cos|) per crossing, and
  * the coat's total internal reflection keeps the light crossing: bsdf/'s own albedo is 0.917
  * at normal incidence); the walk is cut at maxdepth (100 here); a rough coat loses its
- * microfacet share too. */
+ * microfacet share too, at every crossing of the coat and every bounce on a rough base (about
+ * 2 % each at alpha 0.1, and the coat's total internal reflection makes several). */
 static void test_furnace_coated(void **state)
 {
     (void)state;
@@ -145,7 +146,7 @@ static void test_furnace_coated(void **state)
     furnace_check("Material \"coatedconductor\" \"float conductor.eta\" [ 0 ] \"float conductor.k\" [ 1 ] "
                   "\"float interface.roughness\" [ 0.01 ] \"float conductor.roughness\" [ 0.01 ] "
                   "\"float thickness\" [ 1e-5 ] \"integer maxdepth\" [ 100 ]",
-                  0.93, 1.0, 32);
+                  0.87, 1.0, 32);
 }
 
 /* Rough N-SF11 in front of a coloured checkerboard: the camera sees the board through the

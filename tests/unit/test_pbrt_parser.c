@@ -1123,9 +1123,9 @@ static void test_error_messages(void **state)
          "nm"},
         {"WorldBegin\nLightSource \"point\" \"spectrum I\" [500 1 \"x\"]\n",
          "t.pbrt:2:21: \"spectrum I\" mixes numbers, strings and booleans"},
-        {"WorldBegin\nLightSource \"point\" \"spectrum I\" \"lamp.spd\"\n",
-         "t.pbrt:2:21: unsupported parameter value: spectrum files (\"lamp.spd\") are not "
-         "supported; give (wavelength, value) pairs or a named spectrum"},
+        {"WorldBegin\nLightSource \"point\" \"spectrum I\" \"spds/lamp.spd\"\n",
+         "t.pbrt:2:21: \"spds/lamp.spd\" is not a named spectrum, and no spectrum file is there "
+         "(looked for \"spds/lamp.spd\")"},
         {"WorldBegin\nLightSource \"point\" \"rgb I\" [1 -1 1]\n",
          "t.pbrt:2:21: \"rgb I\" has a negative component"},
         {"WorldBegin\nLightSource \"point\" \"blackbody I\" [3000 1]\n",
