@@ -2,6 +2,8 @@
 
 #include "image_exr.h"
 
+#include "files.h"
+
 #include <openexr.h>
 
 #include <errno.h>
@@ -393,11 +395,23 @@ static int exr_write_file(const char *path, int width, int height, const exr_sou
     memcpy(tmp + path_len, ".tmp", 5);
 
     exr_io_t io = {.fd = -1, .msg = ""};
-    io.fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (files_check_replaceable(path, err) < 0) {
+        free(tmp);
+        return -1;
+    }
+    /* Never through a link or into a FIFO or device someone left at PATH.tmp. */
+    io.fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC, 0644);
+    struct stat tmp_st;
+    if (io.fd >= 0 && (fstat(io.fd, &tmp_st) != 0 || !S_ISREG(tmp_st.st_mode))) {
+        (void)close(io.fd);
+        io.fd = -1;
+        errno = EINVAL;
+    }
     if (io.fd < 0) {
         int e = errno;
         free(tmp);
-        return err_set(err, "%s: cannot create: %s", path, strerror(e));
+        return err_set(err, "%s: cannot create %s.tmp: %s", path, path,
+                       e == EINVAL ? "it exists and is not a regular file" : strerror(e));
     }
 
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
@@ -471,6 +485,8 @@ static int exr_write_file(const char *path, int width, int height, const exr_sou
         status = err_set(err, "%s: cannot flush to disk: %s", path, strerror(errno));
     if (close(io.fd) != 0 && status == 0)
         status = err_set(err, "%s: cannot close: %s", path, strerror(errno));
+    if (status == 0)
+        status = files_check_replaceable(path, err);
     if (status == 0 && rename(tmp, path) != 0)
         status = err_set(err, "%s: cannot rename %s into place: %s", path, tmp, strerror(errno));
     if (status != 0)
@@ -898,11 +914,9 @@ static int exr_plan_channels(const char *path, const exr_attr_chlist_t *chlist, 
 image_exr_t *image_exr_read(const char *path, err_t *err)
 {
     exr_io_t io = {.fd = -1, .msg = ""};
-    io.fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (io.fd < 0) {
-        err_set(err, "%s: cannot open: %s", path, strerror(errno));
+    io.fd = files_open_regular(path, err); /* a FIFO would block, a device never end */
+    if (io.fd < 0)
         return NULL;
-    }
     /* Check the magic number ourselves to say plainly what is wrong with, say, a PNG. */
     unsigned char magic[4] = {0};
     ssize_t got = pread(io.fd, magic, sizeof magic, 0);
