@@ -3,6 +3,11 @@
 #include "net.h"
 
 #include <errno.h>
+#include <fcntl.h>
+#include <netdb.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -82,6 +87,69 @@ static int open_net(client_rpc_t *self, err_t *err)
     return 0;
 }
 
+/* What can be known at once about a tcp:// endpoint before ZeroMQ retries it quietly for as
+ * long as a call waits: a port that is not a number in 1..65535, a host name that does not
+ * resolve, and (probe_ms > 0) a host that refuses the connection (nothing listens there). A
+ * probe that gets no answer within probe_ms says nothing: the call's own wait decides. */
+static int check_tcp_endpoint(const char *endpoint, int probe_ms, err_t *err)
+{
+    if (strncmp(endpoint, "tcp://", 6) != 0)
+        return 0;
+    char host[256];
+    const char *hp = endpoint + 6, *colon = strrchr(hp, ':');
+    if (!colon)
+        return err_set(err, "the master's endpoint %s has no port (tcp://HOST:PORT)", endpoint);
+    const char *port = colon + 1;
+    char *end;
+    errno = 0;
+    long pn = strtol(port, &end, 10);
+    if (end == port || *end || errno || pn < 1 || pn > 65535)
+        return err_set(err, "the master's endpoint %s has port '%s': expected a number in 1..65535",
+                       endpoint, port);
+    size_t n = (size_t)(colon - hp);
+    if (n >= sizeof host)
+        return err_set(err, "the host name of %s is too long", endpoint);
+    memcpy(host, hp, n);
+    host[n] = 0;
+    if (n >= 2 && host[0] == '[' && host[n - 1] == ']') { /* [::1] */
+        memmove(host, host + 1, n - 2);
+        host[n - 2] = 0;
+    }
+    struct addrinfo hints = {.ai_family = AF_UNSPEC, .ai_socktype = SOCK_STREAM}, *ai = NULL;
+    int g = getaddrinfo(host, port, &hints, &ai);
+    if (g != 0)
+        return err_set(err, "cannot resolve the host '%s' of the master's endpoint %s: %s", host,
+                       endpoint, gai_strerror(g));
+    int refused = 0;
+    int fd = probe_ms > 0 ? socket(ai->ai_family, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0) : -1;
+    if (fd >= 0) {
+        int rc = connect(fd, ai->ai_addr, ai->ai_addrlen);
+        if (rc < 0 && errno == EINPROGRESS) {
+            struct pollfd p = {.fd = fd, .events = POLLOUT};
+            if (poll(&p, 1, probe_ms) == 1) {
+                int e = 0;
+                socklen_t len = sizeof e;
+                if (getsockopt(fd, SOL_SOCKET, SO_ERROR, &e, &len) == 0 && e == ECONNREFUSED)
+                    refused = 1;
+            }
+        } else if (rc < 0 && errno == ECONNREFUSED) {
+            refused = 1;
+        }
+        (void)close(fd);
+    }
+    freeaddrinfo(ai);
+    if (refused)
+        return err_set(err, "the master at %s refused the connection: nothing listens on port %ld "
+                       "of %s (is it running, on this port?)",
+                       endpoint, pn, host);
+    return 0;
+}
+
+int client_rpc_probe(const char *endpoint, err_t *err)
+{
+    return check_tcp_endpoint(endpoint, 2000, err);
+}
+
 client_rpc_t *client_rpc_new(const char *endpoint, void *zmq_ctx, const client_security_t *sec,
                              err_t *err)
 {
@@ -91,6 +159,10 @@ client_rpc_t *client_rpc_new(const char *endpoint, void *zmq_ctx, const client_s
         return NULL;
     }
     snprintf(self->endpoint, sizeof self->endpoint, "%s", endpoint);
+    if (check_tcp_endpoint(endpoint, 0, err) < 0) {
+        free(self);
+        return NULL;
+    }
     if (sec)
         self->sec = *sec;
     self->ctx = zmq_ctx ? zmq_ctx : zmq_ctx_new();

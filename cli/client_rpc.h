@@ -32,6 +32,12 @@ int client_security_load(const client_security_t *sec, const char *endpoint,
 
 typedef struct client_rpc client_rpc_t;
 
+/* For a command that needs its master now (submit, fetch): a tcp:// endpoint whose host refuses
+ * the connection (nothing listens on the port) is an error at once instead of after the call's
+ * timeout. Commands that follow a job skip it: a master that restarts refuses for a moment.
+ * client_rpc_new itself refuses a port outside 1..65535 and a host that does not resolve. */
+int client_rpc_probe(const char *endpoint, err_t *err);
+
 /* A connection to the master at endpoint; ctx NULL makes one. sec NULL: no keys (plain text,
  * allowed only on inproc:// and ipc://). */
 client_rpc_t *client_rpc_new(const char *endpoint, void *zmq_ctx, const client_security_t *sec,

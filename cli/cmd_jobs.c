@@ -333,8 +333,12 @@ int cmd_fetch(int argc, char **argv)
     }
     char png[4200];
     film_png_path(q.output, png, sizeof png);
+    int bad_output = job_follow_check_outputs(q.output, png, "fetch");
+    if (bad_output)
+        return bad_output;
     err_t err;
-    client_rpc_t *rpc = client_rpc_new(q.master, NULL, &q.sec, &err);
+    client_rpc_t *rpc =
+        client_rpc_probe(q.master, &err) == 0 ? client_rpc_new(q.master, NULL, &q.sec, &err) : NULL;
     if (!rpc) {
         fprintf(stderr, "prismfarm fetch: %s\n", err.msg);
         return 1;

@@ -70,6 +70,15 @@ int cmd_refine(int argc, char **argv)
         fprintf(stderr, "prismfarm refine: -o needs --wait\n");
         return 2;
     }
+    char exr[4096], png[4200];
+    if (output)
+        snprintf(exr, sizeof exr, "%s", output);
+    else
+        snprintf(exr, sizeof exr, "refined-%llu.exr", job);
+    film_png_path(exr, png, sizeof png);
+    int bad_output = wait ? job_follow_check_outputs(exr, png, "refine") : 0;
+    if (bad_output)
+        return bad_output;
     err_t err;
     client_rpc_t *rpc = client_rpc_new(master, NULL, &sec, &err);
     proto_msg_t req = {.type = PROTO_REFINE, .refine = {.job = job, .photons = (uint64_t)photons}};
@@ -101,12 +110,6 @@ int cmd_refine(int argc, char **argv)
                 error[0] ? ": " : "", error);
         rc = 1;
     } else {
-        char exr[4096], png[4200];
-        if (output)
-            snprintf(exr, sizeof exr, "%s", output);
-        else
-            snprintf(exr, sizeof exr, "refined-%llu.exr", job);
-        film_png_path(exr, png, sizeof png);
         if (job_follow_fetch(rpc, job, PROTO_FETCH_EXR, exr, "refine") ||
             job_follow_fetch(rpc, job, PROTO_FETCH_PNG, png, "refine"))
             rc = 1;

@@ -5,6 +5,7 @@
 #include "cli_args.h"
 #include "clock.h"
 #include "film.h"
+#include "job_follow.h"
 #include "jobinfo.h"
 #include "local_farm.h"
 #include "local_render.h"
@@ -41,21 +42,6 @@ static void usage(FILE *out, const cli_opt_t *opts)
 static void on_progress(void *user, uint64_t done, uint64_t total, double elapsed)
 {
     progress_update(user, done, total, elapsed);
-}
-
-static int make_parent_dirs(const char *path)
-{
-    char buf[PATH_MAX];
-    snprintf(buf, sizeof buf, "%s", path);
-    for (char *p = buf + 1; *p; p++) {
-        if (*p != '/')
-            continue;
-        *p = 0;
-        if (mkdir(buf, 0777) && errno != EEXIST)
-            return -1;
-        *p = '/';
-    }
-    return 0;
 }
 
 /* The progress line of --direct under a stopping rule: the spp and estimate of each pass. */
@@ -230,10 +216,12 @@ int cmd_render(int argc, char **argv)
         snprintf(exr, sizeof exr, "%.*s.exr", (int)n, base);
     }
     film_png_path(exr, png, sizeof png);
-    if (make_parent_dirs(exr)) {
-        fprintf(stderr, "prismfarm render: cannot create the folder for %s: %s\n", exr, strerror(errno));
+    /* Before the render, not after it: a missing folder (never created for the user), one
+     * that is not writable, or a device or FIFO at the output's name. */
+    int bad_output = job_follow_check_outputs(exr, png, "render");
+    if (bad_output) {
         scene_destroy(&scene);
-        return 1;
+        return bad_output;
     }
 
     if (!quiet) {

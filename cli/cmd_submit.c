@@ -76,13 +76,23 @@ int cmd_submit(int argc, char **argv)
         name = namebuf;
     }
 
+    char exr[4096], png[4200];
+    if (output)
+        snprintf(exr, sizeof exr, "%s", output);
+    else
+        snprintf(exr, sizeof exr, "%s.exr", name);
+    film_png_path(exr, png, sizeof png);
+    int bad_output = wait ? job_follow_check_outputs(exr, png, "submit") : 0;
+    if (bad_output)
+        return bad_output;
+
     err_t err;
     scene_bundle_t *b = scene_bundle_new(scene, &err);
     if (!b) {
         fprintf(stderr, "prismfarm submit: %s\n", err.msg);
         return 1;
     }
-    client_rpc_t *rpc = client_rpc_new(master, NULL, &sec, &err);
+    client_rpc_t *rpc = client_rpc_probe(master, &err) == 0 ? client_rpc_new(master, NULL, &sec, &err) : NULL;
     proto_msg_t req = {.type = PROTO_SUBMIT,
                        .submit = {.name = name, .settings = settings_from_overrides(&ov),
                                   .bundle = *scene_bundle_get(b)}};
@@ -126,12 +136,6 @@ int cmd_submit(int argc, char **argv)
         rc = 1;
         goto out;
     }
-    char exr[4096], png[4200];
-    if (output)
-        snprintf(exr, sizeof exr, "%s", output);
-    else
-        snprintf(exr, sizeof exr, "%s.exr", name);
-    film_png_path(exr, png, sizeof png);
     if (job_follow_fetch(rpc, job, PROTO_FETCH_EXR, exr, "submit") ||
         job_follow_fetch(rpc, job, PROTO_FETCH_PNG, png, "submit")) {
         rc = 1;

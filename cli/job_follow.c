@@ -88,6 +88,16 @@ int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t
     }
 }
 
+int job_follow_check_outputs(const char *exr, const char *png, const char *cmd)
+{
+    err_t err;
+    if ((exr && files_check_output(exr, &err) < 0) || (png && files_check_output(png, &err) < 0)) {
+        fprintf(stderr, "prismfarm %s: %s\n", cmd, err.msg);
+        return 2;
+    }
+    return 0;
+}
+
 int job_follow_fetch(client_rpc_t *rpc, uint64_t job, proto_fetch_what_t what, const char *path,
                      const char *cmd)
 {

@@ -14,6 +14,12 @@
 int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t *last,
                     char *error, size_t esize);
 
+/* Checks, before anything is submitted, rendered or fetched, that the outputs exr and png (NULL:
+ * none) can be written (files_check_output: a regular file or nothing there yet, in a folder
+ * that exists and is writable). Returns 0, or 2 (a bad command line) with the reason on stderr
+ * prefixed by "prismfarm CMD: ". */
+int job_follow_check_outputs(const char *exr, const char *png, const char *cmd);
+
 /* Downloads one output of a job into path (written beside it and renamed). Returns 0, or 1
  * with a message on stderr prefixed by "prismfarm CMD: ". */
 int job_follow_fetch(client_rpc_t *rpc, uint64_t job, proto_fetch_what_t what, const char *path,

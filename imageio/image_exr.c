@@ -2,6 +2,8 @@
 
 #include "image_exr.h"
 
+#include "files.h"
+
 #include <openexr.h>
 
 #include <errno.h>
@@ -17,22 +19,39 @@
 #include <unistd.h>
 
 /* The file behind an OpenEXRCore context. We do the I/O ourselves (pread/pwrite on our own
- * descriptor) so that the library's error handler can reach this struct through the context's
- * user data, and so that the written file can be fsync'ed before it is renamed into place. */
+ * descriptor) so that a failed read or write records the system's reason where we can report
+ * it, and so that the written file can be fsync'ed before it is renamed into place. */
 typedef struct exr_io {
     int fd;
     char msg[256]; /* the first message the library reported, "" if none */
 } exr_io_t;
 
+/* The exr_io_t of the context this thread is working on, for the library's error handler.
+ * The handler must not ask the context for its user data: exr_get_user_data takes the
+ * context's lock, which a write context already holds while it calls our write function and
+ * then the handler (exr_write_header -> exr_io_write -> handler -> exr_get_user_data: a full
+ * disk deadlocked the master, issue 16). A context is used by one thread at a time here, so a
+ * thread-local pointer, set while the context lives, reaches the same struct without a lock. */
+static _Thread_local exr_io_t *exr_io_current;
+
 static void exr_io_on_error(exr_const_context_t ctxt, exr_result_t code, const char *msg)
 {
-    void *user = NULL;
-    if (exr_get_user_data(ctxt, &user) != EXR_ERR_SUCCESS || user == NULL)
-        return;
-    exr_io_t *io = user;
-    if (io->msg[0] == '\0')
+    (void)ctxt;
+    exr_io_t *io = exr_io_current;
+    if (io != NULL && io->msg[0] == '\0')
         snprintf(io->msg, sizeof io->msg, "%s (%s)", msg ? msg : "",
                  exr_get_error_code_as_string(code));
+}
+
+/* Records the I/O callback's own reason before telling the library, so that the message does
+ * not depend on the handler at all. */
+static void exr_io_failed(exr_io_t *io, const char *what, uint64_t size, uint64_t offset,
+                          const char *reason)
+{
+    if (io->msg[0] == '\0')
+        snprintf(io->msg, sizeof io->msg,
+                 "%s of %" PRIu64 " bytes at offset %" PRIu64 " failed: %s", what, size, offset,
+                 reason);
 }
 
 static int64_t exr_io_read(exr_const_context_t ctxt, void *user, void *buffer, uint64_t size,
@@ -46,9 +65,11 @@ static int64_t exr_io_read(exr_const_context_t ctxt, void *user, void *buffer, u
         if (n < 0 && errno == EINTR)
             continue;
         if (n < 0) {
+            int e = errno;
+            exr_io_failed(io, "read", size, offset, strerror(e));
             error_cb(ctxt, EXR_ERR_READ_IO,
                      "read of %" PRIu64 " bytes at offset %" PRIu64 " failed: %s", size, offset,
-                     strerror(errno));
+                     strerror(e));
             return -1;
         }
         if (n == 0)
@@ -79,9 +100,11 @@ static int64_t exr_io_write(exr_const_context_t ctxt, void *user, const void *bu
         if (n < 0 && errno == EINTR)
             continue;
         if (n <= 0) {
+            const char *why = n < 0 ? strerror(errno) : "no progress";
+            exr_io_failed(io, "write", size, offset, why);
             error_cb(ctxt, EXR_ERR_WRITE_IO,
                      "write of %" PRIu64 " bytes at offset %" PRIu64 " failed: %s", size, offset,
-                     n < 0 ? strerror(errno) : "no progress");
+                     why);
             return -1;
         }
         done += (uint64_t)n;
@@ -372,11 +395,23 @@ static int exr_write_file(const char *path, int width, int height, const exr_sou
     memcpy(tmp + path_len, ".tmp", 5);
 
     exr_io_t io = {.fd = -1, .msg = ""};
-    io.fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (files_check_replaceable(path, err) < 0) {
+        free(tmp);
+        return -1;
+    }
+    /* Never through a link or into a FIFO or device someone left at PATH.tmp. */
+    io.fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC, 0644);
+    struct stat tmp_st;
+    if (io.fd >= 0 && (fstat(io.fd, &tmp_st) != 0 || !S_ISREG(tmp_st.st_mode))) {
+        (void)close(io.fd);
+        io.fd = -1;
+        errno = EINVAL;
+    }
     if (io.fd < 0) {
         int e = errno;
         free(tmp);
-        return err_set(err, "%s: cannot create: %s", path, strerror(e));
+        return err_set(err, "%s: cannot create %s.tmp: %s", path, path,
+                       e == EINVAL ? "it exists and is not a regular file" : strerror(e));
     }
 
     exr_context_initializer_t init = EXR_DEFAULT_CONTEXT_INITIALIZER;
@@ -386,6 +421,7 @@ static int exr_write_file(const char *path, int width, int height, const exr_sou
 
     exr_context_t ctx = NULL;
     int status = 0;
+    exr_io_current = &io;
     exr_result_t rv = exr_start_write(&ctx, tmp, EXR_WRITE_FILE_DIRECTLY, &init);
     if (rv != EXR_ERR_SUCCESS)
         status = err_set(err, "%s: cannot start the EXR writer: %s", path, exr_io_reason(&io, rv));
@@ -444,10 +480,13 @@ static int exr_write_file(const char *path, int width, int height, const exr_sou
         if (rv != EXR_ERR_SUCCESS && status == 0)
             status = err_set(err, "%s: cannot finish the file: %s", path, exr_io_reason(&io, rv));
     }
+    exr_io_current = NULL;
     if (status == 0 && fsync(io.fd) != 0)
         status = err_set(err, "%s: cannot flush to disk: %s", path, strerror(errno));
     if (close(io.fd) != 0 && status == 0)
         status = err_set(err, "%s: cannot close: %s", path, strerror(errno));
+    if (status == 0)
+        status = files_check_replaceable(path, err);
     if (status == 0 && rename(tmp, path) != 0)
         status = err_set(err, "%s: cannot rename %s into place: %s", path, tmp, strerror(errno));
     if (status != 0)
@@ -875,11 +914,9 @@ static int exr_plan_channels(const char *path, const exr_attr_chlist_t *chlist, 
 image_exr_t *image_exr_read(const char *path, err_t *err)
 {
     exr_io_t io = {.fd = -1, .msg = ""};
-    io.fd = open(path, O_RDONLY | O_CLOEXEC);
-    if (io.fd < 0) {
-        err_set(err, "%s: cannot open: %s", path, strerror(errno));
+    io.fd = files_open_regular(path, err); /* a FIFO would block, a device never end */
+    if (io.fd < 0)
         return NULL;
-    }
     /* Check the magic number ourselves to say plainly what is wrong with, say, a PNG. */
     unsigned char magic[4] = {0};
     ssize_t got = pread(io.fd, magic, sizeof magic, 0);
@@ -907,6 +944,7 @@ image_exr_t *image_exr_read(const char *path, err_t *err)
     if (img == NULL)
         status = err_set(err, "%s: out of memory", path);
     exr_result_t rv = EXR_ERR_SUCCESS;
+    exr_io_current = &io;
     if (status == 0) {
         rv = exr_start_read(&ctx, path, &init);
         if (rv != EXR_ERR_SUCCESS)
@@ -971,6 +1009,7 @@ image_exr_t *image_exr_read(const char *path, err_t *err)
             status =
                 err_set(err, "%s: cannot close the EXR reader: %s", path, exr_io_reason(&io, rv));
     }
+    exr_io_current = NULL;
     if (close(io.fd) != 0 && status == 0)
         status = err_set(err, "%s: cannot close: %s", path, strerror(errno));
     free(dests);

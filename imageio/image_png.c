@@ -2,14 +2,18 @@
 
 #include "image_png.h"
 
+#include "files.h"
+
 #include <png.h>
 
 #include <errno.h>
+#include <fcntl.h>
 #include <limits.h>
 #include <stdbool.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 /* libpng reports errors through a callback that must not return: ours records the message in
@@ -90,10 +94,25 @@ int image_png_write_rgb(const char *path, int width, int height, const uint8_t *
         rows[y] = (png_bytep)(uintptr_t)(rgb + (size_t)y * (size_t)width * 3);
     }
 
-    png_job_t job = {.path = path, .err = err, .fp = fopen(tmp, "wb")};
-    int status = 0;
-    if (job.fp == NULL)
-        status = err_set(err, "%s: cannot create %s: %s", path, tmp, strerror(errno));
+    png_job_t job = {.path = path, .err = err, .fp = NULL};
+    int status = files_check_replaceable(path, err);
+    if (status == 0) {
+        /* Never through a link or into a FIFO or device someone left at PATH.tmp. */
+        int fd = open(tmp, O_WRONLY | O_CREAT | O_TRUNC | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC,
+                      0644);
+        struct stat st;
+        if (fd >= 0 && (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode))) {
+            (void)close(fd);
+            fd = -1;
+            errno = EINVAL;
+        }
+        if (fd >= 0 && !(job.fp = fdopen(fd, "wb")))
+            (void)close(fd);
+        if (job.fp == NULL)
+            status = err_set(err, "%s: cannot create %s: %s", path, tmp,
+                             errno == EINVAL ? "it exists and is not a regular file"
+                                             : strerror(errno));
+    }
     png_structp png = NULL;
     png_infop info = NULL;
     if (status == 0) {
@@ -113,6 +132,8 @@ int image_png_write_rgb(const char *path, int width, int height, const uint8_t *
             status = err_set(err, "%s: cannot flush to disk: %s", path, strerror(errno));
         if (fclose(job.fp) != 0 && status == 0)
             status = err_set(err, "%s: cannot close: %s", path, strerror(errno));
+        if (status == 0)
+            status = files_check_replaceable(path, err);
         if (status == 0 && rename(tmp, path) != 0)
             status =
                 err_set(err, "%s: cannot rename %s into place: %s", path, tmp, strerror(errno));
@@ -215,9 +236,13 @@ static int png_read_body(png_structp png, png_infop info, image_png_t *img)
 
 image_png_t *image_png_read(const char *path, err_t *err)
 {
-    png_job_t job = {.path = path, .err = err, .fp = fopen(path, "rb")};
+    int fd = files_open_regular(path, err); /* a FIFO would block, a device never end */
+    png_job_t job = {.path = path, .err = err, .fp = fd >= 0 ? fdopen(fd, "rb") : NULL};
     if (job.fp == NULL) {
-        err_set(err, "%s: cannot open: %s", path, strerror(errno));
+        if (fd >= 0) {
+            err_set(err, "%s: cannot open: %s", path, strerror(errno));
+            (void)close(fd);
+        }
         return NULL;
     }
     unsigned char signature[8];

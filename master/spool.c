@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/file.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -20,6 +21,7 @@
 
 struct spool {
     char *dir;
+    int lock_fd; /* DIR/lock, flock'ed for the spool's life */
     unsigned long staged; /* counter naming folders in tmp/ */
 };
 
@@ -87,6 +89,42 @@ static int rm_tree(const char *path)
     return rm_tree_at(AT_FDCWD, path, 0);
 }
 
+/* Takes DIR/lock with flock (released by the kernel when the process dies, however it dies) and
+ * writes our pid in it for the message of the next master that tries. A master that finds it
+ * taken refuses to start: two masters on one spool would hand out the same job ids and
+ * overwrite each other's journal rows. */
+static int lock_spool(spool_t *self, err_t *err)
+{
+    char path[PATH_MAX];
+    snprintf(path, sizeof path, "%s/lock", self->dir);
+    int fd = open(path, O_RDWR | O_CREAT | O_NOFOLLOW | O_CLOEXEC, 0644);
+    if (fd < 0)
+        return err_set(err, "cannot open the spool's lock file '%s': %s", path, strerror(errno));
+    if (flock(fd, LOCK_EX | LOCK_NB) < 0) {
+        int e = errno;
+        char pid[32] = "";
+        ssize_t n = e == EWOULDBLOCK ? pread(fd, pid, sizeof pid - 1, 0) : -1;
+        (void)close(fd);
+        if (e != EWOULDBLOCK)
+            return err_set(err, "cannot lock the spool's lock file '%s': %s", path, strerror(e));
+        pid[n > 0 ? n : 0] = 0;
+        pid[strcspn(pid, "\n")] = 0;
+        return err_set(err,
+                       "the spool '%s' is in use by another master (%s%s, holding '%s'): stop it "
+                       "first, or give this one another --spool",
+                       self->dir, pid[0] ? "pid " : "pid unknown", pid, path);
+    }
+    char text[32];
+    int len = snprintf(text, sizeof text, "%ld\n", (long)getpid());
+    if (ftruncate(fd, 0) < 0 || pwrite(fd, text, (size_t)len, 0) != len) {
+        int e = errno;
+        (void)close(fd);
+        return err_set(err, "cannot write the spool's lock file '%s': %s", path, strerror(e));
+    }
+    self->lock_fd = fd;
+    return 0;
+}
+
 spool_t *spool_new(const char *dir, err_t *err)
 {
     if (!dir || !*dir) {
@@ -104,12 +142,13 @@ spool_t *spool_new(const char *dir, err_t *err)
         err_set(err, "out of memory");
         return NULL;
     }
+    self->lock_fd = -1;
     memcpy(self->dir, dir, n + 1);
     while (n > 1 && self->dir[n - 1] == '/')
         self->dir[--n] = 0;
     char sub[PATH_MAX];
     static const char *const subs[] = {"scenes", "jobs", "tmp"};
-    if (make_dirs(self->dir, err) < 0)
+    if (make_dirs(self->dir, err) < 0 || lock_spool(self, err) < 0)
         goto fail;
     snprintf(sub, sizeof sub, "%s/tmp", self->dir);
     if (rm_tree(sub) < 0) {
@@ -125,6 +164,8 @@ spool_t *spool_new(const char *dir, err_t *err)
     }
     return self;
 fail:
+    if (self->lock_fd >= 0)
+        (void)close(self->lock_fd);
     free(self->dir);
     free(self);
     return NULL;
@@ -134,6 +175,8 @@ void spool_destroy(spool_t **self_p)
 {
     if (!self_p || !*self_p)
         return;
+    if ((*self_p)->lock_fd >= 0)
+        (void)close((*self_p)->lock_fd); /* releases the flock */
     free((*self_p)->dir);
     free(*self_p);
     *self_p = NULL;

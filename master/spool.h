@@ -16,7 +16,9 @@
 typedef struct spool spool_t;
 
 /* Opens the spool at dir, creating dir (and missing parents), scenes/, jobs/ and tmp/, and
- * removing whatever an earlier run left in tmp/. */
+ * removing whatever an earlier run left in tmp/. The spool is locked (flock on dir/lock, which
+ * holds our pid) until spool_destroy or the process's death: a spool another process holds is
+ * an error naming the folder and the holder's pid. */
 spool_t *spool_new(const char *dir, err_t *err);
 void spool_destroy(spool_t **self_p);
 

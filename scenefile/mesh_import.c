@@ -1,5 +1,6 @@
 #include "mesh_import.h"
 
+#include "files.h"
 #include "le_bytes.h"
 
 #include <assimp/cimport.h>
@@ -10,6 +11,9 @@
 #include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -830,9 +834,25 @@ static char *read_ply(FILE *f, const char *path, size_t *len, err_t *err)
 int mesh_import_ply(const char *path, mesh_data_t *out, err_t *err)
 {
     memset(out, 0, sizeof *out);
-    FILE *f = fopen(path, "rb");
-    if (!f)
+    /* A FIFO would block the open, a device never end: regular files only. */
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0)
         return err_set(err, "cannot open PLY file \"%s\": %s", path, strerror(errno));
+    struct stat st = {0};
+    int flags;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        const char *kind = files_kind(st.st_mode);
+        (void)close(fd);
+        return err_set(err, "cannot open PLY file \"%s\": it is %s, not a regular file", path,
+                       kind);
+    }
+    FILE *f = NULL;
+    if ((flags = fcntl(fd, F_GETFL)) < 0 || fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) < 0 ||
+        !(f = fdopen(fd, "rb"))) {
+        int e = errno;
+        (void)close(fd);
+        return err_set(err, "cannot open PLY file \"%s\": %s", path, strerror(e));
+    }
     size_t len = 0;
     char *buf = read_ply(f, path, &len, err);
     fclose(f);

@@ -8,6 +8,8 @@
 #include "params.h"
 #include "pbrt_lexer.h"
 
+#include "files.h"
+
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -20,6 +22,43 @@
 #include <strings.h>
 #include <sys/stat.h>
 #include <unistd.h>
+
+/* fopen(path, "rb") for a regular file only: opened without blocking and checked with fstat, so
+ * that a FIFO named by a scene, an Include or a texture is refused at once instead of blocking
+ * the parse for ever (a device would never end). NULL with errno set, or EINVAL and *kind
+ * naming what the path is (files_kind). */
+static FILE *open_regular_file(const char *path, const char **kind)
+{
+    *kind = NULL;
+    int fd = open(path, O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0)
+        return NULL;
+    struct stat st;
+    int flags;
+    FILE *f = NULL;
+    if (fstat(fd, &st) != 0) {
+    } else if (!S_ISREG(st.st_mode)) {
+        *kind = files_kind(st.st_mode);
+        errno = EINVAL;
+    } else if ((flags = fcntl(fd, F_GETFL)) >= 0 && fcntl(fd, F_SETFL, flags & ~O_NONBLOCK) == 0) {
+        f = fdopen(fd, "rb");
+    }
+    if (!f) {
+        int e = errno;
+        (void)close(fd);
+        errno = e;
+    }
+    return f;
+}
+
+/* The reason open_regular_file failed. */
+static const char *open_failure(const char *kind, char *buf, size_t size)
+{
+    if (!kind)
+        return strerror(errno);
+    snprintf(buf, size, "it is %s, not a regular file", kind);
+    return buf;
+}
 
 /* ------------------------------------------------------------------------------------------
  * Parser state: pbrt-v4's graphics state (CTM, ReverseOrientation, current material and area
@@ -1793,10 +1832,12 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
         if (!t->image.filename)
             return -1;
     } else {
-        FILE *f = fopen(path, "rb");
+        const char *kind;
+        char why[96];
+        FILE *f = open_regular_file(path, &kind);
         if (!f)
             return pbrt_error(P->err, fp->loc, "cannot open image \"%s\": %s", path,
-                              strerror(errno));
+                              open_failure(kind, why, sizeof why));
         fclose(f);
         t->image.filename = path;
     }
@@ -2491,13 +2532,16 @@ static int parse_tokens(parser_t *P)
 /* Reads a whole file; a file that cannot be read names the Include that asked for it. */
 static char *read_file(parser_t *P, const char *path, const pbrt_loc_t *from, size_t *len)
 {
-    FILE *f = fopen(path, "rb");
+    const char *kind;
+    char why[96];
+    FILE *f = open_regular_file(path, &kind);
     if (!f) {
         if (from)
             pbrt_error(P->err, *from, "cannot open included file \"%s\": %s", path,
-                       strerror(errno));
+                       open_failure(kind, why, sizeof why));
         else
-            err_set(P->err, "cannot open scene file \"%s\": %s", path, strerror(errno));
+            err_set(P->err, "cannot open scene file \"%s\": %s", path,
+                    open_failure(kind, why, sizeof why));
         return NULL;
     }
     size_t cap = 1 << 16, n = 0;

@@ -14,12 +14,14 @@
 #include "image_png.h"
 
 #include <math.h>
+#include <signal.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 
 static void test_renders_spectral_exr_and_png(void **state)
 {
     (void)state;
-    const char *exr = testutil_scratch("sub/dir/tiny.exr");
+    const char *exr = testutil_scratch("tiny.exr");
     const run_t *r = run("render", "data/render/tiny.pbrt", "-o", exr, "--threads", "2", NULL);
     if (r->status != 0)
         fail_msg("exit %d: %s", r->status, r->err);
@@ -27,7 +29,7 @@ static void test_renders_spectral_exr_and_png(void **state)
     expect_in(r->out, "0 non-finite samples");
     expect_in(r->err, "dispersion on");
     struct stat st;
-    assert_int_equal(stat(testutil_scratch("sub/dir/tiny.png"), &st), 0);
+    assert_int_equal(stat(testutil_scratch("tiny.png"), &st), 0);
     assert_true(st.st_size > 0);
     err_t err;
     image_exr_t *img = image_exr_read(exr, &err);
@@ -165,6 +167,43 @@ static void test_broken_scene_names_file_and_line(void **state)
     assert_int_not_equal(stat(testutil_scratch("broken.exr"), &st), 0);
 }
 
+/* Writes past limit bytes fail (EFBIG) in the commands this test runs from now on, as on a full
+ * disk, without root or a device node; RLIM_INFINITY (or the old limit) lifts it again. The
+ * test itself writes no file while a command runs. */
+static void limit_file_size(rlim_t limit)
+{
+    struct rlimit rl;
+    assert_int_equal(getrlimit(RLIMIT_FSIZE, &rl), 0);
+    rl.rlim_cur = limit < rl.rlim_max ? limit : rl.rlim_max;
+    assert_int_equal(setrlimit(RLIMIT_FSIZE, &rl), 0);
+}
+
+/* An output that cannot be written (the disk fills during the write) is an error that names the
+ * file and the system's reason, at once: once it hung the process in OpenEXRCore's error
+ * handler, through the farm's master (render) as through --direct. */
+static void test_output_write_error(void **state)
+{
+    (void)state;
+    signal(SIGXFSZ, SIG_IGN); /* inherited: a write past the limit fails instead of killing */
+    const char *exr = testutil_scratch("full.exr");
+    for (int direct = 0; direct < 2; direct++) {
+        /* --direct: the header's end (where the old handler hung); the farm writes the scene
+         * into its spool first, so there the limit leaves room for it and a chunk fails. */
+        limit_file_size(direct ? 200 : 4096);
+        const run_t *r = run("render", "data/render/tiny.pbrt", "-o", exr, "--quiet",
+                             direct ? "--direct" : NULL, NULL);
+        limit_file_size(RLIM_INFINITY);
+        if (r->status != 1)
+            fail_msg("%s: exit %d: %s", direct ? "--direct" : "farm", r->status, r->err);
+        /* The file at fault: -o, or the master's own output in its spool (farm). */
+        expect_in(r->err, direct ? exr : "jobs/1/tiny.exr");
+        expect_in(r->err, strerror(EFBIG));
+        struct stat st;
+        assert_int_not_equal(stat(exr, &st), 0);
+    }
+    signal(SIGXFSZ, SIG_DFL);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -174,6 +213,7 @@ int main(void)
         cmocka_unit_test(test_overrides),
         cmocka_unit_test(test_bad_command_lines),
         cmocka_unit_test(test_broken_scene_names_file_and_line),
+        cmocka_unit_test(test_output_write_error),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

@@ -88,12 +88,51 @@ static void test_serves_and_stops(void **state)
     assert_int_equal(WEXITSTATUS(status), 0);
 }
 
+/* A second master on a spool that a running master holds refuses to start (exit 1), naming the
+ * spool and the first one's pid, instead of handing out the same job ids into the same journal;
+ * the first one goes on serving, and once it has stopped the spool can be used again. */
+static void test_second_master_on_spool(void **state)
+{
+    (void)state;
+    const char *spool = testutil_scratch("shared-spool");
+    pid_t first = testutil_spawn("/dev/null", "master", "--workers", "tcp://127.0.0.1:*",
+                                 "--clients", "tcp://127.0.0.1:*", "--spool", spool, "--insecure",
+                                 NULL);
+    char wep[256], cep[256];
+    testutil_read_endpoints(spool, wep, cep, NULL);
+    const run_t *r = run("master", "--workers", "tcp://127.0.0.1:*", "--clients",
+                         "tcp://127.0.0.1:*", "--spool", spool, "--insecure", NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "in use by another master");
+    expect_in(r->err, spool);
+    char pid[32];
+    snprintf(pid, sizeof pid, "pid %ld", (long)first);
+    expect_in(r->err, pid);
+    r = run("jobs", "--master", cep, "--insecure", NULL);
+    assert_int_equal(r->status, 0);
+    int status = testutil_stop(first, SIGTERM);
+    assert_true(WIFEXITED(status));
+    assert_int_equal(WEXITSTATUS(status), 0);
+
+    /* The lock goes with its master. */
+    char path[512];
+    snprintf(path, sizeof path, "%s/endpoints", spool);
+    unlink(path);
+    pid_t next = testutil_spawn("/dev/null", "master", "--workers", "tcp://127.0.0.1:*",
+                                "--clients", "tcp://127.0.0.1:*", "--spool", spool, "--insecure",
+                                NULL);
+    testutil_read_endpoints(spool, wep, cep, NULL);
+    status = testutil_stop(next, SIGKILL);
+    assert_true(WIFSIGNALED(status));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_command_line),
         cmocka_unit_test(test_port_in_use),
         cmocka_unit_test_teardown(test_serves_and_stops, testutil_kill_children),
+        cmocka_unit_test_teardown(test_second_master_on_spool, testutil_kill_children),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

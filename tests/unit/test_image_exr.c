@@ -2,7 +2,7 @@
  * the reference regular expression of Fichet, Pacanowski & Wilkie (JCGT 2021), unit conversions
  * of channel names, a hand-assembled HALF file built from the OpenEXR file-layout document,
  * files re-encoded by the OpenEXR C++ tools (exrheader, exrmaketiled) and error messages. */
-#define _POSIX_C_SOURCE 200809L
+#define _GNU_SOURCE /* unshare and mount, for the full tmpfs of diskfull_testutil.h */
 
 #include <setjmp.h>
 #include <stdarg.h>
@@ -18,9 +18,11 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "diskfull_testutil.h"
 #include "files_testutil.h"
 #include "image_exr.h"
 
@@ -748,6 +750,108 @@ static void test_failed_write_keeps_old_file(void **state)
     image_exr_destroy(&img);
 }
 
+/* A write error (a full disk) comes back as an error naming the file and the system's reason,
+ * wherever in the file it happens: the header (exr_write_header, where OpenEXRCore's error
+ * handler once re-took the context's lock and hung the process), a chunk, the offset table. The
+ * writer runs in a child with a deadline, so the old deadlock fails the test instead of hanging
+ * it; no temporary file is left behind to fill the disk further. */
+typedef struct full_write {
+    const char *path;
+    int width, height;
+    bool spectral;
+    const char *reason; /* strerror of the errno the failing write gives */
+    const char *filler; /* a file to fill the disk with first, or NULL */
+} full_write_t;
+
+/* Writes path until the file system is full (ENOSPC); the disk of a full spool. */
+static void fill_disk(const char *path)
+{
+    int fd = open(path, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    static const char block[4096];
+    while (fd >= 0 && write(fd, block, sizeof block) > 0)
+        ;
+    if (fd >= 0)
+        close(fd);
+}
+
+static int full_write_child(void *arg, char *msg, size_t size)
+{
+    const full_write_t *fw = arg;
+    if (fw->filler)
+        fill_disk(fw->filler);
+    size_t n = (size_t)fw->width * (size_t)fw->height;
+    float *rgb = make_values(n * 3, 0);
+    float *spectral = make_values(n * 4, 17);
+    const double centres[4] = {400, 500, 600, 700};
+    err_t err = {{0}};
+    int rc = fw->spectral ? image_exr_write_spectral(fw->path, fw->width, fw->height, rgb,
+                                                     spectral, 4, centres, NULL, "job=1", &err)
+                          : image_exr_write_rgb(fw->path, fw->width, fw->height, rgb, 3, NULL,
+                                                &err);
+    free(rgb);
+    free(spectral);
+    char tmp[600];
+    snprintf(tmp, sizeof tmp, "%s.tmp", fw->path);
+    if (rc == 0) {
+        snprintf(msg, size, "the write succeeded");
+        return 1;
+    }
+    snprintf(msg, size, "%s", err.msg);
+    if (!strstr(err.msg, fw->path) || !strstr(err.msg, fw->reason))
+        return 2;
+    if (path_exists(tmp) || path_exists(fw->path))
+        return 3;
+    return 0;
+}
+
+static void expect_full_write(long limit, bool spectral)
+{
+    full_write_t fw = {.path = testutil_scratch("full.exr"), .width = 64, .height = 64,
+                       .spectral = spectral, .reason = strerror(EFBIG)};
+    diskfull_result_t r = diskfull_run(full_write_child, &fw, limit, NULL, 0);
+    if (r.status != 0)
+        fail_msg("file size limit %ld: status %d: %s", limit, r.status, r.msg);
+    print_message("limit %ld bytes: %s\n", limit, r.msg);
+}
+
+static void test_write_error_on_full_disk(void **state)
+{
+    (void)state;
+    expect_full_write(0, false);    /* the first write: the header */
+    expect_full_write(300, false);  /* the header's end */
+    expect_full_write(8192, false); /* a chunk */
+    expect_full_write(8192, true);
+}
+
+/* The same on a real full file system: a 16 KiB tmpfs of the child's own, full before the write
+ * (the header fails) and full during it (64x64 pixels of noise that ZIP cannot shrink below
+ * 16 KiB: a chunk fails). */
+static void test_write_error_on_full_tmpfs(void **state)
+{
+    (void)state;
+    const char *dir = testutil_scratch("tmpfs");
+    assert_int_equal(mkdir(dir, 0755), 0);
+    char path[600];
+    snprintf(path, sizeof path, "%s/out.exr", dir);
+    char filler[600];
+    snprintf(filler, sizeof filler, "%s/filler", dir);
+    for (int full_before = 0; full_before < 2; full_before++) {
+        full_write_t fw = {.path = path, .width = 64, .height = 64, .spectral = true,
+                           .reason = strerror(ENOSPC), .filler = full_before ? filler : NULL};
+        diskfull_result_t r = diskfull_run(full_write_child, &fw, 0, dir, 16);
+        if (r.status == DISKFULL_SKIP) {
+            rmdir(dir);
+            print_message("skipped: %s\n", r.msg);
+            skip();
+        }
+        if (r.status != 0)
+            fail_msg("full tmpfs (%s): status %d: %s", full_before ? "before" : "during",
+                     r.status, r.msg);
+        print_message("full tmpfs (%s): %s\n", full_before ? "before" : "during", r.msg);
+    }
+    rmdir(dir);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -764,6 +868,8 @@ int main(void)
         cmocka_unit_test(test_truncated_exr),
         cmocka_unit_test(test_write_errors),
         cmocka_unit_test(test_failed_write_keeps_old_file),
+        cmocka_unit_test(test_write_error_on_full_disk),
+        cmocka_unit_test(test_write_error_on_full_tmpfs),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

@@ -1,0 +1,171 @@
+/* The command line's outputs and inputs as issue 16 found them: outputs are written only as
+ * regular files into folders that exist (checked before anything is rendered or fetched, a FIFO
+ * or device at the name survives), a FIFO given as a scene or Included by one is refused at once
+ * instead of hanging the parse, and a client told about a master that cannot be there (a bad
+ * port, a host that does not resolve, a refused connection) says so at once. Each command runs
+ * under cli_run's deadline: a hang is killed and fails the test. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include "cli_run.h"
+#include "farm_testutil.h"
+#include "files_testutil.h"
+
+#include <sys/stat.h>
+#include <time.h>
+
+static void assert_fifo(const char *path)
+{
+    struct stat st;
+    assert_int_equal(lstat(path, &st), 0);
+    if (!S_ISFIFO(st.st_mode))
+        fail_msg("%s is no longer a FIFO (mode %o)", path, (unsigned)st.st_mode);
+}
+
+static double now_s(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return ts.tv_sec + ts.tv_nsec / 1e9;
+}
+
+/* -o at a FIFO: refused before the render (exit 2, the message says what it is), the FIFO is
+ * left as it was; the same for the PNG beside it, and for fetch and submit --wait. */
+static void test_output_fifo_refused(void **state)
+{
+    (void)state;
+    const char *fifo = testutil_scratch("out.exr");
+    assert_int_equal(mkfifo(fifo, 0644), 0);
+    const run_t *r = run("render", "data/render/tiny.pbrt", "-o", fifo, "--quiet", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, fifo);
+    expect_in(r->err, "is a FIFO");
+    expect_in(r->err, "regular files");
+    assert_fifo(fifo);
+    r = run("render", "data/render/tiny.pbrt", "-o", fifo, "--direct", "--quiet", NULL);
+    assert_int_equal(r->status, 2);
+    assert_fifo(fifo);
+
+    const char *png_fifo = testutil_scratch("p.png");
+    assert_int_equal(mkfifo(png_fifo, 0644), 0);
+    r = run("render", "data/render/tiny.pbrt", "-o", testutil_scratch("p.exr"), "--quiet", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "p.png' is a FIFO");
+    assert_fifo(png_fifo);
+    struct stat st;
+    assert_int_not_equal(stat(testutil_scratch("p.exr"), &st), 0);
+
+    /* Checked before the master is asked anything: no master needed. */
+    r = run("fetch", "1", "-o", fifo, "--master", "tcp://127.0.0.1:1", "--insecure", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "is a FIFO");
+    assert_fifo(fifo);
+    r = run("submit", "data/render/tiny.pbrt", "--wait", "-o", fifo, "--master",
+            "tcp://127.0.0.1:1", "--insecure", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "is a FIFO");
+    assert_fifo(fifo);
+}
+
+/* -o into a folder that does not exist: refused, naming the folder, and nothing is created. */
+static void test_output_folder_missing(void **state)
+{
+    (void)state;
+    const char *dir = testutil_scratch("no/such");
+    char out[600];
+    snprintf(out, sizeof out, "%s/o.exr", dir);
+    const run_t *r = run("render", "data/render/tiny.pbrt", "-o", out, "--quiet", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, dir);
+    expect_in(r->err, "does not exist");
+    struct stat st;
+    assert_int_not_equal(stat(testutil_scratch("no"), &st), 0);
+}
+
+/* A scene that is a FIFO, or Includes one, is refused at once: nobody will ever write into the
+ * FIFO, so a parse that opened it blocking would wait for ever (cli_run kills it and fails). */
+static void test_fifo_scene_refused(void **state)
+{
+    (void)state;
+    const char *fifo = testutil_scratch("fifo.pbrt");
+    assert_int_equal(mkfifo(fifo, 0644), 0);
+    const char *scene = testutil_scratch("includes_fifo.pbrt");
+    FILE *f = fopen(scene, "w");
+    assert_non_null(f);
+    fprintf(f, "Camera \"perspective\"\nFilm \"spectral\" \"integer xresolution\" [ 8 ] "
+               "\"integer yresolution\" [ 8 ]\nWorldBegin\nInclude \"fifo.pbrt\"\n");
+    fclose(f);
+    double t0 = now_s();
+    const run_t *r = run("render", scene, "-o", testutil_scratch("i.exr"), "--quiet", NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "fifo.pbrt");
+    expect_in(r->err, "a FIFO, not a regular file");
+    r = run("render", fifo, "-o", testutil_scratch("i.exr"), "--quiet", NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "a FIFO, not a regular file");
+    /* The bundle builder reads every file before it connects: no master needed. */
+    r = run("submit", scene, "--master", "tcp://127.0.0.1:1", "--insecure", NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "a FIFO, not a regular file");
+    print_message("three FIFO refusals in %.2f s\n", now_s() - t0);
+    assert_fifo(fifo);
+}
+
+/* A master that cannot be there is named at once, not after the call's 60 s wait. */
+static void test_client_endpoint_errors(void **state)
+{
+    (void)state;
+    const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", "tcp://127.0.0.1:99999",
+                         "--insecure", NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "port '99999': expected a number in 1..65535");
+    r = run("jobs", "--master", "tcp://no-such-host.invalid:5556", "--insecure", NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "cannot resolve the host 'no-such-host.invalid'");
+    /* Port 1 on loopback: nothing listens there (tcpmux is not run on a build machine). */
+    r = run("submit", "data/render/tiny.pbrt", "--master", "tcp://127.0.0.1:1", "--insecure",
+            NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "refused the connection");
+    r = run("fetch", "1", "-o", testutil_scratch("f.exr"), "--master", "tcp://127.0.0.1:1",
+            "--insecure", NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "refused the connection");
+}
+
+/* Options the issue found taken: a non-finite exposure, an authorised folder that does not
+ * exist (docs/security.md: exit 2). */
+static void test_bad_values_refused(void **state)
+{
+    (void)state;
+    const char *exr = testutil_scratch("nan.exr");
+    const run_t *r = run("render", "data/render/tiny.pbrt", "--exposure", "nan", "-o", exr, NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "--exposure expects stops in -30..30, got 'nan'");
+    r = run("render", "data/render/tiny.pbrt", "--exposure", "inf", "-o", exr, NULL);
+    assert_int_equal(r->status, 2);
+    struct stat st;
+    assert_int_not_equal(stat(exr, &st), 0);
+    r = run("master", "--authorized", "/nonexistent", "--spool", testutil_scratch("m-spool"),
+            NULL);
+    assert_int_equal(r->status, 2);
+    r = run("master", "--insecure", "--authorized", "/nonexistent", "--spool",
+            testutil_scratch("m-spool"), NULL);
+    assert_int_equal(r->status, 2);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_output_fifo_refused),
+        cmocka_unit_test(test_output_folder_missing),
+        cmocka_unit_test(test_fifo_scene_refused),
+        cmocka_unit_test(test_client_endpoint_errors),
+        cmocka_unit_test(test_bad_values_refused),
+    };
+    return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
+}
