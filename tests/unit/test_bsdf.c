@@ -349,7 +349,7 @@ static mc_t albedo(const bsdf_t *b, vec3_t wo, int n, uint64_t seed)
  * to be dense near the poles, where the lobes of these wo lie), for rough enough lobes. */
 static double albedo_quadrature(const bsdf_t *b, vec3_t wo)
 {
-    const int nt = 720, np = 360;
+    const int nt = 360, np = 180;
     double sum = 0.0;
     for (int i = 0; i < nt; i++) {
         double th = PI * (i + 0.5) / nt;
