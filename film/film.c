@@ -12,26 +12,17 @@ int film_to_rgb(const tilebuf_t *image, spectral_grid_t grid, float *rgb, err_t 
     int w = tilebuf_width(image), h = tilebuf_height(image), nb = tilebuf_nbuckets(image);
     if (nb != grid.n)
         return err_set(err, "image has %d buckets, the grid %d", nb, grid.n);
-    xyz_t *weights = malloc((size_t)nb * sizeof *weights);
-    double *mean = malloc((size_t)nb * sizeof *mean);
-    if (!weights || !mean) {
-        free(weights);
-        free(mean);
-        return err_set(err, "out of memory");
-    }
-    colour_grid_weights(grid, weights);
     int x0 = tilebuf_x0(image), y0 = tilebuf_y0(image);
     for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) {
-            tilebuf_mean(image, x0 + x, y0 + y, mean);
-            rgb_t c = colour_xyz_to_linear_srgb(colour_buckets_to_xyz_weighted(nb, weights, mean));
+            double m[3];
+            tilebuf_xyz_mean(image, x0 + x, y0 + y, m);
+            rgb_t c = colour_xyz_to_linear_srgb((xyz_t){m[0], m[1], m[2]});
             float *o = rgb + 3 * ((size_t)y * (size_t)w + (size_t)x);
             o[0] = (float)c.r;
             o[1] = (float)c.g;
             o[2] = (float)c.b;
         }
-    free(weights);
-    free(mean);
     return 0;
 }
 

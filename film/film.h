@@ -1,6 +1,6 @@
 /* film: turns a rendered spectral image (a tilebuf covering the whole image) into output
  * files: a spectral OpenEXR (Fichet et al. 2021 layout, float32 buckets plus scene-linear sRGB
- * R, G, B) or an RGB OpenEXR, and a tone-mapped PNG preview. Writes are atomic. */
+ * R, G, B from the image's XYZ sums) or an RGB OpenEXR, and a tone-mapped PNG preview. Writes are atomic. */
 #ifndef PRISMFARM_FILM_H
 #define PRISMFARM_FILM_H
 
@@ -17,7 +17,9 @@ typedef struct film_output {
     const char *info;       /* key=value text stored in the EXR's "prismfarm" attribute */
 } film_output_t;
 
-/* Per-pixel linear sRGB of the image's bucket means (rgb: w*h*3 floats, top row first). */
+/* Per-pixel linear sRGB of the image's mean XYZ (rgb: w*h*3 floats, top row first): the
+ * colour of the samples at their own wavelengths, not of the bucket means (docs/rendering.md,
+ * "Colour"); the spectral layers stay the bucket means. */
 int film_to_rgb(const tilebuf_t *image, spectral_grid_t grid, float *rgb, err_t *err);
 
 int film_write(const tilebuf_t *image, spectral_grid_t grid, const film_output_t *out, err_t *err);

@@ -8,6 +8,7 @@
 struct tilebuf {
     int x0, y0, w, h, nb;
     double *sums;      /* [h][w][nb] */
+    double *xyz;       /* [h][w][3] */
     uint64_t *counts;  /* [h][w] */
     double *lum;       /* [h][w] */
     double *lum_sq;    /* [h][w] */
@@ -33,10 +34,11 @@ tilebuf_t *tilebuf_new(int x0, int y0, int w, int h, int nbuckets, err_t *err)
     }
     *self = (tilebuf_t){.x0 = x0, .y0 = y0, .w = w, .h = h, .nb = nbuckets};
     self->sums = calloc(npix * (size_t)nbuckets, sizeof *self->sums);
+    self->xyz = calloc(npix * TILEBUF_XYZ, sizeof *self->xyz);
     self->counts = calloc(npix, sizeof *self->counts);
     self->lum = calloc(npix, sizeof *self->lum);
     self->lum_sq = calloc(npix, sizeof *self->lum_sq);
-    if (!self->sums || !self->counts || !self->lum || !self->lum_sq) {
+    if (!self->sums || !self->xyz || !self->counts || !self->lum || !self->lum_sq) {
         tilebuf_destroy(&self);
         err_set(err, "out of memory for a %dx%d tile with %d buckets", w, h, nbuckets);
         return NULL;
@@ -50,6 +52,7 @@ void tilebuf_destroy(tilebuf_t **self_p)
         return;
     tilebuf_t *self = *self_p;
     free(self->sums);
+    free(self->xyz);
     free(self->counts);
     free(self->lum);
     free(self->lum_sq);
@@ -64,6 +67,7 @@ int tilebuf_height(const tilebuf_t *self) { return self->h; }
 int tilebuf_nbuckets(const tilebuf_t *self) { return self->nb; }
 uint64_t tilebuf_nonfinite(const tilebuf_t *self) { return self->nonfinite; }
 const double *tilebuf_sums(const tilebuf_t *self) { return self->sums; }
+const double *tilebuf_xyz_sums(const tilebuf_t *self) { return self->xyz; }
 const uint64_t *tilebuf_counts(const tilebuf_t *self) { return self->counts; }
 const double *tilebuf_luminance_sums(const tilebuf_t *self) { return self->lum; }
 const double *tilebuf_luminance_sq_sums(const tilebuf_t *self) { return self->lum_sq; }
@@ -77,20 +81,22 @@ static int all_finite(const double *v, size_t n)
 }
 
 tilebuf_t *tilebuf_new_from(int x0, int y0, int w, int h, int nbuckets, const double *sums,
-                            const uint64_t *counts, const double *lum, const double *lum_sq,
+                            const double *xyz, const uint64_t *counts, const double *lum, const double *lum_sq,
                             uint64_t nonfinite, err_t *err)
 {
     tilebuf_t *self = tilebuf_new(x0, y0, w, h, nbuckets, err);
     if (!self)
         return NULL;
     size_t npix = (size_t)w * (size_t)h;
-    if (!all_finite(sums, npix * (size_t)nbuckets) || !all_finite(lum, npix) ||
+    if (!all_finite(sums, npix * (size_t)nbuckets) || !all_finite(xyz, npix * TILEBUF_XYZ) ||
+        !all_finite(lum, npix) ||
         !all_finite(lum_sq, npix)) {
         tilebuf_destroy(&self);
         err_set(err, "tile %dx%d at (%d,%d) holds a non-finite sum", w, h, x0, y0);
         return NULL;
     }
     memcpy(self->sums, sums, npix * (size_t)nbuckets * sizeof *sums);
+    memcpy(self->xyz, xyz, npix * TILEBUF_XYZ * sizeof *xyz);
     memcpy(self->counts, counts, npix * sizeof *counts);
     memcpy(self->lum, lum, npix * sizeof *lum);
     memcpy(self->lum_sq, lum_sq, npix * sizeof *lum_sq);
@@ -103,16 +109,20 @@ static size_t pixel_index(const tilebuf_t *self, int x, int y)
     return (size_t)(y - self->y0) * (size_t)self->w + (size_t)(x - self->x0);
 }
 
-int tilebuf_add_sample(tilebuf_t *self, int x, int y, const double *buckets, double luminance)
+int tilebuf_add_sample(tilebuf_t *self, int x, int y, const double *buckets, const double *xyz)
 {
     size_t p = pixel_index(self, x, y);
     double *s = self->sums + p * (size_t)self->nb;
+    double *c = self->xyz + p * TILEBUF_XYZ;
+    const double luminance = xyz[1];
     /* Finite values can still overflow a sum (two samples near DBL_MAX): such a sample is
      * dropped like a non-finite one, so that the sums stay finite (tilebuf_new_from refuses
      * anything else). */
     int finite = isfinite(luminance) && isfinite(self->lum[p] + luminance);
     for (int b = 0; b < self->nb && finite; b++)
         finite = isfinite(buckets[b]) && isfinite(s[b] + buckets[b]);
+    for (int k = 0; k < TILEBUF_XYZ && finite; k++)
+        finite = isfinite(xyz[k]) && isfinite(c[k] + xyz[k]);
     self->counts[p]++;
     if (!finite) {
         /* The sample still counts as taken: dropping it from the count too would bias the
@@ -122,6 +132,8 @@ int tilebuf_add_sample(tilebuf_t *self, int x, int y, const double *buckets, dou
     }
     for (int b = 0; b < self->nb; b++)
         s[b] += buckets[b];
+    for (int k = 0; k < TILEBUF_XYZ; k++)
+        c[k] += xyz[k];
     self->lum[p] += luminance;
     /* Only error estimates read the squares: a luminance above 1.3e154, whose square is Inf,
      * saturates them at DBL_MAX (an unbounded error) rather than losing its light. */
@@ -149,6 +161,19 @@ double tilebuf_luminance_sq_sum(const tilebuf_t *self, int x, int y)
     return self->lum_sq[pixel_index(self, x, y)];
 }
 
+double tilebuf_xyz_sum(const tilebuf_t *self, int x, int y, int k)
+{
+    return self->xyz[pixel_index(self, x, y) * TILEBUF_XYZ + (size_t)k];
+}
+
+void tilebuf_xyz_mean(const tilebuf_t *self, int x, int y, double out[3])
+{
+    size_t p = pixel_index(self, x, y);
+    uint64_t n = self->counts[p];
+    for (int k = 0; k < TILEBUF_XYZ; k++)
+        out[k] = n ? self->xyz[p * TILEBUF_XYZ + (size_t)k] / (double)n : 0.0;
+}
+
 void tilebuf_mean(const tilebuf_t *self, int x, int y, double *out)
 {
     size_t p = pixel_index(self, x, y);
@@ -173,6 +198,8 @@ int tilebuf_merge(tilebuf_t *dst, const tilebuf_t *src, err_t *err)
             size_t pd = pixel_index(dst, src->x0 + x, src->y0 + y);
             for (int b = 0; b < src->nb; b++)
                 dst->sums[pd * (size_t)dst->nb + (size_t)b] += src->sums[ps * (size_t)src->nb + (size_t)b];
+            for (int k = 0; k < TILEBUF_XYZ; k++)
+                dst->xyz[pd * TILEBUF_XYZ + (size_t)k] += src->xyz[ps * TILEBUF_XYZ + (size_t)k];
             dst->counts[pd] += src->counts[ps];
             dst->lum[pd] += src->lum[ps];
             dst->lum_sq[pd] += src->lum_sq[ps];
@@ -186,6 +213,7 @@ void tilebuf_clear(tilebuf_t *self)
 {
     size_t npix = (size_t)self->w * (size_t)self->h;
     memset(self->sums, 0, npix * (size_t)self->nb * sizeof *self->sums);
+    memset(self->xyz, 0, npix * TILEBUF_XYZ * sizeof *self->xyz);
     memset(self->counts, 0, npix * sizeof *self->counts);
     memset(self->lum, 0, npix * sizeof *self->lum);
     memset(self->lum_sq, 0, npix * sizeof *self->lum_sq);
@@ -244,6 +272,11 @@ size_t tilebuf_round_sums(tilebuf_t *self)
     for (size_t i = 0; i < n; i++) {
         self->sums[i] = tilebuf_round_value(self->sums[i]);
         wide += !tilebuf_is_float_value(self->sums[i]);
+    }
+    size_t nx = (size_t)self->w * (size_t)self->h * TILEBUF_XYZ;
+    for (size_t i = 0; i < nx; i++) {
+        self->xyz[i] = tilebuf_round_value(self->xyz[i]);
+        wide += !tilebuf_is_float_value(self->xyz[i]);
     }
     return wide;
 }

@@ -16,12 +16,17 @@
 #include <zlib.h>
 
 /* Bumped whenever a table or a blob changes meaning: a master never reads a journal it does
- * not understand. 4: tile blobs carry their sums' width, float32 sums when they fit. */
-#define JOURNAL_VERSION 4
+ * not understand. 4: tile blobs carry their sums' width, float32 sums when they fit. 5: tile
+ * blobs and checkpoints carry the pixels' XYZ sums after the bucket sums (new magics, so that a
+ * blob or checkpoint of version 4 found in a version-5 spool is refused by name). */
+#define JOURNAL_VERSION 5
 
-#define TILE_MAGIC 0x4b544650u  /* "PFTK" in this host's order: a blob of another is refused */
+#define TILE_MAGIC 0x58544650u  /* "PFTX" in this host's order: a blob of another is refused */
 #define PHOT_MAGIC 0x48504650u  /* "PFPH" */
-#define CKPT_MAGIC 0x4b434650u  /* "PFCK" */
+#define CKPT_MAGIC 0x58434650u  /* "PFCX" */
+/* Version 4's, without XYZ sums: recognised only to say so. */
+#define TILE_MAGIC_V4 0x4b544650u /* "PFTK" */
+#define CKPT_MAGIC_V4 0x4b434650u /* "PFCK" */
 #define MAX_IMAGE_SIDE 65536
 #define MAX_BUCKETS 1024
 
@@ -832,10 +837,17 @@ static uint8_t *wr_u64(uint8_t *p, uint64_t v)
     return wr(p, &v, sizeof v);
 }
 
-/* Bytes of a tile's arrays: sums [h][w][nb] and counts, lum, lum_sq [h][w], 8 bytes each. */
+/* Sum values per pixel: nb bucket sums, then the X, Y, Z sums. */
+static size_t sum_channels(int nb)
+{
+    return (size_t)nb + TILEBUF_XYZ;
+}
+
+/* Bytes of a tile's arrays: bucket sums [h][w][nb], XYZ sums [h][w][3] and counts, lum, lum_sq
+ * [h][w], 8 bytes each. */
 static size_t tile_array_bytes(int w, int h, int nb)
 {
-    return (size_t)w * (size_t)h * ((size_t)nb + 3) * 8;
+    return (size_t)w * (size_t)h * (sum_channels(nb) + 3) * 8;
 }
 
 static bool tile_dims_ok(int x0, int y0, int w, int h, int nb)
@@ -844,10 +856,11 @@ static bool tile_dims_ok(int x0, int y0, int w, int h, int nb)
            x0 <= MAX_IMAGE_SIDE - w && y0 <= MAX_IMAGE_SIDE - h && nb > 0 && nb <= MAX_BUCKETS;
 }
 
-static uint8_t *pack_arrays(uint8_t *p, size_t px, int nb, const double *sums,
+static uint8_t *pack_arrays(uint8_t *p, size_t px, int nb, const double *sums, const double *xyz,
                             const uint64_t *counts, const double *lum, const double *lum_sq)
 {
     p = wr(p, sums, px * (size_t)nb * sizeof *sums);
+    p = wr(p, xyz, px * TILEBUF_XYZ * sizeof *xyz);
     p = wr(p, counts, px * sizeof *counts);
     p = wr(p, lum, px * sizeof *lum);
     return wr(p, lum_sq, px * sizeof *lum_sq);
@@ -870,31 +883,35 @@ static tilebuf_t *unpack_arrays(reader_t *r, int x0, int y0, int w, int h, int n
         return NULL;
     }
     rd(r, copy, need);
+    const size_t nc = sum_channels(nb);
     const double *sums = (const double *)copy;
-    const uint64_t *counts = (const uint64_t *)(copy + px * (size_t)nb * 8);
-    const double *lum = (const double *)(copy + px * ((size_t)nb + 1) * 8);
-    const double *lum_sq = (const double *)(copy + px * ((size_t)nb + 2) * 8);
-    tilebuf_t *tb = tilebuf_new_from(x0, y0, w, h, nb, sums, counts, lum, lum_sq, nonfinite, err);
+    const double *xyz = (const double *)(copy + px * (size_t)nb * 8);
+    const uint64_t *counts = (const uint64_t *)(copy + px * nc * 8);
+    const double *lum = (const double *)(copy + px * (nc + 1) * 8);
+    const double *lum_sq = (const double *)(copy + px * (nc + 2) * 8);
+    tilebuf_t *tb =
+        tilebuf_new_from(x0, y0, w, h, nb, sums, xyz, counts, lum, lum_sq, nonfinite, err);
     free(copy);
     return tb;
 }
 
 /* A tile blob: magic, x0, y0, w, h, nb, sb, se, the sums' width in bits (32 or 64), nonfinite,
- * then sums [h][w][nb] at that width and counts, lum, lum_sq [h][w] at 8 bytes. Float32 sums
- * are kept whenever every sum is a float value (tilebuf.h), as on the wire: half the writes,
- * and the same doubles back. */
+ * then bucket sums [h][w][nb] and XYZ sums [h][w][3] at that width and counts, lum, lum_sq
+ * [h][w] at 8 bytes. Float32 sums are kept whenever every sum is a float value (tilebuf.h), as
+ * on the wire: half the writes, and the same doubles back. */
 int journal_pack_tile(const proto_tile_result_t *t, uint8_t **data, size_t *size, err_t *err)
 {
     const proto_tile_t *q = &t->rect;
     if (!tile_dims_ok(q->x0, q->y0, q->w, q->h, t->nbuckets))
         return err_set(err, "journal: tile %dx%d at (%d,%d) with %d buckets is out of range", q->w,
                        q->h, q->x0, q->y0, t->nbuckets);
-    size_t px = (size_t)q->w * (size_t)q->h, ns = px * (size_t)t->nbuckets;
+    size_t px = (size_t)q->w * (size_t)q->h, nbs = px * (size_t)t->nbuckets,
+           ns = px * sum_channels(t->nbuckets);
     /* A decoded float32 result was checked by the decoder; anything else is checked here. */
     bool narrow = t->sums_bits == 32;
     if (!narrow) {
         size_t i = 0;
-        while (i < ns && tilebuf_is_float_value(t->sums[i]))
+        while (i < ns && tilebuf_is_float_value(i < nbs ? t->sums[i] : t->xyz[i - nbs]))
             i++;
         narrow = i == ns;
     }
@@ -914,14 +931,14 @@ int journal_pack_tile(const proto_tile_result_t *t, uint8_t **data, size_t *size
     p = wr_u64(p, t->nonfinite);
     if (narrow) {
         for (size_t i = 0; i < ns; i++) {
-            float f = (float)t->sums[i]; /* exact: a float value */
+            float f = (float)(i < nbs ? t->sums[i] : t->xyz[i - nbs]); /* exact: a float value */
             p = wr(p, &f, sizeof f);
         }
         p = wr(p, t->counts, px * sizeof *t->counts);
         p = wr(p, t->lum, px * sizeof *t->lum);
         p = wr(p, t->lum_sq, px * sizeof *t->lum_sq);
     } else {
-        p = pack_arrays(p, px, t->nbuckets, t->sums, t->counts, t->lum, t->lum_sq);
+        p = pack_arrays(p, px, t->nbuckets, t->sums, t->xyz, t->counts, t->lum, t->lum_sq);
     }
     *data = buf;
     *size = (size_t)(p - buf);
@@ -933,7 +950,7 @@ int journal_pack_tile(const proto_tile_result_t *t, uint8_t **data, size_t *size
 static tilebuf_t *unpack_narrow(reader_t *r, int x0, int y0, int w, int h, int nb,
                                 uint64_t nonfinite, err_t *err)
 {
-    size_t ns = (size_t)w * (size_t)h * (size_t)nb, wide = tile_array_bytes(w, h, nb);
+    size_t ns = (size_t)w * (size_t)h * sum_channels(nb), wide = tile_array_bytes(w, h, nb);
     if (r->bad || r->left < wide - ns * 4) {
         err_set(err, "a journal blob of %dx%d pixels and %d buckets is cut short", w, h, nb);
         return NULL;
@@ -967,6 +984,11 @@ tilebuf_t *journal_unpack_tile(const void *data, size_t size, uint32_t *sample_b
     *sample_end = rd_u32(&r);
     uint32_t bits = rd_u32(&r);
     uint64_t nonfinite = rd_u64(&r);
+    if (!r.bad && magic == TILE_MAGIC_V4) {
+        err_set(err, "a journal tile blob of version 4 (no XYZ sums): this master reads version %d",
+                JOURNAL_VERSION);
+        return NULL;
+    }
     if (r.bad || magic != TILE_MAGIC || !tile_dims_ok(x0, y0, w, h, nb) ||
         (bits != 32 && bits != 64)) {
         err_set(err, "a journal tile blob of %zu bytes has no valid header", size);
@@ -1032,8 +1054,9 @@ int journal_write_checkpoint(const char *path, const tilebuf_t *image, const int
     p = wr_u32(p, (uint32_t)nb);
     p = wr_u32(p, (uint32_t)ntiles);
     p = wr_u64(p, tilebuf_nonfinite(image));
-    p = pack_arrays(p, (size_t)w * (size_t)h, nb, tilebuf_sums(image), tilebuf_counts(image),
-                    tilebuf_luminance_sums(image), tilebuf_luminance_sq_sums(image));
+    p = pack_arrays(p, (size_t)w * (size_t)h, nb, tilebuf_sums(image), tilebuf_xyz_sums(image),
+                    tilebuf_counts(image), tilebuf_luminance_sums(image),
+                    tilebuf_luminance_sq_sums(image));
     for (int t = 0; t < ntiles; t++)
         p = wr_u32(p, (uint32_t)next_pass[t]);
     int rc = files_write_atomic(path, buf, (size_t)(p - buf), true, err);
@@ -1056,7 +1079,11 @@ int journal_read_checkpoint(const char *path, int xres, int yres, int nbuckets, 
         nb = (int)rd_u32(&r), nt = (int)rd_u32(&r);
     uint64_t nonfinite = rd_u64(&r);
     int rc = 0;
-    if (r.bad || magic != CKPT_MAGIC || x0 != 0 || y0 != 0 || w != xres || h != yres ||
+    if (!r.bad && magic == CKPT_MAGIC_V4) {
+        rc = err_set(err, "checkpoint %s is of journal version 4, without the XYZ sums the RGB "
+                          "layers now come from: it cannot be resumed by this master (version %d)",
+                     path, JOURNAL_VERSION);
+    } else if (r.bad || magic != CKPT_MAGIC || x0 != 0 || y0 != 0 || w != xres || h != yres ||
         nb != nbuckets || nt != ntiles) {
         rc = err_set(err, "checkpoint %s is not a %dx%d image of %d buckets and %d tiles", path,
                      xres, yres, nbuckets, ntiles);

@@ -79,7 +79,7 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
     }
     err_t err;
     tilebuf_t *tb = tilebuf_new_from(r->rect.x0, r->rect.y0, r->rect.w, r->rect.h, r->nbuckets,
-                                     r->sums, r->counts, r->lum, r->lum_sq, r->nonfinite, &err);
+                                     r->sums, r->xyz, r->counts, r->lum, r->lum_sq, r->nonfinite, &err);
     if (!tb) {
         master_log(m, "bad result from worker %llu '%s' for job %llu: %s",
                    (unsigned long long)w->id, w->name, (unsigned long long)job, err.msg);

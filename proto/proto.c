@@ -223,6 +223,9 @@ struct field {
     const names_t *names;             /* FT_ENUM */
     const shape_t *sub;               /* FT_MAP, FT_LIST, FT_FLAT */
     size_t (*count)(const void *obj); /* FT_WORDS, FT_SUMS, FT_SUMS_BITS: the array's length */
+    /* FT_SUMS, FT_SUMS_BITS (encoding): the width, 32 or 64, that every FT_SUMS of the struct
+     * travels at, so that arrays sharing one FT_SUMS_BITS agree on it */
+    int (*width)(const void *obj);
 };
 
 struct shape {
@@ -500,16 +503,12 @@ static bool is_float32_value(double v)
     return a >= FLT_MIN && a <= FLT_MAX && (double)(float)v == v;
 }
 
-/* The width the sums travel at: the one asked for, else 32 when every sum is a float32 value,
- * else 64. */
-static int sums_width(int bits, const double *sums, size_t n)
+static bool all_float32(const double *v, size_t n)
 {
-    if (bits)
-        return bits;
     for (size_t i = 0; i < n; i++)
-        if (!is_float32_value(sums[i]))
-            return 64;
-    return 32;
+        if (!is_float32_value(v[i]))
+            return false;
+    return true;
 }
 
 /* 0 ("pick") only reaches here from proto_encode: the decoder takes 32 or 64 only. */
@@ -667,6 +666,23 @@ static size_t tile_values(const void *obj)
     return tile_pixels(obj) * (size_t)((const proto_tile_result_t *)obj)->nbuckets;
 }
 
+static size_t tile_xyz_values(const void *obj)
+{
+    return tile_pixels(obj) * PROTO_TILE_XYZ;
+}
+
+/* The width a tile's bucket and XYZ sums travel at (one sums_bits for both): the one asked for,
+ * else 32 when every one of them is a float32 value, else 64. */
+static int tile_sums_width(const void *obj)
+{
+    const proto_tile_result_t *r = obj;
+    if (r->sums_bits)
+        return r->sums_bits;
+    return all_float32(r->sums, tile_values(obj)) && all_float32(r->xyz, tile_xyz_values(obj))
+               ? 32
+               : 64;
+}
+
 /* The rect and nb come first, checked, so that the bins' lengths derived from them (below 2^37
  * bytes) are known before the bins are read. */
 #define TR(m) offsetof(proto_tile_result_t, m)
@@ -674,8 +690,11 @@ static const field_t TILE_RESULT_FIELDS[] = {
     {F(NULL, FT_FLAT, TR(rect)), .sub = &TILE_RECT},
     {F("nb", FT_INT, TR(nbuckets)), RANGE(1, PROTO_MAX_BUCKETS)},
     {F("sums_bits", FT_SUMS_BITS, TR(sums_bits)), .aux = TR(sums), .count = tile_values,
-     .check = ck_sums_bits},
-    {F("sums", FT_SUMS, TR(sums)), .aux = TR(sums_bits), .count = tile_values, .check = ck_sums},
+     .check = ck_sums_bits, .width = tile_sums_width},
+    {F("sums", FT_SUMS, TR(sums)), .aux = TR(sums_bits), .count = tile_values, .check = ck_sums,
+     .width = tile_sums_width},
+    {F("xyz", FT_SUMS, TR(xyz)), .aux = TR(sums_bits), .count = tile_xyz_values,
+     .check = ck_sums, .width = tile_sums_width},
     {F("counts", FT_WORDS, TR(counts)), .count = tile_pixels, .check = ck_words},
     {F("lum", FT_WORDS, TR(lum)), .count = tile_pixels, .check = ck_finite},
     {F("lum2", FT_WORDS, TR(lum_sq)), .count = tile_pixels, .check = ck_finite},
@@ -1774,13 +1793,12 @@ static void write_value(enc_t *e, const field_t *f, const void *obj)
         e_words(e, ptr_of(obj, f->at), f->count(obj));
         break;
     case FT_SUMS_BITS:
-        e_uint(e,
-               (uint64_t)sums_width(CVALUE(int, obj, f->at), ptr_of(obj, f->aux), f->count(obj)));
+        e_uint(e, (uint64_t)f->width(obj));
         break;
     case FT_SUMS: {
         const double *sums = ptr_of(obj, f->at);
         size_t n = f->count(obj);
-        if (sums_width(CVALUE(int, obj, f->aux), sums, n) == 32)
+        if (f->width(obj) == 32)
             e_floats(e, sums, n);
         else
             e_words(e, sums, n);

@@ -17,8 +17,9 @@
 #include <stdint.h>
 
 /* The version carried by every message ("v"). A peer speaking another version is refused.
- * 2: camera_tile results carry sums_bits and float32 sums. */
-#define PROTO_VERSION 2
+ * 2: camera_tile results carry sums_bits and float32 sums.
+ * 3: camera_tile results carry the pixels' XYZ sums ("xyz") beside the bucket sums. */
+#define PROTO_VERSION 3
 
 /* Return codes of proto_decode (and of net.h's functions, which add their own). */
 #define PROTO_EMALFORMED (-1) /* the bytes are not a valid message; err says which field */
@@ -116,13 +117,18 @@ typedef struct proto_tile {
     uint32_t sample_begin, sample_end;
 } proto_tile_t;
 
-/* A camera tile's result: a tilebuf's contents (film/tilebuf.h), in its layout. The sums travel
- * as float32 when every one is a float32 value (zero or a normal float: what tilebuf_round_sums
- * leaves in the common case), else as float64; lum and lum_sq always as float64. */
+/* Colour sums per pixel of a tile result: X, Y, Z (film/tilebuf.h's TILEBUF_XYZ). */
+#define PROTO_TILE_XYZ 3
+
+/* A camera tile's result: a tilebuf's contents (film/tilebuf.h), in its layout. The bucket and
+ * XYZ sums travel as float32 when every one of them is a float32 value (zero or a normal float:
+ * what tilebuf_round_sums leaves in the common case), else both as float64; lum and lum_sq
+ * always as float64. */
 typedef struct proto_tile_result {
     proto_tile_t rect;
     int nbuckets;
     const double *sums;     /* [h][w][nbuckets], all finite */
+    const double *xyz;      /* [h][w][3] sums of per-sample CIE XYZ, finite; same width as sums */
     const uint64_t *counts; /* [h][w] samples taken */
     const double *lum;      /* [h][w] sum of per-sample luminance, finite */
     const double *lum_sq;   /* [h][w] sum of squared per-sample luminance, finite */

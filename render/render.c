@@ -75,9 +75,12 @@ typedef struct le_entry {
 typedef struct ctx {
     const scene_t *scene;
     const render_settings_t *rs;
-    const xyz_t *weights;
     const spectral_table_t *table; /* rs->grid's boundaries, for the splats */
     double *contrib;
+    /* The sample's CIE XYZ, each lane's light at its own wavelength (splat), and what fan-out
+     * lanes need for it: the grid's range and bucket width. */
+    double xyz[3];
+    double fan_min, fan_max, fan_width;
     rng_stream_t rng;
     render_stats_t *stats;
     path_t *stack;
@@ -136,20 +139,58 @@ static double power_heuristic(double a, double b)
     return a2 + b2 > 0.0 ? a2 / (a2 + b2) : 0.0;
 }
 
-/* Adds light value(lane) * beta(lane) to the sample's buckets. */
+/* 1 / the density of a fan-out lane's wavelength, for its exact XYZ (docs/rendering.md,
+ * "Colour"). Lane i starts at lambda_i = c_i + u w, c_i its bucket's centre, w the width and
+ * u uniform in [-1/2, 1/2] shared by the lanes (render_tile): lambda_i is uniform over bucket
+ * i, density 1/w. The first dispersive refraction moves every lane by S w more (fanout_split's
+ * shift S, uniform in [-1/2, 1/2], applied to the lanes' wavelengths, which are evenly spaced
+ * by w): lambda' = c_i + (u + S) w with u + S triangular on [-1, 1], so the lanes' wavelengths
+ * together have the density sum_i tri((lambda - c_i) / w) / w, which is 1/w between the first
+ * and the last centre (the tents add up to one) and falls linearly to 1/(2w) at the grid's
+ * ends. Lanes outside the grid's range weigh 0, so that the estimate is of the colour of the
+ * grid's range, as for undispersed lanes. */
+static double fanout_inverse_density(const ctx_t *c, const path_t *p, double lambda)
+{
+    const double w = c->fan_width;
+    if (!p->dispersed || c->rs->grid.n == 1)
+        return w;
+    if (!(lambda >= c->fan_min && lambda <= c->fan_max))
+        return 0.0;
+    /* Distance past the first (last) centre, in widths: at most 1/2 inside the grid. */
+    double d = fmax(c->fan_min + 0.5 * w - lambda, lambda - (c->fan_max - 0.5 * w)) / w;
+    return d > 0.0 ? w / (1.0 - d) : w;
+}
+
+/* Adds light value(lane) * beta(lane) to the sample's buckets, and its XYZ at the lane's own
+ * wavelength to the sample's colour: v xbar(lambda) / (p(lambda) CIE_Y_INTEGRAL), p the density
+ * the lane's wavelength was drawn with (the hero tuple's pdf over its lanes' count, or the
+ * fan-out lane's), so that the colour is an unbiased estimate of the spectrum's XYZ (pbrt-v4's
+ * RGBFilm::AddSample, SampledSpectrum::ToXYZ), whatever the buckets. */
 static void splat(ctx_t *c, const path_t *p, int j, double value)
 {
     double v = value * p->beta[j];
     if (v == 0.0)
         return;
-    if (p->bucket[j] >= 0)
+    double inv_density;
+    if (p->bucket[j] >= 0) {
         c->contrib[p->bucket[j]] += v;
-    else if (spectral_table_splat(c->table, c->contrib, p->lambda[j], v / WAVELENGTH_HERO_COUNT,
-                                  p->pdf[j], SPECTRAL_SPLAT_BOX))
-        /* The splat refuses a NaN or an overflow (value / (pdf width) > DBL_MAX). Poison the
-         * sample so that tilebuf_add_sample drops it whole and it is counted in
-         * render_stats_t.nonfinite, rather than losing this contribution silently. */
-        c->contrib[0] = NAN;
+        inv_density = fanout_inverse_density(c, p, p->lambda[j]);
+    } else {
+        if (spectral_table_splat(c->table, c->contrib, p->lambda[j], v / WAVELENGTH_HERO_COUNT,
+                                 p->pdf[j], SPECTRAL_SPLAT_BOX)) {
+            /* The splat refuses a NaN or an overflow (value / (pdf width) > DBL_MAX). Poison the
+             * sample so that tilebuf_add_sample drops it whole and it is counted in
+             * render_stats_t.nonfinite, rather than losing this contribution silently. */
+            c->contrib[0] = NAN;
+            return;
+        }
+        inv_density = 1.0 / (WAVELENGTH_HERO_COUNT * p->pdf[j]);
+    }
+    xyz_t m = cie_cmf_eval(p->lambda[j]);
+    double k = v * inv_density / CIE_Y_INTEGRAL;
+    c->xyz[0] += k * m.x;
+    c->xyz[1] += k * m.y;
+    c->xyz[2] += k * m.z;
 }
 
 static double max_beta(const path_t *p)
@@ -781,12 +822,10 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
     render_stats_t local = {0};
     if (!stats)
         stats = &local;
-    xyz_t *weights = malloc((size_t)nb * sizeof *weights);
     double *contrib = malloc((size_t)nb * sizeof *contrib);
     path_t *stack = malloc(STACK_MAX * sizeof *stack);
     spectral_table_t *table = spectral_table_new(rs->grid, err);
-    if (!weights || !contrib || !stack || !table) {
-        free(weights);
+    if (!contrib || !stack || !table) {
         free(contrib);
         free(stack);
         if (!table)
@@ -794,9 +833,10 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
         spectral_table_destroy(&table);
         return err_set(err, "out of memory");
     }
-    colour_grid_weights(rs->grid, weights);
-    ctx_t c = {.scene = scene, .rs = rs, .weights = weights, .contrib = contrib,
+    ctx_t c = {.scene = scene, .rs = rs, .contrib = contrib,
                .table = table, .stats = stats, .stack = stack,
+               .fan_min = rs->grid.lambda_min, .fan_max = rs->grid.lambda_max,
+               .fan_width = (rs->grid.lambda_max - rs->grid.lambda_min) / nb,
                .max_branches = WHITTED_BRANCHES_PER_BOUNCE * rs->maxdepth *
                                (rs->dispersion == DISPERSION_FANOUT ? nb : WAVELENGTH_HERO_COUNT)};
     for (int i = 0; i <= LE_CACHE_LIGHTS; i++)
@@ -809,7 +849,6 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
         if (!irradiance) {
             err_set(err, "out of memory");
             free(irradiance);
-            free(weights);
             free(contrib);
             free(stack);
             spectral_table_destroy(&table);
@@ -827,6 +866,7 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
             for (uint32_t s = sample_begin; s < sample_end; s++) {
                 c.rng = rng_stream_make(rs->seed, pixel, s);
                 memset(contrib, 0, (size_t)nb * sizeof *contrib);
+                c.xyz[0] = c.xyz[1] = c.xyz[2] = 0.0;
                 path_t p;
                 memset(&p, 0, offsetof(path_t, lambda));
                 /* Stratified pixel positions (a side x side grid when spp is square) and
@@ -844,9 +884,12 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                 p.specular = 1;
                 p.prev_p = p.org;
                 if (rs->dispersion == DISPERSION_FANOUT) {
+                    /* Lane i at a wavelength uniform over bucket i, one jitter ul for all
+                     * lanes (stratified like the hero's), so that its light's XYZ at that
+                     * wavelength is unbiased (fanout_inverse_density). */
                     p.n = nb;
                     for (int i = 0; i < nb; i++) {
-                        p.lambda[i] = spectral_grid_centre(rs->grid, i);
+                        p.lambda[i] = rs->grid.lambda_min + ((double)i + ul) * c.fan_width;
                         p.beta[i] = 1.0;
                         p.pdf[i] = 1.0;
                         p.bucket[i] = i;
@@ -865,15 +908,13 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                     }
                 }
                 trace(&c, &p);
-                xyz_t xyz = colour_buckets_to_xyz_weighted(nb, weights, contrib);
-                if (tilebuf_add_sample(out, x, y, contrib, xyz.y))
+                if (tilebuf_add_sample(out, x, y, contrib, c.xyz))
                     stats->nonfinite++;
                 stats->samples++;
             }
         }
     }
     free(irradiance);
-    free(weights);
     free(contrib);
     free(stack);
     spectral_table_destroy(&table);

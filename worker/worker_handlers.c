@@ -205,6 +205,7 @@ static proto_msg_t result_message(task_t *t)
                                                 .nbuckets = tilebuf_nbuckets(b),
                                                 .sums_bits = bits,
                                                 .sums = tilebuf_sums(b),
+                                                .xyz = tilebuf_xyz_sums(b),
                                                 .counts = tilebuf_counts(b),
                                                 .lum = tilebuf_luminance_sums(b),
                                                 .lum_sq = tilebuf_luminance_sq_sums(b),

@@ -24,6 +24,9 @@
 #include <string.h>
 #include <sys/stat.h>
 
+/* A sample's XYZ when only its luminance Y matters to the test. */
+#define XYZ_OF_Y(l) ((const double[3]){0.0, (l), 0.0})
+
 #define SCENE "data/render/tiny.pbrt"
 /* The random kills: 14 passes, 2^(p-14) of the samples done after pass p; the kills wait for
  * passes (test_random_kills), not for the clock. About 5 CPU s in a Release build. */
@@ -41,10 +44,12 @@ static void test_tile_blob_round_trip(void **state)
 {
     (void)state;
     enum { W = 3, H = 2, NB = 4 };
-    double sums[W * H * NB], lum[W * H], lum_sq[W * H];
+    double sums[W * H * NB], xyz[W * H * TILEBUF_XYZ], lum[W * H], lum_sq[W * H];
     uint64_t counts[W * H];
     for (int i = 0; i < W * H * NB; i++)
         sums[i] = 0.1 * i - 0.7;
+    for (int i = 0; i < W * H * TILEBUF_XYZ; i++)
+        xyz[i] = 0.3 * i + 0.01;
     for (int i = 0; i < W * H; i++) {
         counts[i] = (uint64_t)(i + 1);
         lum[i] = 1.0 / (i + 1);
@@ -52,7 +57,7 @@ static void test_tile_blob_round_trip(void **state)
     }
     proto_tile_result_t t = {.rect = {.x0 = 8, .y0 = 16, .w = W, .h = H, .sample_begin = 4,
                                       .sample_end = 8},
-                             .nbuckets = NB, .sums = sums, .counts = counts, .lum = lum,
+                             .nbuckets = NB, .sums = sums, .xyz = xyz, .counts = counts, .lum = lum,
                              .lum_sq = lum_sq, .nonfinite = 5};
     uint8_t *blob;
     size_t size;
@@ -69,6 +74,7 @@ static void test_tile_blob_round_trip(void **state)
     assert_int_equal(tilebuf_nbuckets(tb), NB);
     assert_int_equal(tilebuf_nonfinite(tb), 5);
     assert_memory_equal(tilebuf_sums(tb), sums, sizeof sums);
+    assert_memory_equal(tilebuf_xyz_sums(tb), xyz, sizeof xyz);
     assert_memory_equal(tilebuf_counts(tb), counts, sizeof counts);
     assert_memory_equal(tilebuf_luminance_sums(tb), lum, sizeof lum);
     assert_memory_equal(tilebuf_luminance_sq_sums(tb), lum_sq, sizeof lum_sq);
@@ -154,7 +160,7 @@ static void test_checkpoint_round_trip(void **state)
     for (int y = 0; y < 4; y++)
         for (int x = 0; x < 5; x++) {
             double b[3] = {x + 0.25, y * 1e-9, 1e12};
-            tilebuf_add_sample(img, x, y, b, x * y + 0.5);
+            tilebuf_add_sample(img, x, y, b, XYZ_OF_Y(x * y + 0.5));
         }
     int next[4] = {3, 2, 2, 0}, back[4];
     const char *path = testutil_scratch("ckpt.bin");

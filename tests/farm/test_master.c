@@ -396,6 +396,7 @@ static void fw_result(fake_worker_t *w, const proto_msg_t *t, const tilebuf_t *t
     out.result.tile = (proto_tile_result_t){.rect = t->task.tile,
                                             .nbuckets = tilebuf_nbuckets(tb),
                                             .sums = tilebuf_sums(tb),
+                                            .xyz = tilebuf_xyz_sums(tb),
                                             .counts = tilebuf_counts(tb),
                                             .lum = tilebuf_luminance_sums(tb),
                                             .lum_sq = tilebuf_luminance_sq_sums(tb),

@@ -183,12 +183,15 @@ static void test_curve_incomplete(void **state)
 static void test_tcp_result_and_maxmsgsize(void **state)
 {
     (void)state;
-    /* A 16x16 tile with 8 buckets: 2048 sums, 16 KiB; the router accepts at most 64 KiB. */
+    /* A 16x16 tile with 8 buckets: 2048 sums and 768 XYZ sums, 22 KiB; the router accepts at
+     * most 64 KiB. */
     enum { W = 16, H = 16, NB = 8, NPIX = W * H };
-    static double sums[NPIX * NB], lum[NPIX], lum_sq[NPIX];
+    static double sums[NPIX * NB], xyz[NPIX * PROTO_TILE_XYZ], lum[NPIX], lum_sq[NPIX];
     static uint64_t counts[NPIX];
     for (int i = 0; i < NPIX * NB; i++)
         sums[i] = 1.0 / (i + 1) - 0.001 * i;
+    for (int i = 0; i < NPIX * PROTO_TILE_XYZ; i++)
+        xyz[i] = 0.5 / (i + 1);
     for (int i = 0; i < NPIX; i++) {
         counts[i] = 64;
         lum[i] = 0.1 * i;
@@ -206,6 +209,7 @@ static void test_tcp_result_and_maxmsgsize(void **state)
                                   .tile = {.rect = {0, 0, W, H, 0, 64},
                                            .nbuckets = NB,
                                            .sums = sums,
+                                           .xyz = xyz,
                                            .counts = counts,
                                            .lum = lum,
                                            .lum_sq = lum_sq},

@@ -43,7 +43,7 @@ static const char PLY_TEXT[] = "ply\nformat ascii 1.0\nelement vertex 3\npropert
                                "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
 
 typedef struct seeds {
-    double sums[TPIX * TNB], lum[TPIX], lum_sq[TPIX];
+    double sums[TPIX * TNB], xyz[TPIX * PROTO_TILE_XYZ], lum[TPIX], lum_sq[TPIX];
     uint64_t counts[TPIX];
     proto_bundle_file_t files[2];
     proto_bundle_t bundle;
@@ -60,6 +60,8 @@ static int seeds_init(seeds_t *s, err_t *err)
     memset(s, 0, sizeof *s);
     for (int i = 0; i < TPIX * TNB; i++)
         s->sums[i] = 0.25 * i;
+    for (int i = 0; i < TPIX * PROTO_TILE_XYZ; i++)
+        s->xyz[i] = 0.125 * i;
     for (int i = 0; i < TPIX; i++) {
         s->counts[i] = 16;
         s->lum[i] = 0.5 * i;
@@ -121,7 +123,7 @@ static int seeds_list(const seeds_t *s, seed_t out[NSEEDS_MAX])
     m->result.attempt = 1;
     m->result.kind = PROTO_KIND_CAMERA_TILE;
     m->result.tile =
-        (proto_tile_result_t){{4, 6, TW, TH, 0, 16}, TNB, s->sums, s->counts, s->lum, s->lum_sq, 0, 0};
+        (proto_tile_result_t){{4, 6, TW, TH, 0, 16}, TNB, s->sums, s->xyz, s->counts, s->lum, s->lum_sq, 0, 0};
     m->result.stats = (proto_task_stats_t){64, 1000, 12, 0.01};
     m = SEED("task_failed", PROTO_TASK_FAILED);
     m->task_failed.job = 1;

@@ -14,6 +14,9 @@
 #include "error_estimate.h"
 #include "rng.h"
 
+/* A sample's XYZ when only its luminance Y matters to the test. */
+#define XYZ_OF_Y(l) ((const double[3]){0.0, (l), 0.0})
+
 #define SIDE 64 /* P = 4096 pixels */
 
 /* An image whose every pixel has n luminance samples drawn uniformly from [0, 1). */
@@ -25,7 +28,7 @@ static tilebuf_t *uniform_image(uint32_t n, uint64_t seed)
         for (int x = 0; x < SIDE; x++)
             for (uint32_t s = 0; s < n; s++) {
                 double u = rng_uniform(seed, (uint64_t)(y * SIDE + x), s, 0);
-                assert_int_equal(tilebuf_add_sample(t, x, y, &u, u), 0);
+                assert_int_equal(tilebuf_add_sample(t, x, y, &u, XYZ_OF_Y(u)), 0);
             }
     return t;
 }
@@ -119,11 +122,11 @@ static void test_small_image_by_hand(void **state)
     (void)state;
     tilebuf_t *t = tilebuf_new(0, 0, 3, 1, 1, NULL);
     double zero = 0, two = 2, one = 1, nine = 9;
-    tilebuf_add_sample(t, 0, 0, &zero, zero);
-    tilebuf_add_sample(t, 0, 0, &two, two);
+    tilebuf_add_sample(t, 0, 0, &zero, XYZ_OF_Y(zero));
+    tilebuf_add_sample(t, 0, 0, &two, XYZ_OF_Y(two));
     for (int i = 0; i < 4; i++)
-        tilebuf_add_sample(t, 1, 0, &one, one);
-    tilebuf_add_sample(t, 2, 0, &nine, nine);
+        tilebuf_add_sample(t, 1, 0, &one, XYZ_OF_Y(one));
+    tilebuf_add_sample(t, 2, 0, &nine, XYZ_OF_Y(nine));
     error_estimate_t e = error_estimate_image(t);
     assert_true(e.valid);
     assert_int_equal(e.pixels, 2);
@@ -147,12 +150,12 @@ static void test_guards(void **state)
     double half = 0.5;
     for (int y = 0; y < 4; y++)
         for (int x = 0; x < 4; x++)
-            tilebuf_add_sample(t, x, y, &half, half);
+            tilebuf_add_sample(t, x, y, &half, XYZ_OF_Y(half));
     assert_false(error_estimate_image(t).valid);
     /* A second, equal sample everywhere: converged, exactly 0. */
     for (int y = 0; y < 4; y++)
         for (int x = 0; x < 4; x++)
-            tilebuf_add_sample(t, x, y, &half, half);
+            tilebuf_add_sample(t, x, y, &half, XYZ_OF_Y(half));
     e = error_estimate_image(t);
     assert_true(e.valid);
     assert_true(e.rel_rmse == 0);
@@ -164,7 +167,7 @@ static void test_guards(void **state)
     for (int k = 0; k < 3; k++)
         for (int y = 0; y < 2; y++)
             for (int x = 0; x < 2; x++)
-                tilebuf_add_sample(t, x, y, &z, z);
+                tilebuf_add_sample(t, x, y, &z, XYZ_OF_Y(z));
     e = error_estimate_image(t);
     assert_true(e.valid);
     assert_true(e.rel_rmse == 0);
@@ -173,8 +176,8 @@ static void test_guards(void **state)
     /* Noise around a mean of 0 (or below) has no relative error: invalid, finite fields. */
     t = tilebuf_new(0, 0, 1, 1, 1, NULL);
     double a = -1, b = 1;
-    tilebuf_add_sample(t, 0, 0, &a, a);
-    tilebuf_add_sample(t, 0, 0, &b, b);
+    tilebuf_add_sample(t, 0, 0, &a, XYZ_OF_Y(a));
+    tilebuf_add_sample(t, 0, 0, &b, XYZ_OF_Y(b));
     e = error_estimate_image(t);
     assert_false(e.valid);
     assert_true(isfinite(e.rel_rmse) && isfinite(e.rmse) && isfinite(e.mean));
@@ -184,10 +187,10 @@ static void test_guards(void **state)
      * image has no estimate (a target is never reached on its account), and no NaN. */
     t = tilebuf_new(0, 0, 2, 1, 1, NULL);
     double big = 1e200, small = 1;
-    tilebuf_add_sample(t, 0, 0, &big, big);
-    tilebuf_add_sample(t, 0, 0, &big, big);
-    tilebuf_add_sample(t, 1, 0, &small, small);
-    tilebuf_add_sample(t, 1, 0, &z, z);
+    tilebuf_add_sample(t, 0, 0, &big, XYZ_OF_Y(big));
+    tilebuf_add_sample(t, 0, 0, &big, XYZ_OF_Y(big));
+    tilebuf_add_sample(t, 1, 0, &small, XYZ_OF_Y(small));
+    tilebuf_add_sample(t, 1, 0, &z, XYZ_OF_Y(z));
     e = error_estimate_image(t);
     assert_false(e.valid);
     assert_int_equal(e.saturated, 1);

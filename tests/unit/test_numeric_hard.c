@@ -1249,8 +1249,13 @@ static void test_sun_and_candle(void **state)
             assert_true(both.lum_mean > 1e3 && both.lum_mean < SUN);
             for (size_t c = 0; c < sizeof CANDLE_PIXELS / sizeof CANDLE_PIXELS[0]; c++) {
                 int k = CANDLE_PIXELS[c][1] * RES + CANDLE_PIXELS[c][0];
+                /* Fan-out lanes are jittered within their buckets so that the pixel's XYZ is
+                 * exact (docs/rendering.md, "Colour"): the luminance of a flat spectrum then
+                 * varies from sample to sample by the quadrature of y-bar over 16 jittered
+                 * points, about 1e-3 relative per pixel here (it had no noise with the
+                 * bucket-centre lanes). */
                 if (!(both.lum[k] == candle.lum[k] &&
-                      (both.lum_se[k] <= 1e-6 * CANDLE || strcmp(DISPERSIONS[j], "hero") == 0)))
+                      (both.lum_se[k] <= 1e-2 * CANDLE || strcmp(DISPERSIONS[j], "hero") == 0)))
                     fail_msg("%s: candle pixel %d reads %.17g (candle alone %.17g, se %g)", what, k,
                              both.lum[k], candle.lum[k], both.lum_se[k]);
                 /* With fan-out every bucket is the candle's radiance (an unnormalised "float L"

@@ -30,7 +30,7 @@
 
 enum { RW = 5, RH = 3, RNB = 4, RPIX = RW * RH };
 
-static double g_sums[RPIX * RNB], g_lum[RPIX], g_lum_sq[RPIX];
+static double g_sums[RPIX * RNB], g_xyz[RPIX * PROTO_TILE_XYZ], g_lum[RPIX], g_lum_sq[RPIX];
 static uint64_t g_counts[RPIX];
 
 static const uint8_t g_ply[] = {'p', 'l', 'y', '\n', 0, 1, 2, 0xff, 0xfe, 0};
@@ -72,6 +72,9 @@ static void fill_arrays(void)
     g_sums[2] = DBL_MAX;
     g_sums[3] = -DBL_MAX;
     g_sums[4] = 1.0 / 3.0;
+    /* XYZ sums that are float values, so that the sums alone decide the width picked. */
+    for (int i = 0; i < RPIX * PROTO_TILE_XYZ; i++)
+        g_xyz[i] = 0.25 * i - 3.0;
     for (int i = 0; i < RPIX; i++) {
         g_counts[i] = (uint64_t)i * 1000003u;
         g_lum[i] = 0.5 * i;
@@ -115,6 +118,7 @@ static proto_msg_t sample(proto_type_t t)
         m.result.tile = (proto_tile_result_t){.rect = {10, 20, RW, RH, 0, 64},
                                               .nbuckets = RNB,
                                               .sums = g_sums,
+                                              .xyz = g_xyz,
                                               .counts = g_counts,
                                               .lum = g_lum,
                                               .lum_sq = g_lum_sq,
@@ -296,6 +300,7 @@ static void assert_msg_equal(const proto_msg_t *a, const proto_msg_t *b)
         assert_tile_equal(&x->rect, &y->rect);
         assert_int_equal(x->nbuckets, y->nbuckets);
         assert_words_equal(x->sums, y->sums, npix * (size_t)x->nbuckets);
+        assert_words_equal(x->xyz, y->xyz, npix * PROTO_TILE_XYZ);
         assert_words_equal(x->counts, y->counts, npix);
         assert_words_equal(x->lum, y->lum, npix);
         assert_words_equal(x->lum_sq, y->lum_sq, npix);
@@ -715,39 +720,40 @@ static void test_accuracy_fields_strict(void **state)
 static void test_version_refusal(void **state)
 {
     (void)state;
-    /* A peer of version 1 (float64 tile sums only) is refused by version 2. */
-    assert_int_equal(PROTO_VERSION, 2);
+    /* A peer of version 2 (tile results without XYZ sums) is refused by version 3, and so is
+     * one of version 1. */
+    assert_int_equal(PROTO_VERSION, 3);
     proto_msg_t m = sample(PROTO_HELLO);
-    m.version = 1;
+    m.version = 2;
     msgpack_sbuffer sb;
     encode_ok(&m, &sb);
     proto_msg_t d;
     err_t err;
     assert_int_equal(proto_decode(sb.data, sb.size, NULL, &d, &err), PROTO_EVERSION);
-    assert_int_equal(d.version, 1);
+    assert_int_equal(d.version, 2);
     assert_int_equal(d.type, PROTO_NONE);
     assert_null(d.owned);
-    assert_string_equal(err.msg, "HELLO: protocol version 1 not supported (speaks 2)");
+    assert_string_equal(err.msg, "HELLO: protocol version 2 not supported (speaks 3)");
     msgpack_sbuffer_destroy(&sb);
     /* Its RESULT too, whatever it holds. */
     m = sample(PROTO_RESULT);
-    m.version = 1;
+    m.version = 2;
     encode_ok(&m, &sb);
     assert_int_equal(proto_decode(sb.data, sb.size, NULL, &d, &err), PROTO_EVERSION);
     msgpack_sbuffer_destroy(&sb);
 
-    /* The answer, and a v1 peer's view of it: REFUSE decodes whatever its version. */
+    /* The answer, and a v2 peer's view of it: REFUSE decodes whatever its version. */
     err_t text;
     proto_msg_t refuse = proto_refuse_version(d.version, "master", &text);
     assert_string_equal(refuse.refuse.reason,
-                        "protocol version 1 not supported by this master (speaks 2)");
-    refuse.version = 1;
+                        "protocol version 2 not supported by this master (speaks 3)");
+    refuse.version = 2;
     encode_ok(&refuse, &sb);
     assert_int_equal(proto_decode(sb.data, sb.size, NULL, &d, &err), 0);
     assert_int_equal(d.type, PROTO_REFUSE);
-    assert_int_equal(d.version, 1);
+    assert_int_equal(d.version, 2);
     assert_string_equal(d.refuse.reason,
-                        "protocol version 1 not supported by this master (speaks 2)");
+                        "protocol version 2 not supported by this master (speaks 3)");
     proto_msg_free(&d);
     msgpack_sbuffer_destroy(&sb);
 
@@ -1063,10 +1069,10 @@ static void test_bins_of_wrong_length_and_nonfinite(void **state)
     msgpack_sbuffer_destroy(&sb);
     g_sums[7] = saved;
     static const double specials[] = {NAN, -NAN, INFINITY, -INFINITY};
-    const char *fields[] = {"tile.sums", "tile.lum", "tile.lum2"};
-    for (size_t f = 0; f < 3; f++)
+    const char *fields[] = {"tile.sums", "tile.lum", "tile.lum2", "tile.xyz"};
+    for (size_t f = 0; f < 4; f++)
         for (size_t s = 0; s < 4; s++) {
-            size_t n = f == 0 ? RPIX * RNB : RPIX;
+            size_t n = f == 0 ? RPIX * RNB : f == 3 ? RPIX * PROTO_TILE_XYZ : RPIX;
             double *vals = calloc(n, sizeof *vals);
             vals[n - 1] = specials[s];
             uint8_t *le = malloc(n * 8);
@@ -1150,8 +1156,30 @@ static void test_float32_sums(void **state)
     assert_int_equal(d.result.tile.sums_bits, 64);
     assert_memory_equal(d.result.tile.sums, g_fsums, sizeof g_fsums);
     proto_msg_free(&d);
-    /* 60 sums: 240 bytes (bin 8 header, 2 bytes) instead of 480 (bin 16 header, 3 bytes). */
-    assert_int_equal(wide.size - narrow.size, 240 + 1);
+    /* 60 sums: 240 bytes (bin 8 header, 2 bytes) instead of 480 (bin 16 header, 3 bytes); the
+     * 45 XYZ sums travel at the same width: 180 bytes (bin 8) instead of 360 (bin 16). */
+    assert_int_equal(wide.size - narrow.size, 240 + 1 + 180 + 1);
+    assert_int_equal(proto_decode(wide.data, wide.size, NULL, &d, &err), 0);
+    assert_memory_equal(d.result.tile.xyz, g_xyz, sizeof g_xyz);
+    proto_msg_free(&d);
+    /* One XYZ sum that is not a float value: both arrays go as 64 bits when the encoder picks,
+     * and asking for 32 is refused naming the XYZ field. */
+    {
+        proto_msg_t mx = float_result();
+        double saved_xyz = g_xyz[5];
+        g_xyz[5] = 1.0 / 3.0;
+        msgpack_sbuffer sx;
+        encode_ok(&mx, &sx);
+        assert_int_equal(proto_decode(sx.data, sx.size, NULL, &d, &err), 0);
+        assert_int_equal(d.result.tile.sums_bits, 64);
+        assert_memory_equal(d.result.tile.sums, g_fsums, sizeof g_fsums);
+        assert_memory_equal(d.result.tile.xyz, g_xyz, sizeof g_xyz);
+        proto_msg_free(&d);
+        msgpack_sbuffer_destroy(&sx);
+        mx.result.tile.sums_bits = 32;
+        expect_encode_refused(&mx, "RESULT: field 'tile.xyz' element 5 is");
+        g_xyz[5] = saved_xyz;
+    }
     m.result.tile.sums_bits = 32;
     round_trip(&m);
 
@@ -1451,6 +1479,8 @@ static int picked_width(double v)
     m.result.tile.rect = (proto_tile_t){0, 0, 1, 1, 0, 1};
     m.result.tile.nbuckets = 1;
     m.result.tile.sums = &v;
+    static const double zero_xyz[PROTO_TILE_XYZ] = {0};
+    m.result.tile.xyz = zero_xyz;
     m.result.tile.counts = &count;
     m.result.tile.lum = m.result.tile.lum_sq = &zero;
     msgpack_sbuffer sb;

@@ -13,6 +13,9 @@
 #include "sched.h"
 #include "sched_testutil.h"
 
+/* A sample's XYZ when only its luminance Y matters to the test. */
+#define XYZ_OF_Y(l) ((const double[3]){0.0, (l), 0.0})
+
 static sched_t *new_sched(void)
 {
     sched_config_t c = sched_config_default();
@@ -33,7 +36,7 @@ static tilebuf_t *result_for(const sched_task_t *t)
     for (int y = t->y0; y < t->y0 + t->h; y++)
         for (int x = t->x0; x < t->x0 + t->w; x++)
             for (uint32_t k = t->sample_begin; k < t->sample_end; k++)
-                tilebuf_add_sample(r, x, y, v, 1.0);
+                tilebuf_add_sample(r, x, y, v, XYZ_OF_Y(1.0));
     return r;
 }
 

@@ -13,6 +13,9 @@
 #include "sched.h"
 #include "sched_testutil.h"
 
+/* A sample's XYZ when only its luminance Y matters to the test. */
+#define XYZ_OF_Y(l) ((const double[3]){0.0, (l), 0.0})
+
 #define NB 3
 
 static sched_t *new_sched(void)
@@ -35,7 +38,7 @@ static tilebuf_t *fake_result(const sched_task_t *t)
             for (uint32_t s = t->sample_begin; s < t->sample_end; s++) {
                 for (int b = 0; b < NB; b++)
                     v[b] = (b + 1) * (x + 100.0 * y + 0.001 * s) * 1.0000001 + 1.0 / (s + 3);
-                tilebuf_add_sample(r, x, y, v, v[0]);
+                tilebuf_add_sample(r, x, y, v, XYZ_OF_Y(v[0]));
             }
     return r;
 }

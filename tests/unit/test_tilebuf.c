@@ -17,6 +17,9 @@
 
 #include "tilebuf.h"
 
+/* A sample's XYZ when only its luminance Y matters to the test. */
+#define XYZ_OF_Y(l) ((const double[3]){0.0, (l), 0.0})
+
 static void test_add_and_mean(void **state)
 {
     (void)state;
@@ -24,8 +27,8 @@ static void test_add_and_mean(void **state)
     tilebuf_t *t = tilebuf_new(10, 20, 4, 3, 2, &err);
     assert_non_null(t);
     double a[2] = {1.0, 2.0}, b[2] = {3.0, 6.0};
-    assert_int_equal(tilebuf_add_sample(t, 11, 21, a, 0.5), 0);
-    assert_int_equal(tilebuf_add_sample(t, 11, 21, b, 1.5), 0);
+    assert_int_equal(tilebuf_add_sample(t, 11, 21, a, XYZ_OF_Y(0.5)), 0);
+    assert_int_equal(tilebuf_add_sample(t, 11, 21, b, XYZ_OF_Y(1.5)), 0);
     double m[2];
     tilebuf_mean(t, 11, 21, m);
     assert_true(m[0] == 2.0 && m[1] == 4.0);
@@ -42,10 +45,10 @@ static void test_nonfinite_dropped_and_counted(void **state)
     (void)state;
     tilebuf_t *t = tilebuf_new(0, 0, 1, 1, 3, NULL);
     double good[3] = {1, 1, 1}, nan_s[3] = {1, NAN, 1}, inf_s[3] = {INFINITY, 0, 0};
-    tilebuf_add_sample(t, 0, 0, good, 1.0);
-    assert_int_equal(tilebuf_add_sample(t, 0, 0, nan_s, 1.0), -1);
-    assert_int_equal(tilebuf_add_sample(t, 0, 0, inf_s, 1.0), -1);
-    assert_int_equal(tilebuf_add_sample(t, 0, 0, good, NAN), -1);
+    tilebuf_add_sample(t, 0, 0, good, XYZ_OF_Y(1.0));
+    assert_int_equal(tilebuf_add_sample(t, 0, 0, nan_s, XYZ_OF_Y(1.0)), -1);
+    assert_int_equal(tilebuf_add_sample(t, 0, 0, inf_s, XYZ_OF_Y(1.0)), -1);
+    assert_int_equal(tilebuf_add_sample(t, 0, 0, good, XYZ_OF_Y(NAN)), -1);
     assert_int_equal(tilebuf_nonfinite(t), 3);
     assert_int_equal(tilebuf_count(t, 0, 0), 4);
     for (int b = 0; b < 3; b++)
@@ -64,9 +67,9 @@ static void test_merge(void **state)
     for (int y = 0; y < 4; y++)
         for (int x = 0; x < 4; x++) {
             double v[2] = {x * 0.1 + y, 1e-3 * x};
-            tilebuf_add_sample(left, x, y, v, v[0]);
+            tilebuf_add_sample(left, x, y, v, XYZ_OF_Y(v[0]));
             double w[2] = {1e9 + x, y * 1e-12};
-            tilebuf_add_sample(right, 4 + x, y, w, w[0]);
+            tilebuf_add_sample(right, 4 + x, y, w, XYZ_OF_Y(w[0]));
         }
     assert_int_equal(tilebuf_merge(img1, left, &err), 0);
     assert_int_equal(tilebuf_merge(img1, right, &err), 0);
@@ -186,9 +189,9 @@ static void test_round_sums(void **state)
     /* Three pixels, two buckets: one sum beyond float's range, one below its normal range. */
     tilebuf_t *t = tilebuf_new(0, 0, 3, 1, 2, &err);
     const double s0[2] = {1.0 + 0x1p-30, 1e-39}, s1[2] = {3.5e38, 0.1}, s2[2] = {0.0, FLT_MAX};
-    assert_int_equal(tilebuf_add_sample(t, 0, 0, s0, 1.0 + 0x1p-30), 0);
-    assert_int_equal(tilebuf_add_sample(t, 1, 0, s1, 0.1), 0);
-    assert_int_equal(tilebuf_add_sample(t, 2, 0, s2, 0.1), 0);
+    assert_int_equal(tilebuf_add_sample(t, 0, 0, s0, XYZ_OF_Y(1.0 + 0x1p-30)), 0);
+    assert_int_equal(tilebuf_add_sample(t, 1, 0, s1, XYZ_OF_Y(0.1)), 0);
+    assert_int_equal(tilebuf_add_sample(t, 2, 0, s2, XYZ_OF_Y(0.1)), 0);
     assert_false(sums_are_float(t));
     assert_int_equal(tilebuf_round_sums(t), 2);
     assert_false(sums_are_float(t));
@@ -197,7 +200,7 @@ static void test_round_sums(void **state)
     /* Per value: a tile's other values (here the two wide ones) change nothing, so a pixel
      * rounds the same in any tile. lum stays a double. */
     tilebuf_t *one = tilebuf_new(0, 0, 1, 1, 2, &err);
-    assert_int_equal(tilebuf_add_sample(one, 0, 0, s0, 1.0 + 0x1p-30), 0);
+    assert_int_equal(tilebuf_add_sample(one, 0, 0, s0, XYZ_OF_Y(1.0 + 0x1p-30)), 0);
     assert_int_equal(tilebuf_round_sums(one), 1);
     assert_true(same_bits(tilebuf_sum(one, 0, 0, 0), tilebuf_sum(t, 0, 0, 0)));
     assert_true(tilebuf_luminance_sum(one, 0, 0) == 1.0 + 0x1p-30);
@@ -205,8 +208,8 @@ static void test_round_sums(void **state)
     /* Every sum in float range: the whole tile is float values. */
     tilebuf_t *f = tilebuf_new(5, 5, 2, 1, 2, &err);
     const double s3[2] = {0.1, 1.0 + 0x1p-30};
-    assert_int_equal(tilebuf_add_sample(f, 5, 5, s3, 1.0), 0);
-    assert_int_equal(tilebuf_add_sample(f, 6, 5, s2, 1.0), 0);
+    assert_int_equal(tilebuf_add_sample(f, 5, 5, s3, XYZ_OF_Y(1.0)), 0);
+    assert_int_equal(tilebuf_add_sample(f, 6, 5, s2, XYZ_OF_Y(1.0)), 0);
     assert_int_equal(tilebuf_round_sums(f), 0);
     assert_true(sums_are_float(f));
     /* Cleared: zeros everywhere, ready for the next pass. */

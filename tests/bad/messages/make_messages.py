@@ -8,7 +8,7 @@ case breaks one thing. A tiny msgpack packer is included so nothing needs instal
 """
 import struct
 
-V = 2  # PROTO_VERSION (proto/proto.h)
+V = 3  # PROTO_VERSION (proto/proto.h)
 
 
 class Raw(bytes):
@@ -73,7 +73,8 @@ SCENE = b"WorldBegin\nShape \"sphere\"\n"
 
 def result(tile_over=None, stats_over=None):
     tile = {"x0": 0, "y0": 0, "w": 2, "h": 1, "sb": 0, "se": 4, "nb": 1,
-            "sums_bits": 64, "sums": words(0.5, 0.25), "counts": words(4, 4, fmt="<Q"),
+            "sums_bits": 64, "sums": words(0.5, 0.25),
+            "xyz": words(0.5, 0.5, 0.5, 0.25, 0.25, 0.25), "counts": words(4, 4, fmt="<Q"),
             "lum": words(0.5, 0.25), "lum2": words(0.25, 0.0625), "nonfinite": 0}
     tile.update(tile_over or {})
     stats = {"samples": 8, "rays": 16, "disp": 0, "secs": 0.01}
@@ -96,7 +97,8 @@ NAN = float("nan")
 CASES = [
     ("empty", "no bytes at all", b""),
     ("not_a_map", "an array where the message map belongs", pack([1, "HELLO"])),
-    ("wrong_version", "a HELLO from protocol version 1 (float64 tile sums only)", pack(hello(v=1))),
+    ("wrong_version", "a HELLO from protocol version 2 (tile results without XYZ sums)",
+     pack(hello(v=2))),
     ("version_string", "\"v\" is the string \"1\"", pack(hello(v="1"))),
     ("unknown_type", "type \"HELO\"", pack(hello(t="HELO"))),
     ("missing_type", "no \"t\"", pack({"v": V, "name": "node01"})),
@@ -128,6 +130,11 @@ CASES = [
     ("result_sums_f32_long", "RESULT float64 bytes under sums_bits 32",
      pack(result({"sums_bits": 32}))),
     ("result_sums_bits", "RESULT sums_bits 16", pack(result({"sums_bits": 16}))),
+    ("result_xyz_short", "RESULT XYZ sums of 3 doubles for a 2x1 tile",
+     pack(result({"xyz": words(0.5, 0.5, 0.5)}))),
+    ("result_xyz_f32_inf", "RESULT float32 XYZ sums holding an Inf (sums float32 too)",
+     pack(result({"sums_bits": 32, "sums": words(0.5, 0.25, fmt="<f"),
+                  "xyz": words(0.5, 0.5, 0.5, 0.25, float("inf"), 0.25, fmt="<f")}))),
     ("result_secs_nan", "RESULT stats secs NaN", pack(result(stats_over={"secs": NAN}))),
     ("result_no_samples", "RESULT tile with sb == se", pack(result({"sb": 4, "se": 4}))),
     ("task_tile_outside", "TASK tile x0 70000 (at most 65535)", pack(task({"x0": 70000}))),
