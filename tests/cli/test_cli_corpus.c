@@ -1,0 +1,132 @@
+/* The public pbrt-v4 scenes of ../shared/pbrt-scenes that prismfarm renders unmodified, against
+ * pbrt-v4's own renders of the same files (reference/, REFERENCE.md): `prismfarm render` at a
+ * small size and few samples, each linear sRGB channel's image mean within noise of the
+ * reference's. The image mean does not depend on the resolution or the pixel filter, so a
+ * 48 x 48 render compares with the 256 x 256 reference. The noise allowed is 4 standard errors
+ * of our mean (estimated from the pixels, which at this size are nearly independent) plus 1 %
+ * (the reference's own seed-to-seed spread is under 0.2 %, REFERENCE.md). The corpus sits
+ * beside the clone in CI; a user's clone has none, and then the test says so and skips. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h> /* after the four headers above, which it needs */
+
+#include "cli_run.h"
+#include "files_testutil.h"
+#include "image_exr.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* The corpus, relative to tests/ (where ctest runs the tests): ../../shared from the clone. */
+#define CORPUS "../../shared/pbrt-scenes"
+
+static float *read_rgb(const char *path, int *n)
+{
+    err_t err;
+    image_exr_t *img = image_exr_read(path, &err);
+    if (!img)
+        fail_msg("%s", err.msg);
+    *n = image_exr_width(img) * image_exr_height(img);
+    float *rgb = malloc((size_t)*n * 3 * sizeof *rgb);
+    assert_non_null(rgb);
+    memcpy(rgb, image_exr_rgb(img), (size_t)*n * 3 * sizeof *rgb);
+    image_exr_destroy(&img);
+    return rgb;
+}
+
+static float *render_rgb(const char *scene, const char *seed, int *n)
+{
+    const char *out = testutil_scratch("corpus.exr");
+    const run_t *r = run("render", scene, "--direct", "--res", "48x48", "--spp", "16", "--seed", seed,
+                         "-o", out, "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("render %s: status %d\n%s", scene, r->status, r->err);
+    return read_rgb(out, n);
+}
+
+/* Renders CORPUS/folder/name.pbrt twice (two seeds) and compares the mean of each channel with
+ * the reference's. The noise of that mean comes from the two renders' difference, pixel by
+ * pixel: var(A - B) = 2 var(A) for independent renders, so the mean of (A + B) / 2 has the
+ * standard error sqrt(var(A - B) / (4 n)). */
+static void check(const char *folder, const char *name)
+{
+    char scene[512], ref[512];
+    snprintf(scene, sizeof scene, CORPUS "/%s/%s.pbrt", folder, name);
+    snprintf(ref, sizeof ref, CORPUS "/reference/%s__%s.exr", folder, name);
+    int n, nb, nr;
+    float *a = render_rgb(scene, "3", &n), *b = render_rgb(scene, "4", &nb), *w = read_rgb(ref, &nr);
+    assert_int_equal(n, nb);
+    for (int c = 0; c < 3; c++) {
+        double sum = 0, dsum = 0, dsq = 0, want = 0;
+        for (int i = 0; i < n; i++) {
+            double d = (double)a[3 * i + c] - b[3 * i + c];
+            sum += 0.5 * ((double)a[3 * i + c] + b[3 * i + c]);
+            dsum += d;
+            dsq += d * d;
+        }
+        for (int i = 0; i < nr; i++)
+            want += w[3 * i + c];
+        want /= nr;
+        double mean = sum / n, dm = dsum / n;
+        double se = sqrt(fmax(0.0, dsq / n - dm * dm) / (4.0 * n));
+        double tol = 4.0 * se + 0.01 * want;
+        print_message("%s/%s channel %d: %.4f +- %.4f, pbrt-v4 %.4f (ratio %.4f)\n", folder, name, c,
+                      mean, se, want, mean / want);
+        if (!(fabs(mean - want) <= tol))
+            fail_msg("%s/%s: channel %d mean %.5f, pbrt-v4's %.5f (allowed +- %.5f)", folder, name, c,
+                     mean, want, tol);
+    }
+    free(a);
+    free(b);
+    free(w);
+}
+
+static int corpus_present(void)
+{
+    if (access(CORPUS "/README.md", R_OK) == 0)
+        return 1;
+    print_message("skipped: the pbrt-v4 scene corpus (%s from tests/) is absent; CI has it beside "
+                  "the clone\n",
+                  CORPUS);
+    return 0;
+}
+
+/* Rough silver (pbrt-v4's metal-Ag spectra, roughness 0.0025) in a Cornell box. */
+static void test_cornell_silver(void **state)
+{
+    (void)state;
+    if (corpus_present())
+        check("cornell-box", "cornell-box-silver");
+}
+
+/* A smooth glass sphere and rough silver. */
+static void test_cornell_specular(void **state)
+{
+    (void)state;
+    if (corpus_present())
+        check("cornell-box", "cornell-box-specular");
+}
+
+/* A glass and a smooth silver sphere under a sphere light. */
+static void test_smallpt(void **state)
+{
+    (void)state;
+    if (corpus_present())
+        check("cornell-box", "smallpt");
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_cornell_silver),
+        cmocka_unit_test(test_cornell_specular),
+        cmocka_unit_test(test_smallpt),
+    };
+    return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
+}
