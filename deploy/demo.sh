@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The main job in one command: installs dependencies, builds prismfarm (Release) and renders
-# the shipped prism scene on all cores into out/prism.exr (spectral) and out/prism.png.
+# the shipped jewel scene (a diamond in a gold setting: fire, gold, a caustic) on all cores into
+# out/jewel.exr (spectral) and out/jewel.png.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash deploy/install-deps.sh
 bash deploy/build.sh release
-build/cli/prismfarm render scenes/prism.pbrt -o out/prism.exr
-echo "images: $(pwd)/out/prism.exr (spectral OpenEXR) and $(pwd)/out/prism.png (preview)"
+build/cli/prismfarm render scenes/jewel.pbrt -o out/jewel.exr
+echo "images: $(pwd)/out/jewel.exr (spectral OpenEXR) and $(pwd)/out/jewel.png (preview)"
