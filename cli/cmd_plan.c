@@ -5,6 +5,7 @@
 
 #include "cli_args.h"
 #include "cli_json.h"
+#include "cli_warn.h"
 #include "pbrt_parser.h"
 #include "plan.h"
 #include "scene_load.h"
@@ -175,6 +176,7 @@ int cmd_plan(int argc, char **argv)
     scene_t *scene = desc ? scene_load(desc, &ov, &err) : NULL;
     plan_t *plan = NULL;
     if (scene) {
+        cli_warn_print("plan", scene->warnings);
         plan_request_t req = plan_request_make(desc, &ov);
         plan = plan_new(scene, &req, &err);
     }

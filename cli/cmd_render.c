@@ -12,6 +12,7 @@
 #include "photon.h"
 #include "pool.h"
 #include "progress.h"
+#include "cli_warn.h"
 #include "scene_load.h"
 
 #include <errno.h>
@@ -200,6 +201,7 @@ int cmd_render(int argc, char **argv)
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
         return 1;
     }
+    cli_warn_print("render", scene->warnings);
     const render_settings_t *rs = &scene->settings;
 
     char exr[PATH_MAX], png[PATH_MAX];

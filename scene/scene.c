@@ -52,6 +52,7 @@ void scene_destroy(scene_t **self_p)
     if (!self_p || !*self_p)
         return;
     scene_t *self = *self_p;
+    warnings_destroy(&self->warnings);
     geometry_destroy(&self->geometry);
     for (size_t i = 0; i < self->nshapes; i++) {
         shape_t *s = &self->shapes[i];

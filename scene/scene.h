@@ -19,6 +19,7 @@
 #include "texture.h"
 #include "transform.h"
 #include "vec3.h"
+#include "warnings.h"
 
 #include <stddef.h>
 #include <stdint.h>
@@ -202,6 +203,10 @@ typedef struct scene {
     camera_t camera;
     render_settings_t settings;
     int has_dispersion;   /* any dispersive material: spectral fan-out is ever needed */
+    /* What the scene file asks for that is accepted without being simulated: the parser's
+     * lines and the loader's (scene_load), for `render`, `plan` and the client to print.
+     * Owned; NULL for a scene built in code. */
+    warnings_t *warnings;
     vec3_t bounds_lo, bounds_hi;
     double scene_radius;  /* radius of a sphere around the bounds (distant light sampling) */
 } scene_t;

@@ -832,6 +832,8 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
     loader_t L = {.desc = desc, .sc = sc};
     L.tex = calloc(desc->ntextures ? desc->ntextures : 1, sizeof *L.tex);
     int r = L.tex ? 0 : err_set(err, "out of memory");
+    if (!r && (!(sc->warnings = warnings_new(err)) || warnings_copy(sc->warnings, desc->warnings)))
+        r = err_set(err, "out of memory");
     if (!r)
         r = load_options(&L, ov, err);
     if (!r)
@@ -845,6 +847,14 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
     if (!r)
         r = load_instances(&L, err);
     free(L.tex);
+    /* pbrt-v4 renders a scene without lights black, silently; say why the image is black. */
+    if (!r && sc->nlights == 0) {
+        pbrt_loc_t at = desc->camera.loc;
+        at.line = at.line > 0 ? at.line : 1;
+        at.col = at.col > 0 ? at.col : 1;
+        if (warnings_add(sc->warnings, at, "the scene has no light source: the image will be black"))
+            r = err_set(err, "out of memory");
+    }
     if (!r)
         r = scene_finish(sc, err);
     /* Integrator "auto" (also when the file names none) follows the plan (plan.h). */

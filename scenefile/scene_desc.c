@@ -104,6 +104,10 @@ scene_desc_t *scene_desc_new(err_t *err)
         err_set(err, "out of memory for a scene");
         return NULL;
     }
+    if (!(self->warnings = warnings_new(err))) {
+        free(self);
+        return NULL;
+    }
     self->camera.type = "perspective";
     self->camera.fov = 90.0;
     self->camera.lensradius = 0.0;
@@ -166,6 +170,7 @@ void scene_desc_destroy(scene_desc_t **self_p)
     free(self->object_shapes);
     free(self->instances);
     free(self->files);
+    warnings_destroy(&self->warnings);
     free(self);
     *self_p = NULL;
 }

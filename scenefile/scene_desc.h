@@ -22,6 +22,7 @@
 #include "pbrt_lexer.h"
 #include "transform.h"
 #include "vec3.h"
+#include "warnings.h"
 
 #include <stdbool.h>
 #include <stddef.h>
@@ -353,6 +354,8 @@ typedef struct scene_desc {
     size_t ninstances;
     scene_file_t *files; /* every file read, once each (see the top of this header) */
     size_t nfiles;
+    /* What the scene asks for that is accepted without being simulated (never NULL). */
+    warnings_t *warnings;
 
     /* private: capacities and owned allocations */
     size_t cap_materials, cap_textures, cap_lights, cap_area_lights, cap_shapes, cap_objects,

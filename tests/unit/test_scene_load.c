@@ -248,6 +248,44 @@ static void test_integrator_options(void **state)
                       "\"whitted\"");
 }
 
+/* What a scene asks for that is accepted without being simulated comes back as warnings
+ * naming file:line:col, once each; a scene without lights says why it renders black. */
+static void test_warnings(void **state)
+{
+    (void)state;
+    err_t err = {{0}};
+    const char *dark = "WorldBegin\nShape \"sphere\"\n";
+    scene_desc_t *d = pbrt_parse_string(dark, strlen(dark), "t.pbrt", &err);
+    assert_non_null(d);
+    scene_t *s = scene_load(d, NULL, &err);
+    assert_non_null(s);
+    assert_int_equal(warnings_count(s->warnings), 1);
+    assert_string_equal(warnings_at(s->warnings, 0),
+                        "t.pbrt:1:1: the scene has no light source: the image will be black");
+    scene_destroy(&s);
+    scene_desc_destroy(&d);
+    const char *lit = "WorldBegin\nLightSource \"point\"\nShape \"sphere\"\n";
+    d = pbrt_parse_string(lit, strlen(lit), "t.pbrt", &err);
+    s = scene_load(d, NULL, &err);
+    assert_non_null(s);
+    assert_int_equal(warnings_count(s->warnings), 0);
+    scene_destroy(&s);
+    scene_desc_destroy(&d);
+
+    warnings_t *w = warnings_new(&err);
+    pbrt_loc_t at = {"a.pbrt", 3, 7};
+    for (int i = 0; i < 3; i++)
+        assert_int_equal(warnings_add(w, at, "%s is ignored", "x"), 0);
+    assert_int_equal(warnings_count(w), 1);
+    assert_string_equal(warnings_at(w, 0), "a.pbrt:3:7: x is ignored");
+    for (int i = 0; i < WARNINGS_MAX + 5; i++)
+        assert_int_equal(warnings_add(w, at, "line %d", i), 0);
+    assert_int_equal(warnings_count(w), WARNINGS_MAX);
+    assert_int_equal(warnings_dropped(w), 6);
+    warnings_destroy(&w);
+    assert_null(w);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -256,6 +294,7 @@ int main(void)
         cmocka_unit_test(test_imagemap_encodings),
         cmocka_unit_test(test_surface_conventions),
         cmocka_unit_test(test_integrator_options),
+        cmocka_unit_test(test_warnings),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
