@@ -98,22 +98,33 @@ static void test_tile_blob_round_trip(void **state)
     free(blob);
 
     /* Sums that are float values (tilebuf_round_sums's output, as a float32 RESULT brings them)
-     * are kept as float32: a 44-byte header, 4 bytes a sum, 24 a pixel for counts, lum and
-     * lum_sq; they come back as the same doubles. One double among them keeps all at 8 bytes. */
+     * are kept as float32 with the XYZ sums: a 44-byte header, 4 bytes a sum (nb + 3 a pixel),
+     * 24 a pixel for counts, lum and lum_sq; they come back as the same doubles. One double
+     * among them keeps all at 8 bytes. */
+    for (int i = 0; i < W * H * TILEBUF_XYZ; i++)
+        xyz[i] = (double)(float)(0.3 * i + 0.01);
     for (int i = 0; i < W * H * NB; i++)
         sums[i] = (double)(float)(0.1 * i - 0.7);
     sums[3] = -0.0;
     sums[4] = 0x1.fffffep127; /* FLT_MAX */
     assert_int_equal(journal_pack_tile(&t, &blob, &size, &err), 0);
-    assert_int_equal(size, 44 + W * H * NB * 4 + W * H * 24);
+    assert_int_equal(size, 44 + W * H * (NB + TILEBUF_XYZ) * 4 + W * H * 24);
     tb = journal_unpack_tile(blob, size, &sb, &se, &err);
     assert_non_null(tb);
     assert_memory_equal(tilebuf_sums(tb), sums, sizeof sums);
+    assert_memory_equal(tilebuf_xyz_sums(tb), xyz, sizeof xyz);
     assert_memory_equal(tilebuf_luminance_sq_sums(tb), lum_sq, sizeof lum_sq);
     assert_int_equal(tilebuf_nonfinite(tb), 5);
     tilebuf_destroy(&tb);
     assert_null(journal_unpack_tile(blob, size - 1, &sb, &se, &err));
     assert_non_null(strstr(err.msg, "cut short"));
+    /* A blob of journal version 4 (no XYZ sums, magic "PFTK") is refused by name. */
+    uint32_t old_magic = 0x4b544650u, magic;
+    memcpy(&magic, blob, 4);
+    memcpy(blob, &old_magic, 4);
+    assert_null(journal_unpack_tile(blob, size, &sb, &se, &err));
+    assert_non_null(strstr(err.msg, "version 4 (no XYZ sums)"));
+    memcpy(blob, &magic, 4);
     uint32_t bits = 48; /* the width field, after magic and seven header words */
     memcpy(blob + 32, &bits, 4);
     assert_null(journal_unpack_tile(blob, size, &sb, &se, &err));
@@ -121,7 +132,7 @@ static void test_tile_blob_round_trip(void **state)
     free(blob);
     sums[4] = 1e-39; /* below float's normal range: a double */
     assert_int_equal(journal_pack_tile(&t, &blob, &size, &err), 0);
-    assert_int_equal(size, 44 + W * H * NB * 8 + W * H * 24);
+    assert_int_equal(size, 44 + W * H * (NB + TILEBUF_XYZ) * 8 + W * H * 24);
     tb = journal_unpack_tile(blob, size, &sb, &se, &err);
     assert_non_null(tb);
     assert_memory_equal(tilebuf_sums(tb), sums, sizeof sums);

@@ -788,12 +788,12 @@ static void test_bad_peers(void **state)
         proto_msg_free(&r);
         /* protocol.md: a peer of another version is refused with this exact text. */
         proto_msg_t hello = {.type = PROTO_HELLO,
-                             .version = 3,
+                             .version = 4,
                              .hello = {.name = "future", .threads = 1, .software = "prismfarm 9"}};
         send_msg(n, &hello);
         expect_type(n, PROTO_REFUSE, &r);
         assert_string_equal(r.refuse.reason,
-                            "protocol version 3 not supported by this master (speaks 2)");
+                            "protocol version 4 not supported by this master (speaks 3)");
         proto_msg_free(&r);
         net_destroy(&n);
     }

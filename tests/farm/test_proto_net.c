@@ -128,22 +128,22 @@ static void test_refusal_and_malformed_frames(void **state)
     proto_msg_t got;
     err_t err = {""};
 
-    /* A peer speaking version 3 is refused, and can read why. */
+    /* A peer speaking version 4 is refused, and can read why. */
     proto_msg_t hello = {.type = PROTO_HELLO,
-                         .version = 3,
+                         .version = 4,
                          .hello = {.name = "future", .threads = 1, .software = "9.0"}};
     send_ok(p.dealer, NULL, &hello);
     assert_int_equal(net_recv(p.router, &from, &got, WAIT_MS, &err), PROTO_EVERSION);
     char who[PROTO_PEER_STR];
     assert_string_equal(proto_peer_str(&from, who), "w2");
-    assert_int_equal(got.version, 3);
+    assert_int_equal(got.version, 4);
     err_t text;
     proto_msg_t refuse = proto_refuse_version(got.version, "master", &text);
     send_ok(p.router, &from, &refuse);
     recv_ok(p.dealer, NULL, &got);
     assert_int_equal(got.type, PROTO_REFUSE);
     assert_string_equal(got.refuse.reason,
-                        "protocol version 3 not supported by this master (speaks 2)");
+                        "protocol version 4 not supported by this master (speaks 3)");
     proto_msg_free(&got);
 
     /* Garbage bytes: an error naming the sender; the socket stays usable. */
