@@ -321,23 +321,41 @@ static int sides_agree(const void *arg, vec3_t wi)
     return zs * zg > 0.0;
 }
 
-/* The pdf a BSDF-sampled direction had, from the lanes' own pdfs: their mean when the lobe
- * was chosen by a uniformly random lane (spectral MIS: sampling from the mixture of the
- * lanes' lobes), the hero's alone when lane 0 sampled. */
-static double lanes_pdf(const double *pdf, int n, int mixture)
+/* The pdf a BSDF-sampled direction had, from the lanes' own pdfs: with spectral MIS the lane
+ * whose lobe samples is chosen with probability sel[k], so the direction's density is the
+ * mixture sum_k sel[k] pdf_k (one-sample MIS, balance heuristic); without it (sel NULL) lane 0
+ * sampled alone. */
+static double lanes_pdf(const double *pdf, const double *sel, int n)
 {
-    if (!mixture)
+    if (!sel)
         return pdf[0];
     double sum = 0.0;
     for (int j = 0; j < n; j++)
-        sum += pdf[j];
-    return sum / n;
+        sum += sel[j] * pdf[j];
+    return sum;
+}
+
+/* The lanes' selection probabilities for spectral MIS: in proportion to their throughput, so
+ * that a lane that carries nothing (a secondary that an earlier dispersive event left with no
+ * weight) is never the one that samples, and a path whose lanes have separated keeps
+ * following the lane that carries it. Any choice made before the sample keeps the mixture
+ * estimator unbiased. Returns 0 when no lane carries anything. */
+static int lanes_select(const path_t *p, double *sel)
+{
+    double sum = 0.0;
+    for (int j = 0; j < p->n; j++)
+        sum += sel[j] = p->beta[j] > 0.0 ? p->beta[j] : 0.0;
+    if (!(sum > 0.0) || !isfinite(sum))
+        return 0;
+    for (int j = 0; j < p->n; j++)
+        sel[j] /= sum;
+    return 1;
 }
 
 /* Next-event estimation at a surface with a non-delta bsdf b, the lanes weighted by MIS
  * against the BSDF sampling that lanes_pdf describes. */
 static void direct_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, const bsdf_t *b,
-                              const shading_frame_t *fr, vec3_t wo_local, int mixture)
+                              const shading_frame_t *fr, vec3_t wo_local, const double *sel)
 {
     light_sample_t ls;
     const sides_t sd = {fr, sf->ng};
@@ -349,7 +367,7 @@ static void direct_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, co
     double w = 1.0;
     if (!ls.is_delta && c->rs->integrator == INTEGRATOR_PATH) {
         bsdf_pdf(b, wo_local, wi, &c->rng, pdf);
-        w = power_heuristic(ls.pdf, lanes_pdf(pdf, p->n, mixture));
+        w = power_heuristic(ls.pdf, lanes_pdf(pdf, sel, p->n));
     }
     const double cos_i = fabs(wi.z);
     for (int j = 0; j < p->n; j++) {
@@ -611,10 +629,11 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
  * 1 when it ends.
  *
  * Lanes: the direction is sampled from one lane's lobe. With spectral MIS (the default) that
- * lane is chosen uniformly at random, so the direction's density is the mixture of the
- * lanes' densities, mean_k pdf_k(wi), and lane j is weighted f_j |cos| / mean_k pdf_k: every
- * lane keeps a bounded weight even where the lobes differ (a rough dispersive dielectric
- * refracts each wavelength into its own lobe), instead of ending. With "spectralmis" false,
+ * lane is chosen at random in proportion to the lanes' throughputs (lanes_select), so the
+ * direction's density is the mixture sum_k sel_k pdf_k(wi) of the lanes' densities, and lane j
+ * is weighted f_j |cos| / sum_k sel_k pdf_k: every lane keeps a bounded weight even where the
+ * lobes differ (a rough dispersive dielectric refracts each wavelength into its own lobe),
+ * instead of ending. With "spectralmis" false,
  * a surface whose lobes differ ends the secondary lanes as pbrt-v4 does (the hero, lane 0,
  * carries n times its weight). Lanes whose lobes agree give the same numbers either way. */
 static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material_t *m)
@@ -631,17 +650,29 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
      * dispersive coat ends the secondaries as pbrt-v4 does. */
     const int layered = b.kind == BSDF_COATED_DIFFUSE || b.kind == BSDF_COATED_CONDUCTOR;
     const int terminate = (!c->rs->spectral_mis || layered) && p->n > 1 && bsdf_lanes_disperse(&b);
-    const int mixture = !terminate && !layered && p->n > 1;
+    double sel_lanes[LANES];
+    const double *sel = NULL;
+    if (!terminate && !layered && p->n > 1) {
+        if (!lanes_select(p, sel_lanes))
+            return 1;
+        sel = sel_lanes;
+    }
     const int delta = bsdf_is_specular(&b);
     if (!delta && c->rs->integrator != INTEGRATOR_SIMPLEPATH)
-        direct_light_bsdf(c, p, sf, &b, &fr, wo, mixture);
+        direct_light_bsdf(c, p, sf, &b, &fr, wo, sel);
     if (!delta && c->rs->integrator == INTEGRATOR_WHITTED)
         return 1;
     int hero = 0;
-    if (mixture) {
-        hero = (int)(next(c) * p->n);
-        if (hero >= p->n)
-            hero = p->n - 1;
+    if (sel) {
+        double u = next(c), acc = 0.0;
+        hero = p->n - 1;
+        for (int j = 0; j < p->n; j++)
+            if (u < (acc += sel[j]) && sel[j] > 0.0) {
+                hero = j;
+                break;
+            }
+        while (hero > 0 && !(sel[hero] > 0.0))
+            hero--;
     }
     double uc = next(c), u1 = next(c), u2 = next(c);
     bsdf_sample_t bs;
@@ -652,7 +683,7 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
     if (!sides_agree(&sd, wi))
         return 1;
     const double cos_i = fabs(bs.wi.z);
-    double pdf = lanes_pdf(bs.pdf, p->n, mixture);
+    double pdf = lanes_pdf(bs.pdf, sel, p->n);
     if (!(pdf > 0.0))
         return 1;
     const int specular = (bs.flags & BSDF_SPECULAR) != 0;
