@@ -143,7 +143,16 @@ shading_frame_t shading_frame_make(const surface_t *sf, vec3_t wo)
 {
     shading_frame_t f;
     f.z = vec3_dot(wo, sf->ns) * vec3_dot(wo, sf->ng) > 0.0 ? sf->ns : sf->ng;
-    vec3_basis(f.z, &f.x, &f.y);
+    /* x along dp/du (pbrt-v4's shading frame: "uroughness" is along u), made orthogonal to
+     * z; any tangent where dp/du is undefined or along the normal. */
+    vec3_t t = vec3_sub(sf->dpdu, vec3_scale(f.z, vec3_dot(f.z, sf->dpdu)));
+    double len = vec3_length(t);
+    if (len > 1e-9 * (vec3_length(sf->dpdu) + 1e-300) && isfinite(len) && len > 0.0) {
+        f.x = vec3_scale(t, 1.0 / len);
+        f.y = vec3_cross(f.z, f.x);
+    } else {
+        vec3_basis(f.z, &f.x, &f.y);
+    }
     return f;
 }
 

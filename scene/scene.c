@@ -396,19 +396,44 @@ void scene_surface(const scene_t *self, const hit_t *h, surface_t *out)
     out->smooth = 0;
     out->u = h->u;
     out->v = h->v;
-    if (s->kind != SHAPE_MESH)
+    out->dpdu = vec3_make(0, 0, 0);
+    const transform_t *inst = h->instance != GEOMETRY_NO_INSTANCE && h->instance < self->ninstances
+                                  ? &self->instances[h->instance].to_world
+                                  : NULL;
+    if (s->kind != SHAPE_MESH) {
+        /* Spheres and disks: phi runs counterclockwise about the shape's z axis, so dp/du is
+         * (-y, x, 0) in its own space. */
+        transform_t to_world = inst ? transform_compose(*inst, s->to_world) : s->to_world;
+        if (!to_world.singular) {
+            transform_t from_world = transform_inverse(to_world);
+            vec3_t q = transform_point(&from_world, h->p);
+            out->dpdu = transform_vector(&to_world, vec3_make(-q.y, q.x, 0.0));
+        }
         return;
+    }
     const uint32_t *ix = s->indices + 3 * (size_t)h->prim;
-    if (s->uvs) {
-        const double *t0 = s->uvs + 2 * (size_t)ix[0], *t1 = s->uvs + 2 * (size_t)ix[1],
-                     *t2 = s->uvs + 2 * (size_t)ix[2];
-        double b0 = 1.0 - h->u - h->v;
-        out->u = b0 * t0[0] + h->u * t1[0] + h->v * t2[0];
-        out->v = b0 * t0[1] + h->u * t1[1] + h->v * t2[1];
-    } else {
-        /* pbrt-v4 Triangle: without "uv" the vertices have (0,0), (1,0), (1,1). */
-        out->u = h->u + h->v;
-        out->v = h->v;
+    double t[3][2] = {{0, 0}, {1, 0}, {1, 1}}; /* pbrt-v4 Triangle: the uvs without "uv" */
+    if (s->uvs)
+        for (int k = 0; k < 3; k++) {
+            t[k][0] = s->uvs[2 * (size_t)ix[k]];
+            t[k][1] = s->uvs[2 * (size_t)ix[k] + 1];
+        }
+    double b0 = 1.0 - h->u - h->v;
+    out->u = b0 * t[0][0] + h->u * t[1][0] + h->v * t[2][0];
+    out->v = b0 * t[0][1] + h->u * t[1][1] + h->v * t[2][1];
+    {
+        /* pbrt-v4 Triangle::InteractionFromIntersection: dp/du from the uv differences. */
+        const double *p0 = s->positions + 3 * (size_t)ix[0], *p1 = s->positions + 3 * (size_t)ix[1],
+                     *p2 = s->positions + 3 * (size_t)ix[2];
+        double du02 = t[0][0] - t[2][0], dv02 = t[0][1] - t[2][1];
+        double du12 = t[1][0] - t[2][0], dv12 = t[1][1] - t[2][1];
+        double det = du02 * dv12 - dv02 * du12;
+        if (fabs(det) > 1e-12) {
+            vec3_t dp02 = vec3_make(p0[0] - p2[0], p0[1] - p2[1], p0[2] - p2[2]);
+            vec3_t dp12 = vec3_make(p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2]);
+            vec3_t d = vec3_scale(vec3_sub(vec3_scale(dp02, dv12), vec3_scale(dp12, dv02)), 1.0 / det);
+            out->dpdu = inst ? transform_vector(inst, d) : d;
+        }
     }
     if (!s->normals)
         return;

@@ -136,6 +136,10 @@ typedef struct surface {
     vec3_t ns;
     int smooth;  /* ns comes from vertex normals */
     double u, v; /* texture coordinates (pbrt-v4's defaults where a mesh has no uv) */
+    /* World-space dp/du, not normalised (pbrt-v4's: a sphere's or disk's phi direction, a
+     * triangle's from its uv): the direction of "uroughness". The zero vector where it is
+     * undefined (a degenerate uv mapping, a sphere's pole). */
+    vec3_t dpdu;
 } surface_t;
 
 typedef struct camera {

@@ -18,6 +18,7 @@
 #include <string.h>
 
 #include "scene_builders.h"
+#include "shading.h"
 
 #define RES 12
 
@@ -202,6 +203,35 @@ static void test_rough_dispersion_agrees(void **state)
     }
 }
 
+/* The shading frame's x axis follows dp/du, so "uroughness" is the roughness along u as in
+ * pbrt-v4: on a quad whose u runs along world z, and on a sphere at (1, 0, 0) of its own space
+ * (phi runs about z: dp/du along +y there), here turned by a Rotate. */
+static void test_frame_follows_u(void **state)
+{
+    (void)state;
+    scene_t *s = sb_load_text("WorldBegin\nLightSource \"point\"\n"
+                              "Shape \"trianglemesh\" \"point3 P\" [ -1 0 -1  -1 0 1  1 0 1  1 0 -1 ]\n"
+                              "  \"integer indices\" [ 0 1 2  0 2 3 ] \"point2 uv\" [ 0 0  1 0  1 1  0 1 ]\n"
+                              "AttributeBegin\n  Translate 0 5 0\n  Rotate 90 1 0 0\n"
+                              "  Shape \"sphere\" \"float radius\" [ 1 ]\nAttributeEnd\n",
+                              NULL);
+    hit_t h;
+    surface_t sf;
+    assert_true(geometry_intersect(s->geometry, vec3_make(0.2, 2, 0.3), vec3_make(0, -1, 0), 0, INFINITY, &h));
+    scene_surface(s, &h, &sf);
+    shading_frame_t f = shading_frame_make(&sf, vec3_make(0, 1, 0));
+    if (!(fabs(fabs(f.x.z) - 1.0) < 1e-9))
+        fail_msg("quad: frame x (%g %g %g), expected along z", f.x.x, f.x.y, f.x.z);
+    assert_true(fabs(vec3_dot(f.x, f.z)) < 1e-12 && fabs(vec3_dot(f.y, f.z)) < 1e-12);
+    /* Rotate 90 about x takes the sphere's own +y to world +z; its point (1, 0, 0) stays. */
+    assert_true(geometry_intersect(s->geometry, vec3_make(3, 5, 0), vec3_make(-1, 0, 0), 0, INFINITY, &h));
+    scene_surface(s, &h, &sf);
+    f = shading_frame_make(&sf, vec3_make(1, 0, 0));
+    if (!(fabs(f.x.z - 1.0) < 1e-6))
+        fail_msg("sphere: frame x (%g %g %g), expected +z", f.x.x, f.x.y, f.x.z);
+    scene_destroy(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -210,6 +240,7 @@ int main(void)
         cmocka_unit_test(test_furnace_transmission),
         cmocka_unit_test(test_furnace_coated),
         cmocka_unit_test(test_rough_dispersion_agrees),
+        cmocka_unit_test(test_frame_follows_u),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
