@@ -846,6 +846,19 @@ static int decide_splitting(plan_t *p, const scene_t *s)
                  ". A refraction there sends each wavelength its own way, so a path's "
                  "wavelengths split (hero: the secondaries end; fan-out: %d monochrome rays).",
                  g.n);
+        int nrough = 0;
+        for (size_t i = 0; i < s->nmaterials; i++)
+            nrough += s->materials[i].dispersive &&
+                      (s->materials[i].rough || s->materials[i].uroughness || s->materials[i].vroughness);
+        if (nrough > 0)
+            text_add(&r,
+                     " %d of them %s rough: there each wavelength has its own refraction lobe, "
+                     "and %s.",
+                     nrough, nrough > 1 ? "are" : "is",
+                     s->settings.spectral_mis
+                         ? "spectral MIS keeps the 4 hero wavelengths, each weighted by its own lobe "
+                           "(\"bool spectralmis\" true, docs/physics.md §11)"
+                         : "the secondaries end as at smooth glass (\"bool spectralmis\" false)");
         if (nconst > 0) {
             text_add(&r, " Constant-index glass does not split: ");
             k = 0;
