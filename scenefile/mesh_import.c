@@ -1,21 +1,20 @@
 #include "mesh_import.h"
 
 #include "files.h"
+#include "gzip_data.h"
 #include "le_bytes.h"
 
-#include <assimp/cimport.h>
-#include <assimp/postprocess.h>
-#include <assimp/scene.h>
 #include <errno.h>
+#include <fcntl.h>
 #include <float.h>
 #include <math.h>
 #include <stdbool.h>
 #include <stdio.h>
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
 
 void mesh_data_free(mesh_data_t *mesh)
 {
@@ -29,37 +28,25 @@ void mesh_data_free(mesh_data_t *mesh)
 }
 
 /* ------------------------------------------------------------------------------------------
- * PLY structure check. assimp 5.2 (code/AssetLib/Ply) trusts the file:
- *  - it sizes arrays from the header's element counts (new aiVector3D[count] at the first
- *    vertex) and each list from its length field (avList.resize(n)) before reading a value:
- *    a 200-byte file declaring 2^31 vertices asks for 24 GiB, one declaring 2^27 holds
- *    1.5 GiB and loops 20 s over lines that are not there (measured);
- *  - a face with no vertex index (an empty list) trips an ai_assert in its triangulation that
- *    aborts the process (Debian builds assimp with assertions; found by test_pbrt_parser's PLY
- *    mutations), and a face element with texture coordinates but no index list crashes it;
- *  - triangulating a quad or polygon reads the positions of its indices before anything
- *    checks them (a quad with index 900000000 crashes it), and per-face texture coordinates
- *    are stored through the face's indices;
- *  - a comment or "obj_info" line among an element's properties, or a control character in a
- *    header line, makes it read another header than the one written, and so another layout;
- *  - reals beyond a float's range become infinite positions (it keeps floats);
- *  - its triangulation step asserts (abort) on faces it miscounts, which fuzzed headers with
- *    odd elements beside vertex and face still reached: so it is not used, and fill() splits
- *    polygons itself.
- * So the whole file is walked first, the way assimp reads it, and only this profile passes:
- * every count backed by bytes (a binary instance takes at least the sizes of its scalars and
- * list lengths, an ascii instance is one line with at least one character and one separator
- * per property, a list of n values needs n values); every real finite and within a float's
- * range; one "vertex" element of scalars; one "face" element, after it, with one integer list "vertex_indices" (or "vertex_index") of at
- * least 3 indices below the vertex count and, if any, one list "texcoord" of two values per
- * index; no "tristrips". The grammar is stricter than assimp's (exact tokens, numbers spelt as
- * its readers strtoul10, strtol10 and fast_atoreal consume them whole), so that both read the
- * same counts.
+ * PLY (Turk's format as pbrt-v4 reads it through rply, src/pbrt/util/mesh.cpp): a header of
+ * elements, each a count and a list of scalar or list properties, then the instances in
+ * ascii, binary_little_endian or binary_big_endian. From "vertex" the reader takes x y z, nx
+ * ny nz (when all three are there) and texture coordinates u v (or s t, texture_u texture_v,
+ * texture_s texture_t), of any scalar type and in any order; from "face" the list
+ * vertex_indices (or vertex_index) of any count and index type: triangles as they are, quads
+ * and larger polygons as a fan (0, k, k+1), which keeps the winding. Every other element and
+ * property (colours, face_indices, texcoord lists, comments, obj_info) is read past. The file
+ * is never trusted: an element's count must be backed by the bytes left before anything is
+ * allocated for it (a binary instance takes at least the sizes of its scalars and list
+ * lengths, an ascii one a character and a separator per property), a list by its own bytes,
+ * every index must name a vertex, and kept values must be finite.
  * ------------------------------------------------------------------------------------------ */
 
 enum { PLY_UNSIGNED, PLY_SIGNED, PLY_REAL };
-enum { ROLE_OTHER, ROLE_VERTEX, ROLE_FACE };       /* elements */
-enum { ROLE_VALUES, ROLE_INDICES, ROLE_TEXCOORD }; /* face properties */
+enum { ROLE_OTHER, ROLE_VERTEX, ROLE_FACE }; /* elements */
+/* properties: vertex slots 0..7 (x y z nx ny nz u v), or one of these */
+enum { SLOT_NONE = -1, ROLE_INDICES = 100 };
+enum { NSLOTS = 8 };
 
 typedef struct ply_type {
     unsigned char size, kind;
@@ -87,6 +74,7 @@ typedef struct ply_header {
     size_t body;   /* offset of the first byte after end_header's line */
     int body_line; /* line number of the first body line (ascii) */
     uint64_t nvertices;
+    bool slot[NSLOTS]; /* which vertex slots the header declares */
 } ply_header_t;
 
 /* One line of the buffer from *pos (without its '\n' and a '\r' before it); false at the
@@ -105,7 +93,7 @@ static bool ply_line(const char *d, size_t len, size_t *pos, const char **line, 
     return true;
 }
 
-/* The next token of a line (separated by spaces and tabs, as assimp's SkipSpaces); false at
+/* The next token of a line (separated by spaces and tabs); false at
  * the end of the line. */
 static bool ply_token(const char **p, const char *end, const char **tok, size_t *n)
 {
@@ -151,9 +139,9 @@ static bool is_digit(char c)
     return c >= '0' && c <= '9';
 }
 
-/* Whether the whole token is a number as assimp reads it for the type: strtoul10 (digits),
- * strtol10 (an optional sign, digits) or fast_atoreal (sign, digits with a point, exponent;
- * its "nan", "inf" and decimal comma are refused here). */
+/* Whether the whole token is a number of the type: digits, an optional sign and digits, or
+ * a decimal with an optional point and exponent ("nan", "inf" and a decimal comma are
+ * refused, so a value never reads as something else). */
 static bool ply_number_ok(const char *s, size_t n, int kind)
 {
     size_t i = 0;
@@ -191,7 +179,7 @@ static bool ply_number_ok(const char *s, size_t n, int kind)
 }
 
 /* A decimal count ("element vertex 8", an ascii list length or vertex index): digits, at
- * most UINT32_MAX (assimp keeps counts in unsigned int; a larger one would wrap there), with
+ * most UINT32_MAX (the mesh keeps indices in 32 bits), with
  * a sign when sign_ok. Returns 1, or -1 for a negative value, 0 for anything else. */
 static int ply_count(const char *s, size_t n, bool sign_ok, uint64_t *out)
 {
@@ -251,6 +239,22 @@ static int ply_add_prop(ply_header_t *h, ply_prop_t p)
     return 0;
 }
 
+/* The vertex slot a property name fills (pbrt-v4 mesh.cpp's names), or SLOT_NONE. */
+static int ply_vertex_slot(const char *s, size_t n)
+{
+    static const struct {
+        const char *name;
+        int slot;
+    } NAMES[] = {{"x", 0},         {"y", 1},         {"z", 2},         {"nx", 3},
+                 {"ny", 4},        {"nz", 5},        {"u", 6},         {"s", 6},
+                 {"texture_u", 6}, {"texture_s", 6}, {"v", 7},         {"t", 7},
+                 {"texture_v", 7}, {"texture_t", 7}};
+    for (size_t i = 0; i < sizeof NAMES / sizeof NAMES[0]; i++)
+        if (tok_is(s, n, NAMES[i].name))
+            return NAMES[i].slot;
+    return SLOT_NONE;
+}
+
 static int ply_parse_header(const char *d, size_t len, const char *name, ply_header_t *h,
                             err_t *err)
 {
@@ -258,15 +262,12 @@ static int ply_parse_header(const char *d, size_t len, const char *name, ply_hea
     size_t pos = 0;
     const char *line, *tok, *end;
     size_t n, tn;
-    bool cr, any_cr = false;
-    int lineno = 0, aside = 0; /* aside: the first of the comment lines just read */
+    bool cr;
+    int lineno = 0;
     while (ply_line(d, limit, &pos, &line, &n, &cr)) {
         lineno++;
-        any_cr = any_cr || cr;
         const char *p = line;
         end = line + n;
-        /* assimp ends a header line at a NUL, '\f' or '\r' too: such bytes would make it read
-         * another header than this one. */
         for (size_t i = 0; i < n; i++)
             if ((unsigned char)line[i] < 0x20 && line[i] != '\t')
                 return err_set(err, "\"%s\": line %d of the PLY header holds a control character",
@@ -279,10 +280,12 @@ static int ply_parse_header(const char *d, size_t len, const char *name, ply_hea
         }
         if (!ply_token(&p, end, &tok, &tn))
             return err_set(err, "\"%s\": line %d of the PLY header is empty", name, lineno);
-        if (lineno == 2) {
+        if (tok_is(tok, tn, "comment") || tok_is(tok, tn, "obj_info"))
+            continue;
+        if (lineno == 2 || tok_is(tok, tn, "format")) {
             const char *fmt, *version;
             size_t fn, vn;
-            if (!tok_is(tok, tn, "format") || !ply_token(&p, end, &fmt, &fn) ||
+            if (lineno != 2 || !tok_is(tok, tn, "format") || !ply_token(&p, end, &fmt, &fn) ||
                 !ply_token(&p, end, &version, &vn) || !tok_is(version, vn, "1.0") ||
                 ply_token(&p, end, &tok, &tn))
                 return err_set(err,
@@ -300,30 +303,9 @@ static int ply_parse_header(const char *d, size_t len, const char *name, ply_hea
                                (int)(fn < 40 ? fn : 40), fmt);
             continue;
         }
-        /* assimp 5.2.5 ends an element's property list at a comment or obj_info line and
-         * drops the properties after it (so another layout): such lines may stand before the
-         * elements and after an element's last property only. */
-        if (tok_is(tok, tn, "comment") || tok_is(tok, tn, "obj_info")) {
-            if (!aside)
-                aside = lineno;
-            continue;
-        }
-        if (aside && tok_is(tok, tn, "property"))
-            return err_set(err,
-                           "\"%s\": line %d: a comment or obj_info line may not stand among an "
-                           "element's properties",
-                           name, aside);
-        aside = 0;
         if (tok_is(tok, tn, "end_header")) {
             if (ply_token(&p, end, &tok, &tn))
                 return err_set(err, "\"%s\": line %d: text after end_header", name, lineno);
-            /* A binary body starts right after "end_header\n"; assimp reads a '\r' there as
-             * the end of the line and would start one byte early. */
-            if (h->format != PLY_ASCII && any_cr)
-                return err_set(err,
-                               "\"%s\": a binary PLY header must end its lines with \\n "
-                               "alone",
-                               name);
             h->body = pos;
             h->body_line = lineno + 1;
             return 0;
@@ -367,10 +349,19 @@ static int ply_parse_header(const char *d, size_t len, const char *name, ply_hea
                                "\"%s\": line %d must be \"property <type> <name>\" or "
                                "\"property list <integer type> <type> <name>\"",
                                name, lineno);
-            pr.role = tok_is(pn, pnn, "vertex_indices") || tok_is(pn, pnn, "vertex_index")
-                          ? ROLE_INDICES
-                      : tok_is(pn, pnn, "texcoord") ? ROLE_TEXCOORD
-                                                    : ROLE_VALUES;
+            int role = h->elements[h->nelements - 1].role;
+            pr.role = SLOT_NONE;
+            if (role == ROLE_VERTEX) {
+                pr.role = ply_vertex_slot(pn, pnn);
+                if (pr.role != SLOT_NONE && pr.list)
+                    return err_set(err,
+                                   "\"%s\": line %d: vertex property \"%.*s\" must be a single "
+                                   "value, not a list",
+                                   name, lineno, (int)(pnn < 40 ? pnn : 40), pn);
+            } else if (role == ROLE_FACE &&
+                       (tok_is(pn, pnn, "vertex_indices") || tok_is(pn, pnn, "vertex_index"))) {
+                pr.role = ROLE_INDICES;
+            }
             if (ply_add_prop(h, pr) != 0)
                 return err_set(err, "\"%s\": out of memory", name);
             continue;
@@ -383,7 +374,8 @@ static int ply_parse_header(const char *d, size_t len, const char *name, ply_hea
     return err_set(err, "\"%s\": no end_header in the first %zu bytes", name, limit);
 }
 
-/* The profile of the elements (see the top of this section). */
+/* The elements pbrt-v4 needs: one vertex element with x y z, one face element after it with
+ * one integer index list. */
 static int ply_check_elements(ply_header_t *h, const char *name, err_t *err)
 {
     const ply_element_t *vertex = NULL, *face = NULL;
@@ -399,31 +391,32 @@ static int ply_check_elements(ply_header_t *h, const char *name, err_t *err)
                 return err_set(err, "\"%s\": element vertex is declared twice", name);
             vertex = e;
             h->nvertices = e->count;
-            for (size_t j = 0; j < e->nprops; j++)
-                if (props[j].list)
-                    return err_set(err,
-                                   "\"%s\": vertex properties must be single values, not "
-                                   "lists",
-                                   name);
+            for (size_t j = 0; j < e->nprops; j++) {
+                int s = props[j].role;
+                if (s != SLOT_NONE) {
+                    if (h->slot[s])
+                        return err_set(err, "\"%s\": vertex property %d of the header repeats a "
+                                            "coordinate", name, (int)j + 1);
+                    h->slot[s] = true;
+                }
+            }
+            if (!h->slot[0] || !h->slot[1] || !h->slot[2])
+                return err_set(err, "\"%s\": element vertex needs properties x, y and z", name);
         } else if (e->role == ROLE_FACE) {
             if (face)
                 return err_set(err, "\"%s\": element face is declared twice", name);
             if (!vertex)
                 return err_set(err, "\"%s\": element face comes before element vertex", name);
             face = e;
-            int nindices = 0, ntexcoords = 0;
+            int nindices = 0;
             for (size_t j = 0; j < e->nprops; j++) {
                 nindices += props[j].role == ROLE_INDICES;
-                ntexcoords += props[j].role == ROLE_TEXCOORD && props[j].list;
                 if (props[j].role == ROLE_INDICES &&
                     (!props[j].list || props[j].item.kind == PLY_REAL))
                     return err_set(err, "\"%s\": vertex_indices must be a list of integers", name);
             }
-            if (nindices != 1 || ntexcoords > 1)
-                return err_set(err,
-                               "\"%s\": element face needs one vertex_indices list (and at "
-                               "most one texcoord list)",
-                               name);
+            if (nindices != 1)
+                return err_set(err, "\"%s\": element face needs one vertex_indices list", name);
         }
         if (e->count > 0 && e->nprops == 0)
             return err_set(err, "\"%s\": PLY element \"%s\" has instances but no properties", name,
@@ -442,54 +435,62 @@ static int ply_check_count(const ply_element_t *e, size_t min, size_t left, size
     if (e->count > 0 && e->count > (left + slack) / min)
         return err_set(err,
                        "\"%s\": PLY element \"%s\" declares %llu instances but only %zu bytes "
-                       "of the file are left for them",
+                       "of the file are left for them (the file is truncated)",
                        name, e->name, (unsigned long long)e->count, left);
     return 0;
 }
 
-/* One face, once its lists are read: at least 3 indices, two texture coordinates per index. */
-static int ply_check_face(uint64_t i, uint64_t nindices, bool has_tc, uint64_t ntc,
-                          const char *name, err_t *err)
-{
-    if (nindices < 3)
-        return err_set(err,
-                       "\"%s\": face %llu has %llu vertices (points and lines are not "
-                       "surfaces)",
-                       name, (unsigned long long)i, (unsigned long long)nindices);
-    if (has_tc && ntc != 2 * nindices)
-        return err_set(err,
-                       "\"%s\": face %llu has %llu texture coordinates for %llu vertices (two "
-                       "per vertex)",
-                       name, (unsigned long long)i, (unsigned long long)ntc,
-                       (unsigned long long)nindices);
-    return 0;
-}
+/* What the reader builds: the vertex slots and the triangles, grown as faces arrive. */
+typedef struct ply_sink {
+    const ply_header_t *h;
+    const char *name;
+    double *slots; /* NSLOTS per vertex */
+    uint32_t *tris;
+    size_t ntris, cap_tris;
+    uint32_t face[4096]; /* the indices of the face being read (a longer one is refused) */
+    size_t nface;
+} ply_sink_t;
 
-static int ply_check_index(const ply_header_t *h, uint64_t i, int sign, uint64_t v,
-                           const char *name, err_t *err)
+static int ply_face_index(ply_sink_t *s, uint64_t i, int sign, uint64_t v, err_t *err)
 {
     if (sign < 0)
-        return err_set(err, "\"%s\": face %llu uses a negative vertex index", name,
+        return err_set(err, "\"%s\": face %llu uses a negative vertex index", s->name,
                        (unsigned long long)i);
-    if (v >= h->nvertices)
-        return err_set(err, "\"%s\": face %llu uses vertex %llu but there are only %llu", name,
+    if (v >= s->h->nvertices)
+        return err_set(err, "\"%s\": face %llu uses vertex %llu but there are only %llu", s->name,
                        (unsigned long long)i, (unsigned long long)v,
-                       (unsigned long long)h->nvertices);
+                       (unsigned long long)s->h->nvertices);
+    if (s->nface == sizeof s->face / sizeof s->face[0])
+        return err_set(err, "\"%s\": face %llu has more than %zu vertices", s->name,
+                       (unsigned long long)i, sizeof s->face / sizeof s->face[0]);
+    s->face[s->nface++] = (uint32_t)v;
     return 0;
 }
 
-/* assimp keeps every PLY number as a float: a real beyond float's range becomes an infinity
- * there, and infinite vertices make its triangulation abort (a fuzzer found it). */
-static bool ply_real_ok(double v)
+/* Ends face i: a triangle as it is, a quad or polygon as the fan (0, k, k+1). */
+static int ply_face_end(ply_sink_t *s, uint64_t i, err_t *err)
 {
-    return isfinite(v) && fabs(v) <= FLT_MAX;
-}
-
-static int ply_real_error(const char *name, const char *element, uint64_t i, err_t *err)
-{
-    return err_set(err, "\"%s\": %s %llu has a number that is not finite or beyond a float's "
-                        "range (3.4e38)",
-                   name, element, (unsigned long long)i);
+    size_t n = s->nface;
+    s->nface = 0;
+    if (n < 3)
+        return err_set(err, "\"%s\": face %llu has %zu vertices (points and lines are not surfaces)",
+                       s->name, (unsigned long long)i, n);
+    if (s->ntris + (n - 2) > s->cap_tris) {
+        size_t cap = s->cap_tris ? 2 * s->cap_tris : 1024;
+        while (cap < s->ntris + (n - 2))
+            cap *= 2;
+        uint32_t *t = realloc(s->tris, cap * 3 * sizeof *t);
+        if (!t)
+            return err_set(err, "\"%s\": out of memory for %zu triangles", s->name, cap);
+        s->tris = t;
+        s->cap_tris = cap;
+    }
+    for (size_t k = 1; k + 1 < n; k++, s->ntris++) {
+        s->tris[3 * s->ntris] = s->face[0];
+        s->tris[3 * s->ntris + 1] = s->face[k];
+        s->tris[3 * s->ntris + 2] = s->face[k + 1];
+    }
+    return 0;
 }
 
 /* A binary float or double at b. */
@@ -511,9 +512,22 @@ static uint64_t ply_read_int(const unsigned char *b, ply_type_t t, bool big, boo
     return v;
 }
 
-static int ply_check_binary(const ply_header_t *h, const char *d, size_t len, const char *name,
-                            err_t *err)
+/* A binary scalar as a double (integers by value, with their sign). */
+static double ply_read_value(const unsigned char *b, ply_type_t t, bool big)
 {
+    if (t.kind == PLY_REAL)
+        return ply_read_real(b, t, big);
+    bool negative;
+    uint64_t v = ply_read_int(b, t, big, &negative);
+    if (negative)
+        return -(double)((~v + 1) & (t.size == 8 ? ~0ull : ((1ull << (8 * t.size)) - 1)));
+    return (double)v;
+}
+
+static int ply_read_binary(const ply_header_t *h, const char *d, size_t len, ply_sink_t *s,
+                           err_t *err)
+{
+    const char *name = s->name;
     size_t pos = h->body;
     bool big = h->format == PLY_BIG;
     const unsigned char *u = (const unsigned char *)d;
@@ -525,63 +539,53 @@ static int ply_check_binary(const ply_header_t *h, const char *d, size_t len, co
             min += props[j].list ? props[j].count.size : props[j].item.size;
         if (ply_check_count(e, min ? min : 1, len - pos, 0, name, err) != 0)
             return -1;
-        bool face = e->role == ROLE_FACE;
+        bool face = e->role == ROLE_FACE, vertex = e->role == ROLE_VERTEX;
         for (uint64_t i = 0; i < e->count; i++) {
-            uint64_t nindices = 0, ntc = 0;
-            bool has_tc = false;
             for (size_t j = 0; j < e->nprops; j++) {
                 const ply_prop_t *pr = &props[j];
                 size_t size = pr->list ? pr->count.size : pr->item.size;
                 if (size > len - pos)
-                    return err_set(err, "\"%s\": the file ends inside %s %llu", name, e->name,
-                                   (unsigned long long)i);
+                    return err_set(err, "\"%s\": the file ends inside %s %llu (truncated)", name,
+                                   e->name, (unsigned long long)i);
                 if (!pr->list) {
-                    if (pr->item.kind == PLY_REAL && !ply_real_ok(ply_read_real(u + pos, pr->item, big)))
-                        return ply_real_error(name, e->name, i, err);
+                    if (vertex && pr->role != SLOT_NONE)
+                        s->slots[NSLOTS * i + (size_t)pr->role] =
+                            ply_read_value(u + pos, pr->item, big);
                     pos += size;
                     continue;
                 }
                 bool negative;
                 uint64_t n = ply_read_int(u + pos, pr->count, big, &negative);
                 pos += size;
-                /* assimp converts a signed length to unsigned: -1 would be 2^32 - 1. */
                 if (negative)
                     return err_set(err, "\"%s\": %s %llu has a list of negative length", name,
                                    e->name, (unsigned long long)i);
                 if (n > (len - pos) / pr->item.size)
                     return err_set(err,
                                    "\"%s\": %s %llu has a list of %llu values, more than the "
-                                   "%zu bytes left",
+                                   "%zu bytes left (truncated)",
                                    name, e->name, (unsigned long long)i, (unsigned long long)n,
                                    len - pos);
-                if (face && pr->role == ROLE_INDICES) {
-                    nindices = n;
+                if (face && pr->role == ROLE_INDICES)
                     for (uint64_t v = 0; v < n; v++) {
                         uint64_t idx =
                             ply_read_int(u + pos + v * pr->item.size, pr->item, big, &negative);
-                        if (ply_check_index(h, i, negative ? -1 : 1, idx, name, err) != 0)
+                        if (ply_face_index(s, i, negative ? -1 : 1, idx, err) != 0)
                             return -1;
                     }
-                } else if (face && pr->role == ROLE_TEXCOORD) {
-                    has_tc = true;
-                    ntc = n;
-                }
-                if (pr->item.kind == PLY_REAL)
-                    for (uint64_t v = 0; v < n; v++)
-                        if (!ply_real_ok(ply_read_real(u + pos + v * pr->item.size, pr->item, big)))
-                            return ply_real_error(name, e->name, i, err);
                 pos += (size_t)n * pr->item.size;
             }
-            if (face && ply_check_face(i, nindices, has_tc, ntc, name, err) != 0)
+            if (face && ply_face_end(s, i, err) != 0)
                 return -1;
         }
     }
     return 0;
 }
 
-static int ply_check_ascii(const ply_header_t *h, const char *d, size_t len, const char *name,
-                           err_t *err)
+static int ply_read_ascii(const ply_header_t *h, const char *d, size_t len, ply_sink_t *s,
+                          err_t *err)
 {
+    const char *name = s->name;
     size_t pos = h->body;
     int lineno = h->body_line - 1;
     const char *line, *tok;
@@ -594,15 +598,13 @@ static int ply_check_ascii(const ply_header_t *h, const char *d, size_t len, con
          * file's last line may lack its '\n'. */
         if (ply_check_count(e, 2 * e->nprops, len - pos, 1, name, err) != 0)
             return -1;
-        bool face = e->role == ROLE_FACE;
+        bool face = e->role == ROLE_FACE, vertex = e->role == ROLE_VERTEX;
         for (uint64_t i = 0; i < e->count; i++) {
             if (!ply_line(d, len, &pos, &line, &n, &cr))
-                return err_set(err, "\"%s\": the file ends before %s %llu", name, e->name,
-                               (unsigned long long)i);
+                return err_set(err, "\"%s\": the file ends before %s %llu (truncated)", name,
+                               e->name, (unsigned long long)i);
             lineno++;
             const char *p = line, *end = line + n;
-            uint64_t nindices = 0, ntc = 0;
-            bool has_tc = false;
             for (size_t j = 0; j < e->nprops; j++) {
                 const ply_prop_t *pr = &props[j];
                 uint64_t count = 1;
@@ -617,12 +619,6 @@ static int ply_check_ascii(const ply_header_t *h, const char *d, size_t len, con
                                        name, lineno);
                 }
                 bool indices = face && pr->list && pr->role == ROLE_INDICES;
-                if (indices)
-                    nindices = count;
-                if (face && pr->list && pr->role == ROLE_TEXCOORD) {
-                    has_tc = true;
-                    ntc = count;
-                }
                 /* Reading the values one by one stops at the end of the line, so a list is
                  * never longer than its line. */
                 for (uint64_t v = 0; v < count; v++) {
@@ -635,27 +631,28 @@ static int ply_check_ascii(const ply_header_t *h, const char *d, size_t len, con
                                        pr->item.kind == PLY_REAL       ? " decimal"
                                        : pr->item.kind == PLY_UNSIGNED ? " non-negative integer"
                                                                        : "n integer");
-                    if (pr->item.kind == PLY_REAL) {
+                    if (vertex && !pr->list && pr->role != SLOT_NONE) {
                         char num[64];
                         snprintf(num, sizeof num, "%.*s", (int)(tn < 63 ? tn : 63), tok);
-                        if (tn >= 63 || !ply_real_ok(strtod(num, NULL)))
-                            return ply_real_error(name, e->name, i, err);
+                        s->slots[NSLOTS * i + (size_t)pr->role] = tn < 63 ? strtod(num, NULL) : NAN;
                     }
-                    uint64_t idx = 0;
-                    int sign = indices ? ply_count(tok, tn, true, &idx) : 1;
-                    if (indices && sign == 0)
-                        return err_set(err,
-                                       "\"%s\": line %d: vertex index \"%.*s\" is out of "
-                                       "range",
-                                       name, lineno, (int)(tn < 40 ? tn : 40), tok);
-                    if (indices && ply_check_index(h, i, sign, idx, name, err) != 0)
-                        return -1;
+                    if (indices) {
+                        uint64_t idx = 0;
+                        int sign = ply_count(tok, tn, true, &idx);
+                        if (sign == 0)
+                            return err_set(err,
+                                           "\"%s\": line %d: vertex index \"%.*s\" is out of "
+                                           "range",
+                                           name, lineno, (int)(tn < 40 ? tn : 40), tok);
+                        if (ply_face_index(s, i, sign, idx, err) != 0)
+                            return -1;
+                    }
                 }
             }
             if (ply_token(&p, end, &tok, &tn))
                 return err_set(err, "\"%s\": line %d has more values than %s declares", name,
                                lineno, e->name);
-            if (face && ply_check_face(i, nindices, has_tc, ntc, name, err) != 0)
+            if (face && ply_face_end(s, i, err) != 0)
                 return -1;
         }
     }
@@ -665,97 +662,50 @@ static int ply_check_ascii(const ply_header_t *h, const char *d, size_t len, con
     return 0;
 }
 
-static int ply_check(const char *d, size_t len, const char *name, err_t *err)
+/* Embree and the mesh's consumers keep coordinates as floats: a value beyond float's range
+ * would become an infinity there. */
+static bool ply_value_ok(double v)
 {
-    ply_header_t h = {0};
-    int rc = ply_parse_header(d, len, name, &h, err);
-    if (rc == 0)
-        rc = ply_check_elements(&h, name, err);
-    if (rc == 0)
-        rc = h.format == PLY_ASCII ? ply_check_ascii(&h, d, len, name, err)
-                                   : ply_check_binary(&h, d, len, name, err);
-    free(h.elements);
-    free(h.props);
-    return rc;
+    return isfinite(v) && fabs(v) <= FLT_MAX;
 }
 
-static int fill(const struct aiScene *scene, const char *path, mesh_data_t *out, err_t *err)
+/* The vertex slots into the mesh's arrays, checking that kept values are finite floats. */
+static int ply_fill(const ply_header_t *h, ply_sink_t *s, mesh_data_t *out, err_t *err)
 {
-    size_t nverts = 0, ntris = 0;
-    bool normals = scene->mNumMeshes > 0, uvs = scene->mNumMeshes > 0;
-    for (unsigned i = 0; i < scene->mNumMeshes; i++) {
-        const struct aiMesh *m = scene->mMeshes[i];
-        nverts += m->mNumVertices;
-        for (unsigned f = 0; f < m->mNumFaces; f++) {
-            if (m->mFaces[f].mNumIndices < 3)
+    size_t nv = (size_t)h->nvertices;
+    bool normals = h->slot[3] && h->slot[4] && h->slot[5], uvs = h->slot[6] && h->slot[7];
+    out->nvertices = nv;
+    out->P = malloc((nv ? nv : 1) * 3 * sizeof *out->P);
+    out->N = normals ? malloc((nv ? nv : 1) * 3 * sizeof *out->N) : NULL;
+    out->uv = uvs ? malloc((nv ? nv : 1) * 2 * sizeof *out->uv) : NULL;
+    if (!out->P || (normals && !out->N) || (uvs && !out->uv))
+        return err_set(err, "\"%s\": out of memory for %zu vertices", s->name, nv);
+    for (size_t v = 0; v < nv; v++) {
+        const double *sl = &s->slots[NSLOTS * v];
+        for (int c = 0; c < 3; c++) {
+            if (!ply_value_ok(sl[c]))
                 return err_set(err,
-                               "\"%s\": face %u has %u vertices (points and lines are not "
-                               "surfaces)",
-                               path, f, m->mFaces[f].mNumIndices);
-            ntris += m->mFaces[f].mNumIndices - 2;
-        }
-        normals = normals && m->mNormals;
-        uvs = uvs && m->mTextureCoords[0];
-    }
-    if (ntris == 0)
-        return err_set(err, "\"%s\" has no faces", path);
-    if (nverts >= UINT32_MAX)
-        return err_set(err, "\"%s\" has too many vertices (%zu)", path, nverts);
-
-    out->nvertices = nverts;
-    out->ntriangles = ntris;
-    out->P = malloc(nverts * 3 * sizeof *out->P);
-    out->N = normals ? malloc(nverts * 3 * sizeof *out->N) : NULL;
-    out->uv = uvs ? malloc(nverts * 2 * sizeof *out->uv) : NULL;
-    out->indices = malloc(ntris * 3 * sizeof *out->indices);
-    if (!out->P || (normals && !out->N) || (uvs && !out->uv) || !out->indices)
-        return err_set(err, "\"%s\": out of memory for %zu vertices", path, nverts);
-
-    size_t v0 = 0, t = 0;
-    for (unsigned i = 0; i < scene->mNumMeshes; i++) {
-        const struct aiMesh *m = scene->mMeshes[i];
-        for (unsigned v = 0; v < m->mNumVertices; v++) {
-            const struct aiVector3D *p = &m->mVertices[v];
-            if (!isfinite(p->x) || !isfinite(p->y) || !isfinite(p->z))
-                return err_set(err, "\"%s\": vertex %zu is not finite", path, v0 + v);
-            double *P = &out->P[3 * (v0 + v)];
-            P[0] = p->x, P[1] = p->y, P[2] = p->z;
+                               "\"%s\": vertex %zu has a number that is not finite or beyond a "
+                               "float's range (3.4e38)",
+                               s->name, v);
+            out->P[3 * v + (size_t)c] = sl[c];
             if (normals) {
-                const struct aiVector3D *n = &m->mNormals[v];
-                if (!isfinite(n->x) || !isfinite(n->y) || !isfinite(n->z))
-                    return err_set(err, "\"%s\": the normal of vertex %zu is not finite", path,
-                                   v0 + v);
-                double *N = &out->N[3 * (v0 + v)];
-                N[0] = n->x, N[1] = n->y, N[2] = n->z;
-            }
-            if (uvs) {
-                const struct aiVector3D *uv = &m->mTextureCoords[0][v];
-                if (!isfinite(uv->x) || !isfinite(uv->y))
-                    return err_set(err,
-                                   "\"%s\": the texture coordinates of vertex %zu are not "
-                                   "finite",
-                                   path, v0 + v);
-                out->uv[2 * (v0 + v)] = uv->x;
-                out->uv[2 * (v0 + v) + 1] = uv->y;
+                if (!ply_value_ok(sl[3 + c]))
+                    return err_set(err, "\"%s\": the normal of vertex %zu is not finite", s->name, v);
+                out->N[3 * v + (size_t)c] = sl[3 + c];
             }
         }
-        /* Assimp's PLY reader does not check indices against the vertex count. A polygon of n
-         * vertices becomes the fan (0, k, k+1), k = 1..n-2: right for the convex polygons
-         * exporters write (assimp's own ear-clipping step aborts on fuzzed files). */
-        for (unsigned f = 0; f < m->mNumFaces; f++) {
-            const struct aiFace *face = &m->mFaces[f];
-            for (unsigned k = 0; k < face->mNumIndices; k++)
-                if (face->mIndices[k] >= m->mNumVertices)
-                    return err_set(err, "\"%s\": face %u uses vertex %u but there are only %u",
-                                   path, f, face->mIndices[k], m->mNumVertices);
-            for (unsigned k = 1; k + 1 < face->mNumIndices; k++, t++) {
-                out->indices[3 * t] = (uint32_t)(v0 + face->mIndices[0]);
-                out->indices[3 * t + 1] = (uint32_t)(v0 + face->mIndices[k]);
-                out->indices[3 * t + 2] = (uint32_t)(v0 + face->mIndices[k + 1]);
-            }
+        if (uvs) {
+            if (!ply_value_ok(sl[6]) || !ply_value_ok(sl[7]))
+                return err_set(err, "\"%s\": the texture coordinates of vertex %zu are not finite",
+                               s->name, v);
+            out->uv[2 * v] = sl[6];
+            out->uv[2 * v + 1] = sl[7];
         }
-        v0 += m->mNumVertices;
     }
+    out->ntriangles = s->ntris;
+    out->indices = s->tris;
+    s->tris = NULL;
     return 0;
 }
 
@@ -765,29 +715,67 @@ int mesh_import_ply_memory(const void *data, size_t len, const char *name, mesh_
     memset(out, 0, sizeof *out);
     if (len > MESH_PLY_BYTES_MAX)
         return err_set(err, "\"%s\" is larger than %zu bytes", name, MESH_PLY_BYTES_MAX);
-    /* Assimp picks an importer from the file contents, so a file that is not PLY could load as
-     * something else: insist on the PLY magic line first. */
     const char *d = data;
     if (len < 4 || memcmp(d, "ply", 3) != 0 || (d[3] != '\n' && d[3] != '\r'))
         return err_set(err, "\"%s\" is not a PLY file (it does not start with \"ply\")", name);
-    if (ply_check(d, len, name, err) != 0)
-        return -1;
-    const struct aiScene *scene =
-        aiImportFileFromMemory(d, (unsigned)len, 0, "ply");
-    if (!scene) {
-        const char *why = aiGetErrorString();
-        return err_set(err, "cannot read PLY file \"%s\": %s", name,
-                       why && *why ? why : "assimp gave no reason");
+    ply_header_t h = {0};
+    ply_sink_t s = {.h = &h, .name = name};
+    int rc = ply_parse_header(d, len, name, &h, err);
+    if (rc == 0)
+        rc = ply_check_elements(&h, name, err);
+    if (rc == 0) {
+        /* Backed by bytes: the vertex element's count was checked against the file first. */
+        const ply_element_t *ve = NULL;
+        size_t left = len - h.body;
+        for (size_t k = 0; k < h.nelements; k++)
+            if (h.elements[k].role == ROLE_VERTEX)
+                ve = &h.elements[k];
+        size_t min = h.format == PLY_ASCII ? 2 * ve->nprops : 0;
+        for (size_t j = 0; h.format != PLY_ASCII && j < ve->nprops; j++)
+            min += h.props[ve->first_prop + j].list ? h.props[ve->first_prop + j].count.size
+                                                    : h.props[ve->first_prop + j].item.size;
+        rc = ply_check_count(ve, min ? min : 1, left, h.format == PLY_ASCII, name, err);
+        if (rc == 0 && h.nvertices >= UINT32_MAX)
+            rc = err_set(err, "\"%s\" has too many vertices (%llu)", name,
+                         (unsigned long long)h.nvertices);
+        if (rc == 0) {
+            s.slots = calloc(h.nvertices ? (size_t)h.nvertices : 1, NSLOTS * sizeof *s.slots);
+            if (!s.slots)
+                rc = err_set(err, "\"%s\": out of memory for %llu vertices", name,
+                             (unsigned long long)h.nvertices);
+        }
     }
-    int rc = fill(scene, name, out, err);
-    aiReleaseImport(scene);
+    if (rc == 0)
+        rc = h.format == PLY_ASCII ? ply_read_ascii(&h, d, len, &s, err)
+                                   : ply_read_binary(&h, d, len, &s, err);
+    if (rc == 0)
+        rc = ply_fill(&h, &s, out, err);
+    free(s.slots);
+    free(s.tris);
+    free(h.elements);
+    free(h.props);
     if (rc != 0)
         mesh_data_free(out);
     return rc;
 }
 
-/* Reads a whole file (at most MESH_PLY_BYTES_MAX bytes) after checking its magic, so that a
- * file that is not PLY (a scene file, a device) is not read any further. */
+int mesh_import_ply_any(const void *data, size_t len, const char *name, mesh_data_t *out,
+                        err_t *err)
+{
+    memset(out, 0, sizeof *out);
+    if (!gzip_data_is_gzip(data, len))
+        return mesh_import_ply_memory(data, len, name, out, err);
+    char *plain;
+    size_t n;
+    if (gzip_data_inflate(data, len, MESH_PLY_BYTES_MAX, name, &plain, &n, err) != 0)
+        return -1;
+    int rc = mesh_import_ply_memory(plain, n, name, out, err);
+    free(plain);
+    return rc;
+}
+
+/* Reads a whole file (at most MESH_PLY_BYTES_MAX bytes) after checking its magic (PLY's, or
+ * gzip's), so that a file that is not PLY (a scene file, a device) is not read any further. */
 static char *read_ply(FILE *f, const char *path, size_t *len, err_t *err)
 {
     size_t cap = 1 << 16, n;
@@ -797,7 +785,8 @@ static char *read_ply(FILE *f, const char *path, size_t *len, err_t *err)
         return NULL;
     }
     n = fread(buf, 1, 4, f);
-    if (n < 4 || memcmp(buf, "ply", 3) != 0 || (buf[3] != '\n' && buf[3] != '\r')) {
+    if ((n < 4 || memcmp(buf, "ply", 3) != 0 || (buf[3] != '\n' && buf[3] != '\r')) &&
+        !gzip_data_is_gzip(buf, n)) {
         free(buf);
         err_set(err, "\"%s\" is not a PLY file (it does not start with \"ply\")", path);
         return NULL;
@@ -858,7 +847,7 @@ int mesh_import_ply(const char *path, mesh_data_t *out, err_t *err)
     fclose(f);
     if (!buf)
         return -1;
-    int rc = mesh_import_ply_memory(buf, len, path, out, err);
+    int rc = mesh_import_ply_any(buf, len, path, out, err);
     free(buf);
     return rc;
 }

@@ -1,11 +1,11 @@
-/* mesh_import: reads triangle meshes from PLY files (ascii and binary) through assimp,
- * triangulating polygons (a quad v0 v1 v2 v3 becomes v0 v1 v2 and v0 v2 v3, keeping the
- * winding) and keeping shared vertices, normals and texture coordinates as the file has them.
- * Every index is checked against the vertex count; positions must be finite. Before assimp
- * sees a file, its header and body are checked against each other: assimp allocates an
- * element's storage from the header's count and a list's from its length field, so every count
- * and length must be backed by bytes of the file, and a small file cannot make it allocate
- * gigabytes or loop for minutes. */
+/* mesh_import: reads triangle meshes from PLY files (ascii, binary little- and big-endian;
+ * plain or gzip-compressed) with its own reader, taking what pbrt-v4 takes (positions,
+ * normals, texture coordinates, face index lists) and triangulating polygons (a quad v0 v1 v2
+ * v3 becomes v0 v1 v2 and v0 v2 v3, keeping the winding). Every index is checked against the
+ * vertex count and kept values must be finite; every count and list length must be backed by
+ * bytes of the file before anything is allocated for it, so a small file cannot make it
+ * allocate gigabytes or loop for minutes. A bad file's message names it and what is wrong
+ * (a header line by its number, an ascii body line, a face, a truncation). */
 #ifndef PRISMFARM_MESH_IMPORT_H
 #define PRISMFARM_MESH_IMPORT_H
 
@@ -14,8 +14,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* The largest PLY file read: assimp takes a buffer's length as an unsigned int, and 2 GiB is
- * far beyond any mesh that one render could hold. */
+/* The largest PLY file read (and the most a .ply.gz may inflate to): 2 GiB is far beyond any
+ * mesh that one render could hold. */
 #define MESH_PLY_BYTES_MAX ((size_t)2 << 30)
 
 /* The longest PLY header accepted (a header is a few hundred bytes; a Gaussian-splat file's,
@@ -40,6 +40,11 @@ int mesh_import_ply(const char *path, mesh_data_t *out, err_t *err);
  * the file's name in messages. The parser uses it for files it opened itself. */
 int mesh_import_ply_memory(const void *data, size_t len, const char *name, mesh_data_t *out,
                            err_t *err);
+
+/* The same for a file in memory that may be gzip-compressed (inflated first, to at most
+ * MESH_PLY_BYTES_MAX bytes). */
+int mesh_import_ply_any(const void *data, size_t len, const char *name, mesh_data_t *out,
+                        err_t *err);
 
 void mesh_data_free(mesh_data_t *mesh);
 

@@ -4,9 +4,13 @@
 
 #include "integrators.h"
 
+#include "gzip_data.h"
+#include "loopsubdiv.h"
 #include "mesh_import.h"
+#include "shape_tess.h"
 #include "params.h"
 #include "pbrt_lexer.h"
+#include "warnings.h"
 
 #include "files.h"
 
@@ -761,6 +765,29 @@ static char *read_confined(parser_t *P, const char *real, const char *name, cons
     close(fd);
     *len = n;
     return buf;
+}
+
+/* A file that starts with gzip's magic bytes is inflated (pbrt-v4 reads ".gz" scene files
+ * and PLYs through zlib) to at most limit bytes, and in a confined parse to what the scene may
+ * still read, the inflated bytes charged like a file's: a small file that inflates to
+ * gigabytes is refused once it passes the limit. Replaces *buf (which the caller still frees
+ * on failure). */
+static int inflate_if_gzip(parser_t *P, char **buf, size_t *len, size_t limit, const char *name,
+                           const pbrt_loc_t *from)
+{
+    if (!gzip_data_is_gzip(*buf, *len))
+        return 0;
+    if (P->root_real && PBRT_TOTAL_BYTES_MAX - P->bytes_charged < limit)
+        limit = PBRT_TOTAL_BYTES_MAX - P->bytes_charged;
+    char *out;
+    size_t n;
+    err_t e;
+    if (gzip_data_inflate(*buf, *len, limit, name, &out, &n, &e) != 0)
+        return fail_at(P, from, "%s", e.msg);
+    free(*buf);
+    *buf = out;
+    *len = n;
+    return P->root_real ? charge(P, n, from) : 0;
 }
 
 /* An imagemap PNG in a confined parse: its IHDR (PNG specification 11.2.2: the 8-byte
@@ -1955,9 +1982,29 @@ static double *copy_doubles(parser_t *P, const double *src, size_t n)
     return d;
 }
 
-/* trianglemesh (3 indices per triangle) or bilinearmesh (4 per patch: p00 p10 p01 p11, split
- * into (p00 p10 p11) and (p00 p11 p01), which keeps pbrt-v4's normal cross(p10-p00, p01-p00)
- * equal to the triangles' cross(p0-p2, p1-p2)). */
+/* Hands a mesh made here (PLY, subdivision, tessellation) to the shape and the scene. */
+static int adopt_mesh(parser_t *P, scene_shape_t *s, mesh_data_t *md)
+{
+    scene_mesh_t *m = &s->mesh;
+    m->nvertices = md->nvertices;
+    m->ntriangles = md->ntriangles;
+    m->P = md->P;
+    m->N = md->N;
+    m->uv = md->uv;
+    m->indices = md->indices;
+    /* adopt frees on failure, so hand over every block before checking */
+    int rc = scene_desc_adopt(P->scene, md->P, P->err);
+    rc |= scene_desc_adopt(P->scene, md->N, P->err);
+    rc |= scene_desc_adopt(P->scene, md->uv, P->err);
+    rc |= scene_desc_adopt(P->scene, md->indices, P->err);
+    memset(md, 0, sizeof *md);
+    return rc ? -1 : 0;
+}
+
+/* trianglemesh (3 indices per triangle) or bilinearmesh (4 per patch: p00 p10 p01 p11, made
+ * into triangles by shape_tess: a planar patch into (p00 p10 p11) and (p00 p11 p01), which
+ * keeps pbrt-v4's normal cross(p10-p00, p01-p00) equal to the triangles' cross(p0-p2,
+ * p1-p2); a twisted one into a grid that follows its curve). */
 static int mesh_from_params(parser_t *P, params_t *ps, scene_shape_t *s, bool bilinear,
                             pbrt_loc_t loc)
 {
@@ -2008,6 +2055,21 @@ static int mesh_from_params(parser_t *P, params_t *ps, scene_shape_t *s, bool bi
                           "\"%s uv\" has %zu entries but \"point3 P\" has %zu "
                           "points",
                           puv->type_name, puv->count / 2, nv);
+    if (bilinear) {
+        uint32_t *quads = malloc(4 * nprims * sizeof *quads);
+        if (!quads)
+            return pbrt_error(P->err, loc, "out of memory");
+        for (size_t i = 0; i < 4 * nprims; i++)
+            quads[i] = pi ? (uint32_t)pi->numbers[i] : (uint32_t)i;
+        mesh_data_t md;
+        err_t e;
+        int rc = shape_tess_bilinear(pp->numbers, nv, quads, nprims, puv ? puv->numbers : NULL,
+                                     pn ? pn->numbers : NULL, &md, &e);
+        free(quads);
+        if (rc != 0)
+            return pbrt_error(P->err, loc, "Shape \"bilinearmesh\": %s", e.msg);
+        return adopt_mesh(P, s, &md);
+    }
     scene_mesh_t *m = &s->mesh;
     m->nvertices = nv;
     m->P = copy_doubles(P, pp->numbers, pp->count);
@@ -2056,8 +2118,10 @@ static int mesh_from_ply(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t
         char *buf =
             real ? read_confined(P, real, filename, path, &fp->loc, "PLY file", &len) : NULL;
         free(real);
-        if (!buf)
+        if (!buf || inflate_if_gzip(P, &buf, &len, MESH_PLY_BYTES_MAX, path, &fp->loc) != 0) {
+            free(buf);
             return -1;
+        }
         int rc = mesh_import_ply_memory(buf, len, path, &md, &e);
         free(buf);
         if (rc != 0)
@@ -2065,21 +2129,77 @@ static int mesh_from_ply(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t
     } else if (mesh_import_ply(path, &md, &e) != 0) {
         return pbrt_error(P->err, fp->loc, "%s", e.msg);
     }
-    scene_mesh_t *m = &s->mesh;
-    m->nvertices = md.nvertices;
-    m->ntriangles = md.ntriangles;
-    m->P = md.P;
-    m->N = md.N;
-    m->uv = md.uv;
-    m->indices = md.indices;
-    /* adopt frees on failure, so hand over every block before checking */
-    int rc = scene_desc_adopt(P->scene, md.P, P->err);
-    rc |= scene_desc_adopt(P->scene, md.N, P->err);
-    rc |= scene_desc_adopt(P->scene, md.uv, P->err);
-    rc |= scene_desc_adopt(P->scene, md.indices, P->err);
-    if (rc)
+    if (adopt_mesh(P, s, &md) != 0)
         return -1;
     return note_file(P, SCENE_FILE_PLY, path, filename, fp->loc);
+}
+
+/* pbrt-v4 Cylinder, tessellated (shape_tess.h): a mesh needs no new intersection, area
+ * sampling or instancing code in scene/, and 512 segments a turn keep its area and silhouette
+ * within 2.5e-5 of the analytic surface, far below a render's noise. */
+static int cylinder_shape(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t loc)
+{
+    double r, zmin, zmax, phimax;
+    if (params_get_float(ps, "radius", 1.0, &r, P->err) != 0 ||
+        check_positive(P, ps, "radius", r) != 0 ||
+        params_get_float(ps, "zmin", -1.0, &zmin, P->err) != 0 ||
+        params_get_float(ps, "zmax", 1.0, &zmax, P->err) != 0 ||
+        params_get_float(ps, "phimax", 360.0, &phimax, P->err) != 0 ||
+        check_range(P, ps, "phimax", phimax, 1e-6, 360.0) != 0)
+        return -1;
+    if (zmin == zmax)
+        return pbrt_error(P->err, loc, "Shape \"cylinder\": zmin and zmax are both %g (no height)",
+                          zmin);
+    mesh_data_t md;
+    err_t e;
+    if (shape_tess_cylinder(r, zmin, zmax, phimax, &md, &e) != 0)
+        return pbrt_error(P->err, loc, "Shape \"cylinder\": %s", e.msg);
+    s->radius = r;
+    return adopt_mesh(P, s, &md);
+}
+
+/* pbrt-v4 "loopsubdiv": "integer levels" (3), "point3 P", "integer indices" (3 per control
+ * triangle), subdivided here into the mesh pbrt-v4 renders (loopsubdiv.h). */
+static int loopsubdiv_shape(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t loc)
+{
+    param_t *pp, *pi;
+    int levels;
+    if (params_get_int(ps, "levels", 3, &levels, P->err) != 0 ||
+        check_range(P, ps, "levels", levels, 0.0, 12.0) != 0 ||
+        params_get_array(ps, "P", PARAM_POINT3, &pp, P->err) != 0 ||
+        params_get_array(ps, "indices", PARAM_INTEGER, &pi, P->err) != 0)
+        return -1;
+    if (!pp)
+        return pbrt_error(P->err, loc, "Shape \"loopsubdiv\" needs \"point3 P\"");
+    if (!pi)
+        return pbrt_error(P->err, loc, "Shape \"loopsubdiv\" needs \"integer indices\"");
+    size_t nv = pp->count / 3;
+    if (nv >= UINT32_MAX)
+        return pbrt_error(P->err, pp->loc, "too many points in \"point3 P\"");
+    if (pi->count % 3 != 0 || pi->count == 0)
+        return pbrt_error(P->err, pi->loc,
+                          "expected a non-zero multiple of 3 numbers after \"%s %s\", got %zu",
+                          pi->type_name, pi->name, pi->count);
+    uint32_t *idx = malloc(pi->count * sizeof *idx);
+    if (!idx)
+        return pbrt_error(P->err, loc, "out of memory");
+    for (size_t i = 0; i < pi->count; i++) {
+        if (pi->numbers[i] < 0 || pi->numbers[i] >= (double)nv) {
+            free(idx);
+            return pbrt_error(P->err, pi->loc,
+                              "index %.0f (entry %zu of \"integer indices\") is out of range: "
+                              "\"point3 P\" has %zu points",
+                              pi->numbers[i], i + 1, nv);
+        }
+        idx[i] = (uint32_t)pi->numbers[i];
+    }
+    mesh_data_t md;
+    err_t e;
+    int rc = loopsubdiv_mesh(pp->numbers, nv, idx, pi->count / 3, levels, &md, &e);
+    free(idx);
+    if (rc != 0)
+        return pbrt_error(P->err, loc, "Shape \"loopsubdiv\": %s", e.msg);
+    return adopt_mesh(P, s, &md);
 }
 
 static int do_shape(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
@@ -2091,15 +2211,17 @@ static int do_shape(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
                  {"disk", SCENE_SHAPE_DISK},
                  {"trianglemesh", SCENE_SHAPE_MESH},
                  {"plymesh", SCENE_SHAPE_MESH},
-                 {"bilinearmesh", SCENE_SHAPE_MESH}};
+                 {"bilinearmesh", SCENE_SHAPE_MESH},
+                 {"loopsubdiv", SCENE_SHAPE_MESH},
+                 {"cylinder", SCENE_SHAPE_MESH}};
     int ki = -1;
     for (size_t i = 0; i < COUNT_OF(KINDS); i++)
         if (!strcmp(type->s, KINDS[i].name))
             ki = (int)i;
     if (ki < 0)
         return pbrt_error(P->err, type->loc,
-                          "unsupported shape \"%s\" (\"sphere\", \"disk\", "
-                          "\"trianglemesh\", \"plymesh\" or \"bilinearmesh\")",
+                          "unsupported shape \"%s\" (\"sphere\", \"disk\", \"cylinder\", "
+                          "\"trianglemesh\", \"plymesh\", \"bilinearmesh\" or \"loopsubdiv\")",
                           type->s);
     if (check_transform(P, &P->gs.ctm, "Shape", loc) != 0)
         return -1;
@@ -2122,12 +2244,38 @@ static int do_shape(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
     s->flip_normals = s->reverse_orientation != s->swaps_handedness;
     s->material = P->gs.material;
     s->area_light = P->gs.area_light;
+    /* pbrt-v4 displaces triangle meshes by a texture at load time; prismfarm does not. */
+    param_t *disp = params_find(ps, "displacement");
+    if (disp) {
+        (void)params_find(ps, "edgelength");
+        if (warnings_add(P->scene->warnings, disp->loc,
+                         "Shape \"%s\": \"displacement\" is not simulated (the surface is "
+                         "rendered undisplaced)",
+                         s->kind) != 0)
+            return pbrt_error(P->err, disp->loc, "out of memory");
+    }
     switch (s->type) {
-    case SCENE_SHAPE_SPHERE:
+    case SCENE_SHAPE_SPHERE: {
+        double zmin, zmax, phimax;
         if (params_get_float(ps, "radius", 1.0, &s->radius, P->err) != 0 ||
-            check_positive(P, ps, "radius", s->radius) != 0)
+            check_positive(P, ps, "radius", s->radius) != 0 ||
+            params_get_float(ps, "zmin", -s->radius, &zmin, P->err) != 0 ||
+            params_get_float(ps, "zmax", s->radius, &zmax, P->err) != 0 ||
+            params_get_float(ps, "phimax", 360.0, &phimax, P->err) != 0 ||
+            check_range(P, ps, "phimax", phimax, 1e-6, 360.0) != 0)
             return -1;
-        return 0;
+        if (fmin(zmin, zmax) <= -s->radius && fmax(zmin, zmax) >= s->radius && phimax >= 360.0)
+            return 0; /* the whole sphere: analytic in Embree */
+        if (fmin(fmax(zmin, zmax), s->radius) <= fmax(fmin(zmin, zmax), -s->radius))
+            return pbrt_error(P->err, loc, "Shape \"sphere\": zmin %g and zmax %g leave nothing "
+                                           "of a sphere of radius %g", zmin, zmax, s->radius);
+        mesh_data_t md;
+        err_t e;
+        if (shape_tess_sphere(s->radius, zmin, zmax, phimax, &md, &e) != 0)
+            return pbrt_error(P->err, loc, "Shape \"sphere\": %s", e.msg);
+        s->type = SCENE_SHAPE_MESH;
+        return adopt_mesh(P, s, &md);
+    }
     case SCENE_SHAPE_DISK: {
         double inner;
         if (params_get_float(ps, "radius", 1.0, &s->radius, P->err) != 0 ||
@@ -2144,6 +2292,10 @@ static int do_shape(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
     case SCENE_SHAPE_MESH:
         if (!strcmp(s->kind, "plymesh"))
             return mesh_from_ply(P, ps, s, loc);
+        if (!strcmp(s->kind, "cylinder"))
+            return cylinder_shape(P, ps, s, loc);
+        if (!strcmp(s->kind, "loopsubdiv"))
+            return loopsubdiv_shape(P, ps, s, loc);
         return mesh_from_params(P, ps, s, !strcmp(s->kind, "bilinearmesh"), loc);
     }
     return 0;
@@ -2615,7 +2767,8 @@ static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from, sce
         const char *what = from ? "included file" : "scene file";
         real = confine(P, path, name, from, what);
         text = real ? read_confined(P, real, name, path, from, what, &len) : NULL;
-        if (!text) {
+        if (!text || inflate_if_gzip(P, &text, &len, PBRT_FILE_BYTES_MAX, path, from) != 0) {
+            free(text);
             free(real);
             return -1;
         }
@@ -2623,6 +2776,10 @@ static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from, sce
         text = read_file(P, path, from, &len);
         if (!text)
             return -1;
+        if (inflate_if_gzip(P, &text, &len, PBRT_FILE_BYTES_MAX, path, from) != 0) {
+            free(text);
+            return -1;
+        }
         real = realpath(path, NULL);
         if (!real) {
             free(text);

@@ -221,7 +221,8 @@ typedef struct scene_area_light {
 typedef enum scene_shape_type {
     SCENE_SHAPE_SPHERE, /* radius (1) at the object-space origin */
     SCENE_SHAPE_DISK,   /* radius (1) at z = height (0), normal +z */
-    SCENE_SHAPE_MESH,   /* triangles: trianglemesh, plymesh, or bilinearmesh split in two */
+    SCENE_SHAPE_MESH,   /* triangles: trianglemesh, plymesh, bilinearmesh, loopsubdiv, cylinder
+                         * or a cut sphere, made into triangles by the parser */
 } scene_shape_type_t;
 
 typedef struct scene_mesh {
@@ -235,7 +236,8 @@ typedef struct scene_mesh {
 
 typedef struct scene_shape {
     scene_shape_type_t type;
-    const char *kind; /* as written: "sphere", "disk", "trianglemesh", "plymesh", "bilinearmesh" */
+    const char *kind; /* as written: "sphere", "disk", "cylinder", "trianglemesh", "plymesh",
+                       * "bilinearmesh", "loopsubdiv" */
     pbrt_loc_t loc;
     transform_t to_world;     /* object to world (or to instance space inside an object) */
     bool reverse_orientation; /* ReverseOrientation was in effect */

@@ -407,19 +407,19 @@ static void test_ply_counts(void **state)
     /* After the header, the file holds the 26 bytes of PLY_BOMB_BODY. */
     snprintf(expected, sizeof expected,
              "2:17: \"%s\": PLY element \"vertex\" declares 2147483648 instances but only 26 "
-             "bytes of the file are left for them",
+             "bytes of the file are left for them (the file is truncated)",
              path);
     expect_refused(fx, "WorldBegin\nShape \"plymesh\" \"string filename\" \"big.ply\"\n", expected);
 
     /* The same through mesh_import_ply (a local render's unconfined parse). */
     snprintf(expected, sizeof expected,
              "\"%s\": PLY element \"vertex\" declares 2147483648 instances but only 26 bytes "
-             "of the file are left for them",
+             "of the file are left for them (the file is truncated)",
              path);
     ply_job_t pj = {text, strlen(text), path};
     expect_outcome(run_in_child(job_ply_memory, &pj), "PLY 2^31 vertices", expected);
 
-    /* A face whose ascii list length says 2^32 - 1: assimp resizes its list to that (32 GiB)
+    /* A face whose ascii list length says 2^32 - 1: a reader that trusted it would size its list to that (32 GiB)
      * before reading the values; the line holds three. Line 13 is the face's. */
     const char *ascii_list =
         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
@@ -443,8 +443,8 @@ static void test_ply_counts(void **state)
     ply_job_t bj = {bin, h + 52, "list_binary.ply"};
     expect_outcome(run_in_child(job_ply_memory, &bj), "binary list length",
                    "\"list_binary.ply\": face 0 has a list of 4294967295 values, more than the "
-                   "12 bytes left");
-    /* A negative length in a signed count type reads as 2^32 - 1 in assimp too. */
+                   "12 bytes left (truncated)");
+    /* A negative length in a signed count type would read as 2^32 - 1 unsigned. */
     const char *signed_hdr = "ply\nformat binary_little_endian 1.0\nelement vertex 3\n"
                              "property float x\nproperty float y\nproperty float z\n"
                              "element face 1\nproperty list int int vertex_indices\n"
@@ -468,7 +468,7 @@ static void test_ply_counts(void **state)
     ply_job_t cj = {bin, h + 52, "count_binary.ply"};
     expect_outcome(run_in_child(job_ply_memory, &cj), "binary vertex count",
                    "\"count_binary.ply\": PLY element \"vertex\" declares 2147483648 instances "
-                   "but only 52 bytes of the file are left for them");
+                   "but only 52 bytes of the file are left for them (the file is truncated)");
     assert_int_equal(unlink(path), 0);
 }
 
