@@ -39,8 +39,10 @@ double envmap_pdf(const envmap_t *self, vec3_t w);
 
 /* Mean over texels (= over directions) of the texels' luminance Y (linear sRGB). */
 double envmap_mean_luminance(const envmap_t *self);
-/* pbrt-v4's "illuminance" normaliser: the illuminance the map's luminance gives a surface
- * facing light-space +z, 2 pi / N sum over texels with z > 0 of Y cos(theta). */
+/* pbrt-v4's "illuminance" normaliser k_e (lights.cpp, ImageInfiniteLight): 2 pi / N times the
+ * sum over texels with z > 0 of Y cos(theta). That is half the illuminance the map gives a
+ * surface facing light-space +z (4 pi / N per texel), so a pbrt-v4 map scaled to
+ * "illuminance" E delivers 2 E; kept as pbrt-v4 has it, so that its scenes render alike. */
 double envmap_upper_illuminance(const envmap_t *self);
 
 #endif
