@@ -59,6 +59,63 @@ int lights_sample_shape(const shape_t *s, double u0, double u1, double u2, vec3_
     return 1;
 }
 
+/* A sphere light's world centre and radius (the loader admits only similarity transforms on
+ * sphere lights, scene.c), and whether p lies outside it, by a margin: a point on the sphere
+ * itself (a hit on the light, whose single-precision position may lie either side) sees it as
+ * a plane, where the cone degenerates to the point itself, so it keeps area sampling, as
+ * pbrt-v4's origin offset toward the centre makes it do. Either choice is unbiased, and
+ * lights_pdf makes the same one. */
+static int sphere_outside(const shape_t *s, vec3_t p, vec3_t *centre, double *radius, double *d2)
+{
+    *centre = transform_point(&s->to_world, vec3_make(0, 0, 0));
+    *radius = s->radius * vec3_length(transform_vector(&s->to_world, vec3_make(1, 0, 0)));
+    vec3_t d = vec3_sub(*centre, p);
+    *d2 = vec3_dot(d, d);
+    return *d2 > *radius * *radius * (1.0 + 1e-4);
+}
+
+/* 1 - cos(theta_max) of the cone a sphere of radius r subtends at squared distance d2 > r^2,
+ * with pbrt-v4's small-angle form below sin^2 = 0.00068523 (1.5 degrees), where 1 - cos loses
+ * its digits. */
+static double cone_one_minus_cos(double r, double d2, double *sin2_max)
+{
+    double s2 = r * r / d2;
+    *sin2_max = s2;
+    return s2 < 0.00068523 ? 0.5 * s2 : 1.0 - sqrt(fmax(0.0, 1.0 - s2));
+}
+
+/* pbrt-v4 Sphere::Sample(ctx, u) (PBR 4th ed. §6.2.4): cos(theta) uniform in [cos theta_max, 1]
+ * about the axis toward the centre, then the point on the sphere that direction reaches first,
+ * found through the angle alpha at the centre: cos(alpha) = sin^2(theta) / sin(theta_max) +
+ * cos(theta) sqrt(1 - sin^2(theta) / sin^2(theta_max)). The pdf is 1 / (2 pi (1 - cos theta_max))
+ * in solid angle. */
+static int sample_sphere_cone(const shape_t *s, vec3_t p, vec3_t c, double r, double d2, double u0,
+                              double u1, vec3_t *q, vec3_t *n, double *pdf)
+{
+    double sin2_max;
+    double omc = cone_one_minus_cos(r, d2, &sin2_max);
+    double sin_max = sqrt(sin2_max);
+    double cos_t, sin2_t;
+    if (sin2_max < 0.00068523) {
+        sin2_t = sin2_max * u0;
+        cos_t = sqrt(1.0 - sin2_t);
+    } else {
+        cos_t = 1.0 - omc * u0;
+        sin2_t = 1.0 - cos_t * cos_t;
+    }
+    double cos_a = sin2_t / sin_max + cos_t * sqrt(fmax(0.0, 1.0 - sin2_t / sin2_max));
+    double sin_a = sqrt(fmax(0.0, 1.0 - cos_a * cos_a));
+    double phi = 2.0 * PF_PI * u1;
+    /* The point's direction from the centre: alpha away from the axis back toward p. */
+    vec3_t axis = vec3_scale(vec3_sub(p, c), 1.0 / sqrt(d2));
+    vec3_t local = vec3_make(sin_a * cos(phi), sin_a * sin(phi), cos_a);
+    vec3_t m = vec3_normalize(sample_local_to_world(local, axis));
+    *q = vec3_fma(c, m, r);
+    *n = s->flip ? vec3_neg(m) : m;
+    *pdf = 1.0 / (2.0 * PF_PI * omc);
+    return isfinite(*pdf) && *pdf > 0.0;
+}
+
 int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sample_t *out)
 {
     if (!scene->light_power)
@@ -73,7 +130,22 @@ int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sampl
     switch (l->kind) {
     case LIGHT_AREA: {
         const shape_t *s = &scene->shapes[l->shape];
-        vec3_t q, n;
+        vec3_t q, n, c;
+        double r, cd2, cone_pdf;
+        if (s->kind == SHAPE_SPHERE && sphere_outside(s, p, &c, &r, &cd2)) {
+            if (!sample_sphere_cone(s, p, c, r, cd2, u[2], u[3], &q, &n, &cone_pdf))
+                return 0;
+            vec3_t d = vec3_sub(q, p);
+            double dist = vec3_length(d);
+            if (!(dist > 0.0))
+                return 0;
+            out->wi = vec3_scale(d, 1.0 / dist);
+            out->dist = dist;
+            out->p_light = q;
+            out->n_light = n;
+            out->pdf = pmf * cone_pdf;
+            return isfinite(out->pdf);
+        }
         if (!lights_sample_shape(s, u[1], u[2], u[3], &q, &n))
             return 0;
         vec3_t d = vec3_sub(q, p);
@@ -111,8 +183,15 @@ int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sampl
         out->is_delta = 1;
         return 1;
     case LIGHT_INFINITE:
-        out->wi = sample_uniform_sphere(u[2], u[3]);
         out->dist = INFINITY;
+        if (l->envmap) {
+            double pdf;
+            vec3_t wl = envmap_sample(l->envmap, u[2], u[3], &out->texel, &pdf);
+            out->wi = vec3_normalize(transform_vector(&l->from_light, wl));
+            out->pdf = pmf * pdf;
+            return pdf > 0.0 && isfinite(out->pdf);
+        }
+        out->wi = sample_uniform_sphere(u[2], u[3]);
         out->pdf = pmf * sample_uniform_sphere_pdf();
         return 1;
     case LIGHT_COLLIMATED:
@@ -131,7 +210,8 @@ int lights_area_faces(const light_t *l, vec3_t ng, vec3_t wo)
     return l->kind == LIGHT_AREA && (l->twosided || !(vec3_dot(ng, wo) <= 0.0));
 }
 
-double lights_sample_emission_of(const scene_t *scene, const light_sample_t *s, double value)
+double lights_sample_emission_of(const scene_t *scene, const light_sample_t *s, double value,
+                                 double lambda)
 {
     const light_t *l = &scene->lights[s->light];
     switch (l->kind) {
@@ -142,13 +222,24 @@ double lights_sample_emission_of(const scene_t *scene, const light_sample_t *s, 
     case LIGHT_SPOT:
         return lights_spot_falloff(l, vec3_dot(vec3_neg(s->wi), l->direction)) * value /
                (s->dist * s->dist);
-    case LIGHT_DISTANT:
     case LIGHT_INFINITE:
+        return l->envmap ? lights_envmap_radiance(l, s->texel, value, lambda) : value;
+    case LIGHT_DISTANT:
         return value;
     case LIGHT_COLLIMATED:
         return 0.0;
     }
     return 0.0;
+}
+
+size_t lights_envmap_texel(const light_t *l, vec3_t wi)
+{
+    return envmap_texel(l->envmap, transform_vector(&l->to_light, wi));
+}
+
+double lights_envmap_radiance(const light_t *l, size_t texel, double value, double lambda)
+{
+    return value * envmap_texel_value(l->envmap, texel, lambda);
 }
 
 double lights_spot_falloff(const light_t *l, double cos_theta)
@@ -167,7 +258,7 @@ double lights_environment(const scene_t *scene, double lambda)
 {
     double sum = 0.0;
     for (size_t i = 0; i < scene->nlights; i++)
-        if (scene->lights[i].kind == LIGHT_INFINITE)
+        if (scene->lights[i].kind == LIGHT_INFINITE && !scene->lights[i].envmap)
             sum += light_value(&scene->lights[i], lambda);
     return sum;
 }
@@ -179,10 +270,15 @@ double lights_pdf(const scene_t *scene, int light, vec3_t p, vec3_t wi, vec3_t p
     double pmf = alias_pmf(scene->light_power, (size_t)light);
     const light_t *l = &scene->lights[light];
     if (l->kind == LIGHT_INFINITE)
-        return pmf * sample_uniform_sphere_pdf();
+        return pmf * (l->envmap ? envmap_pdf(l->envmap, transform_vector(&l->to_light, wi))
+                                : sample_uniform_sphere_pdf());
     if (l->kind != LIGHT_AREA)
         return 0.0;
     const shape_t *s = &scene->shapes[l->shape];
+    vec3_t c;
+    double r, cd2, sin2_max;
+    if (s->kind == SHAPE_SPHERE && sphere_outside(s, p, &c, &r, &cd2))
+        return pmf / (2.0 * PF_PI * cone_one_minus_cos(r, cd2, &sin2_max));
     vec3_t d = vec3_sub(p_light, p);
     double d2 = vec3_dot(d, d);
     double cos_l = fabs(vec3_dot(ng, wi));

@@ -16,10 +16,14 @@ typedef struct light_sample {
     int is_delta;   /* point, spot or distant: no MIS, no BSDF sampling can hit it */
     vec3_t p_light; /* area lights: the sampled point */
     vec3_t n_light; /* area lights: the unit normal at the sampled point */
+    size_t texel;   /* image infinite lights: the texel sampled */
 } light_sample_t;
 
 /* Samples a light for shading point p with four uniform numbers: u[0] picks the light, u[1]
- * a mesh light's triangle, u[2] and u[3] the point or direction. Returns 0 when nothing can be
+ * a mesh light's triangle, u[2] and u[3] the point or direction. A sphere light seen from
+ * outside is sampled uniformly in the cone of directions it subtends (pbrt-v4 Sphere::Sample:
+ * every sample lands on the visible cap), an image environment by its texels' distribution
+ * (envmap.h), a uniform one uniformly over the sphere. Returns 0 when nothing can be
  * sampled (no lights, a collimated light, a zero-area light, a degenerate configuration). */
 int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sample_t *out);
 
@@ -28,10 +32,12 @@ int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sampl
  * (render.c keeps it per lane: a path's wavelengths rarely change, a blackbody costs an expm1). */
 double lights_value(const light_t *l, double lambda);
 
-/* The emitted quantity that arrives at the shading point along the sample, given the light's
- * value = lights_value(light, lambda): radiance for area and infinite lights, I/d^2 (times the
- * spot falloff) for point and spot lights, the irradiance-defining L for distant lights. */
-double lights_sample_emission_of(const scene_t *scene, const light_sample_t *s, double value);
+/* The emitted quantity that arrives at the shading point along the sample at wavelength
+ * lambda, given the light's value = lights_value(light, lambda): radiance for area and infinite
+ * lights (an image's texel times value), I/d^2 (times the spot falloff) for point and spot
+ * lights, the irradiance-defining L for distant lights. */
+double lights_sample_emission_of(const scene_t *scene, const light_sample_t *s, double value,
+                                 double lambda);
 
 /* Whether area light l emits toward wo (unit, away from the surface) at a point with unit
  * normal ng: a two-sided light always, a one-sided one on its front only. 0 for other kinds. */
@@ -49,11 +55,18 @@ int lights_sample_shape(const shape_t *shape, double u0, double u1, double u2, v
  * outside the outer one, pbrt-v4's smoothstep between. */
 double lights_spot_falloff(const light_t *l, double cos_theta);
 
-/* Environment radiance for a ray that left the scene (sum over infinite lights). */
+/* Environment radiance for a ray that left the scene: the sum over the uniform infinite lights
+ * (image environments are lights_envmap_radiance's). */
 double lights_environment(const scene_t *scene, double lambda);
 
+/* An image infinite light's texel seen along world direction wi (unit), and the radiance
+ * there at lambda given value = lights_value(light, lambda). */
+size_t lights_envmap_texel(const light_t *l, vec3_t wi);
+double lights_envmap_radiance(const light_t *l, size_t texel, double value, double lambda);
+
 /* The pdf lights_sample would have had for hitting light l at point p_light with normal ng,
- * seen from p along unit wi (area lights), or along wi toward infinity (infinite lights). */
+ * seen from p along unit wi (area lights: the cone's for a sphere seen from outside), or along
+ * wi toward infinity (infinite lights). */
 double lights_pdf(const scene_t *scene, int light, vec3_t p, vec3_t wi, vec3_t p_light,
                   vec3_t ng);
 

@@ -110,7 +110,7 @@ static double light_value_lane(ctx_t *c, int li, int j, double lambda)
     return e->value;
 }
 
-/* lights_environment(lambda) for lane j, through the cache. */
+/* lights_environment(lambda) for lane j, through the cache (the uniform environments). */
 static double environment_lane(ctx_t *c, int j, double lambda)
 {
     le_entry_t *e = &c->le_cache[LE_CACHE_ENV][j];
@@ -238,8 +238,27 @@ static void add_environment(ctx_t *c, const path_t *p)
                 lp += lights_pdf(c->scene, (int)i, p->prev_p, p->dir, p->prev_p, p->dir);
         w = power_heuristic(p->bsdf_pdf, lp);
     }
-    for (int j = 0; j < p->n; j++)
-        splat(c, p, j, w * environment_lane(c, j, p->lambda[j]));
+    /* Image environments: each one's texel along the ray, once for all lanes. */
+    size_t texel[LE_CACHE_LIGHTS];
+    int nimg = 0;
+    for (size_t i = 0; i < c->scene->nlights; i++)
+        if (c->scene->lights[i].envmap) {
+            nimg++;
+            if (i < LE_CACHE_LIGHTS)
+                texel[i] = lights_envmap_texel(&c->scene->lights[i], p->dir);
+        }
+    for (int j = 0; j < p->n; j++) {
+        double le = environment_lane(c, j, p->lambda[j]);
+        for (size_t i = 0; nimg && i < c->scene->nlights; i++) {
+            const light_t *l = &c->scene->lights[i];
+            if (!l->envmap)
+                continue;
+            size_t t = i < LE_CACHE_LIGHTS ? texel[i] : lights_envmap_texel(l, p->dir);
+            le += lights_envmap_radiance(l, t, light_value_lane(c, (int)i, j, p->lambda[j]),
+                                         p->lambda[j]);
+        }
+        splat(c, p, j, w * le);
+    }
 }
 
 /* Samples a light for next-event estimation at sf and traces its shadow ray: 1 with *ls when
@@ -301,7 +320,8 @@ static void direct_light(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t 
         w = power_heuristic(ls.pdf, cos_s / PF_PI);
     for (int j = 0; j < p->n; j++) {
         double le = lights_sample_emission_of(c->scene, &ls,
-                                              light_value_lane(c, ls.light, j, p->lambda[j]));
+                                              light_value_lane(c, ls.light, j, p->lambda[j]),
+                                              p->lambda[j]);
         splat(c, p, j, w * albedo[j] / PF_PI * le * cos_s / ls.pdf);
     }
 }
@@ -374,7 +394,8 @@ static void direct_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, co
         if (!(f[j] > 0.0))
             continue;
         double le = lights_sample_emission_of(c->scene, &ls,
-                                              light_value_lane(c, ls.light, j, p->lambda[j]));
+                                              light_value_lane(c, ls.light, j, p->lambda[j]),
+                                              p->lambda[j]);
         splat(c, p, j, w * f[j] * cos_i * le / ls.pdf);
     }
 }

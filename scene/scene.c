@@ -73,6 +73,9 @@ void scene_destroy(scene_t **self_p)
     free(self->textures);
     for (size_t i = 0; i < self->nspectra; i++)
         spectrum_destroy(&self->spectra[i]);
+    for (size_t i = 0; i < self->nenvmaps; i++)
+        envmap_destroy(&self->envmaps[i]);
+    free(self->envmaps);
     free(self->spectra);
     free(self);
     *self_p = NULL;
@@ -116,6 +119,17 @@ int scene_own_spectrum(scene_t *self, spectrum_t *s, err_t *err)
         return -1;
     }
     self->spectra[i] = s;
+    return 0;
+}
+
+int scene_own_envmap(scene_t *self, envmap_t *e, err_t *err)
+{
+    long i = grow((void **)&self->envmaps, &self->nenvmaps, sizeof *self->envmaps, err);
+    if (i < 0) {
+        envmap_destroy(&e);
+        return -1;
+    }
+    self->envmaps[i] = e;
     return 0;
 }
 
@@ -472,7 +486,8 @@ static double light_power_raw(const scene_t *self, const light_t *l)
     case LIGHT_DISTANT:
         return y * PF_PI * r * r;
     case LIGHT_INFINITE:
-        return y * 4.0 * PF_PI * PF_PI * r * r;
+        /* pbrt-v4 ImageInfiniteLight::Phi: the image's mean radiance over the sphere. */
+        return y * (l->envmap ? envmap_mean_luminance(l->envmap) : 1.0) * 4.0 * PF_PI * PF_PI * r * r;
     }
     return 0.0;
 }

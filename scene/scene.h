@@ -11,6 +11,7 @@
 
 #include "alias.h"
 #include "dispersion.h"
+#include "envmap.h"
 #include "err.h"
 #include "geometry.h"
 #include "integrators.h"
@@ -74,7 +75,7 @@ typedef enum light_kind {
     LIGHT_POINT,      /* intensity I from a point */
     LIGHT_SPOT,       /* point light limited to a cone with a smooth falloff */
     LIGHT_DISTANT,    /* the sun: parallel light of irradiance L along dir */
-    LIGHT_INFINITE,   /* uniform environment radiance L */
+    LIGHT_INFINITE,   /* environment: uniform radiance L, or an image (envmap) */
 } light_kind_t;
 
 typedef struct light {
@@ -89,6 +90,12 @@ typedef struct light {
     vec3_t position;  /* point and spot */
     vec3_t direction; /* spot axis and distant light: the direction light travels (unit) */
     double cos_total_width, cos_falloff_start; /* spot */
+    /* Infinite light with an image (NULL: uniform): its radiance along world direction w is
+     * scale * spectrum(lambda) * envmap_texel_value(texel of to_light(w)), the spectrum being
+     * the colour space's illuminant D65 normalised to Y = 1 (pbrt-v4 ImageInfiniteLight). The
+     * scene owns it. to_light and from_light map directions between world and light space. */
+    const envmap_t *envmap;
+    transform_t to_light, from_light;
 } light_t;
 
 typedef enum shape_kind { SHAPE_MESH, SHAPE_SPHERE, SHAPE_DISK } shape_kind_t;
@@ -204,6 +211,8 @@ typedef struct scene {
     size_t ntextures;
     spectrum_t **spectra; /* owned */
     size_t nspectra;
+    envmap_t **envmaps;   /* owned */
+    size_t nenvmaps;
     camera_t camera;
     render_settings_t settings;
     int has_dispersion;   /* any dispersive material: spectral fan-out is ever needed */
@@ -221,6 +230,7 @@ void scene_destroy(scene_t **self_p);
 /* The scene owns what it is given from here on (also on failure). */
 int scene_own_texture(scene_t *self, texture_t *tex, err_t *err);
 int scene_own_spectrum(scene_t *self, spectrum_t *s, err_t *err);
+int scene_own_envmap(scene_t *self, envmap_t *e, err_t *err);
 
 /* Returns the new material's index, or -1. */
 int scene_add_material(scene_t *self, const material_t *m, err_t *err);

@@ -4,7 +4,10 @@
 #include "glass.h"
 #include "microfacet.h"
 #include "named_spectra.h"
+#include "image_exr.h"
+#include "image_pfm.h"
 #include "image_png.h"
+#include "image_stb.h"
 #include "pbrt_parser.h"
 #include "plan.h"
 
@@ -12,6 +15,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 typedef enum { SPEC_REFLECTANCE, SPEC_ILLUMINANT, SPEC_UNBOUNDED } spec_use_t;
 
@@ -478,6 +482,48 @@ static int load_materials(loader_t *L, err_t *err)
     return 0;
 }
 
+static int ends_with_ci(const char *s, const char *suffix)
+{
+    size_t n = strlen(s), k = strlen(suffix);
+    return n >= k && !strcasecmp(s + n - k, suffix);
+}
+
+/* An "infinite" light's image, by its extension: OpenEXR, PFM, or whatever stb_image reads
+ * (HDR, PNG, JPEG, TGA, BMP), into an envmap the scene owns. */
+static const envmap_t *load_envmap(loader_t *L, const scene_light_t *dl, err_t *err)
+{
+    const char *path = dl->filename;
+    float *rgb = NULL;
+    int w = 0, h = 0, rc;
+    if (ends_with_ci(path, ".exr")) {
+        image_exr_t *im = image_exr_read(path, err);
+        rc = im ? 0 : -1;
+        if (im) {
+            w = image_exr_width(im);
+            h = image_exr_height(im);
+            rgb = malloc((size_t)w * (size_t)h * 3 * sizeof *rgb);
+            if (rgb)
+                memcpy(rgb, image_exr_rgb(im), (size_t)w * (size_t)h * 3 * sizeof *rgb);
+            else
+                rc = err_set(err, "%s: out of memory", path);
+            image_exr_destroy(&im);
+        }
+    } else if (ends_with_ci(path, ".pfm")) {
+        rc = image_pfm_read(path, &w, &h, &rgb, err);
+    } else {
+        rc = image_stb_read(path, &w, &h, &rgb, err);
+    }
+    envmap_t *e = rc == 0 ? envmap_new(rgb, w, h, path, err) : NULL;
+    free(rgb);
+    if (!e || scene_own_envmap(L->sc, e, err)) {
+        char why[sizeof err->msg];
+        snprintf(why, sizeof why, "%s", err->msg);
+        pbrt_error(err, dl->filename_loc, "LightSource \"infinite\": %s", why);
+        return NULL;
+    }
+    return e;
+}
+
 static int load_lights(loader_t *L, err_t *err)
 {
     const scene_desc_t *d = L->desc;
@@ -511,6 +557,10 @@ static int load_lights(loader_t *L, err_t *err)
             break;
         case SCENE_LIGHT_INFINITE:
             l.kind = LIGHT_INFINITE;
+            l.from_light = dl->to_world;
+            l.to_light = transform_inverse(dl->to_world);
+            if (dl->filename && !(l.envmap = load_envmap(L, dl, err)))
+                return -1;
             break;
         }
         /* pbrt-v4 lights.cpp: with its spectrum normalised, a light of scale 1 has power (or
@@ -522,9 +572,14 @@ static int load_lights(loader_t *L, err_t *err)
             else if (l.kind == LIGHT_SPOT)
                 k_e = 2.0 * PF_PI * (1.0 - 0.5 * (l.cos_falloff_start + l.cos_total_width));
             else if (l.kind == LIGHT_INFINITE)
-                k_e = PF_PI; /* uniform radiance L gives illuminance pi L */
+                /* uniform radiance L gives illuminance pi L; an image, what its upper
+                 * hemisphere gives (pbrt-v4 lights.cpp, "illuminance") */
+                k_e = l.envmap ? envmap_upper_illuminance(l.envmap) : PF_PI;
             if (!(k_e > 0.0))
-                return pbrt_error(err, dl->loc, "\"power\" cannot be met by a spot light of zero width");
+                return pbrt_error(err, dl->loc, l.kind == LIGHT_INFINITE
+                                                    ? "\"illuminance\" cannot be met by an image "
+                                                      "that is black above the horizon"
+                                                    : "\"power\" cannot be met by a spot light of zero width");
             l.scale *= dl->power / k_e;
         }
         if (scene_add_light(L->sc, &l, err) < 0)

@@ -1911,6 +1911,58 @@ static int do_area_light(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_
     return 0;
 }
 
+/* LightSource "infinite": "string filename" names an equal-area environment image (read by
+ * scene_load, which checks that it is square), "point3 portal" is accepted with a warning
+ * (portals only guide sampling in pbrt-v4; sampling without them is unbiased). As in pbrt-v4
+ * lights.cpp, "L" together with "filename" is an error. */
+static int infinite_light_image(parser_t *P, params_t *ps, scene_light_t *l)
+{
+    const char *filename;
+    param_t *portal;
+    if (params_get_string(ps, "filename", NULL, &filename, P->err) != 0 ||
+        params_get_array(ps, "portal", PARAM_POINT3, &portal, P->err) != 0)
+        return -1;
+    if (portal && warnings_add(P->scene->warnings, portal->loc,
+                               "LightSource \"infinite\": \"portal\" is not used (the light is "
+                               "sampled without it, which is unbiased but noisier indoors)"))
+        return pbrt_error(P->err, portal->loc, "out of memory");
+    if (!filename)
+        return 0;
+    param_t *fp = params_find(ps, "filename");
+    if (params_find(ps, "L"))
+        return pbrt_error(P->err, params_find(ps, "L")->loc,
+                          "LightSource \"infinite\": cannot have both \"L\" and \"filename\" "
+                          "(pbrt-v4 refuses it too)");
+    const char *path = scene_path(P, filename, fp->loc);
+    if (!path)
+        return -1;
+    if (P->root_real) {
+        char *real = confine(P, path, filename, &fp->loc, "image");
+        if (!real)
+            return -1;
+        size_t size;
+        int fd = open_confined(P, real, filename, path, &fp->loc, "image", &size);
+        int rc = fd < 0 ? -1 : charge(P, size, &fp->loc);
+        if (fd >= 0)
+            close(fd);
+        l->filename = rc == 0 ? scene_desc_strdup(P->scene, real, P->err) : NULL;
+        free(real);
+        if (!l->filename)
+            return -1;
+    } else {
+        const char *kind;
+        char why[96];
+        FILE *f = open_regular_file(path, &kind);
+        if (!f)
+            return pbrt_error(P->err, fp->loc, "cannot open image \"%s\": %s", path,
+                              open_failure(kind, why, sizeof why));
+        fclose(f);
+        l->filename = path;
+    }
+    l->filename_loc = fp->loc;
+    return note_file(P, SCENE_FILE_IMAGE, path, filename, fp->loc);
+}
+
 static int do_light(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
 {
     static const struct {
@@ -1950,7 +2002,7 @@ static int do_light(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
         params_get_float(ps, pname, -1.0, &l->power, P->err) != 0)
         return -1;
     if (l->type == SCENE_LIGHT_INFINITE)
-        return 0;
+        return infinite_light_image(P, ps, l);
     if (params_get_point3(ps, "from", vec3_make(0, 0, 0), &l->from, P->err) != 0)
         return -1;
     if (l->type == SCENE_LIGHT_POINT)

@@ -186,7 +186,7 @@ typedef enum scene_light_type {
     SCENE_LIGHT_POINT,    /* I, scale, from */
     SCENE_LIGHT_SPOT,     /* I, scale, from, to, coneangle (30), conedeltaangle (5) */
     SCENE_LIGHT_DISTANT,  /* L, scale, from (0,0,0), to (0,0,1): light travels from -> to */
-    SCENE_LIGHT_INFINITE, /* L (uniform), scale */
+    SCENE_LIGHT_INFINITE, /* L (uniform) or filename (an image), scale, illuminance */
 } scene_light_type_t;
 
 typedef struct scene_light {
@@ -200,6 +200,10 @@ typedef struct scene_light {
     double power;
     vec3_t from, to;                  /* in light space: apply to_world */
     double coneangle, conedeltaangle; /* degrees */
+    /* infinite: the image's path as opened (the checked real path in a confined parse), or
+     * NULL for a uniform light; filename_loc is where "filename" was written. */
+    const char *filename;
+    pbrt_loc_t filename_loc;
 } scene_light_t;
 
 typedef enum scene_area_light_type {
@@ -273,7 +277,7 @@ typedef enum scene_file_kind {
     SCENE_FILE_MAIN,    /* the scene file given to pbrt_parse_file */
     SCENE_FILE_INCLUDE, /* named by Include or Import */
     SCENE_FILE_PLY,     /* Shape "plymesh" "string filename" */
-    SCENE_FILE_IMAGE,   /* Texture "imagemap" "string filename" */
+    SCENE_FILE_IMAGE,   /* Texture "imagemap" or LightSource "infinite" "string filename" */
     SCENE_FILE_SPECTRUM, /* "spectrum x" "file.spd": a pbrt-v4 spectrum file */
 } scene_file_kind_t;
 

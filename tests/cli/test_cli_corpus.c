@@ -121,12 +121,22 @@ static void test_smallpt(void **state)
         check("cornell-box", "smallpt");
 }
 
+/* An equal-area EXR environment (the substitute sky with a sun) under the light's Rotates, over
+ * a floor with coated and rough conductor spheres. */
+static void test_cornell_environment_map(void **state)
+{
+    (void)state;
+    if (corpus_present())
+        check("cornell-box", "cornell-box-environment-map");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_cornell_silver),
         cmocka_unit_test(test_cornell_specular),
         cmocka_unit_test(test_smallpt),
+        cmocka_unit_test(test_cornell_environment_map),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

@@ -1,0 +1,48 @@
+/* envmap: an image environment as pbrt-v4's ImageInfiniteLight has it. The image is square, in
+ * pbrt-v4's equal-area octahedral layout (equal_area.h: the image centre is light-space +z, u
+ * runs along the columns and v down the rows from the top); each texel's linear-sRGB colour is
+ * an RGB illuminant spectrum m * s(lambda) times the light's D65 (pbrt-v4 RGBIlluminantSpectrum,
+ * m = 2 max(r, g, b), s the smooth uplift of rgb / m), looked up at the nearest texel as pbrt-v4
+ * does. The uplift coefficients are computed once per texel at load, interpolated in a table of
+ * Jakob-Hanika fits (spectrum_sigmoid_fit) over the faces max(rgb / m) = 1/2 of the colour
+ * cube, so that a lookup costs one sigmoid. Directions are drawn by a piecewise-constant
+ * density over the texels proportional to their channel average (pbrt-v4
+ * Image::GetSamplingDistribution), which through the equal-area map is that density over 4 pi
+ * in solid angle. Immutable once made, safe to share between threads. */
+#ifndef PRISMFARM_ENVMAP_H
+#define PRISMFARM_ENVMAP_H
+
+#include "err.h"
+#include "vec3.h"
+
+#include <stddef.h>
+
+typedef struct envmap envmap_t;
+
+/* rgb: width * height * 3 linear sRGB floats, top row first. Refuses a non-square image (why:
+ * the equal-area map is a square, and pbrt-v4 refuses it too), a negative, NaN or infinite
+ * texel. name is for messages. */
+envmap_t *envmap_new(const float *rgb, int width, int height, const char *name, err_t *err);
+void envmap_destroy(envmap_t **self_p);
+
+int envmap_resolution(const envmap_t *self);
+
+/* The texel that light-space direction w (any length > 0) looks up. */
+size_t envmap_texel(const envmap_t *self, vec3_t w);
+/* That texel's m * s(lambda): its radiance per unit of the light's D65 value at lambda. */
+double envmap_texel_value(const envmap_t *self, size_t texel, double lambda);
+
+/* A light-space unit direction drawn with (u0, u1), its texel and its solid-angle pdf. */
+vec3_t envmap_sample(const envmap_t *self, double u0, double u1, size_t *texel, double *pdf);
+/* The solid-angle pdf envmap_sample has for light-space direction w. */
+double envmap_pdf(const envmap_t *self, vec3_t w);
+
+/* Mean over texels (= over directions) of the texels' luminance Y (linear sRGB). */
+double envmap_mean_luminance(const envmap_t *self);
+/* pbrt-v4's "illuminance" normaliser k_e (lights.cpp, ImageInfiniteLight): 2 pi / N times the
+ * sum over texels with z > 0 of Y cos(theta). That is half the illuminance the map gives a
+ * surface facing light-space +z (4 pi / N per texel), so a pbrt-v4 map scaled to
+ * "illuminance" E delivers 2 E; kept as pbrt-v4 has it, so that its scenes render alike. */
+double envmap_upper_illuminance(const envmap_t *self);
+
+#endif
