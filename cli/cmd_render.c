@@ -205,19 +205,22 @@ int cmd_render(int argc, char **argv)
     const render_settings_t *rs = &scene->settings;
 
     char exr[PATH_MAX], png[PATH_MAX];
-    if (output)
-        snprintf(exr, sizeof exr, "%s", output);
-    else if (rs->filename[0])
-        snprintf(exr, sizeof exr, "%s", rs->filename);
-    else {
+    int other_format = 0;
+    if (output || rs->filename[0]) {
+        const char *name = output ? output : rs->filename;
+        film_output_paths(name, exr, sizeof exr, png, sizeof png, &other_format);
+        if (other_format)
+            fprintf(stderr, "prismfarm render: warning: \"%s\": prismfarm writes OpenEXR and PNG, so "
+                            "the image is %s and %s\n", name, exr, png);
+    } else {
         const char *base = strrchr(scene_path, '/');
         base = base ? base + 1 : scene_path;
         size_t n = strlen(base);
         if (n > 5 && !strcmp(base + n - 5, ".pbrt"))
             n -= 5;
         snprintf(exr, sizeof exr, "%.*s.exr", (int)n, base);
+        film_png_path(exr, png, sizeof png);
     }
-    film_png_path(exr, png, sizeof png);
     /* Before the render, not after it: a missing folder (never created for the user), one
      * that is not writable, or a device or FIFO at the output's name. */
     int bad_output = job_follow_check_outputs(exr, png, "render");

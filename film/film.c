@@ -6,6 +6,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 int film_to_rgb(const tilebuf_t *image, spectral_grid_t grid, float *rgb, err_t *err)
 {
@@ -33,6 +34,40 @@ void film_png_path(const char *exr_path, char *buf, size_t size)
         snprintf(buf, size, "%.*s.png", (int)(n - 4), exr_path);
     else
         snprintf(buf, size, "%s.png", exr_path);
+}
+
+static int has_ext(const char *name, size_t n, const char *ext)
+{
+    size_t e = strlen(ext);
+    return n > e && !strcasecmp(name + n - e, ext);
+}
+
+void film_output_paths(const char *name, char *exr, size_t exr_size, char *png, size_t png_size,
+                       int *other_format)
+{
+    static const char *OTHER[] = {".pfm", ".tga", ".jpg", ".jpeg", ".hdr", ".qoi"};
+    size_t n = strlen(name);
+    *other_format = 0;
+    if (has_ext(name, n, ".png")) {
+        snprintf(png, png_size, "%s", name);
+        snprintf(exr, exr_size, "%.*s.exr", (int)(n - 4), name);
+        return;
+    }
+    for (size_t i = 0; i < sizeof OTHER / sizeof OTHER[0]; i++)
+        if (has_ext(name, n, OTHER[i])) {
+            size_t stem = n - strlen(OTHER[i]);
+            snprintf(exr, exr_size, "%.*s.exr", (int)stem, name);
+            snprintf(png, png_size, "%.*s.png", (int)stem, name);
+            *other_format = 1;
+            return;
+        }
+    if (has_ext(name, n, ".exr")) {
+        snprintf(exr, exr_size, "%s", name);
+        snprintf(png, png_size, "%.*s.png", (int)(n - 4), name);
+        return;
+    }
+    snprintf(exr, exr_size, "%s", name);
+    film_png_path(name, png, png_size);
 }
 
 static int write_png(const char *path, int w, int h, const float *rgb, colour_tonemap_t tm,

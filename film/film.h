@@ -31,4 +31,12 @@ int film_png_from_exr(const char *exr_path, const char *png_path, colour_tonemap
 /* The PNG path beside an EXR path: "x.exr" -> "x.png" (any other name gets ".png" added). */
 void film_png_path(const char *exr_path, char *buf, size_t size);
 
+/* The outputs of an image named name (the Film's "filename" or --output): the format follows
+ * the extension (case ignored), as in pbrt-v4, and the spectral EXR is always written beside:
+ * "x.exr" -> x.exr and x.png; "x.png" -> x.png and x.exr; another image extension that
+ * prismfarm does not write ("x.pfm", ".tga", ".jpg", ".hdr", ".qoi") -> x.exr and x.png, and
+ * *other_format is 1 so that the caller can say so; any other name -> name and name.png. */
+void film_output_paths(const char *name, char *exr, size_t exr_size, char *png, size_t png_size,
+                       int *other_format);
+
 #endif

@@ -843,6 +843,26 @@ static void trace(ctx_t *c, path_t *start)
     }
 }
 
+/* pbrt-v4 RGBFilm::AddSample with the cie1931 sensor: the sample times the imaging ratio
+ * (exposuretime * iso / 100), scaled down so that its largest XYZ component is at most
+ * maxcomponentvalue, then times the filter weight. Nothing changes (not a bit) when all three
+ * are 1 and there is no clamp. */
+static void sensor_weight(const render_settings_t *rs, double weight, double *contrib, int nb,
+                          double xyz[3])
+{
+    double k = rs->imaging_ratio;
+    double m = fmax(xyz[0], fmax(xyz[1], xyz[2])) * k;
+    if (m > rs->max_component)
+        k *= rs->max_component / m;
+    k *= weight;
+    if (k == 1.0)
+        return;
+    for (int b = 0; b < nb; b++)
+        contrib[b] *= k;
+    for (int i = 0; i < 3; i++)
+        xyz[i] *= k;
+}
+
 /* A permutation of the sample indices [0, spp) that differs between pixels (an odd multiplier
  * and an offset, a bijection modulo a power of two), so that strata of the pixel position and
  * of the wavelength are not correlated. Other spp values keep the identity. */
@@ -909,12 +929,17 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
         c.irradiance = irradiance;
         c.mindepth = rs->photon.mindepth;
     }
-    const camera_frame_t frame = camera_frame_make(&scene->camera, rs->xres, rs->yres);
+    /* A cropped film (scene.h) renders pixel (x, y) as pixel (x, y) + crop of the full film:
+     * the camera and the random numbers see the full film. */
+    const int full_w = rs->full_xres > 0 ? rs->full_xres : rs->xres;
+    const int full_h = rs->full_yres > 0 ? rs->full_yres : rs->yres;
+    const camera_frame_t frame = camera_frame_make(&scene->camera, full_w, full_h);
     const uint32_t spp = (uint32_t)rs->spp;
     const uint32_t side = (uint32_t)lround(sqrt((double)spp));
     for (int y = y0; y < y0 + h; y++) {
         for (int x = x0; x < x0 + w; x++) {
-            uint64_t pixel = (uint64_t)y * (uint64_t)rs->xres + (uint64_t)x;
+            const int fx = x + rs->crop_x0, fy = y + rs->crop_y0;
+            uint64_t pixel = (uint64_t)fy * (uint64_t)full_w + (uint64_t)fx;
             for (uint32_t s = sample_begin; s < sample_end; s++) {
                 c.rng = rng_stream_make(rs->seed, pixel, s);
                 memset(contrib, 0, (size_t)nb * sizeof *contrib);
@@ -932,7 +957,18 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                 if (s < spp && (spp & (spp - 1)) == 0)
                     ul = (permute(s, spp, ~pixel) + ul) / spp;
                 double l1 = next(&c), l2 = next(&c);
-                camera_frame_ray(&frame, x + jx, y + jy, l1, l2, &p.org, &p.dir);
+                /* Filter importance sampling (pbrt-v4 GetCameraSample): the stratified (jx, jy)
+                 * mapped through the filter's inverse CDF gives the offset from the pixel
+                 * centre and a weight (1, or -+ for mitchell's and sinc's negative lobes) the
+                 * sample carries into its own pixel. Without a filter: the box of radius 1/2. */
+                double weight = 1.0, px = fx + jx, py = fy + jy;
+                if (scene->filter) {
+                    filter_sample_t fs = filter_sampler_sample(scene->filter, jx, jy);
+                    px = fx + 0.5 + fs.dx;
+                    py = fy + 0.5 + fs.dy;
+                    weight = fs.weight;
+                }
+                camera_frame_ray(&frame, px, py, l1, l2, &p.org, &p.dir);
                 p.specular = 1;
                 p.prev_p = p.org;
                 if (rs->dispersion == DISPERSION_FANOUT) {
@@ -960,6 +996,7 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                     }
                 }
                 trace(&c, &p);
+                sensor_weight(rs, weight, contrib, nb, c.xyz);
                 if (tilebuf_add_sample(out, x, y, contrib, c.xyz))
                     stats->nonfinite++;
                 stats->samples++;

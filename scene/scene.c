@@ -26,6 +26,9 @@ render_settings_t render_settings_default(void)
         .photon = {.enabled = 0, .photons = 1000000, .radius = 0.0, .k = 0, .maxdepth = 5,
                    .threshold = 0.01, .monochromerays = 1, .mindepth = 1,
                    .store = PHOTON_STORE_PHOTONMAP, .lightmap_density = 400.0},
+        .filter = filter_params_default(FILTER_BOX),
+        .imaging_ratio = 1.0,
+        .max_component = INFINITY,
     };
 }
 
@@ -53,6 +56,7 @@ void scene_destroy(scene_t **self_p)
         return;
     scene_t *self = *self_p;
     warnings_destroy(&self->warnings);
+    filter_sampler_destroy(&self->filter);
     geometry_destroy(&self->geometry);
     for (size_t i = 0; i < self->nshapes; i++) {
         shape_t *s = &self->shapes[i];

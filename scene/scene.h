@@ -14,6 +14,7 @@
 #include "envmap.h"
 #include "err.h"
 #include "geometry.h"
+#include "filter.h"
 #include "integrators.h"
 #include "spectral_grid.h"
 #include "spectrum.h"
@@ -193,6 +194,19 @@ typedef struct render_settings {
     char filename[512];   /* output named by the scene's Film, may be empty */
     int film_spectral;    /* Film "spectral" (else "rgb") */
     photon_settings_t photon;
+    /* The pixel filter (PixelFilter; render_tile samples each camera sample's offset from it
+     * through scene_t.filter). render_settings_default: box of radius 0.5, the plain jitter. */
+    filter_params_t filter;
+    /* pbrt-v4's cie1931 PixelSensor: every sample is scaled by exposuretime * iso / 100, then
+     * scaled down so that its largest XYZ component is at most max_component (pbrt-v4's
+     * maxcomponentvalue, applied to the sensor's values before the filter weight). */
+    double imaging_ratio;
+    double max_component; /* INFINITY: no clamp */
+    /* Film cropwindow / pixelbounds: xres x yres is the rendered (cropped) image, whose pixel
+     * (0, 0) is pixel (crop_x0, crop_y0) of the full_xres x full_yres film: the camera and the
+     * random numbers use the full film's coordinates, so a crop is bit-identical to the same
+     * pixels of the full render. full_xres 0: no crop. */
+    int full_xres, full_yres, crop_x0, crop_y0;
 } render_settings_t;
 
 typedef struct scene {
@@ -214,6 +228,7 @@ typedef struct scene {
     envmap_t **envmaps;   /* owned */
     size_t nenvmaps;
     camera_t camera;
+    filter_sampler_t *filter; /* settings.filter's sampler (owned); NULL: the box of radius 0.5 */
     render_settings_t settings;
     int has_dispersion;   /* any dispersive material: spectral fan-out is ever needed */
     /* What the scene file asks for that is accepted without being simulated: the parser's

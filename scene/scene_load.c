@@ -791,6 +791,61 @@ static int load_photon(loader_t *L, params_t *p, int enable, err_t *err)
     return 0;
 }
 
+/* A pbrt-v4 integrator read as one of prismfarm's (scenefile/integrators.c): the warning that
+ * says which and why, and one for each of its parameters that is accepted but not simulated.
+ * from_file: the file's integrator is the one used (no --integrator override). */
+static int load_pbrt_mapping(loader_t *L, const integrator_name_t *named, bool from_file, err_t *err)
+{
+    const scene_integrator_t *in = &L->desc->integrator;
+    if (!named->mapped_from_pbrt)
+        return 0;
+    if (from_file && named->why && warnings_add(L->sc->warnings, in->loc, "%s", named->why))
+        return err_set(err, "out of memory");
+    for (const char *const *n = named->ignored; n && *n; n++) {
+        param_t *q = params_find(in->params, *n);
+        if (!q)
+            continue;
+        q->used = true;
+        if (from_file && warnings_add(L->sc->warnings, q->loc, "\"%s\" of Integrator \"%s\" is not simulated", *n,
+                         named->name))
+            return err_set(err, "out of memory");
+    }
+    return 0;
+}
+
+/* pbrt-v4's SPPMIntegrator (photonsperiteration -1: one photon per pixel; radius 1; as many
+ * iterations as the sampler's pixelsamples) read as the photon integrator: one pass of
+ * photonsperiteration x pixelsamples photons at the fixed radius, gathered by the path tracer. */
+static int load_sppm(loader_t *L, params_t *p, int enable, err_t *err)
+{
+    render_settings_t *rs = &L->sc->settings;
+    photon_settings_t *ph = &rs->photon;
+    int ppi;
+    double radius;
+    if (params_get_int(p, "photonsperiteration", -1, &ppi, err) ||
+        params_get_float(p, "radius", 1.0, &radius, err))
+        return -1;
+    if (ppi == 0 || ppi < -1)
+        return pbrt_error(err, params_find(p, "photonsperiteration")->loc,
+                          "\"integer photonsperiteration\" must be positive or -1, got %d", ppi);
+    if (!(radius > 0.0) || !isfinite(radius))
+        return pbrt_error(err, params_find(p, "radius")->loc, "\"float radius\" must be positive, got %g", radius);
+    if (!enable)
+        return 0;
+    uint64_t per = ppi > 0 ? (uint64_t)ppi
+                           : (uint64_t)(rs->full_xres ? rs->full_xres : rs->xres) *
+                                 (uint64_t)(rs->full_yres ? rs->full_yres : rs->yres);
+    uint64_t n = per * (uint64_t)rs->spp;
+    rs->integrator = INTEGRATOR_PATH;
+    ph->enabled = 1;
+    ph->photons = n > (uint64_t)INT32_MAX ? (uint64_t)INT32_MAX : n;
+    ph->radius = radius;
+    ph->k = 0;
+    ph->maxdepth = rs->maxdepth;
+    ph->store = PHOTON_STORE_PHOTONMAP;
+    return 0;
+}
+
 static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
 {
     const scene_integrator_t *in = &L->desc->integrator;
@@ -804,8 +859,13 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
         return pbrt_error(err, in->loc, "Integrator \"%s\" is not supported yet (use %s)", type,
                           names);
     }
+    if (named->refused)
+        return pbrt_error(err, in->loc, "Integrator \"%s\" is not supported: %s", type, named->refused);
     int photon = named->photon;
     rs->integrator = named->kind;
+    const integrator_name_t *file_named = integrators_find(in->type);
+    if (file_named && load_pbrt_mapping(L, file_named, !strcmp(type, in->type), err))
+        return -1;
     int maxdepth;
     const char *disp, *wl;
     bool spectral_mis;
@@ -818,8 +878,12 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
         return pbrt_error(err, in->loc, "\"integer maxdepth\" must be in 0..10000, got %d", maxdepth);
     rs->maxdepth = maxdepth;
     rs->spectral_mis = spectral_mis;
-    if ((photon || !strcmp(in->type, "photon")) && load_photon(L, p, photon, err))
+    if (!strcmp(named->name, "sppm") || !strcmp(in->type, "sppm")) {
+        if (load_sppm(L, p, !strcmp(named->name, "sppm"), err))
+            return -1;
+    } else if ((photon || !strcmp(in->type, "photon")) && load_photon(L, p, photon, err)) {
         return -1;
+    }
     if (ov && ov->dispersion)
         disp = ov->dispersion;
     if (!integrators_dispersion_find(disp, &rs->dispersion))
@@ -849,6 +913,64 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
     return params_check_unused(p, err);
 }
 
+/* pbrt-v4 FilmBaseParameters: pixelbounds [x0 x1 y0 y1] clipped to the film, or the crop
+ * window [x0 x1 y0 y1] (clamped to [0, 1]) as pixels ceil(res * x0) .. ceil(res * x1). The
+ * rendered image is the bounds' size; full_xres keeps the film's (see scene.h). */
+static int load_film_crop(loader_t *L, err_t *err)
+{
+    const scene_film_t *f = &L->desc->film;
+    render_settings_t *rs = &L->sc->settings;
+    if (!f->has_crop && !f->has_pixelbounds)
+        return 0;
+    int x0, x1, y0, y1;
+    if (f->has_crop) {
+        double c[4];
+        for (int i = 0; i < 4; i++)
+            c[i] = fmin(fmax(f->cropwindow[i], 0.0), 1.0);
+        x0 = (int)ceil(rs->xres * fmin(c[0], c[1]));
+        x1 = (int)ceil(rs->xres * fmax(c[0], c[1]));
+        y0 = (int)ceil(rs->yres * fmin(c[2], c[3]));
+        y1 = (int)ceil(rs->yres * fmax(c[2], c[3]));
+    } else {
+        x0 = f->pixelbounds[0] > 0 ? f->pixelbounds[0] : 0;
+        x1 = f->pixelbounds[1] < rs->xres ? f->pixelbounds[1] : rs->xres;
+        y0 = f->pixelbounds[2] > 0 ? f->pixelbounds[2] : 0;
+        y1 = f->pixelbounds[3] < rs->yres ? f->pixelbounds[3] : rs->yres;
+    }
+    if (x1 <= x0 || y1 <= y0)
+        return pbrt_error(err, f->crop_loc, "the film's %s leaves no pixel of the %dx%d image",
+                          f->has_crop ? "\"cropwindow\"" : "\"pixelbounds\"", rs->xres, rs->yres);
+    rs->full_xres = rs->xres;
+    rs->full_yres = rs->yres;
+    rs->crop_x0 = x0;
+    rs->crop_y0 = y0;
+    rs->xres = x1 - x0;
+    rs->yres = y1 - y0;
+    return 0;
+}
+
+static int load_filter(loader_t *L, err_t *err)
+{
+    const scene_filter_t *f = &L->desc->filter;
+    scene_t *sc = L->sc;
+    int kind = filter_kind_find(f->type);
+    if (kind < 0)
+        return pbrt_error(err, f->loc, "unsupported filter \"%s\"", f->type ? f->type : "");
+    filter_params_t p = filter_params_default((filter_kind_t)kind);
+    p.xradius = f->xradius;
+    p.yradius = f->yradius;
+    p.sigma = f->sigma;
+    p.b = f->b;
+    p.c = f->c;
+    p.tau = f->tau;
+    sc->settings.filter = p;
+    filter_sampler_destroy(&sc->filter);
+    sc->filter = filter_sampler_new(&p, err);
+    if (!sc->filter)
+        return err_prefix(err, "%s:%d:%d: PixelFilter: ", f->loc.file ? f->loc.file : "", f->loc.line, f->loc.col);
+    return 0;
+}
+
 static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
 {
     const scene_desc_t *d = L->desc;
@@ -868,6 +990,10 @@ static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
     rs->yres = ov && ov->yres > 0 ? ov->yres : d->film.yres;
     if (rs->xres <= 0 || rs->yres <= 0 || rs->xres > 32768 || rs->yres > 32768)
         return pbrt_error(err, d->film.loc, "film resolution %dx%d is outside 1..32768", rs->xres, rs->yres);
+    if (load_film_crop(L, err) || load_filter(L, err))
+        return -1;
+    rs->imaging_ratio = d->film.exposuretime * d->film.iso / 100.0;
+    rs->max_component = d->film.maxcomponentvalue;
     if (spectral_grid_init(&rs->grid, d->film.nbuckets, d->film.lambda_min, d->film.lambda_max, err))
         return err_prefix(err, "%s:%d:%d: Film: ", d->film.loc.file, d->film.loc.line, d->film.loc.col);
     rs->film_spectral = d->film.type == SCENE_FILM_SPECTRAL;

@@ -3,13 +3,46 @@
 #include <stdio.h>
 #include <string.h>
 
-/* "auto" runs the path tracer unless the effect plan (scene/plan.h) chooses otherwise. */
+static const char *const BDPT_IGNORED[] = {"visualizestrategies", "visualizeweights", NULL};
+static const char *const MLT_IGNORED[] = {"bootstrapsamples", "chains", "mutationsperpixel",
+                                          "largestepprobability", "sigma", NULL};
+static const char *const SPPM_IGNORED[] = {"seed", NULL};
+
+/* "auto" runs the path tracer unless the effect plan (scene/plan.h) chooses otherwise. The rows
+ * after it are pbrt-v4's integrators that prismfarm reads as one of its own: each renders the
+ * same expectation (the light transport equation without media), so the image agrees with
+ * pbrt-v4's within noise, with different noise. */
 static const integrator_name_t TABLE[] = {
-    {"simplepath", INTEGRATOR_SIMPLEPATH, false, true},
-    {"path", INTEGRATOR_PATH, false, true},
-    {"whitted", INTEGRATOR_WHITTED, false, true},
-    {"photon", INTEGRATOR_PATH, true, false},
-    {"auto", INTEGRATOR_PATH, false, false},
+    {"simplepath", INTEGRATOR_SIMPLEPATH, false, true, false, NULL, NULL, NULL},
+    {"path", INTEGRATOR_PATH, false, true, false, NULL, NULL, NULL},
+    {"whitted", INTEGRATOR_WHITTED, false, true, false, NULL, NULL, NULL},
+    {"photon", INTEGRATOR_PATH, true, false, false, NULL, NULL, NULL},
+    {"auto", INTEGRATOR_PATH, false, false, false, NULL, NULL, NULL},
+    /* Without participating media (refused elsewhere) volpath is path exactly. */
+    {"volpath", INTEGRATOR_PATH, false, false, true, NULL, NULL, NULL},
+    {"bdpt", INTEGRATOR_PATH, false, false, true,
+     "bdpt is rendered by the path tracer (same expectation, more noise on caustics); "
+     "Integrator \"photon\" gathers caustics",
+     BDPT_IGNORED, NULL},
+    {"mlt", INTEGRATOR_PATH, false, false, true,
+     "mlt is rendered by the path tracer (same expectation, without Metropolis sampling's "
+     "bootstrap, chains and mutations); Integrator \"photon\" gathers caustics",
+     MLT_IGNORED, NULL},
+    {"sppm", INTEGRATOR_PATH, true, false, true,
+     "sppm is rendered by the photon integrator (one photon pass, then the path tracer gathers "
+     "it): \"integer photons\" = photonsperiteration x the sampler's pixelsamples (pbrt-v4's "
+     "iterations), \"float radius\" = radius, held fixed rather than shrunk each iteration",
+     SPPM_IGNORED, NULL},
+    {"lightpath", INTEGRATOR_PATH, false, false, true,
+     "lightpath is rendered by the path tracer (same expectation, different noise)", NULL, NULL},
+    {"randomwalk", INTEGRATOR_PATH, false, false, true,
+     "randomwalk is rendered by the path tracer (same expectation, less noise: it samples lights)",
+     NULL, NULL},
+    {"simplevolpath", INTEGRATOR_PATH, false, false, true,
+     "simplevolpath is rendered by the path tracer (same expectation without media)", NULL, NULL},
+    {"ambientocclusion", INTEGRATOR_PATH, false, false, true, NULL, NULL,
+     "ambient occlusion renders the unoccluded fraction of the hemisphere, not radiance, and "
+     "prismfarm has no integrator with that expectation"},
 };
 
 #define COUNT (sizeof TABLE / sizeof TABLE[0])
@@ -42,11 +75,11 @@ void integrators_list(bool overridable_only, char *buf, size_t size)
     const char *q = overridable_only ? "" : "\"";
     size_t n = 0, k = 0, total = 0;
     for (size_t i = 0; i < COUNT; i++)
-        total += !overridable_only || TABLE[i].overridable;
+        total += TABLE[i].overridable || (!overridable_only && !TABLE[i].refused);
     if (size > 0)
         buf[0] = 0;
     for (size_t i = 0; i < COUNT; i++) {
-        if (overridable_only && !TABLE[i].overridable)
+        if (overridable_only ? !TABLE[i].overridable : TABLE[i].refused != NULL)
             continue;
         const char *sep = k == 0 ? "" : k + 1 == total ? " or " : ", ";
         int w = snprintf(buf + n, n < size ? size - n : 0, "%s%s%s%s", sep, q, TABLE[i].name, q);

@@ -37,6 +37,15 @@ typedef struct integrator_name {
     integrator_kind_t kind; /* the camera pass it runs (photon: its "gather" may change it) */
     bool photon;            /* a photon pass comes first */
     bool overridable;       /* `--integrator` may choose it for any scene */
+    /* pbrt-v4's integrators that prismfarm does not have: mapped_from_pbrt says the name is
+     * read as `kind` (and the photon pass), `why` is the warning that says so (NULL: none, as
+     * for volpath without media), `ignored` the pbrt-v4 parameters accepted and not simulated
+     * (NULL-terminated; each one given warns). */
+    bool mapped_from_pbrt;
+    const char *why;
+    const char *const *ignored;
+    /* Known to pbrt-v4 and refused, with the reason (ambientocclusion). */
+    const char *refused;
 } integrator_name_t;
 
 /* The entry named name, or NULL if prismfarm knows no integrator of that name. */
@@ -49,10 +58,10 @@ const char *integrators_kind_name(integrator_kind_t kind);
  * photon pass. */
 const char *integrators_used_name(integrator_kind_t kind, bool photon);
 
-/* Every name for a message, quoted, in table order: "\"simplepath\", ..., \"photon\" or \"auto\"";
+/* Every name for a message (refused names left out), quoted, in table order: "\"simplepath\", ..., \"photon\" or \"auto\"";
  * with overridable_only, only the names `--integrator` takes, unquoted: "simplepath, path or
  * whitted". Cut to fit buf (INTEGRATORS_LIST_MAX is always enough). */
-#define INTEGRATORS_LIST_MAX 128
+#define INTEGRATORS_LIST_MAX 320
 void integrators_list(bool overridable_only, char *buf, size_t size);
 
 #endif

@@ -128,7 +128,7 @@ static const char *SAMPLERS[] = {"halton", "independent", "paddedsobol", "pmj02b
 /* pbrt-v4 directives that prismfarm knows but does not support. */
 static const char *UNSUPPORTED_DIRECTIVES[] = {
     "Accelerator",     "ActiveTransform", "Attribute",   "ColorSpace",     "MakeNamedMedium",
-    "MediumInterface", "Option",          "PixelFilter", "TransformTimes", "WorldEnd"};
+    "MediumInterface", "Option",          "TransformTimes", "WorldEnd"};
 
 #define COUNT_OF(a) (sizeof(a) / sizeof((a)[0]))
 
@@ -1331,6 +1331,109 @@ static int do_camera(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_
     return set_coordsys(P, "camera", transform_inverse(P->gs.ctm), loc);
 }
 
+static int film_warn(parser_t *P, params_t *ps, const char *name, const char *text)
+{
+    param_t *p = params_find(ps, name);
+    if (warnings_add(P->scene->warnings, p->loc, "%s", text) != 0)
+        return err_set(P->err, "out of memory");
+    return 0;
+}
+
+/* pbrt-v4's FilmBase and PixelSensor parameters (film.cpp): the sensor's imaging ratio, the
+ * per-sample clamp, the part of the image rendered; what is not simulated warns. */
+static int do_film_sensor(parser_t *P, params_t *ps, scene_film_t *f)
+{
+    double whitebalance, diagonal;
+    const char *sensor;
+    bool fp16;
+    if (params_get_float(ps, "iso", 100.0, &f->iso, P->err) != 0 ||
+        params_get_float(ps, "exposuretime", 1.0, &f->exposuretime, P->err) != 0 ||
+        params_get_float(ps, "whitebalance", 0.0, &whitebalance, P->err) != 0 ||
+        params_get_string(ps, "sensor", "cie1931", &sensor, P->err) != 0 ||
+        params_get_float(ps, "maxcomponentvalue", INFINITY, &f->maxcomponentvalue, P->err) != 0 ||
+        params_get_float(ps, "diagonal", 35.0, &diagonal, P->err) != 0 ||
+        params_get_bool(ps, "savefp16", true, &fp16, P->err) != 0)
+        return -1;
+    if (check_range(P, ps, "iso", f->iso, 0.0, INFINITY) != 0 ||
+        check_range(P, ps, "exposuretime", f->exposuretime, 0.0, INFINITY) != 0 ||
+        check_range(P, ps, "whitebalance", whitebalance, 0.0, INFINITY) != 0 ||
+        check_positive(P, ps, "diagonal", diagonal) != 0)
+        return -1;
+    if (params_find(ps, "maxcomponentvalue") && !(f->maxcomponentvalue > 0.0))
+        return pbrt_error(P->err, params_find(ps, "maxcomponentvalue")->loc,
+                          "\"float maxcomponentvalue\" must be positive, got %g", f->maxcomponentvalue);
+    if (strcmp(sensor, "cie1931") != 0 &&
+        film_warn(P, ps, "sensor",
+                  "a camera sensor's response curves are not simulated: the image is rendered with "
+                  "the \"cie1931\" sensor (XYZ matching functions) and without its white balance") != 0)
+        return -1;
+    if (whitebalance != 0.0 &&
+        film_warn(P, ps, "whitebalance",
+                  "\"float whitebalance\" is not simulated: the image is not white balanced") != 0)
+        return -1;
+    /* The EXR is always float32 (prismfarm's spectral layers); pbrt-v4's default is half. */
+    if (params_find(ps, "savefp16") && fp16 &&
+        film_warn(P, ps, "savefp16", "\"bool savefp16\" is not simulated: the EXR is written as float32") != 0)
+        return -1;
+    param_t *cw, *pb;
+    if (params_get_array(ps, "cropwindow", PARAM_FLOAT, &cw, P->err) != 0 ||
+        params_get_array(ps, "pixelbounds", PARAM_INTEGER, &pb, P->err) != 0)
+        return -1;
+    if (cw && cw->count != 4)
+        return pbrt_error(P->err, cw->loc, "\"float cropwindow\" needs 4 values (x0 x1 y0 y1), got %zu", cw->count);
+    if (pb && pb->count != 4)
+        return pbrt_error(P->err, pb->loc, "\"integer pixelbounds\" needs 4 values (x0 x1 y0 y1), got %zu", pb->count);
+    f->has_crop = cw != NULL;
+    f->has_pixelbounds = pb != NULL;
+    for (int i = 0; i < 4; i++) {
+        if (cw)
+            f->cropwindow[i] = cw->numbers[i];
+        if (pb) {
+            if (!(fabs(pb->numbers[i]) <= 65536.0))
+                return pbrt_error(P->err, pb->loc, "\"integer pixelbounds\" value %g is out of range", pb->numbers[i]);
+            f->pixelbounds[i] = (int)pb->numbers[i];
+        }
+    }
+    if (cw && pb &&
+        film_warn(P, ps, "pixelbounds",
+                  "both \"pixelbounds\" and \"cropwindow\" are given: the crop window is used (pbrt-v4)") != 0)
+        return -1;
+    f->crop_loc = cw ? cw->loc : pb ? pb->loc : f->loc;
+    return 0;
+}
+
+/* PixelFilter "type" (pbrt-v4 filters.cpp: xradius, yradius and each filter's own). */
+static int do_pixelfilter(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
+{
+    static const char *FILTERS[] = {"box", "gaussian", "mitchell", "sinc", "triangle"};
+    static const double RADIUS[] = {0.5, 1.5, 2.0, 4.0, 2.0};
+    size_t k = 0;
+    while (k < COUNT_OF(FILTERS) && strcmp(FILTERS[k], type->s) != 0)
+        k++;
+    if (k == COUNT_OF(FILTERS))
+        return pbrt_error(P->err, type->loc,
+                          "unsupported filter \"%s\" (\"box\", \"gaussian\", \"mitchell\", \"sinc\" or "
+                          "\"triangle\")",
+                          type->s);
+    scene_filter_t *f = &P->scene->filter;
+    f->type = FILTERS[k];
+    f->loc = loc;
+    if (params_get_float(ps, "xradius", RADIUS[k], &f->xradius, P->err) != 0 ||
+        params_get_float(ps, "yradius", RADIUS[k], &f->yradius, P->err) != 0 ||
+        check_range(P, ps, "xradius", f->xradius, 1e-3, 64.0) != 0 ||
+        check_range(P, ps, "yradius", f->yradius, 1e-3, 64.0) != 0)
+        return -1;
+    if (!strcmp(f->type, "gaussian"))
+        return params_get_float(ps, "sigma", 0.5, &f->sigma, P->err) ||
+               check_positive(P, ps, "sigma", f->sigma);
+    if (!strcmp(f->type, "mitchell"))
+        return params_get_float(ps, "B", 1.0 / 3.0, &f->b, P->err) ||
+               params_get_float(ps, "C", 1.0 / 3.0, &f->c, P->err);
+    if (!strcmp(f->type, "sinc"))
+        return params_get_float(ps, "tau", 3.0, &f->tau, P->err) || check_positive(P, ps, "tau", f->tau);
+    return 0;
+}
+
 static int do_film(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
 {
     scene_film_t *f = &P->scene->film;
@@ -1341,14 +1444,27 @@ static int do_film(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t 
         nb_def = SCENE_RGB_NBUCKETS_DEFAULT;
         lmin_def = SCENE_RGB_LAMBDA_MIN_DEFAULT;
         lmax_def = SCENE_RGB_LAMBDA_MAX_DEFAULT;
+    } else if (!strcmp(type->s, "gbuffer")) {
+        /* pbrt-v4's GBufferFilm is an RGB film plus albedo, normal and depth layers. */
+        f->type = SCENE_FILM_RGB;
+        nb_def = SCENE_RGB_NBUCKETS_DEFAULT;
+        lmin_def = SCENE_RGB_LAMBDA_MIN_DEFAULT;
+        lmax_def = SCENE_RGB_LAMBDA_MAX_DEFAULT;
+        const char *cs;
+        if (params_get_string(ps, "coordinatesystem", "camera", &cs, P->err) != 0)
+            return -1;
+        if (warnings_add(P->scene->warnings, type->loc,
+                         "Film \"gbuffer\" is rendered as \"rgb\": its albedo, normal and depth "
+                         "layers are not written") != 0)
+            return err_set(P->err, "out of memory");
     } else if (!strcmp(type->s, "spectral")) {
         f->type = SCENE_FILM_SPECTRAL;
         nb_def = SCENE_SPECTRAL_NBUCKETS_DEFAULT;
         lmin_def = SCENE_SPECTRAL_LAMBDA_MIN_DEFAULT;
         lmax_def = SCENE_SPECTRAL_LAMBDA_MAX_DEFAULT;
     } else {
-        return pbrt_error(P->err, type->loc, "unsupported film \"%s\" (\"rgb\" or \"spectral\")",
-                          type->s);
+        return pbrt_error(P->err, type->loc,
+                          "unsupported film \"%s\" (\"rgb\", \"gbuffer\" or \"spectral\")", type->s);
     }
     f->loc = loc;
     const char *filename;
@@ -1369,7 +1485,9 @@ static int do_film(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t 
         return pbrt_error(P->err, loc, "Film: \"lambdamin\" (%g) must be below \"lambdamax\" (%g)",
                           f->lambda_min, f->lambda_max);
     f->filename = scene_desc_strdup(P->scene, filename, P->err);
-    return f->filename ? 0 : -1;
+    if (!f->filename || do_film_sensor(P, ps, f) != 0)
+        return -1;
+    return 0;
 }
 
 static int do_sampler(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
@@ -2381,13 +2499,20 @@ static int param_directive(parser_t *P, const char *dir, pbrt_loc_t loc)
         rc = need_options(P, dir, loc) || do_film(P, ps, &type, loc) ? -1 : 0;
     } else if (!strcmp(dir, "Sampler")) {
         rc = need_options(P, dir, loc) || do_sampler(P, ps, &type, loc) ? -1 : 0;
+    } else if (!strcmp(dir, "PixelFilter")) {
+        rc = need_options(P, dir, loc) || do_pixelfilter(P, ps, &type, loc) ? -1 : 0;
     } else if (!strcmp(dir, "Integrator")) {
         if (need_options(P, dir, loc) != 0)
             goto done;
-        if (!integrators_find(type.s)) {
+        const integrator_name_t *named = integrators_find(type.s);
+        if (!named) {
             char names[INTEGRATORS_LIST_MAX];
             integrators_list(false, names, sizeof names);
             pbrt_error(P->err, type.loc, "unsupported integrator \"%s\" (%s)", type.s, names);
+            goto done;
+        }
+        if (named->refused) {
+            pbrt_error(P->err, type.loc, "unsupported integrator \"%s\": %s", type.s, named->refused);
             goto done;
         }
         scene_integrator_t *in = &P->scene->integrator;
@@ -2625,7 +2750,7 @@ static int do_transform_directive(parser_t *P, const char *dir, pbrt_loc_t loc)
 static int directive(parser_t *P, const char *dir, pbrt_loc_t loc)
 {
     static const char *PARAM_DIRECTIVES[] = {
-        "Camera",     "Film",     "Sampler",           "Integrator",
+        "Camera",     "Film",     "Sampler",           "Integrator",        "PixelFilter",
         "Shape",      "Material", "MakeNamedMaterial", "AreaLightSource",
         "LightSource"};
     static const char *TRANSFORMS[] = {"Translate", "Scale",     "Rotate",

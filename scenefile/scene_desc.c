@@ -1,5 +1,6 @@
 #include "scene_desc.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -121,6 +122,12 @@ scene_desc_t *scene_desc_new(err_t *err)
     self->film.nbuckets = SCENE_RGB_NBUCKETS_DEFAULT;
     self->film.lambda_min = SCENE_RGB_LAMBDA_MIN_DEFAULT;
     self->film.lambda_max = SCENE_RGB_LAMBDA_MAX_DEFAULT;
+    self->film.iso = 100.0;
+    self->film.exposuretime = 1.0;
+    self->film.maxcomponentvalue = INFINITY;
+    /* pbrt-v4 scene.cpp: a scene without PixelFilter gets the gaussian filter's defaults. */
+    self->filter = (scene_filter_t){.type = "gaussian", .xradius = 1.5, .yradius = 1.5,
+                                    .sigma = 0.5, .b = 1.0 / 3.0, .c = 1.0 / 3.0, .tau = 3.0};
 
     self->sampler.type = "zsobol";
     self->sampler.pixelsamples = 16;

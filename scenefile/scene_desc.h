@@ -319,7 +319,23 @@ typedef struct scene_film {
     const char *filename; /* as written ("pbrt.exr" by default) */
     int nbuckets;
     double lambda_min, lambda_max; /* nm */
+    /* pbrt-v4's PixelSensor: the image is scaled by exposuretime * iso / 100 (cie1931). */
+    double iso, exposuretime;
+    double maxcomponentvalue; /* per-sample clamp of the sensor's largest component; INFINITY */
+    /* The part of the image rendered (pbrt-v4): cropwindow [x0 x1 y0 y1] in [0, 1] (has_crop),
+     * or pixelbounds [x0 x1 y0 y1] in pixels (has_pixelbounds); the cropwindow wins. */
+    bool has_crop, has_pixelbounds;
+    double cropwindow[4];
+    int pixelbounds[4];
+    pbrt_loc_t crop_loc; /* the parameter that set the bounds */
 } scene_film_t;
+
+/* PixelFilter (pbrt-v4's filters; gaussian when the file has none). */
+typedef struct scene_filter {
+    const char *type; /* "box", "gaussian", "mitchell", "sinc", "triangle" */
+    pbrt_loc_t loc;
+    double xradius, yradius, sigma, b, c, tau;
+} scene_filter_t;
 
 typedef struct scene_sampler {
     const char *type; /* pbrt's sampler name as written; all map to one stratified sampler */
@@ -339,6 +355,7 @@ typedef struct scene_integrator {
 typedef struct scene_desc {
     scene_camera_t camera;
     scene_film_t film;
+    scene_filter_t filter;
     scene_sampler_t sampler;
     scene_integrator_t integrator;
 

@@ -960,7 +960,12 @@ static void test_error_messages(void **state)
         {"WorldBegin\nLightSource \"point\" \"point3 from\" [1 2]\n",
          "t.pbrt:2:21: expected 3 numbers after \"point3 from\", got 2"},
         {"Frobnicate\n", "t.pbrt:1:1: unknown directive Frobnicate"},
-        {"PixelFilter \"gaussian\"\nWorldBegin\n", "t.pbrt:1:1: unsupported directive PixelFilter"},
+        {"PixelFilter \"lanczos\"\nWorldBegin\n",
+         "t.pbrt:1:13: unsupported filter \"lanczos\" (\"box\", \"gaussian\", \"mitchell\", \"sinc\" or \"triangle\")"},
+        {"PixelFilter \"box\" \"float radius\" 1\nWorldBegin\n",
+         "t.pbrt:1:19: unsupported parameter \"float radius\" for PixelFilter \"box\""},
+        {"PixelFilter \"gaussian\" \"float sigma\" 0\nWorldBegin\n",
+         "t.pbrt:1:24: \"float sigma\" must be greater than 0, got 0"},
         {"WorldBegin\nShape \"disk\"   \"float zmin\" -1\n",
          "t.pbrt:2:16: unsupported parameter \"float zmin\" for Shape \"disk\""},
         {"WorldBegin\nShape \"sphere\" \"integer radius\" 2\n",
@@ -1021,11 +1026,18 @@ static void test_error_messages(void **state)
          "t.pbrt:1:12: \"integer xresolution\" must be within [1, 65536], got 0"},
         {"Film \"spectral\" \"float lambdamin\" 700 \"float lambdamax\" 400\nWorldBegin\n",
          "t.pbrt:1:1: Film: \"lambdamin\" (700) must be below \"lambdamax\" (400)"},
-        {"Film \"gbuffer\"\nWorldBegin\n",
-         "t.pbrt:1:6: unsupported film \"gbuffer\" (\"rgb\" or \"spectral\")"},
-        {"Integrator \"volpath\"\nWorldBegin\n",
-         "t.pbrt:1:12: unsupported integrator \"volpath\" (\"simplepath\", \"path\", \"whitted\", "
-         "\"photon\" or \"auto\")"},
+        {"Film \"image\"\nWorldBegin\n",
+         "t.pbrt:1:6: unsupported film \"image\" (\"rgb\", \"gbuffer\" or \"spectral\")"},
+        {"Film \"rgb\" \"float cropwindow\" [0 1 0]\nWorldBegin\n",
+         "t.pbrt:1:12: \"float cropwindow\" needs 4 values (x0 x1 y0 y1), got 3"},
+        {"Integrator \"nosuch\"\nWorldBegin\n",
+         "t.pbrt:1:12: unsupported integrator \"nosuch\" (\"simplepath\", \"path\", \"whitted\", "
+         "\"photon\", \"auto\", \"volpath\", \"bdpt\", \"mlt\", \"sppm\", \"lightpath\", "
+         "\"randomwalk\" or \"simplevolpath\")"},
+        {"Integrator \"ambientocclusion\"\nWorldBegin\n",
+         "t.pbrt:1:12: unsupported integrator \"ambientocclusion\": ambient occlusion renders the "
+         "unoccluded fraction of the hemisphere, not radiance, and prismfarm has no integrator "
+         "with that expectation"},
         {"Shape \"sphere\"\n", "t.pbrt:1:1: Shape is only allowed after WorldBegin"},
         {"WorldBegin\nCamera \"perspective\"\n",
          "t.pbrt:2:1: Camera must come before WorldBegin (line 1)"},
