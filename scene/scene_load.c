@@ -859,6 +859,17 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
         return pbrt_error(err, in->loc, "Integrator \"%s\" is not supported yet (use %s)", type,
                           names);
     }
+    /* What ignoring the media means depends on who is compared: pbrt-v4's "path" ignores them
+     * as well (its PathIntegrator has no medium code), its default "volpath" renders them. */
+    if (L->desc->nmedia > 0 &&
+        warnings_add(L->sc->warnings, L->desc->media_loc,
+                     !strcmp(type, "path") || !strcmp(type, "simplepath") || !strcmp(type, "whitted")
+                         ? "the scene's %zu %s ignored; pbrt-v4's \"%s\" integrator ignores "
+                           "media too, so the image is the one pbrt-v4 renders"
+                         : "the scene's %zu %s ignored: the \"%s\" integrator's fog, haze "
+                           "and absorption are missing from the image",
+                     L->desc->nmedia, L->desc->nmedia == 1 ? "medium is" : "media are", type))
+        return err_set(err, "out of memory");
     if (named->refused)
         return pbrt_error(err, in->loc, "Integrator \"%s\" is not supported: %s", type, named->refused);
     int photon = named->photon;

@@ -73,6 +73,10 @@ enum { FRAME_ATTRIBUTE, FRAME_OBJECT, FRAME_IMPORT };
 
 typedef struct gstate {
     transform_t ctm;
+    /* ActiveTransform EndTime: transforms apply only to the shutter's end, which prismfarm
+     * does not render (no motion blur), so they leave the CTM alone. pbrt-v4 keeps the active
+     * transform in the graphics state: AttributeEnd restores it. */
+    bool end_time_only;
     bool reverse;
     int material;
     int area_light;
@@ -113,6 +117,9 @@ typedef struct parser {
      * normalised, and its realpath; both NULL when unconfined. */
     char *root_lex, *root_real;
     size_t bytes_charged; /* confined: bytes read and decoded so far (PBRT_TOTAL_BYTES_MAX) */
+    /* MakeNamedMedium names, for MediumInterface to check (media are not simulated). */
+    char **media;
+    size_t nmedia, cap_media;
 } parser_t;
 
 #define NAME_MAX_LEN 4096
@@ -126,9 +133,7 @@ static const char *SAMPLERS[] = {"halton", "independent", "paddedsobol", "pmj02b
                                  "sobol",  "stratified",  "zsobol"};
 
 /* pbrt-v4 directives that prismfarm knows but does not support. */
-static const char *UNSUPPORTED_DIRECTIVES[] = {
-    "Accelerator",     "ActiveTransform", "Attribute",   "ColorSpace",     "MakeNamedMedium",
-    "MediumInterface", "Option",          "TransformTimes", "WorldEnd"};
+static const char *UNSUPPORTED_DIRECTIVES[] = {"Attribute", "Option", "WorldEnd"};
 
 #define COUNT_OF(a) (sizeof(a) / sizeof((a)[0]))
 
@@ -2747,6 +2752,110 @@ static int do_transform_directive(parser_t *P, const char *dir, pbrt_loc_t loc)
     return 0;
 }
 
+/* ---- Directives prismfarm accepts without simulating them (each warns, as pbrt-v4 does for
+ * what it ignores) ---- */
+
+static int find_medium(const parser_t *P, const char *name)
+{
+    for (size_t i = 0; i < P->nmedia; i++)
+        if (!strcmp(P->media[i], name))
+            return (int)i;
+    return -1;
+}
+
+/* MakeNamedMedium "name" params: the medium is remembered by name and its parameters are
+ * accepted unread; the scene renders without it. pbrt-v4's "path" integrator ignores media
+ * too, so there the image is pbrt-v4's; the loader says which case applies. */
+static int do_make_medium(parser_t *P, pbrt_loc_t loc)
+{
+    str_arg_t name;
+    if (read_string(P, "MakeNamedMedium", loc, "medium name", &name) != 0)
+        return -1;
+    params_t *ps = read_params(P, "MakeNamedMedium");
+    if (!ps)
+        return -1;
+    for (size_t i = 0; i < params_count(ps); i++)
+        params_at(ps, i)->used = true;
+    const char *type = NULL;
+    int rc = params_get_string(ps, "type", NULL, &type, P->err);
+    if (rc == 0 && !type)
+        rc = pbrt_error(P->err, loc, "MakeNamedMedium \"%s\" needs \"string type\"", name.s);
+    if (rc == 0 && find_medium(P, name.s) >= 0)
+        rc = pbrt_error(P->err, name.loc, "medium \"%s\" is already defined", name.s);
+    if (rc == 0 && P->nmedia == P->cap_media) {
+        size_t cap = P->cap_media ? 2 * P->cap_media : 4;
+        char **m = realloc(P->media, cap * sizeof *m);
+        if (!m)
+            rc = err_set(P->err, "out of memory");
+        else {
+            P->media = m;
+            P->cap_media = cap;
+        }
+    }
+    if (rc == 0 && !(P->media[P->nmedia] = strdup(name.s)))
+        rc = err_set(P->err, "out of memory");
+    if (rc == 0) {
+        P->nmedia++;
+        if (!P->scene->media_loc.file)
+            P->scene->media_loc = loc;
+        P->scene->nmedia++;
+        rc = warnings_add(P->scene->warnings, loc,
+                          "participating media are not simulated: medium \"%s\" (%s) is ignored",
+                          name.s, type) ? err_set(P->err, "out of memory") : 0;
+    }
+    params_destroy(&ps);
+    return rc;
+}
+
+/* MediumInterface "inside" ["outside"]: checked against the media defined, then ignored. */
+static int do_medium_interface(parser_t *P, pbrt_loc_t loc)
+{
+    str_arg_t names[2];
+    if (read_string(P, "MediumInterface", loc, "medium name", &names[0]) != 0)
+        return -1;
+    int n = 1;
+    pbrt_token_t t;
+    if (pbrt_lexer_peek(P->lex, &t, P->err) != 0)
+        return -1;
+    if (t.kind == PBRT_TOKEN_STRING) {
+        if (read_string(P, "MediumInterface", loc, "medium name", &names[1]) != 0)
+            return -1;
+        n = 2;
+    }
+    for (int i = 0; i < n; i++)
+        if (names[i].s[0] && find_medium(P, names[i].s) < 0)
+            return pbrt_error(P->err, names[i].loc,
+                              "medium \"%s\" is not defined (MakeNamedMedium must come before its "
+                              "use)",
+                              names[i].s);
+    return 0;
+}
+
+/* ActiveTransform StartTime | EndTime | All. prismfarm renders the scene at the shutter's
+ * opening (no motion blur): transforms given for the end time alone are ignored, with a
+ * warning; All and StartTime apply them as usual. */
+static int do_active_transform(parser_t *P, pbrt_loc_t loc)
+{
+    pbrt_token_t t;
+    if (pbrt_lexer_next(P->lex, &t, P->err) != 0)
+        return -1;
+    if (t.kind != PBRT_TOKEN_WORD ||
+        (strcmp(t.text, "StartTime") && strcmp(t.text, "EndTime") && strcmp(t.text, "All"))) {
+        char d[96];
+        describe(&t, d, sizeof d);
+        return pbrt_error(P->err, t.kind == PBRT_TOKEN_EOF ? loc : t.loc,
+                          "ActiveTransform expects StartTime, EndTime or All, got %s", d);
+    }
+    P->gs.end_time_only = !strcmp(t.text, "EndTime");
+    /* StartTime or EndTime alone: what follows makes the start and end transforms differ. */
+    if (strcmp(t.text, "All") != 0 &&
+        warnings_add(P->scene->warnings, loc,
+                     "motion blur is not simulated: the scene renders as at the shutter's "
+                     "opening (the transforms for its end are ignored)"))
+        return err_set(P->err, "out of memory");
+    return 0;
+}
+
 static int directive(parser_t *P, const char *dir, pbrt_loc_t loc)
 {
     static const char *PARAM_DIRECTIVES[] = {
@@ -2757,10 +2866,56 @@ static int directive(parser_t *P, const char *dir, pbrt_loc_t loc)
                                        "LookAt",    "Transform", "ConcatTransform"};
     if (in_list(dir, PARAM_DIRECTIVES, COUNT_OF(PARAM_DIRECTIVES)))
         return param_directive(P, dir, loc);
-    if (in_list(dir, TRANSFORMS, COUNT_OF(TRANSFORMS)))
-        return do_transform_directive(P, dir, loc);
+    if (in_list(dir, TRANSFORMS, COUNT_OF(TRANSFORMS))) {
+        if (!P->gs.end_time_only)
+            return do_transform_directive(P, dir, loc);
+        transform_t keep = P->gs.ctm; /* read (and check) it, then leave the start CTM */
+        int rc = do_transform_directive(P, dir, loc);
+        P->gs.ctm = keep;
+        return rc;
+    }
     if (!strcmp(dir, "Identity")) {
-        P->gs.ctm = transform_identity();
+        if (!P->gs.end_time_only)
+            P->gs.ctm = transform_identity();
+        return 0;
+    }
+    if (!strcmp(dir, "MakeNamedMedium"))
+        return do_make_medium(P, loc);
+    if (!strcmp(dir, "MediumInterface"))
+        return do_medium_interface(P, loc);
+    if (!strcmp(dir, "ActiveTransform"))
+        return do_active_transform(P, loc);
+    if (!strcmp(dir, "TransformTimes")) {
+        double v[2];
+        if (read_numbers(P, dir, loc, v, 2) != 0)
+            return -1;
+        return warnings_add(P->scene->warnings, loc,
+                            "TransformTimes %g %g is ignored (no motion blur)", v[0], v[1])
+                   ? err_set(P->err, "out of memory")
+                   : 0;
+    }
+    if (!strcmp(dir, "ColorSpace")) {
+        str_arg_t name;
+        if (read_string(P, dir, loc, "colour space name", &name) != 0)
+            return -1;
+        /* pbrt-v4's default, the only one prismfarm has. */
+        if (strcmp(name.s, "srgb") != 0)
+            return pbrt_error(P->err, name.loc,
+                              "unsupported colour space \"%s\" (only \"srgb\", pbrt-v4's default)",
+                              name.s);
+        return 0;
+    }
+    if (!strcmp(dir, "Accelerator")) {
+        /* How pbrt-v4 builds its BVH: no effect on the image; Embree builds its own. */
+        str_arg_t type;
+        if (read_string(P, dir, loc, "type name", &type) != 0)
+            return -1;
+        params_t *ps = read_params(P, "Accelerator");
+        if (!ps)
+            return -1;
+        for (size_t i = 0; i < params_count(ps); i++)
+            params_at(ps, i)->used = true;
+        params_destroy(&ps);
         return 0;
     }
     if (!strcmp(dir, "Texture"))
@@ -3052,6 +3207,9 @@ static scene_desc_t *run(const char *name, const char *text, size_t len, const c
     free(P.cs);
     free(P.frames);
     free(P.pending);
+    for (size_t i = 0; i < P.nmedia; i++)
+        free(P.media[i]);
+    free(P.media);
     for (int i = 0; i < P.nopen; i++)
         free(P.open_files[i]);
     free(P.root_real);

@@ -379,6 +379,9 @@ typedef struct scene_desc {
     size_t nfiles;
     /* What the scene asks for that is accepted without being simulated (never NULL). */
     warnings_t *warnings;
+    /* MakeNamedMedium directives (media are not simulated) and the first one's place. */
+    size_t nmedia;
+    pbrt_loc_t media_loc;
 
     /* private: capacities and owned allocations */
     size_t cap_materials, cap_textures, cap_lights, cap_area_lights, cap_shapes, cap_objects,

@@ -312,6 +312,57 @@ static void test_more_materials(void **state)
     scene_desc_destroy(&s);
 }
 
+/* What pbrt-v4 has and prismfarm does not simulate is accepted with a warning naming the
+ * place: participating media (pbrt-v4's "path" integrator ignores them too), motion blur (the
+ * scene renders as at the shutter's opening: EndTime-only transforms leave the CTM alone, and
+ * AttributeEnd restores the active transform as pbrt-v4's graphics state does), TransformTimes;
+ * ColorSpace "srgb" and Accelerator are accepted silently. */
+static void test_accepted_not_simulated(void **state)
+{
+    (void)state;
+    const char *text =
+        "ColorSpace \"srgb\"\n"
+        "Accelerator \"bvh\" \"integer maxnodeprims\" 4\n"
+        "TransformTimes 0 1\n"
+        "WorldBegin\n"
+        "MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [1 1 1]\n"
+        "MediumInterface \"fog\" \"\"\n"
+        "MediumInterface \"\"\n"
+        "AttributeBegin\n"
+        "  ActiveTransform EndTime\n"
+        "  Translate 5 0 0\n"
+        "AttributeEnd\n"
+        "Translate 0 1 0\n"
+        "Shape \"sphere\"\n";
+    err_t err = {{0}};
+    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
+    if (!d)
+        fail_msg("%s", err.msg);
+    assert_int_equal(d->nmedia, 1);
+    assert_int_equal(d->media_loc.line, 5);
+    assert_int_equal(warnings_count(d->warnings), 3);
+    assert_string_equal(warnings_at(d->warnings, 0), "t.pbrt:3:1: TransformTimes 0 1 is ignored (no motion blur)");
+    assert_string_equal(warnings_at(d->warnings, 1),
+                        "t.pbrt:5:1: participating media are not simulated: medium \"fog\" "
+                        "(homogeneous) is ignored");
+    assert_string_equal(warnings_at(d->warnings, 2),
+                        "t.pbrt:9:3: motion blur is not simulated: the scene renders as at the "
+                        "shutter's opening (the transforms for its end are ignored)");
+    /* The EndTime translate was ignored and AttributeEnd restored "All": only (0, 1, 0). */
+    vec3_t c = transform_point(&d->shapes[0].to_world, vec3_make(0, 0, 0));
+    testutil_assert_near(c.x, 0, TOL);
+    testutil_assert_near(c.y, 1, TOL);
+    scene_desc_destroy(&d);
+    expect_error("WorldBegin\nMediumInterface \"smoke\"\n",
+                 "t.pbrt:2:17: medium \"smoke\" is not defined (MakeNamedMedium must come before its use)");
+    expect_error("WorldBegin\nMakeNamedMedium \"a\" \"rgb sigma_a\" [1 1 1]\n",
+                 "t.pbrt:2:1: MakeNamedMedium \"a\" needs \"string type\"");
+    expect_error("ActiveTransform Sometimes\n",
+                 "t.pbrt:1:17: ActiveTransform expects StartTime, EndTime or All, got Sometimes");
+    expect_error("ColorSpace \"aces2065-1\"\n",
+                 "t.pbrt:1:12: unsupported colour space \"aces2065-1\" (only \"srgb\", pbrt-v4's default)");
+}
+
 /* ---- lights ---- */
 
 static void test_lights(void **state)
@@ -1303,6 +1354,7 @@ int main(void)
         cmocka_unit_test(test_defaults),
         cmocka_unit_test(test_materials_and_textures),
         cmocka_unit_test(test_more_materials),
+        cmocka_unit_test(test_accepted_not_simulated),
         cmocka_unit_test(test_lights),
         cmocka_unit_test(test_shapes),
         cmocka_unit_test(test_ply_import_direct),
