@@ -23,6 +23,7 @@ static const command_t COMMANDS[] = {
     {"refine", cmd_refine, "add photons to a finished photon job and render it again"},
     {"glass", cmd_glass, "list the glass catalogue and print refractive indices"},
     {"plan", cmd_plan, "print the effects a scene calls for (dispersion, photons) and why"},
+    {"check", cmd_check, "list every refusal and warning of a scene (pbrt-v4 porting)"},
     {"keygen", cmd_keygen, "write a CURVE key pair (NAME.key, NAME.pub) for the farm's encryption"},
 };
 

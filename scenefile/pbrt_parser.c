@@ -117,6 +117,9 @@ typedef struct parser {
      * normalised, and its realpath; both NULL when unconfined. */
     char *root_lex, *root_real;
     size_t bytes_charged; /* confined: bytes read and decoded so far (PBRT_TOTAL_BYTES_MAX) */
+    /* Check mode (pbrt_parse_file_check): a refused directive is recorded here and the parse
+     * goes on at the next directive; NULL: the first refusal ends the parse. */
+    warnings_t *errors;
     /* MakeNamedMedium names, for MediumInterface to check (media are not simulated). */
     char **media;
     size_t nmedia, cap_media;
@@ -2983,6 +2986,26 @@ static int directive(parser_t *P, const char *dir, pbrt_loc_t loc)
     return pbrt_error(P->err, loc, "unknown directive %s", dir);
 }
 
+/* Check mode: records the refusal in P->err and skips to the next directive (a word that is
+ * not a number: a directive's arguments are strings, numbers and brackets), so that every
+ * refusal of a scene is found in one run. Returns 0 to go on, -1 to stop (not in check mode,
+ * or the text itself cannot be read on: an unterminated string, a file that cannot be read). */
+static int recover(parser_t *P)
+{
+    if (!P->errors || warnings_add_text(P->errors, P->err->msg) != 0)
+        return -1;
+    for (;;) {
+        pbrt_token_t t;
+        if (pbrt_lexer_peek(P->lex, &t, P->err) != 0)
+            return -1;
+        double number;
+        if (t.kind == PBRT_TOKEN_EOF || (t.kind == PBRT_TOKEN_WORD && pbrt_parse_number(t.text, &number) == -1))
+            return 0;
+        if (pbrt_lexer_next(P->lex, &t, P->err) != 0)
+            return -1;
+    }
+}
+
 static int parse_tokens(parser_t *P)
 {
     for (;;) {
@@ -3008,7 +3031,7 @@ static int parse_tokens(parser_t *P)
             return pbrt_error(P->err, t.loc, "unknown directive %.40s...", t.text);
         }
         memcpy(dir, t.text, t.len + 1);
-        if (directive(P, dir, t.loc) != 0)
+        if (directive(P, dir, t.loc) != 0 && recover(P) != 0)
             return -1;
     }
 }
@@ -3156,10 +3179,11 @@ static int finish(parser_t *P)
 }
 
 static scene_desc_t *run(const char *name, const char *text, size_t len, const char *root,
-                         err_t *err)
+                         warnings_t *errors, err_t *err)
 {
     parser_t P = {0};
     P.err = err;
+    P.errors = errors;
     if (root) {
         P.root_real = realpath(root, NULL);
         if (!P.root_real) {
@@ -3201,6 +3225,10 @@ static scene_desc_t *run(const char *name, const char *text, size_t len, const c
     if (rc == 0) {
         P.file = main_name;
         rc = finish(&P);
+        if (rc != 0 && errors && warnings_add_text(errors, err->msg) == 0)
+            rc = 0; /* recorded; the scene parsed as far as it could */
+    } else if (errors && warnings_add_text(errors, err->msg) == 0) {
+        rc = 0; /* the text could not be read on: what was parsed is kept for the loader */
     }
     for (size_t i = 0; i < P.ncs; i++)
         free(P.cs[i].name);
@@ -3221,17 +3249,22 @@ static scene_desc_t *run(const char *name, const char *text, size_t len, const c
 
 scene_desc_t *pbrt_parse_file(const char *path, err_t *err)
 {
-    return run(path, NULL, 0, NULL, err);
+    return run(path, NULL, 0, NULL, NULL, err);
+}
+
+scene_desc_t *pbrt_parse_file_check(const char *path, warnings_t *errors, err_t *err)
+{
+    return run(path, NULL, 0, NULL, errors, err);
 }
 
 scene_desc_t *pbrt_parse_file_confined(const char *path, const char *root, err_t *err)
 {
     if (!root)
         return err_set(err, "a confined parse needs the scene's folder"), NULL;
-    return run(path, NULL, 0, root, err);
+    return run(path, NULL, 0, root, NULL, err);
 }
 
 scene_desc_t *pbrt_parse_string(const char *text, size_t len, const char *name, err_t *err)
 {
-    return run(name ? name : "<string>", text ? text : "", text ? len : 0, NULL, err);
+    return run(name ? name : "<string>", text ? text : "", text ? len : 0, NULL, NULL, err);
 }

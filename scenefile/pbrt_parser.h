@@ -27,6 +27,7 @@
 
 #include "err.h"
 #include "scene_desc.h"
+#include "warnings.h"
 
 #include <stddef.h>
 
@@ -51,6 +52,13 @@
  * filled on failure. For the user's own files (`prismfarm render`): any file the scene names
  * is read. */
 scene_desc_t *pbrt_parse_file(const char *path, err_t *err);
+
+/* As pbrt_parse_file, for `prismfarm check`: a refused directive is added to errors (its
+ * "file:line:col: message") and the parse goes on at the next directive, so one run finds
+ * every refusal the parser can see. Returns the scene as far as it was parsed (its warnings
+ * included), or NULL with err filled only when nothing could be read (the main file missing,
+ * out of memory). The result may lack what was refused: load it only to look for more. */
+scene_desc_t *pbrt_parse_file_check(const char *path, warnings_t *errors, err_t *err);
 
 /* Parses a scene from an untrusted source whose files were extracted into the folder root
  * (the master's spool/scenes/<hash>/, a worker's <cache>/<hash>/). Every file the scene reads

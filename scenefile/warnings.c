@@ -45,6 +45,11 @@ int warnings_add(warnings_t *self, pbrt_loc_t loc, const char *fmt, ...)
     return add_line(self, line);
 }
 
+int warnings_add_text(warnings_t *self, const char *line)
+{
+    return add_line(self, line);
+}
+
 int warnings_copy(warnings_t *self, const warnings_t *from)
 {
     if (!from)

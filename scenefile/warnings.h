@@ -23,6 +23,9 @@ void warnings_destroy(warnings_t **self_p);
 int warnings_add(warnings_t *self, pbrt_loc_t loc, const char *fmt, ...)
     __attribute__((format(printf, 3, 4)));
 
+/* Adds a line as it is (already "file:line:col: text"); identical lines once. */
+int warnings_add_text(warnings_t *self, const char *line);
+
 /* Adds every line of from (and its dropped count) to self. */
 int warnings_copy(warnings_t *self, const warnings_t *from);
 
