@@ -21,12 +21,16 @@ static const integrator_name_t TABLE[] = {
     /* Without participating media (refused elsewhere) volpath is path exactly. */
     {"volpath", INTEGRATOR_PATH, false, false, true, NULL, NULL, NULL},
     {"bdpt", INTEGRATOR_PATH, false, false, true,
-     "bdpt is rendered by the path tracer (same expectation, more noise on caustics); "
-     "Integrator \"photon\" gathers caustics",
+     "bdpt is rendered by the path tracer: the same image, noisier in caustics, except that "
+     "light from point, spot and distant lights through smooth glass or mirrors (a caustic "
+     "only bdpt's light paths find) is missing; Integrator \"photon\" gathers such caustics "
+     "on diffuse surfaces",
      BDPT_IGNORED, NULL},
     {"mlt", INTEGRATOR_PATH, false, false, true,
-     "mlt is rendered by the path tracer (same expectation, without Metropolis sampling's "
-     "bootstrap, chains and mutations); Integrator \"photon\" gathers caustics",
+     "mlt is rendered by the path tracer (without Metropolis sampling's bootstrap, chains and "
+     "mutations): the same image except caustics of point, spot and distant lights through "
+     "smooth glass or mirrors, which it cannot find; Integrator \"photon\" gathers those on "
+     "diffuse surfaces",
      MLT_IGNORED, NULL},
     {"sppm", INTEGRATOR_PATH, true, false, true,
      "sppm is rendered by the photon integrator (one photon pass, then the path tracer gathers "

@@ -381,8 +381,10 @@ static void test_pbrt_names_warn(void **state)
 {
     (void)state;
     expect_warning("Film \"rgb\"\nIntegrator \"bdpt\" \"integer maxdepth\" 3 \"bool visualizestrategies\" true\n" LIGHT,
-                   "t.pbrt:2:1: bdpt is rendered by the path tracer (same expectation, more noise on "
-                   "caustics); Integrator \"photon\" gathers caustics");
+                   "t.pbrt:2:1: bdpt is rendered by the path tracer: the same image, noisier in "
+                   "caustics, except that light from point, spot and distant lights through smooth "
+                   "glass or mirrors (a caustic only bdpt's light paths find) is missing; "
+                   "Integrator \"photon\" gathers such caustics on diffuse surfaces");
     expect_warning("Integrator \"bdpt\" \"bool visualizestrategies\" true\n" LIGHT,
                    "t.pbrt:1:19: \"visualizestrategies\" of Integrator \"bdpt\" is not simulated");
     expect_warning("Integrator \"mlt\" \"integer chains\" 10\n" LIGHT,
