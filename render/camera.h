@@ -1,5 +1,6 @@
-/* camera: pbrt-v4's perspective camera (thin lens when lens_radius > 0): a raster position and
- * a lens sample to a world-space ray. fov is the angle of the image's shorter axis. */
+/* camera: pbrt-v4's perspective and orthographic cameras (thin lens when lens_radius > 0) and
+ * its spherical camera (equal-area or equirectangular): a raster position and a lens sample to
+ * a world-space ray. fov is the angle of the image's shorter axis (perspective). */
 #ifndef PRISMFARM_CAMERA_H
 #define PRISMFARM_CAMERA_H
 
@@ -18,8 +19,9 @@ void camera_ray(const camera_t *cam, int xres, int yres, double fx, double fy, d
 typedef struct camera_frame {
     const camera_t *cam;
     int xres, yres;
-    double tan_half; /* tan(fov / 2) */
+    double tan_half; /* tan(fov / 2); 1 for the orthographic camera */
     double sx, sy;   /* the screen window's half-extents before tan_half */
+    double cx, cy;   /* the screen window's centre (0, 0 for pbrt-v4's default) */
 } camera_frame_t;
 
 camera_frame_t camera_frame_make(const camera_t *cam, int xres, int yres);

@@ -150,10 +150,21 @@ typedef struct surface {
     vec3_t dpdu;
 } surface_t;
 
+typedef enum camera_kind {
+    CAMERA_PERSPECTIVE,  /* pbrt-v4's default */
+    CAMERA_ORTHOGRAPHIC, /* parallel rays along +z from the screen window on the z = 0 plane */
+    CAMERA_SPHERICAL,    /* every direction around the camera, mapped onto the image */
+} camera_kind_t;
+
 typedef struct camera {
+    camera_kind_t kind;
     transform_t camera_to_world; /* pbrt camera space: looks down +z, +y up, +x right */
-    double fov_deg;              /* angle of the shorter image axis */
+    double fov_deg;              /* perspective: angle of the shorter image axis */
     double lens_radius, focal_distance;
+    /* Perspective and orthographic: pbrt-v4's screen window (x0, x1, y0, y1); all zero for
+     * its default ([-aspect, aspect] x [-1, 1], or the transpose for portrait images). */
+    double screen[4];
+    int equirect; /* spherical: equirectangular mapping (else pbrt-v4's default equal-area) */
 } camera_t;
 
 /* Integrator "photon" (docs/rendering.md): a photon pass (render/photon.h) fills a caustic

@@ -987,15 +987,33 @@ static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
     const scene_desc_t *d = L->desc;
     scene_t *sc = L->sc;
     render_settings_t *rs = &sc->settings;
-    if (strcmp(d->camera.type, "perspective") != 0)
-        return pbrt_error(err, d->camera.loc, "Camera \"%s\" is not supported (only \"perspective\")", d->camera.type);
+    if (!strcmp(d->camera.type, "perspective"))
+        sc->camera.kind = CAMERA_PERSPECTIVE;
+    else if (!strcmp(d->camera.type, "orthographic"))
+        sc->camera.kind = CAMERA_ORTHOGRAPHIC;
+    else if (!strcmp(d->camera.type, "spherical"))
+        sc->camera.kind = CAMERA_SPHERICAL;
+    else
+        return pbrt_error(err, d->camera.loc,
+                          "Camera \"%s\" is not supported (perspective, orthographic or spherical)",
+                          d->camera.type);
     if (d->camera.camera_from_world.singular)
         return pbrt_error(err, d->camera.loc, "the camera transform is singular");
     sc->camera.camera_to_world = transform_inverse(d->camera.camera_from_world);
     sc->camera.fov_deg = d->camera.fov;
     sc->camera.lens_radius = d->camera.lensradius;
     sc->camera.focal_distance = d->camera.focaldistance;
-    if (!(d->camera.fov > 0 && d->camera.fov < 180))
+    sc->camera.equirect = d->camera.equirect;
+    memcpy(sc->camera.screen, d->camera.screenwindow, sizeof sc->camera.screen);
+    /* pbrt-v4 CameraBase: a frame aspect ratio sets the default screen window in place of the
+     * film's aspect. */
+    double fa = d->camera.frameaspectratio;
+    if (fa > 0.0 && !(sc->camera.screen[0] < sc->camera.screen[1])) {
+        double sx = fa >= 1.0 ? fa : 1.0, sy = fa >= 1.0 ? 1.0 : 1.0 / fa;
+        double w[4] = {-sx, sx, -sy, sy};
+        memcpy(sc->camera.screen, w, sizeof w);
+    }
+    if (sc->camera.kind == CAMERA_PERSPECTIVE && !(d->camera.fov > 0 && d->camera.fov < 180))
         return pbrt_error(err, d->camera.loc, "\"float fov\" must be in (0, 180) degrees, got %g", d->camera.fov);
     rs->xres = ov && ov->xres > 0 ? ov->xres : d->film.xres;
     rs->yres = ov && ov->yres > 0 ? ov->yres : d->film.yres;

@@ -1309,30 +1309,73 @@ static int check_range(parser_t *P, params_t *ps, const char *name, double v, do
  * Options: Camera, Film, Sampler, Integrator
  * ------------------------------------------------------------------------------------------ */
 
+/* pbrt-v4's cameras.cpp: the perspective camera (fov, thin lens), the orthographic one
+ * (thin lens too, no fov), the spherical one (mapping); the screen window and frame aspect of
+ * the first two; the shutter, which prismfarm has no use for (no motion blur). */
 static int do_camera(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
 {
     scene_camera_t *c = &P->scene->camera;
-    if (strcmp(type->s, "perspective") != 0)
-        return pbrt_error(P->err, type->loc, "unsupported camera \"%s\" (only \"perspective\")",
+    static const char *TYPES[] = {"perspective", "orthographic", "spherical"};
+    size_t k = 0;
+    while (k < COUNT_OF(TYPES) && strcmp(type->s, TYPES[k]) != 0)
+        k++;
+    if (k == COUNT_OF(TYPES))
+        return pbrt_error(P->err, type->loc,
+                          "unsupported camera \"%s\" (\"perspective\", \"orthographic\" or "
+                          "\"spherical\"; \"realistic\" is not simulated yet)",
                           type->s);
     if (check_transform(P, &P->gs.ctm, "Camera", loc) != 0)
         return -1;
-    c->type = "perspective";
+    c->type = TYPES[k];
     c->loc = loc;
-    if (params_get_float(ps, "fov", 90.0, &c->fov, P->err) != 0 ||
-        params_get_float(ps, "lensradius", 0.0, &c->lensradius, P->err) != 0 ||
-        params_get_float(ps, "focaldistance", 1e6, &c->focaldistance, P->err) != 0)
+    double open_t, close_t;
+    if (params_get_float(ps, "shutteropen", 0.0, &open_t, P->err) != 0 ||
+        params_get_float(ps, "shutterclose", 1.0, &close_t, P->err) != 0)
         return -1;
-    if (!(c->fov > 0.0 && c->fov < 180.0)) {
-        param_t *p = params_find(ps, "fov");
-        return pbrt_error(P->err, p->loc,
-                          "\"float fov\" must be between 0 and 180 degrees, "
-                          "got %g",
-                          c->fov);
+    if (k == 2) {
+        const char *mapping;
+        if (params_get_string(ps, "mapping", "equalarea", &mapping, P->err) != 0)
+            return -1;
+        if (strcmp(mapping, "equalarea") != 0 && strcmp(mapping, "equirectangular") != 0)
+            return pbrt_error(P->err, params_find(ps, "mapping")->loc,
+                              "\"string mapping\" must be \"equalarea\" or \"equirectangular\", "
+                              "got \"%s\"",
+                              mapping);
+        c->equirect = !strcmp(mapping, "equirectangular");
+    } else {
+        if ((k == 0 && params_get_float(ps, "fov", 90.0, &c->fov, P->err) != 0) ||
+            params_get_float(ps, "lensradius", 0.0, &c->lensradius, P->err) != 0 ||
+            params_get_float(ps, "focaldistance", 1e6, &c->focaldistance, P->err) != 0 ||
+            params_get_float(ps, "frameaspectratio", 0.0, &c->frameaspectratio, P->err) != 0)
+            return -1;
+        param_t *w;
+        if (params_get_array(ps, "screenwindow", PARAM_FLOAT, &w, P->err) != 0)
+            return -1;
+        if (w) {
+            if (w->count != 4 || !(w->numbers[0] < w->numbers[1]) || !(w->numbers[2] < w->numbers[3]))
+                return pbrt_error(P->err, w->loc,
+                                  "\"float screenwindow\" needs 4 numbers x0 < x1, y0 < y1, got %zu",
+                                  w->count);
+            memcpy(c->screenwindow, w->numbers, sizeof c->screenwindow);
+        }
+        if (params_find(ps, "frameaspectratio") && !(c->frameaspectratio > 0.0))
+            return check_positive(P, ps, "frameaspectratio", c->frameaspectratio);
+        if (k == 0 && !(c->fov > 0.0 && c->fov < 180.0)) {
+            param_t *p = params_find(ps, "fov");
+            return pbrt_error(P->err, p->loc,
+                              "\"float fov\" must be between 0 and 180 degrees, "
+                              "got %g",
+                              c->fov);
+        }
+        if (check_range(P, ps, "lensradius", c->lensradius, 0.0, INFINITY) != 0 ||
+            check_positive(P, ps, "focaldistance", c->focaldistance) != 0)
+            return -1;
     }
-    if (check_range(P, ps, "lensradius", c->lensradius, 0.0, INFINITY) != 0 ||
-        check_positive(P, ps, "focaldistance", c->focaldistance) != 0)
-        return -1;
+    if (open_t != close_t && (params_find(ps, "shutteropen") || params_find(ps, "shutterclose")) &&
+        warnings_add(P->scene->warnings, loc,
+                     "the shutter (%g to %g) is accepted, but motion blur is not simulated", open_t,
+                     close_t))
+        return err_set(P->err, "out of memory");
     /* pbrt-v4 scene.cpp: the CTM at Camera is camera-from-world, and the named coordinate
      * system "camera" is its inverse. */
     c->camera_from_world = P->gs.ctm;

@@ -300,11 +300,16 @@ typedef struct scene_file {
 /* ---- options ---- */
 
 typedef struct scene_camera {
-    const char *type;     /* "perspective" */
+    const char *type;     /* "perspective", "orthographic" or "spherical" */
     pbrt_loc_t loc;       /* the directive; line 0 of the main file when it is absent */
     double fov;           /* degrees, of the shorter image axis (pbrt-v4); default 90 */
     double lensradius;    /* 0: pinhole */
     double focaldistance; /* 1e6 */
+    /* "float screenwindow" [x0 x1 y0 y1] (all 0: pbrt-v4's default from the aspect ratio) and
+     * "float frameaspectratio" (0: the film's) */
+    double screenwindow[4];
+    double frameaspectratio;
+    bool equirect; /* spherical: "string mapping" "equirectangular" (else "equalarea") */
     /* The CTM at the Camera directive (pbrt: camera-from-world); m_inv is world-from-camera.
      * The camera looks down +z in camera space, +y up, +x to the image's right. */
     transform_t camera_from_world;

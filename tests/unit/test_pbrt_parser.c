@@ -1092,8 +1092,9 @@ static void test_error_messages(void **state)
         {"Shape \"sphere\"\n", "t.pbrt:1:1: Shape is only allowed after WorldBegin"},
         {"WorldBegin\nCamera \"perspective\"\n",
          "t.pbrt:2:1: Camera must come before WorldBegin (line 1)"},
-        {"Camera \"orthographic\"\nWorldBegin\n",
-         "t.pbrt:1:8: unsupported camera \"orthographic\" (only \"perspective\")"},
+        {"Camera \"realistic\"\nWorldBegin\n",
+         "t.pbrt:1:8: unsupported camera \"realistic\" (\"perspective\", \"orthographic\" or "
+         "\"spherical\"; \"realistic\" is not simulated yet)"},
         {"Camera \"perspective\"\n", "t.pbrt: the scene has no WorldBegin"},
         {"WorldBegin\nWorldBegin\n", "t.pbrt:2:1: WorldBegin appears twice (first at line 1)"},
         {"LookAt 0 0 0 1 1 1 0 1\nWorldBegin\n",
