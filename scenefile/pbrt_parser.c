@@ -117,6 +117,9 @@ typedef struct parser {
      * normalised, and its realpath; both NULL when unconfined. */
     char *root_lex, *root_real;
     size_t bytes_charged; /* confined: bytes read and decoded so far (PBRT_TOTAL_BYTES_MAX) */
+    /* The other place locate() looked for the last name it resolved (the main file's folder),
+     * when the name was found in neither: "" otherwise. For "cannot open" messages. */
+    char also[512];
     /* Check mode (pbrt_parse_file_check): a refused directive is recorded here and the parse
      * goes on at the next directive; NULL: the first refusal ends the parse. */
     warnings_t *errors;
@@ -474,6 +477,7 @@ static bool present(const parser_t *P, const char *path);
 
 static char *locate(parser_t *P, const char *name)
 {
+    P->also[0] = '\0';
     char *first = resolve_path(P->file, name);
     if (!first || name[0] == '/' || present(P, first))
         return first;
@@ -482,6 +486,8 @@ static char *locate(parser_t *P, const char *name)
         free(first);
         return second;
     }
+    if (second && strcmp(second, first) != 0)
+        snprintf(P->also, sizeof P->also, " (also looked for \"%.480s\")", second);
     free(second);
     return first;
 }
@@ -692,7 +698,7 @@ static char *confine(parser_t *P, const char *path, const char *name, const pbrt
     }
     char *real = realpath(path, NULL);
     if (!real) {
-        fail_at(P, from, "cannot open %s \"%s\": %s", what, path, strerror(errno));
+        fail_at(P, from, "cannot open %s \"%s\": %s%s", what, path, strerror(errno), P->also);
         return NULL;
     }
     struct stat st;
@@ -3087,8 +3093,8 @@ static char *read_file(parser_t *P, const char *path, const pbrt_loc_t *from, si
     FILE *f = open_regular_file(path, &kind);
     if (!f) {
         if (from)
-            pbrt_error(P->err, *from, "cannot open included file \"%s\": %s", path,
-                       open_failure(kind, why, sizeof why));
+            pbrt_error(P->err, *from, "cannot open included file \"%s\": %s%s", path,
+                       open_failure(kind, why, sizeof why), P->also);
         else
             err_set(P->err, "cannot open scene file \"%s\": %s", path,
                     open_failure(kind, why, sizeof why));

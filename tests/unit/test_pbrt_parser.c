@@ -856,6 +856,11 @@ static void test_includes(void **state)
     expect_error_named("data/scenes/main.pbrt", "WorldBegin\nInclude \"inc/missing.pbrt\"\n",
                        "data/scenes/main.pbrt:2:9: cannot open included file "
                        "\"data/scenes/inc/missing.pbrt\": No such file or directory");
+    /* A name missing from an included file's folder and from the main file's: both named. */
+    expect_error_named("data/scenes/main.pbrt", "WorldBegin\nInclude \"inc/deeper/includes_missing.pbrt\"\n",
+                       "data/scenes/inc/deeper/includes_missing.pbrt:2:9: cannot open included file "
+                       "\"data/scenes/inc/deeper/nowhere.pbrt\": No such file or directory (also "
+                       "looked for \"data/scenes/nowhere.pbrt\")");
     expect_error("Import \"x.pbrt\"\n", "t.pbrt:1:1: Import is only allowed after WorldBegin");
 
     err_t err = {{0}};
