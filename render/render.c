@@ -290,7 +290,26 @@ static int light_visible(ctx_t *c, const surface_t *sf, light_sample_t *ls,
         tmax *= 1.0 - 1e-7;
     }
     c->stats->rays++;
-    return !geometry_occluded(c->scene->geometry, o, dir, 0.0, tmax);
+    if (!c->scene->has_interface)
+        return !geometry_occluded(c->scene->geometry, o, dir, 0.0, tmax);
+    /* "interface" surfaces (no surface: only a boundary between media) do not block light:
+     * follow the shadow ray through them, as camera and BSDF rays pass through them. */
+    for (int k = 0; k <= MAX_PASSTHROUGH; k++) {
+        hit_t h;
+        if (!geometry_intersect(c->scene->geometry, o, dir, 0.0, tmax, &h))
+            return 1;
+        surface_t sf2;
+        scene_surface(c->scene, &h, &sf2);
+        if (sf2.material->kind != MATERIAL_INTERFACE)
+            return 0;
+        vec3_t o2 = geometry_offset(sf2.p, sf2.ng, dir);
+        tmax -= vec3_dot(vec3_sub(o2, o), dir);
+        if (!(tmax > 0.0))
+            return 1;
+        o = o2;
+        c->stats->rays++;
+    }
+    return 0;
 }
 
 typedef struct hemispheres {

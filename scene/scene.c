@@ -521,6 +521,11 @@ int scene_finish(scene_t *self, err_t *err)
         self->scene_radius = 1.0;
     spectral_grid_t g = self->settings.grid;
     self->has_dispersion = 0;
+    self->has_interface = 0;
+    for (size_t i = 0; i < self->nshapes; i++) {
+        const material_t *m = &self->materials[self->shapes[i].material];
+        self->has_interface |= m->kind == MATERIAL_INTERFACE;
+    }
     for (size_t i = 0; i < self->nmaterials; i++) {
         material_t *m = &self->materials[i];
         if (m->kind != MATERIAL_DIELECTRIC && m->kind != MATERIAL_THIN_DIELECTRIC &&

@@ -242,6 +242,7 @@ typedef struct scene {
     filter_sampler_t *filter; /* settings.filter's sampler (owned); NULL: the box of radius 0.5 */
     render_settings_t settings;
     int has_dispersion;   /* any dispersive material: spectral fan-out is ever needed */
+    int has_interface;    /* a shape with an "interface" material (shadow rays pass it) */
     /* What the scene file asks for that is accepted without being simulated: the parser's
      * lines and the loader's (scene_load), for `render`, `plan` and the client to print.
      * Owned; NULL for a scene built in code. */

@@ -232,6 +232,33 @@ static void test_frame_follows_u(void **state)
     scene_destroy(&s);
 }
 
+/* An "interface" shape is no surface: light reaches the floor through it as if it were not
+ * there, for shadow rays too (pbrt-v4's shadow rays stop at it and its path tracer makes up for
+ * that by counting the pass as a specular bounce, the same expectation with more noise). */
+static void test_interface_lets_light_through(void **state)
+{
+    (void)state;
+    const char *head = "LookAt 0 5 -0.01  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [ 30 ]\n"
+                       "Film \"spectral\" \"integer xresolution\" [ 12 ] \"integer yresolution\" [ 12 ]\n"
+                       "Integrator \"whitted\"\nWorldBegin\n"
+                       "LightSource \"point\" \"point3 from\" [ 0 3 0 ] \"float scale\" [ 10 ]\n"
+                       "Shape \"trianglemesh\" \"point3 P\" [ -4 0 -4  4 0 -4  4 0 4  -4 0 4 ]\n"
+                       "  \"integer indices\" [ 0 2 1  0 3 2 ]\n";
+    char with[2048];
+    snprintf(with, sizeof with,
+             "%sAttributeBegin\n  Material \"interface\"\n  Translate 0 1.5 0\n"
+             "  Shape \"sphere\" \"float radius\" [ 1 ]\nAttributeEnd\n",
+             head);
+    scene_t *a = sb_load_text(head, NULL), *b = sb_load_text(with, NULL);
+    assert_false(a->has_interface);
+    assert_true(b->has_interface);
+    sb_image_stats_t sa = sb_render_stats(a, 12, 4), sbb = sb_render_stats(b, 12, 4);
+    if (!(fabs(sa.mean - sbb.mean) <= 1e-9 * sa.mean + 4 * (sa.se + sbb.se)))
+        fail_msg("floor under an interface sphere: %.6f, without it %.6f", sbb.mean, sa.mean);
+    scene_destroy(&a);
+    scene_destroy(&b);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -241,6 +268,7 @@ int main(void)
         cmocka_unit_test(test_furnace_coated),
         cmocka_unit_test(test_rough_dispersion_agrees),
         cmocka_unit_test(test_frame_follows_u),
+        cmocka_unit_test(test_interface_lets_light_through),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
