@@ -290,7 +290,7 @@ static int light_visible(ctx_t *c, const surface_t *sf, light_sample_t *ls,
         tmax *= 1.0 - 1e-7;
     }
     c->stats->rays++;
-    return !geometry_occluded(c->scene->geometry, o, dir, 0.0, tmax);
+    return !shading_occluded(c->scene, o, dir, 0.0, tmax);
 }
 
 typedef struct hemispheres {
@@ -757,6 +757,12 @@ static void trace(ctx_t *c, path_t *start)
             }
             surface_t sf;
             scene_surface(s, &h, &sf);
+            if (sf.shape->alpha && shading_alpha_pass(&sf, p->org, p->dir)) {
+                if (++p->passthrough > MAX_PASSTHROUGH)
+                    break;
+                p->org = geometry_offset(sf.p, sf.ng, p->dir);
+                continue;
+            }
             /* With a caustic store, light that left an area light and reached the path's
              * first diffuse vertex through mindepth or more specular surfaces only
              * (L S+ D S* E) comes from the photons: the path that finds it the other way is
@@ -773,6 +779,7 @@ static void trace(ctx_t *c, path_t *start)
                 p->org = geometry_offset(sf.p, sf.ng, p->dir);
                 continue;
             }
+            shading_perturb(m, &sf);
             if (p->depth >= maxdepth)
                 break;
             vec3_t wo = vec3_neg(p->dir);
