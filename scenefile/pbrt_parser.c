@@ -792,8 +792,8 @@ static int inflate_if_gzip(parser_t *P, char **buf, size_t *len, size_t limit, c
 
 /* An imagemap PNG in a confined parse: its IHDR (PNG specification 11.2.2: the 8-byte
  * signature, then a 13-byte chunk "IHDR" whose data begins with the width and height, 4 bytes
- * big-endian each) says how many pixels decoding makes, 16 bytes each (the 8-bit RGBA that
- * image_png decodes and the float RGB of the texture), charged with the file's own bytes
+ * big-endian each) says how many pixels decoding makes, 64 bytes each (the 8-bit RGBA that
+ * image_png decodes, the float RGB and alpha, and the texture's coefficients), charged with the file's own bytes
  * before anything decodes it. A file that is not a PNG is left to the PNG reader's message. */
 static int check_png(parser_t *P, const char *real, const char *name, const char *path,
                      const pbrt_loc_t *from)
@@ -820,12 +820,12 @@ static int check_png(parser_t *P, const char *real, const char *name, const char
         uint64_t ht = (uint64_t)h[20] << 24 | (uint64_t)h[21] << 16 | (uint64_t)h[22] << 8 | h[23];
         pixels = w * ht; /* each below 2^32: no overflow */
     }
-    if (pixels > (PBRT_TOTAL_BYTES_MAX - P->bytes_charged) / 16)
+    if (pixels > (PBRT_TOTAL_BYTES_MAX - P->bytes_charged) / 64)
         return fail_at(P, from,
                        "image \"%s\" decodes to %llu pixels, more than the scene may "
                        "read (%zu bytes in all)",
                        name, (unsigned long long)pixels, PBRT_TOTAL_BYTES_MAX);
-    return charge(P, size + 16 * pixels, from);
+    return charge(P, size + 64 * pixels, from);
 }
 
 /* Records a file the scene read (once per relative path): its path as opened and its path
