@@ -825,7 +825,7 @@ static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *er
     }
     if (r < 0)
         return err_prefix(err, "%s:%d:%d: Shape \"%s\": ", s->loc.file, s->loc.line, s->loc.col, s->kind);
-    if (s->alpha.texture >= 0 || s->alpha.value < 1.0) {
+    if (s->has_alpha) {
         if (!(L->sc->shapes[r].alpha = float_input(L, &s->alpha, err)))
             return -1;
         L->sc->has_alpha = 1;

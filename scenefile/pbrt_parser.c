@@ -2470,6 +2470,7 @@ static int do_shape(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
     s->area_light = P->gs.area_light;
     if (get_float_input(P, ps, "alpha", 1.0, &s->alpha) != 0)
         return -1;
+    s->has_alpha = s->alpha.texture >= 0 || s->alpha.value < 1.0;
     /* pbrt-v4 displaces triangle meshes by a texture at load time; prismfarm does not. */
     param_t *disp = params_find(ps, "displacement");
     if (disp) {

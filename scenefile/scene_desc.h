@@ -260,8 +260,9 @@ typedef struct scene_shape {
     int area_light; /* index into area_lights, or -1 */
     double radius;  /* SPHERE, DISK */
     double height;  /* DISK */
-    /* pbrt-v4 "alpha" (1): a float or float texture; where it is 0 rays pass the surface,
-     * where it is in (0, 1) they pass with probability 1 - alpha. */
+    /* pbrt-v4 "alpha" (1), when has_alpha: a float or float texture; where it is 0 rays
+     * pass the surface, where it is in (0, 1) they pass with probability 1 - alpha. */
+    bool has_alpha;
     scene_float_input_t alpha;
     scene_mesh_t mesh;
 } scene_shape_t;

@@ -15,6 +15,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <string.h>
 
 #include "scene_builders.h"
 #include "shading.h"
@@ -169,6 +170,34 @@ static void test_alpha_camera_rays(void **state)
     assert_true(fabs(part.mean / open.mean - 0.75) < 4 * se);
 }
 
+/* The scene format: "texture displacement", "float alpha" and "texture alpha" reach the
+ * scene; "ptex" loads as the constant 0.5 with a warning naming its file:line:col. */
+static void test_parsed(void **state)
+{
+    (void)state;
+    scene_t *s = sb_load_text(
+        "WorldBegin\n"
+        "Texture \"b\" \"float\" \"checkerboard\" \"float tex1\" 0 \"float tex2\" 0.001\n"
+        "Texture \"p\" \"spectrum\" \"ptex\" \"string filename\" \"x.ptx\"\n"
+        "Material \"diffuse\" \"texture displacement\" \"b\" \"texture reflectance\" \"p\"\n"
+        "Shape \"trianglemesh\" \"point3 P\" [0 0 0 1 0 0 0 1 0] \"float alpha\" 0\n"
+        "Shape \"trianglemesh\" \"point3 P\" [0 0 1 1 0 1 0 1 1] \"texture alpha\" \"b\"\n"
+        "Shape \"trianglemesh\" \"point3 P\" [0 0 2 1 0 2 0 1 2]\n",
+        NULL);
+    assert_non_null(s->materials[1].displacement);
+    assert_null(s->materials[0].displacement);
+    assert_true(fabs(texture_eval(s->materials[1].reflectance, 0.3, 0.3, 500) - 0.5) < 1e-12);
+    assert_non_null(s->shapes[0].alpha);
+    assert_non_null(s->shapes[1].alpha);
+    assert_null(s->shapes[2].alpha);
+    assert_true(s->has_alpha);
+    int found = 0;
+    for (size_t i = 0; i < warnings_count(s->warnings); i++)
+        found += strstr(warnings_at(s->warnings, i), "t.pbrt:3:") && strstr(warnings_at(s->warnings, i), "ptex");
+    assert_int_equal(found, 1);
+    scene_destroy(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -176,6 +205,7 @@ int main(void)
         cmocka_unit_test(test_normal_map),
         cmocka_unit_test(test_alpha_shadow_rays),
         cmocka_unit_test(test_alpha_camera_rays),
+        cmocka_unit_test(test_parsed),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
