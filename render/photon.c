@@ -332,6 +332,12 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
         }
         surface_t sf;
         scene_surface(s, &h, &sf);
+        if (sf.shape->alpha && shading_alpha_pass(&sf, f->org, f->dir)) {
+            if (++f->passthrough > MAX_PASSTHROUGH)
+                return 0;
+            f->org = geometry_offset(sf.p, sf.ng, f->dir);
+            continue;
+        }
         const material_t *m = sf.material;
         if (m->kind == MATERIAL_MIX)
             m = shading_resolve(s, m, &sf, next(t));
@@ -341,6 +347,7 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
             f->org = geometry_offset(sf.p, sf.ng, f->dir);
             continue;
         }
+        shading_perturb(m, &sf);
         if (m->kind == MATERIAL_DIFFUSE) {
             /* The side the photon arrived on decides the normal stored and the hemisphere it
              * leaves into: the geometric surface, so that no photon crosses a wall. */

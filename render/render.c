@@ -290,26 +290,7 @@ static int light_visible(ctx_t *c, const surface_t *sf, light_sample_t *ls,
         tmax *= 1.0 - 1e-7;
     }
     c->stats->rays++;
-    if (!c->scene->has_interface)
-        return !geometry_occluded(c->scene->geometry, o, dir, 0.0, tmax);
-    /* "interface" surfaces (no surface: only a boundary between media) do not block light:
-     * follow the shadow ray through them, as camera and BSDF rays pass through them. */
-    for (int k = 0; k <= MAX_PASSTHROUGH; k++) {
-        hit_t h;
-        if (!geometry_intersect(c->scene->geometry, o, dir, 0.0, tmax, &h))
-            return 1;
-        surface_t sf2;
-        scene_surface(c->scene, &h, &sf2);
-        if (sf2.material->kind != MATERIAL_INTERFACE)
-            return 0;
-        vec3_t o2 = geometry_offset(sf2.p, sf2.ng, dir);
-        tmax -= vec3_dot(vec3_sub(o2, o), dir);
-        if (!(tmax > 0.0))
-            return 1;
-        o = o2;
-        c->stats->rays++;
-    }
-    return 0;
+    return !shading_occluded(c->scene, o, dir, 0.0, tmax);
 }
 
 typedef struct hemispheres {
@@ -776,6 +757,12 @@ static void trace(ctx_t *c, path_t *start)
             }
             surface_t sf;
             scene_surface(s, &h, &sf);
+            if (sf.shape->alpha && shading_alpha_pass(&sf, p->org, p->dir)) {
+                if (++p->passthrough > MAX_PASSTHROUGH)
+                    break;
+                p->org = geometry_offset(sf.p, sf.ng, p->dir);
+                continue;
+            }
             /* With a caustic store, light that left an area light and reached the path's
              * first diffuse vertex through mindepth or more specular surfaces only
              * (L S+ D S* E) comes from the photons: the path that finds it the other way is
@@ -792,6 +779,7 @@ static void trace(ctx_t *c, path_t *start)
                 p->org = geometry_offset(sf.p, sf.ng, p->dir);
                 continue;
             }
+            shading_perturb(m, &sf);
             if (p->depth >= maxdepth)
                 break;
             vec3_t wo = vec3_neg(p->dir);

@@ -3,6 +3,8 @@
 #include "microfacet.h"
 
 #include <math.h>
+#include <stdint.h>
+#include <string.h>
 
 /* pbrt-v4 nests mixes without a limit; a cycle cannot be written (a mix names materials
  * defined before it), so this only bounds a pathological chain. */
@@ -164,4 +166,127 @@ vec3_t shading_to_local(const shading_frame_t *f, vec3_t w)
 vec3_t shading_to_world(const shading_frame_t *f, vec3_t w)
 {
     return vec3_add(vec3_add(vec3_scale(f->x, w.x), vec3_scale(f->y, w.y)), vec3_scale(f->z, w.z));
+}
+
+/* pbrt-v4 BumpMap's step in u and v when the ray has no differentials. */
+#define BUMP_DELTA 0.0005
+
+static vec3_t gram_schmidt(vec3_t v, vec3_t w)
+{
+    return vec3_sub(v, vec3_scale(w, vec3_dot(v, w)));
+}
+
+void shading_perturb(const material_t *m, surface_t *sf)
+{
+    if (!m->displacement && !m->normalmap)
+        return;
+    vec3_t n = sf->ns, ng = sf->ng;
+    /* pbrt-v4's shading dp/du and dp/dv: with vertex normals ss = (ns x dp/du) x ns and
+     * ts = ns x dp/du (Triangle::InteractionFromIntersection), else the geometric ones. */
+    vec3_t ss = sf->dpdu, ts = sf->dpdv;
+    if (sf->smooth) {
+        ts = vec3_cross(n, sf->dpdu);
+        ss = vec3_cross(ts, n);
+    }
+    if (!(vec3_dot(ss, ss) > 0.0) || !(vec3_dot(ts, ts) > 0.0)) {
+        vec3_t x, y;
+        vec3_basis(n, &x, &y);
+        ss = vec3_dot(ss, ss) > 0.0 ? ss : x;
+        ts = vec3_dot(ts, ts) > 0.0 ? ts : y;
+    }
+    vec3_t dpdu, dpdv, ns;
+    if (m->normalmap) {
+        vec3_t t = texture_eval_normalmap(m->normalmap, sf->u, sf->v);
+        vec3_t x = gram_schmidt(ss, n);
+        double lx = vec3_length(x);
+        vec3_t y;
+        if (lx > 0.0 && isfinite(lx)) {
+            x = vec3_scale(x, 1.0 / lx);
+            y = vec3_cross(n, x);
+        } else {
+            vec3_basis(n, &x, &y);
+        }
+        ns = vec3_normalize(vec3_add(vec3_add(vec3_scale(x, t.x), vec3_scale(y, t.y)), vec3_scale(n, t.z)));
+        double ulen = vec3_length(ss), vlen = vec3_length(ts);
+        dpdu = vec3_scale(vec3_normalize(gram_schmidt(ss, ns)), ulen);
+        dpdv = vec3_scale(vec3_normalize(vec3_cross(ns, dpdu)), vlen);
+    } else {
+        double d = texture_eval(m->displacement, sf->u, sf->v, 550.0);
+        double du = texture_eval(m->displacement, sf->u + BUMP_DELTA, sf->v, 550.0);
+        double dv = texture_eval(m->displacement, sf->u, sf->v + BUMP_DELTA, 550.0);
+        dpdu = vec3_add(ss, vec3_scale(n, (du - d) / BUMP_DELTA));
+        dpdv = vec3_add(ts, vec3_scale(n, (dv - d) / BUMP_DELTA));
+        ns = vec3_normalize(vec3_cross(dpdu, dpdv));
+    }
+    if (!(vec3_dot(ns, ns) > 0.5) || !isfinite(ns.x + ns.y + ns.z))
+        return; /* a degenerate perturbation: keep the surface as it is */
+    sf->ns = vec3_dot(ns, ng) < 0.0 ? vec3_neg(ns) : ns;
+    sf->dpdu = dpdu;
+    sf->dpdv = dpdv;
+    sf->smooth = 1;
+}
+
+static uint64_t mix64(uint64_t z)
+{
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+
+/* pbrt-v4 HashFloat(r.o, r.d): a uniform number in [0, 1) from the ray's bits. */
+static double ray_hash(vec3_t o, vec3_t d)
+{
+    double v[6] = {o.x, o.y, o.z, d.x, d.y, d.z};
+    uint64_t h = 0x9e3779b97f4a7c15ULL;
+    for (int i = 0; i < 6; i++) {
+        uint64_t b;
+        memcpy(&b, &v[i], sizeof b);
+        h = mix64(h ^ b);
+    }
+    return (double)(h >> 11) * 0x1p-53;
+}
+
+int shading_alpha_pass(const surface_t *sf, vec3_t org, vec3_t dir)
+{
+    const texture_t *t = sf->shape->alpha;
+    if (!t)
+        return 0;
+    double a = texture_eval(t, sf->u, sf->v, 550.0);
+    if (a >= 1.0)
+        return 0;
+    if (!(a > 0.0))
+        return 1;
+    return ray_hash(org, dir) > a;
+}
+
+/* Cut-outs a shadow ray may pass before it counts as blocked (a forest of leaves). */
+#define ALPHA_PASSES_MAX 256
+
+int shading_occluded(const scene_t *scene, vec3_t org, vec3_t dir, double tmin, double tmax)
+{
+    if (!scene->has_alpha && !scene->has_interface)
+        return geometry_occluded(scene->geometry, org, dir, tmin, tmax);
+    for (int k = 0; k < ALPHA_PASSES_MAX; k++) {
+        hit_t h;
+        if (!geometry_intersect(scene->geometry, org, dir, tmin, tmax, &h))
+            return 0;
+        const shape_t *sh = &scene->shapes[h.shape];
+        /* An "interface" is no surface (a boundary between media): light passes it, as camera
+         * and BSDF rays do. */
+        const int interface = scene->materials[sh->material].kind == MATERIAL_INTERFACE;
+        if (!sh->alpha && !interface)
+            return 1;
+        surface_t sf;
+        scene_surface(scene, &h, &sf);
+        if (!interface && !shading_alpha_pass(&sf, org, dir))
+            return 1;
+        /* On from the surface: what is left of the segment beyond it. */
+        vec3_t o = geometry_offset(sf.p, sf.ng, dir);
+        tmax -= vec3_dot(vec3_sub(o, org), dir);
+        org = o;
+        tmin = 0.0;
+        if (!(tmax > 0.0))
+            return 0;
+    }
+    return 1;
 }

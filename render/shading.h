@@ -31,6 +31,28 @@ void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda
 void shading_conductor_index(const material_t *m, const surface_t *sf, double lambda, double *eta,
                              double *k);
 
+/* pbrt-v4's BumpMap and NormalMap (materials.h) for material m (not a mix) at sf: with a
+ * normal map, ns becomes the map's tangent-space normal in the frame (dp/du, ns x dp/du, ns);
+ * with a displacement texture d, dp/du + (d(u + du, v) - d(u, v)) / du ns and likewise in v,
+ * du = dv = 0.0005 (pbrt-v4's step without ray differentials; its d dn/du term, the
+ * displacement times the normal's own change, is left out), and ns their normalised cross
+ * product. Either way ns is turned to ng's side (pbrt-v4 SetShadingGeometry), dp/du and dp/dv
+ * follow and sf->smooth is set, so that every material, the diffuse one and the delta code
+ * included, shades with it. Nothing is done (a pointer test) when m has neither. Call it once
+ * per hit, after scene_surface and shading_resolve, in the camera and photon passes alike. */
+void shading_perturb(const material_t *m, surface_t *sf);
+
+/* pbrt-v4's alpha test (GeometricPrimitive::Intersect) at a hit sf reached along org + t dir:
+ * 1 when the ray passes the surface as if it were not there, which it does where the shape's
+ * alpha a is <= 0, and where 0 < a < 1 when a hash of the ray (uniform in [0, 1), the same
+ * for the same ray) exceeds a, so with probability 1 - a, deterministically per sample. */
+int shading_alpha_pass(const surface_t *sf, vec3_t org, vec3_t dir);
+
+/* geometry_occluded that lets a shadow ray through the cut-outs of shapes with an alpha and
+ * through "interface" shapes (by re-tracing from each surface it passes, at most a few
+ * hundred); plain geometry_occluded when the scene has neither. */
+int shading_occluded(const scene_t *scene, vec3_t org, vec3_t dir, double tmin, double tmax);
+
 /* The local shading frame at sf for outgoing direction wo: z the shading normal (outward),
  * x and y a tangent basis. Where wo lies on different sides of the shading and the geometric
  * normal (near a smooth mesh's silhouette) z is the geometric normal, as specular_normal

@@ -3,9 +3,8 @@
  * runs along the columns and v down the rows from the top); each texel's linear-sRGB colour is
  * an RGB illuminant spectrum m * s(lambda) times the light's D65 (pbrt-v4 RGBIlluminantSpectrum,
  * m = 2 max(r, g, b), s the smooth uplift of rgb / m), looked up at the nearest texel as pbrt-v4
- * does. The uplift coefficients are computed once per texel at load, interpolated in a table of
- * Jakob-Hanika fits (spectrum_sigmoid_fit) over the faces max(rgb / m) = 1/2 of the colour
- * cube, so that a lookup costs one sigmoid. Directions are drawn by a piecewise-constant
+ * does. The uplift coefficients are computed once per texel at load by rgb_uplift (the rule
+ * image textures share), so that a lookup costs one sigmoid. Directions are drawn by a piecewise-constant
  * density over the texels proportional to their channel average (pbrt-v4
  * Image::GetSamplingDistribution), which through the equal-area map is that density over 4 pi
  * in solid angle. Immutable once made, safe to share between threads. */

@@ -415,17 +415,27 @@ void scene_surface(const scene_t *self, const hit_t *h, surface_t *out)
     out->u = h->u;
     out->v = h->v;
     out->dpdu = vec3_make(0, 0, 0);
+    out->dpdv = vec3_make(0, 0, 0);
     const transform_t *inst = h->instance != GEOMETRY_NO_INSTANCE && h->instance < self->ninstances
                                   ? &self->instances[h->instance].to_world
                                   : NULL;
     if (s->kind != SHAPE_MESH) {
-        /* Spheres and disks: phi runs counterclockwise about the shape's z axis, so dp/du is
-         * (-y, x, 0) in its own space. */
+        /* pbrt-v4's full sphere and disk: u = phi / 2 pi with phi counterclockwise about the
+         * shape's z axis, so dp/du = 2 pi (-y, x, 0) in its own space; a sphere's
+         * v = (theta - pi) / (0 - pi), so dp/dv = -pi (z cos phi, z sin phi, -r sin theta); a
+         * disk's v = (r - rho) / r, so dp/dv = -(x, y, 0) r / rho. */
         transform_t to_world = inst ? transform_compose(*inst, s->to_world) : s->to_world;
         if (!to_world.singular) {
             transform_t from_world = transform_inverse(to_world);
             vec3_t q = transform_point(&from_world, h->p);
-            out->dpdu = transform_vector(&to_world, vec3_make(-q.y, q.x, 0.0));
+            out->dpdu = transform_vector(&to_world, vec3_make(-2.0 * PF_PI * q.y, 2.0 * PF_PI * q.x, 0.0));
+            double rho = sqrt(q.x * q.x + q.y * q.y);
+            if (rho > 0.0) {
+                vec3_t d = s->kind == SHAPE_SPHERE
+                               ? vec3_make(-PF_PI * q.z * q.x / rho, -PF_PI * q.z * q.y / rho, PF_PI * rho)
+                               : vec3_make(-q.x * s->radius / rho, -q.y * s->radius / rho, 0.0);
+                out->dpdv = transform_vector(&to_world, d);
+            }
         }
         return;
     }
@@ -450,7 +460,9 @@ void scene_surface(const scene_t *self, const hit_t *h, surface_t *out)
             vec3_t dp02 = vec3_make(p0[0] - p2[0], p0[1] - p2[1], p0[2] - p2[2]);
             vec3_t dp12 = vec3_make(p1[0] - p2[0], p1[1] - p2[1], p1[2] - p2[2]);
             vec3_t d = vec3_scale(vec3_sub(vec3_scale(dp02, dv12), vec3_scale(dp12, dv02)), 1.0 / det);
+            vec3_t e = vec3_scale(vec3_sub(vec3_scale(dp12, du02), vec3_scale(dp02, du12)), 1.0 / det);
             out->dpdu = inst ? transform_vector(inst, d) : d;
+            out->dpdv = inst ? transform_vector(inst, e) : e;
         }
     }
     if (!s->normals)

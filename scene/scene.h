@@ -68,6 +68,10 @@ typedef struct material {
     /* mix: two material indices and the probability of the second */
     int mix[2];
     const texture_t *amount;
+    /* Shading-normal perturbation (pbrt-v4 BumpMap, NormalMap; render/shading.h
+     * shading_perturb): a float displacement texture, or a tangent-space normal map
+     * (texture_new_normalmap), which wins when both are given, as in pbrt-v4. NULL: none. */
+    const texture_t *displacement, *normalmap;
 } material_t;
 
 typedef enum light_kind {
@@ -121,6 +125,9 @@ typedef struct shape {
      * by area. */
     double area;
     alias_t *triangles;
+    /* pbrt-v4 "alpha": NULL for an opaque shape, else a float texture; where it is a < 1 a
+     * ray passes the surface with probability 1 - a (render/shading.h shading_alpha_pass). */
+    const texture_t *alpha;
 } shape_t;
 
 /* An object placed in the world. */
@@ -148,6 +155,9 @@ typedef struct surface {
      * triangle's from its uv): the direction of "uroughness". The zero vector where it is
      * undefined (a degenerate uv mapping, a sphere's pole). */
     vec3_t dpdu;
+    /* World-space dp/dv, likewise (a triangle's from its uv; a sphere's theta direction, a
+     * disk's radial one, with pbrt-v4's parameterisations' signs). */
+    vec3_t dpdv;
 } surface_t;
 
 typedef enum camera_kind {
@@ -243,6 +253,7 @@ typedef struct scene {
     render_settings_t settings;
     int has_dispersion;   /* any dispersive material: spectral fan-out is ever needed */
     int has_interface;    /* a shape with an "interface" material (shadow rays pass it) */
+    int has_alpha;        /* some shape has an alpha: shadow rays test it (shading_occluded) */
     /* What the scene file asks for that is accepted without being simulated: the parser's
      * lines and the loader's (scene_load), for `render`, `plan` and the client to print.
      * Owned; NULL for a scene built in code. */

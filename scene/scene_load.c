@@ -170,58 +170,201 @@ static const texture_t *float_input(loader_t *L, const scene_float_input_t *in, 
     return t;
 }
 
+static int ends_with_ci(const char *s, const char *suffix)
+{
+    size_t n = strlen(s), k = strlen(suffix);
+    return n >= k && !strcasecmp(s + n - k, suffix);
+}
+
+/* pbrt-v4 ColorEncoding for 8- and 16-bit files: "sRGB" (the default), "linear", or
+ * "gamma G" (v^G). Float files (EXR, PFM, HDR) are linear whatever it says, as in pbrt-v4. */
+typedef struct encoding {
+    int linear;
+    double gamma; /* > 0: gamma; else sRGB unless linear */
+    float lut[256];
+} encoding_t;
+
 static double srgb_to_linear(double v)
 {
     return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4);
 }
 
+static double decode(const encoding_t *e, double v)
+{
+    return e->linear ? v : e->gamma > 0.0 ? pow(v, e->gamma) : srgb_to_linear(v);
+}
+
+static int encoding_parse(const char *s, encoding_t *e)
+{
+    char tail;
+    memset(e, 0, sizeof *e);
+    e->linear = !strcmp(s, "linear");
+    if (!e->linear && strcmp(s, "sRGB") != 0 &&
+        !(sscanf(s, "gamma %lf%c", &e->gamma, &tail) == 1 && isfinite(e->gamma) && e->gamma > 0.0))
+        return -1;
+    for (int i = 0; i < 256; i++)
+        e->lut[i] = (float)decode(e, i / 255.0);
+    return 0;
+}
+
+/* A stored value v in [0, 1] decoded, through the table when v is k / 255. */
+static float decode_stored(const encoding_t *e, float v)
+{
+    long k = lrintf(v * 255.0f);
+    return k >= 0 && k < 256 && (float)(k / 255.0) == v ? e->lut[k] : (float)decode(e, v);
+}
+
+/* Reads an image file for a texture or a normal map as linear RGB (top row first), and its
+ * alpha channel into *alpha when the file has one (else NULL), both malloc'ed: OpenEXR and
+ * PFM by their extension, PNG through libpng, the rest (TGA, JPEG, BMP, HDR, ...) through
+ * stb_image. 8- and 16-bit values are decoded by enc (the alpha too, as pbrt-v4 does). */
+static int read_image(const char *path, const encoding_t *enc, int *w, int *h, float **rgb,
+                      float **alpha, err_t *err)
+{
+    *rgb = NULL;
+    *alpha = NULL;
+    if (ends_with_ci(path, ".exr")) {
+        image_exr_t *im = image_exr_read(path, err);
+        if (!im)
+            return -1;
+        *w = image_exr_width(im);
+        *h = image_exr_height(im);
+        size_t n = (size_t)*w * (size_t)*h;
+        *rgb = malloc(n * 3 * sizeof **rgb);
+        const float *a = image_exr_alpha(im);
+        if (a && *rgb)
+            *alpha = malloc(n * sizeof **alpha);
+        if (!*rgb || (a && !*alpha)) {
+            image_exr_destroy(&im);
+            free(*rgb);
+            return err_set(err, "%s: out of memory", path);
+        }
+        memcpy(*rgb, image_exr_rgb(im), n * 3 * sizeof **rgb);
+        if (a)
+            memcpy(*alpha, a, n * sizeof **alpha);
+        image_exr_destroy(&im);
+        return 0;
+    }
+    if (ends_with_ci(path, ".pfm"))
+        return image_pfm_read(path, w, h, rgb, err);
+    if (ends_with_ci(path, ".png")) {
+        image_png_t *png = image_png_read(path, err);
+        if (!png)
+            return -1;
+        *w = image_png_width(png);
+        *h = image_png_height(png);
+        size_t n = (size_t)*w * (size_t)*h;
+        int has_alpha = image_png_channels(png) == 2 || image_png_channels(png) == 4;
+        *rgb = malloc(n * 3 * sizeof **rgb);
+        if (has_alpha && *rgb)
+            *alpha = malloc(n * sizeof **alpha);
+        if (!*rgb || (has_alpha && !*alpha)) {
+            image_png_destroy(&png);
+            free(*rgb);
+            return err_set(err, "%s: out of memory", path);
+        }
+        const uint8_t *px = image_png_rgba(png);
+        for (size_t i = 0; i < n; i++) {
+            for (int c = 0; c < 3; c++)
+                (*rgb)[3 * i + c] = enc->lut[px[4 * i + c]];
+            if (has_alpha)
+                (*alpha)[i] = enc->lut[px[4 * i + 3]];
+        }
+        image_png_destroy(&png);
+        return 0;
+    }
+    int is_float;
+    if (image_stb_read_encoded(path, w, h, rgb, alpha, &is_float, err))
+        return -1;
+    if (!is_float) {
+        size_t n = (size_t)*w * (size_t)*h;
+        for (size_t i = 0; i < 3 * n; i++)
+            (*rgb)[i] = decode_stored(enc, (*rgb)[i]);
+        if (*alpha)
+            for (size_t i = 0; i < n; i++)
+                (*alpha)[i] = decode_stored(enc, (*alpha)[i]);
+    }
+    return 0;
+}
+
+/* pbrt-v4 ImageTexture (textures.cpp, mipmap.cpp). A spectrum texture's texel is
+ * clamp(scale rgb, or 1 - scale rgb with "invert", to [0, 1]) (pbrt-v4 clamps to >= 0 after
+ * invert and reads reflectances as RGBAlbedoSpectrum, clamped to [0, 1]). A float texture
+ * reads pbrt-v4's MIPMap::Bilerp<Float>: the alpha channel of a file whose alpha is not all 1,
+ * else the mean of R, G and B; then scale and invert (max(0, 1 - v)). Scale and invert apply
+ * per texel, which equals pbrt-v4's after-filter rule except at a "black" edge with invert. */
 static texture_t *image_texture(const scene_texture_t *t, err_t *err)
 {
-    if (strcmp(t->image.wrap, "repeat") != 0) {
-        pbrt_error(err, t->loc, "imagemap wrap \"%s\" is not supported (only \"repeat\")", t->image.wrap);
-        return NULL;
-    }
-    /* pbrt-v4 ColorEncoding: "sRGB" (the default), "linear", or "gamma G" (v^G). */
-    int linear = !strcmp(t->image.encoding, "linear");
-    double gamma = 0.0;
-    char tail;
-    if (!linear && strcmp(t->image.encoding, "sRGB") != 0 &&
-        !(sscanf(t->image.encoding, "gamma %lf%c", &gamma, &tail) == 1 && isfinite(gamma) && gamma > 0.0)) {
+    texture_image_opts_t o = texture_image_opts_default();
+    o.uscale = t->uscale;
+    o.vscale = t->vscale;
+    o.udelta = t->udelta;
+    o.vdelta = t->vdelta;
+    o.wrap = !strcmp(t->image.wrap, "black")              ? TEXTURE_WRAP_BLACK
+             : !strcmp(t->image.wrap, "clamp")            ? TEXTURE_WRAP_CLAMP
+             : !strcmp(t->image.wrap, "octahedralsphere") ? TEXTURE_WRAP_OCTAHEDRAL_SPHERE
+                                                          : TEXTURE_WRAP_REPEAT;
+    o.filter = !strcmp(t->image.filter, "point")       ? TEXTURE_FILTER_POINT
+               : !strcmp(t->image.filter, "bilinear") ? TEXTURE_FILTER_BILINEAR
+                                                      : TEXTURE_FILTER_TRILINEAR;
+    o.grey = t->type == SCENE_TEXTURE_FLOAT;
+    encoding_t enc;
+    if (encoding_parse(t->image.encoding, &enc)) {
         pbrt_error(err, t->loc, "imagemap encoding \"%s\" is not supported (\"sRGB\", \"linear\" or \"gamma G\")",
                    t->image.encoding);
         return NULL;
     }
-    image_png_t *png = image_png_read(t->image.filename, err);
-    if (!png) {
+    int w, h;
+    float *rgb, *alpha;
+    if (read_image(t->image.filename, &enc, &w, &h, &rgb, &alpha, err)) {
         err_prefix(err, "%s:%d:%d: ", t->loc.file, t->loc.line, t->loc.col);
         return NULL;
     }
-    int w = image_png_width(png), h = image_png_height(png);
-    const uint8_t *px = image_png_rgba(png);
-    float *rgb = malloc((size_t)w * (size_t)h * 3 * sizeof *rgb);
-    if (!rgb) {
-        image_png_destroy(&png);
-        err_set(err, "out of memory reading %s", t->image.filename);
-        return NULL;
-    }
-    for (size_t i = 0; i < (size_t)w * (size_t)h; i++) {
+    size_t n = (size_t)w * (size_t)h;
+    int use_alpha = 0;
+    if (alpha && o.grey)
+        for (size_t i = 0; i < n && !use_alpha; i++)
+            use_alpha = alpha[i] != 1.0f;
+    double sc = t->image.scale;
+    for (size_t i = 0; i < n; i++) {
+        if (o.grey) {
+            double v = use_alpha ? alpha[i] : ((double)rgb[3 * i] + rgb[3 * i + 1] + rgb[3 * i + 2]) / 3.0;
+            v *= sc;
+            v = t->image.invert ? fmax(0.0, 1.0 - v) : v;
+            rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = (float)v;
+            continue;
+        }
         for (int c = 0; c < 3; c++) {
-            double v = px[4 * i + c] / 255.0;
-            v = linear ? v : gamma > 0.0 ? pow(v, gamma) : srgb_to_linear(v);
-            v *= t->image.scale;
-            rgb[3 * i + c] = (float)(t->image.invert ? fmax(0.0, 1.0 - v) : v);
-        }
-        /* A float texture reads the average of the channels (pbrt-v4 FloatImageTexture),
-         * which uplifts to a flat spectrum. */
-        if (t->type == SCENE_TEXTURE_FLOAT) {
-            float m = (rgb[3 * i] + rgb[3 * i + 1] + rgb[3 * i + 2]) / 3.0f;
-            rgb[3 * i] = rgb[3 * i + 1] = rgb[3 * i + 2] = m;
+            double v = sc * rgb[3 * i + c];
+            v = t->image.invert ? 1.0 - v : v;
+            rgb[3 * i + c] = (float)(v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0);
         }
     }
-    image_png_destroy(&png);
-    texture_t *tex = texture_new_image(rgb, w, h, t->uscale, t->vscale, err);
+    free(alpha);
+    texture_t *tex = texture_new_image(rgb, w, h, &o, err);
     free(rgb);
     return tex;
+}
+
+/* A material's "normalmap": the image read linear (pbrt-v4 reads normal maps with
+ * ColorEncoding::Linear), as a texture the scene owns. */
+static const texture_t *normal_map(loader_t *L, const scene_material_t *dm, err_t *err)
+{
+    encoding_t enc;
+    encoding_parse("linear", &enc);
+    int w, h;
+    float *rgb, *alpha;
+    if (read_image(dm->normalmap, &enc, &w, &h, &rgb, &alpha, err)) {
+        err_prefix(err, "%s:%d:%d: normalmap: ", dm->normalmap_loc.file, dm->normalmap_loc.line,
+                   dm->normalmap_loc.col);
+        return NULL;
+    }
+    free(alpha);
+    texture_t *t = texture_new_normalmap(rgb, w, h, err);
+    free(rgb);
+    if (!t || scene_own_texture(L->sc, t, err))
+        return NULL;
+    return t;
 }
 
 static int load_textures(loader_t *L, err_t *err)
@@ -231,7 +374,7 @@ static int load_textures(loader_t *L, err_t *err)
         const scene_texture_t *t = &d->textures[i];
         int spectral = t->type == SCENE_TEXTURE_SPECTRUM;
         const texture_t *a = NULL, *b = NULL;
-        if (t->udelta != 0.0 || t->vdelta != 0.0)
+        if (t->cls != SCENE_TEX_IMAGEMAP && (t->udelta != 0.0 || t->vdelta != 0.0))
             return pbrt_error(err, t->loc, "texture \"%s\": udelta/vdelta are not supported", t->name);
         texture_t *made = NULL;
         switch (t->cls) {
@@ -476,16 +619,14 @@ static int load_materials(loader_t *L, err_t *err)
             m.smooth = microfacet_smooth(&mf);
             m.rough = !m.smooth;
         }
+        if (dm->normalmap && !(m.normalmap = normal_map(L, dm, err)))
+            return -1;
+        if (!m.normalmap && dm->displacement.texture >= 0)
+            m.displacement = L->tex[dm->displacement.texture];
         if (scene_add_material(L->sc, &m, err) < 0)
             return -1;
     }
     return 0;
-}
-
-static int ends_with_ci(const char *s, const char *suffix)
-{
-    size_t n = strlen(s), k = strlen(suffix);
-    return n >= k && !strcasecmp(s + n - k, suffix);
 }
 
 /* An "infinite" light's image, by its extension: OpenEXR, PFM, or whatever stb_image reads
@@ -684,6 +825,11 @@ static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *er
     }
     if (r < 0)
         return err_prefix(err, "%s:%d:%d: Shape \"%s\": ", s->loc.file, s->loc.line, s->loc.col, s->kind);
+    if (s->has_alpha) {
+        if (!(L->sc->shapes[r].alpha = float_input(L, &s->alpha, err)))
+            return -1;
+        L->sc->has_alpha = 1;
+    }
     if (light >= 0 && d->area_lights[s->area_light].power > 0.0)
         return area_light_power(L, &d->area_lights[s->area_light], &L->sc->shapes[r],
                                 &L->sc->lights[light], err);

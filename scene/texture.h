@@ -6,6 +6,7 @@
 
 #include "err.h"
 #include "spectrum.h"
+#include "vec3.h"
 
 typedef struct texture texture_t;
 
@@ -21,13 +22,59 @@ texture_t *texture_new_scale(const texture_t *tex, const texture_t *scale, err_t
 /* (1 - amount) * tex1 + amount * tex2 (all borrowed). */
 texture_t *texture_new_mix(const texture_t *tex1, const texture_t *tex2, const texture_t *amount,
                            err_t *err);
-/* An image of linear RGB reflectances (w*h*3 floats, row 0 at the top, as PNGs store them),
- * each texel uplifted once at load (Jakob & Hanika), looked up bilinearly with pbrt's
- * uv convention (v = 0 at the bottom row), wrapping ("repeat"). uscale/vscale tile it. */
-texture_t *texture_new_image(const float *rgb, int w, int h, double uscale, double vscale,
+/* pbrt-v4 ImageTexture's wrap modes (WrapMode): texel coordinates outside the image repeat,
+ * read as black, clamp to the edge, or fold as the equal-area octahedral sphere does. */
+typedef enum texture_wrap {
+    TEXTURE_WRAP_REPEAT,
+    TEXTURE_WRAP_BLACK,
+    TEXTURE_WRAP_CLAMP,
+    TEXTURE_WRAP_OCTAHEDRAL_SPHERE,
+} texture_wrap_t;
+
+/* pbrt-v4 MIPMap filters: the nearest texel and bilinear interpolation read level 0; trilinear
+ * interpolates bilinear lookups of the two pyramid levels that a filter width selects
+ * (texture_eval_width). pbrt-v4's "ewa" is read as trilinear (the loader warns). */
+typedef enum texture_filter {
+    TEXTURE_FILTER_POINT,
+    TEXTURE_FILTER_BILINEAR,
+    TEXTURE_FILTER_TRILINEAR,
+} texture_filter_t;
+
+typedef struct texture_image_opts {
+    double uscale, vscale, udelta, vdelta; /* pbrt-v4 UVMapping: s = su u + du, t = sv v + dv */
+    texture_wrap_t wrap;
+    texture_filter_t filter;
+    int grey;    /* a float texture: each texel is the average of its channels (pbrt-v4) */
+    int threads; /* used while loading; <= 0: all cores */
+} texture_image_opts_t;
+
+/* uscale = vscale = 1, no delta, repeat, bilinear, RGB, all cores. */
+texture_image_opts_t texture_image_opts_default(void);
+
+/* An image texture (pbrt-v4 ImageTexture) from linear RGB values (w * h * 3 floats, row 0 at
+ * the top; negative values read as 0). Each texel's colour becomes its rgb_uplift spectrum
+ * once, at load, on opts->threads threads, so that a lookup costs one sigmoid per texel read
+ * (a float texture keeps one value per texel). The lookup point is pbrt-v4's: (s, 1 - t) in
+ * the image with texel centres at half-integers (t = 0 is the bottom row). Trilinear builds a
+ * MIP pyramid by 2x2 box averages (pbrt-v4 first resamples a non-power-of-two image up to a
+ * power of two; this pyramid halves with the edge texel repeated instead). */
+texture_t *texture_new_image(const float *rgb, int w, int h, const texture_image_opts_t *opts,
                              err_t *err);
+
+/* A tangent-space normal map (pbrt-v4 NormalMap): linear RGB in [0, 1] read as
+ * 2 rgb - 1, bilinear with repeat, t flipped as for image textures. */
+texture_t *texture_new_normalmap(const float *rgb, int w, int h, err_t *err);
+/* The unit tangent-space normal at (u, v): x along dp/du, z the surface normal. (0, 0, 1)
+ * where the map holds (0.5, 0.5, 0.5) or a zero vector. */
+vec3_t texture_eval_normalmap(const texture_t *self, double u, double v);
+
 void texture_destroy(texture_t **self_p);
 
 double texture_eval(const texture_t *self, double u, double v, double lambda_nm);
+/* The same with a filter width in (s, t) (pbrt-v4 MIPMap: twice the largest screen-space
+ * derivative); texture_eval is width 0. Only a trilinear image texture reads it: prismfarm's
+ * rays carry no differentials, so the renderer looks up level 0 (docs/scene-format.md). */
+double texture_eval_width(const texture_t *self, double u, double v, double width,
+                          double lambda_nm);
 
 #endif

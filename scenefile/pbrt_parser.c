@@ -806,8 +806,8 @@ static int inflate_if_gzip(parser_t *P, char **buf, size_t *len, size_t limit, c
 
 /* An imagemap PNG in a confined parse: its IHDR (PNG specification 11.2.2: the 8-byte
  * signature, then a 13-byte chunk "IHDR" whose data begins with the width and height, 4 bytes
- * big-endian each) says how many pixels decoding makes, 16 bytes each (the 8-bit RGBA that
- * image_png decodes and the float RGB of the texture), charged with the file's own bytes
+ * big-endian each) says how many pixels decoding makes, 64 bytes each (the 8-bit RGBA that
+ * image_png decodes, the float RGB and alpha, and the texture's coefficients), charged with the file's own bytes
  * before anything decodes it. A file that is not a PNG is left to the PNG reader's message. */
 static int check_png(parser_t *P, const char *real, const char *name, const char *path,
                      const pbrt_loc_t *from)
@@ -834,12 +834,12 @@ static int check_png(parser_t *P, const char *real, const char *name, const char
         uint64_t ht = (uint64_t)h[20] << 24 | (uint64_t)h[21] << 16 | (uint64_t)h[22] << 8 | h[23];
         pixels = w * ht; /* each below 2^32: no overflow */
     }
-    if (pixels > (PBRT_TOTAL_BYTES_MAX - P->bytes_charged) / 16)
+    if (pixels > (PBRT_TOTAL_BYTES_MAX - P->bytes_charged) / 64)
         return fail_at(P, from,
                        "image \"%s\" decodes to %llu pixels, more than the scene may "
                        "read (%zu bytes in all)",
                        name, (unsigned long long)pixels, PBRT_TOTAL_BYTES_MAX);
-    return charge(P, size + 16 * pixels, from);
+    return charge(P, size + 64 * pixels, from);
 }
 
 /* Records a file the scene read (once per relative path): its path as opened and its path
@@ -1848,6 +1848,24 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
                       type);
 }
 
+static int image_file(parser_t *P, const param_t *fp, const char *filename, const char **out);
+
+/* pbrt-v4's "displacement" and "normalmap" of every material but mix and interface. */
+static int surface_maps(parser_t *P, params_t *ps, scene_material_t *m)
+{
+    if (m->type == SCENE_MATERIAL_MIX || m->type == SCENE_MATERIAL_INTERFACE)
+        return 0;
+    const char *normalmap;
+    if (get_float_input(P, ps, "displacement", 0.0, &m->displacement) != 0 ||
+        params_get_string(ps, "normalmap", NULL, &normalmap, P->err) != 0)
+        return -1;
+    if (!normalmap)
+        return 0;
+    param_t *fp = params_find(ps, "normalmap");
+    m->normalmap_loc = fp->loc;
+    return image_file(P, fp, normalmap, &m->normalmap);
+}
+
 static int do_material(parser_t *P, params_t *ps, const str_arg_t *type, const char *name,
                        pbrt_loc_t loc, pbrt_loc_t type_loc)
 {
@@ -1868,7 +1886,8 @@ static int do_material(parser_t *P, params_t *ps, const str_arg_t *type, const c
         if (!m->name)
             return -1;
     }
-    if (build_material(P, ps, type->s, type_loc, m) != 0)
+    m->displacement.texture = -1;
+    if (build_material(P, ps, type->s, type_loc, m) != 0 || surface_maps(P, ps, m) != 0)
         return -1;
     if (!name)
         P->gs.material = idx;
@@ -1922,6 +1941,19 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
     for (size_t i = 0; i < COUNT_OF(CLASSES); i++)
         if (!strcmp(cls->s, CLASSES[i].name))
             cls_idx = (int)i;
+    /* pbrt-v4 "ptex" (per-face textures): no reader here; a constant 0.5 stands in. */
+    bool ptex = !strcmp(cls->s, "ptex");
+    if (ptex) {
+        cls_idx = 0;
+        param_t *fp = params_find(ps, "filename");
+        (void)params_find(ps, "encoding");
+        (void)params_find(ps, "scale");
+        (void)params_find(ps, "invert");
+        if (warnings_add(P->scene->warnings, fp ? fp->loc : cls->loc,
+                         "Texture \"%s\": \"ptex\" is not read; the texture is the constant 0.5",
+                         name->s))
+            return pbrt_error(P->err, cls->loc, "out of memory");
+    }
     if (cls_idx < 0)
         return pbrt_error(P->err, cls->loc,
                           "unsupported texture \"%s\" (\"constant\", "
@@ -1955,6 +1987,11 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
         params_get_float(ps, "vdelta", 0.0, &t->vdelta, P->err) != 0)
         return -1;
 
+    if (ptex) {
+        t->float_in1.value = 0.5;
+        t->spec_in1.spectrum = spectrum_constant(0.5, t->loc);
+        return 0;
+    }
     /* Inputs and their defaults as pbrt-v4 textures.cpp creates them. */
     switch (t->cls) {
     case SCENE_TEX_CONSTANT:
@@ -1996,22 +2033,24 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
     if (!filename)
         return pbrt_error(P->err, loc, "Texture \"imagemap\" needs \"string filename\"");
     param_t *fp = params_find(ps, "filename");
-    if (!ends_with_png(filename))
-        return pbrt_error(P->err, fp->loc,
-                          "unsupported image \"%s\": image textures must be PNG "
-                          "files",
-                          filename);
-    static const char *WRAPS[] = {"repeat", "black", "clamp"};
+    static const char *WRAPS[] = {"repeat", "black", "clamp", "octahedralsphere"};
     static const char *FILTERS[] = {"point", "bilinear", "trilinear", "ewa"};
     if (!in_list(wrap, WRAPS, COUNT_OF(WRAPS)))
         return pbrt_error(P->err, params_find(ps, "wrap")->loc,
-                          "unsupported wrap mode \"%s\" (\"repeat\", \"black\" or \"clamp\")",
+                          "unsupported wrap mode \"%s\" (\"repeat\", \"black\", \"clamp\" or "
+                          "\"octahedralsphere\")",
                           wrap);
     if (!in_list(filter, FILTERS, COUNT_OF(FILTERS)))
         return pbrt_error(P->err, params_find(ps, "filter")->loc,
                           "unknown filter \"%s\" (\"point\", \"bilinear\", \"trilinear\" or "
                           "\"ewa\")",
                           filter);
+    if (!strcmp(filter, "ewa") &&
+        warnings_add(P->scene->warnings, params_find(ps, "filter")->loc,
+                     "Texture \"%s\": filter \"ewa\" is read as \"trilinear\" (and, without ray "
+                     "differentials, at the full resolution)",
+                     name->s))
+        return pbrt_error(P->err, loc, "out of memory");
     double gamma;
     char tail;
     if (strcmp(encoding, "sRGB") != 0 && strcmp(encoding, "linear") != 0 &&
@@ -2019,31 +2058,7 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
         return pbrt_error(P->err, params_find(ps, "encoding")->loc,
                           "unknown encoding \"%s\" (\"sRGB\", \"linear\" or \"gamma G\")",
                           encoding);
-    const char *path = scene_path(P, filename, fp->loc);
-    if (!path)
-        return -1;
-    if (P->root_real) {
-        /* The image is decoded later, by scene_load: it gets the checked real path, so that
-         * no symbolic link is followed again. */
-        char *real = confine(P, path, filename, &fp->loc, "image");
-        if (!real)
-            return -1;
-        int rc = check_png(P, real, filename, path, &fp->loc);
-        t->image.filename = rc == 0 ? scene_desc_strdup(P->scene, real, P->err) : NULL;
-        free(real);
-        if (!t->image.filename)
-            return -1;
-    } else {
-        const char *kind;
-        char why[96];
-        FILE *f = open_regular_file(path, &kind);
-        if (!f)
-            return pbrt_error(P->err, fp->loc, "cannot open image \"%s\": %s", path,
-                              open_failure(kind, why, sizeof why));
-        fclose(f);
-        t->image.filename = path;
-    }
-    if (note_file(P, SCENE_FILE_IMAGE, path, filename, fp->loc) != 0)
+    if (image_file(P, fp, filename, &t->image.filename) != 0)
         return -1;
     t->image.wrap = scene_desc_strdup(P->scene, wrap, P->err);
     t->image.filter = scene_desc_strdup(P->scene, filter, P->err);
@@ -2084,6 +2099,45 @@ static int do_area_light(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_
         return -1;
     P->gs.area_light = idx;
     return 0;
+}
+
+/* An image file named by fp (a texture, a normal map, an environment): the path to open
+ * into *out (in a confined parse the checked real path, its bytes charged), listed among the
+ * files read. A PNG in a confined parse is charged for its decoded pixels too (check_png). */
+static int image_file(parser_t *P, const param_t *fp, const char *filename, const char **out)
+{
+    const char *path = scene_path(P, filename, fp->loc);
+    if (!path)
+        return -1;
+    if (P->root_real) {
+        char *real = confine(P, path, filename, &fp->loc, "image");
+        if (!real)
+            return -1;
+        int rc;
+        if (ends_with_png(filename)) {
+            rc = check_png(P, real, filename, path, &fp->loc);
+        } else {
+            size_t size;
+            int fd = open_confined(P, real, filename, path, &fp->loc, "image", &size);
+            rc = fd < 0 ? -1 : charge(P, size, &fp->loc);
+            if (fd >= 0)
+                close(fd);
+        }
+        *out = rc == 0 ? scene_desc_strdup(P->scene, real, P->err) : NULL;
+        free(real);
+        if (!*out)
+            return -1;
+    } else {
+        const char *kind;
+        char why[96];
+        FILE *f = open_regular_file(path, &kind);
+        if (!f)
+            return pbrt_error(P->err, fp->loc, "cannot open image \"%s\": %s", path,
+                              open_failure(kind, why, sizeof why));
+        fclose(f);
+        *out = path;
+    }
+    return note_file(P, SCENE_FILE_IMAGE, path, filename, fp->loc);
 }
 
 /* LightSource "infinite": "string filename" names an equal-area environment image (read by
@@ -2471,6 +2525,9 @@ static int do_shape(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
     s->flip_normals = s->reverse_orientation != s->swaps_handedness;
     s->material = P->gs.material;
     s->area_light = P->gs.area_light;
+    if (get_float_input(P, ps, "alpha", 1.0, &s->alpha) != 0)
+        return -1;
+    s->has_alpha = s->alpha.texture >= 0 || s->alpha.value < 1.0;
     /* pbrt-v4 displaces triangle meshes by a texture at load time; prismfarm does not. */
     param_t *disp = params_find(ps, "displacement");
     if (disp) {

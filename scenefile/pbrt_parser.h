@@ -12,7 +12,8 @@
  *               Integrator "simplepath"|"path"|"whitted"|"photon"|"auto" (raw parameters)
  *   world       Shape sphere|disk|trianglemesh|plymesh|bilinearmesh; Material and
  *               MakeNamedMaterial diffuse|conductor|dielectric|interface; NamedMaterial;
- *               Texture constant|checkerboard|imagemap (PNG)|scale|mix ("uv" mapping);
+ *               Texture constant|checkerboard|imagemap (EXR, PFM, PNG, stb_image)|scale|mix
+ *               ("uv" mapping), ptex warned; material displacement/normalmap, shape alpha;
  *               AreaLightSource diffuse|collimated; LightSource point|spot|distant|infinite
  *   extensions  dielectric "string glass", "float sellmeier" [B1 C1 ...], "float cauchy" [A B];
  *               AreaLightSource "collimated"; rgb film "nbuckets"/"lambdamin"/"lambdamax"
@@ -41,8 +42,9 @@
  * (proto/proto.h), so no file of a bundle the farm accepts is refused. */
 #define PBRT_FILE_BYTES_MAX ((size_t)512 << 20)
 /* The most a confined parse reads in all: every file read, counted each time it is read
- * (a file included or a PLY named many times counts each time), plus 16 bytes per pixel of
- * every imagemap PNG (its RGBA decoding and the texture's float RGB), so that a scene of a few
+ * (a file included or a PLY named many times counts each time), plus 64 bytes per pixel of
+ * every imagemap or normal-map PNG (its RGBA decoding, the float RGB and alpha, and the
+ * texture's four uplift coefficients per texel and pyramid), so that a scene of a few
  * kilobytes cannot make the master or a worker read or decode gigabytes. Four times the
  * largest bundle. */
 #define PBRT_TOTAL_BYTES_MAX ((size_t)2 << 30)

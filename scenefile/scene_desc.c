@@ -152,6 +152,7 @@ scene_desc_t *scene_desc_new(err_t *err)
     mat->base_uroughness.texture = mat->base_vroughness.texture = -1;
     mat->transmittance.texture = mat->albedo.texture = -1;
     mat->thickness.texture = mat->g.texture = mat->amount.texture = -1;
+    mat->displacement.texture = -1;
     mat->mix[0] = mat->mix[1] = -1;
     mat->remaproughness = true;
     mat->reflectance.spectrum.kind = SCENE_SPECTRUM_CONSTANT;

@@ -106,7 +106,7 @@ typedef struct scene_texture {
     scene_float_input_t amount; /* MIX amount, SCALE scale */
     struct {
         const char *filename; /* resolved against the folder of the file that names it */
-        const char *wrap;     /* "repeat" (default), "black", "clamp" */
+        const char *wrap;     /* "repeat" (default), "black", "clamp", "octahedralsphere" */
         const char *filter;   /* "bilinear" (default), "point", "trilinear", "ewa" */
         const char *encoding; /* "sRGB" (default), "linear" or "gamma G" */
         double scale;         /* 1 */
@@ -178,6 +178,12 @@ typedef struct scene_material {
      * is chosen with probability amount */
     int mix[2];
     scene_float_input_t amount;
+    /* Every material but mix and interface (pbrt-v4 BumpMap and NormalMap): "displacement"
+     * (a float texture; a constant displaces nothing) and "normalmap", the path of a
+     * tangent-space RGB image as opened (NULL: none), written at normalmap_loc. */
+    scene_float_input_t displacement;
+    const char *normalmap;
+    pbrt_loc_t normalmap_loc;
 } scene_material_t;
 
 /* ---- lights ---- */
@@ -254,6 +260,10 @@ typedef struct scene_shape {
     int area_light; /* index into area_lights, or -1 */
     double radius;  /* SPHERE, DISK */
     double height;  /* DISK */
+    /* pbrt-v4 "alpha" (1), when has_alpha: a float or float texture; where it is 0 rays
+     * pass the surface, where it is in (0, 1) they pass with probability 1 - alpha. */
+    bool has_alpha;
+    scene_float_input_t alpha;
     scene_mesh_t mesh;
 } scene_shape_t;
 

@@ -1212,7 +1212,7 @@ static void test_error_messages(void **state)
          "t.pbrt:2:21: unsupported texture \"fbm\" (\"constant\", \"checkerboard\", \"imagemap\", "
          "\"scale\" or \"mix\")"},
         {"WorldBegin\nTexture \"t\" \"float\" \"imagemap\" \"string filename\" \"x.exr\"\n",
-         "t.pbrt:2:32: unsupported image \"x.exr\": image textures must be PNG files"},
+         "t.pbrt:2:32: cannot open image \"x.exr\": No such file or directory"},
         {"WorldBegin\nTexture \"t\" \"float\" \"imagemap\" \"string filename\" \"x.png\"\n",
          "t.pbrt:2:32: cannot open image \"x.png\": No such file or directory"},
         {"WorldBegin\nTexture \"t\" \"float\" \"checkerboard\" \"integer dimension\" 3\n",

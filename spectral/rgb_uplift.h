@@ -1,0 +1,46 @@
+/* rgb_uplift: linear-sRGB colours as smooth spectra, the one rule that image textures and
+ * image environment lights share. A colour rgb (components >= 0) becomes m * s(lambda) with
+ * m = 2 max(r, g, b) and s the Jakob-Hanika sigmoid uplift (spectrum_sigmoid_fit) of rgb / m,
+ * whose largest component is 1/2 (pbrt-v4's RGBUnboundedSpectrum and, times the illuminant,
+ * RGBIlluminantSpectrum). The sigmoid's coefficients are not fitted per colour: they are
+ * interpolated bilinearly in a table of fits over the three faces max(rgb / m) = 1/2 of the
+ * colour cube, (RGB_UPLIFT_RES + 1)^2 nodes per face (pbrt-v4's RGBToSpectrumTable uses 64
+ * per axis), each node fitted once, on first need. So a colour costs a table lookup and its
+ * spectrum one sigmoid per wavelength; m * s reproduces the colour's XYZ to the fit's residual
+ * and the interpolation's error (tests/unit/test_texture.c measures it). Greys are exactly
+ * flat. */
+#ifndef PRISMFARM_RGB_UPLIFT_H
+#define PRISMFARM_RGB_UPLIFT_H
+
+#include "err.h"
+#include "spectrum.h"
+
+#define RGB_UPLIFT_RES 64
+
+typedef struct rgb_uplift rgb_uplift_t;
+
+rgb_uplift_t *rgb_uplift_new(err_t *err);
+void rgb_uplift_destroy(rgb_uplift_t **self_p);
+
+/* Notes the table nodes that rgb needs (negative or NaN components count as 0). Not
+ * thread-safe: call from one thread, then rgb_uplift_prepare. */
+void rgb_uplift_need(rgb_uplift_t *self, const float rgb[3]);
+/* Fits every noted node not yet fitted, on up to threads threads (<= 0: all cores). */
+int rgb_uplift_prepare(rgb_uplift_t *self, int threads, err_t *err);
+
+/* The coefficients of rgb into out: c0, c1, c2 (lambda in nm) and m; c = 0 means flat
+ * (grey and black). Every node rgb needs must be fitted (rgb_uplift_need, rgb_uplift_prepare):
+ * -1 with err filled otherwise. Thread-safe after rgb_uplift_prepare. */
+int rgb_uplift_coef(const rgb_uplift_t *self, const float rgb[3], double out[4], err_t *err);
+/* The same, fitting missing nodes on the way (one thread only). */
+int rgb_uplift_coef_fit(rgb_uplift_t *self, const float rgb[3], double out[4], err_t *err);
+
+/* m * s(lambda) for coefficients from rgb_uplift_coef. */
+static inline double rgb_uplift_eval(const double c[4], double lambda)
+{
+    if (c[0] == 0.0 && c[1] == 0.0 && c[2] == 0.0)
+        return 0.5 * c[3];
+    return c[3] * spectrum_sigmoid((c[0] * lambda + c[1]) * lambda + c[2]);
+}
+
+#endif
