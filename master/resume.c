@@ -22,7 +22,7 @@ static int replay_result(void *user, uint32_t task, int kind, const void *data, 
                          err_t *err)
 {
     replay_t *rp = user;
-    merge_source_t src = {.id = 0, .name = "journal", .replay = true};
+    merge_source_t src = {.id = SCHED_JOURNAL, .name = "journal", .replay = true};
     sched_job_info_t info;
     if (sched_job_info(rp->m->sched, rp->j->id, &info) < 0)
         return err_set(err, "the job left the scheduler during its replay");
