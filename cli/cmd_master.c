@@ -65,6 +65,14 @@ int cmd_master(int argc, char **argv)
         {.name = "authorized", .kind = CLI_STRING, .dst = &o.authorized_dir, .arg = "DIR",
          .help = "the workers' and clients' NAME.pub files: only they get in (read again when "
                  "the folder changes: no restart needed)"},
+        {.name = "authorized-workers", .kind = CLI_STRING, .dst = &o.authorized_workers_dir,
+         .arg = "DIR",
+         .help = "roles, instead of --authorized: the workers' NAME.pub files, let in on the "
+                 "workers endpoint only"},
+        {.name = "authorized-clients", .kind = CLI_STRING, .dst = &o.authorized_clients_dir,
+         .arg = "DIR", .help = "the clients' NAME.pub files, let in on the clients endpoint only"},
+        {.name = "authorized-admins", .kind = CLI_STRING, .dst = &o.authorized_admins_dir,
+         .arg = "DIR", .help = "optional: the admins' NAME.pub files (clients endpoint)"},
         {.name = "insecure", .kind = CLI_FLAG, .dst = &o.insecure,
          .help = "plain text, anyone who reaches the ports gets in"},
         {.kind = CLI_TEXT, .help = "limits (what one client can make the master hold):\n"},
@@ -128,7 +136,19 @@ int cmd_master(int argc, char **argv)
     /* The security choice and the keys are checked before anything starts: a mistake there is
      * a bad configuration (status 2), which restarting cannot fix. */
     err_t err;
-    if (!o.key_file != !o.authorized_dir) {
+    bool roles = o.authorized_workers_dir || o.authorized_clients_dir || o.authorized_admins_dir;
+    if (roles && o.authorized_dir) {
+        fprintf(stderr, "prismfarm master: give --authorized DIR (keys let in on both endpoints) "
+                        "or the role folders --authorized-workers and --authorized-clients, not "
+                        "both\n");
+        return 2;
+    }
+    if (roles && (!o.authorized_workers_dir || !o.authorized_clients_dir)) {
+        fprintf(stderr, "prismfarm master: the role folders need both --authorized-workers DIR "
+                        "and --authorized-clients DIR\n");
+        return 2;
+    }
+    if (!o.key_file != !(o.authorized_dir || roles)) {
         fprintf(stderr, "prismfarm master: %s\n",
                 o.key_file ? "--key needs --authorized DIR, the public keys let in"
                            : "--authorized needs --key FILE, the master's own key pair");
@@ -143,10 +163,14 @@ int cmd_master(int argc, char **argv)
     if (o.key_file) {
         curve_pair_t pair;
         curve_ring_t *ring = NULL;
-        int bad = curve_load_pair(o.key_file, &pair, &err) < 0 ||
-                  !(ring = curve_ring_new(o.authorized_dir, &err));
+        const char *dirs[] = {o.authorized_dir, o.authorized_workers_dir,
+                              o.authorized_clients_dir, o.authorized_admins_dir};
+        int bad = curve_load_pair(o.key_file, &pair, &err) < 0;
+        for (size_t i = 0; !bad && i < sizeof dirs / sizeof *dirs; i++) {
+            bad = dirs[i] && !(ring = curve_ring_new(dirs[i], &err));
+            curve_ring_destroy(&ring);
+        }
         memset(&pair, 0, sizeof pair);
-        curve_ring_destroy(&ring);
         if (bad) {
             fprintf(stderr, "prismfarm master: %s\n", err.msg);
             return 2;

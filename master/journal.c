@@ -1,6 +1,7 @@
 #include "journal.h"
 
 #include "files.h"
+#include "sha256.h"
 #include "tilebuf.h"
 
 #include <dirent.h>
@@ -23,7 +24,10 @@
 
 #define TILE_MAGIC 0x58544650u  /* "PFTX" in this host's order: a blob of another is refused */
 #define PHOT_MAGIC 0x48504650u  /* "PFPH" */
-#define CKPT_MAGIC 0x58434650u  /* "PFCX" */
+#define CKPT_MAGIC 0x53434650u  /* "PFCS": a checkpoint with its round and SHA-256 */
+/* Version 5's first checkpoints, without a checksum: recognised only to say so (the job then
+ * falls back to an older checkpoint or renders those passes again). */
+#define CKPT_MAGIC_NOSUM 0x58434650u /* "PFCX" */
 /* Version 4's, without XYZ sums: recognised only to say so. */
 #define TILE_MAGIC_V4 0x4b544650u /* "PFTK" */
 #define CKPT_MAGIC_V4 0x4b434650u /* "PFCK" */
@@ -185,6 +189,31 @@ journal_t *journal_open(const char *dir, err_t *err)
         return NULL;
     }
     return self;
+}
+
+int journal_check(journal_t *self, char *report, size_t size, err_t *err)
+{
+    sqlite3_stmt *st;
+    report[0] = 0;
+    if (prepare(self, "PRAGMA quick_check(8)", &st, err) < 0)
+        return -1;
+    int rc, problems = 0;
+    size_t k = 0;
+    while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
+        const char *line = (const char *)sqlite3_column_text(st, 0);
+        if (!line || !strcmp(line, "ok"))
+            continue;
+        problems++;
+        int w = snprintf(report + k, size - k, "%s%s", k ? "; " : "", line);
+        if (w > 0)
+            k = (size_t)w < size - k ? k + (size_t)w : size - 1;
+    }
+    sqlite3_finalize(st);
+    if (rc != SQLITE_DONE && problems == 0) {
+        snprintf(report, size, "%s", sqlite3_errmsg(self->db));
+        problems = 1;
+    }
+    return problems;
 }
 
 void journal_close(journal_t **self_p)
@@ -700,8 +729,15 @@ void journal_prune(journal_t *self, uint64_t job)
 int journal_set_checkpoint(journal_t *self, uint64_t job, uint32_t round, uint64_t gen,
                            const int *next_pass, int ntiles, double elapsed, err_t *err)
 {
-    if (begin(self, err) < 0)
+    /* This commit drops results the checkpoint holds: synced to disk before it returns (an fsync
+     * at most every few seconds), so that a power cut cannot bring them back without it. */
+    if (exec(self, "PRAGMA synchronous=FULL", err) < 0)
         return -1;
+    err_t ignore;
+    if (begin(self, err) < 0) {
+        (void)exec(self, "PRAGMA synchronous=NORMAL", &ignore);
+        return -1;
+    }
     sqlite3_stmt *st;
     int rc = prepare(self, "UPDATE jobs SET checkpoint=?2, elapsed=?3 WHERE id=?1", &st, err);
     if (rc == 0) {
@@ -726,7 +762,9 @@ int journal_set_checkpoint(journal_t *self, uint64_t job, uint32_t round, uint64
         sqlite3_reset(del);
     }
     sqlite3_finalize(del); /* a no-op for NULL */
-    if (commit(self, rc, err) < 0)
+    rc = commit(self, rc, err);
+    (void)exec(self, "PRAGMA synchronous=NORMAL", &ignore);
+    if (rc < 0)
         return -1;
     journal_prune(self, job);
     return 0;
@@ -1037,12 +1075,16 @@ int journal_unpack_photons(const void *data, size_t size, proto_photon_result_t 
     return 0;
 }
 
-int journal_write_checkpoint(const char *path, const tilebuf_t *image, const int *next_pass,
-                             int ntiles, err_t *err)
+/* A checkpoint: magic, x0, y0, w, h, nb, ntiles, round, nonfinite, the image's arrays, the pass
+ * table, then the SHA-256 of every byte before it (issue 16: a flipped bit in a checkpoint whose
+ * size was right went into a finished image). */
+#define CKPT_HEADER (8 * 4 + 8)
+int journal_write_checkpoint(const char *path, uint32_t round, const tilebuf_t *image,
+                             const int *next_pass, int ntiles, err_t *err)
 {
     int x0 = tilebuf_x0(image), y0 = tilebuf_y0(image), w = tilebuf_width(image),
         h = tilebuf_height(image), nb = tilebuf_nbuckets(image);
-    size_t n = 7 * 4 + 8 + tile_array_bytes(w, h, nb) + (size_t)ntiles * 4;
+    size_t n = CKPT_HEADER + tile_array_bytes(w, h, nb) + (size_t)ntiles * 4 + SHA256_DIGEST_BYTES;
     uint8_t *buf = malloc(n), *p = buf;
     if (!buf)
         return err_set(err, "journal: out of memory for a %zu-byte checkpoint", n);
@@ -1053,49 +1095,84 @@ int journal_write_checkpoint(const char *path, const tilebuf_t *image, const int
     p = wr_u32(p, (uint32_t)h);
     p = wr_u32(p, (uint32_t)nb);
     p = wr_u32(p, (uint32_t)ntiles);
+    p = wr_u32(p, round);
     p = wr_u64(p, tilebuf_nonfinite(image));
     p = pack_arrays(p, (size_t)w * (size_t)h, nb, tilebuf_sums(image), tilebuf_xyz_sums(image),
                     tilebuf_counts(image), tilebuf_luminance_sums(image),
                     tilebuf_luminance_sq_sums(image));
     for (int t = 0; t < ntiles; t++)
         p = wr_u32(p, (uint32_t)next_pass[t]);
+    sha256_t h256;
+    sha256_init(&h256);
+    sha256_update(&h256, buf, (size_t)(p - buf));
+    sha256_final(&h256, p);
+    p += SHA256_DIGEST_BYTES;
     int rc = files_write_atomic(path, buf, (size_t)(p - buf), true, err);
     free(buf);
     return rc;
 }
 
-int journal_read_checkpoint(const char *path, int xres, int yres, int nbuckets, int ntiles,
-                            tilebuf_t **image, int *next_pass, err_t *err)
+int journal_read_checkpoint(const char *path, uint32_t round, int xres, int yres, int nbuckets,
+                            int ntiles, tilebuf_t **image, int *next_pass, err_t *err)
 {
     *image = NULL;
     uint8_t *data;
     size_t size;
-    size_t max = 7 * 4 + 8 + tile_array_bytes(xres, yres, nbuckets) + (size_t)ntiles * 4;
-    if (files_read(path, max, &data, &size, err) < 0)
-        return -1;
+    size_t want = CKPT_HEADER + tile_array_bytes(xres, yres, nbuckets) + (size_t)ntiles * 4 +
+                  SHA256_DIGEST_BYTES;
+    /* One byte more than it should hold, so that bytes past its end are told from a right
+     * size. */
+    if (files_read(path, want + 1, &data, &size, err) < 0)
+        return err_prefix(err, "checkpoint: ");
     reader_t r = {.p = data, .left = size};
     uint32_t magic = rd_u32(&r);
     int x0 = (int)rd_u32(&r), y0 = (int)rd_u32(&r), w = (int)rd_u32(&r), h = (int)rd_u32(&r),
         nb = (int)rd_u32(&r), nt = (int)rd_u32(&r);
+    uint32_t rnd = rd_u32(&r);
     uint64_t nonfinite = rd_u64(&r);
+    uint8_t digest[SHA256_DIGEST_BYTES];
     int rc = 0;
     if (!r.bad && magic == CKPT_MAGIC_V4) {
         rc = err_set(err, "checkpoint %s is of journal version 4, without the XYZ sums the RGB "
                           "layers now come from: it cannot be resumed by this master (version %d)",
                      path, JOURNAL_VERSION);
-    } else if (r.bad || magic != CKPT_MAGIC || x0 != 0 || y0 != 0 || w != xres || h != yres ||
-        nb != nbuckets || nt != ntiles) {
-        rc = err_set(err, "checkpoint %s is not a %dx%d image of %d buckets and %d tiles", path,
-                     xres, yres, nbuckets, ntiles);
-    } else if (!(*image = unpack_arrays(&r, 0, 0, w, h, nb, nonfinite, err))) {
-        rc = err_prefix(err, "checkpoint %s: ", path);
-    } else {
-        for (int t = 0; t < ntiles; t++)
-            next_pass[t] = (int)rd_u32(&r);
-        if (r.bad || r.left != 0) {
-            tilebuf_destroy(image);
-            rc = err_set(err, "checkpoint %s: its pass table is %s", path,
-                         r.bad ? "cut short" : "followed by extra bytes");
+    } else if (!r.bad && magic == CKPT_MAGIC_NOSUM) {
+        rc = err_set(err, "checkpoint %s carries no checksum (written by an older master): not "
+                          "trusted",
+                     path);
+    } else if (r.bad || magic != CKPT_MAGIC) {
+        rc = err_set(err, "checkpoint %s has no valid header", path);
+    } else if (size != want) {
+        rc = err_set(err, "checkpoint %s has %s bytes than a %dx%d image of %d buckets and %d "
+                          "tiles needs (%zu)",
+                     path, size > want ? "more" : "fewer", xres, yres, nbuckets, ntiles, want);
+    }
+    if (rc == 0) {
+        sha256_t h256;
+        sha256_init(&h256);
+        sha256_update(&h256, data, size - SHA256_DIGEST_BYTES);
+        sha256_final(&h256, digest);
+        if (memcmp(digest, data + size - SHA256_DIGEST_BYTES, SHA256_DIGEST_BYTES) != 0)
+            rc = err_set(err, "checkpoint %s fails its SHA-256 checksum (damaged on disk)", path);
+        else if (x0 != 0 || y0 != 0 || w != xres || h != yres || nb != nbuckets || nt != ntiles)
+            rc = err_set(err, "checkpoint %s is not a %dx%d image of %d buckets and %d tiles",
+                         path, xres, yres, nbuckets, ntiles);
+        else if (rnd != round)
+            rc = err_set(err, "checkpoint %s is of round %u, the job is at round %u", path, rnd,
+                         round);
+    }
+    if (rc == 0) {
+        r.left -= SHA256_DIGEST_BYTES;
+        if (!(*image = unpack_arrays(&r, 0, 0, w, h, nb, nonfinite, err))) {
+            rc = err_prefix(err, "checkpoint %s: ", path);
+        } else {
+            for (int t = 0; t < ntiles; t++)
+                next_pass[t] = (int)rd_u32(&r);
+            if (r.bad || r.left != 0) {
+                tilebuf_destroy(image);
+                rc = err_set(err, "checkpoint %s: its pass table is %s", path,
+                             r.bad ? "cut short" : "followed by extra bytes");
+            }
         }
     }
     free(data);

@@ -68,6 +68,9 @@ typedef struct journal_pass {
  * replaced. */
 journal_t *journal_open(const char *dir, err_t *err);
 void journal_close(journal_t **self_p);
+/* SQLite's PRAGMA quick_check: 0 when the database is sound, else the number of problems found
+ * with the first few in report; -1 with err when it cannot run. */
+int journal_check(journal_t *self, char *report, size_t size, err_t *err);
 
 /* A submitted job (state queued). */
 int journal_add_job(journal_t *self, const journal_job_t *job, err_t *err);
@@ -128,11 +131,14 @@ int journal_pack_photons(const proto_photon_result_t *r, uint8_t **data, size_t 
 /* r's data points into data. */
 int journal_unpack_photons(const void *data, size_t size, proto_photon_result_t *r, err_t *err);
 
-/* A checkpoint file: the job's image and next_pass[ntiles], written atomically at path. */
-int journal_write_checkpoint(const char *path, const tilebuf_t *image, const int *next_pass,
-                             int ntiles, err_t *err);
-/* Reads one back; the image must be xres x yres with nbuckets and ntiles entries. */
-int journal_read_checkpoint(const char *path, int xres, int yres, int nbuckets, int ntiles,
-                            tilebuf_t **image, int *next_pass, err_t *err);
+/* A checkpoint file: the job's image and next_pass[ntiles] of its round, with the SHA-256 of its
+ * bytes after them, written atomically (fsync'ed) at path. */
+int journal_write_checkpoint(const char *path, uint32_t round, const tilebuf_t *image,
+                             const int *next_pass, int ntiles, err_t *err);
+/* Reads one back; the image must be xres x yres with nbuckets and ntiles entries, of the round.
+ * A file whose checksum fails (a flipped bit, bytes appended or cut off), of another size,
+ * round or format, is an error naming it and the reason, never an image. */
+int journal_read_checkpoint(const char *path, uint32_t round, int xres, int yres, int nbuckets,
+                            int ntiles, tilebuf_t **image, int *next_pass, err_t *err);
 
 #endif

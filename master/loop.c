@@ -143,7 +143,15 @@ static int check_opts(const master_opts_t *o, err_t *err)
     if (o->limits.max_bundle_bytes > o->limits.max_message_bytes)
         return err_set(err, "master: bundles of %zu bytes cannot fit in messages of at most %zu",
                        o->limits.max_bundle_bytes, o->limits.max_message_bytes);
-    if (!o->key_file != !o->authorized_dir)
+    bool roles = o->authorized_workers_dir || o->authorized_clients_dir || o->authorized_admins_dir;
+    if (roles && o->authorized_dir)
+        return err_set(err, "master: --authorized DIR lets keys in on both endpoints; give it or "
+                            "the role folders (--authorized-workers, --authorized-clients), not "
+                            "both");
+    if (roles && (!o->authorized_workers_dir || !o->authorized_clients_dir))
+        return err_set(err, "master: the role folders need both --authorized-workers DIR and "
+                            "--authorized-clients DIR");
+    if (!o->key_file != !(o->authorized_dir || roles))
         return err_set(err, "master: %s",
                        o->key_file ? "--key needs --authorized DIR, the public keys let in: "
                                      "without it any peer that knows our public key would be let in"
@@ -183,7 +191,12 @@ int master_run(const master_opts_t *opts, err_t *err)
     }
     /* The handler first: a CURVE server bound without one would let in every client. */
     if (opts->key_file && (curve_load_pair(opts->key_file, &keys, err) < 0 ||
-                           !(zap = zap_new(ctx, opts->authorized_dir, zap_log, m, err)))) {
+                           !(zap = zap_new(ctx,
+                                           &(zap_folders_t){.any = opts->authorized_dir,
+                                                            .workers = opts->authorized_workers_dir,
+                                                            .clients = opts->authorized_clients_dir,
+                                                            .admins = opts->authorized_admins_dir},
+                                           zap_log, m, err)))) {
         err_prefix(err, "master: ");
         goto out;
     }
@@ -208,9 +221,15 @@ int master_run(const master_opts_t *opts, err_t *err)
         !(m->cnet = open_router(m, ctx, "clients", opts->client_endpoint, secret, cbound,
                                 sizeof cbound, err)))
         goto out;
-    if (zap)
+    if (zap && opts->authorized_dir)
         master_log(m, "CURVE: public key %s; %zu keys authorised in %s", keys.public_key,
                    zap_stats(zap).keys, opts->authorized_dir);
+    else if (zap)
+        master_log(m, "CURVE: public key %s; %zu keys authorised: workers in %s, clients in %s%s%s",
+                   keys.public_key, zap_stats(zap).keys, opts->authorized_workers_dir,
+                   opts->authorized_clients_dir,
+                   opts->authorized_admins_dir ? ", admins in " : "",
+                   opts->authorized_admins_dir ? opts->authorized_admins_dir : "");
     else if (opts->insecure)
         master_log(m, "plain text (--insecure): anyone who reaches the endpoints can connect");
     char text[1200], path[PATH_MAX];

@@ -36,7 +36,10 @@ typedef struct master_opts {
      * only the public keys of authorized_dir's *.pub files; without it a tcp:// endpoint
      * needs insecure (plain text), and inproc:// and ipc:// need neither. */
     const char *key_file;        /* the master's NAME.key (prismfarm keygen) */
-    const char *authorized_dir;  /* the workers' and clients' NAME.pub files */
+    const char *authorized_dir;  /* NAME.pub files let in on both endpoints (before roles) */
+    /* Roles (docs/security.md): the workers' keys, let in on the workers endpoint only; the
+     * clients', and the admins', on the clients endpoint only. Instead of authorized_dir. */
+    const char *authorized_workers_dir, *authorized_clients_dir, *authorized_admins_dir;
     int insecure;                /* plain text on network endpoints, by explicit choice */
     int task_prefetch;           /* tasks a worker holds beyond its threads, so that a thread
                                   * that finishes finds its next task queued instead of waiting

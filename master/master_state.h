@@ -32,6 +32,7 @@ typedef struct mworker {
     uint64_t id;
     proto_peer_t peer;
     char *name;
+    char key[72]; /* the name of its authorised key (the ZAP user id); "" without CURVE */
     int threads;
     bool alive;
     double last_seen;

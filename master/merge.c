@@ -86,6 +86,17 @@ static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
     }
 }
 
+/* A result from a worker the task was not issued to (issue 16: a key forged a job's pixels):
+ * dropped and logged with the worker and its key's name; it counts as no failure of the task. */
+static void merge_refused(master_t *m, const mjob_t *j, const merge_source_t *src, uint32_t task,
+                          const err_t *why)
+{
+    master_log(m, "refused a result from worker %llu '%s' (key '%s') for job %llu task %u: %s",
+               (unsigned long long)src->id, src->name,
+               src->key && src->key[0] ? src->key : "none: no CURVE", (unsigned long long)j->id,
+               task, why->msg);
+}
+
 void merge_photon_phase_done(master_t *m, mjob_t *j)
 {
     err_t err;
@@ -115,10 +126,17 @@ void merge_photon_batch(master_t *m, mjob_t *j, const merge_source_t *src, uint3
     err_t err;
     int rc = -1;
     uint32_t b = task & ~SCHED_PHOTON_TASK;
-    if (!(task & SCHED_PHOTON_TASK) || !j->photons.phase)
+    if (!(task & SCHED_PHOTON_TASK) || !j->photons.phase) {
         err_set(&err, "task %u is not a photon batch of the job, or its result is not one", task);
-    else if ((rc = photon_phase_add(j->photons.phase, j->photons.base + b, r, &err)) >= 0)
+    } else if (!sched_may_return(m->sched, src->id, j->id, task, attempt, &err)) {
+        merge_refused(m, j, src, task, &err);
+        return;
+    } else if ((rc = photon_phase_add(j->photons.phase, j->photons.base + b, r, &err)) >= 0)
         rc = sched_photon_done(m->sched, src->id, j->id, task, attempt, now, &err);
+    if (rc >= 0 && (rc & SCHED_REFUSED)) {
+        merge_refused(m, j, src, task, &err);
+        return;
+    }
     if (rc < 0) {
         master_log(m, "bad photon batch from %s %llu '%s' for job %llu: %s",
                    src->replay ? "the journal" : "worker", (unsigned long long)src->id, src->name,
@@ -164,6 +182,10 @@ void merge_camera_tile(master_t *m, mjob_t *j, const merge_source_t *src, uint32
                 task, pb, pe);
     } else {
         rc = sched_task_done(m->sched, src->id, j->id, task, attempt, &tb, now, &err);
+    }
+    if (rc >= 0 && (rc & SCHED_REFUSED)) {
+        merge_refused(m, j, src, task, &err);
+        return;
     }
     if (rc < 0) {
         master_log(m, "bad result from %s %llu '%s' for job %llu: %s",

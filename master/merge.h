@@ -15,6 +15,7 @@
 typedef struct merge_source {
     uint64_t id;
     const char *name;
+    const char *key; /* the worker's key name (NULL or "" without CURVE) */
     bool replay;
 } merge_source_t;
 

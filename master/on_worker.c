@@ -24,6 +24,7 @@ static void on_hello(master_t *m, const proto_peer_t *from, mworker_t *w, const 
         w->name = master_strdup("?");
     }
     w->threads = msg->hello.threads;
+    snprintf(w->key, sizeof w->key, "%s", from->user);
     /* Slots beyond the threads: a thread that finishes a tile starts on a queued one while its
      * result travels and the next TASK comes back (docs/performance.md). */
     int prefetch = m->opts->task_prefetch < 0 ? w->threads : m->opts->task_prefetch;
@@ -62,7 +63,7 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
     if (!j->sched.known || task >> 32 != j->sched.round)
         return; /* finished already, or of an earlier round: a late copy of a re-issued task */
     uint32_t t32 = (uint32_t)(task & UINT32_MAX);
-    merge_source_t src = {.id = w->id, .name = w->name};
+    merge_source_t src = {.id = w->id, .name = w->name, .key = w->key};
     if (msg->result.kind == PROTO_KIND_PHOTON_BATCH || (t32 & SCHED_PHOTON_TASK)) {
         if (msg->result.kind != PROTO_KIND_PHOTON_BATCH) {
             master_log(m,

@@ -42,8 +42,9 @@ void persist_checkpoint_path(const master_t *m, uint64_t job, uint64_t gen, char
 }
 
 /* The files a master killed between writing a checkpoint and journaling it, or between
- * journaling the next one and removing this one, left behind. */
-void persist_remove_stale_checkpoints(master_t *m, uint64_t id, uint64_t keep)
+ * journaling the next one and removing this one, left behind; and the previous generation that
+ * persist_maybe_checkpoint keeps, once it is not needed. */
+static void remove_checkpoints_but(master_t *m, uint64_t id, uint64_t keep, uint64_t keep2)
 {
     char dir[PATH_MAX];
     snprintf(dir, sizeof dir, "%s/jobs/%llu", spool_path(m->spool), (unsigned long long)id);
@@ -55,13 +56,18 @@ void persist_remove_stale_checkpoints(master_t *m, uint64_t id, uint64_t keep)
         unsigned long long gen;
         char tail[8];
         if (sscanf(e->d_name, "checkpoint-%llu.bi%1s", &gen, tail) != 2 ||
-            (gen == keep && !strstr(e->d_name, ".tmp")))
+            ((gen == keep || gen == keep2) && gen > 0 && !strstr(e->d_name, ".tmp")))
             continue;
         char path[PATH_MAX + 300];
         snprintf(path, sizeof path, "%s/%s", dir, e->d_name);
         (void)unlink(path);
     }
     (void)closedir(d);
+}
+
+void persist_remove_stale_checkpoints(master_t *m, uint64_t id, uint64_t keep)
+{
+    remove_checkpoints_but(m, id, keep, keep);
 }
 
 void persist_failed(const master_t *m, const mjob_t *j, const err_t *err)
@@ -83,9 +89,8 @@ void persist_state(master_t *m, mjob_t *j, double now)
         return;
     }
     if (job_over(j) && j->journal.checkpoint > 0) {
-        char path[PATH_MAX + 64];
-        persist_checkpoint_path(m, j->id, j->journal.checkpoint, path, sizeof path);
-        (void)unlink(path); /* a leftover is removed at the next start (resume_jobs) */
+        /* This one and the previous (a leftover is removed at the next start: resume_jobs). */
+        persist_remove_stale_checkpoints(m, j->id, 0);
         j->journal.checkpoint = 0;
     }
 }
@@ -111,21 +116,22 @@ void persist_maybe_checkpoint(master_t *m, mjob_t *j, double now)
         return;
     err_t err;
     int *next = malloc((size_t)info.ntiles * sizeof *next);
-    char path[PATH_MAX + 64], old[PATH_MAX + 64];
+    char path[PATH_MAX + 64];
     uint64_t gen = j->journal.checkpoint + 1;
     persist_checkpoint_path(m, j->id, gen, path, sizeof path);
-    persist_checkpoint_path(m, j->id, j->journal.checkpoint, old, sizeof old);
     journal_job_t r = persist_record(j, now);
     if (!next) {
         err_set(&err, "out of memory for a checkpoint");
     } else if (sched_job_next_pass(m->sched, j->id, next, info.ntiles) < 0) {
         err_set(&err, "the scheduler has no pass table for the job");
-    } else if (journal_write_checkpoint(path, sched_job_image(m->sched, j->id), next, info.ntiles,
-                                        &err) == 0 &&
+    } else if (journal_write_checkpoint(path, j->sched.round, sched_job_image(m->sched, j->id),
+                                        next, info.ntiles, &err) == 0 &&
                journal_set_checkpoint(m->journal, j->id, j->sched.round, gen, next, info.ntiles,
                                       r.elapsed, &err) == 0) {
-        if (j->journal.checkpoint > 0)
-            (void)unlink(old);
+        /* The previous generation stays until this one's row is durable and beyond: a journal
+         * that loses its last commits (a WAL cut short by a power cut) still names it, or the
+         * new one is damaged (issue 16). resume.c takes the newest that checks out. */
+        remove_checkpoints_but(m, j->id, gen, j->journal.checkpoint);
         j->journal.checkpoint = gen;
         j->journal.bytes = 0;
         j->journal.checkpoint_samples = info.samples_done;

@@ -5,6 +5,7 @@
 #include "merge.h"
 #include "persist.h"
 
+#include <dirent.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -21,7 +22,7 @@ static int replay_result(void *user, uint32_t task, int kind, const void *data, 
                          err_t *err)
 {
     replay_t *rp = user;
-    merge_source_t src = {.id = 0, .name = "journal", .replay = true};
+    merge_source_t src = {.id = SCHED_JOURNAL, .name = "journal", .replay = true};
     sched_job_info_t info;
     if (sched_job_info(rp->m->sched, rp->j->id, &info) < 0)
         return err_set(err, "the job left the scheduler during its replay");
@@ -62,6 +63,64 @@ static int load_passes(master_t *m, mjob_t *j, err_t *err)
                             .elapsed = passes[i].elapsed,
                             .valid = passes[i].valid,
                             .rel_error = passes[i].rel_error};
+    return 0;
+}
+
+static int gen_desc(const void *a, const void *b)
+{
+    uint64_t x = *(const uint64_t *)a, y = *(const uint64_t *)b;
+    return x < y ? 1 : x > y ? -1 : 0;
+}
+
+/* The newest checkpoint of the job's folder that checks out (its SHA-256, size, round), into
+ * *image and next; returns its generation, 0 for none. Any checkpoint of the round is a right
+ * starting point whatever the journal names: it holds tile t's passes below next[t], merged in
+ * pass order, and the journaled results below them are duplicates, those above are merged
+ * again, and what neither holds is rendered again. So a damaged checkpoint falls back to the
+ * previous one (persist.c keeps it) and a journal that lost its last commits uses the file it
+ * no longer names; each one passed over is logged with the job and the file. */
+static uint64_t restore_checkpoint(master_t *m, mjob_t *j, uint64_t named, tilebuf_t **image,
+                                   int *next)
+{
+    char dir[PATH_MAX];
+    snprintf(dir, sizeof dir, "%s/jobs/%llu", spool_path(m->spool), (unsigned long long)j->id);
+    uint64_t gens[64];
+    size_t n = 0;
+    bool found_named = named == 0;
+    DIR *d = opendir(dir);
+    struct dirent *e;
+    while (d && (e = readdir(d)) && n < sizeof gens / sizeof *gens) {
+        unsigned long long gen;
+        char tail[8];
+        if (sscanf(e->d_name, "checkpoint-%llu.bi%7s", &gen, tail) == 2 && !strcmp(tail, "n") &&
+            gen > 0) {
+            gens[n++] = gen;
+            found_named |= gen == named;
+        }
+    }
+    if (d)
+        (void)closedir(d);
+    if (!found_named)
+        master_log(m, "job %llu '%s': checkpoint-%llu.bin, which the journal names, is missing",
+                   (unsigned long long)j->id, j->name, (unsigned long long)named);
+    qsort(gens, n, sizeof *gens, gen_desc);
+    for (size_t i = 0; i < n; i++) {
+        char path[PATH_MAX + 64];
+        err_t err;
+        persist_checkpoint_path(m, j->id, gens[i], path, sizeof path);
+        if (journal_read_checkpoint(path, j->sched.round, j->scene.xres, j->scene.yres,
+                                    j->scene.grid.n, j->sched.ntiles, image, next, &err) == 0) {
+            if (gens[i] != named)
+                master_log(m, "job %llu '%s': resumed from checkpoint-%llu.bin (the journal "
+                              "names checkpoint-%llu.bin)",
+                           (unsigned long long)j->id, j->name, (unsigned long long)gens[i],
+                           (unsigned long long)named);
+            return gens[i];
+        }
+        master_log(m, "job %llu '%s': %s: %s", (unsigned long long)j->id, j->name, err.msg,
+                   i + 1 < n ? "trying the previous checkpoint"
+                             : "its merged passes are rendered again");
+    }
     return 0;
 }
 
@@ -109,15 +168,10 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
     int rc = 0;
     tilebuf_t *image = NULL;
     int *next = NULL;
-    if (r->checkpoint > 0) {
-        char path[PATH_MAX + 64];
-        persist_checkpoint_path(m, j->id, r->checkpoint, path, sizeof path);
-        if (!(next = malloc((size_t)j->sched.ntiles * sizeof *next)))
-            rc = err_set(err, "out of memory");
-        else if ((rc = journal_read_checkpoint(path, j->scene.xres, j->scene.yres, j->scene.grid.n,
-                                               j->sched.ntiles, &image, next, err)) == 0)
-            j->journal.checkpoint = r->checkpoint;
-    }
+    if (!(next = malloc((size_t)j->sched.ntiles * sizeof *next)))
+        rc = err_set(err, "out of memory");
+    else
+        j->journal.checkpoint = restore_checkpoint(m, j, r->checkpoint, &image, next);
     if (rc == 0 && (image || photons_done > 0))
         rc = sched_restore_job(m->sched, j->id, &image, image ? next : NULL, photons_done, err);
     free(next);
@@ -163,12 +217,66 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
     return 0;
 }
 
+/* A folder jobs/<id> of the spool is made at submission, after the job's row is committed: one
+ * the journal has no row for lost its record (a WAL garbled or deleted, a power cut, a damaged
+ * database). It cannot be rendered without it, but it is never dropped in silence: the log
+ * names it, and it is listed (and journaled) as failed with the reason. */
+static void list_lost_jobs(master_t *m, const journal_job_t *rows, size_t n, const char *damage)
+{
+    char dir[PATH_MAX];
+    snprintf(dir, sizeof dir, "%s/jobs", spool_path(m->spool));
+    DIR *d = opendir(dir);
+    if (!d)
+        return;
+    struct dirent *e;
+    while ((e = readdir(d))) {
+        const char *s = e->d_name;
+        if (!*s || strspn(s, "0123456789") != strlen(s) || strlen(s) > 19)
+            continue;
+        uint64_t id = strtoull(s, NULL, 10);
+        bool known = id == 0;
+        for (size_t i = 0; i < n && !known; i++)
+            known = rows[i].id == id;
+        if (known)
+            continue;
+        char msg[800];
+        snprintf(msg, sizeof msg,
+                 "the journal lost its record (%s): the job cannot be resumed; submit it again",
+                 damage[0] ? damage : "its last commits are missing");
+        master_log(m, "job %llu: its folder %s/%s is in the spool but not in the journal: %s",
+                   (unsigned long long)id, dir, s, msg);
+        journal_job_t r = {.id = id, .name = "(lost)", .hash = "-", .main = "-",
+                           .state = JOB_FAILED, .error = msg};
+        err_t jerr;
+        if (journal_add_job(m->journal, &r, &jerr) < 0 ||
+            journal_set_state(m->journal, &r, &jerr) < 0)
+            master_log(m, "job %llu: journal: %s", (unsigned long long)id, jerr.msg);
+        mjob_t *j = job_from_record(&r);
+        if (!j || jobs_append(m, j) < 0) {
+            job_free(j);
+            continue;
+        }
+        if (id > m->last_job)
+            m->last_job = id;
+        persist_remove_stale_checkpoints(m, id, 0);
+    }
+    (void)closedir(d);
+}
+
 int resume_jobs(master_t *m, err_t *err)
 {
     journal_job_t *rows;
     size_t n;
+    char damage[512];
+    err_t cerr;
+    int problems = journal_check(m->journal, damage, sizeof damage, &cerr);
+    if (problems < 0)
+        snprintf(damage, sizeof damage, "its integrity check cannot run: %.400s", cerr.msg);
+    if (problems != 0)
+        master_log(m, "journal: the integrity check found damage: %s", damage);
     if (journal_jobs(m->journal, &rows, &n, err) < 0)
-        return -1;
+        return err_prefix(err, "%s%s", problems ? "the journal is damaged: " : "",
+                          problems ? "move journal.db aside to start afresh: " : "");
     double now = clock_now_s();
     int rc = 0;
     for (size_t i = 0; i < n && rc == 0; i++) {
@@ -214,6 +322,8 @@ int resume_jobs(master_t *m, err_t *err)
         if (r->state == JOB_FAILED && r->error && strstr(r->error, "after the master restarted"))
             persist_state(m, j, now); /* failed just now: the journal learns why */
     }
+    if (rc == 0)
+        list_lost_jobs(m, rows, n, problems > 0 ? damage : "");
     for (size_t i = 0; i < n; i++)
         journal_job_clear(&rows[i]);
     free(rows);

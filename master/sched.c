@@ -13,6 +13,7 @@ typedef struct task {
     uint32_t attempt;
     int failures;
     uint64_t owner; /* worker holding it while RUNNING */
+    uint64_t issued[2]; /* the last two workers it was issued to, newest first (0: none) */
     double deadline;
     tilebuf_t *result; /* done but not yet merged (an earlier pass of its tile is missing) */
 } task_t;
@@ -496,6 +497,10 @@ static void issue(sched_t *self, worker_t *w, job_t *j, task_t *t, double now)
 {
     t->state = TASK_RUNNING;
     t->owner = w->id;
+    if (t->issued[0] != w->id) {
+        t->issued[1] = t->issued[0];
+        t->issued[0] = w->id;
+    }
     t->attempt++;
     t->deadline = now + self->cfg.task_deadline_s;
     w->busy++;
@@ -649,6 +654,43 @@ int sched_merge_next_pass(sched_t *self, uint64_t id, err_t *err)
     return out;
 }
 
+/* Whether worker may return task (issue 16: any peer's result for any task was merged, first
+ * result wins): only a worker the task was issued to, the current holder or the one before it
+ * (a late copy after a deadline or a lost worker's, which are the same bytes), with an attempt
+ * it was given; the journal's replay (SCHED_JOURNAL) is the master's own. */
+static bool may_return(const task_t *t, uint64_t worker, uint32_t attempt, err_t *err)
+{
+    if (worker == SCHED_JOURNAL)
+        return true;
+    if (t->issued[0] == 0) {
+        err_set(err, "that task was never issued to any worker");
+        return false;
+    }
+    if (worker != t->issued[0] && worker != t->issued[1]) {
+        err_set(err, "that task was issued to worker %llu, not to this one",
+                (unsigned long long)t->issued[0]);
+        return false;
+    }
+    if (attempt == 0 || attempt > t->attempt) {
+        err_set(err, "attempt %u of that task was never issued (the last is %u)", attempt,
+                t->attempt);
+        return false;
+    }
+    return true;
+}
+
+bool sched_may_return(const sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
+                      uint32_t attempt, err_t *err)
+{
+    job_t *j = find_job(self, job);
+    task_t *t = j ? task_of(j, task) : NULL;
+    if (!t) {
+        err_set(err, "job %llu has no task %u", (unsigned long long)job, task);
+        return false;
+    }
+    return may_return(t, worker, attempt, err);
+}
+
 int sched_photon_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task, uint32_t attempt,
                       double now, err_t *err)
 {
@@ -658,7 +700,8 @@ int sched_photon_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t tas
     if (!t)
         return err_set(err, "photon result for unknown job %llu task %u", (unsigned long long)job,
                        task & ~SCHED_PHOTON_TASK);
-    (void)attempt;
+    if (!may_return(t, worker, attempt, err))
+        return SCHED_REFUSED;
     /* Batches are the same photons whatever the attempt: the first result wins. */
     if (j->state != JOB_RUNNING || t->state == TASK_DONE)
         return SCHED_DUPLICATE;
@@ -684,7 +727,10 @@ int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
         return err_set(err, "result for unknown job %llu task %u", (unsigned long long)job, task);
     }
     task_t *t = &j->tasks[task];
-    (void)attempt;
+    if (!may_return(t, worker, attempt, err)) {
+        tilebuf_destroy(&r);
+        return SCHED_REFUSED;
+    }
     if (j->state != JOB_RUNNING || t->state == TASK_DONE) {
         /* Every attempt of a task gives the same bytes, so the first result wins. */
         tilebuf_destroy(&r);
@@ -727,8 +773,10 @@ void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t ta
     task_t *t = j ? task_of(j, task) : NULL;
     if (!t || j->state != JOB_RUNNING)
         return;
-    (void)attempt;
-    if (t->state == TASK_DONE)
+    err_t ignore;
+    /* A failure of a task the worker was not given counts against nothing: a peer must not fail
+     * another's job. */
+    if (t->state == TASK_DONE || !may_return(t, worker, attempt, &ignore))
         return;
     if (t->state == TASK_RUNNING && t->owner == worker)
         requeue(self, j, task);

@@ -130,9 +130,16 @@ typedef enum sched_result {
     SCHED_PHASE_DONE = 16,   /* every photon batch is done: the camera phase may start */
     SCHED_PASS_READY = 32,   /* whole-pass job: the next pass is complete too and waits for
                               * sched_merge_next_pass */
+    SCHED_REFUSED = 64,      /* the task was not issued to that worker (or not that attempt):
+                              * the result is dropped, err says why, nothing else changes */
 } sched_result_t;
 
-/* A finished task. The result must cover exactly the task's tile with the job's buckets; the
+/* The worker id of results the master replays from its own journal: accepted for any task. */
+#define SCHED_JOURNAL 0
+
+/* A finished task. Only a worker the task was issued to (its holder, or the one before it after a
+ * re-issue) with an attempt it was given may return it, else SCHED_REFUSED with err. The result
+ * must cover exactly the task's tile with the job's buckets; the
  * scheduler takes ownership of *result (and nulls it) whatever happens. Returns a mask of
  * sched_result_t, or -1 with err for a result that does not match its task. */
 int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task, uint32_t attempt,
@@ -140,6 +147,11 @@ int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
 /* A photon batch the master has merged (or kept for merging) successfully. Returns a mask of
  * sched_result_t (SCHED_MERGED, SCHED_DUPLICATE, SCHED_PHASE_DONE), or -1 with err for a task
  * that is not a photon batch of the job. */
+/* Whether the worker may return attempt of task (as sched_task_done checks it), err says why
+ * not: for a result checked before it is handed to the scheduler (a photon batch is merged into
+ * the photon phase first). */
+bool sched_may_return(const sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
+                      uint32_t attempt, err_t *err);
 int sched_photon_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task, uint32_t attempt,
                       double now, err_t *err);
 /* A task the worker could not do (camera or photon); message is kept as the job's error if it

@@ -478,6 +478,11 @@ int net_recv(net_t *self, proto_peer_t *from, proto_msg_t *out, int timeout_ms,
         (void)zmq_msg_close(&body);
         return err_set(err, "from %s: %s", who, zmq_strerror(e)), zmq_code(e);
     }
+    if (from) {
+        /* The user id the ZAP handler gave this connection (RFC 27): the key's name. */
+        const char *user = zmq_msg_gets(&body, "User-Id");
+        snprintf(from->user, sizeof from->user, "%s", user ? user : "");
+    }
     int extra = drain(self->sock);
     int rc;
     if (extra > 0) {

@@ -60,6 +60,9 @@ net_options_t net_options_default(void);
 typedef struct proto_peer {
     uint8_t id[255];
     size_t len;
+    /* The ZAP handler's user id for the connection (zap.h: the authorised key's file name),
+     * filled by net_recv on a CURVE ROUTER; empty without CURVE. */
+    char user[72];
 } proto_peer_t;
 
 #define PROTO_PEER_STR 520

@@ -17,9 +17,12 @@
 #define ZAP_FRAMES 8                          /* a CURVE request has 7; more is malformed */
 #define ZAP_POLL_MS 100                       /* how long destroy may wait for the thread */
 
+enum { RING_ANY, RING_WORKERS, RING_CLIENTS, RING_ADMINS, NRINGS };
+static const char *const ROLE[NRINGS] = {"authorised", "worker", "client", "admin"};
+
 struct zap {
     void *sock; /* REP, used by the thread only once it runs */
-    curve_ring_t *ring;
+    curve_ring_t *rings[NRINGS]; /* zap_folders_t's, NULL where none */
     zap_log_fn log;
     void *user;
     pthread_t thread;
@@ -74,20 +77,52 @@ static void send_reply(zap_t *self, zmq_msg_t *request_id, const char *status,
         zlog(self, "ZAP: cannot answer libzmq: %s", zmq_strerror(zmq_errno()));
 }
 
-static void refresh(zap_t *self, bool force)
+static void refresh_ring(zap_t *self, curve_ring_t *ring, bool force)
 {
     err_t err;
     bool reloaded;
-    size_t before = curve_ring_size(self->ring);
-    if (curve_ring_refresh(self->ring, force, &reloaded, &err) < 0) {
+    size_t before = curve_ring_size(ring);
+    if (curve_ring_refresh(ring, force, &reloaded, &err) < 0) {
         zlog(self, "%s", err.msg);
     } else if (reloaded) {
-        if (force && curve_ring_size(self->ring) == before)
+        if (force && curve_ring_size(ring) == before)
             return; /* a stranger made us look: nothing to report */
-        atomic_store(&self->keys, curve_ring_size(self->ring));
-        zlog(self, "authorised keys read again from %s: %zu keys", curve_ring_dir(self->ring),
-             curve_ring_size(self->ring));
+        zlog(self, "authorised keys read again from %s: %zu keys", curve_ring_dir(ring),
+             curve_ring_size(ring));
     }
+}
+
+static size_t total_keys(const zap_t *self)
+{
+    size_t n = 0;
+    for (int r = 0; r < NRINGS; r++)
+        n += self->rings[r] ? curve_ring_size(self->rings[r]) : 0;
+    return n;
+}
+
+static void refresh(zap_t *self, bool force)
+{
+    for (int r = 0; r < NRINGS; r++)
+        if (self->rings[r])
+            refresh_ring(self, self->rings[r], force);
+    atomic_store(&self->keys, total_keys(self));
+}
+
+/* The key's name in the first of the domain's folders that lists it; *role its ring. */
+static const char *find_key(const zap_t *self, const char *domain, const uint8_t *key, int *role)
+{
+    static const int WORKERS[] = {RING_ANY, RING_WORKERS, -1};
+    static const int CLIENTS[] = {RING_ANY, RING_CLIENTS, RING_ADMINS, -1};
+    const int *order = !strcmp(domain, "workers") ? WORKERS : !strcmp(domain, "clients") ? CLIENTS : NULL;
+    for (int i = 0; order && order[i] >= 0; i++) {
+        const curve_ring_t *ring = self->rings[order[i]];
+        const char *name = ring ? curve_ring_find(ring, key) : NULL;
+        if (name) {
+            *role = order[i];
+            return name;
+        }
+    }
+    return NULL;
 }
 
 /* Receives one request and answers it. Returns -1 when the socket is unusable. */
@@ -132,17 +167,32 @@ static int handle(zap_t *self)
     /* A changed folder is read again; an unknown key makes it read again at most once a
      * second, which bounds what a flood of strangers costs. */
     refresh(self, false);
-    const char *name = curve_ring_find(self->ring, key);
+    int role = RING_ANY;
+    const char *name = find_key(self, domain, key, &role);
     if (!name) {
         refresh(self, true);
-        name = curve_ring_find(self->ring, key);
+        name = find_key(self, domain, key, &role);
     }
     char z85[CURVE_Z85 + 1];
     if (!zmq_z85_encode(z85, key, CURVE_BINARY))
         snprintf(z85, sizeof z85, "(unprintable)");
     if (!name) {
-        zlog(self, "refused a connection to the %s endpoint from %s: key %s is not in %s", domain,
-             address, z85, curve_ring_dir(self->ring));
+        /* A key of another role (a client's on the workers endpoint: issue 16) is named. */
+        const char *other = NULL;
+        int r = 0;
+        for (; r < NRINGS && !other; r++)
+            other = self->rings[r] ? curve_ring_find(self->rings[r], key) : NULL;
+        if (other)
+            zlog(self,
+                 "refused a connection to the %s endpoint from %s: key '%s' is a%s %s key (in "
+                 "%s), not allowed on this endpoint",
+                 domain, address, other, r - 1 == RING_ADMINS ? "n" : "", ROLE[r - 1],
+                 curve_ring_dir(self->rings[r - 1]));
+        else
+            zlog(self, "refused a connection to the %s endpoint from %s: key %s is not in %s",
+                 domain, address, z85,
+                 self->rings[RING_ANY] ? curve_ring_dir(self->rings[RING_ANY])
+                                       : "the authorised folders");
         send_reply(self, &f[1], "400", "key not authorised", "");
         atomic_fetch_add(&self->refused, 1);
     } else {
@@ -170,8 +220,14 @@ static void *zap_thread(void *arg)
     return NULL;
 }
 
-zap_t *zap_new(void *zmq_ctx, const char *authorized_dir, zap_log_fn log,
-                           void *user, err_t *err)
+static void destroy_rings(zap_t *self)
+{
+    for (int r = 0; r < NRINGS; r++)
+        curve_ring_destroy(&self->rings[r]);
+}
+
+zap_t *zap_new(void *zmq_ctx, const zap_folders_t *folders, zap_log_fn log, void *user,
+               err_t *err)
 {
     if (curve_available(err) < 0)
         return NULL;
@@ -185,11 +241,15 @@ zap_t *zap_new(void *zmq_ctx, const char *authorized_dir, zap_log_fn log,
     atomic_init(&self->stop, false);
     atomic_init(&self->accepted, 0);
     atomic_init(&self->refused, 0);
-    if (!(self->ring = curve_ring_new(authorized_dir, err))) {
-        free(self);
-        return NULL;
-    }
-    atomic_init(&self->keys, curve_ring_size(self->ring));
+    const char *dirs[NRINGS] = {folders->any, folders->workers, folders->clients,
+                                folders->admins};
+    for (int r = 0; r < NRINGS; r++)
+        if (dirs[r] && !(self->rings[r] = curve_ring_new(dirs[r], err))) {
+            destroy_rings(self);
+            free(self);
+            return NULL;
+        }
+    atomic_init(&self->keys, total_keys(self));
     int linger = 0;
     self->sock = zmq_socket(zmq_ctx, ZMQ_REP);
     if (!self->sock) {
@@ -214,7 +274,7 @@ zap_t *zap_new(void *zmq_ctx, const char *authorized_dir, zap_log_fn log,
 fail:
     if (self->sock)
         (void)zmq_close(self->sock);
-    curve_ring_destroy(&self->ring);
+    destroy_rings(self);
     free(self);
     return NULL;
 }
@@ -227,7 +287,7 @@ void zap_destroy(zap_t **self_p)
     atomic_store(&self->stop, true);
     (void)pthread_join(self->thread, NULL);
     (void)zmq_close(self->sock);
-    curve_ring_destroy(&self->ring);
+    destroy_rings(self);
     free(self);
     *self_p = NULL;
 }

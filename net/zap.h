@@ -18,11 +18,20 @@ typedef void (*zap_log_fn)(void *user, const char *line);
 
 typedef struct zap zap_t;
 
-/* Loads the authorised folder, binds inproc://zeromq.zap.01 on zmq_ctx (one handler per context)
- * and starts the thread. Create it before binding the server sockets, and destroy it after
- * closing them: a CURVE server that finds no handler accepts every client. log may be NULL. */
-zap_t *zap_new(void *zmq_ctx, const char *authorized_dir, zap_log_fn log,
-                           void *user, err_t *err);
+/* The authorised folders, by role (docs/security.md, "Roles"). A key is let in on the workers
+ * endpoint (ZAP domain "workers") only from any or workers, on the clients endpoint ("clients")
+ * only from any, clients or admins; the ZAP user id of the connection is the key's file name.
+ * NULL: no such folder. any is the single --authorized folder of before roles. */
+typedef struct zap_folders {
+    const char *any, *workers, *clients, *admins;
+} zap_folders_t;
+
+/* Loads the authorised folders, binds inproc://zeromq.zap.01 on zmq_ctx (one handler per
+ * context) and starts the thread. Create it before binding the server sockets, and destroy it
+ * after closing them: a CURVE server that finds no handler accepts every client. log may be
+ * NULL. */
+zap_t *zap_new(void *zmq_ctx, const zap_folders_t *folders, zap_log_fn log, void *user,
+               err_t *err);
 
 /* Stops the thread (within 100 ms) and closes its socket. */
 void zap_destroy(zap_t **self_p);

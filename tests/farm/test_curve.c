@@ -333,6 +333,75 @@ static void test_farm_with_keys(void **state)
     testutil_stop(master, SIGTERM);
 }
 
+/* Roles (issue 16, item 2): with --authorized-workers and --authorized-clients a client's key is
+ * refused on the workers endpoint (it used to join as a worker and could return any task's
+ * pixels) and a worker's on the clients endpoint, each logged with the key's name and role;
+ * each key works where it belongs. */
+static void test_roles(void **state)
+{
+    (void)state;
+    env_keys(0);
+    char cmd[2400];
+    const char *k = testutil_scratch("rolekeys");
+    const char *aw = testutil_scratch("auth-workers"), *ac = testutil_scratch("auth-clients");
+    snprintf(cmd, sizeof cmd,
+             "'%s' keygen render1 --dir '%s' >/dev/null && '%s' keygen alice --dir '%s' "
+             ">/dev/null && mkdir -p '%s' '%s' && cp '%s/render1.pub' '%s/' && "
+             "cp '%s/alice.pub' '%s/'",
+             getenv("PRISMFARM_BIN"), k, getenv("PRISMFARM_BIN"), k, aw, ac, k, aw, k, ac);
+    assert_int_equal(system(cmd), 0);
+    char render1[700], alice[700];
+    snprintf(render1, sizeof render1, "%s/render1.key", k);
+    snprintf(alice, sizeof alice, "%s/alice.key", k);
+    const char *spool = testutil_scratch("role-spool"), *mlog = testutil_scratch("role-master.log");
+    pid_t master = testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
+                                  "tcp://127.0.0.1:*", "--spool", spool, "--key",
+                                  testutil_master_key(), "--authorized-workers", aw,
+                                  "--authorized-clients", ac, "--heartbeat", "200", "--tile", "8",
+                                  NULL);
+    char wep[256], cep[256];
+    testutil_read_endpoints(spool, wep, cep, mlog);
+    /* A client's key on the workers endpoint: never joins, logged with its name and role. */
+    pid_t sneaky = testutil_spawn(testutil_scratch("sneaky.log"), "worker", "--connect", wep,
+                                  "--threads", "1", "--name", "sneaky", "--key", alice,
+                                  "--master-key", MASTER_PUB, "--cache", testutil_scratch("c3"),
+                                  NULL);
+    testutil_wait_file_has(mlog, "refused a connection to the workers endpoint from 127.0.0.1: "
+                                 "key 'alice' is a client key");
+    pid_t worker = testutil_spawn(testutil_scratch("render1.log"), "worker", "--connect", wep,
+                                  "--threads", "1", "--name", "render1", "--key", render1,
+                                  "--master-key", MASTER_PUB, "--cache", testutil_scratch("c4"),
+                                  NULL);
+    const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "4",
+                         "--wait", "-o", testutil_scratch("role.exr"), "--quiet", "--key", alice,
+                         "--master-key", MASTER_PUB, NULL);
+    if (r->status != 0)
+        testutil_fail_quoting(mlog, "submit --wait: exit %d: %s\nmaster log:", r->status, r->err);
+    testutil_expect_file_has(mlog, "accepted key 'render1' on the workers endpoint");
+    testutil_expect_file_has(mlog, "accepted key 'alice' on the clients endpoint");
+    r = run("workers", "--master", cep, "--json", "--key", alice, "--master-key", MASTER_PUB,
+            NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "\"render1\"");
+    assert_null(strstr(r->out, "sneaky"));
+    /* A worker's key on the clients endpoint: refused. */
+    r = run("jobs", "--master", cep, "--key", render1, "--master-key", MASTER_PUB, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "refused our key");
+    testutil_wait_file_has(mlog, "refused a connection to the clients endpoint from 127.0.0.1: "
+                                 "key 'render1' is a worker key");
+    /* Both ways of authorising at once is a bad command line. */
+    r = run("master", "--workers", "tcp://127.0.0.1:*", "--clients", "tcp://127.0.0.1:*",
+            "--spool", testutil_scratch("role-spool2"), "--key", testutil_master_key(),
+            "--authorized", ac, "--authorized-workers", aw, NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "not both");
+    testutil_stop(sneaky, SIGTERM);
+    testutil_stop(worker, SIGTERM);
+    testutil_stop(master, SIGTERM);
+    env_keys(1);
+}
+
 /* A tcp:// master without keys refuses to start, with the reason and the two ways out;
  * inconsistent security options are bad command lines (status 2) too. */
 static void test_master_refuses_plain_tcp(void **state)
@@ -416,7 +485,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_keygen_files),       cmocka_unit_test(test_key_file_errors),
         cmocka_unit_test(test_farm_with_keys),     cmocka_unit_test(test_master_refuses_plain_tcp),
-        cmocka_unit_test(test_insecure_and_local),
+        cmocka_unit_test(test_insecure_and_local), cmocka_unit_test(test_roles),
     };
     return cmocka_run_group_tests(tests, group_setup, testutil_scratch_teardown);
 }

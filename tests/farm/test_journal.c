@@ -175,18 +175,45 @@ static void test_checkpoint_round_trip(void **state)
         }
     int next[4] = {3, 2, 2, 0}, back[4];
     const char *path = testutil_scratch("ckpt.bin");
-    assert_int_equal(journal_write_checkpoint(path, img, next, 4, &err), 0);
+    assert_int_equal(journal_write_checkpoint(path, 0, img, next, 4, &err), 0);
     tilebuf_t *got = NULL;
-    assert_int_equal(journal_read_checkpoint(path, 5, 4, 3, 4, &got, back, &err), 0);
+    assert_int_equal(journal_read_checkpoint(path, 0, 5, 4, 3, 4, &got, back, &err), 0);
     assert_memory_equal(back, next, sizeof next);
     assert_memory_equal(tilebuf_sums(got), tilebuf_sums(img), 5 * 4 * 3 * sizeof(double));
     assert_memory_equal(tilebuf_counts(got), tilebuf_counts(img), 5 * 4 * sizeof(uint64_t));
     tilebuf_destroy(&got);
+    /* One bit flipped, 64 bytes appended, another round: refused, naming the file and why. */
+    {
+        size_t size;
+        char *bytes = testutil_slurp(path, &size);
+        assert_non_null(bytes);
+        bytes[40 + 8 * 7 + 6] ^= 0x08;
+        FILE *f = fopen(path, "wb");
+        assert_int_equal(fwrite(bytes, 1, size, f), size);
+        fclose(f);
+        assert_int_equal(journal_read_checkpoint(path, 0, 5, 4, 3, 4, &got, back, &err), -1);
+        assert_null(got);
+        assert_non_null(strstr(err.msg, "fails its SHA-256 checksum"));
+        bytes[40 + 8 * 7 + 6] ^= 0x08;
+        f = fopen(path, "wb");
+        assert_int_equal(fwrite(bytes, 1, size, f), size);
+        for (int i = 0; i < 64; i++)
+            fputc(i, f);
+        fclose(f);
+        assert_int_equal(journal_read_checkpoint(path, 0, 5, 4, 3, 4, &got, back, &err), -1);
+        assert_non_null(strstr(err.msg, "more"));
+        f = fopen(path, "wb");
+        assert_int_equal(fwrite(bytes, 1, size, f), size);
+        fclose(f);
+        free(bytes);
+        assert_int_equal(journal_read_checkpoint(path, 1, 5, 4, 3, 4, &got, back, &err), -1);
+        assert_non_null(strstr(err.msg, "of round 0"));
+    }
     /* Another job's size, or a file cut short: an error naming the file. */
-    assert_int_equal(journal_read_checkpoint(path, 6, 4, 3, 4, &got, back, &err), -1);
+    assert_int_equal(journal_read_checkpoint(path, 0, 6, 4, 3, 4, &got, back, &err), -1);
     assert_non_null(strstr(err.msg, "ckpt.bin"));
     assert_int_equal(truncate(path, 60), 0);
-    assert_int_equal(journal_read_checkpoint(path, 5, 4, 3, 4, &got, back, &err), -1);
+    assert_int_equal(journal_read_checkpoint(path, 0, 5, 4, 3, 4, &got, back, &err), -1);
     assert_null(got);
     tilebuf_destroy(&img);
 }

@@ -17,6 +17,7 @@
 #include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <fcntl.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <time.h>
@@ -606,6 +607,99 @@ static void test_job_life(void **state)
     fw_close(&w);
 }
 
+/* Issue 16, item 2: a worker returns a result for a task the master gave another worker, and one
+ * for a task it never gave anyone. Both used to be merged (first result wins): the job was done
+ * with those tiles wrong. Now both are refused and logged with the worker and its key's name,
+ * the honest results are merged, and the job's pixels are exact. */
+static void test_forged_results(void **state)
+{
+    fx_t *f = *state;
+    fake_worker_t w[2];
+    fw_hello(f, &w[0], "honest", 1);
+    fw_hello(f, &w[1], "forger", 1);
+    uint64_t job = submit_tiny(f);
+    proto_msg_t t[2];
+    for (int i = 0; i < 2; i++) {
+        do {
+            if (fw_recv(&w[i], &t[i], test_wait_ms()))
+                fail_msg("worker %d got no task", i);
+        } while (t[i].type != PROTO_TASK && (proto_msg_free(&t[i]), 1));
+    }
+    assert_true(t[0].task.task != t[1].task.task);
+    /* The master's log, for the refusals: stderr into a file while the forger works. */
+    char logpath[128];
+    snprintf(logpath, sizeof logpath, "%s/master.log", f->spool);
+    fflush(stderr);
+    int saved = dup(2), fd = open(logpath, O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    assert_true(saved >= 0 && fd >= 0);
+    dup2(fd, 2);
+    close(fd);
+    f->opts.verbose = true;
+    err_t err;
+    /* A zero tile over the honest worker's task, and over a task of pass 2 never issued. */
+    proto_msg_t forged = t[0];
+    forged.task.task = t[0].task.task;
+    tilebuf_t *zero = tilebuf_new(t[0].task.tile.x0, t[0].task.tile.y0, t[0].task.tile.w,
+                                  t[0].task.tile.h, NBUCKETS, &err);
+    assert_non_null(zero);
+    fw_result(&w[1], &forged, zero);
+    tilebuf_destroy(&zero);
+    forged.task.task = (uint64_t)2 * NTILES; /* pass 2, tile 0: samples [2, 4) */
+    forged.task.tile = (proto_tile_t){.x0 = 0, .y0 = 0, .w = TILE, .h = TILE, .sample_begin = 2,
+                                      .sample_end = 4};
+    forged.task.attempt = 1;
+    zero = tilebuf_new(0, 0, TILE, TILE, NBUCKETS, &err);
+    fw_result(&w[1], &forged, zero);
+    tilebuf_destroy(&zero);
+    /* Then both work honestly to the end. */
+    int done = 0;
+    for (int i = 0; i < 2; i++) {
+        tilebuf_t *tb = render_task(&w[i], &t[i]);
+        fw_result(&w[i], &t[i], tb);
+        tilebuf_destroy(&tb);
+        proto_msg_free(&t[i]);
+        done++;
+    }
+    double deadline = clock_now_s() + test_wait_s();
+    while (done < NTASKS && clock_now_s() < deadline)
+        for (int i = 0; i < 2; i++) {
+            proto_msg_t m;
+            if (fw_recv(&w[i], &m, 20))
+                continue;
+            if (m.type == PROTO_TASK) {
+                tilebuf_t *tb = render_task(&w[i], &m);
+                fw_result(&w[i], &m, tb);
+                tilebuf_destroy(&tb);
+                done++;
+            }
+            proto_msg_free(&m);
+        }
+    assert_int_equal(done, NTASKS);
+    wait_state(f, job, PROTO_JOB_DONE);
+    check_exr(f, job);
+    f->opts.verbose = getenv("PRISMFARM_TEST_VERBOSE") != NULL;
+    fflush(stderr);
+    dup2(saved, 2);
+    close(saved);
+    char *log = testutil_slurp(logpath, NULL);
+    assert_non_null(log);
+    char want[256];
+    snprintf(want, sizeof want,
+             "refused a result from worker %llu 'forger' (key 'none: no CURVE') for job %llu "
+             "task %u: that task was issued to worker %llu, not to this one",
+             (unsigned long long)w[1].id, (unsigned long long)job, (unsigned)t[0].task.task,
+             (unsigned long long)w[0].id);
+    if (!strstr(log, want))
+        fail_msg("no '%s' in the master's log:\n%s", want, log);
+    snprintf(want, sizeof want, "for job %llu task %d: that task was never issued to any worker",
+             (unsigned long long)job, 2 * NTILES);
+    if (!strstr(log, want))
+        fail_msg("no '%s' in the master's log:\n%s", want, log);
+    free(log);
+    fw_close(&w[0]);
+    fw_close(&w[1]);
+}
+
 /* A scene that does not parse is refused at once with the loader's file:line:col, as the
  * bundle names the file, and nothing of it stays in the spool. */
 static void test_broken_scene(void **state)
@@ -1111,6 +1205,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_job_life, setup_tcp, teardown),
         cmocka_unit_test_setup_teardown(test_broken_scene, setup_inproc, teardown),
+        cmocka_unit_test_setup_teardown(test_forged_results, setup_inproc, teardown),
         cmocka_unit_test_setup_teardown(test_silent_worker, setup_losing, teardown),
         cmocka_unit_test_setup_teardown(test_bad_peers, setup_inproc, teardown),
         cmocka_unit_test_setup_teardown(test_cancel, setup_inproc, teardown),

@@ -10,6 +10,7 @@
 #include <cmocka.h>
 
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -32,6 +33,7 @@ typedef struct fixture {
     volatile sig_atomic_t stop;
     worker_opts_t opts;
     int rc;
+    atomic_int returned; /* worker_run has returned */
     char cache[128];
     char endpoint[256];
     uint8_t *scene_bytes;
@@ -45,8 +47,11 @@ static void *run_worker(void *arg)
     f->rc = worker_run(&f->opts, &err);
     if (f->rc)
         fprintf(stderr, "worker_run: %s\n", err.msg);
+    atomic_store(&f->returned, 1);
     return NULL;
 }
+
+static int setup_threads = 2;
 
 static int setup_at(void **state, const char *endpoint)
 {
@@ -61,7 +66,7 @@ static int setup_at(void **state, const char *endpoint)
     f->scene_bytes = (uint8_t *)testutil_slurp("data/render/tiny.pbrt", &f->scene_size);
     if (!f->scene_bytes)
         return -1;
-    f->opts = (worker_opts_t){.endpoint = f->endpoint, .zmq_ctx = f->ctx, .threads = 2,
+    f->opts = (worker_opts_t){.endpoint = f->endpoint, .zmq_ctx = f->ctx, .threads = setup_threads,
                               .name = "test-worker", .cache_dir = f->cache, .stop = &f->stop,
                               .reconnect_max_ms = 200,
                               .insecure = 1 /* loopback TCP in a test */};
@@ -79,6 +84,15 @@ static int setup(void **state)
 static int setup_tcp(void **state)
 {
     return setup_at(state, "tcp://127.0.0.1:*");
+}
+
+/* One render thread: a task queued behind another waits for it. */
+static int setup_one_thread(void **state)
+{
+    setup_threads = 1;
+    int rc = setup_at(state, "inproc://master-workers-1");
+    setup_threads = 2;
+    return rc;
 }
 
 static int teardown(void **state)
@@ -231,6 +245,71 @@ static void welcome(fixture_t *f, proto_peer_t *w, int heartbeat_ms)
     send_to(f, w, &msg);
 }
 
+/* Issue 16, item 10: a cancelled tile stops within a row, and so does a worker told to stop.
+ * One render thread; a task of 2^24 samples per pixel over the whole image (hours of work) runs
+ * while a small task of another job waits behind it. The long task's job is cancelled: the
+ * small task's RESULT must come back within the deadline of a wait (it used to wait for the
+ * long tile to end). Then another long task, and the worker is stopped: its thread must be
+ * joined within the deadline (it used to stay until the tile was done). */
+static void test_cancel_stops_a_long_tile(void **state)
+{
+    fixture_t *f = *state;
+    proto_peer_t w;
+    welcome(f, &w, 1000);
+    proto_bundle_t b = bundle_of(f, "tiny.pbrt");
+    char hash[PROTO_HASH_HEX + 1];
+    assert_int_equal(proto_bundle_hash(&b, hash, NULL), 0);
+    proto_msg_t task = {.type = PROTO_TASK};
+    snprintf(task.task.scene, sizeof task.task.scene, "%s", hash);
+    task.task.settings = (proto_settings_t){.seed = -1};
+    task.task.kind = PROTO_KIND_CAMERA_TILE;
+    task.task.attempt = 1;
+    /* A small task of job 7 first: its RESULT says the scene is loaded and the thread free. */
+    task.task.job = 7;
+    task.task.task = 1;
+    task.task.tile = (proto_tile_t){.x0 = 0, .y0 = 0, .w = 8, .h = 8, .sample_begin = 0, .sample_end = 1};
+    send_to(f, &w, &task);
+    proto_msg_t m;
+    expect(f, PROTO_SCENE_REQUEST, &w, &m);
+    proto_msg_free(&m);
+    proto_msg_t scene = {.type = PROTO_SCENE, .scene = {.bundle = b}};
+    snprintf(scene.scene.scene, sizeof scene.scene.scene, "%s", hash);
+    send_to(f, &w, &scene);
+    expect(f, PROTO_RESULT, &w, &m);
+    proto_msg_free(&m);
+    /* The long one, then a small one of job 8 behind it. */
+    task.task.task = 2;
+    task.task.tile = (proto_tile_t){.x0 = 0, .y0 = 0, .w = 24, .h = 16, .sample_begin = 0,
+                                    .sample_end = 1u << 24};
+    send_to(f, &w, &task);
+    task.task.job = 8;
+    task.task.task = 3;
+    task.task.tile = (proto_tile_t){.x0 = 0, .y0 = 0, .w = 8, .h = 8, .sample_begin = 0, .sample_end = 1};
+    send_to(f, &w, &task);
+    proto_msg_t cancel = {.type = PROTO_CANCEL, .cancel = {.job = 7}};
+    send_to(f, &w, &cancel);
+    expect(f, PROTO_RESULT, &w, &m);
+    assert_int_equal(m.result.job, 8);
+    assert_int_equal(m.result.task, 3);
+    proto_msg_free(&m);
+    /* A long task of job 9, and the worker stopped while it renders. */
+    task.task.job = 9;
+    task.task.task = 4;
+    task.task.tile = (proto_tile_t){.x0 = 0, .y0 = 0, .w = 24, .h = 16, .sample_begin = 0,
+                                    .sample_end = 1u << 24};
+    send_to(f, &w, &task);
+    struct timespec pause = {0, 50 * 1000 * 1000}; /* not a measurement: lets it start, or not */
+    nanosleep(&pause, NULL);
+    f->stop = 1;
+    for (double until = clock_now_s() + test_wait_s(); !atomic_load(&f->returned);) {
+        if (clock_now_s() > until)
+            fail_msg("the worker did not stop within %.0f s of being told to: its render thread "
+                     "finishes the tile first",
+                     test_wait_s());
+        nanosleep(&pause, NULL);
+    }
+}
+
 /* A master that stops answering: the worker reconnects and says HELLO again. */
 static void test_reconnects_when_master_is_silent(void **state)
 {
@@ -298,6 +377,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_task_round_trip, setup, teardown),
         cmocka_unit_test_setup_teardown(test_reconnects_when_master_is_silent, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_cancel_stops_a_long_tile, setup_one_thread, teardown),
         cmocka_unit_test_setup_teardown(test_waits_for_busy_master_over_tcp, setup_tcp, teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

@@ -1,0 +1,284 @@
+/* A damaged journal or checkpoint between two runs of a master (issue 16, items 5 and 6): a
+ * checkpoint with one flipped bit or 64 bytes of garbage after it, a WAL cut in half (a power
+ * cut) and a WAL garbled. Each master is killed with SIGKILL at a moment read off the journal
+ * (a checkpoint, or two, and results after them: never a timer), the files are damaged, and a
+ * master started again on the spool must finish the job with exactly the pixels of an
+ * uninterrupted render, or, where the job's record itself is gone, name the job in its log and
+ * list it as failed with the reason. Quick: tiny.pbrt at 24x16 pixels. */
+#define CLI_RUN_TIMEOUT_MS 180000
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include "cli_run.h"
+#include "farm_testutil.h"
+
+#include <sqlite3.h>
+#include <string.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#define SCENE "data/render/tiny.pbrt"
+/* 14 passes: the second checkpoint comes after about pass 7, when 1/128 of the samples are
+ * rendered, so the job is far from done when the master is killed on any machine. */
+#define SPP "8192"
+#define TILE "8"
+#define HEARTBEAT "200"
+
+static long long journal_query(const char *spool, const char *sql)
+{
+    char path[600];
+    snprintf(path, sizeof path, "%s/journal.db", spool);
+    sqlite3 *db = NULL;
+    long long v = -1;
+    if (sqlite3_open_v2(path, &db, SQLITE_OPEN_READONLY, NULL) == SQLITE_OK) {
+        sqlite3_busy_timeout(db, test_wait_ms());
+        sqlite3_stmt *st;
+        if (sqlite3_prepare_v2(db, sql, -1, &st, NULL) == SQLITE_OK) {
+            if (sqlite3_step(st) == SQLITE_ROW)
+                v = sqlite3_column_int64(st, 0);
+            sqlite3_finalize(st);
+        }
+    }
+    sqlite3_close(db);
+    return v;
+}
+
+/* Waits until every sql of the NULL-terminated list answers at least 1. */
+static void wait_journal(const char *spool, const char *what, ...)
+{
+    double deadline = testutil_now_s() + test_wait_s();
+    for (;;) {
+        va_list ap;
+        va_start(ap, what);
+        int all = 1;
+        for (const char *sql = va_arg(ap, const char *); sql; sql = va_arg(ap, const char *))
+            all &= journal_query(spool, sql) >= 1;
+        va_end(ap);
+        if (all)
+            return;
+        if (testutil_now_s() > deadline)
+            fail_msg("the journal did not show %s within %.0f s", what, test_wait_s());
+        testutil_sleep_ms(20);
+    }
+}
+
+static pid_t start_master(const char *log, const char *spool, const char *wep, const char *cep)
+{
+    return testutil_spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool,
+                          "--heartbeat", HEARTBEAT, "--tile", TILE, "--insecure", NULL);
+}
+
+static const char *reference(void)
+{
+    const char *ref = testutil_scratch("tiny-ref.exr");
+    struct stat st;
+    if (stat(ref, &st) == 0)
+        return ref;
+    const run_t *r = run("render", SCENE, "--spp", SPP, "--workers", "1", "--threads", "2",
+                         "--tile", TILE, "-o", ref, "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("reference render: exit %d: %s", r->status, r->err);
+    return ref;
+}
+
+typedef struct farm {
+    const char *spool;
+    char wep[256], cep[256];
+    pid_t master, worker;
+    long long checkpoint; /* the generation the journal named when the master was killed */
+} farm_t;
+
+/* A master and one worker on a fresh spool, job 1 submitted, the master killed with SIGKILL once
+ * the journal names checkpoint generation min_gen or later and holds results after it. */
+static void run_until_checkpoint(farm_t *f, const char *tag, int min_gen)
+{
+    char name[64];
+    snprintf(name, sizeof name, "%s-spool", tag);
+    f->spool = strdup(testutil_scratch(name));
+    snprintf(name, sizeof name, "%s-master1.log", tag);
+    const char *mlog = testutil_scratch(name);
+    f->master = start_master(mlog, f->spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
+    testutil_read_endpoints(f->spool, f->wep, f->cep, mlog);
+    snprintf(name, sizeof name, "%s-w.log", tag);
+    f->worker = testutil_spawn(testutil_scratch(name), "worker", "--connect", f->wep, "--threads",
+                               "1", "--name", "w", "--insecure", NULL);
+    const run_t *r = run("submit", SCENE, "--master", f->cep, "--spp", SPP, "--insecure", NULL);
+    if (r->status != 0)
+        fail_msg("submit: exit %d: %s", r->status, r->err);
+    assert_string_equal(r->out, "1\n");
+    char sql[128];
+    snprintf(sql, sizeof sql, "SELECT checkpoint >= %d FROM jobs WHERE id=1", min_gen);
+    wait_journal(f->spool, "a checkpoint and results after it", sql,
+                 "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
+    testutil_stop(f->master, SIGKILL);
+    f->checkpoint = journal_query(f->spool, "SELECT checkpoint FROM jobs WHERE id=1");
+}
+
+static const char *checkpoint_path(const farm_t *f, long long gen)
+{
+    static char path[700];
+    snprintf(path, sizeof path, "%s/jobs/1/checkpoint-%lld.bin", f->spool, gen);
+    return path;
+}
+
+/* A second master on the spool: job 1 must end done with the reference's pixels. Returns the
+ * second master's log (malloc'ed). */
+static char *finish(farm_t *f, const char *tag)
+{
+    char name[64];
+    snprintf(name, sizeof name, "%s-master2.log", tag);
+    const char *mlog = testutil_scratch(name);
+    f->master = start_master(mlog, f->spool, f->wep, f->cep);
+    const run_t *r = run("status", "1", "--wait", "--quiet", "--master", f->cep, "--insecure", NULL);
+    if (r->status != 0 || !strstr(r->out, " done "))
+        testutil_fail_quoting(mlog, "status 1 --wait: exit %d: %s\n%s\nmaster log:", r->status,
+                              r->err, r->out);
+    snprintf(name, sizeof name, "%s-out.exr", tag);
+    const char *out = testutil_scratch(name);
+    r = run("fetch", "1", "-o", out, "--master", f->cep, "--insecure", NULL);
+    if (r->status != 0)
+        fail_msg("fetch 1: exit %d: %s", r->status, r->err);
+    testutil_assert_same_pixels(out, reference());
+    testutil_stop(f->worker, SIGTERM);
+    testutil_stop(f->master, SIGTERM);
+    return testutil_slurp(mlog, NULL);
+}
+
+static void expect_log(const char *log, const char *needle)
+{
+    if (!log || !strstr(log, needle))
+        fail_msg("the master's log has no '%s':\n%s", needle, log ? log : "(none)");
+}
+
+/* Item 5: one bit flipped in the middle of the newest checkpoint's image. Before checkpoints
+ * carried a checksum this gave a done job with one wrong value; now the checkpoint is refused by
+ * its SHA-256, the job falls back to the previous one and renders the rest again. */
+static void test_checkpoint_bit_flipped(void **state)
+{
+    (void)state;
+    farm_t f = {0};
+    run_until_checkpoint(&f, "flip", 2);
+    const char *path = checkpoint_path(&f, f.checkpoint);
+    /* A high mantissa bit of bucket sum 100 (pixel 12's fifth bucket): its value moves by
+     * 1/32 or so. The header is 40 bytes (36 in the format without a checksum, magic "PFCX",
+     * which the test met before the fix). */
+    FILE *fp = fopen(path, "r+b");
+    assert_non_null(fp);
+    char magic[4];
+    assert_int_equal(fread(magic, 1, 4, fp), 4);
+    long offset = (memcmp(magic, "PFCX", 4) == 0 ? 36 : 40) + 8 * 100 + 6;
+    assert_int_equal(fseek(fp, offset, SEEK_SET), 0);
+    int c = fgetc(fp);
+    assert_true(c >= 0);
+    assert_int_equal(fseek(fp, offset, SEEK_SET), 0);
+    assert_int_equal(fputc(c ^ 0x08, fp), c ^ 0x08);
+    fclose(fp);
+    char *log = finish(&f, "flip");
+    char needle[900];
+    snprintf(needle, sizeof needle, "job 1 'tiny': checkpoint %s fails its SHA-256", path);
+    expect_log(log, needle);
+    expect_log(log, "trying the previous checkpoint");
+    free(log);
+    free((char *)f.spool);
+}
+
+/* Item 5: 64 bytes of garbage after the only checkpoint (the master killed right after its
+ * first). Before, the job rendered to the end and then failed; now the checkpoint is refused
+ * and the job renders its merged passes again. */
+static void test_checkpoint_garbage_appended(void **state)
+{
+    (void)state;
+    farm_t f = {0};
+    run_until_checkpoint(&f, "garbage", 1);
+    /* Every checkpoint in the folder gets the garbage, so nothing older can stand in. */
+    for (long long g = f.checkpoint; g >= 1; g--) {
+        FILE *fp = fopen(checkpoint_path(&f, g), "ab");
+        if (!fp)
+            continue;
+        for (int i = 0; i < 64; i++)
+            fputc((i * 37 + 11) & 0xff, fp);
+        fclose(fp);
+    }
+    char *log = finish(&f, "garbage");
+    expect_log(log, "job 1 'tiny': checkpoint");
+    expect_log(log, "its merged passes are rendered again");
+    free(log);
+    free((char *)f.spool);
+}
+
+/* Item 6: the WAL cut in half after the master died, as a power cut may leave it. The journal
+ * then names an older checkpoint, which the master used to delete once the next one was
+ * journaled (the job failed); now the previous checkpoint stays and any checkpoint on disk that
+ * checks out is a right starting point. */
+static void test_wal_cut_in_half(void **state)
+{
+    (void)state;
+    farm_t f = {0};
+    run_until_checkpoint(&f, "walcut", 2);
+    char wal[700];
+    snprintf(wal, sizeof wal, "%s/journal.db-wal", f.spool);
+    struct stat st;
+    assert_int_equal(stat(wal, &st), 0);
+    assert_int_equal(truncate(wal, st.st_size / 2), 0);
+    char *log = finish(&f, "walcut");
+    free(log);
+    free((char *)f.spool);
+}
+
+/* Item 6: a garbled WAL (every byte past its header inverted): SQLite drops every frame, so the
+ * journal forgets job 1 altogether. It used to vanish ("no job 1") with nothing logged; now the
+ * log names it, and it is listed as failed with the reason. */
+static void test_wal_garbled(void **state)
+{
+    (void)state;
+    farm_t f = {0};
+    run_until_checkpoint(&f, "walbad", 1);
+    char wal[700];
+    snprintf(wal, sizeof wal, "%s/journal.db-wal", f.spool);
+    size_t size;
+    char *data = testutil_slurp(wal, &size);
+    assert_non_null(data);
+    assert_true(size > 64);
+    for (size_t i = 32; i < size; i++)
+        data[i] = (char)~data[i];
+    FILE *fp = fopen(wal, "wb");
+    assert_non_null(fp);
+    assert_int_equal(fwrite(data, 1, size, fp), size);
+    fclose(fp);
+    free(data);
+    const char *mlog = testutil_scratch("walbad-master2.log");
+    f.master = start_master(mlog, f.spool, f.wep, f.cep);
+    const run_t *r = run("status", "1", "--master", f.cep, "--insecure", NULL);
+    char *log = testutil_slurp(mlog, NULL);
+    if (r->status != 0 || !strstr(r->out, "failed"))
+        testutil_fail_quoting(mlog, "status 1: exit %d: %s\n%s\nmaster log:", r->status, r->err,
+                              r->out);
+    expect_log(log, "job 1: its folder ");
+    expect_log(log, "is in the spool but not in the journal");
+    free(log);
+    r = run("status", "1", "--json", "--master", f.cep, "--insecure", NULL);
+    assert_int_equal(r->status, 0);
+    assert_non_null(strstr(r->out, "the journal lost its record"));
+    /* The next job gets an id past it. */
+    r = run("submit", SCENE, "--master", f.cep, "--spp", "4", "--insecure", NULL);
+    assert_int_equal(r->status, 0);
+    assert_string_equal(r->out, "2\n");
+    testutil_stop(f.worker, SIGTERM);
+    testutil_stop(f.master, SIGTERM);
+    free((char *)f.spool);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_teardown(test_checkpoint_bit_flipped, testutil_kill_children),
+        cmocka_unit_test_teardown(test_checkpoint_garbage_appended, testutil_kill_children),
+        cmocka_unit_test_teardown(test_wal_cut_in_half, testutil_kill_children),
+        cmocka_unit_test_teardown(test_wal_garbled, testutil_kill_children),
+    };
+    return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
+}
