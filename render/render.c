@@ -18,6 +18,7 @@
 #include <string.h>
 
 #define LANES RENDER_MAX_BUCKETS
+_Static_assert(LANES <= BSDF_MAX_LANES, "a bsdf_t holds every lane of a path");
 #define STACK_MAX 192
 /* Russian roulette starts after this many bounces (thesis eq. 2.32-2.33; docs/physics.md
  * §2.5). */
