@@ -255,6 +255,7 @@ static void test_restart_does_not_reuse_queued_job_id(void **state)
     assert_string_equal(r->out, "1\n");
     testutil_stop(master, SIGKILL);
     master = start_master(testutil_scratch("ids-master2.log"), spool, wep, cep);
+    testutil_wait_listening(cep); /* submit reports a refused connection at once */
     r = run("submit", SCENE, "--master", cep, "--spp", SPP_DONE, NULL);
     assert_int_equal(r->status, 0);
     unsigned long long id = strtoull(r->out, NULL, 10);

@@ -12,7 +12,10 @@
 #include "image_exr.h"
 #include "test_wait.h"
 
+#include <arpa/inet.h>
 #include <errno.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -301,6 +304,36 @@ static inline void testutil_read_endpoints(const char *spool, char *workers, cha
         testutil_fail_quoting(log, "the master did not write %s within %.0f s; its log:", path,
                               test_wait_s());
     fail_msg("the master did not write %s within %.0f s", path, test_wait_s());
+}
+
+/* Waits until something accepts TCP connections at endpoint ("tcp://HOST:PORT"), within the
+ * test deadline: a restarted master on a fixed port listens a moment after it starts, and
+ * `submit` and `fetch` report a refused connection at once (docs/security.md). */
+static inline void testutil_wait_listening(const char *endpoint)
+{
+    const char *hp = strncmp(endpoint, "tcp://", 6) == 0 ? endpoint + 6 : endpoint;
+    const char *colon = strrchr(hp, ':');
+    if (!colon)
+        fail_msg("testutil_wait_listening: no port in %s", endpoint);
+    char host[256];
+    snprintf(host, sizeof host, "%.*s", (int)(colon - hp), hp);
+    struct sockaddr_in a;
+    memset(&a, 0, sizeof a);
+    a.sin_family = AF_INET;
+    a.sin_port = htons((uint16_t)atoi(colon + 1));
+    if (inet_pton(AF_INET, host, &a.sin_addr) != 1)
+        fail_msg("testutil_wait_listening: %s is not an IPv4 address", host);
+    double deadline = testutil_now_s() + test_wait_s();
+    do {
+        int fd = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+        int ok = fd >= 0 && connect(fd, (const struct sockaddr *)&a, sizeof a) == 0;
+        if (fd >= 0)
+            close(fd);
+        if (ok)
+            return;
+        testutil_sleep_ms(25);
+    } while (testutil_now_s() < deadline);
+    fail_msg("nothing listened at %s within %.0f s", endpoint, test_wait_s());
 }
 
 /* Both EXRs have the same size and spectral channels and byte-identical spectral and RGB
