@@ -54,6 +54,7 @@ typedef struct worker {
     double last_seen;
     bool alive;
     uint64_t tasks_done, tasks_failed;
+    uint32_t missed; /* deadlines missed since it last returned a task */
 } worker_t;
 
 struct sched {
@@ -67,7 +68,8 @@ struct sched {
 sched_config_t sched_config_default(void)
 {
     return (sched_config_t){.task_deadline_s = 120.0, .worker_timeout_s = 5.0,
-                            .max_task_failures = 4, .max_worker_job_failures = 2, .tile_size = 32};
+                            .max_task_failures = 4, .max_worker_job_failures = 2, .tile_size = 32,
+                            .claim_start = 32};
 }
 
 const char *job_state_name(job_state_t s)
@@ -80,7 +82,8 @@ sched_t *sched_new(const sched_config_t *cfg, err_t *err)
 {
     sched_config_t c = cfg ? *cfg : sched_config_default();
     if (!(c.task_deadline_s > 0) || !(c.worker_timeout_s > 0) || c.max_task_failures < 1 ||
-        c.max_worker_job_failures < 1 || c.tile_size < 1 || c.tile_size > 4096) {
+        c.max_worker_job_failures < 1 || c.tile_size < 1 || c.tile_size > 4096 ||
+        c.claim_start < 0) {
         err_set(err, "scheduler settings out of range (deadline %g s, timeout %g s, tile %d)",
                 c.task_deadline_s, c.worker_timeout_s, c.tile_size);
         return NULL;
@@ -542,10 +545,38 @@ static bool prefetch_allowed(const sched_t *self, const worker_t *w)
     return count_issuable(self, w->id, idle) > idle;
 }
 
+/* How many tasks the worker may hold now (sched_config_t claim_start). */
+static int worker_claim(const sched_t *self, const worker_t *w)
+{
+    if (w->missed > 0)
+        return 1;
+    int cap = w->slots;
+    if (self->cfg.claim_start > 0) {
+        uint64_t c = (uint64_t)self->cfg.claim_start + 2 * w->tasks_done;
+        if (c < (uint64_t)cap)
+            cap = (int)c;
+    }
+    return cap;
+}
+
+/* A worker on probation (its last task missed its deadline) is given work only when no worker
+ * that answers has room for it, so a silent peer never takes a task an honest one could run. */
+static bool others_have_room(const sched_t *self, const worker_t *w)
+{
+    for (size_t i = 0; i < self->nworkers; i++) {
+        const worker_t *o = &self->workers[i];
+        if (o != w && o->alive && o->missed == 0 && o->busy < worker_claim(self, o))
+            return true;
+    }
+    return false;
+}
+
 int sched_next_task(sched_t *self, uint64_t worker, double now, sched_task_t *out)
 {
     worker_t *w = find_worker(self, worker);
-    if (!w || !w->alive || w->busy >= w->slots)
+    if (!w || !w->alive || w->busy >= worker_claim(self, w))
+        return 0;
+    if (w->missed > 0 && others_have_room(self, w))
         return 0;
     if (w->busy >= w->threads && !prefetch_allowed(self, w))
         return 0;
@@ -702,6 +733,9 @@ int sched_photon_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t tas
                        task & ~SCHED_PHOTON_TASK);
     if (!may_return(t, worker, attempt, err))
         return SCHED_REFUSED;
+    worker_t *wa = find_worker(self, worker);
+    if (wa)
+        wa->missed = 0; /* it answers: off probation */
     /* Batches are the same photons whatever the attempt: the first result wins. */
     if (j->state != JOB_RUNNING || t->state == TASK_DONE)
         return SCHED_DUPLICATE;
@@ -731,6 +765,9 @@ int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
         tilebuf_destroy(&r);
         return SCHED_REFUSED;
     }
+    worker_t *wa = find_worker(self, worker);
+    if (wa)
+        wa->missed = 0; /* it answers: off probation */
     if (j->state != JOB_RUNNING || t->state == TASK_DONE) {
         /* Every attempt of a task gives the same bytes, so the first result wins. */
         tilebuf_destroy(&r);
@@ -804,6 +841,14 @@ void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t ta
     }
 }
 
+/* A task of the worker's missed its deadline: one task at a time until it returns one. */
+static void missed_by(sched_t *self, uint64_t worker)
+{
+    worker_t *w = find_worker(self, worker);
+    if (w && w->missed < UINT32_MAX)
+        w->missed++;
+}
+
 int sched_tick(sched_t *self, double now)
 {
     int requeued = 0;
@@ -820,11 +865,13 @@ int sched_tick(sched_t *self, double now)
             continue;
         for (uint32_t i = 0; i < (uint32_t)(j->ntiles * j->npasses); i++)
             if (j->tasks[i].state == TASK_RUNNING && j->tasks[i].deadline < now) {
+                missed_by(self, j->tasks[i].owner);
                 requeue(self, j, i);
                 requeued++;
             }
         for (uint32_t b = 0; b < j->nphoton; b++)
             if (j->ptasks[b].state == TASK_RUNNING && j->ptasks[b].deadline < now) {
+                missed_by(self, j->ptasks[b].owner);
                 requeue(self, j, SCHED_PHOTON_TASK | b);
                 requeued++;
             }

@@ -26,6 +26,12 @@ typedef struct sched_config {
     double worker_timeout_s;      /* a worker silent this long is dead (default 5) */
     int max_task_failures;        /* a task failing this often fails its job (default 4) */
     int max_worker_job_failures;  /* a worker failing this often is blocked for the job (2) */
+    /* Tasks a worker may hold before it has returned any; each task it returns lets it hold
+     * two more, up to its slots (default 32; 0: its slots from the start). A worker whose task
+     * missed its deadline is on probation until it returns one: it holds one task at a time,
+     * and only when no worker that answers has room. So a peer that claims thousands of
+     * threads and never answers holds a few tasks for one deadline, not a job. */
+    int claim_start;
     int tile_size;                /* default 32 */
 } sched_config_t;
 

@@ -334,6 +334,60 @@ static void test_restore_from_checkpoint(void **state)
     sched_destroy(&s2);
 }
 
+/* A peer that claims 4096 threads and never answers (issue 16, item 8) holds at most
+ * claim_start tasks, for one deadline, and then one task at a time: the job is finished by the
+ * worker that answers, in about (tasks / its threads) rounds, not stalled deadline after
+ * deadline; once the silent peer answers again it is off probation and its claim grows by two
+ * per task it returns. */
+static void test_silent_greedy_worker(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(4); /* deadline 10 s, worker timeout 3 s */
+    err_t err;
+    /* 32 x 16 pixels in 4 x 4 tiles: 32 tiles; spp 2: passes [0,1) [1,2): 64 tasks. */
+    assert_int_equal(sched_add_job(s, 1, 32, 16, 2, testutil_grid(4), &err), 0);
+    assert_int_equal(sched_worker_join(s, 1, 4096, 0.0, &err), 0); /* the silent claimant */
+    assert_int_equal(sched_worker_join(s, 2, 2, 0.0, &err), 0);    /* an honest worker */
+    sched_task_t t;
+    int greedy = 0;
+    while (sched_next_task(s, 1, 0.0, &t))
+        greedy++;
+    assert_int_equal(greedy, sched_config_default().claim_start);
+    double now = 0.0;
+    int done = 0, rounds = 0, issued_later = 0;
+    sched_job_info_t info;
+    for (; rounds < 1000; rounds++) {
+        now += 1.0;
+        sched_worker_seen(s, 1, now); /* it sends heartbeats, but no results */
+        sched_worker_seen(s, 2, now);
+        sched_tick(s, now);
+        while (sched_next_task(s, 1, now, &t))
+            issued_later++;
+        sched_task_t mine[2];
+        int n = 0;
+        while (n < 2 && sched_next_task(s, 2, now, &mine[n]))
+            n++;
+        for (int i = 0; i < n; i++) {
+            tilebuf_t *r = fake_result(&mine[i], 4);
+            int m = sched_task_done(s, 2, 1, mine[i].task, mine[i].attempt, &r, now, &err);
+            assert_true(m > 0);
+            done += !!(m & SCHED_MERGED);
+        }
+        sched_job_info(s, 1, &info);
+        if (info.state == JOB_DONE)
+            break;
+    }
+    assert_int_equal(info.state, JOB_DONE);
+    print_message("job of 64 tasks done in %d rounds by the honest worker (%d tasks); the silent "
+                  "one was given %d more after its first %d\n",
+                  rounds, done, issued_later, greedy);
+    /* The honest worker does two tasks a round; the greedy one's claim cost one deadline. */
+    assert_true(rounds <= 64 / 2 + 10 + 2);
+    /* On probation: one task at a time, re-issued only after each deadline (every 10 s). */
+    assert_true(issued_later <= rounds / 10 + 2);
+    sched_destroy(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -344,6 +398,7 @@ int main(void)
         cmocka_unit_test(test_bad_results_and_jobs),
         cmocka_unit_test(test_prefetch_shrinks_at_the_end),
         cmocka_unit_test(test_restore_from_checkpoint),
+        cmocka_unit_test(test_silent_greedy_worker),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
