@@ -321,12 +321,7 @@ static int is_specular(const material_t *m)
     return (m->kind == MATERIAL_CONDUCTOR || m->kind == MATERIAL_DIELECTRIC) && !m->rough;
 }
 
-/* A material with an index of refraction (glass, or a coating's interface). */
-static int has_ior(material_kind_t k)
-{
-    return k == MATERIAL_DIELECTRIC || k == MATERIAL_THIN_DIELECTRIC ||
-           k == MATERIAL_COATED_DIFFUSE || k == MATERIAL_COATED_CONDUCTOR;
-}
+
 
 /* A diffuse surface that reflects some light at the hit (a black light fixture does not: a
  * photon stored there would carry nothing to the camera). */
@@ -795,7 +790,7 @@ static void plan_materials(plan_t *p, const scene_t *s)
         else if (m->kind == MATERIAL_CONDUCTOR)
             pm->spectral = m->eta ? spectrum_varies(m->eta, g) || spectrum_varies(m->k, g)
                                   : texture_varies(m->reflectance, g);
-        if (has_ior(m->kind)) {
+        if (material_has_ior(m->kind)) {
             pm->n_lo = ior_eval(&m->ior, g.lambda_min);
             pm->n_hi = ior_eval(&m->ior, g.lambda_max);
             pm->n_mid = ior_eval(&m->ior, mid);
@@ -826,7 +821,7 @@ static int decide_splitting(plan_t *p, const scene_t *s)
     spectral_grid_t g = s->settings.grid;
     int ndisp = 0, nconst = 0;
     for (size_t i = 0; i < p->nmaterials; i++)
-        if (has_ior(p->materials[i].kind)) {
+        if (material_has_ior(p->materials[i].kind)) {
             if (p->materials[i].dispersive)
                 ndisp++;
             else
@@ -863,7 +858,7 @@ static int decide_splitting(plan_t *p, const scene_t *s)
             text_add(&r, " Constant-index glass does not split: ");
             k = 0;
             for (size_t i = 0; i < p->nmaterials; i++)
-                if (has_ior(p->materials[i].kind) && !p->materials[i].dispersive) {
+                if (material_has_ior(p->materials[i].kind) && !p->materials[i].dispersive) {
                     text_add(&r, "%s", k++ ? ", " : "");
                     describe_dielectric(&r, &p->materials[i], g);
                 }
@@ -877,7 +872,7 @@ static int decide_splitting(plan_t *p, const scene_t *s)
             text_add(&r, " (constant: ");
             int k = 0;
             for (size_t i = 0; i < p->nmaterials; i++)
-                if (has_ior(p->materials[i].kind)) {
+                if (material_has_ior(p->materials[i].kind)) {
                     text_add(&r, "%s", k++ ? ", " : "");
                     describe_dielectric(&r, &p->materials[i], g);
                 }
@@ -1406,7 +1401,7 @@ int plan_write_text(const plan_t *p, FILE *out)
     }
     int any = 0;
     for (size_t i = 0; i < p->nmaterials; i++)
-        any |= has_ior(p->materials[i].kind) || p->materials[i].kind == MATERIAL_CONDUCTOR ||
+        any |= material_has_ior(p->materials[i].kind) || p->materials[i].kind == MATERIAL_CONDUCTOR ||
                p->materials[i].kind == MATERIAL_COATED_CONDUCTOR;
     if (any) {
         fprintf(out, "\nMIRRORS AND GLASS\n%-16s %-11s %-6s %-9s %-9s %-8s %-9s %s\n", "material",
@@ -1415,7 +1410,7 @@ int plan_write_text(const plan_t *p, FILE *out)
             const plan_material_t *m = &p->materials[i];
             if (m->kind == MATERIAL_CONDUCTOR)
                 fprintf(out, "%-16s %-11s %-6s\n", m->name, "conductor", "-");
-            if (!has_ior(m->kind))
+            if (!material_has_ior(m->kind))
                 continue;
             fprintf(out, "%-16s %-11s %-6s %-9.5f %-9.5f %-8.5f %-9.5f ", m->name,
                     plan_material_kind_name(m->kind),

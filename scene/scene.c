@@ -519,6 +519,12 @@ double scene_light_power(const scene_t *self, const light_t *l)
     return fmin(p, DBL_MAX / (double)(self->nlights + 1));
 }
 
+int material_has_ior(material_kind_t kind)
+{
+    return kind == MATERIAL_DIELECTRIC || kind == MATERIAL_THIN_DIELECTRIC ||
+           kind == MATERIAL_COATED_DIFFUSE || kind == MATERIAL_COATED_CONDUCTOR;
+}
+
 int scene_finish(scene_t *self, err_t *err)
 {
     if (geometry_commit(self->geometry, err))
@@ -540,8 +546,7 @@ int scene_finish(scene_t *self, err_t *err)
     }
     for (size_t i = 0; i < self->nmaterials; i++) {
         material_t *m = &self->materials[i];
-        if (m->kind != MATERIAL_DIELECTRIC && m->kind != MATERIAL_THIN_DIELECTRIC &&
-            m->kind != MATERIAL_COATED_DIFFUSE && m->kind != MATERIAL_COATED_CONDUCTOR)
+        if (!material_has_ior(m->kind))
             continue;
         if (ior_validate(&m->ior, m->name, g.lambda_min, g.lambda_max, err))
             return -1;

@@ -172,8 +172,10 @@ typedef struct camera {
     double fov_deg;              /* perspective: angle of the shorter image axis */
     double lens_radius, focal_distance;
     /* Perspective and orthographic: pbrt-v4's screen window (x0, x1, y0, y1); all zero for
-     * its default ([-aspect, aspect] x [-1, 1], or the transpose for portrait images). */
+     * its default ([-aspect, aspect] x [-1, 1], or the transpose for portrait images), the
+     * aspect being frame_aspect, or the film's when that is 0. */
     double screen[4];
+    double frame_aspect;
     int equirect; /* spherical: equirectangular mapping (else pbrt-v4's default equal-area) */
 } camera_t;
 
@@ -269,6 +271,9 @@ void scene_destroy(scene_t **self_p);
 int scene_own_texture(scene_t *self, texture_t *tex, err_t *err);
 int scene_own_spectrum(scene_t *self, spectrum_t *s, err_t *err);
 int scene_own_envmap(scene_t *self, envmap_t *e, err_t *err);
+
+/* The material has an index of refraction (ior): glass, a thin slab, a coating's interface. */
+int material_has_ior(material_kind_t kind);
 
 /* Returns the new material's index, or -1. */
 int scene_add_material(scene_t *self, const material_t *m, err_t *err);
