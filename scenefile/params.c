@@ -411,6 +411,12 @@ int params_get_array(params_t *self, const char *name, param_type_t type, param_
     return 0;
 }
 
+void params_accept_all(params_t *self)
+{
+    for (size_t i = 0; i < self->count; i++)
+        self->items[i]->p.used = true;
+}
+
 int params_check_unused(const params_t *self, err_t *err)
 {
     for (size_t i = 0; i < self->count; i++) {

@@ -86,6 +86,10 @@ int params_get_point3(params_t *self, const char *name, vec3_t def, vec3_t *out,
 int params_get_array(params_t *self, const char *name, param_type_t type, param_t **out,
                      err_t *err);
 
+/* Marks every parameter used: a directive that accepts its parameters without reading them
+ * (what is not simulated, or has no effect on the image). */
+void params_accept_all(params_t *self);
+
 /* Fails on the first parameter (in file order) that no lookup marked used:
  * `file:line:col: unsupported parameter "float zmin" for Shape "sphere"`. */
 int params_check_unused(const params_t *self, err_t *err);

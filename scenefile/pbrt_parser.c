@@ -1759,7 +1759,6 @@ static int get_mix(parser_t *P, params_t *ps, scene_material_t *m)
         return pbrt_error(P->err, m->loc, "mix: \"string materials\" (two named materials) is missing");
     if (p->type != PARAM_STRING)
         return params_wrong_type(ps, p, "\"string materials\"", P->err);
-    p->used = true;
     if (p->count != 2)
         return pbrt_error(P->err, p->loc, "expected 2 material names after \"string materials\", got %zu",
                           p->count);
@@ -2883,8 +2882,7 @@ static int do_make_medium(parser_t *P, pbrt_loc_t loc)
     params_t *ps = read_params(P, "MakeNamedMedium");
     if (!ps)
         return -1;
-    for (size_t i = 0; i < params_count(ps); i++)
-        params_at(ps, i)->used = true;
+    params_accept_all(ps);
     const char *type = NULL;
     int rc = params_get_string(ps, "type", NULL, &type, P->err);
     if (rc == 0 && !type)
@@ -3022,8 +3020,7 @@ static int directive(parser_t *P, const char *dir, pbrt_loc_t loc)
         params_t *ps = read_params(P, "Accelerator");
         if (!ps)
             return -1;
-        for (size_t i = 0; i < params_count(ps); i++)
-            params_at(ps, i)->used = true;
+        params_accept_all(ps);
         params_destroy(&ps);
         return 0;
     }
