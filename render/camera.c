@@ -9,8 +9,9 @@ camera_frame_t camera_frame_make(const camera_t *cam, int xres, int yres)
 {
     /* pbrt-v4 CameraBase: the screen window spans [-aspect, aspect] x [-1, 1] (or the
      * transpose for portrait images) unless the scene gives one; the perspective camera puts
-     * it at tan(fov/2) on the z = 1 plane, the orthographic one on z = 0 as it is. */
-    double aspect = (double)xres / (double)yres;
+     * it at tan(fov/2) on the z = 1 plane, the orthographic one on z = 0 as it is. A frame
+     * aspect ratio takes the film's place in the default window. */
+    double aspect = cam->frame_aspect > 0.0 ? cam->frame_aspect : (double)xres / (double)yres;
     camera_frame_t f = {.cam = cam,
                         .xres = xres,
                         .yres = yres,

@@ -1151,14 +1151,7 @@ static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
     sc->camera.focal_distance = d->camera.focaldistance;
     sc->camera.equirect = d->camera.equirect;
     memcpy(sc->camera.screen, d->camera.screenwindow, sizeof sc->camera.screen);
-    /* pbrt-v4 CameraBase: a frame aspect ratio sets the default screen window in place of the
-     * film's aspect. */
-    double fa = d->camera.frameaspectratio;
-    if (fa > 0.0 && !(sc->camera.screen[0] < sc->camera.screen[1])) {
-        double sx = fa >= 1.0 ? fa : 1.0, sy = fa >= 1.0 ? 1.0 : 1.0 / fa;
-        double w[4] = {-sx, sx, -sy, sy};
-        memcpy(sc->camera.screen, w, sizeof w);
-    }
+    sc->camera.frame_aspect = d->camera.frameaspectratio;
     if (sc->camera.kind == CAMERA_PERSPECTIVE && !(d->camera.fov > 0 && d->camera.fov < 180))
         return pbrt_error(err, d->camera.loc, "\"float fov\" must be in (0, 180) degrees, got %g", d->camera.fov);
     rs->xres = ov && ov->xres > 0 ? ov->xres : d->film.xres;
