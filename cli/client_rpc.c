@@ -201,15 +201,20 @@ int client_rpc_call(client_rpc_t *self, const proto_msg_t *req, proto_msg_t *rep
                     err_t *err)
 {
     int r = net_send(self->net, NULL, req, err);
-    if (r == PROTO_EAGAIN)
+    char why[256];
+    net_link_t link = NET_LINK_NONE;
+    if (r == PROTO_EAGAIN) {
+        /* The send found no connection: a refused handshake (its monitor event may be in by
+         * now) says why, as it does while waiting for an answer below. */
+        if (net_link(self->net, why, sizeof why) == NET_LINK_REFUSED)
+            return err_set(err, "the master at %s %s", self->endpoint, why);
         return err_set(err, "cannot reach the master at %s: is it running?", self->endpoint),
                CLIENT_RPC_UNREACHABLE;
+    }
     if (r)
         return -1;
     /* Waits in slices: a refused handshake or a dropped connection ends the wait at once, since
      * no answer can come through it. */
-    char why[256];
-    net_link_t link = NET_LINK_NONE;
     for (int waited = 0;;) {
         int slice = timeout_ms < 0                   ? SLICE_MS
                     : timeout_ms - waited < SLICE_MS ? timeout_ms - waited
