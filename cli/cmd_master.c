@@ -35,6 +35,8 @@ int cmd_master(int argc, char **argv)
     int quiet = 0, no_journal = 0;
     int heartbeat_ms = 0, deadline_s = 0, tile = 0, max_jobs = 0, message_mb = 0, bundle_mb = 0,
         bundle_files = 0; /* 0: not given */
+    /* -1: not given (0 is a value: never block a worker for failures in a row) */
+    int task_retries = 0, job_failures = 0, row_failures = -1;
     const cli_opt_t opts[] = {
         {.name = "workers", .kind = CLI_STRING, .dst = &o.worker_endpoint, .arg = "ENDPOINT",
          .help = "where workers connect (default tcp://*:5555)"},
@@ -53,6 +55,17 @@ int cmd_master(int argc, char **argv)
          .help = "a task not back after S seconds is issued again (1..86400, default 120)"},
         {.name = "tile", .kind = CLI_INT, .dst = &tile, .lo = 1, .hi = 4096, .arg = "N",
          .help = "tile side in pixels, 1..4096 (default 32)"},
+        {.name = "task-retries", .kind = CLI_INT, .dst = &task_retries, .lo = 1, .hi = 1000,
+         .arg = "N",
+         .help = "a task that fails N times fails its job with the task's last error "
+                 "(default 4)"},
+        {.name = "job-failures", .kind = CLI_INT, .dst = &job_failures, .lo = 1, .hi = 1000,
+         .arg = "N",
+         .help = "a worker failing N tasks of a job gets no more of that job (default 2)"},
+        {.name = "worker-failures", .kind = CLI_INT, .dst = &row_failures, .lo = 0, .hi = 1000,
+         .arg = "N",
+         .help = "a worker failing N tasks in a row, of any jobs, is blocked from every job "
+                 "until `prismfarm unblock` (default 5; 0: never)"},
         {.name = "no-journal", .kind = CLI_FLAG, .dst = &no_journal,
          .help = "keep no journal (SPOOL/journal.db): a restarted master then forgets unfinished "
                  "jobs (docs/reliability.md)"},
@@ -115,6 +128,12 @@ int cmd_master(int argc, char **argv)
         o.sched.task_deadline_s = deadline_s;
     if (tile)
         o.sched.tile_size = tile;
+    if (task_retries)
+        o.sched.max_task_failures = task_retries;
+    if (job_failures)
+        o.sched.max_worker_job_failures = job_failures;
+    if (row_failures >= 0)
+        o.sched.max_worker_failures_in_row = row_failures;
     if (max_jobs)
         o.max_jobs = (size_t)max_jobs;
     if (bundle_files)

@@ -27,7 +27,7 @@ int cmd_submit(int argc, char **argv)
     const char *master = client_default_master(), *name = NULL, *output = NULL;
     scene_overrides_t ov = {.seed = -1};
     cli_stop_t stop = {0};
-    int wait = 0, json = 0, quiet = 0;
+    int wait = 0, json = 0, quiet = 0, priority = 0;
     client_security_t sec = client_security_default();
     const cli_opt_t opts[] = {
         CLI_OPT_MASTER(.dst = &master),
@@ -35,6 +35,9 @@ int cmd_submit(int argc, char **argv)
          .help = "job name (default: the scene file's name)"},
         CLI_OPT_GROUP(CLI_OVERRIDE_OPTS, .dst = &ov),
         CLI_OPT_GROUP(CLI_STOP_OPTS, .dst = &stop),
+        {.name = "priority", .kind = CLI_INT, .dst = &priority, .lo = -PROTO_MAX_PRIORITY,
+         .hi = PROTO_MAX_PRIORITY, .arg = "N",
+         .help = "higher runs first (default 0; -1000..1000; `prismfarm priority` changes it)"},
         {.name = "wait", .kind = CLI_FLAG, .dst = &wait,
          .help = "follow the job with a progress bar and fetch the result"},
         {.name = "output", .letter = 'o', .kind = CLI_STRING, .dst = &output, .arg = "OUT",
@@ -98,6 +101,7 @@ int cmd_submit(int argc, char **argv)
                                   .bundle = *scene_bundle_get(b)}};
     req.submit.settings.target_error = stop.target_error;
     req.submit.settings.time_limit = stop.time_limit;
+    req.submit.priority = priority;
     proto_msg_t reply;
     int rc = 0;
     if (!rpc || client_rpc_call(rpc, &req, &reply, 60000, &err)) {

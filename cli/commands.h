@@ -18,6 +18,13 @@ int cmd_cancel(int argc, char **argv);
 int cmd_refine(int argc, char **argv);
 int cmd_fetch(int argc, char **argv);
 int cmd_keygen(int argc, char **argv);
+int cmd_priority(int argc, char **argv);
+int cmd_pause(int argc, char **argv);
+int cmd_resume(int argc, char **argv);
+int cmd_requeue(int argc, char **argv);
+int cmd_unblock(int argc, char **argv);
+int cmd_logs(int argc, char **argv);
+int cmd_metrics(int argc, char **argv);
 
 
 #endif

@@ -32,6 +32,16 @@ static int send_task(master_t *m, mworker_t *w, const sched_task_t *t, double no
             memcpy(msg.task.store, j->photons.store, sizeof msg.task.store);
     }
     int rc = peers_send(m, w, &msg);
+    if (rc == 0) {
+        char what[96];
+        if (t->kind == SCHED_PHOTON)
+            snprintf(what, sizeof what, "(photon batch %u)", t->batch);
+        else
+            snprintf(what, sizeof what, "(pass %d, tile %dx%d at %d,%d)", t->pass, t->w, t->h,
+                     t->x0, t->y0);
+        tasklog_add(m->tasklog, j->id, "task %u %s attempt %u assigned to worker %llu '%s'",
+                    t->task, what, t->attempt, (unsigned long long)w->id, w->name);
+    }
     if (rc == 0 && j->started == 0) {
         j->started = now;
         j->state = JOB_RUNNING;

@@ -159,6 +159,16 @@ mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *mai
     return j;
 }
 
+proto_job_state_t jobs_wire_state(const mjob_t *j)
+{
+    static const proto_job_state_t BY_STATE[] = {PROTO_JOB_QUEUED, PROTO_JOB_RUNNING,
+                                                 PROTO_JOB_DONE, PROTO_JOB_FAILED,
+                                                 PROTO_JOB_CANCELLED};
+    if (j->ops.paused && !job_over(j))
+        return PROTO_JOB_PAUSED;
+    return (unsigned)j->state < 5 ? BY_STATE[j->state] : PROTO_JOB_FAILED;
+}
+
 mjob_t *job_from_record(const journal_job_t *r)
 {
     mjob_t *j = calloc(1, sizeof *j);
@@ -183,6 +193,8 @@ mjob_t *job_from_record(const journal_job_t *r)
     j->photons.enabled = r->photons_saved > 0;
     j->journal.round_photons = r->round_photons;
     j->scene.integrator = j->scene.dispersion = "?";
+    j->ops.priority = r->priority;
+    j->ops.paused = r->paused;
     return j;
 }
 
@@ -216,6 +228,14 @@ stopping_rule_t job_stopping_rule(const mjob_t *j)
                              .time_limit = j->settings.time_limit};
 }
 
+int jobs_apply_ops(master_t *m, const mjob_t *j, err_t *err)
+{
+    if (sched_set_job_owner(m->sched, j->id, j->ops.owner, err) < 0 ||
+        sched_set_job_priority(m->sched, j->id, j->ops.priority, err) < 0)
+        return -1;
+    return j->ops.paused ? sched_pause_job(m->sched, j->id, true, err) : 0;
+}
+
 int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err)
 {
     if (jobs_reserve(m) < 0)
@@ -226,7 +246,8 @@ int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err)
     if (sched_add_job(m->sched, j->id, j->scene.xres, j->scene.yres, j->scene.spp, j->scene.grid,
                       err) < 0)
         return -1;
-    if ((may_stop && sched_set_whole_passes(m->sched, j->id, err) < 0) ||
+    if (jobs_apply_ops(m, j, err) < 0 ||
+        (may_stop && sched_set_whole_passes(m->sched, j->id, err) < 0) ||
         (photon_batches > 0 &&
          sched_add_photon_batches(m->sched, j->id, photon_batches, err) < 0) ||
         sched_job_info(m->sched, j->id, &info) < 0) {
@@ -349,6 +370,7 @@ void job_refresh(master_t *m, mjob_t *j, double now)
             master_log(m, "job %llu '%s' failed: %s", (unsigned long long)j->id, j->name, msg);
         } else {
             j->outputs.final = true;
+            tasklog_add(m->tasklog, j->id, "job done at %d of %d spp", info.spp_done, j->scene.spp);
             const pass_record_t *last =
                 j->accuracy.nhistory > 0 ? &j->accuracy.history[j->accuracy.nhistory - 1] : NULL;
             char acc[160] = "";
@@ -362,10 +384,13 @@ void job_refresh(master_t *m, mjob_t *j, double now)
         }
     } else if (info.state == JOB_FAILED) {
         job_set_error(j, info.error[0] ? info.error : "failed");
+        tasklog_add(m->tasklog, j->id, "job failed: %s", j->error);
         master_log(m, "job %llu '%s' failed: %s", (unsigned long long)j->id, j->name, j->error);
         peers_cancel_job(m, j->id);
     } else {
         master_log(m, "job %llu '%s' cancelled", (unsigned long long)j->id, j->name);
+        tasklog_add(m->tasklog, j->id, "job cancelled: %u tasks running were dropped",
+                    info.tasks_running);
         peers_cancel_job(m, j->id);
     }
     release_photons(m, j);

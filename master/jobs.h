@@ -35,6 +35,9 @@ stopping_rule_t job_stopping_rule(const mjob_t *j);
 /* Adds a new job to the scheduler, with photon_batches batches before its camera phase and
  * whole passes when it may end early, and to the master's list. */
 int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err);
+/* Pushes the job's owner, priority and pause (j->ops) into the scheduler, after sched_add_job
+ * (job_schedule does it; a refinement's new round too). */
+int jobs_apply_ops(master_t *m, const mjob_t *j, err_t *err);
 /* Takes a job back out of the master's list and the scheduler, and frees it. */
 void job_unschedule(master_t *m, mjob_t *j);
 
@@ -46,6 +49,9 @@ int job_write_image(master_t *m, mjob_t *j, bool final, err_t *err);
  * its outputs (done), tells the workers to drop its tasks (failed, cancelled) and frees its
  * image in the scheduler, keeping only the figures STATUS reports. */
 void job_refresh(master_t *m, mjob_t *j, double now);
+
+/* The job's state as clients see it: a queued or running job that is paused shows "paused". */
+proto_job_state_t jobs_wire_state(const mjob_t *j);
 
 /* Ends every running job past its time limit that has a whole pass (docs/farm.md,
  * "Accuracy"). */

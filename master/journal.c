@@ -1,5 +1,6 @@
 #include "journal.h"
 
+#include "clock.h"
 #include "files.h"
 #include "sha256.h"
 #include "tilebuf.h"
@@ -19,8 +20,10 @@
 /* Bumped whenever a table or a blob changes meaning: a master never reads a journal it does
  * not understand. 4: tile blobs carry their sums' width, float32 sums when they fit. 5: tile
  * blobs and checkpoints carry the pixels' XYZ sums after the bucket sums (new magics, so that a
- * blob or checkpoint of version 4 found in a version-5 spool is refused by name). */
-#define JOURNAL_VERSION 5
+ * blob or checkpoint of version 4 found in a version-5 spool is refused by name). 6: jobs carry
+ * their priority and pause (docs/farm.md, "Operating a farm"), and the blocked workers have a
+ * table; a version-5 journal is migrated in place (migrate_5_to_6). */
+#define JOURNAL_VERSION 6
 
 #define TILE_MAGIC 0x58544650u  /* "PFTX" in this host's order: a blob of another is refused */
 #define PHOT_MAGIC 0x48504650u  /* "PFPH" */
@@ -49,6 +52,8 @@ struct journal {
     sqlite3_stmt *add_result; /* prepared once: the master journals every result it receives */
     segment_t *segs;          /* one per job being appended to */
     size_t nsegs, capsegs;
+    journal_stats_t stats;
+    double t_begin; /* when the open transaction began */
 };
 
 static int db_error(journal_t *self, err_t *err, const char *what)
@@ -85,7 +90,15 @@ static int step_done(journal_t *self, sqlite3_stmt *st, const char *what, err_t 
 
 static int begin(journal_t *self, err_t *err)
 {
+    self->t_begin = clock_now_s();
     return exec(self, "BEGIN IMMEDIATE", err);
+}
+
+/* A write's time since t0 (journal_stats). */
+static void count_write(journal_t *self, double t0)
+{
+    self->stats.writes++;
+    self->stats.seconds += clock_now_s() - t0;
 }
 
 static int commit(journal_t *self, int rc, err_t *err)
@@ -95,7 +108,14 @@ static int commit(journal_t *self, int rc, err_t *err)
         (void)exec(self, "ROLLBACK", &ignore);
         return -1;
     }
-    return exec(self, "COMMIT", err);
+    rc = exec(self, "COMMIT", err);
+    count_write(self, self->t_begin);
+    return rc;
+}
+
+journal_stats_t journal_stats(const journal_t *self)
+{
+    return self->stats;
 }
 
 static const char *SCHEMA =
@@ -110,7 +130,9 @@ static const char *SCHEMA =
     " checkpoint INTEGER NOT NULL DEFAULT 0, elapsed REAL NOT NULL DEFAULT 0,"
     " stop INTEGER NOT NULL DEFAULT 0, outputs INTEGER NOT NULL DEFAULT 0,"
     " samples_done INTEGER NOT NULL DEFAULT 0, samples_total INTEGER NOT NULL DEFAULT 0,"
-    " nonfinite INTEGER NOT NULL DEFAULT 0, spp_done INTEGER NOT NULL DEFAULT 0);"
+    " nonfinite INTEGER NOT NULL DEFAULT 0, spp_done INTEGER NOT NULL DEFAULT 0,"
+    " priority INTEGER NOT NULL DEFAULT 0, paused INTEGER NOT NULL DEFAULT 0);"
+    "CREATE TABLE IF NOT EXISTS blocked(name TEXT PRIMARY KEY, reason TEXT NOT NULL);"
     "CREATE TABLE IF NOT EXISTS results("
     " job INTEGER NOT NULL, round INTEGER NOT NULL, task INTEGER NOT NULL, kind INTEGER NOT NULL,"
     " tile INTEGER NOT NULL, pass INTEGER NOT NULL, size INTEGER NOT NULL,"
@@ -120,6 +142,20 @@ static const char *SCHEMA =
     " job INTEGER NOT NULL, round INTEGER NOT NULL, pass INTEGER NOT NULL, spp INTEGER NOT NULL,"
     " elapsed REAL NOT NULL, valid INTEGER NOT NULL, rel_error REAL NOT NULL,"
     " PRIMARY KEY(job, round, pass));";
+
+/* Version 5 to 6: the jobs' priority and pause columns (the blocked table came with SCHEMA).
+ * One transaction: a master killed half-way leaves version 5, migrated again next time. */
+static int migrate_5_to_6(journal_t *self, err_t *err)
+{
+    if (begin(self, err) < 0)
+        return -1;
+    int rc = exec(self,
+                  "ALTER TABLE jobs ADD COLUMN priority INTEGER NOT NULL DEFAULT 0;"
+                  "ALTER TABLE jobs ADD COLUMN paused INTEGER NOT NULL DEFAULT 0;"
+                  "UPDATE meta SET value=6 WHERE key='version';",
+                  err);
+    return commit(self, rc, err);
+}
 
 journal_t *journal_open(const char *dir, err_t *err)
 {
@@ -181,7 +217,11 @@ journal_t *journal_open(const char *dir, err_t *err)
             journal_close(&self);
             return NULL;
         }
-    } else if (version != JOURNAL_VERSION) {
+    } else if (version == 5 && migrate_5_to_6(self, err) < 0) {
+        err_prefix(err, "journal %s: migrating version 5 to 6: ", path);
+        journal_close(&self);
+        return NULL;
+    } else if (version != 5 && version != JOURNAL_VERSION) {
         err_set(err, "journal %s: version %lld, this master reads version %d (move the spool "
                      "aside or use a matching prismfarm)",
                 path, version, JOURNAL_VERSION);
@@ -253,10 +293,11 @@ int journal_add_job(journal_t *self, const journal_job_t *j, err_t *err)
     if (prepare(self,
                 "INSERT OR REPLACE INTO jobs(id, name, hash, main, spp, xres, yres, seed, "
                 "integrator, dispersion, target_error, time_limit, state, round_photons, "
-                "samples_total) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, "
-                "?14, ?15)",
+                "samples_total, priority, paused) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, "
+                "?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17)",
                 &st, err) < 0)
         return -1;
+    double t0 = clock_now_s();
     sqlite3_bind_int64(st, 1, (sqlite3_int64)j->id);
     sqlite3_bind_text(st, 2, j->name, -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(st, 3, j->hash, -1, SQLITE_TRANSIENT);
@@ -272,7 +313,60 @@ int journal_add_job(journal_t *self, const journal_job_t *j, err_t *err)
     sqlite3_bind_int(st, 13, j->state);
     sqlite3_bind_int64(st, 14, (sqlite3_int64)j->round_photons);
     sqlite3_bind_int64(st, 15, (sqlite3_int64)j->samples_total);
-    return step_done(self, st, "adding a job", err);
+    sqlite3_bind_int(st, 16, j->priority);
+    sqlite3_bind_int(st, 17, j->paused);
+    int rc = step_done(self, st, "adding a job", err);
+    count_write(self, t0);
+    return rc;
+}
+
+int journal_set_control(journal_t *self, uint64_t job, int priority, bool paused, err_t *err)
+{
+    sqlite3_stmt *st;
+    if (prepare(self, "UPDATE jobs SET priority=?2, paused=?3 WHERE id=?1", &st, err) < 0)
+        return -1;
+    double t0 = clock_now_s();
+    sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
+    sqlite3_bind_int(st, 2, priority);
+    sqlite3_bind_int(st, 3, paused);
+    int rc = step_done(self, st, "setting a job's priority and pause", err);
+    count_write(self, t0);
+    if (rc == 0 && sqlite3_changes(self->db) == 0)
+        return err_set(err, "journal %s: no job %llu", self->path, (unsigned long long)job);
+    return rc;
+}
+
+int journal_set_blocked(journal_t *self, const char *worker, const char *reason, err_t *err)
+{
+    sqlite3_stmt *st;
+    if (prepare(self,
+                reason ? "INSERT OR REPLACE INTO blocked(name, reason) VALUES(?1, ?2)"
+                       : "DELETE FROM blocked WHERE name=?1",
+                &st, err) < 0)
+        return -1;
+    double t0 = clock_now_s();
+    sqlite3_bind_text(st, 1, worker, -1, SQLITE_TRANSIENT);
+    if (reason)
+        sqlite3_bind_text(st, 2, reason, -1, SQLITE_TRANSIENT);
+    int rc = step_done(self, st, reason ? "blocking a worker" : "unblocking a worker", err);
+    count_write(self, t0);
+    return rc;
+}
+
+int journal_blocked(journal_t *self, journal_blocked_fn fn, void *user, err_t *err)
+{
+    sqlite3_stmt *st;
+    if (prepare(self, "SELECT name, reason FROM blocked ORDER BY name", &st, err) < 0)
+        return -1;
+    int rc;
+    while ((rc = sqlite3_step(st)) == SQLITE_ROW) {
+        const char *name = (const char *)sqlite3_column_text(st, 0);
+        const char *reason = (const char *)sqlite3_column_text(st, 1);
+        if (name)
+            fn(user, name, reason ? reason : "");
+    }
+    sqlite3_finalize(st);
+    return rc == SQLITE_DONE ? 0 : db_error(self, err, "reading the blocked workers");
 }
 
 int journal_set_state(journal_t *self, const journal_job_t *j, err_t *err)
@@ -382,7 +476,8 @@ int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err)
                 "SELECT id, name, hash, main, spp, xres, yres, seed, integrator, dispersion, "
                 "target_error, time_limit, state, error, round, photon_base, photons_saved, "
                 "round_photons, refine_photons, checkpoint, elapsed, stop, outputs, "
-                "samples_done, samples_total, nonfinite, spp_done FROM jobs ORDER BY id",
+                "samples_done, samples_total, nonfinite, spp_done, priority, paused FROM jobs "
+                "ORDER BY id",
                 &st, err) < 0)
         return -1;
     size_t cap = 0;
@@ -435,6 +530,8 @@ int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err)
         j->samples_total = (uint64_t)sqlite3_column_int64(st, 24);
         j->nonfinite = (uint64_t)sqlite3_column_int64(st, 25);
         j->spp_done = sqlite3_column_int(st, 26);
+        j->priority = sqlite3_column_int(st, 27);
+        j->paused = sqlite3_column_int(st, 28) != 0;
         if (!j->name || !j->hash || !j->main || j->state < 0 || j->state > 4) {
             rc = SQLITE_CORRUPT;
             break;
@@ -560,8 +657,20 @@ static uint32_t blob_crc(const void *data, size_t size)
     return (uint32_t)c;
 }
 
+static int add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t task, int kind,
+                      int tile, int pass, const void *data, size_t size, err_t *err);
+
 int journal_add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t task, int kind,
                        int tile, int pass, const void *data, size_t size, err_t *err)
+{
+    double t0 = clock_now_s();
+    int rc = add_result(self, job, round, task, kind, tile, pass, data, size, err);
+    count_write(self, t0);
+    return rc;
+}
+
+static int add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t task, int kind,
+                      int tile, int pass, const void *data, size_t size, err_t *err)
 {
     segment_t *g = segment_open(self, job, err);
     if (!g)

@@ -50,6 +50,8 @@ typedef struct journal_job {
     bool outputs;            /* its final EXR and PNG exist */
     uint64_t samples_done, samples_total, nonfinite;
     int spp_done;
+    int priority; /* sched.h's; written by journal_add_job and journal_set_control */
+    bool paused;
 } journal_job_t;
 
 void journal_job_clear(journal_job_t *j);
@@ -84,6 +86,25 @@ int journal_set_round(journal_t *self, const journal_job_t *job, err_t *err);
 /* The merged photon store of the job is in jobs/<id>/photons.store with photons photons: the
  * round's photon batch results are dropped. */
 int journal_set_photons_saved(journal_t *self, uint64_t job, uint64_t photons, err_t *err);
+
+/* The job's priority and pause (docs/farm.md, "Operating a farm"): a paused job stays paused
+ * through a restart. */
+int journal_set_control(journal_t *self, uint64_t job, int priority, bool paused, err_t *err);
+
+/* A worker (by name) blocked from every job, with why (reason NULL: unblocked, its row
+ * removed). */
+int journal_set_blocked(journal_t *self, const char *worker, const char *reason, err_t *err);
+typedef void (*journal_blocked_fn)(void *user, const char *worker, const char *reason);
+/* Each blocked worker, by name. */
+int journal_blocked(journal_t *self, journal_blocked_fn fn, void *user, err_t *err);
+
+/* What the journal's writes cost (for /metrics): transactions and results written, and the
+ * seconds they took, since journal_open. */
+typedef struct journal_stats {
+    uint64_t writes;
+    double seconds;
+} journal_stats_t;
+journal_stats_t journal_stats(const journal_t *self);
 
 /* Every job, in id order, into a malloc'ed array (free each with journal_job_clear, then the
  * array). */

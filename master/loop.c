@@ -14,6 +14,7 @@
 #include "master_state.h"
 #include "on_client.h"
 #include "on_worker.h"
+#include "ops.h"
 #include "peers.h"
 #include "resume.h"
 #include "zap.h"
@@ -101,6 +102,7 @@ static void housekeeping(master_t *m, double now, double busy)
     peers_agree_with_sched(m);
     jobs_enforce_time_limits(m, now);
     peers_heartbeat(m, now);
+    ops_turn(m);
 }
 
 /* Clients send one request at a time: a few queued per connection is plenty, and the bound
@@ -205,12 +207,17 @@ int master_run(const master_opts_t *opts, err_t *err)
         goto out;
     }
     m->last_job = spool_last_job_id(m->spool);
+    if (!(m->tasklog = tasklog_new(spool_path(m->spool), TASKLOG_MAX_BYTES, err))) {
+        err_prefix(err, "master: ");
+        goto out;
+    }
     if (!(m->sched = sched_new(&opts->sched, err))) {
         err_prefix(err, "master: ");
         goto out;
     }
     if (opts->journal) {
-        if (!(m->journal = journal_open(spool_path(m->spool), err)) || resume_jobs(m, err) < 0) {
+        if (!(m->journal = journal_open(spool_path(m->spool), err)) || ops_load_blocked(m, err) < 0 ||
+            resume_jobs(m, err) < 0) {
             err_prefix(err, "master: ");
             goto out;
         }
@@ -285,6 +292,8 @@ out:
     if (ctx && !opts->zmq_ctx)
         (void)zmq_ctx_term(ctx);
     sched_destroy(&m->sched);
+    tasklog_destroy(&m->tasklog);
+    ops_free(m);
     journal_close(&m->journal);
     spool_destroy(&m->spool);
     for (size_t i = 0; i < m->nworkers; i++)

@@ -14,6 +14,7 @@
 #include "sched.h"
 #include "spool.h"
 #include "stopping.h"
+#include "tasklog.h"
 
 #include <stdbool.h>
 #include <stddef.h>
@@ -40,6 +41,13 @@ typedef struct mworker {
      * other. Only one, because dispatch stops at the first full queue. */
     bool has_unsent;
     sched_task_t unsent;
+    /* Samples per second lately (/metrics, WORKERS): the samples of the results it returned
+     * in the window that began at window_start, and the rate of the last full window. */
+    struct {
+        double window_start;
+        uint64_t window_samples;
+        double samples_per_s;
+    } rate;
 } mworker_t;
 
 /* A job, in the master's list from its submission (or the journal) on. Its fields by concern:
@@ -108,6 +116,13 @@ typedef struct mjob {
         uint64_t checkpoint_samples; /* samples merged at the last checkpoint */
         double last_checkpoint;      /* when it was written (monotonic seconds; 0: none yet) */
     } journal;
+    /* Operations (ops.h): who submitted it (the key's name; "" without keys), its priority
+     * and whether it is paused; the scheduler holds the same while it knows the job. */
+    struct {
+        char owner[72];
+        int priority;
+        bool paused;
+    } ops;
 } mjob_t;
 
 /* A client's STATUS with a wait: answered when its job is over or at the deadline. */
@@ -134,6 +149,13 @@ typedef struct master {
     double heartbeat_s, last_heartbeat;
     waiter_t waiters[MAX_WAITERS];
     size_t nwaiters;
+    tasklog_t *tasklog; /* the jobs' task logs (tasklog.h) */
+    /* Workers blocked from every job, by name (so that a worker that reconnects stays
+     * blocked), as the journal keeps them (ops.h). */
+    struct {
+        char **names;
+        size_t n, cap;
+    } blocked;
 } master_t;
 
 /* Done, failed or cancelled: what a STATUS long poll waits for. */

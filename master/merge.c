@@ -88,9 +88,24 @@ static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
 
 /* A result from a worker the task was not issued to (issue 16: a key forged a job's pixels):
  * dropped and logged with the worker and its key's name; it counts as no failure of the task. */
+/* The task log's line for a result a worker returned: merged, a duplicate (a re-issued copy's
+ * twin), refused or bad. Results replayed from the journal were logged when they came. */
+static void log_result(master_t *m, const mjob_t *j, const merge_source_t *src, uint32_t task,
+                       uint32_t attempt, const char *outcome)
+{
+    if (!src->replay)
+        tasklog_add(m->tasklog, j->id,
+                    "task %u attempt %u from worker %llu '%s' (%.3f s, %llu samples): %s", task,
+                    attempt, (unsigned long long)src->id, src->name, src->elapsed,
+                    (unsigned long long)src->samples, outcome);
+}
+
 static void merge_refused(master_t *m, const mjob_t *j, const merge_source_t *src, uint32_t task,
                           const err_t *why)
 {
+    if (!src->replay)
+        tasklog_add(m->tasklog, j->id, "task %u: a result from worker %llu '%s' refused: %s", task,
+                    (unsigned long long)src->id, src->name, why->msg);
     master_log(m, "refused a result from worker %llu '%s' (key '%s') for job %llu task %u: %s",
                (unsigned long long)src->id, src->name,
                src->key && src->key[0] ? src->key : "none: no CURVE", (unsigned long long)j->id,
@@ -141,9 +156,14 @@ void merge_photon_batch(master_t *m, mjob_t *j, const merge_source_t *src, uint3
         master_log(m, "bad photon batch from %s %llu '%s' for job %llu: %s",
                    src->replay ? "the journal" : "worker", (unsigned long long)src->id, src->name,
                    (unsigned long long)j->id, err.msg);
+        char what[600];
+        snprintf(what, sizeof what, "bad, counted as a failure: %s", err.msg);
+        log_result(m, j, src, task, attempt, what);
         sched_task_failed(m->sched, src->id, j->id, task, attempt, err.msg);
         return;
     }
+    log_result(m, j, src, task, attempt,
+               (rc & SCHED_MERGED) ? "merged" : "a duplicate of a result merged already");
     if ((rc & SCHED_MERGED) && m->journal && !src->replay) {
         uint8_t *blob;
         size_t size;
@@ -191,9 +211,14 @@ void merge_camera_tile(master_t *m, mjob_t *j, const merge_source_t *src, uint32
         master_log(m, "bad result from %s %llu '%s' for job %llu: %s",
                    src->replay ? "the journal" : "worker", (unsigned long long)src->id, src->name,
                    (unsigned long long)j->id, err.msg);
+        char what[600];
+        snprintf(what, sizeof what, "bad, counted as a failure: %s", err.msg);
+        log_result(m, j, src, task, attempt, what);
         sched_task_failed(m->sched, src->id, j->id, task, attempt, err.msg);
         return;
     }
+    log_result(m, j, src, task, attempt,
+               (rc & SCHED_MERGED) ? "merged" : "a duplicate of a result merged already");
     if ((rc & SCHED_MERGED) && m->journal && wire) {
         uint8_t *blob;
         size_t size;

@@ -17,6 +17,8 @@ typedef struct merge_source {
     const char *name;
     const char *key; /* the worker's key name (NULL or "" without CURVE) */
     bool replay;
+    double elapsed;   /* the worker's time on the task, seconds (for the task log) */
+    uint64_t samples; /* samples (or photons) it says it traced */
 } merge_source_t;
 
 /* A photon batch's result for task (SCHED_PHOTON_TASK | batch). */

@@ -4,8 +4,11 @@
 #include "bundle.h"
 #include "files.h"
 #include "jobs.h"
+#include "metrics.h"
+#include "ops.h"
 #include "peers.h"
 #include "persist.h"
+#include "tasklog.h"
 
 #include <limits.h>
 #include <stdarg.h>
@@ -34,28 +37,12 @@ __attribute__((format(printf, 3, 4))) static void reply_error(master_t *m, const
     reply(m, to, &e);
 }
 
-static proto_job_state_t wire_state(job_state_t s)
-{
-    switch (s) {
-    case JOB_QUEUED:
-        return PROTO_JOB_QUEUED;
-    case JOB_RUNNING:
-        return PROTO_JOB_RUNNING;
-    case JOB_DONE:
-        return PROTO_JOB_DONE;
-    case JOB_FAILED:
-        return PROTO_JOB_FAILED;
-    case JOB_CANCELLED:
-        return PROTO_JOB_CANCELLED;
-    }
-    return PROTO_JOB_FAILED;
-}
-
 static proto_job_info_t job_wire_info(const master_t *m, const mjob_t *j, double now)
 {
     proto_job_info_t o = {.id = j->id,
                           .name = j->name,
-                          .state = wire_state(j->state),
+                          .state = jobs_wire_state(j),
+                          .priority = j->ops.priority,
                           .samples_done = j->sched.samples_done,
                           .samples_total = j->sched.samples_total,
                           .nonfinite = j->sched.nonfinite};
@@ -113,6 +100,8 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     uint64_t id = m->last_job + 1;
     const proto_settings_t *set = &msg->submit.settings;
     mjob_t *j = job_new(id, msg->submit.name, hash, b->main, set, dir, &err);
+    if (j)
+        ops_job_init(j, from->user, (int)msg->submit.priority);
     if (!j) {
         /* The client named files of its bundle, not the master's spool folder. */
         char prefix[PATH_MAX + 1];
@@ -235,11 +224,13 @@ static void reply_workers(master_t *m, const proto_peer_t *to, double now)
         infos[i] = (proto_worker_info_t){.name = w->name,
                                          .id = w->id,
                                          .threads = w->threads,
-                                         .state = !w->alive              ? PROTO_WORKER_LOST
-                                                  : (si && si->busy > 0) ? PROTO_WORKER_BUSY
-                                                                         : PROTO_WORKER_IDLE,
+                                         .state = peers_wire_state(w, si),
                                          .tasks_done = si ? si->tasks_done : 0,
-                                         .last_seen = seen > 0 ? seen : 0};
+                                         .last_seen = seen > 0 ? seen : 0,
+                                         .tasks_failed = si ? si->tasks_failed : 0,
+                                         .fail_streak = si ? si->fail_streak : 0,
+                                         .blocked_jobs = si ? si->blocked_jobs : 0,
+                                         .samples_per_s = peers_samples_per_s(w, now)};
     }
     proto_msg_t r = {.type = PROTO_WORKERS_REPLY,
                      .workers_reply = {.workers = infos, .nworkers = n}};
@@ -345,6 +336,7 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
     bool may_stop = stopping_active(&rule);
     if (sched_add_job(m->sched, j->id, j->scene.xres, j->scene.yres, j->scene.spp, j->scene.grid,
                       &err) < 0 ||
+        jobs_apply_ops(m, j, &err) < 0 ||
         (may_stop && sched_set_whole_passes(m->sched, j->id, &err) < 0) ||
         sched_add_photon_batches(m->sched, j->id, added, &err) < 0) {
         err_t ignore;
@@ -407,6 +399,96 @@ static void on_cancel(master_t *m, const proto_peer_t *from, const proto_msg_t *
     reply_jobs(m, from, PROTO_STATUS_REPLY, j, now);
 }
 
+/* Priority, pause, resume, requeue, unblock: ops.h does them (the dashboard calls the same
+ * functions); the answer is the job as STATUS shows it, or the workers. */
+static void on_act(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
+{
+    master_actor_t who = ops_actor_of_peer(m, from);
+    uint64_t id = msg->act.job;
+    err_t err;
+    int rc;
+    switch (msg->act.act) {
+    case PROTO_ACT_PRIORITY:
+        rc = master_job_set_priority(m, id, (int)msg->act.priority, &who, &err);
+        break;
+    case PROTO_ACT_PAUSE:
+        rc = master_job_pause(m, id, &who, &err);
+        break;
+    case PROTO_ACT_RESUME:
+        rc = master_job_resume(m, id, &who, &err);
+        break;
+    case PROTO_ACT_REQUEUE:
+        rc = master_task_requeue(m, id, msg->act.task, &who, &err);
+        break;
+    case PROTO_ACT_UNBLOCK:
+        rc = msg->act.worker ? master_worker_unblock(m, msg->act.worker, &who, &err)
+                             : err_set(&err, "unblock needs a worker's name or id");
+        break;
+    default:
+        rc = err_set(&err, "unknown action");
+    }
+    if (rc < 0) {
+        reply_error(m, from, "%s: %s", proto_act_name(msg->act.act), err.msg);
+        return;
+    }
+    if (msg->act.act == PROTO_ACT_UNBLOCK)
+        reply_workers(m, from, now);
+    else
+        reply_jobs(m, from, PROTO_STATUS_REPLY, jobs_find(m, id), now);
+}
+
+/* The job's task log (tasklog.h), all or one task's lines: the most recent that fit in a
+ * message. Reading a log is reading the job: its owner or an admin. */
+static void on_logs(master_t *m, const proto_peer_t *from, const proto_msg_t *msg)
+{
+    const mjob_t *j = jobs_find(m, msg->logs.job);
+    master_actor_t who = ops_actor_of_peer(m, from);
+    err_t err;
+    if (!j) {
+        reply_error(m, from, "no job %llu", (unsigned long long)msg->logs.job);
+        return;
+    }
+    if (!ops_may_act(m, j, &who, &err)) {
+        master_log(m, "task log of job %llu refused to %s: %s", (unsigned long long)j->id,
+                   who.name[0] ? who.name : "(no key)", err.msg);
+        reply_error(m, from, "%s", err.msg);
+        return;
+    }
+    size_t max = m->limits.max_message_bytes > FILE_OVERHEAD
+                     ? m->limits.max_message_bytes - FILE_OVERHEAD
+                     : 4096;
+    if (max > (size_t)8 << 20)
+        max = (size_t)8 << 20;
+    char *text;
+    size_t len;
+    if (tasklog_read(m->tasklog, j->id, msg->logs.has_task ? (long long)msg->logs.task : -1, max,
+                     &text, &len, &err) < 0) {
+        reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
+        return;
+    }
+    char name[64];
+    snprintf(name, sizeof name, "job-%llu.log", (unsigned long long)j->id);
+    proto_msg_t f = {.type = PROTO_FILE,
+                     .file = {.name = name, .data = (const uint8_t *)text, .size = len}};
+    reply(m, from, &f);
+    free(text);
+}
+
+static void on_metrics(master_t *m, const proto_peer_t *from, double now)
+{
+    char *text;
+    size_t len;
+    err_t err;
+    if (master_metrics_text(m, now, &text, &len, &err) < 0) {
+        reply_error(m, from, "%s", err.msg);
+        return;
+    }
+    proto_msg_t f = {.type = PROTO_FILE,
+                     .file = {.name = "metrics.txt", .data = (const uint8_t *)text, .size = len}};
+    reply(m, from, &f);
+    free(text);
+}
+
 void on_client_message(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
 {
     switch (msg->type) {
@@ -431,6 +513,15 @@ void on_client_message(master_t *m, const proto_peer_t *from, const proto_msg_t 
         break;
     case PROTO_CANCEL:
         on_cancel(m, from, msg, now);
+        break;
+    case PROTO_ACT:
+        on_act(m, from, msg, now);
+        break;
+    case PROTO_LOGS:
+        on_logs(m, from, msg);
+        break;
+    case PROTO_METRICS:
+        on_metrics(m, from, now);
         break;
     default: {
         char who[PROTO_PEER_STR];

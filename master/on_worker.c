@@ -2,6 +2,7 @@
 
 #include "jobs.h"
 #include "merge.h"
+#include "ops.h"
 #include "peers.h"
 
 #include <stdint.h>
@@ -39,6 +40,7 @@ static void on_hello(master_t *m, const proto_peer_t *from, mworker_t *w, const 
     w->alive = true;
     w->last_seen = now;
     w->has_unsent = false;
+    ops_worker_joined(m, w);
     proto_msg_t welcome = {
         .type = PROTO_WELCOME,
         .welcome = {.worker_id = w->id, .heartbeat_ms = (uint32_t)m->opts->heartbeat_ms}};
@@ -63,7 +65,10 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
     if (!j->sched.known || task >> 32 != j->sched.round)
         return; /* finished already, or of an earlier round: a late copy of a re-issued task */
     uint32_t t32 = (uint32_t)(task & UINT32_MAX);
-    merge_source_t src = {.id = w->id, .name = w->name, .key = w->key};
+    merge_source_t src = {.id = w->id, .name = w->name, .key = w->key,
+                          .elapsed = msg->result.stats.elapsed,
+                          .samples = msg->result.stats.samples};
+    peers_count_samples(w, msg->result.stats.samples, now);
     if (msg->result.kind == PROTO_KIND_PHOTON_BATCH || (t32 & SCHED_PHOTON_TASK)) {
         if (msg->result.kind != PROTO_KIND_PHOTON_BATCH) {
             master_log(m,
@@ -100,6 +105,9 @@ static void on_task_failed(master_t *m, mworker_t *w, const proto_msg_t *msg, do
     master_log(m, "job %llu task %llu failed on worker %llu '%s': %s", (unsigned long long)j->id,
                (unsigned long long)msg->task_failed.task, (unsigned long long)w->id, w->name,
                msg->task_failed.error);
+    tasklog_add(m->tasklog, j->id, "task %u attempt %u failed on worker %llu '%s': %s",
+                (uint32_t)(msg->task_failed.task & UINT32_MAX), msg->task_failed.attempt,
+                (unsigned long long)w->id, w->name, msg->task_failed.error);
     sched_task_failed(m->sched, w->id, j->id, (uint32_t)(msg->task_failed.task & UINT32_MAX),
                       msg->task_failed.attempt, msg->task_failed.error);
     job_refresh(m, j, now);

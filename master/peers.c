@@ -167,3 +167,35 @@ void peers_heartbeat(master_t *m, double now)
         m->last_heartbeat = now;
     }
 }
+
+/* A window of at least PEERS_RATE_WINDOW_S: the rate is that of the last full window, so it
+ * does not jump with each result (a tile's samples arrive at once). */
+void peers_count_samples(mworker_t *w, uint64_t samples, double now)
+{
+    if (w->rate.window_start <= 0)
+        w->rate.window_start = now;
+    w->rate.window_samples += samples;
+    double span = now - w->rate.window_start;
+    if (span >= PEERS_RATE_WINDOW_S) {
+        w->rate.samples_per_s = (double)w->rate.window_samples / span;
+        w->rate.window_start = now;
+        w->rate.window_samples = 0;
+    }
+}
+
+double peers_samples_per_s(const mworker_t *w, double now)
+{
+    if (!w->alive || w->rate.window_start <= 0 ||
+        now - w->rate.window_start > 2 * PEERS_RATE_WINDOW_S)
+        return 0;
+    return w->rate.samples_per_s;
+}
+
+proto_worker_state_t peers_wire_state(const mworker_t *w, const sched_worker_info_t *si)
+{
+    if (!w->alive)
+        return PROTO_WORKER_LOST;
+    if (si && si->blocked)
+        return PROTO_WORKER_BLOCKED;
+    return si && si->busy > 0 ? PROTO_WORKER_BUSY : PROTO_WORKER_IDLE;
+}

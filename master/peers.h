@@ -40,4 +40,14 @@ void peers_agree_with_sched(master_t *m);
 /* HEARTBEAT to every live worker, once every heartbeat interval. */
 void peers_heartbeat(master_t *m, double now);
 
+/* The worker's state as clients see it (si: its scheduler entry, may be NULL). */
+proto_worker_state_t peers_wire_state(const mworker_t *w, const sched_worker_info_t *si);
+
+/* The samples of a result the worker returned at now, counted in its rate. */
+void peers_count_samples(mworker_t *w, uint64_t samples, double now);
+/* Its samples per second over its last PEERS_RATE_WINDOW_S seconds or more (0 when it has
+ * returned nothing for two windows). */
+double peers_samples_per_s(const mworker_t *w, double now);
+#define PEERS_RATE_WINDOW_S 5.0
+
 #endif

@@ -29,7 +29,9 @@ journal_job_t persist_record(const mjob_t *j, double now)
                        .samples_done = j->sched.samples_done,
                        .samples_total = j->sched.samples_total,
                        .nonfinite = j->sched.nonfinite,
-                       .spp_done = j->accuracy.spp_done};
+                       .spp_done = j->accuracy.spp_done,
+                       .priority = j->ops.priority,
+                       .paused = j->ops.paused};
     double end = j->finished > 0 ? j->finished : now;
     r.elapsed = j->started > 0 && end > j->started ? end - j->started : 0;
     return r;

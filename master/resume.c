@@ -139,6 +139,8 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
     j->journal.round_photons = r->round_photons;
     j->journal.refine_photons = r->refine_photons;
     j->submitted = now;
+    j->ops.priority = r->priority;
+    j->ops.paused = r->paused;
     uint32_t batches = 0, photons_done = 0;
     if (j->photons.phase && r->photons_saved > 0) {
         photon_phase_destroy(&j->photons.phase);
@@ -213,6 +215,8 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
                    (unsigned long long)j->id, j->name, info.passes_done, info.npasses,
                    (unsigned long long)info.samples_done, (unsigned long long)info.samples_total,
                    info.photon_batches_done, info.photon_batches, rp.results);
+    tasklog_add(m->tasklog, j->id, "job resumed by a restarted master: %d of %d passes merged%s",
+                info.passes_done, info.npasses, j->ops.paused ? " (paused)" : "");
     job_refresh(m, j, now);
     return 0;
 }

@@ -14,6 +14,7 @@ typedef struct task {
     int failures;
     uint64_t owner; /* worker holding it while RUNNING */
     uint64_t issued[2]; /* the last two workers it was issued to, newest first (0: none) */
+    uint64_t avoid;     /* requeued by hand from this worker: not given back to it (0: none) */
     double deadline;
     tilebuf_t *result; /* done but not yet merged (an earlier pass of its tile is missing) */
 } task_t;
@@ -45,6 +46,11 @@ typedef struct job {
     strike_t *strikes;
     size_t nstrikes;
     char error[512];
+    /* Operations (sched.h, "Priorities, fair share, pause"). */
+    int priority;
+    bool paused;
+    uint32_t owner;   /* index into sched.owners */
+    uint32_t running; /* its tasks RUNNING now: the owner's share is the sum over its jobs */
 } job_t;
 
 typedef struct worker {
@@ -55,7 +61,16 @@ typedef struct worker {
     bool alive;
     uint64_t tasks_done, tasks_failed;
     uint32_t missed; /* deadlines missed since it last returned a task */
+    uint32_t fail_streak; /* failures since it last returned a task */
+    bool blocked;         /* no task of any job (sched_worker_block, or its fail_streak) */
 } worker_t;
+
+typedef struct owner {
+    char name[SCHED_OWNER_MAX];
+    uint32_t running; /* scratch of pick_job: tasks running over the owner's jobs */
+} owner_t;
+
+#define MAX_EVENTS 4096 /* undrained events kept; beyond, counted in events_dropped */
 
 struct sched {
     sched_config_t cfg;
@@ -63,13 +78,18 @@ struct sched {
     size_t njobs, cap_jobs;
     worker_t *workers;
     size_t nworkers, cap_workers;
+    owner_t *owners; /* owners[0] is "" (no keys); never shrinks: one per key that submitted */
+    size_t nowners, cap_owners;
+    sched_event_t *events; /* since the last sched_events_take, oldest first */
+    size_t nevents, cap_events;
+    uint64_t events_dropped;
 };
 
 sched_config_t sched_config_default(void)
 {
     return (sched_config_t){.task_deadline_s = 120.0, .worker_timeout_s = 5.0,
                             .max_task_failures = 4, .max_worker_job_failures = 2, .tile_size = 32,
-                            .claim_start = 32};
+                            .claim_start = 32, .max_worker_failures_in_row = 5};
 }
 
 const char *job_state_name(job_state_t s)
@@ -83,7 +103,7 @@ sched_t *sched_new(const sched_config_t *cfg, err_t *err)
     sched_config_t c = cfg ? *cfg : sched_config_default();
     if (!(c.task_deadline_s > 0) || !(c.worker_timeout_s > 0) || c.max_task_failures < 1 ||
         c.max_worker_job_failures < 1 || c.tile_size < 1 || c.tile_size > 4096 ||
-        c.claim_start < 0) {
+        c.claim_start < 0 || c.max_worker_failures_in_row < 0) {
         err_set(err, "scheduler settings out of range (deadline %g s, timeout %g s, tile %d)",
                 c.task_deadline_s, c.worker_timeout_s, c.tile_size);
         return NULL;
@@ -124,12 +144,15 @@ void sched_destroy(sched_t **self_p)
         job_free(self->jobs[i]);
     free(self->jobs);
     free(self->workers);
+    free(self->owners);
+    free(self->events);
     free(self);
     *self_p = NULL;
 }
 
 static void fill_task(const struct job *j, uint32_t i, sched_task_t *out);
 static void check_job_done(struct job *j, int *result);
+static bool takes_tasks(const struct sched *self, const struct job *j, uint64_t worker);
 
 static job_t *find_job(const sched_t *self, uint64_t id)
 {
@@ -145,6 +168,38 @@ static worker_t *find_worker(const sched_t *self, uint64_t id)
         if (self->workers[i].id == id)
             return &self->workers[i];
     return NULL;
+}
+
+/* Records what the caller should log (sched_events_take); beyond MAX_EVENTS undrained, only
+ * counted, so that a caller that never drains cannot grow the scheduler without bound. */
+static void emit(sched_t *self, sched_event_kind_t kind, uint64_t job, uint32_t task,
+                 uint32_t attempt, uint64_t worker)
+{
+    if (self->nevents == self->cap_events) {
+        size_t cap = self->cap_events ? 2 * self->cap_events : 64;
+        sched_event_t *p = cap <= MAX_EVENTS ? realloc(self->events, cap * sizeof *p) : NULL;
+        if (!p) {
+            self->events_dropped++;
+            return;
+        }
+        self->events = p;
+        self->cap_events = cap;
+    }
+    self->events[self->nevents++] =
+        (sched_event_t){.kind = kind, .job = job, .task = task, .attempt = attempt, .worker = worker};
+}
+
+size_t sched_events_take(sched_t *self, sched_event_t *out, size_t max, uint64_t *dropped)
+{
+    size_t n = self->nevents < max ? self->nevents : max;
+    memcpy(out, self->events, n * sizeof *out);
+    memmove(self->events, self->events + n, (self->nevents - n) * sizeof *self->events);
+    self->nevents -= n;
+    if (dropped) {
+        *dropped = self->events_dropped;
+        self->events_dropped = 0;
+    }
+    return n;
 }
 
 static uint32_t ncamera(const job_t *j)
@@ -212,20 +267,22 @@ int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spect
     return 0;
 }
 
-static void release_task(sched_t *self, task_t *t)
+static void release_task(sched_t *self, job_t *j, task_t *t)
 {
     if (t->state != TASK_RUNNING)
         return;
     worker_t *w = find_worker(self, t->owner);
     if (w && w->busy > 0)
         w->busy--;
+    if (j->running > 0)
+        j->running--;
     t->state = TASK_PENDING;
     t->owner = 0;
 }
 
 static void requeue(sched_t *self, job_t *j, uint32_t i)
 {
-    release_task(self, task_of(j, i));
+    release_task(self, j, task_of(j, i));
     if (i & SCHED_PHOTON_TASK) {
         if ((i & ~SCHED_PHOTON_TASK) < j->first_pending_photon)
             j->first_pending_photon = i & ~SCHED_PHOTON_TASK;
@@ -239,11 +296,11 @@ static void finish_job(sched_t *self, job_t *j, job_state_t state)
 {
     j->state = state;
     for (int i = 0; i < j->ntiles * j->npasses; i++) {
-        release_task(self, &j->tasks[i]);
+        release_task(self, j, &j->tasks[i]);
         tilebuf_destroy(&j->tasks[i].result);
     }
     for (uint32_t b = 0; b < j->nphoton; b++)
-        release_task(self, &j->ptasks[b]);
+        release_task(self, j, &j->ptasks[b]);
 }
 
 static int grow_photon(job_t *j, uint32_t n, err_t *err)
@@ -458,11 +515,16 @@ void sched_worker_leave(sched_t *self, uint64_t id)
     for (size_t k = 0; k < self->njobs; k++) {
         job_t *j = self->jobs[k];
         for (uint32_t i = 0; i < (uint32_t)(j->ntiles * j->npasses); i++)
-            if (j->tasks[i].state == TASK_RUNNING && j->tasks[i].owner == id)
+            if (j->tasks[i].state == TASK_RUNNING && j->tasks[i].owner == id) {
                 requeue(self, j, i);
+                emit(self, SCHED_EV_REQUEUED_LOST, j->id, i, j->tasks[i].attempt, id);
+            }
         for (uint32_t b = 0; b < j->nphoton; b++)
-            if (j->ptasks[b].state == TASK_RUNNING && j->ptasks[b].owner == id)
+            if (j->ptasks[b].state == TASK_RUNNING && j->ptasks[b].owner == id) {
                 requeue(self, j, SCHED_PHOTON_TASK | b);
+                emit(self, SCHED_EV_REQUEUED_LOST, j->id, SCHED_PHOTON_TASK | b,
+                     j->ptasks[b].attempt, id);
+            }
     }
     w->alive = false;
     w->busy = 0;
@@ -505,8 +567,10 @@ static void issue(sched_t *self, worker_t *w, job_t *j, task_t *t, double now)
         t->issued[0] = w->id;
     }
     t->attempt++;
+    t->avoid = 0;
     t->deadline = now + self->cfg.task_deadline_s;
     w->busy++;
+    j->running++;
     j->state = JOB_RUNNING;
 }
 
@@ -517,7 +581,7 @@ static uint32_t count_issuable(const sched_t *self, uint64_t worker, uint32_t li
     uint32_t n = 0;
     for (size_t k = 0; k < self->njobs && n <= limit; k++) {
         const job_t *j = self->jobs[k];
-        if ((j->state != JOB_QUEUED && j->state != JOB_RUNNING) || blocked(self, j, worker))
+        if (!takes_tasks(self, j, worker))
             continue;
         if (j->photon_done < j->nphoton) {
             for (uint32_t b = j->first_pending_photon; b < j->nphoton && n <= limit; b++)
@@ -571,45 +635,83 @@ static bool others_have_room(const sched_t *self, const worker_t *w)
     return false;
 }
 
+/* The job's next task for the worker in its current phase (its photon batches, else its
+ * camera tasks): the first pending one that was not requeued by hand from this worker; moves the
+ * job's cursor past tasks that are not pending. UINT32_MAX when there is none. */
+static uint32_t next_pending(job_t *j, uint64_t worker)
+{
+    bool photons = j->photon_done < j->nphoton;
+    task_t *tasks = photons ? j->ptasks : j->tasks;
+    uint32_t n = photons ? j->nphoton : ncamera(j);
+    uint32_t *cursor = photons ? &j->first_pending_photon : &j->first_pending;
+    while (*cursor < n && tasks[*cursor].state != TASK_PENDING)
+        (*cursor)++;
+    for (uint32_t i = *cursor; i < n; i++)
+        if (tasks[i].state == TASK_PENDING && tasks[i].avoid != worker)
+            return photons ? SCHED_PHOTON_TASK | i : i;
+    return UINT32_MAX;
+}
+
+/* Whether the worker may be given tasks of the job at all. */
+static bool takes_tasks(const sched_t *self, const job_t *j, uint64_t worker)
+{
+    return (j->state == JOB_QUEUED || j->state == JOB_RUNNING) && !j->paused &&
+           !blocked(self, j, worker);
+}
+
+/* The one rule for which job's task goes next (sched.h, "Priorities and fair share"): of the
+ * jobs the worker may take a task of now, the highest priority; among equal priorities, the
+ * job whose owner has the fewest tasks running over all of its jobs, so that owners share the
+ * workers evenly however many jobs each submitted; then the oldest job. Which worker renders a
+ * task never changes its pixels, so this decides only when a job finishes, not what it makes. */
+static job_t *pick_job(sched_t *self, uint64_t worker)
+{
+    for (size_t o = 0; o < self->nowners; o++)
+        self->owners[o].running = 0;
+    for (size_t k = 0; k < self->njobs; k++)
+        if (self->jobs[k]->owner < self->nowners)
+            self->owners[self->jobs[k]->owner].running += self->jobs[k]->running;
+    job_t *best = NULL;
+    uint32_t best_share = 0;
+    for (size_t k = 0; k < self->njobs; k++) {
+        job_t *j = self->jobs[k];
+        if (!takes_tasks(self, j, worker))
+            continue;
+        uint32_t share = j->owner < self->nowners ? self->owners[j->owner].running : 0;
+        if (best && (j->priority < best->priority ||
+                     (j->priority == best->priority && share >= best_share)))
+            continue;
+        if (next_pending(j, worker) == UINT32_MAX)
+            continue;
+        best = j;
+        best_share = share;
+    }
+    return best;
+}
+
 int sched_next_task(sched_t *self, uint64_t worker, double now, sched_task_t *out)
 {
     worker_t *w = find_worker(self, worker);
-    if (!w || !w->alive || w->busy >= worker_claim(self, w))
+    if (!w || !w->alive || w->blocked || w->busy >= worker_claim(self, w))
         return 0;
     if (w->missed > 0 && others_have_room(self, w))
         return 0;
     if (w->busy >= w->threads && !prefetch_allowed(self, w))
         return 0;
-    for (size_t k = 0; k < self->njobs; k++) {
-        job_t *j = self->jobs[k];
-        if ((j->state != JOB_QUEUED && j->state != JOB_RUNNING) || blocked(self, j, worker))
-            continue;
-        if (j->photon_done < j->nphoton) {
-            /* The photon phase: batches only; the camera tasks wait for the merged store. */
-            while (j->first_pending_photon < j->nphoton &&
-                   j->ptasks[j->first_pending_photon].state != TASK_PENDING)
-                j->first_pending_photon++;
-            if (j->first_pending_photon == j->nphoton)
-                continue;
-            uint32_t b = j->first_pending_photon;
-            issue(self, w, j, &j->ptasks[b], now);
-            *out = (sched_task_t){.job = j->id, .task = SCHED_PHOTON_TASK | b,
-                                  .attempt = j->ptasks[b].attempt, .kind = SCHED_PHOTON, .batch = b};
-            return 1;
-        }
-        uint32_t n = (uint32_t)(j->ntiles * j->npasses);
-        while (j->first_pending < n && j->tasks[j->first_pending].state != TASK_PENDING)
-            j->first_pending++;
-        for (uint32_t i = j->first_pending; i < n; i++) {
-            task_t *t = &j->tasks[i];
-            if (t->state != TASK_PENDING)
-                continue;
-            issue(self, w, j, t, now);
-            fill_task(j, i, out);
-            return 1;
-        }
+    job_t *j = pick_job(self, worker);
+    if (!j)
+        return 0;
+    uint32_t i = next_pending(j, worker);
+    issue(self, w, j, task_of(j, i), now);
+    if (i & SCHED_PHOTON_TASK) {
+        /* The photon phase: batches only; the camera tasks wait for the merged store. */
+        uint32_t b = i & ~SCHED_PHOTON_TASK;
+        *out = (sched_task_t){.job = j->id, .task = i, .attempt = j->ptasks[b].attempt,
+                              .kind = SCHED_PHOTON, .batch = b};
+    } else {
+        fill_task(j, i, out);
     }
-    return 0;
+    return 1;
 }
 
 /* Merges what can be merged of one tile, in pass order. */
@@ -735,11 +837,11 @@ int sched_photon_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t tas
         return SCHED_REFUSED;
     worker_t *wa = find_worker(self, worker);
     if (wa)
-        wa->missed = 0; /* it answers: off probation */
+        wa->missed = wa->fail_streak = 0; /* it answers: off probation, its streak broken */
     /* Batches are the same photons whatever the attempt: the first result wins. */
     if (j->state != JOB_RUNNING || t->state == TASK_DONE)
         return SCHED_DUPLICATE;
-    release_task(self, t);
+    release_task(self, j, t);
     t->state = TASK_DONE;
     j->tasks_done++;
     j->photon_done++;
@@ -767,7 +869,7 @@ int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
     }
     worker_t *wa = find_worker(self, worker);
     if (wa)
-        wa->missed = 0; /* it answers: off probation */
+        wa->missed = wa->fail_streak = 0; /* it answers: off probation, its streak broken */
     if (j->state != JOB_RUNNING || t->state == TASK_DONE) {
         /* Every attempt of a task gives the same bytes, so the first result wins. */
         tilebuf_destroy(&r);
@@ -781,10 +883,8 @@ int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
         return err_set(err, "job %llu task %u: the result does not cover tile %dx%d at (%d,%d) with %d buckets",
                        (unsigned long long)job, task, expect.w, expect.h, expect.x0, expect.y0, j->grid.n);
     }
-    if (t->state == TASK_RUNNING && t->owner == worker)
-        release_task(self, t);
-    else if (t->state == TASK_RUNNING)
-        release_task(self, t); /* someone else holds a re-issued copy: no need to finish it */
+    /* The holder's, or someone else's re-issued copy: no need to finish it. */
+    release_task(self, j, t);
     t->state = TASK_DONE;
     t->result = r;
     j->tasks_done++;
@@ -828,8 +928,13 @@ void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t ta
             j->strikes[j->nstrikes++] = (strike_t){worker, 0};
         }
     }
-    if (s < j->nstrikes)
-        j->strikes[s].failures++;
+    if (s < j->nstrikes && ++j->strikes[s].failures == self->cfg.max_worker_job_failures)
+        emit(self, SCHED_EV_WORKER_BLOCKED_JOB, j->id, task, attempt, worker);
+    if (w && !w->blocked && self->cfg.max_worker_failures_in_row > 0 &&
+        ++w->fail_streak >= (uint32_t)self->cfg.max_worker_failures_in_row) {
+        w->blocked = true;
+        emit(self, SCHED_EV_WORKER_BLOCKED, j->id, task, attempt, worker);
+    }
     if (t->failures >= self->cfg.max_task_failures) {
         if (task & SCHED_PHOTON_TASK)
             snprintf(j->error, sizeof j->error, "photon batch %u failed %d times; last error: %s",
@@ -838,6 +943,7 @@ void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t ta
             snprintf(j->error, sizeof j->error, "task %u failed %d times; last error: %s", task,
                      t->failures, message ? message : "(none)");
         finish_job(self, j, JOB_FAILED);
+        emit(self, SCHED_EV_JOB_FAILED, j->id, task, attempt, worker);
     }
 }
 
@@ -866,12 +972,16 @@ int sched_tick(sched_t *self, double now)
         for (uint32_t i = 0; i < (uint32_t)(j->ntiles * j->npasses); i++)
             if (j->tasks[i].state == TASK_RUNNING && j->tasks[i].deadline < now) {
                 missed_by(self, j->tasks[i].owner);
+                emit(self, SCHED_EV_REQUEUED_DEADLINE, j->id, i, j->tasks[i].attempt,
+                     j->tasks[i].owner);
                 requeue(self, j, i);
                 requeued++;
             }
         for (uint32_t b = 0; b < j->nphoton; b++)
             if (j->ptasks[b].state == TASK_RUNNING && j->ptasks[b].deadline < now) {
                 missed_by(self, j->ptasks[b].owner);
+                emit(self, SCHED_EV_REQUEUED_DEADLINE, j->id, SCHED_PHOTON_TASK | b,
+                     j->ptasks[b].attempt, j->ptasks[b].owner);
                 requeue(self, j, SCHED_PHOTON_TASK | b);
                 requeued++;
             }
@@ -897,6 +1007,7 @@ int sched_job_info(const sched_t *self, uint64_t id, sched_job_info_t *out)
         .nonfinite = tilebuf_nonfinite(j->image),
         .tasks_total = (uint32_t)(j->ntiles * j->npasses) + j->nphoton, .tasks_done = j->tasks_done,
         .tasks_running = running, .photon_batches = j->nphoton, .photon_batches_done = j->photon_done,
+        .priority = j->priority, .paused = j->paused,
     };
     snprintf(out->error, sizeof out->error, "%s", j->error);
     return 0;
@@ -919,9 +1030,120 @@ size_t sched_workers(const sched_t *self, sched_worker_info_t *out, size_t max)
 {
     for (size_t i = 0; i < self->nworkers && i < max; i++) {
         const worker_t *w = &self->workers[i];
+        uint32_t nblocked = 0;
+        for (size_t k = 0; k < self->njobs; k++)
+            nblocked += (self->jobs[k]->state == JOB_QUEUED || self->jobs[k]->state == JOB_RUNNING) &&
+                        blocked(self, self->jobs[k], w->id);
         out[i] = (sched_worker_info_t){.id = w->id, .slots = w->slots, .busy = w->busy,
                                        .tasks_done = w->tasks_done, .tasks_failed = w->tasks_failed,
-                                       .last_seen = w->last_seen, .alive = w->alive};
+                                       .last_seen = w->last_seen, .alive = w->alive,
+                                       .blocked = w->blocked, .fail_streak = w->fail_streak,
+                                       .blocked_jobs = nblocked};
     }
     return self->nworkers;
+}
+
+/* ---------------------------------------------------------------- operations */
+
+int sched_set_job_priority(sched_t *self, uint64_t id, int priority, err_t *err)
+{
+    job_t *j = find_job(self, id);
+    if (!j)
+        return err_set(err, "no job %llu", (unsigned long long)id);
+    if (priority < SCHED_PRIORITY_MIN || priority > SCHED_PRIORITY_MAX)
+        return err_set(err, "priority %d is outside %d..%d", priority, SCHED_PRIORITY_MIN,
+                       SCHED_PRIORITY_MAX);
+    j->priority = priority;
+    return 0;
+}
+
+int sched_set_job_owner(sched_t *self, uint64_t id, const char *owner, err_t *err)
+{
+    job_t *j = find_job(self, id);
+    if (!j)
+        return err_set(err, "no job %llu", (unsigned long long)id);
+    if (!owner)
+        owner = "";
+    if (strlen(owner) >= SCHED_OWNER_MAX)
+        return err_set(err, "owner name '%.40s...' is longer than %d bytes", owner,
+                       SCHED_OWNER_MAX - 1);
+    size_t o = 0;
+    while (o < self->nowners && strcmp(self->owners[o].name, owner) != 0)
+        o++;
+    if (o == self->nowners) {
+        if (self->nowners == self->cap_owners) {
+            size_t cap = self->cap_owners ? 2 * self->cap_owners : 8;
+            owner_t *p = realloc(self->owners, cap * sizeof *p);
+            if (!p)
+                return err_set(err, "out of memory");
+            self->owners = p;
+            self->cap_owners = cap;
+        }
+        self->owners[o] = (owner_t){0};
+        snprintf(self->owners[o].name, sizeof self->owners[o].name, "%s", owner);
+        self->nowners++;
+    }
+    j->owner = (uint32_t)o;
+    return 0;
+}
+
+int sched_pause_job(sched_t *self, uint64_t id, bool paused, err_t *err)
+{
+    job_t *j = find_job(self, id);
+    if (!j)
+        return err_set(err, "no job %llu", (unsigned long long)id);
+    if (j->state != JOB_QUEUED && j->state != JOB_RUNNING)
+        return err_set(err, "job %llu is %s: only a queued or running job can be %s",
+                       (unsigned long long)id, job_state_name(j->state),
+                       paused ? "paused" : "resumed");
+    j->paused = paused;
+    return 0;
+}
+
+int sched_requeue_task(sched_t *self, uint64_t id, uint32_t task, err_t *err)
+{
+    job_t *j = find_job(self, id);
+    if (!j)
+        return err_set(err, "no job %llu", (unsigned long long)id);
+    if (j->state != JOB_QUEUED && j->state != JOB_RUNNING)
+        return err_set(err, "job %llu is %s: its tasks are no longer handed out",
+                       (unsigned long long)id, job_state_name(j->state));
+    task_t *t = task_of(j, task);
+    if (!t)
+        return err_set(err, "job %llu has no task %u (camera tasks 0..%u%s)",
+                       (unsigned long long)id, task, ncamera(j) - 1,
+                       j->nphoton ? ", photon batches from 2147483648" : "");
+    if (t->state == TASK_DONE)
+        return err_set(err, "job %llu task %u is done: its result is merged (or held for its "
+                            "pass), so rendering it again would add nothing",
+                       (unsigned long long)id, task);
+    if (t->state == TASK_PENDING)
+        return err_set(err, "job %llu task %u is waiting in the queue already",
+                       (unsigned long long)id, task);
+    uint64_t holder = t->owner;
+    requeue(self, j, task);
+    /* By hand: the task starts its retries afresh (the operator saw why it was stuck), on
+     * another worker than the one it was stuck on. */
+    t->failures = 0;
+    t->avoid = holder;
+    emit(self, SCHED_EV_REQUEUED_BY_HAND, j->id, task, t->attempt, holder);
+    return 0;
+}
+
+int sched_worker_block(sched_t *self, uint64_t worker, bool blocked_, err_t *err)
+{
+    worker_t *w = find_worker(self, worker);
+    if (!w)
+        return err_set(err, "no worker %llu", (unsigned long long)worker);
+    w->blocked = blocked_;
+    w->fail_streak = 0;
+    if (!blocked_)
+        /* Unblocked: its strikes against each job go too, so that it serves every job again. */
+        for (size_t k = 0; k < self->njobs; k++) {
+            job_t *j = self->jobs[k];
+            for (size_t i = 0; i < j->nstrikes; i++)
+                if (j->strikes[i].worker == worker)
+                    j->strikes[i].failures = 0;
+        }
+    return 0;
 }

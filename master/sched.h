@@ -7,7 +7,16 @@
  * what or when results arrived; a job that may end early merges whole passes only and can be
  * ended at any pass boundary (sched_set_whole_passes). Lost workers, missed deadlines and
  * repeated failures are handled here: tasks go back to the queue, workers get blocked for a
- * job, jobs fail with the error text. Time is passed in by the caller (seconds, monotonic), so tests can drive it. */
+ * job, jobs fail with the error text. Time is passed in by the caller (seconds, monotonic), so tests can drive it.
+ *
+ * Priorities and fair share (docs/farm.md, "Operating a farm"): one function (pick_job in
+ * sched.c) decides whose task goes next -- the highest priority first; among equal priorities
+ * the owner with the fewest tasks running over all its jobs; then the oldest job. A paused job
+ * gives no new task (those running finish and are merged). A worker that fails
+ * max_worker_failures_in_row tasks in a row, of any jobs, is blocked from every job until
+ * sched_worker_block lifts it; one that fails max_worker_job_failures tasks of one job is
+ * blocked from that job only. What the caller should log (re-issues, blocks, a job failed by
+ * its retry limit) is queued as events (sched_events_take). Scheduling never changes pixels. */
 #ifndef PRISMFARM_SCHED_H
 #define PRISMFARM_SCHED_H
 
@@ -33,6 +42,9 @@ typedef struct sched_config {
      * threads and never answers holds a few tasks for one deadline, not a job. */
     int claim_start;
     int tile_size;                /* default 32 */
+    /* A worker failing this many tasks in a row (any jobs; a returned task breaks the row) is
+     * blocked from every job until unblocked (default 5; 0: never). */
+    int max_worker_failures_in_row;
 } sched_config_t;
 
 sched_config_t sched_config_default(void);
@@ -68,14 +80,20 @@ typedef struct sched_job_info {
     uint64_t nonfinite;
     uint32_t tasks_total, tasks_done, tasks_running; /* photon batches included */
     uint32_t photon_batches, photon_batches_done;
+    int priority; /* sched_set_job_priority; 0 by default */
+    bool paused;
     char error[512];
 } sched_job_info_t;
+
+#define SCHED_PRIORITY_MIN (-1000)
+#define SCHED_PRIORITY_MAX 1000
+#define SCHED_OWNER_MAX 72 /* bytes of an owner's name with its NUL: a key's name (proto_peer_t) */
 
 sched_t *sched_new(const sched_config_t *cfg, err_t *err);
 void sched_destroy(sched_t **self_p);
 
-/* A new job of xres x yres pixels, spp samples each, with the given spectral grid. Jobs run
- * in the order they were added. */
+/* A new job of xres x yres pixels, spp samples each, with the given spectral grid: priority 0,
+ * owner "", not paused. Among jobs of equal priority and owner, the oldest runs first. */
 int sched_add_job(sched_t *self, uint64_t job, int xres, int yres, int spp, spectral_grid_t grid,
                   err_t *err);
 /* Adds photon batches to a job that has not started (0..n-1 after any it has): its camera
@@ -180,8 +198,47 @@ typedef struct sched_worker_info {
     uint64_t tasks_done, tasks_failed;
     double last_seen;
     bool alive;
+    bool blocked;          /* from every job (sched_worker_block, or failures in a row) */
+    uint32_t fail_streak;  /* failures since it last returned a task */
+    uint32_t blocked_jobs; /* unfinished jobs it is blocked from by its failures of them */
 } sched_worker_info_t;
 size_t sched_workers(const sched_t *self, sched_worker_info_t *out, size_t max);
+
+/* Operations on a job, for the master's client requests and dashboard actions. */
+/* Higher runs first; SCHED_PRIORITY_MIN..MAX. */
+int sched_set_job_priority(sched_t *self, uint64_t job, int priority, err_t *err);
+/* Who the job belongs to for fair share (a key's name; "" without keys). */
+int sched_set_job_owner(sched_t *self, uint64_t job, const char *owner, err_t *err);
+/* A paused job gives no task; the running ones finish and are merged. Only a queued or running
+ * job. */
+int sched_pause_job(sched_t *self, uint64_t job, bool paused, err_t *err);
+/* A running task back to the queue by hand (stuck on a worker): issued again with a new attempt
+ * to any worker but the one it was stuck on (whose result, the same bytes, is still accepted)
+ * and its failures forgotten. A pending or done task is an error saying so. */
+int sched_requeue_task(sched_t *self, uint64_t job, uint32_t task, err_t *err);
+/* Blocks or unblocks a worker from every job; unblocking also forgets its failures of each job
+ * (so it serves the jobs it was blocked from) and its failures in a row. */
+int sched_worker_block(sched_t *self, uint64_t worker, bool blocked, err_t *err);
+
+typedef enum sched_event_kind {
+    SCHED_EV_REQUEUED_DEADLINE, /* the task missed its deadline on worker: back to the queue */
+    SCHED_EV_REQUEUED_LOST,     /* worker was lost (or joined again) holding the task */
+    SCHED_EV_REQUEUED_BY_HAND,  /* sched_requeue_task; worker held it */
+    SCHED_EV_WORKER_BLOCKED_JOB, /* worker failed the job's tasks max_worker_job_failures times */
+    SCHED_EV_WORKER_BLOCKED,     /* worker failed max_worker_failures_in_row tasks in a row */
+    SCHED_EV_JOB_FAILED,         /* the task failed max_task_failures times: the job failed */
+} sched_event_kind_t;
+
+typedef struct sched_event {
+    sched_event_kind_t kind;
+    uint64_t job;
+    uint32_t task, attempt; /* the attempt the event concerns */
+    uint64_t worker;
+} sched_event_t;
+
+/* Moves up to max events, oldest first, into out; returns how many. *dropped (may be NULL) gets
+ * the events lost since the last call because more than 4096 waited. */
+size_t sched_events_take(sched_t *self, sched_event_t *out, size_t max, uint64_t *dropped);
 
 const char *job_state_name(job_state_t s);
 

@@ -28,7 +28,13 @@ struct net {
     net_link_t link; /* what those events said last */
     bool transport_up;     /* a connection is made and its handshake is under way */
     char why[256];
+    net_stats_t stats;
 };
+
+net_stats_t net_stats(const net_t *self)
+{
+    return self->stats;
+}
 
 net_options_t net_options_default(void)
 {
@@ -483,6 +489,8 @@ int net_recv(net_t *self, proto_peer_t *from, proto_msg_t *out, int timeout_ms,
         const char *user = zmq_msg_gets(&body, "User-Id");
         snprintf(from->user, sizeof from->user, "%s", user ? user : "");
     }
+    self->stats.messages_received++;
+    self->stats.bytes_received += zmq_msg_size(&body);
     int extra = drain(self->sock);
     int rc;
     if (extra > 0) {

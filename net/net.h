@@ -113,4 +113,11 @@ int net_send(net_t *self, const proto_peer_t *to, const proto_msg_t *msg, err_t 
 int net_recv(net_t *self, proto_peer_t *from, proto_msg_t *out, int timeout_ms,
                    err_t *err);
 
+/* What net_recv has taken off the socket since net_new: messages and their bytes (the body,
+ * before decoding; malformed ones included). */
+typedef struct net_stats {
+    uint64_t messages_received, bytes_received;
+} net_stats_t;
+net_stats_t net_stats(const net_t *self);
+
 #endif

@@ -39,13 +39,20 @@ static const char *const TYPE_NAMES[PROTO_TYPE_COUNT] = {
     [PROTO_STORE_REQUEST] = "STORE_REQUEST",
     [PROTO_STORE] = "STORE",
     [PROTO_REFINE] = "REFINE",
+    [PROTO_ACT] = "ACT",
+    [PROTO_LOGS] = "LOGS",
+    [PROTO_METRICS] = "METRICS",
 };
 static const char *const KIND_NAMES[PROTO_KIND_COUNT] = {
     [PROTO_KIND_NONE] = "none", [PROTO_KIND_CAMERA_TILE] = "camera_tile",
     [PROTO_KIND_PHOTON_BATCH] = "photon_batch"};
+static const char *const ACT_NAMES[PROTO_ACT_COUNT] = {"none",    "priority", "pause",
+                                                       "resume",  "requeue",  "unblock"};
 static const char *const JOB_STATE_NAMES[PROTO_JOB_STATE_COUNT] = {"queued", "running", "done",
-                                                                   "failed", "cancelled"};
-static const char *const WORKER_STATE_NAMES[PROTO_WORKER_STATE_COUNT] = {"idle", "busy", "lost"};
+                                                                   "failed", "cancelled",
+                                                                   "paused"};
+static const char *const WORKER_STATE_NAMES[PROTO_WORKER_STATE_COUNT] = {"idle", "busy", "lost",
+                                                                         "blocked"};
 static const char *const FETCH_NAMES[PROTO_FETCH_COUNT] = {"exr", "png"};
 static const char *const STOP_NAMES[PROTO_STOP_COUNT] = {"none", "target", "time"};
 
@@ -77,6 +84,10 @@ const char *proto_fetch_what_name(proto_fetch_what_t w)
 const char *proto_stop_name(proto_stop_t s)
 {
     return name_of(STOP_NAMES, PROTO_STOP_COUNT, (int)s);
+}
+const char *proto_act_name(proto_act_t a)
+{
+    return name_of(ACT_NAMES, PROTO_ACT_COUNT, (int)a);
 }
 
 proto_msg_t proto_refuse_version(int peer_version, const char *role, err_t *text)
@@ -247,7 +258,8 @@ struct shape {
 /* Enums are read and written as the int they are. */
 _Static_assert(sizeof(proto_kind_t) == sizeof(int) && sizeof(proto_job_state_t) == sizeof(int) &&
                    sizeof(proto_worker_state_t) == sizeof(int) &&
-                   sizeof(proto_fetch_what_t) == sizeof(int) && sizeof(proto_stop_t) == sizeof(int),
+                   sizeof(proto_fetch_what_t) == sizeof(int) && sizeof(proto_stop_t) == sizeof(int) &&
+                   sizeof(proto_act_t) == sizeof(int),
                "enum fields are accessed as int");
 
 /* Pointer members have many types (const double *, const proto_job_info_t *, ...): they are
@@ -406,6 +418,14 @@ static int ck_hash(const cx_t *cx, const field_t *f, const void *obj)
             return cx_fail(cx, f->key, "is not %d lower-case hex digits (SHA-256)", PROTO_HASH_HEX);
     if (h[PROTO_HASH_HEX] != 0)
         return cx_fail(cx, f->key, "is longer than %d hex digits", PROTO_HASH_HEX);
+    return 0;
+}
+
+static int ck_rate(const cx_t *cx, const field_t *f, const void *obj)
+{
+    double v = CVALUE(double, obj, f->at);
+    if (!isfinite(v) || v < 0)
+        return cx_fail(cx, f->key, "is %g, expected a finite rate >= 0", v);
     return 0;
 }
 
@@ -627,6 +647,7 @@ static const names_t JOB_STATES = {JOB_STATE_NAMES, PROTO_JOB_STATE_COUNT, 0};
 static const names_t WORKER_STATES = {WORKER_STATE_NAMES, PROTO_WORKER_STATE_COUNT, 0};
 static const names_t FETCH_WHATS = {FETCH_NAMES, PROTO_FETCH_COUNT, 0};
 static const names_t STOPS = {STOP_NAMES, PROTO_STOP_COUNT, PROTO_STOP_TARGET};
+static const names_t ACTS = {ACT_NAMES, PROTO_ACT_COUNT, PROTO_ACT_PRIORITY};
 
 #define SET(m) offsetof(proto_settings_t, m)
 static const field_t SETTINGS_FIELDS[] = {
@@ -761,6 +782,8 @@ static const field_t JOB_FIELDS[] = {
     {F("rmse", FT_FLOAT, JI(rel_error)), .presence = IF_FLAG, .flag = JI(has_rel_error),
      .check = ck_rel_error},
     {F("stop", FT_ENUM, JI(stop)), .presence = UNLESS_ZERO, ENUM(STOPS)},
+    {F("prio", FT_SINT, JI(priority)), .presence = UNLESS_ZERO, .absent = "priority 0",
+     RANGE(-PROTO_MAX_PRIORITY, PROTO_MAX_PRIORITY)},
 };
 static const shape_t JOB_INFO = {SHAPE(proto_job_info_t, JOB_FIELDS, NULL)};
 
@@ -772,6 +795,11 @@ static const field_t WORKER_FIELDS[] = {
     {F("state", FT_ENUM, WI(state)), ENUM(WORKER_STATES)},
     {F("done", FT_U64, WI(tasks_done))},
     {F("seen", FT_FLOAT, WI(last_seen)), .check = ck_seconds},
+    {F("failed", FT_U64, WI(tasks_failed)), .presence = UNLESS_ZERO, .absent = "none"},
+    {F("streak", FT_U32, WI(fail_streak)), .presence = UNLESS_ZERO, .absent = "none"},
+    {F("bjobs", FT_U32, WI(blocked_jobs)), .presence = UNLESS_ZERO, .absent = "none"},
+    {F("sps", FT_FLOAT, WI(samples_per_s)), .presence = UNLESS_ZERO, .absent = "none",
+     .check = ck_rate},
 };
 static const shape_t WORKER_INFO = {SHAPE(proto_worker_info_t, WORKER_FIELDS, NULL)};
 
@@ -853,6 +881,8 @@ static const field_t SUBMIT_FIELDS[] = {
     {F("name", FT_STR, M(submit.name)), NAME(PROTO_MAX_STRING)},
     {F("set", FT_MAP, M(submit.settings)), .sub = &SETTINGS},
     {F("bundle", FT_MAP, M(submit.bundle)), .sub = &BUNDLE},
+    {F("prio", FT_SINT, M(submit.priority)), .presence = UNLESS_ZERO, .absent = "priority 0",
+     RANGE(-PROTO_MAX_PRIORITY, PROTO_MAX_PRIORITY)},
 };
 static const field_t STATUS_FIELDS[] = {
     {F("job", FT_U64, M(status.job)), .presence = UNLESS_FLAG, .flag = M(status.all)},
@@ -893,8 +923,19 @@ static const field_t REFINE_FIELDS[] = {
     {F("job", FT_U64, M(refine.job))},
     {F("photons", FT_U64, M(refine.photons)), .check = ck_photon_count},
 };
+static const field_t ACT_FIELDS[] = {
+    {F("act", FT_ENUM, M(act.act)), ENUM(ACTS)},
+    {F("job", FT_U64, M(act.job)), .presence = UNLESS_ZERO, .absent = "no job"},
+    {F("task", FT_U32, M(act.task))},
+    {F("prio", FT_SINT, M(act.priority)), RANGE(-PROTO_MAX_PRIORITY, PROTO_MAX_PRIORITY)},
+    {F("worker", FT_STR, M(act.worker)), .presence = UNLESS_ZERO, NAME(PROTO_MAX_STRING)},
+};
+static const field_t LOGS_FIELDS[] = {
+    {F("job", FT_U64, M(logs.job))},
+    {F("task", FT_U32, M(logs.task)), .presence = IF_FLAG, .flag = M(logs.has_task)},
+};
 
-/* HEARTBEAT, JOBS and WORKERS have no fields: their entries stay zero. */
+/* HEARTBEAT, JOBS, WORKERS and METRICS have no fields: their entries stay zero. */
 #define BODY(fields, rule) SHAPE(proto_msg_t, fields, rule)
 static const shape_t BODIES[PROTO_TYPE_COUNT] = {
     [PROTO_HELLO] = {BODY(HELLO_FIELDS, NULL)},
@@ -918,6 +959,8 @@ static const shape_t BODIES[PROTO_TYPE_COUNT] = {
     [PROTO_STORE_REQUEST] = {BODY(STORE_REQUEST_FIELDS, NULL)},
     [PROTO_STORE] = {BODY(STORE_FIELDS, ck_store_hash)},
     [PROTO_REFINE] = {BODY(REFINE_FIELDS, NULL)},
+    [PROTO_ACT] = {BODY(ACT_FIELDS, NULL)},
+    [PROTO_LOGS] = {BODY(LOGS_FIELDS, NULL)},
 };
 
 /* The body of a message type, NULL for none (PROTO_NONE, out of range). */

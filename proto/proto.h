@@ -56,6 +56,10 @@ typedef enum proto_type {
     PROTO_STORE_REQUEST, /* worker -> master: send me this photon store */
     PROTO_STORE,         /* master -> worker: a job's merged photon store */
     PROTO_REFINE,        /* client -> master: more photons for a job; answered by SUBMITTED */
+    /* operating a farm (docs/farm.md, "Operating a farm") */
+    PROTO_ACT,     /* client -> master: priority, pause, resume, requeue, unblock */
+    PROTO_LOGS,    /* client -> master: a job's task log; answered by FILE */
+    PROTO_METRICS, /* client -> master: the Prometheus text; answered by FILE */
     PROTO_TYPE_COUNT
 } proto_type_t;
 
@@ -74,6 +78,7 @@ typedef enum proto_job_state {
     PROTO_JOB_DONE,
     PROTO_JOB_FAILED,
     PROTO_JOB_CANCELLED,
+    PROTO_JOB_PAUSED, /* queued or running, paused: no new task is handed out */
     PROTO_JOB_STATE_COUNT
 } proto_job_state_t;
 
@@ -81,6 +86,7 @@ typedef enum proto_worker_state {
     PROTO_WORKER_IDLE,
     PROTO_WORKER_BUSY,
     PROTO_WORKER_LOST, /* stopped heartbeating; its tasks went back to the queue */
+    PROTO_WORKER_BLOCKED, /* connected, but given no task (failures in a row; `unblock`) */
     PROTO_WORKER_STATE_COUNT
 } proto_worker_state_t;
 
@@ -91,6 +97,20 @@ typedef enum proto_stop {
     PROTO_STOP_TIME,   /* "time": the settings' time_limit passed */
     PROTO_STOP_COUNT
 } proto_stop_t;
+
+/* What an ACT asks of the master; answered by STATUS_REPLY with the job (priority, pause,
+ * resume, requeue) or WORKERS_REPLY (unblock), or ERROR. */
+typedef enum proto_act {
+    PROTO_ACT_NONE,
+    PROTO_ACT_PRIORITY, /* "priority": the job's priority becomes .priority */
+    PROTO_ACT_PAUSE,    /* "pause" */
+    PROTO_ACT_RESUME,   /* "resume" */
+    PROTO_ACT_REQUEUE,  /* "requeue": the job's running task .task back to the queue */
+    PROTO_ACT_UNBLOCK,  /* "unblock": the worker named .worker (its name or id) */
+    PROTO_ACT_COUNT
+} proto_act_t;
+
+#define PROTO_MAX_PRIORITY 1000 /* priorities are -1000..1000 */
 
 typedef enum proto_fetch_what {
     PROTO_FETCH_EXR,
@@ -175,6 +195,7 @@ typedef struct proto_job_info {
     bool has_rel_error;
     double rel_error; /* finite, >= 0 */
     proto_stop_t stop;
+    long long priority; /* -PROTO_MAX_PRIORITY..PROTO_MAX_PRIORITY; absent on the wire: 0 */
 } proto_job_info_t;
 
 typedef struct proto_worker_info {
@@ -184,6 +205,11 @@ typedef struct proto_worker_info {
     proto_worker_state_t state;
     uint64_t tasks_done;
     double last_seen; /* seconds since its last message, finite, >= 0 */
+    /* Optional on the wire (absent: 0): tasks it failed, its failures since it last returned a
+     * task, the unfinished jobs it is blocked from, and its samples per second lately. */
+    uint64_t tasks_failed;
+    uint32_t fail_streak, blocked_jobs;
+    double samples_per_s; /* finite, >= 0 */
 } proto_worker_info_t;
 
 /* One message. To send, fill the member named after the type and call proto_encode; pointers are
@@ -193,7 +219,7 @@ typedef struct proto_worker_info {
 typedef struct proto_msg {
     proto_type_t type;
     int version; /* decode: the sender's; encode: 0 means PROTO_VERSION (others only for tests) */
-    /* HEARTBEAT (both ways), JOBS and WORKERS (client -> master) have no fields. */
+    /* HEARTBEAT (both ways), JOBS, WORKERS and METRICS (client -> master) have no fields. */
     union {
         struct {
             const char *name;
@@ -246,6 +272,7 @@ typedef struct proto_msg {
             const char *name;
             proto_settings_t settings;
             proto_bundle_t bundle;
+            long long priority; /* -PROTO_MAX_PRIORITY..PROTO_MAX_PRIORITY; absent: 0 */
         } submit; /* client -> master */
         struct {
             bool all;
@@ -288,6 +315,18 @@ typedef struct proto_msg {
             uint64_t job;
             uint64_t photons; /* photons to add to the job's photon pass, > 0 */
         } refine;             /* client -> master */
+        struct {
+            proto_act_t act;
+            uint64_t job;       /* every act but unblock */
+            uint32_t task;      /* requeue */
+            long long priority; /* priority */
+            const char *worker; /* unblock: a worker's name or id */
+        } act;                  /* client -> master */
+        struct {
+            uint64_t job;
+            bool has_task;
+            uint32_t task; /* when has_task: that task's lines only */
+        } logs;            /* client -> master; answered by FILE */
     };
     struct proto_owned *owned; /* private: what proto_decode allocated */
 } proto_msg_t;
@@ -318,6 +357,7 @@ const char *proto_job_state_name(proto_job_state_t state);   /* "queued", "runni
 const char *proto_worker_state_name(proto_worker_state_t s); /* "idle", "busy", "lost" */
 const char *proto_fetch_what_name(proto_fetch_what_t what);  /* "exr", "png" */
 const char *proto_stop_name(proto_stop_t stop);              /* "none", "target", "time" */
+const char *proto_act_name(proto_act_t act);                 /* "priority", "pause", ... */
 
 /* A REFUSE for a peer that speaks peer_version, its reason written into *text:
  * "protocol version 2 not supported by this master (speaks 1)". role names the refuser. */

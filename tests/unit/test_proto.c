@@ -46,18 +46,20 @@ static char g_hash[PROTO_HASH_HEX + 1];
 
 static const proto_job_info_t g_jobs[] = {
     /* running, 4 spp merged, an estimate of 1/16 (exact in binary) */
-    {1, "prism", PROTO_JOB_RUNNING, 1000, 65536, 12.5, NULL, 3, 4, true, 0.0625, PROTO_STOP_NONE},
+    {1, "prism", PROTO_JOB_RUNNING, 1000, 65536, 12.5, NULL, 3, 4, true, 0.0625, PROTO_STOP_NONE,
+     -1000},
     {2, "gem fire", PROTO_JOB_FAILED, 7, 100, 0.0, "worker w1: scene.pbrt:3: unknown shape", 0, 0,
-     false, 0, PROTO_STOP_NONE},
+     false, 0, PROTO_STOP_NONE, 0},
     {UINT64_MAX, "x", PROTO_JOB_CANCELLED, 0, 0, 1e9, NULL, UINT64_MAX, 0, false, 0,
-     PROTO_STOP_NONE},
+     PROTO_STOP_NONE, 0},
     /* done early: 64 of 1024 spp reached the target; an estimate of exactly 0 travels too */
     {4, "prism fast", PROTO_JOB_DONE, 64 * 96, 1024 * 96, 0.75, NULL, 0, 64, true, 0.0,
-     PROTO_STOP_TARGET},
+     PROTO_STOP_TARGET, 3},
 };
 static const proto_worker_info_t g_workers[] = {
-    {"node01", 7, 64, PROTO_WORKER_BUSY, 1234, 0.25},
-    {"node02", 8, 1, PROTO_WORKER_LOST, 0, 31.0},
+    {"node01", 7, 64, PROTO_WORKER_BUSY, 1234, 0.25, 0, 0, 0, 0},
+    {"node02", 8, 1, PROTO_WORKER_LOST, 0, 31.0, 0, 0, 0, 0},
+    {"node03", 9, 4, PROTO_WORKER_BLOCKED, 3, 0.5, 12, 5, 2, 1.5e6},
 };
 static const uint8_t g_png[] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n', 0};
 
@@ -170,7 +172,7 @@ static proto_msg_t sample(proto_type_t t)
         break;
     case PROTO_WORKERS_REPLY:
         m.workers_reply.workers = g_workers;
-        m.workers_reply.nworkers = 2;
+        m.workers_reply.nworkers = 3;
         break;
     case PROTO_FILE:
         m.file.name = "prism.png";
@@ -186,6 +188,16 @@ static proto_msg_t sample(proto_type_t t)
     case PROTO_REFINE:
         m.refine.job = 12;
         m.refine.photons = 5000000;
+        break;
+    case PROTO_ACT:
+        m.act.act = PROTO_ACT_PRIORITY;
+        m.act.job = 12;
+        m.act.priority = -7;
+        break;
+    case PROTO_LOGS:
+        m.logs.job = 12;
+        m.logs.has_task = true;
+        m.logs.task = 0;
         break;
     case PROTO_STORE:
         m.store.data = g_png;
@@ -366,6 +378,7 @@ static void assert_msg_equal(const proto_msg_t *a, const proto_msg_t *b)
             assert_int_equal(x->has_rel_error, y->has_rel_error);
             assert_true(!x->has_rel_error || x->rel_error == y->rel_error);
             assert_int_equal(x->stop, y->stop);
+            assert_true(x->priority == y->priority);
         }
         break;
     case PROTO_WORKERS_REPLY:
@@ -379,6 +392,10 @@ static void assert_msg_equal(const proto_msg_t *a, const proto_msg_t *b)
             assert_int_equal(x->state, y->state);
             assert_int_equal(x->tasks_done, y->tasks_done);
             assert_true(x->last_seen == y->last_seen);
+            assert_int_equal(x->tasks_failed, y->tasks_failed);
+            assert_int_equal(x->fail_streak, y->fail_streak);
+            assert_int_equal(x->blocked_jobs, y->blocked_jobs);
+            assert_true(x->samples_per_s == y->samples_per_s);
         }
         break;
     case PROTO_FILE:
@@ -395,6 +412,18 @@ static void assert_msg_equal(const proto_msg_t *a, const proto_msg_t *b)
     case PROTO_REFINE:
         assert_int_equal(a->refine.job, b->refine.job);
         assert_int_equal(a->refine.photons, b->refine.photons);
+        break;
+    case PROTO_ACT:
+        assert_int_equal(a->act.act, b->act.act);
+        assert_int_equal(a->act.job, b->act.job);
+        assert_int_equal(a->act.task, b->act.task);
+        assert_true(a->act.priority == b->act.priority);
+        assert_true((a->act.worker == NULL) == (b->act.worker == NULL));
+        break;
+    case PROTO_LOGS:
+        assert_int_equal(a->logs.job, b->logs.job);
+        assert_int_equal(a->logs.has_task, b->logs.has_task);
+        assert_int_equal(a->logs.task, b->logs.task);
         break;
     case PROTO_STORE:
         assert_string_equal(a->store.store, b->store.store);

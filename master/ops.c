@@ -1,0 +1,350 @@
+#define _POSIX_C_SOURCE 200809L /* access */
+#include "ops.h"
+
+#include "jobs.h"
+#include "peers.h"
+#include "persist.h"
+
+#include <errno.h>
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+/* How a key shows in logs. */
+static const char *who_name(const master_actor_t *who)
+{
+    return who && who->name && who->name[0] ? who->name : "(no key)";
+}
+
+master_actor_t ops_actor_of_peer(const master_t *m, const proto_peer_t *peer)
+{
+    master_actor_t a = {.name = peer->user, .admin = false};
+    const master_opts_t *o = m->opts;
+    if (!o->authorized_clients_dir && !o->authorized_admins_dir) {
+        a.admin = true; /* no roles: every client holds every right */
+    } else if (o->authorized_admins_dir && peer->user[0]) {
+        char path[PATH_MAX];
+        int n = snprintf(path, sizeof path, "%s/%s.pub", o->authorized_admins_dir, peer->user);
+        a.admin = n > 0 && (size_t)n < sizeof path && !strchr(peer->user, '/') &&
+                  access(path, F_OK) == 0;
+    }
+    return a;
+}
+
+bool ops_may_act(const master_t *m, const mjob_t *j, const master_actor_t *who, err_t *err)
+{
+    (void)m;
+    if (who->admin || !strcmp(j->ops.owner, who->name ? who->name : ""))
+        return true;
+    err_set(err, "job %llu belongs to '%s': only its owner or an admin may change it",
+            (unsigned long long)j->id, j->ops.owner[0] ? j->ops.owner : "(no key)");
+    return false;
+}
+
+static mworker_t *worker_by_id(const master_t *m, uint64_t id)
+{
+    for (size_t i = 0; i < m->nworkers; i++)
+        if (m->workers[i]->id == id)
+            return m->workers[i];
+    return NULL;
+}
+
+/* "task 17 (pass 0, tile 17)", "task 2147483650 (photon batch 2)". */
+static const char *task_str(const mjob_t *j, uint32_t task, char *buf, size_t size)
+{
+    if (task & SCHED_PHOTON_TASK)
+        snprintf(buf, size, "task %u (photon batch %u)", task, task & ~SCHED_PHOTON_TASK);
+    else if (j && j->sched.ntiles > 0)
+        snprintf(buf, size, "task %u (pass %u, tile %u)", task, task / (uint32_t)j->sched.ntiles,
+                 task % (uint32_t)j->sched.ntiles);
+    else
+        snprintf(buf, size, "task %u", task);
+    return buf;
+}
+
+/* The job, if it exists, who may act on it and it is still in the scheduler. */
+static mjob_t *job_to_act_on(master_t *m, uint64_t id, const master_actor_t *who,
+                             const char *what, err_t *err)
+{
+    mjob_t *j = jobs_find(m, id);
+    if (!j) {
+        err_set(err, "no job %llu", (unsigned long long)id);
+        return NULL;
+    }
+    if (!ops_may_act(m, j, who, err)) {
+        master_log(m, "%s of job %llu by %s refused: %s", what, (unsigned long long)id,
+                   who_name(who), err->msg);
+        return NULL;
+    }
+    if (job_over(j) || !j->sched.known) {
+        err_set(err, "job %llu is %s: only a queued or running job can be changed",
+                (unsigned long long)id, job_state_name(j->state));
+        return NULL;
+    }
+    return j;
+}
+
+static void journal_control(master_t *m, mjob_t *j)
+{
+    err_t err;
+    if (m->journal &&
+        journal_set_control(m->journal, j->id, j->ops.priority, j->ops.paused, &err) < 0)
+        persist_failed(m, j, &err);
+}
+
+int master_job_set_priority(master_t *m, uint64_t id, int priority, const master_actor_t *who,
+                            err_t *err)
+{
+    mjob_t *j = job_to_act_on(m, id, who, "a priority change", err);
+    if (!j || sched_set_job_priority(m->sched, id, priority, err) < 0)
+        return -1;
+    int old = j->ops.priority;
+    j->ops.priority = priority;
+    journal_control(m, j);
+    master_log(m, "job %llu priority %d -> %d by %s", (unsigned long long)id, old, priority,
+               who_name(who));
+    tasklog_add(m->tasklog, id, "job priority %d -> %d by %s", old, priority, who_name(who));
+    return 0;
+}
+
+static int set_paused(master_t *m, uint64_t id, bool paused, const master_actor_t *who,
+                      err_t *err)
+{
+    mjob_t *j = job_to_act_on(m, id, who, paused ? "a pause" : "a resume", err);
+    if (!j)
+        return -1;
+    if (j->ops.paused == paused)
+        return err_set(err, "job %llu is %s already", (unsigned long long)id,
+                       paused ? "paused" : "not paused");
+    if (sched_pause_job(m->sched, id, paused, err) < 0)
+        return -1;
+    j->ops.paused = paused;
+    journal_control(m, j);
+    sched_job_info_t info;
+    uint32_t running = sched_job_info(m->sched, id, &info) == 0 ? info.tasks_running : 0;
+    if (paused) {
+        master_log(m, "job %llu paused by %s (%u tasks running finish first)",
+                   (unsigned long long)id, who_name(who), running);
+        tasklog_add(m->tasklog, id, "job paused by %s: %u running tasks finish, no more start",
+                    who_name(who), running);
+    } else {
+        master_log(m, "job %llu resumed by %s", (unsigned long long)id, who_name(who));
+        tasklog_add(m->tasklog, id, "job resumed by %s", who_name(who));
+    }
+    return 0;
+}
+
+int master_job_pause(master_t *m, uint64_t id, const master_actor_t *who, err_t *err)
+{
+    return set_paused(m, id, true, who, err);
+}
+
+int master_job_resume(master_t *m, uint64_t id, const master_actor_t *who, err_t *err)
+{
+    return set_paused(m, id, false, who, err);
+}
+
+int master_task_requeue(master_t *m, uint64_t id, uint32_t task, const master_actor_t *who,
+                        err_t *err)
+{
+    mjob_t *j = job_to_act_on(m, id, who, "a requeue", err);
+    if (!j || sched_requeue_task(m->sched, id, task, err) < 0)
+        return -1;
+    char t[80];
+    master_log(m, "job %llu %s requeued by %s", (unsigned long long)id,
+               task_str(j, task, t, sizeof t), who_name(who));
+    tasklog_add(m->tasklog, id, "%s requeued by %s", task_str(j, task, t, sizeof t),
+                who_name(who));
+    return 0;
+}
+
+/* ---------------------------------------------------------------- the blocklist */
+
+static size_t blocked_index(const master_t *m, const char *name)
+{
+    for (size_t i = 0; i < m->blocked.n; i++)
+        if (!strcmp(m->blocked.names[i], name))
+            return i;
+    return SIZE_MAX;
+}
+
+bool ops_worker_blocked(const master_t *m, const mworker_t *w)
+{
+    return w->name && blocked_index(m, w->name) != SIZE_MAX;
+}
+
+static int block_name(master_t *m, const char *name)
+{
+    if (blocked_index(m, name) != SIZE_MAX)
+        return 0;
+    if (m->blocked.n == m->blocked.cap) {
+        size_t cap = m->blocked.cap ? 2 * m->blocked.cap : 8;
+        char **p = realloc(m->blocked.names, cap * sizeof *p);
+        if (!p)
+            return -1;
+        m->blocked.names = p;
+        m->blocked.cap = cap;
+    }
+    char *copy = master_strdup(name);
+    if (!copy)
+        return -1;
+    m->blocked.names[m->blocked.n++] = copy;
+    return 0;
+}
+
+static void load_one(void *user, const char *name, const char *reason)
+{
+    master_t *m = user;
+    if (block_name(m, name) == 0)
+        master_log(m, "worker '%s' is blocked (%s): `prismfarm unblock %s` lifts it", name,
+                   reason, name);
+}
+
+int ops_load_blocked(master_t *m, err_t *err)
+{
+    return m->journal ? journal_blocked(m->journal, load_one, m, err) : 0;
+}
+
+void ops_free(master_t *m)
+{
+    for (size_t i = 0; i < m->blocked.n; i++)
+        free(m->blocked.names[i]);
+    free(m->blocked.names);
+    m->blocked.names = NULL;
+    m->blocked.n = m->blocked.cap = 0;
+}
+
+void ops_worker_joined(master_t *m, mworker_t *w)
+{
+    err_t err;
+    if (ops_worker_blocked(m, w) && sched_worker_block(m->sched, w->id, true, &err) == 0)
+        master_log(m, "worker %llu '%s' is on the blocklist: it gets no task until "
+                      "`prismfarm unblock %s`",
+                   (unsigned long long)w->id, w->name, w->name);
+}
+
+int master_worker_unblock(master_t *m, const char *worker, const master_actor_t *who, err_t *err)
+{
+    if (!who->admin) {
+        master_log(m, "unblock of worker '%s' by %s refused: not an admin", worker,
+                   who_name(who));
+        return err_set(err, "only an admin may unblock a worker (it serves every owner's jobs)");
+    }
+    /* By name, or by the id `prismfarm workers` shows. */
+    const char *name = worker;
+    char *end;
+    errno = 0;
+    unsigned long long id = strtoull(worker, &end, 10);
+    if (!errno && end != worker && !*end && worker[0] != '-') {
+        const mworker_t *w = worker_by_id(m, id);
+        if (w && w->name)
+            name = w->name;
+    }
+    size_t k = blocked_index(m, name);
+    bool any = k != SIZE_MAX;
+    size_t ns = peers_sched_table(m);
+    for (size_t i = 0; i < m->nworkers; i++) {
+        mworker_t *w = m->workers[i];
+        if (!w->name || strcmp(w->name, name) != 0)
+            continue;
+        const sched_worker_info_t *si = peers_sched_info(m, ns, w->id);
+        any = any || (si && (si->blocked || si->blocked_jobs > 0));
+        err_t ignore;
+        (void)sched_worker_block(m->sched, w->id, false, &ignore);
+    }
+    if (!any)
+        return err_set(err, "worker '%s' is not blocked (from any job)", worker);
+    if (k != SIZE_MAX) {
+        free(m->blocked.names[k]);
+        m->blocked.names[k] = m->blocked.names[--m->blocked.n];
+        err_t jerr;
+        if (m->journal && journal_set_blocked(m->journal, name, NULL, &jerr) < 0)
+            master_log(m, "journal: %s (a restarted master would block '%s' again)", jerr.msg,
+                       name);
+    }
+    master_log(m, "worker '%s' unblocked by %s", name, who_name(who));
+    return 0;
+}
+
+/* ---------------------------------------------------------------- jobs and events */
+
+void ops_job_init(mjob_t *j, const char *owner, int priority)
+{
+    snprintf(j->ops.owner, sizeof j->ops.owner, "%s", owner ? owner : "");
+    j->ops.priority = priority;
+    j->ops.paused = false;
+}
+
+static void log_event(master_t *m, const sched_event_t *ev)
+{
+    mjob_t *j = jobs_find(m, ev->job);
+    const mworker_t *w = worker_by_id(m, ev->worker);
+    const char *wname = w && w->name ? w->name : "?";
+    unsigned long long wid = (unsigned long long)ev->worker;
+    char t[80];
+    task_str(j, ev->task, t, sizeof t);
+    switch (ev->kind) {
+    case SCHED_EV_REQUEUED_DEADLINE:
+        tasklog_add(m->tasklog, ev->job,
+                    "%s attempt %u missed its deadline on worker %llu '%s': issued again", t,
+                    ev->attempt, wid, wname);
+        break;
+    case SCHED_EV_REQUEUED_LOST:
+        tasklog_add(m->tasklog, ev->job,
+                    "%s attempt %u: worker %llu '%s' was lost holding it: issued again", t,
+                    ev->attempt, wid, wname);
+        break;
+    case SCHED_EV_REQUEUED_BY_HAND:
+        tasklog_add(m->tasklog, ev->job, "%s attempt %u taken back from worker %llu '%s'", t,
+                    ev->attempt, wid, wname);
+        break;
+    case SCHED_EV_WORKER_BLOCKED_JOB:
+        master_log(m, "worker %llu '%s' blocked from job %llu after %d failures of its tasks",
+                   wid, wname, (unsigned long long)ev->job, m->opts->sched.max_worker_job_failures);
+        tasklog_add(m->tasklog, ev->job,
+                    "%s attempt %u: worker %llu '%s' blocked from this job after %d failures", t,
+                    ev->attempt, wid, wname, m->opts->sched.max_worker_job_failures);
+        break;
+    case SCHED_EV_WORKER_BLOCKED: {
+        char reason[256];
+        snprintf(reason, sizeof reason, "%d tasks failed in a row, the last job %llu %s",
+                 m->opts->sched.max_worker_failures_in_row, (unsigned long long)ev->job, t);
+        err_t err;
+        if (w && w->name && block_name(m, w->name) == 0 && m->journal &&
+            journal_set_blocked(m->journal, w->name, reason, &err) < 0)
+            master_log(m, "journal: %s (a restarted master would not block '%s')", err.msg,
+                       w->name);
+        master_log(m, "worker %llu '%s' blocked from every job: %s (`prismfarm unblock %s`)",
+                   wid, wname, reason, wname);
+        tasklog_add(m->tasklog, ev->job, "%s attempt %u: worker %llu '%s' blocked from every job "
+                    "(%d failures in a row)", t, ev->attempt, wid, wname,
+                    m->opts->sched.max_worker_failures_in_row);
+        break;
+    }
+    case SCHED_EV_JOB_FAILED:
+        tasklog_add(m->tasklog, ev->job, "%s failed %d times: the job fails", t,
+                    m->opts->sched.max_task_failures);
+        break;
+    }
+}
+
+void ops_turn(master_t *m)
+{
+    sched_event_t ev[256];
+    size_t n;
+    uint64_t dropped = 0, d;
+    while ((n = sched_events_take(m->sched, ev, 256, &d)) > 0) {
+        dropped += d;
+        for (size_t i = 0; i < n; i++)
+            log_event(m, &ev[i]);
+    }
+    dropped += d;
+    if (dropped > 0)
+        master_log(m, "%llu scheduler events were not logged (more than 4096 in one turn)",
+                   (unsigned long long)dropped);
+    err_t err;
+    if (tasklog_flush(m->tasklog, &err) < 0)
+        master_log(m, "%s", err.msg);
+}

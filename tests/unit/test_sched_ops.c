@@ -1,0 +1,322 @@
+/* sched's operations (docs/farm.md, "Operating a farm"): priorities, fair share between owners,
+ * pause and resume, requeue by hand, a worker blocked after failures in a row and unblocked,
+ * and the events the master logs; and that none of them changes a job's pixels. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include <string.h>
+
+#include "sched.h"
+#include "sched_testutil.h"
+
+static sched_t *new_sched(int worker_failures_in_row)
+{
+    sched_config_t c = sched_config_default();
+    c.tile_size = 8;
+    c.task_deadline_s = 10;
+    c.worker_timeout_s = 3;
+    c.claim_start = 0;
+    c.max_worker_failures_in_row = worker_failures_in_row;
+    sched_t *s = sched_new(&c, NULL);
+    assert_non_null(s);
+    return s;
+}
+
+/* A job of 16x16 pixels at 1 spp and 8-pixel tiles: 4 tasks. */
+static void add_job(sched_t *s, uint64_t id, const char *owner, int priority)
+{
+    err_t err;
+    assert_int_equal(sched_add_job(s, id, 16, 16, 1, testutil_grid(2), &err), 0);
+    assert_int_equal(sched_set_job_owner(s, id, owner, &err), 0);
+    assert_int_equal(sched_set_job_priority(s, id, priority, &err), 0);
+}
+
+static tilebuf_t *fake_result(const sched_task_t *t)
+{
+    tilebuf_t *r = tilebuf_new(t->x0, t->y0, t->w, t->h, 2, NULL);
+    for (int y = t->y0; y < t->y0 + t->h; y++)
+        for (int x = t->x0; x < t->x0 + t->w; x++)
+            for (uint32_t k = t->sample_begin; k < t->sample_end; k++) {
+                double v[2] = {x + 100.0 * y + 0.25 * k, 1.0 + x};
+                tilebuf_add_sample(r, x, y, v, (const double[3]){0, v[0], 0});
+            }
+    return r;
+}
+
+static void finish(sched_t *s, uint64_t worker, const sched_task_t *t)
+{
+    err_t err;
+    tilebuf_t *r = fake_result(t);
+    assert_true(sched_task_done(s, worker, t->job, t->task, t->attempt, &r, 1.0, &err) &
+                SCHED_MERGED);
+}
+
+static void test_priority_first(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(5);
+    err_t err;
+    add_job(s, 1, "", 0);
+    add_job(s, 2, "", 5);
+    assert_int_equal(sched_worker_join(s, 1, 16, 0.0, &err), 0);
+    sched_task_t t;
+    /* The later job of higher priority takes every task first. */
+    for (int i = 0; i < 4; i++) {
+        assert_int_equal(sched_next_task(s, 1, 0.0, &t), 1);
+        assert_int_equal(t.job, 2);
+    }
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t), 1);
+    assert_int_equal(t.job, 1);
+    /* A priority changed later counts from the next task on. */
+    add_job(s, 3, "", 0);
+    assert_int_equal(sched_set_job_priority(s, 3, 9, &err), 0);
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t), 1);
+    assert_int_equal(t.job, 3);
+    assert_int_equal(sched_set_job_priority(s, 3, 1001, &err), -1);
+    assert_non_null(strstr(err.msg, "outside"));
+    sched_job_info_t info;
+    assert_int_equal(sched_job_info(s, 3, &info), 0);
+    assert_int_equal(info.priority, 9);
+    sched_destroy(&s);
+}
+
+static void test_fair_share_between_owners(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(5);
+    err_t err;
+    /* alice submitted three jobs before bob's one: bob still gets every other task. */
+    add_job(s, 1, "alice", 0);
+    add_job(s, 2, "alice", 0);
+    add_job(s, 3, "alice", 0);
+    add_job(s, 4, "bob", 0);
+    assert_int_equal(sched_worker_join(s, 1, 64, 0.0, &err), 0);
+    sched_task_t t;
+    int bob = 0, alice = 0;
+    for (int i = 0; i < 8; i++) {
+        assert_int_equal(sched_next_task(s, 1, 0.0, &t), 1);
+        /* Alternating: alice (oldest job first), bob, alice, ... */
+        if (i % 2 == 0) {
+            assert_int_not_equal(t.job, 4);
+            alice++;
+        } else {
+            assert_int_equal(t.job, 4);
+            bob++;
+        }
+    }
+    assert_int_equal(alice, 4);
+    assert_int_equal(bob, 4);
+    /* bob's job has no task left: alice's take the rest, her oldest job first. */
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t), 1);
+    assert_int_equal(t.job, 2);
+    sched_destroy(&s);
+}
+
+static void test_pause_and_resume(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(5);
+    err_t err;
+    add_job(s, 1, "", 0);
+    add_job(s, 2, "", 0);
+    assert_int_equal(sched_worker_join(s, 1, 64, 0.0, &err), 0);
+    sched_task_t held;
+    assert_int_equal(sched_next_task(s, 1, 0.0, &held), 1);
+    assert_int_equal(held.job, 1);
+    assert_int_equal(sched_pause_job(s, 1, true, &err), 0);
+    sched_job_info_t info;
+    assert_int_equal(sched_job_info(s, 1, &info), 0);
+    assert_true(info.paused);
+    /* Paused: no more of its tasks, the other job's only. */
+    sched_task_t t;
+    for (int i = 0; i < 4; i++) {
+        assert_int_equal(sched_next_task(s, 1, 0.0, &t), 1);
+        assert_int_equal(t.job, 2);
+    }
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t), 0);
+    /* The task it held finishes and is merged. */
+    finish(s, 1, &held);
+    assert_int_equal(sched_job_info(s, 1, &info), 0);
+    assert_int_equal(info.tasks_done, 1);
+    assert_int_equal(sched_pause_job(s, 1, false, &err), 0);
+    for (int i = 0; i < 3; i++) {
+        assert_int_equal(sched_next_task(s, 1, 0.0, &t), 1);
+        assert_int_equal(t.job, 1);
+        finish(s, 1, &t);
+    }
+    assert_int_equal(sched_job_info(s, 1, &info), 0);
+    assert_int_equal(info.state, JOB_DONE);
+    assert_int_equal(sched_pause_job(s, 1, true, &err), -1);
+    assert_non_null(strstr(err.msg, "only a queued or running job"));
+    sched_destroy(&s);
+}
+
+static void test_requeue_by_hand(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(5);
+    err_t err;
+    add_job(s, 1, "", 0);
+    assert_int_equal(sched_worker_join(s, 1, 1, 0.0, &err), 0);
+    assert_int_equal(sched_worker_join(s, 2, 1, 0.0, &err), 0);
+    sched_task_t stuck, t;
+    assert_int_equal(sched_next_task(s, 1, 0.0, &stuck), 1);
+    assert_int_equal(sched_requeue_task(s, 1, 1, &err), -1); /* task 1 is still queued */
+    assert_non_null(strstr(err.msg, "waiting in the queue"));
+    assert_int_equal(sched_requeue_task(s, 1, 99, &err), -1);
+    assert_non_null(strstr(err.msg, "no task 99"));
+    assert_int_equal(sched_requeue_task(s, 1, stuck.task, &err), 0);
+    sched_event_t ev[8];
+    assert_int_equal(sched_events_take(s, ev, 8, NULL), 1);
+    assert_int_equal(ev[0].kind, SCHED_EV_REQUEUED_BY_HAND);
+    assert_int_equal(ev[0].worker, 1);
+    assert_int_equal(ev[0].task, stuck.task);
+    /* Not back to the worker it was stuck on: worker 1 gets the next task... */
+    sched_task_t other;
+    assert_int_equal(sched_next_task(s, 1, 0.0, &other), 1);
+    assert_int_not_equal(other.task, stuck.task);
+    /* ...and worker 2 the requeued one, as a new attempt. */
+    assert_int_equal(sched_next_task(s, 2, 0.0, &t), 1);
+    assert_int_equal(t.task, stuck.task);
+    assert_int_equal(t.attempt, stuck.attempt + 1);
+    finish(s, 2, &t);
+    assert_int_equal(sched_requeue_task(s, 1, stuck.task, &err), -1);
+    assert_non_null(strstr(err.msg, "is done"));
+    /* The stuck worker's late copy is the same bytes: accepted as a duplicate. */
+    tilebuf_t *r = fake_result(&stuck);
+    assert_int_equal(sched_task_done(s, 1, 1, stuck.task, stuck.attempt, &r, 2.0, &err),
+                     SCHED_DUPLICATE);
+    sched_destroy(&s);
+}
+
+static void test_worker_blocked_in_a_row_and_unblocked(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(3);
+    err_t err;
+    /* Jobs allow 2 failures each before blocking the worker from them (the default); three in
+     * a row over different jobs block it from every job. */
+    add_job(s, 1, "", 0);
+    add_job(s, 2, "", 0);
+    add_job(s, 3, "", 0);
+    add_job(s, 4, "", 0);
+    assert_int_equal(sched_worker_join(s, 7, 1, 0.0, &err), 0);
+    sched_task_t t;
+    assert_int_equal(sched_next_task(s, 7, 0.0, &t), 1);
+    sched_task_failed(s, 7, t.job, t.task, t.attempt, "bad GPU driver");
+    assert_int_equal(sched_next_task(s, 7, 0.0, &t), 1);
+    finish(s, 7, &t); /* a success breaks the row */
+    sched_worker_info_t wi;
+    assert_int_equal(sched_workers(s, &wi, 1), 1);
+    assert_int_equal(wi.fail_streak, 0);
+    for (int i = 0; i < 3; i++) {
+        assert_int_equal(sched_next_task(s, 7, 0.0, &t), 1);
+        sched_task_failed(s, 7, t.job, t.task, t.attempt, "bad GPU driver");
+    }
+    assert_int_equal(sched_workers(s, &wi, 1), 1);
+    assert_true(wi.blocked);
+    assert_int_equal(sched_next_task(s, 7, 0.0, &t), 0);
+    sched_event_t ev[16];
+    size_t n = sched_events_take(s, ev, 16, NULL);
+    bool blocked_ev = false, job_ev = false;
+    for (size_t i = 0; i < n; i++) {
+        blocked_ev |= ev[i].kind == SCHED_EV_WORKER_BLOCKED && ev[i].worker == 7;
+        job_ev |= ev[i].kind == SCHED_EV_WORKER_BLOCKED_JOB && ev[i].job == 1;
+    }
+    assert_true(blocked_ev);
+    assert_true(job_ev); /* its two failures of job 1 blocked it from job 1 first */
+    assert_int_equal(sched_events_take(s, ev, 16, NULL), 0);
+    /* Unblocked: it serves every job again, job 1 included. */
+    assert_int_equal(sched_worker_block(s, 7, false, &err), 0);
+    assert_int_equal(sched_workers(s, &wi, 1), 1);
+    assert_false(wi.blocked);
+    assert_int_equal(wi.blocked_jobs, 0);
+    assert_int_equal(sched_next_task(s, 7, 0.0, &t), 1);
+    assert_int_equal(t.job, 1);
+    assert_int_equal(sched_worker_block(s, 99, false, &err), -1);
+    sched_destroy(&s);
+}
+
+static void test_events_on_deadline_and_loss(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(5);
+    err_t err;
+    add_job(s, 1, "", 0);
+    assert_int_equal(sched_worker_join(s, 1, 1, 0.0, &err), 0);
+    assert_int_equal(sched_worker_join(s, 2, 1, 0.0, &err), 0);
+    sched_task_t a, b;
+    assert_int_equal(sched_next_task(s, 1, 0.0, &a), 1);
+    assert_int_equal(sched_next_task(s, 2, 0.0, &b), 1);
+    sched_worker_leave(s, 2);
+    sched_worker_seen(s, 1, 11.0);
+    assert_int_equal(sched_tick(s, 11.0), 1);
+    sched_event_t ev[8];
+    assert_int_equal(sched_events_take(s, ev, 8, NULL), 2);
+    assert_int_equal(ev[0].kind, SCHED_EV_REQUEUED_LOST);
+    assert_int_equal(ev[0].worker, 2);
+    assert_int_equal(ev[0].task, b.task);
+    assert_int_equal(ev[1].kind, SCHED_EV_REQUEUED_DEADLINE);
+    assert_int_equal(ev[1].worker, 1);
+    assert_int_equal(ev[1].task, a.task);
+    sched_destroy(&s);
+}
+
+/* Two schedules of the same job -- one with pauses, priorities, a rival owner's job and a
+ * requeue, one plain -- give the same image bytes. */
+static void test_operations_leave_pixels_alone(void **state)
+{
+    (void)state;
+    const tilebuf_t *img[2];
+    sched_t *s[2];
+    err_t err;
+    for (int run = 0; run < 2; run++) {
+        s[run] = new_sched(5);
+        add_job(s[run], 1, "alice", 0);
+        assert_int_equal(sched_worker_join(s[run], 1, 1, 0.0, &err), 0);
+        assert_int_equal(sched_worker_join(s[run], 2, 1, 0.0, &err), 0);
+        if (run == 1) {
+            add_job(s[run], 2, "bob", 3);
+            assert_int_equal(sched_pause_job(s[run], 2, true, &err), 0);
+        }
+        sched_task_t t;
+        int k = 0;
+        for (;;) {
+            uint64_t w = 1 + (uint64_t)(k++ % 2);
+            if (!sched_next_task(s[run], w, 0.0, &t))
+                break;
+            if (run == 1 && k == 2) {
+                assert_int_equal(sched_requeue_task(s[run], t.job, t.task, &err), 0);
+                continue;
+            }
+            if (t.job == 1)
+                finish(s[run], w, &t);
+        }
+        sched_job_info_t info;
+        assert_int_equal(sched_job_info(s[run], 1, &info), 0);
+        assert_int_equal(info.state, JOB_DONE);
+        img[run] = sched_job_image(s[run], 1);
+    }
+    size_t n = (size_t)16 * 16 * 2;
+    assert_memory_equal(tilebuf_sums(img[0]), tilebuf_sums(img[1]), n * sizeof(double));
+    sched_destroy(&s[0]);
+    sched_destroy(&s[1]);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_priority_first),
+        cmocka_unit_test(test_fair_share_between_owners),
+        cmocka_unit_test(test_pause_and_resume),
+        cmocka_unit_test(test_requeue_by_hand),
+        cmocka_unit_test(test_worker_blocked_in_a_row_and_unblocked),
+        cmocka_unit_test(test_events_on_deadline_and_loss),
+        cmocka_unit_test(test_operations_leave_pixels_alone),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
