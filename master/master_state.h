@@ -56,6 +56,9 @@ typedef struct mjob {
     char integrator[65], dispersion[65]; /* protocol.md: names of at most 64 bytes */
     job_state_t state;
     char *error;
+    /* Who may act on it (access.h): the submitting key's name, proto_peer_t.user; "" when
+     * submitted without keys. */
+    char owner[72];
     double submitted, started, finished; /* monotonic seconds; 0: not yet */
     /* The figures it takes from its loaded scene (job_take_scene). */
     struct {

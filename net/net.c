@@ -1,6 +1,7 @@
 #include "net.h"
 
 #include "curve.h"
+#include "zap.h"
 
 #include <zmq.h>
 
@@ -53,19 +54,24 @@ const char *proto_peer_str(const proto_peer_t *peer, char buf[PROTO_PEER_STR])
     int printable = n > 0;
     for (size_t i = 0; i < n && printable; i++)
         printable = peer->id[i] >= 0x21 && peer->id[i] <= 0x7e;
+    size_t end;
     if (printable) {
         memcpy(buf, peer->id, n);
-        buf[n] = 0;
-        return buf;
+        end = n;
+    } else {
+        static const char digits[] = "0123456789abcdef";
+        buf[0] = '0';
+        buf[1] = 'x';
+        for (size_t i = 0; i < n; i++) {
+            buf[2 + 2 * i] = digits[peer->id[i] >> 4];
+            buf[3 + 2 * i] = digits[peer->id[i] & 15];
+        }
+        end = 2 + 2 * n;
     }
-    static const char digits[] = "0123456789abcdef";
-    buf[0] = '0';
-    buf[1] = 'x';
-    for (size_t i = 0; i < n; i++) {
-        buf[2 + 2 * i] = digits[peer->id[i] >> 4];
-        buf[3 + 2 * i] = digits[peer->id[i] & 15];
-    }
-    buf[2 + 2 * n] = 0;
+    buf[end] = 0;
+    if (peer->user[0])
+        snprintf(buf + end, PROTO_PEER_STR - end, " (key '%.*s')", (int)sizeof peer->user - 1,
+                 peer->user);
     return buf;
 }
 
@@ -482,6 +488,8 @@ int net_recv(net_t *self, proto_peer_t *from, proto_msg_t *out, int timeout_ms,
         /* The user id the ZAP handler gave this connection (RFC 27): the key's name. */
         const char *user = zmq_msg_gets(&body, "User-Id");
         snprintf(from->user, sizeof from->user, "%s", user ? user : "");
+        const char *role = user && *user ? zmq_msg_gets(&body, ZAP_ROLE_PROPERTY) : NULL;
+        snprintf(from->role, sizeof from->role, "%s", role ? role : "");
     }
     int extra = drain(self->sock);
     int rc;

@@ -63,10 +63,15 @@ typedef struct proto_peer {
     /* The ZAP handler's user id for the connection (zap.h: the authorised key's file name),
      * filled by net_recv on a CURVE ROUTER; empty without CURVE. */
     char user[72];
+    /* Its role (zap.h's ZAP_ROLE_*: the folder the key is in), filled with user; empty
+     * without CURVE. */
+    char role[8];
 } proto_peer_t;
 
-#define PROTO_PEER_STR 520
-/* The routing id for logs: as text when printable, else "0x" and hex. Returns buf. */
+#define PROTO_PEER_STR 640
+/* The routing id for logs: as text when printable, else "0x" and hex, followed by
+ * " (key 'NAME')" when the connection has a key (issue 16: logs name the key, not only the
+ * connection). Returns buf. */
 const char *proto_peer_str(const proto_peer_t *peer, char buf[PROTO_PEER_STR]);
 
 typedef struct net net_t;

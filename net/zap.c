@@ -19,6 +19,9 @@
 
 enum { RING_ANY, RING_WORKERS, RING_CLIENTS, RING_ADMINS, NRINGS };
 static const char *const ROLE[NRINGS] = {"authorised", "worker", "client", "admin"};
+/* The X-Role values, by ring (zap.h). */
+static const char *const ZAP_ROLE[NRINGS] = {ZAP_ROLE_ANY, ZAP_ROLE_WORKER, ZAP_ROLE_CLIENT,
+                                             ZAP_ROLE_ADMIN};
 
 struct zap {
     void *sock; /* REP, used by the thread only once it runs */
@@ -60,10 +63,26 @@ static bool frame_is(zmq_msg_t *f, const char *s)
     return zmq_msg_size(f) == n && memcmp(zmq_msg_data(f), s, n) == 0;
 }
 
-/* Sends the reply frames; the request id is echoed (RFC 27). */
+/* Sends the reply frames; the request id is echoed (RFC 27). role, when not NULL, goes in the
+ * metadata frame as the property X-Role (ZMTP 3's property encoding: a name of one length
+ * byte, a value of four big-endian length bytes), which libzmq hands to every message of the
+ * connection (zmq_msg_gets), so the master knows an admin from a client without a lookup. */
 static void send_reply(zap_t *self, zmq_msg_t *request_id, const char *status,
-                       const char *text, const char *user_id)
+                       const char *text, const char *user_id, const char *role)
 {
+    uint8_t meta[64];
+    size_t nmeta = 0;
+    if (role) {
+        static const char NAME[] = ZAP_ROLE_PROPERTY;
+        size_t nn = sizeof NAME - 1, nv = strlen(role);
+        meta[nmeta++] = (uint8_t)nn;
+        memcpy(meta + nmeta, NAME, nn);
+        nmeta += nn;
+        for (int shift = 24; shift >= 0; shift -= 8)
+            meta[nmeta++] = (uint8_t)(nv >> shift);
+        memcpy(meta + nmeta, role, nv);
+        nmeta += nv;
+    }
     int rc = zmq_send(self->sock, "1.0", 3, ZMQ_SNDMORE);
     if (rc >= 0)
         rc = zmq_send(self->sock, request_id ? zmq_msg_data(request_id) : "",
@@ -72,7 +91,7 @@ static void send_reply(zap_t *self, zmq_msg_t *request_id, const char *status,
     for (int i = 0; i < 3 && rc >= 0; i++)
         rc = zmq_send(self->sock, rest[i], strlen(rest[i]), ZMQ_SNDMORE);
     if (rc >= 0)
-        rc = zmq_send(self->sock, "", 0, 0); /* metadata: none */
+        rc = zmq_send(self->sock, meta, nmeta, 0);
     if (rc < 0)
         zlog(self, "ZAP: cannot answer libzmq: %s", zmq_strerror(zmq_errno()));
 }
@@ -149,7 +168,7 @@ static int handle(zap_t *self)
     char domain[64], address[96];
     if (n < 6 || !frame_is(&f[0], "1.0")) {
         zlog(self, "ZAP: a malformed request (%d frames): refused", n);
-        send_reply(self, n >= 2 ? &f[1] : NULL, "500", "malformed ZAP request", "");
+        send_reply(self, n >= 2 ? &f[1] : NULL, "500", "malformed ZAP request", "", NULL);
         atomic_fetch_add(&self->refused, 1);
         goto out;
     }
@@ -159,7 +178,7 @@ static int handle(zap_t *self)
         char mech[32];
         zlog(self, "refused a connection to the %s endpoint from %s: mechanism %s, not CURVE",
              domain, address, frame_text(&f[5], mech, sizeof mech));
-        send_reply(self, &f[1], "400", "CURVE required", "");
+        send_reply(self, &f[1], "400", "CURVE required", "", NULL);
         atomic_fetch_add(&self->refused, 1);
         goto out;
     }
@@ -193,11 +212,11 @@ static int handle(zap_t *self)
                  domain, address, z85,
                  self->rings[RING_ANY] ? curve_ring_dir(self->rings[RING_ANY])
                                        : "the authorised folders");
-        send_reply(self, &f[1], "400", "key not authorised", "");
+        send_reply(self, &f[1], "400", "key not authorised", "", NULL);
         atomic_fetch_add(&self->refused, 1);
     } else {
         zlog(self, "accepted key '%s' on the %s endpoint from %s", name, domain, address);
-        send_reply(self, &f[1], "200", "OK", name);
+        send_reply(self, &f[1], "200", "OK", name, ZAP_ROLE[role]);
         atomic_fetch_add(&self->accepted, 1);
     }
 out:
