@@ -7,6 +7,7 @@
 #ifndef PRISMFARM_MASTER_STATE_H
 #define PRISMFARM_MASTER_STATE_H
 
+#include "conn_guard.h"
 #include "journal.h"
 #include "master.h"
 #include "net.h"
@@ -123,10 +124,12 @@ typedef struct waiter {
 typedef struct master {
     const master_opts_t *opts;
     proto_limits_t limits;
+    int max_conns; /* open connections per endpoint (opts->max_conns or from the file limit) */
     sched_t *sched;
     spool_t *spool;
     journal_t *journal; /* NULL without opts->journal */
     net_t *wnet, *cnet;
+    conn_guard_t *wguard, *cguard; /* their connection bounds (conn_guard.h) */
     mworker_t **workers;
     size_t nworkers, cap_workers;
     mjob_t **jobs; /* in id order */

@@ -43,6 +43,7 @@ net_options_t net_options_default(void)
         .heartbeat_ivl_ms = 1000,
         .heartbeat_timeout_ms = 3000,
         .heartbeat_ttl_ms = 3000,
+        .handshake_ms = 10000,
         .reconnect_ivl_ms = 100,
         .reconnect_ivl_max_ms = 5000,
     };
@@ -183,7 +184,8 @@ static int configure(net_t *self, err_t *err)
         set_int(s, ZMQ_SNDTIMEO, "ZMQ_SNDTIMEO", o->send_timeout_ms, err) ||
         set_int(s, ZMQ_HEARTBEAT_IVL, "ZMQ_HEARTBEAT_IVL", o->heartbeat_ivl_ms, err) ||
         set_int(s, ZMQ_HEARTBEAT_TIMEOUT, "ZMQ_HEARTBEAT_TIMEOUT", o->heartbeat_timeout_ms, err) ||
-        set_int(s, ZMQ_HEARTBEAT_TTL, "ZMQ_HEARTBEAT_TTL", o->heartbeat_ttl_ms, err))
+        set_int(s, ZMQ_HEARTBEAT_TTL, "ZMQ_HEARTBEAT_TTL", o->heartbeat_ttl_ms, err) ||
+        set_int(s, ZMQ_HANDSHAKE_IVL, "ZMQ_HANDSHAKE_IVL", o->handshake_ms, err))
         return -1;
     if (self->kind == NET_ROUTER) {
         /* Without MANDATORY a ROUTER silently drops messages to unknown peers; with HANDOVER a

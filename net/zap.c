@@ -1,6 +1,8 @@
 #include "zap.h"
 
+#include "clock.h"
 #include "curve.h"
+#include "ratelimit.h"
 
 #include <zmq.h>
 
@@ -32,11 +34,41 @@ struct zap {
     atomic_bool stop;
     atomic_uint_least64_t accepted, refused;
     atomic_size_t keys;
+    ratelimit_t refusals; /* the thread's: how many refusals it logs (issue 16, item 12) */
 };
+
+/* A flood of strangers must not become a flood of log lines: at most REFUSALS_BURST refusals
+ * are logged per REFUSALS_WINDOW_S, and the number held back is logged once the window ends. */
+#define REFUSALS_BURST 20
+#define REFUSALS_WINDOW_S 10.0
 
 __attribute__((format(printf, 2, 3))) static void zlog(zap_t *self, const char *fmt, ...)
 {
     if (!self->log)
+        return;
+    char line[768];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(line, sizeof line, fmt, ap);
+    va_end(ap);
+    self->log(self->user, line);
+}
+
+static void log_held(zap_t *self, uint64_t held)
+{
+    if (held > 0)
+        zlog(self,
+             "ZAP: %llu more refused connections not logged (at most %d are logged per %.0f s)",
+             (unsigned long long)held, REFUSALS_BURST, REFUSALS_WINDOW_S);
+}
+
+/* zlog for a refusal, within the rate limit. */
+__attribute__((format(printf, 2, 3))) static void zlog_refusal(zap_t *self, const char *fmt, ...)
+{
+    uint64_t held;
+    bool allow = ratelimit_allow(&self->refusals, clock_now_s(), &held);
+    log_held(self, held);
+    if (!allow || !self->log)
         return;
     char line[768];
     va_list ap;
@@ -167,7 +199,7 @@ static int handle(zap_t *self)
     }
     char domain[64], address[96];
     if (n < 6 || !frame_is(&f[0], "1.0")) {
-        zlog(self, "ZAP: a malformed request (%d frames): refused", n);
+        zlog_refusal(self, "ZAP: a malformed request (%d frames): refused", n);
         send_reply(self, n >= 2 ? &f[1] : NULL, "500", "malformed ZAP request", "", NULL);
         atomic_fetch_add(&self->refused, 1);
         goto out;
@@ -176,7 +208,7 @@ static int handle(zap_t *self)
     frame_text(&f[3], address, sizeof address);
     if (!frame_is(&f[5], "CURVE") || n != 7 || zmq_msg_size(&f[6]) != CURVE_BINARY) {
         char mech[32];
-        zlog(self, "refused a connection to the %s endpoint from %s: mechanism %s, not CURVE",
+        zlog_refusal(self, "refused a connection to the %s endpoint from %s: mechanism %s, not CURVE",
              domain, address, frame_text(&f[5], mech, sizeof mech));
         send_reply(self, &f[1], "400", "CURVE required", "", NULL);
         atomic_fetch_add(&self->refused, 1);
@@ -202,13 +234,14 @@ static int handle(zap_t *self)
         for (; r < NRINGS && !other; r++)
             other = self->rings[r] ? curve_ring_find(self->rings[r], key) : NULL;
         if (other)
-            zlog(self,
-                 "refused a connection to the %s endpoint from %s: key '%s' is a%s %s key (in "
+            zlog_refusal(self,
+                         "refused a connection to the %s endpoint from %s: key '%s' is a%s %s "
+                         "key (in "
                  "%s), not allowed on this endpoint",
                  domain, address, other, r - 1 == RING_ADMINS ? "n" : "", ROLE[r - 1],
                  curve_ring_dir(self->rings[r - 1]));
         else
-            zlog(self, "refused a connection to the %s endpoint from %s: key %s is not in %s",
+            zlog_refusal(self, "refused a connection to the %s endpoint from %s: key %s is not in %s",
                  domain, address, z85,
                  self->rings[RING_ANY] ? curve_ring_dir(self->rings[RING_ANY])
                                        : "the authorised folders");
@@ -235,6 +268,12 @@ static void *zap_thread(void *arg)
             break;
         if (n > 0 && handle(self) < 0)
             break;
+        /* The count of refusals held back, once their window is over, even if no more come. */
+        double now = clock_now_s();
+        if (self->refusals.held > 0 && now - self->refusals.start >= REFUSALS_WINDOW_S) {
+            log_held(self, self->refusals.held);
+            self->refusals.held = 0;
+        }
     }
     return NULL;
 }
@@ -256,6 +295,7 @@ zap_t *zap_new(void *zmq_ctx, const zap_folders_t *folders, zap_log_fn log, void
         return NULL;
     }
     self->log = log;
+    self->refusals = ratelimit_make(REFUSALS_BURST, REFUSALS_WINDOW_S);
     self->user = user;
     atomic_init(&self->stop, false);
     atomic_init(&self->accepted, 0);
