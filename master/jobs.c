@@ -121,7 +121,8 @@ static void job_set_settings(mjob_t *j, const proto_settings_t *set)
 /* The scene reads nothing outside dir, so no message can show a client a file of the master's
  * host; a photon job's phase keeps the scene to check and merge batches against. */
 mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
-                const proto_settings_t *set, const char *dir, err_t *err)
+                const proto_settings_t *set, const char *dir, const scene_budget_t *budget,
+                err_t *err)
 {
     size_t main_size = strlen(dir) + strlen(main) + 2;
     char *main_path = malloc(main_size);
@@ -134,6 +135,7 @@ mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *mai
     }
     snprintf(main_path, main_size, "%s/%s", dir, main);
     scene_overrides_t ov = settings_to_overrides(set);
+    ov.budget = budget;
     scene_t *scene = scene_load_file_confined(main_path, dir, &ov, err);
     free(main_path);
     if (!scene) {
@@ -196,6 +198,7 @@ int job_restore_photons(master_t *m, mjob_t *j, err_t *err)
     snprintf(scene_dir, sizeof scene_dir, "%s/scenes/%s", spool_path(m->spool), j->hash);
     snprintf(main_path, sizeof main_path, "%s/%s", scene_dir, j->main);
     scene_overrides_t ov = settings_to_overrides(&j->settings);
+    ov.budget = &m->opts->budget;
     scene_t *scene = scene_load_file_confined(main_path, scene_dir, &ov, err);
     if (!scene)
         return -1;

@@ -41,6 +41,7 @@ master_opts_t master_opts_default(void)
         .preview_interval_s = 1.0,
         .max_jobs = 256,
         .max_conns_per_host = 512,
+        .budget = scene_budget_default(),
         .journal = 1,
         .verbose = 1,
     };

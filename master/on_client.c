@@ -114,7 +114,7 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     }
     uint64_t id = m->last_job + 1;
     const proto_settings_t *set = &msg->submit.settings;
-    mjob_t *j = job_new(id, msg->submit.name, hash, b->main, set, dir, &err);
+    mjob_t *j = job_new(id, msg->submit.name, hash, b->main, set, dir, &m->opts->budget, &err);
     if (j)
         snprintf(j->owner, sizeof j->owner, "%s", from->user);
     if (!j) {

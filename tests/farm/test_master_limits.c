@@ -146,6 +146,39 @@ static void test_max_message(void **state)
     testutil_stop(master, SIGTERM);
 }
 
+/* Budgets (issue 16, item 4): a scene over --max-shapes is refused at the line that passes it,
+ * before the master builds it, with the option named; the master goes on serving, and a scene
+ * within the budget is taken. */
+static void test_scene_budget(void **state)
+{
+    (void)state;
+    char cep[256];
+    pid_t master = start_master("budget", cep, "--max-shapes", "40", NULL);
+    const char *dir = testutil_scratch("budget-scene");
+    assert_int_equal(mkdir(dir, 0700), 0);
+    char path[700];
+    snprintf(path, sizeof path, "%s/spheres.pbrt", dir);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("Film \"rgb\" \"integer xresolution\" [ 8 ] \"integer yresolution\" [ 8 ]\n"
+          "WorldBegin\nLightSource \"point\" \"rgb I\" [ 1 1 1 ]\n",
+          f);
+    for (int i = 0; i < 60; i++)
+        fprintf(f, "Shape \"sphere\" \"float radius\" [ %d ]\n", i + 1);
+    assert_int_equal(fclose(f), 0);
+    const run_t *r = run("submit", path, "--master", cep, NULL);
+    assert_int_equal(r->status, 1);
+    /* Line 3 holds the light; shape 41 is on line 44. */
+    expect_in(r->err, "spheres.pbrt:44:");
+    expect_in(r->err, "more than 40 shapes and object instances, the master's budget (prismfarm "
+                      "master --max-shapes)");
+    r = run("submit", "data/render/tiny.pbrt", "--master", cep, NULL);
+    if (r->status != 0)
+        fail_msg("a scene within the budget: %s", r->err);
+    assert_string_equal(r->out, "1\n");
+    testutil_stop(master, SIGTERM);
+}
+
 /* A connection flood (issue 16, item 12: 1100 idle connections against the 1024 file limit
  * locked every client out): one host's connections beyond --max-connections-per-host are shut
  * down at once, refusals are logged at most 20 per 10 s with the number held back, and a client
@@ -221,6 +254,7 @@ int main(void)
         cmocka_unit_test_teardown(test_max_jobs, testutil_kill_children),
         cmocka_unit_test_teardown(test_bundle_limits, testutil_kill_children),
         cmocka_unit_test_teardown(test_max_message, testutil_kill_children),
+        cmocka_unit_test_teardown(test_scene_budget, testutil_kill_children),
         cmocka_unit_test_teardown(test_connection_flood, testutil_kill_children),
         cmocka_unit_test(test_command_line),
     };
