@@ -255,6 +255,10 @@ int master_run(const master_opts_t *opts, err_t *err)
             goto out;
         }
     }
+    if (!(m->loader = loader_new(err))) {
+        err_prefix(err, "master: ");
+        goto out;
+    }
     const char *secret = opts->key_file ? keys.secret_key : NULL;
     m->max_conns = opts->max_conns > 0 ? opts->max_conns : file_limit_raise(m);
     if (!(m->wnet = open_router(m, ctx, "workers", opts->worker_endpoint, secret, wbound,
@@ -312,6 +316,7 @@ int master_run(const master_opts_t *opts, err_t *err)
         conn_guard_pump(m->wguard);
         conn_guard_pump(m->cguard);
         double now = clock_now_s();
+        on_client_loads(m, now);
         housekeeping(m, now, now - polled);
         dispatch_tasks(m, now);
         peers_prune_lost(m);
@@ -329,6 +334,9 @@ out:
     memset(&keys, 0, sizeof keys);
     if (ctx && !opts->zmq_ctx)
         (void)zmq_ctx_term(ctx);
+    /* Waits for a scene still loading, and drops the submissions not finished. */
+    loader_destroy(&m->loader, on_client_submission_drop);
+    free(m->loading);
     sched_destroy(&m->sched);
     journal_close(&m->journal);
     spool_destroy(&m->spool);

@@ -9,6 +9,7 @@
 
 #include "conn_guard.h"
 #include "journal.h"
+#include "loader.h"
 #include "master.h"
 #include "net.h"
 #include "photon_phase.h"
@@ -121,6 +122,8 @@ typedef struct waiter {
     double deadline; /* monotonic seconds */
 } waiter_t;
 
+typedef struct submission submission_t; /* on_client.c */
+
 typedef struct master {
     const master_opts_t *opts;
     proto_limits_t limits;
@@ -130,6 +133,10 @@ typedef struct master {
     journal_t *journal; /* NULL without opts->journal */
     net_t *wnet, *cnet;
     conn_guard_t *wguard, *cguard; /* their connection bounds (conn_guard.h) */
+    /* Scenes loading off the loop (loader.h; on_client.c's submissions), oldest first. */
+    loader_t *loader;
+    submission_t **loading;
+    size_t nloading, caploading;
     mworker_t **workers;
     size_t nworkers, cap_workers;
     mjob_t **jobs; /* in id order */
