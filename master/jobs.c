@@ -121,7 +121,8 @@ static void job_set_settings(mjob_t *j, const proto_settings_t *set)
 /* The scene reads nothing outside dir, so no message can show a client a file of the master's
  * host; a photon job's phase keeps the scene to check and merge batches against. */
 mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
-                const proto_settings_t *set, const char *dir, err_t *err)
+                const proto_settings_t *set, const char *dir, const scene_budget_t *budget,
+                err_t *err)
 {
     size_t main_size = strlen(dir) + strlen(main) + 2;
     char *main_path = malloc(main_size);
@@ -134,6 +135,7 @@ mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *mai
     }
     snprintf(main_path, main_size, "%s/%s", dir, main);
     scene_overrides_t ov = settings_to_overrides(set);
+    ov.budget = budget;
     scene_t *scene = scene_load_file_confined(main_path, dir, &ov, err);
     free(main_path);
     if (!scene) {
@@ -180,6 +182,7 @@ mjob_t *job_from_record(const journal_job_t *r)
     j->id = r->id;
     make_stem(j->name, j->stem, sizeof j->stem);
     snprintf(j->hash, sizeof j->hash, "%s", r->hash);
+    snprintf(j->owner, sizeof j->owner, "%s", r->owner);
     job_set_settings(j, &r->settings);
     j->state = (job_state_t)r->state;
     j->outputs.final = r->outputs;
@@ -207,6 +210,7 @@ int job_restore_photons(master_t *m, mjob_t *j, err_t *err)
     snprintf(scene_dir, sizeof scene_dir, "%s/scenes/%s", spool_path(m->spool), j->hash);
     snprintf(main_path, sizeof main_path, "%s/%s", scene_dir, j->main);
     scene_overrides_t ov = settings_to_overrides(&j->settings);
+    ov.budget = &m->opts->budget;
     scene_t *scene = scene_load_file_confined(main_path, scene_dir, &ov, err);
     if (!scene)
         return -1;
@@ -230,7 +234,7 @@ stopping_rule_t job_stopping_rule(const mjob_t *j)
 
 int jobs_apply_ops(master_t *m, const mjob_t *j, err_t *err)
 {
-    if (sched_set_job_owner(m->sched, j->id, j->ops.owner, err) < 0 ||
+    if (sched_set_job_owner(m->sched, j->id, j->owner, err) < 0 ||
         sched_set_job_priority(m->sched, j->id, j->ops.priority, err) < 0)
         return -1;
     return j->ops.paused ? sched_pause_job(m->sched, j->id, true, err) : 0;

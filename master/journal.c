@@ -20,10 +20,12 @@
 /* Bumped whenever a table or a blob changes meaning: a master never reads a journal it does
  * not understand. 4: tile blobs carry their sums' width, float32 sums when they fit. 5: tile
  * blobs and checkpoints carry the pixels' XYZ sums after the bucket sums (new magics, so that a
- * blob or checkpoint of version 4 found in a version-5 spool is refused by name). 6: jobs carry
- * their priority and pause (docs/farm.md, "Operating a farm"), and the blocked workers have a
- * table; a version-5 journal is migrated in place (migrate_5_to_6). */
-#define JOURNAL_VERSION 6
+ * blob or checkpoint of version 4 found in a version-5 spool is refused by name). 6: jobs have
+ * an owner (the submitting key's name, issue 16); a version-5 journal is migrated in place (its
+ * jobs get the owner "", which only an admin may act on when the master has keys). 7: jobs carry
+ * their priority and pause (docs/farm.md, "Operating a farm") and the blocked workers have a
+ * table; a version-6 journal is migrated in place (migrate_6_to_7), a version-5 one through 6. */
+#define JOURNAL_VERSION 7
 
 #define TILE_MAGIC 0x58544650u  /* "PFTX" in this host's order: a blob of another is refused */
 #define PHOT_MAGIC 0x48504650u  /* "PFPH" */
@@ -131,6 +133,7 @@ static const char *SCHEMA =
     " stop INTEGER NOT NULL DEFAULT 0, outputs INTEGER NOT NULL DEFAULT 0,"
     " samples_done INTEGER NOT NULL DEFAULT 0, samples_total INTEGER NOT NULL DEFAULT 0,"
     " nonfinite INTEGER NOT NULL DEFAULT 0, spp_done INTEGER NOT NULL DEFAULT 0,"
+    " owner TEXT NOT NULL DEFAULT '',"
     " priority INTEGER NOT NULL DEFAULT 0, paused INTEGER NOT NULL DEFAULT 0);"
     "CREATE TABLE IF NOT EXISTS blocked(name TEXT PRIMARY KEY, reason TEXT NOT NULL);"
     "CREATE TABLE IF NOT EXISTS results("
@@ -143,16 +146,16 @@ static const char *SCHEMA =
     " elapsed REAL NOT NULL, valid INTEGER NOT NULL, rel_error REAL NOT NULL,"
     " PRIMARY KEY(job, round, pass));";
 
-/* Version 5 to 6: the jobs' priority and pause columns (the blocked table came with SCHEMA).
- * One transaction: a master killed half-way leaves version 5, migrated again next time. */
-static int migrate_5_to_6(journal_t *self, err_t *err)
+/* Version 6 to 7: the jobs' priority and pause columns (the blocked table came with SCHEMA).
+ * One transaction: a master killed half-way leaves version 6, migrated again next time. */
+static int migrate_6_to_7(journal_t *self, err_t *err)
 {
     if (begin(self, err) < 0)
         return -1;
     int rc = exec(self,
                   "ALTER TABLE jobs ADD COLUMN priority INTEGER NOT NULL DEFAULT 0;"
                   "ALTER TABLE jobs ADD COLUMN paused INTEGER NOT NULL DEFAULT 0;"
-                  "UPDATE meta SET value=6 WHERE key='version';",
+                  "UPDATE meta SET value=7 WHERE key='version';",
                   err);
     return commit(self, rc, err);
 }
@@ -217,11 +220,25 @@ journal_t *journal_open(const char *dir, err_t *err)
             journal_close(&self);
             return NULL;
         }
-    } else if (version == 5 && migrate_5_to_6(self, err) < 0) {
-        err_prefix(err, "journal %s: migrating version 5 to 6: ", path);
+    } else if (version == 5) {
+        /* Version 6 only adds the owner column: the rest of a version-5 spool reads as it is. */
+        if (exec(self,
+                 "BEGIN IMMEDIATE; ALTER TABLE jobs ADD COLUMN owner TEXT NOT NULL DEFAULT '';"
+                 " UPDATE meta SET value=6 WHERE key='version'; COMMIT",
+                 err) < 0 ||
+            migrate_6_to_7(self, err) < 0) {
+            err_t ignore;
+            (void)exec(self, "ROLLBACK", &ignore);
+            err_prefix(err, "migrating from version 5: ");
+            journal_close(&self);
+            return NULL;
+        }
+    }
+    if (version == 6 && migrate_6_to_7(self, err) < 0) {
+        err_prefix(err, "journal %s: migrating version 6 to 7: ", path);
         journal_close(&self);
         return NULL;
-    } else if (version != 5 && version != JOURNAL_VERSION) {
+    } else if (version >= 0 && version != 5 && version != 6 && version != JOURNAL_VERSION) {
         err_set(err, "journal %s: version %lld, this master reads version %d (move the spool "
                      "aside or use a matching prismfarm)",
                 path, version, JOURNAL_VERSION);
@@ -293,8 +310,8 @@ int journal_add_job(journal_t *self, const journal_job_t *j, err_t *err)
     if (prepare(self,
                 "INSERT OR REPLACE INTO jobs(id, name, hash, main, spp, xres, yres, seed, "
                 "integrator, dispersion, target_error, time_limit, state, round_photons, "
-                "samples_total, priority, paused) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, "
-                "?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17)",
+                "samples_total, owner, priority, paused) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, "
+                "?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18)",
                 &st, err) < 0)
         return -1;
     double t0 = clock_now_s();
@@ -313,8 +330,9 @@ int journal_add_job(journal_t *self, const journal_job_t *j, err_t *err)
     sqlite3_bind_int(st, 13, j->state);
     sqlite3_bind_int64(st, 14, (sqlite3_int64)j->round_photons);
     sqlite3_bind_int64(st, 15, (sqlite3_int64)j->samples_total);
-    sqlite3_bind_int(st, 16, j->priority);
-    sqlite3_bind_int(st, 17, j->paused);
+    sqlite3_bind_text(st, 16, j->owner, -1, SQLITE_TRANSIENT);
+    sqlite3_bind_int(st, 17, j->priority);
+    sqlite3_bind_int(st, 18, j->paused);
     int rc = step_done(self, st, "adding a job", err);
     count_write(self, t0);
     return rc;
@@ -476,8 +494,8 @@ int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err)
                 "SELECT id, name, hash, main, spp, xres, yres, seed, integrator, dispersion, "
                 "target_error, time_limit, state, error, round, photon_base, photons_saved, "
                 "round_photons, refine_photons, checkpoint, elapsed, stop, outputs, "
-                "samples_done, samples_total, nonfinite, spp_done, priority, paused FROM jobs "
-                "ORDER BY id",
+                "samples_done, samples_total, nonfinite, spp_done, owner, priority, paused "
+                "FROM jobs ORDER BY id",
                 &st, err) < 0)
         return -1;
     size_t cap = 0;
@@ -530,8 +548,10 @@ int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err)
         j->samples_total = (uint64_t)sqlite3_column_int64(st, 24);
         j->nonfinite = (uint64_t)sqlite3_column_int64(st, 25);
         j->spp_done = sqlite3_column_int(st, 26);
-        j->priority = sqlite3_column_int(st, 27);
-        j->paused = sqlite3_column_int(st, 28) != 0;
+        if ((s = sqlite3_column_text(st, 27)))
+            snprintf(j->owner, sizeof j->owner, "%s", (const char *)s);
+        j->priority = sqlite3_column_int(st, 28);
+        j->paused = sqlite3_column_int(st, 29) != 0;
         if (!j->name || !j->hash || !j->main || j->state < 0 || j->state > 4) {
             rc = SQLITE_CORRUPT;
             break;

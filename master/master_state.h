@@ -7,7 +7,9 @@
 #ifndef PRISMFARM_MASTER_STATE_H
 #define PRISMFARM_MASTER_STATE_H
 
+#include "conn_guard.h"
 #include "journal.h"
+#include "loader.h"
 #include "master.h"
 #include "net.h"
 #include "photon_phase.h"
@@ -64,6 +66,9 @@ typedef struct mjob {
     char integrator[65], dispersion[65]; /* protocol.md: names of at most 64 bytes */
     job_state_t state;
     char *error;
+    /* Who may act on it (access.h): the submitting key's name, proto_peer_t.user; "" when
+     * submitted without keys. */
+    char owner[72];
     double submitted, started, finished; /* monotonic seconds; 0: not yet */
     /* The figures it takes from its loaded scene (job_take_scene). */
     struct {
@@ -116,10 +121,9 @@ typedef struct mjob {
         uint64_t checkpoint_samples; /* samples merged at the last checkpoint */
         double last_checkpoint;      /* when it was written (monotonic seconds; 0: none yet) */
     } journal;
-    /* Operations (ops.h): who submitted it (the key's name; "" without keys), its priority
-     * and whether it is paused; the scheduler holds the same while it knows the job. */
+    /* Operations (ops.h): its priority and whether it is paused; the scheduler holds the same
+     * (and the owner, for fair share) while it knows the job. */
     struct {
-        char owner[72];
         int priority;
         bool paused;
     } ops;
@@ -132,13 +136,21 @@ typedef struct waiter {
     double deadline; /* monotonic seconds */
 } waiter_t;
 
+typedef struct submission submission_t; /* on_client.c */
+
 typedef struct master {
     const master_opts_t *opts;
     proto_limits_t limits;
+    int max_conns; /* open connections per endpoint (opts->max_conns or from the file limit) */
     sched_t *sched;
     spool_t *spool;
     journal_t *journal; /* NULL without opts->journal */
     net_t *wnet, *cnet;
+    conn_guard_t *wguard, *cguard; /* their connection bounds (conn_guard.h) */
+    /* Scenes loading off the loop (loader.h; on_client.c's submissions), oldest first. */
+    loader_t *loader;
+    submission_t **loading;
+    size_t nloading, caploading;
     mworker_t **workers;
     size_t nworkers, cap_workers;
     mjob_t **jobs; /* in id order */

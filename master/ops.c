@@ -1,6 +1,6 @@
-#define _POSIX_C_SOURCE 200809L /* access */
 #include "ops.h"
 
+#include "access.h"
 #include "jobs.h"
 #include "peers.h"
 #include "persist.h"
@@ -10,7 +10,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 /* How a key shows in logs. */
 static const char *who_name(const master_actor_t *who)
@@ -20,26 +19,21 @@ static const char *who_name(const master_actor_t *who)
 
 master_actor_t ops_actor_of_peer(const master_t *m, const proto_peer_t *peer)
 {
-    master_actor_t a = {.name = peer->user, .admin = false};
-    const master_opts_t *o = m->opts;
-    if (!o->authorized_clients_dir && !o->authorized_admins_dir) {
-        a.admin = true; /* no roles: every client holds every right */
-    } else if (o->authorized_admins_dir && peer->user[0]) {
-        char path[PATH_MAX];
-        int n = snprintf(path, sizeof path, "%s/%s.pub", o->authorized_admins_dir, peer->user);
-        a.admin = n > 0 && (size_t)n < sizeof path && !strchr(peer->user, '/') &&
-                  access(path, F_OK) == 0;
-    }
-    return a;
+    return (master_actor_t){.name = peer->user,
+                            .admin = access_peer_is_admin(peer) || !m->opts->key_file};
 }
 
 bool ops_may_act(const master_t *m, const mjob_t *j, const master_actor_t *who, err_t *err)
 {
     (void)m;
-    if (who->admin || !strcmp(j->ops.owner, who->name ? who->name : ""))
+    if (access_allowed(j->owner, who->name ? who->name : "", who->admin))
         return true;
-    err_set(err, "job %llu belongs to '%s': only its owner or an admin may change it",
-            (unsigned long long)j->id, j->ops.owner[0] ? j->ops.owner : "(no key)");
+    err_set(err,
+            "job %llu belongs to %s%s%s: only its owner or an admin (--authorized-admins) may "
+            "change it",
+            (unsigned long long)j->id, j->owner[0] ? "'" : "",
+            j->owner[0] ? j->owner : "nobody (it was submitted without keys)",
+            j->owner[0] ? "'" : "");
     return false;
 }
 
@@ -270,9 +264,8 @@ int master_worker_unblock(master_t *m, const char *worker, const master_actor_t 
 
 /* ---------------------------------------------------------------- jobs and events */
 
-void ops_job_init(mjob_t *j, const char *owner, int priority)
+void ops_job_init(mjob_t *j, int priority)
 {
-    snprintf(j->ops.owner, sizeof j->ops.owner, "%s", owner ? owner : "");
     j->ops.priority = priority;
     j->ops.paused = false;
 }

@@ -21,11 +21,12 @@ typedef struct master_actor {
     bool admin;
 } master_actor_t;
 
-/* The actor of a client connection: its ZAP user id; an admin when its key is in the admins
- * folder, or when the master has no role folders (every client then holds every right, as
- * before roles: docs/security.md). */
+/* The actor of a client connection: its ZAP user id; an admin when its key is an admin's
+ * (access.h), or when the master has no keys at all (every client is then the same anonymous
+ * user, who holds every right: docs/security.md). */
 master_actor_t ops_actor_of_peer(const master_t *m, const proto_peer_t *peer);
-/* Whether who may act on the job: its owner or an admin; err says why not. */
+/* Whether who may act on the job (access.h's rule: its owner or an admin); err says why
+ * not. */
 bool ops_may_act(const master_t *m, const mjob_t *j, const master_actor_t *who, err_t *err);
 
 int master_job_set_priority(master_t *m, uint64_t job, int priority, const master_actor_t *who,
@@ -39,8 +40,8 @@ int master_task_requeue(master_t *m, uint64_t job, uint32_t task, const master_a
 /* worker: a worker's name or its id as `prismfarm workers` shows it. */
 int master_worker_unblock(master_t *m, const char *worker, const master_actor_t *who, err_t *err);
 
-/* A job about to be scheduled, submitted by owner with priority (not paused). */
-void ops_job_init(mjob_t *j, const char *owner, int priority);
+/* A job about to be scheduled, submitted with priority (not paused). */
+void ops_job_init(mjob_t *j, int priority);
 /* A worker said HELLO: blocked again if its name is on the blocklist. */
 void ops_worker_joined(master_t *m, mworker_t *w);
 /* Whether the worker is on the blocklist (for WORKERS). */

@@ -32,6 +32,7 @@ journal_job_t persist_record(const mjob_t *j, double now)
                        .spp_done = j->accuracy.spp_done,
                        .priority = j->ops.priority,
                        .paused = j->ops.paused};
+    snprintf(r.owner, sizeof r.owner, "%s", j->owner);
     double end = j->finished > 0 ? j->finished : now;
     r.elapsed = j->started > 0 && end > j->started ? end - j->started : 0;
     return r;

@@ -39,6 +39,7 @@ static const char *const TYPE_NAMES[PROTO_TYPE_COUNT] = {
     [PROTO_STORE_REQUEST] = "STORE_REQUEST",
     [PROTO_STORE] = "STORE",
     [PROTO_REFINE] = "REFINE",
+    [PROTO_PROGRESS] = "PROGRESS",
     [PROTO_ACT] = "ACT",
     [PROTO_LOGS] = "LOGS",
     [PROTO_METRICS] = "METRICS",
@@ -782,6 +783,7 @@ static const field_t JOB_FIELDS[] = {
     {F("rmse", FT_FLOAT, JI(rel_error)), .presence = IF_FLAG, .flag = JI(has_rel_error),
      .check = ck_rel_error},
     {F("stop", FT_ENUM, JI(stop)), .presence = UNLESS_ZERO, ENUM(STOPS)},
+    {F("owner", FT_STR, JI(owner)), .presence = UNLESS_ZERO, NAME(PROTO_MAX_STRING)},
     {F("prio", FT_SINT, JI(priority)), .presence = UNLESS_ZERO, .absent = "priority 0",
      RANGE(-PROTO_MAX_PRIORITY, PROTO_MAX_PRIORITY)},
 };
@@ -935,6 +937,11 @@ static const field_t LOGS_FIELDS[] = {
     {F("task", FT_U32, M(logs.task)), .presence = IF_FLAG, .flag = M(logs.has_task)},
 };
 
+static const field_t PROGRESS_FIELDS[] = {
+    {F("msg", FT_STR, M(progress.message)), .check = ck_text},
+    {F("secs", FT_FLOAT, M(progress.elapsed)), .check = ck_seconds},
+};
+
 /* HEARTBEAT, JOBS, WORKERS and METRICS have no fields: their entries stay zero. */
 #define BODY(fields, rule) SHAPE(proto_msg_t, fields, rule)
 static const shape_t BODIES[PROTO_TYPE_COUNT] = {
@@ -959,6 +966,7 @@ static const shape_t BODIES[PROTO_TYPE_COUNT] = {
     [PROTO_STORE_REQUEST] = {BODY(STORE_REQUEST_FIELDS, NULL)},
     [PROTO_STORE] = {BODY(STORE_FIELDS, ck_store_hash)},
     [PROTO_REFINE] = {BODY(REFINE_FIELDS, NULL)},
+    [PROTO_PROGRESS] = {BODY(PROGRESS_FIELDS, NULL)},
     [PROTO_ACT] = {BODY(ACT_FIELDS, NULL)},
     [PROTO_LOGS] = {BODY(LOGS_FIELDS, NULL)},
 };

@@ -224,6 +224,14 @@ typedef struct seen {
     int n;
 } seen_t;
 
+/* journal_blocked's callback: "name: reason;" appended to a 256-byte buffer. */
+static void collect_blocked(void *user, const char *worker, const char *reason)
+{
+    char *buf = user;
+    size_t n = strlen(buf);
+    snprintf(buf + n, 256 - n, "%s: %s;", worker, reason);
+}
+
 static int collect(void *user, uint32_t task, int kind, const void *data, size_t size, err_t *err)
 {
     (void)data;
@@ -249,7 +257,8 @@ static void test_journal_tables(void **state)
     journal_job_t job = {.id = 7, .name = "prism", .hash = "ab12", .main = "scene.pbrt",
                          .settings = {.spp = 64, .seed = -1, .integrator = "path",
                                       .target_error = 0.02},
-                         .state = 0, .round_photons = 30000, .samples_total = 999};
+                         .state = 0, .round_photons = 30000, .samples_total = 999,
+                         .owner = "alice"};
     assert_int_equal(journal_add_job(jn, &job, &err), 0);
     const uint8_t blob[4] = {1, 2, 3, 4};
     /* ntiles 2: task = pass * 2 + tile; a photon batch. */
@@ -292,6 +301,7 @@ static void test_journal_tables(void **state)
     assert_int_equal(rows[0].checkpoint, 1);
     assert_int_equal(rows[0].photons_saved, 30000);
     assert_true(rows[0].elapsed == 1.5);
+    assert_string_equal(rows[0].owner, "alice");
     journal_job_clear(&rows[0]);
     free(rows);
     journal_pass_t ps[4];
@@ -357,14 +367,84 @@ static void test_journal_tables(void **state)
     assert_int_equal(stat(rdir, &st), -1); /* the job's folder went with its last file */
     journal_close(&jn);
 
-    /* A journal of another version is refused with a message, not reused. */
+    /* A job's priority and pause, and the blocked workers, are kept (version 7). */
+    assert_non_null(jn = journal_open(dir, &err));
+    assert_int_equal(journal_set_control(jn, 7, -3, true, &err), 0);
+    assert_int_equal(journal_set_control(jn, 8, 0, false, &err), -1); /* no job 8 */
+    assert_int_equal(journal_set_blocked(jn, "node9", "5 tasks failed in a row", &err), 0);
+    assert_int_equal(journal_set_blocked(jn, "node2", "by hand", &err), 0);
+    assert_int_equal(journal_set_blocked(jn, "node2", NULL, &err), 0);
+    journal_close(&jn);
+    assert_non_null(jn = journal_open(dir, &err));
+    assert_int_equal(journal_jobs(jn, &rows, &n, &err), 0);
+    assert_int_equal(n, 1);
+    assert_int_equal(rows[0].priority, -3);
+    assert_true(rows[0].paused);
+    journal_job_clear(&rows[0]);
+    free(rows);
+    char blocked[256] = "";
+    assert_int_equal(journal_blocked(jn, collect_blocked, blocked, &err), 0);
+    assert_string_equal(blocked, "node9: 5 tasks failed in a row;");
+    assert_true(journal_stats(jn).writes == 0); /* since this open: nothing written yet */
+    journal_close(&jn);
+
+    /* A version-6 journal (before priorities) is migrated in place: priority 0, not paused. */
     sqlite3 *db;
     assert_int_equal(sqlite3_open(path, &db), SQLITE_OK);
-    assert_int_equal(sqlite3_exec(db, "UPDATE meta SET value=7 WHERE key='version'", NULL, NULL, NULL),
+    assert_int_equal(sqlite3_exec(db,
+                                  "ALTER TABLE jobs DROP COLUMN priority; ALTER TABLE jobs DROP "
+                                  "COLUMN paused; DROP TABLE blocked; UPDATE meta SET value=6 "
+                                  "WHERE key='version'",
+                                  NULL, NULL, NULL),
+                     SQLITE_OK);
+    sqlite3_close(db);
+    assert_non_null(jn = journal_open(dir, &err));
+    assert_int_equal(journal_jobs(jn, &rows, &n, &err), 0);
+    assert_int_equal(n, 1);
+    assert_int_equal(rows[0].priority, 0);
+    assert_false(rows[0].paused);
+    journal_job_clear(&rows[0]);
+    free(rows);
+    blocked[0] = 0;
+    assert_int_equal(journal_blocked(jn, collect_blocked, blocked, &err), 0);
+    assert_string_equal(blocked, "");
+    journal_close(&jn);
+
+    /* A version-5 journal (before owners) is migrated in place: its jobs have no owner. */
+    assert_int_equal(sqlite3_open(path, &db), SQLITE_OK);
+    assert_int_equal(sqlite3_exec(db,
+                                  "ALTER TABLE jobs DROP COLUMN owner; ALTER TABLE jobs DROP "
+                                  "COLUMN priority; ALTER TABLE jobs DROP COLUMN paused; DROP "
+                                  "TABLE blocked; UPDATE meta SET value=5 WHERE key='version'",
+                                  NULL, NULL, NULL),
+                     SQLITE_OK);
+    sqlite3_close(db);
+    assert_non_null(jn = journal_open(dir, &err));
+    assert_int_equal(journal_jobs(jn, &rows, &n, &err), 0);
+    assert_int_equal(n, 1);
+    assert_string_equal(rows[0].name, "prism");
+    assert_string_equal(rows[0].owner, "");
+    journal_job_clear(&rows[0]);
+    free(rows);
+    journal_close(&jn);
+    /* ...and marked as of the current version, so it is not migrated twice. */
+    assert_int_equal(sqlite3_open(path, &db), SQLITE_OK);
+    sqlite3_stmt *vst;
+    assert_int_equal(sqlite3_prepare_v2(db, "SELECT value FROM meta WHERE key='version'", -1,
+                                        &vst, NULL),
+                     SQLITE_OK);
+    assert_int_equal(sqlite3_step(vst), SQLITE_ROW);
+    assert_int_equal(sqlite3_column_int(vst, 0), 7);
+    sqlite3_finalize(vst);
+    sqlite3_close(db);
+
+    /* A journal of another version is refused with a message, not reused. */
+    assert_int_equal(sqlite3_open(path, &db), SQLITE_OK);
+    assert_int_equal(sqlite3_exec(db, "UPDATE meta SET value=99 WHERE key='version'", NULL, NULL, NULL),
                      SQLITE_OK);
     sqlite3_close(db);
     assert_null(journal_open(dir, &err));
-    assert_non_null(strstr(err.msg, "version 7"));
+    assert_non_null(strstr(err.msg, "version 99"));
     /* Not a database at all. */
     assert_int_equal(mkdir(testutil_scratch("junk"), 0755), 0);
     FILE *f = fopen(testutil_scratch("junk/journal.db"), "w");
