@@ -451,6 +451,42 @@ static void test_owners(void **state)
     expect_in(r->err, "job 1 belongs to 'alice'");
     testutil_wait_file_has(mlog, "(key 'bob'): refused to cancel job 1: it belongs to 'alice'");
     testutil_wait_file_has(mlog, "(key 'bob'): refused to fetch job 1: it belongs to 'alice'");
+    /* The operations follow the same rule (docs/farm.md, "Operating a farm"), and log the key. */
+    r = run("pause", "1", "--master", cep, "--key", bob, "--master-key", MASTER_PUB, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "pause: job 1 belongs to 'alice'");
+    r = run("logs", "1", "--master", cep, "--key", bob, "--master-key", MASTER_PUB, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "job 1 belongs to 'alice'");
+    r = run("priority", "1", "5", "--master", cep, "--json", "--key", alice, "--master-key",
+            MASTER_PUB, NULL);
+    if (r->status != 0)
+        testutil_fail_quoting(mlog, "priority: exit %d: %s\nmaster log:", r->status, r->err);
+    expect_in(r->out, "\"priority\": 5");
+    r = run("pause", "1", "--master", cep, "--json", "--key", alice, "--master-key", MASTER_PUB,
+            NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "\"paused\"");
+    r = run("resume", "1", "--master", cep, "--key", alice, "--master-key", MASTER_PUB, NULL);
+    assert_int_equal(r->status, 0);
+    r = run("logs", "1", "--master", cep, "--key", alice, "--master-key", MASTER_PUB, NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "job priority 0 -> 5 by alice");
+    expect_in(r->out, "job paused by alice");
+    expect_in(r->out, "job resumed by alice");
+    r = run("unblock", "render1", "--master", cep, "--key", alice, "--master-key", MASTER_PUB,
+            NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "only an admin may unblock a worker");
+    r = run("unblock", "render1", "--master", cep, "--key", carol, "--master-key", MASTER_PUB,
+            NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "worker 'render1' is not blocked");
+    r = run("metrics", "--master", cep, "--key", bob, "--master-key", MASTER_PUB, NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "prismfarm_jobs{state=\"queued\"} 1\n");
+    testutil_wait_file_has(mlog, "pause of job 1 by bob refused");
+    testutil_wait_file_has(mlog, "job 1 priority 0 -> 5 by alice");
     /* The job is untouched by the refusals; an admin may cancel it. */
     r = run("jobs", "--master", cep, "--json", "--key", alice, "--master-key", MASTER_PUB, NULL);
     assert_int_equal(r->status, 0);
