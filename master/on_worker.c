@@ -89,6 +89,8 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
     if (!tb) {
         master_log(m, "bad result from worker %llu '%s' for job %llu: %s",
                    (unsigned long long)w->id, w->name, (unsigned long long)job, err.msg);
+        tasklog_add(m->tasklog, job, "task %u attempt %u from worker %llu '%s': bad, counted as a "
+                    "failure: %s", t32, attempt, (unsigned long long)w->id, w->name, err.msg);
         sched_task_failed(m->sched, w->id, job, t32, attempt, err.msg);
     } else {
         merge_camera_tile(m, j, &src, t32, attempt, tb, r->rect.sample_begin, r->rect.sample_end, r,
