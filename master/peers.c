@@ -185,10 +185,14 @@ void peers_count_samples(mworker_t *w, uint64_t samples, double now)
 
 double peers_samples_per_s(const mworker_t *w, double now)
 {
-    if (!w->alive || w->rate.window_start <= 0 ||
-        now - w->rate.window_start > 2 * PEERS_RATE_WINDOW_S)
+    double span = now - w->rate.window_start;
+    if (!w->alive || w->rate.window_start <= 0 || span > 2 * PEERS_RATE_WINDOW_S)
         return 0;
-    return w->rate.samples_per_s;
+    if (w->rate.samples_per_s > 0 && span < PEERS_RATE_WINDOW_S)
+        return w->rate.samples_per_s; /* the last full window's */
+    /* No full window yet (a worker that just joined, a short job): the current one's, over at
+     * least a second so that one early result does not read as a huge rate. */
+    return (double)w->rate.window_samples / (span > 1.0 ? span : 1.0);
 }
 
 proto_worker_state_t peers_wire_state(const mworker_t *w, const sched_worker_info_t *si)

@@ -45,8 +45,9 @@ proto_worker_state_t peers_wire_state(const mworker_t *w, const sched_worker_inf
 
 /* The samples of a result the worker returned at now, counted in its rate. */
 void peers_count_samples(mworker_t *w, uint64_t samples, double now);
-/* Its samples per second over its last PEERS_RATE_WINDOW_S seconds or more (0 when it has
- * returned nothing for two windows). */
+/* Its samples per second over its last PEERS_RATE_WINDOW_S seconds or more; before its first
+ * full window, over the current one (at least a second); 0 when it has returned nothing for two
+ * windows. */
 double peers_samples_per_s(const mworker_t *w, double now);
 #define PEERS_RATE_WINDOW_S 5.0
 
