@@ -117,7 +117,7 @@ static void check_format(const char *text, size_t len, seen_t *seen, char *worke
                 assert_string_not_equal(seen->families[i], name);
             assert_true(seen->nfamilies < 32);
             snprintf(seen->families[seen->nfamilies], 96, "%s", name);
-            snprintf(seen->types[seen->nfamilies], 16, "%s", type);
+            snprintf(seen->types[seen->nfamilies], 16, "%.15s", type);
             seen->nfamilies++;
         } else {
             assert_true(buf[0] != '#');
