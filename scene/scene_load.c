@@ -1162,6 +1162,13 @@ static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
         return -1;
     rs->imaging_ratio = d->film.exposuretime * d->film.iso / 100.0;
     rs->max_component = d->film.maxcomponentvalue;
+    if (strcmp(d->film.sensor, "cie1931") != 0 || d->film.whitebalance != 0.0) {
+        sc->sensor = sensor_new(d->film.sensor, d->film.whitebalance, err);
+        if (!sc->sensor) {
+            pbrt_loc_t at = strcmp(d->film.sensor, "cie1931") != 0 ? d->film.sensor_loc : d->film.whitebalance_loc;
+            return err_prefix(err, "%s:%d:%d: Film: ", at.file, at.line, at.col);
+        }
+    }
     if (spectral_grid_init(&rs->grid, d->film.nbuckets, d->film.lambda_min, d->film.lambda_max, err))
         return err_prefix(err, "%s:%d:%d: Film: ", d->film.loc.file, d->film.loc.line, d->film.loc.col);
     rs->film_spectral = d->film.type == SCENE_FILM_SPECTRAL;

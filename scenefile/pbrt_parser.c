@@ -1400,12 +1400,12 @@ static int film_warn(parser_t *P, params_t *ps, const char *name, const char *te
  * per-sample clamp, the part of the image rendered; what is not simulated warns. */
 static int do_film_sensor(parser_t *P, params_t *ps, scene_film_t *f)
 {
-    double whitebalance, diagonal;
+    double diagonal;
     const char *sensor;
     bool fp16;
     if (params_get_float(ps, "iso", 100.0, &f->iso, P->err) != 0 ||
         params_get_float(ps, "exposuretime", 1.0, &f->exposuretime, P->err) != 0 ||
-        params_get_float(ps, "whitebalance", 0.0, &whitebalance, P->err) != 0 ||
+        params_get_float(ps, "whitebalance", 0.0, &f->whitebalance, P->err) != 0 ||
         params_get_string(ps, "sensor", "cie1931", &sensor, P->err) != 0 ||
         params_get_float(ps, "maxcomponentvalue", INFINITY, &f->maxcomponentvalue, P->err) != 0 ||
         params_get_float(ps, "diagonal", 35.0, &diagonal, P->err) != 0 ||
@@ -1413,21 +1413,18 @@ static int do_film_sensor(parser_t *P, params_t *ps, scene_film_t *f)
         return -1;
     if (check_range(P, ps, "iso", f->iso, 0.0, INFINITY) != 0 ||
         check_range(P, ps, "exposuretime", f->exposuretime, 0.0, INFINITY) != 0 ||
-        check_range(P, ps, "whitebalance", whitebalance, 0.0, INFINITY) != 0 ||
+        check_range(P, ps, "whitebalance", f->whitebalance, 0.0, INFINITY) != 0 ||
         check_positive(P, ps, "diagonal", diagonal) != 0)
         return -1;
     if (params_find(ps, "maxcomponentvalue") && !(f->maxcomponentvalue > 0.0))
         return pbrt_error(P->err, params_find(ps, "maxcomponentvalue")->loc,
                           "\"float maxcomponentvalue\" must be positive, got %g", f->maxcomponentvalue);
-    if (strcmp(sensor, "cie1931") != 0 &&
-        film_warn(P, ps, "sensor",
-                  "a camera sensor's response curves are not simulated: the image is rendered with "
-                  "the \"cie1931\" sensor (XYZ matching functions) and without its white balance") != 0)
+    /* The sensor's name is checked by the loader against the sensors it has (spectral/sensor.h). */
+    f->sensor = scene_desc_strdup(P->scene, sensor, P->err);
+    if (!f->sensor)
         return -1;
-    if (whitebalance != 0.0 &&
-        film_warn(P, ps, "whitebalance",
-                  "\"float whitebalance\" is not simulated: the image is not white balanced") != 0)
-        return -1;
+    f->sensor_loc = params_find(ps, "sensor") ? params_find(ps, "sensor")->loc : f->loc;
+    f->whitebalance_loc = params_find(ps, "whitebalance") ? params_find(ps, "whitebalance")->loc : f->loc;
     /* The EXR is always float32 (prismfarm's spectral layers); pbrt-v4's default is half. */
     if (params_find(ps, "savefp16") && fp16 &&
         film_warn(P, ps, "savefp16", "\"bool savefp16\" is not simulated: the EXR is written as float32") != 0)

@@ -334,8 +334,13 @@ typedef struct scene_film {
     const char *filename; /* as written ("pbrt.exr" by default) */
     int nbuckets;
     double lambda_min, lambda_max; /* nm */
-    /* pbrt-v4's PixelSensor: the image is scaled by exposuretime * iso / 100 (cie1931). */
+    /* pbrt-v4's PixelSensor: the image is scaled by exposuretime * iso / 100; the sensor's
+     * name ("cie1931" by default) and white balance temperature in K (0: pbrt-v4's default,
+     * none for cie1931, 6500 for a camera), with where each was given. */
     double iso, exposuretime;
+    const char *sensor;
+    double whitebalance;
+    pbrt_loc_t sensor_loc, whitebalance_loc;
     double maxcomponentvalue; /* per-sample clamp of the sensor's largest component; INFINITY */
     /* The part of the image rendered (pbrt-v4): cropwindow [x0 x1 y0 y1] in [0, 1] (has_crop),
      * or pixelbounds [x0 x1 y0 y1] in pixels (has_pixelbounds); the cropwindow wins. */
