@@ -879,6 +879,38 @@ static void sensor_weight(const render_settings_t *rs, const sensor_t *sensor, d
     }
 }
 
+/* The camera ray for path p, whose lanes are set. A realistic camera with dispersive glass
+ * refracts each wavelength its own way, so only one lane can follow the ray, as at a
+ * dispersive smooth interface (docs/physics.md §4.5): with hero wavelengths the secondaries
+ * are terminated and the hero weighted by the lane count; with fan-out one lane, picked
+ * uniformly, goes on weighted by the count (its wavelength keeps its bucket's uniform density,
+ * so it is not marked dispersed). The lens's weight multiplies every lane; 0: vignetted. */
+static double lens_ray(ctx_t *c, path_t *p, const camera_frame_t *f, double px, double py, double u1, double u2)
+{
+    const camera_t *cam = &c->scene->camera;
+    if (cam->kind == CAMERA_REALISTIC && cam->lens_dispersive && p->n > 1) {
+        if (c->rs->dispersion == DISPERSION_FANOUT) {
+            int k = (int)fmin(p->n - 1, floor(next(c) * p->n));
+            p->lambda[0] = p->lambda[k];
+            p->bucket[0] = p->bucket[k];
+            p->pdf[0] = p->pdf[k];
+            p->beta[0] = p->beta[k] * p->n;
+        } else {
+            p->beta[0] *= p->n;
+            p->dispersed = 1;
+        }
+        p->n = 1;
+        p->mono = 1;
+    }
+    double w = camera_frame_ray_lambda(f, px, py, u1, u2, p->lambda[0], &p->org, &p->dir);
+    p->specular = 1;
+    p->prev_p = p->org;
+    if (w != 1.0)
+        for (int j = 0; j < p->n; j++)
+            p->beta[j] *= w;
+    return w;
+}
+
 /* A permutation of the sample indices [0, spp) that differs between pixels (an odd multiplier
  * and an offset, a bijection modulo a power of two), so that strata of the pixel position and
  * of the wavelength are not correlated. Other spp values keep the identity. */
@@ -984,9 +1016,6 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                     py = fy + 0.5 + fs.dy;
                     weight = fs.weight;
                 }
-                camera_frame_ray(&frame, px, py, l1, l2, &p.org, &p.dir);
-                p.specular = 1;
-                p.prev_p = p.org;
                 if (rs->dispersion == DISPERSION_FANOUT) {
                     /* Lane i at a wavelength uniform over bucket i, one jitter ul for all
                      * lanes (stratified like the hero's), so that its light's XYZ at that
@@ -1011,7 +1040,9 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                         p.bucket[j] = -1;
                     }
                 }
-                trace(&c, &p);
+                /* The camera ray after the wavelengths: the realistic camera's depends on them. */
+                if (lens_ray(&c, &p, &frame, px, py, l1, l2) > 0.0)
+                    trace(&c, &p);
                 sensor_weight(rs, c.sensor, weight, contrib, nb, c.xyz);
                 if (tilebuf_add_sample(out, x, y, contrib, c.xyz))
                     stats->nonfinite++;

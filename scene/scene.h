@@ -16,6 +16,7 @@
 #include "geometry.h"
 #include "filter.h"
 #include "integrators.h"
+#include "lens.h"
 #include "sensor.h"
 #include "spectral_grid.h"
 #include "spectrum.h"
@@ -165,6 +166,7 @@ typedef enum camera_kind {
     CAMERA_PERSPECTIVE,  /* pbrt-v4's default */
     CAMERA_ORTHOGRAPHIC, /* parallel rays along +z from the screen window on the z = 0 plane */
     CAMERA_SPHERICAL,    /* every direction around the camera, mapped onto the image */
+    CAMERA_REALISTIC,    /* rays traced from the film through a lens system (camera_t.lens) */
 } camera_kind_t;
 
 typedef struct camera {
@@ -178,6 +180,10 @@ typedef struct camera {
     double screen[4];
     double frame_aspect;
     int equirect; /* spherical: equirectangular mapping (else pbrt-v4's default equal-area) */
+    /* realistic: the lens (owned by the scene, scene_destroy frees it) and whether any of its
+     * glasses disperse over the film's range (a camera ray then depends on wavelength). */
+    lens_system_t *lens;
+    int lens_dispersive;
 } camera_t;
 
 /* Integrator "photon" (docs/rendering.md): a photon pass (render/photon.h) fills a caustic
