@@ -360,7 +360,8 @@ static int parse(lens_system_t *s, const char *text, size_t len, const lens_para
             *hash = 0;
         char *tok[6];
         int nt = 0;
-        for (char *t = strtok(buf, " \t\r,"); t && nt < 6; t = strtok(NULL, " \t\r,"))
+        char *save = NULL;
+        for (char *t = strtok_r(buf, " \t\r,", &save); t && nt < 6; t = strtok_r(NULL, " \t\r,", &save))
             tok[nt++] = t;
         if (nt == 0)
             continue;
