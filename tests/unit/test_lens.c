@@ -355,6 +355,60 @@ static void test_rendered_fringe(void **state)
     scene_destroy(&sc);
 }
 
+/* The image is upright and unmirrored, as a perspective camera's: a light up and to the left
+ * of the axis lands in the image's upper-left quadrant with both cameras. */
+static void brightest_quadrant(const char *camera, int *qx, int *qy)
+{
+    char text[2048];
+    snprintf(
+        text, sizeof text,
+        "%s\nFilm \"rgb\" \"integer xresolution\" 32 \"integer yresolution\" 24\n"
+        "Sampler \"independent\" \"integer pixelsamples\" 16\n"
+        "Integrator \"path\" \"integer maxdepth\" 1\nWorldBegin\n"
+        "AreaLightSource \"diffuse\" \"rgb L\" [1 1 1] \"bool twosided\" true\n"
+        "Shape \"trianglemesh\" \"point3 P\" [-0.2 0.08 2  -0.1 0.08 2  -0.1 0.16 2  -0.2 0.16 2] "
+        "\"integer indices\" [0 1 2 0 2 3]\n",
+        camera);
+    err_t err = {{0}};
+    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
+    scene_t *sc = d ? scene_load(d, NULL, &err) : NULL;
+    scene_desc_destroy(&d);
+    if (!sc)
+        fail_msg("%s", err.msg);
+    const render_settings_t *rs = &sc->settings;
+    tilebuf_t *t = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, &err);
+    if (!t || render_tile(sc, NULL, 0, 0, rs->xres, rs->yres, 0, (uint32_t)rs->spp, t, NULL, &err))
+        fail_msg("render: %s", err.msg);
+    double q[2][2] = {{0, 0}, {0, 0}};
+    for (int y = 0; y < 24; y++)
+        for (int x = 0; x < 32; x++)
+            q[y / 12][x / 16] += tilebuf_xyz_sum(t, x, y, 1);
+    *qx = *qy = 0;
+    for (int a = 0; a < 2; a++)
+        for (int b = 0; b < 2; b++)
+            if (q[a][b] > q[*qy][*qx])
+                *qy = a, *qx = b;
+    assert_true(q[*qy][*qx] > 0);
+    tilebuf_destroy(&t);
+    scene_destroy(&sc);
+}
+
+static void test_upright(void **state)
+{
+    (void)state;
+    int px, py, rx, ry;
+    brightest_quadrant("Camera \"perspective\" \"float fov\" 12", &px, &py);
+    brightest_quadrant(
+        "Camera \"realistic\" \"string lensfile\" \"../scenes/lenses/landscape-bk7-100mm.dat\" "
+        "\"float aperturediameter\" 8 \"float focusdistance\" 2",
+        &rx, &ry);
+    /* camera space +x is the image's right, +y up: the light is upper left */
+    assert_int_equal(px, 0);
+    assert_int_equal(py, 0);
+    assert_int_equal(rx, px);
+    assert_int_equal(ry, py);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -364,6 +418,7 @@ int main(void)
         cmocka_unit_test(test_edges_finite),
         cmocka_unit_test(test_bad_files),
         cmocka_unit_test(test_rendered_fringe),
+        cmocka_unit_test(test_upright),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
