@@ -367,12 +367,25 @@ void job_refresh(master_t *m, mjob_t *j, double now)
         if (j->accuracy.stop != PROTO_STOP_NONE)
             peers_cancel_job(m, j->id);
         if (job_write_image(m, j, true, &err) < 0) {
-            char msg[600];
-            snprintf(msg, sizeof msg, "writing the outputs: %s", err.msg);
-            job_set_error(j, msg);
-            j->state = JOB_FAILED;
-            master_log(m, "job %llu '%s' failed: %s", (unsigned long long)j->id, j->name, msg);
+            /* A full disk must not lose a finished render: the image stays in memory, the job
+             * is shown running with the reason, and the write is tried again. */
+            bool first = !j->outputs.waiting;
+            j->outputs.waiting = true;
+            j->outputs.retry_at = now + JOB_OUTPUT_RETRY_S;
+            snprintf(j->outputs.why, sizeof j->outputs.why,
+                     "rendered; waiting to write its outputs (tried again every %.0f s): %s",
+                     JOB_OUTPUT_RETRY_S, err.msg);
+            j->state = JOB_RUNNING;
+            j->finished = 0;
+            if (first)
+                master_log(m, "job %llu '%s' %s", (unsigned long long)j->id, j->name,
+                           j->outputs.why);
+            return;
         } else {
+            if (j->outputs.waiting)
+                master_log(m, "job %llu '%s': its outputs are written at last",
+                           (unsigned long long)j->id, j->name);
+            j->outputs.waiting = false;
             j->outputs.final = true;
             tasklog_add(m->tasklog, j->id, "job done at %d of %d spp", info.spp_done, j->scene.spp);
             const pass_record_t *last =
@@ -402,6 +415,33 @@ void job_refresh(master_t *m, mjob_t *j, double now)
     j->sched.samples_total = info.samples_total;
     j->sched.nonfinite = info.nonfinite;
     j->accuracy.spp_done = info.spp_done;
+    persist_state(m, j, now);
+    err_t err;
+    if (sched_remove_job(m->sched, j->id, &err) < 0)
+        master_log(m, "job %llu: %s", (unsigned long long)j->id, err.msg);
+    else
+        j->sched.known = false;
+}
+
+void jobs_retry_outputs(master_t *m, double now)
+{
+    for (size_t i = 0; i < m->njobs; i++) {
+        mjob_t *j = m->jobs[i];
+        if (j->outputs.waiting && j->sched.known && now >= j->outputs.retry_at)
+            job_refresh(m, j, now);
+    }
+}
+
+void job_give_up_outputs(master_t *m, mjob_t *j, double now)
+{
+    if (!j->outputs.waiting || !j->sched.known)
+        return;
+    j->outputs.waiting = false;
+    j->state = JOB_CANCELLED;
+    j->finished = now;
+    master_log(m, "job %llu '%s' cancelled while waiting to write its outputs: its image is dropped",
+               (unsigned long long)j->id, j->name);
+    release_photons(m, j);
     persist_state(m, j, now);
     err_t err;
     if (sched_remove_job(m->sched, j->id, &err) < 0)

@@ -54,6 +54,16 @@ void job_refresh(master_t *m, mjob_t *j, double now);
 
 /* The job's state as clients see it: a queued or running job that is paused shows "paused". */
 proto_job_state_t jobs_wire_state(const mjob_t *j);
+/* How often a finished job's outputs are tried again after a write failed (a full disk). */
+#define JOB_OUTPUT_RETRY_S 5.0
+
+/* Tries again the outputs of the done jobs waiting for space (outputs.waiting) whose time has
+ * come. Call it every turn. */
+void jobs_retry_outputs(master_t *m, double now);
+
+/* A cancel of a job waiting to write its outputs: it ends cancelled and its image is
+ * dropped. */
+void job_give_up_outputs(master_t *m, mjob_t *j, double now);
 
 /* Ends every running job past its time limit that has a whole pass (docs/farm.md,
  * "Accuracy"). */

@@ -104,6 +104,7 @@ static void housekeeping(master_t *m, double now, double busy)
                    requeued == 1 ? "" : "s", m->opts->sched.task_deadline_s);
     peers_agree_with_sched(m);
     jobs_enforce_time_limits(m, now);
+    jobs_retry_outputs(m, now);
     peers_heartbeat(m, now);
     ops_turn(m);
 }

@@ -90,6 +90,12 @@ typedef struct mjob {
         bool preview;        /* jobs/<id>/preview.png exists */
         double last_preview; /* when it was written; 0: never */
         bool final;          /* jobs/<id>/<stem>.exr and .png exist */
+        /* A done job whose outputs could not be written (a full disk): its image stays in the
+         * scheduler and the write is tried again at retry_at (jobs_retry_outputs), so nothing
+         * rendered is lost; why says what failed, for STATUS. */
+        bool waiting;
+        double retry_at;
+        char why[600];
     } outputs;
     /* A job with a photon pass: its batches, their merge and the merged store (kept for
      * refinement after the job is done). The scheduler's batch b is the phase's batch

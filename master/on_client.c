@@ -69,6 +69,8 @@ static proto_job_info_t job_wire_info(const master_t *m, const mjob_t *j, double
     o.elapsed = secs > 0 ? secs : 0;
     if (j->state == JOB_FAILED)
         o.error = j->error ? j->error : "failed";
+    else if (j->outputs.waiting)
+        o.error = j->outputs.why;
     return o;
 }
 
@@ -559,7 +561,9 @@ static void on_cancel(master_t *m, const proto_peer_t *from, const proto_msg_t *
         return;
     }
     err_t err;
-    if (j->sched.known && sched_cancel_job(m->sched, j->id, &err) < 0)
+    if (j->outputs.waiting)
+        job_give_up_outputs(m, j, now);
+    else if (j->sched.known && sched_cancel_job(m->sched, j->id, &err) < 0)
         master_log(m, "cancel: %s", err.msg);
     access_audit(m, from, "cancelled job %llu '%s' (%s)", (unsigned long long)j->id, j->name,
                  j->sched.known ? "running or queued" : "already over: nothing to stop");

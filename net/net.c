@@ -47,8 +47,9 @@ net_options_t net_options_default(void)
         .send_timeout_ms = 0,
         /* zguide "Paranoid Pirate": interval 1 s, liveness 3. */
         .heartbeat_ivl_ms = 1000,
-        .heartbeat_timeout_ms = 3000,
-        .heartbeat_ttl_ms = 3000,
+        .heartbeat_timeout_ms = 0,
+        .heartbeat_ttl_ms = 0,
+        .tcp_maxrt_ms = 10000,
         .handshake_ms = 10000,
         .reconnect_ivl_ms = 100,
         .reconnect_ivl_max_ms = 5000,
@@ -80,6 +81,15 @@ const char *proto_peer_str(const proto_peer_t *peer, char buf[PROTO_PEER_STR])
         snprintf(buf + end, PROTO_PEER_STR - end, " (key '%.*s')", (int)sizeof peer->user - 1,
                  peer->user);
     return buf;
+}
+
+/* How long a link may go without a whole message (net.h, heartbeat_timeout_ms): the base,
+ * plus the largest message at the slowest link; within ZMQ_HEARTBEAT_TTL's 16-bit deciseconds. */
+static int silence_ms(const net_options_t *o)
+{
+    double ms = NET_HEARTBEAT_BASE_MS +
+                1000.0 * (double)o->limits.max_message_bytes / NET_MIN_LINK_BYTES_PER_S;
+    return ms > 6553000.0 ? 6553000 : (int)ms;
 }
 
 /* The return code for a failed zmq call, from errno. */
@@ -189,8 +199,15 @@ static int configure(net_t *self, err_t *err)
         set_int(s, ZMQ_LINGER, "ZMQ_LINGER", o->linger_ms, err) ||
         set_int(s, ZMQ_SNDTIMEO, "ZMQ_SNDTIMEO", o->send_timeout_ms, err) ||
         set_int(s, ZMQ_HEARTBEAT_IVL, "ZMQ_HEARTBEAT_IVL", o->heartbeat_ivl_ms, err) ||
-        set_int(s, ZMQ_HEARTBEAT_TIMEOUT, "ZMQ_HEARTBEAT_TIMEOUT", o->heartbeat_timeout_ms, err) ||
-        set_int(s, ZMQ_HEARTBEAT_TTL, "ZMQ_HEARTBEAT_TTL", o->heartbeat_ttl_ms, err) ||
+        set_int(s, ZMQ_HEARTBEAT_TIMEOUT, "ZMQ_HEARTBEAT_TIMEOUT",
+                o->heartbeat_timeout_ms > 0 ? o->heartbeat_timeout_ms : silence_ms(o), err) ||
+        set_int(s, ZMQ_HEARTBEAT_TTL, "ZMQ_HEARTBEAT_TTL",
+                o->heartbeat_ttl_ms > 0 ? o->heartbeat_ttl_ms : silence_ms(o), err) ||
+        set_int(s, ZMQ_TCP_KEEPALIVE, "ZMQ_TCP_KEEPALIVE", 1, err) ||
+        set_int(s, ZMQ_TCP_KEEPALIVE_IDLE, "ZMQ_TCP_KEEPALIVE_IDLE", 2, err) ||
+        set_int(s, ZMQ_TCP_KEEPALIVE_INTVL, "ZMQ_TCP_KEEPALIVE_INTVL", 1, err) ||
+        set_int(s, ZMQ_TCP_KEEPALIVE_CNT, "ZMQ_TCP_KEEPALIVE_CNT", 3, err) ||
+        set_int(s, ZMQ_TCP_MAXRT, "ZMQ_TCP_MAXRT", o->tcp_maxrt_ms, err) ||
         set_int(s, ZMQ_HANDSHAKE_IVL, "ZMQ_HANDSHAKE_IVL", o->handshake_ms, err))
         return -1;
     if (self->kind == NET_ROUTER) {

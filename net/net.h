@@ -43,8 +43,16 @@ typedef struct net_options {
     int linger_ms;            /* how long closing waits for unsent messages */
     int send_timeout_ms;      /* how long a send waits for room in the peer's queue; -1 forever */
     int heartbeat_ivl_ms;     /* ZMQ_HEARTBEAT_IVL: libzmq pings this often */
-    int heartbeat_timeout_ms; /* ZMQ_HEARTBEAT_TIMEOUT: no traffic that long closes the link */
-    int heartbeat_ttl_ms;     /* ZMQ_HEARTBEAT_TTL: asks the remote side to time out after this */
+    /* ZMQ_HEARTBEAT_TIMEOUT: no whole message that long closes the link; ZMQ_HEARTBEAT_TTL
+     * asks the remote side to do the same. libzmq counts only whole messages, so a link busy
+     * with one large message (a 450 MB scene: issue 16, item 9) looks silent for as long as it
+     * takes: 0, the default, is NET_HEARTBEAT_BASE_MS plus the time limits.max_message_bytes
+     * takes at NET_MIN_LINK_BYTES_PER_S. A dead host is found by TCP instead (tcp_maxrt_ms
+     * and keepalives), within seconds whatever the messages. */
+    int heartbeat_timeout_ms;
+    int heartbeat_ttl_ms;
+    int tcp_maxrt_ms; /* ZMQ_TCP_MAXRT (TCP_USER_TIMEOUT): data unacknowledged that long drops
+                       * the link; keepalive probes after 2 s idle, 1 s apart, 3 of them */
     int handshake_ms;         /* ZMQ_HANDSHAKE_IVL: a connection that has not finished its
                                * (CURVE) handshake by then is dropped, so an idle stranger holds
                                * a descriptor that long at most (issue 16, item 12) */
@@ -54,9 +62,13 @@ typedef struct net_options {
     net_curve_t curve;
 } net_options_t;
 
+#define NET_HEARTBEAT_BASE_MS 3000
+#define NET_MIN_LINK_BYTES_PER_S (10.0 * 1024 * 1024) /* 80 Mbit/s: the slowest link planned for */
+
 /* The defaults: no CURVE, proto_limits_default(), HWM 100 each way, linger 1000 ms, send timeout 0
- * (a send never blocks: a full queue is PROTO_EAGAIN), heartbeats 1000 / 3000 / 3000 ms (a dead
- * peer is noticed within about 3 s), handshakes within 10 s, reconnect 100 ms doubling to 5000 ms. */
+ * (a send never blocks: a full queue is PROTO_EAGAIN), heartbeats every 1000 ms with the
+ * timeouts from the message limit (above), TCP's user timeout 10 s (a dead host is noticed
+ * within about 10 s), handshakes within 10 s, reconnect 100 ms doubling to 5000 ms. */
 net_options_t net_options_default(void);
 
 /* A peer as a ROUTER knows it: its routing id. */

@@ -46,10 +46,35 @@ static vec3_t spherical_direction(const camera_frame_t *f, double fx, double fy)
     return vec3_make(d.x, d.z, d.y);
 }
 
+double camera_frame_ray_lambda(const camera_frame_t *f, double fx, double fy, double u1, double u2,
+                               double lambda_nm, vec3_t *org, vec3_t *dir)
+{
+    const camera_t *cam = f->cam;
+    if (cam->kind != CAMERA_REALISTIC) {
+        camera_frame_ray(f, fx, fy, u1, u2, org, dir);
+        return 1.0;
+    }
+    double o[3], d[3];
+    double w = lens_system_ray(cam->lens, fx, fy, u1, u2, lambda_nm, o, d);
+    if (!(w > 0.0)) {
+        /* Vignetted: a valid ray that carries nothing. */
+        *org = transform_point(&cam->camera_to_world, vec3_make(0, 0, 0));
+        *dir = vec3_normalize(transform_vector(&cam->camera_to_world, vec3_make(0, 0, 1)));
+        return 0.0;
+    }
+    *org = transform_point(&cam->camera_to_world, vec3_make(o[0], o[1], o[2]));
+    *dir = vec3_normalize(transform_vector(&cam->camera_to_world, vec3_make(d[0], d[1], d[2])));
+    return w;
+}
+
 void camera_frame_ray(const camera_frame_t *f, double fx, double fy, double u1, double u2,
                       vec3_t *org, vec3_t *dir)
 {
     const camera_t *cam = f->cam;
+    if (cam->kind == CAMERA_REALISTIC) {
+        camera_frame_ray_lambda(f, fx, fy, u1, u2, LENS_LAMBDA_D, org, dir);
+        return;
+    }
     if (cam->kind == CAMERA_SPHERICAL) {
         *org = transform_point(&cam->camera_to_world, vec3_make(0, 0, 0));
         *dir = vec3_normalize(transform_vector(&cam->camera_to_world, spherical_direction(f, fx, fy)));

@@ -1,6 +1,7 @@
-/* camera: pbrt-v4's perspective and orthographic cameras (thin lens when lens_radius > 0) and
- * its spherical camera (equal-area or equirectangular): a raster position and a lens sample to
- * a world-space ray. fov is the angle of the image's shorter axis (perspective). */
+/* camera: pbrt-v4's perspective and orthographic cameras (thin lens when lens_radius > 0), its
+ * spherical camera (equal-area or equirectangular) and its realistic camera (a lens system,
+ * optics/lens.h, whose rays depend on wavelength): a raster position and a lens sample to a
+ * world-space ray. fov is the angle of the image's shorter axis (perspective). */
 #ifndef PRISMFARM_CAMERA_H
 #define PRISMFARM_CAMERA_H
 
@@ -27,5 +28,12 @@ typedef struct camera_frame {
 camera_frame_t camera_frame_make(const camera_t *cam, int xres, int yres);
 void camera_frame_ray(const camera_frame_t *f, double fx, double fy, double u1, double u2,
                       vec3_t *org, vec3_t *dir);
+/* The ray at wavelength lambda_nm and its weight (pbrt-v4's CameraRay weight): 1 for every
+ * camera but the realistic one, whose weight is cos^4 theta times the exit pupil's area over
+ * the rear element's distance squared, 0 when the lens vignettes the ray (the ray is then a
+ * valid one from the camera's origin). camera_frame_ray gives the realistic camera's ray at
+ * the d line (587.56 nm), without its weight. */
+double camera_frame_ray_lambda(const camera_frame_t *f, double fx, double fy, double u1, double u2,
+                               double lambda_nm, vec3_t *org, vec3_t *dir);
 
 #endif

@@ -75,6 +75,7 @@ typedef struct le_entry {
 
 typedef struct ctx {
     const scene_t *scene;
+    const sensor_t *sensor; /* the film's sensor; NULL: cie1931, XYZ as is */
     const render_settings_t *rs;
     const spectral_table_t *table; /* rs->grid's boundaries, for the splats */
     double *contrib;
@@ -187,7 +188,7 @@ static void splat(ctx_t *c, const path_t *p, int j, double value)
         }
         inv_density = 1.0 / (WAVELENGTH_HERO_COUNT * p->pdf[j]);
     }
-    xyz_t m = cie_cmf_eval(p->lambda[j]);
+    xyz_t m = c->sensor ? sensor_response(c->sensor, p->lambda[j]) : cie_cmf_eval(p->lambda[j]);
     double k = v * inv_density / CIE_Y_INTEGRAL;
     c->xyz[0] += k * m.x;
     c->xyz[1] += k * m.y;
@@ -851,24 +852,63 @@ static void trace(ctx_t *c, path_t *start)
     }
 }
 
-/* pbrt-v4 RGBFilm::AddSample with the cie1931 sensor: the sample times the imaging ratio
- * (exposuretime * iso / 100), scaled down so that its largest XYZ component is at most
- * maxcomponentvalue, then times the filter weight. Nothing changes (not a bit) when all three
- * are 1 and there is no clamp. */
-static void sensor_weight(const render_settings_t *rs, double weight, double *contrib, int nb,
-                          double xyz[3])
+/* pbrt-v4 RGBFilm::AddSample: the sample's sensor record (c->xyz: XYZ for cie1931, a camera's
+ * RGB) times the imaging ratio (exposuretime * iso / 100), scaled down so that its largest
+ * component is at most maxcomponentvalue, then times the filter weight, then taken to XYZ by
+ * the sensor's matrix (pbrt-v4 applies it to the pixel's mean; it is linear). Nothing changes
+ * (not a bit) for cie1931 without white balance when all three are 1 and there is no clamp. */
+static void sensor_weight(const render_settings_t *rs, const sensor_t *sensor, double weight,
+                          double *contrib, int nb, double xyz[3])
 {
     double k = rs->imaging_ratio;
     double m = fmax(xyz[0], fmax(xyz[1], xyz[2])) * k;
     if (m > rs->max_component)
         k *= rs->max_component / m;
     k *= weight;
-    if (k == 1.0)
-        return;
-    for (int b = 0; b < nb; b++)
-        contrib[b] *= k;
-    for (int i = 0; i < 3; i++)
-        xyz[i] *= k;
+    if (k != 1.0) {
+        for (int b = 0; b < nb; b++)
+            contrib[b] *= k;
+        for (int i = 0; i < 3; i++)
+            xyz[i] *= k;
+    }
+    if (sensor) {
+        xyz_t t = sensor_to_xyz(sensor, (xyz_t){xyz[0], xyz[1], xyz[2]});
+        xyz[0] = t.x;
+        xyz[1] = t.y;
+        xyz[2] = t.z;
+    }
+}
+
+/* The camera ray for path p, whose lanes are set. A realistic camera with dispersive glass
+ * refracts each wavelength its own way, so only one lane can follow the ray, as at a
+ * dispersive smooth interface (docs/physics.md §4.5): with hero wavelengths the secondaries
+ * are terminated and the hero weighted by the lane count; with fan-out one lane, picked
+ * uniformly, goes on weighted by the count (its wavelength keeps its bucket's uniform density,
+ * so it is not marked dispersed). The lens's weight multiplies every lane; 0: vignetted. */
+static double lens_ray(ctx_t *c, path_t *p, const camera_frame_t *f, double px, double py, double u1, double u2)
+{
+    const camera_t *cam = &c->scene->camera;
+    if (cam->kind == CAMERA_REALISTIC && cam->lens_dispersive && p->n > 1) {
+        if (c->rs->dispersion == DISPERSION_FANOUT) {
+            int k = (int)fmin(p->n - 1, floor(next(c) * p->n));
+            p->lambda[0] = p->lambda[k];
+            p->bucket[0] = p->bucket[k];
+            p->pdf[0] = p->pdf[k];
+            p->beta[0] = p->beta[k] * p->n;
+        } else {
+            p->beta[0] *= p->n;
+            p->dispersed = 1;
+        }
+        p->n = 1;
+        p->mono = 1;
+    }
+    double w = camera_frame_ray_lambda(f, px, py, u1, u2, p->lambda[0], &p->org, &p->dir);
+    p->specular = 1;
+    p->prev_p = p->org;
+    if (w != 1.0)
+        for (int j = 0; j < p->n; j++)
+            p->beta[j] *= w;
+    return w;
 }
 
 /* A permutation of the sample indices [0, spp) that differs between pixels (an odd multiplier
@@ -913,7 +953,7 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
         spectral_table_destroy(&table);
         return err_set(err, "out of memory");
     }
-    ctx_t c = {.scene = scene, .rs = rs, .contrib = contrib,
+    ctx_t c = {.scene = scene, .sensor = scene->sensor, .rs = rs, .contrib = contrib,
                .table = table, .stats = stats, .stack = stack,
                .fan_min = rs->grid.lambda_min, .fan_max = rs->grid.lambda_max,
                .fan_width = (rs->grid.lambda_max - rs->grid.lambda_min) / nb,
@@ -976,9 +1016,6 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                     py = fy + 0.5 + fs.dy;
                     weight = fs.weight;
                 }
-                camera_frame_ray(&frame, px, py, l1, l2, &p.org, &p.dir);
-                p.specular = 1;
-                p.prev_p = p.org;
                 if (rs->dispersion == DISPERSION_FANOUT) {
                     /* Lane i at a wavelength uniform over bucket i, one jitter ul for all
                      * lanes (stratified like the hero's), so that its light's XYZ at that
@@ -1003,8 +1040,10 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                         p.bucket[j] = -1;
                     }
                 }
-                trace(&c, &p);
-                sensor_weight(rs, weight, contrib, nb, c.xyz);
+                /* The camera ray after the wavelengths: the realistic camera's depends on them. */
+                if (lens_ray(&c, &p, &frame, px, py, l1, l2) > 0.0)
+                    trace(&c, &p);
+                sensor_weight(rs, c.sensor, weight, contrib, nb, c.xyz);
                 if (tilebuf_add_sample(out, x, y, contrib, c.xyz))
                     stats->nonfinite++;
                 stats->samples++;

@@ -57,6 +57,8 @@ void scene_destroy(scene_t **self_p)
     scene_t *self = *self_p;
     warnings_destroy(&self->warnings);
     filter_sampler_destroy(&self->filter);
+    sensor_destroy(&self->sensor);
+    lens_system_destroy(&self->camera.lens);
     geometry_destroy(&self->geometry);
     for (size_t i = 0; i < self->nshapes; i++) {
         shape_t *s = &self->shapes[i];

@@ -16,6 +16,8 @@
 #include "geometry.h"
 #include "filter.h"
 #include "integrators.h"
+#include "lens.h"
+#include "sensor.h"
 #include "spectral_grid.h"
 #include "spectrum.h"
 #include "texture.h"
@@ -164,6 +166,7 @@ typedef enum camera_kind {
     CAMERA_PERSPECTIVE,  /* pbrt-v4's default */
     CAMERA_ORTHOGRAPHIC, /* parallel rays along +z from the screen window on the z = 0 plane */
     CAMERA_SPHERICAL,    /* every direction around the camera, mapped onto the image */
+    CAMERA_REALISTIC,    /* rays traced from the film through a lens system (camera_t.lens) */
 } camera_kind_t;
 
 typedef struct camera {
@@ -177,6 +180,10 @@ typedef struct camera {
     double screen[4];
     double frame_aspect;
     int equirect; /* spherical: equirectangular mapping (else pbrt-v4's default equal-area) */
+    /* realistic: the lens (owned by the scene, scene_destroy frees it) and whether any of its
+     * glasses disperse over the film's range (a camera ray then depends on wavelength). */
+    lens_system_t *lens;
+    int lens_dispersive;
 } camera_t;
 
 /* Integrator "photon" (docs/rendering.md): a photon pass (render/photon.h) fills a caustic
@@ -220,9 +227,10 @@ typedef struct render_settings {
     /* The pixel filter (PixelFilter; render_tile samples each camera sample's offset from it
      * through scene_t.filter). render_settings_default: box of radius 0.5, the plain jitter. */
     filter_params_t filter;
-    /* pbrt-v4's cie1931 PixelSensor: every sample is scaled by exposuretime * iso / 100, then
-     * scaled down so that its largest XYZ component is at most max_component (pbrt-v4's
-     * maxcomponentvalue, applied to the sensor's values before the filter weight). */
+    /* pbrt-v4's PixelSensor: every sample's sensor record (its XYZ for cie1931, a camera's
+     * RGB: scene_t.sensor) is scaled by exposuretime * iso / 100, then scaled down so that its
+     * largest component is at most max_component (pbrt-v4's maxcomponentvalue, applied to the
+     * sensor's values before the filter weight), then taken to XYZ by the sensor's matrix. */
     double imaging_ratio;
     double max_component; /* INFINITY: no clamp */
     /* Film cropwindow / pixelbounds: xres x yres is the rendered (cropped) image, whose pixel
@@ -252,6 +260,8 @@ typedef struct scene {
     size_t nenvmaps;
     camera_t camera;
     filter_sampler_t *filter; /* settings.filter's sampler (owned); NULL: the box of radius 0.5 */
+    /* The Film's sensor (owned); NULL: cie1931 without white balance, the film records XYZ. */
+    sensor_t *sensor;
     render_settings_t settings;
     int has_dispersion;   /* any dispersive material: spectral fan-out is ever needed */
     int has_interface;    /* a shape with an "interface" material (shadow rays pass it) */

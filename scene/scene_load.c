@@ -1112,6 +1112,56 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
 /* pbrt-v4 FilmBaseParameters: pixelbounds [x0 x1 y0 y1] clipped to the film, or the crop
  * window [x0 x1 y0 y1] (clamped to [0, 1]) as pixels ceil(res * x0) .. ceil(res * x1). The
  * rendered image is the bounds' size; full_xres keeps the film's (see scene.h). */
+/* Camera "realistic": the lens system for the full film (its diagonal and aspect), focused
+ * and its exit pupil bounded over the film's wavelengths (optics/lens.h). pbrt-v4 warns when
+ * the stop is clamped; prismfarm also says which elements got a default glass. */
+static int load_lens(loader_t *L, err_t *err)
+{
+    const scene_camera_t *c = &L->desc->camera;
+    render_settings_t *rs = &L->sc->settings;
+    camera_t *cam = &L->sc->camera;
+    lens_params_t lp = {.file = c->lens_path,
+                        .glasses = c->glasses,
+                        .nglasses = c->nglasses,
+                        .aperture_diameter_mm = c->aperturediameter,
+                        .focus_distance = c->focusdistance,
+                        .film_diagonal = L->desc->film.diagonal / 1000.0,
+                        .xres = rs->full_xres > 0 ? rs->full_xres : rs->xres,
+                        .yres = rs->full_yres > 0 ? rs->full_yres : rs->yres,
+                        .lambda_min = rs->grid.lambda_min,
+                        .lambda_max = rs->grid.lambda_max};
+    cam->lens = lens_system_new(c->lens_text, c->lens_len, &lp, err);
+    if (!cam->lens)
+        return err_prefix(err, "%s:%d:%d: Camera \"realistic\": ", c->lens_loc.file, c->lens_loc.line,
+                          c->lens_loc.col);
+    cam->lens_dispersive = 0;
+    for (int i = 0; i < lens_system_count(cam->lens); i++) {
+        const lens_element_t *e = lens_system_element(cam->lens, i);
+        cam->lens_dispersive |= e->glass && ior_is_dispersive(&e->ior, rs->grid.lambda_min, rs->grid.lambda_max);
+    }
+    if (lens_system_clamped(cam->lens) &&
+        warnings_add(L->sc->warnings, c->lens_loc,
+                     "\"float aperturediameter\" %g mm is larger than the lens file's stop: the stop is kept",
+                     c->aperturediameter))
+        return err_set(err, "out of memory");
+    if (lens_system_defaulted(cam->lens)) {
+        char names[512] = "";
+        for (int i = 0; i < lens_system_count(cam->lens); i++) {
+            const lens_element_t *e = lens_system_element(cam->lens, i);
+            size_t n = strlen(names);
+            if (e->defaulted && n + 48 < sizeof names)
+                snprintf(names + n, sizeof names - n, "%s%.4f -> %s", n ? ", " : "", e->eta_d, e->glass_name);
+        }
+        if (warnings_add(L->sc->warnings, c->lens_loc,
+                         "%d lens elements name no glass: each gets the catalogue glass nearest in n_d, "
+                         "shifted to the file's n_d, for its dispersion (%s); name them in a fifth column or "
+                         "\"string glasses\"",
+                         lens_system_defaulted(cam->lens), names))
+            return err_set(err, "out of memory");
+    }
+    return 0;
+}
+
 static int load_film_crop(loader_t *L, err_t *err)
 {
     const scene_film_t *f = &L->desc->film;
@@ -1178,9 +1228,11 @@ static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
         sc->camera.kind = CAMERA_ORTHOGRAPHIC;
     else if (!strcmp(d->camera.type, "spherical"))
         sc->camera.kind = CAMERA_SPHERICAL;
+    else if (!strcmp(d->camera.type, "realistic"))
+        sc->camera.kind = CAMERA_REALISTIC;
     else
         return pbrt_error(err, d->camera.loc,
-                          "Camera \"%s\" is not supported (perspective, orthographic or spherical)",
+                          "Camera \"%s\" is not supported (perspective, orthographic, spherical or realistic)",
                           d->camera.type);
     if (d->camera.camera_from_world.singular)
         return pbrt_error(err, d->camera.loc, "the camera transform is singular");
@@ -1201,6 +1253,13 @@ static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
         return -1;
     rs->imaging_ratio = d->film.exposuretime * d->film.iso / 100.0;
     rs->max_component = d->film.maxcomponentvalue;
+    if (strcmp(d->film.sensor, "cie1931") != 0 || d->film.whitebalance != 0.0) {
+        sc->sensor = sensor_new(d->film.sensor, d->film.whitebalance, err);
+        if (!sc->sensor) {
+            pbrt_loc_t at = strcmp(d->film.sensor, "cie1931") != 0 ? d->film.sensor_loc : d->film.whitebalance_loc;
+            return err_prefix(err, "%s:%d:%d: Film: ", at.file, at.line, at.col);
+        }
+    }
     if (spectral_grid_init(&rs->grid, d->film.nbuckets, d->film.lambda_min, d->film.lambda_max, err))
         return err_prefix(err, "%s:%d:%d: Film: ", d->film.loc.file, d->film.loc.line, d->film.loc.col);
     /* budget.h: the merged image is the master's largest allocation; checked before any
@@ -1215,6 +1274,8 @@ static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
                           rs->xres, rs->yres, rs->grid.n, (double)image / 1048576.0,
                           (double)L->budget->image_bytes / 1048576.0);
     rs->film_spectral = d->film.type == SCENE_FILM_SPECTRAL;
+    if (sc->camera.kind == CAMERA_REALISTIC && load_lens(L, err))
+        return -1;
     snprintf(rs->filename, sizeof rs->filename, "%s", d->film.filename ? d->film.filename : "");
     rs->spp = ov && ov->spp > 0 ? ov->spp : d->sampler.pixelsamples;
     if (rs->spp <= 0 || rs->spp > (1 << 24))

@@ -1017,11 +1017,12 @@ static int parse_spd(parser_t *P, const param_t *p, const char *path, const char
 }
 
 /* Reads a whole spectrum file of the user's own (unconfined) scene. */
-static char *read_spd_unconfined(parser_t *P, const param_t *p, const char *path, size_t *len)
+static char *read_file_unconfined(parser_t *P, const param_t *p, const char *path, const char *what,
+                                  size_t *len)
 {
     FILE *f = fopen(path, "rb");
     if (!f) {
-        pbrt_error(P->err, p->loc, "cannot open spectrum file \"%s\": %s", path, strerror(errno));
+        pbrt_error(P->err, p->loc, "cannot open %s \"%s\": %s", what, path, strerror(errno));
         return NULL;
     }
     size_t cap = 4096, n = 0;
@@ -1046,11 +1047,16 @@ static char *read_spd_unconfined(parser_t *P, const param_t *p, const char *path
     fclose(f);
     if (!buf || bad) {
         free(buf);
-        pbrt_error(P->err, p->loc, "cannot read spectrum file \"%s\"", path);
+        pbrt_error(P->err, p->loc, "cannot read %s \"%s\"", what, path);
         return NULL;
     }
     *len = n;
     return buf;
+}
+
+static char *read_spd_unconfined(parser_t *P, const param_t *p, const char *path, size_t *len)
+{
+    return read_file_unconfined(P, p, path, "spectrum file", len);
 }
 
 /* A string given for a spectrum (pbrt-v4 paramdict.cpp: a named spectrum, else a spectrum file
@@ -1317,20 +1323,88 @@ static int check_range(parser_t *P, params_t *ps, const char *name, double v, do
  * Options: Camera, Film, Sampler, Integrator
  * ------------------------------------------------------------------------------------------ */
 
+/* pbrt-v4's RealisticCamera parameters: the lens file (read here, resolved like every file
+ * name and listed in files), the stop's diameter (mm) and the focus distance; prismfarm's
+ * "string glasses" names a glass per lens-file line. The aperture image is not simulated. */
+static int do_camera_lens(parser_t *P, params_t *ps, scene_camera_t *c, pbrt_loc_t loc)
+{
+    const char *name;
+    param_t *glasses;
+    if (params_get_string(ps, "lensfile", "", &name, P->err) != 0 ||
+        params_get_float(ps, "aperturediameter", 1.0, &c->aperturediameter, P->err) != 0 ||
+        params_get_float(ps, "focusdistance", 10.0, &c->focusdistance, P->err) != 0 ||
+        params_get_array(ps, "glasses", PARAM_STRING, &glasses, P->err) != 0)
+        return -1;
+    if (check_positive(P, ps, "aperturediameter", c->aperturediameter) != 0 ||
+        check_positive(P, ps, "focusdistance", c->focusdistance) != 0)
+        return -1;
+    param_t *lp = params_find(ps, "lensfile");
+    if (!lp || !*name)
+        return pbrt_error(P->err, loc, "Camera \"realistic\" needs \"string lensfile\"");
+    const char *aperture;
+    if (params_get_string(ps, "aperture", "", &aperture, P->err) != 0)
+        return -1;
+    if (*aperture && warnings_add(P->scene->warnings, params_find(ps, "aperture")->loc,
+                                  "\"string aperture\" \"%s\" is not simulated: the stop is round", aperture))
+        return err_set(P->err, "out of memory");
+    if (glasses) {
+        c->glasses = scene_desc_alloc(P->scene, glasses->count * sizeof *c->glasses, P->err);
+        if (!c->glasses)
+            return -1;
+        for (size_t i = 0; i < glasses->count; i++)
+            if (!(c->glasses[i] = scene_desc_strdup(P->scene, glasses->strings[i], P->err)))
+                return -1;
+        c->nglasses = (int)glasses->count;
+        c->glasses_loc = glasses->loc;
+    }
+    char *first = resolve_path(P->file, name), *second = resolve_path(P->main_name, name);
+    if (!first || !second) {
+        free(first);
+        free(second);
+        return pbrt_error(P->err, lp->loc, "out of memory");
+    }
+    const char *path = present(P, first) ? first : present(P, second) ? second : first;
+    size_t len = 0;
+    char *buf = NULL;
+    if (P->root_real) {
+        char *real = confine(P, path, name, &lp->loc, "lens file");
+        buf = real ? read_confined(P, real, name, path, &lp->loc, "lens file", &len) : NULL;
+        free(real);
+    } else {
+        buf = read_file_unconfined(P, lp, path, "lens file", &len);
+    }
+    int rc = -1;
+    if (buf) {
+        c->lens_text = scene_desc_alloc(P->scene, len + 1, P->err);
+        c->lens_path = c->lens_text ? scene_desc_strdup(P->scene, path, P->err) : NULL;
+        if (c->lens_path) {
+            memcpy(c->lens_text, buf, len);
+            c->lens_text[len] = 0;
+            c->lens_len = len;
+            c->lens_loc = lp->loc;
+            rc = note_file(P, SCENE_FILE_LENS, path, name, lp->loc);
+        }
+    }
+    free(buf);
+    free(first);
+    free(second);
+    return rc;
+}
+
 /* pbrt-v4's cameras.cpp: the perspective camera (fov, thin lens), the orthographic one
  * (thin lens too, no fov), the spherical one (mapping); the screen window and frame aspect of
  * the first two; the shutter, which prismfarm has no use for (no motion blur). */
 static int do_camera(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
 {
     scene_camera_t *c = &P->scene->camera;
-    static const char *TYPES[] = {"perspective", "orthographic", "spherical"};
+    static const char *TYPES[] = {"perspective", "orthographic", "spherical", "realistic"};
     size_t k = 0;
     while (k < COUNT_OF(TYPES) && strcmp(type->s, TYPES[k]) != 0)
         k++;
     if (k == COUNT_OF(TYPES))
         return pbrt_error(P->err, type->loc,
-                          "unsupported camera \"%s\" (\"perspective\", \"orthographic\" or "
-                          "\"spherical\"; \"realistic\" is not simulated yet)",
+                          "unsupported camera \"%s\" (\"perspective\", \"orthographic\", "
+                          "\"spherical\" or \"realistic\")",
                           type->s);
     if (check_transform(P, &P->gs.ctm, "Camera", loc) != 0)
         return -1;
@@ -1340,7 +1414,10 @@ static int do_camera(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_
     if (params_get_float(ps, "shutteropen", 0.0, &open_t, P->err) != 0 ||
         params_get_float(ps, "shutterclose", 1.0, &close_t, P->err) != 0)
         return -1;
-    if (k == 2) {
+    if (k == 3) {
+        if (do_camera_lens(P, ps, c, loc) != 0)
+            return -1;
+    } else if (k == 2) {
         const char *mapping;
         if (params_get_string(ps, "mapping", "equalarea", &mapping, P->err) != 0)
             return -1;
@@ -1402,34 +1479,30 @@ static int film_warn(parser_t *P, params_t *ps, const char *name, const char *te
  * per-sample clamp, the part of the image rendered; what is not simulated warns. */
 static int do_film_sensor(parser_t *P, params_t *ps, scene_film_t *f)
 {
-    double whitebalance, diagonal;
     const char *sensor;
     bool fp16;
     if (params_get_float(ps, "iso", 100.0, &f->iso, P->err) != 0 ||
         params_get_float(ps, "exposuretime", 1.0, &f->exposuretime, P->err) != 0 ||
-        params_get_float(ps, "whitebalance", 0.0, &whitebalance, P->err) != 0 ||
+        params_get_float(ps, "whitebalance", 0.0, &f->whitebalance, P->err) != 0 ||
         params_get_string(ps, "sensor", "cie1931", &sensor, P->err) != 0 ||
         params_get_float(ps, "maxcomponentvalue", INFINITY, &f->maxcomponentvalue, P->err) != 0 ||
-        params_get_float(ps, "diagonal", 35.0, &diagonal, P->err) != 0 ||
+        params_get_float(ps, "diagonal", 35.0, &f->diagonal, P->err) != 0 ||
         params_get_bool(ps, "savefp16", true, &fp16, P->err) != 0)
         return -1;
     if (check_range(P, ps, "iso", f->iso, 0.0, INFINITY) != 0 ||
         check_range(P, ps, "exposuretime", f->exposuretime, 0.0, INFINITY) != 0 ||
-        check_range(P, ps, "whitebalance", whitebalance, 0.0, INFINITY) != 0 ||
-        check_positive(P, ps, "diagonal", diagonal) != 0)
+        check_range(P, ps, "whitebalance", f->whitebalance, 0.0, INFINITY) != 0 ||
+        check_positive(P, ps, "diagonal", f->diagonal) != 0)
         return -1;
     if (params_find(ps, "maxcomponentvalue") && !(f->maxcomponentvalue > 0.0))
         return pbrt_error(P->err, params_find(ps, "maxcomponentvalue")->loc,
                           "\"float maxcomponentvalue\" must be positive, got %g", f->maxcomponentvalue);
-    if (strcmp(sensor, "cie1931") != 0 &&
-        film_warn(P, ps, "sensor",
-                  "a camera sensor's response curves are not simulated: the image is rendered with "
-                  "the \"cie1931\" sensor (XYZ matching functions) and without its white balance") != 0)
+    /* The sensor's name is checked by the loader against the sensors it has (spectral/sensor.h). */
+    f->sensor = scene_desc_strdup(P->scene, sensor, P->err);
+    if (!f->sensor)
         return -1;
-    if (whitebalance != 0.0 &&
-        film_warn(P, ps, "whitebalance",
-                  "\"float whitebalance\" is not simulated: the image is not white balanced") != 0)
-        return -1;
+    f->sensor_loc = params_find(ps, "sensor") ? params_find(ps, "sensor")->loc : f->loc;
+    f->whitebalance_loc = params_find(ps, "whitebalance") ? params_find(ps, "whitebalance")->loc : f->loc;
     /* The EXR is always float32 (prismfarm's spectral layers); pbrt-v4's default is half. */
     if (params_find(ps, "savefp16") && fp16 &&
         film_warn(P, ps, "savefp16", "\"bool savefp16\" is not simulated: the EXR is written as float32") != 0)

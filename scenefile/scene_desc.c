@@ -124,6 +124,8 @@ scene_desc_t *scene_desc_new(err_t *err)
     self->film.lambda_max = SCENE_RGB_LAMBDA_MAX_DEFAULT;
     self->film.iso = 100.0;
     self->film.exposuretime = 1.0;
+    self->film.sensor = "cie1931";
+    self->film.diagonal = 35.0;
     self->film.maxcomponentvalue = INFINITY;
     /* pbrt-v4 scene.cpp: a scene without PixelFilter gets the gaussian filter's defaults. */
     self->filter = (scene_filter_t){.type = "gaussian", .xradius = 1.5, .yradius = 1.5,

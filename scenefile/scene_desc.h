@@ -289,6 +289,7 @@ typedef enum scene_file_kind {
     SCENE_FILE_PLY,     /* Shape "plymesh" "string filename" */
     SCENE_FILE_IMAGE,   /* Texture "imagemap" or LightSource "infinite" "string filename" */
     SCENE_FILE_SPECTRUM, /* "spectrum x" "file.spd": a pbrt-v4 spectrum file */
+    SCENE_FILE_LENS,     /* Camera "realistic" "string lensfile" */
 } scene_file_kind_t;
 
 typedef struct scene_file {
@@ -310,7 +311,7 @@ typedef struct scene_file {
 /* ---- options ---- */
 
 typedef struct scene_camera {
-    const char *type;     /* "perspective", "orthographic" or "spherical" */
+    const char *type;     /* "perspective", "orthographic", "spherical" or "realistic" */
     pbrt_loc_t loc;       /* the directive; line 0 of the main file when it is absent */
     double fov;           /* degrees, of the shorter image axis (pbrt-v4); default 90 */
     double lensradius;    /* 0: pinhole */
@@ -320,6 +321,16 @@ typedef struct scene_camera {
     double screenwindow[4];
     double frameaspectratio;
     bool equirect; /* spherical: "string mapping" "equirectangular" (else "equalarea") */
+    /* realistic: the lens file's text (NUL-terminated) and the path it was read from,
+     * "float aperturediameter" (mm, 1), "float focusdistance" (m, 10), and prismfarm's
+     * "string glasses" (one glass name per lens-file line; NULL when not given). */
+    char *lens_text;
+    size_t lens_len;
+    const char *lens_path;
+    pbrt_loc_t lens_loc, glasses_loc;
+    double aperturediameter, focusdistance;
+    const char **glasses;
+    int nglasses;
     /* The CTM at the Camera directive (pbrt: camera-from-world); m_inv is world-from-camera.
      * The camera looks down +z in camera space, +y up, +x to the image's right. */
     transform_t camera_from_world;
@@ -334,9 +345,15 @@ typedef struct scene_film {
     const char *filename; /* as written ("pbrt.exr" by default) */
     int nbuckets;
     double lambda_min, lambda_max; /* nm */
-    /* pbrt-v4's PixelSensor: the image is scaled by exposuretime * iso / 100 (cie1931). */
+    /* pbrt-v4's PixelSensor: the image is scaled by exposuretime * iso / 100; the sensor's
+     * name ("cie1931" by default) and white balance temperature in K (0: pbrt-v4's default,
+     * none for cie1931, 6500 for a camera), with where each was given. */
     double iso, exposuretime;
+    const char *sensor;
+    double whitebalance;
+    pbrt_loc_t sensor_loc, whitebalance_loc;
     double maxcomponentvalue; /* per-sample clamp of the sensor's largest component; INFINITY */
+    double diagonal;          /* mm, the film's diagonal (the realistic camera's film size) */
     /* The part of the image rendered (pbrt-v4): cropwindow [x0 x1 y0 y1] in [0, 1] (has_crop),
      * or pixelbounds [x0 x1 y0 y1] in pixels (has_pixelbounds); the cropwindow wins. */
     bool has_crop, has_pixelbounds;

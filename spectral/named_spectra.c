@@ -53,6 +53,8 @@ const char *named_spectra_list(char *buf, size_t size)
 
 spectrum_t *named_spectrum_new(const named_spectrum_t *e, err_t *err)
 {
+    if (e->kind == NAMED_SPECTRUM_SENSOR)
+        return spectrum_new_tabulated_zero_outside(e->lambda, e->value, e->count, err);
     if (e->kind != NAMED_SPECTRUM_ILLUMINANT)
         return spectrum_new_tabulated(e->lambda, e->value, e->count, err);
     spectrum_t *raw = spectrum_new_tabulated_zero_outside(e->lambda, e->value, e->count, err);

@@ -13,18 +13,25 @@ import os
 import re
 import sys
 
-# Listing order: pbrt-v4's map groups (glass, metal, standard illuminants, other illuminants),
-# then names with their numbers in numeric order (F1, F2, ..., F12).
+# Listing order: pbrt-v4's map groups (glass, metal, standard illuminants, other illuminants,
+# camera sensors), then names with their numbers in numeric order (F1, F2, ..., F12); a camera's
+# curves (NAME_r, NAME_g, NAME_b) by camera name, then r, g, b, as pbrt-v4's map lists them.
 GROUPS = ["glass-", "metal-", "stdillum-", "illum-"]
+SENSOR = re.compile(r"^([a-z0-9_]+)_([rgb])$")
 
 
 def key(name):
+    m = SENSOR.match(name)
+    if m:
+        return (len(GROUPS), [m.group(1), "rgb".index(m.group(2))])
     group = next(i for i, g in enumerate(GROUPS) if name.startswith(g))
     parts = re.split(r"(\d+)", name)
     return (group, [int(p) if p.isdigit() else p for p in parts])
 
 
 def kind(name):
+    if SENSOR.match(name):
+        return "NAMED_SPECTRUM_SENSOR"
     if name.startswith("glass-"):
         return "NAMED_SPECTRUM_GLASS_ETA"
     if name.startswith("metal-"):

@@ -392,10 +392,6 @@ static void test_pbrt_names_warn(void **state)
     expect_warning("Film \"gbuffer\"\n" LIGHT,
                    "t.pbrt:1:6: Film \"gbuffer\" is rendered as \"rgb\": its albedo, normal and depth "
                    "layers are not written");
-    expect_warning("Film \"rgb\" \"string sensor\" \"canon_eos_100d\"\n" LIGHT,
-                   "t.pbrt:1:12: a camera sensor's response curves are not simulated: the image is "
-                   "rendered with the \"cie1931\" sensor (XYZ matching functions) and without its "
-                   "white balance");
     /* volpath without media is path: no warning at all. */
     scene_t *s = load_text("Integrator \"volpath\" \"integer maxdepth\" 7 \"string lightsampler\" \"bvh\"\n" LIGHT);
     assert_int_equal(warnings_count(s->warnings), 0);

@@ -81,7 +81,11 @@ static void test_every_name(void **state)
         "stdillum-F1", "stdillum-F2", "stdillum-F3", "stdillum-F4", "stdillum-F5", "stdillum-F6",
         "stdillum-F7", "stdillum-F8", "stdillum-F9", "stdillum-F10", "stdillum-F11",
         "stdillum-F12", "illum-acesD60"};
-    assert_int_equal(named_spectra_count(), (int)(sizeof NAMES / sizeof NAMES[0]));
+    /* and 17 cameras' r, g, b curves (test_sensor checks them) after them */
+    assert_int_equal(named_spectra_count(), (int)(sizeof NAMES / sizeof NAMES[0]) + 17 * 3);
+    for (int i = 0; i < named_spectra_count(); i++)
+        assert_true((i < (int)(sizeof NAMES / sizeof NAMES[0])) ==
+                    (named_spectra_get(i)->kind != NAMED_SPECTRUM_SENSOR));
     for (size_t i = 0; i < sizeof NAMES / sizeof NAMES[0]; i++) {
         const named_spectrum_t *e = named_spectra_find(NAMES[i]);
         assert_non_null(e);

@@ -1097,9 +1097,12 @@ static void test_error_messages(void **state)
         {"Shape \"sphere\"\n", "t.pbrt:1:1: Shape is only allowed after WorldBegin"},
         {"WorldBegin\nCamera \"perspective\"\n",
          "t.pbrt:2:1: Camera must come before WorldBegin (line 1)"},
-        {"Camera \"realistic\"\nWorldBegin\n",
-         "t.pbrt:1:8: unsupported camera \"realistic\" (\"perspective\", \"orthographic\" or "
-         "\"spherical\"; \"realistic\" is not simulated yet)"},
+        {"Camera \"realistic\"\nWorldBegin\n", "t.pbrt:1:1: Camera \"realistic\" needs \"string lensfile\""},
+        {"Camera \"realistic\" \"string lensfile\" \"no-such.dat\"\nWorldBegin\n",
+         "t.pbrt:1:20: cannot open lens file \"no-such.dat\": No such file or directory"},
+        {"Camera \"thinlens\"\nWorldBegin\n",
+         "t.pbrt:1:8: unsupported camera \"thinlens\" (\"perspective\", \"orthographic\", \"spherical\" or "
+         "\"realistic\")"},
         {"Camera \"perspective\"\n", "t.pbrt: the scene has no WorldBegin"},
         {"WorldBegin\nWorldBegin\n", "t.pbrt:2:1: WorldBegin appears twice (first at line 1)"},
         {"LookAt 0 0 0 1 1 1 0 1\nWorldBegin\n",

@@ -1,0 +1,158 @@
+/* Large messages on a slow link (issue 16, item 9: while 200-450 MB scenes moved, workers
+ * dropped and rejoined and a concurrent submission failed). libzmq's heartbeat timeout counts
+ * only whole messages, so a link busy with one large message looked dead after 3 s and was
+ * closed mid-transfer. Here a master runs on one host and a worker and a client on another
+ * (network namespaces joined by a veth pair), each direction shaped to 80 Mbit/s (tc tbf): a 40 MB bundle takes about 4 s to reach the
+ * master and again to reach the worker, longer than the old 3 s; the job completes, no link
+ * drops, and the pixels are those of `prismfarm render`. Needs root, iproute2 and the tbf
+ * qdisc; skipped with the reason otherwise (PRISMFARM_REQUIRE_NETNS=1 makes a missing
+ * namespace a failure, for CI; a missing tbf stays a skip, said as such). */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#define CLI_RUN_TIMEOUT_MS 180000
+#include "cli_run.h"
+#include "farm_testutil.h"
+
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+
+static char NS[64], NSM[72], NSC[72]; /* NS: the prefix; NSM: the master's host, NSC: the others' */
+
+static int sh(const char *cmd)
+{
+    int st = system(cmd);
+    return WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+}
+
+/* `ip netns exec NS prismfarm ARGS...`, stderr to log. */
+static pid_t spawn_in_ns(const char *ns, const char *log, const char *const *args)
+{
+    const char *argv[40] = {"ip", "netns", "exec", ns, getenv("PRISMFARM_BIN")};
+    int n = 5;
+    for (int i = 0; args[i] && n < 38; i++)
+        argv[n++] = args[i];
+    argv[n] = NULL;
+    pid_t pid = fork();
+    if (pid == 0) {
+        prctl(PR_SET_PDEATHSIG, SIGKILL);
+        if (!freopen(log, "w", stderr) || !freopen("/dev/null", "w", stdout))
+            _exit(126);
+        execvp("ip", (char *const *)argv);
+        _exit(127);
+    }
+    assert_true(pid > 0);
+    testutil_track_child(pid);
+    return pid;
+}
+
+static int teardown(void **state)
+{
+    testutil_kill_children(state);
+    if (NS[0]) {
+        char cmd[300];
+        snprintf(cmd, sizeof cmd, "ip netns del %s 2>/dev/null; ip netns del %s 2>/dev/null", NSM,
+                 NSC);
+        (void)sh(cmd);
+    }
+    return 0;
+}
+
+static void test_large_bundle_on_slow_link(void **state)
+{
+    (void)state;
+    const char *require = getenv("PRISMFARM_REQUIRE_NETNS");
+    bool required = require && !strcmp(require, "1");
+    snprintf(NS, sizeof NS, "pf-slow-%ld", (long)getpid());
+    snprintf(NSM, sizeof NSM, "%s-m", NS);
+    snprintf(NSC, sizeof NSC, "%s-c", NS);
+    /* Two hosts joined by a veth pair, each direction shaped at its sender (a full-duplex
+     * link: the master's scene going out does not delay the worker's heartbeats coming in). */
+    char cmd[2048];
+    snprintf(cmd, sizeof cmd,
+             "ip netns add %s 2>/dev/null && ip netns add %s && ip -n %s link set lo up && "
+             "ip -n %s link set lo up && ip link add pfva netns %s type veth peer name pfvb "
+             "netns %s && ip -n %s addr add 10.78.0.1/24 dev pfva && ip -n %s addr add "
+             "10.78.0.2/24 dev pfvb && ip -n %s link set pfva up && ip -n %s link set pfvb up",
+             NSM, NSC, NSM, NSC, NSM, NSC, NSM, NSC, NSM, NSC);
+    if (getuid() != 0 || sh(cmd) != 0) {
+        NS[0] = 0;
+        if (required)
+            fail_msg("PRISMFARM_REQUIRE_NETNS=1 but no network namespace could be made");
+        print_message("no network namespace here (not root, or not allowed): skipped\n");
+        skip();
+    }
+    snprintf(cmd, sizeof cmd,
+             "tc -n %s qdisc add dev pfva root tbf rate 80mbit burst 256kb latency 400ms && "
+             "tc -n %s qdisc add dev pfvb root tbf rate 80mbit burst 256kb latency 400ms",
+             NSM, NSC);
+    if (sh(cmd) != 0) {
+        print_message("the tbf qdisc is not available here (kernel module sch_tbf): skipped\n");
+        skip();
+    }
+    /* The scene: tiny.pbrt with an Include of 40 MB of comment lines. */
+    const char *dir = testutil_scratch("slow-scene");
+    assert_int_equal(mkdir(dir, 0700), 0);
+    char main_path[700], pad[700];
+    snprintf(main_path, sizeof main_path, "%s/main.pbrt", dir);
+    snprintf(pad, sizeof pad, "%s/pad.pbrt", dir);
+    snprintf(cmd, sizeof cmd,
+             "sed 's/^WorldBegin$/WorldBegin\\nInclude \"pad.pbrt\"/' data/render/tiny.pbrt > '%s'"
+             " && yes '# padding padding padding padding padding padding padding padd' | "
+             "head -c 41943040 > '%s'",
+             main_path, pad);
+    assert_int_equal(sh(cmd), 0);
+    const char *spool = testutil_scratch("slow-spool");
+    char mlog[700], wlog[700], slog[700];
+    snprintf(mlog, sizeof mlog, "%s", testutil_scratch("slow-master.log"));
+    snprintf(wlog, sizeof wlog, "%s", testutil_scratch("slow-worker.log"));
+    snprintf(slog, sizeof slog, "%s", testutil_scratch("slow-submit.log"));
+    const char *margs[] = {"master", "--workers", "tcp://10.78.0.1:*", "--clients",
+                           "tcp://10.78.0.1:*", "--spool", spool, "--insecure", "--tile", "8",
+                           NULL};
+    pid_t master = spawn_in_ns(NSM, mlog, margs);
+    char wep[256], cep[256];
+    testutil_read_endpoints(spool, wep, cep, mlog);
+    const char *wargs[] = {"worker", "--connect", wep, "--name", "w1", "--threads", "2",
+                           "--insecure", "--cache", testutil_scratch("slow-cache"), NULL};
+    pid_t worker = spawn_in_ns(NSC, wlog, wargs);
+    char out[700];
+    snprintf(out, sizeof out, "%s", testutil_scratch("slow.exr"));
+    const char *sargs[] = {"submit", main_path, "--master", cep, "--insecure", "--spp", "4",
+                           "--wait", "-o", out, "--quiet", NULL};
+    pid_t submit = spawn_in_ns(NSC, slog, sargs);
+    int st = testutil_stop(submit, 0); /* waits for it to end */
+    assert_true(WIFEXITED(st));
+    if (WEXITSTATUS(st) != 0)
+        testutil_fail_quoting(slog, "submit --wait of a 40 MB bundle on an 80 Mbit/s link failed:");
+    testutil_expect_file_has(mlog, "job 1 'main' done");
+    /* The worker's own link never dropped (it may say the master is busy: the master's
+     * messages wait behind the scene). The master may still give the worker up while the
+     * worker stores the 40 MB bundle on its main thread (each file written with fsync, seconds
+     * on a busy disk: docs/reliability.md, "Not fixed yet"); it rejoins and the job ends with
+     * the same pixels, which is what this test holds to. */
+    if (testutil_file_count(wlog, "reconnecting"))
+        testutil_fail_quoting(wlog, "the worker's link dropped; its log:");
+    print_message("the master gave the worker up %d time(s) while it stored the scene\n",
+                  testutil_file_count(mlog, "lost (silent"));
+    const run_t *r = run("render", main_path, "--spp", "4", "-o",
+                         testutil_scratch("slow-ref.exr"), "--quiet", NULL);
+    assert_int_equal(r->status, 0);
+    testutil_assert_same_pixels(out, testutil_scratch("slow-ref.exr"));
+    testutil_stop(worker, SIGTERM);
+    testutil_stop(master, SIGTERM);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test_teardown(test_large_bundle_on_slow_link, teardown),
+    };
+    return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
+}
