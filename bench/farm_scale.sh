@@ -1,0 +1,178 @@
+#!/usr/bin/env bash
+# The master at scale (docs/performance.md, "The master at scale"): one `prismfarm master` on
+# loopback TCP against 100, 250 and 500 simulated workers (bench/farm_sim.c: one process of N
+# DEALER connections that answer tasks with prepared tiles, so that the master's own cost is
+# what is measured), on a job of 10 000 tiles (800x800 pixels in 8x8 tiles, 4 spp: 3 passes,
+# 30 000 tasks), while 10 % of the workers disconnect at seeded points. Two runs per worker
+# count:
+#   offered  each simulated worker (1 thread, so 2 tasks held) keeps each task N/RATE seconds:
+#            RATE results/s offered (default 2000), the goal the master must keep up with;
+#   flat out each task answered at once: the results/s the master sustains, and what limits it.
+# Reports per run the results/s, the master's CPU (whole process and its main thread; share of
+# one core and microseconds per task), the turnaround (a result sent to the next task received
+# by that worker: the master's merge and dispatch as a worker sees them), the master's peak RSS,
+# and the check that no task was lost or merged twice (the simulator's EXR check). Writes the
+# table into docs/performance.md between its "farm-scale:begin" and "farm-scale:end" markers
+# and the plot of master CPU against workers to docs/farm_scale.png (gnuplot).
+#
+# usage: bash bench/farm_scale.sh [--build DIR] [--no-build] [--no-docs] [--points "100 250 500"]
+#                                 [--rate 2000] [--res 800x800] [--tile 8] [--spp 4]
+#   --build DIR  Release build folder (default build, as deploy/build.sh release makes it)
+#   --no-build   use DIR's binaries as they are
+#   --no-docs    print the table only
+# About 3 minutes on 2 idle cores. The simulator and the master share the machine's cores.
+set -euo pipefail
+
+ROOT=$(cd "$(dirname "$0")/.." && pwd)
+BUILD=$ROOT/build
+WRITE_DOCS=1
+DO_BUILD=1
+POINTS="100 250 500"
+RATE=2000
+RES=800x800
+TILE=8
+SPP=4
+while (($#)); do
+  case $1 in
+    --build) BUILD=${2:-}; shift 2 ;;
+    --no-build) DO_BUILD=0; shift ;;
+    --no-docs) WRITE_DOCS=0; shift ;;
+    --points) POINTS=${2:-}; shift 2 ;;
+    --rate) RATE=${2:-}; shift 2 ;;
+    --res) RES=${2:-}; shift 2 ;;
+    --tile) TILE=${2:-}; shift 2 ;;
+    --spp) SPP=${2:-}; shift 2 ;;
+    -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
+    *) echo "bench/farm_scale.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
+  esac
+done
+[[ $RATE =~ ^[1-9][0-9]*$ ]] || { echo "bench/farm_scale.sh: --rate expects a positive integer" >&2; exit 2; }
+
+if ((DO_BUILD)); then
+  echo "== building Release into $BUILD" >&2
+  cmake -S "$ROOT" -B "$BUILD" -DCMAKE_BUILD_TYPE=Release >/dev/null
+  cmake --build "$BUILD" -j2 --target prismfarm bench_farm_sim >/dev/null
+fi
+BIN=$BUILD/cli/prismfarm
+SIM=$BUILD/bench/bench_farm_sim
+for f in "$BIN" "$SIM"; do
+  [[ -x $f ]] || { echo "bench/farm_scale.sh: no $f (build it, or drop --no-build)" >&2; exit 1; }
+done
+
+# Each connection is a descriptor in the master and two in the simulator.
+ulimit -n "$(ulimit -Hn)"
+WORK=$(mktemp -d /tmp/farm_scale.XXXXXX)
+MASTER=
+cleanup() {
+  [[ -n $MASTER ]] && kill "$MASTER" 2>/dev/null && wait "$MASTER" 2>/dev/null
+  rm -rf "$WORK"
+}
+trap cleanup EXIT
+
+NPROC=$(nproc)
+CPU=$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //')
+BUCKETS=16 # bench/farm_scale.pbrt's Film
+
+# One run: N workers, hold in ms; appends the simulator's line, tagged, to $WORK/runs.
+run() {
+  local n=$1 hold=$2 tag=$3 spool=$WORK/spool-$1-$3
+  "$BIN" master --workers 'tcp://127.0.0.1:*' --clients 'tcp://127.0.0.1:*' --insecure \
+    --tile "$TILE" --spool "$spool" 2>"$WORK/master-$n-$tag.log" &
+  MASTER=$!
+  for _ in $(seq 200); do [[ -s $spool/endpoints ]] && break; sleep 0.05; done
+  [[ -s $spool/endpoints ]] || { echo "bench/farm_scale.sh: the master did not start:" >&2; cat "$WORK/master-$n-$tag.log" >&2; exit 1; }
+  local wep cep line
+  wep=$(awk '$1 == "workers" { print $2 }' "$spool/endpoints")
+  cep=$(awk '$1 == "clients" { print $2 }' "$spool/endpoints")
+  echo "== $n workers, $tag (hold $hold ms)" >&2
+  if ! line=$("$SIM" --workers "$wep" --clients "$cep" --scene "$ROOT/bench/farm_scale.pbrt" \
+      --res "$RES" --spp "$SPP" --buckets "$BUCKETS" --tile "$TILE" --n "$n" --hold-ms "$hold" \
+      --disconnect 0.1 --seed "$n" --master-pid "$MASTER" --timeout 900 --quiet); then
+    echo "bench/farm_scale.sh: the run of $n workers ($tag) failed: $line" >&2
+  fi
+  echo "$line" >&2
+  echo "tag=$tag $line" >>"$WORK/runs"
+  kill "$MASTER"
+  wait "$MASTER" || true
+  MASTER=
+  grep -c ' lost (' "$WORK/master-$n-$tag.log" | sed "s/^/   workers the master declared lost: /" >&2 || true
+}
+
+: >"$WORK/runs"
+for n in $POINTS; do
+  run "$n" "$(awk -v n="$n" -v r="$RATE" 'BEGIN { printf "%.1f", 1000 * n / r }')" offered
+  run "$n" 0 flatout
+done
+
+# key=value fields of a run line
+field() { tr ' ' '\n' <<<"$2" | awk -F= -v k="$1" '$1 == k { print $2 }'; }
+
+{
+  echo "Measured by \`bench/farm_scale.sh\` on $CPU, $NPROC cores shared by the master and the"
+  echo "simulator (and by whatever else the machine runs); $(date -u +%Y-%m-%d). Job: $RES pixels"
+  echo "in ${TILE}x$TILE tiles ($(( (${RES%x*} + TILE - 1) / TILE * ((${RES#*x} + TILE - 1) / TILE) )) tiles), $SPP spp,"
+  echo "$BUCKETS buckets, journal on; 10 % of the workers disconnect during the job. *offered*: the"
+  echo "workers answer $RATE results/s between them; *flat out*: each task at once."
+  echo
+  echo "| workers | run | results/s | master CPU (cores) | main thread (cores) | CPU µs/task | main µs/task | turnaround p50 / p99 (ms) | peak RSS (MB) | disconnects | answered twice | lost | pixels wrong |"
+  echo "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
+  while read -r l; do
+    tag=$(field tag "$l")
+    [[ $tag == offered ]] && tag="offered $RATE/s" || tag="flat out"
+    printf '| %s | %s | %.0f | %.2f | %.2f | %.0f | %.0f | %.2f / %.1f | %.0f | %s | %s | %s | %s |\n' \
+      "$(field workers "$l")" "$tag" "$(field results_per_s "$l")" "$(field cpu_core_share "$l")" \
+      "$(field main_core_share "$l")" "$(field cpu_us_per_task "$l")" "$(field main_us_per_task "$l")" \
+      "$(field turnaround_ms_p50 "$l")" "$(field turnaround_ms_p99 "$l")" "$(field rss_peak_mb "$l")" \
+      "$(field disconnects "$l")" "$(field answered_twice "$l")" "$(field lost "$l")" \
+      "$(field pixels_bad "$l")"
+  done <"$WORK/runs"
+} >"$WORK/report.md"
+cat "$WORK/report.md"
+
+# The plot: the master's CPU (share of one core) against the worker count, both runs.
+if command -v gnuplot >/dev/null; then
+  for tag in offered flatout; do
+    while read -r l; do
+      [[ $(field tag "$l") == "$tag" ]] || continue
+      echo "$(field workers "$l") $(field cpu_core_share "$l") $(field main_core_share "$l") $(field results_per_s "$l")"
+    done <"$WORK/runs" >"$WORK/$tag.dat"
+  done
+  OUT=$ROOT/docs/farm_scale.png
+  ((WRITE_DOCS)) || OUT=$WORK/farm_scale.png
+  gnuplot <<EOF
+set terminal pngcairo size 900,560 font "DejaVu Sans,11" noenhanced
+set output '$OUT'
+set title "The master's CPU against simulated workers ($RES in ${TILE}x$TILE tiles, $SPP spp; 10 % disconnecting)"
+set grid lc rgb '#dddddd'
+set xlabel "simulated workers"
+set ylabel "master CPU (cores: 1 = one core busy)"
+set y2label "results/s"
+set y2tics
+set ytics nomirror
+set xrange [0:*]
+set yrange [0:*]
+set y2range [0:*]
+set key top left box opaque
+plot '$WORK/offered.dat' using 1:2 with linespoints lw 2 pt 7 lc rgb '#1f77b4' title "master CPU, $RATE results/s offered", \
+     '$WORK/offered.dat' using 1:3 with linespoints lw 2 pt 6 dt 2 lc rgb '#1f77b4' title "its main thread", \
+     '$WORK/flatout.dat' using 1:2 with linespoints lw 2 pt 7 lc rgb '#d62728' title "master CPU, flat out", \
+     '$WORK/flatout.dat' using 1:3 with linespoints lw 2 pt 6 dt 2 lc rgb '#d62728' title "its main thread", \
+     '$WORK/flatout.dat' using 1:4 axes x1y2 with linespoints lw 1 pt 5 dt 3 lc rgb 'gray40' title "results/s flat out (right axis)"
+EOF
+  echo "== plot: $OUT" >&2
+else
+  echo "== gnuplot is not installed: no plot (apt-get install gnuplot-nox, then run again)" >&2
+fi
+
+if ((WRITE_DOCS)); then
+  DOC=$ROOT/docs/performance.md
+  if ! grep -q '<!-- farm-scale:begin -->' "$DOC"; then
+    printf '\n<!-- farm-scale:begin -->\n<!-- farm-scale:end -->\n' >>"$DOC"
+  fi
+  awk -v rep="$WORK/report.md" '
+    /<!-- farm-scale:begin -->/ { print; while ((getline l < rep) > 0) print l; skip = 1; next }
+    /<!-- farm-scale:end -->/ { skip = 0 }
+    !skip { print }' "$DOC" >"$WORK/doc.md"
+  cp "$WORK/doc.md" "$DOC"
+  echo "== docs/performance.md updated" >&2
+fi
