@@ -16,10 +16,12 @@
 # and the plot of master CPU against workers to docs/farm_scale.png (gnuplot).
 #
 # usage: bash bench/farm_scale.sh [--build DIR] [--no-build] [--no-docs] [--points "100 250 500"]
-#                                 [--rate 2000] [--res 800x800] [--tile 8] [--spp 4]
+#                                 [--runs "offered flatout"] [--rate 2000] [--res 800x800]
+#                                 [--tile 8] [--spp 4] [--bin PRISMFARM]
 #   --build DIR  Release build folder (default build, as deploy/build.sh release makes it)
 #   --no-build   use DIR's binaries as they are
-#   --no-docs    print the table only
+#   --no-docs    print the table only (and write the plot in the scratch folder)
+#   --bin FILE   another prismfarm for the master (an older build, to compare)
 # About 3 minutes on 2 idle cores. The simulator and the master share the machine's cores.
 set -euo pipefail
 
@@ -28,6 +30,8 @@ BUILD=$ROOT/build
 WRITE_DOCS=1
 DO_BUILD=1
 POINTS="100 250 500"
+RUNS="offered flatout"
+MASTER_BIN=
 RATE=2000
 RES=800x800
 TILE=8
@@ -38,11 +42,13 @@ while (($#)); do
     --no-build) DO_BUILD=0; shift ;;
     --no-docs) WRITE_DOCS=0; shift ;;
     --points) POINTS=${2:-}; shift 2 ;;
+    --runs) RUNS=${2:-}; shift 2 ;;
+    --bin) MASTER_BIN=${2:-}; shift 2 ;;
     --rate) RATE=${2:-}; shift 2 ;;
     --res) RES=${2:-}; shift 2 ;;
     --tile) TILE=${2:-}; shift 2 ;;
     --spp) SPP=${2:-}; shift 2 ;;
-    -h|--help) sed -n '2,22p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,25p' "$0"; exit 0 ;;
     *) echo "bench/farm_scale.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -55,6 +61,7 @@ if ((DO_BUILD)); then
 fi
 BIN=$BUILD/cli/prismfarm
 SIM=$BUILD/bench/bench_farm_sim
+[[ -n $MASTER_BIN ]] && BIN=$MASTER_BIN
 for f in "$BIN" "$SIM"; do
   [[ -x $f ]] || { echo "bench/farm_scale.sh: no $f (build it, or drop --no-build)" >&2; exit 1; }
 done
@@ -100,8 +107,13 @@ run() {
 
 : >"$WORK/runs"
 for n in $POINTS; do
-  run "$n" "$(awk -v n="$n" -v r="$RATE" 'BEGIN { printf "%.1f", 1000 * n / r }')" offered
-  run "$n" 0 flatout
+  for r in $RUNS; do
+    case $r in
+      offered) run "$n" "$(awk -v n="$n" -v r="$RATE" 'BEGIN { printf "%.1f", 1000 * n / r }')" offered ;;
+      flatout) run "$n" 0 flatout ;;
+      *) echo "bench/farm_scale.sh: --runs takes offered and flatout, not '$r'" >&2; exit 2 ;;
+    esac
+  done
 done
 
 # key=value fields of a run line
@@ -112,16 +124,23 @@ field() { tr ' ' '\n' <<<"$2" | awk -F= -v k="$1" '$1 == k { print $2 }'; }
   echo "simulator (and by whatever else the machine runs); $(date -u +%Y-%m-%d). Job: $RES pixels"
   echo "in ${TILE}x$TILE tiles ($(( (${RES%x*} + TILE - 1) / TILE * ((${RES#*x} + TILE - 1) / TILE) )) tiles), $SPP spp,"
   echo "$BUCKETS buckets, journal on; 10 % of the workers disconnect during the job. *offered*: the"
-  echo "workers answer $RATE results/s between them; *flat out*: each task at once."
+  echo "workers answer $RATE results/s between them; *flat out*: each task at once. *Steady"
+  echo "results/s*: between 5 % and 95 % of the tasks answered; *job*: first task to done, with the"
+  echo "tail where the last tasks wait for a silent worker's 3 s timeout. *Turnaround*: a result"
+  echo "sent to the next task received by that worker. CPU from /proc/PID/stat (main thread:"
+  echo "/proc/PID/task/PID/stat), from the first HELLO to the job's end; *waiting for a CPU*: the"
+  echo "share of that time the main thread was runnable but on a run queue (schedstat): the"
+  echo "machine's other work, not the master's."
   echo
-  echo "| workers | run | results/s | master CPU (cores) | main thread (cores) | CPU µs/task | main µs/task | turnaround p50 / p99 (ms) | peak RSS (MB) | disconnects | answered twice | lost | pixels wrong |"
-  echo "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
+  echo "| workers | run | steady results/s | job (s) | master CPU (cores) | main thread (cores) | main thread waiting for a CPU | CPU µs/task | main µs/task | turnaround p50 / p99 (ms) | peak RSS (MB) | disconnects | answered twice | lost | pixels wrong |"
+  echo "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
   while read -r l; do
     tag=$(field tag "$l")
     [[ $tag == offered ]] && tag="offered $RATE/s" || tag="flat out"
-    printf '| %s | %s | %.0f | %.2f | %.2f | %.0f | %.0f | %.2f / %.1f | %.0f | %s | %s | %s | %s |\n' \
-      "$(field workers "$l")" "$tag" "$(field results_per_s "$l")" "$(field cpu_core_share "$l")" \
-      "$(field main_core_share "$l")" "$(field cpu_us_per_task "$l")" "$(field main_us_per_task "$l")" \
+    printf '| %s | %s | %.0f | %.1f | %.2f | %.2f | %.0f %% | %.0f | %.0f | %.2f / %.1f | %.0f | %s | %s | %s | %s |\n' \
+      "$(field workers "$l")" "$tag" "$(field steady_results_per_s "$l")" "$(field run_s "$l")" "$(field cpu_core_share "$l")" \
+      "$(field main_core_share "$l")" "$(awk -v v="$(field main_runqueue_share "$l")" 'BEGIN { print 100 * v }')" \
+      "$(field cpu_us_per_task "$l")" "$(field main_us_per_task "$l")" \
       "$(field turnaround_ms_p50 "$l")" "$(field turnaround_ms_p99 "$l")" "$(field rss_peak_mb "$l")" \
       "$(field disconnects "$l")" "$(field answered_twice "$l")" "$(field lost "$l")" \
       "$(field pixels_bad "$l")"
@@ -134,30 +153,35 @@ if command -v gnuplot >/dev/null; then
   for tag in offered flatout; do
     while read -r l; do
       [[ $(field tag "$l") == "$tag" ]] || continue
-      echo "$(field workers "$l") $(field cpu_core_share "$l") $(field main_core_share "$l") $(field results_per_s "$l")"
+      echo "$(field workers "$l") $(field cpu_core_share "$l") $(field main_core_share "$l") $(field steady_results_per_s "$l") $(field cpu_us_per_task "$l") $(field main_us_per_task "$l")"
     done <"$WORK/runs" >"$WORK/$tag.dat"
   done
   OUT=$ROOT/docs/farm_scale.png
   ((WRITE_DOCS)) || OUT=$WORK/farm_scale.png
   gnuplot <<EOF
-set terminal pngcairo size 900,560 font "DejaVu Sans,11" noenhanced
+set terminal pngcairo size 1300,560 font "DejaVu Sans,11" noenhanced
 set output '$OUT'
-set title "The master's CPU against simulated workers ($RES in ${TILE}x$TILE tiles, $SPP spp; 10 % disconnecting)"
+set multiplot layout 1,2 title "The master against simulated workers ($RES in ${TILE}x$TILE tiles, $SPP spp, 10 % disconnecting; $NPROC shared cores)" font "DejaVu Sans,13"
 set grid lc rgb '#dddddd'
 set xlabel "simulated workers"
-set ylabel "master CPU (cores: 1 = one core busy)"
-set y2label "results/s"
-set y2tics
-set ytics nomirror
 set xrange [0:*]
 set yrange [0:*]
-set y2range [0:*]
-set key top left box opaque
-plot '$WORK/offered.dat' using 1:2 with linespoints lw 2 pt 7 lc rgb '#1f77b4' title "master CPU, $RATE results/s offered", \
-     '$WORK/offered.dat' using 1:3 with linespoints lw 2 pt 6 dt 2 lc rgb '#1f77b4' title "its main thread", \
-     '$WORK/flatout.dat' using 1:2 with linespoints lw 2 pt 7 lc rgb '#d62728' title "master CPU, flat out", \
-     '$WORK/flatout.dat' using 1:3 with linespoints lw 2 pt 6 dt 2 lc rgb '#d62728' title "its main thread", \
-     '$WORK/flatout.dat' using 1:4 axes x1y2 with linespoints lw 1 pt 5 dt 3 lc rgb 'gray40' title "results/s flat out (right axis)"
+set key top left box opaque font "DejaVu Sans,9"
+set title "master CPU (cores: 1 = one core busy)"
+set ylabel "cores"
+plot '$WORK/offered.dat' using 1:2 with linespoints lw 2 pt 7 lc rgb '#1f77b4' title "whole process, $RATE results/s offered", \
+     '$WORK/offered.dat' using 1:3 with linespoints lw 2 pt 6 dt 2 lc rgb '#1f77b4' title "main thread, $RATE results/s offered", \
+     '$WORK/flatout.dat' using 1:2 with linespoints lw 2 pt 7 lc rgb '#d62728' title "whole process, flat out", \
+     '$WORK/flatout.dat' using 1:3 with linespoints lw 2 pt 6 dt 2 lc rgb '#d62728' title "main thread, flat out"
+set title "master CPU per task (µs); one core at 2000 results/s is 500 µs"
+set ylabel "µs per task"
+set yrange [0:600]
+set arrow 1 from graph 0, first 500 to graph 1, first 500 nohead dt 3 lc rgb 'gray40' back
+plot '$WORK/offered.dat' using 1:5 with linespoints lw 2 pt 7 lc rgb '#1f77b4' title "whole process, $RATE results/s offered", \
+     '$WORK/offered.dat' using 1:6 with linespoints lw 2 pt 6 dt 2 lc rgb '#1f77b4' title "main thread, $RATE results/s offered", \
+     '$WORK/flatout.dat' using 1:5 with linespoints lw 2 pt 7 lc rgb '#d62728' title "whole process, flat out", \
+     '$WORK/flatout.dat' using 1:6 with linespoints lw 2 pt 6 dt 2 lc rgb '#d62728' title "main thread, flat out"
+unset multiplot
 EOF
   echo "== plot: $OUT" >&2
 else

@@ -65,6 +65,7 @@ typedef struct held {
     uint64_t job, task;
     uint32_t attempt;
     proto_tile_t rect;
+    double received;
     double finish; /* < 0: not started */
 } held_t;
 
@@ -75,6 +76,7 @@ typedef struct sworker {
     net_t *net;
     wstate_t state;
     double until;    /* W_DOWN: when to connect again; W_STALLED: when to speak again */
+    double *slot_free; /* per render slot, when its last task finished (or will) */
     double last_sent;
     held_t *held;
     size_t nheld, cap;
@@ -169,6 +171,22 @@ static double proc_cpu_s(long pid, long tid)
     return (double)(ut + st) / (double)sysconf(_SC_CLK_TCK);
 }
 
+/* Seconds the thread waited on a run queue for a CPU while runnable (/proc/PID/task/TID/
+ * schedstat, second field, in ns): on a machine shared with other work, the time the master
+ * wanted a core and did not get one. -1 if unreadable. */
+static double proc_wait_s(long pid)
+{
+    char path[96];
+    snprintf(path, sizeof path, "/proc/%ld/task/%ld/schedstat", pid, pid);
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return -1;
+    unsigned long long run = 0, wait = 0;
+    int n = fscanf(f, "%llu %llu", &run, &wait);
+    fclose(f);
+    return n == 2 ? (double)wait * 1e-9 : -1;
+}
+
 /* A "Key:   N kB" line of /proc/PID/status in MB; -1 if absent. */
 static double proc_status_mb(long pid, const char *key)
 {
@@ -219,6 +237,10 @@ static void connect_worker(sim_t *s, sworker_t *w)
         die("worker %d: %s", w->idx, err.msg);
     w->state = W_UP;
     w->nheld = 0;
+    if (!w->slot_free && !(w->slot_free = calloc((size_t)s->o.threads, sizeof *w->slot_free)))
+        die("out of memory");
+    for (int t = 0; t < s->o.threads; t++)
+        w->slot_free[t] = 0;
     w->nsent = w->sent_head = 0;
     hello(s, w);
 }
@@ -357,7 +379,8 @@ static void on_task(sim_t *s, sworker_t *w, const proto_msg_t *m, double now)
         w->cap = cap;
     }
     w->held[w->nheld++] = (held_t){.job = m->task.job, .task = m->task.task,
-                                   .attempt = m->task.attempt, .rect = m->task.tile, .finish = -1};
+                                   .attempt = m->task.attempt, .rect = m->task.tile,
+                                   .received = now, .finish = -1};
 }
 
 static void drop_job(sworker_t *w, uint64_t job)
@@ -409,15 +432,8 @@ static double serve(sim_t *s, sworker_t *w, double now)
         for (size_t i = 0; i < w->nheld; i++)
             w->held[i].finish = now;
     }
-    int running = 0;
-    for (size_t i = 0; i < w->nheld; i++)
-        running += w->held[i].finish >= 0;
-    for (size_t i = 0; i < w->nheld && running < s->o.threads; i++)
-        if (w->held[i].finish < 0) {
-            w->held[i].finish = now + s->o.hold_s;
-            running++;
-        }
-    /* Once its disconnection is due, it sends nothing more (maybe_disconnect acts next). */
+    /* What is finished goes out first, so that a slot it frees starts its next task now. Once
+     * its disconnection is due, it sends nothing more (maybe_disconnect acts next). */
     size_t k = 0;
     bool quiet = false;
     for (size_t i = 0; i < w->nheld; i++) {
@@ -426,11 +442,29 @@ static double serve(sim_t *s, sworker_t *w, double now)
             quiet = w->trigger && s->results_sent >= w->trigger;
             continue;
         }
-        if (w->held[i].finish >= 0 && w->held[i].finish < due)
-            due = w->held[i].finish;
         w->held[k++] = w->held[i];
     }
     w->nheld = k;
+    int running = 0;
+    for (size_t i = 0; i < w->nheld; i++)
+        running += w->held[i].finish >= 0;
+    /* A slot starts its next task when its last one finished or when the task came, whichever
+     * is later -- not when this loop got round to it -- so that the offered rate holds however
+     * late a loaded machine wakes the simulator. */
+    for (size_t i = 0; i < w->nheld && running < s->o.threads; i++)
+        if (w->held[i].finish < 0) {
+            int slot = 0;
+            for (int t = 1; t < s->o.threads; t++)
+                if (w->slot_free[t] < w->slot_free[slot])
+                    slot = t;
+            double start = w->slot_free[slot] > w->held[i].received ? w->slot_free[slot]
+                                                                     : w->held[i].received;
+            w->held[i].finish = w->slot_free[slot] = start + s->o.hold_s;
+            running++;
+        }
+    for (size_t i = 0; i < w->nheld; i++)
+        if (w->held[i].finish >= 0 && w->held[i].finish < due)
+            due = w->held[i].finish;
     if (now - w->last_sent >= 1.0) {
         proto_msg_t hb = {.type = PROTO_HEARTBEAT};
         (void)send_or_log(s, w, &hb);
@@ -660,6 +694,7 @@ int main(int argc, char **argv)
     }
 
     double cpu0 = proc_cpu_s(s.o.master_pid, 0), main0 = proc_cpu_s(s.o.master_pid, s.o.master_pid);
+    double wait0 = proc_wait_s(s.o.master_pid);
     double t0 = now_s();
     for (int k = 0; k < s.o.n; k++)
         connect_worker(&s, &s.w[k]);
@@ -750,6 +785,7 @@ int main(int argc, char **argv)
         }
     }
     double cpu1 = proc_cpu_s(s.o.master_pid, 0), main1 = proc_cpu_s(s.o.master_pid, s.o.master_pid);
+    double wait1 = proc_wait_s(s.o.master_pid);
     double hwm = proc_status_mb(s.o.master_pid, "VmHWM"), rss = proc_status_mb(s.o.master_pid, "VmRSS");
     for (int k = 0; k < s.o.n; k++)
         net_destroy(&s.w[k].net);
@@ -792,7 +828,7 @@ int main(int argc, char **argv)
     double wall = (t_end ? t_end : now_s()) - t0;
     printf("workers=%d threads=%d hold_ms=%.0f tasks=%" PRIu64 " done=%s run_s=%.3f "
            "results_per_s=%.1f steady_results_per_s=%.1f master_cpu_s=%.2f master_main_cpu_s=%.2f cpu_core_share=%.3f "
-           "main_core_share=%.3f cpu_us_per_task=%.1f main_us_per_task=%.1f "
+           "main_core_share=%.3f main_runqueue_share=%.3f cpu_us_per_task=%.1f main_us_per_task=%.1f "
            "turnaround_ms_p50=%.2f turnaround_ms_p90=%.2f turnaround_ms_p99=%.2f "
            "turnaround_ms_max=%.2f rss_peak_mb=%.1f rss_end_mb=%.1f results_sent=%" PRIu64
            " tasks_received=%" PRIu64 " reissued=%" PRIu64 " answered_distinct=%" PRIu64
@@ -801,6 +837,7 @@ int main(int argc, char **argv)
            s.o.n, s.o.threads, s.o.hold_s * 1000, ntasks, failure[0] ? "no" : "yes", run,
            run > 0 ? (double)ntasks / run : 0, steady, cpu, main_cpu, cpu >= 0 && wall > 0 ? cpu / wall : -1,
            main_cpu >= 0 && wall > 0 ? main_cpu / wall : -1,
+           wait1 >= 0 && wait0 >= 0 && wall > 0 ? (wait1 - wait0) / wall : -1,
            cpu >= 0 ? cpu / (double)ntasks * 1e6 : -1,
            main_cpu >= 0 ? main_cpu / (double)ntasks * 1e6 : -1,
            quantile(s.lat, s.nlat, 0.5) * 1e3, quantile(s.lat, s.nlat, 0.9) * 1e3,
