@@ -127,21 +127,25 @@ field() { tr ' ' '\n' <<<"$2" | awk -F= -v k="$1" '$1 == k { print $2 }'; }
   echo "workers answer $RATE results/s between them; *flat out*: each task at once. *Steady"
   echo "results/s*: between 5 % and 95 % of the tasks answered; *job*: first task to done, with the"
   echo "tail where the last tasks wait for a silent worker's 3 s timeout. *Turnaround*: a result"
-  echo "sent to the next task received by that worker. CPU from /proc/PID/stat (main thread:"
+  echo "sent to the next task received by that worker (the master merges a result in the loop turn"
+  echo "that reads it and fills the freed slot at that turn's end); *task cycle*: a task received"
+  echo "to the task its result made room for, i.e. assign to merge and the next assignment. CPU"
+  echo "from /proc/PID/stat (main thread:"
   echo "/proc/PID/task/PID/stat), from the first HELLO to the job's end; *waiting for a CPU*: the"
   echo "share of that time the main thread was runnable but on a run queue (schedstat): the"
   echo "machine's other work, not the master's."
   echo
-  echo "| workers | run | steady results/s | job (s) | master CPU (cores) | main thread (cores) | main thread waiting for a CPU | CPU µs/task | main µs/task | turnaround p50 / p99 (ms) | peak RSS (MB) | disconnects | answered twice | lost | pixels wrong |"
-  echo "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
+  echo "| workers | run | steady results/s | job (s) | master CPU (cores) | main thread (cores) | main thread waiting for a CPU | CPU µs/task | main µs/task | turnaround p50 / p99 (ms) | task cycle p50 / p99 (ms) | peak RSS (MB) | disconnects | answered twice | lost | pixels wrong |"
+  echo "| ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |"
   while read -r l; do
     tag=$(field tag "$l")
     [[ $tag == offered ]] && tag="offered $RATE/s" || tag="flat out"
-    printf '| %s | %s | %.0f | %.1f | %.2f | %.2f | %.0f %% | %.0f | %.0f | %.2f / %.1f | %.0f | %s | %s | %s | %s |\n' \
+    printf '| %s | %s | %.0f | %.1f | %.2f | %.2f | %.0f %% | %.0f | %.0f | %.1f / %.0f | %.0f / %.0f | %.0f | %s | %s | %s | %s |\n' \
       "$(field workers "$l")" "$tag" "$(field steady_results_per_s "$l")" "$(field run_s "$l")" "$(field cpu_core_share "$l")" \
       "$(field main_core_share "$l")" "$(awk -v v="$(field main_runqueue_share "$l")" 'BEGIN { print 100 * v }')" \
       "$(field cpu_us_per_task "$l")" "$(field main_us_per_task "$l")" \
-      "$(field turnaround_ms_p50 "$l")" "$(field turnaround_ms_p99 "$l")" "$(field rss_peak_mb "$l")" \
+      "$(field turnaround_ms_p50 "$l")" "$(field turnaround_ms_p99 "$l")" \
+      "$(field cycle_ms_p50 "$l")" "$(field cycle_ms_p99 "$l")" "$(field rss_peak_mb "$l")" \
       "$(field disconnects "$l")" "$(field answered_twice "$l")" "$(field lost "$l")" \
       "$(field pixels_bad "$l")"
   done <"$WORK/runs"

@@ -71,6 +71,17 @@ typedef struct held {
 
 typedef enum { W_UP, W_DOWN, W_STALLED } wstate_t;
 
+/* A result sent and not yet followed by a TASK, and when its task had come. */
+typedef struct sent {
+    double sent, received;
+} sent_t;
+
+/* A growing array of latencies, in seconds. */
+typedef struct lat {
+    double *v;
+    size_t n, cap;
+} lat_t;
+
 typedef struct sworker {
     int idx;
     net_t *net;
@@ -80,8 +91,8 @@ typedef struct sworker {
     double last_sent;
     held_t *held;
     size_t nheld, cap;
-    /* when each result not yet followed by a TASK was sent: the master's turnaround */
-    double *sent_at;
+    /* the results not yet followed by a TASK, oldest first: the master's turnaround */
+    sent_t *sent_at;
     size_t nsent, sent_head, sent_cap;
     /* its disconnection: at the global result count trigger (0: never), by dropping or stalling */
     uint64_t trigger;
@@ -110,8 +121,8 @@ typedef struct sim {
     uint64_t results_sent, tasks_received, reissued, refused, disconnects;
     uint64_t distinct, ntasks; /* tasks answered at least once, of the job's */
     double t5, t95;            /* when 5 % and 95 % of them had been answered */
-    double *lat;
-    size_t nlat, cap_lat;
+    lat_t turnaround; /* a result sent to the next TASK received by its worker */
+    lat_t cycle;      /* a TASK received to the next TASK that its result freed a slot for */
     uint64_t job;
 } sim_t;
 
@@ -333,7 +344,7 @@ static void send_result(sim_t *s, sworker_t *w, const held_t *t)
     s->results_sent++;
     if (w->nsent == w->sent_cap) {
         size_t cap = w->sent_cap ? 2 * w->sent_cap : 16;
-        double *a = malloc(cap * sizeof *a);
+        sent_t *a = malloc(cap * sizeof *a);
         if (!a)
             die("out of memory");
         for (size_t i = 0; i < w->nsent; i++)
@@ -343,7 +354,21 @@ static void send_result(sim_t *s, sworker_t *w, const held_t *t)
         w->sent_cap = cap;
         w->sent_head = 0;
     }
-    w->sent_at[(w->sent_head + w->nsent++) % w->sent_cap] = w->last_sent;
+    w->sent_at[(w->sent_head + w->nsent++) % w->sent_cap] =
+        (sent_t){.sent = w->last_sent, .received = t->received};
+}
+
+static void lat_add(lat_t *l, double v)
+{
+    if (l->n == l->cap) {
+        size_t cap = l->cap ? 2 * l->cap : 4096;
+        double *a = realloc(l->v, cap * sizeof *a);
+        if (!a)
+            die("out of memory");
+        l->v = a;
+        l->cap = cap;
+    }
+    l->v[l->n++] = v;
 }
 
 static void on_task(sim_t *s, sworker_t *w, const proto_msg_t *m, double now)
@@ -357,18 +382,11 @@ static void on_task(sim_t *s, sworker_t *w, const proto_msg_t *m, double now)
     if (m->task.kind != PROTO_KIND_CAMERA_TILE)
         die("task %u is not a camera tile: the simulator answers camera tiles only", id);
     if (w->nsent > 0) {
-        double lat = now - w->sent_at[w->sent_head];
+        sent_t r = w->sent_at[w->sent_head];
         w->sent_head = (w->sent_head + 1) % w->sent_cap;
         w->nsent--;
-        if (s->nlat == s->cap_lat) {
-            size_t cap = s->cap_lat ? 2 * s->cap_lat : 4096;
-            double *a = realloc(s->lat, cap * sizeof *a);
-            if (!a)
-                die("out of memory");
-            s->lat = a;
-            s->cap_lat = cap;
-        }
-        s->lat[s->nlat++] = lat;
+        lat_add(&s->turnaround, now - r.sent);
+        lat_add(&s->cycle, now - r.received);
     }
     if (w->nheld == w->cap) {
         size_t cap = w->cap ? 2 * w->cap : 8;
@@ -817,8 +835,11 @@ int main(int argc, char **argv)
     net_destroy(&s.client);
     (void)zmq_ctx_term(s.ctx);
 
-    if (s.nlat)
-        qsort(s.lat, s.nlat, sizeof *s.lat, cmp_double);
+    if (s.turnaround.n)
+        qsort(s.turnaround.v, s.turnaround.n, sizeof *s.turnaround.v, cmp_double);
+    if (s.cycle.n)
+        qsort(s.cycle.v, s.cycle.n, sizeof *s.cycle.v, cmp_double);
+    const lat_t *ta = &s.turnaround, *cy = &s.cycle;
     double run = t_end > t_first && t_first > 0 ? t_end - t_first : 0;
     /* The steady rate, between 5 % and 95 % of the tasks answered: without the joining at the
      * start and the tail, where the last tasks wait for a stalled worker's timeout. */
@@ -830,7 +851,7 @@ int main(int argc, char **argv)
            "results_per_s=%.1f steady_results_per_s=%.1f master_cpu_s=%.2f master_main_cpu_s=%.2f cpu_core_share=%.3f "
            "main_core_share=%.3f main_runqueue_share=%.3f cpu_us_per_task=%.1f main_us_per_task=%.1f "
            "turnaround_ms_p50=%.2f turnaround_ms_p90=%.2f turnaround_ms_p99=%.2f "
-           "turnaround_ms_max=%.2f rss_peak_mb=%.1f rss_end_mb=%.1f results_sent=%" PRIu64
+           "turnaround_ms_max=%.2f cycle_ms_p50=%.2f cycle_ms_p99=%.2f rss_peak_mb=%.1f rss_end_mb=%.1f results_sent=%" PRIu64
            " tasks_received=%" PRIu64 " reissued=%" PRIu64 " answered_distinct=%" PRIu64
            " answered_twice=%" PRIu64 " disconnects=%" PRIu64 " refused=%" PRIu64
            " lost=%" PRIu64 " pixels_bad=%ld\n",
@@ -840,8 +861,9 @@ int main(int argc, char **argv)
            wait1 >= 0 && wait0 >= 0 && wall > 0 ? (wait1 - wait0) / wall : -1,
            cpu >= 0 ? cpu / (double)ntasks * 1e6 : -1,
            main_cpu >= 0 ? main_cpu / (double)ntasks * 1e6 : -1,
-           quantile(s.lat, s.nlat, 0.5) * 1e3, quantile(s.lat, s.nlat, 0.9) * 1e3,
-           quantile(s.lat, s.nlat, 0.99) * 1e3, s.nlat ? s.lat[s.nlat - 1] * 1e3 : 0, hwm, rss,
+           quantile(ta->v, ta->n, 0.5) * 1e3, quantile(ta->v, ta->n, 0.9) * 1e3,
+           quantile(ta->v, ta->n, 0.99) * 1e3, ta->n ? ta->v[ta->n - 1] * 1e3 : 0,
+           quantile(cy->v, cy->n, 0.5) * 1e3, quantile(cy->v, cy->n, 0.99) * 1e3, hwm, rss,
            s.results_sent, s.tasks_received, s.reissued, distinct, twice, s.disconnects,
            s.refused, ntasks > distinct ? ntasks - distinct : 0, bad);
     if (failure[0])
