@@ -170,7 +170,7 @@ set grid lc rgb '#dddddd'
 set xlabel "simulated workers"
 set xrange [0:*]
 set yrange [0:*]
-set key top left box opaque font "DejaVu Sans,9"
+set key bottom right box opaque font "DejaVu Sans,9"
 set title "master CPU (cores: 1 = one core busy)"
 set ylabel "cores"
 plot '$WORK/offered.dat' using 1:2 with linespoints lw 2 pt 7 lc rgb '#1f77b4' title "whole process, $RATE results/s offered", \

@@ -868,5 +868,24 @@ int main(int argc, char **argv)
            s.refused, ntasks > distinct ? ntasks - distinct : 0, bad);
     if (failure[0])
         fprintf(stderr, "farm_sim: FAILED: %s\n", failure);
+    for (int k = 0; k < s.o.n; k++) {
+        free(s.w[k].held);
+        free(s.w[k].sent_at);
+        free(s.w[k].slot_free);
+    }
+    for (size_t i = 0; i < s.nprep; i++) {
+        free(s.prep[i].sums);
+        free(s.prep[i].xyz);
+        free(s.prep[i].lum);
+        free(s.prep[i].lum2);
+        free(s.prep[i].counts);
+    }
+    free(s.prep);
+    free(s.w);
+    free(items);
+    free(s.answers);
+    free(s.received);
+    free(s.turnaround.v);
+    free(s.cycle.v);
     return failure[0] ? 1 : 0;
 }
