@@ -76,9 +76,9 @@ typedef struct sent {
     double sent, received;
 } sent_t;
 
-/* A growing array of latencies, in seconds. */
+/* A growing array of latencies, in seconds, each with when its result was sent. */
 typedef struct lat {
-    double *v;
+    double *v, *at;
     size_t n, cap;
 } lat_t;
 
@@ -358,17 +358,35 @@ static void send_result(sim_t *s, sworker_t *w, const held_t *t)
         (sent_t){.sent = w->last_sent, .received = t->received};
 }
 
-static void lat_add(lat_t *l, double v)
+static int cmp_double(const void *a, const void *b);
+
+static void lat_add(lat_t *l, double v, double at)
 {
     if (l->n == l->cap) {
         size_t cap = l->cap ? 2 * l->cap : 4096;
-        double *a = realloc(l->v, cap * sizeof *a);
-        if (!a)
+        double *a = realloc(l->v, cap * sizeof *a), *b = a ? realloc(l->at, cap * sizeof *b) : NULL;
+        if (a)
+            l->v = a;
+        if (!a || !b)
             die("out of memory");
-        l->v = a;
+        l->at = b;
         l->cap = cap;
     }
-    l->v[l->n++] = v;
+    l->v[l->n] = v;
+    l->at[l->n++] = at;
+}
+
+/* Keeps the samples whose result was sent between t0 and t1 (the steady part of the job: at
+ * its end a worker that sent a result may get no task for seconds, because none is left until
+ * a silent worker's are issued again, which says nothing about the master), then sorts them. */
+static void lat_steady(lat_t *l, double t0, double t1)
+{
+    size_t k = 0;
+    for (size_t i = 0; i < l->n; i++)
+        if (l->at[i] >= t0 && l->at[i] <= t1)
+            l->v[k++] = l->v[i];
+    l->n = k;
+    qsort(l->v, l->n, sizeof *l->v, cmp_double);
 }
 
 static void on_task(sim_t *s, sworker_t *w, const proto_msg_t *m, double now)
@@ -385,8 +403,8 @@ static void on_task(sim_t *s, sworker_t *w, const proto_msg_t *m, double now)
         sent_t r = w->sent_at[w->sent_head];
         w->sent_head = (w->sent_head + 1) % w->sent_cap;
         w->nsent--;
-        lat_add(&s->turnaround, now - r.sent);
-        lat_add(&s->cycle, now - r.received);
+        lat_add(&s->turnaround, now - r.sent, r.sent);
+        lat_add(&s->cycle, now - r.received, r.sent);
     }
     if (w->nheld == w->cap) {
         size_t cap = w->cap ? 2 * w->cap : 8;
@@ -835,10 +853,8 @@ int main(int argc, char **argv)
     net_destroy(&s.client);
     (void)zmq_ctx_term(s.ctx);
 
-    if (s.turnaround.n)
-        qsort(s.turnaround.v, s.turnaround.n, sizeof *s.turnaround.v, cmp_double);
-    if (s.cycle.n)
-        qsort(s.cycle.v, s.cycle.n, sizeof *s.cycle.v, cmp_double);
+    lat_steady(&s.turnaround, s.t5, s.t95 > 0 ? s.t95 : now_s());
+    lat_steady(&s.cycle, s.t5, s.t95 > 0 ? s.t95 : now_s());
     const lat_t *ta = &s.turnaround, *cy = &s.cycle;
     double run = t_end > t_first && t_first > 0 ? t_end - t_first : 0;
     /* The steady rate, between 5 % and 95 % of the tasks answered: without the joining at the
@@ -886,6 +902,8 @@ int main(int argc, char **argv)
     free(s.answers);
     free(s.received);
     free(s.turnaround.v);
+    free(s.turnaround.at);
     free(s.cycle.v);
+    free(s.cycle.at);
     return failure[0] ? 1 : 0;
 }
