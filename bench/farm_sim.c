@@ -86,7 +86,7 @@ typedef struct sworker {
     int idx;
     net_t *net;
     wstate_t state;
-    double until;    /* W_DOWN: when to connect again; W_STALLED: when to speak again */
+    double until;      /* W_DOWN: when to connect again; W_STALLED: when to speak again */
     double *slot_free; /* per render slot, when its last task finished (or will) */
     double last_sent;
     held_t *held;
@@ -121,8 +121,8 @@ typedef struct sim {
     uint64_t results_sent, tasks_received, reissued, refused, disconnects;
     uint64_t distinct, ntasks; /* tasks answered at least once, of the job's */
     double t5, t95;            /* when 5 % and 95 % of them had been answered */
-    lat_t turnaround; /* a result sent to the next TASK received by its worker */
-    lat_t cycle;      /* a TASK received to the next TASK that its result freed a slot for */
+    lat_t turnaround;          /* a result sent to the next TASK received by its worker */
+    lat_t cycle; /* a TASK received to the next TASK that its result freed a slot for */
     uint64_t job;
 } sim_t;
 
@@ -323,12 +323,17 @@ static void send_result(sim_t *s, sworker_t *w, const held_t *t)
     m.result.task = t->task;
     m.result.attempt = t->attempt;
     m.result.kind = PROTO_KIND_CAMERA_TILE;
-    m.result.tile = (proto_tile_result_t){.rect = t->rect, .nbuckets = s->o.buckets,
-                                          .sums_bits = 32, .sums = p->sums, .xyz = p->xyz,
-                                          .counts = p->counts, .lum = p->lum, .lum_sq = p->lum2};
-    m.result.stats = (proto_task_stats_t){
-        .samples = (uint64_t)t->rect.w * (uint64_t)t->rect.h * (t->rect.sample_end - t->rect.sample_begin),
-        .elapsed = s->o.hold_s};
+    m.result.tile = (proto_tile_result_t){.rect = t->rect,
+                                          .nbuckets = s->o.buckets,
+                                          .sums_bits = 32,
+                                          .sums = p->sums,
+                                          .xyz = p->xyz,
+                                          .counts = p->counts,
+                                          .lum = p->lum,
+                                          .lum_sq = p->lum2};
+    m.result.stats = (proto_task_stats_t){.samples = (uint64_t)t->rect.w * (uint64_t)t->rect.h *
+                                                     (t->rect.sample_end - t->rect.sample_begin),
+                                          .elapsed = s->o.hold_s};
     if (send_or_log(s, w, &m) != 0)
         return;
     uint32_t id = (uint32_t)(t->task & UINT32_MAX);
@@ -414,9 +419,12 @@ static void on_task(sim_t *s, sworker_t *w, const proto_msg_t *m, double now)
         w->held = a;
         w->cap = cap;
     }
-    w->held[w->nheld++] = (held_t){.job = m->task.job, .task = m->task.task,
-                                   .attempt = m->task.attempt, .rect = m->task.tile,
-                                   .received = now, .finish = -1};
+    w->held[w->nheld++] = (held_t){.job = m->task.job,
+                                   .task = m->task.task,
+                                   .attempt = m->task.attempt,
+                                   .rect = m->task.tile,
+                                   .received = now,
+                                   .finish = -1};
 }
 
 static void drop_job(sworker_t *w, uint64_t job)
@@ -493,8 +501,8 @@ static double serve(sim_t *s, sworker_t *w, double now)
             for (int t = 1; t < s->o.threads; t++)
                 if (w->slot_free[t] < w->slot_free[slot])
                     slot = t;
-            double start = w->slot_free[slot] > w->held[i].received ? w->slot_free[slot]
-                                                                     : w->held[i].received;
+            double start =
+                w->slot_free[slot] > w->held[i].received ? w->slot_free[slot] : w->held[i].received;
             w->held[i].finish = w->slot_free[slot] = start + s->o.hold_s;
             running++;
         }
@@ -617,8 +625,8 @@ static uint64_t submit(sim_t *s)
     proto_bundle_file_t f = {.path = "scene.pbrt", .data = data, .size = size};
     proto_msg_t req = {.type = PROTO_SUBMIT};
     req.submit.name = "farm_sim";
-    req.submit.settings = (proto_settings_t){.spp = s->o.spp, .xres = s->o.xres,
-                                             .yres = s->o.yres, .seed = -1};
+    req.submit.settings =
+        (proto_settings_t){.spp = s->o.spp, .xres = s->o.xres, .yres = s->o.yres, .seed = -1};
     req.submit.bundle = (proto_bundle_t){.main = "scene.pbrt", .files = &f, .nfiles = 1};
     proto_msg_t m = client_ask(s, &req, 120);
     free(data);
@@ -690,8 +698,7 @@ int main(int argc, char **argv)
         rl.rlim_cur = rl.rlim_max;
         (void)setrlimit(RLIMIT_NOFILE, &rl);
     }
-    if (!(s.ctx = zmq_ctx_new()) ||
-        zmq_ctx_set(s.ctx, ZMQ_MAX_SOCKETS, 4 * s.o.n + 64) != 0)
+    if (!(s.ctx = zmq_ctx_new()) || zmq_ctx_set(s.ctx, ZMQ_MAX_SOCKETS, 4 * s.o.n + 64) != 0)
         die("zmq context: %s", zmq_strerror(zmq_errno()));
     err_t err;
     net_options_t co = net_options_default();
@@ -768,8 +775,8 @@ int main(int argc, char **argv)
         int n = 0;
         for (int k = 0; k < s.o.n; k++)
             if (s.w[k].net && s.w[k].state != W_STALLED)
-                items[n++] = (zmq_pollitem_t){.socket = net_socket(s.w[k].net),
-                                              .events = ZMQ_POLLIN};
+                items[n++] =
+                    (zmq_pollitem_t){.socket = net_socket(s.w[k].net), .events = ZMQ_POLLIN};
         items[n++] = (zmq_pollitem_t){.socket = net_socket(s.client), .events = ZMQ_POLLIN};
         double wait = due - now_s();
         int rc = zmq_poll(items, n, wait > 0 ? (long)(wait * 1000) + 1 : 0);
@@ -810,8 +817,8 @@ int main(int argc, char **argv)
                 if (state == PROTO_JOB_DONE)
                     t_end = now;
                 else if (state == PROTO_JOB_FAILED || state == PROTO_JOB_CANCELLED) {
-                    snprintf(failure, sizeof failure, "the job %s: %s",
-                             proto_job_state_name(state), j->error ? j->error : "");
+                    snprintf(failure, sizeof failure, "the job %s: %s", proto_job_state_name(state),
+                             j->error ? j->error : "");
                     t_end = now;
                 }
             } else if (m.type == PROTO_ERROR) {
@@ -822,7 +829,8 @@ int main(int argc, char **argv)
     }
     double cpu1 = proc_cpu_s(s.o.master_pid, 0), main1 = proc_cpu_s(s.o.master_pid, s.o.master_pid);
     double wait1 = proc_wait_s(s.o.master_pid);
-    double hwm = proc_status_mb(s.o.master_pid, "VmHWM"), rss = proc_status_mb(s.o.master_pid, "VmRSS");
+    double hwm = proc_status_mb(s.o.master_pid, "VmHWM"),
+           rss = proc_status_mb(s.o.master_pid, "VmRSS");
     for (int k = 0; k < s.o.n; k++)
         net_destroy(&s.w[k].net);
 
@@ -840,7 +848,8 @@ int main(int argc, char **argv)
         proto_msg_t m = client_ask(&s, &f, 120);
         char path[64];
         snprintf(path, sizeof path, "/tmp/farm_sim-%ld.exr", (long)getpid());
-        if (m.type != PROTO_FILE || files_write_atomic(path, m.file.data, m.file.size, false, &err) < 0)
+        if (m.type != PROTO_FILE ||
+            files_write_atomic(path, m.file.data, m.file.size, false, &err) < 0)
             snprintf(why, sizeof why, "cannot fetch the EXR: %s",
                      m.type == PROTO_FILE ? err.msg : proto_type_name(m.type));
         else
@@ -863,25 +872,26 @@ int main(int argc, char **argv)
     double cpu = cpu1 >= 0 && cpu0 >= 0 ? cpu1 - cpu0 : -1;
     double main_cpu = main1 >= 0 && main0 >= 0 ? main1 - main0 : -1;
     double wall = (t_end ? t_end : now_s()) - t0;
-    printf("workers=%d threads=%d hold_ms=%.0f tasks=%" PRIu64 " done=%s run_s=%.3f "
-           "results_per_s=%.1f steady_results_per_s=%.1f master_cpu_s=%.2f master_main_cpu_s=%.2f cpu_core_share=%.3f "
-           "main_core_share=%.3f main_runqueue_share=%.3f cpu_us_per_task=%.1f main_us_per_task=%.1f "
-           "turnaround_ms_p50=%.2f turnaround_ms_p90=%.2f turnaround_ms_p99=%.2f "
-           "turnaround_ms_max=%.2f cycle_ms_p50=%.2f cycle_ms_p99=%.2f rss_peak_mb=%.1f rss_end_mb=%.1f results_sent=%" PRIu64
-           " tasks_received=%" PRIu64 " reissued=%" PRIu64 " answered_distinct=%" PRIu64
-           " answered_twice=%" PRIu64 " disconnects=%" PRIu64 " refused=%" PRIu64
-           " lost=%" PRIu64 " pixels_bad=%ld\n",
-           s.o.n, s.o.threads, s.o.hold_s * 1000, ntasks, failure[0] ? "no" : "yes", run,
-           run > 0 ? (double)ntasks / run : 0, steady, cpu, main_cpu, cpu >= 0 && wall > 0 ? cpu / wall : -1,
-           main_cpu >= 0 && wall > 0 ? main_cpu / wall : -1,
-           wait1 >= 0 && wait0 >= 0 && wall > 0 ? (wait1 - wait0) / wall : -1,
-           cpu >= 0 ? cpu / (double)ntasks * 1e6 : -1,
-           main_cpu >= 0 ? main_cpu / (double)ntasks * 1e6 : -1,
-           quantile(ta->v, ta->n, 0.5) * 1e3, quantile(ta->v, ta->n, 0.9) * 1e3,
-           quantile(ta->v, ta->n, 0.99) * 1e3, ta->n ? ta->v[ta->n - 1] * 1e3 : 0,
-           quantile(cy->v, cy->n, 0.5) * 1e3, quantile(cy->v, cy->n, 0.99) * 1e3, hwm, rss,
-           s.results_sent, s.tasks_received, s.reissued, distinct, twice, s.disconnects,
-           s.refused, ntasks > distinct ? ntasks - distinct : 0, bad);
+    printf(
+        "workers=%d threads=%d hold_ms=%.0f tasks=%" PRIu64 " done=%s run_s=%.3f "
+        "results_per_s=%.1f steady_results_per_s=%.1f master_cpu_s=%.2f master_main_cpu_s=%.2f "
+        "cpu_core_share=%.3f "
+        "main_core_share=%.3f main_runqueue_share=%.3f cpu_us_per_task=%.1f main_us_per_task=%.1f "
+        "turnaround_ms_p50=%.2f turnaround_ms_p90=%.2f turnaround_ms_p99=%.2f "
+        "turnaround_ms_max=%.2f cycle_ms_p50=%.2f cycle_ms_p99=%.2f rss_peak_mb=%.1f "
+        "rss_end_mb=%.1f results_sent=%" PRIu64 " tasks_received=%" PRIu64 " reissued=%" PRIu64
+        " answered_distinct=%" PRIu64 " answered_twice=%" PRIu64 " disconnects=%" PRIu64
+        " refused=%" PRIu64 " lost=%" PRIu64 " pixels_bad=%ld\n",
+        s.o.n, s.o.threads, s.o.hold_s * 1000, ntasks, failure[0] ? "no" : "yes", run,
+        run > 0 ? (double)ntasks / run : 0, steady, cpu, main_cpu,
+        cpu >= 0 && wall > 0 ? cpu / wall : -1, main_cpu >= 0 && wall > 0 ? main_cpu / wall : -1,
+        wait1 >= 0 && wait0 >= 0 && wall > 0 ? (wait1 - wait0) / wall : -1,
+        cpu >= 0 ? cpu / (double)ntasks * 1e6 : -1,
+        main_cpu >= 0 ? main_cpu / (double)ntasks * 1e6 : -1, quantile(ta->v, ta->n, 0.5) * 1e3,
+        quantile(ta->v, ta->n, 0.9) * 1e3, quantile(ta->v, ta->n, 0.99) * 1e3,
+        ta->n ? ta->v[ta->n - 1] * 1e3 : 0, quantile(cy->v, cy->n, 0.5) * 1e3,
+        quantile(cy->v, cy->n, 0.99) * 1e3, hwm, rss, s.results_sent, s.tasks_received, s.reissued,
+        distinct, twice, s.disconnects, s.refused, ntasks > distinct ? ntasks - distinct : 0, bad);
     if (failure[0])
         fprintf(stderr, "farm_sim: FAILED: %s\n", failure);
     for (int k = 0; k < s.o.n; k++) {

@@ -60,10 +60,10 @@ static int run_sim(const char *wep, const char *cep, const char *out, const char
         if (prctl(PR_SET_PDEATHSIG, SIGKILL) != 0 || !freopen(out, "w", stdout) ||
             !freopen(log, "w", stderr))
             _exit(126);
-        execl(sim, sim, "--workers", wep, "--clients", cep, "--scene", scene, "--res", RES,
-              "--spp", SPP, "--buckets", "16", "--tile", TILE, "--n", N_WORKERS, "--hold-ms",
-              "20", "--disconnect", "0.1", "--seed", "17", "--master-pid", mpid, "--timeout",
-              timeout, (char *)NULL);
+        execl(sim, sim, "--workers", wep, "--clients", cep, "--scene", scene, "--res", RES, "--spp",
+              SPP, "--buckets", "16", "--tile", TILE, "--n", N_WORKERS, "--hold-ms", "20",
+              "--disconnect", "0.1", "--seed", "17", "--master-pid", mpid, "--timeout", timeout,
+              (char *)NULL);
         _exit(127);
     }
     assert_true(pid > 0);
@@ -80,9 +80,9 @@ static void test_no_task_lost_or_merged_twice(void **state)
     snprintf(mlog, sizeof mlog, "%s", testutil_scratch("master.log"));
     snprintf(out, sizeof out, "%s", testutil_scratch("sim.out"));
     snprintf(slog, sizeof slog, "%s", testutil_scratch("sim.log"));
-    pid_t master = testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
-                                  "tcp://127.0.0.1:*", "--insecure", "--tile", TILE, "--spool",
-                                  spool, NULL);
+    pid_t master =
+        testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
+                       "tcp://127.0.0.1:*", "--insecure", "--tile", TILE, "--spool", spool, NULL);
     testutil_read_endpoints(spool, wep, cep, mlog);
 
     int st = run_sim(wep, cep, out, slog, master);
