@@ -40,6 +40,7 @@ typedef struct job {
     bool whole_passes;    /* merge a pass only once all its tiles are done (sched.h) */
     uint32_t first_pending; /* no PENDING task before this index */
     uint32_t tasks_done;
+    uint32_t running; /* tasks RUNNING, camera and photon: sched_job_info without a scan */
     uint64_t samples_done, samples_total;
     tilebuf_t *image;
     strike_t *strikes;
@@ -212,20 +213,21 @@ int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spect
     return 0;
 }
 
-static void release_task(sched_t *self, task_t *t)
+static void release_task(sched_t *self, job_t *j, task_t *t)
 {
     if (t->state != TASK_RUNNING)
         return;
     worker_t *w = find_worker(self, t->owner);
     if (w && w->busy > 0)
         w->busy--;
+    j->running--;
     t->state = TASK_PENDING;
     t->owner = 0;
 }
 
 static void requeue(sched_t *self, job_t *j, uint32_t i)
 {
-    release_task(self, task_of(j, i));
+    release_task(self, j, task_of(j, i));
     if (i & SCHED_PHOTON_TASK) {
         if ((i & ~SCHED_PHOTON_TASK) < j->first_pending_photon)
             j->first_pending_photon = i & ~SCHED_PHOTON_TASK;
@@ -239,11 +241,11 @@ static void finish_job(sched_t *self, job_t *j, job_state_t state)
 {
     j->state = state;
     for (int i = 0; i < j->ntiles * j->npasses; i++) {
-        release_task(self, &j->tasks[i]);
+        release_task(self, j, &j->tasks[i]);
         tilebuf_destroy(&j->tasks[i].result);
     }
     for (uint32_t b = 0; b < j->nphoton; b++)
-        release_task(self, &j->ptasks[b]);
+        release_task(self, j, &j->ptasks[b]);
 }
 
 static int grow_photon(job_t *j, uint32_t n, err_t *err)
@@ -499,6 +501,7 @@ static void fill_task(const job_t *j, uint32_t i, sched_task_t *out)
 static void issue(sched_t *self, worker_t *w, job_t *j, task_t *t, double now)
 {
     t->state = TASK_RUNNING;
+    j->running++;
     t->owner = w->id;
     if (t->issued[0] != w->id) {
         t->issued[1] = t->issued[0];
@@ -739,7 +742,7 @@ int sched_photon_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t tas
     /* Batches are the same photons whatever the attempt: the first result wins. */
     if (j->state != JOB_RUNNING || t->state == TASK_DONE)
         return SCHED_DUPLICATE;
-    release_task(self, t);
+    release_task(self, j, t);
     t->state = TASK_DONE;
     j->tasks_done++;
     j->photon_done++;
@@ -782,9 +785,9 @@ int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
                        (unsigned long long)job, task, expect.w, expect.h, expect.x0, expect.y0, j->grid.n);
     }
     if (t->state == TASK_RUNNING && t->owner == worker)
-        release_task(self, t);
+        release_task(self, j, t);
     else if (t->state == TASK_RUNNING)
-        release_task(self, t); /* someone else holds a re-issued copy: no need to finish it */
+        release_task(self, j, t); /* someone else holds a re-issued copy: no need to finish it */
     t->state = TASK_DONE;
     t->result = r;
     j->tasks_done++;
@@ -884,11 +887,7 @@ int sched_job_info(const sched_t *self, uint64_t id, sched_job_info_t *out)
     const job_t *j = find_job(self, id);
     if (!j)
         return -1;
-    uint32_t running = 0;
-    for (int i = 0; i < j->ntiles * j->npasses; i++)
-        running += j->tasks[i].state == TASK_RUNNING;
-    for (uint32_t b = 0; b < j->nphoton; b++)
-        running += j->ptasks[b].state == TASK_RUNNING;
+    uint32_t running = j->running;
     *out = (sched_job_info_t){
         .id = j->id, .state = j->state, .xres = j->xres, .yres = j->yres, .spp = j->spp,
         .grid = j->grid, .ntiles = j->ntiles, .npasses = j->npasses, .passes_done = j->passes_done,
