@@ -19,26 +19,6 @@ static void on_signal(int sig)
     STOP = 1;
 }
 
-/* Every worker connection is a descriptor of the master, beside its spool files, journal and
- * outputs: with Debian's soft limit of 1024, a farm of about a thousand workers used them all,
- * and the master then failed its jobs for want of one to write their EXRs and journal with
- * (docs/performance.md, "The master at scale"). The soft limit goes up to the hard one, which
- * the administrator sets; a failure leaves the limit as it was, and is said. */
-static void raise_descriptor_limit(bool verbose)
-{
-    struct rlimit rl;
-    if (getrlimit(RLIMIT_NOFILE, &rl) != 0 || rl.rlim_cur >= rl.rlim_max)
-        return;
-    rlim_t was = rl.rlim_cur;
-    rl.rlim_cur = rl.rlim_max;
-    if (setrlimit(RLIMIT_NOFILE, &rl) != 0)
-        fprintf(stderr, "prismfarm master: cannot raise the descriptor limit above %llu: %s\n",
-                (unsigned long long)was, strerror(errno));
-    else if (verbose)
-        fprintf(stderr, "master: descriptor limit raised from %llu to %llu (one per worker)\n",
-                (unsigned long long)was, (unsigned long long)rl.rlim_max);
-}
-
 static void usage(FILE *out, const cli_opt_t *opts)
 {
     fprintf(out,
@@ -242,7 +222,6 @@ int cmd_master(int argc, char **argv)
         return 1;
     }
     o.stop = &STOP;
-    raise_descriptor_limit(o.verbose);
     if (master_run(&o, &err) < 0) {
         fprintf(stderr, "prismfarm master: %s\n", err.msg);
         return 1;
