@@ -9,6 +9,7 @@
 #include <signal.h>
 #include <stdio.h>
 #include <string.h>
+#include <sys/resource.h>
 
 static volatile sig_atomic_t STOP; /* set by the signal handler: the only state it may touch */
 

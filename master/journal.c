@@ -855,6 +855,57 @@ void journal_prune(journal_t *self, uint64_t job)
         (void)rmdir(dir);
 }
 
+/* Drops the round's camera rows that the checkpoint holds (tile t's passes below
+ * next_pass[t]), inside the caller's transaction. One scan of the round's rows, then a delete by
+ * rowid for each: a DELETE per tile would walk every row of the round once per tile (the primary
+ * key orders by task, not tile), seconds of the master's loop for a job of 10 000 tiles
+ * (docs/performance.md, "The master at scale"). The rowids are gathered first and the scan
+ * finished before any row goes, so the deletions never run under an open cursor of the table. */
+static int drop_checkpointed(journal_t *self, uint64_t job, uint32_t round, const int *next_pass,
+                             int ntiles, err_t *err)
+{
+    sqlite3_stmt *st;
+    if (prepare(self, "SELECT rowid, tile, pass FROM results WHERE job=?1 AND round=?2 AND kind=0",
+                &st, err) < 0)
+        return -1;
+    sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
+    sqlite3_bind_int64(st, 2, round);
+    sqlite3_int64 *ids = NULL;
+    size_t n = 0, cap = 0;
+    int rc = 0, step = SQLITE_DONE;
+    while (rc == 0 && (step = sqlite3_step(st)) == SQLITE_ROW) {
+        int tile = sqlite3_column_int(st, 1), pass = sqlite3_column_int(st, 2);
+        if (tile < 0 || tile >= ntiles || pass >= next_pass[tile])
+            continue;
+        if (n == cap) {
+            size_t c = cap ? 2 * cap : 1024;
+            sqlite3_int64 *p = realloc(ids, c * sizeof *p);
+            if (!p) {
+                rc = err_set(err, "journal: out of memory dropping checkpointed results");
+                break;
+            }
+            ids = p;
+            cap = c;
+        }
+        ids[n++] = sqlite3_column_int64(st, 0);
+    }
+    if (rc == 0 && step != SQLITE_DONE)
+        rc = db_error(self, err, "reading the results a checkpoint holds");
+    sqlite3_finalize(st);
+    sqlite3_stmt *del = NULL;
+    if (rc == 0 && n > 0)
+        rc = prepare(self, "DELETE FROM results WHERE rowid=?1", &del, err);
+    for (size_t i = 0; rc == 0 && i < n; i++) {
+        sqlite3_bind_int64(del, 1, ids[i]);
+        if (sqlite3_step(del) != SQLITE_DONE)
+            rc = db_error(self, err, "dropping checkpointed results");
+        sqlite3_reset(del);
+    }
+    sqlite3_finalize(del); /* a no-op for NULL */
+    free(ids);
+    return rc;
+}
+
 int journal_set_checkpoint(journal_t *self, uint64_t job, uint32_t round, uint64_t gen,
                            const int *next_pass, int ntiles, double elapsed, err_t *err)
 {
@@ -875,22 +926,8 @@ int journal_set_checkpoint(journal_t *self, uint64_t job, uint32_t round, uint64
         sqlite3_bind_double(st, 3, elapsed);
         rc = step_done(self, st, "recording a checkpoint", err);
     }
-    sqlite3_stmt *del = NULL;
     if (rc == 0)
-        rc = prepare(self,
-                     "DELETE FROM results WHERE job=?1 AND round=?2 AND kind=0 AND tile=?3 AND "
-                     "pass<?4",
-                     &del, err);
-    for (int t = 0; rc == 0 && t < ntiles; t++) {
-        sqlite3_bind_int64(del, 1, (sqlite3_int64)job);
-        sqlite3_bind_int64(del, 2, round);
-        sqlite3_bind_int(del, 3, t);
-        sqlite3_bind_int(del, 4, next_pass[t]);
-        if (sqlite3_step(del) != SQLITE_DONE)
-            rc = db_error(self, err, "dropping checkpointed results");
-        sqlite3_reset(del);
-    }
-    sqlite3_finalize(del); /* a no-op for NULL */
+        rc = drop_checkpointed(self, job, round, next_pass, ntiles, err);
     rc = commit(self, rc, err);
     (void)exec(self, "PRAGMA synchronous=NORMAL", &ignore);
     if (rc < 0)

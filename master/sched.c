@@ -41,6 +41,7 @@ typedef struct job {
     bool whole_passes;    /* merge a pass only once all its tiles are done (sched.h) */
     uint32_t first_pending; /* no PENDING task before this index */
     uint32_t tasks_done;
+    uint32_t running; /* tasks RUNNING, camera and photon: sched_job_info without a scan */
     uint64_t samples_done, samples_total;
     tilebuf_t *image;
     strike_t *strikes;
@@ -49,8 +50,7 @@ typedef struct job {
     /* Operations (sched.h, "Priorities, fair share, pause"). */
     int priority;
     bool paused;
-    uint32_t owner;   /* index into sched.owners */
-    uint32_t running; /* its tasks RUNNING now: the owner's share is the sum over its jobs */
+    uint32_t owner; /* index into sched.owners; its share is the sum of running over its jobs */
 } job_t;
 
 typedef struct worker {
@@ -274,8 +274,7 @@ static void release_task(sched_t *self, job_t *j, task_t *t)
     worker_t *w = find_worker(self, t->owner);
     if (w && w->busy > 0)
         w->busy--;
-    if (j->running > 0)
-        j->running--;
+    j->running--;
     t->state = TASK_PENDING;
     t->owner = 0;
 }
@@ -561,6 +560,7 @@ static void fill_task(const job_t *j, uint32_t i, sched_task_t *out)
 static void issue(sched_t *self, worker_t *w, job_t *j, task_t *t, double now)
 {
     t->state = TASK_RUNNING;
+    j->running++;
     t->owner = w->id;
     if (t->issued[0] != w->id) {
         t->issued[1] = t->issued[0];
@@ -570,7 +570,6 @@ static void issue(sched_t *self, worker_t *w, job_t *j, task_t *t, double now)
     t->avoid = 0;
     t->deadline = now + self->cfg.task_deadline_s;
     w->busy++;
-    j->running++;
     j->state = JOB_RUNNING;
 }
 
@@ -994,11 +993,7 @@ int sched_job_info(const sched_t *self, uint64_t id, sched_job_info_t *out)
     const job_t *j = find_job(self, id);
     if (!j)
         return -1;
-    uint32_t running = 0;
-    for (int i = 0; i < j->ntiles * j->npasses; i++)
-        running += j->tasks[i].state == TASK_RUNNING;
-    for (uint32_t b = 0; b < j->nphoton; b++)
-        running += j->ptasks[b].state == TASK_RUNNING;
+    uint32_t running = j->running;
     *out = (sched_job_info_t){
         .id = j->id, .state = j->state, .xres = j->xres, .yres = j->yres, .spp = j->spp,
         .grid = j->grid, .ntiles = j->ntiles, .npasses = j->npasses, .passes_done = j->passes_done,
