@@ -192,9 +192,11 @@ static void emit(sched_t *self, sched_event_kind_t kind, uint64_t job, uint32_t 
 size_t sched_events_take(sched_t *self, sched_event_t *out, size_t max, uint64_t *dropped)
 {
     size_t n = self->nevents < max ? self->nevents : max;
-    memcpy(out, self->events, n * sizeof *out);
-    memmove(self->events, self->events + n, (self->nevents - n) * sizeof *self->events);
-    self->nevents -= n;
+    if (n > 0) {
+        memcpy(out, self->events, n * sizeof *out);
+        memmove(self->events, self->events + n, (self->nevents - n) * sizeof *self->events);
+        self->nevents -= n;
+    }
     if (dropped) {
         *dropped = self->events_dropped;
         self->events_dropped = 0;
