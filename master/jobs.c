@@ -345,7 +345,14 @@ void job_refresh(master_t *m, mjob_t *j, double now)
          * passes that will never be merged, so the workers drop them, as for a cancel. */
         if (j->accuracy.stop != PROTO_STOP_NONE)
             peers_cancel_job(m, j->id);
-        if (job_write_image(m, j, true, &err) < 0) {
+        int wrote = job_write_image(m, j, true, &err);
+        if (wrote < 0 && !m->opts->wait_for_space) {
+            char msg[600];
+            snprintf(msg, sizeof msg, "writing the outputs: %s", err.msg);
+            job_set_error(j, msg);
+            j->state = JOB_FAILED;
+            master_log(m, "job %llu '%s' failed: %s", (unsigned long long)j->id, j->name, msg);
+        } else if (wrote < 0) {
             /* A full disk must not lose a finished render: the image stays in memory, the job
              * is shown running with the reason, and the write is tried again. */
             bool first = !j->outputs.waiting;

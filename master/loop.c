@@ -40,6 +40,7 @@ master_opts_t master_opts_default(void)
         .task_prefetch = -1,
         .preview_interval_s = 1.0,
         .max_jobs = 256,
+        .wait_for_space = 1,
         .max_conns_per_host = 512,
         .budget = scene_budget_default(),
         .journal = 1,

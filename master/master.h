@@ -56,6 +56,10 @@ typedef struct master_opts {
                                   * restarted on the spool resumes every unfinished job with
                                   * the pixels of an uninterrupted run; 0 for a master that
                                   * lives and dies with its only client (`prismfarm render`) */
+    /* A done job whose outputs cannot be written (a full disk) keeps its image and tries again
+     * every JOB_OUTPUT_RETRY_S (1, the daemon's default); 0 fails it at once with the reason,
+     * for `prismfarm render`, whose user is waiting for the command to end. */
+    int wait_for_space;
     double preview_interval_s;   /* a progressive preview is written after a pass at most this
                                   * often (0: after every pass); the final outputs always */
     int verbose;                 /* one line per event on stderr */
