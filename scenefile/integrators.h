@@ -46,6 +46,10 @@ typedef struct integrator_name {
     const char *const *ignored;
     /* Known to pbrt-v4 and refused, with the reason (ambientocclusion). */
     const char *refused;
+    /* The camera pass simulates participating media: pbrt-v4's integrator of that name does
+     * (volpath, its default "auto", bdpt, mlt). The others ignore them, as pbrt-v4's path,
+     * simplepath, lightpath and randomwalk do. */
+    bool media;
 } integrator_name_t;
 
 /* The entry named name, or NULL if prismfarm knows no integrator of that name. */
