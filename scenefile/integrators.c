@@ -70,8 +70,10 @@ const char *integrators_kind_name(integrator_kind_t kind)
     return "?";
 }
 
-const char *integrators_used_name(integrator_kind_t kind, bool photon)
+const char *integrators_used_name(integrator_kind_t kind, bool photon, bool media)
 {
+    if (!photon && media && kind == INTEGRATOR_PATH)
+        return "volpath";
     if (!photon)
         return integrators_kind_name(kind);
     return kind == INTEGRATOR_WHITTED ? "photon+whitted" : "photon+path";

@@ -58,9 +58,9 @@ const integrator_name_t *integrators_find(const char *name);
 /* "simplepath", "path" or "whitted". */
 const char *integrators_kind_name(integrator_kind_t kind);
 
-/* What ran, as outputs name it: the kind's name, or "photon+path" / "photon+whitted" after a
- * photon pass. */
-const char *integrators_used_name(integrator_kind_t kind, bool photon);
+/* What ran, as outputs name it: the kind's name, "volpath" for the path tracer simulating
+ * participating media, or "photon+path" / "photon+whitted" after a photon pass. */
+const char *integrators_used_name(integrator_kind_t kind, bool photon, bool media);
 
 /* Every name for a message (refused names left out), quoted, in table order: "\"simplepath\", ..., \"photon\" or \"auto\"";
  * with overridable_only, only the names `--integrator` takes, unquoted: "simplepath, path or
