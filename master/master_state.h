@@ -7,7 +7,9 @@
 #ifndef PRISMFARM_MASTER_STATE_H
 #define PRISMFARM_MASTER_STATE_H
 
+#include "conn_guard.h"
 #include "journal.h"
+#include "loader.h"
 #include "master.h"
 #include "net.h"
 #include "photon_phase.h"
@@ -56,6 +58,9 @@ typedef struct mjob {
     char integrator[65], dispersion[65]; /* protocol.md: names of at most 64 bytes */
     job_state_t state;
     char *error;
+    /* Who may act on it (access.h): the submitting key's name, proto_peer_t.user; "" when
+     * submitted without keys. */
+    char owner[72];
     double submitted, started, finished; /* monotonic seconds; 0: not yet */
     /* The figures it takes from its loaded scene (job_take_scene). */
     struct {
@@ -77,6 +82,12 @@ typedef struct mjob {
         bool preview;        /* jobs/<id>/preview.png exists */
         double last_preview; /* when it was written; 0: never */
         bool final;          /* jobs/<id>/<stem>.exr and .png exist */
+        /* A done job whose outputs could not be written (a full disk): its image stays in the
+         * scheduler and the write is tried again at retry_at (jobs_retry_outputs), so nothing
+         * rendered is lost; why says what failed, for STATUS. */
+        bool waiting;
+        double retry_at;
+        char why[600];
     } outputs;
     /* A job with a photon pass: its batches, their merge and the merged store (kept for
      * refinement after the job is done). The scheduler's batch b is the phase's batch
@@ -117,13 +128,21 @@ typedef struct waiter {
     double deadline; /* monotonic seconds */
 } waiter_t;
 
+typedef struct submission submission_t; /* on_client.c */
+
 typedef struct master {
     const master_opts_t *opts;
     proto_limits_t limits;
+    int max_conns; /* open connections per endpoint (opts->max_conns or from the file limit) */
     sched_t *sched;
     spool_t *spool;
     journal_t *journal; /* NULL without opts->journal */
     net_t *wnet, *cnet;
+    conn_guard_t *wguard, *cguard; /* their connection bounds (conn_guard.h) */
+    /* Scenes loading off the loop (loader.h; on_client.c's submissions), oldest first. */
+    loader_t *loader;
+    submission_t **loading;
+    size_t nloading, caploading;
     mworker_t **workers;
     size_t nworkers, cap_workers;
     mjob_t **jobs; /* in id order */
