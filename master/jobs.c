@@ -94,7 +94,7 @@ static void make_stem(const char *name, char *out, size_t size)
 static void job_take_scene(mjob_t *j, const scene_t *scene)
 {
     const render_settings_t *rs = &scene->settings;
-    j->scene.integrator = integrators_used_name(rs->integrator, rs->photon.enabled);
+    j->scene.integrator = integrators_used_name(rs->integrator, rs->photon.enabled, rs->media);
     j->scene.dispersion = integrators_dispersion_used(rs->dispersion, scene->has_dispersion);
     j->scene.xres = rs->xres;
     j->scene.yres = rs->yres;

@@ -121,6 +121,7 @@ struct plan {
     size_t nplacements; /* mirror and glass placements looked at */
     /* What the scene renders with now, for the report. */
     integrator_kind_t current_integrator;
+    int current_media; /* the camera pass simulates media ("volpath") */
     dispersion_kind_t current_dispersion;
     photon_settings_t current_photon;
     spectral_grid_t grid;
@@ -1196,6 +1197,7 @@ plan_t *plan_new(const scene_t *scene, const plan_request_t *req, err_t *err)
     p->req = *req;
     p->grid = scene->settings.grid;
     p->current_integrator = scene->settings.integrator;
+    p->current_media = scene->settings.media;
     p->current_dispersion = scene->settings.dispersion;
     p->current_photon = scene->settings.photon;
     p->nmaterials = scene->nmaterials;
@@ -1380,7 +1382,8 @@ static void current_settings(const plan_t *p, char *buf, size_t n)
                  (unsigned long long)p->current_photon.photons,
                  integrators_dispersion_name(p->current_dispersion));
     else
-        snprintf(buf, n, "%s, %s", integrators_kind_name(p->current_integrator),
+        snprintf(buf, n, "%s, %s",
+                 integrators_used_name(p->current_integrator, false, p->current_media),
                  integrators_dispersion_name(p->current_dispersion));
 }
 
