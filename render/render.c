@@ -90,7 +90,8 @@ typedef struct ctx {
     int max_branches; /* WHITTED_BRANCHES_PER_BOUNCE x maxdepth x lanes */
     /* The photon integrator's caustic store, or NULL. */
     const photon_store_t *photons;
-    int mindepth;       /* the store holds L S^k D paths with k >= mindepth */
+    int glossy_photons; /* the store holds photons on glossy receivers too (it keeps directions) */
+    int mindepth;       /* the store holds L S^k D (and L S^k G) paths with k >= mindepth */
     double *irradiance; /* grid.n buckets, for one estimate */
     le_entry_t le_cache[LE_CACHE_LIGHTS + 1][LANES];
 } ctx_t;
@@ -421,6 +422,102 @@ static void caustic_light(ctx_t *c, const path_t *p, const hit_t *h, const surfa
     }
 }
 
+/* The caustic store's share at a glossy receiver (any surface scatter_bsdf shades), from a
+ * store that keeps directions: the photon density estimate with the receiver's BSDF inside
+ * the sum (photon_store_gather), L_j = scale x sum over the photons of lane j's bucket of
+ * f_j(wo, -dir) power. Added where caustic_light is (the path's first non-specular vertex);
+ * scatter_bsdf then lets the chain count from here, so that the paths it would find the other
+ * way (L S+ G S* E: the next vertex's emission) are not counted twice. f is bsdf_eval's: the
+ * coated models' stochastic estimate, unbiased, and without a smooth coat's delta reflection,
+ * which the path samples as specular and carries on.
+ *
+ * A caustic puts hundreds of photons in a gather disk, and a coated receiver's evaluation is a
+ * random walk in its layers (a caustic-glass render took 15 times as long evaluating every
+ * one). So the sum is estimated from at most GLOSSY_GATHER_EVALS of them: a first pass over
+ * the disk sums the power W of the photons that can count (a lane's bucket, the viewer's
+ * sides), a second picks photons by systematic sampling in proportion to power -- the m-th
+ * pick where the running sum passes (m + xi) W / M -- and each pick adds W / M f_j. A photon
+ * is picked M power / W times on average, so the estimate is unbiased; the photons of a
+ * caustic arrive from nearly one direction, so f varies little between them and M picks cost
+ * little noise (docs/accuracy.md measures M). Fewer photons than M: every one is evaluated. */
+#define GLOSSY_GATHER_EVALS 16
+
+typedef struct glossy_gather {
+    ctx_t *c;
+    const path_t *p;
+    const bsdf_t *b;
+    const shading_frame_t *fr;
+    sides_t sd;
+    vec3_t wo;
+    int bucket[LANES];
+    double sum[LANES];
+    int pass;          /* 0: summing W, 1: evaluating */
+    int count;         /* photons that can count (pass 0) */
+    double total;      /* their power W (pass 0) */
+    double running;    /* the running sum of power (pass 1) */
+    double step, next; /* W / M and the next pick's target (pass 1; step 0: every photon) */
+} glossy_gather_t;
+
+static void glossy_photon(void *user, vec3_t dir, int bucket, double power)
+{
+    glossy_gather_t *gg = user;
+    const path_t *p = gg->p;
+    int any = 0;
+    for (int j = 0; j < p->n; j++)
+        any |= gg->bucket[j] == bucket;
+    /* The photon's light comes from -dir; a direction the geometric surface and the shading
+     * frame put on different sides would pass through the mesh (as in next-event estimation). */
+    const vec3_t wi_world = vec3_neg(dir);
+    if (!any || !(power > 0.0) || !sides_agree(&gg->sd, wi_world))
+        return;
+    if (gg->pass == 0) {
+        gg->count++;
+        gg->total += power;
+        return;
+    }
+    double weight = power;
+    if (gg->step > 0.0) {
+        double lo = gg->running;
+        gg->running += power;
+        int picks = 0;
+        while (gg->next < gg->running && gg->next >= lo && picks < GLOSSY_GATHER_EVALS) {
+            picks++;
+            gg->next += gg->step;
+        }
+        if (picks == 0)
+            return;
+        weight = picks * gg->step;
+    }
+    double f[LANES];
+    bsdf_eval(gg->b, gg->wo, shading_to_local(gg->fr, wi_world), &gg->c->rng, f);
+    for (int j = 0; j < p->n; j++)
+        if (gg->bucket[j] == bucket && f[j] > 0.0)
+            gg->sum[j] += f[j] * weight;
+}
+
+static void caustic_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, const bsdf_t *b,
+                               const shading_frame_t *fr, vec3_t wo_local)
+{
+    glossy_gather_t gg = {.c = c, .p = p, .b = b, .fr = fr, .sd = {fr, sf->ng}, .wo = wo_local};
+    for (int j = 0; j < p->n; j++) {
+        gg.bucket[j] = p->bucket[j] >= 0 ? p->bucket[j] : spectral_table_index(c->table, p->lambda[j]);
+        gg.sum[j] = 0.0;
+    }
+    double scale;
+    if (!photon_store_gather(c->photons, sf->p, sf->ng, glossy_photon, &gg, &scale) ||
+        gg.count == 0 || !(gg.total > 0.0) || !isfinite(gg.total))
+        return;
+    gg.pass = 1;
+    if (gg.count > GLOSSY_GATHER_EVALS) {
+        gg.step = gg.total / GLOSSY_GATHER_EVALS;
+        gg.next = next(c) * gg.step;
+    }
+    photon_store_gather(c->photons, sf->p, sf->ng, glossy_photon, &gg, &scale);
+    for (int j = 0; j < p->n; j++)
+        if (gg.sum[j] > 0.0)
+            splat(c, p, j, gg.sum[j] * scale);
+}
+
 /* Reflect-or-refract choice: with Whitted both branches are followed (the second pushed on
  * the stack); otherwise one is chosen with probability prob_reflect and the weights divided
  * by it. Returns 1 to take the reflection, 0 the refraction; *scale is the factor to apply
@@ -682,6 +779,11 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
     const int delta = bsdf_is_specular(&b);
     if (!delta && c->rs->integrator != INTEGRATOR_SIMPLEPATH)
         direct_light_bsdf(c, p, sf, &b, &fr, wo, sel);
+    /* The glossy receiver's photons, at the path's first non-specular vertex, as caustic_light
+     * at a diffuse one; only a store with directions has them (photon.c). */
+    const int gathers = c->glossy_photons && !delta && p->diffuse_bounces == 0;
+    if (gathers)
+        caustic_light_bsdf(c, p, sf, &b, &fr, wo);
     if (!delta && c->rs->integrator == INTEGRATOR_WHITTED)
         return 1;
     int hero = 0;
@@ -733,7 +835,11 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
     start_bounce(p, sf, wi, specular, specular ? 0.0 : mis_pdf);
     if (!specular)
         p->diffuse_bounces++;
-    p->specular_since_diffuse = CHAIN_BROKEN;
+    /* A receiver that gathered photons starts the chain, like a diffuse vertex: light that
+     * reaches it through smooth mirrors and glass only came from the store. A specular sample
+     * (a smooth coat's mirror lobe, which the BSDF evaluation and so the gather leave out)
+     * and every surface that did not gather break it: light through them is path traced. */
+    p->specular_since_diffuse = gathers && !specular ? 0 : CHAIN_BROKEN;
     return 0;
 }
 
@@ -925,6 +1031,7 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
     double *irradiance = NULL;
     if (rs->photon.enabled) {
         c.photons = photons;
+        c.glossy_photons = photon_store_directional(photons);
         irradiance = malloc((size_t)nb * sizeof *irradiance);
         if (!irradiance) {
             err_set(err, "out of memory");
