@@ -433,14 +433,25 @@ static void caustic_light(ctx_t *c, const path_t *p, const hit_t *h, const surfa
  *
  * A caustic puts hundreds of photons in a gather disk, and a coated receiver's evaluation is a
  * random walk in its layers (a caustic-glass render took 15 times as long evaluating every
- * one). So the sum is estimated from at most GLOSSY_GATHER_EVALS of them: a first pass over
- * the disk sums the power W of the photons that can count (a lane's bucket, the viewer's
- * sides), a second picks photons by systematic sampling in proportion to power -- the m-th
- * pick where the running sum passes (m + xi) W / M -- and each pick adds W / M f_j. A photon
- * is picked M power / W times on average, so the estimate is unbiased; the photons of a
- * caustic arrive from nearly one direction, so f varies little between them and M picks cost
- * little noise (docs/accuracy.md measures M). Fewer photons than M: every one is evaluated. */
+ * one). So the sum is estimated from about GLOSSY_GATHER_EVALS of them, shared out equally
+ * between the lanes' buckets (a group: the lanes of one bucket), so that every lane's
+ * estimate has picks of its own and the colour stays smooth. A first pass over the disk sums,
+ * per group, the power W_g of the photons that can count (of the group's bucket, on the
+ * viewer's sides); a second picks M_g of them by systematic sampling in proportion to power
+ * -- the m-th pick where the group's running sum passes (m + xi) W_g / M_g -- and each pick
+ * adds W_g / M_g f_j to the group's lanes. A photon is picked M_g power / W_g times on
+ * average, so the estimate is unbiased; the photons of a caustic arrive from nearly one
+ * direction, so f varies little between them and few picks cost little noise
+ * (docs/accuracy.md measures M). A group with no more photons than M_g evaluates each once. */
 #define GLOSSY_GATHER_EVALS 16
+
+typedef struct glossy_group {
+    int bucket;
+    int count;         /* photons that can count (pass 0) */
+    double total;      /* their power W_g (pass 0) */
+    double running;    /* the running sum of power (pass 1) */
+    double step, next; /* W_g / M_g and the next pick's target (pass 1; step 0: every photon) */
+} glossy_group_t;
 
 typedef struct glossy_gather {
     ctx_t *c;
@@ -449,49 +460,50 @@ typedef struct glossy_gather {
     const shading_frame_t *fr;
     sides_t sd;
     vec3_t wo;
-    int bucket[LANES];
+    int group[LANES]; /* each lane's group */
+    int ngroups;
+    glossy_group_t groups[LANES];
     double sum[LANES];
-    int pass;          /* 0: summing W, 1: evaluating */
-    int count;         /* photons that can count (pass 0) */
-    double total;      /* their power W (pass 0) */
-    double running;    /* the running sum of power (pass 1) */
-    double step, next; /* W / M and the next pick's target (pass 1; step 0: every photon) */
+    int pass; /* 0: summing W_g, 1: evaluating */
 } glossy_gather_t;
 
 static void glossy_photon(void *user, vec3_t dir, int bucket, double power)
 {
     glossy_gather_t *gg = user;
-    const path_t *p = gg->p;
-    int any = 0;
-    for (int j = 0; j < p->n; j++)
-        any |= gg->bucket[j] == bucket;
+    glossy_group_t *g = NULL;
+    int gi = 0;
+    for (; gi < gg->ngroups; gi++)
+        if (gg->groups[gi].bucket == bucket) {
+            g = &gg->groups[gi];
+            break;
+        }
     /* The photon's light comes from -dir; a direction the geometric surface and the shading
      * frame put on different sides would pass through the mesh (as in next-event estimation). */
     const vec3_t wi_world = vec3_neg(dir);
-    if (!any || !(power > 0.0) || !sides_agree(&gg->sd, wi_world))
+    if (!g || !(power > 0.0) || !sides_agree(&gg->sd, wi_world))
         return;
     if (gg->pass == 0) {
-        gg->count++;
-        gg->total += power;
+        g->count++;
+        g->total += power;
         return;
     }
     double weight = power;
-    if (gg->step > 0.0) {
-        double lo = gg->running;
-        gg->running += power;
+    if (g->step > 0.0) {
+        double lo = g->running;
+        g->running += power;
         int picks = 0;
-        while (gg->next < gg->running && gg->next >= lo && picks < GLOSSY_GATHER_EVALS) {
+        while (g->next < g->running && g->next >= lo && picks < GLOSSY_GATHER_EVALS) {
             picks++;
-            gg->next += gg->step;
+            g->next += g->step;
         }
         if (picks == 0)
             return;
-        weight = picks * gg->step;
+        weight = picks * g->step;
     }
     double f[LANES];
     bsdf_eval(gg->b, gg->wo, shading_to_local(gg->fr, wi_world), &gg->c->rng, f);
-    for (int j = 0; j < p->n; j++)
-        if (gg->bucket[j] == bucket && f[j] > 0.0)
+    for (int j = 0; j < gg->p->n; j++)
+        if (gg->group[j] == gi && f[j] > 0.0)
             gg->sum[j] += f[j] * weight;
 }
 
@@ -500,18 +512,35 @@ static void caustic_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, c
 {
     glossy_gather_t gg = {.c = c, .p = p, .b = b, .fr = fr, .sd = {fr, sf->ng}, .wo = wo_local};
     for (int j = 0; j < p->n; j++) {
-        gg.bucket[j] = p->bucket[j] >= 0 ? p->bucket[j] : spectral_table_index(c->table, p->lambda[j]);
+        int bk = p->bucket[j] >= 0 ? p->bucket[j] : spectral_table_index(c->table, p->lambda[j]);
+        int gi = 0;
+        while (gi < gg.ngroups && gg.groups[gi].bucket != bk)
+            gi++;
+        if (gi == gg.ngroups)
+            gg.groups[gg.ngroups++] = (glossy_group_t){.bucket = bk};
+        gg.group[j] = gi;
         gg.sum[j] = 0.0;
     }
     double scale;
-    if (!photon_store_gather(c->photons, sf->p, sf->ng, glossy_photon, &gg, &scale) ||
-        gg.count == 0 || !(gg.total > 0.0) || !isfinite(gg.total))
+    if (!photon_store_gather(c->photons, sf->p, sf->ng, glossy_photon, &gg, &scale))
+        return;
+    const int per_group = GLOSSY_GATHER_EVALS / gg.ngroups > 0 ? GLOSSY_GATHER_EVALS / gg.ngroups : 1;
+    int any = 0;
+    for (int gi = 0; gi < gg.ngroups; gi++) {
+        glossy_group_t *g = &gg.groups[gi];
+        if (!(g->total > 0.0) || !isfinite(g->total)) {
+            g->bucket = -2; /* takes no photon in the second pass */
+            continue;
+        }
+        any = 1;
+        if (g->count > per_group) {
+            g->step = g->total / per_group;
+            g->next = next(c) * g->step;
+        }
+    }
+    if (!any)
         return;
     gg.pass = 1;
-    if (gg.count > GLOSSY_GATHER_EVALS) {
-        gg.step = gg.total / GLOSSY_GATHER_EVALS;
-        gg.next = next(c) * gg.step;
-    }
     photon_store_gather(c->photons, sf->p, sf->ng, glossy_photon, &gg, &scale);
     for (int j = 0; j < p->n; j++)
         if (gg.sum[j] > 0.0)
