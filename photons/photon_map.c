@@ -503,7 +503,11 @@ int photon_map_gather(const photon_map_t *self, vec3_t p, vec3_t n, double radiu
  * It is the in-memory record without the kd-tree's axis bits, so encoding a map costs a copy
  * and a decoded map appends and builds like a locally traced one. */
 #define WIRE_MAGIC 0x4D504650u /* "PFPM" read as a little-endian uint32 */
-#define WIRE_VERSION 1u
+/* 2: the same record, but a store of this version also holds the photons of glossy
+ * receivers (render/photon.c), which the camera pass no longer finds itself: a version-1
+ * store (a journal's photons.store, an older worker's batch) would lose those caustics, so
+ * it is refused rather than used. */
+#define WIRE_VERSION 2u
 #define WIRE_HEADER 32
 #define WIRE_RECORD 24
 
