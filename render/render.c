@@ -443,7 +443,7 @@ static void caustic_light(ctx_t *c, const path_t *p, const hit_t *h, const surfa
  * average, so the estimate is unbiased; the photons of a caustic arrive from nearly one
  * direction, so f varies little between them and few picks cost little noise
  * (docs/accuracy.md measures M). A group with no more photons than M_g evaluates each once. */
-#define GLOSSY_GATHER_EVALS 16
+#define GLOSSY_GATHER_EVALS 4
 
 typedef struct glossy_group {
     int bucket;
