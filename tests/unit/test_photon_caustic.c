@@ -210,11 +210,9 @@ static void test_glossy_coated_agrees_with_path(void **state)
 /* The farm's guarantee with photons: two workers that each load the scene and trace the
  * photon pass themselves render a tile to the same bytes, and a tile rendered in pieces
  * (sub-tiles and sample ranges, as the scheduler may cut it) sums to the same image. */
-static void test_workers_agree(void **state)
+static void check_workers_agree(scene_t *w1, scene_t *w2)
 {
-    (void)state;
     err_t err;
-    scene_t *w1 = ball_scene(50000), *w2 = ball_scene(50000);
     w1->settings.spp = w2->settings.spp = 4;
     /* Each worker traces the photon pass itself, with its own thread count. */
     photon_store_t *p1 = photon_pass_run(w1, 1, NULL, NULL, &err),
@@ -256,6 +254,21 @@ static void test_workers_agree(void **state)
     scene_destroy(&w2);
 }
 
+static void test_workers_agree(void **state)
+{
+    (void)state;
+    check_workers_agree(ball_scene(50000), ball_scene(50000));
+}
+
+/* The same on a coated floor: the glossy gather's picks and the layered evaluation draw from
+ * the sample's own random stream, so tiles and sample ranges do not change them. */
+static void test_workers_agree_glossy(void **state)
+{
+    (void)state;
+    check_workers_agree(glossy_ball_scene(50000, MATERIAL_COATED_DIFFUSE, 0.5, 0.2),
+                        glossy_ball_scene(50000, MATERIAL_COATED_DIFFUSE, 0.5, 0.2));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -263,6 +276,7 @@ int main(void)
         cmocka_unit_test(test_glossy_conductor_agrees_with_path),
         cmocka_unit_test(test_glossy_coated_agrees_with_path),
         cmocka_unit_test(test_workers_agree),
+        cmocka_unit_test(test_workers_agree_glossy),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
