@@ -390,7 +390,9 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
              * (render.c's caustic_light_bsdf); light maps cannot, so there the camera pass path
              * traces it (CHAIN_BROKEN). Either way the photon ends: what the surface scatters
              * on is path traced from the camera. */
+            /* A thin dielectric's BSDF is all delta: the camera pass never gathers there. */
             if (job->policy == PHOTON_STORE_CAUSTIC && photon_store_directional(t->out) &&
+                m->kind != MATERIAL_THIN_DIELECTRIC &&
                 (f->specular >= job->mindepth || (f->collimated && !f->specular)) && !f->diffuse) {
                 vec3_t g = vec3_dot(sf.ng, f->dir) < 0.0 ? sf.ng : vec3_neg(sf.ng);
                 if (deposit_lanes(t, f, &h, &sf, g, err))
