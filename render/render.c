@@ -96,7 +96,8 @@ typedef struct ctx {
     int max_branches; /* WHITTED_BRANCHES_PER_BOUNCE x maxdepth x lanes */
     /* The photon integrator's caustic store, or NULL. */
     const photon_store_t *photons;
-    int mindepth;       /* the store holds L S^k D paths with k >= mindepth */
+    int glossy_photons; /* the store holds photons on glossy receivers too (it keeps directions) */
+    int mindepth;       /* the store holds L S^k D (and L S^k G) paths with k >= mindepth */
     double *irradiance; /* grid.n buckets, for one estimate */
     le_entry_t le_cache[LE_CACHE_LIGHTS + 1][LANES];
     int media; /* the scene's media are simulated (render/volume.h) */
@@ -453,6 +454,131 @@ static void caustic_light(ctx_t *c, const path_t *p, const hit_t *h, const surfa
     }
 }
 
+/* The caustic store's share at a glossy receiver (any surface scatter_bsdf shades), from a
+ * store that keeps directions: the photon density estimate with the receiver's BSDF inside
+ * the sum (photon_store_gather), L_j = scale x sum over the photons of lane j's bucket of
+ * f_j(wo, -dir) power. Added where caustic_light is (the path's first non-specular vertex);
+ * scatter_bsdf then lets the chain count from here, so that the paths it would find the other
+ * way (L S+ G S* E: the next vertex's emission) are not counted twice. f is bsdf_eval's: the
+ * coated models' stochastic estimate, unbiased, and without a smooth coat's delta reflection,
+ * which the path samples as specular and carries on.
+ *
+ * A caustic puts hundreds of photons in a gather disk, and a coated receiver's evaluation is a
+ * random walk in its layers (a caustic-glass render took 15 times as long evaluating every
+ * one). So the sum is estimated from about GLOSSY_GATHER_EVALS of them, shared out equally
+ * between the lanes' buckets (a group: the lanes of one bucket), so that every lane's
+ * estimate has picks of its own and the colour stays smooth. A first pass over the disk sums,
+ * per group, the power W_g of the photons that can count (of the group's bucket, on the
+ * viewer's sides); a second picks M_g of them by systematic sampling in proportion to power
+ * -- the m-th pick where the group's running sum passes (m + xi) W_g / M_g -- and each pick
+ * adds W_g / M_g f_j to the group's lanes. A photon is picked M_g power / W_g times on
+ * average, so the estimate is unbiased; the photons of a caustic arrive from nearly one
+ * direction, so f varies little between them and few picks cost little noise
+ * (docs/accuracy.md measures M). A group with no more photons than M_g evaluates each once. */
+#define GLOSSY_GATHER_EVALS 4
+
+typedef struct glossy_group {
+    int bucket;
+    int count;         /* photons that can count (pass 0) */
+    double total;      /* their power W_g (pass 0) */
+    double running;    /* the running sum of power (pass 1) */
+    double step, next; /* W_g / M_g and the next pick's target (pass 1; step 0: every photon) */
+} glossy_group_t;
+
+typedef struct glossy_gather {
+    ctx_t *c;
+    const path_t *p;
+    const bsdf_t *b;
+    const shading_frame_t *fr;
+    sides_t sd;
+    vec3_t wo;
+    int group[LANES]; /* each lane's group */
+    int ngroups;
+    glossy_group_t groups[LANES];
+    double sum[LANES];
+    int pass; /* 0: summing W_g, 1: evaluating */
+} glossy_gather_t;
+
+static void glossy_photon(void *user, vec3_t dir, int bucket, double power)
+{
+    glossy_gather_t *gg = user;
+    glossy_group_t *g = NULL;
+    int gi = 0;
+    for (; gi < gg->ngroups; gi++)
+        if (gg->groups[gi].bucket == bucket) {
+            g = &gg->groups[gi];
+            break;
+        }
+    /* The photon's light comes from -dir; a direction the geometric surface and the shading
+     * frame put on different sides would pass through the mesh (as in next-event estimation). */
+    const vec3_t wi_world = vec3_neg(dir);
+    if (!g || !(power > 0.0) || !sides_agree(&gg->sd, wi_world))
+        return;
+    if (gg->pass == 0) {
+        g->count++;
+        g->total += power;
+        return;
+    }
+    double weight = power;
+    if (g->step > 0.0) {
+        double lo = g->running;
+        g->running += power;
+        int picks = 0;
+        while (g->next < g->running && g->next >= lo && picks < GLOSSY_GATHER_EVALS) {
+            picks++;
+            g->next += g->step;
+        }
+        if (picks == 0)
+            return;
+        weight = picks * g->step;
+    }
+    double f[LANES];
+    bsdf_eval(gg->b, gg->wo, shading_to_local(gg->fr, wi_world), &gg->c->rng, f);
+    for (int j = 0; j < gg->p->n; j++)
+        if (gg->group[j] == gi && f[j] > 0.0)
+            gg->sum[j] += f[j] * weight;
+}
+
+static void caustic_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, const bsdf_t *b,
+                               const shading_frame_t *fr, vec3_t wo_local)
+{
+    glossy_gather_t gg = {.c = c, .p = p, .b = b, .fr = fr, .sd = {fr, sf->ng}, .wo = wo_local};
+    for (int j = 0; j < p->n; j++) {
+        int bk = p->bucket[j] >= 0 ? p->bucket[j] : spectral_table_index(c->table, p->lambda[j]);
+        int gi = 0;
+        while (gi < gg.ngroups && gg.groups[gi].bucket != bk)
+            gi++;
+        if (gi == gg.ngroups)
+            gg.groups[gg.ngroups++] = (glossy_group_t){.bucket = bk};
+        gg.group[j] = gi;
+        gg.sum[j] = 0.0;
+    }
+    double scale;
+    if (!photon_store_gather(c->photons, sf->p, sf->ng, glossy_photon, &gg, &scale))
+        return;
+    const int per_group = GLOSSY_GATHER_EVALS / gg.ngroups > 0 ? GLOSSY_GATHER_EVALS / gg.ngroups : 1;
+    int any = 0;
+    for (int gi = 0; gi < gg.ngroups; gi++) {
+        glossy_group_t *g = &gg.groups[gi];
+        if (!(g->total > 0.0) || !isfinite(g->total)) {
+            g->bucket = -2; /* takes no photon in the second pass */
+            continue;
+        }
+        any = 1;
+        if (g->count > per_group) {
+            g->step = g->total / per_group;
+            g->next = next(c) * g->step;
+        }
+    }
+    if (!any)
+        return;
+    gg.pass = 1;
+    photon_store_gather(c->photons, sf->p, sf->ng, glossy_photon, &gg, &scale);
+    for (int j = 0; j < p->n; j++)
+        if (gg.sum[j] > 0.0)
+            splat(c, p, j, gg.sum[j] * scale);
+}
+
 /* Reflect-or-refract choice: with Whitted both branches are followed (the second pushed on
  * the stack); otherwise one is chosen with probability prob_reflect and the weights divided
  * by it. Returns 1 to take the reflection, 0 the refraction; *scale is the factor to apply
@@ -715,6 +841,11 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
     const int delta = bsdf_is_specular(&b);
     if (!delta && c->rs->integrator != INTEGRATOR_SIMPLEPATH)
         direct_light_bsdf(c, p, sf, &b, &fr, wo, sel);
+    /* The glossy receiver's photons, at the path's first non-specular vertex, as caustic_light
+     * at a diffuse one; only a store with directions has them (photon.c). */
+    const int gathers = c->glossy_photons && !delta && p->diffuse_bounces == 0;
+    if (gathers)
+        caustic_light_bsdf(c, p, sf, &b, &fr, wo);
     if (!delta && c->rs->integrator == INTEGRATOR_WHITTED)
         return 1;
     int hero = 0;
@@ -766,7 +897,11 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
     start_bounce(p, sf, wi, specular, specular ? 0.0 : mis_pdf);
     if (!specular)
         p->diffuse_bounces++;
-    p->specular_since_diffuse = CHAIN_BROKEN;
+    /* A receiver that gathered photons starts the chain, like a diffuse vertex: light that
+     * reaches it through smooth mirrors and glass only came from the store. A specular sample
+     * (a smooth coat's mirror lobe, which the BSDF evaluation and so the gather leave out)
+     * and every surface that did not gather break it: light through them is path traced. */
+    p->specular_since_diffuse = gathers && !specular ? 0 : CHAIN_BROKEN;
     return 0;
 }
 
@@ -1088,6 +1223,7 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
     double *irradiance = NULL;
     if (rs->photon.enabled) {
         c.photons = photons;
+        c.glossy_photons = photon_store_directional(photons);
         irradiance = malloc((size_t)nb * sizeof *irradiance);
         if (!irradiance) {
             err_set(err, "out of memory");

@@ -10,46 +10,51 @@ static const char *const SPPM_IGNORED[] = {"seed", NULL};
 
 /* "auto" runs the path tracer unless the effect plan (scene/plan.h) chooses otherwise. The rows
  * after it are pbrt-v4's integrators that prismfarm reads as one of its own: each renders the
- * same expectation (the light transport equation, with media where `media` says so), so the image agrees with
- * pbrt-v4's within noise, with different noise. */
+ * same expectation (the light transport equation, with media where `media` says so), so the
+ * image agrees with pbrt-v4's within noise, with different noise -- for the ones that trace
+ * light paths (plan_photons) because the plan adds the photon pass where a camera path cannot
+ * find a caustic. */
 static const integrator_name_t TABLE[] = {
-    {"simplepath", INTEGRATOR_SIMPLEPATH, false, true, false, NULL, NULL, NULL, false},
-    {"path", INTEGRATOR_PATH, false, true, false, NULL, NULL, NULL, false},
-    {"whitted", INTEGRATOR_WHITTED, false, true, false, NULL, NULL, NULL, false},
-    {"photon", INTEGRATOR_PATH, true, false, false, NULL, NULL, NULL, false},
-    {"auto", INTEGRATOR_PATH, false, false, false, NULL, NULL, NULL, true},
+    {"simplepath", INTEGRATOR_SIMPLEPATH, false, true, false, NULL, NULL, NULL, false, false},
+    {"path", INTEGRATOR_PATH, false, true, false, NULL, NULL, NULL, false, false},
+    {"whitted", INTEGRATOR_WHITTED, false, true, false, NULL, NULL, NULL, false, false},
+    {"photon", INTEGRATOR_PATH, true, false, false, NULL, NULL, NULL, false, false},
+    {"auto", INTEGRATOR_PATH, false, false, false, NULL, NULL, NULL, true, false},
     /* The path tracer with participating media (render/volume.h); without media it is path
      * exactly. */
-    {"volpath", INTEGRATOR_PATH, false, false, true, NULL, NULL, NULL, true},
+    {"volpath", INTEGRATOR_PATH, false, false, true, NULL, NULL, NULL, true, false},
     {"bdpt", INTEGRATOR_PATH, false, false, true,
-     "bdpt is rendered by the path tracer: the same image, noisier in caustics, except that "
-     "light from point, spot and distant lights through smooth glass or mirrors (a caustic "
-     "only bdpt's light paths find) is missing; Integrator \"photon\" gathers such caustics "
-     "on diffuse surfaces",
-     BDPT_IGNORED, NULL, true},
+     "bdpt is rendered by the path tracer, after a photon pass when the plan calls for one "
+     "(`prismfarm plan` says why): caustics of point, spot, distant and small bright lights "
+     "through smooth glass and mirrors, which only bdpt's light paths find, come from photons "
+     "gathered on the diffuse and glossy surfaces that receive them; the rest is the same "
+     "image with different noise",
+     BDPT_IGNORED, NULL, true, true},
     {"mlt", INTEGRATOR_PATH, false, false, true,
      "mlt is rendered by the path tracer (without Metropolis sampling's bootstrap, chains and "
-     "mutations): the same image except caustics of point, spot and distant lights through "
-     "smooth glass or mirrors, which it cannot find; Integrator \"photon\" gathers those on "
-     "diffuse surfaces",
-     MLT_IGNORED, NULL, true},
+     "mutations), after a photon pass when the plan calls for one (`prismfarm plan` says why): "
+     "caustics of point, spot, distant and small bright lights through smooth glass and "
+     "mirrors come from photons gathered on the diffuse and glossy surfaces that receive them",
+     MLT_IGNORED, NULL, true, true},
     {"sppm", INTEGRATOR_PATH, true, false, true,
      "sppm is rendered by the photon integrator (one photon pass, then the path tracer gathers "
      "it): \"integer photons\" = photonsperiteration x the sampler's pixelsamples (pbrt-v4's "
      "iterations), \"float radius\" = radius, held fixed rather than shrunk each iteration",
-     SPPM_IGNORED, NULL, false},
+     SPPM_IGNORED, NULL, false, false},
     {"lightpath", INTEGRATOR_PATH, false, false, true,
-     "lightpath is rendered by the path tracer (same expectation, different noise)", NULL, NULL, false},
+     "lightpath is rendered by the path tracer, after a photon pass for the caustics of delta "
+     "and small bright lights when the plan calls for one (same expectation, different noise)",
+     NULL, NULL, false, true},
     {"randomwalk", INTEGRATOR_PATH, false, false, true,
      "randomwalk is rendered by the path tracer (same expectation, less noise: it samples lights)",
-     NULL, NULL, false},
+     NULL, NULL, false, false},
     {"simplevolpath", INTEGRATOR_PATH, false, false, true,
      "simplevolpath is rendered by volpath's path tracer with media (same expectation, less "
      "noise: it samples lights)",
-     NULL, NULL, true},
+     NULL, NULL, true, false},
     {"ambientocclusion", INTEGRATOR_PATH, false, false, true, NULL, NULL,
      "ambient occlusion renders the unoccluded fraction of the hemisphere, not radiance, and "
-     "prismfarm has no integrator with that expectation", false},
+     "prismfarm has no integrator with that expectation", false, false},
 };
 
 #define COUNT (sizeof TABLE / sizeof TABLE[0])

@@ -50,6 +50,10 @@ typedef struct integrator_name {
      * (volpath, its default "auto", bdpt, mlt). The others ignore them, as pbrt-v4's path,
      * simplepath, lightpath and randomwalk do. */
     bool media;
+    /* pbrt-v4's integrators that trace paths from the lights (bdpt, mlt, lightpath): they find
+     * caustics of delta and small lights through smooth glass that a camera path cannot, so
+     * the photon pass is the effect plan's to decide (scene/plan.h), as for "auto". */
+    bool plan_photons;
 } integrator_name_t;
 
 /* The entry named name, or NULL if prismfarm knows no integrator of that name. */
