@@ -47,6 +47,10 @@ int job_write_image(master_t *m, mjob_t *j, bool final, err_t *err);
  * image in the scheduler, keeping only the figures STATUS reports. */
 void job_refresh(master_t *m, mjob_t *j, double now);
 
+/* Cancels a job (a client's CANCEL, the dashboard's action): the scheduler ends it, and
+ * job_refresh tells the workers to drop its tasks. Nothing for a job that is over. */
+void job_cancel(master_t *m, mjob_t *j, double now);
+
 /* Ends every running job past its time limit that has a whole pass (docs/farm.md,
  * "Accuracy"). */
 void jobs_enforce_time_limits(master_t *m, double now);

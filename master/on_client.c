@@ -400,10 +400,7 @@ static void on_cancel(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "no job %llu", (unsigned long long)msg->cancel.job);
         return;
     }
-    err_t err;
-    if (j->sched.known && sched_cancel_job(m->sched, j->id, &err) < 0)
-        master_log(m, "cancel: %s", err.msg);
-    job_refresh(m, j, now);
+    job_cancel(m, j, now);
     reply_jobs(m, from, PROTO_STATUS_REPLY, j, now);
 }
 
