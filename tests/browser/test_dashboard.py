@@ -96,7 +96,7 @@ class WebDriver:
                 "binary": CHROMIUM,
                 # Root in a container: no sandbox; no GPU, no /dev/shm of any size needed.
                 "args": ["--headless=new", "--no-sandbox", "--disable-gpu",
-                         "--disable-dev-shm-usage", "--window-size=1280,1100",
+                         "--disable-dev-shm-usage", "--window-size=1280,1500",
                          "--no-first-run", "--no-default-browser-check"]}}}}
         self.session = self.call("POST", "/session", caps)["sessionId"]
 

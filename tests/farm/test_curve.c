@@ -88,7 +88,8 @@ static int mode_of(const char *path)
     return (int)(st.st_mode & 0777);
 }
 
-/* keygen's files: modes 0600 and 0644, a comment header, Z85 keys, a public key that libzmq
+/* keygen's files: modes 0600 and 0644 (and 0600 for the dashboard token, whose hash alone the
+ * .pub carries), a comment header, Z85 keys, a public key that libzmq
  * derives from the secret one; no overwrite without --force; names that are paths refused. */
 static void test_keygen_files(void **state)
 {
@@ -116,6 +117,30 @@ static void test_keygen_files(void **state)
     assert_null(strstr(pub_text, "secret"));
     assert_int_equal(zmq_curve_public(derived, secret), 0);
     assert_string_equal(derived, public1);
+    /* The dashboard token (docs/dashboard.md): mode 0600 from the start, and only its SHA-256
+     * in the .pub, which the ring finds the key's name by. */
+    char token_path[700];
+    snprintf(token_path, sizeof token_path, "%s/alice.token", dir);
+    expect_in(r->out, token_path);
+    assert_int_equal(mode_of(token_path), 0600);
+    uint8_t token_hash[CURVE_TOKEN_HASH];
+    err_t terr;
+    assert_int_equal(curve_load_token(token_path, token_hash, &terr), 0);
+    char *token_text = testutil_slurp(token_path, NULL);
+    const char *token = strrchr(token_text, '\n');
+    while (token > token_text && token[-1] != '\n')
+        token--; /* the last line: the token itself */
+    char first16[17];
+    snprintf(first16, sizeof first16, "%.16s", token);
+    assert_null(strstr(pub_text, first16));
+    expect_in(pub_text, "http-token-sha256 = ");
+    curve_ring_t *ring = curve_ring_new(dir, &terr);
+    assert_non_null(ring);
+    assert_string_equal(curve_ring_find_token(ring, token_hash), "alice");
+    token_hash[0] ^= 1;
+    assert_null(curve_ring_find_token(ring, token_hash));
+    curve_ring_destroy(&ring);
+    free(token_text);
 
     /* Not overwritten: exit 1, the files as they were. */
     r = run("keygen", "alice", "--dir", dir, NULL);
