@@ -90,6 +90,8 @@ static json_t *job_json(const proto_job_info_t *j)
     json_object_set_new(o, "id", json_integer((json_int_t)j->id));
     json_object_set_new(o, "name", cli_json_string(j->name));
     json_object_set_new(o, "state", json_string(proto_job_state_name(j->state)));
+    /* The submitting key's name (docs/security.md, "Rights"); null without keys. */
+    json_object_set_new(o, "owner", j->owner && j->owner[0] ? cli_json_string(j->owner) : json_null());
     json_object_set_new(o, "samples_done", json_integer((json_int_t)j->samples_done));
     json_object_set_new(o, "samples_total", json_integer((json_int_t)j->samples_total));
     json_object_set_new(o, "progress", json_real(j->samples_total ? (double)j->samples_done / (double)j->samples_total : 0.0));
@@ -114,8 +116,8 @@ static void print_jobs(const proto_job_info_t *jobs, size_t n, int json)
         cli_json_print(arr, JSON_INDENT(2));
         return;
     }
-    printf("%-6s %-20s %-10s %9s %8s %9s %9s %10s  %s\n", "ID", "NAME", "STATE", "PROGRESS", "SPP",
-           "REL.ERROR", "ELAPSED", "NONFINITE", "ERROR");
+    printf("%-6s %-20s %-12s %-10s %9s %8s %9s %9s %10s  %s\n", "ID", "NAME", "OWNER", "STATE",
+           "PROGRESS", "SPP", "REL.ERROR", "ELAPSED", "NONFINITE", "ERROR");
     for (size_t i = 0; i < n; i++) {
         const proto_job_info_t *j = &jobs[i];
         double p = j->samples_total ? 100.0 * (double)j->samples_done / (double)j->samples_total : 0;
@@ -127,8 +129,10 @@ static void print_jobs(const proto_job_info_t *jobs, size_t n, int json)
             snprintf(note, sizeof note, "%s", j->error);
         else if (j->stop != PROTO_STOP_NONE)
             snprintf(note, sizeof note, "(stopped: %s)", stopping_reason((stopping_why_t)j->stop));
-        printf("%-6llu %-20.20s %-10s %8.1f%% %8u %9s %8.1fs %10llu  %s\n", (unsigned long long)j->id,
-               j->name ? j->name : "", proto_job_state_name(j->state), p, j->spp, rel, j->elapsed,
+        printf("%-6llu %-20.20s %-12.12s %-10s %8.1f%% %8u %9s %8.1fs %10llu  %s\n",
+               (unsigned long long)j->id, j->name ? j->name : "",
+               j->owner && j->owner[0] ? j->owner : "-", proto_job_state_name(j->state), p, j->spp,
+               rel, j->elapsed,
                (unsigned long long)j->nonfinite, note);
     }
 }

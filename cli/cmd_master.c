@@ -34,7 +34,7 @@ int cmd_master(int argc, char **argv)
     master_opts_t o = master_opts_default();
     int quiet = 0, no_journal = 0;
     int heartbeat_ms = 0, deadline_s = 0, tile = 0, max_jobs = 0, message_mb = 0, bundle_mb = 0,
-        bundle_files = 0; /* 0: not given */
+        bundle_files = 0, conns_per_host = -1, conns = 0; /* 0, -1: not given */
     const cli_opt_t opts[] = {
         {.name = "workers", .kind = CLI_STRING, .dst = &o.worker_endpoint, .arg = "ENDPOINT",
          .help = "where workers connect (default tcp://*:5555)"},
@@ -101,6 +101,14 @@ int cmd_master(int argc, char **argv)
         {.name = "max-bundle-files", .kind = CLI_INT, .dst = &bundle_files, .lo = 1,
          .hi = PROTO_MAX_BUNDLE_FILES, .arg = "N",
          .help = "files in a scene bundle, 1..4096 (default 4096)"},
+        {.name = "max-connections-per-host", .kind = CLI_INT, .dst = &conns_per_host, .lo = 0,
+         .hi = 1048576, .arg = "N",
+         .help = "open connections from one IP address per endpoint (default 512; 0: no "
+                 "bound); more are shut down at once"},
+        {.name = "max-connections", .kind = CLI_INT, .dst = &conns, .lo = 1, .hi = 1048576,
+         .arg = "N",
+         .help = "open connections per endpoint (default: from the file limit, which the "
+                 "master raises to its hard maximum)"},
         CLI_OPT_HELP,
         {0},
     };
@@ -128,6 +136,10 @@ int cmd_master(int argc, char **argv)
         o.sched.tile_size = tile;
     if (max_jobs)
         o.max_jobs = (size_t)max_jobs;
+    if (conns_per_host >= 0)
+        o.max_conns_per_host = conns_per_host;
+    if (conns)
+        o.max_conns = conns;
     if (bundle_files)
         o.limits.max_bundle_files = (size_t)bundle_files;
     o.sched.worker_timeout_s = 3.0 * o.heartbeat_ms / 1000.0;

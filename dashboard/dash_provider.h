@@ -128,6 +128,11 @@ typedef struct dash_provider {
     int (*log)(void *user, uint64_t job, uint64_t since, dash_log_line_t *out, int max);
     size_t (*workers)(void *user, dash_worker_t *out, size_t max);
 
+    /* Whether who may act on job (the daemon's own rule, so that the dashboard and its other
+     * clients agree). NULL: the owner (a key name equal to job->owner, never "") or an
+     * administrator. */
+    bool (*allowed)(void *user, const dash_identity_t *who, const dash_job_t *job);
+
     /* Actions, checked for authority by the dashboard before they are called. Each returns 0
      * or -1 with err (the reason, shown to the user). */
     int (*cancel)(void *user, const dash_identity_t *who, uint64_t job, err_t *err);

@@ -573,7 +573,9 @@ static void job_action(dash_router_t *self, const dash_request_t *req, uint64_t 
     dash_job_t j;
     if (find_job(self, id, &j, out) < 0)
         return;
-    if (!who.admin && (!j.owner || !*j.owner || strcmp(j.owner, who.name) != 0)) {
+    bool allowed = p->allowed ? p->allowed(p->user, &who, &j)
+                              : who.admin || (j.owner && *j.owner && !strcmp(j.owner, who.name));
+    if (!allowed) {
         if (j.owner && *j.owner)
             answer_error(out, 403, "job %llu belongs to '%s': '%s' may act only on its own jobs "
                                    "(an administrator's key may act on any)",

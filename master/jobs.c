@@ -170,6 +170,7 @@ mjob_t *job_from_record(const journal_job_t *r)
     j->id = r->id;
     make_stem(j->name, j->stem, sizeof j->stem);
     snprintf(j->hash, sizeof j->hash, "%s", r->hash);
+    snprintf(j->owner, sizeof j->owner, "%s", r->owner);
     job_set_settings(j, &r->settings);
     j->state = (job_state_t)r->state;
     j->outputs.final = r->outputs;

@@ -19,8 +19,10 @@
 /* Bumped whenever a table or a blob changes meaning: a master never reads a journal it does
  * not understand. 4: tile blobs carry their sums' width, float32 sums when they fit. 5: tile
  * blobs and checkpoints carry the pixels' XYZ sums after the bucket sums (new magics, so that a
- * blob or checkpoint of version 4 found in a version-5 spool is refused by name). */
-#define JOURNAL_VERSION 5
+ * blob or checkpoint of version 4 found in a version-5 spool is refused by name). 6: jobs have
+ * an owner (the submitting key's name, issue 16); a version-5 journal is migrated in place (its
+ * jobs get the owner "", which only an admin may act on when the master has keys). */
+#define JOURNAL_VERSION 6
 
 #define TILE_MAGIC 0x58544650u  /* "PFTX" in this host's order: a blob of another is refused */
 #define PHOT_MAGIC 0x48504650u  /* "PFPH" */
@@ -110,7 +112,8 @@ static const char *SCHEMA =
     " checkpoint INTEGER NOT NULL DEFAULT 0, elapsed REAL NOT NULL DEFAULT 0,"
     " stop INTEGER NOT NULL DEFAULT 0, outputs INTEGER NOT NULL DEFAULT 0,"
     " samples_done INTEGER NOT NULL DEFAULT 0, samples_total INTEGER NOT NULL DEFAULT 0,"
-    " nonfinite INTEGER NOT NULL DEFAULT 0, spp_done INTEGER NOT NULL DEFAULT 0);"
+    " nonfinite INTEGER NOT NULL DEFAULT 0, spp_done INTEGER NOT NULL DEFAULT 0,"
+    " owner TEXT NOT NULL DEFAULT '');"
     "CREATE TABLE IF NOT EXISTS results("
     " job INTEGER NOT NULL, round INTEGER NOT NULL, task INTEGER NOT NULL, kind INTEGER NOT NULL,"
     " tile INTEGER NOT NULL, pass INTEGER NOT NULL, size INTEGER NOT NULL,"
@@ -178,6 +181,18 @@ journal_t *journal_open(const char *dir, err_t *err)
         snprintf(sql, sizeof sql, "INSERT INTO meta(key, value) VALUES('version', %d)",
                  JOURNAL_VERSION);
         if (exec(self, sql, err) < 0) {
+            journal_close(&self);
+            return NULL;
+        }
+    } else if (version == 5) {
+        /* Version 6 only adds the owner column: the rest of a version-5 spool reads as it is. */
+        if (exec(self,
+                 "BEGIN IMMEDIATE; ALTER TABLE jobs ADD COLUMN owner TEXT NOT NULL DEFAULT '';"
+                 " UPDATE meta SET value=6 WHERE key='version'; COMMIT",
+                 err) < 0) {
+            err_t ignore;
+            (void)exec(self, "ROLLBACK", &ignore);
+            err_prefix(err, "migrating from version 5: ");
             journal_close(&self);
             return NULL;
         }
@@ -253,8 +268,8 @@ int journal_add_job(journal_t *self, const journal_job_t *j, err_t *err)
     if (prepare(self,
                 "INSERT OR REPLACE INTO jobs(id, name, hash, main, spp, xres, yres, seed, "
                 "integrator, dispersion, target_error, time_limit, state, round_photons, "
-                "samples_total) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, "
-                "?14, ?15)",
+                "samples_total, owner) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, "
+                "?13, ?14, ?15, ?16)",
                 &st, err) < 0)
         return -1;
     sqlite3_bind_int64(st, 1, (sqlite3_int64)j->id);
@@ -272,6 +287,7 @@ int journal_add_job(journal_t *self, const journal_job_t *j, err_t *err)
     sqlite3_bind_int(st, 13, j->state);
     sqlite3_bind_int64(st, 14, (sqlite3_int64)j->round_photons);
     sqlite3_bind_int64(st, 15, (sqlite3_int64)j->samples_total);
+    sqlite3_bind_text(st, 16, j->owner, -1, SQLITE_TRANSIENT);
     return step_done(self, st, "adding a job", err);
 }
 
@@ -382,7 +398,7 @@ int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err)
                 "SELECT id, name, hash, main, spp, xres, yres, seed, integrator, dispersion, "
                 "target_error, time_limit, state, error, round, photon_base, photons_saved, "
                 "round_photons, refine_photons, checkpoint, elapsed, stop, outputs, "
-                "samples_done, samples_total, nonfinite, spp_done FROM jobs ORDER BY id",
+                "samples_done, samples_total, nonfinite, spp_done, owner FROM jobs ORDER BY id",
                 &st, err) < 0)
         return -1;
     size_t cap = 0;
@@ -435,6 +451,8 @@ int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err)
         j->samples_total = (uint64_t)sqlite3_column_int64(st, 24);
         j->nonfinite = (uint64_t)sqlite3_column_int64(st, 25);
         j->spp_done = sqlite3_column_int(st, 26);
+        if ((s = sqlite3_column_text(st, 27)))
+            snprintf(j->owner, sizeof j->owner, "%s", (const char *)s);
         if (!j->name || !j->hash || !j->main || j->state < 0 || j->state > 4) {
             rc = SQLITE_CORRUPT;
             break;

@@ -50,6 +50,7 @@ typedef struct journal_job {
     bool outputs;            /* its final EXR and PNG exist */
     uint64_t samples_done, samples_total, nonfinite;
     int spp_done;
+    char owner[72]; /* the submitting key's name (proto_peer_t.user); "" without keys */
 } journal_job_t;
 
 void journal_job_clear(journal_job_t *j);

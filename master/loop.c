@@ -25,6 +25,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <zmq.h>
 
 #define RECV_BURST 1000 /* messages taken from one socket per loop turn */
@@ -41,6 +42,7 @@ master_opts_t master_opts_default(void)
         .task_prefetch = -1,
         .preview_interval_s = 1.0,
         .max_jobs = 256,
+        .max_conns_per_host = 512,
         .journal = 1,
         .verbose = 1,
     };
@@ -110,9 +112,16 @@ static void housekeeping(master_t *m, double now, double busy)
  * limits.max_message_bytes). */
 #define CLIENT_RCVHWM 4
 
-/* A bound ROUTER; with secret_key a CURVE server whose ZAP domain names the endpoint. */
+static void guard_log(void *user, const char *line)
+{
+    master_log(user, "%s", line);
+}
+
+/* A bound ROUTER, watched by a connection guard (*guard) from before it binds; with secret_key
+ * a CURVE server whose ZAP domain names the endpoint. */
 static net_t *open_router(master_t *m, void *ctx, const char *what, const char *endpoint,
-                                const char *secret_key, char *bound, size_t size, err_t *err)
+                          const char *secret_key, char *bound, size_t size, conn_guard_t **guard,
+                          err_t *err)
 {
     net_options_t no = net_options_default();
     no.limits = m->limits;
@@ -125,12 +134,42 @@ static net_t *open_router(master_t *m, void *ctx, const char *what, const char *
         err_prefix(err, "%s endpoint: ", what);
         return NULL;
     }
-    if (net_bind(net, endpoint, err) < 0 || net_endpoint(net, bound, size, err) < 0) {
+    conn_guard_config_t gc = {.max_per_host = m->opts->max_conns_per_host,
+                              .max_total = m->max_conns};
+    if (!(*guard = conn_guard_new(ctx, net_socket(net), what, &gc, guard_log, m, err)) ||
+        net_bind(net, endpoint, err) < 0 || net_endpoint(net, bound, size, err) < 0) {
         err_prefix(err, "%s endpoint: ", what);
+        conn_guard_destroy(guard);
         net_destroy(&net);
         return NULL;
     }
     return net;
+}
+
+/* Descriptors kept for the spool, the journal, outputs and libzmq's own when the connections
+ * are bounded by the file limit. */
+#define FD_RESERVE 256
+
+/* Raises the soft file limit to the hard one (Debian's default soft limit of 1024 is what a
+ * flood of idle connections exhausted) and returns the connections each endpoint may hold:
+ * half of what is left after the reserve. */
+static int file_limit_raise(master_t *m)
+{
+    struct rlimit rl;
+    if (getrlimit(RLIMIT_NOFILE, &rl) != 0)
+        return 512;
+    if (rl.rlim_cur < rl.rlim_max) {
+        struct rlimit want = {.rlim_cur = rl.rlim_max, .rlim_max = rl.rlim_max};
+        if (rl.rlim_max == RLIM_INFINITY || rl.rlim_max > 1048576)
+            want.rlim_cur = 1048576;
+        if (setrlimit(RLIMIT_NOFILE, &want) == 0)
+            rl.rlim_cur = want.rlim_cur;
+    }
+    rlim_t n = rl.rlim_cur == RLIM_INFINITY ? 1048576 : rl.rlim_cur;
+    int per = n > 2 * FD_RESERVE ? (int)((n - FD_RESERVE) / 2) : 64;
+    master_log(m, "file limit %llu: at most %d connections per endpoint, %d from one host",
+               (unsigned long long)n, per, m->opts->max_conns_per_host);
+    return per;
 }
 
 static int check_opts(const master_opts_t *o, err_t *err)
@@ -219,10 +258,11 @@ int master_run(const master_opts_t *opts, err_t *err)
         }
     }
     const char *secret = opts->key_file ? keys.secret_key : NULL;
+    m->max_conns = opts->max_conns > 0 ? opts->max_conns : file_limit_raise(m);
     if (!(m->wnet = open_router(m, ctx, "workers", opts->worker_endpoint, secret, wbound,
-                                sizeof wbound, err)) ||
+                                sizeof wbound, &m->wguard, err)) ||
         !(m->cnet = open_router(m, ctx, "clients", opts->client_endpoint, secret, cbound,
-                                sizeof cbound, err)))
+                                sizeof cbound, &m->cguard, err)))
         goto out;
     if (zap && opts->authorized_dir)
         master_log(m, "CURVE: public key %s; %zu keys authorised in %s", keys.public_key,
@@ -297,6 +337,8 @@ int master_run(const master_opts_t *opts, err_t *err)
             rc = -1;
             break;
         }
+        conn_guard_pump(m->wguard);
+        conn_guard_pump(m->cguard);
         double now = clock_now_s();
         housekeeping(m, now, now - polled);
         dispatch_tasks(m, now);
@@ -309,6 +351,8 @@ int master_run(const master_opts_t *opts, err_t *err)
 out:
     dash_view_close(&m->dash);
     logbook_destroy(&m->logbook);
+    conn_guard_destroy(&m->wguard); /* before the sockets they watch */
+    conn_guard_destroy(&m->cguard);
     net_destroy(&m->wnet);
     net_destroy(&m->cnet);
     zap_destroy(&zap); /* after the servers it guards */

@@ -32,6 +32,10 @@ typedef struct master_opts {
     proto_limits_t limits;       /* message and bundle sizes accepted */
     size_t max_jobs;             /* unfinished (queued or running) jobs held at once; a SUBMIT
                                   * beyond them is refused */
+    /* Open TCP connections per endpoint (net/conn_guard.h): from one IP address, and in all
+     * (0: the file limit, raised to its hard maximum at start, less a reserve for the spool's
+     * files). A connection beyond either is shut down at once and logged (rate-limited). */
+    int max_conns_per_host, max_conns;
     /* Security (docs/security.md): with key_file both endpoints are CURVE servers that let in
      * only the public keys of authorized_dir's *.pub files; without it a tcp:// endpoint
      * needs insecure (plain text), and inproc:// and ipc:// need neither. */

@@ -7,6 +7,7 @@
 #ifndef PRISMFARM_MASTER_STATE_H
 #define PRISMFARM_MASTER_STATE_H
 
+#include "conn_guard.h"
 #include "journal.h"
 #include "master.h"
 #include "net.h"
@@ -56,6 +57,9 @@ typedef struct mjob {
     char integrator[65], dispersion[65]; /* protocol.md: names of at most 64 bytes */
     job_state_t state;
     char *error;
+    /* Who may act on it (access.h): the submitting key's name, proto_peer_t.user; "" when
+     * submitted without keys. */
+    char owner[72];
     double submitted, started, finished; /* monotonic seconds; 0: not yet */
     /* The figures it takes from its loaded scene (job_take_scene). */
     struct {
@@ -120,10 +124,12 @@ typedef struct waiter {
 typedef struct master {
     const master_opts_t *opts;
     proto_limits_t limits;
+    int max_conns; /* open connections per endpoint (opts->max_conns or from the file limit) */
     sched_t *sched;
     spool_t *spool;
     journal_t *journal; /* NULL without opts->journal */
     net_t *wnet, *cnet;
+    conn_guard_t *wguard, *cguard; /* their connection bounds (conn_guard.h) */
     mworker_t **workers;
     size_t nworkers, cap_workers;
     mjob_t **jobs; /* in id order */

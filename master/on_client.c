@@ -1,6 +1,7 @@
 #define _XOPEN_SOURCE 700 /* realpath */
 #include "on_client.h"
 
+#include "access.h"
 #include "bundle.h"
 #include "files.h"
 #include "jobs.h"
@@ -58,7 +59,8 @@ static proto_job_info_t job_wire_info(const master_t *m, const mjob_t *j, double
                           .state = wire_state(j->state),
                           .samples_done = j->sched.samples_done,
                           .samples_total = j->sched.samples_total,
-                          .nonfinite = j->sched.nonfinite};
+                          .nonfinite = j->sched.nonfinite,
+                          .owner = j->owner[0] ? j->owner : NULL};
     o.spp = (uint32_t)j->accuracy.spp_done;
     sched_job_info_t info;
     if (j->sched.known && sched_job_info(m->sched, j->id, &info) == 0) {
@@ -113,6 +115,8 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     uint64_t id = m->last_job + 1;
     const proto_settings_t *set = &msg->submit.settings;
     mjob_t *j = job_new(id, msg->submit.name, hash, b->main, set, dir, &err);
+    if (j)
+        snprintf(j->owner, sizeof j->owner, "%s", from->user);
     if (!j) {
         /* The client named files of its bundle, not the master's spool folder. */
         char prefix[PATH_MAX + 1];
@@ -270,6 +274,11 @@ static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *m
         reply_error(m, from, "no job %llu", (unsigned long long)msg->fetch.job);
         return;
     }
+    char why[PROTO_MAX_STRING];
+    if (!access_check(m, j, from, "fetch", why, sizeof why)) {
+        reply_error(m, from, "%s", why);
+        return;
+    }
     char path[PATH_MAX + 200], name[128];
     const char *state = job_state_name(j->state);
     if (j->outputs.final) {
@@ -304,6 +313,8 @@ static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *m
     proto_msg_t f = {.type = PROTO_FILE, .file = {.name = name, .data = data, .size = size}};
     reply(m, from, &f);
     free(data);
+    access_audit(m, from, "fetched %s of job %llu (%zu bytes)", name, (unsigned long long)j->id,
+                 size);
 }
 
 /* More photons for a finished photon job: the phase appends batches, a fresh scheduler job
@@ -315,6 +326,11 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
     mjob_t *j = jobs_find(m, msg->refine.job);
     if (!j) {
         reply_error(m, from, "no job %llu", (unsigned long long)msg->refine.job);
+        return;
+    }
+    char why[PROTO_MAX_STRING];
+    if (!access_check(m, j, from, "refine", why, sizeof why)) {
+        reply_error(m, from, "%s", why);
         return;
     }
     if (!j->photons.enabled) {
@@ -384,11 +400,11 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
     if (m->journal && journal_set_round(m->journal, &rec, &err) < 0)
         persist_failed(m, j, &err);
     photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);
-    master_log(m,
-               "job %llu '%s' refined: %llu more photons in %u batches (%llu so far), then the "
-               "camera phase again",
-               (unsigned long long)j->id, j->name, (unsigned long long)msg->refine.photons, added,
-               (unsigned long long)ps.photons);
+    access_audit(m, from,
+                 "refined job %llu '%s': %llu more photons in %u batches (%llu so far), then "
+                 "the camera phase again",
+                 (unsigned long long)j->id, j->name, (unsigned long long)msg->refine.photons,
+                 added, (unsigned long long)ps.photons);
     proto_msg_t ok = {.type = PROTO_SUBMITTED, .submitted = {.job = j->id}};
     reply(m, from, &ok);
 }
@@ -400,6 +416,13 @@ static void on_cancel(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "no job %llu", (unsigned long long)msg->cancel.job);
         return;
     }
+    char why[PROTO_MAX_STRING];
+    if (!access_check(m, j, from, "cancel", why, sizeof why)) {
+        reply_error(m, from, "%s", why);
+        return;
+    }
+    access_audit(m, from, "cancelled job %llu '%s' (%s)", (unsigned long long)j->id, j->name,
+                 j->sched.known ? "running or queued" : "already over: nothing to stop");
     job_cancel(m, j, now);
     reply_jobs(m, from, PROTO_STATUS_REPLY, j, now);
 }

@@ -30,6 +30,7 @@ journal_job_t persist_record(const mjob_t *j, double now)
                        .samples_total = j->sched.samples_total,
                        .nonfinite = j->sched.nonfinite,
                        .spp_done = j->accuracy.spp_done};
+    snprintf(r.owner, sizeof r.owner, "%s", j->owner);
     double end = j->finished > 0 ? j->finished : now;
     r.elapsed = j->started > 0 && end > j->started ? end - j->started : 0;
     return r;

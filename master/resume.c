@@ -134,6 +134,7 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
     mjob_t *j = job_new(r->id, r->name, r->hash, r->main, &r->settings, dir, err);
     if (!j)
         return -1;
+    snprintf(j->owner, sizeof j->owner, "%s", r->owner);
     j->sched.round = r->round;
     j->photons.saved = r->photons_saved;
     j->journal.round_photons = r->round_photons;

@@ -1,6 +1,7 @@
 #include "net.h"
 
 #include "curve.h"
+#include "zap.h"
 
 #include <zmq.h>
 
@@ -42,6 +43,7 @@ net_options_t net_options_default(void)
         .heartbeat_ivl_ms = 1000,
         .heartbeat_timeout_ms = 3000,
         .heartbeat_ttl_ms = 3000,
+        .handshake_ms = 10000,
         .reconnect_ivl_ms = 100,
         .reconnect_ivl_max_ms = 5000,
     };
@@ -53,19 +55,24 @@ const char *proto_peer_str(const proto_peer_t *peer, char buf[PROTO_PEER_STR])
     int printable = n > 0;
     for (size_t i = 0; i < n && printable; i++)
         printable = peer->id[i] >= 0x21 && peer->id[i] <= 0x7e;
+    size_t end;
     if (printable) {
         memcpy(buf, peer->id, n);
-        buf[n] = 0;
-        return buf;
+        end = n;
+    } else {
+        static const char digits[] = "0123456789abcdef";
+        buf[0] = '0';
+        buf[1] = 'x';
+        for (size_t i = 0; i < n; i++) {
+            buf[2 + 2 * i] = digits[peer->id[i] >> 4];
+            buf[3 + 2 * i] = digits[peer->id[i] & 15];
+        }
+        end = 2 + 2 * n;
     }
-    static const char digits[] = "0123456789abcdef";
-    buf[0] = '0';
-    buf[1] = 'x';
-    for (size_t i = 0; i < n; i++) {
-        buf[2 + 2 * i] = digits[peer->id[i] >> 4];
-        buf[3 + 2 * i] = digits[peer->id[i] & 15];
-    }
-    buf[2 + 2 * n] = 0;
+    buf[end] = 0;
+    if (peer->user[0])
+        snprintf(buf + end, PROTO_PEER_STR - end, " (key '%.*s')", (int)sizeof peer->user - 1,
+                 peer->user);
     return buf;
 }
 
@@ -177,7 +184,8 @@ static int configure(net_t *self, err_t *err)
         set_int(s, ZMQ_SNDTIMEO, "ZMQ_SNDTIMEO", o->send_timeout_ms, err) ||
         set_int(s, ZMQ_HEARTBEAT_IVL, "ZMQ_HEARTBEAT_IVL", o->heartbeat_ivl_ms, err) ||
         set_int(s, ZMQ_HEARTBEAT_TIMEOUT, "ZMQ_HEARTBEAT_TIMEOUT", o->heartbeat_timeout_ms, err) ||
-        set_int(s, ZMQ_HEARTBEAT_TTL, "ZMQ_HEARTBEAT_TTL", o->heartbeat_ttl_ms, err))
+        set_int(s, ZMQ_HEARTBEAT_TTL, "ZMQ_HEARTBEAT_TTL", o->heartbeat_ttl_ms, err) ||
+        set_int(s, ZMQ_HANDSHAKE_IVL, "ZMQ_HANDSHAKE_IVL", o->handshake_ms, err))
         return -1;
     if (self->kind == NET_ROUTER) {
         /* Without MANDATORY a ROUTER silently drops messages to unknown peers; with HANDOVER a
@@ -482,6 +490,8 @@ int net_recv(net_t *self, proto_peer_t *from, proto_msg_t *out, int timeout_ms,
         /* The user id the ZAP handler gave this connection (RFC 27): the key's name. */
         const char *user = zmq_msg_gets(&body, "User-Id");
         snprintf(from->user, sizeof from->user, "%s", user ? user : "");
+        const char *role = user && *user ? zmq_msg_gets(&body, ZAP_ROLE_PROPERTY) : NULL;
+        snprintf(from->role, sizeof from->role, "%s", role ? role : "");
     }
     int extra = drain(self->sock);
     int rc;

@@ -45,6 +45,9 @@ typedef struct net_options {
     int heartbeat_ivl_ms;     /* ZMQ_HEARTBEAT_IVL: libzmq pings this often */
     int heartbeat_timeout_ms; /* ZMQ_HEARTBEAT_TIMEOUT: no traffic that long closes the link */
     int heartbeat_ttl_ms;     /* ZMQ_HEARTBEAT_TTL: asks the remote side to time out after this */
+    int handshake_ms;         /* ZMQ_HANDSHAKE_IVL: a connection that has not finished its
+                               * (CURVE) handshake by then is dropped, so an idle stranger holds
+                               * a descriptor that long at most (issue 16, item 12) */
     int reconnect_ivl_ms, reconnect_ivl_max_ms; /* DEALER: reconnection back-off */
     const char *routing_id; /* DEALER: 1..255 bytes, first byte not 0; NULL lets the ROUTER pick
                              * one. With ROUTER_HANDOVER a reconnecting peer keeps its id. */
@@ -53,7 +56,7 @@ typedef struct net_options {
 
 /* The defaults: no CURVE, proto_limits_default(), HWM 100 each way, linger 1000 ms, send timeout 0
  * (a send never blocks: a full queue is PROTO_EAGAIN), heartbeats 1000 / 3000 / 3000 ms (a dead
- * peer is noticed within about 3 s), reconnect 100 ms doubling to 5000 ms. */
+ * peer is noticed within about 3 s), handshakes within 10 s, reconnect 100 ms doubling to 5000 ms. */
 net_options_t net_options_default(void);
 
 /* A peer as a ROUTER knows it: its routing id. */
@@ -63,10 +66,15 @@ typedef struct proto_peer {
     /* The ZAP handler's user id for the connection (zap.h: the authorised key's file name),
      * filled by net_recv on a CURVE ROUTER; empty without CURVE. */
     char user[72];
+    /* Its role (zap.h's ZAP_ROLE_*: the folder the key is in), filled with user; empty
+     * without CURVE. */
+    char role[8];
 } proto_peer_t;
 
-#define PROTO_PEER_STR 520
-/* The routing id for logs: as text when printable, else "0x" and hex. Returns buf. */
+#define PROTO_PEER_STR 640
+/* The routing id for logs: as text when printable, else "0x" and hex, followed by
+ * " (key 'NAME')" when the connection has a key (issue 16: logs name the key, not only the
+ * connection). Returns buf. */
 const char *proto_peer_str(const proto_peer_t *peer, char buf[PROTO_PEER_STR]);
 
 typedef struct net net_t;

@@ -1,6 +1,8 @@
 #include "zap.h"
 
+#include "clock.h"
 #include "curve.h"
+#include "ratelimit.h"
 
 #include <zmq.h>
 
@@ -19,6 +21,9 @@
 
 enum { RING_ANY, RING_WORKERS, RING_CLIENTS, RING_ADMINS, NRINGS };
 static const char *const ROLE[NRINGS] = {"authorised", "worker", "client", "admin"};
+/* The X-Role values, by ring (zap.h). */
+static const char *const ZAP_ROLE[NRINGS] = {ZAP_ROLE_ANY, ZAP_ROLE_WORKER, ZAP_ROLE_CLIENT,
+                                             ZAP_ROLE_ADMIN};
 
 struct zap {
     void *sock; /* REP, used by the thread only once it runs */
@@ -29,11 +34,41 @@ struct zap {
     atomic_bool stop;
     atomic_uint_least64_t accepted, refused;
     atomic_size_t keys;
+    ratelimit_t refusals; /* the thread's: how many refusals it logs (issue 16, item 12) */
 };
+
+/* A flood of strangers must not become a flood of log lines: at most REFUSALS_BURST refusals
+ * are logged per REFUSALS_WINDOW_S, and the number held back is logged once the window ends. */
+#define REFUSALS_BURST 20
+#define REFUSALS_WINDOW_S 10.0
 
 __attribute__((format(printf, 2, 3))) static void zlog(zap_t *self, const char *fmt, ...)
 {
     if (!self->log)
+        return;
+    char line[768];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(line, sizeof line, fmt, ap);
+    va_end(ap);
+    self->log(self->user, line);
+}
+
+static void log_held(zap_t *self, uint64_t held)
+{
+    if (held > 0)
+        zlog(self,
+             "ZAP: %llu more refused connections not logged (at most %d are logged per %.0f s)",
+             (unsigned long long)held, REFUSALS_BURST, REFUSALS_WINDOW_S);
+}
+
+/* zlog for a refusal, within the rate limit. */
+__attribute__((format(printf, 2, 3))) static void zlog_refusal(zap_t *self, const char *fmt, ...)
+{
+    uint64_t held;
+    bool allow = ratelimit_allow(&self->refusals, clock_now_s(), &held);
+    log_held(self, held);
+    if (!allow || !self->log)
         return;
     char line[768];
     va_list ap;
@@ -60,10 +95,26 @@ static bool frame_is(zmq_msg_t *f, const char *s)
     return zmq_msg_size(f) == n && memcmp(zmq_msg_data(f), s, n) == 0;
 }
 
-/* Sends the reply frames; the request id is echoed (RFC 27). */
+/* Sends the reply frames; the request id is echoed (RFC 27). role, when not NULL, goes in the
+ * metadata frame as the property X-Role (ZMTP 3's property encoding: a name of one length
+ * byte, a value of four big-endian length bytes), which libzmq hands to every message of the
+ * connection (zmq_msg_gets), so the master knows an admin from a client without a lookup. */
 static void send_reply(zap_t *self, zmq_msg_t *request_id, const char *status,
-                       const char *text, const char *user_id)
+                       const char *text, const char *user_id, const char *role)
 {
+    uint8_t meta[64];
+    size_t nmeta = 0;
+    if (role) {
+        static const char NAME[] = ZAP_ROLE_PROPERTY;
+        size_t nn = sizeof NAME - 1, nv = strlen(role);
+        meta[nmeta++] = (uint8_t)nn;
+        memcpy(meta + nmeta, NAME, nn);
+        nmeta += nn;
+        for (int shift = 24; shift >= 0; shift -= 8)
+            meta[nmeta++] = (uint8_t)(nv >> shift);
+        memcpy(meta + nmeta, role, nv);
+        nmeta += nv;
+    }
     int rc = zmq_send(self->sock, "1.0", 3, ZMQ_SNDMORE);
     if (rc >= 0)
         rc = zmq_send(self->sock, request_id ? zmq_msg_data(request_id) : "",
@@ -72,7 +123,7 @@ static void send_reply(zap_t *self, zmq_msg_t *request_id, const char *status,
     for (int i = 0; i < 3 && rc >= 0; i++)
         rc = zmq_send(self->sock, rest[i], strlen(rest[i]), ZMQ_SNDMORE);
     if (rc >= 0)
-        rc = zmq_send(self->sock, "", 0, 0); /* metadata: none */
+        rc = zmq_send(self->sock, meta, nmeta, 0);
     if (rc < 0)
         zlog(self, "ZAP: cannot answer libzmq: %s", zmq_strerror(zmq_errno()));
 }
@@ -148,8 +199,8 @@ static int handle(zap_t *self)
     }
     char domain[64], address[96];
     if (n < 6 || !frame_is(&f[0], "1.0")) {
-        zlog(self, "ZAP: a malformed request (%d frames): refused", n);
-        send_reply(self, n >= 2 ? &f[1] : NULL, "500", "malformed ZAP request", "");
+        zlog_refusal(self, "ZAP: a malformed request (%d frames): refused", n);
+        send_reply(self, n >= 2 ? &f[1] : NULL, "500", "malformed ZAP request", "", NULL);
         atomic_fetch_add(&self->refused, 1);
         goto out;
     }
@@ -157,9 +208,9 @@ static int handle(zap_t *self)
     frame_text(&f[3], address, sizeof address);
     if (!frame_is(&f[5], "CURVE") || n != 7 || zmq_msg_size(&f[6]) != CURVE_BINARY) {
         char mech[32];
-        zlog(self, "refused a connection to the %s endpoint from %s: mechanism %s, not CURVE",
+        zlog_refusal(self, "refused a connection to the %s endpoint from %s: mechanism %s, not CURVE",
              domain, address, frame_text(&f[5], mech, sizeof mech));
-        send_reply(self, &f[1], "400", "CURVE required", "");
+        send_reply(self, &f[1], "400", "CURVE required", "", NULL);
         atomic_fetch_add(&self->refused, 1);
         goto out;
     }
@@ -183,21 +234,22 @@ static int handle(zap_t *self)
         for (; r < NRINGS && !other; r++)
             other = self->rings[r] ? curve_ring_find(self->rings[r], key) : NULL;
         if (other)
-            zlog(self,
-                 "refused a connection to the %s endpoint from %s: key '%s' is a%s %s key (in "
+            zlog_refusal(self,
+                         "refused a connection to the %s endpoint from %s: key '%s' is a%s %s "
+                         "key (in "
                  "%s), not allowed on this endpoint",
                  domain, address, other, r - 1 == RING_ADMINS ? "n" : "", ROLE[r - 1],
                  curve_ring_dir(self->rings[r - 1]));
         else
-            zlog(self, "refused a connection to the %s endpoint from %s: key %s is not in %s",
+            zlog_refusal(self, "refused a connection to the %s endpoint from %s: key %s is not in %s",
                  domain, address, z85,
                  self->rings[RING_ANY] ? curve_ring_dir(self->rings[RING_ANY])
                                        : "the authorised folders");
-        send_reply(self, &f[1], "400", "key not authorised", "");
+        send_reply(self, &f[1], "400", "key not authorised", "", NULL);
         atomic_fetch_add(&self->refused, 1);
     } else {
         zlog(self, "accepted key '%s' on the %s endpoint from %s", name, domain, address);
-        send_reply(self, &f[1], "200", "OK", name);
+        send_reply(self, &f[1], "200", "OK", name, ZAP_ROLE[role]);
         atomic_fetch_add(&self->accepted, 1);
     }
 out:
@@ -216,6 +268,12 @@ static void *zap_thread(void *arg)
             break;
         if (n > 0 && handle(self) < 0)
             break;
+        /* The count of refusals held back, once their window is over, even if no more come. */
+        double now = clock_now_s();
+        if (self->refusals.held > 0 && now - self->refusals.start >= REFUSALS_WINDOW_S) {
+            log_held(self, self->refusals.held);
+            self->refusals.held = 0;
+        }
     }
     return NULL;
 }
@@ -237,6 +295,7 @@ zap_t *zap_new(void *zmq_ctx, const zap_folders_t *folders, zap_log_fn log, void
         return NULL;
     }
     self->log = log;
+    self->refusals = ratelimit_make(REFUSALS_BURST, REFUSALS_WINDOW_S);
     self->user = user;
     atomic_init(&self->stop, false);
     atomic_init(&self->accepted, 0);

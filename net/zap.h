@@ -22,6 +22,15 @@ typedef struct zap zap_t;
  * endpoint (ZAP domain "workers") only from any or workers, on the clients endpoint ("clients")
  * only from any, clients or admins; the ZAP user id of the connection is the key's file name.
  * NULL: no such folder. any is the single --authorized folder of before roles. */
+/* The role of an accepted key, as the connection's metadata property ZAP_ROLE_PROPERTY
+ * (zmq_msg_gets on any message it sends; net_recv copies it into proto_peer_t.role): the
+ * folder the key was found in. "any" is the single --authorized folder of before roles. */
+#define ZAP_ROLE_PROPERTY "X-Role"
+#define ZAP_ROLE_ANY "any"
+#define ZAP_ROLE_WORKER "worker"
+#define ZAP_ROLE_CLIENT "client"
+#define ZAP_ROLE_ADMIN "admin"
+
 typedef struct zap_folders {
     const char *any, *workers, *clients, *admins;
 } zap_folders_t;

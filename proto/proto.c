@@ -761,6 +761,7 @@ static const field_t JOB_FIELDS[] = {
     {F("rmse", FT_FLOAT, JI(rel_error)), .presence = IF_FLAG, .flag = JI(has_rel_error),
      .check = ck_rel_error},
     {F("stop", FT_ENUM, JI(stop)), .presence = UNLESS_ZERO, ENUM(STOPS)},
+    {F("owner", FT_STR, JI(owner)), .presence = UNLESS_ZERO, NAME(PROTO_MAX_STRING)},
 };
 static const shape_t JOB_INFO = {SHAPE(proto_job_info_t, JOB_FIELDS, NULL)};
 

@@ -175,6 +175,7 @@ typedef struct proto_job_info {
     bool has_rel_error;
     double rel_error; /* finite, >= 0 */
     proto_stop_t stop;
+    const char *owner; /* the submitting key's name; NULL or "" (omitted): submitted without keys */
 } proto_job_info_t;
 
 typedef struct proto_worker_info {

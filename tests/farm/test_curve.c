@@ -427,6 +427,102 @@ static void test_roles(void **state)
     env_keys(1);
 }
 
+/* Owners (issue 16, item 11): a job belongs to the key that submitted it. Another client key
+ * may list it (with its owner) but not fetch, cancel or refine it; an admin key may; every
+ * action and every refusal is logged with the key's name; the owner survives a restart. */
+static void test_owners(void **state)
+{
+    (void)state;
+    env_keys(0);
+    char cmd[4000];
+    const char *bin = getenv("PRISMFARM_BIN");
+    const char *k = testutil_scratch("ownerkeys"), *aw = testutil_scratch("own-workers"),
+               *ac = testutil_scratch("own-clients"), *aa = testutil_scratch("own-admins");
+    snprintf(cmd, sizeof cmd,
+             "set -e; for n in render1 alice bob carol; do '%s' keygen $n --dir '%s' >/dev/null; "
+             "done; mkdir -p '%s' '%s' '%s'; cp '%s/render1.pub' '%s/'; cp '%s/alice.pub' "
+             "'%s/bob.pub' '%s/'; cp '%s/carol.pub' '%s/'",
+             bin, k, aw, ac, aa, k, aw, k, k, ac, k, aa);
+    assert_int_equal(system(cmd), 0);
+    char key[4][700];
+    const char *names[4] = {"render1", "alice", "bob", "carol"};
+    for (int i = 0; i < 4; i++)
+        snprintf(key[i], sizeof key[i], "%s/%s.key", k, names[i]);
+    const char *alice = key[1], *bob = key[2], *carol = key[3];
+    const char *spool = testutil_scratch("own-spool");
+    char mlog[700];
+    snprintf(mlog, sizeof mlog, "%s", testutil_scratch("own-master.log"));
+    pid_t master = testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
+                                  "tcp://127.0.0.1:*", "--spool", spool, "--key",
+                                  testutil_master_key(), "--authorized-workers", aw,
+                                  "--authorized-clients", ac, "--authorized-admins", aa,
+                                  "--heartbeat", "200", "--tile", "8", NULL);
+    char wep[256], cep[256];
+    testutil_read_endpoints(spool, wep, cep, mlog);
+    /* Job 1 by alice, with no worker yet: it stays queued while the others try it. */
+    const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "4",
+                         "--quiet", "--key", alice, "--master-key", MASTER_PUB, NULL);
+    if (r->status != 0)
+        testutil_fail_quoting(mlog, "submit: exit %d: %s\nmaster log:", r->status, r->err);
+    r = run("jobs", "--master", cep, "--json", "--key", bob, "--master-key", MASTER_PUB, NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "\"owner\": \"alice\"");
+    r = run("cancel", "1", "--master", cep, "--key", bob, "--master-key", MASTER_PUB, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "job 1 belongs to 'alice': only its owner or an admin");
+    r = run("fetch", "1", "-o", testutil_scratch("bob.exr"), "--master", cep, "--key", bob,
+            "--master-key", MASTER_PUB, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "job 1 belongs to 'alice'");
+    testutil_wait_file_has(mlog, "(key 'bob'): refused to cancel job 1: it belongs to 'alice'");
+    testutil_wait_file_has(mlog, "(key 'bob'): refused to fetch job 1: it belongs to 'alice'");
+    /* The job is untouched by the refusals; an admin may cancel it. */
+    r = run("jobs", "--master", cep, "--json", "--key", alice, "--master-key", MASTER_PUB, NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "\"queued\"");
+    r = run("cancel", "1", "--master", cep, "--key", carol, "--master-key", MASTER_PUB, NULL);
+    if (r->status != 0)
+        testutil_fail_quoting(mlog, "admin cancel: exit %d: %s\nmaster log:", r->status, r->err);
+    testutil_wait_file_has(mlog, "(key 'carol') [admin]: cancelled job 1");
+
+    /* Job 2 by alice renders; she fetches it, bob may not. */
+    pid_t worker = testutil_spawn(testutil_scratch("own-w.log"), "worker", "--connect", wep,
+                                  "--threads", "1", "--name", "render1", "--key", key[0],
+                                  "--master-key", MASTER_PUB, "--cache", testutil_scratch("c5"),
+                                  NULL);
+    r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "4", "--wait", "-o",
+            testutil_scratch("own2.exr"), "--quiet", "--key", alice, "--master-key", MASTER_PUB,
+            NULL);
+    if (r->status != 0)
+        testutil_fail_quoting(mlog, "submit --wait: exit %d: %s\nmaster log:", r->status, r->err);
+    testutil_wait_file_has(mlog, "(key 'alice'): fetched tiny.exr of job 2");
+    testutil_stop(worker, SIGTERM);
+    testutil_stop(master, SIGTERM);
+
+    /* After a restart the owner is still alice's (the endpoints file is the old master's until
+     * the new one has bound its sockets). */
+    char endpoints[800];
+    snprintf(endpoints, sizeof endpoints, "%s/endpoints", spool);
+    (void)unlink(endpoints);
+    snprintf(mlog, sizeof mlog, "%s", testutil_scratch("own-master2.log"));
+    master = testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
+                            "tcp://127.0.0.1:*", "--spool", spool, "--key", testutil_master_key(),
+                            "--authorized-workers", aw, "--authorized-clients", ac,
+                            "--authorized-admins", aa, "--heartbeat", "200", NULL);
+    testutil_read_endpoints(spool, wep, cep, mlog);
+    r = run("fetch", "2", "-o", testutil_scratch("bob2.exr"), "--master", cep, "--key", bob,
+            "--master-key", MASTER_PUB, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "job 2 belongs to 'alice'");
+    r = run("fetch", "2", "-o", testutil_scratch("alice2.exr"), "--master", cep, "--key", alice,
+            "--master-key", MASTER_PUB, NULL);
+    if (r->status != 0)
+        testutil_fail_quoting(mlog, "owner's fetch after a restart: %s\nmaster log:", r->err);
+    testutil_assert_same_pixels(testutil_scratch("own2.exr"), testutil_scratch("alice2.exr"));
+    testutil_stop(master, SIGTERM);
+    env_keys(1);
+}
+
 /* A tcp:// master without keys refuses to start, with the reason and the two ways out;
  * inconsistent security options are bad command lines (status 2) too. */
 static void test_master_refuses_plain_tcp(void **state)
@@ -511,6 +607,7 @@ int main(void)
         cmocka_unit_test(test_keygen_files),       cmocka_unit_test(test_key_file_errors),
         cmocka_unit_test(test_farm_with_keys),     cmocka_unit_test(test_master_refuses_plain_tcp),
         cmocka_unit_test(test_insecure_and_local), cmocka_unit_test(test_roles),
+        cmocka_unit_test(test_owners),
     };
     return cmocka_run_group_tests(tests, group_setup, testutil_scratch_teardown);
 }

@@ -249,7 +249,8 @@ static void test_journal_tables(void **state)
     journal_job_t job = {.id = 7, .name = "prism", .hash = "ab12", .main = "scene.pbrt",
                          .settings = {.spp = 64, .seed = -1, .integrator = "path",
                                       .target_error = 0.02},
-                         .state = 0, .round_photons = 30000, .samples_total = 999};
+                         .state = 0, .round_photons = 30000, .samples_total = 999,
+                         .owner = "alice"};
     assert_int_equal(journal_add_job(jn, &job, &err), 0);
     const uint8_t blob[4] = {1, 2, 3, 4};
     /* ntiles 2: task = pass * 2 + tile; a photon batch. */
@@ -292,6 +293,7 @@ static void test_journal_tables(void **state)
     assert_int_equal(rows[0].checkpoint, 1);
     assert_int_equal(rows[0].photons_saved, 30000);
     assert_true(rows[0].elapsed == 1.5);
+    assert_string_equal(rows[0].owner, "alice");
     journal_job_clear(&rows[0]);
     free(rows);
     journal_pass_t ps[4];
@@ -357,14 +359,41 @@ static void test_journal_tables(void **state)
     assert_int_equal(stat(rdir, &st), -1); /* the job's folder went with its last file */
     journal_close(&jn);
 
-    /* A journal of another version is refused with a message, not reused. */
+    /* A version-5 journal (before owners) is migrated in place: its jobs have no owner. */
     sqlite3 *db;
     assert_int_equal(sqlite3_open(path, &db), SQLITE_OK);
-    assert_int_equal(sqlite3_exec(db, "UPDATE meta SET value=7 WHERE key='version'", NULL, NULL, NULL),
+    assert_int_equal(sqlite3_exec(db,
+                                  "ALTER TABLE jobs DROP COLUMN owner; UPDATE meta SET value=5 "
+                                  "WHERE key='version'",
+                                  NULL, NULL, NULL),
+                     SQLITE_OK);
+    sqlite3_close(db);
+    assert_non_null(jn = journal_open(dir, &err));
+    assert_int_equal(journal_jobs(jn, &rows, &n, &err), 0);
+    assert_int_equal(n, 1);
+    assert_string_equal(rows[0].name, "prism");
+    assert_string_equal(rows[0].owner, "");
+    journal_job_clear(&rows[0]);
+    free(rows);
+    journal_close(&jn);
+    /* ...and marked as of the current version, so it is not migrated twice. */
+    assert_int_equal(sqlite3_open(path, &db), SQLITE_OK);
+    sqlite3_stmt *vst;
+    assert_int_equal(sqlite3_prepare_v2(db, "SELECT value FROM meta WHERE key='version'", -1,
+                                        &vst, NULL),
+                     SQLITE_OK);
+    assert_int_equal(sqlite3_step(vst), SQLITE_ROW);
+    assert_true(sqlite3_column_int(vst, 0) > 5);
+    sqlite3_finalize(vst);
+    sqlite3_close(db);
+
+    /* A journal of another version is refused with a message, not reused. */
+    assert_int_equal(sqlite3_open(path, &db), SQLITE_OK);
+    assert_int_equal(sqlite3_exec(db, "UPDATE meta SET value=99 WHERE key='version'", NULL, NULL, NULL),
                      SQLITE_OK);
     sqlite3_close(db);
     assert_null(journal_open(dir, &err));
-    assert_non_null(strstr(err.msg, "version 7"));
+    assert_non_null(strstr(err.msg, "version 99"));
     /* Not a database at all. */
     assert_int_equal(mkdir(testutil_scratch("junk"), 0755), 0);
     FILE *f = fopen(testutil_scratch("junk/journal.db"), "w");

@@ -16,8 +16,12 @@
 #include "cli_run.h"
 #include "farm_testutil.h"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
 #include <signal.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 /* A master (keys, no workers) with extra options, NULL-terminated after the first; its client
  * endpoint goes to cep. */
@@ -142,6 +146,54 @@ static void test_max_message(void **state)
     testutil_stop(master, SIGTERM);
 }
 
+/* A connection flood (issue 16, item 12: 1100 idle connections against the 1024 file limit
+ * locked every client out): one host's connections beyond --max-connections-per-host are shut
+ * down at once, refusals are logged at most 20 per 10 s with the number held back, and a client
+ * from another address still gets in. The flood comes from 127.0.0.2 (all of 127/8 is the
+ * loopback), the client from 127.0.0.1. */
+static void test_connection_flood(void **state)
+{
+    (void)state;
+    char cep[256];
+    pid_t master = start_master("flood", cep, "--max-connections-per-host", "16", NULL);
+    const char *colon = strrchr(cep, ':');
+    assert_non_null(colon);
+    int port = atoi(colon + 1);
+    enum { NFLOOD = 60 };
+    int fds[NFLOOD];
+    for (int i = 0; i < NFLOOD; i++) {
+        fds[i] = socket(AF_INET, SOCK_STREAM, 0);
+        assert_true(fds[i] >= 0);
+        struct sockaddr_in from = {.sin_family = AF_INET}, to = {.sin_family = AF_INET};
+        inet_pton(AF_INET, "127.0.0.2", &from.sin_addr);
+        inet_pton(AF_INET, "127.0.0.1", &to.sin_addr);
+        to.sin_port = htons((uint16_t)port);
+        assert_int_equal(bind(fds[i], (struct sockaddr *)&from, sizeof from), 0);
+        assert_int_equal(connect(fds[i], (struct sockaddr *)&to, sizeof to), 0);
+    }
+    char log[700];
+    snprintf(log, sizeof log, "%s/flood.log", testutil_scratch_dir());
+    testutil_wait_file_has(log, "refused a connection to the clients endpoint from 127.0.0.2: "
+                                "that host holds its limit of open connections (16)");
+    /* Another host is not locked out. */
+    const run_t *r = run("jobs", "--master", cep, NULL);
+    if (r->status != 0)
+        testutil_fail_quoting(log, "a client during the flood: %s\nmaster log:", r->err);
+    /* 44 refusals: 20 logged, the rest counted once their window is over. */
+    testutil_wait_file_has(log, "more refused connections not logged (at most 20 per 10 s)");
+    char *text = testutil_slurp(log, NULL);
+    assert_non_null(text);
+    int lines = 0;
+    for (const char *p = text; (p = strstr(p, "from 127.0.0.2: that host")); p++)
+        lines++;
+    free(text);
+    print_message("%d of %d refusals logged\n", lines, NFLOOD - 16);
+    assert_true(lines >= 1 && lines <= 20);
+    for (int i = 0; i < NFLOOD; i++)
+        close(fds[i]);
+    testutil_stop(master, SIGTERM);
+}
+
 static void test_command_line(void **state)
 {
     (void)state;
@@ -169,6 +221,7 @@ int main(void)
         cmocka_unit_test_teardown(test_max_jobs, testutil_kill_children),
         cmocka_unit_test_teardown(test_bundle_limits, testutil_kill_children),
         cmocka_unit_test_teardown(test_max_message, testutil_kill_children),
+        cmocka_unit_test_teardown(test_connection_flood, testutil_kill_children),
         cmocka_unit_test(test_command_line),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_keys_setup, testutil_scratch_teardown);

@@ -73,10 +73,10 @@ static int seeds_init(seeds_t *s, err_t *err)
         (proto_bundle_file_t){"meshes/tri.ply", (const uint8_t *)PLY_TEXT, sizeof PLY_TEXT - 1};
     s->bundle = (proto_bundle_t){"scene.pbrt", s->files, 2};
     s->jobs[0] = (proto_job_info_t){1, "prism", PROTO_JOB_RUNNING, 100, 4096, 2.5, NULL, 0,
-                                    0, false, 0, PROTO_STOP_NONE};
+                                    0, false, 0, PROTO_STOP_NONE, "alice"};
     s->jobs[1] = (proto_job_info_t){
         2, "gem", PROTO_JOB_FAILED, 0, 64, 0.0, "scene.pbrt:3:7: unsupported shape \"torus\"", 1,
-        0, false, 0, PROTO_STOP_NONE};
+        0, false, 0, PROTO_STOP_NONE, NULL};
     s->workers[0] = (proto_worker_info_t){"node01", 1, 8, PROTO_WORKER_BUSY, 12, 0.5};
     s->workers[1] = (proto_worker_info_t){"node02", 2, 2, PROTO_WORKER_IDLE, 0, 1.0};
     memcpy(s->png, "\x89PNG\r\n\x1a\n", 8);

@@ -46,14 +46,15 @@ static char g_hash[PROTO_HASH_HEX + 1];
 
 static const proto_job_info_t g_jobs[] = {
     /* running, 4 spp merged, an estimate of 1/16 (exact in binary) */
-    {1, "prism", PROTO_JOB_RUNNING, 1000, 65536, 12.5, NULL, 3, 4, true, 0.0625, PROTO_STOP_NONE},
+    {1, "prism", PROTO_JOB_RUNNING, 1000, 65536, 12.5, NULL, 3, 4, true, 0.0625, PROTO_STOP_NONE,
+     "alice"},
     {2, "gem fire", PROTO_JOB_FAILED, 7, 100, 0.0, "worker w1: scene.pbrt:3: unknown shape", 0, 0,
-     false, 0, PROTO_STOP_NONE},
+     false, 0, PROTO_STOP_NONE, NULL},
     {UINT64_MAX, "x", PROTO_JOB_CANCELLED, 0, 0, 1e9, NULL, UINT64_MAX, 0, false, 0,
-     PROTO_STOP_NONE},
+     PROTO_STOP_NONE, NULL},
     /* done early: 64 of 1024 spp reached the target; an estimate of exactly 0 travels too */
     {4, "prism fast", PROTO_JOB_DONE, 64 * 96, 1024 * 96, 0.75, NULL, 0, 64, true, 0.0,
-     PROTO_STOP_TARGET},
+     PROTO_STOP_TARGET, "bob"},
 };
 static const proto_worker_info_t g_workers[] = {
     {"node01", 7, 64, PROTO_WORKER_BUSY, 1234, 0.25},
@@ -366,6 +367,7 @@ static void assert_msg_equal(const proto_msg_t *a, const proto_msg_t *b)
             assert_int_equal(x->has_rel_error, y->has_rel_error);
             assert_true(!x->has_rel_error || x->rel_error == y->rel_error);
             assert_int_equal(x->stop, y->stop);
+            assert_opt_string_equal(x->owner, y->owner);
         }
         break;
     case PROTO_WORKERS_REPLY:
