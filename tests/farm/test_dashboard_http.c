@@ -199,24 +199,11 @@ static int read_answer(int s, char *out, size_t size)
     return status;
 }
 
-/* One request on its own connection ("Connection: close"); returns the status, the answer in
- * out. */
+/* One request on its own connection (farm_testutil.h); returns the status, the answer in out. */
 static int request(fx_t *f, const char *method, const char *path, const char *auth,
                    const char *body, char *out, size_t size)
 {
-    char head[1024];
-    snprintf(head, sizeof head,
-             "%s %s HTTP/1.1\r\nHost: 127.0.0.1:%d\r\nConnection: close\r\n%s%s%s"
-             "Content-Length: %zu\r\n\r\n",
-             method, path, f->port, auth ? "Authorization: Bearer " : "", auth ? auth : "",
-             auth ? "\r\n" : "", body ? strlen(body) : 0);
-    int s = http_connect(f);
-    send_all(s, head, strlen(head));
-    if (body)
-        send_all(s, body, strlen(body));
-    int status = read_answer(s, out, size);
-    close(s);
-    return status;
+    return testutil_http(f->port, method, path, auth, body, out, size);
 }
 
 /* ---------------------------------------------------------------- the farm side */
