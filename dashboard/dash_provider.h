@@ -46,6 +46,8 @@ typedef struct dash_job {
     uint64_t preview_version;
     /* The photon phase of a photon job. */
     bool photons;
+    bool photons_complete; /* every batch merged (a finished phase kept on disk has no batch
+                            * counts: photons_traced says its size) */
     uint32_t photon_batches, photon_batches_done;
     uint64_t photons_traced, photons_emitted;
 } dash_job_t;

@@ -89,8 +89,11 @@ static void fill_job(master_t *m, const mjob_t *j, double now, dash_job_t *o)
             o->photon_batches = ps.batches;
             o->photon_batches_done = ps.batches_merged;
         }
-    } else if (j->photons.enabled)
+        o->photons_complete = photon_phase_complete(j->photons.phase);
+    } else if (j->photons.enabled) {
         o->photons_traced = j->photons.saved;
+        o->photons_complete = j->photons.saved > 0; /* kept on disk once merged */
+    }
 }
 
 static size_t pv_jobs(void *user, dash_job_t *out, size_t max)

@@ -227,10 +227,12 @@ async function viewJob(gen, id) {
   if (j.photon_phase) {
     const p = j.photon_phase;
     ph.hidden = false;
+    const what = p.batches ? p.batches_done + " of " + p.batches + " batches merged, " +
+                             fmtCount(p.photons) + " photons (" + fmtCount(p.emitted) + " emitted)"
+                           : "complete: " + fmtCount(p.photons) + " photons (kept on the master's disk)";
     ph.replaceChildren(el("h2", {}, "Photon phase"),
-      el("p", { id: "photon-progress" }, bar(p.batches ? p.batches_done / p.batches : 0),
-         " " + p.batches_done + " of " + p.batches + " batches merged, " + fmtCount(p.photons) +
-         " photons (" + fmtCount(p.emitted) + " emitted)"));
+      el("p", { id: "photon-progress" }, bar(p.complete ? 1 : p.batches ? p.batches_done / p.batches : 0),
+         " " + what));
   } else ph.hidden = true;
   // Actions: what this master can do, greyed otherwise.
   const over = ["done", "failed", "cancelled"].includes(j.state);
