@@ -243,6 +243,7 @@ async function viewJob(gen, id) {
   document.getElementById("action-priority").disabled = over || !j.actions.priority;
   // The preview: reloaded when the master wrote a new one.
   const img = document.getElementById("preview");
+  img.hidden = !(j.preview_version > 0);
   if (j.preview_version !== state.previewVersion && j.preview_version > 0) {
     state.previewVersion = j.preview_version;
     img.src = "/api/jobs/" + id + "/preview.png?v=" + j.preview_version;
@@ -272,8 +273,9 @@ async function viewJob(gen, id) {
   // The log, appended.
   const pre = document.getElementById("job-log");
   for (const l of log.lines) {
+    if (l.seq <= state.logSeq) continue; // an answer to an earlier, overlapping poll
     pre.append(l.text + "\n");
-    state.logSeq = Math.max(state.logSeq, l.seq);
+    state.logSeq = l.seq;
   }
   if (log.lines.length) pre.scrollTop = pre.scrollHeight;
 }
@@ -296,7 +298,7 @@ function buildJobPage(id) {
          "Set priority")),
     el("div", { class: "grid" },
       el("div", { class: "card" }, el("h2", {}, "Preview ", el("span", { id: "preview-note", class: "muted" })),
-         el("img", { id: "preview", alt: "progressive preview of job " + id })),
+         el("img", { id: "preview", alt: "progressive preview of job " + id, hidden: "hidden" })),
       el("div", { class: "card" }, el("h2", {}, "Job"), el("dl", { class: "facts", id: "job-facts" }),
          el("div", { id: "photon-phase", hidden: "hidden" }))),
     el("div", { class: "grid" },
@@ -369,7 +371,15 @@ function route() {
   return { name: "jobs" };
 }
 
-async function refresh() {
+// One poll at a time: a page change and the timer may ask at once, and their answers would
+// otherwise be applied twice.
+let polling = Promise.resolve();
+function refresh() {
+  polling = polling.then(poll, poll);
+  return polling;
+}
+
+async function poll() {
   const r = route();
   const gen = state.gen;
   document.getElementById("nav-jobs").className = r.name !== "workers" ? "active" : "";
