@@ -64,6 +64,8 @@ void logbook_add(logbook_t *self, double t, const char *text)
 int logbook_read(const logbook_t *self, uint64_t job, uint64_t since, logbook_line_t *out,
                  int max)
 {
+    if (since >= self->last)
+        return 0; /* also keeps since + 1 from wrapping at 2^64 - 1 */
     uint64_t first = self->last > LOGBOOK_LINES ? self->last - LOGBOOK_LINES + 1 : 1;
     if (since + 1 > first)
         first = since + 1;
