@@ -98,8 +98,8 @@ int dash_auth_identify(dash_auth_t *self, const char *authorization, dash_identi
     while (len > 0 && token[len - 1] == ' ')
         len--;
     if (len != CURVE_TOKEN_CHARS)
-        return err_set(err, "a token has %d hex digits, this one %zu characters",
-                       CURVE_TOKEN_CHARS, len);
+        return err_set(err, "a token has %d hex digits, this one %zu characters", CURVE_TOKEN_CHARS,
+                       len);
     if (!dash_auth_any(self))
         return err_set(err, "this master accepts no token: actions need its authorised key "
                             "folders or --http-token-file (docs/dashboard.md)");

@@ -25,22 +25,22 @@
 typedef struct dash_job {
     uint64_t id;
     const char *name;
-    const char *owner;     /* key name of who submitted it; "" when unknown */
-    const char *state;     /* "queued", "running", "done", "failed", "cancelled" */
+    const char *owner; /* key name of who submitted it; "" when unknown */
+    const char *state; /* "queued", "running", "done", "failed", "cancelled" */
     bool has_paused, paused;
     bool has_priority;
     int priority;
-    int xres, yres, spp;   /* its size and target samples per pixel */
+    int xres, yres, spp; /* its size and target samples per pixel */
     const char *integrator;
     uint64_t samples_done, samples_total, nonfinite;
-    int spp_done;          /* samples per pixel of the passes merged */
+    int spp_done; /* samples per pixel of the passes merged */
     int passes_done, npasses;
     uint32_t tasks_total, tasks_done, tasks_running;
     bool has_rel_error;
-    double rel_error;      /* the error estimate after the last pass (film/error_estimate.h) */
-    double elapsed_s;      /* since it started (to its end when over); 0 before */
-    const char *stop;      /* why it ended before its last pass: "" , "target", "time" */
-    const char *error;     /* "" unless failed */
+    double rel_error;  /* the error estimate after the last pass (film/error_estimate.h) */
+    double elapsed_s;  /* since it started (to its end when over); 0 before */
+    const char *stop;  /* why it ended before its last pass: "" , "target", "time" */
+    const char *error; /* "" unless failed */
     /* The progressive preview: version changes whenever a new image is written (the page
      * reloads the PNG then); 0: none yet. */
     uint64_t preview_version;
@@ -62,15 +62,15 @@ typedef struct dash_pass {
 
 /* A running task and the worker holding it. */
 typedef struct dash_task {
-    uint32_t task;        /* the scheduler's index: camera pass * ntiles + tile, or a batch */
+    uint32_t task; /* the scheduler's index: camera pass * ntiles + tile, or a batch */
     bool photon;
-    int tile, pass;       /* camera; -1 for a photon batch */
-    uint32_t batch;       /* photon */
+    int tile, pass; /* camera; -1 for a photon batch */
+    uint32_t batch; /* photon */
     uint32_t sample_begin, sample_end;
     uint32_t attempt;
     uint64_t worker;
     const char *worker_name;
-    double running_s;     /* since it was issued */
+    double running_s; /* since it was issued */
 } dash_task_t;
 
 /* The tile map of a job's camera phase: per tile the passes merged. tiles_x * tiles_y tiles of
@@ -84,10 +84,10 @@ typedef struct dash_tilemap {
 
 typedef struct dash_worker {
     uint64_t id;
-    const char *name;   /* the host's worker name */
-    const char *key;    /* its CURVE key name; "" without CURVE */
+    const char *name; /* the host's worker name */
+    const char *key;  /* its CURVE key name; "" without CURVE */
     int threads;
-    const char *state;  /* "idle", "busy", "lost" */
+    const char *state; /* "idle", "busy", "lost" */
     int tasks_running;
     uint64_t tasks_done, tasks_failed;
     uint64_t samples_done; /* camera samples merged from its results: the page derives samples/s */
@@ -96,8 +96,8 @@ typedef struct dash_worker {
 } dash_worker_t;
 
 typedef struct dash_log_line {
-    uint64_t seq;       /* increasing; ask for lines after one with ?since= */
-    double age_s;       /* seconds ago */
+    uint64_t seq; /* increasing; ask for lines after one with ?since= */
+    double age_s; /* seconds ago */
     const char *text;
 } dash_log_line_t;
 
@@ -141,8 +141,7 @@ typedef struct dash_provider {
     int (*pause)(void *user, const dash_identity_t *who, uint64_t job, bool pause, err_t *err);
     int (*set_priority)(void *user, const dash_identity_t *who, uint64_t job, int priority,
                         err_t *err);
-    int (*requeue)(void *user, const dash_identity_t *who, uint64_t job, uint32_t task,
-                   err_t *err);
+    int (*requeue)(void *user, const dash_identity_t *who, uint64_t job, uint32_t task, err_t *err);
     int (*blocklist)(void *user, const dash_identity_t *who, uint64_t worker, bool block,
                      err_t *err);
 } dash_provider_t;

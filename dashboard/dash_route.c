@@ -71,13 +71,17 @@ static void answer_json(dash_response_t *out, int status, json_t *j)
     json_decref(j);
     if (!text) {
         static const char oom[] = "{\"error\":\"the master is out of memory\"}";
-        *out = (dash_response_t){.status = 500, .content_type = "application/json",
-                                 .body = (uint8_t *)oom, .size = sizeof oom - 1,
+        *out = (dash_response_t){.status = 500,
+                                 .content_type = "application/json",
+                                 .body = (uint8_t *)oom,
+                                 .size = sizeof oom - 1,
                                  .is_static = true};
         return;
     }
-    *out = (dash_response_t){.status = status, .content_type = "application/json",
-                             .body = (uint8_t *)text, .size = strlen(text)};
+    *out = (dash_response_t){.status = status,
+                             .content_type = "application/json",
+                             .body = (uint8_t *)text,
+                             .size = strlen(text)};
 }
 
 __attribute__((format(printf, 3, 4))) static void answer_error(dash_response_t *out, int status,
@@ -213,8 +217,8 @@ static json_t *job_json(const dash_job_t *j)
     json_object_set_new(o, "tasks_done", json_integer(j->tasks_done));
     json_object_set_new(o, "tasks_running", json_integer(j->tasks_running));
     double progress = j->samples_total ? (double)j->samples_done / (double)j->samples_total : 0;
-    bool over = !strcmp(j->state, "done") || !strcmp(j->state, "failed") ||
-                !strcmp(j->state, "cancelled");
+    bool over =
+        !strcmp(j->state, "done") || !strcmp(j->state, "failed") || !strcmp(j->state, "cancelled");
     if (over && !strcmp(j->state, "done"))
         progress = 1;
     json_object_set_new(o, "progress", json_real(progress));
@@ -336,8 +340,8 @@ static void get_tiles(dash_router_t *self, uint64_t id, dash_response_t *out)
                      rc == DASH_ENOENT ? "no such job" : err.msg);
         return;
     }
-    size_t ntiles = map.tiles_x > 0 && map.tiles_y > 0 ? (size_t)map.tiles_x * (size_t)map.tiles_y
-                                                       : 0;
+    size_t ntiles =
+        map.tiles_x > 0 && map.tiles_y > 0 ? (size_t)map.tiles_x * (size_t)map.tiles_y : 0;
     if (ntiles > 0 && !(map.merged = calloc(ntiles, sizeof *map.merged))) {
         answer_error(out, 500, "the master is out of memory");
         return;
@@ -473,8 +477,9 @@ static int identify(dash_router_t *self, const dash_request_t *req, dash_identit
 {
     err_t err;
     if (!self->auth) {
-        answer_error(out, 401, "this master accepts no token: actions need its authorised key "
-                               "folders or --http-token-file (docs/dashboard.md)");
+        answer_error(out, 401,
+                     "this master accepts no token: actions need its authorised key "
+                     "folders or --http-token-file (docs/dashboard.md)");
         return -1;
     }
     if (dash_auth_identify(self->auth, req->authorization, who, &err) < 0) {
@@ -508,8 +513,8 @@ static void answer_done(dash_response_t *out, const char *what, uint64_t id)
 static int body_priority(const dash_request_t *req, int *out, char *why, size_t size)
 {
     json_error_t jerr;
-    json_t *j = req->body_len ? json_loadb(req->body, req->body_len, JSON_REJECT_DUPLICATES, &jerr)
-                              : NULL;
+    json_t *j =
+        req->body_len ? json_loadb(req->body, req->body_len, JSON_REJECT_DUPLICATES, &jerr) : NULL;
     json_t *v = j ? json_object_get(j, "priority") : NULL;
     int rc = -1;
     if (!j)
@@ -517,7 +522,8 @@ static int body_priority(const dash_request_t *req, int *out, char *why, size_t 
                  req->body_len ? ": " : "", req->body_len ? jerr.text : "");
     else if (!json_is_integer(v))
         snprintf(why, size, "the body must be {\"priority\": N} with N an integer");
-    else if (json_integer_value(v) < -DASH_PRIORITY_MAX || json_integer_value(v) > DASH_PRIORITY_MAX)
+    else if (json_integer_value(v) < -DASH_PRIORITY_MAX ||
+             json_integer_value(v) > DASH_PRIORITY_MAX)
         snprintf(why, size, "priority %lld is outside %d..%d", (long long)json_integer_value(v),
                  -DASH_PRIORITY_MAX, DASH_PRIORITY_MAX);
     else {
@@ -547,8 +553,9 @@ static void job_action(dash_router_t *self, const dash_request_t *req, uint64_t 
              parse_u64(segs[4].s, segs[4].n, &task) == 0 && task <= UINT32_MAX)
         kind = REQUEUE;
     else {
-        answer_error(out, 404, "no such action: POST /api/jobs/ID/cancel, pause, resume, "
-                               "priority or tasks/TASK/requeue");
+        answer_error(out, 404,
+                     "no such action: POST /api/jobs/ID/cancel, pause, resume, "
+                     "priority or tasks/TASK/requeue");
         return;
     }
     const dash_provider_t *p = self->p;
@@ -578,8 +585,9 @@ static void job_action(dash_router_t *self, const dash_request_t *req, uint64_t 
                               : who.admin || (j.owner && *j.owner && !strcmp(j.owner, who.name));
     if (!allowed) {
         if (j.owner && *j.owner)
-            answer_error(out, 403, "job %llu belongs to '%s': '%s' may act only on its own jobs "
-                                   "(an administrator's key may act on any)",
+            answer_error(out, 403,
+                         "job %llu belongs to '%s': '%s' may act only on its own jobs "
+                         "(an administrator's key may act on any)",
                          (unsigned long long)id, j.owner, who.name);
         else
             answer_error(out, 403, "job %llu has no owner: only an administrator may act on it",
@@ -615,8 +623,9 @@ static void worker_action(dash_router_t *self, const dash_request_t *req, uint64
     if (identify(self, req, &who, out) < 0)
         return;
     if (!who.admin) {
-        answer_error(out, 403, "'%s' is not an administrator: only an administrator's key "
-                               "may blocklist or unblock a worker",
+        answer_error(out, 403,
+                     "'%s' is not an administrator: only an administrator's key "
+                     "may blocklist or unblock a worker",
                      who.name);
         return;
     }
@@ -630,8 +639,8 @@ static void worker_action(dash_router_t *self, const dash_request_t *req, uint64
 
 /* ---------------------------------------------------------------- the routes */
 
-static void route_get(dash_router_t *self, const dash_request_t *req, const seg_t *segs,
-                      int n, dash_response_t *out)
+static void route_get(dash_router_t *self, const dash_request_t *req, const seg_t *segs, int n,
+                      dash_response_t *out)
 {
     if (n == 0 || !seg_is(&segs[0], "api")) {
         const dash_asset_t *a = n <= 1 ? dash_asset_find(req->path) : NULL;
@@ -639,8 +648,11 @@ static void route_get(dash_router_t *self, const dash_request_t *req, const seg_
             answer_error(out, 404, "no page %.200s", req->path);
             return;
         }
-        *out = (dash_response_t){.status = 200, .content_type = a->content_type,
-                                 .body = (uint8_t *)a->data, .size = a->size, .is_static = true,
+        *out = (dash_response_t){.status = 200,
+                                 .content_type = a->content_type,
+                                 .body = (uint8_t *)a->data,
+                                 .size = a->size,
+                                 .is_static = true,
                                  .cacheable = true};
         return;
     }
@@ -671,8 +683,8 @@ static void route_get(dash_router_t *self, const dash_request_t *req, const seg_
         answer_error(out, 404, "no such resource (docs/dashboard.md lists the API)");
 }
 
-static void route_post(dash_router_t *self, const dash_request_t *req, const seg_t *segs,
-                       int n, dash_response_t *out)
+static void route_post(dash_router_t *self, const dash_request_t *req, const seg_t *segs, int n,
+                       dash_response_t *out)
 {
     uint64_t id = 0;
     bool api = n >= 1 && seg_is(&segs[0], "api");
@@ -710,8 +722,9 @@ void dash_route(dash_router_t *self, const dash_request_t *req, dash_response_t 
             return;
         }
     if (self->cfg.check_host && req->host && !host_is_loopback(req->host)) {
-        answer_error(out, 421, "this dashboard answers on 127.0.0.1 only (Host '%.80s' "
-                               "refused; docs/dashboard.md, \"Security\")",
+        answer_error(out, 421,
+                     "this dashboard answers on 127.0.0.1 only (Host '%.80s' "
+                     "refused; docs/dashboard.md, \"Security\")",
                      req->host);
         return;
     }

@@ -24,9 +24,9 @@ typedef struct dash_arg {
 } dash_arg_t;
 
 typedef struct dash_request {
-    const char *method;        /* "GET", "HEAD", "POST", ... */
-    const char *path;          /* without the query */
-    const dash_arg_t *args;    /* the query's arguments, decoded */
+    const char *method;     /* "GET", "HEAD", "POST", ... */
+    const char *path;       /* without the query */
+    const dash_arg_t *args; /* the query's arguments, decoded */
     size_t nargs;
     const char *host;          /* the Host header; NULL when absent */
     const char *authorization; /* the Authorization header; NULL when absent */
@@ -40,9 +40,9 @@ typedef struct dash_response {
     uint8_t *body; /* malloc'ed, or points into static data when is_static */
     size_t size;
     bool is_static;
-    bool cacheable;         /* a static asset: the browser may keep it (revalidating) */
-    bool www_authenticate;  /* a 401 that names the Bearer scheme */
-    const char *allow;      /* a 405's Allow header; NULL otherwise */
+    bool cacheable;        /* a static asset: the browser may keep it (revalidating) */
+    bool www_authenticate; /* a 401 that names the Bearer scheme */
+    const char *allow;     /* a 405's Allow header; NULL otherwise */
 } dash_response_t;
 
 typedef struct dash_router_config {

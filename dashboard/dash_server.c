@@ -33,8 +33,9 @@ int dash_server_parse_address(const char *spec, dash_server_config_t *out, err_t
     const char *port = colon ? colon + 1 : spec;
     size_t alen = colon ? (size_t)(colon - spec) : 0;
     if (!spec || !*port || strlen(port) > 5 || strspn(port, "0123456789") != strlen(port))
-        return err_set(err, "--http '%.100s': expected PORT or ADDR:PORT (PORT 0..65535, ADDR "
-                            "an IPv4 address; 127.0.0.1 when only a port is given)",
+        return err_set(err,
+                       "--http '%.100s': expected PORT or ADDR:PORT (PORT 0..65535, ADDR "
+                       "an IPv4 address; 127.0.0.1 when only a port is given)",
                        spec ? spec : "");
     long p = strtol(port, NULL, 10);
     if (p > 65535)
@@ -48,8 +49,9 @@ int dash_server_parse_address(const char *spec, dash_server_config_t *out, err_t
         snprintf(out->address, sizeof out->address, "%.*s", (int)alen, spec);
         struct in_addr a;
         if (inet_pton(AF_INET, out->address, &a) != 1)
-            return err_set(err, "--http '%.100s': '%s' is not an IPv4 address (like 127.0.0.1 "
-                                "or 0.0.0.0)",
+            return err_set(err,
+                           "--http '%.100s': '%s' is not an IPv4 address (like 127.0.0.1 "
+                           "or 0.0.0.0)",
                            spec, out->address);
     }
     return 0;
@@ -96,8 +98,8 @@ static enum MHD_Result add_headers(struct MHD_Response *r, const dash_response_t
 }
 
 static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const char *url,
-                                  const char *method, const char *version,
-                                  const char *upload_data, size_t *upload_data_size, void **ctx)
+                                  const char *method, const char *version, const char *upload_data,
+                                  size_t *upload_data_size, void **ctx)
 {
     (void)version;
     dash_server_t *self = cls;
@@ -134,15 +136,16 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
     dash_response_t out;
     if (c->too_many_args) {
         static const char msg[] = "{\"error\":\"more than 16 query arguments\"}";
-        out = (dash_response_t){.status = 400, .content_type = "application/json",
-                                .body = (uint8_t *)msg, .size = sizeof msg - 1,
+        out = (dash_response_t){.status = 400,
+                                .content_type = "application/json",
+                                .body = (uint8_t *)msg,
+                                .size = sizeof msg - 1,
                                 .is_static = true};
     } else
         dash_route(self->router, &req, &out);
     struct MHD_Response *r =
-        out.is_static
-            ? MHD_create_response_from_buffer(out.size, out.body, MHD_RESPMEM_PERSISTENT)
-            : MHD_create_response_from_buffer(out.size, out.body, MHD_RESPMEM_MUST_FREE);
+        out.is_static ? MHD_create_response_from_buffer(out.size, out.body, MHD_RESPMEM_PERSISTENT)
+                      : MHD_create_response_from_buffer(out.size, out.body, MHD_RESPMEM_MUST_FREE);
     if (!r) {
         dash_response_free(&out);
         return MHD_NO;
@@ -162,8 +165,7 @@ static void on_completed(void *cls, struct MHD_Connection *conn, void **ctx,
     *ctx = NULL;
 }
 
-dash_server_t *dash_server_new(const dash_server_config_t *cfg, dash_router_t *router,
-                               err_t *err)
+dash_server_t *dash_server_new(const dash_server_config_t *cfg, dash_router_t *router, err_t *err)
 {
     dash_server_t *self = calloc(1, sizeof *self);
     if (!self) {
@@ -179,13 +181,13 @@ dash_server_t *dash_server_new(const dash_server_config_t *cfg, dash_router_t *r
     }
     /* No thread of its own (no MHD_USE_INTERNAL_POLLING_THREAD): the daemon's loop polls the
      * epoll descriptor and calls dash_server_run. */
-    self->d = MHD_start_daemon(
-        MHD_USE_EPOLL, 0, NULL, NULL, on_request, self, MHD_OPTION_SOCK_ADDR,
-        (struct sockaddr *)&sa, MHD_OPTION_CONNECTION_LIMIT, (unsigned)DASH_MAX_CONNECTIONS,
-        MHD_OPTION_PER_IP_CONNECTION_LIMIT, (unsigned)DASH_MAX_PER_ADDRESS,
-        MHD_OPTION_CONNECTION_TIMEOUT, (unsigned)DASH_IDLE_TIMEOUT_S,
-        MHD_OPTION_CONNECTION_MEMORY_LIMIT, (size_t)DASH_CONNECTION_MEMORY,
-        MHD_OPTION_NOTIFY_COMPLETED, on_completed, NULL, MHD_OPTION_END);
+    self->d = MHD_start_daemon(MHD_USE_EPOLL, 0, NULL, NULL, on_request, self, MHD_OPTION_SOCK_ADDR,
+                               (struct sockaddr *)&sa, MHD_OPTION_CONNECTION_LIMIT,
+                               (unsigned)DASH_MAX_CONNECTIONS, MHD_OPTION_PER_IP_CONNECTION_LIMIT,
+                               (unsigned)DASH_MAX_PER_ADDRESS, MHD_OPTION_CONNECTION_TIMEOUT,
+                               (unsigned)DASH_IDLE_TIMEOUT_S, MHD_OPTION_CONNECTION_MEMORY_LIMIT,
+                               (size_t)DASH_CONNECTION_MEMORY, MHD_OPTION_NOTIFY_COMPLETED,
+                               on_completed, NULL, MHD_OPTION_END);
     if (!self->d) {
         err_set(err, "dashboard: cannot listen on %s:%d (in use, or not an address of this host)",
                 cfg->address, cfg->port);

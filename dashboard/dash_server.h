@@ -14,9 +14,9 @@
 #include <stdbool.h>
 #include <stddef.h>
 
-#define DASH_MAX_CONNECTIONS 64  /* at once */
-#define DASH_MAX_PER_ADDRESS 16  /* at once from one address */
-#define DASH_IDLE_TIMEOUT_S 30   /* a connection that sends nothing for this long is closed */
+#define DASH_MAX_CONNECTIONS 64 /* at once */
+#define DASH_MAX_PER_ADDRESS 16 /* at once from one address */
+#define DASH_IDLE_TIMEOUT_S 30  /* a connection that sends nothing for this long is closed */
 #define DASH_CONNECTION_MEMORY (32 << 10) /* request line and headers of one connection */
 
 typedef struct dash_server_config {
@@ -33,8 +33,7 @@ bool dash_server_loopback(const dash_server_config_t *cfg);
 typedef struct dash_server dash_server_t;
 
 /* Binds and listens; answers with router (not owned). NULL with err. */
-dash_server_t *dash_server_new(const dash_server_config_t *cfg, dash_router_t *router,
-                               err_t *err);
+dash_server_t *dash_server_new(const dash_server_config_t *cfg, dash_router_t *router, err_t *err);
 void dash_server_destroy(dash_server_t **self_p);
 
 /* The descriptor to poll for input; the bound port. */

@@ -52,8 +52,8 @@ static void fill_job(master_t *m, const mjob_t *j, double now, dash_job_t *o)
         .photons = j->photons.enabled,
     };
     o->npasses = j->scene.spp > 0 ? passes_bounds(j->scene.spp, NULL) : 0;
-    o->passes_done = j->accuracy.nhistory > 0 ? j->accuracy.history[j->accuracy.nhistory - 1].pass
-                                              : 0;
+    o->passes_done =
+        j->accuracy.nhistory > 0 ? j->accuracy.history[j->accuracy.nhistory - 1].pass : 0;
     sched_job_info_t info;
     if (j->sched.known && sched_job_info(m->sched, j->id, &info) == 0) {
         o->samples_done = info.samples_done;
@@ -145,8 +145,11 @@ static int pv_passes(void *user, uint64_t id, dash_pass_t *out, int max)
     int n = 0;
     for (int i = 0; i < j->accuracy.nhistory && n < max; i++) {
         const pass_record_t *r = &j->accuracy.history[i];
-        out[n++] = (dash_pass_t){.pass = r->pass, .spp = r->spp, .elapsed_s = r->elapsed,
-                                 .valid = r->valid, .rel_error = r->rel_error};
+        out[n++] = (dash_pass_t){.pass = r->pass,
+                                 .spp = r->spp,
+                                 .elapsed_s = r->elapsed,
+                                 .valid = r->valid,
+                                 .rel_error = r->rel_error};
     }
     return n;
 }
@@ -162,8 +165,12 @@ static int pv_tiles(void *user, uint64_t id, dash_tilemap_t *map, err_t *err)
         return err_set(err, "its scene is not loaded: no tiles to show");
     tilegrid_t g = tilegrid_make(j->scene.xres, j->scene.yres, m->opts->sched.tile_size);
     int *merged = map->merged;
-    *map = (dash_tilemap_t){.xres = g.xres, .yres = g.yres, .tile = g.tile, .tiles_x = g.tiles_x,
-                            .tiles_y = g.tiles_y, .npasses = passes_bounds(j->scene.spp, NULL),
+    *map = (dash_tilemap_t){.xres = g.xres,
+                            .yres = g.yres,
+                            .tile = g.tile,
+                            .tiles_x = g.tiles_x,
+                            .tiles_y = g.tiles_y,
+                            .npasses = passes_bounds(j->scene.spp, NULL),
                             .merged = merged};
     if (!merged)
         return 0;
@@ -210,10 +217,15 @@ static int pv_tasks(void *user, uint64_t id, dash_task_t *out, int max)
         const sched_running_t *r = &v->running[i];
         const mworker_t *w = worker_by_id(m, r->worker);
         double age = now - r->issued;
-        out[i] = (dash_task_t){.task = r->task, .photon = r->kind == SCHED_PHOTON, .tile = r->tile,
-                               .pass = r->pass, .batch = r->batch,
-                               .sample_begin = r->sample_begin, .sample_end = r->sample_end,
-                               .attempt = r->attempt, .worker = r->worker,
+        out[i] = (dash_task_t){.task = r->task,
+                               .photon = r->kind == SCHED_PHOTON,
+                               .tile = r->tile,
+                               .pass = r->pass,
+                               .batch = r->batch,
+                               .sample_begin = r->sample_begin,
+                               .sample_end = r->sample_end,
+                               .attempt = r->attempt,
+                               .worker = r->worker,
                                .worker_name = w && w->name ? w->name : "?",
                                .running_s = age > 0 ? age : 0};
     }
@@ -230,8 +242,8 @@ static int pv_log(void *user, uint64_t job, uint64_t since, dash_log_line_t *out
     int n = logbook_read(v->m->logbook, job, since, v->lines, max);
     double now = clock_now_s();
     for (int i = 0; i < n; i++)
-        out[i] = (dash_log_line_t){.seq = v->lines[i].seq, .age_s = now - v->lines[i].t,
-                                   .text = v->lines[i].text};
+        out[i] = (dash_log_line_t){
+            .seq = v->lines[i].seq, .age_s = now - v->lines[i].t, .text = v->lines[i].text};
     return n;
 }
 
@@ -251,7 +263,9 @@ static size_t pv_workers(void *user, dash_worker_t *out, size_t max)
             .name = w->name ? w->name : "",
             .key = w->key,
             .threads = w->threads,
-            .state = !w->alive ? "lost" : (si && si->busy > 0) ? "busy" : "idle",
+            .state = !w->alive              ? "lost"
+                     : (si && si->busy > 0) ? "busy"
+                                            : "idle",
             .tasks_running = w->alive && si ? si->busy : 0,
             .tasks_done = si ? si->tasks_done : 0,
             .tasks_failed = si ? si->tasks_failed : 0,
@@ -283,8 +297,8 @@ static int pv_cancel(void *user, const dash_identity_t *who, uint64_t id, err_t 
     if (job_over(j))
         return err_set(err, "job %llu is %s already", (unsigned long long)id,
                        job_state_name(j->state));
-    master_log(v->m, "job %llu '%s': cancel from the dashboard by '%s'%s",
-               (unsigned long long)id, j->name, who->name, who->admin ? " (admin)" : "");
+    master_log(v->m, "job %llu '%s': cancel from the dashboard by '%s'%s", (unsigned long long)id,
+               j->name, who->name, who->admin ? " (admin)" : "");
     job_cancel(v->m, j, clock_now_s());
     return 0;
 }

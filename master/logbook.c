@@ -61,8 +61,7 @@ void logbook_add(logbook_t *self, double t, const char *text)
     snprintf(e->text, sizeof e->text, "%s", text);
 }
 
-int logbook_read(const logbook_t *self, uint64_t job, uint64_t since, logbook_line_t *out,
-                 int max)
+int logbook_read(const logbook_t *self, uint64_t job, uint64_t since, logbook_line_t *out, int max)
 {
     if (since >= self->last)
         return 0; /* also keeps since + 1 from wrapping at 2^64 - 1 */

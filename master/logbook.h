@@ -28,7 +28,6 @@ void logbook_add(logbook_t *self, double t, const char *text);
 
 /* Up to max lines numbered above since, oldest first, of job (0: every line); the texts stay
  * valid until the next logbook_add. Returns how many. */
-int logbook_read(const logbook_t *self, uint64_t job, uint64_t since, logbook_line_t *out,
-                 int max);
+int logbook_read(const logbook_t *self, uint64_t job, uint64_t since, logbook_line_t *out, int max);
 
 #endif

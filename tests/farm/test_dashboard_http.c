@@ -254,7 +254,8 @@ static uint64_t submit_tiny(fx_t *f)
 {
     proto_bundle_file_t file = {.path = "tiny.pbrt", .data = f->scene, .size = f->scene_size};
     proto_msg_t req = {.type = PROTO_SUBMIT,
-                       .submit = {.name = "tiny", .settings = {.spp = 4, .seed = -1},
+                       .submit = {.name = "tiny",
+                                  .settings = {.spp = 4, .seed = -1},
                                   .bundle = {.main = "tiny.pbrt", .files = &file, .nfiles = 1}}};
     proto_msg_t r;
     call(f, &req, &r);

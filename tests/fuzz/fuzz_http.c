@@ -88,12 +88,26 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
 
 static dash_job_t job_of(uint64_t id)
 {
-    return (dash_job_t){.id = id, .name = "job", .owner = id == 1 ? "alice" : "",
-                        .state = id == 3 ? "done" : "running", .xres = 16, .yres = 16, .spp = 4,
-                        .integrator = "path", .samples_done = 256, .samples_total = 1024,
-                        .spp_done = 1, .passes_done = 1, .npasses = 3, .elapsed_s = 1,
-                        .stop = "", .error = "", .preview_version = id, .photons = id == 2,
-                        .photon_batches = 4, .photon_batches_done = 1};
+    return (dash_job_t){.id = id,
+                        .name = "job",
+                        .owner = id == 1 ? "alice" : "",
+                        .state = id == 3 ? "done" : "running",
+                        .xres = 16,
+                        .yres = 16,
+                        .spp = 4,
+                        .integrator = "path",
+                        .samples_done = 256,
+                        .samples_total = 1024,
+                        .spp_done = 1,
+                        .passes_done = 1,
+                        .npasses = 3,
+                        .elapsed_s = 1,
+                        .stop = "",
+                        .error = "",
+                        .preview_version = id,
+                        .photons = id == 2,
+                        .photon_batches = 4,
+                        .photon_batches_done = 1};
 }
 
 static size_t f_jobs(void *u, dash_job_t *out, size_t max)
@@ -130,8 +144,8 @@ static int f_passes(void *u, uint64_t id, dash_pass_t *out, int max)
 {
     (void)u, (void)id;
     for (int i = 0; i < max && i < 2; i++)
-        out[i] = (dash_pass_t){.pass = i + 1, .spp = 1 << i, .elapsed_s = i, .valid = i > 0,
-                               .rel_error = 0.1};
+        out[i] = (dash_pass_t){
+            .pass = i + 1, .spp = 1 << i, .elapsed_s = i, .valid = i > 0, .rel_error = 0.1};
     return max < 2 ? max : 2;
 }
 
@@ -141,8 +155,8 @@ static int f_tiles(void *u, uint64_t id, dash_tilemap_t *map, err_t *err)
     if (id == 3)
         return err_set(err, "forgotten");
     int *m = map->merged;
-    *map = (dash_tilemap_t){.xres = 16, .yres = 16, .tile = 8, .tiles_x = 2, .tiles_y = 2,
-                            .npasses = 3, .merged = m};
+    *map = (dash_tilemap_t){
+        .xres = 16, .yres = 16, .tile = 8, .tiles_x = 2, .tiles_y = 2, .npasses = 3, .merged = m};
     for (int i = 0; m && i < 4; i++)
         m[i] = i % 3;
     return 0;
@@ -153,10 +167,21 @@ static int f_tasks(void *u, uint64_t id, dash_task_t *out, int max)
     (void)u, (void)id;
     if (max < 2)
         return 0;
-    out[0] = (dash_task_t){.task = 1, .tile = 1, .pass = 0, .sample_end = 1, .attempt = 1,
-                           .worker = 7, .worker_name = "w", .running_s = 0.5};
-    out[1] = (dash_task_t){.task = 0x80000000u, .photon = true, .tile = -1, .pass = -1,
-                           .attempt = 2, .worker = 7, .worker_name = "w"};
+    out[0] = (dash_task_t){.task = 1,
+                           .tile = 1,
+                           .pass = 0,
+                           .sample_end = 1,
+                           .attempt = 1,
+                           .worker = 7,
+                           .worker_name = "w",
+                           .running_s = 0.5};
+    out[1] = (dash_task_t){.task = 0x80000000u,
+                           .photon = true,
+                           .tile = -1,
+                           .pass = -1,
+                           .attempt = 2,
+                           .worker = 7,
+                           .worker_name = "w"};
     return 2;
 }
 
@@ -174,8 +199,8 @@ static size_t f_workers(void *u, dash_worker_t *out, size_t max)
     (void)u;
     if (max < 1)
         return 0;
-    out[0] = (dash_worker_t){.id = 7, .name = "w", .key = "", .threads = 2, .state = "idle",
-                             .has_blocklisted = true};
+    out[0] = (dash_worker_t){
+        .id = 7, .name = "w", .key = "", .threads = 2, .state = "idle", .has_blocklisted = true};
     return 1;
 }
 
@@ -252,21 +277,32 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             *eq = 0;
         args[nargs++] = (dash_arg_t){.key = kv, .value = eq ? eq + 1 : NULL};
     }
-    dash_provider_t prov = {.jobs = f_jobs, .job = f_job, .preview = f_preview,
-                            .passes = f_passes, .tiles = f_tiles, .tasks = f_tasks,
-                            .log = f_log, .workers = f_workers, .cancel = f_cancel,
-                            .pause = f_pause, .set_priority = f_priority,
-                            .requeue = f_requeue, .blocklist = f_block};
+    dash_provider_t prov = {.jobs = f_jobs,
+                            .job = f_job,
+                            .preview = f_preview,
+                            .passes = f_passes,
+                            .tiles = f_tiles,
+                            .tasks = f_tasks,
+                            .log = f_log,
+                            .workers = f_workers,
+                            .cancel = f_cancel,
+                            .pause = f_pause,
+                            .set_priority = f_priority,
+                            .requeue = f_requeue,
+                            .blocklist = f_block};
     err_t err;
     dash_router_config_t rc = {.check_host = size % 2 == 0};
     dash_router_t *router = dash_router_new(&prov, g_auth, &rc, &err);
     if (!router)
         abort();
-    dash_request_t req = {.method = method, .path = path,
+    dash_request_t req = {.method = method,
+                          .path = path,
                           .host = strcmp(host, "-") ? host : NULL,
                           .authorization = strcmp(auth, "-") ? auth : NULL,
-                          .args = args, .nargs = nargs,
-                          .body = (const char *)p, .body_len = (size_t)(end - p)};
+                          .args = args,
+                          .nargs = nargs,
+                          .body = (const char *)p,
+                          .body_len = (size_t)(end - p)};
     g_actions = 0;
     dash_response_t out;
     dash_route(router, &req, &out);

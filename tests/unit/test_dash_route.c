@@ -98,8 +98,11 @@ static int f_passes(void *user, uint64_t id, dash_pass_t *out, int max)
     (void)user, (void)id;
     int n = max < 3 ? max : 3;
     for (int i = 0; i < n; i++)
-        out[i] = (dash_pass_t){.pass = i + 1, .spp = 1 << i, .elapsed_s = i + 0.5,
-                               .valid = i > 0, .rel_error = 0.4 / (i + 1)};
+        out[i] = (dash_pass_t){.pass = i + 1,
+                               .spp = 1 << i,
+                               .elapsed_s = i + 0.5,
+                               .valid = i > 0,
+                               .rel_error = 0.4 / (i + 1)};
     return n;
 }
 
@@ -109,8 +112,13 @@ static int f_tiles(void *user, uint64_t id, dash_tilemap_t *map, err_t *err)
     if (id != 1)
         return err_set(err, "not loaded");
     int *merged = map->merged;
-    *map = (dash_tilemap_t){.xres = 64, .yres = 48, .tile = 32, .tiles_x = 2, .tiles_y = 2,
-                            .npasses = 7, .merged = merged};
+    *map = (dash_tilemap_t){.xres = 64,
+                            .yres = 48,
+                            .tile = 32,
+                            .tiles_x = 2,
+                            .tiles_y = 2,
+                            .npasses = 7,
+                            .merged = merged};
     for (int i = 0; merged && i < 4; i++)
         merged[i] = i;
     return 0;
@@ -121,8 +129,15 @@ static int f_tasks(void *user, uint64_t id, dash_task_t *out, int max)
     (void)user, (void)id;
     if (max < 1)
         return 0;
-    out[0] = (dash_task_t){.task = 9, .tile = 1, .pass = 2, .sample_begin = 2, .sample_end = 4,
-                           .attempt = 1, .worker = 3, .worker_name = "host:1", .running_s = 1.5};
+    out[0] = (dash_task_t){.task = 9,
+                           .tile = 1,
+                           .pass = 2,
+                           .sample_begin = 2,
+                           .sample_end = 4,
+                           .attempt = 1,
+                           .worker = 3,
+                           .worker_name = "host:1",
+                           .running_s = 1.5};
     return 1;
 }
 
@@ -140,8 +155,14 @@ static size_t f_workers(void *user, dash_worker_t *out, size_t max)
     (void)user;
     if (max < 1)
         return 0;
-    out[0] = (dash_worker_t){.id = 3, .name = "host:1", .key = "", .threads = 4, .state = "busy",
-                             .tasks_running = 1, .tasks_done = 10, .samples_done = 1000};
+    out[0] = (dash_worker_t){.id = 3,
+                             .name = "host:1",
+                             .key = "",
+                             .threads = 4,
+                             .state = "busy",
+                             .tasks_running = 1,
+                             .tasks_done = 10,
+                             .samples_done = 1000};
     return 1;
 }
 
@@ -241,11 +262,19 @@ static int setup(void **state)
     snprintf(f->auth_root, sizeof f->auth_root, "Bearer %s", f->root);
     snprintf(f->auth_ops, sizeof f->auth_ops, "Bearer %s", f->ops);
     snprintf(f->auth_worker, sizeof f->auth_worker, "Bearer %s", f->worker);
-    f->p = (dash_provider_t){.user = &f->fake, .jobs = f_jobs, .job = f_job,
-                             .preview = f_preview, .passes = f_passes, .tiles = f_tiles,
-                             .tasks = f_tasks, .log = f_log, .workers = f_workers,
-                             .cancel = f_cancel, .set_priority = f_set_priority,
-                             .requeue = f_requeue, .blocklist = f_blocklist};
+    f->p = (dash_provider_t){.user = &f->fake,
+                             .jobs = f_jobs,
+                             .job = f_job,
+                             .preview = f_preview,
+                             .passes = f_passes,
+                             .tiles = f_tiles,
+                             .tasks = f_tasks,
+                             .log = f_log,
+                             .workers = f_workers,
+                             .cancel = f_cancel,
+                             .set_priority = f_set_priority,
+                             .requeue = f_requeue,
+                             .blocklist = f_blocklist};
     err_t err;
     dash_auth_config_t ac = {.clients_dir = clients, .admins_dir = admins, .token_file = tokfile};
     f->auth = dash_auth_new(&ac, &err);
@@ -270,8 +299,12 @@ static int teardown(void **state)
 static int ask(fixture_t *f, const char *method, const char *path, const char *auth,
                const char *body, json_t **json)
 {
-    dash_request_t req = {.method = method, .path = path, .host = "127.0.0.1:8080",
-                          .authorization = auth, .body = body, .body_len = body ? strlen(body) : 0};
+    dash_request_t req = {.method = method,
+                          .path = path,
+                          .host = "127.0.0.1:8080",
+                          .authorization = auth,
+                          .body = body,
+                          .body_len = body ? strlen(body) : 0};
     dash_response_t r;
     dash_route(f->router, &req, &r);
     if (json) {
@@ -506,9 +539,8 @@ static void test_who_may_act(void **state)
     assert_int_equal(ask(f, "POST", "/api/jobs/1/tasks/9/requeue", f->auth_alice, NULL, NULL), 200);
     assert_int_equal(f->fake.requeued_task, 9);
     assert_int_equal(ask(f, "POST", "/api/jobs/1/tasks/8/requeue", f->auth_alice, NULL, NULL), 409);
-    assert_int_equal(ask(f, "POST", "/api/jobs/1/tasks/4294967296/requeue", f->auth_alice, NULL,
-                         NULL),
-                     404);
+    assert_int_equal(
+        ask(f, "POST", "/api/jobs/1/tasks/4294967296/requeue", f->auth_alice, NULL, NULL), 404);
 }
 
 static void test_priority_body(void **state)
@@ -519,15 +551,24 @@ static void test_priority_body(void **state)
     assert_int_equal(f->fake.priority, 5);
     assert_int_equal(ask(f, "POST", path, f->auth_alice, "{\"priority\": -1000}", NULL), 200);
     assert_int_equal(f->fake.priority, -1000);
-    const char *bad[] = {"", "{", "[]", "{\"priority\": \"5\"}", "{\"priority\": 1.5}",
-                         "{\"priority\": 1001}", "{\"priority\": 99999999999999999999}",
-                         "{\"priority\": 1, \"priority\": 2}", "{\"other\": 1}"};
+    const char *bad[] = {"",
+                         "{",
+                         "[]",
+                         "{\"priority\": \"5\"}",
+                         "{\"priority\": 1.5}",
+                         "{\"priority\": 1001}",
+                         "{\"priority\": 99999999999999999999}",
+                         "{\"priority\": 1, \"priority\": 2}",
+                         "{\"other\": 1}"};
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++)
         assert_int_equal(ask(f, "POST", path, f->auth_alice, bad[i], NULL), 400);
     assert_int_equal(f->fake.priority, -1000);
     /* NUL bytes inside a body. */
-    dash_request_t req = {.method = "POST", .path = path, .authorization = f->auth_alice,
-                          .body = "{\"priority\"\0: 3}", .body_len = 16};
+    dash_request_t req = {.method = "POST",
+                          .path = path,
+                          .authorization = f->auth_alice,
+                          .body = "{\"priority\"\0: 3}",
+                          .body_len = 16};
     dash_response_t r;
     dash_route(f->router, &req, &r);
     assert_int_equal(r.status, 400);
@@ -556,8 +597,8 @@ static void test_no_tokens(void **state)
     assert_non_null(auth);
     assert_false(dash_auth_any(auth));
     dash_router_t *r = dash_router_new(&f->p, auth, NULL, &err);
-    dash_request_t req = {.method = "POST", .path = "/api/jobs/1/cancel",
-                          .authorization = f->auth_root};
+    dash_request_t req = {
+        .method = "POST", .path = "/api/jobs/1/cancel", .authorization = f->auth_root};
     dash_response_t out;
     dash_route(r, &req, &out);
     assert_int_equal(out.status, 401);
@@ -590,14 +631,18 @@ static void test_token_files(void **state)
     /* A .pub written before tokens existed stays valid; one with a malformed hash line is
      * refused with its line. */
     const char *old = testutil_scratch("old.pub");
-    testutil_write_text(old, "# old\npublic-key = "
-                                              "Yne@$w-vo<fVvi]a<NY6T1ed:M$fCG*[IaLV{hID\n", 0644);
+    testutil_write_text(old,
+                        "# old\npublic-key = "
+                        "Yne@$w-vo<fVvi]a<NY6T1ed:M$fCG*[IaLV{hID\n",
+                        0644);
     bool has = true;
     assert_int_equal(curve_load_public_token(old, pub, hash, &has, &err), 0);
     assert_false(has);
     const char *bad = testutil_scratch("bad.pub");
-    testutil_write_text(bad, "public-key = Yne@$w-vo<fVvi]a<NY6T1ed:M$fCG*[IaLV{hID\n"
-                                              "http-token-sha256 = 12ab\n", 0644);
+    testutil_write_text(bad,
+                        "public-key = Yne@$w-vo<fVvi]a<NY6T1ed:M$fCG*[IaLV{hID\n"
+                        "http-token-sha256 = 12ab\n",
+                        0644);
     assert_int_equal(curve_load_public(bad, pub, &err), -1);
     assert_non_null(strstr(err.msg, ":2:"));
 }
