@@ -180,15 +180,18 @@ class Farm:
         return int(self.run("submit", scene, "--master", self.clients, *args).stdout.strip())
 
     def stop(self):
+        """Stops every process with SIGTERM; returns their exit statuses (0: a clean stop, and
+        in the sanitizer build no leak or error report)."""
         for p in self.procs:
             if p.poll() is None:
                 os.killpg(p.pid, signal.SIGTERM)
         for p in self.procs:
             try:
-                p.wait(timeout=20)
+                p.wait(timeout=60)
             except subprocess.TimeoutExpired:
                 os.killpg(p.pid, signal.SIGKILL)
                 p.wait()
+        return [p.returncode for p in self.procs]
 
 
 # The preview as the page shows it, drawn into a canvas: its pixels, not its URL.
@@ -294,6 +297,10 @@ def main():
             "const r = document.querySelector('#workers-table tbody tr');"
             "return r && r.querySelector('.state').textContent === 'idle'"
             " && r.children[5].textContent === '0'"))
+        codes = farm.stop()
+        if any(codes):
+            fail("the farm's processes ended with statuses %s, expected 0 (see master.log, "
+                 "worker.log)" % codes)
         ok = True
         print("test_dashboard: passed (preview versions %s -> %s; screenshot %s)" %
               (first[0], second[0], shot))
