@@ -21,7 +21,15 @@ struct client_rpc {
     net_t *net;
     char endpoint[256];
     client_security_t sec; /* to connect again (client_rpc_reconnect) */
+    client_rpc_progress_fn progress;
+    void *progress_user;
 };
+
+void client_rpc_on_progress(client_rpc_t *self, client_rpc_progress_fn fn, void *user)
+{
+    self->progress = fn;
+    self->progress_user = user;
+}
 
 const char *client_default_master(void)
 {
@@ -220,6 +228,16 @@ int client_rpc_call(client_rpc_t *self, const proto_msg_t *req, proto_msg_t *rep
                     : timeout_ms - waited < SLICE_MS ? timeout_ms - waited
                                                      : SLICE_MS;
         r = net_recv(self->net, NULL, reply, slice, err);
+        if (r == 0 && reply->type == PROTO_PROGRESS) {
+            /* The master is at work on the request (a large scene loading): the answer
+             * follows, so the wait starts again, however long the work takes. */
+            if (self->progress)
+                self->progress(self->progress_user, reply->progress.message,
+                               reply->progress.elapsed);
+            proto_msg_free(reply);
+            waited = 0;
+            continue;
+        }
         if (r != PROTO_EAGAIN)
             break;
         waited += slice;

@@ -44,9 +44,16 @@ client_rpc_t *client_rpc_new(const char *endpoint, void *zmq_ctx, const client_s
                              err_t *err);
 void client_rpc_destroy(client_rpc_t **self_p);
 
+/* Called with each PROGRESS the master sends while it works on a request (docs/protocol.md):
+ * what it is doing and for how long. */
+typedef void (*client_rpc_progress_fn)(void *user, const char *message, double elapsed_s);
+/* Without a callback a PROGRESS only restarts the wait. */
+void client_rpc_on_progress(client_rpc_t *self, client_rpc_progress_fn fn, void *user);
+
 /* Sends req and waits up to timeout_ms for the reply (free it with proto_msg_free). An ERROR or
  * REFUSE reply becomes -1 with its text in err; so does at once a refused handshake ("the
- * master at ENDPOINT refused our key ..."). Silence ("no answer from the master at ENDPOINT
+ * master at ENDPOINT refused our key ..."). A PROGRESS restarts the wait (the master answers
+ * when its work is done: timeout_ms bounds silence, not work). Silence ("no answer from the master at ENDPOINT
  * within 10 s: is it running?") and a dropped connection (a master restarting) return
  * CLIENT_RPC_UNREACHABLE with the text in err: worth asking again after client_rpc_reconnect. */
 #define CLIENT_RPC_UNREACHABLE (-2)

@@ -35,6 +35,8 @@ int cmd_master(int argc, char **argv)
     int quiet = 0, no_journal = 0;
     int heartbeat_ms = 0, deadline_s = 0, tile = 0, max_jobs = 0, message_mb = 0, bundle_mb = 0,
         bundle_files = 0, conns_per_host = -1, conns = 0; /* 0, -1: not given */
+    long long max_shapes = -1, max_triangles = -1, max_texels = -1;
+    double max_image_mb = -1;
     const cli_opt_t opts[] = {
         {.name = "workers", .kind = CLI_STRING, .dst = &o.worker_endpoint, .arg = "ENDPOINT",
          .help = "where workers connect (default tcp://*:5555)"},
@@ -101,6 +103,19 @@ int cmd_master(int argc, char **argv)
         {.name = "max-bundle-files", .kind = CLI_INT, .dst = &bundle_files, .lo = 1,
          .hi = PROTO_MAX_BUNDLE_FILES, .arg = "N",
          .help = "files in a scene bundle, 1..4096 (default 4096)"},
+        {.kind = CLI_TEXT, .help = "budgets (what one job's scene may make the master build; "
+                                   "0: no bound):\n"},
+        {.name = "max-shapes", .kind = CLI_LLONG, .dst = &max_shapes, .lo = 0, .hi = 1e12,
+         .arg = "N", .help = "shapes and object instances (default 1000000)"},
+        {.name = "max-triangles", .kind = CLI_LLONG, .dst = &max_triangles, .lo = 0,
+         .hi = 1e13, .arg = "N",
+         .help = "triangles after subdivision and tessellation (default 100000000)"},
+        {.name = "max-texels", .kind = CLI_LLONG, .dst = &max_texels, .lo = 0, .hi = 1e13,
+         .arg = "N", .help = "image texture and environment pixels (default 268435456)"},
+        {.name = "max-image-mb", .kind = CLI_DOUBLE, .dst = &max_image_mb, .lo = 0,
+         .hi = 1e9, .arg = "N",
+         .help = "the merged image, xres*yres*(buckets+4)*8 bytes (default 4096 MiB)"},
+        {.kind = CLI_TEXT, .help = "connections:\n"},
         {.name = "max-connections-per-host", .kind = CLI_INT, .dst = &conns_per_host, .lo = 0,
          .hi = 1048576, .arg = "N",
          .help = "open connections from one IP address per endpoint (default 512; 0: no "
@@ -136,6 +151,14 @@ int cmd_master(int argc, char **argv)
         o.sched.tile_size = tile;
     if (max_jobs)
         o.max_jobs = (size_t)max_jobs;
+    if (max_shapes >= 0)
+        o.budget.shapes = (uint64_t)max_shapes;
+    if (max_triangles >= 0)
+        o.budget.triangles = (uint64_t)max_triangles;
+    if (max_texels >= 0)
+        o.budget.texels = (uint64_t)max_texels;
+    if (max_image_mb >= 0)
+        o.budget.image_bytes = (uint64_t)(max_image_mb * 1048576.0);
     if (conns_per_host >= 0)
         o.max_conns_per_host = conns_per_host;
     if (conns)

@@ -5,6 +5,7 @@
 #include "cli_args.h"
 #include "cli_json.h"
 #include "client_rpc.h"
+#include "progress.h"
 #include "film.h"
 #include "job_follow.h"
 #include "scene_bundle.h"
@@ -93,6 +94,8 @@ int cmd_submit(int argc, char **argv)
         return 1;
     }
     client_rpc_t *rpc = client_rpc_probe(master, &err) == 0 ? client_rpc_new(master, NULL, &sec, &err) : NULL;
+    if (rpc && !quiet && !json)
+        client_rpc_on_progress(rpc, progress_print_master, "submit");
     proto_msg_t req = {.type = PROTO_SUBMIT,
                        .submit = {.name = name, .settings = settings_from_overrides(&ov),
                                   .bundle = *scene_bundle_get(b)}};

@@ -2,6 +2,7 @@
 #include "local_farm.h"
 
 #include "client_rpc.h"
+#include "progress.h"
 #include "job_follow.h"
 #include "master.h"
 #include "scene_bundle.h"
@@ -111,6 +112,8 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
     m.opts.stop_fd = stop_pipe[0] > 0 ? stop_pipe[0] : 0;
     m.opts.verbose = 0;
     m.opts.journal = 0; /* the spool is a temporary folder that dies with this process */
+    /* The user's own scene on the user's own machine: no budget (security.md, "Limits"). */
+    m.opts.budget = (scene_budget_t){0};
     if (tile)
         m.opts.sched.tile_size = (int)tile;
     local_worker_t *workers = calloc((size_t)nworkers, sizeof *workers);
@@ -142,6 +145,8 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
         fprintf(stderr, "render: a master and %d worker%s x %lld threads in this process\n", nstarted,
                 nstarted == 1 ? "" : "s", threads);
     rpc = client_rpc_new(cep, ctx, NULL, &err);
+    if (rpc && !quiet)
+        client_rpc_on_progress(rpc, progress_print_master, "render");
     proto_msg_t req = {.type = PROTO_SUBMIT,
                        .submit = {.name = name, .settings = settings_from_overrides(&ov),
                                   .bundle = *scene_bundle_get(bundle)}};

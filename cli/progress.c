@@ -49,3 +49,9 @@ void progress_end(progress_t *p, uint64_t done, uint64_t total, double elapsed, 
     p->open_line = 0;
     fflush(stderr);
 }
+
+void progress_print_master(void *user, const char *message, double elapsed_s)
+{
+    (void)elapsed_s; /* the master's message says it */
+    fprintf(stderr, "prismfarm %s: %s\n", (const char *)user, message);
+}

@@ -20,4 +20,8 @@ void progress_update(progress_t *p, uint64_t done, uint64_t total, double elapse
  * the last line, with why, so a bar is never left open. Harmless after a complete run. */
 void progress_end(progress_t *p, uint64_t done, uint64_t total, double elapsed, const char *why);
 
+/* A client_rpc_progress_fn (client_rpc.h) printing the master's PROGRESS messages as
+ * "prismfarm LABEL: MESSAGE" on stderr; user is the label (a const char *). */
+void progress_print_master(void *user, const char *message, double elapsed_s);
+
 #endif

@@ -48,7 +48,10 @@ static void fill_job(master_t *m, const mjob_t *j, double now, dash_job_t *o)
         .nonfinite = j->sched.nonfinite,
         .spp_done = j->accuracy.spp_done,
         .stop = j->accuracy.stop == PROTO_STOP_NONE ? "" : proto_stop_name(j->accuracy.stop),
-        .error = j->state == JOB_FAILED && j->error ? j->error : "",
+        /* As STATUS says it: a failure, or why a done job's outputs wait (a full disk). */
+        .error = j->state == JOB_FAILED ? (j->error ? j->error : "failed")
+                 : j->outputs.waiting   ? j->outputs.why
+                                        : "",
         .photons = j->photons.enabled,
     };
     o->npasses = j->scene.spp > 0 ? passes_bounds(j->scene.spp, NULL) : 0;

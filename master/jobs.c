@@ -121,7 +121,8 @@ static void job_set_settings(mjob_t *j, const proto_settings_t *set)
 /* The scene reads nothing outside dir, so no message can show a client a file of the master's
  * host; a photon job's phase keeps the scene to check and merge batches against. */
 mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
-                const proto_settings_t *set, const char *dir, err_t *err)
+                const proto_settings_t *set, const char *dir, const scene_budget_t *budget,
+                err_t *err)
 {
     size_t main_size = strlen(dir) + strlen(main) + 2;
     char *main_path = malloc(main_size);
@@ -134,6 +135,7 @@ mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *mai
     }
     snprintf(main_path, main_size, "%s/%s", dir, main);
     scene_overrides_t ov = settings_to_overrides(set);
+    ov.budget = budget;
     scene_t *scene = scene_load_file_confined(main_path, dir, &ov, err);
     free(main_path);
     if (!scene) {
@@ -196,6 +198,7 @@ int job_restore_photons(master_t *m, mjob_t *j, err_t *err)
     snprintf(scene_dir, sizeof scene_dir, "%s/scenes/%s", spool_path(m->spool), j->hash);
     snprintf(main_path, sizeof main_path, "%s/%s", scene_dir, j->main);
     scene_overrides_t ov = settings_to_overrides(&j->settings);
+    ov.budget = &m->opts->budget;
     scene_t *scene = scene_load_file_confined(main_path, scene_dir, &ov, err);
     if (!scene)
         return -1;
@@ -325,7 +328,9 @@ static void release_photons(master_t *m, mjob_t *j)
 void job_cancel(master_t *m, mjob_t *j, double now)
 {
     err_t err;
-    if (j->sched.known && sched_cancel_job(m->sched, j->id, &err) < 0)
+    if (j->outputs.waiting)
+        job_give_up_outputs(m, j, now);
+    else if (j->sched.known && sched_cancel_job(m->sched, j->id, &err) < 0)
         master_log(m, "cancel: %s", err.msg);
     job_refresh(m, j, now);
 }
@@ -351,12 +356,25 @@ void job_refresh(master_t *m, mjob_t *j, double now)
         if (j->accuracy.stop != PROTO_STOP_NONE)
             peers_cancel_job(m, j->id);
         if (job_write_image(m, j, true, &err) < 0) {
-            char msg[600];
-            snprintf(msg, sizeof msg, "writing the outputs: %s", err.msg);
-            job_set_error(j, msg);
-            j->state = JOB_FAILED;
-            master_log(m, "job %llu '%s' failed: %s", (unsigned long long)j->id, j->name, msg);
+            /* A full disk must not lose a finished render: the image stays in memory, the job
+             * is shown running with the reason, and the write is tried again. */
+            bool first = !j->outputs.waiting;
+            j->outputs.waiting = true;
+            j->outputs.retry_at = now + JOB_OUTPUT_RETRY_S;
+            snprintf(j->outputs.why, sizeof j->outputs.why,
+                     "rendered; waiting to write its outputs (tried again every %.0f s): %s",
+                     JOB_OUTPUT_RETRY_S, err.msg);
+            j->state = JOB_RUNNING;
+            j->finished = 0;
+            if (first)
+                master_log(m, "job %llu '%s' %s", (unsigned long long)j->id, j->name,
+                           j->outputs.why);
+            return;
         } else {
+            if (j->outputs.waiting)
+                master_log(m, "job %llu '%s': its outputs are written at last",
+                           (unsigned long long)j->id, j->name);
+            j->outputs.waiting = false;
             j->outputs.final = true;
             const pass_record_t *last =
                 j->accuracy.nhistory > 0 ? &j->accuracy.history[j->accuracy.nhistory - 1] : NULL;
@@ -382,6 +400,33 @@ void job_refresh(master_t *m, mjob_t *j, double now)
     j->sched.samples_total = info.samples_total;
     j->sched.nonfinite = info.nonfinite;
     j->accuracy.spp_done = info.spp_done;
+    persist_state(m, j, now);
+    err_t err;
+    if (sched_remove_job(m->sched, j->id, &err) < 0)
+        master_log(m, "job %llu: %s", (unsigned long long)j->id, err.msg);
+    else
+        j->sched.known = false;
+}
+
+void jobs_retry_outputs(master_t *m, double now)
+{
+    for (size_t i = 0; i < m->njobs; i++) {
+        mjob_t *j = m->jobs[i];
+        if (j->outputs.waiting && j->sched.known && now >= j->outputs.retry_at)
+            job_refresh(m, j, now);
+    }
+}
+
+void job_give_up_outputs(master_t *m, mjob_t *j, double now)
+{
+    if (!j->outputs.waiting || !j->sched.known)
+        return;
+    j->outputs.waiting = false;
+    j->state = JOB_CANCELLED;
+    j->finished = now;
+    master_log(m, "job %llu '%s' cancelled while waiting to write its outputs: its image is dropped",
+               (unsigned long long)j->id, j->name);
+    release_photons(m, j);
     persist_state(m, j, now);
     err_t err;
     if (sched_remove_job(m->sched, j->id, &err) < 0)

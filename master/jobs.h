@@ -15,10 +15,12 @@ mjob_t *jobs_find(const master_t *m, uint64_t id);
 /* Appends a job to the list (its id above every other's); -1 when out of memory. */
 int jobs_append(master_t *m, mjob_t *j);
 
-/* A job made from its scene, dir/main loaded with the settings and confined to dir; a photon
- * job gets a fresh photon phase. Not yet scheduled (job_schedule). NULL with err. */
+/* A job made from its scene, dir/main loaded with the settings and confined to dir, within
+ * budget (budget.h; NULL: none); a photon job gets a fresh photon phase. Not yet scheduled
+ * (job_schedule). NULL with err. */
 mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
-                const proto_settings_t *set, const char *dir, err_t *err);
+                const proto_settings_t *set, const char *dir, const scene_budget_t *budget,
+                err_t *err);
 /* A job of the journal as the master lists it without rendering it: one that is over, or one
  * that cannot be resumed. NULL when out of memory. */
 mjob_t *job_from_record(const journal_job_t *r);
@@ -47,8 +49,20 @@ int job_write_image(master_t *m, mjob_t *j, bool final, err_t *err);
  * image in the scheduler, keeping only the figures STATUS reports. */
 void job_refresh(master_t *m, mjob_t *j, double now);
 
+/* How often a finished job's outputs are tried again after a write failed (a full disk). */
+#define JOB_OUTPUT_RETRY_S 5.0
+
+/* Tries again the outputs of the done jobs waiting for space (outputs.waiting) whose time has
+ * come. Call it every turn. */
+void jobs_retry_outputs(master_t *m, double now);
+
+/* A cancel of a job waiting to write its outputs: it ends cancelled and its image is
+ * dropped. */
+void job_give_up_outputs(master_t *m, mjob_t *j, double now);
+
 /* Cancels a job (a client's CANCEL, the dashboard's action): the scheduler ends it, and
- * job_refresh tells the workers to drop its tasks. Nothing for a job that is over. */
+ * job_refresh tells the workers to drop its tasks; a job waiting to write its outputs gives
+ * them up (job_give_up_outputs). Nothing for a job that is over. */
 void job_cancel(master_t *m, mjob_t *j, double now);
 
 /* Ends every running job past its time limit that has a whole pass (docs/farm.md,

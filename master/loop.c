@@ -43,6 +43,7 @@ master_opts_t master_opts_default(void)
         .preview_interval_s = 1.0,
         .max_jobs = 256,
         .max_conns_per_host = 512,
+        .budget = scene_budget_default(),
         .journal = 1,
         .verbose = 1,
     };
@@ -104,6 +105,7 @@ static void housekeeping(master_t *m, double now, double busy)
                    requeued == 1 ? "" : "s", m->opts->sched.task_deadline_s);
     peers_agree_with_sched(m);
     jobs_enforce_time_limits(m, now);
+    jobs_retry_outputs(m, now);
     peers_heartbeat(m, now);
 }
 
@@ -257,6 +259,10 @@ int master_run(const master_opts_t *opts, err_t *err)
             goto out;
         }
     }
+    if (!(m->loader = loader_new(err))) {
+        err_prefix(err, "master: ");
+        goto out;
+    }
     const char *secret = opts->key_file ? keys.secret_key : NULL;
     m->max_conns = opts->max_conns > 0 ? opts->max_conns : file_limit_raise(m);
     if (!(m->wnet = open_router(m, ctx, "workers", opts->worker_endpoint, secret, wbound,
@@ -340,6 +346,7 @@ int master_run(const master_opts_t *opts, err_t *err)
         conn_guard_pump(m->wguard);
         conn_guard_pump(m->cguard);
         double now = clock_now_s();
+        on_client_loads(m, now);
         housekeeping(m, now, now - polled);
         dispatch_tasks(m, now);
         peers_prune_lost(m);
@@ -359,6 +366,9 @@ out:
     memset(&keys, 0, sizeof keys);
     if (ctx && !opts->zmq_ctx)
         (void)zmq_ctx_term(ctx);
+    /* Waits for a scene still loading, and drops the submissions not finished. */
+    loader_destroy(&m->loader, on_client_submission_drop);
+    free(m->loading);
     sched_destroy(&m->sched);
     journal_close(&m->journal);
     spool_destroy(&m->spool);

@@ -7,6 +7,7 @@
 #ifndef PRISMFARM_MASTER_H
 #define PRISMFARM_MASTER_H
 
+#include "budget.h"
 #include "err.h"
 #include "proto.h"
 #include "sched.h"
@@ -36,6 +37,9 @@ typedef struct master_opts {
      * (0: the file limit, raised to its hard maximum at start, less a reserve for the spool's
      * files). A connection beyond either is shut down at once and logged (rate-limited). */
     int max_conns_per_host, max_conns;
+    /* What one job's scene may make the master build (scenefile/budget.h), checked while it
+     * loads: shapes, triangles, texels, the merged image's bytes. */
+    scene_budget_t budget;
     /* Security (docs/security.md): with key_file both endpoints are CURVE servers that let in
      * only the public keys of authorized_dir's *.pub files; without it a tcp:// endpoint
      * needs insecure (plain text), and inproc:// and ipc:// need neither. */

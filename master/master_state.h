@@ -9,6 +9,7 @@
 
 #include "conn_guard.h"
 #include "journal.h"
+#include "loader.h"
 #include "master.h"
 #include "net.h"
 #include "photon_phase.h"
@@ -81,6 +82,12 @@ typedef struct mjob {
         bool preview;        /* jobs/<id>/preview.png exists */
         double last_preview; /* when it was written; 0: never */
         bool final;          /* jobs/<id>/<stem>.exr and .png exist */
+        /* A done job whose outputs could not be written (a full disk): its image stays in the
+         * scheduler and the write is tried again at retry_at (jobs_retry_outputs), so nothing
+         * rendered is lost; why says what failed, for STATUS. */
+        bool waiting;
+        double retry_at;
+        char why[600];
     } outputs;
     /* A job with a photon pass: its batches, their merge and the merged store (kept for
      * refinement after the job is done). The scheduler's batch b is the phase's batch
@@ -121,6 +128,8 @@ typedef struct waiter {
     double deadline; /* monotonic seconds */
 } waiter_t;
 
+typedef struct submission submission_t; /* on_client.c */
+
 typedef struct master {
     const master_opts_t *opts;
     proto_limits_t limits;
@@ -130,6 +139,10 @@ typedef struct master {
     journal_t *journal; /* NULL without opts->journal */
     net_t *wnet, *cnet;
     conn_guard_t *wguard, *cguard; /* their connection bounds (conn_guard.h) */
+    /* Scenes loading off the loop (loader.h; on_client.c's submissions), oldest first. */
+    loader_t *loader;
+    submission_t **loading;
+    size_t nloading, caploading;
     mworker_t **workers;
     size_t nworkers, cap_workers;
     mjob_t **jobs; /* in id order */

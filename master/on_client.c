@@ -3,8 +3,10 @@
 
 #include "access.h"
 #include "bundle.h"
+#include "clock.h"
 #include "files.h"
 #include "jobs.h"
+#include "loader.h"
 #include "peers.h"
 #include "persist.h"
 
@@ -80,6 +82,8 @@ static proto_job_info_t job_wire_info(const master_t *m, const mjob_t *j, double
     o.elapsed = secs > 0 ? secs : 0;
     if (j->state == JOB_FAILED)
         o.error = j->error ? j->error : "failed";
+    else if (j->outputs.waiting)
+        o.error = j->outputs.why;
     return o;
 }
 
@@ -93,6 +97,85 @@ static void strip_all(char *msg, const char *prefix)
         memmove(p, p + n, strlen(p + n) + 1);
 }
 
+/* A submission between its bundle's arrival and its scene's load (loader.h): the master keeps
+ * it in m->loading, the loader's thread fills job or err, and on_client_loads finishes it. */
+struct submission {
+    proto_peer_t peer;
+    char *name, *main;
+    char hash[PROTO_HASH_HEX + 1];
+    char dir[PATH_MAX];
+    bool staged;
+    proto_settings_t settings; /* its strings point into integrator / dispersion */
+    char integrator[65], dispersion[65];
+    scene_budget_t budget;
+    const spool_t *spool;
+    uint8_t *scene_msg; /* the SCENE message workers will be sent, stored once the scene loads */
+    size_t scene_size;
+    double accepted, last_progress;
+    /* Filled on the loader's thread. */
+    mjob_t *job;
+    err_t err;
+    double load_s;
+};
+
+static void on_client_submission_free(void *arg);
+
+void on_client_submission_drop(void *arg)
+{
+    submission_t *s = arg;
+    if (s)
+        spool_scene_discard((spool_t *)s->spool, s->dir, s->staged);
+    on_client_submission_free(s);
+}
+
+static void on_client_submission_free(void *arg)
+{
+    submission_t *s = arg;
+    if (!s)
+        return;
+    job_free(s->job);
+    free(s->scene_msg);
+    free(s->name);
+    free(s->main);
+    free(s);
+}
+
+/* The loader's work (its thread): the scene loaded within the budget, then the bundle
+ * committed to the spool. Touches nothing but s (and files). */
+static void submission_load(void *arg)
+{
+    submission_t *s = arg;
+    double t0 = clock_now_s();
+    s->job = job_new(0, s->name, s->hash, s->main, &s->settings, s->dir, &s->budget, &s->err);
+    if (s->job) {
+        if (spool_scene_commit(s->spool, s->scene_msg, s->scene_size, s->hash, s->dir,
+                               s->staged, &s->err) < 0) {
+            job_free(s->job);
+            s->job = NULL;
+            err_prefix(&s->err, "the master cannot store the scene: ");
+        } else {
+            s->staged = false; /* committed: nothing to discard */
+        }
+    } else {
+        /* The client named files of its bundle, not the master's spool folder. */
+        char prefix[PATH_MAX + 1];
+        char *real = realpath(s->dir, NULL);
+        if (real) {
+            snprintf(prefix, sizeof prefix, "%s/", real);
+            strip_all(s->err.msg, prefix);
+            free(real);
+        }
+        snprintf(prefix, sizeof prefix, "%s/", s->dir);
+        strip_all(s->err.msg, prefix);
+    }
+    free(s->scene_msg);
+    s->scene_msg = NULL;
+    s->load_s = clock_now_s() - t0;
+}
+
+/* A SUBMIT: the bundle is checked, staged and encoded for the workers here, and its scene
+ * loaded on the loader's thread, so that a large scene never blocks the loop; the client is
+ * sent a PROGRESS every PROGRESS_S while it loads, and SUBMITTED or the load's error after. */
 static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
 {
     const proto_bundle_t *b = &msg->submit.bundle;
@@ -105,45 +188,77 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "scene bundle refused: %s", err.msg);
         return;
     }
-    char dir[PATH_MAX];
-    bool staged;
-    if (spool_scene_stage(m->spool, b, hash, dir, sizeof dir, &staged, &err) < 0) {
+    submission_t *s = calloc(1, sizeof *s);
+    submission_t **grown =
+        s && m->nloading == m->caploading
+            ? realloc(m->loading, (m->caploading ? 2 * m->caploading : 8) * sizeof *grown)
+            : NULL;
+    if (grown) {
+        m->loading = grown;
+        m->caploading = m->caploading ? 2 * m->caploading : 8;
+    }
+    if (!s || m->nloading == m->caploading || !(s->name = master_strdup(msg->submit.name)) ||
+        !(s->main = master_strdup(b->main))) {
+        on_client_submission_free(s);
+        reply_error(m, from, "the master is out of memory");
+        return;
+    }
+    if (spool_scene_stage(m->spool, b, hash, s->dir, sizeof s->dir, &s->staged, &err) < 0 ||
+        spool_scene_encode(b, hash, &m->limits, &s->scene_msg, &s->scene_size, &err) < 0) {
+        spool_scene_discard(m->spool, s->dir, s->staged);
+        on_client_submission_free(s);
         master_log(m, "cannot store scene %.12s: %s", hash, err.msg);
         reply_error(m, from, "the master cannot store the scene: %s", err.msg);
         return;
     }
-    uint64_t id = m->last_job + 1;
-    const proto_settings_t *set = &msg->submit.settings;
-    mjob_t *j = job_new(id, msg->submit.name, hash, b->main, set, dir, &err);
-    if (j)
-        snprintf(j->owner, sizeof j->owner, "%s", from->user);
+    s->peer = *from;
+    memcpy(s->hash, hash, sizeof s->hash);
+    s->settings = msg->submit.settings;
+    s->settings.integrator = s->settings.dispersion = NULL;
+    if (msg->submit.settings.integrator) {
+        snprintf(s->integrator, sizeof s->integrator, "%s", msg->submit.settings.integrator);
+        s->settings.integrator = s->integrator;
+    }
+    if (msg->submit.settings.dispersion) {
+        snprintf(s->dispersion, sizeof s->dispersion, "%s", msg->submit.settings.dispersion);
+        s->settings.dispersion = s->dispersion;
+    }
+    s->budget = m->opts->budget;
+    s->spool = m->spool;
+    s->accepted = s->last_progress = now;
+    if (loader_run(m->loader, submission_load, s, &err) < 0) {
+        spool_scene_discard(m->spool, s->dir, s->staged);
+        on_client_submission_free(s);
+        reply_error(m, from, "the master cannot load the scene: %s", err.msg);
+        return;
+    }
+    m->loading[m->nloading++] = s;
+    master_log(m, "submission '%s' from %s: scene %.12s (%zu files) loading off the loop", s->name,
+               who, hash, b->nfiles);
+}
+
+/* A submission whose scene has loaded (or failed to): scheduled, journaled and answered. */
+static void submission_finish(master_t *m, submission_t *s, double now)
+{
+    const proto_peer_t *from = &s->peer;
+    char who[PROTO_PEER_STR];
+    proto_peer_str(from, who);
+    err_t err;
+    mjob_t *j = s->job;
     if (!j) {
-        /* The client named files of its bundle, not the master's spool folder. */
-        char prefix[PATH_MAX + 1];
-        char *real = realpath(dir, NULL);
-        if (real) {
-            snprintf(prefix, sizeof prefix, "%s/", real);
-            strip_all(err.msg, prefix);
-            free(real);
-        }
-        snprintf(prefix, sizeof prefix, "%s/", dir);
-        strip_all(err.msg, prefix);
-        spool_scene_discard(m->spool, dir, staged);
-        master_log(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
-        reply_error(m, from, "%s", err.msg);
+        spool_scene_discard(m->spool, s->dir, s->staged);
+        master_log(m, "submission '%s' from %s refused: %s", s->name, who, s->err.msg);
+        reply_error(m, from, "%s", s->err.msg);
         return;
     }
-    if (spool_scene_commit(m->spool, b, hash, dir, staged, &m->limits, &err) < 0) {
-        job_free(j);
-        spool_scene_discard(m->spool, dir, staged);
-        master_log(m, "cannot store scene %.12s: %s", hash, err.msg);
-        reply_error(m, from, "the master cannot store the scene: %s", err.msg);
-        return;
-    }
+    s->job = NULL;
+    uint64_t id = m->last_job + 1;
+    j->id = id;
+    snprintf(j->owner, sizeof j->owner, "%s", from->user);
     if (job_schedule(m, j, j->photons.phase ? photon_phase_nbatches(j->photons.phase) : 0, &err) <
         0) {
         job_free(j);
-        master_log(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
+        master_log(m, "submission '%s' from %s refused: %s", s->name, who, err.msg);
         reply_error(m, from, "%s", err.msg);
         return;
     }
@@ -152,7 +267,7 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
      * restart. */
     journal_job_t rec = persist_record(j, now);
     if (m->journal && journal_add_job(m->journal, &rec, &err) < 0) {
-        master_log(m, "submission '%s' from %s refused: %s", msg->submit.name, who, err.msg);
+        master_log(m, "submission '%s' from %s refused: %s", s->name, who, err.msg);
         job_unschedule(m, j);
         reply_error(m, from, "the master cannot journal the job: %s", err.msg);
         return;
@@ -167,6 +282,7 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     reply(m, from, &ok);
     sched_job_info_t info;
     (void)sched_job_info(m->sched, id, &info);
+    const proto_settings_t *set = &s->settings;
     char rules[96] = "";
     if (set->target_error > 0)
         snprintf(rules, sizeof rules, ", target error %g", set->target_error);
@@ -175,17 +291,47 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
                  set->time_limit);
     master_log(m,
                "job %llu '%s' submitted by %s: %dx%d, %d spp, %d buckets, %d tiles x %d passes, "
-               "%u photon batches, scene %.12s%s%s",
+               "%u photon batches, scene %.12s loaded in %.2f s (off the loop)%s",
                (unsigned long long)id, j->name, who, j->scene.xres, j->scene.yres, j->scene.spp,
-               j->scene.grid.n, info.ntiles, info.npasses, info.photon_batches, hash,
-               staged ? "" : " (stored already)", rules);
+               j->scene.grid.n, info.ntiles, info.npasses, info.photon_batches, s->hash,
+               s->load_s, rules);
+}
+
+void on_client_loads(master_t *m, double now)
+{
+    submission_t *s;
+    while ((s = loader_done(m->loader))) {
+        for (size_t i = 0; i < m->nloading; i++)
+            if (m->loading[i] == s) {
+                memmove(&m->loading[i], &m->loading[i + 1],
+                        (m->nloading - i - 1) * sizeof *m->loading);
+                m->nloading--;
+                break;
+            }
+        submission_finish(m, s, now);
+        on_client_submission_free(s);
+    }
+    /* The clients still waiting hear that the master works on it: their wait starts again
+     * (client_rpc.h), so a long load never looks like a dead master. */
+    for (size_t i = 0; i < m->nloading; i++) {
+        submission_t *p = m->loading[i];
+        if (now - p->last_progress < PROGRESS_S)
+            continue;
+        p->last_progress = now;
+        char text[200];
+        snprintf(text, sizeof text, "the master is loading the scene (%.0f s so far%s)",
+                 now - p->accepted, i > 0 ? ", after the scenes submitted before it" : "");
+        proto_msg_t pm = {.type = PROTO_PROGRESS,
+                          .progress = {.message = text, .elapsed = now - p->accepted}};
+        reply(m, &p->peer, &pm);
+    }
 }
 
 /* opts->max_jobs: each unfinished job holds its framebuffer and scheduler state, so a client
  * cannot make the master hold them without bound (docs/security.md). */
 static bool submit_room(master_t *m, const proto_peer_t *from, const proto_msg_t *msg)
 {
-    size_t open = 0;
+    size_t open = m->nloading; /* a scene loading becomes a job */
     for (size_t i = 0; i < m->njobs; i++)
         open += !job_over(m->jobs[i]);
     if (open < m->opts->max_jobs)

@@ -10,6 +10,18 @@
 
 void on_client_message(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now);
 
+/* How often a client whose scene is loading hears PROGRESS (well inside any client's wait). */
+#define PROGRESS_S 2.0
+
+/* Finishes the submissions whose scene the loader has loaded (or refused): each is scheduled,
+ * journaled and answered SUBMITTED, or answered with the load's error; and sends a PROGRESS
+ * to each client whose scene is still loading, every PROGRESS_S. Call it every turn. */
+void on_client_loads(master_t *m, double now);
+
+/* Frees a submission the loader hands back without it being finished (loader_destroy's
+ * release): its staged folder is removed. */
+void on_client_submission_drop(void *arg);
+
 /* Answers the STATUS long polls whose job is over or whose wait ran out; returns the time
  * until the next deadline in ms (at most POLL_MS), for the poll. */
 int on_client_answer_waiters(master_t *m, double now);

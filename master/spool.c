@@ -247,25 +247,33 @@ int spool_scene_stage(spool_t *self, const proto_bundle_t *bundle, const char *h
     return 0;
 }
 
-int spool_scene_commit(spool_t *self, const proto_bundle_t *bundle, const char *hash,
-                       const char *dir, bool staged, const proto_limits_t *limits, err_t *err)
+int spool_scene_encode(const proto_bundle_t *bundle, const char *hash,
+                       const proto_limits_t *limits, uint8_t **out, size_t *size, err_t *err)
+{
+    if (check_hash(hash, err) < 0)
+        return -1;
+    proto_msg_t m = {.type = PROTO_SCENE, .scene = {.bundle = *bundle}};
+    memcpy(m.scene.scene, hash, PROTO_HASH_HEX + 1);
+    msgpack_sbuffer buf;
+    msgpack_sbuffer_init(&buf);
+    if (proto_encode(&m, limits, &buf, err) < 0) {
+        msgpack_sbuffer_destroy(&buf);
+        return err_prefix(err, "storing scene %.12s: ", hash);
+    }
+    *out = (uint8_t *)buf.data; /* msgpack's sbuffer is malloc'ed: the caller frees it */
+    *size = buf.size;
+    return 0;
+}
+
+int spool_scene_commit(const spool_t *self, const uint8_t *scene_msg, size_t size,
+                       const char *hash, const char *dir, bool staged, err_t *err)
 {
     if (check_hash(hash, err) < 0)
         return -1;
     char final[PATH_MAX], file[PATH_MAX];
     scene_paths(self, hash, final, file);
-    if (access(file, F_OK) < 0) {
-        proto_msg_t m = {.type = PROTO_SCENE, .scene = {.bundle = *bundle}};
-        memcpy(m.scene.scene, hash, PROTO_HASH_HEX + 1);
-        msgpack_sbuffer buf;
-        msgpack_sbuffer_init(&buf);
-        int rc = proto_encode(&m, limits, &buf, err);
-        if (rc == 0)
-            rc = files_write_atomic(file, buf.data, buf.size, true, err);
-        msgpack_sbuffer_destroy(&buf);
-        if (rc < 0)
-            return err_prefix(err, "storing scene %.12s: ", hash);
-    }
+    if (access(file, F_OK) < 0 && files_write_atomic(file, scene_msg, size, true, err) < 0)
+        return err_prefix(err, "storing scene %.12s: ", hash);
     if (staged && rename(dir, final) < 0) {
         int e = errno;
         /* Another submission of the same bundle got there first: keep that copy. */

@@ -35,10 +35,16 @@ uint64_t spool_last_job_id(const spool_t *self);
 int spool_scene_stage(spool_t *self, const proto_bundle_t *bundle, const char *hash, char *dir,
                       size_t size, bool *staged, err_t *err);
 
-/* Stores scenes/<hash>.scene (if missing) and, for a staged folder, renames it to
- * scenes/<hash>/. limits bound the SCENE message as proto_encode checks it (NULL: defaults). */
-int spool_scene_commit(spool_t *self, const proto_bundle_t *bundle, const char *hash,
-                       const char *dir, bool staged, const proto_limits_t *limits, err_t *err);
+/* The SCENE message workers are sent for a bundle, encoded into *out (free with free()), for
+ * spool_scene_commit. limits bound it as proto_encode checks it (NULL: defaults). */
+int spool_scene_encode(const proto_bundle_t *bundle, const char *hash,
+                       const proto_limits_t *limits, uint8_t **out, size_t *size, err_t *err);
+
+/* Stores the encoded SCENE message as scenes/<hash>.scene (if missing) and, for a staged
+ * folder, renames it to scenes/<hash>/. Touches only files: safe on the loader's thread
+ * (loader.h) while the master thread stages other bundles. */
+int spool_scene_commit(const spool_t *self, const uint8_t *scene_msg, size_t size,
+                       const char *hash, const char *dir, bool staged, err_t *err);
 
 /* Removes a staged folder (harmless for a committed one: it does nothing unless staged). */
 void spool_scene_discard(spool_t *self, const char *dir, bool staged);

@@ -39,6 +39,7 @@ static const char *const TYPE_NAMES[PROTO_TYPE_COUNT] = {
     [PROTO_STORE_REQUEST] = "STORE_REQUEST",
     [PROTO_STORE] = "STORE",
     [PROTO_REFINE] = "REFINE",
+    [PROTO_PROGRESS] = "PROGRESS",
 };
 static const char *const KIND_NAMES[PROTO_KIND_COUNT] = {
     [PROTO_KIND_NONE] = "none", [PROTO_KIND_CAMERA_TILE] = "camera_tile",
@@ -895,6 +896,11 @@ static const field_t REFINE_FIELDS[] = {
     {F("photons", FT_U64, M(refine.photons)), .check = ck_photon_count},
 };
 
+static const field_t PROGRESS_FIELDS[] = {
+    {F("msg", FT_STR, M(progress.message)), .check = ck_text},
+    {F("secs", FT_FLOAT, M(progress.elapsed)), .check = ck_seconds},
+};
+
 /* HEARTBEAT, JOBS and WORKERS have no fields: their entries stay zero. */
 #define BODY(fields, rule) SHAPE(proto_msg_t, fields, rule)
 static const shape_t BODIES[PROTO_TYPE_COUNT] = {
@@ -919,6 +925,7 @@ static const shape_t BODIES[PROTO_TYPE_COUNT] = {
     [PROTO_STORE_REQUEST] = {BODY(STORE_REQUEST_FIELDS, NULL)},
     [PROTO_STORE] = {BODY(STORE_FIELDS, ck_store_hash)},
     [PROTO_REFINE] = {BODY(REFINE_FIELDS, NULL)},
+    [PROTO_PROGRESS] = {BODY(PROGRESS_FIELDS, NULL)},
 };
 
 /* The body of a message type, NULL for none (PROTO_NONE, out of range). */

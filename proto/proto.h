@@ -56,6 +56,8 @@ typedef enum proto_type {
     PROTO_STORE_REQUEST, /* worker -> master: send me this photon store */
     PROTO_STORE,         /* master -> worker: a job's merged photon store */
     PROTO_REFINE,        /* client -> master: more photons for a job; answered by SUBMITTED */
+    PROTO_PROGRESS,      /* master -> client: still working on the request (a scene loading);
+                          * its answer follows */
     PROTO_TYPE_COUNT
 } proto_type_t;
 
@@ -289,6 +291,10 @@ typedef struct proto_msg {
             uint64_t job;
             uint64_t photons; /* photons to add to the job's photon pass, > 0 */
         } refine;             /* client -> master */
+        struct {
+            const char *message; /* what the master is doing, for the user */
+            double elapsed;      /* seconds since it began, finite, >= 0 */
+        } progress;              /* master -> client, before the answer to a request */
     };
     struct proto_owned *owned; /* private: what proto_decode allocated */
 } proto_msg_t;

@@ -4,6 +4,8 @@
 #ifndef PRISMFARM_OVERRIDES_H
 #define PRISMFARM_OVERRIDES_H
 
+#include "budget.h"
+
 /* Command-line overrides of the scene file; 0 / NULL / -1 leave the file's value. */
 typedef struct scene_overrides {
     int spp;
@@ -11,6 +13,9 @@ typedef struct scene_overrides {
     long long seed;         /* -1: keep */
     const char *integrator; /* "path", "simplepath", "whitted" (scenefile/integrators.h) */
     const char *dispersion; /* "hero", "fanout" */
+    /* What a scene from an untrusted source may make the loader build (budget.h): checked
+     * by scene_load_file_confined; NULL: no budget. */
+    const scene_budget_t *budget;
 } scene_overrides_t;
 
 #endif

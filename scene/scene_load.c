@@ -144,7 +144,26 @@ typedef struct loader {
     scene_t *sc;
     texture_t **tex;    /* by desc texture index (borrowed from the scene) */
     int *area_light_of; /* unused */
+    const scene_budget_t *budget; /* the overrides' (budget.h); NULL: none */
+    uint64_t texels;              /* image pixels read so far, against it */
 } loader_t;
+
+/* budget.h: an image of w x h pixels, decoded but not yet made a texture (its uplift
+ * coefficients and pyramid, the larger allocation). */
+static int budget_texels(loader_t *L, int w, int h, err_t *err)
+{
+    if (!L->budget || !L->budget->texels)
+        return 0;
+    uint64_t n = (uint64_t)w * (uint64_t)h;
+    if (n <= L->budget->texels - L->texels) {
+        L->texels += n;
+        return 0;
+    }
+    return err_set(err,
+                   "this %dx%d image takes the scene over %llu texels, the master's budget "
+                   "(prismfarm master --max-texels)",
+                   w, h, (unsigned long long)L->budget->texels);
+}
 
 static const texture_t *spectrum_input(loader_t *L, const scene_spectrum_input_t *in, spec_use_t use,
                                        err_t *err)
@@ -293,7 +312,7 @@ static int read_image(const char *path, const encoding_t *enc, int *w, int *h, f
  * reads pbrt-v4's MIPMap::Bilerp<Float>: the alpha channel of a file whose alpha is not all 1,
  * else the mean of R, G and B; then scale and invert (max(0, 1 - v)). Scale and invert apply
  * per texel, which equals pbrt-v4's after-filter rule except at a "black" edge with invert. */
-static texture_t *image_texture(const scene_texture_t *t, err_t *err)
+static texture_t *image_texture(loader_t *L, const scene_texture_t *t, err_t *err)
 {
     texture_image_opts_t o = texture_image_opts_default();
     o.uscale = t->uscale;
@@ -310,14 +329,17 @@ static texture_t *image_texture(const scene_texture_t *t, err_t *err)
     o.grey = t->type == SCENE_TEXTURE_FLOAT;
     encoding_t enc;
     if (encoding_parse(t->image.encoding, &enc)) {
-        pbrt_error(err, t->loc, "imagemap encoding \"%s\" is not supported (\"sRGB\", \"linear\" or \"gamma G\")",
-                   t->image.encoding);
+        err_set(err, "imagemap encoding \"%s\" is not supported (\"sRGB\", \"linear\" or \"gamma G\")",
+                t->image.encoding);
         return NULL;
     }
     int w, h;
     float *rgb, *alpha;
-    if (read_image(t->image.filename, &enc, &w, &h, &rgb, &alpha, err)) {
-        err_prefix(err, "%s:%d:%d: ", t->loc.file, t->loc.line, t->loc.col);
+    if (read_image(t->image.filename, &enc, &w, &h, &rgb, &alpha, err))
+        return NULL; /* the caller names the texture and its line */
+    if (budget_texels(L, w, h, err)) {
+        free(rgb);
+        free(alpha);
         return NULL;
     }
     size_t n = (size_t)w * (size_t)h;
@@ -360,6 +382,12 @@ static const texture_t *normal_map(loader_t *L, const scene_material_t *dm, err_
         return NULL;
     }
     free(alpha);
+    if (budget_texels(L, w, h, err)) {
+        err_prefix(err, "%s:%d:%d: normalmap: ", dm->normalmap_loc.file, dm->normalmap_loc.line,
+                   dm->normalmap_loc.col);
+        free(rgb);
+        return NULL;
+    }
     texture_t *t = texture_new_normalmap(rgb, w, h, err);
     free(rgb);
     if (!t || scene_own_texture(L->sc, t, err))
@@ -409,11 +437,16 @@ static int load_textures(loader_t *L, err_t *err)
             break;
         }
         case SCENE_TEX_IMAGEMAP:
-            made = image_texture(t, err);
+            made = image_texture(L, t, err);
             break;
         }
-        if (!made || scene_own_texture(L->sc, made, err))
-            return made ? -1 : pbrt_error(err, t->loc, "texture \"%s\": %s", t->name, err ? err->msg : "");
+        if (!made || scene_own_texture(L->sc, made, err)) {
+            if (made)
+                return -1;
+            char why[sizeof err->msg]; /* err->msg cannot be its own argument */
+            snprintf(why, sizeof why, "%s", err->msg);
+            return pbrt_error(err, t->loc, "texture \"%s\": %s", t->name, why);
+        }
         L->tex[i] = made;
     }
     return 0;
@@ -653,6 +686,12 @@ static const envmap_t *load_envmap(loader_t *L, const scene_light_t *dl, err_t *
         rc = image_pfm_read(path, &w, &h, &rgb, err);
     } else {
         rc = image_stb_read(path, &w, &h, &rgb, err);
+    }
+    if (rc == 0 && budget_texels(L, w, h, err)) {
+        free(rgb);
+        return err_prefix(err, "%s:%d:%d: LightSource \"infinite\": ", dl->filename_loc.file,
+                          dl->filename_loc.line, dl->filename_loc.col),
+               NULL;
     }
     envmap_t *e = rc == 0 ? envmap_new(rgb, w, h, path, err) : NULL;
     free(rgb);
@@ -1164,6 +1203,17 @@ static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
     rs->max_component = d->film.maxcomponentvalue;
     if (spectral_grid_init(&rs->grid, d->film.nbuckets, d->film.lambda_min, d->film.lambda_max, err))
         return err_prefix(err, "%s:%d:%d: Film: ", d->film.loc.file, d->film.loc.line, d->film.loc.col);
+    /* budget.h: the merged image is the master's largest allocation; checked before any
+     * geometry or texture is built. */
+    uint64_t image = scene_budget_image_bytes((uint64_t)rs->xres, (uint64_t)rs->yres,
+                                              (uint64_t)rs->grid.n);
+    if (L->budget && L->budget->image_bytes && image > L->budget->image_bytes)
+        return pbrt_error(err, d->film.loc,
+                          "Film: the merged image of %dx%d pixels and %d buckets takes %.1f MiB, "
+                          "over the master's budget of %.0f MiB (prismfarm master "
+                          "--max-image-mb)",
+                          rs->xres, rs->yres, rs->grid.n, (double)image / 1048576.0,
+                          (double)L->budget->image_bytes / 1048576.0);
     rs->film_spectral = d->film.type == SCENE_FILM_SPECTRAL;
     snprintf(rs->filename, sizeof rs->filename, "%s", d->film.filename ? d->film.filename : "");
     rs->spp = ov && ov->spp > 0 ? ov->spp : d->sampler.pixelsamples;
@@ -1178,7 +1228,7 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
     scene_t *sc = scene_new(err);
     if (!sc)
         return NULL;
-    loader_t L = {.desc = desc, .sc = sc};
+    loader_t L = {.desc = desc, .sc = sc, .budget = ov ? ov->budget : NULL};
     L.tex = calloc(desc->ntextures ? desc->ntextures : 1, sizeof *L.tex);
     int r = L.tex ? 0 : err_set(err, "out of memory");
     if (!r && (!(sc->warnings = warnings_new(err)) || warnings_copy(sc->warnings, desc->warnings)))
@@ -1229,7 +1279,7 @@ scene_t *scene_load_file(const char *path, const scene_overrides_t *ov, err_t *e
 scene_t *scene_load_file_confined(const char *path, const char *root, const scene_overrides_t *ov,
                                   err_t *err)
 {
-    scene_desc_t *d = pbrt_parse_file_confined(path, root, err);
+    scene_desc_t *d = pbrt_parse_file_confined(path, root, ov ? ov->budget : NULL, err);
     if (!d)
         return NULL;
     scene_t *s = scene_load(d, ov, err);

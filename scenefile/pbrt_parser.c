@@ -117,6 +117,8 @@ typedef struct parser {
      * normalised, and its realpath; both NULL when unconfined. */
     char *root_lex, *root_real;
     size_t bytes_charged; /* confined: bytes read and decoded so far (PBRT_TOTAL_BYTES_MAX) */
+    const scene_budget_t *budget; /* NULL: none (budget.h) */
+    uint64_t nshapes, ntriangles; /* counted against it */
     /* The other place locate() looked for the last name it resolved (the main file's folder),
      * when the name was found in neither: "" otherwise. For "cannot open" messages. */
     char also[512];
@@ -2263,6 +2265,32 @@ static double *copy_doubles(parser_t *P, const double *src, size_t n)
 }
 
 /* Hands a mesh made here (PLY, subdivision, tessellation) to the shape and the scene. */
+/* budget.h: one more shape or object instance. */
+static int budget_shape(parser_t *P, const char *what, pbrt_loc_t loc)
+{
+    if (!P->budget || !P->budget->shapes || ++P->nshapes <= P->budget->shapes)
+        return 0;
+    return pbrt_error(P->err, loc,
+                      "%s: the scene has more than %llu shapes and object instances, the "
+                      "master's budget (prismfarm master --max-shapes)",
+                      what, (unsigned long long)P->budget->shapes);
+}
+
+/* budget.h: n more triangles (or patches). */
+static int budget_triangles(parser_t *P, uint64_t n, pbrt_loc_t loc)
+{
+    if (!P->budget || !P->budget->triangles)
+        return 0;
+    if (n <= P->budget->triangles - P->ntriangles && P->ntriangles <= P->budget->triangles) {
+        P->ntriangles += n;
+        return 0;
+    }
+    return pbrt_error(P->err, loc,
+                      "this shape's %llu triangles take the scene over %llu triangles, the "
+                      "master's budget (prismfarm master --max-triangles)",
+                      (unsigned long long)n, (unsigned long long)P->budget->triangles);
+}
+
 static int adopt_mesh(parser_t *P, scene_shape_t *s, mesh_data_t *md)
 {
     scene_mesh_t *m = &s->mesh;
@@ -2278,7 +2306,7 @@ static int adopt_mesh(parser_t *P, scene_shape_t *s, mesh_data_t *md)
     rc |= scene_desc_adopt(P->scene, md->uv, P->err);
     rc |= scene_desc_adopt(P->scene, md->indices, P->err);
     memset(md, 0, sizeof *md);
-    return rc ? -1 : 0;
+    return rc ? -1 : budget_triangles(P, m->ntriangles, s->loc);
 }
 
 /* trianglemesh (3 indices per triangle) or bilinearmesh (4 per patch: p00 p10 p01 p11, made
@@ -2360,6 +2388,8 @@ static int mesh_from_params(parser_t *P, params_t *ps, scene_shape_t *s, bool bi
     if (puv && !(m->uv = copy_doubles(P, puv->numbers, puv->count)))
         return -1;
     m->ntriangles = bilinear ? 2 * nprims : nprims;
+    if (budget_triangles(P, m->ntriangles, loc) != 0)
+        return -1;
     uint32_t *idx = scene_desc_alloc(P->scene, m->ntriangles * 3 * sizeof *idx, P->err);
     if (!idx)
         return -1;
@@ -2473,6 +2503,14 @@ static int loopsubdiv_shape(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_lo
         }
         idx[i] = (uint32_t)pi->numbers[i];
     }
+    /* Each level makes four triangles of one: counted before anything is subdivided. */
+    uint64_t after = pi->count / 3;
+    for (int l = 0; l < levels && after <= UINT64_MAX / 4; l++)
+        after *= 4;
+    if (P->budget && P->budget->triangles && after > P->budget->triangles - P->ntriangles) {
+        free(idx);
+        return budget_triangles(P, after, loc);
+    }
     mesh_data_t md;
     err_t e;
     int rc = loopsubdiv_mesh(pp->numbers, nv, idx, pi->count / 3, levels, &md, &e);
@@ -2511,6 +2549,8 @@ static int do_shape(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
                           "area lights are not supported inside ObjectBegin "
                           "(AreaLightSource at line %d)",
                           P->scene->area_lights[P->gs.area_light].loc.line);
+    if (budget_shape(P, "Shape", loc) != 0)
+        return -1;
     int idx = scene_desc_add_shape(P->scene, in_object, P->err);
     if (idx < 0)
         return -1;
@@ -2763,7 +2803,8 @@ static int do_object_instance(parser_t *P, pbrt_loc_t loc)
     if (P->object >= 0)
         return pbrt_error(P->err, loc, "ObjectInstance inside ObjectBegin \"%s\" is not supported",
                           P->scene->objects[P->object].name);
-    if (check_transform(P, &P->gs.ctm, "ObjectInstance", loc) != 0)
+    if (check_transform(P, &P->gs.ctm, "ObjectInstance", loc) != 0 ||
+        budget_shape(P, "ObjectInstance", loc) != 0)
         return -1;
     int idx = scene_desc_add_instance(P->scene, P->err);
     if (idx < 0)
@@ -3282,10 +3323,11 @@ static int finish(parser_t *P)
 }
 
 static scene_desc_t *run(const char *name, const char *text, size_t len, const char *root,
-                         warnings_t *errors, err_t *err)
+                         const scene_budget_t *budget, warnings_t *errors, err_t *err)
 {
     parser_t P = {0};
     P.err = err;
+    P.budget = budget;
     P.errors = errors;
     if (root) {
         P.root_real = realpath(root, NULL);
@@ -3352,22 +3394,23 @@ static scene_desc_t *run(const char *name, const char *text, size_t len, const c
 
 scene_desc_t *pbrt_parse_file(const char *path, err_t *err)
 {
-    return run(path, NULL, 0, NULL, NULL, err);
+    return run(path, NULL, 0, NULL, NULL, NULL, err);
 }
 
 scene_desc_t *pbrt_parse_file_check(const char *path, warnings_t *errors, err_t *err)
 {
-    return run(path, NULL, 0, NULL, errors, err);
+    return run(path, NULL, 0, NULL, NULL, errors, err);
 }
 
-scene_desc_t *pbrt_parse_file_confined(const char *path, const char *root, err_t *err)
+scene_desc_t *pbrt_parse_file_confined(const char *path, const char *root,
+                                       const scene_budget_t *budget, err_t *err)
 {
     if (!root)
         return err_set(err, "a confined parse needs the scene's folder"), NULL;
-    return run(path, NULL, 0, root, NULL, err);
+    return run(path, NULL, 0, root, budget, NULL, err);
 }
 
 scene_desc_t *pbrt_parse_string(const char *text, size_t len, const char *name, err_t *err)
 {
-    return run(name ? name : "<string>", text ? text : "", text ? len : 0, NULL, NULL, err);
+    return run(name ? name : "<string>", text ? text : "", text ? len : 0, NULL, NULL, NULL, err);
 }

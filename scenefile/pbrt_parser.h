@@ -26,6 +26,7 @@
 #ifndef PRISMFARM_PBRT_PARSER_H
 #define PRISMFARM_PBRT_PARSER_H
 
+#include "budget.h"
 #include "err.h"
 #include "scene_desc.h"
 #include "warnings.h"
@@ -69,9 +70,11 @@ scene_desc_t *pbrt_parse_file_check(const char *path, warnings_t *errors, err_t 
  * it is opened, so a FIFO, a device or a file elsewhere is never opened. Anything else fails
  * with "file:line:col: \"NAME\" is outside the scene's folder" or "... \"NAME\" is not a
  * regular file" (NAME as the scene writes it; no location for the main file). A file over
- * PBRT_FILE_BYTES_MAX or a scene over PBRT_TOTAL_BYTES_MAX fails too. The imagemap file
- * names in the result are the checked real paths. */
-scene_desc_t *pbrt_parse_file_confined(const char *path, const char *root, err_t *err);
+ * PBRT_FILE_BYTES_MAX or a scene over PBRT_TOTAL_BYTES_MAX fails too, and so does one over
+ * budget's shapes or triangles (budget.h; NULL: no budget), at the directive that passes it.
+ * The imagemap file names in the result are the checked real paths. */
+scene_desc_t *pbrt_parse_file_confined(const char *path, const char *root,
+                                       const scene_budget_t *budget, err_t *err);
 
 /* Parses scene text held in memory; name is used in messages and as the base for relative
  * file names (e.g. "tests/data/scenes/x.pbrt" resolves "inc.pbrt" in tests/data/scenes). The

@@ -217,7 +217,8 @@ static net_t *connect_to(fx_t *f, const char *endpoint)
     return n;
 }
 
-/* The next message other than HEARTBEAT within the deadline, heartbeating meanwhile. */
+/* The next message other than HEARTBEAT (and PROGRESS, a scene still loading) within the
+ * deadline, heartbeating meanwhile. */
 static void recv_msg(net_t *n, proto_msg_t *m, bool heartbeat)
 {
     double end = clock_now_s() + test_wait_s(), last = 0;
@@ -233,7 +234,7 @@ static void recv_msg(net_t *n, proto_msg_t *m, bool heartbeat)
             continue;
         if (r)
             fail_msg("recv: %s", err.msg);
-        if (m->type != PROTO_HEARTBEAT)
+        if (m->type != PROTO_HEARTBEAT && m->type != PROTO_PROGRESS)
             return;
         proto_msg_free(m);
     }

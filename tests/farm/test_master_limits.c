@@ -21,6 +21,7 @@
 #include <signal.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 /* A master (keys, no workers) with extra options, NULL-terminated after the first; its client
@@ -146,6 +147,90 @@ static void test_max_message(void **state)
     testutil_stop(master, SIGTERM);
 }
 
+/* Budgets (issue 16, item 4): a scene over --max-shapes is refused at the line that passes it,
+ * before the master builds it, with the option named; the master goes on serving, and a scene
+ * within the budget is taken. */
+static void test_scene_budget(void **state)
+{
+    (void)state;
+    char cep[256];
+    pid_t master = start_master("budget", cep, "--max-shapes", "40", NULL);
+    const char *dir = testutil_scratch("budget-scene");
+    assert_int_equal(mkdir(dir, 0700), 0);
+    char path[700];
+    snprintf(path, sizeof path, "%s/spheres.pbrt", dir);
+    FILE *f = fopen(path, "w");
+    assert_non_null(f);
+    fputs("Film \"rgb\" \"integer xresolution\" [ 8 ] \"integer yresolution\" [ 8 ]\n"
+          "WorldBegin\nLightSource \"point\" \"rgb I\" [ 1 1 1 ]\n",
+          f);
+    for (int i = 0; i < 60; i++)
+        fprintf(f, "Shape \"sphere\" \"float radius\" [ %d ]\n", i + 1);
+    assert_int_equal(fclose(f), 0);
+    const run_t *r = run("submit", path, "--master", cep, NULL);
+    assert_int_equal(r->status, 1);
+    /* Line 3 holds the light; shape 41 is on line 44. */
+    expect_in(r->err, "spheres.pbrt:44:");
+    expect_in(r->err, "more than 40 shapes and object instances, the master's budget (prismfarm "
+                      "master --max-shapes)");
+    r = run("submit", "data/render/tiny.pbrt", "--master", cep, NULL);
+    if (r->status != 0)
+        fail_msg("a scene within the budget: %s", r->err);
+    assert_string_equal(r->out, "1\n");
+    testutil_stop(master, SIGTERM);
+}
+
+/* A scene that takes seconds to load (issue 16, item 4; issue 15: the master blocked on it and
+ * clients gave up after 60 s): it loads off the master's loop, so another client's request is
+ * answered while it loads; the submitting client hears PROGRESS every 2 s instead of waiting
+ * in silence, and gets its job once the scene is loaded. A loopsubdiv of 9 levels over a
+ * tetrahedron (1 048 576 triangles) takes seconds in the sanitizer build; where the machine
+ * loads it faster than the 2 s between PROGRESS messages, the parts that need a long load are
+ * reported as not exercised rather than failed. */
+static void test_slow_load(void **state)
+{
+    (void)state;
+    char cep[256];
+    pid_t master = start_master("slow", cep, NULL);
+    char path[700], slog[700], mlog[700];
+    snprintf(path, sizeof path, "%s", testutil_scratch("slow.pbrt"));
+    snprintf(slog, sizeof slog, "%s", testutil_scratch("slow-submit.log"));
+    snprintf(mlog, sizeof mlog, "%s/slow.log", testutil_scratch_dir());
+    testutil_write_text(path,
+                        "Film \"rgb\" \"integer xresolution\" [ 8 ] \"integer yresolution\" [ 8 ]\n"
+                        "WorldBegin\nLightSource \"point\" \"rgb I\" [ 1 1 1 ]\n"
+                        "Shape \"loopsubdiv\" \"integer levels\" [ 9 ]\n"
+                        "  \"point3 P\" [ 1 1 1  -1 -1 1  -1 1 -1  1 -1 -1 ]\n"
+                        "  \"integer indices\" [ 0 1 2  0 3 1  0 2 3  1 3 2 ]\n",
+                        0644);
+    pid_t submit = testutil_spawn(slog, "submit", path, "--master", cep, NULL);
+    testutil_wait_file_has(mlog, "loading off the loop");
+    const run_t *r = run("jobs", "--master", cep, "--json", NULL);
+    if (r->status != 0)
+        testutil_fail_quoting(mlog, "jobs while a scene loads: %s\nmaster log:", r->err);
+    int st;
+    bool answered_during_load = waitpid(submit, &st, WNOHANG) == 0;
+    testutil_wait_file_has(mlog, "loaded in ");
+    st = testutil_stop(submit, 0); /* signal 0: only waits for its exit */
+    assert_true(WIFEXITED(st));
+    if (WEXITSTATUS(st) != 0)
+        testutil_fail_quoting(slog, "the slow submission failed; its stderr:");
+    char *text = testutil_slurp(mlog, NULL);
+    assert_non_null(text);
+    const char *at = strstr(text, "loaded in ");
+    double load_s = at ? atof(at + strlen("loaded in ")) : 0;
+    free(text);
+    print_message("the scene loaded in %.2f s; jobs answered %s the load\n", load_s,
+                  answered_during_load ? "during" : "after");
+    if (load_s > 3.0) {
+        assert_true(answered_during_load);
+        testutil_expect_file_has(slog, "prismfarm submit: the master is loading the scene (");
+    } else {
+        print_message("a load under 3 s: PROGRESS not exercised on this machine\n");
+    }
+    testutil_stop(master, SIGTERM);
+}
+
 /* A connection flood (issue 16, item 12: 1100 idle connections against the 1024 file limit
  * locked every client out): one host's connections beyond --max-connections-per-host are shut
  * down at once, refusals are logged at most 20 per 10 s with the number held back, and a client
@@ -221,6 +306,8 @@ int main(void)
         cmocka_unit_test_teardown(test_max_jobs, testutil_kill_children),
         cmocka_unit_test_teardown(test_bundle_limits, testutil_kill_children),
         cmocka_unit_test_teardown(test_max_message, testutil_kill_children),
+        cmocka_unit_test_teardown(test_scene_budget, testutil_kill_children),
+        cmocka_unit_test_teardown(test_slow_load, testutil_kill_children),
         cmocka_unit_test_teardown(test_connection_flood, testutil_kill_children),
         cmocka_unit_test(test_command_line),
     };

@@ -49,7 +49,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (fuzz_fixture_write(g_scene, data, size) != 0)
         abort();
     err_t err = {{0}};
-    scene_desc_t *desc = pbrt_parse_file_confined(g_scene, g_dir, &err);
+    /* The master's default budget: its refusals are paths the fuzzer must reach too. */
+    const scene_budget_t budget = scene_budget_default();
+    scene_desc_t *desc = pbrt_parse_file_confined(g_scene, g_dir, &budget, &err);
     if (!desc) {
         expect_message(&err, "pbrt_parse_file_confined");
         return 0;

@@ -230,6 +230,9 @@ static int seeds_list(const seeds_t *s, seed_t out[NSEEDS_MAX])
     m = SEED("refine", PROTO_REFINE);
     m->refine.job = 1;
     m->refine.photons = 1000000;
+    m = SEED("progress", PROTO_PROGRESS);
+    m->progress.message = "the master is loading the scene (2 s so far)";
+    m->progress.elapsed = 2.0;
 #undef SEED
     return n;
 }

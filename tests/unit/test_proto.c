@@ -188,6 +188,10 @@ static proto_msg_t sample(proto_type_t t)
         m.refine.job = 12;
         m.refine.photons = 5000000;
         break;
+    case PROTO_PROGRESS:
+        m.progress.message = "the master is loading the scene (4 s so far)";
+        m.progress.elapsed = 4.25;
+        break;
     case PROTO_STORE:
         m.store.data = g_png;
         m.store.size = sizeof g_png;
@@ -397,6 +401,10 @@ static void assert_msg_equal(const proto_msg_t *a, const proto_msg_t *b)
     case PROTO_REFINE:
         assert_int_equal(a->refine.job, b->refine.job);
         assert_int_equal(a->refine.photons, b->refine.photons);
+        break;
+    case PROTO_PROGRESS:
+        assert_string_equal(a->progress.message, b->progress.message);
+        assert_true(a->progress.elapsed == b->progress.elapsed);
         break;
     case PROTO_STORE:
         assert_string_equal(a->store.store, b->store.store);

@@ -150,7 +150,7 @@ typedef struct parse_job {
 static int job_parse(const void *arg, err_t *err)
 {
     const parse_job_t *j = arg;
-    scene_desc_t *d = pbrt_parse_file_confined(j->path, j->root, err);
+    scene_desc_t *d = pbrt_parse_file_confined(j->path, j->root, NULL, err);
     if (!d)
         return -1;
     scene_desc_destroy(&d);
@@ -491,7 +491,7 @@ static void test_legitimate_scene_loads(void **state)
     /* The root may be written with a trailing "/." : it is normalised. */
     snprintf(root, sizeof root, "%s/.", fx->bundle);
     err_t err = {{0}};
-    scene_desc_t *d = pbrt_parse_file_confined(main_path, root, &err);
+    scene_desc_t *d = pbrt_parse_file_confined(main_path, root, NULL, &err);
     if (!d)
         fail_msg("the legitimate scene did not parse confined: %s", err.msg);
     /* main, sub/inc, sub/deeper/more, tex/t.png, meshes/tri.ply, alias.pbrt. */

@@ -268,7 +268,7 @@ static void test_gzip(void **state)
     write_gz(inc, geo, strlen(geo));
     testutil_write_text(main_path, "WorldBegin\nInclude \"geo.pbrt.gz\"\n", 0644);
     for (int confined = 0; confined < 2; confined++) {
-        scene_desc_t *s = confined ? pbrt_parse_file_confined(main_path, dir, &err)
+        scene_desc_t *s = confined ? pbrt_parse_file_confined(main_path, dir, NULL, &err)
                                    : pbrt_parse_file(main_path, &err);
         if (!s)
             fail_msg("%s", err.msg);
