@@ -325,6 +325,16 @@ static void release_photons(master_t *m, mjob_t *j)
     j->photons.store_ready = false;
 }
 
+void job_cancel(master_t *m, mjob_t *j, double now)
+{
+    err_t err;
+    if (j->outputs.waiting)
+        job_give_up_outputs(m, j, now);
+    else if (j->sched.known && sched_cancel_job(m->sched, j->id, &err) < 0)
+        master_log(m, "cancel: %s", err.msg);
+    job_refresh(m, j, now);
+}
+
 void job_refresh(master_t *m, mjob_t *j, double now)
 {
     sched_job_info_t info;

@@ -153,6 +153,9 @@ typedef struct master {
     double heartbeat_s, last_heartbeat;
     waiter_t waiters[MAX_WAITERS];
     size_t nwaiters;
+    /* The dashboard (--http, master/dash_view.h) and the log lines it shows; NULL without. */
+    struct dash_view *dash;
+    struct logbook *logbook;
 } master_t;
 
 /* Done, failed or cancelled: what a STATUS long poll waits for. */

@@ -567,14 +567,9 @@ static void on_cancel(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "%s", why);
         return;
     }
-    err_t err;
-    if (j->outputs.waiting)
-        job_give_up_outputs(m, j, now);
-    else if (j->sched.known && sched_cancel_job(m->sched, j->id, &err) < 0)
-        master_log(m, "cancel: %s", err.msg);
     access_audit(m, from, "cancelled job %llu '%s' (%s)", (unsigned long long)j->id, j->name,
                  j->sched.known ? "running or queued" : "already over: nothing to stop");
-    job_refresh(m, j, now);
+    job_cancel(m, j, now);
     reply_jobs(m, from, PROTO_STATUS_REPLY, j, now);
 }
 
