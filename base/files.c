@@ -4,6 +4,7 @@
 #include <fcntl.h>
 #include <limits.h>
 #include <stdio.h>
+#include <dirent.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
@@ -174,4 +175,36 @@ int files_read(const char *path, size_t max, uint8_t **data, size_t *size, err_t
     *data = buf;
     *size = n;
     return 0;
+}
+
+static int remove_at(int parent, const char *name, int depth, int max_depth)
+{
+    if (unlinkat(parent, name, 0) == 0 || errno == ENOENT)
+        return 0;
+    if ((errno != EISDIR && errno != EPERM) || depth > max_depth)
+        return -1;
+    int fd = openat(parent, name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
+    if (fd < 0)
+        return -1;
+    DIR *d = fdopendir(fd);
+    if (!d) {
+        (void)close(fd);
+        return -1;
+    }
+    int rc = 0;
+    struct dirent *e;
+    while ((e = readdir(d)))
+        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..") &&
+            remove_at(dirfd(d), e->d_name, depth + 1, max_depth))
+            rc = -1;
+    if (closedir(d) < 0)
+        rc = -1;
+    if (unlinkat(parent, name, AT_REMOVEDIR) < 0 && errno != ENOENT)
+        rc = -1;
+    return rc;
+}
+
+int files_remove_tree(const char *path, int max_depth)
+{
+    return remove_at(AT_FDCWD, path, 0, max_depth);
 }

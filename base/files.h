@@ -39,4 +39,9 @@ int files_read(const char *path, size_t max, uint8_t **data, size_t *size, err_t
  * and survives the process, not a power cut. */
 int files_write_atomic(const char *path, const void *data, size_t size, bool sync, err_t *err);
 
+/* Removes path, a file or a folder with everything below it down to max_depth levels, never
+ * following a symbolic link (a link is removed, not what it points to). 0 when it is gone
+ * (or was never there), -1 with errno otherwise. */
+int files_remove_tree(const char *path, int max_depth);
+
 #endif

@@ -1,5 +1,6 @@
 /* prismfarm keygen: writes a CURVE key pair, NAME.key (secret, mode 0600) and NAME.pub, for a
- * master, a worker or a client (docs/security.md). */
+ * master, a worker or a client (docs/security.md), and NAME.token, the key's dashboard token
+ * (docs/dashboard.md), whose hash NAME.pub carries. */
 #include "commands.h"
 
 #include "cli_args.h"
@@ -19,7 +20,10 @@ static void usage(FILE *out, const cli_opt_t *opts)
             "Writes a CURVE key pair: DIR/NAME.key (the secret key, mode 0600: it never leaves\n"
             "this host) and DIR/NAME.pub (the public key, to hand out). Copy a worker's or a\n"
             "client's NAME.pub into the master's --authorized folder; give the master's NAME.pub\n"
-            "to its workers and clients (--master-key). See docs/security.md.\n");
+            "to its workers and clients (--master-key). See docs/security.md.\n"
+            "Also writes DIR/NAME.token (mode 0600), the token that lets NAME act on the\n"
+            "master's dashboard ('Authorization: Bearer TOKEN'); NAME.pub carries only its\n"
+            "SHA-256, so the master holds no secret of it. See docs/dashboard.md.\n");
     cli_args_help(out, opts);
 }
 
@@ -62,16 +66,18 @@ int cmd_keygen(int argc, char **argv)
         return 1;
     }
     curve_pair_t pair;
-    char key_path[PATH_MAX], pub_path[PATH_MAX];
-    int rc =
-        curve_generate(&pair, &err) < 0 ||
-        curve_write(&pair, dir, name, force, key_path, pub_path, sizeof key_path, &err) < 0;
+    char token[CURVE_TOKEN_CHARS + 1];
+    curve_paths_t paths;
+    int rc = curve_generate(&pair, &err) < 0 || curve_token_generate(token) < 0 ||
+             curve_write(&pair, token, dir, name, force, &paths, &err) < 0;
     memset(&pair, 0, sizeof pair);
+    memset(token, 0, sizeof token);
     if (rc) {
         fprintf(stderr, "prismfarm keygen: %s\n", err.msg);
         return 1;
     }
-    printf("wrote %s (secret: keep it on this host) and %s (public: hand it out)\n", key_path,
-           pub_path);
+    printf("wrote %s (secret: keep it on this host), %s (the dashboard token: secret too) and %s "
+           "(public: hand it out)\n",
+           paths.key, paths.token, paths.pub);
     return 0;
 }

@@ -91,6 +91,17 @@ int cmd_master(int argc, char **argv)
          .arg = "DIR", .help = "optional: the admins' NAME.pub files (clients endpoint)"},
         {.name = "insecure", .kind = CLI_FLAG, .dst = &o.insecure,
          .help = "plain text, anyone who reaches the ports gets in"},
+        {.kind = CLI_TEXT, .help = "the web dashboard (docs/dashboard.md):\n"},
+        {.name = "http", .kind = CLI_STRING, .dst = &o.http, .arg = "ADDR:PORT",
+         .help = "serve the dashboard on this port (PORT alone: 127.0.0.1; 0: the system "
+                 "chooses, see SPOOL/endpoints); off without it"},
+        {.name = "http-public", .kind = CLI_FLAG, .dst = &o.http_public,
+         .help = "let --http bind an address other hosts reach (plain HTTP: pages and tokens "
+                 "readable on the network)"},
+        {.name = "http-token-file", .kind = CLI_STRING, .dst = &o.http_token_file,
+         .arg = "FILE",
+         .help = "NAME.token (prismfarm keygen): its holder acts on the dashboard as an "
+                 "administrator; without keys, the only way to act"},
         {.kind = CLI_TEXT, .help = "limits (what one client can make the master hold):\n"},
         {.name = "max-jobs", .kind = CLI_INT, .dst = &max_jobs, .lo = 1, .hi = 100000, .arg = "N",
          .help = "unfinished jobs held at once, 1..100000 (default 256)"},
@@ -212,6 +223,10 @@ int cmd_master(int argc, char **argv)
     const char *how = "--key FILE and --authorized DIR";
     if (curve_require(o.worker_endpoint, o.key_file, o.insecure, how, &err) < 0 ||
         curve_require(o.client_endpoint, o.key_file, o.insecure, how, &err) < 0) {
+        fprintf(stderr, "prismfarm master: %s\n", err.msg);
+        return 2;
+    }
+    if (master_check_http(&o, &err) < 0) {
         fprintf(stderr, "prismfarm master: %s\n", err.msg);
         return 2;
     }

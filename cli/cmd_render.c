@@ -112,7 +112,7 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
         char info[4096];
         jobinfo_t ji = {.scene = scene_path, .spp = rs->spp, .xres = rs->xres, .yres = rs->yres,
                         .seed = rs->seed,
-                        .integrator = integrators_used_name(rs->integrator, rs->photon.enabled),
+                        .integrator = integrators_used_name(rs->integrator, rs->photon.enabled, rs->media),
                         .dispersion = integrators_dispersion_used(rs->dispersion,
                                                                   scene->has_dispersion),
                         .samples = st.samples, .nonfinite = st.nonfinite,

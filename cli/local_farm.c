@@ -112,6 +112,7 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
     m.opts.stop_fd = stop_pipe[0] > 0 ? stop_pipe[0] : 0;
     m.opts.verbose = 0;
     m.opts.journal = 0; /* the spool is a temporary folder that dies with this process */
+    m.opts.wait_for_space = 0; /* the user waits for this command: a failed write ends it */
     /* The user's own scene on the user's own machine: no budget (security.md, "Limits"). */
     m.opts.budget = (scene_budget_t){0};
     if (tile)

@@ -8,6 +8,8 @@ PACKAGES=(
   libzmq3-dev libmsgpack-dev libopenexr-dev openexr libembree-dev
   libpng-dev libstb-dev zlib1g-dev libjansson-dev libsodium-dev
   libcmocka-dev libsqlite3-dev
+  libmicrohttpd-dev
+  chromium chromium-driver python3
   gnuplot-nox
   clang libclang-rt-14-dev
   iproute2

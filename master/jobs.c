@@ -94,7 +94,7 @@ static void make_stem(const char *name, char *out, size_t size)
 static void job_take_scene(mjob_t *j, const scene_t *scene)
 {
     const render_settings_t *rs = &scene->settings;
-    j->scene.integrator = integrators_used_name(rs->integrator, rs->photon.enabled);
+    j->scene.integrator = integrators_used_name(rs->integrator, rs->photon.enabled, rs->media);
     j->scene.dispersion = integrators_dispersion_used(rs->dispersion, scene->has_dispersion);
     j->scene.xres = rs->xres;
     j->scene.yres = rs->yres;
@@ -346,6 +346,16 @@ static void release_photons(master_t *m, mjob_t *j)
     j->photons.store_ready = false;
 }
 
+void job_cancel(master_t *m, mjob_t *j, double now)
+{
+    err_t err;
+    if (j->outputs.waiting)
+        job_give_up_outputs(m, j, now);
+    else if (j->sched.known && sched_cancel_job(m->sched, j->id, &err) < 0)
+        master_log(m, "cancel: %s", err.msg);
+    job_refresh(m, j, now);
+}
+
 void job_refresh(master_t *m, mjob_t *j, double now)
 {
     sched_job_info_t info;
@@ -366,7 +376,14 @@ void job_refresh(master_t *m, mjob_t *j, double now)
          * passes that will never be merged, so the workers drop them, as for a cancel. */
         if (j->accuracy.stop != PROTO_STOP_NONE)
             peers_cancel_job(m, j->id);
-        if (job_write_image(m, j, true, &err) < 0) {
+        int wrote = job_write_image(m, j, true, &err);
+        if (wrote < 0 && !m->opts->wait_for_space) {
+            char msg[600];
+            snprintf(msg, sizeof msg, "writing the outputs: %s", err.msg);
+            job_set_error(j, msg);
+            j->state = JOB_FAILED;
+            master_log(m, "job %llu '%s' failed: %s", (unsigned long long)j->id, j->name, msg);
+        } else if (wrote < 0) {
             /* A full disk must not lose a finished render: the image stays in memory, the job
              * is shown running with the reason, and the write is tried again. */
             bool first = !j->outputs.waiting;

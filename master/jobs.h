@@ -65,6 +65,11 @@ void jobs_retry_outputs(master_t *m, double now);
  * dropped. */
 void job_give_up_outputs(master_t *m, mjob_t *j, double now);
 
+/* Cancels a job (a client's CANCEL, the dashboard's action): the scheduler ends it, and
+ * job_refresh tells the workers to drop its tasks; a job waiting to write its outputs gives
+ * them up (job_give_up_outputs). Nothing for a job that is over. */
+void job_cancel(master_t *m, mjob_t *j, double now);
+
 /* Ends every running job past its time limit that has a whole pass (docs/farm.md,
  * "Accuracy"). */
 void jobs_enforce_time_limits(master_t *m, double now);

@@ -8,9 +8,11 @@
 
 #include "clock.h"
 #include "curve.h"
+#include "dash_view.h"
 #include "dispatch.h"
 #include "files.h"
 #include "jobs.h"
+#include "logbook.h"
 #include "master_state.h"
 #include "on_client.h"
 #include "on_worker.h"
@@ -41,6 +43,7 @@ master_opts_t master_opts_default(void)
         .task_prefetch = -1,
         .preview_interval_s = 1.0,
         .max_jobs = 256,
+        .wait_for_space = 1,
         .max_conns_per_host = 512,
         .budget = scene_budget_default(),
         .journal = 1,
@@ -201,7 +204,8 @@ static int check_opts(const master_opts_t *o, err_t *err)
                                    : "--authorized needs --key FILE, the master's own key pair");
     const char *how = "the master --key FILE and --authorized DIR";
     if (curve_require(o->worker_endpoint, o->key_file, o->insecure, how, err) < 0 ||
-        curve_require(o->client_endpoint, o->key_file, o->insecure, how, err) < 0)
+        curve_require(o->client_endpoint, o->key_file, o->insecure, how, err) < 0 ||
+        dash_view_check(o, err) < 0)
         return err_prefix(err, "master: ");
     return 0;
 }
@@ -285,8 +289,18 @@ int master_run(const master_opts_t *opts, err_t *err)
                    opts->authorized_admins_dir ? opts->authorized_admins_dir : "");
     else if (opts->insecure)
         master_log(m, "plain text (--insecure): anyone who reaches the endpoints can connect");
-    char text[1200], path[PATH_MAX];
+    char hbound[128] = "";
+    if (opts->http && (!(m->logbook = logbook_new()) ||
+                       !(m->dash = dash_view_open(m, hbound, sizeof hbound, err)))) {
+        if (!m->logbook)
+            err_set(err, "out of memory for the dashboard's log");
+        err_prefix(err, "master: ");
+        goto out;
+    }
+    char text[1400], path[PATH_MAX];
     snprintf(text, sizeof text, "workers %s\nclients %s\n", wbound, cbound);
+    if (m->dash)
+        snprintf(text + strlen(text), sizeof text - strlen(text), "http %s\n", hbound);
     snprintf(path, sizeof path, "%s/endpoints", spool_path(m->spool));
     if (files_write_atomic(path, text, strlen(text), true, err) < 0) {
         err_prefix(err, "master: ");
@@ -294,6 +308,8 @@ int master_run(const master_opts_t *opts, err_t *err)
     }
     master_log(m, "workers on %s, clients on %s, spool %s, next job %llu", wbound, cbound,
                spool_path(m->spool), (unsigned long long)m->last_job + 1);
+    if (m->dash)
+        master_log(m, "dashboard on %s", hbound);
     if (opts->ready)
         opts->ready(opts->user, wbound, cbound);
 
@@ -301,15 +317,22 @@ int master_run(const master_opts_t *opts, err_t *err)
     rc = 0;
     int until_waiter = POLL_MS;
     while (!*opts->stop) {
-        /* The stop descriptor, when given, ends the wait as soon as *stop is set. */
-        zmq_pollitem_t items[3] = {{.socket = net_socket(m->wnet), .events = ZMQ_POLLIN},
-                                   {.socket = net_socket(m->cnet), .events = ZMQ_POLLIN},
-                                   {.fd = opts->stop_fd, .events = ZMQ_POLLIN}};
+        /* The stop descriptor, when given, ends the wait as soon as *stop is set; the
+         * dashboard's epoll descriptor, when it is on, as soon as a request comes. */
+        zmq_pollitem_t items[4] = {{.socket = net_socket(m->wnet), .events = ZMQ_POLLIN},
+                                   {.socket = net_socket(m->cnet), .events = ZMQ_POLLIN}};
+        int nitems = 2;
+        if (opts->stop_fd > 0)
+            items[nitems++] = (zmq_pollitem_t){.fd = opts->stop_fd, .events = ZMQ_POLLIN};
+        if (m->dash)
+            items[nitems++] = (zmq_pollitem_t){.fd = dash_view_fd(m->dash), .events = ZMQ_POLLIN};
         double until_hb = m->last_heartbeat + m->heartbeat_s - clock_now_s();
         int timeout = until_hb < POLL_MS / 1000.0 ? (int)(until_hb * 1000) : POLL_MS;
         if (until_waiter < timeout)
             timeout = until_waiter;
-        int n = zmq_poll(items, opts->stop_fd > 0 ? 3 : 2, timeout > 0 ? timeout : 0);
+        if (m->dash)
+            timeout = dash_view_timeout_ms(m->dash, timeout);
+        int n = zmq_poll(items, nitems, timeout > 0 ? timeout : 0);
         double polled = clock_now_s();
         if (n < 0 && zmq_errno() != EINTR) {
             rc = err_set(err, "master: zmq_poll: %s", zmq_strerror(zmq_errno()));
@@ -317,6 +340,13 @@ int master_run(const master_opts_t *opts, err_t *err)
         }
         if (n > 0 && (((items[0].revents & ZMQ_POLLIN) && drain(m, true, err) < 0) ||
                       ((items[1].revents & ZMQ_POLLIN) && drain(m, false, err) < 0))) {
+            err_prefix(err, "master: ");
+            rc = -1;
+            break;
+        }
+        /* The dashboard's requests, answered on this thread (its handlers are quick: they
+         * read the state, or act as a client's message would). */
+        if (m->dash && dash_view_run(m->dash, err) < 0) {
             err_prefix(err, "master: ");
             rc = -1;
             break;
@@ -334,6 +364,8 @@ int master_run(const master_opts_t *opts, err_t *err)
         master_log(m, "stopping");
 
 out:
+    dash_view_close(&m->dash);
+    logbook_destroy(&m->logbook);
     conn_guard_destroy(&m->wguard); /* before the sockets they watch */
     conn_guard_destroy(&m->cguard);
     net_destroy(&m->wnet);

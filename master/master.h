@@ -56,8 +56,17 @@ typedef struct master_opts {
                                   * restarted on the spool resumes every unfinished job with
                                   * the pixels of an uninterrupted run; 0 for a master that
                                   * lives and dies with its only client (`prismfarm render`) */
+    /* A done job whose outputs cannot be written (a full disk) keeps its image and tries again
+     * every JOB_OUTPUT_RETRY_S (1, the daemon's default); 0 fails it at once with the reason,
+     * for `prismfarm render`, whose user is waiting for the command to end. */
+    int wait_for_space;
     double preview_interval_s;   /* a progressive preview is written after a pass at most this
                                   * often (0: after every pass); the final outputs always */
+    /* The web dashboard (docs/dashboard.md): an HTTP port served from this loop. */
+    const char *http;            /* "ADDR:PORT" or "PORT" (127.0.0.1); NULL: no dashboard */
+    int http_public;             /* let http bind an address other than 127.x (plain HTTP) */
+    const char *http_token_file; /* a NAME.token whose holder is an administrator of the
+                                  * dashboard's actions (the only way to act without keys) */
     int verbose;                 /* one line per event on stderr */
     master_ready_fn ready;       /* may be NULL */
     void *user;
@@ -69,10 +78,16 @@ typedef struct master_opts {
  * second, a journal, verbose; no keys and not insecure (so tcp:// endpoints need keys or insecure). */
 master_opts_t master_opts_default(void);
 
+/* Checks the dashboard's options (http, http_public, http_token_file) without opening
+ * anything: -1 with err for an address that is not one, or one other hosts reach without
+ * http_public. master_run checks them too; a command line checks them first. */
+int master_check_http(const master_opts_t *opts, err_t *err);
+
 /* Runs the master until *opts->stop becomes non-zero (returns 0) or a fatal error (returns -1
  * with err: a network endpoint without keys or insecure, an unreadable key or authorised folder,
  * an endpoint that cannot be bound, the spool folder unusable, the ZeroMQ context terminated). The bound endpoints are also written to <spool>/endpoints, one
- * "workers ENDPOINT" and one "clients ENDPOINT" line, for scripts and tests. */
+ * "workers ENDPOINT" and one "clients ENDPOINT" line, for scripts and tests, and with http an
+ * "http http://ADDR:PORT/" line (the port as bound). */
 int master_run(const master_opts_t *opts, err_t *err);
 
 #endif

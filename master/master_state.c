@@ -1,5 +1,8 @@
 #include "master_state.h"
 
+#include "clock.h"
+#include "logbook.h"
+
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -7,14 +10,17 @@
 
 void master_log(const master_t *m, const char *fmt, ...)
 {
-    if (!m->opts->verbose)
+    if (!m->opts->verbose && !m->logbook)
         return;
     char line[1024];
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(line, sizeof line, fmt, ap);
     va_end(ap);
-    fprintf(stderr, "master: %s\n", line);
+    if (m->logbook) /* the dashboard's job logs */
+        logbook_add(m->logbook, clock_now_s(), line);
+    if (m->opts->verbose)
+        fprintf(stderr, "master: %s\n", line);
 }
 
 char *master_strdup(const char *s)

@@ -174,6 +174,9 @@ typedef struct master {
         char **names;
         size_t n, cap;
     } blocked;
+    /* The dashboard (--http, master/dash_view.h) and the log lines it shows; NULL without. */
+    struct dash_view *dash;
+    struct logbook *logbook;
 } master_t;
 
 /* Done, failed or cancelled: what a STATUS long poll waits for. */

@@ -96,7 +96,8 @@ struct submission {
     char integrator[65], dispersion[65];
     int priority; /* SUBMIT's (ops.h) */
     scene_budget_t budget;
-    const spool_t *spool;
+    proto_limits_t limits;
+    spool_t *spool; /* staged and committed into on the loader's thread (spool.h) */
     uint8_t *scene_msg; /* the SCENE message workers will be sent, stored once the scene loads */
     size_t scene_size;
     double accepted, last_progress;
@@ -112,7 +113,7 @@ void on_client_submission_drop(void *arg)
 {
     submission_t *s = arg;
     if (s)
-        spool_scene_discard((spool_t *)s->spool, s->dir, s->staged);
+        spool_scene_discard(s->spool, s->dir, s->staged);
     on_client_submission_free(s);
 }
 
@@ -128,12 +129,29 @@ static void on_client_submission_free(void *arg)
     free(s);
 }
 
-/* The loader's work (its thread): the scene loaded within the budget, then the bundle
- * committed to the spool. Touches nothing but s (and files). */
+/* The loader's work (its thread): the bundle staged into the spool (each file synced: seconds
+ * for a large one, which the loop must not wait for), its scene loaded within the budget, then
+ * the bundle committed. Touches nothing but s and the spool's scene files. */
 static void submission_load(void *arg)
 {
     submission_t *s = arg;
     double t0 = clock_now_s();
+    proto_msg_t scene;
+    if (proto_decode(s->scene_msg, s->scene_size, &s->limits, &scene, &s->err) < 0) {
+        err_prefix(&s->err, "the master cannot store the scene: ");
+        s->load_s = clock_now_s() - t0;
+        return;
+    }
+    int staged = spool_scene_stage(s->spool, &scene.scene.bundle, s->hash, s->dir, sizeof s->dir,
+                                   &s->staged, &s->err);
+    proto_msg_free(&scene);
+    if (staged < 0) {
+        spool_scene_discard(s->spool, s->dir, s->staged);
+        s->staged = false;
+        err_prefix(&s->err, "the master cannot store the scene: ");
+        s->load_s = clock_now_s() - t0;
+        return;
+    }
     s->job = job_new(0, s->name, s->hash, s->main, &s->settings, s->dir, &s->budget, &s->err);
     if (s->job) {
         if (spool_scene_commit(s->spool, s->scene_msg, s->scene_size, s->hash, s->dir,
@@ -155,6 +173,8 @@ static void submission_load(void *arg)
         }
         snprintf(prefix, sizeof prefix, "%s/", s->dir);
         strip_all(s->err.msg, prefix);
+        spool_scene_discard(s->spool, s->dir, s->staged);
+        s->staged = false;
     }
     free(s->scene_msg);
     s->scene_msg = NULL;
@@ -191,9 +211,7 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "the master is out of memory");
         return;
     }
-    if (spool_scene_stage(m->spool, b, hash, s->dir, sizeof s->dir, &s->staged, &err) < 0 ||
-        spool_scene_encode(b, hash, &m->limits, &s->scene_msg, &s->scene_size, &err) < 0) {
-        spool_scene_discard(m->spool, s->dir, s->staged);
+    if (spool_scene_encode(b, hash, &m->limits, &s->scene_msg, &s->scene_size, &err) < 0) {
         on_client_submission_free(s);
         master_log(m, "cannot store scene %.12s: %s", hash, err.msg);
         reply_error(m, from, "the master cannot store the scene: %s", err.msg);
@@ -213,10 +231,10 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
         s->settings.dispersion = s->dispersion;
     }
     s->budget = m->opts->budget;
+    s->limits = m->limits;
     s->spool = m->spool;
     s->accepted = s->last_progress = now;
     if (loader_run(m->loader, submission_load, s, &err) < 0) {
-        spool_scene_discard(m->spool, s->dir, s->staged);
         on_client_submission_free(s);
         reply_error(m, from, "the master cannot load the scene: %s", err.msg);
         return;
@@ -235,7 +253,6 @@ static void submission_finish(master_t *m, submission_t *s, double now)
     err_t err;
     mjob_t *j = s->job;
     if (!j) {
-        spool_scene_discard(m->spool, s->dir, s->staged);
         master_log(m, "submission '%s' from %s refused: %s", s->name, who, s->err.msg);
         reply_error(m, from, "%s", s->err.msg);
         return;
@@ -560,14 +577,9 @@ static void on_cancel(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "%s", why);
         return;
     }
-    err_t err;
-    if (j->outputs.waiting)
-        job_give_up_outputs(m, j, now);
-    else if (j->sched.known && sched_cancel_job(m->sched, j->id, &err) < 0)
-        master_log(m, "cancel: %s", err.msg);
     access_audit(m, from, "cancelled job %llu '%s' (%s)", (unsigned long long)j->id, j->name,
                  j->sched.known ? "running or queued" : "already over: nothing to stop");
-    job_refresh(m, j, now);
+    job_cancel(m, j, now);
     reply_jobs(m, from, PROTO_STATUS_REPLY, j, now);
 }
 

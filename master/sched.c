@@ -60,6 +60,7 @@ typedef struct worker {
     double last_seen;
     bool alive;
     uint64_t tasks_done, tasks_failed;
+    uint64_t samples_done; /* camera samples of the results it returned first */
     uint32_t missed; /* deadlines missed since it last returned a task */
     uint32_t fail_streak; /* failures since it last returned a task */
     bool blocked;         /* no task of any job (sched_worker_block, or its fail_streak) */
@@ -891,8 +892,11 @@ int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
     j->tasks_done++;
     j->done_in_pass[task / (uint32_t)j->ntiles]++;
     worker_t *w = find_worker(self, worker);
-    if (w)
+    if (w) {
         w->tasks_done++;
+        w->samples_done +=
+            (uint64_t)expect.w * (uint64_t)expect.h * (expect.sample_end - expect.sample_begin);
+    }
     int out = SCHED_MERGED;
     if (j->whole_passes ? merge_whole_pass(j, &out, err)
                         : merge_tile(j, (int)(task % (uint32_t)j->ntiles), &out, err))
@@ -1010,6 +1014,31 @@ int sched_job_info(const sched_t *self, uint64_t id, sched_job_info_t *out)
     return 0;
 }
 
+int sched_job_running(const sched_t *self, uint64_t id, sched_running_t *out, int max)
+{
+    const job_t *j = find_job(self, id);
+    if (!j)
+        return -1;
+    int n = 0;
+    for (uint32_t b = 0; b < j->nphoton && n < max; b++)
+        if (j->ptasks[b].state == TASK_RUNNING)
+            out[n++] = (sched_running_t){
+                .task = SCHED_PHOTON_TASK | b, .kind = SCHED_PHOTON, .tile = -1, .pass = -1,
+                .batch = b, .attempt = j->ptasks[b].attempt, .worker = j->ptasks[b].owner,
+                .issued = j->ptasks[b].deadline - self->cfg.task_deadline_s};
+    for (uint32_t i = 0; i < ncamera(j) && n < max; i++)
+        if (j->tasks[i].state == TASK_RUNNING) {
+            int pass = (int)(i / (uint32_t)j->ntiles);
+            out[n++] = (sched_running_t){
+                .task = i, .kind = SCHED_CAMERA, .tile = (int)(i % (uint32_t)j->ntiles),
+                .pass = pass, .sample_begin = j->pass_begin[pass],
+                .sample_end = j->pass_begin[pass + 1], .attempt = j->tasks[i].attempt,
+                .worker = j->tasks[i].owner,
+                .issued = j->tasks[i].deadline - self->cfg.task_deadline_s};
+        }
+    return n;
+}
+
 const tilebuf_t *sched_job_image(const sched_t *self, uint64_t id)
 {
     const job_t *j = find_job(self, id);
@@ -1033,6 +1062,7 @@ size_t sched_workers(const sched_t *self, sched_worker_info_t *out, size_t max)
                         blocked(self, self->jobs[k], w->id);
         out[i] = (sched_worker_info_t){.id = w->id, .slots = w->slots, .busy = w->busy,
                                        .tasks_done = w->tasks_done, .tasks_failed = w->tasks_failed,
+                                       .samples_done = w->samples_done,
                                        .last_seen = w->last_seen, .alive = w->alive,
                                        .blocked = w->blocked, .fail_streak = w->fail_streak,
                                        .blocked_jobs = nblocked};

@@ -187,6 +187,21 @@ void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t ta
 int sched_tick(sched_t *self, double now);
 
 int sched_job_info(const sched_t *self, uint64_t job, sched_job_info_t *out);
+/* A running task of a job, for listings (the master's dashboard). */
+typedef struct sched_running {
+    uint32_t task;
+    sched_kind_t kind;
+    int tile, pass; /* camera; -1 for a photon batch */
+    uint32_t batch; /* photon */
+    uint32_t sample_begin, sample_end;
+    uint32_t attempt;
+    uint64_t worker; /* who holds it */
+    double issued;   /* when it was issued last (the caller's clock) */
+} sched_running_t;
+/* Up to max running tasks of a job, photon batches first then camera tasks in task order;
+ * returns how many, or -1 for an unknown job. */
+int sched_job_running(const sched_t *self, uint64_t job, sched_running_t *out, int max);
+
 /* The job's merged image (all passes merged so far); NULL for an unknown job. */
 const tilebuf_t *sched_job_image(const sched_t *self, uint64_t job);
 /* Jobs in order, for listings: fills up to max ids, returns the number of jobs. */
@@ -196,6 +211,7 @@ typedef struct sched_worker_info {
     uint64_t id;
     int slots, busy;
     uint64_t tasks_done, tasks_failed;
+    uint64_t samples_done; /* camera samples of the results it returned first */
     double last_seen;
     bool alive;
     bool blocked;          /* from every job (sched_worker_block, or failures in a row) */

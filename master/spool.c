@@ -55,38 +55,9 @@ static int make_dirs(const char *path, err_t *err)
     return 0;
 }
 
-/* Removes name (a file or a folder with everything below it) inside the folder parent, never
- * following a symbolic link: a link is removed, not what it points to. */
-static int rm_tree_at(int parent, const char *name, int depth)
-{
-    if (unlinkat(parent, name, 0) == 0 || errno == ENOENT)
-        return 0;
-    if ((errno != EISDIR && errno != EPERM) || depth > RM_TREE_DEPTH_MAX)
-        return -1;
-    int fd = openat(parent, name, O_RDONLY | O_DIRECTORY | O_NOFOLLOW | O_CLOEXEC);
-    if (fd < 0)
-        return -1;
-    DIR *d = fdopendir(fd);
-    if (!d) {
-        (void)close(fd);
-        return -1;
-    }
-    int rc = 0;
-    struct dirent *e;
-    while ((e = readdir(d)))
-        if (strcmp(e->d_name, ".") && strcmp(e->d_name, "..") &&
-            rm_tree_at(dirfd(d), e->d_name, depth + 1))
-            rc = -1;
-    if (closedir(d) < 0)
-        rc = -1;
-    if (unlinkat(parent, name, AT_REMOVEDIR) < 0 && errno != ENOENT)
-        rc = -1;
-    return rc;
-}
-
 static int rm_tree(const char *path)
 {
-    return rm_tree_at(AT_FDCWD, path, 0);
+    return files_remove_tree(path, RM_TREE_DEPTH_MAX);
 }
 
 /* Takes DIR/lock with flock (released by the kernel when the process dies, however it dies) and
@@ -239,7 +210,7 @@ int spool_scene_stage(spool_t *self, const proto_bundle_t *bundle, const char *h
     if (snprintf(dir, size, "%s/tmp/%s.%lu", self->dir, hash, ++self->staged) >= (int)size)
         return err_set(err, "path too long below '%s'", self->dir);
     (void)rm_tree(dir);
-    if (proto_bundle_extract(bundle, dir, err) < 0) {
+    if (proto_bundle_extract(bundle, dir, true, err) < 0) {
         (void)rm_tree(dir);
         return -1;
     }

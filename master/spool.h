@@ -40,6 +40,10 @@ int spool_scene_stage(spool_t *self, const proto_bundle_t *bundle, const char *h
 int spool_scene_encode(const proto_bundle_t *bundle, const char *hash,
                        const proto_limits_t *limits, uint8_t **out, size_t *size, err_t *err);
 
+/* spool_scene_stage, spool_scene_commit and spool_scene_discard run on the master's loader
+ * thread (loader.h), one submission at a time, and nothing else of the spool's state is
+ * touched there: the staging counter is theirs alone. */
+
 /* Stores the encoded SCENE message as scenes/<hash>.scene (if missing) and, for a staged
  * folder, renames it to scenes/<hash>/. Touches only files: safe on the loader's thread
  * (loader.h) while the master thread stages other bundles. */

@@ -1,7 +1,9 @@
 #include "curve.h"
 
 #include "clock.h"
+#include "sha256.h"
 
+#include <sodium.h>
 #include <zmq.h>
 
 #include <dirent.h>
@@ -86,8 +88,28 @@ static void wipe(void *p, size_t n)
 
 typedef struct keyfile {
     char public_key[CURVE_Z85 + 1], secret_key[CURVE_Z85 + 1];
-    int public_line, secret_line; /* 0: absent */
+    uint8_t token_hash[CURVE_TOKEN_HASH];
+    int public_line, secret_line, token_line; /* 0: absent */
 } keyfile_t;
+
+static int hex_digit(char c)
+{
+    return c >= '0' && c <= '9' ? c - '0' : c >= 'a' && c <= 'f' ? c - 'a' + 10 : -1;
+}
+
+/* A hash's text: exactly 2 * n lower-case hex digits into out. */
+static int hex_decode(const char *v, size_t len, uint8_t *out, size_t n)
+{
+    if (len != 2 * n)
+        return -1;
+    for (size_t i = 0; i < n; i++) {
+        int hi = hex_digit(v[2 * i]), lo = hex_digit(v[2 * i + 1]);
+        if (hi < 0 || lo < 0)
+            return -1;
+        out[i] = (uint8_t)(hi << 4 | lo);
+    }
+    return 0;
+}
 
 /* A key's text: exactly 40 Z85 characters that decode. Values are never quoted in messages: a
  * malformed line may be a secret key. */
@@ -130,21 +152,36 @@ static int parse_keyfile(const char *path, const char *text, size_t size, keyfil
         if (len == 0 || *s == '#')
             continue;
         size_t name = 0;
-        while (name < len && ((s[name] >= 'a' && s[name] <= 'z') || s[name] == '-'))
+        while (name < len && ((s[name] >= 'a' && s[name] <= 'z') || s[name] == '-' ||
+                              (s[name] >= '0' && s[name] <= '9')))
             name++;
         bool is_public = name == 10 && !memcmp(s, "public-key", 10);
         bool is_secret = name == 10 && !memcmp(s, "secret-key", 10);
+        bool is_token = name == 17 && !memcmp(s, "http-token-sha256", 17);
         size_t v = name;
         while (v < len && (s[v] == ' ' || s[v] == '\t'))
             v++;
-        if ((!is_public && !is_secret) || v >= len || s[v] != '=')
+        if ((!is_public && !is_secret && !is_token) || v >= len || s[v] != '=')
             return err_set(err,
-                           "%s:%d: expected 'public-key = KEY', 'secret-key = KEY' or a "
-                           "'#' comment (KEY: 40 Z85 characters)",
+                           "%s:%d: expected 'public-key = KEY', 'secret-key = KEY', "
+                           "'http-token-sha256 = HASH' or a '#' comment (KEY: 40 Z85 characters, "
+                           "HASH: 64 hex digits)",
                            path, line);
         v++;
         while (v < len && (s[v] == ' ' || s[v] == '\t'))
             v++;
+        if (is_token) {
+            if (out->token_line)
+                return err_set(err, "%s:%d: a second http-token-sha256 (the first is on line %d)",
+                               path, line, out->token_line);
+            if (hex_decode(s + v, len - v, out->token_hash, CURVE_TOKEN_HASH) < 0)
+                return err_set(err,
+                               "%s:%d: http-token-sha256 is not 64 lower-case hex digits (the "
+                               "SHA-256 of NAME.token, as prismfarm keygen writes it)",
+                               path, line);
+            out->token_line = line;
+            continue;
+        }
         const char *what = is_public ? "public-key" : "secret-key";
         int *seen = is_public ? &out->public_line : &out->secret_line;
         if (*seen)
@@ -248,7 +285,8 @@ int curve_load_pair(const char *path, curve_pair_t *out, err_t *err)
     return rc;
 }
 
-int curve_load_public(const char *path, char out[CURVE_Z85 + 1], err_t *err)
+int curve_load_public_token(const char *path, char out[CURVE_Z85 + 1],
+                            uint8_t token_hash[CURVE_TOKEN_HASH], bool *has_token, err_t *err)
 {
     keyfile_t k;
     mode_t mode;
@@ -257,6 +295,10 @@ int curve_load_public(const char *path, char out[CURVE_Z85 + 1], err_t *err)
     int secret = k.secret_line, has_public = k.public_line;
     if (has_public)
         memcpy(out, k.public_key, CURVE_Z85 + 1);
+    if (has_token)
+        *has_token = k.token_line > 0;
+    if (token_hash)
+        memcpy(token_hash, k.token_hash, CURVE_TOKEN_HASH);
     wipe(&k, sizeof k);
     if (secret)
         return err_set(err,
@@ -269,6 +311,91 @@ int curve_load_public(const char *path, char out[CURVE_Z85 + 1], err_t *err)
                        "prismfarm keygen",
                        path);
     return 0;
+}
+
+int curve_load_public(const char *path, char out[CURVE_Z85 + 1], err_t *err)
+{
+    return curve_load_public_token(path, out, NULL, NULL, err);
+}
+
+/* ---------------------------------------------------------------- HTTP tokens */
+
+int curve_token_generate(char token[CURVE_TOKEN_CHARS + 1])
+{
+    uint8_t raw[CURVE_TOKEN_CHARS / 2];
+    randombytes_buf(raw, sizeof raw);
+    static const char hex[] = "0123456789abcdef";
+    for (size_t i = 0; i < sizeof raw; i++) {
+        token[2 * i] = hex[raw[i] >> 4];
+        token[2 * i + 1] = hex[raw[i] & 15];
+    }
+    token[CURVE_TOKEN_CHARS] = 0;
+    wipe(raw, sizeof raw);
+    return 0;
+}
+
+void curve_token_hash(const char *token, size_t len, uint8_t out[CURVE_TOKEN_HASH])
+{
+    sha256_t h;
+    sha256_init(&h);
+    sha256_update(&h, token, len);
+    sha256_final(&h, out);
+}
+
+int curve_load_token(const char *path, uint8_t out[CURVE_TOKEN_HASH], err_t *err)
+{
+    int fd = open(path, O_RDONLY | O_CLOEXEC);
+    if (fd < 0)
+        return err_set(err, "%s: cannot open: %s", path, strerror(errno));
+    struct stat st;
+    if (fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+        close(fd);
+        return err_set(err, "%s: not a regular file", path);
+    }
+    if (st.st_mode & 077) {
+        close(fd);
+        return err_set(err,
+                       "%s: a token readable or writable by group or others (mode %04o): chmod "
+                       "600 %s",
+                       path, (unsigned)(st.st_mode & 07777), path);
+    }
+    char text[CURVE_FILE_MAX + 1];
+    size_t size = 0;
+    for (;;) {
+        ssize_t got = read(fd, text + size, sizeof text - 1 - size);
+        if (got < 0 && errno == EINTR)
+            continue;
+        if (got <= 0 || (size += (size_t)got) == sizeof text - 1)
+            break;
+    }
+    close(fd);
+    /* The token is the file's first line that is neither blank nor a '#' comment. */
+    int rc = err_set(err, "%s: no token: expected the %d hex digits prismfarm keygen writes",
+                     path, CURVE_TOKEN_CHARS);
+    for (size_t at = 0; at < size;) {
+        const char *s = text + at;
+        const char *nl = memchr(s, '\n', size - at);
+        size_t len = nl ? (size_t)(nl - s) : size - at;
+        at += len + (nl ? 1 : 0);
+        while (len > 0 && (s[len - 1] == '\r' || s[len - 1] == ' ' || s[len - 1] == '\t'))
+            len--;
+        while (len > 0 && (*s == ' ' || *s == '\t'))
+            s++, len--;
+        if (len == 0 || *s == '#')
+            continue;
+        uint8_t raw[CURVE_TOKEN_CHARS / 2];
+        if (hex_decode(s, len, raw, sizeof raw) < 0)
+            rc = err_set(err, "%s: the token is not %d lower-case hex digits", path,
+                         CURVE_TOKEN_CHARS);
+        else {
+            curve_token_hash(s, len, out);
+            rc = 0;
+        }
+        wipe(raw, sizeof raw);
+        break;
+    }
+    wipe(text, sizeof text);
+    return rc;
 }
 
 /* ---------------------------------------------------------------- writing key files */
@@ -309,17 +436,21 @@ static int write_file(const char *dir, const char *final, const char *text, mode
     return rc;
 }
 
-int curve_write(const curve_pair_t *pair, const char *dir, const char *name,
-                      bool overwrite, char *key_path, char *pub_path, size_t size, err_t *err)
+int curve_write(const curve_pair_t *pair, const char *token, const char *dir, const char *name,
+                bool overwrite, curve_paths_t *paths, err_t *err)
 {
     if (curve_name_check(name, err) < 0)
         return -1;
+    char *key_path = paths->key, *pub_path = paths->pub, *token_path = paths->token;
+    size_t size = sizeof paths->key;
+    token_path[0] = 0;
     if (snprintf(key_path, size, "%s/%s.key", dir, name) >= (int)size ||
-        snprintf(pub_path, size, "%s/%s.pub", dir, name) >= (int)size)
+        snprintf(pub_path, size, "%s/%s.pub", dir, name) >= (int)size ||
+        (token && snprintf(token_path, size, "%s/%s.token", dir, name) >= (int)size))
         return err_set(err, "%s/%s.key: path too long", dir, name);
     struct stat st;
     if (!overwrite) {
-        /* Both checked first, so that a refusal writes nothing. */
+        /* All checked first, so that a refusal writes nothing. */
         if (lstat(key_path, &st) == 0)
             return err_set(err,
                            "%s exists: not overwritten (--force replaces the pair, and "
@@ -327,6 +458,8 @@ int curve_write(const curve_pair_t *pair, const char *dir, const char *name,
                            key_path);
         if (lstat(pub_path, &st) == 0)
             return err_set(err, "%s exists: not overwritten (--force replaces the pair)", pub_path);
+        if (token && lstat(token_path, &st) == 0)
+            return err_set(err, "%s exists: not overwritten (--force replaces it)", token_path);
     }
     char text[1024];
     snprintf(text, sizeof text,
@@ -339,15 +472,40 @@ int curve_write(const curve_pair_t *pair, const char *dir, const char *name,
     wipe(text, sizeof text);
     if (rc < 0)
         return -1;
+    char token_line[128] = "";
+    if (token) {
+        /* Only the token's hash goes into the .pub: the master that reads it can tell the token
+         * when it is shown but holds nothing that would let it (or a thief) present it. */
+        uint8_t hash[CURVE_TOKEN_HASH];
+        char hex[SHA256_HEX_CHARS + 1];
+        curve_token_hash(token, strlen(token), hash);
+        sha256_hex(hash, hex);
+        snprintf(token_line, sizeof token_line, "http-token-sha256 = %s\n", hex);
+        snprintf(text, sizeof text,
+                 "# prismfarm dashboard token of '%s' (prismfarm keygen): send it as\n"
+                 "# 'Authorization: Bearer TOKEN' to act on the master's dashboard. Mode 0600.\n"
+                 "%s\n",
+                 name, token);
+        rc = write_file(dir, token_path, text, 0600, overwrite, err);
+        wipe(text, sizeof text);
+        if (rc < 0) {
+            if (!overwrite)
+                (void)unlink(key_path);
+            return -1;
+        }
+    }
     snprintf(text, sizeof text,
              "# prismfarm CURVE public key '%s' (prismfarm keygen). Copy it into the master's\n"
              "# --authorized folder, or give it to workers and clients as --master-key when\n"
              "# '%s' is the master.\n"
-             "public-key = %s\n",
-             name, name, pair->public_key);
+             "public-key = %s\n%s",
+             name, name, pair->public_key, token_line);
     if (write_file(dir, pub_path, text, 0644, overwrite, err) < 0) {
-        if (!overwrite)
+        if (!overwrite) {
             (void)unlink(key_path); /* no half pair left behind */
+            if (token)
+                (void)unlink(token_path);
+        }
         return -1;
     }
     return 0;
@@ -358,6 +516,8 @@ int curve_write(const curve_pair_t *pair, const char *dir, const char *name,
 typedef struct ring_key {
     uint8_t key[CURVE_BINARY];
     char name[CURVE_NAME_MAX + 1];
+    bool has_token;
+    uint8_t token_hash[CURVE_TOKEN_HASH];
 } ring_key_t;
 
 struct curve_ring {
@@ -408,7 +568,9 @@ static int ring_load(const char *dir, ring_key_t **keys, size_t *n, struct stat 
             break;
         }
         char z85[CURVE_Z85 + 1];
-        if (curve_load_public(path, z85, err) < 0) {
+        uint8_t token_hash[CURVE_TOKEN_HASH];
+        bool has_token;
+        if (curve_load_public_token(path, z85, token_hash, &has_token, err) < 0) {
             rc = err_prefix(err, "authorised keys: ");
             break;
         }
@@ -427,6 +589,8 @@ static int ring_load(const char *dir, ring_key_t **keys, size_t *n, struct stat 
             break;
         }
         memcpy(k->name, name, strlen(name) + 1); /* name_check: at most CURVE_NAME_MAX */
+        k->has_token = has_token;
+        memcpy(k->token_hash, token_hash, sizeof token_hash);
         errno = 0;
     }
     if (rc == 0 && errno != 0)
@@ -512,6 +676,20 @@ const char *curve_ring_find(const curve_ring_t *self,
         if (memcmp(self->keys[i].key, key, CURVE_BINARY) == 0)
             return self->keys[i].name;
     return NULL;
+}
+
+const char *curve_ring_find_token(const curve_ring_t *self,
+                                  const uint8_t token_hash[CURVE_TOKEN_HASH])
+{
+    /* Every key compared, in constant time each: how long it takes says nothing about which
+     * (or whether one) matched. */
+    const char *found = NULL;
+    for (size_t i = 0; i < self->n; i++) {
+        int same = sodium_memcmp(self->keys[i].token_hash, token_hash, CURVE_TOKEN_HASH) == 0;
+        if (same && self->keys[i].has_token && !found)
+            found = self->keys[i].name;
+    }
+    return found;
 }
 
 size_t curve_ring_size(const curve_ring_t *self)

@@ -16,6 +16,8 @@
 #define CURVE_NAME_MAX 64
 #define CURVE_FILE_MAX 4096  /* bytes in a key file: anything larger is not one */
 #define CURVE_RING_MAX 10000 /* keys in an authorised folder */
+#define CURVE_TOKEN_CHARS 64 /* a dashboard token: 32 random bytes in lower-case hex */
+#define CURVE_TOKEN_HASH 32  /* its SHA-256, as NAME.pub's http-token-sha256 line holds it */
 
 /* A key pair in Z85, NUL-terminated. */
 typedef struct curve_pair {
@@ -33,12 +35,19 @@ int curve_generate(curve_pair_t *out, err_t *err);
  * with '.' or '-' (no path, no hidden file, no option look-alike). */
 int curve_name_check(const char *name, err_t *err);
 
+/* The files curve_write wrote (token: "" without a token). */
+typedef struct curve_paths {
+    char key[4096], pub[4096], token[4096];
+} curve_paths_t;
+
 /* Writes dir/NAME.key (mode 0600: the pair) and dir/NAME.pub (mode 0644: the public key), each
  * opening with '#' comment lines, through a temporary file that is synced and then linked (or,
- * with overwrite, renamed) into place. Without overwrite an existing NAME.key or NAME.pub is an
- * error and nothing is written. The two paths go to key_path and pub_path (size bytes each). */
-int curve_write(const curve_pair_t *pair, const char *dir, const char *name,
-                      bool overwrite, char *key_path, char *pub_path, size_t size, err_t *err);
+ * with overwrite, renamed) into place. With a token (curve_token_generate; may be NULL), also
+ * dir/NAME.token (mode 0600: the token, for the master's dashboard, docs/dashboard.md), and
+ * NAME.pub gains an "http-token-sha256 = HEX" line, the token's SHA-256 -- never the token.
+ * Without overwrite an existing file is an error and nothing is written. */
+int curve_write(const curve_pair_t *pair, const char *token, const char *dir, const char *name,
+                bool overwrite, curve_paths_t *paths, err_t *err);
 
 /* Reads a NAME.key: its "public-key = Z85" and "secret-key = Z85" lines ('#' comments and blank
  * lines aside). Fails when the file is readable or writable by group or others, when a line is
@@ -46,8 +55,21 @@ int curve_write(const curve_pair_t *pair, const char *dir, const char *name,
 int curve_load_pair(const char *path, curve_pair_t *out, err_t *err);
 
 /* Reads the public key of a NAME.pub. A secret-key line is an error: a .pub travels between
- * hosts and must never carry a secret. */
+ * hosts and must never carry a secret. An http-token-sha256 line is accepted (and ignored here);
+ * a .pub without one (written before tokens existed) is as valid as ever. */
 int curve_load_public(const char *path, char out[CURVE_Z85 + 1], err_t *err);
+/* The same, with the token hash of the http-token-sha256 line: *has_token says whether there
+ * is one (token_hash and has_token may be NULL). */
+int curve_load_public_token(const char *path, char out[CURVE_Z85 + 1],
+                            uint8_t token_hash[CURVE_TOKEN_HASH], bool *has_token, err_t *err);
+
+/* A fresh dashboard token: CURVE_TOKEN_CHARS hex digits of libsodium's randombytes. */
+int curve_token_generate(char token[CURVE_TOKEN_CHARS + 1]);
+/* The SHA-256 of a token's len bytes: what a .pub's http-token-sha256 line holds. */
+void curve_token_hash(const char *token, size_t len, uint8_t out[CURVE_TOKEN_HASH]);
+/* Reads a NAME.token (the first line that is neither blank nor a '#' comment) into its hash.
+ * Fails when the file is readable or writable by group or others, or holds no token. */
+int curve_load_token(const char *path, uint8_t out[CURVE_TOKEN_HASH], err_t *err);
 
 /* Whether endpoint stays on this host (inproc:// or ipc://), where plain text needs no flag. */
 bool curve_endpoint_local(const char *endpoint);
@@ -75,6 +97,10 @@ int curve_ring_refresh(curve_ring_t *self, bool force, bool *reloaded, err_t *er
 /* The name of the file that holds key (32 bytes), or NULL when none does. */
 const char *curve_ring_find(const curve_ring_t *self,
                                   const uint8_t key[CURVE_BINARY]);
+/* The name of the file whose http-token-sha256 is token_hash, or NULL: every key is compared in
+ * constant time, so the time taken does not tell which matched. */
+const char *curve_ring_find_token(const curve_ring_t *self,
+                                  const uint8_t token_hash[CURVE_TOKEN_HASH]);
 size_t curve_ring_size(const curve_ring_t *self);
 const char *curve_ring_dir(const curve_ring_t *self);
 

@@ -30,6 +30,8 @@ struct net {
     bool transport_up;     /* a connection is made and its handshake is under way */
     char why[256];
     net_stats_t stats;
+    size_t last_sent;      /* bytes of the last message sent, to say what a drop may mean */
+    char last_type[24];
 };
 
 net_stats_t net_stats(const net_t *self)
@@ -343,8 +345,17 @@ static void link_event(net_t *self, unsigned event, uint32_t value)
     case ZMQ_EVENT_DISCONNECTED:
         if (self->link == NET_LINK_UP) {
             self->link = NET_LINK_DROPPED;
-            snprintf(self->why, sizeof self->why,
-                     "closed the connection (a message above its size limit, or a restart)");
+            /* Which of the causes it can be: a large message may have passed the peer's
+             * --max-message-mb (its ZMQ_MAXMSGSIZE closes the link without a word); any
+             * message, a restart or a failed link. */
+            if (self->last_sent > ((size_t)1 << 20))
+                snprintf(self->why, sizeof self->why,
+                         "closed the connection after we sent a %s of %.1f MiB: above its "
+                         "--max-message-mb, or it restarted, or the link failed",
+                         self->last_type, (double)self->last_sent / 1048576.0);
+            else
+                snprintf(self->why, sizeof self->why,
+                         "closed the connection (it restarted, or the link failed)");
         } else if (self->transport_up && self->link != NET_LINK_REFUSED) {
             /* A CURVE server that cannot read our HELLO closes without a word. */
             self->link = NET_LINK_REFUSED;
@@ -441,6 +452,8 @@ int net_send(net_t *self, const proto_peer_t *to, const proto_msg_t *msg, err_t 
         return err_set(err, "%s to %s: %s", proto_type_name(msg->type), who, zmq_strerror(e)),
                zmq_code(e);
     }
+    self->last_sent = size;
+    snprintf(self->last_type, sizeof self->last_type, "%s", proto_type_name(msg->type));
     return 0;
 }
 

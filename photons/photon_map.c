@@ -301,9 +301,12 @@ typedef struct query {
     const vec3_t *normals; /* the map's decoded octahedral codes */
     double q[3];
     vec3_t n;
+    int two_sided; /* the normal test takes photons on either side of n */
     double r2; /* current search radius squared */
-    /* fixed radius */
+    /* fixed radius: E, or the visitor when there is one */
     double *E;
+    photon_map_visit_fn fn;
+    void *user;
     int used;
     /* k nearest: a max-heap on distance */
     int k, nheap;
@@ -315,7 +318,18 @@ typedef struct query {
 
 static int normal_ok(const query_t *qr, const photon_t *ph)
 {
-    return vec3_dot(qr->normals[ph->normal], qr->n) > NORMAL_COS_MIN;
+    double c = vec3_dot(qr->normals[ph->normal], qr->n);
+    return (qr->two_sided ? fabs(c) : c) > NORMAL_COS_MIN;
+}
+
+/* A photon found by a fixed-radius query: into E, or handed to the visitor. */
+static inline void take(query_t *qr, const photon_t *ph)
+{
+    if (qr->fn)
+        qr->fn(qr->user, qr->normals[ph->dir], ph->bucket & BUCKET_MASK, ph->power);
+    else
+        qr->E[ph->bucket & BUCKET_MASK] += ph->power;
+    qr->used++;
 }
 
 static void heap_push(query_t *qr, double d2, uint32_t idx)
@@ -369,8 +383,7 @@ static inline void consider(query_t *qr, size_t i)
             if (qr->nheap < qr->k || d2 < qr->heap_d2[0])
                 heap_push(qr, d2, (uint32_t)i);
         } else {
-            qr->E[ph->bucket & BUCKET_MASK] += ph->power;
-            qr->used++;
+            take(qr, ph);
         }
     }
 }
@@ -402,8 +415,7 @@ static void visit(query_t *qr, size_t lo, size_t hi)
                 if (qr->nheap < qr->k || d2 < qr->heap_d2[0])
                     heap_push(qr, d2, (uint32_t)mid);
             } else {
-                qr->E[ph->bucket & BUCKET_MASK] += ph->power;
-                qr->used++;
+                take(qr, ph);
             }
         }
         if (!(d * d <= qr->r2))
@@ -413,12 +425,12 @@ static void visit(query_t *qr, size_t lo, size_t hi)
     }
 }
 
-int photon_map_irradiance(const photon_map_t *self, vec3_t p, vec3_t n, double radius, int k,
-                          double *E)
+/* The search both estimates share: every photon within radius (or the k nearest) that passes
+ * the normal test goes to E or to fn. Returns the photons used and *r2_out the squared radius
+ * of the disk they were gathered from (0 photons: *r2_out undefined). */
+static int search(const photon_map_t *self, vec3_t p, vec3_t n, int two_sided, double radius,
+                  int k, double *E, photon_map_visit_fn fn, void *user, double *r2_out)
 {
-    const int nb = self->grid.n;
-    for (int b = 0; b < nb; b++)
-        E[b] = 0.0;
     if (!self->built || self->n == 0 || self->emitted == 0 || !(radius > 0.0) || !isfinite(radius))
         return 0;
     if (k > PHOTON_MAP_MAX_K)
@@ -433,8 +445,11 @@ int photon_map_irradiance(const photon_map_t *self, vec3_t p, vec3_t n, double r
     qr->q[1] = p.y;
     qr->q[2] = p.z;
     qr->n = n;
+    qr->two_sided = two_sided;
     qr->r2 = radius * radius;
     qr->E = E;
+    qr->fn = fn;
+    qr->user = user;
     qr->used = 0;
     qr->k = k > 0 ? k : 0;
     qr->nheap = 0;
@@ -442,22 +457,43 @@ int photon_map_irradiance(const photon_map_t *self, vec3_t p, vec3_t n, double r
     double r2 = radius * radius;
     int used = qr->used;
     if (k > 0) {
-        for (int i = 0; i < qr->nheap; i++) {
-            const photon_t *ph = &self->ph[qr->heap_i[i]];
-            E[ph->bucket & BUCKET_MASK] += ph->power;
-        }
+        /* Heap order: a function of the deposits and the query alone. */
+        for (int i = 0; i < qr->nheap; i++)
+            take(qr, &self->ph[qr->heap_i[i]]);
         used = qr->nheap;
         if (qr->nheap == k)
             r2 = qr->heap_d2[0];
     }
-    if (used == 0)
-        return 0;
     /* A k-th neighbour at distance 0 (photons piled on one point) would divide by zero: the
      * radius is kept above a millionth of the search radius. */
-    r2 = fmax(r2, 1e-12 * radius * radius);
+    *r2_out = fmax(r2, 1e-12 * radius * radius);
+    return used;
+}
+
+int photon_map_irradiance(const photon_map_t *self, vec3_t p, vec3_t n, double radius, int k,
+                          double *E)
+{
+    const int nb = self->grid.n;
+    for (int b = 0; b < nb; b++)
+        E[b] = 0.0;
+    double r2;
+    int used = search(self, p, n, 0, radius, k, E, NULL, NULL, &r2);
+    if (used == 0)
+        return 0;
     double scale = 1.0 / ((double)self->emitted * spectral_grid_width(self->grid) * PF_PI * r2);
     for (int b = 0; b < nb; b++)
         E[b] *= scale;
+    return used;
+}
+
+int photon_map_gather(const photon_map_t *self, vec3_t p, vec3_t n, double radius, int k,
+                      photon_map_visit_fn fn, void *user, double *scale)
+{
+    *scale = 0.0;
+    double r2;
+    int used = search(self, p, n, 1, radius, k, NULL, fn, user, &r2);
+    if (used > 0)
+        *scale = 1.0 / ((double)self->emitted * spectral_grid_width(self->grid) * PF_PI * r2);
     return used;
 }
 
@@ -467,7 +503,11 @@ int photon_map_irradiance(const photon_map_t *self, vec3_t p, vec3_t n, double r
  * It is the in-memory record without the kd-tree's axis bits, so encoding a map costs a copy
  * and a decoded map appends and builds like a locally traced one. */
 #define WIRE_MAGIC 0x4D504650u /* "PFPM" read as a little-endian uint32 */
-#define WIRE_VERSION 1u
+/* 2: the same record, but a store of this version also holds the photons of glossy
+ * receivers (render/photon.c), which the camera pass no longer finds itself: a version-1
+ * store (a journal's photons.store, an older worker's batch) would lose those caustics, so
+ * it is refused rather than used. */
+#define WIRE_VERSION 2u
 #define WIRE_HEADER 32
 #define WIRE_RECORD 24
 

@@ -6,7 +6,8 @@
  * Power is stored raw (unnormalised, see photon.h); a map also counts the photons emitted to
  * make it, and the estimate divides by that count, so maps traced in separate batches merge by
  * concatenation and are rescaled once, by the photons actually emitted (docs/physics.md
- * §5.2). 24 bytes per photon; building and queries are deterministic. */
+ * §5.2). 24 bytes per photon, the direction included (what a glossy receiver's estimate,
+ * photon_map_gather, needs); building and queries are deterministic. */
 #ifndef PRISMFARM_PHOTON_MAP_H
 #define PRISMFARM_PHOTON_MAP_H
 
@@ -88,5 +89,20 @@ size_t photon_map_photon_bytes(void);
 #define PHOTON_MAP_MAX_K 1024
 int photon_map_irradiance(const photon_map_t *self, vec3_t p, vec3_t n, double radius, int k,
                           double *E);
+
+/* A photon found by photon_map_gather: the unit direction it was travelling in (decoded from
+ * its 8-bit octahedral code), its bucket and its raw power. */
+typedef void (*photon_map_visit_fn)(void *user, vec3_t dir, int bucket, double power);
+
+/* The density estimate of radiance at a glossy receiver (Jensen 2001, eq. 7.6 with the BSDF
+ * inside the sum): L_b = sum over photons of bucket b of f(wo, -dir) power / (N_emitted *
+ * bucket width * pi r^2). The map hands each photon it selects, as photon_map_irradiance
+ * selects them (same radius and k) except that photons on either side of n count (the
+ * receiver's BSDF says whether light from the other side is transmitted or is nothing), to fn,
+ * in an order that depends only on the map and the query; *scale is the
+ * 1 / (N_emitted * bucket width * pi r^2) to multiply fn's sums by (0 when none was found).
+ * Returns the number of photons handed over. */
+int photon_map_gather(const photon_map_t *self, vec3_t p, vec3_t n, double radius, int k,
+                      photon_map_visit_fn fn, void *user, double *scale);
 
 #endif

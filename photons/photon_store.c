@@ -161,6 +161,21 @@ int photon_store_irradiance(const photon_store_t *self, const hit_t *h, vec3_t p
                                  self->scene->settings.photon.k, E) > 0;
 }
 
+int photon_store_directional(const photon_store_t *self)
+{
+    return self->map != NULL;
+}
+
+int photon_store_gather(const photon_store_t *self, vec3_t p, vec3_t n, photon_map_visit_fn fn,
+                        void *user, double *scale)
+{
+    *scale = 0.0;
+    if (!self->map)
+        return 0;
+    return photon_map_gather(self->map, p, n, photon_gather_radius(self->scene),
+                             self->scene->settings.photon.k, fn, user, scale);
+}
+
 double photon_store_power_sum(const photon_store_t *self)
 {
     return self->lightmap ? lightmap_power_sum(self->lightmap) : photon_map_power_sum(self->map);

@@ -5,7 +5,8 @@
  * form, and the camera pass asks it for irradiance at a diffuse hit. Power is raw throughout;
  * both kinds divide by the photons emitted only when asked for irradiance, so merged batches,
  * a re-run batch or a later refinement all come out normalised by what was actually emitted
- * (docs/physics.md §5.2). */
+ * (docs/physics.md §5.2). A photon map also answers the radiance at a glossy receiver
+ * (photon_store_gather), from the photons' directions. */
 #ifndef PRISMFARM_PHOTON_STORE_H
 #define PRISMFARM_PHOTON_STORE_H
 
@@ -59,6 +60,17 @@ photon_store_t *photon_store_decode(const scene_t *scene, const uint8_t *data, s
  * any power was found, else 0 with E zeroed. Only on a finished store. */
 int photon_store_irradiance(const photon_store_t *self, const hit_t *h, vec3_t p, vec3_t n,
                             double *E);
+
+/* Whether the store keeps each photon's direction, so that photons may be stored on glossy
+ * receivers and gathered there (photon_store_gather): a photon map does, light maps (texel
+ * irradiance) do not. */
+int photon_store_directional(const photon_store_t *self);
+
+/* The glossy receiver's estimate at hit point p with unit geometric normal n (either side):
+ * photon_map_gather with the scene's gather radius and k. Returns the photons handed to fn
+ * (0 with *scale 0 on a light map or when none is near). Only on a finished store. */
+int photon_store_gather(const photon_store_t *self, vec3_t p, vec3_t n, photon_map_visit_fn fn,
+                        void *user, double *scale);
 
 /* Sum of the raw power held (as photon_map_power_sum). */
 double photon_store_power_sum(const photon_store_t *self);

@@ -211,7 +211,7 @@ static int write_all(int fd, const uint8_t *data, size_t n)
 
 /* Writes one file into the folder dirfd under name, through a temporary file and a rename. */
 static int write_atomically(int dirfd, const char *name, const proto_bundle_file_t *f, size_t index,
-                            err_t *err)
+                            bool durable, err_t *err)
 {
     char tmp[64];
     snprintf(tmp, sizeof tmp, ".pf-extract-%ld-%zu.tmp", (long)getpid(), index);
@@ -222,7 +222,7 @@ static int write_atomically(int dirfd, const char *name, const proto_bundle_file
     if (fd < 0)
         return err_set(err, "cannot create a temporary file for '%.64s': %s", f->path,
                        strerror(errno));
-    int failed = write_all(fd, f->data, f->size) < 0 || fsync(fd) < 0;
+    int failed = write_all(fd, f->data, f->size) < 0 || (durable && fsync(fd) < 0);
     int saved = errno;
     if (close(fd) < 0 && !failed) {
         failed = 1;
@@ -239,7 +239,8 @@ static int write_atomically(int dirfd, const char *name, const proto_bundle_file
     return 0;
 }
 
-static int extract_file(int root, const proto_bundle_file_t *f, size_t index, err_t *err)
+static int extract_file(int root, const proto_bundle_file_t *f, size_t index, bool durable,
+                        err_t *err)
 {
     char comp[PROTO_MAX_PATH_COMPONENT + 1];
     int dir = root;
@@ -256,13 +257,13 @@ static int extract_file(int root, const proto_bundle_file_t *f, size_t index, er
             return -1;
         dir = sub;
     }
-    rc = write_atomically(dir, c, f, index, err);
+    rc = write_atomically(dir, c, f, index, durable, err);
     if (dir != root)
         (void)close(dir);
     return rc;
 }
 
-int proto_bundle_extract(const proto_bundle_t *bundle, const char *dir, err_t *err)
+int proto_bundle_extract(const proto_bundle_t *bundle, const char *dir, bool durable, err_t *err)
 {
     /* Limits were the decoder's business; here only the path rules matter. */
     proto_limits_t unlimited = {SIZE_MAX, SIZE_MAX, SIZE_MAX};
@@ -275,7 +276,7 @@ int proto_bundle_extract(const proto_bundle_t *bundle, const char *dir, err_t *e
         return err_set(err, "cannot open folder '%s': %s", dir, strerror(errno));
     int rc = 0;
     for (size_t i = 0; i < bundle->nfiles && rc == 0; i++)
-        rc = extract_file(root, &bundle->files[i], i, err);
+        rc = extract_file(root, &bundle->files[i], i, durable, err);
     (void)close(root);
     if (rc < 0)
         return err_prefix(err, "extracting into '%s': ", dir);

@@ -8,6 +8,7 @@
 #include "err.h"
 #include "proto_limits.h"
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -43,9 +44,10 @@ int proto_bundle_hash(const proto_bundle_t *bundle, char hex[PROTO_HASH_HEX + 1]
 /* Writes the bundle's files below dir (created if missing; its parent must exist), creating
  * subfolders as needed. Never follows a symbolic link below dir: a link where a subfolder is
  * expected is an error, and a link at a file's place is replaced, not written through. Each file
- * is written to a temporary name, synced and renamed, so it appears whole or not at all. On
- * failure the files before the faulty one stay written: to make a whole bundle appear at once,
- * extract into a fresh folder and rename that folder into place. */
-int proto_bundle_extract(const proto_bundle_t *bundle, const char *dir, err_t *err);
+ * is written to a temporary name, synced when durable (else it survives the process, not a
+ * power cut) and renamed, so it appears whole or not at all. On failure the files before the
+ * faulty one stay written: to make a whole bundle appear at once, extract into a fresh folder
+ * and rename that folder into place. */
+int proto_bundle_extract(const proto_bundle_t *bundle, const char *dir, bool durable, err_t *err);
 
 #endif

@@ -383,9 +383,21 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
             f->org = geometry_offset(sf.p, sf.ng, f->dir);
             f->diffuse = 1;
         } else if (!shading_is_delta(m, &sf)) {
-            /* The stores hold light that reached a diffuse surface through smooth mirrors and
-             * glass only (L S+ D); the camera pass path traces everything through any other
-             * surface (render.c's CHAIN_BROKEN), so a photon ends here. */
+            /* A glossy receiver (any other non-delta surface: coated, rough conductor or
+             * dielectric, diffuse transmission). A store that keeps directions (a photon map)
+             * takes the caustic here as at a diffuse surface, L S+ G by the same rule, and the
+             * camera pass evaluates the receiver's BSDF with each photon's direction
+             * (render.c's caustic_light_bsdf); light maps cannot, so there the camera pass path
+             * traces it (CHAIN_BROKEN). Either way the photon ends: what the surface scatters
+             * on is path traced from the camera. */
+            /* A thin dielectric's BSDF is all delta: the camera pass never gathers there. */
+            if (job->policy == PHOTON_STORE_CAUSTIC && photon_store_directional(t->out) &&
+                m->kind != MATERIAL_THIN_DIELECTRIC &&
+                (f->specular >= job->mindepth || (f->collimated && !f->specular)) && !f->diffuse) {
+                vec3_t g = vec3_dot(sf.ng, f->dir) < 0.0 ? sf.ng : vec3_neg(sf.ng);
+                if (deposit_lanes(t, f, &h, &sf, g, err))
+                    return -1;
+            }
             return 0;
         } else {
             if (f->depth >= job->maxdepth) {

@@ -1,5 +1,6 @@
 /* photon: the photon tracer (thesis alg. 4 and 5.5): shoots photons from the lights and
- * deposits them where they land on diffuse surfaces, into a caustic store (photon_store.h:
+ * deposits them where they land on diffuse surfaces (and, in a photon map, on glossy ones:
+ * every non-delta surface that is not Lambertian), into a caustic store (photon_store.h:
  * a photon map or light maps).
  * photon_trace traces a range [i0, i1) of a job's photon indices; every random number of
  * photon i is keyed by (job seed, i, 0, dimension) -- the seed mixed with a photon-pass
@@ -19,10 +20,11 @@
 #include <stdint.h>
 
 typedef enum photon_store_policy {
-    /* The caustic store of the photon integrator: a photon is deposited at its first diffuse
-     * hit only if every bounce before it was specular and there was at least one (L S+ D
-     * paths), and ends there; a collimated light's photons also at a first hit straight from
-     * the light (no camera path can find that light). The camera pass traces every other
+    /* The caustic store of the photon integrator: a photon is deposited at its first
+     * non-delta hit -- diffuse, or glossy when the store keeps directions (a photon map) --
+     * only if every bounce before it was specular and there was at least one (L S+ D and
+     * L S+ G paths), and ends there; a collimated light's photons also at a first hit straight
+     * from the light (no camera path can find that light). The camera pass traces every other
      * path. */
     PHOTON_STORE_CAUSTIC,
     /* The thesis's store (alg. 4): deposits at every diffuse hit except a first hit straight

@@ -10,6 +10,8 @@
 #include "shading.h"
 #include "spectral_grid.h"
 #include "specular.h"
+#include "volume.h"
+#include "phase_hg.h"
 #include "wavelength.h"
 
 #include <math.h>
@@ -51,6 +53,9 @@ typedef struct path {
      * last (or since the camera). */
     int diffuse_bounces;
     int specular_since_diffuse;
+    /* The medium the path travels in (an index into scene->media, -1: vacuum); read only when
+     * the scene's media are simulated (render_settings_t.media). */
+    int medium;
     /* The lanes come last so that a new path clears only the fields above. */
     double lambda[LANES];
     double beta[LANES];
@@ -91,9 +96,11 @@ typedef struct ctx {
     int max_branches; /* WHITTED_BRANCHES_PER_BOUNCE x maxdepth x lanes */
     /* The photon integrator's caustic store, or NULL. */
     const photon_store_t *photons;
-    int mindepth;       /* the store holds L S^k D paths with k >= mindepth */
+    int glossy_photons; /* the store holds photons on glossy receivers too (it keeps directions) */
+    int mindepth;       /* the store holds L S^k D (and L S^k G) paths with k >= mindepth */
     double *irradiance; /* grid.n buckets, for one estimate */
     le_entry_t le_cache[LE_CACHE_LIGHTS + 1][LANES];
+    int media; /* the scene's media are simulated (render/volume.h) */
 } ctx_t;
 
 static double next(ctx_t *c) { return rng_stream_next(&c->rng); }
@@ -263,11 +270,43 @@ static void add_environment(ctx_t *c, const path_t *p)
     }
 }
 
-/* Samples a light for next-event estimation at sf and traces its shadow ray: 1 with *ls when
- * the light is sampled and visible, 0 otherwise. accept(wi) decides, before the shadow ray,
- * whether the direction can contribute at all. */
-static int light_visible(ctx_t *c, const surface_t *sf, light_sample_t *ls,
-                         int (*accept)(const void *, vec3_t), const void *arg)
+/* The shadow segment from o toward light sample ls (both ends offset off their surfaces by
+ * the caller for o, here for the light's end): *dir and *tmax, 0 when it has no length. */
+static int shadow_segment(vec3_t x, vec3_t o, const light_sample_t *ls, vec3_t *dir, double *tmax)
+{
+    *dir = ls->wi;
+    *tmax = INFINITY;
+    if (isinf(ls->dist))
+        return 1;
+    vec3_t target = ls->dist > 0 && ls->is_delta ? vec3_fma(x, ls->wi, ls->dist)
+                                                 : geometry_offset(ls->p_light, ls->n_light, vec3_neg(ls->wi));
+    vec3_t d = vec3_sub(target, o);
+    *tmax = vec3_length(d);
+    if (!(*tmax > 0.0))
+        return 0;
+    *dir = vec3_scale(d, 1.0 / *tmax);
+    *tmax *= 1.0 - 1e-7;
+    return 1;
+}
+
+/* The shadow ray from o over [0, tmax) along dir, starting in medium `medium`: visible (1)
+ * or not, with each lane's transmittance in tr (all 1 without media). */
+static int shadow_ray(ctx_t *c, const path_t *p, vec3_t o, vec3_t dir, double tmax, int medium,
+                      double *tr)
+{
+    c->stats->rays++;
+    if (c->media)
+        return shading_transmittance(c->scene, o, dir, tmax, medium, p->lambda, p->n, &c->rng, tr);
+    for (int j = 0; j < p->n; j++)
+        tr[j] = 1.0;
+    return !shading_occluded(c->scene, o, dir, 0.0, tmax);
+}
+
+/* Samples a light for next-event estimation at sf and traces its shadow ray: 1 with *ls and
+ * the lanes' transmittances tr when the light is sampled and visible, 0 otherwise.
+ * accept(wi) decides, before the shadow ray, whether the direction can contribute at all. */
+static int light_visible(ctx_t *c, const path_t *p, const surface_t *sf, light_sample_t *ls,
+                         int (*accept)(const void *, vec3_t), const void *arg, double *tr)
 {
     double u[4];
     for (int k = 0; k < 4; k++)
@@ -279,20 +318,11 @@ static int light_visible(ctx_t *c, const surface_t *sf, light_sample_t *ls,
     /* Both ends of the shadow ray are offset off their surfaces (toward each other), so that
      * neither the shading point's surface nor the light's own surface blocks it. */
     vec3_t o = geometry_offset(sf->p, sf->ng, ls->wi);
-    vec3_t dir = ls->wi;
-    double tmax = INFINITY;
-    if (!isinf(ls->dist)) {
-        vec3_t target = ls->dist > 0 && ls->is_delta ? vec3_fma(sf->p, ls->wi, ls->dist)
-                                                     : geometry_offset(ls->p_light, ls->n_light, vec3_neg(ls->wi));
-        vec3_t d = vec3_sub(target, o);
-        tmax = vec3_length(d);
-        if (!(tmax > 0.0))
-            return 0;
-        dir = vec3_scale(d, 1.0 / tmax);
-        tmax *= 1.0 - 1e-7;
-    }
-    c->stats->rays++;
-    return !shading_occluded(c->scene, o, dir, 0.0, tmax);
+    vec3_t dir;
+    double tmax;
+    if (!shadow_segment(sf->p, o, ls, &dir, &tmax))
+        return 0;
+    return shadow_ray(c, p, o, dir, tmax, scene_medium_after(sf, ls->wi, p->medium), tr);
 }
 
 typedef struct hemispheres {
@@ -314,7 +344,8 @@ static void direct_light(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t 
 {
     light_sample_t ls;
     const hemispheres_t hs = {n, g};
-    if (!light_visible(c, sf, &ls, above_both, &hs))
+    double tr[LANES];
+    if (!light_visible(c, p, sf, &ls, above_both, &hs, tr))
         return;
     double cos_s = vec3_dot(n, ls.wi);
     double w = 1.0;
@@ -324,7 +355,7 @@ static void direct_light(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t 
         double le = lights_sample_emission_of(c->scene, &ls,
                                               light_value_lane(c, ls.light, j, p->lambda[j]),
                                               p->lambda[j]);
-        splat(c, p, j, w * albedo[j] / PF_PI * le * cos_s / ls.pdf);
+        splat(c, p, j, w * albedo[j] / PF_PI * le * tr[j] * cos_s / ls.pdf);
     }
 }
 
@@ -381,7 +412,8 @@ static void direct_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, co
 {
     light_sample_t ls;
     const sides_t sd = {fr, sf->ng};
-    if (!light_visible(c, sf, &ls, sides_agree, &sd))
+    double tr[LANES];
+    if (!light_visible(c, p, sf, &ls, sides_agree, &sd, tr))
         return;
     vec3_t wi = shading_to_local(fr, ls.wi);
     double f[LANES], pdf[LANES];
@@ -398,7 +430,7 @@ static void direct_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, co
         double le = lights_sample_emission_of(c->scene, &ls,
                                               light_value_lane(c, ls.light, j, p->lambda[j]),
                                               p->lambda[j]);
-        splat(c, p, j, w * f[j] * cos_i * le / ls.pdf);
+        splat(c, p, j, w * f[j] * cos_i * le * tr[j] / ls.pdf);
     }
 }
 
@@ -420,6 +452,131 @@ static void caustic_light(ctx_t *c, const path_t *p, const hit_t *h, const surfa
         if (b >= 0)
             splat(c, p, j, albedo[j] / PF_PI * c->irradiance[b]);
     }
+}
+
+/* The caustic store's share at a glossy receiver (any surface scatter_bsdf shades), from a
+ * store that keeps directions: the photon density estimate with the receiver's BSDF inside
+ * the sum (photon_store_gather), L_j = scale x sum over the photons of lane j's bucket of
+ * f_j(wo, -dir) power. Added where caustic_light is (the path's first non-specular vertex);
+ * scatter_bsdf then lets the chain count from here, so that the paths it would find the other
+ * way (L S+ G S* E: the next vertex's emission) are not counted twice. f is bsdf_eval's: the
+ * coated models' stochastic estimate, unbiased, and without a smooth coat's delta reflection,
+ * which the path samples as specular and carries on.
+ *
+ * A caustic puts hundreds of photons in a gather disk, and a coated receiver's evaluation is a
+ * random walk in its layers (a caustic-glass render took 15 times as long evaluating every
+ * one). So the sum is estimated from about GLOSSY_GATHER_EVALS of them, shared out equally
+ * between the lanes' buckets (a group: the lanes of one bucket), so that every lane's
+ * estimate has picks of its own and the colour stays smooth. A first pass over the disk sums,
+ * per group, the power W_g of the photons that can count (of the group's bucket, on the
+ * viewer's sides); a second picks M_g of them by systematic sampling in proportion to power
+ * -- the m-th pick where the group's running sum passes (m + xi) W_g / M_g -- and each pick
+ * adds W_g / M_g f_j to the group's lanes. A photon is picked M_g power / W_g times on
+ * average, so the estimate is unbiased; the photons of a caustic arrive from nearly one
+ * direction, so f varies little between them and few picks cost little noise
+ * (docs/accuracy.md measures M). A group with no more photons than M_g evaluates each once. */
+#define GLOSSY_GATHER_EVALS 4
+
+typedef struct glossy_group {
+    int bucket;
+    int count;         /* photons that can count (pass 0) */
+    double total;      /* their power W_g (pass 0) */
+    double running;    /* the running sum of power (pass 1) */
+    double step, next; /* W_g / M_g and the next pick's target (pass 1; step 0: every photon) */
+} glossy_group_t;
+
+typedef struct glossy_gather {
+    ctx_t *c;
+    const path_t *p;
+    const bsdf_t *b;
+    const shading_frame_t *fr;
+    sides_t sd;
+    vec3_t wo;
+    int group[LANES]; /* each lane's group */
+    int ngroups;
+    glossy_group_t groups[LANES];
+    double sum[LANES];
+    int pass; /* 0: summing W_g, 1: evaluating */
+} glossy_gather_t;
+
+static void glossy_photon(void *user, vec3_t dir, int bucket, double power)
+{
+    glossy_gather_t *gg = user;
+    glossy_group_t *g = NULL;
+    int gi = 0;
+    for (; gi < gg->ngroups; gi++)
+        if (gg->groups[gi].bucket == bucket) {
+            g = &gg->groups[gi];
+            break;
+        }
+    /* The photon's light comes from -dir; a direction the geometric surface and the shading
+     * frame put on different sides would pass through the mesh (as in next-event estimation). */
+    const vec3_t wi_world = vec3_neg(dir);
+    if (!g || !(power > 0.0) || !sides_agree(&gg->sd, wi_world))
+        return;
+    if (gg->pass == 0) {
+        g->count++;
+        g->total += power;
+        return;
+    }
+    double weight = power;
+    if (g->step > 0.0) {
+        double lo = g->running;
+        g->running += power;
+        int picks = 0;
+        while (g->next < g->running && g->next >= lo && picks < GLOSSY_GATHER_EVALS) {
+            picks++;
+            g->next += g->step;
+        }
+        if (picks == 0)
+            return;
+        weight = picks * g->step;
+    }
+    double f[LANES];
+    bsdf_eval(gg->b, gg->wo, shading_to_local(gg->fr, wi_world), &gg->c->rng, f);
+    for (int j = 0; j < gg->p->n; j++)
+        if (gg->group[j] == gi && f[j] > 0.0)
+            gg->sum[j] += f[j] * weight;
+}
+
+static void caustic_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, const bsdf_t *b,
+                               const shading_frame_t *fr, vec3_t wo_local)
+{
+    glossy_gather_t gg = {.c = c, .p = p, .b = b, .fr = fr, .sd = {fr, sf->ng}, .wo = wo_local};
+    for (int j = 0; j < p->n; j++) {
+        int bk = p->bucket[j] >= 0 ? p->bucket[j] : spectral_table_index(c->table, p->lambda[j]);
+        int gi = 0;
+        while (gi < gg.ngroups && gg.groups[gi].bucket != bk)
+            gi++;
+        if (gi == gg.ngroups)
+            gg.groups[gg.ngroups++] = (glossy_group_t){.bucket = bk};
+        gg.group[j] = gi;
+        gg.sum[j] = 0.0;
+    }
+    double scale;
+    if (!photon_store_gather(c->photons, sf->p, sf->ng, glossy_photon, &gg, &scale))
+        return;
+    const int per_group = GLOSSY_GATHER_EVALS / gg.ngroups > 0 ? GLOSSY_GATHER_EVALS / gg.ngroups : 1;
+    int any = 0;
+    for (int gi = 0; gi < gg.ngroups; gi++) {
+        glossy_group_t *g = &gg.groups[gi];
+        if (!(g->total > 0.0) || !isfinite(g->total)) {
+            g->bucket = -2; /* takes no photon in the second pass */
+            continue;
+        }
+        any = 1;
+        if (g->count > per_group) {
+            g->step = g->total / per_group;
+            g->next = next(c) * g->step;
+        }
+    }
+    if (!any)
+        return;
+    gg.pass = 1;
+    photon_store_gather(c->photons, sf->p, sf->ng, glossy_photon, &gg, &scale);
+    for (int j = 0; j < p->n; j++)
+        if (gg.sum[j] > 0.0)
+            splat(c, p, j, gg.sum[j] * scale);
 }
 
 /* Reflect-or-refract choice: with Whitted both branches are followed (the second pushed on
@@ -448,6 +605,7 @@ static int choose_reflect(ctx_t *c, double prob_reflect, double *scale)
 
 static void start_bounce(path_t *p, const surface_t *h, vec3_t dir, int specular, double pdf)
 {
+    p->medium = scene_medium_after(h, dir, p->medium);
     p->prev_p = h->p;
     p->org = geometry_offset(h->p, h->ng, dir);
     p->dir = dir;
@@ -683,6 +841,11 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
     const int delta = bsdf_is_specular(&b);
     if (!delta && c->rs->integrator != INTEGRATOR_SIMPLEPATH)
         direct_light_bsdf(c, p, sf, &b, &fr, wo, sel);
+    /* The glossy receiver's photons, at the path's first non-specular vertex, as caustic_light
+     * at a diffuse one; only a store with directions has them (photon.c). */
+    const int gathers = c->glossy_photons && !delta && p->diffuse_bounces == 0;
+    if (gathers)
+        caustic_light_bsdf(c, p, sf, &b, &fr, wo);
     if (!delta && c->rs->integrator == INTEGRATOR_WHITTED)
         return 1;
     int hero = 0;
@@ -734,8 +897,105 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
     start_bounce(p, sf, wi, specular, specular ? 0.0 : mis_pdf);
     if (!specular)
         p->diffuse_bounces++;
-    p->specular_since_diffuse = CHAIN_BROKEN;
+    /* A receiver that gathered photons starts the chain, like a diffuse vertex: light that
+     * reaches it through smooth mirrors and glass only came from the store. A specular sample
+     * (a smooth coat's mirror lobe, which the BSDF evaluation and so the gather leave out)
+     * and every surface that did not gather break it: light through them is path traced. */
+    p->specular_since_diffuse = gathers && !specular ? 0 : CHAIN_BROKEN;
     return 0;
+}
+
+/* Russian roulette after a bounce (thesis eq. 2.32-2.33): from RR_DEPTH bounces on, the path
+ * survives with probability min(1, max(RR_MIN, max beta)) and is divided by it. Returns 1
+ * when the path ends. */
+static int roulette(ctx_t *c, path_t *p)
+{
+    double mb = max_beta(p);
+    if (!(mb > 0.0))
+        return 1;
+    if (p->depth >= RR_DEPTH && c->rs->integrator != INTEGRATOR_WHITTED) {
+        /* fmin(1, fmax(RR_MIN, mb)) for the positive mb here, without libm calls. */
+        double q = mb > RR_MIN ? mb : RR_MIN;
+        if (q > 1.0)
+            q = 1.0;
+        if (q < 1.0) {
+            if (next(c) >= q)
+                return 1;
+            for (int j = 0; j < p->n; j++)
+                p->beta[j] /= q;
+        }
+    }
+    return 0;
+}
+
+/* Next-event estimation at a scattering point x in medium m (phase function HG with the
+ * medium's g): the light's emission times the phase function times the shadow ray's
+ * transmittance, MIS-weighted against phase sampling by the power heuristic on the two
+ * directional densities (either estimator is unbiased for the transmittance, so weights of
+ * the direction alone sum to one). */
+static void direct_light_medium(ctx_t *c, const path_t *p, vec3_t x, double g)
+{
+    double u[4];
+    for (int k = 0; k < 4; k++)
+        u[k] = next(c);
+    light_sample_t ls;
+    if (!lights_sample(c->scene, x, u, &ls) || !(ls.pdf > 0.0))
+        return;
+    vec3_t dir;
+    double tmax, tr[LANES];
+    if (!shadow_segment(x, x, &ls, &dir, &tmax) || !shadow_ray(c, p, x, dir, tmax, p->medium, tr))
+        return;
+    const double ph = phase_hg_eval(vec3_neg(p->dir), ls.wi, g);
+    const double w = ls.is_delta ? 1.0 : power_heuristic(ls.pdf, ph);
+    for (int j = 0; j < p->n; j++) {
+        if (!(tr[j] > 0.0))
+            continue;
+        double le = lights_sample_emission_of(c->scene, &ls,
+                                              light_value_lane(c, ls.light, j, p->lambda[j]),
+                                              p->lambda[j]);
+        splat(c, p, j, w * ph * le * tr[j] / ls.pdf);
+    }
+}
+
+enum { FLIGHT_ENDS, FLIGHT_PASSED, FLIGHT_SCATTERED };
+
+/* The path's free flight through its medium up to the next surface at tmax (volume.h): the
+ * medium's emission is splatted, the lanes weighted, and a scattering event is a bounce (NEE,
+ * then a direction from the phase function, whose weight p / pdf is 1), counted in depth and
+ * followed by the roulette as surface bounces are (pbrt-v4 VolPathIntegrator). */
+static int medium_flight(ctx_t *c, path_t *p, double tmax)
+{
+    const medium_t *m = c->scene->media[p->medium];
+    volume_lanes_t k;
+    volume_lanes_make(m, p->lambda, p->n, &k);
+    volume_flight_t f;
+    volume_sample(m, &k, p->org, p->dir, tmax, p->beta, &c->rng, &f);
+    if (k.emissive && p->depth < c->rs->maxdepth)
+        for (int j = 0; j < p->n; j++)
+            splat(c, p, j, f.emitted[j]);
+    if (f.event == VOLUME_ABSORBED)
+        return FLIGHT_ENDS;
+    for (int j = 0; j < p->n; j++)
+        p->beta[j] *= f.weight[j];
+    if (f.event == VOLUME_PASSED)
+        return max_beta(p) > 0.0 ? FLIGHT_PASSED : FLIGHT_ENDS;
+    if (p->depth >= c->rs->maxdepth)
+        return FLIGHT_ENDS;
+    const vec3_t x = vec3_fma(p->org, p->dir, f.t);
+    const double g = medium_g(m);
+    if (c->rs->integrator != INTEGRATOR_SIMPLEPATH)
+        direct_light_medium(c, p, x, g);
+    double u1 = next(c), u2 = next(c), pdf;
+    vec3_t wi = phase_hg_sample(vec3_neg(p->dir), g, u1, u2, &pdf);
+    p->prev_p = x;
+    p->org = x;
+    p->dir = wi;
+    p->specular = 0;
+    p->bsdf_pdf = pdf;
+    p->diffuse_bounces++;
+    p->specular_since_diffuse = CHAIN_BROKEN;
+    p->depth++;
+    return roulette(c, p) ? FLIGHT_ENDS : FLIGHT_SCATTERED;
 }
 
 /* Traces one path (and, via the stack, its branches) and splats what it finds. */
@@ -753,7 +1013,15 @@ static void trace(ctx_t *c, path_t *start)
         for (;;) {
             hit_t h;
             c->stats->rays++;
-            if (!geometry_intersect(s->geometry, p->org, p->dir, 0.0, INFINITY, &h)) {
+            const int hit = geometry_intersect(s->geometry, p->org, p->dir, 0.0, INFINITY, &h);
+            if (c->media && p->medium >= 0) {
+                int fl = medium_flight(c, p, hit ? h.t : INFINITY);
+                if (fl == FLIGHT_ENDS)
+                    break;
+                if (fl == FLIGHT_SCATTERED)
+                    continue;
+            }
+            if (!hit) {
                 add_environment(c, p);
                 break;
             }
@@ -779,6 +1047,7 @@ static void trace(ctx_t *c, path_t *start)
                 if (++p->passthrough > MAX_PASSTHROUGH)
                     break;
                 p->org = geometry_offset(sf.p, sf.ng, p->dir);
+                p->medium = scene_medium_after(&sf, p->dir, p->medium);
                 continue;
             }
             shading_perturb(m, &sf);
@@ -830,21 +1099,8 @@ static void trace(ctx_t *c, path_t *start)
                     break;
             }
             p->depth++;
-            double mb = max_beta(p);
-            if (!(mb > 0.0))
+            if (roulette(c, p))
                 break;
-            if (p->depth >= RR_DEPTH && c->rs->integrator != INTEGRATOR_WHITTED) {
-                /* fmin(1, fmax(RR_MIN, mb)) for the positive mb here, without libm calls. */
-                double q = mb > RR_MIN ? mb : RR_MIN;
-                if (q > 1.0)
-                    q = 1.0;
-                if (q < 1.0) {
-                    if (next(c) >= q)
-                        break;
-                    for (int j = 0; j < p->n; j++)
-                        p->beta[j] /= q;
-                }
-            }
         }
         if (c->top == 0)
             break;
@@ -904,6 +1160,7 @@ static double lens_ray(ctx_t *c, path_t *p, const camera_frame_t *f, double px, 
     }
     double w = camera_frame_ray_lambda(f, px, py, u1, u2, p->lambda[0], &p->org, &p->dir);
     p->specular = 1;
+    p->medium = c->scene->camera_medium;
     p->prev_p = p->org;
     if (w != 1.0)
         for (int j = 0; j < p->n; j++)
@@ -962,9 +1219,11 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
     for (int i = 0; i <= LE_CACHE_LIGHTS; i++)
         for (int j = 0; j < LANES; j++)
             c.le_cache[i][j].lambda = NAN;
+    c.media = rs->media && scene->nmedia > 0;
     double *irradiance = NULL;
     if (rs->photon.enabled) {
         c.photons = photons;
+        c.glossy_photons = photon_store_directional(photons);
         irradiance = malloc((size_t)nb * sizeof *irradiance);
         if (!irradiance) {
             err_set(err, "out of memory");

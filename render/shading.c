@@ -1,5 +1,7 @@
 #include "shading.h"
 
+#include "volume.h"
+
 #include "microfacet.h"
 
 #include <math.h>
@@ -289,4 +291,50 @@ int shading_occluded(const scene_t *scene, vec3_t org, vec3_t dir, double tmin, 
             return 0;
     }
     return 1;
+}
+
+int shading_transmittance(const scene_t *scene, vec3_t org, vec3_t dir, double tmax, int medium,
+                          const double *lambda, int n, rng_stream_t *rng, double *T)
+{
+    for (int j = 0; j < n; j++)
+        T[j] = 1.0;
+    volume_lanes_t k;
+    int lanes_of = -2; /* the medium k holds the coefficients of */
+    for (int pass = 0; pass < ALPHA_PASSES_MAX; pass++) {
+        hit_t h;
+        int hit = geometry_intersect(scene->geometry, org, dir, 0.0, tmax, &h);
+        if (medium >= 0) {
+            const medium_t *m = scene->media[medium];
+            if (lanes_of != medium) {
+                volume_lanes_make(m, lambda, n, &k);
+                lanes_of = medium;
+            }
+            volume_transmittance(m, &k, org, dir, hit ? h.t : tmax, rng, T);
+            double mx = 0.0;
+            for (int j = 0; j < n; j++)
+                mx = T[j] > mx ? T[j] : mx;
+            if (!(mx > 0.0))
+                return 0;
+        }
+        if (!hit)
+            return 1;
+        const shape_t *sh = &scene->shapes[h.shape];
+        const int interface = scene->materials[sh->material].kind == MATERIAL_INTERFACE;
+        if (!sh->alpha && !interface)
+            return 0;
+        surface_t sf;
+        scene_surface(scene, &h, &sf);
+        if (!interface && !shading_alpha_pass(&sf, org, dir))
+            return 0;
+        /* A cut-out is no surface at all (pbrt-v4 ignores the hit); an interface is a surface
+         * without material, where the medium may change. */
+        if (interface)
+            medium = scene_medium_after(&sf, dir, medium);
+        vec3_t o = geometry_offset(sf.p, sf.ng, dir);
+        tmax -= vec3_dot(vec3_sub(o, org), dir);
+        org = o;
+        if (!(tmax > 0.0))
+            return 1;
+    }
+    return 0;
 }

@@ -7,6 +7,7 @@
 #define PRISMFARM_SHADING_H
 
 #include "bsdf.h"
+#include "rng.h"
 #include "scene.h"
 
 /* The material that applies at sf: m itself, or for a mix the one its amount chooses with the
@@ -52,6 +53,15 @@ int shading_alpha_pass(const surface_t *sf, vec3_t org, vec3_t dir);
  * through "interface" shapes (by re-tracing from each surface it passes, at most a few
  * hundred); plain geometry_occluded when the scene has neither. */
 int shading_occluded(const scene_t *scene, vec3_t org, vec3_t dir, double tmin, double tmax);
+
+/* shading_occluded's rule with participating media (render/volume.h): the shadow ray from org
+ * along dir (unit) over [0, tmax) starts in medium `medium` (an index into scene->media, -1:
+ * vacuum), passes cut-outs and "interface" shapes (changing medium where a shape separates
+ * two, scene_medium_after) and is blocked by any other surface. Returns 0 when blocked or
+ * when every lane's transmittance is 0; else 1 with T[j] lane j's transmittance estimate
+ * (unbiased, finite, >= 0) for the n wavelengths lambda. */
+int shading_transmittance(const scene_t *scene, vec3_t org, vec3_t dir, double tmax, int medium,
+                          const double *lambda, int n, rng_stream_t *rng, double *T);
 
 /* The local shading frame at sf for outgoing direction wo: z the shading normal (outward),
  * x and y a tangent basis. Where wo lies on different sides of the shading and the geometric

@@ -121,6 +121,7 @@ struct plan {
     size_t nplacements; /* mirror and glass placements looked at */
     /* What the scene renders with now, for the report. */
     integrator_kind_t current_integrator;
+    int current_media; /* the camera pass simulates media ("volpath") */
     dispersion_kind_t current_dispersion;
     photon_settings_t current_photon;
     spectral_grid_t grid;
@@ -323,13 +324,17 @@ static int is_specular(const material_t *m)
 
 
 
-/* A diffuse surface that reflects some light at the hit (a black light fixture does not: a
- * photon stored there would carry nothing to the camera). */
-static int diffuse_reflects(const surface_t *sf, spectral_grid_t g)
+/* A surface that receives a caustic: a diffuse surface that reflects some light at the hit
+ * (a black light fixture does not: a photon stored there would carry nothing to the camera),
+ * or a glossy one -- any non-delta surface that is not Lambertian (coated, rough conductor or
+ * dielectric, diffuse transmission; not a thin dielectric, all delta), which the plan's photon
+ * map stores photons on with their directions (render/photon.h). */
+static int receives(const surface_t *sf, spectral_grid_t g)
 {
     const material_t *m = sf->material;
     if (m->kind != MATERIAL_DIFFUSE)
-        return 0;
+        return m->kind != MATERIAL_INTERFACE && m->kind != MATERIAL_MIX &&
+               m->kind != MATERIAL_THIN_DIELECTRIC && !is_specular(m);
     if (!m->reflectance)
         return 1;
     for (int k = 0; k < 8; k++)
@@ -541,10 +546,10 @@ static void enqueue(tracer_t *t, int *n, const surface_t *sf, vec3_t dir, int ho
 }
 
 /* From the queued arrivals (and the arrivals they lead to, up to max_hops specular events),
- * looks for a diffuse surface that sees the side of the specular surface the light leaves
- * from: a mirror sends it back to the side it came from, glass to both. Returns 1 when one is
- * found (an L S+ D path: *f names the first specular material and the diffuse one), 0 when
- * none is, -1 when the ray budget ran out first. */
+ * looks for a receiver (receives: diffuse or glossy) that sees the side of the specular surface
+ * the light leaves from: a mirror sends it back to the side it came from, glass to both.
+ * Returns 1 when one is found (an L S+ D or L S+ G path: *f names the first specular material
+ * and the receiver), 0 when none is, -1 when the ray budget ran out first. */
 static int follow(tracer_t *t, int n, uint64_t key, spectral_grid_t g, found_t *f)
 {
     const scene_t *s = t->s;
@@ -563,7 +568,7 @@ static int follow(tracer_t *t, int n, uint64_t key, spectral_grid_t g, found_t *
             surface_t sf;
             if (!first_surface(t, geometry_offset(a.p, a.ng, dir), dir, &sf))
                 continue;
-            if (diffuse_reflects(&sf, g)) {
+            if (receives(&sf, g)) {
                 f->glass_material = a.root_material;
                 f->receiver_material = material_index(s, sf.material);
                 return 1;
@@ -638,7 +643,7 @@ static int light_to_placement(tracer_t *t, int li, const placement_t *pl, int j,
 }
 
 /* A collimated light's beam: rays along its normal from uniform points of its shape. Sets
- * *direct when the beam lights a diffuse surface itself (L D, which only photons carry) and
+ * *direct when the beam lights a receiver itself (L D or L G, which only photons carry) and
  * returns follow's result for what it lights through mirrors and glass. */
 static int beam(tracer_t *t, int li, spectral_grid_t g, int *reached, int *direct, int *receiver,
                 found_t *f)
@@ -660,7 +665,7 @@ static int beam(tracer_t *t, int li, spectral_grid_t g, int *reached, int *direc
         surface_t sf;
         if (!first_surface(t, geometry_offset(lp, ln, ln), ln, &sf))
             continue;
-        if (diffuse_reflects(&sf, g)) {
+        if (receives(&sf, g)) {
             if (!*direct)
                 *receiver = material_index(s, sf.material);
             *direct = 1;
@@ -999,10 +1004,10 @@ static void light_reason(text_t *r, const scene_t *s, const plan_light_t *pl, si
                      "collimated light",
                      recv);
         if (pl->caustic)
-            text_add(r, "%s reaches %s, which %s sees (L S+ D)", pl->direct ? ";" : "", glass,
+            text_add(r, "%s reaches %s, which %s sees (L S+ D or G)", pl->direct ? ";" : "", glass,
                      recv);
         if (!pl->direct && !pl->caustic)
-            text_add(r, " lights no diffuse surface, directly or through mirrors and glass");
+            text_add(r, " lights no diffuse or glossy surface, directly or through mirrors and glass");
         return;
     case LIGHT_POINT:
     case LIGHT_SPOT:
@@ -1011,11 +1016,12 @@ static void light_reason(text_t *r, const scene_t *s, const plan_light_t *pl, si
             text_add(r, ": the scene has no mirror or glass");
         else if (pl->caustic)
             text_add(r,
-                     " reaches %s, which %s sees: an L S+ D path from a delta light, which "
-                     "path tracing finds with probability zero",
+                     " reaches %s, which %s sees: an L S+ D or L S+ G path from a delta light, "
+                     "which path tracing finds with probability zero",
                      glass, recv);
         else if (pl->reaches_specular)
-            text_add(r, " reaches mirrors or glass, but no diffuse surface sees where it arrives");
+            text_add(r, " reaches mirrors or glass, but no diffuse or glossy surface sees where it "
+                        "arrives");
         else
             text_add(r, " reaches no mirror or glass");
         return;
@@ -1049,8 +1055,8 @@ static void light_reason(text_t *r, const scene_t *s, const plan_light_t *pl, si
                      "caustic in fewer than 1 of 64 bounces (fireflies)",
                      pl->solid_angle, PLAN_SMALL_SOLID_ANGLE, 100.0 * pl->power_share, glass, recv);
         else
-            text_add(r, " is small and bright, but no diffuse surface sees where it reaches "
-                        "mirrors or glass");
+            text_add(r, " is small and bright, but no diffuse or glossy surface sees where it "
+                        "reaches mirrors or glass");
         return;
     }
 }
@@ -1086,7 +1092,7 @@ static int decide_photon(plan_t *p, const scene_t *s)
     if (on)
         text_add(&r, " The photon pass stores these paths (docs/rendering.md).");
     else
-        text_add(&r, " No light needs photons, so the pass is off: where no L S+ D path exists "
+        text_add(&r, " No light needs photons, so the pass is off: where no L S+ D or G path exists "
                      "it would store nothing and change no pixel; a large or faint light's "
                      "caustic is left to the path tracer.");
     return set_decision(p, PLAN_PHOTON, on, &c, &r);
@@ -1162,6 +1168,12 @@ static int decide_integrator(plan_t *p)
                  q->overridden         ? "the command line asks for \"auto\""
                  : q->integrator_named ? "the scene names Integrator \"auto\""
                                        : "the scene names no Integrator");
+    } else if (plan_follows_photons(q)) {
+        text_add(&r,
+                 "the %s asks for pbrt-v4's \"%s\", which traces paths from the lights: "
+                 "prismfarm renders it with the path tracer and takes the plan's photon pass "
+                 "for the caustics only light paths find. ",
+                 q->overridden ? "command line" : "scene", q->integrator);
     } else {
         int asked_photon = !strcmp(q->integrator, "photon");
         int asked_path = !strcmp(q->integrator, "path");
@@ -1196,6 +1208,7 @@ plan_t *plan_new(const scene_t *scene, const plan_request_t *req, err_t *err)
     p->req = *req;
     p->grid = scene->settings.grid;
     p->current_integrator = scene->settings.integrator;
+    p->current_media = scene->settings.media;
     p->current_dispersion = scene->settings.dispersion;
     p->current_photon = scene->settings.photon;
     p->nmaterials = scene->nmaterials;
@@ -1329,16 +1342,31 @@ void plan_apply(const plan_t *self, render_settings_t *rs)
     rs->photon = ph;
 }
 
+int plan_follows_photons(const plan_request_t *req)
+{
+    const integrator_name_t *in = integrators_find(req->integrator);
+    return in && in->plan_photons;
+}
+
 int plan_apply_auto(scene_t *scene, const scene_desc_t *desc, const scene_overrides_t *ov,
                     err_t *err)
 {
     plan_request_t req = plan_request_make(desc, ov);
-    if (strcmp(req.integrator, "auto") != 0)
+    const int is_auto = !strcmp(req.integrator, "auto");
+    if (!is_auto && !plan_follows_photons(&req))
         return 0;
     plan_t *p = plan_new(scene, &req, err);
     if (!p)
         return -1;
-    plan_apply(p, &scene->settings);
+    if (is_auto) {
+        plan_apply(p, &scene->settings);
+    } else {
+        /* bdpt, mlt, lightpath: only the photon pass is the plan's; the integrator, its depth
+         * and the dispersion strategy stay as the file's mapping set them. */
+        render_settings_t rs = scene->settings;
+        plan_apply(p, &rs);
+        scene->settings.photon = rs.photon;
+    }
     plan_destroy(&p);
     return 0;
 }
@@ -1380,7 +1408,8 @@ static void current_settings(const plan_t *p, char *buf, size_t n)
                  (unsigned long long)p->current_photon.photons,
                  integrators_dispersion_name(p->current_dispersion));
     else
-        snprintf(buf, n, "%s, %s", integrators_kind_name(p->current_integrator),
+        snprintf(buf, n, "%s, %s",
+                 integrators_used_name(p->current_integrator, false, p->current_media),
                  integrators_dispersion_name(p->current_dispersion));
 }
 

@@ -2,9 +2,11 @@
  * which effects to simulate and says why, naming the materials, lights and shapes that caused
  * each choice: wavelength splitting (any dispersive material), spectral colour (emission or
  * reflectance that varies over the film's range), the dispersion strategy, a photon pass (an
- * L S+ D path from a delta, collimated, or small and bright area light, found by tracing
- * visibility rays with geometry_intersect) with its parameters, and the integrator. Integrator
- * "auto" takes the plan's choice (plan_apply_auto, called by scene_load); explicit integrators
+ * L S+ D or L S+ G path -- G a glossy receiver -- from a delta, collimated, or small and
+ * bright area light, found by tracing visibility rays with geometry_intersect) with its
+ * parameters, and the integrator. Integrator
+ * "auto" takes the plan's choice (plan_apply_auto, called by scene_load), and pbrt-v4's
+ * light-path integrators (bdpt, mlt, lightpath) its photon pass; other explicit integrators
  * are kept and the plan reports what it would have chosen. The plan is deterministic: fixed
  * random keys, no dependence on threads or time. docs/plan.md states the rules. */
 #ifndef PRISMFARM_PLAN_H
@@ -132,8 +134,13 @@ uint64_t plan_rays(const plan_t *self);
  * strategy to the plan's choice: what integrator "auto" means. */
 void plan_apply(const plan_t *self, render_settings_t *rs);
 
+/* Whether the request names one of pbrt-v4's light-path integrators (bdpt, mlt, lightpath:
+ * integrator_name_t.plan_photons) whose photon pass the plan decides. */
+int plan_follows_photons(const plan_request_t *req);
+
 /* For scene_load: when the request's integrator is "auto", plans the finished scene and
- * applies the plan; otherwise does nothing. */
+ * applies the plan; when it is a light-path integrator (plan_follows_photons), applies only the
+ * plan's photon pass (on or off, its count and radius); otherwise does nothing. */
 int plan_apply_auto(scene_t *scene, const scene_desc_t *desc, const scene_overrides_t *ov,
                     err_t *err);
 

@@ -47,6 +47,7 @@ scene_t *scene_new(err_t *err)
     self->settings = render_settings_default();
     self->camera = (camera_t){.camera_to_world = transform_identity(), .fov_deg = 90.0,
                               .lens_radius = 0.0, .focal_distance = 1e6};
+    self->camera_medium = -1;
     return self;
 }
 
@@ -82,6 +83,9 @@ void scene_destroy(scene_t **self_p)
     for (size_t i = 0; i < self->nenvmaps; i++)
         envmap_destroy(&self->envmaps[i]);
     free(self->envmaps);
+    for (size_t i = 0; i < self->nmedia; i++)
+        medium_destroy(&self->media[i]);
+    free(self->media);
     free(self->spectra);
     free(self);
     *self_p = NULL;
@@ -139,6 +143,25 @@ int scene_own_envmap(scene_t *self, envmap_t *e, err_t *err)
     return 0;
 }
 
+int scene_add_medium(scene_t *self, medium_t *m, err_t *err)
+{
+    long i = grow((void **)&self->media, &self->nmedia, sizeof *self->media, err);
+    if (i < 0) {
+        medium_destroy(&m);
+        return -1;
+    }
+    self->media[i] = m;
+    return (int)i;
+}
+
+int scene_medium_after(const surface_t *sf, vec3_t w, int current)
+{
+    const shape_t *s = sf->shape;
+    if (s->medium_inside == s->medium_outside)
+        return current;
+    return vec3_dot(w, sf->ng) > 0.0 ? s->medium_outside : s->medium_inside;
+}
+
 int scene_add_material(scene_t *self, const material_t *m, err_t *err)
 {
     long i = grow((void **)&self->materials, &self->nmaterials, sizeof *self->materials, err);
@@ -190,6 +213,7 @@ static shape_t *new_shape(scene_t *self, int object, int material, int area_ligh
     s->light = area_light;
     s->flip = flip;
     s->to_world = transform_identity();
+    s->medium_inside = s->medium_outside = -1;
     return s;
 }
 
@@ -542,9 +566,25 @@ int scene_finish(scene_t *self, err_t *err)
     spectral_grid_t g = self->settings.grid;
     self->has_dispersion = 0;
     self->has_interface = 0;
+    self->has_medium_boundary = 0;
+    /* A medium that is not simulated (NULL) is vacuum: the index becomes -1, so that a shape
+     * between it and vacuum is no boundary. */
+    if (self->camera_medium >= (int)self->nmedia)
+        return err_set(err, "the camera's medium %d does not exist", self->camera_medium);
+    if (self->camera_medium >= 0 && !self->media[self->camera_medium])
+        self->camera_medium = -1;
     for (size_t i = 0; i < self->nshapes; i++) {
-        const material_t *m = &self->materials[self->shapes[i].material];
+        shape_t *sh = &self->shapes[i];
+        const material_t *m = &self->materials[sh->material];
         self->has_interface |= m->kind == MATERIAL_INTERFACE;
+        int *side[2] = {&sh->medium_inside, &sh->medium_outside};
+        for (int k = 0; k < 2; k++) {
+            if (*side[k] >= (int)self->nmedia)
+                return err_set(err, "shape %zu names medium %d, which does not exist", i, *side[k]);
+            if (*side[k] >= 0 && !self->media[*side[k]])
+                *side[k] = -1;
+        }
+        self->has_medium_boundary |= sh->medium_inside != sh->medium_outside;
     }
     for (size_t i = 0; i < self->nmaterials; i++) {
         material_t *m = &self->materials[i];

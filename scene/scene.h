@@ -17,6 +17,7 @@
 #include "filter.h"
 #include "integrators.h"
 #include "lens.h"
+#include "medium.h"
 #include "sensor.h"
 #include "spectral_grid.h"
 #include "spectrum.h"
@@ -130,6 +131,11 @@ typedef struct shape {
     /* pbrt-v4 "alpha": NULL for an opaque shape, else a float texture; where it is a < 1 a
      * ray passes the surface with probability 1 - a (render/shading.h shading_alpha_pass). */
     const texture_t *alpha;
+    /* pbrt-v4's MediumInterface: the media inside and outside (indices into scene_t.media,
+     * -1 for vacuum). Where the two differ the shape is a boundary: a ray leaving it along w
+     * is in outside when w . ng > 0, else in inside; any other shape leaves a ray in the
+     * medium it was in (pbrt-v4 IsMediumTransition). */
+    int medium_inside, medium_outside;
 } shape_t;
 
 /* An object placed in the world. */
@@ -238,6 +244,10 @@ typedef struct render_settings {
      * random numbers use the full film's coordinates, so a crop is bit-identical to the same
      * pixels of the full render. full_xres 0: no crop. */
     int full_xres, full_yres, crop_x0, crop_y0;
+    /* The camera pass simulates the scene's participating media (pbrt-v4's volpath and the
+     * integrators whose pbrt-v4 counterparts do; render/volume.h). 0: media are ignored, as
+     * pbrt-v4's "path" ignores them. */
+    int media;
 } render_settings_t;
 
 typedef struct scene {
@@ -266,6 +276,13 @@ typedef struct scene {
     int has_dispersion;   /* any dispersive material: spectral fan-out is ever needed */
     int has_interface;    /* a shape with an "interface" material (shadow rays pass it) */
     int has_alpha;        /* some shape has an alpha: shadow rays test it (shading_occluded) */
+    /* Participating media, owned; a NULL entry is a medium that is not simulated (vacuum).
+     * camera_medium: the medium camera rays start in, -1 for vacuum. has_medium_boundary:
+     * some shape separates two different media. */
+    medium_t **media;
+    size_t nmedia;
+    int camera_medium;
+    int has_medium_boundary;
     /* What the scene file asks for that is accepted without being simulated: the parser's
      * lines and the loader's (scene_load), for `render`, `plan` and the client to print.
      * Owned; NULL for a scene built in code. */
@@ -281,6 +298,12 @@ void scene_destroy(scene_t **self_p);
 int scene_own_texture(scene_t *self, texture_t *tex, err_t *err);
 int scene_own_spectrum(scene_t *self, spectrum_t *s, err_t *err);
 int scene_own_envmap(scene_t *self, envmap_t *e, err_t *err);
+/* Appends a medium (owned from here on, also on failure; NULL: one that is not simulated) and
+ * returns its index, or -1. */
+int scene_add_medium(scene_t *self, medium_t *m, err_t *err);
+/* The medium a ray is in after it leaves surface sf along w, having been in `current` (an
+ * index into media or -1): shape_t's rule. */
+int scene_medium_after(const surface_t *sf, vec3_t w, int current);
 
 /* The material has an index of refraction (ior): glass, a thin slab, a coating's interface. */
 int material_has_ior(material_kind_t kind);

@@ -806,6 +806,42 @@ static int area_light_power(loader_t *L, const scene_area_light_t *a, const shap
 
 /* Adds one shape to the world (object < 0, in world space) or to a scene object (in the
  * object's space); the shape's own transform is applied here. */
+/* MakeNamedMedium into the scene's media, in the description's order (shapes and the camera
+ * name them by index). The coefficients are unbounded spectra (pbrt-v4
+ * SpectrumType::Unbounded); the emission Le is normalised as a light's spectrum is (pbrt-v4
+ * divides Lescale by SpectrumToPhotometric(Le)), and a black Le is none. Media that are not
+ * simulated (the parser warned) are NULL entries: vacuum. */
+static int load_media(loader_t *L, err_t *err)
+{
+    const scene_desc_t *d = L->desc;
+    for (size_t i = 0; i < d->nmedia; i++) {
+        const scene_medium_t *dm = &d->media[i];
+        medium_t *m = NULL;
+        if (dm->type != SCENE_MEDIUM_IGNORED) {
+            medium_params_t p = {.scale = dm->scale, .g = dm->g, .Le_scale = dm->Le_scale};
+            if (!(p.sigma_a = owned_spectrum(L->sc, &dm->sigma_a, SPEC_UNBOUNDED, err)) ||
+                !(p.sigma_s = owned_spectrum(L->sc, &dm->sigma_s, SPEC_UNBOUNDED, err)))
+                return -1;
+            int black = dm->Le.kind == SCENE_SPECTRUM_CONSTANT ? !(dm->Le.constant > 0.0)
+                        : dm->Le.kind == SCENE_SPECTRUM_RGB
+                            ? !(dm->Le.rgb[0] > 0.0 || dm->Le.rgb[1] > 0.0 || dm->Le.rgb[2] > 0.0)
+                            : 0;
+            if (dm->has_Le && !black && dm->Le_scale > 0.0 && !(p.Le = light_spectrum(L->sc, &dm->Le, err)))
+                return -1;
+            m = dm->type == SCENE_MEDIUM_GRID
+                    ? medium_new_grid(&p, dm->nx, dm->ny, dm->nz, dm->density, dm->p0, dm->p1, &dm->to_world, err)
+                    : medium_new_homogeneous(&p, err);
+            if (!m)
+                return err_prefix(err, "%s:%d:%d: MakeNamedMedium \"%s\": ", dm->loc.file, dm->loc.line,
+                                  dm->loc.col, dm->name);
+        }
+        if (scene_add_medium(L->sc, m, err) < 0)
+            return -1;
+    }
+    L->sc->camera_medium = d->camera.medium;
+    return 0;
+}
+
 static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *err)
 {
     const scene_desc_t *d = L->desc;
@@ -864,6 +900,8 @@ static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *er
     }
     if (r < 0)
         return err_prefix(err, "%s:%d:%d: Shape \"%s\": ", s->loc.file, s->loc.line, s->loc.col, s->kind);
+    L->sc->shapes[r].medium_inside = s->inside_medium;
+    L->sc->shapes[r].medium_outside = s->outside_medium;
     if (s->has_alpha) {
         if (!(L->sc->shapes[r].alpha = float_input(L, &s->alpha, err)))
             return -1;
@@ -1044,17 +1082,30 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
         return pbrt_error(err, in->loc, "Integrator \"%s\" is not supported yet (use %s)", type,
                           names);
     }
-    /* What ignoring the media means depends on who is compared: pbrt-v4's "path" ignores them
-     * as well (its PathIntegrator has no medium code), its default "volpath" renders them. */
-    if (L->desc->nmedia > 0 &&
-        warnings_add(L->sc->warnings, L->desc->media_loc,
-                     !strcmp(type, "path") || !strcmp(type, "simplepath") || !strcmp(type, "whitted")
-                         ? "the scene's %zu %s ignored; pbrt-v4's \"%s\" integrator ignores "
-                           "media too, so the image is the one pbrt-v4 renders"
-                         : "the scene's %zu %s ignored: the \"%s\" integrator's fog, haze "
-                           "and absorption are missing from the image",
-                     L->desc->nmedia, L->desc->nmedia == 1 ? "medium is" : "media are", type))
-        return err_set(err, "out of memory");
+    /* Media are simulated by the integrators whose pbrt-v4 counterparts simulate them
+     * (integrators.h); pbrt-v4's "path" ignores them as well (its PathIntegrator has no
+     * medium code), so there the image is pbrt-v4's. The photon passes do not carry them. */
+    size_t simulated = 0;
+    for (size_t i = 0; i < L->desc->nmedia; i++)
+        simulated += L->desc->media[i].type != SCENE_MEDIUM_IGNORED;
+    rs->media = 0;
+    if (simulated > 0) {
+        const char *fmt = NULL;
+        if (named->photon)
+            fmt = "the scene's %zu %s ignored: the \"%s\" integrator's photon pass and its gather "
+                  "do not simulate participating media (Integrator \"volpath\" does)";
+        else if (!named->media && !named->mapped_from_pbrt)
+            fmt = "the scene's %zu %s ignored; pbrt-v4's \"%s\" integrator ignores media too, so "
+                  "the image is the one pbrt-v4 renders (Integrator \"volpath\" renders them)";
+        else if (!named->media)
+            fmt = "the scene's %zu %s ignored: the \"%s\" integrator's fog, haze and absorption "
+                  "are missing from the image";
+        else
+            rs->media = 1;
+        if (fmt && warnings_add(L->sc->warnings, L->desc->media_loc, fmt, simulated,
+                                simulated == 1 ? "medium is" : "media are", type))
+            return err_set(err, "out of memory");
+    }
     if (named->refused)
         return pbrt_error(err, in->loc, "Integrator \"%s\" is not supported: %s", type, named->refused);
     int photon = named->photon;
@@ -1302,6 +1353,8 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
         r = load_materials(&L, err);
     if (!r)
         r = load_lights(&L, err);
+    if (!r)
+        r = load_media(&L, err);
     for (size_t i = 0; !r && i < desc->nshapes; i++)
         r = load_shape(&L, &desc->shapes[i], -1, err);
     if (!r)
@@ -1320,6 +1373,15 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
     /* Integrator "auto" (also when the file names none) follows the plan (plan.h). */
     if (!r)
         r = plan_apply_auto(sc, desc, ov, err);
+    /* The plan may choose the photon integrator for "auto": its passes carry no media. */
+    if (!r && sc->settings.media && sc->settings.photon.enabled) {
+        sc->settings.media = 0;
+        if (warnings_add(sc->warnings, desc->media_loc,
+                         "the scene's media are ignored: the plan chose the photon integrator, "
+                         "whose passes do not simulate participating media (Integrator "
+                         "\"volpath\" does)"))
+            r = err_set(err, "out of memory");
+    }
     if (r) {
         scene_destroy(&sc);
         return NULL;

@@ -10,43 +10,51 @@ static const char *const SPPM_IGNORED[] = {"seed", NULL};
 
 /* "auto" runs the path tracer unless the effect plan (scene/plan.h) chooses otherwise. The rows
  * after it are pbrt-v4's integrators that prismfarm reads as one of its own: each renders the
- * same expectation (the light transport equation without media), so the image agrees with
- * pbrt-v4's within noise, with different noise. */
+ * same expectation (the light transport equation, with media where `media` says so), so the
+ * image agrees with pbrt-v4's within noise, with different noise -- for the ones that trace
+ * light paths (plan_photons) because the plan adds the photon pass where a camera path cannot
+ * find a caustic. */
 static const integrator_name_t TABLE[] = {
-    {"simplepath", INTEGRATOR_SIMPLEPATH, false, true, false, NULL, NULL, NULL},
-    {"path", INTEGRATOR_PATH, false, true, false, NULL, NULL, NULL},
-    {"whitted", INTEGRATOR_WHITTED, false, true, false, NULL, NULL, NULL},
-    {"photon", INTEGRATOR_PATH, true, false, false, NULL, NULL, NULL},
-    {"auto", INTEGRATOR_PATH, false, false, false, NULL, NULL, NULL},
-    /* Without participating media (refused elsewhere) volpath is path exactly. */
-    {"volpath", INTEGRATOR_PATH, false, false, true, NULL, NULL, NULL},
+    {"simplepath", INTEGRATOR_SIMPLEPATH, false, true, false, NULL, NULL, NULL, false, false},
+    {"path", INTEGRATOR_PATH, false, true, false, NULL, NULL, NULL, false, false},
+    {"whitted", INTEGRATOR_WHITTED, false, true, false, NULL, NULL, NULL, false, false},
+    {"photon", INTEGRATOR_PATH, true, false, false, NULL, NULL, NULL, false, false},
+    {"auto", INTEGRATOR_PATH, false, false, false, NULL, NULL, NULL, true, false},
+    /* The path tracer with participating media (render/volume.h); without media it is path
+     * exactly. */
+    {"volpath", INTEGRATOR_PATH, false, false, true, NULL, NULL, NULL, true, false},
     {"bdpt", INTEGRATOR_PATH, false, false, true,
-     "bdpt is rendered by the path tracer: the same image, noisier in caustics, except that "
-     "light from point, spot and distant lights through smooth glass or mirrors (a caustic "
-     "only bdpt's light paths find) is missing; Integrator \"photon\" gathers such caustics "
-     "on diffuse surfaces",
-     BDPT_IGNORED, NULL},
+     "bdpt is rendered by the path tracer, after a photon pass when the plan calls for one "
+     "(`prismfarm plan` says why): caustics of point, spot, distant and small bright lights "
+     "through smooth glass and mirrors, which only bdpt's light paths find, come from photons "
+     "gathered on the diffuse and glossy surfaces that receive them; the rest is the same "
+     "image with different noise",
+     BDPT_IGNORED, NULL, true, true},
     {"mlt", INTEGRATOR_PATH, false, false, true,
      "mlt is rendered by the path tracer (without Metropolis sampling's bootstrap, chains and "
-     "mutations): the same image except caustics of point, spot and distant lights through "
-     "smooth glass or mirrors, which it cannot find; Integrator \"photon\" gathers those on "
-     "diffuse surfaces",
-     MLT_IGNORED, NULL},
+     "mutations), after a photon pass when the plan calls for one (`prismfarm plan` says why): "
+     "caustics of point, spot, distant and small bright lights through smooth glass and "
+     "mirrors come from photons gathered on the diffuse and glossy surfaces that receive them",
+     MLT_IGNORED, NULL, true, true},
     {"sppm", INTEGRATOR_PATH, true, false, true,
      "sppm is rendered by the photon integrator (one photon pass, then the path tracer gathers "
      "it): \"integer photons\" = photonsperiteration x the sampler's pixelsamples (pbrt-v4's "
      "iterations), \"float radius\" = radius, held fixed rather than shrunk each iteration",
-     SPPM_IGNORED, NULL},
+     SPPM_IGNORED, NULL, false, false},
     {"lightpath", INTEGRATOR_PATH, false, false, true,
-     "lightpath is rendered by the path tracer (same expectation, different noise)", NULL, NULL},
+     "lightpath is rendered by the path tracer, after a photon pass for the caustics of delta "
+     "and small bright lights when the plan calls for one (same expectation, different noise)",
+     NULL, NULL, false, true},
     {"randomwalk", INTEGRATOR_PATH, false, false, true,
      "randomwalk is rendered by the path tracer (same expectation, less noise: it samples lights)",
-     NULL, NULL},
+     NULL, NULL, false, false},
     {"simplevolpath", INTEGRATOR_PATH, false, false, true,
-     "simplevolpath is rendered by the path tracer (same expectation without media)", NULL, NULL},
+     "simplevolpath is rendered by volpath's path tracer with media (same expectation, less "
+     "noise: it samples lights)",
+     NULL, NULL, true, false},
     {"ambientocclusion", INTEGRATOR_PATH, false, false, true, NULL, NULL,
      "ambient occlusion renders the unoccluded fraction of the hemisphere, not radiance, and "
-     "prismfarm has no integrator with that expectation"},
+     "prismfarm has no integrator with that expectation", false, false},
 };
 
 #define COUNT (sizeof TABLE / sizeof TABLE[0])
@@ -67,8 +75,10 @@ const char *integrators_kind_name(integrator_kind_t kind)
     return "?";
 }
 
-const char *integrators_used_name(integrator_kind_t kind, bool photon)
+const char *integrators_used_name(integrator_kind_t kind, bool photon, bool media)
 {
+    if (!photon && media && kind == INTEGRATOR_PATH)
+        return "volpath";
     if (!photon)
         return integrators_kind_name(kind);
     return kind == INTEGRATOR_WHITTED ? "photon+whitted" : "photon+path";

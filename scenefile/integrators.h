@@ -46,6 +46,14 @@ typedef struct integrator_name {
     const char *const *ignored;
     /* Known to pbrt-v4 and refused, with the reason (ambientocclusion). */
     const char *refused;
+    /* The camera pass simulates participating media: pbrt-v4's integrator of that name does
+     * (volpath, its default "auto", bdpt, mlt). The others ignore them, as pbrt-v4's path,
+     * simplepath, lightpath and randomwalk do. */
+    bool media;
+    /* pbrt-v4's integrators that trace paths from the lights (bdpt, mlt, lightpath): they find
+     * caustics of delta and small lights through smooth glass that a camera path cannot, so
+     * the photon pass is the effect plan's to decide (scene/plan.h), as for "auto". */
+    bool plan_photons;
 } integrator_name_t;
 
 /* The entry named name, or NULL if prismfarm knows no integrator of that name. */
@@ -54,9 +62,9 @@ const integrator_name_t *integrators_find(const char *name);
 /* "simplepath", "path" or "whitted". */
 const char *integrators_kind_name(integrator_kind_t kind);
 
-/* What ran, as outputs name it: the kind's name, or "photon+path" / "photon+whitted" after a
- * photon pass. */
-const char *integrators_used_name(integrator_kind_t kind, bool photon);
+/* What ran, as outputs name it: the kind's name, "volpath" for the path tracer simulating
+ * participating media, or "photon+path" / "photon+whitted" after a photon pass. */
+const char *integrators_used_name(integrator_kind_t kind, bool photon, bool media);
 
 /* Every name for a message (refused names left out), quoted, in table order: "\"simplepath\", ..., \"photon\" or \"auto\"";
  * with overridable_only, only the names `--integrator` takes, unquoted: "simplepath, path or

@@ -41,9 +41,23 @@ int scene_desc_add_area_light(scene_desc_t *self, err_t *err)
 }
 int scene_desc_add_shape(scene_desc_t *self, bool in_object, err_t *err)
 {
-    if (in_object)
-        return ADD(self, object_shapes, cap_object_shapes, err);
-    return ADD(self, shapes, cap_shapes, err);
+    int i = in_object ? ADD(self, object_shapes, cap_object_shapes, err) : ADD(self, shapes, cap_shapes, err);
+    if (i >= 0) {
+        scene_shape_t *s = in_object ? &self->object_shapes[i] : &self->shapes[i];
+        s->inside_medium = s->outside_medium = -1;
+    }
+    return i;
+}
+int scene_desc_add_medium(scene_desc_t *self, err_t *err)
+{
+    return ADD(self, media, cap_media, err);
+}
+int scene_desc_find_medium(const scene_desc_t *self, const char *name)
+{
+    for (size_t i = 0; name && i < self->nmedia; i++)
+        if (!strcmp(self->media[i].name, name))
+            return (int)i;
+    return -1;
 }
 int scene_desc_add_object(scene_desc_t *self, err_t *err)
 {
@@ -131,6 +145,7 @@ scene_desc_t *scene_desc_new(err_t *err)
     self->filter = (scene_filter_t){.type = "gaussian", .xradius = 1.5, .yradius = 1.5,
                                     .sigma = 0.5, .b = 1.0 / 3.0, .c = 1.0 / 3.0, .tau = 3.0};
 
+    self->camera.medium = -1;
     self->sampler.type = "zsobol";
     self->sampler.pixelsamples = 16;
 
@@ -175,6 +190,7 @@ void scene_desc_destroy(scene_desc_t **self_p)
     free(self->textures);
     free(self->lights);
     free(self->area_lights);
+    free(self->media);
     free(self->shapes);
     free(self->objects);
     free(self->object_shapes);

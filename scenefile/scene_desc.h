@@ -265,6 +265,10 @@ typedef struct scene_shape {
     bool has_alpha;
     scene_float_input_t alpha;
     scene_mesh_t mesh;
+    /* pbrt-v4's MediumInterface in effect at the shape: indices into media, -1 for none
+     * (vacuum). A shape whose two differ is a boundary between media (pbrt-v4
+     * IsMediumTransition); rays through any other shape keep the medium they are in. */
+    int inside_medium, outside_medium;
 } scene_shape_t;
 
 typedef struct scene_object {
@@ -280,6 +284,34 @@ typedef struct scene_instance {
     transform_t to_world; /* the CTM at ObjectInstance: instance space to world */
     bool swaps_handedness;
 } scene_instance_t;
+
+/* ---- participating media ---- */
+
+typedef enum scene_medium_type {
+    SCENE_MEDIUM_HOMOGENEOUS, /* "homogeneous" */
+    SCENE_MEDIUM_GRID,        /* "uniformgrid": a density grid */
+    SCENE_MEDIUM_IGNORED,     /* "rgbgrid", "cloud", "nanovdb": warned, rendered as vacuum */
+} scene_medium_type_t;
+
+/* MakeNamedMedium (pbrt-v4 media.cpp): the parameters as pbrt-v4 reads them, defaults filled
+ * in ("preset" already resolved into sigma_a and sigma_s). */
+typedef struct scene_medium {
+    const char *name;
+    const char *type_name; /* as written */
+    scene_medium_type_t type;
+    pbrt_loc_t loc;
+    transform_t to_world; /* the CTM at MakeNamedMedium: medium space to world */
+    scene_spectrum_t sigma_a, sigma_s; /* default constant 1 */
+    double scale;                      /* 1 */
+    double g;                          /* 0 */
+    bool has_Le;
+    scene_spectrum_t Le; /* emission (an illuminant), when has_Le */
+    double Le_scale;     /* "Lescale", 1 */
+    /* SCENE_MEDIUM_GRID: nx x ny x nz densities (x fastest) over the box [p0, p1] */
+    int nx, ny, nz;
+    const double *density;
+    vec3_t p0, p1;
+} scene_medium_t;
 
 /* ---- files read ---- */
 
@@ -334,6 +366,9 @@ typedef struct scene_camera {
     /* The CTM at the Camera directive (pbrt: camera-from-world); m_inv is world-from-camera.
      * The camera looks down +z in camera space, +y up, +x to the image's right. */
     transform_t camera_from_world;
+    /* The medium the camera is in (pbrt-v4: the outside medium of the MediumInterface in
+     * effect at Camera), an index into media, or -1 (vacuum). */
+    int medium;
 } scene_camera_t;
 
 typedef enum scene_film_type { SCENE_FILM_RGB, SCENE_FILM_SPECTRAL } scene_film_type_t;
@@ -411,13 +446,14 @@ typedef struct scene_desc {
     size_t nfiles;
     /* What the scene asks for that is accepted without being simulated (never NULL). */
     warnings_t *warnings;
-    /* MakeNamedMedium directives (media are not simulated) and the first one's place. */
+    /* MakeNamedMedium directives, in file order, and the first one's place. */
+    scene_medium_t *media;
     size_t nmedia;
     pbrt_loc_t media_loc;
 
     /* private: capacities and owned allocations */
     size_t cap_materials, cap_textures, cap_lights, cap_area_lights, cap_shapes, cap_objects,
-        cap_object_shapes, cap_instances, cap_files;
+        cap_object_shapes, cap_instances, cap_files, cap_media;
     void **owned;
     size_t nowned, cap_owned;
 } scene_desc_t;
@@ -442,11 +478,14 @@ int scene_desc_add_shape(scene_desc_t *self, bool in_object, err_t *err);
 int scene_desc_add_object(scene_desc_t *self, err_t *err);
 int scene_desc_add_instance(scene_desc_t *self, err_t *err);
 int scene_desc_add_file(scene_desc_t *self, err_t *err);
+/* A shape's media start as -1 (none). */
+int scene_desc_add_medium(scene_desc_t *self, err_t *err);
 
 /* Lookups by name (linear; -1 when absent). */
 int scene_desc_find_texture(const scene_desc_t *self, const char *name, scene_texture_type_t type);
 int scene_desc_find_material(const scene_desc_t *self, const char *name);
 int scene_desc_find_object(const scene_desc_t *self, const char *name);
+int scene_desc_find_medium(const scene_desc_t *self, const char *name);
 /* The entry whose relative path is relative (compared as strings), or -1. */
 int scene_desc_find_file(const scene_desc_t *self, const char *relative);
 

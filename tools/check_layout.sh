@@ -21,9 +21,10 @@ declare -A ALLOWED=(
   [proto]="base"
   [net]="proto base"
   [settings]="proto scene bsdf scenefile imageio optics sampling spectral base"
-  [master]="settings net proto photons film scene bsdf scenefile imageio optics sampling spectral base"
+  [dashboard]="net proto base"
+  [master]="dashboard settings net proto photons film scene bsdf scenefile imageio optics sampling spectral base"
   [worker]="settings render net proto photons film scene bsdf scenefile imageio optics sampling spectral base"
-  [cli]="master worker settings render net proto photons film scene bsdf scenefile imageio optics sampling spectral base"
+  [cli]="master dashboard worker settings render net proto photons film scene bsdf scenefile imageio optics sampling spectral base"
 )
 FOLDERS="${!ALLOWED[*]}"
 status=0

@@ -1,8 +1,10 @@
 #include "bundle_cache.h"
 
 #include "bundle.h"
+#include "files.h"
 #include "scene_load.h"
 
+#include <dirent.h>
 #include <errno.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -34,7 +36,38 @@ int bundle_cache_open(bundle_cache_t *self, const char *dir)
     else
         snprintf(self->dir, sizeof self->dir, "%s/prismfarm-worker-%ld",
                  getenv("TMPDIR") ? getenv("TMPDIR") : "/tmp", (long)getuid());
-    return make_dirs(self->dir);
+    if (make_dirs(self->dir))
+        return -1;
+    /* Bundles of another boot may have lost what was not yet on the disk (no fsync). */
+    char boot[64] = "", mark[64] = "", path[600];
+    FILE *f = fopen("/proc/sys/kernel/random/boot_id", "r");
+    if (f) {
+        if (!fgets(boot, sizeof boot, f))
+            boot[0] = 0;
+        fclose(f);
+    }
+    snprintf(path, sizeof path, "%s/.boot_id", self->dir);
+    if ((f = fopen(path, "r"))) {
+        if (!fgets(mark, sizeof mark, f))
+            mark[0] = 0;
+        fclose(f);
+    }
+    if (boot[0] && !strcmp(boot, mark))
+        return 0;
+    DIR *d = opendir(self->dir);
+    if (d) {
+        struct dirent *e;
+        while ((e = readdir(d))) {
+            if (!strcmp(e->d_name, ".") || !strcmp(e->d_name, ".."))
+                continue;
+            char sub[800];
+            snprintf(sub, sizeof sub, "%s/%s", self->dir, e->d_name);
+            (void)files_remove_tree(sub, PROTO_MAX_PATH_DEPTH + 4);
+        }
+        closedir(d);
+    }
+    err_t err;
+    return boot[0] && files_write_atomic(path, boot, strlen(boot), true, &err) < 0 ? -1 : 0;
 }
 
 bool bundle_cache_has(const bundle_cache_t *self, const char *hash)
@@ -59,7 +92,7 @@ int bundle_cache_put(const bundle_cache_t *self, const char *hash, const proto_b
     char tmp[700], final[700], path[800];
     snprintf(tmp, sizeof tmp, "%s/tmp-%s-%ld", self->dir, hash, (long)getpid());
     snprintf(final, sizeof final, "%s/%s", self->dir, hash);
-    if (proto_bundle_extract(b, tmp, err))
+    if (proto_bundle_extract(b, tmp, false, err))
         return -1;
     snprintf(path, sizeof path, "%s/.main", tmp);
     FILE *f = fopen(path, "w");

@@ -2,7 +2,14 @@
  * folder. A bundle is checked against its hash and extracted into a fresh folder that is renamed
  * into place with a ".complete" mark, so a half-written bundle never looks complete; nothing is
  * written outside the cache folder, and its scene is loaded confined to its own folder. The
- * cache holds no lock and no memory: the file system is its state. */
+ * cache holds no lock and no memory: the file system is its state.
+ *
+ * Files are written without fsync: syncing a large bundle took seconds on a busy disk, on the
+ * worker's main thread, which then sent no heartbeat and was given up by the master (issue 16,
+ * item 9). What is written survives the process, only a power cut or a crash of the host can
+ * lose it; so the cache trusts its bundles within one boot of the host only: it records the
+ * kernel's boot id (/proc/sys/kernel/random/boot_id) and, opened in another boot, empties
+ * itself (a bundle is fetched again from the master when a task needs it). */
 #ifndef PRISMFARM_BUNDLE_CACHE_H
 #define PRISMFARM_BUNDLE_CACHE_H
 
@@ -17,8 +24,9 @@ typedef struct bundle_cache {
 } bundle_cache_t;
 
 /* Uses dir, or $TMPDIR/prismfarm-worker-<uid> (/tmp without TMPDIR) when dir is NULL, creating
- * it and its parents (mode 0700). Returns -1 with errno set if a folder cannot be created;
- * self->dir names the cache folder either way. */
+ * it and its parents (mode 0700), emptied when it was filled in another boot (above). Returns
+ * -1 with errno set if a folder cannot be created; self->dir names the cache folder either
+ * way. */
 int bundle_cache_open(bundle_cache_t *self, const char *dir);
 
 /* Whether the bundle of that hash is here, complete. */

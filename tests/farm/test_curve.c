@@ -88,7 +88,8 @@ static int mode_of(const char *path)
     return (int)(st.st_mode & 0777);
 }
 
-/* keygen's files: modes 0600 and 0644, a comment header, Z85 keys, a public key that libzmq
+/* keygen's files: modes 0600 and 0644 (and 0600 for the dashboard token, whose hash alone the
+ * .pub carries), a comment header, Z85 keys, a public key that libzmq
  * derives from the secret one; no overwrite without --force; names that are paths refused. */
 static void test_keygen_files(void **state)
 {
@@ -116,6 +117,30 @@ static void test_keygen_files(void **state)
     assert_null(strstr(pub_text, "secret"));
     assert_int_equal(zmq_curve_public(derived, secret), 0);
     assert_string_equal(derived, public1);
+    /* The dashboard token (docs/dashboard.md): mode 0600 from the start, and only its SHA-256
+     * in the .pub, which the ring finds the key's name by. */
+    char token_path[700];
+    snprintf(token_path, sizeof token_path, "%s/alice.token", dir);
+    expect_in(r->out, token_path);
+    assert_int_equal(mode_of(token_path), 0600);
+    uint8_t token_hash[CURVE_TOKEN_HASH];
+    err_t terr;
+    assert_int_equal(curve_load_token(token_path, token_hash, &terr), 0);
+    char *token_text = testutil_slurp(token_path, NULL);
+    const char *token = strrchr(token_text, '\n');
+    while (token > token_text && token[-1] != '\n')
+        token--; /* the last line: the token itself */
+    char first16[17];
+    snprintf(first16, sizeof first16, "%.16s", token);
+    assert_null(strstr(pub_text, first16));
+    expect_in(pub_text, "http-token-sha256 = ");
+    curve_ring_t *ring = curve_ring_new(dir, &terr);
+    assert_non_null(ring);
+    assert_string_equal(curve_ring_find_token(ring, token_hash), "alice");
+    token_hash[0] ^= 1;
+    assert_null(curve_ring_find_token(ring, token_hash));
+    curve_ring_destroy(&ring);
+    free(token_text);
 
     /* Not overwritten: exit 1, the files as they were. */
     r = run("keygen", "alice", "--dir", dir, NULL);
@@ -612,13 +637,92 @@ static void test_insecure_and_local(void **state)
     env_keys(1);
 }
 
+/* The dashboard's actions on a keyed master (docs/dashboard.md, "Tokens"): each key's
+ * NAME.token, found through the .pub files of the master's role folders, acts as the key; a
+ * user (a client key) may cancel only the jobs it submitted, an admin key any, a worker's key
+ * nothing. */
+static void test_dashboard_tokens(void **state)
+{
+    (void)state;
+    env_keys(0);
+    char cmd[4000];
+    const char *bin = getenv("PRISMFARM_BIN");
+    const char *k = testutil_scratch("dashkeys"), *aw = testutil_scratch("dash-workers"),
+               *ac = testutil_scratch("dash-clients"), *aa = testutil_scratch("dash-admins");
+    snprintf(cmd, sizeof cmd,
+             "set -e; for n in render1 alice bob carol; do '%s' keygen $n --dir '%s' >/dev/null; "
+             "done; mkdir -p '%s' '%s' '%s'; cp '%s/render1.pub' '%s/'; cp '%s/alice.pub' "
+             "'%s/bob.pub' '%s/'; cp '%s/carol.pub' '%s/'",
+             bin, k, aw, ac, aa, k, aw, k, k, ac, k, aa);
+    assert_int_equal(system(cmd), 0);
+    const char *names[4] = {"render1", "alice", "bob", "carol"};
+    char token[4][80], key[4][700];
+    for (int i = 0; i < 4; i++) {
+        char path[700];
+        snprintf(path, sizeof path, "%s/%s.token", k, names[i]);
+        char *text = testutil_slurp(path, NULL);
+        assert_non_null(text);
+        const char *t = text + strlen(text) - 1; /* the last line: the token */
+        while (t > text && t[-1] != '\n')
+            t--;
+        snprintf(token[i], sizeof token[i], "%.64s", t);
+        free(text);
+        snprintf(key[i], sizeof key[i], "%s/%s.key", k, names[i]);
+    }
+    const char *spool = testutil_scratch("dash-spool");
+    char mlog[700];
+    snprintf(mlog, sizeof mlog, "%s", testutil_scratch("dash-master.log"));
+    pid_t master = testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
+                                  "tcp://127.0.0.1:*", "--spool", spool, "--key",
+                                  testutil_master_key(), "--authorized-workers", aw,
+                                  "--authorized-clients", ac, "--authorized-admins", aa,
+                                  "--http", "0", NULL);
+    char wep[256], cep[256];
+    testutil_read_endpoints(spool, wep, cep, mlog);
+    int port = testutil_http_port(spool);
+    /* Jobs 1 and 2 by alice, no worker: they stay queued. */
+    for (int i = 0; i < 2; i++) {
+        const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "4",
+                             "--quiet", "--key", key[1], "--master-key", MASTER_PUB, NULL);
+        if (r->status != 0)
+            testutil_fail_quoting(mlog, "submit: exit %d: %s\nmaster log:", r->status, r->err);
+    }
+    static char out[1 << 16];
+    assert_int_equal(testutil_http(port, "GET", "/api/jobs/1", NULL, NULL, out, sizeof out), 200);
+    expect_in(out, "\"owner\":\"alice\"");
+    assert_int_equal(testutil_http(port, "GET", "/api/whoami", token[3], NULL, out, sizeof out),
+                     200);
+    expect_in(out, "{\"name\":\"carol\",\"admin\":true}");
+    /* bob may not cancel alice's job, nor may a worker's key; alice may. */
+    assert_int_equal(
+        testutil_http(port, "POST", "/api/jobs/1/cancel", token[2], "", out, sizeof out), 403);
+    expect_in(out, "job 1 belongs to 'alice'");
+    assert_int_equal(
+        testutil_http(port, "POST", "/api/jobs/1/cancel", token[0], "", out, sizeof out), 401);
+    assert_int_equal(testutil_http(port, "GET", "/api/jobs/1", NULL, NULL, out, sizeof out), 200);
+    expect_in(out, "\"state\":\"queued\"");
+    assert_int_equal(
+        testutil_http(port, "POST", "/api/jobs/1/cancel", token[1], "", out, sizeof out), 200);
+    testutil_wait_file_has(mlog, "job 1 'tiny': cancel from the dashboard by 'alice'");
+    /* The admin cancels the other. */
+    assert_int_equal(
+        testutil_http(port, "POST", "/api/jobs/2/cancel", token[3], "", out, sizeof out), 200);
+    testutil_wait_file_has(mlog, "cancel from the dashboard by 'carol' (admin)");
+    const run_t *r = run("jobs", "--master", cep, "--json", "--key", key[2], "--master-key",
+                         MASTER_PUB, NULL);
+    assert_int_equal(r->status, 0);
+    assert_int_equal(testutil_count_in(r->out, "\"cancelled\""), 2);
+    testutil_stop(master, SIGTERM);
+    env_keys(1);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_keygen_files),       cmocka_unit_test(test_key_file_errors),
         cmocka_unit_test(test_farm_with_keys),     cmocka_unit_test(test_master_refuses_plain_tcp),
         cmocka_unit_test(test_insecure_and_local), cmocka_unit_test(test_roles),
-        cmocka_unit_test(test_owners),
+        cmocka_unit_test(test_owners),             cmocka_unit_test(test_dashboard_tokens),
     };
     return cmocka_run_group_tests(tests, group_setup, testutil_scratch_teardown);
 }

@@ -137,7 +137,8 @@ static void test_max_message(void **state)
     const run_t *r = run("submit", make_scene("huge", 1, (size_t)3 << 19), "--master", cep, NULL);
     double took = testutil_now_s() - t0;
     assert_int_equal(r->status, 1);
-    expect_in(r->err, "closed the connection (a message above its size limit");
+    expect_in(r->err, "closed the connection after we sent a SUBMIT of 1.5 MiB: above its "
+                      "--max-message-mb");
     print_message("oversized submission refused in %.2f s\n", took);
     assert_true(took < 30.0); /* the submit timeout is 60 s */
     r = run("jobs", "--master", cep, NULL);

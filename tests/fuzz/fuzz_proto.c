@@ -77,7 +77,7 @@ static void check_bundle(const proto_bundle_t *b, const proto_limits_t *lim)
 
     char dir[4200];
     snprintf(dir, sizeof dir, "%s/x", g_base);
-    if (proto_bundle_extract(b, dir, &err) != 0)
+    if (proto_bundle_extract(b, dir, false, &err) != 0)
         fail("a decoded bundle does not extract", &err);
     if (count_entries(g_base) != 1)
         fail("extraction created something beside its folder", NULL);

@@ -15,6 +15,7 @@
 #include <arpa/inet.h>
 #include <errno.h>
 #include <netinet/in.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <signal.h>
 #include <stdarg.h>
@@ -361,6 +362,76 @@ static inline void testutil_assert_same_pixels(const char *a, const char *b)
     assert_memory_equal(image_exr_rgb(x), image_exr_rgb(y), (size_t)w * h * 3 * sizeof(float));
     image_exr_destroy(&x);
     image_exr_destroy(&y);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* The master's dashboard (docs/dashboard.md) over plain HTTP/1.1. */
+
+/* The dashboard's port from SPOOL/endpoints' "http http://127.0.0.1:PORT/" line, waited for
+ * within the test's deadline; fails the test without one. */
+static inline int testutil_http_port(const char *spool)
+{
+    char path[1024];
+    snprintf(path, sizeof path, "%s/endpoints", spool);
+    double deadline = testutil_now_s() + test_wait_s();
+    do {
+        FILE *f = fopen(path, "r");
+        char line[600];
+        while (f && fgets(line, sizeof line, f)) {
+            int port;
+            if (sscanf(line, "http http://127.0.0.1:%d/", &port) == 1) {
+                fclose(f);
+                return port;
+            }
+        }
+        if (f)
+            fclose(f);
+        testutil_sleep_ms(20);
+    } while (testutil_now_s() < deadline);
+    fail_msg("no http line in %s", path);
+    return -1;
+}
+
+/* One request to 127.0.0.1:port on its own connection, with "Authorization: Bearer token"
+ * when token is not NULL; the whole answer (status line, headers, body) into out. Returns the
+ * status, 0 when the server closed without one. */
+static inline int testutil_http(int port, const char *method, const char *path,
+                                const char *token, const char *body, char *out, size_t size)
+{
+    char head[1024];
+    snprintf(head, sizeof head,
+             "%s %s HTTP/1.1\r\nHost: 127.0.0.1:%d\r\nConnection: close\r\n%s%s%s"
+             "Content-Length: %zu\r\n\r\n",
+             method, path, port, token ? "Authorization: Bearer " : "", token ? token : "",
+             token ? "\r\n" : "", body ? strlen(body) : 0);
+    int s = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
+    inet_pton(AF_INET, "127.0.0.1", &a.sin_addr);
+    if (s < 0 || connect(s, (struct sockaddr *)&a, sizeof a) != 0)
+        fail_msg("cannot connect to the dashboard on port %d", port);
+    const char *parts[2] = {head, body ? body : ""};
+    for (int i = 0; i < 2; i++)
+        for (size_t n = strlen(parts[i]), done = 0; done < n;) {
+            ssize_t w = send(s, parts[i] + done, n - done, MSG_NOSIGNAL);
+            if (w <= 0)
+                break;
+            done += (size_t)w;
+        }
+    size_t len = 0;
+    double deadline = testutil_now_s() + test_wait_s();
+    while (len + 1 < size && testutil_now_s() < deadline) {
+        struct pollfd p = {.fd = s, .events = POLLIN};
+        if (poll(&p, 1, 100) <= 0)
+            continue;
+        ssize_t r = recv(s, out + len, size - 1 - len, 0);
+        if (r <= 0)
+            break;
+        len += (size_t)r;
+    }
+    close(s);
+    out[len] = 0;
+    int status = 0;
+    return sscanf(out, "HTTP/1.1 %d", &status) == 1 ? status : 0;
 }
 
 #endif

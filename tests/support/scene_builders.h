@@ -294,7 +294,16 @@ static inline scene_t *sb_prism_build(sb_prism_t *p, scene_t *s)
  * small (7 degrees across from the ball) but finite, so that the path tracer converges at test
  * size. Path tracing with hero wavelengths, maxdepth 8, seed 5; with photons > 0 a photon pass
  * of that many photons (maxdepth 8, radius 0.02, no roulette threshold). */
+static inline scene_t *sb_ball_build_on(scene_t *s, int photons, int res, int floor);
+
 static inline scene_t *sb_ball_build(scene_t *s, int photons, int res)
+{
+    return sb_ball_build_on(s, photons, res, -1);
+}
+
+/* The caustic ball with material `floor` (an index of s's materials) on the floor instead of
+ * the grey diffuse one (-1): a glossy receiver for the photons' L S+ G estimate. */
+static inline scene_t *sb_ball_build_on(scene_t *s, int photons, int res, int floor)
 {
     err_t err;
     render_settings_t *rs = &s->settings;
@@ -327,7 +336,7 @@ static inline scene_t *sb_ball_build(scene_t *s, int photons, int res)
     /* Floor: a large disk at y = 0 facing up (+z of the disk turned onto +y). */
     transform_t rx;
     assert_int_equal(transform_rotate(-90.0, vec3_make(1, 0, 0), &rx, &err), 0);
-    assert_true(scene_add_disk(s, &rx, 20.0, 0.0, fm, -1, 0, &err) >= 0);
+    assert_true(scene_add_disk(s, &rx, 20.0, 0.0, floor >= 0 ? floor : fm, -1, 0, &err) >= 0);
     transform_t ball = transform_translate(vec3_make(0, 1.6, 0));
     assert_true(scene_add_sphere(s, &ball, 1.0, gm, -1, 0, &err) >= 0);
     light_t l = {.kind = LIGHT_AREA, .spectrum = white, .scale = 40.0};

@@ -381,10 +381,11 @@ static void test_pbrt_names_warn(void **state)
 {
     (void)state;
     expect_warning("Film \"rgb\"\nIntegrator \"bdpt\" \"integer maxdepth\" 3 \"bool visualizestrategies\" true\n" LIGHT,
-                   "t.pbrt:2:1: bdpt is rendered by the path tracer: the same image, noisier in "
-                   "caustics, except that light from point, spot and distant lights through smooth "
-                   "glass or mirrors (a caustic only bdpt's light paths find) is missing; "
-                   "Integrator \"photon\" gathers such caustics on diffuse surfaces");
+                   "t.pbrt:2:1: bdpt is rendered by the path tracer, after a photon pass when the "
+                   "plan calls for one (`prismfarm plan` says why): caustics of point, spot, "
+                   "distant and small bright lights through smooth glass and mirrors, which only "
+                   "bdpt's light paths find, come from photons gathered on the diffuse and glossy "
+                   "surfaces that receive them; the rest is the same image with different noise");
     expect_warning("Integrator \"bdpt\" \"bool visualizestrategies\" true\n" LIGHT,
                    "t.pbrt:1:19: \"visualizestrategies\" of Integrator \"bdpt\" is not simulated");
     expect_warning("Integrator \"mlt\" \"integer chains\" 10\n" LIGHT,

@@ -313,7 +313,7 @@ static void test_more_materials(void **state)
 }
 
 /* What pbrt-v4 has and prismfarm does not simulate is accepted with a warning naming the
- * place: participating media (pbrt-v4's "path" integrator ignores them too), motion blur (the
+ * place: the media prismfarm does not simulate ("cloud", "rgbgrid", "nanovdb": vacuum), motion blur (the
  * scene renders as at the shutter's opening: EndTime-only transforms leave the CTM alone, and
  * AttributeEnd restores the active transform as pbrt-v4's graphics state does), TransformTimes;
  * ColorSpace "srgb" and Accelerator are accepted silently. */
@@ -325,7 +325,7 @@ static void test_accepted_not_simulated(void **state)
         "Accelerator \"bvh\" \"integer maxnodeprims\" 4\n"
         "TransformTimes 0 1\n"
         "WorldBegin\n"
-        "MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [1 1 1]\n"
+        "MakeNamedMedium \"fog\" \"string type\" \"cloud\" \"rgb sigma_a\" [1 1 1]\n"
         "MediumInterface \"fog\" \"\"\n"
         "MediumInterface \"\"\n"
         "AttributeBegin\n"
@@ -343,8 +343,8 @@ static void test_accepted_not_simulated(void **state)
     assert_int_equal(warnings_count(d->warnings), 3);
     assert_string_equal(warnings_at(d->warnings, 0), "t.pbrt:3:1: TransformTimes 0 1 is ignored (no motion blur)");
     assert_string_equal(warnings_at(d->warnings, 1),
-                        "t.pbrt:5:1: participating media are not simulated: medium \"fog\" "
-                        "(homogeneous) is ignored");
+                        "t.pbrt:5:1: \"cloud\" media are not simulated: medium \"fog\" renders "
+                        "as vacuum");
     assert_string_equal(warnings_at(d->warnings, 2),
                         "t.pbrt:9:3: motion blur is not simulated: the scene renders as at the "
                         "shutter's opening (the transforms for its end are ignored)");

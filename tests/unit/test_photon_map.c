@@ -86,6 +86,72 @@ static void test_fixed_radius_matches_brute_force(void **state)
     photon_map_destroy(&m);
 }
 
+/* What photon_map_gather hands over, summed: power per bucket, and the power-weighted sum of
+ * the photons' directions (each decoded to within its 8-bit octahedral code). */
+typedef struct visit_sum {
+    double E[8];
+    vec3_t dir;
+    int n;
+} visit_sum_t;
+
+static void visit_add(void *user, vec3_t dir, int bucket, double power)
+{
+    visit_sum_t *v = user;
+    assert_true(bucket >= 0 && bucket < 8);
+    assert_true(fabs(vec3_length(dir) - 1.0) < 1e-9);
+    v->E[bucket] += power;
+    v->dir = vec3_fma(v->dir, dir, power);
+    v->n++;
+}
+
+/* The glossy receiver's query: the photons photon_map_irradiance takes, and those on the other
+ * side of n as well (a floor's photons seen from below, which the receiver's BSDF weighs),
+ * each with its direction; times *scale it is the irradiance when f is 1. On the random map's
+ * floor every photon travels along -z: the directions come back as that. */
+static void test_gather_both_sides_with_directions(void **state)
+{
+    (void)state;
+    err_t err;
+    photon_map_t *m = random_map(20000, 11);
+    assert_int_equal(photon_map_build(m, &err), 0);
+    for (int k = 0; k < 100; k++) {
+        double u[4];
+        rng_uniform4(98, (uint64_t)k, 0, 0, u);
+        vec3_t q = vec3_make(0.2 + 0.6 * u[0], 0.2 + 0.6 * u[1], 0.0);
+        double r = 0.02 + 0.1 * u[2];
+        double E[8], F[8], scale;
+        visit_sum_t up = {.n = 0}, down = {.n = 0};
+        int a = photon_map_irradiance(m, q, vec3_make(0, 0, 1), r, 0, E);
+        int b = photon_map_gather(m, q, vec3_make(0, 0, 1), r, 0, visit_add, &up, &scale);
+        int c = photon_map_gather(m, q, vec3_make(0, 0, -1), r, 0, visit_add, &down, &scale);
+        /* Below the floor, irradiance sees nothing; the two-sided gather sees the same photons. */
+        assert_int_equal(photon_map_irradiance(m, q, vec3_make(0, 0, -1), r, 0, F), 0);
+        assert_int_equal(a, b);
+        assert_int_equal(b, c);
+        assert_int_equal(up.n, a);
+        if (a == 0)
+            continue;
+        assert_true(scale > 0.0);
+        for (int i = 0; i < 8; i++) {
+            assert_true(fabs(up.E[i] * scale - E[i]) <= 1e-12 * fmax(1.0, E[i]));
+            assert_true(up.E[i] == down.E[i]);
+        }
+        vec3_t d = vec3_normalize(up.dir);
+        assert_true(d.z < -0.9999);
+    }
+    /* k nearest: the same selection as the irradiance's k-nearest search. */
+    double E[8], scale;
+    visit_sum_t v = {.n = 0};
+    int a = photon_map_irradiance(m, vec3_make(0.5, 0.5, 0.0), vec3_make(0, 0, 1), 0.2, 50, E);
+    int b = photon_map_gather(m, vec3_make(0.5, 0.5, 0.0), vec3_make(0, 0, 1), 0.2, 50,
+                              visit_add, &v, &scale);
+    assert_int_equal(a, 50);
+    assert_int_equal(b, 50);
+    for (int i = 0; i < 8; i++)
+        assert_true(fabs(v.E[i] * scale - E[i]) <= 1e-12 * fmax(1.0, E[i]));
+    photon_map_destroy(&m);
+}
+
 typedef struct dist {
     double d2;
     size_t i;
@@ -320,6 +386,7 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_fixed_radius_matches_brute_force),
+        cmocka_unit_test(test_gather_both_sides_with_directions),
         cmocka_unit_test(test_k_nearest_matches_brute_force),
         cmocka_unit_test(test_uniform_density),
         cmocka_unit_test(test_append_and_build_are_deterministic),

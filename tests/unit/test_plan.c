@@ -375,6 +375,71 @@ static void test_point_light_behind_glass(void **state)
     loaded_free(&l);
 }
 
+/* A glossy receiver (coated diffuse, rough conductor) under the glass receives its caustic as a
+ * diffuse one does (the photon map stores L S+ G photons with their directions), so the spot
+ * light behind glass needs photons there too. pbrt-v4's light-path integrators (bdpt, mlt,
+ * lightpath) take the plan's photon pass and keep their own mapping otherwise; "path" is
+ * explicit and stays without. A floor of smooth glass receives nothing. */
+static void test_glossy_receiver_and_bdpt(void **state)
+{
+    (void)state;
+    const char *floors[2] = {
+        "MakeNamedMaterial \"gfloor\" \"string type\" \"coateddiffuse\" \"float roughness\" 0.01\n",
+        "MakeNamedMaterial \"gfloor\" \"string type\" \"conductor\" \"float roughness\" 0.2\n"};
+    const char *integrators[5] = {"Integrator \"bdpt\"", "Integrator \"mlt\"",
+                                  "Integrator \"lightpath\"", "", "Integrator \"path\""};
+    char world[2048];
+    for (int f = 0; f < 2; f++)
+        for (int k = 0; k < 5; k++) {
+            snprintf(world, sizeof world,
+                     "%sNamedMaterial \"gfloor\"\nShape \"trianglemesh\" \"point3 P\" [ -5 0 -5  5 0 "
+                     "-5  5 0 5  -5 0 5 ] \"integer indices\" [ 0 1 2  0 2 3 ]\n" GLASS_SPHERE
+                     "LightSource \"spot\" \"point3 from\" [ 0 2 0 ] \"point3 to\" [ 0 0 0 ] "
+                     "\"float coneangle\" 20\n",
+                     floors[f]);
+            loaded_t l = load_world(integrators[k], world);
+            const plan_light_t *p = light(&l, 0);
+            assert_true(p->caustic);
+            assert_int_equal(p->verdict, PLAN_LIGHT_NEEDED);
+            assert_string_equal(plan_material_at(l.plan, (size_t)p->receiver_material)->name,
+                                "'gfloor'");
+            assert_true(on(&l, PLAN_PHOTON));
+            const render_settings_t *rs = &l.scene->settings;
+            assert_int_equal(rs->integrator, INTEGRATOR_PATH);
+            if (k < 4) {
+                assert_true(rs->photon.enabled);
+                assert_int_equal(rs->photon.store, PHOTON_STORE_PHOTONMAP);
+                assert_int_equal(rs->photon.photons, plan_choice(l.plan).photons);
+                assert_false(plan_choice(l.plan).differs);
+            } else {
+                assert_false(rs->photon.enabled);
+                assert_true(plan_choice(l.plan).differs);
+            }
+            if (k < 3) {
+                /* The plan says why the light-path integrator got photons. */
+                assert_non_null(strstr(plan_decision_of(l.plan, PLAN_INTEGRATOR)->reason,
+                                       "traces paths from the lights"));
+                assert_non_null(strstr(plan_decision_of(l.plan, PLAN_PHOTON)->reason,
+                                       "L S+ D or L S+ G path from a delta light"));
+            }
+            loaded_free(&l);
+        }
+    /* bdpt without a caustic: no photon pass, and the path tracer alone. */
+    loaded_t l = load_world("Integrator \"bdpt\"", FLOOR_AT(0) POINT_ABOVE);
+    assert_false(on(&l, PLAN_PHOTON));
+    assert_false(l.scene->settings.photon.enabled);
+    loaded_free(&l);
+    /* A smooth glass floor is no receiver. */
+    l = load_world("Integrator \"bdpt\"",
+                   "NamedMaterial \"glass\"\nShape \"trianglemesh\" \"point3 P\" [ -5 0 -5  5 0 -5  "
+                   "5 0 5  -5 0 5 ] \"integer indices\" [ 0 1 2  0 2 3 ]\n" GLASS_SPHERE
+                   "LightSource \"spot\" \"point3 from\" [ 0 2 0 ] \"point3 to\" [ 0 0 0 ] "
+                   "\"float coneangle\" 20\n");
+    assert_false(light(&l, 0)->caustic);
+    assert_false(l.scene->settings.photon.enabled);
+    loaded_free(&l);
+}
+
 /* The point light shut in a small diffuse box: it reaches no glass. */
 static void test_blocked_light(void **state)
 {
@@ -748,6 +813,7 @@ int main(void)
         cmocka_unit_test(test_shipped_delta_scenes),
         cmocka_unit_test(test_every_shipped_scene),
         cmocka_unit_test(test_point_light_behind_glass),
+        cmocka_unit_test(test_glossy_receiver_and_bdpt),
         cmocka_unit_test(test_blocked_light),
         cmocka_unit_test(test_diffuse_only),
         cmocka_unit_test(test_mirror_nobody_sees),

@@ -144,7 +144,7 @@ static void test_extract_writes_every_file(void **state)
     char dir[256], path[512];
     snprintf(dir, sizeof dir, "%s/cache", root); /* created by extract */
     err_t err = {""};
-    if (proto_bundle_extract(&g_bundle, dir, &err) != 0)
+    if (proto_bundle_extract(&g_bundle, dir, true, &err) != 0)
         fail_msg("%s", err.msg);
     for (size_t i = 0; i < 3; i++) {
         snprintf(path, sizeof path, "%s/%s", dir, g_files[i].path);
@@ -158,7 +158,7 @@ static void test_extract_writes_every_file(void **state)
     }
     /* No temporary file is left behind, and extracting again (a retried job) overwrites. */
     assert_int_equal(testutil_count_entries(dir), 3); /* scene.pbrt, meshes, textures */
-    assert_int_equal(proto_bundle_extract(&g_bundle, dir, &err), 0);
+    assert_int_equal(proto_bundle_extract(&g_bundle, dir, true, &err), 0);
     assert_int_equal(testutil_count_entries(dir), 3);
     snprintf(path, sizeof path, "%s/meshes", dir);
     assert_int_equal(testutil_count_entries(path), 1);
@@ -180,7 +180,7 @@ static void test_extract_refuses_symlink_tricks(void **state)
     snprintf(link, sizeof link, "%s/meshes", dir);
     assert_int_equal(symlink(outside, link), 0);
     err_t err = {""};
-    assert_int_equal(proto_bundle_extract(&g_bundle, dir, &err), -1);
+    assert_int_equal(proto_bundle_extract(&g_bundle, dir, true, &err), -1);
     assert_non_null(strstr(err.msg, "'meshes' is not a plain folder"));
     assert_int_equal(testutil_count_entries(outside), 0);
     assert_int_equal(unlink(link), 0);
@@ -194,7 +194,7 @@ static void test_extract_refuses_symlink_tricks(void **state)
     snprintf(link, sizeof link, "%s/scene.pbrt", dir);
     (void)unlink(link); /* the failed extraction above may have written it already */
     assert_int_equal(symlink(target, link), 0);
-    assert_int_equal(proto_bundle_extract(&g_bundle, dir, &err), 0);
+    assert_int_equal(proto_bundle_extract(&g_bundle, dir, true, &err), 0);
     struct stat st;
     assert_int_equal(lstat(link, &st), 0);
     assert_true(S_ISREG(st.st_mode));
@@ -211,7 +211,7 @@ static void test_extract_refuses_symlink_tricks(void **state)
     proto_bundle_t evil = {"ok.txt", bad, 2};
     char dir2[256];
     snprintf(dir2, sizeof dir2, "%s/cache2", root);
-    assert_int_equal(proto_bundle_extract(&evil, dir2, &err), -1);
+    assert_int_equal(proto_bundle_extract(&evil, dir2, true, &err), -1);
     assert_non_null(strstr(err.msg, "'..' component"));
     assert_int_equal(access(dir2, F_OK), -1);
     snprintf(target, sizeof target, "%s/escape", root);

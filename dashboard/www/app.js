@@ -1,0 +1,428 @@
+// The prismfarm dashboard's front end: vanilla JavaScript over the master's JSON API
+// (docs/dashboard.md). Pages by the URL's hash: #/jobs, #/job/ID, #/workers. Each page
+// polls its JSON every second; actions are POSTs with the token the user entered (kept in this
+// tab's sessionStorage, sent as "Authorization: Bearer", never in a URL or a cookie).
+"use strict";
+
+const POLL_MS = 1000;
+const state = { timer: null, view: null, gen: 0, workerRates: new Map(), logSeq: 0, jobId: 0,
+                previewVersion: -1, tileMode: "passes" };
+
+// ---------------------------------------------------------------- helpers
+
+function el(tag, attrs, ...children) {
+  const e = document.createElement(tag);
+  for (const [k, v] of Object.entries(attrs || {})) {
+    if (k === "class") e.className = v;
+    else if (k.startsWith("on")) e.addEventListener(k.slice(2), v);
+    else if (v !== undefined && v !== null) e.setAttribute(k, v);
+  }
+  for (const c of children) {
+    if (c === null || c === undefined) continue;
+    e.append(c instanceof Node ? c : document.createTextNode(String(c)));
+  }
+  return e;
+}
+
+function svg(tag, attrs, text) {
+  const e = document.createElementNS("http://www.w3.org/2000/svg", tag);
+  for (const [k, v] of Object.entries(attrs || {})) e.setAttribute(k, v);
+  if (text !== undefined) e.textContent = text;
+  return e;
+}
+
+function token() { return sessionStorage.getItem("prismfarm-token") || ""; }
+
+async function api(path) {
+  const r = await fetch(path, { cache: "no-store" });
+  const body = await r.json().catch(() => ({ error: "not JSON (status " + r.status + ")" }));
+  if (!r.ok) throw new Error(body.error || ("HTTP " + r.status));
+  return body;
+}
+
+async function act(path, body) {
+  const headers = { "Content-Type": "application/json" };
+  if (token()) headers["Authorization"] = "Bearer " + token();
+  const r = await fetch(path, { method: "POST", headers, body: body ? JSON.stringify(body) : "" });
+  const answer = await r.json().catch(() => ({ error: "HTTP " + r.status }));
+  if (!r.ok) {
+    message((r.status === 401 ? "refused (401): " : r.status === 403 ? "refused (403): " :
+             "HTTP " + r.status + ": ") + (answer.error || ""), true);
+    return false;
+  }
+  message(answer.action + " " + answer.id + ": done", false);
+  refresh();
+  return true;
+}
+
+function message(text, isError) {
+  const m = document.getElementById("message");
+  m.textContent = text;
+  m.className = isError ? "error" : "ok";
+}
+
+function fmtTime(s) {
+  if (s === undefined || s === null || !isFinite(s)) return "–";
+  if (s < 60) return s.toFixed(1) + " s";
+  const m = Math.floor(s / 60), h = Math.floor(m / 60);
+  return h > 0 ? h + " h " + (m % 60) + " min" : m + " min " + Math.round(s % 60) + " s";
+}
+
+function fmtCount(n) {
+  if (n >= 1e9) return (n / 1e9).toFixed(2) + " G";
+  if (n >= 1e6) return (n / 1e6).toFixed(2) + " M";
+  if (n >= 1e3) return (n / 1e3).toFixed(1) + " k";
+  return String(n);
+}
+
+function fmtError(e) { return e === undefined ? "–" : (100 * e).toFixed(2) + " %"; }
+
+function bar(fraction) {
+  const inner = el("span");
+  inner.style.width = Math.max(0, Math.min(100, 100 * fraction)).toFixed(1) + "%";
+  return el("span", { class: "bar", title: (100 * fraction).toFixed(1) + " %" }, inner);
+}
+
+function stateCell(s, paused) {
+  return el("td", { class: "state state-" + s }, s + (paused ? " (paused)" : ""));
+}
+
+// A colour per worker id, so the tile map and the task table agree.
+function workerColour(id) { return "hsl(" + ((id * 137.508) % 360).toFixed(0) + ", 70%, 45%)"; }
+
+// ---------------------------------------------------------------- job list
+
+async function viewJobs(gen) {
+  const data = await api("/api/jobs");
+  if (gen !== state.gen) return;
+  const rows = data.jobs.slice().reverse().map((j) => {
+    const tr = el("tr", { class: "clickable", "data-job": j.id,
+                          onclick: () => { location.hash = "#/job/" + j.id; } },
+      el("td", { class: "num" }, j.id),
+      el("td", {}, el("a", { href: "#/job/" + j.id }, j.name)),
+      el("td", {}, j.owner || "–"),
+      stateCell(j.state, j.paused),
+      el("td", { class: "num" }, j.priority === undefined ? "–" : j.priority),
+      el("td", {}, bar(j.progress), " ", (100 * j.progress).toFixed(0) + " %"),
+      el("td", { class: "num" }, j.spp_done + " / " + j.spp),
+      el("td", { class: "num" }, fmtError(j.rel_error)),
+      el("td", { class: "num" }, fmtTime(j.eta_s)),
+      el("td", { class: "num" }, fmtTime(j.elapsed_s)));
+    return tr;
+  });
+  const table = el("table", { id: "jobs-table" },
+    el("thead", {}, el("tr", {}, ...["id", "name", "owner", "state", "priority", "progress",
+                                     "spp", "error", "ETA", "elapsed"].map((h) => el("th", {}, h)))),
+    el("tbody", {}, ...rows));
+  render(el("div", {}, el("h1", {}, "Jobs"),
+            data.jobs.length ? table : el("p", { class: "muted", id: "no-jobs" },
+                                          "No job yet: prismfarm submit SCENE.pbrt")));
+}
+
+// ---------------------------------------------------------------- one job
+
+function plotErrors(passes) {
+  const W = 600, H = 240, L = 52, R = 12, T = 10, B = 34;
+  const pts = passes.filter((p) => p.rel_error !== undefined && p.rel_error > 0);
+  const s = svg("svg", { class: "plot", id: "error-plot", viewBox: "0 0 " + W + " " + H,
+                         preserveAspectRatio: "none" });
+  s.append(svg("line", { class: "axis", x1: L, y1: H - B, x2: W - R, y2: H - B }));
+  s.append(svg("line", { class: "axis", x1: L, y1: T, x2: L, y2: H - B }));
+  if (pts.length === 0) {
+    s.append(svg("text", { x: L + 10, y: T + 20 }, "no error estimate yet (after the second pass)"));
+    return s;
+  }
+  const tmax = Math.max(...pts.map((p) => p.elapsed_s), 1e-3);
+  const lmin = Math.floor(Math.log10(Math.min(...pts.map((p) => p.rel_error))));
+  const lmax = Math.max(Math.ceil(Math.log10(Math.max(...pts.map((p) => p.rel_error)))), lmin + 1);
+  const x = (t) => L + (W - L - R) * t / tmax;
+  const y = (e) => T + (H - T - B) * (lmax - Math.log10(e)) / (lmax - lmin);
+  for (let d = lmin; d <= lmax; d++) {
+    s.append(svg("text", { x: 4, y: y(Math.pow(10, d)) + 4 }, (100 * Math.pow(10, d)) + " %"));
+  }
+  for (let k = 0; k <= 4; k++) {
+    const t = tmax * k / 4;
+    s.append(svg("text", { x: x(t) - 10, y: H - B + 16 }, t.toFixed(t < 10 ? 1 : 0) + " s"));
+  }
+  s.append(svg("text", { x: W / 2 - 60, y: H - 4 }, "time since start; error (log)"));
+  s.append(svg("polyline", { class: "curve",
+                             points: pts.map((p) => x(p.elapsed_s) + "," + y(p.rel_error)).join(" ") }));
+  for (const p of pts) {
+    const c = svg("circle", { class: "point", cx: x(p.elapsed_s), cy: y(p.rel_error), r: 3 });
+    c.append(svg("title", {}, "pass " + p.pass + ": " + p.spp + " spp, " + fmtError(p.rel_error) +
+                              " after " + fmtTime(p.elapsed_s)));
+    s.append(c);
+  }
+  return s;
+}
+
+function drawTiles(canvas, map) {
+  const scale = Math.max(1, Math.floor(480 / Math.max(map.xres, map.yres)));
+  canvas.width = map.xres * scale;
+  canvas.height = map.yres * scale;
+  const g = canvas.getContext("2d");
+  g.fillStyle = "#e4e8ee";
+  g.fillRect(0, 0, canvas.width, canvas.height);
+  const running = new Map(map.running.map((r) => [r.tile, r]));
+  const tmax = Math.max(1, ...map.running.map((r) => r.running_s));
+  for (let i = 0; i < map.merged.length; i++) {
+    const tx = i % map.tiles_x, ty = Math.floor(i / map.tiles_x);
+    const x0 = tx * map.tile * scale, y0 = ty * map.tile * scale;
+    const w = Math.min(map.tile, map.xres - tx * map.tile) * scale;
+    const h = Math.min(map.tile, map.yres - ty * map.tile) * scale;
+    const r = running.get(i);
+    if (state.tileMode === "passes") {
+      const f = map.npasses ? map.merged[i] / map.npasses : 0;
+      g.fillStyle = "hsl(140, 45%, " + (92 - 55 * f).toFixed(0) + "%)";
+    } else {
+      g.fillStyle = r ? "hsl(" + (50 - 50 * r.running_s / tmax).toFixed(0) + ", 85%, 55%)" : "#e4e8ee";
+    }
+    g.fillRect(x0, y0, w, h);
+    g.strokeStyle = "#fff";
+    g.lineWidth = 1;
+    g.strokeRect(x0 + .5, y0 + .5, w - 1, h - 1);
+    if (r) {
+      g.strokeStyle = workerColour(r.worker);
+      g.lineWidth = 3;
+      g.strokeRect(x0 + 2, y0 + 2, w - 4, h - 4);
+    }
+  }
+}
+
+function fact(k, v) { return [el("dt", {}, k), el("dd", {}, v)]; }
+
+async function viewJob(gen, id) {
+  const [j, tasks] = await Promise.all([api("/api/jobs/" + id), api("/api/jobs/" + id + "/tasks")]);
+  let map = null;
+  try { map = await api("/api/jobs/" + id + "/tiles"); } catch (e) { map = null; }
+  const log = await api("/api/jobs/" + id + "/log?since=" + (state.jobId === id ? state.logSeq : 0));
+  if (gen !== state.gen) return;
+  const fresh = state.jobId !== id || !document.getElementById("job-page");
+  if (fresh) {
+    state.jobId = id;
+    state.logSeq = 0;
+    state.previewVersion = -1;
+    buildJobPage(id);
+  }
+  document.getElementById("job-title").textContent = "Job " + j.id + ": " + j.name;
+  const facts = document.getElementById("job-facts");
+  facts.replaceChildren(
+    ...fact("state", el("span", { id: "job-state", class: "state state-" + j.state },
+                        j.state + (j.paused ? " (paused)" : ""))),
+    ...fact("owner", j.owner || "–"),
+    ...fact("priority", j.priority === undefined ? "–" : String(j.priority)),
+    ...fact("size", j.xres + " × " + j.yres + ", " + j.integrator),
+    ...fact("progress", el("span", {}, bar(j.progress), " " + (100 * j.progress).toFixed(1) + " %")),
+    ...fact("samples per pixel", j.spp_done + " of " + j.spp + " (pass " + j.passes_done + " of " + j.npasses + ")"),
+    ...fact("samples", fmtCount(j.samples_done) + " of " + fmtCount(j.samples_total) +
+            (j.nonfinite ? ", " + j.nonfinite + " non-finite dropped" : "")),
+    ...fact("tasks", j.tasks_done + " of " + j.tasks_total + " done, " + j.tasks_running + " running"),
+    ...fact("error estimate", fmtError(j.rel_error)),
+    ...fact("elapsed", fmtTime(j.elapsed_s)),
+    ...fact("ETA", fmtTime(j.eta_s)),
+    ...(j.stop ? fact("ended early", j.stop === "target" ? "target error reached" : "time limit") : []),
+    ...(j.error ? fact("error", j.error) : []));
+  // The photon phase, for photon jobs.
+  const ph = document.getElementById("photon-phase");
+  if (j.photon_phase) {
+    const p = j.photon_phase;
+    ph.hidden = false;
+    const what = p.batches ? p.batches_done + " of " + p.batches + " batches merged, " +
+                             fmtCount(p.photons) + " photons (" + fmtCount(p.emitted) + " emitted)"
+                           : "complete: " + fmtCount(p.photons) + " photons (kept on the master's disk)";
+    ph.replaceChildren(el("h2", {}, "Photon phase"),
+      el("p", { id: "photon-progress" }, bar(p.complete ? 1 : p.batches ? p.batches_done / p.batches : 0),
+         " " + what));
+  } else ph.hidden = true;
+  // Actions: what this master can do, greyed otherwise.
+  const over = ["done", "failed", "cancelled"].includes(j.state);
+  document.getElementById("action-cancel").disabled = over || !j.actions.cancel;
+  document.getElementById("action-pause").disabled = over || !j.actions.pause;
+  document.getElementById("action-pause").textContent = j.paused ? "Resume" : "Pause";
+  document.getElementById("action-pause").dataset.paused = j.paused ? "1" : "0";
+  document.getElementById("action-priority").disabled = over || !j.actions.priority;
+  // The preview: reloaded when the master wrote a new one.
+  const img = document.getElementById("preview");
+  img.hidden = !(j.preview_version > 0);
+  if (j.preview_version !== state.previewVersion && j.preview_version > 0) {
+    state.previewVersion = j.preview_version;
+    img.src = "/api/jobs/" + id + "/preview.png?v=" + j.preview_version;
+    img.dataset.version = j.preview_version;
+    document.getElementById("preview-note").textContent = "at " + j.spp_done + " spp";
+  } else if (j.preview_version === 0) {
+    document.getElementById("preview-note").textContent = "no image yet: a preview follows each pass";
+  }
+  document.getElementById("plot-box").replaceChildren(plotErrors(j.passes));
+  const canvas = document.getElementById("tilemap");
+  if (map) drawTiles(canvas, map);
+  canvas.hidden = !map;
+  // Running tasks and their workers.
+  const rows = tasks.tasks.map((t) => el("tr", { "data-task": t.task },
+    el("td", { class: "num" }, t.task),
+    el("td", {}, t.kind === "photon" ? "photon batch " + t.batch : "tile " + t.tile + ", pass " + t.pass),
+    el("td", { class: "num" }, t.kind === "photon" ? "–" : t.sample_begin + "–" + t.sample_end),
+    el("td", {}, el("span", { class: "swatch" }, "■ "), t.worker_name + " (" + t.worker + ")"),
+    el("td", { class: "num" }, t.attempt),
+    el("td", { class: "num" }, fmtTime(t.running_s)),
+    el("td", {}, el("button", { disabled: j.actions.requeue ? null : "disabled",
+                                onclick: () => act("/api/jobs/" + id + "/tasks/" + t.task + "/requeue") },
+                    "Requeue"))));
+  rows.forEach((r, i) => { r.querySelector(".swatch").style.color = workerColour(tasks.tasks[i].worker); });
+  document.getElementById("tasks-body").replaceChildren(...rows);
+  document.getElementById("tasks-none").hidden = rows.length > 0;
+  // The log, appended.
+  const pre = document.getElementById("job-log");
+  for (const l of log.lines) {
+    if (l.seq <= state.logSeq) continue; // an answer to an earlier, overlapping poll
+    pre.append(l.text + "\n");
+    state.logSeq = l.seq;
+  }
+  if (log.lines.length) pre.scrollTop = pre.scrollHeight;
+}
+
+function buildJobPage(id) {
+  const priority = el("input", { id: "priority-value", type: "number", min: -1000, max: 1000,
+                                 value: 0, size: 5, "aria-label": "priority" });
+  const page = el("div", { id: "job-page" },
+    el("h1", { id: "job-title" }, "Job " + id),
+    el("div", { class: "actions" },
+      el("button", { id: "action-cancel", class: "danger",
+                     onclick: () => { if (confirm("Cancel job " + id + "?")) act("/api/jobs/" + id + "/cancel"); } },
+         "Cancel"),
+      el("button", { id: "action-pause",
+                     onclick: (e) => act("/api/jobs/" + id + (e.target.dataset.paused === "1" ? "/resume" : "/pause")) },
+         "Pause"),
+      priority,
+      el("button", { id: "action-priority",
+                     onclick: () => act("/api/jobs/" + id + "/priority", { priority: parseInt(priority.value, 10) }) },
+         "Set priority")),
+    el("div", { class: "grid" },
+      el("div", { class: "card" }, el("h2", {}, "Preview ", el("span", { id: "preview-note", class: "muted" })),
+         el("img", { id: "preview", alt: "progressive preview of job " + id, hidden: "hidden" })),
+      el("div", { class: "card" }, el("h2", {}, "Job"), el("dl", { class: "facts", id: "job-facts" }),
+         el("div", { id: "photon-phase", hidden: "hidden" }))),
+    el("div", { class: "grid" },
+      el("div", { class: "card" }, el("h2", {}, "Error against time"), el("div", { id: "plot-box" })),
+      el("div", { class: "card" }, el("h2", {}, "Tile map ",
+           el("select", { id: "tile-mode", "aria-label": "colour tiles by",
+                          onchange: (e) => { state.tileMode = e.target.value; refresh(); } },
+              el("option", { value: "passes" }, "by passes merged"),
+              el("option", { value: "time" }, "by running time"))),
+         el("canvas", { id: "tilemap" }),
+         el("p", { class: "legend" }, "darker: more passes merged; outlined: running, in its worker's colour"))),
+    el("div", { class: "card" }, el("h2", {}, "Running tasks"),
+      el("table", { id: "tasks-table" },
+        el("thead", {}, el("tr", {}, ...["task", "what", "samples", "worker", "attempt", "running", ""].map((h) => el("th", {}, h)))),
+        el("tbody", { id: "tasks-body" })),
+      el("p", { id: "tasks-none", class: "muted" }, "No task running.")),
+    el("div", { class: "card" }, el("h2", {}, "Log"), el("pre", { class: "log", id: "job-log" })));
+  render(page);
+  document.getElementById("tile-mode").value = state.tileMode;
+}
+
+// ---------------------------------------------------------------- workers
+
+async function viewWorkers(gen) {
+  const data = await api("/api/workers");
+  if (gen !== state.gen) return;
+  const now = performance.now() / 1000;
+  const rows = data.workers.map((w) => {
+    // Samples per second between two polls of the cumulative count.
+    const prev = state.workerRates.get(w.id);
+    let rate = prev ? prev.rate : undefined;
+    if (prev && now - prev.t >= 0.5) rate = (w.samples_done - prev.samples) / (now - prev.t);
+    if (!prev || now - prev.t >= 0.5) state.workerRates.set(w.id, { t: now, samples: w.samples_done, rate });
+    const blocked = w.blocklisted === undefined ? "–" : w.blocklisted ? "yes" : "no";
+    return el("tr", { "data-worker": w.id },
+      el("td", { class: "num" }, w.id),
+      el("td", {}, w.name),
+      el("td", {}, w.key || "–"),
+      el("td", { class: "num" }, w.threads),
+      stateCell(w.state),
+      el("td", { class: "num" }, w.tasks_running),
+      el("td", { class: "num" }, rate === undefined ? "–" : fmtCount(Math.max(0, Math.round(rate)))),
+      el("td", { class: "num" }, w.tasks_done),
+      el("td", { class: "num" }, w.tasks_failed),
+      el("td", {}, blocked),
+      el("td", { class: "num" }, fmtTime(w.last_seen_s)),
+      el("td", {}, el("button", { disabled: data.actions.blocklist ? null : "disabled",
+                                  onclick: () => act("/api/workers/" + w.id + (w.blocklisted ? "/unblock" : "/blocklist")) },
+                      w.blocklisted ? "Unblock" : "Blocklist")));
+  });
+  render(el("div", {}, el("h1", {}, "Workers"),
+    data.workers.length ? el("table", { id: "workers-table" },
+      el("thead", {}, el("tr", {}, ...["id", "host", "key", "threads", "state", "tasks", "samples/s",
+                                       "done", "failures", "blocklisted", "last seen", ""].map((h) => el("th", {}, h)))),
+      el("tbody", {}, ...rows)) : el("p", { class: "muted" }, "No worker yet: prismfarm worker --master ...")));
+}
+
+// ---------------------------------------------------------------- the loop
+
+function render(node) {
+  const v = document.getElementById("view");
+  v.replaceChildren(node);
+}
+
+function route() {
+  const h = location.hash || "#/jobs";
+  let m;
+  if ((m = h.match(/^#\/job\/(\d+)$/))) return { name: "job", id: parseInt(m[1], 10) };
+  if (h === "#/workers") return { name: "workers" };
+  return { name: "jobs" };
+}
+
+// One poll at a time: a page change and the timer may ask at once, and their answers would
+// otherwise be applied twice.
+let polling = Promise.resolve();
+function refresh() {
+  polling = polling.then(poll, poll);
+  return polling;
+}
+
+async function poll() {
+  const r = route();
+  const gen = state.gen;
+  document.getElementById("nav-jobs").className = r.name !== "workers" ? "active" : "";
+  document.getElementById("nav-workers").className = r.name === "workers" ? "active" : "";
+  try {
+    if (r.name === "job") await viewJob(gen, r.id);
+    else if (r.name === "workers") await viewWorkers(gen);
+    else await viewJobs(gen);
+    document.body.dataset.loaded = "1";
+  } catch (e) {
+    if (gen === state.gen) message(String(e.message || e), true);
+  }
+}
+
+function schedule() {
+  clearTimeout(state.timer);
+  state.timer = setTimeout(async () => { await refresh(); schedule(); }, POLL_MS);
+}
+
+async function showWho() {
+  const who = document.getElementById("whoami");
+  if (!token()) { who.textContent = "read-only"; return; }
+  try {
+    const r = await fetch("/api/whoami", { headers: { Authorization: "Bearer " + token() } });
+    const b = await r.json();
+    who.textContent = r.ok ? "acting as " + b.name + (b.admin ? " (admin)" : "") : "token refused";
+  } catch (e) { who.textContent = "token refused"; }
+}
+
+window.addEventListener("hashchange", () => { state.gen++; state.jobId = 0; message("", false); refresh(); });
+window.addEventListener("DOMContentLoaded", () => {
+  document.getElementById("token-form").addEventListener("submit", (e) => {
+    e.preventDefault();
+    const t = document.getElementById("token").value.trim();
+    if (t) sessionStorage.setItem("prismfarm-token", t);
+    document.getElementById("token").value = "";
+    showWho();
+  });
+  document.getElementById("token-clear").addEventListener("click", () => {
+    sessionStorage.removeItem("prismfarm-token");
+    showWho();
+  });
+  showWho();
+  refresh();
+  schedule();
+});

@@ -1,0 +1,401 @@
+#include "dash_view.h"
+
+#include "access.h"
+#include "clock.h"
+#include "dash_auth.h"
+#include "dash_provider.h"
+#include "dash_route.h"
+#include "dash_server.h"
+#include "files.h"
+#include "jobs.h"
+#include "logbook.h"
+#include "passes.h"
+#include "peers.h"
+#include "tilegrid.h"
+
+#include <limits.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define MAX_PREVIEW_BYTES (64u << 20) /* a preview PNG larger than this is not served */
+
+struct dash_view {
+    master_t *m;
+    dash_provider_t provider;
+    dash_auth_t *auth;
+    dash_router_t *router;
+    dash_server_t *server;
+    sched_running_t running[DASH_MAX_TASKS]; /* scratch of the tasks callback */
+    logbook_line_t lines[DASH_MAX_LOG];      /* scratch of the log callback */
+};
+
+/* ---------------------------------------------------------------- reading the state */
+
+static void fill_job(master_t *m, const mjob_t *j, double now, dash_job_t *o)
+{
+    *o = (dash_job_t){
+        .id = j->id,
+        .name = j->name,
+        .owner = j->owner,
+        .state = job_state_name(j->state),
+        .xres = j->scene.xres,
+        .yres = j->scene.yres,
+        .spp = j->scene.spp,
+        .integrator = j->scene.integrator ? j->scene.integrator : j->integrator,
+        .samples_done = j->sched.samples_done,
+        .samples_total = j->sched.samples_total,
+        .nonfinite = j->sched.nonfinite,
+        .spp_done = j->accuracy.spp_done,
+        .stop = j->accuracy.stop == PROTO_STOP_NONE ? "" : proto_stop_name(j->accuracy.stop),
+        /* As STATUS says it: a failure, or why a done job's outputs wait (a full disk). */
+        .error = j->state == JOB_FAILED ? (j->error ? j->error : "failed")
+                 : j->outputs.waiting   ? j->outputs.why
+                                        : "",
+        .photons = j->photons.enabled,
+    };
+    o->npasses = j->scene.spp > 0 ? passes_bounds(j->scene.spp, NULL) : 0;
+    o->passes_done =
+        j->accuracy.nhistory > 0 ? j->accuracy.history[j->accuracy.nhistory - 1].pass : 0;
+    sched_job_info_t info;
+    if (j->sched.known && sched_job_info(m->sched, j->id, &info) == 0) {
+        o->samples_done = info.samples_done;
+        o->samples_total = info.samples_total;
+        o->nonfinite = info.nonfinite;
+        o->spp_done = info.spp_done;
+        o->passes_done = info.passes_done;
+        o->npasses = info.npasses;
+        o->tasks_total = info.tasks_total;
+        o->tasks_done = info.tasks_done;
+        o->tasks_running = info.tasks_running;
+        o->photon_batches = info.photon_batches;
+        o->photon_batches_done = info.photon_batches_done;
+    }
+    const pass_record_t *last =
+        j->accuracy.nhistory > 0 ? &j->accuracy.history[j->accuracy.nhistory - 1] : NULL;
+    if (last && last->valid) {
+        o->has_rel_error = true;
+        o->rel_error = last->rel_error;
+    }
+    double secs = j->started > 0 ? (j->finished > 0 ? j->finished : now) - j->started : 0;
+    o->elapsed_s = secs > 0 ? secs : 0;
+    /* A new image on disk changes the version: the final outputs after the last preview. */
+    if (j->outputs.final)
+        o->preview_version = (uint64_t)(j->finished * 1000.0) + 2;
+    else if (j->outputs.preview)
+        o->preview_version = (uint64_t)(j->outputs.last_preview * 1000.0) + 1;
+    if (j->photons.phase) {
+        photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);
+        o->photons_traced = ps.photons;
+        o->photons_emitted = ps.emitted;
+        if (!j->sched.known) {
+            o->photon_batches = ps.batches;
+            o->photon_batches_done = ps.batches_merged;
+        }
+        o->photons_complete = photon_phase_complete(j->photons.phase);
+    } else if (j->photons.enabled) {
+        o->photons_traced = j->photons.saved;
+        o->photons_complete = j->photons.saved > 0; /* kept on disk once merged */
+    }
+}
+
+static size_t pv_jobs(void *user, dash_job_t *out, size_t max)
+{
+    dash_view_t *v = user;
+    master_t *m = v->m;
+    size_t first = m->njobs > max ? m->njobs - max : 0;
+    double now = clock_now_s();
+    for (size_t i = first; i < m->njobs; i++)
+        fill_job(m, m->jobs[i], now, &out[i - first]);
+    return m->njobs - first;
+}
+
+static int pv_job(void *user, uint64_t id, dash_job_t *out)
+{
+    dash_view_t *v = user;
+    const mjob_t *j = jobs_find(v->m, id);
+    if (!j)
+        return DASH_ENOENT;
+    fill_job(v->m, j, clock_now_s(), out);
+    return 0;
+}
+
+static int pv_preview(void *user, uint64_t id, uint8_t **png, size_t *size, err_t *err)
+{
+    dash_view_t *v = user;
+    const mjob_t *j = jobs_find(v->m, id);
+    if (!j)
+        return DASH_ENOENT;
+    if (!j->outputs.final && !j->outputs.preview)
+        return DASH_ENOENT;
+    /* The file on_fetch sends too: the final PNG once the job is done, else the preview. */
+    char path[PATH_MAX + 200];
+    if (j->outputs.final)
+        snprintf(path, sizeof path, "%s/jobs/%llu/%s.png", spool_path(v->m->spool),
+                 (unsigned long long)j->id, j->stem);
+    else
+        snprintf(path, sizeof path, "%s/jobs/%llu/preview.png", spool_path(v->m->spool),
+                 (unsigned long long)j->id);
+    return files_read(path, MAX_PREVIEW_BYTES, png, size, err);
+}
+
+static int pv_passes(void *user, uint64_t id, dash_pass_t *out, int max)
+{
+    dash_view_t *v = user;
+    const mjob_t *j = jobs_find(v->m, id);
+    if (!j)
+        return DASH_ENOENT;
+    int n = 0;
+    for (int i = 0; i < j->accuracy.nhistory && n < max; i++) {
+        const pass_record_t *r = &j->accuracy.history[i];
+        out[n++] = (dash_pass_t){.pass = r->pass,
+                                 .spp = r->spp,
+                                 .elapsed_s = r->elapsed,
+                                 .valid = r->valid,
+                                 .rel_error = r->rel_error};
+    }
+    return n;
+}
+
+static int pv_tiles(void *user, uint64_t id, dash_tilemap_t *map, err_t *err)
+{
+    dash_view_t *v = user;
+    master_t *m = v->m;
+    const mjob_t *j = jobs_find(m, id);
+    if (!j)
+        return DASH_ENOENT;
+    if (j->scene.xres < 1 || j->scene.yres < 1 || j->scene.spp < 1)
+        return err_set(err, "its scene is not loaded: no tiles to show");
+    tilegrid_t g = tilegrid_make(j->scene.xres, j->scene.yres, m->opts->sched.tile_size);
+    int *merged = map->merged;
+    *map = (dash_tilemap_t){.xres = g.xres,
+                            .yres = g.yres,
+                            .tile = g.tile,
+                            .tiles_x = g.tiles_x,
+                            .tiles_y = g.tiles_y,
+                            .npasses = passes_bounds(j->scene.spp, NULL),
+                            .merged = merged};
+    if (!merged)
+        return 0;
+    int n = tilegrid_count(&g);
+    if (j->sched.known)
+        return sched_job_next_pass(m->sched, j->id, merged, n) == n
+                   ? 0
+                   : err_set(err, "the scheduler's tiles differ from the scene's");
+    /* Over: the scheduler forgot the tiles with the image. A job done merged every pass of
+     * every tile (or, ended early, the passes its record says: whole passes only). */
+    if (j->state != JOB_DONE)
+        return err_set(err, "it is %s: the scheduler forgot its tiles when it ended",
+                       job_state_name(j->state));
+    int passes = j->accuracy.stop != PROTO_STOP_NONE && j->accuracy.nhistory > 0
+                     ? j->accuracy.history[j->accuracy.nhistory - 1].pass
+                     : map->npasses;
+    for (int i = 0; i < n; i++)
+        merged[i] = passes;
+    return 0;
+}
+
+static const mworker_t *worker_by_id(const master_t *m, uint64_t id)
+{
+    for (size_t i = 0; i < m->nworkers; i++)
+        if (m->workers[i]->id == id)
+            return m->workers[i];
+    return NULL;
+}
+
+static int pv_tasks(void *user, uint64_t id, dash_task_t *out, int max)
+{
+    dash_view_t *v = user;
+    master_t *m = v->m;
+    const mjob_t *j = jobs_find(m, id);
+    if (!j)
+        return DASH_ENOENT;
+    if (!j->sched.known)
+        return 0;
+    if (max > DASH_MAX_TASKS)
+        max = DASH_MAX_TASKS;
+    int n = sched_job_running(m->sched, id, v->running, max);
+    double now = clock_now_s();
+    for (int i = 0; i < n; i++) {
+        const sched_running_t *r = &v->running[i];
+        const mworker_t *w = worker_by_id(m, r->worker);
+        double age = now - r->issued;
+        out[i] = (dash_task_t){.task = r->task,
+                               .photon = r->kind == SCHED_PHOTON,
+                               .tile = r->tile,
+                               .pass = r->pass,
+                               .batch = r->batch,
+                               .sample_begin = r->sample_begin,
+                               .sample_end = r->sample_end,
+                               .attempt = r->attempt,
+                               .worker = r->worker,
+                               .worker_name = w && w->name ? w->name : "?",
+                               .running_s = age > 0 ? age : 0};
+    }
+    return n < 0 ? 0 : n;
+}
+
+static int pv_log(void *user, uint64_t job, uint64_t since, dash_log_line_t *out, int max)
+{
+    dash_view_t *v = user;
+    if (!v->m->logbook)
+        return 0;
+    if (max > DASH_MAX_LOG)
+        max = DASH_MAX_LOG;
+    int n = logbook_read(v->m->logbook, job, since, v->lines, max);
+    double now = clock_now_s();
+    for (int i = 0; i < n; i++)
+        out[i] = (dash_log_line_t){
+            .seq = v->lines[i].seq, .age_s = now - v->lines[i].t, .text = v->lines[i].text};
+    return n;
+}
+
+static size_t pv_workers(void *user, dash_worker_t *out, size_t max)
+{
+    dash_view_t *v = user;
+    master_t *m = v->m;
+    size_t ns = peers_sched_table(m);
+    double now = clock_now_s();
+    size_t n = m->nworkers < max ? m->nworkers : max;
+    for (size_t i = 0; i < n; i++) {
+        const mworker_t *w = m->workers[i];
+        const sched_worker_info_t *si = peers_sched_info(m, ns, w->id);
+        double seen = now - w->last_seen;
+        out[i] = (dash_worker_t){
+            .id = w->id,
+            .name = w->name ? w->name : "",
+            .key = w->key,
+            .threads = w->threads,
+            .state = !w->alive              ? "lost"
+                     : (si && si->busy > 0) ? "busy"
+                                            : "idle",
+            .tasks_running = w->alive && si ? si->busy : 0,
+            .tasks_done = si ? si->tasks_done : 0,
+            .tasks_failed = si ? si->tasks_failed : 0,
+            .samples_done = si ? si->samples_done : 0,
+            .last_seen_s = seen > 0 ? seen : 0,
+        };
+    }
+    return n;
+}
+
+/* ---------------------------------------------------------------- actions */
+
+/* The master's one rule (access.h): a token always names a key, so a job submitted without
+ * keys (owner "") is an administrator's to act on, as on the clients endpoint. */
+static bool pv_allowed(void *user, const dash_identity_t *who, const dash_job_t *job)
+{
+    (void)user;
+    return who->name[0] && access_allowed(job->owner ? job->owner : "", who->name, who->admin);
+}
+
+static int pv_cancel(void *user, const dash_identity_t *who, uint64_t id, err_t *err)
+{
+    dash_view_t *v = user;
+    mjob_t *j = jobs_find(v->m, id);
+    if (!j) {
+        err_set(err, "no job %llu", (unsigned long long)id);
+        return DASH_ENOENT;
+    }
+    if (job_over(j))
+        return err_set(err, "job %llu is %s already", (unsigned long long)id,
+                       job_state_name(j->state));
+    master_log(v->m, "job %llu '%s': cancel from the dashboard by '%s'%s", (unsigned long long)id,
+               j->name, who->name, who->admin ? " (admin)" : "");
+    job_cancel(v->m, j, clock_now_s());
+    return 0;
+}
+
+/* ---------------------------------------------------------------- the server */
+
+int dash_view_check(const master_opts_t *o, err_t *err)
+{
+    if (!o->http)
+        return o->http_token_file
+                   ? err_set(err, "--http-token-file needs --http ADDR:PORT, the dashboard")
+                   : 0;
+    dash_server_config_t sc;
+    if (dash_server_parse_address(o->http, &sc, err) < 0)
+        return -1;
+    if (!dash_server_loopback(&sc) && !o->http_public)
+        return err_set(err,
+                       "--http %s is reachable from other hosts, and the dashboard is plain "
+                       "HTTP: its pages, and any token sent to it, can be read on the network. "
+                       "Give --http-public to accept that, or keep 127.0.0.1 and reach it "
+                       "through an SSH tunnel (docs/dashboard.md, \"Security\")",
+                       o->http);
+    return 0;
+}
+
+int master_check_http(const master_opts_t *opts, err_t *err)
+{
+    return dash_view_check(opts, err);
+}
+
+dash_view_t *dash_view_open(master_t *m, char *bound, size_t size, err_t *err)
+{
+    const master_opts_t *o = m->opts;
+    dash_server_config_t sc;
+    if (dash_view_check(o, err) < 0 || dash_server_parse_address(o->http, &sc, err) < 0)
+        return NULL;
+    dash_view_t *v = calloc(1, sizeof *v);
+    if (!v) {
+        err_set(err, "dashboard: out of memory");
+        return NULL;
+    }
+    v->m = m;
+    v->provider = (dash_provider_t){
+        .user = v,
+        .jobs = pv_jobs,
+        .job = pv_job,
+        .preview = pv_preview,
+        .passes = pv_passes,
+        .tiles = pv_tiles,
+        .tasks = pv_tasks,
+        .log = pv_log,
+        .workers = pv_workers,
+        .allowed = pv_allowed,
+        .cancel = pv_cancel,
+    };
+    /* Tokens from the folders the clients' keys come from (never the workers'). */
+    dash_auth_config_t ac = {.any_dir = o->authorized_dir,
+                             .clients_dir = o->authorized_clients_dir,
+                             .admins_dir = o->authorized_admins_dir,
+                             .token_file = o->http_token_file};
+    dash_router_config_t rc = {.check_host = dash_server_loopback(&sc)};
+    if (!(v->auth = dash_auth_new(&ac, err)) ||
+        !(v->router = dash_router_new(&v->provider, v->auth, &rc, err)) ||
+        !(v->server = dash_server_new(&sc, v->router, err))) {
+        dash_view_close(&v);
+        return NULL;
+    }
+    snprintf(bound, size, "http://%s:%d/", sc.address, dash_server_port(v->server));
+    return v;
+}
+
+void dash_view_close(dash_view_t **self_p)
+{
+    if (!self_p || !*self_p)
+        return;
+    dash_view_t *v = *self_p;
+    dash_server_destroy(&v->server); /* before the router it calls */
+    dash_router_destroy(&v->router);
+    dash_auth_destroy(&v->auth);
+    free(v);
+    *self_p = NULL;
+}
+
+int dash_view_fd(const dash_view_t *self)
+{
+    return dash_server_fd(self->server);
+}
+
+int dash_view_timeout_ms(dash_view_t *self, int cap_ms)
+{
+    return dash_server_timeout_ms(self->server, cap_ms);
+}
+
+int dash_view_run(dash_view_t *self, err_t *err)
+{
+    return dash_server_run(self->server, err);
+}

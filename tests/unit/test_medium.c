@@ -1,0 +1,680 @@
+/* medium: participating media against numbers that do not come from the code -- the
+ * Henyey-Greenstein phase function's normalisation and its sampling (chi-square against the
+ * analytic distribution of the cosine, and of the azimuth), Beer-Lambert transmittance of a
+ * homogeneous slab per wavelength, ratio and delta tracking of a density grid against the
+ * grid's analytic optical depth, white furnaces (albedo 1, grey and chromatic, camera outside
+ * and inside, isotropic and forward scattering) that must conserve energy, an emitting medium
+ * whose radiance is its Le, a uniform grid rendering the mean of the homogeneous medium it
+ * equals, numbers that stay finite for extreme coefficients, and the pbrt-v4 syntax
+ * (MakeNamedMedium, MediumInterface, presets, which integrators simulate media). Statistical
+ * checks use fixed seeds and tolerances of 5 standard errors from the sample count. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "medium.h"
+#include "numeric_testutil.h"
+#include "phase_hg.h"
+#include "render.h"
+#include "scene.h"
+#include "scene_builders.h"
+#include "shading.h"
+#include "volume.h"
+
+/* ---- the phase function ---- */
+
+static const double GS[] = {-0.95, -0.5, 0.0, 0.3, 0.8, 0.99};
+
+/* The cumulative distribution of x = wo . wi under HG, from integrating
+ * 2 pi (1 - g^2) / (4 pi (1 + g^2 + 2 g x)^(3/2)) over [-1, x]:
+ * F(x) = (1 - g^2) / (2 g) (1 / (1 - g) - 1 / sqrt(1 + g^2 + 2 g x)); (x + 1) / 2 at g = 0. */
+static double hg_cdf(double x, double g)
+{
+    if (g == 0.0)
+        return 0.5 * (x + 1.0);
+    return (1.0 - g * g) / (2.0 * g) * (1.0 / (1.0 - g) - 1.0 / sqrt(1.0 + g * g + 2.0 * g * x));
+}
+
+static void test_hg_normalised(void **state)
+{
+    (void)state;
+    const vec3_t wo = vec3_normalize(vec3_make(0.3, -0.2, 0.9));
+    vec3_t t, b;
+    vec3_basis(wo, &t, &b);
+    for (size_t i = 0; i < sizeof GS / sizeof GS[0]; i++) {
+        /* Midpoint rule over x = cos in [-1, 1], times 2 pi for the azimuth. */
+        const int n = 400000;
+        double sum = 0.0;
+        for (int k = 0; k < n; k++) {
+            double x = -1.0 + (k + 0.5) * 2.0 / n, s = sqrt(1.0 - x * x);
+            vec3_t wi = vec3_add(vec3_scale(wo, x), vec3_scale(t, s));
+            sum += phase_hg_eval(wo, wi, GS[i]) * 2.0 / n;
+        }
+        testutil_assert_near(2.0 * PF_PI * sum, 1.0, 2e-3);
+        /* Forward scattering (g > 0) favours wi = -wo. */
+        if (GS[i] > 0.0)
+            assert_true(phase_hg_eval(wo, vec3_neg(wo), GS[i]) > phase_hg_eval(wo, wo, GS[i]));
+    }
+    /* |g| -> 1 is clamped: finite everywhere, never NaN. */
+    const double extreme[] = {1.0, -1.0, 0.999999999, NAN};
+    for (size_t i = 0; i < 4; i++) {
+        double p0 = phase_hg_eval(wo, vec3_neg(wo), extreme[i]), p1 = phase_hg_eval(wo, wo, extreme[i]);
+        assert_true(isfinite(p0) && p0 >= 0.0 && isfinite(p1) && p1 >= 0.0);
+        double pdf;
+        vec3_t wi = phase_hg_sample(wo, extreme[i], 0.5, 0.5, &pdf);
+        assert_true(isfinite(pdf) && pdf > 0.0 && fabs(vec3_length(wi) - 1.0) < 1e-12);
+    }
+}
+
+/* Samples binned into K bins of equal probability under the analytic distribution of the
+ * cosine (x_k = F^-1(k / K), F inverted by bisection), and their azimuths about wo into K
+ * equal sectors: both chi-square statistics below the 1e-6 upper tail. The pdf a sample
+ * reports is phase_hg_eval's. */
+static void test_hg_sampling_chi2(void **state)
+{
+    (void)state;
+    enum { K = 40, N = 400000 };
+    const vec3_t wo = vec3_normalize(vec3_make(-0.5, 0.7, 0.1));
+    vec3_t t, b;
+    vec3_basis(wo, &t, &b);
+    uint64_t rng = 12345;
+    for (size_t i = 0; i < sizeof GS / sizeof GS[0]; i++) {
+        const double g = GS[i];
+        double edge[K + 1];
+        edge[0] = -1.0;
+        edge[K] = 1.0;
+        for (int k = 1; k < K; k++) {
+            double lo = -1.0, hi = 1.0;
+            for (int it = 0; it < 200; it++) {
+                double mid = 0.5 * (lo + hi);
+                if (hg_cdf(mid, g) < (double)k / K)
+                    lo = mid;
+                else
+                    hi = mid;
+            }
+            edge[k] = 0.5 * (lo + hi);
+        }
+        long cnt[K] = {0}, az[K] = {0};
+        for (int s = 0; s < N; s++) {
+            double pdf;
+            vec3_t wi = phase_hg_sample(wo, g, testutil_splitmix_u(&rng), testutil_splitmix_u(&rng), &pdf);
+            testutil_assert_near(pdf, phase_hg_eval(wo, wi, g), 1e-9 * pdf);
+            double x = vec3_dot(wo, wi);
+            int k = 0;
+            while (k < K - 1 && x > edge[k + 1])
+                k++;
+            cnt[k]++;
+            double phi = atan2(vec3_dot(wi, b), vec3_dot(wi, t)) + PF_PI;
+            int a = (int)(phi / (2.0 * PF_PI) * K);
+            az[a < 0 ? 0 : a >= K ? K - 1 : a]++;
+        }
+        double chi = 0.0, chi_az = 0.0, e = (double)N / K;
+        for (int k = 0; k < K; k++) {
+            chi += (cnt[k] - e) * (cnt[k] - e) / e;
+            chi_az += (az[k] - e) * (az[k] - e) / e;
+        }
+        double bound = testutil_chi2_quantile(K - 1, 4.75);
+        if (!(chi < bound) || !(chi_az < bound))
+            fail_msg("g %g: chi-square %.1f (cosine), %.1f (azimuth), bound %.1f", g, chi, chi_az, bound);
+    }
+}
+
+/* ---- media built through the API ---- */
+
+/* A spectrum linear in wavelength from a at 360 nm to b at 830 nm, owned by s. */
+static const spectrum_t *ramp(scene_t *s, double a, double b)
+{
+    err_t err;
+    const double l[2] = {360.0, 830.0}, v[2] = {a, b};
+    spectrum_t *sp = spectrum_new_tabulated(l, v, 2, &err);
+    assert_non_null(sp);
+    assert_int_equal(scene_own_spectrum(s, sp, &err), 0);
+    return sp;
+}
+
+static int add_homogeneous(scene_t *s, const spectrum_t *sa, const spectrum_t *ss, double scale, double g)
+{
+    err_t err;
+    medium_params_t p = {.sigma_a = sa, .sigma_s = ss, .scale = scale, .g = g, .Le_scale = 1.0};
+    medium_t *m = medium_new_homogeneous(&p, &err);
+    if (!m)
+        fail_msg("%s", err.msg);
+    int i = scene_add_medium(s, m, &err);
+    assert_true(i >= 0);
+    return i;
+}
+
+/* An axis-aligned quad at z = z0 over [-5, 5]^2 with an "interface" material, its normal +z or
+ * -z (outward from the slab), between medium `inside` and vacuum. */
+static void add_interface_quad(scene_t *s, double z0, double nz, int inside)
+{
+    err_t err;
+    const double P[12] = {-5, -5, z0, 5, -5, z0, 5, 5, z0, -5, 5, z0};
+    const uint32_t up[6] = {0, 1, 2, 0, 2, 3}, down[6] = {0, 2, 1, 0, 3, 2};
+    int mi = sb_material(s, MATERIAL_INTERFACE, NULL);
+    int r = scene_add_mesh(s, P, 4, nz > 0 ? up : down, 2, NULL, NULL, mi, -1, 0, &err);
+    assert_true(r >= 0);
+    s->shapes[r].medium_inside = inside;
+    s->shapes[r].medium_outside = -1;
+}
+
+static const double LAMBDA[4] = {400.0, 480.0, 610.0, 760.0};
+
+/* A shadow ray through a slab of thickness d between two interface quads: exactly
+ * exp(-sigma_t(lambda) d) per wavelength (a homogeneous medium's transmittance is evaluated
+ * in closed form), the ray entering and leaving through the boundaries' medium rule. */
+static void test_beer_lambert_slab(void **state)
+{
+    (void)state;
+    scene_t *s = sb_new_scene();
+    const double d = 1.7, scale = 0.8;
+    int m = add_homogeneous(s, ramp(s, 0.2, 1.0), ramp(s, 1.5, 0.1), scale, 0.0);
+    add_interface_quad(s, 0.0, -1.0, m);
+    add_interface_quad(s, d, 1.0, m);
+    sb_finish(s);
+    assert_true(s->has_medium_boundary);
+    rng_stream_t rng = rng_stream_make(1, 2, 3);
+    double T[4];
+    vec3_t dir = vec3_normalize(vec3_make(0.3, 0.1, 1.0));
+    vec3_t org = vec3_make(0, 0, -1.0);
+    double tmax = 3.5 / dir.z;
+    assert_int_equal(shading_transmittance(s, org, dir, tmax, -1, LAMBDA, 4, &rng, T), 1);
+    for (int j = 0; j < 4; j++) {
+        double f = (LAMBDA[j] - 360.0) / 470.0;
+        double st = scale * ((0.2 + 0.8 * f) + (1.5 - 1.4 * f));
+        double expect = exp(-st * d / dir.z);
+        /* to the boundaries' offsets (geometry_offset): a few 1e-7 of the optical depth */
+        testutil_assert_near(T[j], expect, 1e-5 * expect);
+    }
+    /* A shadow ray starting inside the slab leaves it once. */
+    assert_int_equal(shading_transmittance(s, vec3_make(0, 0, 1.0), vec3_make(0, 0, 1), 5.0, m, LAMBDA, 4, &rng, T), 1);
+    for (int j = 0; j < 4; j++) {
+        double f = (LAMBDA[j] - 360.0) / 470.0;
+        double st = scale * ((0.2 + 0.8 * f) + (1.5 - 1.4 * f));
+        testutil_assert_near(T[j], exp(-st * (d - 1.0)), 1e-5);
+    }
+    scene_destroy(&s);
+}
+
+/* The free flight through a homogeneous medium reaches distance d with probability and
+ * weight whose product averages exp(-sigma_t,j d) for every lane, whichever lane decides
+ * (unequal throughputs make the lanes' shares unequal). */
+static void test_homogeneous_flight(void **state)
+{
+    (void)state;
+    scene_t *s = sb_new_scene();
+    int mi = add_homogeneous(s, ramp(s, 0.1, 2.0), ramp(s, 2.0, 0.2), 1.0, 0.5);
+    const medium_t *m = s->media[mi];
+    volume_lanes_t k;
+    volume_lanes_make(m, LAMBDA, 4, &k);
+    const double beta[4] = {1.0, 0.3, 2.0, 0.05};
+    const double d = 0.9;
+    enum { N = 400000 };
+    double sum[4] = {0}, sq[4] = {0};
+    rng_stream_t rng = rng_stream_make(9, 9, 9);
+    volume_flight_t f;
+    for (int i = 0; i < N; i++) {
+        volume_sample(m, &k, vec3_make(0, 0, 0), vec3_make(1, 0, 0), d, beta, &rng, &f);
+        for (int j = 0; j < 4; j++) {
+            double v = f.event == VOLUME_PASSED ? f.weight[j] : 0.0;
+            assert_true(isfinite(v) && v >= 0.0);
+            sum[j] += v;
+            sq[j] += v * v;
+        }
+    }
+    for (int j = 0; j < 4; j++) {
+        double mean = sum[j] / N, se = sqrt(fmax(0.0, sq[j] / N - mean * mean) / N);
+        double expect = exp(-(k.sigma_a[j] + k.sigma_s[j]) * d);
+        if (!(fabs(mean - expect) <= 5.0 * se + 1e-12))
+            fail_msg("lane %d: %.5f +- %.5f, expected %.5f", j, mean, se, expect);
+    }
+    scene_destroy(&s);
+}
+
+/* A 4 x 1 x 1 grid over x in [0, L]: on the box's centre line its density is the piecewise
+ * linear interpolation of the samples at the voxel centres, 0 beyond the outer centres' half
+ * voxel toward the faces (pbrt-v4 SampledGrid), so the integral along the whole line is
+ * L (7/32 (d0 + d3) + 1/4 (d1 + d2)): each inner hat has area 1/4 of the box, each outer one
+ * loses the 1/32 outside it. Ratio tracking and delta tracking both average
+ * exp(-sigma_t,j times that) per lane; so does a transformed copy of the grid. */
+static void test_grid_tracking(void **state)
+{
+    (void)state;
+    scene_t *s = sb_new_scene();
+    const double dens[4] = {0.0, 2.0, 0.5, 3.0};
+    const double L = 2.0;
+    err_t err;
+    medium_params_t p = {.sigma_a = ramp(s, 0.3, 1.2), .sigma_s = ramp(s, 0.9, 0.2), .scale = 1.0, .Le_scale = 1.0};
+    transform_t moved = transform_translate(vec3_make(5, -1, 2));
+    const transform_t *tr[2] = {NULL, &moved};
+    for (int c = 0; c < 2; c++) {
+        transform_t id = transform_identity();
+        medium_t *m = medium_new_grid(&p, 4, 1, 1, dens, vec3_make(0, 0, 0), vec3_make(L, 1, 1), tr[c] ? tr[c] : &id, &err);
+        if (!m)
+            fail_msg("%s", err.msg);
+        vec3_t off = tr[c] ? vec3_make(5, -1, 2) : vec3_make(0, 0, 0);
+        /* the density at a few points of the centre line against the hats */
+        testutil_assert_near(medium_density(m, vec3_add(off, vec3_make(0.25 * L, 0.5, 0.5))), 0.5 * (dens[0] + dens[1]), 1e-12);
+        testutil_assert_near(medium_density(m, vec3_add(off, vec3_make(1.5 * L / 4, 0.5, 0.5))), dens[1], 1e-12);
+        testutil_assert_near(medium_density(m, vec3_add(off, vec3_make(L, 0.5, 0.5))), 0.5 * dens[3], 1e-12);
+        testutil_assert_near(medium_density(m, vec3_add(off, vec3_make(L + 0.01, 0.5, 0.5))), 0.0, 0.0);
+        volume_lanes_t k;
+        volume_lanes_make(m, LAMBDA, 4, &k);
+        const double integral = L * (7.0 / 32.0 * (dens[0] + dens[3]) + 0.25 * (dens[1] + dens[2]));
+        const double beta[4] = {1, 1, 1, 1};
+        enum { N = 200000 };
+        double rs[4] = {0}, rq[4] = {0}, ds[4] = {0}, dq[4] = {0};
+        rng_stream_t rng = rng_stream_make(3, (uint64_t)c, 1);
+        volume_flight_t f;
+        vec3_t org = vec3_add(off, vec3_make(-1.0, 0.5, 0.5)), dir = vec3_make(1, 0, 0);
+        for (int i = 0; i < N; i++) {
+            double T[4] = {1, 1, 1, 1};
+            volume_transmittance(m, &k, org, dir, L + 3.0, &rng, T);
+            volume_sample(m, &k, org, dir, L + 3.0, beta, &rng, &f);
+            for (int j = 0; j < 4; j++) {
+                double v = f.event == VOLUME_PASSED ? f.weight[j] : 0.0;
+                assert_true(isfinite(T[j]) && T[j] >= 0.0 && isfinite(v) && v >= 0.0);
+                rs[j] += T[j];
+                rq[j] += T[j] * T[j];
+                ds[j] += v;
+                dq[j] += v * v;
+            }
+        }
+        for (int j = 0; j < 4; j++) {
+            double expect = exp(-(k.sigma_a[j] + k.sigma_s[j]) * integral);
+            double rm = rs[j] / N, rse = sqrt(fmax(0.0, rq[j] / N - rm * rm) / N);
+            double dm = ds[j] / N, dse = sqrt(fmax(0.0, dq[j] / N - dm * dm) / N);
+            if (!(fabs(rm - expect) <= 5.0 * rse) || !(fabs(dm - expect) <= 5.0 * dse))
+                fail_msg("grid %d lane %d: ratio %.5f +- %.5f, delta %.5f +- %.5f, analytic %.5f", c, j, rm,
+                         rse, dm, dse, expect);
+        }
+        medium_destroy(&m);
+    }
+    /* An all-zero grid is clear: transmittance exactly 1, every flight passes with weight 1. */
+    const double zero[8] = {0};
+    transform_t id = transform_identity();
+    medium_t *z = medium_new_grid(&p, 2, 2, 2, zero, vec3_make(0, 0, 0), vec3_make(1, 1, 1), &id, &err);
+    assert_non_null(z);
+    volume_lanes_t k;
+    volume_lanes_make(z, LAMBDA, 4, &k);
+    double T[4] = {1, 1, 1, 1};
+    rng_stream_t rng = rng_stream_make(1, 1, 1);
+    volume_transmittance(z, &k, vec3_make(-1, 0.5, 0.5), vec3_make(1, 0, 0), 10.0, &rng, T);
+    const double one[4] = {1, 1, 1, 1};
+    volume_flight_t f;
+    volume_sample(z, &k, vec3_make(-1, 0.5, 0.5), vec3_make(1, 0, 0), 10.0, one, &rng, &f);
+    assert_int_equal(f.event, VOLUME_PASSED);
+    for (int j = 0; j < 4; j++) {
+        assert_true(T[j] == 1.0);
+        assert_true(f.weight[j] == 1.0);
+    }
+    medium_destroy(&z);
+    /* Bad grids are refused with a message. */
+    const double neg[1] = {-1.0};
+    assert_null(medium_new_grid(&p, 1, 1, 1, neg, vec3_make(0, 0, 0), vec3_make(1, 1, 1), &id, &err));
+    assert_non_null(strstr(err.msg, "density"));
+    assert_null(medium_new_grid(&p, 1, 1, 1, one, vec3_make(0, 0, 0), vec3_make(1, 0, 1), &id, &err));
+    assert_non_null(strstr(err.msg, "p1 > p0"));
+    scene_destroy(&s);
+}
+
+/* ---- rendered ---- */
+
+enum { RES = 8 };
+
+/* A uniform environment of radiance 1 (the furnace), the camera at (0, 0, -5) toward the
+ * origin, media simulated by the path tracer. */
+static scene_t *furnace_scene(int spp, dispersion_kind_t disp)
+{
+    err_t err;
+    scene_t *s = sb_render_scene(INTEGRATOR_PATH, disp, RES, spp);
+    s->settings.media = 1;
+    sb_look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 30);
+    light_t l = {.kind = LIGHT_INFINITE, .spectrum = sb_constant(s, 1.0), .scale = 1.0};
+    assert_true(scene_add_light(s, &l, &err) >= 0);
+    return s;
+}
+
+static void add_medium_sphere(scene_t *s, double radius, int inside, int outside)
+{
+    err_t err;
+    transform_t id = transform_identity();
+    int r = scene_add_sphere(s, &id, radius, sb_material(s, MATERIAL_INTERFACE, NULL), -1, 0, &err);
+    assert_true(r >= 0);
+    s->shapes[r].medium_inside = inside;
+    s->shapes[r].medium_outside = outside;
+}
+
+/* Renders s at RES x RES and spp and checks every bucket's image mean against expect within 5
+ * standard errors (from the spread of the pixels' means: pixels are independent estimates)
+ * plus abs_tol. */
+static void assert_every_bucket(scene_t *s, int spp, double expect, double abs_tol, const char *what)
+{
+    err_t err;
+    const int nb = s->settings.grid.n;
+    s->settings.spp = spp;
+    tilebuf_t *t = tilebuf_new(0, 0, RES, RES, nb, &err);
+    assert_non_null(t);
+    render_stats_t rs = {0};
+    if (render_tile(s, NULL, 0, 0, RES, RES, 0, (uint32_t)spp, t, &rs, &err))
+        fail_msg("render_tile: %s", err.msg);
+    assert_int_equal(rs.nonfinite, 0);
+    double worst = 0.0;
+    for (int b = 0; b < nb; b++) {
+        double sum = 0.0, sq = 0.0;
+        for (int y = 0; y < RES; y++)
+            for (int x = 0; x < RES; x++) {
+                double m = tilebuf_sum(t, x, y, b) / (double)tilebuf_count(t, x, y);
+                sum += m;
+                sq += m * m;
+            }
+        const int n = RES * RES;
+        double mean = sum / n, se = sqrt(fmax(0.0, sq / n - mean * mean) / (n - 1));
+        worst = fmax(worst, fabs(mean - expect) / (se > 0.0 ? se : 1e-300));
+        if (!(fabs(mean - expect) <= 5.0 * se + abs_tol))
+            fail_msg("%s: bucket %d is %.5f +- %.5f, expected %.5f", what, b, mean, se, expect);
+    }
+    printf("%s: worst bucket %.2f standard errors off\n", what, worst);
+    tilebuf_destroy(&t);
+}
+
+/* White furnaces: a medium that scatters without absorbing (albedo 1 at every wavelength,
+ * though sigma_s varies eightfold over the spectrum) inside a closed environment of radiance
+ * 1 neither adds nor removes light: every bucket of every pixel is 1. Seen from outside and
+ * from inside, isotropic and strongly forward-scattering, homogeneous and a grid, with hero
+ * wavelengths and with the thesis's 16 fan-out lanes. The tolerance is 5 standard errors of a
+ * bucket's mean plus 1e-3 for the light still inside after maxdepth 64 bounces (optical depth
+ * at most 4: far less than that). */
+static void test_white_furnace(void **state)
+{
+    (void)state;
+    struct {
+        const char *what;
+        double ss_a, ss_b, g;
+        int camera_inside, grid;
+        dispersion_kind_t disp;
+    } cases[] = {
+        {"grey, isotropic, outside", 2.0, 2.0, 0.0, 0, 0, DISPERSION_HERO},
+        {"chromatic, g 0.7, outside", 0.5, 4.0, 0.7, 0, 0, DISPERSION_HERO},
+        {"chromatic, g -0.4, camera inside", 0.6, 0.08, -0.4, 1, 0, DISPERSION_HERO},
+        {"chromatic grid, g 0.3, outside", 0.5, 4.0, 0.3, 0, 1, DISPERSION_HERO},
+        /* 16 fan-out lanes, one per bucket, share each flight */
+        {"chromatic, fan-out lanes", 0.5, 4.0, 0.2, 0, 0, DISPERSION_FANOUT},
+        {"chromatic grid, fan-out lanes", 0.5, 4.0, 0.2, 0, 1, DISPERSION_FANOUT},
+    };
+    for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
+        scene_t *s = furnace_scene(64, cases[c].disp);
+        const spectrum_t *zero = sb_constant(s, 0.0), *ss = ramp(s, cases[c].ss_a, cases[c].ss_b);
+        int m;
+        if (cases[c].grid) {
+            err_t err;
+            /* a bumpy density over a box larger than the sphere */
+            double d[27];
+            for (int i = 0; i < 27; i++)
+                d[i] = 0.2 + (double)((i * 7) % 5) * 0.4;
+            medium_params_t p = {.sigma_a = zero, .sigma_s = ss, .scale = 1.0, .g = cases[c].g, .Le_scale = 1.0};
+            transform_t id = transform_identity();
+            medium_t *gm = medium_new_grid(&p, 3, 3, 3, d, vec3_make(-1.2, -1.2, -1.2), vec3_make(1.2, 1.2, 1.2), &id, &err);
+            assert_non_null(gm);
+            m = scene_add_medium(s, gm, &err);
+        } else {
+            m = add_homogeneous(s, zero, ss, 1.0, cases[c].g);
+        }
+        if (cases[c].camera_inside) {
+            add_medium_sphere(s, 5.5, m, -1);
+            s->camera_medium = m;
+        } else {
+            add_medium_sphere(s, 1.0, m, -1);
+        }
+        sb_finish(s);
+        assert_every_bucket(s, 64, 1.0, 1e-3, cases[c].what);
+        scene_destroy(&s);
+    }
+}
+
+/* An unbounded absorbing medium of emission Le around the camera, no light, no surface: the
+ * radiance is int_0^inf sigma_a exp(-sigma_a t) Le dt = Le in every direction, whatever
+ * sigma_a(lambda) (here chromatic, so the lanes' shares differ). */
+static void test_emission(void **state)
+{
+    (void)state;
+    err_t err;
+    scene_t *s = sb_render_scene(INTEGRATOR_PATH, DISPERSION_HERO, RES, 32);
+    s->settings.media = 1;
+    medium_params_t p = {.sigma_a = ramp(s, 0.05, 3.0), .sigma_s = sb_constant(s, 0.0), .scale = 1.0,
+                         .Le = sb_constant(s, 2.0), .Le_scale = 1.5};
+    medium_t *m = medium_new_homogeneous(&p, &err);
+    assert_non_null(m);
+    s->camera_medium = scene_add_medium(s, m, &err);
+    sb_finish(s);
+    assert_every_bucket(s, 32, 3.0, 1e-9, "emission");
+    scene_destroy(&s);
+}
+
+/* A scene lit by a point light and the environment over a diffuse floor, with a fog sphere
+ * between: as a homogeneous medium, and as a uniform grid of density 1 whose box is larger
+ * than the sphere (inside the sphere the grid is exactly 1). Both render the same mean. */
+static scene_t *fog_scene(int grid, double scale, double g)
+{
+    err_t err;
+    scene_t *s = sb_render_scene(INTEGRATOR_PATH, DISPERSION_HERO, RES, 64);
+    s->settings.media = 1;
+    s->settings.maxdepth = 16;
+    sb_look_at(s, vec3_make(0, 1, -6), vec3_make(0, 0, 0), 35);
+    light_t env = {.kind = LIGHT_INFINITE, .spectrum = sb_constant(s, 0.3), .scale = 1.0};
+    assert_true(scene_add_light(s, &env, &err) >= 0);
+    light_t pt = {.kind = LIGHT_POINT, .spectrum = sb_constant(s, 1.0), .scale = 30.0, .position = vec3_make(1, 4, -1)};
+    assert_true(scene_add_light(s, &pt, &err) >= 0);
+    const double P[12] = {-10, -1, -10, 10, -1, -10, 10, -1, 10, -10, -1, 10};
+    const uint32_t I[6] = {0, 2, 1, 0, 3, 2};
+    assert_true(scene_add_mesh(s, P, 4, I, 2, NULL, NULL, sb_diffuse(s, 0.6), -1, 0, &err) >= 0);
+    medium_params_t p = {.sigma_a = ramp(s, 0.4, 0.05), .sigma_s = ramp(s, 0.5, 2.0), .scale = scale, .g = g,
+                         .Le_scale = 1.0};
+    medium_t *m;
+    if (grid) {
+        double ones[64];
+        for (int i = 0; i < 64; i++)
+            ones[i] = 1.0;
+        transform_t id = transform_identity();
+        m = medium_new_grid(&p, 4, 4, 4, ones, vec3_make(-2, -2, -2), vec3_make(2, 2, 2), &id, &err);
+    } else {
+        m = medium_new_homogeneous(&p, &err);
+    }
+    assert_non_null(m);
+    add_medium_sphere(s, 0.9, scene_add_medium(s, m, &err), -1);
+    sb_finish(s);
+    return s;
+}
+
+static void test_grid_equals_homogeneous(void **state)
+{
+    (void)state;
+    scene_t *h = fog_scene(0, 3.0, 0.4), *g = fog_scene(1, 3.0, 0.4);
+    g->settings.seed = 99;
+    sb_image_stats_t a = sb_render_stats(h, RES, 256), b = sb_render_stats(g, RES, 256);
+    printf("homogeneous %.5f +- %.5f, grid %.5f +- %.5f\n", a.mean, a.se, b.mean, b.se);
+    double tol = 5.0 * sqrt(a.se * a.se + b.se * b.se);
+    if (!(fabs(a.mean - b.mean) <= tol))
+        fail_msg("homogeneous %.5f +- %.5f, grid %.5f +- %.5f", a.mean, a.se, b.mean, b.se);
+    /* and the medium is visible: without it the mean differs by more than 5 standard errors */
+    h->settings.media = 0;
+    sb_image_stats_t c = sb_render_stats(h, RES, 256);
+    printf("without the medium %.5f +- %.5f\n", c.mean, c.se);
+    assert_true(fabs(c.mean - a.mean) > 5.0 * sqrt(a.se * a.se + c.se * c.se));
+    scene_destroy(&h);
+    scene_destroy(&g);
+}
+
+/* Huge and tiny coefficients, g at the clamp, keep every sample finite (sb_render_stats fails
+ * on a non-finite sample). */
+static void test_extremes_finite(void **state)
+{
+    (void)state;
+    const double scales[] = {1e-300, 1e-12, 1e6, 1e200};
+    const double gs[] = {0.99999, -0.99999, 0.0, 0.9999};
+    for (int i = 0; i < 4; i++) {
+        for (int grid = 0; grid < 2; grid++) {
+            scene_t *s = fog_scene(grid, scales[i], gs[i]);
+            sb_image_stats_t st = sb_render_stats(s, RES, 16);
+            assert_true(isfinite(st.mean) && st.mean >= 0.0);
+            scene_destroy(&s);
+        }
+    }
+}
+
+/* ---- the scene format ---- */
+
+static const char *FOGGY =
+    "MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"rgb sigma_a\" [0.1 0.2 0.3]\n"
+    "  \"rgb sigma_s\" [1 1 1] \"float scale\" 2 \"float g\" 0.5\n"
+    "MediumInterface \"\" \"fog\"\n"
+    "Camera \"perspective\"\n"
+    "Film \"rgb\" \"integer xresolution\" 4 \"integer yresolution\" 4\n"
+    "%s"
+    "WorldBegin\n"
+    "LightSource \"point\" \"rgb I\" [1 1 1]\n"
+    "MakeNamedMedium \"milk\" \"string type\" \"homogeneous\" \"string preset\" \"Skin1\"\n"
+    "Translate 1 0 0\n"
+    "MakeNamedMedium \"smoke\" \"string type\" \"uniformgrid\" \"integer nx\" 2 \"integer ny\" 1\n"
+    "  \"integer nz\" 1 \"float density\" [0 4] \"point3 p0\" [-1 -1 -1] \"point3 p1\" [1 1 1]\n"
+    "MakeNamedMedium \"vdb\" \"string type\" \"nanovdb\" \"string filename\" \"x.nvdb\"\n"
+    "AttributeBegin\n"
+    "  MediumInterface \"milk\" \"fog\"\n"
+    "  Material \"interface\"\n"
+    "  Shape \"sphere\"\n"
+    "AttributeEnd\n"
+    "Material \"\"\n"
+    "MediumInterface \"smoke\"\n"
+    "Shape \"sphere\" \"float radius\" 2\n"
+    "MediumInterface \"vdb\" \"\"\n"
+    "Shape \"sphere\" \"float radius\" 3\n";
+
+static scene_t *foggy(const char *integrator)
+{
+    char text[4096];
+    snprintf(text, sizeof text, FOGGY, integrator);
+    return sb_load_text(text, NULL);
+}
+
+static int has_warning(const scene_t *s, const char *needle)
+{
+    for (size_t i = 0; i < warnings_count(s->warnings); i++)
+        if (strstr(warnings_at(s->warnings, i), needle))
+            return 1;
+    return 0;
+}
+
+static void test_scene_format(void **state)
+{
+    (void)state;
+    char text[4096];
+    snprintf(text, sizeof text, FOGGY, "Integrator \"volpath\"\n");
+    err_t err;
+    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
+    if (!d)
+        fail_msg("%s", err.msg);
+    assert_int_equal(d->nmedia, 4);
+    assert_int_equal(d->camera.medium, 0);
+    const scene_medium_t *fog = &d->media[0], *milk = &d->media[1], *smoke = &d->media[2];
+    assert_int_equal(fog->type, SCENE_MEDIUM_HOMOGENEOUS);
+    testutil_assert_near(fog->scale, 2.0, 0);
+    testutil_assert_near(fog->g, 0.5, 0);
+    testutil_assert_near(fog->sigma_a.rgb[2], 0.3, 0);
+    /* pbrt-v4's table: Skin1 is sigma'_s (0.74, 0.88, 1.01), sigma_a (0.032, 0.17, 0.48) */
+    assert_int_equal(milk->sigma_s.kind, SCENE_SPECTRUM_RGB);
+    testutil_assert_near(milk->sigma_s.rgb[1], 0.88, 0);
+    testutil_assert_near(milk->sigma_a.rgb[2], 0.48, 0);
+    assert_int_equal(smoke->type, SCENE_MEDIUM_GRID);
+    assert_int_equal(smoke->nx, 2);
+    testutil_assert_near(smoke->density[1], 4.0, 0);
+    testutil_assert_near(smoke->to_world.m[0][3], 1.0, 0); /* the CTM at MakeNamedMedium */
+    assert_int_equal(d->media[3].type, SCENE_MEDIUM_IGNORED);
+    assert_int_equal(d->shapes[0].inside_medium, 1);
+    assert_int_equal(d->shapes[0].outside_medium, 0);
+    /* AttributeEnd restored the outer interface; one name means both sides */
+    assert_int_equal(d->shapes[1].inside_medium, 2);
+    assert_int_equal(d->shapes[1].outside_medium, 2);
+    assert_int_equal(d->materials[d->shapes[1].material].type, SCENE_MATERIAL_INTERFACE);
+    scene_desc_destroy(&d);
+
+    scene_t *s = foggy("Integrator \"volpath\"\n");
+    assert_true(s->settings.media);
+    assert_int_equal(s->nmedia, 4);
+    assert_int_equal(s->camera_medium, 0);
+    assert_null(s->media[3]); /* nanovdb: vacuum */
+    assert_int_equal(s->shapes[2].medium_inside, -1);
+    assert_true(has_warning(s, "\"nanovdb\" media are not simulated"));
+    assert_false(has_warning(s, "ignored"));
+    medium_coeffs_t c = medium_coeffs(s->media[0], 550.0);
+    assert_true(c.sigma_s > 1.9 && c.sigma_s < 2.1); /* rgb 1 1 1 times scale 2 */
+    scene_destroy(&s);
+    /* No Integrator: pbrt-v4's default volpath renders media, and so does "auto". */
+    s = foggy("");
+    assert_true(s->settings.media);
+    scene_destroy(&s);
+    /* pbrt-v4's path ignores media, and so does prismfarm's, saying so */
+    s = foggy("Integrator \"path\"\n");
+    assert_false(s->settings.media);
+    assert_true(has_warning(s, "pbrt-v4's \"path\" integrator ignores media too"));
+    scene_destroy(&s);
+    s = foggy("Integrator \"photon\"\n");
+    assert_false(s->settings.media);
+    assert_true(has_warning(s, "photon pass"));
+    scene_destroy(&s);
+
+    struct {
+        const char *text, *msg;
+    } bad[] = {
+        {"WorldBegin\nMakeNamedMedium \"a\" \"string type\" \"jelly\"\n", "unknown medium type \"jelly\""},
+        {"WorldBegin\nMakeNamedMedium \"a\" \"string type\" \"uniformgrid\" \"integer nx\" 2 \"float density\" [1]\n",
+         "1 \"density\" values, expected nx*ny*nz = 2*1*1"},
+        {"WorldBegin\nMakeNamedMedium \"a\" \"string type\" \"uniformgrid\" \"float density\" [-1]\n",
+         "\"density\" value 0 is -1"},
+        {"WorldBegin\nMakeNamedMedium \"a\" \"string type\" \"uniformgrid\"\n", "needs \"float density\""},
+        {"WorldBegin\nMakeNamedMedium \"a\" \"string type\" \"homogeneous\" \"float g\" 1\n", "\"float g\" must be in (-1, 1)"},
+        {"WorldBegin\nMakeNamedMedium \"a\" \"string type\" \"homogeneous\" \"float bogus\" 1\n", "unsupported parameter \"float bogus\""},
+        {"WorldBegin\nMakeNamedMedium \"a\" \"string type\" \"homogeneous\"\nMakeNamedMedium \"a\" \"string type\" \"homogeneous\"\n",
+         "medium \"a\" is already defined"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        scene_desc_t *b = pbrt_parse_string(bad[i].text, strlen(bad[i].text), "t.pbrt", &err);
+        if (b)
+            fail_msg("accepted: %s", bad[i].text);
+        if (!strstr(err.msg, bad[i].msg))
+            fail_msg("\"%s\" does not say \"%s\"", err.msg, bad[i].msg);
+    }
+    /* A temperature grid and an unknown preset are accepted with warnings. */
+    const char *warm = "WorldBegin\nMakeNamedMedium \"a\" \"string type\" \"uniformgrid\" \"float density\" [1]\n"
+                       "  \"float temperature\" [1000]\n"
+                       "MakeNamedMedium \"b\" \"string type\" \"homogeneous\" \"string preset\" \"Jelly\"\n";
+    d = pbrt_parse_string(warm, strlen(warm), "t.pbrt", &err);
+    if (!d)
+        fail_msg("%s", err.msg);
+    assert_int_equal(warnings_count(d->warnings), 2);
+    assert_non_null(strstr(warnings_at(d->warnings, 0), "\"temperature\" grid of medium \"a\" is not simulated"));
+    assert_non_null(strstr(warnings_at(d->warnings, 1), "medium preset \"Jelly\" is not known"));
+    scene_desc_destroy(&d);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_hg_normalised),
+        cmocka_unit_test(test_hg_sampling_chi2),
+        cmocka_unit_test(test_beer_lambert_slab),
+        cmocka_unit_test(test_homogeneous_flight),
+        cmocka_unit_test(test_grid_tracking),
+        cmocka_unit_test(test_white_furnace),
+        cmocka_unit_test(test_emission),
+        cmocka_unit_test(test_grid_equals_homogeneous),
+        cmocka_unit_test(test_extremes_finite),
+        cmocka_unit_test(test_scene_format),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
