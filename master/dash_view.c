@@ -9,6 +9,7 @@
 #include "files.h"
 #include "jobs.h"
 #include "logbook.h"
+#include "ops.h"
 #include "passes.h"
 #include "peers.h"
 #include "tilegrid.h"
@@ -53,6 +54,10 @@ static void fill_job(master_t *m, const mjob_t *j, double now, dash_job_t *o)
                  : j->outputs.waiting   ? j->outputs.why
                                         : "",
         .photons = j->photons.enabled,
+        .has_paused = true,
+        .paused = j->ops.paused && !job_over(j),
+        .has_priority = true,
+        .priority = j->ops.priority,
     };
     o->npasses = j->scene.spp > 0 ? passes_bounds(j->scene.spp, NULL) : 0;
     o->passes_done =
@@ -266,14 +271,14 @@ static size_t pv_workers(void *user, dash_worker_t *out, size_t max)
             .name = w->name ? w->name : "",
             .key = w->key,
             .threads = w->threads,
-            .state = !w->alive              ? "lost"
-                     : (si && si->busy > 0) ? "busy"
-                                            : "idle",
+            .state = proto_worker_state_name(peers_wire_state(w, si)),
             .tasks_running = w->alive && si ? si->busy : 0,
             .tasks_done = si ? si->tasks_done : 0,
             .tasks_failed = si ? si->tasks_failed : 0,
             .samples_done = si ? si->samples_done : 0,
             .last_seen_s = seen > 0 ? seen : 0,
+            .has_blocklisted = true,
+            .blocklisted = si && si->blocked,
         };
     }
     return n;
@@ -304,6 +309,52 @@ static int pv_cancel(void *user, const dash_identity_t *who, uint64_t id, err_t 
                j->name, who->name, who->admin ? " (admin)" : "");
     job_cancel(v->m, j, clock_now_s());
     return 0;
+}
+
+/* The operations (ops.h): the same functions as the clients' ACT, so that both check, journal
+ * and log alike. */
+static master_actor_t actor_of(const dash_identity_t *who)
+{
+    return (master_actor_t){.name = who->name, .admin = who->admin};
+}
+
+static int ops_result(master_t *m, uint64_t id, int rc)
+{
+    return rc < 0 && !jobs_find(m, id) ? DASH_ENOENT : rc;
+}
+
+static int pv_pause(void *user, const dash_identity_t *who, uint64_t id, bool pause, err_t *err)
+{
+    dash_view_t *v = user;
+    master_actor_t a = actor_of(who);
+    return ops_result(v->m, id,
+                      pause ? master_job_pause(v->m, id, &a, err) : master_job_resume(v->m, id, &a, err));
+}
+
+static int pv_set_priority(void *user, const dash_identity_t *who, uint64_t id, int priority,
+                           err_t *err)
+{
+    dash_view_t *v = user;
+    master_actor_t a = actor_of(who);
+    return ops_result(v->m, id, master_job_set_priority(v->m, id, priority, &a, err));
+}
+
+static int pv_requeue(void *user, const dash_identity_t *who, uint64_t id, uint32_t task,
+                      err_t *err)
+{
+    dash_view_t *v = user;
+    master_actor_t a = actor_of(who);
+    return ops_result(v->m, id, master_task_requeue(v->m, id, task, &a, err));
+}
+
+static int pv_blocklist(void *user, const dash_identity_t *who, uint64_t worker, bool block,
+                        err_t *err)
+{
+    dash_view_t *v = user;
+    master_actor_t a = actor_of(who);
+    char id[32];
+    snprintf(id, sizeof id, "%llu", (unsigned long long)worker);
+    return block ? master_worker_block(v->m, id, &a, err) : master_worker_unblock(v->m, id, &a, err);
 }
 
 /* ---------------------------------------------------------------- the server */
@@ -356,6 +407,10 @@ dash_view_t *dash_view_open(master_t *m, char *bound, size_t size, err_t *err)
         .workers = pv_workers,
         .allowed = pv_allowed,
         .cancel = pv_cancel,
+        .pause = pv_pause,
+        .set_priority = pv_set_priority,
+        .requeue = pv_requeue,
+        .blocklist = pv_blocklist,
     };
     /* Tokens from the folders the clients' keys come from (never the workers'). */
     dash_auth_config_t ac = {.any_dir = o->authorized_dir,

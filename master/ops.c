@@ -219,6 +219,48 @@ void ops_worker_joined(master_t *m, mworker_t *w)
                    (unsigned long long)w->id, w->name, w->name);
 }
 
+/* A worker's name from its name or the id `prismfarm workers` shows. */
+static const char *worker_name_of(const master_t *m, const char *worker)
+{
+    char *end;
+    errno = 0;
+    unsigned long long id = strtoull(worker, &end, 10);
+    if (!errno && end != worker && !*end && worker[0] != '-') {
+        const mworker_t *w = worker_by_id(m, id);
+        if (w && w->name)
+            return w->name;
+    }
+    return worker;
+}
+
+int master_worker_block(master_t *m, const char *worker, const master_actor_t *who, err_t *err)
+{
+    if (!who->admin) {
+        master_log(m, "block of worker '%s' by %s refused: not an admin", worker, who_name(who));
+        return err_set(err, "only an admin may block a worker (it serves every owner's jobs)");
+    }
+    const char *name = worker_name_of(m, worker);
+    bool known = false;
+    for (size_t i = 0; i < m->nworkers; i++)
+        known = known || (m->workers[i]->name && !strcmp(m->workers[i]->name, name));
+    if (!known)
+        return err_set(err, "no worker '%s'", worker);
+    if (block_name(m, name) < 0)
+        return err_set(err, "the master is out of memory");
+    for (size_t i = 0; i < m->nworkers; i++)
+        if (m->workers[i]->name && !strcmp(m->workers[i]->name, name)) {
+            err_t ignore;
+            (void)sched_worker_block(m->sched, m->workers[i]->id, true, &ignore);
+        }
+    char reason[160];
+    snprintf(reason, sizeof reason, "blocked by %s", who_name(who));
+    err_t jerr;
+    if (m->journal && journal_set_blocked(m->journal, name, reason, &jerr) < 0)
+        master_log(m, "journal: %s (a restarted master would not block '%s')", jerr.msg, name);
+    master_log(m, "worker '%s' blocked from every job by %s", name, who_name(who));
+    return 0;
+}
+
 int master_worker_unblock(master_t *m, const char *worker, const master_actor_t *who, err_t *err)
 {
     if (!who->admin) {
@@ -226,16 +268,7 @@ int master_worker_unblock(master_t *m, const char *worker, const master_actor_t 
                    who_name(who));
         return err_set(err, "only an admin may unblock a worker (it serves every owner's jobs)");
     }
-    /* By name, or by the id `prismfarm workers` shows. */
-    const char *name = worker;
-    char *end;
-    errno = 0;
-    unsigned long long id = strtoull(worker, &end, 10);
-    if (!errno && end != worker && !*end && worker[0] != '-') {
-        const mworker_t *w = worker_by_id(m, id);
-        if (w && w->name)
-            name = w->name;
-    }
+    const char *name = worker_name_of(m, worker);
     size_t k = blocked_index(m, name);
     bool any = k != SIZE_MAX;
     size_t ns = peers_sched_table(m);

@@ -39,6 +39,9 @@ int master_task_requeue(master_t *m, uint64_t job, uint32_t task, const master_a
                         err_t *err);
 /* worker: a worker's name or its id as `prismfarm workers` shows it. */
 int master_worker_unblock(master_t *m, const char *worker, const master_actor_t *who, err_t *err);
+/* Blocks a worker from every job by hand (the dashboard's blocklist action): as if it had
+ * failed too often, until unblocked. An admin's action. */
+int master_worker_block(master_t *m, const char *worker, const master_actor_t *who, err_t *err);
 
 /* A job about to be scheduled, submitted with priority (not paused). */
 void ops_job_init(mjob_t *j, int priority);

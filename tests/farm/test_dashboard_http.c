@@ -310,6 +310,16 @@ static void test_cancel_over_http(void **state)
     assert_int_equal(request(f, "GET", "/api/workers", NULL, NULL, out, sizeof out), 200);
     assert_non_null(strstr(out, "\"state\":\"busy\""));
 
+    /* Pause and resume go through the master's operations (ops.h), as the clients' ACT. */
+    snprintf(path, sizeof path, "/api/jobs/%llu/pause", (unsigned long long)job);
+    assert_int_equal(request(f, "POST", path, f->token, "", out, sizeof out), 200);
+    assert_int_equal(state_of(f, job), PROTO_JOB_PAUSED);
+    assert_int_equal(request(f, "GET", "/api/jobs", NULL, NULL, out, sizeof out), 200);
+    assert_non_null(strstr(out, "\"paused\":true"));
+    snprintf(path, sizeof path, "/api/jobs/%llu/resume", (unsigned long long)job);
+    assert_int_equal(request(f, "POST", path, f->token, "", out, sizeof out), 200);
+    assert_int_equal(state_of(f, job), PROTO_JOB_RUNNING);
+
     snprintf(path, sizeof path, "/api/jobs/%llu/cancel", (unsigned long long)job);
     assert_int_equal(request(f, "POST", path, NULL, "", out, sizeof out), 401);
     assert_non_null(strstr(out, "WWW-Authenticate: Bearer"));
@@ -337,9 +347,10 @@ static void test_cancel_over_http(void **state)
     /* Cancelling again is refused with the reason. */
     snprintf(path, sizeof path, "/api/jobs/%llu/cancel", (unsigned long long)job);
     assert_int_equal(request(f, "POST", path, f->token, "", out, sizeof out), 409);
-    /* What this master cannot do yet is a 501. */
+    /* A job that is over cannot be paused: refused with the reason. */
     snprintf(path, sizeof path, "/api/jobs/%llu/pause", (unsigned long long)job);
-    assert_int_equal(request(f, "POST", path, f->token, "", out, sizeof out), 501);
+    assert_int_equal(request(f, "POST", path, f->token, "", out, sizeof out), 409);
+    assert_non_null(strstr(out, "only a queued or running job"));
     net_destroy(&w);
 }
 
