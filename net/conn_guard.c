@@ -39,21 +39,26 @@ struct conn_guard {
     ratelimit_t rl;
 };
 
+/* The refusals a window held back, said once. */
+static void log_held(conn_guard_t *self, uint64_t held)
+{
+    if (held == 0 || !self->log)
+        return;
+    char line[256];
+    snprintf(line, sizeof line,
+             "%s endpoint: %llu more refused connections not logged (at most %d per %.0f s)",
+             self->what, (unsigned long long)held, BURST, WINDOW_S);
+    self->log(self->user, line);
+}
+
 __attribute__((format(printf, 2, 3))) static void glog(conn_guard_t *self, const char *fmt, ...)
 {
     uint64_t held;
     bool allow = ratelimit_allow(&self->rl, clock_now_s(), &held);
-    if (!self->log)
+    log_held(self, held);
+    if (!allow || !self->log)
         return;
     char line[512];
-    if (held > 0) {
-        snprintf(line, sizeof line,
-                 "%s endpoint: %llu more refused connections not logged (at most %d per %.0f s)",
-                 self->what, (unsigned long long)held, BURST, WINDOW_S);
-        self->log(self->user, line);
-    }
-    if (!allow)
-        return;
     va_list ap;
     va_start(ap, fmt);
     vsnprintf(line, sizeof line, fmt, ap);
@@ -238,12 +243,8 @@ conn_guard_t *conn_guard_new(void *zmq_ctx, void *router, const char *what,
 void conn_guard_pump(conn_guard_t *self)
 {
     /* The refusals held back in a window that is over, even if no more come. */
-    if (self->rl.held > 0 && clock_now_s() - self->rl.start >= WINDOW_S && self->log) {
-        char line[256];
-        snprintf(line, sizeof line,
-                 "%s endpoint: %llu more refused connections not logged (at most %d per %.0f s)",
-                 self->what, (unsigned long long)self->rl.held, BURST, WINDOW_S);
-        self->log(self->user, line);
+    if (self->rl.held > 0 && clock_now_s() - self->rl.start >= WINDOW_S) {
+        log_held(self, self->rl.held);
         self->rl.held = 0;
     }
     for (;;) {

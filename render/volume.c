@@ -62,6 +62,14 @@ static int pick_lane(const double *sel, int n, double u)
 static double next(rng_stream_t *rng) { return rng_stream_next(rng); }
 
 /* An exponential step of rate sigma > 0: -ln(1 - u) / sigma, finite for u in [0, 1). */
+/* The majorant of a segment whose density is at most dmax, clamped to MEDIUM_SIGMA_MAX as every
+ * coefficient is (medium.h); not > 0 for a segment with nothing in it. */
+static double segment_majorant(const volume_lanes_t *k, double dmax)
+{
+    double smaj = dmax * k->sigma_t_max;
+    return smaj > MEDIUM_SIGMA_MAX ? MEDIUM_SIGMA_MAX : smaj;
+}
+
 static double exp_step(double sigma, double u) { return -log1p(-u) / sigma; }
 
 /* Homogeneous: the joint density of "the flight's first event is at t and is a scattering"
@@ -127,11 +135,9 @@ static void sample_grid(const medium_t *m, const volume_lanes_t *k, vec3_t org, 
     double t0, t1, dmax;
     uint32_t collisions = 0;
     while (medium_segments_next(&it, &t0, &t1, &dmax)) {
-        double smaj = dmax * k->sigma_t_max;
+        double smaj = segment_majorant(k, dmax);
         if (!(smaj > 0.0))
             continue;
-        if (smaj > MEDIUM_SIGMA_MAX)
-            smaj = MEDIUM_SIGMA_MAX;
         double t = t0;
         for (;;) {
             t += exp_step(smaj, next(rng));
@@ -212,11 +218,9 @@ void volume_transmittance(const medium_t *m, const volume_lanes_t *k, vec3_t org
     double t0, t1, dmax;
     uint32_t collisions = 0;
     while (medium_segments_next(&it, &t0, &t1, &dmax)) {
-        double smaj = dmax * k->sigma_t_max;
+        double smaj = segment_majorant(k, dmax);
         if (!(smaj > 0.0))
             continue;
-        if (smaj > MEDIUM_SIGMA_MAX)
-            smaj = MEDIUM_SIGMA_MAX;
         double t = t0;
         for (;;) {
             t += exp_step(smaj, next(rng));
