@@ -12,7 +12,13 @@
  *   est      the job's own relative error estimate (the EXR's "prismfarm" attribute rel_rmse),
  *            "-" when the file has none; spp its spp_done and stop why it stopped (none, target,
  *            time);
- *   nonfinite  pixels of the test image with a NaN or an infinity (left out of every sum).
+ *   nonfinite  pixels of the test image with a NaN or an infinity (left out of every sum);
+ *   lum4     relative RMSE of luminance after a 4x4 box downsample (the mean of each whole block
+ *            of 4x4 pixels; a partial block at the right or bottom edge is left out), over the
+ *            mean block luminance of the reference: the figure of the corpus references' own
+ *            noise in ../shared/pbrt-scenes/reference/REFERENCE.md ("seed-2 rel. RMSE 4x4"),
+ *            which averages away the pixel filter's and the sampler's pixel-scale differences
+ *            and keeps the errors a viewer sees; a block with a non-finite pixel is left out.
  * With a second reference (an independent render, another seed) the reference is the mean of
  * the two and the reference's own noise is printed as well: floor_lum and floor_col are the
  * same figures for the first half against the mean. A - (A + B) / 2 = (A - B) / 2 has the
@@ -110,6 +116,36 @@ static sums_t compare(const float *test, const float *ref, size_t npix, double m
     return s;
 }
 
+/* lum4 (above): blocks of 4x4 pixels of test against ref, w x h pixels of 3 floats. */
+static double block_rmse(const float *test, const float *ref, int w, int h)
+{
+    double sq = 0.0, sum_r = 0.0;
+    long n = 0;
+    for (int by = 0; by + 4 <= h; by += 4)
+        for (int bx = 0; bx + 4 <= w; bx += 4) {
+            double yt = 0.0, yr = 0.0;
+            bool ok = true;
+            for (int y = by; y < by + 4 && ok; y++)
+                for (int x = bx; x < bx + 4; x++) {
+                    size_t i = 3 * ((size_t)y * (size_t)w + (size_t)x);
+                    if (!finite3(test + i) || !finite3(ref + i)) {
+                        ok = false;
+                        break;
+                    }
+                    yt += luminance(test + i);
+                    yr += luminance(ref + i);
+                }
+            if (!ok)
+                continue;
+            sq += (yt - yr) * (yt - yr) / 256.0;
+            sum_r += yr / 16.0;
+            n++;
+        }
+    if (n == 0 || !(sum_r > 0.0))
+        return NAN;
+    return sqrt(sq / (double)n) / (sum_r / (double)n);
+}
+
 static double safe_div(double a, double b)
 {
     return b != 0.0 && isfinite(a / b) ? a / b : NAN;
@@ -187,6 +223,7 @@ int main(int argc, char **argv)
     print_value("r_ratio", safe_div(s.r / (double)s.n, mr[0]));
     print_value("g_ratio", safe_div(s.g / (double)s.n, mr[1]));
     print_value("b_ratio", safe_div(s.b / (double)s.n, mr[2]));
+    print_value("lum4", block_rmse(image_exr_rgb(img[0]), ref, w, h));
     printf(" est=%s spp=%s stop=%s nonfinite=%ld col_pixels=%ld", est, spp, stop, s.nonfinite,
            s.n_col);
 

@@ -278,6 +278,35 @@ int params_push_bool(params_t *self, param_t *p, bool b, err_t *err)
     return 0;
 }
 
+int params_add_defaults(params_t *self, const params_t *defaults, err_t *err)
+{
+    for (size_t i = 0; i < defaults->count; i++) {
+        const param_t *d = &defaults->items[i]->p;
+        bool given = false;
+        for (size_t j = 0; j < self->count && !given; j++)
+            given = !strcmp(self->items[j]->p.name, d->name);
+        if (given)
+            continue;
+        char decl[256];
+        snprintf(decl, sizeof decl, "%s %s", d->type_name, d->name);
+        param_t *p = params_declare(self, decl, d->loc, err);
+        if (!p)
+            return -1;
+        for (size_t k = 0; k < d->count; k++) {
+            int rc = d->values == PARAM_VALUES_NUMBERS   ? params_push_number(self, p, d->numbers[k], err)
+                     : d->values == PARAM_VALUES_STRINGS ? params_push_string(self, p, d->strings[k], err)
+                                                         : params_push_bool(self, p, d->bools[k], err);
+            if (rc != 0)
+                return -1;
+        }
+        p->values = d->values;
+        /* A default need not apply to every entity it reaches (pbrt-v4 marks attribute
+         * parameters "may be unused"): it is never an unused-parameter error. */
+        p->used = true;
+    }
+    return 0;
+}
+
 param_t *params_find(params_t *self, const char *name)
 {
     for (size_t i = 0; i < self->count; i++) {

@@ -69,6 +69,11 @@ size_t params_count(const params_t *self);
 param_t *params_at(const params_t *self, size_t i);
 const char *params_context(const params_t *self);
 
+/* Appends a copy of each parameter of defaults whose name self does not declare (pbrt-v4's
+ * `Attribute` defaults: the entity's own value wins), at the default's own location, marked
+ * used so that a default an entity ignores is no error. Fails only when out of memory. */
+int params_add_defaults(params_t *self, const params_t *defaults, err_t *err);
+
 /* The parameter called name, marked used, or NULL when absent. */
 param_t *params_find(params_t *self, const char *name);
 

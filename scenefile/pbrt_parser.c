@@ -72,6 +72,20 @@ static const char *open_failure(const char *kind, char *buf, size_t size)
 
 enum { FRAME_ATTRIBUTE, FRAME_OBJECT, FRAME_IMPORT };
 
+/* The kinds of entity an `Attribute` directive gives defaults for, in pbrt-v4's words. */
+enum { ATTR_SHAPE, ATTR_LIGHT, ATTR_MATERIAL, ATTR_MEDIUM, ATTR_TEXTURE, ATTR_KINDS };
+static const char *ATTR_KIND_NAMES[ATTR_KINDS] = {"shape", "light", "material", "medium",
+                                                  "texture"};
+
+/* One `Attribute` directive's parameters, in a chain from the newest to the oldest in effect.
+ * Nodes are immutable and owned by the parser, so the graphics state holds plain pointers
+ * and AttributeBegin/End save and restore them by copying the state. */
+typedef struct attr_node {
+    params_t *ps;
+    const struct attr_node *older;
+    struct attr_node *next_owned; /* the parser's list of every node, for freeing */
+} attr_node_t;
+
 typedef struct gstate {
     transform_t ctm;
     /* ActiveTransform EndTime: transforms apply only to the shutter's end, which prismfarm
@@ -84,6 +98,8 @@ typedef struct gstate {
     /* MediumInterface: the current inside and outside media (indices into the scene's media,
      * -1 for none), which shapes and the camera take. */
     int inside_medium, outside_medium;
+    /* The `Attribute` defaults in effect for each kind (NULL: none). */
+    const attr_node_t *attr[ATTR_KINDS];
 } gstate_t;
 
 typedef struct frame {
@@ -129,6 +145,11 @@ typedef struct parser {
     /* Check mode (pbrt_parse_file_check): a refused directive is recorded here and the parse
      * goes on at the next directive; NULL: the first refusal ends the parse. */
     warnings_t *errors;
+    attr_node_t *attr_owned; /* every Attribute node, newest first */
+    /* Option "seed": the sampler's seed where the Sampler does not give one (pbrt-v4's
+     * Options->seed is the default of the sampler's "integer seed"). */
+    bool option_seed_set, sampler_seed_given;
+    int option_seed;
 } parser_t;
 
 #define NAME_MAX_LEN 4096
@@ -142,7 +163,7 @@ static const char *SAMPLERS[] = {"halton", "independent", "paddedsobol", "pmj02b
                                  "sobol",  "stratified",  "zsobol"};
 
 /* pbrt-v4 directives that prismfarm knows but does not support. */
-static const char *UNSUPPORTED_DIRECTIVES[] = {"Attribute", "Option", "WorldEnd"};
+static const char *UNSUPPORTED_DIRECTIVES[] = {"WorldEnd"};
 
 #define COUNT_OF(a) (sizeof(a) / sizeof((a)[0]))
 
@@ -1633,6 +1654,7 @@ static int do_sampler(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc
     if (!s->type)
         return -1;
     s->loc = loc;
+    P->sampler_seed_given = params_find(ps, "seed") != NULL;
     if (params_get_int(ps, "seed", 0, &s->seed, P->err) != 0)
         return -1;
     if (!strcmp(type->s, "stratified")) {
@@ -2709,6 +2731,140 @@ static int do_shape(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
 static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from, scene_file_kind_t kind,
                       const char *name);
 
+/* Gives ps the `Attribute` defaults in effect for kind that it does not set itself; the
+ * newest Attribute wins over older ones, as in pbrt-v4. */
+static int attr_apply(parser_t *P, params_t *ps, int kind)
+{
+    for (const attr_node_t *n = P->gs.attr[kind]; n; n = n->older)
+        if (params_add_defaults(ps, n->ps, P->err) != 0)
+            return -1;
+    return 0;
+}
+
+/* Attribute "shape" | "light" | "material" | "medium" | "texture" params: default parameter
+ * values for the entities of that kind that follow, until the attribute block ends. */
+static int do_attribute(parser_t *P, pbrt_loc_t loc)
+{
+    str_arg_t target;
+    if (read_string(P, "Attribute", loc, "attribute target", &target) != 0)
+        return -1;
+    int kind = -1;
+    for (int k = 0; k < ATTR_KINDS; k++)
+        if (!strcmp(target.s, ATTR_KIND_NAMES[k]))
+            kind = k;
+    if (kind < 0)
+        return pbrt_error(P->err, target.loc,
+                          "unknown Attribute target \"%s\" (expected \"shape\", \"light\", "
+                          "\"material\", \"medium\" or \"texture\")",
+                          target.s);
+    char context[64];
+    snprintf(context, sizeof context, "Attribute \"%.16s\"", target.s);
+    params_t *ps = read_params(P, context);
+    if (!ps)
+        return -1;
+    if (need_world(P, "Attribute", loc) != 0) {
+        params_destroy(&ps);
+        return -1;
+    }
+    attr_node_t *n = malloc(sizeof *n);
+    if (!n) {
+        params_destroy(&ps);
+        return err_set(P->err, "out of memory");
+    }
+    n->ps = ps;
+    n->older = P->gs.attr[kind];
+    n->next_owned = P->attr_owned;
+    P->attr_owned = n;
+    P->gs.attr[kind] = n;
+    return 0;
+}
+
+/* pbrt-v4's rendering options (its Options struct), as `Option "name" value` sets them; kind
+ * says what value each takes. Only "seed" changes prismfarm's image; the others are debugging
+ * or output switches of pbrt-v4 (or, for forcediffuse and the jitter switches, deliberate
+ * departures from the scene) that are checked and warned. */
+typedef enum { OPT_BOOL, OPT_FLOAT, OPT_STRING, OPT_INT } option_kind_t;
+static const struct {
+    const char *name;
+    option_kind_t kind;
+    const char *why; /* NULL: simulated */
+} OPTIONS[] = {
+    {"seed", OPT_INT, NULL},
+    {"disablepixeljitter", OPT_BOOL, "samples stay jittered within their pixel"},
+    {"disablewavelengthjitter", OPT_BOOL, "wavelengths stay jittered"},
+    {"disabletexturefiltering", OPT_BOOL, "textures stay filtered"},
+    {"forcediffuse", OPT_BOOL, "materials keep their own BSDFs"},
+    {"displacementedgescale", OPT_FLOAT, "displacement is not simulated"},
+    {"msereferenceimage", OPT_STRING, "use bench_accuracy_diff to compare with a reference"},
+    {"msereferenceout", OPT_STRING, "use bench_accuracy_diff to compare with a reference"},
+    {"rendercoordsys", OPT_STRING, "prismfarm renders in world space"},
+    {"pixelstats", OPT_BOOL, "no per-pixel statistics images"},
+    {"wavefront", OPT_BOOL, "prismfarm has one CPU renderer"},
+};
+
+/* Option "name" value (pbrt-v4: a bare true/false, a number or a quoted string). */
+static int do_option(parser_t *P, pbrt_loc_t loc)
+{
+    str_arg_t name;
+    if (read_string(P, "Option", loc, "option name", &name) != 0)
+        return -1;
+    int k = -1;
+    for (size_t i = 0; i < COUNT_OF(OPTIONS); i++)
+        if (!strcmp(name.s, OPTIONS[i].name))
+            k = (int)i;
+    if (k < 0) {
+        char names[512] = "";
+        for (size_t i = 0; i < COUNT_OF(OPTIONS); i++)
+            snprintf(names + strlen(names), sizeof names - strlen(names), "%s%s",
+                     i ? ", " : "", OPTIONS[i].name);
+        return pbrt_error(P->err, name.loc, "unknown option \"%s\" (pbrt-v4's options: %s)",
+                          name.s, names);
+    }
+    pbrt_token_t t;
+    if (pbrt_lexer_next(P->lex, &t, P->err) != 0)
+        return -1;
+    pbrt_loc_t vloc = t.kind == PBRT_TOKEN_EOF ? name.loc : t.loc;
+    char *end = NULL;
+    double v = 0.0;
+    switch (OPTIONS[k].kind) {
+    case OPT_BOOL:
+        if (t.kind != PBRT_TOKEN_WORD || (strcmp(t.text, "true") && strcmp(t.text, "false")))
+            return pbrt_error(P->err, vloc, "Option \"%s\" expects true or false", name.s);
+        break;
+    case OPT_STRING:
+        if (t.kind != PBRT_TOKEN_STRING)
+            return pbrt_error(P->err, vloc, "Option \"%s\" expects a quoted string", name.s);
+        if (!strcmp(name.s, "rendercoordsys") && strcmp(t.text, "camera") &&
+            strcmp(t.text, "cameraworld") && strcmp(t.text, "world"))
+            return pbrt_error(P->err, vloc,
+                              "Option \"rendercoordsys\" expects \"camera\", \"cameraworld\" "
+                              "or \"world\", got \"%.64s\"",
+                              t.text);
+        break;
+    case OPT_FLOAT:
+    case OPT_INT:
+        if (t.kind == PBRT_TOKEN_WORD)
+            v = strtod(t.text, &end);
+        if (t.kind != PBRT_TOKEN_WORD || end == t.text || *end || !isfinite(v) ||
+            (OPTIONS[k].kind == OPT_INT && (v != floor(v) || fabs(v) > 2147483647.0)))
+            return pbrt_error(P->err, vloc, "Option \"%s\" expects %s", name.s,
+                              OPTIONS[k].kind == OPT_INT ? "an integer" : "a number");
+        break;
+    }
+    if (!OPTIONS[k].why) { /* seed */
+        P->option_seed_set = true;
+        P->option_seed = (int)v;
+        return 0;
+    }
+    /* Switching a debugging option off is what prismfarm does anyway: no warning. */
+    if (OPTIONS[k].kind == OPT_BOOL && !strcmp(t.text, "false"))
+        return 0;
+    return warnings_add(P->scene->warnings, loc, "Option \"%s\" is not simulated (%s)", name.s,
+                        OPTIONS[k].why)
+               ? err_set(P->err, "out of memory")
+               : 0;
+}
+
 /* Directives of the form: Name "type" params. */
 static int param_directive(parser_t *P, const char *dir, pbrt_loc_t loc)
 {
@@ -2724,6 +2880,12 @@ static int param_directive(parser_t *P, const char *dir, pbrt_loc_t loc)
         return -1;
     int rc = -1;
     bool keep = false;
+    int kind = !strcmp(dir, "Shape")                                              ? ATTR_SHAPE
+               : !strcmp(dir, "Material") || !strcmp(dir, "MakeNamedMaterial")      ? ATTR_MATERIAL
+               : !strcmp(dir, "LightSource") || !strcmp(dir, "AreaLightSource") ? ATTR_LIGHT
+                                                                                  : -1;
+    if (kind >= 0 && attr_apply(P, ps, kind) != 0)
+        goto done;
     if (!strcmp(dir, "Camera")) {
         rc = need_options(P, dir, loc) || do_camera(P, ps, &type, loc) ? -1 : 0;
     } else if (!strcmp(dir, "Film")) {
@@ -2805,7 +2967,8 @@ static int do_texture_directive(parser_t *P, pbrt_loc_t loc)
     params_t *ps = read_params(P, context);
     if (!ps)
         return -1;
-    int rc = need_world(P, "Texture", loc) || do_texture(P, ps, &name, &type, &cls, loc) ||
+    int rc = attr_apply(P, ps, ATTR_TEXTURE) || need_world(P, "Texture", loc) ||
+                     do_texture(P, ps, &name, &type, &cls, loc) ||
                      params_check_unused(ps, P->err)
                  ? -1
                  : 0;
@@ -3105,7 +3268,9 @@ static int do_make_medium(parser_t *P, pbrt_loc_t loc)
     if (!ps)
         return -1;
     const char *type = NULL;
-    int rc = params_get_string(ps, "type", NULL, &type, P->err);
+    int rc = attr_apply(P, ps, ATTR_MEDIUM);
+    if (rc == 0)
+        rc = params_get_string(ps, "type", NULL, &type, P->err);
     if (rc == 0 && !type)
         rc = pbrt_error(P->err, loc, "MakeNamedMedium \"%s\" needs \"string type\"", name.s);
     if (rc == 0 && scene_desc_find_medium(P->scene, name.s) >= 0)
@@ -3233,6 +3398,10 @@ static int directive(parser_t *P, const char *dir, pbrt_loc_t loc)
     }
     if (!strcmp(dir, "MakeNamedMedium"))
         return do_make_medium(P, loc);
+    if (!strcmp(dir, "Attribute"))
+        return do_attribute(P, loc);
+    if (!strcmp(dir, "Option"))
+        return do_option(P, loc);
     if (!strcmp(dir, "MediumInterface"))
         return do_medium_interface(P, loc);
     if (!strcmp(dir, "ActiveTransform"))
@@ -3510,6 +3679,8 @@ static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from, sce
 /* End of the scene: everything opened must be closed, and instances must name objects. */
 static int finish(parser_t *P)
 {
+    if (P->option_seed_set && !P->sampler_seed_given)
+        P->scene->sampler.seed = P->option_seed;
     if (P->nframes > 0) {
         frame_t *top = &P->frames[P->nframes - 1];
         return pbrt_error(P->err, top->loc, "%s has no matching end", top->what);
@@ -3585,6 +3756,12 @@ static scene_desc_t *run(const char *name, const char *text, size_t len, const c
     free(P.cs);
     free(P.frames);
     free(P.pending);
+    while (P.attr_owned) {
+        attr_node_t *n = P.attr_owned;
+        P.attr_owned = n->next_owned;
+        params_destroy(&n->ps);
+        free(n);
+    }
     for (int i = 0; i < P.nopen; i++)
         free(P.open_files[i]);
     free(P.root_real);

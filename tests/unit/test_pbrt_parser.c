@@ -1356,6 +1356,68 @@ static void test_mutations_never_crash(void **state)
     assert_true(failed > 0);
 }
 
+/* Attribute "shape" ... gives defaults to the shapes that follow until the attribute block
+ * ends: a shape's own value wins, a newer Attribute wins over an older one, and a default a
+ * shape does not use ("float height" on a sphere) is no unused-parameter error (pbrt-v4). */
+static void test_attribute_defaults(void **state)
+{
+    (void)state;
+    scene_desc_t *s = parse_text_ok("WorldBegin\n"
+                                    "AttributeBegin\n"
+                                    "  Attribute \"shape\" \"float radius\" 2\n"
+                                    "  Attribute \"shape\" \"float radius\" 3 \"float height\" 0.25\n"
+                                    "  Shape \"sphere\"\n"
+                                    "  Shape \"sphere\" \"float radius\" 5\n"
+                                    "  Shape \"disk\"\n"
+                                    "  Attribute \"light\" \"float scale\" 2\n"
+                                    "AttributeEnd\n"
+                                    "Shape \"sphere\"\n");
+    assert_int_equal(s->nshapes, 4);
+    testutil_assert_near(s->shapes[0].radius, 3, TOL);
+    testutil_assert_near(s->shapes[1].radius, 5, TOL);
+    testutil_assert_near(s->shapes[2].radius, 3, TOL);
+    testutil_assert_near(s->shapes[3].radius, 1, TOL); /* AttributeEnd ended the defaults */
+    scene_desc_destroy(&s);
+    expect_error("WorldBegin\nAttribute \"camera\" \"float fov\" 30\n",
+                 "t.pbrt:2:11: unknown Attribute target \"camera\" (expected \"shape\", "
+                 "\"light\", \"material\", \"medium\" or \"texture\")");
+    expect_error("Attribute \"shape\" \"float radius\" 2\n",
+                 "t.pbrt:1:1: Attribute is only allowed after WorldBegin");
+    /* A default is checked where the entity reads it, at the Attribute's own location. */
+    expect_error("WorldBegin\nAttribute \"shape\" \"float radius\" -1\nShape \"sphere\"\n",
+                 "t.pbrt:2:19: \"float radius\" must be greater than 0, got -1");
+}
+
+/* Option "seed" is the default of the sampler's seed (the Sampler's own wins, in either
+ * order, as pbrt-v4 reads Options->seed when it makes the sampler); pbrt-v4's other options
+ * are checked and warned, "false" switches silently; an unknown one is refused. */
+static void test_option_directive(void **state)
+{
+    (void)state;
+    scene_desc_t *s = parse_text_ok("Option \"seed\" 7\nOption \"forcediffuse\" true\n"
+                                    "Option \"wavefront\" false\nWorldBegin\n");
+    assert_int_equal(s->sampler.seed, 7);
+    assert_int_equal(warnings_count(s->warnings), 1);
+    assert_string_equal(warnings_at(s->warnings, 0),
+                        "t.pbrt:2:1: Option \"forcediffuse\" is not simulated (materials keep "
+                        "their own BSDFs)");
+    scene_desc_destroy(&s);
+    s = parse_text_ok("Sampler \"halton\" \"integer seed\" 3\nOption \"seed\" 7\nWorldBegin\n");
+    assert_int_equal(s->sampler.seed, 3);
+    scene_desc_destroy(&s);
+    expect_error("Option \"seed\" 1.5\nWorldBegin\n",
+                 "t.pbrt:1:15: Option \"seed\" expects an integer");
+    expect_error("Option \"pixelstats\" 1\nWorldBegin\n",
+                 "t.pbrt:1:21: Option \"pixelstats\" expects true or false");
+    expect_error("Option \"rendercoordsys\" \"screen\"\nWorldBegin\n",
+                 "t.pbrt:1:25: Option \"rendercoordsys\" expects \"camera\", \"cameraworld\" "
+                 "or \"world\", got \"screen\"");
+    err_t err = {{0}};
+    const char *text = "Option \"turbo\" true\nWorldBegin\n";
+    assert_null(pbrt_parse_string(text, strlen(text), "t.pbrt", &err));
+    assert_non_null(strstr(err.msg, "t.pbrt:1:8: unknown option \"turbo\" (pbrt-v4's options: seed, "));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1375,6 +1437,8 @@ int main(void)
         cmocka_unit_test(test_includes),
         cmocka_unit_test(test_files_read),
         cmocka_unit_test(test_error_messages),
+        cmocka_unit_test(test_attribute_defaults),
+        cmocka_unit_test(test_option_directive),
         cmocka_unit_test(test_syntax_details),
         cmocka_unit_test(test_mutations_never_crash),
     };
