@@ -287,9 +287,14 @@ int params_add_defaults(params_t *self, const params_t *defaults, err_t *err)
             given = !strcmp(self->items[j]->p.name, d->name);
         if (given)
             continue;
-        char decl[256];
-        snprintf(decl, sizeof decl, "%s %s", d->type_name, d->name);
+        /* Declared again as written, so that messages say "point" where the file did. */
+        size_t len = strlen(d->type_name) + strlen(d->name) + 2;
+        char *decl = malloc(len);
+        if (!decl)
+            return pbrt_error(err, d->loc, "out of memory");
+        snprintf(decl, len, "%s %s", d->type_name, d->name);
         param_t *p = params_declare(self, decl, d->loc, err);
+        free(decl);
         if (!p)
             return -1;
         for (size_t k = 0; k < d->count; k++) {
