@@ -10,7 +10,8 @@
 #include <string.h>
 
 struct envmap {
-    int n;            /* width = height */
+    int w, h;         /* equal-area: w = h; lat-long: w = 2 h */
+    bool latlong;
     double *coef;     /* per texel: rgb_uplift's c0, c1, c2 and m */
     distrib2d_t *dist;
     double mean_y, upper_e;
@@ -26,16 +27,58 @@ void envmap_destroy(envmap_t **self_p)
     *self_p = NULL;
 }
 
+/* The direction of image point (u, v) in [0, 1]^2, light space. Lat-long: pbrt-v3's layout
+ * (its InfiniteAreaLight), u = phi / 2 pi, v = theta / pi from +z at the top row. */
+static vec3_t uv_to_dir(const envmap_t *self, double u, double v)
+{
+    if (!self->latlong)
+        return equal_area_square_to_sphere(u, v);
+    double phi = 2.0 * PF_PI * u, theta = PF_PI * v;
+    double st = sin(theta);
+    return vec3_make(st * cos(phi), st * sin(phi), cos(theta));
+}
+
+static void dir_to_uv(const envmap_t *self, vec3_t w, double *u, double *v)
+{
+    if (!self->latlong) {
+        equal_area_sphere_to_square(w, u, v);
+        return;
+    }
+    double len = sqrt(vec3_dot(w, w));
+    double z = len > 0.0 ? w.z / len : 1.0;
+    z = z > 1.0 ? 1.0 : z < -1.0 ? -1.0 : z;
+    double phi = atan2(w.y, w.x);
+    if (phi < 0.0)
+        phi += 2.0 * PF_PI;
+    *u = phi / (2.0 * PF_PI);
+    *v = acos(z) / PF_PI;
+}
+
+/* Solid angle per unit of (u, v) area at v: 4 pi everywhere for the equal-area map,
+ * 2 pi^2 sin(theta) for lat-long (so texels near the poles are small). */
+static double jacobian(const envmap_t *self, double v)
+{
+    return self->latlong ? 2.0 * PF_PI * PF_PI * sin(PF_PI * v) : 4.0 * PF_PI;
+}
+
+static size_t texel_at(const envmap_t *self, double u, double v)
+{
+    int x = (int)(u * self->w), y = (int)(v * self->h);
+    x = x >= self->w ? self->w - 1 : x < 0 ? 0 : x;
+    y = y >= self->h ? self->h - 1 : y < 0 ? 0 : y;
+    return (size_t)y * (size_t)self->w + (size_t)x;
+}
+
 envmap_t *envmap_new(const float *rgb, int w, int h, const char *name, err_t *err)
 {
     if (!rgb || w <= 0 || h <= 0) {
         err_set(err, "%s: empty environment image", name);
         return NULL;
     }
-    if (w != h) {
+    if (w != h && w != 2 * h) {
         err_set(err,
-                "%s: environment image is %dx%d, not square: an \"infinite\" light's image must "
-                "be in the equal-area octahedral layout, which is square (pbrt-v4 refuses it too)",
+                "%s: environment image is %dx%d, neither square (pbrt-v4's equal-area octahedral "
+                "layout) nor twice as wide as high (lat-long)",
                 name, w, h);
         return NULL;
     }
@@ -54,26 +97,33 @@ envmap_t *envmap_new(const float *rgb, int w, int h, const char *name, err_t *er
         err_set(err, "%s: out of memory for a %dx%d environment", name, w, h);
         goto fail;
     }
-    e->n = w;
+    e->w = w;
+    e->h = h;
+    e->latlong = w != h;
     for (size_t i = 0; i < n; i++)
         rgb_uplift_need(t, rgb + 3 * i);
     if (rgb_uplift_prepare(t, 0, err))
         goto fail;
+    /* Sums over texels weighted by their solid angle (jacobian / n each): the mean over
+     * directions and pbrt-v4's illuminance normaliser, which is half the upper illuminance. */
     double sum_y = 0.0, sum_e = 0.0;
     for (size_t i = 0; i < n; i++) {
         const float *p = rgb + 3 * i;
         if (rgb_uplift_coef(t, p, e->coef + 4 * i, err))
             goto fail;
-        weights[i] = ((double)p[0] + p[1] + p[2]) / 3.0;
-        double y = colour_luminance((rgb_t){p[0], p[1], p[2]});
-        sum_y += y;
         size_t x = i % (size_t)w, yy = i / (size_t)w;
-        vec3_t d = equal_area_square_to_sphere((x + 0.5) / w, (yy + 0.5) / h);
+        double u = (x + 0.5) / w, v = (yy + 0.5) / h, sa = jacobian(e, v) / (double)n;
+        /* pbrt-v4 draws texels by their channel average; a lat-long texel also by its
+         * solid angle, so that the density over directions stays proportional to radiance. */
+        weights[i] = ((double)p[0] + p[1] + p[2]) / 3.0 * (e->latlong ? sin(PF_PI * v) : 1.0);
+        double y = colour_luminance((rgb_t){p[0], p[1], p[2]});
+        sum_y += y * sa;
+        vec3_t d = uv_to_dir(e, u, v);
         if (d.z > 0.0)
-            sum_e += y * d.z;
+            sum_e += y * d.z * sa;
     }
-    e->mean_y = sum_y / (double)n;
-    e->upper_e = 2.0 * PF_PI * sum_e / (double)n;
+    e->mean_y = sum_y / (4.0 * PF_PI);
+    e->upper_e = 0.5 * sum_e;
     if (!(e->dist = distrib2d_new(weights, w, h, err)))
         goto fail;
     free(weights);
@@ -88,19 +138,19 @@ fail:
 
 int envmap_resolution(const envmap_t *self)
 {
-    return self->n;
+    return self->w;
+}
+
+bool envmap_is_latlong(const envmap_t *self)
+{
+    return self->latlong;
 }
 
 size_t envmap_texel(const envmap_t *self, vec3_t w)
 {
     double u, v;
-    equal_area_sphere_to_square(w, &u, &v);
-    int x = (int)(u * self->n), y = (int)(v * self->n);
-    if (x >= self->n)
-        x = self->n - 1;
-    if (y >= self->n)
-        y = self->n - 1;
-    return (size_t)y * (size_t)self->n + (size_t)x;
+    dir_to_uv(self, w, &u, &v);
+    return texel_at(self, u, v);
 }
 
 double envmap_texel_value(const envmap_t *self, size_t texel, double lambda)
@@ -112,22 +162,19 @@ vec3_t envmap_sample(const envmap_t *self, double u0, double u1, size_t *texel, 
 {
     double u, v, p;
     distrib2d_sample(self->dist, u0, u1, &u, &v, &p);
-    vec3_t w = equal_area_square_to_sphere(u, v);
-    int x = (int)(u * self->n), y = (int)(v * self->n);
-    if (x >= self->n)
-        x = self->n - 1;
-    if (y >= self->n)
-        y = self->n - 1;
-    *texel = (size_t)y * (size_t)self->n + (size_t)x;
-    *pdf = p / (4.0 * PF_PI);
-    return w;
+    *texel = texel_at(self, u, v);
+    double jac = jacobian(self, v);
+    /* At a lat-long pole the density over directions is unbounded: no sample (pdf 0). */
+    *pdf = jac > 0.0 ? p / jac : 0.0;
+    return uv_to_dir(self, u, v);
 }
 
 double envmap_pdf(const envmap_t *self, vec3_t w)
 {
     double u, v;
-    equal_area_sphere_to_square(w, &u, &v);
-    return distrib2d_pdf(self->dist, u, v) / (4.0 * PF_PI);
+    dir_to_uv(self, w, &u, &v);
+    double jac = jacobian(self, v);
+    return jac > 0.0 ? distrib2d_pdf(self->dist, u, v) / jac : 0.0;
 }
 
 double envmap_mean_luminance(const envmap_t *self)

@@ -1,30 +1,35 @@
-/* envmap: an image environment as pbrt-v4's ImageInfiniteLight has it. The image is square, in
+/* envmap: an image environment as pbrt-v4's ImageInfiniteLight has it. A square image is in
  * pbrt-v4's equal-area octahedral layout (equal_area.h: the image centre is light-space +z, u
- * runs along the columns and v down the rows from the top); each texel's linear-sRGB colour is
+ * runs along the columns and v down the rows from the top); an image twice as wide as high is
+ * lat-long in pbrt-v3's layout (u = phi / 2 pi from +x towards +y, v = theta / pi from +z at
+ * the top row), which pbrt-v4 itself does not read; each texel's linear-sRGB colour is
  * an RGB illuminant spectrum m * s(lambda) times the light's D65 (pbrt-v4 RGBIlluminantSpectrum,
  * m = 2 max(r, g, b), s the smooth uplift of rgb / m), looked up at the nearest texel as pbrt-v4
  * does. The uplift coefficients are computed once per texel at load by rgb_uplift (the rule
  * image textures share), so that a lookup costs one sigmoid. Directions are drawn by a piecewise-constant
  * density over the texels proportional to their channel average (pbrt-v4
- * Image::GetSamplingDistribution), which through the equal-area map is that density over 4 pi
- * in solid angle. Immutable once made, safe to share between threads. */
+ * Image::GetSamplingDistribution; times sin(theta) for lat-long), which is a density over
+ * directions proportional to that average. Immutable once made, safe to share between threads. */
 #ifndef PRISMFARM_ENVMAP_H
 #define PRISMFARM_ENVMAP_H
 
 #include "err.h"
 #include "vec3.h"
 
+#include <stdbool.h>
 #include <stddef.h>
 
 typedef struct envmap envmap_t;
 
-/* rgb: width * height * 3 linear sRGB floats, top row first. Refuses a non-square image (why:
- * the equal-area map is a square, and pbrt-v4 refuses it too), a negative, NaN or infinite
- * texel. name is for messages. */
+/* rgb: width * height * 3 linear sRGB floats, top row first. Refuses an image neither square
+ * nor 2:1 (no layout fits it), a negative, NaN or infinite texel. name is for messages. */
 envmap_t *envmap_new(const float *rgb, int width, int height, const char *name, err_t *err);
 void envmap_destroy(envmap_t **self_p);
 
+/* The image's width. */
 int envmap_resolution(const envmap_t *self);
+/* Whether the image is lat-long (2:1) rather than equal-area (square). */
+bool envmap_is_latlong(const envmap_t *self);
 
 /* The texel that light-space direction w (any length > 0) looks up. */
 size_t envmap_texel(const envmap_t *self, vec3_t w);
@@ -36,10 +41,11 @@ vec3_t envmap_sample(const envmap_t *self, double u0, double u1, size_t *texel, 
 /* The solid-angle pdf envmap_sample has for light-space direction w. */
 double envmap_pdf(const envmap_t *self, vec3_t w);
 
-/* Mean over texels (= over directions) of the texels' luminance Y (linear sRGB). */
+/* Mean over directions of the texels' luminance Y (linear sRGB). */
 double envmap_mean_luminance(const envmap_t *self);
 /* pbrt-v4's "illuminance" normaliser k_e (lights.cpp, ImageInfiniteLight): 2 pi / N times the
- * sum over texels with z > 0 of Y cos(theta). That is half the illuminance the map gives a
+ * sum over texels with z > 0 of Y cos(theta) (lat-long: each texel weighted by its solid
+ * angle, so that k_e stays half the upper illuminance). That is half the illuminance the map gives a
  * surface facing light-space +z (4 pi / N per texel), so a pbrt-v4 map scaled to
  * "illuminance" E delivers 2 E; kept as pbrt-v4 has it, so that its scenes render alike. */
 double envmap_upper_illuminance(const envmap_t *self);

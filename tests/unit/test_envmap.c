@@ -380,12 +380,13 @@ static void test_bright_texel(void **state)
     assert_true(st[0].var * 20 < st[1].var);
 }
 
-/* A non-square map is refused, naming the file, line and column of "filename" and why. */
+/* A map neither square nor 2:1 is refused, naming the file, line and column of "filename"
+ * and why. */
 static void test_non_square_refused(void **state)
 {
     (void)state;
     const float grey[3] = {0.5f, 0.5f, 0.5f};
-    const char *pfm = write_pfm("wide.pfm", 4, 2, grey, -1, -1, 0);
+    const char *pfm = write_pfm("wide.pfm", 3, 2, grey, -1, -1, 0);
     char text[1024];
     snprintf(text, sizeof text,
              "Camera \"perspective\"\nWorldBegin\n"
@@ -397,14 +398,94 @@ static void test_non_square_refused(void **state)
     assert_null(s);
     print_message("%s\n", err.msg);
     assert_non_null(strstr(err.msg, "t.pbrt:4:"));
-    assert_non_null(strstr(err.msg, "4x2"));
-    assert_non_null(strstr(err.msg, "not square"));
+    assert_non_null(strstr(err.msg, "3x2"));
+    assert_non_null(strstr(err.msg, "neither square"));
     /* "L" with "filename" is an error in pbrt-v4. */
     snprintf(text, sizeof text,
              "Camera \"perspective\"\nWorldBegin\n"
              "LightSource \"infinite\" \"rgb L\" [1 1 1] \"string filename\" \"%s\"\n", pfm);
     assert_null(sb_load_text(text, &err));
     assert_non_null(strstr(err.msg, "both \"L\" and \"filename\""));
+}
+
+/* An analytic environment: a bright cap about +z, a colour that varies with x, a floor. */
+static void analytic_env(vec3_t d, float *p)
+{
+    double cap = d.z > 0 ? pow(d.z, 8) * 6.0 : 0.0;
+    p[0] = (float)(0.2 + cap + 0.1 * (d.x + 1.0));
+    p[1] = (float)(0.25 + cap);
+    p[2] = (float)(0.3 + 0.5 * cap + 0.1 * (1.0 - d.y));
+}
+
+/* A 2:1 map is lat-long (pbrt-v3's layout): the same analytic environment as a lat-long and an
+ * equal-area map gives the same mean radiance, illuminance normaliser and radiance in each
+ * direction (orientation and Jacobian agree); its pdf integrates to 1 over the sphere and
+ * sampled directions carry the pdf envmap_pdf gives them. */
+static void test_latlong(void **state)
+{
+    (void)state;
+    const int n = 128;
+    float *ea = malloc((size_t)n * n * 3 * sizeof *ea), *ll = malloc((size_t)2 * n * n * 3 * sizeof *ll);
+    for (int y = 0; y < n; y++)
+        for (int x = 0; x < n; x++)
+            analytic_env(equal_area_square_to_sphere((x + 0.5) / n, (y + 0.5) / n),
+                         ea + 3 * ((size_t)y * n + x));
+    for (int y = 0; y < n; y++)
+        for (int x = 0; x < 2 * n; x++) {
+            double phi = 2 * PI * (x + 0.5) / (2 * n), theta = PI * (y + 0.5) / n;
+            vec3_t d = vec3_make(sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta));
+            analytic_env(d, ll + 3 * ((size_t)y * 2 * n + x));
+        }
+    err_t err;
+    envmap_t *a = envmap_new(ea, n, n, "ea", &err), *b = envmap_new(ll, 2 * n, n, "ll", &err);
+    assert_non_null(a);
+    assert_non_null(b);
+    assert_false(envmap_is_latlong(a));
+    assert_true(envmap_is_latlong(b));
+    print_message("mean Y %.5f / %.5f, k_e %.5f / %.5f\n", envmap_mean_luminance(a),
+                  envmap_mean_luminance(b), envmap_upper_illuminance(a), envmap_upper_illuminance(b));
+    assert_true(fabs(envmap_mean_luminance(b) / envmap_mean_luminance(a) - 1) < 0.005);
+    assert_true(fabs(envmap_upper_illuminance(b) / envmap_upper_illuminance(a) - 1) < 0.005);
+
+    enum { N = 200000 };
+    double sum = 0, sum2 = 0, dy = 0, ya = 0;
+    for (int i = 0; i < N; i++) {
+        vec3_t d = sample_uniform_sphere(rng_uniform(7, (uint64_t)i, 0, 0), rng_uniform(7, (uint64_t)i, 0, 1));
+        double f = envmap_pdf(b, d) * 4 * PI;
+        sum += f;
+        sum2 += f * f;
+        const float *pa = ea + 3 * envmap_texel(a, d), *pb = ll + 3 * envmap_texel(b, d);
+        dy += fabs((pa[0] + pa[1] + pa[2]) - (pb[0] + pb[1] + pb[2]));
+        ya += pa[0] + pa[1] + pa[2];
+    }
+    double mean = sum / N, se = sqrt((sum2 / N - mean * mean) / N);
+    print_message("lat-long pdf over the sphere: %.5f +- %.5f; mean |difference| of the two "
+                  "maps' radiance %.4f of the mean\n", mean, se, dy / ya);
+    assert_true(fabs(mean - 1.0) < 5 * se && se < 0.02);
+    assert_true(dy / ya < 0.02); /* nearest texels of two resolutions, not a flipped map */
+    for (int i = 0; i < 20000; i++) {
+        size_t texel;
+        double pdf;
+        vec3_t d = envmap_sample(b, rng_uniform(9, (uint64_t)i, 0, 0), rng_uniform(9, (uint64_t)i, 0, 1),
+                                 &texel, &pdf);
+        assert_true(isfinite(pdf) && pdf > 0);
+        assert_true(fabs(vec3_dot(d, d) - 1) < 1e-9);
+        double q = envmap_pdf(b, d);
+        if (!(fabs(q - pdf) <= 1e-6 * pdf))
+            fail_msg("sample %d: pdf %g, envmap_pdf %g", i, pdf, q);
+        assert_int_equal(texel, envmap_texel(b, d));
+    }
+    /* The poles and the seam: finite, and the pdf never negative. */
+    const vec3_t odd[] = {{0, 0, 1}, {0, 0, -1}, {1, -1e-300, 0}, {1, 0, 0}, {1e-300, 0, 1}};
+    for (size_t i = 0; i < sizeof odd / sizeof odd[0]; i++) {
+        double q = envmap_pdf(b, odd[i]);
+        assert_true(isfinite(q) && q >= 0);
+        assert_true(envmap_texel(b, odd[i]) < (size_t)2 * n * n);
+    }
+    envmap_destroy(&a);
+    envmap_destroy(&b);
+    free(ea);
+    free(ll);
 }
 
 /* "illuminance" E scales the map as pbrt-v4 does (lights.cpp): by E / k_e with k_e =
@@ -559,6 +640,7 @@ int main(void)
         cmocka_unit_test(test_constant_image_is_uniform),
         cmocka_unit_test(test_bright_texel),
         cmocka_unit_test(test_non_square_refused),
+        cmocka_unit_test(test_latlong),
         cmocka_unit_test(test_illuminance_and_portal),
         cmocka_unit_test(test_sphere_cone),
         cmocka_unit_test(test_sphere_cone_variance),
