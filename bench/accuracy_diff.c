@@ -24,7 +24,9 @@
  * same figures for the first half against the mean. A - (A + B) / 2 = (A - B) / 2 has the
  * variance 2 s^2 / 4 = s^2 / 2 of the mean itself when A and B are independent with variance
  * s^2; E is linear in A - ref for a fixed reference, so this holds for col as well.
- * usage: bench_accuracy_diff [--min-lum F] TEST.exr REF.exr [REF2.exr] */
+ * With --worst N it then prints the N 4x4 blocks that add most to lum4, one a line (block's
+ * pixel x, y, its mean luminance in TEST and in the reference), to find where two images differ.
+ * usage: bench_accuracy_diff [--min-lum F] [--worst N] TEST.exr REF.exr [REF2.exr] */
 #include "image_exr.h"
 
 #include <math.h>
@@ -146,6 +148,45 @@ static double block_rmse(const float *test, const float *ref, int w, int h)
     return sqrt(sq / (double)n) / (sum_r / (double)n);
 }
 
+/* --worst: the n blocks of 4x4 pixels with the largest squared luminance difference. */
+typedef struct block {
+    double err, test, ref;
+    int x, y;
+} block_t;
+
+static int block_by_err_desc(const void *pa, const void *pb)
+{
+    const block_t *a = pa, *b = pb;
+    return a->err < b->err ? 1 : a->err > b->err ? -1 : 0;
+}
+
+static int print_worst_blocks(const float *test, const float *ref, int w, int h, int n)
+{
+    size_t nb = (size_t)(w / 4) * (size_t)(h / 4), k = 0;
+    block_t *blocks = malloc((nb ? nb : 1) * sizeof *blocks);
+    if (!blocks) {
+        fprintf(stderr, "bench_accuracy_diff: out of memory\n");
+        return -1;
+    }
+    for (int by = 0; by + 4 <= h; by += 4)
+        for (int bx = 0; bx + 4 <= w; bx += 4) {
+            double yt = 0.0, yr = 0.0;
+            for (int y = by; y < by + 4; y++)
+                for (int x = bx; x < bx + 4; x++) {
+                    size_t i = 3 * ((size_t)y * (size_t)w + (size_t)x);
+                    yt += finite3(test + i) ? luminance(test + i) : 0.0;
+                    yr += finite3(ref + i) ? luminance(ref + i) : 0.0;
+                }
+            blocks[k++] = (block_t){(yt - yr) * (yt - yr), yt / 16.0, yr / 16.0, bx, by};
+        }
+    qsort(blocks, k, sizeof *blocks, block_by_err_desc);
+    for (size_t i = 0; i < k && i < (size_t)n; i++)
+        printf("block x=%d y=%d test=%.6g ref=%.6g\n", blocks[i].x, blocks[i].y, blocks[i].test,
+               blocks[i].ref);
+    free(blocks);
+    return 0;
+}
+
 static double safe_div(double a, double b)
 {
     return b != 0.0 && isfinite(a / b) ? a / b : NAN;
@@ -162,13 +203,22 @@ static void print_value(const char *key, double v)
 int main(int argc, char **argv)
 {
     double min_lum = 0.01;
+    long worst = 0;
     int a = 1;
-    if (a + 1 < argc && !strcmp(argv[a], "--min-lum")) {
-        min_lum = strtod(argv[a + 1], NULL);
-        a += 2;
+    for (;;) {
+        if (a + 1 < argc && !strcmp(argv[a], "--min-lum")) {
+            min_lum = strtod(argv[a + 1], NULL);
+            a += 2;
+        } else if (a + 1 < argc && !strcmp(argv[a], "--worst")) {
+            worst = strtol(argv[a + 1], NULL, 10);
+            a += 2;
+        } else {
+            break;
+        }
     }
-    if (argc - a < 2 || argc - a > 3 || !(min_lum >= 0.0)) {
-        fprintf(stderr, "usage: bench_accuracy_diff [--min-lum F] TEST.exr REF.exr [REF2.exr]\n");
+    if (argc - a < 2 || argc - a > 3 || !(min_lum >= 0.0) || worst < 0 || worst > 1000000) {
+        fprintf(stderr, "usage: bench_accuracy_diff [--min-lum F] [--worst N] TEST.exr REF.exr "
+                        "[REF2.exr]\n");
         return 2;
     }
     int n_img = argc - a, rc = 1;
@@ -238,6 +288,8 @@ int main(int argc, char **argv)
         printf(" ref_est=%s,%s", est, spp);
     }
     printf("\n");
+    if (worst > 0 && print_worst_blocks(image_exr_rgb(img[0]), ref, w, h, (int)worst) != 0)
+        goto done;
     rc = 0;
 done:
     for (int i = 0; i < 3; i++)
