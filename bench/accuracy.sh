@@ -174,7 +174,7 @@ run_timed() {
 }
 
 # key=value figures of bench_accuracy_diff's line: kv LINE KEY
-kv() { sed -E "s/.*(^| )$2=([^ ]*).*/\\2/" <<<"$1"; }
+. "$ROOT/bench/diff_fields.sh"
 
 # ---------------------------------------------------------------- references
 

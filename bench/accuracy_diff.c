@@ -118,6 +118,24 @@ static sums_t compare(const float *test, const float *ref, size_t npix, double m
     return s;
 }
 
+/* The luminance sums of the 4x4 block at pixel (bx, by) in test and ref (w pixels a row of 3
+ * floats), over its finite pixels; false when one pixel of either is not finite. */
+static bool block_sums(const float *test, const float *ref, int w, int bx, int by, double *yt,
+                       double *yr)
+{
+    bool finite = true;
+    *yt = *yr = 0.0;
+    for (int y = by; y < by + 4; y++)
+        for (int x = bx; x < bx + 4; x++) {
+            size_t i = 3 * ((size_t)y * (size_t)w + (size_t)x);
+            bool ft = finite3(test + i), fr = finite3(ref + i);
+            finite = finite && ft && fr;
+            *yt += ft ? luminance(test + i) : 0.0;
+            *yr += fr ? luminance(ref + i) : 0.0;
+        }
+    return finite;
+}
+
 /* lum4 (above): blocks of 4x4 pixels of test against ref, w x h pixels of 3 floats. */
 static double block_rmse(const float *test, const float *ref, int w, int h)
 {
@@ -125,19 +143,8 @@ static double block_rmse(const float *test, const float *ref, int w, int h)
     long n = 0;
     for (int by = 0; by + 4 <= h; by += 4)
         for (int bx = 0; bx + 4 <= w; bx += 4) {
-            double yt = 0.0, yr = 0.0;
-            bool ok = true;
-            for (int y = by; y < by + 4 && ok; y++)
-                for (int x = bx; x < bx + 4; x++) {
-                    size_t i = 3 * ((size_t)y * (size_t)w + (size_t)x);
-                    if (!finite3(test + i) || !finite3(ref + i)) {
-                        ok = false;
-                        break;
-                    }
-                    yt += luminance(test + i);
-                    yr += luminance(ref + i);
-                }
-            if (!ok)
+            double yt, yr;
+            if (!block_sums(test, ref, w, bx, by, &yt, &yr))
                 continue;
             sq += (yt - yr) * (yt - yr) / 256.0;
             sum_r += yr / 16.0;
@@ -170,13 +177,8 @@ static int print_worst_blocks(const float *test, const float *ref, int w, int h,
     }
     for (int by = 0; by + 4 <= h; by += 4)
         for (int bx = 0; bx + 4 <= w; bx += 4) {
-            double yt = 0.0, yr = 0.0;
-            for (int y = by; y < by + 4; y++)
-                for (int x = bx; x < bx + 4; x++) {
-                    size_t i = 3 * ((size_t)y * (size_t)w + (size_t)x);
-                    yt += finite3(test + i) ? luminance(test + i) : 0.0;
-                    yr += finite3(ref + i) ? luminance(ref + i) : 0.0;
-                }
+            double yt, yr;
+            (void)block_sums(test, ref, w, bx, by, &yt, &yr); /* non-finite pixels count 0 */
             blocks[k++] = (block_t){(yt - yr) * (yt - yr), yt / 16.0, yr / 16.0, bx, by};
         }
     qsort(blocks, k, sizeof *blocks, block_by_err_desc);

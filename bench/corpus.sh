@@ -37,7 +37,7 @@ done
 [ -x "$bin" ] && [ -x "$diff" ] || { echo "corpus.sh: build first (bash deploy/build.sh release)" >&2; exit 2; }
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-kv() { sed -E "s/.*(^| )$2=([^ ]*).*/\2/" <<<"$1"; }
+. bench/diff_fields.sh
 echo "| scene | size | load | render | R / G / B mean ratio | 4x4 RMSE | expected | verdict |"
 echo "| --- | --- | --- | --- | --- | --- | --- | --- |"
 for ref in "$corpus"/reference/*__*.exr; do

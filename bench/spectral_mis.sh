@@ -109,7 +109,7 @@ run_timed() {
             "$WORK/times0" "$WORK/times1")
   RUN_WALL=$(awk -v a="$w0" -v b="$w1" 'BEGIN { printf "%.3f", b - a }')
 }
-kv() { sed -E "s/.*(^| )$2=([^ ]*).*/\\2/" <<<"$1"; }
+. "$ROOT/bench/diff_fields.sh"
 render() { # render LOG SCENE SPP SEED OUT
   run_timed "$1" "$BIN" render "$2" --direct --quiet --res "$RES" --spp "$3" --seed "$4" -o "$5"
   rm -f "${5%.exr}.png"

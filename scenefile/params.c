@@ -304,7 +304,6 @@ int params_add_defaults(params_t *self, const params_t *defaults, err_t *err)
             if (rc != 0)
                 return -1;
         }
-        p->values = d->values;
         /* A default need not apply to every entity it reaches (pbrt-v4 marks attribute
          * parameters "may be unused"): it is never an unused-parameter error. */
         p->used = true;
