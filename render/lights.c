@@ -176,6 +176,20 @@ int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sampl
         out->is_delta = 1;
         return 1;
     }
+    case LIGHT_GONIOMETRIC:
+    case LIGHT_PROJECTION: {
+        vec3_t d = vec3_sub(l->position, p);
+        double dist = vec3_length(d);
+        if (!(dist > 0.0))
+            return 0;
+        out->wi = vec3_scale(d, 1.0 / dist);
+        out->dist = dist;
+        out->pdf = pmf;
+        out->is_delta = 1;
+        out->texel = lights_image_texel(l, vec3_neg(out->wi));
+        /* Outside a projection's frustum nothing arrives: no shadow ray for it. */
+        return out->texel != PROJMAP_OUTSIDE;
+    }
     case LIGHT_DISTANT:
         out->wi = vec3_neg(l->direction);
         out->dist = INFINITY;
@@ -224,6 +238,9 @@ double lights_sample_emission_of(const scene_t *scene, const light_sample_t *s, 
                (s->dist * s->dist);
     case LIGHT_INFINITE:
         return l->envmap ? lights_envmap_radiance(l, s->texel, value, lambda) : value;
+    case LIGHT_GONIOMETRIC:
+    case LIGHT_PROJECTION:
+        return lights_image_value(l, s->texel, lambda) * value / (s->dist * s->dist);
     case LIGHT_DISTANT:
         return value;
     case LIGHT_COLLIMATED:
@@ -240,6 +257,21 @@ size_t lights_envmap_texel(const light_t *l, vec3_t wi)
 double lights_envmap_radiance(const light_t *l, size_t texel, double value, double lambda)
 {
     return value * envmap_texel_value(l->envmap, texel, lambda);
+}
+
+size_t lights_image_texel(const light_t *l, vec3_t w)
+{
+    vec3_t wl = transform_vector(&l->to_light, w);
+    if (l->kind == LIGHT_GONIOMETRIC)
+        return envmap_texel(l->gonio, wl);
+    return projmap_texel(l->projmap, wl);
+}
+
+double lights_image_value(const light_t *l, size_t texel, double lambda)
+{
+    if (l->kind == LIGHT_GONIOMETRIC)
+        return envmap_texel_value(l->gonio, texel, lambda);
+    return projmap_texel_value(l->projmap, texel, lambda);
 }
 
 double lights_spot_falloff(const light_t *l, double cos_theta)

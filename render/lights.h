@@ -13,10 +13,12 @@ typedef struct light_sample {
     vec3_t wi;      /* unit direction from the shading point toward the light */
     double dist;    /* distance to the sampled point; INFINITY for distant and infinite lights */
     double pdf;     /* pmf of the light times the solid-angle pdf (delta lights: the pmf) */
-    int is_delta;   /* point, spot or distant: no MIS, no BSDF sampling can hit it */
+    int is_delta;   /* point, spot, goniometric, projection or distant: no MIS, no BSDF
+                     * sampling can hit it */
     vec3_t p_light; /* area lights: the sampled point */
     vec3_t n_light; /* area lights: the unit normal at the sampled point */
-    size_t texel;   /* image infinite lights: the texel sampled */
+    size_t texel;   /* image infinite lights: the texel sampled; goniometric and projection
+                     * lights: the texel the light's image sends toward the point */
 } light_sample_t;
 
 /* Samples a light for shading point p with four uniform numbers: u[0] picks the light, u[1]
@@ -24,7 +26,8 @@ typedef struct light_sample {
  * outside is sampled uniformly in the cone of directions it subtends (pbrt-v4 Sphere::Sample:
  * every sample lands on the visible cap), an image environment by its texels' distribution
  * (envmap.h), a uniform one uniformly over the sphere. Returns 0 when nothing can be
- * sampled (no lights, a collimated light, a zero-area light, a degenerate configuration). */
+ * sampled (no lights, a collimated light, a zero-area light, a point outside a projection
+ * light's frustum, a degenerate configuration). */
 int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sample_t *out);
 
 /* The light's spectral value at lambda: its spectrum times its scale, the factor every
@@ -34,8 +37,9 @@ double lights_value(const light_t *l, double lambda);
 
 /* The emitted quantity that arrives at the shading point along the sample at wavelength
  * lambda, given the light's value = lights_value(light, lambda): radiance for area and infinite
- * lights (an image's texel times value), I/d^2 (times the spot falloff) for point and spot
- * lights, the irradiance-defining L for distant lights. */
+ * lights (an image's texel times value), I/d^2 for point, spot (times the falloff),
+ * goniometric and projection lights (times the texel's value, lights_image_value), the
+ * irradiance-defining L for distant lights. */
 double lights_sample_emission_of(const scene_t *scene, const light_sample_t *s, double value,
                                  double lambda);
 
@@ -54,6 +58,13 @@ int lights_sample_shape(const shape_t *shape, double u0, double u1, double u2, v
 /* A spot light's falloff at the cosine of the angle to its axis: 1 inside the inner cone, 0
  * outside the outer one, pbrt-v4's smoothstep between. */
 double lights_spot_falloff(const light_t *l, double cos_theta);
+
+/* A goniometric or projection light's texel toward world direction w (from the light, any
+ * length > 0; PROJMAP_OUTSIDE outside a projection's frustum), and that texel's factor at
+ * lambda: the light emits intensity lights_value(l, lambda) * lights_image_value(l, texel,
+ * lambda) along w (0 outside the frustum). */
+size_t lights_image_texel(const light_t *l, vec3_t w);
+double lights_image_value(const light_t *l, size_t texel, double lambda);
 
 /* Environment radiance for a ray that left the scene: the sum over the uniform infinite lights
  * (image environments are lights_envmap_radiance's). */

@@ -91,12 +91,20 @@ static double aim_cone(tracer_t *t, vec3_t o, vec3_t *dir)
  *     aimed, I falloff(theta) omega;
  *   distant light, irradiance E: parallel rays through a disk perpendicular to the direction
  *     (the bounding sphere's, radius R, or the aim sphere's), started upstream of the whole
- *     scene: E pi R^2.
- * Returns 0 when the light emits no photon (infinite lights, degenerate shapes). */
-static int emit(tracer_t *t, const light_t *l, vec3_t *org, vec3_t *dir, double *geom)
+ *     scene: E pi R^2;
+ *   goniometric and projection lights, intensity I f(w) with f the image's factor along w
+ *     (lights_image_value of *texel, which depends on the wavelength, so the caller multiplies
+ *     it in per lane): a direction drawn by the image's own density p(w) (envmap.h,
+ *     projmap.h) gives I f / p; aimed, I f omega.
+ * *texel is PHOTON_NO_TEXEL for lights without an image.
+ * Returns 0 when the light emits no photon (infinite lights, degenerate shapes, a direction
+ * outside a projection's frustum or of zero density). */
+#define PHOTON_NO_TEXEL SIZE_MAX
+static int emit(tracer_t *t, const light_t *l, vec3_t *org, vec3_t *dir, double *geom, size_t *texel)
 {
     const scene_t *s = t->scene;
     double omega;
+    *texel = PHOTON_NO_TEXEL;
     switch (l->kind) {
     case LIGHT_AREA:
     case LIGHT_COLLIMATED: {
@@ -152,6 +160,24 @@ static int emit(tracer_t *t, const light_t *l, vec3_t *org, vec3_t *dir, double 
         *dir = sample_local_to_world(local, l->direction);
         *geom = lights_spot_falloff(l, local.z) * 2.0 * PF_PI * (1.0 - cmax);
         return 1;
+    }
+    case LIGHT_GONIOMETRIC:
+    case LIGHT_PROJECTION: {
+        *org = l->position;
+        if (t->aim && (omega = aim_cone(t, l->position, dir)) > 0.0) {
+            *geom = omega;
+        } else {
+            double u0 = next(t), u1 = next(t), pdf;
+            vec3_t wl = l->kind == LIGHT_GONIOMETRIC ? envmap_sample(l->gonio, u0, u1, texel, &pdf)
+                                                     : projmap_sample(l->projmap, u0, u1, texel, &pdf);
+            if (!(pdf > 0.0) || !isfinite(pdf))
+                return 0;
+            *dir = vec3_normalize(transform_vector(&l->from_light, wl));
+            *geom = 1.0 / pdf;
+            return 1;
+        }
+        *texel = lights_image_texel(l, *dir);
+        return *texel != PROJMAP_OUTSIDE;
     }
     case LIGHT_DISTANT: {
         double u0 = next(t), u1 = next(t);
@@ -467,7 +493,8 @@ static int trace_one(tracer_t *t, uint64_t i, err_t *err)
     const light_t *l = &s->lights[alias_sample(t->lights, next(t), &pmf)];
     vec3_t org, dir;
     double geom;
-    if (!(pmf > 0.0) || !emit(t, l, &org, &dir, &geom))
+    size_t texel;
+    if (!(pmf > 0.0) || !emit(t, l, &org, &dir, &geom, &texel))
         return 0;
     /* Wavelengths: the golden-ratio sequence u_i = frac(i / phi + shift) (a rank-1 lattice,
      * in 64-bit fixed point so that it is exact), randomly shifted per job, and for M lanes
@@ -486,8 +513,9 @@ static int trace_one(tracer_t *t, uint64_t i, err_t *err)
         wavelength_sample_t ws = job->visible
                                      ? wavelength_sample_visible(u)
                                      : wavelength_sample_uniform(u, grid.lambda_min, grid.lambda_max);
+        double img = texel != PHOTON_NO_TEXEL ? lights_image_value(l, texel, ws.lambda) : 1.0;
         double w = ws.pdf > 0.0
-                       ? l->scale * spectrum_eval(l->spectrum, ws.lambda) * geom / (pmf * ws.pdf)
+                       ? l->scale * spectrum_eval(l->spectrum, ws.lambda) * img * geom / (pmf * ws.pdf)
                        : 0.0;
         f.lambda[j] = ws.lambda;
         if (!isfinite(w)) {
@@ -531,15 +559,19 @@ static double aimed_share(const tracer_t *t, const light_t *l)
     }
         /* fall through */
     case LIGHT_POINT:
-    case LIGHT_SPOT: {
+    case LIGHT_SPOT:
+    case LIGHT_GONIOMETRIC:
+    case LIGHT_PROJECTION: {
         vec3_t d = vec3_sub(t->aim_centre, from);
         double d2 = vec3_dot(d, d), r2 = t->aim_radius * t->aim_radius;
         if (!(d2 > r2))
             return 1.0;
         double sin2 = r2 / d2, omega = 2.0 * PF_PI * sin2 / (1.0 + sqrt(1.0 - sin2));
-        f = l->kind == LIGHT_AREA    ? omega / PF_PI
-            : l->kind == LIGHT_POINT ? omega / (4.0 * PF_PI)
-                                     : omega / (2.0 * PF_PI * fmax(1e-9, 1.0 - l->cos_total_width));
+        /* A goniometric light counts as isotropic, a projection as filling its frustum. */
+        f = l->kind == LIGHT_AREA         ? omega / PF_PI
+            : l->kind == LIGHT_POINT || l->kind == LIGHT_GONIOMETRIC ? omega / (4.0 * PF_PI)
+            : l->kind == LIGHT_PROJECTION ? omega / projmap_solid_angle(l->projmap)
+                                          : omega / (2.0 * PF_PI * fmax(1e-9, 1.0 - l->cos_total_width));
         break;
     }
     }

@@ -178,6 +178,10 @@ const char *plan_light_kind_name(light_kind_t kind)
         return "distant";
     case LIGHT_INFINITE:
         return "infinite";
+    case LIGHT_GONIOMETRIC:
+        return "goniometric";
+    case LIGHT_PROJECTION:
+        return "projection";
     }
     return "?";
 }
@@ -580,6 +584,32 @@ static int follow(tracer_t *t, int n, uint64_t key, spectral_grid_t g, found_t *
     return 0;
 }
 
+/* Whether a point-like light (point, spot, goniometric, projection) sends any light along
+ * world direction dir (unit): inside a spot's cone, toward a goniometric image's non-black
+ * texel, through a projection image's non-black texel. */
+static int emits_toward(const light_t *l, vec3_t dir)
+{
+    switch (l->kind) {
+    case LIGHT_SPOT:
+        return vec3_dot(dir, l->direction) >= l->cos_total_width;
+    case LIGHT_GONIOMETRIC: {
+        size_t texel = envmap_texel(l->gonio, transform_vector(&l->to_light, dir));
+        return envmap_texel_value(l->gonio, texel, 550.0) > 0.0; /* a grey: any wavelength */
+    }
+    case LIGHT_PROJECTION: {
+        size_t texel = projmap_texel(l->projmap, transform_vector(&l->to_light, dir));
+        if (texel == PROJMAP_OUTSIDE)
+            return 0;
+        for (double lambda = 360.0; lambda <= 830.0; lambda += 10.0)
+            if (projmap_texel_value(l->projmap, texel, lambda) > 0.0)
+                return 1;
+        return 0;
+    }
+    default:
+        return 1;
+    }
+}
+
 /* Rays from light li toward uniform points of placement j; the specular surfaces they reach
  * first are followed (follow). Returns follow's result; *reached is set when a ray reached a
  * mirror or glass. */
@@ -610,13 +640,14 @@ static int light_to_placement(tracer_t *t, int li, const placement_t *pl, int j,
             dir = l->direction;
             double back = vec3_dot(vec3_sub(tp, scene_centre), dir) + 1.05 * s->scene_radius;
             org = vec3_fma(tp, dir, -back);
-        } else if (l->kind == LIGHT_POINT || l->kind == LIGHT_SPOT) {
+        } else if (l->kind == LIGHT_POINT || l->kind == LIGHT_SPOT || l->kind == LIGHT_GONIOMETRIC ||
+                   l->kind == LIGHT_PROJECTION) {
             vec3_t d = vec3_sub(tp, l->position);
             double len = vec3_length(d);
             if (!(len > 0.0))
                 continue;
             dir = vec3_scale(d, 1.0 / len);
-            if (l->kind == LIGHT_SPOT && vec3_dot(dir, l->direction) < l->cos_total_width)
+            if (!emits_toward(l, dir))
                 continue;
             org = l->position;
         } else {
@@ -724,6 +755,8 @@ static void plan_one_light(tracer_t *t, plan_light_t *pl, const placement_t *pls
         break;
     case LIGHT_POINT:
     case LIGHT_SPOT:
+    case LIGHT_GONIOMETRIC:
+    case LIGHT_PROJECTION:
     case LIGHT_DISTANT:
         for (size_t j = 0; j < npl && r == 0; j++)
             r = light_to_placement(t, pl->index, &pls[j], (int)j, g, &pl->reaches_specular, &f);
@@ -1011,6 +1044,8 @@ static void light_reason(text_t *r, const scene_t *s, const plan_light_t *pl, si
         return;
     case LIGHT_POINT:
     case LIGHT_SPOT:
+    case LIGHT_GONIOMETRIC:
+    case LIGHT_PROJECTION:
     case LIGHT_DISTANT:
         if (npl == 0)
             text_add(r, ": the scene has no mirror or glass");

@@ -83,6 +83,9 @@ void scene_destroy(scene_t **self_p)
     for (size_t i = 0; i < self->nenvmaps; i++)
         envmap_destroy(&self->envmaps[i]);
     free(self->envmaps);
+    for (size_t i = 0; i < self->nprojmaps; i++)
+        projmap_destroy(&self->projmaps[i]);
+    free(self->projmaps);
     for (size_t i = 0; i < self->nmedia; i++)
         medium_destroy(&self->media[i]);
     free(self->media);
@@ -143,6 +146,17 @@ int scene_own_envmap(scene_t *self, envmap_t *e, err_t *err)
     return 0;
 }
 
+int scene_own_projmap(scene_t *self, projmap_t *m, err_t *err)
+{
+    long i = grow((void **)&self->projmaps, &self->nprojmaps, sizeof *self->projmaps, err);
+    if (i < 0) {
+        projmap_destroy(&m);
+        return -1;
+    }
+    self->projmaps[i] = m;
+    return 0;
+}
+
 int scene_add_medium(scene_t *self, medium_t *m, err_t *err)
 {
     long i = grow((void **)&self->media, &self->nmedia, sizeof *self->media, err);
@@ -177,6 +191,8 @@ int scene_add_light(scene_t *self, const light_t *l, err_t *err)
         return err_set(err, "light %zu has no spectrum", self->nlights);
     if (!isfinite(l->scale) || l->scale < 0)
         return err_set(err, "light %zu: scale must be finite and >= 0, got %g", self->nlights, l->scale);
+    if ((l->kind == LIGHT_GONIOMETRIC && !l->gonio) || (l->kind == LIGHT_PROJECTION && !l->projmap))
+        return err_set(err, "light %zu: a goniometric or projection light needs its image", self->nlights);
     long i = grow((void **)&self->lights, &self->nlights, sizeof *self->lights, err);
     if (i < 0)
         return -1;
@@ -530,6 +546,11 @@ static double light_power_raw(const scene_t *self, const light_t *l)
     case LIGHT_INFINITE:
         /* pbrt-v4 ImageInfiniteLight::Phi: the image's mean radiance over the sphere. */
         return y * (l->envmap ? envmap_mean_luminance(l->envmap) : 1.0) * 4.0 * PF_PI * PF_PI * r * r;
+    case LIGHT_GONIOMETRIC:
+        /* pbrt-v4 GoniometricLight::Phi: 4 pi times the image's mean. */
+        return l->gonio ? y * 4.0 * PF_PI * envmap_mean_luminance(l->gonio) : 0.0;
+    case LIGHT_PROJECTION:
+        return l->projmap ? y * projmap_power(l->projmap) : 0.0;
     }
     return 0.0;
 }

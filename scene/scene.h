@@ -12,6 +12,7 @@
 #include "alias.h"
 #include "dispersion.h"
 #include "envmap.h"
+#include "projmap.h"
 #include "err.h"
 #include "geometry.h"
 #include "filter.h"
@@ -84,6 +85,8 @@ typedef enum light_kind {
     LIGHT_SPOT,       /* point light limited to a cone with a smooth falloff */
     LIGHT_DISTANT,    /* the sun: parallel light of irradiance L along dir */
     LIGHT_INFINITE,   /* environment: uniform radiance L, or an image (envmap) */
+    LIGHT_GONIOMETRIC, /* point light whose intensity over directions is an image (gonio) */
+    LIGHT_PROJECTION,  /* point light projecting an image through a frustum (projmap) */
 } light_kind_t;
 
 typedef struct light {
@@ -103,6 +106,16 @@ typedef struct light {
      * the colour space's illuminant D65 normalised to Y = 1 (pbrt-v4 ImageInfiniteLight). The
      * scene owns it. to_light and from_light map directions between world and light space. */
     const envmap_t *envmap;
+    /* Goniometric light at position (pbrt-v4 GoniometricLight): its intensity toward world
+     * direction w is scale * spectrum(lambda) * envmap_texel_value(gonio, texel of
+     * to_light(w)), the texels greys (the image's channel average) so that the value is that
+     * average at every wavelength; to_light includes pbrt-v4's swap of y and z, so the image
+     * centre points along the CTM's +y. Not an environment: render.c's envmap loops skip it. */
+    const envmap_t *gonio;
+    /* Projection light at position (pbrt-v4 ProjectionLight): intensity scale *
+     * spectrum(lambda) * projmap_texel_value(texel of to_light(w)) inside the frustum, 0
+     * outside; to_light includes pbrt-v4's flip of y. */
+    const projmap_t *projmap;
     transform_t to_light, from_light;
 } light_t;
 
@@ -268,6 +281,8 @@ typedef struct scene {
     size_t nspectra;
     envmap_t **envmaps;   /* owned */
     size_t nenvmaps;
+    projmap_t **projmaps; /* owned */
+    size_t nprojmaps;
     camera_t camera;
     filter_sampler_t *filter; /* settings.filter's sampler (owned); NULL: the box of radius 0.5 */
     /* The Film's sensor (owned); NULL: cie1931 without white balance, the film records XYZ. */
@@ -298,6 +313,8 @@ void scene_destroy(scene_t **self_p);
 int scene_own_texture(scene_t *self, texture_t *tex, err_t *err);
 int scene_own_spectrum(scene_t *self, spectrum_t *s, err_t *err);
 int scene_own_envmap(scene_t *self, envmap_t *e, err_t *err);
+/* Likewise for a projection light's image (freed on failure too). */
+int scene_own_projmap(scene_t *self, projmap_t *m, err_t *err);
 /* Appends a medium (owned from here on, also on failure; NULL: one that is not simulated) and
  * returns its index, or -1. */
 int scene_add_medium(scene_t *self, medium_t *m, err_t *err);

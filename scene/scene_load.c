@@ -662,46 +662,118 @@ static int load_materials(loader_t *L, err_t *err)
     return 0;
 }
 
-/* An "infinite" light's image, by its extension: OpenEXR, PFM, or whatever stb_image reads
- * (HDR, PNG, JPEG, TGA, BMP), into an envmap the scene owns. */
-static const envmap_t *load_envmap(loader_t *L, const scene_light_t *dl, err_t *err)
+/* The name of a light's kind in messages: LightSource "...". */
+static const char *light_kind_word(scene_light_type_t t)
+{
+    return t == SCENE_LIGHT_GONIOMETRIC ? "goniometric" : t == SCENE_LIGHT_PROJECTION ? "projection" : "infinite";
+}
+
+/* A light's image, by its extension: OpenEXR, PFM, or whatever stb_image reads (HDR, PNG,
+ * JPEG, TGA, BMP), as w * h * 3 linear floats (*rgb, the caller frees), charged to the
+ * texel budget. Errors name the "filename" parameter. */
+static int read_light_image(loader_t *L, const scene_light_t *dl, float **rgb, int *w, int *h, err_t *err)
 {
     const char *path = dl->filename;
-    float *rgb = NULL;
-    int w = 0, h = 0, rc;
+    int rc;
+    *rgb = NULL;
+    *w = *h = 0;
     if (ends_with_ci(path, ".exr")) {
         image_exr_t *im = image_exr_read(path, err);
         rc = im ? 0 : -1;
         if (im) {
-            w = image_exr_width(im);
-            h = image_exr_height(im);
-            rgb = malloc((size_t)w * (size_t)h * 3 * sizeof *rgb);
-            if (rgb)
-                memcpy(rgb, image_exr_rgb(im), (size_t)w * (size_t)h * 3 * sizeof *rgb);
+            *w = image_exr_width(im);
+            *h = image_exr_height(im);
+            *rgb = malloc((size_t)*w * (size_t)*h * 3 * sizeof **rgb);
+            if (*rgb)
+                memcpy(*rgb, image_exr_rgb(im), (size_t)*w * (size_t)*h * 3 * sizeof **rgb);
             else
                 rc = err_set(err, "%s: out of memory", path);
             image_exr_destroy(&im);
         }
     } else if (ends_with_ci(path, ".pfm")) {
-        rc = image_pfm_read(path, &w, &h, &rgb, err);
+        rc = image_pfm_read(path, w, h, rgb, err);
     } else {
-        rc = image_stb_read(path, &w, &h, &rgb, err);
+        rc = image_stb_read(path, w, h, rgb, err);
     }
-    if (rc == 0 && budget_texels(L, w, h, err)) {
-        free(rgb);
-        return err_prefix(err, "%s:%d:%d: LightSource \"infinite\": ", dl->filename_loc.file,
-                          dl->filename_loc.line, dl->filename_loc.col),
-               NULL;
+    if (rc == 0 && budget_texels(L, *w, *h, err))
+        rc = -1;
+    if (rc) {
+        free(*rgb);
+        *rgb = NULL;
+        return err_prefix(err, "%s:%d:%d: LightSource \"%s\": ", dl->filename_loc.file, dl->filename_loc.line,
+                          dl->filename_loc.col, light_kind_word(dl->type));
     }
-    envmap_t *e = rc == 0 ? envmap_new(rgb, w, h, path, err) : NULL;
-    free(rgb);
-    if (!e || scene_own_envmap(L->sc, e, err)) {
-        char why[sizeof err->msg];
-        snprintf(why, sizeof why, "%s", err->msg);
-        pbrt_error(err, dl->filename_loc, "LightSource \"infinite\": %s", why);
+    return 0;
+}
+
+/* The message of err, prefixed with the light's "filename" location and kind; returns NULL. */
+static void *light_image_error(const scene_light_t *dl, err_t *err)
+{
+    char why[sizeof err->msg];
+    snprintf(why, sizeof why, "%s", err->msg);
+    pbrt_error(err, dl->filename_loc, "LightSource \"%s\": %s", light_kind_word(dl->type), why);
+    return NULL;
+}
+
+/* An "infinite" light's image into an envmap the scene owns. */
+static const envmap_t *load_envmap(loader_t *L, const scene_light_t *dl, err_t *err)
+{
+    float *rgb;
+    int w, h;
+    if (read_light_image(L, dl, &rgb, &w, &h, err))
         return NULL;
-    }
+    envmap_t *e = envmap_new(rgb, w, h, dl->filename, err);
+    free(rgb);
+    if (!e || scene_own_envmap(L->sc, e, err))
+        return light_image_error(dl, err);
     return e;
+}
+
+/* A goniometric light's image (pbrt-v4 GoniometricLight::Create): square, in the equal-area
+ * octahedral layout, each texel reduced to the average of its channels (pbrt-v4 keeps one "Y"
+ * channel, the RGB average), held as a grey envmap so that its value is that average at
+ * every wavelength and its sampling, lookup and mean are envmap's. */
+static const envmap_t *load_gonio(loader_t *L, const scene_light_t *dl, err_t *err)
+{
+    float *rgb;
+    int w, h;
+    if (read_light_image(L, dl, &rgb, &w, &h, err))
+        return NULL;
+    envmap_t *e = NULL;
+    if (w != h) {
+        err_set(err, "%s: image is %dx%d, not square: a goniometric light's image is an equal-area "
+                     "octahedral map (pbrt-v4 refuses it too)",
+                dl->filename, w, h);
+    } else {
+        for (size_t i = 0; i < (size_t)w * (size_t)h; i++) {
+            float *p = rgb + 3 * i;
+            float avg = (p[0] + p[1] + p[2]) / 3.0f;
+            /* A negative, NaN or infinite channel is kept, for envmap_new to refuse by name. */
+            for (int c = 0; c < 3; c++)
+                if (!(p[c] >= 0.0f) || !isfinite(p[c]))
+                    avg = p[c];
+            p[0] = p[1] = p[2] = avg;
+        }
+        e = envmap_new(rgb, w, h, dl->filename, err);
+    }
+    free(rgb);
+    if (!e || scene_own_envmap(L->sc, e, err))
+        return light_image_error(dl, err);
+    return e;
+}
+
+/* A projection light's image (pbrt-v4 ProjectionLight::Create), any size. */
+static const projmap_t *load_projmap(loader_t *L, const scene_light_t *dl, err_t *err)
+{
+    float *rgb;
+    int w, h;
+    if (read_light_image(L, dl, &rgb, &w, &h, err))
+        return NULL;
+    projmap_t *m = projmap_new(rgb, w, h, dl->fov, dl->filename, err);
+    free(rgb);
+    if (!m || scene_own_projmap(L->sc, m, err))
+        return light_image_error(dl, err);
+    return m;
 }
 
 static int load_lights(loader_t *L, err_t *err)
@@ -742,6 +814,31 @@ static int load_lights(loader_t *L, err_t *err)
             if (dl->filename && !(l.envmap = load_envmap(L, dl, err)))
                 return -1;
             break;
+        case SCENE_LIGHT_GONIOMETRIC: {
+            /* pbrt-v4 lights.cpp: renderFromLight * swapYZ, so light-space (x, y, z) is the
+             * CTM's (x, z, y) and the image centre (+z) points along the CTM's +y. */
+            const transform_t swap = transform_from_matrix(
+                (const double[4][4]){{1, 0, 0, 0}, {0, 0, 1, 0}, {0, 1, 0, 0}, {0, 0, 0, 1}});
+            l.kind = LIGHT_GONIOMETRIC;
+            l.position = transform_point(&dl->to_world, vec3_make(0, 0, 0));
+            l.from_light = transform_compose(dl->to_world, swap);
+            l.to_light = transform_inverse(l.from_light);
+            if (!(l.gonio = load_gonio(L, dl, err)))
+                return -1;
+            break;
+        }
+        case SCENE_LIGHT_PROJECTION: {
+            /* pbrt-v4 lights.cpp: renderFromLight * Scale(1, -1, 1), so that the image's top
+             * row lands toward the CTM's +y. */
+            const transform_t flip = transform_scale(1.0, -1.0, 1.0);
+            l.kind = LIGHT_PROJECTION;
+            l.position = transform_point(&dl->to_world, vec3_make(0, 0, 0));
+            l.from_light = transform_compose(dl->to_world, flip);
+            l.to_light = transform_inverse(l.from_light);
+            if (!(l.projmap = load_projmap(L, dl, err)))
+                return -1;
+            break;
+        }
         }
         /* pbrt-v4 lights.cpp: with its spectrum normalised, a light of scale 1 has power (or
          * illuminance) k_e; "power" / "illuminance" multiplies scale by target / k_e. */
@@ -755,11 +852,19 @@ static int load_lights(loader_t *L, err_t *err)
                 /* uniform radiance L gives illuminance pi L; an image, what its upper
                  * hemisphere gives (pbrt-v4 lights.cpp, "illuminance") */
                 k_e = l.envmap ? envmap_upper_illuminance(l.envmap) : PF_PI;
+            else if (l.kind == LIGHT_GONIOMETRIC)
+                /* 4 pi times the mean of the image's channel averages */
+                k_e = 4.0 * PF_PI * envmap_mean_luminance(l.gonio);
+            else if (l.kind == LIGHT_PROJECTION)
+                /* A / N times the sum of Y cos^3 over the texels (projmap.h) */
+                k_e = projmap_power(l.projmap);
             if (!(k_e > 0.0))
                 return pbrt_error(err, dl->loc, l.kind == LIGHT_INFINITE
                                                     ? "\"illuminance\" cannot be met by an image "
                                                       "that is black above the horizon"
-                                                    : "\"power\" cannot be met by a spot light of zero width");
+                                                : l.kind == LIGHT_SPOT
+                                                    ? "\"power\" cannot be met by a spot light of zero width"
+                                                    : "\"power\" cannot be met by a black image");
             l.scale *= dl->power / k_e;
         }
         if (scene_add_light(L->sc, &l, err) < 0)

@@ -2291,6 +2291,36 @@ static int infinite_light_image(parser_t *P, params_t *ps, scene_light_t *l)
     return note_file(P, SCENE_FILE_IMAGE, path, filename, fp->loc);
 }
 
+/* LightSource "goniometric" and "projection": "string filename" is required (pbrt-v4 refuses
+ * a projection light without one; a goniometric light without one it warns about and renders
+ * black, which prismfarm refuses as a likely mistake). The light sits at the CTM's origin; a
+ * projection light's "float fov" (90) is the angle of the image's shorter axis, in (0, 180).
+ * scene_load reads the image (and checks a goniometric one is square). */
+static int image_light(parser_t *P, params_t *ps, scene_light_t *l, const char *kind, pbrt_loc_t loc)
+{
+    const char *filename;
+    if (params_get_string(ps, "filename", NULL, &filename, P->err) != 0)
+        return -1;
+    if (l->type == SCENE_LIGHT_PROJECTION) {
+        if (params_get_float(ps, "fov", 90.0, &l->fov, P->err) != 0)
+            return -1;
+        if (!(l->fov > 0.0 && l->fov < 180.0)) {
+            param_t *fp = params_find(ps, "fov");
+            return pbrt_error(P->err, fp ? fp->loc : loc,
+                              "\"float fov\" must be strictly between 0 and 180 degrees, got %g",
+                              l->fov);
+        }
+    }
+    if (!filename || !filename[0])
+        return pbrt_error(P->err, loc, "LightSource \"%s\" needs \"string filename\" (its image)",
+                          kind);
+    param_t *fp = params_find(ps, "filename");
+    if (image_file(P, fp, filename, &l->filename) != 0)
+        return -1;
+    l->filename_loc = fp->loc;
+    return 0;
+}
+
 static int do_light(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
 {
     static const struct {
@@ -2299,15 +2329,17 @@ static int do_light(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
     } TYPES[] = {{"point", SCENE_LIGHT_POINT},
                  {"spot", SCENE_LIGHT_SPOT},
                  {"distant", SCENE_LIGHT_DISTANT},
-                 {"infinite", SCENE_LIGHT_INFINITE}};
+                 {"infinite", SCENE_LIGHT_INFINITE},
+                 {"goniometric", SCENE_LIGHT_GONIOMETRIC},
+                 {"projection", SCENE_LIGHT_PROJECTION}};
     int ti = -1;
     for (size_t i = 0; i < COUNT_OF(TYPES); i++)
         if (!strcmp(type->s, TYPES[i].name))
             ti = (int)i;
     if (ti < 0)
         return pbrt_error(P->err, type->loc,
-                          "unsupported light \"%s\" (\"point\", \"spot\", "
-                          "\"distant\" or \"infinite\")",
+                          "unsupported light \"%s\" (\"point\", \"spot\", \"distant\", "
+                          "\"infinite\", \"goniometric\" or \"projection\")",
                           type->s);
     if (check_transform(P, &P->gs.ctm, "LightSource", loc) != 0)
         return -1;
@@ -2318,19 +2350,26 @@ static int do_light(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t
     l->type = TYPES[ti].type;
     l->loc = loc;
     l->to_world = P->gs.ctm;
-    const char *sname = (l->type == SCENE_LIGHT_POINT || l->type == SCENE_LIGHT_SPOT) ? "I" : "L";
-    /* pbrt-v4 lights.cpp: point and spot lights take "power", distant and infinite lights
-     * "illuminance"; a value <= 0 means "not given". */
-    const char *pname =
-        (l->type == SCENE_LIGHT_POINT || l->type == SCENE_LIGHT_SPOT) ? "power" : "illuminance";
-    if (get_spectrum(P, ps, sname, spectrum_named("stdillum-D65", loc), SPECTRUM_ANY,
-                     &l->spectrum) != 0 ||
-        params_get_float(ps, "scale", 1.0, &l->scale, P->err) != 0 ||
+    const int positional = l->type != SCENE_LIGHT_DISTANT && l->type != SCENE_LIGHT_INFINITE;
+    const char *sname = positional ? "I" : "L";
+    /* pbrt-v4 lights.cpp: point, spot, goniometric and projection lights take "power", distant
+     * and infinite lights "illuminance"; a value <= 0 means "not given". */
+    const char *pname = positional ? "power" : "illuminance";
+    /* A projection light has no spectrum parameter: its image's colours are RGB illuminant
+     * spectra of the colour space (pbrt-v4 ProjectionLight::Create reads no "I"). */
+    if (l->type == SCENE_LIGHT_PROJECTION)
+        l->spectrum = spectrum_named("stdillum-D65", loc);
+    else if (get_spectrum(P, ps, sname, spectrum_named("stdillum-D65", loc), SPECTRUM_ANY,
+                          &l->spectrum) != 0)
+        return -1;
+    if (params_get_float(ps, "scale", 1.0, &l->scale, P->err) != 0 ||
         check_range(P, ps, "scale", l->scale, 0.0, INFINITY) != 0 ||
         params_get_float(ps, pname, -1.0, &l->power, P->err) != 0)
         return -1;
     if (l->type == SCENE_LIGHT_INFINITE)
         return infinite_light_image(P, ps, l);
+    if (l->type == SCENE_LIGHT_GONIOMETRIC || l->type == SCENE_LIGHT_PROJECTION)
+        return image_light(P, ps, l, type->s, loc);
     if (params_get_point3(ps, "from", vec3_make(0, 0, 0), &l->from, P->err) != 0)
         return -1;
     if (l->type == SCENE_LIGHT_POINT)

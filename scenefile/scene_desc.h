@@ -193,6 +193,8 @@ typedef enum scene_light_type {
     SCENE_LIGHT_SPOT,     /* I, scale, from, to, coneangle (30), conedeltaangle (5) */
     SCENE_LIGHT_DISTANT,  /* L, scale, from (0,0,0), to (0,0,1): light travels from -> to */
     SCENE_LIGHT_INFINITE, /* L (uniform) or filename (an image), scale, illuminance */
+    SCENE_LIGHT_GONIOMETRIC, /* I, scale, power, filename (a square equal-area image) */
+    SCENE_LIGHT_PROJECTION,  /* scale, power, fov (90), filename (the image projected) */
 } scene_light_type_t;
 
 typedef struct scene_light {
@@ -201,13 +203,16 @@ typedef struct scene_light {
     transform_t to_world;             /* the CTM at the LightSource directive */
     scene_spectrum_t spectrum;        /* I or L; default the colour space illuminant stdillum-D65 */
     double scale;                     /* 1 */
-    /* pbrt-v4's "power" (point, spot: the emitted power) or "illuminance" (distant: at normal
+    /* pbrt-v4's "power" (point, spot, goniometric, projection: the emitted power) or
+     * "illuminance" (distant: at normal
      * incidence; infinite: on a surface facing the whole sky); -1 when not given. */
     double power;
     vec3_t from, to;                  /* in light space: apply to_world */
     double coneangle, conedeltaangle; /* degrees */
-    /* infinite: the image's path as opened (the checked real path in a confined parse), or
-     * NULL for a uniform light; filename_loc is where "filename" was written. */
+    double fov;                       /* projection: degrees, the image's shorter axis */
+    /* infinite, goniometric, projection: the image's path as opened (the checked real path in
+     * a confined parse), or NULL for a uniform infinite light; filename_loc is where
+     * "filename" was written. */
     const char *filename;
     pbrt_loc_t filename_loc;
 } scene_light_t;

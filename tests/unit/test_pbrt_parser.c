@@ -1191,9 +1191,15 @@ static void test_error_messages(void **state)
         {"WorldBegin\nLightSource \"point\" \"blackbody I\" [3000 1]\n",
          "t.pbrt:2:21: expected 1 number after \"blackbody I\", got 2 (pbrt-v4 takes only the "
          "temperature)"},
+        {"WorldBegin\nLightSource \"ies\"\n",
+         "t.pbrt:2:13: unsupported light \"ies\" (\"point\", \"spot\", \"distant\", "
+         "\"infinite\", \"goniometric\" or \"projection\")"},
         {"WorldBegin\nLightSource \"goniometric\"\n",
-         "t.pbrt:2:13: unsupported light \"goniometric\" (\"point\", \"spot\", \"distant\" or "
-         "\"infinite\")"},
+         "t.pbrt:2:1: LightSource \"goniometric\" needs \"string filename\" (its image)"},
+        {"WorldBegin\nLightSource \"projection\" \"float fov\" 180\n",
+         "t.pbrt:2:26: \"float fov\" must be strictly between 0 and 180 degrees, got 180"},
+        {"WorldBegin\nLightSource \"projection\" \"rgb I\" [1 1 1] \"string filename\" \"data/scene_checker2x2.png\"\n",
+         "t.pbrt:2:26: unsupported parameter \"rgb I\" for LightSource \"projection\""},
         {"WorldBegin\nLightSource \"point\" \"string I\" \"x\"\n",
          "t.pbrt:2:21: \"string I\" has the wrong type for LightSource \"point\": expected "
          "\"spectrum I\", \"rgb I\", \"blackbody I\" or \"float I\""},
@@ -1216,7 +1222,7 @@ static void test_error_messages(void **state)
          "\"scale\" or \"mix\")"},
         {"WorldBegin\nTexture \"t\" \"float\" \"imagemap\" \"string filename\" \"x.exr\"\n",
          "t.pbrt:2:32: cannot open image \"x.exr\": No such file or directory"},
-        {"WorldBegin\nTexture \"t\" \"float\" \"imagemap\" \"string filename\" \"x.png\"\n",
+        {"WorldBegin\nTexture \"t\" \"float\" \"imagemap\" \"string filename\" \"data/scene_checker2x2.png\"\n",
          "t.pbrt:2:32: cannot open image \"x.png\": No such file or directory"},
         {"WorldBegin\nTexture \"t\" \"float\" \"checkerboard\" \"integer dimension\" 3\n",
          "t.pbrt:2:36: unsupported checkerboard dimension 3 (only 2)"},
