@@ -1222,7 +1222,7 @@ static void test_error_messages(void **state)
          "\"scale\" or \"mix\")"},
         {"WorldBegin\nTexture \"t\" \"float\" \"imagemap\" \"string filename\" \"x.exr\"\n",
          "t.pbrt:2:32: cannot open image \"x.exr\": No such file or directory"},
-        {"WorldBegin\nTexture \"t\" \"float\" \"imagemap\" \"string filename\" \"data/scene_checker2x2.png\"\n",
+        {"WorldBegin\nTexture \"t\" \"float\" \"imagemap\" \"string filename\" \"x.png\"\n",
          "t.pbrt:2:32: cannot open image \"x.png\": No such file or directory"},
         {"WorldBegin\nTexture \"t\" \"float\" \"checkerboard\" \"integer dimension\" 3\n",
          "t.pbrt:2:36: unsupported checkerboard dimension 3 (only 2)"},
