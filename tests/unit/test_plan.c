@@ -373,6 +373,22 @@ static void test_point_light_behind_glass(void **state)
     assert_false(light(&l, 0)->reaches_specular);
     assert_false(on(&l, PLAN_PHOTON));
     loaded_free(&l);
+
+    /* A projection light there (tests/data's 2x2 checker, fov 30): looking down (the CTM's +z
+     * turned to -y) it lights the glass and needs photons; looking up it reaches nothing. */
+    l = load_world("", FLOOR_AT(0) GLASS_SPHERE
+                   "AttributeBegin\nTranslate 0 2 0\nRotate 90 1 0 0\nLightSource \"projection\" "
+                   "\"string filename\" \"data/scene_checker2x2.png\" \"float fov\" 30\nAttributeEnd\n");
+    assert_int_equal(light(&l, 0)->kind, LIGHT_PROJECTION);
+    assert_string_equal(plan_light_kind_name(LIGHT_PROJECTION), "projection");
+    assert_int_equal(light(&l, 0)->verdict, PLAN_LIGHT_NEEDED);
+    loaded_free(&l);
+    l = load_world("", FLOOR_AT(0) GLASS_SPHERE
+                   "AttributeBegin\nTranslate 0 2 0\nRotate -90 1 0 0\nLightSource \"projection\" "
+                   "\"string filename\" \"data/scene_checker2x2.png\" \"float fov\" 30\nAttributeEnd\n");
+    assert_false(light(&l, 0)->reaches_specular);
+    assert_false(on(&l, PLAN_PHOTON));
+    loaded_free(&l);
 }
 
 /* A glossy receiver (coated diffuse, rough conductor) under the glass receives its caustic as a
