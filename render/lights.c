@@ -22,7 +22,43 @@ static vec3_t unit_or_zero(vec3_t c)
     return vec3_normalize(vec3_scale(c, 1.0 / m));
 }
 
-int lights_sample_shape(const shape_t *s, double u0, double u1, double u2, vec3_t *p, vec3_t *n)
+/* The texture coordinates scene_surface gives a hit at point p of analytic shape s (world
+ * space): pbrt-v4's u = phi / 2 pi and, for a sphere, v = 1 - theta / pi, for a disk
+ * v = 1 - rho / r (geometry.c analytic_surface). */
+static void analytic_uv(const shape_t *s, vec3_t p, double uv[2])
+{
+    transform_t from_world = transform_inverse(s->to_world);
+    vec3_t q = transform_point(&from_world, p);
+    double phi = atan2(q.y, q.x);
+    if (phi < 0.0)
+        phi += 2.0 * PF_PI;
+    uv[0] = phi / (2.0 * PF_PI);
+    if (s->kind == SHAPE_SPHERE) {
+        double len = sqrt(vec3_dot(q, q));
+        double ct = len > 0.0 ? fmax(-1.0, fmin(1.0, q.z / len)) : 1.0;
+        uv[1] = 1.0 - acos(ct) / PF_PI;
+    } else {
+        uv[1] = s->radius > 0.0 ? 1.0 - sqrt(q.x * q.x + q.y * q.y) / s->radius : 0.0;
+    }
+}
+
+/* A mesh's texture coordinates at barycentrics (b1, b2) of triangle t, pbrt-v4's defaults
+ * (0, 0), (1, 0), (1, 1) without "uv", as scene_surface interpolates them. */
+static void mesh_uv(const shape_t *s, size_t t, double b1, double b2, double uv[2])
+{
+    double c[3][2] = {{0, 0}, {1, 0}, {1, 1}};
+    if (s->uvs)
+        for (int k = 0; k < 3; k++) {
+            c[k][0] = s->uvs[2 * (size_t)s->indices[3 * t + k]];
+            c[k][1] = s->uvs[2 * (size_t)s->indices[3 * t + k] + 1];
+        }
+    double b0 = 1.0 - b1 - b2;
+    uv[0] = b0 * c[0][0] + b1 * c[1][0] + b2 * c[2][0];
+    uv[1] = b0 * c[0][1] + b1 * c[1][1] + b2 * c[2][1];
+}
+
+int lights_sample_shape(const shape_t *s, double u0, double u1, double u2, vec3_t *p, vec3_t *n,
+                        double uv[2])
 {
     if (!(s->area > 0.0))
         return 0;
@@ -42,6 +78,8 @@ int lights_sample_shape(const shape_t *s, double u0, double u1, double u2, vec3_
             return 0; /* a triangle with no area (the alias table never picks one, but a
                        * sliver whose area is below what its vertices can resolve) */
         ns = scene_mesh_normal(s, (uint32_t)t, bc.b1, bc.b2);
+        if (uv)
+            mesh_uv(s, t, bc.b1, bc.b2, uv);
     } else if (s->kind == SHAPE_SPHERE) {
         vec3_t q = sample_uniform_sphere(u1, u2);
         *p = transform_point(&s->to_world, vec3_scale(q, s->radius));
@@ -52,6 +90,8 @@ int lights_sample_shape(const shape_t *s, double u0, double u1, double u2, vec3_
         *p = transform_point(&s->to_world, q);
         *n = vec3_normalize(transform_normal(&s->to_world, vec3_make(0, 0, 1)));
     }
+    if (uv && s->kind != SHAPE_MESH)
+        analytic_uv(s, *p, uv);
     if (s->flip)
         *n = vec3_neg(*n);
     if (vec3_dot(*n, ns) < 0.0)
@@ -144,9 +184,11 @@ int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sampl
             out->p_light = q;
             out->n_light = n;
             out->pdf = pmf * cone_pdf;
+            if (l->area_image)
+                analytic_uv(s, q, out->uv);
             return isfinite(out->pdf);
         }
-        if (!lights_sample_shape(s, u[1], u[2], u[3], &q, &n))
+        if (!lights_sample_shape(s, u[1], u[2], u[3], &q, &n, l->area_image ? out->uv : NULL))
             return 0;
         vec3_t d = vec3_sub(q, p);
         double d2 = vec3_dot(d, d);
@@ -230,7 +272,9 @@ double lights_sample_emission_of(const scene_t *scene, const light_sample_t *s, 
     const light_t *l = &scene->lights[s->light];
     switch (l->kind) {
     case LIGHT_AREA:
-        return lights_area_faces(l, s->n_light, vec3_neg(s->wi)) ? value : 0.0;
+        return lights_area_faces(l, s->n_light, vec3_neg(s->wi))
+                   ? value * lights_area_image(l, s->uv[0], s->uv[1], lambda)
+                   : 0.0;
     case LIGHT_POINT:
         return value / (s->dist * s->dist);
     case LIGHT_SPOT:
@@ -257,6 +301,11 @@ size_t lights_envmap_texel(const light_t *l, vec3_t wi)
 double lights_envmap_radiance(const light_t *l, size_t texel, double value, double lambda)
 {
     return value * envmap_texel_value(l->envmap, texel, lambda);
+}
+
+double lights_area_image(const light_t *l, double u, double v, double lambda)
+{
+    return l->area_image ? texture_eval(l->area_image, u, v, lambda) : 1.0;
 }
 
 size_t lights_image_texel(const light_t *l, vec3_t w)

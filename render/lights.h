@@ -19,6 +19,7 @@ typedef struct light_sample {
     vec3_t n_light; /* area lights: the unit normal at the sampled point */
     size_t texel;   /* image infinite lights: the texel sampled; goniometric and projection
                      * lights: the texel the light's image sends toward the point */
+    double uv[2];   /* image area lights: the texture coordinates of the sampled point */
 } light_sample_t;
 
 /* Samples a light for shading point p with four uniform numbers: u[0] picks the light, u[1]
@@ -36,8 +37,9 @@ int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sampl
 double lights_value(const light_t *l, double lambda);
 
 /* The emitted quantity that arrives at the shading point along the sample at wavelength
- * lambda, given the light's value = lights_value(light, lambda): radiance for area and infinite
- * lights (an image's texel times value), I/d^2 for point, spot (times the falloff),
+ * lambda, given the light's value = lights_value(light, lambda): radiance for area lights
+ * (times their image at the point, lights_area_image) and infinite lights (an image's texel
+ * times value), I/d^2 for point, spot (times the falloff),
  * goniometric and projection lights (times the texel's value, lights_image_value), the
  * irradiance-defining L for distant lights. */
 double lights_sample_emission_of(const scene_t *scene, const light_sample_t *s, double value,
@@ -50,10 +52,16 @@ int lights_area_faces(const light_t *l, vec3_t ng, vec3_t wo);
 /* Uniform point on a shape by area with u0 (a mesh's triangle), u1 and u2: the point and its
  * unit normal, oriented as scene_surface orients a hit there (the shape's flip flag, and for a
  * mesh with vertex normals their side), so that emission seen by a hit, by a light sample and
- * by a photon agree. The pdf is 1 / shape->area. Returns 0 for a shape of zero area (such a
- * light emits nothing: its power L pi A is 0) or a triangle whose edges give no normal; a
- * sliver of any positive width gets its unit normal. */
-int lights_sample_shape(const shape_t *shape, double u0, double u1, double u2, vec3_t *p, vec3_t *n);
+ * by a photon agree; with uv non-NULL also the texture coordinates scene_surface gives a hit
+ * there. The pdf is 1 / shape->area. Returns 0 for a shape of zero area (such a light emits
+ * nothing: its power L pi A is 0) or a triangle whose edges give no normal; a sliver of any
+ * positive width gets its unit normal. */
+int lights_sample_shape(const shape_t *shape, double u0, double u1, double u2, vec3_t *p, vec3_t *n,
+                        double uv[2]);
+
+/* An area light's image factor at texture coordinates (u, v) and lambda: its radiance there is
+ * lights_value(l, lambda) times this (1 for a light without an image). */
+double lights_area_image(const light_t *l, double u, double v, double lambda);
 
 /* A spot light's falloff at the cosine of the angle to its axis: 1 inside the inner cone, 0
  * outside the outer one, pbrt-v4's smoothstep between. */

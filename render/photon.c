@@ -96,11 +96,14 @@ static double aim_cone(tracer_t *t, vec3_t o, vec3_t *dir)
  *     (lights_image_value of *texel, which depends on the wavelength, so the caller multiplies
  *     it in per lane): a direction drawn by the image's own density p(w) (envmap.h,
  *     projmap.h) gives I f / p; aimed, I f omega.
- * *texel is PHOTON_NO_TEXEL for lights without an image.
+ * *texel is PHOTON_NO_TEXEL for lights without an image; an area light with an image sets
+ * *area_uv to the point's texture coordinates (its radiance there is L lights_area_image, per
+ * lane too) and leaves *texel so.
  * Returns 0 when the light emits no photon (infinite lights, degenerate shapes, a direction
  * outside a projection's frustum or of zero density). */
 #define PHOTON_NO_TEXEL SIZE_MAX
-static int emit(tracer_t *t, const light_t *l, vec3_t *org, vec3_t *dir, double *geom, size_t *texel)
+static int emit(tracer_t *t, const light_t *l, vec3_t *org, vec3_t *dir, double *geom, size_t *texel,
+                double area_uv[2])
 {
     const scene_t *s = t->scene;
     double omega;
@@ -111,7 +114,7 @@ static int emit(tracer_t *t, const light_t *l, vec3_t *org, vec3_t *dir, double 
         const shape_t *sh = &s->shapes[l->shape];
         double u0 = next(t), u1 = next(t), u2 = next(t);
         vec3_t p, n;
-        if (!lights_sample_shape(sh, u0, u1, u2, &p, &n))
+        if (!lights_sample_shape(sh, u0, u1, u2, &p, &n, l->area_image ? area_uv : NULL))
             return 0;
         if (l->kind == LIGHT_COLLIMATED) {
             *dir = n;
@@ -494,7 +497,8 @@ static int trace_one(tracer_t *t, uint64_t i, err_t *err)
     vec3_t org, dir;
     double geom;
     size_t texel;
-    if (!(pmf > 0.0) || !emit(t, l, &org, &dir, &geom, &texel))
+    double area_uv[2] = {0.0, 0.0};
+    if (!(pmf > 0.0) || !emit(t, l, &org, &dir, &geom, &texel, area_uv))
         return 0;
     /* Wavelengths: the golden-ratio sequence u_i = frac(i / phi + shift) (a rank-1 lattice,
      * in 64-bit fixed point so that it is exact), randomly shifted per job, and for M lanes
@@ -513,7 +517,9 @@ static int trace_one(tracer_t *t, uint64_t i, err_t *err)
         wavelength_sample_t ws = job->visible
                                      ? wavelength_sample_visible(u)
                                      : wavelength_sample_uniform(u, grid.lambda_min, grid.lambda_max);
-        double img = texel != PHOTON_NO_TEXEL ? lights_image_value(l, texel, ws.lambda) : 1.0;
+        double img = texel != PHOTON_NO_TEXEL ? lights_image_value(l, texel, ws.lambda)
+                     : l->area_image  ? lights_area_image(l, area_uv[0], area_uv[1], ws.lambda)
+                                      : 1.0;
         double w = ws.pdf > 0.0
                        ? l->scale * spectrum_eval(l->spectrum, ws.lambda) * img * geom / (pmf * ws.pdf)
                        : 0.0;

@@ -234,7 +234,10 @@ static void add_emission_hit(ctx_t *c, const path_t *p, const surface_t *sf, con
     }
     const int faces = lights_area_faces(l, sf->ng, vec3_neg(p->dir));
     for (int j = 0; j < p->n; j++)
-        splat(c, p, j, w * (faces ? light_value_lane(c, li, j, p->lambda[j]) : 0.0));
+        splat(c, p, j,
+              w * (faces ? light_value_lane(c, li, j, p->lambda[j]) *
+                               lights_area_image(l, sf->u, sf->v, p->lambda[j])
+                         : 0.0));
 }
 
 static void add_environment(ctx_t *c, const path_t *p)

@@ -534,7 +534,8 @@ static double light_power_raw(const scene_t *self, const light_t *l)
     double r = self->scene_radius;
     switch (l->kind) {
     case LIGHT_AREA:
-        return y * PF_PI * self->shapes[l->shape].area * (l->twosided ? 2.0 : 1.0);
+        return y * (l->area_image ? l->area_image_y : 1.0) * PF_PI * self->shapes[l->shape].area *
+               (l->twosided ? 2.0 : 1.0);
     case LIGHT_COLLIMATED:
         return y * self->shapes[l->shape].area;
     case LIGHT_POINT:

@@ -98,6 +98,14 @@ typedef struct light {
     double scale;     /* the multiplier to apply to spectrum_eval(spectrum, lambda) */
     int shape;        /* area and collimated lights: index of the emitting shape */
     int twosided;     /* area lights: emit from both sides */
+    /* Diffuse area light with an image (pbrt-v4 DiffuseAreaLight "filename"; NULL: none): its
+     * radiance at a point of texture coordinates (u, v) is scale * spectrum(lambda) *
+     * texture_eval(area_image, u, v, lambda), the spectrum the colour space's D65 normalised to
+     * Y = 1 and the texture the image's RGB illuminant factors, bilinear, clamped at the edges,
+     * v = 0 the image's bottom row (pbrt-v4 flips v as its image textures do). area_image_y is
+     * the mean of the image's texel luminances (its power is that times pi A). */
+    const texture_t *area_image;
+    double area_image_y;
     vec3_t position;  /* point and spot */
     vec3_t direction; /* spot axis and distant light: the direction light travels (unit) */
     double cos_total_width, cos_falloff_start; /* spot */

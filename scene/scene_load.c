@@ -1,6 +1,7 @@
 #include "scene_load.h"
 
 #include "cie.h"
+#include "colour.h"
 #include "glass.h"
 #include "microfacet.h"
 #include "named_spectra.h"
@@ -668,12 +669,12 @@ static const char *light_kind_word(scene_light_type_t t)
     return t == SCENE_LIGHT_GONIOMETRIC ? "goniometric" : t == SCENE_LIGHT_PROJECTION ? "projection" : "infinite";
 }
 
-/* A light's image, by its extension: OpenEXR, PFM, or whatever stb_image reads (HDR, PNG,
- * JPEG, TGA, BMP), as w * h * 3 linear floats (*rgb, the caller frees), charged to the
- * texel budget. Errors name the "filename" parameter. */
-static int read_light_image(loader_t *L, const scene_light_t *dl, float **rgb, int *w, int *h, err_t *err)
+/* A light's image at path, by its extension: OpenEXR, PFM, or whatever stb_image reads (HDR,
+ * PNG, JPEG, TGA, BMP), as w * h * 3 linear floats (*rgb, the caller frees), charged to the
+ * texel budget. Errors name the "filename" parameter at loc and the directive what. */
+static int read_image_at(loader_t *L, const char *path, pbrt_loc_t loc, const char *what, float **rgb,
+                         int *w, int *h, err_t *err)
 {
-    const char *path = dl->filename;
     int rc;
     *rgb = NULL;
     *w = *h = 0;
@@ -700,10 +701,56 @@ static int read_light_image(loader_t *L, const scene_light_t *dl, float **rgb, i
     if (rc) {
         free(*rgb);
         *rgb = NULL;
-        return err_prefix(err, "%s:%d:%d: LightSource \"%s\": ", dl->filename_loc.file, dl->filename_loc.line,
-                          dl->filename_loc.col, light_kind_word(dl->type));
+        return err_prefix(err, "%s:%d:%d: %s: ", loc.file, loc.line, loc.col, what);
     }
     return 0;
+}
+
+static int read_light_image(loader_t *L, const scene_light_t *dl, float **rgb, int *w, int *h, err_t *err)
+{
+    char what[64];
+    snprintf(what, sizeof what, "LightSource \"%s\"", light_kind_word(dl->type));
+    return read_image_at(L, dl->filename, dl->filename_loc, what, rgb, w, h, err);
+}
+
+/* A diffuse area light's image (pbrt-v4 DiffuseAreaLight with "filename") into a texture the
+ * scene owns: per texel the RGB illuminant factor m s(lambda) (rgb_uplift, as image textures),
+ * read bilinearly and clamped at the edges as pbrt-v4's Image::BilerpChannel does, at
+ * pbrt-v4's (u, 1 - v); *mean_y is the mean of the texels' luminances. */
+static const texture_t *load_area_image(loader_t *L, const scene_area_light_t *a, double *mean_y,
+                                        err_t *err)
+{
+    float *rgb;
+    int w, h;
+    if (read_image_at(L, a->filename, a->filename_loc, "AreaLightSource \"diffuse\"", &rgb, &w, &h, err))
+        return NULL;
+    double sum = 0.0;
+    size_t n = (size_t)w * (size_t)h;
+    for (size_t i = 0; i < 3 * n; i++)
+        if (!(rgb[i] >= 0.0f) || !isfinite(rgb[i])) {
+            pbrt_error(err, a->filename_loc,
+                       "AreaLightSource \"diffuse\": %s: texel (%zu, %zu) has %s value %g: not "
+                       "suitable as a light",
+                       a->filename, (i / 3) % (size_t)w, (i / 3) / (size_t)w,
+                       isnan(rgb[i]) ? "a NaN" : rgb[i] < 0 ? "a negative" : "an infinite", rgb[i]);
+            free(rgb);
+            return NULL;
+        }
+    for (size_t i = 0; i < n; i++)
+        sum += colour_luminance((rgb_t){rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]});
+    *mean_y = sum / (double)n;
+    texture_image_opts_t o = texture_image_opts_default();
+    o.wrap = TEXTURE_WRAP_CLAMP;
+    o.filter = TEXTURE_FILTER_BILINEAR;
+    texture_t *t = texture_new_image(rgb, w, h, &o, err);
+    free(rgb);
+    if (!t || scene_own_texture(L->sc, t, err)) {
+        char why[sizeof err->msg];
+        snprintf(why, sizeof why, "%s", err->msg);
+        pbrt_error(err, a->filename_loc, "AreaLightSource \"diffuse\": %s", why);
+        return NULL;
+    }
+    return t;
 }
 
 /* The message of err, prefixed with the light's "filename" location and kind; returns NULL. */
@@ -905,6 +952,9 @@ static int area_light_power(loader_t *L, const scene_area_light_t *a, const shap
     double k_e = l->kind == LIGHT_COLLIMATED ? sh->area : PF_PI * sh->area * (l->twosided ? 2.0 : 1.0);
     if (!(k_e > 0.0))
         return pbrt_error(err, a->loc, "\"power\" on a shape of zero area");
+    /* pbrt-v4: an image's k_e is also multiplied by the mean of its texels' luminance. */
+    if (l->area_image && !((k_e *= l->area_image_y) > 0.0))
+        return pbrt_error(err, a->loc, "\"power\" cannot be met by a black image");
     l->scale *= n * a->power / k_e;
     return 0;
 }
@@ -958,6 +1008,8 @@ static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *er
         light_t l = {.kind = a->type == SCENE_AREA_COLLIMATED ? LIGHT_COLLIMATED : LIGHT_AREA,
                      .scale = a->scale, .twosided = a->twosided};
         if (!(l.spectrum = light_spectrum(L->sc, &a->L, err)))
+            return -1;
+        if (a->filename && !(l.area_image = load_area_image(L, a, &l.area_image_y, err)))
             return -1;
         if ((light = scene_add_light(L->sc, &l, err)) < 0)
             return err_prefix(err, "%s:%d:%d: ", a->loc.file, a->loc.line, a->loc.col);

@@ -2196,6 +2196,20 @@ static int do_area_light(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_
     if (at == SCENE_AREA_DIFFUSE &&
         params_get_bool(ps, "twosided", false, &a->twosided, P->err) != 0)
         return -1;
+    const char *filename = NULL;
+    if (at == SCENE_AREA_DIFFUSE && params_get_string(ps, "filename", NULL, &filename, P->err) != 0)
+        return -1;
+    if (filename && filename[0]) {
+        /* pbrt-v4 DiffuseAreaLight::Create refuses both. */
+        if (params_find(ps, "L"))
+            return pbrt_error(P->err, params_find(ps, "L")->loc,
+                              "AreaLightSource \"diffuse\": cannot have both \"L\" and \"filename\" "
+                              "(pbrt-v4 refuses it too)");
+        param_t *fp = params_find(ps, "filename");
+        if (image_file(P, fp, filename, &a->filename) != 0)
+            return -1;
+        a->filename_loc = fp->loc;
+    }
     P->gs.area_light = idx;
     return 0;
 }

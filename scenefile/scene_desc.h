@@ -229,6 +229,11 @@ typedef struct scene_area_light {
     double scale;       /* 1 */
     double power;       /* pbrt-v4's "power": the emitted power; -1 when not given */
     bool twosided;      /* false */
+    /* diffuse: "string filename", an image of the radiance over the shape's (u, v) (pbrt-v4
+     * DiffuseAreaLight with an image), as opened (the checked real path in a confined parse);
+     * NULL without one. filename_loc is where it was written. */
+    const char *filename;
+    pbrt_loc_t filename_loc;
 } scene_area_light_t;
 
 /* ---- shapes ---- */

@@ -1098,7 +1098,7 @@ static void test_sliver_light_normal(void **state)
                       .triangles = tri};
         for (int i = 0; i < 16; i++) {
             vec3_t p, n;
-            int ok = lights_sample_shape(&sh, 0.5, (i + 0.5) / 16, (i % 4 + 0.5) / 4, &p, &n);
+            int ok = lights_sample_shape(&sh, 0.5, (i + 0.5) / 16, (i % 4 + 0.5) / 4, &p, &n, NULL);
             if (area > 0.0) {
                 assert_true(ok);
                 assert_finite(p.x, "sliver point");

@@ -1194,6 +1194,10 @@ static void test_error_messages(void **state)
         {"WorldBegin\nLightSource \"ies\"\n",
          "t.pbrt:2:13: unsupported light \"ies\" (\"point\", \"spot\", \"distant\", "
          "\"infinite\", \"goniometric\" or \"projection\")"},
+        {"WorldBegin\nAreaLightSource \"diffuse\" \"rgb L\" [1 1 1] \"string filename\" "
+         "\"data/scene_checker2x2.png\"\n",
+         "t.pbrt:2:27: AreaLightSource \"diffuse\": cannot have both \"L\" and \"filename\" (pbrt-v4 "
+         "refuses it too)"},
         {"WorldBegin\nLightSource \"goniometric\"\n",
          "t.pbrt:2:1: LightSource \"goniometric\" needs \"string filename\" (its image)"},
         {"WorldBegin\nLightSource \"projection\" \"float fov\" 180\n",
