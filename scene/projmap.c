@@ -72,7 +72,10 @@ projmap_t *projmap_new(const float *rgb, int w, int h, double fov_deg, const cha
         if (!(rgb[i] >= 0.0f) || !isfinite(rgb[i])) {
             err_set(err, "%s: texel (%zu, %zu) has %s value %g: not suitable as a light", name,
                     (i / 3) % (size_t)w, (i / 3) / (size_t)w,
-                    isnan(rgb[i]) ? "a NaN" : rgb[i] < 0 ? "a negative" : "an infinite", rgb[i]);
+                    isnan(rgb[i]) ? "a NaN"
+                    : rgb[i] < 0  ? "a negative"
+                                  : "an infinite",
+                    rgb[i]);
             return NULL;
         }
     projmap_t *m = calloc(1, sizeof *m);

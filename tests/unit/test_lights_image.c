@@ -122,7 +122,8 @@ static double emission_at(const scene_t *s, vec3_t p, double lambda, light_sampl
     const double u[4] = {0.5, 0.5, 0.5, 0.5};
     if (!lights_sample(s, p, u, ls))
         return 0.0;
-    double e = lights_sample_emission_of(s, ls, lights_value(&s->lights[ls->light], lambda), lambda);
+    double e =
+        lights_sample_emission_of(s, ls, lights_value(&s->lights[ls->light], lambda), lambda);
     assert_true(isfinite(e) && e >= 0.0);
     return e;
 }
@@ -136,15 +137,17 @@ static void test_goniometric_constant_is_point(void **state)
     (void)state;
     const char *img = write_pfm("grey.pfm", 8, 8, grey_quarter);
     char lines[1024];
-    snprintf(lines, sizeof lines,
-             "AttributeBegin\nTranslate 0.3 1.5 -0.2\n"
-             "LightSource \"goniometric\" \"string filename\" \"%s\" \"float scale\" 4\nAttributeEnd",
-             img);
+    snprintf(
+        lines, sizeof lines,
+        "AttributeBegin\nTranslate 0.3 1.5 -0.2\n"
+        "LightSource \"goniometric\" \"string filename\" \"%s\" \"float scale\" 4\nAttributeEnd",
+        img);
     scene_t *g = load_with_floor(lines, NULL);
     scene_t *p = load_with_floor("LightSource \"point\" \"point3 from\" [0.3 1.5 -0.2]", NULL);
     assert_int_equal(only_light(g)->kind, LIGHT_GONIOMETRIC);
     assert_true(fabs(scene_light_power(g, only_light(g)) / (4.0 * PI) - 1.0) < 1e-9);
-    assert_true(fabs(scene_light_power(g, only_light(g)) / scene_light_power(p, only_light(p)) - 1.0) < 1e-12);
+    assert_true(fabs(scene_light_power(g, only_light(g)) / scene_light_power(p, only_light(p)) -
+                     1.0) < 1e-12);
     for (int i = 0; i < 200; i++) {
         double u[3];
         for (int k = 0; k < 3; k++)
@@ -190,7 +193,8 @@ static void test_goniometric_one_hemisphere(void **state)
              img);
     scene_t *s = sb_load_text(text, NULL);
     for (int i = 0; i < 100; i++) {
-        double a = 1.6 * rng_uniform(6, (uint64_t)i, 0, 0) - 0.8, b = 1.6 * rng_uniform(6, (uint64_t)i, 0, 1) - 0.8;
+        double a = 1.6 * rng_uniform(6, (uint64_t)i, 0, 0) - 0.8,
+               b = 1.6 * rng_uniform(6, (uint64_t)i, 0, 1) - 0.8;
         light_sample_t ls;
         assert_true(emission_at(s, vec3_make(a, 1, b), 550.0, &ls) > 0.0);
         assert_true(emission_at(s, vec3_make(a, -1, b), 550.0, &ls) == 0.0);
@@ -198,8 +202,8 @@ static void test_goniometric_one_hemisphere(void **state)
     err_t err;
     photon_store_t *m = photon_store_new(s, &err);
     assert_non_null(m);
-    photon_job_t job = {.seed = 3, .maxdepth = 0, .mindepth = 0, .monochromerays = 1,
-                        .policy = PHOTON_STORE_ALL};
+    photon_job_t job = {
+        .seed = 3, .maxdepth = 0, .mindepth = 0, .monochromerays = 1, .policy = PHOTON_STORE_ALL};
     photon_stats_t st = {0};
     assert_int_equal(photon_trace(s, &job, 0, 20000, m, &st, &err), 0);
     assert_int_equal(st.nonfinite, 0);
@@ -226,7 +230,8 @@ static void test_projection_footprint(void **state)
     char lines[1024];
     snprintf(lines, sizeof lines,
              "AttributeBegin\nTranslate 0 0 -1\n"
-             "LightSource \"projection\" \"string filename\" \"%s\" \"float fov\" 40\nAttributeEnd", img);
+             "LightSource \"projection\" \"string filename\" \"%s\" \"float fov\" 40\nAttributeEnd",
+             img);
     scene_t *s = load_with_floor(lines, NULL);
     assert_int_equal(only_light(s)->kind, LIGHT_PROJECTION);
     const double Y = tan(20.0 * PI / 180.0), X = 2.0 * Y, d = 3.0;
@@ -238,7 +243,8 @@ static void test_projection_footprint(void **state)
             vec3_t out_y = vec3_make(0.99 * cx * X * d, 1.01 * cy * Y * d, d - 1.0);
             double e = emission_at(s, in, 550.0, &ls);
             /* a white texel: the light's D65 at unit scale over d^2 / cos^2 */
-            double dist2 = vec3_dot(vec3_sub(in, vec3_make(0, 0, -1)), vec3_sub(in, vec3_make(0, 0, -1)));
+            double dist2 =
+                vec3_dot(vec3_sub(in, vec3_make(0, 0, -1)), vec3_sub(in, vec3_make(0, 0, -1)));
             assert_true(fabs(e * dist2 / lights_value(only_light(s), 550.0) - 1.0) < 1e-9);
             assert_true(emission_at(s, out_x, 550.0, &ls) == 0.0);
             assert_true(emission_at(s, out_y, 550.0, &ls) == 0.0);
@@ -290,15 +296,17 @@ static void test_projection_power(void **state)
     assert_true(fabs(got / k_e - 1.0) < 2e-4);
     assert_true(fabs(scene_light_power(s, only_light(s)) / k_e - 1.0) < 2e-4);
     scene_destroy(&s);
-    snprintf(lines, sizeof lines,
-             "LightSource \"projection\" \"string filename\" \"%s\" \"float fov\" %g \"float power\" 7",
-             img, fov);
+    snprintf(
+        lines, sizeof lines,
+        "LightSource \"projection\" \"string filename\" \"%s\" \"float fov\" %g \"float power\" 7",
+        img, fov);
     s = load_with_floor(lines, NULL);
     assert_true(fabs(scene_light_power(s, only_light(s)) / 7.0 - 1.0) < 1e-9);
     scene_destroy(&s);
     /* A white image: the frustum's solid angle. */
     img = write_pfm("white.pfm", 64, 32, white);
-    snprintf(lines, sizeof lines, "LightSource \"projection\" \"string filename\" \"%s\" \"float fov\" 70", img);
+    snprintf(lines, sizeof lines,
+             "LightSource \"projection\" \"string filename\" \"%s\" \"float fov\" 70", img);
     s = load_with_floor(lines, NULL);
     tn = tan(35.0 * PI / 180.0);
     double omega = 4.0 * asin(2 * tn * tn / sqrt((1 + 4 * tn * tn) * (1 + tn * tn)));
@@ -324,7 +332,8 @@ static void photons_match_nee(const char *light_lines, const char *what)
     double nee[3][3] = {{0}};
     for (int i = 0; i < G; i++)
         for (int k = 0; k < G; k++) {
-            vec3_t x = vec3_make(-half + 2 * half * (i + 0.5) / G, 0.0, -half + 2 * half * (k + 0.5) / G);
+            vec3_t x =
+                vec3_make(-half + 2 * half * (i + 0.5) / G, 0.0, -half + 2 * half * (k + 0.5) / G);
             light_sample_t ls;
             double e = 0.0;
             for (int j = 0; j < NL; j++) {
@@ -338,8 +347,8 @@ static void photons_match_nee(const char *light_lines, const char *what)
     photon_store_t *m = photon_store_new(s, &err);
     assert_non_null(m);
     const uint64_t N = 150000;
-    photon_job_t job = {.seed = 9, .maxdepth = 0, .mindepth = 0, .monochromerays = 1,
-                        .policy = PHOTON_STORE_ALL};
+    photon_job_t job = {
+        .seed = 9, .maxdepth = 0, .mindepth = 0, .monochromerays = 1, .policy = PHOTON_STORE_ALL};
     photon_stats_t st = {0};
     assert_int_equal(photon_trace(s, &job, 0, N, m, &st, &err), 0);
     assert_int_equal(st.nonfinite, 0);
@@ -347,7 +356,8 @@ static void photons_match_nee(const char *light_lines, const char *what)
     double sum[3][3] = {{0}}, sq[3][3] = {{0}}, total_nee = 0, total = 0;
     for (size_t i = 0; i < photon_map_count(pm); i++) {
         photon_info_t ph = photon_map_photon(pm, i);
-        int bi = (int)((ph.p.x + half) / (2 * half) * B), bk = (int)((ph.p.z + half) / (2 * half) * B);
+        int bi = (int)((ph.p.x + half) / (2 * half) * B),
+            bk = (int)((ph.p.z + half) / (2 * half) * B);
         bi = bi < 0 ? 0 : bi >= B ? B - 1 : bi;
         bk = bk < 0 ? 0 : bk >= B ? B - 1 : bk;
         sum[bi][bk] += ph.power;
@@ -376,17 +386,19 @@ static void test_photons_match_nee(void **state)
     (void)state;
     char lines[1024];
     const char *img = write_pfm("rings_nee.pfm", 48, 48, rings);
-    snprintf(lines, sizeof lines,
-             "AttributeBegin\nTranslate 0.4 1 0.2\nRotate 20 0 0 1\n"
-             "LightSource \"goniometric\" \"string filename\" \"%s\" \"float power\" 20\nAttributeEnd",
-             img);
+    snprintf(
+        lines, sizeof lines,
+        "AttributeBegin\nTranslate 0.4 1 0.2\nRotate 20 0 0 1\n"
+        "LightSource \"goniometric\" \"string filename\" \"%s\" \"float power\" 20\nAttributeEnd",
+        img);
     photons_match_nee(lines, "goniometric");
     img = write_pfm("colours_nee.pfm", 7, 4, colours);
-    snprintf(lines, sizeof lines,
-             "AttributeBegin\nTranslate -0.3 1.5 0.1\nRotate 80 1 0 0\nRotate 10 0 1 0\n"
-             "LightSource \"projection\" \"string filename\" \"%s\" \"float fov\" 60 \"float power\" 5\n"
-             "AttributeEnd",
-             img);
+    snprintf(
+        lines, sizeof lines,
+        "AttributeBegin\nTranslate -0.3 1.5 0.1\nRotate 80 1 0 0\nRotate 10 0 1 0\n"
+        "LightSource \"projection\" \"string filename\" \"%s\" \"float fov\" 60 \"float power\" 5\n"
+        "AttributeEnd",
+        img);
     photons_match_nee(lines, "projection");
 }
 
@@ -412,7 +424,10 @@ static void test_black_images(void **state)
         assert_true(st.mean == 0.0);
         err_t err;
         photon_store_t *m = photon_store_new(s, &err);
-        photon_job_t job = {.seed = 1, .maxdepth = 0, .mindepth = 0, .monochromerays = 4,
+        photon_job_t job = {.seed = 1,
+                            .maxdepth = 0,
+                            .mindepth = 0,
+                            .monochromerays = 4,
                             .policy = PHOTON_STORE_ALL};
         photon_stats_t pst = {0};
         assert_int_equal(photon_trace(s, &job, 0, 2000, m, &pst, &err), 0);
@@ -452,8 +467,8 @@ static void grey_half(int x, int y, int w, int h, float rgb[3])
 
 /* A quad x, z in [-1, 1] at height 1.5 facing down, uv = ((x + 1) / 2, (z + 1) / 2). */
 #define DOWN_QUAD                                                                                  \
-    "Shape \"trianglemesh\" \"integer indices\" [0 1 2 0 2 3]\n"                                  \
-    "  \"point3 P\" [-1 1.5 -1  1 1.5 -1  1 1.5 1  -1 1.5 1]\n"                                       \
+    "Shape \"trianglemesh\" \"integer indices\" [0 1 2 0 2 3]\n"                                   \
+    "  \"point3 P\" [-1 1.5 -1  1 1.5 -1  1 1.5 1  -1 1.5 1]\n"                                    \
     "  \"point2 uv\" [0 0  1 0  1 1  0 1]\n"
 
 static scene_t *load_area(const char *params, const char *shape)
@@ -514,8 +529,9 @@ static void test_area_image_lookup(void **state)
     assert_true(fabs(scene_light_power(s, only_light(s)) / (3.0 * mean_y * PI * 4.0) - 1.0) < 2e-4);
     scene_destroy(&s);
     for (int two = 0; two < 2; two++) {
-        snprintf(params, sizeof params, "\"string filename\" \"%s\" \"float power\" 6 \"bool twosided\" %s",
-                 img, two ? "true" : "false");
+        snprintf(params, sizeof params,
+                 "\"string filename\" \"%s\" \"float power\" 6 \"bool twosided\" %s", img,
+                 two ? "true" : "false");
         s = load_area(params, DOWN_QUAD);
         /* pbrt-v4 gives each of the quad's two triangles the power: 12 in all */
         assert_true(fabs(scene_light_power(s, only_light(s)) / 12.0 - 1.0) < 1e-9);
@@ -523,14 +539,16 @@ static void test_area_image_lookup(void **state)
     }
 
     /* sphere and disk: their (u, v) */
-    const char *shapes[2] = {"Translate 0.2 1.5 -0.1\nRotate 30 1 0 0\nShape \"sphere\" \"float radius\" 0.4\n",
-                             "Translate 0.2 1.5 -0.1\nRotate 90 1 0 0\nShape \"disk\" \"float radius\" 0.6\n"};
+    const char *shapes[2] = {
+        "Translate 0.2 1.5 -0.1\nRotate 30 1 0 0\nShape \"sphere\" \"float radius\" 0.4\n",
+        "Translate 0.2 1.5 -0.1\nRotate 90 1 0 0\nShape \"disk\" \"float radius\" 0.6\n"};
     for (int k = 0; k < 2; k++) {
         snprintf(params, sizeof params, "\"string filename\" \"%s\" \"bool twosided\" true", img);
         s = load_area(params, shapes[k]);
         transform_t rot;
         assert_int_equal(transform_rotate(k ? 90.0 : 30.0, vec3_make(1, 0, 0), &rot, NULL), 0);
-        transform_t to_world = transform_compose(transform_translate(vec3_make(0.2, 1.5, -0.1)), rot);
+        transform_t to_world =
+            transform_compose(transform_translate(vec3_make(0.2, 1.5, -0.1)), rot);
         transform_t from_world = transform_inverse(to_world);
         for (int i = 0; i < 200; i++) {
             double u[4];
@@ -544,7 +562,8 @@ static void test_area_image_lookup(void **state)
             phi += phi < 0 ? 2 * PI : 0;
             double v = k == 0 ? 1.0 - acos(fmax(-1, fmin(1, q.z / 0.4))) / PI
                               : 1.0 - sqrt(q.x * q.x + q.y * q.y) / 0.6;
-            assert_true(fabs(ls.uv[0] - phi / (2 * PI)) < 1e-9 || fabs(fabs(ls.uv[0] - phi / (2 * PI)) - 1) < 1e-9);
+            assert_true(fabs(ls.uv[0] - phi / (2 * PI)) < 1e-9 ||
+                        fabs(fabs(ls.uv[0] - phi / (2 * PI)) - 1) < 1e-9);
             assert_true(fabs(ls.uv[1] - v) < 1e-9);
         }
         scene_destroy(&s);
@@ -559,7 +578,8 @@ static void test_area_image_grey_is_plain(void **state)
     (void)state;
     char params[1024];
     const char *img = write_pfm("grey_half.pfm", 4, 4, grey_half);
-    snprintf(params, sizeof params, "\"string filename\" \"%s\" \"float scale\" 2 \"bool twosided\" true", img);
+    snprintf(params, sizeof params,
+             "\"string filename\" \"%s\" \"float scale\" 2 \"bool twosided\" true", img);
     scene_t *a = load_area(params, DOWN_QUAD);
     scene_t *b = load_area("\"bool twosided\" true", DOWN_QUAD);
     sb_image_stats_t sa = sb_render_stats(a, 16, 8), sb = sb_render_stats(b, 16, 8);
@@ -591,12 +611,14 @@ static void test_area_image_photons(void **state)
             for (int j = 0; j < NL; j++) {
                 double lambda = lo + (hi - lo) * (j + 0.5) / NL;
                 Lsum[a][c] += lights_value(l, lambda) *
-                              lights_area_image(l, (a + 0.5) / GL, (c + 0.5) / GL, lambda) * (hi - lo) / NL;
+                              lights_area_image(l, (a + 0.5) / GL, (c + 0.5) / GL, lambda) *
+                              (hi - lo) / NL;
             }
     double quad[3][3] = {{0}};
     for (int i = 0; i < G; i++)
         for (int k = 0; k < G; k++) {
-            vec3_t x = vec3_make(-half + 2 * half * (i + 0.5) / G, 0.0, -half + 2 * half * (k + 0.5) / G);
+            vec3_t x =
+                vec3_make(-half + 2 * half * (i + 0.5) / G, 0.0, -half + 2 * half * (k + 0.5) / G);
             double e = 0.0;
             for (int a = 0; a < GL; a++)
                 for (int c = 0; c < GL; c++) {
@@ -610,8 +632,8 @@ static void test_area_image_photons(void **state)
     err_t err;
     photon_store_t *m = photon_store_new(s, &err);
     const uint64_t N = 150000;
-    photon_job_t job = {.seed = 4, .maxdepth = 0, .mindepth = 0, .monochromerays = 1,
-                        .policy = PHOTON_STORE_ALL};
+    photon_job_t job = {
+        .seed = 4, .maxdepth = 0, .mindepth = 0, .monochromerays = 1, .policy = PHOTON_STORE_ALL};
     photon_stats_t st = {0};
     assert_int_equal(photon_trace(s, &job, 0, N, m, &st, &err), 0);
     assert_int_equal(st.nonfinite, 0);
@@ -621,7 +643,8 @@ static void test_area_image_photons(void **state)
         photon_info_t ph = photon_map_photon(pm, i);
         if (ph.p.y > 0.5)
             continue;
-        int bi = (int)((ph.p.x + half) / (2 * half) * B), bk = (int)((ph.p.z + half) / (2 * half) * B);
+        int bi = (int)((ph.p.x + half) / (2 * half) * B),
+            bk = (int)((ph.p.z + half) / (2 * half) * B);
         bi = bi < 0 ? 0 : bi >= B ? B - 1 : bi;
         bk = bk < 0 ? 0 : bk >= B ? B - 1 : bk;
         sum[bi][bk] += ph.power;
@@ -630,10 +653,12 @@ static void test_area_image_photons(void **state)
     for (int i = 0; i < B; i++)
         for (int k = 0; k < B; k++) {
             double mean = sum[i][k] / N, se = sqrt(fmax(0.0, sq[i][k] / N - mean * mean) / N);
-            print_message("image area light block (%d, %d): photons %.5f +- %.5f, quadrature %.5f\n", i,
-                          k, mean, se, quad[i][k]);
+            print_message(
+                "image area light block (%d, %d): photons %.5f +- %.5f, quadrature %.5f\n", i, k,
+                mean, se, quad[i][k]);
             if (!(fabs(mean - quad[i][k]) <= 4.0 * se + 0.01 * quad[i][k]))
-                fail_msg("block (%d, %d): photons %g +- %g, quadrature %g", i, k, mean, se, quad[i][k]);
+                fail_msg("block (%d, %d): photons %g +- %g, quadrature %g", i, k, mean, se,
+                         quad[i][k]);
         }
     photon_store_destroy(&m);
     scene_destroy(&s);
