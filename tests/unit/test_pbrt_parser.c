@@ -1002,6 +1002,23 @@ static void test_files_read(void **state)
     assert_int_equal(s->files[0].relative[0], '/');
     assert_non_null(strstr(s->files[0].relative, "/data/scenes/meshes/tetra_binary.ply"));
     scene_desc_destroy(&s);
+
+    /* The images of goniometric, projection and image area lights are files read, so that
+     * the farm's bundle carries them. */
+    s = parse_text_ok("WorldBegin\n"
+                      "LightSource \"goniometric\" \"string filename\" \"data/scene_checker2x2.png\"\n"
+                      "LightSource \"projection\" \"string filename\" \"data/scene_checker2x2.png\"\n"
+                      "AttributeBegin\nAreaLightSource \"diffuse\" \"string filename\" "
+                      "\"data/scene_checker2x2.png\"\nShape \"sphere\"\nAttributeEnd\n");
+    assert_int_equal(s->nfiles, 1); /* listed once */
+    assert_int_equal(s->files[0].kind, SCENE_FILE_IMAGE);
+    assert_int_equal(s->files[0].loc.line, 2);
+    assert_string_equal(s->lights[0].filename, "data/scene_checker2x2.png");
+    assert_string_equal(s->lights[1].filename, "data/scene_checker2x2.png");
+    assert_true(s->lights[1].fov == 90.0);
+    assert_string_equal(s->area_lights[0].filename, "data/scene_checker2x2.png");
+    assert_int_equal(s->area_lights[0].filename_loc.line, 5);
+    scene_desc_destroy(&s);
 }
 
 /* ---- errors: each with its exact message ---- */
