@@ -2720,11 +2720,15 @@ static int mesh_from_ply(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t
         j.buf = buf;
         j.len = len;
     }
-    if (note_file(P, SCENE_FILE_PLY, path, filename, fp->loc) != 0) {
+    /* Listed here, in file order; in check mode (made at once) only once it is made, as a
+     * refused directive adds nothing to the scene. */
+    if (!P->errors && note_file(P, SCENE_FILE_PLY, path, filename, fp->loc) != 0) {
         mesh_job_free(&j);
         return -1;
     }
-    return mesh_job_queue(P, s, &j);
+    if (mesh_job_queue(P, s, &j) != 0)
+        return -1;
+    return P->errors ? note_file(P, SCENE_FILE_PLY, path, filename, fp->loc) : 0;
 }
 
 /* pbrt-v4 Cylinder, tessellated (shape_tess.h): a mesh needs no new intersection, area
