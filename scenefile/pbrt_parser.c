@@ -121,6 +121,9 @@ typedef struct coordsys {
  * arrays grow as the parse goes on. */
 typedef enum { MESH_JOB_PLY_FILE, MESH_JOB_PLY_MEMORY, MESH_JOB_LOOP } mesh_job_kind_t;
 
+/* The most PLY bytes (a confined parse's, read as their directives are) held in the queue. */
+#define MESH_QUEUE_BYTES_MAX ((size_t)256 << 20)
+
 typedef struct mesh_job {
     mesh_job_kind_t kind;
     bool in_object;
@@ -180,6 +183,7 @@ typedef struct parser {
     size_t ncounts, cap_counts;
     uint64_t ntriangles_ahead; /* the known counts among them: with ntriangles, a lower bound */
     bool resolving;            /* mesh_jobs_finish is checking counts in order */
+    size_t queued_bytes;       /* the queued jobs' file bytes */
     /* The other place locate() looked for the last name it resolved (the main file's folder),
      * when the name was found in neither: "" otherwise. For "cannot open" messages. */
     char also[512];
@@ -2589,6 +2593,8 @@ static void mesh_job_free(mesh_job_t *j)
     mesh_data_free(&j->md);
 }
 
+static int mesh_jobs_finish(parser_t *P);
+
 static int mesh_job_queue(parser_t *P, const scene_shape_t *s, mesh_job_t *j)
 {
     bool in_object = P->object >= 0;
@@ -2611,9 +2617,13 @@ static int mesh_job_queue(parser_t *P, const scene_shape_t *s, mesh_job_t *j)
         P->cap_jobs = cap;
     }
     P->jobs[P->njobs++] = *j;
-    if (P->budget && P->budget->triangles)
-        return note_count(P, (long)P->njobs - 1, 0, s->loc);
-    return 0;
+    P->queued_bytes += j->len;
+    if (P->budget && P->budget->triangles && note_count(P, (long)P->njobs - 1, 0, s->loc) != 0)
+        return -1;
+    /* The files' bytes wait in memory until their jobs run: past MESH_QUEUE_BYTES_MAX the
+     * queue is made now (everything in it is before this point, so the order of failures is
+     * kept). */
+    return P->queued_bytes > MESH_QUEUE_BYTES_MAX ? mesh_jobs_finish(P) : 0;
 }
 
 /* One job, on a pool thread: its mesh into j->md (state 1), or its message into j->err
@@ -2663,8 +2673,9 @@ static int mesh_job_adopt(parser_t *P, mesh_job_t *j)
 /* Runs the queued jobs on the pool, then takes their results in file order, checking the
  * budget's triangle counts in that order too: the failure reported is the first in the
  * file, whatever the number of threads or the order in which the jobs ran. Called at the end
- * of a parse and when a parse fails (whose own error stands only if nothing queued before it
- * failed: every job and count is from before the point where the parse stopped). */
+ * of a parse, when the queue holds too many bytes (mesh_job_queue), and when a parse fails
+ * (whose own error stands only if nothing queued before it failed: every job and count is from
+ * before the point where the parse stopped). Leaves the queue empty. */
 static int mesh_jobs_finish(parser_t *P)
 {
     int rc = 0;
@@ -2688,7 +2699,10 @@ static int mesh_jobs_finish(parser_t *P)
     free(P->counts);
     P->jobs = NULL;
     P->counts = NULL;
-    P->njobs = P->ncounts = 0;
+    P->njobs = P->ncounts = P->cap_jobs = P->cap_counts = 0;
+    P->queued_bytes = 0;
+    P->ntriangles_ahead = 0;
+    P->resolving = false;
     return rc;
 }
 
