@@ -6,8 +6,9 @@
  * interpolated bilinearly in a table of fits over the three faces max(rgb / m) = 1/2 of the
  * colour cube, (RGB_UPLIFT_RES + 1)^2 nodes per face (pbrt-v4's RGBToSpectrumTable uses 64
  * per axis), every node fitted when prismfarm is built (spectral/bake/rgb_uplift_bake.c, as
- * pbrt-v4 builds its tables with rgb2spec_opt), so a scene's load fits none (four 1024x1024
- * textures spent 3.4 CPU-s fitting, bench/load_scene.sh). So a colour costs a table lookup and its
+ * pbrt-v4 builds its tables with rgb2spec_opt), so a scene's load fits none (fitting per
+ * texture was 2.4 of the 3.5 CPU-s that bench/load_scene.sh's six 1024x1024 textures and 800
+ * meshes took to load). So a colour costs a table lookup and its
  * spectrum one sigmoid per wavelength; m * s reproduces the colour's XYZ to the fit's residual
  * and the interpolation's error (tests/unit/test_texture.c measures it). Greys are exactly
  * flat. */
