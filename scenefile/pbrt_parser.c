@@ -119,7 +119,12 @@ typedef struct coordsys {
  * parse, when all of them run at once on the pool (mesh_jobs_finish): the parse only reads
  * the directive and queues the work. The shape it fills is named by index, since the shape
  * arrays grow as the parse goes on. */
-typedef enum { MESH_JOB_PLY_FILE, MESH_JOB_PLY_MEMORY, MESH_JOB_LOOP } mesh_job_kind_t;
+typedef enum {
+    MESH_JOB_PLY_FILE,
+    MESH_JOB_PLY_MEMORY,
+    MESH_JOB_LOOP,
+    MESH_JOB_PLY_SAME, /* a PLY file an earlier job of the queue decodes: its mesh, shared */
+} mesh_job_kind_t;
 
 /* The most PLY bytes (a confined parse's, read as their directives are) held in the queue. */
 #define MESH_QUEUE_BYTES_MAX ((size_t)256 << 20)
@@ -136,7 +141,8 @@ typedef struct mesh_job {
     uint32_t *idx;
     size_t nv, nt;
     int levels;
-    int state; /* 0 not run, 1 made (md), -1 failed (err) */
+    size_t same; /* PLY_SAME: the job whose mesh this shape shares */
+    int state;   /* 0 not run, 1 made (md), -1 failed (err) */
     mesh_data_t md;
     err_t err;
 } mesh_job_t;
@@ -184,6 +190,10 @@ typedef struct parser {
     uint64_t ntriangles_ahead; /* the known counts among them: with ntriangles, a lower bound */
     bool resolving;            /* mesh_jobs_finish is checking counts in order */
     size_t queued_bytes;       /* the queued jobs' file bytes */
+    /* The queue's PLY jobs by path (open addressing, job index + 1; 0: empty), so that a file
+     * named by several shapes is decoded once. */
+    size_t *ply_slots;
+    size_t ply_cap, nply;
     /* The other place locate() looked for the last name it resolved (the main file's folder),
      * when the name was found in neither: "" otherwise. For "cannot open" messages. */
     char also[512];
@@ -2595,6 +2605,51 @@ static void mesh_job_free(mesh_job_t *j)
 
 static int mesh_jobs_finish(parser_t *P);
 
+static size_t path_hash(const char *path)
+{
+    uint64_t h = 1469598103934665603ull; /* FNV-1a */
+    for (const unsigned char *c = (const unsigned char *)path; *c; c++)
+        h = (h ^ *c) * 1099511628211ull;
+    return (size_t)h;
+}
+
+/* The slot of path in P->ply_slots: the queued job that decodes it, or the empty slot where it
+ * goes. */
+static size_t *ply_slot(parser_t *P, const char *path)
+{
+    size_t mask = P->ply_cap - 1, i = path_hash(path) & mask;
+    while (P->ply_slots[i] && strcmp(P->jobs[P->ply_slots[i] - 1].path, path) != 0)
+        i = (i + 1) & mask;
+    return &P->ply_slots[i];
+}
+
+/* A queued PLY job that decodes path (its index into *k), or false (and path is noted for the
+ * job about to be queued at index P->njobs; false too when there is no memory to note it). */
+static bool ply_queued(parser_t *P, const char *path, size_t *k)
+{
+    if (2 * (P->nply + 1) > P->ply_cap) {
+        size_t cap = P->ply_cap ? 2 * P->ply_cap : 256;
+        size_t *slots = calloc(cap, sizeof *slots), *old = P->ply_slots;
+        if (!slots)
+            return false;
+        size_t oldcap = P->ply_cap;
+        P->ply_slots = slots;
+        P->ply_cap = cap;
+        for (size_t i = 0; i < oldcap; i++)
+            if (old[i])
+                *ply_slot(P, P->jobs[old[i] - 1].path) = old[i];
+        free(old);
+    }
+    size_t *slot = ply_slot(P, path);
+    if (*slot) {
+        *k = *slot - 1;
+        return true;
+    }
+    *slot = P->njobs + 1;
+    P->nply++;
+    return false;
+}
+
 static int mesh_job_queue(parser_t *P, const scene_shape_t *s, mesh_job_t *j)
 {
     bool in_object = P->object >= 0;
@@ -2615,6 +2670,16 @@ static int mesh_job_queue(parser_t *P, const scene_shape_t *s, mesh_job_t *j)
         }
         P->jobs = a;
         P->cap_jobs = cap;
+    }
+    /* A file the queue decodes already: this shape shares that mesh (a confined parse has
+     * read and charged the file again all the same, as pbrt_parser.h says). */
+    size_t k;
+    if ((j->kind == MESH_JOB_PLY_FILE || j->kind == MESH_JOB_PLY_MEMORY) && ply_queued(P, j->path, &k)) {
+        free(j->buf);
+        j->buf = NULL;
+        j->len = 0;
+        j->kind = MESH_JOB_PLY_SAME;
+        j->same = k;
     }
     P->jobs[P->njobs++] = *j;
     P->queued_bytes += j->len;
@@ -2639,6 +2704,9 @@ static int mesh_job_run(void *user, int index, err_t *err)
         break;
     case MESH_JOB_PLY_MEMORY:
         rc = mesh_import_ply_memory(j->buf, j->len, j->path, &j->md, &j->err);
+        break;
+    case MESH_JOB_PLY_SAME:
+        rc = 0; /* made by job j->same */
         break;
     default:
         rc = loopsubdiv_mesh(j->P, j->nv, j->idx, j->nt, j->levels, &j->md, &j->err);
@@ -2667,6 +2735,20 @@ static int mesh_job_adopt(parser_t *P, mesh_job_t *j)
                           j->state < 0 ? j->err.msg : "mesh not made (internal error)");
     scene_shape_t *s = j->in_object ? &P->scene->object_shapes[j->shape] : &P->scene->shapes[j->shape];
     j->state = 0;
+    if (j->kind == MESH_JOB_PLY_SAME) {
+        /* Job j->same is earlier in file order, so its shape holds the mesh by now (had it
+         * failed, the walk would have stopped there). The scene owns the arrays once. */
+        const mesh_job_t *from = &P->jobs[j->same];
+        const scene_shape_t *f = from->in_object ? &P->scene->object_shapes[from->shape]
+                                                 : &P->scene->shapes[from->shape];
+        s->mesh.nvertices = f->mesh.nvertices;
+        s->mesh.ntriangles = f->mesh.ntriangles;
+        s->mesh.P = f->mesh.P;
+        s->mesh.N = f->mesh.N;
+        s->mesh.uv = f->mesh.uv;
+        s->mesh.indices = f->mesh.indices;
+        return budget_triangles(P, s->mesh.ntriangles, s->loc);
+    }
     return adopt_mesh(P, s, &j->md);
 }
 
@@ -2702,6 +2784,9 @@ static int mesh_jobs_finish(parser_t *P)
     P->njobs = P->ncounts = P->cap_jobs = P->cap_counts = 0;
     P->queued_bytes = 0;
     P->ntriangles_ahead = 0;
+    free(P->ply_slots);
+    P->ply_slots = NULL;
+    P->ply_cap = P->nply = 0;
     P->resolving = false;
     return rc;
 }

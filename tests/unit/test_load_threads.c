@@ -5,8 +5,8 @@
  * it renders the same sums in every pixel and bucket. A failing load fails with the same
  * message whatever the threads, the first failure in file order: a bad PLY before another
  * bad one or before a syntax error, a triangle budget crossed at a PLY, a trianglemesh or a
- * loopsubdiv after queued PLYs, a bad image texture before another, a texel budget crossed
- * at the third texture. */
+ * loopsubdiv after queued PLYs or at the third naming of one PLY file (decoded once, its mesh
+ * shared), a bad image texture before another, a texel budget crossed at the third texture. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -118,8 +118,9 @@ static const char *TETRA = "\"point3 P\" [ 0 0 0  1 0 0  0 1 0  0 0 1 ] "
 
 static char dir[256];
 
-/* The whole scene: 10 PLY files (two of them in an instanced object), 2 loopsubdiv shapes and
- * 3 image textures, interleaved with trianglemeshes. */
+/* The whole scene: 10 PLY files (two of them in an instanced object), m1.ply named twice more
+ * (in the object and in the world), 2 loopsubdiv shapes and 3 image textures, interleaved with
+ * trianglemeshes. */
 static void full_scene(text_t *t)
 {
     head(t);
@@ -137,7 +138,10 @@ static void full_scene(text_t *t)
     }
     add(t, "ObjectBegin \"o\"\nShape \"plymesh\" \"string filename\" \"m8.ply\"\n"
            "Shape \"loopsubdiv\" \"integer levels\" [ 2 ] %s\n"
-           "Shape \"plymesh\" \"string filename\" \"m9.ply\"\nObjectEnd\n", TETRA);
+           "Shape \"plymesh\" \"string filename\" \"m9.ply\"\n"
+           "Shape \"plymesh\" \"string filename\" \"m1.ply\"\nObjectEnd\n", TETRA);
+    add(t, "AttributeBegin\nTranslate 0 0 4\nShape \"plymesh\" \"string filename\" \"m1.ply\"\n"
+           "AttributeEnd\n");
     add(t, "AttributeBegin\nTranslate 0 1 1\nObjectInstance \"o\"\nAttributeEnd\n"
            "AttributeBegin\nTranslate 5 1 1\nObjectInstance \"o\"\nAttributeEnd\n");
 }
@@ -216,9 +220,9 @@ static void test_same_meshes(void **state)
     full_scene(&t);
     const char *path = write_scene("full.pbrt", &t);
     scene_desc_t *one = parse(path, 1), *four = parse(path, 4), *all = parse(path, 0);
-    /* 8 PLYs, 1 trianglemesh, 1 loopsubdiv in the world; 2 PLYs and 1 loopsubdiv in "o" */
-    assert_int_equal(one->nshapes, 10);
-    assert_int_equal(one->nobject_shapes, 3);
+    /* 9 PLYs, 1 trianglemesh, 1 loopsubdiv in the world; 3 PLYs and 1 loopsubdiv in "o" */
+    assert_int_equal(one->nshapes, 11);
+    assert_int_equal(one->nobject_shapes, 4);
     for (scene_desc_t **d = (scene_desc_t *[]){four, all, NULL}; *d; d++) {
         assert_int_equal((*d)->nshapes, one->nshapes);
         assert_int_equal((*d)->nobject_shapes, one->nobject_shapes);
@@ -233,6 +237,12 @@ static void test_same_meshes(void **state)
     assert_int_equal(one->shapes[4].mesh.ntriangles, 1);            /* the trianglemesh */
     assert_int_equal(one->shapes[7].mesh.ntriangles, 4 * 64);       /* loopsubdiv, 3 levels */
     assert_int_equal(one->object_shapes[1].mesh.ntriangles, 4 * 16); /* 2 levels */
+    /* m1.ply, named three times, is decoded once: the three shapes hold the same mesh. */
+    const scene_mesh_t *m1 = &one->shapes[1].mesh;
+    assert_int_equal(m1->ntriangles, 81 * 2);
+    assert_ptr_equal(one->object_shapes[3].mesh.P, m1->P);
+    assert_ptr_equal(one->shapes[10].mesh.indices, m1->indices);
+    assert_ptr_equal(one->shapes[10].mesh.uv, m1->uv);
     scene_desc_destroy(&one);
     scene_desc_destroy(&four);
     scene_desc_destroy(&all);
@@ -365,6 +375,13 @@ static void test_first_budget_failure(void **state)
     b.triangles = 200;
     snprintf(where, sizeof where, "loop.pbrt:%d:", ls - 1);
     same_refusal(write_scene("loop.pbrt", &t), dir, &b, where, "this shape's 162 triangles");
+    /* A file named three times counts three times (decoded once): 3 x 72 over 200. */
+    head(&t);
+    add(&t, "Shape \"plymesh\" \"string filename\" \"m0.ply\"\n");
+    add(&t, "Shape \"plymesh\" \"string filename\" \"m0.ply\"\n");
+    int third = add(&t, "Shape \"plymesh\" \"string filename\" \"m0.ply\"\n");
+    snprintf(where, sizeof where, "thrice.pbrt:%d:", third);
+    same_refusal(write_scene("thrice.pbrt", &t), dir, &b, where, "this shape's 72 triangles");
 }
 
 static void test_first_texture_failure(void **state)
