@@ -341,14 +341,16 @@ static int image_decode(image_job_t *j)
               : !strcmp(t->image.wrap, "clamp")            ? TEXTURE_WRAP_CLAMP
               : !strcmp(t->image.wrap, "octahedralsphere") ? TEXTURE_WRAP_OCTAHEDRAL_SPHERE
                                                            : TEXTURE_WRAP_REPEAT;
-    o->filter = !strcmp(t->image.filter, "point")       ? TEXTURE_FILTER_POINT
+    o->filter = !strcmp(t->image.filter, "point")      ? TEXTURE_FILTER_POINT
                 : !strcmp(t->image.filter, "bilinear") ? TEXTURE_FILTER_BILINEAR
                                                        : TEXTURE_FILTER_TRILINEAR;
     o->grey = t->type == SCENE_TEXTURE_FLOAT;
     encoding_t enc;
     if (encoding_parse(t->image.encoding, &enc))
-        return err_set(&j->err, "imagemap encoding \"%s\" is not supported (\"sRGB\", \"linear\" or \"gamma G\")",
-                       t->image.encoding);
+        return err_set(
+            &j->err,
+            "imagemap encoding \"%s\" is not supported (\"sRGB\", \"linear\" or \"gamma G\")",
+            t->image.encoding);
     float *rgb, *alpha;
     if (read_image(t->image.filename, &enc, &j->w, &j->h, &rgb, &alpha, &j->err))
         return -1; /* the caller names the texture and its line */
@@ -385,8 +387,8 @@ static int image_build(image_job_t *j)
     return j->tex ? 0 : -1;
 }
 
-/* A pool index: decodes (state 0) or builds (state 1) one job (state 3: skipped). Never fails the pool: each job
- * keeps its own outcome, taken in file order by the caller. */
+/* A pool index: decodes (state 0) or builds (state 1) one job (state 3: skipped). Never fails the
+ * pool: each job keeps its own outcome, taken in file order by the caller. */
 static int image_job_step(void *user, int index, err_t *err)
 {
     (void)err;
@@ -1444,8 +1446,8 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
     scene_t *sc = scene_new(err);
     if (!sc)
         return NULL;
-    loader_t L = {.desc = desc, .sc = sc, .budget = ov ? ov->budget : NULL,
-                  .threads = ov ? ov->threads : 0};
+    loader_t L = {
+        .desc = desc, .sc = sc, .budget = ov ? ov->budget : NULL, .threads = ov ? ov->threads : 0};
     L.tex = calloc(desc->ntextures ? desc->ntextures : 1, sizeof *L.tex);
     int r = L.tex ? 0 : err_set(err, "out of memory");
     if (!r && (!(sc->warnings = warnings_new(err)) || warnings_copy(sc->warnings, desc->warnings)))
@@ -1496,7 +1498,8 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
 
 scene_t *scene_load_file(const char *path, const scene_overrides_t *ov, err_t *err)
 {
-    scene_desc_t *d = pbrt_parse_file_opts(path, &(pbrt_parse_opts_t){.threads = ov ? ov->threads : 0}, err);
+    scene_desc_t *d =
+        pbrt_parse_file_opts(path, &(pbrt_parse_opts_t){.threads = ov ? ov->threads : 0}, err);
     if (!d)
         return NULL;
     scene_t *s = scene_load(d, ov, err);
@@ -1509,7 +1512,8 @@ scene_t *scene_load_file_confined(const char *path, const char *root, const scen
 {
     if (!root)
         return err_set(err, "a confined parse needs the scene's folder"), NULL;
-    pbrt_parse_opts_t po = {.root = root, .budget = ov ? ov->budget : NULL, .threads = ov ? ov->threads : 0};
+    pbrt_parse_opts_t po = {
+        .root = root, .budget = ov ? ov->budget : NULL, .threads = ov ? ov->threads : 0};
     scene_desc_t *d = pbrt_parse_file_opts(path, &po, err);
     if (!d)
         return NULL;

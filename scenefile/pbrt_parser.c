@@ -2451,7 +2451,8 @@ static int note_count(parser_t *P, long job, uint64_t n, pbrt_loc_t loc)
     }
     P->counts[P->ncounts++] = (tri_count_t){job, n, loc};
     if (job < 0)
-        P->ntriangles_ahead = n > UINT64_MAX - P->ntriangles_ahead ? UINT64_MAX : P->ntriangles_ahead + n;
+        P->ntriangles_ahead =
+            n > UINT64_MAX - P->ntriangles_ahead ? UINT64_MAX : P->ntriangles_ahead + n;
     return 0;
 }
 
@@ -2586,9 +2587,6 @@ static int mesh_from_params(parser_t *P, params_t *ps, scene_shape_t *s, bool bi
     return 0;
 }
 
-/* Queues a job for shape s (an element of the scene's shapes or object_shapes), or, in
- * check mode (whose refusals are recorded as the parse meets them), runs it now. The job's
- * buffers are the job's from here on, whatever the outcome. */
 static int mesh_job_run(void *user, int index, err_t *err);
 static int mesh_job_adopt(parser_t *P, mesh_job_t *j);
 
@@ -2650,6 +2648,9 @@ static bool ply_queued(parser_t *P, const char *path, size_t *k)
     return false;
 }
 
+/* Queues a job for shape s (an element of the scene's shapes or object_shapes), or, in
+ * check mode (whose refusals are recorded as the parse meets them), runs it now. The job's
+ * buffers are the job's from here on, whatever the outcome. */
 static int mesh_job_queue(parser_t *P, const scene_shape_t *s, mesh_job_t *j)
 {
     bool in_object = P->object >= 0;
@@ -2674,7 +2675,8 @@ static int mesh_job_queue(parser_t *P, const scene_shape_t *s, mesh_job_t *j)
     /* A file the queue decodes already: this shape shares that mesh (a confined parse has
      * read and charged the file again all the same, as pbrt_parser.h says). */
     size_t k;
-    if ((j->kind == MESH_JOB_PLY_FILE || j->kind == MESH_JOB_PLY_MEMORY) && ply_queued(P, j->path, &k)) {
+    if ((j->kind == MESH_JOB_PLY_FILE || j->kind == MESH_JOB_PLY_MEMORY) &&
+        ply_queued(P, j->path, &k)) {
         free(j->buf);
         j->buf = NULL;
         j->len = 0;
@@ -2733,7 +2735,8 @@ static int mesh_job_adopt(parser_t *P, mesh_job_t *j)
     if (j->state != 1)
         return pbrt_error(P->err, j->loc, "%s",
                           j->state < 0 ? j->err.msg : "mesh not made (internal error)");
-    scene_shape_t *s = j->in_object ? &P->scene->object_shapes[j->shape] : &P->scene->shapes[j->shape];
+    scene_shape_t *s =
+        j->in_object ? &P->scene->object_shapes[j->shape] : &P->scene->shapes[j->shape];
     j->state = 0;
     if (j->kind == MESH_JOB_PLY_SAME) {
         /* Job j->same is earlier in file order, so its shape holds the mesh by now (had it
@@ -2768,7 +2771,8 @@ static int mesh_jobs_finish(parser_t *P)
         if (P->ncounts > 0) {
             for (size_t i = 0; i < P->ncounts && rc == 0; i++) {
                 const tri_count_t *c = &P->counts[i];
-                rc = c->job >= 0 ? mesh_job_adopt(P, &P->jobs[c->job]) : budget_triangles(P, c->n, c->loc);
+                rc = c->job >= 0 ? mesh_job_adopt(P, &P->jobs[c->job])
+                                 : budget_triangles(P, c->n, c->loc);
             }
         } else {
             for (size_t i = 0; i < P->njobs && rc == 0; i++)
@@ -2905,7 +2909,11 @@ static int loopsubdiv_shape(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_lo
             return budget_refuse(P, after, loc);
         }
     }
-    mesh_job_t j = {.kind = MESH_JOB_LOOP, .loc = loc, .idx = idx, .nv = nv, .nt = pi->count / 3,
+    mesh_job_t j = {.kind = MESH_JOB_LOOP,
+                    .loc = loc,
+                    .idx = idx,
+                    .nv = nv,
+                    .nt = pi->count / 3,
                     .levels = levels};
     if (!(j.P = malloc(pp->count * sizeof *j.P))) {
         free(idx);
@@ -4104,5 +4112,6 @@ scene_desc_t *pbrt_parse_file_opts(const char *path, const pbrt_parse_opts_t *op
 
 scene_desc_t *pbrt_parse_string(const char *text, size_t len, const char *name, err_t *err)
 {
-    return run(name ? name : "<string>", text ? text : "", text ? len : 0, NULL, NULL, NULL, 0, err);
+    return run(name ? name : "<string>", text ? text : "", text ? len : 0, NULL, NULL, NULL, 0,
+               err);
 }

@@ -175,11 +175,13 @@ int rgb_uplift_bake_write(FILE *f, int threads, err_t *err)
         rgb_uplift_destroy(&t);
         return -1;
     }
-    fprintf(f, "/* The RGB uplift table (rgb_uplift.h): every node's sigmoid fit, written when prismfarm\n"
-               " * is built by spectral/bake/rgb_uplift_bake.c. Generated: do not edit. */\n"
-               "#include \"rgb_uplift.h\"\n\n"
-               "const double rgb_uplift_baked[3][(RGB_UPLIFT_RES + 1) * (RGB_UPLIFT_RES + 1)][3];\n"
-               "const double rgb_uplift_baked[3][(RGB_UPLIFT_RES + 1) * (RGB_UPLIFT_RES + 1)][3] = {\n");
+    fprintf(
+        f,
+        "/* The RGB uplift table (rgb_uplift.h): every node's sigmoid fit, written when prismfarm\n"
+        " * is built by spectral/bake/rgb_uplift_bake.c. Generated: do not edit. */\n"
+        "#include \"rgb_uplift.h\"\n\n"
+        "const double rgb_uplift_baked[3][(RGB_UPLIFT_RES + 1) * (RGB_UPLIFT_RES + 1)][3];\n"
+        "const double rgb_uplift_baked[3][(RGB_UPLIFT_RES + 1) * (RGB_UPLIFT_RES + 1)][3] = {\n");
     for (int fc = 0; fc < 3; fc++) {
         fprintf(f, "    {\n");
         for (int k = 0; k < NODES; k++)

@@ -125,7 +125,8 @@ static void full_scene(text_t *t)
 {
     head(t);
     for (int k = 0; k < 3; k++)
-        add(t, "Texture \"t%d\" \"spectrum\" \"imagemap\" \"string filename\" \"tex%d.png\"\n", k, k);
+        add(t, "Texture \"t%d\" \"spectrum\" \"imagemap\" \"string filename\" \"tex%d.png\"\n", k,
+            k);
     for (int m = 0; m < 8; m++) {
         add(t, "AttributeBegin\nMaterial \"diffuse\" \"texture reflectance\" \"t%d\"\n", m % 3);
         add(t, "Shape \"plymesh\" \"string filename\" \"m%d.ply\"\nAttributeEnd\n", m);
@@ -133,13 +134,17 @@ static void full_scene(text_t *t)
             add(t, "Shape \"trianglemesh\" \"point3 P\" [ 0 0 0  9 0 0  9 0 2 ] "
                    "\"integer indices\" [ 0 1 2 ]\n");
         if (m == 5)
-            add(t, "AttributeBegin\nTranslate 2 0.5 0\nShape \"loopsubdiv\" \"integer levels\" [ 3 ] "
-                   "%s\nAttributeEnd\n", TETRA);
+            add(t,
+                "AttributeBegin\nTranslate 2 0.5 0\nShape \"loopsubdiv\" \"integer levels\" [ 3 ] "
+                "%s\nAttributeEnd\n",
+                TETRA);
     }
-    add(t, "ObjectBegin \"o\"\nShape \"plymesh\" \"string filename\" \"m8.ply\"\n"
-           "Shape \"loopsubdiv\" \"integer levels\" [ 2 ] %s\n"
-           "Shape \"plymesh\" \"string filename\" \"m9.ply\"\n"
-           "Shape \"plymesh\" \"string filename\" \"m1.ply\"\nObjectEnd\n", TETRA);
+    add(t,
+        "ObjectBegin \"o\"\nShape \"plymesh\" \"string filename\" \"m8.ply\"\n"
+        "Shape \"loopsubdiv\" \"integer levels\" [ 2 ] %s\n"
+        "Shape \"plymesh\" \"string filename\" \"m9.ply\"\n"
+        "Shape \"plymesh\" \"string filename\" \"m1.ply\"\nObjectEnd\n",
+        TETRA);
     add(t, "AttributeBegin\nTranslate 0 0 4\nShape \"plymesh\" \"string filename\" \"m1.ply\"\n"
            "AttributeEnd\n");
     add(t, "AttributeBegin\nTranslate 0 1 1\nObjectInstance \"o\"\nAttributeEnd\n"
@@ -168,8 +173,9 @@ static int group_setup(void **state)
         snprintf(name, sizeof name, "tex%d.png", k);
         write_png(testutil_path_in(dir, name), 48 + 16 * k, k);
     }
-    testutil_write_text(testutil_path_in(dir, "bad.ply"), "ply\nformat ascii 1.0\nelement vertex 3\n"
-                                                          "property float x\nend_header\n1\n",
+    testutil_write_text(testutil_path_in(dir, "bad.ply"),
+                        "ply\nformat ascii 1.0\nelement vertex 3\n"
+                        "property float x\nend_header\n1\n",
                         0644);
     testutil_write_text(testutil_path_in(dir, "bad.png"), "\x89PNG\r\n\x1a\nnot a png", 0644);
     return 0;
@@ -195,7 +201,8 @@ static void same_meshes(const scene_shape_t *a, const scene_shape_t *b, size_t n
 {
     for (size_t i = 0; i < n; i++) {
         const scene_mesh_t *x = &a[i].mesh, *y = &b[i].mesh;
-        if (a[i].type != b[i].type || x->nvertices != y->nvertices || x->ntriangles != y->ntriangles)
+        if (a[i].type != b[i].type || x->nvertices != y->nvertices ||
+            x->ntriangles != y->ntriangles)
             fail_msg("%s %zu: %zu/%zu vertices, %zu/%zu triangles", what, i, x->nvertices,
                      y->nvertices, x->ntriangles, y->ntriangles);
         if (a[i].type != SCENE_SHAPE_MESH)
@@ -234,8 +241,8 @@ static void test_same_meshes(void **state)
     }
     /* The meshes are the files': the first PLY's 6x6 grid of quads, as triangles. */
     assert_int_equal(one->shapes[0].mesh.ntriangles, 2 * 6 * 6);
-    assert_int_equal(one->shapes[4].mesh.ntriangles, 1);            /* the trianglemesh */
-    assert_int_equal(one->shapes[7].mesh.ntriangles, 4 * 64);       /* loopsubdiv, 3 levels */
+    assert_int_equal(one->shapes[4].mesh.ntriangles, 1);             /* the trianglemesh */
+    assert_int_equal(one->shapes[7].mesh.ntriangles, 4 * 64);        /* loopsubdiv, 3 levels */
     assert_int_equal(one->object_shapes[1].mesh.ntriangles, 4 * 16); /* 2 levels */
     /* m1.ply, named three times, is decoded once: the three shapes hold the same mesh. */
     const scene_mesh_t *m1 = &one->shapes[1].mesh;
@@ -276,7 +283,8 @@ static void test_same_image(void **state)
             for (int k = 0; k < nb; k++) {
                 double u = tilebuf_sum(a, x, y, k), v = tilebuf_sum(b, x, y, k);
                 if (memcmp(&u, &v, sizeof u))
-                    fail_msg("pixel (%d, %d) bucket %d: %.17g with 1 thread, %.17g with 3", x, y, k, u, v);
+                    fail_msg("pixel (%d, %d) bucket %d: %.17g with 1 thread, %.17g with 3", x, y, k,
+                             u, v);
             }
             lit += tilebuf_luminance_sum(a, x, y) > 0.0;
         }
@@ -296,11 +304,13 @@ static void same_refusal(const char *path, const char *root, const scene_budget_
     for (int threads = 1; threads <= 4; threads += 3) {
         err_t err = {{0}};
         scene_overrides_t ov = {.seed = -1, .threads = threads, .budget = b};
-        scene_t *s = root ? scene_load_file_confined(path, root, &ov, &err) : scene_load_file(path, &ov, &err);
+        scene_t *s = root ? scene_load_file_confined(path, root, &ov, &err)
+                          : scene_load_file(path, &ov, &err);
         if (s)
             fail_msg("%s loaded with %d threads", path, threads);
         if (!strstr(err.msg, where) || !strstr(err.msg, what))
-            fail_msg("%s, %d threads: expected '%s' and '%s' in: %s", path, threads, where, what, err.msg);
+            fail_msg("%s, %d threads: expected '%s' and '%s' in: %s", path, threads, where, what,
+                     err.msg);
         if (threads == 1)
             snprintf(first, sizeof first, "%s", err.msg);
         else
@@ -349,7 +359,8 @@ static void test_first_budget_failure(void **state)
     for (int m = 0; m < 5; m++)
         line[m] = add(&t, "Shape \"plymesh\" \"string filename\" \"m%d.ply\"\n", m);
     snprintf(where, sizeof where, "plys.pbrt:%d:", line[3]);
-    same_refusal(write_scene("plys.pbrt", &t), dir, &b, where, "450 triangles take the scene over 900");
+    same_refusal(write_scene("plys.pbrt", &t), dir, &b, where,
+                 "450 triangles take the scene over 900");
     /* Crossed by a trianglemesh after queued PLYs (72 + 162 + 288 + 1 with a budget of 522). */
     b.triangles = 522;
     head(&t);
@@ -403,7 +414,8 @@ static void test_first_texture_failure(void **state)
     head(&t);
     add(&t, "Texture \"a\" \"spectrum\" \"imagemap\" \"string filename\" \"tex0.png\"\n");
     add(&t, "Texture \"b\" \"float\" \"imagemap\" \"string filename\" \"tex1.png\"\n");
-    int third = add(&t, "Texture \"c\" \"spectrum\" \"imagemap\" \"string filename\" \"tex2.png\"\n");
+    int third =
+        add(&t, "Texture \"c\" \"spectrum\" \"imagemap\" \"string filename\" \"tex2.png\"\n");
     add(&t, "Texture \"d\" \"spectrum\" \"imagemap\" \"string filename\" \"bad.png\"\n");
     add(&t, "Shape \"sphere\"\n");
     snprintf(where, sizeof where, "texels.pbrt:%d:", third);
@@ -413,10 +425,8 @@ static void test_first_texture_failure(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_same_meshes),
-        cmocka_unit_test(test_same_image),
-        cmocka_unit_test(test_first_ply_failure),
-        cmocka_unit_test(test_first_budget_failure),
+        cmocka_unit_test(test_same_meshes),           cmocka_unit_test(test_same_image),
+        cmocka_unit_test(test_first_ply_failure),     cmocka_unit_test(test_first_budget_failure),
         cmocka_unit_test(test_first_texture_failure),
     };
     return cmocka_run_group_tests(tests, group_setup, group_teardown);

@@ -321,9 +321,10 @@ static int baked_check_run(void *user, int index, err_t *err)
                 for (int q = 0; q < 3; q++)
                     same &= out[q] == fit.c[q];
                 if (!same && r->bad++ == 0)
-                    snprintf(r->first, sizeof r->first,
-                             "node (%d, %d, %d): (%a, %a, %a) in the table, (%a, %a, %a) fitted now",
-                             f, i, j, out[0], out[1], out[2], fit.c[0], fit.c[1], fit.c[2]);
+                    snprintf(
+                        r->first, sizeof r->first,
+                        "node (%d, %d, %d): (%a, %a, %a) in the table, (%a, %a, %a) fitted now", f,
+                        i, j, out[0], out[1], out[2], fit.c[0], fit.c[1], fit.c[2]);
             }
     rgb_uplift_destroy(&t);
     return 0;
@@ -463,8 +464,7 @@ int main(void)
         cmocka_unit_test(test_blackbody_wien),    cmocka_unit_test(test_cie_illuminants),
         cmocka_unit_test(test_photometric),       cmocka_unit_test(test_rgb_uplift_round_trip),
         cmocka_unit_test(test_rgb_uplift_timing), cmocka_unit_test(test_rgb_illuminant),
-        cmocka_unit_test(test_rgb_uplift_baked),
-        cmocka_unit_test(test_concurrent_eval),
+        cmocka_unit_test(test_rgb_uplift_baked),  cmocka_unit_test(test_concurrent_eval),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
