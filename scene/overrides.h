@@ -16,6 +16,10 @@ typedef struct scene_overrides {
     /* What a scene from an untrusted source may make the loader build (budget.h): checked
      * by scene_load_file_confined; NULL: no budget. */
     const scene_budget_t *budget;
+    /* The threads the load runs on (PLY decoding, loopsubdiv, image textures; <= 0: all
+     * cores). Not a change to the scene: the loaded scene, and so every image rendered from
+     * it, is the same whatever the value (tests/unit/test_load_threads.c). */
+    int threads;
 } scene_overrides_t;
 
 #endif

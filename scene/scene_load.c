@@ -11,6 +11,7 @@
 #include "image_stb.h"
 #include "pbrt_parser.h"
 #include "plan.h"
+#include "pool.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -147,6 +148,7 @@ typedef struct loader {
     int *area_light_of; /* unused */
     const scene_budget_t *budget; /* the overrides' (budget.h); NULL: none */
     uint64_t texels;              /* image pixels read so far, against it */
+    int threads;                  /* the overrides' (<= 0: all cores) */
 } loader_t;
 
 /* budget.h: an image of w x h pixels, decoded but not yet made a texture (its uplift
@@ -312,45 +314,55 @@ static int read_image(const char *path, const encoding_t *enc, int *w, int *h, f
  * invert and reads reflectances as RGBAlbedoSpectrum, clamped to [0, 1]). A float texture
  * reads pbrt-v4's MIPMap::Bilerp<Float>: the alpha channel of a file whose alpha is not all 1,
  * else the mean of R, G and B; then scale and invert (max(0, 1 - v)). Scale and invert apply
- * per texel, which equals pbrt-v4's after-filter rule except at a "black" edge with invert. */
-static texture_t *image_texture(loader_t *L, const scene_texture_t *t, err_t *err)
-{
-    texture_image_opts_t o = texture_image_opts_default();
-    o.uscale = t->uscale;
-    o.vscale = t->vscale;
-    o.udelta = t->udelta;
-    o.vdelta = t->vdelta;
-    o.wrap = !strcmp(t->image.wrap, "black")              ? TEXTURE_WRAP_BLACK
-             : !strcmp(t->image.wrap, "clamp")            ? TEXTURE_WRAP_CLAMP
-             : !strcmp(t->image.wrap, "octahedralsphere") ? TEXTURE_WRAP_OCTAHEDRAL_SPHERE
-                                                          : TEXTURE_WRAP_REPEAT;
-    o.filter = !strcmp(t->image.filter, "point")       ? TEXTURE_FILTER_POINT
-               : !strcmp(t->image.filter, "bilinear") ? TEXTURE_FILTER_BILINEAR
-                                                      : TEXTURE_FILTER_TRILINEAR;
-    o.grey = t->type == SCENE_TEXTURE_FLOAT;
-    encoding_t enc;
-    if (encoding_parse(t->image.encoding, &enc)) {
-        err_set(err, "imagemap encoding \"%s\" is not supported (\"sRGB\", \"linear\" or \"gamma G\")",
-                t->image.encoding);
-        return NULL;
-    }
+ * per texel, which equals pbrt-v4's after-filter rule except at a "black" edge with invert.
+ *
+ * An image texture is made in three steps so that several can be made at once
+ * (load_image_textures): decoded into texel values (image_decode, any thread), counted
+ * against the budget (in file order), then made a texture (image_build, any thread). */
+typedef struct image_job {
+    const scene_texture_t *t;
+    texture_image_opts_t o;
     int w, h;
+    float *rgb; /* the texels, scaled, inverted and clamped as above */
+    texture_t *tex;
+    int state; /* 0 not run, 1 decoded, 2 built, 3 skipped (after a failure), -1 failed (err) */
+    err_t err;
+} image_job_t;
+
+static int image_decode(image_job_t *j)
+{
+    const scene_texture_t *t = j->t;
+    texture_image_opts_t *o = &j->o;
+    *o = texture_image_opts_default();
+    o->uscale = t->uscale;
+    o->vscale = t->vscale;
+    o->udelta = t->udelta;
+    o->vdelta = t->vdelta;
+    o->wrap = !strcmp(t->image.wrap, "black")              ? TEXTURE_WRAP_BLACK
+              : !strcmp(t->image.wrap, "clamp")            ? TEXTURE_WRAP_CLAMP
+              : !strcmp(t->image.wrap, "octahedralsphere") ? TEXTURE_WRAP_OCTAHEDRAL_SPHERE
+                                                           : TEXTURE_WRAP_REPEAT;
+    o->filter = !strcmp(t->image.filter, "point")      ? TEXTURE_FILTER_POINT
+                : !strcmp(t->image.filter, "bilinear") ? TEXTURE_FILTER_BILINEAR
+                                                       : TEXTURE_FILTER_TRILINEAR;
+    o->grey = t->type == SCENE_TEXTURE_FLOAT;
+    encoding_t enc;
+    if (encoding_parse(t->image.encoding, &enc))
+        return err_set(
+            &j->err,
+            "imagemap encoding \"%s\" is not supported (\"sRGB\", \"linear\" or \"gamma G\")",
+            t->image.encoding);
     float *rgb, *alpha;
-    if (read_image(t->image.filename, &enc, &w, &h, &rgb, &alpha, err))
-        return NULL; /* the caller names the texture and its line */
-    if (budget_texels(L, w, h, err)) {
-        free(rgb);
-        free(alpha);
-        return NULL;
-    }
-    size_t n = (size_t)w * (size_t)h;
+    if (read_image(t->image.filename, &enc, &j->w, &j->h, &rgb, &alpha, &j->err))
+        return -1; /* the caller names the texture and its line */
+    size_t n = (size_t)j->w * (size_t)j->h;
     int use_alpha = 0;
-    if (alpha && o.grey)
+    if (alpha && o->grey)
         for (size_t i = 0; i < n && !use_alpha; i++)
             use_alpha = alpha[i] != 1.0f;
     double sc = t->image.scale;
     for (size_t i = 0; i < n; i++) {
-        if (o.grey) {
+        if (o->grey) {
             double v = use_alpha ? alpha[i] : ((double)rgb[3 * i] + rgb[3 * i + 1] + rgb[3 * i + 2]) / 3.0;
             v *= sc;
             v = t->image.invert ? fmax(0.0, 1.0 - v) : v;
@@ -364,9 +376,74 @@ static texture_t *image_texture(loader_t *L, const scene_texture_t *t, err_t *er
         }
     }
     free(alpha);
-    texture_t *tex = texture_new_image(rgb, w, h, &o, err);
-    free(rgb);
-    return tex;
+    j->rgb = rgb;
+    return 0;
+}
+
+static int image_build(image_job_t *j)
+{
+    j->tex = texture_new_image(j->rgb, j->w, j->h, &j->o, &j->err);
+    free(j->rgb);
+    j->rgb = NULL;
+    return j->tex ? 0 : -1;
+}
+
+/* A pool index: decodes (state 0) or builds (state 1) one job (state 3: skipped). Never fails the
+ * pool: each job keeps its own outcome, taken in file order by the caller. */
+static int image_job_step(void *user, int index, err_t *err)
+{
+    (void)err;
+    image_job_t *j = ((image_job_t **)user)[index];
+    if (j->state == 0)
+        j->state = image_decode(j) == 0 ? 1 : -1;
+    else if (j->state == 1)
+        j->state = image_build(j) == 0 ? 2 : -1;
+    return 0;
+}
+
+/* Every image texture of the scene made on the pool, threads images at a time (so that the
+ * decoded texels of at most that many are held at once), each with threads / images threads
+ * of its own for its uplift. Within a group the images are counted against the budget in file
+ * order between decoding and building; the group after a failure is not started, so the
+ * first failure in file order is among those made. Jobs hold their own outcome: load_textures
+ * takes them in its order. */
+static int load_image_textures(loader_t *L, image_job_t *jobs, size_t n, err_t *err)
+{
+    int threads = L->threads > 0 ? L->threads : pool_cores();
+    image_job_t **group = calloc((size_t)threads, sizeof *group);
+    if (!group)
+        return err_set(err, "out of memory");
+    size_t i = 0;
+    while (i < n) {
+        int k = 0;
+        for (; i < n && k < threads; i++)
+            if (jobs[i].t)
+                group[k++] = &jobs[i];
+        int inner = threads / (k > 0 ? k : 1);
+        err_t ignored;
+        (void)pool_for(threads, k, image_job_step, group, &ignored);
+        int failed = 0;
+        for (int q = 0; q < k; q++) {
+            image_job_t *j = group[q];
+            if (failed) {
+                free(j->rgb); /* not built: after the first failure */
+                j->rgb = NULL;
+                j->state = 3;
+                continue;
+            }
+            if (j->state == 1 && budget_texels(L, j->w, j->h, &j->err))
+                j->state = -1;
+            if (j->state != 1)
+                failed = 1;
+            else
+                j->o.threads = inner;
+        }
+        (void)pool_for(threads, k, image_job_step, group, &ignored);
+        if (failed)
+            break;
+    }
+    free(group);
+    return 0;
 }
 
 /* A material's "normalmap": the image read linear (pbrt-v4 reads normal maps with
@@ -396,7 +473,7 @@ static const texture_t *normal_map(loader_t *L, const scene_material_t *dm, err_
     return t;
 }
 
-static int load_textures(loader_t *L, err_t *err)
+static int load_textures_in_order(loader_t *L, image_job_t *jobs, err_t *err)
 {
     const scene_desc_t *d = L->desc;
     for (size_t i = 0; i < d->ntextures; i++) {
@@ -438,7 +515,14 @@ static int load_textures(loader_t *L, err_t *err)
             break;
         }
         case SCENE_TEX_IMAGEMAP:
-            made = image_texture(L, t, err);
+            if (jobs[i].state == 2) {
+                made = jobs[i].tex;
+                jobs[i].tex = NULL;
+            } else if (jobs[i].state == -1) {
+                *err = jobs[i].err;
+            } else {
+                err_set(err, "not made (internal error)");
+            }
             break;
         }
         if (!made || scene_own_texture(L->sc, made, err)) {
@@ -451,6 +535,28 @@ static int load_textures(loader_t *L, err_t *err)
         L->tex[i] = made;
     }
     return 0;
+}
+
+/* The scene's textures in file order, its image textures made beforehand on the pool
+ * (load_image_textures): the same textures, and the same first failure, for any threads. */
+static int load_textures(loader_t *L, err_t *err)
+{
+    const scene_desc_t *d = L->desc;
+    image_job_t *jobs = calloc(d->ntextures ? d->ntextures : 1, sizeof *jobs);
+    if (!jobs)
+        return err_set(err, "out of memory");
+    for (size_t i = 0; i < d->ntextures; i++)
+        if (d->textures[i].cls == SCENE_TEX_IMAGEMAP)
+            jobs[i].t = &d->textures[i];
+    int rc = load_image_textures(L, jobs, d->ntextures, err);
+    if (rc == 0)
+        rc = load_textures_in_order(L, jobs, err);
+    for (size_t i = 0; i < d->ntextures; i++) {
+        free(jobs[i].rgb);
+        texture_destroy(&jobs[i].tex);
+    }
+    free(jobs);
+    return rc;
 }
 
 /* A tabulated index the scene owns: the pairs are copied into a spectrum the scene keeps, whose
@@ -1497,7 +1603,8 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
     scene_t *sc = scene_new(err);
     if (!sc)
         return NULL;
-    loader_t L = {.desc = desc, .sc = sc, .budget = ov ? ov->budget : NULL};
+    loader_t L = {
+        .desc = desc, .sc = sc, .budget = ov ? ov->budget : NULL, .threads = ov ? ov->threads : 0};
     L.tex = calloc(desc->ntextures ? desc->ntextures : 1, sizeof *L.tex);
     int r = L.tex ? 0 : err_set(err, "out of memory");
     if (!r && (!(sc->warnings = warnings_new(err)) || warnings_copy(sc->warnings, desc->warnings)))
@@ -1548,7 +1655,8 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
 
 scene_t *scene_load_file(const char *path, const scene_overrides_t *ov, err_t *err)
 {
-    scene_desc_t *d = pbrt_parse_file(path, err);
+    scene_desc_t *d =
+        pbrt_parse_file_opts(path, &(pbrt_parse_opts_t){.threads = ov ? ov->threads : 0}, err);
     if (!d)
         return NULL;
     scene_t *s = scene_load(d, ov, err);
@@ -1559,7 +1667,11 @@ scene_t *scene_load_file(const char *path, const scene_overrides_t *ov, err_t *e
 scene_t *scene_load_file_confined(const char *path, const char *root, const scene_overrides_t *ov,
                                   err_t *err)
 {
-    scene_desc_t *d = pbrt_parse_file_confined(path, root, ov ? ov->budget : NULL, err);
+    if (!root)
+        return err_set(err, "a confined parse needs the scene's folder"), NULL;
+    pbrt_parse_opts_t po = {
+        .root = root, .budget = ov ? ov->budget : NULL, .threads = ov ? ov->threads : 0};
+    scene_desc_t *d = pbrt_parse_file_opts(path, &po, err);
     if (!d)
         return NULL;
     scene_t *s = scene_load(d, ov, err);

@@ -213,14 +213,8 @@ texture_t *texture_new_image(const float *rgb, int w, int h, const texture_image
         }
         return t;
     }
+    /* A new table holds every node's fit (rgb_uplift.h): nothing to note or prepare. */
     if (!(table = rgb_uplift_new(err)))
-        goto fail;
-    for (int l = 0; l < t->nlevels; l++) {
-        size_t n = (size_t)t->level[l].w * (size_t)t->level[l].h;
-        for (size_t i = 0; i < n; i++)
-            rgb_uplift_need(table, lv[l] + 3 * i);
-    }
-    if (rgb_uplift_prepare(table, o->threads, err))
         goto fail;
     for (int l = 0; l < t->nlevels; l++) {
         size_t n = (size_t)t->level[l].w * (size_t)t->level[l].h;

@@ -327,15 +327,17 @@ static int limit(level_t *l, uint32_t *ring, int cap, double *N, err_t *err)
         int n = one_ring(l, (uint32_t)x, ring, cap);
         double S[3] = {0, 0, 0}, T[3] = {0, 0, 0};
         const double *p = &lim[3 * x];
-        for (int c = 0; c < 3; c++) {
-            const double *q0 = &lim[3 * ring[0]], *ql = &lim[3 * ring[n - 1]];
-            if (!l->boundary[x]) {
-                for (int j = 0; j < n; j++) {
-                    S[c] += cos(2 * PI * j / n) * lim[3 * ring[j] + (size_t)c];
-                    T[c] += sin(2 * PI * j / n) * lim[3 * ring[j] + (size_t)c];
+        if (!l->boundary[x])
+            for (int j = 0; j < n; j++) {
+                /* once per neighbour, not per coordinate: the same sums in the same order */
+                double cj = cos(2 * PI * j / n), sj = sin(2 * PI * j / n);
+                for (int c = 0; c < 3; c++) {
+                    S[c] += cj * lim[3 * ring[j] + (size_t)c];
+                    T[c] += sj * lim[3 * ring[j] + (size_t)c];
                 }
-                continue;
             }
+        for (int c = 0; c < 3 && l->boundary[x]; c++) {
+            const double *q0 = &lim[3 * ring[0]], *ql = &lim[3 * ring[n - 1]];
             S[c] = ql[c] - q0[c];
             if (n == 2)
                 T[c] = q0[c] + lim[3 * ring[1] + (size_t)c] - 2 * p[c];

@@ -14,6 +14,7 @@
 #include "warnings.h"
 
 #include "files.h"
+#include "pool.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -114,6 +115,48 @@ typedef struct coordsys {
     transform_t t;
 } coordsys_t;
 
+/* A mesh whose making (a PLY file's decoding, a Loop subdivision) waits for the end of the
+ * parse, when all of them run at once on the pool (mesh_jobs_finish): the parse only reads
+ * the directive and queues the work. The shape it fills is named by index, since the shape
+ * arrays grow as the parse goes on. */
+typedef enum {
+    MESH_JOB_PLY_FILE,
+    MESH_JOB_PLY_MEMORY,
+    MESH_JOB_LOOP,
+    MESH_JOB_PLY_SAME, /* a PLY file an earlier job of the queue decodes: its mesh, shared */
+} mesh_job_kind_t;
+
+/* The most PLY bytes (a confined parse's, read as their directives are) held in the queue. */
+#define MESH_QUEUE_BYTES_MAX ((size_t)256 << 20)
+
+typedef struct mesh_job {
+    mesh_job_kind_t kind;
+    bool in_object;
+    size_t shape;
+    pbrt_loc_t loc;   /* where a failure is reported (the PLY's "filename", the loopsubdiv) */
+    const char *path; /* PLY: the file as opened (a scene_desc string) */
+    char *buf;        /* PLY_MEMORY: the file's bytes, read (and inflated) by the parse */
+    size_t len;
+    double *P; /* LOOP: the control mesh, copied from the directive */
+    uint32_t *idx;
+    size_t nv, nt;
+    int levels;
+    size_t same; /* PLY_SAME: the job whose mesh this shape shares */
+    int state;   /* 0 not run, 1 made (md), -1 failed (err) */
+    mesh_data_t md;
+    err_t err;
+} mesh_job_t;
+
+/* With a triangle budget, the budget is counted in file order once a mesh has been queued:
+ * each count (a queued job's, known when it has run, or a shape's own) is noted here and
+ * checked in order when the jobs have run, so the refusal names the same shape as a parse
+ * that made every mesh at its directive would. */
+typedef struct tri_count {
+    long job; /* >= 0: the job's triangles; -1: n */
+    uint64_t n;
+    pbrt_loc_t loc;
+} tri_count_t;
+
 typedef struct parser {
     scene_desc_t *scene;
     err_t *err;
@@ -139,6 +182,18 @@ typedef struct parser {
     size_t bytes_charged; /* confined: bytes read and decoded so far (PBRT_TOTAL_BYTES_MAX) */
     const scene_budget_t *budget; /* NULL: none (budget.h) */
     uint64_t nshapes, ntriangles; /* counted against it */
+    int threads;                  /* for the queued meshes (<= 0: all cores) */
+    mesh_job_t *jobs;             /* queued meshes, in file order */
+    size_t njobs, cap_jobs;
+    tri_count_t *counts; /* triangle counts noted after the first job, in file order */
+    size_t ncounts, cap_counts;
+    uint64_t ntriangles_ahead; /* the known counts among them: with ntriangles, a lower bound */
+    bool resolving;            /* mesh_jobs_finish is checking counts in order */
+    size_t queued_bytes;       /* the queued jobs' file bytes */
+    /* The queue's PLY jobs by path (open addressing, job index + 1; 0: empty), so that a file
+     * named by several shapes is decoded once. */
+    size_t *ply_slots;
+    size_t ply_cap, nply;
     /* The other place locate() looked for the last name it resolved (the main file's folder),
      * when the name was found in neither: "" otherwise. For "cannot open" messages. */
     char also[512];
@@ -2428,18 +2483,43 @@ static int budget_shape(parser_t *P, const char *what, pbrt_loc_t loc)
 }
 
 /* budget.h: n more triangles (or patches). */
-static int budget_triangles(parser_t *P, uint64_t n, pbrt_loc_t loc)
+static int budget_refuse(parser_t *P, uint64_t n, pbrt_loc_t loc)
 {
-    if (!P->budget || !P->budget->triangles)
-        return 0;
-    if (n <= P->budget->triangles - P->ntriangles && P->ntriangles <= P->budget->triangles) {
-        P->ntriangles += n;
-        return 0;
-    }
     return pbrt_error(P->err, loc,
                       "this shape's %llu triangles take the scene over %llu triangles, the "
                       "master's budget (prismfarm master --max-triangles)",
                       (unsigned long long)n, (unsigned long long)P->budget->triangles);
+}
+
+/* Notes a triangle count to check in order after the jobs (tri_count_t). */
+static int note_count(parser_t *P, long job, uint64_t n, pbrt_loc_t loc)
+{
+    if (P->ncounts == P->cap_counts) {
+        size_t cap = P->cap_counts ? 2 * P->cap_counts : 64;
+        tri_count_t *c = realloc(P->counts, cap * sizeof *c);
+        if (!c)
+            return pbrt_error(P->err, loc, "out of memory");
+        P->counts = c;
+        P->cap_counts = cap;
+    }
+    P->counts[P->ncounts++] = (tri_count_t){job, n, loc};
+    if (job < 0)
+        P->ntriangles_ahead =
+            n > UINT64_MAX - P->ntriangles_ahead ? UINT64_MAX : P->ntriangles_ahead + n;
+    return 0;
+}
+
+static int budget_triangles(parser_t *P, uint64_t n, pbrt_loc_t loc)
+{
+    if (!P->budget || !P->budget->triangles)
+        return 0;
+    if (P->njobs > 0 && !P->resolving)
+        return note_count(P, -1, n, loc);
+    if (n <= P->budget->triangles - P->ntriangles && P->ntriangles <= P->budget->triangles) {
+        P->ntriangles += n;
+        return 0;
+    }
+    return budget_refuse(P, n, loc);
 }
 
 static int adopt_mesh(parser_t *P, scene_shape_t *s, mesh_data_t *md)
@@ -2560,6 +2640,214 @@ static int mesh_from_params(parser_t *P, params_t *ps, scene_shape_t *s, bool bi
     return 0;
 }
 
+static int mesh_job_run(void *user, int index, err_t *err);
+static int mesh_job_adopt(parser_t *P, mesh_job_t *j);
+
+static void mesh_job_free(mesh_job_t *j)
+{
+    free(j->buf);
+    free(j->P);
+    free(j->idx);
+    j->buf = NULL;
+    j->P = NULL;
+    j->idx = NULL;
+    mesh_data_free(&j->md);
+}
+
+static int mesh_jobs_finish(parser_t *P);
+
+static size_t path_hash(const char *path)
+{
+    uint64_t h = 1469598103934665603ull; /* FNV-1a */
+    for (const unsigned char *c = (const unsigned char *)path; *c; c++)
+        h = (h ^ *c) * 1099511628211ull;
+    return (size_t)h;
+}
+
+/* The slot of path in P->ply_slots: the queued job that decodes it, or the empty slot where it
+ * goes. */
+static size_t *ply_slot(parser_t *P, const char *path)
+{
+    size_t mask = P->ply_cap - 1, i = path_hash(path) & mask;
+    while (P->ply_slots[i] && strcmp(P->jobs[P->ply_slots[i] - 1].path, path) != 0)
+        i = (i + 1) & mask;
+    return &P->ply_slots[i];
+}
+
+/* A queued PLY job that decodes path (its index into *k), or false (and path is noted for the
+ * job about to be queued at index P->njobs; false too when there is no memory to note it). */
+static bool ply_queued(parser_t *P, const char *path, size_t *k)
+{
+    if (2 * (P->nply + 1) > P->ply_cap) {
+        size_t cap = P->ply_cap ? 2 * P->ply_cap : 256;
+        size_t *slots = calloc(cap, sizeof *slots), *old = P->ply_slots;
+        if (!slots)
+            return false;
+        size_t oldcap = P->ply_cap;
+        P->ply_slots = slots;
+        P->ply_cap = cap;
+        for (size_t i = 0; i < oldcap; i++)
+            if (old[i])
+                *ply_slot(P, P->jobs[old[i] - 1].path) = old[i];
+        free(old);
+    }
+    size_t *slot = ply_slot(P, path);
+    if (*slot) {
+        *k = *slot - 1;
+        return true;
+    }
+    *slot = P->njobs + 1;
+    P->nply++;
+    return false;
+}
+
+/* Queues a job for shape s (an element of the scene's shapes or object_shapes), or, in
+ * check mode (whose refusals are recorded as the parse meets them), runs it now. The job's
+ * buffers are the job's from here on, whatever the outcome. */
+static int mesh_job_queue(parser_t *P, const scene_shape_t *s, mesh_job_t *j)
+{
+    bool in_object = P->object >= 0;
+    j->in_object = in_object;
+    j->shape = (size_t)(s - (in_object ? P->scene->object_shapes : P->scene->shapes));
+    if (P->errors) {
+        (void)mesh_job_run(j, 0, NULL);
+        int rc = mesh_job_adopt(P, j);
+        mesh_job_free(j);
+        return rc;
+    }
+    if (P->njobs == P->cap_jobs) {
+        size_t cap = P->cap_jobs ? 2 * P->cap_jobs : 64;
+        mesh_job_t *a = realloc(P->jobs, cap * sizeof *a);
+        if (!a) {
+            mesh_job_free(j);
+            return pbrt_error(P->err, j->loc, "out of memory");
+        }
+        P->jobs = a;
+        P->cap_jobs = cap;
+    }
+    /* A file the queue decodes already: this shape shares that mesh (a confined parse has
+     * read and charged the file again all the same, as pbrt_parser.h says). */
+    size_t k;
+    if ((j->kind == MESH_JOB_PLY_FILE || j->kind == MESH_JOB_PLY_MEMORY) &&
+        ply_queued(P, j->path, &k)) {
+        free(j->buf);
+        j->buf = NULL;
+        j->len = 0;
+        j->kind = MESH_JOB_PLY_SAME;
+        j->same = k;
+    }
+    P->jobs[P->njobs++] = *j;
+    P->queued_bytes += j->len;
+    if (P->budget && P->budget->triangles && note_count(P, (long)P->njobs - 1, 0, s->loc) != 0)
+        return -1;
+    /* The files' bytes wait in memory until their jobs run: past MESH_QUEUE_BYTES_MAX the
+     * queue is made now (everything in it is before this point, so the order of failures is
+     * kept). */
+    return P->queued_bytes > MESH_QUEUE_BYTES_MAX ? mesh_jobs_finish(P) : 0;
+}
+
+/* One job, on a pool thread: its mesh into j->md (state 1), or its message into j->err
+ * (state -1, and -1 so that the pool starts no later job: the first failure in file order
+ * is then among those run). */
+static int mesh_job_run(void *user, int index, err_t *err)
+{
+    mesh_job_t *j = &((mesh_job_t *)user)[index];
+    int rc;
+    switch (j->kind) {
+    case MESH_JOB_PLY_FILE:
+        rc = mesh_import_ply(j->path, &j->md, &j->err);
+        break;
+    case MESH_JOB_PLY_MEMORY:
+        rc = mesh_import_ply_memory(j->buf, j->len, j->path, &j->md, &j->err);
+        break;
+    case MESH_JOB_PLY_SAME:
+        rc = 0; /* made by job j->same */
+        break;
+    default:
+        rc = loopsubdiv_mesh(j->P, j->nv, j->idx, j->nt, j->levels, &j->md, &j->err);
+        if (rc != 0)
+            err_prefix(&j->err, "Shape \"loopsubdiv\": ");
+        break;
+    }
+    free(j->buf);
+    free(j->P);
+    free(j->idx);
+    j->buf = NULL;
+    j->P = NULL;
+    j->idx = NULL;
+    j->state = rc == 0 ? 1 : -1;
+    if (rc != 0 && err)
+        *err = j->err;
+    return rc;
+}
+
+/* A job that has run, in file order: its failure reported at its location, or its mesh
+ * given to its shape (and counted against the budget). */
+static int mesh_job_adopt(parser_t *P, mesh_job_t *j)
+{
+    if (j->state != 1)
+        return pbrt_error(P->err, j->loc, "%s",
+                          j->state < 0 ? j->err.msg : "mesh not made (internal error)");
+    scene_shape_t *s =
+        j->in_object ? &P->scene->object_shapes[j->shape] : &P->scene->shapes[j->shape];
+    j->state = 0;
+    if (j->kind == MESH_JOB_PLY_SAME) {
+        /* Job j->same is earlier in file order, so its shape holds the mesh by now (had it
+         * failed, the walk would have stopped there). The scene owns the arrays once. */
+        const mesh_job_t *from = &P->jobs[j->same];
+        const scene_shape_t *f = from->in_object ? &P->scene->object_shapes[from->shape]
+                                                 : &P->scene->shapes[from->shape];
+        s->mesh.nvertices = f->mesh.nvertices;
+        s->mesh.ntriangles = f->mesh.ntriangles;
+        s->mesh.P = f->mesh.P;
+        s->mesh.N = f->mesh.N;
+        s->mesh.uv = f->mesh.uv;
+        s->mesh.indices = f->mesh.indices;
+        return budget_triangles(P, s->mesh.ntriangles, s->loc);
+    }
+    return adopt_mesh(P, s, &j->md);
+}
+
+/* Runs the queued jobs on the pool, then takes their results in file order, checking the
+ * budget's triangle counts in that order too: the failure reported is the first in the
+ * file, whatever the number of threads or the order in which the jobs ran. Called at the end
+ * of a parse, when the queue holds too many bytes (mesh_job_queue), and when a parse fails
+ * (whose own error stands only if nothing queued before it failed: every job and count is from
+ * before the point where the parse stopped). Leaves the queue empty. */
+static int mesh_jobs_finish(parser_t *P)
+{
+    int rc = 0;
+    if (P->njobs > 0) {
+        err_t ignored;
+        (void)pool_for(P->threads, (int)P->njobs, mesh_job_run, P->jobs, &ignored);
+        P->resolving = true;
+        if (P->ncounts > 0) {
+            for (size_t i = 0; i < P->ncounts && rc == 0; i++) {
+                const tri_count_t *c = &P->counts[i];
+                rc = c->job >= 0 ? mesh_job_adopt(P, &P->jobs[c->job])
+                                 : budget_triangles(P, c->n, c->loc);
+            }
+        } else {
+            for (size_t i = 0; i < P->njobs && rc == 0; i++)
+                rc = mesh_job_adopt(P, &P->jobs[i]);
+        }
+    }
+    for (size_t i = 0; i < P->njobs; i++)
+        mesh_job_free(&P->jobs[i]);
+    free(P->jobs);
+    free(P->counts);
+    P->jobs = NULL;
+    P->counts = NULL;
+    P->njobs = P->ncounts = P->cap_jobs = P->cap_counts = 0;
+    P->queued_bytes = 0;
+    P->ntriangles_ahead = 0;
+    free(P->ply_slots);
+    P->ply_slots = NULL;
+    P->ply_cap = P->nply = 0;
+    P->resolving = false;
+    return rc;
+}
+
 static int mesh_from_ply(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t loc)
 {
     const char *filename;
@@ -2571,8 +2859,9 @@ static int mesh_from_ply(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t
     const char *path = scene_path(P, filename, fp->loc);
     if (!path)
         return -1;
-    mesh_data_t md;
-    err_t e;
+    /* A confined parse reads the file here, in file order, so that the bytes it charges and
+     * the files it refuses are the same whatever the threads; the decoding is queued. */
+    mesh_job_t j = {.kind = MESH_JOB_PLY_FILE, .loc = fp->loc, .path = path};
     if (P->root_real) {
         size_t len;
         char *real = confine(P, path, filename, &fp->loc, "PLY file");
@@ -2583,16 +2872,19 @@ static int mesh_from_ply(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t
             free(buf);
             return -1;
         }
-        int rc = mesh_import_ply_memory(buf, len, path, &md, &e);
-        free(buf);
-        if (rc != 0)
-            return pbrt_error(P->err, fp->loc, "%s", e.msg);
-    } else if (mesh_import_ply(path, &md, &e) != 0) {
-        return pbrt_error(P->err, fp->loc, "%s", e.msg);
+        j.kind = MESH_JOB_PLY_MEMORY;
+        j.buf = buf;
+        j.len = len;
     }
-    if (adopt_mesh(P, s, &md) != 0)
+    /* Listed here, in file order; in check mode (made at once) only once it is made, as a
+     * refused directive adds nothing to the scene. */
+    if (!P->errors && note_file(P, SCENE_FILE_PLY, path, filename, fp->loc) != 0) {
+        mesh_job_free(&j);
         return -1;
-    return note_file(P, SCENE_FILE_PLY, path, filename, fp->loc);
+    }
+    if (mesh_job_queue(P, s, &j) != 0)
+        return -1;
+    return P->errors ? note_file(P, SCENE_FILE_PLY, path, filename, fp->loc) : 0;
 }
 
 /* pbrt-v4 Cylinder, tessellated (shape_tess.h): a mesh needs no new intersection, area
@@ -2658,17 +2950,30 @@ static int loopsubdiv_shape(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_lo
     uint64_t after = pi->count / 3;
     for (int l = 0; l < levels && after <= UINT64_MAX / 4; l++)
         after *= 4;
-    if (P->budget && P->budget->triangles && after > P->budget->triangles - P->ntriangles) {
-        free(idx);
-        return budget_triangles(P, after, loc);
+    if (P->budget && P->budget->triangles) {
+        /* Queued meshes not yet made count as none: the bound is a lower one, so a refusal
+         * here is right, and mesh_jobs_finish finds whether one of them failed first. */
+        uint64_t lower = P->ntriangles + P->ntriangles_ahead;
+        if (lower < P->ntriangles || lower > P->budget->triangles ||
+            after > P->budget->triangles - lower) {
+            free(idx);
+            if (P->njobs > 0 && note_count(P, -1, after, loc) != 0)
+                return -1;
+            return budget_refuse(P, after, loc);
+        }
     }
-    mesh_data_t md;
-    err_t e;
-    int rc = loopsubdiv_mesh(pp->numbers, nv, idx, pi->count / 3, levels, &md, &e);
-    free(idx);
-    if (rc != 0)
-        return pbrt_error(P->err, loc, "Shape \"loopsubdiv\": %s", e.msg);
-    return adopt_mesh(P, s, &md);
+    mesh_job_t j = {.kind = MESH_JOB_LOOP,
+                    .loc = loc,
+                    .idx = idx,
+                    .nv = nv,
+                    .nt = pi->count / 3,
+                    .levels = levels};
+    if (!(j.P = malloc(pp->count * sizeof *j.P))) {
+        free(idx);
+        return pbrt_error(P->err, loc, "out of memory");
+    }
+    memcpy(j.P, pp->numbers, pp->count * sizeof *j.P);
+    return mesh_job_queue(P, s, &j);
 }
 
 static int do_shape(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
@@ -3751,10 +4056,11 @@ static int finish(parser_t *P)
 }
 
 static scene_desc_t *run(const char *name, const char *text, size_t len, const char *root,
-                         const scene_budget_t *budget, warnings_t *errors, err_t *err)
+                         const scene_budget_t *budget, warnings_t *errors, int threads, err_t *err)
 {
     parser_t P = {0};
     P.err = err;
+    P.threads = threads;
     P.budget = budget;
     P.errors = errors;
     if (root) {
@@ -3797,6 +4103,13 @@ static scene_desc_t *run(const char *name, const char *text, size_t len, const c
     int rc = text ? parse_buffer(&P, name, text, len)
                   : parse_file(&P, name, NULL, SCENE_FILE_MAIN, name);
     if (rc == 0) {
+        rc = mesh_jobs_finish(&P);
+    } else {
+        err_t at_stop = *err;
+        if (mesh_jobs_finish(&P) == 0)
+            *err = at_stop; /* nothing before the point where the parse stopped failed */
+    }
+    if (rc == 0) {
         P.file = main_name;
         rc = finish(&P);
         if (rc != 0 && errors && warnings_add_text(errors, err->msg) == 0)
@@ -3826,12 +4139,12 @@ static scene_desc_t *run(const char *name, const char *text, size_t len, const c
 
 scene_desc_t *pbrt_parse_file(const char *path, err_t *err)
 {
-    return run(path, NULL, 0, NULL, NULL, NULL, err);
+    return run(path, NULL, 0, NULL, NULL, NULL, 0, err);
 }
 
 scene_desc_t *pbrt_parse_file_check(const char *path, warnings_t *errors, err_t *err)
 {
-    return run(path, NULL, 0, NULL, NULL, errors, err);
+    return run(path, NULL, 0, NULL, NULL, errors, 0, err);
 }
 
 scene_desc_t *pbrt_parse_file_confined(const char *path, const char *root,
@@ -3839,10 +4152,19 @@ scene_desc_t *pbrt_parse_file_confined(const char *path, const char *root,
 {
     if (!root)
         return err_set(err, "a confined parse needs the scene's folder"), NULL;
-    return run(path, NULL, 0, root, budget, NULL, err);
+    return pbrt_parse_file_opts(path, &(pbrt_parse_opts_t){.root = root, .budget = budget}, err);
+}
+
+scene_desc_t *pbrt_parse_file_opts(const char *path, const pbrt_parse_opts_t *opts, err_t *err)
+{
+    pbrt_parse_opts_t none = {0};
+    if (!opts)
+        opts = &none;
+    return run(path, NULL, 0, opts->root, opts->budget, NULL, opts->threads, err);
 }
 
 scene_desc_t *pbrt_parse_string(const char *text, size_t len, const char *name, err_t *err)
 {
-    return run(name ? name : "<string>", text ? text : "", text ? len : 0, NULL, NULL, NULL, err);
+    return run(name ? name : "<string>", text ? text : "", text ? len : 0, NULL, NULL, NULL, 0,
+               err);
 }

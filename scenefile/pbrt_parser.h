@@ -76,6 +76,21 @@ scene_desc_t *pbrt_parse_file_check(const char *path, warnings_t *errors, err_t 
 scene_desc_t *pbrt_parse_file_confined(const char *path, const char *root,
                                        const scene_budget_t *budget, err_t *err);
 
+/* How pbrt_parse_file_opts parses; all zero is pbrt_parse_file. */
+typedef struct pbrt_parse_opts {
+    /* Non-NULL: a confined parse in this folder, as pbrt_parse_file_confined. */
+    const char *root;
+    const scene_budget_t *budget; /* as pbrt_parse_file_confined's; NULL: none */
+    /* The threads that decode PLY files and subdivide loopsubdiv shapes (<= 0: all cores).
+     * Those meshes are queued as the parse reads their directives and made together when the
+     * text has been read; the result is the same for every value: the same meshes in the
+     * same shapes, and on failure the same message, the first failure in file order. */
+    int threads;
+} pbrt_parse_opts_t;
+
+/* pbrt_parse_file or pbrt_parse_file_confined as opts says (NULL: all zero). */
+scene_desc_t *pbrt_parse_file_opts(const char *path, const pbrt_parse_opts_t *opts, err_t *err);
+
 /* Parses scene text held in memory; name is used in messages and as the base for relative
  * file names (e.g. "tests/data/scenes/x.pbrt" resolves "inc.pbrt" in tests/data/scenes). The
  * text itself is not listed among the files read; the files it reads are. */

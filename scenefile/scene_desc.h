@@ -245,6 +245,7 @@ typedef enum scene_shape_type {
                          * or a cut sphere, made into triangles by the parser */
 } scene_shape_type_t;
 
+/* Shapes that name the same PLY file may share one mesh's arrays (the scene owns them once). */
 typedef struct scene_mesh {
     size_t nvertices;
     const double *P;  /* 3 per vertex */

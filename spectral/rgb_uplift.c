@@ -13,11 +13,23 @@ struct rgb_uplift {
     unsigned char need[3][NODES]; /* 1: noted, 2: fitted */
 };
 
+#ifndef RGB_UPLIFT_BAKE
+/* Every node's fit, made when prismfarm is built (spectral/bake/rgb_uplift_bake.c writes
+ * rgb_uplift_table.c by rgb_uplift_bake_write below). */
+extern const double rgb_uplift_baked[3][NODES][3];
+#endif
+
 rgb_uplift_t *rgb_uplift_new(err_t *err)
 {
     rgb_uplift_t *t = calloc(1, sizeof *t);
-    if (!t)
+    if (!t) {
         err_set(err, "out of memory for the RGB uplift table");
+        return NULL;
+    }
+#ifndef RGB_UPLIFT_BAKE
+    memcpy(t->c, rgb_uplift_baked, sizeof t->c);
+    memset(t->need, 2, sizeof t->need);
+#endif
     return t;
 }
 
@@ -80,10 +92,10 @@ void rgb_uplift_need(rgb_uplift_t *t, const float rgb[3])
         return;
     int k = i * (RGB_UPLIFT_RES + 1) + j;
     unsigned char *n = t->need[f];
-    n[k] |= 1;
-    n[k + 1] |= 1;
-    n[k + RGB_UPLIFT_RES + 1] |= 1;
-    n[k + RGB_UPLIFT_RES + 2] |= 1;
+    int ks[4] = {k, k + 1, k + RGB_UPLIFT_RES + 1, k + RGB_UPLIFT_RES + 2};
+    for (int q = 0; q < 4; q++)
+        if (n[ks[q]] == 0)
+            n[ks[q]] = 1;
 }
 
 typedef struct prep {
@@ -151,3 +163,33 @@ int rgb_uplift_coef_fit(rgb_uplift_t *t, const float rgb[3], double out[4], err_
 {
     return coef(t, 1, rgb, out, err);
 }
+
+#ifdef RGB_UPLIFT_BAKE
+int rgb_uplift_bake_write(FILE *f, int threads, err_t *err)
+{
+    rgb_uplift_t *t = rgb_uplift_new(err);
+    if (!t)
+        return -1;
+    memset(t->need, 1, sizeof t->need);
+    if (rgb_uplift_prepare(t, threads, err)) {
+        rgb_uplift_destroy(&t);
+        return -1;
+    }
+    fprintf(
+        f,
+        "/* The RGB uplift table (rgb_uplift.h): every node's sigmoid fit, written when prismfarm\n"
+        " * is built by spectral/bake/rgb_uplift_bake.c. Generated: do not edit. */\n"
+        "#include \"rgb_uplift.h\"\n\n"
+        "const double rgb_uplift_baked[3][(RGB_UPLIFT_RES + 1) * (RGB_UPLIFT_RES + 1)][3];\n"
+        "const double rgb_uplift_baked[3][(RGB_UPLIFT_RES + 1) * (RGB_UPLIFT_RES + 1)][3] = {\n");
+    for (int fc = 0; fc < 3; fc++) {
+        fprintf(f, "    {\n");
+        for (int k = 0; k < NODES; k++)
+            fprintf(f, "        {%a, %a, %a},\n", t->c[fc][k][0], t->c[fc][k][1], t->c[fc][k][2]);
+        fprintf(f, "    },\n");
+    }
+    fprintf(f, "};\n");
+    rgb_uplift_destroy(&t);
+    return ferror(f) ? err_set(err, "cannot write the table") : 0;
+}
+#endif

@@ -5,7 +5,10 @@
  * RGBIlluminantSpectrum). The sigmoid's coefficients are not fitted per colour: they are
  * interpolated bilinearly in a table of fits over the three faces max(rgb / m) = 1/2 of the
  * colour cube, (RGB_UPLIFT_RES + 1)^2 nodes per face (pbrt-v4's RGBToSpectrumTable uses 64
- * per axis), each node fitted once, on first need. So a colour costs a table lookup and its
+ * per axis), every node fitted when prismfarm is built (spectral/bake/rgb_uplift_bake.c, as
+ * pbrt-v4 builds its tables with rgb2spec_opt), so a scene's load fits none (fitting per
+ * texture was 2.4 of the 3.5 CPU-s that bench/load_scene.sh's six 1024x1024 textures and 800
+ * meshes took to load). So a colour costs a table lookup and its
  * spectrum one sigmoid per wavelength; m * s reproduces the colour's XYZ to the fit's residual
  * and the interpolation's error (tests/unit/test_texture.c measures it). Greys are exactly
  * flat. */
@@ -21,6 +24,9 @@ typedef struct rgb_uplift rgb_uplift_t;
 
 rgb_uplift_t *rgb_uplift_new(err_t *err);
 void rgb_uplift_destroy(rgb_uplift_t **self_p);
+
+/* A new table holds every node's fit (rgb_uplift_need and rgb_uplift_prepare then find
+ * nothing to do; the bake's own build starts empty and fits every node). */
 
 /* Notes the table nodes that rgb needs (negative or NaN components count as 0). Not
  * thread-safe: call from one thread, then rgb_uplift_prepare. */
@@ -42,5 +48,12 @@ static inline double rgb_uplift_eval(const double c[4], double lambda)
         return 0.5 * c[3];
     return c[3] * spectrum_sigmoid((c[0] * lambda + c[1]) * lambda + c[2]);
 }
+
+#ifdef RGB_UPLIFT_BAKE
+#include <stdio.h>
+/* The bake (spectral/bake/rgb_uplift_bake.c): fits every node on threads threads and writes
+ * the table as C source with exact (hexadecimal) doubles. */
+int rgb_uplift_bake_write(FILE *f, int threads, err_t *err);
+#endif
 
 #endif

@@ -12,10 +12,13 @@
 #include "cie.h"
 #include "colour.h"
 #include "numeric_testutil.h"
+#include "pool.h"
+#include "rgb_uplift.h"
 #include "spectrum.h"
 
 #include <math.h>
 #include <pthread.h>
+#include <stdio.h>
 #include <string.h>
 #include <time.h>
 
@@ -281,6 +284,64 @@ static double cpu_seconds(void)
     return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
+/* The uplift table is fitted when prismfarm is built (spectral/bake/rgb_uplift_bake.c): at
+ * a node's own colour a new table gives exactly the coefficients that fitting that colour now
+ * gives, in the compute threads' floating-point mode (pool.h) that the bake used, for nodes
+ * spread over the three faces (a node (i, j) of face f is the colour with channel f at 1/2 and
+ * the other two, in order, at i / 128 and j / 128), checked on a pool thread for that mode. */
+typedef struct baked_check {
+    int checked, bad;
+    char first[300];
+} baked_check_t;
+
+static int baked_check_run(void *user, int index, err_t *err)
+{
+    (void)index;
+    baked_check_t *r = user;
+    rgb_uplift_t *t = rgb_uplift_new(err);
+    if (!t)
+        return -1;
+    for (int f = 0; f < 3; f++)
+        for (int i = 0; i < RGB_UPLIFT_RES; i += (i == 56 ? 7 : 8))
+            for (int j = 0; j < RGB_UPLIFT_RES; j += (j == 56 ? 7 : 8)) {
+                float v[3];
+                int a = f == 0 ? 1 : 0, c = f == 2 ? 1 : 2;
+                v[f] = 0.5f;
+                v[a] = (float)i / (2 * RGB_UPLIFT_RES);
+                v[c] = (float)j / (2 * RGB_UPLIFT_RES);
+                spectrum_sigmoid_t fit;
+                double out[4];
+                if (spectrum_sigmoid_fit((rgb_t){v[0], v[1], v[2]}, &fit, err) ||
+                    rgb_uplift_coef(t, v, out, err)) {
+                    rgb_uplift_destroy(&t);
+                    return -1;
+                }
+                r->checked++;
+                int same = out[3] == 1.0;
+                for (int q = 0; q < 3; q++)
+                    same &= out[q] == fit.c[q];
+                if (!same && r->bad++ == 0)
+                    snprintf(
+                        r->first, sizeof r->first,
+                        "node (%d, %d, %d): (%a, %a, %a) in the table, (%a, %a, %a) fitted now", f,
+                        i, j, out[0], out[1], out[2], fit.c[0], fit.c[1], fit.c[2]);
+            }
+    rgb_uplift_destroy(&t);
+    return 0;
+}
+
+static void test_rgb_uplift_baked(void **state)
+{
+    (void)state;
+    err_t err;
+    baked_check_t r = {0};
+    if (pool_for(1, 1, baked_check_run, &r, &err) != 0)
+        fail_msg("%s", err.msg);
+    if (r.bad)
+        fail_msg("%d of %d nodes differ; %s", r.bad, r.checked, r.first);
+    assert_true(r.checked == 3 * 9 * 9);
+}
+
 /* How long one solve takes in CPU time (reported; the bound, thousands of times what a solve
  * takes even under a sanitizer, only catches a pathological regression). */
 static void test_rgb_uplift_timing(void **state)
@@ -403,7 +464,7 @@ int main(void)
         cmocka_unit_test(test_blackbody_wien),    cmocka_unit_test(test_cie_illuminants),
         cmocka_unit_test(test_photometric),       cmocka_unit_test(test_rgb_uplift_round_trip),
         cmocka_unit_test(test_rgb_uplift_timing), cmocka_unit_test(test_rgb_illuminant),
-        cmocka_unit_test(test_concurrent_eval),
+        cmocka_unit_test(test_rgb_uplift_baked),  cmocka_unit_test(test_concurrent_eval),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
