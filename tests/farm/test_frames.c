@@ -88,12 +88,13 @@ static int setup(void **state)
 }
 
 typedef struct farm {
-    char spool[1024], mlog[1024], wep[1100], cep[1100];
+    char spool[512], mlog[1024], wep[1100], cep[1100];
     pid_t master;
 } farm_t;
 
-/* A master on ipc:// endpoints in the scratch folder (no keys: ipc:// needs none). */
-static void start_master(farm_t *f, const char *name)
+/* A master on ipc:// endpoints in the scratch folder (no keys: ipc:// needs none), with its
+ * dashboard on a port the system chooses when http. */
+static void start_master_http(farm_t *f, const char *name, bool http)
 {
     snprintf(f->spool, sizeof f->spool, "%s", testutil_scratch(name));
     char log[128];
@@ -102,8 +103,14 @@ static void start_master(farm_t *f, const char *name)
     snprintf(f->wep, sizeof f->wep, "ipc://%s-w.sock", f->spool);
     snprintf(f->cep, sizeof f->cep, "ipc://%s-c.sock", f->spool);
     f->master = testutil_spawn(f->mlog, "master", "--workers", f->wep, "--clients", f->cep,
-                               "--spool", f->spool, "--heartbeat", "200", "--tile", "8", NULL);
+                               "--spool", f->spool, "--heartbeat", "200", "--tile", "8",
+                               http ? "--http" : NULL, "0", NULL);
     testutil_wait_file_has(f->mlog, "clients on");
+}
+
+static void start_master(farm_t *f, const char *name)
+{
+    start_master_http(f, name, false);
 }
 
 static pid_t start_worker(const farm_t *f, const char *name, const char *cache)
@@ -144,7 +151,7 @@ static void test_sequence_renders_each_frame(void **state)
 {
     (void)state;
     farm_t f;
-    start_master(&f, "spool");
+    start_master_http(&f, "spool", true);
     char c1[1100], c2[1100];
     snprintf(c1, sizeof c1, "%s", testutil_scratch("cache1"));
     snprintf(c2, sizeof c2, "%s", testutil_scratch("cache2"));
@@ -189,6 +196,18 @@ static void test_sequence_renders_each_frame(void **state)
     assert_int_equal(r->status, 0);
     expect_in(r->out, "walk0001..walk0003");
     assert_null(strstr(r->out, "walk0002.pbrt"));
+    /* The dashboard: the sequence in the list, its frames in its view. */
+    static char page[65536];
+    int port = testutil_http_port(f.spool);
+    assert_int_equal(testutil_http(port, "GET", "/api/jobs", NULL, NULL, page, sizeof page), 200);
+    expect_in(page, "\"name\":\"walk0001..walk0003\"");
+    expect_in(page, "\"nframes\":3");
+    assert_null(strstr(page, "walk0002.pbrt"));
+    assert_int_equal(testutil_http(port, "GET", "/api/jobs/1", NULL, NULL, page, sizeof page), 200);
+    expect_in(page, "\"frames\":[");
+    expect_in(page, "\"name\":\"walk0003.pbrt\"");
+    expect_in(page, "\"sequence\":1,\"frame\":3");
+    expect_in(page, "\"samples_done\":4608"); /* 3 frames of 24x16 at 4 spp */
 
     /* Two workers: the same frames, to names taken from the frame files (in the current
      * folder: fetch is run in the scratch folder's out/). */
