@@ -428,6 +428,10 @@ void job_cancel(master_t *m, mjob_t *j, double now)
     else if (j->sched.known && sched_cancel_job(m->sched, j->id, &err) < 0)
         master_log(m, "cancel: %s", err.msg);
     job_refresh(m, j, now);
+    /* A frame that gave up its outputs changed state before job_refresh looked. */
+    mjob_t *seq = j->seq.parent ? jobs_find(m, j->seq.parent) : NULL;
+    if (seq && seq->seq.nframes > 0)
+        jobs_sequence_refresh(m, seq, now);
 }
 
 static void job_refresh_one(master_t *m, mjob_t *j, double now);

@@ -674,6 +674,12 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "%s", why);
         return;
     }
+    if (j->seq.nframes > 0) {
+        reply_error(m, from, "job %llu is a sequence of %u frames: refine its frames (jobs %llu..%llu)",
+                    (unsigned long long)j->id, j->seq.nframes, (unsigned long long)(j->id + 1),
+                    (unsigned long long)(j->id + j->seq.nframes));
+        return;
+    }
     if (!j->photons.enabled) {
         reply_error(m, from,
                     "job %llu has no photon pass to refine (its integrator is not \"photon\")",
@@ -771,59 +777,12 @@ static void on_cancel(master_t *m, const proto_peer_t *from, const proto_msg_t *
 
 /* Priority, pause, resume, requeue, unblock: ops.h does them (the dashboard calls the same
  * functions); the answer is the job as STATUS shows it, or the workers. */
-/* Priority, pause and resume of a frame sequence act on each of its frames that is not over
- * (a frame already in that state is no failure); the first other failure is the answer. */
-static int act_on_sequence(master_t *m, mjob_t *seq, const proto_msg_t *msg,
-                           const master_actor_t *who, double now, err_t *err)
-{
-    int acted = 0, rc = 0;
-    err_t first = {{0}};
-    for (uint32_t k = 0; k < seq->seq.nframes; k++) {
-        mjob_t *f = jobs_frame(m, seq, k);
-        if (!f || job_over(f) || !f->sched.known)
-            continue;
-        err_t e;
-        int r;
-        if (msg->act.act == PROTO_ACT_PRIORITY)
-            r = master_job_set_priority(m, f->id, (int)msg->act.priority, who, &e);
-        else if (msg->act.act == PROTO_ACT_PAUSE)
-            r = f->ops.paused ? 0 : master_job_pause(m, f->id, who, &e);
-        else
-            r = !f->ops.paused ? 0 : master_job_resume(m, f->id, who, &e);
-        if (r == 0)
-            acted++;
-        else if (rc == 0) {
-            rc = -1;
-            first = e;
-        }
-    }
-    if (rc < 0)
-        return err_set(err, "%s", first.msg);
-    if (acted == 0)
-        return err_set(err, "job %llu is %s: only a queued or running job can be changed",
-                       (unsigned long long)seq->id, job_state_name(seq->state));
-    if (msg->act.act == PROTO_ACT_PRIORITY)
-        seq->ops.priority = (int)msg->act.priority;
-    jobs_sequence_refresh(m, seq, now);
-    return 0;
-}
-
 static void on_act(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
 {
     master_actor_t who = ops_actor_of_peer(m, from);
     uint64_t id = msg->act.job;
     err_t err;
     int rc;
-    mjob_t *seq = jobs_find(m, id);
-    if (seq && seq->seq.nframes > 0 &&
-        (msg->act.act == PROTO_ACT_PRIORITY || msg->act.act == PROTO_ACT_PAUSE ||
-         msg->act.act == PROTO_ACT_RESUME)) {
-        if (!ops_may_act(m, seq, &who, &err) || act_on_sequence(m, seq, msg, &who, now, &err) < 0)
-            reply_error(m, from, "%s: %s", proto_act_name(msg->act.act), err.msg);
-        else
-            reply_jobs(m, from, PROTO_STATUS_REPLY, seq, now);
-        return;
-    }
     switch (msg->act.act) {
     case PROTO_ACT_PRIORITY:
         rc = master_job_set_priority(m, id, (int)msg->act.priority, &who, &err);

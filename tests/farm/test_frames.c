@@ -320,8 +320,9 @@ static void test_restart_mid_sequence(void **state)
     testutil_stop(f.master, SIGTERM);
 }
 
-/* Cancelling the sequence cancels every frame, running or queued. */
-static void test_cancel_stops_every_frame(void **state)
+/* Pause, priority and resume of the sequence act on every frame; cancelling it cancels every
+ * frame, running or queued. */
+static void test_ops_and_cancel_act_on_every_frame(void **state)
 {
     (void)state;
     farm_t f;
@@ -333,6 +334,19 @@ static void test_cancel_stops_every_frame(void **state)
                          "--master", f.cep, NULL);
     assert_int_equal(r->status, 0);
     testutil_wait_file_has(f.mlog, "job 2 'walk0001.pbrt' started");
+    /* Pause, priority and resume act on every frame. */
+    r = run("pause", "1", "--master", f.cep, "--json", NULL);
+    if (r->status != 0)
+        fail_msg("pause 1: exit %d: %s", r->status, r->err);
+    assert_int_equal(testutil_count_in(r->out, "\"state\": \"paused\""), NFRAMES + 1);
+    r = run("priority", "1", "7", "--master", f.cep, "--json", NULL);
+    if (r->status != 0)
+        fail_msg("priority 1 7: exit %d: %s", r->status, r->err);
+    assert_int_equal(testutil_count_in(r->out, "\"priority\": 7"), NFRAMES + 1);
+    r = run("resume", "1", "--master", f.cep, "--json", NULL);
+    if (r->status != 0)
+        fail_msg("resume 1: exit %d: %s", r->status, r->err);
+    assert_int_equal(testutil_count_in(r->out, "\"state\": \"paused\""), 0);
     r = run("cancel", "1", "--master", f.cep, NULL);
     assert_int_equal(r->status, 0);
     r = run("status", "1", "--master", f.cep, "--json", NULL);
@@ -407,7 +421,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_teardown(test_sequence_renders_each_frame, testutil_kill_children),
         cmocka_unit_test_teardown(test_restart_mid_sequence, testutil_kill_children),
-        cmocka_unit_test_teardown(test_cancel_stops_every_frame, testutil_kill_children),
+        cmocka_unit_test_teardown(test_ops_and_cancel_act_on_every_frame, testutil_kill_children),
         cmocka_unit_test(test_bad_input),
     };
     return cmocka_run_group_tests(tests, setup, testutil_scratch_teardown);
