@@ -345,6 +345,8 @@ static int submit_scenes(const frames_t *fr, const char *master, const char *nam
             json_t *o = json_object();
             json_object_set_new(o, "job", json_integer((json_int_t)job));
             json_object_set_new(o, "name", cli_json_string(name));
+            if (sequence)
+                json_object_set_new(o, "nframes", json_integer((json_int_t)fr->n));
             cli_json_print(o, 0);
         } else {
             printf("%llu\n", (unsigned long long)job);
