@@ -688,7 +688,7 @@ static void test_frame_sequences(void **state)
     bad[1] = (proto_frame_t){"scene.pbrt", 2};
     expect_encode_refused(&s, "repeat 'scene.pbrt'");
     bad[1] = (proto_frame_t){"meshes/prism.ply", 1};
-    expect_encode_refused(&s, "or number 1");
+    expect_encode_refused(&s, "repeat number 1");
     t.task.main = "../scene.pbrt";
     expect_encode_refused(&t, "field 'main' is not a bundle path");
 }
