@@ -131,11 +131,11 @@ void query_print_jobs(const proto_job_info_t *jobs, size_t n, int json)
             snprintf(note, sizeof note, "%s", j->error);
         else if (j->stop != PROTO_STOP_NONE)
             snprintf(note, sizeof note, "(stopped: %s)", stopping_reason((stopping_why_t)j->stop));
+        else if (j->frames > 0)
+            snprintf(note, sizeof note, "(%u frames)", j->frames);
         char name[64];
         if (j->parent)
             snprintf(name, sizeof name, "  #%u %s", j->frame, j->name ? j->name : "");
-        else if (j->frames > 0)
-            snprintf(name, sizeof name, "%s [%u frames]", j->name ? j->name : "", j->frames);
         else
             snprintf(name, sizeof name, "%s", j->name ? j->name : "");
         printf("%-6llu %-20.20s %-12.12s %-10s %5lld %8.1f%% %8u %9s %8.1fs %10llu  %s\n",

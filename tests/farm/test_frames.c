@@ -183,6 +183,7 @@ static void test_sequence_renders_each_frame(void **state)
     r = run("status", "1", "--master", f.cep, NULL);
     assert_int_equal(r->status, 0);
     expect_in(r->out, "walk0001..walk0003");
+    expect_in(r->out, "(3 frames)");
     expect_in(r->out, "#1 walk0001.pbrt");
     expect_in(r->out, "#3 walk0003.pbrt");
     assert_int_equal(testutil_count_in(r->out, " done "), NFRAMES + 1);
