@@ -348,8 +348,20 @@ static void test_ops_and_cancel_act_on_every_frame(void **state)
     if (r->status != 0)
         fail_msg("resume 1: exit %d: %s", r->status, r->err);
     assert_int_equal(testutil_count_in(r->out, "\"state\": \"paused\""), 0);
+    /* A second sequence, queued behind the first (job 5, frames 6..8), loses its middle frame
+     * by that frame's own id: the others render, and the sequence ends cancelled, not done. */
+    r = run("submit", frame_path(1), frame_path(2), frame_path(3), "--master", f.cep, NULL);
+    assert_int_equal(r->status, 0);
+    assert_string_equal(r->out, "5\n");
+    r = run("cancel", "7", "--master", f.cep, NULL);
+    assert_int_equal(r->status, 0);
     r = run("cancel", "1", "--master", f.cep, NULL);
     assert_int_equal(r->status, 0);
+    r = run("status", "5", "--wait", "--quiet", "--master", f.cep, "--json", NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->out, "\"id\": 5,\n    \"name\": \"walk0001..walk0003\",\n    \"state\": \"cancelled\"");
+    assert_int_equal(testutil_count_in(r->out, "\"state\": \"done\""), 2);
+    expect_in(r->out, "\"id\": 7,\n        \"name\": \"walk0002.pbrt\",\n        \"state\": \"cancelled\"");
     r = run("status", "1", "--master", f.cep, "--json", NULL);
     assert_int_equal(r->status, 0);
     assert_int_equal(testutil_count_in(r->out, "\"state\": \"cancelled\""), NFRAMES + 1);
@@ -360,6 +372,9 @@ static void test_ops_and_cancel_act_on_every_frame(void **state)
     r = run("fetch", "1", "-o", out, "--master", f.cep, NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "is cancelled: nothing fetched");
+    r = run("fetch", "5", "-o", out, "--master", f.cep, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "frame 2 (job 7) is cancelled: nothing fetched");
     testutil_stop(w, SIGTERM);
     testutil_stop(f.master, SIGTERM);
 }
