@@ -36,8 +36,9 @@ int frame_pattern_check(const char *pattern, err_t *err)
         }
         size_t n = conversion_length(p + 1, &zero, &width);
         if (n == 0)
-            return err_set(err, "'%s': '%%%.1s...' is not a frame number's conversion (use %%d or "
-                                "%%04d; %%%% for a '%%')",
+            return err_set(err,
+                           "'%s': '%%%.1s...' is not a frame number's conversion (use %%d or "
+                           "%%04d; %%%% for a '%%')",
                            pattern, p + 1);
         conversions++;
         p += 1 + n;

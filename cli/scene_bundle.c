@@ -89,8 +89,9 @@ static int add_scene(scene_bundle_t *self, const char *scene_path, err_t *err)
             const char *slash = strrchr(sf->path, '/');
             rel = slash ? slash + 1 : sf->path;
         } else if (sf->outside) {
-            rc = err_set(err, "%s:%d:%d: \"%s\" lies outside the scene's folder, so it cannot "
-                              "travel with the job: move it below the folder of %s",
+            rc = err_set(err,
+                         "%s:%d:%d: \"%s\" lies outside the scene's folder, so it cannot "
+                         "travel with the job: move it below the folder of %s",
                          sf->loc.file, sf->loc.line, sf->loc.col, sf->relative, scene_path);
             goto out;
         }
@@ -107,8 +108,8 @@ static int add_scene(scene_bundle_t *self, const char *scene_path, err_t *err)
                 rc = -1;
                 goto out;
             }
-            self->files[at] = (proto_bundle_file_t){.path = self->paths[at],
-                                                    .data = self->data[at], .size = size};
+            self->files[at] = (proto_bundle_file_t){
+                .path = self->paths[at], .data = self->data[at], .size = size};
             self->bytes += size;
         }
         if (sf->kind == SCENE_FILE_MAIN)
@@ -148,8 +149,9 @@ scene_bundle_t *scene_bundle_new_frames(const char *const *scene_paths, size_t n
         /* Bundle paths are relative to the scene's folder: frames of other folders would
          * name their files from other roots. */
         if (folder_length(p) != dir || strncmp(p, scene_paths[0], dir) != 0) {
-            err_set(err, "%s: the frames of a sequence must be in one folder (the first, %s, is "
-                         "in '%.*s')",
+            err_set(err,
+                    "%s: the frames of a sequence must be in one folder (the first, %s, is "
+                    "in '%.*s')",
                     p, scene_paths[0], (int)dir, dir ? scene_paths[0] : ".");
             goto fail;
         }
@@ -183,8 +185,14 @@ scene_bundle_t *scene_bundle_new(const char *scene_path, err_t *err)
     return scene_bundle_new_frames(&scene_path, 1, err);
 }
 
-const proto_bundle_t *scene_bundle_get(const scene_bundle_t *self) { return &self->bundle; }
-size_t scene_bundle_bytes(const scene_bundle_t *self) { return self->bytes; }
+const proto_bundle_t *scene_bundle_get(const scene_bundle_t *self)
+{
+    return &self->bundle;
+}
+size_t scene_bundle_bytes(const scene_bundle_t *self)
+{
+    return self->bytes;
+}
 const char *scene_bundle_frame_main(const scene_bundle_t *self, size_t k)
 {
     return k < self->nmains ? self->mains[k] : NULL;

@@ -297,8 +297,9 @@ static void test_restart_mid_sequence(void **state)
     testutil_wait_file_has(f.mlog, "job 4 'walk0003.pbrt' resumed");
     r = run("status", "1", "--wait", "--quiet", "--master", f.cep, NULL);
     if (r->status != 0)
-        testutil_fail_quoting(f.mlog, "status 1 --wait after the restart: exit %d: %s\n%s\nmaster "
-                                      "log:",
+        testutil_fail_quoting(f.mlog,
+                              "status 1 --wait after the restart: exit %d: %s\n%s\nmaster "
+                              "log:",
                               r->status, r->err, r->out);
     assert_int_equal(testutil_count_in(r->out, " done "), NFRAMES + 1);
     char out[1100];
@@ -309,8 +310,8 @@ static void test_restart_mid_sequence(void **state)
     for (int k = 1; k <= NFRAMES; k++) {
         char ref[1100], got[64], gotp[1100];
         snprintf(ref, sizeof ref, "%s/ref%d.exr", testutil_scratch_dir(), k);
-        r = run("render", frame_path(k), "--spp", "1024", "--workers", "1", "--threads", "2",
-                "-o", ref, "--quiet", NULL);
+        r = run("render", frame_path(k), "--spp", "1024", "--workers", "1", "--threads", "2", "-o",
+                ref, "--quiet", NULL);
         if (r->status != 0)
             fail_msg("render frame %d: exit %d: %s", k, r->status, r->err);
         snprintf(got, sizeof got, "r%d.exr", k);
@@ -359,9 +360,11 @@ static void test_ops_and_cancel_act_on_every_frame(void **state)
     assert_int_equal(r->status, 0);
     r = run("status", "5", "--wait", "--quiet", "--master", f.cep, "--json", NULL);
     assert_int_equal(r->status, 1);
-    expect_in(r->out, "\"id\": 5,\n    \"name\": \"walk0001..walk0003\",\n    \"state\": \"cancelled\"");
+    expect_in(r->out,
+              "\"id\": 5,\n    \"name\": \"walk0001..walk0003\",\n    \"state\": \"cancelled\"");
     assert_int_equal(testutil_count_in(r->out, "\"state\": \"done\""), 2);
-    expect_in(r->out, "\"id\": 7,\n        \"name\": \"walk0002.pbrt\",\n        \"state\": \"cancelled\"");
+    expect_in(r->out,
+              "\"id\": 7,\n        \"name\": \"walk0002.pbrt\",\n        \"state\": \"cancelled\"");
     r = run("status", "1", "--master", f.cep, "--json", NULL);
     assert_int_equal(r->status, 0);
     assert_int_equal(testutil_count_in(r->out, "\"state\": \"cancelled\""), NFRAMES + 1);
@@ -407,13 +410,16 @@ static void test_bad_input(void **state)
     /* Frames in two folders, and a broken frame, named. */
     char other[1100], broken[1100];
     snprintf(other, sizeof other, "%s", testutil_scratch("elsewhere.pbrt"));
-    testutil_write_text(other, "LookAt 0 1 -3  0 0.5 0  0 1 0\nCamera \"perspective\"\n"
-                               "WorldBegin\n", 0644);
+    testutil_write_text(other,
+                        "LookAt 0 1 -3  0 0.5 0  0 1 0\nCamera \"perspective\"\n"
+                        "WorldBegin\n",
+                        0644);
     r = run("submit", frame_path(1), other, "--master", m, NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "the frames of a sequence must be in one folder");
     snprintf(broken, sizeof broken, "%s/walk0009.pbrt", g_dir);
-    testutil_write_text(broken, "LookAt 0 1 -3  0 0.5 0  0 1 0\nCamera \"perspective\" \"float\n", 0644);
+    testutil_write_text(broken, "LookAt 0 1 -3  0 0.5 0  0 1 0\nCamera \"perspective\" \"float\n",
+                        0644);
     r = run("submit", frame_path(1), broken, "--master", m, NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "frame 2 of 2: ");
