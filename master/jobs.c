@@ -264,6 +264,10 @@ void jobs_sequence_refresh(master_t *m, mjob_t *seq, double now)
         seq->outputs.final = st == JOB_DONE;
         master_log(m, "job %llu '%s' (%u frames) %s", (unsigned long long)seq->id, seq->name,
                    seq->seq.nframes, job_state_name(st));
+    } else {
+        /* Running again: a frame refined after the sequence was done. */
+        seq->finished = 0;
+        seq->outputs.final = false;
     }
     persist_state(m, seq, now);
 }

@@ -769,8 +769,9 @@ static void on_cancel(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "%s", why);
         return;
     }
+    bool live = j->sched.known || (j->seq.nframes > 0 && !job_over(j));
     access_audit(m, from, "cancelled job %llu '%s' (%s)", (unsigned long long)j->id, j->name,
-                 j->sched.known ? "running or queued" : "already over: nothing to stop");
+                 live ? "running or queued" : "already over: nothing to stop");
     job_cancel(m, j, now);
     reply_jobs(m, from, PROTO_STATUS_REPLY, j, now);
 }
