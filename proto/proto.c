@@ -664,9 +664,9 @@ static int ck_submit_frames(const cx_t *cx, const void *obj)
     qsort(numbers, n, sizeof *numbers, cmp_u32);
     for (size_t i = 1; i < n && rc == 0; i++) {
         if (!strcmp(mains[i - 1], mains[i]))
-            rc = cx_fail(cx, "frames", "repeat '%.200s'", mains[i]);
+            rc = cx_fail(cx, "frames", "has '%.200s' twice", mains[i]);
         else if (numbers[i - 1] == numbers[i])
-            rc = cx_fail(cx, "frames", "repeat number %u", numbers[i]);
+            rc = cx_fail(cx, "frames", "has the number %u twice", numbers[i]);
     }
 out:
     free(paths);

@@ -686,9 +686,9 @@ static void test_frame_sequences(void **state)
     s.submit.frames = bad;
     expect_encode_refused(&s, "entry 1 names 'missing.pbrt', which is not in the bundle");
     bad[1] = (proto_frame_t){"scene.pbrt", 2};
-    expect_encode_refused(&s, "repeat 'scene.pbrt'");
+    expect_encode_refused(&s, "has 'scene.pbrt' twice");
     bad[1] = (proto_frame_t){"meshes/prism.ply", 1};
-    expect_encode_refused(&s, "repeat number 1");
+    expect_encode_refused(&s, "has the number 1 twice");
     t.task.main = "../scene.pbrt";
     expect_encode_refused(&t, "field 'main' is not a bundle path");
 }
