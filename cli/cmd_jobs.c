@@ -6,6 +6,7 @@
 #include "cli_json.h"
 #include "client_rpc.h"
 #include "film.h"
+#include "frame_pattern.h"
 #include "job_follow.h"
 #include "query.h"
 #include "stopping.h"
@@ -203,7 +204,9 @@ static void fetch_usage(FILE *out, const cli_opt_t *opts)
 {
     fprintf(out,
             "usage: prismfarm fetch JOB -o OUT.exr [--master ENDPOINT] [--timeout S]\n"
-            "Downloads a finished job's spectral EXR to OUT.exr and its preview to OUT.png.\n");
+            "Downloads a finished job's spectral EXR to OUT.exr and its preview to OUT.png.\n"
+            "A frame sequence's frames go to -o's pattern with each frame's number\n"
+            "(out/f%%04d.exr), or without -o to each frame file's name with .exr.\n");
     cli_args_help(out, opts);
 }
 
@@ -212,7 +215,8 @@ int cmd_fetch(int argc, char **argv)
     query_args_t q = query_args_default();
     const cli_opt_t opts[] = {
         {.name = "output", .letter = 'o', .kind = CLI_STRING, .dst = &q.output, .arg = "OUT.exr",
-         .help = "where the EXR goes (required); the PNG goes beside it"},
+         .help = "where the EXR goes (required but for a sequence: a pattern such as "
+                 "out/f%04d.exr); the PNG goes beside it"},
         CLI_OPT_GROUP(QUERY_OPTS, .dst = &q),
         /* Taken, as by the other questions, for scripts that pass it to all of them; fetch
          * prints no JSON. */
@@ -227,21 +231,42 @@ int cmd_fetch(int argc, char **argv)
     uint64_t job;
     if (query_parse_job("fetch", q.job, &job))
         return 2;
-    if (!q.output) {
-        fprintf(stderr, "prismfarm fetch: -o OUT.exr is required\n");
-        return 2;
-    }
+    /* A single job's outputs are checked before the master is asked (a pattern is a
+     * sequence's, checked once its frames are known). */
     char png[4200];
-    film_png_path(q.output, png, sizeof png);
-    int bad_output = job_follow_check_outputs(q.output, png, "fetch");
-    if (bad_output)
-        return bad_output;
+    bool pattern = q.output && frame_pattern_has(q.output);
+    if (q.output && !pattern) {
+        film_png_path(q.output, png, sizeof png);
+        int bad_output = job_follow_check_outputs(q.output, png, "fetch");
+        if (bad_output)
+            return bad_output;
+    }
     err_t err;
     client_rpc_t *rpc =
         client_rpc_probe(q.master, &err) == 0 ? client_rpc_new(q.master, NULL, &q.sec, &err) : NULL;
     if (!rpc) {
         fprintf(stderr, "prismfarm fetch: %s\n", err.msg);
         return 1;
+    }
+    /* A frame sequence is fetched frame by frame: its STATUS lists them. */
+    proto_msg_t sreq = {.type = PROTO_STATUS, .status = {.job = job}}, sreply;
+    if (client_rpc_call(rpc, &sreq, &sreply, q.timeout_ms, &err) == 0 &&
+        sreply.type == PROTO_STATUS_REPLY && sreply.status_reply.njobs > 0 &&
+        sreply.status_reply.jobs[0].frames > 0) {
+        int rc = job_follow_fetch_frames(rpc, sreply.status_reply.jobs, sreply.status_reply.njobs,
+                                         q.output, 0, "fetch");
+        proto_msg_free(&sreply);
+        client_rpc_destroy(&rpc);
+        return rc;
+    }
+    proto_msg_free(&sreply);
+    if (!q.output || pattern) {
+        client_rpc_destroy(&rpc);
+        fprintf(stderr, "prismfarm fetch: %s\n",
+                q.output ? "-o with a frame number pattern is for a frame sequence; this job is "
+                           "a single scene"
+                         : "-o OUT.exr is required");
+        return 2;
     }
     int failed = job_follow_fetch(rpc, job, PROTO_FETCH_EXR, q.output, "fetch") ||
                  job_follow_fetch(rpc, job, PROTO_FETCH_PNG, png, "fetch");

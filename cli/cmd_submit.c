@@ -1,5 +1,7 @@
 /* prismfarm submit: bundles a scene with the files it reads, submits it to a master, prints
- * the job id; with --wait follows the job with a progress bar and fetches the result. */
+ * the job id; with --wait follows the job with a progress bar and fetches the result. Several
+ * scene files, or a pattern with --frames, make one job of a frame sequence (docs/farm.md,
+ * "Frame sequences"). */
 #include "commands.h"
 
 #include "cli_args.h"
@@ -7,6 +9,8 @@
 #include "client_rpc.h"
 #include "progress.h"
 #include "film.h"
+#include "files.h"
+#include "frame_pattern.h"
 #include "job_follow.h"
 #include "scene_bundle.h"
 #include "settings.h"
@@ -14,18 +18,180 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 static void usage(FILE *out, const cli_opt_t *opts)
 {
     fprintf(out, "usage: prismfarm submit SCENE.pbrt [--master ENDPOINT] [options]\n"
+                 "       prismfarm submit FRAME.pbrt FRAME.pbrt ... [options]\n"
+                 "       prismfarm submit 'frame%%04d.pbrt' --frames FIRST-LAST [options]\n"
                  "\n"
-                 "Submits SCENE (and every file it includes) as a job; prints the job id.\n");
+                 "Submits SCENE (and every file it includes) as a job; prints the job id.\n"
+                 "Several scene files of one folder (frames/*.pbrt), or a pattern with --frames,\n"
+                 "make one job of a frame sequence: one output per frame, the files the frames\n"
+                 "share sent once. A listed frame's number is the last number in its file name\n"
+                 "(else its place in the list, from 1); with --wait, -o takes a pattern such as\n"
+                 "out/f%%04d.exr (default: each frame file's name with .exr).\n");
     cli_args_help(out, opts);
 }
 
+/* The scene files of a submission: one, or the frames of a sequence with their numbers. */
+typedef struct frames {
+    char **paths;
+    uint32_t *numbers;
+    size_t n;
+    bool sequence;
+} frames_t;
+
+static void frames_free(frames_t *fr)
+{
+    for (size_t k = 0; fr->paths && k < fr->n; k++)
+        free(fr->paths[k]);
+    free(fr->paths);
+    free(fr->numbers);
+    *fr = (frames_t){0};
+}
+
+static bool path_exists(const char *path) { return access(path, F_OK) == 0; }
+
+/* A scene operand that names no file: a shell glob that matched nothing arrives as it is, and
+ * a pattern needs --frames; both get a message saying so. Returns 2, or 0 when the file is
+ * there (or the parser will say why not). */
+static int check_operand(const char *path, bool pattern_ok)
+{
+    if (path_exists(path))
+        return 0;
+    if (strpbrk(path, "*?[")) {
+        fprintf(stderr, "prismfarm submit: '%s' matched no file (an empty glob?)\n", path);
+        return 2;
+    }
+    if (!pattern_ok && frame_pattern_has(path)) {
+        fprintf(stderr, "prismfarm submit: '%s' looks like a frame pattern: give --frames "
+                        "FIRST-LAST\n", path);
+        return 2;
+    }
+    return 0;
+}
+
+/* The operands into fr: a pattern with --frames, several files (a sequence numbered by the
+ * last number in each name when all have distinct ones, else 1..n), or one scene. */
+static int submit_frames(frames_t *fr, char **ops, size_t nops, const char *range)
+{
+    err_t err;
+    if (range) {
+        uint32_t a, b;
+        if (nops != 1) {
+            fprintf(stderr, "prismfarm submit: --frames takes one scene pattern (such as "
+                            "frame%%04d.pbrt), not %zu files\n", nops);
+            return 2;
+        }
+        if (frame_pattern_check(ops[0], &err) < 0 ||
+            frame_pattern_parse_range(range, PROTO_MAX_FRAMES, &a, &b, &err) < 0) {
+            fprintf(stderr, "prismfarm submit: %s\n", err.msg);
+            return 2;
+        }
+        size_t n = (size_t)b - a + 1;
+        fr->paths = calloc(n, sizeof *fr->paths);
+        fr->numbers = calloc(n, sizeof *fr->numbers);
+        if (!fr->paths || !fr->numbers)
+            return fprintf(stderr, "prismfarm submit: out of memory\n"), 1;
+        fr->sequence = true;
+        for (size_t k = 0; k < n; k++) {
+            char path[4096];
+            if (frame_pattern_format(ops[0], a + (uint32_t)k, path, sizeof path, &err) < 0) {
+                fprintf(stderr, "prismfarm submit: %s\n", err.msg);
+                return 2;
+            }
+            if (!(fr->paths[k] = strdup(path)))
+                return fprintf(stderr, "prismfarm submit: out of memory\n"), 1;
+            fr->numbers[k] = a + (uint32_t)k;
+            fr->n = k + 1;
+            if (!path_exists(path)) {
+                fprintf(stderr, "prismfarm submit: frame %u: %s does not exist\n", fr->numbers[k],
+                        path);
+                return 2;
+            }
+        }
+        return 0;
+    }
+    if (nops > PROTO_MAX_FRAMES) {
+        fprintf(stderr, "prismfarm submit: %zu scene files, at most %d frames in one job\n", nops,
+                PROTO_MAX_FRAMES);
+        return 2;
+    }
+    fr->paths = calloc(nops, sizeof *fr->paths);
+    fr->numbers = calloc(nops, sizeof *fr->numbers);
+    if (!fr->paths || !fr->numbers)
+        return fprintf(stderr, "prismfarm submit: out of memory\n"), 1;
+    fr->sequence = nops > 1;
+    bool named = true;
+    for (size_t k = 0; k < nops; k++) {
+        int bad = check_operand(ops[k], false);
+        if (bad)
+            return bad;
+        if (!(fr->paths[k] = strdup(ops[k])))
+            return fprintf(stderr, "prismfarm submit: out of memory\n"), 1;
+        fr->n = k + 1;
+        named = named && frame_pattern_number_of(ops[k], &fr->numbers[k]);
+        for (size_t i = 0; named && i < k; i++)
+            named = fr->numbers[i] != fr->numbers[k];
+    }
+    for (size_t k = 0; !named && k < nops; k++)
+        fr->numbers[k] = (uint32_t)k + 1;
+    return 0;
+}
+
+/* After a sequence is done: each frame's outputs (job_follow_fetch_frames), then with --json
+ * the sequence and its frames' files. */
+static int fetch_sequence(client_rpc_t *rpc, uint64_t job, const char *output, int json,
+                          const proto_job_info_t *last)
+{
+    proto_msg_t req = {.type = PROTO_STATUS, .status = {.job = job}}, reply;
+    err_t err;
+    if (client_rpc_call(rpc, &req, &reply, 60000, &err)) {
+        fprintf(stderr, "prismfarm submit: %s\n", err.msg);
+        return 1;
+    }
+    if (reply.type != PROTO_STATUS_REPLY) {
+        fprintf(stderr, "prismfarm submit: the master answered %s\n", proto_type_name(reply.type));
+        proto_msg_free(&reply);
+        return 1;
+    }
+    const proto_job_info_t *jobs = reply.status_reply.jobs;
+    size_t n = reply.status_reply.njobs;
+    int rc = job_follow_fetch_frames(rpc, jobs, n, output, json, "submit");
+    if (rc == 0 && json) {
+        json_t *o = json_object(), *arr = json_array();
+        json_object_set_new(o, "job", json_integer((json_int_t)job));
+        json_object_set_new(o, "state", json_string("done"));
+        json_object_set_new(o, "elapsed_s", json_real(last->elapsed));
+        for (size_t i = 1; i < n; i++) {
+            char exr[4096], png[4200];
+            (void)job_follow_frame_paths(&jobs[i], output, exr, sizeof exr, png, sizeof png, &err);
+            json_t *f = json_object();
+            json_object_set_new(f, "frame", json_integer(jobs[i].frame));
+            json_object_set_new(f, "job", json_integer((json_int_t)jobs[i].id));
+            json_object_set_new(f, "exr", cli_json_string(exr));
+            json_object_set_new(f, "png", cli_json_string(png));
+            json_array_append_new(arr, f);
+        }
+        json_object_set_new(o, "frames", arr);
+        cli_json_print(o, JSON_INDENT(2));
+    } else if (rc == 0) {
+        printf("job %llu done in %.1f s: %zu frames written\n", (unsigned long long)job,
+               last->elapsed, n - 1);
+    }
+    proto_msg_free(&reply);
+    return rc;
+}
+
+static int submit_scenes(const frames_t *fr, const char *master, const char *name,
+                         const char *output, const scene_overrides_t *ovp, const cli_stop_t *stopp,
+                         int wait, int json, int quiet, int priority, client_security_t *secp);
+
 int cmd_submit(int argc, char **argv)
 {
-    const char *master = client_default_master(), *name = NULL, *output = NULL;
+    const char *master = client_default_master(), *name = NULL, *output = NULL, *range = NULL;
     scene_overrides_t ov = {.seed = -1};
     cli_stop_t stop = {0};
     int wait = 0, json = 0, quiet = 0, priority = 0;
@@ -39,10 +205,14 @@ int cmd_submit(int argc, char **argv)
         {.name = "priority", .kind = CLI_INT, .dst = &priority, .lo = -PROTO_MAX_PRIORITY,
          .hi = PROTO_MAX_PRIORITY, .arg = "N",
          .help = "higher runs first (default 0; -1000..1000; `prismfarm priority` changes it)"},
+        {.name = "frames", .kind = CLI_STRING, .dst = &range, .arg = "FIRST-LAST",
+         .help = "a frame sequence: SCENE is a pattern such as frame%04d.pbrt, formatted with "
+                 "each number FIRST..LAST"},
         {.name = "wait", .kind = CLI_FLAG, .dst = &wait,
          .help = "follow the job with a progress bar and fetch the result"},
         {.name = "output", .letter = 'o', .kind = CLI_STRING, .dst = &output, .arg = "OUT",
-         .help = "with --wait: where the EXR goes (default NAME.exr); the PNG goes beside it"},
+         .help = "with --wait: where the EXR goes (default NAME.exr; a sequence: a pattern such "
+                 "as out/f%04d.exr, default each frame file's name); the PNG goes beside it"},
         CLI_OPT_JSON(.dst = &json,
                      .help = "print the job id (and with --wait the final status) as JSON"),
         CLI_OPT_QUIET(.dst = &quiet, .help = "with --wait: no progress bar"),
@@ -55,47 +225,95 @@ int cmd_submit(int argc, char **argv)
     int parsed = cli_args_parse(&cmd, argc, argv, &first);
     if (parsed != CLI_ARGS_GO)
         return parsed;
-    if (argc - first > 1) {
-        fprintf(stderr, "prismfarm submit: more than one scene given ('%s' and '%s')\n",
-                argv[first], argv[first + 1]);
-        return 2;
-    }
     if (first == argc) {
         usage(stderr, opts);
         return 2;
     }
-    const char *scene = argv[first];
+    frames_t fr = {0};
+    int bad = submit_frames(&fr, argv + first, (size_t)(argc - first), range);
+    if (bad) {
+        frames_free(&fr);
+        return bad;
+    }
+    int rc = submit_scenes(&fr, master, name, output, &ov, &stop, wait, json, quiet, priority,
+                           &sec);
+    frames_free(&fr);
+    return rc;
+}
+
+static int submit_scenes(const frames_t *fr, const char *master, const char *name,
+                         const char *output, const scene_overrides_t *ovp, const cli_stop_t *stopp,
+                         int wait, int json, int quiet, int priority, client_security_t *secp)
+{
+    scene_overrides_t ov = *ovp;
+    cli_stop_t stop = *stopp;
+    bool sequence = fr->sequence;
     if (output && !wait) {
         fprintf(stderr, "prismfarm submit: -o needs --wait (or use prismfarm fetch JOB -o OUT later)\n");
         return 2;
     }
-    char namebuf[256];
+    char namebuf[420];
     if (!name) {
-        const char *base = strrchr(scene, '/');
-        base = base ? base + 1 : scene;
-        size_t n = strlen(base);
-        if (n > 5 && !strcmp(base + n - 5, ".pbrt"))
-            n -= 5;
-        snprintf(namebuf, sizeof namebuf, "%.*s", (int)n, base);
+        char stems[2][200];
+        for (int e = 0; e < 2; e++) {
+            const char *path = fr->paths[e ? fr->n - 1 : 0];
+            const char *base = strrchr(path, '/');
+            base = base ? base + 1 : path;
+            size_t n = strlen(base);
+            if (n > 5 && !strcmp(base + n - 5, ".pbrt"))
+                n -= 5;
+            snprintf(stems[e], sizeof stems[e], "%.*s", (int)n, base);
+        }
+        /* A sequence is named after its first and last frames: frame0001..frame0120. */
+        if (sequence)
+            snprintf(namebuf, sizeof namebuf, "%s..%s", stems[0], stems[1]);
+        else
+            snprintf(namebuf, sizeof namebuf, "%s", stems[0]);
         name = namebuf;
     }
 
-    char exr[4096], png[4200];
-    if (output)
-        snprintf(exr, sizeof exr, "%s", output);
-    else
-        snprintf(exr, sizeof exr, "%s.exr", name);
-    film_png_path(exr, png, sizeof png);
-    int bad_output = wait ? job_follow_check_outputs(exr, png, "submit") : 0;
-    if (bad_output)
-        return bad_output;
-
     err_t err;
-    scene_bundle_t *b = scene_bundle_new(scene, &err);
+    char exr[4096], png[4200];
+    if (sequence) {
+        if (wait && output && frame_pattern_check(output, &err) < 0) {
+            fprintf(stderr, "prismfarm submit: -o for a sequence of frames: %s\n", err.msg);
+            return 2;
+        }
+        for (size_t k = 0; wait && k < fr->n; k++) {
+            proto_job_info_t f = {.name = fr->paths[k], .frame = fr->numbers[k]};
+            if (job_follow_frame_paths(&f, output, exr, sizeof exr, png, sizeof png, &err) < 0) {
+                fprintf(stderr, "prismfarm submit: %s\n", err.msg);
+                return 2;
+            }
+            int bad_output = job_follow_check_outputs(exr, png, "submit");
+            if (bad_output)
+                return bad_output;
+        }
+    } else {
+        if (output)
+            snprintf(exr, sizeof exr, "%s", output);
+        else
+            snprintf(exr, sizeof exr, "%s.exr", name);
+        film_png_path(exr, png, sizeof png);
+        int bad_output = wait ? job_follow_check_outputs(exr, png, "submit") : 0;
+        if (bad_output)
+            return bad_output;
+    }
+
+    scene_bundle_t *b = scene_bundle_new_frames((const char *const *)fr->paths, fr->n, &err);
     if (!b) {
         fprintf(stderr, "prismfarm submit: %s\n", err.msg);
         return 1;
     }
+    proto_frame_t *frames = sequence ? calloc(fr->n, sizeof *frames) : NULL;
+    for (size_t k = 0; frames && k < fr->n; k++)
+        frames[k] = (proto_frame_t){.main = scene_bundle_frame_main(b, k), .number = fr->numbers[k]};
+    if (sequence && !frames) {
+        fprintf(stderr, "prismfarm submit: out of memory\n");
+        scene_bundle_destroy(&b);
+        return 1;
+    }
+    client_security_t sec = *secp;
     client_rpc_t *rpc = client_rpc_probe(master, &err) == 0 ? client_rpc_new(master, NULL, &sec, &err) : NULL;
     if (rpc && !quiet && !json)
         client_rpc_on_progress(rpc, progress_print_master, "submit");
@@ -105,6 +323,8 @@ int cmd_submit(int argc, char **argv)
     req.submit.settings.target_error = stop.target_error;
     req.submit.settings.time_limit = stop.time_limit;
     req.submit.priority = priority;
+    req.submit.frames = frames;
+    req.submit.nframes = sequence ? fr->n : 0;
     proto_msg_t reply;
     int rc = 0;
     if (!rpc || client_rpc_call(rpc, &req, &reply, 60000, &err)) {
@@ -125,13 +345,19 @@ int cmd_submit(int argc, char **argv)
             json_t *o = json_object();
             json_object_set_new(o, "job", json_integer((json_int_t)job));
             json_object_set_new(o, "name", cli_json_string(name));
+            if (sequence)
+                json_object_set_new(o, "nframes", json_integer((json_int_t)fr->n));
             cli_json_print(o, 0);
         } else {
             printf("%llu\n", (unsigned long long)job);
         }
         goto out;
     }
-    if (!quiet)
+    if (!quiet && sequence)
+        fprintf(stderr, "submit: job %llu (%s, %zu frames, %zu files, %zu bytes) on %s\n",
+                (unsigned long long)job, name, fr->n, scene_bundle_get(b)->nfiles,
+                scene_bundle_bytes(b), master);
+    else if (!quiet)
         fprintf(stderr, "submit: job %llu (%s, %zu files, %zu bytes) on %s\n", (unsigned long long)job, name,
                 scene_bundle_get(b)->nfiles, scene_bundle_bytes(b), master);
     proto_job_info_t last;
@@ -141,6 +367,10 @@ int cmd_submit(int argc, char **argv)
         fprintf(stderr, "prismfarm submit: job %llu %s%s%s\n", (unsigned long long)job,
                 state < 0 ? "lost" : proto_job_state_name((proto_job_state_t)state), error[0] ? ": " : "", error);
         rc = 1;
+        goto out;
+    }
+    if (sequence) {
+        rc = fetch_sequence(rpc, job, output, json, &last);
         goto out;
     }
     if (job_follow_fetch(rpc, job, PROTO_FETCH_EXR, exr, "submit") ||
@@ -173,5 +403,6 @@ int cmd_submit(int argc, char **argv)
 out:
     client_rpc_destroy(&rpc);
     scene_bundle_destroy(&b);
+    free(frames);
     return rc;
 }

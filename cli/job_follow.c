@@ -2,6 +2,8 @@
 
 #include "clock.h"
 #include "files.h"
+#include "film.h"
+#include "frame_pattern.h"
 #include "progress.h"
 #include "stopping.h"
 
@@ -51,7 +53,7 @@ int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t
             return -1;
         }
         lost_since = 0;
-        if (reply.type != PROTO_STATUS_REPLY || reply.status_reply.njobs != 1) {
+        if (reply.type != PROTO_STATUS_REPLY || reply.status_reply.njobs < 1) {
             snprintf(error, esize, "the master answered %s without the job", proto_type_name(reply.type));
             proto_msg_free(&reply);
             return -1;
@@ -117,4 +119,70 @@ int job_follow_fetch(client_rpc_t *rpc, uint64_t job, proto_fetch_what_t what, c
         fprintf(stderr, "prismfarm %s: cannot write %s: %s\n", cmd, path, err.msg);
     proto_msg_free(&reply);
     return ok ? 0 : 1;
+}
+
+int job_follow_frame_paths(const proto_job_info_t *f, const char *pattern, char *exr,
+                           size_t exr_size, char *png, size_t png_size, err_t *err)
+{
+    if (pattern) {
+        if (frame_pattern_format(pattern, f->frame, exr, exr_size, err) < 0)
+            return -1;
+    } else {
+        const char *name = f->name ? f->name : "frame";
+        const char *base = strrchr(name, '/');
+        base = base ? base + 1 : name;
+        size_t n = strlen(base);
+        if (n > 5 && !strcmp(base + n - 5, ".pbrt"))
+            n -= 5;
+        if ((size_t)snprintf(exr, exr_size, "%.*s.exr", (int)n, base) >= exr_size)
+            return err_set(err, "frame %u: its output name is too long", f->frame);
+    }
+    film_png_path(exr, png, png_size);
+    return 0;
+}
+
+int job_follow_fetch_frames(client_rpc_t *rpc, const proto_job_info_t *jobs, size_t n,
+                            const char *pattern, int quiet, const char *cmd)
+{
+    err_t err;
+    if (pattern && frame_pattern_check(pattern, &err) < 0) {
+        fprintf(stderr, "prismfarm %s: -o for a sequence of frames: %s\n", cmd, err.msg);
+        return 2;
+    }
+    if (n < 1 || jobs[0].frames == 0) {
+        fprintf(stderr, "prismfarm %s: job %llu is not a frame sequence\n", cmd,
+                n ? (unsigned long long)jobs[0].id : 0ULL);
+        return 1;
+    }
+    if (n - 1 != jobs[0].frames) {
+        fprintf(stderr, "prismfarm %s: job %llu has %u frames, the master listed %zu\n", cmd,
+                (unsigned long long)jobs[0].id, jobs[0].frames, n - 1);
+        return 1;
+    }
+    char exr[4096], png[4200];
+    for (size_t i = 1; i < n; i++) {
+        if (job_follow_frame_paths(&jobs[i], pattern, exr, sizeof exr, png, sizeof png, &err) < 0) {
+            fprintf(stderr, "prismfarm %s: %s\n", cmd, err.msg);
+            return 2;
+        }
+        int bad = job_follow_check_outputs(exr, png, cmd);
+        if (bad)
+            return bad;
+        if (jobs[i].state != PROTO_JOB_DONE) {
+            fprintf(stderr, "prismfarm %s: frame %u (job %llu) is %s%s%s: nothing fetched\n", cmd,
+                    jobs[i].frame, (unsigned long long)jobs[i].id,
+                    proto_job_state_name(jobs[i].state), jobs[i].error ? ": " : "",
+                    jobs[i].error ? jobs[i].error : "");
+            return 1;
+        }
+    }
+    for (size_t i = 1; i < n; i++) {
+        (void)job_follow_frame_paths(&jobs[i], pattern, exr, sizeof exr, png, sizeof png, &err);
+        if (job_follow_fetch(rpc, jobs[i].id, PROTO_FETCH_EXR, exr, cmd) ||
+            job_follow_fetch(rpc, jobs[i].id, PROTO_FETCH_PNG, png, cmd))
+            return 1;
+        if (!quiet)
+            printf("frame %u: wrote %s and %s\n", jobs[i].frame, exr, png);
+    }
+    return 0;
 }

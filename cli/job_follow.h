@@ -25,4 +25,17 @@ int job_follow_check_outputs(const char *exr, const char *png, const char *cmd);
 int job_follow_fetch(client_rpc_t *rpc, uint64_t job, proto_fetch_what_t what, const char *path,
                      const char *cmd);
 
+/* Where frame f of a sequence goes: pattern (frame_pattern.h) with its number, else the frame
+ * file's name without ".pbrt" and with ".exr" (in the current folder); the PNG beside it. 0, or
+ * -1 with err. */
+int job_follow_frame_paths(const proto_job_info_t *f, const char *pattern, char *exr,
+                           size_t exr_size, char *png, size_t png_size, err_t *err);
+
+/* Downloads every frame of a sequence (jobs[0], its frames after it: a STATUS_REPLY of the
+ * sequence) to job_follow_frame_paths's names, after checking that every one can be written;
+ * a line per frame on stdout unless quiet. Returns 0, 1 (a frame not done, a failed download)
+ * or 2 (a bad pattern or output), with a message on stderr prefixed by "prismfarm CMD: ". */
+int job_follow_fetch_frames(client_rpc_t *rpc, const proto_job_info_t *jobs, size_t n,
+                            const char *pattern, int quiet, const char *cmd);
+
 #endif

@@ -86,15 +86,35 @@ static json_t *job_json(const proto_job_info_t *j)
     json_object_set_new(o, "rel_error", j->has_rel_error ? json_real(j->rel_error) : json_null());
     json_object_set_new(o, "stop",
                         j->stop != PROTO_STOP_NONE ? json_string(proto_stop_name(j->stop)) : json_null());
+    /* Frame sequences (docs/farm.md): a sequence's count of frames; a frame's sequence and
+     * number. */
+    if (j->frames > 0)
+        json_object_set_new(o, "nframes", json_integer(j->frames));
+    if (j->parent) {
+        json_object_set_new(o, "sequence", json_integer((json_int_t)j->parent));
+        json_object_set_new(o, "frame", json_integer(j->frame));
+    }
     return o;
 }
 
 void query_print_jobs(const proto_job_info_t *jobs, size_t n, int json)
 {
+    /* A sequence's STATUS lists its frames after it: they go into its "frames" (JSON), or
+     * below it, indented, in the table. */
     if (json) {
-        json_t *arr = json_array();
-        for (size_t i = 0; i < n; i++)
-            json_array_append_new(arr, job_json(&jobs[i]));
+        json_t *arr = json_array(), *seq = NULL, *frames = NULL;
+        for (size_t i = 0; i < n; i++) {
+            json_t *o = job_json(&jobs[i]);
+            if (seq && jobs[i].parent == jobs[0].id) {
+                json_array_append_new(frames, o);
+                continue;
+            }
+            json_array_append_new(arr, o);
+            if (i == 0 && jobs[0].frames > 0 && n > 1 && jobs[1].parent == jobs[0].id) {
+                seq = o;
+                json_object_set_new(seq, "frames", frames = json_array());
+            }
+        }
         cli_json_print(arr, JSON_INDENT(2));
         return;
     }
@@ -111,8 +131,15 @@ void query_print_jobs(const proto_job_info_t *jobs, size_t n, int json)
             snprintf(note, sizeof note, "%s", j->error);
         else if (j->stop != PROTO_STOP_NONE)
             snprintf(note, sizeof note, "(stopped: %s)", stopping_reason((stopping_why_t)j->stop));
+        else if (j->frames > 0)
+            snprintf(note, sizeof note, "(%u frames)", j->frames);
+        char name[64];
+        if (j->parent)
+            snprintf(name, sizeof name, "  #%u %s", j->frame, j->name ? j->name : "");
+        else
+            snprintf(name, sizeof name, "%s", j->name ? j->name : "");
         printf("%-6llu %-20.20s %-12.12s %-10s %5lld %8.1f%% %8u %9s %8.1fs %10llu  %s\n",
-               (unsigned long long)j->id, j->name ? j->name : "",
+               (unsigned long long)j->id, name,
                j->owner && j->owner[0] ? j->owner : "-", proto_job_state_name(j->state),
                j->priority, p, j->spp, rel, j->elapsed, (unsigned long long)j->nonfinite, note);
     }

@@ -50,6 +50,11 @@ typedef struct dash_job {
                             * counts: photons_traced says its size) */
     uint32_t photon_batches, photon_batches_done;
     uint64_t photons_traced, photons_emitted;
+    /* Frame sequences (docs/farm.md): a sequence's count of frames (its figures are theirs
+     * summed); a frame's sequence (0: none) and frame number. */
+    uint32_t nframes;
+    uint64_t sequence;
+    uint32_t frame;
 } dash_job_t;
 
 /* One merged pass: a point of the error-against-time curve. */
@@ -116,6 +121,9 @@ typedef struct dash_provider {
     /* Up to max jobs, the most recent ones, in id order; returns how many (<= max). */
     size_t (*jobs)(void *user, dash_job_t *out, size_t max);
     int (*job)(void *user, uint64_t id, dash_job_t *out);
+    /* A sequence's frames, up to max, in frame order; returns how many, or DASH_ENOENT. NULL:
+     * no sequences. */
+    int (*frames)(void *user, uint64_t id, dash_job_t *out, int max);
     /* The job's current image, PNG bytes malloc'ed into *png (the caller frees). */
     int (*preview)(void *user, uint64_t id, uint8_t **png, size_t *size, err_t *err);
     /* Up to max pass records; returns how many, or DASH_ENOENT. */

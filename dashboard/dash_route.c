@@ -234,6 +234,12 @@ static json_t *job_json(const dash_job_t *j)
     if (j->error && *j->error)
         json_object_set_new(o, "error", str(j->error));
     json_object_set_new(o, "preview_version", json_integer((json_int_t)j->preview_version));
+    if (j->nframes > 0)
+        json_object_set_new(o, "nframes", json_integer(j->nframes));
+    if (j->sequence) {
+        json_object_set_new(o, "sequence", json_integer((json_int_t)j->sequence));
+        json_object_set_new(o, "frame", json_integer(j->frame));
+    }
     if (j->photons) {
         json_t *ph = json_object();
         json_object_set_new(ph, "batches", json_integer(j->photon_batches));
@@ -297,6 +303,14 @@ static void get_job(dash_router_t *self, uint64_t id, dash_response_t *out)
         json_array_append_new(passes, r);
     }
     json_object_set_new(o, "passes", passes);
+    /* A sequence's view lists its frames, each as /api/jobs shows a job. */
+    if (j.nframes > 0 && self->p->frames) {
+        json_t *frames = json_array();
+        int nf = self->p->frames(self->p->user, id, self->jobs, DASH_MAX_JOBS);
+        for (int i = 0; i < nf && i < DASH_MAX_JOBS; i++)
+            json_array_append_new(frames, job_json(&self->jobs[i]));
+        json_object_set_new(o, "frames", frames);
+    }
     json_object_set_new(o, "actions", actions_json(self));
     answer_json(out, 200, o);
 }

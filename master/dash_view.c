@@ -102,17 +102,58 @@ static void fill_job(master_t *m, const mjob_t *j, double now, dash_job_t *o)
         o->photons_traced = j->photons.saved;
         o->photons_complete = j->photons.saved > 0; /* kept on disk once merged */
     }
+    o->sequence = j->seq.parent;
+    o->frame = j->seq.frame;
+    o->nframes = j->seq.nframes;
+    if (j->seq.nframes > 0) {
+        /* A sequence's figures are its frames' summed (as STATUS shows them). */
+        dash_job_t f;
+        o->samples_done = o->samples_total = o->nonfinite = 0;
+        o->tasks_total = o->tasks_done = o->tasks_running = 0;
+        for (uint32_t k = 0; k < j->seq.nframes; k++) {
+            const mjob_t *fj = jobs_frame(m, j, k);
+            if (!fj)
+                continue;
+            fill_job(m, fj, now, &f);
+            o->samples_done += f.samples_done;
+            o->samples_total += f.samples_total;
+            o->nonfinite += f.nonfinite;
+            o->tasks_total += f.tasks_total;
+            o->tasks_done += f.tasks_done;
+            o->tasks_running += f.tasks_running;
+        }
+    }
 }
 
+/* The most recent jobs but the frames of a sequence, which its view lists (pv_frames). */
 static size_t pv_jobs(void *user, dash_job_t *out, size_t max)
 {
     dash_view_t *v = user;
     master_t *m = v->m;
-    size_t first = m->njobs > max ? m->njobs - max : 0;
     double now = clock_now_s();
-    for (size_t i = first; i < m->njobs; i++)
-        fill_job(m, m->jobs[i], now, &out[i - first]);
-    return m->njobs - first;
+    size_t n = 0, i = m->njobs;
+    while (i > 0 && n < max)
+        n += m->jobs[--i]->seq.parent == 0;
+    for (size_t k = 0; i < m->njobs; i++)
+        if (m->jobs[i]->seq.parent == 0)
+            fill_job(m, m->jobs[i], now, &out[k++]);
+    return n;
+}
+
+static int pv_frames(void *user, uint64_t id, dash_job_t *out, int max)
+{
+    dash_view_t *v = user;
+    const mjob_t *j = jobs_find(v->m, id);
+    if (!j)
+        return DASH_ENOENT;
+    double now = clock_now_s();
+    int n = 0;
+    for (uint32_t k = 0; k < j->seq.nframes && n < max; k++) {
+        const mjob_t *f = jobs_frame(v->m, j, k);
+        if (f)
+            fill_job(v->m, f, now, &out[n++]);
+    }
+    return n;
 }
 
 static int pv_job(void *user, uint64_t id, dash_job_t *out)
@@ -399,6 +440,7 @@ dash_view_t *dash_view_open(master_t *m, char *bound, size_t size, err_t *err)
         .user = v,
         .jobs = pv_jobs,
         .job = pv_job,
+        .frames = pv_frames,
         .preview = pv_preview,
         .passes = pv_passes,
         .tiles = pv_tiles,

@@ -16,6 +16,9 @@ static int send_task(master_t *m, mworker_t *w, const sched_task_t *t, double no
     msg.task.attempt = t->attempt;
     memcpy(msg.task.scene, j->hash, sizeof msg.task.scene);
     msg.task.settings = j->settings;
+    /* A frame of a sequence loads its own scene file of the shared bundle; a single scene
+     * leaves it absent (the bundle's main), as before sequences. */
+    msg.task.main = j->seq.parent ? j->main : NULL;
     if (t->kind == SCHED_PHOTON) {
         msg.task.kind = PROTO_KIND_PHOTON_BATCH;
         msg.task.photons = photon_phase_batch(j->photons.phase, j->photons.base + t->batch);

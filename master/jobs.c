@@ -198,7 +198,78 @@ mjob_t *job_from_record(const journal_job_t *r)
     j->scene.integrator = j->scene.dispersion = "?";
     j->ops.priority = r->priority;
     j->ops.paused = r->paused;
+    j->seq.parent = r->parent;
+    j->seq.frame = r->frame;
+    j->seq.nframes = r->nframes;
     return j;
+}
+
+mjob_t *job_new_sequence(const char *name, const char *hash, const char *main,
+                         const proto_settings_t *set, uint32_t nframes)
+{
+    journal_job_t r = {.name = (char *)name, .hash = (char *)hash, .main = (char *)main,
+                       .settings = *set, .state = JOB_QUEUED, .nframes = nframes};
+    return job_from_record(&r);
+}
+
+mjob_t *jobs_frame(const master_t *m, const mjob_t *seq, uint32_t k)
+{
+    mjob_t *f = k < seq->seq.nframes ? jobs_find(m, seq->id + 1 + k) : NULL;
+    return f && f->seq.parent == seq->id ? f : NULL;
+}
+
+/* A sequence's state from its frames': over when every frame is (done when all are, else failed
+ * when one failed, else cancelled), running once one started, else queued. A frame not listed
+ * (a journal that lost it) keeps it unfinished. */
+void jobs_sequence_refresh(master_t *m, mjob_t *seq, double now)
+{
+    uint32_t over = 0, done = 0, failed = 0, started = 0, paused = 0;
+    const mjob_t *first_failed = NULL;
+    double t0 = 0, t1 = 0;
+    for (uint32_t k = 0; k < seq->seq.nframes; k++) {
+        const mjob_t *f = jobs_frame(m, seq, k);
+        if (!f)
+            continue;
+        bool fo = job_over(f);
+        over += fo;
+        done += f->state == JOB_DONE && !f->outputs.waiting;
+        if (f->state == JOB_FAILED && !failed++)
+            first_failed = f;
+        started += f->started > 0;
+        paused += !fo && f->ops.paused;
+        if (f->started > 0 && (t0 == 0 || f->started < t0))
+            t0 = f->started;
+        if (f->finished > t1)
+            t1 = f->finished;
+    }
+    job_state_t st = over == seq->seq.nframes
+                         ? (done == over ? JOB_DONE : failed ? JOB_FAILED : JOB_CANCELLED)
+                     : started ? JOB_RUNNING
+                               : JOB_QUEUED;
+    if (t0 > 0 && (seq->started == 0 || t0 < seq->started))
+        seq->started = t0;
+    seq->ops.paused = over < seq->seq.nframes && paused == seq->seq.nframes - over;
+    if (st == seq->state)
+        return;
+    seq->state = st;
+    if (job_over(seq)) {
+        seq->finished = t1 > 0 ? t1 : now;
+        if (st == JOB_FAILED) {
+            char msg[700];
+            snprintf(msg, sizeof msg, "frame %u (job %llu) failed: %s", first_failed->seq.frame,
+                     (unsigned long long)first_failed->id,
+                     first_failed->error ? first_failed->error : "failed");
+            job_set_error(seq, msg);
+        }
+        seq->outputs.final = st == JOB_DONE;
+        master_log(m, "job %llu '%s' (%u frames) %s", (unsigned long long)seq->id, seq->name,
+                   seq->seq.nframes, job_state_name(st));
+    } else {
+        /* Running again: a frame refined after the sequence was done. */
+        seq->finished = 0;
+        seq->outputs.final = false;
+    }
+    persist_state(m, seq, now);
 }
 
 int job_restore_photons(master_t *m, mjob_t *j, err_t *err)
@@ -348,15 +419,37 @@ static void release_photons(master_t *m, mjob_t *j)
 
 void job_cancel(master_t *m, mjob_t *j, double now)
 {
+    for (uint32_t k = 0; k < j->seq.nframes; k++) {
+        mjob_t *f = jobs_frame(m, j, k);
+        if (f)
+            job_cancel(m, f, now); /* the last one's refresh ends the sequence */
+    }
+    if (j->seq.nframes > 0)
+        return;
     err_t err;
     if (j->outputs.waiting)
         job_give_up_outputs(m, j, now);
     else if (j->sched.known && sched_cancel_job(m->sched, j->id, &err) < 0)
         master_log(m, "cancel: %s", err.msg);
     job_refresh(m, j, now);
+    /* A frame that gave up its outputs changed state before job_refresh looked. */
+    mjob_t *seq = j->seq.parent ? jobs_find(m, j->seq.parent) : NULL;
+    if (seq && seq->seq.nframes > 0)
+        jobs_sequence_refresh(m, seq, now);
 }
 
+static void job_refresh_one(master_t *m, mjob_t *j, double now);
+
 void job_refresh(master_t *m, mjob_t *j, double now)
+{
+    job_state_t before = j->state;
+    job_refresh_one(m, j, now);
+    mjob_t *seq = j->seq.parent && j->state != before ? jobs_find(m, j->seq.parent) : NULL;
+    if (seq && seq->seq.nframes > 0)
+        jobs_sequence_refresh(m, seq, now);
+}
+
+static void job_refresh_one(master_t *m, mjob_t *j, double now)
 {
     sched_job_info_t info;
     if (!j->sched.known || sched_job_info(m->sched, j->id, &info) < 0 || info.state == j->state)

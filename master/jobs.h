@@ -25,6 +25,18 @@ mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *mai
  * that cannot be resumed. NULL when out of memory. */
 mjob_t *job_from_record(const journal_job_t *r);
 void job_free(mjob_t *j);
+
+/* A frame sequence's own job (docs/farm.md, "Frame sequences"): queued, nframes frames, never
+ * in the scheduler; main is its first frame's. Its id is set by the caller. NULL when out of
+ * memory. */
+mjob_t *job_new_sequence(const char *name, const char *hash, const char *main,
+                         const proto_settings_t *set, uint32_t nframes);
+/* Frame k (0-based, in submission order) of a sequence: the job with id seq->id + 1 + k; NULL
+ * when it is not listed. */
+mjob_t *jobs_frame(const master_t *m, const mjob_t *seq, uint32_t k);
+/* The sequence's state from its frames' (called by job_refresh when a frame's state changes):
+ * logged and journaled when it changes. */
+void jobs_sequence_refresh(master_t *m, mjob_t *seq, double now);
 /* The photon pass of a finished job back from disk: its scene loaded again from the spool (as
  * at submission, confined to the bundle's folder) and its merged store from photons.store. */
 int job_restore_photons(master_t *m, mjob_t *j, err_t *err);
@@ -65,7 +77,7 @@ void jobs_retry_outputs(master_t *m, double now);
  * dropped. */
 void job_give_up_outputs(master_t *m, mjob_t *j, double now);
 
-/* Cancels a job (a client's CANCEL, the dashboard's action): the scheduler ends it, and
+/* Cancels a job (a client's CANCEL, the dashboard's action; a sequence: each of its frames): the scheduler ends it, and
  * job_refresh tells the workers to drop its tasks; a job waiting to write its outputs gives
  * them up (job_give_up_outputs). Nothing for a job that is over. */
 void job_cancel(master_t *m, mjob_t *j, double now);

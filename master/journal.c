@@ -24,8 +24,11 @@
  * an owner (the submitting key's name, issue 16); a version-5 journal is migrated in place (its
  * jobs get the owner "", which only an admin may act on when the master has keys). 7: jobs carry
  * their priority and pause (docs/farm.md, "Operating a farm") and the blocked workers have a
- * table; a version-6 journal is migrated in place (migrate_6_to_7), a version-5 one through 6. */
-#define JOURNAL_VERSION 7
+ * table; a version-6 journal is migrated in place (migrate_6_to_7), a version-5 one through 6.
+ * 8: frame sequences (docs/farm.md, "Frame sequences"): a job has its sequence (parent), its
+ * frame number and, for a sequence, its count of frames; a version-7 journal is migrated in place
+ * (migrate_7_to_8: its jobs are single scenes), older ones through 7. */
+#define JOURNAL_VERSION 8
 
 #define TILE_MAGIC 0x58544650u  /* "PFTX" in this host's order: a blob of another is refused */
 #define PHOT_MAGIC 0x48504650u  /* "PFPH" */
@@ -134,7 +137,9 @@ static const char *SCHEMA =
     " samples_done INTEGER NOT NULL DEFAULT 0, samples_total INTEGER NOT NULL DEFAULT 0,"
     " nonfinite INTEGER NOT NULL DEFAULT 0, spp_done INTEGER NOT NULL DEFAULT 0,"
     " owner TEXT NOT NULL DEFAULT '',"
-    " priority INTEGER NOT NULL DEFAULT 0, paused INTEGER NOT NULL DEFAULT 0);"
+    " priority INTEGER NOT NULL DEFAULT 0, paused INTEGER NOT NULL DEFAULT 0,"
+    " parent INTEGER NOT NULL DEFAULT 0, frame INTEGER NOT NULL DEFAULT 0,"
+    " nframes INTEGER NOT NULL DEFAULT 0);"
     "CREATE TABLE IF NOT EXISTS blocked(name TEXT PRIMARY KEY, reason TEXT NOT NULL);"
     "CREATE TABLE IF NOT EXISTS results("
     " job INTEGER NOT NULL, round INTEGER NOT NULL, task INTEGER NOT NULL, kind INTEGER NOT NULL,"
@@ -156,6 +161,21 @@ static int migrate_6_to_7(journal_t *self, err_t *err)
                   "ALTER TABLE jobs ADD COLUMN priority INTEGER NOT NULL DEFAULT 0;"
                   "ALTER TABLE jobs ADD COLUMN paused INTEGER NOT NULL DEFAULT 0;"
                   "UPDATE meta SET value=7 WHERE key='version';",
+                  err);
+    return commit(self, rc, err);
+}
+
+/* Version 7 to 8: the frame columns; every job of a version-7 journal is a single scene (0 in
+ * each). One transaction, as migrate_6_to_7. */
+static int migrate_7_to_8(journal_t *self, err_t *err)
+{
+    if (begin(self, err) < 0)
+        return -1;
+    int rc = exec(self,
+                  "ALTER TABLE jobs ADD COLUMN parent INTEGER NOT NULL DEFAULT 0;"
+                  "ALTER TABLE jobs ADD COLUMN frame INTEGER NOT NULL DEFAULT 0;"
+                  "ALTER TABLE jobs ADD COLUMN nframes INTEGER NOT NULL DEFAULT 0;"
+                  "UPDATE meta SET value=8 WHERE key='version';",
                   err);
     return commit(self, rc, err);
 }
@@ -226,7 +246,7 @@ journal_t *journal_open(const char *dir, err_t *err)
                  "BEGIN IMMEDIATE; ALTER TABLE jobs ADD COLUMN owner TEXT NOT NULL DEFAULT '';"
                  " UPDATE meta SET value=6 WHERE key='version'; COMMIT",
                  err) < 0 ||
-            migrate_6_to_7(self, err) < 0) {
+            migrate_6_to_7(self, err) < 0 || migrate_7_to_8(self, err) < 0) {
             err_t ignore;
             (void)exec(self, "ROLLBACK", &ignore);
             err_prefix(err, "migrating from version 5: ");
@@ -234,11 +254,16 @@ journal_t *journal_open(const char *dir, err_t *err)
             return NULL;
         }
     }
-    if (version == 6 && migrate_6_to_7(self, err) < 0) {
-        err_prefix(err, "journal %s: migrating version 6 to 7: ", path);
+    if (version == 6 && (migrate_6_to_7(self, err) < 0 || migrate_7_to_8(self, err) < 0)) {
+        err_prefix(err, "journal %s: migrating version 6 to 8: ", path);
         journal_close(&self);
         return NULL;
-    } else if (version >= 0 && version != 5 && version != 6 && version != JOURNAL_VERSION) {
+    } else if (version == 7 && migrate_7_to_8(self, err) < 0) {
+        err_prefix(err, "journal %s: migrating version 7 to 8: ", path);
+        journal_close(&self);
+        return NULL;
+    } else if (version >= 0 && version != 5 && version != 6 && version != 7 &&
+               version != JOURNAL_VERSION) {
         err_set(err, "journal %s: version %lld, this master reads version %d (move the spool "
                      "aside or use a matching prismfarm)",
                 path, version, JOURNAL_VERSION);
@@ -306,12 +331,18 @@ static int bind_text_or_null(sqlite3_stmt *st, int i, const char *s)
 
 int journal_add_job(journal_t *self, const journal_job_t *j, err_t *err)
 {
+    return journal_add_jobs(self, j, 1, err);
+}
+
+static int insert_job(journal_t *self, const journal_job_t *j, err_t *err)
+{
     sqlite3_stmt *st;
     if (prepare(self,
                 "INSERT OR REPLACE INTO jobs(id, name, hash, main, spp, xres, yres, seed, "
                 "integrator, dispersion, target_error, time_limit, state, round_photons, "
-                "samples_total, owner, priority, paused) VALUES(?1, ?2, ?3, ?4, ?5, ?6, ?7, ?8, "
-                "?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18)",
+                "samples_total, owner, priority, paused, parent, frame, nframes) VALUES(?1, ?2, "
+                "?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, "
+                "?20, ?21)",
                 &st, err) < 0)
         return -1;
     double t0 = clock_now_s();
@@ -333,9 +364,24 @@ int journal_add_job(journal_t *self, const journal_job_t *j, err_t *err)
     sqlite3_bind_text(st, 16, j->owner, -1, SQLITE_TRANSIENT);
     sqlite3_bind_int(st, 17, j->priority);
     sqlite3_bind_int(st, 18, j->paused);
+    sqlite3_bind_int64(st, 19, (sqlite3_int64)j->parent);
+    sqlite3_bind_int64(st, 20, (sqlite3_int64)j->frame);
+    sqlite3_bind_int64(st, 21, (sqlite3_int64)j->nframes);
     int rc = step_done(self, st, "adding a job", err);
     count_write(self, t0);
     return rc;
+}
+
+int journal_add_jobs(journal_t *self, const journal_job_t *jobs, size_t n, err_t *err)
+{
+    if (n == 1)
+        return insert_job(self, jobs, err);
+    if (begin(self, err) < 0)
+        return -1;
+    int rc = 0;
+    for (size_t i = 0; i < n && rc == 0; i++)
+        rc = insert_job(self, &jobs[i], err);
+    return commit(self, rc, err);
 }
 
 int journal_set_control(journal_t *self, uint64_t job, int priority, bool paused, err_t *err)
@@ -494,8 +540,8 @@ int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err)
                 "SELECT id, name, hash, main, spp, xres, yres, seed, integrator, dispersion, "
                 "target_error, time_limit, state, error, round, photon_base, photons_saved, "
                 "round_photons, refine_photons, checkpoint, elapsed, stop, outputs, "
-                "samples_done, samples_total, nonfinite, spp_done, owner, priority, paused "
-                "FROM jobs ORDER BY id",
+                "samples_done, samples_total, nonfinite, spp_done, owner, priority, paused, "
+                "parent, frame, nframes FROM jobs ORDER BY id",
                 &st, err) < 0)
         return -1;
     size_t cap = 0;
@@ -552,6 +598,9 @@ int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err)
             snprintf(j->owner, sizeof j->owner, "%s", (const char *)s);
         j->priority = sqlite3_column_int(st, 28);
         j->paused = sqlite3_column_int(st, 29) != 0;
+        j->parent = (uint64_t)sqlite3_column_int64(st, 30);
+        j->frame = (uint32_t)sqlite3_column_int64(st, 31);
+        j->nframes = (uint32_t)sqlite3_column_int64(st, 32);
         if (!j->name || !j->hash || !j->main || j->state < 0 || j->state > 4) {
             rc = SQLITE_CORRUPT;
             break;

@@ -53,6 +53,11 @@ typedef struct journal_job {
     char owner[72]; /* the submitting key's name (proto_peer_t.user); "" without keys */
     int priority; /* sched.h's; written by journal_add_job and journal_set_control */
     bool paused;
+    /* Frame sequences (docs/farm.md): a frame's sequence job (0: none) and its frame number; a
+     * sequence job's count of frames, whose jobs are the ids after its own (0: a single scene). */
+    uint64_t parent;
+    uint32_t frame;
+    uint32_t nframes;
 } journal_job_t;
 
 void journal_job_clear(journal_job_t *j);
@@ -77,6 +82,8 @@ int journal_check(journal_t *self, char *report, size_t size, err_t *err);
 
 /* A submitted job (state queued). */
 int journal_add_job(journal_t *self, const journal_job_t *job, err_t *err);
+/* Several submitted jobs in one transaction (a frame sequence and its frames): all or none. */
+int journal_add_jobs(journal_t *self, const journal_job_t *jobs, size_t n, err_t *err);
 /* The job's state, error, figures, stop rule and outputs flag. A job that is over (done,
  * failed, cancelled) loses its results and checkpoint reference in the same transaction; the
  * caller then removes the checkpoint file. */

@@ -133,6 +133,15 @@ typedef struct mjob {
         int priority;
         bool paused;
     } ops;
+    /* Frame sequences (docs/farm.md, "Frame sequences"). A sequence job (nframes > 0) is never
+     * in the scheduler: its frames are, each a job of its own with the ids after the
+     * sequence's (parent + 1 .. parent + nframes), sharing its bundle, each loading its own
+     * main; the sequence's state and figures follow its frames' (jobs_sequence_refresh). */
+    struct {
+        uint64_t parent; /* a frame: its sequence's id; 0 otherwise */
+        uint32_t frame;  /* a frame: its number */
+        uint32_t nframes;
+    } seq;
 } mjob_t;
 
 /* A client's STATUS with a wait: answered when its job is over or at the deadline. */

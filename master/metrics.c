@@ -166,6 +166,8 @@ int master_metrics_text(master_t *m, double now, char **text, size_t *len, err_t
     metrics_snapshot_t s = {0};
     for (size_t i = 0; i < m->njobs; i++) {
         const mjob_t *j = m->jobs[i];
+        if (j->seq.nframes > 0)
+            continue; /* its frames are counted, each a job of its own */
         s.jobs[jobs_wire_state(j)]++;
         sched_job_info_t info;
         if (j->sched.known && !job_over(j) && sched_job_info(m->sched, j->id, &info) == 0) {

@@ -71,6 +71,24 @@ static proto_job_info_t job_wire_info(const master_t *m, const mjob_t *j, double
         o.error = j->error ? j->error : "failed";
     else if (j->outputs.waiting)
         o.error = j->outputs.why;
+    o.parent = j->seq.parent;
+    o.frame = j->seq.frame;
+    o.frames = j->seq.nframes;
+    if (j->seq.nframes > 0) {
+        /* A sequence's figures are its frames' summed; its spp the least of theirs. */
+        o.samples_done = o.samples_total = o.nonfinite = 0;
+        o.spp = 0;
+        for (uint32_t k = 0; k < j->seq.nframes; k++) {
+            const mjob_t *f = jobs_frame(m, j, k);
+            if (!f)
+                continue;
+            proto_job_info_t fi = job_wire_info(m, f, now);
+            o.samples_done += fi.samples_done;
+            o.samples_total += fi.samples_total;
+            o.nonfinite += fi.nonfinite;
+            o.spp = k == 0 || fi.spp < o.spp ? fi.spp : o.spp;
+        }
+    }
     return o;
 }
 
@@ -101,6 +119,12 @@ struct submission {
     uint8_t *scene_msg; /* the SCENE message workers will be sent, stored once the scene loads */
     size_t scene_size;
     double accepted, last_progress;
+    /* A frame sequence (SUBMIT's frames; nframes 0: a single scene, job): each frame's main
+     * and number, and its job once loaded. */
+    size_t nframes;
+    char **frame_main;
+    uint32_t *frame_number;
+    mjob_t **frames;
     /* Filled on the loader's thread. */
     mjob_t *job;
     err_t err;
@@ -123,10 +147,40 @@ static void on_client_submission_free(void *arg)
     if (!s)
         return;
     job_free(s->job);
+    for (size_t k = 0; k < s->nframes; k++) {
+        if (s->frames)
+            job_free(s->frames[k]);
+        if (s->frame_main)
+            free(s->frame_main[k]);
+    }
+    free(s->frames);
+    free(s->frame_main);
+    free(s->frame_number);
     free(s->scene_msg);
     free(s->name);
     free(s->main);
     free(s);
+}
+
+/* Each frame of a sequence loaded as a job of its own from the one staged bundle; the first
+ * that fails names its frame. */
+static mjob_t *load_frames(submission_t *s)
+{
+    for (size_t k = 0; k < s->nframes; k++) {
+        s->frames[k] = job_new(0, s->frame_main[k], s->hash, s->frame_main[k], &s->settings,
+                               s->dir, &s->budget, &s->err);
+        if (!s->frames[k]) {
+            err_prefix(&s->err, "frame %u (%s): ", s->frame_number[k], s->frame_main[k]);
+            return NULL;
+        }
+        s->frames[k]->seq.frame = s->frame_number[k];
+    }
+    /* The sequence's own record, which job_new_sequence fills without a scene. */
+    mjob_t *seq = job_new_sequence(s->name, s->hash, s->frame_main[0], &s->settings,
+                                   (uint32_t)s->nframes);
+    if (!seq)
+        err_set(&s->err, "the master is out of memory");
+    return seq;
 }
 
 /* The loader's work (its thread): the bundle staged into the spool (each file synced: seconds
@@ -152,7 +206,9 @@ static void submission_load(void *arg)
         s->load_s = clock_now_s() - t0;
         return;
     }
-    s->job = job_new(0, s->name, s->hash, s->main, &s->settings, s->dir, &s->budget, &s->err);
+    s->job = s->nframes > 0 ? load_frames(s)
+                            : job_new(0, s->name, s->hash, s->main, &s->settings, s->dir,
+                                      &s->budget, &s->err);
     if (s->job) {
         if (spool_scene_commit(s->spool, s->scene_msg, s->scene_size, s->hash, s->dir,
                                s->staged, &s->err) < 0) {
@@ -211,6 +267,24 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "the master is out of memory");
         return;
     }
+    size_t nf = msg->submit.nframes;
+    if (nf > 0) {
+        s->nframes = nf;
+        s->frame_main = calloc(nf, sizeof *s->frame_main);
+        s->frame_number = calloc(nf, sizeof *s->frame_number);
+        s->frames = calloc(nf, sizeof *s->frames);
+        bool ok = s->frame_main && s->frame_number && s->frames;
+        for (size_t k = 0; ok && k < nf; k++) {
+            ok = (s->frame_main[k] = master_strdup(msg->submit.frames[k].main)) != NULL;
+            if (ok)
+                s->frame_number[k] = msg->submit.frames[k].number;
+        }
+        if (!ok) {
+            on_client_submission_free(s);
+            reply_error(m, from, "the master is out of memory");
+            return;
+        }
+    }
     if (spool_scene_encode(b, hash, &m->limits, &s->scene_msg, &s->scene_size, &err) < 0) {
         on_client_submission_free(s);
         master_log(m, "cannot store scene %.12s: %s", hash, err.msg);
@@ -240,8 +314,79 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
         return;
     }
     m->loading[m->nloading++] = s;
-    master_log(m, "submission '%s' from %s: scene %.12s (%zu files) loading off the loop", s->name,
-               who, hash, b->nfiles);
+    master_log(m, "submission '%s' from %s: scene %.12s (%zu files, %zu frames) loading off the loop",
+               s->name, who, hash, b->nfiles, nf ? nf : 1);
+}
+
+/* A frame sequence whose frames have loaded: the sequence takes the next id and its frames the
+ * ids after it (jobs_frame), each frame is scheduled as a job of its own, and all are journaled
+ * in one transaction before the client is answered, so a restart finds all or none. */
+static void sequence_finish(master_t *m, submission_t *s, const char *who, double now)
+{
+    const proto_peer_t *from = &s->peer;
+    err_t err;
+    mjob_t *seq = s->job;
+    s->job = NULL;
+    size_t n = s->nframes, scheduled = 0;
+    uint64_t id = m->last_job + 1;
+    seq->id = id;
+    seq->submitted = now;
+    snprintf(seq->owner, sizeof seq->owner, "%s", from->user);
+    ops_job_init(seq, s->priority);
+    journal_job_t *recs = calloc(n + 1, sizeof *recs);
+    int rc = recs && jobs_append(m, seq) == 0 ? 0 : err_set(&err, "the master is out of memory");
+    if (rc < 0) {
+        job_free(seq);
+        seq = NULL;
+    }
+    for (size_t k = 0; rc == 0 && k < n; k++) {
+        mjob_t *f = s->frames[k];
+        f->id = id + 1 + k;
+        f->seq.parent = id;
+        f->submitted = now;
+        snprintf(f->owner, sizeof f->owner, "%s", from->user);
+        ops_job_init(f, s->priority);
+        rc = job_schedule(m, f, f->photons.phase ? photon_phase_nbatches(f->photons.phase) : 0,
+                          &err);
+        if (rc == 0) {
+            s->frames[k] = NULL; /* listed: the master's now */
+            scheduled++;
+        }
+    }
+    if (rc == 0) {
+        recs[0] = persist_record(seq, now);
+        for (size_t k = 0; k < n; k++)
+            recs[k + 1] = persist_record(jobs_find(m, id + 1 + k), now);
+        if (m->journal && journal_add_jobs(m->journal, recs, n + 1, &err) < 0) {
+            err_prefix(&err, "the master cannot journal the job: ");
+            rc = -1;
+        }
+    }
+    free(recs);
+    if (rc < 0) {
+        for (size_t k = scheduled; k-- > 0;)
+            job_unschedule(m, jobs_find(m, id + 1 + k));
+        if (seq)
+            job_unschedule(m, seq);
+        master_log(m, "submission '%s' from %s refused: %s", s->name, who, err.msg);
+        reply_error(m, from, "%s", err.msg);
+        return;
+    }
+    m->last_job = id + n;
+    for (size_t k = 0; k <= n; k++) {
+        char jobdir[PATH_MAX];
+        if (spool_job_dir(m->spool, id + k, jobdir, sizeof jobdir, &err) < 0)
+            master_log(m, "job %llu: %s", (unsigned long long)(id + k), err.msg);
+    }
+    proto_msg_t ok = {.type = PROTO_SUBMITTED, .submitted = {.job = id}};
+    reply(m, from, &ok);
+    const mjob_t *f0 = jobs_find(m, id + 1);
+    master_log(m,
+               "job %llu '%s' submitted by %s: %zu frames (jobs %llu..%llu), the first %dx%d, %d "
+               "spp, scene %.12s loaded in %.2f s (off the loop)",
+               (unsigned long long)id, seq->name, who, n, (unsigned long long)(id + 1),
+               (unsigned long long)(id + n), f0->scene.xres, f0->scene.yres, f0->scene.spp,
+               s->hash, s->load_s);
 }
 
 /* A submission whose scene has loaded (or failed to): scheduled, journaled and answered. */
@@ -255,6 +400,10 @@ static void submission_finish(master_t *m, submission_t *s, double now)
     if (!j) {
         master_log(m, "submission '%s' from %s refused: %s", s->name, who, s->err.msg);
         reply_error(m, from, "%s", s->err.msg);
+        return;
+    }
+    if (s->nframes > 0) {
+        sequence_finish(m, s, who, now);
         return;
     }
     s->job = NULL;
@@ -340,23 +489,40 @@ static bool submit_room(master_t *m, const proto_peer_t *from, const proto_msg_t
 {
     size_t open = m->nloading; /* a scene loading becomes a job */
     for (size_t i = 0; i < m->njobs; i++)
-        open += !job_over(m->jobs[i]);
-    if (open < m->opts->max_jobs)
+        open += !job_over(m->jobs[i]) && m->jobs[i]->seq.nframes == 0; /* frames count */
+    size_t asked = msg->submit.nframes ? msg->submit.nframes : 1;
+    if (open + asked <= m->opts->max_jobs)
         return true;
     char who[PROTO_PEER_STR];
     master_log(m, "submission '%s' from %s refused: %zu unfinished jobs, the limit",
                msg->submit.name, proto_peer_str(from, who), open);
-    reply_error(m, from,
-                "the master holds %zu unfinished jobs, its limit (--max-jobs %zu): submit again "
-                "when one is done",
-                open, m->opts->max_jobs);
+    if (asked > 1)
+        reply_error(m, from,
+                    "the master holds %zu unfinished jobs and this sequence has %zu frames, more "
+                    "than its limit (--max-jobs %zu; each frame counts as a job)",
+                    open, asked, m->opts->max_jobs);
+    else
+        reply_error(m, from,
+                    "the master holds %zu unfinished jobs, its limit (--max-jobs %zu): submit "
+                    "again when one is done",
+                    open, m->opts->max_jobs);
     return false;
 }
 
+/* One job (a sequence with its frames after it), or the list: every job but the frames of a
+ * sequence, which their sequence stands for. */
 static void reply_jobs(master_t *m, const proto_peer_t *to, proto_type_t type, const mjob_t *only,
                        double now)
 {
-    size_t n = only ? 1 : m->njobs, first = 0;
+    size_t n = 0, first = 0;
+    if (only) {
+        n = 1;
+        for (uint32_t k = 0; k < only->seq.nframes; k++)
+            n += jobs_frame(m, only, k) != NULL;
+    } else {
+        for (size_t i = 0; i < m->njobs; i++)
+            n += m->jobs[i]->seq.parent == 0;
+    }
     if (n > PROTO_MAX_LIST) {
         first = n - PROTO_MAX_LIST; /* the most recent ones */
         n = PROTO_MAX_LIST;
@@ -366,8 +532,20 @@ static void reply_jobs(master_t *m, const proto_peer_t *to, proto_type_t type, c
         reply_error(m, to, "the master is out of memory");
         return;
     }
-    for (size_t i = 0; i < n; i++)
-        infos[i] = job_wire_info(m, only ? only : m->jobs[first + i], now);
+    if (only) {
+        size_t k = 0;
+        infos[k++] = job_wire_info(m, only, now);
+        for (uint32_t f = 0; f < only->seq.nframes && k < n; f++) {
+            const mjob_t *fj = jobs_frame(m, only, f);
+            if (fj)
+                infos[k++] = job_wire_info(m, fj, now);
+        }
+    } else {
+        size_t k = 0, seen = 0;
+        for (size_t i = 0; i < m->njobs && k < n; i++)
+            if (m->jobs[i]->seq.parent == 0 && seen++ >= first)
+                infos[k++] = job_wire_info(m, m->jobs[i], now);
+    }
     proto_msg_t r = {.type = type};
     if (type == PROTO_STATUS_REPLY)
         r.status_reply.jobs = infos, r.status_reply.njobs = n;
@@ -434,6 +612,14 @@ static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *m
         reply_error(m, from, "%s", why);
         return;
     }
+    if (j->seq.nframes > 0) {
+        reply_error(m, from,
+                    "job %llu is a sequence of %u frames: fetch each frame's job (%llu..%llu; "
+                    "prismfarm fetch does)",
+                    (unsigned long long)j->id, j->seq.nframes, (unsigned long long)(j->id + 1),
+                    (unsigned long long)(j->id + j->seq.nframes));
+        return;
+    }
     char path[PATH_MAX + 200], name[128];
     const char *state = job_state_name(j->state);
     if (j->outputs.final) {
@@ -486,6 +672,12 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
     char why[PROTO_MAX_STRING];
     if (!access_check(m, j, from, "refine", why, sizeof why)) {
         reply_error(m, from, "%s", why);
+        return;
+    }
+    if (j->seq.nframes > 0) {
+        reply_error(m, from, "job %llu is a sequence of %u frames: refine its frames (jobs %llu..%llu)",
+                    (unsigned long long)j->id, j->seq.nframes, (unsigned long long)(j->id + 1),
+                    (unsigned long long)(j->id + j->seq.nframes));
         return;
     }
     if (!j->photons.enabled) {
@@ -577,8 +769,9 @@ static void on_cancel(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "%s", why);
         return;
     }
+    bool live = j->sched.known || (j->seq.nframes > 0 && !job_over(j));
     access_audit(m, from, "cancelled job %llu '%s' (%s)", (unsigned long long)j->id, j->name,
-                 j->sched.known ? "running or queued" : "already over: nothing to stop");
+                 live ? "running or queued" : "already over: nothing to stop");
     job_cancel(m, j, now);
     reply_jobs(m, from, PROTO_STATUS_REPLY, j, now);
 }

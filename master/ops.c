@@ -1,6 +1,7 @@
 #include "ops.h"
 
 #include "access.h"
+#include "clock.h"
 #include "jobs.h"
 #include "peers.h"
 #include "persist.h"
@@ -88,9 +89,49 @@ static void journal_control(master_t *m, mjob_t *j)
         persist_failed(m, j, &err);
 }
 
+/* What master_job_set_priority, _pause and _resume do to a frame sequence (docs/farm.md,
+ * "Frame sequences"): the same to each of its frames that is not over, a frame already paused
+ * or resumed passed over; the first other failure is the answer. */
+typedef enum seq_act { SEQ_PRIORITY, SEQ_PAUSE, SEQ_RESUME } seq_act_t;
+static int act_on_frames(master_t *m, mjob_t *seq, seq_act_t act, int priority,
+                         const master_actor_t *who, err_t *err)
+{
+    if (!ops_may_act(m, seq, who, err))
+        return -1;
+    int acted = 0;
+    for (uint32_t k = 0; k < seq->seq.nframes; k++) {
+        mjob_t *f = jobs_frame(m, seq, k);
+        if (!f || job_over(f) || !f->sched.known)
+            continue;
+        int r = act == SEQ_PRIORITY ? master_job_set_priority(m, f->id, priority, who, err)
+                : act == SEQ_PAUSE  ? (f->ops.paused ? 0 : master_job_pause(m, f->id, who, err))
+                                    : (!f->ops.paused ? 0 : master_job_resume(m, f->id, who, err));
+        if (r < 0)
+            return err_prefix(err, "frame %u: ", f->seq.frame);
+        acted++;
+    }
+    if (acted == 0)
+        return err_set(err, "job %llu is %s: only a queued or running job can be changed",
+                       (unsigned long long)seq->id, job_state_name(seq->state));
+    if (act == SEQ_PRIORITY)
+        seq->ops.priority = priority;
+    jobs_sequence_refresh(m, seq, clock_now_s()); /* its pause follows its frames' */
+    journal_control(m, seq);
+    return 0;
+}
+
+static mjob_t *sequence_of(const master_t *m, uint64_t id)
+{
+    mjob_t *j = jobs_find(m, id);
+    return j && j->seq.nframes > 0 ? j : NULL;
+}
+
 int master_job_set_priority(master_t *m, uint64_t id, int priority, const master_actor_t *who,
                             err_t *err)
 {
+    mjob_t *seq = sequence_of(m, id);
+    if (seq)
+        return act_on_frames(m, seq, SEQ_PRIORITY, priority, who, err);
     mjob_t *j = job_to_act_on(m, id, who, "a priority change", err);
     if (!j || sched_set_job_priority(m->sched, id, priority, err) < 0)
         return -1;
@@ -132,12 +173,15 @@ static int set_paused(master_t *m, uint64_t id, bool paused, const master_actor_
 
 int master_job_pause(master_t *m, uint64_t id, const master_actor_t *who, err_t *err)
 {
-    return set_paused(m, id, true, who, err);
+    mjob_t *seq = sequence_of(m, id);
+    return seq ? act_on_frames(m, seq, SEQ_PAUSE, 0, who, err) : set_paused(m, id, true, who, err);
 }
 
 int master_job_resume(master_t *m, uint64_t id, const master_actor_t *who, err_t *err)
 {
-    return set_paused(m, id, false, who, err);
+    mjob_t *seq = sequence_of(m, id);
+    return seq ? act_on_frames(m, seq, SEQ_RESUME, 0, who, err)
+               : set_paused(m, id, false, who, err);
 }
 
 int master_task_requeue(master_t *m, uint64_t id, uint32_t task, const master_actor_t *who,

@@ -29,6 +29,7 @@ master_actor_t ops_actor_of_peer(const master_t *m, const proto_peer_t *peer);
  * not. */
 bool ops_may_act(const master_t *m, const mjob_t *j, const master_actor_t *who, err_t *err);
 
+/* On a frame sequence, these three act on each of its frames that is not over. */
 int master_job_set_priority(master_t *m, uint64_t job, int priority, const master_actor_t *who,
                             err_t *err);
 /* Workers finish the tasks of the job they hold; no more are handed out until resumed. */

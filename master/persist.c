@@ -31,7 +31,10 @@ journal_job_t persist_record(const mjob_t *j, double now)
                        .nonfinite = j->sched.nonfinite,
                        .spp_done = j->accuracy.spp_done,
                        .priority = j->ops.priority,
-                       .paused = j->ops.paused};
+                       .paused = j->ops.paused,
+                       .parent = j->seq.parent,
+                       .frame = j->seq.frame,
+                       .nframes = j->seq.nframes};
     snprintf(r.owner, sizeof r.owner, "%s", j->owner);
     double end = j->finished > 0 ? j->finished : now;
     r.elapsed = j->started > 0 && end > j->started ? end - j->started : 0;

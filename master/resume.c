@@ -135,6 +135,8 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
     if (!j)
         return -1;
     snprintf(j->owner, sizeof j->owner, "%s", r->owner);
+    j->seq.parent = r->parent;
+    j->seq.frame = r->frame;
     j->sched.round = r->round;
     j->photons.saved = r->photons_saved;
     j->journal.round_photons = r->round_photons;
@@ -293,7 +295,9 @@ int resume_jobs(master_t *m, err_t *err)
             rc = -1;
             break;
         }
-        if (r->state == JOB_QUEUED || r->state == JOB_RUNNING) {
+        /* A sequence is never scheduled: its frames are (the rows after it), and it follows
+         * them once they are all listed (below). */
+        if ((r->state == JOB_QUEUED || r->state == JOB_RUNNING) && r->nframes == 0) {
             err_t jerr;
             if (resume_job(m, r, now, &jerr) == 0)
                 continue;
@@ -327,6 +331,9 @@ int resume_jobs(master_t *m, err_t *err)
         if (r->state == JOB_FAILED && r->error && strstr(r->error, "after the master restarted"))
             persist_state(m, j, now); /* failed just now: the journal learns why */
     }
+    for (size_t i = 0; i < m->njobs && rc == 0; i++)
+        if (m->jobs[i]->seq.nframes > 0)
+            jobs_sequence_refresh(m, m->jobs[i], now);
     if (rc == 0)
         list_lost_jobs(m, rows, n, problems > 0 ? damage : "");
     for (size_t i = 0; i < n; i++)

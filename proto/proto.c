@@ -300,6 +300,8 @@ static bool is_zero(const field_t *f, const void *obj)
         return ptr_of(obj, f->at) == NULL;
     case FT_HASH:
         return CVALUE(char, obj, f->at) == 0;
+    case FT_LIST:
+        return CVALUE(size_t, obj, f->aux) == 0;
     default:
         return int_of(f, obj) == 0;
     }
@@ -605,6 +607,74 @@ static int ck_bundle(const cx_t *cx, const void *obj)
     return 0;
 }
 
+/* A scene file named apart from its bundle (a TASK's or a frame's main): a bundle path. */
+static int ck_path(const cx_t *cx, const field_t *f, const void *obj)
+{
+    const char *s = ptr_of(obj, f->at);
+    if (!s)
+        return cx_fail(cx, f->key, "is missing");
+    err_t why;
+    if (proto_bundle_path_check(s, &why) < 0)
+        return cx_fail(cx, f->key, "is not a bundle path: %s", why.msg);
+    return 0;
+}
+
+/* A sequence's frames: each one of the bundle's files, each file and number used once. Sorted
+ * copies of the names make it O(n log n): up to PROTO_MAX_FRAMES frames against
+ * PROTO_MAX_BUNDLE_FILES files would be 4e7 comparisons pairwise, on the master's loop. */
+static int cmp_str(const void *a, const void *b)
+{
+    return strcmp(*(const char *const *)a, *(const char *const *)b);
+}
+static int cmp_u32(const void *a, const void *b)
+{
+    uint32_t x = *(const uint32_t *)a, y = *(const uint32_t *)b;
+    return x < y ? -1 : x > y;
+}
+
+static int ck_submit_frames(const cx_t *cx, const void *obj)
+{
+    const proto_msg_t *m = obj;
+    const proto_frame_t *fr = m->submit.frames;
+    const proto_bundle_t *b = &m->submit.bundle;
+    size_t n = m->submit.nframes;
+    if (n == 0)
+        return 0;
+    const char **paths = malloc((b->nfiles ? b->nfiles : 1) * sizeof *paths);
+    const char **mains = malloc(n * sizeof *mains);
+    uint32_t *numbers = malloc(n * sizeof *numbers);
+    int rc = 0;
+    if (!paths || !mains || !numbers) {
+        rc = cx_fail(cx, "frames", "cannot be checked: out of memory");
+        goto out;
+    }
+    for (size_t k = 0; k < b->nfiles; k++)
+        paths[k] = b->files[k].path;
+    qsort(paths, b->nfiles, sizeof *paths, cmp_str);
+    for (size_t i = 0; i < n; i++) {
+        if (!bsearch(&fr[i].main, paths, b->nfiles, sizeof *paths, cmp_str)) {
+            rc = cx_fail(cx, "frames", "entry %zu names '%.200s', which is not in the bundle", i,
+                         fr[i].main);
+            goto out;
+        }
+        mains[i] = fr[i].main;
+        numbers[i] = fr[i].number;
+    }
+    qsort(mains, n, sizeof *mains, cmp_str);
+    qsort(numbers, n, sizeof *numbers, cmp_u32);
+    for (size_t i = 1; i < n && rc == 0; i++) {
+        if (!strcmp(mains[i - 1], mains[i]))
+            rc = cx_fail(cx, "frames", "has '%.200s' twice", mains[i]);
+        else if (numbers[i - 1] == numbers[i])
+            rc = cx_fail(cx, "frames", "has the number %u twice", numbers[i]);
+    }
+out:
+    free(paths);
+    free(mains);
+    free(numbers);
+    return rc;
+}
+
 /* Workers cache scenes by this hash: a SCENE whose bundle does not match it would poison the
  * cache of every later job that names the same hash. */
 static int ck_scene_hash(const cx_t *cx, const void *obj)
@@ -767,6 +837,19 @@ static const field_t BUNDLE_FIELDS[] = {
 };
 static const shape_t BUNDLE = {SHAPE(proto_bundle_t, BUNDLE_FIELDS, ck_bundle)};
 
+/* A job's frame number belongs to a frame of a sequence only. */
+static bool job_is_frame(const void *ji)
+{
+    return ((const proto_job_info_t *)ji)->parent != 0;
+}
+
+#define FR(m) offsetof(proto_frame_t, m)
+static const field_t FRAME_FIELDS[] = {
+    {F("main", FT_STR, FR(main)), .check = ck_path},
+    {F("n", FT_U32, FR(number))},
+};
+static const shape_t FRAME = {SHAPE(proto_frame_t, FRAME_FIELDS, NULL)};
+
 /* Accuracy (spp, rmse, stop): absent is "0 spp", "no estimate", "not stopped early"; present is
  * never those (the encoder omits them), so an explicit one is refused. */
 #define JI(m) offsetof(proto_job_info_t, m)
@@ -786,6 +869,10 @@ static const field_t JOB_FIELDS[] = {
     {F("owner", FT_STR, JI(owner)), .presence = UNLESS_ZERO, NAME(PROTO_MAX_STRING)},
     {F("prio", FT_SINT, JI(priority)), .presence = UNLESS_ZERO, .absent = "priority 0",
      RANGE(-PROTO_MAX_PRIORITY, PROTO_MAX_PRIORITY)},
+    {F("frames", FT_U32, JI(frames)), .presence = UNLESS_ZERO, .absent = "not a sequence",
+     RANGE(0, PROTO_MAX_FRAMES)},
+    {F("parent", FT_U64, JI(parent)), .presence = UNLESS_ZERO, .absent = "not a frame"},
+    {F("frame", FT_U32, JI(frame)), .when = job_is_frame},
 };
 static const shape_t JOB_INFO = {SHAPE(proto_job_info_t, JOB_FIELDS, NULL)};
 
@@ -850,6 +937,8 @@ static const field_t TASK_FIELDS[] = {
     {F("store", FT_HASH, M(task.store)), .when = task_is_tile, .presence = UNLESS_ZERO,
      .check = ck_hash},
     {F("tile", FT_MAP, M(task.tile)), .when = task_is_tile, .sub = &TILE_RECT},
+    {F("main", FT_STR, M(task.main)), .presence = UNLESS_ZERO, .absent = "the bundle's main",
+     .check = ck_path},
 };
 static const field_t RESULT_FIELDS[] = {
     {F("job", FT_U64, M(result.job))},
@@ -885,6 +974,9 @@ static const field_t SUBMIT_FIELDS[] = {
     {F("bundle", FT_MAP, M(submit.bundle)), .sub = &BUNDLE},
     {F("prio", FT_SINT, M(submit.priority)), .presence = UNLESS_ZERO, .absent = "priority 0",
      RANGE(-PROTO_MAX_PRIORITY, PROTO_MAX_PRIORITY)},
+    {F("frames", FT_LIST, M(submit.frames)), .aux = M(submit.nframes), .sub = &FRAME,
+     .presence = UNLESS_ZERO, .absent = "a single scene", .check = ck_list,
+     .hi = PROTO_MAX_FRAMES},
 };
 static const field_t STATUS_FIELDS[] = {
     {F("job", FT_U64, M(status.job)), .presence = UNLESS_FLAG, .flag = M(status.all)},
@@ -954,7 +1046,7 @@ static const shape_t BODIES[PROTO_TYPE_COUNT] = {
     [PROTO_SCENE] = {BODY(SCENE_FIELDS, ck_scene_hash)},
     [PROTO_CANCEL] = {BODY(CANCEL_FIELDS, NULL)},
     [PROTO_REFUSE] = {BODY(REFUSE_FIELDS, NULL)},
-    [PROTO_SUBMIT] = {BODY(SUBMIT_FIELDS, NULL)},
+    [PROTO_SUBMIT] = {BODY(SUBMIT_FIELDS, ck_submit_frames)},
     [PROTO_STATUS] = {BODY(STATUS_FIELDS, NULL)},
     [PROTO_FETCH] = {BODY(FETCH_FIELDS, NULL)},
     [PROTO_SUBMITTED] = {BODY(SUBMITTED_FIELDS, NULL)},

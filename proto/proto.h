@@ -181,6 +181,13 @@ typedef struct proto_task_stats {
     double elapsed; /* seconds of wall-clock time, finite, >= 0 */
 } proto_task_stats_t;
 
+/* A frame of a sequence job (SUBMIT's frames): its scene file, one of the bundle's files, and
+ * its number (what an output pattern such as f%04d.exr is given). */
+typedef struct proto_frame {
+    const char *main;
+    uint32_t number;
+} proto_frame_t;
+
 typedef struct proto_job_info {
     uint64_t id;
     const char *name;
@@ -199,6 +206,12 @@ typedef struct proto_job_info {
     proto_stop_t stop;
     const char *owner; /* the submitting key's name; NULL or "" (omitted): submitted without keys */
     long long priority; /* -PROTO_MAX_PRIORITY..PROTO_MAX_PRIORITY; absent on the wire: 0 */
+    /* Frame sequences (optional on the wire; docs/farm.md, "Frame sequences"): a sequence job
+     * has frames > 0 frames, each a job of its own whose info has parent (the sequence's id,
+     * absent: 0) and frame (its number, only with a parent). */
+    uint32_t frames;
+    uint64_t parent;
+    uint32_t frame;
 } proto_job_info_t;
 
 typedef struct proto_worker_info {
@@ -244,7 +257,10 @@ typedef struct proto_msg {
              * tile must gather from (STORE_REQUEST fetches it); "" for other jobs */
             char store[PROTO_HASH_HEX + 1];
             proto_photon_batch_t photons; /* kind PHOTON_BATCH */
-        } task;                           /* master -> worker */
+            /* The scene file to load, one of the bundle's files (a frame of a sequence);
+             * NULL (absent): the bundle's main */
+            const char *main;
+        } task; /* master -> worker */
         struct {
             uint64_t job, task;
             uint32_t attempt;
@@ -276,6 +292,10 @@ typedef struct proto_msg {
             proto_settings_t settings;
             proto_bundle_t bundle;
             long long priority; /* -PROTO_MAX_PRIORITY..PROTO_MAX_PRIORITY; absent: 0 */
+            /* A frame sequence: nframes (1..PROTO_MAX_FRAMES; 0, absent: a single scene, the
+             * bundle's main) frames, each main one of the bundle's files and used once */
+            const proto_frame_t *frames;
+            size_t nframes;
         } submit; /* client -> master */
         struct {
             bool all;

@@ -21,6 +21,7 @@
 #define PROTO_MAX_PATH_DEPTH 32      /* components of a bundle path */
 #define PROTO_MAX_PATH_COMPONENT 200 /* bytes in one component (leaves room under NAME_MAX) */
 #define PROTO_HASH_HEX 64            /* a scene hash: lower-case hex SHA-256 */
+#define PROTO_MAX_FRAMES 10000      /* frames of a sequence job (SUBMIT's frames) */
 #define PROTO_MAX_TIME_LIMIT 31536000.0 /* a job's time limit, seconds (a year) */
 
 /* Defaults of the caller-configurable limits (proto_limits_t). */

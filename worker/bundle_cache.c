@@ -107,7 +107,7 @@ int bundle_cache_put(const bundle_cache_t *self, const char *hash, const proto_b
     return 0;
 }
 
-scene_t *bundle_cache_load(const bundle_cache_t *self, const char *hash,
+scene_t *bundle_cache_load(const bundle_cache_t *self, const char *hash, const char *main,
                            const scene_overrides_t *ov, err_t *err)
 {
     char main_path[PROTO_MAX_STRING + 800], dir[700], mainname[PROTO_MAX_STRING + 1];
@@ -117,7 +117,12 @@ scene_t *bundle_cache_load(const bundle_cache_t *self, const char *hash,
     snprintf(namefile, sizeof namefile, "%s/.main", dir);
     scene_t *sc = NULL;
     FILE *f = fopen(namefile, "r");
-    if (!f || !fgets(mainname, sizeof mainname, f)) {
+    if (f && main && main[0]) {
+        /* The bundle is complete (.main is written before .complete); TASK's decoder checked
+         * that main is a bundle path, and the load is confined to the bundle's folder. */
+        snprintf(main_path, sizeof main_path, "%s/%s", dir, main);
+        sc = scene_load_file_confined(main_path, dir, ov, err);
+    } else if (!f || !fgets(mainname, sizeof mainname, f)) {
         err_set(err, "scene %s: its bundle in %s is incomplete", hash, dir);
     } else {
         mainname[strcspn(mainname, "\n")] = 0;

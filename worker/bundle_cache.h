@@ -37,8 +37,9 @@ int bundle_cache_put(const bundle_cache_t *self, const char *hash, const proto_b
                      err_t *err);
 
 /* Loads the scene of a bundle that is here, confined to the bundle's folder
- * (scene_load_file_confined); NULL with err when the bundle is incomplete or the scene is bad. */
-scene_t *bundle_cache_load(const bundle_cache_t *self, const char *hash,
+ * (scene_load_file_confined): its scene file main (a frame of a sequence), or its main file when
+ * main is NULL or ""; NULL with err when the bundle is incomplete or the scene is bad. */
+scene_t *bundle_cache_load(const bundle_cache_t *self, const char *hash, const char *main,
                            const scene_overrides_t *ov, err_t *err);
 
 #endif

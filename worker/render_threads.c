@@ -82,7 +82,7 @@ void *render_thread_main(void *arg)
         job_scene_t *js =
             task_queue_is_cancelled(&w->tasks, t->job)
                 ? NULL
-                : scene_cache_acquire(&w->scenes, t->job, t->hash, t->store, &t->settings, &err);
+                : scene_cache_acquire(&w->scenes, t->job, t->hash, t->main, t->store, &t->settings, &err);
         if (js) {
             pthread_mutex_unlock(&w->lock);
             task_run(w, t, js, &err);

@@ -40,7 +40,7 @@ static int install_store(scene_cache_t *self, job_scene_t *js, const char *hash,
 }
 
 job_scene_t *scene_cache_acquire(scene_cache_t *self, uint64_t job, const char *hash,
-                                 const char *store, const proto_settings_t *settings, err_t *err)
+                                 const char *main, const char *store, const proto_settings_t *settings, err_t *err)
 {
     for (;;) {
         job_scene_t *hit = NULL, *victim = NULL;
@@ -48,7 +48,7 @@ job_scene_t *scene_cache_acquire(scene_cache_t *self, uint64_t job, const char *
             job_scene_t *s = &self->slots[i];
             /* Photon batches take any scene of their job (they leave its store slot alone);
              * a tile needs its store installed, or a scene with none yet to install it in. */
-            if ((s->scene || s->loading || s->error[0]) && s->job == job &&
+            if ((s->scene || s->loading || s->error[0]) && s->job == job && !strcmp(s->main, main) &&
                 (s->error[0] || !store[0] || !s->store[0] || !strcmp(s->store, store))) {
                 hit = s;
                 break;
@@ -87,10 +87,11 @@ job_scene_t *scene_cache_acquire(scene_cache_t *self, uint64_t job, const char *
         victim->job = job;
         victim->loading = 1;
         snprintf(victim->hash, sizeof victim->hash, "%s", hash);
+        snprintf(victim->main, sizeof victim->main, "%s", main);
         pthread_mutex_unlock(self->lock);
         err_t lerr = {{0}};
         scene_overrides_t ov = settings_to_overrides(settings);
-        scene_t *sc = bundle_cache_load(self->bundles, hash, &ov, &lerr);
+        scene_t *sc = bundle_cache_load(self->bundles, hash, main, &ov, &lerr);
         pthread_mutex_lock(self->lock);
         victim->scene = sc;
         victim->stamp = ++self->clock;

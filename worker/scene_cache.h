@@ -23,6 +23,9 @@
 typedef struct job_scene {
     uint64_t job;
     char hash[PROTO_HASH_HEX + 1];
+    /* The bundle's scene file it loaded ("": the bundle's main): the frames of a sequence share
+     * one bundle, each with its own main, so a scene is told by hash and main together. */
+    char main[PROTO_MAX_STRING + 1];
     /* The photon store decoded for the scene's camera tasks (photons), "" for none yet: a
      * refined job's new store needs a scene of its own, as a store is decoded once. */
     char store[PROTO_HASH_HEX + 1];
@@ -46,13 +49,14 @@ typedef struct scene_cache {
 void scene_cache_init(scene_cache_t *self, pthread_mutex_t *lock, pthread_cond_t *wake,
                       const bundle_cache_t *bundles, store_cache_t *stores);
 
-/* The slot of job's scene (bundle hash, loaded with settings) for one task, loading it if
+/* The slot of job's scene (bundle hash and its scene file main, "" for the bundle's main;
+ * loaded with settings) for one task, loading it if
  * needed; store is the photon store a camera tile gathers from ("" for none), decoded into the
  * slot if it has none yet. A photon batch takes any scene of its job. NULL with err when the
  * scene cannot be loaded (the slot keeps the error for the job's other tasks) or the store is
  * not held or bad. Waits while a slot it needs is loading, or while every slot is in use. */
 job_scene_t *scene_cache_acquire(scene_cache_t *self, uint64_t job, const char *hash,
-                                 const char *store, const proto_settings_t *settings, err_t *err);
+                                 const char *main, const char *store, const proto_settings_t *settings, err_t *err);
 
 /* Gives back a slot that scene_cache_acquire returned. */
 void scene_cache_release(scene_cache_t *self, job_scene_t *js);

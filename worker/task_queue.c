@@ -23,6 +23,7 @@ task_t *task_new(const proto_msg_t *m, unsigned generation)
     t->attempt = m->task.attempt;
     t->generation = generation;
     snprintf(t->hash, sizeof t->hash, "%s", m->task.scene);
+    snprintf(t->main, sizeof t->main, "%s", m->task.main ? m->task.main : "");
     copy_settings(t, &m->task.settings);
     t->kind = m->task.kind;
     t->tile = m->task.tile;

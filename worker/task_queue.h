@@ -22,6 +22,7 @@ typedef struct task {
     uint32_t attempt;
     unsigned generation; /* connection generation that received it */
     char hash[PROTO_HASH_HEX + 1];
+    char main[PROTO_MAX_STRING + 1]; /* the scene file of the bundle to load; "": its main */
     proto_settings_t settings;
     char strings[2][16];
     proto_kind_t kind;

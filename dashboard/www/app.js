@@ -99,7 +99,8 @@ async function viewJobs(gen) {
     const tr = el("tr", { class: "clickable", "data-job": j.id,
                           onclick: () => { location.hash = "#/job/" + j.id; } },
       el("td", { class: "num" }, j.id),
-      el("td", {}, el("a", { href: "#/job/" + j.id }, j.name)),
+      el("td", {}, el("a", { href: "#/job/" + j.id }, j.name),
+         j.nframes ? el("span", { class: "muted" }, " (" + j.nframes + " frames)") : ""),
       el("td", {}, j.owner || "–"),
       stateCell(j.state, j.paused),
       el("td", { class: "num" }, j.priority === undefined ? "–" : j.priority),
@@ -211,7 +212,10 @@ async function viewJob(gen, id) {
                         j.state + (j.paused ? " (paused)" : ""))),
     ...fact("owner", j.owner || "–"),
     ...fact("priority", j.priority === undefined ? "–" : String(j.priority)),
-    ...fact("size", j.xres + " × " + j.yres + ", " + j.integrator),
+    // A frame sequence (docs/farm.md): its frames below; a frame: its sequence and number.
+    ...(j.nframes ? fact("frames", String(j.nframes)) : fact("size", j.xres + " × " + j.yres + ", " + j.integrator)),
+    ...(j.sequence ? fact("frame", el("span", {}, j.frame + " of ",
+                                      el("a", { href: "#/job/" + j.sequence }, "job " + j.sequence))) : []),
     ...fact("progress", el("span", {}, bar(j.progress), " " + (100 * j.progress).toFixed(1) + " %")),
     ...fact("samples per pixel", j.spp_done + " of " + j.spp + " (pass " + j.passes_done + " of " + j.npasses + ")"),
     ...fact("samples", fmtCount(j.samples_done) + " of " + fmtCount(j.samples_total) +
@@ -256,6 +260,20 @@ async function viewJob(gen, id) {
   const canvas = document.getElementById("tilemap");
   if (map) drawTiles(canvas, map);
   canvas.hidden = !map;
+  // A sequence's frames, each a job of its own.
+  const fc = document.getElementById("frames-card");
+  fc.hidden = !j.frames;
+  if (j.frames)
+    document.getElementById("frames-body").replaceChildren(...j.frames.map((f) =>
+      el("tr", { class: "clickable", "data-job": f.id, onclick: () => { location.hash = "#/job/" + f.id; } },
+        el("td", { class: "num" }, f.frame),
+        el("td", { class: "num" }, f.id),
+        el("td", {}, el("a", { href: "#/job/" + f.id }, f.name)),
+        stateCell(f.state, f.paused),
+        el("td", {}, bar(f.progress), " ", (100 * f.progress).toFixed(0) + " %"),
+        el("td", { class: "num" }, f.spp_done + " / " + f.spp),
+        el("td", { class: "num" }, fmtError(f.rel_error)),
+        el("td", { class: "num" }, fmtTime(f.elapsed_s)))));
   // Running tasks and their workers.
   const rows = tasks.tasks.map((t) => el("tr", { "data-task": t.task },
     el("td", { class: "num" }, t.task),
@@ -310,6 +328,10 @@ function buildJobPage(id) {
               el("option", { value: "time" }, "by running time"))),
          el("canvas", { id: "tilemap" }),
          el("p", { class: "legend" }, "darker: more passes merged; outlined: running, in its worker's colour"))),
+    el("div", { class: "card", id: "frames-card", hidden: "hidden" }, el("h2", {}, "Frames"),
+      el("table", { id: "frames-table" },
+        el("thead", {}, el("tr", {}, ...["frame", "job", "file", "state", "progress", "spp", "error", "elapsed"].map((h) => el("th", {}, h)))),
+        el("tbody", { id: "frames-body" }))),
     el("div", { class: "card" }, el("h2", {}, "Running tasks"),
       el("table", { id: "tasks-table" },
         el("thead", {}, el("tr", {}, ...["task", "what", "samples", "worker", "attempt", "running", ""].map((h) => el("th", {}, h)))),

@@ -297,6 +297,34 @@ def main():
             "const r = document.querySelector('#workers-table tbody tr');"
             "return r && r.querySelector('.state').textContent === 'idle'"
             " && r.children[5].textContent === '0'"))
+
+        # A frame sequence (docs/farm.md): one row in the list, its frames on its page, and a
+        # frame's page linking back to it.
+        frames = os.path.join(scratch, "frames")
+        os.mkdir(frames)
+        for k in (1, 2):
+            with open(os.path.join(frames, "walk%d.pbrt" % k), "w") as f:
+                f.write('LookAt %d 1 -3  0 0.5 0  0 1 0\nCamera "perspective"\n'
+                        'Film "spectral" "integer xresolution" [ 16 ] "integer yresolution" [ 8 ]\n'
+                        'Sampler "independent" "integer pixelsamples" [ 4 ]\nWorldBegin\n'
+                        'LightSource "infinite" "rgb L" [ 0.5 0.5 0.5 ]\n'
+                        'Shape "sphere" "float radius" [ 0.5 ]\n' % (k - 1))
+        seq = int(farm.run("submit", os.path.join(frames, "walk1.pbrt"),
+                           os.path.join(frames, "walk2.pbrt"), "--master",
+                           farm.clients).stdout.strip())
+        wd.get(farm.url + "#/jobs")
+        wait_for("sequence %d done in the list with its 2 frames" % seq, lambda: wd.js(
+            "const r = document.querySelector('tr[data-job=\"%d\"]');"
+            "return r && r.querySelector('.state').textContent === 'done'"
+            " && r.textContent.includes('(2 frames)')" % seq))
+        if wd.js("return !!document.querySelector('tr[data-job=\"%d\"]')" % (seq + 1)):
+            fail("frame job %d is listed on its own beside its sequence %d" % (seq + 1, seq))
+        wd.get(farm.url + "#/job/%d" % seq)
+        wait_for("the 2 frames of sequence %d on its page" % seq, lambda: wd.js(
+            "return [...document.querySelectorAll('#frames-body tr .state')]"
+            ".map(e => e.textContent).join() === 'done,done'"))
+        wd.click('#frames-body tr[data-job="%d"]' % (seq + 2))
+        wait_for("frame 2's page naming its sequence", lambda: "2 of job %d" % seq in wd.text("#job-facts"))
         codes = farm.stop()
         if any(codes):
             fail("the farm's processes ended with statuses %s, expected 0 (see master.log, "

@@ -388,12 +388,68 @@ static void test_journal_tables(void **state)
     assert_true(journal_stats(jn).writes == 0); /* since this open: nothing written yet */
     journal_close(&jn);
 
-    /* A version-6 journal (before priorities) is migrated in place: priority 0, not paused. */
+    /* A job's frame fields are kept (version 8): a sequence and one of its frames. */
+    assert_non_null(jn = journal_open(dir, &err));
+    journal_job_t seqrecs[2] = {
+        {.id = 20, .name = "walk", .hash = "ab12", .main = "walk1.pbrt", .nframes = 1},
+        {.id = 21, .name = "walk1.pbrt", .hash = "ab12", .main = "walk1.pbrt",
+         .parent = 20, .frame = 1}};
+    assert_int_equal(journal_add_jobs(jn, seqrecs, 2, &err), 0);
+    journal_close(&jn);
+    assert_non_null(jn = journal_open(dir, &err));
+    assert_int_equal(journal_jobs(jn, &rows, &n, &err), 0);
+    assert_int_equal(n, 3);
+    assert_int_equal(rows[0].nframes, 0);
+    assert_int_equal(rows[0].parent, 0);
+    assert_int_equal(rows[1].nframes, 1);
+    assert_int_equal(rows[1].parent, 0);
+    assert_int_equal(rows[2].parent, 20);
+    assert_int_equal(rows[2].frame, 1);
+    assert_int_equal(rows[2].nframes, 0);
+    for (size_t i = 0; i < n; i++)
+        journal_job_clear(&rows[i]);
+    free(rows);
+    /* All or none: a batch whose second row fails (the id of the first again, with a NULL
+     * name the table refuses) leaves nothing of the batch. */
+    journal_job_t badrecs[2] = {
+        {.id = 30, .name = "x", .hash = "ab12", .main = "x.pbrt", .nframes = 1},
+        {.id = 31, .name = NULL, .hash = "ab12", .main = "x.pbrt", .parent = 30}};
+    assert_int_equal(journal_add_jobs(jn, badrecs, 2, &err), -1);
+    assert_int_equal(journal_jobs(jn, &rows, &n, &err), 0);
+    assert_int_equal(n, 3);
+    for (size_t i = 0; i < n; i++)
+        journal_job_clear(&rows[i]);
+    free(rows);
+    journal_close(&jn);
+
+    /* A version-7 journal (before sequences) is migrated in place: its jobs are single
+     * scenes. */
     sqlite3 *db;
     assert_int_equal(sqlite3_open(path, &db), SQLITE_OK);
     assert_int_equal(sqlite3_exec(db,
+                                  "DELETE FROM jobs WHERE id >= 20; ALTER TABLE jobs DROP COLUMN "
+                                  "parent; ALTER TABLE jobs DROP COLUMN frame; ALTER TABLE jobs "
+                                  "DROP COLUMN nframes; UPDATE meta SET value=7 WHERE key='version'",
+                                  NULL, NULL, NULL),
+                     SQLITE_OK);
+    sqlite3_close(db);
+    assert_non_null(jn = journal_open(dir, &err));
+    assert_int_equal(journal_jobs(jn, &rows, &n, &err), 0);
+    assert_int_equal(n, 1);
+    assert_int_equal(rows[0].parent, 0);
+    assert_int_equal(rows[0].nframes, 0);
+    assert_int_equal(rows[0].priority, -3); /* the rest of the row as it was */
+    journal_job_clear(&rows[0]);
+    free(rows);
+    journal_close(&jn);
+
+    /* A version-6 journal (before priorities) is migrated in place: priority 0, not paused. */
+    assert_int_equal(sqlite3_open(path, &db), SQLITE_OK);
+    assert_int_equal(sqlite3_exec(db,
                                   "ALTER TABLE jobs DROP COLUMN priority; ALTER TABLE jobs DROP "
-                                  "COLUMN paused; DROP TABLE blocked; UPDATE meta SET value=6 "
+                                  "COLUMN paused; ALTER TABLE jobs DROP COLUMN parent; ALTER TABLE "
+                                  "jobs DROP COLUMN frame; ALTER TABLE jobs DROP COLUMN nframes; "
+                                  "DROP TABLE blocked; UPDATE meta SET value=6 "
                                   "WHERE key='version'",
                                   NULL, NULL, NULL),
                      SQLITE_OK);
@@ -414,7 +470,9 @@ static void test_journal_tables(void **state)
     assert_int_equal(sqlite3_open(path, &db), SQLITE_OK);
     assert_int_equal(sqlite3_exec(db,
                                   "ALTER TABLE jobs DROP COLUMN owner; ALTER TABLE jobs DROP "
-                                  "COLUMN priority; ALTER TABLE jobs DROP COLUMN paused; DROP "
+                                  "COLUMN priority; ALTER TABLE jobs DROP COLUMN paused; ALTER "
+                                  "TABLE jobs DROP COLUMN parent; ALTER TABLE jobs DROP COLUMN "
+                                  "frame; ALTER TABLE jobs DROP COLUMN nframes; DROP "
                                   "TABLE blocked; UPDATE meta SET value=5 WHERE key='version'",
                                   NULL, NULL, NULL),
                      SQLITE_OK);
@@ -434,7 +492,7 @@ static void test_journal_tables(void **state)
                                         &vst, NULL),
                      SQLITE_OK);
     assert_int_equal(sqlite3_step(vst), SQLITE_ROW);
-    assert_int_equal(sqlite3_column_int(vst, 0), 7);
+    assert_int_equal(sqlite3_column_int(vst, 0), 8);
     sqlite3_finalize(vst);
     sqlite3_close(db);
 

@@ -48,7 +48,8 @@ typedef struct seeds {
     proto_bundle_file_t files[2];
     proto_bundle_t bundle;
     char hash[PROTO_HASH_HEX + 1];
-    proto_job_info_t jobs[2];
+    proto_job_info_t jobs[2], sequence[3];
+    proto_frame_t frames[2];
     proto_worker_info_t workers[2];
     uint8_t png[8];
     uint8_t store_data[24]; /* opaque to the decoder: a photon store's wire form */
@@ -73,10 +74,19 @@ static int seeds_init(seeds_t *s, err_t *err)
         (proto_bundle_file_t){"meshes/tri.ply", (const uint8_t *)PLY_TEXT, sizeof PLY_TEXT - 1};
     s->bundle = (proto_bundle_t){"scene.pbrt", s->files, 2};
     s->jobs[0] = (proto_job_info_t){1, "prism", PROTO_JOB_RUNNING, 100, 4096, 2.5, NULL, 0,
-                                    0, false, 0, PROTO_STOP_NONE, "alice", 5};
+                                    0, false, 0, PROTO_STOP_NONE, "alice", 5, 0, 0, 0};
     s->jobs[1] = (proto_job_info_t){
         2, "gem", PROTO_JOB_FAILED, 0, 64, 0.0, "scene.pbrt:3:7: unsupported shape \"torus\"", 1,
-        0, false, 0, PROTO_STOP_NONE, NULL, 0};
+        0, false, 0, PROTO_STOP_NONE, NULL, 0, 0, 0, 0};
+    /* A frame sequence of two frames (ids 3, 4 after the sequence's 2), the second numbered 0. */
+    s->sequence[0] = (proto_job_info_t){2, "walk", PROTO_JOB_RUNNING, 10, 128, 1.0, NULL, 0,
+                                        0, false, 0, PROTO_STOP_NONE, NULL, 0, 2, 0, 0};
+    s->sequence[1] = (proto_job_info_t){3, "scene", PROTO_JOB_DONE, 64, 64, 0.5, NULL, 0,
+                                        16, false, 0, PROTO_STOP_NONE, NULL, 0, 0, 2, 7};
+    s->sequence[2] = (proto_job_info_t){4, "tri", PROTO_JOB_QUEUED, 0, 64, 0.0, NULL, 0,
+                                        0, false, 0, PROTO_STOP_NONE, NULL, 0, 0, 2, 0};
+    s->frames[0] = (proto_frame_t){"scene.pbrt", 7};
+    s->frames[1] = (proto_frame_t){"meshes/tri.ply", 0};
     s->workers[0] = (proto_worker_info_t){"node01", 1, 8, PROTO_WORKER_BUSY, 12, 0.5, 0, 0, 0, 2.5e5};
     s->workers[1] =
         (proto_worker_info_t){"node02", 2, 2, PROTO_WORKER_BLOCKED, 0, 1.0, 9, 5, 1, 0};
@@ -169,6 +179,23 @@ static int seeds_list(const seeds_t *s, seed_t out[NSEEDS_MAX])
     m->submit.name = "prism fast";
     m->submit.settings = all;
     m->submit.bundle = s->bundle;
+    m = SEED("submit_frames", PROTO_SUBMIT);
+    m->submit.name = "walk";
+    m->submit.settings = keep;
+    m->submit.bundle = s->bundle;
+    m->submit.frames = s->frames;
+    m->submit.nframes = 2;
+    m = SEED("task_frame", PROTO_TASK);
+    m->task.job = 3;
+    m->task.task = 4;
+    memcpy(m->task.scene, s->hash, sizeof s->hash);
+    m->task.settings = keep;
+    m->task.kind = PROTO_KIND_CAMERA_TILE;
+    m->task.tile = (proto_tile_t){0, 8, 8, 8, 0, 16};
+    m->task.main = "scene.pbrt";
+    m = SEED("status_reply_sequence", PROTO_STATUS_REPLY);
+    m->status_reply.jobs = s->sequence;
+    m->status_reply.njobs = 3;
     m = SEED("status", PROTO_STATUS);
     m->status.job = 1;
     m = SEED("status_all", PROTO_STATUS);

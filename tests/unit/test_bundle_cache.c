@@ -1,7 +1,9 @@
 /* bundle_cache (worker/bundle_cache.h): a bundle is kept under its hash and refused under
  * another; its files are written without fsync, so the cache trusts them within one boot of the
  * host only: opened with the boot id it recorded, it keeps its bundles; with another (a reboot,
- * after which unsynced bytes may be lost), it empties itself and records the new one. */
+ * after which unsynced bytes may be lost), it empties itself and records the new one. A bundle
+ * of a frame sequence holds several scene files: each loads by its name, the bundle's main by
+ * default. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -12,6 +14,7 @@
 #include "bundle.h"
 #include "bundle_cache.h"
 #include "files_testutil.h"
+#include "scene.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -65,10 +68,45 @@ static void test_trusted_within_one_boot(void **state)
     put_one(&rebooted, hash);
 }
 
+#define FRAME(x, y)                                                                             \
+    "Film \"spectral\" \"integer xresolution\" [ " #x " ] \"integer yresolution\" [ " #y " ]\n"       \
+    "Camera \"perspective\"\nInclude \"world.pbrt\"\n"
+
+static void test_frames_load_their_own_main(void **state)
+{
+    (void)state;
+    static const char A[] = FRAME(8, 4), B[] = FRAME(6, 2), WORLD[] = "WorldBegin\n";
+    proto_bundle_file_t files[3] = {{"a.pbrt", (const uint8_t *)A, sizeof A - 1},
+                                    {"b.pbrt", (const uint8_t *)B, sizeof B - 1},
+                                    {"world.pbrt", (const uint8_t *)WORLD, sizeof WORLD - 1}};
+    proto_bundle_t b = {"a.pbrt", files, 3};
+    char dir[600], hash[PROTO_HASH_HEX + 1];
+    snprintf(dir, sizeof dir, "%s", testutil_scratch("frames-cache"));
+    bundle_cache_t c;
+    err_t err;
+    assert_int_equal(bundle_cache_open(&c, dir), 0);
+    assert_int_equal(proto_bundle_hash(&b, hash, &err), 0);
+    assert_int_equal(bundle_cache_put(&c, hash, &b, &err), 0);
+    scene_overrides_t ov = {.seed = -1};
+    const char *mains[] = {NULL, "", "a.pbrt", "b.pbrt"};
+    const int xres[] = {8, 8, 8, 6}, yres[] = {4, 4, 4, 2};
+    for (int i = 0; i < 4; i++) {
+        scene_t *sc = bundle_cache_load(&c, hash, mains[i], &ov, &err);
+        if (!sc)
+            fail_msg("main %s: %s", mains[i] ? mains[i] : "NULL", err.msg);
+        assert_int_equal(sc->settings.xres, xres[i]);
+        assert_int_equal(sc->settings.yres, yres[i]);
+        scene_destroy(&sc);
+    }
+    assert_null(bundle_cache_load(&c, hash, "missing.pbrt", &ov, &err));
+    assert_non_null(strstr(err.msg, "missing.pbrt"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_trusted_within_one_boot),
+        cmocka_unit_test(test_frames_load_their_own_main),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

@@ -47,15 +47,25 @@ static char g_hash[PROTO_HASH_HEX + 1];
 static const proto_job_info_t g_jobs[] = {
     /* running, 4 spp merged, an estimate of 1/16 (exact in binary) */
     {1, "prism", PROTO_JOB_RUNNING, 1000, 65536, 12.5, NULL, 3, 4, true, 0.0625, PROTO_STOP_NONE,
-     "alice", -1000},
+     "alice", -1000, 0, 0, 0},
     {2, "gem fire", PROTO_JOB_FAILED, 7, 100, 0.0, "worker w1: scene.pbrt:3: unknown shape", 0, 0,
-     false, 0, PROTO_STOP_NONE, NULL, 0},
+     false, 0, PROTO_STOP_NONE, NULL, 0, 0, 0, 0},
     {UINT64_MAX, "x", PROTO_JOB_CANCELLED, 0, 0, 1e9, NULL, UINT64_MAX, 0, false, 0,
-     PROTO_STOP_NONE, NULL, 0},
+     PROTO_STOP_NONE, NULL, 0, 0, 0, 0},
     /* done early: 64 of 1024 spp reached the target; an estimate of exactly 0 travels too */
     {4, "prism fast", PROTO_JOB_DONE, 64 * 96, 1024 * 96, 0.75, NULL, 0, 64, true, 0.0,
-     PROTO_STOP_TARGET, "bob", 3},
+     PROTO_STOP_TARGET, "bob", 3, 0, 0, 0},
 };
+/* A frame sequence (job 5, two frames) and its frames 6 and 7, numbered 0 and 120. */
+static const proto_job_info_t g_sequence[] = {
+    {5, "walk", PROTO_JOB_RUNNING, 10, 200, 1.0, NULL, 0, 0, false, 0, PROTO_STOP_NONE, NULL, 0, 2,
+     0, 0},
+    {6, "walk0000", PROTO_JOB_DONE, 100, 100, 1.0, NULL, 0, 16, false, 0, PROTO_STOP_NONE, NULL,
+     0, 0, 5, 0},
+    {7, "walk0120", PROTO_JOB_RUNNING, 10, 100, 1.0, NULL, 0, 1, false, 0, PROTO_STOP_NONE, NULL,
+     0, 0, 5, 120},
+};
+static const proto_frame_t g_frames[] = {{"scene.pbrt", 0}, {"meshes/prism.ply", 120}};
 static const proto_worker_info_t g_workers[] = {
     {"node01", 7, 64, PROTO_WORKER_BUSY, 1234, 0.25, 0, 0, 0, 0},
     {"node02", 8, 1, PROTO_WORKER_LOST, 0, 31.0, 0, 0, 0, 0},
@@ -286,6 +296,7 @@ static void assert_msg_equal(const proto_msg_t *a, const proto_msg_t *b)
         assert_settings_equal(&a->task.settings, &b->task.settings);
         assert_int_equal(a->task.kind, b->task.kind);
         assert_string_equal(a->task.store, b->task.store);
+        assert_opt_string_equal(a->task.main, b->task.main);
         if (a->task.kind == PROTO_KIND_PHOTON_BATCH) {
             assert_int_equal(a->task.photons.first, b->task.photons.first);
             assert_int_equal(a->task.photons.end, b->task.photons.end);
@@ -352,6 +363,11 @@ static void assert_msg_equal(const proto_msg_t *a, const proto_msg_t *b)
         assert_string_equal(a->submit.name, b->submit.name);
         assert_settings_equal(&a->submit.settings, &b->submit.settings);
         assert_bundle_equal(&a->submit.bundle, &b->submit.bundle);
+        assert_int_equal(a->submit.nframes, b->submit.nframes);
+        for (size_t i = 0; i < a->submit.nframes; i++) {
+            assert_string_equal(a->submit.frames[i].main, b->submit.frames[i].main);
+            assert_int_equal(a->submit.frames[i].number, b->submit.frames[i].number);
+        }
         break;
     case PROTO_STATUS:
         assert_int_equal(a->status.all, b->status.all);
@@ -384,6 +400,9 @@ static void assert_msg_equal(const proto_msg_t *a, const proto_msg_t *b)
             assert_int_equal(x->stop, y->stop);
             assert_opt_string_equal(x->owner, y->owner);
             assert_true(x->priority == y->priority);
+            assert_int_equal(x->frames, y->frames);
+            assert_int_equal(x->parent, y->parent);
+            assert_int_equal(x->frame, y->frame);
         }
         break;
     case PROTO_WORKERS_REPLY:
@@ -645,6 +664,33 @@ static void test_photon_messages(void **state)
     proto_msg_t rf = sample(PROTO_REFINE);
     rf.refine.photons = 0;
     expect_encode_refused(&rf, "expected 1 to 2^40");
+}
+
+/* Frame sequences: SUBMIT's frames, a TASK's main, a sequence's and its frames' job infos
+ * travel; a frame not in the bundle, a repeated frame or number, and a main that is not a
+ * bundle path are refused on both sides. */
+static void test_frame_sequences(void **state)
+{
+    (void)state;
+    proto_msg_t s = sample(PROTO_SUBMIT);
+    s.submit.frames = g_frames;
+    s.submit.nframes = 2;
+    round_trip(&s);
+    proto_msg_t t = sample(PROTO_TASK);
+    t.task.main = "meshes/prism.ply";
+    round_trip(&t);
+    proto_msg_t r = {.type = PROTO_STATUS_REPLY,
+                     .status_reply = {.jobs = g_sequence, .njobs = 3}};
+    round_trip(&r);
+    proto_frame_t bad[2] = {{"scene.pbrt", 1}, {"missing.pbrt", 2}};
+    s.submit.frames = bad;
+    expect_encode_refused(&s, "entry 1 names 'missing.pbrt', which is not in the bundle");
+    bad[1] = (proto_frame_t){"scene.pbrt", 2};
+    expect_encode_refused(&s, "has 'scene.pbrt' twice");
+    bad[1] = (proto_frame_t){"meshes/prism.ply", 1};
+    expect_encode_refused(&s, "has the number 1 twice");
+    t.task.main = "../scene.pbrt";
+    expect_encode_refused(&t, "field 'main' is not a bundle path");
 }
 
 static void test_decoded_message_owns_its_data(void **state)
@@ -1611,6 +1657,7 @@ int main(void)
         cmocka_unit_test(test_bad_bundle_paths),
         cmocka_unit_test(test_bundle_limits_are_the_callers),
         cmocka_unit_test(test_list_bounds),
+        cmocka_unit_test(test_frame_sequences),
         cmocka_unit_test(test_fuzz_mutations),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
