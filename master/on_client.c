@@ -98,6 +98,7 @@ struct submission {
     scene_budget_t budget;
     proto_limits_t limits;
     spool_t *spool; /* staged and committed into on the loader's thread (spool.h) */
+    scene_shelf_t *shelf; /* the process's scenes (master_opts_t), or NULL */
     uint8_t *scene_msg; /* the SCENE message workers will be sent, stored once the scene loads */
     size_t scene_size;
     double accepted, last_progress;
@@ -152,7 +153,8 @@ static void submission_load(void *arg)
         s->load_s = clock_now_s() - t0;
         return;
     }
-    s->job = job_new(0, s->name, s->hash, s->main, &s->settings, s->dir, &s->budget, &s->err);
+    s->job = job_new(0, s->name, s->hash, s->main, &s->settings, s->dir, &s->budget, s->shelf,
+                     &s->err);
     if (s->job) {
         if (spool_scene_commit(s->spool, s->scene_msg, s->scene_size, s->hash, s->dir,
                                s->staged, &s->err) < 0) {
@@ -233,6 +235,7 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     s->budget = m->opts->budget;
     s->limits = m->limits;
     s->spool = m->spool;
+    s->shelf = m->opts->shelf;
     s->accepted = s->last_progress = now;
     if (loader_run(m->loader, submission_load, s, &err) < 0) {
         on_client_submission_free(s);

@@ -15,9 +15,23 @@ static void job_scene_clear(job_scene_t *js)
 }
 
 void scene_cache_init(scene_cache_t *self, pthread_mutex_t *lock, pthread_cond_t *wake,
-                      const bundle_cache_t *bundles, store_cache_t *stores)
+                      const bundle_cache_t *bundles, store_cache_t *stores, scene_shelf_t *shelf)
 {
-    *self = (scene_cache_t){.lock = lock, .wake = wake, .bundles = bundles, .stores = stores};
+    *self = (scene_cache_t){.lock = lock, .wake = wake, .bundles = bundles, .stores = stores,
+                            .shelf = shelf};
+}
+
+/* What the shelf loads on a miss: the bundle's scene from the cache folder. */
+typedef struct bundle_load {
+    const bundle_cache_t *bundles;
+    const char *hash;
+    scene_overrides_t ov;
+} bundle_load_t;
+
+static scene_t *load_bundle(void *arg, err_t *err)
+{
+    bundle_load_t *b = arg;
+    return bundle_cache_load(b->bundles, b->hash, &b->ov, err);
 }
 
 /* Decodes the photon store for a scene slot that has none yet. Called with the lock held;
@@ -89,8 +103,11 @@ job_scene_t *scene_cache_acquire(scene_cache_t *self, uint64_t job, const char *
         snprintf(victim->hash, sizeof victim->hash, "%s", hash);
         pthread_mutex_unlock(self->lock);
         err_t lerr = {{0}};
-        scene_overrides_t ov = settings_to_overrides(settings);
-        scene_t *sc = bundle_cache_load(self->bundles, hash, &ov, &lerr);
+        bundle_load_t bl = {.bundles = self->bundles, .hash = hash,
+                            .ov = settings_to_overrides(settings)};
+        char key[SETTINGS_KEY_SIZE];
+        settings_scene_key(hash, settings, key);
+        scene_t *sc = scene_shelf_get(self->shelf, key, load_bundle, &bl, &lerr);
         pthread_mutex_lock(self->lock);
         victim->scene = sc;
         victim->stamp = ++self->clock;
@@ -119,6 +136,7 @@ void scene_cache_drop_job(scene_cache_t *self, uint64_t job)
     for (int i = 0; i < SCENE_CACHE_SLOTS; i++)
         if (self->slots[i].job == job && !self->slots[i].users && !self->slots[i].loading)
             job_scene_clear(&self->slots[i]);
+    scene_shelf_trim(self->shelf);
 }
 
 void scene_cache_clear(scene_cache_t *self)
