@@ -5,6 +5,13 @@
 # that what is timed is the load (parse, PLY import, texture decode and RGB uplift, Embree
 # build). Prints the wall and CPU seconds of the whole command, and of the same command on the
 # scene without meshes and textures, for the difference.
+#
+# Then, side by side in the same run, `prismfarm render` through the farm in one process (its
+# client, master and worker) against --direct, on that scene and on the corpus scene that takes
+# longest to load (killeroo-gold at 16x16 pixels, when /work/shared/pbrt-scenes or $PBRT_SCENES is there): wall,
+# CPU, peak memory, and how many times the process loaded the scene (the farm's "render: the
+# scene was loaded N time(s) in this process and shared M time(s)" line; --direct loads once by
+# construction). Before issue 15's shelf the farm loaded it three times.
 #   bash bench/load_scene.sh [--keep DIR]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -66,16 +73,38 @@ with open(f"{work}/big.pbrt", "w") as f:
         f.write(f'AttributeBegin\nMaterial "diffuse" "texture reflectance" "t{m % 4}"\n'
                 f'Shape "plymesh" "string filename" "meshes/m{m}.ply"\nAttributeEnd\n')
 PY
+# timed SCENE LABEL [MODE [ARGS...]]: MODE --direct (default) or farm; ARGS go to render.
 timed() {
-  local t0 t1
+  local t0 t1 mode=${3:---direct} loads="" args=(--quiet)
+  [[ $mode == farm ]] && mode="" && args=()
+  args+=("${@:4}")
   t0=$(date +%s.%N)
-  /usr/bin/time -f "%U %S %M" -o "$WORK/time" "$BIN" render "$1" --direct --spp 1 -o "$WORK/out.exr" --quiet >/dev/null
+  /usr/bin/time -f "%U %S %M" -o "$WORK/time" "$BIN" render "$1" $mode --spp 1 -o "$WORK/out.exr" \
+    "${args[@]}" >/dev/null 2>"$WORK/err"
   t1=$(date +%s.%N)
   read -r user sys rss <"$WORK/time"
-  printf '%-10s wall %6.2f s  cpu %6.2f s  peak %5d MB\n' "$2" "$(echo "$t1 - $t0" | bc)" \
-    "$(echo "$user + $sys" | bc)" $((rss / 1024))
+  if [[ -z $mode ]]; then
+    loads=$(sed -n 's/.*the scene was loaded \([0-9]*\) times\{0,1\} in this process and shared \([0-9]*\).*/  loads \1, shared \2/p' "$WORK/err")
+    [[ -n $loads ]] || loads="  loads ? (no count printed)"
+  else
+    loads="  loads 1"
+  fi
+  printf '%-24s wall %6.2f s  cpu %6.2f s  peak %5d MB%s\n' "$2" "$(echo "$t1 - $t0" | bc)" \
+    "$(echo "$user + $sys" | bc)" $((rss / 1024)) "$loads"
 }
 echo "machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //')"
 echo "scene: 800 PLY meshes (1 638 400 triangles, $(du -sh "$WORK/meshes" | cut -f1)), 4 PNG textures 1024x1024"
 timed "$WORK/empty.pbrt" "empty"
 timed "$WORK/big.pbrt" "800 PLYs"
+echo "farm in one process (client, master, worker) against --direct, side by side:"
+timed "$WORK/big.pbrt" "800 PLYs --direct"
+timed "$WORK/big.pbrt" "800 PLYs farm" farm
+CORPUS=${PBRT_SCENES:-/work/shared/pbrt-scenes}
+KG=$CORPUS/killeroos/killeroo-gold.pbrt
+if [[ -f $KG ]]; then
+  # At 16x16 pixels, so that what is timed is the load, as for the generated scene.
+  timed "$KG" "killeroo-gold --direct" --direct --res 16x16
+  timed "$KG" "killeroo-gold farm" farm --res 16x16
+else
+  echo "(no corpus at $CORPUS: killeroo-gold skipped)"
+fi

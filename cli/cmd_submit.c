@@ -29,6 +29,7 @@ int cmd_submit(int argc, char **argv)
     scene_overrides_t ov = {.seed = -1};
     cli_stop_t stop = {0};
     int wait = 0, json = 0, quiet = 0, priority = 0;
+    double timeout_s = 60;
     client_security_t sec = client_security_default();
     const cli_opt_t opts[] = {
         CLI_OPT_MASTER(.dst = &master),
@@ -46,6 +47,12 @@ int cmd_submit(int argc, char **argv)
         CLI_OPT_JSON(.dst = &json,
                      .help = "print the job id (and with --wait the final status) as JSON"),
         CLI_OPT_QUIET(.dst = &quiet, .help = "with --wait: no progress bar"),
+        /* At least 3 s: a master loading the scene says so every 2 s (PROGRESS_S). */
+        {.name = "timeout", .kind = CLI_DOUBLE, .dst = &timeout_s, .lo = 3, .hi = 3600,
+         .unit = "seconds", .arg = "S",
+         .help = "how long a silent master is waited for (default 60, at least 3); the master "
+                 "says every 2 s that it is still loading the scene, which restarts the wait, "
+                 "so a long load never runs into it"},
         CLI_OPT_GROUP(CLI_SECURITY_OPTS, .dst = &sec),
         CLI_OPT_HELP,
         {0},
@@ -107,7 +114,7 @@ int cmd_submit(int argc, char **argv)
     req.submit.priority = priority;
     proto_msg_t reply;
     int rc = 0;
-    if (!rpc || client_rpc_call(rpc, &req, &reply, 60000, &err)) {
+    if (!rpc || client_rpc_call(rpc, &req, &reply, (int)(timeout_s * 1000), &err)) {
         fprintf(stderr, "prismfarm submit: %s\n", err.msg);
         rc = 1;
         goto out;

@@ -185,7 +185,8 @@ static void submission_load(void *arg)
 
 /* A SUBMIT: the bundle is checked, staged and encoded for the workers here, and its scene
  * loaded on the loader's thread, so that a large scene never blocks the loop; the client is
- * sent a PROGRESS every PROGRESS_S while it loads, and SUBMITTED or the load's error after. */
+ * sent a PROGRESS at once (its bundle arrived; issue 15: the client heard nothing until the
+ * load ended) and every PROGRESS_S while it loads, and SUBMITTED or the load's error after. */
 static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
 {
     const proto_bundle_t *b = &msg->submit.bundle;
@@ -245,6 +246,16 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     m->loading[m->nloading++] = s;
     master_log(m, "submission '%s' from %s: scene %.12s (%zu files) loading off the loop", s->name,
                who, hash, b->nfiles);
+    size_t bytes = 0;
+    for (size_t i = 0; i < b->nfiles; i++)
+        bytes += b->files[i].size;
+    char text[200];
+    snprintf(text, sizeof text, "the master received the scene (%zu file%s, %.1f %s) and is loading it%s",
+             b->nfiles, b->nfiles == 1 ? "" : "s", bytes >= 1000000 ? bytes / 1e6 : bytes / 1e3,
+             bytes >= 1000000 ? "MB" : "kB",
+             m->nloading > 1 ? ", after the scenes submitted before it" : "");
+    proto_msg_t pm = {.type = PROTO_PROGRESS, .progress = {.message = text, .elapsed = 0}};
+    reply(m, from, &pm);
 }
 
 /* A submission whose scene has loaded (or failed to): scheduled, journaled and answered. */
