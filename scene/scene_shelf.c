@@ -87,8 +87,8 @@ static long add_locked(scene_shelf_t *self, const char *key, scene_t *scene)
     return (long)self->n++;
 }
 
-scene_t *scene_shelf_get(scene_shelf_t *self, const char *key, scene_shelf_load_fn load,
-                         void *arg, err_t *err)
+scene_t *scene_shelf_get(scene_shelf_t *self, const char *key, scene_shelf_load_fn load, void *arg,
+                         err_t *err)
 {
     pthread_mutex_lock(&self->lock);
     trim_locked(self);

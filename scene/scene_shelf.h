@@ -33,8 +33,8 @@ void scene_shelf_destroy(scene_shelf_t **self_p);
 /* A reference to the scene under key (free it with scene_destroy): the one on the shelf, else
  * load(arg) -- waiting while another caller loads the same key -- put on the shelf. A failed
  * load is not kept: the next get tries again. NULL with load's err, or when out of memory. */
-scene_t *scene_shelf_get(scene_shelf_t *self, const char *key, scene_shelf_load_fn load,
-                         void *arg, err_t *err);
+scene_t *scene_shelf_get(scene_shelf_t *self, const char *key, scene_shelf_load_fn load, void *arg,
+                         err_t *err);
 
 /* Shares a scene the caller loaded itself under key (the shelf takes a reference of its own);
  * a scene already under key stays. -1 with err when out of memory. */

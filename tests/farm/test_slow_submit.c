@@ -135,8 +135,8 @@ static void test_load_longer_than_client_timeout(void **state)
     snprintf(endpoints, sizeof endpoints, "%s/endpoints", spool);
     testutil_wait_file_has(endpoints, "clients ");
 
-    pid_t submit = testutil_spawn(log, "submit", scene_path, "--master", cep, "--timeout", "4",
-                                  NULL);
+    pid_t submit =
+        testutil_spawn(log, "submit", scene_path, "--master", cep, "--timeout", "4", NULL);
     /* At once: the bundle arrived (before any periodic PROGRESS). */
     testutil_wait_file_has(log, "prismfarm submit: the master received the scene (1 file");
     const char *periodic = "prismfarm submit: the master is loading the scene (";

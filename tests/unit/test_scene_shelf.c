@@ -222,9 +222,13 @@ static void test_settings_key(void **state)
     b.time_limit = 5;
     settings_scene_key(h, &b, kb);
     assert_string_equal(ka, kb);
-    proto_settings_t vary[] = {{.seed = 2}, {.seed = -1, .spp = 4}, {.seed = -1, .xres = 8},
-                               {.seed = -1, .yres = 8}, {.seed = -1, .integrator = "path"},
-                               {.seed = -1, .integrator = ""}, {.seed = -1, .dispersion = "hero"}};
+    proto_settings_t vary[] = {{.seed = 2},
+                               {.seed = -1, .spp = 4},
+                               {.seed = -1, .xres = 8},
+                               {.seed = -1, .yres = 8},
+                               {.seed = -1, .integrator = "path"},
+                               {.seed = -1, .integrator = ""},
+                               {.seed = -1, .dispersion = "hero"}};
     for (size_t i = 0; i < sizeof vary / sizeof *vary; i++) {
         settings_scene_key(h, &vary[i], kb);
         assert_string_not_equal(ka, kb);
