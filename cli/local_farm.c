@@ -1,13 +1,13 @@
 #define _XOPEN_SOURCE 700 /* nftw */
 #include "local_farm.h"
 
+#include "bundle.h"
 #include "client_rpc.h"
 #include "progress.h"
 #include "job_follow.h"
 #include "master.h"
 #include "scene_bundle.h"
 #include "settings.h"
-#include "bundle.h"
 #include "worker_daemon.h"
 
 #include <errno.h>
@@ -86,9 +86,12 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info, scene_she
      * bundle's hash (what they load it from) and the settings the SUBMIT carries. */
     char hash[PROTO_HASH_HEX + 1], key[SETTINGS_KEY_SIZE];
     scene_shelf_t *shelf = scene_shelf_new(&err);
-    if (!shelf || proto_bundle_hash(scene_bundle_get(bundle), hash, &err) < 0 ||
-        (settings_scene_key(hash, &settings, key),
-         o->loaded && scene_shelf_put(shelf, key, o->loaded, &err) < 0)) {
+    int shared = shelf && proto_bundle_hash(scene_bundle_get(bundle), hash, &err) == 0;
+    if (shared) {
+        settings_scene_key(hash, &settings, key);
+        shared = !o->loaded || scene_shelf_put(shelf, key, o->loaded, &err) == 0;
+    }
+    if (!shared) {
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
         scene_shelf_destroy(&shelf);
         scene_bundle_destroy(&bundle);
