@@ -605,7 +605,12 @@ static proto_msg_t client_ask(sim_t *s, const proto_msg_t *req, double timeout_s
     if (net_send(s->client, NULL, req, &err) < 0)
         die("client: %s", err.msg);
     proto_msg_t m;
-    int rc = net_recv(s->client, NULL, &m, (int)(timeout_s * 1000), &err);
+    int rc;
+    /* A PROGRESS (a scene loading) comes before the answer and restarts the wait, as it does
+     * for the farm's own client (cli/client_rpc.h). */
+    while ((rc = net_recv(s->client, NULL, &m, (int)(timeout_s * 1000), &err)) == 0 &&
+           m.type == PROTO_PROGRESS)
+        proto_msg_free(&m);
     if (rc == PROTO_EAGAIN)
         die("the master did not answer %s within %.0f s", proto_type_name(req->type), timeout_s);
     if (rc < 0)

@@ -13,7 +13,12 @@
 # beside the clone, or CORPUS=DIR), the five of its scenes that take longest to load, timed the
 # same way (16x16, 1 spp, --integrator path so that no photon pass is timed) on 1 core and on all.
 # With --before BIN, the large scene is timed with that (an earlier revision's) prismfarm too,
-# in the same run.
+# in the same run. Then, side by side, `prismfarm render` through the farm in one process (its
+# client, master and worker) against --direct, on the generated scene and on killeroo-gold at
+# 16x16 (when the corpus is there): wall, CPU, peak memory, and how many times the process
+# loaded the scene (the farm's "render: the scene was loaded N time(s) in this process and
+# shared M time(s)" line; --direct loads once by construction; before issue 15's shelf the farm
+# loaded it three times).
 #   bash bench/load_scene.sh [--keep DIR] [--before BIN]
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -151,6 +156,36 @@ printf 'wall time, 1 core / %d cores: %.2f\n' "$cores" "$(echo "$one / $WALL" | 
 if [[ -x $PIXELS ]]; then
   "$PIXELS" compare "$WORK/one.exr" "$WORK/all.exr" >/dev/null &&
     echo "same pixels on 1 and $cores cores" || { echo "DIFFERENT pixels on 1 and $cores cores"; exit 1; }
+fi
+# timed_mode SCENE LABEL [MODE [ARGS...]]: MODE --direct (default) or farm; ARGS go to render.
+timed_mode() {
+  local t0 t1 mode=${3:---direct} loads="" args=(--quiet)
+  [[ $mode == farm ]] && mode="" && args=()
+  args+=("${@:4}")
+  t0=$(date +%s.%N)
+  /usr/bin/time -f "%U %S %M" -o "$WORK/time" "$BIN" render "$1" $mode --spp 1 -o "$WORK/out.exr" \
+    "${args[@]}" >/dev/null 2>"$WORK/err"
+  t1=$(date +%s.%N)
+  read -r user sys rss <"$WORK/time"
+  if [[ -z $mode ]]; then
+    loads=$(sed -n 's/.*the scene was loaded \([0-9]*\) times\{0,1\} in this process and shared \([0-9]*\).*/  loads \1, shared \2/p' "$WORK/err")
+    [[ -n $loads ]] || loads="  loads ? (no count printed)"
+  else
+    loads="  loads 1"
+  fi
+  printf '%-24s wall %6.2f s  cpu %6.2f s  peak %5d MB%s\n' "$2" "$(echo "$t1 - $t0" | bc)" \
+    "$(echo "$user + $sys" | bc)" $((rss / 1024)) "$loads"
+}
+echo "farm in one process (client, master, worker) against --direct, side by side:"
+timed_mode "$WORK/big.pbrt" "800 PLYs --direct"
+timed_mode "$WORK/big.pbrt" "800 PLYs farm" farm
+KG=$CORPUS/killeroos/killeroo-gold.pbrt
+if [[ -f $KG ]]; then
+  # At 16x16 pixels, so that what is timed is the load, as for the generated scene.
+  timed_mode "$KG" "killeroo-gold --direct" --direct --res 16x16
+  timed_mode "$KG" "killeroo-gold farm" farm --res 16x16
+else
+  echo "(no corpus at $CORPUS: killeroo-gold skipped)"
 fi
 [[ -d $CORPUS/reference ]] || exit 0
 echo "corpus ($CORPUS): the five slowest loads"

@@ -270,10 +270,11 @@ int cmd_render(int argc, char **argv)
                                 .workers = (int)workers,
                                 .threads = threads ? (int)threads : (cores / (int)workers > 0 ? cores / (int)workers : 1),
                                 .tile = (int)tile, .quiet = quiet,
-                                .target_error = stop.target_error, .time_limit = stop.time_limit};
+                                .target_error = stop.target_error, .time_limit = stop.time_limit,
+                                .loaded = scene};
         proto_job_info_t info;
         char stop_buf[64];
-        rc = local_farm_run(&lo, &info);
+        rc = local_farm_run(&lo, &info, NULL);
         if (rc == 0 && !master_png && film_png_from_exr(exr, png, tm, &err)) {
             fprintf(stderr, "prismfarm render: %s\n", err.msg);
             rc = 1;

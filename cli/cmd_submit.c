@@ -187,7 +187,8 @@ static int fetch_sequence(client_rpc_t *rpc, uint64_t job, const char *output, i
 
 static int submit_scenes(const frames_t *fr, const char *master, const char *name,
                          const char *output, const scene_overrides_t *ovp, const cli_stop_t *stopp,
-                         int wait, int json, int quiet, int priority, client_security_t *secp);
+                         int wait, int json, int quiet, int priority, double timeout_s,
+                         client_security_t *secp);
 
 int cmd_submit(int argc, char **argv)
 {
@@ -195,6 +196,7 @@ int cmd_submit(int argc, char **argv)
     scene_overrides_t ov = {.seed = -1};
     cli_stop_t stop = {0};
     int wait = 0, json = 0, quiet = 0, priority = 0;
+    double timeout_s = 60;
     client_security_t sec = client_security_default();
     const cli_opt_t opts[] = {
         CLI_OPT_MASTER(.dst = &master),
@@ -216,6 +218,12 @@ int cmd_submit(int argc, char **argv)
         CLI_OPT_JSON(.dst = &json,
                      .help = "print the job id (and with --wait the final status) as JSON"),
         CLI_OPT_QUIET(.dst = &quiet, .help = "with --wait: no progress bar"),
+        /* At least 3 s: a master loading the scene says so every 2 s (PROGRESS_S). */
+        {.name = "timeout", .kind = CLI_DOUBLE, .dst = &timeout_s, .lo = 3, .hi = 3600,
+         .unit = "seconds", .arg = "S",
+         .help = "how long a silent master is waited for (default 60, at least 3); the master "
+                 "says every 2 s that it is still loading the scene, which restarts the wait, "
+                 "so a long load never runs into it"},
         CLI_OPT_GROUP(CLI_SECURITY_OPTS, .dst = &sec),
         CLI_OPT_HELP,
         {0},
@@ -236,14 +244,15 @@ int cmd_submit(int argc, char **argv)
         return bad;
     }
     int rc = submit_scenes(&fr, master, name, output, &ov, &stop, wait, json, quiet, priority,
-                           &sec);
+                           timeout_s, &sec);
     frames_free(&fr);
     return rc;
 }
 
 static int submit_scenes(const frames_t *fr, const char *master, const char *name,
                          const char *output, const scene_overrides_t *ovp, const cli_stop_t *stopp,
-                         int wait, int json, int quiet, int priority, client_security_t *secp)
+                         int wait, int json, int quiet, int priority, double timeout_s,
+                         client_security_t *secp)
 {
     scene_overrides_t ov = *ovp;
     cli_stop_t stop = *stopp;
@@ -327,7 +336,7 @@ static int submit_scenes(const frames_t *fr, const char *master, const char *nam
     req.submit.nframes = sequence ? fr->n : 0;
     proto_msg_t reply;
     int rc = 0;
-    if (!rpc || client_rpc_call(rpc, &req, &reply, 60000, &err)) {
+    if (!rpc || client_rpc_call(rpc, &req, &reply, (int)(timeout_s * 1000), &err)) {
         fprintf(stderr, "prismfarm submit: %s\n", err.msg);
         rc = 1;
         goto out;

@@ -1,6 +1,7 @@
 #define _XOPEN_SOURCE 700 /* nftw */
 #include "local_farm.h"
 
+#include "bundle.h"
 #include "client_rpc.h"
 #include "progress.h"
 #include "job_follow.h"
@@ -65,7 +66,7 @@ static int remove_tree(const char *dir)
     return nftw(dir, remove_entry, 16, FTW_DEPTH | FTW_PHYS | FTW_MOUNT);
 }
 
-int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
+int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info, scene_shelf_stats_t *loads)
 {
     const char *scene = o->scene, *spool = o->spool, *name = o->name;
     const scene_overrides_t ov = o->overrides;
@@ -78,12 +79,32 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
         return 1;
     }
+    proto_settings_t settings = settings_from_overrides(&ov);
+    settings.target_error = o->target_error;
+    settings.time_limit = o->time_limit;
+    /* The client's scene on the shelf under the key the master and workers will ask for: the
+     * bundle's hash and main file (what they load it from) and the settings the SUBMIT
+     * carries. */
+    char hash[PROTO_HASH_HEX + 1], key[SETTINGS_KEY_SIZE];
+    scene_shelf_t *shelf = scene_shelf_new(&err);
+    int shared = shelf && proto_bundle_hash(scene_bundle_get(bundle), hash, &err) == 0;
+    if (shared) {
+        settings_scene_key(hash, scene_bundle_get(bundle)->main, &settings, key);
+        shared = !o->loaded || scene_shelf_put(shelf, key, o->loaded, &err) == 0;
+    }
+    if (!shared) {
+        fprintf(stderr, "prismfarm render: %s\n", err.msg);
+        scene_shelf_destroy(&shelf);
+        scene_bundle_destroy(&bundle);
+        return 1;
+    }
     int made_spool = 0;
     if (!spool) {
         snprintf(spool_buf, sizeof spool_buf, "%s/prismfarm-local-XXXXXX", getenv("TMPDIR") ? getenv("TMPDIR") : "/tmp");
         if (!mkdtemp(spool_buf)) {
             fprintf(stderr, "prismfarm render: cannot create a spool folder: %s\n", strerror(errno));
             scene_bundle_destroy(&bundle);
+            scene_shelf_destroy(&shelf);
             return 1;
         }
         spool = spool_buf;
@@ -115,6 +136,7 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
     m.opts.wait_for_space = 0; /* the user waits for this command: a failed write ends it */
     /* The user's own scene on the user's own machine: no budget (security.md, "Limits"). */
     m.opts.budget = (scene_budget_t){0};
+    m.opts.shelf = shelf;
     if (tile)
         m.opts.sched.tile_size = (int)tile;
     local_worker_t *workers = calloc((size_t)nworkers, sizeof *workers);
@@ -138,7 +160,7 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
         w->opts = (worker_opts_t){.endpoint = wep, .zmq_ctx = ctx, .threads = (int)threads, .name = w->name,
                                   .cache_dir = w->cache, .stop = &stop_workers,
                                   .stop_fd = stop_pipe[0] > 0 ? stop_pipe[0] : 0,
-                                  .reconnect_max_ms = 1000};
+                                  .reconnect_max_ms = 1000, .shelf = shelf};
         if (pthread_create(&w->thread, NULL, run_worker, w) != 0)
             break;
     }
@@ -149,10 +171,8 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info)
     if (rpc && !quiet)
         client_rpc_on_progress(rpc, progress_print_master, "render");
     proto_msg_t req = {.type = PROTO_SUBMIT,
-                       .submit = {.name = name, .settings = settings_from_overrides(&ov),
+                       .submit = {.name = name, .settings = settings,
                                   .bundle = *scene_bundle_get(bundle)}};
-    req.submit.settings.target_error = o->target_error;
-    req.submit.settings.time_limit = o->time_limit;
     proto_msg_t reply;
     if (!rpc || client_rpc_call(rpc, &req, &reply, 60000, &err)) {
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
@@ -204,5 +224,15 @@ out:
     if (made_spool && remove_tree(spool) != 0)
         fprintf(stderr, "prismfarm render: could not remove %s: %s\n", spool, strerror(errno));
     scene_bundle_destroy(&bundle);
+    /* Every party is gone: the counts are final. */
+    scene_shelf_stats_t st = scene_shelf_stats(shelf);
+    scene_shelf_destroy(&shelf);
+    if (loads)
+        *loads = st;
+    if (!quiet)
+        fprintf(stderr, "render: the scene was loaded %llu time%s in this process and shared %llu "
+                        "time%s by its master and workers\n",
+                (unsigned long long)st.loads, st.loads == 1 ? "" : "s",
+                (unsigned long long)st.shares, st.shares == 1 ? "" : "s");
     return rc;
 }

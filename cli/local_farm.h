@@ -1,11 +1,14 @@
 /* local_farm: the farm in one process -- a master, N workers and a client over inproc://
  * sockets on one ZeroMQ context -- so `prismfarm render` runs exactly the code a farm runs:
- * bundling, scheduling, progressive passes, merging and outputs. */
+ * bundling, scheduling, progressive passes, merging and outputs. The scene is loaded once in
+ * the process: the client's copy is put on a scene shelf (scene_shelf.h) that the master and
+ * the workers take it from under its bundle hash and settings, instead of loading it again. */
 #ifndef PRISMFARM_LOCAL_FARM_H
 #define PRISMFARM_LOCAL_FARM_H
 
 #include "proto.h"
 #include "scene_load.h"
+#include "scene_shelf.h"
 
 typedef struct local_farm_opts {
     const char *scene;    /* the scene file */
@@ -20,10 +23,16 @@ typedef struct local_farm_opts {
     int quiet;
     double target_error;  /* the job's stopping rules (proto_settings_t); 0: none */
     double time_limit;
+    /* The scene as the client loaded it (scene_load_file with overrides), shared with the
+     * master and workers; NULL: they load it. */
+    scene_t *loaded;
 } local_farm_opts_t;
 
 /* Renders the scene and writes the EXR (and the master's PNG when png_path is set). Returns 0 with the finished job's counters and accuracy
- * in *info (name and error cleared), or 1 with a message on stderr. */
-int local_farm_run(const local_farm_opts_t *opts, proto_job_info_t *info);
+ * in *info (name and error cleared), or 1 with a message on stderr. Unless quiet, ends with
+ * "render: the scene was loaded N time(s) in this process and shared M time(s) by its master
+ * and workers" (the shelf's counts, scene_shelf_stats_t), also given in *loads when not NULL. */
+int local_farm_run(const local_farm_opts_t *opts, proto_job_info_t *info,
+                   scene_shelf_stats_t *loads);
 
 #endif

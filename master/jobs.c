@@ -118,11 +118,23 @@ static void job_set_settings(mjob_t *j, const proto_settings_t *set)
     }
 }
 
+/* What the shelf loads on a miss: the job's scene, confined to its bundle's folder. */
+typedef struct confined_load {
+    const char *main_path, *dir;
+    scene_overrides_t ov;
+} confined_load_t;
+
+static scene_t *load_confined(void *arg, err_t *err)
+{
+    confined_load_t *c = arg;
+    return scene_load_file_confined(c->main_path, c->dir, &c->ov, err);
+}
+
 /* The scene reads nothing outside dir, so no message can show a client a file of the master's
  * host; a photon job's phase keeps the scene to check and merge batches against. */
 mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
                 const proto_settings_t *set, const char *dir, const scene_budget_t *budget,
-                err_t *err)
+                scene_shelf_t *shelf, err_t *err)
 {
     size_t main_size = strlen(dir) + strlen(main) + 2;
     char *main_path = malloc(main_size);
@@ -134,9 +146,12 @@ mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *mai
         return NULL;
     }
     snprintf(main_path, main_size, "%s/%s", dir, main);
-    scene_overrides_t ov = settings_to_overrides(set);
-    ov.budget = budget;
-    scene_t *scene = scene_load_file_confined(main_path, dir, &ov, err);
+    confined_load_t cl = {.main_path = main_path, .dir = dir, .ov = settings_to_overrides(set)};
+    cl.ov.budget = budget;
+    char key[SETTINGS_KEY_SIZE];
+    settings_scene_key(hash, main, set, key);
+    scene_t *scene = shelf ? scene_shelf_get(shelf, key, load_confined, &cl, err)
+                           : load_confined(&cl, err);
     free(main_path);
     if (!scene) {
         job_free(j);

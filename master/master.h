@@ -10,6 +10,7 @@
 #include "budget.h"
 #include "err.h"
 #include "proto.h"
+#include "scene_shelf.h"
 #include "sched.h"
 
 #include <signal.h>
@@ -68,6 +69,11 @@ typedef struct master_opts {
     const char *http_token_file; /* a NAME.token whose holder is an administrator of the
                                   * dashboard's actions (the only way to act without keys) */
     int verbose;                 /* one line per event on stderr */
+    /* Scenes shared with the rest of this process (scene_shelf.h): `prismfarm render`'s local
+     * farm, whose client loaded the user's scene already. A submission whose scene is on the
+     * shelf under its bundle hash and settings takes it from there, neither loaded again nor
+     * checked against budget (the user's own scene, which has none); NULL: none. */
+    scene_shelf_t *shelf;
     master_ready_fn ready;       /* may be NULL */
     void *user;
 } master_opts_t;

@@ -116,6 +116,7 @@ struct submission {
     scene_budget_t budget;
     proto_limits_t limits;
     spool_t *spool; /* staged and committed into on the loader's thread (spool.h) */
+    scene_shelf_t *shelf; /* the process's scenes (master_opts_t), or NULL */
     uint8_t *scene_msg; /* the SCENE message workers will be sent, stored once the scene loads */
     size_t scene_size;
     double accepted, last_progress;
@@ -168,7 +169,7 @@ static mjob_t *load_frames(submission_t *s)
 {
     for (size_t k = 0; k < s->nframes; k++) {
         s->frames[k] = job_new(0, s->frame_main[k], s->hash, s->frame_main[k], &s->settings,
-                               s->dir, &s->budget, &s->err);
+                               s->dir, &s->budget, s->shelf, &s->err);
         if (!s->frames[k]) {
             err_prefix(&s->err, "frame %u (%s): ", s->frame_number[k], s->frame_main[k]);
             return NULL;
@@ -208,7 +209,7 @@ static void submission_load(void *arg)
     }
     s->job = s->nframes > 0 ? load_frames(s)
                             : job_new(0, s->name, s->hash, s->main, &s->settings, s->dir,
-                                      &s->budget, &s->err);
+                                      &s->budget, s->shelf, &s->err);
     if (s->job) {
         if (spool_scene_commit(s->spool, s->scene_msg, s->scene_size, s->hash, s->dir,
                                s->staged, &s->err) < 0) {
@@ -239,7 +240,8 @@ static void submission_load(void *arg)
 
 /* A SUBMIT: the bundle is checked, staged and encoded for the workers here, and its scene
  * loaded on the loader's thread, so that a large scene never blocks the loop; the client is
- * sent a PROGRESS every PROGRESS_S while it loads, and SUBMITTED or the load's error after. */
+ * sent a PROGRESS at once (its bundle arrived; issue 15: the client heard nothing until the
+ * load ended) and every PROGRESS_S while it loads, and SUBMITTED or the load's error after. */
 static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
 {
     const proto_bundle_t *b = &msg->submit.bundle;
@@ -307,6 +309,7 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     s->budget = m->opts->budget;
     s->limits = m->limits;
     s->spool = m->spool;
+    s->shelf = m->opts->shelf;
     s->accepted = s->last_progress = now;
     if (loader_run(m->loader, submission_load, s, &err) < 0) {
         on_client_submission_free(s);
@@ -316,6 +319,16 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
     m->loading[m->nloading++] = s;
     master_log(m, "submission '%s' from %s: scene %.12s (%zu files, %zu frames) loading off the loop",
                s->name, who, hash, b->nfiles, nf ? nf : 1);
+    size_t bytes = 0;
+    for (size_t i = 0; i < b->nfiles; i++)
+        bytes += b->files[i].size;
+    char text[200];
+    snprintf(text, sizeof text, "the master received the scene (%zu file%s, %.1f %s) and is loading it%s",
+             b->nfiles, b->nfiles == 1 ? "" : "s", bytes >= 1000000 ? bytes / 1e6 : bytes / 1e3,
+             bytes >= 1000000 ? "MB" : "kB",
+             m->nloading > 1 ? ", after the scenes submitted before it" : "");
+    proto_msg_t pm = {.type = PROTO_PROGRESS, .progress = {.message = text, .elapsed = 0}};
+    reply(m, from, &pm);
 }
 
 /* A frame sequence whose frames have loaded: the sequence takes the next id and its frames the

@@ -10,7 +10,8 @@
 
 void on_client_message(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now);
 
-/* How often a client whose scene is loading hears PROGRESS (well inside any client's wait). */
+/* How often a client whose scene is loading hears PROGRESS (well inside any client's wait),
+ * after the first, sent as soon as the submission is queued to load. */
 #define PROGRESS_S 2.0
 
 /* Finishes the submissions whose scene the loader has loaded (or refused): each is scheduled,

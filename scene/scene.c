@@ -48,6 +48,14 @@ scene_t *scene_new(err_t *err)
     self->camera = (camera_t){.camera_to_world = transform_identity(), .fov_deg = 90.0,
                               .lens_radius = 0.0, .focal_distance = 1e6};
     self->camera_medium = -1;
+    atomic_init(&self->holders, 1);
+    return self;
+}
+
+scene_t *scene_retain(scene_t *self)
+{
+    if (self)
+        atomic_fetch_add(&self->holders, 1);
     return self;
 }
 
@@ -56,6 +64,10 @@ void scene_destroy(scene_t **self_p)
     if (!self_p || !*self_p)
         return;
     scene_t *self = *self_p;
+    *self_p = NULL;
+    /* Another holder keeps it. (A scene not made by scene_new counts 0: it has one holder.) */
+    if (atomic_fetch_sub(&self->holders, 1) > 1)
+        return;
     warnings_destroy(&self->warnings);
     filter_sampler_destroy(&self->filter);
     sensor_destroy(&self->sensor);
@@ -91,7 +103,6 @@ void scene_destroy(scene_t **self_p)
     free(self->media);
     free(self->spectra);
     free(self);
-    *self_p = NULL;
 }
 
 /* Appends one element to a growable array; returns its index or -1. */

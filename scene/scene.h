@@ -5,7 +5,9 @@
  * distribution. Objects hold shapes once and instances place them (Embree instances), so
  * instancing costs no copies. scene_surface resolves any hit, instanced or not, to its shape,
  * material, light, texture coordinates and world-space geometric and shading normals.
- * After scene_finish the scene is immutable and safe to share between threads. */
+ * After scene_finish the scene is immutable and safe to share between threads: scene_retain
+ * gives another holder (a thread, a cache, a photon phase) a reference, and scene_destroy
+ * drops one, freeing the scene with the last. */
 #ifndef PRISMFARM_SCENE_H
 #define PRISMFARM_SCENE_H
 
@@ -27,6 +29,7 @@
 #include "vec3.h"
 #include "warnings.h"
 
+#include <stdatomic.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -312,9 +315,15 @@ typedef struct scene {
     warnings_t *warnings;
     vec3_t bounds_lo, bounds_hi;
     double scene_radius;  /* radius of a sphere around the bounds (distant light sampling) */
+    /* Holders of the scene (scene_retain): 1 from scene_new. */
+    atomic_int holders;
 } scene_t;
 
 scene_t *scene_new(err_t *err);
+/* Another reference to a finished scene, for a holder that frees it with scene_destroy like
+ * its own; returns self. Safe from any thread. */
+scene_t *scene_retain(scene_t *self);
+/* Drops the caller's reference and nulls *self_p; the last reference frees the scene. */
 void scene_destroy(scene_t **self_p);
 
 /* The scene owns what it is given from here on (also on failure). */

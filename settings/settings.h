@@ -18,4 +18,12 @@ scene_overrides_t settings_to_overrides(const proto_settings_t *settings);
  * the caller sets from its own options. */
 proto_settings_t settings_from_overrides(const scene_overrides_t *ov);
 
+/* The key under which a scene loaded from the file main of the bundle of this hash with these
+ * settings is shared (scene_shelf.h): the hash, the file (the frames of a sequence share one
+ * bundle, each its own main file) and every setting settings_to_overrides passes to the loader,
+ * so that two loads with one key make the same scene. SETTINGS_KEY_SIZE bytes hold any. */
+#define SETTINGS_KEY_SIZE (PROTO_HASH_HEX + PROTO_MAX_STRING + 256)
+void settings_scene_key(const char *hash, const char *main, const proto_settings_t *settings,
+                        char key[SETTINGS_KEY_SIZE]);
+
 #endif

@@ -107,29 +107,31 @@ int bundle_cache_put(const bundle_cache_t *self, const char *hash, const proto_b
     return 0;
 }
 
+int bundle_cache_main(const bundle_cache_t *self, const char *hash, char *out, size_t size,
+                      err_t *err)
+{
+    char namefile[760];
+    snprintf(namefile, sizeof namefile, "%s/%s/.main", self->dir, hash);
+    /* The bundle's main file name was written next to it at extraction (before .complete). */
+    FILE *f = fopen(namefile, "r");
+    int ok = f && fgets(out, (int)size, f);
+    if (f)
+        fclose(f);
+    if (!ok)
+        return err_set(err, "scene %s: its bundle in %s/%s is incomplete", hash, self->dir, hash);
+    out[strcspn(out, "\n")] = 0;
+    return 0;
+}
+
 scene_t *bundle_cache_load(const bundle_cache_t *self, const char *hash, const char *main,
                            const scene_overrides_t *ov, err_t *err)
 {
     char main_path[PROTO_MAX_STRING + 800], dir[700], mainname[PROTO_MAX_STRING + 1];
     snprintf(dir, sizeof dir, "%s/%s", self->dir, hash);
-    /* The bundle's main file name was written next to it at extraction. */
-    char namefile[760];
-    snprintf(namefile, sizeof namefile, "%s/.main", dir);
-    scene_t *sc = NULL;
-    FILE *f = fopen(namefile, "r");
-    if (f && main && main[0]) {
-        /* The bundle is complete (.main is written before .complete); TASK's decoder checked
-         * that main is a bundle path, and the load is confined to the bundle's folder. */
-        snprintf(main_path, sizeof main_path, "%s/%s", dir, main);
-        sc = scene_load_file_confined(main_path, dir, ov, err);
-    } else if (!f || !fgets(mainname, sizeof mainname, f)) {
-        err_set(err, "scene %s: its bundle in %s is incomplete", hash, dir);
-    } else {
-        mainname[strcspn(mainname, "\n")] = 0;
-        snprintf(main_path, sizeof main_path, "%s/%s", dir, mainname);
-        sc = scene_load_file_confined(main_path, dir, ov, err);
-    }
-    if (f)
-        fclose(f);
-    return sc;
+    if (bundle_cache_main(self, hash, mainname, sizeof mainname, err) < 0)
+        return NULL;
+    /* TASK's decoder checked that main is a bundle path, and the load is confined to the
+     * bundle's folder. */
+    snprintf(main_path, sizeof main_path, "%s/%s", dir, main && main[0] ? main : mainname);
+    return scene_load_file_confined(main_path, dir, ov, err);
 }

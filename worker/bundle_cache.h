@@ -36,6 +36,11 @@ bool bundle_cache_has(const bundle_cache_t *self, const char *hash);
 int bundle_cache_put(const bundle_cache_t *self, const char *hash, const proto_bundle_t *bundle,
                      err_t *err);
 
+/* The name of the main scene file of a bundle that is here (size bytes at most, with its 0);
+ * -1 with err when the bundle is incomplete. */
+int bundle_cache_main(const bundle_cache_t *self, const char *hash, char *out, size_t size,
+                      err_t *err);
+
 /* Loads the scene of a bundle that is here, confined to the bundle's folder
  * (scene_load_file_confined): its scene file main (a frame of a sequence), or its main file when
  * main is NULL or ""; NULL with err when the bundle is incomplete or the scene is bad. */

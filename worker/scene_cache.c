@@ -15,9 +15,24 @@ static void job_scene_clear(job_scene_t *js)
 }
 
 void scene_cache_init(scene_cache_t *self, pthread_mutex_t *lock, pthread_cond_t *wake,
-                      const bundle_cache_t *bundles, store_cache_t *stores)
+                      const bundle_cache_t *bundles, store_cache_t *stores, scene_shelf_t *shelf)
 {
-    *self = (scene_cache_t){.lock = lock, .wake = wake, .bundles = bundles, .stores = stores};
+    *self = (scene_cache_t){.lock = lock, .wake = wake, .bundles = bundles, .stores = stores,
+                            .shelf = shelf};
+}
+
+/* What the shelf loads on a miss: the scene file main ("" for the bundle's own) of the bundle
+ * from the cache folder. */
+typedef struct bundle_load {
+    const bundle_cache_t *bundles;
+    const char *hash, *main;
+    scene_overrides_t ov;
+} bundle_load_t;
+
+static scene_t *load_bundle(void *arg, err_t *err)
+{
+    bundle_load_t *b = arg;
+    return bundle_cache_load(b->bundles, b->hash, b->main, &b->ov, err);
 }
 
 /* Decodes the photon store for a scene slot that has none yet. Called with the lock held;
@@ -90,8 +105,19 @@ job_scene_t *scene_cache_acquire(scene_cache_t *self, uint64_t job, const char *
         snprintf(victim->main, sizeof victim->main, "%s", main);
         pthread_mutex_unlock(self->lock);
         err_t lerr = {{0}};
-        scene_overrides_t ov = settings_to_overrides(settings);
-        scene_t *sc = bundle_cache_load(self->bundles, hash, main, &ov, &lerr);
+        bundle_load_t bl = {.bundles = self->bundles, .hash = hash, .main = main,
+                            .ov = settings_to_overrides(settings)};
+        /* Keyed by the file loaded, the bundle's own main when the task names none, so that
+         * the frames of a sequence (one bundle) never share a scene and a job of the bundle's
+         * main shares the one its client and master loaded (prismfarm render). */
+        char key[SETTINGS_KEY_SIZE], mainname[PROTO_MAX_STRING + 1];
+        scene_t *sc = NULL;
+        if (main[0])
+            snprintf(mainname, sizeof mainname, "%s", main);
+        if (main[0] || bundle_cache_main(self->bundles, hash, mainname, sizeof mainname, &lerr) == 0) {
+            settings_scene_key(hash, mainname, settings, key);
+            sc = scene_shelf_get(self->shelf, key, load_bundle, &bl, &lerr);
+        }
         pthread_mutex_lock(self->lock);
         victim->scene = sc;
         victim->stamp = ++self->clock;
@@ -120,6 +146,7 @@ void scene_cache_drop_job(scene_cache_t *self, uint64_t job)
     for (int i = 0; i < SCENE_CACHE_SLOTS; i++)
         if (self->slots[i].job == job && !self->slots[i].users && !self->slots[i].loading)
             job_scene_clear(&self->slots[i]);
+    scene_shelf_trim(self->shelf);
 }
 
 void scene_cache_clear(scene_cache_t *self)

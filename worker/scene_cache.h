@@ -4,7 +4,9 @@
  * the bundle cache, and a store decoded from the store cache, once, while the other threads keep
  * rendering; the least recently used idle slot goes first. Every call is made with the worker's
  * lock (given to scene_cache_init) held; acquiring releases it while it loads and waits on the
- * worker's condition variable, which it broadcasts when a slot changes. */
+ * worker's condition variable, which it broadcasts when a slot changes. Scenes come from a
+ * shelf (scene_shelf.h) under their bundle hash and settings, so slots of jobs or stores that
+ * need the same scene share one, and a process's other parties may have loaded it already. */
 #ifndef PRISMFARM_SCENE_CACHE_H
 #define PRISMFARM_SCENE_CACHE_H
 
@@ -13,6 +15,7 @@
 #include "photon_store.h"
 #include "proto.h"
 #include "scene.h"
+#include "scene_shelf.h"
 #include "store_cache.h"
 
 #include <pthread.h>
@@ -43,11 +46,13 @@ typedef struct scene_cache {
     pthread_cond_t *wake;
     const bundle_cache_t *bundles;
     store_cache_t *stores;
+    scene_shelf_t *shelf;
 } scene_cache_t;
 
-/* An empty cache that loads from bundles and stores, under lock, waiting on wake. */
+/* An empty cache that loads from bundles through shelf and stores, under lock, waiting on
+ * wake. */
 void scene_cache_init(scene_cache_t *self, pthread_mutex_t *lock, pthread_cond_t *wake,
-                      const bundle_cache_t *bundles, store_cache_t *stores);
+                      const bundle_cache_t *bundles, store_cache_t *stores, scene_shelf_t *shelf);
 
 /* The slot of job's scene (bundle hash and its scene file main, "" for the bundle's main;
  * loaded with settings) for one task, loading it if

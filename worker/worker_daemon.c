@@ -178,11 +178,17 @@ int worker_run(const worker_opts_t *opts, err_t *err)
     }
     pthread_mutex_init(&w.lock, NULL);
     pthread_cond_init(&w.wake, NULL);
-    scene_cache_init(&w.scenes, &w.lock, &w.wake, &w.bundles, &w.stores);
+    scene_shelf_t *own_shelf = opts->shelf ? NULL : scene_shelf_new(err);
+    scene_cache_init(&w.scenes, &w.lock, &w.wake, &w.bundles, &w.stores,
+                     opts->shelf ? opts->shelf : own_shelf);
     err_t perr;
-    pool_t *pool = pool_start(threads, render_thread_main, &w, &perr);
+    pool_t *pool = NULL;
     int rc = 0;
-    if (!pool) {
+    if (!opts->shelf && !own_shelf) {
+        rc = err_prefix(err, "worker: ");
+        goto out;
+    }
+    if (!(pool = pool_start(threads, render_thread_main, &w, &perr))) {
         rc = err_set(err, "worker: cannot start render threads: %s", perr.msg);
         goto out;
     }
@@ -212,6 +218,7 @@ out:
     pool_join(&pool);
     task_queue_clear(&w.tasks);
     scene_cache_clear(&w.scenes);
+    scene_shelf_destroy(&own_shelf);
     store_cache_clear(&w.stores);
     pthread_cond_destroy(&w.wake);
     pthread_mutex_destroy(&w.lock);

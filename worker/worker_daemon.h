@@ -2,12 +2,14 @@
  * tasks, renders them on its threads with render_tile and sends the results back; heartbeats
  * both ways, and reconnects with back-off when the master goes quiet (zguide's Paranoid
  * Pirate). Scenes arrive as bundles, are checked against their hash, extracted only inside the
- * worker's cache folder, and loaded once per job. */
+ * worker's cache folder, and loaded once per bundle and settings, whatever the number of jobs
+ * and photon stores that use it at once (scene_shelf.h). */
 #ifndef PRISMFARM_WORKER_DAEMON_H
 #define PRISMFARM_WORKER_DAEMON_H
 
 #include "err.h"
 #include "net.h"
+#include "scene_shelf.h"
 
 #include <signal.h>
 
@@ -27,6 +29,9 @@ typedef struct worker_opts {
      * master's), or plain text, which a network endpoint allows only with insecure. */
     net_curve_t curve;
     int insecure;
+    /* Scenes shared with the rest of this process (`prismfarm render`'s local farm: its client
+     * and master loaded the scene already); NULL: the worker keeps a shelf of its own. */
+    scene_shelf_t *shelf;
 } worker_opts_t;
 
 /* Runs until *stop is set (returns 0) or a fatal error (returns -1: the master refused this

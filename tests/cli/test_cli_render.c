@@ -204,6 +204,33 @@ static void test_output_write_error(void **state)
     signal(SIGXFSZ, SIG_DFL);
 }
 
+/* The farm in one process loads its scene once (issue 15: client, master and worker each
+ * loaded it): the master and the worker take the client's copy from the process's shelf, a
+ * photon job's master phase too, with and without overrides. A party that loaded the scene
+ * itself, or asked under another key, would show 2 loads or fewer than 2 shares. */
+static void test_farm_loads_scene_once(void **state)
+{
+    (void)state;
+    const char *once = "render: the scene was loaded 1 time in this process and shared 2 times "
+                       "by its master and workers";
+    const char *scenes[] = {"data/render/tiny.pbrt", "data/photon/beam.pbrt"};
+    for (int i = 0; i < 2; i++) {
+        const run_t *r = run("render", scenes[i], "-o", testutil_scratch("once.exr"), "--threads",
+                             "2", NULL);
+        if (r->status != 0)
+            fail_msg("%s: exit %d: %s", scenes[i], r->status, r->err);
+        if (!strstr(r->err, once))
+            fail_msg("%s: expected \"%s\" in:\n%s", scenes[i], once, r->err);
+    }
+    const run_t *r = run("render", "data/render/tiny.pbrt", "-o", testutil_scratch("once.exr"),
+                         "--spp", "2", "--seed", "9", "--integrator", "simplepath", "--dispersion",
+                         "fanout", "--res", "12x8", NULL);
+    if (r->status != 0)
+        fail_msg("exit %d: %s", r->status, r->err);
+    if (!strstr(r->err, once))
+        fail_msg("with overrides: expected \"%s\" in:\n%s", once, r->err);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -214,6 +241,7 @@ int main(void)
         cmocka_unit_test(test_bad_command_lines),
         cmocka_unit_test(test_broken_scene_names_file_and_line),
         cmocka_unit_test(test_output_write_error),
+        cmocka_unit_test(test_farm_loads_scene_once),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

@@ -179,7 +179,9 @@ static void recv_msg(net_t *n, proto_msg_t *m, int timeout_ms)
             continue;
         if (r)
             fail_msg("recv: %s", err.msg);
-        if (m->type != PROTO_HEARTBEAT)
+        /* A PROGRESS precedes the answer to a SUBMIT (the scene is loading), as a client's
+         * wait for the answer goes on past it (client_rpc.h). */
+        if (m->type != PROTO_HEARTBEAT && m->type != PROTO_PROGRESS)
             return;
         proto_msg_free(m);
     }

@@ -1,7 +1,8 @@
 /* worker_daemon against a fake master on inproc://: the HELLO / WELCOME / TASK /
  * SCENE_REQUEST / SCENE / RESULT conversation, results equal to a local render_tile, a failed
  * scene reported as TASK_FAILED, and reconnection when the master goes quiet; over TCP, a busy
- * master (silent, its link up) waited for and a closed one reconnected to. */
+ * master (silent, its link up) waited for and a closed one reconnected to; jobs of one bundle
+ * and settings share one loaded scene. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -23,6 +24,7 @@
 #include "net.h"
 #include "render.h"
 #include "scene_load.h"
+#include "scene_shelf.h"
 #include "test_wait.h"
 #include "worker_daemon.h"
 
@@ -38,6 +40,7 @@ typedef struct fixture {
     char endpoint[256];
     uint8_t *scene_bytes;
     size_t scene_size;
+    scene_shelf_t *shelf; /* the worker's scenes, when the test watches them */
 } fixture_t;
 
 static void *run_worker(void *arg)
@@ -52,6 +55,7 @@ static void *run_worker(void *arg)
 }
 
 static int setup_threads = 2;
+static int setup_shelf = 0;
 
 static int setup_at(void **state, const char *endpoint)
 {
@@ -70,6 +74,8 @@ static int setup_at(void **state, const char *endpoint)
                               .name = "test-worker", .cache_dir = f->cache, .stop = &f->stop,
                               .reconnect_max_ms = 200,
                               .insecure = 1 /* loopback TCP in a test */};
+    if (setup_shelf && !(f->shelf = f->opts.shelf = scene_shelf_new(NULL)))
+        return -1;
     pthread_create(&f->thread, NULL, run_worker, f);
     *state = f;
     return 0;
@@ -95,11 +101,21 @@ static int setup_one_thread(void **state)
     return rc;
 }
 
+/* A shelf of the test's, whose counts it reads. */
+static int setup_shared(void **state)
+{
+    setup_shelf = 1;
+    int rc = setup_at(state, "inproc://master-workers-shelf");
+    setup_shelf = 0;
+    return rc;
+}
+
 static int teardown(void **state)
 {
     fixture_t *f = *state;
     f->stop = 1;
     pthread_join(f->thread, NULL);
+    scene_shelf_destroy(&f->shelf);
     net_destroy(&f->router);
     zmq_ctx_term(f->ctx);
     int r = testutil_rmtree(f->cache);
@@ -245,6 +261,48 @@ static void welcome(fixture_t *f, proto_peer_t *w, int heartbeat_ms)
     send_to(f, w, &msg);
 }
 
+/* Issue 15: the worker loads a scene once per bundle and settings, not once per job. Jobs 7
+ * and 8 of one bundle with the same settings share a load (job 7's slot still holds it); job
+ * 9, with another spp, has a scene of its own. */
+static void test_jobs_of_one_bundle_share_a_scene(void **state)
+{
+    fixture_t *f = *state;
+    proto_peer_t w;
+    proto_msg_t m;
+    welcome(f, &w, 1000);
+    proto_bundle_t b = bundle_of(f, "tiny.pbrt");
+    char hash[PROTO_HASH_HEX + 1];
+    assert_int_equal(proto_bundle_hash(&b, hash, NULL), 0);
+    proto_msg_t task = {.type = PROTO_TASK};
+    task.task.task = 1;
+    task.task.attempt = 1;
+    snprintf(task.task.scene, sizeof task.task.scene, "%s", hash);
+    task.task.kind = PROTO_KIND_CAMERA_TILE;
+    task.task.tile = (proto_tile_t){.x0 = 0, .y0 = 0, .w = 8, .h = 8, .sample_begin = 0, .sample_end = 1};
+    const struct {
+        uint64_t job;
+        int spp;
+    } jobs[] = {{7, 0}, {8, 0}, {9, 2}};
+    for (int i = 0; i < 3; i++) {
+        task.task.job = jobs[i].job;
+        task.task.settings = (proto_settings_t){.seed = -1, .spp = jobs[i].spp};
+        send_to(f, &w, &task);
+        if (i == 0) {
+            expect(f, PROTO_SCENE_REQUEST, &w, &m);
+            proto_msg_free(&m);
+            proto_msg_t scene = {.type = PROTO_SCENE, .scene = {.bundle = b}};
+            snprintf(scene.scene.scene, sizeof scene.scene.scene, "%s", hash);
+            send_to(f, &w, &scene);
+        }
+        expect(f, PROTO_RESULT, &w, &m);
+        assert_int_equal(m.result.job, jobs[i].job);
+        proto_msg_free(&m);
+    }
+    scene_shelf_stats_t st = scene_shelf_stats(f->shelf);
+    assert_int_equal(st.loads, 2);
+    assert_int_equal(st.shares, 1);
+}
+
 /* Issue 16, item 10: a cancelled tile stops within a row, and so does a worker told to stop.
  * One render thread; a task of 2^24 samples per pixel over the whole image (hours of work) runs
  * while a small task of another job waits behind it. The long task's job is cancelled: the
@@ -379,6 +437,8 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_reconnects_when_master_is_silent, setup, teardown),
         cmocka_unit_test_setup_teardown(test_cancel_stops_a_long_tile, setup_one_thread, teardown),
         cmocka_unit_test_setup_teardown(test_waits_for_busy_master_over_tcp, setup_tcp, teardown),
+        cmocka_unit_test_setup_teardown(test_jobs_of_one_bundle_share_a_scene, setup_shared,
+                                        teardown),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
