@@ -163,12 +163,26 @@ static job_t *find_job(const sched_t *self, uint64_t id)
     return NULL;
 }
 
+/* The first worker of id >= id in the table, which sched_worker_join keeps in id order: every
+ * result, task and sign of life looks its worker up, and a linear search made a round of the
+ * farm's workers quadratic in them. */
+static size_t worker_slot(const sched_t *self, uint64_t id)
+{
+    size_t lo = 0, hi = self->nworkers;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (self->workers[mid].id < id)
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    return lo;
+}
+
 static worker_t *find_worker(const sched_t *self, uint64_t id)
 {
-    for (size_t i = 0; i < self->nworkers; i++)
-        if (self->workers[i].id == id)
-            return &self->workers[i];
-    return NULL;
+    size_t i = worker_slot(self, id);
+    return i < self->nworkers && self->workers[i].id == id ? &self->workers[i] : NULL;
 }
 
 /* Records what the caller should log (sched_events_take); beyond MAX_EVENTS undrained, only
@@ -476,7 +490,11 @@ int sched_worker_join(sched_t *self, uint64_t id, int slots, double now, err_t *
             self->workers = p;
             self->cap_workers = cap;
         }
-        w = &self->workers[self->nworkers++];
+        size_t at = worker_slot(self, id);
+        memmove(&self->workers[at + 1], &self->workers[at],
+                (self->nworkers - at) * sizeof *self->workers);
+        self->nworkers++;
+        w = &self->workers[at];
         *w = (worker_t){.id = id};
     } else {
         /* A worker that joins again has lost whatever it was doing. */
