@@ -232,12 +232,22 @@ stopping_rule_t job_stopping_rule(const mjob_t *j)
                              .time_limit = j->settings.time_limit};
 }
 
+double job_elapsed(const master_t *m, const mjob_t *j, double now)
+{
+    if (j->started <= 0)
+        return 0;
+    double end = j->finished > 0 ? j->finished : now;
+    double paused = j->sched.known ? sched_job_paused_s(m->sched, j->id, end) : 0;
+    double s = end - j->started - paused;
+    return s > 0 ? s : 0;
+}
+
 int jobs_apply_ops(master_t *m, const mjob_t *j, err_t *err)
 {
     if (sched_set_job_owner(m->sched, j->id, j->owner, err) < 0 ||
         sched_set_job_priority(m->sched, j->id, j->ops.priority, err) < 0)
         return -1;
-    return j->ops.paused ? sched_pause_job(m->sched, j->id, true, err) : 0;
+    return j->ops.paused ? sched_pause_job(m->sched, j->id, true, clock_now_s(), err) : 0;
 }
 
 int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err)
@@ -476,7 +486,7 @@ void jobs_enforce_time_limits(master_t *m, double now)
         mjob_t *j = m->jobs[i];
         sched_job_info_t info;
         if (!j->sched.known || !(j->settings.time_limit > 0) || j->started <= 0 ||
-            now - j->started < j->settings.time_limit ||
+            job_elapsed(m, j, now) < j->settings.time_limit ||
             sched_job_info(m->sched, j->id, &info) < 0 || info.state != JOB_RUNNING ||
             info.passes_done < 1)
             continue;

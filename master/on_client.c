@@ -272,7 +272,7 @@ static void submission_finish(master_t *m, submission_t *s, double now)
     j->submitted = now;
     /* Journaled before it is acknowledged: a job the client was told about survives a
      * restart. */
-    journal_job_t rec = persist_record(j, now);
+    journal_job_t rec = persist_record(m, j, now);
     if (m->journal && journal_add_job(m->journal, &rec, &err) < 0) {
         master_log(m, "submission '%s' from %s refused: %s", s->name, who, err.msg);
         job_unschedule(m, j);
@@ -552,7 +552,7 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
     j->journal.checkpoint = 0;
     j->journal.bytes = 0;
     j->journal.checkpoint_samples = 0;
-    journal_job_t rec = persist_record(j, now);
+    journal_job_t rec = persist_record(m, j, now);
     if (m->journal && journal_set_round(m->journal, &rec, &err) < 0)
         persist_failed(m, j, &err);
     photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);

@@ -1,6 +1,7 @@
 #include "ops.h"
 
 #include "access.h"
+#include "clock.h"
 #include "jobs.h"
 #include "peers.h"
 #include "persist.h"
@@ -104,7 +105,7 @@ static int set_paused(master_t *m, uint64_t id, bool paused, const master_actor_
     if (j->ops.paused == paused)
         return err_set(err, "job %llu is %s already", (unsigned long long)id,
                        paused ? "paused" : "not paused");
-    if (sched_pause_job(m->sched, id, paused, err) < 0)
+    if (sched_pause_job(m->sched, id, paused, clock_now_s(), err) < 0)
         return -1;
     j->ops.paused = paused;
     journal_control(m, j);

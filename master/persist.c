@@ -1,6 +1,7 @@
 #include "persist.h"
 
 #include "files.h"
+#include "jobs.h"
 
 #include <dirent.h>
 #include <limits.h>
@@ -9,7 +10,7 @@
 #include <string.h>
 #include <unistd.h>
 
-journal_job_t persist_record(const mjob_t *j, double now)
+journal_job_t persist_record(const master_t *m, const mjob_t *j, double now)
 {
     journal_job_t r = {.id = j->id,
                        .name = j->name,
@@ -33,8 +34,7 @@ journal_job_t persist_record(const mjob_t *j, double now)
                        .priority = j->ops.priority,
                        .paused = j->ops.paused};
     snprintf(r.owner, sizeof r.owner, "%s", j->owner);
-    double end = j->finished > 0 ? j->finished : now;
-    r.elapsed = j->started > 0 && end > j->started ? end - j->started : 0;
+    r.elapsed = job_elapsed(m, j, now);
     return r;
 }
 
@@ -86,7 +86,7 @@ void persist_state(master_t *m, mjob_t *j, double now)
     if (!m->journal)
         return;
     err_t err;
-    journal_job_t r = persist_record(j, now);
+    journal_job_t r = persist_record(m, j, now);
     if (journal_set_state(m->journal, &r, &err) < 0) {
         persist_failed(m, j, &err);
         return;
@@ -122,7 +122,7 @@ void persist_maybe_checkpoint(master_t *m, mjob_t *j, double now)
     char path[PATH_MAX + 64];
     uint64_t gen = j->journal.checkpoint + 1;
     persist_checkpoint_path(m, j->id, gen, path, sizeof path);
-    journal_job_t r = persist_record(j, now);
+    journal_job_t r = persist_record(m, j, now);
     if (!next) {
         err_set(&err, "out of memory for a checkpoint");
     } else if (sched_job_next_pass(m->sched, j->id, next, info.ntiles) < 0) {

@@ -9,8 +9,9 @@
 
 #include "master_state.h"
 
-/* The job as journal.h keeps it; the strings point into j. */
-journal_job_t persist_record(const mjob_t *j, double now);
+/* The job as journal.h keeps it (its elapsed time is job_elapsed's: pauses not counted); the
+ * strings point into j. */
+journal_job_t persist_record(const master_t *m, const mjob_t *j, double now);
 
 /* jobs/<job>/checkpoint-<gen>.bin of the spool, in buf. */
 void persist_checkpoint_path(const master_t *m, uint64_t job, uint64_t gen, char *buf, size_t size);

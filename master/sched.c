@@ -50,6 +50,9 @@ typedef struct job {
     /* Operations (sched.h, "Priorities, fair share, pause"). */
     int priority;
     bool paused;
+    /* Its time paused while running (sched_job_paused_s): the pauses that ended, and when the
+     * current one began (the caller's clock). */
+    double paused_s, paused_at;
     uint32_t owner; /* index into sched.owners; its share is the sum of running over its jobs */
 } job_t;
 
@@ -1132,7 +1135,7 @@ int sched_set_job_owner(sched_t *self, uint64_t id, const char *owner, err_t *er
     return 0;
 }
 
-int sched_pause_job(sched_t *self, uint64_t id, bool paused, err_t *err)
+int sched_pause_job(sched_t *self, uint64_t id, bool paused, double now, err_t *err)
 {
     job_t *j = find_job(self, id);
     if (!j)
@@ -1141,8 +1144,27 @@ int sched_pause_job(sched_t *self, uint64_t id, bool paused, err_t *err)
         return err_set(err, "job %llu is %s: only a queued or running job can be %s",
                        (unsigned long long)id, job_state_name(j->state),
                        paused ? "paused" : "resumed");
+    if (paused && !j->paused)
+        j->paused_at = now;
+    else if (!paused && j->paused && j->state == JOB_RUNNING && now > j->paused_at)
+        j->paused_s += now - j->paused_at;
     j->paused = paused;
     return 0;
+}
+
+/* A pause counts from when it began while the job runs at its end (or now): a job paused while
+ * queued cannot start before it is resumed, so its pause ends before its time does; one the
+ * master paused when it restored it from the journal (queued, then running at once) counts from
+ * that pause, after the time the journal gave it. */
+double sched_job_paused_s(const sched_t *self, uint64_t id, double now)
+{
+    const job_t *j = find_job(self, id);
+    if (!j)
+        return 0;
+    double s = j->paused_s;
+    if (j->paused && j->state == JOB_RUNNING && now > j->paused_at)
+        s += now - j->paused_at;
+    return s;
 }
 
 int sched_requeue_task(sched_t *self, uint64_t id, uint32_t task, err_t *err)
