@@ -1,5 +1,6 @@
 #include "jobs.h"
 
+#include "bisect.h"
 #include "clock.h"
 #include "files.h"
 #include "film.h"
@@ -28,17 +29,15 @@ static int jobs_reserve(master_t *m)
     return 0;
 }
 
+static uint64_t job_key(const void *jobs, size_t i)
+{
+    return ((mjob_t *const *)jobs)[i]->id;
+}
+
 mjob_t *jobs_find(const master_t *m, uint64_t id)
 {
-    size_t lo = 0, hi = m->njobs;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (m->jobs[mid]->id < id)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo < m->njobs && m->jobs[lo]->id == id ? m->jobs[lo] : NULL;
+    size_t i = bisect_lower(m->jobs, m->njobs, job_key, id);
+    return i < m->njobs && m->jobs[i]->id == id ? m->jobs[i] : NULL;
 }
 
 int jobs_append(master_t *m, mjob_t *j)

@@ -1,5 +1,7 @@
 #include "peers.h"
 
+#include "bisect.h"
+
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -76,32 +78,28 @@ size_t peers_sched_table(master_t *m)
     return n;
 }
 
+static uint64_t winfo_key(const void *winfo, size_t i)
+{
+    return ((const sched_worker_info_t *)winfo)[i].id;
+}
+
 const sched_worker_info_t *peers_sched_info(master_t *m, size_t n, uint64_t id)
 {
-    size_t lo = 0, hi = n;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (m->winfo[mid].id < id)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo < n && m->winfo[lo].id == id ? &m->winfo[lo] : NULL;
+    size_t i = bisect_lower(m->winfo, n, winfo_key, id);
+    return i < n && m->winfo[i].id == id ? &m->winfo[i] : NULL;
 }
 
 /* m->workers is in id order: peers_add appends the next id and peers_prune_lost keeps the
  * order. */
+static uint64_t worker_key(const void *workers, size_t i)
+{
+    return ((mworker_t *const *)workers)[i]->id;
+}
+
 mworker_t *peers_by_id(const master_t *m, uint64_t id)
 {
-    size_t lo = 0, hi = m->nworkers;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (m->workers[mid]->id < id)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo < m->nworkers && m->workers[lo]->id == id ? m->workers[lo] : NULL;
+    size_t i = bisect_lower(m->workers, m->nworkers, worker_key, id);
+    return i < m->nworkers && m->workers[i]->id == id ? m->workers[i] : NULL;
 }
 
 /* Forgets the lost worker seen longest ago once more than MAX_LOST_WORKERS are listed, so that

@@ -1,5 +1,6 @@
 #include "sched.h"
 
+#include "bisect.h"
 #include "tilegrid.h"
 
 #include <stdio.h>
@@ -169,17 +170,14 @@ static job_t *find_job(const sched_t *self, uint64_t id)
 /* The first worker of id >= id in the table, which sched_worker_join keeps in id order: every
  * result, task and sign of life looks its worker up, and a linear search made a round of the
  * farm's workers quadratic in them. */
+static uint64_t worker_key(const void *workers, size_t i)
+{
+    return ((const worker_t *)workers)[i].id;
+}
+
 static size_t worker_slot(const sched_t *self, uint64_t id)
 {
-    size_t lo = 0, hi = self->nworkers;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (self->workers[mid].id < id)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo;
+    return bisect_lower(self->workers, self->nworkers, worker_key, id);
 }
 
 static worker_t *find_worker(const sched_t *self, uint64_t id)
