@@ -21,19 +21,12 @@
 
 #define NW 300
 
-/* 1..NW in a fixed pseudo-random order (Fisher-Yates on an LCG). */
+/* 1..NW in a fixed pseudo-random order. */
 static void shuffled_ids(uint64_t *ids, unsigned seed)
 {
     for (int i = 0; i < NW; i++)
         ids[i] = (uint64_t)i + 1;
-    unsigned x = seed;
-    for (int i = NW - 1; i > 0; i--) {
-        x = x * 1103515245u + 12345u;
-        int k = (int)((x >> 8) % (unsigned)(i + 1));
-        uint64_t t = ids[i];
-        ids[i] = ids[k];
-        ids[k] = t;
-    }
+    testutil_shuffle(ids, NW, sizeof *ids, seed);
 }
 
 /* Worker id has id % 13 + 1 slots: an entry found for the wrong id shows in its slots. */
@@ -46,8 +39,7 @@ static void test_sched_table_in_id_order(void **state)
 {
     (void)state;
     err_t err;
-    sched_t *s = sched_new(NULL, &err);
-    assert_non_null(s);
+    sched_t *s = testutil_sched_new(NULL);
     uint64_t ids[NW];
     shuffled_ids(ids, 17);
     for (int i = 0; i < NW; i++)
@@ -78,10 +70,8 @@ static void test_sched_workers_joined_out_of_order(void **state)
 {
     (void)state;
     err_t err;
-    sched_config_t cfg = sched_config_default();
-    cfg.tile_size = 8;
-    sched_t *s = sched_new(&cfg, &err);
-    assert_non_null(s);
+    sched_config_t cfg = testutil_sched_config(8);
+    sched_t *s = testutil_sched_new(&cfg);
     /* One 8x8 tile per worker, 1 spp: NW tasks of one pass. */
     assert_int_equal(sched_add_job(s, 1, 8 * NW, 8, 1, testutil_grid(2), &err), 0);
     uint64_t ids[NW];
@@ -103,8 +93,7 @@ static void test_sched_workers_joined_out_of_order(void **state)
     int mask = 0;
     for (int i = 0; i < NW; i++) {
         const sched_task_t *t = &tasks[i];
-        tilebuf_t *r = tilebuf_new(t->x0, t->y0, t->w, t->h, 2, &err);
-        assert_non_null(r);
+        tilebuf_t *r = testutil_fake_result(t, 2);
         mask = sched_task_done(s, ids[i], 1, t->task, t->attempt, &r, 2.0, &err);
         assert_true(mask & SCHED_MERGED);
     }

@@ -12,34 +12,10 @@
 #include "sched.h"
 #include "sched_testutil.h"
 
-/* A sample's XYZ when only its luminance Y matters to the test. */
-#define XYZ_OF_Y(l) ((const double[3]){0.0, (l), 0.0})
-
 static sched_t *new_sched(int tile)
 {
-    sched_config_t c = sched_config_default();
-    c.tile_size = tile;
-    c.task_deadline_s = 10;
-    c.worker_timeout_s = 3;
-    sched_t *s = sched_new(&c, NULL);
-    assert_non_null(s);
-    return s;
-}
-
-/* A stand-in for a worker's render: every sample of pixel (x, y) adds x + 100 y + 0.001 s to
- * bucket b scaled by b + 1, so sums depend on exactly which samples were merged. */
-static tilebuf_t *fake_result(const sched_task_t *t, int nb)
-{
-    tilebuf_t *r = tilebuf_new(t->x0, t->y0, t->w, t->h, nb, NULL);
-    double v[8];
-    for (int y = t->y0; y < t->y0 + t->h; y++)
-        for (int x = t->x0; x < t->x0 + t->w; x++)
-            for (uint32_t s = t->sample_begin; s < t->sample_end; s++) {
-                for (int b = 0; b < nb; b++)
-                    v[b] = (b + 1) * (x + 100.0 * y + 0.001 * s) * 1.0000001;
-                tilebuf_add_sample(r, x, y, v, XYZ_OF_Y(v[0]));
-            }
-    return r;
+    sched_config_t c = testutil_sched_config(tile);
+    return testutil_sched_new(&c);
 }
 
 static void test_passes_and_tiles(void **state)
@@ -84,7 +60,7 @@ static void run_job(unsigned order_seed, tilebuf_t **image_out)
     testutil_shuffle_tasks(tasks, n, order_seed);
     int passes_done = 0, job_done = 0;
     for (int i = 0; i < n; i++) {
-        tilebuf_t *r = fake_result(&tasks[i], 4);
+        tilebuf_t *r = testutil_fake_result(&tasks[i], 4);
         int m = sched_task_done(s, 1, 1, tasks[i].task, tasks[i].attempt, &r, 0.0, &err);
         assert_true(m > 0 && (m & SCHED_MERGED));
         assert_null(r);
@@ -145,9 +121,9 @@ static void test_dead_worker_and_deadline(void **state)
     assert_int_equal(v.attempt, 3);
     /* The late first result is accepted (all attempts give the same bytes); the next is a
      * duplicate. */
-    tilebuf_t *r = fake_result(&u, 4);
+    tilebuf_t *r = testutil_fake_result(&u, 4);
     assert_true(sched_task_done(s, 11, 3, u.task, u.attempt, &r, 14.5, &err) & SCHED_JOB_DONE);
-    r = fake_result(&v, 4);
+    r = testutil_fake_result(&v, 4);
     assert_int_equal(sched_task_done(s, 11, 3, v.task, v.attempt, &r, 14.6, &err), SCHED_DUPLICATE);
     sched_worker_info_t w[4];
     assert_int_equal(sched_workers(s, w, 4), 2);
@@ -164,7 +140,7 @@ static void test_failures_block_and_fail(void **state)
     c.tile_size = 8;
     c.max_task_failures = 3;
     c.max_worker_job_failures = 2;
-    sched_t *s = sched_new(&c, NULL);
+    sched_t *s = testutil_sched_new(&c);
     err_t err;
     sched_add_job(s, 5, 8, 8, 1, testutil_grid(4), &err);
     sched_worker_join(s, 1, 1, 0.0, &err);
@@ -205,7 +181,7 @@ static void test_bad_results_and_jobs(void **state)
     assert_int_equal(sched_task_done(s, 1, 1, t.task, t.attempt, &wrong, 0, &err), -1);
     assert_null(wrong);
     assert_non_null(strstr(err.msg, "does not cover"));
-    tilebuf_t *r = fake_result(&t, 4);
+    tilebuf_t *r = testutil_fake_result(&t, 4);
     assert_int_equal(sched_task_done(s, 1, 99, 0, 1, &r, 0, &err), -1);
     assert_null(r);
     /* Cancelling frees the worker's slots and ignores late results. */
@@ -213,7 +189,7 @@ static void test_bad_results_and_jobs(void **state)
     sched_worker_info_t w;
     sched_workers(s, &w, 1);
     assert_int_equal(w.busy, 0);
-    r = fake_result(&t, 4);
+    r = testutil_fake_result(&t, 4);
     assert_int_equal(sched_task_done(s, 1, 1, t.task, t.attempt, &r, 0, &err), SCHED_DUPLICATE);
     sched_destroy(&s);
 }
@@ -274,7 +250,7 @@ static void test_restore_from_checkpoint(void **state)
     sched_worker_join(s, 1, 64, 0, &err);
     sched_task_t t;
     while (sched_next_task(s, 1, 0, &t) == 1) {
-        tilebuf_t *r = fake_result(&t, 4);
+        tilebuf_t *r = testutil_fake_result(&t, 4);
         assert_true(sched_task_done(s, 1, 1, t.task, t.attempt, &r, 0, &err) >= 0);
     }
     const tilebuf_t *full = sched_job_image(s, 1);
@@ -293,7 +269,7 @@ static void test_restore_from_checkpoint(void **state)
             passes_bounds(4, bounds);
             q.sample_begin = bounds[pass];
             q.sample_end = bounds[pass + 1];
-            tilebuf_t *r = fake_result(&q, 4);
+            tilebuf_t *r = testutil_fake_result(&q, 4);
             assert_int_equal(tilebuf_merge(img, r, &err), 0);
             tilebuf_destroy(&r);
         }
@@ -318,7 +294,7 @@ static void test_restore_from_checkpoint(void **state)
     int n = 0;
     while (sched_next_task(s2, 1, 0, &t) == 1) {
         assert_true((t.task % 2 == 0 && t.pass == 2) || (t.task % 2 == 1 && t.pass >= 1));
-        tilebuf_t *r = fake_result(&t, 4);
+        tilebuf_t *r = testutil_fake_result(&t, 4);
         assert_true(sched_task_done(s2, 1, 1, t.task, t.attempt, &r, 0, &err) >= 0);
         n++;
     }
@@ -368,7 +344,7 @@ static void test_silent_greedy_worker(void **state)
         while (n < 2 && sched_next_task(s, 2, now, &mine[n]))
             n++;
         for (int i = 0; i < n; i++) {
-            tilebuf_t *r = fake_result(&mine[i], 4);
+            tilebuf_t *r = testutil_fake_result(&mine[i], 4);
             int m = sched_task_done(s, 2, 1, mine[i].task, mine[i].attempt, &r, now, &err);
             assert_true(m > 0);
             done += !!(m & SCHED_MERGED);
@@ -415,7 +391,7 @@ static void test_running_count(void **state)
     for (int i = 0; i < 4; i++)
         assert_int_equal(sched_next_task(s, 2, 0.0, &b[i]), 1);
     assert_int_equal(running(s, 3), 8);
-    tilebuf_t *r = fake_result(&a[0], 2);
+    tilebuf_t *r = testutil_fake_result(&a[0], 2);
     assert_true(sched_task_done(s, 1, 3, a[0].task, a[0].attempt, &r, 1.0, &err) > 0);
     assert_int_equal(running(s, 3), 7);
     sched_task_failed(s, 1, 3, a[1].task, a[1].attempt, "test failure");

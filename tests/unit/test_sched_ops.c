@@ -15,15 +15,10 @@
 
 static sched_t *new_sched(int worker_failures_in_row)
 {
-    sched_config_t c = sched_config_default();
-    c.tile_size = 8;
-    c.task_deadline_s = 10;
-    c.worker_timeout_s = 3;
+    sched_config_t c = testutil_sched_config(8);
     c.claim_start = 0;
     c.max_worker_failures_in_row = worker_failures_in_row;
-    sched_t *s = sched_new(&c, NULL);
-    assert_non_null(s);
-    return s;
+    return testutil_sched_new(&c);
 }
 
 /* A job of 16x16 pixels at 1 spp and 8-pixel tiles: 4 tasks. */
@@ -35,22 +30,10 @@ static void add_job(sched_t *s, uint64_t id, const char *owner, int priority)
     assert_int_equal(sched_set_job_priority(s, id, priority, &err), 0);
 }
 
-static tilebuf_t *fake_result(const sched_task_t *t)
-{
-    tilebuf_t *r = tilebuf_new(t->x0, t->y0, t->w, t->h, 2, NULL);
-    for (int y = t->y0; y < t->y0 + t->h; y++)
-        for (int x = t->x0; x < t->x0 + t->w; x++)
-            for (uint32_t k = t->sample_begin; k < t->sample_end; k++) {
-                double v[2] = {x + 100.0 * y + 0.25 * k, 1.0 + x};
-                tilebuf_add_sample(r, x, y, v, (const double[3]){0, v[0], 0});
-            }
-    return r;
-}
-
 static void finish(sched_t *s, uint64_t worker, const sched_task_t *t)
 {
     err_t err;
-    tilebuf_t *r = fake_result(t);
+    tilebuf_t *r = testutil_fake_result(t, 2);
     assert_true(sched_task_done(s, worker, t->job, t->task, t->attempt, &r, 1.0, &err) &
                 SCHED_MERGED);
 }
@@ -233,7 +216,7 @@ static void test_requeue_by_hand(void **state)
     assert_int_equal(sched_requeue_task(s, 1, stuck.task, &err), -1);
     assert_non_null(strstr(err.msg, "is done"));
     /* The stuck worker's late copy is the same bytes: accepted as a duplicate. */
-    tilebuf_t *r = fake_result(&stuck);
+    tilebuf_t *r = testutil_fake_result(&stuck, 2);
     assert_int_equal(sched_task_done(s, 1, 1, stuck.task, stuck.attempt, &r, 2.0, &err),
                      SCHED_DUPLICATE);
     sched_destroy(&s);
