@@ -231,16 +231,6 @@ stopping_rule_t job_stopping_rule(const mjob_t *j)
                              .time_limit = j->settings.time_limit};
 }
 
-double job_elapsed(const master_t *m, const mjob_t *j, double now)
-{
-    if (j->started <= 0)
-        return 0;
-    double end = j->finished > 0 ? j->finished : now;
-    double paused = j->sched.known ? sched_job_paused_s(m->sched, j->id, end) : 0;
-    double s = end - j->started - paused;
-    return s > 0 ? s : 0;
-}
-
 int jobs_apply_ops(master_t *m, const mjob_t *j, err_t *err)
 {
     if (sched_set_job_owner(m->sched, j->id, j->owner, err) < 0 ||

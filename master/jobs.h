@@ -33,10 +33,6 @@ void job_set_error(mjob_t *j, const char *msg);
 
 /* The job's stopping rule (film/stopping.h), from its settings. */
 stopping_rule_t job_stopping_rule(const mjob_t *j);
-/* The seconds the job has run, from its start to its end (or now) less the time it was paused
- * while running (sched_job_paused_s): what its time limit and pass records count, and what the
- * journal keeps for a restarted master. */
-double job_elapsed(const master_t *m, const mjob_t *j, double now);
 
 /* Adds a new job to the scheduler, with photon_batches batches before its camera phase and
  * whole passes when it may end early, and to the master's list. */

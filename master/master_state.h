@@ -2,8 +2,8 @@
  * that make the daemon (cli/ and tests/ use master.h). One thread owns it all: master_run's loop
  * (loop.c) hands each message to a handler (on_worker.c, on_client.c) and each turn's clock
  * work to peers.c, jobs.c and dispatch.c, and they change it in place; nothing here is locked
- * or copied. The helpers below are the few every file needs: a job's end, the log, a string
- * copy, a REFUSE. */
+ * or copied. The helpers below are the few every file needs: a job's end and its running time,
+ * the log, a string copy, a REFUSE. */
 #ifndef PRISMFARM_MASTER_STATE_H
 #define PRISMFARM_MASTER_STATE_H
 
@@ -184,6 +184,11 @@ static inline bool job_over(const mjob_t *j)
 {
     return j->state == JOB_DONE || j->state == JOB_FAILED || j->state == JOB_CANCELLED;
 }
+
+/* The seconds the job has run, from its start to its end (or now) less the time it was paused
+ * while running (sched_job_paused_s): what its time limit and pass records count, and what the
+ * journal keeps for a restarted master. */
+double job_elapsed(const master_t *m, const mjob_t *j, double now);
 
 /* A line "master: ..." on stderr when opts->verbose. */
 __attribute__((format(printf, 2, 3))) void master_log(const master_t *m, const char *fmt, ...);

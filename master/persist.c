@@ -1,7 +1,6 @@
 #include "persist.h"
 
 #include "files.h"
-#include "jobs.h"
 
 #include <dirent.h>
 #include <limits.h>
