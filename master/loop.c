@@ -334,6 +334,8 @@ int master_run(const master_opts_t *opts, err_t *err)
             timeout = dash_view_timeout_ms(m->dash, timeout);
         int n = zmq_poll(items, nitems, timeout > 0 ? timeout : 0);
         double polled = clock_now_s();
+        if (m->journal)
+            journal_turn_begin(m->journal);
         if (n < 0 && zmq_errno() != EINTR) {
             rc = err_set(err, "master: zmq_poll: %s", zmq_strerror(zmq_errno()));
             break;
@@ -359,6 +361,10 @@ int master_run(const master_opts_t *opts, err_t *err)
         dispatch_tasks(m, now);
         peers_prune_lost(m);
         until_waiter = on_client_answer_waiters(m, now);
+        err_t jerr;
+        if (m->journal && journal_turn_end(m->journal, &jerr) < 0)
+            master_log(m, "journal: the results of a loop turn were not journaled (they are "
+                          "rendered again after a restart): %s", jerr.msg);
     }
     if (rc == 0)
         master_log(m, "stopping");

@@ -453,6 +453,52 @@ static void test_journal_tables(void **state)
     assert_non_null(strstr(err.msg, "junk/journal.db"));
 }
 
+/* One transaction per loop turn (journal_turn_begin/end, issue 17): the turn's results are not
+ * in the database another process reads until the turn ends, or until a write of another kind
+ * commits them first (so that a job's state never lands before the results that came before
+ * it); the turn is one write in journal_stats; a checkpoint inside a turn still works (its
+ * synchronous setting cannot change inside a transaction). */
+static void test_turn_transaction(void **state)
+{
+    (void)state;
+    err_t err;
+    const char *dir = testutil_scratch("turns");
+    journal_t *jn = journal_open(dir, &err);
+    assert_non_null(jn);
+    journal_job_t job = {.id = 3, .name = "t", .hash = "cd34", .main = "s.pbrt",
+                         .settings = {.spp = 4, .seed = -1}};
+    assert_int_equal(journal_add_job(jn, &job, &err), 0);
+    const char *count = "SELECT COUNT(*) FROM results WHERE job=3";
+    const uint8_t blob[4] = {1, 2, 3, 4};
+    uint64_t writes = journal_stats(jn).writes;
+    journal_turn_begin(jn);
+    for (uint32_t t = 0; t < 3; t++)
+        assert_int_equal(journal_add_result(jn, 3, 0, t, 0, (int)t, 0, blob, 4, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, count), 0);
+    journal_job_t running = job;
+    running.state = 1;
+    assert_int_equal(journal_set_state(jn, &running, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, count), 3);
+    assert_int_equal(testutil_journal_query(dir, "SELECT state FROM jobs WHERE id=3"), 1);
+    for (uint32_t t = 3; t < 5; t++)
+        assert_int_equal(journal_add_result(jn, 3, 0, t, 0, (int)t, 0, blob, 4, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, count), 3);
+    int next[5] = {1, 1, 0, 0, 0};
+    assert_int_equal(journal_set_checkpoint(jn, 3, 0, 1, next, 5, 1.0, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, count), 3); /* tiles 0 and 1 checkpointed */
+    assert_int_equal(journal_add_result(jn, 3, 0, 5, 0, 0, 1, blob, 4, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, count), 3);
+    assert_int_equal(journal_turn_end(jn, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, count), 4);
+    /* Two result commits (before the state, before the checkpoint), the state, the checkpoint
+     * and the turn's end: five writes for six results and two other changes. */
+    assert_int_equal(journal_stats(jn).writes - writes, 5);
+    /* Outside a turn each result is committed at once. */
+    assert_int_equal(journal_add_result(jn, 3, 0, 6, 0, 1, 1, blob, 4, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, count), 5);
+    journal_close(&jn);
+}
+
 /* ---------------------------------------------------------------- farms */
 
 /* The number after "key": in a command's --json text; false if the key is absent or null. */
@@ -714,6 +760,7 @@ int main(void)
         cmocka_unit_test(test_photon_blob_round_trip),
         cmocka_unit_test(test_checkpoint_round_trip),
         cmocka_unit_test(test_journal_tables),
+        cmocka_unit_test(test_turn_transaction),
         cmocka_unit_test_teardown(test_master_killed_camera_job, testutil_kill_children),
         cmocka_unit_test_teardown(test_master_killed_photon_job, testutil_kill_children),
         cmocka_unit_test_teardown(test_random_kills, testutil_kill_children),
