@@ -410,6 +410,96 @@ static void test_running_count(void **state)
     sched_destroy(&s);
 }
 
+/* The prefetch rule (sched_worker_set_threads) with the scheduler's running counts of idle
+ * threads and pending tasks (issue 17: it summed them over every worker and task at each
+ * dispatch): a worker past its threads is given a task only while more tasks wait than the
+ * other live workers have idle threads, through a worker lost, one joining again and one
+ * changing its threads. */
+static void test_prefetch_counts(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(8);
+    err_t err;
+    /* 24x16 pixels in 8-pixel tiles, 1 spp: 6 tasks. */
+    assert_int_equal(sched_add_job(s, 1, 24, 16, 1, testutil_grid(2), &err), 0);
+    for (uint64_t w = 1; w <= 3; w++) {
+        assert_int_equal(sched_worker_join(s, w, 4, 0.0, &err), 0);
+        assert_int_equal(sched_worker_set_threads(s, w, 2, &err), 0);
+    }
+    sched_task_t t[6];
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t[0]), 1);
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t[1]), 1);
+    /* 4 waiting, 4 idle threads on workers 2 and 3: no prefetch. */
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t[2]), 0);
+    /* Worker 2 lost: 4 waiting, 2 idle threads: two prefetches, then its 4 slots are full. */
+    sched_worker_leave(s, 2);
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t[2]), 1);
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t[3]), 1);
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t[4]), 0);
+    /* Worker 3 down to 1 thread; worker 2 back with 4 slots, all threads: 2 waiting, 5 idle. */
+    assert_int_equal(sched_worker_set_threads(s, 3, 1, &err), 0);
+    assert_int_equal(sched_worker_join(s, 2, 4, 1.0, &err), 0);
+    /* Worker 3 past its thread: 2 waiting, 4 idle on worker 2: no prefetch. */
+    assert_int_equal(sched_next_task(s, 3, 1.0, &t[4]), 1);
+    assert_int_equal(sched_next_task(s, 3, 1.0, &t[5]), 0);
+    /* A result frees a thread of worker 1 (past its threads still: 3 busy of 2): 1 waiting, 4
+     * idle. Worker 2 takes the last one. */
+    tilebuf_t *r = testutil_fake_result(&t[0], 2);
+    assert_true(sched_task_done(s, 1, 1, t[0].task, t[0].attempt, &r, 2.0, &err) & SCHED_MERGED);
+    assert_int_equal(sched_next_task(s, 1, 2.0, &t[5]), 0);
+    assert_int_equal(sched_next_task(s, 2, 2.0, &t[5]), 1);
+    sched_worker_info_t info[3];
+    assert_int_equal(sched_workers(s, info, 3), 3);
+    assert_int_equal(info[0].busy, 3);
+    assert_int_equal(info[1].busy, 1);
+    assert_int_equal(info[2].busy, 1);
+    sched_destroy(&s);
+}
+
+/* Deadlines with the scheduler's earliest-deadline bound (issue 17: every tick scanned every
+ * task of every running job): a tick before the first deadline requeues nothing, each task goes
+ * back at its own deadline, and a task issued with an earlier deadline than those running (a
+ * caller's clock that stepped back) is still seen. */
+static void test_deadlines_bound(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(8); /* deadline 10 s, timeout 3 s */
+    err_t err;
+    assert_int_equal(sched_add_job(s, 1, 24, 16, 1, testutil_grid(2), &err), 0);
+    assert_int_equal(sched_worker_join(s, 1, 8, 0.0, &err), 0);
+    sched_task_t a, b, c;
+    assert_int_equal(sched_next_task(s, 1, 100.0, &a), 1); /* due at 110 */
+    assert_int_equal(sched_next_task(s, 1, 105.0, &b), 1); /* due at 115 */
+    double now = 100.0;
+    for (; now < 105.0; now += 1.0) {
+        sched_worker_seen(s, 1, now);
+        assert_int_equal(sched_tick(s, now), 0);
+    }
+    /* Due at 100, before a's 110 that the ticks since 100 went by: the clock stepped back. */
+    assert_int_equal(sched_next_task(s, 1, 90.0, &c), 1);
+    sched_worker_seen(s, 1, 105.0);
+    assert_int_equal(sched_tick(s, 105.0), 1); /* c */
+    for (now = 106.0; now < 110.0; now += 1.0) {
+        sched_worker_seen(s, 1, now);
+        assert_int_equal(sched_tick(s, now), 0);
+    }
+    sched_worker_seen(s, 1, 110.5);
+    assert_int_equal(sched_tick(s, 110.5), 1); /* a */
+    for (now = 111.0; now < 115.0; now += 1.0) {
+        sched_worker_seen(s, 1, now);
+        assert_int_equal(sched_tick(s, now), 0);
+    }
+    sched_worker_seen(s, 1, 115.5);
+    assert_int_equal(sched_tick(s, 115.5), 1); /* b */
+    sched_event_t ev[4];
+    assert_int_equal(sched_events_take(s, ev, 4, NULL), 3);
+    assert_int_equal(ev[0].task, c.task);
+    assert_int_equal(ev[1].task, a.task);
+    assert_int_equal(ev[2].task, b.task);
+    assert_int_equal(ev[2].kind, SCHED_EV_REQUEUED_DEADLINE);
+    sched_destroy(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -422,6 +512,8 @@ int main(void)
         cmocka_unit_test(test_restore_from_checkpoint),
         cmocka_unit_test(test_silent_greedy_worker),
         cmocka_unit_test(test_running_count),
+        cmocka_unit_test(test_prefetch_counts),
+        cmocka_unit_test(test_deadlines_bound),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
