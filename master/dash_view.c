@@ -82,8 +82,7 @@ static void fill_job(master_t *m, const mjob_t *j, double now, dash_job_t *o)
         o->has_rel_error = true;
         o->rel_error = last->rel_error;
     }
-    double secs = j->started > 0 ? (j->finished > 0 ? j->finished : now) - j->started : 0;
-    o->elapsed_s = secs > 0 ? secs : 0;
+    o->elapsed_s = job_elapsed(m, j, now);
     /* A new image on disk changes the version: the final outputs after the last preview. */
     if (j->outputs.final)
         o->preview_version = (uint64_t)(j->finished * 1000.0) + 2;

@@ -411,7 +411,7 @@ void job_refresh(master_t *m, mjob_t *j, double now)
                 snprintf(acc, sizeof acc, ", relative error %.4g", last->rel_error);
             const char *why = stopping_reason((stopping_why_t)j->accuracy.stop);
             master_log(m, "job %llu '%s' done in %.2f s at %d of %d spp%s%s%s%s: %s/jobs/%llu/%s.exr",
-                       (unsigned long long)j->id, j->name, j->finished - j->started, info.spp_done,
+                       (unsigned long long)j->id, j->name, job_elapsed(m, j, j->finished), info.spp_done,
                        j->scene.spp, acc, *why ? " (" : "", why, *why ? ")" : "",
                        spool_path(m->spool), (unsigned long long)j->id, j->stem);
         }
@@ -432,6 +432,7 @@ void job_refresh(master_t *m, mjob_t *j, double now)
     j->sched.nonfinite = info.nonfinite;
     j->accuracy.spp_done = info.spp_done;
     persist_state(m, j, now);
+    j->ops.paused_s = sched_job_paused_s(m->sched, j->id, j->finished > 0 ? j->finished : now);
     err_t err;
     if (sched_remove_job(m->sched, j->id, &err) < 0)
         master_log(m, "job %llu: %s", (unsigned long long)j->id, err.msg);
@@ -459,6 +460,7 @@ void job_give_up_outputs(master_t *m, mjob_t *j, double now)
                (unsigned long long)j->id, j->name);
     release_photons(m, j);
     persist_state(m, j, now);
+    j->ops.paused_s = sched_job_paused_s(m->sched, j->id, j->finished > 0 ? j->finished : now);
     err_t err;
     if (sched_remove_job(m->sched, j->id, &err) < 0)
         master_log(m, "job %llu: %s", (unsigned long long)j->id, err.msg);

@@ -28,7 +28,7 @@ double job_elapsed(const master_t *m, const mjob_t *j, double now)
     if (j->started <= 0)
         return 0;
     double end = j->finished > 0 ? j->finished : now;
-    double paused = j->sched.known ? sched_job_paused_s(m->sched, j->id, end) : 0;
+    double paused = j->sched.known ? sched_job_paused_s(m->sched, j->id, end) : j->ops.paused_s;
     double s = end - j->started - paused;
     return s > 0 ? s : 0;
 }

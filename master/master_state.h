@@ -132,6 +132,7 @@ typedef struct mjob {
     struct {
         int priority;
         bool paused;
+        double paused_s; /* its time paused while running, kept when the scheduler forgets it */
     } ops;
 } mjob_t;
 

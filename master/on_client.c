@@ -65,8 +65,7 @@ static proto_job_info_t job_wire_info(const master_t *m, const mjob_t *j, double
         o.rel_error = last->rel_error;
     }
     o.stop = j->accuracy.stop;
-    double secs = j->started > 0 ? (j->finished > 0 ? j->finished : now) - j->started : 0;
-    o.elapsed = secs > 0 ? secs : 0;
+    o.elapsed = job_elapsed(m, j, now);
     if (j->state == JOB_FAILED)
         o.error = j->error ? j->error : "failed";
     else if (j->outputs.waiting)
