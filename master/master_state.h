@@ -126,6 +126,7 @@ typedef struct mjob {
         size_t bytes;
         uint64_t checkpoint_samples; /* samples merged at the last checkpoint */
         double last_checkpoint;      /* when it was written (monotonic seconds; 0: none yet) */
+        struct checkpoint_writer *writer; /* the checkpoint being written off the loop (persist.c) */
     } journal;
     /* Operations (ops.h): its priority and whether it is paused; the scheduler holds the same
      * (and the owner, for fair share) while it knows the job. */
