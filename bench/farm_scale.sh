@@ -11,7 +11,10 @@
 # Reports per run the results/s, the master's CPU (whole process and its main thread; share of
 # one core and microseconds per task), the turnaround (a result sent to the next task received
 # by that worker: the master's merge and dispatch as a worker sees them), the master's peak RSS,
-# and the check that no task was lost or merged twice (the simulator's EXR check). Writes the
+# and the check that no task was lost or merged twice (the simulator's EXR check), and the
+# dashboard's GET /api/workers during the run (the master with --http on loopback: 100 requests
+# from one curl 3 s into the job; the median time per request and per worker listed, whose
+# flatness across the worker counts says the listing is not quadratic in them). Writes the
 # table into docs/performance.md between its "farm-scale:begin" and "farm-scale:end" markers
 # and the plot of master CPU against workers to docs/farm_scale.png (gnuplot).
 #
@@ -80,13 +83,31 @@ NPROC=$(nproc)
 CPU=$(grep -m1 'model name' /proc/cpuinfo | sed 's/.*: //')
 BUCKETS=16 # bench/farm_scale.pbrt's Film
 
+# GET /api/workers 100 times over one curl, 3 s into the run (the workers have joined): writes
+# "dash_workers=N dash_ms_p50=MS dash_us_per_worker=US" to $2, nothing if the master answers no
+# list by then.
+dash_probe() {
+  local url=${1%/}/api/workers out=$2 listed urls=()
+  sleep 3
+  listed=$(curl -sf --max-time 10 "$url" | grep -o '"id":' | wc -l) || return 0
+  ((listed > 0)) || return 0
+  for _ in $(seq 100); do urls+=(-o /dev/null "$url"); done
+  curl -sf --max-time 60 -w '%{time_total}\n' "${urls[@]}" |
+    sort -g | awk -v n="$listed" '{ t[NR] = $1 } END {
+      if (NR) printf "dash_workers=%d dash_ms_p50=%.3f dash_us_per_worker=%.3f\n", n,
+        1000 * t[int((NR + 1) / 2)], 1e6 * t[int((NR + 1) / 2)] / n }' >"$out"
+}
+
 # One run: N workers, hold in ms; appends the simulator's line, tagged, to $WORK/runs.
 run() {
   local n=$1 hold=$2 tag=$3 spool=$WORK/spool-$1-$3
   # Every simulated worker connects from 127.0.0.1: the per-host connection bound (512 by
   # default, docs/security.md "Connections") is lifted where the master has one.
   local extra=()
-  "$BIN" master --help 2>&1 | grep -q max-connections-per-host && extra=(--max-connections-per-host 0)
+  local help
+  help=$("$BIN" master --help 2>&1 || true) # whole, not piped into grep -q (pipefail)
+  grep -q max-connections-per-host <<<"$help" && extra=(--max-connections-per-host 0)
+  grep -q -- '--http ' <<<"$help" && extra+=(--http 127.0.0.1:0)
   "$BIN" master --workers 'tcp://127.0.0.1:*' --clients 'tcp://127.0.0.1:*' --insecure \
     --tile "$TILE" --spool "$spool" "${extra[@]}" 2>"$WORK/master-$n-$tag.log" &
   MASTER=$!
@@ -96,10 +117,20 @@ run() {
   wep=$(awk '$1 == "workers" { print $2 }' "$spool/endpoints")
   cep=$(awk '$1 == "clients" { print $2 }' "$spool/endpoints")
   echo "== $n workers, $tag (hold $hold ms)" >&2
+  local http dash=
+  http=$(awk '$1 == "http" { print $2 }' "$spool/endpoints")
+  if [[ -n $http ]] && command -v curl >/dev/null; then
+    dash_probe "$http" "$WORK/dash-$n-$tag" &
+    dash=$!
+  fi
   if ! line=$("$SIM" --workers "$wep" --clients "$cep" --scene "$ROOT/bench/farm_scale.pbrt" \
       --res "$RES" --spp "$SPP" --buckets "$BUCKETS" --tile "$TILE" --n "$n" --hold-ms "$hold" \
       --disconnect 0.1 --seed "$n" --master-pid "$MASTER" --timeout 900 --quiet); then
     echo "bench/farm_scale.sh: the run of $n workers ($tag) failed: $line" >&2
+  fi
+  if [[ -n $dash ]]; then
+    wait "$dash" || true
+    [[ -s $WORK/dash-$n-$tag ]] && line="$line $(cat "$WORK/dash-$n-$tag")"
   fi
   echo "$line" >&2
   echo "tag=$tag $line" >>"$WORK/runs"
@@ -154,6 +185,22 @@ field() { tr ' ' '\n' <<<"$2" | awk -F= -v k="$1" '$1 == k { print $2 }'; }
       "$(field disconnects "$l")" "$(field answered_twice "$l")" "$(field lost "$l")" \
       "$(field pixels_bad "$l")"
   done <"$WORK/runs"
+  if grep -q dash_ms_p50 "$WORK/runs"; then
+    echo
+    echo "The dashboard's \`GET /api/workers\` during the runs (100 requests over one curl, 3 s"
+    echo "into the job; the median): a listing that stays linear in the workers keeps the time per"
+    echo "worker flat."
+    echo
+    echo "| workers | run | workers listed | ms per request | µs per worker listed |"
+    echo "| ---: | --- | ---: | ---: | ---: |"
+    while read -r l; do
+      [[ -n $(field dash_ms_p50 "$l") ]] || continue
+      tag=$(field tag "$l")
+      [[ $tag == offered ]] && tag="offered $RATE/s" || tag="flat out"
+      printf '| %s | %s | %s | %.2f | %.2f |\n' "$(field workers "$l")" "$tag" \
+        "$(field dash_workers "$l")" "$(field dash_ms_p50 "$l")" "$(field dash_us_per_worker "$l")"
+    done <"$WORK/runs"
+  fi
 } >"$WORK/report.md"
 cat "$WORK/report.md"
 

@@ -82,8 +82,7 @@ static void fill_job(master_t *m, const mjob_t *j, double now, dash_job_t *o)
         o->has_rel_error = true;
         o->rel_error = last->rel_error;
     }
-    double secs = j->started > 0 ? (j->finished > 0 ? j->finished : now) - j->started : 0;
-    o->elapsed_s = secs > 0 ? secs : 0;
+    o->elapsed_s = job_elapsed(m, j, now);
     /* A new image on disk changes the version: the final outputs after the last preview. */
     if (j->outputs.final)
         o->preview_version = (uint64_t)(j->finished * 1000.0) + 2;
@@ -241,14 +240,6 @@ static int pv_tiles(void *user, uint64_t id, dash_tilemap_t *map, err_t *err)
     return 0;
 }
 
-static const mworker_t *worker_by_id(const master_t *m, uint64_t id)
-{
-    for (size_t i = 0; i < m->nworkers; i++)
-        if (m->workers[i]->id == id)
-            return m->workers[i];
-    return NULL;
-}
-
 static int pv_tasks(void *user, uint64_t id, dash_task_t *out, int max)
 {
     dash_view_t *v = user;
@@ -264,7 +255,7 @@ static int pv_tasks(void *user, uint64_t id, dash_task_t *out, int max)
     double now = clock_now_s();
     for (int i = 0; i < n; i++) {
         const sched_running_t *r = &v->running[i];
-        const mworker_t *w = worker_by_id(m, r->worker);
+        const mworker_t *w = peers_by_id(m, r->worker);
         double age = now - r->issued;
         out[i] = (dash_task_t){.task = r->task,
                                .photon = r->kind == SCHED_PHOTON,

@@ -1,5 +1,6 @@
 #include "jobs.h"
 
+#include "bisect.h"
 #include "clock.h"
 #include "files.h"
 #include "film.h"
@@ -28,17 +29,15 @@ static int jobs_reserve(master_t *m)
     return 0;
 }
 
+static uint64_t job_key(const void *jobs, size_t i)
+{
+    return ((mjob_t *const *)jobs)[i]->id;
+}
+
 mjob_t *jobs_find(const master_t *m, uint64_t id)
 {
-    size_t lo = 0, hi = m->njobs;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (m->jobs[mid]->id < id)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo < m->njobs && m->jobs[lo]->id == id ? m->jobs[lo] : NULL;
+    size_t i = bisect_lower(m->jobs, m->njobs, job_key, id);
+    return i < m->njobs && m->jobs[i]->id == id ? m->jobs[i] : NULL;
 }
 
 int jobs_append(master_t *m, mjob_t *j)
@@ -323,7 +322,7 @@ int jobs_apply_ops(master_t *m, const mjob_t *j, err_t *err)
     if (sched_set_job_owner(m->sched, j->id, j->owner, err) < 0 ||
         sched_set_job_priority(m->sched, j->id, j->ops.priority, err) < 0)
         return -1;
-    return j->ops.paused ? sched_pause_job(m->sched, j->id, true, err) : 0;
+    return j->ops.paused ? sched_pause_job(m->sched, j->id, true, clock_now_s(), err) : 0;
 }
 
 int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err)
@@ -520,7 +519,7 @@ static void job_refresh_one(master_t *m, mjob_t *j, double now)
                 snprintf(acc, sizeof acc, ", relative error %.4g", last->rel_error);
             const char *why = stopping_reason((stopping_why_t)j->accuracy.stop);
             master_log(m, "job %llu '%s' done in %.2f s at %d of %d spp%s%s%s%s: %s/jobs/%llu/%s.exr",
-                       (unsigned long long)j->id, j->name, j->finished - j->started, info.spp_done,
+                       (unsigned long long)j->id, j->name, job_elapsed(m, j, j->finished), info.spp_done,
                        j->scene.spp, acc, *why ? " (" : "", why, *why ? ")" : "",
                        spool_path(m->spool), (unsigned long long)j->id, j->stem);
         }
@@ -541,6 +540,7 @@ static void job_refresh_one(master_t *m, mjob_t *j, double now)
     j->sched.nonfinite = info.nonfinite;
     j->accuracy.spp_done = info.spp_done;
     persist_state(m, j, now);
+    j->ops.paused_s = sched_job_paused_s(m->sched, j->id, j->finished > 0 ? j->finished : now);
     err_t err;
     if (sched_remove_job(m->sched, j->id, &err) < 0)
         master_log(m, "job %llu: %s", (unsigned long long)j->id, err.msg);
@@ -568,6 +568,7 @@ void job_give_up_outputs(master_t *m, mjob_t *j, double now)
                (unsigned long long)j->id, j->name);
     release_photons(m, j);
     persist_state(m, j, now);
+    j->ops.paused_s = sched_job_paused_s(m->sched, j->id, j->finished > 0 ? j->finished : now);
     err_t err;
     if (sched_remove_job(m->sched, j->id, &err) < 0)
         master_log(m, "job %llu: %s", (unsigned long long)j->id, err.msg);
@@ -584,7 +585,7 @@ void jobs_enforce_time_limits(master_t *m, double now)
         mjob_t *j = m->jobs[i];
         sched_job_info_t info;
         if (!j->sched.known || !(j->settings.time_limit > 0) || j->started <= 0 ||
-            now - j->started < j->settings.time_limit ||
+            job_elapsed(m, j, now) < j->settings.time_limit ||
             sched_job_info(m->sched, j->id, &info) < 0 || info.state != JOB_RUNNING ||
             info.passes_done < 1)
             continue;

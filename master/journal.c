@@ -59,6 +59,10 @@ struct journal {
     size_t nsegs, capsegs;
     journal_stats_t stats;
     double t_begin; /* when the open transaction began */
+    /* Between journal_turn_begin and journal_turn_end the results go into one transaction,
+     * opened by the turn's first result (turn_open) and committed before any other write. */
+    bool in_turn, turn_open;
+    double t_turn; /* when the turn's transaction began */
 };
 
 static int db_error(journal_t *self, err_t *err, const char *what)
@@ -93,8 +97,32 @@ static int step_done(journal_t *self, sqlite3_stmt *st, const char *what, err_t 
     return out;
 }
 
+/* Commits the turn's results so far (journal_turn_begin): before any other write, so that every
+ * change but a result is still committed when its function returns, after the results that
+ * came before it. */
+static int turn_flush(journal_t *self, err_t *err)
+{
+    if (!self->turn_open)
+        return 0;
+    self->turn_open = false;
+    /* SQLite rolls a transaction back by itself on some errors (a full disk, an I/O error). */
+    if (sqlite3_get_autocommit(self->db))
+        return err_set(err, "journal %s: a write error rolled back the results since the turn "
+                            "began", self->path);
+    int rc = exec(self, "COMMIT", err);
+    self->stats.writes++;
+    self->stats.seconds += clock_now_s() - self->t_turn;
+    if (rc < 0) {
+        err_t ignore;
+        (void)exec(self, "ROLLBACK", &ignore);
+    }
+    return rc;
+}
+
 static int begin(journal_t *self, err_t *err)
 {
+    if (turn_flush(self, err) < 0)
+        return -1;
     self->t_begin = clock_now_s();
     return exec(self, "BEGIN IMMEDIATE", err);
 }
@@ -303,6 +331,8 @@ void journal_close(journal_t **self_p)
     if (!self_p || !*self_p)
         return;
     journal_t *self = *self_p;
+    err_t ignore;
+    (void)turn_flush(self, &ignore);
     for (size_t i = 0; i < self->nsegs; i++)
         (void)close(self->segs[i].fd);
     free(self->segs);
@@ -733,9 +763,27 @@ int journal_add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t t
                        int tile, int pass, const void *data, size_t size, err_t *err)
 {
     double t0 = clock_now_s();
+    if (self->in_turn && !self->turn_open) {
+        if (exec(self, "BEGIN IMMEDIATE", err) < 0)
+            return -1;
+        self->turn_open = true;
+        self->t_turn = t0;
+    }
     int rc = add_result(self, job, round, task, kind, tile, pass, data, size, err);
-    count_write(self, t0);
+    if (!self->turn_open)
+        count_write(self, t0); /* a turn's results count as its one commit */
     return rc;
+}
+
+void journal_turn_begin(journal_t *self)
+{
+    self->in_turn = true;
+}
+
+int journal_turn_end(journal_t *self, err_t *err)
+{
+    self->in_turn = false;
+    return turn_flush(self, err);
 }
 
 static int add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t task, int kind,
@@ -959,8 +1007,9 @@ int journal_set_checkpoint(journal_t *self, uint64_t job, uint32_t round, uint64
                            const int *next_pass, int ntiles, double elapsed, err_t *err)
 {
     /* This commit drops results the checkpoint holds: synced to disk before it returns (an fsync
-     * at most every few seconds), so that a power cut cannot bring them back without it. */
-    if (exec(self, "PRAGMA synchronous=FULL", err) < 0)
+     * at most every few seconds), so that a power cut cannot bring them back without it. (The
+     * turn's results first: the setting cannot change inside a transaction.) */
+    if (turn_flush(self, err) < 0 || exec(self, "PRAGMA synchronous=FULL", err) < 0)
         return -1;
     err_t ignore;
     if (begin(self, err) < 0) {

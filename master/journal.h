@@ -12,7 +12,10 @@
  *
  * Every change is one transaction, committed before the function returns (WAL, synchronous
  * NORMAL): a master killed at any moment (SIGKILL) loses nothing it journaled; a power cut may
- * lose the last few transactions, never the database's consistency. A result's bytes are written
+ * lose the last few transactions, never the database's consistency. The exception is results
+ * between journal_turn_begin and journal_turn_end (a turn of the master's loop): they share one
+ * transaction, committed at the turn's end or before any other change, so a killed master loses
+ * at most the results of the turn it died in -- tasks that are then rendered again. A result's bytes are written
  * before its row is committed, but not fsync'ed: after a power cut they may be missing, short or
  * other bytes (the CRC tells), and are then skipped (the task is rendered again). A segment is
  * appended to by one master only (a restarted one starts a new segment) and is closed at the
@@ -105,6 +108,12 @@ int journal_set_blocked(journal_t *self, const char *worker, const char *reason,
 typedef void (*journal_blocked_fn)(void *user, const char *worker, const char *reason);
 /* Each blocked worker, by name. */
 int journal_blocked(journal_t *self, journal_blocked_fn fn, void *user, err_t *err);
+
+/* One transaction for the results journaled until journal_turn_end (journal.h, above), instead
+ * of a commit each: a loop turn that reads many results commits them once. journal_turn_end
+ * returns -1 with err when that commit fails (the turn's results are then not journaled). */
+void journal_turn_begin(journal_t *self);
+int journal_turn_end(journal_t *self, err_t *err);
 
 /* What the journal's writes cost (for /metrics): transactions and results written, and the
  * seconds they took, since journal_open. */

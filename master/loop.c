@@ -18,6 +18,7 @@
 #include "on_worker.h"
 #include "ops.h"
 #include "peers.h"
+#include "persist.h"
 #include "resume.h"
 #include "zap.h"
 
@@ -108,6 +109,7 @@ static void housekeeping(master_t *m, double now, double busy)
     peers_agree_with_sched(m);
     jobs_enforce_time_limits(m, now);
     jobs_retry_outputs(m, now);
+    persist_checkpoints_collect(m, now);
     peers_heartbeat(m, now);
     ops_turn(m);
 }
@@ -334,6 +336,8 @@ int master_run(const master_opts_t *opts, err_t *err)
             timeout = dash_view_timeout_ms(m->dash, timeout);
         int n = zmq_poll(items, nitems, timeout > 0 ? timeout : 0);
         double polled = clock_now_s();
+        if (m->journal)
+            journal_turn_begin(m->journal);
         if (n < 0 && zmq_errno() != EINTR) {
             rc = err_set(err, "master: zmq_poll: %s", zmq_strerror(zmq_errno()));
             break;
@@ -359,6 +363,10 @@ int master_run(const master_opts_t *opts, err_t *err)
         dispatch_tasks(m, now);
         peers_prune_lost(m);
         until_waiter = on_client_answer_waiters(m, now);
+        err_t jerr;
+        if (m->journal && journal_turn_end(m->journal, &jerr) < 0)
+            master_log(m, "journal: the results of a loop turn were not journaled (they are "
+                          "rendered again after a restart): %s", jerr.msg);
     }
     if (rc == 0)
         master_log(m, "stopping");
@@ -376,6 +384,12 @@ out:
         (void)zmq_ctx_term(ctx);
     /* Waits for a scene still loading, and drops the submissions not finished. */
     loader_destroy(&m->loader, on_client_submission_drop);
+    /* A checkpoint written meanwhile is journaled; one still being written is waited for and
+     * dropped (the journal names the previous one). */
+    if (m->journal)
+        persist_checkpoints_collect(m, clock_now_s());
+    for (size_t i = 0; i < m->njobs; i++)
+        persist_checkpoint_drop(m, m->jobs[i]);
     free(m->loading);
     sched_destroy(&m->sched);
     tasklog_destroy(&m->tasklog);

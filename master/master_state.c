@@ -23,6 +23,16 @@ void master_log(const master_t *m, const char *fmt, ...)
         fprintf(stderr, "master: %s\n", line);
 }
 
+double job_elapsed(const master_t *m, const mjob_t *j, double now)
+{
+    if (j->started <= 0)
+        return 0;
+    double end = j->finished > 0 ? j->finished : now;
+    double paused = j->sched.known ? sched_job_paused_s(m->sched, j->id, end) : j->ops.paused_s;
+    double s = end - j->started - paused;
+    return s > 0 ? s : 0;
+}
+
 char *master_strdup(const char *s)
 {
     size_t n = strlen(s) + 1;

@@ -2,8 +2,8 @@
  * that make the daemon (cli/ and tests/ use master.h). One thread owns it all: master_run's loop
  * (loop.c) hands each message to a handler (on_worker.c, on_client.c) and each turn's clock
  * work to peers.c, jobs.c and dispatch.c, and they change it in place; nothing here is locked
- * or copied. The helpers below are the few every file needs: a job's end, the log, a string
- * copy, a REFUSE. */
+ * or copied. The helpers below are the few every file needs: a job's end and its running time,
+ * the log, a string copy, a REFUSE. */
 #ifndef PRISMFARM_MASTER_STATE_H
 #define PRISMFARM_MASTER_STATE_H
 
@@ -126,12 +126,14 @@ typedef struct mjob {
         size_t bytes;
         uint64_t checkpoint_samples; /* samples merged at the last checkpoint */
         double last_checkpoint;      /* when it was written (monotonic seconds; 0: none yet) */
+        struct checkpoint_writer *writer; /* the checkpoint being written off the loop (persist.c) */
     } journal;
     /* Operations (ops.h): its priority and whether it is paused; the scheduler holds the same
      * (and the owner, for fair share) while it knows the job. */
     struct {
         int priority;
         bool paused;
+        double paused_s; /* its time paused while running, kept when the scheduler forgets it */
     } ops;
     /* Frame sequences (docs/farm.md, "Frame sequences"). A sequence job (nframes > 0) is never
      * in the scheduler: its frames are, each a job of its own with the ids after the
@@ -193,6 +195,11 @@ static inline bool job_over(const mjob_t *j)
 {
     return j->state == JOB_DONE || j->state == JOB_FAILED || j->state == JOB_CANCELLED;
 }
+
+/* The seconds the job has run, from its start to its end (or now) less the time it was paused
+ * while running (sched_job_paused_s): what its time limit and pass records count, and what the
+ * journal keeps for a restarted master. */
+double job_elapsed(const master_t *m, const mjob_t *j, double now);
 
 /* A line "master: ..." on stderr when opts->verbose. */
 __attribute__((format(printf, 2, 3))) void master_log(const master_t *m, const char *fmt, ...);

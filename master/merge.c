@@ -20,7 +20,7 @@ static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
     sched_job_info_t info;
     while ((rc & SCHED_PASS_DONE) && sched_job_info(m->sched, j->id, &info) == 0) {
         error_estimate_t e = error_estimate_image(sched_job_image(m->sched, j->id));
-        double elapsed = j->started > 0 && now > j->started ? now - j->started : 0;
+        double elapsed = job_elapsed(m, j, now);
         /* A restarted master merging the journal's results again meets passes it recorded. */
         bool known = j->accuracy.nhistory > 0 &&
                      j->accuracy.history[j->accuracy.nhistory - 1].pass >= info.passes_done;

@@ -65,8 +65,7 @@ static proto_job_info_t job_wire_info(const master_t *m, const mjob_t *j, double
         o.rel_error = last->rel_error;
     }
     o.stop = j->accuracy.stop;
-    double secs = j->started > 0 ? (j->finished > 0 ? j->finished : now) - j->started : 0;
-    o.elapsed = secs > 0 ? secs : 0;
+    o.elapsed = job_elapsed(m, j, now);
     if (j->state == JOB_FAILED)
         o.error = j->error ? j->error : "failed";
     else if (j->outputs.waiting)
@@ -367,9 +366,9 @@ static void sequence_finish(master_t *m, submission_t *s, const char *who, doubl
         }
     }
     if (rc == 0) {
-        recs[0] = persist_record(seq, now);
+        recs[0] = persist_record(m, seq, now);
         for (size_t k = 0; k < n; k++)
-            recs[k + 1] = persist_record(jobs_find(m, id + 1 + k), now);
+            recs[k + 1] = persist_record(m, jobs_find(m, id + 1 + k), now);
         if (m->journal && journal_add_jobs(m->journal, recs, n + 1, &err) < 0) {
             err_prefix(&err, "the master cannot journal the job: ");
             rc = -1;
@@ -434,7 +433,7 @@ static void submission_finish(master_t *m, submission_t *s, double now)
     j->submitted = now;
     /* Journaled before it is acknowledged: a job the client was told about survives a
      * restart. */
-    journal_job_t rec = persist_record(j, now);
+    journal_job_t rec = persist_record(m, j, now);
     if (m->journal && journal_add_job(m->journal, &rec, &err) < 0) {
         master_log(m, "submission '%s' from %s refused: %s", s->name, who, err.msg);
         job_unschedule(m, j);
@@ -757,7 +756,7 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
     j->journal.checkpoint = 0;
     j->journal.bytes = 0;
     j->journal.checkpoint_samples = 0;
-    journal_job_t rec = persist_record(j, now);
+    journal_job_t rec = persist_record(m, j, now);
     if (m->journal && journal_set_round(m->journal, &rec, &err) < 0)
         persist_failed(m, j, &err);
     photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);

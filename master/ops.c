@@ -38,14 +38,6 @@ bool ops_may_act(const master_t *m, const mjob_t *j, const master_actor_t *who, 
     return false;
 }
 
-static mworker_t *worker_by_id(const master_t *m, uint64_t id)
-{
-    for (size_t i = 0; i < m->nworkers; i++)
-        if (m->workers[i]->id == id)
-            return m->workers[i];
-    return NULL;
-}
-
 /* "task 17 (pass 0, tile 17)", "task 2147483650 (photon batch 2)". */
 static const char *task_str(const mjob_t *j, uint32_t task, char *buf, size_t size)
 {
@@ -153,7 +145,7 @@ static int set_paused(master_t *m, uint64_t id, bool paused, const master_actor_
     if (j->ops.paused == paused)
         return err_set(err, "job %llu is %s already", (unsigned long long)id,
                        paused ? "paused" : "not paused");
-    if (sched_pause_job(m->sched, id, paused, err) < 0)
+    if (sched_pause_job(m->sched, id, paused, clock_now_s(), err) < 0)
         return -1;
     j->ops.paused = paused;
     journal_control(m, j);
@@ -270,7 +262,7 @@ static const char *worker_name_of(const master_t *m, const char *worker)
     errno = 0;
     unsigned long long id = strtoull(worker, &end, 10);
     if (!errno && end != worker && !*end && worker[0] != '-') {
-        const mworker_t *w = worker_by_id(m, id);
+        const mworker_t *w = peers_by_id(m, id);
         if (w && w->name)
             return w->name;
     }
@@ -350,7 +342,7 @@ void ops_job_init(mjob_t *j, int priority)
 static void log_event(master_t *m, const sched_event_t *ev)
 {
     mjob_t *j = jobs_find(m, ev->job);
-    const mworker_t *w = worker_by_id(m, ev->worker);
+    const mworker_t *w = peers_by_id(m, ev->worker);
     const char *wname = w && w->name ? w->name : "?";
     unsigned long long wid = (unsigned long long)ev->worker;
     char t[80];

@@ -1,5 +1,7 @@
 #include "peers.h"
 
+#include "bisect.h"
+
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -47,6 +49,16 @@ void peers_free(mworker_t *w)
     }
 }
 
+static int by_sched_id(const void *a, const void *b)
+{
+    uint64_t x = ((const sched_worker_info_t *)a)->id, y = ((const sched_worker_info_t *)b)->id;
+    return (x > y) - (x < y);
+}
+
+/* Sorted by id, so that each lookup is a binary search: the listings (WORKERS, the dashboard,
+ * /metrics) and every loop turn's peers_agree_with_sched look up each worker in the table, and
+ * a linear search made them quadratic in the workers. The scheduler lists them in the order they
+ * joined, already sorted when ids are handed out in order: then checking costs one pass. */
 size_t peers_sched_table(master_t *m)
 {
     size_t n = sched_workers(m->sched, m->winfo, m->cap_winfo);
@@ -58,15 +70,36 @@ size_t peers_sched_table(master_t *m)
         m->cap_winfo = n;
         n = sched_workers(m->sched, m->winfo, m->cap_winfo);
     }
+    for (size_t i = 1; i < n; i++)
+        if (m->winfo[i - 1].id > m->winfo[i].id) {
+            qsort(m->winfo, n, sizeof *m->winfo, by_sched_id);
+            break;
+        }
     return n;
+}
+
+static uint64_t winfo_key(const void *winfo, size_t i)
+{
+    return ((const sched_worker_info_t *)winfo)[i].id;
 }
 
 const sched_worker_info_t *peers_sched_info(master_t *m, size_t n, uint64_t id)
 {
-    for (size_t i = 0; i < n; i++)
-        if (m->winfo[i].id == id)
-            return &m->winfo[i];
-    return NULL;
+    size_t i = bisect_lower(m->winfo, n, winfo_key, id);
+    return i < n && m->winfo[i].id == id ? &m->winfo[i] : NULL;
+}
+
+/* m->workers is in id order: peers_add appends the next id and peers_prune_lost keeps the
+ * order. */
+static uint64_t worker_key(const void *workers, size_t i)
+{
+    return ((mworker_t *const *)workers)[i]->id;
+}
+
+mworker_t *peers_by_id(const master_t *m, uint64_t id)
+{
+    size_t i = bisect_lower(m->workers, m->nworkers, worker_key, id);
+    return i < m->nworkers && m->workers[i]->id == id ? m->workers[i] : NULL;
 }
 
 /* Forgets the lost worker seen longest ago once more than MAX_LOST_WORKERS are listed, so that

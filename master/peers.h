@@ -14,9 +14,13 @@ mworker_t *peers_find(const master_t *m, const proto_peer_t *p);
 mworker_t *peers_add(master_t *m, const proto_peer_t *from);
 void peers_free(mworker_t *w);
 
-/* The scheduler's view of every worker, in m->winfo; returns the count. */
+/* The worker of this id, alive or lost (O(log n): m->workers is in id order); NULL if none. */
+mworker_t *peers_by_id(const master_t *m, uint64_t id);
+
+/* The scheduler's view of every worker, in m->winfo sorted by id; returns the count. */
 size_t peers_sched_table(master_t *m);
-/* The entry for worker id among the n of m->winfo; NULL if none. */
+/* The entry for worker id among the n of m->winfo (a binary search, so that a listing of every
+ * worker is n log n); NULL if none. */
 const sched_worker_info_t *peers_sched_info(master_t *m, size_t n, uint64_t id);
 
 /* The worker is gone (why, for the log): its tasks go back to the queue. Nothing for a worker

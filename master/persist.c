@@ -3,13 +3,15 @@
 #include "files.h"
 
 #include <dirent.h>
+#include <pthread.h>
+#include <stdatomic.h>
 #include <limits.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
 
-journal_job_t persist_record(const mjob_t *j, double now)
+journal_job_t persist_record(const master_t *m, const mjob_t *j, double now)
 {
     journal_job_t r = {.id = j->id,
                        .name = j->name,
@@ -36,8 +38,7 @@ journal_job_t persist_record(const mjob_t *j, double now)
                        .frame = j->seq.frame,
                        .nframes = j->seq.nframes};
     snprintf(r.owner, sizeof r.owner, "%s", j->owner);
-    double end = j->finished > 0 ? j->finished : now;
-    r.elapsed = j->started > 0 && end > j->started ? end - j->started : 0;
+    r.elapsed = job_elapsed(m, j, now);
     return r;
 }
 
@@ -89,11 +90,13 @@ void persist_state(master_t *m, mjob_t *j, double now)
     if (!m->journal)
         return;
     err_t err;
-    journal_job_t r = persist_record(j, now);
+    journal_job_t r = persist_record(m, j, now);
     if (journal_set_state(m->journal, &r, &err) < 0) {
         persist_failed(m, j, &err);
         return;
     }
+    if (job_over(j))
+        persist_checkpoint_drop(m, j);
     if (job_over(j) && j->journal.checkpoint > 0) {
         /* This one and the previous (a leftover is removed at the next start: resume_jobs). */
         persist_remove_stale_checkpoints(m, j->id, 0);
@@ -101,18 +104,108 @@ void persist_state(master_t *m, mjob_t *j, double now)
     }
 }
 
+/* A checkpoint written off the loop: a copy of the image and its pass table taken on the loop,
+ * the file written (packed, hashed, fsync'ed, renamed: seconds for a large image on a loaded
+ * machine) by a thread of its own, and journaled on the loop once the thread is done, with the
+ * pass table of the copy, so that exactly the results it holds leave the journal. Meanwhile the
+ * loop reads messages and merges results (issue 17: a checkpoint written in the loop held
+ * every message for its time: the p99 of the task latency). The copy costs an image of memory
+ * while the file is written. */
+struct checkpoint_writer {
+    pthread_t thread;
+    atomic_bool done;
+    char path[PATH_MAX + 64];
+    uint32_t round;
+    tilebuf_t *image;
+    int *next, ntiles;
+    uint64_t gen, samples;
+    size_t bytes; /* j->journal.bytes when the copy was taken */
+    double elapsed;
+    int rc;
+    err_t err;
+};
+
+static void *checkpoint_thread(void *arg)
+{
+    struct checkpoint_writer *w = arg;
+    w->rc = journal_write_checkpoint(w->path, w->round, w->image, w->next, w->ntiles, &w->err);
+    atomic_store(&w->done, true);
+    return NULL;
+}
+
+static void writer_free(struct checkpoint_writer *w)
+{
+    tilebuf_destroy(&w->image);
+    free(w->next);
+    free(w);
+}
+
+/* The file written: journaled (the previous generation kept until this one is durable and
+ * beyond), or on failure removed and logged. */
+static void checkpoint_written(master_t *m, mjob_t *j, struct checkpoint_writer *w, double now)
+{
+    err_t err;
+    if (w->rc == 0 &&
+        journal_set_checkpoint(m->journal, j->id, w->round, w->gen, w->next, w->ntiles,
+                               w->elapsed, &err) == 0) {
+        /* A journal that loses its last commits (a WAL cut short by a power cut) still names
+         * the previous generation, or the new one is damaged (issue 16): resume.c takes the
+         * newest that checks out. */
+        remove_checkpoints_but(m, j->id, w->gen, j->journal.checkpoint);
+        j->journal.checkpoint = w->gen;
+        j->journal.bytes = j->journal.bytes > w->bytes ? j->journal.bytes - w->bytes : 0;
+        j->journal.checkpoint_samples = w->samples;
+        j->journal.last_checkpoint = now;
+        return;
+    }
+    (void)unlink(w->path);
+    persist_failed(m, j, w->rc < 0 ? &w->err : &err);
+    j->journal.bytes = 0; /* try again after as many bytes, not after every result */
+    j->journal.last_checkpoint = now;
+}
+
+void persist_checkpoints_collect(master_t *m, double now)
+{
+    for (size_t i = 0; i < m->njobs; i++) {
+        mjob_t *j = m->jobs[i];
+        struct checkpoint_writer *w = j->journal.writer;
+        if (!w || !atomic_load(&w->done))
+            continue;
+        pthread_join(w->thread, NULL);
+        j->journal.writer = NULL;
+        /* A round the job left meanwhile (a refinement) or a job that ended: not its state. */
+        if (j->sched.known && w->round == j->sched.round && !job_over(j))
+            checkpoint_written(m, j, w, now);
+        else
+            (void)unlink(w->path);
+        writer_free(w);
+    }
+}
+
+void persist_checkpoint_drop(master_t *m, mjob_t *j)
+{
+    (void)m;
+    struct checkpoint_writer *w = j->journal.writer;
+    if (!w)
+        return;
+    pthread_join(w->thread, NULL);
+    (void)unlink(w->path); /* never journaled: the journal names the previous generation */
+    j->journal.writer = NULL;
+    writer_free(w);
+}
+
 /* Once the results journaled since the last checkpoint outgrow the image, the merged image is
  * written as a new checkpoint and the results in it leave the journal. Not more often than
- * every CHECKPOINT_INTERVAL_S unless they outgrow it fourfold: a large image's checkpoint takes
- * the master's loop a while (315 MB at 1920x1080 with 16 buckets), and early passes are short.
- * So the spool holds at most about five images' worth per running job, and a restart replays
- * at most four. */
+ * every CHECKPOINT_INTERVAL_S unless they outgrow it fourfold: early passes are short, and a
+ * large image's checkpoint is a while of a thread and a copy of the image (315 MB at 1920x1080
+ * with 16 buckets). So the spool holds at most about five images' worth per running job, and a
+ * restart replays at most four. */
 #define CHECKPOINT_INTERVAL_S 10.0
 void persist_maybe_checkpoint(master_t *m, mjob_t *j, double now)
 {
     sched_job_info_t info;
-    if (!m->journal || sched_job_info(m->sched, j->id, &info) < 0 || info.state != JOB_RUNNING ||
-        info.samples_done == j->journal.checkpoint_samples)
+    if (!m->journal || j->journal.writer || sched_job_info(m->sched, j->id, &info) < 0 ||
+        info.state != JOB_RUNNING || info.samples_done == j->journal.checkpoint_samples)
         return;
     size_t image_bytes =
         (size_t)j->scene.xres * (size_t)j->scene.yres * ((size_t)j->scene.grid.n + 3) * 8;
@@ -121,35 +214,42 @@ void persist_maybe_checkpoint(master_t *m, mjob_t *j, double now)
          now - j->journal.last_checkpoint < CHECKPOINT_INTERVAL_S))
         return;
     err_t err;
-    int *next = malloc((size_t)info.ntiles * sizeof *next);
-    char path[PATH_MAX + 64];
-    uint64_t gen = j->journal.checkpoint + 1;
-    persist_checkpoint_path(m, j->id, gen, path, sizeof path);
-    journal_job_t r = persist_record(j, now);
-    if (!next) {
-        err_set(&err, "out of memory for a checkpoint");
-    } else if (sched_job_next_pass(m->sched, j->id, next, info.ntiles) < 0) {
-        err_set(&err, "the scheduler has no pass table for the job");
-    } else if (journal_write_checkpoint(path, j->sched.round, sched_job_image(m->sched, j->id),
-                                        next, info.ntiles, &err) == 0 &&
-               journal_set_checkpoint(m->journal, j->id, j->sched.round, gen, next, info.ntiles,
-                                      r.elapsed, &err) == 0) {
-        /* The previous generation stays until this one's row is durable and beyond: a journal
-         * that loses its last commits (a WAL cut short by a power cut) still names it, or the
-         * new one is damaged (issue 16). resume.c takes the newest that checks out. */
-        remove_checkpoints_but(m, j->id, gen, j->journal.checkpoint);
-        j->journal.checkpoint = gen;
-        j->journal.bytes = 0;
-        j->journal.checkpoint_samples = info.samples_done;
-        j->journal.last_checkpoint = now;
-        free(next);
-        return;
-    } else {
-        (void)unlink(path);
+    struct checkpoint_writer *w = calloc(1, sizeof *w);
+    const tilebuf_t *img = sched_job_image(m->sched, j->id);
+    if (w) {
+        w->round = j->sched.round;
+        w->ntiles = info.ntiles;
+        w->gen = j->journal.checkpoint + 1;
+        w->samples = info.samples_done;
+        w->bytes = j->journal.bytes;
+        w->elapsed = persist_record(m, j, now).elapsed;
+        persist_checkpoint_path(m, j->id, w->gen, w->path, sizeof w->path);
+        w->next = malloc((size_t)info.ntiles * sizeof *w->next);
     }
-    free(next);
+    if (!w || !w->next || !img) {
+        err_set(&err, "out of memory for a checkpoint");
+    } else if (sched_job_next_pass(m->sched, j->id, w->next, info.ntiles) < 0) {
+        err_set(&err, "the scheduler has no pass table for the job");
+    } else if ((w->image = tilebuf_new_from(
+                    tilebuf_x0(img), tilebuf_y0(img), tilebuf_width(img), tilebuf_height(img),
+                    tilebuf_nbuckets(img), tilebuf_sums(img), tilebuf_xyz_sums(img),
+                    tilebuf_counts(img), tilebuf_luminance_sums(img),
+                    tilebuf_luminance_sq_sums(img), tilebuf_nonfinite(img), &err))) {
+        atomic_init(&w->done, false);
+        if (pthread_create(&w->thread, NULL, checkpoint_thread, w) == 0) {
+            j->journal.writer = w;
+            return;
+        }
+        /* No thread: written here, as before. */
+        checkpoint_thread(w);
+        checkpoint_written(m, j, w, now);
+        writer_free(w);
+        return;
+    }
+    if (w)
+        writer_free(w);
     persist_failed(m, j, &err);
-    j->journal.bytes = 0; /* try again after as many bytes, not after every result */
+    j->journal.bytes = 0;
     j->journal.last_checkpoint = now;
 }
 

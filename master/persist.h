@@ -9,8 +9,9 @@
 
 #include "master_state.h"
 
-/* The job as journal.h keeps it; the strings point into j. */
-journal_job_t persist_record(const mjob_t *j, double now);
+/* The job as journal.h keeps it (its elapsed time is job_elapsed's: pauses not counted); the
+ * strings point into j. */
+journal_job_t persist_record(const master_t *m, const mjob_t *j, double now);
 
 /* jobs/<job>/checkpoint-<gen>.bin of the spool, in buf. */
 void persist_checkpoint_path(const master_t *m, uint64_t job, uint64_t gen, char *buf, size_t size);
@@ -24,8 +25,14 @@ void persist_failed(const master_t *m, const mjob_t *j, const err_t *err);
 void persist_state(master_t *m, mjob_t *j, double now);
 
 /* A new checkpoint of a running job once the results journaled since the last one outgrow
- * its image (and not too often); nothing otherwise. */
+ * its image (and not too often); nothing otherwise, nor while one is being written. The file is
+ * written by a thread from a copy of the image; persist_checkpoints_collect journals it. */
 void persist_maybe_checkpoint(master_t *m, mjob_t *j, double now);
+/* Journals the checkpoints whose files are written (each turn of the loop). */
+void persist_checkpoints_collect(master_t *m, double now);
+/* Waits for the job's checkpoint being written, if any, and forgets it (its file removed): the
+ * job ended, or the master stops. */
+void persist_checkpoint_drop(master_t *m, mjob_t *j);
 
 /* The merged photon store on disk as jobs/<id>/photons.store (atomically), and in the journal
  * when there is one (jobs.c's job_restore_photons reads it back). */

@@ -1,7 +1,9 @@
 #include "sched.h"
 
+#include "bisect.h"
 #include "tilegrid.h"
 
+#include <float.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -50,6 +52,9 @@ typedef struct job {
     /* Operations (sched.h, "Priorities, fair share, pause"). */
     int priority;
     bool paused;
+    /* Its time paused while running (sched_job_paused_s): the pauses that ended, and when the
+     * current one began (the caller's clock). */
+    double paused_s, paused_at;
     uint32_t owner; /* index into sched.owners; its share is the sum of running over its jobs */
 } job_t;
 
@@ -79,6 +84,15 @@ struct sched {
     size_t njobs, cap_jobs;
     worker_t *workers;
     size_t nworkers, cap_workers;
+    /* The live workers' idle threads (idle_of summed), kept as busy, threads and alive change:
+     * prefetch_allowed asks it for every worker at every dispatch, and summing it there made a
+     * turn of the loop quadratic in the workers. */
+    uint64_t idle_threads;
+    /* No running task's deadline is before this (the least issued since sched_tick last looked;
+     * a task's deadline is set only when it is issued): a tick before it has no task to look at,
+     * where scanning every task of every running job each turn of the master's loop cost it
+     * the whole job's task table per turn. 0: look at the next tick. */
+    double next_deadline;
     owner_t *owners; /* owners[0] is "" (no keys); never shrinks: one per key that submitted */
     size_t nowners, cap_owners;
     sched_event_t *events; /* since the last sched_events_take, oldest first */
@@ -163,12 +177,23 @@ static job_t *find_job(const sched_t *self, uint64_t id)
     return NULL;
 }
 
+/* The first worker of id >= id in the table, which sched_worker_join keeps in id order: every
+ * result, task and sign of life looks its worker up, and a linear search made a round of the
+ * farm's workers quadratic in them. */
+static uint64_t worker_key(const void *workers, size_t i)
+{
+    return ((const worker_t *)workers)[i].id;
+}
+
+static size_t worker_slot(const sched_t *self, uint64_t id)
+{
+    return bisect_lower(self->workers, self->nworkers, worker_key, id);
+}
+
 static worker_t *find_worker(const sched_t *self, uint64_t id)
 {
-    for (size_t i = 0; i < self->nworkers; i++)
-        if (self->workers[i].id == id)
-            return &self->workers[i];
-    return NULL;
+    size_t i = worker_slot(self, id);
+    return i < self->nworkers && self->workers[i].id == id ? &self->workers[i] : NULL;
 }
 
 /* Records what the caller should log (sched_events_take); beyond MAX_EVENTS undrained, only
@@ -270,13 +295,22 @@ int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spect
     return 0;
 }
 
+/* A worker's threads that run nothing (0 for a lost worker). */
+static uint32_t idle_of(const worker_t *w)
+{
+    return w->alive && w->busy < w->threads ? (uint32_t)(w->threads - w->busy) : 0;
+}
+
 static void release_task(sched_t *self, job_t *j, task_t *t)
 {
     if (t->state != TASK_RUNNING)
         return;
     worker_t *w = find_worker(self, t->owner);
-    if (w && w->busy > 0)
+    if (w && w->busy > 0) {
+        self->idle_threads -= idle_of(w);
         w->busy--;
+        self->idle_threads += idle_of(w);
+    }
     j->running--;
     t->state = TASK_PENDING;
     t->owner = 0;
@@ -476,7 +510,11 @@ int sched_worker_join(sched_t *self, uint64_t id, int slots, double now, err_t *
             self->workers = p;
             self->cap_workers = cap;
         }
-        w = &self->workers[self->nworkers++];
+        size_t at = worker_slot(self, id);
+        memmove(&self->workers[at + 1], &self->workers[at],
+                (self->nworkers - at) * sizeof *self->workers);
+        self->nworkers++;
+        w = &self->workers[at];
         *w = (worker_t){.id = id};
     } else {
         /* A worker that joins again has lost whatever it was doing. */
@@ -487,6 +525,7 @@ int sched_worker_join(sched_t *self, uint64_t id, int slots, double now, err_t *
     w->busy = 0;
     w->alive = true;
     w->last_seen = now;
+    self->idle_threads += idle_of(w); /* it was lost or new: it counted 0 */
     return 0;
 }
 
@@ -498,7 +537,9 @@ int sched_worker_set_threads(sched_t *self, uint64_t id, int threads, err_t *err
     if (threads < 1 || threads > w->slots)
         return err_set(err, "worker %llu: %d threads for %d slots", (unsigned long long)id,
                        threads, w->slots);
+    self->idle_threads -= idle_of(w);
     w->threads = threads;
+    self->idle_threads += idle_of(w);
     return 0;
 }
 
@@ -528,6 +569,7 @@ void sched_worker_leave(sched_t *self, uint64_t id)
                      j->ptasks[b].attempt, id);
             }
     }
+    self->idle_threads -= idle_of(w);
     w->alive = false;
     w->busy = 0;
 }
@@ -572,29 +614,32 @@ static void issue(sched_t *self, worker_t *w, job_t *j, task_t *t, double now)
     t->attempt++;
     t->avoid = 0;
     t->deadline = now + self->cfg.task_deadline_s;
+    if (t->deadline < self->next_deadline)
+        self->next_deadline = t->deadline;
+    self->idle_threads -= idle_of(w);
     w->busy++;
+    self->idle_threads += idle_of(w);
     j->state = JOB_RUNNING;
 }
 
 /* Up to limit + 1 tasks the worker could be given now (photon batches of a job in its photon
- * phase, else camera tasks), counted in the order sched_next_task hands them out. */
+ * phase, else camera tasks), counted without a scan: a task is pending, running or done, so a
+ * phase's pending tasks are its total less those done and those running (in a job's photon
+ * phase only batches run, in its camera phase only camera tasks). A scan from first_pending
+ * passed every task the other workers hold, for every worker at every dispatch. */
 static uint32_t count_issuable(const sched_t *self, uint64_t worker, uint32_t limit)
 {
-    uint32_t n = 0;
+    uint64_t n = 0;
     for (size_t k = 0; k < self->njobs && n <= limit; k++) {
         const job_t *j = self->jobs[k];
         if (!takes_tasks(self, j, worker))
             continue;
-        if (j->photon_done < j->nphoton) {
-            for (uint32_t b = j->first_pending_photon; b < j->nphoton && n <= limit; b++)
-                n += j->ptasks[b].state == TASK_PENDING;
-            continue;
-        }
-        uint32_t total = ncamera(j);
-        for (uint32_t i = j->first_pending; i < total && n <= limit; i++)
-            n += j->tasks[i].state == TASK_PENDING;
+        if (j->photon_done < j->nphoton)
+            n += j->nphoton - j->photon_done - j->running;
+        else
+            n += ncamera(j) - (j->tasks_done - j->photon_done) - j->running;
     }
-    return n;
+    return n > limit ? limit + 1 : (uint32_t)n;
 }
 
 /* A task beyond the worker's threads (a prefetch) only while there are more tasks to give than
@@ -602,12 +647,8 @@ static uint32_t count_issuable(const sched_t *self, uint64_t worker, uint32_t li
  * would otherwise idle, not into one worker's queue (docs/performance.md, "Scaling"). */
 static bool prefetch_allowed(const sched_t *self, const worker_t *w)
 {
-    uint32_t idle = 0;
-    for (size_t i = 0; i < self->nworkers; i++) {
-        const worker_t *o = &self->workers[i];
-        if (o != w && o->alive && o->busy < o->threads)
-            idle += (uint32_t)(o->threads - o->busy);
-    }
+    uint64_t others = self->idle_threads - idle_of(w);
+    uint32_t idle = others < UINT32_MAX ? (uint32_t)others : UINT32_MAX - 1;
     return count_issuable(self, w->id, idle) > idle;
 }
 
@@ -970,6 +1011,9 @@ int sched_tick(sched_t *self, double now)
             sched_worker_leave(self, w->id);
         }
     }
+    if (now <= self->next_deadline)
+        return requeued;
+    double next = DBL_MAX;
     for (size_t k = 0; k < self->njobs; k++) {
         job_t *j = self->jobs[k];
         if (j->state != JOB_RUNNING)
@@ -981,6 +1025,8 @@ int sched_tick(sched_t *self, double now)
                      j->tasks[i].owner);
                 requeue(self, j, i);
                 requeued++;
+            } else if (j->tasks[i].state == TASK_RUNNING && j->tasks[i].deadline < next) {
+                next = j->tasks[i].deadline;
             }
         for (uint32_t b = 0; b < j->nphoton; b++)
             if (j->ptasks[b].state == TASK_RUNNING && j->ptasks[b].deadline < now) {
@@ -989,8 +1035,11 @@ int sched_tick(sched_t *self, double now)
                      j->ptasks[b].attempt, j->ptasks[b].owner);
                 requeue(self, j, SCHED_PHOTON_TASK | b);
                 requeued++;
+            } else if (j->ptasks[b].state == TASK_RUNNING && j->ptasks[b].deadline < next) {
+                next = j->ptasks[b].deadline;
             }
     }
+    self->next_deadline = next;
     return requeued;
 }
 
@@ -1114,7 +1163,7 @@ int sched_set_job_owner(sched_t *self, uint64_t id, const char *owner, err_t *er
     return 0;
 }
 
-int sched_pause_job(sched_t *self, uint64_t id, bool paused, err_t *err)
+int sched_pause_job(sched_t *self, uint64_t id, bool paused, double now, err_t *err)
 {
     job_t *j = find_job(self, id);
     if (!j)
@@ -1123,8 +1172,27 @@ int sched_pause_job(sched_t *self, uint64_t id, bool paused, err_t *err)
         return err_set(err, "job %llu is %s: only a queued or running job can be %s",
                        (unsigned long long)id, job_state_name(j->state),
                        paused ? "paused" : "resumed");
+    if (paused && !j->paused)
+        j->paused_at = now;
+    else if (!paused && j->paused && j->state == JOB_RUNNING && now > j->paused_at)
+        j->paused_s += now - j->paused_at;
     j->paused = paused;
     return 0;
+}
+
+/* A pause counts from when it began while the job runs at its end (or now): a job paused while
+ * queued cannot start before it is resumed, so its pause ends before its time does; one the
+ * master paused when it restored it from the journal (queued, then running at once) counts from
+ * that pause, after the time the journal gave it. */
+double sched_job_paused_s(const sched_t *self, uint64_t id, double now)
+{
+    const job_t *j = find_job(self, id);
+    if (!j)
+        return 0;
+    double s = j->paused_s;
+    if (j->paused && j->state == JOB_RUNNING && now > j->paused_at)
+        s += now - j->paused_at;
+    return s;
 }
 
 int sched_requeue_task(sched_t *self, uint64_t id, uint32_t task, err_t *err)

@@ -226,8 +226,11 @@ int sched_set_job_priority(sched_t *self, uint64_t job, int priority, err_t *err
 /* Who the job belongs to for fair share (a key's name; "" without keys). */
 int sched_set_job_owner(sched_t *self, uint64_t job, const char *owner, err_t *err);
 /* A paused job gives no task; the running ones finish and are merged. Only a queued or running
- * job. */
-int sched_pause_job(sched_t *self, uint64_t job, bool paused, err_t *err);
+ * job. now (the caller's clock) starts or ends the pause's time (sched_job_paused_s). */
+int sched_pause_job(sched_t *self, uint64_t job, bool paused, double now, err_t *err);
+/* The seconds the job has been paused while running, up to now: what its time limit must not
+ * count (a paused job's clock stops: docs/farm.md, "Operating a farm"). 0 for an unknown job. */
+double sched_job_paused_s(const sched_t *self, uint64_t job, double now);
 /* A running task back to the queue by hand (stuck on a worker): issued again with a new attempt
  * to any worker but the one it was stuck on (whose result, the same bytes, is still accepted)
  * and its failures forgotten. A pending or done task is an error saying so. */

@@ -15,6 +15,7 @@
 
 #include "cli_run.h"
 #include "farm_testutil.h"
+#include "journal_testutil.h"
 #include "journal.h"
 #include "rng.h"
 
@@ -35,8 +36,6 @@
 #define PHOTON_SCENE "data/photon/beam_big.pbrt"
 #define SPP "4096"       /* tiny.pbrt: 13 passes, 2.5 CPU s in a Release build */
 #define PHOTON_SPP "256" /* beam_big: 1.5 M photons, then a camera phase of 9 passes */
-#define TILE "8"
-#define HEARTBEAT "200"
 
 /* ---------------------------------------------------------------- blobs and tables */
 
@@ -512,88 +511,53 @@ static void test_journal_tables(void **state)
     assert_non_null(strstr(err.msg, "junk/journal.db"));
 }
 
+/* One transaction per loop turn (journal_turn_begin/end, issue 17): the turn's results are not
+ * in the database another process reads until the turn ends, or until a write of another kind
+ * commits them first (so that a job's state never lands before the results that came before
+ * it); the turn is one write in journal_stats; a checkpoint inside a turn still works (its
+ * synchronous setting cannot change inside a transaction). */
+static void test_turn_transaction(void **state)
+{
+    (void)state;
+    err_t err;
+    const char *dir = testutil_scratch("turns");
+    journal_t *jn = journal_open(dir, &err);
+    assert_non_null(jn);
+    journal_job_t job = {.id = 3, .name = "t", .hash = "cd34", .main = "s.pbrt",
+                         .settings = {.spp = 4, .seed = -1}};
+    assert_int_equal(journal_add_job(jn, &job, &err), 0);
+    const char *count = "SELECT COUNT(*) FROM results WHERE job=3";
+    const uint8_t blob[4] = {1, 2, 3, 4};
+    uint64_t writes = journal_stats(jn).writes;
+    journal_turn_begin(jn);
+    for (uint32_t t = 0; t < 3; t++)
+        assert_int_equal(journal_add_result(jn, 3, 0, t, 0, (int)t, 0, blob, 4, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, count), 0);
+    journal_job_t running = job;
+    running.state = 1;
+    assert_int_equal(journal_set_state(jn, &running, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, count), 3);
+    assert_int_equal(testutil_journal_query(dir, "SELECT state FROM jobs WHERE id=3"), 1);
+    for (uint32_t t = 3; t < 5; t++)
+        assert_int_equal(journal_add_result(jn, 3, 0, t, 0, (int)t, 0, blob, 4, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, count), 3);
+    int next[5] = {1, 1, 0, 0, 0};
+    assert_int_equal(journal_set_checkpoint(jn, 3, 0, 1, next, 5, 1.0, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, count), 3); /* tiles 0 and 1 checkpointed */
+    assert_int_equal(journal_add_result(jn, 3, 0, 5, 0, 0, 1, blob, 4, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, count), 3);
+    assert_int_equal(journal_turn_end(jn, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, count), 4);
+    /* Two result commits (before the state, before the checkpoint), the state, the checkpoint
+     * and the turn's end: five writes for six results and two other changes. */
+    assert_int_equal(journal_stats(jn).writes - writes, 5);
+    /* Outside a turn each result is committed at once. */
+    assert_int_equal(journal_add_result(jn, 3, 0, 6, 0, 1, 1, blob, 4, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, count), 5);
+    journal_close(&jn);
+}
+
 /* ---------------------------------------------------------------- farms */
-
-/* A number the journal of spool answers to sql (a COUNT or a column), or -1 when it cannot be
- * read yet. */
-static long long journal_query(const char *spool, const char *sql)
-{
-    char path[600];
-    snprintf(path, sizeof path, "%s/journal.db", spool);
-    sqlite3 *db = NULL;
-    long long v = -1;
-    if (sqlite3_open_v2(path, &db, SQLITE_OPEN_READONLY, NULL) == SQLITE_OK) {
-        sqlite3_busy_timeout(db, test_wait_ms());
-        sqlite3_stmt *st;
-        if (sqlite3_prepare_v2(db, sql, -1, &st, NULL) == SQLITE_OK) {
-            if (sqlite3_step(st) == SQLITE_ROW)
-                v = sqlite3_column_int64(st, 0);
-            sqlite3_finalize(st);
-        }
-    }
-    sqlite3_close(db);
-    return v;
-}
-
-/* Waits until every sql of the NULL-terminated list answers at least 1. */
-static void wait_journal(const char *spool, double timeout_s, const char *what, ...)
-{
-    double deadline = testutil_now_s() + timeout_s;
-    for (;;) {
-        va_list ap;
-        va_start(ap, what);
-        int all = 1;
-        for (const char *sql = va_arg(ap, const char *); sql; sql = va_arg(ap, const char *))
-            all &= journal_query(spool, sql) >= 1;
-        va_end(ap);
-        if (all)
-            return;
-        if (testutil_now_s() > deadline)
-            fail_msg("the journal did not show %s within %.0f s", what, timeout_s);
-        testutil_sleep_ms(20);
-    }
-}
-
-static pid_t start_master(const char *log, const char *spool, const char *wep, const char *cep)
-{
-    return testutil_spawn(log, "master", "--workers", wep, "--clients", cep, "--spool", spool,
-                          "--heartbeat", HEARTBEAT, "--tile", TILE, "--insecure", NULL);
-}
-
-static pid_t start_worker(const char *log, const char *wep, const char *name)
-{
-    return testutil_spawn(log, "worker", "--connect", wep, "--threads", "1", "--name", name,
-                          "--insecure", NULL);
-}
-
-static const char *reference(const char *scene, const char *spp, const char *name)
-{
-    const char *ref = testutil_scratch(name);
-    struct stat st;
-    if (stat(ref, &st) == 0)
-        return ref;
-    const run_t *r = run("render", scene, "--spp", spp, "--workers", "1", "--threads", "2",
-                         "--tile", TILE, "-o", ref, "--quiet", NULL);
-    if (r->status != 0)
-        fail_msg("reference render of %s: exit %d: %s", scene, r->status, r->err);
-    return ref;
-}
-
-/* Follows job 1 to its end with a fresh client (`status --wait`), fetches it and compares it
- * with ref. */
-static void finish_and_compare(const char *cep, const char *ref, const char *out,
-                               const char *mlog)
-{
-    const run_t *r = run("status", "1", "--wait", "--quiet", "--master", cep, "--insecure", NULL);
-    if (r->status != 0)
-        testutil_fail_quoting(mlog, "status 1 --wait: exit %d: %s\n%s\nmaster log:", r->status,
-                              r->err, r->out);
-    expect_in(r->out, " done ");
-    r = run("fetch", "1", "-o", out, "--master", cep, "--insecure", NULL);
-    if (r->status != 0)
-        fail_msg("fetch 1: exit %d: %s", r->status, r->err);
-    testutil_assert_same_pixels(out, ref);
-}
 
 /* The number after "key": in a command's --json text; false if the key is absent or null. */
 static bool json_number(const char *json, const char *key, double *v)
@@ -610,28 +574,28 @@ static bool json_number(const char *json, const char *key, double *v)
 static void test_master_killed_camera_job(void **state)
 {
     (void)state;
-    const char *ref = reference(SCENE, SPP, "tiny-ref.exr");
+    const char *ref = testutil_journal_reference(SCENE, SPP, "tiny-ref.exr");
     const char *spool = testutil_scratch("cam-spool"), *mlog1 = testutil_scratch("cam-master1.log"),
                *mlog2 = testutil_scratch("cam-master2.log");
-    pid_t master = start_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
+    pid_t master = testutil_journal_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
     testutil_read_endpoints(spool, wep, cep, mlog1);
-    pid_t w = start_worker(testutil_scratch("cam-w.log"), wep, "w");
+    pid_t w = testutil_journal_worker(testutil_scratch("cam-w.log"), wep, "w");
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP, "--insecure", NULL);
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
     assert_string_equal(r->out, "1\n");
-    wait_journal(spool, test_wait_s(), "a checkpoint and results after it",
+    testutil_wait_journal(spool, test_wait_s(), "a checkpoint and results after it",
                  "SELECT checkpoint FROM jobs WHERE id=1",
                  "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
     testutil_stop(master, SIGKILL);
-    long long ckpt = journal_query(spool, "SELECT checkpoint FROM jobs WHERE id=1");
-    long long kept = journal_query(spool, "SELECT COUNT(*) FROM results WHERE job=1");
+    long long ckpt = testutil_journal_query(spool, "SELECT checkpoint FROM jobs WHERE id=1");
+    long long kept = testutil_journal_query(spool, "SELECT COUNT(*) FROM results WHERE job=1");
     print_message("master killed at checkpoint %lld with %lld results journaled after it\n", ckpt,
                   kept);
 
-    master = start_master(mlog2, spool, wep, cep);
-    finish_and_compare(cep, ref, testutil_scratch("cam-out.exr"), mlog2);
+    master = testutil_journal_master(mlog2, spool, wep, cep);
+    testutil_journal_finish(cep, ref, testutil_scratch("cam-out.exr"), mlog2);
     char *log = testutil_slurp(mlog2, NULL);
     const char *resumed = log ? strstr(log, "job 1 'tiny' resumed: ") : NULL;
     if (!resumed) {
@@ -649,8 +613,8 @@ static void test_master_killed_camera_job(void **state)
     assert_int_equal((long long)replayed, kept);
     free(log);
     /* A finished job leaves neither results nor checkpoint files behind. */
-    assert_int_equal(journal_query(spool, "SELECT COUNT(*) FROM results"), 0);
-    assert_int_equal(journal_query(spool, "SELECT state FROM jobs WHERE id=1"), 2);
+    assert_int_equal(testutil_journal_query(spool, "SELECT COUNT(*) FROM results"), 0);
+    assert_int_equal(testutil_journal_query(spool, "SELECT state FROM jobs WHERE id=1"), 2);
     char ck[700];
     snprintf(ck, sizeof ck, "%s/jobs/1/checkpoint-%lld.bin", spool, ckpt);
     struct stat st;
@@ -663,7 +627,7 @@ static void test_master_killed_camera_job(void **state)
     assert_true(json_number(before->out, "elapsed_s", &el0));
     assert_true(json_number(before->out, "rel_error", &re0));
     testutil_stop(master, SIGTERM);
-    master = start_master(testutil_scratch("cam-master3.log"), spool, wep, cep);
+    master = testutil_journal_master(testutil_scratch("cam-master3.log"), spool, wep, cep);
     const run_t *after = run("status", "1", "--json", "--master", cep, "--insecure", NULL);
     if (after->status != 0)
         fail_msg("status 1 after the restart: exit %d: %s", after->status, after->err);
@@ -681,29 +645,29 @@ static void test_master_killed_camera_job(void **state)
 static void test_master_killed_photon_job(void **state)
 {
     (void)state;
-    const char *ref = reference(PHOTON_SCENE, PHOTON_SPP, "beam-ref.exr");
+    const char *ref = testutil_journal_reference(PHOTON_SCENE, PHOTON_SPP, "beam-ref.exr");
     const char *spool = testutil_scratch("ph-spool"), *mlog1 = testutil_scratch("ph-master1.log"),
                *mlog2 = testutil_scratch("ph-master2.log"),
                *mlog3 = testutil_scratch("ph-master3.log");
-    pid_t master = start_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
+    pid_t master = testutil_journal_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
     testutil_read_endpoints(spool, wep, cep, mlog1);
-    pid_t w1 = start_worker(testutil_scratch("ph-w1.log"), wep, "w1");
-    pid_t w2 = start_worker(testutil_scratch("ph-w2.log"), wep, "w2");
+    pid_t w1 = testutil_journal_worker(testutil_scratch("ph-w1.log"), wep, "w1");
+    pid_t w2 = testutil_journal_worker(testutil_scratch("ph-w2.log"), wep, "w2");
     const run_t *r = run("submit", PHOTON_SCENE, "--master", cep, "--spp", PHOTON_SPP,
                          "--insecure", NULL);
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
-    wait_journal(spool, test_wait_s(), "a photon batch",
+    testutil_wait_journal(spool, test_wait_s(), "a photon batch",
                  "SELECT COUNT(*) FROM results WHERE kind=1", NULL);
     testutil_stop(master, SIGKILL);
-    long long batches = journal_query(spool, "SELECT COUNT(*) FROM results WHERE kind=1");
-    long long saved = journal_query(spool, "SELECT photons_saved FROM jobs WHERE id=1");
+    long long batches = testutil_journal_query(spool, "SELECT COUNT(*) FROM results WHERE kind=1");
+    long long saved = testutil_journal_query(spool, "SELECT photons_saved FROM jobs WHERE id=1");
     print_message("master killed with %lld photon batches journaled, store saved: %lld\n",
                   batches, saved);
 
-    master = start_master(mlog2, spool, wep, cep);
-    wait_journal(spool, 1.5 * test_wait_s(), "the photon store and camera results",
+    master = testutil_journal_master(mlog2, spool, wep, cep);
+    testutil_wait_journal(spool, 1.5 * test_wait_s(), "the photon store and camera results",
                  "SELECT photons_saved FROM jobs WHERE id=1",
                  "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
     testutil_stop(master, SIGKILL);
@@ -712,8 +676,8 @@ static void test_master_killed_photon_job(void **state)
     if (saved == 0 && !testutil_file_has(mlog2, "photon batches, "))
         testutil_fail_quoting(mlog2, "no photon batches replayed:");
 
-    master = start_master(mlog3, spool, wep, cep);
-    finish_and_compare(cep, ref, testutil_scratch("ph-out.exr"), mlog3);
+    master = testutil_journal_master(mlog3, spool, wep, cep);
+    testutil_journal_finish(cep, ref, testutil_scratch("ph-out.exr"), mlog3);
     /* The third master took the photon store from disk: no photon batch was traced again. */
     char *log3 = testutil_slurp(mlog3, NULL);
     assert_non_null(log3);
@@ -745,7 +709,7 @@ static void test_random_kills(void **state)
     /* Kept in buffers of their own: the loop below takes more paths from testutil_scratch than
      * its rotating buffers hold. */
     char ref[512], spool[512];
-    snprintf(ref, sizeof ref, "%s", reference(SCENE, SPP_LONG, "tiny-long-ref.exr"));
+    snprintf(ref, sizeof ref, "%s", testutil_journal_reference(SCENE, SPP_LONG, "tiny-long-ref.exr"));
     snprintf(spool, sizeof spool, "%s", testutil_scratch("rk-spool"));
     const char *env = getenv("PRISMFARM_KILL_SEED");
     uint64_t seed = env ? strtoull(env, NULL, 10) : 20261125;
@@ -754,7 +718,7 @@ static void test_random_kills(void **state)
     int nmaster = 1, nworker = 0, nclient = 1;
     snprintf(mlog, sizeof mlog, "rk-master%d.log", nmaster);
     pid_t master =
-        start_master(testutil_scratch(mlog), spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
+        testutil_journal_master(testutil_scratch(mlog), spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
     char wep[256], cep[256];
     testutil_read_endpoints(spool, wep, cep, testutil_scratch(mlog));
     pid_t workers[2];
@@ -762,12 +726,12 @@ static void test_random_kills(void **state)
         char log[64], name[8];
         snprintf(log, sizeof log, "rk-w%d-%d.log", i, nworker++);
         snprintf(name, sizeof name, "w%d", i);
-        workers[i] = start_worker(testutil_scratch(log), wep, name);
+        workers[i] = testutil_journal_worker(testutil_scratch(log), wep, name);
     }
     pid_t client = testutil_spawn(testutil_scratch("rk-client1.log"), "submit", SCENE, "--master",
                                   cep, "--spp", SPP_LONG, "--wait", "--quiet", "--insecure", "-o",
                                   testutil_scratch("rk-client.exr"), NULL);
-    wait_journal(spool, test_wait_s(), "the job", "SELECT COUNT(*) FROM jobs", NULL);
+    testutil_wait_journal(spool, test_wait_s(), "the job", "SELECT COUNT(*) FROM jobs", NULL);
     /* Each of master, worker and client once in a shuffled order, then random ones: at most
      * eight kills, none after the job is done. */
     int order[8] = {0, 1, 2}, at_pass[8];
@@ -787,9 +751,9 @@ static void test_random_kills(void **state)
     for (int i = 0; i < 8; i++) {
         int done = 0;
         for (double until = testutil_now_s() + test_wait_s();; testutil_sleep_ms(20)) {
-            done = journal_query(spool, "SELECT state FROM jobs WHERE id=1") >= 2;
+            done = testutil_journal_query(spool, "SELECT state FROM jobs WHERE id=1") >= 2;
             if (done ||
-                journal_query(spool, "SELECT MAX(pass) FROM passes WHERE job=1") >= at_pass[i])
+                testutil_journal_query(spool, "SELECT MAX(pass) FROM passes WHERE job=1") >= at_pass[i])
                 break;
             if (testutil_now_s() > until)
                 fail_msg("seed %llu: pass %d of job 1 not journaled after %.0f s",
@@ -797,7 +761,7 @@ static void test_random_kills(void **state)
         }
         if (!done) {
             testutil_sleep_ms((int)(rng_stream_next(&rng) * 100));
-            done = journal_query(spool, "SELECT state FROM jobs WHERE id=1") >= 2;
+            done = testutil_journal_query(spool, "SELECT state FROM jobs WHERE id=1") >= 2;
         }
         if (done) {
             if (i < 3)
@@ -810,7 +774,7 @@ static void test_random_kills(void **state)
             testutil_stop(master, SIGKILL);
             testutil_sleep_ms(pause);
             snprintf(mlog, sizeof mlog, "rk-master%d.log", ++nmaster);
-            master = start_master(testutil_scratch(mlog), spool, wep, cep);
+            master = testutil_journal_master(testutil_scratch(mlog), spool, wep, cep);
         } else if (order[i] == 1) {
             int k = rng_stream_next(&rng) < 0.5 ? 0 : 1;
             testutil_stop(workers[k], SIGKILL);
@@ -818,7 +782,7 @@ static void test_random_kills(void **state)
             char log[64], name[8];
             snprintf(log, sizeof log, "rk-w%d-%d.log", k, nworker++);
             snprintf(name, sizeof name, "w%d", k);
-            workers[k] = start_worker(testutil_scratch(log), wep, name);
+            workers[k] = testutil_journal_worker(testutil_scratch(log), wep, name);
         } else {
             testutil_stop(client, SIGKILL);
             testutil_sleep_ms(pause);
@@ -835,7 +799,7 @@ static void test_random_kills(void **state)
                   (unsigned long long)seed, kills, nmaster, nworker, nclient);
     /* Every kind was killed at least once before the job ended (the job is long enough). */
     assert_true(kills >= 3);
-    finish_and_compare(cep, ref, testutil_scratch("rk-out.exr"), testutil_scratch(mlog));
+    testutil_journal_finish(cep, ref, testutil_scratch("rk-out.exr"), testutil_scratch(mlog));
     /* The last client follows the job to its end by itself through any restarts. */
     int st = testutil_stop(client, 0);
     assert_true(WIFEXITED(st));
@@ -854,6 +818,7 @@ int main(void)
         cmocka_unit_test(test_photon_blob_round_trip),
         cmocka_unit_test(test_checkpoint_round_trip),
         cmocka_unit_test(test_journal_tables),
+        cmocka_unit_test(test_turn_transaction),
         cmocka_unit_test_teardown(test_master_killed_camera_job, testutil_kill_children),
         cmocka_unit_test_teardown(test_master_killed_photon_job, testutil_kill_children),
         cmocka_unit_test_teardown(test_random_kills, testutil_kill_children),

@@ -27,6 +27,7 @@
 #include "bundle.h"
 #include "clock.h"
 #include "farm_testutil.h"
+#include "master_testutil.h"
 #include "image_exr.h"
 #include "local_render.h"
 #include "master.h"
@@ -48,46 +49,8 @@
 #define NTASKS 18
 #define HEARTBEAT_MS 100
 
-typedef struct fx {
-    void *ctx;
-    char spool[64];
-    master_opts_t opts;
-    volatile sig_atomic_t stop;
-    pthread_t thread;
-    int rc;
-    char err[512];
-    pthread_mutex_t lock;
-    pthread_cond_t cond;
-    int ready;
-    char wep[256], cep[256];
-    uint8_t *scene_bytes;
-    size_t scene_size;
-} fx_t;
-
-static void on_ready(void *user, const char *wep, const char *cep)
-{
-    fx_t *f = user;
-    pthread_mutex_lock(&f->lock);
-    snprintf(f->wep, sizeof f->wep, "%s", wep);
-    snprintf(f->cep, sizeof f->cep, "%s", cep);
-    f->ready = 1;
-    pthread_cond_broadcast(&f->cond);
-    pthread_mutex_unlock(&f->lock);
-}
-
-static void *run_master(void *arg)
-{
-    fx_t *f = arg;
-    err_t err;
-    f->rc = master_run(&f->opts, &err);
-    if (f->rc)
-        snprintf(f->err, sizeof f->err, "%s", err.msg);
-    pthread_mutex_lock(&f->lock);
-    f->ready = f->ready ? f->ready : -1;
-    pthread_cond_broadcast(&f->cond);
-    pthread_mutex_unlock(&f->lock);
-    return NULL;
-}
+typedef testutil_master_t fx_t;
+typedef testutil_worker_t fake_worker_t;
 
 /* Starts a master on tcp://127.0.0.1 with system-chosen ports (tcp != 0) or on inproc://;
  * prefetch 0 and a preview after every pass unless farm_defaults. A worker silent for
@@ -95,42 +58,18 @@ static void *run_master(void *arg)
 static int start(void **state, int tcp, int max_task_failures, int farm_defaults,
                  double worker_timeout_s)
 {
-    static int counter;
-    fx_t *f = calloc(1, sizeof *f);
-    f->scene_bytes = (uint8_t *)testutil_slurp("data/render/tiny.pbrt", &f->scene_size);
-    if (!f->scene_bytes) {
-        fprintf(stderr, "cannot read data/render/tiny.pbrt: run from tests/ (ctest does)\n");
-        free(f);
+    fx_t *f = testutil_master_new("master", tcp != 0, HEARTBEAT_MS);
+    if (!f)
         return -1;
-    }
-    f->ctx = zmq_ctx_new();
-    if (!f->ctx || testutil_mkdtemp(f->spool, sizeof f->spool, "master") < 0)
-        return -1;
-    static char wep[64], cep[64];
-    counter++;
-    if (tcp) {
-        snprintf(wep, sizeof wep, "tcp://127.0.0.1:*");
-        snprintf(cep, sizeof cep, "tcp://127.0.0.1:*");
-    } else {
-        snprintf(wep, sizeof wep, "inproc://master-test-workers-%d", counter);
-        snprintf(cep, sizeof cep, "inproc://master-test-clients-%d", counter);
-    }
-    f->opts = master_opts_default();
-    f->opts.worker_endpoint = wep;
-    f->opts.client_endpoint = cep;
-    f->opts.insecure = tcp; /* plain text on the loopback; test_curve covers the keys */
-    f->opts.spool_dir = f->spool;
-    f->opts.zmq_ctx = f->ctx;
-    f->opts.stop = &f->stop;
-    f->opts.heartbeat_ms = HEARTBEAT_MS;
+    *state = f;
     f->opts.sched.tile_size = TILE;
-    /* A fake worker heartbeats only while the test waits for a message (fw_recv), not while it
-     * renders a tile or asks the master something: a test that does not lose a worker on
-     * purpose never has one lost, however slowly the machine runs it. */
-    f->opts.sched.worker_timeout_s = worker_timeout_s > 0 ? worker_timeout_s : test_wait_s();
+    /* A fake worker heartbeats only while the test waits for a message (testutil_worker_recv),
+     * not while it renders a tile or asks the master something: without a timeout of its own a
+     * test has the deadline's (master_testutil.h), so it never loses a worker by accident. */
+    if (worker_timeout_s > 0)
+        f->opts.sched.worker_timeout_s = worker_timeout_s;
     f->opts.sched.max_task_failures = max_task_failures;
     f->opts.sched.max_worker_job_failures = 10;
-    f->opts.verbose = getenv("PRISMFARM_TEST_VERBOSE") != NULL;
     /* These tests count the TASKs a worker of N threads is sent and fetch the preview of the
      * first pass: no prefetch, a preview after every pass. test_prefetch_and_previews sets
      * the defaults back. */
@@ -141,21 +80,7 @@ static int start(void **state, int tcp, int max_task_failures, int farm_defaults
         /* Far longer than the test job takes, however loaded the machine. */
         f->opts.preview_interval_s = 30;
     }
-    f->opts.ready = on_ready;
-    f->opts.user = f;
-    pthread_mutex_init(&f->lock, NULL);
-    pthread_cond_init(&f->cond, NULL);
-    pthread_create(&f->thread, NULL, run_master, f);
-    pthread_mutex_lock(&f->lock);
-    while (!f->ready)
-        pthread_cond_wait(&f->cond, &f->lock);
-    pthread_mutex_unlock(&f->lock);
-    if (f->ready < 0) {
-        fprintf(stderr, "master_run: %s\n", f->err);
-        return -1;
-    }
-    *state = f;
-    return 0;
+    return testutil_master_start(f);
 }
 
 static int setup_inproc(void **state)
@@ -187,74 +112,10 @@ static int setup_defaults(void **state)
 
 static int teardown(void **state)
 {
-    fx_t *f = *state;
-    f->stop = 1;
-    pthread_join(f->thread, NULL);
-    int rc = f->rc;
-    zmq_ctx_term(f->ctx);
-    if (testutil_rmtree(f->spool) != 0)
-        rc = -1;
-    free(f->scene_bytes);
-    free(f);
-    return rc;
+    return testutil_master_destroy((fx_t **)state);
 }
 
 /* ---------------------------------------------------------------- peers */
-
-static net_t *connect_to(fx_t *f, const char *endpoint)
-{
-    err_t err;
-    net_t *n = net_new(f->ctx, NET_DEALER, NULL, &err);
-    if (!n || net_connect(n, endpoint, &err))
-        fail_msg("connect %s: %s", endpoint, err.msg);
-    return n;
-}
-
-static void send_msg(net_t *n, const proto_msg_t *m)
-{
-    err_t err;
-    if (net_send(n, NULL, m, &err))
-        fail_msg("send %s: %s", proto_type_name(m->type), err.msg);
-}
-
-/* The next message other than HEARTBEAT and PROGRESS within timeout_ms; fails the test otherwise. */
-static void recv_msg(net_t *n, proto_msg_t *m, int timeout_ms)
-{
-    double end = clock_now_s() + timeout_ms / 1000.0;
-    while (clock_now_s() < end) {
-        err_t err;
-        int r = net_recv(n, NULL, m, 20, &err);
-        if (r == PROTO_EAGAIN)
-            continue;
-        if (r)
-            fail_msg("recv: %s", err.msg);
-        /* A PROGRESS precedes the answer to a SUBMIT (the scene is loading), as a client's
-         * wait for the answer goes on past it (client_rpc.h). */
-        if (m->type != PROTO_HEARTBEAT && m->type != PROTO_PROGRESS)
-            return;
-        proto_msg_free(m);
-    }
-    fail_msg("no message within %d ms", timeout_ms);
-}
-
-static void expect_type(net_t *n, proto_type_t type, proto_msg_t *m)
-{
-    recv_msg(n, m, test_wait_ms());
-    if (m->type != type)
-        fail_msg("expected %s, got %s (%s)", proto_type_name(type), proto_type_name(m->type),
-                 m->type == PROTO_ERROR    ? m->error.message
-                 : m->type == PROTO_REFUSE ? m->refuse.reason
-                                           : "");
-}
-
-/* One client request and its reply. */
-static void call(fx_t *f, const proto_msg_t *req, proto_msg_t *reply)
-{
-    net_t *c = connect_to(f, f->cep);
-    send_msg(c, req);
-    recv_msg(c, reply, test_wait_ms());
-    net_destroy(&c);
-}
 
 static proto_bundle_file_t FILES[1];
 
@@ -265,147 +126,9 @@ static proto_bundle_t tiny_bundle(fx_t *f)
     return (proto_bundle_t){.main = "tiny.pbrt", .files = FILES, .nfiles = 1};
 }
 
-static uint64_t submit_tiny(fx_t *f)
-{
-    proto_msg_t req = {.type = PROTO_SUBMIT,
-                       .submit = {.name = "tiny.pbrt",
-                                  .settings = {.spp = SPP, .seed = -1},
-                                  .bundle = tiny_bundle(f)}};
-    proto_msg_t r;
-    call(f, &req, &r);
-    if (r.type != PROTO_SUBMITTED)
-        fail_msg("SUBMIT answered %s: %s", proto_type_name(r.type),
-                 r.type == PROTO_ERROR ? r.error.message : "");
-    uint64_t id = r.submitted.job;
-    proto_msg_free(&r);
-    return id;
-}
-
-static proto_job_info_t status_of(fx_t *f, uint64_t job, char *error, size_t size)
-{
-    proto_msg_t req = {.type = PROTO_STATUS, .status = {.job = job}}, r;
-    call(f, &req, &r);
-    if (r.type != PROTO_STATUS_REPLY || r.status_reply.njobs != 1)
-        fail_msg("STATUS answered %s", proto_type_name(r.type));
-    proto_job_info_t info = r.status_reply.jobs[0];
-    if (error)
-        snprintf(error, size, "%s", info.error ? info.error : "");
-    info.name = NULL;
-    info.error = NULL;
-    proto_msg_free(&r);
-    return info;
-}
-
-static void wait_state(fx_t *f, uint64_t job, proto_job_state_t state)
-{
-    double end = clock_now_s() + test_wait_s();
-    while (clock_now_s() < end) {
-        if (status_of(f, job, NULL, 0).state == state)
-            return;
-        testutil_sleep_ms(10);
-    }
-    fail_msg("job %llu never became %s", (unsigned long long)job, proto_job_state_name(state));
-}
-
-/* ---------------------------------------------------------------- a fake worker */
-
-typedef struct fake_worker {
-    net_t *net;
-    uint64_t id;
-    double last_sent;
-    scene_t *scene;
-    proto_msg_t queue[64]; /* tasks received, not yet answered */
-    int nqueue;
-} fake_worker_t;
-
-static void fw_send(fake_worker_t *w, const proto_msg_t *m)
-{
-    send_msg(w->net, m);
-    w->last_sent = clock_now_s();
-}
-
-static void fw_hello(fx_t *f, fake_worker_t *w, const char *name, int threads)
-{
-    memset(w, 0, sizeof *w);
-    w->net = connect_to(f, f->wep);
-    proto_msg_t hello = {.type = PROTO_HELLO,
-                         .hello = {.name = name, .threads = threads, .software = "test"}};
-    fw_send(w, &hello);
-    proto_msg_t m;
-    expect_type(w->net, PROTO_WELCOME, &m);
-    assert_int_equal(m.welcome.heartbeat_ms, HEARTBEAT_MS);
-    w->id = m.welcome.worker_id;
-    proto_msg_free(&m);
-}
-
-static void fw_close(fake_worker_t *w)
-{
-    for (int i = 0; i < w->nqueue; i++)
-        proto_msg_free(&w->queue[i]);
-    scene_destroy(&w->scene);
-    net_destroy(&w->net);
-}
-
-/* The next non-heartbeat message within timeout_ms, heartbeating meanwhile like a live worker;
- * returns 0, or -1 on timeout. */
-static int fw_recv(fake_worker_t *w, proto_msg_t *m, int timeout_ms)
-{
-    double end = clock_now_s() + timeout_ms / 1000.0;
-    while (clock_now_s() < end) {
-        if (clock_now_s() - w->last_sent > HEARTBEAT_MS / 1000.0) {
-            proto_msg_t hb = {.type = PROTO_HEARTBEAT};
-            fw_send(w, &hb);
-        }
-        err_t err;
-        int r = net_recv(w->net, NULL, m, 20, &err);
-        if (r == PROTO_EAGAIN)
-            continue;
-        if (r)
-            fail_msg("worker recv: %s", err.msg);
-        if (m->type != PROTO_HEARTBEAT)
-            return 0;
-        proto_msg_free(m);
-    }
-    return -1;
-}
-
-/* Renders a TASK as a real worker would (render_tile with the task's settings). */
-static tilebuf_t *render_task(fake_worker_t *w, const proto_msg_t *t)
-{
-    err_t err;
-    if (!w->scene) {
-        scene_overrides_t ov = settings_to_overrides(&t->task.settings);
-        w->scene = scene_load_file("data/render/tiny.pbrt", &ov, &err);
-        if (!w->scene)
-            fail_msg("%s", err.msg);
-    }
-    const proto_tile_t *r = &t->task.tile;
-    tilebuf_t *tb = tilebuf_new(r->x0, r->y0, r->w, r->h, w->scene->settings.grid.n, &err);
-    assert_non_null(tb);
-    if (render_tile(w->scene, NULL, r->x0, r->y0, r->w, r->h, r->sample_begin, r->sample_end, tb, NULL,
-                    &err))
-        fail_msg("render_tile: %s", err.msg);
-    tilebuf_round_sums(tb); /* as a real worker does before sending (tilebuf.h) */
-    return tb;
-}
-
 static void fw_result(fake_worker_t *w, const proto_msg_t *t, const tilebuf_t *tb)
 {
-    proto_msg_t out = {.type = PROTO_RESULT};
-    out.result.job = t->task.job;
-    out.result.task = t->task.task;
-    out.result.attempt = t->task.attempt;
-    out.result.kind = PROTO_KIND_CAMERA_TILE;
-    out.result.tile = (proto_tile_result_t){.rect = t->task.tile,
-                                            .nbuckets = tilebuf_nbuckets(tb),
-                                            .sums = tilebuf_sums(tb),
-                                            .xyz = tilebuf_xyz_sums(tb),
-                                            .counts = tilebuf_counts(tb),
-                                            .lum = tilebuf_luminance_sums(tb),
-                                            .lum_sq = tilebuf_luminance_sq_sums(tb),
-                                            .nonfinite = tilebuf_nonfinite(tb)};
-    out.result.stats = (proto_task_stats_t){.samples = 1};
-    fw_send(w, &out);
+    testutil_worker_result(w, t, tb, (proto_task_stats_t){.samples = 1});
 }
 
 /* ---------------------------------------------------------------- the expected image */
@@ -444,7 +167,7 @@ static tilebuf_t *expected_image(void)
 static void check_exr(fx_t *f, uint64_t job)
 {
     proto_msg_t req = {.type = PROTO_FETCH, .fetch = {.job = job, .what = PROTO_FETCH_EXR}}, r;
-    call(f, &req, &r);
+    testutil_call(f, &req, &r);
     if (r.type != PROTO_FILE)
         fail_msg("FETCH exr answered %s: %s", proto_type_name(r.type),
                  r.type == PROTO_ERROR ? r.error.message : "");
@@ -512,18 +235,18 @@ static void test_job_life(void **state)
     fclose(ep);
     assert_true(!strncmp(line, "workers ", 8) && !strncmp(line + 8, f->wep, strlen(f->wep)));
 
-    uint64_t job = submit_tiny(f);
+    uint64_t job = testutil_submit_tiny(f, SPP, 0);
     assert_true(job == 1);
-    proto_job_info_t info = status_of(f, job, NULL, 0);
+    proto_job_info_t info = testutil_status(f, job, NULL, 0);
     assert_int_equal(info.state, PROTO_JOB_QUEUED);
     assert_true(info.samples_total == (uint64_t)XRES * YRES * SPP);
     proto_msg_t req = {.type = PROTO_FETCH, .fetch = {.job = job, .what = PROTO_FETCH_EXR}}, r;
-    call(f, &req, &r);
+    testutil_call(f, &req, &r);
     assert_int_equal(r.type, PROTO_ERROR);
     proto_msg_free(&r);
 
     fake_worker_t w;
-    fw_hello(f, &w, "fake", 2);
+    testutil_worker_hello(f, &w, "fake", 2);
     proto_bundle_t b = tiny_bundle(f);
     char hash[PROTO_HASH_HEX + 1];
     assert_int_equal(proto_bundle_hash(&b, hash, NULL), 0);
@@ -531,7 +254,7 @@ static void test_job_life(void **state)
     uint32_t seen[NTASKS] = {0};
     while (done < NTASKS) {
         proto_msg_t m;
-        if (fw_recv(&w, &m, test_wait_ms()))
+        if (testutil_worker_recv(&w, &m, test_wait_ms()))
             fail_msg("no task after %d results", done);
         if (m.type == PROTO_SCENE) {
             assert_string_equal(m.scene.scene, hash);
@@ -551,11 +274,11 @@ static void test_job_life(void **state)
         if (!asked) {
             proto_msg_t sr = {.type = PROTO_SCENE_REQUEST};
             memcpy(sr.scene_request.scene, m.task.scene, sizeof sr.scene_request.scene);
-            fw_send(&w, &sr);
+            testutil_worker_send(&w, &sr);
             asked = 1;
         }
         seen[m.task.task]++;
-        tilebuf_t *tb = render_task(&w, &m);
+        tilebuf_t *tb = testutil_worker_render(&w, &m);
         fw_result(&w, &m, tb);
         tilebuf_destroy(&tb);
         proto_msg_free(&m);
@@ -564,7 +287,7 @@ static void test_job_life(void **state)
             /* Pass 0 is whole: a preview PNG can be fetched while the job runs. */
             proto_msg_t fr = {.type = PROTO_FETCH, .fetch = {.job = job, .what = PROTO_FETCH_PNG}};
             for (double until = clock_now_s() + test_wait_s(); !previewed && clock_now_s() < until;) {
-                call(f, &fr, &r);
+                testutil_call(f, &fr, &r);
                 if (r.type == PROTO_FILE) {
                     assert_string_equal(r.file.name, "tiny-preview.png");
                     assert_memory_equal(r.file.data, "\x89PNG\r\n\x1a\n", 8);
@@ -579,20 +302,20 @@ static void test_job_life(void **state)
     assert_true(previewed);
     for (int i = 0; i < NTASKS; i++)
         assert_int_equal(seen[i], 1);
-    wait_state(f, job, PROTO_JOB_DONE);
-    info = status_of(f, job, NULL, 0);
+    testutil_wait_state(f, job, PROTO_JOB_DONE);
+    info = testutil_status(f, job, NULL, 0);
     assert_true(info.samples_done == (uint64_t)XRES * YRES * SPP);
     assert_true(info.samples_done == info.samples_total);
     assert_true(info.nonfinite == 0);
     check_exr(f, job);
     req.fetch.what = PROTO_FETCH_PNG;
-    call(f, &req, &r);
+    testutil_call(f, &req, &r);
     assert_int_equal(r.type, PROTO_FILE);
     assert_string_equal(r.file.name, "tiny.png");
     proto_msg_free(&r);
 
     proto_msg_t wq = {.type = PROTO_WORKERS};
-    call(f, &wq, &r);
+    testutil_call(f, &wq, &r);
     assert_int_equal(r.type, PROTO_WORKERS_REPLY);
     assert_int_equal(r.workers_reply.nworkers, 1);
     assert_string_equal(r.workers_reply.workers[0].name, "fake");
@@ -600,13 +323,13 @@ static void test_job_life(void **state)
     assert_int_equal(r.workers_reply.workers[0].state, PROTO_WORKER_IDLE);
     proto_msg_free(&r);
     proto_msg_t jq = {.type = PROTO_JOBS};
-    call(f, &jq, &r);
+    testutil_call(f, &jq, &r);
     assert_int_equal(r.type, PROTO_JOBS_REPLY);
     assert_int_equal(r.jobs_reply.njobs, 1);
     assert_string_equal(r.jobs_reply.jobs[0].name, "tiny.pbrt");
     assert_int_equal(r.jobs_reply.jobs[0].state, PROTO_JOB_DONE);
     proto_msg_free(&r);
-    fw_close(&w);
+    testutil_worker_close(&w);
 }
 
 /* Issue 16, item 2: a worker returns a result for a task the master gave another worker, and one
@@ -617,13 +340,13 @@ static void test_forged_results(void **state)
 {
     fx_t *f = *state;
     fake_worker_t w[2];
-    fw_hello(f, &w[0], "honest", 1);
-    fw_hello(f, &w[1], "forger", 1);
-    uint64_t job = submit_tiny(f);
+    testutil_worker_hello(f, &w[0], "honest", 1);
+    testutil_worker_hello(f, &w[1], "forger", 1);
+    uint64_t job = testutil_submit_tiny(f, SPP, 0);
     proto_msg_t t[2];
     for (int i = 0; i < 2; i++) {
         do {
-            if (fw_recv(&w[i], &t[i], test_wait_ms()))
+            if (testutil_worker_recv(&w[i], &t[i], test_wait_ms()))
                 fail_msg("worker %d got no task", i);
         } while (t[i].type != PROTO_TASK && (proto_msg_free(&t[i]), 1));
     }
@@ -656,7 +379,7 @@ static void test_forged_results(void **state)
     /* Then both work honestly to the end. */
     int done = 0;
     for (int i = 0; i < 2; i++) {
-        tilebuf_t *tb = render_task(&w[i], &t[i]);
+        tilebuf_t *tb = testutil_worker_render(&w[i], &t[i]);
         fw_result(&w[i], &t[i], tb);
         tilebuf_destroy(&tb);
         proto_msg_free(&t[i]);
@@ -666,10 +389,10 @@ static void test_forged_results(void **state)
     while (done < NTASKS && clock_now_s() < deadline)
         for (int i = 0; i < 2; i++) {
             proto_msg_t m;
-            if (fw_recv(&w[i], &m, 20))
+            if (testutil_worker_recv(&w[i], &m, 20))
                 continue;
             if (m.type == PROTO_TASK) {
-                tilebuf_t *tb = render_task(&w[i], &m);
+                tilebuf_t *tb = testutil_worker_render(&w[i], &m);
                 fw_result(&w[i], &m, tb);
                 tilebuf_destroy(&tb);
                 done++;
@@ -677,7 +400,7 @@ static void test_forged_results(void **state)
             proto_msg_free(&m);
         }
     assert_int_equal(done, NTASKS);
-    wait_state(f, job, PROTO_JOB_DONE);
+    testutil_wait_state(f, job, PROTO_JOB_DONE);
     check_exr(f, job);
     f->opts.verbose = getenv("PRISMFARM_TEST_VERBOSE") != NULL;
     fflush(stderr);
@@ -698,8 +421,8 @@ static void test_forged_results(void **state)
     if (!strstr(log, want))
         fail_msg("no '%s' in the master's log:\n%s", want, log);
     free(log);
-    fw_close(&w[0]);
-    fw_close(&w[1]);
+    testutil_worker_close(&w[0]);
+    testutil_worker_close(&w[1]);
 }
 
 /* A scene that does not parse is refused at once with the loader's file:line:col, as the
@@ -717,7 +440,7 @@ static void test_broken_scene(void **state)
                    .settings = {.seed = -1},
                    .bundle = {.main = "scenes/broken.pbrt", .files = &file, .nfiles = 1}}};
     proto_msg_t r;
-    call(f, &req, &r);
+    testutil_call(f, &req, &r);
     assert_int_equal(r.type, PROTO_ERROR);
     /* Line 4 of broken.pbrt is the LookAt with too few numbers. */
     if (strncmp(r.error.message, "scenes/broken.pbrt:4:", 21) || !strstr(r.error.message, "LookAt"))
@@ -729,7 +452,7 @@ static void test_broken_scene(void **state)
     req.submit.name = "tiny";
     req.submit.bundle = tiny_bundle(f);
     req.submit.settings.integrator = "bogus";
-    call(f, &req, &r);
+    testutil_call(f, &req, &r);
     assert_int_equal(r.type, PROTO_ERROR);
     if (strncmp(r.error.message, "tiny.pbrt:", 10) || !strstr(r.error.message, "bogus"))
         fail_msg("unexpected error: %s", r.error.message);
@@ -746,7 +469,7 @@ static void test_broken_scene(void **state)
             .path = "evil.pbrt", .data = (const uint8_t *)evil[k], .size = strlen(evil[k])};
         req.submit.settings.integrator = NULL;
         req.submit.bundle = (proto_bundle_t){.main = "evil.pbrt", .files = &ef, .nfiles = 1};
-        call(f, &req, &r);
+        testutil_call(f, &req, &r);
         assert_int_equal(r.type, PROTO_ERROR);
         if (!strstr(r.error.message, "etc/passwd") || strstr(r.error.message, "root:"))
             fail_msg("unexpected error: %s", r.error.message);
@@ -759,7 +482,7 @@ static void test_broken_scene(void **state)
     snprintf(dir, sizeof dir, "%s/tmp", f->spool);
     assert_int_equal(testutil_count_entries(dir), 0);
     proto_msg_t jq = {.type = PROTO_JOBS};
-    call(f, &jq, &r);
+    testutil_call(f, &jq, &r);
     assert_int_equal(r.type, PROTO_JOBS_REPLY);
     assert_int_equal(r.jobs_reply.njobs, 0);
     proto_msg_free(&r);
@@ -769,7 +492,7 @@ static void test_broken_scene(void **state)
 static proto_worker_state_t worker_state_of(fx_t *f, uint64_t id)
 {
     proto_msg_t wq = {.type = PROTO_WORKERS}, r;
-    call(f, &wq, &r);
+    testutil_call(f, &wq, &r);
     assert_int_equal(r.type, PROTO_WORKERS_REPLY);
     proto_worker_state_t state = PROTO_WORKER_IDLE;
     int found = 0;
@@ -792,13 +515,13 @@ static proto_worker_state_t worker_state_of(fx_t *f, uint64_t id)
 static void test_silent_worker(void **state)
 {
     fx_t *f = *state;
-    uint64_t job = submit_tiny(f);
+    uint64_t job = testutil_submit_tiny(f, SPP, 0);
     fake_worker_t a, b;
     double t0 = clock_now_s(); /* before a's last message: its HELLO */
-    fw_hello(f, &a, "silent", 2);
+    testutil_worker_hello(f, &a, "silent", 2);
     proto_msg_t held[2];
     for (int i = 0; i < 2; i++) {
-        expect_type(a.net, PROTO_TASK, &held[i]);
+        testutil_expect(a.net, PROTO_TASK, &held[i]);
         assert_true(held[i].task.attempt == 1);
     }
     for (double until = clock_now_s() + test_wait_s();
@@ -806,13 +529,13 @@ static void test_silent_worker(void **state)
         if (clock_now_s() > until)
             fail_msg("the silent worker is not lost after %.0f s", test_wait_s());
     assert_true(clock_now_s() - t0 >= f->opts.sched.worker_timeout_s);
-    fw_hello(f, &b, "steady", 2);
+    testutil_worker_hello(f, &b, "steady", 2);
     int results[NTASKS] = {0};
     uint32_t reissued = 0;
     int done = 0;
     while (done < NTASKS) {
         proto_msg_t m;
-        if (fw_recv(&b, &m, test_wait_ms()))
+        if (testutil_worker_recv(&b, &m, test_wait_ms()))
             fail_msg("worker b got nothing after %d results", done);
         assert_int_equal(m.type, PROTO_TASK);
         if (m.task.task == held[0].task.task || m.task.task == held[1].task.task) {
@@ -821,7 +544,7 @@ static void test_silent_worker(void **state)
             /* Not before the worker timeout has passed since a's HELLO. */
             assert_true(clock_now_s() - t0 >= f->opts.sched.worker_timeout_s);
         }
-        tilebuf_t *tb = render_task(&b, &m);
+        tilebuf_t *tb = testutil_worker_render(&b, &m);
         fw_result(&b, &m, tb);
         tilebuf_destroy(&tb);
         results[m.task.task]++;
@@ -831,12 +554,12 @@ static void test_silent_worker(void **state)
     assert_int_equal(reissued, 2);
     for (int i = 0; i < NTASKS; i++)
         assert_int_equal(results[i], 1);
-    wait_state(f, job, PROTO_JOB_DONE);
+    testutil_wait_state(f, job, PROTO_JOB_DONE);
     check_exr(f, job);
 
     proto_msg_t r;
     proto_msg_t wq = {.type = PROTO_WORKERS};
-    call(f, &wq, &r);
+    testutil_call(f, &wq, &r);
     assert_int_equal(r.workers_reply.nworkers, 2);
     assert_string_equal(r.workers_reply.workers[0].name, "silent");
     assert_int_equal(r.workers_reply.workers[0].state, PROTO_WORKER_LOST);
@@ -844,23 +567,23 @@ static void test_silent_worker(void **state)
     proto_msg_free(&r);
 
     /* The silent worker finally answers: its late result is harmless, and it must HELLO again. */
-    tilebuf_t *tb = render_task(&a, &held[0]);
+    tilebuf_t *tb = testutil_worker_render(&a, &held[0]);
     fw_result(&a, &held[0], tb);
     tilebuf_destroy(&tb);
-    expect_type(a.net, PROTO_REFUSE, &r);
+    testutil_expect(a.net, PROTO_REFUSE, &r);
     assert_string_equal(r.refuse.reason, "unknown worker: send HELLO");
     proto_msg_free(&r);
     proto_msg_t hello = {.type = PROTO_HELLO,
                          .hello = {.name = "silent", .threads = 2, .software = "test"}};
-    fw_send(&a, &hello);
-    expect_type(a.net, PROTO_WELCOME, &r);
+    testutil_worker_send(&a, &hello);
+    testutil_expect(a.net, PROTO_WELCOME, &r);
     assert_true(r.welcome.worker_id == a.id); /* the same connection keeps its id */
     proto_msg_free(&r);
     check_exr(f, job); /* the late copy changed nothing */
     for (int i = 0; i < 2; i++)
         proto_msg_free(&held[i]);
-    fw_close(&a);
-    fw_close(&b);
+    testutil_worker_close(&a);
+    testutil_worker_close(&b);
 }
 
 /* Garbage, extra frames, another protocol version and misdirected messages are refused, and the
@@ -871,67 +594,67 @@ static void test_bad_peers(void **state)
     proto_msg_t r;
     const char *endpoints[2] = {f->wep, f->cep};
     for (int k = 0; k < 2; k++) {
-        net_t *n = connect_to(f, endpoints[k]);
+        net_t *n = testutil_connect(f, endpoints[k]);
         void *s = net_socket(n);
         assert_int_equal(zmq_send(s, "\x81\xa1v", 3, 0), 3); /* a map cut short */
-        expect_type(n, PROTO_REFUSE, &r);
+        testutil_expect(n, PROTO_REFUSE, &r);
         assert_non_null(strstr(r.refuse.reason, "malformed message"));
         proto_msg_free(&r);
         assert_int_equal(zmq_send(s, "a", 1, ZMQ_SNDMORE), 1);
         assert_int_equal(zmq_send(s, "b", 1, 0), 1);
-        expect_type(n, PROTO_REFUSE, &r);
+        testutil_expect(n, PROTO_REFUSE, &r);
         assert_non_null(strstr(r.refuse.reason, "frames after the message"));
         proto_msg_free(&r);
         /* protocol.md: a peer of another version is refused with this exact text. */
         proto_msg_t hello = {.type = PROTO_HELLO,
                              .version = 4,
                              .hello = {.name = "future", .threads = 1, .software = "prismfarm 9"}};
-        send_msg(n, &hello);
-        expect_type(n, PROTO_REFUSE, &r);
+        testutil_send(n, &hello);
+        testutil_expect(n, PROTO_REFUSE, &r);
         assert_string_equal(r.refuse.reason,
                             "protocol version 4 not supported by this master (speaks 3)");
         proto_msg_free(&r);
         net_destroy(&n);
     }
     /* A worker message from a peer that never said HELLO. */
-    net_t *w = connect_to(f, f->wep);
+    net_t *w = testutil_connect(f, f->wep);
     proto_msg_t hb = {.type = PROTO_HEARTBEAT};
-    send_msg(w, &hb);
-    expect_type(w, PROTO_REFUSE, &r);
+    testutil_send(w, &hb);
+    testutil_expect(w, PROTO_REFUSE, &r);
     assert_string_equal(r.refuse.reason, "unknown worker: send HELLO");
     proto_msg_free(&r);
     net_destroy(&w);
     /* A worker's message on the client endpoint, and questions about jobs that do not exist. */
     proto_msg_t hello = {.type = PROTO_HELLO,
                          .hello = {.name = "lost", .threads = 1, .software = "x"}};
-    call(f, &hello, &r);
+    testutil_call(f, &hello, &r);
     assert_int_equal(r.type, PROTO_ERROR);
     proto_msg_free(&r);
     proto_msg_t st = {.type = PROTO_STATUS, .status = {.job = 42}};
-    call(f, &st, &r);
+    testutil_call(f, &st, &r);
     assert_int_equal(r.type, PROTO_ERROR);
     assert_string_equal(r.error.message, "no job 42");
     proto_msg_free(&r);
     proto_msg_t fe = {.type = PROTO_FETCH, .fetch = {.job = 42, .what = PROTO_FETCH_PNG}};
-    call(f, &fe, &r);
+    testutil_call(f, &fe, &r);
     assert_int_equal(r.type, PROTO_ERROR);
     proto_msg_free(&r);
     /* Still serving: a job runs to completion with a worker that joins now. */
-    uint64_t job = submit_tiny(f);
+    uint64_t job = testutil_submit_tiny(f, SPP, 0);
     fake_worker_t fw;
-    fw_hello(f, &fw, "after", 4);
+    testutil_worker_hello(f, &fw, "after", 4);
     for (int done = 0; done < NTASKS; done++) {
         proto_msg_t m;
-        if (fw_recv(&fw, &m, test_wait_ms()))
+        if (testutil_worker_recv(&fw, &m, test_wait_ms()))
             fail_msg("no task");
         assert_int_equal(m.type, PROTO_TASK);
-        tilebuf_t *tb = render_task(&fw, &m);
+        tilebuf_t *tb = testutil_worker_render(&fw, &m);
         fw_result(&fw, &m, tb);
         tilebuf_destroy(&tb);
         proto_msg_free(&m);
     }
-    wait_state(f, job, PROTO_JOB_DONE);
-    fw_close(&fw);
+    testutil_wait_state(f, job, PROTO_JOB_DONE);
+    testutil_worker_close(&fw);
 }
 
 /* CANCEL stops a running job, tells its workers, and the next job proceeds; the scene of a
@@ -939,43 +662,43 @@ static void test_bad_peers(void **state)
 static void test_cancel(void **state)
 {
     fx_t *f = *state;
-    uint64_t job = submit_tiny(f);
+    uint64_t job = testutil_submit_tiny(f, SPP, 0);
     fake_worker_t w;
-    fw_hello(f, &w, "w", 2);
+    testutil_worker_hello(f, &w, "w", 2);
     proto_msg_t t1, t2, r;
-    expect_type(w.net, PROTO_TASK, &t1);
-    expect_type(w.net, PROTO_TASK, &t2);
+    testutil_expect(w.net, PROTO_TASK, &t1);
+    testutil_expect(w.net, PROTO_TASK, &t2);
     proto_msg_t c = {.type = PROTO_CANCEL, .cancel = {.job = job}};
-    call(f, &c, &r);
+    testutil_call(f, &c, &r);
     assert_int_equal(r.type, PROTO_STATUS_REPLY);
     assert_int_equal(r.status_reply.njobs, 1);
     assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_CANCELLED);
     proto_msg_free(&r);
     proto_msg_t m;
-    if (fw_recv(&w, &m, test_wait_ms()))
+    if (testutil_worker_recv(&w, &m, test_wait_ms()))
         fail_msg("no CANCEL for the worker");
     assert_int_equal(m.type, PROTO_CANCEL);
     assert_true(m.cancel.job == job);
     proto_msg_free(&m);
     /* A result that was already on its way is dropped. */
-    tilebuf_t *tb = render_task(&w, &t1);
+    tilebuf_t *tb = testutil_worker_render(&w, &t1);
     fw_result(&w, &t1, tb);
     tilebuf_destroy(&tb);
     proto_msg_t fe = {.type = PROTO_FETCH, .fetch = {.job = job, .what = PROTO_FETCH_EXR}};
-    call(f, &fe, &r);
+    testutil_call(f, &fe, &r);
     assert_int_equal(r.type, PROTO_ERROR);
     assert_non_null(strstr(r.error.message, "cancelled"));
     proto_msg_free(&r);
     c.cancel.job = 77;
-    call(f, &c, &r);
+    testutil_call(f, &c, &r);
     assert_int_equal(r.type, PROTO_ERROR);
     proto_msg_free(&r);
 
-    uint64_t job2 = submit_tiny(f);
+    uint64_t job2 = testutil_submit_tiny(f, SPP, 0);
     assert_true(job2 == job + 1);
     /* The worker's two slots were freed by the cancel: two tasks of the new job follow. */
     for (int i = 0; i < 2; i++) {
-        if (fw_recv(&w, &m, test_wait_ms()))
+        if (testutil_worker_recv(&w, &m, test_wait_ms()))
             fail_msg("no task of the second job");
         assert_int_equal(m.type, PROTO_TASK);
         assert_true(m.task.job == job2);
@@ -986,7 +709,7 @@ static void test_cancel(void **state)
     assert_int_equal(testutil_count_entries(dir), 2); /* <hash>/ and <hash>.scene */
     proto_msg_free(&t1);
     proto_msg_free(&t2);
-    fw_close(&w);
+    testutil_worker_close(&w);
 }
 
 /* A task that fails max_task_failures (3) times fails its job with the last error, and the
@@ -994,12 +717,12 @@ static void test_cancel(void **state)
 static void test_failing_task(void **state)
 {
     fx_t *f = *state;
-    uint64_t job = submit_tiny(f);
+    uint64_t job = testutil_submit_tiny(f, SPP, 0);
     fake_worker_t w;
-    fw_hello(f, &w, "clumsy", 1);
+    testutil_worker_hello(f, &w, "clumsy", 1);
     for (uint32_t attempt = 1; attempt <= 3; attempt++) {
         proto_msg_t m;
-        expect_type(w.net, PROTO_TASK, &m);
+        testutil_expect(w.net, PROTO_TASK, &m);
         /* One slot: the failed task is the first pending one, so it comes straight back. */
         assert_true(m.task.task == 0);
         assert_true(m.task.attempt == attempt);
@@ -1007,19 +730,19 @@ static void test_failing_task(void **state)
             .type = PROTO_TASK_FAILED,
             .task_failed = {
                 .job = job, .task = 0, .attempt = attempt, .error = "scene.pbrt:3:7: boom"}};
-        fw_send(&w, &fail);
+        testutil_worker_send(&w, &fail);
         proto_msg_free(&m);
     }
     proto_msg_t m;
-    expect_type(w.net, PROTO_CANCEL, &m);
+    testutil_expect(w.net, PROTO_CANCEL, &m);
     assert_true(m.cancel.job == job);
     proto_msg_free(&m);
     char error[600];
-    proto_job_info_t info = status_of(f, job, error, sizeof error);
+    proto_job_info_t info = testutil_status(f, job, error, sizeof error);
     assert_int_equal(info.state, PROTO_JOB_FAILED);
     if (!strstr(error, "3 times") || !strstr(error, "last error: scene.pbrt:3:7: boom"))
         fail_msg("unexpected error: %s", error);
-    fw_close(&w);
+    testutil_worker_close(&w);
 }
 
 typedef struct real_worker {
@@ -1056,8 +779,8 @@ static void test_real_worker(void **state)
                              .verbose = f->opts.verbose};
     pthread_t th;
     pthread_create(&th, NULL, run_worker, &w);
-    uint64_t job = submit_tiny(f);
-    wait_state(f, job, PROTO_JOB_DONE);
+    uint64_t job = testutil_submit_tiny(f, SPP, 0);
+    testutil_wait_state(f, job, PROTO_JOB_DONE);
     check_exr(f, job);
     w.stop = 1;
     pthread_join(th, NULL);
@@ -1073,10 +796,10 @@ static double fw_serve(fake_worker_t *w, int total)
     double last = 0;
     for (int done = 0; done < total;) {
         proto_msg_t m;
-        if (fw_recv(w, &m, test_wait_ms()))
+        if (testutil_worker_recv(w, &m, test_wait_ms()))
             fail_msg("no task after %d results", done);
         if (m.type == PROTO_TASK) {
-            tilebuf_t *tb = render_task(w, &m);
+            tilebuf_t *tb = testutil_worker_render(w, &m);
             fw_result(w, &m, tb);
             last = clock_now_s();
             tilebuf_destroy(&tb);
@@ -1093,14 +816,14 @@ static double fw_serve(fake_worker_t *w, int total)
 static void test_status_long_poll(void **state)
 {
     fx_t *f = *state;
-    uint64_t job = submit_tiny(f);
+    uint64_t job = testutil_submit_tiny(f, SPP, 0);
 
     /* No worker: the job stays queued, so the answer comes at the end of the wait (300 ms),
      * not before -- and then, not at the end of some longer wait: well before the 60 s the
      * next step waits (however loaded the machine, a held reply is due at 300 ms). */
     proto_msg_t req = {.type = PROTO_STATUS, .status = {.job = job, .wait_ms = 300}}, r;
     double t0 = clock_now_s();
-    call(f, &req, &r);
+    testutil_call(f, &req, &r);
     double waited = clock_now_s() - t0;
     assert_int_equal(r.type, PROTO_STATUS_REPLY);
     assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_QUEUED);
@@ -1113,14 +836,14 @@ static void test_status_long_poll(void **state)
      * and the reply is late by the merge, the EXR and a message; a master that answered only at
      * the end of the wait would answer 60 s after the question, one that polls rarely would
      * answer late by its period. Half the wait tells the two apart on any machine. */
-    net_t *c = connect_to(f, f->cep);
+    net_t *c = testutil_connect(f, f->cep);
     req.status.wait_ms = 60000;
     double asked = clock_now_s();
-    send_msg(c, &req);
+    testutil_send(c, &req);
     fake_worker_t w;
-    fw_hello(f, &w, "fast", 2);
+    testutil_worker_hello(f, &w, "fast", 2);
     double last = fw_serve(&w, NTASKS);
-    recv_msg(c, &r, 2 * 60000);
+    testutil_recv(c, &r, 2 * 60000);
     double late = clock_now_s() - last, waited_all = clock_now_s() - asked;
     assert_int_equal(r.type, PROTO_STATUS_REPLY);
     assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_DONE);
@@ -1133,7 +856,7 @@ static void test_status_long_poll(void **state)
 
     /* The job is over: a long poll on it is answered at once, not after its 60 s. */
     t0 = clock_now_s();
-    call(f, &req, &r);
+    testutil_call(f, &req, &r);
     assert_int_equal(r.type, PROTO_STATUS_REPLY);
     assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_DONE);
     proto_msg_free(&r);
@@ -1157,7 +880,7 @@ static void test_status_long_poll(void **state)
     assert_int_equal(proto_encode(&req, &lim, &buf, &err), PROTO_EMALFORMED);
     assert_non_null(strstr(err.msg, "wait"));
     msgpack_sbuffer_destroy(&buf);
-    fw_close(&w);
+    testutil_worker_close(&w);
 }
 
 /* With the master's defaults, a worker of 2 threads is sent 4 tasks (twice its threads) and
@@ -1166,40 +889,40 @@ static void test_status_long_poll(void **state)
 static void test_prefetch_and_previews(void **state)
 {
     fx_t *f = *state;
-    uint64_t job = submit_tiny(f);
+    uint64_t job = testutil_submit_tiny(f, SPP, 0);
     fake_worker_t w;
-    fw_hello(f, &w, "prefetching", 2);
+    testutil_worker_hello(f, &w, "prefetching", 2);
     proto_msg_t held[NTASKS];
     int nheld = 0, done = 0;
     for (; nheld < 4; nheld++)
-        expect_type(w.net, PROTO_TASK, &held[nheld]);
+        testutil_expect(w.net, PROTO_TASK, &held[nheld]);
     proto_msg_t m;
-    if (fw_recv(&w, &m, 300) == 0)
+    if (testutil_worker_recv(&w, &m, 300) == 0)
         fail_msg("a fifth %s while 4 tasks are held by 2 threads", proto_type_name(m.type));
     /* One result frees one slot: exactly one TASK follows. */
     for (;;) {
-        tilebuf_t *tb = render_task(&w, &held[--nheld]);
+        tilebuf_t *tb = testutil_worker_render(&w, &held[--nheld]);
         fw_result(&w, &held[nheld], tb);
         tilebuf_destroy(&tb);
         proto_msg_free(&held[nheld]);
         if (++done == NTASKS)
             break;
         if (done + nheld < NTASKS) {
-            expect_type(w.net, PROTO_TASK, &held[nheld]);
+            testutil_expect(w.net, PROTO_TASK, &held[nheld]);
             nheld++;
             assert_true(nheld <= 4);
         }
-        if (done == 1 && fw_recv(&w, &m, 100) == 0)
+        if (done == 1 && testutil_worker_recv(&w, &m, 100) == 0)
             fail_msg("a second %s after one result", proto_type_name(m.type));
     }
-    wait_state(f, job, PROTO_JOB_DONE);
+    testutil_wait_state(f, job, PROTO_JOB_DONE);
     check_exr(f, job);
     char path[256];
     snprintf(path, sizeof path, "%s/jobs/%llu/preview.png", f->spool, (unsigned long long)job);
     assert_int_equal(access(path, F_OK), -1);
     snprintf(path, sizeof path, "%s/jobs/%llu/tiny.png", f->spool, (unsigned long long)job);
     assert_int_equal(access(path, F_OK), 0);
-    fw_close(&w);
+    testutil_worker_close(&w);
 }
 
 int main(void)

@@ -14,6 +14,7 @@
 #include "curve.h"
 #include "dash_auth.h"
 #include "dash_route.h"
+#include "dash_testutil.h"
 #include "fuzz_fixture.h"
 
 #include <jansson.h>
@@ -31,6 +32,8 @@
 static char g_base[4096];
 static dash_auth_t *g_auth;
 static int g_actions; /* actions carried out by the current input */
+static dash_job_t g_jobs[3]; /* the fake master's, from job_of */
+static dash_job_t job_of(uint64_t id);
 
 static void cleanup(void)
 {
@@ -62,6 +65,8 @@ int LLVMFuzzerInitialize(int *argc, char ***argv)
 {
     (void)argc;
     (void)argv;
+    for (int i = 0; i < 3; i++)
+        g_jobs[i] = job_of((uint64_t)i + 1);
     if (fuzz_fixture_make("fuzz-http", 0, g_base, sizeof g_base) != 0)
         abort();
     atexit(cleanup);
@@ -110,23 +115,44 @@ static dash_job_t job_of(uint64_t id)
                         .photon_batches_done = 1};
 }
 
-static size_t f_jobs(void *u, dash_job_t *out, size_t max)
-{
-    (void)u;
-    size_t n = max < 3 ? max : 3;
-    for (size_t i = 0; i < n; i++)
-        out[i] = job_of(i + 1);
-    return n;
-}
+static const dash_pass_t PASSES[] = {
+    {.pass = 1, .spp = 1, .elapsed_s = 0, .valid = false, .rel_error = 0.1},
+    {.pass = 2, .spp = 2, .elapsed_s = 1, .valid = true, .rel_error = 0.1},
+};
 
-static int f_job(void *u, uint64_t id, dash_job_t *out)
-{
-    (void)u;
-    if (id < 1 || id > 3)
-        return DASH_ENOENT;
-    *out = job_of(id);
-    return 0;
-}
+static const int MERGED[] = {0, 1, 2, 0};
+
+static const dash_task_t TASKS[] = {
+    {.task = 1, .tile = 1, .sample_end = 1, .attempt = 1, .worker = 7, .worker_name = "w",
+     .running_s = 0.5},
+    {.task = 0x80000000u, .photon = true, .tile = -1, .pass = -1, .attempt = 2, .worker = 7,
+     .worker_name = "w"},
+};
+
+static const dash_worker_t WORKERS[] = {
+    {.id = 7, .name = "w", .key = "", .threads = 2, .state = "idle", .has_blocklisted = true}};
+
+/* The reads answer from tables (dash_testutil.h): jobs 1 (alice's), 2 (nobody's, with photons)
+ * and 3 (done, its tiles forgotten). */
+static testutil_dash_fake_t g_reads = {.jobs = g_jobs,
+                                       .njobs = 3,
+                                       .passes = PASSES,
+                                       .npasses = 2,
+                                       .tiles = {.xres = 16,
+                                                 .yres = 16,
+                                                 .tile = 8,
+                                                 .tiles_x = 2,
+                                                 .tiles_y = 2,
+                                                 .npasses = 3},
+                                       .tiles_merged = MERGED,
+                                       .tiles_missing = 3,
+                                       .tiles_error = "forgotten",
+                                       .tasks = TASKS,
+                                       .ntasks = 2,
+                                       .log_job_text = "line",
+                                       .log_all_text = "line",
+                                       .workers = WORKERS,
+                                       .nworkers = 1};
 
 static int f_preview(void *u, uint64_t id, uint8_t **png, size_t *size, err_t *err)
 {
@@ -138,70 +164,6 @@ static int f_preview(void *u, uint64_t id, uint8_t **png, size_t *size, err_t *e
     memcpy(*png, "\x89PNG", 4);
     *size = 4;
     return 0;
-}
-
-static int f_passes(void *u, uint64_t id, dash_pass_t *out, int max)
-{
-    (void)u, (void)id;
-    for (int i = 0; i < max && i < 2; i++)
-        out[i] = (dash_pass_t){
-            .pass = i + 1, .spp = 1 << i, .elapsed_s = i, .valid = i > 0, .rel_error = 0.1};
-    return max < 2 ? max : 2;
-}
-
-static int f_tiles(void *u, uint64_t id, dash_tilemap_t *map, err_t *err)
-{
-    (void)u;
-    if (id == 3)
-        return err_set(err, "forgotten");
-    int *m = map->merged;
-    *map = (dash_tilemap_t){
-        .xres = 16, .yres = 16, .tile = 8, .tiles_x = 2, .tiles_y = 2, .npasses = 3, .merged = m};
-    for (int i = 0; m && i < 4; i++)
-        m[i] = i % 3;
-    return 0;
-}
-
-static int f_tasks(void *u, uint64_t id, dash_task_t *out, int max)
-{
-    (void)u, (void)id;
-    if (max < 2)
-        return 0;
-    out[0] = (dash_task_t){.task = 1,
-                           .tile = 1,
-                           .pass = 0,
-                           .sample_end = 1,
-                           .attempt = 1,
-                           .worker = 7,
-                           .worker_name = "w",
-                           .running_s = 0.5};
-    out[1] = (dash_task_t){.task = 0x80000000u,
-                           .photon = true,
-                           .tile = -1,
-                           .pass = -1,
-                           .attempt = 2,
-                           .worker = 7,
-                           .worker_name = "w"};
-    return 2;
-}
-
-static int f_log(void *u, uint64_t job, uint64_t since, dash_log_line_t *out, int max)
-{
-    (void)u, (void)job;
-    int n = 0;
-    for (uint64_t s = since + 1; s < since + 4 && s > since && n < max; s++)
-        out[n++] = (dash_log_line_t){.seq = s, .text = "line"};
-    return n;
-}
-
-static size_t f_workers(void *u, dash_worker_t *out, size_t max)
-{
-    (void)u;
-    if (max < 1)
-        return 0;
-    out[0] = (dash_worker_t){
-        .id = 7, .name = "w", .key = "", .threads = 2, .state = "idle", .has_blocklisted = true};
-    return 1;
 }
 
 static int f_cancel(void *u, const dash_identity_t *who, uint64_t job, err_t *err)
@@ -277,19 +239,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             *eq = 0;
         args[nargs++] = (dash_arg_t){.key = kv, .value = eq ? eq + 1 : NULL};
     }
-    dash_provider_t prov = {.jobs = f_jobs,
-                            .job = f_job,
-                            .preview = f_preview,
-                            .passes = f_passes,
-                            .tiles = f_tiles,
-                            .tasks = f_tasks,
-                            .log = f_log,
-                            .workers = f_workers,
-                            .cancel = f_cancel,
-                            .pause = f_pause,
-                            .set_priority = f_priority,
-                            .requeue = f_requeue,
-                            .blocklist = f_block};
+    dash_provider_t prov = testutil_dash_provider(&g_reads);
+    prov.preview = f_preview;
+    prov.cancel = f_cancel;
+    prov.pause = f_pause;
+    prov.set_priority = f_priority;
+    prov.requeue = f_requeue;
+    prov.blocklist = f_block;
     err_t err;
     dash_router_config_t rc = {.check_host = size % 2 == 0};
     dash_router_t *router = dash_router_new(&prov, g_auth, &rc, &err);
@@ -306,8 +262,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     g_actions = 0;
     dash_response_t out;
     dash_route(router, &req, &out);
-    if (out.status < 200 || out.status > 599 || !out.content_type || (out.size && !out.body)) {
-        fprintf(stderr, "fuzz_http: answer with status %d and no content\n", out.status);
+    const char *fault = testutil_dash_answer_fault(&out);
+    if (fault) {
+        fprintf(stderr, "fuzz_http: an answer with status %d: %s\n", out.status, fault);
         abort();
     }
     if (out.status >= 400) {

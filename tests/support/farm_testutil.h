@@ -392,6 +392,50 @@ static inline int testutil_http_port(const char *spool)
     return -1;
 }
 
+/* A TCP connection to 127.0.0.1:port; fails the test without one. */
+static inline int testutil_http_connect(int port)
+{
+    int s = socket(AF_INET, SOCK_STREAM, 0);
+    struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
+    inet_pton(AF_INET, "127.0.0.1", &a.sin_addr);
+    if (s < 0 || connect(s, (struct sockaddr *)&a, sizeof a) != 0)
+        fail_msg("cannot connect to the dashboard on port %d", port);
+    return s;
+}
+
+/* The n bytes, or as many as the server takes before it closes on us (what the caller
+ * checks). */
+static inline void testutil_http_send(int s, const char *data, size_t n)
+{
+    while (n > 0) {
+        ssize_t w = send(s, data, n, MSG_NOSIGNAL);
+        if (w <= 0)
+            return;
+        data += w;
+        n -= (size_t)w;
+    }
+}
+
+/* Everything the server sends until it closes (or out is full), within the test's deadline;
+ * returns the HTTP status, 0 when it closed without one. */
+static inline int testutil_http_read(int s, char *out, size_t size)
+{
+    size_t len = 0;
+    double deadline = testutil_now_s() + test_wait_s();
+    while (len + 1 < size && testutil_now_s() < deadline) {
+        struct pollfd p = {.fd = s, .events = POLLIN};
+        if (poll(&p, 1, 100) <= 0)
+            continue;
+        ssize_t r = recv(s, out + len, size - 1 - len, 0);
+        if (r <= 0)
+            break;
+        len += (size_t)r;
+    }
+    out[len] = 0;
+    int status = 0;
+    return sscanf(out, "HTTP/1.1 %d", &status) == 1 ? status : 0;
+}
+
 /* One request to 127.0.0.1:port on its own connection, with "Authorization: Bearer token"
  * when token is not NULL; the whole answer (status line, headers, body) into out. Returns the
  * status, 0 when the server closed without one. */
@@ -404,34 +448,13 @@ static inline int testutil_http(int port, const char *method, const char *path,
              "Content-Length: %zu\r\n\r\n",
              method, path, port, token ? "Authorization: Bearer " : "", token ? token : "",
              token ? "\r\n" : "", body ? strlen(body) : 0);
-    int s = socket(AF_INET, SOCK_STREAM, 0);
-    struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
-    inet_pton(AF_INET, "127.0.0.1", &a.sin_addr);
-    if (s < 0 || connect(s, (struct sockaddr *)&a, sizeof a) != 0)
-        fail_msg("cannot connect to the dashboard on port %d", port);
-    const char *parts[2] = {head, body ? body : ""};
-    for (int i = 0; i < 2; i++)
-        for (size_t n = strlen(parts[i]), done = 0; done < n;) {
-            ssize_t w = send(s, parts[i] + done, n - done, MSG_NOSIGNAL);
-            if (w <= 0)
-                break;
-            done += (size_t)w;
-        }
-    size_t len = 0;
-    double deadline = testutil_now_s() + test_wait_s();
-    while (len + 1 < size && testutil_now_s() < deadline) {
-        struct pollfd p = {.fd = s, .events = POLLIN};
-        if (poll(&p, 1, 100) <= 0)
-            continue;
-        ssize_t r = recv(s, out + len, size - 1 - len, 0);
-        if (r <= 0)
-            break;
-        len += (size_t)r;
-    }
+    int s = testutil_http_connect(port);
+    testutil_http_send(s, head, strlen(head));
+    if (body)
+        testutil_http_send(s, body, strlen(body));
+    int status = testutil_http_read(s, out, size);
     close(s);
-    out[len] = 0;
-    int status = 0;
-    return sscanf(out, "HTTP/1.1 %d", &status) == 1 ? status : 0;
+    return status;
 }
 
 #endif

@@ -14,6 +14,7 @@
 #include "curve.h"
 #include "dash_auth.h"
 #include "dash_route.h"
+#include "dash_testutil.h"
 #include "files_testutil.h"
 
 #include <jansson.h>
@@ -23,23 +24,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-/* Whether n bytes at p hold needle (memmem is not POSIX). */
-static bool holds(const void *p, size_t n, const char *needle)
-{
-    size_t k = strlen(needle);
-    for (size_t i = 0; i + k <= n; i++)
-        if (!memcmp((const char *)p + i, needle, k))
-            return true;
-    return false;
-}
-
 /* ---------------------------------------------------------------- the fake master */
-
-typedef struct fake {
-    int cancels, pauses, resumes, priority, requeued_task, blocks, unblocks;
-    char last_actor[80];
-    bool actor_admin;
-} fake_t;
 
 static dash_job_t fake_job(uint64_t id)
 {
@@ -64,22 +49,63 @@ static dash_job_t fake_job(uint64_t id)
                         .preview_version = id == 1 ? 7 : 0};
 }
 
-static size_t f_jobs(void *user, dash_job_t *out, size_t max)
-{
-    (void)user;
-    size_t n = max < 2 ? max : 2;
-    for (size_t i = 0; i < n; i++)
-        out[i] = fake_job(i + 1);
-    return n;
-}
+static const dash_pass_t PASSES[] = {
+    {.pass = 1, .spp = 1, .elapsed_s = 0.5, .valid = false, .rel_error = 0.4},
+    {.pass = 2, .spp = 2, .elapsed_s = 1.5, .valid = true, .rel_error = 0.2},
+    {.pass = 3, .spp = 4, .elapsed_s = 2.5, .valid = true, .rel_error = 0.4 / 3},
+};
 
-static int f_job(void *user, uint64_t id, dash_job_t *out)
+static const int MERGED[] = {0, 1, 2, 3};
+
+static const dash_task_t TASKS[] = {{.task = 9,
+                                     .tile = 1,
+                                     .pass = 2,
+                                     .sample_begin = 2,
+                                     .sample_end = 4,
+                                     .attempt = 1,
+                                     .worker = 3,
+                                     .worker_name = "host:1",
+                                     .running_s = 1.5}};
+
+static const dash_worker_t WORKERS[] = {{.id = 3,
+                                         .name = "host:1",
+                                         .key = "",
+                                         .threads = 4,
+                                         .state = "busy",
+                                         .tasks_running = 1,
+                                         .tasks_done = 10,
+                                         .samples_done = 1000}};
+
+/* The reads answer from the tables (dash_testutil.h); the actions count here. */
+typedef struct fake {
+    testutil_dash_fake_t reads; /* first: the provider's user is the fake */
+    dash_job_t jobs[2];
+    int cancels, pauses, resumes, priority, requeued_task, blocks, unblocks;
+    char last_actor[80];
+    bool actor_admin;
+} fake_t;
+
+static void fake_init(fake_t *f)
 {
-    (void)user;
-    if (id < 1 || id > 2)
-        return DASH_ENOENT;
-    *out = fake_job(id);
-    return 0;
+    for (int i = 0; i < 2; i++)
+        f->jobs[i] = fake_job((uint64_t)i + 1);
+    f->reads = (testutil_dash_fake_t){
+        .jobs = f->jobs,
+        .njobs = 2,
+        .passes = PASSES,
+        .npasses = 3,
+        .tiles = {.xres = 64, .yres = 48, .tile = 32, .tiles_x = 2, .tiles_y = 2, .npasses = 7},
+        .tiles_merged = MERGED,
+        .tiles_missing = 2,
+        .tiles_error = "not loaded",
+        .tasks = TASKS,
+        .ntasks = 1,
+        .log_last = 3,
+        .log_job_text = "job line",
+        .log_all_text = "line",
+        .log_age_s = 1,
+        .workers = WORKERS,
+        .nworkers = 1};
 }
 
 static int f_preview(void *user, uint64_t id, uint8_t **png, size_t *size, err_t *err)
@@ -91,79 +117,6 @@ static int f_preview(void *user, uint64_t id, uint8_t **png, size_t *size, err_t
     memcpy(*png, "\x89PNG\r\n\x1a\n", 8);
     *size = 8;
     return 0;
-}
-
-static int f_passes(void *user, uint64_t id, dash_pass_t *out, int max)
-{
-    (void)user, (void)id;
-    int n = max < 3 ? max : 3;
-    for (int i = 0; i < n; i++)
-        out[i] = (dash_pass_t){.pass = i + 1,
-                               .spp = 1 << i,
-                               .elapsed_s = i + 0.5,
-                               .valid = i > 0,
-                               .rel_error = 0.4 / (i + 1)};
-    return n;
-}
-
-static int f_tiles(void *user, uint64_t id, dash_tilemap_t *map, err_t *err)
-{
-    (void)user;
-    if (id != 1)
-        return err_set(err, "not loaded");
-    int *merged = map->merged;
-    *map = (dash_tilemap_t){.xres = 64,
-                            .yres = 48,
-                            .tile = 32,
-                            .tiles_x = 2,
-                            .tiles_y = 2,
-                            .npasses = 7,
-                            .merged = merged};
-    for (int i = 0; merged && i < 4; i++)
-        merged[i] = i;
-    return 0;
-}
-
-static int f_tasks(void *user, uint64_t id, dash_task_t *out, int max)
-{
-    (void)user, (void)id;
-    if (max < 1)
-        return 0;
-    out[0] = (dash_task_t){.task = 9,
-                           .tile = 1,
-                           .pass = 2,
-                           .sample_begin = 2,
-                           .sample_end = 4,
-                           .attempt = 1,
-                           .worker = 3,
-                           .worker_name = "host:1",
-                           .running_s = 1.5};
-    return 1;
-}
-
-static int f_log(void *user, uint64_t job, uint64_t since, dash_log_line_t *out, int max)
-{
-    (void)user;
-    int n = 0;
-    for (uint64_t s = since + 1; s <= 3 && n < max; s++)
-        out[n++] = (dash_log_line_t){.seq = s, .age_s = 1, .text = job ? "job line" : "line"};
-    return n;
-}
-
-static size_t f_workers(void *user, dash_worker_t *out, size_t max)
-{
-    (void)user;
-    if (max < 1)
-        return 0;
-    out[0] = (dash_worker_t){.id = 3,
-                             .name = "host:1",
-                             .key = "",
-                             .threads = 4,
-                             .state = "busy",
-                             .tasks_running = 1,
-                             .tasks_done = 10,
-                             .samples_done = 1000};
-    return 1;
 }
 
 static void note(fake_t *f, const dash_identity_t *who)
@@ -262,19 +215,13 @@ static int setup(void **state)
     snprintf(f->auth_root, sizeof f->auth_root, "Bearer %s", f->root);
     snprintf(f->auth_ops, sizeof f->auth_ops, "Bearer %s", f->ops);
     snprintf(f->auth_worker, sizeof f->auth_worker, "Bearer %s", f->worker);
-    f->p = (dash_provider_t){.user = &f->fake,
-                             .jobs = f_jobs,
-                             .job = f_job,
-                             .preview = f_preview,
-                             .passes = f_passes,
-                             .tiles = f_tiles,
-                             .tasks = f_tasks,
-                             .log = f_log,
-                             .workers = f_workers,
-                             .cancel = f_cancel,
-                             .set_priority = f_set_priority,
-                             .requeue = f_requeue,
-                             .blocklist = f_blocklist};
+    fake_init(&f->fake);
+    f->p = testutil_dash_provider(&f->fake.reads);
+    f->p.preview = f_preview;
+    f->p.cancel = f_cancel;
+    f->p.set_priority = f_set_priority;
+    f->p.requeue = f_requeue;
+    f->p.blocklist = f_blocklist;
     err_t err;
     dash_auth_config_t ac = {.clients_dir = clients, .admins_dir = admins, .token_file = tokfile};
     f->auth = dash_auth_new(&ac, &err);
@@ -315,10 +262,9 @@ static int ask(fixture_t *f, const char *method, const char *path, const char *a
     }
     int status = r.status;
     /* Every refusal says why. */
-    if (status >= 400) {
-        assert_string_equal(r.content_type, "application/json");
-        assert_true(holds(r.body, r.size, "\"error\":\""));
-    }
+    const char *fault = testutil_dash_answer_fault(&r);
+    if (fault)
+        fail_msg("%s %s answered %d: %s", method, path, status, fault);
     dash_response_free(&r);
     return status;
 }
@@ -333,7 +279,7 @@ static void test_pages_and_reads(void **state)
     dash_route(f->router, &req, &r);
     assert_int_equal(r.status, 200);
     assert_string_equal(r.content_type, "text/html; charset=utf-8");
-    assert_true(holds(r.body, r.size, "/app.js"));
+    assert_true(testutil_holds(r.body, r.size, "/app.js"));
     dash_response_free(&r);
     assert_int_equal(ask(f, "GET", "/app.js", NULL, NULL, NULL), 200);
     assert_int_equal(ask(f, "GET", "/style.css", NULL, NULL, NULL), 200);
@@ -602,7 +548,7 @@ static void test_no_tokens(void **state)
     dash_response_t out;
     dash_route(r, &req, &out);
     assert_int_equal(out.status, 401);
-    assert_true(holds(out.body, out.size, "--http-token-file"));
+    assert_true(testutil_holds(out.body, out.size, "--http-token-file"));
     dash_response_free(&out);
     dash_router_destroy(&r);
     dash_auth_destroy(&auth);

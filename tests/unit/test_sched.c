@@ -12,34 +12,10 @@
 #include "sched.h"
 #include "sched_testutil.h"
 
-/* A sample's XYZ when only its luminance Y matters to the test. */
-#define XYZ_OF_Y(l) ((const double[3]){0.0, (l), 0.0})
-
 static sched_t *new_sched(int tile)
 {
-    sched_config_t c = sched_config_default();
-    c.tile_size = tile;
-    c.task_deadline_s = 10;
-    c.worker_timeout_s = 3;
-    sched_t *s = sched_new(&c, NULL);
-    assert_non_null(s);
-    return s;
-}
-
-/* A stand-in for a worker's render: every sample of pixel (x, y) adds x + 100 y + 0.001 s to
- * bucket b scaled by b + 1, so sums depend on exactly which samples were merged. */
-static tilebuf_t *fake_result(const sched_task_t *t, int nb)
-{
-    tilebuf_t *r = tilebuf_new(t->x0, t->y0, t->w, t->h, nb, NULL);
-    double v[8];
-    for (int y = t->y0; y < t->y0 + t->h; y++)
-        for (int x = t->x0; x < t->x0 + t->w; x++)
-            for (uint32_t s = t->sample_begin; s < t->sample_end; s++) {
-                for (int b = 0; b < nb; b++)
-                    v[b] = (b + 1) * (x + 100.0 * y + 0.001 * s) * 1.0000001;
-                tilebuf_add_sample(r, x, y, v, XYZ_OF_Y(v[0]));
-            }
-    return r;
+    sched_config_t c = testutil_sched_config(tile);
+    return testutil_sched_new(&c);
 }
 
 static void test_passes_and_tiles(void **state)
@@ -84,7 +60,7 @@ static void run_job(unsigned order_seed, tilebuf_t **image_out)
     testutil_shuffle_tasks(tasks, n, order_seed);
     int passes_done = 0, job_done = 0;
     for (int i = 0; i < n; i++) {
-        tilebuf_t *r = fake_result(&tasks[i], 4);
+        tilebuf_t *r = testutil_fake_result(&tasks[i], 4);
         int m = sched_task_done(s, 1, 1, tasks[i].task, tasks[i].attempt, &r, 0.0, &err);
         assert_true(m > 0 && (m & SCHED_MERGED));
         assert_null(r);
@@ -145,9 +121,9 @@ static void test_dead_worker_and_deadline(void **state)
     assert_int_equal(v.attempt, 3);
     /* The late first result is accepted (all attempts give the same bytes); the next is a
      * duplicate. */
-    tilebuf_t *r = fake_result(&u, 4);
+    tilebuf_t *r = testutil_fake_result(&u, 4);
     assert_true(sched_task_done(s, 11, 3, u.task, u.attempt, &r, 14.5, &err) & SCHED_JOB_DONE);
-    r = fake_result(&v, 4);
+    r = testutil_fake_result(&v, 4);
     assert_int_equal(sched_task_done(s, 11, 3, v.task, v.attempt, &r, 14.6, &err), SCHED_DUPLICATE);
     sched_worker_info_t w[4];
     assert_int_equal(sched_workers(s, w, 4), 2);
@@ -164,7 +140,7 @@ static void test_failures_block_and_fail(void **state)
     c.tile_size = 8;
     c.max_task_failures = 3;
     c.max_worker_job_failures = 2;
-    sched_t *s = sched_new(&c, NULL);
+    sched_t *s = testutil_sched_new(&c);
     err_t err;
     sched_add_job(s, 5, 8, 8, 1, testutil_grid(4), &err);
     sched_worker_join(s, 1, 1, 0.0, &err);
@@ -205,7 +181,7 @@ static void test_bad_results_and_jobs(void **state)
     assert_int_equal(sched_task_done(s, 1, 1, t.task, t.attempt, &wrong, 0, &err), -1);
     assert_null(wrong);
     assert_non_null(strstr(err.msg, "does not cover"));
-    tilebuf_t *r = fake_result(&t, 4);
+    tilebuf_t *r = testutil_fake_result(&t, 4);
     assert_int_equal(sched_task_done(s, 1, 99, 0, 1, &r, 0, &err), -1);
     assert_null(r);
     /* Cancelling frees the worker's slots and ignores late results. */
@@ -213,7 +189,7 @@ static void test_bad_results_and_jobs(void **state)
     sched_worker_info_t w;
     sched_workers(s, &w, 1);
     assert_int_equal(w.busy, 0);
-    r = fake_result(&t, 4);
+    r = testutil_fake_result(&t, 4);
     assert_int_equal(sched_task_done(s, 1, 1, t.task, t.attempt, &r, 0, &err), SCHED_DUPLICATE);
     sched_destroy(&s);
 }
@@ -274,7 +250,7 @@ static void test_restore_from_checkpoint(void **state)
     sched_worker_join(s, 1, 64, 0, &err);
     sched_task_t t;
     while (sched_next_task(s, 1, 0, &t) == 1) {
-        tilebuf_t *r = fake_result(&t, 4);
+        tilebuf_t *r = testutil_fake_result(&t, 4);
         assert_true(sched_task_done(s, 1, 1, t.task, t.attempt, &r, 0, &err) >= 0);
     }
     const tilebuf_t *full = sched_job_image(s, 1);
@@ -293,7 +269,7 @@ static void test_restore_from_checkpoint(void **state)
             passes_bounds(4, bounds);
             q.sample_begin = bounds[pass];
             q.sample_end = bounds[pass + 1];
-            tilebuf_t *r = fake_result(&q, 4);
+            tilebuf_t *r = testutil_fake_result(&q, 4);
             assert_int_equal(tilebuf_merge(img, r, &err), 0);
             tilebuf_destroy(&r);
         }
@@ -318,7 +294,7 @@ static void test_restore_from_checkpoint(void **state)
     int n = 0;
     while (sched_next_task(s2, 1, 0, &t) == 1) {
         assert_true((t.task % 2 == 0 && t.pass == 2) || (t.task % 2 == 1 && t.pass >= 1));
-        tilebuf_t *r = fake_result(&t, 4);
+        tilebuf_t *r = testutil_fake_result(&t, 4);
         assert_true(sched_task_done(s2, 1, 1, t.task, t.attempt, &r, 0, &err) >= 0);
         n++;
     }
@@ -368,7 +344,7 @@ static void test_silent_greedy_worker(void **state)
         while (n < 2 && sched_next_task(s, 2, now, &mine[n]))
             n++;
         for (int i = 0; i < n; i++) {
-            tilebuf_t *r = fake_result(&mine[i], 4);
+            tilebuf_t *r = testutil_fake_result(&mine[i], 4);
             int m = sched_task_done(s, 2, 1, mine[i].task, mine[i].attempt, &r, now, &err);
             assert_true(m > 0);
             done += !!(m & SCHED_MERGED);
@@ -415,7 +391,7 @@ static void test_running_count(void **state)
     for (int i = 0; i < 4; i++)
         assert_int_equal(sched_next_task(s, 2, 0.0, &b[i]), 1);
     assert_int_equal(running(s, 3), 8);
-    tilebuf_t *r = fake_result(&a[0], 2);
+    tilebuf_t *r = testutil_fake_result(&a[0], 2);
     assert_true(sched_task_done(s, 1, 3, a[0].task, a[0].attempt, &r, 1.0, &err) > 0);
     assert_int_equal(running(s, 3), 7);
     sched_task_failed(s, 1, 3, a[1].task, a[1].attempt, "test failure");
@@ -434,6 +410,96 @@ static void test_running_count(void **state)
     sched_destroy(&s);
 }
 
+/* The prefetch rule (sched_worker_set_threads) with the scheduler's running counts of idle
+ * threads and pending tasks (issue 17: it summed them over every worker and task at each
+ * dispatch): a worker past its threads is given a task only while more tasks wait than the
+ * other live workers have idle threads, through a worker lost, one joining again and one
+ * changing its threads. */
+static void test_prefetch_counts(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(8);
+    err_t err;
+    /* 24x16 pixels in 8-pixel tiles, 1 spp: 6 tasks. */
+    assert_int_equal(sched_add_job(s, 1, 24, 16, 1, testutil_grid(2), &err), 0);
+    for (uint64_t w = 1; w <= 3; w++) {
+        assert_int_equal(sched_worker_join(s, w, 4, 0.0, &err), 0);
+        assert_int_equal(sched_worker_set_threads(s, w, 2, &err), 0);
+    }
+    sched_task_t t[6];
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t[0]), 1);
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t[1]), 1);
+    /* 4 waiting, 4 idle threads on workers 2 and 3: no prefetch. */
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t[2]), 0);
+    /* Worker 2 lost: 4 waiting, 2 idle threads: two prefetches, then its 4 slots are full. */
+    sched_worker_leave(s, 2);
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t[2]), 1);
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t[3]), 1);
+    assert_int_equal(sched_next_task(s, 1, 0.0, &t[4]), 0);
+    /* Worker 3 down to 1 thread; worker 2 back with 4 slots, all threads: 2 waiting, 5 idle. */
+    assert_int_equal(sched_worker_set_threads(s, 3, 1, &err), 0);
+    assert_int_equal(sched_worker_join(s, 2, 4, 1.0, &err), 0);
+    /* Worker 3 past its thread: 2 waiting, 4 idle on worker 2: no prefetch. */
+    assert_int_equal(sched_next_task(s, 3, 1.0, &t[4]), 1);
+    assert_int_equal(sched_next_task(s, 3, 1.0, &t[5]), 0);
+    /* A result frees a thread of worker 1 (past its threads still: 3 busy of 2): 1 waiting, 4
+     * idle. Worker 2 takes the last one. */
+    tilebuf_t *r = testutil_fake_result(&t[0], 2);
+    assert_true(sched_task_done(s, 1, 1, t[0].task, t[0].attempt, &r, 2.0, &err) & SCHED_MERGED);
+    assert_int_equal(sched_next_task(s, 1, 2.0, &t[5]), 0);
+    assert_int_equal(sched_next_task(s, 2, 2.0, &t[5]), 1);
+    sched_worker_info_t info[3];
+    assert_int_equal(sched_workers(s, info, 3), 3);
+    assert_int_equal(info[0].busy, 3);
+    assert_int_equal(info[1].busy, 1);
+    assert_int_equal(info[2].busy, 1);
+    sched_destroy(&s);
+}
+
+/* Deadlines with the scheduler's earliest-deadline bound (issue 17: every tick scanned every
+ * task of every running job): a tick before the first deadline requeues nothing, each task goes
+ * back at its own deadline, and a task issued with an earlier deadline than those running (a
+ * caller's clock that stepped back) is still seen. */
+static void test_deadlines_bound(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(8); /* deadline 10 s, timeout 3 s */
+    err_t err;
+    assert_int_equal(sched_add_job(s, 1, 24, 16, 1, testutil_grid(2), &err), 0);
+    assert_int_equal(sched_worker_join(s, 1, 8, 0.0, &err), 0);
+    sched_task_t a, b, c;
+    assert_int_equal(sched_next_task(s, 1, 100.0, &a), 1); /* due at 110 */
+    assert_int_equal(sched_next_task(s, 1, 105.0, &b), 1); /* due at 115 */
+    double now = 100.0;
+    for (; now < 105.0; now += 1.0) {
+        sched_worker_seen(s, 1, now);
+        assert_int_equal(sched_tick(s, now), 0);
+    }
+    /* Due at 100, before a's 110 that the ticks since 100 went by: the clock stepped back. */
+    assert_int_equal(sched_next_task(s, 1, 90.0, &c), 1);
+    sched_worker_seen(s, 1, 105.0);
+    assert_int_equal(sched_tick(s, 105.0), 1); /* c */
+    for (now = 106.0; now < 110.0; now += 1.0) {
+        sched_worker_seen(s, 1, now);
+        assert_int_equal(sched_tick(s, now), 0);
+    }
+    sched_worker_seen(s, 1, 110.5);
+    assert_int_equal(sched_tick(s, 110.5), 1); /* a */
+    for (now = 111.0; now < 115.0; now += 1.0) {
+        sched_worker_seen(s, 1, now);
+        assert_int_equal(sched_tick(s, now), 0);
+    }
+    sched_worker_seen(s, 1, 115.5);
+    assert_int_equal(sched_tick(s, 115.5), 1); /* b */
+    sched_event_t ev[4];
+    assert_int_equal(sched_events_take(s, ev, 4, NULL), 3);
+    assert_int_equal(ev[0].task, c.task);
+    assert_int_equal(ev[1].task, a.task);
+    assert_int_equal(ev[2].task, b.task);
+    assert_int_equal(ev[2].kind, SCHED_EV_REQUEUED_DEADLINE);
+    sched_destroy(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -446,6 +512,8 @@ int main(void)
         cmocka_unit_test(test_restore_from_checkpoint),
         cmocka_unit_test(test_silent_greedy_worker),
         cmocka_unit_test(test_running_count),
+        cmocka_unit_test(test_prefetch_counts),
+        cmocka_unit_test(test_deadlines_bound),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -15,15 +15,10 @@
 
 static sched_t *new_sched(int worker_failures_in_row)
 {
-    sched_config_t c = sched_config_default();
-    c.tile_size = 8;
-    c.task_deadline_s = 10;
-    c.worker_timeout_s = 3;
+    sched_config_t c = testutil_sched_config(8);
     c.claim_start = 0;
     c.max_worker_failures_in_row = worker_failures_in_row;
-    sched_t *s = sched_new(&c, NULL);
-    assert_non_null(s);
-    return s;
+    return testutil_sched_new(&c);
 }
 
 /* A job of 16x16 pixels at 1 spp and 8-pixel tiles: 4 tasks. */
@@ -35,22 +30,10 @@ static void add_job(sched_t *s, uint64_t id, const char *owner, int priority)
     assert_int_equal(sched_set_job_priority(s, id, priority, &err), 0);
 }
 
-static tilebuf_t *fake_result(const sched_task_t *t)
-{
-    tilebuf_t *r = tilebuf_new(t->x0, t->y0, t->w, t->h, 2, NULL);
-    for (int y = t->y0; y < t->y0 + t->h; y++)
-        for (int x = t->x0; x < t->x0 + t->w; x++)
-            for (uint32_t k = t->sample_begin; k < t->sample_end; k++) {
-                double v[2] = {x + 100.0 * y + 0.25 * k, 1.0 + x};
-                tilebuf_add_sample(r, x, y, v, (const double[3]){0, v[0], 0});
-            }
-    return r;
-}
-
 static void finish(sched_t *s, uint64_t worker, const sched_task_t *t)
 {
     err_t err;
-    tilebuf_t *r = fake_result(t);
+    tilebuf_t *r = testutil_fake_result(t, 2);
     assert_true(sched_task_done(s, worker, t->job, t->task, t->attempt, &r, 1.0, &err) &
                 SCHED_MERGED);
 }
@@ -127,7 +110,7 @@ static void test_pause_and_resume(void **state)
     sched_task_t held;
     assert_int_equal(sched_next_task(s, 1, 0.0, &held), 1);
     assert_int_equal(held.job, 1);
-    assert_int_equal(sched_pause_job(s, 1, true, &err), 0);
+    assert_int_equal(sched_pause_job(s, 1, true, 0.0, &err), 0);
     sched_job_info_t info;
     assert_int_equal(sched_job_info(s, 1, &info), 0);
     assert_true(info.paused);
@@ -142,7 +125,7 @@ static void test_pause_and_resume(void **state)
     finish(s, 1, &held);
     assert_int_equal(sched_job_info(s, 1, &info), 0);
     assert_int_equal(info.tasks_done, 1);
-    assert_int_equal(sched_pause_job(s, 1, false, &err), 0);
+    assert_int_equal(sched_pause_job(s, 1, false, 0.0, &err), 0);
     for (int i = 0; i < 3; i++) {
         assert_int_equal(sched_next_task(s, 1, 0.0, &t), 1);
         assert_int_equal(t.job, 1);
@@ -150,8 +133,54 @@ static void test_pause_and_resume(void **state)
     }
     assert_int_equal(sched_job_info(s, 1, &info), 0);
     assert_int_equal(info.state, JOB_DONE);
-    assert_int_equal(sched_pause_job(s, 1, true, &err), -1);
+    assert_int_equal(sched_pause_job(s, 1, true, 0.0, &err), -1);
     assert_non_null(strstr(err.msg, "only a queued or running job"));
+    sched_destroy(&s);
+}
+
+/* Issue 17: a paused job's time limit kept counting. The scheduler counts the time a job is
+ * paused while it runs, on the caller's clock (here a fake one): the master's elapsed time (and
+ * so its time limit, its pass records and what the journal keeps) leaves it out. A pause while
+ * the job is still queued is not its time (it starts after it); a pause the master makes when it
+ * restores a job from its journal (queued, then running at once) counts from that pause. */
+static void test_pause_time_not_counted(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(5);
+    err_t err;
+    add_job(s, 1, "", 0);
+    assert_int_equal(sched_worker_join(s, 1, 64, 0.0, &err), 0);
+    sched_task_t t;
+    assert_int_equal(sched_next_task(s, 1, 1.0, &t), 1); /* running from 1 s */
+    assert_true(sched_job_paused_s(s, 1, 5.0) == 0.0);
+    assert_int_equal(sched_pause_job(s, 1, true, 10.0, &err), 0);
+    assert_true(sched_job_paused_s(s, 1, 10.0) == 0.0);
+    assert_true(sched_job_paused_s(s, 1, 15.0) == 5.0); /* the pause under way */
+    assert_int_equal(sched_pause_job(s, 1, false, 30.0, &err), 0);
+    assert_true(sched_job_paused_s(s, 1, 40.0) == 20.0);  /* ended: no longer grows */
+    assert_int_equal(sched_pause_job(s, 1, true, 50.0, &err), 0);
+    assert_int_equal(sched_pause_job(s, 1, true, 55.0, &err), 0); /* again: still from 50 */
+    assert_int_equal(sched_pause_job(s, 1, false, 70.0, &err), 0);
+    assert_true(sched_job_paused_s(s, 1, 100.0) == 40.0);
+    sched_job_info_t info;
+    assert_int_equal(sched_job_info(s, 1, &info), 0);
+    assert_false(info.paused);
+
+    /* Paused while queued, resumed before it starts: none of it counts. */
+    add_job(s, 2, "", 0);
+    assert_int_equal(sched_pause_job(s, 2, true, 0.0, &err), 0);
+    assert_true(sched_job_paused_s(s, 2, 50.0) == 0.0);
+    assert_int_equal(sched_pause_job(s, 2, false, 100.0, &err), 0);
+    assert_true(sched_job_paused_s(s, 2, 200.0) == 0.0);
+
+    /* Paused as the journal restored it: from that pause on. */
+    add_job(s, 3, "", 0);
+    assert_int_equal(sched_pause_job(s, 3, true, 200.0, &err), 0);
+    assert_int_equal(sched_restore_job(s, 3, NULL, NULL, 0, &err), 0);
+    assert_true(sched_job_paused_s(s, 3, 250.0) == 50.0);
+    assert_int_equal(sched_pause_job(s, 3, false, 260.0, &err), 0);
+    assert_true(sched_job_paused_s(s, 3, 1000.0) == 60.0);
+    assert_true(sched_job_paused_s(s, 99, 1000.0) == 0.0); /* no such job */
     sched_destroy(&s);
 }
 
@@ -187,7 +216,7 @@ static void test_requeue_by_hand(void **state)
     assert_int_equal(sched_requeue_task(s, 1, stuck.task, &err), -1);
     assert_non_null(strstr(err.msg, "is done"));
     /* The stuck worker's late copy is the same bytes: accepted as a duplicate. */
-    tilebuf_t *r = fake_result(&stuck);
+    tilebuf_t *r = testutil_fake_result(&stuck, 2);
     assert_int_equal(sched_task_done(s, 1, 1, stuck.task, stuck.attempt, &r, 2.0, &err),
                      SCHED_DUPLICATE);
     sched_destroy(&s);
@@ -281,7 +310,7 @@ static void test_operations_leave_pixels_alone(void **state)
         assert_int_equal(sched_worker_join(s[run], 2, 1, 0.0, &err), 0);
         if (run == 1) {
             add_job(s[run], 2, "bob", 3);
-            assert_int_equal(sched_pause_job(s[run], 2, true, &err), 0);
+            assert_int_equal(sched_pause_job(s[run], 2, true, 0.0, &err), 0);
         }
         sched_task_t t;
         int k = 0;
@@ -313,6 +342,7 @@ int main(void)
         cmocka_unit_test(test_priority_first),
         cmocka_unit_test(test_fair_share_between_owners),
         cmocka_unit_test(test_pause_and_resume),
+        cmocka_unit_test(test_pause_time_not_counted),
         cmocka_unit_test(test_requeue_by_hand),
         cmocka_unit_test(test_worker_blocked_in_a_row_and_unblocked),
         cmocka_unit_test(test_events_on_deadline_and_loss),

@@ -13,31 +13,12 @@
 #include "sched.h"
 #include "sched_testutil.h"
 
-/* A sample's XYZ when only its luminance Y matters to the test. */
-#define XYZ_OF_Y(l) ((const double[3]){0.0, (l), 0.0})
-
 static sched_t *new_sched(void)
 {
-    sched_config_t c = sched_config_default();
-    c.tile_size = 4;
-    c.task_deadline_s = 10;
-    c.worker_timeout_s = 3;
+    sched_config_t c = testutil_sched_config(4);
     c.max_task_failures = 2;
     c.max_worker_job_failures = 5;
-    sched_t *s = sched_new(&c, NULL);
-    assert_non_null(s);
-    return s;
-}
-
-static tilebuf_t *result_for(const sched_task_t *t)
-{
-    tilebuf_t *r = tilebuf_new(t->x0, t->y0, t->w, t->h, 4, NULL);
-    double v[4] = {1, 2, 3, 4};
-    for (int y = t->y0; y < t->y0 + t->h; y++)
-        for (int x = t->x0; x < t->x0 + t->w; x++)
-            for (uint32_t k = t->sample_begin; k < t->sample_end; k++)
-                tilebuf_add_sample(r, x, y, v, XYZ_OF_Y(1.0));
-    return r;
+    return testutil_sched_new(&c);
 }
 
 /* Runs every camera task the worker is given until there is none; returns the tasks run for
@@ -49,7 +30,7 @@ static int finish_camera(sched_t *s, uint64_t worker, uint64_t job, double now)
     int n = 0;
     while (sched_next_task(s, worker, now, &t)) {
         assert_int_equal(t.kind, SCHED_CAMERA);
-        tilebuf_t *r = result_for(&t);
+        tilebuf_t *r = testutil_fake_result(&t, 4);
         assert_true(sched_task_done(s, worker, t.job, t.task, t.attempt, &r, now, &err) > 0);
         n += t.job == job;
     }

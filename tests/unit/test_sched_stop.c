@@ -13,34 +13,13 @@
 #include "sched.h"
 #include "sched_testutil.h"
 
-/* A sample's XYZ when only its luminance Y matters to the test. */
-#define XYZ_OF_Y(l) ((const double[3]){0.0, (l), 0.0})
-
 #define NB 3
 
 static sched_t *new_sched(void)
 {
     sched_config_t c = sched_config_default();
     c.tile_size = 4;
-    sched_t *s = sched_new(&c, NULL);
-    assert_non_null(s);
-    return s;
-}
-
-/* A worker's stand-in: sample s of pixel (x, y) adds a value unique to (x, y, s, bucket), with
- * digits that make float sums depend on their order. */
-static tilebuf_t *fake_result(const sched_task_t *t)
-{
-    tilebuf_t *r = tilebuf_new(t->x0, t->y0, t->w, t->h, NB, NULL);
-    double v[NB];
-    for (int y = t->y0; y < t->y0 + t->h; y++)
-        for (int x = t->x0; x < t->x0 + t->w; x++)
-            for (uint32_t s = t->sample_begin; s < t->sample_end; s++) {
-                for (int b = 0; b < NB; b++)
-                    v[b] = (b + 1) * (x + 100.0 * y + 0.001 * s) * 1.0000001 + 1.0 / (s + 3);
-                tilebuf_add_sample(r, x, y, v, XYZ_OF_Y(v[0]));
-            }
-    return r;
+    return testutil_sched_new(&c);
 }
 
 static void test_pass_bounds(void **state)
@@ -80,13 +59,13 @@ static void test_whole_passes_one_boundary_at_a_time(void **state)
     assert_int_equal(testutil_take_all(s, t, 16), 16);
     sched_job_info_t info;
     for (int i = 15; i >= 1; i--) {
-        tilebuf_t *r = fake_result(&t[i]);
+        tilebuf_t *r = testutil_fake_result(&t[i], NB);
         int m = sched_task_done(s, 1, 1, t[i].task, t[i].attempt, &r, 0.0, &err);
         assert_int_equal(m, SCHED_MERGED); /* pass 0 still lacks tile 0: nothing merges */
         /* The image holds no sample yet: whole passes only. */
         assert_int_equal(tilebuf_count(sched_job_image(s, 1), t[i].x0, t[i].y0), 0);
     }
-    tilebuf_t *r = fake_result(&t[0]);
+    tilebuf_t *r = testutil_fake_result(&t[0], NB);
     int m = sched_task_done(s, 1, 1, t[0].task, t[0].attempt, &r, 0.0, &err);
     assert_int_equal(m, SCHED_MERGED | SCHED_PASS_DONE | SCHED_PASS_READY);
     sched_job_info(s, 1, &info);
@@ -127,7 +106,7 @@ static tilebuf_t *run_job(int spp, int stop_after, unsigned order_seed, bool who
     testutil_shuffle_tasks(tasks, n, order_seed);
     sched_job_info_t info;
     for (int i = 0; i < n; i++) {
-        tilebuf_t *r = fake_result(&tasks[i]);
+        tilebuf_t *r = testutil_fake_result(&tasks[i], NB);
         int m = sched_task_done(s, 1, 9, tasks[i].task, tasks[i].attempt, &r, 0.0, &err);
         assert_true(m > 0);
         if (stop_after > 0 && (m & SCHED_DUPLICATE))
@@ -202,7 +181,7 @@ static void test_finish_releases_tasks(void **state)
     /* Not before a whole pass is in. */
     assert_int_equal(sched_finish_job_at_pass(s, 1, &err), -1);
     assert_non_null(strstr(err.msg, "no whole pass"));
-    tilebuf_t *r = fake_result(&t[0]);
+    tilebuf_t *r = testutil_fake_result(&t[0], NB);
     assert_true(sched_task_done(s, 1, 1, t[0].task, t[0].attempt, &r, 0.0, &err) & SCHED_PASS_DONE);
     assert_int_equal(sched_finish_job_at_pass(s, 1, &err), 0);
     sched_worker_info_t w;
@@ -216,7 +195,7 @@ static void test_finish_releases_tasks(void **state)
     assert_int_equal(info.spp_done, 1);
     assert_int_equal(info.tasks_running, 0);
     assert_int_equal(info.samples_done, 16);
-    r = fake_result(&t[1]);
+    r = testutil_fake_result(&t[1], NB);
     assert_int_equal(sched_task_done(s, 1, 1, t[1].task, t[1].attempt, &r, 0.0, &err),
                      SCHED_DUPLICATE);
     assert_null(r);
@@ -243,13 +222,13 @@ static void test_refusals(void **state)
     assert_int_equal(sched_worker_join(s, 1, 10, 0.0, &err), 0);
     sched_task_t t;
     assert_int_equal(sched_next_task(s, 1, 0.0, &t), 1);
-    tilebuf_t *r = fake_result(&t);
+    tilebuf_t *r = testutil_fake_result(&t, NB);
     assert_int_equal(sched_task_done(s, 1, 5, t.task, t.attempt, &r, 0.0, &err), SCHED_MERGED);
     /* A camera result is in: too late to choose whole passes. */
     assert_int_equal(sched_set_whole_passes(s, 5, &err), -1);
     assert_non_null(strstr(err.msg, "before"));
     assert_int_equal(sched_next_task(s, 1, 0.0, &t), 1);
-    r = fake_result(&t);
+    r = testutil_fake_result(&t, NB);
     assert_true(sched_task_done(s, 1, 5, t.task, t.attempt, &r, 0.0, &err) & SCHED_PASS_DONE);
     /* Merged tile by tile, its image may hold parts of later passes: it cannot end early. */
     assert_int_equal(sched_finish_job_at_pass(s, 5, &err), -1);
@@ -286,7 +265,7 @@ static void test_whole_passes_with_lost_worker(void **state)
     assert_int_equal(n, 24); /* 6 tiles x 4 passes */
     int boundaries = 0;
     for (int i = 0; i < n; i++) {
-        tilebuf_t *r = fake_result(&t[i]);
+        tilebuf_t *r = testutil_fake_result(&t[i], NB);
         int m = sched_task_done(s, 2, 9, t[i].task, t[i].attempt, &r, 0.0, &err);
         while (m & SCHED_PASS_DONE) {
             boundaries++;
