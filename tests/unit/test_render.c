@@ -279,8 +279,10 @@ static void test_tiles_are_deterministic(void **state)
  * Rendered with 16 seeds at 16 spp (a 4 x 4 grid whose strata the edge does not cut), column 4's
  * value per pixel and bucket must scatter between seeds around 0.5 by what its spread
  * between seeds says: which position strata fill which wavelength bucket must change with the
- * seed. (With the stratum permutation salted by the pixel alone every seed gave each bucket
- * the same strata: column 4 was the same, and wrong, in every seed's image.) */
+ * seed, and within one image a bucket's samples must come from both halves of the pixel.
+ * (With the stratum permutation salted by the pixel alone every seed gave each bucket the same
+ * strata: column 4 was the same, and wrong, in every seed's image; with affine permutations
+ * every bucket took its samples from one column of strata, 0 or 1.) */
 static void test_edge_coverage_between_seeds(void **state)
 {
     (void)state;
@@ -324,6 +326,20 @@ static void test_edge_coverage_between_seeds(void **state)
     /* Per pixel and bucket: the mean over seeds and its squared standard error. Unbiased and
      * independent between seeds: sum (mean - 0.5)^2 is near sum se^2 (a chi-square of
      * W * nb = 144 terms, within a factor 2 of its expectation by far). */
+    /* Within one image: each bucket of a column-4 pixel takes 4 of the 16 samples. With the
+     * position and wavelength strata independent, the 4 come from both halves of the pixel,
+     * and (m - 0.5)^2 averages 4 (1/2)(1/2) (12/15) / 16 = 0.05 (sampling 4 of 16 strata, 8 of
+     * them lit, without replacement); when a bucket's samples all share one column of
+     * position strata (the permutations' low bits tied), m is 0 or 1 and the mean is 0.25. */
+    double dev2 = 0.0;
+    for (int k = 0; k < SEEDS; k++)
+        for (int y = 0; y < W; y++)
+            for (int b = 0; b < nb; b++)
+                dev2 += (v[k][y][b] - 0.5) * (v[k][y][b] - 0.5);
+    dev2 /= (double)SEEDS * W * nb;
+    if (!(dev2 < 0.1))
+        fail_msg("column 4's buckets scatter by %.4f around 1/2 within an image (0.05 for "
+                 "independent position and wavelength strata, 0.25 when they are tied)", dev2);
     double err2 = 0.0, se2 = 0.0, all = 0.0;
     for (int y = 0; y < W; y++)
         for (int b = 0; b < nb; b++) {
