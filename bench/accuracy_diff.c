@@ -18,7 +18,9 @@
  *            mean block luminance of the reference: the figure of the corpus references' own
  *            noise in ../shared/pbrt-scenes/reference/REFERENCE.md ("seed-2 rel. RMSE 4x4"),
  *            which averages away the pixel filter's and the sampler's pixel-scale differences
- *            and keeps the errors a viewer sees; a block with a non-finite pixel is left out.
+ *            and keeps the errors a viewer sees; a block with a non-finite pixel is left out;
+ *   lum4_se  lum4's standard error from the spread of the blocks' squared differences (large
+ *            when a few blocks carry lum4), "-" when it cannot be computed (one block, no difference);
  * With a second reference (an independent render, another seed) the reference is the mean of
  * the two and the reference's own noise is printed as well: floor_lum and floor_col are the
  * same figures for the first half against the mean. A - (A + B) / 2 = (A - B) / 2 has the
@@ -136,23 +138,36 @@ static bool block_sums(const float *test, const float *ref, int w, int bx, int b
     return finite;
 }
 
-/* lum4 (above): blocks of 4x4 pixels of test against ref, w x h pixels of 3 floats. */
-static double block_rmse(const float *test, const float *ref, int w, int h)
+/* lum4 (above): blocks of 4x4 pixels of test against ref, w x h pixels of 3 floats; and in
+ * *se its standard error, from the spread of the blocks' squared differences e_b: lum4^2 is
+ * their mean over mean_Yr^2, whose standard error is sd(e_b) / sqrt(n) / mean_Yr^2, and
+ * d lum4 = d(lum4^2) / (2 lum4). Where a few blocks (a glint, a small light's edge) carry
+ * most of lum4 it is large: lum4 itself is then uncertain by tens of per cent. */
+static double block_rmse(const float *test, const float *ref, int w, int h, double *se)
 {
-    double sq = 0.0, sum_r = 0.0;
+    double sq = 0.0, sq2 = 0.0, sum_r = 0.0;
     long n = 0;
+    *se = NAN;
     for (int by = 0; by + 4 <= h; by += 4)
         for (int bx = 0; bx + 4 <= w; bx += 4) {
             double yt, yr;
             if (!block_sums(test, ref, w, bx, by, &yt, &yr))
                 continue;
-            sq += (yt - yr) * (yt - yr) / 256.0;
+            double e = (yt - yr) * (yt - yr) / 256.0;
+            sq += e;
+            sq2 += e * e;
             sum_r += yr / 16.0;
             n++;
         }
     if (n == 0 || !(sum_r > 0.0))
         return NAN;
-    return sqrt(sq / (double)n) / (sum_r / (double)n);
+    double mean_r = sum_r / (double)n, q = sq / (double)n;
+    double lum4 = sqrt(q) / mean_r;
+    if (n > 1 && q > 0.0) {
+        double var_e = fmax(0.0, (sq2 / (double)n - q * q) * (double)n / (double)(n - 1));
+        *se = sqrt(var_e / (double)n) / (mean_r * mean_r) / (2.0 * lum4);
+    }
+    return lum4;
 }
 
 /* --worst: the n blocks of 4x4 pixels with the largest squared luminance difference. */
@@ -275,7 +290,9 @@ int main(int argc, char **argv)
     print_value("r_ratio", safe_div(s.r / (double)s.n, mr[0]));
     print_value("g_ratio", safe_div(s.g / (double)s.n, mr[1]));
     print_value("b_ratio", safe_div(s.b / (double)s.n, mr[2]));
-    print_value("lum4", block_rmse(image_exr_rgb(img[0]), ref, w, h));
+    double lum4_se;
+    print_value("lum4", block_rmse(image_exr_rgb(img[0]), ref, w, h, &lum4_se));
+    print_value("lum4_se", lum4_se);
     printf(" est=%s spp=%s stop=%s nonfinite=%ld col_pixels=%ld", est, spp, stop, s.nonfinite,
            s.n_col);
 

@@ -1171,16 +1171,48 @@ static double lens_ray(ctx_t *c, path_t *p, const camera_frame_t *f, double px, 
     return w;
 }
 
-/* A permutation of the sample indices [0, spp) that differs between pixels (an odd multiplier
- * and an offset, a bijection modulo a power of two), so that strata of the pixel position and
- * of the wavelength are not correlated. Other spp values keep the identity. */
+/* A permutation of the sample indices [0, spp) that differs between pixels, so that strata of
+ * the pixel position and of the wavelength are not correlated; other spp values keep the
+ * identity. Three rounds of an odd multiplier and an offset (a bijection modulo spp = 2^n),
+ * each followed by x ^= x >> shift (invertible too): an affine map alone sends x mod 2^j to
+ * a function of x mod 2^j only, so the position permutation's column (k mod side) and the
+ * wavelength permutation's low bits were tied to each other whatever the salts; with
+ * 4 hero wavelengths a quarter of the buckets apart every bucket of a pixel took its samples
+ * from one column of position strata, and a pixel half covered by a light was 0 or 1 bucket
+ * by bucket (test_render's test_edge_coverage_between_seeds). The right shifts carry high
+ * bits into low ones and break that tie.
+ * The salt comes from permutation_salt, so the pairing differs between seeds as well: with a
+ * salt of the pixel alone, every seed paired the same position strata with the same
+ * wavelengths, and the part of a pixel's error that this pairing makes (at a sharp edge,
+ * where some strata see a bright light and others do not) was the same in every seed's image:
+ * two seeds agreed better than either agreed with the converged image, and the corpus's noise
+ * estimate from seeds 1 and 2 (bench/corpus.sh) was too low (killeroo-simple's sphere light). */
 static uint32_t permute(uint32_t s, uint32_t spp, uint64_t salt)
 {
     if (spp == 0 || (spp & (spp - 1)) != 0 || s >= spp)
         return s;
-    uint64_t hsh = salt * 0x9E3779B97F4A7C15ull;
-    uint32_t mult = (uint32_t)(hsh >> 32) | 1u;
-    return (s * mult + (uint32_t)hsh) & (spp - 1);
+    const uint32_t mask = spp - 1;
+    int bits = 0;
+    while ((1u << bits) < spp)
+        bits++;
+    const int shift = bits > 1 ? (bits + 1) / 2 : 1;
+    uint32_t x = s;
+    for (uint64_t r = 0; r < 3; r++) {
+        uint64_t hsh = (salt + r * 0xD1B54A32D192ED03ull) * 0x9E3779B97F4A7C15ull;
+        x = (x * ((uint32_t)(hsh >> 32) | 1u) + (uint32_t)hsh) & mask;
+        x ^= x >> shift;
+    }
+    return x;
+}
+
+/* Sample index reserved for the per-pixel permutation salts (no render takes 2^32 - 1
+ * samples of one pixel): a pure function of (seed, pixel, which) like every other number. */
+#define SALT_SAMPLE UINT32_MAX
+
+/* The salt of permute for one pixel: which = 0 for the pixel position, 1 for the wavelength. */
+static uint64_t permutation_salt(uint64_t seed, uint64_t pixel, uint32_t which)
+{
+    return (uint64_t)(rng_uniform(seed, pixel, SALT_SAMPLE, which) * 0x1p53);
 }
 
 int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int y0, int w, int h,
@@ -1250,6 +1282,8 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
         for (int x = x0; x < x0 + w; x++) {
             const int fx = x + rs->crop_x0, fy = y + rs->crop_y0;
             uint64_t pixel = (uint64_t)fy * (uint64_t)full_w + (uint64_t)fx;
+            const uint64_t salt_xy = permutation_salt(rs->seed, pixel, 0);
+            const uint64_t salt_l = permutation_salt(rs->seed, pixel, 1);
             for (uint32_t s = sample_begin; s < sample_end; s++) {
                 c.rng = rng_stream_make(rs->seed, pixel, s);
                 memset(contrib, 0, (size_t)nb * sizeof *contrib);
@@ -1260,12 +1294,12 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                  * stratified hero wavelengths (when spp is a power of two). */
                 double jx = next(&c), jy = next(&c), ul = next(&c);
                 if (s < spp && side * side == spp) {
-                    uint32_t k = permute(s, spp, pixel);
+                    uint32_t k = permute(s, spp, salt_xy);
                     jx = ((k % side) + jx) / side;
                     jy = ((k / side) + jy) / side;
                 }
                 if (s < spp && (spp & (spp - 1)) == 0)
-                    ul = (permute(s, spp, ~pixel) + ul) / spp;
+                    ul = (permute(s, spp, salt_l) + ul) / spp;
                 double l1 = next(&c), l2 = next(&c);
                 /* Filter importance sampling (pbrt-v4 GetCameraSample): the stratified (jx, jy)
                  * mapped through the filter's inverse CDF gives the offset from the pixel

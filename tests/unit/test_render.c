@@ -271,6 +271,97 @@ static void test_tiles_are_deterministic(void **state)
     scene_destroy(&s);
 }
 
+/* A sharp edge at a known place: a camera at (0, 0, -5) looking at +z sees an emitting
+ * half-plane x >= 0 (radiance 1 in every bucket) filling the right half of a 9 x 9 image.
+ * pbrt-v4's conventions put world +x on the image's right (LookAt with +y up) and sample
+ * pixel (x, y) over [x, x + 1) x [y, y + 1), so columns 5..8 see the light, 0..3 do not, and
+ * the edge crosses column 4 at its middle: coverage 1/2, each bucket's expected value 0.5.
+ * Rendered with 16 seeds at 16 spp (a 4 x 4 grid whose strata the edge does not cut), column 4's
+ * value per pixel and bucket must scatter between seeds around 0.5 by what its spread
+ * between seeds says: which position strata fill which wavelength bucket must change with the
+ * seed, and within one image a bucket's samples must come from both halves of the pixel.
+ * (With the stratum permutation salted by the pixel alone every seed gave each bucket the same
+ * strata: column 4 was the same, and wrong, in every seed's image; with affine permutations
+ * every bucket took its samples from one column of strata, 0 or 1.) */
+static void test_edge_coverage_between_seeds(void **state)
+{
+    (void)state;
+    enum { W = 9, SEEDS = 16, SPP = 16 };
+    err_t err;
+    scene_t *s = sb_render_scene(INTEGRATOR_PATH, DISPERSION_HERO, W, SPP);
+    sb_look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 30);
+    spectrum_t *le = spectrum_new_constant(1.0, &err);
+    assert_non_null(le);
+    assert_int_equal(scene_own_spectrum(s, le, &err), 0);
+    light_t l = {.kind = LIGHT_AREA, .spectrum = le, .scale = 1.0, .twosided = 1};
+    int li = scene_add_light(s, &l, &err);
+    assert_true(li >= 0);
+    int mi = sb_diffuse(s, 0.0);
+    const double P[] = {0, -100, 0, 100, -100, 0, 100, 100, 0, 0, 100, 0};
+    const uint32_t idx[] = {0, 1, 2, 0, 2, 3};
+    assert_true(scene_add_mesh(s, P, 4, idx, 2, NULL, NULL, mi, li, 0, &err) >= 0);
+    if (scene_finish(s, &err))
+        fail_msg("%s", err.msg);
+    const int nb = s->settings.grid.n;
+    static double v[SEEDS][W][64];
+    for (int k = 0; k < SEEDS; k++) {
+        s->settings.seed = (uint64_t)k + 1;
+        tilebuf_t *t = tilebuf_new(0, 0, W, W, nb, &err);
+        assert_non_null(t);
+        if (render_tile(s, NULL, 0, 0, W, W, 0, SPP, t, NULL, &err))
+            fail_msg("render_tile: %s", err.msg);
+        for (int y = 0; y < W; y++)
+            for (int x = 0; x < W; x++)
+                for (int b = 0; b < nb; b++) {
+                    double m = tilebuf_sum(t, x, y, b) / (double)tilebuf_count(t, x, y);
+                    if (x < 4 && m != 0.0)
+                        fail_msg("seed %d: pixel (%d, %d) left of the edge is %g in bucket %d", k + 1, x, y, m, b);
+                    if (x > 4 && !(fabs(m - 1.0) < 1e-9))
+                        fail_msg("seed %d: pixel (%d, %d) right of the edge is %g in bucket %d", k + 1, x, y, m, b);
+                    if (x == 4)
+                        v[k][y][b] = m;
+                }
+        tilebuf_destroy(&t);
+    }
+    /* Per pixel and bucket: the mean over seeds and its squared standard error. Unbiased and
+     * independent between seeds: sum (mean - 0.5)^2 is near sum se^2 (a chi-square of
+     * W * nb = 144 terms, within a factor 2 of its expectation by far). */
+    /* Within one image: each bucket of a column-4 pixel takes 4 of the 16 samples. With the
+     * position and wavelength strata independent, the 4 come from both halves of the pixel,
+     * and (m - 0.5)^2 averages 4 (1/2)(1/2) (12/15) / 16 = 0.05 (sampling 4 of 16 strata, 8 of
+     * them lit, without replacement); when a bucket's samples all share one column of
+     * position strata (the permutations' low bits tied), m is 0 or 1 and the mean is 0.25. */
+    double dev2 = 0.0;
+    for (int k = 0; k < SEEDS; k++)
+        for (int y = 0; y < W; y++)
+            for (int b = 0; b < nb; b++)
+                dev2 += (v[k][y][b] - 0.5) * (v[k][y][b] - 0.5);
+    dev2 /= (double)SEEDS * W * nb;
+    if (!(dev2 < 0.1))
+        fail_msg("column 4's buckets scatter by %.4f around 1/2 within an image (0.05 for "
+                 "independent position and wavelength strata, 0.25 when they are tied)", dev2);
+    double err2 = 0.0, se2 = 0.0, all = 0.0;
+    for (int y = 0; y < W; y++)
+        for (int b = 0; b < nb; b++) {
+            double sum = 0.0, sq = 0.0;
+            for (int k = 0; k < SEEDS; k++) {
+                sum += v[k][y][b];
+                sq += v[k][y][b] * v[k][y][b];
+            }
+            double mean = sum / SEEDS, var = fmax(0.0, (sq - SEEDS * mean * mean) / (SEEDS - 1));
+            err2 += (mean - 0.5) * (mean - 0.5);
+            se2 += var / SEEDS;
+            all += mean;
+        }
+    all /= W * nb;
+    if (!(err2 <= 2.0 * se2 && se2 > 0.0))
+        fail_msg("column 4 against its coverage 1/2: sum of squared errors of the seed means %.5f, "
+                 "of their standard errors %.5f (seeds not independent)", err2, se2);
+    if (!(fabs(all - 0.5) <= 4.0 * sqrt(se2) / (W * nb)))
+        fail_msg("column 4's mean %.5f, coverage 0.5", all);
+    scene_destroy(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -288,6 +379,7 @@ int main(void)
         cmocka_unit_test(test_slab_whitted_fanout),
         cmocka_unit_test(test_slab_simplepath_hero),
         cmocka_unit_test(test_tiles_are_deterministic),
+        cmocka_unit_test(test_edge_coverage_between_seeds),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
