@@ -270,8 +270,9 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
                             /* The technique this is weighed against is the exit's sampling
                              * from wi (wis), whose density at -w is PDF(wi, -w). pbrt-v4 uses
                              * PDF(-w, wi) here, which differs for a rough dielectric (the
-                             * refraction Jacobian is not symmetric) and biases its f by ~10 %
-                             * at eta 1.5 (test_bsdf's test_layered_consistency). */
+                             * refraction Jacobian is not symmetric): its weights do not sum to
+                             * 1 and its f is 9-27 % too bright at eta 1.5 against a path-
+                             * sampled ground truth (test_bsdf_layered; docs/physics.md 10.4). */
                             double epdf = iface_pdf(g, exit_if, wi, vec3_neg(w), LOBE_T);
                             double wt2 = power_heuristic(ppdf, epdf);
                             double tr2 = layer_tr(zp - exit_z, pwi);

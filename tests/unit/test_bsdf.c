@@ -759,7 +759,9 @@ static bsdf_t coated(bsdf_kind_t kind, int n, double rough, double eta)
  *   Carlo estimates of int f |cos| dwi, equal within 5 combined standard errors). This is
  *   the test that caught pbrt-v4's MIS partner pdf in LayeredBxDF::f (the exit interface's
  *   PDF(-w, wi) where the technique it is weighed against samples with PDF(wi, -w)): with
- *   pbrt-v4's choice eval gave 0.3515 against sampling's 0.3186 for the coated diffuse;
+ *   pbrt-v4's choice eval gave 0.3515 against sampling's 0.3186 for the coated diffuse
+ *   (test_bsdf_layered checks both against a ground truth that uses neither: sampling is
+ *   right, pbrt-v4's eval 9-27 % too bright);
  * - samples of the opaque-based models stay on wo's side, from either side (two-sided), and
  *   their pdf is marked as an estimate;
  * - the averaged pdf estimate over coarse bins follows the histogram of the samples: never
