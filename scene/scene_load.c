@@ -832,16 +832,13 @@ static const texture_t *load_area_image(loader_t *L, const scene_area_light_t *a
         return NULL;
     double sum = 0.0;
     size_t n = (size_t)w * (size_t)h;
-    for (size_t i = 0; i < 3 * n; i++)
-        if (!(rgb[i] >= 0.0f) || !isfinite(rgb[i])) {
-            pbrt_error(err, a->filename_loc,
-                       "AreaLightSource \"diffuse\": %s: texel (%zu, %zu) has %s value %g: not "
-                       "suitable as a light",
-                       a->filename, (i / 3) % (size_t)w, (i / 3) / (size_t)w,
-                       isnan(rgb[i]) ? "a NaN" : rgb[i] < 0 ? "a negative" : "an infinite", rgb[i]);
-            free(rgb);
-            return NULL;
-        }
+    if (envmap_check_texels(rgb, w, h, a->filename, err)) {
+        char why[sizeof err->msg];
+        snprintf(why, sizeof why, "%s", err->msg);
+        pbrt_error(err, a->filename_loc, "AreaLightSource \"diffuse\": %s", why);
+        free(rgb);
+        return NULL;
+    }
     for (size_t i = 0; i < n; i++)
         sum += colour_luminance((rgb_t){rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]});
     *mean_y = sum / (double)n;
