@@ -897,7 +897,8 @@ static const envmap_t *load_gonio(loader_t *L, const scene_light_t *dl, err_t *e
     } else {
         for (size_t i = 0; i < (size_t)w * (size_t)h; i++) {
             float *p = rgb + 3 * i;
-            float avg = (p[0] + p[1] + p[2]) / 3.0f;
+            /* In double: three channels near FLT_MAX sum past it, their average does not. */
+            float avg = (float)(((double)p[0] + p[1] + p[2]) / 3.0);
             /* A negative, NaN or infinite channel is kept, for envmap_new to refuse by name. */
             for (int c = 0; c < 3; c++)
                 if (!(p[c] >= 0.0f) || !isfinite(p[c]))
