@@ -207,17 +207,7 @@ int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sampl
         return isfinite(out->pdf);
     }
     case LIGHT_POINT:
-    case LIGHT_SPOT: {
-        vec3_t d = vec3_sub(l->position, p);
-        double dist = vec3_length(d);
-        if (!(dist > 0.0))
-            return 0;
-        out->wi = vec3_scale(d, 1.0 / dist);
-        out->dist = dist;
-        out->pdf = pmf;
-        out->is_delta = 1;
-        return 1;
-    }
+    case LIGHT_SPOT:
     case LIGHT_GONIOMETRIC:
     case LIGHT_PROJECTION: {
         vec3_t d = vec3_sub(l->position, p);
@@ -228,6 +218,8 @@ int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sampl
         out->dist = dist;
         out->pdf = pmf;
         out->is_delta = 1;
+        if (l->kind == LIGHT_POINT || l->kind == LIGHT_SPOT)
+            return 1;
         out->texel = lights_image_texel(l, vec3_neg(out->wi));
         /* Outside a projection's frustum nothing arrives: no shadow ray for it. */
         return out->texel != PROJMAP_OUTSIDE;

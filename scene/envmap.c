@@ -69,6 +69,20 @@ static size_t texel_at(const envmap_t *self, double u, double v)
     return (size_t)y * (size_t)self->w + (size_t)x;
 }
 
+int envmap_check_texels(const float *rgb, int w, int h, const char *name, err_t *err)
+{
+    size_t n = (size_t)w * (size_t)h;
+    for (size_t i = 0; i < 3 * n; i++)
+        if (!(rgb[i] >= 0.0f) || !isfinite(rgb[i]))
+            return err_set(err, "%s: texel (%zu, %zu) has %s value %g: not suitable as a light",
+                           name, (i / 3) % (size_t)w, (i / 3) / (size_t)w,
+                           isnan(rgb[i])  ? "a NaN"
+                           : rgb[i] < 0.0f ? "a negative"
+                                           : "an infinite",
+                           rgb[i]);
+    return 0;
+}
+
 envmap_t *envmap_new(const float *rgb, int w, int h, const char *name, err_t *err)
 {
     if (!rgb || w <= 0 || h <= 0) {
@@ -83,13 +97,8 @@ envmap_t *envmap_new(const float *rgb, int w, int h, const char *name, err_t *er
         return NULL;
     }
     size_t n = (size_t)w * (size_t)h;
-    for (size_t i = 0; i < 3 * n; i++)
-        if (!(rgb[i] >= 0.0f) || !isfinite(rgb[i])) {
-            err_set(err, "%s: texel (%zu, %zu) has %s value %g: not suitable as a light", name,
-                    (i / 3) % (size_t)w, (i / 3) / (size_t)w,
-                    isnan(rgb[i]) ? "a NaN" : rgb[i] < 0 ? "a negative" : "an infinite", rgb[i]);
-            return NULL;
-        }
+    if (envmap_check_texels(rgb, w, h, name, err))
+        return NULL;
     envmap_t *e = calloc(1, sizeof *e);
     rgb_uplift_t *t = rgb_uplift_new(err);
     double *weights = malloc(n * sizeof *weights);

@@ -24,6 +24,11 @@ typedef struct envmap envmap_t;
 /* rgb: width * height * 3 linear sRGB floats, top row first. Refuses an image neither square
  * nor 2:1 (no layout fits it), a negative, NaN or infinite texel. name is for messages. */
 envmap_t *envmap_new(const float *rgb, int width, int height, const char *name, err_t *err);
+
+/* The rule every light's image obeys (environments, goniometric, projection and area lights'
+ * images): 0 when each of the width * height * 3 floats is finite and >= 0, else -1 with err
+ * naming the image (name) and the first bad texel's (x, y), top row 0, and what is wrong. */
+int envmap_check_texels(const float *rgb, int width, int height, const char *name, err_t *err);
 void envmap_destroy(envmap_t **self_p);
 
 /* The image's width. */

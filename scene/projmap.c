@@ -2,6 +2,7 @@
 
 #include "colour.h"
 #include "distrib2d.h"
+#include "envmap.h"
 #include "rgb_uplift.h"
 
 #include <math.h>
@@ -68,16 +69,8 @@ projmap_t *projmap_new(const float *rgb, int w, int h, double fov_deg, const cha
         return NULL;
     }
     size_t n = (size_t)w * (size_t)h;
-    for (size_t i = 0; i < 3 * n; i++)
-        if (!(rgb[i] >= 0.0f) || !isfinite(rgb[i])) {
-            err_set(err, "%s: texel (%zu, %zu) has %s value %g: not suitable as a light", name,
-                    (i / 3) % (size_t)w, (i / 3) / (size_t)w,
-                    isnan(rgb[i]) ? "a NaN"
-                    : rgb[i] < 0  ? "a negative"
-                                  : "an infinite",
-                    rgb[i]);
-            return NULL;
-        }
+    if (envmap_check_texels(rgb, w, h, name, err))
+        return NULL;
     projmap_t *m = calloc(1, sizeof *m);
     rgb_uplift_t *t = rgb_uplift_new(err);
     double *weights = malloc(n * sizeof *weights);

@@ -832,16 +832,13 @@ static const texture_t *load_area_image(loader_t *L, const scene_area_light_t *a
         return NULL;
     double sum = 0.0;
     size_t n = (size_t)w * (size_t)h;
-    for (size_t i = 0; i < 3 * n; i++)
-        if (!(rgb[i] >= 0.0f) || !isfinite(rgb[i])) {
-            pbrt_error(err, a->filename_loc,
-                       "AreaLightSource \"diffuse\": %s: texel (%zu, %zu) has %s value %g: not "
-                       "suitable as a light",
-                       a->filename, (i / 3) % (size_t)w, (i / 3) / (size_t)w,
-                       isnan(rgb[i]) ? "a NaN" : rgb[i] < 0 ? "a negative" : "an infinite", rgb[i]);
-            free(rgb);
-            return NULL;
-        }
+    if (envmap_check_texels(rgb, w, h, a->filename, err)) {
+        char why[sizeof err->msg];
+        snprintf(why, sizeof why, "%s", err->msg);
+        pbrt_error(err, a->filename_loc, "AreaLightSource \"diffuse\": %s", why);
+        free(rgb);
+        return NULL;
+    }
     for (size_t i = 0; i < n; i++)
         sum += colour_luminance((rgb_t){rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]});
     *mean_y = sum / (double)n;
@@ -900,7 +897,8 @@ static const envmap_t *load_gonio(loader_t *L, const scene_light_t *dl, err_t *e
     } else {
         for (size_t i = 0; i < (size_t)w * (size_t)h; i++) {
             float *p = rgb + 3 * i;
-            float avg = (p[0] + p[1] + p[2]) / 3.0f;
+            /* In double: three channels near FLT_MAX sum past it, their average does not. */
+            float avg = (float)(((double)p[0] + p[1] + p[2]) / 3.0);
             /* A negative, NaN or infinite channel is kept, for envmap_new to refuse by name. */
             for (int c = 0; c < 3; c++)
                 if (!(p[c] >= 0.0f) || !isfinite(p[c]))

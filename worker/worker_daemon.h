@@ -2,7 +2,7 @@
  * tasks, renders them on its threads with render_tile and sends the results back; heartbeats
  * both ways, and reconnects with back-off when the master goes quiet (zguide's Paranoid
  * Pirate). Scenes arrive as bundles, are checked against their hash, extracted only inside the
- * worker's cache folder, and loaded once per bundle and settings, whatever the number of jobs
+ * worker's cache folder, and loaded once per bundle, scene file and settings, whatever the number of jobs
  * and photon stores that use it at once (scene_shelf.h). */
 #ifndef PRISMFARM_WORKER_DAEMON_H
 #define PRISMFARM_WORKER_DAEMON_H

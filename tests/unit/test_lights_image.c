@@ -449,6 +449,63 @@ static void test_black_images(void **state)
     assert_non_null(strstr(err.msg, "8x4, not square"));
 }
 
+/* Grey, but for a negative green at texel (2, 1) (top row 0). */
+static void one_negative(int x, int y, int w, int h, float rgb[3])
+{
+    grey_quarter(x, y, w, h, rgb);
+    if (x == 2 && y == 1)
+        rgb[1] = -0.5f;
+}
+
+/* Near FLT_MAX, finite: a float sum of the three channels would overflow. */
+static void huge_grey(int x, int y, int w, int h, float rgb[3])
+{
+    (void)x, (void)y, (void)w, (void)h;
+    rgb[0] = rgb[1] = rgb[2] = 3e38f;
+}
+
+/* A goniometric texel's channel average of finite channels is finite: an image of 3e38 in
+ * every channel is a light (its sum in float, 9e38, was infinite and refused as such). */
+static void test_goniometric_huge_texels(void **state)
+{
+    (void)state;
+    const char *img = write_pfm("huge.pfm", 4, 4, huge_grey);
+    char lines[1024];
+    snprintf(lines, sizeof lines, "LightSource \"goniometric\" \"string filename\" \"%s\"", img);
+    err_t err = {{0}};
+    scene_t *s = load_with_floor(lines, &err);
+    if (!s)
+        fail_msg("refused: %s", err.msg);
+    const light_t *l = only_light(s);
+    assert_true(fabs(envmap_mean_luminance(l->gonio) / 3e38 - 1.0) < 1e-6);
+    scene_destroy(&s);
+}
+
+/* Every light's image obeys one rule (envmap_check_texels): a negative texel is refused with
+ * the directive's file and line, the image and the texel -- by a goniometric, a projection
+ * and an area light alike. */
+static void test_bad_texel_refused(void **state)
+{
+    (void)state;
+    const char *img = write_pfm("one_negative.pfm", 4, 4, one_negative);
+    char lines[3][1024];
+    snprintf(lines[0], sizeof lines[0], "LightSource \"goniometric\" \"string filename\" \"%s\"",
+             img);
+    snprintf(lines[1], sizeof lines[1], "LightSource \"projection\" \"string filename\" \"%s\"",
+             img);
+    snprintf(lines[2], sizeof lines[2],
+             "AreaLightSource \"diffuse\" \"string filename\" \"%s\"\n"
+             "Shape \"sphere\" \"float radius\" 0.5",
+             img);
+    for (int k = 0; k < 3; k++) {
+        err_t err = {{0}};
+        assert_null(load_with_floor(lines[k], &err));
+        assert_non_null(strstr(err.msg, "t.pbrt:5:"));
+        assert_non_null(strstr(err.msg, "one_negative.pfm"));
+        assert_non_null(strstr(err.msg, "texel (2, 1) has a negative value -0.5"));
+    }
+}
+
 /* ---- image area lights (pbrt-v4 DiffuseAreaLight with "filename") ---- */
 
 static void two_colours(int x, int y, int w, int h, float rgb[3])
@@ -673,6 +730,8 @@ int main(void)
         cmocka_unit_test(test_projection_power),
         cmocka_unit_test(test_photons_match_nee),
         cmocka_unit_test(test_black_images),
+        cmocka_unit_test(test_bad_texel_refused),
+        cmocka_unit_test(test_goniometric_huge_texels),
         cmocka_unit_test(test_area_image_lookup),
         cmocka_unit_test(test_area_image_grey_is_plain),
         cmocka_unit_test(test_area_image_photons),
