@@ -402,10 +402,19 @@ static int insert_job(journal_t *self, const journal_job_t *j, err_t *err)
     return rc;
 }
 
+/* A write outside begin()/commit() (one statement, committed as it runs) first commits the
+ * turn's open transaction: otherwise it would land inside it, and a master that died before
+ * journal_turn_end would lose a change it had already answered for (journal.h: committed when
+ * the function returns). */
+static int single_write(journal_t *self, err_t *err)
+{
+    return turn_flush(self, err);
+}
+
 int journal_add_jobs(journal_t *self, const journal_job_t *jobs, size_t n, err_t *err)
 {
     if (n == 1)
-        return insert_job(self, jobs, err);
+        return single_write(self, err) < 0 ? -1 : insert_job(self, jobs, err);
     if (begin(self, err) < 0)
         return -1;
     int rc = 0;
@@ -417,7 +426,7 @@ int journal_add_jobs(journal_t *self, const journal_job_t *jobs, size_t n, err_t
 int journal_set_control(journal_t *self, uint64_t job, int priority, bool paused, err_t *err)
 {
     sqlite3_stmt *st;
-    if (prepare(self, "UPDATE jobs SET priority=?2, paused=?3 WHERE id=?1", &st, err) < 0)
+    if (single_write(self, err) < 0 || prepare(self, "UPDATE jobs SET priority=?2, paused=?3 WHERE id=?1", &st, err) < 0)
         return -1;
     double t0 = clock_now_s();
     sqlite3_bind_int64(st, 1, (sqlite3_int64)job);
@@ -433,7 +442,7 @@ int journal_set_control(journal_t *self, uint64_t job, int priority, bool paused
 int journal_set_blocked(journal_t *self, const char *worker, const char *reason, err_t *err)
 {
     sqlite3_stmt *st;
-    if (prepare(self,
+    if (single_write(self, err) < 0 || prepare(self,
                 reason ? "INSERT OR REPLACE INTO blocked(name, reason) VALUES(?1, ?2)"
                        : "DELETE FROM blocked WHERE name=?1",
                 &st, err) < 0)

@@ -554,6 +554,26 @@ static void test_turn_transaction(void **state)
     /* Outside a turn each result is committed at once. */
     assert_int_equal(journal_add_result(jn, 3, 0, 6, 0, 1, 1, blob, 4, &err), 0);
     assert_int_equal(testutil_journal_query(dir, count), 5);
+
+    /* A job added, a job's control set and a worker blocked in a turn whose results opened
+     * its transaction are committed when their function returns (journal.h), with the results
+     * before them: a master that died before the turn's end loses none of what it answered. */
+    journal_turn_begin(jn);
+    assert_int_equal(journal_add_result(jn, 3, 0, 7, 0, 2, 1, blob, 4, &err), 0);
+    journal_job_t other = {.id = 4, .name = "u", .hash = "ef56", .main = "s.pbrt",
+                           .settings = {.spp = 4, .seed = -1}};
+    assert_int_equal(journal_add_job(jn, &other, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, "SELECT COUNT(*) FROM jobs WHERE id=4"), 1);
+    assert_int_equal(testutil_journal_query(dir, count), 6);
+    assert_int_equal(journal_add_result(jn, 3, 0, 8, 0, 3, 1, blob, 4, &err), 0);
+    assert_int_equal(journal_set_control(jn, 4, 7, true, &err), 0);
+    assert_int_equal(testutil_journal_query(dir, "SELECT priority FROM jobs WHERE id=4"), 7);
+    assert_int_equal(testutil_journal_query(dir, count), 7);
+    assert_int_equal(journal_add_result(jn, 3, 0, 9, 0, 4, 1, blob, 4, &err), 0);
+    assert_int_equal(journal_set_blocked(jn, "node07", "3 failures", &err), 0);
+    assert_int_equal(testutil_journal_query(dir, "SELECT COUNT(*) FROM blocked"), 1);
+    assert_int_equal(testutil_journal_query(dir, count), 8);
+    assert_int_equal(journal_turn_end(jn, &err), 0);
     journal_close(&jn);
 }
 
