@@ -2,7 +2,8 @@
  * the one place their floating-point mode is set. Every such thread runs with flush-to-zero
  * and denormals-are-zero (Embree's advice: denormals slow its traversal and never matter for an
  * image), so a tile's bytes are the same on whichever thread, process or host renders it. The
- * pool knows nothing of what the work is; threads that wait on sockets (ZAP) are not its. */
+ * pool knows nothing of what the work is; threads that wait on sockets (ZAP) or on a disk (the
+ * master's checkpoint writer, master/persist.c) compute nothing and are not its. */
 #ifndef PRISMFARM_POOL_H
 #define PRISMFARM_POOL_H
 

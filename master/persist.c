@@ -95,8 +95,9 @@ void persist_state(master_t *m, mjob_t *j, double now)
         persist_failed(m, j, &err);
         return;
     }
-    if (job_over(j))
-        persist_checkpoint_drop(m, j);
+    /* A checkpoint still being written for a job that ended is not waited for here (the loop
+     * would stand still for the write): persist_checkpoints_collect removes its file once its
+     * thread is done, as it is then no job's state. */
     if (job_over(j) && j->journal.checkpoint > 0) {
         /* This one and the previous (a leftover is removed at the next start: resume_jobs). */
         persist_remove_stale_checkpoints(m, j->id, 0);
@@ -236,6 +237,7 @@ void persist_maybe_checkpoint(master_t *m, mjob_t *j, double now)
                     tilebuf_counts(img), tilebuf_luminance_sums(img),
                     tilebuf_luminance_sq_sums(img), tilebuf_nonfinite(img), &err))) {
         atomic_init(&w->done, false);
+        /* A thread of its own, not the pool's: it waits on the disk (base/pool.h). */
         if (pthread_create(&w->thread, NULL, checkpoint_thread, w) == 0) {
             j->journal.writer = w;
             return;

@@ -31,7 +31,7 @@ void persist_maybe_checkpoint(master_t *m, mjob_t *j, double now);
 /* Journals the checkpoints whose files are written (each turn of the loop). */
 void persist_checkpoints_collect(master_t *m, double now);
 /* Waits for the job's checkpoint being written, if any, and forgets it (its file removed): the
- * job ended, or the master stops. */
+ * master stops (a job that ended leaves it to persist_checkpoints_collect). */
 void persist_checkpoint_drop(master_t *m, mjob_t *j);
 
 /* The merged photon store on disk as jobs/<id>/photons.store (atomically), and in the journal
