@@ -652,7 +652,7 @@ static void test_auto_follows_plan(void **state)
         assert_int_equal(rs->photon.maxdepth, k ? 7 : 5);
         assert_int_equal(plan_request(l.plan)->integrator_named, k);
         assert_false(ch.differs);
-        /* 24 x 16 pixels: the smallest count, and a radius of 2 footprints. */
+        /* 24 x 16 pixels: the smallest count (test_gather_radius_one_footprint: the radius). */
         assert_int_equal(ch.photons, 100000);
         loaded_free(&l);
     }
