@@ -39,11 +39,14 @@
 #define PLAN_SPECTRAL_EPSILON 1e-6
 
 /* Photon parameters (docs/plan.md): the gather disk is PLAN_GATHER_PIXELS pixel footprints
- * in radius at the specular surfaces' distance from the camera; the count gives about
+ * in radius at the specular surfaces' distance from the camera (one: a density estimate blurs
+ * a caustic's edge over its disk, and on caustic-glass at 179x256 two footprints left the 4x4
+ * RMSE against pbrt-v4's bdpt 1.3 times what noise explains and one brings it to 1.2 for 13 %
+ * more CPU, docs/accuracy.md "Photon gather radius"); the count gives about
  * PLAN_PHOTONS_PER_BUCKET photons per bucket in a gather disk if the caustic spreads over the
  * specular surfaces' own cross-section, with PLAN_STORED_FRACTION of the emitted photons
  * stored (45 % measured in prism_beam, docs/rendering.md). */
-#define PLAN_GATHER_PIXELS 2.0
+#define PLAN_GATHER_PIXELS 1.0
 #define PLAN_PHOTONS_PER_BUCKET 16.0
 #define PLAN_STORED_FRACTION 0.5
 #define PLAN_PHOTONS_MIN 100000.0
@@ -1171,7 +1174,7 @@ static int decide_photon_params(plan_t *p, const scene_t *s, vec3_t lo, vec3_t h
     p->choice.radius = radius;
     text_add(&c, "%llu photons, radius %.4g", (unsigned long long)p->choice.photons, radius);
     text_add(&r,
-             "gather radius = %.0f pixel footprints at the mirrors' and glasses' distance "
+             "gather radius = %.0f pixel footprint(s) at the mirrors' and glasses' distance "
              "from the camera (%.3g, fov %g deg over %d pixels: footprint %.3g), kept within "
              "%g-%g of the scene's radius %.3g; photons = %.0f per bucket x %d buckets per "
              "gather disk over the specular surfaces' cross-section (bounding radius %.3g), "

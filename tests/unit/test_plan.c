@@ -391,6 +391,22 @@ static void test_point_light_behind_glass(void **state)
     loaded_free(&l);
 }
 
+/* The gather radius is one pixel footprint at the specular surfaces' distance from the camera
+ * (docs/plan.md): from the camera at (0, 2.5, -4) the glass sphere's centre (0, 0.5, 0) is
+ * sqrt(20) away, and a 45 degree fov over the 16-pixel side gives a footprint of
+ * 2 sqrt(20) tan(22.5 deg) / 16 = 0.2315 (below the cap of 0.05 of the scene's radius). Two
+ * footprints, the rule before, blurred caustic-glass's edges past what noise explains. */
+static void test_gather_radius_one_footprint(void **state)
+{
+    (void)state;
+    loaded_t l = load_world("", FLOOR_AT(0) GLASS_SPHERE POINT_ABOVE);
+    assert_true(on(&l, PLAN_PHOTON));
+    const double footprint = 2.0 * sqrt(20.0) * tan(22.5 * PF_PI / 180.0) / 16.0;
+    assert_true(fabs(plan_choice(l.plan).radius - footprint) < 1e-9 * footprint);
+    assert_true(fabs(l.scene->settings.photon.radius - footprint) < 1e-9 * footprint);
+    loaded_free(&l);
+}
+
 /* A glossy receiver (coated diffuse, rough conductor) under the glass receives its caustic as a
  * diffuse one does (the photon map stores L S+ G photons with their directions), so the spot
  * light behind glass needs photons there too. pbrt-v4's light-path integrators (bdpt, mlt,
@@ -636,7 +652,7 @@ static void test_auto_follows_plan(void **state)
         assert_int_equal(rs->photon.maxdepth, k ? 7 : 5);
         assert_int_equal(plan_request(l.plan)->integrator_named, k);
         assert_false(ch.differs);
-        /* 24 x 16 pixels: the smallest count, and a radius of 2 footprints. */
+        /* 24 x 16 pixels: the smallest count (test_gather_radius_one_footprint: the radius). */
         assert_int_equal(ch.photons, 100000);
         loaded_free(&l);
     }
@@ -829,6 +845,7 @@ int main(void)
         cmocka_unit_test(test_shipped_delta_scenes),
         cmocka_unit_test(test_every_shipped_scene),
         cmocka_unit_test(test_point_light_behind_glass),
+        cmocka_unit_test(test_gather_radius_one_footprint),
         cmocka_unit_test(test_glossy_receiver_and_bdpt),
         cmocka_unit_test(test_blocked_light),
         cmocka_unit_test(test_diffuse_only),
