@@ -826,8 +826,61 @@ static void on_act(master_t *m, const proto_peer_t *from, const proto_msg_t *msg
         reply_jobs(m, from, PROTO_STATUS_REPLY, jobs_find(m, id), now);
 }
 
+/* A sequence's log (docs/farm.md, "Frame sequences"): it has no tasks of its own, so its log is
+ * its frames' logs in frame order, each line prefixed "frame N (job ID) ". Each frame gets an
+ * equal share of max and keeps its most recent whole lines that fit in it, prefix included, so
+ * one busy frame cannot push the others out. *text is malloc'ed and NUL-terminated. */
+static int sequence_logs(master_t *m, const mjob_t *seq, size_t max, char **text, size_t *len,
+                         err_t *err)
+{
+    size_t share = max / seq->seq.nframes, n = 0;
+    char *out = malloc(max + 1);
+    if (!out)
+        return err_set(err, "out of memory for job %llu's log", (unsigned long long)seq->id);
+    for (uint32_t k = 0; k < seq->seq.nframes; k++) {
+        const mjob_t *f = jobs_frame(m, seq, k);
+        if (!f)
+            continue;
+        char *part;
+        size_t plen;
+        if (tasklog_read(m->tasklog, f->id, -1, share, &part, &plen, err) < 0) {
+            free(out);
+            return err_prefix(err, "frame %u (job %llu): ", f->seq.frame,
+                              (unsigned long long)f->id);
+        }
+        char prefix[64];
+        size_t pre = (size_t)snprintf(prefix, sizeof prefix, "frame %u (job %llu) ", f->seq.frame,
+                                      (unsigned long long)f->id);
+        /* The prefixed lines from the newest back, to find the oldest line that still fits. */
+        size_t need = 0, start = plen;
+        while (start > 0) {
+            size_t b = start - 1; /* the last byte of the line before start: its newline */
+            while (b > 0 && part[b - 1] != '\n')
+                b--;
+            if (need + pre + (start - b) > share)
+                break;
+            need += pre + (start - b);
+            start = b;
+        }
+        for (size_t a = start; a < plen;) {
+            const char *nl = memchr(part + a, '\n', plen - a);
+            size_t l = nl ? (size_t)(nl - (part + a)) + 1 : plen - a;
+            memcpy(out + n, prefix, pre);
+            memcpy(out + n + pre, part + a, l);
+            n += pre + l;
+            a += l;
+        }
+        free(part);
+    }
+    out[n] = 0;
+    *text = out;
+    *len = n;
+    return 0;
+}
+
 /* The job's task log (tasklog.h), all or one task's lines: the most recent that fit in a
- * message. Reading a log is reading the job: its owner or an admin. */
+ * message; a sequence's, its frames' (sequence_logs). Reading a log is reading the job: its
+ * owner or an admin. */
 static void on_logs(master_t *m, const proto_peer_t *from, const proto_msg_t *msg)
 {
     const mjob_t *j = jobs_find(m, msg->logs.job);
@@ -848,10 +901,20 @@ static void on_logs(master_t *m, const proto_peer_t *from, const proto_msg_t *ms
                      : 4096;
     if (max > (size_t)8 << 20)
         max = (size_t)8 << 20;
+    if (j->seq.nframes > 0 && msg->logs.has_task) {
+        reply_error(m, from,
+                    "job %llu is a sequence of %u frames: its tasks are its frames', give a "
+                    "frame's id (jobs %llu..%llu) with the task",
+                    (unsigned long long)j->id, j->seq.nframes, (unsigned long long)(j->id + 1),
+                    (unsigned long long)(j->id + j->seq.nframes));
+        return;
+    }
     char *text;
     size_t len;
-    if (tasklog_read(m->tasklog, j->id, msg->logs.has_task ? (long long)msg->logs.task : -1, max,
-                     &text, &len, &err) < 0) {
+    if ((j->seq.nframes > 0
+             ? sequence_logs(m, j, max, &text, &len, &err)
+             : tasklog_read(m->tasklog, j->id, msg->logs.has_task ? (long long)msg->logs.task : -1,
+                            max, &text, &len, &err)) < 0) {
         reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
         return;
     }

@@ -369,6 +369,34 @@ static void test_ops_and_cancel_act_on_every_frame(void **state)
     assert_int_equal(r->status, 0);
     assert_int_equal(testutil_count_in(r->out, "\"state\": \"cancelled\""), NFRAMES + 1);
     testutil_wait_file_has(f.mlog, "job 1 'walk0001..walk0003' (3 frames) cancelled");
+    /* The sequence's log is its frames' logs, each line named by its frame; a task of the
+     * sequence is refused with the frames' ids to use. */
+    r = run("logs", "1", "--master", f.cep, NULL);
+    if (r->status != 0)
+        fail_msg("logs 1: exit %d: %s", r->status, r->err);
+    expect_in(r->out, "frame 1 (job 2) ");
+    expect_in(r->out, "Z task 0 (pass 0, tile 8x8 at 0,0) attempt 1 assigned to worker ");
+    for (int k = 1; k <= NFRAMES; k++) {
+        char line[64];
+        snprintf(line, sizeof line, "frame %d (job %d) ", k, k + 1);
+        const char *at = strstr(r->out, line);
+        if (!at)
+            fail_msg("no line of frame %d in the sequence's log:\n%s", k, r->out);
+        assert_non_null(strstr(at, "Z job cancelled: "));
+    }
+    for (const char *l = r->out; *l; l = strchr(l, '\n') + 1) {
+        if (strncmp(l, "frame ", 6) != 0)
+            fail_msg("a line of the sequence's log without its frame: %.80s", l);
+        if (!strchr(l, '\n'))
+            break;
+    }
+    r = run("logs", "1", "0", "--master", f.cep, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "job 1 is a sequence of 3 frames: its tasks are its frames', give a "
+                      "frame's id (jobs 2..4) with the task");
+    r = run("logs", "2", "0", "--master", f.cep, NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "task 0 (pass 0, tile 8x8 at 0,0) attempt 1 assigned to worker ");
     /* Nothing to fetch: the frames did not finish. */
     char out[1100];
     snprintf(out, sizeof out, "%s/c%%d.exr", testutil_scratch_dir());
