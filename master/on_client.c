@@ -674,55 +674,43 @@ static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *m
  * runs them and then the whole camera phase again, gathering from the grown store; the job's
  * outputs are rewritten when it is done. Tasks carry the new round, so late results of the old
  * one are ignored. */
-static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
+/* Why job j cannot be refined (written into why), or NULL when it can: it must be a finished
+ * photon job. */
+static const char *refine_refusal(const mjob_t *j, char *why, size_t size)
 {
-    mjob_t *j = jobs_find(m, msg->refine.job);
-    if (!j) {
-        reply_error(m, from, "no job %llu", (unsigned long long)msg->refine.job);
-        return;
-    }
-    char why[PROTO_MAX_STRING];
-    if (!access_check(m, j, from, "refine", why, sizeof why)) {
-        reply_error(m, from, "%s", why);
-        return;
-    }
-    if (j->seq.nframes > 0) {
-        reply_error(m, from, "job %llu is a sequence of %u frames: refine its frames (jobs %llu..%llu)",
-                    (unsigned long long)j->id, j->seq.nframes, (unsigned long long)(j->id + 1),
-                    (unsigned long long)(j->id + j->seq.nframes));
-        return;
-    }
-    if (!j->photons.enabled) {
-        reply_error(m, from,
-                    "job %llu has no photon pass to refine (its integrator is not \"photon\")",
-                    (unsigned long long)j->id);
-        return;
-    }
-    if (j->state != JOB_DONE || j->sched.known) {
-        reply_error(m, from, "job %llu is %s: only a finished job can be refined",
-                    (unsigned long long)j->id, job_state_name(j->state));
-        return;
-    }
-    err_t err;
-    if (!j->photons.phase && job_restore_photons(m, j, &err) < 0) {
-        master_log(m, "job %llu: cannot refine: %s", (unsigned long long)j->id, err.msg);
-        reply_error(m, from, "job %llu: cannot restore its photon pass: %s",
-                    (unsigned long long)j->id, err.msg);
-        return;
+    if (!j->photons.enabled)
+        snprintf(why, size, "job %llu has no photon pass to refine (its integrator is not \"photon\")",
+                 (unsigned long long)j->id);
+    else if (j->state != JOB_DONE || j->sched.known)
+        snprintf(why, size, "job %llu is %s: only a finished job can be refined",
+                 (unsigned long long)j->id, job_state_name(j->state));
+    else
+        return NULL;
+    return why;
+}
+
+/* A finished photon job's new round (refine_refusal said yes): more photons, then its camera
+ * phase again, journaled and audited as asked by from. -1 with err (the job failed when its
+ * round could not be scheduled). */
+static int refine_job(master_t *m, mjob_t *j, uint64_t photons, const proto_peer_t *from,
+                      double now, err_t *err)
+{
+    if (!j->photons.phase && job_restore_photons(m, j, err) < 0) {
+        master_log(m, "job %llu: cannot refine: %s", (unsigned long long)j->id, err->msg);
+        return err_prefix(err, "job %llu: cannot restore its photon pass: ",
+                          (unsigned long long)j->id);
     }
     uint32_t base = photon_phase_nbatches(j->photons.phase);
-    if (photon_phase_refine(j->photons.phase, msg->refine.photons, &err) < 0) {
-        reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
-        return;
-    }
+    if (photon_phase_refine(j->photons.phase, photons, err) < 0)
+        return err_prefix(err, "job %llu: ", (unsigned long long)j->id);
     uint32_t added = photon_phase_nbatches(j->photons.phase) - base;
     stopping_rule_t rule = job_stopping_rule(j);
     bool may_stop = stopping_active(&rule);
     if (sched_add_job(m->sched, j->id, j->scene.xres, j->scene.yres, j->scene.spp, j->scene.grid,
-                      &err) < 0 ||
-        jobs_apply_ops(m, j, &err) < 0 ||
-        (may_stop && sched_set_whole_passes(m->sched, j->id, &err) < 0) ||
-        sched_add_photon_batches(m->sched, j->id, added, &err) < 0) {
+                      err) < 0 ||
+        jobs_apply_ops(m, j, err) < 0 ||
+        (may_stop && sched_set_whole_passes(m->sched, j->id, err) < 0) ||
+        sched_add_photon_batches(m->sched, j->id, added, err) < 0) {
         err_t ignore;
         /* A queued job cannot be removed: cancel it first (as job_schedule does), or its
          * tasks would go on being dispatched to nobody. */
@@ -730,19 +718,18 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
         (void)sched_remove_job(m->sched, j->id, &ignore);
         /* The phase has batches nobody will run: the job can be neither rendered nor refined
          * again, so it fails with the reason. */
-        master_log(m, "job %llu: refinement failed: %s", (unsigned long long)j->id, err.msg);
-        job_set_error(j, err.msg);
+        master_log(m, "job %llu: refinement failed: %s", (unsigned long long)j->id, err->msg);
+        job_set_error(j, err->msg);
         j->state = JOB_FAILED;
         persist_state(m, j, now);
-        reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
-        return;
+        return err_prefix(err, "job %llu: ", (unsigned long long)j->id);
     }
     sched_job_info_t info;
     if (sched_job_info(m->sched, j->id, &info) == 0)
         j->sched.ntiles = info.ntiles;
     j->photons.base = base;
-    j->journal.refine_photons = msg->refine.photons;
-    j->journal.round_photons = photon_phase_stats(j->photons.phase).photons + msg->refine.photons;
+    j->journal.refine_photons = photons;
+    j->journal.round_photons = photon_phase_stats(j->photons.phase).photons + photons;
     j->sched.round++;
     j->photons.store_ready = false;
     j->sched.known = true;
@@ -757,14 +744,79 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
     j->journal.bytes = 0;
     j->journal.checkpoint_samples = 0;
     journal_job_t rec = persist_record(m, j, now);
-    if (m->journal && journal_set_round(m->journal, &rec, &err) < 0)
-        persist_failed(m, j, &err);
+    if (m->journal && journal_set_round(m->journal, &rec, err) < 0)
+        persist_failed(m, j, err);
     photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);
     access_audit(m, from,
                  "refined job %llu '%s': %llu more photons in %u batches (%llu so far), then "
                  "the camera phase again",
-                 (unsigned long long)j->id, j->name, (unsigned long long)msg->refine.photons,
+                 (unsigned long long)j->id, j->name, (unsigned long long)photons,
                  added, (unsigned long long)ps.photons);
+    return 0;
+}
+
+/* REFINE: a finished photon job, or each photon frame of a finished sequence (docs/farm.md,
+ * "Frame sequences"), after the owner's or an admin's key (access.h). A sequence's frames are
+ * all checked before any is refined, so a refusal leaves every frame as it was. */
+static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
+{
+    mjob_t *j = jobs_find(m, msg->refine.job);
+    if (!j) {
+        reply_error(m, from, "no job %llu", (unsigned long long)msg->refine.job);
+        return;
+    }
+    char why[PROTO_MAX_STRING];
+    if (!access_check(m, j, from, "refine", why, sizeof why)) {
+        reply_error(m, from, "%s", why);
+        return;
+    }
+    err_t err;
+    if (j->seq.nframes == 0) {
+        if (refine_refusal(j, why, sizeof why))
+            reply_error(m, from, "%s", why);
+        else if (refine_job(m, j, msg->refine.photons, from, now, &err) < 0)
+            reply_error(m, from, "%s", err.msg);
+        else {
+            mjob_t *seq = j->seq.parent ? jobs_find(m, j->seq.parent) : NULL;
+            if (seq && seq->seq.nframes > 0) /* running again, not done */
+                jobs_sequence_refresh(m, seq, now);
+            proto_msg_t ok = {.type = PROTO_SUBMITTED, .submitted = {.job = j->id}};
+            reply(m, from, &ok);
+        }
+        return;
+    }
+    uint32_t nphoton = 0;
+    for (uint32_t k = 0; k < j->seq.nframes; k++) {
+        const mjob_t *f = jobs_frame(m, j, k);
+        if (!f || !f->photons.enabled)
+            continue;
+        nphoton++;
+        if (refine_refusal(f, why, sizeof why)) {
+            reply_error(m, from, "job %llu: frame %u: %s", (unsigned long long)j->id,
+                        f->seq.frame, why);
+            return;
+        }
+    }
+    if (nphoton == 0) {
+        reply_error(m, from,
+                    "job %llu is a sequence of %u frames, none with a photon pass to refine "
+                    "(their integrator is not \"photon\")",
+                    (unsigned long long)j->id, j->seq.nframes);
+        return;
+    }
+    int rc = 0;
+    for (uint32_t k = 0; k < j->seq.nframes && rc == 0; k++) {
+        mjob_t *f = jobs_frame(m, j, k);
+        if (f && f->photons.enabled && (rc = refine_job(m, f, msg->refine.photons, from, now, &err)) < 0)
+            (void)err_prefix(&err, "frame %u: ", f->seq.frame);
+    }
+    jobs_sequence_refresh(m, j, now);
+    if (rc < 0) {
+        reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
+        return;
+    }
+    access_audit(m, from, "refined job %llu '%s': %u photon frames of %u", (unsigned long long)j->id,
+                 j->name, nphoton, j->seq.nframes);
     proto_msg_t ok = {.type = PROTO_SUBMITTED, .submitted = {.job = j->id}};
     reply(m, from, &ok);
 }
