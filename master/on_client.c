@@ -11,9 +11,11 @@
 #include "loader.h"
 #include "peers.h"
 #include "persist.h"
+#include "pool.h"
 #include "tasklog.h"
 
 #include <limits.h>
+#include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -113,6 +115,7 @@ struct submission {
     char integrator[65], dispersion[65];
     int priority; /* SUBMIT's (ops.h) */
     scene_budget_t budget;
+    int load_threads; /* frames loaded at once (master_opts_t) */
     proto_limits_t limits;
     spool_t *spool; /* staged and committed into on the loader's thread (spool.h) */
     scene_shelf_t *shelf; /* the process's scenes (master_opts_t), or NULL */
@@ -162,19 +165,59 @@ static void on_client_submission_free(void *arg)
     free(s);
 }
 
-/* Each frame of a sequence loaded as a job of its own from the one staged bundle; the first
- * that fails names its frame. */
+/* One frame load of load_frames on a pool thread: the frames' jobs are their own slots, and
+ * the failure kept is the one of the lowest frame index. */
+typedef struct frame_loads {
+    submission_t *s;
+    int inner; /* threads each load runs on (scene overrides' threads; 0: all cores) */
+    pthread_mutex_t lock;
+    size_t first_failed; /* index of the lowest failed frame so far; nframes: none */
+} frame_loads_t;
+
+static int load_frame(void *user, int index, err_t *err)
+{
+    frame_loads_t *fl = user;
+    submission_t *s = fl->s;
+    size_t k = (size_t)index;
+    err_t e;
+    s->frames[k] = job_new(0, s->frame_main[k], s->hash, s->frame_main[k], &s->settings, s->dir,
+                           &s->budget, s->shelf, fl->inner, &e);
+    if (s->frames[k]) {
+        s->frames[k]->seq.frame = s->frame_number[k];
+        return 0;
+    }
+    err_prefix(&e, "frame %u (%s): ", s->frame_number[k], s->frame_main[k]);
+    pthread_mutex_lock(&fl->lock);
+    if (k < fl->first_failed) {
+        fl->first_failed = k;
+        s->err = e;
+    }
+    pthread_mutex_unlock(&fl->lock);
+    *err = e;
+    return -1;
+}
+
+/* Each frame of a sequence loaded as a job of its own from the one staged bundle, up to
+ * load_threads frames at once on the pool (pool_for; each load then runs on its share of the
+ * cores), so that N frames are not N loads in series. The outcome is that of loading them one
+ * after another: a frame's scene does not depend on the threads it loads on
+ * (tests/unit/test_load_threads.c), and the failure reported is the first in frame order --
+ * pool_for hands the indices out in increasing order and, once one fails, starts no more, so
+ * every frame before the first failing one has run and been seen. */
 static mjob_t *load_frames(submission_t *s)
 {
-    for (size_t k = 0; k < s->nframes; k++) {
-        s->frames[k] = job_new(0, s->frame_main[k], s->hash, s->frame_main[k], &s->settings,
-                               s->dir, &s->budget, s->shelf, &s->err);
-        if (!s->frames[k]) {
-            err_prefix(&s->err, "frame %u (%s): ", s->frame_number[k], s->frame_main[k]);
-            return NULL;
-        }
-        s->frames[k]->seq.frame = s->frame_number[k];
-    }
+    int cores = pool_cores();
+    int outer = s->load_threads > 0 ? s->load_threads : cores;
+    if ((size_t)outer > s->nframes)
+        outer = (int)s->nframes;
+    frame_loads_t fl = {.s = s, .inner = outer > 1 ? (cores / outer > 0 ? cores / outer : 1) : 0,
+                        .first_failed = s->nframes};
+    pthread_mutex_init(&fl.lock, NULL);
+    err_t err;
+    int rc = pool_for(outer, (int)s->nframes, load_frame, &fl, &err);
+    pthread_mutex_destroy(&fl.lock);
+    if (rc < 0)
+        return NULL; /* s->err: the first failing frame's (the frames loaded are freed with s) */
     /* The sequence's own record, which job_new_sequence fills without a scene. */
     mjob_t *seq = job_new_sequence(s->name, s->hash, s->frame_main[0], &s->settings,
                                    (uint32_t)s->nframes);
@@ -208,7 +251,7 @@ static void submission_load(void *arg)
     }
     s->job = s->nframes > 0 ? load_frames(s)
                             : job_new(0, s->name, s->hash, s->main, &s->settings, s->dir,
-                                      &s->budget, s->shelf, &s->err);
+                                      &s->budget, s->shelf, 0, &s->err);
     if (s->job) {
         if (spool_scene_commit(s->spool, s->scene_msg, s->scene_size, s->hash, s->dir,
                                s->staged, &s->err) < 0) {
@@ -306,6 +349,7 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
         s->settings.dispersion = s->dispersion;
     }
     s->budget = m->opts->budget;
+    s->load_threads = m->opts->load_threads;
     s->limits = m->limits;
     s->spool = m->spool;
     s->shelf = m->opts->shelf;
