@@ -12,7 +12,8 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 BIN=${PRISMFARM_BIN:-build/cli/prismfarm}
 SPHERE=${BENCH_MESH_SPHERE:-build/bench/bench_mesh_sphere}
-[[ -x $BIN && -x $SPHERE ]] || { echo "bench/load_frames.sh: build first (bash deploy/build.sh release)" >&2; exit 1; }
+[[ -x $BIN && -x $SPHERE ]] ||
+  { echo "bench/load_frames.sh: build first (bash deploy/build.sh release)" >&2; exit 1; }
 FRAMES=10 NU=1000 NV=500 REPS=3
 while [[ $# -gt 0 ]]; do
   case $1 in

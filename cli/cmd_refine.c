@@ -81,7 +81,8 @@ static int check_outputs(client_rpc_t *rpc, unsigned long long job, const char *
         rc = 2;
     } else {
         for (size_t i = 1; i < n && !rc; i++) {
-            if (job_follow_frame_paths(&jobs[i], path, exr, sizeof exr, png, sizeof png, &err) < 0) {
+            if (job_follow_frame_paths(&jobs[i], path, exr, sizeof exr, png, sizeof png,
+                                       &err) < 0) {
                 fprintf(stderr, "prismfarm refine: %s\n", err.msg);
                 rc = 2;
             } else

@@ -723,7 +723,8 @@ static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *m
 static const char *refine_refusal(const mjob_t *j, char *why, size_t size)
 {
     if (!j->photons.enabled)
-        snprintf(why, size, "job %llu has no photon pass to refine (its integrator is not \"photon\")",
+        snprintf(why, size,
+                 "job %llu has no photon pass to refine (its integrator is not \"photon\")",
                  (unsigned long long)j->id);
     else if (j->state != JOB_DONE || j->sched.known)
         snprintf(why, size, "job %llu is %s: only a finished job can be refined",
@@ -851,7 +852,8 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
     int rc = 0;
     for (uint32_t k = 0; k < j->seq.nframes && rc == 0; k++) {
         mjob_t *f = jobs_frame(m, j, k);
-        if (f && f->photons.enabled && (rc = refine_job(m, f, msg->refine.photons, from, now, &err)) < 0)
+        if (f && f->photons.enabled &&
+            (rc = refine_job(m, f, msg->refine.photons, from, now, &err)) < 0)
             (void)err_prefix(&err, "frame %u: ", f->seq.frame);
     }
     jobs_sequence_refresh(m, j, now);
@@ -859,8 +861,8 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
         reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
         return;
     }
-    access_audit(m, from, "refined job %llu '%s': %u photon frames of %u", (unsigned long long)j->id,
-                 j->name, nphoton, j->seq.nframes);
+    access_audit(m, from, "refined job %llu '%s': %u photon frames of %u",
+                 (unsigned long long)j->id, j->name, nphoton, j->seq.nframes);
     proto_msg_t ok = {.type = PROTO_SUBMITTED, .submitted = {.job = j->id}};
     reply(m, from, &ok);
 }

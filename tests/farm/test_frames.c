@@ -476,7 +476,8 @@ static void test_first_failing_frame_reported(void **state)
     snprintf(dir, sizeof dir, "%s", testutil_scratch("budget"));
     assert_int_equal(mkdir(dir, 0755), 0);
     const char *head = "LookAt 0 1 -3  0 0.5 0  0 1 0\nCamera \"perspective\"\n"
-                       "Film \"spectral\" \"integer xresolution\" [ 8 ] \"integer yresolution\" [ 8 ]\n"
+                       "Film \"spectral\" \"integer xresolution\" [ 8 ]\n"
+                       "    \"integer yresolution\" [ 8 ]\n"
                        "WorldBegin\nLightSource \"infinite\"\n";
     char *argv_frames[8];
     for (int k = 1; k <= 8; k++) {
