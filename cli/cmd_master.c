@@ -129,6 +129,10 @@ int cmd_master(int argc, char **argv)
         {.name = "max-image-mb", .kind = CLI_DOUBLE, .dst = &max_image_mb, .lo = 0,
          .hi = 1e9, .arg = "N",
          .help = "the merged image, xres*yres*(buckets+4)*8 bytes (default 4096 MiB)"},
+        {.name = "load-threads", .kind = CLI_INT, .dst = &o.load_threads, .lo = 0, .hi = 1024,
+         .arg = "N",
+         .help = "frames of a sequence loaded at once at submission (default 0: as many as "
+                 "cores; 1: one after another)"},
         {.kind = CLI_TEXT, .help = "connections:\n"},
         {.name = "max-connections-per-host", .kind = CLI_INT, .dst = &conns_per_host, .lo = 0,
          .hi = 1048576, .arg = "N",

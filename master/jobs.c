@@ -133,7 +133,7 @@ static scene_t *load_confined(void *arg, err_t *err)
  * host; a photon job's phase keeps the scene to check and merge batches against. */
 mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
                 const proto_settings_t *set, const char *dir, const scene_budget_t *budget,
-                scene_shelf_t *shelf, err_t *err)
+                scene_shelf_t *shelf, int threads, err_t *err)
 {
     size_t main_size = strlen(dir) + strlen(main) + 2;
     char *main_path = malloc(main_size);
@@ -147,6 +147,7 @@ mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *mai
     snprintf(main_path, main_size, "%s/%s", dir, main);
     confined_load_t cl = {.main_path = main_path, .dir = dir, .ov = settings_to_overrides(set)};
     cl.ov.budget = budget;
+    cl.ov.threads = threads;
     char key[SETTINGS_KEY_SIZE];
     settings_scene_key(hash, main, set, key);
     scene_t *scene = shelf ? scene_shelf_get(shelf, key, load_confined, &cl, err)

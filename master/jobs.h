@@ -16,12 +16,13 @@ mjob_t *jobs_find(const master_t *m, uint64_t id);
 int jobs_append(master_t *m, mjob_t *j);
 
 /* A job made from its scene, dir/main loaded with the settings and confined to dir, within
- * budget (budget.h; NULL: none) -- or taken from shelf when it holds the scene of that hash and
- * settings (NULL: no shelf); a photon job gets a fresh photon phase. Not yet scheduled
- * (job_schedule). NULL with err. */
+ * budget (budget.h; NULL: none), on threads threads (0: all cores; the scene is the same
+ * whatever the number) -- or taken from shelf when it holds the scene of that hash and settings
+ * (NULL: no shelf); a photon job gets a fresh photon phase. Not yet scheduled (job_schedule).
+ * Touches nothing of the master's, so several may run at once. NULL with err. */
 mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
                 const proto_settings_t *set, const char *dir, const scene_budget_t *budget,
-                scene_shelf_t *shelf, err_t *err);
+                scene_shelf_t *shelf, int threads, err_t *err);
 /* A job of the journal as the master lists it without rendering it: one that is over, or one
  * that cannot be resumed. NULL when out of memory. */
 mjob_t *job_from_record(const journal_job_t *r);

@@ -41,6 +41,9 @@ typedef struct master_opts {
     /* What one job's scene may make the master build (scenefile/budget.h), checked while it
      * loads: shapes, triangles, texels, the merged image's bytes. */
     scene_budget_t budget;
+    /* How many frames of a sequence the master loads at once at submission (on the pool, each
+     * load on its share of the cores; docs/performance.md): 0 all cores, 1 one after another. */
+    int load_threads;
     /* Security (docs/security.md): with key_file both endpoints are CURVE servers that let in
      * only the public keys of authorized_dir's *.pub files; without it a tcp:// endpoint
      * needs insecure (plain text), and inproc:// and ipc:// need neither. */

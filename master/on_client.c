@@ -11,9 +11,11 @@
 #include "loader.h"
 #include "peers.h"
 #include "persist.h"
+#include "pool.h"
 #include "tasklog.h"
 
 #include <limits.h>
+#include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -113,6 +115,7 @@ struct submission {
     char integrator[65], dispersion[65];
     int priority; /* SUBMIT's (ops.h) */
     scene_budget_t budget;
+    int load_threads; /* frames loaded at once (master_opts_t) */
     proto_limits_t limits;
     spool_t *spool; /* staged and committed into on the loader's thread (spool.h) */
     scene_shelf_t *shelf; /* the process's scenes (master_opts_t), or NULL */
@@ -162,19 +165,59 @@ static void on_client_submission_free(void *arg)
     free(s);
 }
 
-/* Each frame of a sequence loaded as a job of its own from the one staged bundle; the first
- * that fails names its frame. */
+/* One frame load of load_frames on a pool thread: the frames' jobs are their own slots, and
+ * the failure kept is the one of the lowest frame index. */
+typedef struct frame_loads {
+    submission_t *s;
+    int inner; /* threads each load runs on (scene overrides' threads; 0: all cores) */
+    pthread_mutex_t lock;
+    size_t first_failed; /* index of the lowest failed frame so far; nframes: none */
+} frame_loads_t;
+
+static int load_frame(void *user, int index, err_t *err)
+{
+    frame_loads_t *fl = user;
+    submission_t *s = fl->s;
+    size_t k = (size_t)index;
+    err_t e;
+    s->frames[k] = job_new(0, s->frame_main[k], s->hash, s->frame_main[k], &s->settings, s->dir,
+                           &s->budget, s->shelf, fl->inner, &e);
+    if (s->frames[k]) {
+        s->frames[k]->seq.frame = s->frame_number[k];
+        return 0;
+    }
+    err_prefix(&e, "frame %u (%s): ", s->frame_number[k], s->frame_main[k]);
+    pthread_mutex_lock(&fl->lock);
+    if (k < fl->first_failed) {
+        fl->first_failed = k;
+        s->err = e;
+    }
+    pthread_mutex_unlock(&fl->lock);
+    *err = e;
+    return -1;
+}
+
+/* Each frame of a sequence loaded as a job of its own from the one staged bundle, up to
+ * load_threads frames at once on the pool (pool_for; each load then runs on its share of the
+ * cores), so that N frames are not N loads in series. The outcome is that of loading them one
+ * after another: a frame's scene does not depend on the threads it loads on
+ * (tests/unit/test_load_threads.c), and the failure reported is the first in frame order --
+ * pool_for hands the indices out in increasing order and, once one fails, starts no more, so
+ * every frame before the first failing one has run and been seen. */
 static mjob_t *load_frames(submission_t *s)
 {
-    for (size_t k = 0; k < s->nframes; k++) {
-        s->frames[k] = job_new(0, s->frame_main[k], s->hash, s->frame_main[k], &s->settings,
-                               s->dir, &s->budget, s->shelf, &s->err);
-        if (!s->frames[k]) {
-            err_prefix(&s->err, "frame %u (%s): ", s->frame_number[k], s->frame_main[k]);
-            return NULL;
-        }
-        s->frames[k]->seq.frame = s->frame_number[k];
-    }
+    int cores = pool_cores();
+    int outer = s->load_threads > 0 ? s->load_threads : cores;
+    if ((size_t)outer > s->nframes)
+        outer = (int)s->nframes;
+    frame_loads_t fl = {.s = s, .inner = outer > 1 ? (cores / outer > 0 ? cores / outer : 1) : 0,
+                        .first_failed = s->nframes};
+    pthread_mutex_init(&fl.lock, NULL);
+    err_t err;
+    int rc = pool_for(outer, (int)s->nframes, load_frame, &fl, &err);
+    pthread_mutex_destroy(&fl.lock);
+    if (rc < 0)
+        return NULL; /* s->err: the first failing frame's (the frames loaded are freed with s) */
     /* The sequence's own record, which job_new_sequence fills without a scene. */
     mjob_t *seq = job_new_sequence(s->name, s->hash, s->frame_main[0], &s->settings,
                                    (uint32_t)s->nframes);
@@ -208,7 +251,7 @@ static void submission_load(void *arg)
     }
     s->job = s->nframes > 0 ? load_frames(s)
                             : job_new(0, s->name, s->hash, s->main, &s->settings, s->dir,
-                                      &s->budget, s->shelf, &s->err);
+                                      &s->budget, s->shelf, 0, &s->err);
     if (s->job) {
         if (spool_scene_commit(s->spool, s->scene_msg, s->scene_size, s->hash, s->dir,
                                s->staged, &s->err) < 0) {
@@ -306,6 +349,7 @@ static void on_submit(master_t *m, const proto_peer_t *from, const proto_msg_t *
         s->settings.dispersion = s->dispersion;
     }
     s->budget = m->opts->budget;
+    s->load_threads = m->opts->load_threads;
     s->limits = m->limits;
     s->spool = m->spool;
     s->shelf = m->opts->shelf;
@@ -674,55 +718,44 @@ static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *m
  * runs them and then the whole camera phase again, gathering from the grown store; the job's
  * outputs are rewritten when it is done. Tasks carry the new round, so late results of the old
  * one are ignored. */
-static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
+/* Why job j cannot be refined (written into why), or NULL when it can: it must be a finished
+ * photon job. */
+static const char *refine_refusal(const mjob_t *j, char *why, size_t size)
 {
-    mjob_t *j = jobs_find(m, msg->refine.job);
-    if (!j) {
-        reply_error(m, from, "no job %llu", (unsigned long long)msg->refine.job);
-        return;
-    }
-    char why[PROTO_MAX_STRING];
-    if (!access_check(m, j, from, "refine", why, sizeof why)) {
-        reply_error(m, from, "%s", why);
-        return;
-    }
-    if (j->seq.nframes > 0) {
-        reply_error(m, from, "job %llu is a sequence of %u frames: refine its frames (jobs %llu..%llu)",
-                    (unsigned long long)j->id, j->seq.nframes, (unsigned long long)(j->id + 1),
-                    (unsigned long long)(j->id + j->seq.nframes));
-        return;
-    }
-    if (!j->photons.enabled) {
-        reply_error(m, from,
-                    "job %llu has no photon pass to refine (its integrator is not \"photon\")",
-                    (unsigned long long)j->id);
-        return;
-    }
-    if (j->state != JOB_DONE || j->sched.known) {
-        reply_error(m, from, "job %llu is %s: only a finished job can be refined",
-                    (unsigned long long)j->id, job_state_name(j->state));
-        return;
-    }
-    err_t err;
-    if (!j->photons.phase && job_restore_photons(m, j, &err) < 0) {
-        master_log(m, "job %llu: cannot refine: %s", (unsigned long long)j->id, err.msg);
-        reply_error(m, from, "job %llu: cannot restore its photon pass: %s",
-                    (unsigned long long)j->id, err.msg);
-        return;
+    if (!j->photons.enabled)
+        snprintf(why, size,
+                 "job %llu has no photon pass to refine (its integrator is not \"photon\")",
+                 (unsigned long long)j->id);
+    else if (j->state != JOB_DONE || j->sched.known)
+        snprintf(why, size, "job %llu is %s: only a finished job can be refined",
+                 (unsigned long long)j->id, job_state_name(j->state));
+    else
+        return NULL;
+    return why;
+}
+
+/* A finished photon job's new round (refine_refusal said yes): more photons, then its camera
+ * phase again, journaled and audited as asked by from. -1 with err (the job failed when its
+ * round could not be scheduled). */
+static int refine_job(master_t *m, mjob_t *j, uint64_t photons, const proto_peer_t *from,
+                      double now, err_t *err)
+{
+    if (!j->photons.phase && job_restore_photons(m, j, err) < 0) {
+        master_log(m, "job %llu: cannot refine: %s", (unsigned long long)j->id, err->msg);
+        return err_prefix(err, "job %llu: cannot restore its photon pass: ",
+                          (unsigned long long)j->id);
     }
     uint32_t base = photon_phase_nbatches(j->photons.phase);
-    if (photon_phase_refine(j->photons.phase, msg->refine.photons, &err) < 0) {
-        reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
-        return;
-    }
+    if (photon_phase_refine(j->photons.phase, photons, err) < 0)
+        return err_prefix(err, "job %llu: ", (unsigned long long)j->id);
     uint32_t added = photon_phase_nbatches(j->photons.phase) - base;
     stopping_rule_t rule = job_stopping_rule(j);
     bool may_stop = stopping_active(&rule);
     if (sched_add_job(m->sched, j->id, j->scene.xres, j->scene.yres, j->scene.spp, j->scene.grid,
-                      &err) < 0 ||
-        jobs_apply_ops(m, j, &err) < 0 ||
-        (may_stop && sched_set_whole_passes(m->sched, j->id, &err) < 0) ||
-        sched_add_photon_batches(m->sched, j->id, added, &err) < 0) {
+                      err) < 0 ||
+        jobs_apply_ops(m, j, err) < 0 ||
+        (may_stop && sched_set_whole_passes(m->sched, j->id, err) < 0) ||
+        sched_add_photon_batches(m->sched, j->id, added, err) < 0) {
         err_t ignore;
         /* A queued job cannot be removed: cancel it first (as job_schedule does), or its
          * tasks would go on being dispatched to nobody. */
@@ -730,19 +763,18 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
         (void)sched_remove_job(m->sched, j->id, &ignore);
         /* The phase has batches nobody will run: the job can be neither rendered nor refined
          * again, so it fails with the reason. */
-        master_log(m, "job %llu: refinement failed: %s", (unsigned long long)j->id, err.msg);
-        job_set_error(j, err.msg);
+        master_log(m, "job %llu: refinement failed: %s", (unsigned long long)j->id, err->msg);
+        job_set_error(j, err->msg);
         j->state = JOB_FAILED;
         persist_state(m, j, now);
-        reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
-        return;
+        return err_prefix(err, "job %llu: ", (unsigned long long)j->id);
     }
     sched_job_info_t info;
     if (sched_job_info(m->sched, j->id, &info) == 0)
         j->sched.ntiles = info.ntiles;
     j->photons.base = base;
-    j->journal.refine_photons = msg->refine.photons;
-    j->journal.round_photons = photon_phase_stats(j->photons.phase).photons + msg->refine.photons;
+    j->journal.refine_photons = photons;
+    j->journal.round_photons = photon_phase_stats(j->photons.phase).photons + photons;
     j->sched.round++;
     j->photons.store_ready = false;
     j->sched.known = true;
@@ -757,14 +789,80 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
     j->journal.bytes = 0;
     j->journal.checkpoint_samples = 0;
     journal_job_t rec = persist_record(m, j, now);
-    if (m->journal && journal_set_round(m->journal, &rec, &err) < 0)
-        persist_failed(m, j, &err);
+    if (m->journal && journal_set_round(m->journal, &rec, err) < 0)
+        persist_failed(m, j, err);
     photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);
     access_audit(m, from,
                  "refined job %llu '%s': %llu more photons in %u batches (%llu so far), then "
                  "the camera phase again",
-                 (unsigned long long)j->id, j->name, (unsigned long long)msg->refine.photons,
+                 (unsigned long long)j->id, j->name, (unsigned long long)photons,
                  added, (unsigned long long)ps.photons);
+    return 0;
+}
+
+/* REFINE: a finished photon job, or each photon frame of a finished sequence (docs/farm.md,
+ * "Frame sequences"), after the owner's or an admin's key (access.h). A sequence's frames are
+ * all checked before any is refined, so a refusal leaves every frame as it was. */
+static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
+{
+    mjob_t *j = jobs_find(m, msg->refine.job);
+    if (!j) {
+        reply_error(m, from, "no job %llu", (unsigned long long)msg->refine.job);
+        return;
+    }
+    char why[PROTO_MAX_STRING];
+    if (!access_check(m, j, from, "refine", why, sizeof why)) {
+        reply_error(m, from, "%s", why);
+        return;
+    }
+    err_t err;
+    if (j->seq.nframes == 0) {
+        if (refine_refusal(j, why, sizeof why))
+            reply_error(m, from, "%s", why);
+        else if (refine_job(m, j, msg->refine.photons, from, now, &err) < 0)
+            reply_error(m, from, "%s", err.msg);
+        else {
+            mjob_t *seq = j->seq.parent ? jobs_find(m, j->seq.parent) : NULL;
+            if (seq && seq->seq.nframes > 0) /* running again, not done */
+                jobs_sequence_refresh(m, seq, now);
+            proto_msg_t ok = {.type = PROTO_SUBMITTED, .submitted = {.job = j->id}};
+            reply(m, from, &ok);
+        }
+        return;
+    }
+    uint32_t nphoton = 0;
+    for (uint32_t k = 0; k < j->seq.nframes; k++) {
+        const mjob_t *f = jobs_frame(m, j, k);
+        if (!f || !f->photons.enabled)
+            continue;
+        nphoton++;
+        if (refine_refusal(f, why, sizeof why)) {
+            reply_error(m, from, "job %llu: frame %u: %s", (unsigned long long)j->id,
+                        f->seq.frame, why);
+            return;
+        }
+    }
+    if (nphoton == 0) {
+        reply_error(m, from,
+                    "job %llu is a sequence of %u frames, none with a photon pass to refine "
+                    "(their integrator is not \"photon\")",
+                    (unsigned long long)j->id, j->seq.nframes);
+        return;
+    }
+    int rc = 0;
+    for (uint32_t k = 0; k < j->seq.nframes && rc == 0; k++) {
+        mjob_t *f = jobs_frame(m, j, k);
+        if (f && f->photons.enabled &&
+            (rc = refine_job(m, f, msg->refine.photons, from, now, &err)) < 0)
+            (void)err_prefix(&err, "frame %u: ", f->seq.frame);
+    }
+    jobs_sequence_refresh(m, j, now);
+    if (rc < 0) {
+        reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
+        return;
+    }
+    access_audit(m, from, "refined job %llu '%s': %u photon frames of %u",
+                 (unsigned long long)j->id, j->name, nphoton, j->seq.nframes);
     proto_msg_t ok = {.type = PROTO_SUBMITTED, .submitted = {.job = j->id}};
     reply(m, from, &ok);
 }
@@ -826,8 +924,61 @@ static void on_act(master_t *m, const proto_peer_t *from, const proto_msg_t *msg
         reply_jobs(m, from, PROTO_STATUS_REPLY, jobs_find(m, id), now);
 }
 
+/* A sequence's log (docs/farm.md, "Frame sequences"): it has no tasks of its own, so its log is
+ * its frames' logs in frame order, each line prefixed "frame N (job ID) ". Each frame gets an
+ * equal share of max and keeps its most recent whole lines that fit in it, prefix included, so
+ * one busy frame cannot push the others out. *text is malloc'ed and NUL-terminated. */
+static int sequence_logs(master_t *m, const mjob_t *seq, size_t max, char **text, size_t *len,
+                         err_t *err)
+{
+    size_t share = max / seq->seq.nframes, n = 0;
+    char *out = malloc(max + 1);
+    if (!out)
+        return err_set(err, "out of memory for job %llu's log", (unsigned long long)seq->id);
+    for (uint32_t k = 0; k < seq->seq.nframes; k++) {
+        const mjob_t *f = jobs_frame(m, seq, k);
+        if (!f)
+            continue;
+        char *part;
+        size_t plen;
+        if (tasklog_read(m->tasklog, f->id, -1, share, &part, &plen, err) < 0) {
+            free(out);
+            return err_prefix(err, "frame %u (job %llu): ", f->seq.frame,
+                              (unsigned long long)f->id);
+        }
+        char prefix[64];
+        size_t pre = (size_t)snprintf(prefix, sizeof prefix, "frame %u (job %llu) ", f->seq.frame,
+                                      (unsigned long long)f->id);
+        /* The prefixed lines from the newest back, to find the oldest line that still fits. */
+        size_t need = 0, start = plen;
+        while (start > 0) {
+            size_t b = start - 1; /* the last byte of the line before start: its newline */
+            while (b > 0 && part[b - 1] != '\n')
+                b--;
+            if (need + pre + (start - b) > share)
+                break;
+            need += pre + (start - b);
+            start = b;
+        }
+        for (size_t a = start; a < plen;) {
+            const char *nl = memchr(part + a, '\n', plen - a);
+            size_t l = nl ? (size_t)(nl - (part + a)) + 1 : plen - a;
+            memcpy(out + n, prefix, pre);
+            memcpy(out + n + pre, part + a, l);
+            n += pre + l;
+            a += l;
+        }
+        free(part);
+    }
+    out[n] = 0;
+    *text = out;
+    *len = n;
+    return 0;
+}
+
 /* The job's task log (tasklog.h), all or one task's lines: the most recent that fit in a
- * message. Reading a log is reading the job: its owner or an admin. */
+ * message; a sequence's, its frames' (sequence_logs). Reading a log is reading the job: its
+ * owner or an admin. */
 static void on_logs(master_t *m, const proto_peer_t *from, const proto_msg_t *msg)
 {
     const mjob_t *j = jobs_find(m, msg->logs.job);
@@ -848,10 +999,20 @@ static void on_logs(master_t *m, const proto_peer_t *from, const proto_msg_t *ms
                      : 4096;
     if (max > (size_t)8 << 20)
         max = (size_t)8 << 20;
+    if (j->seq.nframes > 0 && msg->logs.has_task) {
+        reply_error(m, from,
+                    "job %llu is a sequence of %u frames: its tasks are its frames', give a "
+                    "frame's id (jobs %llu..%llu) with the task",
+                    (unsigned long long)j->id, j->seq.nframes, (unsigned long long)(j->id + 1),
+                    (unsigned long long)(j->id + j->seq.nframes));
+        return;
+    }
     char *text;
     size_t len;
-    if (tasklog_read(m->tasklog, j->id, msg->logs.has_task ? (long long)msg->logs.task : -1, max,
-                     &text, &len, &err) < 0) {
+    if ((j->seq.nframes > 0
+             ? sequence_logs(m, j, max, &text, &len, &err)
+             : tasklog_read(m->tasklog, j->id, msg->logs.has_task ? (long long)msg->logs.task : -1,
+                            max, &text, &len, &err)) < 0) {
         reply_error(m, from, "job %llu: %s", (unsigned long long)j->id, err.msg);
         return;
     }

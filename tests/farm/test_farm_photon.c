@@ -17,6 +17,7 @@
 #include "image_exr.h"
 
 #include <signal.h>
+#include <sys/stat.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -180,11 +181,99 @@ static void test_processes_refine_and_kill(void **state)
         testutil_fail_quoting(mlog, "expected w2 lost before job 3's photon pass merged:");
 }
 
+/* A copy of data/photon/FILE in folder dir, with the Integrator line replaced by integrator
+ * (NULL: as it is). */
+static void copy_scene(const char *file, const char *dir, const char *as, const char *integrator)
+{
+    char src[512], dst[1200];
+    snprintf(src, sizeof src, "data/photon/%s", file);
+    char *text = testutil_slurp(src, NULL);
+    assert_non_null(text);
+    snprintf(dst, sizeof dst, "%s/%s", dir, as);
+    FILE *f = fopen(dst, "w");
+    assert_non_null(f);
+    for (char *line = strtok(text, "\n"); line; line = strtok(NULL, "\n"))
+        fprintf(f, "%s\n", integrator && !strncmp(line, "Integrator ", 11) ? integrator : line);
+    assert_int_equal(fclose(f), 0);
+    free(text);
+}
+
+/* Refining a frame sequence refines each of its photon frames: the photon frame then has the
+ * pixels of its scene with the photons added, the other frame its own; a sequence without
+ * photon frames, or one not finished, is refused and left as it was. */
+static void test_refine_sequence(void **state)
+{
+    (void)state;
+    const char *spool = testutil_scratch("sspool");
+    pid_t master =
+        testutil_start_master(testutil_scratch("smaster.log"), spool, "tcp://127.0.0.1:*",
+                              "tcp://127.0.0.1:*", "--heartbeat", "200", "--tile", "16", NULL);
+    char wep[256], cep[256];
+    testutil_read_endpoints(spool, wep, cep, testutil_scratch("smaster.log"));
+    pid_t w = testutil_start_worker(testutil_scratch("sw.log"), wep, "sw", testutil_scratch("sc"));
+    char dir[1024], f1[1100], f2[1100], out[1100], exr[1200];
+    snprintf(dir, sizeof dir, "%s", testutil_scratch("seq"));
+    assert_int_equal(mkdir(dir, 0755), 0);
+    copy_scene("world.pbrt", dir, "world.pbrt", NULL);
+    copy_scene("prism.pbrt", dir, "prism.pbrt", NULL);
+    copy_scene("beam.pbrt", dir, "shot1.pbrt", NULL);
+    copy_scene("beam.pbrt", dir, "shot2.pbrt", "Integrator \"path\" \"integer maxdepth\" [ 6 ]");
+    snprintf(f1, sizeof f1, "%s/shot1.pbrt", dir);
+    snprintf(f2, sizeof f2, "%s/shot2.pbrt", dir);
+
+    const run_t *r;
+    /* Job 1 with frames 2 (photon) and 3 (path), still running when refined: refused. */
+    r = run("submit", f1, f2, "--master", cep, "--spp", "65536", NULL);
+    assert_int_equal(r->status, 0);
+    assert_string_equal(r->out, "1\n");
+    r = run("refine", "1", "--photons", "20000", "--master", cep, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "job 1: frame 1: job 2 is ");
+    expect_in(r->err, ": only a finished job can be refined");
+    r = run("cancel", "1", "--master", cep, NULL);
+    assert_int_equal(r->status, 0);
+    /* Job 4, frames 5 and 6, rendered to their end, then refined as one. */
+    r = run("submit", f1, f2, "--master", cep, "--wait", "--quiet", "-o",
+            testutil_scratch("s%d.exr"), NULL);
+    if (r->status != 0)
+        fail_msg("submit the sequence: exit %d: %s", r->status, r->err);
+    snprintf(out, sizeof out, "%s/r%%d.exr", testutil_scratch_dir());
+    r = run("refine", "4", "--photons", "20000", "--master", cep, "--wait", "-o", out, "--quiet",
+            NULL);
+    if (r->status != 0)
+        fail_msg("refine 4 --wait: exit %d: %s", r->status, r->err);
+    expect_in(r->out, "job 4 refined");
+    render_direct("data/photon/beam_more.pbrt", testutil_scratch("more.exr"));
+    snprintf(exr, sizeof exr, "%s/r1.exr", testutil_scratch_dir());
+    testutil_assert_same_pixels(exr, testutil_scratch("more.exr"));
+    expect_photons(exr, "50000");
+    snprintf(exr, sizeof exr, "%s/r2.exr", testutil_scratch_dir());
+    testutil_assert_same_pixels(exr, testutil_scratch("s2.exr"));
+    r = run("status", "4", "--master", cep, "--json", NULL);
+    assert_int_equal(r->status, 0);
+    assert_int_equal(testutil_count_in(r->out, "\"state\": \"done\""), 3);
+
+    /* A sequence of path frames only: refused. Job 7, frames 8 and 9. */
+    copy_scene("beam.pbrt", dir, "shot3.pbrt", "Integrator \"path\" \"integer maxdepth\" [ 5 ]");
+    char f3[1100];
+    snprintf(f3, sizeof f3, "%s/shot3.pbrt", dir);
+    r = run("submit", f2, f3, "--master", cep, "--wait", "--quiet", "-o",
+            testutil_scratch("p%d.exr"), NULL);
+    if (r->status != 0)
+        fail_msg("submit path frames: exit %d: %s", r->status, r->err);
+    r = run("refine", "7", "--photons", "10", "--master", cep, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "job 7 is a sequence of 2 frames, none with a photon pass to refine");
+    testutil_stop(w, SIGTERM);
+    testutil_stop(master, SIGTERM);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_in_process_both_stores),
         cmocka_unit_test(test_processes_refine_and_kill),
+        cmocka_unit_test_teardown(test_refine_sequence, testutil_kill_children),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_keys_setup, testutil_scratch_teardown);
 }

@@ -369,6 +369,34 @@ static void test_ops_and_cancel_act_on_every_frame(void **state)
     assert_int_equal(r->status, 0);
     assert_int_equal(testutil_count_in(r->out, "\"state\": \"cancelled\""), NFRAMES + 1);
     testutil_wait_file_has(f.mlog, "job 1 'walk0001..walk0003' (3 frames) cancelled");
+    /* The sequence's log is its frames' logs, each line named by its frame; a task of the
+     * sequence is refused with the frames' ids to use. */
+    r = run("logs", "1", "--master", f.cep, NULL);
+    if (r->status != 0)
+        fail_msg("logs 1: exit %d: %s", r->status, r->err);
+    expect_in(r->out, "frame 1 (job 2) ");
+    expect_in(r->out, "Z task 0 (pass 0, tile 8x8 at 0,0) attempt 1 assigned to worker ");
+    for (int k = 1; k <= NFRAMES; k++) {
+        char line[64];
+        snprintf(line, sizeof line, "frame %d (job %d) ", k, k + 1);
+        const char *at = strstr(r->out, line);
+        if (!at)
+            fail_msg("no line of frame %d in the sequence's log:\n%s", k, r->out);
+        assert_non_null(strstr(at, "Z job cancelled: "));
+    }
+    for (const char *l = r->out; *l; l = strchr(l, '\n') + 1) {
+        if (strncmp(l, "frame ", 6) != 0)
+            fail_msg("a line of the sequence's log without its frame: %.80s", l);
+        if (!strchr(l, '\n'))
+            break;
+    }
+    r = run("logs", "1", "0", "--master", f.cep, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "job 1 is a sequence of 3 frames: its tasks are its frames', give a "
+                      "frame's id (jobs 2..4) with the task");
+    r = run("logs", "2", "0", "--master", f.cep, NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "task 0 (pass 0, tile 8x8 at 0,0) attempt 1 assigned to worker ");
     /* Nothing to fetch: the frames did not finish. */
     char out[1100];
     snprintf(out, sizeof out, "%s/c%%d.exr", testutil_scratch_dir());
@@ -438,6 +466,54 @@ static void test_bad_input(void **state)
     expect_in(r->err, "is not a frame number's conversion");
 }
 
+/* A master loads a sequence's frames several at once (--load-threads): the frame reported when
+ * frames fail is the first failing one in frame order, every time, as when they load one after
+ * another. Frames 2..8 exceed the master's shape budget, frame 1 does not. */
+static void test_first_failing_frame_reported(void **state)
+{
+    (void)state;
+    char dir[1024], path[1200];
+    snprintf(dir, sizeof dir, "%s", testutil_scratch("budget"));
+    assert_int_equal(mkdir(dir, 0755), 0);
+    const char *head = "LookAt 0 1 -3  0 0.5 0  0 1 0\nCamera \"perspective\"\n"
+                       "Film \"spectral\" \"integer xresolution\" [ 8 ]\n"
+                       "    \"integer yresolution\" [ 8 ]\n"
+                       "WorldBegin\nLightSource \"infinite\"\n";
+    char *argv_frames[8];
+    for (int k = 1; k <= 8; k++) {
+        char text[1024];
+        int n = snprintf(text, sizeof text, "%s", head);
+        for (int i = 0; i < (k == 1 ? 1 : 2 + k); i++)
+            n += snprintf(text + n, sizeof text - (size_t)n,
+                          "Shape \"sphere\" \"float radius\" [ 0.%d ]\n", i + 1);
+        snprintf(path, sizeof path, "%s/b%02d.pbrt", dir, k);
+        testutil_write_text(path, text, 0644);
+        argv_frames[k - 1] = strdup(path);
+    }
+    farm_t f;
+    snprintf(f.spool, sizeof f.spool, "%s", testutil_scratch("bspool"));
+    snprintf(f.mlog, sizeof f.mlog, "%s", testutil_scratch("bspool.log"));
+    snprintf(f.cep, sizeof f.cep, "ipc://%s-c.sock", f.spool);
+    snprintf(f.wep, sizeof f.wep, "ipc://%s-w.sock", f.spool);
+    f.master = testutil_spawn(f.mlog, "master", "--workers", f.wep, "--clients", f.cep, "--spool",
+                              f.spool, "--max-shapes", "3", "--load-threads", "4", NULL);
+    testutil_wait_file_has(f.mlog, "clients on");
+    for (int rep = 0; rep < 4; rep++) {
+        const run_t *r = run("submit", argv_frames[0], argv_frames[1], argv_frames[2],
+                             argv_frames[3], argv_frames[4], argv_frames[5], argv_frames[6],
+                             argv_frames[7], "--master", f.cep, NULL);
+        assert_int_equal(r->status, 1);
+        expect_in(r->err, "frame 2 (b02.pbrt): ");
+        expect_in(r->err, "prismfarm master --max-shapes");
+    }
+    const run_t *r = run("jobs", "--master", f.cep, NULL);
+    assert_int_equal(r->status, 0);
+    assert_int_equal(testutil_count_in(r->out, "b01"), 0);
+    for (int k = 0; k < 8; k++)
+        free(argv_frames[k]);
+    testutil_stop(f.master, SIGTERM);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -445,6 +521,7 @@ int main(void)
         cmocka_unit_test_teardown(test_restart_mid_sequence, testutil_kill_children),
         cmocka_unit_test_teardown(test_ops_and_cancel_act_on_every_frame, testutil_kill_children),
         cmocka_unit_test(test_bad_input),
+        cmocka_unit_test_teardown(test_first_failing_frame_reported, testutil_kill_children),
     };
     return cmocka_run_group_tests(tests, setup, testutil_scratch_teardown);
 }
