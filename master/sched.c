@@ -634,10 +634,12 @@ static uint32_t count_issuable(const sched_t *self, uint64_t worker, uint32_t li
         const job_t *j = self->jobs[k];
         if (!takes_tasks(self, j, worker))
             continue;
-        if (j->photon_done < j->nphoton)
-            n += j->nphoton - j->photon_done - j->running;
-        else
-            n += ncamera(j) - (j->tasks_done - j->photon_done) - j->running;
+        /* Left to give in the job's phase, never below 0: running counts only this phase's
+         * tasks today, but a wrapped subtraction would let every worker prefetch. */
+        uint64_t left = j->photon_done < j->nphoton
+                            ? (uint64_t)j->nphoton - j->photon_done
+                            : (uint64_t)ncamera(j) - (j->tasks_done - j->photon_done);
+        n += left > j->running ? left - j->running : 0;
     }
     return n > limit ? limit + 1 : (uint32_t)n;
 }
