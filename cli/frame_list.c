@@ -17,11 +17,14 @@ void frame_list_free(frame_list_t *fl)
     *fl = (frame_list_t){0};
 }
 
-static bool path_exists(const char *path) { return access(path, F_OK) == 0; }
+static bool path_exists(const char *path)
+{
+    return access(path, F_OK) == 0;
+}
 
 /* A scene operand that names no file: a shell glob that matched nothing arrives as it is, and
  * a pattern needs --frames; both get a message saying so. Returns 2, or 0 when the file is
- * there (or the parser will say why not). */
+ * there or nothing tells why it is not. */
 static int check_operand(const char *path, const char *cmd)
 {
     if (path_exists(path))
@@ -31,8 +34,10 @@ static int check_operand(const char *path, const char *cmd)
         return 2;
     }
     if (frame_pattern_has(path)) {
-        fprintf(stderr, "prismfarm %s: '%s' looks like a frame pattern: give --frames "
-                        "FIRST-LAST\n", cmd, path);
+        fprintf(stderr,
+                "prismfarm %s: '%s' looks like a frame pattern: give --frames "
+                "FIRST-LAST\n",
+                cmd, path);
         return 2;
     }
     return 0;
@@ -49,16 +54,17 @@ static int alloc_list(frame_list_t *fl, size_t n, const char *cmd)
     return 0;
 }
 
-int frame_list_parse(frame_list_t *fl, char **ops, size_t nops, const char *range,
-                     const char *cmd)
+int frame_list_parse(frame_list_t *fl, char **ops, size_t nops, const char *range, const char *cmd)
 {
     err_t err;
     *fl = (frame_list_t){0};
     if (range) {
         uint32_t a, b;
         if (nops != 1) {
-            fprintf(stderr, "prismfarm %s: --frames takes one scene pattern (such as "
-                            "frame%%04d.pbrt), not %zu files\n", cmd, nops);
+            fprintf(stderr,
+                    "prismfarm %s: --frames takes one scene pattern (such as "
+                    "frame%%04d.pbrt), not %zu files\n",
+                    cmd, nops);
             return 2;
         }
         if (frame_pattern_check(ops[0], &err) < 0 ||
@@ -83,8 +89,8 @@ int frame_list_parse(frame_list_t *fl, char **ops, size_t nops, const char *rang
             fl->numbers[k] = a + (uint32_t)k;
             fl->n = k + 1;
             if (!path_exists(path)) {
-                fprintf(stderr, "prismfarm %s: frame %u: %s does not exist\n", cmd,
-                        fl->numbers[k], path);
+                fprintf(stderr, "prismfarm %s: frame %u: %s does not exist\n", cmd, fl->numbers[k],
+                        path);
                 return 2;
             }
         }
@@ -103,6 +109,13 @@ int frame_list_parse(frame_list_t *fl, char **ops, size_t nops, const char *rang
         int bad = check_operand(ops[k], cmd);
         if (bad)
             return bad;
+        /* One scene missing is the loader's error (exit 1, as any scene it cannot read); a
+         * sequence is refused before its first frame is sent or rendered. */
+        if (nops > 1 && !path_exists(ops[k])) {
+            fprintf(stderr, "prismfarm %s: %s (scene file %zu of %zu) does not exist\n", cmd,
+                    ops[k], k + 1, nops);
+            return 2;
+        }
         if (!(fl->paths[k] = strdup(ops[k]))) {
             fprintf(stderr, "prismfarm %s: out of memory\n", cmd);
             return 1;

@@ -28,7 +28,8 @@ static int write_frames(void **state)
     size_t size;
     char *tiny = testutil_slurp("data/render/tiny.pbrt", &size);
     char *look = tiny ? strstr(tiny, "LookAt 0 1 -3") : NULL;
-    if (!look || mkdir(testutil_scratch("fr"), 0755) != 0 || mkdir(testutil_scratch("out"), 0755) != 0)
+    if (!look || mkdir(testutil_scratch("fr"), 0755) != 0 ||
+        mkdir(testutil_scratch("out"), 0755) != 0)
         return -1;
     for (int k = 1; k <= 3; k++) {
         char name[64];
@@ -36,7 +37,8 @@ static int write_frames(void **state)
         FILE *f = fopen(testutil_scratch(name), "w");
         if (!f)
             return -1;
-        fprintf(f, "%.*sLookAt 0.%d 1 -3%s", (int)(look - tiny), tiny, k, look + strlen("LookAt 0 1 -3"));
+        fprintf(f, "%.*sLookAt 0.%d 1 -3%s", (int)(look - tiny), tiny, k,
+                look + strlen("LookAt 0 1 -3"));
         fclose(f);
     }
     free(tiny);
@@ -64,11 +66,11 @@ static bool same_pixels(const char *a, const char *b)
     image_exr_t *x = image_exr_read(a, &err), *y = x ? image_exr_read(b, &err) : NULL;
     if (!x || !y)
         fail_msg("%s", err.msg);
-    bool same = image_exr_width(x) == 24 && image_exr_width(y) == 24 &&
-                image_exr_height(x) == 16 && image_exr_height(y) == 16 &&
-                image_exr_n_spectral(x) == 8 && image_exr_n_spectral(y) == 8 &&
-                !memcmp(image_exr_spectral(x), image_exr_spectral(y), 24 * 16 * 8 * sizeof(float)) &&
-                !memcmp(image_exr_rgb(x), image_exr_rgb(y), 24 * 16 * 3 * sizeof(float));
+    bool same =
+        image_exr_width(x) == 24 && image_exr_width(y) == 24 && image_exr_height(x) == 16 &&
+        image_exr_height(y) == 16 && image_exr_n_spectral(x) == 8 && image_exr_n_spectral(y) == 8 &&
+        !memcmp(image_exr_spectral(x), image_exr_spectral(y), 24 * 16 * 8 * sizeof(float)) &&
+        !memcmp(image_exr_rgb(x), image_exr_rgb(y), 24 * 16 * 3 * sizeof(float));
     image_exr_destroy(&x);
     image_exr_destroy(&y);
     return same;
@@ -108,7 +110,7 @@ static void test_sequence_equals_frames_alone(void **state)
         }
         /* The frames are different images: each file is its own frame's. */
         assert_false(same_pixels(testutil_scratch(direct ? "out/d0001.exr" : "out/f0001.exr"),
-                                testutil_scratch(direct ? "out/d0002.exr" : "out/f0002.exr")));
+                                 testutil_scratch(direct ? "out/d0002.exr" : "out/f0002.exr")));
     }
 }
 
@@ -145,6 +147,11 @@ static void test_bad_sequences(void **state)
     r = run("render", pattern, "--quiet", NULL);
     assert_int_equal(r->status, 2);
     expect_in(r->err, "give --frames");
+    /* A missing file in a list: refused before the frames before it are rendered. */
+    r = run("render", frame(1), testutil_scratch("fr/walk0009.pbrt"), "-o", out, "--quiet", NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "walk0009.pbrt (scene file 2 of 2) does not exist");
+    assert_false(exists(testutil_scratch("out/e0001.exr")));
     r = run("render", testutil_scratch("fr/*.exr"), "--quiet", NULL);
     assert_int_equal(r->status, 2);
     expect_in(r->err, "matched no file");
