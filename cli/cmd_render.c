@@ -14,6 +14,7 @@
 #include "photon.h"
 #include "pool.h"
 #include "progress.h"
+#include "scene_bundle.h"
 #include "cli_warn.h"
 #include "scene_load.h"
 
@@ -40,9 +41,9 @@ static void usage(FILE *out, const cli_opt_t *opts)
             "Renders SCENE on this machine through the farm's code path (a master and workers in\n"
             "this process over inproc://); writes a spectral OpenEXR (Fichet et al. layout, float32,\n"
             "with linear sRGB R,G,B channels) and a tone-mapped PNG preview beside it.\n"
-            "A frame sequence (several files, or a pattern with --frames) renders each frame in\n"
-            "turn, as it would be rendered alone; a frame's number is the last number in its\n"
-            "file name (else its place in the list, from 1), and -o takes a pattern.\n"
+            "A frame sequence (several files, or a pattern with --frames) is one job of that farm,\n"
+            "each frame's pixels those it has rendered alone; a frame's number is the last number\n"
+            "in its file name (else its place in the list, from 1), and -o takes a pattern.\n"
             "Options override the scene file:\n");
     cli_args_help(out, opts);
 }
@@ -169,6 +170,44 @@ typedef struct render_cfg {
 static int render_scene(const render_cfg_t *c, const char *scene_path, const char *seq_exr,
                         const char *seq_png);
 
+/* The sequence as one job of the in-process farm (local_farm.h): one bundle with the files the
+ * frames share once, the master loading the frames (several at once) and the workers rendering
+ * the tiles of every frame; each frame's pixels are those of its render alone (the farm's "Same
+ * pixels"). The outputs, named and checked by the caller, are exr[k] and png[k]. */
+static int render_frames_farm(const render_cfg_t *c, const frame_list_t *fl, const char *pattern,
+                              char (*exr)[4096], char (*png)[4200])
+{
+    int cores = pool_cores();
+    bool master_png = c->exposure == 0;
+    local_farm_opts_t lo = {.overrides = c->ov, .workers = (int)c->workers,
+                            .threads = c->threads ? (int)c->threads
+                                                  : (cores / (int)c->workers > 0 ? cores / (int)c->workers : 1),
+                            .tile = (int)c->tile, .quiet = c->quiet,
+                            .target_error = c->stop.target_error, .time_limit = c->stop.time_limit,
+                            .frames = (const char *const *)fl->paths, .numbers = fl->numbers,
+                            .nframes = fl->n, .frame_pattern = pattern};
+    char name[420];
+    frame_list_name(fl, name, sizeof name);
+    lo.name = name;
+    proto_job_info_t info;
+    int rc = local_farm_run(&lo, &info, NULL);
+    /* Another exposure: each frame's PNG tone-mapped here from its EXR, as for one scene. */
+    colour_tonemap_t tm = {.exposure_stops = c->exposure, .curve = COLOUR_CURVE_ACES};
+    err_t err;
+    for (size_t k = 0; rc == 0 && !master_png && k < fl->n; k++)
+        if (film_png_from_exr(exr[k], png[k], tm, &err)) {
+            fprintf(stderr, "prismfarm render: %s\n", err.msg);
+            rc = 1;
+        }
+    if (rc == 0)
+        printf("%zu frames written; %llu samples in %.2f s (%.2f Msamples/s) on %d worker%s; %llu "
+               "non-finite samples discarded\n",
+               fl->n, (unsigned long long)info.samples_done, info.elapsed,
+               info.samples_done / 1e6 / (info.elapsed > 0 ? info.elapsed : 1), (int)c->workers,
+               c->workers == 1 ? "" : "s", (unsigned long long)info.nonfinite);
+    return rc;
+}
+
 /* A frame sequence: every frame's outputs named (job_follow_frame_paths, as `submit --wait`
  * names them) and checked before the first frame is rendered; then each frame rendered as
  * `prismfarm render FRAME -o ITS.exr` renders it alone, so its bytes are the same. */
@@ -200,6 +239,15 @@ static int render_frames(const render_cfg_t *c, const frame_list_t *fl, const ch
                         fl->numbers[i], fl->numbers[k], exr[k]);
                 rc = 2;
             }
+    }
+    /* One bundle holds frames of one folder (scene_bundle.h); frames from several folders are
+     * rendered one after another, each in a farm of its own, as --direct renders them. */
+    bool one_folder = scene_bundle_one_folder((const char *const *)fl->paths, fl->n);
+    if (rc == 0 && !c->direct && one_folder) {
+        rc = render_frames_farm(c, fl, pattern, exr, png);
+        free(exr);
+        free(png);
+        return rc;
     }
     for (size_t k = 0; rc == 0 && k < fl->n; k++) {
         if (!c->quiet)

@@ -160,13 +160,37 @@ static void test_bad_sequences(void **state)
     assert_int_equal(r->status, 2);
     expect_in(r->err, "-o for a sequence of frames");
     assert_false(exists(testutil_scratch("out/one.exr")));
-    /* A broken frame: render's error for a broken scene, naming its file and line, and the
-     * frames before it written. */
-    r = run("render", frame(1), "data/render/broken.pbrt", "-o", out, "--quiet", NULL);
+    /* A broken frame: named with its file and line before any frame is rendered. */
+    const char *broken = testutil_scratch("fr/walk0005.pbrt");
+    testutil_write_text(broken, "LookAt 0 1 -3  0 0.5 0  0 1 0\nCamera \"perspective\" \"float\n",
+                        0644);
+    r = run("render", frame(1), broken, "-o", out, "--quiet", NULL);
+    assert_int_equal(unlink(broken), 0);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "frame 2 of 2: ");
+    expect_in(r->err, "walk0005.pbrt:");
+    assert_false(exists(testutil_scratch("out/e0001.exr")));
+    /* With --direct the frames render one by one: the frames before a broken one are written. */
+    r = run("render", frame(1), "data/render/broken.pbrt", "-o", out, "--quiet", "--direct", NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "data/render/broken.pbrt:4:");
     expect_in(r->err, "1 of 2 frames written");
     assert_true(exists(testutil_scratch("out/e0001.exr")));
+}
+
+/* Frames of two folders cannot share a bundle: each renders in a farm of its own, with the same
+ * pixels (numbered 1, 2: tiny.pbrt's name has no number). */
+static void test_frames_of_two_folders(void **state)
+{
+    (void)state;
+    const char *out = testutil_scratch("out/two%04d.exr");
+    const run_t *r = run("render", frame(3), "data/render/tiny.pbrt", "-o", out, "--quiet", NULL);
+    expect_ok(r);
+    expect_in(r->out, "2 frames written");
+    assert_true(same_pixels(testutil_scratch("out/two0001.exr"), testutil_scratch("out/f0003.exr")));
+    expect_ok(run("render", "data/render/tiny.pbrt", "-o", testutil_scratch("tiny.exr"), "--quiet",
+                  NULL));
+    assert_true(same_pixels(testutil_scratch("out/two0002.exr"), testutil_scratch("tiny.exr")));
 }
 
 int main(void)
@@ -175,6 +199,7 @@ int main(void)
         cmocka_unit_test(test_sequence_equals_frames_alone),
         cmocka_unit_test(test_pattern_and_default_names),
         cmocka_unit_test(test_bad_sequences),
+        cmocka_unit_test(test_frames_of_two_folders),
     };
     return cmocka_run_group_tests(tests, write_frames, testutil_scratch_teardown);
 }
