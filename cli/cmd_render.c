@@ -5,6 +5,8 @@
 #include "cli_args.h"
 #include "clock.h"
 #include "film.h"
+#include "frame_list.h"
+#include "frame_pattern.h"
 #include "job_follow.h"
 #include "jobinfo.h"
 #include "local_farm.h"
@@ -12,6 +14,7 @@
 #include "photon.h"
 #include "pool.h"
 #include "progress.h"
+#include "scene_bundle.h"
 #include "cli_warn.h"
 #include "scene_load.h"
 
@@ -32,10 +35,15 @@ static void usage(FILE *out, const cli_opt_t *opts)
 {
     fprintf(out,
             "usage: prismfarm render SCENE.pbrt [options]\n"
+            "       prismfarm render FRAME.pbrt FRAME.pbrt ... [-o 'out/f%%04d.exr'] [options]\n"
+            "       prismfarm render 'frame%%04d.pbrt' --frames FIRST-LAST [options]\n"
             "\n"
             "Renders SCENE on this machine through the farm's code path (a master and workers in\n"
             "this process over inproc://); writes a spectral OpenEXR (Fichet et al. layout, float32,\n"
             "with linear sRGB R,G,B channels) and a tone-mapped PNG preview beside it.\n"
+            "A frame sequence (several files, or a pattern with --frames) is one job of that farm,\n"
+            "each frame's pixels those it has rendered alone; a frame's number is the last number\n"
+            "in its file name (else its place in the list, from 1), and -o takes a pattern.\n"
             "Options override the scene file:\n");
     cli_args_help(out, opts);
 }
@@ -149,9 +157,116 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
     return rc;
 }
 
+/* What every frame of one `render` command is rendered with. */
+typedef struct render_cfg {
+    const char *output; /* -o, of one scene (a sequence's outputs are named before) */
+    scene_overrides_t ov;
+    cli_stop_t stop;
+    long long threads, workers, tile;
+    int direct, quiet;
+    double exposure;
+} render_cfg_t;
+
+static int render_scene(const render_cfg_t *c, const char *scene_path, const char *seq_exr,
+                        const char *seq_png);
+
+/* The sequence as one job of the in-process farm (local_farm.h): one bundle with the files the
+ * frames share once, the master loading the frames (several at once) and the workers rendering
+ * the tiles of every frame; each frame's pixels are those of its render alone (the farm's "Same
+ * pixels"). The outputs, named and checked by the caller, are exr[k] and png[k]. */
+static int render_frames_farm(const render_cfg_t *c, const frame_list_t *fl, const char *pattern,
+                              char (*exr)[4096], char (*png)[4200])
+{
+    int cores = pool_cores();
+    bool master_png = c->exposure == 0;
+    local_farm_opts_t lo = {.overrides = c->ov, .workers = (int)c->workers,
+                            .threads = c->threads ? (int)c->threads
+                                                  : (cores / (int)c->workers > 0 ? cores / (int)c->workers : 1),
+                            .tile = (int)c->tile, .quiet = c->quiet,
+                            .target_error = c->stop.target_error, .time_limit = c->stop.time_limit,
+                            .frames = (const char *const *)fl->paths, .numbers = fl->numbers,
+                            .nframes = fl->n, .frame_pattern = pattern};
+    char name[420];
+    frame_list_name(fl, name, sizeof name);
+    lo.name = name;
+    proto_job_info_t info;
+    int rc = local_farm_run(&lo, &info, NULL);
+    /* Another exposure: each frame's PNG tone-mapped here from its EXR, as for one scene. */
+    colour_tonemap_t tm = {.exposure_stops = c->exposure, .curve = COLOUR_CURVE_ACES};
+    err_t err;
+    for (size_t k = 0; rc == 0 && !master_png && k < fl->n; k++)
+        if (film_png_from_exr(exr[k], png[k], tm, &err)) {
+            fprintf(stderr, "prismfarm render: %s\n", err.msg);
+            rc = 1;
+        }
+    if (rc == 0)
+        printf("%zu frames written; %llu samples in %.2f s (%.2f Msamples/s) on %d worker%s; %llu "
+               "non-finite samples discarded\n",
+               fl->n, (unsigned long long)info.samples_done, info.elapsed,
+               info.samples_done / 1e6 / (info.elapsed > 0 ? info.elapsed : 1), (int)c->workers,
+               c->workers == 1 ? "" : "s", (unsigned long long)info.nonfinite);
+    return rc;
+}
+
+/* A frame sequence: every frame's outputs named (job_follow_frame_paths, as `submit --wait`
+ * names them) and checked before the first frame is rendered; then each frame rendered as
+ * `prismfarm render FRAME -o ITS.exr` renders it alone, so its bytes are the same. */
+static int render_frames(const render_cfg_t *c, const frame_list_t *fl, const char *pattern)
+{
+    err_t err;
+    if (pattern && frame_pattern_check(pattern, &err) < 0) {
+        fprintf(stderr, "prismfarm render: -o for a sequence of frames: %s\n", err.msg);
+        return 2;
+    }
+    char (*exr)[4096] = calloc(fl->n, sizeof *exr), (*png)[4200] = calloc(fl->n, sizeof *png);
+    int rc = 0;
+    if (!exr || !png) {
+        fprintf(stderr, "prismfarm render: out of memory\n");
+        rc = 1;
+    }
+    for (size_t k = 0; rc == 0 && k < fl->n; k++) {
+        proto_job_info_t f = {.name = fl->paths[k], .frame = fl->numbers[k]};
+        if (job_follow_frame_paths(&f, pattern, exr[k], sizeof exr[k], png[k], sizeof png[k], &err) < 0) {
+            fprintf(stderr, "prismfarm render: %s\n", err.msg);
+            rc = 2;
+        } else {
+            rc = job_follow_check_outputs(exr[k], png[k], "render");
+        }
+        /* Two frames written to one file: a pattern without the number's digits in it. */
+        for (size_t i = 0; rc == 0 && i < k; i++)
+            if (!strcmp(exr[i], exr[k])) {
+                fprintf(stderr, "prismfarm render: frames %u and %u would both be written to %s\n",
+                        fl->numbers[i], fl->numbers[k], exr[k]);
+                rc = 2;
+            }
+    }
+    /* One bundle holds frames of one folder (scene_bundle.h); frames from several folders are
+     * rendered one after another, each in a farm of its own, as --direct renders them. */
+    bool one_folder = scene_bundle_one_folder((const char *const *)fl->paths, fl->n);
+    if (rc == 0 && !c->direct && one_folder) {
+        rc = render_frames_farm(c, fl, pattern, exr, png);
+        free(exr);
+        free(png);
+        return rc;
+    }
+    for (size_t k = 0; rc == 0 && k < fl->n; k++) {
+        if (!c->quiet)
+            fprintf(stderr, "render: frame %u (%zu of %zu): %s\n", fl->numbers[k], k + 1, fl->n,
+                    fl->paths[k]);
+        if ((rc = render_scene(c, fl->paths[k], exr[k], png[k])) != 0)
+            fprintf(stderr, "prismfarm render: frame %u (%s) failed; %zu of %zu frames written\n",
+                    fl->numbers[k], fl->paths[k], k, fl->n);
+    }
+    if (rc == 0)
+        printf("%zu frames written\n", fl->n);
+    free(exr);
+    free(png);
+    return rc;
+}
+
 int cmd_render(int argc, char **argv)
 {
-    const char *scene_path = NULL, *output = NULL;
+    const char *output = NULL, *range = NULL;
     scene_overrides_t ov = {.seed = -1};
     cli_stop_t stop = {0};
     long long threads = 0, workers = 1, tile = 0;
@@ -160,7 +275,11 @@ int cmd_render(int argc, char **argv)
     int quiet = 0;
     const cli_opt_t opts[] = {
         {.name = "output", .letter = 'o', .kind = CLI_STRING, .dst = &output, .arg = "OUT.exr",
-         .help = "output file (default: the Film's filename, else SCENE.exr)"},
+         .help = "output file (default: the Film's filename, else SCENE.exr); a sequence: a "
+                 "pattern such as out/f%04d.exr (default: each frame file's name with .exr)"},
+        {.name = "frames", .kind = CLI_STRING, .dst = &range, .arg = "FIRST-LAST",
+         .help = "a frame sequence: SCENE is a pattern such as frame%04d.pbrt, formatted with "
+                 "each number FIRST..LAST"},
         CLI_OPT_GROUP(CLI_OVERRIDE_OPTS, .dst = &ov),
         CLI_OPT_GROUP(CLI_STOP_OPTS, .dst = &stop),
         {.name = "threads", .kind = CLI_LLONG, .dst = &threads, .lo = 1, .hi = 1024, .arg = "N",
@@ -184,17 +303,30 @@ int cmd_render(int argc, char **argv)
     int parsed = cli_args_parse(&cmd, argc, argv, &first);
     if (parsed != CLI_ARGS_GO)
         return parsed;
-    if (argc - first > 1) {
-        fprintf(stderr, "prismfarm render: more than one scene given ('%s' and '%s')\n",
-                argv[first], argv[first + 1]);
-        return 2;
-    }
-    scene_path = first < argc ? argv[first] : NULL;
-    if (!scene_path) {
+    if (first == argc) {
         usage(stderr, opts);
         return 2;
     }
+    frame_list_t fl;
+    int rc = frame_list_parse(&fl, argv + first, (size_t)(argc - first), range, "render");
+    render_cfg_t c = {.output = output, .ov = ov, .stop = stop, .threads = threads,
+                      .workers = workers, .tile = tile, .direct = direct, .quiet = quiet,
+                      .exposure = exposure};
+    if (rc == 0)
+        rc = fl.sequence ? render_frames(&c, &fl, output) : render_scene(&c, fl.paths[0], NULL, NULL);
+    frame_list_free(&fl);
+    return rc;
+}
 
+static int render_scene(const render_cfg_t *c, const char *scene_path, const char *seq_exr,
+                        const char *seq_png)
+{
+    const char *output = c->output;
+    scene_overrides_t ov = c->ov;
+    cli_stop_t stop = c->stop;
+    const long long threads = c->threads, workers = c->workers, tile = c->tile;
+    const int quiet = c->quiet;
+    const double exposure = c->exposure;
     err_t err;
     /* The load (parse, meshes, textures, Embree's build) is timed apart from the render. */
     double t0 = clock_now_s();
@@ -209,7 +341,10 @@ int cmd_render(int argc, char **argv)
 
     char exr[PATH_MAX], png[PATH_MAX];
     int other_format = 0;
-    if (output || rs->filename[0]) {
+    if (seq_exr) {
+        snprintf(exr, sizeof exr, "%s", seq_exr);
+        snprintf(png, sizeof png, "%s", seq_png);
+    } else if (output || rs->filename[0]) {
         const char *name = output ? output : rs->filename;
         film_output_paths(name, exr, sizeof exr, png, sizeof png, &other_format);
         if (other_format)
@@ -253,7 +388,7 @@ int cmd_render(int argc, char **argv)
 
     int rc = 0;
     colour_tonemap_t tm = {.exposure_stops = exposure, .curve = COLOUR_CURVE_ACES};
-    if (direct) {
+    if (c->direct) {
         rc = render_direct(scene, scene_path, (int)threads, quiet, &stop, exr, png, tm, loaded, load_s);
     } else {
         /* The farm's code path: a master and workers in this process. */

@@ -10,6 +10,7 @@
 #include "progress.h"
 #include "film.h"
 #include "files.h"
+#include "frame_list.h"
 #include "frame_pattern.h"
 #include "job_follow.h"
 #include "scene_bundle.h"
@@ -18,7 +19,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 static void usage(FILE *out, const cli_opt_t *opts)
 {
@@ -33,112 +33,6 @@ static void usage(FILE *out, const cli_opt_t *opts)
                  "(else its place in the list, from 1); with --wait, -o takes a pattern such as\n"
                  "out/f%%04d.exr (default: each frame file's name with .exr).\n");
     cli_args_help(out, opts);
-}
-
-/* The scene files of a submission: one, or the frames of a sequence with their numbers. */
-typedef struct frames {
-    char **paths;
-    uint32_t *numbers;
-    size_t n;
-    bool sequence;
-} frames_t;
-
-static void frames_free(frames_t *fr)
-{
-    for (size_t k = 0; fr->paths && k < fr->n; k++)
-        free(fr->paths[k]);
-    free(fr->paths);
-    free(fr->numbers);
-    *fr = (frames_t){0};
-}
-
-static bool path_exists(const char *path) { return access(path, F_OK) == 0; }
-
-/* A scene operand that names no file: a shell glob that matched nothing arrives as it is, and
- * a pattern needs --frames; both get a message saying so. Returns 2, or 0 when the file is
- * there (or the parser will say why not). */
-static int check_operand(const char *path, bool pattern_ok)
-{
-    if (path_exists(path))
-        return 0;
-    if (strpbrk(path, "*?[")) {
-        fprintf(stderr, "prismfarm submit: '%s' matched no file (an empty glob?)\n", path);
-        return 2;
-    }
-    if (!pattern_ok && frame_pattern_has(path)) {
-        fprintf(stderr, "prismfarm submit: '%s' looks like a frame pattern: give --frames "
-                        "FIRST-LAST\n", path);
-        return 2;
-    }
-    return 0;
-}
-
-/* The operands into fr: a pattern with --frames, several files (a sequence numbered by the
- * last number in each name when all have distinct ones, else 1..n), or one scene. */
-static int submit_frames(frames_t *fr, char **ops, size_t nops, const char *range)
-{
-    err_t err;
-    if (range) {
-        uint32_t a, b;
-        if (nops != 1) {
-            fprintf(stderr, "prismfarm submit: --frames takes one scene pattern (such as "
-                            "frame%%04d.pbrt), not %zu files\n", nops);
-            return 2;
-        }
-        if (frame_pattern_check(ops[0], &err) < 0 ||
-            frame_pattern_parse_range(range, PROTO_MAX_FRAMES, &a, &b, &err) < 0) {
-            fprintf(stderr, "prismfarm submit: %s\n", err.msg);
-            return 2;
-        }
-        size_t n = (size_t)b - a + 1;
-        fr->paths = calloc(n, sizeof *fr->paths);
-        fr->numbers = calloc(n, sizeof *fr->numbers);
-        if (!fr->paths || !fr->numbers)
-            return fprintf(stderr, "prismfarm submit: out of memory\n"), 1;
-        fr->sequence = true;
-        for (size_t k = 0; k < n; k++) {
-            char path[4096];
-            if (frame_pattern_format(ops[0], a + (uint32_t)k, path, sizeof path, &err) < 0) {
-                fprintf(stderr, "prismfarm submit: %s\n", err.msg);
-                return 2;
-            }
-            if (!(fr->paths[k] = strdup(path)))
-                return fprintf(stderr, "prismfarm submit: out of memory\n"), 1;
-            fr->numbers[k] = a + (uint32_t)k;
-            fr->n = k + 1;
-            if (!path_exists(path)) {
-                fprintf(stderr, "prismfarm submit: frame %u: %s does not exist\n", fr->numbers[k],
-                        path);
-                return 2;
-            }
-        }
-        return 0;
-    }
-    if (nops > PROTO_MAX_FRAMES) {
-        fprintf(stderr, "prismfarm submit: %zu scene files, at most %d frames in one job\n", nops,
-                PROTO_MAX_FRAMES);
-        return 2;
-    }
-    fr->paths = calloc(nops, sizeof *fr->paths);
-    fr->numbers = calloc(nops, sizeof *fr->numbers);
-    if (!fr->paths || !fr->numbers)
-        return fprintf(stderr, "prismfarm submit: out of memory\n"), 1;
-    fr->sequence = nops > 1;
-    bool named = true;
-    for (size_t k = 0; k < nops; k++) {
-        int bad = check_operand(ops[k], false);
-        if (bad)
-            return bad;
-        if (!(fr->paths[k] = strdup(ops[k])))
-            return fprintf(stderr, "prismfarm submit: out of memory\n"), 1;
-        fr->n = k + 1;
-        named = named && frame_pattern_number_of(ops[k], &fr->numbers[k]);
-        for (size_t i = 0; named && i < k; i++)
-            named = fr->numbers[i] != fr->numbers[k];
-    }
-    for (size_t k = 0; !named && k < nops; k++)
-        fr->numbers[k] = (uint32_t)k + 1;
-    return 0;
 }
 
 /* After a sequence is done: each frame's outputs (job_follow_fetch_frames), then with --json
@@ -185,7 +79,7 @@ static int fetch_sequence(client_rpc_t *rpc, uint64_t job, const char *output, i
     return rc;
 }
 
-static int submit_scenes(const frames_t *fr, const char *master, const char *name,
+static int submit_scenes(const frame_list_t *fr, const char *master, const char *name,
                          const char *output, const scene_overrides_t *ovp, const cli_stop_t *stopp,
                          int wait, int json, int quiet, int priority, double timeout_s,
                          client_security_t *secp);
@@ -237,19 +131,19 @@ int cmd_submit(int argc, char **argv)
         usage(stderr, opts);
         return 2;
     }
-    frames_t fr = {0};
-    int bad = submit_frames(&fr, argv + first, (size_t)(argc - first), range);
+    frame_list_t fr;
+    int bad = frame_list_parse(&fr, argv + first, (size_t)(argc - first), range, "submit");
     if (bad) {
-        frames_free(&fr);
+        frame_list_free(&fr);
         return bad;
     }
     int rc = submit_scenes(&fr, master, name, output, &ov, &stop, wait, json, quiet, priority,
                            timeout_s, &sec);
-    frames_free(&fr);
+    frame_list_free(&fr);
     return rc;
 }
 
-static int submit_scenes(const frames_t *fr, const char *master, const char *name,
+static int submit_scenes(const frame_list_t *fr, const char *master, const char *name,
                          const char *output, const scene_overrides_t *ovp, const cli_stop_t *stopp,
                          int wait, int json, int quiet, int priority, double timeout_s,
                          client_security_t *secp)
@@ -263,21 +157,7 @@ static int submit_scenes(const frames_t *fr, const char *master, const char *nam
     }
     char namebuf[420];
     if (!name) {
-        char stems[2][200];
-        for (int e = 0; e < 2; e++) {
-            const char *path = fr->paths[e ? fr->n - 1 : 0];
-            const char *base = strrchr(path, '/');
-            base = base ? base + 1 : path;
-            size_t n = strlen(base);
-            if (n > 5 && !strcmp(base + n - 5, ".pbrt"))
-                n -= 5;
-            snprintf(stems[e], sizeof stems[e], "%.*s", (int)n, base);
-        }
-        /* A sequence is named after its first and last frames: frame0001..frame0120. */
-        if (sequence)
-            snprintf(namebuf, sizeof namebuf, "%s..%s", stems[0], stems[1]);
-        else
-            snprintf(namebuf, sizeof namebuf, "%s", stems[0]);
+        frame_list_name(fr, namebuf, sizeof namebuf);
         name = namebuf;
     }
 

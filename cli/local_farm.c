@@ -66,6 +66,25 @@ static int remove_tree(const char *dir)
     return nftw(dir, remove_entry, 16, FTW_DEPTH | FTW_PHYS | FTW_MOUNT);
 }
 
+/* Each frame of a finished sequence to its outputs (job_follow_fetch_frames). */
+static int fetch_frames(client_rpc_t *rpc, uint64_t job, const char *pattern, int quiet)
+{
+    proto_msg_t req = {.type = PROTO_STATUS, .status = {.job = job}}, reply;
+    err_t err;
+    if (client_rpc_call(rpc, &req, &reply, 60000, &err)) {
+        fprintf(stderr, "prismfarm render: %s\n", err.msg);
+        return 1;
+    }
+    int rc = reply.type == PROTO_STATUS_REPLY
+                 ? job_follow_fetch_frames(rpc, reply.status_reply.jobs, reply.status_reply.njobs,
+                                           pattern, quiet, "render")
+                 : 1;
+    if (reply.type != PROTO_STATUS_REPLY)
+        fprintf(stderr, "prismfarm render: the master answered %s\n", proto_type_name(reply.type));
+    proto_msg_free(&reply);
+    return rc;
+}
+
 int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info, scene_shelf_stats_t *loads)
 {
     const char *scene = o->scene, *spool = o->spool, *name = o->name;
@@ -74,7 +93,15 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info, scene_she
     const int quiet = o->quiet;
     char spool_buf[512];
     err_t err;
-    scene_bundle_t *bundle = scene_bundle_new(scene, &err);
+    scene_bundle_t *bundle = o->nframes ? scene_bundle_new_frames(o->frames, o->nframes, &err)
+                                        : scene_bundle_new(scene, &err);
+    proto_frame_t *frames = bundle && o->nframes ? calloc(o->nframes, sizeof *frames) : NULL;
+    for (size_t k = 0; frames && k < o->nframes; k++)
+        frames[k] = (proto_frame_t){.main = scene_bundle_frame_main(bundle, k), .number = o->numbers[k]};
+    if (bundle && o->nframes && !frames) {
+        err_set(&err, "out of memory");
+        scene_bundle_destroy(&bundle);
+    }
     if (!bundle) {
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
         return 1;
@@ -90,12 +117,13 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info, scene_she
     int shared = shelf && proto_bundle_hash(scene_bundle_get(bundle), hash, &err) == 0;
     if (shared) {
         settings_scene_key(hash, scene_bundle_get(bundle)->main, &settings, key);
-        shared = !o->loaded || scene_shelf_put(shelf, key, o->loaded, &err) == 0;
+        shared = !o->loaded || o->nframes || scene_shelf_put(shelf, key, o->loaded, &err) == 0;
     }
     if (!shared) {
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
         scene_shelf_destroy(&shelf);
         scene_bundle_destroy(&bundle);
+        free(frames);
         return 1;
     }
     int made_spool = 0;
@@ -105,6 +133,7 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info, scene_she
             fprintf(stderr, "prismfarm render: cannot create a spool folder: %s\n", strerror(errno));
             scene_bundle_destroy(&bundle);
             scene_shelf_destroy(&shelf);
+            free(frames);
             return 1;
         }
         spool = spool_buf;
@@ -172,7 +201,8 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info, scene_she
         client_rpc_on_progress(rpc, progress_print_master, "render");
     proto_msg_t req = {.type = PROTO_SUBMIT,
                        .submit = {.name = name, .settings = settings,
-                                  .bundle = *scene_bundle_get(bundle)}};
+                                  .bundle = *scene_bundle_get(bundle),
+                                  .frames = frames, .nframes = o->nframes}};
     proto_msg_t reply;
     if (!rpc || client_rpc_call(rpc, &req, &reply, 60000, &err)) {
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
@@ -187,6 +217,11 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info, scene_she
         fprintf(stderr, "prismfarm render: job %s%s%s\n",
                 state < 0 ? "lost" : proto_job_state_name((proto_job_state_t)state), error[0] ? ": " : "", error);
         rc = 1;
+        goto out;
+    }
+    if (o->nframes) {
+        /* The lines naming each frame's files are the command's result, not progress. */
+        rc = fetch_frames(rpc, job, o->frame_pattern, 0);
         goto out;
     }
     if (job_follow_fetch(rpc, job, PROTO_FETCH_EXR, o->exr_path, "render") ||
@@ -224,6 +259,7 @@ out:
     if (made_spool && remove_tree(spool) != 0)
         fprintf(stderr, "prismfarm render: could not remove %s: %s\n", spool, strerror(errno));
     scene_bundle_destroy(&bundle);
+    free(frames);
     /* Every party is gone: the counts are final. */
     scene_shelf_stats_t st = scene_shelf_stats(shelf);
     scene_shelf_destroy(&shelf);

@@ -26,9 +26,18 @@ typedef struct local_farm_opts {
     /* The scene as the client loaded it (scene_load_file with overrides), shared with the
      * master and workers; NULL: they load it. */
     scene_t *loaded;
+    /* A frame sequence (docs/farm.md, "Frame sequences"): nframes > 0 scene files of one
+     * folder with their numbers, submitted as one job in one bundle, the master loading each
+     * frame (scene and loaded are then unused); its outputs go to job_follow_frame_paths's
+     * names with frame_pattern (NULL: each frame file's name), exr_path and png_path unused. */
+    const char *const *frames;
+    const uint32_t *numbers;
+    size_t nframes;
+    const char *frame_pattern;
 } local_farm_opts_t;
 
-/* Renders the scene and writes the EXR (and the master's PNG when png_path is set). Returns 0 with the finished job's counters and accuracy
+/* Renders the scene and writes the EXR (and the master's PNG when png_path is set; a sequence:
+ * each frame's EXR and PNG, and unless quiet a line per frame on stdout). Returns 0 with the finished job's counters and accuracy
  * in *info (name and error cleared), or 1 with a message on stderr. Unless quiet, ends with
  * "render: the scene was loaded N time(s) in this process and shared M time(s) by its master
  * and workers" (the shelf's counts, scene_shelf_stats_t), also given in *loads when not NULL. */

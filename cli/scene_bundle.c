@@ -131,6 +131,15 @@ static size_t folder_length(const char *path)
     return slash ? (size_t)(slash - path) : 0;
 }
 
+bool scene_bundle_one_folder(const char *const *scene_paths, size_t n)
+{
+    size_t dir = n ? folder_length(scene_paths[0]) : 0;
+    for (size_t k = 1; k < n; k++)
+        if (folder_length(scene_paths[k]) != dir || strncmp(scene_paths[k], scene_paths[0], dir) != 0)
+            return false;
+    return true;
+}
+
 scene_bundle_t *scene_bundle_new_frames(const char *const *scene_paths, size_t n, err_t *err)
 {
     if (n == 0) {

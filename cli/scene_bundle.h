@@ -8,6 +8,8 @@
 #include "err.h"
 #include "proto.h"
 
+#include <stdbool.h>
+
 typedef struct scene_bundle scene_bundle_t;
 
 /* Parses the scene (so a broken scene fails here, with file:line:col) and reads its files. */
@@ -16,6 +18,8 @@ scene_bundle_t *scene_bundle_new(const char *scene_path, err_t *err);
  * bundle's files are the union of theirs, its main the first's. A file missing, or frames in
  * different folders, is an error naming the frame. */
 scene_bundle_t *scene_bundle_new_frames(const char *const *scene_paths, size_t n, err_t *err);
+/* Whether the n scene files are in one folder, as scene_bundle_new_frames needs them. */
+bool scene_bundle_one_folder(const char *const *scene_paths, size_t n);
 void scene_bundle_destroy(scene_bundle_t **self_p);
 
 /* The bundle, valid while self lives. */

@@ -435,6 +435,12 @@ static void test_bad_input(void **state)
     r = run("submit", glob, "--master", m, NULL);
     assert_int_equal(r->status, 2);
     expect_in(r->err, "matched no file (an empty glob?)");
+    /* A listed frame that is missing: refused as a bad command line (cli/frame_list.c). */
+    char missing[1100];
+    snprintf(missing, sizeof missing, "%s/walk0077.pbrt", g_dir);
+    r = run("submit", frame_path(1), missing, "--master", m, NULL);
+    assert_int_equal(r->status, 2);
+    expect_in(r->err, "walk0077.pbrt (scene file 2 of 2) does not exist");
     /* Frames in two folders, and a broken frame, named. */
     char other[1100], broken[1100];
     snprintf(other, sizeof other, "%s", testutil_scratch("elsewhere.pbrt"));
