@@ -656,18 +656,29 @@ static void on_status(master_t *m, const proto_peer_t *from, const proto_msg_t *
             (waiter_t){.peer = *from, .job = j->id, .deadline = now + msg->status.wait_ms / 1000.0};
 }
 
-static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *msg)
+/* The job a client asks to act on (fetch, refine, cancel), after the owner's or an admin's key
+ * (access.h); NULL once the refusal is sent. */
+static mjob_t *job_to_act_on(master_t *m, const proto_peer_t *from, uint64_t id,
+                             const char *action)
 {
-    mjob_t *j = jobs_find(m, msg->fetch.job);
+    mjob_t *j = jobs_find(m, id);
     if (!j) {
-        reply_error(m, from, "no job %llu", (unsigned long long)msg->fetch.job);
-        return;
+        reply_error(m, from, "no job %llu", (unsigned long long)id);
+        return NULL;
     }
     char why[PROTO_MAX_STRING];
-    if (!access_check(m, j, from, "fetch", why, sizeof why)) {
+    if (!access_check(m, j, from, action, why, sizeof why)) {
         reply_error(m, from, "%s", why);
-        return;
+        return NULL;
     }
+    return j;
+}
+
+static void on_fetch(master_t *m, const proto_peer_t *from, const proto_msg_t *msg)
+{
+    mjob_t *j = job_to_act_on(m, from, msg->fetch.job, "fetch");
+    if (!j)
+        return;
     if (j->seq.nframes > 0) {
         reply_error(m, from,
                     "job %llu is a sequence of %u frames: fetch each frame's job (%llu..%llu; "
@@ -805,16 +816,10 @@ static int refine_job(master_t *m, mjob_t *j, uint64_t photons, const proto_peer
  * all checked before any is refined, so a refusal leaves every frame as it was. */
 static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
 {
-    mjob_t *j = jobs_find(m, msg->refine.job);
-    if (!j) {
-        reply_error(m, from, "no job %llu", (unsigned long long)msg->refine.job);
+    mjob_t *j = job_to_act_on(m, from, msg->refine.job, "refine");
+    if (!j)
         return;
-    }
     char why[PROTO_MAX_STRING];
-    if (!access_check(m, j, from, "refine", why, sizeof why)) {
-        reply_error(m, from, "%s", why);
-        return;
-    }
     err_t err;
     if (j->seq.nframes == 0) {
         if (refine_refusal(j, why, sizeof why))
@@ -869,16 +874,9 @@ static void on_refine(master_t *m, const proto_peer_t *from, const proto_msg_t *
 
 static void on_cancel(master_t *m, const proto_peer_t *from, const proto_msg_t *msg, double now)
 {
-    mjob_t *j = jobs_find(m, msg->cancel.job);
-    if (!j) {
-        reply_error(m, from, "no job %llu", (unsigned long long)msg->cancel.job);
+    mjob_t *j = job_to_act_on(m, from, msg->cancel.job, "cancel");
+    if (!j)
         return;
-    }
-    char why[PROTO_MAX_STRING];
-    if (!access_check(m, j, from, "cancel", why, sizeof why)) {
-        reply_error(m, from, "%s", why);
-        return;
-    }
     bool live = j->sched.known || (j->seq.nframes > 0 && !job_over(j));
     access_audit(m, from, "cancelled job %llu '%s' (%s)", (unsigned long long)j->id, j->name,
                  live ? "running or queued" : "already over: nothing to stop");
