@@ -2643,7 +2643,8 @@ static int mesh_from_params(parser_t *P, params_t *ps, scene_shape_t *s, bool bi
 static int mesh_job_run(void *user, int index, err_t *err);
 static int mesh_job_adopt(parser_t *P, mesh_job_t *j);
 
-static void mesh_job_free(mesh_job_t *j)
+/* The job's inputs (the file's bytes, a loopsubdiv's control mesh), once it has run. */
+static void mesh_job_free_inputs(mesh_job_t *j)
 {
     free(j->buf);
     free(j->P);
@@ -2651,6 +2652,11 @@ static void mesh_job_free(mesh_job_t *j)
     j->buf = NULL;
     j->P = NULL;
     j->idx = NULL;
+}
+
+static void mesh_job_free(mesh_job_t *j)
+{
+    mesh_job_free_inputs(j);
     mesh_data_free(&j->md);
 }
 
@@ -2769,12 +2775,7 @@ static int mesh_job_run(void *user, int index, err_t *err)
             err_prefix(&j->err, "Shape \"loopsubdiv\": ");
         break;
     }
-    free(j->buf);
-    free(j->P);
-    free(j->idx);
-    j->buf = NULL;
-    j->P = NULL;
-    j->idx = NULL;
+    mesh_job_free_inputs(j);
     j->state = rc == 0 ? 1 : -1;
     if (rc != 0 && err)
         *err = j->err;
