@@ -109,10 +109,6 @@ envmap_t *envmap_new(const float *rgb, int w, int h, const char *name, err_t *er
     e->w = w;
     e->h = h;
     e->latlong = w != h;
-    for (size_t i = 0; i < n; i++)
-        rgb_uplift_need(t, rgb + 3 * i);
-    if (rgb_uplift_prepare(t, 0, err))
-        goto fail;
     /* Sums over texels weighted by their solid angle (jacobian / n each): the mean over
      * directions and pbrt-v4's illuminance normaliser, which is half the upper illuminance. */
     double sum_y = 0.0, sum_e = 0.0;

@@ -83,10 +83,6 @@ projmap_t *projmap_new(const float *rgb, int w, int h, double fov_deg, const cha
     double tn = tan(0.5 * fov_deg * PF_PI / 180.0), aspect = (double)w / (double)h;
     m->X = aspect > 1.0 ? aspect * tn : tn;
     m->Y = aspect > 1.0 ? tn : tn / aspect;
-    for (size_t i = 0; i < n; i++)
-        rgb_uplift_need(t, rgb + 3 * i);
-    if (rgb_uplift_prepare(t, 0, err))
-        goto fail;
     double sum = 0.0;
     for (size_t i = 0; i < n; i++) {
         const float *p = rgb + 3 * i;

@@ -1,7 +1,5 @@
 #include "rgb_uplift.h"
 
-#include "pool.h"
-
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -10,7 +8,7 @@
 
 struct rgb_uplift {
     double c[3][NODES][3];
-    unsigned char need[3][NODES]; /* 1: noted, 2: fitted */
+    unsigned char need[3][NODES]; /* 2: fitted (every node but in the bake's own build) */
 };
 
 #ifndef RGB_UPLIFT_BAKE
@@ -41,24 +39,6 @@ void rgb_uplift_destroy(rgb_uplift_t **self_p)
     *self_p = NULL;
 }
 
-/* Face f (the maximal channel), node k = i (RES + 1) + j: the other two channels, in order,
- * are i / (2 RES) and j / (2 RES); the maximal one is 1/2. */
-static int fit_node(rgb_uplift_t *t, int f, int k, err_t *err)
-{
-    int i = k / (RGB_UPLIFT_RES + 1), j = k % (RGB_UPLIFT_RES + 1);
-    double v[3];
-    int a = f == 0 ? 1 : 0, c = f == 2 ? 1 : 2;
-    v[f] = 0.5;
-    v[a] = 0.5 * i / RGB_UPLIFT_RES;
-    v[c] = 0.5 * j / RGB_UPLIFT_RES;
-    spectrum_sigmoid_t fit;
-    if (spectrum_sigmoid_fit((rgb_t){v[0], v[1], v[2]}, &fit, err))
-        return -1;
-    memcpy(t->c[f][k], fit.c, sizeof fit.c);
-    t->need[f][k] = 2;
-    return 0;
-}
-
 /* Where rgb falls: face *f and the lower node (*i, *j) with the weights (*dx, *dy); returns
  * 0 for a colour that needs no node (black, grey), filling out[3] with m. */
 static int locate(const float rgb[3], int *f, int *i, int *j, double *dx, double *dy, double *m)
@@ -84,48 +64,7 @@ static int locate(const float rgb[3], int *f, int *i, int *j, double *dx, double
     return 1;
 }
 
-void rgb_uplift_need(rgb_uplift_t *t, const float rgb[3])
-{
-    int f, i, j;
-    double dx, dy, m;
-    if (!locate(rgb, &f, &i, &j, &dx, &dy, &m))
-        return;
-    int k = i * (RGB_UPLIFT_RES + 1) + j;
-    unsigned char *n = t->need[f];
-    int ks[4] = {k, k + 1, k + RGB_UPLIFT_RES + 1, k + RGB_UPLIFT_RES + 2};
-    for (int q = 0; q < 4; q++)
-        if (n[ks[q]] == 0)
-            n[ks[q]] = 1;
-}
-
-typedef struct prep {
-    rgb_uplift_t *t;
-    int *todo; /* f * NODES + k */
-} prep_t;
-
-static int prep_one(void *user, int index, err_t *err)
-{
-    prep_t *p = user;
-    int q = p->todo[index];
-    return fit_node(p->t, q / NODES, q % NODES, err);
-}
-
-int rgb_uplift_prepare(rgb_uplift_t *t, int threads, err_t *err)
-{
-    int *todo = malloc(3 * NODES * sizeof *todo), n = 0;
-    if (!todo)
-        return err_set(err, "out of memory for the RGB uplift table");
-    for (int f = 0; f < 3; f++)
-        for (int k = 0; k < NODES; k++)
-            if (t->need[f][k] == 1)
-                todo[n++] = f * NODES + k;
-    prep_t p = {t, todo};
-    int rc = n ? pool_for(threads, n, prep_one, &p, err) : 0;
-    free(todo);
-    return rc < 0 ? -1 : 0;
-}
-
-static int coef(rgb_uplift_t *t, int fit, const float rgb[3], double out[4], err_t *err)
+int rgb_uplift_coef(const rgb_uplift_t *t, const float rgb[3], double out[4], err_t *err)
 {
     int f, i, j;
     double dx, dy, m;
@@ -138,12 +77,8 @@ static int coef(rgb_uplift_t *t, int fit, const float rgb[3], double out[4], err
     int k = i * (RGB_UPLIFT_RES + 1) + j;
     int ks[4] = {k, k + RGB_UPLIFT_RES + 1, k + 1, k + RGB_UPLIFT_RES + 2};
     for (int q = 0; q < 4; q++)
-        if (t->need[f][ks[q]] != 2) {
-            if (!fit)
-                return err_set(err, "RGB uplift table node (%d, %d) was not prepared", f, ks[q]);
-            if (fit_node(t, f, ks[q], err))
-                return -1;
-        }
+        if (t->need[f][ks[q]] != 2)
+            return err_set(err, "RGB uplift table node (%d, %d) was not fitted", f, ks[q]);
     /* ks: (i, j), (i + 1, j), (i, j + 1), (i + 1, j + 1) */
     const double *n00 = t->c[f][ks[0]], *n10 = t->c[f][ks[1]], *n01 = t->c[f][ks[2]],
                  *n11 = t->c[f][ks[3]];
@@ -154,24 +89,38 @@ static int coef(rgb_uplift_t *t, int fit, const float rgb[3], double out[4], err
     return 0;
 }
 
-int rgb_uplift_coef(const rgb_uplift_t *t, const float rgb[3], double out[4], err_t *err)
-{
-    return coef((rgb_uplift_t *)t, 0, rgb, out, err);
-}
-
-int rgb_uplift_coef_fit(rgb_uplift_t *t, const float rgb[3], double out[4], err_t *err)
-{
-    return coef(t, 1, rgb, out, err);
-}
-
 #ifdef RGB_UPLIFT_BAKE
+#include "pool.h"
+
+/* Face f (the maximal channel), node k = i (RES + 1) + j: the other two channels, in order,
+ * are i / (2 RES) and j / (2 RES); the maximal one is 1/2. */
+static int fit_node(rgb_uplift_t *t, int f, int k, err_t *err)
+{
+    int i = k / (RGB_UPLIFT_RES + 1), j = k % (RGB_UPLIFT_RES + 1);
+    double v[3];
+    int a = f == 0 ? 1 : 0, c = f == 2 ? 1 : 2;
+    v[f] = 0.5;
+    v[a] = 0.5 * i / RGB_UPLIFT_RES;
+    v[c] = 0.5 * j / RGB_UPLIFT_RES;
+    spectrum_sigmoid_t fit;
+    if (spectrum_sigmoid_fit((rgb_t){v[0], v[1], v[2]}, &fit, err))
+        return -1;
+    memcpy(t->c[f][k], fit.c, sizeof fit.c);
+    t->need[f][k] = 2;
+    return 0;
+}
+
+static int fit_one(void *user, int index, err_t *err)
+{
+    return fit_node(user, index / NODES, index % NODES, err);
+}
+
 int rgb_uplift_bake_write(FILE *f, int threads, err_t *err)
 {
     rgb_uplift_t *t = rgb_uplift_new(err);
     if (!t)
         return -1;
-    memset(t->need, 1, sizeof t->need);
-    if (rgb_uplift_prepare(t, threads, err)) {
+    if (pool_for(threads, 3 * NODES, fit_one, t, err) < 0) {
         rgb_uplift_destroy(&t);
         return -1;
     }

@@ -25,21 +25,10 @@ typedef struct rgb_uplift rgb_uplift_t;
 rgb_uplift_t *rgb_uplift_new(err_t *err);
 void rgb_uplift_destroy(rgb_uplift_t **self_p);
 
-/* A new table holds every node's fit (rgb_uplift_need and rgb_uplift_prepare then find
- * nothing to do; the bake's own build starts empty and fits every node). */
-
-/* Notes the table nodes that rgb needs (negative or NaN components count as 0). Not
- * thread-safe: call from one thread, then rgb_uplift_prepare. */
-void rgb_uplift_need(rgb_uplift_t *self, const float rgb[3]);
-/* Fits every noted node not yet fitted, on up to threads threads (<= 0: all cores). */
-int rgb_uplift_prepare(rgb_uplift_t *self, int threads, err_t *err);
-
 /* The coefficients of rgb into out: c0, c1, c2 (lambda in nm) and m; c = 0 means flat
- * (grey and black). Every node rgb needs must be fitted (rgb_uplift_need, rgb_uplift_prepare):
- * -1 with err filled otherwise. Thread-safe after rgb_uplift_prepare. */
+ * (grey and black). Every node of a new table is fitted, so this is a lookup; -1 with err
+ * filled only in the bake's own build, for a node not fitted yet. Thread-safe. */
 int rgb_uplift_coef(const rgb_uplift_t *self, const float rgb[3], double out[4], err_t *err);
-/* The same, fitting missing nodes on the way (one thread only). */
-int rgb_uplift_coef_fit(rgb_uplift_t *self, const float rgb[3], double out[4], err_t *err);
 
 /* m * s(lambda) for coefficients from rgb_uplift_coef. */
 static inline double rgb_uplift_eval(const double c[4], double lambda)
