@@ -2,6 +2,7 @@
 
 #include "integrators.h"
 #include "proto.h"
+#include "suggest.h"
 
 #include <errno.h>
 #include <getopt.h>
@@ -32,10 +33,19 @@ static int parse_res(const char *cmd, const char *flag, const char *val, void *d
 static int parse_integrator(const char *cmd, const char *flag, const char *val, void *dst)
 {
     const integrator_name_t *named = integrators_find(val);
-    if (!named || !named->overridable) {
+    if (named && named->refused) {
+        fprintf(stderr, "prismfarm %s: %s %s is not supported: %s\n", cmd, flag, val, named->refused);
+        return -1;
+    }
+    if (!named) {
         char names[INTEGRATORS_LIST_MAX];
-        integrators_list(true, names, sizeof names);
-        fprintf(stderr, "prismfarm %s: %s expects %s, got '%s'\n", cmd, flag, names, val);
+        integrators_list(false, names, sizeof names);
+        const char *best = integrators_suggest(val);
+        if (best)
+            fprintf(stderr, "prismfarm %s: %s expects %s, got '%s' (did you mean '%s'?)\n", cmd,
+                    flag, names, val, best);
+        else
+            fprintf(stderr, "prismfarm %s: %s expects %s, got '%s'\n", cmd, flag, names, val);
         return -1;
     }
     *(const char **)dst = val;
@@ -61,7 +71,7 @@ const cli_opt_t CLI_OVERRIDE_OPTS[] = {
     {.name = "seed", .kind = CLI_LLONG, .off = offsetof(scene_overrides_t, seed), .lo = 0,
      .hi = 4294967295.0, .arg = "N", .help = "random seed (default: the Sampler's seed)"},
     {.name = "integrator", .kind = CLI_CUSTOM, .off = offsetof(scene_overrides_t, integrator),
-     .parse = parse_integrator, .arg = "NAME", .help = "path | simplepath | whitted"},
+     .parse = parse_integrator, .arg = "NAME", .help = "any name Integrator takes: auto, path,\nphoton, volpath, bdpt, ... (docs/rendering.md)"},
     {.name = "dispersion", .kind = CLI_CUSTOM, .off = offsetof(scene_overrides_t, dispersion),
      .parse = parse_dispersion, .arg = "NAME", .help = "hero | fanout"},
     {0},
@@ -287,8 +297,20 @@ int cli_args_parse(const cli_cmd_t *cmd, int argc, char **argv, int *first)
         /* getopt_long would take a unique abbreviation (--sp for --spp): only whole names. */
         if (!mid && at < argc && !strncmp(argv[at], "--", 2) && argv[at][2] &&
             find_long(flat, n, argv[at]) < 0) {
-            fprintf(stderr, "prismfarm %s: unknown %s '%s' (see prismfarm %s --help)\n", cmd->name,
-                    unknown, argv[at], cmd->name);
+            /* The nearest option's name, for "did you mean": compared without the dashes and
+             * without an "=value". */
+            char word[SUGGEST_MAX_LEN + 1];
+            snprintf(word, sizeof word, "%.*s", (int)strcspn(argv[at] + 2, "="), argv[at] + 2);
+            suggest_t near = suggest_begin(word);
+            for (int k = 0; k < n; k++)
+                suggest_consider(&near, flat[k].opt->name);
+            const char *best = suggest_result(&near);
+            if (best)
+                fprintf(stderr, "prismfarm %s: unknown %s '%s' (did you mean '--%s'? see prismfarm %s --help)\n",
+                        cmd->name, unknown, argv[at], best, cmd->name);
+            else
+                fprintf(stderr, "prismfarm %s: unknown %s '%s' (see prismfarm %s --help)\n", cmd->name,
+                        unknown, argv[at], cmd->name);
             return 2;
         }
         int c = getopt_long(argc, argv, shorts, longs, NULL);

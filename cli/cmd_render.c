@@ -368,8 +368,19 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
     }
 
     if (!quiet) {
-        fprintf(stderr, "render: %s, %dx%d, %d spp, integrator %s, %d buckets over %g-%g nm\n", scene_path,
-                rs->xres, rs->yres, rs->spp, integrators_kind_name(rs->integrator), rs->grid.n,
+        /* What runs, and what was asked where they differ: "auto" and pbrt-v4's bdpt take the
+         * plan's photon pass, volpath is path with media. */
+        const char *used = integrators_used_name(rs->integrator, rs->photon.enabled, rs->media);
+        char asked[80] = "";
+        const integrator_name_t *an = integrators_find(scene->integrator_asked);
+        const int same = !strcmp(used, scene->integrator_asked) ||
+                         (!strcmp(scene->integrator_asked, "photon") && rs->photon.enabled);
+        if (!same && an)
+            snprintf(asked, sizeof asked, " (asked: %s%s)", scene->integrator_asked,
+                     an->plan_photons || !strcmp(an->name, "auto") ? ", the plan's choice: prismfarm plan says why"
+                                                                    : "");
+        fprintf(stderr, "render: %s, %dx%d, %d spp, integrator %s%s, %d buckets over %g-%g nm\n",
+                scene_path, rs->xres, rs->yres, rs->spp, used, asked, rs->grid.n,
                 rs->grid.lambda_min, rs->grid.lambda_max);
         if (rs->photon.enabled)
             fprintf(stderr, "render: photon integrator: %llu photons into a photon map, gathered by %s\n",

@@ -2,6 +2,8 @@
 #include "commands.h"
 
 #include <stdio.h>
+#include "suggest.h"
+
 #include <string.h>
 
 typedef struct command {
@@ -66,6 +68,14 @@ int main(int argc, char **argv)
     for (size_t i = 0; i < COMMAND_COUNT; i++)
         if (!strcmp(argv[1], COMMANDS[i].name))
             return COMMANDS[i].run(argc - 1, argv + 1);
-    fprintf(stderr, "prismfarm: unknown command '%s' (try 'prismfarm --help')\n", argv[1]);
+    suggest_t near = suggest_begin(argv[1]);
+    for (size_t i = 0; i < COMMAND_COUNT; i++)
+        suggest_consider(&near, COMMANDS[i].name);
+    const char *best = suggest_result(&near);
+    if (best)
+        fprintf(stderr, "prismfarm: unknown command '%s' (did you mean '%s'? try 'prismfarm --help')\n",
+                argv[1], best);
+    else
+        fprintf(stderr, "prismfarm: unknown command '%s' (try 'prismfarm --help')\n", argv[1]);
     return 2;
 }

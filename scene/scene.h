@@ -299,6 +299,9 @@ typedef struct scene {
     /* The Film's sensor (owned); NULL: cie1931 without white balance, the film records XYZ. */
     sensor_t *sensor;
     render_settings_t settings;
+    /* The integrator the file's Integrator directive or --integrator names ("auto" when
+     * neither does), beside what settings say runs: outputs print both where they differ. */
+    char integrator_asked[24];
     int has_dispersion;   /* any dispersive material: spectral fan-out is ever needed */
     int has_interface;    /* a shape with an "interface" material (shadow rays pass it) */
     int has_alpha;        /* some shape has an alpha: shadow rays test it (shading_occluded) */

@@ -1336,10 +1336,15 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
     render_settings_t *rs = &L->sc->settings;
     params_t *p = in->params;
     const char *type = ov && ov->integrator ? ov->integrator : in->type;
+    snprintf(L->sc->integrator_asked, sizeof L->sc->integrator_asked, "%s", type ? type : "");
     const integrator_name_t *named = integrators_find(type);
     if (!named) {
         char names[INTEGRATORS_LIST_MAX];
         integrators_list(false, names, sizeof names);
+        const char *best = integrators_suggest(type);
+        if (best)
+            return pbrt_error(err, in->loc, "Integrator \"%s\" is not supported yet (did you mean \"%s\"? use %s)",
+                              type, best, names);
         return pbrt_error(err, in->loc, "Integrator \"%s\" is not supported yet (use %s)", type,
                           names);
     }

@@ -1,5 +1,7 @@
 #include "integrators.h"
 
+#include "suggest.h"
+
 #include <stdio.h>
 #include <string.h>
 
@@ -65,6 +67,15 @@ const integrator_name_t *integrators_find(const char *name)
         if (!strcmp(TABLE[i].name, name))
             return &TABLE[i];
     return NULL;
+}
+
+const char *integrators_suggest(const char *name)
+{
+    suggest_t near = suggest_begin(name);
+    for (size_t i = 0; i < COUNT; i++)
+        if (!TABLE[i].refused)
+            suggest_consider(&near, TABLE[i].name);
+    return suggest_result(&near);
 }
 
 const char *integrators_kind_name(integrator_kind_t kind)

@@ -59,6 +59,9 @@ typedef struct integrator_name {
 /* The entry named name, or NULL if prismfarm knows no integrator of that name. */
 const integrator_name_t *integrators_find(const char *name);
 
+/* The usable integrator name nearest to a misspelt one (base/suggest.h), or NULL. */
+const char *integrators_suggest(const char *name);
+
 /* "simplepath", "path" or "whitted". */
 const char *integrators_kind_name(integrator_kind_t kind);
 

@@ -2,6 +2,8 @@
 
 #include "params.h"
 
+#include "suggest.h"
+
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
@@ -15,11 +17,18 @@ typedef struct slot {
     size_t cap;
 } slot_t;
 
+#define PARAMS_ASKED_MAX 48
+
 struct params {
     char *context;
     slot_t **items;
     size_t count;
     size_t cap;
+    /* Names looked up and absent: what the entity reads that the file did not give, the
+     * candidates for a misspelt parameter's suggestion. Copied, NUL after NUL (some names are
+     * built in a caller's buffer: "interface.roughness"); allocated at the first miss. */
+    char *asked;
+    size_t asked_len, asked_cap, nasked;
 };
 
 static const struct {
@@ -123,6 +132,7 @@ void params_destroy(params_t **self_p)
         slot_free(self->items[i]);
     free(self->items);
     free(self->context);
+    free(self->asked);
     free(self);
     *self_p = NULL;
 }
@@ -311,6 +321,27 @@ int params_add_defaults(params_t *self, const params_t *defaults, err_t *err)
     return 0;
 }
 
+/* Best effort: a name that does not fit, or no memory, only costs the suggestion. */
+static void remember_asked(params_t *self, const char *name)
+{
+    size_t n = strlen(name) + 1;
+    if (self->nasked >= PARAMS_ASKED_MAX || n > SUGGEST_MAX_LEN + 1)
+        return;
+    if (self->asked_len + n > self->asked_cap) {
+        size_t cap = self->asked_cap ? 2 * self->asked_cap : 256;
+        while (cap < self->asked_len + n)
+            cap *= 2;
+        char *grown = realloc(self->asked, cap);
+        if (!grown)
+            return;
+        self->asked = grown;
+        self->asked_cap = cap;
+    }
+    memcpy(self->asked + self->asked_len, name, n);
+    self->asked_len += n;
+    self->nasked++;
+}
+
 param_t *params_find(params_t *self, const char *name)
 {
     for (size_t i = 0; i < self->count; i++) {
@@ -320,6 +351,7 @@ param_t *params_find(params_t *self, const char *name)
             return p;
         }
     }
+    remember_asked(self, name);
     return NULL;
 }
 
@@ -454,9 +486,18 @@ int params_check_unused(const params_t *self, err_t *err)
 {
     for (size_t i = 0; i < self->count; i++) {
         const param_t *p = &self->items[i]->p;
-        if (!p->used)
+        if (!p->used) {
+            suggest_t near = suggest_begin(p->name);
+            for (size_t at = 0; at < self->asked_len; at += strlen(self->asked + at) + 1)
+                suggest_consider(&near, self->asked + at);
+            const char *best = suggest_result(&near);
+            if (best)
+                return pbrt_error(err, p->loc,
+                                  "unsupported parameter \"%s %s\" for %s (did you mean \"%s\"?)",
+                                  p->type_name, p->name, self->context, best);
             return pbrt_error(err, p->loc, "unsupported parameter \"%s %s\" for %s", p->type_name,
                               p->name, self->context);
+        }
     }
     return 0;
 }

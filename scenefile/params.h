@@ -74,7 +74,8 @@ const char *params_context(const params_t *self);
  * used so that a default an entity ignores is no error. Fails only when out of memory. */
 int params_add_defaults(params_t *self, const params_t *defaults, err_t *err);
 
-/* The parameter called name, marked used, or NULL when absent. */
+/* The parameter called name, marked used, or NULL when absent. An absent name is copied
+ * (the first 48 of them) as one the entity reads, for params_check_unused's "did you mean". */
 param_t *params_find(params_t *self, const char *name);
 
 /* Typed single-value lookups: absent gives def; present with the wrong type or the wrong
@@ -96,7 +97,9 @@ int params_get_array(params_t *self, const char *name, param_type_t type, param_
 void params_accept_all(params_t *self);
 
 /* Fails on the first parameter (in file order) that no lookup marked used:
- * `file:line:col: unsupported parameter "float zmin" for Shape "sphere"`. */
+ * `file:line:col: unsupported parameter "float zmin" for Shape "sphere"`, followed by
+ * ` (did you mean "roughness"?)` when a name the entity looked up and did not find is a slip
+ * of the hand away (base/suggest.h). */
 int params_check_unused(const params_t *self, err_t *err);
 
 /* Fails with `"integer radius" has the wrong type for CONTEXT: expected ...`. */

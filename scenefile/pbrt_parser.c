@@ -15,6 +15,7 @@
 
 #include "files.h"
 #include "pool.h"
+#include "suggest.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -3260,7 +3261,12 @@ static int param_directive(parser_t *P, const char *dir, pbrt_loc_t loc)
         if (!named) {
             char names[INTEGRATORS_LIST_MAX];
             integrators_list(false, names, sizeof names);
-            pbrt_error(P->err, type.loc, "unsupported integrator \"%s\" (%s)", type.s, names);
+            const char *best = integrators_suggest(type.s);
+            if (best)
+                pbrt_error(P->err, type.loc, "unsupported integrator \"%s\" (did you mean \"%s\"? %s)",
+                           type.s, best, names);
+            else
+                pbrt_error(P->err, type.loc, "unsupported integrator \"%s\" (%s)", type.s, names);
             goto done;
         }
         if (named->refused) {
@@ -3859,6 +3865,20 @@ static int directive(parser_t *P, const char *dir, pbrt_loc_t loc)
     }
     if (in_list(dir, UNSUPPORTED_DIRECTIVES, COUNT_OF(UNSUPPORTED_DIRECTIVES)))
         return pbrt_error(P->err, loc, "unsupported directive %s", dir);
+    /* Every directive pbrt-v4's parser knows (the spelling is the file format's, so the list
+     * is fixed), for the "did you mean" of a misspelt one: Integrater, Attributebegin. */
+    static const char *const PBRT_DIRECTIVES[] = {
+        "Accelerator", "ActiveTransform", "AreaLightSource", "Attribute", "AttributeBegin",
+        "AttributeEnd", "Camera", "ColorSpace", "ConcatTransform", "CoordinateSystem",
+        "CoordSysTransform", "Film", "Identity", "Import", "Include", "Integrator",
+        "LightSource", "LookAt", "MakeNamedMaterial", "MakeNamedMedium", "Material",
+        "MediumInterface", "NamedMaterial", "ObjectBegin", "ObjectEnd", "ObjectInstance",
+        "Option", "PixelFilter", "ReverseOrientation", "Rotate", "Sampler", "Scale", "Shape",
+        "Texture", "Transform", "TransformBegin", "TransformEnd", "TransformTimes",
+        "Translate", "WorldBegin"};
+    const char *best = suggest_nearest(dir, PBRT_DIRECTIVES, COUNT_OF(PBRT_DIRECTIVES));
+    if (best)
+        return pbrt_error(P->err, loc, "unknown directive %s (did you mean %s?)", dir, best);
     return pbrt_error(P->err, loc, "unknown directive %s", dir);
 }
 

@@ -109,6 +109,58 @@ static void test_errors(void **state)
     expect_fails(run("render", "--res", "0x0", SCENE, "--spp", "x", NULL), "--res expects");
 }
 
+/* A slip of the hand gets the nearest valid name: commands, options, integrators, and in a
+ * scene file directives and the parameters the entity reads. A name far from every valid one
+ * gets no suggestion. */
+static void test_suggestions(void **state)
+{
+    (void)state;
+    expect_fails(run("rendr", SCENE, NULL), "unknown command 'rendr' (did you mean 'render'?");
+    expect_fails(run("render", SCENE, "--sed", "3", NULL),
+                 "unknown option '--sed' (did you mean '--seed'?");
+    expect_fails(run("render", SCENE, "--thraeds=2", NULL),
+                 "unknown option '--thraeds=2' (did you mean '--threads'?");
+    expect_fails(run("render", SCENE, "--integrator", "bpdt", NULL), "got 'bpdt' (did you mean 'bdpt'?)");
+    expect_fails(run("render", SCENE, "--integrator", "ambientocclusion", NULL),
+                 "--integrator ambientocclusion is not supported: ambient occlusion renders");
+    const char *bad = testutil_scratch("misspelt.pbrt");
+    FILE *f = fopen(bad, "w");
+    assert_non_null(f);
+    fputs("LookAt 0 0 5 0 0 0 0 1 0\nCamera \"perspective\"\nIntegrater \"path\"\nWorldBegin\n"
+          "Material \"conductor\" \"float roughnes\" 0.1\nShape \"sphere\"\n",
+          f);
+    fclose(f);
+    const run_t *r = run("check", bad, NULL);
+    assert_int_not_equal(r->status, 0);
+    expect_in(r->out, "misspelt.pbrt:3:1: unknown directive Integrater (did you mean Integrator?)");
+    expect_in(r->out,
+              "misspelt.pbrt:5:22: unsupported parameter \"float roughnes\" for Material "
+              "\"conductor\" (did you mean \"roughness\"?)");
+}
+
+/* --integrator takes every name a scene's Integrator may use, and the header names what runs
+ * (and what was asked, where they differ). */
+static void test_integrator_names(void **state)
+{
+    (void)state;
+    const char *exr = testutil_scratch("named.exr");
+    const run_t *r = run("render", SCENE, "--res", "4x4", "--spp", "1", "-o", exr, "--integrator",
+                         "photon", "--direct", NULL);
+    if (r->status != 0)
+        fail_msg("--integrator photon: exit %d: %s", r->status, r->err);
+    expect_in(r->err, "integrator photon+path,");
+    r = run("render", SCENE, "--res", "4x4", "--spp", "1", "-o", exr, "--integrator", "volpath",
+            "--direct", NULL);
+    if (r->status != 0)
+        fail_msg("--integrator volpath: exit %d: %s", r->status, r->err);
+    expect_in(r->err, "integrator path (asked: volpath)"); /* no media: volpath is path */
+    r = run("render", SCENE, "--res", "4x4", "--spp", "1", "-o", exr, "--integrator", "bdpt",
+            "--direct", NULL);
+    if (r->status != 0)
+        fail_msg("--integrator bdpt: exit %d: %s", r->status, r->err);
+    expect_in(r->err, "(asked: bdpt, the plan's choice: prismfarm plan says why)");
+}
+
 /* -h and --help anywhere print the usage with every option the command takes, exit 0. */
 static void test_help(void **state)
 {
@@ -165,6 +217,8 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_spellings_and_order),
         cmocka_unit_test(test_errors),
+        cmocka_unit_test(test_suggestions),
+        cmocka_unit_test(test_integrator_names),
         cmocka_unit_test(test_help),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
