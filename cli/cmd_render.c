@@ -389,7 +389,8 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
             fprintf(stderr, "render: dispersion on (%s) for:", rs->dispersion == DISPERSION_HERO ? "hero wavelengths" : "thesis fan-out");
             for (size_t i = 0; i < scene->nmaterials; i++)
                 if (scene->materials[i].dispersive)
-                    fprintf(stderr, " '%s'", scene->materials[i].name);
+                    fprintf(stderr, scene->materials[i].named ? " '%s'" : " %s",
+                            scene->materials[i].name);
             fputc('\n', stderr);
         } else {
             fprintf(stderr, "render: dispersion off: no material's index varies over %g-%g nm\n",

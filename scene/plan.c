@@ -266,6 +266,8 @@ static void material_label(const scene_t *s, int i, char *buf, size_t n)
     const char *name = s->materials[i].name;
     if (!name[0] || !strcmp(name, "(unnamed)"))
         snprintf(buf, n, "#%d", i);
+    else if (!s->materials[i].named) /* where the file made it: jewel.pbrt:57 */
+        snprintf(buf, n, "%.60s", name);
     else
         snprintf(buf, n, "'%.60s'", name);
 }
@@ -1471,15 +1473,20 @@ int plan_write_text(const plan_t *p, FILE *out)
         any |= material_has_ior(p->materials[i].kind) || p->materials[i].kind == MATERIAL_CONDUCTOR ||
                p->materials[i].kind == MATERIAL_COATED_CONDUCTOR;
     if (any) {
-        fprintf(out, "\nMIRRORS AND GLASS\n%-16s %-11s %-6s %-9s %-9s %-8s %-9s %s\n", "material",
-                "kind", "disp.", "n_lo", "n_hi", "dn", "n_d", "v_d");
+        /* The name column fits the longest name (file:line labels run past 16). */
+        int w = 16;
+        for (size_t i = 0; i < p->nmaterials; i++)
+            if ((int)strlen(p->materials[i].name) > w)
+                w = (int)strlen(p->materials[i].name);
+        fprintf(out, "\nMIRRORS AND GLASS\n%-*s %-11s %-6s %-9s %-9s %-8s %-9s %s\n", w,
+                "material", "kind", "disp.", "n_lo", "n_hi", "dn", "n_d", "v_d");
         for (size_t i = 0; i < p->nmaterials; i++) {
             const plan_material_t *m = &p->materials[i];
             if (m->kind == MATERIAL_CONDUCTOR)
-                fprintf(out, "%-16s %-11s %-6s\n", m->name, "conductor", "-");
+                fprintf(out, "%-*s %-11s %-6s\n", w, m->name, "conductor", "-");
             if (!material_has_ior(m->kind))
                 continue;
-            fprintf(out, "%-16s %-11s %-6s %-9.5f %-9.5f %-8.5f %-9.5f ", m->name,
+            fprintf(out, "%-*s %-11s %-6s %-9.5f %-9.5f %-8.5f %-9.5f ", w, m->name,
                     plan_material_kind_name(m->kind),
                     m->dispersive ? "yes" : "no", m->n_lo, m->n_hi, m->n_lo - m->n_hi, m->n_d);
             if (m->has_v_d)

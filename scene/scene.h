@@ -49,7 +49,10 @@ typedef enum material_kind {
  * NULL roughness is 0). The models themselves are bsdf/'s (pbrt-v4's BxDFs). */
 typedef struct material {
     material_kind_t kind;
+    /* How outputs name it: its MakeNamedMaterial name (named = 1), else where the file made it,
+     * "jewel.pbrt:57" (the file's base name and line), else "(unnamed)" (built in code). */
     char name[64];
+    int named;
     /* diffuse albedo, coated diffuse base, diffuse transmission reflectance; a conductor's
      * reflectance when eta is NULL */
     const texture_t *reflectance;

@@ -684,7 +684,15 @@ static int load_materials(loader_t *L, err_t *err)
     for (size_t i = 0; i < d->nmaterials; i++) {
         const scene_material_t *dm = &d->materials[i];
         material_t m = {0};
-        snprintf(m.name, sizeof m.name, "%s", dm->name ? dm->name : "(unnamed)");
+        if (dm->name) {
+            snprintf(m.name, sizeof m.name, "%s", dm->name);
+            m.named = 1;
+        } else if (dm->loc.file && dm->loc.line > 0) {
+            const char *base = strrchr(dm->loc.file, '/');
+            snprintf(m.name, sizeof m.name, "%s:%d", base ? base + 1 : dm->loc.file, dm->loc.line);
+        } else {
+            snprintf(m.name, sizeof m.name, "(unnamed)");
+        }
         m.remaproughness = dm->remaproughness;
         m.mix[0] = m.mix[1] = -1;
         const int has_roughness = dm->type == SCENE_MATERIAL_CONDUCTOR ||
