@@ -385,12 +385,15 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
         if (rs->photon.enabled)
             fprintf(stderr, "render: photon integrator: %llu photons into a photon map, gathered by %s\n",
                     (unsigned long long)rs->photon.photons, integrators_kind_name(rs->integrator));
-        if (scene->has_dispersion) {
+        const int lens = scene->camera.kind == CAMERA_REALISTIC && scene->camera.lens_dispersive;
+        if (scene->has_dispersion || lens) {
             fprintf(stderr, "render: dispersion on (%s) for:", rs->dispersion == DISPERSION_HERO ? "hero wavelengths" : "thesis fan-out");
             for (size_t i = 0; i < scene->nmaterials; i++)
                 if (scene->materials[i].dispersive)
                     fprintf(stderr, scene->materials[i].named ? " '%s'" : " %s",
                             scene->materials[i].name);
+            if (lens)
+                fprintf(stderr, " the camera's lens (its glasses: axial and lateral colour)");
             fputc('\n', stderr);
         } else {
             fprintf(stderr, "render: dispersion off: no material's index varies over %g-%g nm\n",

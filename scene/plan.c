@@ -858,6 +858,34 @@ static void describe_dielectric(text_t *t, const plan_material_t *m, spectral_gr
     text_add(t, ")");
 }
 
+/* A realistic camera whose lens glasses disperse: each camera ray is traced through the lens at
+ * its own wavelength (render.c lens_ray), which splits a path's wavelengths as a dispersive
+ * interface does, before the scene is reached. Appends the reason and returns 1 when it does. */
+static int describe_lens(text_t *r, const scene_t *s, spectral_grid_t g, int first)
+{
+    const camera_t *cam = &s->camera;
+    if (cam->kind != CAMERA_REALISTIC || !cam->lens || !cam->lens_dispersive)
+        return 0;
+    text_add(r, "%sthe realistic camera's lens disperses: ", first ? "" : " And ");
+    int k = 0;
+    for (int i = 0; i < lens_system_count(cam->lens); i++) {
+        const lens_element_t *e = lens_system_element(cam->lens, i);
+        if (!e->glass)
+            continue;
+        double lo = ior_eval(&e->ior, g.lambda_min) + e->ior_shift;
+        double hi = ior_eval(&e->ior, g.lambda_max) + e->ior_shift;
+        text_add(r, "%selement %d %s n %.4f at %g nm to %.4f at %g nm", k++ ? "; " : "", i + 1,
+                 e->glass_name[0] ? e->glass_name : "(default glass)", lo, g.lambda_min, hi,
+                 g.lambda_max);
+    }
+    text_add(r,
+             ". Each camera ray is traced through the lens at its own wavelength (hero: the "
+             "secondaries end at the film; fan-out: one lane goes on), so the lens's axial and "
+             "lateral colour -- fringes at the image's edges, a focus that moves with "
+             "wavelength -- come out of its glasses.");
+    return 1;
+}
+
 static int decide_splitting(plan_t *p, const scene_t *s)
 {
     text_t c = {0}, r = {0};
@@ -907,6 +935,12 @@ static int decide_splitting(plan_t *p, const scene_t *s)
                 }
             text_add(&r, ".");
         }
+        describe_lens(&r, s, g, 0);
+    } else if (s->camera.kind == CAMERA_REALISTIC && s->camera.lens_dispersive) {
+        text_add(&c, "in the camera's lens");
+        describe_lens(&r, s, g, 1);
+        text_add(&r, " No material in the scene disperses.");
+        ndisp = 1; /* the effect is on: the lens splits every camera path */
     } else {
         text_add(&c, "off");
         text_add(&r, "no material's index varies by more than %g over %g-%g nm",
@@ -1008,6 +1042,12 @@ static int decide_strategy(plan_t *p, const scene_t *s)
                      "first dispersive refraction follows %d monochrome rays, later ones one "
                      "chosen at random.",
                      n, n);
+    } else if (s->camera.kind == CAMERA_REALISTIC && s->camera.lens_dispersive) {
+        text_add(&r,
+                 "only the camera's lens disperses: hero traces each camera ray at its hero "
+                 "wavelength and ends the 3 secondaries there (one wavelength per path), "
+                 "fan-out follows one of its %d lanes, picked at random and weighted by %d.",
+                 n, n);
     } else {
         text_add(&r,
                  "no material disperses, so neither strategy ever splits: hero's 4 "
@@ -1017,7 +1057,10 @@ static int decide_strategy(plan_t *p, const scene_t *s)
                  "nothing else; hero carries 4 lanes per path instead of %d.",
                  n, n);
     }
-    return set_decision(p, PLAN_STRATEGY, s->has_dispersion, &c, &r);
+    return set_decision(p, PLAN_STRATEGY,
+                        s->has_dispersion ||
+                            (s->camera.kind == CAMERA_REALISTIC && s->camera.lens_dispersive),
+                        &c, &r);
 }
 
 static void light_reason(text_t *r, const scene_t *s, const plan_light_t *pl, size_t npl)

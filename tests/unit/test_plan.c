@@ -286,6 +286,28 @@ static void test_shipped_sphere_booth_and_crystal(void **state)
     loaded_free(&l);
 }
 
+/* A realistic camera whose lens disperses: no material in the scene does, yet every camera
+ * path splits its wavelengths in the lens (axial and lateral colour), so splitting and the
+ * strategy are on and the plan names the lens's glass with its indices at the film's ends. */
+static void test_lens_dispersion(void **state)
+{
+    (void)state;
+    loaded_t l = load_shipped("lateral_colour.pbrt");
+    assert_true(on(&l, PLAN_SPLITTING));
+    assert_true(on(&l, PLAN_STRATEGY));
+    char *text = plan_text(l.plan);
+    assert_non_null(strstr(text, "in the camera's lens"));
+    /* SCHOTT N-BK7 at 380 and 720 nm (its Sellmeier fit): 1.5337 and 1.5125. */
+    assert_non_null(strstr(text, "element 2 N-BK7 n 1.5337 at 380 nm to 1.5125 at 720 nm"));
+    assert_non_null(strstr(text, "only the camera's lens disperses"));
+    free(text);
+    loaded_free(&l);
+    /* The same scene through a pinhole has nothing that splits. */
+    l = load_shipped("cornell.pbrt");
+    assert_false(on(&l, PLAN_SPLITTING));
+    loaded_free(&l);
+}
+
 /* The sun scenes: a distant light (a delta in direction) through a prism or a gem, and the
  * 8-bucket prism beam: photons are needed, and the files ask for them. */
 static void test_shipped_delta_scenes(void **state)
@@ -313,7 +335,7 @@ static void test_shipped_delta_scenes(void **state)
 }
 
 /* Every scene in scenes/ (including ones added later) loads, plans deterministically, and its
- * splitting decision is the scene's has_dispersion. */
+ * splitting decision is the scene's has_dispersion or its camera lens's dispersion. */
 static void test_every_shipped_scene(void **state)
 {
     (void)state;
@@ -325,7 +347,10 @@ static void test_every_shipped_scene(void **state)
     for (size_t i = 0; i < g.gl_pathc; i++) {
         scene_overrides_t ov = {.xres = 160, .yres = 120, .seed = -1};
         loaded_t a = load(g.gl_pathv[i], NULL, &ov), b = load(g.gl_pathv[i], NULL, &ov);
-        assert_int_equal(on(&a, PLAN_SPLITTING), a.scene->has_dispersion);
+        const camera_t *cam = &a.scene->camera;
+        assert_int_equal(on(&a, PLAN_SPLITTING),
+                         a.scene->has_dispersion ||
+                             (cam->kind == CAMERA_REALISTIC && cam->lens_dispersive));
         char *ta = plan_text(a.plan), *tb = plan_text(b.plan);
         assert_string_equal(ta, tb);
         free(ta);
@@ -842,6 +867,7 @@ int main(void)
         cmocka_unit_test(test_shipped_prism),
         cmocka_unit_test(test_shipped_prism_beam),
         cmocka_unit_test(test_shipped_sphere_booth_and_crystal),
+        cmocka_unit_test(test_lens_dispersion),
         cmocka_unit_test(test_shipped_delta_scenes),
         cmocka_unit_test(test_every_shipped_scene),
         cmocka_unit_test(test_point_light_behind_glass),
