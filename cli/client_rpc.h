@@ -32,9 +32,11 @@ int client_security_load(const client_security_t *sec, const char *endpoint,
 
 typedef struct client_rpc client_rpc_t;
 
-/* For a command that needs its master now (submit, fetch): a tcp:// endpoint whose host refuses
- * the connection (nothing listens on the port) is an error at once instead of after the call's
- * timeout. Commands that follow a job skip it: a master that restarts refuses for a moment.
+/* The one "no master" rule: every command that needs its master now (submit, fetch, refine,
+ * jobs, status, workers, cancel and the operations) calls this first, so a tcp:// endpoint whose
+ * host refuses the connection (nothing listens on the port) is an error at once, with the same
+ * message, instead of after the call's timeout. Only `status --wait` skips it: it follows a job
+ * through master restarts, and a master that restarts refuses for a moment.
  * client_rpc_new itself refuses a port outside 1..65535 and a host that does not resolve. */
 int client_rpc_probe(const char *endpoint, err_t *err);
 

@@ -151,7 +151,8 @@ int cmd_refine(int argc, char **argv)
         return 2;
     }
     err_t err;
-    client_rpc_t *rpc = client_rpc_new(master, NULL, &sec, &err);
+    client_rpc_t *rpc =
+        client_rpc_probe(master, &err) == 0 ? client_rpc_new(master, NULL, &sec, &err) : NULL;
     if (!rpc) {
         fprintf(stderr, "prismfarm refine: %s\n", err.msg);
         return 1;

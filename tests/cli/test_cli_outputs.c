@@ -135,6 +135,21 @@ static void test_client_endpoint_errors(void **state)
             "--insecure", NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "refused the connection");
+    /* One rule for every command that needs its master now: the queries and the operations
+     * say the same at once (they waited for their timeout, "no answer ... within 10.0 s"). */
+    static const char *const cmds[][2] = {{"jobs", NULL}, {"workers", NULL}, {"status", "1"},
+                                          {"cancel", "1"}, {"pause", "1"}, {"logs", "1"},
+                                          {"resume", "1"}};
+    for (size_t i = 0; i < sizeof cmds / sizeof cmds[0]; i++) {
+        r = cmds[i][1] ? run(cmds[i][0], cmds[i][1], "--master", "tcp://127.0.0.1:1", "--insecure",
+                             NULL)
+                       : run(cmds[i][0], "--master", "tcp://127.0.0.1:1", "--insecure", NULL);
+        if (r->status != 1 || !strstr(r->err, "refused the connection"))
+            fail_msg("%s: exit %d: %s", cmds[i][0], r->status, r->err);
+    }
+    r = run("refine", "1", "--photons", "1000", "--master", "tcp://127.0.0.1:1", "--insecure", NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "refused the connection");
 }
 
 /* Options the issue found taken: a non-finite exposure, an authorised folder that does not
