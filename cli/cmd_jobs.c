@@ -149,7 +149,7 @@ int cmd_workers(int argc, char **argv)
         /* FAILED: tasks failed (in a row); BLOCKED FROM: jobs it failed too often (the whole farm
          * shows as the state "blocked"); `prismfarm unblock` lifts both. */
         printf("%-6s %-24s %7s %-7s %10s %12s %12s %10s %10s\n", "ID", "NAME", "THREADS", "STATE",
-               "TASKS", "FAILED", "SAMPLES/S", "BLOCKED", "LAST SEEN");
+               "TASKS", "FAILED", "MSAMPLES/S", "BLOCKED", "LAST SEEN");
         for (size_t i = 0; i < n; i++) {
             char failed[48], blocked[24] = "-";
             snprintf(failed, sizeof failed, "%llu (%u)", (unsigned long long)w[i].tasks_failed,
@@ -159,10 +159,11 @@ int cmd_workers(int argc, char **argv)
             else if (w[i].blocked_jobs > 0)
                 snprintf(blocked, sizeof blocked, "%u job%s", w[i].blocked_jobs,
                          w[i].blocked_jobs == 1 ? "" : "s");
-            printf("%-6llu %-24.24s %7d %-7s %10llu %12s %12.4g %10s %9.1fs\n",
+            /* Msamples/s as the progress lines print them: one format for every figure. */
+            printf("%-6llu %-24.24s %7d %-7s %10llu %12s %12.3f %10s %9.1fs\n",
                    (unsigned long long)w[i].id, w[i].name ? w[i].name : "", w[i].threads,
                    proto_worker_state_name(w[i].state), (unsigned long long)w[i].tasks_done,
-                   failed, w[i].samples_per_s, blocked, w[i].last_seen);
+                   failed, w[i].samples_per_s / 1e6, blocked, w[i].last_seen);
         }
     }
     proto_msg_free(&reply);

@@ -261,7 +261,10 @@ int cmd_master(int argc, char **argv)
     }
     o.stop = &STOP;
     if (master_run(&o, &err) < 0) {
-        fprintf(stderr, "prismfarm master: %s\n", err.msg);
+        /* The master's errors name it already ("master: spool: ..."), as they must where the
+         * master runs inside another command (render's in-process farm): one prefix. */
+        const char *msg = !strncmp(err.msg, "master: ", 8) ? err.msg + 8 : err.msg;
+        fprintf(stderr, "prismfarm master: %s\n", msg);
         return 1;
     }
     return 0;

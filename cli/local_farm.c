@@ -194,8 +194,8 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info, scene_she
             break;
     }
     if (!quiet)
-        fprintf(stderr, "render: a master and %d worker%s x %lld threads in this process\n", nstarted,
-                nstarted == 1 ? "" : "s", threads);
+        fprintf(stderr, "render: a master and %d worker%s x %lld thread%s in this process\n",
+                nstarted, nstarted == 1 ? "" : "s", threads, threads == 1 ? "" : "s");
     rpc = client_rpc_new(cep, ctx, NULL, &err);
     if (rpc && !quiet)
         client_rpc_on_progress(rpc, progress_print_master, "render");

@@ -913,7 +913,7 @@ static void on_act(master_t *m, const proto_peer_t *from, const proto_msg_t *msg
         rc = err_set(&err, "unknown action");
     }
     if (rc < 0) {
-        reply_error(m, from, "%s: %s", proto_act_name(msg->act.act), err.msg);
+        reply_error(m, from, "%s", err.msg); /* the client names the action */
         return;
     }
     if (msg->act.act == PROTO_ACT_UNBLOCK)

@@ -40,8 +40,8 @@ static int conn_open(worker_t *w, void *ctx, err_t *err)
     w->conn.generation = w->generation;
     pthread_mutex_unlock(&w->lock);
     worker_send_hello(w);
-    worker_log(w, "connecting to %s as '%s' with %d threads", w->opts->endpoint, w->name,
-               w->threads);
+    worker_log(w, "connecting to %s as '%s' with %d thread%s", w->opts->endpoint, w->name,
+               w->threads, w->threads == 1 ? "" : "s");
     w->conn.last_heard = clock_now_s();
     w->conn.last_sent = clock_now_s();
     return 0;
