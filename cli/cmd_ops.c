@@ -43,6 +43,17 @@ static int parse_number(const char *cmd, const char *what, const char *s, long l
     return 0;
 }
 
+/* A task as `prismfarm logs` shows it: 12 (a camera task) or p3 (photon batch 3). */
+static int parse_task(const char *cmd, const char *s, uint32_t *task)
+{
+    if (proto_task_parse(s, task) == 0)
+        return 0;
+    fprintf(stderr, "prismfarm %s: expected a task as `prismfarm logs` shows it (a number, or p and "
+                    "a number for a photon batch), got '%s'\n",
+            cmd, s ? s : "");
+    return 2;
+}
+
 static int run_act(const op_t *op, int argc, char **argv)
 {
     query_args_t q = query_args_default();
@@ -73,10 +84,8 @@ static int run_act(const op_t *op, int argc, char **argv)
             return 2;
         req.act.priority = v;
     } else if (op->act == PROTO_ACT_REQUEUE) {
-        if (parse_number(op->name, "a task number (as `prismfarm logs` shows it)", q.arg2, 0,
-                         UINT32_MAX, &v))
+        if (parse_task(op->name, q.arg2, &req.act.task))
             return 2;
-        req.act.task = (uint32_t)v;
     }
     proto_msg_t reply;
     if (query_call(&q, op->name, &req, &reply))
@@ -204,12 +213,10 @@ int cmd_logs(int argc, char **argv)
     proto_msg_t req = {.type = PROTO_LOGS};
     if (query_parse_job("logs", q.job, &req.logs.job))
         return 2;
-    long long v;
     if (q.arg2) {
-        if (parse_number("logs", "a task number", q.arg2, 0, UINT32_MAX, &v))
+        if (parse_task("logs", q.arg2, &req.logs.task))
             return 2;
         req.logs.has_task = true;
-        req.logs.task = (uint32_t)v;
     }
     proto_msg_t reply;
     if (query_call(&q, "logs", &req, &reply))

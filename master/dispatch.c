@@ -42,8 +42,10 @@ static int send_task(master_t *m, mworker_t *w, const sched_task_t *t, double no
         else
             snprintf(what, sizeof what, "(pass %d, tile %dx%d at %d,%d)", t->pass, t->w, t->h,
                      t->x0, t->y0);
-        tasklog_add(m->tasklog, j->id, "task %u %s attempt %u assigned to worker %llu '%s'",
-                    t->task, what, t->attempt, (unsigned long long)w->id, w->name);
+        char label[PROTO_TASK_LABEL_MAX];
+        tasklog_add(m->tasklog, j->id, "task %s %s attempt %u assigned to worker %llu '%s'",
+                    proto_task_label(t->task, label), what, t->attempt, (unsigned long long)w->id,
+                    w->name);
     }
     if (rc == 0 && j->started == 0) {
         j->started = now;

@@ -93,23 +93,26 @@ static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
 static void log_result(master_t *m, const mjob_t *j, const merge_source_t *src, uint32_t task,
                        uint32_t attempt, const char *outcome)
 {
+    char label[PROTO_TASK_LABEL_MAX];
     if (!src->replay)
         tasklog_add(m->tasklog, j->id,
-                    "task %u attempt %u from worker %llu '%s' (%.3f s, %llu samples): %s", task,
-                    attempt, (unsigned long long)src->id, src->name, src->elapsed,
-                    (unsigned long long)src->samples, outcome);
+                    "task %s attempt %u from worker %llu '%s' (%.3f s, %llu samples): %s",
+                    proto_task_label(task, label), attempt, (unsigned long long)src->id,
+                    src->name, src->elapsed, (unsigned long long)src->samples, outcome);
 }
 
 static void merge_refused(master_t *m, const mjob_t *j, const merge_source_t *src, uint32_t task,
                           const err_t *why)
 {
+    char label[PROTO_TASK_LABEL_MAX];
+    proto_task_label(task, label);
     if (!src->replay)
-        tasklog_add(m->tasklog, j->id, "task %u: a result from worker %llu '%s' refused: %s", task,
+        tasklog_add(m->tasklog, j->id, "task %s: a result from worker %llu '%s' refused: %s", label,
                     (unsigned long long)src->id, src->name, why->msg);
-    master_log(m, "refused a result from worker %llu '%s' (key '%s') for job %llu task %u: %s",
+    master_log(m, "refused a result from worker %llu '%s' (key '%s') for job %llu task %s: %s",
                (unsigned long long)src->id, src->name,
                src->key && src->key[0] ? src->key : "none: no CURVE", (unsigned long long)j->id,
-               task, why->msg);
+               label, why->msg);
 }
 
 void merge_photon_phase_done(master_t *m, mjob_t *j)

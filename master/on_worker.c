@@ -89,8 +89,10 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
     if (!tb) {
         master_log(m, "bad result from worker %llu '%s' for job %llu: %s",
                    (unsigned long long)w->id, w->name, (unsigned long long)job, err.msg);
-        tasklog_add(m->tasklog, job, "task %u attempt %u from worker %llu '%s': bad, counted as a "
-                    "failure: %s", t32, attempt, (unsigned long long)w->id, w->name, err.msg);
+        char label[PROTO_TASK_LABEL_MAX];
+        tasklog_add(m->tasklog, job, "task %s attempt %u from worker %llu '%s': bad, counted as a "
+                    "failure: %s", proto_task_label(t32, label), attempt, (unsigned long long)w->id,
+                    w->name, err.msg);
         sched_task_failed(m->sched, w->id, job, t32, attempt, err.msg);
     } else {
         merge_camera_tile(m, j, &src, t32, attempt, tb, r->rect.sample_begin, r->rect.sample_end, r,
@@ -104,12 +106,13 @@ static void on_task_failed(master_t *m, mworker_t *w, const proto_msg_t *msg, do
     mjob_t *j = jobs_find(m, msg->task_failed.job);
     if (!j || !j->sched.known || msg->task_failed.task >> 32 != j->sched.round)
         return;
-    master_log(m, "job %llu task %llu failed on worker %llu '%s': %s", (unsigned long long)j->id,
-               (unsigned long long)msg->task_failed.task, (unsigned long long)w->id, w->name,
-               msg->task_failed.error);
-    tasklog_add(m->tasklog, j->id, "task %u attempt %u failed on worker %llu '%s': %s",
-                (uint32_t)(msg->task_failed.task & UINT32_MAX), msg->task_failed.attempt,
-                (unsigned long long)w->id, w->name, msg->task_failed.error);
+    char label[PROTO_TASK_LABEL_MAX];
+    proto_task_label((uint32_t)(msg->task_failed.task & UINT32_MAX), label);
+    master_log(m, "job %llu task %s failed on worker %llu '%s': %s", (unsigned long long)j->id,
+               label, (unsigned long long)w->id, w->name, msg->task_failed.error);
+    tasklog_add(m->tasklog, j->id, "task %s attempt %u failed on worker %llu '%s': %s", label,
+                msg->task_failed.attempt, (unsigned long long)w->id, w->name,
+                msg->task_failed.error);
     sched_task_failed(m->sched, w->id, j->id, (uint32_t)(msg->task_failed.task & UINT32_MAX),
                       msg->task_failed.attempt, msg->task_failed.error);
     job_refresh(m, j, now);

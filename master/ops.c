@@ -38,11 +38,14 @@ bool ops_may_act(const master_t *m, const mjob_t *j, const master_actor_t *who, 
     return false;
 }
 
-/* "task 17 (pass 0, tile 17)", "task 2147483650 (photon batch 2)". */
+_Static_assert(SCHED_PHOTON_TASK == PROTO_PHOTON_TASK, "one numbering of photon tasks");
+
+/* "task 17 (pass 0, tile 17)", "task p2 (photon batch 2)". */
 static const char *task_str(const mjob_t *j, uint32_t task, char *buf, size_t size)
 {
     if (task & SCHED_PHOTON_TASK)
-        snprintf(buf, size, "task %u (photon batch %u)", task, task & ~SCHED_PHOTON_TASK);
+        snprintf(buf, size, "task p%u (photon batch %u)", task & ~SCHED_PHOTON_TASK,
+                 task & ~SCHED_PHOTON_TASK);
     else if (j && j->sched.ntiles > 0)
         snprintf(buf, size, "task %u (pass %u, tile %u)", task, task / (uint32_t)j->sched.ntiles,
                  task % (uint32_t)j->sched.ntiles);

@@ -1206,17 +1206,26 @@ int sched_requeue_task(sched_t *self, uint64_t id, uint32_t task, err_t *err)
         return err_set(err, "job %llu is %s: its tasks are no longer handed out",
                        (unsigned long long)id, job_state_name(j->state));
     task_t *t = task_of(j, task);
-    if (!t)
-        return err_set(err, "job %llu has no task %u (camera tasks 0..%u%s)",
-                       (unsigned long long)id, task, ncamera(j) - 1,
-                       j->nphoton ? ", photon batches from 2147483648" : "");
+    /* Tasks named as `logs` shows them: 12, or p3 for photon batch 3 (proto.h). */
+    char label[24];
+    if (task & SCHED_PHOTON_TASK)
+        snprintf(label, sizeof label, "p%u", task & ~SCHED_PHOTON_TASK);
+    else
+        snprintf(label, sizeof label, "%u", task);
+    if (!t) {
+        char photons[48] = "";
+        if (j->nphoton)
+            snprintf(photons, sizeof photons, ", photon batches p0..p%u", j->nphoton - 1);
+        return err_set(err, "job %llu has no task %s (camera tasks 0..%u%s)",
+                       (unsigned long long)id, label, ncamera(j) - 1, photons);
+    }
     if (t->state == TASK_DONE)
-        return err_set(err, "job %llu task %u is done: its result is merged (or held for its "
+        return err_set(err, "job %llu task %s is done: its result is merged (or held for its "
                             "pass), so rendering it again would add nothing",
-                       (unsigned long long)id, task);
+                       (unsigned long long)id, label);
     if (t->state == TASK_PENDING)
-        return err_set(err, "job %llu task %u is waiting in the queue already",
-                       (unsigned long long)id, task);
+        return err_set(err, "job %llu task %s is waiting in the queue already",
+                       (unsigned long long)id, label);
     uint64_t holder = t->owner;
     requeue(self, j, task);
     /* By hand: the task starts its retries afresh (the operator saw why it was stuck), on

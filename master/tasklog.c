@@ -1,6 +1,8 @@
 #define _POSIX_C_SOURCE 200809L /* gmtime_r, clock_gettime */
 #include "tasklog.h"
 
+#include "proto.h"
+
 #include <errno.h>
 #include <fcntl.h>
 #include <limits.h>
@@ -216,8 +218,9 @@ int tasklog_read(tasklog_t *self, uint64_t job, long long task, size_t max, char
     err_t ignore;
     (void)tasklog_flush(self, &ignore); /* so that the answer holds the latest lines */
     char prefix[40], path[PATH_MAX];
-    if (task >= 0)
-        snprintf(prefix, sizeof prefix, "task %lld ", task);
+    char label[PROTO_TASK_LABEL_MAX];
+    if (task >= 0) /* the lines name tasks as people type them: 12, p3 */
+        snprintf(prefix, sizeof prefix, "task %s ", proto_task_label((uint32_t)task, label));
     size_t cap = 0;
     char *all = NULL;
     size_t n = 0;

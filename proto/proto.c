@@ -2014,3 +2014,32 @@ int proto_encode(const proto_msg_t *msg, const proto_limits_t *limits, msgpack_s
     }
     return 0;
 }
+
+const char *proto_task_label(uint32_t task, char buf[PROTO_TASK_LABEL_MAX])
+{
+    if (task & PROTO_PHOTON_TASK)
+        snprintf(buf, PROTO_TASK_LABEL_MAX, "p%" PRIu32, task & ~PROTO_PHOTON_TASK);
+    else
+        snprintf(buf, PROTO_TASK_LABEL_MAX, "%" PRIu32, task);
+    return buf;
+}
+
+int proto_task_parse(const char *s, uint32_t *task)
+{
+    if (!s)
+        return -1;
+    const int photon = s[0] == 'p';
+    const char *digits = photon ? s + 1 : s;
+    if (!*digits)
+        return -1;
+    uint64_t v = 0;
+    for (const char *c = digits; *c; c++) {
+        if (*c < '0' || *c > '9')
+            return -1;
+        v = v * 10 + (uint64_t)(*c - '0');
+        if (v >= PROTO_PHOTON_TASK)
+            return -1;
+    }
+    *task = photon ? (uint32_t)v | PROTO_PHOTON_TASK : (uint32_t)v;
+    return 0;
+}

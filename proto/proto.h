@@ -386,6 +386,16 @@ const char *proto_fetch_what_name(proto_fetch_what_t what);  /* "exr", "png" */
 const char *proto_stop_name(proto_stop_t stop);              /* "none", "target", "time" */
 const char *proto_act_name(proto_act_t act);                 /* "priority", "pause", ... */
 
+/* Task numbers, as the wire carries them: a camera task is pass * ntiles + tile, from 0; photon
+ * batch b of a job is PROTO_PHOTON_TASK | b. People read and type them as "12" and "p3" (the
+ * logs, `requeue`, `logs JOB TASK`): proto_task_label writes that form into buf and returns it,
+ * proto_task_parse reads either form (a plain number of the photon range is refused, so there
+ * is one spelling) and returns 0, or -1 for anything else. */
+#define PROTO_PHOTON_TASK 0x80000000u
+#define PROTO_TASK_LABEL_MAX 16
+const char *proto_task_label(uint32_t task, char buf[PROTO_TASK_LABEL_MAX]);
+int proto_task_parse(const char *s, uint32_t *task);
+
 /* A REFUSE for a peer that speaks peer_version, its reason written into *text:
  * "protocol version 2 not supported by this master (speaks 1)". role names the refuser. */
 proto_msg_t proto_refuse_version(int peer_version, const char *role, err_t *text);

@@ -1635,6 +1635,35 @@ static int setup(void **state)
     return 0;
 }
 
+/* Task numbers as people read and type them: camera tasks plain, photon batches "p" and the
+ * batch; every label parses back to its number, and nothing else parses. */
+static void test_task_labels(void **state)
+{
+    (void)state;
+    char buf[PROTO_TASK_LABEL_MAX];
+    assert_string_equal(proto_task_label(0, buf), "0");
+    assert_string_equal(proto_task_label(17, buf), "17");
+    assert_string_equal(proto_task_label(PROTO_PHOTON_TASK, buf), "p0");
+    assert_string_equal(proto_task_label(PROTO_PHOTON_TASK | 31, buf), "p31");
+    assert_string_equal(proto_task_label(UINT32_MAX, buf), "p2147483647");
+    const uint32_t round[] = {0, 1, 99, PROTO_PHOTON_TASK - 1, PROTO_PHOTON_TASK,
+                              PROTO_PHOTON_TASK | 5, UINT32_MAX};
+    for (size_t i = 0; i < sizeof round / sizeof round[0]; i++) {
+        uint32_t t = 12345;
+        assert_int_equal(proto_task_parse(proto_task_label(round[i], buf), &t), 0);
+        assert_int_equal(t, round[i]);
+    }
+    uint32_t t = 7;
+    /* One spelling: the wire's number of a photon batch is not typed. */
+    static const char *const bad[] = {"", "p", "-1", "1x", "p-1", "2147483648", "p2147483648",
+                                      "99999999999", " 1", "P3", "3p"};
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
+        if (proto_task_parse(bad[i], &t) != -1)
+            fail_msg("'%s' parsed", bad[i]);
+    assert_int_equal(proto_task_parse(NULL, &t), -1);
+    assert_int_equal(t, 7); /* untouched on failure */
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1659,6 +1688,7 @@ int main(void)
         cmocka_unit_test(test_list_bounds),
         cmocka_unit_test(test_frame_sequences),
         cmocka_unit_test(test_fuzz_mutations),
+        cmocka_unit_test(test_task_labels),
     };
     return cmocka_run_group_tests(tests, setup, NULL);
 }
