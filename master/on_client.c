@@ -808,6 +808,12 @@ static int refine_job(master_t *m, mjob_t *j, uint64_t photons, const proto_peer
                  "the camera phase again",
                  (unsigned long long)j->id, j->name, (unsigned long long)photons,
                  added, (unsigned long long)ps.photons);
+    /* In the job's own log too, with every other action on it (`prismfarm logs`). */
+    tasklog_add(m->tasklog, j->id,
+                "job refined by %s: %llu more photons in %u batches (%llu so far), then the "
+                "camera phase again",
+                from->user[0] ? from->user : "(no key)", (unsigned long long)photons, added,
+                (unsigned long long)ps.photons);
     return 0;
 }
 

@@ -106,6 +106,20 @@ static void test_processes_refine_and_kill(void **state)
     render_direct("data/photon/beam_more.pbrt", testutil_scratch("more.exr"));
     testutil_assert_same_pixels(testutil_scratch("refined.exr"), testutil_scratch("more.exr"));
     expect_photons(testutil_scratch("refined.exr"), "50000");
+    /* The job's log holds the refinement with every other action on it, and names photon
+     * batches as requeue and logs JOB TASK take them (p0, not the wire's 2147483648). */
+    r = run("logs", "1", "--master", cep, NULL);
+    if (r->status != 0)
+        fail_msg("logs: exit %d: %s", r->status, r->err);
+    expect_in(r->out, "job refined by ");
+    expect_in(r->out, ": 20000 more photons in ");
+    expect_in(r->out, "task p0 (photon batch 0) attempt 1 assigned to worker ");
+    assert_null(strstr(r->out, "2147483648"));
+    r = run("logs", "1", "p0", "--master", cep, NULL);
+    if (r->status != 0)
+        fail_msg("logs 1 p0: exit %d: %s", r->status, r->err);
+    expect_in(r->out, "task p0 ");
+    assert_null(strstr(r->out, "task p1 "));
 
     /* What refine refuses: a job that does not exist, bad arguments. */
     r = run("refine", "7", "--photons", "10", "--master", cep, NULL);
