@@ -6,10 +6,16 @@
 #include "cli_args.h"
 #include "cli_json.h"
 #include "cli_warn.h"
+#include "clock.h"
+#include "local_render.h"
 #include "pbrt_parser.h"
+#include "photon.h"
 #include "plan.h"
+#include "pool.h"
+#include "predict.h"
 #include "scene_load.h"
 
+#include <math.h>
 #include <stdio.h>
 
 static void usage(FILE *out, const cli_opt_t *opts)
@@ -24,6 +30,9 @@ static void usage(FILE *out, const cli_opt_t *opts)
             "and the integrator, each with the scene elements that caused it; then what is\n"
             "switched off and why. Integrator \"auto\" (the default when the scene names none)\n"
             "renders with this plan; an explicit integrator is kept and differences are noted.\n"
+            "With --target-error E it then renders a short pilot on this machine (--pilot\n"
+            "seconds of whole passes, the photon pass first) and predicts the samples per pixel\n"
+            "and the time that reach E (the error falls as 1/sqrt(spp): a prediction, docs/plan.md).\n"
             "Options override the scene file as for prismfarm render:\n");
     cli_args_help(out, opts);
     fprintf(out, "\n"
@@ -145,12 +154,123 @@ static json_t *plan_json(const char *path, const scene_t *scene, const plan_t *p
     return o;
 }
 
+/* One pilot render at spp samples per pixel (the scene's own setting, restored after): the
+ * photon pass, then the camera pass's whole passes, stopping early at the target. */
+static int pilot_at(scene_t *scene, int spp, double target, local_render_result_t *res,
+                    err_t *err)
+{
+    render_settings_t *rs = &scene->settings;
+    const int keep = rs->spp;
+    rs->spp = spp;
+    tilebuf_t *image = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, err);
+    int rc = image ? 0 : -1;
+    const double start = clock_now_s();
+    photon_stats_t pst = {0};
+    double psec = 0;
+    photon_store_t *photons = NULL;
+    if (rc == 0 && rs->photon.enabled && !(photons = photon_pass_run(scene, 0, &pst, &psec, err)))
+        rc = -1;
+    if (rc == 0) {
+        local_render_opts_t o = {.photons = photons, .t0 = start, .stop = {.target_error = target}};
+        render_stats_t st = {0};
+        rc = local_render(scene, &o, image, &st, res, err);
+    }
+    photon_store_destroy(&photons);
+    tilebuf_destroy(&image);
+    rs->spp = keep;
+    return rc;
+}
+
+/* The pilot of --target-error: 2 spp first (two passes, the second with an error estimate),
+ * then, when that took well under pilot_s seconds, the most samples per pixel (a power of two,
+ * at most the scene's) that its rate fits in pilot_s, so the estimate the prediction starts
+ * from is as good as the budget allows. *res gets the last run's pass records. */
+static int run_pilot(scene_t *scene, double target, double pilot_s, local_render_result_t *res,
+                     err_t *err)
+{
+    const int cap = scene->settings.spp;
+    int spp = cap < 2 ? cap : 2;
+    if (pilot_at(scene, spp, target, res, err) < 0)
+        return -1;
+    if (res->why == STOPPING_TARGET || res->nhistory < 1)
+        return 0;
+    const double per_spp = res->history[res->nhistory - 1].elapsed / spp;
+    int more = spp;
+    while (more * 2 <= cap && per_spp * more * 2 <= pilot_s)
+        more *= 2;
+    return more > spp ? pilot_at(scene, more, target, res, err) : 0;
+}
+
+/* The prediction's report, after the plan's. */
+static void print_prediction(const scene_t *scene, const local_render_result_t *res,
+                             double target)
+{
+    const int spp = scene->settings.spp;
+    predict_t p = predict_target(res->history, res->nhistory, target);
+    printf("\nPREDICTION (target error %g, on this machine's %d threads)\n", target, pool_cores());
+    const pass_record_t *last = res->nhistory > 0 ? &res->history[res->nhistory - 1] : NULL;
+    if (!p.valid || !last) {
+        printf("  the pilot gave no error estimate (an image with no light, or a single pass)\n");
+        return;
+    }
+    printf("  pilot: %d spp in %.1f s (%.1f s of it before the camera pass's samples: the photon "
+           "pass, if any), relative error %.4f\n",
+           last->spp, last->elapsed, p.fixed, last->rel_error);
+    if (res->why == STOPPING_TARGET) {
+        printf("  reached: the pilot's %d spp already bring the error to %.4f <= %g\n", last->spp,
+               last->rel_error, target);
+        return;
+    }
+    const int job_spp = predict_pass_spp(&p, spp);
+    if (p.spp <= spp)
+        printf("  predicted: %g at about %.0f spp, that is %d spp in whole passes, in about "
+               "%.0f s (the scene's cap is %d spp)\n",
+               target, ceil(p.spp), job_spp, p.fixed + p.per_spp * job_spp, spp);
+    else
+        printf("  predicted: %g needs about %.0f spp and %.0f s, past the scene's %d spp, where "
+               "the error would be about %.4f: raise --spp to reach the target\n",
+               target, ceil(p.spp), p.seconds, spp, p.from_error * sqrt((double)p.from_spp / spp));
+    printf("  (the error falls as 1/sqrt(spp); a few passes' estimate is itself noisy, and "
+           "adaptive sampling often stops sooner: a prediction, not a promise)\n");
+}
+
+static int finish(plan_t **plan, scene_t **scene, scene_desc_t **desc, int rc)
+{
+    plan_destroy(plan);
+    scene_destroy(scene);
+    scene_desc_destroy(desc);
+    return rc;
+}
+
+static json_t *prediction_json(const local_render_result_t *res, double target)
+{
+    predict_t p = predict_target(res->history, res->nhistory, target);
+    json_t *o = json_object();
+    json_object_set_new(o, "target_error", json_real(target));
+    json_object_set_new(o, "threads", json_integer(pool_cores()));
+    json_object_set_new(o, "reached_in_pilot", json_boolean(res->why == STOPPING_TARGET));
+    json_object_set_new(o, "pilot_spp", p.valid ? json_integer(p.from_spp) : json_null());
+    json_object_set_new(o, "pilot_error", p.valid ? json_real(p.from_error) : json_null());
+    json_object_set_new(o, "spp", p.valid ? json_real(p.spp) : json_null());
+    json_object_set_new(o, "seconds", p.valid ? json_real(p.seconds) : json_null());
+    return o;
+}
+
 int cmd_plan(int argc, char **argv)
 {
     int json = 0;
     scene_overrides_t ov = {.seed = -1};
+    cli_stop_t stop = {0};
+    double pilot = 4.0;
     const cli_opt_t opts[] = {
         CLI_OPT_JSON(.dst = &json, .help = "print JSON instead of the report"),
+        {.name = "target-error", .kind = CLI_DOUBLE, .off = offsetof(cli_stop_t, target_error),
+         .dst = &stop, .lo = 0, .hi = 1, .open = 1, .unit = "a relative error",
+         .example = "e.g. 0.05", .arg = "E",
+         .help = "predict the samples and time that reach E from a pilot render"},
+        {.name = "pilot", .kind = CLI_DOUBLE, .dst = &pilot, .lo = 0.1, .hi = 3600,
+         .unit = "seconds", .example = "e.g. 4", .arg = "S",
+         .help = "seconds of pilot render for --target-error (default 4)"},
         CLI_OPT_GROUP(CLI_OVERRIDE_OPTS, .dst = &ov),
         CLI_OPT_HELP,
         {0},
@@ -183,24 +303,42 @@ int cmd_plan(int argc, char **argv)
     int rc = 0;
     if (!plan) {
         fprintf(stderr, "prismfarm plan: %s\n", err.msg);
-        rc = 1;
-    } else if (json) {
-        if (cli_json_print(plan_json(path, scene, plan), JSON_INDENT(2)) != 0) {
+        return finish(&plan, &scene, &desc, 1);
+    }
+    /* The pilot of --target-error runs after the report is out (it takes seconds). */
+    local_render_result_t res;
+    const int pilot_asked = stop.target_error > 0.0;
+    if (json) {
+        json_t *o = plan_json(path, scene, plan);
+        if (pilot_asked) {
+            if (run_pilot(scene, stop.target_error, pilot, &res, &err) < 0) {
+                fprintf(stderr, "prismfarm plan: pilot render: %s\n", err.msg);
+                json_decref(o);
+                return finish(&plan, &scene, &desc, 1);
+            }
+            json_object_set_new(o, "prediction", prediction_json(&res, stop.target_error));
+        }
+        if (cli_json_print(o, JSON_INDENT(2)) != 0) {
             fprintf(stderr, "prismfarm plan: cannot write JSON\n");
             rc = 1;
         }
-    } else {
-        const render_settings_t *rs = &scene->settings;
-        printf("plan for %s (%dx%d, %d spp, maxdepth %d, %d buckets over %g-%g nm)\n", path,
-               rs->xres, rs->yres, rs->spp, rs->maxdepth, rs->grid.n, rs->grid.lambda_min,
-               rs->grid.lambda_max);
-        if (plan_write_text(plan, stdout) != 0) {
-            fprintf(stderr, "prismfarm plan: cannot write the report\n");
-            rc = 1;
-        }
+        return finish(&plan, &scene, &desc, rc);
     }
-    plan_destroy(&plan);
-    scene_destroy(&scene);
-    scene_desc_destroy(&desc);
-    return rc;
+    const render_settings_t *rs = &scene->settings;
+    printf("plan for %s (%dx%d, %d spp, maxdepth %d, %d buckets over %g-%g nm)\n", path,
+           rs->xres, rs->yres, rs->spp, rs->maxdepth, rs->grid.n, rs->grid.lambda_min,
+           rs->grid.lambda_max);
+    if (plan_write_text(plan, stdout) != 0) {
+        fprintf(stderr, "prismfarm plan: cannot write the report\n");
+        return finish(&plan, &scene, &desc, 1);
+    }
+    if (pilot_asked) {
+        fflush(stdout);
+        if (run_pilot(scene, stop.target_error, pilot, &res, &err) < 0) {
+            fprintf(stderr, "prismfarm plan: pilot render: %s\n", err.msg);
+            return finish(&plan, &scene, &desc, 1);
+        }
+        print_prediction(scene, &res, stop.target_error);
+    }
+    return finish(&plan, &scene, &desc, rc);
 }

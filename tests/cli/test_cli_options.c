@@ -161,6 +161,25 @@ static void test_integrator_names(void **state)
     expect_in(r->err, "(asked: bdpt, the plan's choice: prismfarm plan says why)");
 }
 
+/* plan --target-error renders a pilot and predicts the samples and time that reach the target;
+ * --json carries the same figures. */
+static void test_plan_prediction(void **state)
+{
+    (void)state;
+    const run_t *r = run("plan", SCENE, "--target-error", "0.05", "--pilot", "0.5", NULL);
+    if (r->status != 0)
+        fail_msg("plan --target-error: exit %d: %s", r->status, r->err);
+    expect_in(r->out, "PREDICTION (target error 0.05");
+    expect_in(r->out, "pilot: ");
+    expect_in(r->out, "a prediction, not a promise");
+    r = run("plan", SCENE, "--target-error", "0.05", "--pilot", "0.5", "--json", NULL);
+    if (r->status != 0)
+        fail_msg("plan --json --target-error: exit %d: %s", r->status, r->err);
+    expect_in(r->out, "\"prediction\": {");
+    expect_in(r->out, "\"pilot_spp\": ");
+    expect_fails(run("plan", SCENE, "--target-error", "1.5", NULL), "--target-error expects");
+}
+
 /* -h and --help anywhere print the usage with every option the command takes, exit 0. */
 static void test_help(void **state)
 {
@@ -219,6 +238,7 @@ int main(void)
         cmocka_unit_test(test_errors),
         cmocka_unit_test(test_suggestions),
         cmocka_unit_test(test_integrator_names),
+        cmocka_unit_test(test_plan_prediction),
         cmocka_unit_test(test_help),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
