@@ -1,5 +1,6 @@
 #include "client_rpc.h"
 
+#include "clock.h"
 #include "net.h"
 
 #include <errno.h>
@@ -11,6 +12,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <zmq.h>
 
 #define SLICE_MS 100 /* how often a waiting call looks at the connection's handshake */
@@ -153,9 +155,31 @@ static int check_tcp_endpoint(const char *endpoint, int probe_ms, err_t *err)
     return 0;
 }
 
-int client_rpc_probe(const char *endpoint, err_t *err)
+int client_rpc_probe(const char *endpoint, double wait_s, const char *cmd, err_t *err)
 {
-    return check_tcp_endpoint(endpoint, 2000, err);
+    if (wait_s > CLIENT_RPC_LISTEN_WAIT_S)
+        wait_s = CLIENT_RPC_LISTEN_WAIT_S;
+    const double deadline = clock_now_s() + wait_s;
+    for (int tries = 0;; tries++) {
+        err_t e;
+        if (check_tcp_endpoint(endpoint, 2000, &e) == 0)
+            return 0;
+        /* Only a refusal is worth waiting out (a master starting or restarting); a bad port or
+         * a host that does not resolve will not change. */
+        if (!strstr(e.msg, "refused the connection") || clock_now_s() >= deadline) {
+            *err = e;
+            if (tries > 0)
+                return err_set(err, "%s; waited %g s", e.msg, wait_s);
+            return -1;
+        }
+        if (tries == 0 && cmd)
+            fprintf(stderr,
+                    "prismfarm %s: nothing listens at %s yet: waiting up to %g s for the master "
+                    "to start\n",
+                    cmd, endpoint, wait_s);
+        struct timespec ts = {0, 200 * 1000 * 1000};
+        nanosleep(&ts, NULL);
+    }
 }
 
 client_rpc_t *client_rpc_new(const char *endpoint, void *zmq_ctx, const client_security_t *sec,

@@ -33,12 +33,15 @@ int client_security_load(const client_security_t *sec, const char *endpoint,
 typedef struct client_rpc client_rpc_t;
 
 /* The one "no master" rule: every command that needs its master now (submit, fetch, refine,
- * jobs, status, workers, cancel and the operations) calls this first, so a tcp:// endpoint whose
- * host refuses the connection (nothing listens on the port) is an error at once, with the same
- * message, instead of after the call's timeout. Only `status --wait` skips it: it follows a job
- * through master restarts, and a master that restarts refuses for a moment.
- * client_rpc_new itself refuses a port outside 1..65535 and a host that does not resolve. */
-int client_rpc_probe(const char *endpoint, err_t *err);
+ * jobs, status, workers, cancel and the operations) calls this first. A tcp:// endpoint where
+ * nothing listens (the host refuses the connection) is waited for -- a master starting or
+ * restarting refuses for a moment -- for up to wait_s seconds (the command's --timeout), never
+ * more than CLIENT_RPC_LISTEN_WAIT_S, saying at once on stderr that it waits ("prismfarm CMD:
+ * nothing listens at ... yet", when cmd is not NULL); then it is an error with the same message
+ * for every command. A bad port or a host that does not resolve is an error at once.
+ * `status --wait` skips it: it follows a job through master restarts on its own. */
+#define CLIENT_RPC_LISTEN_WAIT_S 10.0
+int client_rpc_probe(const char *endpoint, double wait_s, const char *cmd, err_t *err);
 
 /* A connection to the master at endpoint; ctx NULL makes one. sec NULL: no keys (plain text,
  * allowed only on inproc:// and ipc://). */

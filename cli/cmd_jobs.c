@@ -244,7 +244,9 @@ int cmd_fetch(int argc, char **argv)
     }
     err_t err;
     client_rpc_t *rpc =
-        client_rpc_probe(q.master, &err) == 0 ? client_rpc_new(q.master, NULL, &q.sec, &err) : NULL;
+        client_rpc_probe(q.master, q.timeout_ms / 1000.0, "fetch", &err) == 0
+            ? client_rpc_new(q.master, NULL, &q.sec, &err)
+            : NULL;
     if (!rpc) {
         fprintf(stderr, "prismfarm fetch: %s\n", err.msg);
         return 1;

@@ -152,7 +152,9 @@ int cmd_refine(int argc, char **argv)
     }
     err_t err;
     client_rpc_t *rpc =
-        client_rpc_probe(master, &err) == 0 ? client_rpc_new(master, NULL, &sec, &err) : NULL;
+        client_rpc_probe(master, CLIENT_RPC_LISTEN_WAIT_S, "refine", &err) == 0
+            ? client_rpc_new(master, NULL, &sec, &err)
+            : NULL;
     if (!rpc) {
         fprintf(stderr, "prismfarm refine: %s\n", err.msg);
         return 1;

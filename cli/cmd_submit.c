@@ -203,7 +203,9 @@ static int submit_scenes(const frame_list_t *fr, const char *master, const char 
         return 1;
     }
     client_security_t sec = *secp;
-    client_rpc_t *rpc = client_rpc_probe(master, &err) == 0 ? client_rpc_new(master, NULL, &sec, &err) : NULL;
+    client_rpc_t *rpc = client_rpc_probe(master, timeout_s, quiet || json ? NULL : "submit", &err) == 0
+                            ? client_rpc_new(master, NULL, &sec, &err)
+                            : NULL;
     if (rpc && !quiet && !json)
         client_rpc_on_progress(rpc, progress_print_master, "submit");
     proto_msg_t req = {.type = PROTO_SUBMIT,

@@ -59,7 +59,9 @@ int query_call(const query_args_t *q, const char *cmd, const proto_msg_t *req, p
     err_t err;
     /* The one "no master" rule (client_rpc.h): a master that is not there is an error now. */
     client_rpc_t *rpc =
-        client_rpc_probe(q->master, &err) == 0 ? client_rpc_new(q->master, NULL, &q->sec, &err) : NULL;
+        client_rpc_probe(q->master, q->timeout_ms / 1000.0, cmd, &err) == 0
+            ? client_rpc_new(q->master, NULL, &q->sec, &err)
+            : NULL;
     int r = rpc ? client_rpc_call(rpc, req, reply, q->timeout_ms, &err) : -1;
     client_rpc_destroy(&rpc);
     if (r)

@@ -1036,7 +1036,7 @@ static void test_error_messages(void **state)
         {"PixelFilter \"lanczos\"\nWorldBegin\n",
          "t.pbrt:1:13: unsupported filter \"lanczos\" (\"box\", \"gaussian\", \"mitchell\", \"sinc\" or \"triangle\")"},
         {"PixelFilter \"box\" \"float radius\" 1\nWorldBegin\n",
-         "t.pbrt:1:19: unsupported parameter \"float radius\" for PixelFilter \"box\""},
+         "t.pbrt:1:19: unsupported parameter \"float radius\" for PixelFilter \"box\" (did you mean \"xradius\"?)"},
         {"PixelFilter \"gaussian\" \"float sigma\" 0\nWorldBegin\n",
          "t.pbrt:1:24: \"float sigma\" must be greater than 0, got 0"},
         {"WorldBegin\nShape \"disk\"   \"float zmin\" -1\n",
