@@ -235,7 +235,8 @@ static lights_at_t light_site(const ctx_t *c, vec3_t x, vec3_t n)
 
 /* The site of the next-event estimation at the vertex a BSDF- or phase-sampled path left, for
  * its MIS weight: only asked under "path" after a non-specular bounce, and every such vertex
- * estimated with mis set (light_site), so the light pdf is of the distribution that sampled. */
+ * estimated with mis set (light_site), so the light pdf is of the distribution that sampled.
+ * The path does not keep that vertex's normal (no light's pdf here depends on it). */
 static lights_at_t light_site_behind(const path_t *p)
 {
     return (lights_at_t){.p = p->prev_p, .n = vec3_make(0.0, 0.0, 0.0), .mis = 1};
