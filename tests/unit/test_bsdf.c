@@ -899,9 +899,9 @@ static void test_layered_pdf_reflection(void **state)
     for (int p = 0; p < 24; p++)
         for (int q = 0; q < 24; q++) {
             double th = cone * (p + 0.5) / 24, ph = 2 * PI * (q + 0.5) / 24;
-            vec3_t wi = vec3_add(vec3_scale(mirror, cos(th)),
-                                 vec3_add(vec3_scale(a, sin(th) * cos(ph)),
-                                          vec3_scale(c, sin(th) * sin(ph))));
+            vec3_t wi =
+                vec3_add(vec3_scale(mirror, cos(th)), vec3_add(vec3_scale(a, sin(th) * cos(ph)),
+                                                               vec3_scale(c, sin(th) * sin(ph))));
             double pdf[BSDF_MAX_LANES], acc = 0;
             for (int r = 0; r < 4; r++) {
                 bsdf_pdf(&b, wo, wi, &rng, pdf);
