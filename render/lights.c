@@ -156,8 +156,10 @@ static int sample_sphere_cone(const shape_t *s, vec3_t p, vec3_t c, double r, do
     return isfinite(*pdf) && *pdf > 0.0;
 }
 
-int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sample_t *out)
+int lights_sample(const scene_t *scene, const lights_at_t *at, const double u[4],
+                  light_sample_t *out)
 {
+    const vec3_t p = at->p;
     if (!scene->light_power)
         return 0;
     double pmf;
@@ -234,7 +236,7 @@ int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sampl
         out->dist = INFINITY;
         if (l->envmap) {
             double pdf;
-            vec3_t wl = envmap_sample(l->envmap, u[2], u[3], &out->texel, &pdf);
+            vec3_t wl = envmap_sample_as(l->envmap, at->mis, u[2], u[3], &out->texel, &pdf);
             out->wi = vec3_normalize(transform_vector(&l->from_light, wl));
             out->pdf = pmf * pdf;
             return pdf > 0.0 && isfinite(out->pdf);
@@ -336,15 +338,18 @@ double lights_environment(const scene_t *scene, double lambda)
     return sum;
 }
 
-double lights_pdf(const scene_t *scene, int light, vec3_t p, vec3_t wi, vec3_t p_light, vec3_t ng)
+double lights_pdf(const scene_t *scene, const lights_at_t *at, int light, vec3_t wi, vec3_t p_light,
+                  vec3_t ng)
 {
+    const vec3_t p = at->p;
     if (!scene->light_power || light < 0)
         return 0.0;
     double pmf = alias_pmf(scene->light_power, (size_t)light);
     const light_t *l = &scene->lights[light];
     if (l->kind == LIGHT_INFINITE)
-        return pmf * (l->envmap ? envmap_pdf(l->envmap, transform_vector(&l->to_light, wi))
-                                : sample_uniform_sphere_pdf());
+        return pmf * (l->envmap
+                          ? envmap_pdf_as(l->envmap, at->mis, transform_vector(&l->to_light, wi))
+                          : sample_uniform_sphere_pdf());
     if (l->kind != LIGHT_AREA)
         return 0.0;
     const shape_t *s = &scene->shapes[l->shape];

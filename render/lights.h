@@ -22,14 +22,25 @@ typedef struct light_sample {
     double uv[2];   /* image area lights: the texture coordinates of the sampled point */
 } light_sample_t;
 
-/* Samples a light for shading point p with four uniform numbers: u[0] picks the light, u[1]
+/* Where a light is sampled from, and what competes with the sample. */
+typedef struct lights_at {
+    vec3_t p;  /* the shading point */
+    vec3_t n;  /* its unit shading normal; (0, 0, 0) at a point in a medium */
+    int mis;   /* BSDF or phase sampling competes under MIS (image lights may then sample
+                * their compensated distribution) */
+} lights_at_t;
+
+/* Samples a light for shading point at->p with four uniform numbers: u[0] picks the light, u[1]
  * a mesh light's triangle, u[2] and u[3] the point or direction. A sphere light seen from
  * outside is sampled uniformly in the cone of directions it subtends (pbrt-v4 Sphere::Sample:
  * every sample lands on the visible cap), an image environment by its texels' distribution
- * (envmap.h), a uniform one uniformly over the sphere. Returns 0 when nothing can be
- * sampled (no lights, a collimated light, a zero-area light, a point outside a projection
- * light's frustum, a degenerate configuration). */
-int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sample_t *out);
+ * (envmap.h) -- with at->mis its compensated one (pbrt-v4's allowIncompletePDF), which leaves
+ * the directions at or below the image's average to the competing strategy -- a uniform one
+ * uniformly over the sphere. Returns 0 when nothing can be sampled (no lights, a collimated
+ * light, a zero-area light, a point outside a projection light's frustum, a degenerate
+ * configuration). */
+int lights_sample(const scene_t *scene, const lights_at_t *at, const double u[4],
+                  light_sample_t *out);
 
 /* The light's spectral value at lambda: its spectrum times its scale, the factor every
  * emission query multiplies in. A pure function of (l, lambda), so a caller may keep it
@@ -83,10 +94,13 @@ double lights_environment(const scene_t *scene, double lambda);
 size_t lights_envmap_texel(const light_t *l, vec3_t wi);
 double lights_envmap_radiance(const light_t *l, size_t texel, double value, double lambda);
 
-/* The pdf lights_sample would have had for hitting light l at point p_light with normal ng,
- * seen from p along unit wi (area lights: the cone's for a sphere seen from outside), or along
- * wi toward infinity (infinite lights). */
-double lights_pdf(const scene_t *scene, int light, vec3_t p, vec3_t wi, vec3_t p_light,
+/* The pdf lights_sample(scene, at, ...) would have had for hitting light l at point p_light
+ * with normal ng, seen from at->p along unit wi (area lights: the cone's for a sphere seen from
+ * outside), or along wi toward infinity (infinite lights; an image's compensated distribution
+ * when at->mis, as lights_sample's). A BSDF-sampled ray's MIS weight must ask with the at its
+ * vertex's next-event estimation used, so that both strategies' pdfs are of the same
+ * distributions. */
+double lights_pdf(const scene_t *scene, const lights_at_t *at, int light, vec3_t wi, vec3_t p_light,
                   vec3_t ng);
 
 #endif

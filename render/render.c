@@ -224,12 +224,31 @@ static int push(ctx_t *c, const path_t *p)
     return 0;
 }
 
+/* Where next-event estimation samples a light from point x with unit shading normal n
+ * ((0, 0, 0) in a medium): under "path" BSDF or phase sampling always follows it and competes
+ * under MIS, so image lights sample their compensated distribution; Whitted's single light
+ * sample has nothing beside it (docs/rendering.md, "Image lights"). */
+static lights_at_t light_site(const ctx_t *c, vec3_t x, vec3_t n)
+{
+    return (lights_at_t){.p = x, .n = n, .mis = c->rs->integrator == INTEGRATOR_PATH};
+}
+
+/* The site of the next-event estimation at the vertex a BSDF- or phase-sampled path left, for
+ * its MIS weight: only asked under "path" after a non-specular bounce, and every such vertex
+ * estimated with mis set (light_site), so the light pdf is of the distribution that sampled.
+ * The path does not keep that vertex's normal (no light's pdf here depends on it). */
+static lights_at_t light_site_behind(const path_t *p)
+{
+    return (lights_at_t){.p = p->prev_p, .n = vec3_make(0.0, 0.0, 0.0), .mis = 1};
+}
+
 /* Emission seen by the path at a hit on an area light, or on leaving the scene. */
 static void add_emission_hit(ctx_t *c, const path_t *p, const surface_t *sf, const light_t *l, int li)
 {
     double w = 1.0;
     if (c->rs->integrator == INTEGRATOR_PATH && !p->specular) {
-        double lp = lights_pdf(c->scene, li, p->prev_p, p->dir, sf->p, sf->ng);
+        const lights_at_t at = light_site_behind(p);
+        double lp = lights_pdf(c->scene, &at, li, p->dir, sf->p, sf->ng);
         w = power_heuristic(p->bsdf_pdf, lp);
     }
     const int faces = lights_area_faces(l, sf->ng, vec3_neg(p->dir));
@@ -244,10 +263,11 @@ static void add_environment(ctx_t *c, const path_t *p)
 {
     double w = 1.0;
     if (c->rs->integrator == INTEGRATOR_PATH && !p->specular) {
+        const lights_at_t at = light_site_behind(p);
         double lp = 0.0;
         for (size_t i = 0; i < c->scene->nlights; i++)
             if (c->scene->lights[i].kind == LIGHT_INFINITE)
-                lp += lights_pdf(c->scene, (int)i, p->prev_p, p->dir, p->prev_p, p->dir);
+                lp += lights_pdf(c->scene, &at, (int)i, p->dir, p->prev_p, p->dir);
         w = power_heuristic(p->bsdf_pdf, lp);
     }
     /* Image environments: each one's texel along the ray, once for all lanes. */
@@ -305,16 +325,19 @@ static int shadow_ray(ctx_t *c, const path_t *p, vec3_t o, vec3_t dir, double tm
     return !shading_occluded(c->scene, o, dir, 0.0, tmax);
 }
 
-/* Samples a light for next-event estimation at sf and traces its shadow ray: 1 with *ls and
- * the lanes' transmittances tr when the light is sampled and visible, 0 otherwise.
- * accept(wi) decides, before the shadow ray, whether the direction can contribute at all. */
-static int light_visible(ctx_t *c, const path_t *p, const surface_t *sf, light_sample_t *ls,
-                         int (*accept)(const void *, vec3_t), const void *arg, double *tr)
+/* Samples a light for next-event estimation at sf (shading normal n) and traces its shadow
+ * ray: 1 with *ls and the lanes' transmittances tr when the light is sampled and visible, 0
+ * otherwise. accept(wi) decides, before the shadow ray, whether the direction can contribute
+ * at all. */
+static int light_visible(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t n,
+                         light_sample_t *ls, int (*accept)(const void *, vec3_t), const void *arg,
+                         double *tr)
 {
     double u[4];
     for (int k = 0; k < 4; k++)
         u[k] = next(c);
-    if (!lights_sample(c->scene, sf->p, u, ls))
+    const lights_at_t at = light_site(c, sf->p, n);
+    if (!lights_sample(c->scene, &at, u, ls))
         return 0;
     if (!accept(arg, ls->wi) || !(ls->pdf > 0.0))
         return 0;
@@ -348,7 +371,7 @@ static void direct_light(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t 
     light_sample_t ls;
     const hemispheres_t hs = {n, g};
     double tr[LANES];
-    if (!light_visible(c, p, sf, &ls, above_both, &hs, tr))
+    if (!light_visible(c, p, sf, n, &ls, above_both, &hs, tr))
         return;
     double cos_s = vec3_dot(n, ls.wi);
     double w = 1.0;
@@ -416,7 +439,7 @@ static void direct_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, co
     light_sample_t ls;
     const sides_t sd = {fr, sf->ng};
     double tr[LANES];
-    if (!light_visible(c, p, sf, &ls, sides_agree, &sd, tr))
+    if (!light_visible(c, p, sf, fr->z, &ls, sides_agree, &sd, tr))
         return;
     vec3_t wi = shading_to_local(fr, ls.wi);
     double f[LANES], pdf[LANES];
@@ -942,7 +965,8 @@ static void direct_light_medium(ctx_t *c, const path_t *p, vec3_t x, double g)
     for (int k = 0; k < 4; k++)
         u[k] = next(c);
     light_sample_t ls;
-    if (!lights_sample(c->scene, x, u, &ls) || !(ls.pdf > 0.0))
+    const lights_at_t at = light_site(c, x, vec3_make(0.0, 0.0, 0.0));
+    if (!lights_sample(c->scene, &at, u, &ls) || !(ls.pdf > 0.0))
         return;
     vec3_t dir;
     double tmax, tr[LANES];

@@ -10,10 +10,11 @@
 #include <string.h>
 
 struct envmap {
-    int w, h;         /* equal-area: w = h; lat-long: w = 2 h */
+    int w, h;          /* equal-area: w = h; lat-long: w = 2 h */
     bool latlong;
-    double *coef;     /* per texel: rgb_uplift's c0, c1, c2 and m */
+    double *coef;      /* per texel: rgb_uplift's c0, c1, c2 and m */
     distrib2d_t *dist;
+    distrib2d_t *comp; /* the compensated distribution; NULL: dist serves (envmap.h) */
     double mean_y, upper_e;
 };
 
@@ -23,6 +24,7 @@ void envmap_destroy(envmap_t **self_p)
         return;
     free((*self_p)->coef);
     distrib2d_destroy(&(*self_p)->dist);
+    distrib2d_destroy(&(*self_p)->comp);
     free(*self_p);
     *self_p = NULL;
 }
@@ -69,6 +71,41 @@ static size_t texel_at(const envmap_t *self, double u, double v)
     return (size_t)y * (size_t)self->w + (size_t)x;
 }
 
+/* The compensated distribution (pbrt-v4 ImageInfiniteLight; PBR 4th ed. sec. 12.5.3; Karlik et
+ * al. 2019, "MIS Compensation"): texel weights max(c - c_avg, 0), c the channel average the plain
+ * distribution uses and c_avg its mean over directions (lat-long: weighted by each texel's solid
+ * angle, sin(theta), and the weight multiplied by it as in the plain one, so that the density
+ * over directions stays proportional to max(c - c_avg, 0)). weights holds the plain weights and
+ * is overwritten. An image with no texel above its average (a uniform one) keeps e->comp NULL:
+ * the plain distribution serves, as pbrt-v4's all-ones fallback does for its square images. */
+static int compensate(envmap_t *e, const float *rgb, double *weights, err_t *err)
+{
+    size_t n = (size_t)e->w * (size_t)e->h;
+    double sum = 0.0, sum_sa = 0.0, lo = INFINITY;
+    for (size_t i = 0; i < n; i++) {
+        double sa = e->latlong ? sin(PF_PI * ((double)(i / (size_t)e->w) + 0.5) / e->h) : 1.0;
+        const float *p = rgb + 3 * i;
+        double c = ((double)p[0] + p[1] + p[2]) / 3.0;
+        sum += c * sa;
+        sum_sa += sa;
+        lo = fmin(lo, c);
+    }
+    /* The mean is at least the least texel; rounding in the sum must not put a uniform
+     * image's texels an ulp above their own average. */
+    const double avg = fmax(sum / sum_sa, lo);
+    int any = 0;
+    for (size_t i = 0; i < n; i++) {
+        double sa = e->latlong ? sin(PF_PI * ((double)(i / (size_t)e->w) + 0.5) / e->h) : 1.0;
+        const float *p = rgb + 3 * i;
+        double c = ((double)p[0] + p[1] + p[2]) / 3.0 - avg;
+        weights[i] = c > 0.0 ? c * sa : 0.0;
+        any |= weights[i] > 0.0;
+    }
+    if (!any)
+        return 0;
+    return (e->comp = distrib2d_new(weights, e->w, e->h, err)) ? 0 : -1;
+}
+
 int envmap_check_texels(const float *rgb, int w, int h, const char *name, err_t *err)
 {
     size_t n = (size_t)w * (size_t)h;
@@ -76,7 +113,7 @@ int envmap_check_texels(const float *rgb, int w, int h, const char *name, err_t 
         if (!(rgb[i] >= 0.0f) || !isfinite(rgb[i]))
             return err_set(err, "%s: texel (%zu, %zu) has %s value %g: not suitable as a light",
                            name, (i / 3) % (size_t)w, (i / 3) / (size_t)w,
-                           isnan(rgb[i])  ? "a NaN"
+                           isnan(rgb[i])   ? "a NaN"
                            : rgb[i] < 0.0f ? "a negative"
                                            : "an infinite",
                            rgb[i]);
@@ -129,7 +166,7 @@ envmap_t *envmap_new(const float *rgb, int w, int h, const char *name, err_t *er
     }
     e->mean_y = sum_y / (4.0 * PF_PI);
     e->upper_e = 0.5 * sum_e;
-    if (!(e->dist = distrib2d_new(weights, w, h, err)))
+    if (!(e->dist = distrib2d_new(weights, w, h, err)) || compensate(e, rgb, weights, err))
         goto fail;
     free(weights);
     rgb_uplift_destroy(&t);
@@ -163,10 +200,31 @@ double envmap_texel_value(const envmap_t *self, size_t texel, double lambda)
     return rgb_uplift_eval(self->coef + 4 * texel, lambda);
 }
 
+static const distrib2d_t *distribution(const envmap_t *self, bool compensated)
+{
+    return compensated && self->comp ? self->comp : self->dist;
+}
+
+bool envmap_has_compensated(const envmap_t *self)
+{
+    return self->comp != NULL;
+}
+
 vec3_t envmap_sample(const envmap_t *self, double u0, double u1, size_t *texel, double *pdf)
 {
+    return envmap_sample_as(self, false, u0, u1, texel, pdf);
+}
+
+double envmap_pdf(const envmap_t *self, vec3_t w)
+{
+    return envmap_pdf_as(self, false, w);
+}
+
+vec3_t envmap_sample_as(const envmap_t *self, bool compensated, double u0, double u1, size_t *texel,
+                        double *pdf)
+{
     double u, v, p;
-    distrib2d_sample(self->dist, u0, u1, &u, &v, &p);
+    distrib2d_sample(distribution(self, compensated), u0, u1, &u, &v, &p);
     *texel = texel_at(self, u, v);
     double jac = jacobian(self, v);
     /* At a lat-long pole the density over directions is unbounded: no sample (pdf 0). */
@@ -174,12 +232,12 @@ vec3_t envmap_sample(const envmap_t *self, double u0, double u1, size_t *texel, 
     return uv_to_dir(self, u, v);
 }
 
-double envmap_pdf(const envmap_t *self, vec3_t w)
+double envmap_pdf_as(const envmap_t *self, bool compensated, vec3_t w)
 {
     double u, v;
     dir_to_uv(self, w, &u, &v);
     double jac = jacobian(self, v);
-    return jac > 0.0 ? distrib2d_pdf(self->dist, u, v) / jac : 0.0;
+    return jac > 0.0 ? distrib2d_pdf(distribution(self, compensated), u, v) / jac : 0.0;
 }
 
 double envmap_mean_luminance(const envmap_t *self)

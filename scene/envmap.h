@@ -6,10 +6,11 @@
  * an RGB illuminant spectrum m * s(lambda) times the light's D65 (pbrt-v4 RGBIlluminantSpectrum,
  * m = 2 max(r, g, b), s the smooth uplift of rgb / m), looked up at the nearest texel as pbrt-v4
  * does. The uplift coefficients are computed once per texel at load by rgb_uplift (the rule
- * image textures share), so that a lookup costs one sigmoid. Directions are drawn by a piecewise-constant
- * density over the texels proportional to their channel average (pbrt-v4
+ * image textures share), so that a lookup costs one sigmoid. Directions are drawn by a
+ * piecewise-constant density over the texels proportional to their channel average (pbrt-v4
  * Image::GetSamplingDistribution; times sin(theta) for lat-long), which is a density over
- * directions proportional to that average. Immutable once made, safe to share between threads. */
+ * directions proportional to that average, or by the compensated density below (light sampling
+ * under MIS only). Immutable once made, safe to share between threads. */
 #ifndef PRISMFARM_ENVMAP_H
 #define PRISMFARM_ENVMAP_H
 
@@ -46,13 +47,27 @@ vec3_t envmap_sample(const envmap_t *self, double u0, double u1, size_t *texel, 
 /* The solid-angle pdf envmap_sample has for light-space direction w. */
 double envmap_pdf(const envmap_t *self, vec3_t w);
 
+/* The compensated distribution (pbrt-v4 ImageInfiniteLight's compensatedDistribution; PBR 4th
+ * ed. sec. 12.5.3; Karlik et al. 2019, "MIS Compensation"), built at load beside the plain one:
+ * a density over directions proportional to max(c - c_avg, 0), c a texel's channel average and
+ * c_avg its mean over directions. It is 0 exactly where c <= c_avg, so it is only for light
+ * sampling that another strategy (BSDF or phase sampling, under MIS) completes: that strategy
+ * alone covers the dim directions, and the light's samples go to what stands out (the sun). An
+ * image with no texel above its average (a uniform one) has none, and the plain distribution
+ * serves in its place, as pbrt-v4 does. The _as functions take the distribution to use:
+ * compensated false is envmap_sample / envmap_pdf. */
+bool envmap_has_compensated(const envmap_t *self);
+vec3_t envmap_sample_as(const envmap_t *self, bool compensated, double u0, double u1, size_t *texel,
+                        double *pdf);
+double envmap_pdf_as(const envmap_t *self, bool compensated, vec3_t w);
+
 /* Mean over directions of the texels' luminance Y (linear sRGB). */
 double envmap_mean_luminance(const envmap_t *self);
 /* pbrt-v4's "illuminance" normaliser k_e (lights.cpp, ImageInfiniteLight): 2 pi / N times the
  * sum over texels with z > 0 of Y cos(theta) (lat-long: each texel weighted by its solid
- * angle, so that k_e stays half the upper illuminance). That is half the illuminance the map gives a
- * surface facing light-space +z (4 pi / N per texel), so a pbrt-v4 map scaled to
- * "illuminance" E delivers 2 E; kept as pbrt-v4 has it, so that its scenes render alike. */
+ * angle, so that k_e stays half the upper illuminance). That is half the illuminance the map gives
+ * a surface facing light-space +z (4 pi / N per texel), so a pbrt-v4 map scaled to "illuminance" E
+ * delivers 2 E; kept as pbrt-v4 has it, so that its scenes render alike. */
 double envmap_upper_illuminance(const envmap_t *self);
 
 #endif

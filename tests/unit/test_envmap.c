@@ -28,8 +28,8 @@
 #include "lights.h"
 #include "rng.h"
 #include "sample.h"
-#include "spectrum.h"
 #include "scene_builders.h"
+#include "spectrum.h"
 
 #define PI 3.14159265358979323846
 
@@ -127,7 +127,8 @@ static void test_envmap_pdf(void **state)
     enum { N = 400000 };
     double sum = 0, sum2 = 0;
     for (int i = 0; i < N; i++) {
-        vec3_t d = sample_uniform_sphere(rng_uniform(3, (uint64_t)i, 0, 0), rng_uniform(3, (uint64_t)i, 0, 1));
+        vec3_t d = sample_uniform_sphere(rng_uniform(3, (uint64_t)i, 0, 0),
+                                         rng_uniform(3, (uint64_t)i, 0, 1));
         double f = envmap_pdf(e, d) * 4 * PI;
         sum += f;
         sum2 += f * f;
@@ -149,8 +150,8 @@ static void test_envmap_pdf(void **state)
     for (int i = 0; i < N; i++) {
         size_t texel;
         double pdf;
-        vec3_t d = envmap_sample(e, rng_uniform(5, (uint64_t)i, 0, 0), rng_uniform(5, (uint64_t)i, 0, 1),
-                                 &texel, &pdf);
+        vec3_t d = envmap_sample(e, rng_uniform(5, (uint64_t)i, 0, 0),
+                                 rng_uniform(5, (uint64_t)i, 0, 1), &texel, &pdf);
         double u, v;
         equal_area_sphere_to_square(d, &u, &v);
         int bx = (int)(u * B), by = (int)(v * B);
@@ -185,8 +186,11 @@ static void test_envmap_pdf(void **state)
 static void test_envmap_colour(void **state)
 {
     (void)state;
-    const float cols[][3] = {{0.3f, 0.5f, 0.7f}, {1.0f, 0.85f, 0.62f}, {0.22f, 0.42f, 0.9f},
-                             {2.0f, 0.1f, 0.05f}, {0.45f, 0.45f, 0.45f}};
+    const float cols[][3] = {{0.3f, 0.5f, 0.7f},
+                             {1.0f, 0.85f, 0.62f},
+                             {0.22f, 0.42f, 0.9f},
+                             {2.0f, 0.1f, 0.05f},
+                             {0.45f, 0.45f, 0.45f}};
     err_t err;
     spectrum_t *d65 = spectrum_new_cie_d65(&err);
     assert_non_null(d65);
@@ -206,7 +210,8 @@ static void test_envmap_colour(void **state)
         }
         xyz_t want = colour_linear_srgb_to_xyz((rgb_t){cols[c][0], cols[c][1], cols[c][2]});
         double tol = 0.01 * want.y;
-        if (!(fabs(xyz.x - want.x) < tol && fabs(xyz.y - want.y) < tol && fabs(xyz.z - want.z) < tol))
+        if (!(fabs(xyz.x - want.x) < tol && fabs(xyz.y - want.y) < tol &&
+              fabs(xyz.z - want.z) < tol))
             fail_msg("rgb (%g %g %g): XYZ %g %g %g, want %g %g %g", cols[c][0], cols[c][1],
                      cols[c][2], xyz.x, xyz.y, xyz.z, want.x, want.y, want.z);
         envmap_destroy(&e);
@@ -403,7 +408,8 @@ static void test_non_square_refused(void **state)
     /* "L" with "filename" is an error in pbrt-v4. */
     snprintf(text, sizeof text,
              "Camera \"perspective\"\nWorldBegin\n"
-             "LightSource \"infinite\" \"rgb L\" [1 1 1] \"string filename\" \"%s\"\n", pfm);
+             "LightSource \"infinite\" \"rgb L\" [1 1 1] \"string filename\" \"%s\"\n",
+             pfm);
     assert_null(sb_load_text(text, &err));
     assert_non_null(strstr(err.msg, "both \"L\" and \"filename\""));
 }
@@ -425,7 +431,8 @@ static void test_latlong(void **state)
 {
     (void)state;
     const int n = 128;
-    float *ea = malloc((size_t)n * n * 3 * sizeof *ea), *ll = malloc((size_t)2 * n * n * 3 * sizeof *ll);
+    float *ea = malloc((size_t)n * n * 3 * sizeof *ea),
+          *ll = malloc((size_t)2 * n * n * 3 * sizeof *ll);
     for (int y = 0; y < n; y++)
         for (int x = 0; x < n; x++)
             analytic_env(equal_area_square_to_sphere((x + 0.5) / n, (y + 0.5) / n),
@@ -443,14 +450,16 @@ static void test_latlong(void **state)
     assert_false(envmap_is_latlong(a));
     assert_true(envmap_is_latlong(b));
     print_message("mean Y %.5f / %.5f, k_e %.5f / %.5f\n", envmap_mean_luminance(a),
-                  envmap_mean_luminance(b), envmap_upper_illuminance(a), envmap_upper_illuminance(b));
+                  envmap_mean_luminance(b), envmap_upper_illuminance(a),
+                  envmap_upper_illuminance(b));
     assert_true(fabs(envmap_mean_luminance(b) / envmap_mean_luminance(a) - 1) < 0.005);
     assert_true(fabs(envmap_upper_illuminance(b) / envmap_upper_illuminance(a) - 1) < 0.005);
 
     enum { N = 200000 };
     double sum = 0, sum2 = 0, dy = 0, ya = 0;
     for (int i = 0; i < N; i++) {
-        vec3_t d = sample_uniform_sphere(rng_uniform(7, (uint64_t)i, 0, 0), rng_uniform(7, (uint64_t)i, 0, 1));
+        vec3_t d = sample_uniform_sphere(rng_uniform(7, (uint64_t)i, 0, 0),
+                                         rng_uniform(7, (uint64_t)i, 0, 1));
         double f = envmap_pdf(b, d) * 4 * PI;
         sum += f;
         sum2 += f * f;
@@ -460,14 +469,15 @@ static void test_latlong(void **state)
     }
     double mean = sum / N, se = sqrt((sum2 / N - mean * mean) / N);
     print_message("lat-long pdf over the sphere: %.5f +- %.5f; mean |difference| of the two "
-                  "maps' radiance %.4f of the mean\n", mean, se, dy / ya);
+                  "maps' radiance %.4f of the mean\n",
+                  mean, se, dy / ya);
     assert_true(fabs(mean - 1.0) < 5 * se && se < 0.02);
     assert_true(dy / ya < 0.02); /* nearest texels of two resolutions, not a flipped map */
     for (int i = 0; i < 20000; i++) {
         size_t texel;
         double pdf;
-        vec3_t d = envmap_sample(b, rng_uniform(9, (uint64_t)i, 0, 0), rng_uniform(9, (uint64_t)i, 0, 1),
-                                 &texel, &pdf);
+        vec3_t d = envmap_sample(b, rng_uniform(9, (uint64_t)i, 0, 0),
+                                 rng_uniform(9, (uint64_t)i, 0, 1), &texel, &pdf);
         assert_true(isfinite(pdf) && pdf > 0);
         assert_true(fabs(vec3_dot(d, d) - 1) < 1e-9);
         double q = envmap_pdf(b, d);
@@ -503,7 +513,8 @@ static void test_illuminance_and_portal(void **state)
              "Camera \"perspective\"\nWorldBegin\n"
              "LightSource \"infinite\" \"string filename\" \"%s\" \"float illuminance\" 2\n"
              "  \"point3 portal\" [0 0 0  1 0 0  1 1 0  0 1 0]\n"
-             "Shape \"sphere\"\n", pfm);
+             "Shape \"sphere\"\n",
+             pfm);
     scene_t *s = sb_load_text(text, NULL);
     const light_t *l = &s->lights[0];
     assert_non_null(l->envmap);
@@ -517,6 +528,314 @@ static void test_illuminance_and_portal(void **state)
                   strstr(warnings_at(s->warnings, i), "t.pbrt:4:") != NULL;
     assert_true(warned);
     scene_destroy(&s);
+}
+
+/* ---- the compensated distribution ---- */
+
+/* A sun and sky: a sky brighter toward +z and bluish, a darker ground, and a sun of radius
+ * 5 degrees and radiance 300 toward (0.3, 0.2, 0.93). */
+static void sun_sky(vec3_t d, float *p)
+{
+    const vec3_t sun = vec3_normalize(vec3_make(0.3, 0.2, 0.93));
+    double up = d.z > 0 ? d.z : 0;
+    p[0] = (float)(0.25 + 0.15 * up);
+    p[1] = (float)(0.3 + 0.25 * up);
+    p[2] = (float)(0.35 + 0.5 * up);
+    if (d.z < 0)
+        p[0] = p[1] = p[2] = 0.15f;
+    if (vec3_dot(d, sun) > cos(5.0 * PI / 180.0)) {
+        p[0] = 300.0f;
+        p[1] = 270.0f;
+        p[2] = 220.0f;
+    }
+}
+
+/* An n x n equal-area (lat-long: 2n x n) image of env, top row first. */
+static float *env_image(int n, int latlong, void (*env)(vec3_t, float *))
+{
+    int w = latlong ? 2 * n : n;
+    float *rgb = malloc((size_t)w * n * 3 * sizeof *rgb);
+    for (int y = 0; y < n; y++)
+        for (int x = 0; x < w; x++) {
+            vec3_t d;
+            if (latlong) {
+                double phi = 2 * PI * (x + 0.5) / w, theta = PI * (y + 0.5) / n;
+                d = vec3_make(sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta));
+            } else {
+                d = equal_area_square_to_sphere((x + 0.5) / n, (y + 0.5) / n);
+            }
+            env(d, rgb + 3 * ((size_t)y * w + x));
+        }
+    return rgb;
+}
+
+/* The compensated pdf, for the test image and a lat-long sun and sky: it integrates to 1 over
+ * the sphere where it is > 0 (estimated with uniform directions), it is 0 exactly where the
+ * texel's channel average is at or below the image's mean over directions (computed here from
+ * the texels and their solid angles, and checked at every texel's centre), sampled directions
+ * carry the pdf envmap_pdf_as gives them and never land on such a texel, and where it is > 0
+ * it is proportional to c - mean (the ratio to the plain pdf, c / (c - mean) up to a constant). */
+static void test_compensated_pdf(void **state)
+{
+    (void)state;
+    for (int ll = 0; ll < 2; ll++) {
+        const int n = ll ? 64 : 32, w = ll ? 2 * n : n;
+        float *rgb = ll ? env_image(n, 1, sun_sky) : test_image(n);
+        err_t err;
+        envmap_t *e = envmap_new(rgb, w, n, "comp", &err);
+        assert_non_null(e);
+        assert_true(envmap_has_compensated(e));
+        double sum_c = 0, sum_sa = 0;
+        for (int y = 0; y < n; y++)
+            for (int x = 0; x < w; x++) {
+                const float *p = rgb + 3 * ((size_t)y * w + x);
+                double sa = ll ? sin(PI * (y + 0.5) / n) : 1.0;
+                sum_c += ((double)p[0] + p[1] + p[2]) / 3.0 * sa;
+                sum_sa += sa;
+            }
+        const double avg = sum_c / sum_sa;
+        double k = -1; /* comp pdf * (c / (c - avg)) / plain pdf, the same for every texel */
+        int zero = 0;
+        for (int y = 0; y < n; y++)
+            for (int x = 0; x < w; x++) {
+                const float *p = rgb + 3 * ((size_t)y * w + x);
+                double c = ((double)p[0] + p[1] + p[2]) / 3.0;
+                vec3_t d;
+                if (ll) {
+                    double phi = 2 * PI * (x + 0.5) / w, theta = PI * (y + 0.5) / n;
+                    d = vec3_make(sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta));
+                } else {
+                    d = equal_area_square_to_sphere((x + 0.5) / n, (y + 0.5) / n);
+                }
+                double q = envmap_pdf_as(e, true, d), q0 = envmap_pdf(e, d);
+                if (c <= avg) {
+                    if (q != 0.0)
+                        fail_msg("texel (%d, %d): c %g <= mean %g, compensated pdf %g", x, y, c,
+                                 avg, q);
+                    zero++;
+                    continue;
+                }
+                assert_true(q > 0.0 && q0 > 0.0);
+                double r = q * c / ((c - avg) * q0);
+                if (k < 0)
+                    k = r;
+                if (!(fabs(r / k - 1.0) < 1e-6))
+                    fail_msg("texel (%d, %d): compensated / plain pdf off by %.9g", x, y, r / k);
+            }
+        assert_true(zero > 0);
+        /* The integral by the midpoint rule on 4x4 points per texel, each weighted by its
+         * solid angle (equal-area: 4 pi / points; lat-long: 2 pi^2 sin(theta) / points). */
+        const int q = 4;
+        double integral = 0;
+        for (int y = 0; y < n * q; y++)
+            for (int x = 0; x < w * q; x++) {
+                double u = (x + 0.5) / (w * q), v = (y + 0.5) / (n * q), jac = 4 * PI;
+                vec3_t d = equal_area_square_to_sphere(u, v);
+                if (ll) {
+                    d = vec3_make(sin(PI * v) * cos(2 * PI * u), sin(PI * v) * sin(2 * PI * u),
+                                  cos(PI * v));
+                    jac = 2 * PI * PI * sin(PI * v);
+                }
+                integral += envmap_pdf_as(e, true, d) * jac / ((double)w * q * n * q);
+            }
+        print_message("%s: compensated pdf over the sphere %.6f; %d of %d texels at or below "
+                      "the mean %.4f\n",
+                      ll ? "lat-long sun and sky" : "test image", integral, zero, w * n, avg);
+        assert_true(fabs(integral - 1.0) < 1e-6);
+        for (int i = 0; i < 50000; i++) {
+            size_t texel;
+            double pdf;
+            vec3_t d = envmap_sample_as(e, true, rng_uniform(23, (uint64_t)i, 0, 0),
+                                        rng_uniform(23, (uint64_t)i, 0, 1), &texel, &pdf);
+            const float *p = rgb + 3 * texel;
+            assert_true(((double)p[0] + p[1] + p[2]) / 3.0 > avg);
+            double q = envmap_pdf_as(e, true, d);
+            if (!(fabs(q - pdf) <= 1e-6 * pdf))
+                fail_msg("sample %d: pdf %g, envmap_pdf_as %g", i, pdf, q);
+        }
+        envmap_destroy(&e);
+        free(rgb);
+    }
+}
+
+/* A uniform image (equal-area and lat-long) has no texel above its average: no compensated
+ * distribution, and asking for it gives the plain one, sample for sample. */
+static void test_compensated_uniform_falls_back(void **state)
+{
+    (void)state;
+    for (int ll = 0; ll < 2; ll++) {
+        const int n = 16, w = ll ? 2 * n : n;
+        float *rgb = malloc((size_t)w * n * 3 * sizeof *rgb);
+        for (size_t i = 0; i < (size_t)w * n; i++) {
+            rgb[3 * i] = 0.3f;
+            rgb[3 * i + 1] = 0.7f;
+            rgb[3 * i + 2] = 0.1f;
+        }
+        err_t err;
+        envmap_t *e = envmap_new(rgb, w, n, "uniform", &err);
+        assert_non_null(e);
+        assert_false(envmap_has_compensated(e));
+        for (int i = 0; i < 1000; i++) {
+            double u0 = rng_uniform(25, (uint64_t)i, 0, 0), u1 = rng_uniform(25, (uint64_t)i, 0, 1);
+            size_t ta, tb;
+            double pa, pb;
+            vec3_t a = envmap_sample_as(e, true, u0, u1, &ta, &pa);
+            vec3_t b = envmap_sample(e, u0, u1, &tb, &pb);
+            assert_true(a.x == b.x && a.y == b.y && a.z == b.z && ta == tb && pa == pb);
+            assert_true(envmap_pdf_as(e, true, a) == envmap_pdf(e, a));
+            if (!ll) /* uniform (lat-long: up to the texel's sin(theta) against the point's) */
+                assert_true(fabs(pa * 4 * PI - 1.0) < 1e-12);
+        }
+        envmap_destroy(&e);
+        free(rgb);
+    }
+}
+
+/* The irradiance at the origin on a surface facing +z under the sun and sky, estimated as
+ * next-event estimation does it: a light sample (lights_sample, mis as given) and a cosine
+ * sample (the Lambertian BSDF's), weighted by the power heuristic with the pdfs lights_pdf
+ * gives (with bsdf_mis the mis it asks with; 0 with a compensated light sample is the
+ * inconsistent pairing). Returns the mean over N samples, its standard error and the variance
+ * of one sample. */
+static void mis_irradiance(const scene_t *s, int mis, int bsdf_mis, double lambda, int seed,
+                           double *mean, double *se, double *var)
+{
+    enum { N = 200000 };
+    const light_t *l = &s->lights[0];
+    const double value = lights_value(l, lambda);
+    const lights_at_t at = {.p = vec3_make(0, 0, 0), .n = vec3_make(0, 0, 1), .mis = mis};
+    const lights_at_t at_b = {.p = vec3_make(0, 0, 0), .n = vec3_make(0, 0, 1), .mis = bsdf_mis};
+    double sum = 0, sum2 = 0;
+    for (int i = 0; i < N; i++) {
+        double u[4], f = 0;
+        rng_uniform4((uint64_t)seed, (uint64_t)i, 0, 0, u);
+        light_sample_t ls;
+        if (lights_sample(s, &at, u, &ls) && ls.wi.z > 0) {
+            /* the pdf in both directions is the same */
+            double lp = lights_pdf(s, &at, ls.light, ls.wi, ls.p_light, ls.n_light);
+            if (!(fabs(lp - ls.pdf) <= 1e-9 * ls.pdf))
+                fail_msg("mis %d: lights_sample pdf %g, lights_pdf %g", mis, ls.pdf, lp);
+            double pb = ls.wi.z / PI, a = ls.pdf * ls.pdf;
+            f += lights_sample_emission_of(s, &ls, value, lambda) * ls.wi.z / ls.pdf * a /
+                 (a + pb * pb);
+        }
+        vec3_t wi = sample_cosine_hemisphere(rng_uniform((uint64_t)seed, (uint64_t)i, 1, 0),
+                                             rng_uniform((uint64_t)seed, (uint64_t)i, 1, 1));
+        if (wi.z > 0) {
+            double pb = wi.z / PI, lp = lights_pdf(s, &at_b, 0, wi, at.p, wi);
+            double L = lights_envmap_radiance(l, lights_envmap_texel(l, wi), value, lambda);
+            f += L * wi.z / pb * pb * pb / (pb * pb + lp * lp);
+        }
+        sum += f;
+        sum2 += f * f;
+    }
+    *mean = sum / N;
+    *var = sum2 / N - *mean * *mean;
+    *se = sqrt(*var / N);
+}
+
+/* Next-event estimation with the compensated distribution is unbiased and sends the light's
+ * samples to the sun: the MIS estimate of the irradiance under the sun and sky matches a
+ * quadrature of the map (every texel split 8x8) with the plain distribution and with the
+ * compensated one, whose variance is lower; a compensated light sample weighed against a BSDF
+ * side that asks for the plain pdf (the pairing lights_pdf's at must prevent) misses the
+ * quadrature by far more than its noise, so this test can tell. */
+static void test_compensated_unbiased(void **state)
+{
+    (void)state;
+    const int n = 64;
+    float *rgb = env_image(n, 0, sun_sky);
+    char hdr[64];
+    int h = snprintf(hdr, sizeof hdr, "PF\n%d %d\n-1\n", n, n);
+    const char *pfm = testutil_scratch("sunsky.pfm");
+    FILE *fp = fopen(pfm, "wb");
+    assert_non_null(fp);
+    fwrite(hdr, 1, (size_t)h, fp);
+    for (int fy = 0; fy < n; fy++) /* PFM: bottom row first */
+        for (int i = 0; i < 3 * n; i++) {
+            uint8_t b[4];
+            put_f32(b, rgb[3 * (size_t)(n - 1 - fy) * n + i], 1);
+            fwrite(b, 1, 4, fp);
+        }
+    fclose(fp);
+    char text[1024];
+    snprintf(text, sizeof text,
+             "Camera \"perspective\"\nWorldBegin\n"
+             "LightSource \"infinite\" \"string filename\" \"%s\"\n",
+             pfm);
+    scene_t *s = sb_load_text(text, NULL);
+    const light_t *l = &s->lights[0];
+    assert_non_null(l->envmap);
+    assert_true(envmap_has_compensated(l->envmap));
+    const double lambda = 550.0, value = lights_value(l, lambda);
+    double exact = 0;
+    const int k = 8;
+    for (int y = 0; y < n * k; y++)
+        for (int x = 0; x < n * k; x++) {
+            vec3_t d = equal_area_square_to_sphere((x + 0.5) / (n * k), (y + 0.5) / (n * k));
+            if (d.z > 0)
+                exact += lights_envmap_radiance(l, lights_envmap_texel(l, d), value, lambda) * d.z;
+        }
+    exact *= 4 * PI / ((double)n * k * n * k);
+    double m[3], se[3], var[3];
+    mis_irradiance(s, 0, 0, lambda, 31, &m[0], &se[0], &var[0]);
+    mis_irradiance(s, 1, 1, lambda, 31, &m[1], &se[1], &var[1]);
+    mis_irradiance(s, 1, 0, lambda, 31, &m[2], &se[2], &var[2]);
+    print_message("irradiance %.5f: plain %.5f +- %.5f, compensated %.5f +- %.5f (variance %.2fx "
+                  "lower), inconsistent pairing %.5f +- %.5f\n",
+                  exact, m[0], se[0], m[1], se[1], var[0] / var[1], m[2], se[2]);
+    assert_true(fabs(m[0] - exact) < 5 * se[0]);
+    assert_true(fabs(m[1] - exact) < 5 * se[1]);
+    assert_true(var[1] < var[0]);
+    assert_true(fabs(m[2] - exact) > 10 * se[2]);
+    scene_destroy(&s);
+    free(rgb);
+}
+
+/* A diffuse floor under the sun and sky, rendered by "path" (compensated light samples, MIS with
+ * the BSDF's) and by "whitted" (one plain light sample, nothing competing): the same mean
+ * within noise. */
+static void test_compensated_render(void **state)
+{
+    (void)state;
+    const int n = 64;
+    float *rgb = env_image(n, 0, sun_sky);
+    char hdr[64];
+    int h = snprintf(hdr, sizeof hdr, "PF\n%d %d\n-1\n", n, n);
+    const char *pfm = testutil_scratch("sunsky_r.pfm");
+    FILE *fp = fopen(pfm, "wb");
+    assert_non_null(fp);
+    fwrite(hdr, 1, (size_t)h, fp);
+    for (int fy = 0; fy < n; fy++)
+        for (int i = 0; i < 3 * n; i++) {
+            uint8_t b[4];
+            put_f32(b, rgb[3 * (size_t)(n - 1 - fy) * n + i], 1);
+            fwrite(b, 1, 4, fp);
+        }
+    fclose(fp);
+    const char *integ[2] = {"path", "whitted"};
+    sb_image_stats_t st[2];
+    for (int i = 0; i < 2; i++) {
+        char text[2048];
+        snprintf(text, sizeof text,
+                 "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 10\n"
+                 "Film \"spectral\" \"integer xresolution\" 8 \"integer yresolution\" 8\n"
+                 "Sampler \"independent\" \"integer pixelsamples\" 16\n"
+                 "Integrator \"%s\" \"integer maxdepth\" 1\nWorldBegin\n"
+                 "LightSource \"infinite\" \"string filename\" \"%s\"\n"
+                 "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+                 "Shape \"trianglemesh\" \"point3 P\" [-50 -50 0  50 -50 0  50 50 0  -50 50 0]"
+                 " \"integer indices\" [0 1 2 0 2 3]\n",
+                 integ[i], pfm);
+        scene_t *s = load_text_file(i ? "sunsky_whitted.pbrt" : "sunsky_path.pbrt", text);
+        st[i] = sb_render_stats(s, 8, 512);
+        scene_destroy(&s);
+        print_message("%s: floor %.5f +- %.5f, per-sample variance %.4g\n", integ[i], st[i].mean,
+                      st[i].se, st[i].var);
+    }
+    assert_true(fabs(st[0].mean - st[1].mean) <
+                5 * sqrt(st[0].se * st[0].se + st[1].se * st[1].se));
+    free(rgb);
 }
 
 /* ---- sphere lights: the cone ---- */
@@ -544,14 +863,14 @@ static void test_sphere_cone(void **state)
         double u[4];
         rng_uniform4(13, (uint64_t)i, 0, 0, u);
         light_sample_t ls;
-        assert_true(lights_sample(s, p, u, &ls));
+        assert_true(lights_sample(s, &(lights_at_t){.p = p}, u, &ls));
         /* the direction meets the sphere at the sampled point */
         vec3_t q = vec3_fma(p, ls.wi, ls.dist);
         assert_true(fabs(vec3_length(vec3_sub(q, c)) - r) < 1e-9);
         double b = vec3_dot(ls.wi, vec3_sub(c, p));
         double disc = b * b - (d * d - r * r);
         assert_true(disc >= -1e-12 && fabs(ls.dist - (b - sqrt(fmax(0, disc)))) < 1e-7);
-        double lp = lights_pdf(s, ls.light, p, ls.wi, ls.p_light, ls.n_light);
+        double lp = lights_pdf(s, &(lights_at_t){.p = p}, ls.light, ls.wi, ls.p_light, ls.n_light);
         assert_true(fabs(lp - ls.pdf) <= 1e-12 * ls.pdf);
         pdf0 = ls.pdf;
         double ct = vec3_dot(ls.wi, axis);
@@ -566,7 +885,8 @@ static void test_sphere_cone(void **state)
     double hits = 0;
     const int M = 2000000;
     for (int i = 0; i < M; i++) {
-        vec3_t w = sample_uniform_sphere(rng_uniform(17, (uint64_t)i, 0, 0), rng_uniform(17, (uint64_t)i, 0, 1));
+        vec3_t w = sample_uniform_sphere(rng_uniform(17, (uint64_t)i, 0, 0),
+                                         rng_uniform(17, (uint64_t)i, 0, 1));
         double b = vec3_dot(w, vec3_sub(c, p));
         hits += b > 0 && b * b - (d * d - r * r) >= 0;
     }
@@ -602,7 +922,7 @@ static void test_sphere_cone_variance(void **state)
         rng_uniform4(19, (uint64_t)i, 0, 0, u);
         light_sample_t ls;
         double f = 0;
-        if (lights_sample(s, p, u, &ls) && vec3_dot(ls.n_light, ls.wi) < 0)
+        if (lights_sample(s, &(lights_at_t){.p = p}, u, &ls) && vec3_dot(ls.n_light, ls.wi) < 0)
             f = L * fmax(0, vec3_dot(n, ls.wi)) / ls.pdf;
         m[0] += f;
         m2[0] += f * f;
@@ -642,6 +962,10 @@ int main(void)
         cmocka_unit_test(test_non_square_refused),
         cmocka_unit_test(test_latlong),
         cmocka_unit_test(test_illuminance_and_portal),
+        cmocka_unit_test(test_compensated_pdf),
+        cmocka_unit_test(test_compensated_uniform_falls_back),
+        cmocka_unit_test(test_compensated_unbiased),
+        cmocka_unit_test(test_compensated_render),
         cmocka_unit_test(test_sphere_cone),
         cmocka_unit_test(test_sphere_cone_variance),
     };
