@@ -10,6 +10,7 @@
 
 typedef struct light_sample {
     int light;      /* index into scene->lights */
+    size_t tri;     /* a mesh light's triangle that was sampled (else 0) */
     vec3_t wi;      /* unit direction from the shading point toward the light */
     double dist;    /* distance to the sampled point; INFINITY for distant and infinite lights */
     double pdf;     /* pmf of the light times the solid-angle pdf (delta lights: the pmf) */
@@ -22,14 +23,31 @@ typedef struct light_sample {
     double uv[2];   /* image area lights: the texture coordinates of the sampled point */
 } light_sample_t;
 
-/* Samples a light for shading point p with four uniform numbers: u[0] picks the light, u[1]
- * a mesh light's triangle, u[2] and u[3] the point or direction. A sphere light seen from
- * outside is sampled uniformly in the cone of directions it subtends (pbrt-v4 Sphere::Sample:
- * every sample lands on the visible cap), an image environment by its texels' distribution
- * (envmap.h), a uniform one uniformly over the sphere. Returns 0 when nothing can be
- * sampled (no lights, a collimated light, a zero-area light, a point outside a projection
- * light's frustum, a degenerate configuration). */
-int lights_sample(const scene_t *scene, vec3_t p, const double u[4], light_sample_t *out);
+/* Where a light is sampled from, and what competes with the sample. */
+typedef struct lights_at {
+    vec3_t p;  /* the shading point */
+    vec3_t n;  /* its unit shading normal; (0, 0, 0) at a point in a medium */
+    int mis;   /* BSDF or phase sampling competes under MIS (image lights may then sample
+                * their compensated distribution) */
+} lights_at_t;
+
+/* Samples a light for shading point at->p with four uniform numbers: u[0] picks the emitter
+ * (a light, or one triangle of a mesh light: scene/emitters.h) as settings.light_sampler says
+ * -- the light BVH by importance at (at->p, at->n) with the distant and infinite lights chosen
+ * uniformly beside it, or by power, or uniformly, each as pbrt-v4 defines them --, u[1] a mesh
+ * light's triangle under "power" (by area within the light), u[2] and u[3] the point or
+ * direction. A triangle or disk is sampled uniformly by area; a sphere light seen from outside
+ * uniformly in the cone of directions it subtends (pbrt-v4 Sphere::Sample: every sample lands
+ * on the visible cap), an image environment by its texels' distribution (envmap.h), a uniform
+ * one uniformly over the sphere. Returns 0 when nothing can be sampled (no lights, a
+ * collimated light, a zero-area light, a point outside a projection light's frustum, no
+ * emitter of nonzero importance, a degenerate configuration). */
+int lights_sample(const scene_t *scene, const lights_at_t *at, const double u[4], light_sample_t *out);
+
+/* The probability that lights_sample picks light l's emitter tri (the triangle of a mesh
+ * light; ignored for other lights) at `at`: over every emitter it sums to 1 (or 0 where the
+ * BVH finds nothing of nonzero importance). */
+double lights_pmf(const scene_t *scene, const lights_at_t *at, int l, size_t tri);
 
 /* The light's spectral value at lambda: its spectrum times its scale, the factor every
  * emission query multiplies in. A pure function of (l, lambda), so a caller may keep it
@@ -83,10 +101,12 @@ double lights_environment(const scene_t *scene, double lambda);
 size_t lights_envmap_texel(const light_t *l, vec3_t wi);
 double lights_envmap_radiance(const light_t *l, size_t texel, double value, double lambda);
 
-/* The pdf lights_sample would have had for hitting light l at point p_light with normal ng,
- * seen from p along unit wi (area lights: the cone's for a sphere seen from outside), or along
- * wi toward infinity (infinite lights). */
-double lights_pdf(const scene_t *scene, int light, vec3_t p, vec3_t wi, vec3_t p_light,
-                  vec3_t ng);
+/* The pdf lights_sample would have had at `at` for reaching light l (triangle tri of a mesh
+ * light, the hit's primitive; ignored otherwise) at point p_light with normal ng along unit wi
+ * (area lights: the cone's for a sphere seen from outside), or along wi toward infinity
+ * (infinite lights): lights_pmf times the point's or direction's pdf, the same numbers in the
+ * same order as lights_sample, so the two agree to the last bit for the same sample. */
+double lights_pdf(const scene_t *scene, const lights_at_t *at, int l, size_t tri, vec3_t wi,
+                  vec3_t p_light, vec3_t ng);
 
 #endif
