@@ -233,7 +233,8 @@ static int choose_emitter(const scene_t *scene, const lights_at_t *at, double u0
         return 0;
     size_t e;
     double bvh_pmf;
-    if (!light_bvh_sample(scene->light_bvh, at->p, at->n, (u0 - p_inf) / (1.0 - p_inf), &e, &bvh_pmf))
+    if (!light_bvh_sample(scene->light_bvh, at->p, at->n, (u0 - p_inf) / (1.0 - p_inf), &e,
+                          &bvh_pmf))
         return 0;
     *light = emitters_light(scene, e, tri);
     *pmf = (1.0 - p_inf) * bvh_pmf;

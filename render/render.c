@@ -234,8 +234,8 @@ static lights_at_t prev_at(const path_t *p)
 }
 
 /* Emission seen by the path at a hit on triangle tri (0 for analytic shapes) of an area light. */
-static void add_emission_hit(ctx_t *c, const path_t *p, const surface_t *sf, const light_t *l, int li,
-                             size_t tri)
+static void add_emission_hit(ctx_t *c, const path_t *p, const surface_t *sf, const light_t *l,
+                             int li, size_t tri)
 {
     double w = 1.0;
     if (c->rs->integrator == INTEGRATOR_PATH && !p->specular) {

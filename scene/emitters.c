@@ -18,7 +18,8 @@ static vec3_t vertex(const shape_t *s, size_t t, int k)
 double emitters_triangle_area(const shape_t *s, size_t t)
 {
     vec3_t p0 = vertex(s, t, 0);
-    return 0.5 * vec3_length(vec3_cross(vec3_sub(vertex(s, t, 1), p0), vec3_sub(vertex(s, t, 2), p0)));
+    return 0.5 *
+           vec3_length(vec3_cross(vec3_sub(vertex(s, t, 1), p0), vec3_sub(vertex(s, t, 2), p0)));
 }
 
 int emitters_light(const scene_t *self, size_t e, size_t *tri)
@@ -117,7 +118,8 @@ static void analytic_bounds(const scene_t *self, const light_t *l, light_bounds_
     } else {
         double r = s->radius;
         for (int k = 0; k < 4; k++) {
-            vec3_t q = transform_point(&s->to_world, vec3_make(k & 1 ? r : -r, k & 2 ? r : -r, s->height));
+            vec3_t q =
+                transform_point(&s->to_world, vec3_make(k & 1 ? r : -r, k & 2 ? r : -r, s->height));
             if (k == 0)
                 point_box(b, q);
             else
@@ -173,7 +175,8 @@ void emitters_bounds(const scene_t *self, size_t e, light_bounds_t *b)
         vec3_t axis = vec3_normalize(transform_vector(&l->from_light, vec3_make(0, 0, 1)));
         double c = 1.0;
         for (int k = 0; k < 4; k++) {
-            vec3_t d = transform_vector(&l->from_light, vec3_make(k & 1 ? X : -X, k & 2 ? Y : -Y, 1));
+            vec3_t d =
+                transform_vector(&l->from_light, vec3_make(k & 1 ? X : -X, k & 2 ? Y : -Y, 1));
             c = fmin(c, vec3_dot(axis, vec3_normalize(d)));
         }
         b->w = axis;
@@ -202,7 +205,8 @@ int scene_emitters_build(scene_t *self, err_t *err)
     self->infinite_lights = NULL;
     self->nemitters = self->ninfinite = 0;
     self->light_emitter0 = malloc((self->nlights + 1) * sizeof *self->light_emitter0);
-    self->infinite_lights = malloc((self->nlights ? self->nlights : 1) * sizeof *self->infinite_lights);
+    self->infinite_lights =
+        malloc((self->nlights ? self->nlights : 1) * sizeof *self->infinite_lights);
     if (!self->light_emitter0 || !self->infinite_lights)
         return err_set(err, "out of memory");
     size_t n = 0;

@@ -551,7 +551,8 @@ static void test_sphere_cone(void **state)
         double b = vec3_dot(ls.wi, vec3_sub(c, p));
         double disc = b * b - (d * d - r * r);
         assert_true(disc >= -1e-12 && fabs(ls.dist - (b - sqrt(fmax(0, disc)))) < 1e-7);
-        double lp = lights_pdf(s, &(lights_at_t){p, {0, 0, 0}, 0}, ls.light, ls.tri, ls.wi, ls.p_light, ls.n_light);
+        double lp = lights_pdf(s, &(lights_at_t){p, {0, 0, 0}, 0}, ls.light, ls.tri, ls.wi,
+                               ls.p_light, ls.n_light);
         assert_true(fabs(lp - ls.pdf) <= 1e-12 * ls.pdf);
         pdf0 = ls.pdf;
         double ct = vec3_dot(ls.wi, axis);
@@ -602,7 +603,8 @@ static void test_sphere_cone_variance(void **state)
         rng_uniform4(19, (uint64_t)i, 0, 0, u);
         light_sample_t ls;
         double f = 0;
-        if (lights_sample(s, &(lights_at_t){p, {0, 0, 0}, 0}, u, &ls) && vec3_dot(ls.n_light, ls.wi) < 0)
+        if (lights_sample(s, &(lights_at_t){p, {0, 0, 0}, 0}, u, &ls) &&
+            vec3_dot(ls.n_light, ls.wi) < 0)
             f = L * fmax(0, vec3_dot(n, ls.wi)) / ls.pdf;
         m[0] += f;
         m2[0] += f * f;
