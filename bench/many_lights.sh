@@ -30,7 +30,7 @@ def lamp(cx, cy, cz, r, L, nu=8, nv=5):
     for j in range(nv):
         for i in range(nu):
             a, b = j * nu + i, j * nu + (i + 1) % nu
-            I += [a, a + nu, b, b, a + nu, b + nu]
+            I += [a, b, a + nu, b, b + nu, a + nu]
     return ('AttributeBegin\nAreaLightSource "diffuse" "rgb L" [%g %g %g]\n'
             'Shape "trianglemesh" "point3 P" [%s] "integer indices" [%s]\nAttributeEnd\n'
             % (L[0], L[1], L[2], ' '.join('%.6f' % x for x in P), ' '.join(map(str, I))))

@@ -8,14 +8,15 @@
 
 #define PI 3.14159265358979323846
 
-/* A node as the draws read it, 64 bytes: boxes, axes and cosines in single precision, each
- * rounded outward (boxes grow, cosines fall, the cone widens by a margin that covers the axis's
- * rounding), so that a node's stored bounds still hold everything below it and no emitter gets
- * importance 0 where its exact bounds would have given it some. */
+/* A node as the draws read it, 64 bytes (a cache line): boxes, axes and cosines in single
+ * precision, each rounded outward (boxes grow, cosines fall, the cone widens by a margin that
+ * covers the axis's rounding), so that a node's stored bounds still hold everything below it and no
+ * emitter gets importance 0 where its exact bounds would have given it some. */
 typedef struct node {
     double phi;
     float lo[3], hi[3], w[3];
     float cos_o, cos_e;
+    float sin_o;    /* of the stored cos_o */
     uint32_t child; /* interior: the second child (the first is the next node); leaf: item */
     uint32_t flags; /* NODE_LEAF, NODE_TWOSIDED */
 } node_t;
@@ -73,8 +74,8 @@ static double safe_sqrt(double x)
  * reaches p when theta' > theta_e. The distance is clamped below at the bounding sphere's
  * radius (pbrt-v4 clamps d^2 at half the diagonal's length, which mixes units; the squared
  * radius keeps the importance a power over an area). */
-static double importance(vec3_t lo, vec3_t hi, vec3_t w, double phi, double cos_o, double cos_e,
-                         int twosided, vec3_t p, vec3_t n)
+static double importance(vec3_t lo, vec3_t hi, vec3_t w, double phi, double cos_o, double sin_o,
+                         double cos_e, int twosided, vec3_t p, vec3_t n)
 {
     if (!(phi > 0.0))
         return 0.0;
@@ -97,11 +98,14 @@ static double importance(vec3_t lo, vec3_t hi, vec3_t w, double phi, double cos_
     double cos_w = vec3_dot(w, wi);
     if (twosided)
         cos_w = fabs(cos_w);
-    double sin_w = safe_sqrt(1.0 - cos_w * cos_w);
-    double sin_o = safe_sqrt(1.0 - cos_o * cos_o);
-    double cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, cos_o);
-    double sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, cos_o);
-    double cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
+    /* Inside the normal cone (always for a point light's): theta' = 0, no sines needed. */
+    double cos_p = 1.0;
+    if (!(cos_w > cos_o)) {
+        double sin_w = safe_sqrt(1.0 - cos_w * cos_w);
+        double cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+        double sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, cos_o);
+        cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
+    }
     if (cos_p < cos_e)
         return 0.0;
     double imp = phi * cos_p / d2;
@@ -116,15 +120,16 @@ static double importance(vec3_t lo, vec3_t hi, vec3_t w, double phi, double cos_
 
 double light_bounds_importance(const light_bounds_t *b, vec3_t p, vec3_t n)
 {
-    return importance(b->lo, b->hi, b->w, b->phi, b->cos_o, b->cos_e, b->twosided, p, n);
+    return importance(b->lo, b->hi, b->w, b->phi, b->cos_o, safe_sqrt(1.0 - b->cos_o * b->cos_o),
+                      b->cos_e, b->twosided, p, n);
 }
 
 static double node_importance(const node_t *nd, vec3_t p, vec3_t n)
 {
     return importance(vec3_make(nd->lo[0], nd->lo[1], nd->lo[2]),
                       vec3_make(nd->hi[0], nd->hi[1], nd->hi[2]),
-                      vec3_make(nd->w[0], nd->w[1], nd->w[2]), nd->phi, nd->cos_o, nd->cos_e,
-                      (nd->flags & NODE_TWOSIDED) != 0, p, n);
+                      vec3_make(nd->w[0], nd->w[1], nd->w[2]), nd->phi, nd->cos_o, nd->sin_o,
+                      nd->cos_e, (nd->flags & NODE_TWOSIDED) != 0, p, n);
 }
 
 static double clamp_cos(double c)
@@ -212,6 +217,7 @@ static void node_store(node_t *nd, const light_bounds_t *b)
     }
     double to = acos(clamp_cos(b->cos_o)) + 1e-6;
     nd->cos_o = to >= PI ? -1.0f : float_down(cos(to));
+    nd->sin_o = (float)safe_sqrt(1.0 - (double)nd->cos_o * nd->cos_o);
     nd->cos_e = float_down(clamp_cos(b->cos_e));
     nd->phi = b->phi;
     nd->flags = b->twosided ? NODE_TWOSIDED : 0;
