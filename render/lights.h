@@ -1,6 +1,7 @@
-/* lights: next-event estimation. Picks a light in proportion to its power, samples a point or
- * direction on it as seen from a shading point, and evaluates emission, all with the pdfs that
- * multiple importance sampling needs. Delta lights (point, spot, distant) are reached only
+/* lights: next-event estimation. Picks an emitter (a light, or one triangle of a mesh light) as
+ * the scene's light sampler says -- the light BVH by importance as seen from the shading point,
+ * by power, or uniformly (scene/emitters.h) --, samples a point or direction on it, and
+ * evaluates emission, all with the pdfs that multiple importance sampling needs. Delta lights (point, spot, distant) are reached only
  * here; a collimated area light is delta in direction and reached by neither camera paths nor
  * light sampling (only by photons), as the thesis observed (fig. 6.7). */
 #ifndef PRISMFARM_LIGHTS_H
