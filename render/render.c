@@ -225,7 +225,6 @@ static int push(ctx_t *c, const path_t *p)
     return 0;
 }
 
-/* Emission seen by the path at a hit on an area light, or on leaving the scene. */
 /* The point the last bounce's next-event estimation sampled lights from, for the pdf that
  * light sampling would have had for what the bounce found. */
 static lights_at_t prev_at(const path_t *p)
