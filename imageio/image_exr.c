@@ -320,6 +320,25 @@ static int check_size(const char *path, int width, int height, int per_pixel, er
 
 /* Encodes every scanline chunk of part 0 from the sources, matching the library's (sorted)
  * channel list to the sources by name. */
+/* OpenEXRCore before 3.4.8 (AcademySoftwareFoundation/openexr#2306) keeps the zlib bytes of a
+ * chunk whose compressed size equals its packed size, while every reader takes a chunk of that
+ * size as stored raw: the chunk reads back as noise. This runs the library's compressor and then
+ * stores such a chunk raw, as the fixed library does. The original routine travels in
+ * encoding_user_data. */
+typedef struct exr_compress_guard {
+    exr_result_t (*compress)(exr_encode_pipeline_t *enc);
+} exr_compress_guard_t;
+
+static exr_result_t exr_compress_guarded(exr_encode_pipeline_t *enc)
+{
+    const exr_compress_guard_t *g = enc->encoding_user_data;
+    exr_result_t rv = g->compress(enc);
+    if (rv == EXR_ERR_SUCCESS && enc->compressed_bytes == enc->packed_bytes &&
+        enc->compressed_buffer != NULL && enc->compressed_buffer != enc->packed_buffer)
+        memcpy(enc->compressed_buffer, enc->packed_buffer, enc->packed_bytes);
+    return rv;
+}
+
 static int exr_encode_all(exr_context_t ctx, const exr_io_t *io, const char *path, int width,
                           int height, const exr_source_t *sources, int n_sources, err_t *err)
 {
@@ -330,6 +349,7 @@ static int exr_encode_all(exr_context_t ctx, const exr_io_t *io, const char *pat
                        exr_io_reason(io, rv));
 
     exr_encode_pipeline_t enc = EXR_ENCODE_PIPELINE_INITIALIZER;
+    exr_compress_guard_t guard = {NULL};
     bool initialised = false;
     int status = 0;
     for (int y = 0; y < height && status == 0; y += lines) {
@@ -367,6 +387,13 @@ static int exr_encode_all(exr_context_t ctx, const exr_io_t *io, const char *pat
         if (status != 0)
             break;
         rv = exr_encoding_choose_default_routines(ctx, 0, &enc);
+        /* (The routines may be kept from the previous chunk: never wrap the guard itself.) */
+        if (rv == EXR_ERR_SUCCESS && enc.compress_fn != NULL &&
+            enc.compress_fn != exr_compress_guarded) {
+            guard.compress = enc.compress_fn;
+            enc.encoding_user_data = &guard;
+            enc.compress_fn = exr_compress_guarded;
+        }
         if (rv == EXR_ERR_SUCCESS)
             rv = exr_encoding_run(ctx, 0, &enc);
         if (rv != EXR_ERR_SUCCESS)

@@ -1,5 +1,6 @@
 #include "lights.h"
 
+#include "emitters.h"
 #include "sample.h"
 
 #include <math.h>
@@ -57,15 +58,13 @@ static void mesh_uv(const shape_t *s, size_t t, double b1, double b2, double uv[
     uv[1] = b0 * c[0][1] + b1 * c[1][1] + b2 * c[2][1];
 }
 
-int lights_sample_shape(const shape_t *s, double u0, double u1, double u2, vec3_t *p, vec3_t *n,
-                        double uv[2])
+/* A uniform point on shape s by area with (u1, u2) -- on its triangle t for a mesh -- with
+ * lights_sample_shape's orientation and texture coordinates. */
+static int sample_on_shape(const shape_t *s, size_t t, double u1, double u2, vec3_t *p, vec3_t *n,
+                           double uv[2])
 {
-    if (!(s->area > 0.0))
-        return 0;
     vec3_t ns = vec3_make(0, 0, 0);
     if (s->kind == SHAPE_MESH) {
-        double pmf;
-        size_t t = alias_sample(s->triangles, u0, &pmf);
         const double *a = s->positions + 3 * s->indices[3 * t];
         const double *b = s->positions + 3 * s->indices[3 * t + 1];
         const double *c = s->positions + 3 * s->indices[3 * t + 2];
@@ -97,6 +96,22 @@ int lights_sample_shape(const shape_t *s, double u0, double u1, double u2, vec3_
     if (vec3_dot(*n, ns) < 0.0)
         *n = vec3_neg(*n);
     return 1;
+}
+
+int lights_sample_shape(const shape_t *s, double u0, double u1, double u2, vec3_t *p, vec3_t *n,
+                        double uv[2])
+{
+    if (!(s->area > 0.0))
+        return 0;
+    size_t t = s->kind == SHAPE_MESH ? alias_sample(s->triangles, u0, NULL) : 0;
+    return sample_on_shape(s, t, u1, u2, p, n, uv);
+}
+
+/* The area over which a point on light l's emitter tri is drawn: the triangle's for a mesh,
+ * the shape's otherwise. */
+static double emitter_area(const shape_t *s, size_t tri)
+{
+    return s->kind == SHAPE_MESH ? emitters_triangle_area(s, tri) : s->area;
 }
 
 /* A sphere light's world centre and radius (the loader admits only similarity transforms on
@@ -156,18 +171,121 @@ static int sample_sphere_cone(const shape_t *s, vec3_t p, vec3_t c, double r, do
     return isfinite(*pdf) && *pdf > 0.0;
 }
 
-int lights_sample(const scene_t *scene, const lights_at_t *at, const double u[4],
-                  light_sample_t *out)
+/* pbrt-v4's BVHLightSampler beside its infinite lights: each of the ninfinite distant and
+ * infinite lights is chosen with probability 1 / (ninfinite + 1), the BVH (when it holds
+ * anything) with the rest. */
+static double infinite_share(const scene_t *scene, int *bvh)
 {
-    const vec3_t p = at->p;
-    if (!scene->light_power)
+    *bvh = !light_bvh_empty(scene->light_bvh);
+    size_t k = scene->ninfinite + (size_t)*bvh;
+    return k ? (double)scene->ninfinite / (double)k : 0.0;
+}
+
+static int is_mesh_light(const scene_t *scene, const light_t *l)
+{
+    return l->kind == LIGHT_AREA && scene->shapes[l->shape].kind == SHAPE_MESH;
+}
+
+/* Chooses an emitter with u0 (and u1 for a mesh light's triangle under "power"): its light,
+ * triangle and probability, lights_pmf's numbers. */
+static int choose_emitter(const scene_t *scene, const lights_at_t *at, double u0, double u1,
+                          int *light, size_t *tri, double *pmf)
+{
+    *tri = 0;
+    switch (scene->settings.light_sampler) {
+    case LIGHT_SAMPLER_POWER: {
+        if (!scene->light_power)
+            return 0;
+        size_t i = alias_sample(scene->light_power, u0, NULL);
+        const light_t *l = &scene->lights[i];
+        *light = (int)i;
+        *pmf = alias_pmf(scene->light_power, i);
+        if (is_mesh_light(scene, l)) {
+            const alias_t *tris = scene->shapes[l->shape].triangles;
+            if (!tris)
+                return 0;
+            *tri = alias_sample(tris, u1, NULL);
+            *pmf *= alias_pmf(tris, *tri);
+        }
+        return *pmf > 0.0;
+    }
+    case LIGHT_SAMPLER_UNIFORM: {
+        size_t n = scene->nemitters;
+        if (n == 0)
+            return 0;
+        size_t e = (size_t)(u0 * (double)n);
+        *light = emitters_light(scene, e < n ? e : n - 1, tri);
+        *pmf = 1.0 / (double)n;
+        return 1;
+    }
+    case LIGHT_SAMPLER_BVH:
+        break;
+    }
+    int bvh;
+    double p_inf = infinite_share(scene, &bvh);
+    if (u0 < p_inf) {
+        size_t k = (size_t)(u0 / p_inf * (double)scene->ninfinite);
+        *light = scene->infinite_lights[k < scene->ninfinite ? k : scene->ninfinite - 1];
+        *pmf = 1.0 / (double)(scene->ninfinite + (size_t)bvh);
+        return 1;
+    }
+    if (!bvh)
         return 0;
+    size_t e;
+    double bvh_pmf;
+    if (!light_bvh_sample(scene->light_bvh, at->p, at->n, (u0 - p_inf) / (1.0 - p_inf), &e,
+                          &bvh_pmf))
+        return 0;
+    *light = emitters_light(scene, e, tri);
+    *pmf = (1.0 - p_inf) * bvh_pmf;
+    return *pmf > 0.0;
+}
+
+double lights_pmf(const scene_t *scene, const lights_at_t *at, int light, size_t tri)
+{
+    if (light < 0 || (size_t)light >= scene->nlights)
+        return 0.0;
+    const light_t *l = &scene->lights[light];
+    const int mesh = is_mesh_light(scene, l);
+    if (mesh && tri >= scene->shapes[l->shape].ntris)
+        return 0.0;
+    switch (scene->settings.light_sampler) {
+    case LIGHT_SAMPLER_POWER: {
+        if (!scene->light_power)
+            return 0.0;
+        double pmf = alias_pmf(scene->light_power, (size_t)light);
+        if (mesh) {
+            const alias_t *tris = scene->shapes[l->shape].triangles;
+            pmf = tris ? pmf * alias_pmf(tris, tri) : 0.0;
+        }
+        return pmf;
+    }
+    case LIGHT_SAMPLER_UNIFORM:
+        return scene->nemitters ? 1.0 / (double)scene->nemitters : 0.0;
+    case LIGHT_SAMPLER_BVH:
+        break;
+    }
+    int bvh;
+    double p_inf = infinite_share(scene, &bvh);
+    if (l->kind == LIGHT_DISTANT || l->kind == LIGHT_INFINITE)
+        return 1.0 / (double)(scene->ninfinite + (size_t)bvh);
+    if (!bvh)
+        return 0.0;
+    size_t e = emitters_index(scene, light, tri);
+    return (1.0 - p_inf) * light_bvh_pmf(scene->light_bvh, e, at->p, at->n);
+}
+
+int lights_sample(const scene_t *scene, const lights_at_t *at, const double u[4], light_sample_t *out)
+{
+    int i;
+    size_t tri;
     double pmf;
-    size_t i = alias_sample(scene->light_power, u[0], &pmf);
-    if (!(pmf > 0.0))
+    if (!choose_emitter(scene, at, u[0], u[1], &i, &tri, &pmf))
         return 0;
+    const vec3_t p = at->p;
     const light_t *l = &scene->lights[i];
-    out->light = (int)i;
+    out->light = i;
+    out->tri = tri;
     out->is_delta = 0;
     switch (l->kind) {
     case LIGHT_AREA: {
@@ -190,7 +308,8 @@ int lights_sample(const scene_t *scene, const lights_at_t *at, const double u[4]
                 analytic_uv(s, q, out->uv);
             return isfinite(out->pdf);
         }
-        if (!lights_sample_shape(s, u[1], u[2], u[3], &q, &n, l->area_image ? out->uv : NULL))
+        if (!(s->area > 0.0) ||
+            !sample_on_shape(s, tri, u[2], u[3], &q, &n, l->area_image ? out->uv : NULL))
             return 0;
         vec3_t d = vec3_sub(q, p);
         double d2 = vec3_dot(d, d);
@@ -205,7 +324,7 @@ int lights_sample(const scene_t *scene, const lights_at_t *at, const double u[4]
         out->dist = dist;
         out->p_light = q;
         out->n_light = n;
-        out->pdf = pmf * d2 / (cos_l * s->area);
+        out->pdf = pmf * d2 / (cos_l * emitter_area(s, tri));
         return isfinite(out->pdf);
     }
     case LIGHT_POINT:
@@ -338,13 +457,12 @@ double lights_environment(const scene_t *scene, double lambda)
     return sum;
 }
 
-double lights_pdf(const scene_t *scene, const lights_at_t *at, int light, vec3_t wi, vec3_t p_light,
-                  vec3_t ng)
+double lights_pdf(const scene_t *scene, const lights_at_t *at, int light, size_t tri, vec3_t wi,
+                  vec3_t p_light, vec3_t ng)
 {
-    const vec3_t p = at->p;
-    if (!scene->light_power || light < 0)
+    double pmf = lights_pmf(scene, at, light, tri);
+    if (!(pmf > 0.0))
         return 0.0;
-    double pmf = alias_pmf(scene->light_power, (size_t)light);
     const light_t *l = &scene->lights[light];
     if (l->kind == LIGHT_INFINITE)
         return pmf * (l->envmap
@@ -355,12 +473,12 @@ double lights_pdf(const scene_t *scene, const lights_at_t *at, int light, vec3_t
     const shape_t *s = &scene->shapes[l->shape];
     vec3_t c;
     double r, cd2, sin2_max;
-    if (s->kind == SHAPE_SPHERE && sphere_outside(s, p, &c, &r, &cd2))
-        return pmf / (2.0 * PF_PI * cone_one_minus_cos(r, cd2, &sin2_max));
-    vec3_t d = vec3_sub(p_light, p);
+    if (s->kind == SHAPE_SPHERE && sphere_outside(s, at->p, &c, &r, &cd2))
+        return pmf * (1.0 / (2.0 * PF_PI * cone_one_minus_cos(r, cd2, &sin2_max)));
+    vec3_t d = vec3_sub(p_light, at->p);
     double d2 = vec3_dot(d, d);
     double cos_l = fabs(vec3_dot(ng, wi));
     if (!(cos_l > 1e-12) || !(s->area > 0.0))
         return 0.0;
-    return pmf * d2 / (cos_l * s->area);
+    return pmf * d2 / (cos_l * emitter_area(s, tri));
 }

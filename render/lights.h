@@ -1,6 +1,7 @@
-/* lights: next-event estimation. Picks a light in proportion to its power, samples a point or
- * direction on it as seen from a shading point, and evaluates emission, all with the pdfs that
- * multiple importance sampling needs. Delta lights (point, spot, distant) are reached only
+/* lights: next-event estimation. Picks an emitter (a light, or one triangle of a mesh light) as
+ * the scene's light sampler says -- the light BVH by importance as seen from the shading point,
+ * by power, or uniformly (scene/emitters.h) --, samples a point or direction on it, and
+ * evaluates emission, all with the pdfs that multiple importance sampling needs. Delta lights (point, spot, distant) are reached only
  * here; a collimated area light is delta in direction and reached by neither camera paths nor
  * light sampling (only by photons), as the thesis observed (fig. 6.7). */
 #ifndef PRISMFARM_LIGHTS_H
@@ -10,6 +11,7 @@
 
 typedef struct light_sample {
     int light;      /* index into scene->lights */
+    size_t tri;     /* a mesh light's triangle that was sampled (else 0) */
     vec3_t wi;      /* unit direction from the shading point toward the light */
     double dist;    /* distance to the sampled point; INFINITY for distant and infinite lights */
     double pdf;     /* pmf of the light times the solid-angle pdf (delta lights: the pmf) */
@@ -30,17 +32,25 @@ typedef struct lights_at {
                 * their compensated distribution) */
 } lights_at_t;
 
-/* Samples a light for shading point at->p with four uniform numbers: u[0] picks the light, u[1]
- * a mesh light's triangle, u[2] and u[3] the point or direction. A sphere light seen from
- * outside is sampled uniformly in the cone of directions it subtends (pbrt-v4 Sphere::Sample:
- * every sample lands on the visible cap), an image environment by its texels' distribution
- * (envmap.h) -- with at->mis its compensated one (pbrt-v4's allowIncompletePDF), which leaves
- * the directions at or below the image's average to the competing strategy -- a uniform one
- * uniformly over the sphere. Returns 0 when nothing can be sampled (no lights, a collimated
- * light, a zero-area light, a point outside a projection light's frustum, a degenerate
- * configuration). */
-int lights_sample(const scene_t *scene, const lights_at_t *at, const double u[4],
-                  light_sample_t *out);
+/* Samples a light for shading point at->p with four uniform numbers: u[0] picks the emitter
+ * (a light, or one triangle of a mesh light: scene/emitters.h) as settings.light_sampler says
+ * -- the light BVH by importance at (at->p, at->n) with the distant and infinite lights chosen
+ * uniformly beside it, or by power, or uniformly, each as pbrt-v4 defines them --, u[1] a mesh
+ * light's triangle under "power" (by area within the light), u[2] and u[3] the point or
+ * direction. A triangle or disk is sampled uniformly by area; a sphere light seen from outside
+ * uniformly in the cone of directions it subtends (pbrt-v4 Sphere::Sample: every sample lands
+ * on the visible cap), an image environment by its texels' distribution (envmap.h) -- with
+ * at->mis its compensated one (pbrt-v4's allowIncompletePDF), which leaves the directions at or
+ * below the image's average to the competing strategy --, a uniform one uniformly over the
+ * sphere. Returns 0 when nothing can be sampled (no lights, a collimated light, a zero-area
+ * light, a point outside a projection light's frustum, no emitter of nonzero importance, a
+ * degenerate configuration). */
+int lights_sample(const scene_t *scene, const lights_at_t *at, const double u[4], light_sample_t *out);
+
+/* The probability that lights_sample picks light l's emitter tri (the triangle of a mesh
+ * light; ignored for other lights) at `at`: over every emitter it sums to 1 (or 0 where the
+ * BVH finds nothing of nonzero importance). */
+double lights_pmf(const scene_t *scene, const lights_at_t *at, int l, size_t tri);
 
 /* The light's spectral value at lambda: its spectrum times its scale, the factor every
  * emission query multiplies in. A pure function of (l, lambda), so a caller may keep it
@@ -94,13 +104,15 @@ double lights_environment(const scene_t *scene, double lambda);
 size_t lights_envmap_texel(const light_t *l, vec3_t wi);
 double lights_envmap_radiance(const light_t *l, size_t texel, double value, double lambda);
 
-/* The pdf lights_sample(scene, at, ...) would have had for hitting light l at point p_light
- * with normal ng, seen from at->p along unit wi (area lights: the cone's for a sphere seen from
- * outside), or along wi toward infinity (infinite lights; an image's compensated distribution
- * when at->mis, as lights_sample's). A BSDF-sampled ray's MIS weight must ask with the at its
- * vertex's next-event estimation used, so that both strategies' pdfs are of the same
- * distributions. */
-double lights_pdf(const scene_t *scene, const lights_at_t *at, int light, vec3_t wi, vec3_t p_light,
-                  vec3_t ng);
+/* The pdf lights_sample would have had at `at` for reaching light l (triangle tri of a mesh
+ * light, the hit's primitive; ignored otherwise) at point p_light with normal ng along unit wi
+ * (area lights: the cone's for a sphere seen from outside), or along wi toward infinity
+ * (infinite lights; an image's compensated distribution when at->mis, as lights_sample's):
+ * lights_pmf times the point's or direction's pdf, the same numbers in the same order as
+ * lights_sample, so the two agree to the last bit for the same sample. A BSDF-sampled ray's MIS
+ * weight must ask with the `at` its vertex's next-event estimation used, so that both
+ * strategies' pdfs are of the same distributions. */
+double lights_pdf(const scene_t *scene, const lights_at_t *at, int l, size_t tri, vec3_t wi,
+                  vec3_t p_light, vec3_t ng);
 
 #endif

@@ -47,6 +47,7 @@ typedef struct path {
     int specular;     /* the last bounce was specular (or this is the camera ray) */
     double bsdf_pdf;  /* solid-angle pdf of the last diffuse bounce, for MIS */
     vec3_t prev_p;    /* where the last bounce happened */
+    vec3_t prev_n;    /* the normal next-event estimation used there (0 in a medium) */
     int mono;         /* every lane refracts alike: one physical wavelength */
     int dispersed;    /* the path has had its first dispersive refraction */
     /* The photon integrator's split: diffuse bounces so far, and specular ones since the
@@ -235,20 +236,21 @@ static lights_at_t light_site(const ctx_t *c, vec3_t x, vec3_t n)
 
 /* The site of the next-event estimation at the vertex a BSDF- or phase-sampled path left, for
  * its MIS weight: only asked under "path" after a non-specular bounce, and every such vertex
- * estimated with mis set (light_site), so the light pdf is of the distribution that sampled.
- * The path does not keep that vertex's normal (no light's pdf here depends on it). */
+ * estimated with mis set (light_site), so the light pdf is of the distribution (and the light
+ * BVH's importance at the same point and normal) that sampled. */
 static lights_at_t light_site_behind(const path_t *p)
 {
-    return (lights_at_t){.p = p->prev_p, .n = vec3_make(0.0, 0.0, 0.0), .mis = 1};
+    return (lights_at_t){.p = p->prev_p, .n = p->prev_n, .mis = 1};
 }
 
-/* Emission seen by the path at a hit on an area light, or on leaving the scene. */
-static void add_emission_hit(ctx_t *c, const path_t *p, const surface_t *sf, const light_t *l, int li)
+/* Emission seen by the path at a hit on triangle tri (0 for analytic shapes) of an area light. */
+static void add_emission_hit(ctx_t *c, const path_t *p, const surface_t *sf, const light_t *l,
+                             int li, size_t tri)
 {
     double w = 1.0;
     if (c->rs->integrator == INTEGRATOR_PATH && !p->specular) {
         const lights_at_t at = light_site_behind(p);
-        double lp = lights_pdf(c->scene, &at, li, p->dir, sf->p, sf->ng);
+        double lp = lights_pdf(c->scene, &at, li, tri, p->dir, sf->p, sf->ng);
         w = power_heuristic(p->bsdf_pdf, lp);
     }
     const int faces = lights_area_faces(l, sf->ng, vec3_neg(p->dir));
@@ -267,7 +269,7 @@ static void add_environment(ctx_t *c, const path_t *p)
         double lp = 0.0;
         for (size_t i = 0; i < c->scene->nlights; i++)
             if (c->scene->lights[i].kind == LIGHT_INFINITE)
-                lp += lights_pdf(c->scene, &at, (int)i, p->dir, p->prev_p, p->dir);
+                lp += lights_pdf(c->scene, &at, (int)i, 0, p->dir, p->prev_p, p->dir);
         w = power_heuristic(p->bsdf_pdf, lp);
     }
     /* Image environments: each one's texel along the ray, once for all lanes. */
@@ -325,10 +327,10 @@ static int shadow_ray(ctx_t *c, const path_t *p, vec3_t o, vec3_t dir, double tm
     return !shading_occluded(c->scene, o, dir, 0.0, tmax);
 }
 
-/* Samples a light for next-event estimation at sf (shading normal n) and traces its shadow
- * ray: 1 with *ls and the lanes' transmittances tr when the light is sampled and visible, 0
- * otherwise. accept(wi) decides, before the shadow ray, whether the direction can contribute
- * at all. */
+/* Samples a light for next-event estimation at sf, whose shading normal there is n (the one
+ * the bounce that follows keeps in prev_n), and traces its shadow ray: 1 with *ls and the
+ * lanes' transmittances tr when the light is sampled and visible, 0 otherwise. accept(wi)
+ * decides, before the shadow ray, whether the direction can contribute at all. */
 static int light_visible(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t n,
                          light_sample_t *ls, int (*accept)(const void *, vec3_t), const void *arg,
                          double *tr)
@@ -633,6 +635,7 @@ static void start_bounce(path_t *p, const surface_t *h, vec3_t dir, int specular
 {
     p->medium = scene_medium_after(h, dir, p->medium);
     p->prev_p = h->p;
+    p->prev_n = h->ns;
     p->org = geometry_offset(h->p, h->ng, dir);
     p->dir = dir;
     p->specular = specular;
@@ -921,6 +924,7 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
         mis_pdf = pdfs[0];
     }
     start_bounce(p, sf, wi, specular, specular ? 0.0 : mis_pdf);
+    p->prev_n = fr.z;
     if (!specular)
         p->diffuse_bounces++;
     /* A receiver that gathered photons starts the chain, like a diffuse vertex: light that
@@ -1015,6 +1019,7 @@ static int medium_flight(ctx_t *c, path_t *p, double tmax)
     double u1 = next(c), u2 = next(c), pdf;
     vec3_t wi = phase_hg_sample(vec3_neg(p->dir), g, u1, u2, &pdf);
     p->prev_p = x;
+    p->prev_n = vec3_make(0, 0, 0);
     p->org = x;
     p->dir = wi;
     p->specular = 0;
@@ -1066,7 +1071,7 @@ static void trace(ctx_t *c, path_t *start)
              * not counted again. */
             if (sf.light >= 0 && s->lights[sf.light].kind == LIGHT_AREA &&
                 !(c->photons && p->diffuse_bounces == 1 && p->specular_since_diffuse >= c->mindepth))
-                add_emission_hit(c, p, &sf, &s->lights[sf.light], sf.light);
+                add_emission_hit(c, p, &sf, &s->lights[sf.light], sf.light, h.prim);
             const material_t *m = sf.material;
             if (m->kind == MATERIAL_MIX)
                 m = shading_resolve(s, m, &sf, next(c));
@@ -1106,6 +1111,7 @@ static void trace(ctx_t *c, path_t *start)
                 for (int j = 0; j < p->n; j++)
                     p->beta[j] *= albedo[j];
                 start_bounce(p, &sf, wi, 0, cos_i / PF_PI);
+                p->prev_n = n;
                 p->diffuse_bounces++;
                 p->specular_since_diffuse = 0;
             } else if (!shading_is_delta(m, &sf)) {

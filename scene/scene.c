@@ -86,6 +86,9 @@ void scene_destroy(scene_t **self_p)
     free(self->materials);
     free(self->lights);
     alias_destroy(&self->light_power);
+    free(self->light_emitter0);
+    free(self->infinite_lights);
+    light_bvh_destroy(&self->light_bvh);
     /* Textures may reference earlier textures: destroy in reverse order of creation. */
     for (size_t i = self->ntextures; i-- > 0;)
         texture_destroy(&self->textures[i]);
@@ -532,6 +535,11 @@ void scene_surface(const scene_t *self, const hit_t *h, surface_t *out)
         out->ng = vec3_neg(out->ng);
 }
 
+double scene_light_luminance(const light_t *l)
+{
+    return l->spectrum ? l->scale * spectrum_photometric(l->spectrum) / CIE_Y_INTEGRAL : l->scale;
+}
+
 /* Power of a light up to constant factors common to all lights (its geometric factor times
  * its luminance), before any guard. */
 static double light_power_raw(const scene_t *self, const light_t *l)
@@ -541,7 +549,7 @@ static double light_power_raw(const scene_t *self, const light_t *l)
      * not normalised and an rgb L keeps its colour's luminance (docs/scene-format.md), so a
      * "float L" 1e9 sun had the power of a "float L" 1 lamp, and next-event estimation sent
      * 96 % of its samples to a candle of 1e-3 beside it. */
-    double y = l->spectrum ? l->scale * spectrum_photometric(l->spectrum) / CIE_Y_INTEGRAL : l->scale;
+    double y = scene_light_luminance(l);
     double r = self->scene_radius;
     switch (l->kind) {
     case LIGHT_AREA:
@@ -653,5 +661,5 @@ int scene_finish(scene_t *self, err_t *err)
         if (!self->light_power)
             return -1;
     }
-    return 0;
+    return scene_emitters_build(self, err);
 }

@@ -20,6 +20,7 @@
 #include "filter.h"
 #include "integrators.h"
 #include "lens.h"
+#include "light_bvh.h"
 #include "medium.h"
 #include "sensor.h"
 #include "spectral_grid.h"
@@ -240,6 +241,14 @@ typedef struct photon_settings {
     int monochromerays; /* rays followed per photon at a dispersive interface (only 1 yet) */
 } photon_settings_t;
 
+/* How next-event estimation chooses among the emitters (pbrt-v4's "string lightsampler";
+ * scene/emitters.h, docs/rendering.md "Choosing a light"). */
+typedef enum light_sampler_kind {
+    LIGHT_SAMPLER_BVH,     /* the light BVH, by importance as seen from the shading point */
+    LIGHT_SAMPLER_POWER,   /* in proportion to each emitter's power, wherever the point */
+    LIGHT_SAMPLER_UNIFORM, /* every emitter alike */
+} light_sampler_kind_t;
+
 typedef struct render_settings {
     /* The camera pass's integrator; with photon.enabled it is the gather (path or Whitted). */
     integrator_kind_t integrator;
@@ -275,6 +284,9 @@ typedef struct render_settings {
      * integrators whose pbrt-v4 counterparts do; render/volume.h). 0: media are ignored, as
      * pbrt-v4's "path" ignores them. */
     int media;
+    /* How next-event estimation picks a light (LIGHT_SAMPLER_BVH, the zero value, by default);
+     * the photon pass always emits by power. */
+    light_sampler_kind_t light_sampler;
 } render_settings_t;
 
 typedef struct scene {
@@ -288,7 +300,15 @@ typedef struct scene {
     size_t nmaterials;
     light_t *lights;
     size_t nlights;
-    alias_t *light_power; /* picks a light for next-event estimation */
+    alias_t *light_power; /* lights by power: "power" light sampling and photon emission */
+    /* The emitters the light samplers choose among (scene/emitters.h): each triangle of an
+     * area light's mesh is one, any other light is one. Light i's emitters are
+     * light_emitter0[i] .. light_emitter0[i + 1] - 1 (nlights + 1 entries). */
+    size_t *light_emitter0;
+    size_t nemitters;
+    light_bvh_t *light_bvh; /* over the emitters by index; distant and infinite ones left out */
+    int *infinite_lights;   /* the distant and infinite lights, chosen beside the BVH */
+    size_t ninfinite;
     texture_t **textures; /* owned */
     size_t ntextures;
     spectrum_t **spectra; /* owned */
@@ -392,6 +412,15 @@ int scene_finish(scene_t *self, err_t *err);
  * point light, ...); used to pick lights in proportion to power. Finite and >= 0: 0 for a
  * zero-area or black light, capped at DBL_MAX / (nlights + 1) so that the powers sum. */
 double scene_light_power(const scene_t *self, const light_t *l);
+
+/* Fills light_emitter0, nemitters, infinite_lights and light_bvh from the finished lights and
+ * shapes (scene_finish calls it; again replaces what it built); O(n log n) in the emitters.
+ * Defined with the rest of the emitters' code in scene/emitters.c, which sits above this header. */
+int scene_emitters_build(scene_t *self, err_t *err);
+
+/* A light's luminance factor: scale times its spectrum's Y (scale alone without a spectrum);
+ * scene_light_power is this times the light's geometric factor. */
+double scene_light_luminance(const light_t *l);
 
 /* Default settings: path tracer, hero dispersion, maxdepth 5, 16 spp, seed 1,
  * 1280x720 (pbrt-v4's default), the default spectral grid; no photon pass (its settings hold

@@ -1416,9 +1416,9 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
     else
         return pbrt_error(err, in->loc, "\"string wavelengths\" must be \"uniform\" or \"visible\", got \"%s\"", wl);
     if (rs->integrator == INTEGRATOR_PATH) {
-        /* pbrt-v4's PathIntegrator options: how lights are chosen does not change the image's
-         * expectation (prismfarm always picks by power), so any of pbrt-v4's choices is
-         * accepted; regularisation (a biased blur of specular paths) is not available. */
+        /* pbrt-v4's PathIntegrator options: how next-event estimation chooses lights (the
+         * light BVH by default, scene/emitters.h); regularisation (a biased blur of specular
+         * paths) is not available. */
         bool regularize;
         const char *ls;
         if (params_get_bool(p, "regularize", false, &regularize, err) ||
@@ -1427,7 +1427,13 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
         if (regularize)
             return pbrt_error(err, params_find(p, "regularize")->loc,
                               "unsupported parameter value: \"bool regularize\" must be false");
-        if (strcmp(ls, "bvh") != 0 && strcmp(ls, "power") != 0 && strcmp(ls, "uniform") != 0)
+        if (!strcmp(ls, "bvh"))
+            rs->light_sampler = LIGHT_SAMPLER_BVH;
+        else if (!strcmp(ls, "power"))
+            rs->light_sampler = LIGHT_SAMPLER_POWER;
+        else if (!strcmp(ls, "uniform"))
+            rs->light_sampler = LIGHT_SAMPLER_UNIFORM;
+        else
             return pbrt_error(err, params_find(p, "lightsampler")->loc,
                               "\"string lightsampler\" must be \"bvh\", \"power\" or \"uniform\", got \"%s\"", ls);
     }

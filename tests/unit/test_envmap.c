@@ -712,7 +712,7 @@ static void mis_irradiance(const scene_t *s, int mis, int bsdf_mis, double lambd
         light_sample_t ls;
         if (lights_sample(s, &at, u, &ls) && ls.wi.z > 0) {
             /* the pdf in both directions is the same */
-            double lp = lights_pdf(s, &at, ls.light, ls.wi, ls.p_light, ls.n_light);
+            double lp = lights_pdf(s, &at, ls.light, ls.tri, ls.wi, ls.p_light, ls.n_light);
             if (!(fabs(lp - ls.pdf) <= 1e-9 * ls.pdf))
                 fail_msg("mis %d: lights_sample pdf %g, lights_pdf %g", mis, ls.pdf, lp);
             double pb = ls.wi.z / PI, a = ls.pdf * ls.pdf;
@@ -722,7 +722,7 @@ static void mis_irradiance(const scene_t *s, int mis, int bsdf_mis, double lambd
         vec3_t wi = sample_cosine_hemisphere(rng_uniform((uint64_t)seed, (uint64_t)i, 1, 0),
                                              rng_uniform((uint64_t)seed, (uint64_t)i, 1, 1));
         if (wi.z > 0) {
-            double pb = wi.z / PI, lp = lights_pdf(s, &at_b, 0, wi, at.p, wi);
+            double pb = wi.z / PI, lp = lights_pdf(s, &at_b, 0, 0, wi, at.p, wi);
             double L = lights_envmap_radiance(l, lights_envmap_texel(l, wi), value, lambda);
             f += L * wi.z / pb * pb * pb / (pb * pb + lp * lp);
         }
@@ -863,14 +863,15 @@ static void test_sphere_cone(void **state)
         double u[4];
         rng_uniform4(13, (uint64_t)i, 0, 0, u);
         light_sample_t ls;
-        assert_true(lights_sample(s, &(lights_at_t){.p = p}, u, &ls));
+        assert_true(lights_sample(s, &(lights_at_t){p, {0, 0, 0}, 0}, u, &ls));
         /* the direction meets the sphere at the sampled point */
         vec3_t q = vec3_fma(p, ls.wi, ls.dist);
         assert_true(fabs(vec3_length(vec3_sub(q, c)) - r) < 1e-9);
         double b = vec3_dot(ls.wi, vec3_sub(c, p));
         double disc = b * b - (d * d - r * r);
         assert_true(disc >= -1e-12 && fabs(ls.dist - (b - sqrt(fmax(0, disc)))) < 1e-7);
-        double lp = lights_pdf(s, &(lights_at_t){.p = p}, ls.light, ls.wi, ls.p_light, ls.n_light);
+        double lp = lights_pdf(s, &(lights_at_t){p, {0, 0, 0}, 0}, ls.light, ls.tri, ls.wi,
+                               ls.p_light, ls.n_light);
         assert_true(fabs(lp - ls.pdf) <= 1e-12 * ls.pdf);
         pdf0 = ls.pdf;
         double ct = vec3_dot(ls.wi, axis);
@@ -922,7 +923,8 @@ static void test_sphere_cone_variance(void **state)
         rng_uniform4(19, (uint64_t)i, 0, 0, u);
         light_sample_t ls;
         double f = 0;
-        if (lights_sample(s, &(lights_at_t){.p = p}, u, &ls) && vec3_dot(ls.n_light, ls.wi) < 0)
+        if (lights_sample(s, &(lights_at_t){p, {0, 0, 0}, 0}, u, &ls) &&
+            vec3_dot(ls.n_light, ls.wi) < 0)
             f = L * fmax(0, vec3_dot(n, ls.wi)) / ls.pdf;
         m[0] += f;
         m2[0] += f * f;
