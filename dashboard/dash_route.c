@@ -356,12 +356,15 @@ static void get_tiles(dash_router_t *self, uint64_t id, dash_response_t *out)
     }
     size_t ntiles =
         map.tiles_x > 0 && map.tiles_y > 0 ? (size_t)map.tiles_x * (size_t)map.tiles_y : 0;
-    if (ntiles > 0 && !(map.merged = calloc(ntiles, sizeof *map.merged))) {
+    if (ntiles > 0 && (!(map.merged = calloc(ntiles, sizeof *map.merged)) ||
+                       !(map.spp = calloc(ntiles, sizeof *map.spp)))) {
+        free(map.merged);
         answer_error(out, 500, "the master is out of memory");
         return;
     }
     if (ntiles > 0 && self->p->tiles(self->p->user, id, &map, &err) < 0) {
         free(map.merged);
+        free(map.spp);
         answer_error(out, 409, "job %llu: %s", (unsigned long long)id, err.msg);
         return;
     }
@@ -377,6 +380,13 @@ static void get_tiles(dash_router_t *self, uint64_t id, dash_response_t *out)
         json_array_append_new(merged, json_integer(map.merged[i]));
     free(map.merged);
     json_object_set_new(o, "merged", merged);
+    json_t *spp = json_array();
+    for (size_t i = 0; i < ntiles && map.spp; i++)
+        json_array_append_new(spp, json_integer(map.spp[i]));
+    free(map.spp);
+    json_object_set_new(o, "spp", spp);
+    json_object_set_new(o, "adaptive", json_boolean(map.adaptive));
+    json_object_set_new(o, "passes_done", json_integer(map.passes_done));
     /* The running tasks place the workers on the map. */
     int n = self->p->tasks ? self->p->tasks(self->p->user, id, self->tasks, DASH_MAX_TASKS) : 0;
     json_t *run = json_array();

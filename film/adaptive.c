@@ -1,0 +1,136 @@
+#include "adaptive.h"
+
+#include <float.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+
+/* Sum over the tile's pixels of V_p, or -1 when a pixel has no estimate (fewer than 2 samples,
+ * a non-finite sum) or an unbounded one (saturated squares): such a tile cannot be judged. */
+static double tile_variance_sum(const tilebuf_t *image, const tilegrid_t *grid, int t,
+                                int *npix)
+{
+    int x0, y0, w, h;
+    tilegrid_rect(grid, t, &x0, &y0, &w, &h);
+    const uint64_t *n = tilebuf_counts(image);
+    const double *s1 = tilebuf_luminance_sums(image), *s2 = tilebuf_luminance_sq_sums(image);
+    size_t stride = (size_t)tilebuf_width(image);
+    double sum = 0;
+    for (int y = y0; y < y0 + h; y++)
+        for (int x = x0; x < x0 + w; x++) {
+            size_t p = (size_t)y * stride + (size_t)x;
+            double v = error_estimate_variance_of_mean(n[p], s1[p], s2[p]);
+            if (v < 0 || v == DBL_MAX)
+                return -1;
+            sum += v;
+        }
+    *npix = w * h;
+    return sum;
+}
+
+/* The rule (adaptive.h). The image's estimate is rel = sqrt(sum_p V_p / N) / mean, so it is <=
+ * target when sum_p V_p <= N (target mean)^2; giving each tile the share of that budget its
+ * pixels are of the image, a tile within its share needs no more samples. Every tile judged
+ * alike keeps the noise even over the image (the eye's wish, and what the image's estimate
+ * measures), where the allocation that minimises samples for the sum alone (n_t ~ sigma_t)
+ * would leave the noisy regions visibly noisier. Since passes double the samples, a tile stops
+ * with between half its share and its share. */
+int adaptive_decide(const tilebuf_t *image, const tilegrid_t *grid, double target, int spp_done,
+                    const error_estimate_t *e, bool *active)
+{
+    if (!(target > 0) || !e->valid || !(e->mean > 0) || e->rel_rmse <= target ||
+        spp_done < ADAPTIVE_MIN_SPP)
+        return 0;
+    int ntiles = tilegrid_count(grid);
+    if (ntiles < 1)
+        return 0;
+    double budget = (target * e->mean) * (target * e->mean);
+    int running = 0, stopping = 0;
+    for (int t = 0; t < ntiles; t++)
+        running += active[t];
+    bool *stop = calloc((size_t)ntiles, sizeof *stop);
+    if (!stop)
+        return 0; /* no memory: every tile goes on, which changes no decision's inputs */
+    for (int t = 0; t < ntiles; t++) {
+        if (!active[t])
+            continue;
+        int npix = 0;
+        double v = tile_variance_sum(image, grid, t, &npix);
+        if (v >= 0 && v <= (double)npix * budget) {
+            stop[t] = true;
+            stopping++;
+        }
+    }
+    if (stopping == running)
+        stopping = 0; /* the last running tiles end with the job: adaptive.h */
+    for (int t = 0; t < ntiles && stopping > 0; t++)
+        if (stop[t])
+            active[t] = false;
+    free(stop);
+    return stopping;
+}
+
+adaptive_summary_t adaptive_summarize(const tilegrid_t *grid, const int *tile_spp)
+{
+    adaptive_summary_t s = {.tiles = tilegrid_count(grid)};
+    if (s.tiles < 1)
+        return s;
+    s.max_spp = s.min_spp = tile_spp[0];
+    for (int t = 1; t < s.tiles; t++) {
+        if (tile_spp[t] > s.max_spp)
+            s.max_spp = tile_spp[t];
+        if (tile_spp[t] < s.min_spp)
+            s.min_spp = tile_spp[t];
+    }
+    double samples = 0;
+    for (int t = 0; t < s.tiles; t++) {
+        int x0, y0, w, h;
+        tilegrid_rect(grid, t, &x0, &y0, &w, &h);
+        samples += (double)w * (double)h * (double)tile_spp[t];
+        s.stopped += tile_spp[t] < s.max_spp;
+        s.at_min += tile_spp[t] == s.min_spp;
+    }
+    s.mean_spp = samples / ((double)grid->xres * (double)grid->yres);
+    return s;
+}
+
+void adaptive_summary_line(const adaptive_summary_t *s, char *out, size_t size)
+{
+    if (s->tiles < 1 || s->stopped == 0) {
+        snprintf(out, size, "adaptive: every tile got %d spp", s->max_spp);
+        return;
+    }
+    double pct_min = 100.0 * s->at_min / s->tiles, pct = 100.0 * s->stopped / s->tiles;
+    snprintf(out, size, "adaptive: %.0f %% of tiles stopped at %d spp, %.0f %% before %d spp; "
+             "mean %.1f spp", pct_min, s->min_spp, pct, s->max_spp, s->mean_spp);
+}
+
+/* Appends to out at *n, keeping *n the uncut length and out NUL-terminated within size. */
+__attribute__((format(printf, 4, 5))) static void add(char *out, size_t size, size_t *n,
+                                                      const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    int k = vsnprintf(out + (*n < size ? *n : size), *n < size ? size - *n : 0, fmt, ap);
+    va_end(ap);
+    if (k > 0)
+        *n += (size_t)k;
+}
+
+size_t adaptive_format_tile_spp(const int *tile_spp, int n, char *out, size_t size)
+{
+    size_t len = 0;
+    if (size > 0)
+        out[0] = 0;
+    for (int t = 0; t < n;) {
+        int run = 1;
+        while (t + run < n && tile_spp[t + run] == tile_spp[t])
+            run++;
+        if (run > 1)
+            add(out, size, &len, "%s%d*%d", t ? "," : "", tile_spp[t], run);
+        else
+            add(out, size, &len, "%s%d", t ? "," : "", tile_spp[t]);
+        t += run;
+    }
+    return len;
+}
