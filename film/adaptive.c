@@ -7,8 +7,7 @@
 
 /* Sum over the tile's pixels of V_p, or -1 when a pixel has no estimate (fewer than 2 samples,
  * a non-finite sum) or an unbounded one (saturated squares): such a tile cannot be judged. */
-static double tile_variance_sum(const tilebuf_t *image, const tilegrid_t *grid, int t,
-                                int *npix)
+static double tile_variance_sum(const tilebuf_t *image, const tilegrid_t *grid, int t, int *npix)
 {
     int x0, y0, w, h;
     tilegrid_rect(grid, t, &x0, &y0, &w, &h);
@@ -101,8 +100,10 @@ void adaptive_summary_line(const adaptive_summary_t *s, char *out, size_t size)
         return;
     }
     double pct_min = 100.0 * s->at_min / s->tiles, pct = 100.0 * s->stopped / s->tiles;
-    snprintf(out, size, "adaptive: %.0f %% of tiles stopped at %d spp, %.0f %% before %d spp; "
-             "mean %.1f spp", pct_min, s->min_spp, pct, s->max_spp, s->mean_spp);
+    snprintf(out, size,
+             "adaptive: %.0f %% of tiles stopped at %d spp, %.0f %% before %d spp; "
+             "mean %.1f spp",
+             pct_min, s->min_spp, pct, s->max_spp, s->mean_spp);
 }
 
 /* Appends to out at *n, keeping *n the uncut length and out NUL-terminated within size. */

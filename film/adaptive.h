@@ -40,12 +40,12 @@ int adaptive_decide(const tilebuf_t *image, const tilegrid_t *grid, double targe
 
 /* What the tiles got, from tile_spp[t] the samples per pixel of each tile of grid. */
 typedef struct adaptive_summary {
-    int tiles;          /* tiles in the grid */
-    int max_spp;        /* the most any tile got */
-    int min_spp;        /* the least */
-    int stopped;        /* tiles below max_spp: stopped early */
-    int at_min;         /* tiles at min_spp */
-    double mean_spp;    /* samples per pixel over the image (pixels weighted) */
+    int tiles;       /* tiles in the grid */
+    int max_spp;     /* the most any tile got */
+    int min_spp;     /* the least */
+    int stopped;     /* tiles below max_spp: stopped early */
+    int at_min;      /* tiles at min_spp */
+    double mean_spp; /* samples per pixel over the image (pixels weighted) */
 } adaptive_summary_t;
 
 adaptive_summary_t adaptive_summarize(const tilegrid_t *grid, const int *tile_spp);

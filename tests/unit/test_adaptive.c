@@ -154,9 +154,16 @@ static void test_record(void **state)
 
     /* The job's record carries it, and reads back. */
     pass_record_t h[1] = {{.pass = 7, .spp = 64, .valid = true, .rel_error = 0.05}};
-    jobinfo_t ji = {.scene = "s.pbrt", .spp = 64, .xres = 20, .yres = 9, .spp_done = 64,
-                    .rule = {.target_error = 0.05}, .history = h, .nhistory = 1,
-                    .tile_spp = spp, .grid = g};
+    jobinfo_t ji = {.scene = "s.pbrt",
+                    .spp = 64,
+                    .xres = 20,
+                    .yres = 9,
+                    .spp_done = 64,
+                    .rule = {.target_error = 0.05},
+                    .history = h,
+                    .nhistory = 1,
+                    .tile_spp = spp,
+                    .grid = g};
     char info[1024];
     jobinfo_format(&ji, info, sizeof info);
     assert_non_null(strstr(info, ";adaptive=on;tile=4;tiles=5x3;"));
@@ -219,10 +226,10 @@ static tilebuf_t *result_of(const sched_task_t *t)
 static sched_t *new_job(void)
 {
     sched_t *s = testutil_sched_new(&(sched_config_t){.task_deadline_s = 100,
-                                                       .worker_timeout_s = 100,
-                                                       .max_task_failures = 4,
-                                                       .max_worker_job_failures = 2,
-                                                       .tile_size = 4});
+                                                      .worker_timeout_s = 100,
+                                                      .max_task_failures = 4,
+                                                      .max_worker_job_failures = 2,
+                                                      .tile_size = 4});
     err_t err;
     assert_int_equal(sched_add_job(s, 1, XRES, YRES, SPP, testutil_grid(NB), &err), 0);
     assert_int_equal(sched_set_whole_passes(s, 1, &err), 0);
@@ -234,7 +241,8 @@ static sched_t *new_job(void)
 /* A whole-buffer copy (merging into zeros changes no bit). */
 static tilebuf_t *copy_of(const tilebuf_t *b)
 {
-    tilebuf_t *c = tilebuf_new(0, 0, tilebuf_width(b), tilebuf_height(b), tilebuf_nbuckets(b), NULL);
+    tilebuf_t *c =
+        tilebuf_new(0, 0, tilebuf_width(b), tilebuf_height(b), tilebuf_nbuckets(b), NULL);
     assert_non_null(c);
     assert_int_equal(tilebuf_merge(c, b, NULL), 0);
     return c;
@@ -388,10 +396,10 @@ static void test_sched_adaptive_refused(void **state)
 {
     (void)state;
     sched_t *s = testutil_sched_new(&(sched_config_t){.task_deadline_s = 100,
-                                                       .worker_timeout_s = 100,
-                                                       .max_task_failures = 4,
-                                                       .max_worker_job_failures = 2,
-                                                       .tile_size = 4});
+                                                      .worker_timeout_s = 100,
+                                                      .max_task_failures = 4,
+                                                      .max_worker_job_failures = 2,
+                                                      .tile_size = 4});
     err_t err;
     assert_int_equal(sched_add_job(s, 1, 8, 8, 64, testutil_grid(NB), &err), 0);
     assert_int_equal(sched_set_adaptive(s, 1, 0.1, &err), -1);
