@@ -6,15 +6,17 @@
 #include <stdlib.h>
 
 /* Sum over the tile's pixels of V_p, or -1 when a pixel has no estimate (fewer than 2 samples,
- * a non-finite sum) or an unbounded one (saturated squares): such a tile cannot be judged. */
-static double tile_variance_sum(const tilebuf_t *image, const tilegrid_t *grid, int t, int *npix)
+ * a non-finite sum) or an unbounded one (saturated squares): such a tile cannot be judged.
+ * *mean gets the tile's mean luminance. */
+static double tile_variance_sum(const tilebuf_t *image, const tilegrid_t *grid, int t, int *npix,
+                                double *mean)
 {
     int x0, y0, w, h;
     tilegrid_rect(grid, t, &x0, &y0, &w, &h);
     const uint64_t *n = tilebuf_counts(image);
     const double *s1 = tilebuf_luminance_sums(image), *s2 = tilebuf_luminance_sq_sums(image);
     size_t stride = (size_t)tilebuf_width(image);
-    double sum = 0;
+    double sum = 0, lum = 0;
     for (int y = y0; y < y0 + h; y++)
         for (int x = x0; x < x0 + w; x++) {
             size_t p = (size_t)y * stride + (size_t)x;
@@ -22,18 +24,24 @@ static double tile_variance_sum(const tilebuf_t *image, const tilegrid_t *grid, 
             if (v < 0 || v == DBL_MAX)
                 return -1;
             sum += v;
+            lum += s1[p] / (double)n[p];
         }
     *npix = w * h;
+    *mean = lum / (double)(w * h);
     return sum;
 }
 
 /* The rule (adaptive.h). The image's estimate is rel = sqrt(sum_p V_p / N) / mean, so it is <=
  * target when sum_p V_p <= N (target mean)^2; giving each tile the share of that budget its
  * pixels are of the image, a tile within its share needs no more samples. Every tile judged
- * alike keeps the noise even over the image (the eye's wish, and what the image's estimate
- * measures), where the allocation that minimises samples for the sum alone (n_t ~ sigma_t)
- * would leave the noisy regions visibly noisier. Since passes double the samples, a tile stops
- * with between half its share and its share. */
+ * alike keeps the noise even over the image (what the image's estimate measures), where the
+ * allocation that minimises samples for the sum alone (n_t ~ sigma_t) would leave the noisy
+ * regions visibly noisier. A tile darker than the image is held to its own mean instead
+ * (relative to what it shows, its noise is then the target too), down to a quarter of the
+ * image's mean: against the image's mean alone a tile at a fifth of it stopped at 5x the target
+ * relative to itself, grain the tone curve shows (the jewel's dark backdrop at 16 spp,
+ * docs/rendering.md); the floor keeps tiles with little light from running for ever. Since
+ * passes double the samples, a tile stops with between half its budget and its budget. */
 int adaptive_decide(const tilebuf_t *image, const tilegrid_t *grid, double target, int spp_done,
                     const error_estimate_t *e, bool *active)
 {
@@ -43,7 +51,6 @@ int adaptive_decide(const tilebuf_t *image, const tilegrid_t *grid, double targe
     int ntiles = tilegrid_count(grid);
     if (ntiles < 1)
         return 0;
-    double budget = (target * e->mean) * (target * e->mean);
     int running = 0, stopping = 0;
     for (int t = 0; t < ntiles; t++)
         running += active[t];
@@ -54,7 +61,12 @@ int adaptive_decide(const tilebuf_t *image, const tilegrid_t *grid, double targe
         if (!active[t])
             continue;
         int npix = 0;
-        double v = tile_variance_sum(image, grid, t, &npix);
+        double m_t = 0;
+        double v = tile_variance_sum(image, grid, t, &npix, &m_t);
+        double ref = m_t < e->mean ? m_t : e->mean;
+        if (!(ref > ADAPTIVE_DARK_FLOOR * e->mean))
+            ref = ADAPTIVE_DARK_FLOOR * e->mean;
+        double budget = (target * ref) * (target * ref);
         if (v >= 0 && v <= (double)npix * budget) {
             stop[t] = true;
             stopping++;

@@ -20,16 +20,23 @@
  * of lucky samples cannot fake, and a job of fewer spp has nothing to save. */
 #define ADAPTIVE_MIN_SPP 16
 
+/* A tile darker than the image is judged against its own mean luminance, but never against
+ * less than this fraction of the image's (adaptive_decide). */
+#define ADAPTIVE_DARK_FLOOR 0.25
+
 /* The decision at the pass boundary where the running tiles hold spp_done samples per pixel and
  * the image's estimate is e (error_estimate_image of image): clears active[t] of each running
  * tile t of grid that stops here (tiles whose active[t] is false stopped before and are left
  * alone). Nothing stops unless target > 0, e is valid with a mean > 0 and above the target (a
  * job at its target ends as a whole), and spp_done >= ADAPTIVE_MIN_SPP. A tile stops when
  *
- *   sum over its pixels p of V_p  <=  (its pixels) x (target x mean)^2
+ *   sum over its pixels p of V_p  <=  (its pixels) x (target x ref)^2,
+ *   ref = min(mean, max(tile mean, ADAPTIVE_DARK_FLOOR x mean))
  *
- * with V_p the variance of pixel p's mean luminance (error_estimate_variance_of_mean) and mean
- * the image's mean luminance: were every tile there, the image's estimate would be the target.
+ * with V_p the variance of pixel p's mean luminance (error_estimate_variance_of_mean), mean the
+ * image's mean luminance and tile mean the tile's: were every tile there, the image's estimate
+ * would be at most the target, and a tile darker than the image is within the target relative
+ * to its own light too (down to the floor).
  * A tile with a pixel of fewer than 2 samples or beyond range never stops; a tile without
  * light (every sample 0) has V = 0 and stops at the first boundary allowed. When every running
  * tile would stop while the image is still above its target (the tiles that stopped earlier
