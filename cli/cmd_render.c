@@ -124,7 +124,7 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
     local_render_opts_t opts = {.threads = threads, .tile_size = tile, .photons = photons, .t0 = start,
                                 .stop = {.target_error = stop->target_error,
                                          .time_limit = stop->time_limit},
-                                .adaptive = !stop->adaptive_off,
+                                .adaptive = stop->adaptive != 0,
                                 .progress = on_progress, .pass_done = on_pass, .user = &prog};
     local_render_result_t res;
     if (local_render(scene, &opts, image, &st, &res, &err)) {
@@ -214,7 +214,7 @@ static int render_frames_farm(const render_cfg_t *c, const frame_list_t *fl, con
                                                   : (cores / (int)c->workers > 0 ? cores / (int)c->workers : 1),
                             .tile = (int)c->tile, .quiet = c->quiet,
                             .target_error = c->stop.target_error, .time_limit = c->stop.time_limit,
-                            .adaptive_off = c->stop.adaptive_off,
+                            .adaptive = c->stop.adaptive,
                             .frames = (const char *const *)fl->paths, .numbers = fl->numbers,
                             .nframes = fl->n, .frame_pattern = pattern};
     char name[420];
@@ -440,7 +440,7 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
                                 .threads = threads ? (int)threads : (cores / (int)workers > 0 ? cores / (int)workers : 1),
                                 .tile = (int)tile, .quiet = quiet,
                                 .target_error = stop.target_error, .time_limit = stop.time_limit,
-                                .adaptive_off = stop.adaptive_off,
+                                .adaptive = stop.adaptive,
                                 .loaded = scene};
         proto_job_info_t info;
         char stop_buf[64];

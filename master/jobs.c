@@ -326,7 +326,7 @@ int jobs_apply_stopping(master_t *m, const mjob_t *j, err_t *err)
         return 0;
     if (sched_set_whole_passes(m->sched, j->id, err) < 0)
         return -1;
-    return rule.target_error > 0 && !j->settings.adaptive_off
+    return rule.target_error > 0 && j->settings.adaptive
                ? sched_set_adaptive(m->sched, j->id, rule.target_error, err)
                : 0;
 }

@@ -52,7 +52,7 @@ stopping_rule_t job_stopping_rule(const mjob_t *j);
  * whole passes when it may end early, and to the master's list. */
 int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err);
 /* How the job's passes are merged, from its settings: whole passes when it may end early, and
- * adaptive sampling when it has a target error and adaptive_off is not set (film/adaptive.h).
+ * adaptive sampling when it has a target error and asks for it (film/adaptive.h).
  * After sched_add_job, before any camera result (job_schedule; a refinement's new round). */
 int jobs_apply_stopping(master_t *m, const mjob_t *j, err_t *err);
 /* Pushes the job's owner, priority and pause (j->ops) into the scheduler, after sched_add_job

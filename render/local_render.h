@@ -30,7 +30,8 @@ typedef struct local_render_opts {
     stopping_rule_t stop;            /* none: every pass, tile by tile */
     bool adaptive;                   /* with stop.target_error: tiles stop one by one at pass
                                       * boundaries (film/adaptive.h), as the farm's master
-                                      * decides them; without a target it changes nothing */
+                                      * decides them (--adaptive on); without a target it
+                                      * changes nothing */
     double t0;                       /* clock_now_s() when the job started (its elapsed times and
                                       * time limit count from it); 0: at the call */
     local_render_progress_fn progress;

@@ -63,17 +63,17 @@ static void test_flat_tiles_stop_first_and_every_farm_agrees(void **state)
     (void)state;
     const char *direct = testutil_scratch("on_direct.exr"), *one = testutil_scratch("on_1.exr"),
                *three = testutil_scratch("on_3.exr");
-    const run_t *r = run("render", SCENE, "--target-error", "0.3", "--tile", TILE, "--direct",
-                         "--threads", "2", "-o", direct, "--quiet", NULL);
+    const run_t *r = run("render", SCENE, "--target-error", "0.3", "--adaptive", "on", "--tile",
+                         TILE, "--direct", "--threads", "2", "-o", direct, "--quiet", NULL);
     render_ok("--direct", r);
     expect_in(r->out, "adaptive: ");
     expect_in(r->out, "(target error reached)");
-    r = run("render", SCENE, "--target-error", "0.3", "--tile", TILE, "--workers", "1", "--threads",
-            "2", "-o", one, "--quiet", NULL);
+    r = run("render", SCENE, "--target-error", "0.3", "--adaptive", "on", "--tile", TILE,
+            "--workers", "1", "--threads", "2", "-o", one, "--quiet", NULL);
     render_ok("1 worker", r);
     expect_in(r->out, "adaptive: ");
-    r = run("render", SCENE, "--target-error", "0.3", "--tile", TILE, "--workers", "3", "--threads",
-            "1", "-o", three, "--quiet", NULL);
+    r = run("render", SCENE, "--target-error", "0.3", "--adaptive", "on", "--tile", TILE,
+            "--workers", "3", "--threads", "1", "-o", three, "--quiet", NULL);
     render_ok("3 workers", r);
     testutil_assert_same_pixels(direct, one);
     testutil_assert_same_pixels(one, three);
@@ -132,6 +132,11 @@ static void test_off_and_without_target_change_nothing(void **state)
     render_ok("off farm", r);
     assert_null(strstr(r->out, "adaptive: "));
     testutil_assert_same_pixels(off_d, off_f);
+    /* Off is the default. */
+    const char *dflt = testutil_scratch("default_direct.exr");
+    render_ok("default --direct", run("render", SCENE, "--target-error", "0.3", "--tile", TILE,
+                                      "--direct", "--threads", "2", "-o", dflt, "--quiet", NULL));
+    testutil_assert_same_pixels(off_d, dflt);
     char *info = info_of(off_f);
     assert_null(strstr(info, ";adaptive="));
     assert_null(strstr(info, "tile_spp"));
@@ -179,9 +184,9 @@ static void test_master_killed(void **state)
 {
     (void)state;
     const char *ref = testutil_scratch("restart_ref.exr");
-    render_ok("reference",
-              run("render", SCENE, "--spp", "4096", "--target-error", "0.02", "--workers", "1",
-                  "--threads", "2", "--tile", TESTUTIL_JOURNAL_TILE, "-o", ref, "--quiet", NULL));
+    render_ok("reference", run("render", SCENE, "--spp", "4096", "--target-error", "0.02",
+                               "--adaptive", "on", "--workers", "1", "--threads", "2", "--tile",
+                               TESTUTIL_JOURNAL_TILE, "-o", ref, "--quiet", NULL));
     char *info = info_of(ref);
     assert_non_null(strstr(info, ";adaptive=on;"));
     free(info);
@@ -192,7 +197,7 @@ static void test_master_killed(void **state)
     testutil_read_endpoints(spool, wep, cep, mlog1);
     pid_t w = testutil_journal_worker(testutil_scratch("ad-w.log"), wep, "w");
     const run_t *r = run("submit", SCENE, "--master", cep, "--spp", "4096", "--target-error",
-                         "0.02", "--insecure", NULL);
+                         "0.02", "--adaptive", "on", "--insecure", NULL);
     if (r->status != 0)
         fail_msg("submit: exit %d: %s", r->status, r->err);
     assert_string_equal(r->out, "1\n");
