@@ -42,6 +42,20 @@ static double tile_variance_sum(const tilebuf_t *image, const tilegrid_t *grid, 
  * relative to itself, grain the tone curve shows (the jewel's dark backdrop at 16 spp,
  * docs/rendering.md); the floor keeps tiles with little light from running for ever. Since
  * passes double the samples, a tile stops with between half its budget and its budget. */
+/* Whether running tile t is within its budget (adaptive.h): n_t (target ref)^2 with ref the
+ * image's mean, or the tile's own when darker, down to ADAPTIVE_DARK_FLOOR of the image's. */
+static bool tile_stops(const tilebuf_t *image, const tilegrid_t *grid, int t, double target,
+                       double mean)
+{
+    int npix = 0;
+    double m_t = 0;
+    double v = tile_variance_sum(image, grid, t, &npix, &m_t);
+    double ref = m_t < mean ? m_t : mean;
+    if (!(ref > ADAPTIVE_DARK_FLOOR * mean))
+        ref = ADAPTIVE_DARK_FLOOR * mean;
+    return v >= 0 && v <= (double)npix * (target * ref) * (target * ref);
+}
+
 int adaptive_decide(const tilebuf_t *image, const tilegrid_t *grid, double target, int spp_done,
                     const error_estimate_t *e, bool *active)
 {
@@ -49,35 +63,18 @@ int adaptive_decide(const tilebuf_t *image, const tilegrid_t *grid, double targe
         spp_done < ADAPTIVE_MIN_SPP)
         return 0;
     int ntiles = tilegrid_count(grid);
-    if (ntiles < 1)
-        return 0;
+    /* Two rounds over the tiles, the first counting, the second stopping: nothing to allocate,
+     * so that no failure can make one run's decision differ from another's. */
     int running = 0, stopping = 0;
     for (int t = 0; t < ntiles; t++)
         running += active[t];
-    bool *stop = calloc((size_t)ntiles, sizeof *stop);
-    if (!stop)
-        return 0; /* no memory: every tile goes on, which changes no decision's inputs */
-    for (int t = 0; t < ntiles; t++) {
-        if (!active[t])
-            continue;
-        int npix = 0;
-        double m_t = 0;
-        double v = tile_variance_sum(image, grid, t, &npix, &m_t);
-        double ref = m_t < e->mean ? m_t : e->mean;
-        if (!(ref > ADAPTIVE_DARK_FLOOR * e->mean))
-            ref = ADAPTIVE_DARK_FLOOR * e->mean;
-        double budget = (target * ref) * (target * ref);
-        if (v >= 0 && v <= (double)npix * budget) {
-            stop[t] = true;
-            stopping++;
-        }
-    }
+    for (int t = 0; t < ntiles; t++)
+        stopping += active[t] && tile_stops(image, grid, t, target, e->mean);
     if (stopping == running)
-        stopping = 0; /* the last running tiles end with the job: adaptive.h */
-    for (int t = 0; t < ntiles && stopping > 0; t++)
-        if (stop[t])
+        return 0; /* the last running tiles end with the job: adaptive.h */
+    for (int t = 0; t < ntiles; t++)
+        if (active[t] && tile_stops(image, grid, t, target, e->mean))
             active[t] = false;
-    free(stop);
     return stopping;
 }
 

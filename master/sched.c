@@ -47,6 +47,7 @@ typedef struct job {
      * result, its next_pass stays the pass it stopped at. */
     double adaptive_target;
     bool *active;
+    bool *decided; /* adapt's copy of active, allocated with it: no allocation at a boundary */
     int tiles_active;
     uint32_t first_pending; /* no PENDING task before this index */
     uint32_t tasks_done;
@@ -153,6 +154,7 @@ static void job_free(job_t *j)
     free(j->merged_in_pass);
     free(j->done_in_pass);
     free(j->active);
+    free(j->decided);
     free(j->strikes);
     tilebuf_destroy(&j->image);
     free(j);
@@ -402,6 +404,11 @@ int sched_set_adaptive(sched_t *self, uint64_t id, double target_error, err_t *e
                        "be chosen before", (unsigned long long)id);
     if (!j->active && !(j->active = malloc((size_t)j->ntiles * sizeof *j->active)))
         return err_set(err, "out of memory");
+    if (!j->decided && !(j->decided = malloc((size_t)j->ntiles * sizeof *j->decided))) {
+        free(j->active);
+        j->active = NULL;
+        return err_set(err, "out of memory");
+    }
     for (int t = 0; t < j->ntiles; t++)
         j->active[t] = true;
     j->tiles_active = j->ntiles;
@@ -838,16 +845,13 @@ static void adapt(sched_t *self, job_t *j)
     if (!j->active || j->passes_done < 1 || j->passes_done >= j->npasses)
         return;
     error_estimate_t e = error_estimate_image(j->image);
-    bool *was = malloc((size_t)j->ntiles * sizeof *was);
-    if (!was)
-        return; /* no memory: the tiles go on (a later boundary decides again) */
+    bool *was = j->decided;
     memcpy(was, j->active, (size_t)j->ntiles * sizeof *was);
     if (adaptive_decide(j->image, &j->tiles, j->adaptive_target,
                         (int)j->pass_begin[j->passes_done], &e, was) > 0)
         for (int t = 0; t < j->ntiles; t++)
             if (j->active[t] && !was[t])
                 stop_tile(self, j, t, j->passes_done);
-    free(was);
 }
 
 /* Merges what can be merged of one tile, in pass order. */

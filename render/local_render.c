@@ -21,6 +21,7 @@ typedef struct shared {
     tilebuf_t *target;   /* where finished tiles are merged: the image, or the pass's buffer */
     int pass;            /* under a stopping rule: the pass being rendered */
     bool *active;        /* adaptive sampling: per tile, whether it still runs; NULL without */
+    bool *decided;       /* adapt's copy of active (allocated with it) */
     double deadline;     /* under a stopping rule: clock after which the pass is dropped; 0 never */
     render_stats_t stats;       /* of the tiles merged into target */
     render_stats_t image_stats; /* under a stopping rule: of the passes merged into the image */
@@ -101,9 +102,7 @@ static int render_one(void *user, int t, err_t *err)
 static void adapt(shared_t *sh, const tilebuf_t *image, int passes, const error_estimate_t *e)
 {
     int n = tilegrid_count(&sh->grid);
-    bool *was = malloc((size_t)n * sizeof *was);
-    if (!was)
-        return; /* the tiles go on; the master would decide the same at its next boundary */
+    bool *was = sh->decided;
     memcpy(was, sh->active, (size_t)n * sizeof *was);
     if (adaptive_decide(image, &sh->grid, sh->opts->stop.target_error, (int)sh->bounds[passes], e,
                         sh->active) > 0)
@@ -115,7 +114,6 @@ static void adapt(shared_t *sh, const tilebuf_t *image, int passes, const error_
                     (uint64_t)w * (uint64_t)h * (sh->bounds[sh->npasses] - sh->bounds[passes]);
                 sh->tile_spp[t] = (int)sh->bounds[passes];
             }
-    free(was);
 }
 
 /* Under a stopping rule: pass after pass over the whole image, each rendered into a buffer of
@@ -201,9 +199,11 @@ int local_render(const scene_t *scene, const local_render_opts_t *opts, tilebuf_
     if (opts->adaptive && opts->stop.target_error > 0) {
         sh.active = malloc((size_t)ntiles * sizeof *sh.active);
         sh.tile_spp = malloc((size_t)ntiles * sizeof *sh.tile_spp);
-        if (!sh.active || !sh.tile_spp) {
+        sh.decided = malloc((size_t)ntiles * sizeof *sh.decided);
+        if (!sh.active || !sh.tile_spp || !sh.decided) {
             free(sh.active);
             free(sh.tile_spp);
+            free(sh.decided);
             pthread_mutex_destroy(&sh.lock);
             photon_store_destroy(&traced);
             return err_set(err, "out of memory for %d tiles", ntiles);
@@ -238,6 +238,7 @@ int local_render(const scene_t *scene, const local_render_opts_t *opts, tilebuf_
     pthread_mutex_destroy(&sh.lock);
     photon_store_destroy(&traced);
     free(sh.active);
+    free(sh.decided);
     free(sh.tile_spp);
     if (r == 0 && stats)
         stats_add(stats, &sh.stats);
