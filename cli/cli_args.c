@@ -63,6 +63,16 @@ static int parse_dispersion(const char *cmd, const char *flag, const char *val, 
     return 0;
 }
 
+static int parse_adaptive(const char *cmd, const char *flag, const char *val, void *dst)
+{
+    if (strcmp(val, "on") && strcmp(val, "off")) {
+        fprintf(stderr, "prismfarm %s: %s expects on or off, got '%s'\n", cmd, flag, val);
+        return -1;
+    }
+    *(int *)dst = !strcmp(val, "on");
+    return 0;
+}
+
 const cli_opt_t CLI_OVERRIDE_OPTS[] = {
     {.name = "spp", .kind = CLI_INT, .off = offsetof(scene_overrides_t, spp), .lo = 1,
      .hi = 1 << 24, .arg = "N", .help = "samples per pixel"},
@@ -85,6 +95,10 @@ const cli_opt_t CLI_STOP_OPTS[] = {
     {.name = "time-limit", .kind = CLI_SECONDS, .off = offsetof(cli_stop_t, time_limit),
      .hi = PROTO_MAX_TIME_LIMIT, .arg = "T",
      .help = "stop at T seconds (or Ns, Nm, Nh) with the whole passes so far"},
+    {.name = "adaptive", .kind = CLI_CUSTOM, .off = offsetof(cli_stop_t, adaptive),
+     .parse = parse_adaptive, .arg = "on|off",
+     .help = "with --target-error: each tile stops once it reaches its share\n"
+             "of the target (on), or every tile runs every pass (off, the default)"},
     {0},
 };
 

@@ -89,6 +89,7 @@ extern const cli_opt_t CLI_OVERRIDE_OPTS[];
 typedef struct cli_stop {
     double target_error; /* --target-error E: done at the first pass whose estimate is <= E */
     double time_limit;   /* --time-limit T: done at T seconds with the whole passes so far */
+    int adaptive;        /* --adaptive on: under a target error tiles stop one by one */
 } cli_stop_t;
 
 /* --target-error E (0 < E < 1) and --time-limit T (seconds, or with a suffix s, m or h; at

@@ -2,11 +2,13 @@
  * PNG preview. */
 #include "commands.h"
 
+#include "adaptive.h"
 #include "cli_args.h"
 #include "clock.h"
 #include "film.h"
 #include "frame_list.h"
 #include "frame_pattern.h"
+#include "image_exr.h"
 #include "job_follow.h"
 #include "jobinfo.h"
 #include "local_farm.h"
@@ -75,9 +77,27 @@ static const char *stop_text(proto_stop_t why, char *buf, size_t size)
     return buf;
 }
 
+/* The adaptive summary of an EXR the master wrote (its record's tile_spp), when it has one. */
+static void print_adaptive(const char *exr)
+{
+    err_t err;
+    image_exr_t *img = image_exr_read(exr, &err);
+    const char *info = img ? image_exr_attribute(img, "prismfarm") : NULL;
+    tilegrid_t grid;
+    int *tile_spp = NULL;
+    if (info && jobinfo_tile_spp(info, &grid, &tile_spp, &err) == 1) {
+        adaptive_summary_t s = adaptive_summarize(&grid, tile_spp);
+        char line[160];
+        adaptive_summary_line(&s, line, sizeof line);
+        printf("%s\n", line);
+    }
+    free(tile_spp);
+    image_exr_destroy(&img);
+}
+
 /* The same render without the farm: the photon pass, if any, then the camera pass on this
  * process's threads (render/local_render.h; --direct). */
-static int render_direct(const scene_t *scene, const char *scene_path, int threads, int quiet,
+static int render_direct(const scene_t *scene, const char *scene_path, int threads, int tile, int quiet,
                          const cli_stop_t *stop, const char *exr, const char *png,
                          colour_tonemap_t tm, double loaded, double load_s)
 {
@@ -100,9 +120,11 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
         tilebuf_destroy(&image);
         return 1;
     }
-    local_render_opts_t opts = {.threads = threads, .photons = photons, .t0 = start,
+    /* The tile size is the farm's (--tile): adaptive sampling decides tile by tile. */
+    local_render_opts_t opts = {.threads = threads, .tile_size = tile, .photons = photons, .t0 = start,
                                 .stop = {.target_error = stop->target_error,
                                          .time_limit = stop->time_limit},
+                                .adaptive = stop->adaptive != 0,
                                 .progress = on_progress, .pass_done = on_pass, .user = &prog};
     local_render_result_t res;
     if (local_render(scene, &opts, image, &st, &res, &err)) {
@@ -118,7 +140,7 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
     char stop_buf[64];
     if (rc == 0) {
         /* The record the master writes (docs/farm.md, "Accuracy"), from the same writer. */
-        char info[4096];
+        char info[16384];
         jobinfo_t ji = {.scene = scene_path, .spp = rs->spp, .xres = rs->xres, .yres = rs->yres,
                         .seed = rs->seed,
                         .integrator = integrators_used_name(rs->integrator, rs->photon.enabled, rs->media),
@@ -127,7 +149,8 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
                         .samples = st.samples, .nonfinite = st.nonfinite,
                         .photons = pst.emitted, .rays = (int64_t)st.rays, .seconds = secs,
                         .spp_done = last ? last->spp : 0, .stop = res.why,
-                        .rule = opts.stop, .history = res.history, .nhistory = res.nhistory};
+                        .rule = opts.stop, .history = res.history, .nhistory = res.nhistory,
+                        .tile_spp = res.tile_spp, .grid = res.grid};
         jobinfo_format(&ji, info, sizeof info);
         film_output_t fo = {.exr_path = exr, .png_path = png, .spectral = 1, .tonemap = tm, .info = info};
         if (film_write(image, rs->grid, &fo, &err)) {
@@ -145,6 +168,12 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
             else if (last)
                 printf("%d of %d spp, no relative error estimate%s%s\n", last->spp, rs->spp,
                        last->spp < 2 ? " (1 sample per pixel)" : "", stop_text(why, stop_buf, sizeof stop_buf));
+            if (res.tile_spp) {
+                adaptive_summary_t as = adaptive_summarize(&res.grid, res.tile_spp);
+                char line[160];
+                adaptive_summary_line(&as, line, sizeof line);
+                printf("%s\n", line);
+            }
             if (photons)
                 printf("photon pass: %llu photons in %.2f s, %zu %s (%.1f MB)\n", (unsigned long long)pst.emitted,
                        psec, photon_store_count(photons),
@@ -152,6 +181,7 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
                        photon_store_memory_bytes(photons) / 1e6);
         }
     }
+    local_render_result_free(&res);
     photon_store_destroy(&photons);
     tilebuf_destroy(&image);
     return rc;
@@ -184,6 +214,7 @@ static int render_frames_farm(const render_cfg_t *c, const frame_list_t *fl, con
                                                   : (cores / (int)c->workers > 0 ? cores / (int)c->workers : 1),
                             .tile = (int)c->tile, .quiet = c->quiet,
                             .target_error = c->stop.target_error, .time_limit = c->stop.time_limit,
+                            .adaptive = c->stop.adaptive,
                             .frames = (const char *const *)fl->paths, .numbers = fl->numbers,
                             .nframes = fl->n, .frame_pattern = pattern};
     char name[420];
@@ -404,7 +435,7 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
     int rc = 0;
     colour_tonemap_t tm = {.exposure_stops = exposure, .curve = COLOUR_CURVE_ACES};
     if (c->direct) {
-        rc = render_direct(scene, scene_path, (int)threads, quiet, &stop, exr, png, tm, loaded, load_s);
+        rc = render_direct(scene, scene_path, (int)threads, (int)tile, quiet, &stop, exr, png, tm, loaded, load_s);
     } else {
         /* The farm's code path: a master and workers in this process. */
         const char *base = strrchr(scene_path, '/');
@@ -424,6 +455,7 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
                                 .threads = threads ? (int)threads : (cores / (int)workers > 0 ? cores / (int)workers : 1),
                                 .tile = (int)tile, .quiet = quiet,
                                 .target_error = stop.target_error, .time_limit = stop.time_limit,
+                                .adaptive = stop.adaptive,
                                 .loaded = scene};
         proto_job_info_t info;
         char stop_buf[64];
@@ -444,6 +476,7 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
             else
                 printf("%u of %d spp, no relative error estimate%s%s\n", info.spp, rs->spp,
                        info.spp < 2 ? " (1 sample per pixel)" : "", stop_text(info.stop, stop_buf, sizeof stop_buf));
+            print_adaptive(exr);
         }
     }
     scene_destroy(&scene);

@@ -213,6 +213,7 @@ static int submit_scenes(const frame_list_t *fr, const char *master, const char 
                                   .bundle = *scene_bundle_get(b)}};
     req.submit.settings.target_error = stop.target_error;
     req.submit.settings.time_limit = stop.time_limit;
+    req.submit.settings.adaptive = stop.adaptive;
     req.submit.priority = priority;
     req.submit.frames = frames;
     req.submit.nframes = sequence ? fr->n : 0;

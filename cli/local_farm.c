@@ -109,6 +109,7 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info, scene_she
     proto_settings_t settings = settings_from_overrides(&ov);
     settings.target_error = o->target_error;
     settings.time_limit = o->time_limit;
+    settings.adaptive = o->adaptive;
     /* The client's scene on the shelf under the key the master and workers will ask for: the
      * bundle's hash and main file (what they load it from) and the settings the SUBMIT
      * carries. */

@@ -23,6 +23,7 @@ typedef struct local_farm_opts {
     int quiet;
     double target_error;  /* the job's stopping rules (proto_settings_t); 0: none */
     double time_limit;
+    int adaptive;         /* proto_settings_t: 1 turns adaptive sampling on under a target */
     /* The scene as the client loaded it (scene_load_file with overrides), shared with the
      * master and workers; NULL: they load it. */
     scene_t *loaded;

@@ -81,10 +81,15 @@ typedef struct dash_task {
 /* The tile map of a job's camera phase: per tile the passes merged. tiles_x * tiles_y tiles of
  * tile x tile pixels, row-major from the top left; merged has ntiles entries (filled by the
  * provider into the dashboard's array of capacity ntiles, which the dashboard sizes from
- * tiles_x * tiles_y after a first call with merged = NULL). */
+ * tiles_x * tiles_y after a first call with merged = NULL). A job with adaptive sampling
+ * (docs/rendering.md) says so: its tiles with fewer passes merged than passes_done stopped
+ * there (converged); spp, filled beside merged, is each tile's samples per pixel. */
 typedef struct dash_tilemap {
     int xres, yres, tile, tiles_x, tiles_y, npasses;
     int *merged;
+    int *spp;        /* ntiles entries like merged (NULL: not asked) */
+    bool adaptive;   /* tiles stop one by one */
+    int passes_done; /* the passes the running tiles have merged */
 } dash_tilemap_t;
 
 typedef struct dash_worker {

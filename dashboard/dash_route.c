@@ -356,12 +356,20 @@ static void get_tiles(dash_router_t *self, uint64_t id, dash_response_t *out)
     }
     size_t ntiles =
         map.tiles_x > 0 && map.tiles_y > 0 ? (size_t)map.tiles_x * (size_t)map.tiles_y : 0;
-    if (ntiles > 0 && !(map.merged = calloc(ntiles, sizeof *map.merged))) {
+    /* The buffers are ours whatever the provider does with the map: one that knows nothing of
+     * spp may leave it NULL, and then the answer has none. */
+    int *merged_buf = NULL, *spp_buf = NULL;
+    if (ntiles > 0 && (!(merged_buf = calloc(ntiles, sizeof *merged_buf)) ||
+                       !(spp_buf = calloc(ntiles, sizeof *spp_buf)))) {
+        free(merged_buf);
         answer_error(out, 500, "the master is out of memory");
         return;
     }
+    map.merged = merged_buf;
+    map.spp = spp_buf;
     if (ntiles > 0 && self->p->tiles(self->p->user, id, &map, &err) < 0) {
-        free(map.merged);
+        free(merged_buf);
+        free(spp_buf);
         answer_error(out, 409, "job %llu: %s", (unsigned long long)id, err.msg);
         return;
     }
@@ -373,10 +381,17 @@ static void get_tiles(dash_router_t *self, uint64_t id, dash_response_t *out)
     json_object_set_new(o, "tiles_y", json_integer(map.tiles_y));
     json_object_set_new(o, "npasses", json_integer(map.npasses));
     json_t *merged = json_array();
-    for (size_t i = 0; i < ntiles; i++)
+    for (size_t i = 0; i < ntiles && map.merged; i++)
         json_array_append_new(merged, json_integer(map.merged[i]));
-    free(map.merged);
     json_object_set_new(o, "merged", merged);
+    json_t *spp = json_array();
+    for (size_t i = 0; i < ntiles && map.spp == spp_buf && spp_buf; i++)
+        json_array_append_new(spp, json_integer(spp_buf[i]));
+    free(merged_buf);
+    free(spp_buf);
+    json_object_set_new(o, "spp", spp);
+    json_object_set_new(o, "adaptive", json_boolean(map.adaptive));
+    json_object_set_new(o, "passes_done", json_integer(map.passes_done));
     /* The running tasks place the workers on the map. */
     int n = self->p->tasks ? self->p->tasks(self->p->user, id, self->tasks, DASH_MAX_TASKS) : 0;
     json_t *run = json_array();

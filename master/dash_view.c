@@ -202,6 +202,9 @@ static int pv_passes(void *user, uint64_t id, dash_pass_t *out, int max)
     return n;
 }
 
+static int fill_merged(master_t *m, const mjob_t *j, bool live, dash_tilemap_t *map, int n,
+                       err_t *err);
+
 static int pv_tiles(void *user, uint64_t id, dash_tilemap_t *map, err_t *err)
 {
     dash_view_t *v = user;
@@ -212,31 +215,60 @@ static int pv_tiles(void *user, uint64_t id, dash_tilemap_t *map, err_t *err)
     if (j->scene.xres < 1 || j->scene.yres < 1 || j->scene.spp < 1)
         return err_set(err, "its scene is not loaded: no tiles to show");
     tilegrid_t g = tilegrid_make(j->scene.xres, j->scene.yres, m->opts->sched.tile_size);
-    int *merged = map->merged;
+    int *merged = map->merged, *spp = map->spp;
     *map = (dash_tilemap_t){.xres = g.xres,
                             .yres = g.yres,
                             .tile = g.tile,
                             .tiles_x = g.tiles_x,
                             .tiles_y = g.tiles_y,
                             .npasses = passes_bounds(j->scene.spp, NULL),
-                            .merged = merged};
+                            .merged = merged,
+                            .spp = spp};
+    sched_job_info_t si;
+    bool live = j->sched.known && sched_job_info(m->sched, j->id, &si) == 0;
+    if (live) {
+        map->adaptive = si.adaptive;
+        map->passes_done = si.passes_done;
+    } else {
+        map->adaptive = j->accuracy.tile_passes != NULL;
+        map->passes_done = j->accuracy.stop != PROTO_STOP_NONE && j->accuracy.nhistory > 0
+                               ? j->accuracy.history[j->accuracy.nhistory - 1].pass
+                               : map->npasses;
+    }
     if (!merged)
         return 0;
     int n = tilegrid_count(&g);
-    if (j->sched.known)
+    if (fill_merged(m, j, live, map, n, err) < 0)
+        return -1;
+    if (spp) {
+        uint32_t bounds[PASSES_MAX_BOUNDS];
+        passes_bounds(j->scene.spp, bounds);
+        for (int i = 0; i < n; i++)
+            spp[i] = merged[i] >= 0 && merged[i] <= map->npasses ? (int)bounds[merged[i]] : 0;
+    }
+    return 0;
+}
+
+/* Per tile the passes merged: the scheduler's while it holds the job, else what the job kept. */
+static int fill_merged(master_t *m, const mjob_t *j, bool live, dash_tilemap_t *map, int n,
+                       err_t *err)
+{
+    int *merged = map->merged;
+    if (live)
         return sched_job_next_pass(m->sched, j->id, merged, n) == n
                    ? 0
                    : err_set(err, "the scheduler's tiles differ from the scene's");
+    if (j->accuracy.tile_passes && j->accuracy.ntiles == n) {
+        memcpy(merged, j->accuracy.tile_passes, (size_t)n * sizeof *merged);
+        return 0;
+    }
     /* Over: the scheduler forgot the tiles with the image. A job done merged every pass of
      * every tile (or, ended early, the passes its record says: whole passes only). */
     if (j->state != JOB_DONE)
         return err_set(err, "it is %s: the scheduler forgot its tiles when it ended",
                        job_state_name(j->state));
-    int passes = j->accuracy.stop != PROTO_STOP_NONE && j->accuracy.nhistory > 0
-                     ? j->accuracy.history[j->accuracy.nhistory - 1].pass
-                     : map->npasses;
     for (int i = 0; i < n; i++)
-        merged[i] = passes;
+        merged[i] = map->passes_done;
     return 0;
 }
 

@@ -55,6 +55,7 @@ void job_free(mjob_t *j)
         free(j->main);
         free(j->name);
         free(j->error);
+        free(j->accuracy.tile_passes);
         free(j);
     }
 }
@@ -318,6 +319,18 @@ stopping_rule_t job_stopping_rule(const mjob_t *j)
                              .time_limit = j->settings.time_limit};
 }
 
+int jobs_apply_stopping(master_t *m, const mjob_t *j, err_t *err)
+{
+    stopping_rule_t rule = job_stopping_rule(j);
+    if (!stopping_active(&rule))
+        return 0;
+    if (sched_set_whole_passes(m->sched, j->id, err) < 0)
+        return -1;
+    return rule.target_error > 0 && j->settings.adaptive
+               ? sched_set_adaptive(m->sched, j->id, rule.target_error, err)
+               : 0;
+}
+
 int jobs_apply_ops(master_t *m, const mjob_t *j, err_t *err)
 {
     if (sched_set_job_owner(m->sched, j->id, j->owner, err) < 0 ||
@@ -330,14 +343,11 @@ int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err)
 {
     if (jobs_reserve(m) < 0)
         return err_set(err, "the master is out of memory");
-    stopping_rule_t rule = job_stopping_rule(j);
-    bool may_stop = stopping_active(&rule);
     sched_job_info_t info;
     if (sched_add_job(m->sched, j->id, j->scene.xres, j->scene.yres, j->scene.spp, j->scene.grid,
                       err) < 0)
         return -1;
-    if (jobs_apply_ops(m, j, err) < 0 ||
-        (may_stop && sched_set_whole_passes(m->sched, j->id, err) < 0) ||
+    if (jobs_apply_ops(m, j, err) < 0 || jobs_apply_stopping(m, j, err) < 0 ||
         (photon_batches > 0 &&
          sched_add_photon_batches(m->sched, j->id, photon_batches, err) < 0) ||
         sched_job_info(m->sched, j->id, &info) < 0) {
@@ -379,7 +389,26 @@ int job_write_image(master_t *m, mjob_t *j, bool final, err_t *err)
     sched_job_info_t si;
     if (sched_job_info(m->sched, j->id, &si) < 0)
         return err_set(err, "job %llu is unknown to the scheduler", (unsigned long long)j->id);
-    char info[4096];
+    /* Adaptive sampling: each tile's samples, from the pass it merges next; kept for the
+     * dashboard's map once the scheduler forgets the job. */
+    int *tile_spp = NULL;
+    tilegrid_t grid = tilegrid_make(j->scene.xres, j->scene.yres, m->opts->sched.tile_size);
+    if (si.adaptive && (tile_spp = malloc((size_t)si.ntiles * sizeof *tile_spp)) &&
+        sched_job_next_pass(m->sched, j->id, tile_spp, si.ntiles) == si.ntiles) {
+        if (final && !j->accuracy.tile_passes &&
+            (j->accuracy.tile_passes = malloc((size_t)si.ntiles * sizeof *tile_spp))) {
+            memcpy(j->accuracy.tile_passes, tile_spp, (size_t)si.ntiles * sizeof *tile_spp);
+            j->accuracy.ntiles = si.ntiles;
+        }
+        uint32_t bounds[PASSES_MAX_BOUNDS];
+        passes_bounds(j->scene.spp, bounds);
+        for (int t = 0; t < si.ntiles; t++)
+            tile_spp[t] = (int)bounds[tile_spp[t]];
+    } else {
+        free(tile_spp);
+        tile_spp = NULL;
+    }
+    char info[16384];
     jobinfo_t ji = {
         .job = j->id,
         .name = j->stem,
@@ -399,7 +428,9 @@ int job_write_image(master_t *m, mjob_t *j, bool final, err_t *err)
         .stop = (stopping_why_t)j->accuracy.stop,
         .rule = job_stopping_rule(j),
         .history = j->accuracy.history,
-        .nhistory = j->accuracy.nhistory};
+        .nhistory = j->accuracy.nhistory,
+        .tile_spp = tile_spp,
+        .grid = grid};
     jobinfo_format(&ji, info, sizeof info);
     film_output_t out = {
         .spectral = 1, .tonemap = {.exposure_stops = 0, .curve = COLOUR_CURVE_ACES}, .info = info};
@@ -411,6 +442,7 @@ int job_write_image(master_t *m, mjob_t *j, bool final, err_t *err)
         snprintf(png, sizeof png, "%s/preview.png", dir);
     }
     out.png_path = png;
+    free(tile_spp);
     return film_write(image, j->scene.grid, &out, err);
 }
 

@@ -51,6 +51,10 @@ stopping_rule_t job_stopping_rule(const mjob_t *j);
 /* Adds a new job to the scheduler, with photon_batches batches before its camera phase and
  * whole passes when it may end early, and to the master's list. */
 int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err);
+/* How the job's passes are merged, from its settings: whole passes when it may end early, and
+ * adaptive sampling when it has a target error and asks for it (film/adaptive.h).
+ * After sched_add_job, before any camera result (job_schedule; a refinement's new round). */
+int jobs_apply_stopping(master_t *m, const mjob_t *j, err_t *err);
 /* Pushes the job's owner, priority and pause (j->ops) into the scheduler, after sched_add_job
  * (job_schedule does it; a refinement's new round too). */
 int jobs_apply_ops(master_t *m, const mjob_t *j, err_t *err);

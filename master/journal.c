@@ -386,7 +386,11 @@ static int insert_job(journal_t *self, const journal_job_t *j, err_t *err)
     sqlite3_bind_int64(st, 8, j->settings.seed);
     bind_text_or_null(st, 9, j->settings.integrator);
     bind_text_or_null(st, 10, j->settings.dispersion);
-    sqlite3_bind_double(st, 11, j->settings.target_error);
+    /* A job with adaptive sampling keeps its target negated: the column's sign is the setting,
+     * so the schema (and the version) stay as they were, and a journal of a master before
+     * adaptive sampling reads as without it, which is how its jobs ran. */
+    sqlite3_bind_double(st, 11, j->settings.adaptive ? -j->settings.target_error
+                                                     : j->settings.target_error);
     sqlite3_bind_double(st, 12, j->settings.time_limit);
     sqlite3_bind_int(st, 13, j->state);
     sqlite3_bind_int64(st, 14, (sqlite3_int64)j->round_photons);
@@ -617,6 +621,9 @@ int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err)
             j->settings.dispersion = j->dispersion;
         }
         j->settings.target_error = sqlite3_column_double(st, 10);
+        j->settings.adaptive = j->settings.target_error < 0; /* insert_job */
+        if (j->settings.adaptive)
+            j->settings.target_error = -j->settings.target_error;
         j->settings.time_limit = sqlite3_column_double(st, 11);
         j->state = sqlite3_column_int(st, 12);
         j->error = col_dup(st, 13);

@@ -116,6 +116,10 @@ typedef struct mjob {
         int nhistory;
         int spp_done;
         proto_stop_t stop;
+        /* Adaptive sampling: each tile's passes merged when the job was done (the scheduler's
+         * next_pass), for the dashboard's map once the scheduler forgot them; NULL without. */
+        int *tile_passes;
+        int ntiles;
     } accuracy;
     /* The journal's view (journal.h): what the round's photon store holds when its phase is
      * done, the photons this round added, the checkpoint file's generation, and the bytes of

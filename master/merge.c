@@ -43,9 +43,13 @@ static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
                      (unsigned long long)e.saturated);
         else if (e.pixels > 0)
             snprintf(est, sizeof est, "no relative error (image mean %.3g)", e.mean);
-        master_log(m, "job %llu pass %d of %d merged: %d spp, %s after %.2f s",
+        char tiles[64] = "";
+        if (info.adaptive)
+            snprintf(tiles, sizeof tiles, "; %d of %d tiles running", info.tiles_active,
+                     info.ntiles);
+        master_log(m, "job %llu pass %d of %d merged: %d spp, %s after %.2f s%s",
                    (unsigned long long)j->id, info.passes_done, info.npasses, info.spp_done, est,
-                   elapsed);
+                   elapsed, tiles);
         proto_stop_t stop = PROTO_STOP_NONE;
         if (info.state == JOB_RUNNING && info.whole_passes) {
             stopping_rule_t rule = job_stopping_rule(j);

@@ -760,12 +760,9 @@ static int refine_job(master_t *m, mjob_t *j, uint64_t photons, const proto_peer
     if (photon_phase_refine(j->photons.phase, photons, err) < 0)
         return err_prefix(err, "job %llu: ", (unsigned long long)j->id);
     uint32_t added = photon_phase_nbatches(j->photons.phase) - base;
-    stopping_rule_t rule = job_stopping_rule(j);
-    bool may_stop = stopping_active(&rule);
     if (sched_add_job(m->sched, j->id, j->scene.xres, j->scene.yres, j->scene.spp, j->scene.grid,
                       err) < 0 ||
-        jobs_apply_ops(m, j, err) < 0 ||
-        (may_stop && sched_set_whole_passes(m->sched, j->id, err) < 0) ||
+        jobs_apply_ops(m, j, err) < 0 || jobs_apply_stopping(m, j, err) < 0 ||
         sched_add_photon_batches(m->sched, j->id, added, err) < 0) {
         err_t ignore;
         /* A queued job cannot be removed: cancel it first (as job_schedule does), or its
@@ -795,6 +792,8 @@ static int refine_job(master_t *m, mjob_t *j, uint64_t photons, const proto_peer
     j->accuracy.nhistory = j->accuracy.spp_done =
         0; /* the round's accuracy, with its own stopping rules */
     j->accuracy.stop = PROTO_STOP_NONE;
+    free(j->accuracy.tile_passes);
+    j->accuracy.tile_passes = NULL;
     j->submitted = now;
     j->journal.checkpoint = 0;
     j->journal.bytes = 0;

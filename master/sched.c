@@ -1,5 +1,6 @@
 #include "sched.h"
 
+#include "adaptive.h"
 #include "bisect.h"
 #include "tilegrid.h"
 
@@ -41,6 +42,13 @@ typedef struct job {
     int *merged_in_pass;  /* per pass: tiles merged */
     int *done_in_pass;    /* per pass: tiles done (merged or held) */
     bool whole_passes;    /* merge a pass only once all its tiles are done (sched.h) */
+    /* Adaptive sampling (sched_set_adaptive): the target its rule aims at, and per tile whether
+     * it still runs; NULL for a job without it. A stopped tile's later tasks are done without a
+     * result, its next_pass stays the pass it stopped at. */
+    double adaptive_target;
+    bool *active;
+    bool *decided; /* adapt's copy of active, allocated with it: no allocation at a boundary */
+    int tiles_active;
     uint32_t first_pending; /* no PENDING task before this index */
     uint32_t tasks_done;
     uint32_t running; /* tasks RUNNING, camera and photon: sched_job_info without a scan */
@@ -145,6 +153,8 @@ static void job_free(job_t *j)
     free(j->next_pass);
     free(j->merged_in_pass);
     free(j->done_in_pass);
+    free(j->active);
+    free(j->decided);
     free(j->strikes);
     tilebuf_destroy(&j->image);
     free(j);
@@ -167,6 +177,8 @@ void sched_destroy(sched_t **self_p)
 
 static void fill_task(const struct job *j, uint32_t i, sched_task_t *out);
 static void check_job_done(struct job *j, int *result);
+static void stop_tile(struct sched *self, struct job *j, int tile, int from_pass);
+static void adapt(struct sched *self, struct job *j);
 static bool takes_tasks(const struct sched *self, const struct job *j, uint64_t worker);
 
 static job_t *find_job(const sched_t *self, uint64_t id)
@@ -376,6 +388,34 @@ int sched_set_whole_passes(sched_t *self, uint64_t id, err_t *err)
     return 0;
 }
 
+int sched_set_adaptive(sched_t *self, uint64_t id, double target_error, err_t *err)
+{
+    job_t *j = find_job(self, id);
+    if (!j)
+        return err_set(err, "no job %llu", (unsigned long long)id);
+    if (!j->whole_passes)
+        return err_set(err, "job %llu merges tiles as they come: adaptive sampling decides at "
+                       "whole-pass boundaries", (unsigned long long)id);
+    if (!(target_error > 0 && target_error < 1))
+        return err_set(err, "job %llu: adaptive sampling needs a target error in (0, 1), not %g",
+                       (unsigned long long)id, target_error);
+    if (j->tasks_done > j->photon_done)
+        return err_set(err, "job %llu has merged camera results already: adaptive sampling must "
+                       "be chosen before", (unsigned long long)id);
+    if (!j->active && !(j->active = malloc((size_t)j->ntiles * sizeof *j->active)))
+        return err_set(err, "out of memory");
+    if (!j->decided && !(j->decided = malloc((size_t)j->ntiles * sizeof *j->decided))) {
+        free(j->active);
+        j->active = NULL;
+        return err_set(err, "out of memory");
+    }
+    for (int t = 0; t < j->ntiles; t++)
+        j->active[t] = true;
+    j->tiles_active = j->ntiles;
+    j->adaptive_target = target_error;
+    return 0;
+}
+
 int sched_finish_job_at_pass(sched_t *self, uint64_t id, err_t *err)
 {
     job_t *j = find_job(self, id);
@@ -412,9 +452,14 @@ int sched_restore_job(sched_t *self, uint64_t id, tilebuf_t **image, const int *
                      tilebuf_height(img) != j->yres || tilebuf_nbuckets(img) != j->grid.n))
         rc = err_set(err, "job %llu: the restored image is not %dx%d with %d buckets",
                      (unsigned long long)id, j->xres, j->yres, j->grid.n);
+    /* A whole-pass job holds every tile at the same pass, but for the tiles adaptive sampling
+     * stopped: those are at the pass they stopped at, below the others. */
+    int top = 0;
+    for (int t = 0; next_pass && t < j->ntiles; t++)
+        top = next_pass[t] > top ? next_pass[t] : top;
     for (int t = 0; rc == 0 && next_pass && t < j->ntiles; t++)
         if (next_pass[t] < 0 || next_pass[t] > j->npasses ||
-            (j->whole_passes && next_pass[t] != next_pass[0]))
+            (j->whole_passes && next_pass[t] != top && (!j->active || next_pass[t] < 1)))
             rc = err_set(err, "job %llu: tile %d restored at pass %d of %d%s", (unsigned long long)id,
                          t, next_pass[t], j->npasses, j->whole_passes ? " (not a whole pass)" : "");
     if (rc == 0 && next_pass && !img)
@@ -439,8 +484,16 @@ int sched_restore_job(sched_t *self, uint64_t id, tilebuf_t **image, const int *
         }
         j->next_pass[t] = next_pass[t];
     }
+    /* The tiles adaptive sampling stopped before the boundary the checkpoint holds; those it
+     * stopped at that boundary are still at it, and the decision, a function of the image and of
+     * the tiles running, is made there again below: the same one. */
+    for (int t = 0; next_pass && j->active && t < j->ntiles; t++)
+        if (next_pass[t] < top)
+            stop_tile(self, j, t, next_pass[t]);
     while (j->passes_done < j->npasses && j->merged_in_pass[j->passes_done] == j->ntiles)
         j->passes_done++;
+    if (next_pass)
+        adapt(self, j);
     for (uint32_t b = 0; b < photons_done; b++) {
         j->ptasks[b].state = TASK_DONE;
         j->tasks_done++;
@@ -759,6 +812,48 @@ int sched_next_task(sched_t *self, uint64_t worker, double now, sched_task_t *ou
     return 1;
 }
 
+/* Adaptive sampling stops a tile at the boundary before pass from_pass: its tasks of that pass
+ * on are done without a result (a running one is released, its worker's result will be a
+ * duplicate; one done and held is dropped), counted merged, and the job's total shrinks by the
+ * samples they would have added, so progress counts a stopped tile as done. */
+static void stop_tile(sched_t *self, job_t *j, int tile, int from_pass)
+{
+    if (!j->active || !j->active[tile])
+        return;
+    j->active[tile] = false;
+    j->tiles_active--;
+    int x0, y0, w, h;
+    tilegrid_rect(&j->tiles, tile, &x0, &y0, &w, &h);
+    for (int p = from_pass; p < j->npasses; p++) {
+        task_t *t = &j->tasks[(size_t)p * (size_t)j->ntiles + (size_t)tile];
+        if (t->state != TASK_DONE) {
+            release_task(self, j, t);
+            t->state = TASK_DONE;
+            j->tasks_done++;
+            j->done_in_pass[p]++;
+        }
+        tilebuf_destroy(&t->result);
+        j->merged_in_pass[p]++;
+        j->samples_total -= (uint64_t)w * (uint64_t)h * (j->pass_begin[p + 1] - j->pass_begin[p]);
+    }
+}
+
+/* At the boundary of passes_done whole passes of an adaptive job: film/adaptive.h decides from
+ * the image which running tiles stop here. */
+static void adapt(sched_t *self, job_t *j)
+{
+    if (!j->active || j->passes_done < 1 || j->passes_done >= j->npasses)
+        return;
+    error_estimate_t e = error_estimate_image(j->image);
+    bool *was = j->decided;
+    memcpy(was, j->active, (size_t)j->ntiles * sizeof *was);
+    if (adaptive_decide(j->image, &j->tiles, j->adaptive_target,
+                        (int)j->pass_begin[j->passes_done], &e, was) > 0)
+        for (int t = 0; t < j->ntiles; t++)
+            if (j->active[t] && !was[t])
+                stop_tile(self, j, t, j->passes_done);
+}
+
 /* Merges what can be merged of one tile, in pass order. */
 static int merge_tile(job_t *j, int tile, int *result, err_t *err)
 {
@@ -784,12 +879,14 @@ static int merge_tile(job_t *j, int tile, int *result, err_t *err)
 /* Whole-pass jobs: merges the next pass if every tile of it is done, all tiles at once (tiles
  * are disjoint, so each pixel still sums its passes in pass order: the bytes of merge_tile).
  * One pass per call, so that the caller sees every pass boundary. */
-static int merge_whole_pass(job_t *j, int *result, err_t *err)
+static int merge_whole_pass(sched_t *self, job_t *j, int *result, err_t *err)
 {
     int pass = j->passes_done;
     if (pass >= j->npasses || j->done_in_pass[pass] < j->ntiles)
         return 0;
     for (int tile = 0; tile < j->ntiles; tile++) {
+        if (j->active && !j->active[tile])
+            continue; /* stopped: counted merged when it stopped (stop_tile) */
         task_t *t = &j->tasks[(size_t)pass * (size_t)j->ntiles + (size_t)tile];
         if (!t->result || j->next_pass[tile] != pass)
             return err_set(err, "job %llu pass %d tile %d: result missing",
@@ -805,6 +902,7 @@ static int merge_whole_pass(job_t *j, int *result, err_t *err)
     }
     j->passes_done++;
     *result |= SCHED_PASS_DONE;
+    adapt(self, j);
     if (j->passes_done < j->npasses && j->done_in_pass[j->passes_done] == j->ntiles)
         *result |= SCHED_PASS_READY;
     return 0;
@@ -826,7 +924,7 @@ int sched_merge_next_pass(sched_t *self, uint64_t id, err_t *err)
     int out = 0;
     if (j->state != JOB_RUNNING || !j->whole_passes)
         return 0;
-    if (merge_whole_pass(j, &out, err))
+    if (merge_whole_pass(self, j, &out, err))
         return -1;
     check_job_done(j, &out);
     return out;
@@ -941,7 +1039,7 @@ int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
             (uint64_t)expect.w * (uint64_t)expect.h * (expect.sample_end - expect.sample_begin);
     }
     int out = SCHED_MERGED;
-    if (j->whole_passes ? merge_whole_pass(j, &out, err)
+    if (j->whole_passes ? merge_whole_pass(self, j, &out, err)
                         : merge_tile(j, (int)(task % (uint32_t)j->ntiles), &out, err))
         return -1;
     check_job_done(j, &out);
@@ -1060,6 +1158,7 @@ int sched_job_info(const sched_t *self, uint64_t id, sched_job_info_t *out)
         .tasks_total = (uint32_t)(j->ntiles * j->npasses) + j->nphoton, .tasks_done = j->tasks_done,
         .tasks_running = running, .photon_batches = j->nphoton, .photon_batches_done = j->photon_done,
         .priority = j->priority, .paused = j->paused,
+        .adaptive = j->active != NULL, .tiles_active = j->active ? j->tiles_active : j->ntiles,
     };
     snprintf(out->error, sizeof out->error, "%s", j->error);
     return 0;

@@ -82,6 +82,8 @@ typedef struct sched_job_info {
     uint32_t photon_batches, photon_batches_done;
     int priority; /* sched_set_job_priority; 0 by default */
     bool paused;
+    bool adaptive;    /* sched_set_adaptive was called */
+    int tiles_active; /* tiles still running (all of them but those adaptive sampling stopped) */
     char error[512];
 } sched_job_info_t;
 
@@ -106,6 +108,16 @@ int sched_add_photon_batches(sched_t *self, uint64_t job, uint32_t n, err_t *err
  * sched_finish_job_at_pass can end the job there. The cost is memory: up to a pass of results held (a full image's worth of tiles) while
  * a straggler finishes. Only before any camera result of the job arrived. */
 int sched_set_whole_passes(sched_t *self, uint64_t job, err_t *err);
+/* Adaptive sampling for a whole-pass job (film/adaptive.h, docs/rendering.md): at each pass
+ * boundary, from the image merged so far, the rule stops the tiles that reached their share of
+ * target_error; a stopped tile's later tasks are done without being rendered (those already
+ * handed out are released, their results ignored as duplicates), its samples leave
+ * samples_total, and a pass is whole once the running tiles' results are in. The decisions
+ * depend only on the merged image, so the bytes are the same whoever rendered what;
+ * sched_job_next_pass keeps the pass each stopped tile stopped at, which is all a checkpoint
+ * needs (sched_restore_job makes the last boundary's decision again). Only before any camera
+ * result of the job arrived, after sched_set_whole_passes. */
+int sched_set_adaptive(sched_t *self, uint64_t job, double target_error, err_t *err);
 /* A whole-pass job merges one pass per call; when a result completes a pass whose next pass is
  * complete too, the mask has SCHED_PASS_READY, and this merges the next one, with the same mask
  * bits as sched_task_done (SCHED_PASS_DONE, SCHED_JOB_DONE, SCHED_PASS_READY). Returns 0 when
@@ -118,7 +130,7 @@ int sched_finish_job_at_pass(sched_t *self, uint64_t job, err_t *err);
 /* A job's progress brought back from the master's journal (journal.h), before any task of it
  * is issued: *image (the job's size and buckets; taken, also on failure) replaces its image,
  * tile t's passes below next_pass[t] count as merged into it (for a whole-pass job every tile
- * at the same pass), and photon batches [0, photons_done) as done. The job is running from here
+ * at the same pass, but for an adaptive job's tiles below it, which stopped there), and photon batches [0, photons_done) as done. The job is running from here
  * on; returns SCHED_JOB_DONE when that is every pass, else 0, or -1 with err. */
 int sched_restore_job(sched_t *self, uint64_t job, tilebuf_t **image, const int *next_pass,
                       uint32_t photons_done, err_t *err);

@@ -733,6 +733,9 @@ static const field_t SETTINGS_FIELDS[] = {
      .check = ck_target_error},
     {F("tlim", FT_FLOAT, SET(time_limit)), .presence = UNLESS_ZERO, .absent = "no time limit",
      .check = ck_time_limit},
+    /* Absent: no adaptive sampling, the default. */
+    {F("adapt", FT_INT, SET(adaptive)), .presence = UNLESS_ZERO, .absent = "no adaptive sampling",
+     RANGE(0, 1)},
 };
 static const shape_t SETTINGS = {SHAPE(proto_settings_t, SETTINGS_FIELDS, NULL)};
 

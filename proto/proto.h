@@ -131,6 +131,8 @@ typedef struct proto_settings {
     const char *dispersion; /* NULL: the file's ("hero", "fanout") */
     double target_error;    /* 0, or 0 < E < 1: done at the first pass whose estimate is <= E */
     double time_limit;      /* 0, or 0 < T <= PROTO_MAX_TIME_LIMIT seconds after the start */
+    int adaptive;           /* 1: under a target error tiles stop one by one (adaptive sampling,
+                             * film/adaptive.h); 0 (the default): every tile runs every pass */
 } proto_settings_t;
 
 /* A camera tile: pixels [x0, x0+w) x [y0, y0+h), sample indices [sample_begin, sample_end). */

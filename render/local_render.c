@@ -1,5 +1,6 @@
 #include "local_render.h"
 
+#include "adaptive.h"
 #include "clock.h"
 #include "error_estimate.h"
 #include "passes.h"
@@ -19,10 +20,13 @@ typedef struct shared {
     int npasses;
     tilebuf_t *target;   /* where finished tiles are merged: the image, or the pass's buffer */
     int pass;            /* under a stopping rule: the pass being rendered */
+    bool *active;        /* adaptive sampling: per tile, whether it still runs; NULL without */
+    bool *decided;       /* adapt's copy of active (allocated with it) */
     double deadline;     /* under a stopping rule: clock after which the pass is dropped; 0 never */
     render_stats_t stats;       /* of the tiles merged into target */
     render_stats_t image_stats; /* under a stopping rule: of the passes merged into the image */
     uint64_t samples_before, samples_done, samples_total;
+    int *tile_spp;       /* adaptive sampling: the samples per pixel each tile stopped at */
     double t0;
     pthread_mutex_t lock;
 } shared_t;
@@ -70,6 +74,8 @@ static int render_one(void *user, int t, err_t *err)
      * no other starts (the farm's workers are told to cancel, as for a cancel). */
     if (by_pass && sh->deadline > 0 && clock_now_s() >= sh->deadline)
         return 1;
+    if (by_pass && sh->active && !sh->active[t])
+        return 0; /* stopped by adaptive sampling: its pass buffer stays zero */
     int x0, y0, w, h;
     tilegrid_rect(&sh->grid, t, &x0, &y0, &w, &h);
     render_stats_t st = {0};
@@ -89,6 +95,25 @@ static int render_one(void *user, int t, err_t *err)
     pthread_mutex_unlock(&sh->lock);
     tilebuf_destroy(&buf);
     return r;
+}
+
+/* Adaptive sampling at the boundary after passes passes (film/adaptive.h, the master's rule):
+ * the tiles that stop leave the samples still to come. */
+static void adapt(shared_t *sh, const tilebuf_t *image, int passes, const error_estimate_t *e)
+{
+    int n = tilegrid_count(&sh->grid);
+    bool *was = sh->decided;
+    memcpy(was, sh->active, (size_t)n * sizeof *was);
+    if (adaptive_decide(image, &sh->grid, sh->opts->stop.target_error, (int)sh->bounds[passes], e,
+                        sh->active) > 0)
+        for (int t = 0; t < n; t++)
+            if (was[t] && !sh->active[t]) {
+                int x0, y0, w, h;
+                tilegrid_rect(&sh->grid, t, &x0, &y0, &w, &h);
+                sh->samples_total -=
+                    (uint64_t)w * (uint64_t)h * (sh->bounds[sh->npasses] - sh->bounds[passes]);
+                sh->tile_spp[t] = (int)sh->bounds[passes];
+            }
 }
 
 /* Under a stopping rule: pass after pass over the whole image, each rendered into a buffer of
@@ -134,6 +159,8 @@ static int render_by_pass(shared_t *sh, tilebuf_t *image, local_render_result_t 
             o->pass_done(o->user, rec, sh->samples_before, sh->samples_total);
         if (pass + 1 < sh->npasses && (res->why = stopping_decide(&o->stop, &e, elapsed)) != STOPPING_NONE)
             return 0;
+        if (sh->active && pass + 1 < sh->npasses)
+            adapt(sh, image, pass + 1, &e);
     }
     return 0;
 }
@@ -168,9 +195,37 @@ int local_render(const scene_t *scene, const local_render_opts_t *opts, tilebuf_
         return err_set(err, "cannot create a mutex");
     }
     int r;
+    int ntiles = tilegrid_count(&sh.grid);
+    if (opts->adaptive && opts->stop.target_error > 0) {
+        sh.active = malloc((size_t)ntiles * sizeof *sh.active);
+        sh.tile_spp = malloc((size_t)ntiles * sizeof *sh.tile_spp);
+        sh.decided = malloc((size_t)ntiles * sizeof *sh.decided);
+        if (!sh.active || !sh.tile_spp || !sh.decided) {
+            free(sh.active);
+            free(sh.tile_spp);
+            free(sh.decided);
+            pthread_mutex_destroy(&sh.lock);
+            photon_store_destroy(&traced);
+            return err_set(err, "out of memory for %d tiles", ntiles);
+        }
+        for (int t = 0; t < ntiles; t++) {
+            sh.active[t] = true;
+            sh.tile_spp[t] = -1;
+        }
+    }
     if (stopping_active(&opts->stop)) {
         r = render_by_pass(&sh, image, res, err);
         sh.stats = sh.image_stats;
+        if (r == 0 && sh.tile_spp) {
+            /* The tiles still running hold what the last pass merged. */
+            int spp_done = res->nhistory > 0 ? res->history[res->nhistory - 1].spp : 0;
+            for (int t = 0; t < ntiles; t++)
+                if (sh.active[t])
+                    sh.tile_spp[t] = spp_done;
+            res->grid = sh.grid;
+            res->tile_spp = sh.tile_spp;
+            sh.tile_spp = NULL;
+        }
     } else {
         r = pool_for(opts->threads, tilegrid_count(&sh.grid), render_one, &sh, err) ? -1 : 0;
         if (r == 0) {
@@ -182,7 +237,18 @@ int local_render(const scene_t *scene, const local_render_opts_t *opts, tilebuf_
     }
     pthread_mutex_destroy(&sh.lock);
     photon_store_destroy(&traced);
+    free(sh.active);
+    free(sh.decided);
+    free(sh.tile_spp);
     if (r == 0 && stats)
         stats_add(stats, &sh.stats);
     return r;
+}
+
+void local_render_result_free(local_render_result_t *result)
+{
+    if (!result)
+        return;
+    free(result->tile_spp);
+    result->tile_spp = NULL;
 }

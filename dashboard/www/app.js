@@ -172,9 +172,17 @@ function drawTiles(canvas, map) {
     const w = Math.min(map.tile, map.xres - tx * map.tile) * scale;
     const h = Math.min(map.tile, map.yres - ty * map.tile) * scale;
     const r = running.get(i);
+    // Adaptive sampling: a tile behind the running ones stopped there, converged.
+    const stopped = map.adaptive && map.merged[i] < map.passes_done;
     if (state.tileMode === "passes") {
       const f = map.npasses ? map.merged[i] / map.npasses : 0;
-      g.fillStyle = "hsl(140, 45%, " + (92 - 55 * f).toFixed(0) + "%)";
+      g.fillStyle = stopped ? "hsl(210, 55%, " + (88 - 45 * f).toFixed(0) + "%)"
+                            : "hsl(140, 45%, " + (92 - 55 * f).toFixed(0) + "%)";
+    } else if (state.tileMode === "spp") {
+      const smax = Math.max(1, ...(map.spp || [1]));
+      const s = map.spp ? map.spp[i] : 0;
+      const f = s > 0 ? Math.log2(s + 1) / Math.log2(smax + 1) : 0;
+      g.fillStyle = "hsl(" + (220 - 200 * f).toFixed(0) + ", 70%, " + (90 - 40 * f).toFixed(0) + "%)";
     } else {
       g.fillStyle = r ? "hsl(" + (50 - 50 * r.running_s / tmax).toFixed(0) + ", 85%, 55%)" : "#e4e8ee";
     }
@@ -260,6 +268,15 @@ async function viewJob(gen, id) {
   const canvas = document.getElementById("tilemap");
   if (map) drawTiles(canvas, map);
   canvas.hidden = !map;
+  if (map && map.adaptive && map.spp && map.spp.length) {
+    // Pixels per tile differ only at the clipped edges: the tiles' mean is near the image's.
+    const stopped = map.merged.filter((m) => m < map.passes_done).length;
+    const mean = map.spp.reduce((a, b) => a + b, 0) / map.spp.length;
+    document.getElementById("tile-legend").textContent =
+      "adaptive sampling: " + stopped + " of " + map.spp.length + " tiles stopped (blue), tiles' mean " +
+      mean.toFixed(1) + " spp, " + Math.min(...map.spp) + "-" + Math.max(...map.spp) +
+      " spp; darker: more passes merged; outlined: running";
+  }
   // A sequence's frames, each a job of its own.
   const fc = document.getElementById("frames-card");
   fc.hidden = !j.frames;
@@ -325,9 +342,10 @@ function buildJobPage(id) {
            el("select", { id: "tile-mode", "aria-label": "colour tiles by",
                           onchange: (e) => { state.tileMode = e.target.value; refresh(); } },
               el("option", { value: "passes" }, "by passes merged"),
+              el("option", { value: "spp" }, "by samples per pixel"),
               el("option", { value: "time" }, "by running time"))),
          el("canvas", { id: "tilemap" }),
-         el("p", { class: "legend" }, "darker: more passes merged; outlined: running, in its worker's colour"))),
+         el("p", { class: "legend", id: "tile-legend" }, "darker: more passes merged; blue: stopped by adaptive sampling (converged); outlined: running, in its worker's colour"))),
     el("div", { class: "card", id: "frames-card", hidden: "hidden" }, el("h2", {}, "Frames"),
       el("table", { id: "frames-table" },
         el("thead", {}, el("tr", {}, ...["frame", "job", "file", "state", "progress", "spp", "error", "elapsed"].map((h) => el("th", {}, h)))),

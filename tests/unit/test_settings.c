@@ -9,7 +9,7 @@
 
 #include "settings.h"
 
-static const proto_settings_t g_settings = {256, 640, 480, 42, "path", "fanout", 0.01, 90.5};
+static const proto_settings_t g_settings = {256, 640, 480, 42, "path", "fanout", 0.01, 90.5, 0};
 
 static void test_settings_mirror_overrides(void **state)
 {
@@ -36,7 +36,7 @@ static void test_settings_mirror_overrides(void **state)
 static void test_keep_values_pass_through(void **state)
 {
     (void)state;
-    const proto_settings_t keep = {0, 0, 0, -1, NULL, NULL, 0, 0};
+    const proto_settings_t keep = {0, 0, 0, -1, NULL, NULL, 0, 0, 0};
     scene_overrides_t ov = settings_to_overrides(&keep);
     assert_int_equal(ov.spp, 0);
     assert_int_equal(ov.xres, 0);
