@@ -56,7 +56,7 @@ double lowdisc_halton(uint64_t index, uint32_t b, uint64_t seed)
     double v = 0.0, scale = inv_b;
     /* Digit by digit down to 2^-32: the index's digits, then its zeros, each through its
      * affine map; h carries the digits so far (one multiply and shift per digit). */
-    while (i || scale > 0x1p-32) {
+    while (i) {
         uint32_t d = i % b;
         i /= b;
         uint32_t m = 1 + (uint32_t)(((h >> 32) * (b - 1)) >> 32);
@@ -64,6 +64,13 @@ double lowdisc_halton(uint64_t index, uint32_t b, uint64_t seed)
         v += (double)((m * d + c) % b) * scale;
         scale *= inv_b;
         h = (h ^ (d + 1)) * 0x9E3779B97F4A7C15ull;
+        h ^= h >> 32;
+    }
+    /* The index's zeros: digit 0 goes to c (the same arithmetic, without the divisions). */
+    while (scale > 0x1p-32) {
+        v += (double)(uint32_t)(((h & 0xFFFFFFFFu) * b) >> 32) * scale;
+        scale *= inv_b;
+        h = (h ^ 1u) * 0x9E3779B97F4A7C15ull;
         h ^= h >> 32;
     }
     /* Below that, the remaining digits are uniform: one number over the last interval. */
