@@ -35,8 +35,9 @@ uint32_t lowdisc_permute(uint32_t i, uint32_t n, uint64_t seed);
 /* The radical inverse of index in prime base b, Owen-scrambled (nested): digit k of the
  * fraction goes through a random affine map d -> (m d + c) mod b, m != 0, drawn from a hash of
  * seed and of the digits before it (for distinct digits the images are a uniform pair, the
- * property Owen's variance bound needs); the digits past the index's own are uniform, so they
- * are filled by one hashed uniform. In [0, 1). */
+ * property Owen's variance bound needs), down to 2^-32 (the index's zero digits too, so any
+ * b^k indices fill the b^k intervals once each); below, one hashed uniform. Base 2 is exactly
+ * lowdisc_owen of the reversed bits. Index bits past 32 choose another scramble. In [0, 1). */
 double lowdisc_halton(uint64_t index, uint32_t b, uint64_t seed);
 
 /* The i-th prime (i = 0: 2), for i < LOWDISC_PRIMES. */
