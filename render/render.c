@@ -5,13 +5,14 @@
 #include "fanout.h"
 #include "fresnel.h"
 #include "lights.h"
+#include "phase_hg.h"
 #include "rng.h"
 #include "sample.h"
+#include "sampler.h"
 #include "shading.h"
 #include "spectral_grid.h"
 #include "specular.h"
 #include "volume.h"
-#include "phase_hg.h"
 #include "wavelength.h"
 
 #include <math.h>
@@ -57,6 +58,9 @@ typedef struct path {
     /* The medium the path travels in (an index into scene->media, -1: vacuum); read only when
      * the scene's media are simulated (render_settings_t.media). */
     int medium;
+    /* Surface hits and medium events so far: which block of the sampler's dimensions the path's
+     * next vertex draws from (DIM_VERTEX). */
+    int vertex;
     /* The lanes come last so that a new path clears only the fields above. */
     double lambda[LANES];
     double beta[LANES];
@@ -89,6 +93,16 @@ typedef struct ctx {
      * lanes need for it: the grid's range and bucket width. */
     double xyz[3];
     double fan_min, fan_max, fan_width;
+    /* The camera sample's low-discrepancy numbers, and the first dimension of the current
+     * vertex's block (the layout below). */
+    sampler_t smp;
+    uint32_t dim_base;
+    sampler_cache_t smp_cache; /* what the pixel's samples share */
+    /* Philox numbers for the random walks whose length has no bound: a layered BSDF's walk
+     * between its interfaces, and delta and ratio tracking in media (bsdf/layered.h,
+     * render/volume.h). They cannot have fixed dimensions, and a low-discrepancy dimension
+     * reused at varying depths of one walk would correlate its steps; keyed apart from the
+     * sampler (WALK_SEED_MIX), so that the "independent" sampler's numbers are not these. */
     rng_stream_t rng;
     render_stats_t *stats;
     path_t *stack;
@@ -104,7 +118,61 @@ typedef struct ctx {
     int media; /* the scene's media are simulated (render/volume.h) */
 } ctx_t;
 
-static double next(ctx_t *c) { return rng_stream_next(&c->rng); }
+/* The dimension layout of a camera sample (docs/rendering.md, "Sampler"): dimension d means
+ * the same decision in every sample of a pixel, so the sampler's stratification over the
+ * pixel's samples (a (0,2)-net for each 2D draw of the Sobol samplers) applies to that
+ * decision. First the camera's block, then one block per vertex of the path (a surface hit or
+ * a medium event, counted with pass-through surfaces, so that no number is drawn twice for one
+ * path: two decisions on one number would correlate them). Branches pushed at a vertex (Whitted,
+ * the fan-out's rays) continue with the same later blocks as the path they split from: each
+ * branch is an unbiased estimate on its own. */
+enum {
+    DIM_FILM = 0,       /* 2D: the position in the pixel (through the filter) */
+    DIM_WAVELENGTH = 2, /* 1D: the hero wavelength, or the fan-out lanes' common jitter */
+    DIM_LENS = 3,       /* 2D: the point on the lens */
+    DIM_LENS_LANE = 5,  /* 1D: the lane a dispersive realistic lens follows (fan-out) */
+    DIM_CAMERA = 6,     /* the camera block's size */
+};
+enum {
+    VD_MIX = 0,         /* 1D: a mix material's choice */
+    VD_LIGHT = 1,       /* 1D: which light (lights_sample's u[0]) */
+    VD_LIGHT_PART = 2,  /* 1D: which triangle of a mesh light (u[1]) */
+    VD_LIGHT_POINT = 3, /* 2D: the point on the light or its direction (u[2], u[3]) */
+    VD_LANE = 5,        /* 1D: the lane whose lobe samples (spectral MIS) */
+    VD_LOBE = 6,        /* 1D: the BSDF's lobe */
+    VD_DIRECTION = 7,   /* 2D: the BSDF's, cosine or phase function's direction */
+    VD_REFLECT = 9,     /* 1D: reflect or refract at smooth glass */
+    VD_FAN_JITTER = 10, /* 1D: the fan-out's split shift */
+    VD_FAN_PICK = 11,   /* 1D: the fan-out ray followed at a later dispersive event */
+    VD_ROULETTE = 12,   /* 1D: Russian roulette */
+    VD_GATHER = 13,     /* 1D: the glossy gather's systematic pick */
+    DIM_VERTEX = 14,    /* a vertex block's size */
+};
+
+/* Vertex slot `slot` of the current vertex, one or two dimensions. */
+static double draw1(ctx_t *c, int slot)
+{
+    return sampler_1d(&c->smp, c->dim_base + (uint32_t)slot);
+}
+static void draw2(ctx_t *c, int slot, double u[2])
+{
+    sampler_2d(&c->smp, c->dim_base + (uint32_t)slot, u);
+}
+
+/* The path's next vertex takes the next block of dimensions. */
+static void vertex_begin(ctx_t *c, path_t *p)
+{
+    c->dim_base = DIM_CAMERA + DIM_VERTEX * (uint32_t)p->vertex++;
+}
+
+/* lights_sample's four uniforms for next-event estimation at the current vertex: the one
+ * place that lays them out (light choice, mesh part, then the 2D point). */
+static void light_uniforms(ctx_t *c, double u[4])
+{
+    u[0] = draw1(c, VD_LIGHT);
+    u[1] = draw1(c, VD_LIGHT_PART);
+    draw2(c, VD_LIGHT_POINT, u + 2);
+}
 
 /* lights_value(light li, lambda) for lane j, through the cache. */
 static double light_value_lane(ctx_t *c, int li, int j, double lambda)
@@ -336,8 +404,7 @@ static int light_visible(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t 
                          double *tr)
 {
     double u[4];
-    for (int k = 0; k < 4; k++)
-        u[k] = next(c);
+    light_uniforms(c, u);
     const lights_at_t at = light_site(c, sf->p, n);
     if (!lights_sample(c->scene, &at, u, ls))
         return 0;
@@ -584,6 +651,8 @@ static void caustic_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, c
     double scale;
     if (!photon_store_gather(c->photons, sf->p, sf->ng, glossy_photon, &gg, &scale))
         return;
+    /* One jitter for every group: each group's estimate is unbiased on its own. */
+    const double jitter = draw1(c, VD_GATHER);
     const int per_group = GLOSSY_GATHER_EVALS / gg.ngroups > 0 ? GLOSSY_GATHER_EVALS / gg.ngroups : 1;
     int any = 0;
     for (int gi = 0; gi < gg.ngroups; gi++) {
@@ -595,7 +664,7 @@ static void caustic_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, c
         any = 1;
         if (g->count > per_group) {
             g->step = g->total / per_group;
-            g->next = next(c) * g->step;
+            g->next = jitter * g->step;
         }
     }
     if (!any)
@@ -622,7 +691,7 @@ static int choose_reflect(ctx_t *c, double prob_reflect, double *scale)
         *scale = 1.0;
         return 0;
     }
-    double u = next(c);
+    double u = draw1(c, VD_REFLECT);
     if (u < prob_reflect) {
         *scale = 1.0 / prob_reflect;
         return 1;
@@ -747,7 +816,7 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
         centres[i] = p->lambda[i];
         ones[i] = 1.0;
     }
-    double shift = next(c) - 0.5;
+    double shift = draw1(c, VD_FAN_JITTER) - 0.5;
     if (fanout_split(centres, ones, nb, shift, split, NULL))
         return 1;
     for (int i = 0; i < nb; i++)
@@ -799,7 +868,7 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
     int pick = -1;
     double pick_scale = 1.0;
     if (p->dispersed || c->top + nb > STACK_MAX) {
-        pick = (int)fmin(nb - 1, floor(next(c) * nb));
+        pick = (int)fmin(nb - 1, floor(draw1(c, VD_FAN_PICK) * nb));
         pick_scale = nb;
     }
     path_t base;
@@ -879,7 +948,7 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
         return 1;
     int hero = 0;
     if (sel) {
-        double u = next(c), acc = 0.0;
+        double u = draw1(c, VD_LANE), acc = 0.0;
         hero = p->n - 1;
         for (int j = 0; j < p->n; j++)
             if (u < (acc += sel[j]) && sel[j] > 0.0) {
@@ -889,9 +958,10 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
         while (hero > 0 && !(sel[hero] > 0.0))
             hero--;
     }
-    double uc = next(c), u1 = next(c), u2 = next(c);
+    double uc = draw1(c, VD_LOBE), ud[2];
+    draw2(c, VD_DIRECTION, ud);
     bsdf_sample_t bs;
-    if (!bsdf_sample(&b, wo, hero, uc, u1, u2, &c->rng, &bs))
+    if (!bsdf_sample(&b, wo, hero, uc, ud[0], ud[1], &c->rng, &bs))
         return 1;
     const vec3_t wi = shading_to_world(&fr, bs.wi);
     const sides_t sd = {&fr, sf->ng};
@@ -949,7 +1019,7 @@ static int roulette(ctx_t *c, path_t *p)
         if (q > 1.0)
             q = 1.0;
         if (q < 1.0) {
-            if (next(c) >= q)
+            if (draw1(c, VD_ROULETTE) >= q)
                 return 1;
             for (int j = 0; j < p->n; j++)
                 p->beta[j] /= q;
@@ -966,8 +1036,7 @@ static int roulette(ctx_t *c, path_t *p)
 static void direct_light_medium(ctx_t *c, const path_t *p, vec3_t x, double g)
 {
     double u[4];
-    for (int k = 0; k < 4; k++)
-        u[k] = next(c);
+    light_uniforms(c, u);
     light_sample_t ls;
     const lights_at_t at = light_site(c, x, vec3_make(0.0, 0.0, 0.0));
     if (!lights_sample(c->scene, &at, u, &ls) || !(ls.pdf > 0.0))
@@ -1016,8 +1085,9 @@ static int medium_flight(ctx_t *c, path_t *p, double tmax)
     const double g = medium_g(m);
     if (c->rs->integrator != INTEGRATOR_SIMPLEPATH)
         direct_light_medium(c, p, x, g);
-    double u1 = next(c), u2 = next(c), pdf;
-    vec3_t wi = phase_hg_sample(vec3_neg(p->dir), g, u1, u2, &pdf);
+    double ud[2], pdf;
+    draw2(c, VD_DIRECTION, ud);
+    vec3_t wi = phase_hg_sample(vec3_neg(p->dir), g, ud[0], ud[1], &pdf);
     p->prev_p = x;
     p->prev_n = vec3_make(0, 0, 0);
     p->org = x;
@@ -1045,6 +1115,7 @@ static void trace(ctx_t *c, path_t *start)
         for (;;) {
             hit_t h;
             c->stats->rays++;
+            vertex_begin(c, p);
             const int hit = geometry_intersect(s->geometry, p->org, p->dir, 0.0, INFINITY, &h);
             if (c->media && p->medium >= 0) {
                 int fl = medium_flight(c, p, hit ? h.t : INFINITY);
@@ -1074,7 +1145,7 @@ static void trace(ctx_t *c, path_t *start)
                 add_emission_hit(c, p, &sf, &s->lights[sf.light], sf.light, h.prim);
             const material_t *m = sf.material;
             if (m->kind == MATERIAL_MIX)
-                m = shading_resolve(s, m, &sf, next(c));
+                m = shading_resolve(s, m, &sf, draw1(c, VD_MIX));
             if (m->kind == MATERIAL_INTERFACE) {
                 if (++p->passthrough > MAX_PASSTHROUGH)
                     break;
@@ -1103,7 +1174,9 @@ static void trace(ctx_t *c, path_t *start)
                     caustic_light(c, p, &h, &sf, g, albedo);
                 if (c->rs->integrator == INTEGRATOR_WHITTED)
                     break;
-                vec3_t local = sample_cosine_hemisphere(next(c), next(c));
+                double ud[2];
+                draw2(c, VD_DIRECTION, ud);
+                vec3_t local = sample_cosine_hemisphere(ud[0], ud[1]);
                 vec3_t wi = sample_local_to_world(local, n);
                 double cos_i = vec3_dot(wi, n);
                 if (!(cos_i > 0.0) || !(vec3_dot(wi, g) > 0.0))
@@ -1179,7 +1252,7 @@ static double lens_ray(ctx_t *c, path_t *p, const camera_frame_t *f, double px, 
     const camera_t *cam = &c->scene->camera;
     if (cam->kind == CAMERA_REALISTIC && cam->lens_dispersive && p->n > 1) {
         if (c->rs->dispersion == DISPERSION_FANOUT) {
-            int k = (int)fmin(p->n - 1, floor(next(c) * p->n));
+            int k = (int)fmin(p->n - 1, floor(sampler_1d(&c->smp, DIM_LENS_LANE) * p->n));
             p->lambda[0] = p->lambda[k];
             p->bucket[0] = p->bucket[k];
             p->pdf[0] = p->pdf[k];
@@ -1201,49 +1274,8 @@ static double lens_ray(ctx_t *c, path_t *p, const camera_frame_t *f, double px, 
     return w;
 }
 
-/* A permutation of the sample indices [0, spp) that differs between pixels, so that strata of
- * the pixel position and of the wavelength are not correlated; other spp values keep the
- * identity. Three rounds of an odd multiplier and an offset (a bijection modulo spp = 2^n),
- * each followed by x ^= x >> shift (invertible too): an affine map alone sends x mod 2^j to
- * a function of x mod 2^j only, so the position permutation's column (k mod side) and the
- * wavelength permutation's low bits were tied to each other whatever the salts; with
- * 4 hero wavelengths a quarter of the buckets apart every bucket of a pixel took its samples
- * from one column of position strata, and a pixel half covered by a light was 0 or 1 bucket
- * by bucket (test_render's test_edge_coverage_between_seeds). The right shifts carry high
- * bits into low ones and break that tie.
- * The salt comes from permutation_salt, so the pairing differs between seeds as well: with a
- * salt of the pixel alone, every seed paired the same position strata with the same
- * wavelengths, and the part of a pixel's error that this pairing makes (at a sharp edge,
- * where some strata see a bright light and others do not) was the same in every seed's image:
- * two seeds agreed better than either agreed with the converged image, and the corpus's noise
- * estimate from seeds 1 and 2 (bench/corpus.sh) was too low (killeroo-simple's sphere light). */
-static uint32_t permute(uint32_t s, uint32_t spp, uint64_t salt)
-{
-    if (spp == 0 || (spp & (spp - 1)) != 0 || s >= spp)
-        return s;
-    const uint32_t mask = spp - 1;
-    int bits = 0;
-    while ((1u << bits) < spp)
-        bits++;
-    const int shift = bits > 1 ? (bits + 1) / 2 : 1;
-    uint32_t x = s;
-    for (uint64_t r = 0; r < 3; r++) {
-        uint64_t hsh = (salt + r * 0xD1B54A32D192ED03ull) * 0x9E3779B97F4A7C15ull;
-        x = (x * ((uint32_t)(hsh >> 32) | 1u) + (uint32_t)hsh) & mask;
-        x ^= x >> shift;
-    }
-    return x;
-}
-
-/* Sample index reserved for the per-pixel permutation salts (no render takes 2^32 - 1
- * samples of one pixel): a pure function of (seed, pixel, which) like every other number. */
-#define SALT_SAMPLE UINT32_MAX
-
-/* The salt of permute for one pixel: which = 0 for the pixel position, 1 for the wavelength. */
-static uint64_t permutation_salt(uint64_t seed, uint64_t pixel, uint32_t which)
-{
-    return (uint64_t)(rng_uniform(seed, pixel, SALT_SAMPLE, which) * 0x1p53);
-}
+/* The walk stream's seed (ctx_t.rng): apart from the sampler's own Philox numbers. */
+#define WALK_SEED_MIX 0x6A09E667F3BCC908ull
 
 int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int y0, int w, int h,
                 uint32_t sample_begin, uint32_t sample_end, tilebuf_t *out, render_stats_t *stats,
@@ -1306,31 +1338,27 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
     const int full_w = rs->full_xres > 0 ? rs->full_xres : rs->xres;
     const int full_h = rs->full_yres > 0 ? rs->full_yres : rs->yres;
     const camera_frame_t frame = camera_frame_make(&scene->camera, full_w, full_h);
-    const uint32_t spp = (uint32_t)rs->spp;
-    const uint32_t side = (uint32_t)lround(sqrt((double)spp));
+    const sampler_setup_t setup =
+        sampler_setup_make(rs->sampler, rs->seed, (uint32_t)rs->spp, full_w, full_h);
     for (int y = y0; y < y0 + h; y++) {
         for (int x = x0; x < x0 + w; x++) {
             const int fx = x + rs->crop_x0, fy = y + rs->crop_y0;
             uint64_t pixel = (uint64_t)fy * (uint64_t)full_w + (uint64_t)fx;
-            const uint64_t salt_xy = permutation_salt(rs->seed, pixel, 0);
-            const uint64_t salt_l = permutation_salt(rs->seed, pixel, 1);
             for (uint32_t s = sample_begin; s < sample_end; s++) {
-                c.rng = rng_stream_make(rs->seed, pixel, s);
+                c.smp = sampler_start(&setup, fx, fy, full_w, s);
+                sampler_use_cache(&c.smp, &c.smp_cache);
+                c.rng = rng_stream_make(rs->seed ^ WALK_SEED_MIX, pixel, s);
                 memset(contrib, 0, (size_t)nb * sizeof *contrib);
                 c.xyz[0] = c.xyz[1] = c.xyz[2] = 0.0;
                 path_t p;
                 memset(&p, 0, offsetof(path_t, lambda));
-                /* Stratified pixel positions (a side x side grid when spp is square) and
-                 * stratified hero wavelengths (when spp is a power of two). */
-                double jx = next(&c), jy = next(&c), ul = next(&c);
-                if (s < spp && side * side == spp) {
-                    uint32_t k = permute(s, spp, salt_xy);
-                    jx = ((k % side) + jx) / side;
-                    jy = ((k / side) + jy) / side;
-                }
-                if (s < spp && (spp & (spp - 1)) == 0)
-                    ul = (permute(s, spp, salt_l) + ul) / spp;
-                double l1 = next(&c), l2 = next(&c);
+                /* The camera's block of dimensions (DIM_FILM...): the position in the
+                 * pixel, the wavelengths, the lens. */
+                double film[2], lens[2];
+                sampler_2d(&c.smp, DIM_FILM, film);
+                const double ul = sampler_1d(&c.smp, DIM_WAVELENGTH);
+                sampler_2d(&c.smp, DIM_LENS, lens);
+                const double jx = film[0], jy = film[1];
                 /* Filter importance sampling (pbrt-v4 GetCameraSample): the stratified (jx, jy)
                  * mapped through the filter's inverse CDF gives the offset from the pixel
                  * centre and a weight (1, or -+ for mitchell's and sinc's negative lobes) the
@@ -1344,8 +1372,8 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                 }
                 if (rs->dispersion == DISPERSION_FANOUT) {
                     /* Lane i at a wavelength uniform over bucket i, one jitter ul for all
-                     * lanes (stratified like the hero's), so that its light's XYZ at that
-                     * wavelength is unbiased (fanout_inverse_density). */
+                     * lanes (the sampler's wavelength dimension, as the hero's), so that its
+                     * light's XYZ at that wavelength is unbiased (fanout_inverse_density). */
                     p.n = nb;
                     for (int i = 0; i < nb; i++) {
                         p.lambda[i] = rs->grid.lambda_min + ((double)i + ul) * c.fan_width;
@@ -1367,7 +1395,7 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                     }
                 }
                 /* The camera ray after the wavelengths: the realistic camera's depends on them. */
-                if (lens_ray(&c, &p, &frame, px, py, l1, l2) > 0.0)
+                if (lens_ray(&c, &p, &frame, px, py, lens[0], lens[1]) > 0.0)
                     trace(&c, &p);
                 sensor_weight(rs, c.sensor, weight, contrib, nb, c.xyz);
                 if (tilebuf_add_sample(out, x, y, contrib, c.xyz))

@@ -17,6 +17,7 @@ render_settings_t render_settings_default(void)
         .maxdepth = 5,
         .spp = 16,
         .seed = 1,
+        .sampler = SAMPLER_ZSOBOL,
         .xres = 1280,
         .yres = 720,
         .grid = spectral_grid_default(),

@@ -15,6 +15,7 @@
 #include "dispersion.h"
 #include "envmap.h"
 #include "projmap.h"
+#include "sampler.h"
 #include "err.h"
 #include "geometry.h"
 #include "filter.h"
@@ -256,6 +257,8 @@ typedef struct render_settings {
     int maxdepth;
     int spp;
     uint64_t seed;
+    /* The camera samples' numbers (`Sampler "..."`; sampling/sampler.h). */
+    sampler_kind_t sampler;
     int xres, yres;
     spectral_grid_t grid;
     int visible_sampling; /* hero: sample wavelengths by the visible pdf, not uniformly */

@@ -1612,6 +1612,11 @@ static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
     if (rs->spp <= 0 || rs->spp > (1 << 24))
         return pbrt_error(err, d->sampler.loc, "pixelsamples must be in 1..%d, got %d", 1 << 24, rs->spp);
     rs->seed = ov && ov->seed >= 0 ? (uint64_t)ov->seed : (uint64_t)(uint32_t)d->sampler.seed;
+    const char *why;
+    if (sampler_kind_parse(d->sampler.type, &rs->sampler, &why))
+        return pbrt_error(err, d->sampler.loc, "unsupported sampler \"%s\"", d->sampler.type);
+    if (why && warnings_add(L->sc->warnings, d->sampler.loc, "%s", why))
+        return err_set(err, "out of memory");
     return load_integrator(L, ov, err);
 }
 

@@ -1714,8 +1714,8 @@ static int do_sampler(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc
     if (params_get_int(ps, "seed", 0, &s->seed, P->err) != 0)
         return -1;
     if (!strcmp(type->s, "stratified")) {
-        /* pbrt-v4's stratified sampler takes a grid; every sampler here is one stratified
-         * sampler with xsamples * ysamples samples per pixel. */
+        /* pbrt-v4's stratified sampler takes a grid of xsamples * ysamples samples per
+         * pixel (sampler.c lays its 2D strata out as the squarest grid of that many). */
         int xs, ys;
         bool jitter;
         if (params_get_int(ps, "xsamples", 4, &xs, P->err) != 0 ||

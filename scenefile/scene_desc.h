@@ -416,7 +416,7 @@ typedef struct scene_filter {
 } scene_filter_t;
 
 typedef struct scene_sampler {
-    const char *type; /* pbrt's sampler name as written; all map to one stratified sampler */
+    const char *type; /* pbrt's sampler name as written (sampling/sampler.h reads it) */
     pbrt_loc_t loc;
     int pixelsamples; /* 16; "stratified" gives xsamples * ysamples */
     int seed;         /* 0 */

@@ -188,13 +188,16 @@ static void test_target_stops_early(void **state)
 static void test_jobs_share_their_passes(void **state)
 {
     (void)state;
-    render_ok(SCENE, "--spp", "96", "--target-error", "0.08", "-o", testutil_scratch("s96.exr"),
+    /* The target lies between the estimates after 32 and 64 spp of this scene's (seed 0)
+     * numbers: 0.113 and 0.088 since the sampler's dimension layout (docs/rendering.md,
+     * "Sampler"; 0.101 and 0.076 before, when the target was 0.08). */
+    render_ok(SCENE, "--spp", "96", "--target-error", "0.095", "-o", testutil_scratch("s96.exr"),
               "--quiet", NULL);
-    render_ok(SCENE, "--spp", "768", "--target-error", "0.08", "-o", testutil_scratch("s768.exr"),
+    render_ok(SCENE, "--spp", "768", "--target-error", "0.095", "-o", testutil_scratch("s768.exr"),
               "--workers", "2", "--tile", "8", "--quiet", NULL);
     acc_t a = read_acc(testutil_scratch("s96.exr")), b = read_acc(testutil_scratch("s768.exr"));
-    expect_target_stop(&a, 96, 0.08);
-    expect_target_stop(&b, 768, 0.08);
+    expect_target_stop(&a, 96, 0.095);
+    expect_target_stop(&b, 768, 0.095);
     assert_int_equal(a.spp_done, b.spp_done);
     for (int i = 0; i < a.n; i++)
         assert_true(a.hrel[i] == b.hrel[i]);

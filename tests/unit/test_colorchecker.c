@@ -138,7 +138,7 @@ static scene_t *patch_scene(const patch_t *p, int res, int nb, const char *dispe
                      "Camera \"perspective\" \"float fov\" [ 20 ]\n"
                      "Film \"spectral\" \"integer xresolution\" [ %d ] \"integer yresolution\" "
                      "[ %d ] \"integer nbuckets\" [ %d ]\n"
-                     "Sampler \"independent\" \"integer pixelsamples\" [ %d ]\n"
+                     "Sampler \"zsobol\" \"integer pixelsamples\" [ %d ]\n"
                      "Integrator \"simplepath\" \"integer maxdepth\" [ 5 ] "
                      "\"string dispersion\" \"%s\"\n"
                      "WorldBegin\n"

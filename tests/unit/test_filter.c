@@ -219,7 +219,11 @@ static void edge_text(char *buf, size_t n, const char *filter, const char *film)
              "Sampler \"stratified\" \"integer xsamples\" 16 \"integer ysamples\" 16\n"
              "%s\nIntegrator \"path\" \"integer maxdepth\" 1\nWorldBegin\n"
              "AreaLightSource \"diffuse\" \"rgb L\" [1 1 1] \"bool twosided\" true\n"
-             "Shape \"trianglemesh\" \"point3 P\" [-100 -100 1  0 -100 1  0 100 1  -100 100 1] "
+             /* The quad reaches +-2, not +-100: Embree's float edge test is exact to about
+              * 1e-7 of the vertices' size, and with vertices at 100 a ray 1e-5 past the edge
+              * (a camera sample 5e-5 of a pixel into column 4, which the low-discrepancy
+              * sampler drew) still hit it, and column 4 was not 0. */
+             "Shape \"trianglemesh\" \"point3 P\" [-2 -2 1  0 -2 1  0 2 1  -2 2 1] "
              "\"integer indices\" [0 1 2 0 2 3]\n",
              film, filter);
 }

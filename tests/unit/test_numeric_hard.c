@@ -816,7 +816,7 @@ static int header(char *buf, size_t size, const char *integrator, const char *di
                     "Camera \"perspective\" \"float fov\" %g\n"
                     "Film \"rgb\" \"integer xresolution\" %d \"integer yresolution\" %d "
                     "\"integer nbuckets\" %d\n"
-                    "Sampler \"independent\" \"integer pixelsamples\" %d \"integer seed\" 7\n"
+                    "Sampler \"zsobol\" \"integer pixelsamples\" %d \"integer seed\" 7\n"
                     /* The pixels these tests read see only their own square (pbrt-v4's
                      * default gaussian would reach into the neighbours). */
                     "PixelFilter \"box\"\n"
