@@ -13,6 +13,7 @@ PACKAGES=(
   gnuplot-nox
   clang libclang-rt-14-dev
   iproute2
+  slurmctld slurmd slurm-client munge
 )
 
 if [ "$(id -u)" -eq 0 ]; then
