@@ -12,15 +12,23 @@
 #
 # Exit 0: passed; 1: failed (with what, and the daemons' logs); 77: skipped, only when Slurm
 # cannot start here: not root (slurmd launches jobs as their user), or slurmctld, slurmd, the
-# client commands or munged missing (deploy/install-deps.sh installs them). Every wait has a
-# generous deadline and nothing is timed.
+# client commands or munged missing (deploy/install-deps.sh --test installs them). Every wait
+# has a generous deadline and nothing is timed.
 #
 # Environment: PRISMFARM_BIN (the prismfarm executable), PRISMFARM_SOURCE_DIR (the repository);
+# PRISMFARM_REQUIRE_SLURM=1 makes a skip a failure (CI sets it: there it must run);
 # PRISMFARM_KEEP_SCRATCH=1 keeps the scratch folder for a look afterwards.
 set -uo pipefail
 
 me=test_slurm
-skip() { echo "$me: SKIPPED: $*"; exit 77; }
+skip() {
+  if [ "${PRISMFARM_REQUIRE_SLURM:-0}" = 1 ]; then
+    echo "$me: FAILED: cannot run, and PRISMFARM_REQUIRE_SLURM=1: $*" >&2
+    exit 1
+  fi
+  echo "$me: SKIPPED: $*"
+  exit 77
+}
 fail() {
   echo "$me: FAILED: $*" >&2
   dump_logs
@@ -37,7 +45,8 @@ scene=$src/tests/data/render/tiny.pbrt
 [ "$(id -u)" -eq 0 ] || skip "not root: slurmd must run as root to start jobs (CI runs this as root)"
 for c in slurmctld slurmd sbatch scontrol sinfo munged python3; do
   command -v "$c" >/dev/null 2>&1 ||
-    skip "'$c' is not installed (Debian 12: apt-get install slurmctld slurmd slurm-client munge, as deploy/install-deps.sh does)"
+    skip "'$c' is not installed (Debian 12: apt-get install slurmctld slurmd slurm-client" \
+      "munge, as deploy/install-deps.sh --test does)"
 done
 
 scratch=$(mktemp -d "${TMPDIR:-/tmp}/pf-slurm-XXXXXX") || { echo "$me: FAILED: mktemp" >&2; exit 1; }
