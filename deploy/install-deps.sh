@@ -1,6 +1,11 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package prismfarm needs to build, test and run.
 # Idempotent and non-interactive; run as root or as a user with sudo.
+# usage: deploy/install-deps.sh [--test]
+#   --test  also the packages only the deployment tests use (deploy/test.sh passes it): Slurm's
+#           daemons and munge for test_slurm_sbatch (tests/deploy/test_slurm.sh). They are
+#           daemons, so a machine that only builds and renders (deploy/demo.sh, the container,
+#           a farm host) does not get them.
 set -euo pipefail
 
 PACKAGES=(
@@ -14,6 +19,13 @@ PACKAGES=(
   clang libclang-rt-14-dev
   iproute2
 )
+TEST_PACKAGES=(slurmctld slurmd slurm-client munge)
+
+case "${1:-}" in
+  --test) PACKAGES+=("${TEST_PACKAGES[@]}") ;;
+  "") ;;
+  *) echo "usage: deploy/install-deps.sh [--test]" >&2; exit 2 ;;
+esac
 
 if [ "$(id -u)" -eq 0 ]; then
   SUDO=()

@@ -3,7 +3,7 @@
 # AddressSanitizer+UBSan configurations, runs ctest in both, then runs the fuzzers briefly.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-bash deploy/install-deps.sh
+bash deploy/install-deps.sh --test
 bash deploy/build.sh release
 bash deploy/build.sh asan
 jobs=$(nproc)
