@@ -13,6 +13,7 @@ PACKAGES=(
   gnuplot-nox
   clang libclang-rt-14-dev
   iproute2
+  python3-numpy python3-openimageio
 )
 
 if [ "$(id -u)" -eq 0 ]; then
