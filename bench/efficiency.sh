@@ -71,6 +71,11 @@ done
 [ -z "$keep" ] || mkdir -p "$keep"
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
+# A copy of the binary: a rebuild of the tree it comes from during the run (tens of minutes)
+# would otherwise change it half-way, or refuse to run while it is being written.
+bin_rev=$(git -C "$(dirname "$bin")" rev-parse --short HEAD 2>/dev/null || echo '?')
+cp "$bin" "$tmp/prismfarm"
+bin_in=$bin bin=$tmp/prismfarm
 
 # cpu_of OUT_VAR CMD...: runs CMD (its output to $tmp/msg), sets OUT_VAR to its user + system
 # seconds (the children's line of `times` in a subshell that ran only CMD); fails as CMD does.
@@ -83,7 +88,7 @@ cpu_of() {
 }
 
 echo "Efficiency against pbrt-v4: $(date -u '+%Y-%m-%d %H:%M UTC'), $(nproc) cores, $spp spp, seeds 1-$seeds, 2 threads"
-echo "binary: $bin ($(git -C "$(dirname "$bin")" rev-parse --short HEAD 2>/dev/null || echo '?'))"
+echo "binary: $bin_in (the tree it was built from is at $bin_rev)"
 echo "load before: $(uptime)"
 echo "method: $(realpath "$tool"): $(sed -n '/^Noise:/,/^with pbrt-v4/p' "$tool" | tr '\n' ' ' | sed 's/  */ /g')"
 echo
