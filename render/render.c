@@ -568,8 +568,8 @@ static void caustic_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, c
                                const shading_frame_t *fr, vec3_t wo_local)
 {
     glossy_kept_t kept[GLOSSY_KEEP];
-    glossy_gather_t gg = {.c = c, .p = p, .b = b, .fr = fr, .sd = {fr, sf->ng}, .wo = wo_local,
-                          .kept = kept};
+    glossy_gather_t gg = {
+        .c = c, .p = p, .b = b, .fr = fr, .sd = {fr, sf->ng}, .wo = wo_local, .kept = kept};
     for (int j = 0; j < p->n; j++) {
         int bk = p->bucket[j] >= 0 ? p->bucket[j] : spectral_table_index(c->table, p->lambda[j]);
         int gi = 0;
