@@ -49,7 +49,7 @@ while [ $# -gt 0 ]; do
     --budget) budget=$2; shift 2 ;;
     --corpus) corpus=$2; shift 2 ;;
     --keep) keep=$2; shift 2 ;;
-    -h|--help) sed -n '2,38p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,37p' "$0"; exit 0 ;;
     *) echo "efficiency.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
