@@ -18,6 +18,7 @@ PACKAGES=(
   gnuplot-nox
   clang libclang-rt-14-dev
   iproute2
+  python3-numpy python3-openimageio
 )
 TEST_PACKAGES=(slurmctld slurmd slurm-client munge)
 

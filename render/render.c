@@ -571,6 +571,11 @@ static void caustic_light(ctx_t *c, const path_t *p, const hit_t *h, const surfa
  * direction, so f varies little between them and few picks cost little noise
  * (docs/accuracy.md measures M). A group with no more photons than M_g evaluates each once. */
 #define GLOSSY_GATHER_EVALS 4
+/* The first pass keeps the photons that can count, up to this many (40 bytes each, on the
+ * stack), so that the second picks from them instead of searching the map again: the search
+ * was a fifth of caustic-glass's camera pass (docs/performance.md, "caustic-glass"). A disk
+ * holding more is searched again, which visits the same photons in the same order. */
+#define GLOSSY_KEEP 512
 
 typedef struct glossy_group {
     int bucket;
@@ -579,6 +584,12 @@ typedef struct glossy_group {
     double running;    /* the running sum of power (pass 1) */
     double step, next; /* W_g / M_g and the next pick's target (pass 1; step 0: every photon) */
 } glossy_group_t;
+
+typedef struct glossy_kept {
+    vec3_t wi; /* the direction the photon's light comes from, -dir */
+    double power;
+    int group;
+} glossy_kept_t;
 
 typedef struct glossy_gather {
     ctx_t *c;
@@ -591,29 +602,16 @@ typedef struct glossy_gather {
     int ngroups;
     glossy_group_t groups[LANES];
     double sum[LANES];
-    int pass; /* 0: summing W_g, 1: evaluating */
+    int pass;  /* 0: summing W_g, 1: evaluating */
+    int nkept; /* photons kept by pass 0; > GLOSSY_KEEP: too many, pass 1 searches again */
+    glossy_kept_t *kept; /* [GLOSSY_KEEP], not zeroed: only the first nkept are read */
 } glossy_gather_t;
 
-static void glossy_photon(void *user, vec3_t dir, int bucket, double power)
+/* Pass 1 for a photon of group gi that can count: the picks that fall on it, if any, add
+ * f(wo, wi) times their weight to the group's lanes. */
+static void glossy_pick(glossy_gather_t *gg, int gi, vec3_t wi_world, double power)
 {
-    glossy_gather_t *gg = user;
-    glossy_group_t *g = NULL;
-    int gi = 0;
-    for (; gi < gg->ngroups; gi++)
-        if (gg->groups[gi].bucket == bucket) {
-            g = &gg->groups[gi];
-            break;
-        }
-    /* The photon's light comes from -dir; a direction the geometric surface and the shading
-     * frame put on different sides would pass through the mesh (as in next-event estimation). */
-    const vec3_t wi_world = vec3_neg(dir);
-    if (!g || !(power > 0.0) || !sides_agree(&gg->sd, wi_world))
-        return;
-    if (gg->pass == 0) {
-        g->count++;
-        g->total += power;
-        return;
-    }
+    glossy_group_t *g = &gg->groups[gi];
     double weight = power;
     if (g->step > 0.0) {
         double lo = g->running;
@@ -634,10 +632,36 @@ static void glossy_photon(void *user, vec3_t dir, int bucket, double power)
             gg->sum[j] += f[j] * weight;
 }
 
+static void glossy_photon(void *user, vec3_t dir, int bucket, double power)
+{
+    glossy_gather_t *gg = user;
+    int gi = 0;
+    while (gi < gg->ngroups && gg->groups[gi].bucket != bucket)
+        gi++;
+    /* The photon's light comes from -dir; a direction the geometric surface and the shading
+     * frame put on different sides would pass through the mesh (as in next-event estimation). */
+    const vec3_t wi_world = vec3_neg(dir);
+    if (gi == gg->ngroups || !(power > 0.0) || !sides_agree(&gg->sd, wi_world))
+        return;
+    if (gg->pass == 1) {
+        glossy_pick(gg, gi, wi_world, power);
+        return;
+    }
+    glossy_group_t *g = &gg->groups[gi];
+    g->count++;
+    g->total += power;
+    if (gg->nkept < GLOSSY_KEEP)
+        gg->kept[gg->nkept] = (glossy_kept_t){.wi = wi_world, .power = power, .group = gi};
+    if (gg->nkept <= GLOSSY_KEEP)
+        gg->nkept++;
+}
+
 static void caustic_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, const bsdf_t *b,
                                const shading_frame_t *fr, vec3_t wo_local)
 {
-    glossy_gather_t gg = {.c = c, .p = p, .b = b, .fr = fr, .sd = {fr, sf->ng}, .wo = wo_local};
+    glossy_kept_t kept[GLOSSY_KEEP];
+    glossy_gather_t gg = {
+        .c = c, .p = p, .b = b, .fr = fr, .sd = {fr, sf->ng}, .wo = wo_local, .kept = kept};
     for (int j = 0; j < p->n; j++) {
         int bk = p->bucket[j] >= 0 ? p->bucket[j] : spectral_table_index(c->table, p->lambda[j]);
         int gi = 0;
@@ -670,7 +694,13 @@ static void caustic_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, c
     if (!any)
         return;
     gg.pass = 1;
-    photon_store_gather(c->photons, sf->p, sf->ng, glossy_photon, &gg, &scale);
+    if (gg.nkept <= GLOSSY_KEEP) {
+        for (int i = 0; i < gg.nkept; i++)
+            if (gg.groups[gg.kept[i].group].bucket != -2)
+                glossy_pick(&gg, gg.kept[i].group, gg.kept[i].wi, gg.kept[i].power);
+    } else {
+        photon_store_gather(c->photons, sf->p, sf->ng, glossy_photon, &gg, &scale);
+    }
     for (int j = 0; j < p->n; j++)
         if (gg.sum[j] > 0.0)
             splat(c, p, j, gg.sum[j] * scale);
