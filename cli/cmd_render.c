@@ -61,6 +61,8 @@ static void on_pass(void *user, const pass_record_t *rec, uint64_t done, uint64_
     progress_t *prog = user;
     char extra[96];
     if (rec->valid)
+        progress_note_error(prog, rec->spp, rec->elapsed, rec->rel_error);
+    if (rec->valid)
         snprintf(extra, sizeof extra, "%d spp, rel. error %.4f", rec->spp, rec->rel_error);
     else
         snprintf(extra, sizeof extra, "%d spp", rec->spp);
@@ -109,6 +111,8 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
         return 1;
     }
     progress_t prog = progress_make("render", quiet);
+    if (stop->target_error > 0.0)
+        progress_follow_error(&prog, stop->target_error, rs->spp);
     render_stats_t st = {0};
     int rc = 0;
     double start = clock_now_s();

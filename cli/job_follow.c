@@ -18,7 +18,15 @@
 int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t *last,
                     char *error, size_t esize)
 {
+    return job_follow_wait_error(rpc, job, quiet, 0.0, 0, last, error, esize);
+}
+
+int job_follow_wait_error(client_rpc_t *rpc, uint64_t job, int quiet, double target, int spp_cap,
+                          proto_job_info_t *last, char *error, size_t esize)
+{
     progress_t prog = progress_make("job", quiet);
+    if (target > 0.0)
+        progress_follow_error(&prog, target, spp_cap);
     double t0 = clock_now_s();
     /* A long poll (docs/protocol.md, STATUS `wait`): the master answers as soon as the job is
      * over, so its end is learnt at once, and otherwise after the wait, which paces the
@@ -71,6 +79,8 @@ int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t
         else if (j.spp > 0)
             snprintf(extra, sizeof extra, "%u spp", j.spp);
         prog.extra = extra;
+        if (j.spp > 0 && j.has_rel_error) /* on this client's clock, as the line's elapsed */
+            progress_note_error(&prog, (int)j.spp, clock_now_s() - t0, j.rel_error);
         if (j.samples_total)
             progress_update(&prog, j.samples_done, j.samples_total, clock_now_s() - t0);
         if (state == PROTO_JOB_DONE && j.stop != PROTO_STOP_NONE)

@@ -14,6 +14,11 @@
 int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t *last,
                     char *error, size_t esize);
 
+/* job_follow_wait for a job with a target error whose spp cap the caller knows: the progress
+ * line follows the error (progress_follow_error) from its first estimate on. */
+int job_follow_wait_error(client_rpc_t *rpc, uint64_t job, int quiet, double target, int spp_cap,
+                          proto_job_info_t *last, char *error, size_t esize);
+
 /* Checks, before anything is submitted, rendered or fetched, that the outputs exr and png (NULL:
  * none) can be written (files_check_output: a regular file or nothing there yet, in a folder
  * that exists and is writable). Returns 0, or 2 (a bad command line) with the reason on stderr

@@ -1,11 +1,42 @@
 #include "progress.h"
 
+#include "predict.h"
+
+#include <math.h>
 #include <stdio.h>
 #include <unistd.h>
 
 progress_t progress_make(const char *label, int quiet)
 {
     return (progress_t){.tty = isatty(STDERR_FILENO), .quiet = quiet, .last_decile = -1, .label = label};
+}
+
+void progress_follow_error(progress_t *p, double target, int spp_cap)
+{
+    p->target = target;
+    p->spp_cap = spp_cap;
+    p->nrec = 0;
+}
+
+void progress_note_error(progress_t *p, int spp, double elapsed, double rel_error)
+{
+    if (!(p->target > 0.0) || p->nrec >= STOPPING_MAX_RECORDS ||
+        (p->nrec > 0 && spp <= p->rec[p->nrec - 1].spp))
+        return;
+    p->rec[p->nrec++] = (pass_record_t){.pass = p->nrec + 1, .spp = spp, .elapsed = elapsed,
+                                        .valid = isfinite(rel_error) && rel_error > 0.0,
+                                        .rel_error = rel_error};
+}
+
+/* The error's end time when a target is followed and predicted within the cap, else -1. */
+static double error_end(const progress_t *p)
+{
+    if (!(p->target > 0.0) || p->nrec == 0)
+        return -1.0;
+    predict_t pr = predict_target(p->rec, p->nrec, p->target);
+    if (!pr.valid || pr.spp > p->spp_cap)
+        return -1.0;
+    return pr.fixed + pr.per_spp * predict_pass_spp(&pr, p->spp_cap);
 }
 
 void progress_update(progress_t *p, uint64_t done, uint64_t total, double elapsed)
@@ -15,7 +46,17 @@ void progress_update(progress_t *p, uint64_t done, uint64_t total, double elapse
     double f = (double)done / (double)total;
     double rate = elapsed > 0 ? (double)done / elapsed : 0;
     double eta = rate > 0 ? (double)(total - done) / rate : 0;
+    char extra_buf[160];
     const char *extra = p->extra ? p->extra : "";
+    const double end = done < total ? error_end(p) : -1.0;
+    if (end > 0.0) {
+        /* The target, not the samples, ends this job: time is the measure of the way there. */
+        f = fmin(elapsed / end, 0.999);
+        eta = fmax(end - elapsed, 0.0);
+        snprintf(extra_buf, sizeof extra_buf, "to error %g, predicted%s%s", p->target,
+                 *extra ? "; " : "", extra);
+        extra = extra_buf;
+    }
     if (p->tty) {
         char bar[31];
         int n = (int)(f * 30);

@@ -3,6 +3,8 @@
 #ifndef PRISMFARM_PROGRESS_H
 #define PRISMFARM_PROGRESS_H
 
+#include "stopping.h"
+
 #include <stdint.h>
 
 typedef struct progress {
@@ -11,9 +13,25 @@ typedef struct progress {
     int open_line; /* a bar is drawn without its newline */
     const char *label; /* prefix of plain lines, e.g. "render" */
     const char *extra; /* optional text after the rate, e.g. "3 workers" */
+    /* A job with a target error (progress_follow_error): the error estimates seen so far. */
+    double target;
+    int spp_cap;
+    pass_record_t rec[STOPPING_MAX_RECORDS];
+    int nrec;
 } progress_t;
 
 progress_t progress_make(const char *label, int quiet);
+
+/* A job that ends at a target error: from the first error estimate on, the percentage and the
+ * ETA follow the error instead of the samples -- the time film/predict.h predicts for the
+ * target from the estimates noted so far (rounded to the job's whole passes, at most spp_cap
+ * spp), said as such ("ETA 12s to error 0.05, predicted"). When the prediction needs more than
+ * spp_cap, the cap comes first and the samples rule as without a target. */
+void progress_follow_error(progress_t *p, double target, int spp_cap);
+
+/* An error estimate: rel_error after spp samples per pixel, elapsed seconds on the clock that
+ * progress_update is given. Ignored unless spp grew since the last one. */
+void progress_note_error(progress_t *p, int spp, double elapsed, double rel_error);
 /* done of total units (samples) after elapsed seconds. */
 void progress_update(progress_t *p, uint64_t done, uint64_t total, double elapsed);
 /* The end of a run that stopped short of its total (a target error or time limit reached):

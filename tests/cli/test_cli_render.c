@@ -118,6 +118,29 @@ static void test_same_pixels_with_any_thread_count(void **state)
     image_exr_destroy(&y);
 }
 
+/* With a target error the progress follows the error once it has an estimate: the ETA is the
+ * predicted time to the target (film/predict.h), said as such, with --direct and the farm. */
+static void test_progress_follows_error(void **state)
+{
+    (void)state;
+    const char *exr = testutil_scratch("target.exr");
+    const run_t *r = run("render", "data/render/tiny.pbrt", "-o", exr, "--spp", "1024",
+                         "--target-error", "0.1", "--direct", NULL);
+    if (r->status != 0)
+        fail_msg("exit %d: %s", r->status, r->err);
+    expect_in(r->err, "to error 0.1, predicted");
+    expect_in(r->out, "(target error reached)");
+    r = run("render", "data/render/tiny.pbrt", "-o", exr, "--spp", "1024", "--target-error", "0.1",
+            NULL);
+    if (r->status != 0)
+        fail_msg("exit %d: %s", r->status, r->err);
+    expect_in(r->err, "to error 0.1, predicted");
+    /* Without a target the samples rule, as before. */
+    r = run("render", "data/render/tiny.pbrt", "-o", exr, "--spp", "8", "--direct", NULL);
+    assert_int_equal(r->status, 0);
+    assert_null(strstr(r->err, "predicted"));
+}
+
 static void test_overrides(void **state)
 {
     (void)state;
@@ -238,6 +261,7 @@ int main(void)
         cmocka_unit_test(test_same_pixels_with_any_thread_count),
         cmocka_unit_test(test_farm_png_matches_direct),
         cmocka_unit_test(test_overrides),
+        cmocka_unit_test(test_progress_follows_error),
         cmocka_unit_test(test_bad_command_lines),
         cmocka_unit_test(test_broken_scene_names_file_and_line),
         cmocka_unit_test(test_output_write_error),
