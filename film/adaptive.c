@@ -1,7 +1,8 @@
 #include "adaptive.h"
 
+#include "strbuf.h"
+
 #include <float.h>
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 
@@ -115,18 +116,6 @@ void adaptive_summary_line(const adaptive_summary_t *s, char *out, size_t size)
              pct_min, s->min_spp, pct, s->max_spp, s->mean_spp);
 }
 
-/* Appends to out at *n, keeping *n the uncut length and out NUL-terminated within size. */
-__attribute__((format(printf, 4, 5))) static void add(char *out, size_t size, size_t *n,
-                                                      const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    int k = vsnprintf(out + (*n < size ? *n : size), *n < size ? size - *n : 0, fmt, ap);
-    va_end(ap);
-    if (k > 0)
-        *n += (size_t)k;
-}
-
 size_t adaptive_format_tile_spp(const int *tile_spp, int n, char *out, size_t size)
 {
     size_t len = 0;
@@ -137,9 +126,9 @@ size_t adaptive_format_tile_spp(const int *tile_spp, int n, char *out, size_t si
         while (t + run < n && tile_spp[t + run] == tile_spp[t])
             run++;
         if (run > 1)
-            add(out, size, &len, "%s%d*%d", t ? "," : "", tile_spp[t], run);
+            strbuf_appendf(out, size, &len, "%s%d*%d", t ? "," : "", tile_spp[t], run);
         else
-            add(out, size, &len, "%s%d", t ? "," : "", tile_spp[t]);
+            strbuf_appendf(out, size, &len, "%s%d", t ? "," : "", tile_spp[t]);
         t += run;
     }
     return len;

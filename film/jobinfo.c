@@ -1,23 +1,11 @@
 #include "jobinfo.h"
 
 #include "adaptive.h"
+#include "strbuf.h"
 
-#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-/* Appends to out at *n, keeping *n the uncut length and out NUL-terminated within size. */
-__attribute__((format(printf, 4, 5))) static void add(char *out, size_t size, size_t *n,
-                                                      const char *fmt, ...)
-{
-    va_list ap;
-    va_start(ap, fmt);
-    int k = vsnprintf(out + (*n < size ? *n : size), *n < size ? size - *n : 0, fmt, ap);
-    va_end(ap);
-    if (k > 0)
-        *n += (size_t)k;
-}
 
 size_t jobinfo_format(const jobinfo_t *j, char *out, size_t size)
 {
@@ -25,36 +13,43 @@ size_t jobinfo_format(const jobinfo_t *j, char *out, size_t size)
     if (size > 0)
         out[0] = 0;
     if (j->job > 0)
-        add(out, size, &n, "job=%llu;name=%s;", (unsigned long long)j->job, j->name ? j->name : "");
-    add(out, size, &n, "scene=%s;spp=%d;xres=%d;yres=%d;seed=%llu;integrator=%s;dispersion=%s;"
-        "samples=%llu;", j->scene ? j->scene : "", j->spp, j->xres, j->yres,
-        (unsigned long long)j->seed, j->integrator ? j->integrator : "?",
-        j->dispersion ? j->dispersion : "?", (unsigned long long)j->samples);
+        strbuf_appendf(out, size, &n, "job=%llu;name=%s;", (unsigned long long)j->job,
+                       j->name ? j->name : "");
+    strbuf_appendf(out, size, &n,
+                   "scene=%s;spp=%d;xres=%d;yres=%d;seed=%llu;integrator=%s;dispersion=%s;"
+                   "samples=%llu;",
+                   j->scene ? j->scene : "", j->spp, j->xres, j->yres, (unsigned long long)j->seed,
+                   j->integrator ? j->integrator : "?", j->dispersion ? j->dispersion : "?",
+                   (unsigned long long)j->samples);
     if (j->rays >= 0)
-        add(out, size, &n, "rays=%llu;", (unsigned long long)j->rays);
+        strbuf_appendf(out, size, &n, "rays=%llu;", (unsigned long long)j->rays);
     const pass_record_t *last = j->nhistory > 0 ? &j->history[j->nhistory - 1] : NULL;
     char rel[32] = "none";
     if (last && last->valid)
         snprintf(rel, sizeof rel, "%.6g", last->rel_error);
-    add(out, size, &n, "nonfinite=%llu;photons=%llu;seconds=%.3f;spp_done=%d;rel_rmse=%s;stop=%s;"
-        "target_error=%g;time_limit=%g;", (unsigned long long)j->nonfinite,
-        (unsigned long long)j->photons, j->seconds, j->spp_done, rel, stopping_name(j->stop),
-        j->rule.target_error, j->rule.time_limit);
+    strbuf_appendf(out, size, &n,
+                   "nonfinite=%llu;photons=%llu;seconds=%.3f;spp_done=%d;rel_rmse=%s;stop=%s;"
+                   "target_error=%g;time_limit=%g;",
+                   (unsigned long long)j->nonfinite, (unsigned long long)j->photons, j->seconds,
+                   j->spp_done, rel, stopping_name(j->stop), j->rule.target_error,
+                   j->rule.time_limit);
     if (j->tile_spp) {
         adaptive_summary_t s = adaptive_summarize(&j->grid, j->tile_spp);
-        add(out, size, &n, "adaptive=on;tile=%d;tiles=%dx%d;spp_mean=%.4g;tile_spp=", j->grid.tile,
-            j->grid.tiles_x, j->grid.tiles_y, s.mean_spp);
+        strbuf_appendf(out, size, &n,
+                       "adaptive=on;tile=%d;tiles=%dx%d;spp_mean=%.4g;tile_spp=", j->grid.tile,
+                       j->grid.tiles_x, j->grid.tiles_y, s.mean_spp);
         n += adaptive_format_tile_spp(j->tile_spp, tilegrid_count(&j->grid),
                                       out + (n < size ? n : size), n < size ? size - n : 0);
-        add(out, size, &n, ";");
+        strbuf_appendf(out, size, &n, ";");
     }
-    add(out, size, &n, "history=");
+    strbuf_appendf(out, size, &n, "history=");
     for (int i = 0; i < j->nhistory; i++) {
         const pass_record_t *r = &j->history[i];
         char e[32] = "-";
         if (r->valid)
             snprintf(e, sizeof e, "%.6g", r->rel_error);
-        add(out, size, &n, "%s%d:%d:%.3f:%s", i ? "," : "", r->pass, r->spp, r->elapsed, e);
+        strbuf_appendf(out, size, &n, "%s%d:%d:%.3f:%s", i ? "," : "", r->pass, r->spp, r->elapsed,
+                       e);
     }
     return n;
 }
