@@ -307,6 +307,24 @@ static scene_t *load_text_file(const char *name, const char *text)
     return sb_load_file(path);
 }
 
+/* A diffuse floor of albedo 0.5 filling an 8x8 view from above, lit only by the image
+ * environment in pfm, rendered with integrator at maxdepth 1. */
+static scene_t *floor_scene(const char *name, const char *integrator, const char *pfm)
+{
+    char text[2048];
+    snprintf(text, sizeof text,
+             "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 10\n"
+             "Film \"spectral\" \"integer xresolution\" 8 \"integer yresolution\" 8\n"
+             "Sampler \"independent\" \"integer pixelsamples\" 16\n"
+             "Integrator \"%s\" \"integer maxdepth\" 1\nWorldBegin\n"
+             "LightSource \"infinite\" \"string filename\" \"%s\"\n"
+             "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
+             "Shape \"trianglemesh\" \"point3 P\" [-50 -50 0  50 -50 0  50 50 0  -50 50 0]"
+             " \"integer indices\" [0 1 2 0 2 3]\n",
+             integrator, pfm);
+    return load_text_file(name, text);
+}
+
 /* A diffuse ball of albedo 0.5 seen from outside under an environment (light line given). */
 static scene_t *ball_scene(const char *name, const char *light, const char *integrator)
 {
@@ -363,18 +381,7 @@ static void test_bright_texel(void **state)
     sb_image_stats_t st[2];
     const char *integ[2] = {"path", "simplepath"};
     for (int i = 0; i < 2; i++) {
-        char text[2048];
-        snprintf(text, sizeof text,
-                 "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 10\n"
-                 "Film \"spectral\" \"integer xresolution\" 8 \"integer yresolution\" 8\n"
-                 "Sampler \"independent\" \"integer pixelsamples\" 16\n"
-                 "Integrator \"%s\" \"integer maxdepth\" 1\nWorldBegin\n"
-                 "LightSource \"infinite\" \"string filename\" \"%s\"\n"
-                 "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
-                 "Shape \"trianglemesh\" \"point3 P\" [-50 -50 0  50 -50 0  50 50 0  -50 50 0]"
-                 " \"integer indices\" [0 1 2 0 2 3]\n",
-                 integ[i], pfm);
-        scene_t *s = load_text_file(i ? "spot_bsdf.pbrt" : "spot_nee.pbrt", text);
+        scene_t *s = floor_scene(i ? "spot_bsdf.pbrt" : "spot_nee.pbrt", integ[i], pfm);
         st[i] = sb_render_stats(s, 8, i ? 4096 : 256);
         scene_destroy(&s);
         print_message("%s: floor %.5f +- %.5f (expected %.5f), per-sample variance %.4g\n",
@@ -816,18 +823,7 @@ static void test_compensated_render(void **state)
     const char *integ[2] = {"path", "whitted"};
     sb_image_stats_t st[2];
     for (int i = 0; i < 2; i++) {
-        char text[2048];
-        snprintf(text, sizeof text,
-                 "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" 10\n"
-                 "Film \"spectral\" \"integer xresolution\" 8 \"integer yresolution\" 8\n"
-                 "Sampler \"independent\" \"integer pixelsamples\" 16\n"
-                 "Integrator \"%s\" \"integer maxdepth\" 1\nWorldBegin\n"
-                 "LightSource \"infinite\" \"string filename\" \"%s\"\n"
-                 "Material \"diffuse\" \"rgb reflectance\" [0.5 0.5 0.5]\n"
-                 "Shape \"trianglemesh\" \"point3 P\" [-50 -50 0  50 -50 0  50 50 0  -50 50 0]"
-                 " \"integer indices\" [0 1 2 0 2 3]\n",
-                 integ[i], pfm);
-        scene_t *s = load_text_file(i ? "sunsky_whitted.pbrt" : "sunsky_path.pbrt", text);
+        scene_t *s = floor_scene(i ? "sunsky_whitted.pbrt" : "sunsky_path.pbrt", integ[i], pfm);
         st[i] = sb_render_stats(s, 8, 512);
         scene_destroy(&s);
         print_message("%s: floor %.5f +- %.5f, per-sample variance %.4g\n", integ[i], st[i].mean,
