@@ -51,12 +51,7 @@ static int attr_value(const char *info, const char *key, char *out, size_t size)
 
 static acc_t read_acc(const char *exr)
 {
-    err_t err;
-    image_exr_t *img = image_exr_read(exr, &err);
-    if (!img)
-        fail_msg("%s", err.msg);
-    const char *info = image_exr_attribute(img, "prismfarm");
-    assert_non_null(info);
+    char *info = testutil_exr_info(exr);
     acc_t a = {0};
     char v[4096];
     if (attr_value(info, "spp", v, sizeof v) || attr_value(info, "spp_done", v, sizeof v))
@@ -78,7 +73,7 @@ static acc_t read_acc(const char *exr)
         a.hrel[a.n] = strcmp(e, "-") ? strtod(e, NULL) : -1;
         p = strchr(p, ',') ? strchr(p, ',') + 1 : p + strlen(p);
     }
-    image_exr_destroy(&img);
+    free(info);
     return a;
 }
 

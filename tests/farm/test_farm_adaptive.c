@@ -15,7 +15,6 @@
 
 #include "cli_run.h"
 #include "farm_testutil.h"
-#include "image_exr.h"
 #include "jobinfo.h"
 #include "journal_testutil.h"
 
@@ -26,20 +25,6 @@
 #define SCENE "data/render/adaptive.pbrt" /* 48 x 32 pixels: 6 x 4 tiles of 8 */
 #define TILE "8"
 #define TARGET 0.3
-
-/* The EXR's "prismfarm" text (copied: the image is freed). */
-static char *info_of(const char *exr)
-{
-    err_t err;
-    image_exr_t *img = image_exr_read(exr, &err);
-    if (!img)
-        fail_msg("%s", err.msg);
-    const char *info = image_exr_attribute(img, "prismfarm");
-    assert_non_null(info);
-    char *copy = strdup(info);
-    image_exr_destroy(&img);
-    return copy;
-}
 
 /* The value of key in the text, as a double; fails the test when absent. */
 static double value_of(const char *info, const char *key)
@@ -78,7 +63,7 @@ static void test_flat_tiles_stop_first_and_every_farm_agrees(void **state)
     testutil_assert_same_pixels(direct, one);
     testutil_assert_same_pixels(one, three);
 
-    char *info = info_of(one);
+    char *info = testutil_exr_info(one);
     tilegrid_t g;
     int *spp = NULL;
     err_t err;
@@ -137,7 +122,7 @@ static void test_off_and_without_target_change_nothing(void **state)
     render_ok("default --direct", run("render", SCENE, "--target-error", "0.3", "--tile", TILE,
                                       "--direct", "--threads", "2", "-o", dflt, "--quiet", NULL));
     testutil_assert_same_pixels(off_d, dflt);
-    char *info = info_of(off_f);
+    char *info = testutil_exr_info(off_f);
     assert_null(strstr(info, ";adaptive="));
     assert_null(strstr(info, "tile_spp"));
     /* Every pixel at the spp the job reached: the samples are the image's pixels times it. */
@@ -145,7 +130,7 @@ static void test_off_and_without_target_change_nothing(void **state)
     double off_samples = value_of(info, "samples");
     free(info);
     /* On, the same target took fewer samples. */
-    info = info_of(testutil_scratch("on_1.exr"));
+    info = testutil_exr_info(testutil_scratch("on_1.exr"));
     assert_true(value_of(info, "samples") < off_samples / 2);
     free(info);
 
@@ -167,7 +152,7 @@ static void test_off_and_without_target_change_nothing(void **state)
     render_ok("no target", r);
     assert_null(strstr(r->out, "adaptive: "));
     testutil_assert_same_pixels(plain, on_no_target);
-    info = info_of(on_no_target);
+    info = testutil_exr_info(on_no_target);
     assert_null(strstr(info, ";adaptive="));
     free(info);
     /* A bad value is refused. */
@@ -187,7 +172,7 @@ static void test_master_killed(void **state)
     render_ok("reference", run("render", SCENE, "--spp", "4096", "--target-error", "0.02",
                                "--adaptive", "on", "--workers", "1", "--threads", "2", "--tile",
                                TESTUTIL_JOURNAL_TILE, "-o", ref, "--quiet", NULL));
-    char *info = info_of(ref);
+    char *info = testutil_exr_info(ref);
     assert_non_null(strstr(info, ";adaptive=on;"));
     free(info);
     const char *spool = testutil_scratch("ad-spool"), *mlog1 = testutil_scratch("ad-master1.log"),

@@ -337,6 +337,22 @@ static inline void testutil_wait_listening(const char *endpoint)
     fail_msg("nothing listened at %s within %.0f s", endpoint, test_wait_s());
 }
 
+/* An EXR's "prismfarm" record (film/jobinfo.h), copied (free it): the test fails when the
+ * file cannot be read or has no record. */
+static inline char *testutil_exr_info(const char *exr)
+{
+    err_t err;
+    image_exr_t *img = image_exr_read(exr, &err);
+    if (!img)
+        fail_msg("%s", err.msg);
+    const char *info = image_exr_attribute(img, "prismfarm");
+    assert_non_null(info);
+    char *copy = strdup(info);
+    assert_non_null(copy);
+    image_exr_destroy(&img);
+    return copy;
+}
+
 /* Both EXRs have the same size and spectral channels and byte-identical spectral and RGB
  * pixel data. Two paths to the same file fail: the comparison would prove nothing (a path held
  * too long in testutil_scratch's rotating buffers shows that way). */
