@@ -9,7 +9,6 @@
 #include "clock.h"
 #include "local_render.h"
 #include "pbrt_parser.h"
-#include "photon.h"
 #include "plan.h"
 #include "pool.h"
 #include "predict.h"
@@ -163,19 +162,13 @@ static int pilot_at(scene_t *scene, int spp, double target, local_render_result_
     const int keep = rs->spp;
     rs->spp = spp;
     tilebuf_t *image = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, err);
-    int rc = image ? 0 : -1;
-    const double start = clock_now_s();
-    photon_stats_t pst = {0};
-    double psec = 0;
-    photon_store_t *photons = NULL;
-    if (rc == 0 && rs->photon.enabled && !(photons = photon_pass_run(scene, 0, &pst, &psec, err)))
-        rc = -1;
-    if (rc == 0) {
-        local_render_opts_t o = {.photons = photons, .t0 = start, .stop = {.target_error = target}};
+    int rc = -1;
+    if (image) {
+        /* local_render traces the photon pass first, inside the records' times. */
+        local_render_opts_t o = {.t0 = clock_now_s(), .stop = {.target_error = target}};
         render_stats_t st = {0};
         rc = local_render(scene, &o, image, &st, res, err);
     }
-    photon_store_destroy(&photons);
     tilebuf_destroy(&image);
     rs->spp = keep;
     return rc;
@@ -225,7 +218,7 @@ static void print_prediction(const scene_t *scene, const local_render_result_t *
     if (p.spp <= spp)
         printf("  predicted: %g at about %.0f spp, that is %d spp in whole passes, in about "
                "%.0f s (the scene's cap is %d spp)\n",
-               target, ceil(p.spp), job_spp, p.fixed + p.per_spp * job_spp, spp);
+               target, ceil(p.spp), job_spp, predict_pass_seconds(&p, spp), spp);
     else
         printf("  predicted: %g needs about %.0f spp and %.0f s, past the scene's %d spp, where "
                "the error would be about %.4f: raise --spp to reach the target\n",

@@ -36,7 +36,7 @@ static double error_end(const progress_t *p)
     predict_t pr = predict_target(p->rec, p->nrec, p->target);
     if (!pr.valid || pr.spp > p->spp_cap)
         return -1.0;
-    return pr.fixed + pr.per_spp * predict_pass_spp(&pr, p->spp_cap);
+    return predict_pass_seconds(&pr, p->spp_cap);
 }
 
 void progress_update(progress_t *p, uint64_t done, uint64_t total, double elapsed)

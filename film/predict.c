@@ -50,3 +50,8 @@ int predict_pass_spp(const predict_t *p, int max_spp)
             return (int)bounds[i];
     return max_spp;
 }
+
+double predict_pass_seconds(const predict_t *p, int max_spp)
+{
+    return p->fixed + p->per_spp * predict_pass_spp(p, max_spp);
+}

@@ -33,4 +33,8 @@ predict_t predict_target(const pass_record_t *history, int n, double target);
  * the prediction, that is the first pass boundary at or past p.spp, capped at max_spp. */
 int predict_pass_spp(const predict_t *p, int max_spp);
 
+/* The seconds from the job's start to the end of that pass: the fit's fixed part plus its cost
+ * per spp times predict_pass_spp. */
+double predict_pass_seconds(const predict_t *p, int max_spp);
+
 #endif

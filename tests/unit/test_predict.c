@@ -41,6 +41,7 @@ static void test_exact(void **state)
     assert_true(fabs(p.seconds - (1.5 + 0.25 * 256)) < 1e-9);
     /* The passes' cut: 256 is a boundary; 257 rounds up to 512; past the cap, the cap. */
     assert_int_equal(predict_pass_spp(&p, 1024), 256);
+    assert_true(fabs(predict_pass_seconds(&p, 1024) - (1.5 + 0.25 * 256)) < 1e-9);
     p.spp = 257;
     assert_int_equal(predict_pass_spp(&p, 1024), 512);
     assert_int_equal(predict_pass_spp(&p, 300), 300);
