@@ -43,8 +43,9 @@ _Static_assert(SCHED_PHOTON_TASK == PROTO_PHOTON_TASK, "one numbering of photon 
 /* "task 17 (pass 0, tile 17)", "task p2 (photon batch 2)". */
 static const char *task_str(const mjob_t *j, uint32_t task, char *buf, size_t size)
 {
+    char label[PROTO_TASK_LABEL_MAX];
     if (task & SCHED_PHOTON_TASK)
-        snprintf(buf, size, "task p%u (photon batch %u)", task & ~SCHED_PHOTON_TASK,
+        snprintf(buf, size, "task %s (photon batch %u)", proto_task_label(task, label),
                  task & ~SCHED_PHOTON_TASK);
     else if (j && j->sched.ntiles > 0)
         snprintf(buf, size, "task %u (pass %u, tile %u)", task, task / (uint32_t)j->sched.ntiles,

@@ -2,6 +2,7 @@
 
 #include "adaptive.h"
 #include "bisect.h"
+#include "proto.h"
 #include "tilegrid.h"
 
 #include <float.h>
@@ -1305,12 +1306,9 @@ int sched_requeue_task(sched_t *self, uint64_t id, uint32_t task, err_t *err)
         return err_set(err, "job %llu is %s: its tasks are no longer handed out",
                        (unsigned long long)id, job_state_name(j->state));
     task_t *t = task_of(j, task);
-    /* Tasks named as `logs` shows them: 12, or p3 for photon batch 3 (proto.h). */
-    char label[24];
-    if (task & SCHED_PHOTON_TASK)
-        snprintf(label, sizeof label, "p%u", task & ~SCHED_PHOTON_TASK);
-    else
-        snprintf(label, sizeof label, "%u", task);
+    /* Tasks named as `logs` shows them: 12, or p3 for photon batch 3. */
+    char label[PROTO_TASK_LABEL_MAX];
+    proto_task_label(task, label);
     if (!t) {
         char photons[48] = "";
         if (j->nphoton)
