@@ -99,8 +99,10 @@ static int open_net(client_rpc_t *self, err_t *err)
 
 /* What can be known at once about a tcp:// endpoint before ZeroMQ retries it quietly for as
  * long as a call waits: a port that is not a number in 1..65535, a host name that does not
- * resolve, and (probe_ms > 0) a host that refuses the connection (nothing listens there). A
- * probe that gets no answer within probe_ms says nothing: the call's own wait decides. */
+ * resolve (-1), and (probe_ms > 0) a host that refuses the connection, nothing listening there
+ * (CHECK_REFUSED, which a later try may not meet). A probe that gets no answer within probe_ms
+ * says nothing: the call's own wait decides. */
+enum { CHECK_REFUSED = -2 };
 static int check_tcp_endpoint(const char *endpoint, int probe_ms, err_t *err)
 {
     if (strncmp(endpoint, "tcp://", 6) != 0)
@@ -148,10 +150,12 @@ static int check_tcp_endpoint(const char *endpoint, int probe_ms, err_t *err)
         (void)close(fd);
     }
     freeaddrinfo(ai);
-    if (refused)
-        return err_set(err, "the master at %s refused the connection: nothing listens on port %ld "
-                       "of %s (is it running, on this port?)",
-                       endpoint, pn, host);
+    if (refused) {
+        err_set(err, "the master at %s refused the connection: nothing listens on port %ld of %s "
+                     "(is it running, on this port?)",
+                endpoint, pn, host);
+        return CHECK_REFUSED;
+    }
     return 0;
 }
 
@@ -162,11 +166,12 @@ int client_rpc_probe(const char *endpoint, double wait_s, const char *cmd, err_t
     const double deadline = clock_now_s() + wait_s;
     for (int tries = 0;; tries++) {
         err_t e;
-        if (check_tcp_endpoint(endpoint, 2000, &e) == 0)
+        const int rc = check_tcp_endpoint(endpoint, 2000, &e);
+        if (rc == 0)
             return 0;
         /* Only a refusal is worth waiting out (a master starting or restarting); a bad port or
          * a host that does not resolve will not change. */
-        if (!strstr(e.msg, "refused the connection") || clock_now_s() >= deadline) {
+        if (rc != CHECK_REFUSED || clock_now_s() >= deadline) {
             *err = e;
             if (tries > 0)
                 return err_set(err, "%s; waited %g s", e.msg, wait_s);
