@@ -117,7 +117,17 @@ class WebDriver:
         return list(e.values())[0]
 
     def click(self, css):
-        self.call("POST", self.s("/element/%s/click" % self.find(css)), {})
+        # The dashboard redraws its tables on every poll, so an element found a moment ago may
+        # be replaced before the click lands; a stale reference means no click happened, so
+        # finding it again and retrying is safe.
+        for attempt in range(20):
+            try:
+                self.call("POST", self.s("/element/%s/click" % self.find(css)), {})
+                return
+            except RuntimeError as e:
+                if "stale element" not in str(e) or attempt == 19:
+                    raise
+                time.sleep(0.1)
 
     def type(self, css, text):
         self.call("POST", self.s("/element/%s/value" % self.find(css)), {"text": text})
