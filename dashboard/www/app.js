@@ -215,7 +215,7 @@ async function viewJob(gen, id) {
   }
   document.getElementById("job-title").textContent = "Job " + j.id + ": " + j.name;
   const facts = document.getElementById("job-facts");
-  facts.replaceChildren(
+  swap(facts, 
     ...fact("state", el("span", { id: "job-state", class: "state state-" + j.state },
                         j.state + (j.paused ? " (paused)" : ""))),
     ...fact("owner", j.owner || "–"),
@@ -242,7 +242,7 @@ async function viewJob(gen, id) {
     const what = p.batches ? p.batches_done + " of " + p.batches + " batches merged, " +
                              fmtCount(p.photons) + " photons (" + fmtCount(p.emitted) + " emitted)"
                            : "complete: " + fmtCount(p.photons) + " photons (kept on the master's disk)";
-    ph.replaceChildren(el("h2", {}, "Photon phase"),
+    swap(ph, el("h2", {}, "Photon phase"),
       el("p", { id: "photon-progress" }, bar(p.complete ? 1 : p.batches ? p.batches_done / p.batches : 0),
          " " + what));
   } else ph.hidden = true;
@@ -264,7 +264,7 @@ async function viewJob(gen, id) {
   } else if (j.preview_version === 0) {
     document.getElementById("preview-note").textContent = "no image yet: a preview follows each pass";
   }
-  document.getElementById("plot-box").replaceChildren(plotErrors(j.passes));
+  swap(document.getElementById("plot-box"), plotErrors(j.passes));
   const canvas = document.getElementById("tilemap");
   if (map) drawTiles(canvas, map);
   canvas.hidden = !map;
@@ -281,7 +281,7 @@ async function viewJob(gen, id) {
   const fc = document.getElementById("frames-card");
   fc.hidden = !j.frames;
   if (j.frames)
-    document.getElementById("frames-body").replaceChildren(...j.frames.map((f) =>
+    swap(document.getElementById("frames-body"), ...j.frames.map((f) =>
       el("tr", { class: "clickable", "data-job": f.id, onclick: () => { location.hash = "#/job/" + f.id; } },
         el("td", { class: "num" }, f.frame),
         el("td", { class: "num" }, f.id),
@@ -303,7 +303,7 @@ async function viewJob(gen, id) {
                                 onclick: () => act("/api/jobs/" + id + "/tasks/" + t.task + "/requeue") },
                     "Requeue"))));
   rows.forEach((r, i) => { r.querySelector(".swatch").style.color = workerColour(tasks.tasks[i].worker); });
-  document.getElementById("tasks-body").replaceChildren(...rows);
+  swap(document.getElementById("tasks-body"), ...rows);
   document.getElementById("tasks-none").hidden = rows.length > 0;
   // The log, appended.
   const pre = document.getElementById("job-log");
@@ -398,9 +398,18 @@ async function viewWorkers(gen) {
 
 // ---------------------------------------------------------------- the loop
 
+// Replaces a container's children only when the new ones read differently: a poll that
+// changed nothing leaves the page alone, so a selection, a hover or a click in progress
+// survives it (listeners are closures over the same ids, so the old nodes' still apply).
+function swap(container, ...nodes) {
+  const html = nodes.map((n) => n.outerHTML).join("");
+  if (container.dataset.drawn === html) return;
+  container.replaceChildren(...nodes);
+  container.dataset.drawn = html;
+}
+
 function render(node) {
-  const v = document.getElementById("view");
-  v.replaceChildren(node);
+  swap(document.getElementById("view"), node);
 }
 
 function route() {
