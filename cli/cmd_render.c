@@ -172,6 +172,10 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
             else if (last)
                 printf("%d of %d spp, no relative error estimate%s%s\n", last->spp, rs->spp,
                        last->spp < 2 ? " (1 sample per pixel)" : "", stop_text(why, stop_buf, sizeof stop_buf));
+            char prediction[256];
+            if (last && progress_prediction_line(&prog, res.why == STOPPING_TARGET, last->spp,
+                                                 last->elapsed, prediction, sizeof prediction))
+                printf("%s\n", prediction);
             if (res.tile_spp) {
                 adaptive_summary_t as = adaptive_summarize(&res.grid, res.tile_spp);
                 char line[160];
@@ -461,6 +465,9 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
                                 .target_error = stop.target_error, .time_limit = stop.time_limit,
                                 .adaptive = stop.adaptive,
                                 .loaded = scene};
+        char prediction[256] = "";
+        lo.prediction = prediction;
+        lo.prediction_size = sizeof prediction;
         proto_job_info_t info;
         char stop_buf[64];
         rc = local_farm_run(&lo, &info, NULL);
@@ -480,6 +487,8 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
             else
                 printf("%u of %d spp, no relative error estimate%s%s\n", info.spp, rs->spp,
                        info.spp < 2 ? " (1 sample per pixel)" : "", stop_text(info.stop, stop_buf, sizeof stop_buf));
+            if (prediction[0])
+                printf("%s\n", prediction);
             print_adaptive(exr);
         }
     }

@@ -254,7 +254,9 @@ static int submit_scenes(const frame_list_t *fr, const char *master, const char 
                 scene_bundle_get(b)->nfiles, scene_bundle_bytes(b), master);
     proto_job_info_t last;
     char error[600];
-    int state = job_follow_wait(rpc, job, quiet, &last, error, sizeof error);
+    char prediction[256] = "";
+    int state = job_follow_wait_error(rpc, job, quiet, stop.target_error, 0, &last, error,
+                                      sizeof error, prediction, sizeof prediction);
     if (state != PROTO_JOB_DONE) {
         fprintf(stderr, "prismfarm submit: job %llu %s%s%s\n", (unsigned long long)job,
                 state < 0 ? "lost" : proto_job_state_name((proto_job_state_t)state), error[0] ? ": " : "", error);
@@ -291,6 +293,8 @@ static int submit_scenes(const frame_list_t *fr, const char *master, const char 
                    last.stop == PROTO_STOP_TARGET ? " (target reached)"
                    : last.stop == PROTO_STOP_TIME ? " (time limit reached)"
                                                   : "");
+        if (prediction[0])
+            printf("%s\n", prediction);
     }
 out:
     client_rpc_destroy(&rpc);

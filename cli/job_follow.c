@@ -15,15 +15,18 @@
 /* How long a master may be unreachable while a job is followed before the wait gives up. */
 #define JOB_FOLLOW_RECONNECT_S 120
 
-int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t *last,
-                    char *error, size_t esize)
+int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t *last, char *error,
+                    size_t esize)
 {
-    return job_follow_wait_error(rpc, job, quiet, 0.0, 0, last, error, esize);
+    return job_follow_wait_error(rpc, job, quiet, 0.0, 0, last, error, esize, NULL, 0);
 }
 
 int job_follow_wait_error(client_rpc_t *rpc, uint64_t job, int quiet, double target, int spp_cap,
-                          proto_job_info_t *last, char *error, size_t esize)
+                          proto_job_info_t *last, char *error, size_t esize, char *prediction,
+                          size_t psize)
 {
+    if (prediction && psize)
+        prediction[0] = 0;
     progress_t prog = progress_make("job", quiet);
     if (target > 0.0)
         progress_follow_error(&prog, target, spp_cap);
@@ -62,7 +65,8 @@ int job_follow_wait_error(client_rpc_t *rpc, uint64_t job, int quiet, double tar
         }
         lost_since = 0;
         if (reply.type != PROTO_STATUS_REPLY || reply.status_reply.njobs < 1) {
-            snprintf(error, esize, "the master answered %s without the job", proto_type_name(reply.type));
+            snprintf(error, esize, "the master answered %s without the job",
+                     proto_type_name(reply.type));
             proto_msg_free(&reply);
             return -1;
         }
@@ -79,6 +83,16 @@ int job_follow_wait_error(client_rpc_t *rpc, uint64_t job, int quiet, double tar
         else if (j.spp > 0)
             snprintf(extra, sizeof extra, "%u spp", j.spp);
         prog.extra = extra;
+        /* A remote job's cap, unknown to this client: samples_total / pixels, with pixels at
+         * most samples_done / spp (tiles of the next pass may be merged already), so each
+         * poll's figure is a lower bound that meets the cap at a pass boundary; the largest
+         * seen is kept. (Adaptive sampling leaves pixels with fewer samples, so there it may
+         * overshoot: the prediction is then capped later, by the job's own end.) */
+        if (target > 0.0 && spp_cap <= 0 && j.spp > 0 && j.samples_done > 0) {
+            double cap = (double)j.samples_total * j.spp / (double)j.samples_done;
+            if (cap > prog.spp_cap && cap < 1e9)
+                prog.spp_cap = (int)(cap + 0.5);
+        }
         if (j.spp > 0 && j.has_rel_error) /* on this client's clock, as the line's elapsed */
             progress_note_error(&prog, (int)j.spp, clock_now_s() - t0, j.rel_error);
         if (j.samples_total)
@@ -86,6 +100,9 @@ int job_follow_wait_error(client_rpc_t *rpc, uint64_t job, int quiet, double tar
         if (state == PROTO_JOB_DONE && j.stop != PROTO_STOP_NONE)
             progress_end(&prog, j.samples_done, j.samples_total, clock_now_s() - t0,
                          stopping_reason((stopping_why_t)j.stop));
+        if (state == PROTO_JOB_DONE && prediction && psize)
+            progress_prediction_line(&prog, j.stop == PROTO_STOP_TARGET, (int)j.spp,
+                                     clock_now_s() - t0, prediction, psize);
         prog.extra = NULL;
         proto_msg_free(&reply);
         if (state == PROTO_JOB_DONE || state == PROTO_JOB_FAILED || state == PROTO_JOB_CANCELLED)
@@ -120,7 +137,8 @@ int job_follow_fetch(client_rpc_t *rpc, uint64_t job, proto_fetch_what_t what, c
         return 1;
     }
     if (reply.type != PROTO_FILE) {
-        fprintf(stderr, "prismfarm %s: the master answered %s, not FILE\n", cmd, proto_type_name(reply.type));
+        fprintf(stderr, "prismfarm %s: the master answered %s, not FILE\n", cmd,
+                proto_type_name(reply.type));
         proto_msg_free(&reply);
         return 1;
     }

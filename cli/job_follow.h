@@ -9,15 +9,19 @@
  * progress on stderr unless quiet (with the spp merged and the error estimate), until it is
  * done, failed or cancelled. A master that stops answering (a restart) is asked again on a
  * fresh connection for up to 2 minutes. Returns the job's final proto_job_state_t, or -1 when
- * the master did not come back or the job is gone; *last gets the final counters and accuracy (name and error cleared), error the
- * job's or the lost master's message. */
-int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t *last,
-                    char *error, size_t esize);
+ * the master did not come back or the job is gone; *last gets the final counters and accuracy (name
+ * and error cleared), error the job's or the lost master's message. */
+int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t *last, char *error,
+                    size_t esize);
 
-/* job_follow_wait for a job with a target error whose spp cap the caller knows: the progress
- * line follows the error (progress_follow_error) from its first estimate on. */
+/* job_follow_wait for a job with a target error: the progress line follows the error
+ * (progress_follow_error) from its first estimate on. spp_cap is the job's spp, or 0 when the
+ * caller does not know it (a remote master's job: then it is read off the job's own counters,
+ * samples_total x spp / samples_done at a pass boundary). When the job is done and prediction
+ * is not NULL, it gets progress_prediction_line's text, or "" when no prediction was made. */
 int job_follow_wait_error(client_rpc_t *rpc, uint64_t job, int quiet, double target, int spp_cap,
-                          proto_job_info_t *last, char *error, size_t esize);
+                          proto_job_info_t *last, char *error, size_t esize, char *prediction,
+                          size_t psize);
 
 /* Checks, before anything is submitted, rendered or fetched, that the outputs exr and png (NULL:
  * none) can be written (files_check_output: a regular file or nothing there yet, in a folder

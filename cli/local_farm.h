@@ -16,14 +16,14 @@ typedef struct local_farm_opts {
     const char *exr_path; /* where the fetched EXR goes */
     const char *png_path; /* where the master's PNG preview goes; NULL: not fetched */
     scene_overrides_t overrides;
-    int workers;          /* >= 1 */
-    int threads;          /* render threads per worker, >= 1 */
-    int tile;             /* tile size; 0: the scheduler's default */
-    const char *spool;    /* NULL: a temporary folder, removed afterwards */
+    int workers;       /* >= 1 */
+    int threads;       /* render threads per worker, >= 1 */
+    int tile;          /* tile size; 0: the scheduler's default */
+    const char *spool; /* NULL: a temporary folder, removed afterwards */
     int quiet;
-    double target_error;  /* the job's stopping rules (proto_settings_t); 0: none */
+    double target_error; /* the job's stopping rules (proto_settings_t); 0: none */
     double time_limit;
-    int adaptive;         /* proto_settings_t: 1 turns adaptive sampling on under a target */
+    int adaptive; /* proto_settings_t: 1 turns adaptive sampling on under a target */
     /* The scene as the client loaded it (scene_load_file with overrides), shared with the
      * master and workers; NULL: they load it. */
     scene_t *loaded;
@@ -35,13 +35,18 @@ typedef struct local_farm_opts {
     const uint32_t *numbers;
     size_t nframes;
     const char *frame_pattern;
+    /* Out: with a target error, how close the progress line's first prediction came
+     * (progress_prediction_line), or ""; NULL: not wanted. */
+    char *prediction;
+    size_t prediction_size;
 } local_farm_opts_t;
 
 /* Renders the scene and writes the EXR (and the master's PNG when png_path is set; a sequence:
- * each frame's EXR and PNG, and unless quiet a line per frame on stdout). Returns 0 with the finished job's counters and accuracy
- * in *info (name and error cleared), or 1 with a message on stderr. Unless quiet, ends with
- * "render: the scene was loaded N time(s) in this process and shared M time(s) by its master
- * and workers" (the shelf's counts, scene_shelf_stats_t), also given in *loads when not NULL. */
+ * each frame's EXR and PNG, and unless quiet a line per frame on stdout). Returns 0 with the
+ * finished job's counters and accuracy in *info (name and error cleared), or 1 with a message on
+ * stderr. Unless quiet, ends with "render: the scene was loaded N time(s) in this process and
+ * shared M time(s) by its master and workers" (the shelf's counts, scene_shelf_stats_t), also given
+ * in *loads when not NULL. */
 int local_farm_run(const local_farm_opts_t *opts, proto_job_info_t *info,
                    scene_shelf_stats_t *loads);
 

@@ -8,7 +8,8 @@
 
 progress_t progress_make(const char *label, int quiet)
 {
-    return (progress_t){.tty = isatty(STDERR_FILENO), .quiet = quiet, .last_decile = -1, .label = label};
+    return (progress_t){
+        .tty = isatty(STDERR_FILENO), .quiet = quiet, .last_decile = -1, .label = label};
 }
 
 void progress_follow_error(progress_t *p, double target, int spp_cap)
@@ -16,6 +17,7 @@ void progress_follow_error(progress_t *p, double target, int spp_cap)
     p->target = target;
     p->spp_cap = spp_cap;
     p->nrec = 0;
+    p->pred_made = 0;
 }
 
 void progress_note_error(progress_t *p, int spp, double elapsed, double rel_error)
@@ -23,9 +25,41 @@ void progress_note_error(progress_t *p, int spp, double elapsed, double rel_erro
     if (!(p->target > 0.0) || p->nrec >= STOPPING_MAX_RECORDS ||
         (p->nrec > 0 && spp <= p->rec[p->nrec - 1].spp))
         return;
-    p->rec[p->nrec++] = (pass_record_t){.pass = p->nrec + 1, .spp = spp, .elapsed = elapsed,
+    p->rec[p->nrec++] = (pass_record_t){.pass = p->nrec + 1,
+                                        .spp = spp,
+                                        .elapsed = elapsed,
                                         .valid = isfinite(rel_error) && rel_error > 0.0,
                                         .rel_error = rel_error};
+    if (!p->pred_made) {
+        predict_t pr = predict_target(p->rec, p->nrec, p->target);
+        if (pr.valid && pr.spp <= p->spp_cap) {
+            p->pred_made = 1;
+            p->pred_from_spp = spp;
+            p->pred_at = elapsed;
+            p->pred_spp = predict_pass_spp(&pr, p->spp_cap);
+            p->pred_end = predict_pass_seconds(&pr, p->spp_cap);
+        }
+    }
+}
+
+int progress_prediction_line(const progress_t *p, int reached, int spp, double elapsed, char *buf,
+                             size_t size)
+{
+    if (!p->pred_made)
+        return 0;
+    int n =
+        snprintf(buf, size, "prediction after %d spp (%.1f s): error %g at %d spp after %.1f s; ",
+                 p->pred_from_spp, p->pred_at, p->target, p->pred_spp, p->pred_end);
+    if (n < 0 || (size_t)n >= size)
+        return 1;
+    if (reached && p->pred_end > 0.0)
+        snprintf(buf + n, size - (size_t)n,
+                 "reached at %d spp after %.1f s, %.2f x the predicted time", spp, elapsed,
+                 elapsed / p->pred_end);
+    else
+        snprintf(buf + n, size - (size_t)n, "not reached: ended at %d spp after %.1f s", spp,
+                 elapsed);
+    return 1;
 }
 
 /* The error's end time when a target is followed and predicted within the cap, else -1. */
@@ -63,7 +97,8 @@ void progress_update(progress_t *p, uint64_t done, uint64_t total, double elapse
         for (int i = 0; i < 30; i++)
             bar[i] = i < n ? '#' : '.';
         bar[30] = 0;
-        fprintf(stderr, "\r[%s] %5.1f%%  %.2f Msamples/s  ETA %.0fs %s  ", bar, 100 * f, rate / 1e6, eta, extra);
+        fprintf(stderr, "\r[%s] %5.1f%%  %.2f Msamples/s  ETA %.0fs %s  ", bar, 100 * f, rate / 1e6,
+                eta, extra);
         p->open_line = done < total;
         if (done >= total)
             fputc('\n', stderr);
@@ -71,8 +106,8 @@ void progress_update(progress_t *p, uint64_t done, uint64_t total, double elapse
         int decile = (int)(f * 10);
         if (decile > p->last_decile || done >= total) {
             p->last_decile = decile;
-            fprintf(stderr, "%s: %5.1f%%  %.2f Msamples/s  %.1fs elapsed, ETA %.0fs %s\n", p->label, 100 * f,
-                    rate / 1e6, elapsed, eta, extra);
+            fprintf(stderr, "%s: %5.1f%%  %.2f Msamples/s  %.1fs elapsed, ETA %.0fs %s\n", p->label,
+                    100 * f, rate / 1e6, elapsed, eta, extra);
         }
     }
     fflush(stderr);

@@ -130,15 +130,20 @@ static void test_progress_follows_error(void **state)
         fail_msg("exit %d: %s", r->status, r->err);
     expect_in(r->err, "to error 0.1, predicted");
     expect_in(r->out, "(target error reached)");
+    /* The summary compares the first prediction with what happened. */
+    expect_in(r->out, "prediction after ");
+    expect_in(r->out, "x the predicted time");
     r = run("render", "data/render/tiny.pbrt", "-o", exr, "--spp", "1024", "--target-error", "0.1",
             NULL);
     if (r->status != 0)
         fail_msg("exit %d: %s", r->status, r->err);
     expect_in(r->err, "to error 0.1, predicted");
+    expect_in(r->out, "x the predicted time");
     /* Without a target the samples rule, as before. */
     r = run("render", "data/render/tiny.pbrt", "-o", exr, "--spp", "8", "--direct", NULL);
     assert_int_equal(r->status, 0);
     assert_null(strstr(r->err, "predicted"));
+    assert_null(strstr(r->out, "prediction"));
 }
 
 static void test_overrides(void **state)

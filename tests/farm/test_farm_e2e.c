@@ -249,6 +249,16 @@ static void test_processes_and_a_killed_worker(void **state)
     if (r->status != 0)
         fail_msg("submit --wait: exit %d: %s", r->status, r->err);
     testutil_assert_same_pixels(testutil_scratch("killed.exr"), testutil_scratch("single.exr"));
+    /* A remote job with a target error: the client, which does not know the job's spp cap,
+     * follows the error and says afterwards how close its first prediction came. */
+    r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "1024",
+            "--target-error", "0.1", "--name", "target", "--wait", "-o",
+            testutil_scratch("target.exr"), NULL);
+    if (r->status != 0)
+        fail_msg("submit --wait --target-error: exit %d: %s", r->status, r->err);
+    expect_in(r->out, "(target reached)");
+    expect_in(r->out, "prediction after ");
+    expect_in(r->out, "x the predicted time");
     /* And the same bytes as `prismfarm render` of the scene with the same seed and spp (another
      * tile size changes nothing: passes are per job, so each pixel sums the same samples in the
      * same order). */
