@@ -1,7 +1,6 @@
 #include "budget.h"
 
 #include "clock.h"
-#include "mesh_import.h"
 
 scene_budget_t scene_budget_default(void)
 {
@@ -11,6 +10,7 @@ scene_budget_t scene_budget_default(void)
                             .image_bytes = (uint64_t)4 << 30,
                             .vertices = (uint64_t)1 << 25,
                             .text_bytes = (uint64_t)256 << 20,
+                            .ply_bytes = (uint64_t)1 << 30,
                             .load_seconds = 60.0};
 }
 
@@ -61,11 +61,12 @@ uint64_t scene_budget_text_left(const scene_budget_t *b, const scene_budget_use_
     return left < limit ? left : limit;
 }
 
-int scene_budget_charge_ply(const scene_budget_t *b, scene_budget_use_t *u, uint64_t vertices,
-                            uint64_t faces, const char *name, err_t *err)
+int scene_budget_charge_ply(const scene_budget_t *b, scene_budget_use_t *u,
+                            const mesh_ply_counts_t *c, const char *name, err_t *err)
 {
     if (!b)
         return 0;
+    uint64_t vertices = c->vertices, faces = c->faces;
     if (b->vertices && (u->vertices > b->vertices || vertices > b->vertices - u->vertices))
         return err_set(err,
                        "\"%s\" declares %llu vertices, which takes the scene over %llu PLY "
@@ -76,17 +77,25 @@ int scene_budget_charge_ply(const scene_budget_t *b, scene_budget_use_t *u, uint
                        "\"%s\" declares %llu faces, more than the %llu triangles of the master's "
                        "budget (prismfarm master --max-triangles)",
                        name, (unsigned long long)faces, (unsigned long long)b->triangles);
+    if (b->ply_bytes &&
+        (u->ply_bytes > b->ply_bytes || c->body_bytes > b->ply_bytes - u->ply_bytes))
+        return err_set(err,
+                       "\"%s\" declares at least %llu bytes of vertices and faces, which takes the "
+                       "scene over %llu bytes of PLY data, the master's budget (prismfarm master "
+                       "--max-ply-mb)",
+                       name, (unsigned long long)c->body_bytes, (unsigned long long)b->ply_bytes);
     u->vertices += vertices;
+    u->ply_bytes += c->body_bytes;
     return scene_budget_check_time(b, err);
 }
 
 int scene_budget_charge_ply_file(const scene_budget_t *b, scene_budget_use_t *u, const void *data,
                                  size_t len, const char *name, err_t *err)
 {
-    uint64_t nv, nf;
+    mesh_ply_counts_t c;
     if (!b)
         return 0;
-    if (mesh_import_ply_counts(data, len, name, &nv, &nf, err) != 0)
+    if (mesh_import_ply_counts(data, len, name, &c, err) != 0)
         return -1;
-    return scene_budget_charge_ply(b, u, nv, nf, name, err);
+    return scene_budget_charge_ply(b, u, &c, name, err);
 }

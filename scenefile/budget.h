@@ -13,6 +13,7 @@
 #define PRISMFARM_BUDGET_H
 
 #include "err.h"
+#include "mesh_import.h"
 
 #include <stddef.h>
 #include <stdint.h>
@@ -27,6 +28,8 @@ typedef struct scene_budget {
     uint64_t vertices;    /* PLY vertices, all files together (--max-vertices) */
     uint64_t text_bytes;  /* scene text read, main file and every Include/Import each
                            * time it is read, after inflating (--max-text-mb) */
+    uint64_t ply_bytes;   /* the bytes PLY headers declare their bodies to hold: vertex
+                           * properties, faces (--max-ply-mb) */
     double load_seconds;  /* the longest a load may take (--max-load-seconds) */
     double deadline;      /* clock_now_s() time the load must end by, set by
                            * scene_budget_start; 0: none */
@@ -34,12 +37,12 @@ typedef struct scene_budget {
 
 /* What one load has charged so far (the parser's, a plain value). */
 typedef struct scene_budget_use {
-    uint64_t vertices, text_bytes;
+    uint64_t vertices, text_bytes, ply_bytes;
 } scene_budget_use_t;
 
 /* 1 000 000 shapes, 100 000 000 triangles, 268 435 456 texels (a 16384² map), 4 GiB of
- * merged image, 33 554 432 PLY vertices, 256 MiB of scene text, 60 s of parse: room for every
- * corpus scene. No deadline until scene_budget_start. */
+ * merged image, 33 554 432 PLY vertices, 256 MiB of scene text, 1 GiB of PLY bodies, 60 s of
+ * parse: room for every corpus scene. No deadline until scene_budget_start. */
 scene_budget_t scene_budget_default(void);
 
 /* The merged image's bytes for a film (saturating). */
@@ -61,11 +64,12 @@ int scene_budget_charge_text(const scene_budget_t *b, scene_budget_use_t *u, uin
 uint64_t scene_budget_text_left(const scene_budget_t *b, const scene_budget_use_t *u,
                                 uint64_t limit);
 
-/* Charges the vertices a PLY's header declares, and refuses a file declaring more faces than
- * the whole triangle budget (each face makes at least one triangle), before any of it is
- * decoded; checks the deadline. -1 with a message naming the file and the option. */
-int scene_budget_charge_ply(const scene_budget_t *b, scene_budget_use_t *u, uint64_t vertices,
-                            uint64_t faces, const char *name, err_t *err);
+/* Charges the vertices and body bytes a PLY's header declares (mesh_import.h), and refuses a
+ * file declaring more faces than the whole triangle budget (each face makes at least one
+ * triangle), before any of it is inflated or decoded; checks the deadline. -1 with a message
+ * naming the file and the option. */
+int scene_budget_charge_ply(const scene_budget_t *b, scene_budget_use_t *u,
+                            const mesh_ply_counts_t *c, const char *name, err_t *err);
 
 /* The same for a PLY file in memory (data[0..len), gzip'ed or not): its header read with
  * mesh_import_ply_counts, nothing else of it inflated (b NULL: nothing read, 0). */

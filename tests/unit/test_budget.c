@@ -217,6 +217,24 @@ static void test_ply_header(void **state)
     if (!sc)
         fail_msg("6 vertices with a budget of 6: %s", err.msg);
     scene_destroy(&sc);
+    /* Properties: 10 vertices of 200 floats declare 8000 bytes (and 1 face 13 more), refused
+     * from the header of a file that has no body at all. */
+    FILE *f = fopen(testutil_scratch("wide.ply"), "w");
+    assert_non_null(f);
+    fputs("ply\nformat binary_little_endian 1.0\nelement vertex 10\n", f);
+    fputs("property float x\nproperty float y\nproperty float z\n", f);
+    for (int i = 3; i < 200; i++)
+        fprintf(f, "property float extra%d\n", i);
+    fputs("element face 1\nproperty list uchar int vertex_indices\nend_header\n", f);
+    assert_int_equal(fclose(f), 0);
+    snprintf(text, sizeof text, HEAD "Shape \"plymesh\" \"string filename\" \"wide.ply\"\n");
+    b = (scene_budget_t){.ply_bytes = 8000};
+    expect_refusal("plyb.pbrt", text, &b, "plyb.pbrt:7:",
+                   "wide.ply\" declares at least 8001 bytes of vertices and faces, which takes the "
+                   "scene over 8000 bytes of PLY data, the master's budget (prismfarm master "
+                   "--max-ply-mb)");
+    b.ply_bytes = 8001;
+    expect_refusal("plyb2.pbrt", text, &b, "plyb2.pbrt:7:", "truncated");
     /* The header alone, inflated from the front. */
     char *gz;
     size_t n, got;
@@ -261,8 +279,8 @@ static void test_text(void **state)
     free(spaces);
     assert_int_equal(fclose(f), 0);
     b.text_bytes = 1 << 19;
-    expect_refusal("gz.pbrt", "Include \"spaces.pbrt.gz\"\nWorldBegin\n", &b, "gz.pbrt:1:",
-                   "spaces.pbrt.gz\" inflates to more than");
+    expect_refusal("gz.pbrt", "Include \"spaces.pbrt.gz\"\nWorldBegin\n", &b,
+                   "gz.pbrt:1:", "spaces.pbrt.gz\" inflates to more than");
 }
 
 /* A parse past its deadline stops (here at the main file's text), naming --max-load-seconds. */
