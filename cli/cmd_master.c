@@ -36,7 +36,8 @@ int cmd_master(int argc, char **argv)
     int quiet = 0, no_journal = 0;
     int heartbeat_ms = 0, deadline_s = 0, tile = 0, max_jobs = 0, message_mb = 0, bundle_mb = 0,
         bundle_files = 0, conns_per_host = -1, conns = 0; /* 0, -1: not given */
-    long long max_shapes = -1, max_triangles = -1, max_texels = -1;
+    long long max_shapes = -1, max_triangles = -1, max_texels = -1, max_vertices = -1;
+    double max_text_mb = -1, max_ply_mb = -1, max_load_s = -1;
     double max_image_mb = -1;
     /* -1: not given (0 is a value: never block a worker for failures in a row) */
     int task_retries = 0, job_failures = 0, row_failures = -1;
@@ -126,6 +127,14 @@ int cmd_master(int argc, char **argv)
          .help = "triangles after subdivision and tessellation (default 100000000)"},
         {.name = "max-texels", .kind = CLI_LLONG, .dst = &max_texels, .lo = 0, .hi = 1e13,
          .arg = "N", .help = "image texture and environment pixels (default 268435456)"},
+        {.name = "max-vertices", .kind = CLI_LLONG, .dst = &max_vertices, .lo = 0, .hi = 1e13,
+         .arg = "N", .help = "PLY vertices, from each file's header (default 33554432)"},
+        {.name = "max-text-mb", .kind = CLI_DOUBLE, .dst = &max_text_mb, .lo = 0, .hi = 1e9,
+         .arg = "N", .help = "scene text read, each Include counted each time (default 256)"},
+        {.name = "max-ply-mb", .kind = CLI_DOUBLE, .dst = &max_ply_mb, .lo = 0, .hi = 1e9,
+         .arg = "N", .help = "PLY bodies as their headers declare them (default 1024)"},
+        {.name = "max-load-seconds", .kind = CLI_DOUBLE, .dst = &max_load_s, .lo = 0, .hi = 1e9,
+         .arg = "S", .help = "the longest a scene's parse may take (default 60)"},
         {.name = "max-image-mb", .kind = CLI_DOUBLE, .dst = &max_image_mb, .lo = 0,
          .hi = 1e9, .arg = "N",
          .help = "the merged image, xres*yres*(buckets+4)*8 bytes (default 4096 MiB)"},
@@ -181,6 +190,14 @@ int cmd_master(int argc, char **argv)
         o.budget.triangles = (uint64_t)max_triangles;
     if (max_texels >= 0)
         o.budget.texels = (uint64_t)max_texels;
+    if (max_vertices >= 0)
+        o.budget.vertices = (uint64_t)max_vertices;
+    if (max_text_mb >= 0)
+        o.budget.text_bytes = (uint64_t)(max_text_mb * 1048576.0);
+    if (max_ply_mb >= 0)
+        o.budget.ply_bytes = (uint64_t)(max_ply_mb * 1048576.0);
+    if (max_load_s >= 0)
+        o.budget.load_seconds = max_load_s;
     if (max_image_mb >= 0)
         o.budget.image_bytes = (uint64_t)(max_image_mb * 1048576.0);
     if (conns_per_host >= 0)

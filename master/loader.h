@@ -3,7 +3,10 @@
  * after 60 s) -- so that its loop never waits on it. Work runs one item at a time, in the
  * order given, on a compute thread of the pool (pool.h); the master takes each finished item
  * back on its own thread with loader_done and only then touches master state with it. The
- * work function must touch nothing but its own argument. */
+ * work function must touch nothing but its own argument. Items wait for one another, so a
+ * scene load is bounded by its budget (budget.h: its text, vertices and texels, and a parse
+ * deadline, --max-load-seconds, whose clock starts when the item starts): one upload holds
+ * the thread for seconds, not minutes (issue 26, finding 2). */
 #ifndef PRISMFARM_LOADER_H
 #define PRISMFARM_LOADER_H
 

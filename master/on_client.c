@@ -180,8 +180,10 @@ static int load_frame(void *user, int index, err_t *err)
     submission_t *s = fl->s;
     size_t k = (size_t)index;
     err_t e;
+    scene_budget_t budget = s->budget; /* each frame's parse has its own clock */
+    scene_budget_start(&budget, clock_now_s());
     s->frames[k] = job_new(0, s->frame_main[k], s->hash, s->frame_main[k], &s->settings, s->dir,
-                           &s->budget, s->shelf, fl->inner, &e);
+                           &budget, s->shelf, fl->inner, &e);
     if (s->frames[k]) {
         s->frames[k]->seq.frame = s->frame_number[k];
         return 0;
@@ -249,6 +251,7 @@ static void submission_load(void *arg)
         s->load_s = clock_now_s() - t0;
         return;
     }
+    scene_budget_start(&s->budget, clock_now_s());
     s->job = s->nframes > 0 ? load_frames(s)
                             : job_new(0, s->name, s->hash, s->main, &s->settings, s->dir,
                                       &s->budget, s->shelf, 0, &s->err);

@@ -6,6 +6,7 @@
 #include "microfacet.h"
 #include "named_spectra.h"
 #include "image_exr.h"
+#include "image_info.h"
 #include "image_pfm.h"
 #include "image_png.h"
 #include "image_stb.h"
@@ -168,6 +169,20 @@ static int budget_texels(loader_t *L, int w, int h, err_t *err)
                    w, h, (unsigned long long)L->budget->texels);
 }
 
+/* budget.h: an image's texels charged from its header (image_info.h), before anything decodes
+ * it: 1 charged (or no texel budget), 0 when the header cannot be read (the decoder says why;
+ * the texels are charged once decoded), -1 over the budget. */
+static int budget_texels_header(loader_t *L, const char *path, err_t *err)
+{
+    int w, h;
+    err_t unread;
+    if (!L->budget || !L->budget->texels)
+        return 1;
+    if (image_info_read(path, &w, &h, &unread) != 0)
+        return 0;
+    return budget_texels(L, w, h, err) ? -1 : 1;
+}
+
 static const texture_t *spectrum_input(loader_t *L, const scene_spectrum_input_t *in, spec_use_t use,
                                        err_t *err)
 {
@@ -326,6 +341,7 @@ typedef struct image_job {
     float *rgb; /* the texels, scaled, inverted and clamped as above */
     texture_t *tex;
     int state; /* 0 not run, 1 decoded, 2 built, 3 skipped (after a failure), -1 failed (err) */
+    int charged; /* its texels charged from its header (budget_texels_header) */
     err_t err;
 } image_job_t;
 
@@ -421,6 +437,17 @@ static int load_image_textures(loader_t *L, image_job_t *jobs, size_t n, err_t *
                 group[k++] = &jobs[i];
         int inner = threads / (k > 0 ? k : 1);
         err_t ignored;
+        /* Charged from their headers in file order before any decodes: one over the budget
+         * is not decoded, nor is any after it. */
+        for (int q = 0, over = 0; q < k; q++) {
+            image_job_t *j = group[q];
+            if (over) {
+                j->state = 3;
+            } else if ((j->charged = budget_texels_header(L, j->t->image.filename, &j->err)) < 0) {
+                j->state = -1;
+                over = 1;
+            }
+        }
         (void)pool_for(threads, k, image_job_step, group, &ignored);
         int failed = 0;
         for (int q = 0; q < k; q++) {
@@ -431,7 +458,7 @@ static int load_image_textures(loader_t *L, image_job_t *jobs, size_t n, err_t *
                 j->state = 3;
                 continue;
             }
-            if (j->state == 1 && budget_texels(L, j->w, j->h, &j->err))
+            if (j->state == 1 && !j->charged && budget_texels(L, j->w, j->h, &j->err))
                 j->state = -1;
             if (j->state != 1)
                 failed = 1;
@@ -453,14 +480,15 @@ static const texture_t *normal_map(loader_t *L, const scene_material_t *dm, err_
     encoding_t enc;
     encoding_parse("linear", &enc);
     int w, h;
-    float *rgb, *alpha;
-    if (read_image(dm->normalmap, &enc, &w, &h, &rgb, &alpha, err)) {
+    float *rgb = NULL, *alpha;
+    int charged = budget_texels_header(L, dm->normalmap, err);
+    if (charged < 0 || read_image(dm->normalmap, &enc, &w, &h, &rgb, &alpha, err)) {
         err_prefix(err, "%s:%d:%d: normalmap: ", dm->normalmap_loc.file, dm->normalmap_loc.line,
                    dm->normalmap_loc.col);
         return NULL;
     }
     free(alpha);
-    if (budget_texels(L, w, h, err)) {
+    if (!charged && budget_texels(L, w, h, err)) {
         err_prefix(err, "%s:%d:%d: normalmap: ", dm->normalmap_loc.file, dm->normalmap_loc.line,
                    dm->normalmap_loc.col);
         free(rgb);
@@ -792,7 +820,10 @@ static int read_image_at(loader_t *L, const char *path, pbrt_loc_t loc, const ch
     int rc;
     *rgb = NULL;
     *w = *h = 0;
-    if (ends_with_ci(path, ".exr")) {
+    int charged = budget_texels_header(L, path, err);
+    if (charged < 0) {
+        rc = -1;
+    } else if (ends_with_ci(path, ".exr")) {
         image_exr_t *im = image_exr_read(path, err);
         rc = im ? 0 : -1;
         if (im) {
@@ -810,7 +841,7 @@ static int read_image_at(loader_t *L, const char *path, pbrt_loc_t loc, const ch
     } else {
         rc = image_stb_read(path, w, h, rgb, err);
     }
-    if (rc == 0 && budget_texels(L, *w, *h, err))
+    if (rc == 0 && !charged && budget_texels(L, *w, *h, err))
         rc = -1;
     if (rc) {
         free(*rgb);

@@ -774,6 +774,52 @@ int mesh_import_ply_any(const void *data, size_t len, const char *name, mesh_dat
     return rc;
 }
 
+int mesh_import_ply_counts(const void *data, size_t len, const char *name, mesh_ply_counts_t *out,
+                           err_t *err)
+{
+    memset(out, 0, sizeof *out);
+    char *head = NULL;
+    const char *d = data;
+    if (gzip_data_is_gzip(data, len)) {
+        size_t n;
+        if (!(head = malloc(MESH_PLY_HEADER_BYTES_MAX)))
+            return err_set(err, "out of memory reading \"%s\"", name);
+        if (gzip_data_inflate_prefix(data, len, MESH_PLY_HEADER_BYTES_MAX, name, head, &n, err) !=
+            0) {
+            free(head);
+            return -1;
+        }
+        d = head;
+        len = n;
+    }
+    int rc = 0;
+    ply_header_t h = {0};
+    if (len < 4 || memcmp(d, "ply", 3) != 0 || (d[3] != '\n' && d[3] != '\r'))
+        rc = err_set(err, "\"%s\" is not a PLY file (it does not start with \"ply\")", name);
+    if (rc == 0)
+        rc = ply_parse_header(d, len, name, &h, err);
+    if (rc == 0)
+        rc = ply_check_elements(&h, name, err);
+    for (size_t k = 0; rc == 0 && k < h.nelements; k++) {
+        const ply_element_t *e = &h.elements[k];
+        uint64_t min = 0;
+        for (size_t j = 0; j < e->nprops; j++) {
+            const ply_prop_t *p = &h.props[e->first_prop + j];
+            min += h.format == PLY_ASCII ? 2 : p->list ? p->count.size : p->item.size;
+        }
+        uint64_t bytes = min && e->count > UINT64_MAX / min ? UINT64_MAX : e->count * min;
+        out->body_bytes = bytes > UINT64_MAX - out->body_bytes ? UINT64_MAX : out->body_bytes + bytes;
+        if (e->role == ROLE_VERTEX)
+            out->vertices = e->count;
+        else if (e->role == ROLE_FACE)
+            out->faces = e->count;
+    }
+    free(h.elements);
+    free(h.props);
+    free(head);
+    return rc;
+}
+
 /* Reads a whole file (at most MESH_PLY_BYTES_MAX bytes) after checking its magic (PLY's, or
  * gzip's), so that a file that is not PLY (a scene file, a device) is not read any further. */
 static char *read_ply(FILE *f, const char *path, size_t *len, err_t *err)

@@ -46,6 +46,19 @@ int mesh_import_ply_memory(const void *data, size_t len, const char *name, mesh_
 int mesh_import_ply_any(const void *data, size_t len, const char *name, mesh_data_t *out,
                         err_t *err);
 
+/* What the header of a PLY in memory declares (data may be gzip-compressed: then only the
+ * header's bytes are inflated): its vertices, its faces, and the fewest bytes its body can hold
+ * (each element's count times the least an instance takes, as mesh_import_ply_memory checks
+ * it: every property and list length, a separator after each in ascii; saturating), so that a
+ * caller charges them to its budget (budget.h) before the file is inflated or decoded. Fails
+ * with the file's name when the header is malformed or lacks what mesh_import_ply_memory
+ * needs. */
+typedef struct mesh_ply_counts {
+    uint64_t vertices, faces, body_bytes;
+} mesh_ply_counts_t;
+int mesh_import_ply_counts(const void *data, size_t len, const char *name, mesh_ply_counts_t *out,
+                           err_t *err);
+
 void mesh_data_free(mesh_data_t *mesh);
 
 #endif

@@ -183,6 +183,7 @@ typedef struct parser {
     size_t bytes_charged; /* confined: bytes read and decoded so far (PBRT_TOTAL_BYTES_MAX) */
     const scene_budget_t *budget; /* NULL: none (budget.h) */
     uint64_t nshapes, ntriangles; /* counted against it */
+    scene_budget_use_t used;      /* and its vertices and text (budget.c) */
     int threads;                  /* for the queued meshes (<= 0: all cores) */
     mesh_job_t *jobs;             /* queued meshes, in file order */
     size_t njobs, cap_jobs;
@@ -2475,6 +2476,9 @@ static double *copy_doubles(parser_t *P, const double *src, size_t n)
 /* budget.h: one more shape or object instance. */
 static int budget_shape(parser_t *P, const char *what, pbrt_loc_t loc)
 {
+    err_t late;
+    if (scene_budget_check_time(P->budget, &late) != 0)
+        return pbrt_error(P->err, loc, "%s", late.msg);
     if (!P->budget || !P->budget->shapes || ++P->nshapes <= P->budget->shapes)
         return 0;
     return pbrt_error(P->err, loc,
@@ -2870,6 +2874,11 @@ static int mesh_from_ply(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t
         char *buf =
             real ? read_confined(P, real, filename, path, &fp->loc, "PLY file", &len) : NULL;
         free(real);
+        err_t over;
+        if (buf && scene_budget_charge_ply_file(P->budget, &P->used, buf, len, path, &over)) {
+            free(buf);
+            return fail_at(P, &fp->loc, "%s", over.msg);
+        }
         if (!buf || inflate_if_gzip(P, &buf, &len, MESH_PLY_BYTES_MAX, path, &fp->loc) != 0) {
             free(buf);
             return -1;
@@ -4002,6 +4011,9 @@ static int parse_buffer(parser_t *P, const char *name, const char *text, size_t 
     return rc;
 }
 
+/* The most a scene file may inflate to: its own bound, or what the text budget leaves. */
+#define TEXT_LEFT(P) ((size_t)scene_budget_text_left((P)->budget, &(P)->used, PBRT_FILE_BYTES_MAX))
+
 /* Reads and parses one file: the main file (from NULL) or one named by Include/Import at
  * *from, as `name`. */
 static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from, scene_file_kind_t kind,
@@ -4018,7 +4030,7 @@ static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from, sce
         const char *what = from ? "included file" : "scene file";
         real = confine(P, path, name, from, what);
         text = real ? read_confined(P, real, name, path, from, what, &len) : NULL;
-        if (!text || inflate_if_gzip(P, &text, &len, PBRT_FILE_BYTES_MAX, path, from) != 0) {
+        if (!text || inflate_if_gzip(P, &text, &len, TEXT_LEFT(P), path, from) != 0) {
             free(text);
             free(real);
             return -1;
@@ -4027,7 +4039,7 @@ static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from, sce
         text = read_file(P, path, from, &len);
         if (!text)
             return -1;
-        if (inflate_if_gzip(P, &text, &len, PBRT_FILE_BYTES_MAX, path, from) != 0) {
+        if (inflate_if_gzip(P, &text, &len, TEXT_LEFT(P), path, from) != 0) {
             free(text);
             return -1;
         }
@@ -4047,7 +4059,10 @@ static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from, sce
         }
     P->open_files[P->nopen++] = real;
     pbrt_loc_t named = from ? *from : (pbrt_loc_t){P->main_name, 0, 0};
-    int rc = note_file(P, kind, path, name, named);
+    err_t over;
+    int rc = scene_budget_charge_text(P->budget, &P->used, len, path, &over) != 0
+                 ? fail_at(P, from, "%s", over.msg)
+                 : note_file(P, kind, path, name, named);
     if (rc == 0)
         rc = parse_buffer(P, path, text, len);
     free(text);
