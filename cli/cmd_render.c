@@ -173,8 +173,11 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
                 printf("%d of %d spp, no relative error estimate%s%s\n", last->spp, rs->spp,
                        last->spp < 2 ? " (1 sample per pixel)" : "", stop_text(why, stop_buf, sizeof stop_buf));
             char prediction[256];
-            if (last && progress_prediction_line(&prog, res.why == STOPPING_TARGET, last->spp,
-                                                 last->elapsed, prediction, sizeof prediction))
+            /* The last pass may meet the target as the spp cap ends the job. */
+            int reached = res.why == STOPPING_TARGET ||
+                          (last && last->valid && last->rel_error <= stop->target_error);
+            if (last && progress_prediction_line(&prog, reached, last->spp, last->elapsed,
+                                                 prediction, sizeof prediction))
                 printf("%s\n", prediction);
             if (res.tile_spp) {
                 adaptive_summary_t as = adaptive_summarize(&res.grid, res.tile_spp);

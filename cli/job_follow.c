@@ -101,8 +101,10 @@ int job_follow_wait_error(client_rpc_t *rpc, uint64_t job, int quiet, double tar
             progress_end(&prog, j.samples_done, j.samples_total, clock_now_s() - t0,
                          stopping_reason((stopping_why_t)j.stop));
         if (state == PROTO_JOB_DONE && prediction && psize)
-            progress_prediction_line(&prog, j.stop == PROTO_STOP_TARGET, (int)j.spp,
-                                     clock_now_s() - t0, prediction, psize);
+            progress_prediction_line(&prog,
+                                     j.stop == PROTO_STOP_TARGET ||
+                                         (j.has_rel_error && j.rel_error <= target),
+                                     (int)j.spp, clock_now_s() - t0, prediction, psize);
         prog.extra = NULL;
         proto_msg_free(&reply);
         if (state == PROTO_JOB_DONE || state == PROTO_JOB_FAILED || state == PROTO_JOB_CANCELLED)
