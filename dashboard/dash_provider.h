@@ -111,11 +111,13 @@ typedef struct dash_log_line {
     const char *text;
 } dash_log_line_t;
 
-/* What an action may need to know about who asks: the key name the token maps to and whether
- * it is an administrator's. */
+/* Who asks (dash_auth.h): the key name the token maps to, whether it is an administrator's,
+ * and whether it is the scrapers' token (--metrics-token-file), which reads /metrics and
+ * nothing else. */
 typedef struct dash_identity {
     char name[80];
     bool admin;
+    bool scraper;
 } dash_identity_t;
 
 /* Every callback gets user. A callback that can fail returns -1 with err (the message the
@@ -142,6 +144,9 @@ typedef struct dash_provider {
      * many. */
     int (*log)(void *user, uint64_t job, uint64_t since, dash_log_line_t *out, int max);
     size_t (*workers)(void *user, dash_worker_t *out, size_t max);
+    /* The Prometheus text of /metrics (master/metrics.h), malloc'ed into *text (the caller
+     * frees); -1 with err. NULL: /metrics answers 501. */
+    int (*metrics)(void *user, char **text, size_t *len, err_t *err);
 
     /* Whether who may act on job (the daemon's own rule, so that the dashboard and its other
      * clients agree). NULL: the owner (a key name equal to job->owner, never "") or an

@@ -87,7 +87,7 @@ static enum MHD_Result add_headers(struct MHD_Response *r, const dash_response_t
         MHD_add_response_header(r, "X-Frame-Options", "DENY") &
         MHD_add_response_header(r, "Referrer-Policy", "no-referrer") &
         MHD_add_response_header(r, "Content-Security-Policy",
-                                "default-src 'self'; img-src 'self' data:; style-src 'self'; "
+                                "default-src 'self'; img-src 'self' data: blob:; style-src 'self'; "
                                 "script-src 'self'; connect-src 'self'; frame-ancestors 'none'; "
                                 "form-action 'none'; base-uri 'none'");
     if (out->www_authenticate)

@@ -9,6 +9,7 @@
 #include "files.h"
 #include "jobs.h"
 #include "logbook.h"
+#include "metrics.h"
 #include "ops.h"
 #include "passes.h"
 #include "peers.h"
@@ -348,6 +349,12 @@ static size_t pv_workers(void *user, dash_worker_t *out, size_t max)
     return n;
 }
 
+static int pv_metrics(void *user, char **text, size_t *len, err_t *err)
+{
+    dash_view_t *v = user;
+    return master_metrics_text(v->m, clock_now_s(), text, len, err);
+}
+
 /* ---------------------------------------------------------------- actions */
 
 /* The master's one rule (access.h): a token always names a key, so a job submitted without
@@ -428,6 +435,10 @@ int dash_view_check(const master_opts_t *o, err_t *err)
     if (!o->http)
         return o->http_token_file
                    ? err_set(err, "--http-token-file needs --http ADDR:PORT, the dashboard")
+               : o->metrics_token_file
+                   ? err_set(err, "--metrics-token-file needs --http ADDR:PORT, the dashboard")
+               : o->dashboard_public
+                   ? err_set(err, "--dashboard-public needs --http ADDR:PORT, the dashboard")
                    : 0;
     dash_server_config_t sc;
     if (dash_server_parse_address(o->http, &sc, err) < 0)
@@ -470,6 +481,7 @@ dash_view_t *dash_view_open(master_t *m, char *bound, size_t size, err_t *err)
         .tasks = pv_tasks,
         .log = pv_log,
         .workers = pv_workers,
+        .metrics = pv_metrics,
         .allowed = pv_allowed,
         .cancel = pv_cancel,
         .pause = pv_pause,
@@ -481,8 +493,10 @@ dash_view_t *dash_view_open(master_t *m, char *bound, size_t size, err_t *err)
     dash_auth_config_t ac = {.any_dir = o->authorized_dir,
                              .clients_dir = o->authorized_clients_dir,
                              .admins_dir = o->authorized_admins_dir,
-                             .token_file = o->http_token_file};
-    dash_router_config_t rc = {.check_host = dash_server_loopback(&sc)};
+                             .token_file = o->http_token_file,
+                             .metrics_token_file = o->metrics_token_file};
+    dash_router_config_t rc = {.check_host = dash_server_loopback(&sc),
+                               .public_reads = o->dashboard_public != 0};
     if (!(v->auth = dash_auth_new(&ac, err)) ||
         !(v->router = dash_router_new(&v->provider, v->auth, &rc, err)) ||
         !(v->server = dash_server_new(&sc, v->router, err))) {

@@ -1,7 +1,9 @@
 /* The master's dashboard over a real HTTP connection (docs/dashboard.md): master_run with
  * --http on 127.0.0.1 and a port the system chooses, a fake worker and a client over inproc://,
- * and plain sockets speaking HTTP/1.1 to the port. A job's tasks and its worker show in the
- * API; a cancel without a token is refused and the job runs on; with the administrator's token
+ * and plain sockets speaking HTTP/1.1 to the port. Without a token the port shows only how many
+ * jobs there are (issue 26, finding 3): no name, preview, log, tasks or worker; with the
+ * administrator's token a job's tasks and its worker show in the API; a cancel without a
+ * token is refused and the job runs on; with the administrator's token
  * the job is cancelled, the worker is told to drop it and no task of it runs. The port's bounds
  * hold, and the master keeps serving while they are tried: a header larger than a connection's
  * memory, a body larger than DASH_MAX_BODY, a garbage request line, more idle connections than
@@ -28,8 +30,8 @@
 #include "curve.h"
 #include "dash_server.h"
 #include "farm_testutil.h"
-#include "master_testutil.h"
 #include "master.h"
+#include "master_testutil.h"
 #include "net.h"
 #include "test_wait.h"
 
@@ -109,21 +111,37 @@ static void test_cancel_over_http(void **state)
         proto_msg_free(&m);
     }
 
+    /* Without a token: the count of jobs by state, and how to sign in; nothing else. */
     assert_int_equal(request(f, "GET", "/api/jobs", NULL, NULL, out, sizeof out), 200);
+    assert_null(strstr(out, "tiny"));
+    assert_non_null(strstr(out, "\"counts\":{\"running\":1}"));
+    assert_non_null(strstr(out, "NAME.token"));
+    char path[64];
+    const char *closed[] = {"", "/tasks", "/log", "/preview.png", "/tiles"};
+    for (size_t i = 0; i < sizeof closed / sizeof *closed; i++) {
+        snprintf(path, sizeof path, "/api/jobs/%llu%s", (unsigned long long)job, closed[i]);
+        assert_int_equal(request(f, "GET", path, NULL, NULL, out, sizeof out), 401);
+        assert_null(strstr(out, "fake-host"));
+    }
+    assert_int_equal(request(f, "GET", "/api/workers", NULL, NULL, out, sizeof out), 401);
+    assert_null(strstr(out, "fake-host"));
+    assert_int_equal(request(f, "GET", "/api/log", NULL, NULL, out, sizeof out), 401);
+    assert_int_equal(request(f, "GET", "/metrics", NULL, NULL, out, sizeof out), 401);
+
+    assert_int_equal(request(f, "GET", "/api/jobs", f->token, NULL, out, sizeof out), 200);
     assert_non_null(strstr(out, "\"name\":\"tiny.pbrt\""));
     assert_non_null(strstr(out, "\"state\":\"running\""));
-    char path[64];
     snprintf(path, sizeof path, "/api/jobs/%llu/tasks", (unsigned long long)job);
-    assert_int_equal(request(f, "GET", path, NULL, NULL, out, sizeof out), 200);
+    assert_int_equal(request(f, "GET", path, f->token, NULL, out, sizeof out), 200);
     assert_int_equal(testutil_count_in(out, "\"worker_name\":\"fake-host\""), 2);
-    assert_int_equal(request(f, "GET", "/api/workers", NULL, NULL, out, sizeof out), 200);
+    assert_int_equal(request(f, "GET", "/api/workers", f->token, NULL, out, sizeof out), 200);
     assert_non_null(strstr(out, "\"state\":\"busy\""));
 
     /* Pause and resume go through the master's operations (ops.h), as the clients' ACT. */
     snprintf(path, sizeof path, "/api/jobs/%llu/pause", (unsigned long long)job);
     assert_int_equal(request(f, "POST", path, f->token, "", out, sizeof out), 200);
     assert_int_equal(state_of(f, job), PROTO_JOB_PAUSED);
-    assert_int_equal(request(f, "GET", "/api/jobs", NULL, NULL, out, sizeof out), 200);
+    assert_int_equal(request(f, "GET", "/api/jobs", f->token, NULL, out, sizeof out), 200);
     assert_non_null(strstr(out, "\"paused\":true"));
     snprintf(path, sizeof path, "/api/jobs/%llu/resume", (unsigned long long)job);
     assert_int_equal(request(f, "POST", path, f->token, "", out, sizeof out), 200);
@@ -146,12 +164,12 @@ static void test_cancel_over_http(void **state)
     assert_true(m.cancel.job == job);
     proto_msg_free(&m);
     snprintf(path, sizeof path, "/api/jobs/%llu/tasks", (unsigned long long)job);
-    assert_int_equal(request(f, "GET", path, NULL, NULL, out, sizeof out), 200);
+    assert_int_equal(request(f, "GET", path, f->token, NULL, out, sizeof out), 200);
     assert_non_null(strstr(out, "\"tasks\":[]"));
     assert_non_null(strstr(out, "\"state\":\"cancelled\""));
     /* The job's log says who cancelled it. */
     snprintf(path, sizeof path, "/api/jobs/%llu/log", (unsigned long long)job);
-    assert_int_equal(request(f, "GET", path, NULL, NULL, out, sizeof out), 200);
+    assert_int_equal(request(f, "GET", path, f->token, NULL, out, sizeof out), 200);
     assert_non_null(strstr(out, "cancel from the dashboard by 'ops' (admin)"));
     /* Cancelling again is refused with the reason. */
     snprintf(path, sizeof path, "/api/jobs/%llu/cancel", (unsigned long long)job);
@@ -268,6 +286,15 @@ static void test_http_option(void **state)
     o.http = NULL;
     o.http_token_file = "x.token";
     assert_int_equal(master_check_http(&o, &err), -1);
+    /* The dashboard's other options need it too. */
+    o.http_token_file = NULL;
+    o.dashboard_public = 1;
+    assert_int_equal(master_check_http(&o, &err), -1);
+    assert_non_null(strstr(err.msg, "--dashboard-public"));
+    o.dashboard_public = 0;
+    o.metrics_token_file = "prom.token";
+    assert_int_equal(master_check_http(&o, &err), -1);
+    assert_non_null(strstr(err.msg, "--metrics-token-file"));
 }
 
 int main(void)
