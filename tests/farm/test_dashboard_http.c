@@ -6,8 +6,8 @@
  * token is refused and the job runs on; with the administrator's token
  * the job is cancelled, the worker is told to drop it and no task of it runs. The port's bounds
  * hold, and the master keeps serving while they are tried: a header larger than a connection's
- * memory, a body larger than DASH_MAX_BODY, a garbage request line, more idle connections than
- * DASH_MAX_PER_ADDRESS, and a request left half sent (the loop is never blocked by it). */
+ * memory, a body larger than DASH_MAX_BODY, a garbage request line, and a request left half
+ * sent (the loop is never blocked by it); idle connections evicted, never users refused. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -223,41 +223,54 @@ static void test_bounds(void **state)
     close(s);
     assert_true(status == 0 || status == 400);
 
-    /* More idle connections than one address may hold: the ones beyond are closed, and the
-     * port serves again once they are gone. */
-    int conns[DASH_MAX_PER_ADDRESS + 8];
-    int count = (int)(sizeof conns / sizeof *conns);
-    for (int i = 0; i < count; i++)
+    close(stalled);
+}
+
+/* Idle connections, all from 127.0.0.1 as everyone behind an SSH tunnel is (issue 26,
+ * finding 4: 64 of them took the dashboard offline): GET / is answered while 64 are held and
+ * none of them is closed; with more than DASH_EVICT_AT held the idlest are closed to make room
+ * and GET / is still answered. Within the test's deadline; nothing is timed. */
+static void test_idle_flood(void **state)
+{
+    fx_t *f = *state;
+    static char out[1 << 16];
+    enum { FLOOD = DASH_MAX_CONNECTIONS + 64 };
+    static int conns[FLOOD];
+    for (int i = 0; i < 64; i++)
         conns[i] = testutil_http_connect(f->port);
-    /* A connection beyond the limit is closed by the server: readable, with EOF. Waited for
-     * until enough are, within the test's deadline. */
-    bool closed[DASH_MAX_PER_ADDRESS + 8] = {0};
-    int refused = 0;
+    assert_int_equal(request(f, "GET", "/", NULL, NULL, out, sizeof out), 200);
+    assert_non_null(strstr(out, "/app.js"));
+    for (int i = 0; i < 64; i++) {
+        char c;
+        assert_int_equal(recv(conns[i], &c, 1, MSG_DONTWAIT), -1); /* still open, nothing sent */
+    }
+    for (int i = 64; i < FLOOD; i++)
+        conns[i] = testutil_http_connect(f->port);
+    assert_int_equal(request(f, "GET", "/", NULL, NULL, out, sizeof out), 200);
+    /* The oldest were closed by the server (readable with EOF): at least those beyond
+     * DASH_EVICT_AT, waited for within the deadline. */
+    int closed = 0;
+    static bool done[FLOOD];
+    memset(done, 0, sizeof done);
     double until = clock_now_s() + test_wait_s();
-    while (refused < count - DASH_MAX_PER_ADDRESS && clock_now_s() < until) {
-        struct pollfd p[DASH_MAX_PER_ADDRESS + 8];
-        for (int i = 0; i < count; i++)
-            p[i] = (struct pollfd){.fd = closed[i] ? -1 : conns[i], .events = POLLIN};
-        if (poll(p, (nfds_t)count, 50) <= 0)
-            continue;
-        for (int i = 0; i < count; i++) {
+    while (closed < FLOOD - DASH_EVICT_AT && clock_now_s() < until) {
+        for (int i = 0; i < FLOOD; i++) {
             char c;
-            if (!closed[i] && (p[i].revents & (POLLIN | POLLHUP)) &&
-                recv(conns[i], &c, 1, MSG_DONTWAIT) <= 0) {
-                closed[i] = true;
-                refused++;
+            if (!done[i] && recv(conns[i], &c, 1, MSG_DONTWAIT) == 0) {
+                done[i] = true;
+                closed++;
             }
         }
+        testutil_sleep_ms(20);
     }
-    for (int i = 0; i < count; i++)
+    print_message("%d of %d idle connections closed to make room\n", closed, FLOOD);
+    assert_true(closed >= FLOOD - DASH_EVICT_AT);
+    assert_true(done[0]); /* the idlest first */
+    assert_false(done[FLOOD - 1]);
+    /* A user's request with the token, still answered. */
+    assert_int_equal(request(f, "GET", "/api/jobs", f->token, NULL, out, sizeof out), 200);
+    for (int i = 0; i < FLOOD; i++)
         close(conns[i]);
-    close(stalled);
-    assert_true(refused >= count - DASH_MAX_PER_ADDRESS);
-    double end = clock_now_s() + test_wait_s();
-    while (request(f, "GET", "/api/jobs", NULL, NULL, out, sizeof out) != 200 &&
-           clock_now_s() < end)
-        testutil_sleep_ms(50);
-    assert_int_equal(request(f, "GET", "/api/jobs", NULL, NULL, out, sizeof out), 200);
 }
 
 /* The address rules of the option: a port alone is 127.0.0.1; another host's address needs
@@ -302,6 +315,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test_setup_teardown(test_cancel_over_http, setup, teardown),
         cmocka_unit_test_setup_teardown(test_bounds, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_idle_flood, setup, teardown),
         cmocka_unit_test(test_http_option),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
