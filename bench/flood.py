@@ -61,7 +61,7 @@ def timed(f):
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--bin", default="build/cli/prismfarm")
-    ap.add_argument("--dash", default="64,300")
+    ap.add_argument("--dash", default="64,300,2000")
     ap.add_argument("--clients", default="2000")
     ap.add_argument("--runs", type=int, default=3)
     a = ap.parse_args()
