@@ -26,8 +26,14 @@ typedef struct dash_job {
     uint64_t id;
     const char *name;
     const char *owner; /* key name of who submitted it; "" when unknown */
-    const char *state; /* "queued", "running", "done", "failed", "cancelled" */
+    const char *state; /* "queued", "running", "done", "failed", "cancelled", "paused" (as
+                        * `prismfarm jobs` says it) */
     bool has_paused, paused;
+    /* Figures the daemon may not know (a job restored after a restart before its scene is
+     * loaded again, a finished job the scheduler forgot): absent from the JSON when false,
+     * shown as unknown, never as 0. */
+    bool has_size;  /* xres, yres, spp, npasses */
+    bool has_tasks; /* tasks_total, tasks_done, tasks_running */
     bool has_priority;
     int priority;
     int xres, yres, spp; /* its size and target samples per pixel */
@@ -100,8 +106,10 @@ typedef struct dash_worker {
     const char *state; /* "idle", "busy", "lost" */
     int tasks_running;
     uint64_t tasks_done, tasks_failed;
-    uint64_t samples_done; /* camera samples merged from its results: the page derives samples/s */
-    double last_seen_s;    /* seconds since its last message */
+    uint64_t samples_done; /* camera samples merged from its results */
+    bool has_rate;
+    double samples_per_s; /* its recent rate, as `prismfarm workers` shows it */
+    double last_seen_s;   /* seconds since its last message */
     bool has_blocklisted, blocklisted;
 } dash_worker_t;
 

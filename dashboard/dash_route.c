@@ -203,19 +203,23 @@ static json_t *job_json(const dash_job_t *j)
         json_object_set_new(o, "paused", json_boolean(j->paused));
     if (j->has_priority)
         json_object_set_new(o, "priority", json_integer(j->priority));
-    json_object_set_new(o, "xres", json_integer(j->xres));
-    json_object_set_new(o, "yres", json_integer(j->yres));
-    json_object_set_new(o, "spp", json_integer(j->spp));
+    if (j->has_size) {
+        json_object_set_new(o, "xres", json_integer(j->xres));
+        json_object_set_new(o, "yres", json_integer(j->yres));
+        json_object_set_new(o, "spp", json_integer(j->spp));
+        json_object_set_new(o, "npasses", json_integer(j->npasses));
+    }
     json_object_set_new(o, "integrator", str(j->integrator));
     json_object_set_new(o, "samples_done", json_integer((json_int_t)j->samples_done));
     json_object_set_new(o, "samples_total", json_integer((json_int_t)j->samples_total));
     json_object_set_new(o, "nonfinite", json_integer((json_int_t)j->nonfinite));
     json_object_set_new(o, "spp_done", json_integer(j->spp_done));
     json_object_set_new(o, "passes_done", json_integer(j->passes_done));
-    json_object_set_new(o, "npasses", json_integer(j->npasses));
-    json_object_set_new(o, "tasks_total", json_integer(j->tasks_total));
-    json_object_set_new(o, "tasks_done", json_integer(j->tasks_done));
-    json_object_set_new(o, "tasks_running", json_integer(j->tasks_running));
+    if (j->has_tasks) {
+        json_object_set_new(o, "tasks_total", json_integer(j->tasks_total));
+        json_object_set_new(o, "tasks_done", json_integer(j->tasks_done));
+        json_object_set_new(o, "tasks_running", json_integer(j->tasks_running));
+    }
     double progress = j->samples_total ? (double)j->samples_done / (double)j->samples_total : 0;
     bool over =
         !strcmp(j->state, "done") || !strcmp(j->state, "failed") || !strcmp(j->state, "cancelled");
@@ -226,8 +230,10 @@ static json_t *job_json(const dash_job_t *j)
         json_object_set_new(o, "rel_error", json_real(j->rel_error));
     json_object_set_new(o, "elapsed_s", json_real(j->elapsed_s));
     /* The time left if the samples still to do go as fast as those done so far: an estimate
-     * for a job that runs every pass (one with a target error may end sooner). */
-    if (!over && progress > 0 && progress < 1 && j->elapsed_s > 0)
+     * for a job that runs every pass (one with a target error may end sooner); none while it
+     * is paused. */
+    bool paused = j->paused || !strcmp(j->state, "paused");
+    if (!over && !paused && progress > 0 && progress < 1 && j->elapsed_s > 0)
         json_object_set_new(o, "eta_s", json_real(j->elapsed_s * (1 - progress) / progress));
     if (j->stop && *j->stop)
         json_object_set_new(o, "stop", str(j->stop));
@@ -613,6 +619,8 @@ static void get_workers(dash_router_t *self, const viewer_t *v, dash_response_t 
         json_object_set_new(o, "tasks_done", json_integer((json_int_t)w->tasks_done));
         json_object_set_new(o, "tasks_failed", json_integer((json_int_t)w->tasks_failed));
         json_object_set_new(o, "samples_done", json_integer((json_int_t)w->samples_done));
+        if (w->has_rate)
+            json_object_set_new(o, "samples_per_s", json_real(w->samples_per_s));
         json_object_set_new(o, "last_seen_s", json_real(w->last_seen_s));
         if (w->has_blocklisted)
             json_object_set_new(o, "blocklisted", json_boolean(w->blocklisted));

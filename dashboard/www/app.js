@@ -106,9 +106,14 @@ function bar(fraction) {
   return el("span", { class: "bar", title: (100 * fraction).toFixed(1) + " %" }, inner);
 }
 
+// The state as `prismfarm jobs` says it ("paused" included).
 function stateCell(s, paused) {
-  return el("td", { class: "state state-" + s }, s + (paused ? " (paused)" : ""));
+  return el("td", { class: "state state-" + s }, s + (paused && s !== "paused" ? " (paused)" : ""));
 }
+
+// A figure the master may not know (a job restored after a restart, a finished job the
+// scheduler forgot) is absent from the JSON: shown as unknown, never as 0.
+function known(v, text) { return v === undefined ? "–" : text; }
 
 // A colour per worker id, so the tile map and the task table agree.
 function workerColour(id) { return "hsl(" + ((id * 137.508) % 360).toFixed(0) + ", 70%, 45%)"; }
@@ -137,7 +142,7 @@ async function viewJobs(gen) {
       stateCell(j.state, j.paused),
       el("td", { class: "num" }, j.priority === undefined ? "–" : j.priority),
       el("td", {}, bar(j.progress), " ", (100 * j.progress).toFixed(0) + " %"),
-      el("td", { class: "num" }, j.spp_done + " / " + j.spp),
+      el("td", { class: "num" }, j.spp_done + " / " + known(j.spp, j.spp)),
       el("td", { class: "num" }, fmtError(j.rel_error)),
       el("td", { class: "num" }, fmtTime(j.eta_s)),
       el("td", { class: "num" }, fmtTime(j.elapsed_s)));
@@ -253,18 +258,21 @@ async function viewJob(gen, id) {
   const facts = document.getElementById("job-facts");
   swap(facts, 
     ...fact("state", el("span", { id: "job-state", class: "state state-" + j.state },
-                        j.state + (j.paused ? " (paused)" : ""))),
+                        j.state + (j.paused && j.state !== "paused" ? " (paused)" : ""))),
     ...fact("owner", j.owner || "–"),
     ...fact("priority", j.priority === undefined ? "–" : String(j.priority)),
     // A frame sequence (docs/farm.md): its frames below; a frame: its sequence and number.
-    ...(j.nframes ? fact("frames", String(j.nframes)) : fact("size", j.xres + " × " + j.yres + ", " + j.integrator)),
+    ...(j.nframes ? fact("frames", String(j.nframes)) :
+        fact("size", known(j.xres, j.xres + " × " + j.yres) + ", " + j.integrator)),
     ...(j.sequence ? fact("frame", el("span", {}, j.frame + " of ",
                                       el("a", { href: "#/job/" + j.sequence }, "job " + j.sequence))) : []),
     ...fact("progress", el("span", {}, bar(j.progress), " " + (100 * j.progress).toFixed(1) + " %")),
-    ...fact("samples per pixel", j.spp_done + " of " + j.spp + " (pass " + j.passes_done + " of " + j.npasses + ")"),
+    ...fact("samples per pixel", j.spp_done + " of " + known(j.spp, j.spp) + " (pass " + j.passes_done +
+            known(j.npasses, " of " + j.npasses) + ")"),
     ...fact("samples", fmtCount(j.samples_done) + " of " + fmtCount(j.samples_total) +
             (j.nonfinite ? ", " + j.nonfinite + " non-finite dropped" : "")),
-    ...fact("tasks", j.tasks_done + " of " + j.tasks_total + " done, " + j.tasks_running + " running"),
+    ...fact("tasks", known(j.tasks_total, j.tasks_done + " of " + j.tasks_total + " done, " +
+                                         j.tasks_running + " running")),
     ...fact("error estimate", fmtError(j.rel_error)),
     ...fact("elapsed", fmtTime(j.elapsed_s)),
     ...fact("ETA", fmtTime(j.eta_s)),
@@ -429,9 +437,11 @@ async function viewWorkers(gen) {
   const rows = data.workers.map((w) => {
     // Samples per second between two polls of the cumulative count.
     const prev = state.workerRates.get(w.id);
+    // The master's figure, as `prismfarm workers` shows it; else the change between two polls.
     let rate = prev ? prev.rate : undefined;
     if (prev && now - prev.t >= 0.5) rate = (w.samples_done - prev.samples) / (now - prev.t);
     if (!prev || now - prev.t >= 0.5) state.workerRates.set(w.id, { t: now, samples: w.samples_done, rate });
+    if (w.samples_per_s !== undefined) rate = w.samples_per_s;
     const blocked = w.blocklisted === undefined ? "–" : w.blocklisted ? "yes" : "no";
     return el("tr", { "data-worker": w.id },
       el("td", { class: "num" }, w.id),

@@ -44,7 +44,7 @@ typedef struct fx {
     int port;
 } fx_t;
 
-static int setup(void **state)
+static int setup_with(void **state, bool journal)
 {
     fx_t *f = calloc(1, sizeof *f);
     if (!f || !(f->m = testutil_master_new("dashboard", false, HEARTBEAT_MS)))
@@ -60,7 +60,7 @@ static int setup(void **state)
     snprintf(f->token_file, sizeof f->token_file, "%s", paths.token);
     master_opts_t *o = &f->m->opts;
     o->sched.tile_size = 8;
-    o->journal = 0;
+    o->journal = journal;
     o->task_prefetch = 0;
     o->http = "127.0.0.1:0";
     o->http_token_file = f->token_file;
@@ -273,6 +273,53 @@ static void test_idle_flood(void **state)
         close(conns[i]);
 }
 
+/* Issue 25: the figures of paused, cancelled and restored jobs are true. A paused job is
+ * "paused" (as `prismfarm jobs` says) with no ETA; after a restart on the same spool (the
+ * journal on) a cancelled job, whose scene the master does not load again, shows no size and
+ * no task counts rather than 0 x 0 and 0 of 0, and the paused one is still paused. */
+static void test_figures_after_restart(void **state)
+{
+    fx_t *f = *state;
+    static char out[1 << 16];
+    uint64_t paused = testutil_submit_tiny(f->m, 4, 0);
+    uint64_t cancelled = testutil_submit_tiny(f->m, 4, 0);
+    char path[96];
+    snprintf(path, sizeof path, "/api/jobs/%llu/pause", (unsigned long long)paused);
+    assert_int_equal(request(f, "POST", path, f->token, "", out, sizeof out), 200);
+    snprintf(path, sizeof path, "/api/jobs/%llu/cancel", (unsigned long long)cancelled);
+    assert_int_equal(request(f, "POST", path, f->token, "", out, sizeof out), 200);
+    snprintf(path, sizeof path, "/api/jobs/%llu", (unsigned long long)paused);
+    assert_int_equal(request(f, "GET", path, f->token, NULL, out, sizeof out), 200);
+    assert_non_null(strstr(out, "\"state\":\"paused\""));
+    assert_null(strstr(out, "\"eta_s\""));
+
+    assert_int_equal(testutil_master_stop(f->m), 0);
+    assert_int_equal(testutil_master_start(f->m), 0);
+    f->port = testutil_http_port(f->m->spool);
+    snprintf(path, sizeof path, "/api/jobs/%llu", (unsigned long long)cancelled);
+    assert_int_equal(request(f, "GET", path, f->token, NULL, out, sizeof out), 200);
+    assert_non_null(strstr(out, "\"state\":\"cancelled\""));
+    assert_null(strstr(out, "\"xres\":0"));
+    assert_null(strstr(out, "\"spp\":0"));
+    assert_null(strstr(out, "\"npasses\":0"));
+    assert_null(strstr(out, "\"tasks_total\":0"));
+    snprintf(path, sizeof path, "/api/jobs/%llu", (unsigned long long)paused);
+    assert_int_equal(request(f, "GET", path, f->token, NULL, out, sizeof out), 200);
+    assert_non_null(strstr(out, "\"state\":\"paused\""));
+    assert_null(strstr(out, "\"eta_s\""));
+    assert_null(strstr(out, "\"xres\":0"));
+}
+
+static int setup_journal(void **state)
+{
+    return setup_with(state, true);
+}
+
+static int setup(void **state)
+{
+    return setup_with(state, false);
+}
+
 /* The address rules of the option: a port alone is 127.0.0.1; another host's address needs
  * http_public. */
 static void test_http_option(void **state)
@@ -316,6 +363,7 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_cancel_over_http, setup, teardown),
         cmocka_unit_test_setup_teardown(test_bounds, setup, teardown),
         cmocka_unit_test_setup_teardown(test_idle_flood, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_figures_after_restart, setup_journal, teardown),
         cmocka_unit_test(test_http_option),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

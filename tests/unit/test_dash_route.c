@@ -35,6 +35,8 @@ static dash_job_t fake_job(uint64_t id)
                         .name = id == 1 ? "alice's job" : "orphan",
                         .owner = id == 1 ? "alice" : "",
                         .state = "running",
+                        .has_size = id == 1, /* job 2: restored, its scene not loaded yet */
+                        .has_tasks = id == 1,
                         .xres = 64,
                         .yres = 48,
                         .spp = 64,
@@ -77,7 +79,9 @@ static const dash_worker_t WORKERS[] = {{.id = 3,
                                          .state = "busy",
                                          .tasks_running = 1,
                                          .tasks_done = 10,
-                                         .samples_done = 1000}};
+                                         .samples_done = 1000,
+                                         .has_rate = true,
+                                         .samples_per_s = 250}};
 
 /* The reads answer from the tables (dash_testutil.h); the actions count here. */
 typedef struct fake {
@@ -320,7 +324,22 @@ static void test_pages_and_reads(void **state)
     assert_true(json_is_true(json_object_get(actions, "tokens")));
     /* A field the master does not have is absent, not invented. */
     assert_null(json_object_get(one, "priority"));
+    assert_int_equal(json_integer_value(json_object_get(one, "xres")), 64);
+    assert_int_equal(json_integer_value(json_object_get(one, "tasks_total")), 0);
+    /* Issue 25: a restored job's unknown size and tasks are absent, never 0 x 0 or 0 of 0. */
+    json_t *two = json_array_get(jobs, 1);
+    assert_null(json_object_get(two, "xres"));
+    assert_null(json_object_get(two, "spp"));
+    assert_null(json_object_get(two, "npasses"));
+    assert_null(json_object_get(two, "tasks_total"));
     json_decref(j);
+    /* A paused job has no ETA: it is not running. */
+    f->fake.jobs[0].state = "paused";
+    assert_int_equal(ask(f, "GET", "/api/jobs/1", f->auth_alice, NULL, &j), 200);
+    assert_null(json_object_get(j, "eta_s"));
+    assert_string_equal(json_string_value(json_object_get(j, "state")), "paused");
+    json_decref(j);
+    f->fake.jobs[0].state = "running";
 
     assert_int_equal(ask(f, "GET", "/api/jobs/1", f->auth_alice, NULL, &j), 200);
     json_t *passes = json_object_get(j, "passes");
@@ -346,6 +365,10 @@ static void test_pages_and_reads(void **state)
     assert_int_equal(json_integer_value(json_object_get(
                          json_array_get(json_object_get(j, "workers"), 0), "samples_done")),
                      1000);
+    /* The worker's rate as the master computes it (`prismfarm workers`). */
+    assert_true(fabs(json_real_value(json_object_get(
+                         json_array_get(json_object_get(j, "workers"), 0), "samples_per_s")) -
+                     250) < 1e-12);
     json_decref(j);
 
     dash_request_t png = {
