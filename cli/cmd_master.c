@@ -103,6 +103,13 @@ int cmd_master(int argc, char **argv)
          .arg = "FILE",
          .help = "NAME.token (prismfarm keygen): its holder acts on the dashboard as an "
                  "administrator; without keys, the only way to act"},
+        {.name = "dashboard-public", .kind = CLI_FLAG, .dst = &o.dashboard_public,
+         .help = "for a trusted network only: whoever reaches --http reads every job's "
+                 "preview, log and tasks without a token (actions still need one)"},
+        {.name = "metrics-token-file", .kind = CLI_STRING, .dst = &o.metrics_token_file,
+         .arg = "FILE",
+         .help = "NAME.token (prismfarm keygen) a Prometheus scraper sends to read /metrics "
+                 "(and nothing else); a key's token reads it too"},
         {.kind = CLI_TEXT, .help = "limits (what one client can make the master hold):\n"},
         {.name = "max-jobs", .kind = CLI_INT, .dst = &max_jobs, .lo = 1, .hi = 100000, .arg = "N",
          .help = "unfinished jobs held at once, 1..100000 (default 256)"},

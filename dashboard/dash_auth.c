@@ -9,10 +9,21 @@
 
 struct dash_auth {
     curve_ring_t *any, *clients, *admins;
-    bool has_file;
-    uint8_t file_hash[CURVE_TOKEN_HASH];
-    char file_name[CURVE_NAME_MAX + 1];
+    bool has_file, has_metrics;
+    uint8_t file_hash[CURVE_TOKEN_HASH], metrics_hash[CURVE_TOKEN_HASH];
+    char file_name[CURVE_NAME_MAX + 1], metrics_name[CURVE_NAME_MAX + 1];
 };
+
+/* A token file's holder is named after the file: "ops.token" acts as "ops". */
+static void name_after(const char *path, const char *fallback, char *out, size_t size)
+{
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    size_t n = strcspn(base, ".");
+    if (n == 0 || n > CURVE_NAME_MAX)
+        n = strlen(fallback), base = fallback;
+    snprintf(out, size, "%.*s", (int)n, base);
+}
 
 static int load_ring(const char *dir, curve_ring_t **out, err_t *err)
 {
@@ -42,13 +53,17 @@ dash_auth_t *dash_auth_new(const dash_auth_config_t *cfg, err_t *err)
             return NULL;
         }
         self->has_file = true;
-        /* The administrator is named after the file: "ops.token" acts as "ops". */
-        const char *base = strrchr(cfg->token_file, '/');
-        base = base ? base + 1 : cfg->token_file;
-        size_t n = strcspn(base, ".");
-        if (n == 0 || n > CURVE_NAME_MAX)
-            n = strlen("admin"), base = "admin";
-        snprintf(self->file_name, sizeof self->file_name, "%.*s", (int)n, base);
+        name_after(cfg->token_file, "admin", self->file_name, sizeof self->file_name);
+    }
+    if (cfg->metrics_token_file) {
+        if (curve_load_token(cfg->metrics_token_file, self->metrics_hash, err) < 0) {
+            err_prefix(err, "--metrics-token-file: ");
+            dash_auth_destroy(&self);
+            return NULL;
+        }
+        self->has_metrics = true;
+        name_after(cfg->metrics_token_file, "scraper", self->metrics_name,
+                   sizeof self->metrics_name);
     }
     return self;
 }
@@ -68,7 +83,7 @@ void dash_auth_destroy(dash_auth_t **self_p)
 
 bool dash_auth_any(const dash_auth_t *self)
 {
-    return self->any || self->clients || self->admins || self->has_file;
+    return self->any || self->clients || self->admins || self->has_file || self->has_metrics;
 }
 
 /* A key found in a folder that changed since it was read: read it again (a stat otherwise). A
@@ -110,11 +125,19 @@ int dash_auth_identify(dash_auth_t *self, const char *authorization, dash_identi
     const char *user = ring_lookup(self->clients, hash);
     const char *any = ring_lookup(self->any, hash);
     bool file = self->has_file && sodium_memcmp(hash, self->file_hash, sizeof hash) == 0;
+    bool scraper = self->has_metrics && sodium_memcmp(hash, self->metrics_hash, sizeof hash) == 0;
     sodium_memzero(hash, sizeof hash);
-    const char *name = admin ? admin : file ? self->file_name : user ? user : any;
+    const char *name = admin     ? admin
+                       : file    ? self->file_name
+                       : user    ? user
+                       : any     ? any
+                       : scraper ? self->metrics_name
+                                 : NULL;
     if (!name)
         return err_set(err, "unknown token: no authorised key of this master carries it");
     snprintf(who->name, sizeof who->name, "%s", name);
     who->admin = admin || file;
+    /* A key's token is a key's, even if it is also the scrapers' file. */
+    who->scraper = !admin && !file && !user && !any;
     return 0;
 }

@@ -4,8 +4,9 @@
  * name and role without holding any secret: a key of the admins' folder is an administrator,
  * one of the clients' (or the single --authorized) folder a user, a worker's key nothing. A
  * token file given to the master itself (--http-token-file) is one more administrator, named
- * after the file. Every comparison is in constant time; the folders are read again when they
- * change, as the ZAP handler does. */
+ * after the file; the scrapers' token file (--metrics-token-file) reads /metrics only. Every
+ * comparison is in constant time; the folders are read again when they change, as the ZAP handler
+ * does. */
 #ifndef PRISMFARM_DASH_AUTH_H
 #define PRISMFARM_DASH_AUTH_H
 
@@ -20,10 +21,11 @@ typedef struct dash_auth dash_auth_t;
 /* The folders whose NAME.pub files carry tokens (NULL: none) and an administrator's token file
  * (NULL: none). */
 typedef struct dash_auth_config {
-    const char *any_dir;     /* --authorized: its keys are users */
-    const char *clients_dir; /* --authorized-clients: users */
-    const char *admins_dir;  /* --authorized-admins: administrators */
-    const char *token_file;  /* --http-token-file: an administrator named after the file */
+    const char *any_dir;            /* --authorized: its keys are users */
+    const char *clients_dir;        /* --authorized-clients: users */
+    const char *admins_dir;         /* --authorized-admins: administrators */
+    const char *token_file;         /* --http-token-file: an administrator named after the file */
+    const char *metrics_token_file; /* --metrics-token-file: a scraper (reads /metrics only) */
 } dash_auth_config_t;
 
 /* Loads the folders and the token file; NULL with err naming the file at fault. */

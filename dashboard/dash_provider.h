@@ -26,8 +26,14 @@ typedef struct dash_job {
     uint64_t id;
     const char *name;
     const char *owner; /* key name of who submitted it; "" when unknown */
-    const char *state; /* "queued", "running", "done", "failed", "cancelled" */
+    const char *state; /* "queued", "running", "done", "failed", "cancelled", "paused" (as
+                        * `prismfarm jobs` says it) */
     bool has_paused, paused;
+    /* Figures the daemon may not know (a job restored after a restart before its scene is
+     * loaded again, a finished job the scheduler forgot): absent from the JSON when false,
+     * shown as unknown, never as 0. */
+    bool has_size;  /* xres, yres, spp, npasses */
+    bool has_tasks; /* tasks_total, tasks_done, tasks_running */
     bool has_priority;
     int priority;
     int xres, yres, spp; /* its size and target samples per pixel */
@@ -100,8 +106,10 @@ typedef struct dash_worker {
     const char *state; /* "idle", "busy", "lost" */
     int tasks_running;
     uint64_t tasks_done, tasks_failed;
-    uint64_t samples_done; /* camera samples merged from its results: the page derives samples/s */
-    double last_seen_s;    /* seconds since its last message */
+    uint64_t samples_done; /* camera samples merged from its results */
+    bool has_rate;
+    double samples_per_s; /* its recent rate, as `prismfarm workers` shows it */
+    double last_seen_s;   /* seconds since its last message */
     bool has_blocklisted, blocklisted;
 } dash_worker_t;
 
@@ -111,11 +119,13 @@ typedef struct dash_log_line {
     const char *text;
 } dash_log_line_t;
 
-/* What an action may need to know about who asks: the key name the token maps to and whether
- * it is an administrator's. */
+/* Who asks (dash_auth.h): the key name the token maps to, whether it is an administrator's,
+ * and whether it is the scrapers' token (--metrics-token-file), which reads /metrics and
+ * nothing else. */
 typedef struct dash_identity {
     char name[80];
     bool admin;
+    bool scraper;
 } dash_identity_t;
 
 /* Every callback gets user. A callback that can fail returns -1 with err (the message the
@@ -142,6 +152,9 @@ typedef struct dash_provider {
      * many. */
     int (*log)(void *user, uint64_t job, uint64_t since, dash_log_line_t *out, int max);
     size_t (*workers)(void *user, dash_worker_t *out, size_t max);
+    /* The Prometheus text of /metrics (master/metrics.h), malloc'ed into *text (the caller
+     * frees); -1 with err. NULL: /metrics answers 501. */
+    int (*metrics)(void *user, char **text, size_t *len, err_t *err);
 
     /* Whether who may act on job (the daemon's own rule, so that the dashboard and its other
      * clients agree). NULL: the owner (a key name equal to job->owner, never "") or an

@@ -203,19 +203,23 @@ static json_t *job_json(const dash_job_t *j)
         json_object_set_new(o, "paused", json_boolean(j->paused));
     if (j->has_priority)
         json_object_set_new(o, "priority", json_integer(j->priority));
-    json_object_set_new(o, "xres", json_integer(j->xres));
-    json_object_set_new(o, "yres", json_integer(j->yres));
-    json_object_set_new(o, "spp", json_integer(j->spp));
+    if (j->has_size) {
+        json_object_set_new(o, "xres", json_integer(j->xres));
+        json_object_set_new(o, "yres", json_integer(j->yres));
+        json_object_set_new(o, "spp", json_integer(j->spp));
+        json_object_set_new(o, "npasses", json_integer(j->npasses));
+    }
     json_object_set_new(o, "integrator", str(j->integrator));
     json_object_set_new(o, "samples_done", json_integer((json_int_t)j->samples_done));
     json_object_set_new(o, "samples_total", json_integer((json_int_t)j->samples_total));
     json_object_set_new(o, "nonfinite", json_integer((json_int_t)j->nonfinite));
     json_object_set_new(o, "spp_done", json_integer(j->spp_done));
     json_object_set_new(o, "passes_done", json_integer(j->passes_done));
-    json_object_set_new(o, "npasses", json_integer(j->npasses));
-    json_object_set_new(o, "tasks_total", json_integer(j->tasks_total));
-    json_object_set_new(o, "tasks_done", json_integer(j->tasks_done));
-    json_object_set_new(o, "tasks_running", json_integer(j->tasks_running));
+    if (j->has_tasks) {
+        json_object_set_new(o, "tasks_total", json_integer(j->tasks_total));
+        json_object_set_new(o, "tasks_done", json_integer(j->tasks_done));
+        json_object_set_new(o, "tasks_running", json_integer(j->tasks_running));
+    }
     double progress = j->samples_total ? (double)j->samples_done / (double)j->samples_total : 0;
     bool over =
         !strcmp(j->state, "done") || !strcmp(j->state, "failed") || !strcmp(j->state, "cancelled");
@@ -226,8 +230,10 @@ static json_t *job_json(const dash_job_t *j)
         json_object_set_new(o, "rel_error", json_real(j->rel_error));
     json_object_set_new(o, "elapsed_s", json_real(j->elapsed_s));
     /* The time left if the samples still to do go as fast as those done so far: an estimate
-     * for a job that runs every pass (one with a target error may end sooner). */
-    if (!over && progress > 0 && progress < 1 && j->elapsed_s > 0)
+     * for a job that runs every pass (one with a target error may end sooner); none while it
+     * is paused. */
+    bool paused = j->paused || !strcmp(j->state, "paused");
+    if (!over && !paused && progress > 0 && progress < 1 && j->elapsed_s > 0)
         json_object_set_new(o, "eta_s", json_real(j->elapsed_s * (1 - progress) / progress));
     if (j->stop && *j->stop)
         json_object_set_new(o, "stop", str(j->stop));
@@ -252,9 +258,99 @@ static json_t *job_json(const dash_job_t *j)
     return o;
 }
 
-static json_t *actions_json(const dash_router_t *self)
+/* ---------------------------------------------------------------- who reads */
+
+#define SIGN_IN                                                                                    \
+    "sign in with your token (the NAME.token that prismfarm keygen wrote beside NAME.key) to "     \
+    "see the jobs and workers (docs/security.md, \"The dashboard's HTTP port\")"
+
+/* Who asks for a read: nobody (no token), a key or an administrator, or the scrapers' token. */
+typedef struct viewer {
+    bool token;     /* an accepted token, the scrapers' included */
+    bool signed_in; /* a key's token or --http-token-file's: a user of the farm */
+    dash_identity_t who;
+} viewer_t;
+
+static int identify(dash_router_t *self, const dash_request_t *req, dash_identity_t *who,
+                    dash_response_t *out);
+
+/* The viewer of a read; -1 with a 401 answered when a token was sent and is not accepted, so a
+ * stale token says so instead of showing less. */
+static int viewer_of(dash_router_t *self, const dash_request_t *req, viewer_t *v,
+                     dash_response_t *out)
+{
+    memset(v, 0, sizeof *v);
+    if (!req->authorization || !*req->authorization)
+        return 0;
+    if (identify(self, req, &v->who, out) < 0)
+        return -1;
+    v->token = true;
+    v->signed_in = !v->who.scraper;
+    return 0;
+}
+
+/* The master's one rule (p->allowed), or the owner or an administrator. */
+static bool job_allowed(const dash_router_t *self, const dash_identity_t *who, const dash_job_t *j)
+{
+    if (who->scraper)
+        return false;
+    return self->p->allowed ? self->p->allowed(self->p->user, who, j)
+                            : who->admin || (j->owner && *j->owner && !strcmp(j->owner, who->name));
+}
+
+/* The list of jobs, their figures and the workers: what every client key reads. */
+static bool may_list(const dash_router_t *self, const viewer_t *v)
+{
+    return self->cfg.public_reads || v->signed_in;
+}
+
+/* A job's preview, log and tasks: what `fetch` and `logs` give its owner and administrators. */
+static bool may_read_job(const dash_router_t *self, const viewer_t *v, const dash_job_t *j)
+{
+    return self->cfg.public_reads || (v->signed_in && job_allowed(self, &v->who, j));
+}
+
+/* 401 (no token) or 403 (another's), saying what would be needed; -1 when refused. */
+static int check_list(dash_router_t *self, const viewer_t *v, const char *what,
+                      dash_response_t *out)
+{
+    if (may_list(self, v))
+        return 0;
+    if (v->token)
+        answer_error(out, 403, "%s: the scrapers' token reads /metrics only", what);
+    else
+        answer_error(out, 401, "%s: %s", what, SIGN_IN);
+    return -1;
+}
+
+static int check_job(dash_router_t *self, const viewer_t *v, const dash_job_t *j, const char *what,
+                     dash_response_t *out)
+{
+    if (may_read_job(self, v, j))
+        return 0;
+    if (!v->signed_in)
+        answer_error(out, v->token ? 403 : 401, "the %s of job %llu: %s", what,
+                     (unsigned long long)j->id,
+                     v->token ? "the scrapers' token reads /metrics only" : SIGN_IN);
+    else if (j->owner && *j->owner)
+        answer_error(out, 403,
+                     "job %llu belongs to '%s': its %s is for its owner and administrators only "
+                     "('%s' reads its own jobs')",
+                     (unsigned long long)j->id, j->owner, what, v->who.name);
+    else
+        answer_error(out, 403, "job %llu has no owner: only an administrator may read its %s",
+                     (unsigned long long)j->id, what);
+    return -1;
+}
+
+static json_t *actions_json(const dash_router_t *self, const viewer_t *v)
 {
     json_t *a = json_object();
+    json_object_set_new(a, "public_reads", json_boolean(self->cfg.public_reads));
+    if (v && v->token) {
+        json_object_set_new(a, "viewer", str(v->who.name));
+        json_object_set_new(a, "admin", json_boolean(v->who.admin));
+    }
     json_object_set_new(a, "cancel", json_boolean(self->p->cancel != NULL));
     json_object_set_new(a, "pause", json_boolean(self->p->pause != NULL));
     json_object_set_new(a, "priority", json_boolean(self->p->set_priority != NULL));
@@ -264,15 +360,39 @@ static json_t *actions_json(const dash_router_t *self)
     return a;
 }
 
-static void get_jobs(dash_router_t *self, dash_response_t *out)
+/* A job as the viewer sees it in a list: with whether its preview, log and tasks are theirs
+ * to read and whether they may act on it, so the page offers only what applies. */
+static json_t *job_json_for(const dash_router_t *self, const viewer_t *v, const dash_job_t *j)
+{
+    json_t *o = job_json(j);
+    json_object_set_new(o, "can_read", json_boolean(may_read_job(self, v, j)));
+    json_object_set_new(o, "can_act", json_boolean(v->signed_in && job_allowed(self, &v->who, j)));
+    return o;
+}
+
+static void get_jobs(dash_router_t *self, const viewer_t *v, dash_response_t *out)
 {
     size_t n = self->p->jobs ? self->p->jobs(self->p->user, self->jobs, DASH_MAX_JOBS) : 0;
     json_t *list = json_array();
-    for (size_t i = 0; i < n && i < DASH_MAX_JOBS; i++)
-        json_array_append_new(list, job_json(&self->jobs[i]));
     json_t *o = json_object();
+    if (may_list(self, v))
+        for (size_t i = 0; i < n && i < DASH_MAX_JOBS; i++)
+            json_array_append_new(list, job_json_for(self, v, &self->jobs[i]));
+    else {
+        /* What is public: how many jobs there are, by state; no name, owner or figure. */
+        json_t *counts = json_object();
+        for (size_t i = 0; i < n && i < DASH_MAX_JOBS; i++) {
+            const char *st = self->jobs[i].paused ? "paused" : self->jobs[i].state;
+            json_t *c = json_object_get(counts, st ? st : "?");
+            json_object_set_new(counts, st ? st : "?",
+                                json_integer(c ? json_integer_value(c) + 1 : 1));
+        }
+        json_object_set_new(o, "hidden", json_true());
+        json_object_set_new(o, "counts", counts);
+        json_object_set_new(o, "signin", json_string(SIGN_IN));
+    }
     json_object_set_new(o, "jobs", list);
-    json_object_set_new(o, "actions", actions_json(self));
+    json_object_set_new(o, "actions", actions_json(self, v));
     answer_json(out, 200, o);
 }
 
@@ -284,12 +404,12 @@ static int find_job(dash_router_t *self, uint64_t id, dash_job_t *j, dash_respon
     return rc;
 }
 
-static void get_job(dash_router_t *self, uint64_t id, dash_response_t *out)
+static void get_job(dash_router_t *self, const viewer_t *v, uint64_t id, dash_response_t *out)
 {
     dash_job_t j;
-    if (find_job(self, id, &j, out) < 0)
+    if (check_list(self, v, "a job's figures", out) < 0 || find_job(self, id, &j, out) < 0)
         return;
-    json_t *o = job_json(&j);
+    json_t *o = job_json_for(self, v, &j);
     json_t *passes = json_array();
     dash_pass_t recs[DASH_MAX_PASSES];
     int n = self->p->passes ? self->p->passes(self->p->user, id, recs, DASH_MAX_PASSES) : 0;
@@ -308,17 +428,17 @@ static void get_job(dash_router_t *self, uint64_t id, dash_response_t *out)
         json_t *frames = json_array();
         int nf = self->p->frames(self->p->user, id, self->jobs, DASH_MAX_JOBS);
         for (int i = 0; i < nf && i < DASH_MAX_JOBS; i++)
-            json_array_append_new(frames, job_json(&self->jobs[i]));
+            json_array_append_new(frames, job_json_for(self, v, &self->jobs[i]));
         json_object_set_new(o, "frames", frames);
     }
-    json_object_set_new(o, "actions", actions_json(self));
+    json_object_set_new(o, "actions", actions_json(self, v));
     answer_json(out, 200, o);
 }
 
-static void get_preview(dash_router_t *self, uint64_t id, dash_response_t *out)
+static void get_preview(dash_router_t *self, const viewer_t *v, uint64_t id, dash_response_t *out)
 {
     dash_job_t j;
-    if (find_job(self, id, &j, out) < 0)
+    if (find_job(self, id, &j, out) < 0 || check_job(self, v, &j, "preview", out) < 0)
         return;
     uint8_t *png = NULL;
     size_t size = 0;
@@ -337,10 +457,10 @@ static void get_preview(dash_router_t *self, uint64_t id, dash_response_t *out)
     *out = (dash_response_t){.status = 200, .content_type = "image/png", .body = png, .size = size};
 }
 
-static void get_tiles(dash_router_t *self, uint64_t id, dash_response_t *out)
+static void get_tiles(dash_router_t *self, const viewer_t *v, uint64_t id, dash_response_t *out)
 {
     dash_job_t j;
-    if (find_job(self, id, &j, out) < 0)
+    if (check_list(self, v, "a job's tile map", out) < 0 || find_job(self, id, &j, out) < 0)
         return;
     if (!self->p->tiles) {
         answer_error(out, 501, "this master does not show tile maps");
@@ -409,10 +529,10 @@ static void get_tiles(dash_router_t *self, uint64_t id, dash_response_t *out)
     answer_json(out, 200, o);
 }
 
-static void get_tasks(dash_router_t *self, uint64_t id, dash_response_t *out)
+static void get_tasks(dash_router_t *self, const viewer_t *v, uint64_t id, dash_response_t *out)
 {
     dash_job_t j;
-    if (find_job(self, id, &j, out) < 0)
+    if (find_job(self, id, &j, out) < 0 || check_job(self, v, &j, "tasks", out) < 0)
         return;
     int n = self->p->tasks ? self->p->tasks(self->p->user, id, self->tasks, DASH_MAX_TASKS) : 0;
     json_t *list = json_array();
@@ -442,13 +562,23 @@ static void get_tasks(dash_router_t *self, uint64_t id, dash_response_t *out)
     answer_json(out, 200, o);
 }
 
-static void get_log(dash_router_t *self, const dash_request_t *req, uint64_t job,
+static void get_log(dash_router_t *self, const viewer_t *v, const dash_request_t *req, uint64_t job,
                     dash_response_t *out)
 {
     if (job) {
         dash_job_t j;
-        if (find_job(self, job, &j, out) < 0)
+        if (find_job(self, job, &j, out) < 0 || check_job(self, v, &j, "log", out) < 0)
             return;
+    } else if (!self->cfg.public_reads && !(v->signed_in && v->who.admin)) {
+        /* Every job's lines: an administrator's (a user reads their own jobs' logs). */
+        if (v->signed_in)
+            answer_error(out, 403,
+                         "the whole log is for administrators: '%s' reads its own jobs' logs",
+                         v->who.name);
+        else
+            answer_error(out, v->token ? 403 : 401, "the master's log: %s",
+                         v->token ? "the scrapers' token reads /metrics only" : SIGN_IN);
+        return;
     }
     uint64_t since = 0;
     const char *s = arg_find(req, "since");
@@ -470,8 +600,10 @@ static void get_log(dash_router_t *self, const dash_request_t *req, uint64_t job
     answer_json(out, 200, o);
 }
 
-static void get_workers(dash_router_t *self, dash_response_t *out)
+static void get_workers(dash_router_t *self, const viewer_t *v, dash_response_t *out)
 {
+    if (check_list(self, v, "the workers", out) < 0)
+        return;
     size_t n =
         self->p->workers ? self->p->workers(self->p->user, self->workers, DASH_MAX_WORKERS) : 0;
     json_t *list = json_array();
@@ -487,6 +619,8 @@ static void get_workers(dash_router_t *self, dash_response_t *out)
         json_object_set_new(o, "tasks_done", json_integer((json_int_t)w->tasks_done));
         json_object_set_new(o, "tasks_failed", json_integer((json_int_t)w->tasks_failed));
         json_object_set_new(o, "samples_done", json_integer((json_int_t)w->samples_done));
+        if (w->has_rate)
+            json_object_set_new(o, "samples_per_s", json_real(w->samples_per_s));
         json_object_set_new(o, "last_seen_s", json_real(w->last_seen_s));
         if (w->has_blocklisted)
             json_object_set_new(o, "blocklisted", json_boolean(w->blocklisted));
@@ -494,8 +628,34 @@ static void get_workers(dash_router_t *self, dash_response_t *out)
     }
     json_t *o = json_object();
     json_object_set_new(o, "workers", list);
-    json_object_set_new(o, "actions", actions_json(self));
+    json_object_set_new(o, "actions", actions_json(self, v));
     answer_json(out, 200, o);
+}
+
+/* GET /metrics: Prometheus' text, for any accepted token (a scraper's: --metrics-token-file). */
+static void get_metrics(dash_router_t *self, const viewer_t *v, dash_response_t *out)
+{
+    if (!self->p->metrics) {
+        answer_error(out, 501, "this master has no metrics");
+        return;
+    }
+    if (!self->cfg.public_reads && !v->token) {
+        answer_error(out, 401,
+                     "/metrics needs 'Authorization: Bearer TOKEN': a key's NAME.token or the "
+                     "scrapers' --metrics-token-file (docs/deploy.md, \"Prometheus\")");
+        return;
+    }
+    char *text = NULL;
+    size_t len = 0;
+    err_t err;
+    if (self->p->metrics(self->p->user, &text, &len, &err) < 0) {
+        answer_error(out, 500, "%s", err.msg);
+        return;
+    }
+    *out = (dash_response_t){.status = 200,
+                             .content_type = "text/plain; version=0.0.4; charset=utf-8",
+                             .body = (uint8_t *)text,
+                             .size = len};
 }
 
 /* ---------------------------------------------------------------- actions */
@@ -526,6 +686,8 @@ static void get_whoami(dash_router_t *self, const dash_request_t *req, dash_resp
     json_t *o = json_object();
     json_object_set_new(o, "name", str(who.name));
     json_object_set_new(o, "admin", json_boolean(who.admin));
+    if (who.scraper)
+        json_object_set_new(o, "scraper", json_true());
     answer_json(out, 200, o);
 }
 
@@ -610,9 +772,11 @@ static void job_action(dash_router_t *self, const dash_request_t *req, uint64_t 
     dash_job_t j;
     if (find_job(self, id, &j, out) < 0)
         return;
-    bool allowed = p->allowed ? p->allowed(p->user, &who, &j)
-                              : who.admin || (j.owner && *j.owner && !strcmp(j.owner, who.name));
-    if (!allowed) {
+    if (who.scraper) {
+        answer_error(out, 403, "the scrapers' token reads /metrics only");
+        return;
+    }
+    if (!job_allowed(self, &who, &j)) {
         if (j.owner && *j.owner)
             answer_error(out, 403,
                          "job %llu belongs to '%s': '%s' may act only on its own jobs "
@@ -651,7 +815,7 @@ static void worker_action(dash_router_t *self, const dash_request_t *req, uint64
     dash_identity_t who;
     if (identify(self, req, &who, out) < 0)
         return;
-    if (!who.admin) {
+    if (!who.admin || who.scraper) {
         answer_error(out, 403,
                      "'%s' is not an administrator: only an administrator's key "
                      "may blocklist or unblock a worker",
@@ -671,6 +835,12 @@ static void worker_action(dash_router_t *self, const dash_request_t *req, uint64
 static void route_get(dash_router_t *self, const dash_request_t *req, const seg_t *segs, int n,
                       dash_response_t *out)
 {
+    viewer_t v = {0};
+    if (n == 1 && seg_is(&segs[0], "metrics")) {
+        if (viewer_of(self, req, &v, out) == 0)
+            get_metrics(self, &v, out);
+        return;
+    }
     if (n == 0 || !seg_is(&segs[0], "api")) {
         const dash_asset_t *a = n <= 1 ? dash_asset_find(req->path) : NULL;
         if (!a) {
@@ -687,27 +857,30 @@ static void route_get(dash_router_t *self, const dash_request_t *req, const seg_
     }
     uint64_t id = 0;
     bool has_id = n >= 3 && parse_u64(segs[2].s, segs[2].n, &id) == 0;
+    bool whoami = n == 2 && seg_is(&segs[1], "whoami");
+    if (!whoami && viewer_of(self, req, &v, out) < 0)
+        return;
     if (n == 2 && seg_is(&segs[1], "jobs"))
-        get_jobs(self, out);
+        get_jobs(self, &v, out);
     else if (n == 2 && seg_is(&segs[1], "workers"))
-        get_workers(self, out);
+        get_workers(self, &v, out);
     else if (n == 2 && seg_is(&segs[1], "log"))
-        get_log(self, req, 0, out);
+        get_log(self, &v, req, 0, out);
     else if (n == 2 && seg_is(&segs[1], "whoami"))
         get_whoami(self, req, out);
     else if (n >= 3 && seg_is(&segs[1], "jobs") && !has_id)
         answer_error(out, 400, "a job id is a decimal number, not '%.*s'",
                      (int)(segs[2].n > 40 ? 40 : segs[2].n), segs[2].s);
     else if (n == 3 && seg_is(&segs[1], "jobs"))
-        get_job(self, id, out);
+        get_job(self, &v, id, out);
     else if (n == 4 && seg_is(&segs[1], "jobs") && seg_is(&segs[3], "preview.png"))
-        get_preview(self, id, out);
+        get_preview(self, &v, id, out);
     else if (n == 4 && seg_is(&segs[1], "jobs") && seg_is(&segs[3], "tiles"))
-        get_tiles(self, id, out);
+        get_tiles(self, &v, id, out);
     else if (n == 4 && seg_is(&segs[1], "jobs") && seg_is(&segs[3], "tasks"))
-        get_tasks(self, id, out);
+        get_tasks(self, &v, id, out);
     else if (n == 4 && seg_is(&segs[1], "jobs") && seg_is(&segs[3], "log"))
-        get_log(self, req, id, out);
+        get_log(self, &v, req, id, out);
     else
         answer_error(out, 404, "no such resource (docs/dashboard.md lists the API)");
 }

@@ -2,8 +2,13 @@
  * dash_server.h, feeds it; the unit tests and the fuzzer call it directly). Every input is
  * bounded and checked -- the path's length and form, the ids, the query values, the body's size
  * and JSON, the Host header -- and anything else is a 4xx answer with a JSON message, never a
- * crash. Reads are open; actions need a token (dash_auth.h) and the right to act: a job's owner
- * or an administrator for a job, an administrator for a worker (docs/dashboard.md). */
+ * crash. Reads follow the client protocol's owner rule (docs/security.md, "The dashboard's HTTP
+ * port"): without a token only the pages and the count of jobs by state; with a key's token
+ * the jobs' figures and the workers, as `jobs`, `status` and `workers` show them; a job's
+ * preview, log and tasks with its owner's token or an administrator's; the whole log with an
+ * administrator's; /metrics with any token (the scrapers' too). public_reads opens every read
+ * (--dashboard-public, a trusted network). Actions need a token (dash_auth.h) and the right to
+ * act: a job's owner or an administrator for a job, an administrator for a worker. */
 #ifndef PRISMFARM_DASH_ROUTE_H
 #define PRISMFARM_DASH_ROUTE_H
 
@@ -50,6 +55,9 @@ typedef struct dash_router_config {
      * the port or without), which keeps a web page of another origin that rebinds its DNS
      * name to 127.0.0.1 from reading the dashboard. false: any Host (a --http-public bind). */
     bool check_host;
+    /* Every read open to whoever reaches the port (--dashboard-public: a trusted network);
+     * actions still need a token. */
+    bool public_reads;
 } dash_router_config_t;
 
 typedef struct dash_router dash_router_t;

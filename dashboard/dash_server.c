@@ -3,6 +3,7 @@
 #include <arpa/inet.h>
 #include <microhttpd.h>
 #include <netinet/in.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -10,10 +11,21 @@
 
 #define MAX_ARGS 16 /* query arguments of one request */
 
+/* An open connection, in the order of its last activity (the head idle longest). */
+typedef struct conn {
+    struct conn *prev, *next;
+    int fd;
+    bool busy;    /* a request is being answered */
+    bool evicted; /* shut down by us, waiting for libmicrohttpd to notice */
+} conn_t;
+
 struct dash_server {
     struct MHD_Daemon *d;
     dash_router_t *router;
     int fd, port;
+    conn_t *head, *tail;
+    size_t nconns;
+    uint64_t evictions;
 };
 
 /* What one request gathers between libmicrohttpd's calls: its body, cut at DASH_MAX_BODY. */
@@ -87,7 +99,7 @@ static enum MHD_Result add_headers(struct MHD_Response *r, const dash_response_t
         MHD_add_response_header(r, "X-Frame-Options", "DENY") &
         MHD_add_response_header(r, "Referrer-Policy", "no-referrer") &
         MHD_add_response_header(r, "Content-Security-Policy",
-                                "default-src 'self'; img-src 'self' data:; style-src 'self'; "
+                                "default-src 'self'; img-src 'self' data: blob:; style-src 'self'; "
                                 "script-src 'self'; connect-src 'self'; frame-ancestors 'none'; "
                                 "form-action 'none'; base-uri 'none'");
     if (out->www_authenticate)
@@ -96,6 +108,85 @@ static enum MHD_Result add_headers(struct MHD_Response *r, const dash_response_t
         ok &= MHD_add_response_header(r, "Allow", out->allow);
     return ok;
 }
+
+/* ---------------------------------------------------------------- eviction */
+
+static void list_unlink(dash_server_t *self, conn_t *c)
+{
+    if (c->prev)
+        c->prev->next = c->next;
+    else
+        self->head = c->next;
+    if (c->next)
+        c->next->prev = c->prev;
+    else
+        self->tail = c->prev;
+    c->prev = c->next = NULL;
+}
+
+static void list_append(dash_server_t *self, conn_t *c)
+{
+    c->prev = self->tail;
+    c->next = NULL;
+    if (self->tail)
+        self->tail->next = c;
+    else
+        self->head = c;
+    self->tail = c;
+}
+
+/* Closes the connection idle longest: shutdown(2), never close, so the descriptor stays
+ * libmicrohttpd's, which reads the end of the stream and closes it on its next run. */
+static void evict_idlest(dash_server_t *self)
+{
+    for (conn_t *c = self->head; c; c = c->next)
+        if (!c->busy && !c->evicted && c->fd >= 0) {
+            c->evicted = true;
+            (void)shutdown(c->fd, SHUT_RDWR);
+            self->evictions++;
+            return;
+        }
+}
+
+static void on_connection(void *cls, struct MHD_Connection *conn, void **socket_ctx,
+                          enum MHD_ConnectionNotificationCode code)
+{
+    dash_server_t *self = cls;
+    conn_t *c = *socket_ctx;
+    if (code == MHD_CONNECTION_NOTIFY_CLOSED) {
+        if (c) {
+            list_unlink(self, c);
+            self->nconns--;
+            free(c);
+            *socket_ctx = NULL;
+        }
+        return;
+    }
+    if (code != MHD_CONNECTION_NOTIFY_STARTED || !(c = calloc(1, sizeof *c)))
+        return; /* out of memory: the connection is served, only never evicted */
+    const union MHD_ConnectionInfo *fd =
+        MHD_get_connection_info(conn, MHD_CONNECTION_INFO_CONNECTION_FD);
+    c->fd = fd ? fd->connect_fd : -1;
+    *socket_ctx = c;
+    list_append(self, c);
+    if (++self->nconns > DASH_EVICT_AT)
+        evict_idlest(self);
+}
+
+/* The connection's record: busy while a request is answered, and last in the order after. */
+static void conn_mark(dash_server_t *self, struct MHD_Connection *conn, bool busy)
+{
+    const union MHD_ConnectionInfo *info =
+        MHD_get_connection_info(conn, MHD_CONNECTION_INFO_SOCKET_CONTEXT);
+    conn_t *c = info ? info->socket_context : NULL;
+    if (!c)
+        return;
+    c->busy = busy;
+    list_unlink(self, c);
+    list_append(self, c);
+}
+
+/* ---------------------------------------------------------------- requests */
 
 static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const char *url,
                                   const char *method, const char *version, const char *upload_data,
@@ -109,6 +200,7 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
         if (!(c = calloc(1, sizeof *c)))
             return MHD_NO;
         *ctx = c;
+        conn_mark(self, conn, true);
         return MHD_YES;
     }
     if (*upload_data_size > 0) {
@@ -160,7 +252,9 @@ static enum MHD_Result on_request(void *cls, struct MHD_Connection *conn, const 
 static void on_completed(void *cls, struct MHD_Connection *conn, void **ctx,
                          enum MHD_RequestTerminationCode toe)
 {
-    (void)cls, (void)conn, (void)toe;
+    (void)toe;
+    if (*ctx)
+        conn_mark(cls, conn, false);
     free(*ctx);
     *ctx = NULL;
 }
@@ -180,14 +274,18 @@ dash_server_t *dash_server_new(const dash_server_config_t *cfg, dash_router_t *r
         return NULL;
     }
     /* No thread of its own (no MHD_USE_INTERNAL_POLLING_THREAD): the daemon's loop polls the
-     * epoll descriptor and calls dash_server_run. */
-    self->d = MHD_start_daemon(MHD_USE_EPOLL, 0, NULL, NULL, on_request, self, MHD_OPTION_SOCK_ADDR,
-                               (struct sockaddr *)&sa, MHD_OPTION_CONNECTION_LIMIT,
-                               (unsigned)DASH_MAX_CONNECTIONS, MHD_OPTION_PER_IP_CONNECTION_LIMIT,
-                               (unsigned)DASH_MAX_PER_ADDRESS, MHD_OPTION_CONNECTION_TIMEOUT,
-                               (unsigned)DASH_IDLE_TIMEOUT_S, MHD_OPTION_CONNECTION_MEMORY_LIMIT,
-                               (size_t)DASH_CONNECTION_MEMORY, MHD_OPTION_NOTIFY_COMPLETED,
-                               on_completed, NULL, MHD_OPTION_END);
+     * epoll descriptor and calls dash_server_run, so the pages read the master's state without
+     * a lock. Answers are quick (the state is in memory, a preview one file), so one thread
+     * serves a flood's real requests; the idle connections are what must not lock users out,
+     * and on_connection evicts them. No per-address limit: it refused every user of a
+     * loopback dashboard once one of them (or a flood) held 16 connections. */
+    self->d =
+        MHD_start_daemon(MHD_USE_EPOLL, 0, NULL, NULL, on_request, self, MHD_OPTION_SOCK_ADDR,
+                         (struct sockaddr *)&sa, MHD_OPTION_CONNECTION_LIMIT,
+                         (unsigned)DASH_MAX_CONNECTIONS, MHD_OPTION_CONNECTION_TIMEOUT,
+                         (unsigned)DASH_IDLE_TIMEOUT_S, MHD_OPTION_CONNECTION_MEMORY_LIMIT,
+                         (size_t)DASH_CONNECTION_MEMORY, MHD_OPTION_NOTIFY_COMPLETED, on_completed,
+                         self, MHD_OPTION_NOTIFY_CONNECTION, on_connection, self, MHD_OPTION_END);
     if (!self->d) {
         err_set(err, "dashboard: cannot listen on %s:%d (in use, or not an address of this host)",
                 cfg->address, cfg->port);
@@ -225,6 +323,11 @@ int dash_server_fd(const dash_server_t *self)
 int dash_server_port(const dash_server_t *self)
 {
     return self->port;
+}
+
+dash_server_stats_t dash_server_stats(const dash_server_t *self)
+{
+    return (dash_server_stats_t){.open = self->nconns, .evicted = self->evictions};
 }
 
 int dash_server_timeout_ms(dash_server_t *self, int cap_ms)

@@ -2,9 +2,14 @@
  * sockets sit behind one epoll descriptor that the daemon's own poll waits on (dash_server_fd,
  * at most dash_server_timeout_ms); dash_server_run then serves what is ready and returns
  * without blocking, so every request is answered on the daemon's thread between two turns of
- * its loop (dash_route.h). Bounded: connections at once and per address, the memory of one
- * connection (request line and headers), the body (DASH_MAX_BODY), an idle connection's life;
- * beyond them the server answers 4xx or closes. */
+ * its loop (dash_route.h). Bounded: connections at once, the memory of one connection (request
+ * line and headers), the body (DASH_MAX_BODY), an idle connection's life; beyond them the
+ * server answers 4xx or closes. Idle connections never lock users out (issue 26, finding 4):
+ * once DASH_EVICT_AT connections are open, each new one closes the connection that has been
+ * idle longest (no request being answered), so a flood of idle or half-sent connections --
+ * from one address, as everyone behind an SSH tunnel or a NAT is, or from many -- only ever
+ * evicts itself, and a user's request, sent at once on connecting, is answered. There is no
+ * per-address bound: on a loopback dashboard every user is 127.0.0.1. */
 #ifndef PRISMFARM_DASH_SERVER_H
 #define PRISMFARM_DASH_SERVER_H
 
@@ -13,10 +18,11 @@
 
 #include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
 
-#define DASH_MAX_CONNECTIONS 64 /* at once */
-#define DASH_MAX_PER_ADDRESS 16 /* at once from one address */
-#define DASH_IDLE_TIMEOUT_S 30  /* a connection that sends nothing for this long is closed */
+#define DASH_MAX_CONNECTIONS 256 /* at once (libmicrohttpd stops accepting beyond) */
+#define DASH_EVICT_AT 224        /* from this many on, a new connection evicts the idlest */
+#define DASH_IDLE_TIMEOUT_S 30   /* a connection that sends nothing for this long is closed */
 #define DASH_CONNECTION_MEMORY (32 << 10) /* request line and headers of one connection */
 
 typedef struct dash_server_config {
@@ -39,6 +45,12 @@ void dash_server_destroy(dash_server_t **self_p);
 /* The descriptor to poll for input; the bound port. */
 int dash_server_fd(const dash_server_t *self);
 int dash_server_port(const dash_server_t *self);
+typedef struct dash_server_stats {
+    size_t open;      /* connections open now */
+    uint64_t evicted; /* idle connections closed to make room since dash_server_new */
+} dash_server_stats_t;
+dash_server_stats_t dash_server_stats(const dash_server_t *self);
+
 /* Milliseconds until the server has work without input (an idle connection to close), capped
  * at cap_ms; cap_ms when none. */
 int dash_server_timeout_ms(dash_server_t *self, int cap_ms);

@@ -3,7 +3,8 @@
 # Idempotent and non-interactive; run as root or as a user with sudo.
 # usage: deploy/install-deps.sh [--test]
 #   --test  also the packages only the deployment tests use (deploy/test.sh passes it): Slurm's
-#           daemons and munge for test_slurm_sbatch (tests/deploy/test_slurm.sh). They are
+#           daemons and munge for test_slurm_sbatch (tests/deploy/test_slurm.sh), Prometheus for
+#           test_prometheus_scrape (tests/deploy/test_prometheus.sh). They are
 #           daemons, so a machine that only builds and renders (deploy/demo.sh, the container,
 #           a farm host) does not get them.
 set -euo pipefail
@@ -20,7 +21,7 @@ PACKAGES=(
   iproute2
   python3-numpy python3-openimageio
 )
-TEST_PACKAGES=(slurmctld slurmd slurm-client munge)
+TEST_PACKAGES=(slurmctld slurmd slurm-client munge prometheus)
 
 case "${1:-}" in
   --test) PACKAGES+=("${TEST_PACKAGES[@]}") ;;

@@ -9,6 +9,7 @@
 #include "files.h"
 #include "jobs.h"
 #include "logbook.h"
+#include "metrics.h"
 #include "ops.h"
 #include "passes.h"
 #include "peers.h"
@@ -39,7 +40,7 @@ static void fill_job(master_t *m, const mjob_t *j, double now, dash_job_t *o)
         .id = j->id,
         .name = j->name,
         .owner = j->owner,
-        .state = job_state_name(j->state),
+        .state = proto_job_state_name(jobs_wire_state(j)), /* "paused" as `jobs` says it */
         .xres = j->scene.xres,
         .yres = j->scene.yres,
         .spp = j->scene.spp,
@@ -60,6 +61,8 @@ static void fill_job(master_t *m, const mjob_t *j, double now, dash_job_t *o)
         .priority = j->ops.priority,
     };
     o->npasses = j->scene.spp > 0 ? passes_bounds(j->scene.spp, NULL) : 0;
+    /* A job restored after a restart has no size until its scene is loaded again. */
+    o->has_size = j->scene.xres > 0 && j->scene.yres > 0 && j->scene.spp > 0;
     o->passes_done =
         j->accuracy.nhistory > 0 ? j->accuracy.history[j->accuracy.nhistory - 1].pass : 0;
     sched_job_info_t info;
@@ -70,6 +73,7 @@ static void fill_job(master_t *m, const mjob_t *j, double now, dash_job_t *o)
         o->spp_done = info.spp_done;
         o->passes_done = info.passes_done;
         o->npasses = info.npasses;
+        o->has_tasks = true;
         o->tasks_total = info.tasks_total;
         o->tasks_done = info.tasks_done;
         o->tasks_running = info.tasks_running;
@@ -109,6 +113,7 @@ static void fill_job(master_t *m, const mjob_t *j, double now, dash_job_t *o)
         dash_job_t f;
         o->samples_done = o->samples_total = o->nonfinite = 0;
         o->tasks_total = o->tasks_done = o->tasks_running = 0;
+        o->has_tasks = true;
         for (uint32_t k = 0; k < j->seq.nframes; k++) {
             const mjob_t *fj = jobs_frame(m, j, k);
             if (!fj)
@@ -120,6 +125,7 @@ static void fill_job(master_t *m, const mjob_t *j, double now, dash_job_t *o)
             o->tasks_total += f.tasks_total;
             o->tasks_done += f.tasks_done;
             o->tasks_running += f.tasks_running;
+            o->has_tasks = o->has_tasks && f.has_tasks;
         }
     }
 }
@@ -340,12 +346,20 @@ static size_t pv_workers(void *user, dash_worker_t *out, size_t max)
             .tasks_done = si ? si->tasks_done : 0,
             .tasks_failed = si ? si->tasks_failed : 0,
             .samples_done = si ? si->samples_done : 0,
+            .has_rate = w->alive,
+            .samples_per_s = w->alive ? peers_samples_per_s(w, now) : 0,
             .last_seen_s = seen > 0 ? seen : 0,
             .has_blocklisted = true,
             .blocklisted = si && si->blocked,
         };
     }
     return n;
+}
+
+static int pv_metrics(void *user, char **text, size_t *len, err_t *err)
+{
+    dash_view_t *v = user;
+    return master_metrics_text(v->m, clock_now_s(), text, len, err);
 }
 
 /* ---------------------------------------------------------------- actions */
@@ -392,7 +406,8 @@ static int pv_pause(void *user, const dash_identity_t *who, uint64_t id, bool pa
     dash_view_t *v = user;
     master_actor_t a = actor_of(who);
     return ops_result(v->m, id,
-                      pause ? master_job_pause(v->m, id, &a, err) : master_job_resume(v->m, id, &a, err));
+                      pause ? master_job_pause(v->m, id, &a, err)
+                            : master_job_resume(v->m, id, &a, err));
 }
 
 static int pv_set_priority(void *user, const dash_identity_t *who, uint64_t id, int priority,
@@ -418,7 +433,8 @@ static int pv_blocklist(void *user, const dash_identity_t *who, uint64_t worker,
     master_actor_t a = actor_of(who);
     char id[32];
     snprintf(id, sizeof id, "%llu", (unsigned long long)worker);
-    return block ? master_worker_block(v->m, id, &a, err) : master_worker_unblock(v->m, id, &a, err);
+    return block ? master_worker_block(v->m, id, &a, err)
+                 : master_worker_unblock(v->m, id, &a, err);
 }
 
 /* ---------------------------------------------------------------- the server */
@@ -428,6 +444,10 @@ int dash_view_check(const master_opts_t *o, err_t *err)
     if (!o->http)
         return o->http_token_file
                    ? err_set(err, "--http-token-file needs --http ADDR:PORT, the dashboard")
+               : o->metrics_token_file
+                   ? err_set(err, "--metrics-token-file needs --http ADDR:PORT, the dashboard")
+               : o->dashboard_public
+                   ? err_set(err, "--dashboard-public needs --http ADDR:PORT, the dashboard")
                    : 0;
     dash_server_config_t sc;
     if (dash_server_parse_address(o->http, &sc, err) < 0)
@@ -470,6 +490,7 @@ dash_view_t *dash_view_open(master_t *m, char *bound, size_t size, err_t *err)
         .tasks = pv_tasks,
         .log = pv_log,
         .workers = pv_workers,
+        .metrics = pv_metrics,
         .allowed = pv_allowed,
         .cancel = pv_cancel,
         .pause = pv_pause,
@@ -481,8 +502,10 @@ dash_view_t *dash_view_open(master_t *m, char *bound, size_t size, err_t *err)
     dash_auth_config_t ac = {.any_dir = o->authorized_dir,
                              .clients_dir = o->authorized_clients_dir,
                              .admins_dir = o->authorized_admins_dir,
-                             .token_file = o->http_token_file};
-    dash_router_config_t rc = {.check_host = dash_server_loopback(&sc)};
+                             .token_file = o->http_token_file,
+                             .metrics_token_file = o->metrics_token_file};
+    dash_router_config_t rc = {.check_host = dash_server_loopback(&sc),
+                               .public_reads = o->dashboard_public != 0};
     if (!(v->auth = dash_auth_new(&ac, err)) ||
         !(v->router = dash_router_new(&v->provider, v->auth, &rc, err)) ||
         !(v->server = dash_server_new(&sc, v->router, err))) {

@@ -142,7 +142,9 @@ static net_t *open_router(master_t *m, void *ctx, const char *what, const char *
         return NULL;
     }
     conn_guard_config_t gc = {.max_per_host = m->opts->max_conns_per_host,
-                              .max_total = m->max_conns};
+                              .max_total = m->max_conns,
+                              .handshake_bytes = secret_key ? CONN_GUARD_CURVE_HANDSHAKE
+                                                            : CONN_GUARD_NULL_HANDSHAKE};
     if (!(*guard = conn_guard_new(ctx, net_socket(net), what, &gc, guard_log, m, err)) ||
         net_bind(net, endpoint, err) < 0 || net_endpoint(net, bound, size, err) < 0) {
         err_prefix(err, "%s endpoint: ", what);

@@ -71,6 +71,9 @@ typedef struct master_opts {
     int http_public;             /* let http bind an address other than 127.x (plain HTTP) */
     const char *http_token_file; /* a NAME.token whose holder is an administrator of the
                                   * dashboard's actions (the only way to act without keys) */
+    int dashboard_public;        /* every dashboard read open to whoever reaches the port (a
+                                  * trusted network); otherwise reads follow the owner rule */
+    const char *metrics_token_file; /* a NAME.token whose holder reads /metrics only */
     int verbose;                 /* one line per event on stderr */
     /* Scenes shared with the rest of this process (scene_shelf.h): `prismfarm render`'s local
      * farm, whose client loaded the user's scene already. A submission whose scene is on the

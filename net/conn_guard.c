@@ -4,9 +4,11 @@
 #include "ratelimit.h"
 
 #include <arpa/inet.h>
+#include <linux/tcp.h> /* struct tcp_info with tcpi_bytes_received (glibc's lacks it) */
 #include <netinet/in.h>
 #include <stdarg.h>
 #include <stdbool.h>
+#include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -29,13 +31,16 @@ struct conn_guard {
     conn_guard_config_t cfg;
     conn_guard_log_fn log;
     void *user;
-    /* By descriptor: the host slot's address of each open connection the guard let in. */
+    /* By descriptor: the host slot's address of each open connection the guard let in, and
+     * the list of them in the order they were accepted (prev/next: descriptors, -1 none). */
     uint8_t (*addr_of)[16];
     bool *is_open;
+    int *prev, *next;
+    int head, tail;
     size_t nfd;
     host_t *hosts; /* open addressing, linear probing, power-of-two capacity */
     size_t cap, nhosts, open;
-    uint64_t refused;
+    uint64_t refused, evicted;
     ratelimit_t rl;
 };
 
@@ -162,9 +167,80 @@ static bool grow_fds(conn_guard_t *self, size_t fd)
     if (!o)
         return false;
     self->is_open = o;
+    int *p = realloc(self->prev, n * sizeof *p);
+    if (!p)
+        return false;
+    self->prev = p;
+    int *q = realloc(self->next, n * sizeof *q);
+    if (!q)
+        return false;
+    self->next = q;
     memset(self->is_open + self->nfd, 0, (n - self->nfd) * sizeof *o);
     self->nfd = n;
     return true;
+}
+
+static void order_append(conn_guard_t *self, int fd)
+{
+    self->prev[fd] = self->tail;
+    self->next[fd] = -1;
+    if (self->tail >= 0)
+        self->next[self->tail] = fd;
+    else
+        self->head = fd;
+    self->tail = fd;
+}
+
+static void order_remove(conn_guard_t *self, int fd)
+{
+    if (self->prev[fd] >= 0)
+        self->next[self->prev[fd]] = self->next[fd];
+    else
+        self->head = self->next[fd];
+    if (self->next[fd] >= 0)
+        self->prev[self->next[fd]] = self->prev[fd];
+    else
+        self->tail = self->prev[fd];
+}
+
+/* The bytes the peer has sent on fd; -1 when the kernel does not say (not TCP, or older than
+ * Linux 4.1's tcpi_bytes_received). */
+static int64_t bytes_received(int fd)
+{
+    struct tcp_info ti;
+    socklen_t len = sizeof ti;
+    memset(&ti, 0, sizeof ti);
+    if (getsockopt(fd, IPPROTO_TCP, TCP_INFO, &ti, &len) != 0 ||
+        len < offsetof(struct tcp_info, tcpi_bytes_received) + sizeof ti.tcpi_bytes_received)
+        return -1;
+    return (int64_t)ti.tcpi_bytes_received;
+}
+
+/* The oldest open connection (of host a when a is not NULL) whose handshake is unfinished;
+ * -1 when none. Under a flood the oldest are the flood's idle ones, so the walk is short. */
+static int find_unfinished(conn_guard_t *self, const uint8_t *a)
+{
+    if (self->cfg.handshake_bytes == 0)
+        return -1;
+    for (int fd = self->head; fd >= 0; fd = self->next[fd]) {
+        if (a && memcmp(self->addr_of[fd], a, 16) != 0)
+            continue;
+        int64_t got = bytes_received(fd);
+        if (got >= 0 && (uint64_t)got < self->cfg.handshake_bytes)
+            return fd;
+    }
+    return -1;
+}
+
+/* Forgets fd (open, let in by the guard) as disconnected. */
+static void forget(conn_guard_t *self, int fd)
+{
+    self->is_open[fd] = false;
+    order_remove(self, fd);
+    self->open--;
+    host_t *h = host_find(self, self->addr_of[fd], false);
+    if (h && --h->open == 0)
+        host_remove(self, h);
 }
 
 static void on_accepted(conn_guard_t *self, int fd)
@@ -174,11 +250,34 @@ static void on_accepted(conn_guard_t *self, int fd)
     (void)peer_addr(fd, a, text, sizeof text);
     if (fd < 0 || !grow_fds(self, (size_t)fd))
         return;
-    host_t *h = host_find(self, a, true);
+    /* The host is looked up (and added) after any eviction, which may move the slots. */
+    const host_t *known = host_find(self, a, false);
     const char *why = NULL;
-    if (self->cfg.max_total > 0 && self->open >= (size_t)self->cfg.max_total)
+    bool total = self->cfg.max_total > 0 && self->open >= (size_t)self->cfg.max_total;
+    bool per_host = known && self->cfg.max_per_host > 0 && known->open >= self->cfg.max_per_host;
+    if (total || per_host) {
+        /* Room made by the oldest unfinished handshake, if any: the host's own for its
+         * bound, anyone's for the endpoint's. */
+        int victim = find_unfinished(self, per_host ? a : NULL);
+        if (victim >= 0) {
+            char vtext[INET6_ADDRSTRLEN] = "a local peer";
+            uint8_t va[16];
+            (void)peer_addr(victim, va, vtext, sizeof vtext);
+            (void)shutdown(victim, SHUT_RDWR);
+            forget(self, victim); /* its DISCONNECTED finds it gone */
+            self->evicted++;
+            glog(self,
+                 "closed an unfinished handshake to the %s endpoint from %s to make room for a "
+                 "new connection from %s (%s holds its limit of open connections, %d)",
+                 self->what, vtext, text, per_host ? "that host" : "the endpoint",
+                 per_host ? self->cfg.max_per_host : self->cfg.max_total);
+            total = per_host = false;
+        }
+    }
+    host_t *h = host_find(self, a, true);
+    if (total)
         why = "the endpoint holds its limit of open connections";
-    else if (h && self->cfg.max_per_host > 0 && h->open >= self->cfg.max_per_host)
+    else if (per_host)
         why = "that host holds its limit of open connections";
     if (why || !h) {
         if (h && h->open == 0)
@@ -193,18 +292,15 @@ static void on_accepted(conn_guard_t *self, int fd)
     h->open++;
     memcpy(self->addr_of[fd], a, 16);
     self->is_open[fd] = true;
+    order_append(self, fd);
     self->open++;
 }
 
 static void on_disconnected(conn_guard_t *self, int fd)
 {
     if (fd < 0 || (size_t)fd >= self->nfd || !self->is_open[fd])
-        return; /* one the guard refused, or accepted before it watched */
-    self->is_open[fd] = false;
-    self->open--;
-    host_t *h = host_find(self, self->addr_of[fd], false);
-    if (h && --h->open == 0)
-        host_remove(self, h);
+        return; /* one the guard refused or evicted, or accepted before it watched */
+    forget(self, fd);
 }
 
 conn_guard_t *conn_guard_new(void *zmq_ctx, void *router, const char *what,
@@ -222,6 +318,7 @@ conn_guard_t *conn_guard_new(void *zmq_ctx, void *router, const char *what,
     self->log = log;
     self->user = user;
     self->rl = ratelimit_make(BURST, WINDOW_S);
+    self->head = self->tail = -1;
     char addr[96];
     snprintf(addr, sizeof addr, "inproc://prismfarm-guard-%p", (void *)self);
     int linger = 0;
@@ -283,7 +380,8 @@ void conn_guard_pump(conn_guard_t *self)
 
 conn_guard_stats_t conn_guard_stats(const conn_guard_t *self)
 {
-    return (conn_guard_stats_t){.open = self->open, .refused = self->refused};
+    return (conn_guard_stats_t){
+        .open = self->open, .refused = self->refused, .evicted = self->evicted};
 }
 
 void conn_guard_destroy(conn_guard_t **self_p)
@@ -296,6 +394,8 @@ void conn_guard_destroy(conn_guard_t **self_p)
         (void)zmq_close(self->pair);
     free(self->addr_of);
     free(self->is_open);
+    free(self->prev);
+    free(self->next);
     free(self->hosts);
     free(self);
     *self_p = NULL;

@@ -1,7 +1,9 @@
 // The prismfarm dashboard's front end: vanilla JavaScript over the master's JSON API
 // (docs/dashboard.md). Pages by the URL's hash: #/jobs, #/job/ID, #/workers. Each page
-// polls its JSON every second; actions are POSTs with the token the user entered (kept in this
-// tab's sessionStorage, sent as "Authorization: Bearer", never in a URL or a cookie).
+// polls its JSON every second. Reads and actions carry the token the user entered (kept in this
+// tab's sessionStorage, sent as "Authorization: Bearer", never in a URL or a cookie): without
+// one the master shows only how many jobs there are (docs/security.md); a job's preview, log
+// and tasks are its owner's and the administrators'.
 "use strict";
 
 const POLL_MS = 1000;
@@ -33,11 +35,32 @@ function svg(tag, attrs, text) {
 
 function token() { return sessionStorage.getItem("prismfarm-token") || ""; }
 
+function authHeaders() { return token() ? { Authorization: "Bearer " + token() } : {}; }
+
 async function api(path) {
-  const r = await fetch(path, { cache: "no-store" });
+  const r = await fetch(path, { cache: "no-store", headers: authHeaders() });
   const body = await r.json().catch(() => ({ error: "not JSON (status " + r.status + ")" }));
-  if (!r.ok) throw new Error(body.error || ("HTTP " + r.status));
+  if (!r.ok) {
+    const e = new Error(body.error || ("HTTP " + r.status));
+    e.status = r.status;
+    throw e;
+  }
   return body;
+}
+
+// What a reader without a token is told: how to sign in.
+function signIn(what) {
+  return el("div", { class: "card", id: "sign-in" }, el("h2", {}, "Sign in"),
+    el("p", {}, what + " Paste your token in the box above: the NAME.token file that ",
+       el("code", {}, "prismfarm keygen NAME"), " wrote beside NAME.key (its one line of 64 hex " +
+       "digits). Your own jobs' previews, logs and tasks show with your token; every job's " +
+       "with an administrator's."));
+}
+
+// The banner of a dashboard whose reads are open (--dashboard-public).
+function publicBanner(actions) {
+  const b = document.getElementById("public-banner");
+  if (b) b.hidden = !(actions && actions.public_reads);
 }
 
 async function act(path, body) {
@@ -83,9 +106,14 @@ function bar(fraction) {
   return el("span", { class: "bar", title: (100 * fraction).toFixed(1) + " %" }, inner);
 }
 
+// The state as `prismfarm jobs` says it ("paused" included).
 function stateCell(s, paused) {
-  return el("td", { class: "state state-" + s }, s + (paused ? " (paused)" : ""));
+  return el("td", { class: "state state-" + s }, s + (paused && s !== "paused" ? " (paused)" : ""));
 }
+
+// A figure the master may not know (a job restored after a restart, a finished job the
+// scheduler forgot) is absent from the JSON: shown as unknown, never as 0.
+function known(v, text) { return v === undefined ? "–" : text; }
 
 // A colour per worker id, so the tile map and the task table agree.
 function workerColour(id) { return "hsl(" + ((id * 137.508) % 360).toFixed(0) + ", 70%, 45%)"; }
@@ -95,6 +123,15 @@ function workerColour(id) { return "hsl(" + ((id * 137.508) % 360).toFixed(0) + 
 async function viewJobs(gen) {
   const data = await api("/api/jobs");
   if (gen !== state.gen) return;
+  publicBanner(data.actions);
+  if (data.hidden) {
+    const counts = Object.entries(data.counts).map(([k, v]) => v + " " + k).join(", ");
+    render(el("div", {}, el("h1", {}, "Jobs"),
+              el("p", { id: "job-counts" }, counts ? "This master holds " + counts + " jobs." :
+                                                      "This master holds no job."),
+              signIn("Without a token the dashboard shows only how many jobs there are.")));
+    return;
+  }
   const rows = data.jobs.slice().reverse().map((j) => {
     const tr = el("tr", { class: "clickable", "data-job": j.id,
                           onclick: () => { location.hash = "#/job/" + j.id; } },
@@ -105,7 +142,7 @@ async function viewJobs(gen) {
       stateCell(j.state, j.paused),
       el("td", { class: "num" }, j.priority === undefined ? "–" : j.priority),
       el("td", {}, bar(j.progress), " ", (100 * j.progress).toFixed(0) + " %"),
-      el("td", { class: "num" }, j.spp_done + " / " + j.spp),
+      el("td", { class: "num" }, j.spp_done + " / " + known(j.spp, j.spp)),
       el("td", { class: "num" }, fmtError(j.rel_error)),
       el("td", { class: "num" }, fmtTime(j.eta_s)),
       el("td", { class: "num" }, fmtTime(j.elapsed_s)));
@@ -201,11 +238,15 @@ function drawTiles(canvas, map) {
 function fact(k, v) { return [el("dt", {}, k), el("dd", {}, v)]; }
 
 async function viewJob(gen, id) {
-  const [j, tasks] = await Promise.all([api("/api/jobs/" + id), api("/api/jobs/" + id + "/tasks")]);
+  const j = await api("/api/jobs/" + id);
+  // A job's tasks and log are its owner's and the administrators' (j.can_read).
+  const tasks = j.can_read ? await api("/api/jobs/" + id + "/tasks") : { tasks: [] };
   let map = null;
   try { map = await api("/api/jobs/" + id + "/tiles"); } catch (e) { map = null; }
-  const log = await api("/api/jobs/" + id + "/log?since=" + (state.jobId === id ? state.logSeq : 0));
+  const log = j.can_read ? await api("/api/jobs/" + id + "/log?since=" + (state.jobId === id ? state.logSeq : 0))
+                         : { lines: [] };
   if (gen !== state.gen) return;
+  publicBanner(j.actions);
   const fresh = state.jobId !== id || !document.getElementById("job-page");
   if (fresh) {
     state.jobId = id;
@@ -217,18 +258,21 @@ async function viewJob(gen, id) {
   const facts = document.getElementById("job-facts");
   swap(facts, 
     ...fact("state", el("span", { id: "job-state", class: "state state-" + j.state },
-                        j.state + (j.paused ? " (paused)" : ""))),
+                        j.state + (j.paused && j.state !== "paused" ? " (paused)" : ""))),
     ...fact("owner", j.owner || "–"),
     ...fact("priority", j.priority === undefined ? "–" : String(j.priority)),
     // A frame sequence (docs/farm.md): its frames below; a frame: its sequence and number.
-    ...(j.nframes ? fact("frames", String(j.nframes)) : fact("size", j.xres + " × " + j.yres + ", " + j.integrator)),
+    ...(j.nframes ? fact("frames", String(j.nframes)) :
+        fact("size", known(j.xres, j.xres + " × " + j.yres) + ", " + j.integrator)),
     ...(j.sequence ? fact("frame", el("span", {}, j.frame + " of ",
                                       el("a", { href: "#/job/" + j.sequence }, "job " + j.sequence))) : []),
     ...fact("progress", el("span", {}, bar(j.progress), " " + (100 * j.progress).toFixed(1) + " %")),
-    ...fact("samples per pixel", j.spp_done + " of " + j.spp + " (pass " + j.passes_done + " of " + j.npasses + ")"),
+    ...fact("samples per pixel", j.spp_done + " of " + known(j.spp, j.spp) + " (pass " + j.passes_done +
+            known(j.npasses, " of " + j.npasses) + ")"),
     ...fact("samples", fmtCount(j.samples_done) + " of " + fmtCount(j.samples_total) +
             (j.nonfinite ? ", " + j.nonfinite + " non-finite dropped" : "")),
-    ...fact("tasks", j.tasks_done + " of " + j.tasks_total + " done, " + j.tasks_running + " running"),
+    ...fact("tasks", known(j.tasks_total, j.tasks_done + " of " + j.tasks_total + " done, " +
+                                         j.tasks_running + " running")),
     ...fact("error estimate", fmtError(j.rel_error)),
     ...fact("elapsed", fmtTime(j.elapsed_s)),
     ...fact("ETA", fmtTime(j.eta_s)),
@@ -246,21 +290,38 @@ async function viewJob(gen, id) {
       el("p", { id: "photon-progress" }, bar(p.complete ? 1 : p.batches ? p.batches_done / p.batches : 0),
          " " + what));
   } else ph.hidden = true;
-  // Actions: what this master can do, greyed otherwise.
+  // Actions: offered only where they apply (a job not over, a master that has them, a viewer
+  // who may act on it: its owner or an administrator).
   const over = ["done", "failed", "cancelled"].includes(j.state);
-  document.getElementById("action-cancel").disabled = over || !j.actions.cancel;
-  document.getElementById("action-pause").disabled = over || !j.actions.pause;
+  const may = !over && j.can_act;
+  document.getElementById("action-cancel").hidden = !(may && j.actions.cancel);
+  document.getElementById("action-pause").hidden = !(may && j.actions.pause);
   document.getElementById("action-pause").textContent = j.paused ? "Resume" : "Pause";
   document.getElementById("action-pause").dataset.paused = j.paused ? "1" : "0";
-  document.getElementById("action-priority").disabled = over || !j.actions.priority;
-  // The preview: reloaded when the master wrote a new one.
+  document.getElementById("action-priority").hidden = !(may && j.actions.priority);
+  document.getElementById("priority-value").hidden = !(may && j.actions.priority);
+  document.getElementById("private-note").hidden = j.can_read;
+  document.getElementById("private-note").textContent = j.can_read ? "" : (token() ?
+    "This job is " + (j.owner || "an administrator") + "'s: its preview, log and tasks are its owner's and the administrators' to read." :
+    "Sign in with your token (the box above) to see this job's preview, log and tasks if it is yours.");
+  // The preview: fetched with the token (an <img> cannot send one) when the master wrote a
+  // new one, and shown from a blob: URL.
   const img = document.getElementById("preview");
-  img.hidden = !(j.preview_version > 0);
-  if (j.preview_version !== state.previewVersion && j.preview_version > 0) {
+  img.hidden = !(j.can_read && j.preview_version > 0);
+  if (j.can_read && j.preview_version !== state.previewVersion && j.preview_version > 0) {
     state.previewVersion = j.preview_version;
-    img.src = "/api/jobs/" + id + "/preview.png?v=" + j.preview_version;
-    img.dataset.version = j.preview_version;
+    const version = j.preview_version;
+    fetch("/api/jobs/" + id + "/preview.png?v=" + version, { cache: "no-store", headers: authHeaders() })
+      .then((r) => r.ok ? r.blob() : null)
+      .then((b) => {
+        if (!b || state.jobId !== id) return;
+        if (img.src.startsWith("blob:")) URL.revokeObjectURL(img.src);
+        img.src = URL.createObjectURL(b);
+        img.dataset.version = version;
+      });
     document.getElementById("preview-note").textContent = "at " + j.spp_done + " spp";
+  } else if (!j.can_read) {
+    document.getElementById("preview-note").textContent = "its owner's";
   } else if (j.preview_version === 0) {
     document.getElementById("preview-note").textContent = "no image yet: a preview follows each pass";
   }
@@ -299,9 +360,8 @@ async function viewJob(gen, id) {
     el("td", {}, el("span", { class: "swatch" }, "■ "), t.worker_name + " (" + t.worker + ")"),
     el("td", { class: "num" }, t.attempt),
     el("td", { class: "num" }, fmtTime(t.running_s)),
-    el("td", {}, el("button", { disabled: j.actions.requeue ? null : "disabled",
-                                onclick: () => act("/api/jobs/" + id + "/tasks/" + t.task + "/requeue") },
-                    "Requeue"))));
+    el("td", {}, may && j.actions.requeue ?
+       el("button", { onclick: () => act("/api/jobs/" + id + "/tasks/" + t.task + "/requeue") }, "Requeue") : "")));
   rows.forEach((r, i) => { r.querySelector(".swatch").style.color = workerColour(tasks.tasks[i].worker); });
   swap(document.getElementById("tasks-body"), ...rows);
   document.getElementById("tasks-none").hidden = rows.length > 0;
@@ -331,6 +391,7 @@ function buildJobPage(id) {
       el("button", { id: "action-priority",
                      onclick: () => act("/api/jobs/" + id + "/priority", { priority: parseInt(priority.value, 10) }) },
          "Set priority")),
+    el("p", { id: "private-note", class: "muted", hidden: "hidden" }),
     el("div", { class: "grid" },
       el("div", { class: "card" }, el("h2", {}, "Preview ", el("span", { id: "preview-note", class: "muted" })),
          el("img", { id: "preview", alt: "progressive preview of job " + id, hidden: "hidden" })),
@@ -363,15 +424,24 @@ function buildJobPage(id) {
 // ---------------------------------------------------------------- workers
 
 async function viewWorkers(gen) {
-  const data = await api("/api/workers");
+  let data;
+  try { data = await api("/api/workers"); } catch (e) {
+    if (e.status !== 401 || gen !== state.gen) throw e;
+    render(el("div", {}, el("h1", {}, "Workers"), signIn("Without a token the workers are not shown.")));
+    return;
+  }
   if (gen !== state.gen) return;
+  publicBanner(data.actions);
+  const admin = data.actions.admin === true;
   const now = performance.now() / 1000;
   const rows = data.workers.map((w) => {
     // Samples per second between two polls of the cumulative count.
     const prev = state.workerRates.get(w.id);
+    // The master's figure, as `prismfarm workers` shows it; else the change between two polls.
     let rate = prev ? prev.rate : undefined;
     if (prev && now - prev.t >= 0.5) rate = (w.samples_done - prev.samples) / (now - prev.t);
     if (!prev || now - prev.t >= 0.5) state.workerRates.set(w.id, { t: now, samples: w.samples_done, rate });
+    if (w.samples_per_s !== undefined) rate = w.samples_per_s;
     const blocked = w.blocklisted === undefined ? "–" : w.blocklisted ? "yes" : "no";
     return el("tr", { "data-worker": w.id },
       el("td", { class: "num" }, w.id),
@@ -385,9 +455,10 @@ async function viewWorkers(gen) {
       el("td", { class: "num" }, w.tasks_failed),
       el("td", {}, blocked),
       el("td", { class: "num" }, fmtTime(w.last_seen_s)),
-      el("td", {}, el("button", { disabled: data.actions.blocklist ? null : "disabled",
-                                  onclick: () => act("/api/workers/" + w.id + (w.blocklisted ? "/unblock" : "/blocklist")) },
-                      w.blocklisted ? "Unblock" : "Blocklist")));
+      // Blocklisting is an administrator's.
+      el("td", {}, admin && data.actions.blocklist ?
+         el("button", { onclick: () => act("/api/workers/" + w.id + (w.blocklisted ? "/unblock" : "/blocklist")) },
+            w.blocklisted ? "Unblock" : "Blocklist") : ""));
   });
   render(el("div", {}, el("h1", {}, "Workers"),
     data.workers.length ? el("table", { id: "workers-table" },
@@ -439,7 +510,10 @@ async function poll() {
     else await viewJobs(gen);
     document.body.dataset.loaded = "1";
   } catch (e) {
-    if (gen === state.gen) message(String(e.message || e), true);
+    if (gen !== state.gen) return;
+    // A read that needs a token: the page says how to sign in instead of an error.
+    if (e.status === 401) { render(signIn(String(e.message || e) + ".")); document.body.dataset.loaded = "1"; }
+    else message(String(e.message || e), true);
   }
 }
 
@@ -450,13 +524,16 @@ function schedule() {
 
 async function showWho() {
   const who = document.getElementById("whoami");
-  if (!token()) { who.textContent = "read-only"; return; }
+  if (!token()) { who.textContent = "not signed in"; return; }
   try {
-    const r = await fetch("/api/whoami", { headers: { Authorization: "Bearer " + token() } });
+    const r = await fetch("/api/whoami", { headers: authHeaders() });
     const b = await r.json();
-    who.textContent = r.ok ? "acting as " + b.name + (b.admin ? " (admin)" : "") : "token refused";
+    who.textContent = r.ok ? "signed in as " + b.name + (b.admin ? " (admin)" : "") : "token refused";
   } catch (e) { who.textContent = "token refused"; }
 }
+
+// A new token (or none) shows another page: drawn again from scratch.
+function reload() { state.gen++; state.jobId = 0; message("", false); showWho(); refresh(); }
 
 window.addEventListener("hashchange", () => { state.gen++; state.jobId = 0; message("", false); refresh(); });
 window.addEventListener("DOMContentLoaded", () => {
@@ -465,11 +542,11 @@ window.addEventListener("DOMContentLoaded", () => {
     const t = document.getElementById("token").value.trim();
     if (t) sessionStorage.setItem("prismfarm-token", t);
     document.getElementById("token").value = "";
-    showWho();
+    reload();
   });
   document.getElementById("token-clear").addEventListener("click", () => {
     sessionStorage.removeItem("prismfarm-token");
-    showWho();
+    reload();
   });
   showWho();
   refresh();

@@ -3,8 +3,10 @@
 chromedriver over the W3C WebDriver protocol, spoken with the standard library only (urllib
 and json), against a farm of `prismfarm master --http` and one worker on this host.
 
-It loads the job list, watches a job's progressive preview change between two passes, is
-refused an action without a token, then cancels the job with the administrator's token through
+Without a token the page shows how many jobs there are and how to sign in, and no job's name
+(docs/security.md); signed in with the administrator's token it loads the job list, watches a
+job's progressive preview change between two passes; after "Forget" the job page asks to sign
+in again and an action without a token is refused; signed in again it cancels the job through
 the page and sees the job cancelled and its worker stop. A screenshot of the job page goes to
 BUILD/dashboard.png (and to docs/dashboard.png with PRISMFARM_UPDATE_SCREENSHOT=1).
 
@@ -250,8 +252,20 @@ def main():
         long = farm.submit(scene, "--res", "128x96", "--spp", "65536", "--name", "cornell-long")
         farm.spawn("worker", "worker", "--connect", farm.workers, "--threads", "1", "--quiet")
 
-        # The job list.
+        # Without a token: the count of jobs and how to sign in, no job's name.
+        admin = {"Authorization": "Bearer " + farm.token}
         wd.get(farm.url + "#/jobs")
+        wait_for("the count of jobs without a token", lambda: wd.js(
+            "const c = document.getElementById('job-counts');"
+            "return c && /\\d+ (queued|running)/.test(c.textContent)"
+            " && !!document.getElementById('sign-in')"))
+        if "cornell" in wd.text("#view"):
+            fail("the page shows a job's name without a token: %s" % wd.text("#view"))
+
+        # Signed in as the administrator: the job list.
+        wd.type("#token", farm.token)
+        wd.click("#token-save")
+        wait_for("the page to take the token", lambda: "admin" in wd.text("#whoami"))
         wait_for("job %d in the list" % long,
                  lambda: wd.js("return !!document.querySelector('tr[data-job=\"%d\"]')" % long))
         wait_for("job %d done in the list" % short, lambda: wd.js(
@@ -279,29 +293,37 @@ def main():
         if os.environ.get("PRISMFARM_UPDATE_SCREENSHOT") == "1":
             shutil.copyfile(shot, os.path.join(source, "docs", "dashboard.png"))
 
-        # An action without a token is refused, and the job runs on.
-        wd.js("sessionStorage.removeItem('prismfarm-token')")
-        wd.click("#action-cancel")
-        wd.accept_alert()
-        wait_for("the refusal of a cancel without a token",
-                 lambda: "401" in wd.text("#message"))
-        status, job = http_json(farm.url + "api/jobs/%d" % long)
-        if status != 200 or job["state"] != "running":
-            fail("after a refused cancel job %d is %s" % (long, job.get("state")))
+        # Forgetting the token: the job page asks to sign in, and shows neither the preview
+        # nor the log; its preview, log and a cancel without a token are refused.
+        wd.click("#token-clear")
+        wait_for("the job page asking to sign in", lambda: wd.js(
+            "return !!document.getElementById('sign-in') && !document.getElementById('preview')"
+            " && !document.getElementById('job-log')"))
+        for what in ("preview.png", "log", "tasks"):
+            status, _ = http_json(farm.url + "api/jobs/%d/%s" % (long, what))
+            if status != 401:
+                fail("GET %s of job %d without a token got %d, expected 401" % (what, long, status))
         status, body = http_json(farm.url + "api/jobs/%d/cancel" % long, "POST", b"")
         if status != 401:
             fail("a POST without a token got %d %s, expected 401" % (status, body))
+        status, job = http_json(farm.url + "api/jobs/%d" % long, headers=admin)
+        if status != 200 or job["state"] != "running":
+            fail("after a refused cancel job %d is %s" % (long, job.get("state")))
 
-        # With the administrator's token the page cancels the job, and the worker stops.
+        # With the administrator's token again the page cancels the job, and the worker stops.
         wd.type("#token", farm.token)
         wd.click("#token-save")
         wait_for("the page to take the token", lambda: "admin" in wd.text("#whoami"))
+        wait_for("the cancel button offered", lambda: wd.js(
+            "const b = document.getElementById('action-cancel'); return b && !b.hidden"))
         wd.click("#action-cancel")
         wd.accept_alert()
         wait_for("job %d cancelled on its page" % long,
                  lambda: wd.text("#job-state") == "cancelled")
         wait_for("no task of job %d running" % long, lambda: http_json(
-            farm.url + "api/jobs/%d/tasks" % long)[1]["tasks"] == [])
+            farm.url + "api/jobs/%d/tasks" % long, headers=admin)[1]["tasks"] == [])
+        if wd.js("const b = document.getElementById('action-cancel'); return !b.hidden"):
+            fail("a cancelled job's page still offers Cancel")
         wd.get(farm.url + "#/workers")
         wait_for("the worker idle on the workers page", lambda: wd.js(
             "const r = document.querySelector('#workers-table tbody tr');"

@@ -688,7 +688,26 @@ static void test_dashboard_tokens(void **state)
             testutil_fail_quoting(mlog, "submit: exit %d: %s\nmaster log:", r->status, r->err);
     }
     static char out[1 << 16];
-    assert_int_equal(testutil_http(port, "GET", "/api/jobs/1", NULL, NULL, out, sizeof out), 200);
+    /* Reads follow the owner rule (issue 26, finding 3): nothing of a job without a token;
+     * its figures with any client key's; its log and tasks with its owner's or an admin's. */
+    assert_int_equal(testutil_http(port, "GET", "/api/jobs/1", NULL, NULL, out, sizeof out), 401);
+    assert_int_equal(testutil_http(port, "GET", "/api/jobs/1", token[2], NULL, out, sizeof out),
+                     200);
+    expect_in(out, "\"owner\":\"alice\"");
+    expect_in(out, "\"can_read\":false");
+    assert_int_equal(
+        testutil_http(port, "GET", "/api/jobs/1/log", token[2], NULL, out, sizeof out), 403);
+    expect_in(out, "job 1 belongs to 'alice'");
+    assert_int_equal(
+        testutil_http(port, "GET", "/api/jobs/1/tasks", token[2], NULL, out, sizeof out), 403);
+    assert_int_equal(
+        testutil_http(port, "GET", "/api/jobs/1/log", token[1], NULL, out, sizeof out), 200);
+    assert_int_equal(
+        testutil_http(port, "GET", "/api/jobs/1/tasks", token[3], NULL, out, sizeof out), 200);
+    assert_int_equal(
+        testutil_http(port, "GET", "/api/jobs/1/log", token[0], NULL, out, sizeof out), 401);
+    assert_int_equal(testutil_http(port, "GET", "/api/jobs/1", token[1], NULL, out, sizeof out),
+                     200);
     expect_in(out, "\"owner\":\"alice\"");
     assert_int_equal(testutil_http(port, "GET", "/api/whoami", token[3], NULL, out, sizeof out),
                      200);
@@ -699,7 +718,8 @@ static void test_dashboard_tokens(void **state)
     expect_in(out, "job 1 belongs to 'alice'");
     assert_int_equal(
         testutil_http(port, "POST", "/api/jobs/1/cancel", token[0], "", out, sizeof out), 401);
-    assert_int_equal(testutil_http(port, "GET", "/api/jobs/1", NULL, NULL, out, sizeof out), 200);
+    assert_int_equal(testutil_http(port, "GET", "/api/jobs/1", token[1], NULL, out, sizeof out),
+                     200);
     expect_in(out, "\"state\":\"queued\"");
     assert_int_equal(
         testutil_http(port, "POST", "/api/jobs/1/cancel", token[1], "", out, sizeof out), 200);

@@ -93,7 +93,8 @@ typedef struct farm {
 } farm_t;
 
 /* A master on ipc:// endpoints in the scratch folder (no keys: ipc:// needs none), with its
- * dashboard on a port the system chooses when http. */
+ * dashboard on a port the system chooses when http, its reads open (--dashboard-public: the
+ * test reads the sequence's view, not who may). */
 static void start_master_http(farm_t *f, const char *name, bool http)
 {
     snprintf(f->spool, sizeof f->spool, "%s", testutil_scratch(name));
@@ -104,7 +105,7 @@ static void start_master_http(farm_t *f, const char *name, bool http)
     snprintf(f->cep, sizeof f->cep, "ipc://%s-c.sock", f->spool);
     f->master = testutil_spawn(f->mlog, "master", "--workers", f->wep, "--clients", f->cep,
                                "--spool", f->spool, "--heartbeat", "200", "--tile", "8",
-                               http ? "--http" : NULL, "0", NULL);
+                               http ? "--http" : NULL, "0", "--dashboard-public", NULL);
     testutil_wait_file_has(f->mlog, "clients on");
 }
 

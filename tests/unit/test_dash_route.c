@@ -1,7 +1,10 @@
 /* dash_route and dash_auth: the dashboard's requests into answers without a socket, over a fake
  * provider -- the routes and their JSON, every bound and malformed input answered 4xx with a
  * message, and who may act: no token, an unknown one, a user on another's job, a job's owner, an
- * administrator (from the admins' folder or --http-token-file), a worker action by a user. The
+ * administrator (from the admins' folder or --http-token-file), a worker action by a user; who
+ * may read (issue 26, finding 3): without a token the count of jobs only, a user the figures, a
+ * job's owner and administrators its preview, log and tasks, any token /metrics, everyone
+ * everything with public_reads (--dashboard-public). The
  * tokens are real: written by curve_write beside real key pairs, and found through the .pub
  * files' http-token-sha256 lines, as a master finds them. */
 #include <setjmp.h>
@@ -32,6 +35,8 @@ static dash_job_t fake_job(uint64_t id)
                         .name = id == 1 ? "alice's job" : "orphan",
                         .owner = id == 1 ? "alice" : "",
                         .state = "running",
+                        .has_size = id == 1, /* job 2: restored, its scene not loaded yet */
+                        .has_tasks = id == 1,
                         .xres = 64,
                         .yres = 48,
                         .spp = 64,
@@ -74,7 +79,9 @@ static const dash_worker_t WORKERS[] = {{.id = 3,
                                          .state = "busy",
                                          .tasks_running = 1,
                                          .tasks_done = 10,
-                                         .samples_done = 1000}};
+                                         .samples_done = 1000,
+                                         .has_rate = true,
+                                         .samples_per_s = 250}};
 
 /* The reads answer from the tables (dash_testutil.h); the actions count here. */
 typedef struct fake {
@@ -116,6 +123,14 @@ static int f_preview(void *user, uint64_t id, uint8_t **png, size_t *size, err_t
     *png = malloc(8);
     memcpy(*png, "\x89PNG\r\n\x1a\n", 8);
     *size = 8;
+    return 0;
+}
+
+static int f_metrics(void *user, char **text, size_t *len, err_t *err)
+{
+    (void)user, (void)err;
+    *text = strdup("# TYPE prismfarm_queue_depth gauge\nprismfarm_queue_depth 3\n");
+    *len = strlen(*text);
     return 0;
 }
 
@@ -179,8 +194,9 @@ typedef struct fixture {
     dash_auth_t *auth;
     dash_router_t *router;
     char alice[CURVE_TOKEN_CHARS + 1], bob[CURVE_TOKEN_CHARS + 1], root[CURVE_TOKEN_CHARS + 1],
-        ops[CURVE_TOKEN_CHARS + 1], worker[CURVE_TOKEN_CHARS + 1];
-    char auth_alice[100], auth_bob[100], auth_root[100], auth_ops[100], auth_worker[100];
+        ops[CURVE_TOKEN_CHARS + 1], worker[CURVE_TOKEN_CHARS + 1], scrape[CURVE_TOKEN_CHARS + 1];
+    char auth_alice[100], auth_bob[100], auth_root[100], auth_ops[100], auth_worker[100],
+        auth_scrape[100];
 } fixture_t;
 
 /* A key pair and token for name in dir; its token goes to token. */
@@ -200,7 +216,7 @@ static int setup(void **state)
     if (testutil_scratch_setup(state) < 0)
         return -1;
     fixture_t *f = calloc(1, sizeof *f);
-    char clients[600], admins[600], workers[600], tokfile[700];
+    char clients[600], admins[600], workers[600], tokfile[700], scrapefile[700];
     snprintf(clients, sizeof clients, "%s", testutil_scratch("clients"));
     snprintf(admins, sizeof admins, "%s", testutil_scratch("admins"));
     snprintf(workers, sizeof workers, "%s", testutil_scratch("workers"));
@@ -210,6 +226,9 @@ static int setup(void **state)
     make_key(workers, "w1", f->worker);
     make_key(testutil_scratch("keys"), "ops", f->ops);
     snprintf(tokfile, sizeof tokfile, "%s/ops.token", testutil_scratch("keys"));
+    make_key(testutil_scratch("keys"), "prom", f->scrape);
+    snprintf(scrapefile, sizeof scrapefile, "%s/prom.token", testutil_scratch("keys"));
+    snprintf(f->auth_scrape, sizeof f->auth_scrape, "Bearer %s", f->scrape);
     snprintf(f->auth_alice, sizeof f->auth_alice, "Bearer %s", f->alice);
     snprintf(f->auth_bob, sizeof f->auth_bob, "Bearer %s", f->bob);
     snprintf(f->auth_root, sizeof f->auth_root, "Bearer %s", f->root);
@@ -222,8 +241,12 @@ static int setup(void **state)
     f->p.set_priority = f_set_priority;
     f->p.requeue = f_requeue;
     f->p.blocklist = f_blocklist;
+    f->p.metrics = f_metrics;
     err_t err;
-    dash_auth_config_t ac = {.clients_dir = clients, .admins_dir = admins, .token_file = tokfile};
+    dash_auth_config_t ac = {.clients_dir = clients,
+                             .admins_dir = admins,
+                             .token_file = tokfile,
+                             .metrics_token_file = scrapefile};
     f->auth = dash_auth_new(&ac, &err);
     assert_non_null(f->auth);
     dash_router_config_t rc = {.check_host = true};
@@ -286,7 +309,7 @@ static void test_pages_and_reads(void **state)
     assert_int_equal(ask(f, "GET", "/nothing.js", NULL, NULL, NULL), 404);
 
     json_t *j;
-    assert_int_equal(ask(f, "GET", "/api/jobs", NULL, NULL, &j), 200);
+    assert_int_equal(ask(f, "GET", "/api/jobs", f->auth_alice, NULL, &j), 200);
     json_t *jobs = json_object_get(j, "jobs");
     assert_int_equal(json_array_size(jobs), 2);
     json_t *one = json_array_get(jobs, 0);
@@ -301,51 +324,76 @@ static void test_pages_and_reads(void **state)
     assert_true(json_is_true(json_object_get(actions, "tokens")));
     /* A field the master does not have is absent, not invented. */
     assert_null(json_object_get(one, "priority"));
+    assert_int_equal(json_integer_value(json_object_get(one, "xres")), 64);
+    assert_int_equal(json_integer_value(json_object_get(one, "tasks_total")), 0);
+    /* Issue 25: a restored job's unknown size and tasks are absent, never 0 x 0 or 0 of 0. */
+    json_t *two = json_array_get(jobs, 1);
+    assert_null(json_object_get(two, "xres"));
+    assert_null(json_object_get(two, "spp"));
+    assert_null(json_object_get(two, "npasses"));
+    assert_null(json_object_get(two, "tasks_total"));
     json_decref(j);
+    /* A paused job has no ETA: it is not running. */
+    f->fake.jobs[0].state = "paused";
+    assert_int_equal(ask(f, "GET", "/api/jobs/1", f->auth_alice, NULL, &j), 200);
+    assert_null(json_object_get(j, "eta_s"));
+    assert_string_equal(json_string_value(json_object_get(j, "state")), "paused");
+    json_decref(j);
+    f->fake.jobs[0].state = "running";
 
-    assert_int_equal(ask(f, "GET", "/api/jobs/1", NULL, NULL, &j), 200);
+    assert_int_equal(ask(f, "GET", "/api/jobs/1", f->auth_alice, NULL, &j), 200);
     json_t *passes = json_object_get(j, "passes");
     assert_int_equal(json_array_size(passes), 3);
     assert_null(json_object_get(json_array_get(passes, 0), "rel_error")); /* no estimate yet */
     assert_true(json_is_real(json_object_get(json_array_get(passes, 1), "rel_error")));
     json_decref(j);
 
-    assert_int_equal(ask(f, "GET", "/api/jobs/1/tiles", NULL, NULL, &j), 200);
+    assert_int_equal(ask(f, "GET", "/api/jobs/1/tiles", f->auth_alice, NULL, &j), 200);
     assert_int_equal(json_array_size(json_object_get(j, "merged")), 4);
     assert_int_equal(json_integer_value(json_array_get(json_object_get(j, "merged"), 3)), 3);
     assert_int_equal(json_array_size(json_object_get(j, "running")), 1);
     json_decref(j);
-    assert_int_equal(ask(f, "GET", "/api/jobs/2/tiles", NULL, NULL, NULL), 409);
+    assert_int_equal(ask(f, "GET", "/api/jobs/2/tiles", f->auth_alice, NULL, NULL), 409);
 
-    assert_int_equal(ask(f, "GET", "/api/jobs/1/tasks", NULL, NULL, &j), 200);
+    assert_int_equal(ask(f, "GET", "/api/jobs/1/tasks", f->auth_alice, NULL, &j), 200);
     json_t *t = json_array_get(json_object_get(j, "tasks"), 0);
     assert_string_equal(json_string_value(json_object_get(t, "worker_name")), "host:1");
     assert_string_equal(json_string_value(json_object_get(t, "kind")), "camera");
     json_decref(j);
 
-    assert_int_equal(ask(f, "GET", "/api/workers", NULL, NULL, &j), 200);
+    assert_int_equal(ask(f, "GET", "/api/workers", f->auth_alice, NULL, &j), 200);
     assert_int_equal(json_integer_value(json_object_get(
                          json_array_get(json_object_get(j, "workers"), 0), "samples_done")),
                      1000);
+    /* The worker's rate as the master computes it (`prismfarm workers`). */
+    assert_true(fabs(json_real_value(json_object_get(
+                         json_array_get(json_object_get(j, "workers"), 0), "samples_per_s")) -
+                     250) < 1e-12);
     json_decref(j);
 
-    dash_request_t png = {.method = "GET", .path = "/api/jobs/1/preview.png"};
+    dash_request_t png = {
+        .method = "GET", .path = "/api/jobs/1/preview.png", .authorization = f->auth_alice};
     dash_route(f->router, &png, &r);
     assert_int_equal(r.status, 200);
     assert_string_equal(r.content_type, "image/png");
     assert_int_equal(r.size, 8);
     dash_response_free(&r);
     /* Job 2 has no preview yet, job 3 does not exist. */
-    assert_int_equal(ask(f, "GET", "/api/jobs/2/preview.png", NULL, NULL, NULL), 404);
-    assert_int_equal(ask(f, "GET", "/api/jobs/3", NULL, NULL, NULL), 404);
-    assert_int_equal(ask(f, "GET", "/api/jobs/", NULL, NULL, NULL), 200); /* trailing slash */
+    assert_int_equal(ask(f, "GET", "/api/jobs/2/preview.png", f->auth_root, NULL, NULL), 404);
+    assert_int_equal(ask(f, "GET", "/api/jobs/3", f->auth_alice, NULL, NULL), 404);
+    assert_int_equal(ask(f, "GET", "/api/jobs/", f->auth_alice, NULL, NULL),
+                     200); /* trailing slash */
 }
 
 static void test_log_since(void **state)
 {
     fixture_t *f = *state;
     dash_arg_t since = {"since", "1"};
-    dash_request_t req = {.method = "GET", .path = "/api/jobs/1/log", .args = &since, .nargs = 1};
+    dash_request_t req = {.method = "GET",
+                          .path = "/api/jobs/1/log",
+                          .args = &since,
+                          .nargs = 1,
+                          .authorization = f->auth_alice};
     dash_response_t r;
     dash_route(f->router, &req, &r);
     assert_int_equal(r.status, 200);
@@ -365,6 +413,114 @@ static void test_log_since(void **state)
     }
 }
 
+/* Who reads what (docs/security.md, "The dashboard's HTTP port"). */
+static void test_reads_follow_owners(void **state)
+{
+    fixture_t *f = *state;
+    json_t *j;
+    /* Nobody: how many jobs by state, no name nor owner, and how to sign in. */
+    dash_request_t req = {.method = "GET", .path = "/api/jobs"};
+    dash_response_t r;
+    dash_route(f->router, &req, &r);
+    assert_int_equal(r.status, 200);
+    assert_false(testutil_holds(r.body, r.size, "alice"));
+    assert_false(testutil_holds(r.body, r.size, "orphan"));
+    assert_true(testutil_holds(r.body, r.size, "\"counts\":{\"running\":2}"));
+    assert_true(testutil_holds(r.body, r.size, "NAME.token"));
+    dash_response_free(&r);
+    const char *closed[] = {"/api/jobs/1",       "/api/jobs/1/preview.png",
+                            "/api/jobs/1/log",   "/api/jobs/1/tasks",
+                            "/api/jobs/1/tiles", "/api/workers",
+                            "/api/log",          "/metrics"};
+    for (size_t i = 0; i < sizeof closed / sizeof *closed; i++) {
+        if (ask(f, "GET", closed[i], NULL, NULL, NULL) != 401)
+            fail_msg("%s without a token: not 401", closed[i]);
+        /* A worker's key is not a user of the dashboard either. */
+        if (ask(f, "GET", closed[i], f->auth_worker, NULL, NULL) != 401)
+            fail_msg("%s with a worker's token: not 401", closed[i]);
+    }
+    /* bob: the figures and the workers, not alice's pixels, log or tasks. */
+    assert_int_equal(ask(f, "GET", "/api/jobs", f->auth_bob, NULL, &j), 200);
+    json_t *one = json_array_get(json_object_get(j, "jobs"), 0);
+    assert_string_equal(json_string_value(json_object_get(one, "owner")), "alice");
+    assert_true(json_is_false(json_object_get(one, "can_read")));
+    assert_true(json_is_false(json_object_get(one, "can_act")));
+    json_decref(j);
+    assert_int_equal(ask(f, "GET", "/api/jobs/1", f->auth_bob, NULL, NULL), 200);
+    assert_int_equal(ask(f, "GET", "/api/jobs/1/tiles", f->auth_bob, NULL, NULL), 200);
+    assert_int_equal(ask(f, "GET", "/api/workers", f->auth_bob, NULL, NULL), 200);
+    const char *own[] = {"/api/jobs/1/preview.png", "/api/jobs/1/log", "/api/jobs/1/tasks"};
+    for (size_t i = 0; i < sizeof own / sizeof *own; i++) {
+        assert_int_equal(ask(f, "GET", own[i], f->auth_bob, NULL, &j), 403);
+        assert_non_null(strstr(json_string_value(json_object_get(j, "error")), "'alice'"));
+        json_decref(j);
+        assert_int_equal(ask(f, "GET", own[i], f->auth_alice, NULL, NULL), 200);
+        assert_int_equal(ask(f, "GET", own[i], f->auth_root, NULL, NULL), 200);
+        assert_int_equal(ask(f, "GET", own[i], f->auth_ops, NULL, NULL), 200);
+    }
+    assert_int_equal(ask(f, "GET", "/api/jobs", f->auth_alice, NULL, &j), 200);
+    one = json_array_get(json_object_get(j, "jobs"), 0);
+    assert_true(json_is_true(json_object_get(one, "can_read")));
+    assert_true(json_is_true(json_object_get(one, "can_act")));
+    json_decref(j);
+    /* A job without an owner is an administrator's; so is the whole log. */
+    assert_int_equal(ask(f, "GET", "/api/jobs/2/log", f->auth_alice, NULL, NULL), 403);
+    assert_int_equal(ask(f, "GET", "/api/jobs/2/log", f->auth_root, NULL, NULL), 200);
+    assert_int_equal(ask(f, "GET", "/api/log", f->auth_alice, NULL, NULL), 403);
+    assert_int_equal(ask(f, "GET", "/api/log", f->auth_root, NULL, NULL), 200);
+    /* A token that is not accepted says so, rather than showing less. */
+    assert_int_equal(ask(f, "GET", "/api/jobs", "Bearer 1234", NULL, NULL), 401);
+
+    /* /metrics: any token, the scrapers' too; theirs reads nothing else and acts on nothing. */
+    req = (dash_request_t){.method = "GET", .path = "/metrics", .authorization = f->auth_scrape};
+    dash_route(f->router, &req, &r);
+    assert_int_equal(r.status, 200);
+    assert_string_equal(r.content_type, "text/plain; version=0.0.4; charset=utf-8");
+    assert_true(testutil_holds(r.body, r.size, "prismfarm_queue_depth 3"));
+    dash_response_free(&r);
+    assert_int_equal(ask(f, "GET", "/metrics", f->auth_bob, NULL, NULL), 200);
+    assert_int_equal(ask(f, "GET", "/api/jobs/1", f->auth_scrape, NULL, NULL), 403);
+    assert_int_equal(ask(f, "GET", "/api/jobs/1/log", f->auth_scrape, NULL, NULL), 403);
+    assert_int_equal(ask(f, "GET", "/api/workers", f->auth_scrape, NULL, NULL), 403);
+    assert_int_equal(ask(f, "POST", "/api/jobs/1/cancel", f->auth_scrape, NULL, NULL), 403);
+    assert_int_equal(ask(f, "POST", "/api/workers/3/blocklist", f->auth_scrape, NULL, NULL), 403);
+    assert_int_equal(f->fake.cancels + f->fake.blocks, 0);
+    assert_int_equal(ask(f, "GET", "/api/whoami", f->auth_scrape, NULL, &j), 200);
+    assert_true(json_is_true(json_object_get(j, "scraper")));
+    json_decref(j);
+}
+
+/* --dashboard-public: every read open, and said; actions as before. */
+static void test_public_reads(void **state)
+{
+    fixture_t *f = *state;
+    err_t err;
+    dash_router_config_t rc = {.check_host = true, .public_reads = true};
+    dash_router_t *open = dash_router_new(&f->p, f->auth, &rc, &err);
+    assert_non_null(open);
+    dash_router_t *keep = f->router;
+    f->router = open;
+    json_t *j;
+    assert_int_equal(ask(f, "GET", "/api/jobs", NULL, NULL, &j), 200);
+    assert_int_equal(json_array_size(json_object_get(j, "jobs")), 2);
+    assert_true(json_is_true(json_object_get(json_object_get(j, "actions"), "public_reads")));
+    json_decref(j);
+    const char *paths[] = {"/api/jobs/1/preview.png",
+                           "/api/jobs/1/log",
+                           "/api/jobs/1/tasks",
+                           "/api/jobs/2/log",
+                           "/api/workers",
+                           "/api/log",
+                           "/metrics"};
+    for (size_t i = 0; i < sizeof paths / sizeof *paths; i++)
+        if (ask(f, "GET", paths[i], NULL, NULL, NULL) != 200)
+            fail_msg("%s on a public dashboard: not 200", paths[i]);
+    assert_int_equal(ask(f, "POST", "/api/jobs/1/cancel", NULL, NULL, NULL), 401);
+    assert_int_equal(ask(f, "POST", "/api/jobs/1/cancel", f->auth_bob, NULL, NULL), 403);
+    f->router = keep;
+    dash_router_destroy(&open);
+}
+
 /* ---------------------------------------------------------------- malformed input */
 
 static void test_malformed(void **state)
@@ -373,7 +529,8 @@ static void test_malformed(void **state)
     assert_int_equal(ask(f, "GET", "/api/jobs/abc", NULL, NULL, NULL), 400);
     assert_int_equal(ask(f, "GET", "/api/jobs/-1", NULL, NULL, NULL), 400);
     assert_int_equal(ask(f, "GET", "/api/jobs/18446744073709551616", NULL, NULL, NULL), 400);
-    assert_int_equal(ask(f, "GET", "/api/jobs/18446744073709551615", NULL, NULL, NULL), 404);
+    assert_int_equal(ask(f, "GET", "/api/jobs/18446744073709551615", f->auth_alice, NULL, NULL),
+                     404);
     assert_int_equal(ask(f, "GET", "/api//jobs", NULL, NULL, NULL), 404);
     assert_int_equal(ask(f, "GET", "api/jobs", NULL, NULL, NULL), 404);
     assert_int_equal(ask(f, "GET", "/api/a/b/c/d/e/f/g/h/i", NULL, NULL, NULL), 404);
@@ -599,6 +756,8 @@ int main(void)
         cmocka_unit_test_setup_teardown(test_pages_and_reads, setup, teardown),
         cmocka_unit_test_setup_teardown(test_log_since, setup, teardown),
         cmocka_unit_test_setup_teardown(test_malformed, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_reads_follow_owners, setup, teardown),
+        cmocka_unit_test_setup_teardown(test_public_reads, setup, teardown),
         cmocka_unit_test_setup_teardown(test_actions_need_a_token, setup, teardown),
         cmocka_unit_test_setup_teardown(test_who_may_act, setup, teardown),
         cmocka_unit_test_setup_teardown(test_priority_body, setup, teardown),
