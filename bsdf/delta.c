@@ -1,7 +1,9 @@
 #include "delta.h"
 
 #include "fresnel.h"
+#include "thinfilm.h"
 
+#include <complex.h>
 #include <math.h>
 
 double delta_eta_ratio(double n, bool entering)
@@ -24,6 +26,7 @@ void delta_dielectric_make(vec3_t dir, vec3_t nrm, bool entering, const double *
     const double cos_i = -vec3_dot(dir, nrm);
     e->mode = mode;
     e->nr = count;
+    e->coated = false;
     e->reflect = fresnel_reflect(dir, nrm);
     e->ratio = delta_eta_ratio(n[0], entering);
     e->refracts = fresnel_refract(dir, nrm, e->ratio, &e->refract);
@@ -44,6 +47,35 @@ double delta_dielectric_weight(const delta_dielectric_t *e, bool reflect, double
     if (e->mode == BSDF_RADIANCE)
         return (1.0 - e->prob_reflect) * scale * e->ratio * e->ratio;
     return (1.0 - e->prob_reflect) * scale;
+}
+
+double delta_dielectric_transmit_lane(const delta_dielectric_t *e, int j, double scale)
+{
+    if (!e->coated)
+        return delta_dielectric_weight(e, false, scale);
+    if (j < 0 || j >= e->nr)
+        return 0.0;
+    if (e->mode == BSDF_RADIANCE)
+        return e->transmittance[j] * scale * e->ratio * e->ratio;
+    return e->transmittance[j] * scale;
+}
+
+void delta_dielectric_coat(delta_dielectric_t *e, vec3_t dir, vec3_t nrm, bool entering,
+                           const double *n, const double *lambda, const delta_film_t *film)
+{
+    const double cos_i = fabs(vec3_dot(dir, nrm));
+    double sum = 0.0;
+    for (int j = 0; j < e->nr; j++) {
+        const double nf = ior_eval(film->ior, lambda[j]);
+        const thinfilm_t f =
+            entering ? thinfilm_eval(cos_i, 1.0, nf, film->thickness_nm, n[j], lambda[j])
+                     : thinfilm_eval(cos_i, n[j], nf, film->thickness_nm, 1.0, lambda[j]);
+        e->reflectance[j] = thinfilm_reflectance(&f);
+        e->transmittance[j] = 1.0 - e->reflectance[j];
+        sum += e->reflectance[j];
+    }
+    e->coated = true;
+    e->prob_reflect = e->refracts ? sum / e->nr : 1.0;
 }
 
 double delta_dielectric_reflect_lane(const delta_dielectric_t *e, int j, bool chosen)
@@ -102,4 +134,13 @@ delta_conductor_t delta_conductor_make(vec3_t dir, vec3_t nrm)
 double delta_conductor_weight(const delta_conductor_t *e, double eta, double k)
 {
     return fresnel_conductor(e->cos_i, eta, k);
+}
+
+double delta_conductor_coated_weight(const delta_conductor_t *e, double eta, double k,
+                                     double lambda, const delta_film_t *film)
+{
+    const double nf = ior_eval(film->ior, lambda);
+    const thinfilm_t f =
+        thinfilm_eval(fabs(e->cos_i), 1.0, nf, film->thickness_nm, eta + I * k, lambda);
+    return thinfilm_reflectance(&f);
 }

@@ -39,6 +39,10 @@ typedef struct delta_dielectric {
     double prob_reflect; /* P_r: lane 0's Fresnel reflectance, 1 when it cannot refract */
     int nr;              /* lanes whose reflectance was computed */
     double reflectance[BSDF_MAX_LANES]; /* R_j = F(cos_i, n_j), unpolarised (fresnel.h) */
+    /* A coated interface (delta_dielectric_coat): the lanes' transmittances T_j = 1 - R_j, and
+     * P_r is the lanes' mean reflectance. */
+    bool coated;
+    double transmittance[BSDF_MAX_LANES];
 } delta_dielectric_t;
 
 /* Fills *e for lanes [0, count) with indices n (count 1 for a grey event: every lane at lane 0's
@@ -56,6 +60,30 @@ double delta_dielectric_weight(const delta_dielectric_t *e, bool reflect, double
  * direction, weighted by its own R_j -- over P_r when reflection was chosen with that
  * probability (chosen), as is when both branches are followed. */
 double delta_dielectric_reflect_lane(const delta_dielectric_t *e, int j, bool chosen);
+
+/* Lane j's factor on the refracted branch chosen with probability 1 - P_r and multiplied by
+ * scale: T_j scale (coated) or (1 - P_r) scale (bare: every lane's), times (n_i / n_t)^2 in
+ * radiance mode. */
+double delta_dielectric_transmit_lane(const delta_dielectric_t *e, int j, double scale);
+
+/* A thin-film coating (polar/thinfilm.h) on the outside of a smooth dielectric or on a
+ * conductor: thickness in nm (> 0) and the film's index model. */
+typedef struct delta_film {
+    double thickness_nm;
+    const ior_model_t *ior;
+} delta_film_t;
+
+/* Turns a bare event (delta_dielectric_make with the same count lanes) into the coated one:
+ * each lane's R_j is the film's unpolarised Airy reflectance (R_s + R_p) / 2 at wavelength
+ * lambda[j] between the outside (index 1) and the glass (n[j]), seen from the side the ray
+ * comes from, and T_j = 1 - R_j (a lossless film: what it does not reflect it transmits, so
+ * energy is conserved exactly); directions do not change (Snell's invariant n sin theta
+ * crosses the film). Interference makes R_j differ between lanes even where n does not, so the
+ * reflection is chosen with the lanes' mean reflectance P_r (1 when lane 0 cannot refract) and
+ * each lane weighed by its own R_j / P_r or T_j / (1 - P_r) (delta_dielectric_reflect_lane,
+ * delta_dielectric_transmit_lane): unbiased for every lane. */
+void delta_dielectric_coat(delta_dielectric_t *e, vec3_t dir, vec3_t nrm, bool entering,
+                           const double *n, const double *lambda, const delta_film_t *film);
 
 /* The branch a uniform u in [0, 1) chooses in proportion to its probability: reflection when
  * u < P_r. *dir is its direction, and the returned factor is every lane's (a grey event):
@@ -98,5 +126,10 @@ delta_conductor_t delta_conductor_make(vec3_t dir, vec3_t nrm);
 /* The factor of a lane whose conductor index is eta + i k: its unpolarised reflectance
  * (fresnel_conductor), the same in both modes. */
 double delta_conductor_weight(const delta_conductor_t *e, double eta, double k);
+
+/* The same under a thin-film coating at wavelength lambda: the film's unpolarised Airy
+ * reflectance over the conductor (polar/thinfilm.h with a complex substrate). */
+double delta_conductor_coated_weight(const delta_conductor_t *e, double eta, double k,
+                                     double lambda, const delta_film_t *film);
 
 #endif

@@ -450,10 +450,13 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
             if (m->kind == MATERIAL_CONDUCTOR) {
                 const delta_conductor_t e =
                     delta_conductor_make(f->dir, specular_normal(&sf, f->dir, 0.0, NULL));
+                const delta_film_t film = {m->film_thickness, &m->film_ior};
                 for (int j = 0; j < f->nl; j++) {
                     double eta, k;
                     shading_conductor_index(m, &sf, f->lambda[j], &eta, &k);
-                    f->w[j] *= delta_conductor_weight(&e, eta, k);
+                    f->w[j] *= m->film_thickness > 0.0
+                                   ? delta_conductor_coated_weight(&e, eta, k, f->lambda[j], &film)
+                                   : delta_conductor_weight(&e, eta, k);
                 }
                 f->dir = e.reflect;
             } else {
@@ -466,11 +469,28 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
                 const double n = ior_eval(&m->ior, f->lambda[0]);
                 vec3_t nrm = specular_normal(&sf, f->dir, delta_eta_ratio(n, entering), NULL);
                 delta_dielectric_t e;
-                delta_dielectric_make(f->dir, nrm, entering, &n, 1, BSDF_IMPORTANCE, &e);
-                bool reflect;
-                const double w = delta_dielectric_choose(&e, next(t), &reflect, &f->dir);
-                for (int j = 0; j < f->nl; j++)
-                    f->w[j] *= w;
+                if (m->film_thickness > 0.0) {
+                    /* A coating: every lane its own reflectance (interference), the branch
+                     * chosen with their mean, each lane weighed by its own over it. */
+                    double ns[MAX_LANES];
+                    for (int j = 0; j < f->nl; j++)
+                        ns[j] = n;
+                    delta_dielectric_make(f->dir, nrm, entering, ns, f->nl, BSDF_IMPORTANCE, &e);
+                    const delta_film_t film = {m->film_thickness, &m->film_ior};
+                    delta_dielectric_coat(&e, f->dir, nrm, entering, ns, f->lambda, &film);
+                    const bool reflect = next(t) < e.prob_reflect;
+                    const double scale = reflect ? 1.0 : 1.0 / (1.0 - e.prob_reflect);
+                    for (int j = 0; j < f->nl; j++)
+                        f->w[j] *= reflect ? delta_dielectric_reflect_lane(&e, j, true)
+                                           : delta_dielectric_transmit_lane(&e, j, scale);
+                    f->dir = reflect ? e.reflect : e.refract;
+                } else {
+                    delta_dielectric_make(f->dir, nrm, entering, &n, 1, BSDF_IMPORTANCE, &e);
+                    bool reflect;
+                    const double w = delta_dielectric_choose(&e, next(t), &reflect, &f->dir);
+                    for (int j = 0; j < f->nl; j++)
+                        f->w[j] *= w;
+                }
             }
             f->org = geometry_offset(sf.p, sf.ng, f->dir);
             f->specular++;

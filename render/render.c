@@ -765,6 +765,21 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
     const int whitted = c->rs->integrator == INTEGRATOR_WHITTED;
     /* Which medium the path is in comes from the geometric surface alone. */
     const int entering = vec3_dot(p->dir, h->ng) < 0.0;
+    const int coated = m->film_thickness > 0.0;
+    if (coated && m->dispersive && !p->mono && c->rs->dispersion == DISPERSION_FANOUT) {
+        /* A coating's reflectance varies with wavelength (interference), which the fan-out's
+         * polychrome decision at one mean index cannot carry: one lane, picked uniformly,
+         * goes on weighted by the lane count (its wavelength keeps its bucket's uniform
+         * density, as at a dispersive lens: lens_ray), and the event is the coated hero's. */
+        c->stats->dispersive++;
+        const int k = (int)fmin(p->n - 1, floor(draw1(c, VD_FAN_PICK) * p->n));
+        p->lambda[0] = p->lambda[k];
+        p->bucket[0] = p->bucket[k];
+        p->pdf[0] = p->pdf[k];
+        p->beta[0] = p->beta[k] * p->n;
+        p->n = 1;
+        p->mono = 1;
+    }
     double n[LANES];
     n[0] = ior_eval(&m->ior, p->lambda[0]);
     int shading;
@@ -782,29 +797,41 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
             c->stats->dispersive++;
             for (int j = 1; j < p->n; j++)
                 n[j] = ior_eval(&m->ior, p->lambda[j]);
+        } else if (coated) {
+            for (int j = 1; j < p->n; j++)
+                n[j] = n[0];
         }
+        /* A coating gives every lane its own reflectance (interference), dispersive or not. */
+        const int lanes = hero || coated;
         delta_dielectric_t e;
-        delta_dielectric_make(p->dir, nrm, entering, n, hero ? p->n : 1, BSDF_RADIANCE, &e);
+        delta_dielectric_make(p->dir, nrm, entering, n, lanes ? p->n : 1, BSDF_RADIANCE, &e);
+        if (coated) {
+            const delta_film_t film = {m->film_thickness, &m->film_ior};
+            delta_dielectric_coat(&e, p->dir, nrm, entering, n, p->lambda, &film);
+        }
         const double R = e.prob_reflect;
         int both = 0;
         if (whitted && R > 0.0 && R < 1.0 && c->branches < c->max_branches)
             both = push_reflection(c, p, h, e.reflect, delta_dielectric_weight(&e, true, 1.0),
-                                   hero ? &e : NULL) == 0;
+                                   lanes ? &e : NULL) == 0;
         double scale = 1.0;
         if (!both && choose_reflect(c, R, &scale)) {
             for (int j = 0; j < p->n; j++)
-                p->beta[j] *= hero ? delta_dielectric_reflect_lane(&e, j, true)
-                                   : delta_dielectric_weight(&e, true, scale);
+                p->beta[j] *= lanes ? delta_dielectric_reflect_lane(&e, j, true)
+                                    : delta_dielectric_weight(&e, true, scale);
             start_bounce(p, h, e.reflect, 1, 0.0);
             return 0;
         }
-        const double t = delta_dielectric_weight(&e, false, scale);
         if (hero) {
-            p->beta[0] *= t * p->n;
+            p->beta[0] *= delta_dielectric_transmit_lane(&e, 0, scale) * p->n;
             p->n = 1;
             p->mono = 1;
             p->dispersed = 1;
+        } else if (coated) {
+            for (int j = 0; j < p->n; j++)
+                p->beta[j] *= delta_dielectric_transmit_lane(&e, j, scale);
         } else {
+            const double t = delta_dielectric_weight(&e, false, scale);
             for (int j = 0; j < p->n; j++)
                 p->beta[j] *= t;
         }
@@ -1186,10 +1213,13 @@ static void trace(ctx_t *c, path_t *start)
             } else if (m->kind == MATERIAL_CONDUCTOR) {
                 const delta_conductor_t e =
                     delta_conductor_make(p->dir, specular_normal(&sf, p->dir, 0.0, NULL));
+                const delta_film_t film = {m->film_thickness, &m->film_ior};
                 for (int j = 0; j < p->n; j++) {
                     double eta, k;
                     shading_conductor_index(m, &sf, p->lambda[j], &eta, &k);
-                    p->beta[j] *= delta_conductor_weight(&e, eta, k);
+                    p->beta[j] *= m->film_thickness > 0.0
+                                      ? delta_conductor_coated_weight(&e, eta, k, p->lambda[j], &film)
+                                      : delta_conductor_weight(&e, eta, k);
                 }
                 start_bounce(p, &sf, e.reflect, 1, 0.0);
                 p->specular_since_diffuse++;
