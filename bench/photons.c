@@ -18,7 +18,7 @@
 #include "clock.h"
 #include "local_render.h"
 #include "pool.h"
-#include "photon.h"
+#include "photon_pass.h"
 #include "render.h"
 #include "scene_load.h"
 

@@ -20,7 +20,7 @@
  *   figures use CPU time, which moves much less than wall-clock time on a shared machine. */
 #include "local_render.h"
 #include "pool.h"
-#include "photon.h"
+#include "photon_pass.h"
 #include "render.h"
 #include "scene_load.h"
 

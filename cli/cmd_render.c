@@ -13,7 +13,7 @@
 #include "jobinfo.h"
 #include "local_farm.h"
 #include "local_render.h"
-#include "photon.h"
+#include "photon_pass.h"
 #include "pool.h"
 #include "progress.h"
 #include "scene_bundle.h"

@@ -4,7 +4,7 @@
 #include "clock.h"
 #include "error_estimate.h"
 #include "passes.h"
-#include "photon.h"
+#include "photon_pass.h"
 #include "pool.h"
 #include "tilegrid.h"
 

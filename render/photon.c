@@ -1,9 +1,6 @@
 #include "photon.h"
 
-#include "clock.h"
-#include "pool.h"
-
-#include "fresnel.h"
+#include "delta.h"
 #include "lights.h"
 #include "rng.h"
 #include "sample.h"
@@ -451,27 +448,49 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
                 return 0;
             }
             if (m->kind == MATERIAL_CONDUCTOR) {
-                vec3_t ns = specular_normal(&sf, f->dir, 0.0, NULL);
-                vec3_t n = vec3_dot(ns, f->dir) < 0.0 ? ns : vec3_neg(ns);
-                for (int j = 0; j < f->nl; j++)
-                    f->w[j] *= specular_conductor_reflectance(m, &sf, -vec3_dot(f->dir, n), f->lambda[j]);
-                f->dir = fresnel_reflect(f->dir, n);
+                const delta_conductor_t e =
+                    delta_conductor_make(f->dir, specular_normal(&sf, f->dir, 0.0, NULL));
+                const delta_film_t film = {m->film_thickness, &m->film_ior};
+                for (int j = 0; j < f->nl; j++) {
+                    double eta, k;
+                    shading_conductor_index(m, &sf, f->lambda[j], &eta, &k);
+                    f->w[j] *= m->film_thickness > 0.0
+                                   ? delta_conductor_coated_weight(&e, eta, k, f->lambda[j], &film)
+                                   : delta_conductor_weight(&e, eta, k);
+                }
+                f->dir = e.reflect;
             } else {
                 if (m->dispersive && f->nl > 1)
                     return split_flight(t, f, i, err);
                 /* Smooth glass at the photon's wavelength (all lanes alike when the glass
-                 * does not disperse): Snell and the unpolarised Fresnel reflectance R;
-                 * reflect with probability R, refract with 1 - R, so the weight stays
-                 * (R / R). Flux crossing an interface takes T alone, without the
-                 * (n_t / n_i)^2 of radiance (docs/physics.md §3.4). */
-                const int entering = vec3_dot(f->dir, sf.ng) < 0.0;
-                double n = ior_eval(&m->ior, f->lambda[0]);
-                double eta_rel = entering ? 1.0 / n : n;
-                vec3_t nrm = specular_normal(&sf, f->dir, eta_rel, NULL);
-                vec3_t refr;
-                int ok = fresnel_refract(f->dir, nrm, eta_rel, &refr);
-                double R = ok ? fresnel_dielectric(-vec3_dot(f->dir, nrm), 1.0, n) : 1.0;
-                f->dir = next(t) < R ? fresnel_reflect(f->dir, nrm) : refr;
+                 * does not disperse), in importance mode (bsdf/delta.h): reflect with
+                 * probability R, refract with 1 - R, and the flux keeps its power. */
+                const bool entering = vec3_dot(f->dir, sf.ng) < 0.0;
+                const double n = ior_eval(&m->ior, f->lambda[0]);
+                vec3_t nrm = specular_normal(&sf, f->dir, delta_eta_ratio(n, entering), NULL);
+                delta_dielectric_t e;
+                if (m->film_thickness > 0.0) {
+                    /* A coating: every lane its own reflectance (interference), the branch
+                     * chosen with their mean, each lane weighed by its own over it. */
+                    double ns[MAX_LANES];
+                    for (int j = 0; j < f->nl; j++)
+                        ns[j] = n;
+                    delta_dielectric_make(f->dir, nrm, entering, ns, f->nl, BSDF_IMPORTANCE, &e);
+                    const delta_film_t film = {m->film_thickness, &m->film_ior};
+                    delta_dielectric_coat(&e, f->dir, nrm, entering, ns, f->lambda, &film);
+                    const bool reflect = next(t) < e.prob_reflect;
+                    const double scale = reflect ? 1.0 : 1.0 / (1.0 - e.prob_reflect);
+                    for (int j = 0; j < f->nl; j++)
+                        f->w[j] *= reflect ? delta_dielectric_reflect_lane(&e, j, true)
+                                           : delta_dielectric_transmit_lane(&e, j, scale);
+                    f->dir = reflect ? e.reflect : e.refract;
+                } else {
+                    delta_dielectric_make(f->dir, nrm, entering, &n, 1, BSDF_IMPORTANCE, &e);
+                    bool reflect;
+                    const double w = delta_dielectric_choose(&e, next(t), &reflect, &f->dir);
+                    for (int j = 0; j < f->nl; j++)
+                        f->w[j] *= w;
+                }
             }
             f->org = geometry_offset(sf.p, sf.ng, f->dir);
             f->specular++;
@@ -689,96 +708,4 @@ void photon_stats_add(photon_stats_t *sum, const photon_stats_t *s)
     sum->nonfinite += s->nonfinite;
     sum->power_emitted += s->power_emitted;
     sum->power_deposited += s->power_deposited;
-}
-
-typedef struct pass_part {
-    const scene_t *scene;
-    photon_job_t job;
-    uint64_t i0, i1;
-    photon_store_t *store;
-    photon_stats_t stats;
-} pass_part_t;
-
-static int pass_trace(void *user, int k, err_t *err)
-{
-    pass_part_t *pt = &((pass_part_t *)user)[k];
-    return photon_trace(pt->scene, &pt->job, pt->i0, pt->i1, pt->store, &pt->stats, err) ? -1 : 0;
-}
-
-photon_store_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t *stats,
-                                double *seconds, err_t *err)
-{
-    const double t0 = clock_now_s();
-    const render_settings_t *rs = &scene->settings;
-    const uint64_t total = rs->photon.photons;
-    if (nthreads <= 0)
-        nthreads = pool_cores();
-    if ((uint64_t)nthreads > total)
-        nthreads = total > 0 ? (int)total : 1;
-    pass_part_t *parts = calloc((size_t)nthreads, sizeof *parts);
-    photon_store_t *store = photon_store_new(scene, err);
-    int r = parts && store ? 0 : -1;
-    if (r && store)
-        err_set(err, "out of memory");
-    for (int k = 0; !r && k < nthreads; k++) {
-        pass_part_t *pt = &parts[k];
-        pt->scene = scene;
-        pt->job = photon_job_from_settings(rs);
-        pt->i0 = total * (uint64_t)k / (uint64_t)nthreads;
-        pt->i1 = total * (uint64_t)(k + 1) / (uint64_t)nthreads;
-        if (!(pt->store = photon_store_new(scene, err)))
-            r = -1;
-    }
-    if (!r && pool_for(nthreads, nthreads, pass_trace, parts, err) != 0)
-        r = -1;
-    /* The merge in index order makes the store independent of the thread count, and equal to
-     * the farm's, which merges its batches in index order too. */
-    for (int k = 0; !r && k < nthreads; k++) {
-        r = photon_store_merge(store, parts[k].store, err);
-        if (stats && !r)
-            photon_stats_add(stats, &parts[k].stats);
-    }
-    for (int k = 0; parts && k < nthreads; k++)
-        photon_store_destroy(&parts[k].store);
-    free(parts);
-    if (!r)
-        r = photon_store_finish(store, err);
-    if (r) {
-        photon_store_destroy(&store);
-        return NULL;
-    }
-    if (seconds)
-        *seconds = clock_now_s() - t0;
-    return store;
-}
-
-int photon_batch_run(const scene_t *scene, uint64_t first, uint64_t end, uint8_t **out,
-                     size_t *out_len, photon_stats_t *stats, err_t *err)
-{
-    *out = NULL;
-    *out_len = 0;
-    photon_store_t *store = photon_store_new(scene, err);
-    if (!store)
-        return -1;
-    photon_job_t job = photon_job_from_settings(&scene->settings);
-    int r = photon_trace(scene, &job, first, end, store, stats, err);
-    if (!r)
-        r = photon_store_encode(store, out, out_len, err);
-    photon_store_destroy(&store);
-    return r;
-}
-
-photon_store_t *photon_pass_from_wire(const scene_t *scene, const uint8_t *data, size_t len,
-                                      err_t *err)
-{
-    photon_store_t *store = photon_store_decode(scene, data, len, err);
-    if (!store) {
-        err_prefix(err, "photon store: ");
-        return NULL;
-    }
-    if (photon_store_finish(store, err)) {
-        photon_store_destroy(&store);
-        return NULL;
-    }
-    return store;
 }

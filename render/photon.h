@@ -8,9 +8,10 @@
  * place with the same power whatever batch traced it, and batches concatenated in index order
  * give the same map as one batch. Deposits carry raw power: photon i of light l at wavelength
  * lambda starts with Phi_l(lambda) / (p_l * p_lambda), and the map divides by the number of
- * photons emitted only when it is queried. photon_pass_run runs a job's whole photon pass on
- * this machine; a farm worker decodes the store the master merged from every worker's batches
- * instead (photon_pass_from_wire). Either is handed to render_tile by its caller. */
+ * photons emitted only when it is queried. This is the kernel: photon_pass.h runs a job's
+ * whole photon pass (or a farm worker's batch) on this machine, photon_wire.h decodes the store
+ * the master merged from every worker's batches; either store is handed to render_tile by its
+ * caller. */
 #ifndef PRISMFARM_PHOTON_H
 #define PRISMFARM_PHOTON_H
 
@@ -80,23 +81,5 @@ int photon_trace(const scene_t *scene, const photon_job_t *job, uint64_t i0, uin
                  photon_store_t *out, photon_stats_t *stats, err_t *err);
 
 void photon_stats_add(photon_stats_t *sum, const photon_stats_t *s);
-
-/* The whole photon pass of the scene's photon integrator on this machine: photons
- * [0, settings.photon.photons) traced by nthreads threads (0: every core) in contiguous
- * ranges merged in index order, then finished. The store is the same whatever nthreads, and
- * the same as a farm's that merged batches covering the same photons in index order. */
-photon_store_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t *stats,
-                                double *seconds, err_t *err);
-
-/* A farm worker's photon batch: photons [first, end) of the scene's photon pass traced into a
- * fresh store (the scene's kind) and encoded in its wire form (*out malloc'ed), raw and
- * unnormalised, for the master to merge. Adds to *stats (may be NULL). */
-int photon_batch_run(const scene_t *scene, uint64_t first, uint64_t end, uint8_t **out,
-                     size_t *out_len, photon_stats_t *stats, err_t *err);
-
-/* The master's merged store from its wire form, decoded (strictly) and finished, for the
- * camera pass's render_tile; NULL with err if the bytes are not a store of this scene. */
-photon_store_t *photon_pass_from_wire(const scene_t *scene, const uint8_t *data, size_t len,
-                                      err_t *err);
 
 #endif

@@ -2,8 +2,8 @@
 
 #include "camera.h"
 #include "colour.h"
+#include "delta.h"
 #include "fanout.h"
-#include "fresnel.h"
 #include "lights.h"
 #include "phase_hg.h"
 #include "rng.h"
@@ -741,107 +741,109 @@ static void start_bounce(path_t *p, const surface_t *h, vec3_t dir, int specular
     p->bsdf_pdf = pdf;
 }
 
-/* Smooth dielectric. Returns 0 to continue the path, 1 when it ends (its sub-paths were
- * pushed or it carries nothing). */
+/* Pushes a copy of p on the reflected branch of a delta event (Whitted follows both branches):
+ * its lanes weighted by w (one factor) or by the hero event's per-lane factors. 0 when pushed. */
+static int push_reflection(ctx_t *c, const path_t *p, const surface_t *h, vec3_t refl, double w,
+                           const delta_dielectric_t *lanes)
+{
+    path_t r;
+    path_copy(&r, p);
+    for (int j = 0; j < r.n; j++)
+        r.beta[j] *= lanes ? delta_dielectric_reflect_lane(lanes, j, false) : w;
+    start_bounce(&r, h, refl, 1, 0.0);
+    r.depth++;
+    return push(c, &r);
+}
+
+/* Smooth dielectric: the physics is bsdf/delta.h's (radiance mode); this is the camera
+ * pass's policy for its branches -- one chosen at random, or both (Whitted), and at a
+ * dispersive interface the hero's termination of the secondaries or the thesis's fan-out.
+ * Returns 0 to continue the path, 1 when it ends (its sub-paths were pushed or it carries
+ * nothing). */
 static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const material_t *m)
 {
     const int whitted = c->rs->integrator == INTEGRATOR_WHITTED;
     /* Which medium the path is in comes from the geometric surface alone. */
     const int entering = vec3_dot(p->dir, h->ng) < 0.0;
-    const ior_model_t air = ior_constant(1.0);
-    double n_hero = ior_eval(&m->ior, p->lambda[0]);
-    int shading;
-    vec3_t nrm = specular_normal(h, p->dir, entering ? 1.0 / n_hero : n_hero, &shading);
-    const double cos_d = vec3_dot(p->dir, nrm);
-    vec3_t refl = fresnel_reflect(p->dir, nrm);
-
-    if (!m->dispersive || p->mono) {
-        /* One index for every lane: constant glass, or a path that is already monochrome. */
-        double n = n_hero;
-        double n_i = entering ? 1.0 : n, n_t = entering ? n : 1.0;
-        fresnel_terms_t f = fresnel_dielectric_terms(-cos_d, 1.0, n);
-        vec3_t refr;
-        int ok = fresnel_refract(p->dir, nrm, n_i / n_t, &refr);
-        double R = ok ? f.reflectance : 1.0;
-        if (whitted && R > 0.0 && R < 1.0 && c->branches < c->max_branches) {
-            path_t r;
-            path_copy(&r, p);
-            for (int j = 0; j < r.n; j++)
-                r.beta[j] *= R;
-            start_bounce(&r, h, refl, 1, 0.0);
-            r.depth++;
-            if (push(c, &r) == 0) {
-                double t = (1.0 - R) * (n_i / n_t) * (n_i / n_t);
-                for (int j = 0; j < p->n; j++)
-                    p->beta[j] *= t;
-                start_bounce(p, h, refr, 1, 0.0);
-                return 0;
-            }
-        }
-        double scale;
-        if (choose_reflect(c, R, &scale)) {
-            for (int j = 0; j < p->n; j++)
-                p->beta[j] *= R * scale;
-            start_bounce(p, h, refl, 1, 0.0);
-        } else {
-            double t = (1.0 - R) * scale * (n_i / n_t) * (n_i / n_t);
-            for (int j = 0; j < p->n; j++)
-                p->beta[j] *= t;
-            start_bounce(p, h, refr, 1, 0.0);
-        }
-        return 0;
-    }
-
-    c->stats->dispersive++;
-    if (c->rs->dispersion == DISPERSION_HERO) {
-        /* The hero wavelength decides. Reflection keeps every lane (its direction does not
-         * depend on wavelength), weighted by R(lambda_j)/R(hero). Refraction sends each lane
-         * its own way: the secondaries end and the hero's weight is multiplied by the lane
-         * count (pbrt-v4 TerminateSecondary), so only the hero is splatted from here on
-         * (the trap of docs/physics.md §4.5). */
-        double R[LANES];
-        vec3_t refr;
-        double n0 = n_hero;
-        double n_i = entering ? 1.0 : n0, n_t = entering ? n0 : 1.0;
-        int ok = fresnel_refract(p->dir, nrm, n_i / n_t, &refr);
-        for (int j = 0; j < p->n; j++) {
-            double n = ior_eval(&m->ior, p->lambda[j]);
-            R[j] = fresnel_dielectric(-cos_d, 1.0, n);
-        }
-        double R0 = ok ? R[0] : 1.0;
-        path_t refl_path;
-        int both = 0;
-        if (whitted && R0 > 0.0 && R0 < 1.0 && c->branches < c->max_branches) {
-            path_copy(&refl_path, p);
-            for (int j = 0; j < refl_path.n; j++)
-                refl_path.beta[j] *= R[j];
-            start_bounce(&refl_path, h, refl, 1, 0.0);
-            refl_path.depth++;
-            both = push(c, &refl_path) == 0;
-        }
-        double scale = 1.0;
-        int reflect = both ? 0 : choose_reflect(c, R0, &scale);
-        if (reflect) {
-            for (int j = 0; j < p->n; j++)
-                p->beta[j] *= R0 > 0.0 ? R[j] / R0 : 0.0;
-            start_bounce(p, h, refl, 1, 0.0);
-            return 0;
-        }
-        double t = (1.0 - R0) * scale * (n_i / n_t) * (n_i / n_t);
-        p->beta[0] *= t * p->n;
+    const int coated = m->film_thickness > 0.0;
+    if (coated && m->dispersive && !p->mono && c->rs->dispersion == DISPERSION_FANOUT) {
+        /* A coating's reflectance varies with wavelength (interference), which the fan-out's
+         * polychrome decision at one mean index cannot carry: one lane, picked uniformly,
+         * goes on weighted by the lane count (its wavelength keeps its bucket's uniform
+         * density, as at a dispersive lens: lens_ray), and the event is the coated hero's. */
+        c->stats->dispersive++;
+        const int k = (int)fmin(p->n - 1, floor(draw1(c, VD_FAN_PICK) * p->n));
+        p->lambda[0] = p->lambda[k];
+        p->bucket[0] = p->bucket[k];
+        p->pdf[0] = p->pdf[k];
+        p->beta[0] = p->beta[k] * p->n;
         p->n = 1;
         p->mono = 1;
-        p->dispersed = 1;
-        start_bounce(p, h, refr, 1, 0.0);
+    }
+    double n[LANES];
+    n[0] = ior_eval(&m->ior, p->lambda[0]);
+    int shading;
+    vec3_t nrm = specular_normal(h, p->dir, delta_eta_ratio(n[0], entering), &shading);
+
+    if (!m->dispersive || p->mono || c->rs->dispersion == DISPERSION_HERO) {
+        /* One index for every lane (constant glass, or a path that is already monochrome),
+         * or the hero wavelength deciding: reflection keeps every lane (its direction does
+         * not depend on wavelength), weighted by R(lambda_j)/R(hero); refraction sends each
+         * lane its own way, so the secondaries end and the hero's weight is multiplied by
+         * the lane count (pbrt-v4 TerminateSecondary), so only the hero is splatted from
+         * here on (the trap of docs/physics.md §4.5). */
+        const int hero = m->dispersive && !p->mono;
+        if (hero) {
+            c->stats->dispersive++;
+            for (int j = 1; j < p->n; j++)
+                n[j] = ior_eval(&m->ior, p->lambda[j]);
+        } else if (coated) {
+            for (int j = 1; j < p->n; j++)
+                n[j] = n[0];
+        }
+        /* A coating gives every lane its own reflectance (interference), dispersive or not. */
+        const int lanes = hero || coated;
+        delta_dielectric_t e;
+        delta_dielectric_make(p->dir, nrm, entering, n, lanes ? p->n : 1, BSDF_RADIANCE, &e);
+        if (coated) {
+            const delta_film_t film = {m->film_thickness, &m->film_ior};
+            delta_dielectric_coat(&e, p->dir, nrm, entering, n, p->lambda, &film);
+        }
+        const double R = e.prob_reflect;
+        int both = 0;
+        if (whitted && R > 0.0 && R < 1.0 && c->branches < c->max_branches)
+            both = push_reflection(c, p, h, e.reflect, delta_dielectric_weight(&e, true, 1.0),
+                                   lanes ? &e : NULL) == 0;
+        double scale = 1.0;
+        if (!both && choose_reflect(c, R, &scale)) {
+            for (int j = 0; j < p->n; j++)
+                p->beta[j] *= lanes ? delta_dielectric_reflect_lane(&e, j, true)
+                                    : delta_dielectric_weight(&e, true, scale);
+            start_bounce(p, h, e.reflect, 1, 0.0);
+            return 0;
+        }
+        if (hero) {
+            p->beta[0] *= delta_dielectric_transmit_lane(&e, 0, scale) * p->n;
+            p->n = 1;
+            p->mono = 1;
+            p->dispersed = 1;
+        } else if (coated) {
+            for (int j = 0; j < p->n; j++)
+                p->beta[j] *= delta_dielectric_transmit_lane(&e, j, scale);
+        } else {
+            const double t = delta_dielectric_weight(&e, false, scale);
+            for (int j = 0; j < p->n; j++)
+                p->beta[j] *= t;
+        }
+        start_bounce(p, h, e.refract, 1, 0.0);
         return 0;
     }
 
     /* The thesis's fan-out over the framebuffer buckets (5.3-5.4). */
+    c->stats->dispersive++;
     const int nb = p->n;
     double centres[LANES], ones[LANES], lam[LANES];
     fanout_sample_t split[LANES];
-    fanout_ray_t rays[LANES];
-    fanout_poly_t poly;
     for (int i = 0; i < nb; i++) {
         centres[i] = p->lambda[i];
         ones[i] = 1.0;
@@ -851,48 +853,37 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
         return 1;
     for (int i = 0; i < nb; i++)
         lam[i] = split[i].lambda_nm;
-    /* nrm is outward, so air is always the outside medium. The monochrome rays refract at
-     * slightly different angles: if one of them would cross the geometric surface the wrong
-     * way with the shading normal, the whole fan uses the geometric normal. */
-    if (fanout_refract(&air, &m->ior, p->dir, nrm, lam, nb, rays, &poly, NULL))
+    /* The monochrome rays refract at slightly different angles: if one of them would cross
+     * the geometric surface the wrong way with the shading normal, the whole fan uses the
+     * geometric normal (specular_normal's rule). */
+    delta_fan_t fan;
+    if (delta_fan_make(p->dir, nrm, &m->ior, lam, nb, BSDF_RADIANCE, &fan))
         return 1;
     if (shading) {
         double cg = vec3_dot(p->dir, h->ng);
         int bad = 0;
         for (int i = 0; i < nb; i++)
-            bad |= !rays[i].tir && vec3_dot(rays[i].dir, h->ng) * cg <= 0.0;
-        if (bad) {
-            nrm = h->ng;
-            refl = fresnel_reflect(p->dir, nrm);
-            if (fanout_refract(&air, &m->ior, p->dir, nrm, lam, nb, rays, &poly, NULL))
-                return 1;
-        }
+            bad |= !fan.rays[i].tir && vec3_dot(fan.rays[i].dir, h->ng) * cg <= 0.0;
+        if (bad && delta_fan_make(p->dir, h->ng, &m->ior, lam, nb, BSDF_RADIANCE, &fan))
+            return 1;
     }
-    double RP = poly.reflectance, TP = poly.transmittance;
+    double RP = fan.poly.reflectance, TP = fan.poly.transmittance;
     int both = 0;
-    if (whitted && RP > 0.0 && RP < 1.0 && c->branches < c->max_branches) {
-        path_t r;
-        path_copy(&r, p);
-        for (int j = 0; j < r.n; j++)
-            r.beta[j] *= RP;
-        start_bounce(&r, h, refl, 1, 0.0);
-        r.depth++;
-        both = push(c, &r) == 0;
-    }
+    if (whitted && RP > 0.0 && RP < 1.0 && c->branches < c->max_branches)
+        both = push_reflection(c, p, h, fan.reflect, RP, NULL) == 0;
     double scale = 1.0;
     int reflect = both ? 0 : choose_reflect(c, RP, &scale);
     if (reflect) {
         for (int j = 0; j < p->n; j++)
             p->beta[j] *= RP * scale;
-        start_bounce(p, h, refl, 1, 0.0);
+        start_bounce(p, h, fan.reflect, 1, 0.0);
         return 0;
     }
     if (!(TP > 0.0))
         return 1;
     /* Refraction of the polychrome ray: monochrome ray i carries bucket i's energy split
-     * (1-|S|, |S|) with its neighbour, with the Fresnel weight k t_i of eq. 5.3, scaled so
-     * that the weights average T_P (fanout.h); the reflect-or-refract choice already
-     * divided by (1 - R_P).
+     * (1-|S|, |S|) with its neighbour, with the Fresnel weight of delta_fan_weight; the
+     * reflect-or-refract choice already divided by (1 - R_P).
      * All N rays are followed at the path's first dispersive refraction; at later ones (or
      * if the branch stack is too full) one ray, chosen uniformly and weighted by N. */
     int pick = -1;
@@ -905,10 +896,9 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
     path_copy(&base, p);
     int have_current = 0;
     for (int i = 0; i < nb; i++) {
-        if ((pick >= 0 && i != pick) || rays[i].tir || !(rays[i].transmittance > 0.0))
+        if ((pick >= 0 && i != pick) || fan.rays[i].tir || !(fan.rays[i].transmittance > 0.0))
             continue;
-        double ratio = rays[i].n_incident / rays[i].n_transmitted;
-        double w = rays[i].transmittance * scale * pick_scale * ratio * ratio;
+        double w = delta_fan_weight(&fan, i, scale, pick_scale);
         path_t *q = have_current ? &c->stack[c->top++] : p;
         memcpy(q, &base, offsetof(path_t, lambda));
         q->n = 2;
@@ -920,7 +910,7 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
         q->pdf[0] = q->pdf[1] = 1.0;
         q->mono = 1;
         q->dispersed = 1;
-        start_bounce(q, h, rays[i].dir, 1, 0.0);
+        start_bounce(q, h, fan.rays[i].dir, 1, 0.0);
         if (have_current)
             q->depth++; /* the caller counts the current path's bounce */
         have_current = 1;
@@ -1221,12 +1211,17 @@ static void trace(ctx_t *c, path_t *start)
                 if (scatter_bsdf(c, p, &sf, m))
                     break;
             } else if (m->kind == MATERIAL_CONDUCTOR) {
-                vec3_t ns = specular_normal(&sf, p->dir, 0.0, NULL);
-                vec3_t n = vec3_dot(ns, wo) >= 0.0 ? ns : vec3_neg(ns);
-                double cos_i = vec3_dot(wo, n);
-                for (int j = 0; j < p->n; j++)
-                    p->beta[j] *= specular_conductor_reflectance(m, &sf, cos_i, p->lambda[j]);
-                start_bounce(p, &sf, fresnel_reflect(p->dir, n), 1, 0.0);
+                const delta_conductor_t e =
+                    delta_conductor_make(p->dir, specular_normal(&sf, p->dir, 0.0, NULL));
+                const delta_film_t film = {m->film_thickness, &m->film_ior};
+                for (int j = 0; j < p->n; j++) {
+                    double eta, k;
+                    shading_conductor_index(m, &sf, p->lambda[j], &eta, &k);
+                    p->beta[j] *= m->film_thickness > 0.0
+                                      ? delta_conductor_coated_weight(&e, eta, k, p->lambda[j], &film)
+                                      : delta_conductor_weight(&e, eta, k);
+                }
+                start_bounce(p, &sf, e.reflect, 1, 0.0);
                 p->specular_since_diffuse++;
             } else {
                 /* Counted before the event, so that the branches it pushes carry it too. */

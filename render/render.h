@@ -22,7 +22,7 @@ typedef struct render_stats {
 
 /* Renders pixels [x0, x0+w) x [y0, y0+h) for sample indices [sample_begin, sample_end) into
  * out, which must cover that rectangle and have scene->settings.grid.n buckets. photons is the
- * finished caustic store of the scene's photon pass (photon.h: photon_pass_run on this machine,
+ * finished caustic store of the scene's photon pass (photon_pass.h: photon_pass_run on this machine,
  * or the farm's merged store), required when settings.photon.enabled and ignored otherwise.
  * Adds to *stats (which may be NULL). */
 int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int y0, int w, int h,

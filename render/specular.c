@@ -1,7 +1,6 @@
 #include "specular.h"
 
 #include "fresnel.h"
-#include "shading.h"
 
 #include <math.h>
 
@@ -24,12 +23,4 @@ vec3_t specular_normal(const surface_t *sf, vec3_t dir, double eta_rel, int *sha
     if (shading)
         *shading = 1;
     return sf->ns;
-}
-
-double specular_conductor_reflectance(const material_t *m, const surface_t *sf, double cos_i,
-                                      double lambda)
-{
-    double eta, k;
-    shading_conductor_index(m, sf, lambda, &eta, &k);
-    return fresnel_conductor(cos_i, eta, k);
 }

@@ -1,7 +1,7 @@
-/* specular: mirrors and smooth glass as both the camera pass (render.c) and the photon pass
- * (photon.c) see them, so that light follows the same specular chains in both directions:
- * which normal a specular event uses (shading or geometric) and a conductor's reflectance.
- * Pure functions of the surface and the direction. */
+/* specular: which normal a mirror or smooth-glass event uses (shading or geometric), the same
+ * rule for the camera pass (render.c) and the photon pass (photon.c), so that light follows the
+ * same specular chains in both directions. The events' physics is bsdf/delta.h's. A pure
+ * function of the surface and the direction. */
 #ifndef PRISMFARM_SPECULAR_H
 #define PRISMFARM_SPECULAR_H
 
@@ -18,10 +18,5 @@
  * 0 for a mirror. Both normals are outward. *shading (may be NULL) says whether the shading
  * normal was chosen. */
 vec3_t specular_normal(const surface_t *sf, vec3_t dir, double eta_rel, int *shading);
-
-/* Reflectance of a smooth conductor material at lambda for incidence cosine cos_i: the
- * complex Fresnel term (fresnel_conductor) of its index, shading_conductor_index. */
-double specular_conductor_reflectance(const material_t *m, const surface_t *sf, double cos_i,
-                                      double lambda);
 
 #endif

@@ -84,6 +84,11 @@ typedef struct material {
      * shading_perturb): a float displacement texture, or a tangent-space normal map
      * (texture_new_normalmap), which wins when both are given, as in pbrt-v4. NULL: none. */
     const texture_t *displacement, *normalmap;
+    /* A thin-film coating on a smooth dielectric or conductor (bsdf/delta.h, docs/physics.md
+     * §13): its thickness in nm (0, the default: no coating) and its index. Not read from
+     * scene files yet (the parser's parameters are still to be added). */
+    double film_thickness;
+    ior_model_t film_ior;
 } material_t;
 
 typedef enum light_kind {

@@ -1,7 +1,7 @@
 #include "render_threads.h"
 
 #include "clock.h"
-#include "photon.h"
+#include "photon_pass.h"
 #include "render.h"
 #include "worker_state.h"
 

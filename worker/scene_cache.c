@@ -1,6 +1,6 @@
 #include "scene_cache.h"
 
-#include "photon.h"
+#include "photon_wire.h"
 #include "settings.h"
 
 #include <stdio.h>

@@ -11,7 +11,7 @@
 
 #include "glass.h"
 #include "pbrt_parser.h"
-#include "photon.h"
+#include "photon_pass.h"
 #include "render.h"
 #include "scene.h"
 #include "scene_load.h"

@@ -27,7 +27,7 @@
 #include "files_testutil.h"
 #include "glass.h"
 #include "lightmap.h"
-#include "photon.h"
+#include "photon_pass.h"
 #include "render.h"
 #include "scene.h"
 #include "scene_builders.h"

@@ -19,7 +19,7 @@
 #include "fresnel.h"
 #include "glass.h"
 #include "pbrt_parser.h"
-#include "photon.h"
+#include "photon_pass.h"
 #include "scene.h"
 #include "scene_builders.h"
 #include "scene_load.h"

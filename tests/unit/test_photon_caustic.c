@@ -17,7 +17,7 @@
 #include <string.h>
 
 #include "colour.h"
-#include "photon.h"
+#include "photon_pass.h"
 #include "render.h"
 #include "scene.h"
 #include "scene_builders.h"

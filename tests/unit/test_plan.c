@@ -13,7 +13,7 @@
 #include "files_testutil.h"
 
 #include "pbrt_parser.h"
-#include "photon.h"
+#include "photon_pass.h"
 #include "plan.h"
 #include "render.h"
 #include "scene_load.h"
