@@ -15,9 +15,10 @@ static const struct {
     {"halton", SAMPLER_HALTON, NULL},
     {"stratified", SAMPLER_STRATIFIED, NULL},
     {"independent", SAMPLER_INDEPENDENT, NULL},
-    {"sobol", SAMPLER_ZSOBOL,
+    {"sobol", SAMPLER_SOBOL,
      "Sampler \"sobol\" (one Sobol sequence over the whole image) is rendered as \"zsobol\": "
-     "the same Owen-scrambled Sobol points, each pixel's taken in Morton order"},
+     "the same Owen-scrambled Sobol points, each pixel's taken in Morton order (the position "
+     "in the pixel, as pbrt-v4's, independent of the seed)"},
     {"pmj02bn", SAMPLER_PADDEDSOBOL,
      "Sampler \"pmj02bn\" is rendered as \"paddedsobol\": each pair of dimensions is a (0,2) "
      "net over the pixel's samples as with pmj02bn, without its blue-noise selection"},
@@ -82,7 +83,7 @@ sampler_t sampler_start(const sampler_setup_t *setup, int x, int y, int full_w, 
                    .pixel = (uint64_t)y * (uint64_t)full_w + (uint64_t)x,
                    .epoch = L >= 32 ? 0 : s >> L,
                    .sample = s};
-    if (setup->kind == SAMPLER_ZSOBOL)
+    if (setup->kind == SAMPLER_ZSOBOL || setup->kind == SAMPLER_SOBOL)
         r.morton = (morton2((uint32_t)x, (uint32_t)y) << L) | low;
     return r;
 }
@@ -165,11 +166,17 @@ static uint64_t zsobol_index(const sampler_t *s, uint32_t dim, uint64_t salt)
     return out;
 }
 
-/* The salt of one dimension of one sample: the job's seed, the dimension and the epoch
- * (sample bits above the block), and for the per-pixel kinds the pixel. */
+/* The key that takes the seed's place in the pixel dimensions of the kinds that keep them
+ * fixed (SAMPLER_PIXEL_DIMS). */
+static const uint64_t PIXEL_DIMS_KEY = 0x5DEECE66Dull;
+
+/* The salt of one dimension of one sample: the job's seed (or PIXEL_DIMS_KEY), the dimension
+ * and the epoch (sample bits above the block), and for the per-pixel kinds the pixel. */
 static uint64_t salt_of(const sampler_t *s, uint32_t dim, int per_pixel)
 {
-    uint64_t h = lowdisc_hash(s->setup->seed, dim);
+    const sampler_kind_t kind = s->setup->kind;
+    const int fixed = dim < SAMPLER_PIXEL_DIMS && (kind == SAMPLER_HALTON || kind == SAMPLER_SOBOL);
+    uint64_t h = lowdisc_hash(fixed ? PIXEL_DIMS_KEY : s->setup->seed, dim);
     if (per_pixel)
         h = lowdisc_hash(h, s->pixel);
     if (s->epoch)
@@ -182,7 +189,7 @@ static uint64_t salt_of(const sampler_t *s, uint32_t dim, int per_pixel)
 static uint32_t sobol_index(const sampler_t *s, uint32_t dim, uint32_t seeds[2])
 {
     const sampler_setup_t *st = s->setup;
-    if (st->kind == SAMPLER_ZSOBOL) {
+    if (st->kind == SAMPLER_ZSOBOL || st->kind == SAMPLER_SOBOL) {
         const uint64_t salt = salt_of(s, dim, 0);
         const uint64_t h = lowdisc_hash(salt, 1);
         seeds[0] = (uint32_t)h;
@@ -214,15 +221,22 @@ double sampler_1d(const sampler_t *s, uint32_t dim)
     const sampler_setup_t *st = s->setup;
     switch (st->kind) {
     case SAMPLER_ZSOBOL:
+    case SAMPLER_SOBOL:
     case SAMPLER_PADDEDSOBOL: {
         uint32_t seeds[2];
         const uint32_t i = sobol_index(s, dim, seeds);
         return lowdisc_unit(lowdisc_owen_sobol(i, 0, seeds[0]));
     }
-    case SAMPLER_HALTON:
-        if (dim < LOWDISC_PRIMES)
-            return lowdisc_halton(s->sample, lowdisc_prime((int)dim), salt_of(s, dim, 1));
-        break;
+    case SAMPLER_HALTON: {
+        /* A 1D draw as paddedsobol's: an Owen-scrambled (0,1)-sequence over the pixel's
+         * samples, each pixel and dimension shuffling the sample index. The radical inverse
+         * in the dimension's prime stratifies a pixel's 2^k samples only as far as the prime's
+         * powers divide them (64 samples in base 5: strata of 1/25 hold 2 or 3); base 2 puts
+         * one sample in each 1/2^k. The 2D draws keep their pair of primes. */
+        uint32_t seeds[2];
+        const uint32_t i = sobol_index(s, dim, seeds);
+        return lowdisc_unit(lowdisc_owen_sobol(i, 0, seeds[0]));
+    }
     case SAMPLER_STRATIFIED:
         if (s->sample < st->spp)
             return stratum(s, dim, st->spp, s->sample, salt_of(s, dim, 1));
@@ -249,6 +263,7 @@ void sampler_2d(const sampler_t *s, uint32_t dim, double out[2])
     const sampler_setup_t *st = s->setup;
     switch (st->kind) {
     case SAMPLER_ZSOBOL:
+    case SAMPLER_SOBOL:
     case SAMPLER_PADDEDSOBOL: {
         uint32_t seeds[2];
         const uint32_t i = sobol_index(s, dim, seeds);

@@ -14,10 +14,22 @@
 typedef enum sampler_kind {
     SAMPLER_ZSOBOL,      /* Morton-ordered, Owen-scrambled Sobol (Ahmed and Wonka 2020) */
     SAMPLER_PADDEDSOBOL, /* per dimension an Owen-scrambled (0,2)-sequence over the samples */
-    SAMPLER_HALTON,      /* per pixel, Owen-scrambled radical inverses */
+    SAMPLER_HALTON,      /* 2D draws: per pixel Owen-scrambled radical inverses in two primes;
+                          * 1D draws: paddedsobol's (one sample per 1/2^k); pixel position
+                          * fixed (SAMPLER_PIXEL_DIMS) */
     SAMPLER_STRATIFIED,  /* per dimension permuted jittered strata */
     SAMPLER_INDEPENDENT, /* Philox, every number independent */
+    SAMPLER_SOBOL,       /* zsobol's numbers, the pixel position's independent of the seed */
 } sampler_kind_t;
+
+/* Dimensions 0 and 1 are the position in the pixel (a render's first 2D draw). pbrt-v4's
+ * "halton" and "sobol" samplers do not randomise them (HaltonSampler::GetPixel2D and
+ * SobolSampler::GetPixel2D take the unscrambled sequence): the seed changes every other
+ * dimension but not where a pixel's samples lie. SAMPLER_HALTON and SAMPLER_SOBOL do the same:
+ * their pixel dimensions are scrambled per pixel by a fixed key instead of the seed, so a
+ * pixel's antialiasing error is the same for every seed (a fixed pattern that the spread
+ * between seeds does not show, as with pbrt-v4's). */
+#define SAMPLER_PIXEL_DIMS 2u
 
 /* The kind that pbrt-v4's sampler name (as in `Sampler "name"`) gets here; NULL or "" is
  * zsobol, pbrt-v4's default. Returns 0, or -1 for an unknown name. When the name has no

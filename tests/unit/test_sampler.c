@@ -18,8 +18,8 @@
 #include "sampler.h"
 #include "scene_builders.h"
 
-static const sampler_kind_t KINDS[] = {SAMPLER_ZSOBOL, SAMPLER_PADDEDSOBOL, SAMPLER_HALTON,
-                                       SAMPLER_STRATIFIED, SAMPLER_INDEPENDENT};
+static const sampler_kind_t KINDS[] = {SAMPLER_ZSOBOL,     SAMPLER_PADDEDSOBOL, SAMPLER_HALTON,
+                                       SAMPLER_STRATIFIED, SAMPLER_INDEPENDENT, SAMPLER_SOBOL};
 #define NKINDS (sizeof KINDS / sizeof KINDS[0])
 
 /* Sobol's second dimension from Joe and Kuo's direction numbers (m_1 = 1, m_2 = 3, m_3 = 5:
@@ -63,8 +63,8 @@ static void test_02_net_per_pixel(void **state)
 {
     (void)state;
     static double p[1 << 12][2];
-    const sampler_kind_t sobols[] = {SAMPLER_ZSOBOL, SAMPLER_PADDEDSOBOL};
-    for (int k = 0; k < 2; k++)
+    const sampler_kind_t sobols[] = {SAMPLER_ZSOBOL, SAMPLER_PADDEDSOBOL, SAMPLER_SOBOL};
+    for (int k = 0; k < 3; k++)
         for (int m = 0; m <= 9; m++) { /* odd m too: zsobol's binary last digit */
             const uint32_t spp = 1u << m;
             for (uint64_t seed = 0; seed < 3; seed++) {
@@ -152,7 +152,8 @@ static void test_permute_is_a_permutation(void **state)
 
 /* A value is a function of (setup, pixel, sample, dimension) only: the same bits whatever
  * was drawn before, in which order, with or without a pixel cache, read as 1D or as half of a
- * 2D draw (the stratified kind's 2D grid excepted: its 2D draw is its own layout). */
+ * 2D draw (the stratified kind's 2D grid and halton's pairs of primes excepted: their 2D draws
+ * are a layout of their own). */
 static void test_pure_function(void **state)
 {
     (void)state;
@@ -182,9 +183,9 @@ static void test_pure_function(void **state)
         sampler_t c = sampler_start(&st, 123, 45, 300, 3);
         double u[2];
         sampler_2d(&c, 10, u);
-        if (KINDS[k] != SAMPLER_STRATIFIED)
+        if (KINDS[k] != SAMPLER_STRATIFIED && KINDS[k] != SAMPLER_HALTON)
             assert_true(u[0] == first[3][10]);
-        if (KINDS[k] == SAMPLER_HALTON || KINDS[k] == SAMPLER_INDEPENDENT)
+        if (KINDS[k] == SAMPLER_INDEPENDENT)
             assert_true(u[1] == first[3][11]);
         /* A separate setup with equal contents gives the same numbers. */
         sampler_setup_t st2 = sampler_setup_make(KINDS[k], 5, 64, 300, 200);
@@ -193,7 +194,13 @@ static void test_pure_function(void **state)
     }
 }
 
-/* Different seeds and different dimensions give different sequences, for every kind. */
+static int pixel_dims_fixed(sampler_kind_t kind)
+{
+    return kind == SAMPLER_HALTON || kind == SAMPLER_SOBOL;
+}
+
+/* Different seeds and different dimensions give different sequences, for every kind (past
+ * the pixel dimensions where halton and sobol keep them: test_pixel_dims). */
 static void test_scrambles_differ(void **state)
 {
     (void)state;
@@ -201,7 +208,7 @@ static void test_scrambles_differ(void **state)
         sampler_setup_t a = sampler_setup_make(KINDS[k], 1, 16, 64, 64);
         sampler_setup_t b = sampler_setup_make(KINDS[k], 2, 16, 64, 64);
         int same_seed = 0, same_dim = 0, same_pixel = 0;
-        for (uint32_t d = 0; d < 20; d++)
+        for (uint32_t d = pixel_dims_fixed(KINDS[k]) ? SAMPLER_PIXEL_DIMS : 0; d < 20; d++)
             for (uint32_t s = 0; s < 16; s++) {
                 sampler_t x = sampler_start(&a, 3, 4, 64, s), y = sampler_start(&b, 3, 4, 64, s);
                 sampler_t z = sampler_start(&a, 4, 4, 64, s);
@@ -214,6 +221,55 @@ static void test_scrambles_differ(void **state)
             fail_msg("%s: %d values equal across seeds, %d across dimensions, %d across pixels",
                      sampler_kind_name(KINDS[k]), same_seed, same_dim, same_pixel);
     }
+}
+
+/* pbrt-v4's "halton" and "sobol" place a pixel's samples independently of the seed
+ * (GetPixel2D); so do SAMPLER_HALTON and SAMPLER_SOBOL: the pixel dimensions are the same bits
+ * for every seed, yet differ from pixel to pixel, and the other kinds change them with the
+ * seed. */
+static void test_pixel_dims(void **state)
+{
+    (void)state;
+    for (size_t k = 0; k < NKINDS; k++) {
+        sampler_setup_t a = sampler_setup_make(KINDS[k], 1, 16, 64, 64);
+        sampler_setup_t b = sampler_setup_make(KINDS[k], 2, 16, 64, 64);
+        int same_seed = 0, same_pixel = 0;
+        for (uint32_t s = 0; s < 16; s++) {
+            sampler_t x = sampler_start(&a, 3, 4, 64, s), y = sampler_start(&b, 3, 4, 64, s);
+            sampler_t z = sampler_start(&a, 4, 4, 64, s);
+            double u[2], v[2], w[2];
+            sampler_2d(&x, 0, u);
+            sampler_2d(&y, 0, v);
+            sampler_2d(&z, 0, w);
+            same_seed += (u[0] == v[0]) + (u[1] == v[1]);
+            same_pixel += (u[0] == w[0]) + (u[1] == w[1]);
+        }
+        if (pixel_dims_fixed(KINDS[k]) ? same_seed != 32 : same_seed != 0)
+            fail_msg("%s: %d of 32 pixel numbers equal across seeds", sampler_kind_name(KINDS[k]),
+                     same_seed);
+        if (same_pixel > 2)
+            fail_msg("%s: %d of 32 pixel numbers equal across pixels", sampler_kind_name(KINDS[k]),
+                     same_pixel);
+    }
+}
+
+/* halton's 1D draws put one of a pixel's 2^k samples in each interval of 1/2^k (base 2, the
+ * index shuffled per pixel and dimension), for every dimension, seed and pixel. */
+static void test_halton_1d_strata(void **state)
+{
+    (void)state;
+    static unsigned char seen[256];
+    for (uint32_t spp = 1; spp <= 256; spp *= 4)
+        for (uint64_t seed = 1; seed < 4; seed++) {
+            sampler_setup_t st = sampler_setup_make(SAMPLER_HALTON, seed, spp, 50, 40);
+            for (uint32_t d = 0; d < 30; d += 3) {
+                memset(seen, 0, sizeof seen);
+                for (uint32_t s = 0; s < spp; s++) {
+                    sampler_t smp = sampler_start(&st, 17, (int)seed * 9, 50, s);
+                    assert_int_equal(seen[(uint32_t)(sampler_1d(&smp, d) * spp)]++, 0);
+                }
+            }
+        }
 }
 
 /* Every kind's numbers are uniform on [0, 1): mean 1/2 and variance 1/12 over many samples of
@@ -289,7 +345,7 @@ static void test_names(void **state)
                  {"halton", SAMPLER_HALTON, 0},
                  {"stratified", SAMPLER_STRATIFIED, 0},
                  {"independent", SAMPLER_INDEPENDENT, 0},
-                 {"sobol", SAMPLER_ZSOBOL, 1},
+                 {"sobol", SAMPLER_SOBOL, 1},
                  {"pmj02bn", SAMPLER_PADDEDSOBOL, 1}};
     for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         sampler_kind_t k;
@@ -314,7 +370,7 @@ static void test_scene_sampler(void **state)
 {
     (void)state;
     const char *names[] = {"halton", "pmj02bn", "sobol", NULL};
-    const sampler_kind_t kinds[] = {SAMPLER_HALTON, SAMPLER_PADDEDSOBOL, SAMPLER_ZSOBOL,
+    const sampler_kind_t kinds[] = {SAMPLER_HALTON, SAMPLER_PADDEDSOBOL, SAMPLER_SOBOL,
                                     SAMPLER_ZSOBOL};
     for (int i = 0; i < 4; i++) {
         char text[256];
@@ -342,6 +398,8 @@ int main(void)
         cmocka_unit_test(test_permute_is_a_permutation),
         cmocka_unit_test(test_pure_function),
         cmocka_unit_test(test_scrambles_differ),
+        cmocka_unit_test(test_pixel_dims),
+        cmocka_unit_test(test_halton_1d_strata),
         cmocka_unit_test(test_uniform),
         cmocka_unit_test(test_index_sequence),
         cmocka_unit_test(test_names),
