@@ -255,9 +255,9 @@ static int submit_scenes(const frame_list_t *fr, const char *master, const char 
     proto_job_info_t last;
     char error[600];
     int state = job_follow_wait(rpc, job, quiet, &last, error, sizeof error);
-    if (state != PROTO_JOB_DONE) {
+    if (state != JOB_DONE) {
         fprintf(stderr, "prismfarm submit: job %llu %s%s%s\n", (unsigned long long)job,
-                state < 0 ? "lost" : proto_job_state_name((proto_job_state_t)state), error[0] ? ": " : "", error);
+                state < 0 ? "lost" : proto_job_state_name((job_state_t)state), error[0] ? ": " : "", error);
         rc = 1;
         goto out;
     }

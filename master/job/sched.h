@@ -22,6 +22,7 @@
 
 #include "err.h"
 #include "passes.h"
+#include "proto.h"
 #include "spectral_grid.h"
 #include "tilebuf.h"
 
@@ -49,7 +50,9 @@ typedef struct sched_config {
 
 sched_config_t sched_config_default(void);
 
-typedef enum job_state { JOB_QUEUED, JOB_RUNNING, JOB_DONE, JOB_FAILED, JOB_CANCELLED } job_state_t;
+/* A job's state is the protocol's job_state_t (proto.h), the one enum of the master, the
+ * journal, the wire and the dashboard; the scheduler uses JOB_QUEUED .. JOB_CANCELLED and keeps
+ * a pause as a flag (JOB_PAUSED is how the wire shows a paused job that is not over). */
 
 /* Task ids of photon batches: SCHED_PHOTON_TASK | batch; camera tasks are pass * ntiles + tile
  * and stay below it. */
@@ -271,6 +274,5 @@ typedef struct sched_event {
  * the events lost since the last call because more than 4096 waited. */
 size_t sched_events_take(sched_t *self, sched_event_t *out, size_t max, uint64_t *dropped);
 
-const char *job_state_name(job_state_t s);
 
 #endif

@@ -56,7 +56,7 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
     const proto_tile_result_t *r = &msg->result.tile;
     uint64_t job = msg->result.job, task = msg->result.task;
     uint32_t attempt = msg->result.attempt;
-    mjob_t *j = jobs_find(m, job);
+    job_t *j = jobs_find(m, job);
     if (!j) {
         master_log(m, "worker %llu sent a result for job %llu, which does not exist",
                    (unsigned long long)w->id, (unsigned long long)job);
@@ -103,7 +103,7 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
 
 static void on_task_failed(master_t *m, mworker_t *w, const proto_msg_t *msg, double now)
 {
-    mjob_t *j = jobs_find(m, msg->task_failed.job);
+    job_t *j = jobs_find(m, msg->task_failed.job);
     if (!j || !j->sched.known || msg->task_failed.task >> 32 != j->sched.round)
         return;
     char label[PROTO_TASK_LABEL_MAX];
@@ -137,7 +137,7 @@ static void on_scene_request(master_t *m, mworker_t *w, const proto_msg_t *msg)
 static void on_store_request(master_t *m, mworker_t *w, const proto_msg_t *msg)
 {
     for (size_t i = 0; i < m->njobs; i++) {
-        mjob_t *j = m->jobs[i];
+        job_t *j = m->jobs[i];
         if (!j->photons.phase || !j->photons.store_ready ||
             strcmp(j->photons.store, msg->store_request.store) != 0)
             continue;

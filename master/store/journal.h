@@ -40,7 +40,7 @@ typedef struct journal_job {
     char *name, *hash, *main; /* the client's name, the bundle's hash and main file */
     proto_settings_t settings;  /* integrator / dispersion point into the strings below */
     char integrator[65], dispersion[65];
-    int state;   /* job_state_t */
+    job_state_t state;
     char *error; /* NULL unless failed */
     uint32_t round;          /* refinements so far (task ids carry it) */
     uint32_t photon_base;    /* the round's first batch in the photon phase */
