@@ -117,6 +117,10 @@ static void merge_refused(master_t *m, const job_t *j, const merge_source_t *src
                (unsigned long long)src->id, src->name,
                src->key && src->key[0] ? src->key : "none: no CURVE", (unsigned long long)j->id,
                label, why->msg);
+    /* A strike in its row: a worker that sends refused results and nothing else is blocked
+     * (finding 6 of issue 26: hundreds of them were never cut off). */
+    if (!src->replay)
+        sched_worker_strike(m->sched, src->id);
 }
 
 void merge_photon_phase_done(master_t *m, job_t *j)

@@ -598,11 +598,9 @@ void sched_worker_seen(sched_t *self, uint64_t id, double now)
         w->last_seen = now;
 }
 
-void sched_worker_leave(sched_t *self, uint64_t id)
+/* Every task the worker runs back to the queue, each with a SCHED_EV_REQUEUED_LOST event. */
+static void requeue_worker_tasks(sched_t *self, uint64_t id)
 {
-    worker_t *w = find_worker(self, id);
-    if (!w)
-        return;
     for (size_t k = 0; k < self->njobs; k++) {
         sched_job_t *j = self->jobs[k];
         for (uint32_t i = 0; i < (uint32_t)(j->ntiles * j->npasses); i++)
@@ -617,9 +615,69 @@ void sched_worker_leave(sched_t *self, uint64_t id)
                      j->ptasks[b].attempt, id);
             }
     }
+}
+
+void sched_worker_leave(sched_t *self, uint64_t id)
+{
+    worker_t *w = find_worker(self, id);
+    if (!w)
+        return;
+    requeue_worker_tasks(self, id);
     self->idle_threads -= idle_of(w);
     w->alive = false;
     w->busy = 0;
+}
+
+/* One more strike in the worker's row (a failed task, a refused result, a task that expired or
+ * that it abandoned by joining again): at max_worker_failures_in_row it is blocked from every
+ * job and what it runs goes back to the queue at once (it would not come back). job and task
+ * name the last one, for the event (0: none). */
+static void strike(sched_t *self, worker_t *w, uint64_t job, uint32_t task, uint32_t attempt)
+{
+    if (w->blocked || self->cfg.max_worker_failures_in_row <= 0 ||
+        ++w->fail_streak < (uint32_t)self->cfg.max_worker_failures_in_row)
+        return;
+    w->blocked = true;
+    emit(self, SCHED_EV_WORKER_BLOCKED, job, task, attempt, w->id);
+    if (w->busy > 0)
+        requeue_worker_tasks(self, w->id);
+}
+
+void sched_worker_strike(sched_t *self, uint64_t worker)
+{
+    worker_t *w = find_worker(self, worker);
+    if (w)
+        strike(self, w, 0, 0, 0);
+}
+
+int sched_worker_take_over(sched_t *self, uint64_t to, uint64_t from)
+{
+    worker_t *f = find_worker(self, from), *t = find_worker(self, to);
+    if (!f || !t || f == t)
+        return 0;
+    int held = f->alive ? f->busy : 0;
+    if (f->alive) {
+        requeue_worker_tasks(self, from);
+        self->idle_threads -= idle_of(f);
+        f->alive = false;
+        f->busy = 0;
+    }
+    /* t was found before requeue_worker_tasks, which moves no worker. */
+    self->idle_threads -= idle_of(t);
+    t->tasks_done = f->tasks_done;
+    t->tasks_failed = f->tasks_failed;
+    t->samples_done = f->samples_done;
+    t->missed = f->missed;
+    t->fail_streak = f->fail_streak;
+    t->blocked = t->blocked || f->blocked;
+    if (held > 0) {
+        /* It joined again without returning what it held: as if those tasks had expired. */
+        if (t->missed < UINT32_MAX)
+            t->missed++;
+        strike(self, t, 0, 0, 0);
+    }
+    self->idle_threads += idle_of(t);
+    return held;
 }
 
 static bool blocked(const sched_t *self, const sched_job_t *j, uint64_t worker)
@@ -1071,11 +1129,8 @@ void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t ta
     }
     if (s < j->nstrikes && ++j->strikes[s].failures == self->cfg.max_worker_job_failures)
         emit(self, SCHED_EV_WORKER_BLOCKED_JOB, j->id, task, attempt, worker);
-    if (w && !w->blocked && self->cfg.max_worker_failures_in_row > 0 &&
-        ++w->fail_streak >= (uint32_t)self->cfg.max_worker_failures_in_row) {
-        w->blocked = true;
-        emit(self, SCHED_EV_WORKER_BLOCKED, j->id, task, attempt, worker);
-    }
+    if (w)
+        strike(self, w, j->id, task, attempt);
     if (t->failures >= self->cfg.max_task_failures) {
         if (task & SCHED_PHOTON_TASK)
             snprintf(j->error, sizeof j->error, "photon batch %u failed %d times; last error: %s",
@@ -1088,12 +1143,17 @@ void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t ta
     }
 }
 
-/* A task of the worker's missed its deadline: one task at a time until it returns one. */
-static void missed_by(sched_t *self, uint64_t worker)
+/* A task of the worker's missed its deadline: one task at a time until it returns one, and a
+ * strike in its row (called after the task went back to the queue). */
+static void missed_by(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
+                      uint32_t attempt)
 {
     worker_t *w = find_worker(self, worker);
-    if (w && w->missed < UINT32_MAX)
+    if (!w)
+        return;
+    if (w->missed < UINT32_MAX)
         w->missed++;
+    strike(self, w, job, task, attempt);
 }
 
 int sched_tick(sched_t *self, double now)
@@ -1115,20 +1175,23 @@ int sched_tick(sched_t *self, double now)
             continue;
         for (uint32_t i = 0; i < (uint32_t)(j->ntiles * j->npasses); i++)
             if (j->tasks[i].state == TASK_RUNNING && j->tasks[i].deadline < now) {
-                missed_by(self, j->tasks[i].owner);
-                emit(self, SCHED_EV_REQUEUED_DEADLINE, j->id, i, j->tasks[i].attempt,
-                     j->tasks[i].owner);
+                uint64_t owner = j->tasks[i].owner;
+                uint32_t attempt = j->tasks[i].attempt;
+                emit(self, SCHED_EV_REQUEUED_DEADLINE, j->id, i, attempt, owner);
                 requeue(self, j, i);
+                missed_by(self, owner, j->id, i, attempt);
                 requeued++;
             } else if (j->tasks[i].state == TASK_RUNNING && j->tasks[i].deadline < next) {
                 next = j->tasks[i].deadline;
             }
         for (uint32_t b = 0; b < j->nphoton; b++)
             if (j->ptasks[b].state == TASK_RUNNING && j->ptasks[b].deadline < now) {
-                missed_by(self, j->ptasks[b].owner);
-                emit(self, SCHED_EV_REQUEUED_DEADLINE, j->id, SCHED_PHOTON_TASK | b,
-                     j->ptasks[b].attempt, j->ptasks[b].owner);
+                uint64_t owner = j->ptasks[b].owner;
+                uint32_t attempt = j->ptasks[b].attempt;
+                emit(self, SCHED_EV_REQUEUED_DEADLINE, j->id, SCHED_PHOTON_TASK | b, attempt,
+                     owner);
                 requeue(self, j, SCHED_PHOTON_TASK | b);
+                missed_by(self, owner, j->id, SCHED_PHOTON_TASK | b, attempt);
                 requeued++;
             } else if (j->ptasks[b].state == TASK_RUNNING && j->ptasks[b].deadline < next) {
                 next = j->ptasks[b].deadline;

@@ -40,6 +40,23 @@ static void on_hello(master_t *m, const proto_peer_t *from, mworker_t *w, const 
     w->alive = true;
     w->last_seen = now;
     w->has_unsent = false;
+    /* The same key and name on a new connection is the same worker (finding 1 of issue 26: a
+     * peer that said HELLO again and again, holding each connection's tasks, stalled every
+     * job): the old connection's tasks go back to the queue now, and its standing -- credit,
+     * probation, strikes, a block -- is the new one's. */
+    mworker_t *prev = again ? NULL : peers_find_same(m, w);
+    if (prev) {
+        int held = sched_worker_take_over(m->sched, w->id, prev->id);
+        bool was_alive = prev->alive;
+        prev->alive = false;
+        prev->has_unsent = false;
+        if (was_alive || held > 0)
+            master_log(m, "worker %llu '%s' said HELLO again as worker %llu: the old connection "
+                          "is dropped, %d task%s back in the queue%s",
+                       (unsigned long long)prev->id, w->name, (unsigned long long)w->id, held,
+                       held == 1 ? "" : "s",
+                       held > 0 ? " (counted as expired: on probation, one strike)" : "");
+    }
     ops_worker_joined(m, w);
     proto_msg_t welcome = {
         .type = PROTO_WELCOME,

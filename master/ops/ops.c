@@ -204,9 +204,28 @@ static size_t blocked_index(const master_t *m, const char *name)
     return SIZE_MAX;
 }
 
+/* Whether a blocklist entry names the worker: its name, or "key:NAME" for its key. */
+static bool entry_names(const char *entry, const mworker_t *w)
+{
+    if (!strncmp(entry, OPS_KEY_PREFIX, strlen(OPS_KEY_PREFIX)))
+        return w->key[0] && !strcmp(entry + strlen(OPS_KEY_PREFIX), w->key);
+    return w->name && !strcmp(entry, w->name);
+}
+
 bool ops_worker_blocked(const master_t *m, const mworker_t *w)
 {
-    return w->name && blocked_index(m, w->name) != SIZE_MAX;
+    for (size_t i = 0; i < m->blocked.n; i++)
+        if (entry_names(m->blocked.names[i], w))
+            return true;
+    return false;
+}
+
+void ops_block_entry(const mworker_t *w, char *buf, size_t size)
+{
+    if (w->key[0])
+        snprintf(buf, size, "%s%s", OPS_KEY_PREFIX, w->key);
+    else
+        snprintf(buf, size, "%s", w->name ? w->name : "?");
 }
 
 static int block_name(master_t *m, const char *name)
@@ -314,7 +333,7 @@ int master_worker_unblock(master_t *m, const char *worker, const master_actor_t 
     size_t ns = peers_sched_table(m);
     for (size_t i = 0; i < m->nworkers; i++) {
         mworker_t *w = m->workers[i];
-        if (!w->name || strcmp(w->name, name) != 0)
+        if (!entry_names(name, w))
             continue;
         const sched_worker_info_t *si = peers_sched_info(m, ns, w->id);
         any = any || (si && (si->blocked || si->blocked_jobs > 0));
@@ -374,19 +393,38 @@ static void log_event(master_t *m, const sched_event_t *ev)
                     ev->attempt, wid, wname, m->opts->sched.max_worker_job_failures);
         break;
     case SCHED_EV_WORKER_BLOCKED: {
-        char reason[256];
-        snprintf(reason, sizeof reason, "%d tasks failed in a row, the last job %llu %s",
-                 m->opts->sched.max_worker_failures_in_row, (unsigned long long)ev->job, t);
+        /* Blocked by its key when it has one (a key is a host's: docs/security.md), so that a
+         * new name does not make a new worker; else by its name. */
+        char reason[256], entry[96];
+        if (ev->job)
+            snprintf(reason, sizeof reason,
+                     "%d strikes in a row (failed, expired or abandoned tasks, refused results), "
+                     "the last job %llu %s",
+                     m->opts->sched.max_worker_failures_in_row, (unsigned long long)ev->job, t);
+        else
+            snprintf(reason, sizeof reason,
+                     "%d strikes in a row (failed, expired or abandoned tasks, refused results)",
+                     m->opts->sched.max_worker_failures_in_row);
+        snprintf(entry, sizeof entry, "?");
+        if (w)
+            ops_block_entry(w, entry, sizeof entry);
         err_t err;
-        if (w && w->name && block_name(m, w->name) == 0 && m->journal &&
-            journal_set_blocked(m->journal, w->name, reason, &err) < 0)
-            master_log(m, "journal: %s (a restarted master would not block '%s')", err.msg,
-                       w->name);
+        if (w && block_name(m, entry) == 0 && m->journal &&
+            journal_set_blocked(m->journal, entry, reason, &err) < 0)
+            master_log(m, "journal: %s (a restarted master would not block '%s')", err.msg, entry);
+        if (w) /* the other connections of its key are blocked too */
+            for (size_t i = 0; i < m->nworkers; i++)
+                if (m->workers[i] != w && m->workers[i]->alive && entry_names(entry, m->workers[i])) {
+                    err_t ignore;
+                    (void)sched_worker_block(m->sched, m->workers[i]->id, true, &ignore);
+                }
         master_log(m, "worker %llu '%s' blocked from every job: %s (`prismfarm unblock %s`)",
-                   wid, wname, reason, wname);
-        tasklog_add(m->tasklog, ev->job, "%s attempt %u: worker %llu '%s' blocked from every job "
-                    "(%d failures in a row)", t, ev->attempt, wid, wname,
-                    m->opts->sched.max_worker_failures_in_row);
+                   wid, wname, reason, entry);
+        if (ev->job)
+            tasklog_add(m->tasklog, ev->job,
+                        "%s attempt %u: worker %llu '%s' blocked from every job (%d strikes in a "
+                        "row)",
+                        t, ev->attempt, wid, wname, m->opts->sched.max_worker_failures_in_row);
         break;
     }
     case SCHED_EV_JOB_FAILED:

@@ -48,8 +48,13 @@ int master_worker_block(master_t *m, const char *worker, const master_actor_t *w
 void ops_job_init(job_t *j, int priority);
 /* A worker said HELLO: blocked again if its name is on the blocklist. */
 void ops_worker_joined(master_t *m, mworker_t *w);
-/* Whether the worker is on the blocklist (for WORKERS). */
+/* Whether the worker is on the blocklist (for WORKERS): by its name, or by its key. */
 bool ops_worker_blocked(const master_t *m, const mworker_t *w);
+/* A blocklist entry of a worker's key: "key:NAME" (`prismfarm unblock key:NAME` lifts it). */
+#define OPS_KEY_PREFIX "key:"
+/* The entry a worker's strikes block (SCHED_EV_WORKER_BLOCKED): its key's when it has one,
+ * else its name. */
+void ops_block_entry(const mworker_t *w, char *buf, size_t size);
 /* The blocklist from the journal (at start). */
 int ops_load_blocked(master_t *m, err_t *err);
 void ops_free(master_t *m);
