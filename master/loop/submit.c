@@ -294,6 +294,18 @@ static void submit_accept(master_t *m, const proto_peer_t *from, const proto_msg
     master_reply(m, from, &pm);
 }
 
+/* A job just journaled is copied from the WAL into journal.db before its client hears
+ * SUBMITTED (journal_checkpoint_wal): a deleted journal.db-wal loses no acknowledged job. A
+ * failure is logged and the job goes on (it is committed; only a lost WAL would lose it). */
+static void checkpoint_wal(master_t *m, uint64_t job)
+{
+    err_t err;
+    if (m->journal && journal_checkpoint_wal(m->journal, &err) < 0)
+        master_log(m, "job %llu is journaled in the WAL only (a deleted journal.db-wal would lose "
+                      "it): %s",
+                   (unsigned long long)job, err.msg);
+}
+
 /* A frame sequence whose frames have loaded: the sequence takes the next id and its frames the
  * ids after it (jobs_frame), each frame is scheduled as a job of its own, and all are journaled
  * in one transaction before the client is answered, so a restart finds all or none. */
@@ -339,6 +351,8 @@ static void sequence_finish(master_t *m, submission_t *s, const char *who, doubl
         }
     }
     free(recs);
+    if (rc == 0)
+        checkpoint_wal(m, id);
     if (rc < 0) {
         for (size_t k = scheduled; k-- > 0;)
             job_unschedule(m, jobs_find(m, id + 1 + k));
@@ -404,6 +418,7 @@ static void submission_finish(master_t *m, submission_t *s, double now)
         master_reply_error(m, from, "the master cannot journal the job: %s", err.msg);
         return;
     }
+    checkpoint_wal(m, id);
     m->last_job = id;
     /* The job's folder marks its id as used, so a restarted master never gives it out again
      * (spool_last_job_id counts these folders), even if nothing was rendered yet. */

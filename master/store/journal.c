@@ -300,3 +300,21 @@ void journal_close(journal_t **self_p)
     *self_p = NULL;
 }
 
+int journal_checkpoint_wal(journal_t *self, err_t *err)
+{
+    if (jdb_turn_flush(self, err) < 0)
+        return -1;
+    double t0 = clock_now_s();
+    int nlog = 0, ncopied = 0;
+    int rc = sqlite3_wal_checkpoint_v2(self->db, NULL, SQLITE_CHECKPOINT_PASSIVE, &nlog, &ncopied);
+    self->stats.checkpoints++;
+    self->stats.checkpoint_seconds += clock_now_s() - t0;
+    if (rc != SQLITE_OK)
+        return jdb_error(self, err, "checkpointing the WAL");
+    if (nlog > 0 && ncopied < nlog)
+        return err_set(err,
+                       "journal %s: %d of the WAL's %d frames copied into the database (another "
+                       "process reads it)",
+                       self->path, ncopied, nlog);
+    return 0;
+}
