@@ -750,7 +750,7 @@ int main(int argc, char **argv)
 
     double next_status = t0, deadline = t0 + s.o.timeout_s, t_first = 0, t_end = 0;
     bool asked = false;
-    proto_job_state_t state = PROTO_JOB_QUEUED;
+    job_state_t state = JOB_QUEUED;
     char failure[600] = "";
     uint64_t samples_done = 0, samples_total = 0;
     while (!t_end) {
@@ -819,9 +819,9 @@ int main(int argc, char **argv)
                 state = j->state;
                 samples_done = j->samples_done;
                 samples_total = j->samples_total;
-                if (state == PROTO_JOB_DONE)
+                if (state == JOB_DONE)
                     t_end = now;
-                else if (state == PROTO_JOB_FAILED || state == PROTO_JOB_CANCELLED) {
+                else if (state == JOB_FAILED || state == JOB_CANCELLED) {
                     snprintf(failure, sizeof failure, "the job %s: %s", proto_job_state_name(state),
                              j->error ? j->error : "");
                     t_end = now;

@@ -72,7 +72,7 @@ int cmd_status(int argc, char **argv)
         return 1;
     query_print_jobs(reply.status_reply.jobs, reply.status_reply.njobs, q.json);
     proto_msg_free(&reply);
-    return over < 0 || over == PROTO_JOB_DONE ? 0 : 1;
+    return over < 0 || over == JOB_DONE ? 0 : 1;
 }
 
 static void jobs_usage(FILE *out, const cli_opt_t *opts)

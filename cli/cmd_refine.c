@@ -194,9 +194,9 @@ int cmd_refine(int argc, char **argv)
     char error[600];
     int state = job_follow_wait(rpc, job, quiet, &last, error, sizeof error);
     int rc = 0;
-    if (state != PROTO_JOB_DONE) {
+    if (state != JOB_DONE) {
         fprintf(stderr, "prismfarm refine: job %llu %s%s%s\n", job,
-                state < 0 ? "lost" : proto_job_state_name((proto_job_state_t)state),
+                state < 0 ? "lost" : proto_job_state_name((job_state_t)state),
                 error[0] ? ": " : "", error);
         rc = 1;
     } else if (sequence) {

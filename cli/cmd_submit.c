@@ -257,9 +257,9 @@ static int submit_scenes(const frame_list_t *fr, const char *master, const char 
     char prediction[256] = "";
     int state = job_follow_wait_error(rpc, job, quiet, stop.target_error, 0, &last, error,
                                       sizeof error, prediction, sizeof prediction);
-    if (state != PROTO_JOB_DONE) {
+    if (state != JOB_DONE) {
         fprintf(stderr, "prismfarm submit: job %llu %s%s%s\n", (unsigned long long)job,
-                state < 0 ? "lost" : proto_job_state_name((proto_job_state_t)state), error[0] ? ": " : "", error);
+                state < 0 ? "lost" : proto_job_state_name((job_state_t)state), error[0] ? ": " : "", error);
         rc = 1;
         goto out;
     }

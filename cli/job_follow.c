@@ -97,17 +97,17 @@ int job_follow_wait_error(client_rpc_t *rpc, uint64_t job, int quiet, double tar
             progress_note_error(&prog, (int)j.spp, clock_now_s() - t0, j.rel_error);
         if (j.samples_total)
             progress_update(&prog, j.samples_done, j.samples_total, clock_now_s() - t0);
-        if (state == PROTO_JOB_DONE && j.stop != PROTO_STOP_NONE)
+        if (state == JOB_DONE && j.stop != PROTO_STOP_NONE)
             progress_end(&prog, j.samples_done, j.samples_total, clock_now_s() - t0,
                          stopping_reason((stopping_why_t)j.stop));
-        if (state == PROTO_JOB_DONE && prediction && psize)
+        if (state == JOB_DONE && prediction && psize)
             progress_prediction_line(&prog,
                                      j.stop == PROTO_STOP_TARGET ||
                                          (j.has_rel_error && j.rel_error <= target),
                                      (int)j.spp, clock_now_s() - t0, prediction, psize);
         prog.extra = NULL;
         proto_msg_free(&reply);
-        if (state == PROTO_JOB_DONE || state == PROTO_JOB_FAILED || state == PROTO_JOB_CANCELLED)
+        if (state == JOB_DONE || state == JOB_FAILED || state == JOB_CANCELLED)
             return state;
         /* A master that answered early with the job still running (one that holds too many
          * long polls, or ignores `wait`) is asked again only after the wait. */
@@ -198,7 +198,7 @@ int job_follow_fetch_frames(client_rpc_t *rpc, const proto_job_info_t *jobs, siz
         int bad = job_follow_check_outputs(exr, png, cmd);
         if (bad)
             return bad;
-        if (jobs[i].state != PROTO_JOB_DONE) {
+        if (jobs[i].state != JOB_DONE) {
             fprintf(stderr, "prismfarm %s: frame %u (job %llu) is %s%s%s: nothing fetched\n", cmd,
                     jobs[i].frame, (unsigned long long)jobs[i].id,
                     proto_job_state_name(jobs[i].state), jobs[i].error ? ": " : "",

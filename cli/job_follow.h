@@ -8,11 +8,11 @@
 /* Follows the job's status with STATUS long polls (answered the moment the job ends), showing
  * progress on stderr unless quiet (with the spp merged and the error estimate), until it is
  * done, failed or cancelled. A master that stops answering (a restart) is asked again on a
- * fresh connection for up to 2 minutes. Returns the job's final proto_job_state_t, or -1 when
- * the master did not come back or the job is gone; *last gets the final counters and accuracy (name
- * and error cleared), error the job's or the lost master's message. */
-int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t *last, char *error,
-                    size_t esize);
+ * fresh connection for up to 2 minutes. Returns the job's final job_state_t, or -1 when
+ * the master did not come back or the job is gone; *last gets the final counters and accuracy (name and error cleared), error the
+ * job's or the lost master's message. */
+int job_follow_wait(client_rpc_t *rpc, uint64_t job, int quiet, proto_job_info_t *last,
+                    char *error, size_t esize);
 
 /* job_follow_wait for a job with a target error: the progress line follows the error
  * (progress_follow_error) from its first estimate on. spp_cap is the job's spp, or 0 when the

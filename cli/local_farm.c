@@ -216,9 +216,9 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info, scene_she
     int state = job_follow_wait_error(rpc, job, quiet, o->target_error,
                                       o->loaded ? o->loaded->settings.spp : 0, info, error,
                                       sizeof error, o->prediction, o->prediction_size);
-    if (state != PROTO_JOB_DONE) {
+    if (state != JOB_DONE) {
         fprintf(stderr, "prismfarm render: job %s%s%s\n",
-                state < 0 ? "lost" : proto_job_state_name((proto_job_state_t)state), error[0] ? ": " : "", error);
+                state < 0 ? "lost" : proto_job_state_name((job_state_t)state), error[0] ? ": " : "", error);
         rc = 1;
         goto out;
     }

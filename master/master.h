@@ -102,4 +102,14 @@ int master_check_http(const master_opts_t *opts, err_t *err);
  * "http http://ADDR:PORT/" line (the port as bound). */
 int master_run(const master_opts_t *opts, err_t *err);
 
+/* master_run in three steps, for a caller that turns the loop itself (master_run is
+ * master_open, master_turn until *opts->stop, master_close). master_open opens everything the
+ * loop needs (NULL with err); master_turn is one turn (loop/loop.c lists its duties), -1 with
+ * err when the loop cannot go on; master_close closes and frees it all and sets *self_p to
+ * NULL. opts must outlive the master. */
+typedef struct master master_t;
+master_t *master_open(const master_opts_t *opts, err_t *err);
+int master_turn(master_t *self, err_t *err);
+void master_close(master_t **self_p);
+
 #endif

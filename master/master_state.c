@@ -23,7 +23,7 @@ void master_log(const master_t *m, const char *fmt, ...)
         fprintf(stderr, "master: %s\n", line);
 }
 
-double job_elapsed(const master_t *m, const mjob_t *j, double now)
+double job_elapsed(const master_t *m, const job_t *j, double now)
 {
     if (j->started <= 0)
         return 0;
@@ -48,4 +48,22 @@ void master_refuse(master_t *m, net_t *net, const proto_peer_t *to, const char *
     err_t err;
     if (to->len > 0 && net_send(net, to, &r, &err) < 0)
         master_log(m, "cannot send REFUSE: %s", err.msg);
+}
+
+void master_reply(master_t *m, const proto_peer_t *to, const proto_msg_t *msg)
+{
+    err_t err;
+    if (net_send(m->cnet, to, msg, &err) < 0)
+        master_log(m, "cannot answer a client: %s", err.msg);
+}
+
+void master_reply_error(master_t *m, const proto_peer_t *to, const char *fmt, ...)
+{
+    char text[PROTO_MAX_STRING];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(text, sizeof text, fmt, ap);
+    va_end(ap);
+    proto_msg_t e = {.type = PROTO_ERROR, .error = {.message = text}};
+    master_reply(m, to, &e);
 }

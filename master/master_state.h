@@ -55,7 +55,7 @@ typedef struct mworker {
 /* A job, in the master's list from its submission (or the journal) on. Its fields by concern:
  * what was submitted, what its scene says, its place in the scheduler, its outputs, its photon
  * phase, its accuracy and the journal's view of it. */
-typedef struct mjob {
+typedef struct job {
     uint64_t id;
     char *name;
     char stem[88]; /* file-name form of the name: outputs are <stem>.exr and <stem>.png */
@@ -148,7 +148,7 @@ typedef struct mjob {
         uint32_t frame;  /* a frame: its number */
         uint32_t nframes;
     } seq;
-} mjob_t;
+} job_t;
 
 /* A client's STATUS with a wait: answered when its job is over or at the deadline. */
 typedef struct waiter {
@@ -157,10 +157,13 @@ typedef struct waiter {
     double deadline; /* monotonic seconds */
 } waiter_t;
 
-typedef struct submission submission_t; /* on_client.c */
+typedef struct submission submission_t; /* loop/submit.c */
 
 typedef struct master {
     const master_opts_t *opts;
+    void *ctx;       /* the ZeroMQ context: opts->zmq_ctx, or the master's own */
+    struct zap *zap; /* the ZAP handler of a keyed master (zap.h); NULL without keys */
+    int until_waiter; /* ms until the next long poll's deadline (on_client_answer_waiters) */
     proto_limits_t limits;
     int max_conns; /* open connections per endpoint (opts->max_conns or from the file limit) */
     sched_t *sched;
@@ -168,13 +171,13 @@ typedef struct master {
     journal_t *journal; /* NULL without opts->journal */
     net_t *wnet, *cnet;
     conn_guard_t *wguard, *cguard; /* their connection bounds (conn_guard.h) */
-    /* Scenes loading off the loop (loader.h; on_client.c's submissions), oldest first. */
+    /* Scenes loading off the loop (loader.h; submit.c's submissions), oldest first. */
     loader_t *loader;
     submission_t **loading;
     size_t nloading, caploading;
     mworker_t **workers;
     size_t nworkers, cap_workers;
-    mjob_t **jobs; /* in id order */
+    job_t **jobs; /* in id order */
     size_t njobs, cap_jobs;
     uint64_t last_job, last_worker;
     sched_worker_info_t *winfo; /* scratch for sched_workers */
@@ -195,7 +198,7 @@ typedef struct master {
 } master_t;
 
 /* Done, failed or cancelled: what a STATUS long poll waits for. */
-static inline bool job_over(const mjob_t *j)
+static inline bool job_over(const job_t *j)
 {
     return j->state == JOB_DONE || j->state == JOB_FAILED || j->state == JOB_CANCELLED;
 }
@@ -203,13 +206,19 @@ static inline bool job_over(const mjob_t *j)
 /* The seconds the job has run, from its start to its end (or now) less the time it was paused
  * while running (sched_job_paused_s): what its time limit and pass records count, and what the
  * journal keeps for a restarted master. */
-double job_elapsed(const master_t *m, const mjob_t *j, double now);
+double job_elapsed(const master_t *m, const job_t *j, double now);
 
 /* A line "master: ..." on stderr when opts->verbose. */
 __attribute__((format(printf, 2, 3))) void master_log(const master_t *m, const char *fmt, ...);
 
 /* A malloc'ed copy of s; NULL when out of memory. */
 char *master_strdup(const char *s);
+
+/* A message to a client; a failure is logged. */
+void master_reply(master_t *m, const proto_peer_t *to, const proto_msg_t *msg);
+/* ERROR {message} to a client. */
+__attribute__((format(printf, 3, 4))) void master_reply_error(master_t *m, const proto_peer_t *to,
+                                                              const char *fmt, ...);
 
 /* REFUSE {reason} to a peer of net (nothing to a peer without a routing id); a failure is
  * logged. */

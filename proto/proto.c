@@ -49,7 +49,7 @@ static const char *const KIND_NAMES[PROTO_KIND_COUNT] = {
     [PROTO_KIND_PHOTON_BATCH] = "photon_batch"};
 static const char *const ACT_NAMES[PROTO_ACT_COUNT] = {"none",    "priority", "pause",
                                                        "resume",  "requeue",  "unblock"};
-static const char *const JOB_STATE_NAMES[PROTO_JOB_STATE_COUNT] = {"queued", "running", "done",
+static const char *const JOB_STATE_NAMES[JOB_STATE_COUNT] = {"queued", "running", "done",
                                                                    "failed", "cancelled",
                                                                    "paused"};
 static const char *const WORKER_STATE_NAMES[PROTO_WORKER_STATE_COUNT] = {"idle", "busy", "lost",
@@ -70,9 +70,9 @@ const char *proto_kind_name(proto_kind_t k)
 {
     return name_of(KIND_NAMES, PROTO_KIND_COUNT, (int)k);
 }
-const char *proto_job_state_name(proto_job_state_t s)
+const char *proto_job_state_name(job_state_t s)
 {
-    return name_of(JOB_STATE_NAMES, PROTO_JOB_STATE_COUNT, (int)s);
+    return name_of(JOB_STATE_NAMES, JOB_STATE_COUNT, (int)s);
 }
 const char *proto_worker_state_name(proto_worker_state_t s)
 {
@@ -257,7 +257,7 @@ struct shape {
 #define CVALUE(type, obj, off) (*(const type *)((const char *)(obj) + (off)))
 
 /* Enums are read and written as the int they are. */
-_Static_assert(sizeof(proto_kind_t) == sizeof(int) && sizeof(proto_job_state_t) == sizeof(int) &&
+_Static_assert(sizeof(proto_kind_t) == sizeof(int) && sizeof(job_state_t) == sizeof(int) &&
                    sizeof(proto_worker_state_t) == sizeof(int) &&
                    sizeof(proto_fetch_what_t) == sizeof(int) && sizeof(proto_stop_t) == sizeof(int) &&
                    sizeof(proto_act_t) == sizeof(int),
@@ -714,7 +714,7 @@ static int ck_store_hash(const cx_t *cx, const void *obj)
 #define SETTING_NAME_MAX 64
 
 static const names_t KINDS = {KIND_NAMES, PROTO_KIND_COUNT, PROTO_KIND_CAMERA_TILE};
-static const names_t JOB_STATES = {JOB_STATE_NAMES, PROTO_JOB_STATE_COUNT, 0};
+static const names_t JOB_STATES = {JOB_STATE_NAMES, JOB_STATE_COUNT, 0};
 static const names_t WORKER_STATES = {WORKER_STATE_NAMES, PROTO_WORKER_STATE_COUNT, 0};
 static const names_t FETCH_WHATS = {FETCH_NAMES, PROTO_FETCH_COUNT, 0};
 static const names_t STOPS = {STOP_NAMES, PROTO_STOP_COUNT, PROTO_STOP_TARGET};

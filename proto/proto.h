@@ -74,15 +74,17 @@ typedef enum proto_kind {
     PROTO_KIND_COUNT
 } proto_kind_t;
 
-typedef enum proto_job_state {
-    PROTO_JOB_QUEUED,
-    PROTO_JOB_RUNNING,
-    PROTO_JOB_DONE,
-    PROTO_JOB_FAILED,
-    PROTO_JOB_CANCELLED,
-    PROTO_JOB_PAUSED, /* queued or running, paused: no new task is handed out */
-    PROTO_JOB_STATE_COUNT
-} proto_job_state_t;
+/* A job's state: the one enum of the scheduler, the master's job record, the journal (its
+ * integer), the wire and the dashboard (its name, proto_job_state_name). */
+typedef enum job_state {
+    JOB_QUEUED,
+    JOB_RUNNING,
+    JOB_DONE,
+    JOB_FAILED,
+    JOB_CANCELLED,
+    JOB_PAUSED, /* queued or running, paused: no new task is handed out */
+    JOB_STATE_COUNT
+} job_state_t;
 
 typedef enum proto_worker_state {
     PROTO_WORKER_IDLE,
@@ -193,7 +195,7 @@ typedef struct proto_frame {
 typedef struct proto_job_info {
     uint64_t id;
     const char *name;
-    proto_job_state_t state;
+    job_state_t state;
     uint64_t samples_done, samples_total; /* progress, in pixel samples */
     double elapsed;                       /* seconds since the job started, finite, >= 0 */
     const char *error;                    /* NULL unless failed */
@@ -382,7 +384,7 @@ void proto_msg_free(proto_msg_t *msg);
 /* "HELLO", "RESULT", ...: the type's name on the wire and in error messages ("?" if invalid). */
 const char *proto_type_name(proto_type_t type);
 const char *proto_kind_name(proto_kind_t kind);              /* "camera_tile" */
-const char *proto_job_state_name(proto_job_state_t state);   /* "queued", "running", ... */
+const char *proto_job_state_name(job_state_t state);   /* "queued", "running", ... */
 const char *proto_worker_state_name(proto_worker_state_t s); /* "idle", "busy", "lost" */
 const char *proto_fetch_what_name(proto_fetch_what_t what);  /* "exr", "png" */
 const char *proto_stop_name(proto_stop_t stop);              /* "none", "target", "time" */

@@ -90,7 +90,7 @@ static int request(fx_t *f, const char *method, const char *path, const char *au
 
 /* ---------------------------------------------------------------- the farm side */
 
-static proto_job_state_t state_of(fx_t *f, uint64_t job)
+static job_state_t state_of(fx_t *f, uint64_t job)
 {
     return testutil_status(f->m, job, NULL, 0).state;
 }
@@ -140,12 +140,12 @@ static void test_cancel_over_http(void **state)
     /* Pause and resume go through the master's operations (ops.h), as the clients' ACT. */
     snprintf(path, sizeof path, "/api/jobs/%llu/pause", (unsigned long long)job);
     assert_int_equal(request(f, "POST", path, f->token, "", out, sizeof out), 200);
-    assert_int_equal(state_of(f, job), PROTO_JOB_PAUSED);
+    assert_int_equal(state_of(f, job), JOB_PAUSED);
     assert_int_equal(request(f, "GET", "/api/jobs", f->token, NULL, out, sizeof out), 200);
     assert_non_null(strstr(out, "\"paused\":true"));
     snprintf(path, sizeof path, "/api/jobs/%llu/resume", (unsigned long long)job);
     assert_int_equal(request(f, "POST", path, f->token, "", out, sizeof out), 200);
-    assert_int_equal(state_of(f, job), PROTO_JOB_RUNNING);
+    assert_int_equal(state_of(f, job), JOB_RUNNING);
 
     snprintf(path, sizeof path, "/api/jobs/%llu/cancel", (unsigned long long)job);
     assert_int_equal(request(f, "POST", path, NULL, "", out, sizeof out), 401);
@@ -154,11 +154,11 @@ static void test_cancel_over_http(void **state)
     memcpy(wrong, f->token, sizeof wrong);
     wrong[0] = wrong[0] == '0' ? '1' : '0';
     assert_int_equal(request(f, "POST", path, wrong, "", out, sizeof out), 401);
-    assert_int_equal(state_of(f, job), PROTO_JOB_RUNNING);
+    assert_int_equal(state_of(f, job), JOB_RUNNING);
 
     assert_int_equal(request(f, "POST", path, f->token, "", out, sizeof out), 200);
     assert_non_null(strstr(out, "\"action\":\"cancel\""));
-    assert_int_equal(state_of(f, job), PROTO_JOB_CANCELLED);
+    assert_int_equal(state_of(f, job), JOB_CANCELLED);
     assert_int_equal(testutil_worker_recv(&w, &m, test_wait_ms()), 0);
     assert_int_equal(m.type, PROTO_CANCEL);
     assert_true(m.cancel.job == job);

@@ -1,6 +1,6 @@
 /* A damaged journal or checkpoint between two runs of a master (issue 16, items 5 and 6): a
  * checkpoint with one flipped bit or 64 bytes of garbage after it, a WAL cut in half (a power
- * cut) and a WAL garbled. Each master is killed with SIGKILL at a moment read off the journal
+ * cut), a WAL garbled or deleted, the journal lost. Each master is killed with SIGKILL at a moment read off the journal
  * (a checkpoint, or two, and results after them: never a timer), the files are damaged, and a
  * master started again on the spool must finish the job with exactly the pixels of an
  * uninterrupted render, or, where the job's record itself is gone, name the job in its log and
@@ -182,9 +182,10 @@ static void test_wal_cut_in_half(void **state)
     free((char *)f.spool);
 }
 
-/* Item 6: a garbled WAL (every byte past its header inverted): SQLite drops every frame, so the
- * journal forgets job 1 altogether. It used to vanish ("no job 1") with nothing logged; now the
- * log names it, and it is listed as failed with the reason. */
+/* Item 6: a garbled WAL (every byte past its header inverted): SQLite drops every frame. The
+ * job's record was copied into journal.db when it was submitted (journal_checkpoint_wal, issue
+ * 26): the job goes on from there (its checkpoints and results in the WAL are gone: rendered
+ * again) to the reference's pixels. Before, the journal forgot job 1 altogether. */
 static void test_wal_garbled(void **state)
 {
     (void)state;
@@ -203,7 +204,44 @@ static void test_wal_garbled(void **state)
     assert_int_equal(fwrite(data, 1, size, fp), size);
     fclose(fp);
     free(data);
-    const char *mlog = testutil_scratch("walbad-master2.log");
+    free(finish(&f, "walbad"));
+    free((char *)f.spool);
+}
+
+/* Issue 26, finding 6: journal.db-wal deleted while the master is down (an operator tidying up,
+ * a backup that copies journal.db alone). An acknowledged job is in journal.db itself: it
+ * finishes, with the reference's pixels. On the code before, it was lost (only named in the
+ * log, listed as failed). */
+static void test_wal_deleted(void **state)
+{
+    (void)state;
+    farm_t f = {0};
+    run_until_checkpoint(&f, "waldel", 1);
+    char wal[700];
+    snprintf(wal, sizeof wal, "%s/journal.db-wal", f.spool);
+    assert_int_equal(unlink(wal), 0);
+    char *log = finish(&f, "waldel");
+    if (log && strstr(log, "is in the spool but not in the journal"))
+        fail_msg("the deleted WAL lost job 1:\n%s", log);
+    free(log);
+    free((char *)f.spool);
+}
+
+/* The journal itself lost (journal.db and its WAL deleted, or damaged beyond reading): job 1 is
+ * not dropped in silence -- the log names it, and it is listed as failed with the reason; the
+ * next job gets an id past it. */
+static void test_journal_lost(void **state)
+{
+    (void)state;
+    farm_t f = {0};
+    run_until_checkpoint(&f, "dblost", 1);
+    const char *files[] = {"journal.db", "journal.db-wal", "journal.db-shm"};
+    for (int k = 0; k < 3; k++) {
+        char path[700];
+        snprintf(path, sizeof path, "%s/%s", f.spool, files[k]);
+        (void)unlink(path);
+    }
+    const char *mlog = testutil_scratch("dblost-master2.log");
     f.master = testutil_journal_master(mlog, f.spool, f.wep, f.cep);
     const run_t *r = run("status", "1", "--master", f.cep, "--insecure", NULL);
     char *log = testutil_slurp(mlog, NULL);
@@ -232,6 +270,8 @@ int main(void)
         cmocka_unit_test_teardown(test_checkpoint_garbage_appended, testutil_kill_children),
         cmocka_unit_test_teardown(test_wal_cut_in_half, testutil_kill_children),
         cmocka_unit_test_teardown(test_wal_garbled, testutil_kill_children),
+        cmocka_unit_test_teardown(test_wal_deleted, testutil_kill_children),
+        cmocka_unit_test_teardown(test_journal_lost, testutil_kill_children),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

@@ -238,7 +238,7 @@ static void test_job_life(void **state)
     uint64_t job = testutil_submit_tiny(f, SPP, 0);
     assert_true(job == 1);
     proto_job_info_t info = testutil_status(f, job, NULL, 0);
-    assert_int_equal(info.state, PROTO_JOB_QUEUED);
+    assert_int_equal(info.state, JOB_QUEUED);
     assert_true(info.samples_total == (uint64_t)XRES * YRES * SPP);
     proto_msg_t req = {.type = PROTO_FETCH, .fetch = {.job = job, .what = PROTO_FETCH_EXR}}, r;
     testutil_call(f, &req, &r);
@@ -302,7 +302,7 @@ static void test_job_life(void **state)
     assert_true(previewed);
     for (int i = 0; i < NTASKS; i++)
         assert_int_equal(seen[i], 1);
-    testutil_wait_state(f, job, PROTO_JOB_DONE);
+    testutil_wait_state(f, job, JOB_DONE);
     info = testutil_status(f, job, NULL, 0);
     assert_true(info.samples_done == (uint64_t)XRES * YRES * SPP);
     assert_true(info.samples_done == info.samples_total);
@@ -327,7 +327,7 @@ static void test_job_life(void **state)
     assert_int_equal(r.type, PROTO_JOBS_REPLY);
     assert_int_equal(r.jobs_reply.njobs, 1);
     assert_string_equal(r.jobs_reply.jobs[0].name, "tiny.pbrt");
-    assert_int_equal(r.jobs_reply.jobs[0].state, PROTO_JOB_DONE);
+    assert_int_equal(r.jobs_reply.jobs[0].state, JOB_DONE);
     proto_msg_free(&r);
     testutil_worker_close(&w);
 }
@@ -400,7 +400,7 @@ static void test_forged_results(void **state)
             proto_msg_free(&m);
         }
     assert_int_equal(done, NTASKS);
-    testutil_wait_state(f, job, PROTO_JOB_DONE);
+    testutil_wait_state(f, job, JOB_DONE);
     check_exr(f, job);
     f->opts.verbose = getenv("PRISMFARM_TEST_VERBOSE") != NULL;
     fflush(stderr);
@@ -554,7 +554,7 @@ static void test_silent_worker(void **state)
     assert_int_equal(reissued, 2);
     for (int i = 0; i < NTASKS; i++)
         assert_int_equal(results[i], 1);
-    testutil_wait_state(f, job, PROTO_JOB_DONE);
+    testutil_wait_state(f, job, JOB_DONE);
     check_exr(f, job);
 
     proto_msg_t r;
@@ -653,7 +653,7 @@ static void test_bad_peers(void **state)
         tilebuf_destroy(&tb);
         proto_msg_free(&m);
     }
-    testutil_wait_state(f, job, PROTO_JOB_DONE);
+    testutil_wait_state(f, job, JOB_DONE);
     testutil_worker_close(&fw);
 }
 
@@ -672,7 +672,7 @@ static void test_cancel(void **state)
     testutil_call(f, &c, &r);
     assert_int_equal(r.type, PROTO_STATUS_REPLY);
     assert_int_equal(r.status_reply.njobs, 1);
-    assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_CANCELLED);
+    assert_int_equal(r.status_reply.jobs[0].state, JOB_CANCELLED);
     proto_msg_free(&r);
     proto_msg_t m;
     if (testutil_worker_recv(&w, &m, test_wait_ms()))
@@ -739,7 +739,7 @@ static void test_failing_task(void **state)
     proto_msg_free(&m);
     char error[600];
     proto_job_info_t info = testutil_status(f, job, error, sizeof error);
-    assert_int_equal(info.state, PROTO_JOB_FAILED);
+    assert_int_equal(info.state, JOB_FAILED);
     if (!strstr(error, "3 times") || !strstr(error, "last error: scene.pbrt:3:7: boom"))
         fail_msg("unexpected error: %s", error);
     testutil_worker_close(&w);
@@ -780,7 +780,7 @@ static void test_real_worker(void **state)
     pthread_t th;
     pthread_create(&th, NULL, run_worker, &w);
     uint64_t job = testutil_submit_tiny(f, SPP, 0);
-    testutil_wait_state(f, job, PROTO_JOB_DONE);
+    testutil_wait_state(f, job, JOB_DONE);
     check_exr(f, job);
     w.stop = 1;
     pthread_join(th, NULL);
@@ -826,7 +826,7 @@ static void test_status_long_poll(void **state)
     testutil_call(f, &req, &r);
     double waited = clock_now_s() - t0;
     assert_int_equal(r.type, PROTO_STATUS_REPLY);
-    assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_QUEUED);
+    assert_int_equal(r.status_reply.jobs[0].state, JOB_QUEUED);
     proto_msg_free(&r);
     if (waited < 0.3 || waited > 30.0)
         fail_msg("a 300 ms long poll on a queued job was answered after %.3f s", waited);
@@ -846,7 +846,7 @@ static void test_status_long_poll(void **state)
     testutil_recv(c, &r, 2 * 60000);
     double late = clock_now_s() - last, waited_all = clock_now_s() - asked;
     assert_int_equal(r.type, PROTO_STATUS_REPLY);
-    assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_DONE);
+    assert_int_equal(r.status_reply.jobs[0].state, JOB_DONE);
     proto_msg_free(&r);
     net_destroy(&c);
     print_message("long poll answered %.3f s after the last result\n", late);
@@ -858,7 +858,7 @@ static void test_status_long_poll(void **state)
     t0 = clock_now_s();
     testutil_call(f, &req, &r);
     assert_int_equal(r.type, PROTO_STATUS_REPLY);
-    assert_int_equal(r.status_reply.jobs[0].state, PROTO_JOB_DONE);
+    assert_int_equal(r.status_reply.jobs[0].state, JOB_DONE);
     proto_msg_free(&r);
     if (clock_now_s() - t0 > 30.0)
         fail_msg("a long poll on a finished job was answered after %.3f s", clock_now_s() - t0);
@@ -915,7 +915,7 @@ static void test_prefetch_and_previews(void **state)
         if (done == 1 && testutil_worker_recv(&w, &m, 100) == 0)
             fail_msg("a second %s after one result", proto_type_name(m.type));
     }
-    testutil_wait_state(f, job, PROTO_JOB_DONE);
+    testutil_wait_state(f, job, JOB_DONE);
     check_exr(f, job);
     char path[256];
     snprintf(path, sizeof path, "%s/jobs/%llu/preview.png", f->spool, (unsigned long long)job);

@@ -186,7 +186,7 @@ static void test_pause_survives_restart(void **state)
     proto_msg_t held, m;
     fw_task(&w, &held);
     act_ok(f, PROTO_ACT_PAUSE, job, 0, 0, NULL);
-    assert_int_equal(status_of(f, job).state, PROTO_JOB_PAUSED);
+    assert_int_equal(status_of(f, job).state, JOB_PAUSED);
     char error[600];
     assert_int_equal(act(f, PROTO_ACT_PAUSE, job, 0, 0, NULL, error, sizeof error), PROTO_ERROR);
     expect_in(error, "paused already");
@@ -204,7 +204,7 @@ static void test_pause_survives_restart(void **state)
     /* Paused through a restart, and its log kept. */
     master_stop(f);
     master_start(f);
-    assert_int_equal(status_of(f, job).state, PROTO_JOB_PAUSED);
+    assert_int_equal(status_of(f, job).state, JOB_PAUSED);
     char *log = fetch_text(f, PROTO_LOGS, job, -1);
     expect_in(log, "assigned to worker");
     expect_in(log, "job paused by (no key)");
@@ -220,7 +220,7 @@ static void test_pause_survives_restart(void **state)
         fw_finish(&w, &m);
         proto_msg_free(&m);
     }
-    testutil_wait_state(f, job, PROTO_JOB_DONE);
+    testutil_wait_state(f, job, JOB_DONE);
     log = fetch_text(f, PROTO_LOGS, job, -1);
     expect_in(log, "job resumed by (no key)");
     expect_in(log, "job done at 4 of 4 spp");

@@ -271,7 +271,7 @@ static inline proto_job_info_t testutil_status(testutil_master_t *f, uint64_t jo
     return info;
 }
 
-static inline void testutil_wait_state(testutil_master_t *f, uint64_t job, proto_job_state_t state)
+static inline void testutil_wait_state(testutil_master_t *f, uint64_t job, job_state_t state)
 {
     double end = clock_now_s() + test_wait_s();
     while (clock_now_s() < end) {

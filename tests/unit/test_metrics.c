@@ -165,9 +165,9 @@ static void test_format_and_figures(void **state)
                             .nworkers = 3, .messages_workers = 99, .bytes_workers = 123456789012,
                             .bytes_clients = 42, .journal_writes = 17,
                             .journal_write_seconds = 0.03125};
-    s.jobs[PROTO_JOB_RUNNING] = 2;
-    s.jobs[PROTO_JOB_PAUSED] = 1;
-    s.jobs[PROTO_JOB_DONE] = 30;
+    s.jobs[JOB_RUNNING] = 2;
+    s.jobs[JOB_PAUSED] = 1;
+    s.jobs[JOB_DONE] = 30;
     char *text;
     size_t len;
     err_t err;

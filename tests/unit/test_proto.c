@@ -46,23 +46,23 @@ static char g_hash[PROTO_HASH_HEX + 1];
 
 static const proto_job_info_t g_jobs[] = {
     /* running, 4 spp merged, an estimate of 1/16 (exact in binary) */
-    {1, "prism", PROTO_JOB_RUNNING, 1000, 65536, 12.5, NULL, 3, 4, true, 0.0625, PROTO_STOP_NONE,
+    {1, "prism", JOB_RUNNING, 1000, 65536, 12.5, NULL, 3, 4, true, 0.0625, PROTO_STOP_NONE,
      "alice", -1000, 0, 0, 0},
-    {2, "gem fire", PROTO_JOB_FAILED, 7, 100, 0.0, "worker w1: scene.pbrt:3: unknown shape", 0, 0,
+    {2, "gem fire", JOB_FAILED, 7, 100, 0.0, "worker w1: scene.pbrt:3: unknown shape", 0, 0,
      false, 0, PROTO_STOP_NONE, NULL, 0, 0, 0, 0},
-    {UINT64_MAX, "x", PROTO_JOB_CANCELLED, 0, 0, 1e9, NULL, UINT64_MAX, 0, false, 0,
+    {UINT64_MAX, "x", JOB_CANCELLED, 0, 0, 1e9, NULL, UINT64_MAX, 0, false, 0,
      PROTO_STOP_NONE, NULL, 0, 0, 0, 0},
     /* done early: 64 of 1024 spp reached the target; an estimate of exactly 0 travels too */
-    {4, "prism fast", PROTO_JOB_DONE, 64 * 96, 1024 * 96, 0.75, NULL, 0, 64, true, 0.0,
+    {4, "prism fast", JOB_DONE, 64 * 96, 1024 * 96, 0.75, NULL, 0, 64, true, 0.0,
      PROTO_STOP_TARGET, "bob", 3, 0, 0, 0},
 };
 /* A frame sequence (job 5, two frames) and its frames 6 and 7, numbered 0 and 120. */
 static const proto_job_info_t g_sequence[] = {
-    {5, "walk", PROTO_JOB_RUNNING, 10, 200, 1.0, NULL, 0, 0, false, 0, PROTO_STOP_NONE, NULL, 0, 2,
+    {5, "walk", JOB_RUNNING, 10, 200, 1.0, NULL, 0, 0, false, 0, PROTO_STOP_NONE, NULL, 0, 2,
      0, 0},
-    {6, "walk0000", PROTO_JOB_DONE, 100, 100, 1.0, NULL, 0, 16, false, 0, PROTO_STOP_NONE, NULL,
+    {6, "walk0000", JOB_DONE, 100, 100, 1.0, NULL, 0, 16, false, 0, PROTO_STOP_NONE, NULL,
      0, 0, 5, 0},
-    {7, "walk0120", PROTO_JOB_RUNNING, 10, 100, 1.0, NULL, 0, 1, false, 0, PROTO_STOP_NONE, NULL,
+    {7, "walk0120", JOB_RUNNING, 10, 100, 1.0, NULL, 0, 1, false, 0, PROTO_STOP_NONE, NULL,
      0, 0, 5, 120},
 };
 static const proto_frame_t g_frames[] = {{"scene.pbrt", 0}, {"meshes/prism.ply", 120}};

@@ -1,9 +1,5 @@
-/* loop: master_run (master.h). Checks the options, opens the spool, the scheduler and the
- * journal (resuming its jobs), binds the two ROUTERs (CURVE servers behind a ZAP handler when
- * keyed), then turns: a poll of at most POLL_MS on both sockets and the stop descriptor, every
- * message that arrived handed to on_worker or on_client, then the clock's work (lost workers,
- * deadlines, time limits, heartbeats), the workers' task slots filled and the long polls
- * answered. Everything it opened is closed on the way out, in the order the ZAP handler needs. */
+/* loop: the master's loop (master.h): master_open, master_turn (its comment lists a turn's
+ * duties), master_close, and master_run, which is the three in a row until *opts->stop. */
 #include "master.h"
 
 #include "clock.h"
@@ -16,6 +12,7 @@
 #include "master_state.h"
 #include "on_client.h"
 #include "on_worker.h"
+#include "submit.h"
 #include "ops.h"
 #include "peers.h"
 #include "persist.h"
@@ -221,85 +218,92 @@ static void zap_log(void *user, const char *line)
         fprintf(stderr, "master: %s\n", line);
 }
 
-int master_run(const master_opts_t *opts, err_t *err)
+/* master_open: everything the loop turns over, in the order it needs it -- the options checked,
+ * the ZAP handler (before any CURVE server, which would otherwise let every client in), the
+ * spool, the task logs, the scheduler, the journal with its jobs resumed, the loader thread, the
+ * two ROUTERs with their connection guards, the dashboard -- and the bound endpoints written to
+ * <spool>/endpoints and handed to opts->ready. NULL with err; what was opened is closed. */
+master_t *master_open(const master_opts_t *opts, err_t *err)
 {
     if (check_opts(opts, err) < 0)
-        return -1;
+        return NULL;
     master_t *m = calloc(1, sizeof *m);
-    if (!m)
-        return err_set(err, "master: out of memory");
+    if (!m) {
+        err_set(err, "master: out of memory");
+        return NULL;
+    }
     m->opts = opts;
     m->limits = opts->limits;
     m->heartbeat_s = opts->heartbeat_ms / 1000.0;
-    void *ctx = opts->zmq_ctx ? opts->zmq_ctx : zmq_ctx_new();
-    int rc = -1;
+    m->ctx = opts->zmq_ctx ? opts->zmq_ctx : zmq_ctx_new();
     char wbound[512] = "", cbound[512] = "";
     curve_pair_t keys = {0};
-    zap_t *zap = NULL;
-    if (!ctx) {
+    if (!m->ctx) {
         err_set(err, "master: zmq_ctx_new: %s", zmq_strerror(zmq_errno()));
-        goto out;
+        goto fail;
     }
     /* The handler first: a CURVE server bound without one would let in every client. */
-    if (opts->key_file && (curve_load_pair(opts->key_file, &keys, err) < 0 ||
-                           !(zap = zap_new(ctx,
-                                           &(zap_folders_t){.any = opts->authorized_dir,
-                                                            .workers = opts->authorized_workers_dir,
-                                                            .clients = opts->authorized_clients_dir,
-                                                            .admins = opts->authorized_admins_dir},
-                                           zap_log, m, err)))) {
+    if (opts->key_file &&
+        (curve_load_pair(opts->key_file, &keys, err) < 0 ||
+         !(m->zap = zap_new(m->ctx,
+                            &(zap_folders_t){.any = opts->authorized_dir,
+                                             .workers = opts->authorized_workers_dir,
+                                             .clients = opts->authorized_clients_dir,
+                                             .admins = opts->authorized_admins_dir},
+                            zap_log, m, err)))) {
         err_prefix(err, "master: ");
-        goto out;
+        goto fail;
     }
     if (!(m->spool = spool_new(opts->spool_dir, err))) {
         err_prefix(err, "master: spool: ");
-        goto out;
+        goto fail;
     }
     m->last_job = spool_last_job_id(m->spool);
     if (!(m->tasklog = tasklog_new(spool_path(m->spool), TASKLOG_MAX_BYTES, err))) {
         err_prefix(err, "master: ");
-        goto out;
+        goto fail;
     }
     if (!(m->sched = sched_new(&opts->sched, err))) {
         err_prefix(err, "master: ");
-        goto out;
+        goto fail;
     }
     if (opts->journal) {
         if (!(m->journal = journal_open(spool_path(m->spool), err)) || ops_load_blocked(m, err) < 0 ||
             resume_jobs(m, err) < 0) {
             err_prefix(err, "master: ");
-            goto out;
+            goto fail;
         }
     }
     if (!(m->loader = loader_new(err))) {
         err_prefix(err, "master: ");
-        goto out;
+        goto fail;
     }
     const char *secret = opts->key_file ? keys.secret_key : NULL;
     m->max_conns = opts->max_conns > 0 ? opts->max_conns : file_limit_raise(m);
-    if (!(m->wnet = open_router(m, ctx, "workers", opts->worker_endpoint, secret, wbound,
+    if (!(m->wnet = open_router(m, m->ctx, "workers", opts->worker_endpoint, secret, wbound,
                                 sizeof wbound, &m->wguard, err)) ||
-        !(m->cnet = open_router(m, ctx, "clients", opts->client_endpoint, secret, cbound,
+        !(m->cnet = open_router(m, m->ctx, "clients", opts->client_endpoint, secret, cbound,
                                 sizeof cbound, &m->cguard, err)))
-        goto out;
-    if (zap && opts->authorized_dir)
+        goto fail;
+    if (m->zap && opts->authorized_dir)
         master_log(m, "CURVE: public key %s; %zu keys authorised in %s", keys.public_key,
-                   zap_stats(zap).keys, opts->authorized_dir);
-    else if (zap)
+                   zap_stats(m->zap).keys, opts->authorized_dir);
+    else if (m->zap)
         master_log(m, "CURVE: public key %s; %zu keys authorised: workers in %s, clients in %s%s%s",
-                   keys.public_key, zap_stats(zap).keys, opts->authorized_workers_dir,
+                   keys.public_key, zap_stats(m->zap).keys, opts->authorized_workers_dir,
                    opts->authorized_clients_dir,
                    opts->authorized_admins_dir ? ", admins in " : "",
                    opts->authorized_admins_dir ? opts->authorized_admins_dir : "");
     else if (opts->insecure)
         master_log(m, "plain text (--insecure): anyone who reaches the endpoints can connect");
+    memset(&keys, 0, sizeof keys); /* the servers hold their copy */
     char hbound[128] = "";
     if (opts->http && (!(m->logbook = logbook_new()) ||
                        !(m->dash = dash_view_open(m, hbound, sizeof hbound, err)))) {
         if (!m->logbook)
             err_set(err, "out of memory for the dashboard's log");
         err_prefix(err, "master: ");
-        goto out;
+        goto fail;
     }
     char text[1400], path[PATH_MAX];
     snprintf(text, sizeof text, "workers %s\nclients %s\n", wbound, cbound);
@@ -308,7 +312,7 @@ int master_run(const master_opts_t *opts, err_t *err)
     snprintf(path, sizeof path, "%s/endpoints", spool_path(m->spool));
     if (files_write_atomic(path, text, strlen(text), true, err) < 0) {
         err_prefix(err, "master: ");
-        goto out;
+        goto fail;
     }
     master_log(m, "workers on %s, clients on %s, spool %s, next job %llu", wbound, cbound,
                spool_path(m->spool), (unsigned long long)m->last_job + 1);
@@ -316,76 +320,100 @@ int master_run(const master_opts_t *opts, err_t *err)
         master_log(m, "dashboard on %s", hbound);
     if (opts->ready)
         opts->ready(opts->user, wbound, cbound);
-
     m->last_heartbeat = clock_now_s();
-    rc = 0;
-    int until_waiter = POLL_MS;
-    while (!*opts->stop) {
-        /* The stop descriptor, when given, ends the wait as soon as *stop is set; the
-         * dashboard's epoll descriptor, when it is on, as soon as a request comes. */
-        zmq_pollitem_t items[4] = {{.socket = net_socket(m->wnet), .events = ZMQ_POLLIN},
-                                   {.socket = net_socket(m->cnet), .events = ZMQ_POLLIN}};
-        int nitems = 2;
-        if (opts->stop_fd > 0)
-            items[nitems++] = (zmq_pollitem_t){.fd = opts->stop_fd, .events = ZMQ_POLLIN};
-        if (m->dash)
-            items[nitems++] = (zmq_pollitem_t){.fd = dash_view_fd(m->dash), .events = ZMQ_POLLIN};
-        double until_hb = m->last_heartbeat + m->heartbeat_s - clock_now_s();
-        int timeout = until_hb < POLL_MS / 1000.0 ? (int)(until_hb * 1000) : POLL_MS;
-        if (until_waiter < timeout)
-            timeout = until_waiter;
-        if (m->dash)
-            timeout = dash_view_timeout_ms(m->dash, timeout);
-        int n = zmq_poll(items, nitems, timeout > 0 ? timeout : 0);
-        double polled = clock_now_s();
-        if (m->journal)
-            journal_turn_begin(m->journal);
-        if (n < 0 && zmq_errno() != EINTR) {
-            rc = err_set(err, "master: zmq_poll: %s", zmq_strerror(zmq_errno()));
-            break;
-        }
-        if (n > 0 && (((items[0].revents & ZMQ_POLLIN) && drain(m, true, err) < 0) ||
-                      ((items[1].revents & ZMQ_POLLIN) && drain(m, false, err) < 0))) {
-            err_prefix(err, "master: ");
-            rc = -1;
-            break;
-        }
-        /* The dashboard's requests, answered on this thread (its handlers are quick: they
-         * read the state, or act as a client's message would). */
-        if (m->dash && dash_view_run(m->dash, err) < 0) {
-            err_prefix(err, "master: ");
-            rc = -1;
-            break;
-        }
-        conn_guard_pump(m->wguard);
-        conn_guard_pump(m->cguard);
-        double now = clock_now_s();
-        on_client_loads(m, now);
-        housekeeping(m, now, now - polled);
-        dispatch_tasks(m, now);
-        peers_prune_lost(m);
-        until_waiter = on_client_answer_waiters(m, now);
-        err_t jerr;
-        if (m->journal && journal_turn_end(m->journal, &jerr) < 0)
-            master_log(m, "journal: the results of a loop turn were not journaled (they are "
-                          "rendered again after a restart): %s", jerr.msg);
-    }
-    if (rc == 0)
-        master_log(m, "stopping");
+    m->until_waiter = POLL_MS;
+    return m;
 
-out:
+fail:
+    memset(&keys, 0, sizeof keys);
+    master_close(&m);
+    return NULL;
+}
+
+/* master_turn: one turn of the master's loop (Redis's aeProcessEvents and serverCron in one).
+ * Each turn, in this order:
+ *  - waits at most POLL_MS (less when a heartbeat, a long poll's deadline or the dashboard is
+ *    due) on the two sockets, the stop descriptor and the dashboard's descriptor;
+ *  - opens the journal's turn: the turn's results go into one transaction;
+ *  - drains each socket (at most RECV_BURST messages) into on_worker / on_client;
+ *  - answers the dashboard's requests;
+ *  - pumps the connection guards (the endpoints' per-host and total bounds);
+ *  - finishes the submissions the loader thread has loaded, and tells the others' clients
+ *    that their scene is still loading;
+ *  - housekeeping: silent workers lost, deadlines passed (tasks issued again), the worker
+ *    table and the scheduler agreed, time limits, outputs retried, checkpoints collected,
+ *    heartbeats, the operators' task-log lines;
+ *  - dispatches tasks into every live worker's free slots;
+ *  - forgets the lost workers beyond the table's bound;
+ *  - answers the long polls that are due;
+ *  - commits the journal's turn.
+ * Returns 0, or -1 with err when a socket or the dashboard is unusable (the loop ends). */
+int master_turn(master_t *m, err_t *err)
+{
+    const master_opts_t *opts = m->opts;
+    /* The stop descriptor, when given, ends the wait as soon as *stop is set; the
+     * dashboard's epoll descriptor, when it is on, as soon as a request comes. */
+    zmq_pollitem_t items[4] = {{.socket = net_socket(m->wnet), .events = ZMQ_POLLIN},
+                               {.socket = net_socket(m->cnet), .events = ZMQ_POLLIN}};
+    int nitems = 2;
+    if (opts->stop_fd > 0)
+        items[nitems++] = (zmq_pollitem_t){.fd = opts->stop_fd, .events = ZMQ_POLLIN};
+    if (m->dash)
+        items[nitems++] = (zmq_pollitem_t){.fd = dash_view_fd(m->dash), .events = ZMQ_POLLIN};
+    double until_hb = m->last_heartbeat + m->heartbeat_s - clock_now_s();
+    int timeout = until_hb < POLL_MS / 1000.0 ? (int)(until_hb * 1000) : POLL_MS;
+    if (m->until_waiter < timeout)
+        timeout = m->until_waiter;
+    if (m->dash)
+        timeout = dash_view_timeout_ms(m->dash, timeout);
+    int n = zmq_poll(items, nitems, timeout > 0 ? timeout : 0);
+    double polled = clock_now_s();
+    if (m->journal)
+        journal_turn_begin(m->journal);
+    if (n < 0 && zmq_errno() != EINTR)
+        return err_set(err, "master: zmq_poll: %s", zmq_strerror(zmq_errno()));
+    if (n > 0 && (((items[0].revents & ZMQ_POLLIN) && drain(m, true, err) < 0) ||
+                  ((items[1].revents & ZMQ_POLLIN) && drain(m, false, err) < 0)))
+        return err_prefix(err, "master: ");
+    /* The dashboard's requests, answered on this thread (its handlers are quick: they
+     * read the state, or act as a client's message would). */
+    if (m->dash && dash_view_run(m->dash, err) < 0)
+        return err_prefix(err, "master: ");
+    conn_guard_pump(m->wguard);
+    conn_guard_pump(m->cguard);
+    double now = clock_now_s();
+    submit_loads(m, now);
+    housekeeping(m, now, now - polled);
+    dispatch_tasks(m, now);
+    peers_prune_lost(m);
+    m->until_waiter = on_client_answer_waiters(m, now);
+    err_t jerr;
+    if (m->journal && journal_turn_end(m->journal, &jerr) < 0)
+        master_log(m, "journal: the results of a loop turn were not journaled (they are "
+                      "rendered again after a restart): %s", jerr.msg);
+    return 0;
+}
+
+/* master_close: everything master_open opened, closed in the order the ZAP handler needs (the
+ * guards before the sockets they watch, the sockets before the handler, the context last), then
+ * the loader waited for (a submission not finished is dropped), the checkpoints being written
+ * collected or dropped, and the state freed. NULL is fine. */
+void master_close(master_t **self_p)
+{
+    master_t *m = self_p ? *self_p : NULL;
+    if (!m)
+        return;
     dash_view_close(&m->dash);
     logbook_destroy(&m->logbook);
     conn_guard_destroy(&m->wguard); /* before the sockets they watch */
     conn_guard_destroy(&m->cguard);
     net_destroy(&m->wnet);
     net_destroy(&m->cnet);
-    zap_destroy(&zap); /* after the servers it guards */
-    memset(&keys, 0, sizeof keys);
-    if (ctx && !opts->zmq_ctx)
-        (void)zmq_ctx_term(ctx);
+    zap_destroy(&m->zap); /* after the servers it guards */
+    if (m->ctx && !m->opts->zmq_ctx)
+        (void)zmq_ctx_term(m->ctx);
     /* Waits for a scene still loading, and drops the submissions not finished. */
-    loader_destroy(&m->loader, on_client_submission_drop);
+    loader_destroy(&m->loader, submit_drop);
     /* A checkpoint written meanwhile is journaled; one still being written is waited for and
      * dropped (the journal names the previous one). */
     if (m->journal)
@@ -402,9 +430,23 @@ out:
         peers_free(m->workers[i]);
     free(m->workers);
     for (size_t i = 0; i < m->njobs; i++)
-        job_free(m->jobs[i]);
+        job_destroy(&m->jobs[i]);
     free(m->jobs);
     free(m->winfo);
     free(m);
+    *self_p = NULL;
+}
+
+int master_run(const master_opts_t *opts, err_t *err)
+{
+    master_t *m = master_open(opts, err);
+    if (!m)
+        return -1;
+    int rc = 0;
+    while (rc == 0 && !*opts->stop)
+        rc = master_turn(m, err);
+    if (rc == 0)
+        master_log(m, "stopping");
+    master_close(&m);
     return rc;
 }

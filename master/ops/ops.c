@@ -24,7 +24,7 @@ master_actor_t ops_actor_of_peer(const master_t *m, const proto_peer_t *peer)
                             .admin = access_peer_is_admin(peer) || !m->opts->key_file};
 }
 
-bool ops_may_act(const master_t *m, const mjob_t *j, const master_actor_t *who, err_t *err)
+bool ops_may_act(const master_t *m, const job_t *j, const master_actor_t *who, err_t *err)
 {
     (void)m;
     if (access_allowed(j->owner, who->name ? who->name : "", who->admin))
@@ -41,7 +41,7 @@ bool ops_may_act(const master_t *m, const mjob_t *j, const master_actor_t *who, 
 _Static_assert(SCHED_PHOTON_TASK == PROTO_PHOTON_TASK, "one numbering of photon tasks");
 
 /* "task 17 (pass 0, tile 17)", "task p2 (photon batch 2)". */
-static const char *task_str(const mjob_t *j, uint32_t task, char *buf, size_t size)
+static const char *task_str(const job_t *j, uint32_t task, char *buf, size_t size)
 {
     char label[PROTO_TASK_LABEL_MAX];
     if (task & SCHED_PHOTON_TASK)
@@ -56,10 +56,10 @@ static const char *task_str(const mjob_t *j, uint32_t task, char *buf, size_t si
 }
 
 /* The job, if it exists, who may act on it and it is still in the scheduler. */
-static mjob_t *job_to_act_on(master_t *m, uint64_t id, const master_actor_t *who,
+static job_t *job_to_act_on(master_t *m, uint64_t id, const master_actor_t *who,
                              const char *what, err_t *err)
 {
-    mjob_t *j = jobs_find(m, id);
+    job_t *j = jobs_find(m, id);
     if (!j) {
         err_set(err, "no job %llu", (unsigned long long)id);
         return NULL;
@@ -71,13 +71,13 @@ static mjob_t *job_to_act_on(master_t *m, uint64_t id, const master_actor_t *who
     }
     if (job_over(j) || !j->sched.known) {
         err_set(err, "job %llu is %s: only a queued or running job can be changed",
-                (unsigned long long)id, job_state_name(j->state));
+                (unsigned long long)id, proto_job_state_name(j->state));
         return NULL;
     }
     return j;
 }
 
-static void journal_control(master_t *m, mjob_t *j)
+static void journal_control(master_t *m, job_t *j)
 {
     err_t err;
     if (m->journal &&
@@ -89,14 +89,14 @@ static void journal_control(master_t *m, mjob_t *j)
  * "Frame sequences"): the same to each of its frames that is not over, a frame already paused
  * or resumed passed over; the first other failure is the answer. */
 typedef enum seq_act { SEQ_PRIORITY, SEQ_PAUSE, SEQ_RESUME } seq_act_t;
-static int act_on_frames(master_t *m, mjob_t *seq, seq_act_t act, int priority,
+static int act_on_frames(master_t *m, job_t *seq, seq_act_t act, int priority,
                          const master_actor_t *who, err_t *err)
 {
     if (!ops_may_act(m, seq, who, err))
         return -1;
     int acted = 0;
     for (uint32_t k = 0; k < seq->seq.nframes; k++) {
-        mjob_t *f = jobs_frame(m, seq, k);
+        job_t *f = jobs_frame(m, seq, k);
         if (!f || job_over(f) || !f->sched.known)
             continue;
         int r = act == SEQ_PRIORITY ? master_job_set_priority(m, f->id, priority, who, err)
@@ -108,7 +108,7 @@ static int act_on_frames(master_t *m, mjob_t *seq, seq_act_t act, int priority,
     }
     if (acted == 0)
         return err_set(err, "job %llu is %s: only a queued or running job can be changed",
-                       (unsigned long long)seq->id, job_state_name(seq->state));
+                       (unsigned long long)seq->id, proto_job_state_name(seq->state));
     if (act == SEQ_PRIORITY)
         seq->ops.priority = priority;
     jobs_sequence_refresh(m, seq, clock_now_s()); /* its pause follows its frames' */
@@ -116,19 +116,19 @@ static int act_on_frames(master_t *m, mjob_t *seq, seq_act_t act, int priority,
     return 0;
 }
 
-static mjob_t *sequence_of(const master_t *m, uint64_t id)
+static job_t *sequence_of(const master_t *m, uint64_t id)
 {
-    mjob_t *j = jobs_find(m, id);
+    job_t *j = jobs_find(m, id);
     return j && j->seq.nframes > 0 ? j : NULL;
 }
 
 int master_job_set_priority(master_t *m, uint64_t id, int priority, const master_actor_t *who,
                             err_t *err)
 {
-    mjob_t *seq = sequence_of(m, id);
+    job_t *seq = sequence_of(m, id);
     if (seq)
         return act_on_frames(m, seq, SEQ_PRIORITY, priority, who, err);
-    mjob_t *j = job_to_act_on(m, id, who, "a priority change", err);
+    job_t *j = job_to_act_on(m, id, who, "a priority change", err);
     if (!j || sched_set_job_priority(m->sched, id, priority, err) < 0)
         return -1;
     int old = j->ops.priority;
@@ -143,7 +143,7 @@ int master_job_set_priority(master_t *m, uint64_t id, int priority, const master
 static int set_paused(master_t *m, uint64_t id, bool paused, const master_actor_t *who,
                       err_t *err)
 {
-    mjob_t *j = job_to_act_on(m, id, who, paused ? "a pause" : "a resume", err);
+    job_t *j = job_to_act_on(m, id, who, paused ? "a pause" : "a resume", err);
     if (!j)
         return -1;
     if (j->ops.paused == paused)
@@ -169,13 +169,13 @@ static int set_paused(master_t *m, uint64_t id, bool paused, const master_actor_
 
 int master_job_pause(master_t *m, uint64_t id, const master_actor_t *who, err_t *err)
 {
-    mjob_t *seq = sequence_of(m, id);
+    job_t *seq = sequence_of(m, id);
     return seq ? act_on_frames(m, seq, SEQ_PAUSE, 0, who, err) : set_paused(m, id, true, who, err);
 }
 
 int master_job_resume(master_t *m, uint64_t id, const master_actor_t *who, err_t *err)
 {
-    mjob_t *seq = sequence_of(m, id);
+    job_t *seq = sequence_of(m, id);
     return seq ? act_on_frames(m, seq, SEQ_RESUME, 0, who, err)
                : set_paused(m, id, false, who, err);
 }
@@ -183,7 +183,7 @@ int master_job_resume(master_t *m, uint64_t id, const master_actor_t *who, err_t
 int master_task_requeue(master_t *m, uint64_t id, uint32_t task, const master_actor_t *who,
                         err_t *err)
 {
-    mjob_t *j = job_to_act_on(m, id, who, "a requeue", err);
+    job_t *j = job_to_act_on(m, id, who, "a requeue", err);
     if (!j || sched_requeue_task(m->sched, id, task, err) < 0)
         return -1;
     char t[80];
@@ -204,9 +204,28 @@ static size_t blocked_index(const master_t *m, const char *name)
     return SIZE_MAX;
 }
 
+/* Whether a blocklist entry names the worker: its name, or "key:NAME" for its key. */
+static bool entry_names(const char *entry, const mworker_t *w)
+{
+    if (!strncmp(entry, OPS_KEY_PREFIX, strlen(OPS_KEY_PREFIX)))
+        return w->key[0] && !strcmp(entry + strlen(OPS_KEY_PREFIX), w->key);
+    return w->name && !strcmp(entry, w->name);
+}
+
 bool ops_worker_blocked(const master_t *m, const mworker_t *w)
 {
-    return w->name && blocked_index(m, w->name) != SIZE_MAX;
+    for (size_t i = 0; i < m->blocked.n; i++)
+        if (entry_names(m->blocked.names[i], w))
+            return true;
+    return false;
+}
+
+void ops_block_entry(const mworker_t *w, char *buf, size_t size)
+{
+    if (w->key[0])
+        snprintf(buf, size, "%s%s", OPS_KEY_PREFIX, w->key);
+    else
+        snprintf(buf, size, "%s", w->name ? w->name : "?");
 }
 
 static int block_name(master_t *m, const char *name)
@@ -314,7 +333,7 @@ int master_worker_unblock(master_t *m, const char *worker, const master_actor_t 
     size_t ns = peers_sched_table(m);
     for (size_t i = 0; i < m->nworkers; i++) {
         mworker_t *w = m->workers[i];
-        if (!w->name || strcmp(w->name, name) != 0)
+        if (!entry_names(name, w))
             continue;
         const sched_worker_info_t *si = peers_sched_info(m, ns, w->id);
         any = any || (si && (si->blocked || si->blocked_jobs > 0));
@@ -337,7 +356,7 @@ int master_worker_unblock(master_t *m, const char *worker, const master_actor_t 
 
 /* ---------------------------------------------------------------- jobs and events */
 
-void ops_job_init(mjob_t *j, int priority)
+void ops_job_init(job_t *j, int priority)
 {
     j->ops.priority = priority;
     j->ops.paused = false;
@@ -345,7 +364,7 @@ void ops_job_init(mjob_t *j, int priority)
 
 static void log_event(master_t *m, const sched_event_t *ev)
 {
-    mjob_t *j = jobs_find(m, ev->job);
+    job_t *j = jobs_find(m, ev->job);
     const mworker_t *w = peers_by_id(m, ev->worker);
     const char *wname = w && w->name ? w->name : "?";
     unsigned long long wid = (unsigned long long)ev->worker;
@@ -374,19 +393,38 @@ static void log_event(master_t *m, const sched_event_t *ev)
                     ev->attempt, wid, wname, m->opts->sched.max_worker_job_failures);
         break;
     case SCHED_EV_WORKER_BLOCKED: {
-        char reason[256];
-        snprintf(reason, sizeof reason, "%d tasks failed in a row, the last job %llu %s",
-                 m->opts->sched.max_worker_failures_in_row, (unsigned long long)ev->job, t);
+        /* Blocked by its key when it has one (a key is a host's: docs/security.md), so that a
+         * new name does not make a new worker; else by its name. */
+        char reason[256], entry[96];
+        if (ev->job)
+            snprintf(reason, sizeof reason,
+                     "%d strikes in a row (failed, expired or abandoned tasks, refused results), "
+                     "the last job %llu %s",
+                     m->opts->sched.max_worker_failures_in_row, (unsigned long long)ev->job, t);
+        else
+            snprintf(reason, sizeof reason,
+                     "%d strikes in a row (failed, expired or abandoned tasks, refused results)",
+                     m->opts->sched.max_worker_failures_in_row);
+        snprintf(entry, sizeof entry, "?");
+        if (w)
+            ops_block_entry(w, entry, sizeof entry);
         err_t err;
-        if (w && w->name && block_name(m, w->name) == 0 && m->journal &&
-            journal_set_blocked(m->journal, w->name, reason, &err) < 0)
-            master_log(m, "journal: %s (a restarted master would not block '%s')", err.msg,
-                       w->name);
+        if (w && block_name(m, entry) == 0 && m->journal &&
+            journal_set_blocked(m->journal, entry, reason, &err) < 0)
+            master_log(m, "journal: %s (a restarted master would not block '%s')", err.msg, entry);
+        if (w) /* the other connections of its key are blocked too */
+            for (size_t i = 0; i < m->nworkers; i++)
+                if (m->workers[i] != w && m->workers[i]->alive && entry_names(entry, m->workers[i])) {
+                    err_t ignore;
+                    (void)sched_worker_block(m->sched, m->workers[i]->id, true, &ignore);
+                }
         master_log(m, "worker %llu '%s' blocked from every job: %s (`prismfarm unblock %s`)",
-                   wid, wname, reason, wname);
-        tasklog_add(m->tasklog, ev->job, "%s attempt %u: worker %llu '%s' blocked from every job "
-                    "(%d failures in a row)", t, ev->attempt, wid, wname,
-                    m->opts->sched.max_worker_failures_in_row);
+                   wid, wname, reason, entry);
+        if (ev->job)
+            tasklog_add(m->tasklog, ev->job,
+                        "%s attempt %u: worker %llu '%s' blocked from every job (%d strikes in a "
+                        "row)",
+                        t, ev->attempt, wid, wname, m->opts->sched.max_worker_failures_in_row);
         break;
     }
     case SCHED_EV_JOB_FAILED:

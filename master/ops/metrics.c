@@ -105,8 +105,8 @@ int metrics_render(const metrics_snapshot_t *s, char **text, size_t *len, err_t 
 {
     text_t t = {0};
     family(&t, "prismfarm_jobs", "gauge", "Jobs the master holds, by state.");
-    for (int st = 0; st < PROTO_JOB_STATE_COUNT; st++) {
-        put(&t, "prismfarm_jobs{state=\"%s\"}", proto_job_state_name((proto_job_state_t)st));
+    for (int st = 0; st < JOB_STATE_COUNT; st++) {
+        put(&t, "prismfarm_jobs{state=\"%s\"}", proto_job_state_name((job_state_t)st));
         put_u64(&t, s->jobs[st]);
     }
     family(&t, "prismfarm_tasks_in_flight", "gauge",
@@ -165,7 +165,7 @@ int master_metrics_text(master_t *m, double now, char **text, size_t *len, err_t
 {
     metrics_snapshot_t s = {0};
     for (size_t i = 0; i < m->njobs; i++) {
-        const mjob_t *j = m->jobs[i];
+        const job_t *j = m->jobs[i];
         if (j->seq.nframes > 0)
             continue; /* its frames are counted, each a job of its own */
         s.jobs[jobs_wire_state(j)]++;

@@ -18,7 +18,7 @@ bool access_peer_is_admin(const proto_peer_t *who)
     return who->user[0] && strcmp(who->role, ZAP_ROLE_ADMIN) == 0;
 }
 
-bool access_check(master_t *m, const mjob_t *j, const proto_peer_t *who, const char *action,
+bool access_check(master_t *m, const job_t *j, const proto_peer_t *who, const char *action,
                   char *why, size_t size)
 {
     if (access_allowed(j->owner, who->user, access_peer_is_admin(who)))

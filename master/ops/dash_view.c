@@ -34,7 +34,7 @@ struct dash_view {
 
 /* ---------------------------------------------------------------- reading the state */
 
-static void fill_job(master_t *m, const mjob_t *j, double now, dash_job_t *o)
+static void fill_job(master_t *m, const job_t *j, double now, dash_job_t *o)
 {
     *o = (dash_job_t){
         .id = j->id,
@@ -115,7 +115,7 @@ static void fill_job(master_t *m, const mjob_t *j, double now, dash_job_t *o)
         o->tasks_total = o->tasks_done = o->tasks_running = 0;
         o->has_tasks = true;
         for (uint32_t k = 0; k < j->seq.nframes; k++) {
-            const mjob_t *fj = jobs_frame(m, j, k);
+            const job_t *fj = jobs_frame(m, j, k);
             if (!fj)
                 continue;
             fill_job(m, fj, now, &f);
@@ -148,13 +148,13 @@ static size_t pv_jobs(void *user, dash_job_t *out, size_t max)
 static int pv_frames(void *user, uint64_t id, dash_job_t *out, int max)
 {
     dash_view_t *v = user;
-    const mjob_t *j = jobs_find(v->m, id);
+    const job_t *j = jobs_find(v->m, id);
     if (!j)
         return DASH_ENOENT;
     double now = clock_now_s();
     int n = 0;
     for (uint32_t k = 0; k < j->seq.nframes && n < max; k++) {
-        const mjob_t *f = jobs_frame(v->m, j, k);
+        const job_t *f = jobs_frame(v->m, j, k);
         if (f)
             fill_job(v->m, f, now, &out[n++]);
     }
@@ -164,7 +164,7 @@ static int pv_frames(void *user, uint64_t id, dash_job_t *out, int max)
 static int pv_job(void *user, uint64_t id, dash_job_t *out)
 {
     dash_view_t *v = user;
-    const mjob_t *j = jobs_find(v->m, id);
+    const job_t *j = jobs_find(v->m, id);
     if (!j)
         return DASH_ENOENT;
     fill_job(v->m, j, clock_now_s(), out);
@@ -174,7 +174,7 @@ static int pv_job(void *user, uint64_t id, dash_job_t *out)
 static int pv_preview(void *user, uint64_t id, uint8_t **png, size_t *size, err_t *err)
 {
     dash_view_t *v = user;
-    const mjob_t *j = jobs_find(v->m, id);
+    const job_t *j = jobs_find(v->m, id);
     if (!j)
         return DASH_ENOENT;
     if (!j->outputs.final && !j->outputs.preview)
@@ -193,7 +193,7 @@ static int pv_preview(void *user, uint64_t id, uint8_t **png, size_t *size, err_
 static int pv_passes(void *user, uint64_t id, dash_pass_t *out, int max)
 {
     dash_view_t *v = user;
-    const mjob_t *j = jobs_find(v->m, id);
+    const job_t *j = jobs_find(v->m, id);
     if (!j)
         return DASH_ENOENT;
     int n = 0;
@@ -208,14 +208,14 @@ static int pv_passes(void *user, uint64_t id, dash_pass_t *out, int max)
     return n;
 }
 
-static int fill_merged(master_t *m, const mjob_t *j, bool live, dash_tilemap_t *map, int n,
+static int fill_merged(master_t *m, const job_t *j, bool live, dash_tilemap_t *map, int n,
                        err_t *err);
 
 static int pv_tiles(void *user, uint64_t id, dash_tilemap_t *map, err_t *err)
 {
     dash_view_t *v = user;
     master_t *m = v->m;
-    const mjob_t *j = jobs_find(m, id);
+    const job_t *j = jobs_find(m, id);
     if (!j)
         return DASH_ENOENT;
     if (j->scene.xres < 1 || j->scene.yres < 1 || j->scene.spp < 1)
@@ -256,7 +256,7 @@ static int pv_tiles(void *user, uint64_t id, dash_tilemap_t *map, err_t *err)
 }
 
 /* Per tile the passes merged: the scheduler's while it holds the job, else what the job kept. */
-static int fill_merged(master_t *m, const mjob_t *j, bool live, dash_tilemap_t *map, int n,
+static int fill_merged(master_t *m, const job_t *j, bool live, dash_tilemap_t *map, int n,
                        err_t *err)
 {
     int *merged = map->merged;
@@ -272,7 +272,7 @@ static int fill_merged(master_t *m, const mjob_t *j, bool live, dash_tilemap_t *
      * every tile (or, ended early, the passes its record says: whole passes only). */
     if (j->state != JOB_DONE)
         return err_set(err, "it is %s: the scheduler forgot its tiles when it ended",
-                       job_state_name(j->state));
+                       proto_job_state_name(j->state));
     for (int i = 0; i < n; i++)
         merged[i] = map->passes_done;
     return 0;
@@ -282,7 +282,7 @@ static int pv_tasks(void *user, uint64_t id, dash_task_t *out, int max)
 {
     dash_view_t *v = user;
     master_t *m = v->m;
-    const mjob_t *j = jobs_find(m, id);
+    const job_t *j = jobs_find(m, id);
     if (!j)
         return DASH_ENOENT;
     if (!j->sched.known)
@@ -375,14 +375,14 @@ static bool pv_allowed(void *user, const dash_identity_t *who, const dash_job_t 
 static int pv_cancel(void *user, const dash_identity_t *who, uint64_t id, err_t *err)
 {
     dash_view_t *v = user;
-    mjob_t *j = jobs_find(v->m, id);
+    job_t *j = jobs_find(v->m, id);
     if (!j) {
         err_set(err, "no job %llu", (unsigned long long)id);
         return DASH_ENOENT;
     }
     if (job_over(j))
         return err_set(err, "job %llu is %s already", (unsigned long long)id,
-                       job_state_name(j->state));
+                       proto_job_state_name(j->state));
     master_log(v->m, "job %llu '%s': cancel from the dashboard by '%s'%s", (unsigned long long)id,
                j->name, who->name, who->admin ? " (admin)" : "");
     job_cancel(v->m, j, clock_now_s());

@@ -13,7 +13,7 @@
 
 typedef struct replay {
     master_t *m;
-    mjob_t *j;
+    job_t *j;
     double now;
     size_t results;
 } replay_t;
@@ -49,7 +49,7 @@ static int replay_result(void *user, uint32_t task, int kind, const void *data, 
 }
 
 /* The job's pass records of its current round, from the journal. */
-static int load_passes(master_t *m, mjob_t *j, err_t *err)
+static int load_passes(master_t *m, job_t *j, err_t *err)
 {
     journal_pass_t passes[STOPPING_MAX_RECORDS];
     int n = journal_passes(m->journal, j->id, j->sched.round, passes, STOPPING_MAX_RECORDS, err);
@@ -79,7 +79,7 @@ static int gen_desc(const void *a, const void *b)
  * again, and what neither holds is rendered again. So a damaged checkpoint falls back to the
  * previous one (persist.c keeps it) and a journal that lost its last commits uses the file it
  * no longer names; each one passed over is logged with the job and the file. */
-static uint64_t restore_checkpoint(master_t *m, mjob_t *j, uint64_t named, tilebuf_t **image,
+static uint64_t restore_checkpoint(master_t *m, job_t *j, uint64_t named, tilebuf_t **image,
                                    int *next)
 {
     char dir[PATH_MAX];
@@ -131,7 +131,7 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
 {
     char dir[PATH_MAX];
     snprintf(dir, sizeof dir, "%s/scenes/%s", spool_path(m->spool), r->hash);
-    mjob_t *j = job_new(r->id, r->name, r->hash, r->main, &r->settings, dir, &m->opts->budget,
+    job_t *j = job_new(r->id, r->name, r->hash, r->main, &r->settings, dir, &m->opts->budget,
                         m->opts->shelf, 0, err);
     if (!j)
         return -1;
@@ -149,7 +149,7 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
     if (j->photons.phase && r->photons_saved > 0) {
         photon_phase_destroy(&j->photons.phase);
         if (job_restore_photons(m, j, err) < 0) {
-            job_free(j);
+            job_destroy(&j);
             return -1;
         }
         uint32_t base = photon_phase_nbatches(j->photons.phase);
@@ -157,7 +157,7 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
             batches = photons_done = base; /* the round's store is merged: camera phase */
         } else if (photon_phase_refine(j->photons.phase, r->round_photons - r->photons_saved, err) <
                    0) {
-            job_free(j);
+            job_destroy(&j);
             return -1;
         } else {
             j->photons.base = base;
@@ -167,7 +167,7 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
         batches = photon_phase_nbatches(j->photons.phase);
     }
     if (job_schedule(m, j, batches, err) < 0) {
-        job_free(j);
+        job_destroy(&j);
         return -1;
     }
     /* From here on the job is listed: a failure fails it, with the reason. */
@@ -259,9 +259,9 @@ static void list_lost_jobs(master_t *m, const journal_job_t *rows, size_t n, con
         if (journal_add_job(m->journal, &r, &jerr) < 0 ||
             journal_set_state(m->journal, &r, &jerr) < 0)
             master_log(m, "job %llu: journal: %s", (unsigned long long)id, jerr.msg);
-        mjob_t *j = job_from_record(&r);
+        job_t *j = job_from_record(&r);
         if (!j || jobs_append(m, j) < 0) {
-            job_free(j);
+            job_destroy(&j);
             continue;
         }
         if (id > m->last_job)
@@ -310,9 +310,9 @@ int resume_jobs(master_t *m, err_t *err)
             r->state = JOB_FAILED;
             master_log(m, "job %llu '%s': %s", (unsigned long long)r->id, r->name, msg);
         }
-        mjob_t *j = job_from_record(r);
+        job_t *j = job_from_record(r);
         if (!j || jobs_append(m, j) < 0) {
-            job_free(j);
+            job_destroy(&j);
             rc = err_set(err, "out of memory for job %llu of the journal",
                          (unsigned long long)r->id);
             break;

@@ -34,7 +34,7 @@ typedef struct metrics_worker {
 } metrics_worker_t;
 
 typedef struct metrics_snapshot {
-    uint64_t jobs[PROTO_JOB_STATE_COUNT]; /* by proto_job_state_t */
+    uint64_t jobs[JOB_STATE_COUNT]; /* by job_state_t */
     uint64_t tasks_in_flight, queue_depth;
     const metrics_worker_t *workers;
     size_t nworkers;

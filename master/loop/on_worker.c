@@ -40,6 +40,23 @@ static void on_hello(master_t *m, const proto_peer_t *from, mworker_t *w, const 
     w->alive = true;
     w->last_seen = now;
     w->has_unsent = false;
+    /* The same key and name on a new connection is the same worker (finding 1 of issue 26: a
+     * peer that said HELLO again and again, holding each connection's tasks, stalled every
+     * job): the old connection's tasks go back to the queue now, and its standing -- credit,
+     * probation, strikes, a block -- is the new one's. */
+    mworker_t *prev = again ? NULL : peers_find_same(m, w);
+    if (prev) {
+        int held = sched_worker_take_over(m->sched, w->id, prev->id);
+        bool was_alive = prev->alive;
+        prev->alive = false;
+        prev->has_unsent = false;
+        if (was_alive || held > 0)
+            master_log(m, "worker %llu '%s' said HELLO again as worker %llu: the old connection "
+                          "is dropped, %d task%s back in the queue%s",
+                       (unsigned long long)prev->id, w->name, (unsigned long long)w->id, held,
+                       held == 1 ? "" : "s",
+                       held > 0 ? " (counted as expired: on probation, one strike)" : "");
+    }
     ops_worker_joined(m, w);
     proto_msg_t welcome = {
         .type = PROTO_WELCOME,
@@ -56,7 +73,7 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
     const proto_tile_result_t *r = &msg->result.tile;
     uint64_t job = msg->result.job, task = msg->result.task;
     uint32_t attempt = msg->result.attempt;
-    mjob_t *j = jobs_find(m, job);
+    job_t *j = jobs_find(m, job);
     if (!j) {
         master_log(m, "worker %llu sent a result for job %llu, which does not exist",
                    (unsigned long long)w->id, (unsigned long long)job);
@@ -103,7 +120,7 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
 
 static void on_task_failed(master_t *m, mworker_t *w, const proto_msg_t *msg, double now)
 {
-    mjob_t *j = jobs_find(m, msg->task_failed.job);
+    job_t *j = jobs_find(m, msg->task_failed.job);
     if (!j || !j->sched.known || msg->task_failed.task >> 32 != j->sched.round)
         return;
     char label[PROTO_TASK_LABEL_MAX];
@@ -137,7 +154,7 @@ static void on_scene_request(master_t *m, mworker_t *w, const proto_msg_t *msg)
 static void on_store_request(master_t *m, mworker_t *w, const proto_msg_t *msg)
 {
     for (size_t i = 0; i < m->njobs; i++) {
-        mjob_t *j = m->jobs[i];
+        job_t *j = m->jobs[i];
         if (!j->photons.phase || !j->photons.store_ready ||
             strcmp(j->photons.store, msg->store_request.store) != 0)
             continue;

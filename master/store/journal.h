@@ -40,7 +40,7 @@ typedef struct journal_job {
     char *name, *hash, *main; /* the client's name, the bundle's hash and main file */
     proto_settings_t settings;  /* integrator / dispersion point into the strings below */
     char integrator[65], dispersion[65];
-    int state;   /* job_state_t */
+    job_state_t state;
     char *error; /* NULL unless failed */
     uint32_t round;          /* refinements so far (task ids carry it) */
     uint32_t photon_base;    /* the round's first batch in the photon phase */
@@ -87,6 +87,14 @@ int journal_check(journal_t *self, char *report, size_t size, err_t *err);
 int journal_add_job(journal_t *self, const journal_job_t *job, err_t *err);
 /* Several submitted jobs in one transaction (a frame sequence and its frames): all or none. */
 int journal_add_jobs(journal_t *self, const journal_job_t *jobs, size_t n, err_t *err);
+/* Copies every commit in the write-ahead log (journal.db-wal) into journal.db and syncs it
+ * (SQLite's passive checkpoint), so that what was committed survives a deleted or garbled WAL
+ * -- an operator tidying up, a backup that copies journal.db alone (issue 26, finding 6). The
+ * master calls it after journaling a submission, before the client hears SUBMITTED: an
+ * acknowledged job is in journal.db itself. Results and later changes may still be in the WAL
+ * only; losing them costs renders, not jobs. -1 with err when SQLite cannot, or when a reader
+ * (an operator's sqlite3) kept some frames from being copied. */
+int journal_checkpoint_wal(journal_t *self, err_t *err);
 /* The job's state, error, figures, stop rule and outputs flag. A job that is over (done,
  * failed, cancelled) loses its results and checkpoint reference in the same transaction; the
  * caller then removes the checkpoint file. */
@@ -120,6 +128,8 @@ int journal_turn_end(journal_t *self, err_t *err);
 typedef struct journal_stats {
     uint64_t writes;
     double seconds;
+    uint64_t checkpoints;      /* journal_checkpoint_wal calls */
+    double checkpoint_seconds; /* their time (included in neither of the above) */
 } journal_stats_t;
 journal_stats_t journal_stats(const journal_t *self);
 

@@ -22,17 +22,17 @@ typedef struct merge_source {
 } merge_source_t;
 
 /* A photon batch's result for task (SCHED_PHOTON_TASK | batch). */
-void merge_photon_batch(master_t *m, mjob_t *j, const merge_source_t *src, uint32_t task,
+void merge_photon_batch(master_t *m, job_t *j, const merge_source_t *src, uint32_t task,
                         uint32_t attempt, const proto_photon_result_t *r, double now);
 
 /* A camera tile's result: tb (taken) covers samples [sb, se). wire is the result as received,
  * journaled once merged; NULL for one replayed from the journal. */
-void merge_camera_tile(master_t *m, mjob_t *j, const merge_source_t *src, uint32_t task,
+void merge_camera_tile(master_t *m, job_t *j, const merge_source_t *src, uint32_t task,
                        uint32_t attempt, tilebuf_t *tb, uint32_t sb, uint32_t se,
                        const proto_tile_result_t *wire, double now);
 
 /* The photon phase is merged: its store's hash names it in every camera task, and with a
  * journal it goes to disk at once, so that a restart does not trace it again. */
-void merge_photon_phase_done(master_t *m, mjob_t *j);
+void merge_photon_phase_done(master_t *m, job_t *j);
 
 #endif

@@ -11,7 +11,7 @@
 #include <string.h>
 #include <unistd.h>
 
-journal_job_t persist_record(const master_t *m, const mjob_t *j, double now)
+journal_job_t persist_record(const master_t *m, const job_t *j, double now)
 {
     journal_job_t r = {.id = j->id,
                        .name = j->name,
@@ -77,7 +77,7 @@ void persist_remove_stale_checkpoints(master_t *m, uint64_t id, uint64_t keep)
     remove_checkpoints_but(m, id, keep, keep);
 }
 
-void persist_failed(const master_t *m, const mjob_t *j, const err_t *err)
+void persist_failed(const master_t *m, const job_t *j, const err_t *err)
 {
     master_log(m,
                "job %llu: journal: %s (a restarted master would not resume this job's latest "
@@ -85,7 +85,7 @@ void persist_failed(const master_t *m, const mjob_t *j, const err_t *err)
                (unsigned long long)j->id, err->msg);
 }
 
-void persist_state(master_t *m, mjob_t *j, double now)
+void persist_state(master_t *m, job_t *j, double now)
 {
     if (!m->journal)
         return;
@@ -143,7 +143,7 @@ static void writer_free(struct checkpoint_writer *w)
 
 /* The file written: journaled (the previous generation kept until this one is durable and
  * beyond), or on failure removed and logged. */
-static void checkpoint_written(master_t *m, mjob_t *j, struct checkpoint_writer *w, double now)
+static void checkpoint_written(master_t *m, job_t *j, struct checkpoint_writer *w, double now)
 {
     err_t err;
     if (w->rc == 0 &&
@@ -168,7 +168,7 @@ static void checkpoint_written(master_t *m, mjob_t *j, struct checkpoint_writer 
 void persist_checkpoints_collect(master_t *m, double now)
 {
     for (size_t i = 0; i < m->njobs; i++) {
-        mjob_t *j = m->jobs[i];
+        job_t *j = m->jobs[i];
         struct checkpoint_writer *w = j->journal.writer;
         if (!w || !atomic_load(&w->done))
             continue;
@@ -183,7 +183,7 @@ void persist_checkpoints_collect(master_t *m, double now)
     }
 }
 
-void persist_checkpoint_drop(master_t *m, mjob_t *j)
+void persist_checkpoint_drop(master_t *m, job_t *j)
 {
     (void)m;
     struct checkpoint_writer *w = j->journal.writer;
@@ -202,7 +202,7 @@ void persist_checkpoint_drop(master_t *m, mjob_t *j)
  * with 16 buckets). So the spool holds at most about five images' worth per running job, and a
  * restart replays at most four. */
 #define CHECKPOINT_INTERVAL_S 10.0
-void persist_maybe_checkpoint(master_t *m, mjob_t *j, double now)
+void persist_maybe_checkpoint(master_t *m, job_t *j, double now)
 {
     sched_job_info_t info;
     if (!m->journal || j->journal.writer || sched_job_info(m->sched, j->id, &info) < 0 ||
@@ -256,7 +256,7 @@ void persist_maybe_checkpoint(master_t *m, mjob_t *j, double now)
 }
 
 /* A restarted master or a refinement loads the store instead of tracing again. */
-int persist_save_photons(master_t *m, mjob_t *j, err_t *err)
+int persist_save_photons(master_t *m, job_t *j, err_t *err)
 {
     char dir[PATH_MAX], path[PATH_MAX + 32];
     const uint8_t *data;

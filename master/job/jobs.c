@@ -20,7 +20,7 @@ static int jobs_reserve(master_t *m)
 {
     if (m->njobs == m->cap_jobs) {
         size_t cap = m->cap_jobs ? 2 * m->cap_jobs : 16;
-        mjob_t **p = realloc(m->jobs, cap * sizeof *p);
+        job_t **p = realloc(m->jobs, cap * sizeof *p);
         if (!p)
             return -1;
         m->jobs = p;
@@ -31,16 +31,16 @@ static int jobs_reserve(master_t *m)
 
 static uint64_t job_key(const void *jobs, size_t i)
 {
-    return ((mjob_t *const *)jobs)[i]->id;
+    return ((job_t *const *)jobs)[i]->id;
 }
 
-mjob_t *jobs_find(const master_t *m, uint64_t id)
+job_t *jobs_find(const master_t *m, uint64_t id)
 {
     size_t i = bisect_lower(m->jobs, m->njobs, job_key, id);
     return i < m->njobs && m->jobs[i]->id == id ? m->jobs[i] : NULL;
 }
 
-int jobs_append(master_t *m, mjob_t *j)
+int jobs_append(master_t *m, job_t *j)
 {
     if (jobs_reserve(m) < 0)
         return -1;
@@ -48,8 +48,9 @@ int jobs_append(master_t *m, mjob_t *j)
     return 0;
 }
 
-void job_free(mjob_t *j)
+void job_destroy(job_t **self_p)
 {
+    job_t *j = self_p ? *self_p : NULL;
     if (j) {
         photon_phase_destroy(&j->photons.phase);
         free(j->main);
@@ -57,10 +58,11 @@ void job_free(mjob_t *j)
         free(j->error);
         free(j->accuracy.tile_passes);
         free(j);
+        *self_p = NULL;
     }
 }
 
-void job_set_error(mjob_t *j, const char *msg)
+void job_set_error(job_t *j, const char *msg)
 {
     free(j->error);
     j->error = master_strdup(msg);
@@ -91,7 +93,7 @@ static void make_stem(const char *name, char *out, size_t size)
 }
 
 /* The figures a job takes from its loaded scene: sizes, seed, grid, what it runs with. */
-static void job_take_scene(mjob_t *j, const scene_t *scene)
+static void job_take_scene(job_t *j, const scene_t *scene)
 {
     const render_settings_t *rs = &scene->settings;
     j->scene.integrator = integrators_used_name(rs->integrator, rs->photon.enabled, rs->media);
@@ -103,7 +105,7 @@ static void job_take_scene(mjob_t *j, const scene_t *scene)
     j->scene.grid = rs->grid;
 }
 
-static void job_set_settings(mjob_t *j, const proto_settings_t *set)
+static void job_set_settings(job_t *j, const proto_settings_t *set)
 {
     j->settings = *set;
     j->settings.integrator = NULL;
@@ -132,16 +134,16 @@ static scene_t *load_confined(void *arg, err_t *err)
 
 /* The scene reads nothing outside dir, so no message can show a client a file of the master's
  * host; a photon job's phase keeps the scene to check and merge batches against. */
-mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
+job_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
                 const proto_settings_t *set, const char *dir, const scene_budget_t *budget,
                 scene_shelf_t *shelf, int threads, err_t *err)
 {
     size_t main_size = strlen(dir) + strlen(main) + 2;
     char *main_path = malloc(main_size);
-    mjob_t *j = calloc(1, sizeof *j);
+    job_t *j = calloc(1, sizeof *j);
     if (!main_path || !j || !(j->name = master_strdup(name)) || !(j->main = master_strdup(main))) {
         free(main_path);
-        job_free(j);
+        job_destroy(&j);
         err_set(err, "the master is out of memory");
         return NULL;
     }
@@ -155,14 +157,14 @@ mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *mai
                            : load_confined(&cl, err);
     free(main_path);
     if (!scene) {
-        job_free(j);
+        job_destroy(&j);
         return NULL;
     }
     job_take_scene(j, scene);
     bool photon = scene->settings.photon.enabled;
     uint64_t photons = scene->settings.photon.photons;
     if (photon && !(j->photons.phase = photon_phase_new(&scene, err))) {
-        job_free(j);
+        job_destroy(&j);
         return NULL;
     }
     scene_destroy(&scene);
@@ -177,22 +179,19 @@ mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *mai
     return j;
 }
 
-proto_job_state_t jobs_wire_state(const mjob_t *j)
+job_state_t jobs_wire_state(const job_t *j)
 {
-    static const proto_job_state_t BY_STATE[] = {PROTO_JOB_QUEUED, PROTO_JOB_RUNNING,
-                                                 PROTO_JOB_DONE, PROTO_JOB_FAILED,
-                                                 PROTO_JOB_CANCELLED};
     if (j->ops.paused && !job_over(j))
-        return PROTO_JOB_PAUSED;
-    return (unsigned)j->state < 5 ? BY_STATE[j->state] : PROTO_JOB_FAILED;
+        return JOB_PAUSED;
+    return (unsigned)j->state <= JOB_CANCELLED ? j->state : JOB_FAILED;
 }
 
-mjob_t *job_from_record(const journal_job_t *r)
+job_t *job_from_record(const journal_job_t *r)
 {
-    mjob_t *j = calloc(1, sizeof *j);
+    job_t *j = calloc(1, sizeof *j);
     if (!j || !(j->name = master_strdup(r->name)) || !(j->main = master_strdup(r->main)) ||
         (r->error && !(j->error = master_strdup(r->error)))) {
-        job_free(j);
+        job_destroy(&j);
         return NULL;
     }
     j->id = r->id;
@@ -220,7 +219,7 @@ mjob_t *job_from_record(const journal_job_t *r)
     return j;
 }
 
-mjob_t *job_new_sequence(const char *name, const char *hash, const char *main,
+job_t *job_new_sequence(const char *name, const char *hash, const char *main,
                          const proto_settings_t *set, uint32_t nframes)
 {
     journal_job_t r = {.name = (char *)name, .hash = (char *)hash, .main = (char *)main,
@@ -228,22 +227,22 @@ mjob_t *job_new_sequence(const char *name, const char *hash, const char *main,
     return job_from_record(&r);
 }
 
-mjob_t *jobs_frame(const master_t *m, const mjob_t *seq, uint32_t k)
+job_t *jobs_frame(const master_t *m, const job_t *seq, uint32_t k)
 {
-    mjob_t *f = k < seq->seq.nframes ? jobs_find(m, seq->id + 1 + k) : NULL;
+    job_t *f = k < seq->seq.nframes ? jobs_find(m, seq->id + 1 + k) : NULL;
     return f && f->seq.parent == seq->id ? f : NULL;
 }
 
 /* A sequence's state from its frames': over when every frame is (done when all are, else failed
  * when one failed, else cancelled), running once one started, else queued. A frame not listed
  * (a journal that lost it) keeps it unfinished. */
-void jobs_sequence_refresh(master_t *m, mjob_t *seq, double now)
+void jobs_sequence_refresh(master_t *m, job_t *seq, double now)
 {
     uint32_t over = 0, done = 0, failed = 0, started = 0, paused = 0;
-    const mjob_t *first_failed = NULL;
+    const job_t *first_failed = NULL;
     double t0 = 0, t1 = 0;
     for (uint32_t k = 0; k < seq->seq.nframes; k++) {
-        const mjob_t *f = jobs_frame(m, seq, k);
+        const job_t *f = jobs_frame(m, seq, k);
         if (!f)
             continue;
         bool fo = job_over(f);
@@ -279,7 +278,7 @@ void jobs_sequence_refresh(master_t *m, mjob_t *seq, double now)
         }
         seq->outputs.final = st == JOB_DONE;
         master_log(m, "job %llu '%s' (%u frames) %s", (unsigned long long)seq->id, seq->name,
-                   seq->seq.nframes, job_state_name(st));
+                   seq->seq.nframes, proto_job_state_name(st));
     } else {
         /* Running again: a frame refined after the sequence was done. */
         seq->finished = 0;
@@ -288,7 +287,7 @@ void jobs_sequence_refresh(master_t *m, mjob_t *seq, double now)
     persist_state(m, seq, now);
 }
 
-int job_restore_photons(master_t *m, mjob_t *j, err_t *err)
+int job_restore_photons(master_t *m, job_t *j, err_t *err)
 {
     char dir[PATH_MAX], path[PATH_MAX + 32], scene_dir[PATH_MAX], main_path[2 * PATH_MAX];
     if (spool_job_dir(m->spool, j->id, dir, sizeof dir, err) < 0)
@@ -313,13 +312,13 @@ int job_restore_photons(master_t *m, mjob_t *j, err_t *err)
     return j->photons.phase ? 0 : -1;
 }
 
-stopping_rule_t job_stopping_rule(const mjob_t *j)
+stopping_rule_t job_stopping_rule(const job_t *j)
 {
     return (stopping_rule_t){.target_error = j->settings.target_error,
                              .time_limit = j->settings.time_limit};
 }
 
-int jobs_apply_stopping(master_t *m, const mjob_t *j, err_t *err)
+int jobs_apply_stopping(master_t *m, const job_t *j, err_t *err)
 {
     stopping_rule_t rule = job_stopping_rule(j);
     if (!stopping_active(&rule))
@@ -331,7 +330,7 @@ int jobs_apply_stopping(master_t *m, const mjob_t *j, err_t *err)
                : 0;
 }
 
-int jobs_apply_ops(master_t *m, const mjob_t *j, err_t *err)
+int jobs_apply_ops(master_t *m, const job_t *j, err_t *err)
 {
     if (sched_set_job_owner(m->sched, j->id, j->owner, err) < 0 ||
         sched_set_job_priority(m->sched, j->id, j->ops.priority, err) < 0)
@@ -339,7 +338,7 @@ int jobs_apply_ops(master_t *m, const mjob_t *j, err_t *err)
     return j->ops.paused ? sched_pause_job(m->sched, j->id, true, clock_now_s(), err) : 0;
 }
 
-int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err)
+int job_schedule(master_t *m, job_t *j, uint32_t photon_batches, err_t *err)
 {
     if (jobs_reserve(m) < 0)
         return err_set(err, "the master is out of memory");
@@ -364,7 +363,7 @@ int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err)
 }
 
 /* For a submission that could not be journaled. */
-void job_unschedule(master_t *m, mjob_t *j)
+void job_unschedule(master_t *m, job_t *j)
 {
     err_t ignore;
     (void)sched_cancel_job(m->sched, j->id, &ignore);
@@ -375,10 +374,10 @@ void job_unschedule(master_t *m, mjob_t *j)
             m->njobs--;
             break;
         }
-    job_free(j);
+    job_destroy(&j);
 }
 
-int job_write_image(master_t *m, mjob_t *j, bool final, err_t *err)
+int job_write_image(master_t *m, job_t *j, bool final, err_t *err)
 {
     char dir[PATH_MAX], exr[PATH_MAX + 100], png[PATH_MAX + 100];
     if (spool_job_dir(m->spool, j->id, dir, sizeof dir, err) < 0)
@@ -450,7 +449,7 @@ int job_write_image(master_t *m, mjob_t *j, bool final, err_t *err)
  * to jobs/<id>/photons.store (for a refinement, which loads the scene again and restores it),
  * and the scene and batches are dropped; a failed or cancelled one cannot be refined. Kept in
  * memory only if it cannot be written. */
-static void release_photons(master_t *m, mjob_t *j)
+static void release_photons(master_t *m, job_t *j)
 {
     if (!j->photons.phase)
         return;
@@ -464,10 +463,10 @@ static void release_photons(master_t *m, mjob_t *j)
     j->photons.store_ready = false;
 }
 
-void job_cancel(master_t *m, mjob_t *j, double now)
+void job_cancel(master_t *m, job_t *j, double now)
 {
     for (uint32_t k = 0; k < j->seq.nframes; k++) {
-        mjob_t *f = jobs_frame(m, j, k);
+        job_t *f = jobs_frame(m, j, k);
         if (f)
             job_cancel(m, f, now); /* the last one's refresh ends the sequence */
     }
@@ -480,23 +479,23 @@ void job_cancel(master_t *m, mjob_t *j, double now)
         master_log(m, "cancel: %s", err.msg);
     job_refresh(m, j, now);
     /* A frame that gave up its outputs changed state before job_refresh looked. */
-    mjob_t *seq = j->seq.parent ? jobs_find(m, j->seq.parent) : NULL;
+    job_t *seq = j->seq.parent ? jobs_find(m, j->seq.parent) : NULL;
     if (seq && seq->seq.nframes > 0)
         jobs_sequence_refresh(m, seq, now);
 }
 
-static void job_refresh_one(master_t *m, mjob_t *j, double now);
+static void job_refresh_one(master_t *m, job_t *j, double now);
 
-void job_refresh(master_t *m, mjob_t *j, double now)
+void job_refresh(master_t *m, job_t *j, double now)
 {
     job_state_t before = j->state;
     job_refresh_one(m, j, now);
-    mjob_t *seq = j->seq.parent && j->state != before ? jobs_find(m, j->seq.parent) : NULL;
+    job_t *seq = j->seq.parent && j->state != before ? jobs_find(m, j->seq.parent) : NULL;
     if (seq && seq->seq.nframes > 0)
         jobs_sequence_refresh(m, seq, now);
 }
 
-static void job_refresh_one(master_t *m, mjob_t *j, double now)
+static void job_refresh_one(master_t *m, job_t *j, double now)
 {
     sched_job_info_t info;
     if (!j->sched.known || sched_job_info(m->sched, j->id, &info) < 0 || info.state == j->state)
@@ -584,13 +583,13 @@ static void job_refresh_one(master_t *m, mjob_t *j, double now)
 void jobs_retry_outputs(master_t *m, double now)
 {
     for (size_t i = 0; i < m->njobs; i++) {
-        mjob_t *j = m->jobs[i];
+        job_t *j = m->jobs[i];
         if (j->outputs.waiting && j->sched.known && now >= j->outputs.retry_at)
             job_refresh(m, j, now);
     }
 }
 
-void job_give_up_outputs(master_t *m, mjob_t *j, double now)
+void job_give_up_outputs(master_t *m, job_t *j, double now)
 {
     if (!j->outputs.waiting || !j->sched.known)
         return;
@@ -615,7 +614,7 @@ void job_give_up_outputs(master_t *m, mjob_t *j, double now)
 void jobs_enforce_time_limits(master_t *m, double now)
 {
     for (size_t i = 0; i < m->njobs; i++) {
-        mjob_t *j = m->jobs[i];
+        job_t *j = m->jobs[i];
         sched_job_info_t info;
         if (!j->sched.known || !(j->settings.time_limit > 0) || j->started <= 0 ||
             job_elapsed(m, j, now) < j->settings.time_limit ||

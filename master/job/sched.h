@@ -12,8 +12,10 @@
  * Priorities and fair share (docs/farm.md, "Operating a farm"): one function (pick_job in
  * sched.c) decides whose task goes next -- the highest priority first; among equal priorities
  * the owner with the fewest tasks running over all its jobs; then the oldest job. A paused job
- * gives no new task (those running finish and are merged). A worker that fails
- * max_worker_failures_in_row tasks in a row, of any jobs, is blocked from every job until
+ * gives no new task (those running finish and are merged). A worker whose row of strikes -- a
+ * task failed, a task past its deadline, tasks abandoned by joining again, a result refused
+ * (sched_worker_strike) -- reaches max_worker_failures_in_row without a task returned, of any
+ * jobs, is blocked from every job (its tasks back in the queue at once) until
  * sched_worker_block lifts it; one that fails max_worker_job_failures tasks of one job is
  * blocked from that job only. What the caller should log (re-issues, blocks, a job failed by
  * its retry limit) is queued as events (sched_events_take). Scheduling never changes pixels. */
@@ -22,6 +24,7 @@
 
 #include "err.h"
 #include "passes.h"
+#include "proto.h"
 #include "spectral_grid.h"
 #include "tilebuf.h"
 
@@ -42,14 +45,17 @@ typedef struct sched_config {
      * threads and never answers holds a few tasks for one deadline, not a job. */
     int claim_start;
     int tile_size;                /* default 32 */
-    /* A worker failing this many tasks in a row (any jobs; a returned task breaks the row) is
-     * blocked from every job until unblocked (default 5; 0: never). */
+    /* A worker with this many strikes in a row -- tasks failed or past their deadline, tasks
+     * abandoned by joining again, results refused (any jobs; a returned task breaks the row) --
+     * is blocked from every job until unblocked (default 5; 0: never). */
     int max_worker_failures_in_row;
 } sched_config_t;
 
 sched_config_t sched_config_default(void);
 
-typedef enum job_state { JOB_QUEUED, JOB_RUNNING, JOB_DONE, JOB_FAILED, JOB_CANCELLED } job_state_t;
+/* A job's state is the protocol's job_state_t (proto.h), the one enum of the master, the
+ * journal, the wire and the dashboard; the scheduler uses JOB_QUEUED .. JOB_CANCELLED and keeps
+ * a pause as a flag (JOB_PAUSED is how the wire shows a paused job that is not over). */
 
 /* Task ids of photon batches: SCHED_PHOTON_TASK | batch; camera tasks are pass * ntiles + tile
  * and stay below it. */
@@ -153,6 +159,18 @@ int sched_worker_set_threads(sched_t *self, uint64_t worker, int threads, err_t 
 void sched_worker_seen(sched_t *self, uint64_t worker, double now);
 /* The worker is gone: its tasks go back to the queue. */
 void sched_worker_leave(sched_t *self, uint64_t worker);
+/* Worker `to` is worker `from` again (the same key and name said HELLO on a new connection):
+ * from is gone at once (its tasks back in the queue, whatever their deadline) and to takes over
+ * its standing -- the tasks it returned (its claim, sched_config_t claim_start), its probation,
+ * its strikes in a row and a block -- so none of them restarts with a connection. When from
+ * still held tasks, to starts on probation with one more strike (abandoned tasks count as
+ * expired). Returns the tasks from held. */
+int sched_worker_take_over(sched_t *self, uint64_t to, uint64_t from);
+/* A strike in the worker's row that is not a task's failure (a result refused as not its own,
+ * stale or malformed): max_worker_failures_in_row of them, with failed and expired tasks, and no
+ * task returned in between, block it from every job (SCHED_EV_WORKER_BLOCKED, its tasks back
+ * in the queue). */
+void sched_worker_strike(sched_t *self, uint64_t worker);
 
 /* Gives the worker its next task if it has a free slot and there is work it is not blocked
  * from. Returns 1 with *out filled, 0 when there is nothing for it. */
@@ -256,7 +274,8 @@ typedef enum sched_event_kind {
     SCHED_EV_REQUEUED_LOST,     /* worker was lost (or joined again) holding the task */
     SCHED_EV_REQUEUED_BY_HAND,  /* sched_requeue_task; worker held it */
     SCHED_EV_WORKER_BLOCKED_JOB, /* worker failed the job's tasks max_worker_job_failures times */
-    SCHED_EV_WORKER_BLOCKED,     /* worker failed max_worker_failures_in_row tasks in a row */
+    SCHED_EV_WORKER_BLOCKED,     /* max_worker_failures_in_row strikes in a row (job 0: the last
+                                  * was not a task's: sched_worker_strike, a take-over) */
     SCHED_EV_JOB_FAILED,         /* the task failed max_task_failures times: the job failed */
 } sched_event_kind_t;
 
@@ -271,6 +290,5 @@ typedef struct sched_event {
  * the events lost since the last call because more than 4096 waited. */
 size_t sched_events_take(sched_t *self, sched_event_t *out, size_t max, uint64_t *dropped);
 
-const char *job_state_name(job_state_t s);
 
 #endif

@@ -11,67 +11,69 @@
 #include "master_state.h"
 
 /* The job with this id; NULL if none. */
-mjob_t *jobs_find(const master_t *m, uint64_t id);
+job_t *jobs_find(const master_t *m, uint64_t id);
 /* Appends a job to the list (its id above every other's); -1 when out of memory. */
-int jobs_append(master_t *m, mjob_t *j);
+int jobs_append(master_t *m, job_t *j);
 
 /* A job made from its scene, dir/main loaded with the settings and confined to dir, within
  * budget (budget.h; NULL: none), on threads threads (0: all cores; the scene is the same
  * whatever the number) -- or taken from shelf when it holds the scene of that hash and settings
  * (NULL: no shelf); a photon job gets a fresh photon phase. Not yet scheduled (job_schedule).
  * Touches nothing of the master's, so several may run at once. NULL with err. */
-mjob_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
+job_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
                 const proto_settings_t *set, const char *dir, const scene_budget_t *budget,
                 scene_shelf_t *shelf, int threads, err_t *err);
 /* A job of the journal as the master lists it without rendering it: one that is over, or one
  * that cannot be resumed. NULL when out of memory. */
-mjob_t *job_from_record(const journal_job_t *r);
-void job_free(mjob_t *j);
+job_t *job_from_record(const journal_job_t *r);
+/* Frees *self_p (its photon phase, strings and tile record) and sets it to NULL; NULL is
+ * fine. */
+void job_destroy(job_t **self_p);
 
 /* A frame sequence's own job (docs/farm.md, "Frame sequences"): queued, nframes frames, never
  * in the scheduler; main is its first frame's. Its id is set by the caller. NULL when out of
  * memory. */
-mjob_t *job_new_sequence(const char *name, const char *hash, const char *main,
+job_t *job_new_sequence(const char *name, const char *hash, const char *main,
                          const proto_settings_t *set, uint32_t nframes);
 /* Frame k (0-based, in submission order) of a sequence: the job with id seq->id + 1 + k; NULL
  * when it is not listed. */
-mjob_t *jobs_frame(const master_t *m, const mjob_t *seq, uint32_t k);
+job_t *jobs_frame(const master_t *m, const job_t *seq, uint32_t k);
 /* The sequence's state from its frames' (called by job_refresh when a frame's state changes):
  * logged and journaled when it changes. */
-void jobs_sequence_refresh(master_t *m, mjob_t *seq, double now);
+void jobs_sequence_refresh(master_t *m, job_t *seq, double now);
 /* The photon pass of a finished job back from disk: its scene loaded again from the spool (as
  * at submission, confined to the bundle's folder) and its merged store from photons.store. */
-int job_restore_photons(master_t *m, mjob_t *j, err_t *err);
+int job_restore_photons(master_t *m, job_t *j, err_t *err);
 
-void job_set_error(mjob_t *j, const char *msg);
+void job_set_error(job_t *j, const char *msg);
 
 /* The job's stopping rule (film/stopping.h), from its settings. */
-stopping_rule_t job_stopping_rule(const mjob_t *j);
+stopping_rule_t job_stopping_rule(const job_t *j);
 
 /* Adds a new job to the scheduler, with photon_batches batches before its camera phase and
  * whole passes when it may end early, and to the master's list. */
-int job_schedule(master_t *m, mjob_t *j, uint32_t photon_batches, err_t *err);
+int job_schedule(master_t *m, job_t *j, uint32_t photon_batches, err_t *err);
 /* How the job's passes are merged, from its settings: whole passes when it may end early, and
  * adaptive sampling when it has a target error and asks for it (film/adaptive.h).
  * After sched_add_job, before any camera result (job_schedule; a refinement's new round). */
-int jobs_apply_stopping(master_t *m, const mjob_t *j, err_t *err);
+int jobs_apply_stopping(master_t *m, const job_t *j, err_t *err);
 /* Pushes the job's owner, priority and pause (j->ops) into the scheduler, after sched_add_job
  * (job_schedule does it; a refinement's new round too). */
-int jobs_apply_ops(master_t *m, const mjob_t *j, err_t *err);
+int jobs_apply_ops(master_t *m, const job_t *j, err_t *err);
 /* Takes a job back out of the master's list and the scheduler, and frees it. */
-void job_unschedule(master_t *m, mjob_t *j);
+void job_unschedule(master_t *m, job_t *j);
 
 /* The job's image as the scheduler holds it: final, jobs/<id>/<stem>.exr and .png; else the
  * progressive jobs/<id>/preview.png. */
-int job_write_image(master_t *m, mjob_t *j, bool final, err_t *err);
+int job_write_image(master_t *m, job_t *j, bool final, err_t *err);
 
 /* Follows the scheduler's state of a job: logs the change and, once the job is over, writes
  * its outputs (done), tells the workers to drop its tasks (failed, cancelled) and frees its
  * image in the scheduler, keeping only the figures STATUS reports. */
-void job_refresh(master_t *m, mjob_t *j, double now);
+void job_refresh(master_t *m, job_t *j, double now);
 
 /* The job's state as clients see it: a queued or running job that is paused shows "paused". */
-proto_job_state_t jobs_wire_state(const mjob_t *j);
+job_state_t jobs_wire_state(const job_t *j);
 /* How often a finished job's outputs are tried again after a write failed (a full disk). */
 #define JOB_OUTPUT_RETRY_S 5.0
 
@@ -81,12 +83,12 @@ void jobs_retry_outputs(master_t *m, double now);
 
 /* A cancel of a job waiting to write its outputs: it ends cancelled and its image is
  * dropped. */
-void job_give_up_outputs(master_t *m, mjob_t *j, double now);
+void job_give_up_outputs(master_t *m, job_t *j, double now);
 
 /* Cancels a job (a client's CANCEL, the dashboard's action; a sequence: each of its frames): the scheduler ends it, and
  * job_refresh tells the workers to drop its tasks; a job waiting to write its outputs gives
  * them up (job_give_up_outputs). Nothing for a job that is over. */
-void job_cancel(master_t *m, mjob_t *j, double now);
+void job_cancel(master_t *m, job_t *j, double now);
 
 /* Ends every running job past its time limit that has a whole pass (docs/farm.md,
  * "Accuracy"). */

@@ -27,7 +27,7 @@ typedef struct master_actor {
 master_actor_t ops_actor_of_peer(const master_t *m, const proto_peer_t *peer);
 /* Whether who may act on the job (access.h's rule: its owner or an admin); err says why
  * not. */
-bool ops_may_act(const master_t *m, const mjob_t *j, const master_actor_t *who, err_t *err);
+bool ops_may_act(const master_t *m, const job_t *j, const master_actor_t *who, err_t *err);
 
 /* On a frame sequence, these three act on each of its frames that is not over. */
 int master_job_set_priority(master_t *m, uint64_t job, int priority, const master_actor_t *who,
@@ -45,11 +45,16 @@ int master_worker_unblock(master_t *m, const char *worker, const master_actor_t 
 int master_worker_block(master_t *m, const char *worker, const master_actor_t *who, err_t *err);
 
 /* A job about to be scheduled, submitted with priority (not paused). */
-void ops_job_init(mjob_t *j, int priority);
+void ops_job_init(job_t *j, int priority);
 /* A worker said HELLO: blocked again if its name is on the blocklist. */
 void ops_worker_joined(master_t *m, mworker_t *w);
-/* Whether the worker is on the blocklist (for WORKERS). */
+/* Whether the worker is on the blocklist (for WORKERS): by its name, or by its key. */
 bool ops_worker_blocked(const master_t *m, const mworker_t *w);
+/* A blocklist entry of a worker's key: "key:NAME" (`prismfarm unblock key:NAME` lifts it). */
+#define OPS_KEY_PREFIX "key:"
+/* The entry a worker's strikes block (SCHED_EV_WORKER_BLOCKED): its key's when it has one,
+ * else its name. */
+void ops_block_entry(const mworker_t *w, char *buf, size_t size);
 /* The blocklist from the journal (at start). */
 int ops_load_blocked(master_t *m, err_t *err);
 void ops_free(master_t *m);

@@ -28,7 +28,7 @@ typedef struct strike {
     int failures;
 } strike_t;
 
-typedef struct job {
+typedef struct sched_job {
     uint64_t id;
     job_state_t state;
     int xres, yres, spp;
@@ -65,7 +65,7 @@ typedef struct job {
      * current one began (the caller's clock). */
     double paused_s, paused_at;
     uint32_t owner; /* index into sched.owners; its share is the sum of running over its jobs */
-} job_t;
+} sched_job_t;
 
 typedef struct worker {
     uint64_t id;
@@ -89,7 +89,7 @@ typedef struct owner {
 
 struct sched {
     sched_config_t cfg;
-    job_t **jobs;
+    sched_job_t **jobs;
     size_t njobs, cap_jobs;
     worker_t *workers;
     size_t nworkers, cap_workers;
@@ -116,12 +116,6 @@ sched_config_t sched_config_default(void)
                             .claim_start = 32, .max_worker_failures_in_row = 5};
 }
 
-const char *job_state_name(job_state_t s)
-{
-    static const char *names[] = {"queued", "running", "done", "failed", "cancelled"};
-    return (unsigned)s < 5 ? names[s] : "?";
-}
-
 sched_t *sched_new(const sched_config_t *cfg, err_t *err)
 {
     sched_config_t c = cfg ? *cfg : sched_config_default();
@@ -141,7 +135,7 @@ sched_t *sched_new(const sched_config_t *cfg, err_t *err)
     return self;
 }
 
-static void job_free(job_t *j)
+static void sched_job_free(sched_job_t *j)
 {
     if (!j)
         return;
@@ -167,7 +161,7 @@ void sched_destroy(sched_t **self_p)
         return;
     sched_t *self = *self_p;
     for (size_t i = 0; i < self->njobs; i++)
-        job_free(self->jobs[i]);
+        sched_job_free(self->jobs[i]);
     free(self->jobs);
     free(self->workers);
     free(self->owners);
@@ -176,13 +170,13 @@ void sched_destroy(sched_t **self_p)
     *self_p = NULL;
 }
 
-static void fill_task(const struct job *j, uint32_t i, sched_task_t *out);
-static void check_job_done(struct job *j, int *result);
-static void stop_tile(struct sched *self, struct job *j, int tile, int from_pass);
-static void adapt(struct sched *self, struct job *j);
-static bool takes_tasks(const struct sched *self, const struct job *j, uint64_t worker);
+static void fill_task(const struct sched_job *j, uint32_t i, sched_task_t *out);
+static void check_job_done(struct sched_job *j, int *result);
+static void stop_tile(struct sched *self, struct sched_job *j, int tile, int from_pass);
+static void adapt(struct sched *self, struct sched_job *j);
+static bool takes_tasks(const struct sched *self, const struct sched_job *j, uint64_t worker);
 
-static job_t *find_job(const sched_t *self, uint64_t id)
+static sched_job_t *find_job(const sched_t *self, uint64_t id)
 {
     for (size_t i = 0; i < self->njobs; i++)
         if (self->jobs[i]->id == id)
@@ -243,13 +237,13 @@ size_t sched_events_take(sched_t *self, sched_event_t *out, size_t max, uint64_t
     return n;
 }
 
-static uint32_t ncamera(const job_t *j)
+static uint32_t ncamera(const sched_job_t *j)
 {
     return (uint32_t)(j->ntiles * j->npasses);
 }
 
 /* The task of an id, camera or photon, or NULL for an id the job does not have. */
-static task_t *task_of(job_t *j, uint32_t id)
+static task_t *task_of(sched_job_t *j, uint32_t id)
 {
     if (id & SCHED_PHOTON_TASK) {
         uint32_t b = id & ~SCHED_PHOTON_TASK;
@@ -268,7 +262,7 @@ int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spect
                        xres, yres, spp);
     if (spectral_grid_validate(grid, err))
         return -1;
-    job_t *j = calloc(1, sizeof *j);
+    sched_job_t *j = calloc(1, sizeof *j);
     if (!j)
         return err_set(err, "out of memory");
     j->id = id;
@@ -288,7 +282,7 @@ int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spect
     j->image = tilebuf_new(0, 0, xres, yres, grid.n, err);
     if (!j->pass_begin || !j->tasks || !j->next_pass || !j->merged_in_pass || !j->done_in_pass ||
         !j->image) {
-        job_free(j);
+        sched_job_free(j);
         return err_set(err, "out of memory for job %llu (%dx%d, %d buckets)", (unsigned long long)id,
                        xres, yres, grid.n);
     }
@@ -296,9 +290,9 @@ int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spect
     j->samples_total = (uint64_t)xres * (uint64_t)yres * (uint64_t)spp;
     if (self->njobs == self->cap_jobs) {
         size_t cap = self->cap_jobs ? 2 * self->cap_jobs : 8;
-        job_t **p = realloc(self->jobs, cap * sizeof *p);
+        sched_job_t **p = realloc(self->jobs, cap * sizeof *p);
         if (!p) {
-            job_free(j);
+            sched_job_free(j);
             return err_set(err, "out of memory");
         }
         self->jobs = p;
@@ -314,7 +308,7 @@ static uint32_t idle_of(const worker_t *w)
     return w->alive && w->busy < w->threads ? (uint32_t)(w->threads - w->busy) : 0;
 }
 
-static void release_task(sched_t *self, job_t *j, task_t *t)
+static void release_task(sched_t *self, sched_job_t *j, task_t *t)
 {
     if (t->state != TASK_RUNNING)
         return;
@@ -329,7 +323,7 @@ static void release_task(sched_t *self, job_t *j, task_t *t)
     t->owner = 0;
 }
 
-static void requeue(sched_t *self, job_t *j, uint32_t i)
+static void requeue(sched_t *self, sched_job_t *j, uint32_t i)
 {
     release_task(self, j, task_of(j, i));
     if (i & SCHED_PHOTON_TASK) {
@@ -341,7 +335,7 @@ static void requeue(sched_t *self, job_t *j, uint32_t i)
 }
 
 /* Ends a job: running tasks are released (their workers' slots freed), held results freed. */
-static void finish_job(sched_t *self, job_t *j, job_state_t state)
+static void finish_job(sched_t *self, sched_job_t *j, job_state_t state)
 {
     j->state = state;
     for (int i = 0; i < j->ntiles * j->npasses; i++) {
@@ -352,7 +346,7 @@ static void finish_job(sched_t *self, job_t *j, job_state_t state)
         release_task(self, j, &j->ptasks[b]);
 }
 
-static int grow_photon(job_t *j, uint32_t n, err_t *err)
+static int grow_photon(sched_job_t *j, uint32_t n, err_t *err)
 {
     if (n == 0 || n > SCHED_PHOTON_TASK - 1 - j->nphoton)
         return err_set(err, "job %llu: %u photon batches is out of range", (unsigned long long)j->id, n);
@@ -369,7 +363,7 @@ static int grow_photon(job_t *j, uint32_t n, err_t *err)
 
 int sched_add_photon_batches(sched_t *self, uint64_t id, uint32_t n, err_t *err)
 {
-    job_t *j = find_job(self, id);
+    sched_job_t *j = find_job(self, id);
     if (!j)
         return err_set(err, "no job %llu", (unsigned long long)id);
     if (j->state != JOB_QUEUED || j->tasks_done > 0)
@@ -379,7 +373,7 @@ int sched_add_photon_batches(sched_t *self, uint64_t id, uint32_t n, err_t *err)
 
 int sched_set_whole_passes(sched_t *self, uint64_t id, err_t *err)
 {
-    job_t *j = find_job(self, id);
+    sched_job_t *j = find_job(self, id);
     if (!j)
         return err_set(err, "no job %llu", (unsigned long long)id);
     if ((j->state != JOB_QUEUED && j->state != JOB_RUNNING) || j->tasks_done > j->photon_done)
@@ -391,7 +385,7 @@ int sched_set_whole_passes(sched_t *self, uint64_t id, err_t *err)
 
 int sched_set_adaptive(sched_t *self, uint64_t id, double target_error, err_t *err)
 {
-    job_t *j = find_job(self, id);
+    sched_job_t *j = find_job(self, id);
     if (!j)
         return err_set(err, "no job %llu", (unsigned long long)id);
     if (!j->whole_passes)
@@ -419,12 +413,12 @@ int sched_set_adaptive(sched_t *self, uint64_t id, double target_error, err_t *e
 
 int sched_finish_job_at_pass(sched_t *self, uint64_t id, err_t *err)
 {
-    job_t *j = find_job(self, id);
+    sched_job_t *j = find_job(self, id);
     if (!j)
         return err_set(err, "no job %llu", (unsigned long long)id);
     if (j->state != JOB_RUNNING)
         return err_set(err, "job %llu is %s: only a running job can end at a pass",
-                       (unsigned long long)id, job_state_name(j->state));
+                       (unsigned long long)id, proto_job_state_name(j->state));
     if (!j->whole_passes)
         return err_set(err, "job %llu merges tiles as they come: only a whole-pass job can end "
                        "before its last pass", (unsigned long long)id);
@@ -440,7 +434,7 @@ int sched_restore_job(sched_t *self, uint64_t id, tilebuf_t **image, const int *
     tilebuf_t *img = image ? *image : NULL;
     if (image)
         *image = NULL;
-    job_t *j = find_job(self, id);
+    sched_job_t *j = find_job(self, id);
     int rc = 0;
     if (!j)
         rc = err_set(err, "no job %llu", (unsigned long long)id);
@@ -508,7 +502,7 @@ int sched_restore_job(sched_t *self, uint64_t id, tilebuf_t **image, const int *
 
 int sched_job_next_pass(const sched_t *self, uint64_t id, int *out, int n)
 {
-    const job_t *j = find_job(self, id);
+    const sched_job_t *j = find_job(self, id);
     if (!j || n < j->ntiles)
         return -1;
     memcpy(out, j->next_pass, (size_t)j->ntiles * sizeof *out);
@@ -517,7 +511,7 @@ int sched_job_next_pass(const sched_t *self, uint64_t id, int *out, int n)
 
 int sched_cancel_job(sched_t *self, uint64_t id, err_t *err)
 {
-    job_t *j = find_job(self, id);
+    sched_job_t *j = find_job(self, id);
     if (!j)
         return err_set(err, "no job %llu", (unsigned long long)id);
     if (j->state == JOB_QUEUED || j->state == JOB_RUNNING)
@@ -527,7 +521,7 @@ int sched_cancel_job(sched_t *self, uint64_t id, err_t *err)
 
 void sched_fail_job(sched_t *self, uint64_t id, const char *message)
 {
-    job_t *j = find_job(self, id);
+    sched_job_t *j = find_job(self, id);
     if (!j || (j->state != JOB_QUEUED && j->state != JOB_RUNNING))
         return;
     snprintf(j->error, sizeof j->error, "%s", message ? message : "failed");
@@ -537,12 +531,12 @@ void sched_fail_job(sched_t *self, uint64_t id, const char *message)
 int sched_remove_job(sched_t *self, uint64_t id, err_t *err)
 {
     for (size_t i = 0; i < self->njobs; i++) {
-        job_t *j = self->jobs[i];
+        sched_job_t *j = self->jobs[i];
         if (j->id != id)
             continue;
         if (j->state == JOB_QUEUED || j->state == JOB_RUNNING)
-            return err_set(err, "job %llu is still %s", (unsigned long long)id, job_state_name(j->state));
-        job_free(j);
+            return err_set(err, "job %llu is still %s", (unsigned long long)id, proto_job_state_name(j->state));
+        sched_job_free(j);
         memmove(&self->jobs[i], &self->jobs[i + 1], (self->njobs - i - 1) * sizeof *self->jobs);
         self->njobs--;
         return 0;
@@ -604,13 +598,11 @@ void sched_worker_seen(sched_t *self, uint64_t id, double now)
         w->last_seen = now;
 }
 
-void sched_worker_leave(sched_t *self, uint64_t id)
+/* Every task the worker runs back to the queue, each with a SCHED_EV_REQUEUED_LOST event. */
+static void requeue_worker_tasks(sched_t *self, uint64_t id)
 {
-    worker_t *w = find_worker(self, id);
-    if (!w)
-        return;
     for (size_t k = 0; k < self->njobs; k++) {
-        job_t *j = self->jobs[k];
+        sched_job_t *j = self->jobs[k];
         for (uint32_t i = 0; i < (uint32_t)(j->ntiles * j->npasses); i++)
             if (j->tasks[i].state == TASK_RUNNING && j->tasks[i].owner == id) {
                 requeue(self, j, i);
@@ -623,12 +615,72 @@ void sched_worker_leave(sched_t *self, uint64_t id)
                      j->ptasks[b].attempt, id);
             }
     }
+}
+
+void sched_worker_leave(sched_t *self, uint64_t id)
+{
+    worker_t *w = find_worker(self, id);
+    if (!w)
+        return;
+    requeue_worker_tasks(self, id);
     self->idle_threads -= idle_of(w);
     w->alive = false;
     w->busy = 0;
 }
 
-static bool blocked(const sched_t *self, const job_t *j, uint64_t worker)
+/* One more strike in the worker's row (a failed task, a refused result, a task that expired or
+ * that it abandoned by joining again): at max_worker_failures_in_row it is blocked from every
+ * job and what it runs goes back to the queue at once (it would not come back). job and task
+ * name the last one, for the event (0: none). */
+static void strike(sched_t *self, worker_t *w, uint64_t job, uint32_t task, uint32_t attempt)
+{
+    if (w->blocked || self->cfg.max_worker_failures_in_row <= 0 ||
+        ++w->fail_streak < (uint32_t)self->cfg.max_worker_failures_in_row)
+        return;
+    w->blocked = true;
+    emit(self, SCHED_EV_WORKER_BLOCKED, job, task, attempt, w->id);
+    if (w->busy > 0)
+        requeue_worker_tasks(self, w->id);
+}
+
+void sched_worker_strike(sched_t *self, uint64_t worker)
+{
+    worker_t *w = find_worker(self, worker);
+    if (w)
+        strike(self, w, 0, 0, 0);
+}
+
+int sched_worker_take_over(sched_t *self, uint64_t to, uint64_t from)
+{
+    worker_t *f = find_worker(self, from), *t = find_worker(self, to);
+    if (!f || !t || f == t)
+        return 0;
+    int held = f->alive ? f->busy : 0;
+    if (f->alive) {
+        requeue_worker_tasks(self, from);
+        self->idle_threads -= idle_of(f);
+        f->alive = false;
+        f->busy = 0;
+    }
+    /* t was found before requeue_worker_tasks, which moves no worker. */
+    self->idle_threads -= idle_of(t);
+    t->tasks_done = f->tasks_done;
+    t->tasks_failed = f->tasks_failed;
+    t->samples_done = f->samples_done;
+    t->missed = f->missed;
+    t->fail_streak = f->fail_streak;
+    t->blocked = t->blocked || f->blocked;
+    if (held > 0) {
+        /* It joined again without returning what it held: as if those tasks had expired. */
+        if (t->missed < UINT32_MAX)
+            t->missed++;
+        strike(self, t, 0, 0, 0);
+    }
+    self->idle_threads += idle_of(t);
+    return held;
+}
+
+static bool blocked(const sched_t *self, const sched_job_t *j, uint64_t worker)
 {
     for (size_t i = 0; i < j->nstrikes; i++)
         if (j->strikes[i].worker == worker)
@@ -636,7 +688,7 @@ static bool blocked(const sched_t *self, const job_t *j, uint64_t worker)
     return false;
 }
 
-static void fill_task(const job_t *j, uint32_t i, sched_task_t *out)
+static void fill_task(const sched_job_t *j, uint32_t i, sched_task_t *out)
 {
     int pass = (int)(i / (uint32_t)j->ntiles), tile = (int)(i % (uint32_t)j->ntiles);
     int x0, y0, w, h;
@@ -656,7 +708,7 @@ static void fill_task(const job_t *j, uint32_t i, sched_task_t *out)
     };
 }
 
-static void issue(sched_t *self, worker_t *w, job_t *j, task_t *t, double now)
+static void issue(sched_t *self, worker_t *w, sched_job_t *j, task_t *t, double now)
 {
     t->state = TASK_RUNNING;
     j->running++;
@@ -685,7 +737,7 @@ static uint32_t count_issuable(const sched_t *self, uint64_t worker, uint32_t li
 {
     uint64_t n = 0;
     for (size_t k = 0; k < self->njobs && n <= limit; k++) {
-        const job_t *j = self->jobs[k];
+        const sched_job_t *j = self->jobs[k];
         if (!takes_tasks(self, j, worker))
             continue;
         /* Left to give in the job's phase, never below 0: running counts only this phase's
@@ -737,7 +789,7 @@ static bool others_have_room(const sched_t *self, const worker_t *w)
 /* The job's next task for the worker in its current phase (its photon batches, else its
  * camera tasks): the first pending one that was not requeued by hand from this worker; moves the
  * job's cursor past tasks that are not pending. UINT32_MAX when there is none. */
-static uint32_t next_pending(job_t *j, uint64_t worker)
+static uint32_t next_pending(sched_job_t *j, uint64_t worker)
 {
     bool photons = j->photon_done < j->nphoton;
     task_t *tasks = photons ? j->ptasks : j->tasks;
@@ -752,7 +804,7 @@ static uint32_t next_pending(job_t *j, uint64_t worker)
 }
 
 /* Whether the worker may be given tasks of the job at all. */
-static bool takes_tasks(const sched_t *self, const job_t *j, uint64_t worker)
+static bool takes_tasks(const sched_t *self, const sched_job_t *j, uint64_t worker)
 {
     return (j->state == JOB_QUEUED || j->state == JOB_RUNNING) && !j->paused &&
            !blocked(self, j, worker);
@@ -763,17 +815,17 @@ static bool takes_tasks(const sched_t *self, const job_t *j, uint64_t worker)
  * job whose owner has the fewest tasks running over all of its jobs, so that owners share the
  * workers evenly however many jobs each submitted; then the oldest job. Which worker renders a
  * task never changes its pixels, so this decides only when a job finishes, not what it makes. */
-static job_t *pick_job(sched_t *self, uint64_t worker)
+static sched_job_t *pick_job(sched_t *self, uint64_t worker)
 {
     for (size_t o = 0; o < self->nowners; o++)
         self->owners[o].running = 0;
     for (size_t k = 0; k < self->njobs; k++)
         if (self->jobs[k]->owner < self->nowners)
             self->owners[self->jobs[k]->owner].running += self->jobs[k]->running;
-    job_t *best = NULL;
+    sched_job_t *best = NULL;
     uint32_t best_share = 0;
     for (size_t k = 0; k < self->njobs; k++) {
-        job_t *j = self->jobs[k];
+        sched_job_t *j = self->jobs[k];
         if (!takes_tasks(self, j, worker))
             continue;
         uint32_t share = j->owner < self->nowners ? self->owners[j->owner].running : 0;
@@ -797,7 +849,7 @@ int sched_next_task(sched_t *self, uint64_t worker, double now, sched_task_t *ou
         return 0;
     if (w->busy >= w->threads && !prefetch_allowed(self, w))
         return 0;
-    job_t *j = pick_job(self, worker);
+    sched_job_t *j = pick_job(self, worker);
     if (!j)
         return 0;
     uint32_t i = next_pending(j, worker);
@@ -817,7 +869,7 @@ int sched_next_task(sched_t *self, uint64_t worker, double now, sched_task_t *ou
  * on are done without a result (a running one is released, its worker's result will be a
  * duplicate; one done and held is dropped), counted merged, and the job's total shrinks by the
  * samples they would have added, so progress counts a stopped tile as done. */
-static void stop_tile(sched_t *self, job_t *j, int tile, int from_pass)
+static void stop_tile(sched_t *self, sched_job_t *j, int tile, int from_pass)
 {
     if (!j->active || !j->active[tile])
         return;
@@ -841,7 +893,7 @@ static void stop_tile(sched_t *self, job_t *j, int tile, int from_pass)
 
 /* At the boundary of passes_done whole passes of an adaptive job: film/adaptive.h decides from
  * the image which running tiles stop here. */
-static void adapt(sched_t *self, job_t *j)
+static void adapt(sched_t *self, sched_job_t *j)
 {
     if (!j->active || j->passes_done < 1 || j->passes_done >= j->npasses)
         return;
@@ -856,7 +908,7 @@ static void adapt(sched_t *self, job_t *j)
 }
 
 /* Merges what can be merged of one tile, in pass order. */
-static int merge_tile(job_t *j, int tile, int *result, err_t *err)
+static int merge_tile(sched_job_t *j, int tile, int *result, err_t *err)
 {
     while (j->next_pass[tile] < j->npasses) {
         int pass = j->next_pass[tile];
@@ -880,7 +932,7 @@ static int merge_tile(job_t *j, int tile, int *result, err_t *err)
 /* Whole-pass jobs: merges the next pass if every tile of it is done, all tiles at once (tiles
  * are disjoint, so each pixel still sums its passes in pass order: the bytes of merge_tile).
  * One pass per call, so that the caller sees every pass boundary. */
-static int merge_whole_pass(sched_t *self, job_t *j, int *result, err_t *err)
+static int merge_whole_pass(sched_t *self, sched_job_t *j, int *result, err_t *err)
 {
     int pass = j->passes_done;
     if (pass >= j->npasses || j->done_in_pass[pass] < j->ntiles)
@@ -909,7 +961,7 @@ static int merge_whole_pass(sched_t *self, job_t *j, int *result, err_t *err)
     return 0;
 }
 
-static void check_job_done(job_t *j, int *result)
+static void check_job_done(sched_job_t *j, int *result)
 {
     if (j->passes_done == j->npasses && j->state == JOB_RUNNING) {
         j->state = JOB_DONE;
@@ -919,7 +971,7 @@ static void check_job_done(job_t *j, int *result)
 
 int sched_merge_next_pass(sched_t *self, uint64_t id, err_t *err)
 {
-    job_t *j = find_job(self, id);
+    sched_job_t *j = find_job(self, id);
     if (!j)
         return err_set(err, "no job %llu", (unsigned long long)id);
     int out = 0;
@@ -959,7 +1011,7 @@ static bool may_return(const task_t *t, uint64_t worker, uint32_t attempt, err_t
 bool sched_may_return(const sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
                       uint32_t attempt, err_t *err)
 {
-    job_t *j = find_job(self, job);
+    sched_job_t *j = find_job(self, job);
     task_t *t = j ? task_of(j, task) : NULL;
     if (!t) {
         err_set(err, "job %llu has no task %u", (unsigned long long)job, task);
@@ -972,7 +1024,7 @@ int sched_photon_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t tas
                       double now, err_t *err)
 {
     sched_worker_seen(self, worker, now);
-    job_t *j = find_job(self, job);
+    sched_job_t *j = find_job(self, job);
     task_t *t = j && (task & SCHED_PHOTON_TASK) ? task_of(j, task) : NULL;
     if (!t)
         return err_set(err, "photon result for unknown job %llu task %u", (unsigned long long)job,
@@ -1001,7 +1053,7 @@ int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
     tilebuf_t *r = *result;
     *result = NULL;
     sched_worker_seen(self, worker, now);
-    job_t *j = find_job(self, job);
+    sched_job_t *j = find_job(self, job);
     if (!j || task >= (uint32_t)(j->ntiles * j->npasses)) {
         tilebuf_destroy(&r);
         return err_set(err, "result for unknown job %llu task %u", (unsigned long long)job, task);
@@ -1050,7 +1102,7 @@ int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
 void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
                        uint32_t attempt, const char *message)
 {
-    job_t *j = find_job(self, job);
+    sched_job_t *j = find_job(self, job);
     worker_t *w = find_worker(self, worker);
     if (w)
         w->tasks_failed++;
@@ -1077,11 +1129,8 @@ void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t ta
     }
     if (s < j->nstrikes && ++j->strikes[s].failures == self->cfg.max_worker_job_failures)
         emit(self, SCHED_EV_WORKER_BLOCKED_JOB, j->id, task, attempt, worker);
-    if (w && !w->blocked && self->cfg.max_worker_failures_in_row > 0 &&
-        ++w->fail_streak >= (uint32_t)self->cfg.max_worker_failures_in_row) {
-        w->blocked = true;
-        emit(self, SCHED_EV_WORKER_BLOCKED, j->id, task, attempt, worker);
-    }
+    if (w)
+        strike(self, w, j->id, task, attempt);
     if (t->failures >= self->cfg.max_task_failures) {
         if (task & SCHED_PHOTON_TASK)
             snprintf(j->error, sizeof j->error, "photon batch %u failed %d times; last error: %s",
@@ -1094,12 +1143,17 @@ void sched_task_failed(sched_t *self, uint64_t worker, uint64_t job, uint32_t ta
     }
 }
 
-/* A task of the worker's missed its deadline: one task at a time until it returns one. */
-static void missed_by(sched_t *self, uint64_t worker)
+/* A task of the worker's missed its deadline: one task at a time until it returns one, and a
+ * strike in its row (called after the task went back to the queue). */
+static void missed_by(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
+                      uint32_t attempt)
 {
     worker_t *w = find_worker(self, worker);
-    if (w && w->missed < UINT32_MAX)
+    if (!w)
+        return;
+    if (w->missed < UINT32_MAX)
         w->missed++;
+    strike(self, w, job, task, attempt);
 }
 
 int sched_tick(sched_t *self, double now)
@@ -1116,25 +1170,28 @@ int sched_tick(sched_t *self, double now)
         return requeued;
     double next = DBL_MAX;
     for (size_t k = 0; k < self->njobs; k++) {
-        job_t *j = self->jobs[k];
+        sched_job_t *j = self->jobs[k];
         if (j->state != JOB_RUNNING)
             continue;
         for (uint32_t i = 0; i < (uint32_t)(j->ntiles * j->npasses); i++)
             if (j->tasks[i].state == TASK_RUNNING && j->tasks[i].deadline < now) {
-                missed_by(self, j->tasks[i].owner);
-                emit(self, SCHED_EV_REQUEUED_DEADLINE, j->id, i, j->tasks[i].attempt,
-                     j->tasks[i].owner);
+                uint64_t owner = j->tasks[i].owner;
+                uint32_t attempt = j->tasks[i].attempt;
+                emit(self, SCHED_EV_REQUEUED_DEADLINE, j->id, i, attempt, owner);
                 requeue(self, j, i);
+                missed_by(self, owner, j->id, i, attempt);
                 requeued++;
             } else if (j->tasks[i].state == TASK_RUNNING && j->tasks[i].deadline < next) {
                 next = j->tasks[i].deadline;
             }
         for (uint32_t b = 0; b < j->nphoton; b++)
             if (j->ptasks[b].state == TASK_RUNNING && j->ptasks[b].deadline < now) {
-                missed_by(self, j->ptasks[b].owner);
-                emit(self, SCHED_EV_REQUEUED_DEADLINE, j->id, SCHED_PHOTON_TASK | b,
-                     j->ptasks[b].attempt, j->ptasks[b].owner);
+                uint64_t owner = j->ptasks[b].owner;
+                uint32_t attempt = j->ptasks[b].attempt;
+                emit(self, SCHED_EV_REQUEUED_DEADLINE, j->id, SCHED_PHOTON_TASK | b, attempt,
+                     owner);
                 requeue(self, j, SCHED_PHOTON_TASK | b);
+                missed_by(self, owner, j->id, SCHED_PHOTON_TASK | b, attempt);
                 requeued++;
             } else if (j->ptasks[b].state == TASK_RUNNING && j->ptasks[b].deadline < next) {
                 next = j->ptasks[b].deadline;
@@ -1146,7 +1203,7 @@ int sched_tick(sched_t *self, double now)
 
 int sched_job_info(const sched_t *self, uint64_t id, sched_job_info_t *out)
 {
-    const job_t *j = find_job(self, id);
+    const sched_job_t *j = find_job(self, id);
     if (!j)
         return -1;
     uint32_t running = j->running;
@@ -1167,7 +1224,7 @@ int sched_job_info(const sched_t *self, uint64_t id, sched_job_info_t *out)
 
 int sched_job_running(const sched_t *self, uint64_t id, sched_running_t *out, int max)
 {
-    const job_t *j = find_job(self, id);
+    const sched_job_t *j = find_job(self, id);
     if (!j)
         return -1;
     int n = 0;
@@ -1192,7 +1249,7 @@ int sched_job_running(const sched_t *self, uint64_t id, sched_running_t *out, in
 
 const tilebuf_t *sched_job_image(const sched_t *self, uint64_t id)
 {
-    const job_t *j = find_job(self, id);
+    const sched_job_t *j = find_job(self, id);
     return j ? j->image : NULL;
 }
 
@@ -1225,7 +1282,7 @@ size_t sched_workers(const sched_t *self, sched_worker_info_t *out, size_t max)
 
 int sched_set_job_priority(sched_t *self, uint64_t id, int priority, err_t *err)
 {
-    job_t *j = find_job(self, id);
+    sched_job_t *j = find_job(self, id);
     if (!j)
         return err_set(err, "no job %llu", (unsigned long long)id);
     if (priority < SCHED_PRIORITY_MIN || priority > SCHED_PRIORITY_MAX)
@@ -1237,7 +1294,7 @@ int sched_set_job_priority(sched_t *self, uint64_t id, int priority, err_t *err)
 
 int sched_set_job_owner(sched_t *self, uint64_t id, const char *owner, err_t *err)
 {
-    job_t *j = find_job(self, id);
+    sched_job_t *j = find_job(self, id);
     if (!j)
         return err_set(err, "no job %llu", (unsigned long long)id);
     if (!owner)
@@ -1267,12 +1324,12 @@ int sched_set_job_owner(sched_t *self, uint64_t id, const char *owner, err_t *er
 
 int sched_pause_job(sched_t *self, uint64_t id, bool paused, double now, err_t *err)
 {
-    job_t *j = find_job(self, id);
+    sched_job_t *j = find_job(self, id);
     if (!j)
         return err_set(err, "no job %llu", (unsigned long long)id);
     if (j->state != JOB_QUEUED && j->state != JOB_RUNNING)
         return err_set(err, "job %llu is %s: only a queued or running job can be %s",
-                       (unsigned long long)id, job_state_name(j->state),
+                       (unsigned long long)id, proto_job_state_name(j->state),
                        paused ? "paused" : "resumed");
     if (paused && !j->paused)
         j->paused_at = now;
@@ -1288,7 +1345,7 @@ int sched_pause_job(sched_t *self, uint64_t id, bool paused, double now, err_t *
  * that pause, after the time the journal gave it. */
 double sched_job_paused_s(const sched_t *self, uint64_t id, double now)
 {
-    const job_t *j = find_job(self, id);
+    const sched_job_t *j = find_job(self, id);
     if (!j)
         return 0;
     double s = j->paused_s;
@@ -1299,12 +1356,12 @@ double sched_job_paused_s(const sched_t *self, uint64_t id, double now)
 
 int sched_requeue_task(sched_t *self, uint64_t id, uint32_t task, err_t *err)
 {
-    job_t *j = find_job(self, id);
+    sched_job_t *j = find_job(self, id);
     if (!j)
         return err_set(err, "no job %llu", (unsigned long long)id);
     if (j->state != JOB_QUEUED && j->state != JOB_RUNNING)
         return err_set(err, "job %llu is %s: its tasks are no longer handed out",
-                       (unsigned long long)id, job_state_name(j->state));
+                       (unsigned long long)id, proto_job_state_name(j->state));
     task_t *t = task_of(j, task);
     /* Tasks named as `logs` shows them: 12, or p3 for photon batch 3. */
     char label[PROTO_TASK_LABEL_MAX];
@@ -1343,7 +1400,7 @@ int sched_worker_block(sched_t *self, uint64_t worker, bool blocked_, err_t *err
     if (!blocked_)
         /* Unblocked: its strikes against each job go too, so that it serves every job again. */
         for (size_t k = 0; k < self->njobs; k++) {
-            job_t *j = self->jobs[k];
+            sched_job_t *j = self->jobs[k];
             for (size_t i = 0; i < j->nstrikes; i++)
                 if (j->strikes[i].worker == worker)
                     j->strikes[i].failures = 0;

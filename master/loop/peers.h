@@ -16,6 +16,10 @@ void peers_free(mworker_t *w);
 
 /* The worker of this id, alive or lost (O(log n): m->workers is in id order); NULL if none. */
 mworker_t *peers_by_id(const master_t *m, uint64_t id);
+/* The worker w was before its latest HELLO on a new connection: another entry with the same
+ * key and name, the live one if any, else the one seen last; NULL when there is none. A worker's
+ * standing follows its key and name, not its connection (sched_worker_take_over). */
+mworker_t *peers_find_same(const master_t *m, const mworker_t *w);
 
 /* The scheduler's view of every worker, in m->winfo sorted by id; returns the count. */
 size_t peers_sched_table(master_t *m);

@@ -14,7 +14,7 @@
  * its record and log line, and the stopping rules, which end the job at the first boundary
  * where the estimate is <= target_error or time_limit has passed. A job that goes on gets a
  * preview, at most every preview_interval_s. */
-static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
+static void passes_merged(master_t *m, job_t *j, int rc, double now)
 {
     err_t err;
     sched_job_info_t info;
@@ -94,7 +94,7 @@ static void passes_merged(master_t *m, mjob_t *j, int rc, double now)
  * dropped and logged with the worker and its key's name; it counts as no failure of the task. */
 /* The task log's line for a result a worker returned: merged, a duplicate (a re-issued copy's
  * twin), refused or bad. Results replayed from the journal were logged when they came. */
-static void log_result(master_t *m, const mjob_t *j, const merge_source_t *src, uint32_t task,
+static void log_result(master_t *m, const job_t *j, const merge_source_t *src, uint32_t task,
                        uint32_t attempt, const char *outcome)
 {
     char label[PROTO_TASK_LABEL_MAX];
@@ -105,7 +105,7 @@ static void log_result(master_t *m, const mjob_t *j, const merge_source_t *src, 
                     src->name, src->elapsed, (unsigned long long)src->samples, outcome);
 }
 
-static void merge_refused(master_t *m, const mjob_t *j, const merge_source_t *src, uint32_t task,
+static void merge_refused(master_t *m, const job_t *j, const merge_source_t *src, uint32_t task,
                           const err_t *why)
 {
     char label[PROTO_TASK_LABEL_MAX];
@@ -117,9 +117,13 @@ static void merge_refused(master_t *m, const mjob_t *j, const merge_source_t *sr
                (unsigned long long)src->id, src->name,
                src->key && src->key[0] ? src->key : "none: no CURVE", (unsigned long long)j->id,
                label, why->msg);
+    /* A strike in its row: a worker that sends refused results and nothing else is blocked
+     * (finding 6 of issue 26: hundreds of them were never cut off). */
+    if (!src->replay)
+        sched_worker_strike(m->sched, src->id);
 }
 
-void merge_photon_phase_done(master_t *m, mjob_t *j)
+void merge_photon_phase_done(master_t *m, job_t *j)
 {
     err_t err;
     const uint8_t *data;
@@ -142,7 +146,7 @@ void merge_photon_phase_done(master_t *m, mjob_t *j)
         persist_failed(m, j, &err);
 }
 
-void merge_photon_batch(master_t *m, mjob_t *j, const merge_source_t *src, uint32_t task,
+void merge_photon_batch(master_t *m, job_t *j, const merge_source_t *src, uint32_t task,
                         uint32_t attempt, const proto_photon_result_t *r, double now)
 {
     err_t err;
@@ -187,7 +191,7 @@ void merge_photon_batch(master_t *m, mjob_t *j, const merge_source_t *src, uint3
         merge_photon_phase_done(m, j);
 }
 
-void merge_camera_tile(master_t *m, mjob_t *j, const merge_source_t *src, uint32_t task,
+void merge_camera_tile(master_t *m, job_t *j, const merge_source_t *src, uint32_t task,
                        uint32_t attempt, tilebuf_t *tb, uint32_t sb, uint32_t se,
                        const proto_tile_result_t *wire, double now)
 {

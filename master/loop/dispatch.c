@@ -7,7 +7,7 @@
 
 static int send_task(master_t *m, mworker_t *w, const sched_task_t *t, double now)
 {
-    mjob_t *j = jobs_find(m, t->job);
+    job_t *j = jobs_find(m, t->job);
     if (!j || !j->sched.known)
         return 0; /* cancelled meanwhile: the scheduler already took the task back */
     proto_msg_t msg = {.type = PROTO_TASK};

@@ -102,6 +102,21 @@ mworker_t *peers_by_id(const master_t *m, uint64_t id)
     return i < m->nworkers && m->workers[i]->id == id ? m->workers[i] : NULL;
 }
 
+mworker_t *peers_find_same(const master_t *m, const mworker_t *w)
+{
+    mworker_t *best = NULL;
+    for (size_t i = 0; i < m->nworkers; i++) {
+        mworker_t *o = m->workers[i];
+        if (o == w || !o->name || !w->name || strcmp(o->name, w->name) != 0 ||
+            strcmp(o->key, w->key) != 0)
+            continue;
+        if (!best || (o->alive && !best->alive) ||
+            (o->alive == best->alive && o->last_seen > best->last_seen))
+            best = o;
+    }
+    return best;
+}
+
 /* Forgets the lost worker seen longest ago once more than MAX_LOST_WORKERS are listed, so that
  * workers that come and go do not grow the table for ever. Called between loops over the
  * table only, never inside one. */
