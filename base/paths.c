@@ -149,3 +149,31 @@ char *paths_lexical(const char *path)
     free(a);
     return n;
 }
+
+size_t paths_ups(const char *rel)
+{
+    size_t n = 0;
+    while (rel[0] == '.' && rel[1] == '.' && (rel[2] == '/' || rel[2] == 0)) {
+        n++;
+        rel += rel[2] ? 3 : 2;
+    }
+    return n;
+}
+
+char *paths_lift(const char *dir, size_t ups)
+{
+    size_t len = strlen(dir);
+    char *joined = malloc(len + 3 * ups + 2);
+    if (!joined)
+        return NULL;
+    memcpy(joined, dir, len + 1);
+    for (size_t k = 0; k < ups; k++)
+        strcat(joined, "/..");
+    char *out = paths_normalise(joined);
+    free(joined);
+    if (out && !out[0]) { /* "/.." normalises to "" */
+        free(out);
+        out = strdup("/");
+    }
+    return out;
+}

@@ -85,6 +85,10 @@ const char *pbrt_confine_scene_path(parser_t *P, const char *name, pbrt_loc_t lo
         pbrt_error(P->err, loc, "out of memory");
         return NULL;
     }
+    if (pbrt_confine_bundle_check(P, path, name, loc) != 0) {
+        free(path);
+        return NULL;
+    }
     const char *s = scene_desc_strdup(P->scene, path, P->err);
     free(path);
     return s;
@@ -278,4 +282,37 @@ int pbrt_confine_charge_png(parser_t *P, const char *real, const char *name, con
                                   "read (%zu bytes in all)",
                                   name, (unsigned long long)pixels, PBRT_TOTAL_BYTES_MAX);
     return pbrt_confine_charge(P, size + 64 * pixels, from);
+}
+
+int pbrt_confine_bundle_check(parser_t *P, const char *path, const char *name, pbrt_loc_t loc)
+{
+    if (!P->bundle)
+        return 0;
+    if (name[0] == '/')
+        return pbrt_error(P->err, loc,
+                          "\"%s\" is an absolute path, so it cannot travel with the job: name "
+                          "it relative to the scene's file (the farm reads the scene from a "
+                          "folder of its own)",
+                          name);
+    char *dir = paths_folder(P->main_name);
+    char *adir = dir ? paths_lexical(dir[0] ? dir : ".") : NULL;
+    char *apath = paths_lexical(path);
+    char *rel = adir && apath ? paths_relative_to(adir, apath) : NULL;
+    char *root = rel ? paths_lift(adir, paths_ups(rel)) : NULL;
+    int rc = root ? 0 : pbrt_error(P->err, loc, "out of memory");
+    char *real = rc == 0 ? realpath(path, NULL) : NULL;
+    char *real_root = real ? realpath(root, NULL) : NULL;
+    if (real && real_root && !paths_is_under(real_root, real))
+        rc = pbrt_error(P->err, loc,
+                        "\"%s\" is a symbolic link that leads out of the folder the job carries "
+                        "(%s), so it cannot travel with the job",
+                        name, root);
+    free(dir);
+    free(adir);
+    free(apath);
+    free(rel);
+    free(root);
+    free(real);
+    free(real_root);
+    return rc;
 }

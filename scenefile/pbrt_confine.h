@@ -35,4 +35,14 @@ int pbrt_confine_inflate(parser_t *P, char **buf, size_t *len, size_t limit, con
 int pbrt_confine_charge_png(parser_t *P, const char *real, const char *name, const char *path,
                             const pbrt_loc_t *from);
 
+/* The bundle rule, the one rule by which the farm's client decides which files travel with a
+ * job (render without --direct, submit and check apply it; scene_bundle roots the bundle):
+ * a file named by an absolute path is refused (it would name another file on the master),
+ * and so is a file whose real path (symbolic links followed) lies outside the folder the
+ * bundle is rooted at for it: the main file's folder lifted by as many levels as the file's
+ * path relative to that folder starts with ".." ("../assets/wood.png" lifts it one level).
+ * Checked with realpath before the file is opened, so a refused file is never read. Returns
+ * 0 when P->bundle is off, the file passes, or it does not exist (the read says so). */
+int pbrt_confine_bundle_check(parser_t *P, const char *path, const char *name, pbrt_loc_t loc);
+
 #endif

@@ -271,6 +271,11 @@ static int spectrum_string(parser_t *P, const param_t *p, const char *name, int 
         const char *use_path = path ? path : first;
         size_t len = 0;
         char *buf = NULL;
+        if (pbrt_confine_bundle_check(P, use_path, name, p->loc) != 0) {
+            free(first);
+            free(second);
+            return -1;
+        }
         if (P->root_real) {
             char *real = pbrt_confine_check(P, use_path, name, &p->loc, "spectrum file");
             buf = real ? pbrt_confine_read(P, real, name, use_path, &p->loc, "spectrum file", &len)

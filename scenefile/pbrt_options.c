@@ -72,6 +72,11 @@ static int do_camera_lens(parser_t *P, params_t *ps, scene_camera_t *c, pbrt_loc
                                                          : first;
     size_t len = 0;
     char *buf = NULL;
+    if (pbrt_confine_bundle_check(P, path, name, lp->loc) != 0) {
+        free(first);
+        free(second);
+        return -1;
+    }
     if (P->root_real) {
         char *real = pbrt_confine_check(P, path, name, &lp->loc, "lens file");
         buf = real ? pbrt_confine_read(P, real, name, path, &lp->loc, "lens file", &len) : NULL;

@@ -551,6 +551,17 @@ static int parse_tokens(parser_t *P)
                               "expected a directive, got the number %.40s (one too many for the "
                               "directive before it?)",
                               t.text);
+        /* A word a directive cannot be (a line of a file that is not a scene: "root:x:0:0:...")
+         * is not shown: the message must not echo a file's contents. */
+        bool word = true;
+        for (size_t i = 0; i < t.len && word; i++)
+            word = (t.text[i] >= 'A' && t.text[i] <= 'Z') ||
+                   (t.text[i] >= 'a' && t.text[i] <= 'z') ||
+                   (t.text[i] >= '0' && t.text[i] <= '9') || t.text[i] == '_';
+        if (!word)
+            return pbrt_error(P->err, t.loc,
+                              "expected a directive, got a word that cannot be one (is this file "
+                              "a pbrt scene?)");
         char dir[64];
         if (t.len >= sizeof dir) {
             return pbrt_error(P->err, t.loc, "unknown directive %.40s...", t.text);
@@ -644,6 +655,8 @@ static int parse_file(parser_t *P, const char *path, const pbrt_loc_t *from, sce
         return pbrt_error(P->err, *from, "the scene reads more than %d files", PBRT_FILES_MAX);
     size_t len;
     char *text, *real;
+    if (from && pbrt_confine_bundle_check(P, path, name, *from) != 0)
+        return -1;
     if (P->root_real) {
         const char *what = from ? "included file" : "scene file";
         real = pbrt_confine_check(P, path, name, from, what);
@@ -707,13 +720,15 @@ static int finish(parser_t *P)
 }
 
 static scene_desc_t *run(const char *name, const char *text, size_t len, const char *root,
-                         const scene_budget_t *budget, warnings_t *errors, int threads, err_t *err)
+                         const scene_budget_t *budget, warnings_t *errors, int threads, bool bundle,
+                         err_t *err)
 {
     parser_t P = {0};
     P.err = err;
     P.threads = threads;
     P.budget = budget;
     P.errors = errors;
+    P.bundle = bundle;
     if (root) {
         P.root_real = realpath(root, NULL);
         if (!P.root_real) {
@@ -790,12 +805,12 @@ static scene_desc_t *run(const char *name, const char *text, size_t len, const c
 
 scene_desc_t *pbrt_parse_file(const char *path, err_t *err)
 {
-    return run(path, NULL, 0, NULL, NULL, NULL, 0, err);
+    return run(path, NULL, 0, NULL, NULL, NULL, 0, false, err);
 }
 
 scene_desc_t *pbrt_parse_file_check(const char *path, warnings_t *errors, err_t *err)
 {
-    return run(path, NULL, 0, NULL, NULL, errors, 0, err);
+    return run(path, NULL, 0, NULL, NULL, errors, 0, true, err);
 }
 
 scene_desc_t *pbrt_parse_file_confined(const char *path, const char *root,
@@ -811,11 +826,11 @@ scene_desc_t *pbrt_parse_file_opts(const char *path, const pbrt_parse_opts_t *op
     pbrt_parse_opts_t none = {0};
     if (!opts)
         opts = &none;
-    return run(path, NULL, 0, opts->root, opts->budget, NULL, opts->threads, err);
+    return run(path, NULL, 0, opts->root, opts->budget, NULL, opts->threads, opts->bundle, err);
 }
 
 scene_desc_t *pbrt_parse_string(const char *text, size_t len, const char *name, err_t *err)
 {
     return run(name ? name : "<string>", text ? text : "", text ? len : 0, NULL, NULL, NULL, 0,
-               err);
+               false, err);
 }

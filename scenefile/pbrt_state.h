@@ -132,6 +132,7 @@ typedef struct parser {
     const scene_budget_t *budget; /* NULL: none (budget.h) */
     uint64_t nshapes, ntriangles; /* counted against it */
     int threads;                  /* for the queued meshes (<= 0: all cores) */
+    bool bundle;                  /* the bundle rule applies (pbrt_parse_opts_t.bundle) */
     mesh_job_t *jobs;             /* queued meshes, in file order */
     size_t njobs, cap_jobs;
     tri_count_t *counts; /* triangle counts noted after the first job, in file order */
