@@ -18,6 +18,7 @@
 #include "progress.h"
 #include "scene_bundle.h"
 #include "cli_warn.h"
+#include "pbrt_parser.h"
 #include "scene_load.h"
 
 #include <errno.h>
@@ -372,7 +373,12 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
     err_t err;
     /* The load (parse, meshes, textures, Embree's build) is timed apart from the render. */
     double t0 = clock_now_s();
-    scene_t *scene = scene_load_file(scene_path, &ov, &err);
+    /* Without --direct the scene goes to the farm: the bundle rule applies before any file is
+     * read (pbrt_confine.h), so the refusal is the one submit and check give. */
+    scene_desc_t *desc = pbrt_parse_file_opts(
+        scene_path, &(pbrt_parse_opts_t){.threads = ov.threads, .bundle = !c->direct}, &err);
+    scene_t *scene = desc ? scene_load(desc, &ov, &err) : NULL;
+    scene_desc_destroy(&desc);
     if (!scene) {
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
         return 1;

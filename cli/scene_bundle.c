@@ -1,6 +1,7 @@
 #include "scene_bundle.h"
 
 #include "files.h"
+#include "paths.h"
 
 #include "bundle.h"
 #include "pbrt_parser.h"
@@ -68,60 +69,93 @@ static int reserve(scene_bundle_t *self, size_t more)
     return 0;
 }
 
-/* One scene file and what it reads, added to the bundle: a path it already holds (a file
- * another frame reads too) is read once. */
-static int add_scene(scene_bundle_t *self, const char *scene_path, err_t *err)
+/* A scene parsed as the farm's client reads it: the bundle rule (pbrt_confine.h) applied to
+ * every file before it is read, so an absolute path or a symbolic link out of the folder is
+ * refused unread. */
+static scene_desc_t *parse_for_bundle(const char *scene_path, err_t *err)
 {
-    scene_desc_t *d = pbrt_parse_file(scene_path, err);
-    if (!d)
-        return -1;
-    int rc = 0;
-    if (reserve(self, d->nfiles) < 0) {
-        rc = err_set(err, "out of memory");
-        goto out;
+    return pbrt_parse_file_opts(scene_path, &(pbrt_parse_opts_t){.bundle = true}, err);
+}
+
+/* The bundle's root is the main file's folder lifted by the most ".." any file's path (relative
+ * to that folder) starts with: the nearest folder that holds everything the scene names. */
+static size_t root_ups(const scene_desc_t *d)
+{
+    size_t ups = 0;
+    for (size_t i = 0; i < d->nfiles; i++) {
+        size_t u = paths_ups(d->files[i].relative);
+        ups = u > ups ? u : ups;
     }
+    return ups;
+}
+
+/* One parsed scene and what it reads, added to the bundle under their paths below the root
+ * (prefix: the main file's folder as seen from the root, "" when they are the same): a path
+ * the bundle already holds (a file another frame reads too) is read once. */
+static int add_scene(scene_bundle_t *self, const char *scene_path, const scene_desc_t *d,
+                     const char *prefix, err_t *err)
+{
+    if (reserve(self, d->nfiles) < 0)
+        return err_set(err, "out of memory");
     const char *main = NULL;
     for (size_t i = 0; i < d->nfiles; i++) {
         const scene_file_t *sf = &d->files[i];
-        /* The main file is the bundle's root whatever path named it. */
+        /* The main file sits in the prefix whatever path named it. */
         const char *rel = sf->relative;
         if (sf->kind == SCENE_FILE_MAIN) {
             const char *slash = strrchr(sf->path, '/');
             rel = slash ? slash + 1 : sf->path;
-        } else if (sf->outside) {
-            rc = err_set(err,
-                         "%s:%d:%d: \"%s\" lies outside the scene's folder, so it cannot "
-                         "travel with the job: move it below the folder of %s",
-                         sf->loc.file, sf->loc.line, sf->loc.col, sf->relative, scene_path);
-            goto out;
+        } else if (rel[0] == '/') {
+            /* The parse refuses it first (bundle rule); kept as the last line of defence. */
+            return err_set(err,
+                           "%s:%d:%d: \"%s\" is an absolute path, so it cannot travel with the "
+                           "job",
+                           sf->loc.file, sf->loc.line, sf->loc.col, sf->relative);
         }
-        size_t at = find_file(self, rel);
+        size_t plen = strlen(prefix), rlen = strlen(rel);
+        char *joined = malloc(plen + rlen + 2);
+        if (!joined)
+            return err_set(err, "out of memory");
+        snprintf(joined, plen + rlen + 2, "%s%s%s", prefix, plen ? "/" : "", rel);
+        char *name = paths_normalise(joined);
+        free(joined);
+        if (!name)
+            return err_set(err, "out of memory");
+        size_t at = find_file(self, name);
         if (at == self->n) {
             size_t size = 0;
-            if (!(self->paths[at] = strdup(rel))) {
-                rc = err_set(err, "out of memory");
-                goto out;
-            }
+            self->paths[at] = name;
             self->data[at] = NULL;
             self->n++;
-            if (files_read(sf->path, PROTO_MAX_BUNDLE_BYTES, &self->data[at], &size, err) < 0) {
-                rc = -1;
-                goto out;
-            }
+            if (files_read(sf->path, PROTO_MAX_BUNDLE_BYTES, &self->data[at], &size, err) < 0)
+                return -1;
             self->files[at] = (proto_bundle_file_t){
                 .path = self->paths[at], .data = self->data[at], .size = size};
             self->bytes += size;
+        } else {
+            free(name);
         }
         if (sf->kind == SCENE_FILE_MAIN)
             main = self->paths[at];
     }
     if (!main)
-        rc = err_set(err, "%s: the parser did not report the main file", scene_path);
-    else
-        self->mains[self->nmains++] = (char *)main;
-out:
-    scene_desc_destroy(&d);
-    return rc;
+        return err_set(err, "%s: the parser did not report the main file", scene_path);
+    self->mains[self->nmains++] = (char *)main;
+    return 0;
+}
+
+/* The main file's folder as seen from the bundle's root ups levels above it ("" for ups 0):
+ * the last ups components of its absolute, normalised form. */
+static char *root_prefix(const char *scene_path, size_t ups)
+{
+    char *dir = paths_folder(scene_path);
+    char *adir = dir ? paths_lexical(dir[0] ? dir : ".") : NULL;
+    char *root = adir ? paths_lift(adir, ups) : NULL;
+    char *prefix = root ? paths_relative_to(root, adir) : NULL;
+    free(dir);
+    free(adir);
+    free(root);
+    return prefix;
 }
 
 /* The folder part of a path ("" for none), for the one-folder rule. */
@@ -135,7 +169,8 @@ bool scene_bundle_one_folder(const char *const *scene_paths, size_t n)
 {
     size_t dir = n ? folder_length(scene_paths[0]) : 0;
     for (size_t k = 1; k < n; k++)
-        if (folder_length(scene_paths[k]) != dir || strncmp(scene_paths[k], scene_paths[0], dir) != 0)
+        if (folder_length(scene_paths[k]) != dir ||
+            strncmp(scene_paths[k], scene_paths[0], dir) != 0)
             return false;
     return true;
 }
@@ -153,10 +188,17 @@ scene_bundle_t *scene_bundle_new_frames(const char *const *scene_paths, size_t n
         return NULL;
     }
     size_t dir = folder_length(scene_paths[0]);
+    scene_desc_t **descs = calloc(n, sizeof *descs);
+    char *prefix = NULL;
+    size_t ups = 0;
+    if (!descs) {
+        err_set(err, "out of memory");
+        goto fail;
+    }
     for (size_t k = 0; k < n; k++) {
         const char *p = scene_paths[k];
-        /* Bundle paths are relative to the scene's folder: frames of other folders would
-         * name their files from other roots. */
+        /* Bundle paths are relative to one root: frames of other folders would name their
+         * files from other roots. */
         if (folder_length(p) != dir || strncmp(p, scene_paths[0], dir) != 0) {
             err_set(err,
                     "%s: the frames of a sequence must be in one folder (the first, %s, is "
@@ -164,18 +206,37 @@ scene_bundle_t *scene_bundle_new_frames(const char *const *scene_paths, size_t n
                     p, scene_paths[0], (int)dir, dir ? scene_paths[0] : ".");
             goto fail;
         }
+        if (!(descs[k] = parse_for_bundle(p, err))) {
+            if (n > 1)
+                err_prefix(err, "frame %zu of %zu: ", k + 1, n);
+            goto fail;
+        }
+        size_t u = root_ups(descs[k]);
+        ups = u > ups ? u : ups;
+    }
+    if (!(prefix = root_prefix(scene_paths[0], ups))) {
+        err_set(err, "out of memory");
+        goto fail;
+    }
+    for (size_t k = 0; k < n; k++) {
         size_t before = self->nmains;
-        if (add_scene(self, p, err) < 0) {
+        if (add_scene(self, scene_paths[k], descs[k], prefix, err) < 0) {
             if (n > 1)
                 err_prefix(err, "frame %zu of %zu: ", k + 1, n);
             goto fail;
         }
         for (size_t i = 0; i < before; i++)
             if (!strcmp(self->mains[i], self->mains[before])) {
-                err_set(err, "%s is given twice as a frame", p);
+                err_set(err, "%s is given twice as a frame", scene_paths[k]);
                 goto fail;
             }
     }
+    for (size_t k = 0; k < n; k++)
+        scene_desc_destroy(&descs[k]);
+    free(descs);
+    free(prefix);
+    descs = NULL;
+    prefix = NULL;
     self->bundle.files = self->files;
     self->bundle.nfiles = self->n;
     self->bundle.main = self->mains[0];
@@ -185,6 +246,11 @@ scene_bundle_t *scene_bundle_new_frames(const char *const *scene_paths, size_t n
     }
     return self;
 fail:
+    if (descs)
+        for (size_t k = 0; k < n; k++)
+            scene_desc_destroy(&descs[k]);
+    free(descs);
+    free(prefix);
     scene_bundle_destroy(&self);
     return NULL;
 }

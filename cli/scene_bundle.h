@@ -1,5 +1,9 @@
 /* scene_bundle: packs a scene file and every file it reads (Include/Import, PLY meshes, image
- * textures) into a proto bundle for submission, refusing files outside the scene's folder. A
+ * textures) into a proto bundle for submission. The scene is parsed with the bundle rule
+ * (pbrt_confine.h: absolute paths and symbolic links out of the folder refused before they
+ * are read), and the bundle is rooted at the nearest folder that holds every file the scene
+ * names ("../assets/wood.png" roots it one level above the scene's folder), each file under its
+ * path below that root, so relative names work unchanged on the master. A
  * frame sequence packs several scene files of one folder into one bundle: a file that frames
  * share (a mesh, a texture, an included file) is in it once. */
 #ifndef PRISMFARM_SCENE_BUNDLE_H

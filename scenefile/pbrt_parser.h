@@ -56,7 +56,8 @@
  * is read. */
 scene_desc_t *pbrt_parse_file(const char *path, err_t *err);
 
-/* As pbrt_parse_file, for `prismfarm check`: a refused directive is added to errors (its
+/* As pbrt_parse_file with the bundle rule (pbrt_parse_opts_t.bundle), for `prismfarm check`,
+ * so that check refuses what the farm's client refuses: a refused directive is added to errors (its
  * "file:line:col: message") and the parse goes on at the next directive, so one run finds
  * every refusal the parser can see. Returns the scene as far as it was parsed (its warnings
  * included), or NULL with err filled only when nothing could be read (the main file missing,
@@ -86,6 +87,10 @@ typedef struct pbrt_parse_opts {
      * text has been read; the result is the same for every value: the same meshes in the
      * same shapes, and on failure the same message, the first failure in file order. */
     int threads;
+    /* The farm's client reading a scene it will bundle (render without --direct, submit,
+     * check): the bundle rule (pbrt_confine_bundle_check) is applied to every file the scene
+     * names before the file is read. */
+    bool bundle;
 } pbrt_parse_opts_t;
 
 /* pbrt_parse_file or pbrt_parse_file_confined as opts says (NULL: all zero). */

@@ -17,6 +17,7 @@
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 static void test_renders_spectral_exr_and_png(void **state)
 {
@@ -195,6 +196,72 @@ static void test_broken_scene_names_file_and_line(void **state)
     assert_int_not_equal(stat(testutil_scratch("broken.exr"), &st), 0);
 }
 
+/* A shot whose texture and Include sit in ../assets (tests/data/render/updir): the farm's bundle
+ * is rooted at the folder that holds both, the master confines the load to it, and the image is
+ * the bytes --direct renders; check agrees that it renders. */
+static void test_updir_assets_farm_matches_direct(void **state)
+{
+    (void)state;
+    const char *scene = "data/render/updir/shots/scene.pbrt";
+    const char *d = testutil_scratch("updir_d.exr"), *f = testutil_scratch("updir_f.exr");
+    const run_t *r = run("render", scene, "-o", d, "--direct", "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("--direct: exit %d: %s", r->status, r->err);
+    r = run("render", scene, "-o", f, "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("farm: exit %d: %s", r->status, r->err);
+    image_exr_t *x = image_exr_read(d, NULL), *y = image_exr_read(f, NULL);
+    assert_non_null(x);
+    assert_non_null(y);
+    assert_memory_equal(image_exr_rgb(x), image_exr_rgb(y), 24 * 16 * 3 * sizeof(float));
+    image_exr_destroy(&x);
+    image_exr_destroy(&y);
+    r = run("check", scene, NULL);
+    assert_int_equal(r->status, 0);
+    expect_in(r->out, "it renders");
+}
+
+static void write_text(const char *path, const char *text)
+{
+    FILE *fp = fopen(path, "w");
+    assert_non_null(fp);
+    assert_true(fputs(text, fp) >= 0);
+    assert_int_equal(fclose(fp), 0);
+}
+
+/* The bundle rule, before a file is read: an absolute path is refused with the reason (and
+ * the file's contents never appear in a message: issue 26, `Include "/etc/passwd"` printed
+ * "unknown directive root:x:0:0:..."), and so is a symbolic link out of the scene's folder;
+ * check refuses both too, as render does. */
+static void test_bundle_refuses_absolute_and_symlink(void **state)
+{
+    (void)state;
+    const char *abs_scene = testutil_scratch("abs.pbrt");
+    write_text(abs_scene, "WorldBegin\nInclude \"/etc/passwd\"\n");
+    const run_t *r = run("render", abs_scene, "-o", testutil_scratch("abs.exr"), NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "abs.pbrt:2:9: \"/etc/passwd\" is an absolute path, so it cannot travel");
+    assert_null(strstr(r->err, "root:"));
+    r = run("check", abs_scene, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->out, "\"/etc/passwd\" is an absolute path");
+    /* --direct reads the user's own files as pbrt-v4 does; a file that is not a scene is not
+     * echoed. */
+    r = run("render", abs_scene, "-o", testutil_scratch("abs.exr"), "--direct", NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "expected a directive, got a word that cannot be one");
+    assert_null(strstr(r->err, "root:"));
+
+    const char *link_scene = testutil_scratch("link.pbrt");
+    write_text(link_scene, "WorldBegin\nInclude \"passwd.pbrt\"\n");
+    (void)unlink(testutil_scratch("passwd.pbrt"));
+    assert_int_equal(symlink("/etc/passwd", testutil_scratch("passwd.pbrt")), 0);
+    r = run("render", link_scene, "-o", testutil_scratch("link.exr"), NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "\"passwd.pbrt\" is a symbolic link that leads out of the folder");
+    assert_null(strstr(r->err, "root:"));
+}
+
 /* Writes past limit bytes fail (EFBIG) in the commands this test runs from now on, as on a full
  * disk, without root or a device node; RLIM_INFINITY (or the old limit) lifts it again. The
  * test itself writes no file while a command runs. */
@@ -271,6 +338,8 @@ int main(void)
         cmocka_unit_test(test_broken_scene_names_file_and_line),
         cmocka_unit_test(test_output_write_error),
         cmocka_unit_test(test_farm_loads_scene_once),
+        cmocka_unit_test(test_updir_assets_farm_matches_direct),
+        cmocka_unit_test(test_bundle_refuses_absolute_and_symlink),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

@@ -1160,6 +1160,14 @@ static void test_error_messages(void **state)
          "texture"},
         {"WorldBegin\nMaterial \"diffuse\" \"rgb reflectance\" [0.5 1.5 0.5]\n",
          "t.pbrt:2:20: \"rgb reflectance\" has a component above 1 (a reflectance is at most 1)"},
+        /* One name table writes every such list, with base/suggest's "did you mean". */
+        {"WorldBegin\nMaterial \"difuse\"\n",
+         "t.pbrt:2:10: unsupported material \"difuse\" (did you mean \"diffuse\"? \"diffuse\", "
+         "\"conductor\", \"dielectric\", \"thindielectric\", \"diffusetransmission\", "
+         "\"coateddiffuse\", \"coatedconductor\", \"mix\" or \"interface\")"},
+        {"Sampler \"sobel\"\nWorldBegin\n",
+         "t.pbrt:1:9: unsupported sampler \"sobel\" (did you mean \"sobol\"? \"halton\", "
+         "\"independent\", \"paddedsobol\", \"pmj02bn\", \"sobol\", \"stratified\" or \"zsobol\")"},
         {"WorldBegin\nMaterial \"hair\"\n",
          "t.pbrt:2:10: unsupported material \"hair\" (\"diffuse\", \"conductor\", \"dielectric\", "
          "\"thindielectric\", \"diffusetransmission\", \"coateddiffuse\", \"coatedconductor\", "
@@ -1406,7 +1414,7 @@ static void test_attribute_defaults(void **state)
     testutil_assert_near(s->shapes[3].radius, 1, TOL); /* AttributeEnd ended the defaults */
     scene_desc_destroy(&s);
     expect_error("WorldBegin\nAttribute \"camera\" \"float fov\" 30\n",
-                 "t.pbrt:2:11: unknown Attribute target \"camera\" (expected \"shape\", "
+                 "t.pbrt:2:11: unknown Attribute target \"camera\" (\"shape\", "
                  "\"light\", \"material\", \"medium\" or \"texture\")");
     expect_error("Attribute \"shape\" \"float radius\" 2\n",
                  "t.pbrt:1:1: Attribute is only allowed after WorldBegin");
@@ -1442,7 +1450,7 @@ static void test_option_directive(void **state)
     err_t err = {{0}};
     const char *text = "Option \"turbo\" true\nWorldBegin\n";
     assert_null(pbrt_parse_string(text, strlen(text), "t.pbrt", &err));
-    assert_non_null(strstr(err.msg, "t.pbrt:1:8: unknown option \"turbo\" (pbrt-v4's options: seed, "));
+    assert_non_null(strstr(err.msg, "t.pbrt:1:8: unknown option \"turbo\" (\"seed\", \"disablepixeljitter\", "));
 }
 
 int main(void)

@@ -1,0 +1,355 @@
+#define _XOPEN_SOURCE 700 /* strdup */
+
+#include "pbrt_materials.h"
+
+#include "pbrt_inputs.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* pbrt-v4 materials.cpp: "<prefix>uroughness"/"<prefix>vroughness" override
+ * "<prefix>roughness" (default 0); the prefix is "" or a layer's ("interface.",
+ * "conductor."). */
+static int get_roughness(parser_t *P, params_t *ps, scene_material_t *m, const char *prefix,
+                         scene_float_input_t *uout, scene_float_input_t *vout)
+{
+    char un[48], vn[48], rn[48];
+    snprintf(un, sizeof un, "%suroughness", prefix);
+    snprintf(vn, sizeof vn, "%svroughness", prefix);
+    snprintf(rn, sizeof rn, "%sroughness", prefix);
+    param_t *u = params_find(ps, un), *v = params_find(ps, vn);
+    scene_float_input_t r = {-1, 0.0};
+    if ((!u || !v) && pbrt_inputs_float(P, ps, rn, 0.0, &r) != 0)
+        return -1;
+    *uout = r;
+    *vout = r;
+    if (u && pbrt_inputs_float(P, ps, un, 0.0, uout) != 0)
+        return -1;
+    if (v && pbrt_inputs_float(P, ps, vn, 0.0, vout) != 0)
+        return -1;
+    if ((uout->texture < 0 && !(uout->value >= 0.0)) ||
+        (vout->texture < 0 && !(vout->value >= 0.0)))
+        return pbrt_error(P->err, m->loc, "%sroughness must not be negative", prefix);
+    return 0;
+}
+
+/* The index of refraction of a dielectric or of a coating's interface: "<prefix>eta" (pbrt-v4)
+ * or prismfarm's "<prefix>glass", "<prefix>sellmeier", "<prefix>cauchy". */
+static int get_ior(parser_t *P, params_t *ps, scene_material_t *m, const char *prefix)
+{
+    static const char *NAMES[] = {"eta", "glass", "sellmeier", "cauchy"};
+    char names[COUNT_OF(NAMES)][48];
+    for (size_t i = 0; i < COUNT_OF(NAMES); i++)
+        snprintf(names[i], sizeof names[i], "%s%s", prefix, NAMES[i]);
+    param_t *given = NULL;
+    for (size_t i = 0; i < COUNT_OF(NAMES); i++) {
+        param_t *p = params_find(ps, names[i]);
+        if (!p)
+            continue;
+        if (given)
+            return pbrt_error(P->err, p->loc,
+                              "give only one of \"%s\", \"%s\", \"%s\" "
+                              "and \"%s\" for %s (\"%s\" is already given)",
+                              names[0], names[1], names[2], names[3], params_context(ps),
+                              given->name);
+        given = p;
+    }
+    scene_ior_t *ior = &m->ior;
+    ior->loc = given ? given->loc : m->loc;
+    if (!given) {
+        ior->kind = SCENE_IOR_SPECTRUM;
+        ior->spectrum = pbrt_inputs_constant(1.5, m->loc); /* pbrt-v4's default eta */
+        return 0;
+    }
+    const char *kind = given->name + strlen(prefix);
+    if (!strcmp(kind, "eta")) {
+        if (given->type == PARAM_TEXTURE)
+            return pbrt_error(P->err, given->loc,
+                              "unsupported parameter \"texture %s\": the "
+                              "index of refraction cannot be a texture",
+                              given->name);
+        if (given->type != PARAM_FLOAT && given->type != PARAM_SPECTRUM) {
+            char expected[128];
+            snprintf(expected, sizeof expected, "\"float %s\" or \"spectrum %s\"", given->name,
+                     given->name);
+            return params_wrong_type(ps, given, expected, P->err);
+        }
+        ior->kind = SCENE_IOR_SPECTRUM;
+        if (pbrt_inputs_spectrum_param(P, ps, given, SPECTRUM_ANY, &ior->spectrum) != 0)
+            return -1;
+        if (ior->spectrum.kind == SCENE_SPECTRUM_CONSTANT && !(ior->spectrum.constant > 0.0))
+            return pbrt_error(P->err, given->loc, "\"float %s\" must be greater than 0, got %g",
+                              given->name, ior->spectrum.constant);
+        if (ior->spectrum.kind == SCENE_SPECTRUM_SAMPLED)
+            for (size_t i = 0; i < ior->spectrum.count; i++)
+                if (!(ior->spectrum.value[i] > 0.0))
+                    return pbrt_error(P->err, given->loc,
+                                      "\"spectrum eta\": index %g in pair %zu "
+                                      "is not positive",
+                                      ior->spectrum.value[i], i + 1);
+        return 0;
+    }
+    if (!strcmp(kind, "glass")) {
+        const char *name;
+        if (params_get_string(ps, given->name, NULL, &name, P->err) != 0)
+            return -1;
+        if (!*name)
+            return pbrt_error(P->err, given->loc, "\"string %s\" is empty", given->name);
+        ior->kind = SCENE_IOR_GLASS;
+        ior->glass = scene_desc_strdup(P->scene, name, P->err);
+        return ior->glass ? 0 : -1;
+    }
+    if (given->type != PARAM_FLOAT) {
+        char expected[64];
+        snprintf(expected, sizeof expected, "\"float %s\"", given->name);
+        return params_wrong_type(ps, given, expected, P->err);
+    }
+    if (!strcmp(kind, "sellmeier")) {
+        /* n^2 = 1 + sum B_i l^2 / (l^2 - C_i), l in um (docs/physics.md §3.3). */
+        if (given->count < 2 || given->count % 2 != 0)
+            return pbrt_error(P->err, given->loc,
+                              "\"float sellmeier\" needs (B, C) pairs, got "
+                              "%zu numbers",
+                              given->count);
+        double *c = scene_desc_alloc(P->scene, given->count * sizeof *c, P->err);
+        if (!c)
+            return -1;
+        memcpy(c, given->numbers, given->count * sizeof *c);
+        ior->kind = SCENE_IOR_SELLMEIER;
+        ior->nterms = given->count / 2;
+        ior->sellmeier = c;
+        return 0;
+    }
+    /* cauchy: n = A + B / l^2, l in um */
+    if (given->count != 2)
+        return pbrt_error(P->err, given->loc,
+                          "expected 2 numbers after \"float cauchy\" (A B), "
+                          "got %zu",
+                          given->count);
+    if (!(given->numbers[0] > 0.0))
+        return pbrt_error(P->err, given->loc, "\"float cauchy\": A must be greater than 0, got %g",
+                          given->numbers[0]);
+    ior->kind = SCENE_IOR_CAUCHY;
+    ior->cauchy[0] = given->numbers[0];
+    ior->cauchy[1] = given->numbers[1];
+    return 0;
+}
+
+/* A conductor's complex index or reflectance, as pbrt-v4's ConductorMaterial reads them
+ * ("eta", "k", "reflectance") and CoatedConductorMaterial ("conductor.eta", "conductor.k",
+ * "reflectance"). */
+static int get_conductor(parser_t *P, params_t *ps, scene_material_t *m, const char *prefix)
+{
+    char en[48], kn[48];
+    snprintf(en, sizeof en, "%seta", prefix);
+    snprintf(kn, sizeof kn, "%sk", prefix);
+    param_t *r = params_find(ps, "reflectance");
+    if (r && (params_find(ps, en) || params_find(ps, kn)))
+        return pbrt_error(P->err, r->loc,
+                          "%s: give either \"reflectance\" or \"%s\" and \"%s\", not both",
+                          params_context(ps), en, kn);
+    m->use_reflectance = r != NULL;
+    return pbrt_inputs_spectrum_input(P, ps, "reflectance", pbrt_inputs_constant(1.0, m->loc),
+                                      SPECTRUM_ALBEDO, &m->reflectance) ||
+                   pbrt_inputs_spectrum_input(P, ps, en, pbrt_inputs_named("metal-Cu-eta", m->loc),
+                                              SPECTRUM_ANY, &m->eta) ||
+                   pbrt_inputs_spectrum_input(P, ps, kn, pbrt_inputs_named("metal-Cu-k", m->loc),
+                                              SPECTRUM_ANY, &m->k)
+               ? -1
+               : 0;
+}
+
+/* The medium of pbrt-v4's layered materials (coateddiffuse, coatedconductor). */
+static int get_layer(parser_t *P, params_t *ps, scene_material_t *m)
+{
+    if (pbrt_inputs_float(P, ps, "thickness", 0.01, &m->thickness) != 0 ||
+        pbrt_inputs_float(P, ps, "g", 0.0, &m->g) != 0 ||
+        pbrt_inputs_spectrum_input(P, ps, "albedo", pbrt_inputs_constant(0.0, m->loc),
+                                   SPECTRUM_ALBEDO, &m->albedo) != 0 ||
+        params_get_int(ps, "maxdepth", 10, &m->maxdepth, P->err) != 0 ||
+        params_get_int(ps, "nsamples", 1, &m->nsamples, P->err) != 0 ||
+        pbrt_state_check_range(P, ps, "maxdepth", m->maxdepth, 1, 1000) != 0 ||
+        pbrt_state_check_range(P, ps, "nsamples", m->nsamples, 1, 1000) != 0)
+        return -1;
+    if (m->thickness.texture < 0 && !(m->thickness.value > 0.0))
+        return pbrt_state_check_positive(P, ps, "thickness", m->thickness.value);
+    if (m->g.texture < 0 && !(m->g.value > -1.0 && m->g.value < 1.0))
+        return pbrt_state_check_range(P, ps, "g", m->g.value, -0.999, 0.999);
+    return 0;
+}
+
+static int get_mix(parser_t *P, params_t *ps, scene_material_t *m)
+{
+    param_t *p = params_find(ps, "materials");
+    if (!p)
+        return pbrt_error(P->err, m->loc,
+                          "mix: \"string materials\" (two named materials) is missing");
+    if (p->type != PARAM_STRING)
+        return params_wrong_type(ps, p, "\"string materials\"", P->err);
+    if (p->count != 2)
+        return pbrt_error(P->err, p->loc,
+                          "expected 2 material names after \"string materials\", got %zu",
+                          p->count);
+    for (int i = 0; i < 2; i++) {
+        m->mix[i] = scene_desc_find_material(P->scene, p->strings[i]);
+        if (m->mix[i] < 0)
+            return pbrt_error(P->err, p->loc,
+                              "mix: named material \"%s\" is not defined (a MakeNamedMaterial must "
+                              "come before the mix that uses it)",
+                              p->strings[i]);
+    }
+    return pbrt_inputs_float(P, ps, "amount", 0.5, &m->amount);
+}
+
+/* Every material prismfarm reads, in the order its messages list them. pbrt-v4 reads "" and
+ * "none" as no material too (a boundary between media). */
+static const pbrt_name_t MATERIALS[] = {
+    {"diffuse", SCENE_MATERIAL_DIFFUSE},
+    {"conductor", SCENE_MATERIAL_CONDUCTOR},
+    {"dielectric", SCENE_MATERIAL_DIELECTRIC},
+    {"thindielectric", SCENE_MATERIAL_THINDIELECTRIC},
+    {"diffusetransmission", SCENE_MATERIAL_DIFFUSETRANSMISSION},
+    {"coateddiffuse", SCENE_MATERIAL_COATEDDIFFUSE},
+    {"coatedconductor", SCENE_MATERIAL_COATEDCONDUCTOR},
+    {"mix", SCENE_MATERIAL_MIX},
+    {"interface", SCENE_MATERIAL_INTERFACE},
+    {NULL, 0},
+    {"", SCENE_MATERIAL_INTERFACE},
+    {"none", SCENE_MATERIAL_INTERFACE},
+};
+
+static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_t type_loc,
+                          scene_material_t *m)
+{
+    int t;
+    if (pbrt_state_lookup(P, "unsupported material", type, type_loc, MATERIALS, COUNT_OF(MATERIALS),
+                          &t) != 0)
+        return -1;
+    m->type = (scene_material_type_t)t;
+    if (m->type == SCENE_MATERIAL_DIFFUSE) {
+        return pbrt_inputs_spectrum_input(P, ps, "reflectance", pbrt_inputs_constant(0.5, m->loc),
+                                          SPECTRUM_ALBEDO, &m->reflectance);
+    }
+    if (m->type == SCENE_MATERIAL_CONDUCTOR) {
+        return get_conductor(P, ps, m, "") ||
+                       get_roughness(P, ps, m, "", &m->uroughness, &m->vroughness) ||
+                       params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err)
+                   ? -1
+                   : 0;
+    }
+    if (m->type == SCENE_MATERIAL_DIELECTRIC) {
+        return get_ior(P, ps, m, "") ||
+                       get_roughness(P, ps, m, "", &m->uroughness, &m->vroughness) ||
+                       params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err)
+                   ? -1
+                   : 0;
+    }
+    if (m->type == SCENE_MATERIAL_THINDIELECTRIC) {
+        return get_ior(P, ps, m, "");
+    }
+    if (m->type == SCENE_MATERIAL_DIFFUSETRANSMISSION) {
+        if (pbrt_inputs_spectrum_input(P, ps, "reflectance", pbrt_inputs_constant(0.25, m->loc),
+                                       SPECTRUM_ALBEDO, &m->reflectance) != 0 ||
+            pbrt_inputs_spectrum_input(P, ps, "transmittance", pbrt_inputs_constant(0.25, m->loc),
+                                       SPECTRUM_ALBEDO, &m->transmittance) != 0 ||
+            params_get_float(ps, "scale", 1.0, &m->scale, P->err) != 0)
+            return -1;
+        return m->scale >= 0.0 ? 0 : pbrt_state_check_range(P, ps, "scale", m->scale, 0.0, 1.0);
+    }
+    if (m->type == SCENE_MATERIAL_COATEDDIFFUSE) {
+        return pbrt_inputs_spectrum_input(P, ps, "reflectance", pbrt_inputs_constant(0.5, m->loc),
+                                          SPECTRUM_ALBEDO, &m->reflectance) ||
+                       get_ior(P, ps, m, "") ||
+                       get_roughness(P, ps, m, "", &m->uroughness, &m->vroughness) ||
+                       params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err) ||
+                       get_layer(P, ps, m)
+                   ? -1
+                   : 0;
+    }
+    if (m->type == SCENE_MATERIAL_COATEDCONDUCTOR) {
+        return get_conductor(P, ps, m, "conductor.") || get_ior(P, ps, m, "interface.") ||
+                       get_roughness(P, ps, m, "interface.", &m->uroughness, &m->vroughness) ||
+                       get_roughness(P, ps, m, "conductor.", &m->base_uroughness,
+                                     &m->base_vroughness) ||
+                       params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err) ||
+                       get_layer(P, ps, m)
+                   ? -1
+                   : 0;
+    }
+    if (m->type == SCENE_MATERIAL_MIX) {
+        return get_mix(P, ps, m);
+    }
+    return 0; /* interface */
+}
+
+/* pbrt-v4's "displacement" and "normalmap" of every material but mix and interface. */
+static int surface_maps(parser_t *P, params_t *ps, scene_material_t *m)
+{
+    if (m->type == SCENE_MATERIAL_MIX || m->type == SCENE_MATERIAL_INTERFACE)
+        return 0;
+    const char *normalmap;
+    if (pbrt_inputs_float(P, ps, "displacement", 0.0, &m->displacement) != 0 ||
+        params_get_string(ps, "normalmap", NULL, &normalmap, P->err) != 0)
+        return -1;
+    if (!normalmap)
+        return 0;
+    param_t *fp = params_find(ps, "normalmap");
+    m->normalmap_loc = fp->loc;
+    return pbrt_inputs_image_file(P, fp, normalmap, &m->normalmap);
+}
+
+int pbrt_materials_read(parser_t *P, params_t *ps, const str_arg_t *type, const char *name,
+                        pbrt_loc_t loc, pbrt_loc_t type_loc)
+{
+    int idx = scene_desc_add_material(P->scene, P->err);
+    if (idx < 0)
+        return -1;
+    scene_material_t *m = &P->scene->materials[idx];
+    m->loc = loc;
+    m->reflectance.texture = m->eta.texture = m->k.texture = -1;
+    m->uroughness.texture = m->vroughness.texture = -1;
+    m->base_uroughness.texture = m->base_vroughness.texture = -1;
+    m->transmittance.texture = m->albedo.texture = -1;
+    m->thickness.texture = m->g.texture = m->amount.texture = -1;
+    m->mix[0] = m->mix[1] = -1;
+    m->remaproughness = true;
+    if (name) {
+        m->name = scene_desc_strdup(P->scene, name, P->err);
+        if (!m->name)
+            return -1;
+    }
+    m->displacement.texture = -1;
+    if (build_material(P, ps, type->s, type_loc, m) != 0 || surface_maps(P, ps, m) != 0)
+        return -1;
+    if (!name)
+        P->gs.material = idx;
+    return 0;
+}
+
+/* MakeNamedMaterial "name" "string type" ...: a material defined once, by name. */
+int pbrt_materials_read_named(parser_t *P, params_t *ps, const str_arg_t *name, pbrt_loc_t loc)
+{
+    int prev = scene_desc_find_material(P->scene, name->s);
+    if (prev >= 0)
+        return pbrt_error(P->err, name->loc, "named material \"%s\" is already defined (line %d)",
+                          name->s, P->scene->materials[prev].loc.line);
+    const char *mtype;
+    if (params_get_string(ps, "type", NULL, &mtype, P->err) != 0)
+        return -1;
+    if (!mtype)
+        return pbrt_error(P->err, loc, "MakeNamedMaterial \"%s\" needs \"string type\"", name->s);
+    str_arg_t mt;
+    snprintf(mt.s, sizeof mt.s, "%s", mtype);
+    mt.loc = params_find(ps, "type")->loc;
+    return pbrt_materials_read(P, ps, &mt, name->s, loc, mt.loc);
+}

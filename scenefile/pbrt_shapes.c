@@ -1,0 +1,353 @@
+#define _XOPEN_SOURCE 700 /* strdup */
+
+#include "pbrt_shapes.h"
+
+#include "pbrt_confine.h"
+#include "pbrt_inputs.h"
+#include "pbrt_meshes.h"
+#include "shape_tess.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <limits.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+/* trianglemesh (3 indices per triangle) or bilinearmesh (4 per patch: p00 p10 p01 p11, made
+ * into triangles by shape_tess: a planar patch into (p00 p10 p11) and (p00 p11 p01), which
+ * keeps pbrt-v4's normal cross(p10-p00, p01-p00) equal to the triangles' cross(p0-p2,
+ * p1-p2); a twisted one into a grid that follows its curve). */
+static int mesh_from_params(parser_t *P, params_t *ps, scene_shape_t *s, bool bilinear,
+                            pbrt_loc_t loc)
+{
+    param_t *pp, *pi, *pn, *puv;
+    if (params_get_array(ps, "P", PARAM_POINT3, &pp, P->err) != 0)
+        return -1;
+    if (!pp)
+        return pbrt_error(P->err, loc, "Shape \"%s\" needs \"point3 P\"", s->kind);
+    size_t nv = pp->count / 3;
+    if (nv >= UINT32_MAX)
+        return pbrt_error(P->err, pp->loc, "too many points in \"point3 P\"");
+    if (params_get_array(ps, "indices", PARAM_INTEGER, &pi, P->err) != 0)
+        return -1;
+    size_t per = bilinear ? 4 : 3;
+    size_t nprims;
+    if (!pi) {
+        /* pbrt-v4 allows omitting indices for a single triangle or patch. */
+        if (nv != per)
+            return pbrt_error(P->err, loc,
+                              "Shape \"%s\" without \"integer indices\" needs exactly "
+                              "%zu points in \"point3 P\", got %zu",
+                              s->kind, per, nv);
+        nprims = 1;
+    } else {
+        if (pi->count % per != 0)
+            return pbrt_error(P->err, pi->loc,
+                              "expected a multiple of %zu numbers after \"%s "
+                              "%s\", got %zu",
+                              per, pi->type_name, pi->name, pi->count);
+        for (size_t i = 0; i < pi->count; i++)
+            if (pi->numbers[i] < 0 || pi->numbers[i] >= (double)nv)
+                return pbrt_error(P->err, pi->loc,
+                                  "index %.0f (entry %zu of \"integer indices\") "
+                                  "is out of range: \"point3 P\" has %zu points",
+                                  pi->numbers[i], i + 1, nv);
+        nprims = pi->count / per;
+    }
+    if (params_get_array(ps, "N", PARAM_NORMAL3, &pn, P->err) != 0 ||
+        params_get_array(ps, "uv", PARAM_POINT2, &puv, P->err) != 0)
+        return -1;
+    if (pn && pn->count / 3 != nv)
+        return pbrt_error(P->err, pn->loc,
+                          "\"%s N\" has %zu normals but \"point3 P\" has %zu "
+                          "points",
+                          pn->type_name, pn->count / 3, nv);
+    if (puv && puv->count / 2 != nv)
+        return pbrt_error(P->err, puv->loc,
+                          "\"%s uv\" has %zu entries but \"point3 P\" has %zu "
+                          "points",
+                          puv->type_name, puv->count / 2, nv);
+    if (bilinear) {
+        uint32_t *quads = malloc(4 * nprims * sizeof *quads);
+        if (!quads)
+            return pbrt_error(P->err, loc, "out of memory");
+        for (size_t i = 0; i < 4 * nprims; i++)
+            quads[i] = pi ? (uint32_t)pi->numbers[i] : (uint32_t)i;
+        mesh_data_t md;
+        err_t e;
+        int rc = shape_tess_bilinear(pp->numbers, nv, quads, nprims, puv ? puv->numbers : NULL,
+                                     pn ? pn->numbers : NULL, &md, &e);
+        free(quads);
+        if (rc != 0)
+            return pbrt_error(P->err, loc, "Shape \"bilinearmesh\": %s", e.msg);
+        return pbrt_meshes_adopt(P, s, &md);
+    }
+    scene_mesh_t *m = &s->mesh;
+    m->nvertices = nv;
+    m->P = pbrt_state_copy_doubles(P, pp->numbers, pp->count);
+    if (!m->P)
+        return -1;
+    if (pn && !(m->N = pbrt_state_copy_doubles(P, pn->numbers, pn->count)))
+        return -1;
+    if (puv && !(m->uv = pbrt_state_copy_doubles(P, puv->numbers, puv->count)))
+        return -1;
+    m->ntriangles = bilinear ? 2 * nprims : nprims;
+    if (pbrt_meshes_budget_triangles(P, m->ntriangles, loc) != 0)
+        return -1;
+    uint32_t *idx = scene_desc_alloc(P->scene, m->ntriangles * 3 * sizeof *idx, P->err);
+    if (!idx)
+        return -1;
+    for (size_t i = 0; i < nprims; i++) {
+        uint32_t v[4];
+        for (size_t k = 0; k < per; k++)
+            v[k] = pi ? (uint32_t)pi->numbers[per * i + k] : (uint32_t)k;
+        if (bilinear) {
+            uint32_t *t = &idx[6 * i];
+            t[0] = v[0], t[1] = v[1], t[2] = v[3];
+            t[3] = v[0], t[4] = v[3], t[5] = v[2];
+        } else {
+            idx[3 * i] = v[0], idx[3 * i + 1] = v[1], idx[3 * i + 2] = v[2];
+        }
+    }
+    m->indices = idx;
+    return 0;
+}
+
+static int mesh_from_ply(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t loc)
+{
+    const char *filename;
+    if (params_get_string(ps, "filename", NULL, &filename, P->err) != 0)
+        return -1;
+    if (!filename)
+        return pbrt_error(P->err, loc, "Shape \"plymesh\" needs \"string filename\"");
+    param_t *fp = params_find(ps, "filename");
+    const char *path = pbrt_confine_scene_path(P, filename, fp->loc);
+    if (!path)
+        return -1;
+    /* A confined parse reads the file here, in file order, so that the bytes it charges and
+     * the files it refuses are the same whatever the threads; the decoding is queued. */
+    mesh_job_t j = {.kind = MESH_JOB_PLY_FILE, .loc = fp->loc, .path = path};
+    if (P->root_real) {
+        size_t len;
+        char *real = pbrt_confine_check(P, path, filename, &fp->loc, "PLY file");
+        char *buf =
+            real ? pbrt_confine_read(P, real, filename, path, &fp->loc, "PLY file", &len) : NULL;
+        free(real);
+        err_t over;
+        if (buf && scene_budget_charge_ply_file(P->budget, &P->used, buf, len, path, &over)) {
+            free(buf);
+            return pbrt_state_fail_at(P, &fp->loc, "%s", over.msg);
+        }
+        if (!buf || pbrt_confine_inflate(P, &buf, &len, MESH_PLY_BYTES_MAX, path, &fp->loc) != 0) {
+            free(buf);
+            return -1;
+        }
+        j.kind = MESH_JOB_PLY_MEMORY;
+        j.buf = buf;
+        j.len = len;
+    }
+    /* Listed here, in file order; in check mode (made at once) only once it is made, as a
+     * refused directive adds nothing to the scene. */
+    if (!P->errors && pbrt_inputs_note_file(P, SCENE_FILE_PLY, path, filename, fp->loc) != 0) {
+        pbrt_meshes_job_free(&j);
+        return -1;
+    }
+    if (pbrt_meshes_queue(P, s, &j) != 0)
+        return -1;
+    return P->errors ? pbrt_inputs_note_file(P, SCENE_FILE_PLY, path, filename, fp->loc) : 0;
+}
+
+/* pbrt-v4 Cylinder, tessellated (shape_tess.h): a mesh needs no new intersection, area
+ * sampling or instancing code in scene/, and 512 segments a turn keep its area and silhouette
+ * within 2.5e-5 of the analytic surface, far below a render's noise. */
+static int cylinder_shape(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t loc)
+{
+    double r, zmin, zmax, phimax;
+    if (params_get_float(ps, "radius", 1.0, &r, P->err) != 0 ||
+        pbrt_state_check_positive(P, ps, "radius", r) != 0 ||
+        params_get_float(ps, "zmin", -1.0, &zmin, P->err) != 0 ||
+        params_get_float(ps, "zmax", 1.0, &zmax, P->err) != 0 ||
+        params_get_float(ps, "phimax", 360.0, &phimax, P->err) != 0 ||
+        pbrt_state_check_range(P, ps, "phimax", phimax, 1e-6, 360.0) != 0)
+        return -1;
+    if (zmin == zmax)
+        return pbrt_error(P->err, loc, "Shape \"cylinder\": zmin and zmax are both %g (no height)",
+                          zmin);
+    mesh_data_t md;
+    err_t e;
+    if (shape_tess_cylinder(r, zmin, zmax, phimax, &md, &e) != 0)
+        return pbrt_error(P->err, loc, "Shape \"cylinder\": %s", e.msg);
+    s->radius = r;
+    return pbrt_meshes_adopt(P, s, &md);
+}
+
+/* pbrt-v4 "loopsubdiv": "integer levels" (3), "point3 P", "integer indices" (3 per control
+ * triangle), subdivided here into the mesh pbrt-v4 renders (loopsubdiv.h). */
+static int loopsubdiv_shape(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t loc)
+{
+    param_t *pp, *pi;
+    int levels;
+    if (params_get_int(ps, "levels", 3, &levels, P->err) != 0 ||
+        pbrt_state_check_range(P, ps, "levels", levels, 0.0, 12.0) != 0 ||
+        params_get_array(ps, "P", PARAM_POINT3, &pp, P->err) != 0 ||
+        params_get_array(ps, "indices", PARAM_INTEGER, &pi, P->err) != 0)
+        return -1;
+    if (!pp)
+        return pbrt_error(P->err, loc, "Shape \"loopsubdiv\" needs \"point3 P\"");
+    if (!pi)
+        return pbrt_error(P->err, loc, "Shape \"loopsubdiv\" needs \"integer indices\"");
+    size_t nv = pp->count / 3;
+    if (nv >= UINT32_MAX)
+        return pbrt_error(P->err, pp->loc, "too many points in \"point3 P\"");
+    if (pi->count % 3 != 0 || pi->count == 0)
+        return pbrt_error(P->err, pi->loc,
+                          "expected a non-zero multiple of 3 numbers after \"%s %s\", got %zu",
+                          pi->type_name, pi->name, pi->count);
+    uint32_t *idx = malloc(pi->count * sizeof *idx);
+    if (!idx)
+        return pbrt_error(P->err, loc, "out of memory");
+    for (size_t i = 0; i < pi->count; i++) {
+        if (pi->numbers[i] < 0 || pi->numbers[i] >= (double)nv) {
+            free(idx);
+            return pbrt_error(P->err, pi->loc,
+                              "index %.0f (entry %zu of \"integer indices\") is out of range: "
+                              "\"point3 P\" has %zu points",
+                              pi->numbers[i], i + 1, nv);
+        }
+        idx[i] = (uint32_t)pi->numbers[i];
+    }
+    /* Each level makes four triangles of one: counted before anything is subdivided. */
+    uint64_t after = pi->count / 3;
+    for (int l = 0; l < levels && after <= UINT64_MAX / 4; l++)
+        after *= 4;
+    if (P->budget && P->budget->triangles) {
+        /* Queued meshes not yet made count as none: the bound is a lower one, so a refusal
+         * here is right, and pbrt_meshes_finish finds whether one of them failed first. */
+        uint64_t lower = P->ntriangles + P->ntriangles_ahead;
+        if (lower < P->ntriangles || lower > P->budget->triangles ||
+            after > P->budget->triangles - lower) {
+            free(idx);
+            if (P->njobs > 0 && pbrt_meshes_note_count(P, -1, after, loc) != 0)
+                return -1;
+            return pbrt_meshes_budget_refuse(P, after, loc);
+        }
+    }
+    mesh_job_t j = {.kind = MESH_JOB_LOOP,
+                    .loc = loc,
+                    .idx = idx,
+                    .nv = nv,
+                    .nt = pi->count / 3,
+                    .levels = levels};
+    if (!(j.P = malloc(pp->count * sizeof *j.P))) {
+        free(idx);
+        return pbrt_error(P->err, loc, "out of memory");
+    }
+    memcpy(j.P, pp->numbers, pp->count * sizeof *j.P);
+    return pbrt_meshes_queue(P, s, &j);
+}
+
+int pbrt_shapes_read(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
+{
+    /* Each shape's name and what it becomes (the value: the index into TYPES). */
+    static const pbrt_name_t KINDS[] = {{"sphere", 0},       {"disk", 1},    {"cylinder", 2},
+                                        {"trianglemesh", 3}, {"plymesh", 4}, {"bilinearmesh", 5},
+                                        {"loopsubdiv", 6}};
+    static const scene_shape_type_t TYPES[] = {
+        SCENE_SHAPE_SPHERE, SCENE_SHAPE_DISK, SCENE_SHAPE_MESH, SCENE_SHAPE_MESH,
+        SCENE_SHAPE_MESH,   SCENE_SHAPE_MESH, SCENE_SHAPE_MESH};
+    int ki;
+    if (pbrt_state_lookup(P, "unsupported shape", type->s, type->loc, KINDS, COUNT_OF(KINDS),
+                          &ki) != 0 ||
+        pbrt_state_check_transform(P, &P->gs.ctm, "Shape", loc) != 0)
+        return -1;
+    bool in_object = P->object >= 0;
+    if (in_object && P->gs.area_light >= 0)
+        return pbrt_error(P->err, loc,
+                          "area lights are not supported inside ObjectBegin "
+                          "(AreaLightSource at line %d)",
+                          P->scene->area_lights[P->gs.area_light].loc.line);
+    if (pbrt_meshes_budget_shape(P, "Shape", loc) != 0)
+        return -1;
+    int idx = scene_desc_add_shape(P->scene, in_object, P->err);
+    if (idx < 0)
+        return -1;
+    scene_shape_t *s = in_object ? &P->scene->object_shapes[idx] : &P->scene->shapes[idx];
+    s->type = TYPES[ki];
+    s->kind = KINDS[ki].name;
+    s->loc = loc;
+    s->to_world = P->gs.ctm;
+    s->reverse_orientation = P->gs.reverse;
+    s->swaps_handedness = transform_swaps_handedness(&P->gs.ctm);
+    s->flip_normals = s->reverse_orientation != s->swaps_handedness;
+    s->material = P->gs.material;
+    s->area_light = P->gs.area_light;
+    s->inside_medium = P->gs.inside_medium;
+    s->outside_medium = P->gs.outside_medium;
+    if (pbrt_inputs_float(P, ps, "alpha", 1.0, &s->alpha) != 0)
+        return -1;
+    s->has_alpha = s->alpha.texture >= 0 || s->alpha.value < 1.0;
+    /* pbrt-v4 displaces triangle meshes by a texture at load time; prismfarm does not. */
+    param_t *disp = params_find(ps, "displacement");
+    if (disp) {
+        (void)params_find(ps, "edgelength");
+        if (warnings_add(P->scene->warnings, disp->loc,
+                         "Shape \"%s\": \"displacement\" is not simulated (the surface is "
+                         "rendered undisplaced)",
+                         s->kind) != 0)
+            return pbrt_error(P->err, disp->loc, "out of memory");
+    }
+    switch (s->type) {
+    case SCENE_SHAPE_SPHERE: {
+        double zmin, zmax, phimax;
+        if (params_get_float(ps, "radius", 1.0, &s->radius, P->err) != 0 ||
+            pbrt_state_check_positive(P, ps, "radius", s->radius) != 0 ||
+            params_get_float(ps, "zmin", -s->radius, &zmin, P->err) != 0 ||
+            params_get_float(ps, "zmax", s->radius, &zmax, P->err) != 0 ||
+            params_get_float(ps, "phimax", 360.0, &phimax, P->err) != 0 ||
+            pbrt_state_check_range(P, ps, "phimax", phimax, 1e-6, 360.0) != 0)
+            return -1;
+        if (fmin(zmin, zmax) <= -s->radius && fmax(zmin, zmax) >= s->radius && phimax >= 360.0)
+            return 0; /* the whole sphere: analytic in Embree */
+        if (fmin(fmax(zmin, zmax), s->radius) <= fmax(fmin(zmin, zmax), -s->radius))
+            return pbrt_error(P->err, loc,
+                              "Shape \"sphere\": zmin %g and zmax %g leave nothing "
+                              "of a sphere of radius %g",
+                              zmin, zmax, s->radius);
+        mesh_data_t md;
+        err_t e;
+        if (shape_tess_sphere(s->radius, zmin, zmax, phimax, &md, &e) != 0)
+            return pbrt_error(P->err, loc, "Shape \"sphere\": %s", e.msg);
+        s->type = SCENE_SHAPE_MESH;
+        return pbrt_meshes_adopt(P, s, &md);
+    }
+    case SCENE_SHAPE_DISK: {
+        double inner;
+        if (params_get_float(ps, "radius", 1.0, &s->radius, P->err) != 0 ||
+            params_get_float(ps, "height", 0.0, &s->height, P->err) != 0 ||
+            params_get_float(ps, "innerradius", 0.0, &inner, P->err) != 0 ||
+            pbrt_state_check_positive(P, ps, "radius", s->radius) != 0)
+            return -1;
+        if (inner != 0.0)
+            return pbrt_error(P->err, params_find(ps, "innerradius")->loc,
+                              "unsupported parameter value: \"float innerradius\" must be 0 "
+                              "(annuli are not supported)");
+        return 0;
+    }
+    case SCENE_SHAPE_MESH:
+        if (!strcmp(s->kind, "plymesh"))
+            return mesh_from_ply(P, ps, s, loc);
+        if (!strcmp(s->kind, "cylinder"))
+            return cylinder_shape(P, ps, s, loc);
+        if (!strcmp(s->kind, "loopsubdiv"))
+            return loopsubdiv_shape(P, ps, s, loc);
+        return mesh_from_params(P, ps, s, !strcmp(s->kind, "bilinearmesh"), loc);
+    }
+    return 0;
+}
