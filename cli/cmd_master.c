@@ -39,6 +39,7 @@ int cmd_master(int argc, char **argv)
     long long max_shapes = -1, max_triangles = -1, max_texels = -1, max_vertices = -1;
     double max_text_mb = -1, max_ply_mb = -1, max_load_s = -1;
     double max_image_mb = -1;
+    double worker_timeout = 0; /* 0: not given */
     /* -1: not given (0 is a value: never block a worker for failures in a row) */
     int task_retries = 0, job_failures = 0, row_failures = -1;
     const cli_opt_t opts[] = {
@@ -52,8 +53,11 @@ int cmd_master(int argc, char **argv)
         /* 50 ms is the shortest interval workers accept from WELCOME. */
         {.name = "heartbeat", .kind = CLI_INT, .dst = &heartbeat_ms, .lo = 50, .hi = 60000,
          .arg = "MS",
-         .help = "heartbeat interval, 50..60000 (default 1000); a worker silent for 3 intervals "
-                 "is lost and its tasks re-issued"},
+         .help = "heartbeat interval, 50..60000 (default 1000)"},
+        {.name = "worker-timeout", .kind = CLI_SECONDS, .dst = &worker_timeout, .hi = 3600,
+         .arg = "T",
+         .help = "a worker silent for T is lost and its tasks re-issued (default 10 s, and at "
+                 "least 3 heartbeat intervals; at least 2 when given)"},
         {.name = "task-deadline", .kind = CLI_INT, .dst = &deadline_s, .lo = 1, .hi = 86400,
          .arg = "S",
          .help = "a task not back after S seconds is issued again (1..86400, default 120)"},
@@ -213,7 +217,20 @@ int cmd_master(int argc, char **argv)
         o.max_conns = conns;
     if (bundle_files)
         o.limits.max_bundle_files = (size_t)bundle_files;
-    o.sched.worker_timeout_s = 3.0 * o.heartbeat_ms / 1000.0;
+    /* A worker on a loaded host (a big scene being decoded, other jobs on its cores) can be
+     * silent for seconds and is not gone: losing it re-issues its tasks and, since its tasks
+     * then count as abandoned, strikes its key (farm.md, "Workers"). So the default is not
+     * zguide's 3 intervals alone but at least 10 s. */
+    double interval_s = o.heartbeat_ms / 1000.0;
+    if (worker_timeout > 0 && worker_timeout < 2.0 * interval_s) {
+        fprintf(stderr,
+                "prismfarm master: --worker-timeout %g s is shorter than 2 heartbeat intervals "
+                "(%g s): every worker would be lost between two heartbeats\n",
+                worker_timeout, 2.0 * interval_s);
+        return 2;
+    }
+    o.sched.worker_timeout_s =
+        worker_timeout > 0 ? worker_timeout : (3.0 * interval_s > 10.0 ? 3.0 * interval_s : 10.0);
     if (message_mb)
         o.limits.max_message_bytes = (size_t)message_mb << 20;
     if (bundle_mb)

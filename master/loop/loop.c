@@ -47,8 +47,9 @@ master_opts_t master_opts_default(void)
         .journal = 1,
         .verbose = 1,
     };
-    /* farm.md: a worker silent for 3 heartbeat intervals is dead (zguide's liveness 3). */
-    o.sched.worker_timeout_s = 3.0;
+    /* farm.md: a worker silent for 10 s (at least 3 heartbeat intervals, zguide's liveness 3)
+     * is dead; a loaded host's worker can be silent for seconds without being gone. */
+    o.sched.worker_timeout_s = 10.0;
     return o;
 }
 
