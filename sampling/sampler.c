@@ -227,16 +227,10 @@ double sampler_1d(const sampler_t *s, uint32_t dim)
         const uint32_t i = sobol_index(s, dim, seeds);
         return lowdisc_unit(lowdisc_owen_sobol(i, 0, seeds[0]));
     }
-    case SAMPLER_HALTON: {
-        /* A 1D draw as paddedsobol's: an Owen-scrambled (0,1)-sequence over the pixel's
-         * samples, each pixel and dimension shuffling the sample index. The radical inverse
-         * in the dimension's prime stratifies a pixel's 2^k samples only as far as the prime's
-         * powers divide them (64 samples in base 5: strata of 1/25 hold 2 or 3); base 2 puts
-         * one sample in each 1/2^k. The 2D draws keep their pair of primes. */
-        uint32_t seeds[2];
-        const uint32_t i = sobol_index(s, dim, seeds);
-        return lowdisc_unit(lowdisc_owen_sobol(i, 0, seeds[0]));
-    }
+    case SAMPLER_HALTON:
+        if (dim < LOWDISC_PRIMES)
+            return lowdisc_halton(s->sample, lowdisc_prime((int)dim), salt_of(s, dim, 1));
+        break;
     case SAMPLER_STRATIFIED:
         if (s->sample < st->spp)
             return stratum(s, dim, st->spp, s->sample, salt_of(s, dim, 1));

@@ -14,9 +14,9 @@
 typedef enum sampler_kind {
     SAMPLER_ZSOBOL,      /* Morton-ordered, Owen-scrambled Sobol (Ahmed and Wonka 2020) */
     SAMPLER_PADDEDSOBOL, /* per dimension an Owen-scrambled (0,2)-sequence over the samples */
-    SAMPLER_HALTON,      /* 2D draws: per pixel Owen-scrambled radical inverses in two primes;
-                          * 1D draws: paddedsobol's (one sample per 1/2^k); pixel position
-                          * fixed (SAMPLER_PIXEL_DIMS) */
+    SAMPLER_HALTON,      /* per pixel Owen-scrambled radical inverses, each dimension its
+                          * prime (2D draws: two primes); pixel position fixed
+                          * (SAMPLER_PIXEL_DIMS) */
     SAMPLER_STRATIFIED,  /* per dimension permuted jittered strata */
     SAMPLER_INDEPENDENT, /* Philox, every number independent */
     SAMPLER_SOBOL,       /* zsobol's numbers, the pixel position's independent of the seed */
