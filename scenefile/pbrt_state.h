@@ -13,7 +13,7 @@
 #include "mesh_import.h"
 #include "params.h"
 #include "pbrt_lexer.h"
-#include "pbrt_parser.h"
+#include "pbrt_limits.h"
 #include "scene_desc.h"
 #include "transform.h"
 #include "warnings.h"
