@@ -5,6 +5,7 @@
 #include "adaptive.h"
 #include "cli_args.h"
 #include "clock.h"
+#include "error_estimate.h"
 #include "film.h"
 #include "frame_list.h"
 #include "frame_pattern.h"
@@ -60,11 +61,12 @@ static void on_progress(void *user, uint64_t done, uint64_t total, double elapse
 static void on_pass(void *user, const pass_record_t *rec, uint64_t done, uint64_t total)
 {
     progress_t *prog = user;
-    char extra[96];
+    char extra[160];
     if (rec->valid)
         progress_note_error(prog, rec->spp, rec->elapsed, rec->rel_error);
     if (rec->valid)
-        snprintf(extra, sizeof extra, "%d spp, rel. error %.4f", rec->spp, rec->rel_error);
+        snprintf(extra, sizeof extra, "%d spp, rel. error %.4f%s", rec->spp, rec->rel_error,
+                 error_estimate_note(rec->rel_error));
     else
         snprintf(extra, sizeof extra, "%d spp", rec->spp);
     prog->extra = extra;
@@ -168,8 +170,8 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
                    (unsigned long long)st.nonfinite);
             proto_stop_t why = (proto_stop_t)res.why;
             if (last && last->valid)
-                printf("%d of %d spp, relative error estimate %.4f%s\n", last->spp, rs->spp,
-                       last->rel_error, stop_text(why, stop_buf, sizeof stop_buf));
+                printf("%d of %d spp, relative error estimate %.4f%s%s\n", last->spp, rs->spp,
+                       last->rel_error, error_estimate_note(last->rel_error), stop_text(why, stop_buf, sizeof stop_buf));
             else if (last)
                 printf("%d of %d spp, no relative error estimate%s%s\n", last->spp, rs->spp,
                        last->spp < 2 ? " (1 sample per pixel)" : "", stop_text(why, stop_buf, sizeof stop_buf));
@@ -491,8 +493,8 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
                    info.samples_done / 1e6 / (info.elapsed > 0 ? info.elapsed : 1), (int)workers,
                    workers == 1 ? "" : "s", (unsigned long long)info.nonfinite);
             if (info.has_rel_error)
-                printf("%u of %d spp, relative error estimate %.4f%s\n", info.spp, rs->spp,
-                       info.rel_error, stop_text(info.stop, stop_buf, sizeof stop_buf));
+                printf("%u of %d spp, relative error estimate %.4f%s%s\n", info.spp, rs->spp,
+                       info.rel_error, error_estimate_note(info.rel_error), stop_text(info.stop, stop_buf, sizeof stop_buf));
             else
                 printf("%u of %d spp, no relative error estimate%s%s\n", info.spp, rs->spp,
                        info.spp < 2 ? " (1 sample per pixel)" : "", stop_text(info.stop, stop_buf, sizeof stop_buf));

@@ -7,6 +7,7 @@
 #include "cli_args.h"
 #include "cli_json.h"
 #include "client_rpc.h"
+#include "error_estimate.h"
 #include "progress.h"
 #include "film.h"
 #include "files.h"
@@ -289,7 +290,8 @@ static int submit_scenes(const frame_list_t *fr, const char *master, const char 
         printf("job %llu done in %.1f s: wrote %s and %s; %llu non-finite samples discarded\n",
                (unsigned long long)job, last.elapsed, exr, png, (unsigned long long)last.nonfinite);
         if (last.has_rel_error)
-            printf("%u spp, relative error estimate %.4f%s\n", last.spp, last.rel_error,
+            printf("%u spp, relative error estimate %.4f%s%s\n", last.spp, last.rel_error,
+                   error_estimate_note(last.rel_error),
                    last.stop == PROTO_STOP_TARGET ? " (target reached)"
                    : last.stop == PROTO_STOP_TIME ? " (time limit reached)"
                                                   : "");

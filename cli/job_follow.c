@@ -1,6 +1,7 @@
 #include "job_follow.h"
 
 #include "clock.h"
+#include "error_estimate.h"
 #include "files.h"
 #include "film.h"
 #include "frame_pattern.h"
@@ -77,9 +78,10 @@ int job_follow_wait_error(client_rpc_t *rpc, uint64_t job, int quiet, double tar
         last->name = NULL;
         last->error = NULL;
         /* The accuracy so far, after the rate: whole passes merged and the error estimate. */
-        char extra[96] = "";
+        char extra[160] = "";
         if (j.spp > 0 && j.has_rel_error)
-            snprintf(extra, sizeof extra, "%u spp, rel. error %.4f", j.spp, j.rel_error);
+            snprintf(extra, sizeof extra, "%u spp, rel. error %.4f%s", j.spp, j.rel_error,
+                     error_estimate_note(j.rel_error));
         else if (j.spp > 0)
             snprintf(extra, sizeof extra, "%u spp", j.spp);
         prog.extra = extra;
@@ -101,10 +103,9 @@ int job_follow_wait_error(client_rpc_t *rpc, uint64_t job, int quiet, double tar
             progress_end(&prog, j.samples_done, j.samples_total, clock_now_s() - t0,
                          stopping_reason((stopping_why_t)j.stop));
         if (state == JOB_DONE && prediction && psize)
-            progress_prediction_line(&prog,
-                                     j.stop == PROTO_STOP_TARGET ||
-                                         (j.has_rel_error && j.rel_error <= target),
-                                     (int)j.spp, clock_now_s() - t0, prediction, psize);
+            progress_prediction_line(
+                &prog, j.stop == PROTO_STOP_TARGET || (j.has_rel_error && j.rel_error <= target),
+                (int)j.spp, clock_now_s() - t0, prediction, psize);
         prog.extra = NULL;
         proto_msg_free(&reply);
         if (state == JOB_DONE || state == JOB_FAILED || state == JOB_CANCELLED)

@@ -67,3 +67,8 @@ error_estimate_t error_estimate_image(const tilebuf_t *image)
         e.rel_rmse = e.rmse = e.mean = 0;
     return e;
 }
+
+const char *error_estimate_note(double rel)
+{
+    return rel > 1.0 ? " (above 1: the noise still exceeds the image's mean)" : "";
+}

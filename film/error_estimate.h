@@ -28,6 +28,12 @@ typedef struct error_estimate {
  * s2 at DBL_MAX once a square overflows) or s1^2 / n overflows. */
 double error_estimate_variance_of_mean(uint64_t n, double s1, double s2);
 
+/* What to say after the figure rel (rel_rmse) so that a value above 1 is not read as a
+ * percentage gone wrong: "" up to 1, else a note that the noise still exceeds the image's mean
+ * (a few samples per pixel, a firefly not yet averaged out). The figure itself is not clamped:
+ * it is what the stopping rule compares with a target. */
+const char *error_estimate_note(double rel);
+
 /* The estimate over every pixel of image (see error_estimate_t and docs/farm.md, "Accuracy").
  * One saturated pixel makes the image's error unbounded: no estimate (valid = false), so that
  * no target is ever reached on its account. */

@@ -98,7 +98,12 @@ function fmtCount(n) {
   return String(n);
 }
 
-function fmtError(e) { return e === undefined ? "–" : (100 * e).toFixed(2) + " %"; }
+// The relative error estimate (docs/farm.md, "Accuracy"), as the CLI says it: above 100 % the
+// noise still exceeds the image's mean, which a bare "245.43 %" does not tell.
+function fmtError(e) {
+  if (e === undefined) return "–";
+  return (100 * e).toFixed(2) + " %" + (e > 1 ? " (noise above the mean)" : "");
+}
 
 function bar(fraction) {
   const inner = el("span");

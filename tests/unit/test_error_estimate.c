@@ -10,6 +10,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <string.h>
 
 #include "error_estimate.h"
 #include "rng.h"
@@ -199,9 +200,19 @@ static void test_guards(void **state)
     tilebuf_destroy(&t);
 }
 
+/* A figure above 1 is said to be noise above the mean; up to 1 nothing is added. */
+static void test_note_above_one(void **state)
+{
+    (void)state;
+    assert_string_equal(error_estimate_note(0.5), "");
+    assert_string_equal(error_estimate_note(1.0), "");
+    assert_non_null(strstr(error_estimate_note(2.45), "above 1"));
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_note_above_one),
         cmocka_unit_test(test_uniform_samples_match_analytic),
         cmocka_unit_test(test_converges_as_one_over_sqrt_n),
         cmocka_unit_test(test_variance_of_mean_by_hand),
