@@ -786,6 +786,12 @@ static int load_materials(loader_t *L, err_t *err)
         }
         if (rc)
             return -1;
+        /* A thin film on smooth glass or metal (the parser refuses one on a rough surface). */
+        if (dm->film_thickness > 0.0 &&
+            (dm->type == SCENE_MATERIAL_DIELECTRIC || dm->type == SCENE_MATERIAL_CONDUCTOR)) {
+            m.film_thickness = dm->film_thickness;
+            m.film_ior = ior_constant(dm->film_eta);
+        }
         /* Smooth everywhere: constant roughness that pbrt-v4 calls effectively smooth. A
          * roughness texture may still be smooth at a hit; render decides there. */
         if ((m.kind == MATERIAL_CONDUCTOR || m.kind == MATERIAL_DIELECTRIC) &&

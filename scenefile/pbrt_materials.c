@@ -228,6 +228,25 @@ static const pbrt_name_t MATERIALS[] = {
     {"none", SCENE_MATERIAL_INTERFACE},
 };
 
+/* A thin film on smooth glass or metal (scene_material_t.film_thickness): simulated on the
+ * smooth surfaces only (bsdf/delta), so a rough one with a film is refused rather than
+ * rendered without it. */
+static int get_film(parser_t *P, params_t *ps, scene_material_t *m)
+{
+    if (params_get_float(ps, "filmthickness", 0.0, &m->film_thickness, P->err) != 0 ||
+        params_get_float(ps, "filmeta", 1.33, &m->film_eta, P->err) != 0 ||
+        pbrt_state_check_range(P, ps, "filmthickness", m->film_thickness, 0.0, 1e5) != 0 ||
+        pbrt_state_check_range(P, ps, "filmeta", m->film_eta, 1.0, 5.0) != 0)
+        return -1;
+    const bool rough = m->uroughness.texture >= 0 || m->vroughness.texture >= 0 ||
+                       m->uroughness.value > 0.0 || m->vroughness.value > 0.0;
+    if (m->film_thickness > 0.0 && rough)
+        return pbrt_error(P->err, params_find(ps, "filmthickness")->loc,
+                          "\"float filmthickness\" needs a smooth surface (roughness 0): thin "
+                          "films are simulated on smooth glass and mirrors only");
+    return 0;
+}
+
 static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_t type_loc,
                           scene_material_t *m)
 {
@@ -243,14 +262,16 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
     if (m->type == SCENE_MATERIAL_CONDUCTOR) {
         return get_conductor(P, ps, m, "") ||
                        get_roughness(P, ps, m, "", &m->uroughness, &m->vroughness) ||
-                       params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err)
+                       params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err) ||
+                       get_film(P, ps, m)
                    ? -1
                    : 0;
     }
     if (m->type == SCENE_MATERIAL_DIELECTRIC) {
         return get_ior(P, ps, m, "") ||
                        get_roughness(P, ps, m, "", &m->uroughness, &m->vroughness) ||
-                       params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err)
+                       params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err) ||
+                       get_film(P, ps, m)
                    ? -1
                    : 0;
     }

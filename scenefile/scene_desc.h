@@ -184,6 +184,10 @@ typedef struct scene_material {
     scene_float_input_t displacement;
     const char *normalmap;
     pbrt_loc_t normalmap_loc;
+    /* DIELECTRIC and CONDUCTOR, smooth (a prismfarm extension, docs/scene-format.md): a thin
+     * film on the surface, "filmthickness" in nm (0, the default: none) of index "filmeta"
+     * (1.33, soapy water), whose Airy reflectance colours the reflection (bsdf/delta.h). */
+    double film_thickness, film_eta;
 } scene_material_t;
 
 /* ---- lights ---- */

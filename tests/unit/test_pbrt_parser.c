@@ -1453,6 +1453,36 @@ static void test_option_directive(void **state)
     assert_non_null(strstr(err.msg, "t.pbrt:1:8: unknown option \"turbo\" (\"seed\", \"disablepixeljitter\", "));
 }
 
+/* The thin-film extension on smooth dielectrics and conductors: read with its defaults,
+ * bounded, and refused on a rough surface, where it is not simulated. */
+static void test_thin_film(void **state)
+{
+    (void)state;
+    scene_desc_t *s = parse_text_ok(
+        "WorldBegin\nMaterial \"dielectric\" \"float filmthickness\" [ 450 ]\n"
+        "Shape \"sphere\"\nMaterial \"conductor\" \"float filmthickness\" [ 300 ] "
+        "\"float filmeta\" [ 1.5 ]\nShape \"sphere\"\nMaterial \"dielectric\"\nShape \"sphere\"\n");
+    int glass = 0, metal = 0, plain = 0;
+    for (size_t i = 0; i < s->nmaterials; i++) {
+        const scene_material_t *m = &s->materials[i];
+        glass += m->type == SCENE_MATERIAL_DIELECTRIC && m->film_thickness == 450.0 &&
+                 m->film_eta == 1.33;
+        metal += m->type == SCENE_MATERIAL_CONDUCTOR && m->film_thickness == 300.0 &&
+                 m->film_eta == 1.5;
+        plain += m->type == SCENE_MATERIAL_DIELECTRIC && m->film_thickness == 0.0;
+    }
+    assert_int_equal(glass, 1);
+    assert_int_equal(metal, 1);
+    assert_int_equal(plain, 1);
+    scene_desc_destroy(&s);
+    expect_error("WorldBegin\nMaterial \"dielectric\" \"float roughness\" [ 0.1 ] "
+                 "\"float filmthickness\" [ 400 ]\n",
+                 "t.pbrt:2:49: \"float filmthickness\" needs a smooth surface (roughness 0): "
+                 "thin films are simulated on smooth glass and mirrors only");
+    expect_error("WorldBegin\nMaterial \"dielectric\" \"float filmthickness\" [ -1 ]\n",
+                 "t.pbrt:2:23: \"float filmthickness\" must be within [0, 100000], got -1");
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1460,6 +1490,7 @@ int main(void)
         cmocka_unit_test(test_defaults),
         cmocka_unit_test(test_materials_and_textures),
         cmocka_unit_test(test_more_materials),
+        cmocka_unit_test(test_thin_film),
         cmocka_unit_test(test_accepted_not_simulated),
         cmocka_unit_test(test_lights),
         cmocka_unit_test(test_shapes),
