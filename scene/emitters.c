@@ -83,10 +83,9 @@ static void triangle_bounds(const scene_t *self, const light_t *l, size_t t, lig
         n = vec3_neg(n);
     if (s->normals) {
         const double bary[3][2] = {{0, 0}, {1, 0}, {0, 1}};
-        int pos = 0, neg = 0;
+        int neg = 0;
         for (int k = 0; k < 3; k++) {
             double d = vec3_dot(n, scene_mesh_normal(s, (uint32_t)t, bary[k][0], bary[k][1]));
-            pos += d >= 0.0;
             neg += d < 0.0;
         }
         if (neg == 3)
