@@ -123,6 +123,28 @@ static void merge_refused(master_t *m, const job_t *j, const merge_source_t *src
         sched_worker_strike(m->sched, src->id);
 }
 
+/* A result the scheduler refused (rc has SCHED_REFUSED: a strike, merge_refused) or found bad
+ * (rc < 0: logged and counted as the task's failure), for photon batches and camera tiles
+ * alike. Returns true when the result was one of those and nothing is to be merged. */
+static bool merge_rejected(master_t *m, const job_t *j, const merge_source_t *src, uint32_t task,
+                           uint32_t attempt, int rc, const char *kind, err_t *err)
+{
+    if (rc >= 0 && (rc & SCHED_REFUSED)) {
+        merge_refused(m, j, src, task, err);
+        return true;
+    }
+    if (rc >= 0)
+        return false;
+    master_log(m, "bad %s from %s %llu '%s' for job %llu: %s", kind,
+               src->replay ? "the journal" : "worker", (unsigned long long)src->id, src->name,
+               (unsigned long long)j->id, err->msg);
+    char what[600];
+    snprintf(what, sizeof what, "bad, counted as a failure: %s", err->msg);
+    log_result(m, j, src, task, attempt, what);
+    sched_task_failed(m->sched, src->id, j->id, task, attempt, err->msg);
+    return true;
+}
+
 void merge_photon_phase_done(master_t *m, job_t *j)
 {
     err_t err;
@@ -159,20 +181,8 @@ void merge_photon_batch(master_t *m, job_t *j, const merge_source_t *src, uint32
         return;
     } else if ((rc = photon_phase_add(j->photons.phase, j->photons.base + b, r, &err)) >= 0)
         rc = sched_photon_done(m->sched, src->id, j->id, task, attempt, now, &err);
-    if (rc >= 0 && (rc & SCHED_REFUSED)) {
-        merge_refused(m, j, src, task, &err);
+    if (merge_rejected(m, j, src, task, attempt, rc, "photon batch", &err))
         return;
-    }
-    if (rc < 0) {
-        master_log(m, "bad photon batch from %s %llu '%s' for job %llu: %s",
-                   src->replay ? "the journal" : "worker", (unsigned long long)src->id, src->name,
-                   (unsigned long long)j->id, err.msg);
-        char what[600];
-        snprintf(what, sizeof what, "bad, counted as a failure: %s", err.msg);
-        log_result(m, j, src, task, attempt, what);
-        sched_task_failed(m->sched, src->id, j->id, task, attempt, err.msg);
-        return;
-    }
     log_result(m, j, src, task, attempt,
                (rc & SCHED_MERGED) ? "merged" : "a duplicate of a result merged already");
     if ((rc & SCHED_MERGED) && m->journal && !src->replay) {
@@ -214,20 +224,8 @@ void merge_camera_tile(master_t *m, job_t *j, const merge_source_t *src, uint32_
     } else {
         rc = sched_task_done(m->sched, src->id, j->id, task, attempt, &tb, now, &err);
     }
-    if (rc >= 0 && (rc & SCHED_REFUSED)) {
-        merge_refused(m, j, src, task, &err);
+    if (merge_rejected(m, j, src, task, attempt, rc, "result", &err))
         return;
-    }
-    if (rc < 0) {
-        master_log(m, "bad result from %s %llu '%s' for job %llu: %s",
-                   src->replay ? "the journal" : "worker", (unsigned long long)src->id, src->name,
-                   (unsigned long long)j->id, err.msg);
-        char what[600];
-        snprintf(what, sizeof what, "bad, counted as a failure: %s", err.msg);
-        log_result(m, j, src, task, attempt, what);
-        sched_task_failed(m->sched, src->id, j->id, task, attempt, err.msg);
-        return;
-    }
     log_result(m, j, src, task, attempt,
                (rc & SCHED_MERGED) ? "merged" : "a duplicate of a result merged already");
     if ((rc & SCHED_MERGED) && m->journal && wire) {
