@@ -25,12 +25,12 @@ struct net {
     void *sock;
     net_kind_t kind;
     net_options_t opt;
-    void *monitor;         /* DEALER: PAIR receiving the socket's monitor events */
-    net_link_t link; /* what those events said last */
-    bool transport_up;     /* a connection is made and its handshake is under way */
+    void *monitor;     /* DEALER: PAIR receiving the socket's monitor events */
+    net_link_t link;   /* what those events said last */
+    bool transport_up; /* a connection is made and its handshake is under way */
     char why[256];
     net_stats_t stats;
-    size_t last_sent;      /* bytes of the last message sent, to say what a drop may mean */
+    size_t last_sent; /* bytes of the last message sent, to say what a drop may mean */
     char last_type[24];
 };
 
@@ -234,8 +234,7 @@ static int configure(net_t *self, err_t *err)
     return 0;
 }
 
-net_t *net_new(void *zmq_ctx, net_kind_t kind, const net_options_t *options,
-                           err_t *err)
+net_t *net_new(void *zmq_ctx, net_kind_t kind, const net_options_t *options, err_t *err)
 {
     if (kind != NET_ROUTER && kind != NET_DEALER) {
         err_set(err, "socket kind %d is neither ROUTER nor DEALER", (int)kind);
@@ -255,8 +254,7 @@ net_t *net_new(void *zmq_ctx, net_kind_t kind, const net_options_t *options,
         free(self);
         return NULL;
     }
-    if (configure(self, err) < 0 ||
-        (kind == NET_DEALER && start_monitor(self, zmq_ctx, err) < 0)) {
+    if (configure(self, err) < 0 || (kind == NET_DEALER && start_monitor(self, zmq_ctx, err) < 0)) {
         net_destroy(&self);
         return NULL;
     }
@@ -475,8 +473,16 @@ static int drain(void *sock)
     return n;
 }
 
-int net_recv(net_t *self, proto_peer_t *from, proto_msg_t *out, int timeout_ms,
-                   err_t *err)
+/* A received frame lent to its decoded message (proto_decode_lent): closed when the message is
+ * freed. zmq_msg_close fails only on an invalid message, which this never is. */
+static void body_release(void *arg)
+{
+    zmq_msg_t *body = arg;
+    (void)zmq_msg_close(body);
+    free(body);
+}
+
+int net_recv(net_t *self, proto_peer_t *from, proto_msg_t *out, int timeout_ms, err_t *err)
 {
     memset(out, 0, sizeof *out);
     if (from)
@@ -514,34 +520,39 @@ int net_recv(net_t *self, proto_peer_t *from, proto_msg_t *out, int timeout_ms,
             return err_set(err, "from %s: a routing id without a message", who), PROTO_EMALFORMED;
         flags = 0; /* the rest of a multipart message has already arrived */
     }
-    zmq_msg_t body;
-    if (zmq_msg_init(&body) != 0)
+    /* On the heap: a decoded message's bundle points into it (proto_decode_lent) until the
+     * message is freed, so a large scene is held once, not twice. */
+    zmq_msg_t *body = malloc(sizeof *body);
+    if (!body)
+        return err_set(err, "from %s: out of memory", who), PROTO_ESOCKET;
+    if (zmq_msg_init(body) != 0) {
+        free(body);
         return err_set(err, "zmq_msg_init: %s", zmq_strerror(zmq_errno())), PROTO_ESOCKET;
-    if (zmq_msg_recv(&body, self->sock, flags) < 0) {
+    }
+    if (zmq_msg_recv(body, self->sock, flags) < 0) {
         int e = zmq_errno();
-        (void)zmq_msg_close(&body);
+        body_release(body);
         return err_set(err, "from %s: %s", who, zmq_strerror(e)), zmq_code(e);
     }
     if (from) {
         /* The user id the ZAP handler gave this connection (RFC 27): the key's name. */
-        const char *user = zmq_msg_gets(&body, "User-Id");
+        const char *user = zmq_msg_gets(body, "User-Id");
         snprintf(from->user, sizeof from->user, "%s", user ? user : "");
-        const char *role = user && *user ? zmq_msg_gets(&body, ZAP_ROLE_PROPERTY) : NULL;
+        const char *role = user && *user ? zmq_msg_gets(body, ZAP_ROLE_PROPERTY) : NULL;
         snprintf(from->role, sizeof from->role, "%s", role ? role : "");
     }
     self->stats.messages_received++;
-    self->stats.bytes_received += zmq_msg_size(&body);
+    self->stats.bytes_received += zmq_msg_size(body);
     int extra = drain(self->sock);
     int rc;
     if (extra > 0) {
         err_set(err, "from %s: %d frames after the message, expected none", who, extra);
         rc = PROTO_EMALFORMED;
     } else
-        rc = proto_decode(zmq_msg_data(&body), zmq_msg_size(&body), &self->opt.limits, out, err);
-    if (zmq_msg_close(&body) != 0 && rc == 0) {
-        proto_msg_free(out);
-        return err_set(err, "zmq_msg_close: %s", zmq_strerror(zmq_errno())), PROTO_ESOCKET;
-    }
+        rc = proto_decode_lent(zmq_msg_data(body), zmq_msg_size(body), &self->opt.limits, out,
+                               body_release, body, err);
+    if (rc < 0)
+        body_release(body); /* not lent: the message did not decode */
     if (rc < 0 && extra == 0)
         err_prefix(err, "from %s: ", who);
     return rc;

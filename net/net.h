@@ -125,7 +125,8 @@ void *net_socket(net_t *self);
  * PROTO_ESOCKET. */
 int net_send(net_t *self, const proto_peer_t *to, const proto_msg_t *msg, err_t *err);
 
-/* Receives and decodes one message into out (free it with proto_msg_free), waiting at most
+/* Receives and decodes one message into out (free it with proto_msg_free, which also releases
+ * the received frame its byte fields point into: proto_decode_lent), waiting at most
  * timeout_ms (0: do not wait, -1: forever). On a ROUTER *from is the sender (from may be NULL on a
  * DEALER). Returns 0; PROTO_EAGAIN when nothing came in time; PROTO_EMALFORMED or PROTO_EVERSION
  * when a peer sent something undecodable (*from says who, so it can be refused: proto.h's

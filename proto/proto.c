@@ -44,14 +44,14 @@ static const char *const TYPE_NAMES[PROTO_TYPE_COUNT] = {
     [PROTO_LOGS] = "LOGS",
     [PROTO_METRICS] = "METRICS",
 };
-static const char *const KIND_NAMES[PROTO_KIND_COUNT] = {
-    [PROTO_KIND_NONE] = "none", [PROTO_KIND_CAMERA_TILE] = "camera_tile",
-    [PROTO_KIND_PHOTON_BATCH] = "photon_batch"};
-static const char *const ACT_NAMES[PROTO_ACT_COUNT] = {"none",    "priority", "pause",
-                                                       "resume",  "requeue",  "unblock"};
-static const char *const JOB_STATE_NAMES[JOB_STATE_COUNT] = {"queued", "running", "done",
-                                                                   "failed", "cancelled",
-                                                                   "paused"};
+static const char *const KIND_NAMES[PROTO_KIND_COUNT] = {[PROTO_KIND_NONE] = "none",
+                                                         [PROTO_KIND_CAMERA_TILE] = "camera_tile",
+                                                         [PROTO_KIND_PHOTON_BATCH] =
+                                                             "photon_batch"};
+static const char *const ACT_NAMES[PROTO_ACT_COUNT] = {"none",   "priority", "pause",
+                                                       "resume", "requeue",  "unblock"};
+static const char *const JOB_STATE_NAMES[JOB_STATE_COUNT] = {"queued", "running",   "done",
+                                                             "failed", "cancelled", "paused"};
 static const char *const WORKER_STATE_NAMES[PROTO_WORKER_STATE_COUNT] = {"idle", "busy", "lost",
                                                                          "blocked"};
 static const char *const FETCH_NAMES[PROTO_FETCH_COUNT] = {"exr", "png"};
@@ -125,6 +125,8 @@ void proto_msg_free(proto_msg_t *msg)
         next = o->next;
         free(o);
     }
+    if (msg->release)
+        msg->release(msg->release_arg);
     memset(msg, 0, sizeof *msg);
 }
 
@@ -259,8 +261,8 @@ struct shape {
 /* Enums are read and written as the int they are. */
 _Static_assert(sizeof(proto_kind_t) == sizeof(int) && sizeof(job_state_t) == sizeof(int) &&
                    sizeof(proto_worker_state_t) == sizeof(int) &&
-                   sizeof(proto_fetch_what_t) == sizeof(int) && sizeof(proto_stop_t) == sizeof(int) &&
-                   sizeof(proto_act_t) == sizeof(int),
+                   sizeof(proto_fetch_what_t) == sizeof(int) &&
+                   sizeof(proto_stop_t) == sizeof(int) && sizeof(proto_act_t) == sizeof(int),
                "enum fields are accessed as int");
 
 /* Pointer members have many types (const double *, const proto_job_info_t *, ...): they are
@@ -773,9 +775,8 @@ static int tile_sums_width(const void *obj)
     const proto_tile_result_t *r = obj;
     if (r->sums_bits)
         return r->sums_bits;
-    return all_float32(r->sums, tile_values(obj)) && all_float32(r->xyz, tile_xyz_values(obj))
-               ? 32
-               : 64;
+    return all_float32(r->sums, tile_values(obj)) && all_float32(r->xyz, tile_xyz_values(obj)) ? 32
+                                                                                               : 64;
 }
 
 /* The rect and nb come first, checked, so that the bins' lengths derived from them (below 2^37
@@ -788,8 +789,8 @@ static const field_t TILE_RESULT_FIELDS[] = {
      .check = ck_sums_bits, .width = tile_sums_width},
     {F("sums", FT_SUMS, TR(sums)), .aux = TR(sums_bits), .count = tile_values, .check = ck_sums,
      .width = tile_sums_width},
-    {F("xyz", FT_SUMS, TR(xyz)), .aux = TR(sums_bits), .count = tile_xyz_values,
-     .check = ck_sums, .width = tile_sums_width},
+    {F("xyz", FT_SUMS, TR(xyz)), .aux = TR(sums_bits), .count = tile_xyz_values, .check = ck_sums,
+     .width = tile_sums_width},
     {F("counts", FT_WORDS, TR(counts)), .count = tile_pixels, .check = ck_words},
     {F("lum", FT_WORDS, TR(lum)), .count = tile_pixels, .check = ck_finite},
     {F("lum2", FT_WORDS, TR(lum_sq)), .count = tile_pixels, .check = ck_finite},
@@ -978,8 +979,7 @@ static const field_t SUBMIT_FIELDS[] = {
     {F("prio", FT_SINT, M(submit.priority)), .presence = UNLESS_ZERO, .absent = "priority 0",
      RANGE(-PROTO_MAX_PRIORITY, PROTO_MAX_PRIORITY)},
     {F("frames", FT_LIST, M(submit.frames)), .aux = M(submit.nframes), .sub = &FRAME,
-     .presence = UNLESS_ZERO, .absent = "a single scene", .check = ck_list,
-     .hi = PROTO_MAX_FRAMES},
+     .presence = UNLESS_ZERO, .absent = "a single scene", .check = ck_list, .hi = PROTO_MAX_FRAMES},
 };
 static const field_t STATUS_FIELDS[] = {
     {F("job", FT_U64, M(status.job)), .presence = UNLESS_FLAG, .flag = M(status.all)},
@@ -1263,6 +1263,8 @@ static int walk(const uint8_t *p, size_t len, err_t *err)
 typedef struct rd {
     cx_t cx;
     proto_msg_t *m; /* owner of the copies */
+    bool lend;      /* byte fields point into the input (proto_decode_lent) */
+    size_t *lent;   /* counts the fields that do */
 } rd_t;
 
 static const char *obj_kind(const msgpack_object *o)
@@ -1447,6 +1449,13 @@ static int rd_bytes(rd_t *rd, const char *field, const msgpack_object *o, const 
     const msgpack_object_bin *b;
     if (rd_bin(rd, field, o, UINT64_MAX, &b))
         return PROTO_EMALFORMED;
+    if (rd->lend) {
+        /* msgpack-c's msgpack_unpack_next leaves a bin's bytes in the input buffer. */
+        *data = b->size > 0 ? (const uint8_t *)b->ptr : (const uint8_t *)"";
+        *size = b->size;
+        ++*rd->lent;
+        return 0;
+    }
     uint8_t *copy = own_alloc(rd->m, b->size);
     if (!copy)
         return rd_oom(rd, field, b->size);
@@ -1729,10 +1738,13 @@ static int rd_body_keys(rd_t *rd, const msgpack_object *root)
 enum { E_V, E_T, E_N };
 static const char *const ENVELOPE_KEYS[E_N] = {"v", "t"};
 
-static int decode_root(const msgpack_object *root, const proto_limits_t *lim, proto_msg_t *m,
-                       err_t *err)
+static int decode_root(const msgpack_object *root, const proto_limits_t *lim, size_t *lent,
+                       proto_msg_t *m, err_t *err)
 {
-    rd_t rd = {.cx = {.type = "message", .lim = lim, .err = err}, .m = m};
+    rd_t rd = {.cx = {.type = "message", .lim = lim, .err = err},
+               .m = m,
+               .lend = lent != NULL,
+               .lent = lent};
     const msgpack_object *v[E_N];
     if (root->type != MSGPACK_OBJECT_MAP)
         return err_set(err, "message is %s, expected a map", obj_kind(root)), PROTO_EMALFORMED;
@@ -1766,8 +1778,8 @@ static int decode_root(const msgpack_object *root, const proto_limits_t *lim, pr
     return read_fields(&rd, body_of(type), vals, &k, m);
 }
 
-int proto_decode(const void *data, size_t len, const proto_limits_t *limits, proto_msg_t *out,
-                 err_t *err)
+static int decode(const void *data, size_t len, const proto_limits_t *limits, size_t *lent,
+                  proto_msg_t *out, err_t *err)
 {
     proto_limits_t lim = limits ? *limits : proto_limits_default();
     memset(out, 0, sizeof *out);
@@ -1788,13 +1800,33 @@ int proto_decode(const void *data, size_t len, const proto_limits_t *limits, pro
         rc = err_set(err, "msgpack-c could not unpack the message (code %d at byte %zu)", (int)r,
                      off);
     else
-        rc = decode_root(&u.data, &lim, out, err);
+        rc = decode_root(&u.data, &lim, lent, out, err);
     msgpack_unpacked_destroy(&u);
     if (rc < 0) {
         int version = out->version;
         proto_msg_free(out);
         if (rc == PROTO_EVERSION)
             out->version = version;
+    }
+    return rc;
+}
+
+int proto_decode(const void *data, size_t len, const proto_limits_t *limits, proto_msg_t *out,
+                 err_t *err)
+{
+    return decode(data, len, limits, NULL, out, err);
+}
+
+int proto_decode_lent(const void *data, size_t len, const proto_limits_t *limits, proto_msg_t *out,
+                      void (*release)(void *arg), void *release_arg, err_t *err)
+{
+    size_t lent = 0;
+    int rc = decode(data, len, limits, &lent, out, err);
+    if (rc == 0 && lent == 0 && release)
+        release(release_arg); /* nothing points into data: a HEARTBEAT needs no freeing */
+    else if (rc == 0) {
+        out->release = release;
+        out->release_arg = release_arg;
     }
     return rc;
 }

@@ -360,6 +360,8 @@ typedef struct proto_msg {
         } logs;            /* client -> master; answered by FILE */
     };
     struct proto_owned *owned; /* private: what proto_decode allocated */
+    void (*release)(void *arg); /* private: proto_decode_lent's input, released with the message */
+    void *release_arg;
 } proto_msg_t;
 
 /* Appends the encoding of msg to out (initialised by the caller with msgpack_sbuffer_init).
@@ -378,7 +380,20 @@ int proto_encode(const proto_msg_t *msg, const proto_limits_t *limits, msgpack_s
 int proto_decode(const void *data, size_t len, const proto_limits_t *limits, proto_msg_t *out,
                  err_t *err);
 
-/* Releases what proto_decode allocated and zeroes the message. */
+/* As proto_decode, but byte fields (a bundle's file data, a stored file's bytes) point into data
+ * instead of being copied, so that a large bundle is not held twice: data must stay unchanged
+ * until proto_msg_free(out). On success the message owns data: proto_msg_free calls
+ * release(release_arg) once, after which nothing may read the fields -- or, when no field of
+ * the message points into data, release is called before this returns, so that a message
+ * proto_decode would have left owning nothing still needs no freeing. release may be NULL when
+ * the caller frees data itself, after the message. On failure release is not called and data
+ * stays the caller's. Strings and arrays of numbers are still copied (they are small, or must
+ * be aligned and host-endian). */
+int proto_decode_lent(const void *data, size_t len, const proto_limits_t *limits,
+                      proto_msg_t *out, void (*release)(void *arg), void *release_arg,
+                      err_t *err);
+
+/* Releases what proto_decode allocated (and proto_decode_lent's input) and zeroes the message. */
 void proto_msg_free(proto_msg_t *msg);
 
 /* "HELLO", "RESULT", ...: the type's name on the wire and in error messages ("?" if invalid). */

@@ -9,7 +9,7 @@
 #include <string.h>
 
 struct pbrt_lexer {
-    char *text;
+    const char *text; /* the caller's (not copied), read only within [0, len) */
     size_t len;
     size_t pos;
     int line;
@@ -47,15 +47,7 @@ pbrt_lexer_t *pbrt_lexer_new(const char *file, const char *text, size_t len, err
         err_set(err, "%s: out of memory", file);
         return NULL;
     }
-    self->text = malloc(len + 1);
-    if (!self->text) {
-        free(self);
-        err_set(err, "%s: out of memory for %zu bytes", file, len);
-        return NULL;
-    }
-    if (len)
-        memcpy(self->text, text, len);
-    self->text[len] = '\0';
+    self->text = text;
     self->len = len;
     self->line = 1;
     self->col = 1;
@@ -68,7 +60,6 @@ void pbrt_lexer_destroy(pbrt_lexer_t **self_p)
     if (!self_p || !*self_p)
         return;
     pbrt_lexer_t *self = *self_p;
-    free(self->text);
     free(self->scratch[0]);
     free(self->scratch[1]);
     free(self);

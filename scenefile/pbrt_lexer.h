@@ -34,7 +34,9 @@ typedef struct pbrt_token {
 
 typedef struct pbrt_lexer pbrt_lexer_t;
 
-/* A lexer over a copy of text[0..len); file names the source in locations. */
+/* A lexer over text[0..len), which must stay unchanged until pbrt_lexer_destroy: it is not
+ * copied (a scene file of hundreds of MB is held once) and nothing past len is read, so it
+ * needs no terminating NUL. file names the source in locations. */
 pbrt_lexer_t *pbrt_lexer_new(const char *file, const char *text, size_t len, err_t *err);
 void pbrt_lexer_destroy(pbrt_lexer_t **self_p);
 

@@ -37,9 +37,9 @@ struct submission {
     scene_budget_t budget;
     int load_threads; /* frames loaded at once (master_opts_t) */
     proto_limits_t limits;
-    spool_t *spool; /* staged and committed into on the loader's thread (spool.h) */
+    spool_t *spool;       /* staged and committed into on the loader's thread (spool.h) */
     scene_shelf_t *shelf; /* the process's scenes (master_opts_t), or NULL */
-    uint8_t *scene_msg; /* the SCENE message workers will be sent, stored once the scene loads */
+    uint8_t *scene_msg;   /* the SCENE message workers will be sent, stored once the scene loads */
     size_t scene_size;
     double accepted, last_progress;
     /* A frame sequence (SUBMIT's frames; nframes 0: a single scene, job): each frame's main
@@ -132,7 +132,8 @@ static job_t *load_frames(submission_t *s)
     int outer = s->load_threads > 0 ? s->load_threads : cores;
     if ((size_t)outer > s->nframes)
         outer = (int)s->nframes;
-    frame_loads_t fl = {.s = s, .inner = outer > 1 ? (cores / outer > 0 ? cores / outer : 1) : 0,
+    frame_loads_t fl = {.s = s,
+                        .inner = outer > 1 ? (cores / outer > 0 ? cores / outer : 1) : 0,
                         .first_failed = s->nframes};
     pthread_mutex_init(&fl.lock, NULL);
     err_t err;
@@ -141,8 +142,8 @@ static job_t *load_frames(submission_t *s)
     if (rc < 0)
         return NULL; /* s->err: the first failing frame's (the frames loaded are freed with s) */
     /* The sequence's own record, which job_new_sequence fills without a scene. */
-    job_t *seq = job_new_sequence(s->name, s->hash, s->frame_main[0], &s->settings,
-                                   (uint32_t)s->nframes);
+    job_t *seq =
+        job_new_sequence(s->name, s->hash, s->frame_main[0], &s->settings, (uint32_t)s->nframes);
     if (!seq)
         err_set(&s->err, "the master is out of memory");
     return seq;
@@ -156,7 +157,9 @@ static void submission_load(void *arg)
     submission_t *s = arg;
     double t0 = clock_now_s();
     proto_msg_t scene;
-    if (proto_decode(s->scene_msg, s->scene_size, &s->limits, &scene, &s->err) < 0) {
+    /* Lent: the files point into s->scene_msg, which outlives the message (freed below). */
+    if (proto_decode_lent(s->scene_msg, s->scene_size, &s->limits, &scene, NULL, NULL, &s->err) <
+        0) {
         err_prefix(&s->err, "the master cannot store the scene: ");
         s->load_s = clock_now_s() - t0;
         return;
@@ -176,8 +179,8 @@ static void submission_load(void *arg)
                             : job_new(0, s->name, s->hash, s->main, &s->settings, s->dir,
                                       &s->budget, s->shelf, 0, &s->err);
     if (s->job) {
-        if (spool_scene_commit(s->spool, s->scene_msg, s->scene_size, s->hash, s->dir,
-                               s->staged, &s->err) < 0) {
+        if (spool_scene_commit(s->spool, s->scene_msg, s->scene_size, s->hash, s->dir, s->staged,
+                               &s->err) < 0) {
             job_destroy(&s->job);
             s->job = NULL;
             err_prefix(&s->err, "the master cannot store the scene: ");
@@ -283,14 +286,16 @@ static void submit_accept(master_t *m, const proto_peer_t *from, const proto_msg
         return;
     }
     m->loading[m->nloading++] = s;
-    master_log(m, "submission '%s' from %s: scene %.12s (%zu files, %zu frames) loading off the loop",
+    master_log(m,
+               "submission '%s' from %s: scene %.12s (%zu files, %zu frames) loading off the loop",
                s->name, who, hash, b->nfiles, nf ? nf : 1);
     size_t bytes = 0;
     for (size_t i = 0; i < b->nfiles; i++)
         bytes += b->files[i].size;
     char text[200];
-    snprintf(text, sizeof text, "the master received the scene (%zu file%s, %.1f %s) and is loading it%s",
-             b->nfiles, b->nfiles == 1 ? "" : "s", bytes >= 1000000 ? bytes / 1e6 : bytes / 1e3,
+    snprintf(text, sizeof text,
+             "the master received the scene (%zu file%s, %.1f %s) and is loading it%s", b->nfiles,
+             b->nfiles == 1 ? "" : "s", bytes >= 1000000 ? bytes / 1e6 : bytes / 1e3,
              bytes >= 1000000 ? "MB" : "kB",
              m->nloading > 1 ? ", after the scenes submitted before it" : "");
     proto_msg_t pm = {.type = PROTO_PROGRESS, .progress = {.message = text, .elapsed = 0}};
@@ -304,8 +309,9 @@ static void checkpoint_wal(master_t *m, uint64_t job)
 {
     err_t err;
     if (m->journal && journal_checkpoint_wal(m->journal, &err) < 0)
-        master_log(m, "job %llu is journaled in the WAL only (a deleted journal.db-wal would lose "
-                      "it): %s",
+        master_log(m,
+                   "job %llu is journaled in the WAL only (a deleted journal.db-wal would lose "
+                   "it): %s",
                    (unsigned long long)job, err.msg);
 }
 
@@ -378,8 +384,8 @@ static void sequence_finish(master_t *m, submission_t *s, const char *who, doubl
                "job %llu '%s' submitted by %s: %zu frames (jobs %llu..%llu), the first %dx%d, %d "
                "spp, scene %.12s loaded in %.2f s (off the loop)",
                (unsigned long long)id, seq->name, who, n, (unsigned long long)(id + 1),
-               (unsigned long long)(id + n), f0->scene.xres, f0->scene.yres, f0->scene.spp,
-               s->hash, s->load_s);
+               (unsigned long long)(id + n), f0->scene.xres, f0->scene.yres, f0->scene.spp, s->hash,
+               s->load_s);
 }
 
 /* A submission whose scene has loaded (or failed to): scheduled, journaled and answered. */
@@ -443,8 +449,8 @@ static void submission_finish(master_t *m, submission_t *s, double now)
                "job %llu '%s' submitted by %s: %dx%d, %d spp, %d buckets, %d tiles x %d passes, "
                "%u photon batches, scene %.12s loaded in %.2f s (off the loop)%s",
                (unsigned long long)id, j->name, who, j->scene.xres, j->scene.yres, j->scene.spp,
-               j->scene.grid.n, info.ntiles, info.npasses, info.photon_batches, s->hash,
-               s->load_s, rules);
+               j->scene.grid.n, info.ntiles, info.npasses, info.photon_batches, s->hash, s->load_s,
+               rules);
 }
 
 void submit_loads(master_t *m, double now)
@@ -491,15 +497,17 @@ static bool submit_room(master_t *m, const proto_peer_t *from, const proto_msg_t
     master_log(m, "submission '%s' from %s refused: %zu unfinished jobs, the limit",
                msg->submit.name, proto_peer_str(from, who), open);
     if (asked > 1)
-        master_reply_error(m, from,
-                    "the master holds %zu unfinished jobs and this sequence has %zu frames, more "
-                    "than its limit (--max-jobs %zu; each frame counts as a job)",
-                    open, asked, m->opts->max_jobs);
+        master_reply_error(
+            m, from,
+            "the master holds %zu unfinished jobs and this sequence has %zu frames, more "
+            "than its limit (--max-jobs %zu; each frame counts as a job)",
+            open, asked, m->opts->max_jobs);
     else
-        master_reply_error(m, from,
-                    "the master holds %zu unfinished jobs, its limit (--max-jobs %zu): submit "
-                    "again when one is done",
-                    open, m->opts->max_jobs);
+        master_reply_error(
+            m, from,
+            "the master holds %zu unfinished jobs, its limit (--max-jobs %zu): submit "
+            "again when one is done",
+            open, m->opts->max_jobs);
     return false;
 }
 

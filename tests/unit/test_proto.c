@@ -46,24 +46,23 @@ static char g_hash[PROTO_HASH_HEX + 1];
 
 static const proto_job_info_t g_jobs[] = {
     /* running, 4 spp merged, an estimate of 1/16 (exact in binary) */
-    {1, "prism", JOB_RUNNING, 1000, 65536, 12.5, NULL, 3, 4, true, 0.0625, PROTO_STOP_NONE,
-     "alice", -1000, 0, 0, 0},
-    {2, "gem fire", JOB_FAILED, 7, 100, 0.0, "worker w1: scene.pbrt:3: unknown shape", 0, 0,
-     false, 0, PROTO_STOP_NONE, NULL, 0, 0, 0, 0},
-    {UINT64_MAX, "x", JOB_CANCELLED, 0, 0, 1e9, NULL, UINT64_MAX, 0, false, 0,
-     PROTO_STOP_NONE, NULL, 0, 0, 0, 0},
+    {1, "prism", JOB_RUNNING, 1000, 65536, 12.5, NULL, 3, 4, true, 0.0625, PROTO_STOP_NONE, "alice",
+     -1000, 0, 0, 0},
+    {2, "gem fire", JOB_FAILED, 7, 100, 0.0, "worker w1: scene.pbrt:3: unknown shape", 0, 0, false,
+     0, PROTO_STOP_NONE, NULL, 0, 0, 0, 0},
+    {UINT64_MAX, "x", JOB_CANCELLED, 0, 0, 1e9, NULL, UINT64_MAX, 0, false, 0, PROTO_STOP_NONE,
+     NULL, 0, 0, 0, 0},
     /* done early: 64 of 1024 spp reached the target; an estimate of exactly 0 travels too */
-    {4, "prism fast", JOB_DONE, 64 * 96, 1024 * 96, 0.75, NULL, 0, 64, true, 0.0,
-     PROTO_STOP_TARGET, "bob", 3, 0, 0, 0},
+    {4, "prism fast", JOB_DONE, 64 * 96, 1024 * 96, 0.75, NULL, 0, 64, true, 0.0, PROTO_STOP_TARGET,
+     "bob", 3, 0, 0, 0},
 };
 /* A frame sequence (job 5, two frames) and its frames 6 and 7, numbered 0 and 120. */
 static const proto_job_info_t g_sequence[] = {
-    {5, "walk", JOB_RUNNING, 10, 200, 1.0, NULL, 0, 0, false, 0, PROTO_STOP_NONE, NULL, 0, 2,
-     0, 0},
-    {6, "walk0000", JOB_DONE, 100, 100, 1.0, NULL, 0, 16, false, 0, PROTO_STOP_NONE, NULL,
-     0, 0, 5, 0},
-    {7, "walk0120", JOB_RUNNING, 10, 100, 1.0, NULL, 0, 1, false, 0, PROTO_STOP_NONE, NULL,
-     0, 0, 5, 120},
+    {5, "walk", JOB_RUNNING, 10, 200, 1.0, NULL, 0, 0, false, 0, PROTO_STOP_NONE, NULL, 0, 2, 0, 0},
+    {6, "walk0000", JOB_DONE, 100, 100, 1.0, NULL, 0, 16, false, 0, PROTO_STOP_NONE, NULL, 0, 0, 5,
+     0},
+    {7, "walk0120", JOB_RUNNING, 10, 100, 1.0, NULL, 0, 1, false, 0, PROTO_STOP_NONE, NULL, 0, 0, 5,
+     120},
 };
 static const proto_frame_t g_frames[] = {{"scene.pbrt", 0}, {"meshes/prism.ply", 120}};
 static const proto_worker_info_t g_workers[] = {
@@ -647,8 +646,11 @@ static void test_photon_messages(void **state)
     round_trip(&c);
     proto_msg_t r = sample(PROTO_RESULT);
     r.result.kind = PROTO_KIND_PHOTON_BATCH;
-    r.result.photons = (proto_photon_result_t){
-        .range = {0, 4096}, .emitted = 4096 * 16, .data = g_png, .size = sizeof g_png, .nonfinite = 3};
+    r.result.photons = (proto_photon_result_t){.range = {0, 4096},
+                                               .emitted = 4096 * 16,
+                                               .data = g_png,
+                                               .size = sizeof g_png,
+                                               .nonfinite = 3};
     round_trip(&r);
     /* Limits: an empty range, and more than 64 lanes a photon. */
     t.task.photons = (proto_photon_batch_t){5, 5};
@@ -679,8 +681,7 @@ static void test_frame_sequences(void **state)
     proto_msg_t t = sample(PROTO_TASK);
     t.task.main = "meshes/prism.ply";
     round_trip(&t);
-    proto_msg_t r = {.type = PROTO_STATUS_REPLY,
-                     .status_reply = {.jobs = g_sequence, .njobs = 3}};
+    proto_msg_t r = {.type = PROTO_STATUS_REPLY, .status_reply = {.jobs = g_sequence, .njobs = 3}};
     round_trip(&r);
     proto_frame_t bad[2] = {{"scene.pbrt", 1}, {"missing.pbrt", 2}};
     s.submit.frames = bad;
@@ -710,6 +711,53 @@ static void test_decoded_message_owns_its_data(void **state)
     assert_int_equal((uintptr_t)d.result.tile.counts % _Alignof(uint64_t), 0);
     assert_msg_equal(&m, &d);
     proto_msg_free(&d);
+    msgpack_sbuffer_destroy(&sb);
+}
+
+static void count_release(void *arg)
+{
+    (*(int *)arg)++;
+}
+
+/* proto_decode_lent: a bundle's file data points into the input (not copied), the input is
+ * released exactly once with the message, and not at all when the decode fails. */
+static void test_lent_bundle_points_into_input(void **state)
+{
+    (void)state;
+    proto_msg_t m = sample(PROTO_SUBMIT);
+    msgpack_sbuffer sb;
+    encode_ok(&m, &sb);
+    proto_msg_t d;
+    err_t err;
+    int released = 0;
+    assert_int_equal(proto_decode_lent(sb.data, sb.size, NULL, &d, count_release, &released, &err),
+                     0);
+    assert_msg_equal(&m, &d);
+    for (size_t i = 0; i < d.submit.bundle.nfiles; i++) {
+        const uint8_t *p = d.submit.bundle.files[i].data;
+        if (d.submit.bundle.files[i].size > 0)
+            assert_true(p >= (const uint8_t *)sb.data && p < (const uint8_t *)sb.data + sb.size);
+    }
+    assert_int_equal(released, 0);
+    proto_msg_free(&d);
+    assert_int_equal(released, 1);
+    proto_msg_free(&d); /* zeroed: a second free releases nothing */
+    assert_int_equal(released, 1);
+    /* A message with no byte field releases its input at once: it needs no freeing. */
+    proto_msg_t hb = {.type = PROTO_HEARTBEAT};
+    msgpack_sbuffer hsb;
+    encode_ok(&hb, &hsb);
+    assert_int_equal(
+        proto_decode_lent(hsb.data, hsb.size, NULL, &d, count_release, &released, &err), 0);
+    assert_int_equal(released, 2);
+    proto_msg_free(&d);
+    assert_int_equal(released, 2);
+    msgpack_sbuffer_destroy(&hsb);
+    released = 1;
+    /* A failed decode leaves the input with the caller. */
+    assert_true(proto_decode_lent(sb.data, sb.size - 1, NULL, &d, count_release, &released, &err) <
+                0);
+    assert_int_equal(released, 1);
     msgpack_sbuffer_destroy(&sb);
 }
 
@@ -961,15 +1009,14 @@ static void test_envelope_errors(void **state)
     const uint8_t V = PROTO_VERSION; /* a positive fixint */
     const uint8_t dup[] = {0x83, 0xa1, 'v', V, 0xa1, 't', 0xa3, 'J', 'O', 'B', 0xa1, 'v', V};
     expect_reject(dup, sizeof dup, PROTO_EMALFORMED, "has the key 'v' twice");
-    const uint8_t extra[] = {0x83, 0xa1, 'v',  V,    0xa1, 't',  0xa4, 'J', 'O',
-                             'B',  'S',  0xa2, 'z',  'z',  0x92, 0x80, 0x90};
+    const uint8_t extra[] = {0x83, 0xa1, 'v',  V,   0xa1, 't',  0xa4, 'J', 'O',
+                             'B',  'S',  0xa2, 'z', 'z',  0x92, 0x80, 0x90};
     proto_msg_t d;
     err_t err;
     assert_int_equal(proto_decode(extra, sizeof extra, NULL, &d, &err), 0);
     assert_int_equal(d.type, PROTO_JOBS);
     proto_msg_free(&d);
-    const uint8_t intkey[] = {0x83, 0xa1, 'v', V,    0xa1, 't', 0xa4,
-                              'J',  'O',  'B', 'S',  0x01, 0x02};
+    const uint8_t intkey[] = {0x83, 0xa1, 'v', V, 0xa1, 't', 0xa4, 'J', 'O', 'B', 'S', 0x01, 0x02};
     expect_reject(intkey, sizeof intkey, PROTO_EMALFORMED, "has a key that is an unsigned");
 }
 
@@ -1587,12 +1634,35 @@ static int picked_width(double v)
 static void test_float32_width_matches_tilebuf(void **state)
 {
     (void)state;
-    static const double edges[] = {0.0, -0.0, 1.0, -1.0, 1.0 / 3.0, (double)(1.0f / 3.0f),
-                                   FLT_MIN, -FLT_MIN, FLT_MAX, -FLT_MAX, 0x1p-126 - 0x1p-149,
-                                   0x1p-149, -0x1p-149, 0x1p-127, (double)FLT_MIN * (1 - 0x1p-53),
-                                   0x1p128, -0x1p128, (double)FLT_MAX + 0x1p103, 1.0 + 0x1p-23,
-                                   1.0 + 0x1p-24, 1.0 + 0x1p-52, DBL_MIN, DBL_MIN / 4, -DBL_MIN / 4,
-                                   DBL_MAX, 0x1p-1074, 65504.0, 16777217.0, 16777216.0};
+    static const double edges[] = {0.0,
+                                   -0.0,
+                                   1.0,
+                                   -1.0,
+                                   1.0 / 3.0,
+                                   (double)(1.0f / 3.0f),
+                                   FLT_MIN,
+                                   -FLT_MIN,
+                                   FLT_MAX,
+                                   -FLT_MAX,
+                                   0x1p-126 - 0x1p-149,
+                                   0x1p-149,
+                                   -0x1p-149,
+                                   0x1p-127,
+                                   (double)FLT_MIN * (1 - 0x1p-53),
+                                   0x1p128,
+                                   -0x1p128,
+                                   (double)FLT_MAX + 0x1p103,
+                                   1.0 + 0x1p-23,
+                                   1.0 + 0x1p-24,
+                                   1.0 + 0x1p-52,
+                                   DBL_MIN,
+                                   DBL_MIN / 4,
+                                   -DBL_MIN / 4,
+                                   DBL_MAX,
+                                   0x1p-1074,
+                                   65504.0,
+                                   16777217.0,
+                                   16777216.0};
     for (int mode = 0; mode < 2; mode++) {
 #if defined(__SSE__)
         unsigned int csr = _mm_getcsr();
@@ -1646,8 +1716,8 @@ static void test_task_labels(void **state)
     assert_string_equal(proto_task_label(PROTO_PHOTON_TASK, buf), "p0");
     assert_string_equal(proto_task_label(PROTO_PHOTON_TASK | 31, buf), "p31");
     assert_string_equal(proto_task_label(UINT32_MAX, buf), "p2147483647");
-    const uint32_t round[] = {0, 1, 99, PROTO_PHOTON_TASK - 1, PROTO_PHOTON_TASK,
-                              PROTO_PHOTON_TASK | 5, UINT32_MAX};
+    const uint32_t round[] = {
+        0, 1, 99, PROTO_PHOTON_TASK - 1, PROTO_PHOTON_TASK, PROTO_PHOTON_TASK | 5, UINT32_MAX};
     for (size_t i = 0; i < sizeof round / sizeof round[0]; i++) {
         uint32_t t = 12345;
         assert_int_equal(proto_task_parse(proto_task_label(round[i], buf), &t), 0);
@@ -1655,8 +1725,8 @@ static void test_task_labels(void **state)
     }
     uint32_t t = 7;
     /* One spelling: the wire's number of a photon batch is not typed. */
-    static const char *const bad[] = {"", "p", "-1", "1x", "p-1", "2147483648", "p2147483648",
-                                      "99999999999", " 1", "P3", "3p"};
+    static const char *const bad[] = {
+        "", "p", "-1", "1x", "p-1", "2147483648", "p2147483648", "99999999999", " 1", "P3", "3p"};
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++)
         if (proto_task_parse(bad[i], &t) != -1)
             fail_msg("'%s' parsed", bad[i]);
@@ -1669,6 +1739,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_round_trip_every_type),
         cmocka_unit_test(test_decoded_message_owns_its_data),
+        cmocka_unit_test(test_lent_bundle_points_into_input),
         cmocka_unit_test(test_photon_messages),
         cmocka_unit_test(test_status_all_and_optional_fields),
         cmocka_unit_test(test_version_refusal),
