@@ -351,6 +351,41 @@ static inline scene_t *sb_ball_build_on(scene_t *s, int photons, int res, int fl
 /* ------------------------------------------------------------------------------------------ */
 /* Image statistics of one res x res tile rendered at spp samples per pixel. */
 
+/* Per bucket, the mean over pixels and its standard error from the spread of pixel means
+ * (pixels are independent estimates), of s rendered in one res x res tile at its own spp. */
+typedef struct sb_bucket_stats {
+    double mean[64];
+    double se[64];
+    uint64_t nonfinite;
+} sb_bucket_stats_t;
+
+static inline sb_bucket_stats_t sb_render_bucket_stats(scene_t *s, int res)
+{
+    err_t err;
+    int nb = s->settings.grid.n;
+    assert_true(nb <= 64);
+    tilebuf_t *t = tilebuf_new(0, 0, res, res, nb, &err);
+    assert_non_null(t);
+    render_stats_t rs = {0};
+    if (render_tile(s, NULL, 0, 0, res, res, 0, (uint32_t)s->settings.spp, t, &rs, &err))
+        fail_msg("render_tile: %s", err.msg);
+    sb_bucket_stats_t st = {.nonfinite = rs.nonfinite};
+    int npix = res * res;
+    for (int b = 0; b < nb; b++) {
+        double sum = 0, sq = 0;
+        for (int y = 0; y < res; y++)
+            for (int x = 0; x < res; x++) {
+                double m = tilebuf_sum(t, x, y, b) / (double)tilebuf_count(t, x, y);
+                sum += m;
+                sq += m * m;
+            }
+        st.mean[b] = sum / npix;
+        st.se[b] = sqrt(fmax(0.0, sq / npix - st.mean[b] * st.mean[b]) / (npix - 1));
+    }
+    tilebuf_destroy(&t);
+    return st;
+}
+
 typedef struct sb_image_stats {
     double mean;        /* mean over pixels of the pixel's mean luminance */
     double se;          /* its standard error from the per-sample variances */

@@ -19,38 +19,12 @@
 
 static const int RES = 8;
 
-typedef struct stats {
-    double mean[64];
-    double se[64];
-    uint64_t nonfinite;
-} stats_t;
+typedef sb_bucket_stats_t stats_t;
 
-/* Renders the whole image in one tile and returns, per bucket, the mean over pixels and its
- * standard error from the spread of pixel means (pixels are independent estimates). */
+/* The whole image in one tile (scene_builders.h). */
 static stats_t render_stats(scene_t *s)
 {
-    err_t err;
-    int nb = s->settings.grid.n;
-    tilebuf_t *t = tilebuf_new(0, 0, RES, RES, nb, &err);
-    render_stats_t rs = {0};
-    if (render_tile(s, NULL, 0, 0, RES, RES, 0, (uint32_t)s->settings.spp, t, &rs, &err))
-        fail_msg("render_tile: %s", err.msg);
-    stats_t st = {.nonfinite = rs.nonfinite};
-    int npix = RES * RES;
-    for (int b = 0; b < nb; b++) {
-        double sum = 0, sq = 0;
-        for (int y = 0; y < RES; y++)
-            for (int x = 0; x < RES; x++) {
-                double m = tilebuf_sum(t, x, y, b) / (double)tilebuf_count(t, x, y);
-                sum += m;
-                sq += m * m;
-            }
-        st.mean[b] = sum / npix;
-        double var = fmax(0.0, sq / npix - st.mean[b] * st.mean[b]);
-        st.se[b] = sqrt(var / (npix - 1));
-    }
-    tilebuf_destroy(&t);
-    return st;
+    return sb_render_bucket_stats(s, RES);
 }
 
 static void assert_buckets(const stats_t *st, int nb, double expect, double k_se, double abs_tol,
