@@ -290,6 +290,47 @@ static void box_text(char *out, size_t size, double a, double z0, double z1)
              z1);
 }
 
+/* Renders s (res x res, spp; with its photon pass if it has one) and splits its light at the
+ * luminance centroid's column: the two halves' centroids' distance along x in pixels, the left
+ * half's share of the light and the centroids' difference along y in pixels. */
+static void two_images(scene_t *s, int res, int spp, double *sep, double *frac, double *dy)
+{
+    err_t err;
+    photon_store_t *photons = NULL;
+    if (s->settings.photon.enabled && !(photons = photon_pass_run(s, 0, NULL, NULL, &err)))
+        fail_msg("photon pass: %s", err.msg);
+    tilebuf_t *t = tilebuf_new(0, 0, res, res, s->settings.grid.n, &err);
+    assert_non_null(t);
+    render_stats_t rst = {0};
+    assert_int_equal(render_tile(s, photons, 0, 0, res, res, 0, (uint32_t)spp, t, &rst, &err), 0);
+    assert_int_equal(rst.nonfinite, 0);
+    double sum = 0, sx = 0;
+    static double L[128][128];
+    assert_true(res <= 128);
+    for (int y = 0; y < res; y++)
+        for (int x = 0; x < res; x++) {
+            L[y][x] = tilebuf_luminance_sum(t, x, y) / (double)tilebuf_count(t, x, y);
+            sum += L[y][x];
+            sx += L[y][x] * (x + 0.5);
+        }
+    assert_true(sum > 0.0);
+    const double cx = sx / sum;
+    double w[2] = {0, 0}, m[2] = {0, 0}, my[2] = {0, 0};
+    for (int y = 0; y < res; y++)
+        for (int x = 0; x < res; x++) {
+            int side = x + 0.5 > cx;
+            w[side] += L[y][x];
+            m[side] += L[y][x] * (x + 0.5);
+            my[side] += L[y][x] * (y + 0.5);
+        }
+    assert_true(w[0] > 0.0 && w[1] > 0.0);
+    *sep = m[1] / w[1] - m[0] / w[0];
+    *frac = w[0] / sum;
+    *dy = my[1] / w[1] - my[0] / w[0];
+    tilebuf_destroy(&t);
+    photon_store_destroy(&photons);
+}
+
 /* The rendered double image: an orthographic camera looks straight down through a calcite plate
  * (thickness 2, axis at 45 degrees in xz) at a small bright disk. Two images of it appear,
  * separated along x by t tan(rho), rho from the indices at the luminance-weighted middle of the
@@ -322,45 +363,69 @@ static void test_double_image_rendered(void **state)
         "AttributeEnd\n",
         res, res, box);
     scene_t *s = sb_load_text(text, NULL);
-    err_t err;
-    tilebuf_t *t = tilebuf_new(0, 0, res, res, s->settings.grid.n, &err);
-    assert_non_null(t);
-    render_stats_t rst = {0};
-    assert_int_equal(render_tile(s, NULL, 0, 0, res, res, 0, 16, t, &rst, &err), 0);
-    assert_int_equal(rst.nonfinite, 0);
-    /* Centroids of the light left and right of the image's overall centroid. */
-    double sum = 0, sx = 0;
-    double L[64][64];
-    for (int y = 0; y < res; y++)
-        for (int x = 0; x < res; x++) {
-            L[y][x] = tilebuf_luminance_sum(t, x, y) / (double)tilebuf_count(t, x, y);
-            sum += L[y][x];
-            sx += L[y][x] * (x + 0.5);
-        }
-    assert_true(sum > 0.0);
-    const double cx = sx / sum;
-    double w[2] = {0, 0}, m[2] = {0, 0}, my[2] = {0, 0};
-    for (int y = 0; y < res; y++)
-        for (int x = 0; x < res; x++) {
-            int side = x + 0.5 > cx;
-            w[side] += L[y][x];
-            m[side] += L[y][x] * (x + 0.5);
-            my[side] += L[y][x] * (y + 0.5);
-        }
-    assert_true(w[0] > 0.0 && w[1] > 0.0);
-    const double px = 1.0 / res; /* scene units per pixel */
-    const double sep = (m[1] / w[1] - m[0] / w[0]) * px;
+    double sep, frac, dy;
+    two_images(s, res, 16, &sep, &frac, &dy);
+    sep /= res; /* scene units: the view is 1 wide */
     const crystal_t *cal = crystal_find("calcite");
     const double no = n_at(&cal->no, 555.0), ne = n_at(&cal->ne, 555.0), th = PI / 4;
     const double tan_rho = (no * no - ne * ne) * sin(th) * cos(th) /
                            (ne * ne * cos(th) * cos(th) + no * no * sin(th) * sin(th));
+    const double px = 1.0 / res;
     print_message("double image: separation %.4f, t tan(rho) %.4f; brightness %.3f : %.3f\n", sep,
-                  2.0 * tan_rho, w[0] / sum, w[1] / sum);
+                  2.0 * tan_rho, frac, 1 - frac);
     testutil_assert_near(sep, 2.0 * tan_rho, 0.5 * px + 0.03 * 2.0 * tan_rho);
     /* Both images on the same row (the walk-off is in the xz plane). */
-    testutil_assert_near(my[0] / w[0], my[1] / w[1], 0.5);
-    testutil_assert_near(w[0] / sum, 0.5, 0.08);
-    tilebuf_destroy(&t);
+    testutil_assert_near(dy, 0.0, 0.5);
+    testutil_assert_near(frac, 0.5, 0.08);
+    scene_destroy(&s);
+}
+
+/* The same plate in the photon pass (importance mode): a narrow collimated beam straight down
+ * through it lands on the floor as two spots t tan(rho) apart, each with half the flux, seen
+ * from the side below the plate (the spots' offset is across the line of sight, at the
+ * distance the view is aimed at: fov 12 degrees spans 2 D tan 6 deg). */
+static void test_double_image_photons(void **state)
+{
+    (void)state;
+    const int res = 128;
+    char box[1024], text[4096];
+    box_text(box, sizeof box, 3.0, 1.0, 3.0);
+    snprintf(
+        text, sizeof text,
+        "LookAt 0 -4 1.2  0 0 0  0 0 1\n"
+        "Camera \"perspective\" \"float fov\" [ 12 ]\n"
+        "Film \"spectral\" \"integer xresolution\" [ %d ] \"integer yresolution\" [ %d ]\n"
+        "    \"integer nbuckets\" [ 8 ]\n"
+        "Sampler \"independent\" \"integer pixelsamples\" [ 4 ]\n"
+        "Integrator \"photon\" \"integer photons\" [ 100000 ] \"float radius\" [ 0.01 ]\n"
+        "    \"integer maxdepth\" [ 8 ]\n"
+        "WorldBegin\n"
+        "AttributeBegin\n"
+        "  Material \"uniaxial\" \"string crystal\" \"calcite\" \"vector3 opticaxis\" [ 1 0 1 ]\n"
+        "  %s"
+        "AttributeEnd\n"
+        "Shape \"trianglemesh\" \"point3 P\" [ -5 -5 0  5 -5 0  5 5 0  -5 5 0 ]\n"
+        "    \"integer indices\" [ 0 1 2  0 2 3 ]\n"
+        "AttributeBegin\n"
+        "  AreaLightSource \"collimated\" \"rgb L\" [ 1 1 1 ]\n"
+        "  Translate 0 0 4\n"
+        "  ReverseOrientation\n"
+        "  Shape \"disk\" \"float radius\" [ 0.03 ]\n"
+        "AttributeEnd\n",
+        res, res, box);
+    scene_t *s = sb_load_text(text, NULL);
+    double sep, frac, dy;
+    two_images(s, res, 4, &sep, &frac, &dy);
+    const double px = 2.0 * sqrt(4.0 * 4.0 + 1.2 * 1.2) * tan(6.0 * PI / 180.0) / res;
+    sep *= px;
+    const crystal_t *cal = crystal_find("calcite");
+    const double no = n_at(&cal->no, 555.0), ne = n_at(&cal->ne, 555.0), th = PI / 4;
+    const double tan_rho = (no * no - ne * ne) * sin(th) * cos(th) /
+                           (ne * ne * cos(th) * cos(th) + no * no * sin(th) * sin(th));
+    print_message("photon double image: separation %.4f, t tan(rho) %.4f; flux %.3f : %.3f\n", sep,
+                  2.0 * tan_rho, frac, 1 - frac);
+    testutil_assert_near(sep, 2.0 * tan_rho, px + 0.03 * 2.0 * tan_rho);
+    testutil_assert_near(frac, 0.5, 0.1);
     scene_destroy(&s);
 }
 
@@ -516,6 +581,7 @@ int main(void)
         cmocka_unit_test(test_dichroic_plate),
         cmocka_unit_test(test_syntax),
         cmocka_unit_test(test_double_image_rendered),
+        cmocka_unit_test(test_double_image_photons),
         cmocka_unit_test(test_furnace),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
