@@ -1,5 +1,6 @@
 #include "photon.h"
 
+#include "crystal_scatter.h"
 #include "delta.h"
 #include "lights.h"
 #include "rng.h"
@@ -311,6 +312,7 @@ typedef struct flight {
     double w0[MAX_LANES]; /* raw power at emission, for the threshold */
     int depth, specular, diffuse, passthrough;
     int collimated;
+    int wave; /* inside a uniaxial crystal: the wave (bsdf/uniaxial.h) */
 } flight_t;
 
 static int deposit_lanes(tracer_t *t, const flight_t *f, const hit_t *h, const surface_t *sf,
@@ -459,6 +461,14 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
                                    : delta_conductor_weight(&e, eta, k);
                 }
                 f->dir = e.reflect;
+            } else if (m->uniaxial) {
+                /* A crystal splits every wavelength its own way (render/crystal_scatter.h). */
+                if (f->nl > 1)
+                    return split_flight(t, f, i, err);
+                int end;
+                if (crystal_scatter(m, &sf, f->org, f->dir, &f->wave, f->nl, f->lambda, f->w,
+                                    BSDF_IMPORTANCE, next(t), &f->dir, &end))
+                    return 0;
             } else {
                 if (m->dispersive && f->nl > 1)
                     return split_flight(t, f, i, err);

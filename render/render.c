@@ -2,6 +2,7 @@
 
 #include "camera.h"
 #include "colour.h"
+#include "crystal_scatter.h"
 #include "delta.h"
 #include "fanout.h"
 #include "lights.h"
@@ -61,6 +62,8 @@ typedef struct path {
     /* Surface hits and medium events so far: which block of the sampler's dimensions the path's
      * next vertex draws from (DIM_VERTEX). */
     int vertex;
+    /* Inside a uniaxial crystal, the wave the path travels as (bsdf/uniaxial.h: 0 o, 1 e). */
+    int wave;
     /* The lanes come last so that a new path clears only the fields above. */
     double lambda[LANES];
     double beta[LANES];
@@ -918,6 +921,34 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
     return have_current ? 0 : 1;
 }
 
+/* A uniaxial crystal (render/crystal_scatter.h): fan-out lanes go on as one lane picked
+ * uniformly (as at a coated dispersive glass); hero lanes end at a refraction whose indices
+ * differ. Returns 0 to continue the path, 1 when it ends. */
+static int scatter_crystal(ctx_t *c, path_t *p, const surface_t *h, const material_t *m)
+{
+    if (p->n > 1 && !p->mono && c->rs->dispersion == DISPERSION_FANOUT) {
+        const int k = (int)fmin(p->n - 1, floor(draw1(c, VD_FAN_PICK) * p->n));
+        p->lambda[0] = p->lambda[k];
+        p->bucket[0] = p->bucket[k];
+        p->pdf[0] = p->pdf[k];
+        p->beta[0] = p->beta[k] * p->n;
+        p->n = 1;
+        p->mono = 1;
+    }
+    vec3_t dir;
+    int end = 0;
+    if (crystal_scatter(m, h, p->org, p->dir, &p->wave, p->n, p->lambda, p->beta, BSDF_RADIANCE,
+                        draw1(c, VD_REFLECT), &dir, &end))
+        return 1;
+    if (end) {
+        p->n = 1;
+        p->mono = 1;
+        p->dispersed = 1;
+    }
+    start_bounce(p, h, dir, 1, 0.0);
+    return 0;
+}
+
 /* The photon integrator's split counts only the smooth mirrors and glass that the photon pass
  * follows as specular (L S+ D); any other surface breaks the chain, so that light through
  * it is path traced and never both gathered and found (docs/rendering.md). */
@@ -1226,7 +1257,7 @@ static void trace(ctx_t *c, path_t *start)
             } else {
                 /* Counted before the event, so that the branches it pushes carry it too. */
                 p->specular_since_diffuse++;
-                if (scatter_dielectric(c, p, &sf, m))
+                if (m->uniaxial ? scatter_crystal(c, p, &sf, m) : scatter_dielectric(c, p, &sf, m))
                     break;
             }
             p->depth++;

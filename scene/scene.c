@@ -634,6 +634,8 @@ int scene_finish(scene_t *self, err_t *err)
             continue;
         if (ior_validate(&m->ior, m->name, g.lambda_min, g.lambda_max, err))
             return -1;
+        if (m->uniaxial && ior_validate(&m->crystal.ne, m->name, g.lambda_min, g.lambda_max, err))
+            return -1;
         /* A thin slab transmits straight through at every wavelength: its index changes
          * weights, never directions, so it never splits a path's wavelengths. */
         m->dispersive = m->kind != MATERIAL_THIN_DIELECTRIC &&

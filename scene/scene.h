@@ -12,6 +12,7 @@
 #define PRISMFARM_SCENE_H
 
 #include "alias.h"
+#include "crystal.h"
 #include "dispersion.h"
 #include "envmap.h"
 #include "projmap.h"
@@ -89,6 +90,16 @@ typedef struct material {
      * scene files yet (the parser's parameters are still to be added). */
     double film_thickness;
     ior_model_t film_ior;
+    /* A uniaxial birefringent crystal (uniaxial 1; bsdf/uniaxial.h, docs/physics.md §14): a
+     * smooth MATERIAL_DIELECTRIC whose ior is the ordinary index (what reads a dielectric's
+     * index sees n_o), with its principal indices and dichroic absorption (crystal), the
+     * optic axis (unit; object space as the material gives it, world space once the loader
+     * has turned it with the shape: scene_material_for_shape) and the millimetres in a scene
+     * unit that the absorption (1/mm) is scaled by. */
+    int uniaxial;
+    crystal_t crystal;
+    vec3_t optic_axis;
+    double mm_per_unit;
 } material_t;
 
 typedef enum light_kind {

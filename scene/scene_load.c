@@ -706,6 +706,53 @@ static int layer_inputs(loader_t *L, const scene_material_t *dm, material_t *m, 
                : -1;
 }
 
+/* A uniaxial crystal: a smooth dielectric whose ior is the ordinary index (material_t). */
+static int uniaxial_inputs(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+{
+    m->kind = MATERIAL_DIELECTRIC;
+    m->uniaxial = 1;
+    if (dm->crystal) {
+        const crystal_t *c = crystal_find(dm->crystal);
+        if (!c)
+            return pbrt_error(err, dm->loc,
+                              "material \"%s\": unknown crystal \"%s\" (known: calcite, quartz, "
+                              "sapphire, rutile, MgF2, tourmaline)",
+                              m->name, dm->crystal);
+        m->crystal = *c;
+    } else {
+        m->crystal = (crystal_t){.name = "(given)", .description = "", .source = "the scene file"};
+    }
+    if (dm->has_o && build_ior(L->sc, &dm->ior_o, m->name, &m->crystal.no, err))
+        return -1;
+    if (dm->has_e && build_ior(L->sc, &dm->ior_e, m->name, &m->crystal.ne, err))
+        return -1;
+    if (dm->has_sigma) {
+        /* Constant coefficients replace the catalogue's table. */
+        m->crystal.absorption = (crystal_absorption_t){
+            .rows = 1, .lambda_nm = {550.0}, .o_per_mm = {dm->sigma_o}, .e_per_mm = {dm->sigma_e}};
+    }
+    m->ior = m->crystal.no;
+    m->optic_axis = vec3_normalize(vec3_make(dm->optic_axis[0], dm->optic_axis[1], dm->optic_axis[2]));
+    m->mm_per_unit = dm->mm_per_unit;
+    return 0;
+}
+
+/* The material a shape placed by to_world uses: a crystal's optic axis is given in the shape's
+ * object space, so each differently turned crystal shape gets its own copy with the axis in
+ * world space (in an object's space for shapes of instanced objects: instances do not turn it,
+ * docs/physics.md §14). Any other material is used as it is. */
+static int material_for_shape(loader_t *L, int idx, const transform_t *to_world, err_t *err)
+{
+    if (idx < 0 || (size_t)idx >= L->sc->nmaterials || !L->sc->materials[idx].uniaxial)
+        return idx;
+    material_t m = L->sc->materials[idx];
+    const vec3_t a = vec3_normalize(transform_vector(to_world, m.optic_axis));
+    if (a.x == m.optic_axis.x && a.y == m.optic_axis.y && a.z == m.optic_axis.z)
+        return idx;
+    m.optic_axis = a;
+    return scene_add_material(L->sc, &m, err);
+}
+
 static int load_materials(loader_t *L, err_t *err)
 {
     const scene_desc_t *d = L->desc;
@@ -782,6 +829,9 @@ static int load_materials(loader_t *L, err_t *err)
             break;
         case SCENE_MATERIAL_INTERFACE:
             m.kind = MATERIAL_INTERFACE;
+            break;
+        case SCENE_MATERIAL_UNIAXIAL:
+            rc = uniaxial_inputs(L, dm, &m, err);
             break;
         }
         if (rc)
@@ -1165,13 +1215,16 @@ static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *er
     }
     const transform_t *to_world = &s->to_world;
     int flip = s->flip_normals;
+    const int material = material_for_shape(L, s->material, to_world, err);
+    if (material < 0 && s->material >= 0)
+        return -1;
     int r;
     if (s->type == SCENE_SHAPE_SPHERE) {
-        r = object < 0 ? scene_add_sphere(L->sc, to_world, s->radius, s->material, light, flip, err)
-                       : scene_add_object_sphere(L->sc, object, to_world, s->radius, s->material, flip, err);
+        r = object < 0 ? scene_add_sphere(L->sc, to_world, s->radius, material, light, flip, err)
+                       : scene_add_object_sphere(L->sc, object, to_world, s->radius, material, flip, err);
     } else if (s->type == SCENE_SHAPE_DISK) {
-        r = object < 0 ? scene_add_disk(L->sc, to_world, s->radius, s->height, s->material, light, flip, err)
-                       : scene_add_object_disk(L->sc, object, to_world, s->radius, s->height, s->material,
+        r = object < 0 ? scene_add_disk(L->sc, to_world, s->radius, s->height, material, light, flip, err)
+                       : scene_add_object_disk(L->sc, object, to_world, s->radius, s->height, material,
                                                flip, err);
     } else {
         const scene_mesh_t *m = &s->mesh;
@@ -1198,9 +1251,9 @@ static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *er
             }
         }
         r = object < 0 ? scene_add_mesh(L->sc, P, m->nvertices, m->indices, m->ntriangles, N, m->uv,
-                                        s->material, light, flip, err)
+                                        material, light, flip, err)
                        : scene_add_object_mesh(L->sc, object, P, m->nvertices, m->indices, m->ntriangles,
-                                               N, m->uv, s->material, flip, err);
+                                               N, m->uv, material, flip, err);
         free(P);
         free(N);
     }

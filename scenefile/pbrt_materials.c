@@ -222,6 +222,7 @@ static const pbrt_name_t MATERIALS[] = {
     {"coateddiffuse", SCENE_MATERIAL_COATEDDIFFUSE},
     {"coatedconductor", SCENE_MATERIAL_COATEDCONDUCTOR},
     {"mix", SCENE_MATERIAL_MIX},
+    {"uniaxial", SCENE_MATERIAL_UNIAXIAL},
     {"interface", SCENE_MATERIAL_INTERFACE},
     {NULL, 0},
     {"", SCENE_MATERIAL_INTERFACE},
@@ -245,6 +246,61 @@ static int get_film(parser_t *P, params_t *ps, scene_material_t *m)
                           "\"float filmthickness\" needs a smooth surface (roughness 0): thin "
                           "films are simulated on smooth glass and mirrors only");
     return 0;
+}
+
+/* A uniaxial crystal (scene_material_t.crystal ...): a catalogue crystal, or both indices
+ * given with the "o." and "e." prefixes of get_ior (which override the catalogue's), the optic
+ * axis and the absorption. The catalogue name is checked by the loader, which owns it. */
+static int get_uniaxial(parser_t *P, params_t *ps, scene_material_t *m)
+{
+    static const char *KINDS[] = {"eta", "glass", "sellmeier", "cauchy"};
+    const char *pre[2] = {"o.", "e."};
+    bool *has[2] = {&m->has_o, &m->has_e};
+    scene_ior_t *out[2] = {&m->ior_o, &m->ior_e};
+    if (params_get_string(ps, "crystal", NULL, &m->crystal, P->err) != 0)
+        return -1;
+    if (m->crystal && !(m->crystal = scene_desc_strdup(P->scene, m->crystal, P->err)))
+        return -1;
+    for (int w = 0; w < 2; w++) {
+        for (size_t i = 0; i < COUNT_OF(KINDS); i++) {
+            char name[16];
+            snprintf(name, sizeof name, "%s%s", pre[w], KINDS[i]);
+            *has[w] |= params_find(ps, name) != NULL;
+        }
+        if (!*has[w] && !m->crystal)
+            return pbrt_error(P->err, m->loc,
+                              "Material \"uniaxial\" needs \"string crystal\" or both indices "
+                              "(\"float o.eta\", \"float e.eta\" or their glass, sellmeier, "
+                              "cauchy forms)");
+        if (*has[w] && get_ior(P, ps, m, pre[w]) != 0)
+            return -1;
+        *out[w] = m->ior;
+    }
+    param_t *axis;
+    if (params_get_array(ps, "opticaxis", PARAM_VECTOR3, &axis, P->err) != 0)
+        return -1;
+    m->optic_axis[0] = m->optic_axis[1] = 0.0;
+    m->optic_axis[2] = 1.0;
+    if (axis) {
+        if (axis->count != 3)
+            return pbrt_error(P->err, axis->loc,
+                              "expected 3 numbers after \"vector3 opticaxis\", got %zu",
+                              axis->count);
+        const double *a = axis->numbers;
+        if (!(a[0] * a[0] + a[1] * a[1] + a[2] * a[2] > 0.0) || !isfinite(a[0] + a[1] + a[2]))
+            return pbrt_error(P->err, axis->loc,
+                              "\"vector3 opticaxis\" must be a finite non-zero vector");
+        memcpy(m->optic_axis, a, sizeof m->optic_axis);
+    }
+    m->has_sigma = params_find(ps, "sigma_o") || params_find(ps, "sigma_e");
+    return params_get_float(ps, "sigma_o", 0.0, &m->sigma_o, P->err) ||
+                   params_get_float(ps, "sigma_e", 0.0, &m->sigma_e, P->err) ||
+                   params_get_float(ps, "mmperunit", 1.0, &m->mm_per_unit, P->err) ||
+                   pbrt_state_check_range(P, ps, "sigma_o", m->sigma_o, 0.0, 1e6) ||
+                   pbrt_state_check_range(P, ps, "sigma_e", m->sigma_e, 0.0, 1e6) ||
+                   pbrt_state_check_range(P, ps, "mmperunit", m->mm_per_unit, 1e-12, 1e12)
+               ? -1
+               : 0;
 }
 
 static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_t type_loc,
@@ -309,6 +365,9 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
     }
     if (m->type == SCENE_MATERIAL_MIX) {
         return get_mix(P, ps, m);
+    }
+    if (m->type == SCENE_MATERIAL_UNIAXIAL) {
+        return get_uniaxial(P, ps, m);
     }
     return 0; /* interface */
 }

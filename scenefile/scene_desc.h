@@ -126,6 +126,7 @@ typedef enum scene_material_type {
     SCENE_MATERIAL_COATEDDIFFUSE,
     SCENE_MATERIAL_COATEDCONDUCTOR,
     SCENE_MATERIAL_MIX,
+    SCENE_MATERIAL_UNIAXIAL, /* extension: a uniaxial birefringent crystal */
 } scene_material_type_t;
 
 typedef enum scene_ior_kind {
@@ -188,6 +189,17 @@ typedef struct scene_material {
      * film on the surface, "filmthickness" in nm (0, the default: none) of index "filmeta"
      * (1.33, soapy water), whose Airy reflectance colours the reflection (bsdf/delta.h). */
     double film_thickness, film_eta;
+    /* UNIAXIAL (a prismfarm extension, docs/scene-format.md): "string crystal", a name of the
+     * crystal catalogue (optics/crystal.h; NULL: none); the ordinary and extraordinary indices
+     * "o.eta" / "o.glass" / "o.sellmeier" / "o.cauchy" and the same with "e." (has_o, has_e:
+     * given, replacing the catalogue's); "vector3 opticaxis" in the shape's object space
+     * ([0 0 1]); the absorption "float sigma_o", "sigma_e" in 1/mm (has_sigma: one given,
+     * replacing the catalogue's) and "float mmperunit", the millimetres in a scene unit (1). */
+    const char *crystal;
+    scene_ior_t ior_o, ior_e;
+    bool has_o, has_e, has_sigma;
+    double optic_axis[3];
+    double sigma_o, sigma_e, mm_per_unit;
 } scene_material_t;
 
 /* ---- lights ---- */

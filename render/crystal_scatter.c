@@ -1,0 +1,57 @@
+#include "crystal_scatter.h"
+
+#include "specular.h"
+#include "uniaxial.h"
+
+#include <math.h>
+
+int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t org, vec3_t dir, int *wave,
+                    int n, const double *lambda, double *weight, bsdf_mode_t mode, double u,
+                    vec3_t *out, int *end_secondaries)
+{
+    if (n < 1)
+        return 1;
+    if (n > BSDF_MAX_LANES)
+        n = BSDF_MAX_LANES;
+    /* Which side the ray is on comes from the geometric surface alone, as at glass. */
+    const bool entering = vec3_dot(dir, sf->ng) < 0.0;
+    const uniaxial_wave_t inside = *wave == UNIAXIAL_E ? UNIAXIAL_E : UNIAXIAL_O;
+    const vec3_t axis = m->optic_axis;
+    double no[BSDF_MAX_LANES], ne[BSDF_MAX_LANES];
+    for (int j = 0; j < n; j++) {
+        no[j] = ior_eval(&m->crystal.no, lambda[j]);
+        ne[j] = ior_eval(&m->crystal.ne, lambda[j]);
+    }
+    if (!entering && m->crystal.absorption.rows > 0) {
+        /* Beer-Lambert along the segment inside, at the wave's own coefficient (uniaxial.h). */
+        const double d_mm = vec3_length(vec3_sub(sf->p, org)) * m->mm_per_unit;
+        for (int j = 0; j < n; j++) {
+            double ao, ae;
+            crystal_absorption_eval(&m->crystal.absorption, lambda[j], &ao, &ae);
+            const vec3_t k = uniaxial_wave_from_ray(inside, dir, axis, no[j], ne[j]);
+            weight[j] *= exp(-uniaxial_absorption(inside, k, axis, ao, ae) * d_mm);
+        }
+    }
+    /* The shading normal where it is safe (render/specular.h), judged with the o index. */
+    const vec3_t nrm = specular_normal(sf, dir, entering ? 1.0 / no[0] : no[0], NULL);
+    uniaxial_event_t e;
+    uniaxial_event_make(dir, nrm, entering, inside, axis, no, ne, n, mode, &e);
+    const int b = uniaxial_choose(&e, u);
+    const uniaxial_branch_t *br = &e.branch[b];
+    *end_secondaries = 0;
+    double any = 0.0;
+    if (!br->reflects && !e.grey && n > 1) {
+        weight[0] *= uniaxial_lane_weight(&e, b, 0) * n;
+        *end_secondaries = 1;
+        any = weight[0];
+    } else {
+        for (int j = 0; j < n; j++) {
+            weight[j] *= uniaxial_lane_weight(&e, b, j);
+            any += weight[j];
+        }
+    }
+    *out = br->dir;
+    if (br->after != UNIAXIAL_OUTSIDE)
+        *wave = br->after;
+    return any > 0.0 ? 0 : 1;
+}
