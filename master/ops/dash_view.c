@@ -95,6 +95,7 @@ static void fill_job(master_t *m, const job_t *j, double now, dash_job_t *o)
     if (j->photons.phase) {
         photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);
         o->photons_traced = ps.photons;
+        o->photons_total = ps.total;
         o->photons_emitted = ps.emitted;
         if (!j->sched.known) {
             o->photon_batches = ps.batches;
@@ -102,7 +103,7 @@ static void fill_job(master_t *m, const job_t *j, double now, dash_job_t *o)
         }
         o->photons_complete = photon_phase_complete(j->photons.phase);
     } else if (j->photons.enabled) {
-        o->photons_traced = j->photons.saved;
+        o->photons_traced = o->photons_total = j->photons.saved;
         o->photons_complete = j->photons.saved > 0; /* kept on disk once merged */
     }
     o->sequence = j->seq.parent;
