@@ -120,6 +120,9 @@ static void test_suggestions(void **state)
                  "unknown option '--sed' (did you mean '--seed'?");
     expect_fails(run("render", SCENE, "--thraeds=2", NULL),
                  "unknown option '--thraeds=2' (did you mean '--threads'?");
+    /* A word another renderer uses, too far for an edit, names the option too. */
+    expect_fails(run("render", SCENE, "--samples", "4", NULL),
+                 "unknown option '--samples' (did you mean '--spp'?");
     expect_fails(run("render", SCENE, "--integrator", "bpdt", NULL), "got 'bpdt' (did you mean 'bdpt'?)");
     expect_fails(run("render", SCENE, "--integrator", "ambientocclusion", NULL),
                  "--integrator ambientocclusion is not supported: ambient occlusion renders");
