@@ -319,16 +319,16 @@ static int refine_job(master_t *m, job_t *j, uint64_t photons, const proto_peer_
         persist_failed(m, j, err);
     photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);
     access_audit(m, from,
-                 "refined job %llu '%s': %llu more photons in %u batches (%llu so far), then "
+                 "refined job %llu '%s': %llu more photons in %u batch%s (%llu so far), then "
                  "the camera phase again",
-                 (unsigned long long)j->id, j->name, (unsigned long long)photons,
-                 added, (unsigned long long)ps.photons);
+                 (unsigned long long)j->id, j->name, (unsigned long long)photons, added,
+                 added == 1 ? "" : "es", (unsigned long long)ps.photons);
     /* In the job's own log too, with every other action on it (`prismfarm logs`). */
     tasklog_add(m->tasklog, j->id,
-                "job refined by %s: %llu more photons in %u batches (%llu so far), then the "
+                "job refined by %s: %llu more photons in %u batch%s (%llu so far), then the "
                 "camera phase again",
                 from->user[0] ? from->user : "(no key)", (unsigned long long)photons, added,
-                (unsigned long long)ps.photons);
+                added == 1 ? "" : "es", (unsigned long long)ps.photons);
     return 0;
 }
 

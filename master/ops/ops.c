@@ -415,15 +415,16 @@ static void log_event(master_t *m, const sched_event_t *ev)
         /* Blocked by its key when it has one (a key is a host's: docs/security.md), so that a
          * new name does not make a new worker; else by its name. */
         char reason[256], entry[96];
+        const int strikes = m->opts->sched.max_worker_failures_in_row;
         if (ev->job)
             snprintf(reason, sizeof reason,
-                     "%d strikes in a row (failed, expired or abandoned tasks, refused results), "
+                     "%d strike%s in a row (failed, expired or abandoned tasks, refused results), "
                      "the last job %llu %s",
-                     m->opts->sched.max_worker_failures_in_row, (unsigned long long)ev->job, t);
+                     strikes, strikes == 1 ? "" : "s", (unsigned long long)ev->job, t);
         else
             snprintf(reason, sizeof reason,
-                     "%d strikes in a row (failed, expired or abandoned tasks, refused results)",
-                     m->opts->sched.max_worker_failures_in_row);
+                     "%d strike%s in a row (failed, expired or abandoned tasks, refused results)",
+                     strikes, strikes == 1 ? "" : "s");
         snprintf(entry, sizeof entry, "?");
         if (w)
             ops_block_entry(w, entry, sizeof entry);

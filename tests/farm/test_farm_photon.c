@@ -203,7 +203,7 @@ static void test_processes_refine_and_kill(void **state)
     testutil_expect_file_has(mlog, "job 1 photon pass merged: 50000 photons in 2 batches");
     if (testutil_file_has(mlog, "keeping its photon store in memory"))
         testutil_fail_quoting(mlog, "the master could not save a photon store:");
-    testutil_expect_file_has(mlog, "refined job 1 'beam': 20000 more photons in 1 batches");
+    testutil_expect_file_has(mlog, "refined job 1 'beam': 20000 more photons in 1 batch (");
     testutil_expect_file_has(mlog, "photon store ");
     /* w2 died holding batches of job 3 (it prefetches two): the photon phase could only end
      * after the master gave them to w1. */
