@@ -8,6 +8,7 @@
 #include <getopt.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
 
 #define CLI_OPTS_MAX 64   /* options of one command, its groups' included */
 #define CLI_HELP_WIDTH 90 /* the help is wrapped to this column, as its prose */
@@ -247,6 +248,16 @@ static int flatten(const cli_opt_t *table, char *base, flat_t *flat, int *n)
     return 0;
 }
 
+/* Words other renderers and habits use for an option, too far from its name for an edit's
+ * "did you mean" (--samples is 5 edits from --spp): suggested when the command has the option. */
+static const struct {
+    const char *word, *option;
+} SYNONYMS[] = {
+    {"samples", "spp"},           {"sample", "spp"},     {"pixelsamples", "spp"},
+    {"samples-per-pixel", "spp"}, {"out", "output"},     {"outfile", "output"},
+    {"nthreads", "threads"},      {"resolution", "res"}, {"size", "res"},
+};
+
 /* The option argv[i] ("--name" or "--name=value") names exactly, or -1. */
 static int find_long(const flat_t *flat, int n, const char *arg)
 {
@@ -319,6 +330,11 @@ int cli_args_parse(const cli_cmd_t *cmd, int argc, char **argv, int *first)
             for (int k = 0; k < n; k++)
                 suggest_consider(&near, flat[k].opt->name);
             const char *best = suggest_result(&near);
+            for (size_t k = 0; !best && k < sizeof SYNONYMS / sizeof SYNONYMS[0]; k++)
+                if (!strcasecmp(word, SYNONYMS[k].word))
+                    for (int o = 0; o < n && !best; o++)
+                        if (!strcmp(flat[o].opt->name, SYNONYMS[k].option))
+                            best = flat[o].opt->name;
             if (best)
                 fprintf(stderr, "prismfarm %s: unknown %s '%s' (did you mean '--%s'? see prismfarm %s --help)\n",
                         cmd->name, unknown, argv[at], best, cmd->name);

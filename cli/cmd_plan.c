@@ -200,7 +200,8 @@ static void print_prediction(const scene_t *scene, const local_render_result_t *
 {
     const int spp = scene->settings.spp;
     predict_t p = predict_target(res->history, res->nhistory, target);
-    printf("\nPREDICTION (target error %g, on this machine's %d threads)\n", target, pool_cores());
+    printf("\nPREDICTION (target error %g, on this machine's %d thread%s)\n", target, pool_cores(),
+           pool_cores() == 1 ? "" : "s");
     const pass_record_t *last = res->nhistory > 0 ? &res->history[res->nhistory - 1] : NULL;
     if (!p.valid || !last) {
         printf("  the pilot gave no error estimate (an image with no light, or a single pass)\n");

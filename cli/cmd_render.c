@@ -4,6 +4,7 @@
 
 #include "adaptive.h"
 #include "cli_args.h"
+#include "cli_warn.h"
 #include "clock.h"
 #include "error_estimate.h"
 #include "film.h"
@@ -14,12 +15,12 @@
 #include "jobinfo.h"
 #include "local_farm.h"
 #include "local_render.h"
+#include "pbrt_parser.h"
 #include "photon_pass.h"
+#include "plan.h"
 #include "pool.h"
 #include "progress.h"
 #include "scene_bundle.h"
-#include "cli_warn.h"
-#include "pbrt_parser.h"
 #include "scene_load.h"
 
 #include <errno.h>
@@ -72,6 +73,44 @@ static void on_pass(void *user, const pass_record_t *rec, uint64_t done, uint64_
     prog->extra = extra;
     progress_update(prog, done, total, rec->elapsed);
     prog->extra = NULL;
+}
+
+/* The header's "why" for an integrator the plan chose (auto, or bdpt and its kin, whose photon
+ * pass is the plan's): one line naming the lights that decided the photon pass, the plan's own
+ * words being `prismfarm plan`'s. The plan reads the scene, never its integrator settings, so
+ * planning the loaded scene again gives the choice scene_load applied (plan.h). */
+static void plan_why(const scene_t *scene, const plan_request_t *req, const char *scene_path)
+{
+    err_t err;
+    plan_t *p = plan_new(scene, req, &err);
+    if (!p)
+        return;
+    const plan_choice_t c = plan_choice(p);
+    char lights[400] = "";
+    size_t n = 0, nadvised = 0, nneeded = 0;
+    for (size_t i = 0; i < plan_light_count(p); i++) {
+        const plan_light_t *l = plan_light_at(p, i);
+        if (l->verdict == PLAN_LIGHT_NOT_NEEDED)
+            continue;
+        nadvised += l->verdict == PLAN_LIGHT_ADVISED;
+        nneeded += l->verdict == PLAN_LIGHT_NEEDED;
+        if (n < sizeof lights)
+            n += (size_t)snprintf(lights + n, sizeof lights - n, "%slight %d (%s)", n ? ", " : "",
+                                  l->index, plan_light_kind_name(l->kind));
+    }
+    if (c.photon)
+        fprintf(stderr,
+                "render: why: a photon pass for %s: %s%s%s (`prismfarm plan %s` says more)\n",
+                lights, nneeded ? "light that path tracing cannot find (delta or collimated)" : "",
+                nneeded && nadvised ? "; " : "",
+                nadvised ? "small and bright behind glass, fireflies for path tracing" : "",
+                scene_path);
+    else
+        fprintf(stderr,
+                "render: why: no photon pass: path tracing finds every light's caustics "
+                "(`prismfarm plan %s` says more)\n",
+                scene_path);
+    plan_destroy(&p);
 }
 
 /* " (target error reached)" after the spp line of a job that stopped early, else "". */
@@ -380,6 +419,8 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
     scene_desc_t *desc = pbrt_parse_file_opts(
         scene_path, &(pbrt_parse_opts_t){.threads = ov.threads, .bundle = !c->direct}, &err);
     scene_t *scene = desc ? scene_load(desc, &ov, &err) : NULL;
+    /* The request as the plan saw it, for the header's "why" (plan_why). */
+    const plan_request_t plan_req = desc ? plan_request_make(desc, &ov) : (plan_request_t){0};
     scene_desc_destroy(&desc);
     if (!scene) {
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
@@ -425,13 +466,19 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
         const integrator_name_t *an = integrators_find(scene->integrator_asked);
         const int same = !strcmp(used, scene->integrator_asked) ||
                          (!strcmp(scene->integrator_asked, "photon") && rs->photon.enabled);
+        const int planned = an && (an->plan_photons || !strcmp(an->name, "auto"));
         if (!same && an)
             snprintf(asked, sizeof asked, " (asked: %s%s)", scene->integrator_asked,
-                     an->plan_photons || !strcmp(an->name, "auto") ? ", the plan's choice: prismfarm plan says why"
-                                                                    : "");
+                     planned ? ", the plan's choice" : "");
         fprintf(stderr, "render: %s, %dx%d, %d spp, integrator %s%s, %d buckets over %g-%g nm\n",
                 scene_path, rs->xres, rs->yres, rs->spp, used, asked, rs->grid.n,
                 rs->grid.lambda_min, rs->grid.lambda_max);
+        if (planned)
+            plan_why(scene, &plan_req, scene_path);
+        else if (rs->photon.enabled)
+            fprintf(stderr, "render: why: %s asks for photons\n",
+                    plan_req.overridden ? "--integrator photon"
+                                        : "the scene's Integrator directive");
         if (rs->photon.enabled)
             fprintf(stderr, "render: photon integrator: %llu photons into a photon map, gathered by %s\n",
                     (unsigned long long)rs->photon.photons, integrators_kind_name(rs->integrator));

@@ -247,12 +247,13 @@ static int submit_scenes(const frame_list_t *fr, const char *master, const char 
         goto out;
     }
     if (!quiet && sequence)
-        fprintf(stderr, "submit: job %llu (%s, %zu frames, %zu files, %zu bytes) on %s\n",
+        fprintf(stderr, "submit: job %llu (%s, %zu frames, %zu file%s, %zu bytes) on %s\n",
                 (unsigned long long)job, name, fr->n, scene_bundle_get(b)->nfiles,
-                scene_bundle_bytes(b), master);
+                scene_bundle_get(b)->nfiles == 1 ? "" : "s", scene_bundle_bytes(b), master);
     else if (!quiet)
-        fprintf(stderr, "submit: job %llu (%s, %zu files, %zu bytes) on %s\n", (unsigned long long)job, name,
-                scene_bundle_get(b)->nfiles, scene_bundle_bytes(b), master);
+        fprintf(stderr, "submit: job %llu (%s, %zu file%s, %zu bytes) on %s\n",
+                (unsigned long long)job, name, scene_bundle_get(b)->nfiles,
+                scene_bundle_get(b)->nfiles == 1 ? "" : "s", scene_bundle_bytes(b), master);
     proto_job_info_t last;
     char error[600];
     char prediction[256] = "";

@@ -9,6 +9,8 @@
 #include "stopping.h"
 
 #include <errno.h>
+#include <inttypes.h>
+#include <stdbool.h>
 #include <stdio.h>
 #include <string.h>
 #include <time.h>
@@ -31,7 +33,16 @@ int job_follow_wait_error(client_rpc_t *rpc, uint64_t job, int quiet, double tar
     progress_t prog = progress_make("job", quiet);
     if (target > 0.0)
         progress_follow_error(&prog, target, spp_cap);
+    /* A photon pass has its own line (photons merged of the pass, their rate, ETA) from the
+     * first poll that finds it running; the samples' line, its rate and ETA start when it ends. */
+    progress_t phot = progress_make("photons", quiet);
+    phot.unit = "photons";
+    bool phot_shown = false, phot_closed = false;
+    uint64_t phot_base = 0; /* photons merged when the line began: a refinement's earlier ones */
+    double phot_t0 = 0;
     double t0 = clock_now_s();
+    /* Why a running job waits (outputs to a full spool), said once each time it begins. */
+    char waiting[sizeof(((err_t *)0)->msg)] = "";
     /* A long poll (docs/protocol.md, STATUS `wait`): the master answers as soon as the job is
      * over, so its end is learnt at once, and otherwise after the wait, which paces the
      * progress line; with no progress to show, few questions are asked. */
@@ -95,10 +106,42 @@ int job_follow_wait_error(client_rpc_t *rpc, uint64_t job, int quiet, double tar
             if (cap > prog.spp_cap && cap < 1e9)
                 prog.spp_cap = (int)(cap + 0.5);
         }
+        double now = clock_now_s();
+        bool photons_running = j.photons_total > 0 && j.photons_done < j.photons_total &&
+                               (state == JOB_RUNNING || state == JOB_QUEUED);
+        if (photons_running && !phot_shown) {
+            phot_shown = true;
+            phot_base = j.photons_done;
+            phot_t0 = now;
+        }
+        if (phot_shown && !phot_closed && j.photons_total > phot_base) {
+            char pextra[96];
+            snprintf(pextra, sizeof pextra, "%" PRIu64 " of %" PRIu64 " photons", j.photons_done,
+                     j.photons_total);
+            phot.extra = pextra;
+            progress_update(&phot, j.photons_done - phot_base, j.photons_total - phot_base,
+                            now - phot_t0);
+            phot.extra = NULL;
+            if (!photons_running) { /* the line is closed: the camera phase's clock starts */
+                phot_closed = true;
+                t0 = now;
+            }
+        }
+        if (state != JOB_FAILED && j.error && *j.error) {
+            if (!*waiting && !quiet) {
+                if (prog.open_line)
+                    fputc('\n', stderr);
+                prog.open_line = 0;
+                fprintf(stderr, "prismfarm: job %" PRIu64 ": %s\n", j.id, j.error);
+            }
+            snprintf(waiting, sizeof waiting, "%s", j.error);
+        } else {
+            waiting[0] = 0;
+        }
         if (j.spp > 0 && j.has_rel_error) /* on this client's clock, as the line's elapsed */
-            progress_note_error(&prog, (int)j.spp, clock_now_s() - t0, j.rel_error);
-        if (j.samples_total)
-            progress_update(&prog, j.samples_done, j.samples_total, clock_now_s() - t0);
+            progress_note_error(&prog, (int)j.spp, now - t0, j.rel_error);
+        if (j.samples_total && !photons_running)
+            progress_update(&prog, j.samples_done, j.samples_total, now - t0);
         if (state == JOB_DONE && j.stop != PROTO_STOP_NONE)
             progress_end(&prog, j.samples_done, j.samples_total, clock_now_s() - t0,
                          stopping_reason((stopping_why_t)j.stop));

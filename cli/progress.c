@@ -8,8 +8,11 @@
 
 progress_t progress_make(const char *label, int quiet)
 {
-    return (progress_t){
-        .tty = isatty(STDERR_FILENO), .quiet = quiet, .last_decile = -1, .label = label};
+    return (progress_t){.tty = isatty(STDERR_FILENO),
+                        .quiet = quiet,
+                        .last_decile = -1,
+                        .label = label,
+                        .unit = "samples"};
 }
 
 void progress_follow_error(progress_t *p, double target, int spp_cap)
@@ -97,8 +100,8 @@ void progress_update(progress_t *p, uint64_t done, uint64_t total, double elapse
         for (int i = 0; i < 30; i++)
             bar[i] = i < n ? '#' : '.';
         bar[30] = 0;
-        fprintf(stderr, "\r[%s] %5.1f%%  %.2f Msamples/s  ETA %.0fs %s  ", bar, 100 * f, rate / 1e6,
-                eta, extra);
+        fprintf(stderr, "\r[%s] %5.1f%%  %.2f M%s/s  ETA %.0fs %s  ", bar, 100 * f, rate / 1e6,
+                p->unit, eta, extra);
         p->open_line = done < total;
         if (done >= total)
             fputc('\n', stderr);
@@ -106,8 +109,8 @@ void progress_update(progress_t *p, uint64_t done, uint64_t total, double elapse
         int decile = (int)(f * 10);
         if (decile > p->last_decile || done >= total) {
             p->last_decile = decile;
-            fprintf(stderr, "%s: %5.1f%%  %.2f Msamples/s  %.1fs elapsed, ETA %.0fs %s\n", p->label,
-                    100 * f, rate / 1e6, elapsed, eta, extra);
+            fprintf(stderr, "%s: %5.1f%%  %.2f M%s/s  %.1fs elapsed, ETA %.0fs %s\n", p->label,
+                    100 * f, rate / 1e6, p->unit, elapsed, eta, extra);
         }
     }
     fflush(stderr);

@@ -14,6 +14,7 @@ typedef struct progress {
     int open_line;     /* a bar is drawn without its newline */
     const char *label; /* prefix of plain lines, e.g. "render" */
     const char *extra; /* optional text after the rate, e.g. "3 workers" */
+    const char *unit;  /* what done and total count, plural: "samples" (progress_make's) */
     /* A job with a target error (progress_follow_error): the error estimates seen so far. */
     double target;
     int spp_cap;
@@ -44,7 +45,7 @@ void progress_note_error(progress_t *p, int spp, double elapsed, double rel_erro
 int progress_prediction_line(const progress_t *p, int reached, int spp, double elapsed, char *buf,
                              size_t size);
 
-/* done of total units (samples) after elapsed seconds. */
+/* done of total units (samples, or the unit set) after elapsed seconds. */
 void progress_update(progress_t *p, uint64_t done, uint64_t total, double elapsed);
 /* The end of a run that stopped short of its total (a target error or time limit reached):
  * the last line, with why, so a bar is never left open. Harmless after a complete run. */

@@ -56,6 +56,7 @@ typedef struct dash_job {
                             * counts: photons_traced says its size) */
     uint32_t photon_batches, photon_batches_done;
     uint64_t photons_traced, photons_emitted;
+    uint64_t photons_total; /* photons of every batch, merged or not (refinements included) */
     /* Frame sequences (docs/farm.md): a sequence's count of frames (its figures are theirs
      * summed); a frame's sequence (0: none) and frame number. */
     uint32_t nframes;

@@ -251,6 +251,7 @@ static json_t *job_json(const dash_job_t *j)
         json_object_set_new(ph, "batches", json_integer(j->photon_batches));
         json_object_set_new(ph, "batches_done", json_integer(j->photon_batches_done));
         json_object_set_new(ph, "photons", json_integer((json_int_t)j->photons_traced));
+        json_object_set_new(ph, "total", json_integer((json_int_t)j->photons_total));
         json_object_set_new(ph, "emitted", json_integer((json_int_t)j->photons_emitted));
         json_object_set_new(ph, "complete", json_boolean(j->photons_complete));
         json_object_set_new(o, "photon_phase", ph);

@@ -2,11 +2,13 @@
 # Installs every Debian 12 package prismfarm needs to build, test and run.
 # Idempotent and non-interactive; run as root or as a user with sudo.
 # usage: deploy/install-deps.sh [--test]
-#   --test  also the packages only the deployment tests use (deploy/test.sh passes it): Slurm's
-#           daemons and munge for test_slurm_sbatch (tests/deploy/test_slurm.sh), Prometheus for
-#           test_prometheus_scrape (tests/deploy/test_prometheus.sh). They are
-#           daemons, so a machine that only builds and renders (deploy/demo.sh, the container,
-#           a farm host) does not get them.
+#   --test  also the packages only the tests use (deploy/test.sh passes it): Slurm's daemons and
+#           munge for test_slurm_sbatch (tests/deploy/test_slurm.sh), Prometheus for
+#           test_prometheus_scrape (tests/deploy/test_prometheus.sh), Chromium and its WebDriver
+#           for test_dashboard_browser (tests/browser/test_dashboard.py). They are daemons and a
+#           browser of some 300 MB, so a machine that only builds and renders (deploy/demo.sh,
+#           the container, a farm host) does not get them; without them those tests skip
+#           with the reason (CI requires them to run).
 set -euo pipefail
 
 PACKAGES=(
@@ -15,13 +17,13 @@ PACKAGES=(
   libpng-dev libstb-dev zlib1g-dev libjansson-dev libsodium-dev
   libcmocka-dev libsqlite3-dev
   libmicrohttpd-dev
-  chromium chromium-driver python3
+  python3
   gnuplot-nox
   clang libclang-rt-14-dev
   iproute2
   python3-numpy python3-openimageio
 )
-TEST_PACKAGES=(slurmctld slurmd slurm-client munge prometheus)
+TEST_PACKAGES=(slurmctld slurmd slurm-client munge prometheus chromium chromium-driver)
 
 case "${1:-}" in
   --test) PACKAGES+=("${TEST_PACKAGES[@]}") ;;

@@ -76,6 +76,9 @@ typedef struct job {
         uint64_t seed;                       /* the scene's, after the settings' override */
         const char *integrator, *dispersion; /* what the loaded scene runs with */
         spectral_grid_t grid;
+        /* A job that ended before a restart: its integrator as its figures kept it
+         * (persist_load_figures; integrator then points here). */
+        char integrator_kept[32];
     } scene;
     /* Its place in the scheduler. */
     struct {
@@ -85,6 +88,10 @@ typedef struct job {
          * wire, so a late result of an earlier round is told from the current one's. */
         uint32_t round;
         uint64_t samples_done, samples_total, nonfinite; /* kept when the scheduler forgets it */
+        int tile; /* the tile size it was cut with (the master's --tile then) */
+        /* Its tasks when the scheduler forgot it (has_tasks), for the dashboard's page. */
+        bool has_tasks;
+        uint32_t tasks_total, tasks_done;
     } sched;
     struct {
         bool preview;        /* jobs/<id>/preview.png exists */

@@ -251,8 +251,8 @@ struct shape {
 
 /* FT_LIST's .hi for the files of a bundle: the caller's proto_limits_t.max_bundle_files. */
 #define CALLER_BUNDLE_FILES (-1)
-/* Keys in one map, its flat sub-tables included (a RESULT's tile has 13). */
-#define MAX_KEYS 16
+/* Keys in one map, its flat sub-tables included (a RESULT's tile has 13, a job map 18). */
+#define MAX_KEYS 24
 
 /* The value of a field, by its type, in the struct obj. */
 #define VALUE(type, obj, off) (*(type *)((char *)(obj) + (off)))
@@ -588,6 +588,16 @@ static int ck_photon_range(const cx_t *cx, const void *obj)
     return 0;
 }
 
+/* A job map's photon progress: never more photons merged than the pass has. */
+static int check_job_info(const cx_t *cx, const void *obj)
+{
+    const proto_job_info_t *j = obj;
+    if (j->photons_done > j->photons_total)
+        return cx_fail(cx, "pdone", "%" PRIu64 " photons merged of a pass of %" PRIu64,
+                       j->photons_done, j->photons_total);
+    return 0;
+}
+
 /* At most 64 lanes a photon (render/photon.h); more would scale the store down. */
 static int ck_photon_result(const cx_t *cx, const void *obj)
 {
@@ -847,6 +857,11 @@ static bool job_is_frame(const void *ji)
     return ((const proto_job_info_t *)ji)->parent != 0;
 }
 
+static bool job_has_photons(const void *ji)
+{
+    return ((const proto_job_info_t *)ji)->photons_total != 0;
+}
+
 #define FR(m) offsetof(proto_frame_t, m)
 static const field_t FRAME_FIELDS[] = {
     {F("main", FT_STR, FR(main)), .check = ck_path},
@@ -877,8 +892,10 @@ static const field_t JOB_FIELDS[] = {
      RANGE(0, PROTO_MAX_FRAMES)},
     {F("parent", FT_U64, JI(parent)), .presence = UNLESS_ZERO, .absent = "not a frame"},
     {F("frame", FT_U32, JI(frame)), .when = job_is_frame},
+    {F("ptotal", FT_U64, JI(photons_total)), .presence = UNLESS_ZERO, .absent = "no photon pass"},
+    {F("pdone", FT_U64, JI(photons_done)), .when = job_has_photons},
 };
-static const shape_t JOB_INFO = {SHAPE(proto_job_info_t, JOB_FIELDS, NULL)};
+static const shape_t JOB_INFO = {SHAPE(proto_job_info_t, JOB_FIELDS, check_job_info)};
 
 #define WI(m) offsetof(proto_worker_info_t, m)
 static const field_t WORKER_FIELDS[] = {

@@ -216,6 +216,10 @@ typedef struct proto_job_info {
     uint32_t frames;
     uint64_t parent;
     uint32_t frame;
+    /* A job with a photon pass (optional on the wire; absent: none): the photons of its batches
+     * merged so far and of every batch (a refinement adds to both), photons_done <=
+     * photons_total. The client's photon progress line (docs/farm.md, "Photon jobs"). */
+    uint64_t photons_done, photons_total;
 } proto_job_info_t;
 
 typedef struct proto_worker_info {

@@ -7,8 +7,17 @@
 "use strict";
 
 const POLL_MS = 1000;
-const state = { timer: null, view: null, gen: 0, workerRates: new Map(), logSeq: 0, jobId: 0,
-                previewVersion: -1, tileMode: "passes" };
+const state = {
+    timer : null,
+    view : null,
+    gen : 0,
+    workerRates : new Map(),
+    logSeq : 0,
+    jobId : 0,
+    previewVersion : -1,
+    tileMode : "passes",
+    photonSeen : null
+};
 
 // ---------------------------------------------------------------- helpers
 
@@ -288,12 +297,28 @@ async function viewJob(gen, id) {
   if (j.photon_phase) {
     const p = j.photon_phase;
     ph.hidden = false;
-    const what = p.batches ? p.batches_done + " of " + p.batches + " batches merged, " +
-                             fmtCount(p.photons) + " photons (" + fmtCount(p.emitted) + " emitted)"
-                           : "complete: " + fmtCount(p.photons) + " photons (kept on the master's disk)";
+    // Its rate and ETA from this page's polls (the master keeps no clock for the phase, and a
+    // refinement's round starts where the last ended): photons merged since first seen.
+    const now = Date.now() / 1000, seen = state.photonSeen;
+    if (!seen || seen.job !== j.id || p.photons < seen.photons || p.complete)
+        state.photonSeen = {job : j.id, photons : p.photons, t : now};
+    const dt = now - state.photonSeen.t,
+          rate = dt > 0 ? (p.photons - state.photonSeen.photons) / dt : 0;
+    const total = p.total || p.photons;
+    const what = p.complete ? "complete: " + fmtCount(p.photons) + " photons" +
+                                  (p.batches ? " (" + fmtCount(p.emitted) + " emitted)"
+                                             : " (kept on the master's disk)")
+                            : fmtCount(p.photons) + " of " + fmtCount(total) + " photons traced, " +
+                                  p.batches_done + " of " + p.batches + " batches merged" +
+                                  (rate > 0 ? ", " + fmtCount(rate) + " photons/s, ETA " +
+                                                  fmtTime((total - p.photons) / rate)
+                                            : "");
     swap(ph, el("h2", {}, "Photon phase"),
-      el("p", { id: "photon-progress" }, bar(p.complete ? 1 : p.batches ? p.batches_done / p.batches : 0),
-         " " + what));
+         el("p", {id : "photon-progress"},
+            bar(p.complete ? 1
+                : total    ? p.photons / total
+                           : 0),
+            " " + what));
   } else ph.hidden = true;
   // Actions: offered only where they apply (a job not over, a master that has them, a viewer
   // who may act on it: its owner or an administrator).

@@ -357,6 +357,7 @@ int job_schedule(master_t *m, job_t *j, uint32_t photon_batches, err_t *err)
     }
     j->sched.ntiles = info.ntiles;
     j->sched.samples_total = info.samples_total;
+    j->sched.tile = m->opts->sched.tile_size;
     j->sched.known = true;
     m->jobs[m->njobs++] = j;
     return 0;
@@ -486,6 +487,19 @@ void job_cancel(master_t *m, job_t *j, double now)
 
 static void job_refresh_one(master_t *m, job_t *j, double now);
 
+/* A job over: its task counts kept, and its figures written beside its outputs so that a
+ * restarted master shows them (persist_save_figures), before the scheduler forgets it. */
+static void forget_tasks(master_t *m, job_t *j, const sched_job_info_t *info)
+{
+    j->sched.has_tasks = true;
+    j->sched.tasks_total = info->tasks_total;
+    j->sched.tasks_done = info->tasks_done;
+    err_t err;
+    if (m->journal && persist_save_figures(m, j, &err) < 0)
+        master_log(m, "job %llu: its figures are not kept for a restart: %s",
+                   (unsigned long long)j->id, err.msg);
+}
+
 void job_refresh(master_t *m, job_t *j, double now)
 {
     job_state_t before = j->state;
@@ -571,6 +585,7 @@ static void job_refresh_one(master_t *m, job_t *j, double now)
     j->sched.samples_total = info.samples_total;
     j->sched.nonfinite = info.nonfinite;
     j->accuracy.spp_done = info.spp_done;
+    forget_tasks(m, j, &info);
     persist_state(m, j, now);
     j->ops.paused_s = sched_job_paused_s(m->sched, j->id, j->finished > 0 ? j->finished : now);
     err_t err;
@@ -599,6 +614,9 @@ void job_give_up_outputs(master_t *m, job_t *j, double now)
     master_log(m, "job %llu '%s' cancelled while waiting to write its outputs: its image is dropped",
                (unsigned long long)j->id, j->name);
     release_photons(m, j);
+    sched_job_info_t info;
+    if (sched_job_info(m->sched, j->id, &info) == 0)
+        forget_tasks(m, j, &info);
     persist_state(m, j, now);
     j->ops.paused_s = sched_job_paused_s(m->sched, j->id, j->finished > 0 ? j->finished : now);
     err_t err;

@@ -160,10 +160,10 @@ void merge_photon_phase_done(master_t *m, job_t *j)
     j->photons.store_ready = true;
     photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);
     master_log(m,
-               "job %llu photon pass merged: %llu photons in %u batches, %llu emitted, %.1f MB "
+               "job %llu photon pass merged: %llu photons in %u batch%s, %llu emitted, %.1f MB "
                "store %.12s",
                (unsigned long long)j->id, (unsigned long long)ps.photons, ps.batches,
-               (unsigned long long)ps.emitted, size / 1e6, hash);
+               ps.batches == 1 ? "" : "es", (unsigned long long)ps.emitted, size / 1e6, hash);
     if (m->journal && persist_save_photons(m, j, &err) < 0)
         persist_failed(m, j, &err);
 }

@@ -245,5 +245,7 @@ int photon_phase_refine(photon_phase_t *self, uint64_t photons, err_t *err)
 
 photon_phase_stats_t photon_phase_stats(const photon_phase_t *self)
 {
-    return self->stats;
+    photon_phase_stats_t s = self->stats;
+    s.total = self->total;
+    return s;
 }

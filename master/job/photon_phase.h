@@ -21,6 +21,7 @@ typedef struct photon_phase photon_phase_t;
 
 typedef struct photon_phase_stats {
     uint64_t photons;     /* photon indices in the batches merged so far */
+    uint64_t total;       /* photon indices in every batch, merged or not (refinements too) */
     uint64_t emitted;     /* monochrome photons emitted by them: the store's N */
     uint64_t nonfinite;   /* photons the workers dropped for a NaN or Inf power */
     uint64_t bytes_in;    /* wire bytes of the partial stores received (duplicates included) */

@@ -48,12 +48,20 @@ static proto_job_info_t job_wire_info(const master_t *m, const job_t *j, double 
         o.error = j->error ? j->error : "failed";
     else if (j->outputs.waiting)
         o.error = j->outputs.why;
+    if (j->photons.phase) {
+        photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);
+        o.photons_done = ps.photons;
+        o.photons_total = ps.total;
+    } else if (j->photons.enabled) {
+        o.photons_done = o.photons_total = j->photons.saved; /* merged, kept on disk */
+    }
     o.parent = j->seq.parent;
     o.frame = j->seq.frame;
     o.frames = j->seq.nframes;
     if (j->seq.nframes > 0) {
         /* A sequence's figures are its frames' summed; its spp the least of theirs. */
         o.samples_done = o.samples_total = o.nonfinite = 0;
+        o.photons_done = o.photons_total = 0;
         o.spp = 0;
         for (uint32_t k = 0; k < j->seq.nframes; k++) {
             const job_t *f = jobs_frame(m, j, k);
@@ -63,6 +71,8 @@ static proto_job_info_t job_wire_info(const master_t *m, const job_t *j, double 
             o.samples_done += fi.samples_done;
             o.samples_total += fi.samples_total;
             o.nonfinite += fi.nonfinite;
+            o.photons_done += fi.photons_done;
+            o.photons_total += fi.photons_total;
             o.spp = k == 0 || fi.spp < o.spp ? fi.spp : o.spp;
         }
     }
@@ -309,16 +319,16 @@ static int refine_job(master_t *m, job_t *j, uint64_t photons, const proto_peer_
         persist_failed(m, j, err);
     photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);
     access_audit(m, from,
-                 "refined job %llu '%s': %llu more photons in %u batches (%llu so far), then "
+                 "refined job %llu '%s': %llu more photons in %u batch%s (%llu so far), then "
                  "the camera phase again",
-                 (unsigned long long)j->id, j->name, (unsigned long long)photons,
-                 added, (unsigned long long)ps.photons);
+                 (unsigned long long)j->id, j->name, (unsigned long long)photons, added,
+                 added == 1 ? "" : "es", (unsigned long long)ps.photons);
     /* In the job's own log too, with every other action on it (`prismfarm logs`). */
     tasklog_add(m->tasklog, j->id,
-                "job refined by %s: %llu more photons in %u batches (%llu so far), then the "
+                "job refined by %s: %llu more photons in %u batch%s (%llu so far), then the "
                 "camera phase again",
                 from->user[0] ? from->user : "(no key)", (unsigned long long)photons, added,
-                (unsigned long long)ps.photons);
+                added == 1 ? "" : "es", (unsigned long long)ps.photons);
     return 0;
 }
 

@@ -13,6 +13,7 @@
 #include "ops.h"
 #include "passes.h"
 #include "peers.h"
+#include "tasklog.h"
 #include "tilegrid.h"
 
 #include <limits.h>
@@ -79,6 +80,10 @@ static void fill_job(master_t *m, const job_t *j, double now, dash_job_t *o)
         o->tasks_running = info.tasks_running;
         o->photon_batches = info.photon_batches;
         o->photon_batches_done = info.photon_batches_done;
+    } else if (j->sched.has_tasks) { /* over: what the scheduler had when it forgot the job */
+        o->has_tasks = true;
+        o->tasks_total = j->sched.tasks_total;
+        o->tasks_done = j->sched.tasks_done;
     }
     const pass_record_t *last =
         j->accuracy.nhistory > 0 ? &j->accuracy.history[j->accuracy.nhistory - 1] : NULL;
@@ -95,6 +100,7 @@ static void fill_job(master_t *m, const job_t *j, double now, dash_job_t *o)
     if (j->photons.phase) {
         photon_phase_stats_t ps = photon_phase_stats(j->photons.phase);
         o->photons_traced = ps.photons;
+        o->photons_total = ps.total;
         o->photons_emitted = ps.emitted;
         if (!j->sched.known) {
             o->photon_batches = ps.batches;
@@ -102,7 +108,7 @@ static void fill_job(master_t *m, const job_t *j, double now, dash_job_t *o)
         }
         o->photons_complete = photon_phase_complete(j->photons.phase);
     } else if (j->photons.enabled) {
-        o->photons_traced = j->photons.saved;
+        o->photons_traced = o->photons_total = j->photons.saved;
         o->photons_complete = j->photons.saved > 0; /* kept on disk once merged */
     }
     o->sequence = j->seq.parent;
@@ -220,7 +226,8 @@ static int pv_tiles(void *user, uint64_t id, dash_tilemap_t *map, err_t *err)
         return DASH_ENOENT;
     if (j->scene.xres < 1 || j->scene.yres < 1 || j->scene.spp < 1)
         return err_set(err, "its scene is not loaded: no tiles to show");
-    tilegrid_t g = tilegrid_make(j->scene.xres, j->scene.yres, m->opts->sched.tile_size);
+    tilegrid_t g = tilegrid_make(j->scene.xres, j->scene.yres,
+                                 j->sched.tile > 0 ? j->sched.tile : m->opts->sched.tile_size);
     int *merged = map->merged, *spp = map->spp;
     *map = (dash_tilemap_t){.xres = g.xres,
                             .yres = g.yres,
@@ -467,6 +474,34 @@ int master_check_http(const master_opts_t *opts, err_t *err)
     return dash_view_check(opts, err);
 }
 
+/* The bytes of a job's task log that a restarted master puts in the logbook for its page. */
+#define DASH_SEED_BYTES 4096
+
+/* A restarted master's logbook starts empty, so the page of a job from before the restart would
+ * show no log. Its task log (tasklog.h: jobs/<id>/tasks.log, kept in the spool) says what
+ * happened to it: its last lines go into the logbook first, each "job N: " and its time stamp,
+ * and the lines logged from now on follow them in order. */
+static void seed_log(master_t *m)
+{
+    for (size_t i = 0; i < m->njobs; i++) {
+        char *text = NULL, line[LOGBOOK_TEXT];
+        size_t len = 0;
+        err_t err;
+        if (tasklog_read(m->tasklog, m->jobs[i]->id, -1, DASH_SEED_BYTES, &text, &len, &err) < 0)
+            continue;
+        for (char *p = text, *end; p && *p; p = end ? end + 1 : NULL) {
+            end = strchr(p, '\n');
+            if (end)
+                *end = 0;
+            if (*p) {
+                snprintf(line, sizeof line, "job %llu: %s", (unsigned long long)m->jobs[i]->id, p);
+                logbook_add(m->logbook, clock_now_s(), line);
+            }
+        }
+        free(text);
+    }
+}
+
 dash_view_t *dash_view_open(master_t *m, char *bound, size_t size, err_t *err)
 {
     const master_opts_t *o = m->opts;
@@ -479,6 +514,8 @@ dash_view_t *dash_view_open(master_t *m, char *bound, size_t size, err_t *err)
         return NULL;
     }
     v->m = m;
+    if (m->logbook && m->tasklog)
+        seed_log(m);
     v->provider = (dash_provider_t){
         .user = v,
         .jobs = pv_jobs,

@@ -272,10 +272,16 @@ void ops_free(master_t *m)
 void ops_worker_joined(master_t *m, mworker_t *w)
 {
     err_t err;
-    if (ops_worker_blocked(m, w) && sched_worker_block(m->sched, w->id, true, &err) == 0)
-        master_log(m, "worker %llu '%s' is on the blocklist: it gets no task until "
-                      "`prismfarm unblock %s`",
-                   (unsigned long long)w->id, w->name, w->name);
+    /* The hint names the entry as `unblock` takes it: "key:NAME" for a key's block. */
+    const char *entry = NULL;
+    for (size_t i = 0; i < m->blocked.n && !entry; i++)
+        if (entry_names(m->blocked.names[i], w))
+            entry = m->blocked.names[i];
+    if (entry && sched_worker_block(m->sched, w->id, true, &err) == 0)
+        master_log(m,
+                   "worker %llu '%s' is on the blocklist: it gets no task until "
+                   "`prismfarm unblock %s`",
+                   (unsigned long long)w->id, w->name, entry);
 }
 
 /* A worker's name from its name or the id `prismfarm workers` shows. */
@@ -329,6 +335,19 @@ int master_worker_unblock(master_t *m, const char *worker, const master_actor_t 
     }
     const char *name = worker_name_of(m, worker);
     size_t k = blocked_index(m, name);
+    /* A worker blocked through its key ("key:NAME", from its strikes) stays blocked until that
+     * entry goes: lifting its name would last until its next HELLO, so the answer names the
+     * entry as this command takes it. */
+    for (size_t i = 0; i < m->nworkers && k == SIZE_MAX; i++) {
+        const mworker_t *w = m->workers[i];
+        if (!w->name || strcmp(w->name, name) || !w->key[0])
+            continue;
+        for (size_t b = 0; b < m->blocked.n; b++)
+            if (!strncmp(m->blocked.names[b], OPS_KEY_PREFIX, strlen(OPS_KEY_PREFIX)) &&
+                entry_names(m->blocked.names[b], w))
+                return err_set(err, "worker '%s' is blocked with its key: `prismfarm unblock %s`",
+                               worker, m->blocked.names[b]);
+    }
     bool any = k != SIZE_MAX;
     size_t ns = peers_sched_table(m);
     for (size_t i = 0; i < m->nworkers; i++) {
@@ -396,15 +415,16 @@ static void log_event(master_t *m, const sched_event_t *ev)
         /* Blocked by its key when it has one (a key is a host's: docs/security.md), so that a
          * new name does not make a new worker; else by its name. */
         char reason[256], entry[96];
+        const int strikes = m->opts->sched.max_worker_failures_in_row;
         if (ev->job)
             snprintf(reason, sizeof reason,
-                     "%d strikes in a row (failed, expired or abandoned tasks, refused results), "
+                     "%d strike%s in a row (failed, expired or abandoned tasks, refused results), "
                      "the last job %llu %s",
-                     m->opts->sched.max_worker_failures_in_row, (unsigned long long)ev->job, t);
+                     strikes, strikes == 1 ? "" : "s", (unsigned long long)ev->job, t);
         else
             snprintf(reason, sizeof reason,
-                     "%d strikes in a row (failed, expired or abandoned tasks, refused results)",
-                     m->opts->sched.max_worker_failures_in_row);
+                     "%d strike%s in a row (failed, expired or abandoned tasks, refused results)",
+                     strikes, strikes == 1 ? "" : "s");
         snprintf(entry, sizeof entry, "?");
         if (w)
             ops_block_entry(w, entry, sizeof entry);

@@ -1,6 +1,8 @@
 #include "persist.h"
 
 #include "files.h"
+#include "strbuf.h"
+#include "tilegrid.h"
 
 #include <dirent.h>
 #include <pthread.h>
@@ -256,6 +258,105 @@ void persist_maybe_checkpoint(master_t *m, job_t *j, double now)
 }
 
 /* A restarted master or a refinement loads the store instead of tracing again. */
+/* The most tiles a figures file may list: a 65536-pixel square image cut into 8-pixel tiles. */
+#define FIGURES_MAX_TILES (1 << 26)
+
+int persist_save_figures(master_t *m, const job_t *j, err_t *err)
+{
+    if (j->scene.xres < 1 || j->scene.yres < 1 || j->scene.spp < 1)
+        return 0; /* its scene never loaded: nothing to show but its state */
+    char dir[PATH_MAX], path[PATH_MAX + 32];
+    if (spool_job_dir(m->spool, j->id, dir, sizeof dir, err) < 0)
+        return -1;
+    size_t ntiles =
+        j->accuracy.tile_passes && j->accuracy.ntiles > 0 ? (size_t)j->accuracy.ntiles : 0;
+    size_t size = 256 + 12 * ntiles, n = 0;
+    char *text = malloc(size);
+    if (!text)
+        return err_set(err, "out of memory");
+    strbuf_appendf(text, size, &n, "xres %d\nyres %d\nspp %d\nintegrator %s\ntile %d\n",
+                   j->scene.xres, j->scene.yres, j->scene.spp,
+                   j->scene.integrator ? j->scene.integrator : "?", j->sched.tile);
+    if (j->sched.has_tasks)
+        strbuf_appendf(text, size, &n, "tasks %u %u\n", j->sched.tasks_total, j->sched.tasks_done);
+    if (ntiles) {
+        strbuf_appendf(text, size, &n, "tile_passes %zu", ntiles);
+        for (size_t i = 0; i < ntiles; i++)
+            strbuf_appendf(text, size, &n, " %d", j->accuracy.tile_passes[i]);
+        strbuf_appendf(text, size, &n, "\n");
+    }
+    snprintf(path, sizeof path, "%s/figures", dir);
+    int rc = n < size
+                 ? files_write_atomic(path, text, n, true, err)
+                 : err_set(err, "the figures of job %llu do not fit", (unsigned long long)j->id);
+    free(text);
+    return rc;
+}
+
+int persist_load_figures(master_t *m, job_t *j, err_t *err)
+{
+    char dir[PATH_MAX], path[PATH_MAX + 32];
+    if (spool_job_dir(m->spool, j->id, dir, sizeof dir, err) < 0)
+        return -1;
+    snprintf(path, sizeof path, "%s/figures", dir);
+    FILE *f = fopen(path, "r");
+    if (!f)
+        return 0;
+    int xres = 0, yres = 0, spp = 0, tile = 0, ntiles = -1;
+    unsigned total = 0, done = 0;
+    bool has_tasks = false;
+    char integrator[32] = "?", key[32];
+    int *passes = NULL, rc = 0;
+    while (rc == 0 && fscanf(f, "%31s", key) == 1) {
+        if (!strcmp(key, "xres"))
+            rc = fscanf(f, "%d", &xres) == 1 ? 0 : -1;
+        else if (!strcmp(key, "yres"))
+            rc = fscanf(f, "%d", &yres) == 1 ? 0 : -1;
+        else if (!strcmp(key, "spp"))
+            rc = fscanf(f, "%d", &spp) == 1 ? 0 : -1;
+        else if (!strcmp(key, "tile"))
+            rc = fscanf(f, "%d", &tile) == 1 ? 0 : -1;
+        else if (!strcmp(key, "integrator"))
+            rc = fscanf(f, "%31s", integrator) == 1 ? 0 : -1;
+        else if (!strcmp(key, "tasks"))
+            rc = fscanf(f, "%u %u", &total, &done) == 2 && done <= total ? (has_tasks = true, 0)
+                                                                         : -1;
+        else if (!strcmp(key, "tile_passes") && !passes && fscanf(f, "%d", &ntiles) == 1 &&
+                 ntiles > 0 && ntiles <= FIGURES_MAX_TILES &&
+                 (passes = malloc((size_t)ntiles * sizeof *passes)))
+            for (int i = 0; i < ntiles && rc == 0; i++)
+                rc = fscanf(f, "%d", &passes[i]) == 1 && passes[i] >= 0 ? 0 : -1;
+        else
+            rc = -1;
+    }
+    fclose(f);
+    if (rc < 0 || xres < 1 || yres < 1 || spp < 1 || xres > 1 << 20 || yres > 1 << 20 || tile < 1 ||
+        tile > 1 << 20) {
+        free(passes);
+        return err_set(err, "%s does not read as a job's figures", path);
+    }
+    tilegrid_t grid = tilegrid_make(xres, yres, tile);
+    if (passes && ntiles != tilegrid_count(&grid)) {
+        free(passes);
+        return err_set(err, "%s does not read as a job's figures", path);
+    }
+    j->scene.xres = xres;
+    j->scene.yres = yres;
+    j->scene.spp = spp;
+    snprintf(j->scene.integrator_kept, sizeof j->scene.integrator_kept, "%s", integrator);
+    j->scene.integrator = j->scene.integrator_kept;
+    j->sched.tile = tile;
+    j->sched.has_tasks = has_tasks;
+    j->sched.tasks_total = total;
+    j->sched.tasks_done = done;
+    if (passes) {
+        free(j->accuracy.tile_passes);
+        j->accuracy.tile_passes = passes;
+        j->accuracy.ntiles = ntiles;
+    }
+    return 0;
+}
+
 int persist_save_photons(master_t *m, job_t *j, err_t *err)
 {
     char dir[PATH_MAX], path[PATH_MAX + 32];

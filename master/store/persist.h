@@ -38,4 +38,14 @@ void persist_checkpoint_drop(master_t *m, job_t *j);
  * when there is one (jobs.c's job_restore_photons reads it back). */
 int persist_save_photons(master_t *m, job_t *j, err_t *err);
 
+/* A job over (done, failed or cancelled) keeps what the scheduler forgets and a restarted master
+ * could only learn by loading its scene again -- its size, spp, integrator, tile size, task
+ * counts and an adaptive job's passes per tile -- in jobs/<id>/figures (text, "key value"
+ * lines), so that its dashboard page reads the same after a restart (docs/dashboard.md). */
+int persist_save_figures(master_t *m, const job_t *j, err_t *err);
+/* Reads them back into a job restored from the journal. 0 with nothing changed when there is no
+ * file (a job that ended before its scene was known, or before figures were kept); -1 with err
+ * for a file that does not read as figures (nothing changed then either). */
+int persist_load_figures(master_t *m, job_t *j, err_t *err);
+
 #endif

@@ -324,6 +324,8 @@ int resume_jobs(master_t *m, err_t *err)
             j->finished = now;
         }
         err_t perr;
+        if (job_over(j) && persist_load_figures(m, j, &perr) < 0)
+            master_log(m, "job %llu: %s", (unsigned long long)j->id, perr.msg);
         if (load_passes(m, j, &perr) < 0)
             master_log(m, "job %llu: its pass records cannot be read: %s",
                        (unsigned long long)j->id, perr.msg);

@@ -11,7 +11,9 @@ the page and sees the job cancelled and its worker stop. A screenshot of the job
 BUILD/dashboard.png (and to docs/dashboard.png with PRISMFARM_UPDATE_SCREENSHOT=1).
 
 Exit 0: passed; 1: failed (with what); 77: skipped, only when Chromium or chromedriver is
-missing or cannot start (ctest SKIP_RETURN_CODE). Every wait has a generous deadline and no
+missing or cannot start (ctest SKIP_RETURN_CODE): they are test packages, which
+`deploy/install-deps.sh --test` installs and a plain install does not. PRISMFARM_REQUIRE_BROWSER=1
+makes a skip a failure (CI sets it: there it must run). Every wait has a generous deadline and no
 assertion is about time."""
 
 import base64
@@ -34,6 +36,10 @@ CHROMEDRIVER = os.environ.get("PRISMFARM_CHROMEDRIVER", "/usr/bin/chromedriver")
 
 
 def skip(why):
+    if os.environ.get("PRISMFARM_REQUIRE_BROWSER") == "1":
+        print("test_dashboard: FAILED: cannot run, and PRISMFARM_REQUIRE_BROWSER=1: " + why,
+              flush=True)
+        sys.exit(1)
     print("test_dashboard: SKIPPED: " + why, flush=True)
     sys.exit(SKIP)
 
@@ -226,8 +232,8 @@ def main():
         fail("PRISMFARM_BIN does not name the prismfarm binary")
     for tool, pkg in ((CHROMIUM, "chromium"), (CHROMEDRIVER, "chromium-driver")):
         if not os.access(tool, os.X_OK):
-            skip("%s is missing: install the Debian package %s (deploy/install-deps.sh)" %
-                 (tool, pkg))
+            skip("%s is missing: install the Debian package %s (a test package: "
+                 "deploy/install-deps.sh --test)" % (tool, pkg))
     scratch = tempfile.mkdtemp(prefix="prismfarm-browser-")
     farm = Farm(binary, scratch)
     driver_port = free_port()

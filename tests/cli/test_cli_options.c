@@ -120,6 +120,9 @@ static void test_suggestions(void **state)
                  "unknown option '--sed' (did you mean '--seed'?");
     expect_fails(run("render", SCENE, "--thraeds=2", NULL),
                  "unknown option '--thraeds=2' (did you mean '--threads'?");
+    /* A word another renderer uses, too far for an edit, names the option too. */
+    expect_fails(run("render", SCENE, "--samples", "4", NULL),
+                 "unknown option '--samples' (did you mean '--spp'?");
     expect_fails(run("render", SCENE, "--integrator", "bpdt", NULL), "got 'bpdt' (did you mean 'bdpt'?)");
     expect_fails(run("render", SCENE, "--integrator", "ambientocclusion", NULL),
                  "--integrator ambientocclusion is not supported: ambient occlusion renders");
@@ -149,6 +152,7 @@ static void test_integrator_names(void **state)
     if (r->status != 0)
         fail_msg("--integrator photon: exit %d: %s", r->status, r->err);
     expect_in(r->err, "integrator photon+path,");
+    expect_in(r->err, "render: why: --integrator photon asks for photons");
     r = run("render", SCENE, "--res", "4x4", "--spp", "1", "-o", exr, "--integrator", "volpath",
             "--direct", NULL);
     if (r->status != 0)
@@ -158,7 +162,16 @@ static void test_integrator_names(void **state)
             "--direct", NULL);
     if (r->status != 0)
         fail_msg("--integrator bdpt: exit %d: %s", r->status, r->err);
-    expect_in(r->err, "(asked: bdpt, the plan's choice: prismfarm plan says why)");
+    expect_in(r->err, "(asked: bdpt, the plan's choice)");
+    expect_in(r->err, "render: why: no photon pass: path tracing finds every light's caustics");
+    /* A collimated beam through glass: the plan's photon pass, and the light that decided it. */
+    r = run("render", "data/photon/beam.pbrt", "--res", "8x8", "--spp", "1", "-o", exr,
+            "--integrator", "auto", "--direct", NULL);
+    if (r->status != 0)
+        fail_msg("--integrator auto: exit %d: %s", r->status, r->err);
+    expect_in(r->err, "integrator photon+path (asked: auto, the plan's choice)");
+    expect_in(r->err, "render: why: a photon pass for light ");
+    expect_in(r->err, "(collimated): light that path tracing cannot find");
 }
 
 /* plan --target-error renders a pilot and predicts the samples and time that reach the target;

@@ -544,7 +544,8 @@ static void test_owners(void **state)
     master = testutil_spawn(mlog, "master", "--workers", "tcp://127.0.0.1:*", "--clients",
                             "tcp://127.0.0.1:*", "--spool", spool, "--key", testutil_master_key(),
                             "--authorized-workers", aw, "--authorized-clients", ac,
-                            "--authorized-admins", aa, "--heartbeat", "200", NULL);
+                            "--authorized-admins", aa, "--heartbeat", "200", "--worker-failures",
+                            "1", NULL);
     testutil_read_endpoints(spool, wep, cep, mlog);
     r = run("fetch", "2", "-o", testutil_scratch("bob2.exr"), "--master", cep, "--key", bob,
             "--master-key", MASTER_PUB, NULL);
@@ -555,6 +556,54 @@ static void test_owners(void **state)
     if (r->status != 0)
         testutil_fail_quoting(mlog, "owner's fetch after a restart: %s\nmaster log:", r->err);
     testutil_assert_same_pixels(testutil_scratch("own2.exr"), testutil_scratch("alice2.exr"));
+
+    /* A worker's key blocked by its strikes (here one: tasks it held when it said HELLO again)
+     * is on the blocklist as key:NAME, and every hint names that entry as `unblock` takes it. */
+    r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--res", "64x64", "--spp", "256",
+            "--key", alice, "--master-key", MASTER_PUB, NULL);
+    if (r->status != 0)
+        testutil_fail_quoting(mlog, "submit: exit %d: %s\nmaster log:", r->status, r->err);
+    const char *node_args[] = {"worker",
+                               "--connect",
+                               wep,
+                               "--threads",
+                               "1",
+                               "--name",
+                               "node07",
+                               "--key",
+                               key[0],
+                               "--master-key",
+                               MASTER_PUB,
+                               "--cache",
+                               testutil_scratch("c6"),
+                               NULL};
+    worker = testutil_spawn_argv(testutil_scratch("node-w1.log"), node_args);
+    for (double until = testutil_now_s() + test_wait_s();; testutil_sleep_ms(50)) {
+        r = run("logs", "3", "--master", cep, "--key", alice, "--master-key", MASTER_PUB, NULL);
+        if (r->status == 0 && strstr(r->out, "assigned to worker"))
+            break;
+        if (testutil_now_s() > until)
+            testutil_fail_quoting(mlog, "no task of job 3 assigned:\n%s\nmaster log:", r->out);
+    }
+    /* Stopped, its connection stays open: the second one's HELLO takes the tasks it holds. */
+    assert_int_equal(kill(worker, SIGSTOP), 0);
+    pid_t second = testutil_spawn_argv(testutil_scratch("node-w2.log"), node_args);
+    testutil_wait_file_has(mlog, "blocked from every job: 1 strike in a row");
+    testutil_wait_file_has(mlog, "(`prismfarm unblock key:render1`)");
+    testutil_stop(worker, SIGKILL);
+    testutil_stop(second, SIGTERM);
+    worker = testutil_spawn_argv(testutil_scratch("node-w3.log"), node_args);
+    testutil_wait_file_has(mlog, "is on the blocklist: it gets no task until "
+                                 "`prismfarm unblock key:render1`");
+    r = run("unblock", "node07", "--master", cep, "--key", carol, "--master-key", MASTER_PUB, NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "worker 'node07' is blocked with its key: `prismfarm unblock key:render1`");
+    r = run("unblock", "key:render1", "--master", cep, "--key", carol, "--master-key", MASTER_PUB,
+            NULL);
+    if (r->status != 0)
+        testutil_fail_quoting(mlog, "unblock key:render1: %s\nmaster log:", r->err);
+    testutil_wait_file_has(mlog, "worker 'key:render1' unblocked by carol");
+    testutil_stop(worker, SIGTERM);
     testutil_stop(master, SIGTERM);
     env_keys(1);
 }

@@ -277,10 +277,52 @@ static void test_idle_flood(void **state)
  * "paused" (as `prismfarm jobs` says) with no ETA; after a restart on the same spool (the
  * journal on) a cancelled job, whose scene the master does not load again, shows no size and
  * no task counts rather than 0 x 0 and 0 of 0, and the paused one is still paused. */
+/* Runs job to its end with a fake worker of one thread that renders each task it is given. */
+static void run_to_done(fx_t *f, uint64_t job)
+{
+    testutil_worker_t w;
+    testutil_worker_hello(f->m, &w, "fake-renderer", 1);
+    proto_task_stats_t stats = {.samples = 1, .elapsed = 0.01};
+    for (double until = clock_now_s() + test_wait_s();;) {
+        char error[256];
+        if (testutil_status(f->m, job, error, sizeof error).state == JOB_DONE)
+            break;
+        if (clock_now_s() > until)
+            fail_msg("job %llu not done after %.0f s", (unsigned long long)job, test_wait_s());
+        proto_msg_t t;
+        if (testutil_worker_recv(&w, &t, 100) < 0)
+            continue; /* the last result may still be merging */
+        if (t.type == PROTO_TASK && t.task.job == job) {
+            tilebuf_t *tb = testutil_worker_render(&w, &t);
+            testutil_worker_result(&w, &t, tb, stats);
+            tilebuf_destroy(&tb);
+        }
+        proto_msg_free(&t);
+    }
+    testutil_worker_close(&w);
+}
+
+/* Fails unless the text holds needle, quoting it. */
+static void expect_has(const char *text, const char *needle)
+{
+    if (!strstr(text, needle))
+        fail_msg("expected '%s' in %s", needle, text);
+}
+
 static void test_figures_after_restart(void **state)
 {
     fx_t *f = *state;
     static char out[1 << 16];
+    /* A finished job: its size, passes, tasks, tile map and log must survive the restart. */
+    uint64_t done = testutil_submit_tiny(f->m, 4, 0);
+    run_to_done(f, done);
+    char before[4][1 << 14];
+    const char *parts[4] = {"", "/tiles", "/log", "/tasks"};
+    for (int i = 0; i < 4; i++) {
+        char p[96];
+        snprintf(p, sizeof p, "/api/jobs/%llu%s", (unsigned long long)done, parts[i]);
+        assert_int_equal(request(f, "GET", p, f->token, NULL, before[i], sizeof before[i]), 200);
+    }
     uint64_t paused = testutil_submit_tiny(f->m, 4, 0);
     uint64_t cancelled = testutil_submit_tiny(f->m, 4, 0);
     char path[96];
@@ -308,6 +350,48 @@ static void test_figures_after_restart(void **state)
     assert_non_null(strstr(out, "\"state\":\"paused\""));
     assert_null(strstr(out, "\"eta_s\""));
     assert_null(strstr(out, "\"xres\":0"));
+
+    /* The finished job reads as it did before the restart: every figure of its page. */
+    const char *figures[] = {
+        "\"xres\":",         "\"yres\":",          "\"spp\":",         "\"spp_done\":",
+        "\"npasses\":",      "\"passes_done\":",   "\"tasks_total\":", "\"tasks_done\":",
+        "\"samples_done\":", "\"samples_total\":", "\"progress\":"};
+    char after[1 << 14];
+    snprintf(path, sizeof path, "/api/jobs/%llu", (unsigned long long)done);
+    assert_int_equal(request(f, "GET", path, f->token, NULL, after, sizeof after), 200);
+    expect_has(after, "\"state\":\"done\"");
+    for (size_t i = 0; i < sizeof figures / sizeof *figures; i++) {
+        const char *b = strstr(before[0], figures[i]);
+        if (!b)
+            fail_msg("no %s before the restart: %s", figures[i], before[0]);
+        char want[64];
+        snprintf(want, sizeof want, "%.*s", (int)strcspn(b, ",}"), b);
+        if (!strstr(after, want))
+            fail_msg("expected %s after the restart (as before it): %s", want, after);
+    }
+    /* Its tile map: every tile at its last pass, as before. */
+    snprintf(path, sizeof path, "/api/jobs/%llu/tiles", (unsigned long long)done);
+    assert_int_equal(request(f, "GET", path, f->token, NULL, after, sizeof after), 200);
+    const char *map[] = {"\"tiles_x\":",     "\"tiles_y\":", "\"npasses\":",
+                         "\"passes_done\":", "\"merged\":[", "\"spp\":["};
+    for (size_t i = 0; i < sizeof map / sizeof *map; i++) {
+        const char *b = strstr(before[1], map[i]);
+        if (!b)
+            fail_msg("no %s in the tile map before the restart: %s", map[i], before[1]);
+        char want[512];
+        snprintf(want, sizeof want, "%.*s",
+                 (int)strcspn(b, b[strlen(map[i]) - 1] == '[' ? "]" : ",}"), b);
+        if (!strstr(after, want))
+            fail_msg("expected %s in the tile map after the restart (as before it): %s", want,
+                     after);
+    }
+    /* Its log: before, the master's lines about it; after, the master's memory of them is gone,
+     * and the page shows the job's task log (kept in the spool), its tasks and its end. */
+    snprintf(path, sizeof path, "/api/jobs/%llu/log", (unsigned long long)done);
+    assert_int_equal(request(f, "GET", path, f->token, NULL, after, sizeof after), 200);
+    expect_has(before[2], "pass 1 of 3 merged");
+    expect_has(after, "assigned to worker");
+    expect_has(after, "job done at 4 of 4 spp");
 }
 
 static int setup_journal(void **state)

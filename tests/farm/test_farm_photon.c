@@ -17,9 +17,10 @@
 #include "image_exr.h"
 
 #include <signal.h>
-#include <sys/stat.h>
+#include <stdbool.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 static void render_direct(const char *scene, const char *out)
 {
@@ -86,13 +87,33 @@ static void test_processes_refine_and_kill(void **state)
                               "tcp://127.0.0.1:*", "--heartbeat", "200", "--tile", "16", NULL);
     char wep[256], cep[256];
     testutil_read_endpoints(spool, wep, cep, testutil_scratch("master.log"));
+
+    /* The client following the job shows the photon phase on a line of its own (photons merged
+     * of the pass, their rate, ETA) before the samples' line: it is first seen with no worker
+     * yet, so its start is on the line whatever the machine's speed. */
+    const char *wlog = testutil_scratch("wait.log");
+    pid_t waiter =
+        testutil_spawn(wlog, "submit", "data/photon/beam.pbrt", "--master", cep, "--name", "beam",
+                       "--wait", "-o", testutil_scratch("job.exr"), NULL);
+    testutil_wait_file_has(wlog, "photons:   0.0%");
     pid_t w1 = testutil_start_worker(testutil_scratch("w1.log"), wep, "w1", testutil_scratch("c1"));
     pid_t w2 = testutil_start_worker(testutil_scratch("w2.log"), wep, "w2", testutil_scratch("c2"));
-
-    const run_t *r = run("submit", "data/photon/beam.pbrt", "--master", cep, "--name", "beam",
-                         "--wait", "-o", testutil_scratch("job.exr"), "--quiet", NULL);
-    if (r->status != 0)
-        fail_msg("submit --wait: exit %d: %s", r->status, r->err);
+    int st = testutil_stop(waiter, 0);
+    if (!WIFEXITED(st) || WEXITSTATUS(st) != 0)
+        testutil_fail_quoting(wlog, "submit --wait: status %d:", st);
+    testutil_expect_file_has(wlog, " 0 of 30000 photons");
+    testutil_expect_file_has(wlog, "photons: 100.0%");
+    testutil_expect_file_has(wlog, "Mphotons/s");
+    testutil_expect_file_has(wlog, "30000 of 30000 photons");
+    testutil_expect_file_has(wlog, "job: 100.0%");
+    char *wtext = testutil_slurp(wlog, NULL);
+    assert_non_null(wtext);
+    const char *photons_end = strstr(wtext, "photons: 100.0%"), *samples = strstr(wtext, "job: ");
+    const bool phases_in_order = photons_end && samples && samples > photons_end;
+    free(wtext);
+    if (!phases_in_order)
+        testutil_fail_quoting(wlog, "the samples' line began before the photon phase ended:");
+    const run_t *r;
     render_direct("data/photon/beam.pbrt", testutil_scratch("direct.exr"));
     testutil_assert_same_pixels(testutil_scratch("job.exr"), testutil_scratch("direct.exr"));
     expect_photons(testutil_scratch("job.exr"), "30000");
@@ -182,7 +203,7 @@ static void test_processes_refine_and_kill(void **state)
     testutil_expect_file_has(mlog, "job 1 photon pass merged: 50000 photons in 2 batches");
     if (testutil_file_has(mlog, "keeping its photon store in memory"))
         testutil_fail_quoting(mlog, "the master could not save a photon store:");
-    testutil_expect_file_has(mlog, "refined job 1 'beam': 20000 more photons in 1 batches");
+    testutil_expect_file_has(mlog, "refined job 1 'beam': 20000 more photons in 1 batch (");
     testutil_expect_file_has(mlog, "photon store ");
     /* w2 died holding batches of job 3 (it prefetches two): the photon phase could only end
      * after the master gave them to w1. */

@@ -88,16 +88,19 @@ static void test_full_spool_waits(void **state)
     snprintf(inside, sizeof inside, "/proc/%ld/root%s", (long)master, spool);
     char wep[256], cep[256];
     testutil_read_endpoints(inside, wep, cep, mlog);
-    const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", cep, "--spp", "16", NULL);
-    if (r->status != 0)
-        testutil_fail_quoting(mlog, "submit: %s\nmaster log:", r->err);
+    /* A client follows the job (submit --wait): it must say once why the job waits at 100 %. */
+    const char *wlog = testutil_scratch("space-wait.log");
+    pid_t waiter = testutil_spawn(wlog, "submit", "data/render/tiny.pbrt", "--master", cep, "--spp",
+                                  "16", "--wait", "-o", testutil_scratch("space-wait.exr"), NULL);
+    testutil_wait_file_has(wlog, "job:   0.0%"); /* submitted, and followed */
     char filler[900];
     snprintf(filler, sizeof filler, "%s/filler", inside);
     fill(filler);
     pid_t worker =
         testutil_start_worker(testutil_scratch("space-w.log"), wep, "w1", testutil_scratch("c1"));
     testutil_wait_file_has(mlog, "rendered; waiting to write its outputs (tried again every 5 s)");
-    r = run("jobs", "--master", cep, "--json", NULL);
+    testutil_wait_file_has(wlog, "prismfarm: job 1: rendered; waiting to write its outputs");
+    const run_t *r = run("jobs", "--master", cep, "--json", NULL);
     assert_int_equal(r->status, 0);
     expect_in(r->out, "\"running\"");
     expect_in(r->out, "waiting to write its outputs");
@@ -106,6 +109,14 @@ static void test_full_spool_waits(void **state)
     assert_int_equal(unlink(filler), 0);
     testutil_wait_file_has(mlog, "its outputs are written at last");
     testutil_wait_file_has(mlog, "job 1 'tiny' done");
+    /* The follower saw the job wait for several polls, and said why once; then it got the
+     * outputs. */
+    int st = testutil_stop(waiter, 0);
+    if (!WIFEXITED(st) || WEXITSTATUS(st) != 0)
+        testutil_fail_quoting(wlog, "submit --wait: status %d:", st);
+    if (testutil_file_count(wlog, "waiting to write its outputs") != 1)
+        testutil_fail_quoting(wlog, "expected the reason once in %s:", wlog);
+    testutil_expect_file_has(wlog, "No space left on device");
     r = run("fetch", "1", "-o", testutil_scratch("space.exr"), "--master", cep, NULL);
     if (r->status != 0)
         testutil_fail_quoting(mlog, "fetch: %s\nmaster log:", r->err);
@@ -113,6 +124,8 @@ static void test_full_spool_waits(void **state)
             testutil_scratch("space-ref.exr"), "--quiet", NULL);
     assert_int_equal(r->status, 0);
     testutil_assert_same_pixels(testutil_scratch("space.exr"), testutil_scratch("space-ref.exr"));
+    testutil_assert_same_pixels(testutil_scratch("space-wait.exr"),
+                                testutil_scratch("space-ref.exr"));
     testutil_stop(worker, SIGTERM);
     testutil_stop(master, SIGTERM);
 }

@@ -73,18 +73,38 @@ static int seeds_init(seeds_t *s, err_t *err)
     s->files[1] =
         (proto_bundle_file_t){"meshes/tri.ply", (const uint8_t *)PLY_TEXT, sizeof PLY_TEXT - 1};
     s->bundle = (proto_bundle_t){"scene.pbrt", s->files, 2};
-    s->jobs[0] = (proto_job_info_t){1, "prism", JOB_RUNNING, 100, 4096, 2.5, NULL, 0,
-                                    0, false, 0, PROTO_STOP_NONE, "alice", 5, 0, 0, 0};
-    s->jobs[1] = (proto_job_info_t){
-        2, "gem", JOB_FAILED, 0, 64, 0.0, "scene.pbrt:3:7: unsupported shape \"torus\"", 1,
-        0, false, 0, PROTO_STOP_NONE, NULL, 0, 0, 0, 0};
+    s->jobs[0] =
+        (proto_job_info_t){1, "prism",         JOB_RUNNING, 100, 4096, 2.5, NULL, 0,    0,    false,
+                           0, PROTO_STOP_NONE, "alice",     5,   0,    0,   0,    2000, 10000};
+    s->jobs[1] = (proto_job_info_t){2,
+                                    "gem",
+                                    JOB_FAILED,
+                                    0,
+                                    64,
+                                    0.0,
+                                    "scene.pbrt:3:7: unsupported shape \"torus\"",
+                                    1,
+                                    0,
+                                    false,
+                                    0,
+                                    PROTO_STOP_NONE,
+                                    NULL,
+                                    0,
+                                    0,
+                                    0,
+                                    0,
+                                    0,
+                                    0};
     /* A frame sequence of two frames (ids 3, 4 after the sequence's 2), the second numbered 0. */
-    s->sequence[0] = (proto_job_info_t){2, "walk", JOB_RUNNING, 10, 128, 1.0, NULL, 0,
-                                        0, false, 0, PROTO_STOP_NONE, NULL, 0, 2, 0, 0};
-    s->sequence[1] = (proto_job_info_t){3, "scene", JOB_DONE, 64, 64, 0.5, NULL, 0,
-                                        16, false, 0, PROTO_STOP_NONE, NULL, 0, 0, 2, 7};
-    s->sequence[2] = (proto_job_info_t){4, "tri", JOB_QUEUED, 0, 64, 0.0, NULL, 0,
-                                        0, false, 0, PROTO_STOP_NONE, NULL, 0, 0, 2, 0};
+    s->sequence[0] =
+        (proto_job_info_t){2, "walk",          JOB_RUNNING, 10, 128, 1.0, NULL, 0, 0, false,
+                           0, PROTO_STOP_NONE, NULL,        0,  2,   0,   0,    0, 0};
+    s->sequence[1] =
+        (proto_job_info_t){3, "scene",         JOB_DONE, 64, 64, 0.5, NULL, 0, 16, false,
+                           0, PROTO_STOP_NONE, NULL,     0,  0,  2,   7,    0, 0};
+    s->sequence[2] =
+        (proto_job_info_t){4, "tri",           JOB_QUEUED, 0, 64, 0.0, NULL, 0, 0, false,
+                           0, PROTO_STOP_NONE, NULL,       0, 0,  2,   0,    0, 0};
     s->frames[0] = (proto_frame_t){"scene.pbrt", 7};
     s->frames[1] = (proto_frame_t){"meshes/tri.ply", 0};
     s->workers[0] = (proto_worker_info_t){"node01", 1, 8, PROTO_WORKER_BUSY, 12, 0.5, 0, 0, 0, 2.5e5};

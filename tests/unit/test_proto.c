@@ -45,24 +45,26 @@ static const proto_bundle_t g_bundle = {"scene.pbrt", g_files, 3};
 static char g_hash[PROTO_HASH_HEX + 1];
 
 static const proto_job_info_t g_jobs[] = {
-    /* running, 4 spp merged, an estimate of 1/16 (exact in binary) */
+    /* running, 4 spp merged, an estimate of 1/16 (exact in binary), a photon pass at 12000 of
+     * 30000 photons */
     {1, "prism", JOB_RUNNING, 1000, 65536, 12.5, NULL, 3, 4, true, 0.0625, PROTO_STOP_NONE, "alice",
-     -1000, 0, 0, 0},
+     -1000, 0, 0, 0, 12000, 30000},
     {2, "gem fire", JOB_FAILED, 7, 100, 0.0, "worker w1: scene.pbrt:3: unknown shape", 0, 0, false,
-     0, PROTO_STOP_NONE, NULL, 0, 0, 0, 0},
+     0, PROTO_STOP_NONE, NULL, 0, 0, 0, 0, 0, 0},
     {UINT64_MAX, "x", JOB_CANCELLED, 0, 0, 1e9, NULL, UINT64_MAX, 0, false, 0, PROTO_STOP_NONE,
-     NULL, 0, 0, 0, 0},
+     NULL, 0, 0, 0, 0, 0, 0},
     /* done early: 64 of 1024 spp reached the target; an estimate of exactly 0 travels too */
     {4, "prism fast", JOB_DONE, 64 * 96, 1024 * 96, 0.75, NULL, 0, 64, true, 0.0, PROTO_STOP_TARGET,
-     "bob", 3, 0, 0, 0},
+     "bob", 3, 0, 0, 0, 0, 0},
 };
 /* A frame sequence (job 5, two frames) and its frames 6 and 7, numbered 0 and 120. */
 static const proto_job_info_t g_sequence[] = {
-    {5, "walk", JOB_RUNNING, 10, 200, 1.0, NULL, 0, 0, false, 0, PROTO_STOP_NONE, NULL, 0, 2, 0, 0},
+    {5, "walk", JOB_RUNNING, 10, 200, 1.0, NULL, 0, 0, false, 0, PROTO_STOP_NONE, NULL, 0, 2, 0, 0,
+     0, 0},
     {6, "walk0000", JOB_DONE, 100, 100, 1.0, NULL, 0, 16, false, 0, PROTO_STOP_NONE, NULL, 0, 0, 5,
-     0},
+     0, 0, 0},
     {7, "walk0120", JOB_RUNNING, 10, 100, 1.0, NULL, 0, 1, false, 0, PROTO_STOP_NONE, NULL, 0, 0, 5,
-     120},
+     120, 0, 0},
 };
 static const proto_frame_t g_frames[] = {{"scene.pbrt", 0}, {"meshes/prism.ply", 120}};
 static const proto_worker_info_t g_workers[] = {
@@ -402,6 +404,8 @@ static void assert_msg_equal(const proto_msg_t *a, const proto_msg_t *b)
             assert_int_equal(x->frames, y->frames);
             assert_int_equal(x->parent, y->parent);
             assert_int_equal(x->frame, y->frame);
+            assert_int_equal(x->photons_done, y->photons_done);
+            assert_int_equal(x->photons_total, y->photons_total);
         }
         break;
     case PROTO_WORKERS_REPLY:
@@ -833,6 +837,10 @@ static void test_accuracy_fields_strict(void **state)
     msgpack_object st = obj_str("none");
     expect_mutation_rejected(PROTO_JOBS_REPLY, "jobs.3.stop", &st, PROTO_EMALFORMED,
                              "'jobs[3].stop' is 'none', expected one of: target, time");
+    /* A photon pass never has more photons merged than it has. */
+    u = obj_uint(30001);
+    expect_mutation_rejected(PROTO_JOBS_REPLY, "jobs.0.pdone", &u, PROTO_EMALFORMED,
+                             "30001 photons merged of a pass of 30000");
     /* The encoder refuses what the decoder would. */
     proto_job_info_t bad = g_jobs[0];
     bad.rel_error = NAN;
