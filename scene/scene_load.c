@@ -1454,16 +1454,19 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
         return pbrt_error(err, in->loc, "\"string wavelengths\" must be \"uniform\" or \"visible\", got \"%s\"", wl);
     if (rs->integrator == INTEGRATOR_PATH) {
         /* pbrt-v4's PathIntegrator options: how next-event estimation chooses lights (the
-         * light BVH by default, scene/emitters.h); regularisation (a biased blur of specular
-         * paths) is not available. */
+         * light BVH by default, scene/emitters.h) and regularisation (a biased blur of
+         * specular paths after a non-specular bounce, bsdf/regularize.h). */
         bool regularize;
         const char *ls;
         if (params_get_bool(p, "regularize", false, &regularize, err) ||
             params_get_string(p, "lightsampler", "bvh", &ls, err))
             return -1;
-        if (regularize)
-            return pbrt_error(err, params_find(p, "regularize")->loc,
-                              "unsupported parameter value: \"bool regularize\" must be false");
+        rs->regularize = regularize;
+        if (regularize && photon &&
+            warnings_add(L->sc->warnings, params_find(p, "regularize")->loc,
+                         "\"bool regularize\" is ignored with a photon pass: its store already "
+                         "carries the caustics that regularisation would blur"))
+            return err_set(err, "out of memory");
         if (!strcmp(ls, "bvh"))
             rs->light_sampler = LIGHT_SAMPLER_BVH;
         else if (!strcmp(ls, "power"))

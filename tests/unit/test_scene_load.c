@@ -240,9 +240,14 @@ static void test_integrator_options(void **state)
         "WorldBegin\n",
         NULL);
     assert_int_equal(s->settings.integrator, INTEGRATOR_PATH);
+    assert_int_equal(s->settings.regularize, 0);
     scene_destroy(&s);
-    expect_load_error("Integrator \"path\" \"bool regularize\" true\nWorldBegin\n",
-                      "t.pbrt:1:19: unsupported parameter value: \"bool regularize\" must be false");
+    s = sb_load_text("Integrator \"volpath\" \"bool regularize\" true\nWorldBegin\n", NULL);
+    assert_int_equal(s->settings.regularize, 1);
+    scene_destroy(&s);
+    expect_load_error("Integrator \"whitted\" \"bool regularize\" true\nWorldBegin\n",
+                      "t.pbrt:1:22: unsupported parameter \"bool regularize\" for Integrator "
+                      "\"whitted\"");
     expect_load_error("Integrator \"whitted\" \"string lightsampler\" \"bvh\"\nWorldBegin\n",
                       "t.pbrt:1:22: unsupported parameter \"string lightsampler\" for Integrator "
                       "\"whitted\"");
