@@ -1194,7 +1194,7 @@ static void trace(ctx_t *c, path_t *start)
                 vec3_t n = vec3_dot(sf.ns, g) >= 0.0 ? sf.ns : vec3_neg(sf.ns);
                 double albedo[LANES];
                 for (int j = 0; j < p->n; j++)
-                    albedo[j] = m->reflectance ? texture_eval(m->reflectance, sf.u, sf.v, p->lambda[j]) : 0.5;
+                    albedo[j] = m->reflectance ? shading_texture(m->reflectance, &sf, p->lambda[j]) : 0.5;
                 if (c->rs->integrator != INTEGRATOR_SIMPLEPATH)
                     direct_light(c, p, &sf, n, g, albedo);
                 if (c->photons && p->diffuse_bounces == 0)

@@ -501,6 +501,46 @@ static const texture_t *normal_map(loader_t *L, const scene_material_t *dm, err_
     return t;
 }
 
+/* pbrt-v4's procedural textures (scene/texture.h): the 3D ones read the point in the space of
+ * the CTM at their Texture directive, as pbrt-v4's PointTransformMapping does. NULL with err
+ * set when an input or the texture cannot be made. */
+static texture_t *load_procedural(loader_t *L, const scene_texture_t *t, err_t *err)
+{
+    const int spectral = t->type == SCENE_TEXTURE_SPECTRUM;
+    const scene_float_input_t *fi[4] = {&t->float_in1, &t->float_in2, &t->float_in3, &t->float_in4};
+    const scene_spectrum_input_t *si[4] = {&t->spec_in1, &t->spec_in2, &t->spec_in3, &t->spec_in4};
+    const int ninputs = t->cls == SCENE_TEX_BILERP ? 4
+                        : t->cls == SCENE_TEX_DOTS || t->cls == SCENE_TEX_DIRECTIONMIX ? 2
+                                                                                      : 0;
+    const texture_t *in[4] = {NULL};
+    for (int k = 0; k < ninputs; k++)
+        if (!(in[k] = spectral ? spectrum_input(L, si[k], SPEC_REFLECTANCE, err) : float_input(L, fi[k], err)))
+            return NULL;
+    const texture_uv_map_t map = {t->uscale, t->vscale, t->udelta, t->vdelta};
+    const transform_t to_texture = transform_inverse(t->to_world);
+    switch (t->cls) {
+    case SCENE_TEX_BILERP:
+        return texture_new_bilerp(in[0], in[1], in[2], in[3], map, err);
+    case SCENE_TEX_DOTS:
+        return texture_new_dots(in[0], in[1], map, err);
+    case SCENE_TEX_FBM:
+        return texture_new_fbm(to_texture, t->noise.octaves, t->noise.roughness, err);
+    case SCENE_TEX_WRINKLED:
+        return texture_new_wrinkled(to_texture, t->noise.octaves, t->noise.roughness, err);
+    case SCENE_TEX_WINDY:
+        return texture_new_windy(to_texture, err);
+    case SCENE_TEX_MARBLE:
+        return texture_new_marble(to_texture, t->noise.octaves, t->noise.roughness, t->noise.scale,
+                                  t->noise.variation, err);
+    case SCENE_TEX_DIRECTIONMIX:
+        return texture_new_directionmix(
+            in[0], in[1], transform_vector(&t->to_world, vec3_make(t->dir[0], t->dir[1], t->dir[2])), err);
+    default:
+        err_set(err, "not a procedural texture (internal error)");
+        return NULL;
+    }
+}
+
 static int load_textures_in_order(loader_t *L, image_job_t *jobs, err_t *err)
 {
     const scene_desc_t *d = L->desc;
@@ -508,7 +548,8 @@ static int load_textures_in_order(loader_t *L, image_job_t *jobs, err_t *err)
         const scene_texture_t *t = &d->textures[i];
         int spectral = t->type == SCENE_TEXTURE_SPECTRUM;
         const texture_t *a = NULL, *b = NULL;
-        if (t->cls != SCENE_TEX_IMAGEMAP && (t->udelta != 0.0 || t->vdelta != 0.0))
+        if (t->cls != SCENE_TEX_IMAGEMAP && t->cls != SCENE_TEX_BILERP && t->cls != SCENE_TEX_DOTS &&
+            (t->udelta != 0.0 || t->vdelta != 0.0))
             return pbrt_error(err, t->loc, "texture \"%s\": udelta/vdelta are not supported", t->name);
         texture_t *made = NULL;
         switch (t->cls) {
@@ -523,7 +564,17 @@ static int load_textures_in_order(loader_t *L, image_job_t *jobs, err_t *err)
             b = spectral ? spectrum_input(L, &t->spec_in2, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in2, err);
             if (!a || !b)
                 return -1;
-            made = texture_new_checkerboard(a, b, t->uscale, t->vscale, err);
+            made = t->dimension == 3 ? texture_new_checkerboard3d(a, b, transform_inverse(t->to_world), err)
+                                     : texture_new_checkerboard(a, b, t->uscale, t->vscale, err);
+            break;
+        case SCENE_TEX_BILERP:
+        case SCENE_TEX_DOTS:
+        case SCENE_TEX_FBM:
+        case SCENE_TEX_WRINKLED:
+        case SCENE_TEX_WINDY:
+        case SCENE_TEX_MARBLE:
+        case SCENE_TEX_DIRECTIONMIX:
+            made = load_procedural(L, t, err);
             break;
         case SCENE_TEX_SCALE: {
             a = spectral ? spectrum_input(L, &t->spec_in1, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in1, err);

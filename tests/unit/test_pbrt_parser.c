@@ -1246,15 +1246,22 @@ static void test_error_messages(void **state)
          "\"trianglemesh\", \"plymesh\", \"bilinearmesh\" or \"loopsubdiv\")"},
         {"WorldBegin\nTexture \"t\" \"color\" \"constant\"\n",
          "t.pbrt:2:13: texture type must be \"float\" or \"spectrum\", got \"color\""},
-        {"WorldBegin\nTexture \"t\" \"float\" \"fbm\"\n",
-         "t.pbrt:2:21: unsupported texture \"fbm\" (\"constant\", \"checkerboard\", \"imagemap\", "
-         "\"scale\" or \"mix\")"},
+        {"WorldBegin\nTexture \"t\" \"float\" \"perlin\"\n",
+         "t.pbrt:2:21: unsupported texture \"perlin\" (\"constant\", \"checkerboard\", "
+         "\"imagemap\", \"scale\", \"mix\", \"bilerp\", \"dots\", \"fbm\", \"wrinkled\", \"windy\", "
+         "\"marble\" or \"directionmix\")"},
+        {"WorldBegin\nTexture \"t\" \"spectrum\" \"fbm\"\n",
+         "t.pbrt:2:24: Texture \"t\": \"fbm\" is a float texture in pbrt-v4"},
+        {"WorldBegin\nTexture \"t\" \"float\" \"marble\"\n",
+         "t.pbrt:2:21: Texture \"t\": \"marble\" is a spectrum texture in pbrt-v4"},
+        {"WorldBegin\nTexture \"t\" \"float\" \"wrinkled\" \"integer octaves\" 0\n",
+         "t.pbrt:2:32: \"integer octaves\" must be in 1..64, got 0"},
         {"WorldBegin\nTexture \"t\" \"float\" \"imagemap\" \"string filename\" \"x.exr\"\n",
          "t.pbrt:2:32: cannot open image \"x.exr\": No such file or directory"},
         {"WorldBegin\nTexture \"t\" \"float\" \"imagemap\" \"string filename\" \"x.png\"\n",
          "t.pbrt:2:32: cannot open image \"x.png\": No such file or directory"},
-        {"WorldBegin\nTexture \"t\" \"float\" \"checkerboard\" \"integer dimension\" 3\n",
-         "t.pbrt:2:36: unsupported checkerboard dimension 3 (only 2)"},
+        {"WorldBegin\nTexture \"t\" \"float\" \"checkerboard\" \"integer dimension\" 4\n",
+         "t.pbrt:2:36: checkerboard \"integer dimension\" must be 2 or 3, got 4"},
         {"WorldBegin\nTexture \"t\" \"float\" \"constant\" \"string mapping\" \"spherical\"\n",
          "t.pbrt:2:32: unsupported texture mapping \"spherical\" (only \"uv\")"},
         {"WorldBegin\n\"float radius\" 1\n", "t.pbrt:2:1: expected a directive, got \"float "
