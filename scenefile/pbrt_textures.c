@@ -3,6 +3,7 @@
 #include "pbrt_textures.h"
 
 #include "pbrt_inputs.h"
+#include "pbrt_upgrade.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -34,6 +35,10 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
         tt = SCENE_TEXTURE_FLOAT;
     else if (!strcmp(type->s, "spectrum"))
         tt = SCENE_TEXTURE_SPECTRUM;
+    else if (!strcmp(type->s, "color"))
+        return pbrt_error(P->err, type->loc,
+                          "texture type \"color\" is pbrt-v3's (\"spectrum\"): %s",
+                          PBRT_UPGRADE_HINT);
     else
         return pbrt_error(P->err, type->loc,
                           "texture type must be \"float\" or \"spectrum\", "

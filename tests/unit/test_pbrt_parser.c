@@ -1034,9 +1034,11 @@ static void test_error_messages(void **state)
          "t.pbrt:2:21: expected 3 numbers after \"point3 from\", got 2"},
         {"Frobnicate\n", "t.pbrt:1:1: unknown directive Frobnicate"},
         {"PixelFilter \"lanczos\"\nWorldBegin\n",
-         "t.pbrt:1:13: unsupported filter \"lanczos\" (\"box\", \"gaussian\", \"mitchell\", \"sinc\" or \"triangle\")"},
+         "t.pbrt:1:13: unsupported filter \"lanczos\" (\"box\", \"gaussian\", \"mitchell\", "
+         "\"sinc\" or \"triangle\")"},
         {"PixelFilter \"box\" \"float radius\" 1\nWorldBegin\n",
-         "t.pbrt:1:19: unsupported parameter \"float radius\" for PixelFilter \"box\" (did you mean \"xradius\"?)"},
+         "t.pbrt:1:19: unsupported parameter \"float radius\" for PixelFilter \"box\" (did you "
+         "mean \"xradius\"?)"},
         {"PixelFilter \"gaussian\" \"float sigma\" 0\nWorldBegin\n",
          "t.pbrt:1:24: \"float sigma\" must be greater than 0, got 0"},
         {"WorldBegin\nShape \"disk\"   \"float zmin\" -1\n",
@@ -1114,11 +1116,13 @@ static void test_error_messages(void **state)
         {"Shape \"sphere\"\n", "t.pbrt:1:1: Shape is only allowed after WorldBegin"},
         {"WorldBegin\nCamera \"perspective\"\n",
          "t.pbrt:2:1: Camera must come before WorldBegin (line 1)"},
-        {"Camera \"realistic\"\nWorldBegin\n", "t.pbrt:1:1: Camera \"realistic\" needs \"string lensfile\""},
+        {"Camera \"realistic\"\nWorldBegin\n",
+         "t.pbrt:1:1: Camera \"realistic\" needs \"string lensfile\""},
         {"Camera \"realistic\" \"string lensfile\" \"no-such.dat\"\nWorldBegin\n",
          "t.pbrt:1:20: cannot open lens file \"no-such.dat\": No such file or directory"},
         {"Camera \"thinlens\"\nWorldBegin\n",
-         "t.pbrt:1:8: unsupported camera \"thinlens\" (\"perspective\", \"orthographic\", \"spherical\" or "
+         "t.pbrt:1:8: unsupported camera \"thinlens\" (\"perspective\", \"orthographic\", "
+         "\"spherical\" or "
          "\"realistic\")"},
         {"Camera \"perspective\"\n", "t.pbrt: the scene has no WorldBegin"},
         {"WorldBegin\nWorldBegin\n", "t.pbrt:2:1: WorldBegin appears twice (first at line 1)"},
@@ -1221,13 +1225,15 @@ static void test_error_messages(void **state)
          "\"infinite\", \"goniometric\" or \"projection\")"},
         {"WorldBegin\nAreaLightSource \"diffuse\" \"rgb L\" [1 1 1] \"string filename\" "
          "\"data/scene_checker2x2.png\"\n",
-         "t.pbrt:2:27: AreaLightSource \"diffuse\": cannot have both \"L\" and \"filename\" (pbrt-v4 "
+         "t.pbrt:2:27: AreaLightSource \"diffuse\": cannot have both \"L\" and \"filename\" "
+         "(pbrt-v4 "
          "refuses it too)"},
         {"WorldBegin\nLightSource \"goniometric\"\n",
          "t.pbrt:2:1: LightSource \"goniometric\" needs \"string filename\" (its image)"},
         {"WorldBegin\nLightSource \"projection\" \"float fov\" 180\n",
          "t.pbrt:2:26: \"float fov\" must be strictly between 0 and 180 degrees, got 180"},
-        {"WorldBegin\nLightSource \"projection\" \"rgb I\" [1 1 1] \"string filename\" \"data/scene_checker2x2.png\"\n",
+        {"WorldBegin\nLightSource \"projection\" \"rgb I\" [1 1 1] \"string filename\" "
+         "\"data/scene_checker2x2.png\"\n",
          "t.pbrt:2:26: unsupported parameter \"rgb I\" for LightSource \"projection\""},
         {"WorldBegin\nLightSource \"point\" \"string I\" \"x\"\n",
          "t.pbrt:2:21: \"string I\" has the wrong type for LightSource \"point\": expected "
@@ -1245,10 +1251,20 @@ static void test_error_messages(void **state)
          "t.pbrt:2:7: unsupported shape \"hyperboloid\" (\"sphere\", \"disk\", \"cylinder\", "
          "\"trianglemesh\", \"plymesh\", \"bilinearmesh\" or \"loopsubdiv\")"},
         {"WorldBegin\nTexture \"t\" \"color\" \"constant\"\n",
-         "t.pbrt:2:13: texture type must be \"float\" or \"spectrum\", got \"color\""},
+         "t.pbrt:2:13: texture type \"color\" is pbrt-v3's (\"spectrum\"): a pbrt-v3 file: "
+         "`prismfarm upgrade FILE -o NEW.pbrt` rewrites it for pbrt-v4, as `pbrt --upgrade` does"},
+        {"WorldBegin\nTexture \"t\" \"colour\" \"constant\"\n",
+         "t.pbrt:2:13: texture type must be \"float\" or \"spectrum\", got \"colour\""},
+        {"WorldBegin\nMaterial \"uber\"\n",
+         "t.pbrt:2:10: pbrt-v3's material \"uber\" (pbrt-v4's \"coateddiffuse\"): a pbrt-v3 file: "
+         "`prismfarm upgrade FILE -o NEW.pbrt` rewrites it for pbrt-v4, as `pbrt --upgrade` does"},
+        {"WorldBegin\nWorldEnd\n",
+         "t.pbrt:2:1: unsupported directive WorldEnd (a pbrt-v3 file: `prismfarm upgrade FILE -o "
+         "NEW.pbrt` rewrites it for pbrt-v4, as `pbrt --upgrade` does)"},
         {"WorldBegin\nTexture \"t\" \"float\" \"perlin\"\n",
          "t.pbrt:2:21: unsupported texture \"perlin\" (\"constant\", \"checkerboard\", "
-         "\"imagemap\", \"scale\", \"mix\", \"bilerp\", \"dots\", \"fbm\", \"wrinkled\", \"windy\", "
+         "\"imagemap\", \"scale\", \"mix\", \"bilerp\", \"dots\", \"fbm\", \"wrinkled\", "
+         "\"windy\", "
          "\"marble\" or \"directionmix\")"},
         {"WorldBegin\nTexture \"t\" \"spectrum\" \"fbm\"\n",
          "t.pbrt:2:24: Texture \"t\": \"fbm\" is a float texture in pbrt-v4"},
