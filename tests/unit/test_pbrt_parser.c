@@ -313,7 +313,8 @@ static void test_more_materials(void **state)
 }
 
 /* What pbrt-v4 has and prismfarm does not simulate is accepted with a warning naming the
- * place: the media prismfarm does not simulate ("cloud", "rgbgrid", "nanovdb": vacuum), motion blur (the
+ * place: the media prismfarm does not simulate ("cloud", "rgbgrid", "nanovdb": vacuum; a nanovdb
+ * medium's file must exist all the same), motion blur (the
  * scene renders as at the shutter's opening: EndTime-only transforms leave the CTM alone, and
  * AttributeEnd restores the active transform as pbrt-v4's graphics state does), TransformTimes;
  * ColorSpace "srgb" and Accelerator are accepted silently. */
@@ -344,7 +345,7 @@ static void test_accepted_not_simulated(void **state)
     assert_string_equal(warnings_at(d->warnings, 0), "t.pbrt:3:1: TransformTimes 0 1 is ignored (no motion blur)");
     assert_string_equal(warnings_at(d->warnings, 1),
                         "t.pbrt:5:1: \"cloud\" media are not simulated: medium \"fog\" renders "
-                        "as vacuum");
+                        "as vacuum (empty space), so the image lacks it");
     assert_string_equal(warnings_at(d->warnings, 2),
                         "t.pbrt:9:3: motion blur is not simulated: the scene renders as at the "
                         "shutter's opening (the transforms for its end are ignored)");
@@ -355,6 +356,13 @@ static void test_accepted_not_simulated(void **state)
     scene_desc_destroy(&d);
     expect_error("WorldBegin\nMediumInterface \"smoke\"\n",
                  "t.pbrt:2:17: medium \"smoke\" is not defined (MakeNamedMedium must come before its use)");
+    /* A nanovdb medium is vacuum too, but its file must be there (check lists missing assets). */
+    expect_error("WorldBegin\nMakeNamedMedium \"c\" \"string type\" \"nanovdb\" \"string filename\" "
+                 "\"data/scenes/missing.nvdb\"\n",
+                 "t.pbrt:2:45: cannot open the nanovdb medium's file \"data/scenes/missing.nvdb\": No "
+                 "such file or directory");
+    expect_error("WorldBegin\nMakeNamedMedium \"c\" \"string type\" \"nanovdb\"\n",
+                 "t.pbrt:2:1: MakeNamedMedium \"nanovdb\" needs \"string filename\"");
     expect_error("WorldBegin\nMakeNamedMedium \"a\" \"rgb sigma_a\" [1 1 1]\n",
                  "t.pbrt:2:1: MakeNamedMedium \"a\" needs \"string type\"");
     expect_error("ActiveTransform Sometimes\n",
