@@ -604,6 +604,20 @@ static int load_textures_in_order(loader_t *L, image_job_t *jobs, err_t *err)
             }
             break;
         }
+        /* pbrt-v4's other 2D mappings wrap the texture made with the identity uv mapping. */
+        const bool planar2d = t->cls == SCENE_TEX_IMAGEMAP || t->cls == SCENE_TEX_BILERP ||
+                              t->cls == SCENE_TEX_DOTS ||
+                              (t->cls == SCENE_TEX_CHECKERBOARD && t->dimension == 2);
+        if (made && planar2d && t->map.kind != 0) {
+            if (scene_own_texture(L->sc, made, err))
+                return -1;
+            const texture_mapping_t kinds[] = {TEXTURE_MAP_SPHERICAL, TEXTURE_MAP_SPHERICAL,
+                                               TEXTURE_MAP_CYLINDRICAL, TEXTURE_MAP_PLANAR};
+            made = texture_new_mapped(made, kinds[t->map.kind], transform_inverse(t->to_world),
+                                      vec3_make(t->map.v1[0], t->map.v1[1], t->map.v1[2]),
+                                      vec3_make(t->map.v2[0], t->map.v2[1], t->map.v2[2]), t->map.ds,
+                                      t->map.dt, err);
+        }
         if (!made || scene_own_texture(L->sc, made, err)) {
             if (made)
                 return -1;

@@ -23,6 +23,7 @@ typedef enum {
     TEX_WINDY,
     TEX_MARBLE,
     TEX_DIRECTIONMIX,
+    TEX_MAPPED,
 } tex_kind_t;
 
 /* One level of an image texture: per texel rgb_uplift's four coefficients (coef), or one
@@ -47,7 +48,8 @@ struct texture {
     int octaves;
     double omega, scale, variation;
     rgb_uplift_t *uplift;
-    vec3_t dir;
+    vec3_t dir, vt;
+    texture_mapping_t mapping;
     texture_wrap_t wrap;
     texture_filter_t filter;
     int nlevels;
@@ -267,6 +269,26 @@ texture_t *texture_new_directionmix(const texture_t *tex1, const texture_t *tex2
         t->a = tex1;
         t->b = tex2;
         t->dir = vec3_scale(dir, 1.0 / len);
+    }
+    return t;
+}
+
+texture_t *texture_new_mapped(const texture_t *inner, texture_mapping_t mapping,
+                              transform_t to_texture, vec3_t vs, vec3_t vt, double ds, double dt,
+                              err_t *err)
+{
+    if (!inner || !isfinite(vs.x + vs.y + vs.z + vt.x + vt.y + vt.z + ds + dt)) {
+        err_set(err, "a mapped texture needs a texture and finite mapping vectors");
+        return NULL;
+    }
+    texture_t *t = alloc_3d(TEX_MAPPED, to_texture, err);
+    if (t) {
+        t->a = inner;
+        t->mapping = mapping;
+        t->dir = vs;
+        t->vt = vt;
+        t->udelta = ds;
+        t->vdelta = dt;
     }
     return t;
 }
@@ -663,6 +685,27 @@ static double eval(const texture_t *t, const texture_point_t *at, double width, 
         if (!isfinite(m) || rgb_uplift_coef(t->uplift, rgb, c, NULL))
             return 0.0;
         return rgb_uplift_eval(c, lambda);
+    }
+    case TEX_MAPPED: {
+        const double pi = 3.14159265358979323846;
+        vec3_t q = transform_point(&t->to_texture, at->p);
+        texture_point_t st = *at;
+        if (t->mapping == TEXTURE_MAP_SPHERICAL) {
+            double r = vec3_length(q);
+            double z = r > 0.0 ? fmin(fmax(q.z / r, -1.0), 1.0) : 1.0;
+            double phi = atan2(q.y, q.x);
+            st.u = acos(z) / pi;
+            st.v = (phi < 0.0 ? phi + 2.0 * pi : phi) / (2.0 * pi);
+        } else if (t->mapping == TEXTURE_MAP_CYLINDRICAL) {
+            st.u = (pi + atan2(q.y, q.x)) / (2.0 * pi);
+            st.v = q.z;
+        } else {
+            st.u = t->udelta + vec3_dot(q, t->dir);
+            st.v = t->vdelta + vec3_dot(q, t->vt);
+        }
+        if (!isfinite(st.u) || !isfinite(st.v))
+            st.u = st.v = 0.0;
+        return eval(t->a, &st, width, lambda);
     }
     case TEX_DIRECTIONMIX: {
         double a = fmin(fabs(vec3_dot(at->n, t->dir)), 1.0);

@@ -105,6 +105,20 @@ texture_t *texture_new_marble(transform_t to_texture, int octaves, double roughn
 texture_t *texture_new_directionmix(const texture_t *tex1, const texture_t *tex2, vec3_t dir,
                                     err_t *err);
 
+/* pbrt-v4's 2D mappings other than "uv" (SphericalMapping, CylindricalMapping, PlanarMapping),
+ * from the hit point q in texture space (to_texture): spherical (s, t) = (theta / pi,
+ * phi / 2 pi) of q's direction from the origin (theta from +z, phi from +x in [0, 2 pi));
+ * cylindrical ((pi + atan2(q.y, q.x)) / 2 pi, q.z); planar (ds + q . vs, dt + q . vt). The
+ * inner texture (a 2D one, made with the identity uv mapping) is looked up at u = s, v = t. */
+typedef enum texture_mapping {
+    TEXTURE_MAP_SPHERICAL,
+    TEXTURE_MAP_CYLINDRICAL,
+    TEXTURE_MAP_PLANAR,
+} texture_mapping_t;
+texture_t *texture_new_mapped(const texture_t *inner, texture_mapping_t mapping,
+                              transform_t to_texture, vec3_t vs, vec3_t vt, double ds, double dt,
+                              err_t *err);
+
 void texture_destroy(texture_t **self_p);
 
 /* Where a texture is looked up: the surface's (u, v), and for the 3D and direction textures

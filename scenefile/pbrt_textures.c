@@ -109,14 +109,39 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
     const char *mapping;
     if (params_get_string(ps, "mapping", "uv", &mapping, P->err) != 0)
         return -1;
-    if (strcmp(mapping, "uv") != 0)
-        return pbrt_error(P->err, params_find(ps, "mapping")->loc,
-                          "unsupported texture mapping \"%s\" (only \"uv\")", mapping);
-    if (params_get_float(ps, "uscale", 1.0, &t->uscale, P->err) != 0 ||
-        params_get_float(ps, "vscale", 1.0, &t->vscale, P->err) != 0 ||
-        params_get_float(ps, "udelta", 0.0, &t->udelta, P->err) != 0 ||
-        params_get_float(ps, "vdelta", 0.0, &t->vdelta, P->err) != 0)
+    static const pbrt_name_t MAPPINGS[] = {
+        {"uv", 0}, {"spherical", 1}, {"cylindrical", 2}, {"planar", 3}};
+    if (pbrt_state_lookup(P, "unsupported texture mapping", mapping,
+                          params_find(ps, "mapping") ? params_find(ps, "mapping")->loc : loc,
+                          MAPPINGS, COUNT_OF(MAPPINGS), &t->map.kind) != 0)
         return -1;
+    t->uscale = t->vscale = 1.0;
+    t->udelta = t->vdelta = 0.0;
+    if (t->map.kind == 0) {
+        if (params_get_float(ps, "uscale", 1.0, &t->uscale, P->err) != 0 ||
+            params_get_float(ps, "vscale", 1.0, &t->vscale, P->err) != 0 ||
+            params_get_float(ps, "udelta", 0.0, &t->udelta, P->err) != 0 ||
+            params_get_float(ps, "vdelta", 0.0, &t->vdelta, P->err) != 0)
+            return -1;
+    } else if (t->map.kind == 3) {
+        /* pbrt-v4's planar mapping: "vector3 v1" (1 0 0), "v2" (0 1 0), udelta, vdelta. */
+        const char *vn[2] = {"v1", "v2"};
+        double *vv[2] = {t->map.v1, t->map.v2};
+        for (int k = 0; k < 2; k++) {
+            param_t *vp;
+            if (params_get_array(ps, vn[k], PARAM_VECTOR3, &vp, P->err) != 0)
+                return -1;
+            vv[k][0] = k == 0, vv[k][1] = k == 1, vv[k][2] = 0.0;
+            if (vp && vp->count != 3)
+                return pbrt_error(P->err, vp->loc, "expected 3 numbers after \"vector3 %s\"",
+                                  vn[k]);
+            for (int i = 0; vp && i < 3; i++)
+                vv[k][i] = vp->numbers[i];
+        }
+        if (params_get_float(ps, "udelta", 0.0, &t->map.ds, P->err) != 0 ||
+            params_get_float(ps, "vdelta", 0.0, &t->map.dt, P->err) != 0)
+            return -1;
+    }
 
     if (ptex) {
         t->float_in1.value = 0.5;

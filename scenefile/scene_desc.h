@@ -106,8 +106,14 @@ typedef struct scene_texture {
     scene_texture_class_t cls;
     pbrt_loc_t loc;
     transform_t to_world; /* the CTM at the Texture directive */
-    /* "uv" mapping (the only one supported): (u, v) -> (su * u + du, sv * v + dv). */
+    /* "uv" mapping: (u, v) -> (su * u + du, sv * v + dv). The other 2D mappings (mapping 1
+     * spherical, 2 cylindrical, 3 planar: v1, v2 and udelta, vdelta) leave su = sv = 1 and
+     * du = dv = 0 to the texture and keep their own parameters in map. */
     double uscale, vscale, udelta, vdelta;
+    struct {
+        int kind; /* 0: uv */
+        double v1[3], v2[3], ds, dt;
+    } map;
     /* Inputs: float_in* when type is FLOAT, spec_in* when type is SPECTRUM. */
     scene_float_input_t float_in1, float_in2;
     scene_spectrum_input_t spec_in1, spec_in2;

@@ -1286,8 +1286,9 @@ static void test_error_messages(void **state)
          "t.pbrt:2:32: cannot open image \"x.png\": No such file or directory"},
         {"WorldBegin\nTexture \"t\" \"float\" \"checkerboard\" \"integer dimension\" 4\n",
          "t.pbrt:2:36: checkerboard \"integer dimension\" must be 2 or 3, got 4"},
-        {"WorldBegin\nTexture \"t\" \"float\" \"constant\" \"string mapping\" \"spherical\"\n",
-         "t.pbrt:2:32: unsupported texture mapping \"spherical\" (only \"uv\")"},
+        {"WorldBegin\nTexture \"t\" \"float\" \"constant\" \"string mapping\" \"sphere\"\n",
+         "t.pbrt:2:32: unsupported texture mapping \"sphere\" (\"uv\", "
+         "\"spherical\", \"cylindrical\" or \"planar\")"},
         {"WorldBegin\n\"float radius\" 1\n", "t.pbrt:2:1: expected a directive, got \"float "
                                              "radius\""},
         {"WorldBegin\nShape \"sphere\" \"float radius\" [[1]]\n",

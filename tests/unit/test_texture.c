@@ -224,6 +224,68 @@ static void test_checkerboard_cells(void **state)
     assert_null(c);
 }
 
+static void test_mappings(void **state)
+{
+    (void)state;
+    err_t err;
+    texture_t *z = constant(0.0), *o = constant(1.0);
+    const texture_uv_map_t id = {1, 1, 0, 0};
+    /* bilerp(v00, v01, v10, v11): s alone with v10 = v11 = 1, t alone with v01 = v11 = 1. */
+    texture_t *ss = texture_new_bilerp(z, z, o, o, id, &err),
+              *tt = texture_new_bilerp(z, o, z, o, id, &err);
+    assert_non_null(ss);
+    assert_non_null(tt);
+    const vec3_t c = vec3_make(1, 2, 3), zero = vec3_make(0, 0, 0);
+    const transform_t to_tex = transform_inverse(transform_translate(c));
+    texture_t *sph[2], *cyl[2], *pla[2];
+    texture_t *in[2] = {ss, tt};
+    for (int k = 0; k < 2; k++) {
+        sph[k] = texture_new_mapped(in[k], TEXTURE_MAP_SPHERICAL, to_tex, zero, zero, 0, 0, &err);
+        cyl[k] = texture_new_mapped(in[k], TEXTURE_MAP_CYLINDRICAL, to_tex, zero, zero, 0, 0, &err);
+        pla[k] = texture_new_mapped(in[k], TEXTURE_MAP_PLANAR, to_tex, vec3_make(1, 0, 0),
+                                    vec3_make(0, 0, 1), 0.5, -1, &err);
+        assert_non_null(sph[k]);
+        assert_non_null(cyl[k]);
+        assert_non_null(pla[k]);
+    }
+    const vec3_t n = vec3_make(0, 0, 1);
+    const double e = 1e-12;
+    const struct {
+        vec3_t q; /* texture space */
+        double s, t;
+    } S[] = {{{0, 0, 2}, 0.0, 0.0},
+             {{1, 0, 0}, 0.5, 0.0},
+             {{0, 1, 0}, 0.5, 0.25},
+             {{0, -3, 0}, 0.5, 0.75},
+             {{0, 0, -1}, 1.0, 0.0}},
+      C[] = {{{1, 0, 5}, 0.5, 5.0}, {{0, 1, -2}, 0.75, -2.0}, {{0, -1, 0}, 0.25, 0.0}},
+      P[] = {{{2, 3, 4}, 2.5, 3.0}, {{-1, 7, 0}, -0.5, -1.0}};
+    for (size_t i = 0; i < sizeof S / sizeof S[0]; i++) {
+        vec3_t p = vec3_add(S[i].q, c);
+        assert_true(fabs(at_point(sph[0], p, n, 550) - S[i].s) < e);
+        assert_true(fabs(at_point(sph[1], p, n, 550) - S[i].t) < e);
+    }
+    for (size_t i = 0; i < sizeof C / sizeof C[0]; i++) {
+        vec3_t p = vec3_add(C[i].q, c);
+        assert_true(fabs(at_point(cyl[0], p, n, 550) - C[i].s) < e);
+        assert_true(fabs(at_point(cyl[1], p, n, 550) - C[i].t) < e);
+    }
+    for (size_t i = 0; i < sizeof P / sizeof P[0]; i++) {
+        vec3_t p = vec3_add(P[i].q, c);
+        assert_true(fabs(at_point(pla[0], p, n, 550) - P[i].s) < e);
+        assert_true(fabs(at_point(pla[1], p, n, 550) - P[i].t) < e);
+    }
+    for (int k = 0; k < 2; k++) {
+        texture_destroy(&sph[k]);
+        texture_destroy(&cyl[k]);
+        texture_destroy(&pla[k]);
+    }
+    texture_destroy(&ss);
+    texture_destroy(&tt);
+    texture_destroy(&z);
+    texture_destroy(&o);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -234,6 +296,7 @@ int main(void)
         cmocka_unit_test(test_noise_textures),
         cmocka_unit_test(test_marble),
         cmocka_unit_test(test_directionmix),
+        cmocka_unit_test(test_mappings),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
