@@ -614,6 +614,8 @@ static bool upgrade_stmt(up_t *u, stmt_t *s)
         bool changed = upgrade_material(u, s, &type, s->loc);
         if (t)
             t->v[0] = type;
+        else if (changed)
+            add_param(u, s, "string", "type", true, type);
         return changed;
     } else if (!strcmp(d, "Texture")) {
         return upgrade_texture(u, s);
