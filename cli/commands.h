@@ -7,6 +7,7 @@
 int cmd_glass(int argc, char **argv);
 int cmd_plan(int argc, char **argv);
 int cmd_check(int argc, char **argv);
+int cmd_upgrade(int argc, char **argv);
 int cmd_render(int argc, char **argv);
 int cmd_worker(int argc, char **argv);
 int cmd_master(int argc, char **argv);

@@ -14,7 +14,8 @@ typedef struct command {
 
 static const command_t COMMANDS[] = {
     {"render", cmd_render, "render a scene on this machine (a master and workers in-process)"},
-    {"master", cmd_master, "run the farm's master: take jobs, hand tiles to workers, write outputs"},
+    {"master", cmd_master,
+     "run the farm's master: take jobs, hand tiles to workers, write outputs"},
     {"worker", cmd_worker, "render tasks for a master (a farm worker)"},
     {"submit", cmd_submit, "submit a scene to a master (--wait: follow it and fetch the result)"},
     {"status", cmd_status, "show one job or all jobs of a master"},
@@ -33,6 +34,7 @@ static const command_t COMMANDS[] = {
     {"glass", cmd_glass, "list the glass catalogue and print refractive indices"},
     {"plan", cmd_plan, "print the effects a scene calls for (dispersion, photons) and why"},
     {"check", cmd_check, "list every refusal and warning of a scene (pbrt-v4 porting)"},
+    {"upgrade", cmd_upgrade, "rewrite a pbrt-v3 scene file for pbrt-v4 (as pbrt --upgrade)"},
     {"keygen", cmd_keygen, "write a CURVE key pair (NAME.key, NAME.pub) for the farm's encryption"},
 };
 

@@ -415,7 +415,7 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
              * q = the largest lane albedo, each lane weighted by rho_j / q. */
             double rho[MAX_LANES], q = 0.0;
             for (int j = 0; j < f->nl; j++) {
-                rho[j] = m->reflectance ? texture_eval(m->reflectance, sf.u, sf.v, f->lambda[j]) : 0.5;
+                rho[j] = m->reflectance ? shading_texture(m->reflectance, &sf, f->lambda[j]) : 0.5;
                 q = fmax(q, rho[j]);
             }
             q = fmin(1.0, q);

@@ -7,6 +7,7 @@
 #include "fanout.h"
 #include "lights.h"
 #include "phase_hg.h"
+#include "regularize.h"
 #include "rng.h"
 #include "sample.h"
 #include "sampler.h"
@@ -966,10 +967,13 @@ static int scatter_crystal(ctx_t *c, path_t *p, const surface_t *h, const materi
  * instead of ending. With "spectralmis" false,
  * a surface whose lobes differ ends the secondary lanes as pbrt-v4 does (the hero, lane 0,
  * carries n times its weight). Lanes whose lobes agree give the same numbers either way. */
-static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material_t *m)
+static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material_t *m,
+                        int regularized)
 {
     bsdf_t b;
     shading_bsdf(m, sf, p->lambda, p->n, BSDF_RADIANCE, &b);
+    if (regularized)
+        regularize_bsdf(&b);
     const vec3_t wo_world = vec3_neg(p->dir);
     const shading_frame_t fr = shading_frame_make(sf, wo_world);
     const vec3_t wo = shading_to_local(&fr, wo_world);
@@ -1208,6 +1212,9 @@ static void trace(ctx_t *c, path_t *start)
             if (p->depth >= maxdepth)
                 break;
             vec3_t wo = vec3_neg(p->dir);
+            /* pbrt-v4's anyNonSpecularBounces; a smooth surface becomes a rough bsdf/ lobe
+             * (a thin-film coat, which bsdf/ does not model, stays smooth). */
+            const int regularized = c->rs->regularize && !c->photons && p->diffuse_bounces > 0;
             if (m->kind == MATERIAL_DIFFUSE) {
                 /* Lambertian with the shading normal n: cosine sampling around it and the
                  * cosine in light sampling. A direction below the geometric surface g (both
@@ -1218,7 +1225,7 @@ static void trace(ctx_t *c, path_t *start)
                 vec3_t n = vec3_dot(sf.ns, g) >= 0.0 ? sf.ns : vec3_neg(sf.ns);
                 double albedo[LANES];
                 for (int j = 0; j < p->n; j++)
-                    albedo[j] = m->reflectance ? texture_eval(m->reflectance, sf.u, sf.v, p->lambda[j]) : 0.5;
+                    albedo[j] = m->reflectance ? shading_texture(m->reflectance, &sf, p->lambda[j]) : 0.5;
                 if (c->rs->integrator != INTEGRATOR_SIMPLEPATH)
                     direct_light(c, p, &sf, n, g, albedo);
                 if (c->photons && p->diffuse_bounces == 0)
@@ -1238,8 +1245,8 @@ static void trace(ctx_t *c, path_t *start)
                 p->prev_n = n;
                 p->diffuse_bounces++;
                 p->specular_since_diffuse = 0;
-            } else if (!shading_is_delta(m, &sf)) {
-                if (scatter_bsdf(c, p, &sf, m))
+            } else if (!shading_is_delta(m, &sf) || (regularized && m->film_thickness <= 0.0)) {
+                if (scatter_bsdf(c, p, &sf, m, regularized))
                     break;
             } else if (m->kind == MATERIAL_CONDUCTOR) {
                 const delta_conductor_t e =

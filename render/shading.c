@@ -12,11 +12,17 @@
  * defined before it), so this only bounds a pathological chain. */
 #define MIX_DEPTH_MAX 32
 
+double shading_texture(const texture_t *t, const surface_t *sf, double lambda)
+{
+    const texture_point_t at = {sf->u, sf->v, sf->p, sf->ng};
+    return texture_eval_at(t, &at, lambda);
+}
+
 const material_t *shading_resolve(const scene_t *scene, const material_t *m, const surface_t *sf,
                                   double u)
 {
     for (int d = 0; m->kind == MATERIAL_MIX && d < MIX_DEPTH_MAX; d++) {
-        double a = m->amount ? texture_eval(m->amount, sf->u, sf->v, 550.0) : 0.5;
+        double a = m->amount ? shading_texture(m->amount, sf, 550.0) : 0.5;
         int second = a >= 1.0 || (a > 0.0 && u < a);
         /* Rescale u so that a nested mix gets a fresh uniform (stratification survives). */
         if (a > 0.0 && a < 1.0)
@@ -28,7 +34,7 @@ const material_t *shading_resolve(const scene_t *scene, const material_t *m, con
 
 static double roughness_at(const texture_t *t, const surface_t *sf)
 {
-    return t ? texture_eval(t, sf->u, sf->v, 550.0) : 0.0;
+    return t ? shading_texture(t, sf, 550.0) : 0.0;
 }
 
 static microfacet_t distribution(const texture_t *u, const texture_t *v, int remap,
@@ -64,21 +70,21 @@ void shading_conductor_index(const material_t *m, const surface_t *sf, double la
         *k = 1.0;
         return;
     }
-    double r = fmin(fmax(texture_eval(m->reflectance, sf->u, sf->v, lambda), 0.0), 0.9999);
+    double r = fmin(fmax(shading_texture(m->reflectance, sf, lambda), 0.0), 0.9999);
     *eta = 1.0;
     *k = 2.0 * sqrt(r) / sqrt(1.0 - r);
 }
 
 static void layer(const material_t *m, const surface_t *sf, const double *lambda, int n, bsdf_t *b)
 {
-    double th = m->thickness ? texture_eval(m->thickness, sf->u, sf->v, 550.0) : 0.01;
+    double th = m->thickness ? shading_texture(m->thickness, sf, 550.0) : 0.01;
     b->thickness = fmax(th, 1e-7); /* pbrt-v4: max(thickness, epsilon) */
-    double g = m->g ? texture_eval(m->g, sf->u, sf->v, 550.0) : 0.0;
+    double g = m->g ? shading_texture(m->g, sf, 550.0) : 0.0;
     b->g = fmin(fmax(g, -0.999), 0.999);
     b->maxdepth = m->maxdepth > 0 ? m->maxdepth : 10;
     b->nsamples = m->nsamples > 0 ? m->nsamples : 1;
     for (int j = 0; j < n; j++)
-        b->albedo[j] = m->albedo ? clamp01(texture_eval(m->albedo, sf->u, sf->v, lambda[j])) : 0.0;
+        b->albedo[j] = m->albedo ? clamp01(shading_texture(m->albedo, sf, lambda[j])) : 0.0;
 }
 
 /* pbrt-v4 replaces a zero index by 1 (a coating of eta 0 is no coating). */
@@ -110,9 +116,9 @@ void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda
     case MATERIAL_DIFFUSE_TRANSMISSION:
         b->kind = BSDF_DIFFUSE_TRANSMISSION;
         for (int j = 0; j < n; j++) {
-            b->reflectance[j] = clamp01(m->scale * texture_eval(m->reflectance, sf->u, sf->v, lambda[j]));
+            b->reflectance[j] = clamp01(m->scale * shading_texture(m->reflectance, sf, lambda[j]));
             b->transmittance[j] =
-                clamp01(m->scale * texture_eval(m->transmittance, sf->u, sf->v, lambda[j]));
+                clamp01(m->scale * shading_texture(m->transmittance, sf, lambda[j]));
         }
         return;
     case MATERIAL_COATED_DIFFUSE:
@@ -120,7 +126,7 @@ void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda
         layer(m, sf, lambda, n, b);
         for (int j = 0; j < n; j++) {
             b->eta[j] = coat_eta(m, lambda[j]);
-            b->reflectance[j] = clamp01(texture_eval(m->reflectance, sf->u, sf->v, lambda[j]));
+            b->reflectance[j] = clamp01(shading_texture(m->reflectance, sf, lambda[j]));
         }
         return;
     case MATERIAL_COATED_CONDUCTOR:
@@ -138,7 +144,8 @@ void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda
     default:
         b->kind = BSDF_DIFFUSE;
         for (int j = 0; j < n; j++)
-            b->reflectance[j] = m->reflectance ? clamp01(texture_eval(m->reflectance, sf->u, sf->v, lambda[j])) : 0.5;
+            b->reflectance[j] =
+                m->reflectance ? clamp01(shading_texture(m->reflectance, sf, lambda[j])) : 0.5;
         return;
     }
 }
@@ -213,9 +220,17 @@ void shading_perturb(const material_t *m, surface_t *sf)
         dpdu = vec3_scale(vec3_normalize(gram_schmidt(ss, ns)), ulen);
         dpdv = vec3_scale(vec3_normalize(vec3_cross(ns, dpdu)), vlen);
     } else {
-        double d = texture_eval(m->displacement, sf->u, sf->v, 550.0);
-        double du = texture_eval(m->displacement, sf->u + BUMP_DELTA, sf->v, 550.0);
-        double dv = texture_eval(m->displacement, sf->u, sf->v + BUMP_DELTA, 550.0);
+        /* pbrt-v4 BumpMap: the shifted lookups move p along the shading dp/du, dp/dv too, so
+         * a 3D displacement (fbm, wrinkled) bumps as a 2D one does. */
+        texture_point_t at = {sf->u, sf->v, sf->p, sf->ng};
+        double d = texture_eval_at(m->displacement, &at, 550.0);
+        at.u = sf->u + BUMP_DELTA;
+        at.p = vec3_add(sf->p, vec3_scale(ss, BUMP_DELTA));
+        double du = texture_eval_at(m->displacement, &at, 550.0);
+        at.u = sf->u;
+        at.v = sf->v + BUMP_DELTA;
+        at.p = vec3_add(sf->p, vec3_scale(ts, BUMP_DELTA));
+        double dv = texture_eval_at(m->displacement, &at, 550.0);
         dpdu = vec3_add(ss, vec3_scale(n, (du - d) / BUMP_DELTA));
         dpdv = vec3_add(ts, vec3_scale(n, (dv - d) / BUMP_DELTA));
         ns = vec3_normalize(vec3_cross(dpdu, dpdv));
@@ -253,7 +268,7 @@ int shading_alpha_pass(const surface_t *sf, vec3_t org, vec3_t dir)
     const texture_t *t = sf->shape->alpha;
     if (!t)
         return 0;
-    double a = texture_eval(t, sf->u, sf->v, 550.0);
+    double a = shading_texture(t, sf, 550.0);
     if (a >= 1.0)
         return 0;
     if (!(a > 0.0))

@@ -16,6 +16,10 @@
 const material_t *shading_resolve(const scene_t *scene, const material_t *m, const surface_t *sf,
                                   double u);
 
+/* Texture t at the surface point sf (its uv, and its point and normal for pbrt-v4's 3D and
+ * direction textures: texture_eval_at). */
+double shading_texture(const texture_t *t, const surface_t *sf, double lambda);
+
 /* A smooth conductor or dielectric at sf (its roughness, textured or not, is below pbrt-v4's
  * EffectivelySmooth there): the delta code applies. */
 int shading_is_delta(const material_t *m, const surface_t *sf);

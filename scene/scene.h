@@ -306,6 +306,10 @@ typedef struct render_settings {
     /* How next-event estimation picks a light (LIGHT_SAMPLER_BVH, the zero value, by default);
      * the photon pass always emits by power. */
     light_sampler_kind_t light_sampler;
+    /* pbrt-v4's "bool regularize" (path, volpath, bdpt): after a path's first non-specular
+     * bounce its near-specular lobes are roughened (bsdf/regularize.h). The camera pass only,
+     * and not with a photon store, whose caustics it would count twice. */
+    int regularize;
 } render_settings_t;
 
 typedef struct scene {

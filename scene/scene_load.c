@@ -501,6 +501,46 @@ static const texture_t *normal_map(loader_t *L, const scene_material_t *dm, err_
     return t;
 }
 
+/* pbrt-v4's procedural textures (scene/texture.h): the 3D ones read the point in the space of
+ * the CTM at their Texture directive, as pbrt-v4's PointTransformMapping does. NULL with err
+ * set when an input or the texture cannot be made. */
+static texture_t *load_procedural(loader_t *L, const scene_texture_t *t, err_t *err)
+{
+    const int spectral = t->type == SCENE_TEXTURE_SPECTRUM;
+    const scene_float_input_t *fi[4] = {&t->float_in1, &t->float_in2, &t->float_in3, &t->float_in4};
+    const scene_spectrum_input_t *si[4] = {&t->spec_in1, &t->spec_in2, &t->spec_in3, &t->spec_in4};
+    const int ninputs = t->cls == SCENE_TEX_BILERP ? 4
+                        : t->cls == SCENE_TEX_DOTS || t->cls == SCENE_TEX_DIRECTIONMIX ? 2
+                                                                                      : 0;
+    const texture_t *in[4] = {NULL};
+    for (int k = 0; k < ninputs; k++)
+        if (!(in[k] = spectral ? spectrum_input(L, si[k], SPEC_REFLECTANCE, err) : float_input(L, fi[k], err)))
+            return NULL;
+    const texture_uv_map_t map = {t->uscale, t->vscale, t->udelta, t->vdelta};
+    const transform_t to_texture = transform_inverse(t->to_world);
+    switch (t->cls) {
+    case SCENE_TEX_BILERP:
+        return texture_new_bilerp(in[0], in[1], in[2], in[3], map, err);
+    case SCENE_TEX_DOTS:
+        return texture_new_dots(in[0], in[1], map, err);
+    case SCENE_TEX_FBM:
+        return texture_new_fbm(to_texture, t->noise.octaves, t->noise.roughness, err);
+    case SCENE_TEX_WRINKLED:
+        return texture_new_wrinkled(to_texture, t->noise.octaves, t->noise.roughness, err);
+    case SCENE_TEX_WINDY:
+        return texture_new_windy(to_texture, err);
+    case SCENE_TEX_MARBLE:
+        return texture_new_marble(to_texture, t->noise.octaves, t->noise.roughness, t->noise.scale,
+                                  t->noise.variation, err);
+    case SCENE_TEX_DIRECTIONMIX:
+        return texture_new_directionmix(
+            in[0], in[1], transform_vector(&t->to_world, vec3_make(t->dir[0], t->dir[1], t->dir[2])), err);
+    default:
+        err_set(err, "not a procedural texture (internal error)");
+        return NULL;
+    }
+}
+
 static int load_textures_in_order(loader_t *L, image_job_t *jobs, err_t *err)
 {
     const scene_desc_t *d = L->desc;
@@ -508,7 +548,8 @@ static int load_textures_in_order(loader_t *L, image_job_t *jobs, err_t *err)
         const scene_texture_t *t = &d->textures[i];
         int spectral = t->type == SCENE_TEXTURE_SPECTRUM;
         const texture_t *a = NULL, *b = NULL;
-        if (t->cls != SCENE_TEX_IMAGEMAP && (t->udelta != 0.0 || t->vdelta != 0.0))
+        if (t->cls != SCENE_TEX_IMAGEMAP && t->cls != SCENE_TEX_BILERP && t->cls != SCENE_TEX_DOTS &&
+            (t->udelta != 0.0 || t->vdelta != 0.0))
             return pbrt_error(err, t->loc, "texture \"%s\": udelta/vdelta are not supported", t->name);
         texture_t *made = NULL;
         switch (t->cls) {
@@ -523,7 +564,17 @@ static int load_textures_in_order(loader_t *L, image_job_t *jobs, err_t *err)
             b = spectral ? spectrum_input(L, &t->spec_in2, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in2, err);
             if (!a || !b)
                 return -1;
-            made = texture_new_checkerboard(a, b, t->uscale, t->vscale, err);
+            made = t->dimension == 3 ? texture_new_checkerboard3d(a, b, transform_inverse(t->to_world), err)
+                                     : texture_new_checkerboard(a, b, t->uscale, t->vscale, err);
+            break;
+        case SCENE_TEX_BILERP:
+        case SCENE_TEX_DOTS:
+        case SCENE_TEX_FBM:
+        case SCENE_TEX_WRINKLED:
+        case SCENE_TEX_WINDY:
+        case SCENE_TEX_MARBLE:
+        case SCENE_TEX_DIRECTIONMIX:
+            made = load_procedural(L, t, err);
             break;
         case SCENE_TEX_SCALE: {
             a = spectral ? spectrum_input(L, &t->spec_in1, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in1, err);
@@ -552,6 +603,20 @@ static int load_textures_in_order(loader_t *L, image_job_t *jobs, err_t *err)
                 err_set(err, "not made (internal error)");
             }
             break;
+        }
+        /* pbrt-v4's other 2D mappings wrap the texture made with the identity uv mapping. */
+        const bool planar2d = t->cls == SCENE_TEX_IMAGEMAP || t->cls == SCENE_TEX_BILERP ||
+                              t->cls == SCENE_TEX_DOTS ||
+                              (t->cls == SCENE_TEX_CHECKERBOARD && t->dimension == 2);
+        if (made && planar2d && t->map.kind != 0) {
+            if (scene_own_texture(L->sc, made, err))
+                return -1;
+            const texture_mapping_t kinds[] = {TEXTURE_MAP_SPHERICAL, TEXTURE_MAP_SPHERICAL,
+                                               TEXTURE_MAP_CYLINDRICAL, TEXTURE_MAP_PLANAR};
+            made = texture_new_mapped(made, kinds[t->map.kind], transform_inverse(t->to_world),
+                                      vec3_make(t->map.v1[0], t->map.v1[1], t->map.v1[2]),
+                                      vec3_make(t->map.v2[0], t->map.v2[1], t->map.v2[2]), t->map.ds,
+                                      t->map.dt, err);
         }
         if (!made || scene_own_texture(L->sc, made, err)) {
             if (made)
@@ -1507,16 +1572,19 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
         return pbrt_error(err, in->loc, "\"string wavelengths\" must be \"uniform\" or \"visible\", got \"%s\"", wl);
     if (rs->integrator == INTEGRATOR_PATH) {
         /* pbrt-v4's PathIntegrator options: how next-event estimation chooses lights (the
-         * light BVH by default, scene/emitters.h); regularisation (a biased blur of specular
-         * paths) is not available. */
+         * light BVH by default, scene/emitters.h) and regularisation (a biased blur of
+         * specular paths after a non-specular bounce, bsdf/regularize.h). */
         bool regularize;
         const char *ls;
         if (params_get_bool(p, "regularize", false, &regularize, err) ||
             params_get_string(p, "lightsampler", "bvh", &ls, err))
             return -1;
-        if (regularize)
-            return pbrt_error(err, params_find(p, "regularize")->loc,
-                              "unsupported parameter value: \"bool regularize\" must be false");
+        rs->regularize = regularize;
+        if (regularize && photon &&
+            warnings_add(L->sc->warnings, params_find(p, "regularize")->loc,
+                         "\"bool regularize\" is ignored with a photon pass: its store already "
+                         "carries the caustics that regularisation would blur"))
+            return err_set(err, "out of memory");
         if (!strcmp(ls, "bvh"))
             rs->light_sampler = LIGHT_SAMPLER_BVH;
         else if (!strcmp(ls, "power"))

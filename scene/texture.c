@@ -1,5 +1,6 @@
 #include "texture.h"
 
+#include "noise.h"
 #include "pool.h"
 #include "rgb_uplift.h"
 
@@ -7,7 +8,23 @@
 #include <stdlib.h>
 #include <string.h>
 
-typedef enum { TEX_CONSTANT, TEX_CHECKER, TEX_SCALE, TEX_MIX, TEX_IMAGE, TEX_NORMALMAP } tex_kind_t;
+typedef enum {
+    TEX_CONSTANT,
+    TEX_CHECKER,
+    TEX_SCALE,
+    TEX_MIX,
+    TEX_IMAGE,
+    TEX_NORMALMAP,
+    TEX_BILERP,
+    TEX_DOTS,
+    TEX_CHECKER3D,
+    TEX_FBM,
+    TEX_WRINKLED,
+    TEX_WINDY,
+    TEX_MARBLE,
+    TEX_DIRECTIONMIX,
+    TEX_MAPPED,
+} tex_kind_t;
 
 /* One level of an image texture: per texel rgb_uplift's four coefficients (coef), or one
  * value (val, a float texture), or three floats (rgb, a normal map). */
@@ -23,8 +40,16 @@ typedef struct level {
 struct texture {
     tex_kind_t kind;
     spectrum_t *spectrum; /* constant */
-    const texture_t *a, *b, *c;
+    const texture_t *a, *b, *c, *d;
     double uscale, vscale, udelta, vdelta;
+    /* The procedural textures: world to texture space, octaves and their weight, marble's
+     * scale and variation and its colour uplift (owned), directionmix's unit direction. */
+    transform_t to_texture;
+    int octaves;
+    double omega, scale, variation;
+    rgb_uplift_t *uplift;
+    vec3_t dir, vt;
+    texture_mapping_t mapping;
     texture_wrap_t wrap;
     texture_filter_t filter;
     int nlevels;
@@ -105,6 +130,165 @@ texture_t *texture_new_mix(const texture_t *tex1, const texture_t *tex2, const t
         t->a = tex1;
         t->b = tex2;
         t->c = amount;
+    }
+    return t;
+}
+
+static bool uv_map_ok(texture_uv_map_t m)
+{
+    return isfinite(m.su) && isfinite(m.sv) && isfinite(m.du) && isfinite(m.dv);
+}
+
+texture_t *texture_new_bilerp(const texture_t *v00, const texture_t *v01, const texture_t *v10,
+                              const texture_t *v11, texture_uv_map_t map, err_t *err)
+{
+    if (!v00 || !v01 || !v10 || !v11 || !uv_map_ok(map)) {
+        err_set(err, "bilerp needs four textures and a finite uv mapping");
+        return NULL;
+    }
+    texture_t *t = alloc_texture(TEX_BILERP, err);
+    if (t) {
+        t->a = v00;
+        t->b = v01;
+        t->c = v10;
+        t->d = v11;
+        t->uscale = map.su;
+        t->vscale = map.sv;
+        t->udelta = map.du;
+        t->vdelta = map.dv;
+    }
+    return t;
+}
+
+texture_t *texture_new_dots(const texture_t *inside, const texture_t *outside, texture_uv_map_t map,
+                            err_t *err)
+{
+    if (!inside || !outside || !uv_map_ok(map)) {
+        err_set(err, "dots needs inside and outside textures and a finite uv mapping");
+        return NULL;
+    }
+    texture_t *t = alloc_texture(TEX_DOTS, err);
+    if (t) {
+        t->a = inside;
+        t->b = outside;
+        t->uscale = map.su;
+        t->vscale = map.sv;
+        t->udelta = map.du;
+        t->vdelta = map.dv;
+    }
+    return t;
+}
+
+static texture_t *alloc_3d(tex_kind_t kind, transform_t to_texture, err_t *err)
+{
+    if (to_texture.singular) {
+        err_set(err, "the texture's transformation is singular");
+        return NULL;
+    }
+    texture_t *t = alloc_texture(kind, err);
+    if (t)
+        t->to_texture = to_texture;
+    return t;
+}
+
+texture_t *texture_new_checkerboard3d(const texture_t *tex1, const texture_t *tex2,
+                                      transform_t to_texture, err_t *err)
+{
+    if (!tex1 || !tex2) {
+        err_set(err, "checkerboard needs two textures");
+        return NULL;
+    }
+    texture_t *t = alloc_3d(TEX_CHECKER3D, to_texture, err);
+    if (t) {
+        t->a = tex1;
+        t->b = tex2;
+    }
+    return t;
+}
+
+static texture_t *noise_texture(tex_kind_t kind, transform_t to_texture, int octaves,
+                                double roughness, err_t *err)
+{
+    if (octaves < 1 || octaves > 64 || !isfinite(roughness)) {
+        err_set(err,
+                "\"integer octaves\" must be in 1..64 and \"float roughness\" finite, got %d "
+                "and %g",
+                octaves, roughness);
+        return NULL;
+    }
+    texture_t *t = alloc_3d(kind, to_texture, err);
+    if (t) {
+        t->octaves = octaves;
+        t->omega = roughness;
+    }
+    return t;
+}
+
+texture_t *texture_new_fbm(transform_t to_texture, int octaves, double roughness, err_t *err)
+{
+    return noise_texture(TEX_FBM, to_texture, octaves, roughness, err);
+}
+
+texture_t *texture_new_wrinkled(transform_t to_texture, int octaves, double roughness, err_t *err)
+{
+    return noise_texture(TEX_WRINKLED, to_texture, octaves, roughness, err);
+}
+
+texture_t *texture_new_windy(transform_t to_texture, err_t *err)
+{
+    return alloc_3d(TEX_WINDY, to_texture, err);
+}
+
+texture_t *texture_new_marble(transform_t to_texture, int octaves, double roughness, double scale,
+                              double variation, err_t *err)
+{
+    if (!isfinite(scale) || !isfinite(variation)) {
+        err_set(err, "marble needs a finite \"float scale\" and \"float variation\"");
+        return NULL;
+    }
+    texture_t *t = noise_texture(TEX_MARBLE, to_texture, octaves, roughness, err);
+    if (!t)
+        return NULL;
+    t->scale = scale;
+    t->variation = variation;
+    if (!(t->uplift = rgb_uplift_new(err)))
+        texture_destroy(&t);
+    return t;
+}
+
+texture_t *texture_new_directionmix(const texture_t *tex1, const texture_t *tex2, vec3_t dir,
+                                    err_t *err)
+{
+    double len = vec3_length(dir);
+    if (!tex1 || !tex2 || !(len > 0.0) || !isfinite(len)) {
+        err_set(err, "directionmix needs two textures and a non-zero direction");
+        return NULL;
+    }
+    texture_t *t = alloc_texture(TEX_DIRECTIONMIX, err);
+    if (t) {
+        t->a = tex1;
+        t->b = tex2;
+        t->dir = vec3_scale(dir, 1.0 / len);
+    }
+    return t;
+}
+
+texture_t *texture_new_mapped(const texture_t *inner, texture_mapping_t mapping,
+                              transform_t to_texture, vec3_t vs, vec3_t vt, double ds, double dt,
+                              err_t *err)
+{
+    if (!inner || !isfinite(vs.x + vs.y + vs.z + vt.x + vt.y + vt.z + ds + dt)) {
+        err_set(err, "a mapped texture needs a texture and finite mapping vectors");
+        return NULL;
+    }
+    texture_t *t = alloc_3d(TEX_MAPPED, to_texture, err);
+    if (t) {
+        t->a = inner;
+        t->mapping = mapping;
+        t->dir = vs;
+        t->vt = vt;
+        t->udelta = ds;
+        t->vdelta = dt;
     }
     return t;
 }
@@ -267,6 +451,7 @@ void texture_destroy(texture_t **self_p)
     if (!self_p || !*self_p)
         return;
     spectrum_destroy(&(*self_p)->spectrum);
+    rgb_uplift_destroy(&(*self_p)->uplift);
     for (int l = 0; l < LEVELS_MAX; l++) {
         free((*self_p)->level[l].coef);
         free((*self_p)->level[l].val);
@@ -400,34 +585,151 @@ static inline long odd(double x)
     return fabs(x) < 0x1p53 ? (long)((long long)x & 1) : 0;
 }
 
-double texture_eval_width(const texture_t *t, double u, double v, double width, double lambda)
+/* pbrt-v4 InsidePolkaDot: the cell of integer (s, t) nearest holds a dot when the noise at its
+ * centre is positive; the dot's centre is shifted by noise within the cell. */
+static int inside_dot(double s, double t)
 {
+    const double radius = 0.35, max_shift = 0.5 - radius;
+    double sc = floor(s + 0.5), tc = floor(t + 0.5);
+    if (!(noise_perlin(vec3_make(sc + 0.5, tc + 0.5, 0.5)) > 0.0))
+        return 0;
+    double s0 = sc + max_shift * noise_perlin(vec3_make(sc + 1.5, tc + 2.8, 0.5));
+    double t0 = tc + max_shift * noise_perlin(vec3_make(sc + 4.5, tc + 9.8, 0.5));
+    return (s - s0) * (s - s0) + (t - t0) * (t - t0) < radius * radius;
+}
+
+/* pbrt-v4 MarbleTexture's spline: nine linear sRGB control points, read as three cubic Bezier
+ * segments (points k..k+3 for k = 0..5, one segment per sixth of t). Data from pbrt-v4
+ * src/pbrt/textures.cpp. */
+static void marble_rgb(double t, float rgb[3])
+{
+    static const double C[9][3] = {{.58, .58, .6}, {.58, .58, .6}, {.58, .58, .6},
+                                   {.5, .5, .5},   {.6, .59, .58}, {.58, .58, .6},
+                                   {.58, .58, .6}, {.2, .2, .33},  {.58, .58, .6}};
+    const int nseg = 6;
+    double x = fmin(fmax(t, 0.0), 1.0) * nseg;
+    int first = (int)floor(x);
+    if (first > nseg - 1)
+        first = nseg - 1;
+    double u = x - first, w = 1.0 - u;
+    /* Bernstein weights of a cubic Bezier curve */
+    double b[4] = {w * w * w, 3.0 * u * w * w, 3.0 * u * u * w, u * u * u};
+    for (int c = 0; c < 3; c++) {
+        double v = 0.0;
+        for (int k = 0; k < 4; k++)
+            v += b[k] * C[first + k][c];
+        rgb[c] = (float)(1.5 * v);
+    }
+}
+
+static double eval(const texture_t *t, const texture_point_t *at, double width, double lambda)
+{
+    double u = at->u, v = at->v;
     switch (t->kind) {
     case TEX_CONSTANT:
         return spectrum_eval(t->spectrum, lambda);
     case TEX_CHECKER: {
         double fu = floor(u * t->uscale), fv = floor(v * t->vscale);
         if (!isfinite(fu) || !isfinite(fv))
-            return texture_eval_width(t->a, u, v, width, lambda);
+            return eval(t->a, at, width, lambda);
         long parity = (odd(fu) + odd(fv)) & 1;
-        return texture_eval_width(parity ? t->b : t->a, u, v, width, lambda);
+        return eval(parity ? t->b : t->a, at, width, lambda);
     }
     case TEX_SCALE:
-        return texture_eval_width(t->a, u, v, width, lambda) * texture_eval_width(t->b, u, v, width, lambda);
+        return eval(t->a, at, width, lambda) * eval(t->b, at, width, lambda);
     case TEX_MIX: {
-        double a = texture_eval_width(t->c, u, v, width, lambda);
-        return (1.0 - a) * texture_eval_width(t->a, u, v, width, lambda) +
-               a * texture_eval_width(t->b, u, v, width, lambda);
+        double a = eval(t->c, at, width, lambda);
+        return (1.0 - a) * eval(t->a, at, width, lambda) + a * eval(t->b, at, width, lambda);
     }
     case TEX_IMAGE:
         return image_lookup(t, u, v, width, lambda);
     case TEX_NORMALMAP:
         return 0.0;
+    case TEX_BILERP: {
+        double s = t->uscale * u + t->udelta, tt = t->vscale * v + t->vdelta;
+        if (!isfinite(s) || !isfinite(tt))
+            return eval(t->a, at, width, lambda);
+        return (1 - s) * (1 - tt) * eval(t->a, at, width, lambda) +
+               (1 - s) * tt * eval(t->b, at, width, lambda) +
+               s * (1 - tt) * eval(t->c, at, width, lambda) +
+               s * tt * eval(t->d, at, width, lambda);
+    }
+    case TEX_DOTS: {
+        double s = t->uscale * u + t->udelta, tt = t->vscale * v + t->vdelta;
+        int in = isfinite(s) && isfinite(tt) && inside_dot(s, tt);
+        return eval(in ? t->a : t->b, at, width, lambda);
+    }
+    case TEX_CHECKER3D: {
+        vec3_t p = transform_point(&t->to_texture, at->p);
+        double fx = floor(p.x), fy = floor(p.y), fz = floor(p.z);
+        if (!isfinite(fx) || !isfinite(fy) || !isfinite(fz))
+            return eval(t->a, at, width, lambda);
+        long parity = (odd(fx) + odd(fy) + odd(fz)) & 1;
+        return eval(parity ? t->b : t->a, at, width, lambda);
+    }
+    case TEX_FBM:
+        return noise_fbm(transform_point(&t->to_texture, at->p), t->omega, t->octaves);
+    case TEX_WRINKLED:
+        return noise_turbulence(transform_point(&t->to_texture, at->p), t->omega, t->octaves);
+    case TEX_WINDY: {
+        vec3_t p = transform_point(&t->to_texture, at->p);
+        double strength = noise_fbm(vec3_scale(p, 0.1), 0.5, 3);
+        return fabs(strength) * noise_fbm(p, 0.5, 6);
+    }
+    case TEX_MARBLE: {
+        vec3_t q = vec3_scale(transform_point(&t->to_texture, at->p), t->scale);
+        double m = q.y + t->variation * noise_fbm(q, t->omega, t->octaves);
+        float rgb[3];
+        marble_rgb(0.5 + 0.5 * sin(m), rgb);
+        double c[4];
+        if (!isfinite(m) || rgb_uplift_coef(t->uplift, rgb, c, NULL))
+            return 0.0;
+        return rgb_uplift_eval(c, lambda);
+    }
+    case TEX_MAPPED: {
+        const double pi = 3.14159265358979323846;
+        vec3_t q = transform_point(&t->to_texture, at->p);
+        texture_point_t st = *at;
+        if (t->mapping == TEXTURE_MAP_SPHERICAL) {
+            double r = vec3_length(q);
+            double z = r > 0.0 ? fmin(fmax(q.z / r, -1.0), 1.0) : 1.0;
+            double phi = atan2(q.y, q.x);
+            st.u = acos(z) / pi;
+            st.v = (phi < 0.0 ? phi + 2.0 * pi : phi) / (2.0 * pi);
+        } else if (t->mapping == TEXTURE_MAP_CYLINDRICAL) {
+            st.u = (pi + atan2(q.y, q.x)) / (2.0 * pi);
+            st.v = q.z;
+        } else {
+            st.u = t->udelta + vec3_dot(q, t->dir);
+            st.v = t->vdelta + vec3_dot(q, t->vt);
+        }
+        if (!isfinite(st.u) || !isfinite(st.v))
+            st.u = st.v = 0.0;
+        return eval(t->a, &st, width, lambda);
+    }
+    case TEX_DIRECTIONMIX: {
+        double a = fmin(fabs(vec3_dot(at->n, t->dir)), 1.0);
+        if (!(a >= 0.0))
+            a = 0.0;
+        return a * eval(t->a, at, width, lambda) + (1.0 - a) * eval(t->b, at, width, lambda);
+    }
     }
     return 0.0;
 }
 
+double texture_eval_width(const texture_t *t, double u, double v, double width, double lambda)
+{
+    const texture_point_t at = {.u = u, .v = v};
+    return eval(t, &at, width, lambda);
+}
+
 double texture_eval(const texture_t *t, double u, double v, double lambda)
 {
-    return texture_eval_width(t, u, v, 0.0, lambda);
+    const texture_point_t at = {.u = u, .v = v};
+    return eval(t, &at, 0.0, lambda);
+}
+
+double texture_eval_at(const texture_t *t, const texture_point_t *at, double lambda)
+{
+    return eval(t, at, 0.0, lambda);
 }

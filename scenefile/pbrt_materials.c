@@ -3,6 +3,7 @@
 #include "pbrt_materials.h"
 
 #include "pbrt_inputs.h"
+#include "pbrt_upgrade.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -307,6 +308,10 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
                           scene_material_t *m)
 {
     int t;
+    const char *v4 = pbrt_upgrade_v3_material(type);
+    if (v4)
+        return pbrt_error(P->err, type_loc, "pbrt-v3's material \"%s\" (pbrt-v4's \"%s\"): %s",
+                          type, v4, PBRT_UPGRADE_HINT);
     if (pbrt_state_lookup(P, "unsupported material", type, type_loc, MATERIALS, COUNT_OF(MATERIALS),
                           &t) != 0)
         return -1;

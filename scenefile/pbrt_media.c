@@ -3,6 +3,7 @@
 #include "pbrt_media.h"
 
 #include "medium_presets.h"
+#include "pbrt_confine.h"
 #include "pbrt_inputs.h"
 
 #include <errno.h>
@@ -81,6 +82,34 @@ static int read_medium_common(parser_t *P, params_t *ps, scene_medium_t *m)
         (params_get_float(ps, "Lescale", 1.0, &m->Le_scale, P->err) != 0 ||
          pbrt_state_check_range(P, ps, "Lescale", m->Le_scale, 0.0, INFINITY) != 0))
         return -1;
+    return 0;
+}
+
+/* A "nanovdb" medium is not simulated, but its file must exist where the scene says, so that
+ * `check` finds a scene's missing assets in one run (a public snapshot without its .nvdb files
+ * renders a sky without its cloud otherwise). Checked where the scene is read from the user's
+ * folders; a confined load (the farm's, from a bundle) does not look: the file, never read,
+ * does not travel with the job. */
+static int check_nanovdb_file(parser_t *P, params_t *ps, pbrt_loc_t loc)
+{
+    const char *filename;
+    if (params_get_string(ps, "filename", NULL, &filename, P->err) != 0)
+        return -1;
+    if (!filename)
+        return pbrt_error(P->err, loc, "MakeNamedMedium \"nanovdb\" needs \"string filename\"");
+    const param_t *fp = params_find(ps, "filename");
+    if (P->root_real)
+        return 0;
+    const char *path = pbrt_confine_scene_path(P, filename, fp->loc);
+    if (!path)
+        return -1;
+    const char *kind;
+    char why[96];
+    FILE *f = pbrt_confine_open_regular(path, &kind);
+    if (!f)
+        return pbrt_error(P->err, fp->loc, "cannot open the nanovdb medium's file \"%s\": %s", path,
+                          pbrt_confine_open_failure(kind, why, sizeof why));
+    fclose(f);
     return 0;
 }
 
@@ -198,10 +227,13 @@ int pbrt_media_read(parser_t *P, pbrt_loc_t loc)
             rc = -1;
         if (!P->scene->media_loc.file)
             P->scene->media_loc = loc;
+        if (rc == 0 && kind == SCENE_MEDIUM_IGNORED && !strcmp(type, "nanovdb"))
+            rc = check_nanovdb_file(P, ps, loc);
         if (rc == 0 && kind == SCENE_MEDIUM_IGNORED) {
             params_accept_all(ps);
             if (warnings_add(P->scene->warnings, loc,
-                             "\"%s\" media are not simulated: medium \"%s\" renders as vacuum",
+                             "\"%s\" media are not simulated: medium \"%s\" renders as vacuum "
+                             "(empty space), so the image lacks it",
                              type, name.s))
                 rc = err_set(P->err, "out of memory");
         } else if (rc == 0) {

@@ -17,6 +17,7 @@
 #include "pbrt_shapes.h"
 #include "pbrt_state.h"
 #include "pbrt_textures.h"
+#include "pbrt_upgrade.h"
 #include "suggest.h"
 
 #include <errno.h>
@@ -461,7 +462,7 @@ static int directive(parser_t *P, const char *dir, pbrt_loc_t loc)
         return 0;
     }
     if (pbrt_state_in_list(dir, UNSUPPORTED_DIRECTIVES, COUNT_OF(UNSUPPORTED_DIRECTIVES)))
-        return pbrt_error(P->err, loc, "unsupported directive %s", dir);
+        return pbrt_error(P->err, loc, "unsupported directive %s (%s)", dir, PBRT_UPGRADE_HINT);
     /* Every directive pbrt-v4's parser knows (the spelling is the file format's, so the list
      * is fixed), for the "did you mean" of a misspelt one: Integrater, Attributebegin. */
     static const char *const PBRT_DIRECTIVES[] = {"Accelerator",

@@ -3,6 +3,7 @@
 #include "pbrt_textures.h"
 
 #include "pbrt_inputs.h"
+#include "pbrt_upgrade.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -34,6 +35,10 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
         tt = SCENE_TEXTURE_FLOAT;
     else if (!strcmp(type->s, "spectrum"))
         tt = SCENE_TEXTURE_SPECTRUM;
+    else if (!strcmp(type->s, "color"))
+        return pbrt_error(P->err, type->loc,
+                          "texture type \"color\" is pbrt-v3's (\"spectrum\"): %s",
+                          PBRT_UPGRADE_HINT);
     else
         return pbrt_error(P->err, type->loc,
                           "texture type must be \"float\" or \"spectrum\", "
@@ -50,6 +55,13 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
                                           {"imagemap", SCENE_TEX_IMAGEMAP},
                                           {"scale", SCENE_TEX_SCALE},
                                           {"mix", SCENE_TEX_MIX},
+                                          {"bilerp", SCENE_TEX_BILERP},
+                                          {"dots", SCENE_TEX_DOTS},
+                                          {"fbm", SCENE_TEX_FBM},
+                                          {"wrinkled", SCENE_TEX_WRINKLED},
+                                          {"windy", SCENE_TEX_WINDY},
+                                          {"marble", SCENE_TEX_MARBLE},
+                                          {"directionmix", SCENE_TEX_DIRECTIONMIX},
                                           {NULL, 0},
                                           {"ptex", PTEX}};
     int cls_value;
@@ -57,6 +69,13 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
                           &cls_value) != 0)
         return -1;
     bool ptex = cls_value == PTEX;
+    /* pbrt-v4 makes the noise textures of one kind only (textures.cpp's Create functions). */
+    const bool float_only = cls_value == SCENE_TEX_FBM || cls_value == SCENE_TEX_WRINKLED ||
+                            cls_value == SCENE_TEX_WINDY;
+    if ((float_only && tt != SCENE_TEXTURE_FLOAT) ||
+        (cls_value == SCENE_TEX_MARBLE && tt != SCENE_TEXTURE_SPECTRUM))
+        return pbrt_error(P->err, cls->loc, "Texture \"%s\": \"%s\" is a %s texture in pbrt-v4",
+                          name->s, cls->s, float_only ? "float" : "spectrum");
     if (ptex) {
         cls_value = SCENE_TEX_CONSTANT;
         param_t *fp = params_find(ps, "filename");
@@ -82,19 +101,47 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
     t->loc = loc;
     t->to_world = P->gs.ctm;
     t->float_in1.texture = t->float_in2.texture = t->amount.texture = -1;
+    t->float_in3.texture = t->float_in4.texture = -1;
     t->spec_in1.texture = t->spec_in2.texture = -1;
+    t->spec_in3.texture = t->spec_in4.texture = -1;
+    t->dimension = 2;
 
     const char *mapping;
     if (params_get_string(ps, "mapping", "uv", &mapping, P->err) != 0)
         return -1;
-    if (strcmp(mapping, "uv") != 0)
-        return pbrt_error(P->err, params_find(ps, "mapping")->loc,
-                          "unsupported texture mapping \"%s\" (only \"uv\")", mapping);
-    if (params_get_float(ps, "uscale", 1.0, &t->uscale, P->err) != 0 ||
-        params_get_float(ps, "vscale", 1.0, &t->vscale, P->err) != 0 ||
-        params_get_float(ps, "udelta", 0.0, &t->udelta, P->err) != 0 ||
-        params_get_float(ps, "vdelta", 0.0, &t->vdelta, P->err) != 0)
+    static const pbrt_name_t MAPPINGS[] = {
+        {"uv", 0}, {"spherical", 1}, {"cylindrical", 2}, {"planar", 3}};
+    if (pbrt_state_lookup(P, "unsupported texture mapping", mapping,
+                          params_find(ps, "mapping") ? params_find(ps, "mapping")->loc : loc,
+                          MAPPINGS, COUNT_OF(MAPPINGS), &t->map.kind) != 0)
         return -1;
+    t->uscale = t->vscale = 1.0;
+    t->udelta = t->vdelta = 0.0;
+    if (t->map.kind == 0) {
+        if (params_get_float(ps, "uscale", 1.0, &t->uscale, P->err) != 0 ||
+            params_get_float(ps, "vscale", 1.0, &t->vscale, P->err) != 0 ||
+            params_get_float(ps, "udelta", 0.0, &t->udelta, P->err) != 0 ||
+            params_get_float(ps, "vdelta", 0.0, &t->vdelta, P->err) != 0)
+            return -1;
+    } else if (t->map.kind == 3) {
+        /* pbrt-v4's planar mapping: "vector3 v1" (1 0 0), "v2" (0 1 0), udelta, vdelta. */
+        const char *vn[2] = {"v1", "v2"};
+        double *vv[2] = {t->map.v1, t->map.v2};
+        for (int k = 0; k < 2; k++) {
+            param_t *vp;
+            if (params_get_array(ps, vn[k], PARAM_VECTOR3, &vp, P->err) != 0)
+                return -1;
+            vv[k][0] = k == 0, vv[k][1] = k == 1, vv[k][2] = 0.0;
+            if (vp && vp->count != 3)
+                return pbrt_error(P->err, vp->loc, "expected 3 numbers after \"vector3 %s\"",
+                                  vn[k]);
+            for (int i = 0; vp && i < 3; i++)
+                vv[k][i] = vp->numbers[i];
+        }
+        if (params_get_float(ps, "udelta", 0.0, &t->map.ds, P->err) != 0 ||
+            params_get_float(ps, "vdelta", 0.0, &t->map.dt, P->err) != 0)
+            return -1;
+    }
 
     if (ptex) {
         t->float_in1.value = 0.5;
@@ -109,9 +156,10 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
         int dim;
         if (params_get_int(ps, "dimension", 2, &dim, P->err) != 0)
             return -1;
-        if (dim != 2)
+        if (dim != 2 && dim != 3)
             return pbrt_error(P->err, params_find(ps, "dimension")->loc,
-                              "unsupported checkerboard dimension %d (only 2)", dim);
+                              "checkerboard \"integer dimension\" must be 2 or 3, got %d", dim);
+        t->dimension = dim;
         return tex_input(P, ps, t, "tex1", 1.0, &t->float_in1, &t->spec_in1) != 0 ||
                        tex_input(P, ps, t, "tex2", 0.0, &t->float_in2, &t->spec_in2) != 0
                    ? -1
@@ -128,6 +176,51 @@ static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const st
                        pbrt_inputs_float(P, ps, "amount", 0.5, &t->amount) != 0
                    ? -1
                    : 0;
+    case SCENE_TEX_BILERP:
+        return tex_input(P, ps, t, "v00", 0.0, &t->float_in1, &t->spec_in1) != 0 ||
+                       tex_input(P, ps, t, "v01", 1.0, &t->float_in2, &t->spec_in2) != 0 ||
+                       tex_input(P, ps, t, "v10", 0.0, &t->float_in3, &t->spec_in3) != 0 ||
+                       tex_input(P, ps, t, "v11", 1.0, &t->float_in4, &t->spec_in4) != 0
+                   ? -1
+                   : 0;
+    case SCENE_TEX_DOTS:
+        return tex_input(P, ps, t, "inside", 1.0, &t->float_in1, &t->spec_in1) != 0 ||
+                       tex_input(P, ps, t, "outside", 0.0, &t->float_in2, &t->spec_in2) != 0
+                   ? -1
+                   : 0;
+    case SCENE_TEX_FBM:
+    case SCENE_TEX_WRINKLED:
+    case SCENE_TEX_MARBLE:
+        if (params_get_int(ps, "octaves", 8, &t->noise.octaves, P->err) != 0 ||
+            params_get_float(ps, "roughness", 0.5, &t->noise.roughness, P->err) != 0)
+            return -1;
+        if (t->noise.octaves < 1 || t->noise.octaves > 64)
+            return pbrt_error(P->err, params_find(ps, "octaves")->loc,
+                              "\"integer octaves\" must be in 1..64, got %d", t->noise.octaves);
+        if (t->cls != SCENE_TEX_MARBLE)
+            return 0;
+        return params_get_float(ps, "scale", 1.0, &t->noise.scale, P->err) != 0 ||
+                       params_get_float(ps, "variation", 0.2, &t->noise.variation, P->err) != 0
+                   ? -1
+                   : 0;
+    case SCENE_TEX_WINDY:
+        return 0;
+    case SCENE_TEX_DIRECTIONMIX: {
+        param_t *dp;
+        if (params_get_array(ps, "dir", PARAM_VECTOR3, &dp, P->err) != 0)
+            return -1;
+        t->dir[0] = 0.0, t->dir[1] = 1.0, t->dir[2] = 0.0;
+        if (dp) {
+            if (dp->count != 3)
+                return pbrt_error(P->err, dp->loc, "expected 3 numbers after \"vector3 dir\"");
+            for (int i = 0; i < 3; i++)
+                t->dir[i] = dp->numbers[i];
+        }
+        return tex_input(P, ps, t, "tex1", 0.0, &t->float_in1, &t->spec_in1) != 0 ||
+                       tex_input(P, ps, t, "tex2", 1.0, &t->float_in2, &t->spec_in2) != 0
+                   ? -1
+                   : 0;
+    }
     case SCENE_TEX_IMAGEMAP:
         break;
     }

@@ -90,6 +90,14 @@ typedef enum scene_texture_class {
     SCENE_TEX_IMAGEMAP,     /* "filename", ...          -> image */
     SCENE_TEX_SCALE,        /* "tex" (1) * "scale" (1)  -> in1 * amount */
     SCENE_TEX_MIX,          /* lerp("amount" (0.5), "tex1" (0), "tex2" (1)) -> in1, in2, amount */
+    SCENE_TEX_BILERP,       /* "v00" (0), "v01" (1), "v10" (0), "v11" (1) -> in1..in4 */
+    SCENE_TEX_DOTS,         /* "inside" (1), "outside" (0) -> in1, in2 */
+    SCENE_TEX_FBM,          /* float: "octaves" (8), "roughness" (0.5) -> noise */
+    SCENE_TEX_WRINKLED,     /* float: "octaves" (8), "roughness" (0.5) -> noise */
+    SCENE_TEX_WINDY,        /* float: no parameters */
+    SCENE_TEX_MARBLE,       /* spectrum: "octaves" (8), "roughness" (0.5), "scale" (1),
+                             * "variation" (0.2) -> noise */
+    SCENE_TEX_DIRECTIONMIX, /* "tex1" (0), "tex2" (1), "vector3 dir" (0 1 0) -> in1, in2, dir */
 } scene_texture_class_t;
 
 typedef struct scene_texture {
@@ -98,12 +106,26 @@ typedef struct scene_texture {
     scene_texture_class_t cls;
     pbrt_loc_t loc;
     transform_t to_world; /* the CTM at the Texture directive */
-    /* "uv" mapping (the only one supported): (u, v) -> (su * u + du, sv * v + dv). */
+    /* "uv" mapping: (u, v) -> (su * u + du, sv * v + dv). The other 2D mappings (mapping 1
+     * spherical, 2 cylindrical, 3 planar: v1, v2 and udelta, vdelta) leave su = sv = 1 and
+     * du = dv = 0 to the texture and keep their own parameters in map. */
     double uscale, vscale, udelta, vdelta;
+    struct {
+        int kind; /* 0: uv */
+        double v1[3], v2[3], ds, dt;
+    } map;
     /* Inputs: float_in* when type is FLOAT, spec_in* when type is SPECTRUM. */
     scene_float_input_t float_in1, float_in2;
     scene_spectrum_input_t spec_in1, spec_in2;
     scene_float_input_t amount; /* MIX amount, SCALE scale */
+    scene_float_input_t float_in3, float_in4; /* BILERP's v10, v11 */
+    scene_spectrum_input_t spec_in3, spec_in4;
+    int dimension; /* CHECKERBOARD: 2 (uv) or 3 (the texture-space point) */
+    double dir[3]; /* DIRECTIONMIX, in texture space (to_world takes it to world) */
+    struct {
+        int octaves;
+        double roughness, scale, variation;
+    } noise;
     struct {
         const char *filename; /* resolved against the folder of the file that names it */
         const char *wrap;     /* "repeat" (default), "black", "clamp", "octahedralsphere" */

@@ -20,7 +20,7 @@ static const char *BAD = "WorldBegin\n"
                          "Material \"diffuse\" \"float bogus\" 1\n"
                          "LightSource \"point\"\n"
                          "Shape \"sphere\"\n"
-                         "MakeNamedMedium \"m\" \"string type\" \"nanovdb\"\n";
+                         "MakeNamedMedium \"m\" \"string type\" \"cloud\"\n";
 
 static void test_every_refusal_at_once(void **state)
 {
@@ -38,7 +38,7 @@ static void test_every_refusal_at_once(void **state)
     expect_in(r->out, line);
     snprintf(line, sizeof line, "error: %s:5:20: unsupported parameter \"float bogus\"", path);
     expect_in(r->out, line);
-    snprintf(line, sizeof line, "warning: %s:8:1: \"nanovdb\" media are not simulated", path);
+    snprintf(line, sizeof line, "warning: %s:8:1: \"cloud\" media are not simulated", path);
     expect_in(r->out, line);
     expect_in(r->out, "4 refused, 1 warnings; it does not render");
 

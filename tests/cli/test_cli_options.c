@@ -217,6 +217,7 @@ static void test_help(void **state)
         {"plan", {"--json", "--spp N", "--integrator NAME"}},
         {"glass", {"--list", "--sellmeier LIST", "--cauchy A,B", "-h, --help"}},
         {"keygen", {"--dir DIR", "--force"}},
+        {"upgrade", {"-o, --output NEW.pbrt", "--quiet"}},
         {"master",
          {"--workers ENDPOINT", "--heartbeat MS", "--no-journal", "--key FILE", "--authorized DIR",
           "--max-bundle-files N"}},

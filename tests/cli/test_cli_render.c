@@ -10,11 +10,15 @@
 #define CLI_RUN_TIMEOUT_MS 120000
 #include "cli_run.h"
 #include "farm_testutil.h"
+#include "files.h"
 #include "image_exr.h"
 #include "image_png.h"
 
 #include <math.h>
 #include <signal.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -117,6 +121,49 @@ static void test_same_pixels_with_any_thread_count(void **state)
     assert_memory_equal(image_exr_rgb(x), image_exr_rgb(y), 24 * 16 * 3 * sizeof(float));
     image_exr_destroy(&x);
     image_exr_destroy(&y);
+}
+
+/* pbrt-v4's "bool regularize" is the scene file's and reaches every worker: the farm's pixels
+ * are --direct's, and differ from the same scene without it. */
+static void test_regularize_through_the_farm(void **state)
+{
+    (void)state;
+    const char *farm = testutil_scratch("reg_farm.exr"),
+               *direct = testutil_scratch("reg_direct.exr");
+    const char *plain = testutil_scratch("reg_plain.exr");
+    const char *off = testutil_scratch("noreg.pbrt");
+    uint8_t *text;
+    size_t len;
+    err_t err;
+    assert_int_equal(files_read("data/render/regularize.pbrt", 1 << 20, &text, &len, &err), 0);
+    const char *on = "\"bool regularize\" true";
+    char *at = strstr((char *)text, on);
+    assert_non_null(at);
+    char *copy = malloc(len + 2);
+    assert_non_null(copy);
+    size_t head = (size_t)(at - (char *)text);
+    snprintf(copy, len + 2, "%.*s\"bool regularize\" false%s", (int)head, (const char *)text,
+             at + strlen(on));
+    testutil_write_text(off, copy, 0644);
+    free(copy);
+    free(text);
+    assert_int_equal(
+        run("render", "data/render/regularize.pbrt", "-o", farm, "--quiet", NULL)->status, 0);
+    assert_int_equal(
+        run("render", "data/render/regularize.pbrt", "-o", direct, "--direct", "--quiet", NULL)
+            ->status,
+        0);
+    assert_int_equal(run("render", off, "-o", plain, "--quiet", NULL)->status, 0);
+    image_exr_t *x = image_exr_read(farm, NULL), *y = image_exr_read(direct, NULL),
+                *z = image_exr_read(plain, NULL);
+    assert_non_null(x);
+    assert_non_null(y);
+    assert_non_null(z);
+    assert_memory_equal(image_exr_rgb(x), image_exr_rgb(y), 24 * 16 * 3 * sizeof(float));
+    assert_memory_not_equal(image_exr_rgb(x), image_exr_rgb(z), 24 * 16 * 3 * sizeof(float));
+    image_exr_destroy(&x);
+    image_exr_destroy(&y);
+    image_exr_destroy(&z);
 }
 
 /* With a target error the progress follows the error once it has an estimate: the ETA is the
@@ -331,6 +378,7 @@ int main(void)
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_renders_spectral_exr_and_png),
         cmocka_unit_test(test_same_pixels_with_any_thread_count),
+        cmocka_unit_test(test_regularize_through_the_farm),
         cmocka_unit_test(test_farm_png_matches_direct),
         cmocka_unit_test(test_overrides),
         cmocka_unit_test(test_progress_follows_error),

@@ -543,7 +543,7 @@ static const char *FOGGY =
     "Translate 1 0 0\n"
     "MakeNamedMedium \"smoke\" \"string type\" \"uniformgrid\" \"integer nx\" 2 \"integer ny\" 1\n"
     "  \"integer nz\" 1 \"float density\" [0 4] \"point3 p0\" [-1 -1 -1] \"point3 p1\" [1 1 1]\n"
-    "MakeNamedMedium \"vdb\" \"string type\" \"nanovdb\" \"string filename\" \"x.nvdb\"\n"
+    "MakeNamedMedium \"vdb\" \"string type\" \"nanovdb\" \"string filename\" \"data/scenes/placeholder.nvdb\"\n"
     "AttributeBegin\n"
     "  MediumInterface \"milk\" \"fog\"\n"
     "  Material \"interface\"\n"

@@ -313,7 +313,8 @@ static void test_more_materials(void **state)
 }
 
 /* What pbrt-v4 has and prismfarm does not simulate is accepted with a warning naming the
- * place: the media prismfarm does not simulate ("cloud", "rgbgrid", "nanovdb": vacuum), motion blur (the
+ * place: the media prismfarm does not simulate ("cloud", "rgbgrid", "nanovdb": vacuum; a nanovdb
+ * medium's file must exist all the same), motion blur (the
  * scene renders as at the shutter's opening: EndTime-only transforms leave the CTM alone, and
  * AttributeEnd restores the active transform as pbrt-v4's graphics state does), TransformTimes;
  * ColorSpace "srgb" and Accelerator are accepted silently. */
@@ -344,7 +345,7 @@ static void test_accepted_not_simulated(void **state)
     assert_string_equal(warnings_at(d->warnings, 0), "t.pbrt:3:1: TransformTimes 0 1 is ignored (no motion blur)");
     assert_string_equal(warnings_at(d->warnings, 1),
                         "t.pbrt:5:1: \"cloud\" media are not simulated: medium \"fog\" renders "
-                        "as vacuum");
+                        "as vacuum (empty space), so the image lacks it");
     assert_string_equal(warnings_at(d->warnings, 2),
                         "t.pbrt:9:3: motion blur is not simulated: the scene renders as at the "
                         "shutter's opening (the transforms for its end are ignored)");
@@ -355,6 +356,13 @@ static void test_accepted_not_simulated(void **state)
     scene_desc_destroy(&d);
     expect_error("WorldBegin\nMediumInterface \"smoke\"\n",
                  "t.pbrt:2:17: medium \"smoke\" is not defined (MakeNamedMedium must come before its use)");
+    /* A nanovdb medium is vacuum too, but its file must be there (check lists missing assets). */
+    expect_error("WorldBegin\nMakeNamedMedium \"c\" \"string type\" \"nanovdb\" \"string filename\" "
+                 "\"data/scenes/missing.nvdb\"\n",
+                 "t.pbrt:2:45: cannot open the nanovdb medium's file \"data/scenes/missing.nvdb\": No "
+                 "such file or directory");
+    expect_error("WorldBegin\nMakeNamedMedium \"c\" \"string type\" \"nanovdb\"\n",
+                 "t.pbrt:2:1: MakeNamedMedium \"nanovdb\" needs \"string filename\"");
     expect_error("WorldBegin\nMakeNamedMedium \"a\" \"rgb sigma_a\" [1 1 1]\n",
                  "t.pbrt:2:1: MakeNamedMedium \"a\" needs \"string type\"");
     expect_error("ActiveTransform Sometimes\n",
@@ -1034,9 +1042,11 @@ static void test_error_messages(void **state)
          "t.pbrt:2:21: expected 3 numbers after \"point3 from\", got 2"},
         {"Frobnicate\n", "t.pbrt:1:1: unknown directive Frobnicate"},
         {"PixelFilter \"lanczos\"\nWorldBegin\n",
-         "t.pbrt:1:13: unsupported filter \"lanczos\" (\"box\", \"gaussian\", \"mitchell\", \"sinc\" or \"triangle\")"},
+         "t.pbrt:1:13: unsupported filter \"lanczos\" (\"box\", \"gaussian\", \"mitchell\", "
+         "\"sinc\" or \"triangle\")"},
         {"PixelFilter \"box\" \"float radius\" 1\nWorldBegin\n",
-         "t.pbrt:1:19: unsupported parameter \"float radius\" for PixelFilter \"box\" (did you mean \"xradius\"?)"},
+         "t.pbrt:1:19: unsupported parameter \"float radius\" for PixelFilter \"box\" (did you "
+         "mean \"xradius\"?)"},
         {"PixelFilter \"gaussian\" \"float sigma\" 0\nWorldBegin\n",
          "t.pbrt:1:24: \"float sigma\" must be greater than 0, got 0"},
         {"WorldBegin\nShape \"disk\"   \"float zmin\" -1\n",
@@ -1114,11 +1124,13 @@ static void test_error_messages(void **state)
         {"Shape \"sphere\"\n", "t.pbrt:1:1: Shape is only allowed after WorldBegin"},
         {"WorldBegin\nCamera \"perspective\"\n",
          "t.pbrt:2:1: Camera must come before WorldBegin (line 1)"},
-        {"Camera \"realistic\"\nWorldBegin\n", "t.pbrt:1:1: Camera \"realistic\" needs \"string lensfile\""},
+        {"Camera \"realistic\"\nWorldBegin\n",
+         "t.pbrt:1:1: Camera \"realistic\" needs \"string lensfile\""},
         {"Camera \"realistic\" \"string lensfile\" \"no-such.dat\"\nWorldBegin\n",
          "t.pbrt:1:20: cannot open lens file \"no-such.dat\": No such file or directory"},
         {"Camera \"thinlens\"\nWorldBegin\n",
-         "t.pbrt:1:8: unsupported camera \"thinlens\" (\"perspective\", \"orthographic\", \"spherical\" or "
+         "t.pbrt:1:8: unsupported camera \"thinlens\" (\"perspective\", \"orthographic\", "
+         "\"spherical\" or "
          "\"realistic\")"},
         {"Camera \"perspective\"\n", "t.pbrt: the scene has no WorldBegin"},
         {"WorldBegin\nWorldBegin\n", "t.pbrt:2:1: WorldBegin appears twice (first at line 1)"},
@@ -1221,13 +1233,15 @@ static void test_error_messages(void **state)
          "\"infinite\", \"goniometric\" or \"projection\")"},
         {"WorldBegin\nAreaLightSource \"diffuse\" \"rgb L\" [1 1 1] \"string filename\" "
          "\"data/scene_checker2x2.png\"\n",
-         "t.pbrt:2:27: AreaLightSource \"diffuse\": cannot have both \"L\" and \"filename\" (pbrt-v4 "
+         "t.pbrt:2:27: AreaLightSource \"diffuse\": cannot have both \"L\" and \"filename\" "
+         "(pbrt-v4 "
          "refuses it too)"},
         {"WorldBegin\nLightSource \"goniometric\"\n",
          "t.pbrt:2:1: LightSource \"goniometric\" needs \"string filename\" (its image)"},
         {"WorldBegin\nLightSource \"projection\" \"float fov\" 180\n",
          "t.pbrt:2:26: \"float fov\" must be strictly between 0 and 180 degrees, got 180"},
-        {"WorldBegin\nLightSource \"projection\" \"rgb I\" [1 1 1] \"string filename\" \"data/scene_checker2x2.png\"\n",
+        {"WorldBegin\nLightSource \"projection\" \"rgb I\" [1 1 1] \"string filename\" "
+         "\"data/scene_checker2x2.png\"\n",
          "t.pbrt:2:26: unsupported parameter \"rgb I\" for LightSource \"projection\""},
         {"WorldBegin\nLightSource \"point\" \"string I\" \"x\"\n",
          "t.pbrt:2:21: \"string I\" has the wrong type for LightSource \"point\": expected "
@@ -1245,18 +1259,36 @@ static void test_error_messages(void **state)
          "t.pbrt:2:7: unsupported shape \"hyperboloid\" (\"sphere\", \"disk\", \"cylinder\", "
          "\"trianglemesh\", \"plymesh\", \"bilinearmesh\" or \"loopsubdiv\")"},
         {"WorldBegin\nTexture \"t\" \"color\" \"constant\"\n",
-         "t.pbrt:2:13: texture type must be \"float\" or \"spectrum\", got \"color\""},
-        {"WorldBegin\nTexture \"t\" \"float\" \"fbm\"\n",
-         "t.pbrt:2:21: unsupported texture \"fbm\" (\"constant\", \"checkerboard\", \"imagemap\", "
-         "\"scale\" or \"mix\")"},
+         "t.pbrt:2:13: texture type \"color\" is pbrt-v3's (\"spectrum\"): a pbrt-v3 file: "
+         "`prismfarm upgrade FILE -o NEW.pbrt` rewrites it for pbrt-v4, as `pbrt --upgrade` does"},
+        {"WorldBegin\nTexture \"t\" \"colour\" \"constant\"\n",
+         "t.pbrt:2:13: texture type must be \"float\" or \"spectrum\", got \"colour\""},
+        {"WorldBegin\nMaterial \"uber\"\n",
+         "t.pbrt:2:10: pbrt-v3's material \"uber\" (pbrt-v4's \"coateddiffuse\"): a pbrt-v3 file: "
+         "`prismfarm upgrade FILE -o NEW.pbrt` rewrites it for pbrt-v4, as `pbrt --upgrade` does"},
+        {"WorldBegin\nWorldEnd\n",
+         "t.pbrt:2:1: unsupported directive WorldEnd (a pbrt-v3 file: `prismfarm upgrade FILE -o "
+         "NEW.pbrt` rewrites it for pbrt-v4, as `pbrt --upgrade` does)"},
+        {"WorldBegin\nTexture \"t\" \"float\" \"perlin\"\n",
+         "t.pbrt:2:21: unsupported texture \"perlin\" (\"constant\", \"checkerboard\", "
+         "\"imagemap\", \"scale\", \"mix\", \"bilerp\", \"dots\", \"fbm\", \"wrinkled\", "
+         "\"windy\", "
+         "\"marble\" or \"directionmix\")"},
+        {"WorldBegin\nTexture \"t\" \"spectrum\" \"fbm\"\n",
+         "t.pbrt:2:24: Texture \"t\": \"fbm\" is a float texture in pbrt-v4"},
+        {"WorldBegin\nTexture \"t\" \"float\" \"marble\"\n",
+         "t.pbrt:2:21: Texture \"t\": \"marble\" is a spectrum texture in pbrt-v4"},
+        {"WorldBegin\nTexture \"t\" \"float\" \"wrinkled\" \"integer octaves\" 0\n",
+         "t.pbrt:2:32: \"integer octaves\" must be in 1..64, got 0"},
         {"WorldBegin\nTexture \"t\" \"float\" \"imagemap\" \"string filename\" \"x.exr\"\n",
          "t.pbrt:2:32: cannot open image \"x.exr\": No such file or directory"},
         {"WorldBegin\nTexture \"t\" \"float\" \"imagemap\" \"string filename\" \"x.png\"\n",
          "t.pbrt:2:32: cannot open image \"x.png\": No such file or directory"},
-        {"WorldBegin\nTexture \"t\" \"float\" \"checkerboard\" \"integer dimension\" 3\n",
-         "t.pbrt:2:36: unsupported checkerboard dimension 3 (only 2)"},
-        {"WorldBegin\nTexture \"t\" \"float\" \"constant\" \"string mapping\" \"spherical\"\n",
-         "t.pbrt:2:32: unsupported texture mapping \"spherical\" (only \"uv\")"},
+        {"WorldBegin\nTexture \"t\" \"float\" \"checkerboard\" \"integer dimension\" 4\n",
+         "t.pbrt:2:36: checkerboard \"integer dimension\" must be 2 or 3, got 4"},
+        {"WorldBegin\nTexture \"t\" \"float\" \"constant\" \"string mapping\" \"sphere\"\n",
+         "t.pbrt:2:32: unsupported texture mapping \"sphere\" (\"uv\", "
+         "\"spherical\", \"cylindrical\" or \"planar\")"},
         {"WorldBegin\n\"float radius\" 1\n", "t.pbrt:2:1: expected a directive, got \"float "
                                              "radius\""},
         {"WorldBegin\nShape \"sphere\" \"float radius\" [[1]]\n",

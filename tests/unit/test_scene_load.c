@@ -2,7 +2,8 @@
  * checked against pbrt-v4's formulas (lights.cpp, textures.cpp, shapes.h), not against the
  * loader's code: light normalisation (spectrum / photometric value, "scale" = luminance, rgb
  * normalised by its illuminant alone), "power" and "illuminance", imagemap encodings, default
- * texture coordinates, and vertex normals under ReverseOrientation. */
+ * texture coordinates, and vertex normals under ReverseOrientation; pbrt-v4's procedural
+ * textures loaded and rendered, a 3D one read at each hit's point in the CTM's space. */
 #define _XOPEN_SOURCE 700 /* mkdtemp */
 
 #include <setjmp.h>
@@ -22,6 +23,7 @@
 #include "pbrt_parser.h"
 #include "scene_builders.h"
 #include "scene_load.h"
+#include "tilebuf.h"
 
 static void expect_load_error(const char *text, const char *expected)
 {
@@ -240,9 +242,14 @@ static void test_integrator_options(void **state)
         "WorldBegin\n",
         NULL);
     assert_int_equal(s->settings.integrator, INTEGRATOR_PATH);
+    assert_int_equal(s->settings.regularize, 0);
     scene_destroy(&s);
-    expect_load_error("Integrator \"path\" \"bool regularize\" true\nWorldBegin\n",
-                      "t.pbrt:1:19: unsupported parameter value: \"bool regularize\" must be false");
+    s = sb_load_text("Integrator \"volpath\" \"bool regularize\" true\nWorldBegin\n", NULL);
+    assert_int_equal(s->settings.regularize, 1);
+    scene_destroy(&s);
+    expect_load_error("Integrator \"whitted\" \"bool regularize\" true\nWorldBegin\n",
+                      "t.pbrt:1:22: unsupported parameter \"bool regularize\" for Integrator "
+                      "\"whitted\"");
     expect_load_error("Integrator \"whitted\" \"string lightsampler\" \"bvh\"\nWorldBegin\n",
                       "t.pbrt:1:22: unsupported parameter \"string lightsampler\" for Integrator "
                       "\"whitted\"");
@@ -250,6 +257,46 @@ static void test_integrator_options(void **state)
 
 /* What a scene asks for that is accepted without being simulated comes back as warnings
  * naming file:line:col, once each; a scene without lights says why it renders black. */
+/* The procedural textures' scene renders finite pixels; a floor under a 3D checkerboard of
+ * 0 and 0.8 (cells of side 1 after Scale 1 1 1, seen from above) shows both colours, about half
+ * each, so the texture was read at every hit's own point. */
+static void test_procedural_textures(void **state)
+{
+    (void)state;
+    scene_t *s = sb_load_file("data/scenes/procedural.pbrt");
+    sb_image_stats_t st = sb_render_stats(s, 16, 4);
+    printf("procedural.pbrt: mean %.4f max %.4f\n", st.mean, st.max);
+    assert_true(st.mean > 0.05 && isfinite(st.max));
+    scene_destroy(&s);
+    s = sb_load_text("Film \"rgb\" \"integer xresolution\" 32 \"integer yresolution\" 32\n"
+                     "LookAt 0.1 10 0.1  0.1 0 0.1  0 0 1\n"
+                     "Camera \"orthographic\" \"float screenwindow\" [-4 4 -4 4]\n"
+                     "WorldBegin\n"
+                     "LightSource \"infinite\" \"rgb L\" [1 1 1]\n"
+                     "Texture \"c\" \"spectrum\" \"checkerboard\" \"integer dimension\" 3\n"
+                     "  \"rgb tex1\" [0 0 0] \"rgb tex2\" [0.8 0.8 0.8]\n"
+                     "Material \"diffuse\" \"texture reflectance\" \"c\"\n"
+                     "Shape \"bilinearmesh\" \"point3 P\" [-9 0.5 -9  9 0.5 -9  -9 0.5 9  9 0.5 9]\n",
+                     NULL);
+    s->settings.maxdepth = 1;
+    err_t err;
+    tilebuf_t *t = tilebuf_new(0, 0, 32, 32, s->settings.grid.n, &err);
+    assert_non_null(t);
+    render_stats_t rst = {0};
+    assert_int_equal(render_tile(s, NULL, 0, 0, 32, 32, 0, 4, t, &rst, &err), 0);
+    int dark = 0, bright = 0;
+    for (int y = 0; y < 32; y++)
+        for (int x = 0; x < 32; x++) {
+            double l = tilebuf_luminance_sum(t, x, y) / (double)tilebuf_count(t, x, y);
+            dark += l < 0.4; /* half of tex2's 0.8: pixels mostly in a dark cell */
+            bright += l >= 0.4;
+        }
+    printf("3D checkerboard: %d dark and %d bright pixels of 1024\n", dark, bright);
+    assert_true(dark > 400 && bright > 400);
+    tilebuf_destroy(&t);
+    scene_destroy(&s);
+}
+
 static void test_warnings(void **state)
 {
     (void)state;
@@ -295,6 +342,7 @@ int main(void)
         cmocka_unit_test(test_surface_conventions),
         cmocka_unit_test(test_integrator_options),
         cmocka_unit_test(test_warnings),
+        cmocka_unit_test(test_procedural_textures),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
