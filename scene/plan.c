@@ -210,6 +210,10 @@ const char *plan_material_kind_name(material_kind_t kind)
         return "coatedconductor";
     case MATERIAL_MIX:
         return "mix";
+    case MATERIAL_POLARISER:
+        return "polarizer";
+    case MATERIAL_RETARDER:
+        return "retarder";
     }
     return "?";
 }

@@ -783,6 +783,12 @@ static int load_materials(loader_t *L, err_t *err)
         case SCENE_MATERIAL_INTERFACE:
             m.kind = MATERIAL_INTERFACE;
             break;
+        case SCENE_MATERIAL_POLARIZER:
+        case SCENE_MATERIAL_RETARDER:
+            m.kind = dm->type == SCENE_MATERIAL_POLARIZER ? MATERIAL_POLARISER : MATERIAL_RETARDER;
+            m.sheet_angle = dm->sheet_angle * (PF_PI / 180.0);
+            m.retardance = dm->retardance * (PF_PI / 180.0);
+            break;
         }
         if (rc)
             return -1;
@@ -1611,6 +1617,8 @@ static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
     sc->camera.equirect = d->camera.equirect;
     memcpy(sc->camera.screen, d->camera.screenwindow, sizeof sc->camera.screen);
     sc->camera.frame_aspect = d->camera.frameaspectratio;
+    sc->camera.analyser = d->camera.has_analyzer;
+    sc->camera.analyser_angle = d->camera.analyzer * (PF_PI / 180.0);
     if (sc->camera.kind == CAMERA_PERSPECTIVE && !(d->camera.fov > 0 && d->camera.fov < 180))
         return pbrt_error(err, d->camera.loc, "\"float fov\" must be in (0, 180) degrees, got %g", d->camera.fov);
     rs->xres = ov && ov->xres > 0 ? ov->xres : d->film.xres;
@@ -1642,6 +1650,9 @@ static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
                           rs->xres, rs->yres, rs->grid.n, (double)image / 1048576.0,
                           (double)L->budget->image_bytes / 1048576.0);
     rs->film_spectral = d->film.type == SCENE_FILM_SPECTRAL;
+    /* A Stokes output is polarised transport's: it turns it on (scene_finish keeps it). */
+    rs->stokes = d->film.stokes;
+    rs->polarised |= rs->stokes;
     if (sc->camera.kind == CAMERA_REALISTIC && load_lens(L, err))
         return -1;
     snprintf(rs->filename, sizeof rs->filename, "%s", d->film.filename ? d->film.filename : "");
