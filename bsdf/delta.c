@@ -1,8 +1,8 @@
 #include "delta.h"
 
 #include "fresnel.h"
-#include "polar_fresnel.h"
 #include "polar_frame.h"
+#include "polar_fresnel.h"
 #include "thinfilm.h"
 
 #include <complex.h>

@@ -621,8 +621,8 @@ int image_exr_write_stokes(const char *path, int width, int height, const float 
             {"prismfarm", info},
             {"polarisationHandedness", "right"},
         };
-        status = exr_write_file(path, width, height, sources, nch + 3, attrs, planes == 4 ? 4 : 3,
-                                err);
+        status =
+            exr_write_file(path, width, height, sources, nch + 3, attrs, planes == 4 ? 4 : 3, err);
     }
     free(sources);
     return status;

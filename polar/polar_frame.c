@@ -27,7 +27,8 @@ polar_event_t polar_event_interface(vec3_t k_in, vec3_t k_out, vec3_t n, vec3_t 
     double l = vec3_length(s);
     s = l > 1e-9 ? vec3_scale(s, 1.0 / l) : polar_frame_perp(hint, k_in);
     /* s is perpendicular to k_in and n, so to the plane of incidence and to k_out (in it). */
-    return (polar_event_t){.k_in = k_in, .x_in = s, .k_out = k_out, .x_out = polar_frame_perp(s, k_out)};
+    return (polar_event_t){
+        .k_in = k_in, .x_in = s, .k_out = k_out, .x_out = polar_frame_perp(s, k_out)};
 }
 
 polar_event_t polar_event_sheet(vec3_t k, vec3_t axis)
@@ -36,8 +37,8 @@ polar_event_t polar_event_sheet(vec3_t k, vec3_t axis)
     return (polar_event_t){.k_in = k, .x_in = x, .k_out = k, .x_out = x};
 }
 
-void polar_carrier_apply(mueller_t *t, int n, vec3_t *x, const polar_event_t *ev, const mueller_t *m,
-                         int m_stride)
+void polar_carrier_apply(mueller_t *t, int n, vec3_t *x, const polar_event_t *ev,
+                         const mueller_t *m, int m_stride)
 {
     const mueller_t r = polar_frame_change(ev->x_out, *x, ev->k_out);
     mueller_t rm = mueller_mul(&r, m);

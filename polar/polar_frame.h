@@ -53,8 +53,8 @@ polar_event_t polar_event_sheet(vec3_t k, vec3_t axis);
 
 /* The carrier update T <- T R M for lanes [0, n) (stride apart in t) sharing frame *x,
  * which becomes ev->x_in. m: one matrix per lane (m_stride 1) or one for all (m_stride 0). */
-void polar_carrier_apply(mueller_t *t, int n, vec3_t *x, const polar_event_t *ev, const mueller_t *m,
-                         int m_stride);
+void polar_carrier_apply(mueller_t *t, int n, vec3_t *x, const polar_event_t *ev,
+                         const mueller_t *m, int m_stride);
 
 /* An ideal depolariser (diffuse and rough surfaces, media): T <- T D, D = diag(1, 0, 0, 0):
  * only T's first column is kept; the frame becomes any one perpendicular to k_in. */

@@ -805,8 +805,10 @@ static void polar_dielectric(path_t *p, const dielectric_site_t *d, vec3_t out, 
     mueller_t mm[LANES];
     const int count = d->per_lane ? p->n : 1;
     for (int j = 0; j < count; j++)
-        mm[j] = delta_dielectric_mueller(out, d->nrm, d->entering, d->n[j], p->lambda[j], f, reflect);
-    const polar_event_t ev = polar_event_interface(vec3_neg(out), vec3_neg(p->dir), d->nrm, p->polar_x);
+        mm[j] =
+            delta_dielectric_mueller(out, d->nrm, d->entering, d->n[j], p->lambda[j], f, reflect);
+    const polar_event_t ev =
+        polar_event_interface(vec3_neg(out), vec3_neg(p->dir), d->nrm, p->polar_x);
     polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &ev, mm, d->per_lane);
 }
 
@@ -1239,7 +1241,8 @@ static void cross_sheet(path_t *p, const surface_t *sf, const material_t *m)
         vec3_basis(sf->ng, &t, &b);
     t = vec3_normalize(polar_frame_perp(t, sf->ng));
     b = vec3_cross(sf->ng, t);
-    const vec3_t axis = vec3_add(vec3_scale(t, cos(m->sheet_angle)), vec3_scale(b, sin(m->sheet_angle)));
+    const vec3_t axis =
+        vec3_add(vec3_scale(t, cos(m->sheet_angle)), vec3_scale(b, sin(m->sheet_angle)));
     const mueller_t e = polariser ? mueller_polariser(0.0) : mueller_retarder(0.0, m->retardance);
     const mueller_t mm = mueller_normalised(&e);
     const polar_event_t ev = polar_event_sheet(vec3_neg(p->dir), axis);
@@ -1359,9 +1362,9 @@ static void trace(ctx_t *c, path_t *start)
                                                         m->film_thickness > 0.0 ? &film : NULL);
                 }
                 if (p->polar) {
-                    const polar_event_t ev = polar_event_interface(
-                        vec3_neg(e.reflect), vec3_neg(p->dir),
-                        specular_normal(&sf, p->dir, 0.0, NULL), p->polar_x);
+                    const polar_event_t ev =
+                        polar_event_interface(vec3_neg(e.reflect), vec3_neg(p->dir),
+                                              specular_normal(&sf, p->dir, 0.0, NULL), p->polar_x);
                     polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &ev, mm, 1);
                 }
                 start_bounce(p, &sf, e.reflect, 1, 0.0);
@@ -1453,7 +1456,8 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
     const int nb = rs->grid.n;
     const int nplanes = render_settings_buckets(rs);
     if (tilebuf_nbuckets(out) != nplanes)
-        return err_set(err, "tile buffer has %d buckets, the film %d", tilebuf_nbuckets(out), nplanes);
+        return err_set(err, "tile buffer has %d buckets, the film %d", tilebuf_nbuckets(out),
+                       nplanes);
     if (rs->stokes && !rs->polarised)
         return err_set(err, "a Stokes output needs polarised transport");
     if (rs->dispersion == DISPERSION_FANOUT && nb > LANES)

@@ -36,17 +36,17 @@
 #include <stdint.h>
 
 typedef enum material_kind {
-    MATERIAL_DIFFUSE,    /* Lambertian with a reflectance texture */
-    MATERIAL_CONDUCTOR,  /* Fresnel from eta/k (or a reflectance); a mirror when smooth */
-    MATERIAL_DIELECTRIC, /* glass with an index-of-refraction model; smooth or rough */
-    MATERIAL_INTERFACE,  /* no surface: rays pass straight through */
+    MATERIAL_DIFFUSE,              /* Lambertian with a reflectance texture */
+    MATERIAL_CONDUCTOR,            /* Fresnel from eta/k (or a reflectance); a mirror when smooth */
+    MATERIAL_DIELECTRIC,           /* glass with an index-of-refraction model; smooth or rough */
+    MATERIAL_INTERFACE,            /* no surface: rays pass straight through */
     MATERIAL_THIN_DIELECTRIC,      /* a thin slab: reflection and straight transmission */
     MATERIAL_DIFFUSE_TRANSMISSION, /* Lambertian reflection and transmission */
     MATERIAL_COATED_DIFFUSE,       /* a dielectric coat over a medium over a diffuse base */
     MATERIAL_COATED_CONDUCTOR,     /* a dielectric coat over a medium over a conductor */
     MATERIAL_MIX,                  /* one of two materials, chosen per hit by amount */
-    MATERIAL_POLARISER, /* a thin linear polariser sheet: straight through, half of unpolarised light */
-    MATERIAL_RETARDER,  /* a thin linear retarder sheet (a wave plate): straight through */
+    MATERIAL_POLARISER,            /* a thin linear polariser sheet, crossed straight */
+    MATERIAL_RETARDER,             /* a thin linear retarder sheet (a wave plate) */
 } material_kind_t;
 
 /* The numbers of a material; textures are NULL where the material has no such input (a
