@@ -341,14 +341,16 @@ static int is_specular(const material_t *m)
 /* A surface that receives a caustic: a diffuse surface that reflects some light at the hit
  * (a black light fixture does not: a photon stored there would carry nothing to the camera),
  * or a glossy one -- any non-delta surface that is not Lambertian (coated, rough conductor or
- * dielectric, diffuse transmission; not a thin dielectric, all delta), which the plan's photon
- * map stores photons on with their directions (render/photon.h). */
+ * dielectric, diffuse transmission; not a thin dielectric, all delta, nor a polarising sheet,
+ * which ends photons), which the plan's photon map stores photons on with their directions
+ * (render/photon.h). */
 static int receives(const surface_t *sf, spectral_grid_t g)
 {
     const material_t *m = sf->material;
     if (m->kind != MATERIAL_DIFFUSE)
         return m->kind != MATERIAL_INTERFACE && m->kind != MATERIAL_MIX &&
-               m->kind != MATERIAL_THIN_DIELECTRIC && !is_specular(m);
+               m->kind != MATERIAL_THIN_DIELECTRIC && !material_is_sheet(m->kind) &&
+               !is_specular(m);
     if (!m->reflectance)
         return 1;
     for (int k = 0; k < 8; k++)
