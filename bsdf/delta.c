@@ -1,6 +1,8 @@
 #include "delta.h"
 
 #include "fresnel.h"
+#include "polar_frame.h"
+#include "polar_fresnel.h"
 #include "thinfilm.h"
 
 #include <complex.h>
@@ -143,4 +145,39 @@ double delta_conductor_coated_weight(const delta_conductor_t *e, double eta, dou
     const thinfilm_t f =
         thinfilm_eval(fabs(e->cos_i), 1.0, nf, film->thickness_nm, eta + I * k, lambda);
     return thinfilm_reflectance(&f);
+}
+
+mueller_t delta_dielectric_mueller(vec3_t out, vec3_t nrm, bool entering, double n, double lambda,
+                                   const delta_film_t *film, bool reflect)
+{
+    /* The light's side: the path's on reflection, the other on refraction. */
+    const bool light_outside = reflect ? entering : !entering;
+    const double n_i = light_outside ? 1.0 : n, n_t = light_outside ? n : 1.0;
+    const double cos_i = fmin(1.0, fabs(vec3_dot(out, nrm)));
+    mueller_t m;
+    if (film) {
+        const double nf = ior_eval(film->ior, lambda);
+        const thinfilm_t f = thinfilm_eval(cos_i, n_i, nf, film->thickness_nm, n_t, lambda);
+        m = reflect ? thinfilm_reflection(&f) : thinfilm_transmission(&f);
+    } else {
+        const polar_fresnel_t f = polar_fresnel_eval(cos_i, n_i, n_t);
+        m = reflect ? polar_fresnel_reflection(&f) : polar_fresnel_transmission(&f);
+    }
+    return mueller_normalised(&m);
+}
+
+mueller_t delta_conductor_mueller(const delta_conductor_t *e, double eta, double k, double lambda,
+                                  const delta_film_t *film)
+{
+    mueller_t m;
+    if (film) {
+        const double nf = ior_eval(film->ior, lambda);
+        const thinfilm_t f =
+            thinfilm_eval(fabs(e->cos_i), 1.0, nf, film->thickness_nm, eta + I * k, lambda);
+        m = thinfilm_reflection(&f);
+    } else {
+        const polar_fresnel_t f = polar_fresnel_conductor(fabs(e->cos_i), eta, k);
+        m = polar_fresnel_reflection(&f);
+    }
+    return mueller_normalised(&m);
 }

@@ -18,6 +18,7 @@
 #include "bsdf_types.h"
 #include "dispersion.h"
 #include "fanout.h"
+#include "stokes.h"
 #include "vec3.h"
 
 #include <stdbool.h>
@@ -85,6 +86,18 @@ typedef struct delta_film {
 void delta_dielectric_coat(delta_dielectric_t *e, vec3_t dir, vec3_t nrm, bool entering,
                            const double *n, const double *lambda, const delta_film_t *film);
 
+/* Polarised transport (docs/physics.md §14): the Mueller matrix, in the s-p frames of
+ * polar/polar_frame.h's polar_event_interface, of one lane's branch of a smooth dielectric
+ * crossed by a camera path (radiance mode) that leaves along `out` (e->reflect or a refracted
+ * direction): the light travels the other way, so it arrives along -out -- from the path's side
+ * on reflection, from the far side on refraction -- in medium n_i and leaves into n_t (outside
+ * index 1, glass n). The matrix is polar/polar_fresnel.h's (with a coating: polar/thinfilm.h's
+ * Airy matrices, the film on the outside; film NULL: bare) divided by its M[0][0], the
+ * unpolarised factor that the weights above carry: a path multiplies its scalar weights as
+ * without polarisation and its carrier by this (mueller_normalised). */
+mueller_t delta_dielectric_mueller(vec3_t out, vec3_t nrm, bool entering, double n, double lambda,
+                                   const delta_film_t *film, bool reflect);
+
 /* The branch a uniform u in [0, 1) chooses in proportion to its probability: reflection when
  * u < P_r. *dir is its direction, and the returned factor is every lane's (a grey event):
  * exactly 1 in importance mode, and on refraction (n_i / n_t)^2 in radiance mode. */
@@ -131,5 +144,10 @@ double delta_conductor_weight(const delta_conductor_t *e, double eta, double k);
  * reflectance over the conductor (polar/thinfilm.h with a complex substrate). */
 double delta_conductor_coated_weight(const delta_conductor_t *e, double eta, double k,
                                      double lambda, const delta_film_t *film);
+
+/* The conductor's reflection Mueller matrix (polar_fresnel_conductor's, or with film not NULL
+ * the coating's Airy matrix over the metal), divided by its M[0][0] as delta_dielectric_mueller. */
+mueller_t delta_conductor_mueller(const delta_conductor_t *e, double eta, double k, double lambda,
+                                  const delta_film_t *film);
 
 #endif

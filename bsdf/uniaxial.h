@@ -2,7 +2,7 @@
  * birefringent crystal (ordinary index n_o, extraordinary n_e, optic axis c), as delta lobes
  * for a path's spectral lanes, in radiance or importance mode (bsdf/delta.h's sibling).
  *
- * Physics (docs/physics.md §14; Born & Wolf, Principles of Optics, §15.3; Yariv & Yeh, Optical
+ * Physics (docs/physics.md §15; Born & Wolf, Principles of Optics, §15.3; Yariv & Yeh, Optical
  * Waves in Crystals, ch. 4): the ordinary wave obeys Snell's law with n_o; the extraordinary
  * wave's index depends on the angle theta between its wave normal k and c,
  *   1 / n(theta)^2 = cos^2 theta / n_o^2 + sin^2 theta / n_e^2,

@@ -147,7 +147,7 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
 {
     const render_settings_t *rs = &scene->settings;
     err_t err;
-    tilebuf_t *image = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, &err);
+    tilebuf_t *image = tilebuf_new(0, 0, rs->xres, rs->yres, render_settings_buckets(rs), &err);
     if (!image) {
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
         return 1;
@@ -500,7 +500,13 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
 
     int rc = 0;
     colour_tonemap_t tm = {.exposure_stops = exposure, .curve = COLOUR_CURVE_ACES};
-    if (c->direct) {
+    if (rs->stokes && !c->direct) {
+        /* The master's image and its tiles hold grid.n buckets; the Stokes planes are written by
+         * the local renderer only so far (docs/rendering.md, "Polarisation"). */
+        fprintf(stderr, "prismfarm render: Film \"bool stokes\" is rendered with --direct only "
+                        "(the farm does not carry the S1-S3 planes yet)\n");
+        rc = 1;
+    } else if (c->direct) {
         rc = render_direct(scene, scene_path, (int)threads, (int)tile, quiet, &stop, exr, png, tm, loaded, load_s);
     } else {
         /* The farm's code path: a master and workers in this process. */

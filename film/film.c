@@ -3,6 +3,7 @@
 #include "image_exr.h"
 #include "image_png.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -11,7 +12,7 @@
 int film_to_rgb(const tilebuf_t *image, spectral_grid_t grid, float *rgb, err_t *err)
 {
     int w = tilebuf_width(image), h = tilebuf_height(image), nb = tilebuf_nbuckets(image);
-    if (nb != grid.n)
+    if (nb != grid.n && nb != 4 * grid.n)
         return err_set(err, "image has %d buckets, the grid %d", nb, grid.n);
     int x0 = tilebuf_x0(image), y0 = tilebuf_y0(image);
     for (int y = 0; y < h; y++)
@@ -96,23 +97,87 @@ int film_png_from_exr(const char *exr_path, const char *png_path, colour_tonemap
     return r;
 }
 
+void film_stokes_preview_paths(const char *png_path, char *dop, size_t dop_size, char *aop,
+                               size_t aop_size)
+{
+    size_t n = strlen(png_path);
+    int stem = (int)(n >= 4 && !strcasecmp(png_path + n - 4, ".png") ? n - 4 : n);
+    snprintf(dop, dop_size, "%.*s_dop.png", stem, png_path);
+    snprintf(aop, aop_size, "%.*s_aop.png", stem, png_path);
+}
+
+/* HSV to RGB, hue h in [0, 6) sextants, s and v in [0, 1]. */
+static void hsv_to_rgb(double h, double s, double v, double rgb[3])
+{
+    const int i = (int)h % 6;
+    const double f = h - floor(h), p = v * (1.0 - s), q = v * (1.0 - s * f),
+                 t = v * (1.0 - s * (1.0 - f));
+    const double tab[6][3] = {{v, t, p}, {q, v, p}, {p, v, t}, {p, q, v}, {t, p, v}, {v, p, q}};
+    for (int c = 0; c < 3; c++)
+        rgb[c] = tab[i][c];
+}
+
+/* The previews of film_stokes_preview_paths from the Stokes planes' sums over the buckets
+ * (the light of the film's whole range; the S0-S3 layers keep every bucket). */
+static int write_stokes_previews(const tilebuf_t *image, int nb, const char *png_path, err_t *err)
+{
+    const int w = tilebuf_width(image), h = tilebuf_height(image);
+    const size_t npix = (size_t)w * (size_t)h;
+    unsigned char *dop = malloc(npix * 3), *aop = malloc(npix * 3);
+    double *mean = malloc((size_t)nb * 4 * sizeof *mean);
+    int r = 0;
+    if (!dop || !aop || !mean)
+        r = err_set(err, "out of memory for the polarisation previews");
+    for (int y = 0; y < h && !r; y++)
+        for (int x = 0; x < w; x++) {
+            tilebuf_mean(image, tilebuf_x0(image) + x, tilebuf_y0(image) + y, mean);
+            double s[4] = {0, 0, 0, 0};
+            for (int k = 0; k < 4; k++)
+                for (int b = 0; b < nb; b++)
+                    s[k] += mean[k * nb + b];
+            const double lin = s[0] > 0.0 ? fmin(1.0, sqrt(s[1] * s[1] + s[2] * s[2]) / s[0]) : 0.0;
+            const double all =
+                s[0] > 0.0 ? fmin(1.0, sqrt(s[1] * s[1] + s[2] * s[2] + s[3] * s[3]) / s[0]) : 0.0;
+            const size_t i = 3 * ((size_t)y * (size_t)w + (size_t)x);
+            dop[i] = dop[i + 1] = dop[i + 2] = (unsigned char)lrint(255.0 * all);
+            /* Hue 2 * AoP (a full turn over 180 degrees of polarisation angle). */
+            double hue = atan2(s[2], s[1]) / (2.0 * 3.14159265358979323846);
+            hue = 6.0 * (hue - floor(hue));
+            double rgb[3];
+            hsv_to_rgb(hue, lin, lin, rgb);
+            for (int c = 0; c < 3; c++)
+                aop[i + (size_t)c] = (unsigned char)lrint(255.0 * rgb[c]);
+        }
+    char dop_path[1100], aop_path[1100];
+    film_stokes_preview_paths(png_path, dop_path, sizeof dop_path, aop_path, sizeof aop_path);
+    if (!r)
+        r = image_png_write_rgb(dop_path, w, h, dop, err);
+    if (!r)
+        r = image_png_write_rgb(aop_path, w, h, aop, err);
+    free(dop);
+    free(aop);
+    free(mean);
+    return r;
+}
+
 int film_write(const tilebuf_t *image, spectral_grid_t grid, const film_output_t *out, err_t *err)
 {
     int w = tilebuf_width(image), h = tilebuf_height(image), nb = tilebuf_nbuckets(image);
+    const int planes = nb == 4 * grid.n && grid.n > 0 ? 4 : 1;
     size_t npix = (size_t)w * (size_t)h;
     float *rgb = malloc(npix * 3 * sizeof *rgb);
     if (!rgb)
         return err_set(err, "out of memory for a %dx%d image", w, h);
     int r = film_to_rgb(image, grid, rgb, err);
     if (!r && out->exr_path) {
-        if (out->spectral) {
+        if (out->spectral || planes > 1) {
             float *spec = malloc(npix * (size_t)nb * sizeof *spec);
             double *centres = malloc((size_t)nb * sizeof *centres);
             double *mean = malloc((size_t)nb * sizeof *mean);
             if (!spec || !centres || !mean) {
                 r = err_set(err, "out of memory for a %dx%d spectral image", w, h);
             } else {
-                for (int b = 0; b < nb; b++)
+                for (int b = 0; b < grid.n; b++)
                     centres[b] = spectral_grid_centre(grid, b);
                 for (int y = 0; y < h; y++)
                     for (int x = 0; x < w; x++) {
@@ -121,8 +186,8 @@ int film_write(const tilebuf_t *image, spectral_grid_t grid, const film_output_t
                         for (int b = 0; b < nb; b++)
                             o[b] = (float)mean[b];
                     }
-                r = image_exr_write_spectral(out->exr_path, w, h, rgb, spec, nb, centres, NULL,
-                                             out->info, err);
+                r = image_exr_write_stokes(out->exr_path, w, h, rgb, spec, grid.n, planes, centres,
+                                           NULL, out->info, err);
             }
             free(spec);
             free(centres);
@@ -133,6 +198,8 @@ int film_write(const tilebuf_t *image, spectral_grid_t grid, const film_output_t
     }
     if (!r && out->png_path)
         r = write_png(out->png_path, w, h, rgb, out->tonemap, err);
+    if (!r && out->png_path && planes > 1)
+        r = write_stokes_previews(image, grid.n, out->png_path, err);
     free(rgb);
     return r;
 }

@@ -24,6 +24,15 @@ int film_to_rgb(const tilebuf_t *image, spectral_grid_t grid, float *rgb, err_t 
 
 int film_write(const tilebuf_t *image, spectral_grid_t grid, const film_output_t *out, err_t *err);
 
+/* An image with the Stokes planes (render_settings_t.stokes: 4 grid.n buckets, S0 then S1,
+ * S2, S3) writes all four as the spectral layout's S0-S3 layers (image_exr_write_stokes, even
+ * for an "rgb" film) and, beside the PNG "x.png", the polarisation previews "x_dop.png" (the
+ * degree of polarisation sqrt(S1^2 + S2^2 + S3^2) / S0 of the buckets' sums, black 0 to white
+ * 1) and "x_aop.png" (the angle of linear polarisation 1/2 atan2(S2, S1) as hue, red at 0 and
+ * cyan at 90 degrees, its saturation and value the degree of linear polarisation). */
+void film_stokes_preview_paths(const char *png_path, char *dop, size_t dop_size, char *aop,
+                               size_t aop_size);
+
 /* Writes the tone-mapped PNG preview of an EXR file (its R, G, B channels). */
 int film_png_from_exr(const char *exr_path, const char *png_path, colour_tonemap_t tonemap,
                       err_t *err);

@@ -130,6 +130,14 @@ static const char *compression_name(exr_compression_t c)
 
 int image_exr_format_channel_name(double centre_nm, char *buf, size_t size, err_t *err)
 {
+    return image_exr_format_stokes_channel_name(0, centre_nm, buf, size, err);
+}
+
+int image_exr_format_stokes_channel_name(int k, double centre_nm, char *buf, size_t size,
+                                         err_t *err)
+{
+    if (k < 0 || k > 3)
+        return err_set(err, "Stokes component %d is not 0..3", k);
     if (!isfinite(centre_nm) || centre_nm <= 0.0)
         return err_set(err, "bucket centre %g nm is not a positive finite wavelength", centre_nm);
     char number[64];
@@ -142,7 +150,7 @@ int image_exr_format_channel_name(double centre_nm, char *buf, size_t size, err_
         if (*c < '0' || *c > '9')
             *c = ',';
     }
-    n = snprintf(buf, size, "S0.%snm", number);
+    n = snprintf(buf, size, "S%d.%snm", k, number);
     if (n < 0 || (size_t)n >= size || n >= IMAGE_EXR_CHANNEL_NAME_MAX)
         return err_set(err, "bucket centre %g nm gives a channel name longer than %d characters",
                        centre_nm, IMAGE_EXR_CHANNEL_NAME_MAX - 1);
@@ -551,6 +559,17 @@ int image_exr_write_spectral(const char *path, int width, int height, const floa
                              const float *spectral, int n_buckets, const double *centres_nm,
                              const char *emissive_units, const char *info, err_t *err)
 {
+    return image_exr_write_stokes(path, width, height, rgb, spectral, n_buckets, 1, centres_nm,
+                                  emissive_units, info, err);
+}
+
+int image_exr_write_stokes(const char *path, int width, int height, const float *rgb,
+                           const float *spectral, int n_buckets, int planes,
+                           const double *centres_nm, const char *emissive_units, const char *info,
+                           err_t *err)
+{
+    if (planes != 1 && planes != 4)
+        return err_set(err, "%s: %d Stokes planes (1 or 4)", path, planes);
     if (n_buckets < 1)
         return err_set(err, "%s: %d spectral buckets (need at least 1)", path, n_buckets);
     if (rgb == NULL || spectral == NULL || centres_nm == NULL)
@@ -559,17 +578,17 @@ int image_exr_write_spectral(const char *path, int width, int height, const floa
         emissive_units = IMAGE_EXR_DEFAULT_EMISSIVE_UNITS;
     if (emissive_units[0] == '\0')
         return err_set(err, "%s: empty emissiveUnits", path);
-    if (check_size(path, width, height, n_buckets + 3, err) != 0)
+    const int nch = planes * n_buckets;
+    if (check_size(path, width, height, nch + 3, err) != 0)
         return -1;
     size_t n_pixels = (size_t)width * (size_t)height;
     if (check_finite(path, "RGB", rgb, n_pixels * 3, 3, width, err) != 0 ||
-        check_finite(path, "spectral", spectral, n_pixels * (size_t)n_buckets, n_buckets, width,
-                     err) != 0)
+        check_finite(path, "spectral", spectral, n_pixels * (size_t)nch, nch, width, err) != 0)
         return -1;
 
-    exr_source_t *sources = calloc((size_t)n_buckets + 3, sizeof *sources);
+    exr_source_t *sources = calloc((size_t)nch + 3, sizeof *sources);
     if (sources == NULL)
-        return err_set(err, "%s: out of memory for %d channels", path, n_buckets + 3);
+        return err_set(err, "%s: out of memory for %d channels", path, nch + 3);
     static const char *const names[] = {"R", "G", "B"};
     for (int c = 0; c < 3; c++) {
         snprintf(sources[c].name, sizeof sources[c].name, "%s", names[c]);
@@ -577,29 +596,33 @@ int image_exr_write_spectral(const char *path, int width, int height, const floa
         sources[c].stride = 3;
     }
     int status = 0;
-    for (int k = 0; k < n_buckets && status == 0; k++) {
-        exr_source_t *s = &sources[3 + k];
-        if (image_exr_format_channel_name(centres_nm[k], s->name, sizeof s->name, err) != 0) {
+    for (int c = 0; c < nch && status == 0; c++) {
+        const int k = c % n_buckets, plane = c / n_buckets;
+        exr_source_t *s = &sources[3 + c];
+        if (image_exr_format_stokes_channel_name(plane, centres_nm[k], s->name, sizeof s->name,
+                                                 err) != 0) {
             status = err_prefix(err, "%s: bucket %d: ", path, k);
             break;
         }
-        for (int j = 0; j < k; j++) {
+        for (int j = 0; j < k && plane == 0; j++) {
             if (strcmp(sources[3 + j].name, s->name) == 0)
                 status = err_set(err,
                                  "%s: buckets %d and %d (%.9g and %.9g nm) both give the "
                                  "channel name %s",
                                  path, j, k, centres_nm[j], centres_nm[k], s->name);
         }
-        s->first = spectral + k;
-        s->stride = n_buckets;
+        s->first = spectral + c;
+        s->stride = nch;
     }
     if (status == 0) {
         const exr_string_attr_t attrs[] = {
             {"spectralLayoutVersion", "1.0"},
             {"emissiveUnits", emissive_units},
             {"prismfarm", info},
+            {"polarisationHandedness", "right"},
         };
-        status = exr_write_file(path, width, height, sources, n_buckets + 3, attrs, 3, err);
+        status =
+            exr_write_file(path, width, height, sources, nch + 3, attrs, planes == 4 ? 4 : 3, err);
     }
     free(sources);
     return status;

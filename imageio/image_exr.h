@@ -34,10 +34,22 @@ int image_exr_write_spectral(const char *path, int width, int height, const floa
                              const float *spectral, int n_buckets, const double *centres_nm,
                              const char *emissive_units, const char *info, err_t *err);
 
+/* The polarised layout: planes (1 or 4) Stokes components per bucket, `S<k>.<centre>nm` for
+ * k < planes, spectral[(y * width + x) * planes * n_buckets + k * n_buckets + b]; with 4
+ * planes the attribute polarisationHandedness = "right" (S3 > 0: the right-circular light of
+ * polar/stokes.h's convention). planes 1 is image_exr_write_spectral. */
+int image_exr_write_stokes(const char *path, int width, int height, const float *rgb,
+                           const float *spectral, int n_buckets, int planes,
+                           const double *centres_nm, const char *emissive_units, const char *info,
+                           err_t *err);
+
 /* Formats the name of the unpolarised emissive channel for a bucket centred at centre_nm, as
  * the layout's reference code does: "S0." + printf("%f") with a decimal comma + "nm", e.g.
  * "S0.550,000000nm". Returns -1 if the name would not fit in IMAGE_EXR_CHANNEL_NAME_MAX. */
 int image_exr_format_channel_name(double centre_nm, char *buf, size_t size, err_t *err);
+/* The same for Stokes component k (0..3): "S<k>.550,000000nm". */
+int image_exr_format_stokes_channel_name(int k, double centre_nm, char *buf, size_t size,
+                                         err_t *err);
 
 /* Parses a channel name against the layout's pattern
  *   ^((S([0-3]))|T)\.(\d*,?\d*([Ee][+-]?\d+)?)(Y|Z|E|P|T|G|M|k|h|da|d|c|m|u|n|p)?(m|Hz)$

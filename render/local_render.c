@@ -48,7 +48,7 @@ static void stats_add(render_stats_t *sum, const render_stats_t *s)
 static int render_passes(const shared_t *sh, int x0, int y0, int w, int h, int p0, int p1,
                          tilebuf_t *acc, render_stats_t *st, err_t *err)
 {
-    tilebuf_t *pass = tilebuf_new(x0, y0, w, h, sh->scene->settings.grid.n, err);
+    tilebuf_t *pass = tilebuf_new(x0, y0, w, h, render_settings_buckets(&sh->scene->settings), err);
     if (!pass)
         return -1;
     int r = 0;
@@ -79,7 +79,7 @@ static int render_one(void *user, int t, err_t *err)
     int x0, y0, w, h;
     tilegrid_rect(&sh->grid, t, &x0, &y0, &w, &h);
     render_stats_t st = {0};
-    tilebuf_t *buf = tilebuf_new(x0, y0, w, h, sh->scene->settings.grid.n, err);
+    tilebuf_t *buf = tilebuf_new(x0, y0, w, h, render_settings_buckets(&sh->scene->settings), err);
     int p0 = by_pass ? sh->pass : 0, p1 = by_pass ? sh->pass + 1 : sh->npasses;
     int r = buf ? render_passes(sh, x0, y0, w, h, p0, p1, buf, &st, err) : -1;
     pthread_mutex_lock(&sh->lock);
@@ -125,7 +125,7 @@ static int render_by_pass(shared_t *sh, tilebuf_t *image, local_render_result_t 
     const local_render_opts_t *o = sh->opts;
     int n = tilegrid_count(&sh->grid);
     for (int pass = 0; pass < sh->npasses; pass++) {
-        tilebuf_t *buf = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, err);
+        tilebuf_t *buf = tilebuf_new(0, 0, rs->xres, rs->yres, render_settings_buckets(rs), err);
         if (!buf)
             return -1;
         sh->target = buf;
@@ -170,7 +170,7 @@ int local_render(const scene_t *scene, const local_render_opts_t *opts, tilebuf_
 {
     const render_settings_t *rs = &scene->settings;
     if (tilebuf_x0(image) != 0 || tilebuf_y0(image) != 0 || tilebuf_width(image) != rs->xres ||
-        tilebuf_height(image) != rs->yres || tilebuf_nbuckets(image) != rs->grid.n)
+        tilebuf_height(image) != rs->yres || tilebuf_nbuckets(image) != render_settings_buckets(rs))
         return err_set(err, "the image buffer does not match the %dx%d film with %d buckets",
                        rs->xres, rs->yres, rs->grid.n);
     local_render_result_t local;

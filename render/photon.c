@@ -392,6 +392,10 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
             f->org = geometry_offset(sf.p, sf.ng, f->dir);
             continue;
         }
+        /* Photons carry no polarisation: a polariser or retarder sheet ends them, and the
+         * camera pass path traces the light through it (render.c breaks its chain there). */
+        if (material_is_sheet(m->kind))
+            return 0;
         shading_perturb(m, &sf);
         if (m->kind == MATERIAL_DIFFUSE) {
             /* The side the photon arrived on decides the normal stored and the hemisphere it

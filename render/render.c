@@ -8,6 +8,7 @@
 #include "lights.h"
 #include "phase_hg.h"
 #include "regularize.h"
+#include "polar_frame.h"
 #include "rng.h"
 #include "sample.h"
 #include "sampler.h"
@@ -65,11 +66,18 @@ typedef struct path {
     int vertex;
     /* Inside a uniaxial crystal, the wave the path travels as (bsdf/uniaxial.h: 0 o, 1 e). */
     int wave;
+    /* Polarised transport (render_settings_t.polarised): the lanes' Stokes carriers polar_t
+     * are live, measured in the frame polar_x (polar/polar_frame.h). The scalar weights beta
+     * stay what they are without polarisation; polar_t holds only the polarising part of each
+     * element (mueller_normalised), so that the camera records beta T S for light S. */
+    int polar;
+    vec3_t polar_x;
     /* The lanes come last so that a new path clears only the fields above. */
     double lambda[LANES];
     double beta[LANES];
     double pdf[LANES];
     int bucket[LANES];
+    mueller_t polar_t[LANES]; /* read only when polar */
 } path_t;
 
 /* Lights whose spectral values render keeps per lane (the first LE_CACHE_LIGHTS of the scene;
@@ -120,6 +128,10 @@ typedef struct ctx {
     double *irradiance; /* grid.n buckets, for one estimate */
     le_entry_t le_cache[LE_CACHE_LIGHTS + 1][LANES];
     int media; /* the scene's media are simulated (render/volume.h) */
+    /* Polarised transport: the tile's Stokes planes S1-S3 follow the S0 buckets (stokes), and
+     * +1 or -1 as the camera's k x right is its image up or down (splat_stokes). */
+    int stokes;
+    double frame_sign;
 } ctx_t;
 
 /* The dimension layout of a camera sample (docs/rendering.md, "Sampler"): dimension d means
@@ -213,6 +225,8 @@ static void path_copy(path_t *dst, const path_t *src)
     memcpy(dst->beta, src->beta, n * sizeof src->beta[0]);
     memcpy(dst->pdf, src->pdf, n * sizeof src->pdf[0]);
     memcpy(dst->bucket, src->bucket, n * sizeof src->bucket[0]);
+    if (src->polar)
+        memcpy(dst->polar_t, src->polar_t, n * sizeof src->polar_t[0]);
 }
 
 static double power_heuristic(double a, double b)
@@ -243,6 +257,27 @@ static double fanout_inverse_density(const ctx_t *c, const path_t *p, double lam
     return d > 0.0 ? w / (1.0 - d) : w;
 }
 
+/* The Stokes output's S1-S3 planes (render_settings_t.stokes: the tile's buckets are the S0
+ * planes then S1, S2, S3, each grid.n long): lane j's light v beta times T's first column,
+ * splatted into each plane as the S0 bucket is; no XYZ. The carried frame's y is k x right,
+ * which for a camera that shows its up as image up reversed (c->frame_sign -1: pbrt's LookAt)
+ * is image down, so S2 takes that sign and the planes are in the image's (right, up) frame. */
+static void splat_stokes(ctx_t *c, const path_t *p, int j, double v)
+{
+    const int nb = c->rs->grid.n;
+    for (int k = 1; k < 4; k++) {
+        double vk = v * p->polar_t[j].m[k][0] * (k == 2 ? c->frame_sign : 1.0);
+        if (vk == 0.0)
+            continue;
+        double *plane = c->contrib + k * nb;
+        if (p->bucket[j] >= 0)
+            plane[p->bucket[j]] += vk;
+        else if (spectral_table_splat(c->table, plane, p->lambda[j], vk / WAVELENGTH_HERO_COUNT,
+                                      p->pdf[j], SPECTRAL_SPLAT_BOX))
+            c->contrib[0] = NAN;
+    }
+}
+
 /* Adds light value(lane) * beta(lane) to the sample's buckets, and its XYZ at the lane's own
  * wavelength to the sample's colour: v xbar(lambda) / (p(lambda) CIE_Y_INTEGRAL), p the density
  * the lane's wavelength was drawn with (the hero tuple's pdf over its lanes' count, or the
@@ -251,6 +286,12 @@ static double fanout_inverse_density(const ctx_t *c, const path_t *p, double lam
 static void splat(ctx_t *c, const path_t *p, int j, double value)
 {
     double v = value * p->beta[j];
+    if (p->polar) {
+        /* Every emitter is unpolarised, (L, 0, 0, 0): the camera records T's first column. */
+        if (c->stokes)
+            splat_stokes(c, p, j, v);
+        v *= p->polar_t[j].m[0][0];
+    }
     if (v == 0.0)
         return;
     double inv_density;
@@ -745,15 +786,47 @@ static void start_bounce(path_t *p, const surface_t *h, vec3_t dir, int specular
     p->bsdf_pdf = pdf;
 }
 
+/* Where a smooth dielectric event happens, for its Mueller matrices: the normal the
+ * directions were computed about, the side the path comes from, the lanes' indices (n[0] for
+ * every lane unless per_lane) and the material (its coating). */
+typedef struct dielectric_site {
+    vec3_t nrm;
+    int entering;
+    const double *n;
+    int per_lane;
+    const material_t *m;
+} dielectric_site_t;
+
+/* Polarised transport at a smooth dielectric (docs/physics.md §14): p's carrier takes the
+ * branch leaving along out (reflected or refracted) -- bsdf/delta.h's normalised Mueller matrix
+ * per lane, or one for every lane -- in the s-p frames about the site's normal. Called before
+ * start_bounce, while p->dir is still the direction the path arrived along. */
+static void polar_dielectric(path_t *p, const dielectric_site_t *d, vec3_t out, bool reflect)
+{
+    const material_t *m = d->m;
+    const delta_film_t film = {m->film_thickness, &m->film_ior};
+    const delta_film_t *f = m->film_thickness > 0.0 ? &film : NULL;
+    mueller_t mm[LANES];
+    const int count = d->per_lane ? p->n : 1;
+    for (int j = 0; j < count; j++)
+        mm[j] =
+            delta_dielectric_mueller(out, d->nrm, d->entering, d->n[j], p->lambda[j], f, reflect);
+    const polar_event_t ev =
+        polar_event_interface(vec3_neg(out), vec3_neg(p->dir), d->nrm, p->polar_x);
+    polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &ev, mm, d->per_lane);
+}
+
 /* Pushes a copy of p on the reflected branch of a delta event (Whitted follows both branches):
  * its lanes weighted by w (one factor) or by the hero event's per-lane factors. 0 when pushed. */
 static int push_reflection(ctx_t *c, const path_t *p, const surface_t *h, vec3_t refl, double w,
-                           const delta_dielectric_t *lanes)
+                           const delta_dielectric_t *lanes, const dielectric_site_t *site)
 {
     path_t r;
     path_copy(&r, p);
     for (int j = 0; j < r.n; j++)
         r.beta[j] *= lanes ? delta_dielectric_reflect_lane(lanes, j, false) : w;
+    if (r.polar)
+        polar_dielectric(&r, site, refl, true);
     start_bounce(&r, h, refl, 1, 0.0);
     r.depth++;
     return push(c, &r);
@@ -781,6 +854,8 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
         p->bucket[0] = p->bucket[k];
         p->pdf[0] = p->pdf[k];
         p->beta[0] = p->beta[k] * p->n;
+        if (p->polar)
+            p->polar_t[0] = p->polar_t[k];
         p->n = 1;
         p->mono = 1;
     }
@@ -813,16 +888,19 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
             const delta_film_t film = {m->film_thickness, &m->film_ior};
             delta_dielectric_coat(&e, p->dir, nrm, entering, n, p->lambda, &film);
         }
+        const dielectric_site_t site = {nrm, entering, n, lanes, m};
         const double R = e.prob_reflect;
         int both = 0;
         if (whitted && R > 0.0 && R < 1.0 && c->branches < c->max_branches)
             both = push_reflection(c, p, h, e.reflect, delta_dielectric_weight(&e, true, 1.0),
-                                   lanes ? &e : NULL) == 0;
+                                   lanes ? &e : NULL, &site) == 0;
         double scale = 1.0;
         if (!both && choose_reflect(c, R, &scale)) {
             for (int j = 0; j < p->n; j++)
                 p->beta[j] *= lanes ? delta_dielectric_reflect_lane(&e, j, true)
                                     : delta_dielectric_weight(&e, true, scale);
+            if (p->polar)
+                polar_dielectric(p, &site, e.reflect, true);
             start_bounce(p, h, e.reflect, 1, 0.0);
             return 0;
         }
@@ -839,6 +917,8 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
             for (int j = 0; j < p->n; j++)
                 p->beta[j] *= t;
         }
+        if (p->polar)
+            polar_dielectric(p, &site, e.refract, false);
         start_bounce(p, h, e.refract, 1, 0.0);
         return 0;
     }
@@ -861,6 +941,7 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
      * the geometric surface the wrong way with the shading normal, the whole fan uses the
      * geometric normal (specular_normal's rule). */
     delta_fan_t fan;
+    vec3_t fan_nrm = nrm;
     if (delta_fan_make(p->dir, nrm, &m->ior, lam, nb, BSDF_RADIANCE, &fan))
         return 1;
     if (shading) {
@@ -870,16 +951,26 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
             bad |= !fan.rays[i].tir && vec3_dot(fan.rays[i].dir, h->ng) * cg <= 0.0;
         if (bad && delta_fan_make(p->dir, h->ng, &m->ior, lam, nb, BSDF_RADIANCE, &fan))
             return 1;
+        if (bad)
+            fan_nrm = h->ng;
     }
     double RP = fan.poly.reflectance, TP = fan.poly.transmittance;
+    /* With polarisation each lane's reflection is its own index's Mueller matrix (the scalar
+     * weight stays the polychrome R_P); a fan-out ray's refraction is its wavelength's. */
+    if (p->polar)
+        for (int j = 1; j < nb; j++)
+            n[j] = ior_eval(&m->ior, p->lambda[j]);
+    const dielectric_site_t fsite = {fan_nrm, entering, n, 1, m};
     int both = 0;
     if (whitted && RP > 0.0 && RP < 1.0 && c->branches < c->max_branches)
-        both = push_reflection(c, p, h, fan.reflect, RP, NULL) == 0;
+        both = push_reflection(c, p, h, fan.reflect, RP, NULL, &fsite) == 0;
     double scale = 1.0;
     int reflect = both ? 0 : choose_reflect(c, RP, &scale);
     if (reflect) {
         for (int j = 0; j < p->n; j++)
             p->beta[j] *= RP * scale;
+        if (p->polar)
+            polar_dielectric(p, &fsite, fan.reflect, true);
         start_bounce(p, h, fan.reflect, 1, 0.0);
         return 0;
     }
@@ -914,6 +1005,12 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
         q->pdf[0] = q->pdf[1] = 1.0;
         q->mono = 1;
         q->dispersed = 1;
+        if (base.polar) {
+            q->polar_t[0] = q->polar_t[1] = base.polar_t[i];
+            const double ni = ior_eval(&m->ior, lam[i]);
+            const dielectric_site_t rsite = {fan_nrm, entering, &ni, 0, m};
+            polar_dielectric(q, &rsite, fan.rays[i].dir, false);
+        }
         start_bounce(q, h, fan.rays[i].dir, 1, 0.0);
         if (have_current)
             q->depth++; /* the caller counts the current path's bounce */
@@ -1048,6 +1145,10 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
         bsdf_pdf(&b, wo, bs.wi, &c->rng, pdfs);
         mis_pdf = pdfs[0];
     }
+    /* Rough and layered surfaces depolarise (docs/physics.md §14: a simplification; a smooth
+     * coat's specular lobe sampled here is depolarised too). */
+    if (p->polar)
+        polar_carrier_depolarise(p->polar_t, p->n, &p->polar_x, vec3_neg(wi));
     start_bounce(p, sf, wi, specular, specular ? 0.0 : mis_pdf);
     p->prev_n = fr.z;
     if (!specular)
@@ -1143,6 +1244,8 @@ static int medium_flight(ctx_t *c, path_t *p, double tmax)
     double ud[2], pdf;
     draw2(c, VD_DIRECTION, ud);
     vec3_t wi = phase_hg_sample(vec3_neg(p->dir), g, ud[0], ud[1], &pdf);
+    if (p->polar)
+        polar_carrier_depolarise(p->polar_t, p->n, &p->polar_x, vec3_neg(wi));
     p->prev_p = x;
     p->prev_n = vec3_make(0, 0, 0);
     p->org = x;
@@ -1153,6 +1256,32 @@ static int medium_flight(ctx_t *c, path_t *p, double tmax)
     p->specular_since_diffuse = CHAIN_BROKEN;
     p->depth++;
     return roulette(c, p) ? FLIGHT_ENDS : FLIGHT_SCATTERED;
+}
+
+/* A polariser or retarder sheet crossed straight: its element acts along the axis at
+ * sheet_angle from dp/du toward ng x dp/du (a surface without dp/du: from vec3_basis's
+ * tangent of ng). Without polarisation a polariser passes half of the (unpolarised) light and
+ * a retarder all; with it the carrier takes the element's normalised matrix (docs/physics.md
+ * §14). The sheet is thin and has no index: no Fresnel reflection, no change of direction. */
+static void cross_sheet(path_t *p, const surface_t *sf, const material_t *m)
+{
+    const int polariser = m->kind == MATERIAL_POLARISER;
+    if (polariser)
+        for (int j = 0; j < p->n; j++)
+            p->beta[j] *= 0.5;
+    if (!p->polar)
+        return;
+    vec3_t t = sf->dpdu, b;
+    if (!(vec3_length(t) > 0.0))
+        vec3_basis(sf->ng, &t, &b);
+    t = vec3_normalize(polar_frame_perp(t, sf->ng));
+    b = vec3_cross(sf->ng, t);
+    const vec3_t axis =
+        vec3_add(vec3_scale(t, cos(m->sheet_angle)), vec3_scale(b, sin(m->sheet_angle)));
+    const mueller_t e = polariser ? mueller_polariser(0.0) : mueller_retarder(0.0, m->retardance);
+    const mueller_t mm = mueller_normalised(&e);
+    const polar_event_t ev = polar_event_sheet(vec3_neg(p->dir), axis);
+    polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &ev, &mm, 0);
 }
 
 /* Traces one path (and, via the stack, its branches) and splats what it finds. */
@@ -1241,10 +1370,17 @@ static void trace(ctx_t *c, path_t *start)
                     break;
                 for (int j = 0; j < p->n; j++)
                     p->beta[j] *= albedo[j];
+                if (p->polar)
+                    polar_carrier_depolarise(p->polar_t, p->n, &p->polar_x, vec3_neg(wi));
                 start_bounce(p, &sf, wi, 0, cos_i / PF_PI);
                 p->prev_n = n;
                 p->diffuse_bounces++;
                 p->specular_since_diffuse = 0;
+            } else if (material_is_sheet(m->kind)) {
+                cross_sheet(p, &sf, m);
+                start_bounce(p, &sf, p->dir, 1, 0.0);
+                /* The photon pass ends at sheets (photon.c): light through one is path traced. */
+                p->specular_since_diffuse = CHAIN_BROKEN;
             } else if (!shading_is_delta(m, &sf) || (regularized && m->film_thickness <= 0.0)) {
                 if (scatter_bsdf(c, p, &sf, m, regularized))
                     break;
@@ -1252,12 +1388,22 @@ static void trace(ctx_t *c, path_t *start)
                 const delta_conductor_t e =
                     delta_conductor_make(p->dir, specular_normal(&sf, p->dir, 0.0, NULL));
                 const delta_film_t film = {m->film_thickness, &m->film_ior};
+                mueller_t mm[LANES];
                 for (int j = 0; j < p->n; j++) {
                     double eta, k;
                     shading_conductor_index(m, &sf, p->lambda[j], &eta, &k);
                     p->beta[j] *= m->film_thickness > 0.0
                                       ? delta_conductor_coated_weight(&e, eta, k, p->lambda[j], &film)
                                       : delta_conductor_weight(&e, eta, k);
+                    if (p->polar)
+                        mm[j] = delta_conductor_mueller(&e, eta, k, p->lambda[j],
+                                                        m->film_thickness > 0.0 ? &film : NULL);
+                }
+                if (p->polar) {
+                    const polar_event_t ev =
+                        polar_event_interface(vec3_neg(e.reflect), vec3_neg(p->dir),
+                                              specular_normal(&sf, p->dir, 0.0, NULL), p->polar_x);
+                    polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &ev, mm, 1);
                 }
                 start_bounce(p, &sf, e.reflect, 1, 0.0);
                 p->specular_since_diffuse++;
@@ -1346,8 +1492,12 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
 {
     const render_settings_t *rs = &scene->settings;
     const int nb = rs->grid.n;
-    if (tilebuf_nbuckets(out) != nb)
-        return err_set(err, "tile buffer has %d buckets, the film %d", tilebuf_nbuckets(out), nb);
+    const int nplanes = render_settings_buckets(rs);
+    if (tilebuf_nbuckets(out) != nplanes)
+        return err_set(err, "tile buffer has %d buckets, the film %d", tilebuf_nbuckets(out),
+                       nplanes);
+    if (rs->stokes && !rs->polarised)
+        return err_set(err, "a Stokes output needs polarised transport");
     if (rs->dispersion == DISPERSION_FANOUT && nb > LANES)
         return err_set(err, "fan-out dispersion supports at most %d buckets, the film has %d", LANES, nb);
     if (x0 < 0 || y0 < 0 || x0 + w > rs->xres || y0 + h > rs->yres)
@@ -1359,7 +1509,7 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
     render_stats_t local = {0};
     if (!stats)
         stats = &local;
-    double *contrib = malloc((size_t)nb * sizeof *contrib);
+    double *contrib = malloc((size_t)nplanes * sizeof *contrib);
     path_t *stack = malloc(STACK_MAX * sizeof *stack);
     spectral_table_t *table = spectral_table_new(rs->grid, err);
     if (!contrib || !stack || !table) {
@@ -1380,6 +1530,23 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
         for (int j = 0; j < LANES; j++)
             c.le_cache[i][j].lambda = NAN;
     c.media = rs->media && scene->nmedia > 0;
+    /* Polarised transport: every camera ray starts with the analyser's matrix (or the
+     * identity) in the frame x = the image's right, y = k x x (k toward the camera); for a
+     * camera whose k x right is the image's down (frame_sign -1) the analyser's angle, given
+     * from right toward up, is mirrored into that frame. */
+    c.stokes = rs->stokes;
+    vec3_t cam_right = vec3_make(1, 0, 0);
+    mueller_t polar_start = mueller_identity();
+    c.frame_sign = 1.0;
+    if (rs->polarised) {
+        const transform_t *cw = &scene->camera.camera_to_world;
+        cam_right = vec3_normalize(transform_vector(cw, vec3_make(1, 0, 0)));
+        const vec3_t up = transform_vector(cw, vec3_make(0, 1, 0));
+        const vec3_t k = vec3_neg(transform_vector(cw, vec3_make(0, 0, 1)));
+        c.frame_sign = vec3_dot(vec3_cross(k, cam_right), up) >= 0.0 ? 1.0 : -1.0;
+        if (scene->camera.analyser)
+            polar_start = mueller_polariser(c.frame_sign * scene->camera.analyser_angle);
+    }
     double *irradiance = NULL;
     if (rs->photon.enabled) {
         c.photons = photons;
@@ -1411,7 +1578,7 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                 c.smp = sampler_start(&setup, fx, fy, full_w, s);
                 sampler_use_cache(&c.smp, &c.smp_cache);
                 c.rng = rng_stream_make(rs->seed ^ WALK_SEED_MIX, pixel, s);
-                memset(contrib, 0, (size_t)nb * sizeof *contrib);
+                memset(contrib, 0, (size_t)nplanes * sizeof *contrib);
                 c.xyz[0] = c.xyz[1] = c.xyz[2] = 0.0;
                 path_t p;
                 memset(&p, 0, offsetof(path_t, lambda));
@@ -1458,9 +1625,16 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                     }
                 }
                 /* The camera ray after the wavelengths: the realistic camera's depends on them. */
-                if (lens_ray(&c, &p, &frame, px, py, lens[0], lens[1]) > 0.0)
+                if (lens_ray(&c, &p, &frame, px, py, lens[0], lens[1]) > 0.0) {
+                    if (rs->polarised) {
+                        p.polar = 1;
+                        p.polar_x = polar_frame_perp(cam_right, vec3_neg(p.dir));
+                        for (int j = 0; j < p.n; j++)
+                            p.polar_t[j] = polar_start;
+                    }
                     trace(&c, &p);
-                sensor_weight(rs, c.sensor, weight, contrib, nb, c.xyz);
+                }
+                sensor_weight(rs, c.sensor, weight, contrib, nplanes, c.xyz);
                 if (tilebuf_add_sample(out, x, y, contrib, c.xyz))
                     stats->nonfinite++;
                 stats->samples++;

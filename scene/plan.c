@@ -59,6 +59,7 @@
 static const char *const EFFECT_NAMES[PLAN_EFFECT_COUNT] = {
     "wavelength splitting", "spectral colour",   "dispersion strategy",
     "photon pass",          "photon parameters", "integrator",
+    "polarisation",
 };
 
 /* ---- a growing string ---- */
@@ -210,6 +211,10 @@ const char *plan_material_kind_name(material_kind_t kind)
         return "coatedconductor";
     case MATERIAL_MIX:
         return "mix";
+    case MATERIAL_POLARISER:
+        return "polarizer";
+    case MATERIAL_RETARDER:
+        return "retarder";
     }
     return "?";
 }
@@ -336,14 +341,16 @@ static int is_specular(const material_t *m)
 /* A surface that receives a caustic: a diffuse surface that reflects some light at the hit
  * (a black light fixture does not: a photon stored there would carry nothing to the camera),
  * or a glossy one -- any non-delta surface that is not Lambertian (coated, rough conductor or
- * dielectric, diffuse transmission; not a thin dielectric, all delta), which the plan's photon
- * map stores photons on with their directions (render/photon.h). */
+ * dielectric, diffuse transmission; not a thin dielectric, all delta, nor a polarising sheet,
+ * which ends photons), which the plan's photon map stores photons on with their directions
+ * (render/photon.h). */
 static int receives(const surface_t *sf, spectral_grid_t g)
 {
     const material_t *m = sf->material;
     if (m->kind != MATERIAL_DIFFUSE)
         return m->kind != MATERIAL_INTERFACE && m->kind != MATERIAL_MIX &&
-               m->kind != MATERIAL_THIN_DIELECTRIC && !is_specular(m);
+               m->kind != MATERIAL_THIN_DIELECTRIC && !material_is_sheet(m->kind) &&
+               !is_specular(m);
     if (!m->reflectance)
         return 1;
     for (int k = 0; k < 8; k++)
@@ -965,6 +972,65 @@ static int decide_splitting(plan_t *p, const scene_t *s)
     return set_decision(p, PLAN_SPLITTING, ndisp > 0, &c, &r);
 }
 
+/* Polarised transport (docs/physics.md §14) is carried only where the scene tells polarisations
+ * apart: a polariser or retarder sheet, the camera's analyser, or a Stokes output (scene_finish
+ * turns render_settings_t.polarised on for them, scene_load for the output; this says which and
+ * why). Polarised emitters and birefringent materials do not exist yet. Without any of them
+ * the smooth glass and mirrors still polarise what they reflect and transmit, but a camera that
+ * records intensity only sees it where light meets a second polarising surface (a glass seen in
+ * a window, light inside a gem): the intensity ignoring it is off by up to a few per cent there
+ * (a slab at 60 degrees transmits 0.836 unpolarised against 0.848 polarised: test_polar_render's
+ * oracle), which the plan names but does not switch on for. */
+static int decide_polarisation(plan_t *p, const scene_t *s)
+{
+    text_t c = {0}, r = {0};
+    int sheets = 0, glass = 0;
+    for (size_t i = 0; i < s->nmaterials; i++) {
+        const material_t *m = &s->materials[i];
+        sheets += material_is_sheet(m->kind);
+        glass += (m->kind == MATERIAL_DIELECTRIC || m->kind == MATERIAL_CONDUCTOR) && !m->rough;
+    }
+    const render_settings_t *rs = &s->settings;
+    const int on = rs->polarised;
+    if (on) {
+        text_add(&c, "Stokes carriers%s", rs->stokes ? " + S0-S3 output" : "");
+        int k = 0;
+        text_add(&r, "carried because ");
+        if (sheets) {
+            text_add(&r, "of polarising sheets: ");
+            for (size_t i = 0; i < s->nmaterials; i++)
+                if (material_is_sheet(s->materials[i].kind))
+                    text_add(&r, "%s%s (%s)", k++ ? ", " : "", p->materials[i].name,
+                             plan_material_kind_name(s->materials[i].kind));
+            text_add(&r, "; ");
+        }
+        if (s->camera.analyser)
+            text_add(&r, "the camera has an analyser at %g degrees; ",
+                     s->camera.analyser_angle * 180.0 / PF_PI);
+        if (rs->stokes)
+            text_add(&r, "the film writes the Stokes layers S1-S3; ");
+        if (!sheets && !s->camera.analyser && !rs->stokes)
+            text_add(&r, "the caller asked for it; ");
+        text_add(&r,
+                 "a 4x4 Mueller matrix per lane at every smooth interface and sheet, diffuse "
+                 "and rough surfaces depolarise. Images without any of these are left "
+                 "unpolarised, bit for bit as before.");
+    } else {
+        text_add(&c, "off");
+        text_add(&r, "nothing tells polarisations apart (no polariser or retarder sheet, no "
+                     "analyser, no Stokes output)");
+        if (glass)
+            text_add(&r,
+                     "; the %d smooth glass and mirror material%s polarise what they reflect, "
+                     "which changes intensities only where light meets a second polarising "
+                     "surface (a few per cent: a slab at 60 degrees transmits 0.836 "
+                     "unpolarised, 0.848 polarised)",
+                     glass, glass > 1 ? "s" : "");
+        text_add(&r, ".");
+    }
+    return set_decision(p, PLAN_POLARISATION, on, &c, &r);
+}
+
 static int decide_colour(plan_t *p, const scene_t *s)
 {
     text_t c = {0}, r = {0};
@@ -1326,7 +1392,7 @@ plan_t *plan_new(const scene_t *scene, const plan_request_t *req, err_t *err)
         p->nplacements = t.max_hops > 0 ? (size_t)npl : 0;
         rc = decide_splitting(p, scene) || decide_colour(p, scene) || decide_strategy(p, scene) ||
              decide_photon(p, scene) || decide_photon_params(p, scene, lo, hi, (size_t)npl) ||
-             decide_integrator(p);
+             decide_integrator(p) || decide_polarisation(p, scene);
     }
     free(pls);
     for (size_t i = 0; cdfs && i < scene->nshapes; i++)
@@ -1582,6 +1648,9 @@ int plan_write_text(const plan_t *p, FILE *out)
             break;
         case PLAN_PHOTON_PARAMS:
             why = "no photon pass";
+            break;
+        case PLAN_POLARISATION:
+            why = "nothing polarising is seen or asked for (intensities only)";
             break;
         default:
             break;

@@ -50,6 +50,7 @@ typedef enum plan_effect {
     PLAN_PHOTON,        /* the photon pass */
     PLAN_PHOTON_PARAMS, /* its photon count and gather radius */
     PLAN_INTEGRATOR,    /* the camera pass's integrator */
+    PLAN_POLARISATION,  /* Stokes carriers on camera paths (render_settings_t.polarised) */
     PLAN_EFFECT_COUNT,
 } plan_effect_t;
 

@@ -587,6 +587,16 @@ double scene_light_power(const scene_t *self, const light_t *l)
     return fmin(p, DBL_MAX / (double)(self->nlights + 1));
 }
 
+int render_settings_buckets(const render_settings_t *rs)
+{
+    return rs->stokes ? 4 * rs->grid.n : rs->grid.n;
+}
+
+int material_is_sheet(material_kind_t kind)
+{
+    return kind == MATERIAL_POLARISER || kind == MATERIAL_RETARDER;
+}
+
 int material_has_ior(material_kind_t kind)
 {
     return kind == MATERIAL_DIELECTRIC || kind == MATERIAL_THIN_DIELECTRIC ||
@@ -609,6 +619,7 @@ int scene_finish(scene_t *self, err_t *err)
     self->has_dispersion = 0;
     self->has_interface = 0;
     self->has_medium_boundary = 0;
+    self->polarising_sheets = 0;
     /* A medium that is not simulated (NULL) is vacuum: the index becomes -1, so that a shape
      * between it and vacuum is no boundary. */
     if (self->camera_medium >= (int)self->nmedia)
@@ -619,6 +630,7 @@ int scene_finish(scene_t *self, err_t *err)
         shape_t *sh = &self->shapes[i];
         const material_t *m = &self->materials[sh->material];
         self->has_interface |= m->kind == MATERIAL_INTERFACE;
+        self->polarising_sheets += m->kind == MATERIAL_POLARISER || m->kind == MATERIAL_RETARDER;
         int *side[2] = {&sh->medium_inside, &sh->medium_outside};
         for (int k = 0; k < 2; k++) {
             if (*side[k] >= (int)self->nmedia)
@@ -628,6 +640,11 @@ int scene_finish(scene_t *self, err_t *err)
         }
         self->has_medium_boundary |= sh->medium_inside != sh->medium_outside;
     }
+    /* Polarisation is carried only where something in the scene tells polarisations apart
+     * (issue 28: simulate only what the scene calls for); it is never turned off here, so
+     * that a caller may ask for it (the energy tests). */
+    if (self->polarising_sheets > 0 || self->camera.analyser)
+        self->settings.polarised = 1;
     for (size_t i = 0; i < self->nmaterials; i++) {
         material_t *m = &self->materials[i];
         if (!material_has_ior(m->kind))

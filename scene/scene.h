@@ -37,15 +37,17 @@
 #include <stdint.h>
 
 typedef enum material_kind {
-    MATERIAL_DIFFUSE,    /* Lambertian with a reflectance texture */
-    MATERIAL_CONDUCTOR,  /* Fresnel from eta/k (or a reflectance); a mirror when smooth */
-    MATERIAL_DIELECTRIC, /* glass with an index-of-refraction model; smooth or rough */
-    MATERIAL_INTERFACE,  /* no surface: rays pass straight through */
+    MATERIAL_DIFFUSE,              /* Lambertian with a reflectance texture */
+    MATERIAL_CONDUCTOR,            /* Fresnel from eta/k (or a reflectance); a mirror when smooth */
+    MATERIAL_DIELECTRIC,           /* glass with an index-of-refraction model; smooth or rough */
+    MATERIAL_INTERFACE,            /* no surface: rays pass straight through */
     MATERIAL_THIN_DIELECTRIC,      /* a thin slab: reflection and straight transmission */
     MATERIAL_DIFFUSE_TRANSMISSION, /* Lambertian reflection and transmission */
     MATERIAL_COATED_DIFFUSE,       /* a dielectric coat over a medium over a diffuse base */
     MATERIAL_COATED_CONDUCTOR,     /* a dielectric coat over a medium over a conductor */
     MATERIAL_MIX,                  /* one of two materials, chosen per hit by amount */
+    MATERIAL_POLARISER,            /* a thin linear polariser sheet, crossed straight */
+    MATERIAL_RETARDER,             /* a thin linear retarder sheet (a wave plate) */
 } material_kind_t;
 
 /* The numbers of a material; textures are NULL where the material has no such input (a
@@ -90,7 +92,7 @@ typedef struct material {
      * scene files yet (the parser's parameters are still to be added). */
     double film_thickness;
     ior_model_t film_ior;
-    /* A uniaxial birefringent crystal (uniaxial 1; bsdf/uniaxial.h, docs/physics.md §14): a
+    /* A uniaxial birefringent crystal (uniaxial 1; bsdf/uniaxial.h, docs/physics.md §15): a
      * smooth MATERIAL_DIELECTRIC whose ior is the ordinary index (what reads a dielectric's
      * index sees n_o), with its principal indices and dichroic absorption (crystal), the
      * optic axis (unit; object space as the material gives it, world space once the loader
@@ -100,6 +102,12 @@ typedef struct material {
     crystal_t crystal;
     vec3_t optic_axis;
     double mm_per_unit;
+    /* Polariser and retarder sheets (docs/physics.md §14): the transmission axis or fast axis,
+     * in radians from the surface's dp/du toward ng x dp/du (ng the geometric normal, the side
+     * the shape's orientation calls outside), and a retarder's retardance in radians (pi/2: a
+     * quarter-wave plate, the same at every wavelength). */
+    double sheet_angle;
+    double retardance;
 } material_t;
 
 typedef enum light_kind {
@@ -235,6 +243,11 @@ typedef struct camera {
      * glasses disperse over the film's range (a camera ray then depends on wavelength). */
     lens_system_t *lens;
     int lens_dispersive;
+    /* A camera analyser (docs/physics.md §14): an ideal linear polariser in front of the lens
+     * whose transmission axis is at analyser_angle radians from the image's right toward its
+     * up (k x right, k toward the camera). 0: none. */
+    int analyser;
+    double analyser_angle;
 } camera_t;
 
 /* Integrator "photon" (docs/rendering.md): a photon pass (render/photon.h) fills a caustic
@@ -310,6 +323,15 @@ typedef struct render_settings {
      * bounce its near-specular lobes are roughened (bsdf/regularize.h). The camera pass only,
      * and not with a photon store, whose caustics it would count twice. */
     int regularize;
+    /* Camera paths carry a Stokes carrier per lane (polar/polar_frame.h, docs/physics.md §14):
+     * Mueller matrices at smooth interfaces and sheets, diffuse and rough surfaces depolarise.
+     * 0 (the default): intensities only, as before, not one bit different. scene_finish turns
+     * it on where the scene calls for it (scene_t.polarising); a test may set it besides. */
+    int polarised;
+    /* Stokes output (Film "bool stokes"; needs polarised): the image's buckets are four planes
+     * of grid.n, S0 (the spectral image as without it) then S1, S2, S3 in the image's frame
+     * (x right, y up): render_settings_buckets. */
+    int stokes;
 } render_settings_t;
 
 typedef struct scene {
@@ -350,6 +372,9 @@ typedef struct scene {
     char integrator_asked[24];
     int has_dispersion;   /* any dispersive material: spectral fan-out is ever needed */
     int has_interface;    /* a shape with an "interface" material (shadow rays pass it) */
+    /* Why polarisation is carried (render_settings_t.polarised; scene/plan.c reports it):
+     * shapes with a polariser or retarder sheet, the camera's analyser. */
+    int polarising_sheets;
     int has_alpha;        /* some shape has an alpha: shadow rays test it (shading_occluded) */
     /* Participating media, owned; a NULL entry is a medium that is not simulated (vacuum).
      * camera_medium: the medium camera rays start in, -1 for vacuum. has_medium_boundary:
@@ -390,6 +415,11 @@ int scene_medium_after(const surface_t *sf, vec3_t w, int current);
 
 /* The material has an index of refraction (ior): glass, a thin slab, a coating's interface. */
 int material_has_ior(material_kind_t kind);
+/* The spectral buckets an image of these settings holds: grid.n, or 4 grid.n with the Stokes
+ * planes (render_settings_t.stokes). */
+int render_settings_buckets(const render_settings_t *rs);
+/* A polariser or retarder sheet: crossed straight, a Mueller matrix with polarisation. */
+int material_is_sheet(material_kind_t kind);
 
 /* Returns the new material's index, or -1. */
 int scene_add_material(scene_t *self, const material_t *m, err_t *err);

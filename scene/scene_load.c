@@ -805,7 +805,7 @@ static int uniaxial_inputs(loader_t *L, const scene_material_t *dm, material_t *
 /* The material a shape placed by to_world uses: a crystal's optic axis is given in the shape's
  * object space, so each differently turned crystal shape gets its own copy with the axis in
  * world space (in an object's space for shapes of instanced objects: instances do not turn it,
- * docs/physics.md §14). Any other material is used as it is. */
+ * docs/physics.md §15). Any other material is used as it is. */
 static int material_for_shape(loader_t *L, int idx, const transform_t *to_world, err_t *err)
 {
     if (idx < 0 || (size_t)idx >= L->sc->nmaterials || !L->sc->materials[idx].uniaxial)
@@ -897,6 +897,12 @@ static int load_materials(loader_t *L, err_t *err)
             break;
         case SCENE_MATERIAL_UNIAXIAL:
             rc = uniaxial_inputs(L, dm, &m, err);
+            break;
+        case SCENE_MATERIAL_POLARIZER:
+        case SCENE_MATERIAL_RETARDER:
+            m.kind = dm->type == SCENE_MATERIAL_POLARIZER ? MATERIAL_POLARISER : MATERIAL_RETARDER;
+            m.sheet_angle = dm->sheet_angle * (PF_PI / 180.0);
+            m.retardance = dm->retardance * (PF_PI / 180.0);
             break;
         }
         if (rc)
@@ -1732,6 +1738,8 @@ static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
     sc->camera.equirect = d->camera.equirect;
     memcpy(sc->camera.screen, d->camera.screenwindow, sizeof sc->camera.screen);
     sc->camera.frame_aspect = d->camera.frameaspectratio;
+    sc->camera.analyser = d->camera.has_analyzer;
+    sc->camera.analyser_angle = d->camera.analyzer * (PF_PI / 180.0);
     if (sc->camera.kind == CAMERA_PERSPECTIVE && !(d->camera.fov > 0 && d->camera.fov < 180))
         return pbrt_error(err, d->camera.loc, "\"float fov\" must be in (0, 180) degrees, got %g", d->camera.fov);
     rs->xres = ov && ov->xres > 0 ? ov->xres : d->film.xres;
@@ -1763,6 +1771,9 @@ static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
                           rs->xres, rs->yres, rs->grid.n, (double)image / 1048576.0,
                           (double)L->budget->image_bytes / 1048576.0);
     rs->film_spectral = d->film.type == SCENE_FILM_SPECTRAL;
+    /* A Stokes output is polarised transport's: it turns it on (scene_finish keeps it). */
+    rs->stokes = d->film.stokes;
+    rs->polarised |= rs->stokes;
     if (sc->camera.kind == CAMERA_REALISTIC && load_lens(L, err))
         return -1;
     snprintf(rs->filename, sizeof rs->filename, "%s", d->film.filename ? d->film.filename : "");

@@ -225,7 +225,10 @@ static const pbrt_name_t MATERIALS[] = {
     {"mix", SCENE_MATERIAL_MIX},
     {"uniaxial", SCENE_MATERIAL_UNIAXIAL},
     {"interface", SCENE_MATERIAL_INTERFACE},
+    {"polarizer", SCENE_MATERIAL_POLARIZER},
+    {"retarder", SCENE_MATERIAL_RETARDER},
     {NULL, 0},
+    {"polariser", SCENE_MATERIAL_POLARIZER},
     {"", SCENE_MATERIAL_INTERFACE},
     {"none", SCENE_MATERIAL_INTERFACE},
 };
@@ -373,6 +376,19 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
     }
     if (m->type == SCENE_MATERIAL_UNIAXIAL) {
         return get_uniaxial(P, ps, m);
+    }
+    if (m->type == SCENE_MATERIAL_POLARIZER || m->type == SCENE_MATERIAL_RETARDER) {
+        /* Thin polarising sheets (docs/physics.md §14): the axis angle in degrees, and a
+         * retarder's retardance in degrees (90 a quarter wave, 180 a half wave). */
+        if (params_get_float(ps, "angle", 0.0, &m->sheet_angle, P->err) != 0 ||
+            pbrt_state_check_range(P, ps, "angle", m->sheet_angle, -360.0, 360.0) != 0)
+            return -1;
+        if (m->type == SCENE_MATERIAL_POLARIZER)
+            return 0;
+        return params_get_float(ps, "retardance", 90.0, &m->retardance, P->err) != 0 ||
+                       pbrt_state_check_range(P, ps, "retardance", m->retardance, 0.0, 360.0) != 0
+                   ? -1
+                   : 0;
     }
     return 0; /* interface */
 }

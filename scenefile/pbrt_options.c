@@ -121,6 +121,11 @@ int pbrt_options_camera(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_l
     if (params_get_float(ps, "shutteropen", 0.0, &open_t, P->err) != 0 ||
         params_get_float(ps, "shutterclose", 1.0, &close_t, P->err) != 0)
         return -1;
+    c->has_analyzer = params_find(ps, "analyzer") != NULL;
+    if (c->has_analyzer &&
+        (params_get_float(ps, "analyzer", 0.0, &c->analyzer, P->err) != 0 ||
+         pbrt_state_check_range(P, ps, "analyzer", c->analyzer, -360.0, 360.0) != 0))
+        return -1;
     if (k == 3) {
         if (do_camera_lens(P, ps, c, loc) != 0)
             return -1;
@@ -337,7 +342,8 @@ int pbrt_options_film(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc
         return pbrt_error(P->err, loc, "Film: \"lambdamin\" (%g) must be below \"lambdamax\" (%g)",
                           f->lambda_min, f->lambda_max);
     f->filename = scene_desc_strdup(P->scene, filename, P->err);
-    if (!f->filename || do_film_sensor(P, ps, f) != 0)
+    if (!f->filename || do_film_sensor(P, ps, f) != 0 ||
+        params_get_bool(ps, "stokes", false, &f->stokes, P->err) != 0)
         return -1;
     return 0;
 }

@@ -149,6 +149,8 @@ typedef enum scene_material_type {
     SCENE_MATERIAL_COATEDCONDUCTOR,
     SCENE_MATERIAL_MIX,
     SCENE_MATERIAL_UNIAXIAL, /* extension: a uniaxial birefringent crystal */
+    SCENE_MATERIAL_POLARIZER, /* prismfarm: a thin linear polariser sheet */
+    SCENE_MATERIAL_RETARDER,  /* prismfarm: a thin linear retarder sheet (wave plate) */
 } scene_material_type_t;
 
 typedef enum scene_ior_kind {
@@ -222,6 +224,10 @@ typedef struct scene_material {
     bool has_o, has_e, has_sigma;
     double optic_axis[3];
     double sigma_o, sigma_e, mm_per_unit;
+    /* POLARIZER and RETARDER (prismfarm extensions, docs/scene-format.md): "angle" of the
+     * transmission or fast axis in degrees from the surface's u direction (0), and the
+     * retarder's "retardance" in degrees (90: a quarter-wave plate). */
+    double sheet_angle, retardance;
 } scene_material_t;
 
 /* ---- lights ---- */
@@ -418,6 +424,11 @@ typedef struct scene_camera {
     /* The medium the camera is in (pbrt-v4: the outside medium of the MediumInterface in
      * effect at Camera), an index into media, or -1 (vacuum). */
     int medium;
+    /* prismfarm's camera analyser, any camera: "float analyzer" [degrees], an ideal linear
+     * polariser in front of the lens with its axis at that angle from the image's right toward
+     * its up (has_analyzer: given). */
+    bool has_analyzer;
+    double analyzer;
 } scene_camera_t;
 
 typedef enum scene_film_type { SCENE_FILM_RGB, SCENE_FILM_SPECTRAL } scene_film_type_t;
@@ -444,6 +455,9 @@ typedef struct scene_film {
     double cropwindow[4];
     int pixelbounds[4];
     pbrt_loc_t crop_loc; /* the parameter that set the bounds */
+    /* prismfarm's "bool stokes" (false): the EXR carries S1-S3 layers beside S0 and a degree-
+     * and angle-of-polarisation preview is written (docs/rendering.md, "Polarisation"). */
+    bool stokes;
 } scene_film_t;
 
 /* PixelFilter (pbrt-v4's filters; gaussian when the file has none). */

@@ -14,6 +14,7 @@
 
 #include "fresnel.h"
 #include "numeric_testutil.h"
+#include "polar_frame.h"
 #include "polar_fresnel.h"
 #include "stokes.h"
 
@@ -282,6 +283,53 @@ static void test_degenerate(void **state)
     testutil_assert_near(nan_.Rs, 1.0, 0.0);
 }
 
+/* The angle of unit vector a about k measured from x (toward k x x), from the geometry alone. */
+static double angle_about(vec3_t x, vec3_t a, vec3_t k)
+{
+    return atan2(vec3_dot(vec3_cross(x, a), k), vec3_dot(x, a));
+}
+
+/* Reference frames (polar/polar_frame.h): light linearly polarised along a world direction a
+ * keeps that direction whatever frame measures it -- stokes_linear at a's angle in one frame,
+ * re-expressed in another, is stokes_linear at a's angle there -- for propagation directions
+ * all over the sphere; a frame made perpendicular is unit and perpendicular; an interface's
+ * s is perpendicular to the plane of incidence, and a polariser sheet passes
+ * cos^2 of the angle between its axis and the light's. */
+static void test_frames(void **state)
+{
+    (void)state;
+    for (int i = 0; i < 200; i++) {
+        const double th = acos(1.0 - 2.0 * (i + 0.5) / 200.0), ph = 2.399963 * i;
+        const vec3_t k = vec3_make(sin(th) * cos(ph), sin(th) * sin(ph), cos(th));
+        const vec3_t x1 = polar_frame_perp(vec3_make(1, 0.3, -0.2), k),
+                     x2 = polar_frame_perp(vec3_make(-0.4, 1, 0.7), k),
+                     a = polar_frame_perp(vec3_make(0.2, -0.5, 1), k);
+        assert_true(fabs(vec3_length(x1) - 1.0) < 1e-12 && fabs(vec3_dot(x1, k)) < 1e-12);
+        const stokes_t s1 = stokes_linear(1.0, angle_about(x1, a, k));
+        const mueller_t r = polar_frame_change(x1, x2, k);
+        const stokes_t s2 = mueller_apply(&r, s1), want = stokes_linear(1.0, angle_about(x2, a, k));
+        for (int c = 0; c < 4; c++)
+            assert_true(fabs(s2.s[c] - want.s[c]) < 1e-12);
+        /* Through a polariser sheet whose axis is at 35 degrees from a, in the carrier's frame
+         * x1 (T = R P, normalised: M[0][0] = 1) the light along a is recorded as cos^2(35 deg). */
+        const vec3_t axis =
+            vec3_add(vec3_scale(a, cos(35 * DEG)), vec3_scale(vec3_cross(k, a), sin(35 * DEG)));
+        mueller_t t = mueller_identity();
+        vec3_t x = x1;
+        const polar_event_t ev = polar_event_sheet(k, axis);
+        const mueller_t p = mueller_polariser(0.0);
+        polar_carrier_apply(&t, 1, &x, &ev, &p, 0);
+        const stokes_t in = stokes_linear(1.0, angle_about(x, a, k)), out = mueller_apply(&t, in);
+        assert_true(fabs(out.s[0] - pow(cos(35 * DEG), 2.0)) < 1e-12);
+        /* An interface: s perpendicular to k_in and the normal. */
+        const vec3_t n = vec3_normalize(vec3_make(0.3, 0.1, 1.0));
+        const vec3_t kr = vec3_sub(k, vec3_scale(n, 2.0 * vec3_dot(k, n)));
+        const polar_event_t e = polar_event_interface(k, kr, n, x1);
+        assert_true(fabs(vec3_dot(e.x_in, n)) < 1e-9 && fabs(vec3_dot(e.x_in, k)) < 1e-9);
+        assert_true(fabs(vec3_dot(e.x_out, kr)) < 1e-9);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -292,6 +340,7 @@ int main(void)
         cmocka_unit_test(test_total_internal_reflection),
         cmocka_unit_test(test_conductor),
         cmocka_unit_test(test_degenerate),
+        cmocka_unit_test(test_frames),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
