@@ -110,6 +110,7 @@ typedef struct ctx {
     sampler_t smp;
     uint32_t dim_base;
     sampler_cache_t smp_cache; /* what the pixel's samples share */
+    double wavelength_u;       /* the hero tuple's number (DIM_WAVELENGTH), for direct_lanes */
     /* Philox numbers for the random walks whose length has no bound: a layered BSDF's walk
      * between its interfaces, and delta and ratio tracking in media (bsdf/layered.h,
      * render/volume.h). They cannot have fixed dimensions, and a low-discrepancy dimension
@@ -356,10 +357,53 @@ static lights_at_t light_site_behind(const path_t *p)
     return (lights_at_t){.p = p->prev_p, .n = p->prev_n, .mis = 1};
 }
 
+/* Lanes for light the camera ray sees directly (a lamp, the environment): its colour noise is
+ * that of the hero tuple's 4 wavelengths alone, which is most of the noise of a small bright
+ * lamp's pixels (veach-mis's smallest sphere, docs/performance.md). Such light has no
+ * throughput in front of it, so evaluating it at more wavelengths costs only the emission's
+ * spectrum: DIRECT_LANES wavelengths rotated by 1/DIRECT_LANES of the hero's own distribution
+ * (u_k = frac(u + k / DIRECT_LANES), the hero tuple's rotation made finer, and its 4
+ * wavelengths among them). Each wavelength alone has the hero's density p, so with each lane's
+ * pdf set to p DIRECT_LANES / WAVELENGTH_HERO_COUNT, splat's 1 / (WAVELENGTH_HERO_COUNT pdf)
+ * becomes 1 / (DIRECT_LANES p): the estimate (1 / K) sum_k L(lambda_k) / p(lambda_k) stays
+ * unbiased. Only for an untouched hero camera ray: no bounce, every lane's throughput 1 (no
+ * lens or medium in front), no dispersion; else p itself. */
+#define DIRECT_LANES 16
+_Static_assert(DIRECT_LANES <= LANES && DIRECT_LANES % WAVELENGTH_HERO_COUNT == 0,
+               "the direct lanes fit a path and contain the hero tuple's rotation");
+
+static const path_t *direct_lanes(const ctx_t *c, const path_t *p, path_t *tmp)
+{
+    if (p->depth != 0 || p->n != WAVELENGTH_HERO_COUNT || p->dispersed || c->media ||
+        c->rs->dispersion != DISPERSION_HERO || c->rs->direct_hero_only)
+        return p;
+    for (int j = 0; j < p->n; j++)
+        if (p->bucket[j] >= 0 || p->beta[j] != 1.0 || !(p->pdf[j] > 0.0))
+            return p;
+    memcpy(tmp, p, offsetof(path_t, lambda));
+    tmp->n = DIRECT_LANES;
+    const double scale = (double)DIRECT_LANES / WAVELENGTH_HERO_COUNT;
+    for (int k = 0; k < DIRECT_LANES; k++) {
+        double u = c->wavelength_u + (double)k / DIRECT_LANES;
+        u -= floor(u);
+        wavelength_sample_t w =
+            c->rs->visible_sampling
+                ? wavelength_sample_visible(u)
+                : wavelength_sample_uniform(u, c->rs->grid.lambda_min, c->rs->grid.lambda_max);
+        tmp->lambda[k] = w.lambda;
+        tmp->pdf[k] = w.pdf * scale;
+        tmp->beta[k] = w.pdf > 0.0 ? 1.0 : 0.0;
+        tmp->bucket[k] = -1;
+    }
+    return tmp;
+}
+
 /* Emission seen by the path at a hit on triangle tri (0 for analytic shapes) of an area light. */
 static void add_emission_hit(ctx_t *c, const path_t *p, const surface_t *sf, const light_t *l,
                              int li, size_t tri)
 {
+    path_t direct;
+    p = direct_lanes(c, p, &direct);
     double w = 1.0;
     if (c->rs->integrator == INTEGRATOR_PATH && !p->specular) {
         const lights_at_t at = light_site_behind(p);
@@ -376,6 +420,8 @@ static void add_emission_hit(ctx_t *c, const path_t *p, const surface_t *sf, con
 
 static void add_environment(ctx_t *c, const path_t *p)
 {
+    path_t direct;
+    p = direct_lanes(c, p, &direct);
     double w = 1.0;
     if (c->rs->integrator == INTEGRATOR_PATH && !p->specular) {
         const lights_at_t at = light_site_behind(p);
@@ -1587,6 +1633,7 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                 double film[2], lens[2];
                 sampler_2d(&c.smp, DIM_FILM, film);
                 const double ul = sampler_1d(&c.smp, DIM_WAVELENGTH);
+                c.wavelength_u = ul;
                 sampler_2d(&c.smp, DIM_LENS, lens);
                 const double jx = film[0], jy = film[1];
                 /* Filter importance sampling (pbrt-v4 GetCameraSample): the stratified (jx, jy)

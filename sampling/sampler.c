@@ -166,8 +166,8 @@ static uint64_t zsobol_index(const sampler_t *s, uint32_t dim, uint64_t salt)
     return out;
 }
 
-/* The key that takes the seed's place in the pixel dimensions of the kinds that keep them
- * fixed (SAMPLER_PIXEL_DIMS). */
+/* The key that takes the seed's place in the pixel dimensions of SAMPLER_SOBOL, which keeps
+ * them fixed (SAMPLER_PIXEL_DIMS). */
 static const uint64_t PIXEL_DIMS_KEY = 0x5DEECE66Dull;
 
 /* The salt of one dimension of one sample: the job's seed (or PIXEL_DIMS_KEY), the dimension
@@ -175,7 +175,7 @@ static const uint64_t PIXEL_DIMS_KEY = 0x5DEECE66Dull;
 static uint64_t salt_of(const sampler_t *s, uint32_t dim, int per_pixel)
 {
     const sampler_kind_t kind = s->setup->kind;
-    const int fixed = dim < SAMPLER_PIXEL_DIMS && (kind == SAMPLER_HALTON || kind == SAMPLER_SOBOL);
+    const int fixed = dim < SAMPLER_PIXEL_DIMS && kind == SAMPLER_SOBOL;
     uint64_t h = lowdisc_hash(fixed ? PIXEL_DIMS_KEY : s->setup->seed, dim);
     if (per_pixel)
         h = lowdisc_hash(h, s->pixel);
@@ -228,6 +228,11 @@ double sampler_1d(const sampler_t *s, uint32_t dim)
         return lowdisc_unit(lowdisc_owen_sobol(i, 0, seeds[0]));
     }
     case SAMPLER_HALTON:
+        if (dim < SAMPLER_PIXEL_DIMS) {
+            double u[2];
+            sampler_2d(s, 0, u);
+            return u[dim];
+        }
         if (dim < LOWDISC_PRIMES)
             return lowdisc_halton(s->sample, lowdisc_prime((int)dim), salt_of(s, dim, 1));
         break;
@@ -266,6 +271,21 @@ void sampler_2d(const sampler_t *s, uint32_t dim, double out[2])
         return;
     }
     case SAMPLER_HALTON:
+        if (dim == 0) {
+            /* The position in the pixel: the Owen-scrambled (0,2)-sequence at the sample
+             * index, whose first 2^m points are stratified in every 2^a x 2^(m-a) grid, where
+             * bases 2 and 3 stratify only the 2^a x 3^b grids below the sample count. */
+            const uint64_t h = lowdisc_hash(salt_of(s, 0, 1), 1);
+            const uint32_t i = (uint32_t)s->sample;
+            out[0] = lowdisc_unit(lowdisc_owen_sobol(i, 0, (uint32_t)h));
+            out[1] = lowdisc_unit(lowdisc_owen_sobol(i, 1, (uint32_t)(h >> 32)));
+            return;
+        }
+        if (dim < SAMPLER_PIXEL_DIMS) {
+            out[0] = sampler_1d(s, dim);
+            out[1] = sampler_1d(s, dim + 1);
+            return;
+        }
         if (dim + 1 < LOWDISC_PRIMES) {
             out[0] = lowdisc_halton(s->sample, lowdisc_prime((int)dim), salt_of(s, dim, 1));
             out[1] = lowdisc_halton(s->sample, lowdisc_prime((int)dim + 1), salt_of(s, dim + 1, 1));

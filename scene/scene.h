@@ -291,6 +291,10 @@ typedef struct render_settings {
     int xres, yres;
     spectral_grid_t grid;
     int visible_sampling; /* hero: sample wavelengths by the visible pdf, not uniformly */
+    /* Light the camera ray sees directly is evaluated at 16 wavelengths rather than the hero
+     * tuple's 4 (render.c, direct_lanes); 1: at the hero tuple's alone, for tests that watch
+     * how the sampler pairs wavelengths with positions through directly seen light. */
+    int direct_hero_only;
     /* At a rough surface whose lanes' lobes differ (a rough dispersive dielectric), weight
      * the lanes by spectral MIS (render.c) rather than ending the secondary lanes as pbrt-v4
      * does ("bool spectralmis", default true). */

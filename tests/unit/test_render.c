@@ -277,6 +277,10 @@ static void test_edge_coverage_between_seeds(void **state)
     if (scene_finish(s, &err))
         fail_msg("%s", err.msg);
     const int nb = s->settings.grid.n;
+    /* The light is seen directly: at the hero tuple's wavelengths only, so that a bucket's
+     * samples are the sampler's pairing of positions and wavelengths (with render.c's 16
+     * direct lanes every bucket of every sample is exact: test_direct_light_colour_exact). */
+    s->settings.direct_hero_only = 1;
     static double v[SEEDS][W][64];
     for (int k = 0; k < SEEDS; k++) {
         s->settings.seed = (uint64_t)k + 1;
@@ -336,6 +340,51 @@ static void test_edge_coverage_between_seeds(void **state)
     scene_destroy(&s);
 }
 
+/* The edge of test_edge_coverage_between_seeds seen with render.c's direct lanes (on by
+ * default): light the camera sees directly is evaluated at 16 wavelengths rotated by 1/16 of
+ * the uniform distribution over the grid, one in each of the 16 buckets, so a bucket's value
+ * has no wavelength noise left: column 4 is its coverage, 8 of the 16 position strata, 1/2
+ * exactly in every bucket and for every seed (with the hero's 4 wavelengths alone a bucket
+ * takes 4 of the 16 samples and scatters by about 0.22). */
+static void test_direct_light_colour_exact(void **state)
+{
+    (void)state;
+    enum { W = 9, SPP = 16 };
+    err_t err;
+    scene_t *s = sb_render_scene(INTEGRATOR_PATH, DISPERSION_HERO, W, SPP);
+    sb_look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 30);
+    spectrum_t *le = spectrum_new_constant(1.0, &err);
+    assert_non_null(le);
+    assert_int_equal(scene_own_spectrum(s, le, &err), 0);
+    light_t l = {.kind = LIGHT_AREA, .spectrum = le, .scale = 1.0, .twosided = 1};
+    int li = scene_add_light(s, &l, &err);
+    assert_true(li >= 0);
+    int mi = sb_diffuse(s, 0.0);
+    const double P[] = {0, -100, 0, 100, -100, 0, 100, 100, 0, 0, 100, 0};
+    const uint32_t idx[] = {0, 1, 2, 0, 2, 3};
+    assert_true(scene_add_mesh(s, P, 4, idx, 2, NULL, NULL, mi, li, 0, &err) >= 0);
+    if (scene_finish(s, &err))
+        fail_msg("%s", err.msg);
+    const int nb = s->settings.grid.n;
+    assert_int_equal(nb, 16);
+    for (int k = 0; k < 3; k++) {
+        s->settings.seed = (uint64_t)k + 1;
+        tilebuf_t *t = tilebuf_new(0, 0, W, W, nb, &err);
+        assert_non_null(t);
+        if (render_tile(s, NULL, 0, 0, W, W, 0, SPP, t, NULL, &err))
+            fail_msg("render_tile: %s", err.msg);
+        for (int y = 0; y < W; y++)
+            for (int b = 0; b < nb; b++) {
+                double m = tilebuf_sum(t, 4, y, b) / (double)tilebuf_count(t, 4, y);
+                if (!(fabs(m - 0.5) < 1e-9))
+                    fail_msg("seed %d: pixel (4, %d) is %.12f in bucket %d, coverage 1/2", k + 1, y,
+                             m, b);
+            }
+        tilebuf_destroy(&t);
+    }
+    scene_destroy(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -354,6 +403,7 @@ int main(void)
         cmocka_unit_test(test_slab_simplepath_hero),
         cmocka_unit_test(test_tiles_are_deterministic),
         cmocka_unit_test(test_edge_coverage_between_seeds),
+        cmocka_unit_test(test_direct_light_colour_exact),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
