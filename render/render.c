@@ -367,14 +367,16 @@ static lights_at_t light_site_behind(const path_t *p)
  * pdf set to p DIRECT_LANES / WAVELENGTH_HERO_COUNT, splat's 1 / (WAVELENGTH_HERO_COUNT pdf)
  * becomes 1 / (DIRECT_LANES p): the estimate (1 / K) sum_k L(lambda_k) / p(lambda_k) stays
  * unbiased. Only for an untouched hero camera ray: no bounce, every lane's throughput 1 (no
- * lens or medium in front), no dispersion; else p itself. */
+ * lens or medium in front), no dispersion, no polarisation; else p itself. */
 #define DIRECT_LANES 16
 _Static_assert(DIRECT_LANES <= LANES && DIRECT_LANES % WAVELENGTH_HERO_COUNT == 0,
                "the direct lanes fit a path and contain the hero tuple's rotation");
 
 static const path_t *direct_lanes(const ctx_t *c, const path_t *p, path_t *tmp)
 {
-    if (p->depth != 0 || p->n != WAVELENGTH_HERO_COUNT || p->dispersed || c->media ||
+    /* Not with polarised transport: the lanes' Stokes carriers (an analyser in front of the
+     * camera) are the hero tuple's 4. */
+    if (p->depth != 0 || p->n != WAVELENGTH_HERO_COUNT || p->dispersed || c->media || p->polar ||
         c->rs->dispersion != DISPERSION_HERO || c->rs->direct_hero_only)
         return p;
     for (int j = 0; j < p->n; j++)
@@ -1427,7 +1429,10 @@ static void trace(ctx_t *c, path_t *start)
                 start_bounce(p, &sf, p->dir, 1, 0.0);
                 /* The photon pass ends at sheets (photon.c): light through one is path traced. */
                 p->specular_since_diffuse = CHAIN_BROKEN;
-            } else if (!shading_is_delta(m, &sf) || (regularized && m->film_thickness <= 0.0)) {
+            } else if (!shading_is_delta(m, &sf) ||
+                       (regularized && m->film_thickness <= 0.0 && !m->uniaxial)) {
+                /* regularize roughens smooth glass and metal, not films or crystals (whose two
+                 * waves no rough model carries): docs/compatibility.md, "Regularize". */
                 if (scatter_bsdf(c, p, &sf, m, regularized))
                     break;
             } else if (m->kind == MATERIAL_CONDUCTOR) {
