@@ -1,7 +1,8 @@
 #include "crystal.h"
 
-#include <ctype.h>
 #include <stddef.h>
+#include <stdio.h>
+#include <strings.h> /* strcasecmp: names match ignoring case */
 
 /* n^2 = 1 + a0 + sum_i b_i L^2 / (L^2 - c_i), L in um, c in um^2 (dispersion.h). */
 #define SELLMEIER2(A0, B1, C1, B2, C2)                                                             \
@@ -130,24 +131,16 @@ const crystal_t *crystal_get(int i)
     return i >= 0 && i < NCATALOGUE ? &CATALOGUE[i] : NULL;
 }
 
-static int same_name(const char *a, const char *b)
-{
-    for (; *a && *b; a++, b++)
-        if (tolower((unsigned char)*a) != tolower((unsigned char)*b))
-            return 0;
-    return *a == *b;
-}
-
 const crystal_t *crystal_find(const char *name)
 {
     if (!name)
         return NULL;
     for (int i = 0; i < NCATALOGUE; i++) {
         const crystal_t *c = &CATALOGUE[i];
-        if (same_name(c->name, name))
+        if (!strcasecmp(c->name, name))
             return c;
         for (int k = 0; k < CRYSTAL_MAX_ALIASES && c->aliases[k]; k++)
-            if (same_name(c->aliases[k], name))
+            if (!strcasecmp(c->aliases[k], name))
                 return c;
     }
     return NULL;
@@ -156,10 +149,15 @@ const crystal_t *crystal_find(const char *name)
 const crystal_t *crystal_lookup(const char *name, err_t *err)
 {
     const crystal_t *c = crystal_find(name);
-    if (!c)
-        err_set(err,
-                "unknown crystal '%s' (known: calcite, quartz, sapphire, rutile, MgF2, tourmaline)",
-                name ? name : "");
+    if (!c) {
+        /* The known names from the catalogue itself, so the list cannot fall behind it. */
+        char known[256] = "";
+        size_t n = 0;
+        for (int i = 0; i < NCATALOGUE && n < sizeof known; i++)
+            n += (size_t)snprintf(known + n, sizeof known - n, "%s%s", i ? ", " : "",
+                                  CATALOGUE[i].name);
+        err_set(err, "unknown crystal '%s' (known: %s)", name ? name : "", known);
+    }
     return c;
 }
 

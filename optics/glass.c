@@ -1,7 +1,7 @@
 #include "glass.h"
 
-#include <ctype.h>
 #include <stddef.h>
+#include <strings.h> /* strcasecmp: names match ignoring case */
 
 /* A three-term Sellmeier with no constant term: the SCHOTT catalogue's form. */
 #define SELLMEIER3(B1, B2, B3, C1, C2, C3)                                                         \
@@ -161,24 +161,16 @@ const glass_t *glass_get(int i)
     return i >= 0 && i < CATALOGUE_SIZE ? &CATALOGUE[i] : NULL;
 }
 
-static bool equal_ignoring_case(const char *a, const char *b)
-{
-    for (; *a && *b; a++, b++)
-        if (tolower((unsigned char)*a) != tolower((unsigned char)*b))
-            return false;
-    return *a == *b;
-}
-
 const glass_t *glass_find(const char *name)
 {
     if (!name)
         return NULL;
     for (int i = 0; i < CATALOGUE_SIZE; i++) {
         const glass_t *g = &CATALOGUE[i];
-        if (equal_ignoring_case(name, g->name))
+        if (!strcasecmp(name, g->name))
             return g;
         for (int k = 0; k < GLASS_MAX_ALIASES && g->aliases[k]; k++)
-            if (equal_ignoring_case(name, g->aliases[k]))
+            if (!strcasecmp(name, g->aliases[k]))
                 return g;
     }
     return NULL;
