@@ -25,6 +25,7 @@
 
 #include <errno.h>
 #include <limits.h>
+#include <inttypes.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -53,25 +54,47 @@ static void usage(FILE *out, const cli_opt_t *opts)
     cli_args_help(out, opts);
 }
 
+/* --direct's progress lines: the photon pass's, then the camera pass's, whose clock starts
+ * when the photons end (as `submit --wait`'s does), though the job's own clock (a --time-limit)
+ * runs from the start. */
+typedef struct direct_lines {
+    progress_t camera, photons;
+    double start;          /* the photon pass's start */
+    double photon_seconds; /* subtracted from the job's elapsed time on the camera line */
+} direct_lines_t;
+
+static void on_photons(void *user, uint64_t done, uint64_t total)
+{
+    direct_lines_t *d = user;
+    char extra[96];
+    snprintf(extra, sizeof extra, "%" PRIu64 " of %" PRIu64 " photons", done, total);
+    d->photons.extra = extra;
+    progress_update(&d->photons, done, total, clock_now_s() - d->start);
+    d->photons.extra = NULL;
+}
+
 static void on_progress(void *user, uint64_t done, uint64_t total, double elapsed)
 {
-    progress_update(user, done, total, elapsed);
+    direct_lines_t *d = user;
+    progress_update(&d->camera, done, total, elapsed - d->photon_seconds);
 }
 
 /* The progress line of --direct under a stopping rule: the spp and estimate of each pass. */
 static void on_pass(void *user, const pass_record_t *rec, uint64_t done, uint64_t total)
 {
-    progress_t *prog = user;
+    direct_lines_t *d = user;
+    progress_t *prog = &d->camera;
+    const double elapsed = rec->elapsed - d->photon_seconds;
     char extra[160];
     if (rec->valid)
-        progress_note_error(prog, rec->spp, rec->elapsed, rec->rel_error);
+        progress_note_error(prog, rec->spp, elapsed, rec->rel_error);
     if (rec->valid)
         snprintf(extra, sizeof extra, "%d spp, rel. error %.4f%s", rec->spp, rec->rel_error,
                  error_estimate_note(rec->rel_error));
     else
         snprintf(extra, sizeof extra, "%d spp", rec->spp);
     prog->extra = extra;
-    progress_update(prog, done, total, rec->elapsed);
+    progress_update(prog, done, total, elapsed);
     prog->extra = NULL;
 }
 
@@ -152,33 +175,40 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
         return 1;
     }
-    progress_t prog = progress_make("render", quiet);
+    direct_lines_t lines = {.camera = progress_make("render", quiet),
+                            .photons = progress_make("photons", quiet)};
+    lines.photons.unit = "photons";
+    progress_t *prog = &lines.camera;
     if (stop->target_error > 0.0)
-        progress_follow_error(&prog, stop->target_error, rs->spp);
+        progress_follow_error(prog, stop->target_error, rs->spp);
     render_stats_t st = {0};
     int rc = 0;
     double start = clock_now_s();
+    lines.start = start;
     photon_stats_t pst = {0};
     double psec = 0;
     photon_store_t *photons = NULL;
-    if (rs->photon.enabled && !(photons = photon_pass_run(scene, threads, &pst, &psec, &err))) {
+    if (rs->photon.enabled &&
+        !(photons = photon_pass_run_reporting(scene, threads, &pst, &psec, on_photons, &lines,
+                                              &err))) {
         fprintf(stderr, "prismfarm render: photon pass: %s\n", err.msg);
         tilebuf_destroy(&image);
         return 1;
     }
+    lines.photon_seconds = photons ? clock_now_s() - start : 0.0;
     /* The tile size is the farm's (--tile): adaptive sampling decides tile by tile. */
     local_render_opts_t opts = {.threads = threads, .tile_size = tile, .photons = photons, .t0 = start,
                                 .stop = {.target_error = stop->target_error,
                                          .time_limit = stop->time_limit},
                                 .adaptive = stop->adaptive != 0,
-                                .progress = on_progress, .pass_done = on_pass, .user = &prog};
+                                .progress = on_progress, .pass_done = on_pass, .user = &lines};
     local_render_result_t res;
     if (local_render(scene, &opts, image, &st, &res, &err)) {
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
         rc = 1;
     } else if (res.why != STOPPING_NONE) {
-        progress_end(&prog, st.samples, (uint64_t)rs->xres * (uint64_t)rs->yres * (uint64_t)rs->spp,
-                     clock_now_s() - start, stopping_reason(res.why));
+        progress_end(prog, st.samples, (uint64_t)rs->xres * (uint64_t)rs->yres * (uint64_t)rs->spp,
+                     clock_now_s() - start - lines.photon_seconds, stopping_reason(res.why));
     }
     /* From the loaded scene on (photon pass, camera pass, outputs); the load is printed apart. */
     double secs = clock_now_s() - loaded;
@@ -218,8 +248,9 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
             /* The last pass may meet the target as the spp cap ends the job. */
             int reached = res.why == STOPPING_TARGET ||
                           (last && last->valid && last->rel_error <= stop->target_error);
-            if (last && progress_prediction_line(&prog, reached, last->spp, last->elapsed,
-                                                 prediction, sizeof prediction))
+            if (last && progress_prediction_line(prog, reached, last->spp,
+                                                 last->elapsed - lines.photon_seconds, prediction,
+                                                 sizeof prediction))
                 printf("%s\n", prediction);
             if (res.tile_spp) {
                 adaptive_summary_t as = adaptive_summarize(&res.grid, res.tile_spp);

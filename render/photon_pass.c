@@ -3,7 +3,16 @@
 #include "clock.h"
 #include "pool.h"
 
+#include <pthread.h>
 #include <stdlib.h>
+
+/* What the tracing threads share for progress reports (photon_pass_run_reporting). */
+typedef struct pass_report {
+    pthread_mutex_t lock;
+    uint64_t done, total;
+    photon_pass_progress_fn fn;
+    void *user;
+} pass_report_t;
 
 typedef struct pass_part {
     const scene_t *scene;
@@ -11,16 +20,40 @@ typedef struct pass_part {
     uint64_t i0, i1;
     photon_store_t *store;
     photon_stats_t stats;
+    pass_report_t *report; /* NULL: no reports, the range in one piece */
 } pass_part_t;
 
 static int pass_trace(void *user, int k, err_t *err)
 {
     pass_part_t *pt = &((pass_part_t *)user)[k];
-    return photon_trace(pt->scene, &pt->job, pt->i0, pt->i1, pt->store, &pt->stats, err) ? -1 : 0;
+    if (!pt->report)
+        return photon_trace(pt->scene, &pt->job, pt->i0, pt->i1, pt->store, &pt->stats, err) ? -1
+                                                                                             : 0;
+    /* In pieces, each appended in index order: the same store as one call (a photon depends
+     * only on its index). */
+    for (uint64_t a = pt->i0; a < pt->i1;) {
+        uint64_t b = pt->i1 - a > PHOTON_PASS_REPORT ? a + PHOTON_PASS_REPORT : pt->i1;
+        if (photon_trace(pt->scene, &pt->job, a, b, pt->store, &pt->stats, err))
+            return -1;
+        pass_report_t *r = pt->report;
+        pthread_mutex_lock(&r->lock);
+        r->done += b - a;
+        r->fn(r->user, r->done, r->total);
+        pthread_mutex_unlock(&r->lock);
+        a = b;
+    }
+    return 0;
 }
 
 photon_store_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t *stats,
                                 double *seconds, err_t *err)
+{
+    return photon_pass_run_reporting(scene, nthreads, stats, seconds, NULL, NULL, err);
+}
+
+photon_store_t *photon_pass_run_reporting(const scene_t *scene, int nthreads, photon_stats_t *stats,
+                                          double *seconds, photon_pass_progress_fn fn, void *user,
+                                          err_t *err)
 {
     const double t0 = clock_now_s();
     const render_settings_t *rs = &scene->settings;
@@ -30,6 +63,8 @@ photon_store_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats
     if ((uint64_t)nthreads > total)
         nthreads = total > 0 ? (int)total : 1;
     pass_part_t *parts = calloc((size_t)nthreads, sizeof *parts);
+    pass_report_t report = {.total = total, .fn = fn, .user = user};
+    pthread_mutex_init(&report.lock, NULL);
     photon_store_t *store = photon_store_new(scene, err);
     int r = parts && store ? 0 : -1;
     if (r && store)
@@ -40,6 +75,7 @@ photon_store_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats
         pt->job = photon_job_from_settings(rs);
         pt->i0 = total * (uint64_t)k / (uint64_t)nthreads;
         pt->i1 = total * (uint64_t)(k + 1) / (uint64_t)nthreads;
+        pt->report = fn ? &report : NULL;
         if (!(pt->store = photon_store_new(scene, err)))
             r = -1;
     }
@@ -55,6 +91,7 @@ photon_store_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats
     for (int k = 0; parts && k < nthreads; k++)
         photon_store_destroy(&parts[k].store);
     free(parts);
+    pthread_mutex_destroy(&report.lock);
     if (!r)
         r = photon_store_finish(store, err);
     if (r) {

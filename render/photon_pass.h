@@ -17,6 +17,16 @@
 photon_store_t *photon_pass_run(const scene_t *scene, int nthreads, photon_stats_t *stats,
                                 double *seconds, err_t *err);
 
+/* photon_pass_run, telling fn (when not NULL) how many photons of total are traced so far,
+ * every PHOTON_PASS_REPORT photons or so, from the tracing threads one at a time (fn need not
+ * be thread-safe, and must be quick: the threads wait for it). The store is photon_pass_run's
+ * to the bit: a thread traces its range in pieces, each appended in index order. */
+#define PHOTON_PASS_REPORT 32768
+typedef void (*photon_pass_progress_fn)(void *user, uint64_t done, uint64_t total);
+photon_store_t *photon_pass_run_reporting(const scene_t *scene, int nthreads,
+                                          photon_stats_t *stats, double *seconds,
+                                          photon_pass_progress_fn fn, void *user, err_t *err);
+
 /* A farm worker's photon batch: photons [first, end) of the scene's photon pass traced into a
  * fresh store (the scene's kind) and encoded in its wire form (*out malloc'ed), raw and
  * unnormalised, for the master to merge. Adds to *stats (may be NULL). */

@@ -187,6 +187,16 @@ static void test_progress_follows_error(void **state)
         fail_msg("exit %d: %s", r->status, r->err);
     expect_in(r->err, "to error 0.1, predicted");
     expect_in(r->out, "x the predicted time");
+    /* --direct's photon pass has its own line, before the samples' (stderr is no terminal
+     * here: a line per tenth), and its count of photons reaches the pass's 30000. */
+    r = run("render", "data/photon/beam.pbrt", "-o", exr, "--direct", NULL);
+    if (r->status != 0)
+        fail_msg("exit %d: %s", r->status, r->err);
+    expect_in(r->err, "photons: 100.0%");
+    expect_in(r->err, "30000 of 30000 photons");
+    const char *ph = strstr(r->err, "photons: "), *cam = strstr(r->err, "render: 100.0%");
+    assert_non_null(cam);
+    assert_true(ph < cam);
     /* Without a target the samples rule, as before. */
     r = run("render", "data/render/tiny.pbrt", "-o", exr, "--spp", "8", "--direct", NULL);
     assert_int_equal(r->status, 0);

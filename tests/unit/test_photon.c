@@ -273,6 +273,21 @@ static void assert_same_maps(const photon_map_t *a, const photon_map_t *b)
 
 /* The same photons whatever the batches: [0, N) in one call, in three uneven batches merged
  * in order, and the whole pass with 1 and 3 threads, give identical maps. */
+typedef struct report {
+    uint64_t last_done, total;
+    int calls;
+    bool monotone;
+} report_t;
+
+static void count_report(void *user, uint64_t done, uint64_t total)
+{
+    report_t *r = user;
+    r->monotone = r->calls == 0 ? true : r->monotone && done > r->last_done;
+    r->calls++;
+    r->last_done = done;
+    r->total = total;
+}
+
 static void test_determinism(void **state)
 {
     (void)state;
@@ -321,6 +336,22 @@ static void test_determinism(void **state)
     assert_non_null(one);
     assert_non_null(three);
     assert_same_maps(photon_store_map(one), photon_store_map(three));
+    /* With progress reports each thread traces its range in pieces: the same store, and the
+     * reports count up to every photon. */
+    const uint64_t R = 3 * PHOTON_PASS_REPORT + 5; /* several pieces per thread */
+    s->settings.photon.photons = R;
+    photon_store_t *plain = photon_pass_run(s, 1, NULL, NULL, &err);
+    report_t rep = {0};
+    photon_store_t *reported = photon_pass_run_reporting(s, 2, NULL, NULL, count_report, &rep, &err);
+    assert_non_null(plain);
+    assert_non_null(reported);
+    assert_same_maps(photon_store_map(plain), photon_store_map(reported));
+    assert_int_equal(rep.last_done, R);
+    assert_int_equal(rep.total, R);
+    assert_true(rep.calls >= 4);
+    assert_true(rep.monotone);
+    photon_store_destroy(&plain);
+    photon_store_destroy(&reported);
     assert_int_equal(photon_store_finish(merged, &err), 0);
     assert_same_maps(photon_store_map(one), photon_store_map(merged));
     photon_store_destroy(&one);
