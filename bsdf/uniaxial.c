@@ -52,6 +52,19 @@ double uniaxial_absorption(uniaxial_wave_t w, vec3_t k, vec3_t axis, double alph
     return alpha_o * c2 + alpha_e * (1.0 - c2);
 }
 
+vec3_t uniaxial_polarisation(uniaxial_wave_t w, vec3_t k, vec3_t axis)
+{
+    const vec3_t zero = vec3_make(0.0, 0.0, 0.0);
+    if (w == UNIAXIAL_OUTSIDE)
+        return zero;
+    const vec3_t d = vec3_cross(k, axis);
+    const double len = vec3_length(d);
+    if (!(len > PARALLEL_EPS))
+        return zero;
+    const vec3_t o = vec3_scale(d, 1.0 / len);
+    return w == UNIAXIAL_E ? vec3_normalize(vec3_cross(o, k)) : o;
+}
+
 /* (D . s)^2 for wave w along k: o has D along k x c, e in the principal plane (k, c),
  * perpendicular to k and to o's D. 1/2 where s or the principal plane is undefined. */
 static double share_s(uniaxial_wave_t w, vec3_t k, vec3_t axis, vec3_t s)
@@ -118,6 +131,7 @@ static void one_event(vec3_t dir, vec3_t nrm, bool entering, uniaxial_wave_t ins
     const vec3_t sx = vec3_cross(k_in, m);
     const double sl = vec3_length(sx);
     e->s_dir = sl > PARALLEL_EPS ? vec3_scale(sx, 1.0 / sl) : vec3_make(0.0, 0.0, 0.0);
+    e->d_in = uniaxial_polarisation(w_in, k_in, axis);
     const bool radiance = mode == BSDF_RADIANCE;
     uniaxial_branch_t *r = &e->branch[0];
     *r = (uniaxial_branch_t){.reflects = true, .factor = 1.0};
@@ -148,6 +162,7 @@ static void one_event(vec3_t dir, vec3_t nrm, bool entering, uniaxial_wave_t ins
             b->wave = vec3_scale(Kt, 1.0 / n_t);
             b->dir = uniaxial_ray_from_wave((uniaxial_wave_t)w, b->wave, axis, no, ne);
             b->n_after = n_t;
+            b->d_after = uniaxial_polarisation((uniaxial_wave_t)w, b->wave, axis);
             const double fs = share_s((uniaxial_wave_t)w, b->wave, axis, e->s_dir);
             double rs2, rp2;
             /* Snell holds at the wave's own index: n_t sin(theta_t) = |t| by construction. */
@@ -188,6 +203,7 @@ static void one_event(vec3_t dir, vec3_t nrm, bool entering, uniaxial_wave_t ins
     }
     const double fs = share_s(inside, k_in, axis, e->s_dir);
     r->frac_s[0] = x->frac_s[0] = fs;
+    r->d_after = uniaxial_polarisation(inside, r->wave, axis);
     if (!(tt < 1.0) || !(cos_i > 0.0)) {
         /* Total internal reflection (or a wave normal that, walked off, points away from the
          * surface its ray reaches: nothing can leave). */
@@ -284,4 +300,59 @@ mueller_t uniaxial_branch_mueller(const uniaxial_event_t *e, int b)
                 sum.m[i][c] += m.m[i][c];
     }
     return sum;
+}
+
+/* A linear polariser along the line d for light along k in the frame x (angles from x toward
+ * y = k x x); half of any state where d is undefined. */
+static mueller_t mode_polariser(vec3_t d, vec3_t k, vec3_t x)
+{
+    if (!(vec3_dot(d, d) > 0.0)) {
+        const mueller_t id = mueller_identity();
+        return mueller_scale(&id, 0.5);
+    }
+    const vec3_t y = vec3_cross(k, x);
+    return mueller_polariser(atan2(vec3_dot(d, y), vec3_dot(d, x)));
+}
+
+/* Mode k's Fresnel amplitudes on branch br as a diagonal Jones matrix in the s-p frame. */
+static mueller_t mode_fresnel(const uniaxial_branch_t *br, int k)
+{
+    return mueller_jones_diagonal(sqrt(fmax(0.0, br->term_s[k])), 0.0,
+                                  sqrt(fmax(0.0, br->term_p[k])), 0.0);
+}
+
+mueller_t uniaxial_branch_mueller_frames(const uniaxial_event_t *e, int b, const polar_event_t *ev)
+{
+    mueller_t sum = {{{0}}};
+    if (b < 0 || b >= e->nbranch)
+        return sum;
+    const uniaxial_branch_t *br = &e->branch[b];
+    if (br->nmodes == 2) {
+        /* Reflected outside: each transmitted mode's share of the light, reflected with that
+         * mode's amplitudes (the event's branches 1 and 2 are o and e). */
+        for (int k = 0; k < 2; k++) {
+            const mueller_t p = mode_polariser(e->branch[1 + k].d_after, ev->k_in, ev->x_in);
+            const mueller_t f = mode_fresnel(br, k);
+            const mueller_t m = mueller_mul(&f, &p);
+            for (int i = 0; i < 4; i++)
+                for (int c = 0; c < 4; c++)
+                    sum.m[i][c] += m.m[i][c];
+        }
+        return sum;
+    }
+    const bool backward = e->mode == BSDF_RADIANCE;
+    const vec3_t d_entry = backward ? br->d_after : e->d_in;
+    const vec3_t d_exit = backward ? e->d_in : br->d_after;
+    const bool from_inside = backward ? br->after != UNIAXIAL_OUTSIDE : e->nbranch == 2;
+    const bool to_inside = backward ? e->nbranch == 2 : br->after != UNIAXIAL_OUTSIDE;
+    const mueller_t f = mode_fresnel(br, 0);
+    if (from_inside) {
+        const mueller_t p = mode_polariser(d_entry, ev->k_in, ev->x_in);
+        return mueller_mul(&f, &p);
+    }
+    if (to_inside) {
+        const mueller_t p = mode_polariser(d_exit, ev->k_out, ev->x_out);
+        return mueller_mul(&p, &f);
+    }
+    return f;
 }

@@ -33,6 +33,7 @@
 #define PRISMFARM_UNIAXIAL_H
 
 #include "bsdf_types.h"
+#include "polar_frame.h"
 #include "stokes.h"
 #include "vec3.h"
 
@@ -69,6 +70,12 @@ double uniaxial_walkoff(double no, double ne, double theta);
 double uniaxial_absorption(uniaxial_wave_t w, vec3_t k, vec3_t axis, double alpha_o,
                            double alpha_e);
 
+/* The line of the electric displacement D of wave w along the unit wave normal k: o along
+ * k x c (perpendicular to the principal plane), e along (k x c) x k (in it, perpendicular to
+ * k). Unit, its sign meaningless; the zero vector where k is along the axis (the principal
+ * plane undefined: both waves alike) or w is UNIAXIAL_OUTSIDE. */
+vec3_t uniaxial_polarisation(uniaxial_wave_t w, vec3_t k, vec3_t axis);
+
 #define UNIAXIAL_MAX_BRANCHES 3
 
 typedef struct uniaxial_branch {
@@ -84,6 +91,7 @@ typedef struct uniaxial_branch {
      * entering sums both modes (mode 0 o, 1 e); every other branch has one. */
     int nmodes;
     double term_s[2], term_p[2], frac_s[2];
+    vec3_t d_after; /* uniaxial_polarisation of the wave afterwards (zero outside) */
 } uniaxial_branch_t;
 
 typedef struct uniaxial_event {
@@ -93,6 +101,7 @@ typedef struct uniaxial_event {
     int nbranch; /* entering: reflect, o, e; leaving: reflect, exit */
     uniaxial_branch_t branch[UNIAXIAL_MAX_BRANCHES];
     vec3_t s_dir; /* unit normal of the plane of incidence (the zero vector at normal incidence) */
+    vec3_t d_in;  /* uniaxial_polarisation of the wave arriving (zero from outside) */
     double lane_reflect[BSDF_MAX_LANES]; /* each lane's reflection probability */
 } uniaxial_event_t;
 
@@ -117,5 +126,20 @@ double uniaxial_lane_weight(const uniaxial_event_t *e, int b, int j);
  * (each mode a partial linear polariser along its D after the Fresnel terms); its [0][0] is the
  * branch's probability. For a polarised transport to replace the unpolarised split later. */
 mueller_t uniaxial_branch_mueller(const uniaxial_event_t *e, int b);
+
+/* Branch b's Mueller matrix for the light that crosses the interface, in the frames ev
+ * (polar/polar_frame.h: polar_event_interface about the event's normal, k_in and k_out the
+ * light's directions). In radiance mode the light travels the branch backward (a camera path:
+ * from the wave after to the wave before), in importance mode forward. The same magnitudes as
+ * uniaxial_branch_mueller, with each mode's polariser at its D's signed angle in the frame of
+ * the crystal's side: light leaving a mode (out of the crystal, or reflected inside) is
+ * projected on the mode's D and then takes the s and p Fresnel amplitudes; light entering a
+ * mode takes them first and is then projected, so that it travels inside in its mode; light
+ * reflected outside takes the two modes' sum. No phases (no retardance between s and p, none
+ * between o and e). Where a mode's D is undefined (along the axis) it passes half of any
+ * state. For unpolarised light its [0][0] is the branch's probability where the light comes
+ * from outside; light leaving a mode is taken to be in it (it entered through a projection), so
+ * a carrier divides the matrix by the probability, not by its own [0][0]. */
+mueller_t uniaxial_branch_mueller_frames(const uniaxial_event_t *e, int b, const polar_event_t *ev);
 
 #endif

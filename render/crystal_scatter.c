@@ -7,7 +7,7 @@
 
 int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t org, vec3_t dir, int *wave,
                     int n, const double *lambda, double *weight, bsdf_mode_t mode, double u,
-                    vec3_t *out, int *end_secondaries)
+                    vec3_t *out, int *end_secondaries, crystal_polar_t *pol)
 {
     if (n < 1)
         return 1;
@@ -51,6 +51,16 @@ int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t org, vec3_t
         }
     }
     *out = br->dir;
+    if (pol) {
+        /* The light travels the path backward in radiance mode (a camera path). */
+        pol->ev = mode == BSDF_RADIANCE
+                      ? polar_event_interface(vec3_neg(br->dir), vec3_neg(dir), nrm, pol->x)
+                      : polar_event_interface(dir, br->dir, nrm, pol->x);
+        /* Divided by the branch's probability, which the scalar weights already carry (not by
+         * its own [0][0]: light leaving a mode is polarised in it, and passes T_m, not T_m/2). */
+        const mueller_t mm = uniaxial_branch_mueller_frames(&e, b, &pol->ev);
+        pol->m = br->prob > 0.0 ? mueller_scale(&mm, 1.0 / br->prob) : mueller_identity();
+    }
     if (br->after != UNIAXIAL_OUTSIDE)
         *wave = br->after;
     return any > 0.0 ? 0 : 1;

@@ -8,7 +8,20 @@
 #define PRISMFARM_CRYSTAL_SCATTER_H
 
 #include "bsdf_types.h"
+#include "polar_frame.h"
 #include "scene.h"
+
+/* Polarised transport through the event (docs/physics.md §14-15): x, in, the path's frame
+ * (the s direction's fallback at normal incidence); ev and m, out, the light's frames and the
+ * chosen branch's Mueller matrix (bsdf/uniaxial.h's uniaxial_branch_mueller_frames at lane 0's
+ * indices, shared by every lane) divided by the branch's probability, for polar_carrier_apply:
+ * the scalar weights carry that probability, and a carrier through the crystal and out again
+ * records, for unpolarised light, what they do. */
+typedef struct crystal_polar {
+    vec3_t x;
+    polar_event_t ev;
+    mueller_t m;
+} crystal_polar_t;
 
 /* m: a material with m->uniaxial; sf: the hit; org, dir: the ray that reached it (org where
  * the last segment started, for the absorption inside); *wave: the wave the path travels in
@@ -17,9 +30,10 @@
  * On a refraction whose lanes' indices differ, only lane 0 can follow (its direction is lane
  * 0's): its weight takes the lane count and *end_secondaries is set, and the caller ends the
  * other lanes (pbrt-v4's TerminateSecondary, as at a dispersive glass). *out: the direction
- * to follow. Returns 1 when the path carries nothing on (every weight 0), else 0. */
+ * to follow. pol: NULL without polarisation (then nothing else differs), else filled as above.
+ * Returns 1 when the path carries nothing on (every weight 0), else 0. */
 int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t org, vec3_t dir, int *wave,
                     int n, const double *lambda, double *weight, bsdf_mode_t mode, double u,
-                    vec3_t *out, int *end_secondaries);
+                    vec3_t *out, int *end_secondaries, crystal_polar_t *pol);
 
 #endif

@@ -471,7 +471,7 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
                     return split_flight(t, f, i, err);
                 int end;
                 if (crystal_scatter(m, &sf, f->org, f->dir, &f->wave, f->nl, f->lambda, f->w,
-                                    BSDF_IMPORTANCE, next(t), &f->dir, &end))
+                                    BSDF_IMPORTANCE, next(t), &f->dir, &end, NULL))
                     return 0;
             } else {
                 if (m->dispersive && f->nl > 1)

@@ -1069,7 +1069,8 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
 
 /* A uniaxial crystal (render/crystal_scatter.h): fan-out lanes go on as one lane picked
  * uniformly (as at a coated dispersive glass); hero lanes end at a refraction whose indices
- * differ. Returns 0 to continue the path, 1 when it ends. */
+ * differ; with polarisation the carrier takes the branch's Mueller matrix. Returns 0 to
+ * continue the path, 1 when it ends. */
 static int scatter_crystal(ctx_t *c, path_t *p, const surface_t *h, const material_t *m)
 {
     if (p->n > 1 && !p->mono && c->rs->dispersion == DISPERSION_FANOUT) {
@@ -1078,19 +1079,26 @@ static int scatter_crystal(ctx_t *c, path_t *p, const surface_t *h, const materi
         p->bucket[0] = p->bucket[k];
         p->pdf[0] = p->pdf[k];
         p->beta[0] = p->beta[k] * p->n;
+        if (p->polar)
+            p->polar_t[0] = p->polar_t[k];
         p->n = 1;
         p->mono = 1;
     }
     vec3_t dir;
     int end = 0;
+    crystal_polar_t pol = {.x = p->polar_x};
     if (crystal_scatter(m, h, p->org, p->dir, &p->wave, p->n, p->lambda, p->beta, BSDF_RADIANCE,
-                        draw1(c, VD_REFLECT), &dir, &end))
+                        draw1(c, VD_REFLECT), &dir, &end, p->polar ? &pol : NULL))
         return 1;
     if (end) {
         p->n = 1;
         p->mono = 1;
         p->dispersed = 1;
     }
+    /* Polarised transport: the branch's Mueller matrix, lane 0's for every lane (a crystal's
+     * lanes differ only in magnitudes, docs/physics.md §15). */
+    if (p->polar)
+        polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &pol.ev, &pol.m, 0);
     start_bounce(p, h, dir, 1, 0.0);
     return 0;
 }

@@ -975,7 +975,10 @@ static int decide_splitting(plan_t *p, const scene_t *s)
 /* Polarised transport (docs/physics.md §14) is carried only where the scene tells polarisations
  * apart: a polariser or retarder sheet, the camera's analyser, or a Stokes output (scene_finish
  * turns render_settings_t.polarised on for them, scene_load for the output; this says which and
- * why). Polarised emitters and birefringent materials do not exist yet. Without any of them
+ * why). Polarised emitters do not exist yet. A uniaxial crystal does not turn it on by itself:
+ * its o and e images are polarised across each other, which an intensity camera does not see
+ * (only where light meets a later polarising interface, by a few per cent); with polarisation
+ * on for another reason, it applies its Mueller matrices (docs/physics.md §15). Without any of them
  * the smooth glass and mirrors still polarise what they reflect and transmit, but a camera that
  * records intensity only sees it where light meets a second polarising surface (a glass seen in
  * a window, light inside a gem): the intensity ignoring it is off by up to a few per cent there
@@ -984,11 +987,13 @@ static int decide_splitting(plan_t *p, const scene_t *s)
 static int decide_polarisation(plan_t *p, const scene_t *s)
 {
     text_t c = {0}, r = {0};
-    int sheets = 0, glass = 0;
+    int sheets = 0, glass = 0, crystals = 0;
     for (size_t i = 0; i < s->nmaterials; i++) {
         const material_t *m = &s->materials[i];
         sheets += material_is_sheet(m->kind);
-        glass += (m->kind == MATERIAL_DIELECTRIC || m->kind == MATERIAL_CONDUCTOR) && !m->rough;
+        crystals += m->uniaxial != 0;
+        glass += (m->kind == MATERIAL_DIELECTRIC || m->kind == MATERIAL_CONDUCTOR) && !m->rough &&
+                 !m->uniaxial;
     }
     const render_settings_t *rs = &s->settings;
     const int on = rs->polarised;
@@ -1011,10 +1016,15 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
             text_add(&r, "the film writes the Stokes layers S1-S3; ");
         if (!sheets && !s->camera.analyser && !rs->stokes)
             text_add(&r, "the caller asked for it; ");
-        text_add(&r,
-                 "a 4x4 Mueller matrix per lane at every smooth interface and sheet, diffuse "
-                 "and rough surfaces depolarise. Images without any of these are left "
-                 "unpolarised, bit for bit as before.");
+        text_add(&r, "a 4x4 Mueller matrix per lane at every smooth interface and sheet, diffuse "
+                     "and rough surfaces depolarise. ");
+        if (crystals)
+            text_add(&r,
+                     "The %d uniaxial crystal material%s split%s light into o and e waves "
+                     "polarised across each other (magnitudes only, no retardance); crystals "
+                     "alone do not turn polarisation on. ",
+                     crystals, crystals > 1 ? "s" : "", crystals > 1 ? "" : "s");
+        text_add(&r, "Images without any of these are left unpolarised, bit for bit as before.");
     } else {
         text_add(&c, "off");
         text_add(&r, "nothing tells polarisations apart (no polariser or retarder sheet, no "
@@ -1026,6 +1036,12 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
                      "surface (a few per cent: a slab at 60 degrees transmits 0.836 "
                      "unpolarised, 0.848 polarised)",
                      glass, glass > 1 ? "s" : "");
+        if (crystals)
+            text_add(&r,
+                     "; uniaxial crystals (%d material%s) do not turn it on by themselves: "
+                     "their o and e images are polarised across each other, which a camera "
+                     "without an analyser does not tell apart",
+                     crystals, crystals > 1 ? "s" : "");
         text_add(&r, ".");
     }
     return set_decision(p, PLAN_POLARISATION, on, &c, &r);

@@ -380,6 +380,120 @@ static void test_double_image_rendered(void **state)
     scene_destroy(&s);
 }
 
+/* The plate of test_double_image_rendered seen through the camera's analyser (polarised
+ * transport, docs/physics.md §15): the o wave leaves polarised perpendicular to the principal
+ * plane (the xz plane of the axis and the view: along y), the e wave within it (along x), so an
+ * analyser along the image's x passes the e image and all but extinguishes the o image, and one
+ * along y the reverse (Born & Wolf §15.3.4; at normal incidence the approximation's magnitudes
+ * suffice). Without the analyser, polarised transport gives each image about half, as
+ * unpolarised. Renders the plate with the camera's extra parameters, polarised transport forced
+ * on or not, into the S0 plane's light per image column (res columns). */
+#define ANALYSED_RES 64
+static void analysed_columns(const char *camera_extra, int polarised, double *col)
+{
+    const int res = ANALYSED_RES;
+    char box[1024], text[4096];
+    box_text(box, sizeof box, 3.0, -1.0, 1.0);
+    snprintf(
+        text, sizeof text,
+        "LookAt 0 0 5  0 0 0  0 1 0\n"
+        "Camera \"orthographic\" \"float screenwindow\" [ -0.5 0.5 -0.5 0.5 ] %s\n"
+        "Film \"spectral\" \"integer xresolution\" [ %d ] \"integer yresolution\" [ %d ]\n"
+        "    \"integer nbuckets\" [ 8 ]\n"
+        "Sampler \"independent\" \"integer pixelsamples\" [ 16 ]\n"
+        "Integrator \"path\" \"integer maxdepth\" [ 20 ] \"string wavelengths\" \"uniform\"\n"
+        "WorldBegin\n"
+        "AttributeBegin\n"
+        "  Material \"uniaxial\" \"string crystal\" \"calcite\" \"vector3 opticaxis\" [ 1 0 1 ]\n"
+        "  %s"
+        "AttributeEnd\n"
+        "AttributeBegin\n"
+        "  AreaLightSource \"diffuse\" \"rgb L\" [ 10 10 10 ]\n"
+        "  Translate 0 0 -1.5\n"
+        "  Shape \"disk\" \"float radius\" [ 0.04 ]\n"
+        "AttributeEnd\n",
+        camera_extra, res, res, box);
+    scene_t *s = sb_load_text(text, NULL);
+    if (polarised)
+        s->settings.polarised = 1;
+    assert_int_equal(s->settings.polarised, polarised || camera_extra[0]);
+    err_t err;
+    const int nb = s->settings.grid.n;
+    tilebuf_t *t = tilebuf_new(0, 0, res, res, render_settings_buckets(&s->settings), &err);
+    assert_non_null(t);
+    render_stats_t rst = {0};
+    assert_int_equal(render_tile(s, NULL, 0, 0, res, res, 0, 16, t, &rst, &err), 0);
+    assert_int_equal(rst.nonfinite, 0);
+    for (int x = 0; x < res; x++) {
+        col[x] = 0.0;
+        for (int y = 0; y < res; y++)
+            for (int b = 0; b < nb; b++)
+                col[x] += tilebuf_sum(t, x, y, b) / (double)tilebuf_count(t, x, y);
+    }
+    tilebuf_destroy(&t);
+    scene_destroy(&s);
+}
+
+/* The light left and right of column cx. */
+static void halves(const double *col, double cx, double w[2])
+{
+    w[0] = w[1] = 0.0;
+    for (int x = 0; x < ANALYSED_RES; x++)
+        w[x + 0.5 > cx] += col[x];
+}
+
+static void test_double_image_analysed(void **state)
+{
+    (void)state;
+    double plain[ANALYSED_RES], polar[ANALYSED_RES], ax[ANALYSED_RES], ay[ANALYSED_RES];
+    analysed_columns("", 0, plain);
+    analysed_columns("", 1, polar);
+    analysed_columns("\"float analyzer\" [ 0 ]", 0, ax);
+    analysed_columns("\"float analyzer\" [ 90 ]", 0, ay);
+    /* The two images are split at the unpolarised render's centroid column. */
+    double sum = 0.0, sx = 0.0;
+    for (int x = 0; x < ANALYSED_RES; x++) {
+        sum += plain[x];
+        sx += plain[x] * (x + 0.5);
+    }
+    assert_true(sum > 0.0);
+    const double cx = sx / sum;
+    double wp[2], wq[2], wx[2], wy[2];
+    halves(plain, cx, wp);
+    halves(polar, cx, wq);
+    halves(ax, cx, wx);
+    halves(ay, cx, wy);
+    print_message("analysed double image (left : right): unpolarised %.2f : %.2f, polarised "
+                  "%.2f : %.2f, analyser 0 %.2f : %.2f, analyser 90 %.2f : %.2f\n",
+                  wp[0], wp[1], wq[0], wq[1], wx[0], wx[1], wy[0], wy[1]);
+    /* Polarised transport without an analyser: the images as without it, about half each. */
+    testutil_assert_near(wq[0] / (wq[0] + wq[1]), 0.5, 0.08);
+    testutil_assert_near(wq[0] + wq[1], wp[0] + wp[1], 0.02 * (wp[0] + wp[1]));
+    /* Each analyser all but extinguishes one image and passes the other, the roles swapped
+     * at 90 degrees; each passed image carries about its unanalysed light. */
+    const int ex = wx[0] < wx[1] ? 0 : 1;
+    assert_true(wx[ex] < 0.05 * wx[1 - ex]);
+    assert_true(wy[1 - ex] < 0.05 * wy[ex]);
+    testutil_assert_near(wx[1 - ex], wq[1 - ex], 0.1 * wq[1 - ex]);
+    testutil_assert_near(wy[ex], wq[ex], 0.1 * wq[ex]);
+    /* Which image is which: the one the analyser along y passes (the o wave, polarised
+     * perpendicular to the principal plane) lies under the disk, at the image's centre (the o
+     * wave is not walked off at normal incidence); the one the analyser along x passes (e)
+     * lies t tan(rho) = 0.22 of the view (14 pixels) away. */
+    double cy = 0.0, cxe = 0.0, sy = 0.0, sxe = 0.0;
+    for (int x = 0; x < ANALYSED_RES; x++) {
+        cy += ay[x] * (x + 0.5);
+        sy += ay[x];
+        cxe += ax[x] * (x + 0.5);
+        sxe += ax[x];
+    }
+    cy /= sy;
+    cxe /= sxe;
+    print_message("o image (analyser 90) at column %.2f, e image (analyser 0) at %.2f\n", cy, cxe);
+    testutil_assert_near(cy, 0.5 * ANALYSED_RES, 1.0);
+    testutil_assert_near(fabs(cxe - cy), 0.22 * ANALYSED_RES, 1.0);
+}
+
 /* The same plate in the photon pass (importance mode): a narrow collimated beam straight down
  * through it lands on the floor as two spots t tan(rho) apart, each with half the flux, seen
  * from the side below the plate (the spots' offset is across the line of sight, at the
@@ -513,7 +627,7 @@ static void test_dichroic_plate(void **state)
         vec3_t dir;
         const double u = (i + 0.5) / N;
         assert_int_equal(crystal_scatter(&m, &top, vec3_make(0, 0, 1), vec3_make(0, 0, -1), &wave,
-                                         1, &lambda, &w, BSDF_IMPORTANCE, u, &dir, &end),
+                                         1, &lambda, &w, BSDF_IMPORTANCE, u, &dir, &end, NULL),
                          0);
         if (dir.z > 0)
             continue; /* reflected */
@@ -522,7 +636,7 @@ static void test_dichroic_plate(void **state)
          * leaving with the second uniform (a stratified second dimension). */
         const double u2 = fmod(u * 7919.0, 1.0);
         if (crystal_scatter(&m, &bottom, top.p, dir, &wave, 1, &lambda, &w, BSDF_IMPORTANCE, u2,
-                            &dir, &end))
+                            &dir, &end, NULL))
             continue;
         if (dir.z < 0)
             out[inw] += w / N;
@@ -582,6 +696,7 @@ int main(void)
         cmocka_unit_test(test_syntax),
         cmocka_unit_test(test_double_image_rendered),
         cmocka_unit_test(test_double_image_photons),
+        cmocka_unit_test(test_double_image_analysed),
         cmocka_unit_test(test_furnace),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
