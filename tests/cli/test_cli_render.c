@@ -136,6 +136,11 @@ static void test_regularize_through_the_farm(void **state)
     size_t len;
     err_t err;
     assert_int_equal(files_read("data/render/regularize.pbrt", 1 << 20, &text, &len, &err), 0);
+    /* files_read's bytes end without a NUL: strstr and %s need one. */
+    uint8_t *ended = realloc(text, len + 1);
+    assert_non_null(ended);
+    text = ended;
+    text[len] = 0;
     const char *on = "\"bool regularize\" true";
     char *at = strstr((char *)text, on);
     assert_non_null(at);
