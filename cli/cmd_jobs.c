@@ -271,8 +271,7 @@ int cmd_fetch(int argc, char **argv)
                          : "-o OUT.exr is required");
         return 2;
     }
-    int failed = job_follow_fetch(rpc, job, PROTO_FETCH_EXR, q.output, "fetch") ||
-                 job_follow_fetch(rpc, job, PROTO_FETCH_PNG, png, "fetch");
+    int failed = job_follow_fetch_outputs(rpc, job, q.output, png, "fetch");
     client_rpc_destroy(&rpc);
     if (failed)
         return 1;

@@ -161,7 +161,7 @@ static int pilot_at(scene_t *scene, int spp, double target, local_render_result_
     render_settings_t *rs = &scene->settings;
     const int keep = rs->spp;
     rs->spp = spp;
-    tilebuf_t *image = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, err);
+    tilebuf_t *image = tilebuf_new(0, 0, rs->xres, rs->yres, render_settings_buckets(rs), err);
     int rc = -1;
     if (image) {
         /* local_render traces the photon pass first, inside the records' times. */

@@ -204,8 +204,7 @@ int cmd_refine(int argc, char **argv)
         if (rc == 0)
             printf("job %llu refined in %.1f s\n", job, last.elapsed);
     } else {
-        if (job_follow_fetch(rpc, job, PROTO_FETCH_EXR, exr, "refine") ||
-            job_follow_fetch(rpc, job, PROTO_FETCH_PNG, png, "refine"))
+        if (job_follow_fetch_outputs(rpc, job, exr, png, "refine"))
             rc = 1;
         else
             printf("job %llu refined in %.1f s: wrote %s and %s\n", job, last.elapsed, exr, png);

@@ -531,13 +531,7 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
 
     int rc = 0;
     colour_tonemap_t tm = {.exposure_stops = exposure, .curve = COLOUR_CURVE_ACES};
-    if (rs->stokes && !c->direct) {
-        /* The master's image and its tiles hold grid.n buckets; the Stokes planes are written by
-         * the local renderer only so far (docs/rendering.md, "Polarisation"). */
-        fprintf(stderr, "prismfarm render: Film \"bool stokes\" is rendered with --direct only "
-                        "(the farm does not carry the S1-S3 planes yet)\n");
-        rc = 1;
-    } else if (c->direct) {
+    if (c->direct) {
         rc = render_direct(scene, scene_path, (int)threads, (int)tile, quiet, &stop, exr, png, tm, loaded, load_s);
     } else {
         /* The farm's code path: a master and workers in this process. */
@@ -566,7 +560,10 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
         proto_job_info_t info;
         char stop_buf[64];
         rc = local_farm_run(&lo, &info, NULL);
-        if (rc == 0 && !master_png && film_png_from_exr(exr, png, tm, &err)) {
+        /* The client's outputs beside the EXR the master wrote: another exposure's PNG, and a
+         * Stokes output's polarisation previews (from its S0-S3 layers, as --direct's). */
+        if (rc == 0 && ((!master_png && film_png_from_exr(exr, png, tm, &err)) ||
+                        film_stokes_previews_from_exr(exr, png, &err))) {
             fprintf(stderr, "prismfarm render: %s\n", err.msg);
             rc = 1;
         }

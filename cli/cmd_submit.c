@@ -269,8 +269,7 @@ static int submit_scenes(const frame_list_t *fr, const char *master, const char 
         rc = fetch_sequence(rpc, job, output, json, &last);
         goto out;
     }
-    if (job_follow_fetch(rpc, job, PROTO_FETCH_EXR, exr, "submit") ||
-        job_follow_fetch(rpc, job, PROTO_FETCH_PNG, png, "submit")) {
+    if (job_follow_fetch_outputs(rpc, job, exr, png, "submit")) {
         rc = 1;
         goto out;
     }

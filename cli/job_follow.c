@@ -173,6 +173,20 @@ int job_follow_check_outputs(const char *exr, const char *png, const char *cmd)
     return 0;
 }
 
+int job_follow_fetch_outputs(client_rpc_t *rpc, uint64_t job, const char *exr, const char *png,
+                             const char *cmd)
+{
+    if (job_follow_fetch(rpc, job, PROTO_FETCH_EXR, exr, cmd) ||
+        job_follow_fetch(rpc, job, PROTO_FETCH_PNG, png, cmd))
+        return 1;
+    err_t err;
+    if (film_stokes_previews_from_exr(exr, png, &err)) {
+        fprintf(stderr, "prismfarm %s: %s\n", cmd, err.msg);
+        return 1;
+    }
+    return 0;
+}
+
 int job_follow_fetch(client_rpc_t *rpc, uint64_t job, proto_fetch_what_t what, const char *path,
                      const char *cmd)
 {
@@ -252,8 +266,7 @@ int job_follow_fetch_frames(client_rpc_t *rpc, const proto_job_info_t *jobs, siz
     }
     for (size_t i = 1; i < n; i++) {
         (void)job_follow_frame_paths(&jobs[i], pattern, exr, sizeof exr, png, sizeof png, &err);
-        if (job_follow_fetch(rpc, jobs[i].id, PROTO_FETCH_EXR, exr, cmd) ||
-            job_follow_fetch(rpc, jobs[i].id, PROTO_FETCH_PNG, png, cmd))
+        if (job_follow_fetch_outputs(rpc, jobs[i].id, exr, png, cmd))
             return 1;
         if (!quiet)
             printf("frame %u: wrote %s and %s\n", jobs[i].frame, exr, png);

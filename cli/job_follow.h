@@ -40,6 +40,12 @@ int job_follow_fetch(client_rpc_t *rpc, uint64_t job, proto_fetch_what_t what, c
 int job_follow_frame_paths(const proto_job_info_t *f, const char *pattern, char *exr,
                            size_t exr_size, char *png, size_t png_size, err_t *err);
 
+/* Downloads a job's EXR and PNG (job_follow_fetch) and writes, for a Stokes output, the
+ * polarisation previews beside the PNG from the EXR (film_stokes_previews_from_exr), as
+ * --direct writes them. Returns 0, or 1 with a message on stderr prefixed by "prismfarm CMD: ". */
+int job_follow_fetch_outputs(client_rpc_t *rpc, uint64_t job, const char *exr, const char *png,
+                             const char *cmd);
+
 /* Downloads every frame of a sequence (jobs[0], its frames after it: a STATUS_REPLY of the
  * sequence) to job_follow_frame_paths's names, after checking that every one can be written;
  * a line per frame on stdout unless quiet. Returns 0, 1 (a frame not done, a failed download)

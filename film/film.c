@@ -117,24 +117,19 @@ static void hsv_to_rgb(double h, double s, double v, double rgb[3])
         rgb[c] = tab[i][c];
 }
 
-/* The previews of film_stokes_preview_paths from the Stokes planes' sums over the buckets
- * (the light of the film's whole range; the S0-S3 layers keep every bucket). */
-static int write_stokes_previews(const tilebuf_t *image, int nb, const char *png_path, err_t *err)
+/* The previews of film_stokes_preview_paths from each pixel's Stokes planes summed over the
+ * buckets (sum: w*h*4, S0-S3; the light of the film's whole range; the S0-S3 layers keep every
+ * bucket). */
+static int write_stokes_previews(int w, int h, const double *sum, const char *png_path, err_t *err)
 {
-    const int w = tilebuf_width(image), h = tilebuf_height(image);
     const size_t npix = (size_t)w * (size_t)h;
     unsigned char *dop = malloc(npix * 3), *aop = malloc(npix * 3);
-    double *mean = malloc((size_t)nb * 4 * sizeof *mean);
     int r = 0;
-    if (!dop || !aop || !mean)
+    if (!dop || !aop)
         r = err_set(err, "out of memory for the polarisation previews");
     for (int y = 0; y < h && !r; y++)
         for (int x = 0; x < w; x++) {
-            tilebuf_mean(image, tilebuf_x0(image) + x, tilebuf_y0(image) + y, mean);
-            double s[4] = {0, 0, 0, 0};
-            for (int k = 0; k < 4; k++)
-                for (int b = 0; b < nb; b++)
-                    s[k] += mean[k * nb + b];
+            const double *s = sum + 4 * ((size_t)y * (size_t)w + (size_t)x);
             const double lin = s[0] > 0.0 ? fmin(1.0, sqrt(s[1] * s[1] + s[2] * s[2]) / s[0]) : 0.0;
             const double all =
                 s[0] > 0.0 ? fmin(1.0, sqrt(s[1] * s[1] + s[2] * s[2] + s[3] * s[3]) / s[0]) : 0.0;
@@ -156,7 +151,59 @@ static int write_stokes_previews(const tilebuf_t *image, int nb, const char *png
         r = image_png_write_rgb(aop_path, w, h, aop, err);
     free(dop);
     free(aop);
+    return r;
+}
+
+/* write_stokes_previews from the image's mean buckets (4 planes of nb), each rounded to the
+ * float the EXR layer stores: the previews film_stokes_previews_from_exr makes from the EXR
+ * (the farm's output path) are then these, byte for byte. */
+static int image_stokes_previews(const tilebuf_t *image, int nb, const char *png_path, err_t *err)
+{
+    const int w = tilebuf_width(image), h = tilebuf_height(image);
+    double *mean = malloc((size_t)nb * 4 * sizeof *mean);
+    double *sum = calloc((size_t)w * (size_t)h * 4, sizeof *sum);
+    if (!mean || !sum) {
+        free(mean);
+        free(sum);
+        return err_set(err, "out of memory for the polarisation previews");
+    }
+    for (int y = 0; y < h; y++)
+        for (int x = 0; x < w; x++) {
+            tilebuf_mean(image, tilebuf_x0(image) + x, tilebuf_y0(image) + y, mean);
+            double *s = sum + 4 * ((size_t)y * (size_t)w + (size_t)x);
+            for (int k = 0; k < 4; k++)
+                for (int b = 0; b < nb; b++)
+                    s[k] += (double)(float)mean[k * nb + b]; /* as the EXR keeps it */
+        }
+    int r = write_stokes_previews(w, h, sum, png_path, err);
     free(mean);
+    free(sum);
+    return r;
+}
+
+int film_stokes_previews_from_exr(const char *exr_path, const char *png_path, err_t *err)
+{
+    image_exr_t *img = image_exr_read(exr_path, err);
+    if (!img)
+        return -1;
+    const int w = image_exr_width(img), h = image_exr_height(img), nb = image_exr_n_spectral(img);
+    const float *plane[4] = {image_exr_spectral(img), image_exr_stokes(img, 1),
+                             image_exr_stokes(img, 2), image_exr_stokes(img, 3)};
+    int r = 0;
+    if (plane[1] && plane[2] && plane[3]) {
+        const size_t npix = (size_t)w * (size_t)h;
+        double *sum = calloc(npix * 4, sizeof *sum);
+        if (!sum)
+            r = err_set(err, "out of memory for the polarisation previews");
+        for (size_t i = 0; i < npix && sum; i++)
+            for (int k = 0; k < 4; k++)
+                for (int b = 0; b < nb; b++)
+                    sum[4 * i + (size_t)k] += (double)plane[k][i * (size_t)nb + (size_t)b];
+        if (sum)
+            r = write_stokes_previews(w, h, sum, png_path, err);
+        free(sum);
+    }
+    image_exr_destroy(&img);
     return r;
 }
 
@@ -199,7 +246,7 @@ int film_write(const tilebuf_t *image, spectral_grid_t grid, const film_output_t
     if (!r && out->png_path)
         r = write_png(out->png_path, w, h, rgb, out->tonemap, err);
     if (!r && out->png_path && planes > 1)
-        r = write_stokes_previews(image, grid.n, out->png_path, err);
+        r = image_stokes_previews(image, grid.n, out->png_path, err);
     free(rgb);
     return r;
 }

@@ -33,6 +33,12 @@ int film_write(const tilebuf_t *image, spectral_grid_t grid, const film_output_t
 void film_stokes_preview_paths(const char *png_path, char *dop, size_t dop_size, char *aop,
                                size_t aop_size);
 
+/* The polarisation previews of film_stokes_preview_paths(png_path) from an EXR that
+ * film_write wrote with the Stokes planes (a farm's output, fetched), from its S0-S3 layers
+ * (float bucket means, summed in double as film_write sums the image's); nothing for an EXR
+ * without them. */
+int film_stokes_previews_from_exr(const char *exr_path, const char *png_path, err_t *err);
+
 /* Writes the tone-mapped PNG preview of an EXR file (its R, G, B channels). */
 int film_png_from_exr(const char *exr_path, const char *png_path, colour_tonemap_t tonemap,
                       err_t *err);

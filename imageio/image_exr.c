@@ -638,6 +638,7 @@ struct image_exr {
     int n_spectral;
     double *wavelengths_nm;
     float *spectral;
+    float *stokes[3]; /* S1, S2, S3 laid out as spectral; NULL without a full set */
     int n_attrs;
     char **attr_names;
     char **attr_values;
@@ -660,6 +661,8 @@ void image_exr_destroy(image_exr_t **self_p)
     free(self->alpha);
     free(self->wavelengths_nm);
     free(self->spectral);
+    for (int k = 0; k < 3; k++)
+        free(self->stokes[k]);
     for (int i = 0; i < self->n_attrs; i++) {
         free(self->attr_names[i]);
         free(self->attr_values[i]);
@@ -697,6 +700,11 @@ const double *image_exr_wavelengths_nm(const image_exr_t *self)
 const float *image_exr_spectral(const image_exr_t *self)
 {
     return self->spectral;
+}
+
+const float *image_exr_stokes(const image_exr_t *self, int k)
+{
+    return k >= 1 && k <= 3 ? self->stokes[k - 1] : NULL;
 }
 
 const char *image_exr_attribute(const image_exr_t *self, const char *name)
@@ -875,7 +883,7 @@ static int exr_plan_channels(const char *path, const exr_attr_chlist_t *chlist, 
 {
     static const char *const rgba[] = {"R", "G", "B", "A"};
     int rgba_index[4] = {-1, -1, -1, -1};
-    int n_spectral = 0;
+    int n_spectral = 0, n_polar = 0;
     for (int i = 0; i < chlist->num_channels; i++) {
         const char *name = chlist->entries[i].name.str;
         int stokes;
@@ -884,9 +892,14 @@ static int exr_plan_channels(const char *path, const exr_attr_chlist_t *chlist, 
             if (strcmp(name, rgba[c]) == 0)
                 rgba_index[c] = i;
         }
-        if (image_exr_parse_channel_name(name, &stokes, &nm) && stokes == 0)
-            n_spectral++;
+        if (image_exr_parse_channel_name(name, &stokes, &nm)) {
+            n_spectral += stokes == 0;
+            n_polar += stokes > 0;
+        }
     }
+    /* S1-S3 are read when all three planes cover the S0 channels (image_exr_write_stokes'
+     * layout); any other set of them is left unread, as before they were read at all. */
+    const int planes = n_spectral > 0 && n_polar == 3 * n_spectral ? 4 : 1;
     for (int c = 0; c < 3; c++) {
         if (rgba_index[c] < 0)
             return err_set(err,
@@ -897,8 +910,8 @@ static int exr_plan_channels(const char *path, const exr_attr_chlist_t *chlist, 
     }
 
     size_t n_pixels = (size_t)img->width * (size_t)img->height;
-    if (n_pixels > SIZE_MAX / sizeof(float) / (size_t)(n_spectral + 4) ||
-        (size_t)img->width * (size_t)(n_spectral + 3) * sizeof(float) > INT32_MAX)
+    if (n_pixels > SIZE_MAX / sizeof(float) / (size_t)(planes * n_spectral + 4) ||
+        (size_t)img->width * (size_t)(planes * n_spectral + 3) * sizeof(float) > INT32_MAX)
         return err_set(err, "%s: %dx%d pixels with %d channels are too large to read", path,
                        img->width, img->height, n_spectral + 4);
     img->rgb = calloc(n_pixels * 3, sizeof(float));
@@ -908,6 +921,10 @@ static int exr_plan_channels(const char *path, const exr_attr_chlist_t *chlist, 
         img->spectral = calloc(n_pixels * (size_t)n_spectral, sizeof(float));
         img->wavelengths_nm = calloc((size_t)n_spectral, sizeof(double));
     }
+    for (int k = 0; k < 3 && planes > 1; k++)
+        if (!(img->stokes[k] = calloc(n_pixels * (size_t)n_spectral, sizeof(float))))
+            return err_set(err, "%s: out of memory for %dx%d pixels", path, img->width,
+                           img->height);
     if (img->rgb == NULL || (rgba_index[3] >= 0 && img->alpha == NULL) ||
         (n_spectral > 0 && (img->spectral == NULL || img->wavelengths_nm == NULL)))
         return err_set(err, "%s: out of memory for %dx%d pixels", path, img->width, img->height);
@@ -946,6 +963,22 @@ static int exr_plan_channels(const char *path, const exr_attr_chlist_t *chlist, 
         img->wavelengths_nm[k] = spectral[k].wavelength_nm;
     }
     n += n_spectral;
+    for (int i = 0; i < chlist->num_channels && planes > 1; i++) {
+        int stokes;
+        double nm;
+        const char *name = chlist->entries[i].name.str;
+        if (!image_exr_parse_channel_name(name, &stokes, &nm) || stokes == 0)
+            continue;
+        int at = 0;
+        while (at < n_spectral && img->wavelengths_nm[at] != nm)
+            at++;
+        if (at == n_spectral)
+            return err_set(err, "%s: channel '%s' has no S0 channel at its wavelength", path, name);
+        dests[n].name = name;
+        dests[n].first = img->stokes[stokes - 1] + at;
+        dests[n].stride = n_spectral;
+        n++;
+    }
 
     for (int d = 0; d < n; d++) {
         for (int i = 0; i < chlist->num_channels; i++) {

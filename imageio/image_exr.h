@@ -82,6 +82,10 @@ const double *image_exr_wavelengths_nm(const image_exr_t *self);
 /* width * height * n_spectral floats, interleaved in wavelength order; NULL when n_spectral
  * is 0. */
 const float *image_exr_spectral(const image_exr_t *self);
+/* Stokes plane k (1..3) laid out as image_exr_spectral, read when the file has S1, S2 and S3
+ * channels at each S0 wavelength (image_exr_write_stokes); NULL otherwise. Two channels of a
+ * plane at one wavelength: the later one is kept. */
+const float *image_exr_stokes(const image_exr_t *self, int k);
 /* The value of a string attribute ("emissiveUnits", "spectralLayoutVersion", "prismfarm", ...),
  * or NULL when the part has no string attribute of that name. */
 const char *image_exr_attribute(const image_exr_t *self, const char *name);

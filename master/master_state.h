@@ -76,6 +76,7 @@ typedef struct job {
         uint64_t seed;                       /* the scene's, after the settings' override */
         const char *integrator, *dispersion; /* what the loaded scene runs with */
         spectral_grid_t grid;
+        int nbuckets; /* per pixel of its image and tiles: render_settings_buckets */
         /* A job that ended before a restart: its integrator as its figures kept it
          * (persist_load_figures; integrator then points here). */
         char integrator_kept[32];

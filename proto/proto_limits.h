@@ -14,7 +14,7 @@
 #define PROTO_MAX_STRING 4096        /* bytes in any string (names, paths, error texts) */
 #define PROTO_MAX_LIST 100000        /* entries in any list (jobs, workers) */
 #define PROTO_MAX_TILE_SIDE 4096     /* tile width and height */
-#define PROTO_MAX_BUCKETS 1024       /* spectral buckets of a tile */
+#define PROTO_MAX_BUCKETS 4096       /* buckets of a tile: 4 Stokes planes of 1024 */
 #define PROTO_MAX_IMAGE_SIDE 65536   /* image resolution and tile corner coordinates */
 #define PROTO_MAX_THREADS 4096       /* worker threads */
 #define PROTO_MAX_WAIT_MS 60000      /* longest STATUS long-poll (client timeouts are longer) */

@@ -1759,21 +1759,22 @@ static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
     }
     if (spectral_grid_init(&rs->grid, d->film.nbuckets, d->film.lambda_min, d->film.lambda_max, err))
         return err_prefix(err, "%s:%d:%d: Film: ", d->film.loc.file, d->film.loc.line, d->film.loc.col);
-    /* budget.h: the merged image is the master's largest allocation; checked before any
-     * geometry or texture is built. */
-    uint64_t image = scene_budget_image_bytes((uint64_t)rs->xres, (uint64_t)rs->yres,
-                                              (uint64_t)rs->grid.n);
+    /* A Stokes output is polarised transport's: it turns it on (scene_finish keeps it). */
+    rs->stokes = d->film.stokes;
+    rs->polarised |= rs->stokes;
+    /* budget.h: the merged image is the master's largest allocation (all its planes:
+     * render_settings_buckets); checked before any geometry or texture is built. */
+    const int image_buckets = render_settings_buckets(rs);
+    uint64_t image =
+        scene_budget_image_bytes((uint64_t)rs->xres, (uint64_t)rs->yres, (uint64_t)image_buckets);
     if (L->budget && L->budget->image_bytes && image > L->budget->image_bytes)
         return pbrt_error(err, d->film.loc,
                           "Film: the merged image of %dx%d pixels and %d buckets takes %.1f MiB, "
                           "over the master's budget of %.0f MiB (prismfarm master "
                           "--max-image-mb)",
-                          rs->xres, rs->yres, rs->grid.n, (double)image / 1048576.0,
+                          rs->xres, rs->yres, image_buckets, (double)image / 1048576.0,
                           (double)L->budget->image_bytes / 1048576.0);
     rs->film_spectral = d->film.type == SCENE_FILM_SPECTRAL;
-    /* A Stokes output is polarised transport's: it turns it on (scene_finish keeps it). */
-    rs->stokes = d->film.stokes;
-    rs->polarised |= rs->stokes;
     if (sc->camera.kind == CAMERA_REALISTIC && load_lens(L, err))
         return -1;
     snprintf(rs->filename, sizeof rs->filename, "%s", d->film.filename ? d->film.filename : "");

@@ -60,7 +60,8 @@ static void task_run(worker_t *w, task_t *t, const job_scene_t *js, err_t *err)
                                  &t->photon_size, &t->pstats, err) == 0;
     } else {
         const proto_tile_t *r = &t->tile;
-        t->result = tilebuf_new(r->x0, r->y0, r->w, r->h, js->scene->settings.grid.n, err);
+        t->result = tilebuf_new(r->x0, r->y0, r->w, r->h,
+                                render_settings_buckets(&js->scene->settings), err);
         if (t->result && render_tile_stoppable(w, t, js, err))
             tilebuf_destroy(&t->result);
         t->ok = t->result != NULL;

@@ -103,6 +103,7 @@ static void job_take_scene(job_t *j, const scene_t *scene)
     j->scene.spp = rs->spp;
     j->scene.seed = rs->seed;
     j->scene.grid = rs->grid;
+    j->scene.nbuckets = render_settings_buckets(rs);
 }
 
 static void job_set_settings(job_t *j, const proto_settings_t *set)
@@ -344,7 +345,7 @@ int job_schedule(master_t *m, job_t *j, uint32_t photon_batches, err_t *err)
         return err_set(err, "the master is out of memory");
     sched_job_info_t info;
     if (sched_add_job(m->sched, j->id, j->scene.xres, j->scene.yres, j->scene.spp, j->scene.grid,
-                      err) < 0)
+                      j->scene.nbuckets, err) < 0)
         return -1;
     if (jobs_apply_ops(m, j, err) < 0 || jobs_apply_stopping(m, j, err) < 0 ||
         (photon_batches > 0 &&

@@ -34,6 +34,7 @@ typedef struct sched_job {
     int xres, yres, spp;
     tilegrid_t tiles;
     spectral_grid_t grid;
+    int nbuckets; /* render_settings_buckets of the job's scene */
     int ntiles, npasses, passes_done;
     uint32_t *pass_begin; /* npasses + 1 bounds */
     task_t *tasks;        /* pass-major: task = pass * ntiles + tile */
@@ -253,7 +254,7 @@ static task_t *task_of(sched_job_t *j, uint32_t id)
 }
 
 int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spectral_grid_t grid,
-                  err_t *err)
+                  int nbuckets, err_t *err)
 {
     if (find_job(self, id))
         return err_set(err, "job %llu exists already", (unsigned long long)id);
@@ -262,6 +263,9 @@ int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spect
                        xres, yres, spp);
     if (spectral_grid_validate(grid, err))
         return -1;
+    if (nbuckets < grid.n || nbuckets % grid.n != 0 || nbuckets / grid.n > 4)
+        return err_set(err, "job %llu: %d buckets per pixel is not 1 to 4 planes of the grid's %d",
+                       (unsigned long long)id, nbuckets, grid.n);
     sched_job_t *j = calloc(1, sizeof *j);
     if (!j)
         return err_set(err, "out of memory");
@@ -271,6 +275,7 @@ int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spect
     j->yres = yres;
     j->spp = spp;
     j->grid = grid;
+    j->nbuckets = nbuckets;
     j->tiles = tilegrid_make(xres, yres, self->cfg.tile_size);
     j->ntiles = tilegrid_count(&j->tiles);
     j->npasses = passes_bounds(spp, NULL);
@@ -279,12 +284,12 @@ int sched_add_job(sched_t *self, uint64_t id, int xres, int yres, int spp, spect
     j->next_pass = calloc((size_t)j->ntiles, sizeof *j->next_pass);
     j->merged_in_pass = calloc((size_t)j->npasses, sizeof *j->merged_in_pass);
     j->done_in_pass = calloc((size_t)j->npasses, sizeof *j->done_in_pass);
-    j->image = tilebuf_new(0, 0, xres, yres, grid.n, err);
+    j->image = tilebuf_new(0, 0, xres, yres, nbuckets, err);
     if (!j->pass_begin || !j->tasks || !j->next_pass || !j->merged_in_pass || !j->done_in_pass ||
         !j->image) {
         sched_job_free(j);
-        return err_set(err, "out of memory for job %llu (%dx%d, %d buckets)", (unsigned long long)id,
-                       xres, yres, grid.n);
+        return err_set(err, "out of memory for job %llu (%dx%d, %d buckets)",
+                       (unsigned long long)id, xres, yres, nbuckets);
     }
     passes_bounds(spp, j->pass_begin);
     j->samples_total = (uint64_t)xres * (uint64_t)yres * (uint64_t)spp;
@@ -443,10 +448,11 @@ int sched_restore_job(sched_t *self, uint64_t id, tilebuf_t **image, const int *
     else if (photons_done > j->nphoton)
         rc = err_set(err, "job %llu: %u photon batches done of %u", (unsigned long long)id,
                      photons_done, j->nphoton);
-    else if (img && (tilebuf_x0(img) != 0 || tilebuf_y0(img) != 0 || tilebuf_width(img) != j->xres ||
-                     tilebuf_height(img) != j->yres || tilebuf_nbuckets(img) != j->grid.n))
+    else if (img &&
+             (tilebuf_x0(img) != 0 || tilebuf_y0(img) != 0 || tilebuf_width(img) != j->xres ||
+              tilebuf_height(img) != j->yres || tilebuf_nbuckets(img) != j->nbuckets))
         rc = err_set(err, "job %llu: the restored image is not %dx%d with %d buckets",
-                     (unsigned long long)id, j->xres, j->yres, j->grid.n);
+                     (unsigned long long)id, j->xres, j->yres, j->nbuckets);
     /* A whole-pass job holds every tile at the same pass, but for the tiles adaptive sampling
      * stopped: those are at the pass they stopped at, below the others. */
     int top = 0;
@@ -1073,11 +1079,14 @@ int sched_task_done(sched_t *self, uint64_t worker, uint64_t job, uint32_t task,
     }
     sched_task_t expect;
     fill_task(j, task, &expect);
-    if (!r || tilebuf_x0(r) != expect.x0 || tilebuf_y0(r) != expect.y0 || tilebuf_width(r) != expect.w ||
-        tilebuf_height(r) != expect.h || tilebuf_nbuckets(r) != j->grid.n) {
+    if (!r || tilebuf_x0(r) != expect.x0 || tilebuf_y0(r) != expect.y0 ||
+        tilebuf_width(r) != expect.w || tilebuf_height(r) != expect.h ||
+        tilebuf_nbuckets(r) != j->nbuckets) {
         tilebuf_destroy(&r);
-        return err_set(err, "job %llu task %u: the result does not cover tile %dx%d at (%d,%d) with %d buckets",
-                       (unsigned long long)job, task, expect.w, expect.h, expect.x0, expect.y0, j->grid.n);
+        return err_set(
+            err,
+            "job %llu task %u: the result does not cover tile %dx%d at (%d,%d) with %d buckets",
+            (unsigned long long)job, task, expect.w, expect.h, expect.x0, expect.y0, j->nbuckets);
     }
     /* The holder's, or someone else's re-issued copy: no need to finish it. */
     release_task(self, j, t);
@@ -1208,15 +1217,30 @@ int sched_job_info(const sched_t *self, uint64_t id, sched_job_info_t *out)
         return -1;
     uint32_t running = j->running;
     *out = (sched_job_info_t){
-        .id = j->id, .state = j->state, .xres = j->xres, .yres = j->yres, .spp = j->spp,
-        .grid = j->grid, .ntiles = j->ntiles, .npasses = j->npasses, .passes_done = j->passes_done,
-        .spp_done = (int)j->pass_begin[j->passes_done], .whole_passes = j->whole_passes,
-        .samples_done = j->samples_done, .samples_total = j->samples_total,
+        .id = j->id,
+        .state = j->state,
+        .xres = j->xres,
+        .yres = j->yres,
+        .spp = j->spp,
+        .grid = j->grid,
+        .nbuckets = j->nbuckets,
+        .ntiles = j->ntiles,
+        .npasses = j->npasses,
+        .passes_done = j->passes_done,
+        .spp_done = (int)j->pass_begin[j->passes_done],
+        .whole_passes = j->whole_passes,
+        .samples_done = j->samples_done,
+        .samples_total = j->samples_total,
         .nonfinite = tilebuf_nonfinite(j->image),
-        .tasks_total = (uint32_t)(j->ntiles * j->npasses) + j->nphoton, .tasks_done = j->tasks_done,
-        .tasks_running = running, .photon_batches = j->nphoton, .photon_batches_done = j->photon_done,
-        .priority = j->priority, .paused = j->paused,
-        .adaptive = j->active != NULL, .tiles_active = j->active ? j->tiles_active : j->ntiles,
+        .tasks_total = (uint32_t)(j->ntiles * j->npasses) + j->nphoton,
+        .tasks_done = j->tasks_done,
+        .tasks_running = running,
+        .photon_batches = j->nphoton,
+        .photon_batches_done = j->photon_done,
+        .priority = j->priority,
+        .paused = j->paused,
+        .adaptive = j->active != NULL,
+        .tiles_active = j->active ? j->tiles_active : j->ntiles,
     };
     snprintf(out->error, sizeof out->error, "%s", j->error);
     return 0;

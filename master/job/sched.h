@@ -79,6 +79,7 @@ typedef struct sched_job_info {
     job_state_t state;
     int xres, yres, spp;
     spectral_grid_t grid;
+    int nbuckets; /* per pixel of the image and of every tile (sched_add_job) */
     int ntiles, npasses, passes_done;
     int spp_done;      /* samples per pixel of the passes done: bound passes_done of the cut */
     bool whole_passes; /* sched_set_whole_passes was called */
@@ -100,10 +101,12 @@ typedef struct sched_job_info {
 sched_t *sched_new(const sched_config_t *cfg, err_t *err);
 void sched_destroy(sched_t **self_p);
 
-/* A new job of xres x yres pixels, spp samples each, with the given spectral grid: priority 0,
+/* A new job of xres x yres pixels, spp samples each, with the given spectral grid and nbuckets
+ * buckets per pixel in its image and every tile result (render_settings_buckets: grid.n, or
+ * 4 grid.n for a Stokes output; a multiple of grid.n): priority 0,
  * owner "", not paused. Among jobs of equal priority and owner, the oldest runs first. */
 int sched_add_job(sched_t *self, uint64_t job, int xres, int yres, int spp, spectral_grid_t grid,
-                  err_t *err);
+                  int nbuckets, err_t *err);
 /* Adds photon batches to a job that has not started (0..n-1 after any it has): its camera
  * tasks wait until every batch is done. */
 int sched_add_photon_batches(sched_t *self, uint64_t job, uint32_t n, err_t *err);

@@ -277,7 +277,7 @@ static int refine_job(master_t *m, job_t *j, uint64_t photons, const proto_peer_
         return err_prefix(err, "job %llu: ", (unsigned long long)j->id);
     uint32_t added = photon_phase_nbatches(j->photons.phase) - base;
     if (sched_add_job(m->sched, j->id, j->scene.xres, j->scene.yres, j->scene.spp, j->scene.grid,
-                      err) < 0 ||
+                      j->scene.nbuckets, err) < 0 ||
         jobs_apply_ops(m, j, err) < 0 || jobs_apply_stopping(m, j, err) < 0 ||
         sched_add_photon_batches(m->sched, j->id, added, err) < 0) {
         err_t ignore;

@@ -29,7 +29,7 @@
 #define TILE_MAGIC_V4 0x4b544650u /* "PFTK" */
 #define CKPT_MAGIC_V4 0x4b434650u /* "PFCK" */
 #define MAX_IMAGE_SIDE 65536
-#define MAX_BUCKETS 1024
+#define MAX_BUCKETS 4096 /* a Stokes output's four planes of SPECTRAL_GRID_MAX_BUCKETS */
 
 typedef struct reader {
     const uint8_t *p;

@@ -211,7 +211,7 @@ void persist_maybe_checkpoint(master_t *m, job_t *j, double now)
         info.state != JOB_RUNNING || info.samples_done == j->journal.checkpoint_samples)
         return;
     size_t image_bytes =
-        (size_t)j->scene.xres * (size_t)j->scene.yres * ((size_t)j->scene.grid.n + 3) * 8;
+        (size_t)j->scene.xres * (size_t)j->scene.yres * ((size_t)j->scene.nbuckets + 3) * 8;
     if (j->journal.bytes < image_bytes ||
         (j->journal.bytes < 4 * image_bytes &&
          now - j->journal.last_checkpoint < CHECKPOINT_INTERVAL_S))

@@ -109,7 +109,7 @@ static uint64_t restore_checkpoint(master_t *m, job_t *j, uint64_t named, tilebu
         err_t err;
         persist_checkpoint_path(m, j->id, gens[i], path, sizeof path);
         if (journal_read_checkpoint(path, j->sched.round, j->scene.xres, j->scene.yres,
-                                    j->scene.grid.n, j->sched.ntiles, image, next, &err) == 0) {
+                                    j->scene.nbuckets, j->sched.ntiles, image, next, &err) == 0) {
             if (gens[i] != named)
                 master_log(m, "job %llu '%s': resumed from checkpoint-%llu.bin (the journal "
                               "names checkpoint-%llu.bin)",

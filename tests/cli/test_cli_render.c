@@ -136,6 +136,11 @@ static void test_regularize_through_the_farm(void **state)
     size_t len;
     err_t err;
     assert_int_equal(files_read("data/render/regularize.pbrt", 1 << 20, &text, &len, &err), 0);
+    /* files_read's bytes end without a NUL: strstr and %s need one. */
+    uint8_t *ended = realloc(text, len + 1);
+    assert_non_null(ended);
+    text = ended;
+    text[len] = 0;
     const char *on = "\"bool regularize\" true";
     char *at = strstr((char *)text, on);
     assert_non_null(at);
@@ -164,6 +169,65 @@ static void test_regularize_through_the_farm(void **state)
     image_exr_destroy(&x);
     image_exr_destroy(&y);
     image_exr_destroy(&z);
+}
+
+/* Two files hold the same bytes. */
+static void expect_same_file(const char *a, const char *b)
+{
+    uint8_t *x, *y;
+    size_t nx, ny;
+    err_t err;
+    if (files_read(a, 1 << 24, &x, &nx, &err) || files_read(b, 1 << 24, &y, &ny, &err))
+        fail_msg("%s", err.msg);
+    if (nx != ny || memcmp(x, y, nx))
+        fail_msg("%s and %s differ", a, b);
+    free(x);
+    free(y);
+}
+
+/* A Stokes output (Film "bool stokes") through the farm -- two workers, 8-pixel tiles, so each
+ * tile result carries the four planes -- has --direct's pixels in every layer, R, G, B and
+ * S0-S3, and the same polarisation previews beside the PNG. */
+static void test_stokes_through_the_farm(void **state)
+{
+    (void)state;
+    const char *farm = testutil_scratch("stokes_farm.exr"),
+               *direct = testutil_scratch("stokes_direct.exr");
+    const run_t *r = run("render", "data/render/stokes.pbrt", "-o", farm, "--workers", "2",
+                         "--tile", "8", "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("farm: exit %d: %s", r->status, r->err);
+    r = run("render", "data/render/stokes.pbrt", "-o", direct, "--direct", "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("--direct: exit %d: %s", r->status, r->err);
+    err_t err;
+    image_exr_t *x = image_exr_read(farm, &err), *y = x ? image_exr_read(direct, &err) : NULL;
+    if (!x || !y)
+        fail_msg("%s", err.msg);
+    const size_t npix = 24 * 16;
+    assert_int_equal(image_exr_n_spectral(x), 4);
+    assert_int_equal(image_exr_n_spectral(y), 4);
+    assert_memory_equal(image_exr_rgb(x), image_exr_rgb(y), npix * 3 * sizeof(float));
+    assert_memory_equal(image_exr_spectral(x), image_exr_spectral(y), npix * 4 * sizeof(float));
+    for (int k = 1; k <= 3; k++) {
+        const float *a = image_exr_stokes(x, k), *b = image_exr_stokes(y, k);
+        assert_non_null(a);
+        assert_non_null(b);
+        assert_memory_equal(a, b, npix * 4 * sizeof(float));
+        /* Each plane is lit somewhere (the scene's three sheets): a copy of S0 or zeros fail. */
+        double most = 0.0;
+        for (size_t i = 0; i < npix * 4; i++)
+            most = fmax(most, fabs((double)a[i]));
+        if (!(most > 0.2))
+            fail_msg("S%d peaks at %g", k, most);
+    }
+    image_exr_destroy(&x);
+    image_exr_destroy(&y);
+    expect_same_file(testutil_scratch("stokes_farm.png"), testutil_scratch("stokes_direct.png"));
+    expect_same_file(testutil_scratch("stokes_farm_dop.png"),
+                     testutil_scratch("stokes_direct_dop.png"));
+    expect_same_file(testutil_scratch("stokes_farm_aop.png"),
+                     testutil_scratch("stokes_direct_aop.png"));
 }
 
 /* With a target error the progress follows the error once it has an estimate: the ETA is the
@@ -389,6 +453,7 @@ int main(void)
         cmocka_unit_test(test_renders_spectral_exr_and_png),
         cmocka_unit_test(test_same_pixels_with_any_thread_count),
         cmocka_unit_test(test_regularize_through_the_farm),
+        cmocka_unit_test(test_stokes_through_the_farm),
         cmocka_unit_test(test_farm_png_matches_direct),
         cmocka_unit_test(test_overrides),
         cmocka_unit_test(test_progress_follows_error),

@@ -231,7 +231,7 @@ static sched_t *new_job(void)
                                                       .max_worker_job_failures = 2,
                                                       .tile_size = 4});
     err_t err;
-    assert_int_equal(sched_add_job(s, 1, XRES, YRES, SPP, testutil_grid(NB), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, XRES, YRES, SPP, testutil_grid(NB), NB, &err), 0);
     assert_int_equal(sched_set_whole_passes(s, 1, &err), 0);
     assert_int_equal(sched_set_adaptive(s, 1, TARGET, &err), 0);
     assert_int_equal(sched_worker_join(s, 1, 4096, 0.0, &err), 0);
@@ -401,7 +401,7 @@ static void test_sched_adaptive_refused(void **state)
                                                       .max_worker_job_failures = 2,
                                                       .tile_size = 4});
     err_t err;
-    assert_int_equal(sched_add_job(s, 1, 8, 8, 64, testutil_grid(NB), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 8, 8, 64, testutil_grid(NB), NB, &err), 0);
     assert_int_equal(sched_set_adaptive(s, 1, 0.1, &err), -1);
     assert_non_null(strstr(err.msg, "whole-pass"));
     assert_int_equal(sched_set_whole_passes(s, 1, &err), 0);

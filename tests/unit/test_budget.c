@@ -121,6 +121,23 @@ static void test_image_and_texels(void **state)
                    "[ 32768 ] \"integer nbuckets\" [ 1 ]\nWorldBegin\nShape \"sphere\"\n",
                    &b, "huge.pbrt:1:", "over the master's budget of 4096 MiB (prismfarm master "
                                        "--max-image-mb)");
+    /* A Stokes output's image holds four planes of buckets (render_settings_buckets):
+     * 1024x1024 with 16 buckets takes 160 MiB, with "bool stokes" (64 + 4) * 8 bytes a pixel. */
+    b.image_bytes = (uint64_t)200 << 20;
+    const char *film = "Film \"spectral\" \"integer xresolution\" [ 1024 ] \"integer "
+                       "yresolution\" [ 1024 ] \"integer nbuckets\" [ 16 ] %s\nWorldBegin\n"
+                       "Shape \"sphere\"\n";
+    char scene[512];
+    snprintf(scene, sizeof scene, film, "");
+    err_t e = {{0}};
+    scene_t *plain = load("plain.pbrt", scene, &b, &e);
+    if (!plain)
+        fail_msg("160 MiB against 200: %s", e.msg);
+    scene_destroy(&plain);
+    snprintf(scene, sizeof scene, film, "\"bool stokes\" true");
+    expect_refusal("stokes.pbrt", scene, &b, "stokes.pbrt:1:",
+                   "1024x1024 pixels and 64 buckets takes 544.0 MiB, over the master's budget of "
+                   "200 MiB");
     /* A 2x2 texture (tests/data/scene_checker2x2.png) against 3 texels. */
     char text[2048], png[700];
     snprintf(png, sizeof png, "%s", testutil_scratch("checker.png"));

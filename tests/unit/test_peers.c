@@ -73,7 +73,7 @@ static void test_sched_workers_joined_out_of_order(void **state)
     sched_config_t cfg = testutil_sched_config(8);
     sched_t *s = testutil_sched_new(&cfg);
     /* One 8x8 tile per worker, 1 spp: NW tasks of one pass. */
-    assert_int_equal(sched_add_job(s, 1, 8 * NW, 8, 1, testutil_grid(2), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 8 * NW, 8, 1, testutil_grid(2), 2, &err), 0);
     uint64_t ids[NW];
     shuffled_ids(ids, 5);
     for (int i = 0; i < NW; i++)

@@ -1130,7 +1130,7 @@ static void test_values_out_of_range(void **state)
     expect_mutation_rejected(PROTO_TASK, "tile.h", &zero, PROTO_EMALFORMED,
                              "TASK: field 'tile.h' is 0, expected 1..4096");
     expect_mutation_rejected(PROTO_RESULT, "tile.nb", &big, PROTO_EMALFORMED,
-                             "RESULT: field 'tile.nb' is 5000, expected 1..1024");
+                             "RESULT: field 'tile.nb' is 5000, expected 1..4096");
     expect_mutation_rejected(PROTO_RESULT, "tile.x0", &huge, PROTO_EMALFORMED,
                              "field 'tile.x0' is 18446744073709551615, at most 2147483647");
     expect_mutation_rejected(PROTO_TASK, "tile.sb", &big, PROTO_EMALFORMED,

@@ -24,7 +24,7 @@ static void test_passes_and_tiles(void **state)
     sched_t *s = new_sched(4);
     err_t err;
     /* 10x6 pixels in 4x4 tiles: 3 x 2 tiles; spp 5: passes [0,1) [1,2) [2,4) [4,5). */
-    assert_int_equal(sched_add_job(s, 7, 10, 6, 5, testutil_grid(4), &err), 0);
+    assert_int_equal(sched_add_job(s, 7, 10, 6, 5, testutil_grid(4), 4, &err), 0);
     sched_job_info_t info;
     assert_int_equal(sched_job_info(s, 7, &info), 0);
     assert_int_equal(info.ntiles, 6);
@@ -52,7 +52,7 @@ static void run_job(unsigned order_seed, tilebuf_t **image_out)
 {
     sched_t *s = new_sched(4);
     err_t err;
-    sched_add_job(s, 1, 10, 6, 9, testutil_grid(4), &err);
+    sched_add_job(s, 1, 10, 6, 9, testutil_grid(4), 4, &err);
     sched_worker_join(s, 1, 1000, 0.0, &err);
     sched_task_t tasks[256];
     int n = testutil_take_all(s, tasks, 256);
@@ -101,7 +101,7 @@ static void test_dead_worker_and_deadline(void **state)
     (void)state;
     sched_t *s = new_sched(8);
     err_t err;
-    sched_add_job(s, 3, 8, 8, 1, testutil_grid(4), &err); /* one task */
+    sched_add_job(s, 3, 8, 8, 1, testutil_grid(4), 4, &err); /* one task */
     sched_worker_join(s, 10, 1, 0.0, &err);
     sched_worker_join(s, 11, 1, 0.0, &err);
     sched_task_t t, u;
@@ -142,7 +142,7 @@ static void test_failures_block_and_fail(void **state)
     c.max_worker_job_failures = 2;
     sched_t *s = testutil_sched_new(&c);
     err_t err;
-    sched_add_job(s, 5, 8, 8, 1, testutil_grid(4), &err);
+    sched_add_job(s, 5, 8, 8, 1, testutil_grid(4), 4, &err);
     sched_worker_join(s, 1, 1, 0.0, &err);
     sched_worker_join(s, 2, 1, 0.0, &err);
     sched_task_t t;
@@ -170,9 +170,9 @@ static void test_bad_results_and_jobs(void **state)
     (void)state;
     sched_t *s = new_sched(4);
     err_t err;
-    assert_int_equal(sched_add_job(s, 1, 0, 6, 4, testutil_grid(4), &err), -1);
-    assert_int_equal(sched_add_job(s, 1, 8, 8, 4, testutil_grid(4), &err), 0);
-    assert_int_equal(sched_add_job(s, 1, 8, 8, 4, testutil_grid(4), &err), -1);
+    assert_int_equal(sched_add_job(s, 1, 0, 6, 4, testutil_grid(4), 4, &err), -1);
+    assert_int_equal(sched_add_job(s, 1, 8, 8, 4, testutil_grid(4), 4, &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 8, 8, 4, testutil_grid(4), 4, &err), -1);
     assert_non_null(strstr(err.msg, "exists"));
     sched_worker_join(s, 1, 4, 0, &err);
     sched_task_t t;
@@ -203,7 +203,7 @@ static void test_prefetch_shrinks_at_the_end(void **state)
     sched_t *s = new_sched(4);
     err_t err;
     /* One 4x4 tile, spp 4: passes [0,1) [1,2) [2,4), three tasks. */
-    assert_int_equal(sched_add_job(s, 1, 4, 4, 4, testutil_grid(4), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 4, 4, 4, testutil_grid(4), 4, &err), 0);
     for (uint64_t w = 1; w <= 2; w++) {
         assert_int_equal(sched_worker_join(s, w, 2, 0, &err), 0);
         assert_int_equal(sched_worker_set_threads(s, w, 1, &err), 0);
@@ -221,7 +221,7 @@ static void test_prefetch_shrinks_at_the_end(void **state)
     /* The same with two tasks: worker 1 takes one; the other is left for worker 2's idle
      * thread rather than queued behind worker 1's. */
     s = new_sched(4);
-    assert_int_equal(sched_add_job(s, 1, 4, 4, 2, testutil_grid(4), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 4, 4, 2, testutil_grid(4), 4, &err), 0);
     for (uint64_t w = 1; w <= 2; w++) {
         assert_int_equal(sched_worker_join(s, w, 2, 0, &err), 0);
         assert_int_equal(sched_worker_set_threads(s, w, 1, &err), 0);
@@ -246,7 +246,7 @@ static void test_restore_from_checkpoint(void **state)
     err_t err;
     /* The uninterrupted run: 8x4 pixels, tiles of 4 (2 tiles), spp 4 (3 passes). */
     sched_t *s = new_sched(4);
-    assert_int_equal(sched_add_job(s, 1, 8, 4, 4, testutil_grid(4), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 8, 4, 4, testutil_grid(4), 4, &err), 0);
     sched_worker_join(s, 1, 64, 0, &err);
     sched_task_t t;
     while (sched_next_task(s, 1, 0, &t) == 1) {
@@ -257,7 +257,7 @@ static void test_restore_from_checkpoint(void **state)
 
     /* The interrupted one: tile 0 merged passes 0-1, tile 1 pass 0 (a checkpoint). */
     sched_t *s2 = new_sched(4);
-    assert_int_equal(sched_add_job(s2, 1, 8, 4, 4, testutil_grid(4), &err), 0);
+    assert_int_equal(sched_add_job(s2, 1, 8, 4, 4, testutil_grid(4), 4, &err), 0);
     sched_worker_join(s2, 1, 64, 0, &err);
     int next[2] = {2, 1};
     tilebuf_t *img = tilebuf_new(0, 0, 8, 4, 4, &err);
@@ -321,7 +321,7 @@ static void test_silent_greedy_worker(void **state)
     sched_t *s = new_sched(4); /* deadline 10 s, worker timeout 3 s */
     err_t err;
     /* 32 x 16 pixels in 4 x 4 tiles: 32 tiles; spp 2: passes [0,1) [1,2): 64 tasks. */
-    assert_int_equal(sched_add_job(s, 1, 32, 16, 2, testutil_grid(4), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 32, 16, 2, testutil_grid(4), 4, &err), 0);
     assert_int_equal(sched_worker_join(s, 1, 4096, 0.0, &err), 0); /* the silent claimant */
     assert_int_equal(sched_worker_join(s, 2, 2, 0.0, &err), 0);    /* an honest worker */
     sched_task_t t;
@@ -381,7 +381,7 @@ static void test_running_count(void **state)
     sched_t *s = new_sched(4);
     err_t err;
     /* 8x8 pixels in 4x4 tiles, spp 2: 4 tiles x passes [0,1) [1,2) = 8 tasks. */
-    assert_int_equal(sched_add_job(s, 3, 8, 8, 2, testutil_grid(2), &err), 0);
+    assert_int_equal(sched_add_job(s, 3, 8, 8, 2, testutil_grid(2), 2, &err), 0);
     assert_int_equal(sched_worker_join(s, 1, 4, 0.0, &err), 0);
     assert_int_equal(sched_worker_join(s, 2, 4, 0.0, &err), 0);
     sched_task_t a[4], b[4];
@@ -421,7 +421,7 @@ static void test_prefetch_counts(void **state)
     sched_t *s = new_sched(8);
     err_t err;
     /* 24x16 pixels in 8-pixel tiles, 1 spp: 6 tasks. */
-    assert_int_equal(sched_add_job(s, 1, 24, 16, 1, testutil_grid(2), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 24, 16, 1, testutil_grid(2), 2, &err), 0);
     for (uint64_t w = 1; w <= 3; w++) {
         assert_int_equal(sched_worker_join(s, w, 4, 0.0, &err), 0);
         assert_int_equal(sched_worker_set_threads(s, w, 2, &err), 0);
@@ -465,7 +465,7 @@ static void test_deadlines_bound(void **state)
     (void)state;
     sched_t *s = new_sched(8); /* deadline 10 s, timeout 3 s */
     err_t err;
-    assert_int_equal(sched_add_job(s, 1, 24, 16, 1, testutil_grid(2), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 24, 16, 1, testutil_grid(2), 2, &err), 0);
     assert_int_equal(sched_worker_join(s, 1, 8, 0.0, &err), 0);
     sched_task_t a, b, c;
     assert_int_equal(sched_next_task(s, 1, 100.0, &a), 1); /* due at 110 */

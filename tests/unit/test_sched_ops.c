@@ -25,7 +25,7 @@ static sched_t *new_sched(int worker_failures_in_row)
 static void add_job(sched_t *s, uint64_t id, const char *owner, int priority)
 {
     err_t err;
-    assert_int_equal(sched_add_job(s, id, 16, 16, 1, testutil_grid(2), &err), 0);
+    assert_int_equal(sched_add_job(s, id, 16, 16, 1, testutil_grid(2), 2, &err), 0);
     assert_int_equal(sched_set_job_owner(s, id, owner, &err), 0);
     assert_int_equal(sched_set_job_priority(s, id, priority, &err), 0);
 }

@@ -46,7 +46,7 @@ static void test_batches_before_tiles(void **state)
     sched_t *s = new_sched();
     err_t err;
     /* 8x4 pixels in 4x4 tiles, 2 spp: 2 tiles x 2 passes; 3 photon batches. */
-    assert_int_equal(sched_add_job(s, 1, 8, 4, 2, testutil_grid(4), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 8, 4, 2, testutil_grid(4), 4, &err), 0);
     assert_int_equal(sched_add_photon_batches(s, 1, 3, &err), 0);
     assert_int_equal(sched_worker_join(s, 10, 100, 0.0, &err), 0);
     assert_int_equal(sched_worker_join(s, 11, 100, 0.0, &err), 0);
@@ -97,7 +97,7 @@ static void test_deadline_and_failure(void **state)
     (void)state;
     sched_t *s = new_sched();
     err_t err;
-    assert_int_equal(sched_add_job(s, 2, 4, 4, 1, testutil_grid(4), &err), 0);
+    assert_int_equal(sched_add_job(s, 2, 4, 4, 1, testutil_grid(4), 4, &err), 0);
     assert_int_equal(sched_add_photon_batches(s, 2, 2, &err), 0);
     assert_int_equal(sched_worker_join(s, 10, 1, 0.0, &err), 0);
     sched_task_t a, b;
@@ -129,7 +129,7 @@ static void test_fail_job(void **state)
     (void)state;
     sched_t *s = new_sched();
     err_t err;
-    assert_int_equal(sched_add_job(s, 3, 8, 4, 2, testutil_grid(4), &err), 0);
+    assert_int_equal(sched_add_job(s, 3, 8, 4, 2, testutil_grid(4), 4, &err), 0);
     assert_int_equal(sched_add_photon_batches(s, 3, 2, &err), 0);
     assert_int_equal(sched_worker_join(s, 10, 100, 0.0, &err), 0);
     sched_task_t t;

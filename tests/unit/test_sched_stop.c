@@ -52,7 +52,7 @@ static void test_whole_passes_one_boundary_at_a_time(void **state)
     sched_t *s = new_sched();
     err_t err;
     /* 8x8 pixels in 4x4 tiles: 4 tiles; spp 8: passes [0,1) [1,2) [2,4) [4,8). */
-    assert_int_equal(sched_add_job(s, 1, 8, 8, 8, testutil_grid(NB), &err), 0);
+    assert_int_equal(sched_add_job(s, 1, 8, 8, 8, testutil_grid(NB), NB, &err), 0);
     assert_int_equal(sched_set_whole_passes(s, 1, &err), 0);
     assert_int_equal(sched_worker_join(s, 1, 100, 0.0, &err), 0);
     sched_task_t t[16];
@@ -97,7 +97,7 @@ static tilebuf_t *run_job(int spp, int stop_after, unsigned order_seed, bool who
 {
     sched_t *s = new_sched();
     err_t err;
-    assert_int_equal(sched_add_job(s, 9, 10, 6, spp, testutil_grid(NB), &err), 0);
+    assert_int_equal(sched_add_job(s, 9, 10, 6, spp, testutil_grid(NB), NB, &err), 0);
     if (whole)
         assert_int_equal(sched_set_whole_passes(s, 9, &err), 0);
     assert_int_equal(sched_worker_join(s, 1, 1000, 0.0, &err), 0);
@@ -169,9 +169,9 @@ static void test_finish_releases_tasks(void **state)
     (void)state;
     sched_t *s = new_sched();
     err_t err;
-    assert_int_equal(sched_add_job(s, 1, 4, 4, 16, testutil_grid(NB), &err),
+    assert_int_equal(sched_add_job(s, 1, 4, 4, 16, testutil_grid(NB), NB, &err),
                      0); /* one tile, 5 passes */
-    assert_int_equal(sched_add_job(s, 2, 4, 4, 1, testutil_grid(NB), &err), 0);
+    assert_int_equal(sched_add_job(s, 2, 4, 4, 1, testutil_grid(NB), NB, &err), 0);
     assert_int_equal(sched_set_whole_passes(s, 1, &err), 0);
     assert_int_equal(sched_worker_join(s, 1, 3, 0.0, &err), 0);
     sched_task_t t[3];
@@ -218,7 +218,7 @@ static void test_refusals(void **state)
     assert_non_null(strstr(err.msg, "no job 5"));
     assert_int_equal(sched_finish_job_at_pass(s, 5, &err), -1);
     assert_int_equal(sched_merge_next_pass(s, 5, &err), -1);
-    assert_int_equal(sched_add_job(s, 5, 8, 4, 4, testutil_grid(NB), &err), 0); /* two tiles */
+    assert_int_equal(sched_add_job(s, 5, 8, 4, 4, testutil_grid(NB), NB, &err), 0); /* two tiles */
     assert_int_equal(sched_worker_join(s, 1, 10, 0.0, &err), 0);
     sched_task_t t;
     assert_int_equal(sched_next_task(s, 1, 0.0, &t), 1);
@@ -248,7 +248,7 @@ static void test_whole_passes_with_lost_worker(void **state)
     (void)state;
     sched_t *s = new_sched();
     err_t err;
-    assert_int_equal(sched_add_job(s, 9, 10, 6, 8, testutil_grid(NB), &err), 0);
+    assert_int_equal(sched_add_job(s, 9, 10, 6, 8, testutil_grid(NB), NB, &err), 0);
     assert_int_equal(sched_set_whole_passes(s, 9, &err), 0);
     assert_int_equal(sched_worker_join(s, 1, 2, 0.0, &err), 0);
     assert_int_equal(sched_worker_join(s, 2, 1000, 0.0, &err), 0);
