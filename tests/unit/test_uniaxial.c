@@ -331,22 +331,17 @@ static void two_images(scene_t *s, int res, int spp, double *sep, double *frac, 
     photon_store_destroy(&photons);
 }
 
-/* The rendered double image: an orthographic camera looks straight down through a calcite plate
- * (thickness 2, axis at 45 degrees in xz) at a small bright disk. Two images of it appear,
- * separated along x by t tan(rho), rho from the indices at the luminance-weighted middle of the
- * spectrum (555 nm; the walk-off varies by a few percent over the visible, well inside a pixel
- * here), with equal brightness within noise (the o and e transmittances at normal incidence
- * differ by 1 %). */
-static void test_double_image_rendered(void **state)
+/* The scene of the double-image tests: a calcite plate (thickness 2, axis at 45 degrees in xz)
+ * before a small bright disk, seen at res x res through an orthographic camera with
+ * camera_extra's parameters ("" for none). */
+static void plate_scene_text(char *text, size_t size, int res, const char *camera_extra)
 {
-    (void)state;
-    const int res = 64;
-    char box[1024], text[4096];
+    char box[1024];
     box_text(box, sizeof box, 3.0, -1.0, 1.0);
     snprintf(
-        text, sizeof text,
+        text, size,
         "LookAt 0 0 5  0 0 0  0 1 0\n"
-        "Camera \"orthographic\" \"float screenwindow\" [ -0.5 0.5 -0.5 0.5 ]\n"
+        "Camera \"orthographic\" \"float screenwindow\" [ -0.5 0.5 -0.5 0.5 ] %s\n"
         "Film \"spectral\" \"integer xresolution\" [ %d ] \"integer yresolution\" [ %d ]\n"
         "    \"integer nbuckets\" [ 8 ]\n"
         "Sampler \"independent\" \"integer pixelsamples\" [ 16 ]\n"
@@ -361,7 +356,21 @@ static void test_double_image_rendered(void **state)
         "  Translate 0 0 -1.5\n"
         "  Shape \"disk\" \"float radius\" [ 0.04 ]\n"
         "AttributeEnd\n",
-        res, res, box);
+        camera_extra, res, res, box);
+}
+
+/* The rendered double image: an orthographic camera looks straight down through a calcite plate
+ * (thickness 2, axis at 45 degrees in xz) at a small bright disk. Two images of it appear,
+ * separated along x by t tan(rho), rho from the indices at the luminance-weighted middle of the
+ * spectrum (555 nm; the walk-off varies by a few percent over the visible, well inside a pixel
+ * here), with equal brightness within noise (the o and e transmittances at normal incidence
+ * differ by 1 %). */
+static void test_double_image_rendered(void **state)
+{
+    (void)state;
+    const int res = 64;
+    char text[4096];
+    plate_scene_text(text, sizeof text, res, "");
     scene_t *s = sb_load_text(text, NULL);
     double sep, frac, dy;
     two_images(s, res, 16, &sep, &frac, &dy);
@@ -392,27 +401,8 @@ static void test_double_image_rendered(void **state)
 static void analysed_columns(const char *camera_extra, int polarised, double *col)
 {
     const int res = ANALYSED_RES;
-    char box[1024], text[4096];
-    box_text(box, sizeof box, 3.0, -1.0, 1.0);
-    snprintf(
-        text, sizeof text,
-        "LookAt 0 0 5  0 0 0  0 1 0\n"
-        "Camera \"orthographic\" \"float screenwindow\" [ -0.5 0.5 -0.5 0.5 ] %s\n"
-        "Film \"spectral\" \"integer xresolution\" [ %d ] \"integer yresolution\" [ %d ]\n"
-        "    \"integer nbuckets\" [ 8 ]\n"
-        "Sampler \"independent\" \"integer pixelsamples\" [ 16 ]\n"
-        "Integrator \"path\" \"integer maxdepth\" [ 20 ] \"string wavelengths\" \"uniform\"\n"
-        "WorldBegin\n"
-        "AttributeBegin\n"
-        "  Material \"uniaxial\" \"string crystal\" \"calcite\" \"vector3 opticaxis\" [ 1 0 1 ]\n"
-        "  %s"
-        "AttributeEnd\n"
-        "AttributeBegin\n"
-        "  AreaLightSource \"diffuse\" \"rgb L\" [ 10 10 10 ]\n"
-        "  Translate 0 0 -1.5\n"
-        "  Shape \"disk\" \"float radius\" [ 0.04 ]\n"
-        "AttributeEnd\n",
-        camera_extra, res, res, box);
+    char text[4096];
+    plate_scene_text(text, sizeof text, res, camera_extra);
     scene_t *s = sb_load_text(text, NULL);
     if (polarised)
         s->settings.polarised = 1;
