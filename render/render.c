@@ -880,6 +880,22 @@ static int push_reflection(ctx_t *c, const path_t *p, const surface_t *h, vec3_t
     return push(c, &r);
 }
 
+/* Fan-out lanes that cannot go on together (a coating's or a crystal's event depends on the
+ * wavelength): one lane, picked uniformly, goes on alone, weighted by the lane count, with its
+ * Stokes carrier. */
+static void fanout_pick_one(ctx_t *c, path_t *p)
+{
+    const int k = (int)fmin(p->n - 1, floor(draw1(c, VD_FAN_PICK) * p->n));
+    p->lambda[0] = p->lambda[k];
+    p->bucket[0] = p->bucket[k];
+    p->pdf[0] = p->pdf[k];
+    p->beta[0] = p->beta[k] * p->n;
+    if (p->polar)
+        p->polar_t[0] = p->polar_t[k];
+    p->n = 1;
+    p->mono = 1;
+}
+
 /* Smooth dielectric: the physics is bsdf/delta.h's (radiance mode); this is the camera
  * pass's policy for its branches -- one chosen at random, or both (Whitted), and at a
  * dispersive interface the hero's termination of the secondaries or the thesis's fan-out.
@@ -897,15 +913,7 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
          * goes on weighted by the lane count (its wavelength keeps its bucket's uniform
          * density, as at a dispersive lens: lens_ray), and the event is the coated hero's. */
         c->stats->dispersive++;
-        const int k = (int)fmin(p->n - 1, floor(draw1(c, VD_FAN_PICK) * p->n));
-        p->lambda[0] = p->lambda[k];
-        p->bucket[0] = p->bucket[k];
-        p->pdf[0] = p->pdf[k];
-        p->beta[0] = p->beta[k] * p->n;
-        if (p->polar)
-            p->polar_t[0] = p->polar_t[k];
-        p->n = 1;
-        p->mono = 1;
+        fanout_pick_one(c, p);
     }
     double n[LANES];
     n[0] = ior_eval(&m->ior, p->lambda[0]);
@@ -1073,17 +1081,8 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
  * continue the path, 1 when it ends. */
 static int scatter_crystal(ctx_t *c, path_t *p, const surface_t *h, const material_t *m)
 {
-    if (p->n > 1 && !p->mono && c->rs->dispersion == DISPERSION_FANOUT) {
-        const int k = (int)fmin(p->n - 1, floor(draw1(c, VD_FAN_PICK) * p->n));
-        p->lambda[0] = p->lambda[k];
-        p->bucket[0] = p->bucket[k];
-        p->pdf[0] = p->pdf[k];
-        p->beta[0] = p->beta[k] * p->n;
-        if (p->polar)
-            p->polar_t[0] = p->polar_t[k];
-        p->n = 1;
-        p->mono = 1;
-    }
+    if (p->n > 1 && !p->mono && c->rs->dispersion == DISPERSION_FANOUT)
+        fanout_pick_one(c, p);
     vec3_t dir;
     int end = 0;
     crystal_polar_t pol = {.x = p->polar_x};
