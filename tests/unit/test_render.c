@@ -245,6 +245,28 @@ static void test_tiles_are_deterministic(void **state)
     scene_destroy(&s);
 }
 
+/* The scene of the edge tests: a lamp of radiance 1 over the half-plane x > 0, seen head on
+ * at w x w pixels and spp, its edge through the middle column. */
+static scene_t *edge_scene(int w, int spp)
+{
+    err_t err;
+    scene_t *s = sb_render_scene(INTEGRATOR_PATH, DISPERSION_HERO, w, spp);
+    sb_look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 30);
+    spectrum_t *le = spectrum_new_constant(1.0, &err);
+    assert_non_null(le);
+    assert_int_equal(scene_own_spectrum(s, le, &err), 0);
+    light_t l = {.kind = LIGHT_AREA, .spectrum = le, .scale = 1.0, .twosided = 1};
+    int li = scene_add_light(s, &l, &err);
+    assert_true(li >= 0);
+    int mi = sb_diffuse(s, 0.0);
+    const double P[] = {0, -100, 0, 100, -100, 0, 100, 100, 0, 0, 100, 0};
+    const uint32_t idx[] = {0, 1, 2, 0, 2, 3};
+    assert_true(scene_add_mesh(s, P, 4, idx, 2, NULL, NULL, mi, li, 0, &err) >= 0);
+    if (scene_finish(s, &err))
+        fail_msg("%s", err.msg);
+    return s;
+}
+
 /* A sharp edge at a known place: a camera at (0, 0, -5) looking at +z sees an emitting
  * half-plane x >= 0 (radiance 1 in every bucket) filling the right half of a 9 x 9 image.
  * pbrt-v4's conventions put world +x on the image's right (LookAt with +y up) and sample
@@ -262,20 +284,7 @@ static void test_edge_coverage_between_seeds(void **state)
     (void)state;
     enum { W = 9, SEEDS = 16, SPP = 16 };
     err_t err;
-    scene_t *s = sb_render_scene(INTEGRATOR_PATH, DISPERSION_HERO, W, SPP);
-    sb_look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 30);
-    spectrum_t *le = spectrum_new_constant(1.0, &err);
-    assert_non_null(le);
-    assert_int_equal(scene_own_spectrum(s, le, &err), 0);
-    light_t l = {.kind = LIGHT_AREA, .spectrum = le, .scale = 1.0, .twosided = 1};
-    int li = scene_add_light(s, &l, &err);
-    assert_true(li >= 0);
-    int mi = sb_diffuse(s, 0.0);
-    const double P[] = {0, -100, 0, 100, -100, 0, 100, 100, 0, 0, 100, 0};
-    const uint32_t idx[] = {0, 1, 2, 0, 2, 3};
-    assert_true(scene_add_mesh(s, P, 4, idx, 2, NULL, NULL, mi, li, 0, &err) >= 0);
-    if (scene_finish(s, &err))
-        fail_msg("%s", err.msg);
+    scene_t *s = edge_scene(W, SPP);
     const int nb = s->settings.grid.n;
     /* The light is seen directly: at the hero tuple's wavelengths only, so that a bucket's
      * samples are the sampler's pairing of positions and wavelengths (with render.c's 16
@@ -351,20 +360,7 @@ static void test_direct_light_colour_exact(void **state)
     (void)state;
     enum { W = 9, SPP = 16 };
     err_t err;
-    scene_t *s = sb_render_scene(INTEGRATOR_PATH, DISPERSION_HERO, W, SPP);
-    sb_look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 30);
-    spectrum_t *le = spectrum_new_constant(1.0, &err);
-    assert_non_null(le);
-    assert_int_equal(scene_own_spectrum(s, le, &err), 0);
-    light_t l = {.kind = LIGHT_AREA, .spectrum = le, .scale = 1.0, .twosided = 1};
-    int li = scene_add_light(s, &l, &err);
-    assert_true(li >= 0);
-    int mi = sb_diffuse(s, 0.0);
-    const double P[] = {0, -100, 0, 100, -100, 0, 100, 100, 0, 0, 100, 0};
-    const uint32_t idx[] = {0, 1, 2, 0, 2, 3};
-    assert_true(scene_add_mesh(s, P, 4, idx, 2, NULL, NULL, mi, li, 0, &err) >= 0);
-    if (scene_finish(s, &err))
-        fail_msg("%s", err.msg);
+    scene_t *s = edge_scene(W, SPP);
     const int nb = s->settings.grid.n;
     assert_int_equal(nb, 16);
     for (int k = 0; k < 3; k++) {
