@@ -1839,9 +1839,11 @@ int proto_decode_lent(const void *data, size_t len, const proto_limits_t *limits
 {
     size_t lent = 0;
     int rc = decode(data, len, limits, &lent, out, err);
-    if (rc == 0 && lent == 0 && release)
+    if (rc == 0 && lent == 0 && out->type != PROTO_RESULT && release)
         release(release_arg); /* nothing points into data: a HEARTBEAT needs no freeing */
     else if (rc == 0) {
+        out->wire = data;
+        out->wire_size = len;
         out->release = release;
         out->release_arg = release_arg;
     }

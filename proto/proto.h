@@ -363,6 +363,11 @@ typedef struct proto_msg {
             uint32_t task; /* when has_task: that task's lines only */
         } logs;            /* client -> master; answered by FILE */
     };
+    /* The bytes proto_decode_lent decoded the message from, while it holds them (a RESULT, or
+     * a message with a lent field), until proto_msg_free: the master journals a result as
+     * received rather than encoding it again. NULL otherwise. */
+    const void *wire;
+    size_t wire_size;
     struct proto_owned *owned; /* private: what proto_decode allocated */
     void (*release)(void *arg); /* private: proto_decode_lent's input, released with the message */
     void *release_arg;
@@ -387,9 +392,10 @@ int proto_decode(const void *data, size_t len, const proto_limits_t *limits, pro
 /* As proto_decode, but byte fields (a bundle's file data, a stored file's bytes) point into data
  * instead of being copied, so that a large bundle is not held twice: data must stay unchanged
  * until proto_msg_free(out). On success the message owns data: proto_msg_free calls
- * release(release_arg) once, after which nothing may read the fields -- or, when no field of
- * the message points into data, release is called before this returns, so that a message
- * proto_decode would have left owning nothing still needs no freeing. release may be NULL when
+ * release(release_arg) once, after which nothing may read the fields or out->wire -- or, when
+ * no field of the message points into data and it is not a RESULT (whose bytes out->wire
+ * keeps), release is called before this returns, so that a message proto_decode would have
+ * left owning nothing still needs no freeing. release may be NULL when
  * the caller frees data itself, after the message. On failure release is not called and data
  * stays the caller's. Strings and arrays of numbers are still copied (they are small, or must
  * be aligned and host-endian). */

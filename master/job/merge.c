@@ -168,8 +168,28 @@ void merge_photon_phase_done(master_t *m, job_t *j)
         persist_failed(m, j, &err);
 }
 
-void merge_photon_batch(master_t *m, job_t *j, const merge_source_t *src, uint32_t task,
-                        uint32_t attempt, const proto_photon_result_t *r, double now)
+/* Appends a merged result to the journal as it was received (src->wire: the RESULT message's
+ * bytes, already checked by its decoder and by the merge); a replayed one is there already. */
+static void journal_result(master_t *m, job_t *j, const merge_source_t *src, uint32_t task,
+                           int kind, int index, int pass)
+{
+    err_t err;
+    if (!m->journal || src->replay)
+        return;
+    if (!src->wire) {
+        err_set(&err, "task %u's result came without its message bytes", task);
+        persist_failed(m, j, &err);
+    } else if (journal_add_result(m->journal, j->id, j->sched.round, task, kind, index, pass,
+                                  src->wire, src->wire_size, &err) < 0) {
+        persist_failed(m, j, &err);
+    } else if (kind == 0) {
+        j->journal.bytes += src->wire_size;
+    }
+}
+
+/* A photon batch's result for task (SCHED_PHOTON_TASK | batch). */
+static void merge_photon_batch(master_t *m, job_t *j, const merge_source_t *src, uint32_t task,
+                               uint32_t attempt, const proto_photon_result_t *r, double now)
 {
     err_t err;
     int rc = -1;
@@ -185,25 +205,15 @@ void merge_photon_batch(master_t *m, job_t *j, const merge_source_t *src, uint32
         return;
     log_result(m, j, src, task, attempt,
                (rc & SCHED_MERGED) ? "merged" : "a duplicate of a result merged already");
-    if ((rc & SCHED_MERGED) && m->journal && !src->replay) {
-        uint8_t *blob;
-        size_t size;
-        if (journal_pack_photons(r, &blob, &size, &err) < 0) {
-            persist_failed(m, j, &err);
-        } else {
-            if (journal_add_result(m->journal, j->id, j->sched.round, task, 1, (int)b, -1, blob,
-                                   size, &err) < 0)
-                persist_failed(m, j, &err);
-            free(blob);
-        }
-    }
+    if (rc & SCHED_MERGED)
+        journal_result(m, j, src, task, 1, (int)b, -1);
     if (rc & SCHED_PHASE_DONE)
         merge_photon_phase_done(m, j);
 }
 
-void merge_camera_tile(master_t *m, job_t *j, const merge_source_t *src, uint32_t task,
-                       uint32_t attempt, tilebuf_t *tb, uint32_t sb, uint32_t se,
-                       const proto_tile_result_t *wire, double now)
+/* A camera tile's result: tb (taken) covers samples [sb, se). */
+static void merge_camera_tile(master_t *m, job_t *j, const merge_source_t *src, uint32_t task,
+                              uint32_t attempt, tilebuf_t *tb, uint32_t sb, uint32_t se, double now)
 {
     uint64_t pass = j->sched.ntiles > 0 ? task / (uint64_t)j->sched.ntiles : 0;
     if (pass >= 40) {
@@ -228,22 +238,53 @@ void merge_camera_tile(master_t *m, job_t *j, const merge_source_t *src, uint32_
         return;
     log_result(m, j, src, task, attempt,
                (rc & SCHED_MERGED) ? "merged" : "a duplicate of a result merged already");
-    if ((rc & SCHED_MERGED) && m->journal && wire) {
-        uint8_t *blob;
-        size_t size;
-        int tile = (int)(task % (uint32_t)j->sched.ntiles);
-        if (journal_pack_tile(wire, &blob, &size, &err) < 0) {
-            persist_failed(m, j, &err);
-        } else {
-            if (journal_add_result(m->journal, j->id, j->sched.round, task, 0, tile, (int)pass,
-                                   blob, size, &err) < 0)
-                persist_failed(m, j, &err);
-            else
-                j->journal.bytes += size;
-            free(blob);
-        }
-    }
+    if (rc & SCHED_MERGED)
+        journal_result(m, j, src, task, 0, (int)(task % (uint32_t)j->sched.ntiles), (int)pass);
     if (rc & SCHED_PASS_DONE)
         passes_merged(m, j, rc, now);
     persist_maybe_checkpoint(m, j, now);
+}
+
+void merge_result(master_t *m, job_t *j, const merge_source_t *src, uint32_t task, uint32_t attempt,
+                  const proto_msg_t *msg, double now)
+{
+    if (msg->result.kind == PROTO_KIND_PHOTON_BATCH || (task & SCHED_PHOTON_TASK)) {
+        if (msg->result.kind != PROTO_KIND_PHOTON_BATCH) {
+            err_t err;
+            err_set(&err, "a camera result for a photon batch");
+            merge_rejected(m, j, src, task, attempt, -1, "result", &err);
+        } else {
+            merge_photon_batch(m, j, src, task, attempt, &msg->result.photons, now);
+        }
+        return;
+    }
+    const proto_tile_result_t *r = &msg->result.tile;
+    err_t err;
+    tilebuf_t *tb =
+        tilebuf_new_from(r->rect.x0, r->rect.y0, r->rect.w, r->rect.h, r->nbuckets, r->sums, r->xyz,
+                         r->counts, r->lum, r->lum_sq, r->nonfinite, &err);
+    if (!tb)
+        merge_rejected(m, j, src, task, attempt, -1, "result", &err);
+    else
+        merge_camera_tile(m, j, src, task, attempt, tb, r->rect.sample_begin, r->rect.sample_end,
+                          now);
+}
+
+int merge_replay_v8(master_t *m, job_t *j, uint32_t task, int kind, const void *data, size_t size,
+                    double now, err_t *err)
+{
+    merge_source_t src = {.id = SCHED_JOURNAL, .name = "journal", .replay = true};
+    if (kind == 1) {
+        proto_photon_result_t r;
+        if (journal_unpack_photons(data, size, &r, err) < 0)
+            return -1;
+        merge_photon_batch(m, j, &src, task, 0, &r, now);
+        return 0;
+    }
+    uint32_t sb, se;
+    tilebuf_t *tb = journal_unpack_tile(data, size, &sb, &se, err);
+    if (!tb)
+        return -1;
+    merge_camera_tile(m, j, &src, task, 0, tb, sb, se, now);
+    return 0;
 }

@@ -19,17 +19,23 @@ typedef struct merge_source {
     bool replay;
     double elapsed;   /* the worker's time on the task, seconds (for the task log) */
     uint64_t samples; /* samples (or photons) it says it traced */
+    /* The RESULT message's bytes as received (proto_msg_t.wire), journaled as they are once
+     * the result is merged (no second encoding); unused for a replay. */
+    const void *wire;
+    size_t wire_size;
 } merge_source_t;
 
-/* A photon batch's result for task (SCHED_PHOTON_TASK | batch). */
-void merge_photon_batch(master_t *m, job_t *j, const merge_source_t *src, uint32_t task,
-                        uint32_t attempt, const proto_photon_result_t *r, double now);
+/* A RESULT message (decoded, from a worker or from the journal) for the job's task (the low
+ * 32 bits of its task id) and attempt: a photon batch or a camera tile, checked against the
+ * task; a bad one counts as the task's failure. */
+void merge_result(master_t *m, job_t *j, const merge_source_t *src, uint32_t task, uint32_t attempt,
+                  const proto_msg_t *msg, double now);
 
-/* A camera tile's result: tb (taken) covers samples [sb, se). wire is the result as received,
- * journaled once merged; NULL for one replayed from the journal. */
-void merge_camera_tile(master_t *m, job_t *j, const merge_source_t *src, uint32_t task,
-                       uint32_t attempt, tilebuf_t *tb, uint32_t sb, uint32_t se,
-                       const proto_tile_result_t *wire, double now);
+/* A result journaled by a master of journal version 8 (journal_blobs.c's tile and photon
+ * blobs, kind 0 and 1), merged as a replay: a spool written before results were journaled as
+ * received still resumes. -1 with err when the blob does not read. */
+int merge_replay_v8(master_t *m, job_t *j, uint32_t task, int kind, const void *data, size_t size,
+                    double now, err_t *err);
 
 /* The photon phase is merged: its store's hash names it in every camera task, and with a
  * journal it goes to disk at once, so that a restart does not trace it again. */

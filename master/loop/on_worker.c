@@ -70,7 +70,6 @@ static void on_hello(master_t *m, const proto_peer_t *from, mworker_t *w, const 
 
 static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double now)
 {
-    const proto_tile_result_t *r = &msg->result.tile;
     uint64_t job = msg->result.job, task = msg->result.task;
     uint32_t attempt = msg->result.attempt;
     job_t *j = jobs_find(m, job);
@@ -82,39 +81,15 @@ static void on_result(master_t *m, mworker_t *w, const proto_msg_t *msg, double 
     if (!j->sched.known || task >> 32 != j->sched.round)
         return; /* finished already, or of an earlier round: a late copy of a re-issued task */
     uint32_t t32 = (uint32_t)(task & UINT32_MAX);
-    merge_source_t src = {.id = w->id, .name = w->name, .key = w->key,
+    merge_source_t src = {.id = w->id,
+                          .name = w->name,
+                          .key = w->key,
                           .elapsed = msg->result.stats.elapsed,
-                          .samples = msg->result.stats.samples};
+                          .samples = msg->result.stats.samples,
+                          .wire = msg->wire,
+                          .wire_size = msg->wire_size};
     peers_count_samples(w, msg->result.stats.samples, now);
-    if (msg->result.kind == PROTO_KIND_PHOTON_BATCH || (t32 & SCHED_PHOTON_TASK)) {
-        if (msg->result.kind != PROTO_KIND_PHOTON_BATCH) {
-            master_log(m,
-                       "worker %llu '%s' sent a camera result for photon batch task %u of job "
-                       "%llu",
-                       (unsigned long long)w->id, w->name, t32, (unsigned long long)job);
-            sched_task_failed(m->sched, w->id, job, t32, attempt,
-                              "a camera result for a photon batch");
-        } else {
-            merge_photon_batch(m, j, &src, t32, attempt, &msg->result.photons, now);
-        }
-        job_refresh(m, j, now);
-        return;
-    }
-    err_t err;
-    tilebuf_t *tb = tilebuf_new_from(r->rect.x0, r->rect.y0, r->rect.w, r->rect.h, r->nbuckets,
-                                     r->sums, r->xyz, r->counts, r->lum, r->lum_sq, r->nonfinite, &err);
-    if (!tb) {
-        master_log(m, "bad result from worker %llu '%s' for job %llu: %s",
-                   (unsigned long long)w->id, w->name, (unsigned long long)job, err.msg);
-        char label[PROTO_TASK_LABEL_MAX];
-        tasklog_add(m->tasklog, job, "task %s attempt %u from worker %llu '%s': bad, counted as a "
-                    "failure: %s", proto_task_label(t32, label), attempt, (unsigned long long)w->id,
-                    w->name, err.msg);
-        sched_task_failed(m->sched, w->id, job, t32, attempt, err.msg);
-    } else {
-        merge_camera_tile(m, j, &src, t32, attempt, tb, r->rect.sample_begin, r->rect.sample_end, r,
-                          now);
-    }
+    merge_result(m, j, &src, t32, attempt, msg, now);
     job_refresh(m, j, now);
 }
 

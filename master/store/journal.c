@@ -165,6 +165,11 @@ static int migrate_7_to_8(journal_t *self, err_t *err)
     return jdb_commit(self, rc, err);
 }
 
+static int migrate_8_to_9(journal_t *self, err_t *err)
+{
+    return jdb_exec(self, "UPDATE meta SET value=9 WHERE key='version'", err);
+}
+
 journal_t *journal_open(const char *dir, err_t *err)
 {
     journal_t *self = calloc(1, sizeof *self);
@@ -228,10 +233,11 @@ journal_t *journal_open(const char *dir, err_t *err)
     } else if (version == 5) {
         /* Version 6 only adds the owner column: the rest of a version-5 spool reads as it is. */
         if (jdb_exec(self,
-                 "BEGIN IMMEDIATE; ALTER TABLE jobs ADD COLUMN owner TEXT NOT NULL DEFAULT '';"
-                 " UPDATE meta SET value=6 WHERE key='version'; COMMIT",
-                 err) < 0 ||
-            migrate_6_to_7(self, err) < 0 || migrate_7_to_8(self, err) < 0) {
+                     "BEGIN IMMEDIATE; ALTER TABLE jobs ADD COLUMN owner TEXT NOT NULL DEFAULT '';"
+                     " UPDATE meta SET value=6 WHERE key='version'; COMMIT",
+                     err) < 0 ||
+            migrate_6_to_7(self, err) < 0 || migrate_7_to_8(self, err) < 0 ||
+            migrate_8_to_9(self, err) < 0) {
             err_t ignore;
             (void)jdb_exec(self, "ROLLBACK", &ignore);
             err_prefix(err, "migrating from version 5: ");
@@ -239,16 +245,20 @@ journal_t *journal_open(const char *dir, err_t *err)
             return NULL;
         }
     }
-    if (version == 6 && (migrate_6_to_7(self, err) < 0 || migrate_7_to_8(self, err) < 0)) {
-        err_prefix(err, "journal %s: migrating version 6 to 8: ", path);
+    if (version == 6 && (migrate_6_to_7(self, err) < 0 || migrate_7_to_8(self, err) < 0 ||
+                         migrate_8_to_9(self, err) < 0)) {
+        err_prefix(err, "journal %s: migrating version 6 to 9: ", path);
         journal_close(&self);
         return NULL;
-    } else if (version == 7 && migrate_7_to_8(self, err) < 0) {
-        err_prefix(err, "journal %s: migrating version 7 to 8: ", path);
+    } else if (version == 7 && (migrate_7_to_8(self, err) < 0 || migrate_8_to_9(self, err) < 0)) {
+        err_prefix(err, "journal %s: migrating version 7 to 9: ", path);
         journal_close(&self);
         return NULL;
-    } else if (version >= 0 && version != 5 && version != 6 && version != 7 &&
-               version != JOURNAL_VERSION) {
+    } else if (version == 8 && migrate_8_to_9(self, err) < 0) {
+        err_prefix(err, "journal %s: migrating version 8 to 9: ", path);
+        journal_close(&self);
+        return NULL;
+    } else if (version >= 0 && (version < 5 || version > 8) && version != JOURNAL_VERSION) {
         err_set(err, "journal %s: version %lld, this master reads version %d (move the spool "
                      "aside or use a matching prismfarm)",
                 path, version, JOURNAL_VERSION);

@@ -168,9 +168,14 @@ int journal_add_pass(journal_t *self, uint64_t job, uint32_t round, const journa
 int journal_passes(journal_t *self, uint64_t job, uint32_t round, journal_pass_t *out, int max,
                    err_t *err);
 
-/* Blobs. A camera tile: its rectangle, samples and the tilebuf's arrays in this host's byte
+/* Blobs. Since version 9 a result's blob is the RESULT message as the worker sent it (proto/),
+ * which resume.c decodes and checks again. Masters of version 8 wrote the formats below, which a
+ * spool they left may still hold; resume.c tells them apart by their magic (a message begins
+ * with a msgpack map). */
+bool journal_blob_is_v8(const void *data, size_t size);
+/* A version-8 camera tile: its rectangle, samples and the tilebuf's arrays in this host's byte
  * order (the journal never leaves the master's host; a header marks the order and a blob of
- * another is refused). */
+ * another is refused). The packing half is for tests that write a version-8 spool. */
 int journal_pack_tile(const proto_tile_result_t *r, uint8_t **data, size_t *size, err_t *err);
 /* Back into a tilebuf and its sample range; the arrays are checked as a wire result is. */
 tilebuf_t *journal_unpack_tile(const void *data, size_t size, uint32_t *sample_begin,

@@ -137,6 +137,15 @@ static tilebuf_t *unpack_arrays(reader_t *r, int x0, int y0, int w, int h, int n
     return tb;
 }
 
+bool journal_blob_is_v8(const void *data, size_t size)
+{
+    uint32_t magic;
+    if (size < sizeof magic)
+        return false;
+    memcpy(&magic, data, sizeof magic);
+    return magic == TILE_MAGIC || magic == PHOT_MAGIC || magic == TILE_MAGIC_V4;
+}
+
 /* A tile blob: magic, x0, y0, w, h, nb, sb, se, the sums' width in bits (32 or 64), nonfinite,
  * then bucket sums [h][w][nb] and XYZ sums [h][w][3] at that width and counts, lum, lum_sq
  * [h][w] at 8 bytes. Float32 sums are kept whenever every sum is a float value (tilebuf.h), as

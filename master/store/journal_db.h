@@ -23,8 +23,10 @@
  * table; a version-6 journal is migrated in place (migrate_6_to_7), a version-5 one through 6.
  * 8: frame sequences (docs/farm.md, "Frame sequences"): a job has its sequence (parent), its
  * frame number and, for a sequence, its count of frames; a version-7 journal is migrated in place
- * (migrate_7_to_8: its jobs are single scenes), older ones through 7. */
-#define JOURNAL_VERSION 8
+ * (migrate_7_to_8: its jobs are single scenes), older ones through 7. 9: a result's blob is
+ * the RESULT message as received (journal.h); a version-8 journal is only marked 9, since its
+ * blobs still read (journal_blob_is_v8). */
+#define JOURNAL_VERSION 9
 
 /* The segment a job's results are appended to (journal.h): open until the job's next prune. */
 typedef struct segment {

@@ -31,19 +31,27 @@ static int replay_result(void *user, uint32_t task, int kind, const void *data, 
         return -1;
     if (info.state != JOB_QUEUED && info.state != JOB_RUNNING)
         return 0; /* over already (the journal held more than it needed) */
-    if (kind == 1) {
-        proto_photon_result_t r;
-        if (journal_unpack_photons(data, size, &r, err) < 0)
+    if (journal_blob_is_v8(data, size)) {
+        if (merge_replay_v8(rp->m, rp->j, task, kind, data, size, rp->now, err) < 0)
             return -1;
-        merge_photon_batch(rp->m, rp->j, &src, task, 0, &r, rp->now);
     } else {
-        uint32_t sb, se;
-        tilebuf_t *tb = journal_unpack_tile(data, size, &sb, &se, err);
-        if (!tb)
-            return -1;
-        merge_camera_tile(rp->m, rp->j, &src, task, 0, tb, sb, se, NULL, rp->now);
-        rp->j->journal.bytes += size;
+        /* The RESULT as a worker sent it, checked again as when it came: a blob whose bytes
+         * changed on disk but kept their CRC is still refused, never merged. */
+        proto_msg_t msg;
+        if (proto_decode(data, size, &rp->m->limits, &msg, err) < 0)
+            return err_prefix(err, "a journaled result: ");
+        if (msg.type != PROTO_RESULT || msg.result.job != rp->j->id ||
+            (uint32_t)(msg.result.task & UINT32_MAX) != task ||
+            (msg.result.kind == PROTO_KIND_PHOTON_BATCH) != (kind == 1)) {
+            proto_msg_free(&msg);
+            return err_set(err, "a journaled result is not job %llu's task %u's",
+                           (unsigned long long)rp->j->id, task);
+        }
+        merge_result(rp->m, rp->j, &src, task, 0, &msg, rp->now);
+        proto_msg_free(&msg);
     }
+    if (kind != 1)
+        rp->j->journal.bytes += size;
     rp->results++;
     return 0;
 }

@@ -24,6 +24,7 @@
 #include <sqlite3.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <zlib.h>
 
 /* A sample's XYZ when only its luminance Y matters to the test. */
 #define XYZ_OF_Y(l) ((const double[3]){0.0, (l), 0.0})
@@ -491,7 +492,7 @@ static void test_journal_tables(void **state)
                                         &vst, NULL),
                      SQLITE_OK);
     assert_int_equal(sqlite3_step(vst), SQLITE_ROW);
-    assert_int_equal(sqlite3_column_int(vst, 0), 8);
+    assert_int_equal(sqlite3_column_int(vst, 0), 9);
     sqlite3_finalize(vst);
     sqlite3_close(db);
 
@@ -656,6 +657,110 @@ static void test_master_killed_camera_job(void **state)
     assert_true(el0 > 0 && el1 > 0);
     assert_true(fabs(el1 - el0) <= 0.01 * el0 + 1e-3);
     assert_true(re1 == re0);
+    testutil_stop(w, SIGTERM);
+    testutil_stop(master, SIGTERM);
+}
+
+/* A spool left by a master of journal version 8, whose result blobs were journal_blobs.c's
+ * packed tiles rather than the RESULT messages received: the journal of a killed camera job is
+ * rewritten into that form (each blob decoded and packed again into a new segment, the rows
+ * pointed at it, the version set to 8), and a master of this version resumes it with the
+ * pixels of an uninterrupted render, merging those blobs, not rendering their tasks again. */
+static void test_version8_spool_resumes(void **state)
+{
+    (void)state;
+    const char *ref = testutil_journal_reference(SCENE, SPP, "tiny-ref.exr");
+    const char *spool = testutil_scratch("v8-spool"), *mlog1 = testutil_scratch("v8-master1.log"),
+               *mlog2 = testutil_scratch("v8-master2.log");
+    pid_t master = testutil_journal_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
+    char wep[256], cep[256];
+    testutil_read_endpoints(spool, wep, cep, mlog1);
+    pid_t w = testutil_journal_worker(testutil_scratch("v8-w.log"), wep, "w");
+    const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP, "--insecure", NULL);
+    if (r->status != 0)
+        fail_msg("submit: exit %d: %s", r->status, r->err);
+    testutil_wait_journal(spool, test_wait_s(), "a checkpoint and results after it",
+                          "SELECT checkpoint FROM jobs WHERE id=1",
+                          "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
+    testutil_stop(w, SIGKILL);
+    testutil_stop(master, SIGKILL);
+
+    char path[700];
+    snprintf(path, sizeof path, "%s/journal.db", spool);
+    sqlite3 *db;
+    assert_int_equal(sqlite3_open(path, &db), SQLITE_OK);
+    sqlite3_stmt *st;
+    assert_int_equal(sqlite3_prepare_v2(db,
+                                        "SELECT round, task, size, seg, offset FROM results "
+                                        "WHERE job=1 AND kind=0",
+                                        -1, &st, NULL),
+                     SQLITE_OK);
+    const uint32_t newseg = 999;
+    char segpath[760];
+    snprintf(segpath, sizeof segpath, "%s/results/1/%u.log", spool, newseg);
+    FILE *out = fopen(segpath, "wb");
+    assert_non_null(out);
+    /* Room for one UPDATE per result (at most 200 bytes each). */
+    size_t cap = 256 + 200 * (size_t)testutil_journal_query(
+                                 spool, "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0");
+    char *sql = malloc(cap);
+    assert_non_null(sql);
+    size_t rewritten = 0, k = (size_t)snprintf(sql, cap, "BEGIN;");
+    long long offset = 0;
+    while (sqlite3_step(st) == SQLITE_ROW) {
+        long long round = sqlite3_column_int64(st, 0), task = sqlite3_column_int64(st, 1),
+                  size = sqlite3_column_int64(st, 2), seg = sqlite3_column_int64(st, 3),
+                  off = sqlite3_column_int64(st, 4);
+        char from[760];
+        snprintf(from, sizeof from, "%s/results/1/%lld.log", spool, seg);
+        size_t len;
+        char *bytes = testutil_slurp(from, &len);
+        assert_non_null(bytes);
+        assert_true(off + size <= (long long)len);
+        proto_msg_t msg;
+        err_t err;
+        if (proto_decode(bytes + off, (size_t)size, NULL, &msg, &err) < 0)
+            fail_msg("a version-9 blob is not a RESULT message: %s", err.msg);
+        assert_int_equal(msg.type, PROTO_RESULT);
+        uint8_t *blob;
+        size_t bsize;
+        assert_int_equal(journal_pack_tile(&msg.result.tile, &blob, &bsize, &err), 0);
+        assert_true(journal_blob_is_v8(blob, bsize));
+        assert_int_equal(fwrite(blob, 1, bsize, out), bsize);
+        k += (size_t)snprintf(sql + k, cap - k,
+                              "UPDATE results SET seg=%u, offset=%lld, size=%zu, crc=%lu WHERE "
+                              "job=1 AND round=%lld AND task=%lld;",
+                              newseg, offset, bsize, crc32(crc32(0L, Z_NULL, 0), blob, (uInt)bsize),
+                              round, task);
+        assert_true(k < cap - 200);
+        offset += (long long)bsize;
+        rewritten++;
+        free(blob);
+        proto_msg_free(&msg);
+        free(bytes);
+    }
+    sqlite3_finalize(st);
+    assert_int_equal(fclose(out), 0);
+    snprintf(sql + k, cap - k, "UPDATE meta SET value=8 WHERE key='version'; COMMIT;");
+    assert_int_equal(sqlite3_exec(db, sql, NULL, NULL, NULL), SQLITE_OK);
+    free(sql);
+    sqlite3_close(db);
+    assert_true(rewritten > 0);
+    print_message("%zu results rewritten as version-8 blobs\n", rewritten);
+
+    master = testutil_journal_master(mlog2, spool, wep, cep);
+    w = testutil_journal_worker(testutil_scratch("v8-w2.log"), wep, "w");
+    testutil_journal_finish(cep, ref, testutil_scratch("v8-out.exr"), mlog2);
+    char *log = testutil_slurp(mlog2, NULL);
+    const char *resumed = log ? strstr(log, "job 1 'tiny' resumed: ") : NULL;
+    size_t replayed = 0;
+    if (!resumed || !strstr(resumed, "batches, ") ||
+        sscanf(strstr(resumed, "batches, ") + 9, "%zu", &replayed) != 1) {
+        free(log);
+        testutil_fail_quoting(mlog2, "the restarted master did not resume job 1:");
+    }
+    assert_int_equal(replayed, rewritten);
+    free(log);
     testutil_stop(w, SIGTERM);
     testutil_stop(master, SIGTERM);
 }
@@ -840,6 +945,7 @@ int main(void)
         cmocka_unit_test(test_journal_tables),
         cmocka_unit_test(test_turn_transaction),
         cmocka_unit_test_teardown(test_master_killed_camera_job, testutil_kill_children),
+        cmocka_unit_test_teardown(test_version8_spool_resumes, testutil_kill_children),
         cmocka_unit_test_teardown(test_master_killed_photon_job, testutil_kill_children),
         cmocka_unit_test_teardown(test_random_kills, testutil_kill_children),
     };

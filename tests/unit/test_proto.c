@@ -757,6 +757,20 @@ static void test_lent_bundle_points_into_input(void **state)
     proto_msg_free(&d);
     assert_int_equal(released, 2);
     msgpack_sbuffer_destroy(&hsb);
+    assert_null(d.wire);
+    /* A RESULT (its tile arrays are copies) keeps its input as its wire bytes, which the master
+     * journals as received. */
+    proto_msg_t res = sample(PROTO_RESULT);
+    msgpack_sbuffer rsb;
+    encode_ok(&res, &rsb);
+    assert_int_equal(
+        proto_decode_lent(rsb.data, rsb.size, NULL, &d, count_release, &released, &err), 0);
+    assert_int_equal(released, 2);
+    assert_ptr_equal(d.wire, rsb.data);
+    assert_int_equal(d.wire_size, rsb.size);
+    proto_msg_free(&d);
+    assert_int_equal(released, 3);
+    msgpack_sbuffer_destroy(&rsb);
     released = 1;
     /* A failed decode leaves the input with the caller. */
     assert_true(proto_decode_lent(sb.data, sb.size - 1, NULL, &d, count_release, &released, &err) <
