@@ -18,7 +18,7 @@
 
 static int parse_res(const char *cmd, const char *flag, const char *val, void *dst)
 {
-    scene_overrides_t *ov = dst;
+    proto_settings_t *ov = dst;
     int w, h;
     char extra;
     if (sscanf(val, "%dx%d%c", &w, &h, &extra) != 2 || w < 1 || h < 1 || w > 32768 || h > 32768) {
@@ -75,29 +75,64 @@ static int parse_adaptive(const char *cmd, const char *flag, const char *val, vo
 }
 
 const cli_opt_t CLI_OVERRIDE_OPTS[] = {
-    {.name = "spp", .kind = CLI_INT, .off = offsetof(scene_overrides_t, spp), .lo = 1,
-     .hi = 1 << 24, .arg = "N", .help = "samples per pixel"},
-    {.name = "res", .kind = CLI_CUSTOM, .parse = parse_res, .arg = "WxH",
+    {.name = "spp",
+     .kind = CLI_INT,
+     .off = offsetof(proto_settings_t, spp),
+     .lo = 1,
+     .hi = 1 << 24,
+     .arg = "N",
+     .help = "samples per pixel"},
+    {.name = "res",
+     .kind = CLI_CUSTOM,
+     .parse = parse_res,
+     .arg = "WxH",
      .help = "image resolution"},
-    {.name = "seed", .kind = CLI_LLONG, .off = offsetof(scene_overrides_t, seed), .lo = 0,
-     .hi = 4294967295.0, .arg = "N", .help = "random seed (default: the Sampler's seed)"},
-    {.name = "integrator", .kind = CLI_CUSTOM, .off = offsetof(scene_overrides_t, integrator),
-     .parse = parse_integrator, .arg = "NAME", .help = "any name Integrator takes: auto, path,\nphoton, volpath, bdpt, ... (docs/rendering.md)"},
-    {.name = "dispersion", .kind = CLI_CUSTOM, .off = offsetof(scene_overrides_t, dispersion),
-     .parse = parse_dispersion, .arg = "NAME", .help = "hero | fanout"},
+    {.name = "seed",
+     .kind = CLI_LLONG,
+     .off = offsetof(proto_settings_t, seed),
+     .lo = 0,
+     .hi = 4294967295.0,
+     .arg = "N",
+     .help = "random seed (default: the Sampler's seed)"},
+    {.name = "integrator",
+     .kind = CLI_CUSTOM,
+     .off = offsetof(proto_settings_t, integrator),
+     .parse = parse_integrator,
+     .arg = "NAME",
+     .help =
+         "any name Integrator takes: auto, path,\nphoton, volpath, bdpt, ... (docs/rendering.md)"},
+    {.name = "dispersion",
+     .kind = CLI_CUSTOM,
+     .off = offsetof(proto_settings_t, dispersion),
+     .parse = parse_dispersion,
+     .arg = "NAME",
+     .help = "hero | fanout"},
     {0},
 };
 
 const cli_opt_t CLI_STOP_OPTS[] = {
-    {.name = "target-error", .kind = CLI_DOUBLE, .off = offsetof(cli_stop_t, target_error),
-     .lo = 0, .hi = 1, .open = 1, .unit = "a relative error", .example = "e.g. 0.02", .arg = "E",
+    {.name = "target-error",
+     .kind = CLI_DOUBLE,
+     .off = offsetof(proto_settings_t, target_error),
+     .lo = 0,
+     .hi = 1,
+     .open = 1,
+     .unit = "a relative error",
+     .example = "e.g. 0.02",
+     .arg = "E",
      .help = "stop at the first pass whose relative error estimate is <= E\n"
              "(0 < E < 1; RMSE of the mean luminance over its mean)"},
-    {.name = "time-limit", .kind = CLI_SECONDS, .off = offsetof(cli_stop_t, time_limit),
-     .hi = PROTO_MAX_TIME_LIMIT, .arg = "T",
+    {.name = "time-limit",
+     .kind = CLI_SECONDS,
+     .off = offsetof(proto_settings_t, time_limit),
+     .hi = PROTO_MAX_TIME_LIMIT,
+     .arg = "T",
      .help = "stop at T seconds (or Ns, Nm, Nh) with the whole passes so far"},
-    {.name = "adaptive", .kind = CLI_CUSTOM, .off = offsetof(cli_stop_t, adaptive),
-     .parse = parse_adaptive, .arg = "on|off",
+    {.name = "adaptive",
+     .kind = CLI_CUSTOM,
+     .off = offsetof(proto_settings_t, adaptive),
+     .parse = parse_adaptive,
+     .arg = "on|off",
      .help = "with --target-error: each tile stops once it reaches its share\n"
              "of the target (on), or every tile runs every pass (off, the default)"},
     {0},

@@ -81,19 +81,16 @@ int cli_args_parse(const cli_cmd_t *cmd, int argc, char **argv, int *first);
  * one column and wrapped; CLI_TEXT lines as they are. */
 void cli_args_help(FILE *out, const cli_opt_t *opts);
 
-/* The options that override a scene file: --spp, --res, --seed, --integrator, --dispersion,
- * into a scene_overrides_t (start it with .seed = -1). */
+/* A job's settings are parsed into the proto_settings_t a SUBMIT carries (start it with
+ * PROTO_SETTINGS_FILE), whether the job goes to a master, to the in-process farm or to --direct
+ * (settings_to_overrides gives the loader its part): one struct from the flag to the wire. */
+
+/* The options that override a scene file: --spp, --res, --seed, --integrator, --dispersion. */
 extern const cli_opt_t CLI_OVERRIDE_OPTS[];
 
-/* The stopping rules of a progressive render (docs/farm.md, "Accuracy"); 0: no rule. */
-typedef struct cli_stop {
-    double target_error; /* --target-error E: done at the first pass whose estimate is <= E */
-    double time_limit;   /* --time-limit T: done at T seconds with the whole passes so far */
-    int adaptive;        /* --adaptive on: under a target error tiles stop one by one */
-} cli_stop_t;
-
-/* --target-error E (0 < E < 1) and --time-limit T (seconds, or with a suffix s, m or h; at
- * most a year), into a cli_stop_t. */
+/* The stopping rules of a progressive render (docs/farm.md, "Accuracy"): --target-error E
+ * (0 < E < 1), --time-limit T (seconds, or with a suffix s, m or h; at most a year) and
+ * --adaptive on|off. */
 extern const cli_opt_t CLI_STOP_OPTS[];
 
 /* How a client or a worker secures its link (docs/security.md): --key FILE, --master-key FILE,

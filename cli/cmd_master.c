@@ -358,13 +358,6 @@ int cmd_master(int argc, char **argv)
      * then count as abandoned, strikes its key (farm.md, "Workers"). So the default is not
      * zguide's 3 intervals alone but at least 10 s. */
     double interval_s = o.heartbeat_ms / 1000.0;
-    if (worker_timeout > 0 && worker_timeout < 2.0 * interval_s) {
-        fprintf(stderr,
-                "prismfarm master: --worker-timeout %g s is shorter than 2 heartbeat intervals "
-                "(%g s): every worker would be lost between two heartbeats\n",
-                worker_timeout, 2.0 * interval_s);
-        return 2;
-    }
     o.sched.worker_timeout_s =
         worker_timeout > 0 ? worker_timeout : (3.0 * interval_s > 10.0 ? 3.0 * interval_s : 10.0);
     if (message_mb)
@@ -373,59 +366,15 @@ int cmd_master(int argc, char **argv)
         o.limits.max_bundle_bytes = (size_t)bundle_mb << 20;
     else if (o.limits.max_bundle_bytes > o.limits.max_message_bytes)
         o.limits.max_bundle_bytes = o.limits.max_message_bytes; /* --max-message-mb alone */
-    if (o.limits.max_bundle_bytes > o.limits.max_message_bytes) {
-        fprintf(stderr,
-                "prismfarm master: --max-bundle-mb %ld exceeds --max-message-mb %ld: a "
-                "bundle travels in one message\n",
-                (long)bundle_mb, (long)(o.limits.max_message_bytes >> 20));
-        return 2;
-    }
-    /* The security choice and the keys are checked before anything starts: a mistake there is
-     * a bad configuration (status 2), which restarting cannot fix. */
+    o.stop = &STOP;
+    /* Every option is checked before anything starts (master_check_opts, the master's one
+     * place for them): a mistake there is a bad configuration (status 2), which restarting
+     * cannot fix. */
     err_t err;
-    bool roles = o.authorized_workers_dir || o.authorized_clients_dir || o.authorized_admins_dir;
-    if (roles && o.authorized_dir) {
-        fprintf(stderr, "prismfarm master: give --authorized DIR (keys let in on both endpoints) "
-                        "or the role folders --authorized-workers and --authorized-clients, not "
-                        "both\n");
-        return 2;
-    }
-    if (roles && (!o.authorized_workers_dir || !o.authorized_clients_dir)) {
-        fprintf(stderr, "prismfarm master: the role folders need both --authorized-workers DIR "
-                        "and --authorized-clients DIR\n");
-        return 2;
-    }
-    if (!o.key_file != !(o.authorized_dir || roles)) {
+    if (master_check_opts(&o, &err) < 0) {
         fprintf(stderr, "prismfarm master: %s\n",
-                o.key_file ? "--key needs --authorized DIR, the public keys let in"
-                           : "--authorized needs --key FILE, the master's own key pair");
+                !strncmp(err.msg, "master: ", 8) ? err.msg + 8 : err.msg);
         return 2;
-    }
-    const char *how = "--key FILE and --authorized DIR";
-    if (curve_require(o.worker_endpoint, o.key_file, o.insecure, how, &err) < 0 ||
-        curve_require(o.client_endpoint, o.key_file, o.insecure, how, &err) < 0) {
-        fprintf(stderr, "prismfarm master: %s\n", err.msg);
-        return 2;
-    }
-    if (master_check_http(&o, &err) < 0) {
-        fprintf(stderr, "prismfarm master: %s\n", err.msg);
-        return 2;
-    }
-    if (o.key_file) {
-        curve_pair_t pair;
-        curve_ring_t *ring = NULL;
-        const char *dirs[] = {o.authorized_dir, o.authorized_workers_dir,
-                              o.authorized_clients_dir, o.authorized_admins_dir};
-        int bad = curve_load_pair(o.key_file, &pair, &err) < 0;
-        for (size_t i = 0; !bad && i < sizeof dirs / sizeof *dirs; i++) {
-            bad = dirs[i] && !(ring = curve_ring_new(dirs[i], &err));
-            curve_ring_destroy(&ring);
-        }
-        memset(&pair, 0, sizeof pair);
-        if (bad) {
-            fprintf(stderr, "prismfarm master: %s\n", err.msg);
-            return 2;
-        }
     }
 
     struct sigaction sa;
@@ -436,7 +385,6 @@ int cmd_master(int argc, char **argv)
         fprintf(stderr, "prismfarm master: cannot install signal handlers: %s\n", strerror(errno));
         return 1;
     }
-    o.stop = &STOP;
     if (master_run(&o, &err) < 0) {
         /* The master's errors name it already ("master: spool: ..."), as they must where the
          * master runs inside another command (render's in-process farm): one prefix. */

@@ -13,6 +13,7 @@
 #include "pool.h"
 #include "predict.h"
 #include "scene_load.h"
+#include "settings.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -253,19 +254,31 @@ static json_t *prediction_json(const local_render_result_t *res, double target)
 int cmd_plan(int argc, char **argv)
 {
     int json = 0;
-    scene_overrides_t ov = {.seed = -1};
-    cli_stop_t stop = {0};
+    proto_settings_t job = PROTO_SETTINGS_FILE;
     double pilot = 4.0;
     const cli_opt_t opts[] = {
         CLI_OPT_JSON(.dst = &json, .help = "print JSON instead of the report"),
-        {.name = "target-error", .kind = CLI_DOUBLE, .off = offsetof(cli_stop_t, target_error),
-         .dst = &stop, .lo = 0, .hi = 1, .open = 1, .unit = "a relative error",
-         .example = "e.g. 0.05", .arg = "E",
+        {.name = "target-error",
+         .kind = CLI_DOUBLE,
+         .off = offsetof(proto_settings_t, target_error),
+         .dst = &job,
+         .lo = 0,
+         .hi = 1,
+         .open = 1,
+         .unit = "a relative error",
+         .example = "e.g. 0.05",
+         .arg = "E",
          .help = "predict the samples and time that reach E from a pilot render"},
-        {.name = "pilot", .kind = CLI_DOUBLE, .dst = &pilot, .lo = 0.1, .hi = 3600,
-         .unit = "seconds", .example = "e.g. 4", .arg = "S",
+        {.name = "pilot",
+         .kind = CLI_DOUBLE,
+         .dst = &pilot,
+         .lo = 0.1,
+         .hi = 3600,
+         .unit = "seconds",
+         .example = "e.g. 4",
+         .arg = "S",
          .help = "seconds of pilot render for --target-error (default 4)"},
-        CLI_OPT_GROUP(CLI_OVERRIDE_OPTS, .dst = &ov),
+        CLI_OPT_GROUP(CLI_OVERRIDE_OPTS, .dst = &job),
         CLI_OPT_HELP,
         {0},
     };
@@ -285,6 +298,7 @@ int cmd_plan(int argc, char **argv)
         return 2;
     }
     const char *path = argv[first];
+    const scene_overrides_t ov = settings_to_overrides(&job);
     err_t err;
     scene_desc_t *desc = pbrt_parse_file(path, &err);
     scene_t *scene = desc ? scene_load(desc, &ov, &err) : NULL;
@@ -301,16 +315,16 @@ int cmd_plan(int argc, char **argv)
     }
     /* The pilot of --target-error runs after the report is out (it takes seconds). */
     local_render_result_t res;
-    const int pilot_asked = stop.target_error > 0.0;
+    const int pilot_asked = job.target_error > 0.0;
     if (json) {
         json_t *o = plan_json(path, scene, plan);
         if (pilot_asked) {
-            if (run_pilot(scene, stop.target_error, pilot, &res, &err) < 0) {
+            if (run_pilot(scene, job.target_error, pilot, &res, &err) < 0) {
                 fprintf(stderr, "prismfarm plan: pilot render: %s\n", err.msg);
                 json_decref(o);
                 return finish(&plan, &scene, &desc, 1);
             }
-            json_object_set_new(o, "prediction", prediction_json(&res, stop.target_error));
+            json_object_set_new(o, "prediction", prediction_json(&res, job.target_error));
         }
         if (cli_json_print(o, JSON_INDENT(2)) != 0) {
             fprintf(stderr, "prismfarm plan: cannot write JSON\n");
@@ -328,11 +342,11 @@ int cmd_plan(int argc, char **argv)
     }
     if (pilot_asked) {
         fflush(stdout);
-        if (run_pilot(scene, stop.target_error, pilot, &res, &err) < 0) {
+        if (run_pilot(scene, job.target_error, pilot, &res, &err) < 0) {
             fprintf(stderr, "prismfarm plan: pilot render: %s\n", err.msg);
             return finish(&plan, &scene, &desc, 1);
         }
-        print_prediction(scene, &res, stop.target_error);
+        print_prediction(scene, &res, job.target_error);
     }
     return finish(&plan, &scene, &desc, rc);
 }

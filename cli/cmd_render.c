@@ -22,6 +22,7 @@
 #include "progress.h"
 #include "scene_bundle.h"
 #include "scene_load.h"
+#include "settings.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -164,8 +165,8 @@ static void print_adaptive(const char *exr)
 
 /* The same render without the farm: the photon pass, if any, then the camera pass on this
  * process's threads (render/local_render.h; --direct). */
-static int render_direct(const scene_t *scene, const char *scene_path, int threads, int tile, int quiet,
-                         const cli_stop_t *stop, const char *exr, const char *png,
+static int render_direct(const scene_t *scene, const char *scene_path, int threads, int tile,
+                         int quiet, const proto_settings_t *stop, const char *exr, const char *png,
                          colour_tonemap_t tm, double loaded, double load_s)
 {
     const render_settings_t *rs = &scene->settings;
@@ -274,8 +275,7 @@ static int render_direct(const scene_t *scene, const char *scene_path, int threa
 /* What every frame of one `render` command is rendered with. */
 typedef struct render_cfg {
     const char *output; /* -o, of one scene (a sequence's outputs are named before) */
-    scene_overrides_t ov;
-    cli_stop_t stop;
+    proto_settings_t job; /* the scene overrides and stopping rules */
     long long threads, workers, tile;
     int direct, quiet;
     double exposure;
@@ -293,14 +293,17 @@ static int render_frames_farm(const render_cfg_t *c, const frame_list_t *fl, con
 {
     int cores = pool_cores();
     bool master_png = c->exposure == 0;
-    local_farm_opts_t lo = {.overrides = c->ov, .workers = (int)c->workers,
-                            .threads = c->threads ? (int)c->threads
-                                                  : (cores / (int)c->workers > 0 ? cores / (int)c->workers : 1),
-                            .tile = (int)c->tile, .quiet = c->quiet,
-                            .target_error = c->stop.target_error, .time_limit = c->stop.time_limit,
-                            .adaptive = c->stop.adaptive,
-                            .frames = (const char *const *)fl->paths, .numbers = fl->numbers,
-                            .nframes = fl->n, .frame_pattern = pattern};
+    local_farm_opts_t lo = {
+        .settings = c->job,
+        .workers = (int)c->workers,
+        .threads = c->threads ? (int)c->threads
+                              : (cores / (int)c->workers > 0 ? cores / (int)c->workers : 1),
+        .tile = (int)c->tile,
+        .quiet = c->quiet,
+        .frames = (const char *const *)fl->paths,
+        .numbers = fl->numbers,
+        .nframes = fl->n,
+        .frame_pattern = pattern};
     char name[420];
     frame_list_name(fl, name, sizeof name);
     lo.name = name;
@@ -382,33 +385,62 @@ static int render_frames(const render_cfg_t *c, const frame_list_t *fl, const ch
 int cmd_render(int argc, char **argv)
 {
     const char *output = NULL, *range = NULL;
-    scene_overrides_t ov = {.seed = -1};
-    cli_stop_t stop = {0};
+    proto_settings_t job = PROTO_SETTINGS_FILE;
     long long threads = 0, workers = 1, tile = 0;
     int direct = 0;
     double exposure = 0;
     int quiet = 0;
     const cli_opt_t opts[] = {
-        {.name = "output", .letter = 'o', .kind = CLI_STRING, .dst = &output, .arg = "OUT.exr",
+        {.name = "output",
+         .letter = 'o',
+         .kind = CLI_STRING,
+         .dst = &output,
+         .arg = "OUT.exr",
          .help = "output file (default: the Film's filename, else SCENE.exr); a sequence: a "
                  "pattern such as out/f%04d.exr (default: each frame file's name with .exr)"},
-        {.name = "frames", .kind = CLI_STRING, .dst = &range, .arg = "FIRST-LAST",
+        {.name = "frames",
+         .kind = CLI_STRING,
+         .dst = &range,
+         .arg = "FIRST-LAST",
          .help = "a frame sequence: SCENE is a pattern such as frame%04d.pbrt, formatted with "
                  "each number FIRST..LAST"},
-        CLI_OPT_GROUP(CLI_OVERRIDE_OPTS, .dst = &ov),
-        CLI_OPT_GROUP(CLI_STOP_OPTS, .dst = &stop),
-        {.name = "threads", .kind = CLI_LLONG, .dst = &threads, .lo = 1, .hi = 1024, .arg = "N",
+        CLI_OPT_GROUP(CLI_OVERRIDE_OPTS, .dst = &job),
+        CLI_OPT_GROUP(CLI_STOP_OPTS, .dst = &job),
+        {.name = "threads",
+         .kind = CLI_LLONG,
+         .dst = &threads,
+         .lo = 1,
+         .hi = 1024,
+         .arg = "N",
          .help = "render threads per worker (default: all cores / workers)"},
-        {.name = "workers", .kind = CLI_LLONG, .dst = &workers, .lo = 1, .hi = 64, .arg = "N",
+        {.name = "workers",
+         .kind = CLI_LLONG,
+         .dst = &workers,
+         .lo = 1,
+         .hi = 64,
+         .arg = "N",
          .help = "workers in this process (default 1)"},
-        {.name = "tile", .kind = CLI_LLONG, .dst = &tile, .lo = 1, .hi = 4096, .arg = "N",
+        {.name = "tile",
+         .kind = CLI_LLONG,
+         .dst = &tile,
+         .lo = 1,
+         .hi = 4096,
+         .arg = "N",
          .help = "tile size in pixels (default 32)"},
-        {.name = "direct", .kind = CLI_FLAG, .dst = &direct,
+        {.name = "direct",
+         .kind = CLI_FLAG,
+         .dst = &direct,
          .help = "render on this process's threads, without the farm's master and workers: the "
                  "same passes, rounding and merge order, so the same pixels (docs/farm.md, "
                  "\"Same pixels\")"},
-        {.name = "exposure", .kind = CLI_DOUBLE, .dst = &exposure, .lo = -30, .hi = 30,
-         .unit = "stops", .arg = "STOPS", .help = "preview exposure (default 0)"},
+        {.name = "exposure",
+         .kind = CLI_DOUBLE,
+         .dst = &exposure,
+         .lo = -30,
+         .hi = 30,
+         .unit = "stops",
+         .arg = "STOPS",
+         .help = "preview exposure (default 0)"},
         CLI_OPT_QUIET(.dst = &quiet, .help = "no progress output"),
         CLI_OPT_HELP,
         {0},
@@ -424,8 +456,13 @@ int cmd_render(int argc, char **argv)
     }
     frame_list_t fl;
     int rc = frame_list_parse(&fl, argv + first, (size_t)(argc - first), range, "render");
-    render_cfg_t c = {.output = output, .ov = ov, .stop = stop, .threads = threads,
-                      .workers = workers, .tile = tile, .direct = direct, .quiet = quiet,
+    render_cfg_t c = {.output = output,
+                      .job = job,
+                      .threads = threads,
+                      .workers = workers,
+                      .tile = tile,
+                      .direct = direct,
+                      .quiet = quiet,
                       .exposure = exposure};
     if (rc == 0)
         rc = fl.sequence ? render_frames(&c, &fl, output) : render_scene(&c, fl.paths[0], NULL, NULL);
@@ -437,8 +474,8 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
                         const char *seq_png)
 {
     const char *output = c->output;
-    scene_overrides_t ov = c->ov;
-    cli_stop_t stop = c->stop;
+    const scene_overrides_t ov = settings_to_overrides(&c->job);
+    const proto_settings_t *stop = &c->job;
     const long long threads = c->threads, workers = c->workers, tile = c->tile;
     const int quiet = c->quiet;
     const double exposure = c->exposure;
@@ -532,7 +569,8 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
     int rc = 0;
     colour_tonemap_t tm = {.exposure_stops = exposure, .curve = COLOUR_CURVE_ACES};
     if (c->direct) {
-        rc = render_direct(scene, scene_path, (int)threads, (int)tile, quiet, &stop, exr, png, tm, loaded, load_s);
+        rc = render_direct(scene, scene_path, (int)threads, (int)tile, quiet, stop, exr, png, tm,
+                           loaded, load_s);
     } else {
         /* The farm's code path: a master and workers in this process. */
         const char *base = strrchr(scene_path, '/');
@@ -546,13 +584,17 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
         /* The master writes its PNG with no exposure change: fetching it saves decoding the
          * EXR and encoding the PNG again; another exposure is tone-mapped here from the EXR. */
         bool master_png = exposure == 0;
-        local_farm_opts_t lo = {.scene = scene_path, .name = name, .exr_path = exr,
-                                .png_path = master_png ? png : NULL, .overrides = ov,
+        local_farm_opts_t lo = {.scene = scene_path,
+                                .name = name,
+                                .exr_path = exr,
+                                .png_path = master_png ? png : NULL,
+                                .settings = c->job,
                                 .workers = (int)workers,
-                                .threads = threads ? (int)threads : (cores / (int)workers > 0 ? cores / (int)workers : 1),
-                                .tile = (int)tile, .quiet = quiet,
-                                .target_error = stop.target_error, .time_limit = stop.time_limit,
-                                .adaptive = stop.adaptive,
+                                .threads =
+                                    threads ? (int)threads
+                                            : (cores / (int)workers > 0 ? cores / (int)workers : 1),
+                                .tile = (int)tile,
+                                .quiet = quiet,
                                 .loaded = scene};
         char prediction[256] = "";
         lo.prediction = prediction;

@@ -81,41 +81,60 @@ static int fetch_sequence(client_rpc_t *rpc, uint64_t job, const char *output, i
 }
 
 static int submit_scenes(const frame_list_t *fr, const char *master, const char *name,
-                         const char *output, const scene_overrides_t *ovp, const cli_stop_t *stopp,
-                         int wait, int json, int quiet, int priority, double timeout_s,
-                         client_security_t *secp);
+                         const char *output, const proto_settings_t *settings, int wait, int json,
+                         int quiet, int priority, double timeout_s, client_security_t *secp);
 
 int cmd_submit(int argc, char **argv)
 {
     const char *master = client_default_master(), *name = NULL, *output = NULL, *range = NULL;
-    scene_overrides_t ov = {.seed = -1};
-    cli_stop_t stop = {0};
+    proto_settings_t job = PROTO_SETTINGS_FILE;
     int wait = 0, json = 0, quiet = 0, priority = 0;
     double timeout_s = 60;
     client_security_t sec = client_security_default();
     const cli_opt_t opts[] = {
         CLI_OPT_MASTER(.dst = &master),
-        {.name = "name", .kind = CLI_STRING, .dst = &name, .arg = "NAME",
+        {.name = "name",
+         .kind = CLI_STRING,
+         .dst = &name,
+         .arg = "NAME",
          .help = "job name (default: the scene file's name)"},
-        CLI_OPT_GROUP(CLI_OVERRIDE_OPTS, .dst = &ov),
-        CLI_OPT_GROUP(CLI_STOP_OPTS, .dst = &stop),
-        {.name = "priority", .kind = CLI_INT, .dst = &priority, .lo = -PROTO_MAX_PRIORITY,
-         .hi = PROTO_MAX_PRIORITY, .arg = "N",
+        CLI_OPT_GROUP(CLI_OVERRIDE_OPTS, .dst = &job),
+        CLI_OPT_GROUP(CLI_STOP_OPTS, .dst = &job),
+        {.name = "priority",
+         .kind = CLI_INT,
+         .dst = &priority,
+         .lo = -PROTO_MAX_PRIORITY,
+         .hi = PROTO_MAX_PRIORITY,
+         .arg = "N",
          .help = "higher runs first (default 0; -1000..1000; `prismfarm priority` changes it)"},
-        {.name = "frames", .kind = CLI_STRING, .dst = &range, .arg = "FIRST-LAST",
+        {.name = "frames",
+         .kind = CLI_STRING,
+         .dst = &range,
+         .arg = "FIRST-LAST",
          .help = "a frame sequence: SCENE is a pattern such as frame%04d.pbrt, formatted with "
                  "each number FIRST..LAST"},
-        {.name = "wait", .kind = CLI_FLAG, .dst = &wait,
+        {.name = "wait",
+         .kind = CLI_FLAG,
+         .dst = &wait,
          .help = "follow the job with a progress bar and fetch the result"},
-        {.name = "output", .letter = 'o', .kind = CLI_STRING, .dst = &output, .arg = "OUT",
+        {.name = "output",
+         .letter = 'o',
+         .kind = CLI_STRING,
+         .dst = &output,
+         .arg = "OUT",
          .help = "with --wait: where the EXR goes (default NAME.exr; a sequence: a pattern such "
                  "as out/f%04d.exr, default each frame file's name); the PNG goes beside it"},
         CLI_OPT_JSON(.dst = &json,
                      .help = "print the job id (and with --wait the final status) as JSON"),
         CLI_OPT_QUIET(.dst = &quiet, .help = "with --wait: no progress bar"),
         /* At least 3 s: a master loading the scene says so every 2 s (PROGRESS_S). */
-        {.name = "timeout", .kind = CLI_DOUBLE, .dst = &timeout_s, .lo = 3, .hi = 3600,
-         .unit = "seconds", .arg = "S",
+        {.name = "timeout",
+         .kind = CLI_DOUBLE,
+         .dst = &timeout_s,
+         .lo = 3,
+         .hi = 3600,
+         .unit = "seconds",
+         .arg = "S",
          .help = "how long a silent master is waited for (default 60, at least 3); the master "
                  "says every 2 s that it is still loading the scene, which restarts the wait, "
                  "so a long load never runs into it"},
@@ -138,19 +157,16 @@ int cmd_submit(int argc, char **argv)
         frame_list_free(&fr);
         return bad;
     }
-    int rc = submit_scenes(&fr, master, name, output, &ov, &stop, wait, json, quiet, priority,
-                           timeout_s, &sec);
+    int rc = submit_scenes(&fr, master, name, output, &job, wait, json, quiet, priority, timeout_s,
+                           &sec);
     frame_list_free(&fr);
     return rc;
 }
 
 static int submit_scenes(const frame_list_t *fr, const char *master, const char *name,
-                         const char *output, const scene_overrides_t *ovp, const cli_stop_t *stopp,
-                         int wait, int json, int quiet, int priority, double timeout_s,
-                         client_security_t *secp)
+                         const char *output, const proto_settings_t *settings, int wait, int json,
+                         int quiet, int priority, double timeout_s, client_security_t *secp)
 {
-    scene_overrides_t ov = *ovp;
-    cli_stop_t stop = *stopp;
     bool sequence = fr->sequence;
     if (output && !wait) {
         fprintf(stderr, "prismfarm submit: -o needs --wait (or use prismfarm fetch JOB -o OUT later)\n");
@@ -209,12 +225,9 @@ static int submit_scenes(const frame_list_t *fr, const char *master, const char 
                             : NULL;
     if (rpc && !quiet && !json)
         client_rpc_on_progress(rpc, progress_print_master, "submit");
-    proto_msg_t req = {.type = PROTO_SUBMIT,
-                       .submit = {.name = name, .settings = settings_from_overrides(&ov),
-                                  .bundle = *scene_bundle_get(b)}};
-    req.submit.settings.target_error = stop.target_error;
-    req.submit.settings.time_limit = stop.time_limit;
-    req.submit.settings.adaptive = stop.adaptive;
+    proto_msg_t req = {
+        .type = PROTO_SUBMIT,
+        .submit = {.name = name, .settings = *settings, .bundle = *scene_bundle_get(b)}};
     req.submit.priority = priority;
     req.submit.frames = frames;
     req.submit.nframes = sequence ? fr->n : 0;
@@ -257,7 +270,7 @@ static int submit_scenes(const frame_list_t *fr, const char *master, const char 
     proto_job_info_t last;
     char error[600];
     char prediction[256] = "";
-    int state = job_follow_wait_error(rpc, job, quiet, stop.target_error, 0, &last, error,
+    int state = job_follow_wait_error(rpc, job, quiet, settings->target_error, 0, &last, error,
                                       sizeof error, prediction, sizeof prediction);
     if (state != JOB_DONE) {
         fprintf(stderr, "prismfarm submit: job %llu %s%s%s\n", (unsigned long long)job,

@@ -88,7 +88,6 @@ static int fetch_frames(client_rpc_t *rpc, uint64_t job, const char *pattern, in
 int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info, scene_shelf_stats_t *loads)
 {
     const char *scene = o->scene, *spool = o->spool, *name = o->name;
-    const scene_overrides_t ov = o->overrides;
     const long long nworkers = o->workers, threads = o->threads, tile = o->tile;
     const int quiet = o->quiet;
     char spool_buf[512];
@@ -106,10 +105,7 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info, scene_she
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
         return 1;
     }
-    proto_settings_t settings = settings_from_overrides(&ov);
-    settings.target_error = o->target_error;
-    settings.time_limit = o->time_limit;
-    settings.adaptive = o->adaptive;
+    const proto_settings_t settings = o->settings;
     /* The client's scene on the shelf under the key the master and workers will ask for: the
      * bundle's hash and main file (what they load it from) and the settings the SUBMIT
      * carries. */
@@ -213,7 +209,7 @@ int local_farm_run(const local_farm_opts_t *o, proto_job_info_t *info, scene_she
     uint64_t job = reply.type == PROTO_SUBMITTED ? reply.submitted.job : 0;
     proto_msg_free(&reply);
     char error[600];
-    int state = job_follow_wait_error(rpc, job, quiet, o->target_error,
+    int state = job_follow_wait_error(rpc, job, quiet, o->settings.target_error,
                                       o->loaded ? o->loaded->settings.spp : 0, info, error,
                                       sizeof error, o->prediction, o->prediction_size);
     if (state != JOB_DONE) {

@@ -15,15 +15,12 @@ typedef struct local_farm_opts {
     const char *name;     /* job name */
     const char *exr_path; /* where the fetched EXR goes */
     const char *png_path; /* where the master's PNG preview goes; NULL: not fetched */
-    scene_overrides_t overrides;
+    proto_settings_t settings; /* the job's, as a SUBMIT carries them */
     int workers;       /* >= 1 */
     int threads;       /* render threads per worker, >= 1 */
     int tile;          /* tile size; 0: the scheduler's default */
     const char *spool; /* NULL: a temporary folder, removed afterwards */
     int quiet;
-    double target_error; /* the job's stopping rules (proto_settings_t); 0: none */
-    double time_limit;
-    int adaptive; /* proto_settings_t: 1 turns adaptive sampling on under a target */
     /* The scene as the client loaded it (scene_load_file with overrides), shared with the
      * master and workers; NULL: they load it. */
     scene_t *loaded;

@@ -90,10 +90,14 @@ typedef struct master_opts {
  * second, a journal, verbose; no keys and not insecure (so tcp:// endpoints need keys or insecure). */
 master_opts_t master_opts_default(void);
 
-/* Checks the dashboard's options (http, http_public, http_token_file) without opening
- * anything: -1 with err for an address that is not one, or one other hosts reach without
- * http_public. master_run checks them too; a command line checks them first. */
-int master_check_http(const master_opts_t *opts, err_t *err);
+/* Every check of a master's options, in one place, without opening anything: what is required
+ * (endpoints, spool, stop flag), the heartbeat against the worker timeout, the bundle limit
+ * against the message limit, the security choice (keys and authorised folders, or insecure, for
+ * each network endpoint; the key files read), the dashboard's options (an address other hosts
+ * reach needs http_public; its token and public options need http). -1 with err ("master: "
+ * and the option's name). master_open checks them; a command line checks them first, so that a
+ * bad configuration exits with status 2 before anything starts. */
+int master_check_opts(const master_opts_t *opts, err_t *err);
 
 /* Runs the master until *opts->stop becomes non-zero (returns 0) or a fatal error (returns -1
  * with err: a network endpoint without keys or insecure, an unreadable key or authorised folder,

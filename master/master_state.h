@@ -63,7 +63,7 @@ typedef struct job {
     char *main; /* the bundle's main file, to load the scene again (a refinement, a restarted
                  * master) */
     proto_settings_t settings;           /* strings point into integrator / dispersion */
-    char integrator[65], dispersion[65]; /* protocol.md: names of at most 64 bytes */
+    char integrator[PROTO_SETTING_NAME_MAX + 1], dispersion[PROTO_SETTING_NAME_MAX + 1];
     job_state_t state;
     char *error;
     /* Who may act on it (access.h): the submitting key's name, proto_peer_t.user; "" when

@@ -723,7 +723,7 @@ static int ck_store_hash(const cx_t *cx, const void *obj)
 /* A shape_t's initializer: {SHAPE(...)} */
 #define SHAPE(type, fields, rule) (fields), N(fields), sizeof(type), (rule)
 
-#define SETTING_NAME_MAX 64
+#define SETTING_NAME_MAX PROTO_SETTING_NAME_MAX
 
 static const names_t KINDS = {KIND_NAMES, PROTO_KIND_COUNT, PROTO_KIND_CAMERA_TILE};
 static const names_t JOB_STATES = {JOB_STATE_NAMES, JOB_STATE_COUNT, 0};
@@ -2096,4 +2096,20 @@ int proto_task_parse(const char *s, uint32_t *task)
     }
     *task = photon ? (uint32_t)v | PROTO_PHOTON_TASK : (uint32_t)v;
     return 0;
+}
+
+void proto_settings_copy(proto_settings_t *dst, const proto_settings_t *src,
+                         char integrator[PROTO_SETTING_NAME_MAX + 1],
+                         char dispersion[PROTO_SETTING_NAME_MAX + 1])
+{
+    *dst = *src;
+    dst->integrator = dst->dispersion = NULL;
+    if (src->integrator) {
+        snprintf(integrator, PROTO_SETTING_NAME_MAX + 1, "%s", src->integrator);
+        dst->integrator = integrator;
+    }
+    if (src->dispersion) {
+        snprintf(dispersion, PROTO_SETTING_NAME_MAX + 1, "%s", src->dispersion);
+        dst->dispersion = dispersion;
+    }
 }

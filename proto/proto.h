@@ -137,6 +137,20 @@ typedef struct proto_settings {
                              * film/adaptive.h); 0 (the default): every tile runs every pass */
 } proto_settings_t;
 
+/* A job's settings before any is given: each the scene file's, no stopping rule. */
+#define PROTO_SETTINGS_FILE ((proto_settings_t){.seed = -1})
+
+/* The longest integrator or dispersion name a SETTINGS map may carry (the decoder refuses
+ * longer). */
+#define PROTO_SETTING_NAME_MAX 64
+
+/* Copies src into *dst with its names copied into integrator and dispersion (cut at
+ * PROTO_SETTING_NAME_MAX bytes), so that *dst outlives what src points into (a message, a
+ * journal row): the one deep copy of a job's settings. */
+void proto_settings_copy(proto_settings_t *dst, const proto_settings_t *src,
+                         char integrator[PROTO_SETTING_NAME_MAX + 1],
+                         char dispersion[PROTO_SETTING_NAME_MAX + 1]);
+
 /* A camera tile: pixels [x0, x0+w) x [y0, y0+h), sample indices [sample_begin, sample_end). */
 typedef struct proto_tile {
     int x0, y0, w, h;

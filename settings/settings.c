@@ -12,16 +12,6 @@ scene_overrides_t settings_to_overrides(const proto_settings_t *s)
                                .dispersion = s->dispersion};
 }
 
-proto_settings_t settings_from_overrides(const scene_overrides_t *ov)
-{
-    return (proto_settings_t){.spp = ov->spp,
-                              .xres = ov->xres,
-                              .yres = ov->yres,
-                              .seed = ov->seed,
-                              .integrator = ov->integrator,
-                              .dispersion = ov->dispersion};
-}
-
 void settings_scene_key(const char *hash, const char *main, const proto_settings_t *s,
                         char key[SETTINGS_KEY_SIZE])
 {

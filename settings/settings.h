@@ -14,10 +14,6 @@
  * are the master's, not the scene's: no override carries them. */
 scene_overrides_t settings_to_overrides(const proto_settings_t *settings);
 
-/* The settings of a job the user asked for with these overrides: no stopping rules (0), which
- * the caller sets from its own options. */
-proto_settings_t settings_from_overrides(const scene_overrides_t *ov);
-
 /* The key under which a scene loaded from the file main of the bundle of this hash with these
  * settings is shared (scene_shelf.h): the hash, the file (the frames of a sequence share one
  * bundle, each its own main file) and every setting settings_to_overrides passes to the loader,

@@ -108,17 +108,7 @@ static void job_take_scene(job_t *j, const scene_t *scene)
 
 static void job_set_settings(job_t *j, const proto_settings_t *set)
 {
-    j->settings = *set;
-    j->settings.integrator = NULL;
-    j->settings.dispersion = NULL;
-    if (set->integrator) {
-        snprintf(j->integrator, sizeof j->integrator, "%s", set->integrator);
-        j->settings.integrator = j->integrator;
-    }
-    if (set->dispersion) {
-        snprintf(j->dispersion, sizeof j->dispersion, "%s", set->dispersion);
-        j->settings.dispersion = j->dispersion;
-    }
+    proto_settings_copy(&j->settings, set, j->integrator, j->dispersion);
 }
 
 /* What the shelf loads on a miss: the job's scene, confined to its bundle's folder. */

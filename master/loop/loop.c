@@ -179,7 +179,7 @@ static int file_limit_raise(master_t *m)
     return per;
 }
 
-static int check_opts(const master_opts_t *o, err_t *err)
+int master_check_opts(const master_opts_t *o, err_t *err)
 {
     if (!o || !o->worker_endpoint || !o->client_endpoint || !o->spool_dir || !o->stop)
         return err_set(
@@ -188,9 +188,18 @@ static int check_opts(const master_opts_t *o, err_t *err)
         return err_set(err, "master: heartbeat %d ms is outside 1..3600000", o->heartbeat_ms);
     if (o->max_jobs < 1)
         return err_set(err, "master: max_jobs is 0: no job could ever be submitted");
+    /* A worker silent between two heartbeats is not gone (farm.md, "Workers"). */
+    double interval_s = o->heartbeat_ms / 1000.0;
+    if (o->sched.worker_timeout_s < 2.0 * interval_s)
+        return err_set(err,
+                       "master: --worker-timeout %g s is shorter than 2 heartbeat intervals (%g "
+                       "s): every worker would be lost between two heartbeats",
+                       o->sched.worker_timeout_s, 2.0 * interval_s);
     if (o->limits.max_bundle_bytes > o->limits.max_message_bytes)
-        return err_set(err, "master: bundles of %zu bytes cannot fit in messages of at most %zu",
-                       o->limits.max_bundle_bytes, o->limits.max_message_bytes);
+        return err_set(err,
+                       "master: --max-bundle-mb %zu exceeds --max-message-mb %zu: a bundle "
+                       "travels in one message",
+                       o->limits.max_bundle_bytes >> 20, o->limits.max_message_bytes >> 20);
     bool roles = o->authorized_workers_dir || o->authorized_clients_dir || o->authorized_admins_dir;
     if (roles && o->authorized_dir)
         return err_set(err, "master: --authorized DIR lets keys in on both endpoints; give it or "
@@ -209,6 +218,22 @@ static int check_opts(const master_opts_t *o, err_t *err)
         curve_require(o->client_endpoint, o->key_file, o->insecure, how, err) < 0 ||
         dash_view_check(o, err) < 0)
         return err_prefix(err, "master: ");
+    /* The keys are read here too, so that a wrong file is a bad configuration, told before
+     * anything starts, not a failure of a running master. */
+    if (o->key_file) {
+        curve_pair_t pair;
+        curve_ring_t *ring = NULL;
+        const char *dirs[] = {o->authorized_dir, o->authorized_workers_dir,
+                              o->authorized_clients_dir, o->authorized_admins_dir};
+        int bad = curve_load_pair(o->key_file, &pair, err) < 0;
+        for (size_t i = 0; !bad && i < sizeof dirs / sizeof *dirs; i++) {
+            bad = dirs[i] && !(ring = curve_ring_new(dirs[i], err));
+            curve_ring_destroy(&ring);
+        }
+        memset(&pair, 0, sizeof pair);
+        if (bad)
+            return err_prefix(err, "master: ");
+    }
     return 0;
 }
 
@@ -226,7 +251,7 @@ static void zap_log(void *user, const char *line)
  * <spool>/endpoints and handed to opts->ready. NULL with err; what was opened is closed. */
 master_t *master_open(const master_opts_t *opts, err_t *err)
 {
-    if (check_opts(opts, err) < 0)
+    if (master_check_opts(opts, err) < 0)
         return NULL;
     master_t *m = calloc(1, sizeof *m);
     if (!m) {

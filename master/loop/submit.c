@@ -32,7 +32,7 @@ struct submission {
     char dir[PATH_MAX];
     bool staged;
     proto_settings_t settings; /* its strings point into integrator / dispersion */
-    char integrator[65], dispersion[65];
+    char integrator[PROTO_SETTING_NAME_MAX + 1], dispersion[PROTO_SETTING_NAME_MAX + 1];
     int priority; /* SUBMIT's (ops.h) */
     scene_budget_t budget;
     int load_threads; /* frames loaded at once (master_opts_t) */
@@ -263,17 +263,8 @@ static void submit_accept(master_t *m, const proto_peer_t *from, const proto_msg
     }
     s->peer = *from;
     memcpy(s->hash, hash, sizeof s->hash);
-    s->settings = msg->submit.settings;
+    proto_settings_copy(&s->settings, &msg->submit.settings, s->integrator, s->dispersion);
     s->priority = (int)msg->submit.priority;
-    s->settings.integrator = s->settings.dispersion = NULL;
-    if (msg->submit.settings.integrator) {
-        snprintf(s->integrator, sizeof s->integrator, "%s", msg->submit.settings.integrator);
-        s->settings.integrator = s->integrator;
-    }
-    if (msg->submit.settings.dispersion) {
-        snprintf(s->dispersion, sizeof s->dispersion, "%s", msg->submit.settings.dispersion);
-        s->settings.dispersion = s->dispersion;
-    }
     s->budget = m->opts->budget;
     s->load_threads = m->opts->load_threads;
     s->limits = m->limits;

@@ -469,11 +469,6 @@ int dash_view_check(const master_opts_t *o, err_t *err)
     return 0;
 }
 
-int master_check_http(const master_opts_t *opts, err_t *err)
-{
-    return dash_view_check(opts, err);
-}
-
 /* The bytes of a job's task log that a restarted master puts in the logbook for its page. */
 #define DASH_SEED_BYTES 4096
 

@@ -39,7 +39,7 @@ typedef struct journal_job {
     uint64_t id;
     char *name, *hash, *main; /* the client's name, the bundle's hash and main file */
     proto_settings_t settings;  /* integrator / dispersion point into the strings below */
-    char integrator[65], dispersion[65];
+    char integrator[PROTO_SETTING_NAME_MAX + 1], dispersion[PROTO_SETTING_NAME_MAX + 1];
     job_state_t state;
     char *error; /* NULL unless failed */
     uint32_t round;          /* refinements so far (task ids carry it) */

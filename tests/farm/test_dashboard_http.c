@@ -422,22 +422,25 @@ static void test_http_option(void **state)
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++)
         assert_int_equal(dash_server_parse_address(bad[i], &c, &err), -1);
     master_opts_t o = master_opts_default();
+    volatile sig_atomic_t stop = 0;
+    o.stop = &stop;
+    o.insecure = 1;
     o.http = "0.0.0.0:8080";
-    assert_int_equal(master_check_http(&o, &err), -1);
+    assert_int_equal(master_check_opts(&o, &err), -1);
     assert_non_null(strstr(err.msg, "--http-public"));
     o.http_public = 1;
-    assert_int_equal(master_check_http(&o, &err), 0);
+    assert_int_equal(master_check_opts(&o, &err), 0);
     o.http = NULL;
     o.http_token_file = "x.token";
-    assert_int_equal(master_check_http(&o, &err), -1);
+    assert_int_equal(master_check_opts(&o, &err), -1);
     /* The dashboard's other options need it too. */
     o.http_token_file = NULL;
     o.dashboard_public = 1;
-    assert_int_equal(master_check_http(&o, &err), -1);
+    assert_int_equal(master_check_opts(&o, &err), -1);
     assert_non_null(strstr(err.msg, "--dashboard-public"));
     o.dashboard_public = 0;
     o.metrics_token_file = "prom.token";
-    assert_int_equal(master_check_http(&o, &err), -1);
+    assert_int_equal(master_check_opts(&o, &err), -1);
     assert_non_null(strstr(err.msg, "--metrics-token-file"));
 }
 
