@@ -35,6 +35,7 @@
 #define SPP_LONG "8192"
 #define NPASSES_LONG 14
 #define PHOTON_SCENE "data/photon/beam_big.pbrt"
+#define STOKES_SCENE "data/render/stokes.pbrt"
 #define SPP "4096"       /* tiny.pbrt: 13 passes, 2.5 CPU s in a Release build */
 #define PHOTON_SPP "256" /* beam_big: 1.5 M photons, then a camera phase of 9 passes */
 
@@ -765,6 +766,40 @@ static void test_version8_spool_resumes(void **state)
     testutil_stop(master, SIGTERM);
 }
 
+/* A job with a Stokes output (four planes per bucket in every result, checkpoint and blob)
+ * whose master dies after a checkpoint: the restarted master ends with the S0-S3 layers of an
+ * uninterrupted render, bit for bit. */
+static void test_master_killed_stokes_job(void **state)
+{
+    (void)state;
+    const char *ref = testutil_journal_reference(STOKES_SCENE, SPP, "stokes-ref.exr");
+    const char *spool = testutil_scratch("st-spool"), *mlog1 = testutil_scratch("st-master1.log"),
+               *mlog2 = testutil_scratch("st-master2.log");
+    pid_t master = testutil_journal_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
+    char wep[256], cep[256];
+    testutil_read_endpoints(spool, wep, cep, mlog1);
+    pid_t w = testutil_journal_worker(testutil_scratch("st-w.log"), wep, "w");
+    const run_t *r = run("submit", STOKES_SCENE, "--master", cep, "--spp", SPP, "--insecure", NULL);
+    if (r->status != 0)
+        fail_msg("submit: exit %d: %s", r->status, r->err);
+    testutil_wait_journal(spool, test_wait_s(), "a checkpoint and results after it",
+                          "SELECT checkpoint FROM jobs WHERE id=1",
+                          "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
+    testutil_stop(master, SIGKILL);
+    master = testutil_journal_master(mlog2, spool, wep, cep);
+    testutil_journal_finish(cep, ref, testutil_scratch("st-out.exr"), mlog2);
+    if (!testutil_file_has(mlog2, "job 1 'stokes' resumed: "))
+        testutil_fail_quoting(mlog2, "the restarted master did not resume job 1:");
+    err_t err;
+    image_exr_t *img = image_exr_read(ref, &err);
+    if (!img)
+        fail_msg("%s", err.msg);
+    assert_non_null(image_exr_stokes(img, 3)); /* the comparison covered the Stokes layers */
+    image_exr_destroy(&img);
+    testutil_stop(w, SIGTERM);
+    testutil_stop(master, SIGTERM);
+}
+
 /* A photon job whose master dies twice: during the photon phase (batches journaled, no store
  * yet) and during the camera phase (the store on disk): the same pixels as one machine's. */
 static void test_master_killed_photon_job(void **state)
@@ -946,6 +981,7 @@ int main(void)
         cmocka_unit_test(test_turn_transaction),
         cmocka_unit_test_teardown(test_master_killed_camera_job, testutil_kill_children),
         cmocka_unit_test_teardown(test_version8_spool_resumes, testutil_kill_children),
+        cmocka_unit_test_teardown(test_master_killed_stokes_job, testutil_kill_children),
         cmocka_unit_test_teardown(test_master_killed_photon_job, testutil_kill_children),
         cmocka_unit_test_teardown(test_random_kills, testutil_kill_children),
     };

@@ -376,6 +376,13 @@ static inline void testutil_assert_same_pixels(const char *a, const char *b)
     assert_memory_equal(image_exr_spectral(x), image_exr_spectral(y),
                         (size_t)w * h * n * sizeof(float));
     assert_memory_equal(image_exr_rgb(x), image_exr_rgb(y), (size_t)w * h * 3 * sizeof(float));
+    /* A Stokes output's S1-S3 layers too (Film "bool stokes"): both have them or neither. */
+    for (int k = 1; k <= 3; k++) {
+        const float *sx = image_exr_stokes(x, k), *sy = image_exr_stokes(y, k);
+        assert_true(!sx == !sy);
+        if (sx)
+            assert_memory_equal(sx, sy, (size_t)w * h * n * sizeof(float));
+    }
     image_exr_destroy(&x);
     image_exr_destroy(&y);
 }
