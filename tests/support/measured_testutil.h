@@ -1,9 +1,9 @@
 /* measured_testutil: RGL-layout measured BSDF files (bsdf/measured.h) made from an analytic
- * model, so that the tests need no measured file: an isotropic GGX conductor of roughness
- * alpha whose complex index varies with wavelength, tabulated the way Dupuy & Jakob 2018 lay
+ * model, so that the tests need no measured file: a GGX conductor, isotropic or not, whose
+ * complex index varies with wavelength, tabulated the way Dupuy & Jakob 2018 lay
  * their files out (the fields pbrt-v4's MeasuredBxDFData reads):
- *   ndf(u)      = D(wm(u))                      over wm's (theta2u, phi2u), phi relative to wo's;
- *   sigma(u)    = projected area (cos + sqrt(cos^2 + alpha^2 sin^2)) / 2 of wo(u);
+ *   ndf(u)      = D(wm(u)) over wm's (theta2u, phi2u), phi relative to wo's in an isotropic file;
+ *   sigma(u)    = projected area (cos + sqrt(cos^2 + alpha(phi)^2 sin^2)) / 2 of wo(u);
  *   vndf        = D_wo(wm) 2 pi^2 u sin(theta_m), the visible normals' density over the square;
  *   luminance   = F G2 / G1(wo) at the wm the vndf warp gives each grid point (f cos over the
  *                 vndf's density of wi), 0 where wi falls below the surface;
@@ -85,19 +85,24 @@ static inline uint8_t *measured_testutil_pack(const measured_testutil_field_t *f
     return buf;
 }
 
-/* The GGX conductor of roughness alpha over nt incident angles, an n x n grid and nl
- * wavelengths over 380-780 nm. */
-static inline uint8_t *measured_testutil_ggx(double alpha, int nt, int n, int nl, size_t *len)
+/* The GGX conductor of roughness alpha_x, alpha_y over np outgoing azimuths (1: an isotropic
+ * file, whose wm azimuths are relative to wo's; more: phi_i spans -pi to pi and the azimuths
+ * are absolute), nt incident angles, an n x n grid and nl wavelengths over 380-780 nm. */
+static inline uint8_t *measured_testutil_ggx_aniso(double alpha_x, double alpha_y, int np, int nt,
+                                                   int n, int nl, size_t *len)
 {
     const double pi = PF_PI;
-    const microfacet_t mf = {alpha, alpha};
-    const size_t g = (size_t)n * n;
-    float *theta = malloc(nt * sizeof(float)), phi[1] = {0.0f}, *wl = malloc(nl * sizeof(float));
+    const microfacet_t mf = {alpha_x, alpha_y};
+    const size_t g = (size_t)n * n, slices = (size_t)np * nt;
+    float *theta = malloc(nt * sizeof(float)), *phi = malloc(np * sizeof(float));
+    float *wl = malloc(nl * sizeof(float));
     float *ndf = malloc(g * sizeof(float)), *sigma = malloc(g * sizeof(float));
-    float *vndf = malloc(nt * g * sizeof(float)), *lum = malloc(nt * g * sizeof(float));
-    float *spec = malloc((size_t)nt * nl * g * sizeof(float));
+    float *vndf = malloc(slices * g * sizeof(float)), *lum = malloc(slices * g * sizeof(float));
+    float *spec = malloc(slices * nl * g * sizeof(float));
     for (int i = 0; i < nt; i++)
         theta[i] = (float)(1.45 * i / (nt - 1)); /* 0 to 83 degrees */
+    for (int p = 0; p < np; p++)
+        phi[p] = np == 1 ? 0.0f : (float)(-pi + 2.0 * pi * p / (np - 1));
     for (int l = 0; l < nl; l++)
         wl[l] = (float)(380.0 + 400.0 * l / (nl > 1 ? nl - 1 : 1));
     for (int y = 0; y < n; y++)
@@ -106,12 +111,17 @@ static inline uint8_t *measured_testutil_ggx(double alpha, int nt, int n, int nl
             const double th = ux * ux * 0.5 * pi, ph = (2.0 * uy - 1.0) * pi;
             const vec3_t w = vec3_make(sin(th) * cos(ph), sin(th) * sin(ph), cos(th));
             ndf[y * n + x] = (float)microfacet_d(&mf, w);
-            const double c = cos(th), s = sin(th);
-            sigma[y * n + x] = (float)(0.5 * (c + sqrt(c * c + alpha * alpha * s * s)));
+            /* (1 + Lambda) cos theta, finite at the horizon */
+            const double c = cos(th), s2 = 1.0 - c * c;
+            const double a2 =
+                alpha_x * alpha_x * cos(ph) * cos(ph) + alpha_y * alpha_y * sin(ph) * sin(ph);
+            sigma[y * n + x] = (float)(0.5 * (c + sqrt(c * c + a2 * s2)));
         }
-    for (int i = 0; i < nt; i++) {
-        const vec3_t wo = vec3_make(sin(theta[i]), 0.0, cos(theta[i]));
-        float *v = vndf + (size_t)i * g;
+    for (size_t sl = 0; sl < slices; sl++) {
+        const double ph_o = phi[sl / nt], th_o = theta[sl % nt];
+        const vec3_t wo = vec3_make(sin(th_o) * cos(ph_o), sin(th_o) * sin(ph_o), cos(th_o));
+        /* An isotropic file's wm azimuths are relative to wo's (0 here). */
+        float *v = vndf + sl * g;
         for (int y = 0; y < n; y++)
             for (int x = 0; x < n; x++) {
                 const double ux = (double)x / (n - 1), uy = (double)y / (n - 1);
@@ -135,29 +145,31 @@ static inline uint8_t *measured_testutil_ggx(double alpha, int nt, int n, int nl
                     double eta, k;
                     measured_testutil_index(wl[l], &eta, &k);
                     const double r = fresnel_conductor(fabs(d), eta, k) * ratio;
-                    spec[(((size_t)i * nl + l) * n + y) * n + x] = (float)r;
+                    spec[((sl * nl + l) * n + y) * n + x] = (float)r;
                     mean += r / nl;
                 }
-                lum[(size_t)i * g + y * n + x] = (float)mean;
+                lum[sl * g + y * n + x] = (float)mean;
             }
         plinear2d_destroy(&warp);
     }
     static const char text[] = "prismfarm test: GGX conductor";
     const uint8_t jac[1] = {1};
+    const uint64_t P = (uint64_t)np, T = (uint64_t)nt, N = (uint64_t)n, L = (uint64_t)nl;
     const measured_testutil_field_t f[] = {
         {"description", 1, 1, {sizeof text - 1}, text},
         {"jacobian", 1, 1, {1}, jac},
-        {"theta_i", 10, 1, {(uint64_t)nt}, theta},
-        {"phi_i", 10, 1, {1}, phi},
-        {"wavelengths", 10, 1, {(uint64_t)nl}, wl},
-        {"ndf", 10, 2, {(uint64_t)n, (uint64_t)n}, ndf},
-        {"sigma", 10, 2, {(uint64_t)n, (uint64_t)n}, sigma},
-        {"vndf", 10, 4, {1, (uint64_t)nt, (uint64_t)n, (uint64_t)n}, vndf},
-        {"luminance", 10, 4, {1, (uint64_t)nt, (uint64_t)n, (uint64_t)n}, lum},
-        {"spectra", 10, 5, {1, (uint64_t)nt, (uint64_t)nl, (uint64_t)n, (uint64_t)n}, spec},
+        {"theta_i", 10, 1, {T}, theta},
+        {"phi_i", 10, 1, {P}, phi},
+        {"wavelengths", 10, 1, {L}, wl},
+        {"ndf", 10, 2, {N, N}, ndf},
+        {"sigma", 10, 2, {N, N}, sigma},
+        {"vndf", 10, 4, {P, T, N, N}, vndf},
+        {"luminance", 10, 4, {P, T, N, N}, lum},
+        {"spectra", 10, 5, {P, T, L, N, N}, spec},
     };
     uint8_t *buf = measured_testutil_pack(f, (int)(sizeof f / sizeof *f), len);
     free(theta);
+    free(phi);
     free(wl);
     free(ndf);
     free(sigma);
@@ -165,6 +177,12 @@ static inline uint8_t *measured_testutil_ggx(double alpha, int nt, int n, int nl
     free(lum);
     free(spec);
     return buf;
+}
+
+/* The isotropic GGX conductor of roughness alpha (an isotropic file: one phi_i). */
+static inline uint8_t *measured_testutil_ggx(double alpha, int nt, int n, int nl, size_t *len)
+{
+    return measured_testutil_ggx_aniso(alpha, alpha, 1, nt, n, nl, len);
 }
 
 #endif

@@ -59,20 +59,30 @@ static vec3_t dir(double theta, double phi)
     return vec3_make(sin(theta) * cos(phi), sin(theta) * sin(phi), cos(theta));
 }
 
-/* The analytic conductor the file was made from, at one wavelength. */
+/* The analytic conductor a file was made from, at one wavelength. */
+static bsdf_t conductor_of(microfacet_t mf, double lambda)
+{
+    bsdf_t b = {.kind = BSDF_CONDUCTOR, .n = 1, .mf = mf};
+    measured_testutil_index(lambda, &b.cond_eta[0], &b.cond_k[0]);
+    return b;
+}
+
 static bsdf_t conductor(double lambda)
 {
-    bsdf_t b = {.kind = BSDF_CONDUCTOR, .n = 1, .mf = {ALPHA, ALPHA}};
-    measured_testutil_index(lambda, &b.cond_eta[0], &b.cond_k[0]);
+    return conductor_of((microfacet_t){ALPHA, ALPHA}, lambda);
+}
+
+static bsdf_t measured_of(const measured_t *data, const double *lambda, int n)
+{
+    bsdf_t b = {.kind = BSDF_MEASURED, .n = n, .measured = data};
+    for (int j = 0; j < n; j++)
+        b.lambda[j] = lambda[j];
     return b;
 }
 
 static bsdf_t measured_bsdf(const double *lambda, int n)
 {
-    bsdf_t b = {.kind = BSDF_MEASURED, .n = n, .measured = brdf};
-    for (int j = 0; j < n; j++)
-        b.lambda[j] = lambda[j];
-    return b;
+    return measured_of(brdf, lambda, n);
 }
 
 /* The warp alone: sample and invert are inverses, sample's density is eval's, and the
@@ -130,18 +140,20 @@ static int by_value(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* f against the conductor over directions up to 70 degrees from the normal, where the data's
- * grids resolve the lobe: the median relative error is small and no value is far off. */
-static void test_reproduces_the_conductor(void **state)
+/* f of the measured data against the conductor mf over directions up to 70 degrees from the
+ * normal, where the grids resolve the lobe: the median, 95th percentile and worst relative
+ * error where the conductor's f is above 0.05 (the lobe's far tail, where a relative error
+ * means little). */
+static int f_errors(const measured_t *data, microfacet_t mf, double *median, double *p95,
+                    double *worst)
 {
-    (void)state;
     uint64_t s = 7;
     const double lambda[3] = {400.0, 550.0, 700.0};
-    bsdf_t m = measured_bsdf(lambda, 3);
+    bsdf_t m = measured_of(data, lambda, 3);
     enum { N = 2000 };
     static double rel[3 * N];
     int count = 0;
-    double worst = 0.0;
+    *worst = 0.0;
     for (int i = 0; i < N; i++) {
         vec3_t wo =
             dir(acos(1.0 - 0.66 * testutil_splitmix_u(&s)), 2 * PF_PI * testutil_splitmix_u(&s));
@@ -150,21 +162,30 @@ static void test_reproduces_the_conductor(void **state)
         double f[3];
         bsdf_eval(&m, wo, wi, NULL, f);
         for (int j = 0; j < 3; j++) {
-            bsdf_t c = conductor(lambda[j]);
+            bsdf_t c = conductor_of(mf, lambda[j]);
             double g;
             bsdf_eval(&c, wo, wi, NULL, &g);
-            if (g < 0.05) /* the lobe's far tail, where a relative error means little */
+            if (g < 0.05)
                 continue;
             rel[count++] = fabs(f[j] - g) / g;
-            worst = fmax(worst, fabs(f[j] - g) / g);
+            *worst = fmax(*worst, fabs(f[j] - g) / g);
         }
     }
     qsort(rel, (size_t)count, sizeof *rel, by_value);
-    fprintf(stderr, "f: %d pairs, median rel err %.4f, 95%% %.4f, worst %.4f\n", count,
-            rel[count / 2], rel[count * 95 / 100], worst);
-    assert_true(count > 1000);
-    assert_true(rel[count / 2] < 0.01);
-    assert_true(rel[count * 95 / 100] < 0.03);
+    *median = rel[count / 2];
+    *p95 = rel[count * 95 / 100];
+    fprintf(stderr, "f: %d pairs, median rel err %.4f, 95%% %.4f, worst %.4f\n", count, *median,
+            *p95, *worst);
+    return count;
+}
+
+static void test_reproduces_the_conductor(void **state)
+{
+    (void)state;
+    double median, p95, worst;
+    assert_true(f_errors(brdf, (microfacet_t){ALPHA, ALPHA}, &median, &p95, &worst) > 1000);
+    assert_true(median < 0.01);
+    assert_true(p95 < 0.03);
 }
 
 /* The directional albedo (f cos over the hemisphere, by the measured BSDF's own sampling)
@@ -204,72 +225,121 @@ static void test_albedo(void **state)
 /* Sampling's density is the pdf: a histogram of sampled directions over (cos theta, phi) cells
  * against the pdf integrated over each cell (chi-square, tail 1e-6), and sample's f and pdf
  * are eval's and pdf's at its direction. */
+static void check_sampling(const bsdf_t *m, vec3_t wo, uint64_t seed)
+{
+    enum { NC = 16, NP = 32, N = 200000 };
+    static double hist[NC * NP], expect[NC * NP];
+    memset(hist, 0, sizeof hist);
+    memset(expect, 0, sizeof expect);
+    uint64_t s = seed;
+    for (int i = 0; i < N; i++) {
+        bsdf_sample_t out;
+        if (!bsdf_sample(m, wo, 0, 0.5, testutil_splitmix_u(&s), testutil_splitmix_u(&s), NULL,
+                         &out))
+            continue;
+        if (i < 200) {
+            double f, pdf;
+            bsdf_eval(m, wo, out.wi, NULL, &f);
+            bsdf_pdf(m, wo, out.wi, NULL, &pdf);
+            assert_true(f == out.f[0] && pdf == out.pdf[0]);
+        }
+        int c = (int)(out.wi.z * NC),
+            p = (int)((atan2(out.wi.y, out.wi.x) + PF_PI) / (2 * PF_PI) * NP);
+        c = c < NC ? c : NC - 1;
+        p = p < NP ? p : NP - 1;
+        hist[c * NP + p] += 1.0;
+    }
+    /* The pdf over each cell by the midpoint rule on a finer grid (d omega = dz dphi). */
+    const int sub = 8;
+    double total = 0.0;
+    for (int c = 0; c < NC; c++)
+        for (int p = 0; p < NP; p++) {
+            double sum = 0.0;
+            for (int a = 0; a < sub; a++)
+                for (int b = 0; b < sub; b++) {
+                    double z = (c + (a + 0.5) / sub) / NC;
+                    double ph = -PF_PI + 2 * PF_PI * (p + (b + 0.5) / sub) / NP;
+                    double r = sqrt(fmax(0.0, 1 - z * z));
+                    double pdf;
+                    bsdf_pdf(m, wo, vec3_make(r * cos(ph), r * sin(ph), z), NULL, &pdf);
+                    sum += pdf;
+                }
+            expect[c * NP + p] = sum / (sub * sub) * (1.0 / NC) * (2 * PF_PI / NP) * N;
+            total += expect[c * NP + p];
+        }
+    /* Cells pooled until each expects at least 20 samples. */
+    double chi2 = 0.0, eo = 0.0, ee = 0.0;
+    int dof = 0;
+    for (int i = 0; i < NC * NP; i++) {
+        eo += hist[i];
+        ee += expect[i];
+        if (ee >= 20.0) {
+            chi2 += (eo - ee) * (eo - ee) / ee;
+            dof++;
+            eo = ee = 0.0;
+        }
+    }
+    fprintf(stderr, "wo (%.2f %.2f %.2f): pdf integrates to %.4f, chi2 %.1f over %d cells\n", wo.x,
+            wo.y, wo.z, total / N, chi2, dof);
+    assert_true(total / N <= 1.01);
+    assert_true(dof > 50);
+    assert_true(chi2 < testutil_chi2_quantile(dof - 1, 4.75));
+}
+
 static void test_sampling_matches_pdf(void **state)
 {
     (void)state;
     const double lambda[1] = {550.0};
     bsdf_t m = measured_bsdf(lambda, 1);
-    enum { NC = 16, NP = 32, N = 200000 };
-    const double thetas[] = {0.2, 0.9};
-    for (size_t t = 0; t < 2; t++) {
-        vec3_t wo = dir(thetas[t], 1.1);
-        static double hist[NC * NP], expect[NC * NP];
-        memset(hist, 0, sizeof hist);
-        memset(expect, 0, sizeof expect);
-        uint64_t s = 5 + t;
+    check_sampling(&m, dir(0.2, 1.1), 5);
+    check_sampling(&m, dir(0.9, 1.1), 6);
+}
+
+/* An anisotropic file (phi_i over the full circle, wm's azimuths absolute): the conductor of
+ * alphas 0.15 along u and 0.45 along v, its lobe's orientation in the shading frame included,
+ * in value, albedo and sampling, at outgoing azimuths between the file's. */
+static void test_anisotropic(void **state)
+{
+    (void)state;
+    const microfacet_t mf = {0.15, 0.45};
+    size_t len = 0;
+    uint8_t *bytes = measured_testutil_ggx_aniso(mf.alpha_x, mf.alpha_y, 13, 8, 48, 3, &len);
+    assert_non_null(bytes);
+    err_t err;
+    measured_t *an = measured_new(bytes, len, "aniso.bsdf", &err);
+    if (!an)
+        fail_msg("%s", err.msg);
+    assert_false(measured_isotropic(an));
+    double median, p95, worst;
+    assert_true(f_errors(an, mf, &median, &p95, &worst) > 1000);
+    assert_true(median < 0.02);
+    assert_true(p95 < 0.06);
+    /* Turned a quarter: the lobe is then the wrong way round, and far off. */
+    double turned;
+    assert_true(f_errors(an, (microfacet_t){mf.alpha_y, mf.alpha_x}, &turned, &p95, &worst) > 100);
+    assert_true(turned > 10 * median);
+    const double lambda[1] = {550.0};
+    bsdf_t m = measured_of(an, lambda, 1);
+    check_sampling(&m, dir(0.7, 0.4), 8);
+    bsdf_t c = conductor_of(mf, 550.0);
+    for (int t = 0; t < 2; t++) {
+        vec3_t wo = dir(t ? 1.1 : 0.3, t ? 2.0 : 0.4);
+        uint64_t s = 31 + t;
+        double a = 0.0, ref = 0.0;
+        enum { N = 40000 };
         for (int i = 0; i < N; i++) {
+            double u1 = testutil_splitmix_u(&s), u2 = testutil_splitmix_u(&s);
             bsdf_sample_t out;
-            if (!bsdf_sample(&m, wo, 0, 0.5, testutil_splitmix_u(&s), testutil_splitmix_u(&s), NULL,
-                             &out))
-                continue;
-            if (i < 200) {
-                double f, pdf;
-                bsdf_eval(&m, wo, out.wi, NULL, &f);
-                bsdf_pdf(&m, wo, out.wi, NULL, &pdf);
-                assert_true(f == out.f[0] && pdf == out.pdf[0]);
-            }
-            int c = (int)(out.wi.z * NC),
-                p = (int)((atan2(out.wi.y, out.wi.x) + PF_PI) / (2 * PF_PI) * NP);
-            c = c < NC ? c : NC - 1;
-            p = p < NP ? p : NP - 1;
-            hist[c * NP + p] += 1.0;
+            if (bsdf_sample(&m, wo, 0, 0.5, u1, u2, NULL, &out))
+                a += out.f[0] * fabs(out.wi.z) / out.pdf[0] / N;
+            if (bsdf_sample(&c, wo, 0, 0.5, u1, u2, NULL, &out))
+                ref += out.f[0] * fabs(out.wi.z) / out.pdf[0] / N;
         }
-        /* The pdf over each cell by the midpoint rule on a finer grid (d omega = dz dphi). */
-        const int sub = 8;
-        double total = 0.0;
-        for (int c = 0; c < NC; c++)
-            for (int p = 0; p < NP; p++) {
-                double sum = 0.0;
-                for (int a = 0; a < sub; a++)
-                    for (int b = 0; b < sub; b++) {
-                        double z = (c + (a + 0.5) / sub) / NC;
-                        double ph = -PF_PI + 2 * PF_PI * (p + (b + 0.5) / sub) / NP;
-                        double r = sqrt(fmax(0.0, 1 - z * z));
-                        double pdf;
-                        bsdf_pdf(&m, wo, vec3_make(r * cos(ph), r * sin(ph), z), NULL, &pdf);
-                        sum += pdf;
-                    }
-                expect[c * NP + p] = sum / (sub * sub) * (1.0 / NC) * (2 * PF_PI / NP) * N;
-                total += expect[c * NP + p];
-            }
-        /* Cells pooled until each expects at least 20 samples. */
-        double chi2 = 0.0, eo = 0.0, ee = 0.0;
-        int dof = 0;
-        for (int i = 0; i < NC * NP; i++) {
-            eo += hist[i];
-            ee += expect[i];
-            if (ee >= 20.0) {
-                chi2 += (eo - ee) * (eo - ee) / ee;
-                dof++;
-                eo = ee = 0.0;
-            }
-        }
-        fprintf(stderr, "theta %.1f: pdf integrates to %.4f, chi2 %.1f over %d cells\n", thetas[t],
-                total / N, chi2, dof);
-        assert_true(total / N <= 1.01);
-        assert_true(dof > 50);
-        assert_true(chi2 < testutil_chi2_quantile(dof - 1, 4.75));
+        fprintf(stderr, "anisotropic albedo: measured %.4f conductor %.4f\n", a, ref);
+        testutil_assert_near(a, ref, 0.02 * ref);
     }
+    measured_destroy(&an);
+    free(bytes);
 }
 
 /* The conductor's data are reciprocal: f(wo, wi) = f(wi, wo) to the tabulation's accuracy;
@@ -442,6 +512,7 @@ int main(void)
         cmocka_unit_test(test_reproduces_the_conductor),
         cmocka_unit_test(test_albedo),
         cmocka_unit_test(test_sampling_matches_pdf),
+        cmocka_unit_test(test_anisotropic),
         cmocka_unit_test(test_reciprocity),
         cmocka_unit_test(test_lanes_read_their_wavelength),
         cmocka_unit_test(test_damaged_files_refused),
