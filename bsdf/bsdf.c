@@ -3,6 +3,7 @@
 #include "fresnel.h"
 #include "layered.h"
 #include "lobe.h"
+#include "measured.h"
 #include "sample.h"
 
 #include <math.h>
@@ -61,6 +62,10 @@ void bsdf_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double 
             layered_eval(b, wo, wi, rng, f);
         return;
     }
+    if (b->kind == BSDF_MEASURED) {
+        measured_eval(b->measured, wo, wi, b->lambda, n, f);
+        return;
+    }
     for (int j = 0; j < n; j++) {
         switch (b->kind) {
         case BSDF_DIFFUSE:
@@ -88,6 +93,12 @@ void bsdf_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *
     if (coated(b)) {
         if (n > 0)
             layered_pdf(b, wo, wi, rng, pdf);
+        return;
+    }
+    if (b->kind == BSDF_MEASURED) {
+        double p = measured_pdf(b->measured, wo, wi);
+        for (int j = 0; j < n; j++)
+            pdf[j] = p;
         return;
     }
     for (int j = 0; j < n; j++) {
@@ -251,6 +262,15 @@ bool bsdf_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, dou
     case BSDF_COATED_DIFFUSE:
     case BSDF_COATED_CONDUCTOR:
         return layered_sample(b, wo, hero, uc, u1, u2, rng, out);
+    case BSDF_MEASURED: {
+        double p;
+        if (!measured_sample(b->measured, wo, u1, u2, b->lambda, n, &out->wi, out->f, &p))
+            return false;
+        out->flags = BSDF_REFLECTION;
+        for (int j = 0; j < n; j++)
+            out->pdf[j] = p;
+        return true;
+    }
     }
     return false;
 }

@@ -4,7 +4,8 @@
  * from a material and its textures (per lane: what varies with wavelength), then samples and
  * evaluates. pbrt-v4's BxDFs are the reference for what each model and parameter means:
  * DiffuseBxDF, DiffuseTransmissionBxDF, ConductorBxDF, DielectricBxDF, ThinDielectricBxDF,
- * CoatedDiffuseBxDF and CoatedConductorBxDF (its stochastic LayeredBxDF).
+ * CoatedDiffuseBxDF and CoatedConductorBxDF (its stochastic LayeredBxDF), MeasuredBxDF (RGL's
+ * measured files, measured.h).
  *
  * Guarantees: every f, pdf and weight is finite and >= 0 for any unit wo, wi (grazing,
  * wo or wi in the plane, roughness down to 1e-4): never NaN or Inf. Sampling is consistent

@@ -22,6 +22,7 @@ typedef enum bsdf_kind {
                                 * over Lambertian reflectance[j] */
     BSDF_COATED_CONDUCTOR,     /* dielectric interface (eta[j], mf) over a medium over a conductor
                                 * (cond_eta[j], cond_k[j] relative to the coating, mf_base) */
+    BSDF_MEASURED,             /* RGL's measured BRDF data (measured.h) read at lambda[j] */
 } bsdf_kind_t;
 
 /* pbrt-v4's TransportMode: radiance for camera paths, importance for light (photon) paths;
@@ -34,6 +35,8 @@ enum {
     BSDF_TRANSMISSION = 2,
     BSDF_SPECULAR = 4, /* a delta lobe: f and pdf are the weights of a Dirac, not densities */
 };
+
+struct measured;
 
 typedef struct bsdf {
     bsdf_kind_t kind;
@@ -50,6 +53,9 @@ typedef struct bsdf {
     double albedo[BSDF_MAX_LANES];  /* medium single-scattering albedo, 0: no medium */
     double g;                       /* Henyey-Greenstein asymmetry */
     int maxdepth, nsamples;         /* pbrt-v4 defaults 10 and 1 */
+    /* Measured: the data (the scene's) and each lane's wavelength in nm. */
+    const struct measured *measured;
+    double lambda[BSDF_MAX_LANES];
 } bsdf_t;
 
 typedef struct bsdf_sample {

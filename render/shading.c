@@ -140,6 +140,12 @@ void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda
             b->cond_k[j] /= b->eta[j];
         }
         return;
+    case MATERIAL_MEASURED:
+        b->kind = BSDF_MEASURED;
+        b->measured = m->measured;
+        for (int j = 0; j < n; j++)
+            b->lambda[j] = lambda[j];
+        return;
     case MATERIAL_DIFFUSE:
     default:
         b->kind = BSDF_DIFFUSE;

@@ -215,6 +215,8 @@ const char *plan_material_kind_name(material_kind_t kind)
         return "polarizer";
     case MATERIAL_RETARDER:
         return "retarder";
+    case MATERIAL_MEASURED:
+        return "measured";
     }
     return "?";
 }

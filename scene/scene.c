@@ -102,6 +102,12 @@ void scene_destroy(scene_t **self_p)
     for (size_t i = 0; i < self->nprojmaps; i++)
         projmap_destroy(&self->projmaps[i]);
     free(self->projmaps);
+    for (size_t i = 0; i < self->nmeasured; i++) {
+        measured_destroy(&self->measured[i]);
+        free(self->measured_paths[i]);
+    }
+    free(self->measured);
+    free(self->measured_paths);
     for (size_t i = 0; i < self->nmedia; i++)
         medium_destroy(&self->media[i]);
     free(self->media);
@@ -170,6 +176,35 @@ int scene_own_projmap(scene_t *self, projmap_t *m, err_t *err)
     }
     self->projmaps[i] = m;
     return 0;
+}
+
+int scene_own_measured(scene_t *self, measured_t *m, const char *path, err_t *err)
+{
+    const size_t len = strlen(path) + 1, n = self->nmeasured;
+    char *copy = malloc(len);
+    if (copy)
+        memcpy(copy, path, len);
+    char **paths = copy ? realloc(self->measured_paths, (n + 1) * sizeof *paths) : NULL;
+    if (paths)
+        self->measured_paths = paths;
+    long i = paths ? grow((void **)&self->measured, &self->nmeasured, sizeof *self->measured, err)
+                   : err_set(err, "out of memory");
+    if (i < 0) {
+        free(copy);
+        measured_destroy(&m);
+        return -1;
+    }
+    self->measured[i] = m;
+    self->measured_paths[i] = copy;
+    return 0;
+}
+
+const measured_t *scene_find_measured(const scene_t *self, const char *path)
+{
+    for (size_t i = 0; i < self->nmeasured; i++)
+        if (!strcmp(self->measured_paths[i], path))
+            return self->measured[i];
+    return NULL;
 }
 
 int scene_add_medium(scene_t *self, medium_t *m, err_t *err)

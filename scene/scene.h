@@ -23,6 +23,7 @@
 #include "integrators.h"
 #include "lens.h"
 #include "light_bvh.h"
+#include "measured.h"
 #include "medium.h"
 #include "sensor.h"
 #include "spectral_grid.h"
@@ -48,6 +49,7 @@ typedef enum material_kind {
     MATERIAL_MIX,                  /* one of two materials, chosen per hit by amount */
     MATERIAL_POLARISER,            /* a thin linear polariser sheet, crossed straight */
     MATERIAL_RETARDER,             /* a thin linear retarder sheet (a wave plate) */
+    MATERIAL_MEASURED,             /* RGL's measured BSDF data (bsdf/measured.h) */
 } material_kind_t;
 
 /* The numbers of a material; textures are NULL where the material has no such input (a
@@ -108,6 +110,8 @@ typedef struct material {
      * quarter-wave plate, the same at every wavelength). */
     double sheet_angle;
     double retardance;
+    /* measured: the file's data (owned by the scene, scene_own_measured) */
+    const measured_t *measured;
 } material_t;
 
 typedef enum light_kind {
@@ -366,6 +370,9 @@ typedef struct scene {
     size_t nenvmaps;
     projmap_t **projmaps; /* owned */
     size_t nprojmaps;
+    measured_t **measured; /* owned; with the path each was read from (measured_paths) */
+    char **measured_paths;
+    size_t nmeasured;
     camera_t camera;
     filter_sampler_t *filter; /* settings.filter's sampler (owned); NULL: the box of radius 0.5 */
     /* The Film's sensor (owned); NULL: cie1931 without white balance, the film records XYZ. */
@@ -410,6 +417,10 @@ int scene_own_spectrum(scene_t *self, spectrum_t *s, err_t *err);
 int scene_own_envmap(scene_t *self, envmap_t *e, err_t *err);
 /* Likewise for a projection light's image (freed on failure too). */
 int scene_own_projmap(scene_t *self, projmap_t *m, err_t *err);
+/* Likewise for a measured BSDF read from path (freed on failure too), which
+ * scene_find_measured finds by that path (NULL: none yet). */
+int scene_own_measured(scene_t *self, measured_t *m, const char *path, err_t *err);
+const measured_t *scene_find_measured(const scene_t *self, const char *path);
 /* Appends a medium (owned from here on, also on failure; NULL: one that is not simulated) and
  * returns its index, or -1. */
 int scene_add_medium(scene_t *self, medium_t *m, err_t *err);

@@ -2,6 +2,7 @@
 
 #include "cie.h"
 #include "colour.h"
+#include "files.h"
 #include "glass.h"
 #include "microfacet.h"
 #include "named_spectra.h"
@@ -818,6 +819,27 @@ static int material_for_shape(loader_t *L, int idx, const transform_t *to_world,
     return scene_add_material(L->sc, &m, err);
 }
 
+/* pbrt-v4's MeasuredMaterial: the .bsdf file, read once however many materials name it (as
+ * pbrt-v4 does), its bytes bounded as any file a scene reads is. */
+static int measured_input(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+{
+    m->kind = MATERIAL_MEASURED;
+    if ((m->measured = scene_find_measured(L->sc, dm->filename)))
+        return 0;
+    const pbrt_loc_t at = dm->filename_loc;
+    uint8_t *bytes;
+    size_t len;
+    measured_t *md = NULL;
+    if (files_read(dm->filename, PBRT_FILE_BYTES_MAX, &bytes, &len, err) == 0) {
+        md = measured_new(bytes, len, dm->filename, err);
+        free(bytes);
+    }
+    if (!md)
+        return err_prefix(err, "%s:%d:%d: Material \"measured\": ", at.file, at.line, at.col);
+    m->measured = md;
+    return scene_own_measured(L->sc, md, dm->filename, err);
+}
+
 static int load_materials(loader_t *L, err_t *err)
 {
     const scene_desc_t *d = L->desc;
@@ -903,6 +925,9 @@ static int load_materials(loader_t *L, err_t *err)
             m.kind = dm->type == SCENE_MATERIAL_POLARIZER ? MATERIAL_POLARISER : MATERIAL_RETARDER;
             m.sheet_angle = dm->sheet_angle * (PF_PI / 180.0);
             m.retardance = dm->retardance * (PF_PI / 180.0);
+            break;
+        case SCENE_MATERIAL_MEASURED:
+            rc = measured_input(L, dm, &m, err);
             break;
         }
         if (rc)

@@ -483,25 +483,25 @@ static bool ends_with_png(const char *s)
     return n >= 4 && !strcasecmp(s + n - 4, ".png");
 }
 
-/* An image file named by fp (a texture, a normal map, an environment): the path to open
- * into *out (in a confined parse the checked real path, its bytes charged), listed among the
- * files read. A PNG in a confined parse is charged for its decoded pixels too
- * (pbrt_confine_charge_png). */
-int pbrt_inputs_image_file(parser_t *P, const param_t *fp, const char *filename, const char **out)
+/* A file named by fp that the loader reads: the path to open into *out (in a confined parse
+ * the checked real path, its bytes charged), listed among the files read as kind. A PNG image
+ * in a confined parse is charged for its decoded pixels too (pbrt_confine_charge_png). */
+static int loaded_file(parser_t *P, const param_t *fp, const char *filename, const char *what,
+                       scene_file_kind_t file_kind, const char **out)
 {
     const char *path = pbrt_confine_scene_path(P, filename, fp->loc);
     if (!path)
         return -1;
     if (P->root_real) {
-        char *real = pbrt_confine_check(P, path, filename, &fp->loc, "image");
+        char *real = pbrt_confine_check(P, path, filename, &fp->loc, what);
         if (!real)
             return -1;
         int rc;
-        if (ends_with_png(filename)) {
+        if (file_kind == SCENE_FILE_IMAGE && ends_with_png(filename)) {
             rc = pbrt_confine_charge_png(P, real, filename, path, &fp->loc);
         } else {
             size_t size;
-            int fd = pbrt_confine_open(P, real, filename, path, &fp->loc, "image", &size);
+            int fd = pbrt_confine_open(P, real, filename, path, &fp->loc, what, &size);
             rc = fd < 0 ? -1 : pbrt_confine_charge(P, size, &fp->loc);
             if (fd >= 0)
                 close(fd);
@@ -515,10 +515,22 @@ int pbrt_inputs_image_file(parser_t *P, const param_t *fp, const char *filename,
         char why[96];
         FILE *f = pbrt_confine_open_regular(path, &kind);
         if (!f)
-            return pbrt_error(P->err, fp->loc, "cannot open image \"%s\": %s", path,
+            return pbrt_error(P->err, fp->loc, "cannot open %s \"%s\": %s", what, path,
                               pbrt_confine_open_failure(kind, why, sizeof why));
         fclose(f);
         *out = path;
     }
-    return pbrt_inputs_note_file(P, SCENE_FILE_IMAGE, path, filename, fp->loc);
+    return pbrt_inputs_note_file(P, file_kind, path, filename, fp->loc);
+}
+
+/* An image file named by fp (a texture, a normal map, an environment). */
+int pbrt_inputs_image_file(parser_t *P, const param_t *fp, const char *filename, const char **out)
+{
+    return loaded_file(P, fp, filename, "image", SCENE_FILE_IMAGE, out);
+}
+
+int pbrt_inputs_data_file(parser_t *P, const param_t *fp, const char *filename, const char *what,
+                          scene_file_kind_t kind, const char **out)
+{
+    return loaded_file(P, fp, filename, what, kind, out);
 }

@@ -26,5 +26,9 @@ int pbrt_inputs_float(parser_t *P, params_t *ps, const char *name, double def,
 int pbrt_inputs_spectrum_input(parser_t *P, params_t *ps, const char *name, scene_spectrum_t def,
                                int use, scene_spectrum_input_t *out);
 int pbrt_inputs_image_file(parser_t *P, const param_t *fp, const char *filename, const char **out);
+/* Any other file the loader reads (what: its kind in messages, "measured BSDF"), confined,
+ * charged and listed as an image file is, as kind. */
+int pbrt_inputs_data_file(parser_t *P, const param_t *fp, const char *filename, const char *what,
+                          scene_file_kind_t kind, const char **out);
 
 #endif

@@ -227,6 +227,7 @@ static const pbrt_name_t MATERIALS[] = {
     {"interface", SCENE_MATERIAL_INTERFACE},
     {"polarizer", SCENE_MATERIAL_POLARIZER},
     {"retarder", SCENE_MATERIAL_RETARDER},
+    {"measured", SCENE_MATERIAL_MEASURED},
     {NULL, 0},
     {"polariser", SCENE_MATERIAL_POLARIZER},
     {"", SCENE_MATERIAL_INTERFACE},
@@ -307,6 +308,21 @@ static int get_uniaxial(parser_t *P, params_t *ps, scene_material_t *m)
                : 0;
 }
 
+/* pbrt-v4's MeasuredMaterial: "string filename", an RGL .bsdf file, found, confined and listed
+ * like every file a scene names (so a bundle carries it); the loader reads it. */
+static int get_measured(parser_t *P, params_t *ps, scene_material_t *m)
+{
+    const char *filename;
+    if (params_get_string(ps, "filename", NULL, &filename, P->err) != 0)
+        return -1;
+    if (!filename || !*filename)
+        return pbrt_error(P->err, m->loc,
+                          "Material \"measured\" needs \"string filename\" (an RGL .bsdf file)");
+    const param_t *fp = params_find(ps, "filename");
+    m->filename_loc = fp->loc;
+    return pbrt_inputs_data_file(P, fp, filename, "measured BSDF", SCENE_FILE_BSDF, &m->filename);
+}
+
 static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_t type_loc,
                           scene_material_t *m)
 {
@@ -376,6 +392,9 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
     }
     if (m->type == SCENE_MATERIAL_UNIAXIAL) {
         return get_uniaxial(P, ps, m);
+    }
+    if (m->type == SCENE_MATERIAL_MEASURED) {
+        return get_measured(P, ps, m);
     }
     if (m->type == SCENE_MATERIAL_POLARIZER || m->type == SCENE_MATERIAL_RETARDER) {
         /* Thin polarising sheets (docs/physics.md §14): the axis angle in degrees, and a

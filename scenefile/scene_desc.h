@@ -151,6 +151,7 @@ typedef enum scene_material_type {
     SCENE_MATERIAL_UNIAXIAL, /* extension: a uniaxial birefringent crystal */
     SCENE_MATERIAL_POLARIZER, /* prismfarm: a thin linear polariser sheet */
     SCENE_MATERIAL_RETARDER,  /* prismfarm: a thin linear retarder sheet (wave plate) */
+    SCENE_MATERIAL_MEASURED,  /* pbrt-v4's measured BSDF: an RGL .bsdf file */
 } scene_material_type_t;
 
 typedef enum scene_ior_kind {
@@ -228,6 +229,10 @@ typedef struct scene_material {
      * transmission or fast axis in degrees from the surface's u direction (0), and the
      * retarder's "retardance" in degrees (90: a quarter-wave plate). */
     double sheet_angle, retardance;
+    /* MEASURED: "string filename", the RGL .bsdf file's path as opened (a confined parse: its
+     * checked real path), written at filename_loc; the loader reads it. */
+    const char *filename;
+    pbrt_loc_t filename_loc;
 } scene_material_t;
 
 /* ---- lights ---- */
@@ -377,6 +382,7 @@ typedef enum scene_file_kind {
     SCENE_FILE_IMAGE,   /* Texture "imagemap" or LightSource "infinite" "string filename" */
     SCENE_FILE_SPECTRUM, /* "spectrum x" "file.spd": a pbrt-v4 spectrum file */
     SCENE_FILE_LENS,     /* Camera "realistic" "string lensfile" */
+    SCENE_FILE_BSDF,     /* Material "measured" "string filename": an RGL .bsdf file */
 } scene_file_kind_t;
 
 typedef struct scene_file {

@@ -1177,15 +1177,15 @@ static void test_error_messages(void **state)
          "t.pbrt:2:10: unsupported material \"difuse\" (did you mean \"diffuse\"? \"diffuse\", "
          "\"conductor\", \"dielectric\", \"thindielectric\", \"diffusetransmission\", "
          "\"coateddiffuse\", \"coatedconductor\", \"mix\", \"uniaxial\", \"interface\", "
-         "\"polarizer\" or "
-         "\"retarder\")"},
+         "\"polarizer\", "
+         "\"retarder\" or \"measured\")"},
         {"Sampler \"sobel\"\nWorldBegin\n",
          "t.pbrt:1:9: unsupported sampler \"sobel\" (did you mean \"sobol\"? \"halton\", "
          "\"independent\", \"paddedsobol\", \"pmj02bn\", \"sobol\", \"stratified\" or \"zsobol\")"},
         {"WorldBegin\nMaterial \"hair\"\n",
          "t.pbrt:2:10: unsupported material \"hair\" (\"diffuse\", \"conductor\", \"dielectric\", "
          "\"thindielectric\", \"diffusetransmission\", \"coateddiffuse\", \"coatedconductor\", "
-         "\"mix\", \"uniaxial\", \"interface\", \"polarizer\" or \"retarder\")"},
+         "\"mix\", \"uniaxial\", \"interface\", \"polarizer\", \"retarder\" or \"measured\")"},
         {"WorldBegin\nMaterial \"mix\" \"string materials\" [\"a\" \"b\"]\n",
          "t.pbrt:2:16: mix: named material \"a\" is not defined (a MakeNamedMaterial must come "
          "before the mix that uses it)"},
