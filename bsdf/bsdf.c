@@ -1,6 +1,7 @@
 #include "bsdf.h"
 
 #include "fresnel.h"
+#include "hair.h"
 #include "layered.h"
 #include "lobe.h"
 #include "sample.h"
@@ -61,6 +62,10 @@ void bsdf_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double 
             layered_eval(b, wo, wi, rng, f);
         return;
     }
+    if (b->kind == BSDF_HAIR) {
+        hair_eval(b, wo, wi, f);
+        return;
+    }
     for (int j = 0; j < n; j++) {
         switch (b->kind) {
         case BSDF_DIFFUSE:
@@ -88,6 +93,10 @@ void bsdf_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *
     if (coated(b)) {
         if (n > 0)
             layered_pdf(b, wo, wi, rng, pdf);
+        return;
+    }
+    if (b->kind == BSDF_HAIR) {
+        hair_pdf(b, wo, wi, pdf);
         return;
     }
     for (int j = 0; j < n; j++) {
@@ -251,6 +260,8 @@ bool bsdf_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, dou
     case BSDF_COATED_DIFFUSE:
     case BSDF_COATED_CONDUCTOR:
         return layered_sample(b, wo, hero, uc, u1, u2, rng, out);
+    case BSDF_HAIR:
+        return hair_sample(b, wo, hero, uc, u1, u2, out);
     }
     return false;
 }

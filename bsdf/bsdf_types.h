@@ -22,6 +22,7 @@ typedef enum bsdf_kind {
                                 * over Lambertian reflectance[j] */
     BSDF_COATED_CONDUCTOR,     /* dielectric interface (eta[j], mf) over a medium over a conductor
                                 * (cond_eta[j], cond_k[j] relative to the coating, mf_base) */
+    BSDF_HAIR,                 /* a hair fibre (bsdf/hair.h): hair_* and sigma_a[j] */
 } bsdf_kind_t;
 
 /* pbrt-v4's TransportMode: radiance for camera paths, importance for light (photon) paths;
@@ -50,6 +51,11 @@ typedef struct bsdf {
     double albedo[BSDF_MAX_LANES];  /* medium single-scattering albedo, 0: no medium */
     double g;                       /* Henyey-Greenstein asymmetry */
     int maxdepth, nsamples;         /* pbrt-v4 defaults 10 and 1 */
+    /* Hair (bsdf/hair.h): the offset h in [-1, 1] across the fibre, its index (one for every
+     * lane), longitudinal and azimuthal roughness in [0.01, 1], the scales' tilt in degrees,
+     * and each lane's absorption per unit radius. */
+    double hair_h, hair_eta, hair_beta_m, hair_beta_n, hair_alpha;
+    double sigma_a[BSDF_MAX_LANES];
 } bsdf_t;
 
 typedef struct bsdf_sample {
