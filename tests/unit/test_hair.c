@@ -12,7 +12,11 @@
  * - Chiang et al.'s reflectance inversion: the absorption sigma_a(c) of a colour c, put
  *   through the inverse formula, gives c back; and c = 1 needs no absorption;
  * - the bsdf/ dispatch gives hair_eval's numbers, finite everywhere (grazing, along the
- *   fibre). */
+ *   fibre);
+ * - end to end: tests/data/scenes/hair.pbrt (curves of each basis and type, the material's
+ *   three sources of absorption) renders through the farm (two workers, small tiles) to the
+ *   bytes --direct gives, every pixel finite, and the strands are seen: the pixels the curves
+ *   cover differ from the same scene with the curves taken out. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -25,7 +29,11 @@
 #include <string.h>
 
 #include "bsdf.h"
+#include "cli_run.h"
+#include "files.h"
+#include "files_testutil.h"
 #include "hair.h"
+#include "image_exr.h"
 #include "sample.h"
 
 static bsdf_t hair(double h, double bm, double bn, double alpha, double sigma_a, int n)
@@ -283,13 +291,94 @@ static void test_dispatch_finite(void **state)
     assert_false(bsdf_lanes_disperse(&b));
 }
 
+static image_exr_t *render(const char *scene, const char *out, int farm)
+{
+    const run_t *r =
+        farm ? run("render", scene, "-o", out, "--workers", "2", "--tile", "8", "--quiet", NULL)
+             : run("render", scene, "-o", out, "--direct", "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("render %s: exit %d: %s", scene, r->status, r->err);
+    err_t err;
+    image_exr_t *x = image_exr_read(out, &err);
+    if (!x)
+        fail_msg("%s", err.msg);
+    return x;
+}
+
+static void test_render_through_the_farm(void **state)
+{
+    (void)state;
+    const char *scene = "data/scenes/hair.pbrt";
+    image_exr_t *x = render(scene, testutil_scratch("farm.exr"), 1);
+    image_exr_t *y = render(scene, testutil_scratch("direct.exr"), 0);
+    const size_t npix = 32 * 24;
+    assert_int_equal(image_exr_width(x), 32);
+    assert_memory_equal(image_exr_rgb(x), image_exr_rgb(y), npix * 3 * sizeof(float));
+    assert_int_equal(image_exr_n_spectral(x), image_exr_n_spectral(y));
+    assert_memory_equal(image_exr_spectral(x), image_exr_spectral(y),
+                        npix * (size_t)image_exr_n_spectral(x) * sizeof(float));
+    /* The same scene without its curves (every "Shape \"curve\"" made a comment). */
+    uint8_t *text;
+    size_t len;
+    err_t err;
+    assert_int_equal(files_read(scene, 1 << 20, &text, &len, &err), 0);
+    char *bare = malloc(len + 1);
+    assert_non_null(bare);
+    memcpy(bare, text, len);
+    bare[len] = 0;
+    free(text);
+    for (char *at = bare; (at = strstr(at, "Shape \"curve\"")); at++) {
+        /* Comment out the directive and its continuation lines (indented, starting with a
+         * quote, a bracket or a number, never a directive). */
+        for (char *line = at;;) {
+            *line = '#';
+            char *nl = strchr(line, '\n');
+            if (!nl)
+                break;
+            char *next = nl + 1;
+            while (*next == ' ')
+                next++;
+            if (*next != '"' && *next != '-' && *next != '[' && !(*next >= '0' && *next <= '9'))
+                break;
+            line = nl + 1;
+        }
+    }
+    const char *bare_path = testutil_scratch("bare.pbrt");
+    testutil_write_text(bare_path, bare, 0644);
+    free(bare);
+    image_exr_t *z = render(bare_path, testutil_scratch("bare.exr"), 0);
+    const float *a = image_exr_rgb(x), *b = image_exr_rgb(z);
+    double mean = 0.0;
+    int differ = 0;
+    for (size_t i = 0; i < npix; i++) {
+        for (int c = 0; c < 3; c++) {
+            assert_true(isfinite(a[3 * i + c]) && a[3 * i + c] >= 0.0f);
+            mean += a[3 * i + c] / (3.0 * npix);
+        }
+        differ += fabs(a[3 * i + 1] - b[3 * i + 1]) > 0.05 * (b[3 * i + 1] + 0.01);
+    }
+    print_message("mean %.4f, %d of %zu pixels changed by the strands\n", mean, differ, npix);
+    /* The strands cover about a tenth of the frame (their widths, 0.07 to 0.1, over a view
+     * 3.2 units wide at 32 pixels: about one pixel each, 2 units tall: 10 pixels each). */
+    assert_true(differ > 30 && differ < 300);
+    assert_true(mean > 0.02 && mean < 2.0);
+    image_exr_destroy(&x);
+    image_exr_destroy(&y);
+    image_exr_destroy(&z);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_white_furnace),      cmocka_unit_test(test_absorption),
-        cmocka_unit_test(test_sampling_weights),   cmocka_unit_test(test_sampling_histogram),
-        cmocka_unit_test(test_reciprocity),        cmocka_unit_test(test_reflectance_inversion),
-        cmocka_unit_test(test_reflectance_orders), cmocka_unit_test(test_dispatch_finite),
+        cmocka_unit_test(test_white_furnace),
+        cmocka_unit_test(test_absorption),
+        cmocka_unit_test(test_sampling_weights),
+        cmocka_unit_test(test_sampling_histogram),
+        cmocka_unit_test(test_reciprocity),
+        cmocka_unit_test(test_reflectance_inversion),
+        cmocka_unit_test(test_reflectance_orders),
+        cmocka_unit_test(test_dispatch_finite),
+        cmocka_unit_test(test_render_through_the_farm),
     };
-    return cmocka_run_group_tests(tests, NULL, NULL);
+    return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }
