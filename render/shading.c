@@ -221,6 +221,15 @@ static vec3_t gram_schmidt(vec3_t v, vec3_t w)
 
 void shading_perturb(const material_t *m, surface_t *sf)
 {
+    if (m->kind == MATERIAL_HAIR) {
+        /* The fibre's model sees the normal only up to a rotation about the fibre (bsdf/hair.h),
+         * so a "cylinder" curve's tilted normal changes nothing in it but would let the
+         * renderer's geometric-side test cut its lobes (5 % of a fibre's light in a white
+         * furnace): it shades with the geometric normal. */
+        sf->ns = sf->ng;
+        sf->smooth = 0;
+        return;
+    }
     if (!m->displacement && !m->normalmap)
         return;
     vec3_t n = sf->ns, ng = sf->ng;
