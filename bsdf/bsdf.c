@@ -1,6 +1,7 @@
 #include "bsdf.h"
 
 #include "fresnel.h"
+#include "hair.h"
 #include "layered.h"
 #include "lobe.h"
 #include "measured.h"
@@ -66,6 +67,10 @@ void bsdf_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double 
         measured_eval(b->measured, wo, wi, b->lambda, n, f);
         return;
     }
+    if (b->kind == BSDF_HAIR) {
+        hair_eval(b, wo, wi, f);
+        return;
+    }
     for (int j = 0; j < n; j++) {
         switch (b->kind) {
         case BSDF_DIFFUSE:
@@ -99,6 +104,10 @@ void bsdf_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *
         double p = measured_pdf(b->measured, wo, wi);
         for (int j = 0; j < n; j++)
             pdf[j] = p;
+        return;
+    }
+    if (b->kind == BSDF_HAIR) {
+        hair_pdf(b, wo, wi, pdf);
         return;
     }
     for (int j = 0; j < n; j++) {
@@ -271,6 +280,8 @@ bool bsdf_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, dou
             out->pdf[j] = p;
         return true;
     }
+    case BSDF_HAIR:
+        return hair_sample(b, wo, hero, uc, u1, u2, out);
     }
     return false;
 }

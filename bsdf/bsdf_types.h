@@ -23,6 +23,7 @@ typedef enum bsdf_kind {
     BSDF_COATED_CONDUCTOR,     /* dielectric interface (eta[j], mf) over a medium over a conductor
                                 * (cond_eta[j], cond_k[j] relative to the coating, mf_base) */
     BSDF_MEASURED,             /* RGL's measured BRDF data (measured.h) read at lambda[j] */
+    BSDF_HAIR,                 /* a hair fibre (bsdf/hair.h): hair_* and sigma_a[j] */
 } bsdf_kind_t;
 
 /* pbrt-v4's TransportMode: radiance for camera paths, importance for light (photon) paths;
@@ -56,6 +57,11 @@ typedef struct bsdf {
     /* Measured: the data (the scene's) and each lane's wavelength in nm. */
     const struct measured *measured;
     double lambda[BSDF_MAX_LANES];
+    /* Hair (bsdf/hair.h): the offset h in [-1, 1] across the fibre, its index (one for every
+     * lane), longitudinal and azimuthal roughness in [0.01, 1], the scales' tilt in degrees,
+     * and each lane's absorption per unit radius. */
+    double hair_h, hair_eta, hair_beta_m, hair_beta_n, hair_alpha;
+    double sigma_a[BSDF_MAX_LANES];
 } bsdf_t;
 
 typedef struct bsdf_sample {

@@ -34,6 +34,7 @@ void regularize_bsdf(bsdf_t *b)
     case BSDF_DIFFUSE_TRANSMISSION:
     case BSDF_THIN_DIELECTRIC:
     case BSDF_MEASURED: /* pbrt-v4's MeasuredBxDF::Regularize does nothing */
+    case BSDF_HAIR: /* pbrt-v4's HairBxDF::Regularize does nothing */
         return;
     }
 }

@@ -2,6 +2,7 @@
 
 #include "volume.h"
 
+#include "hair.h"
 #include "microfacet.h"
 
 #include <math.h>
@@ -94,6 +95,36 @@ static double coat_eta(const material_t *m, double lambda)
     return e > 0.0 ? e : 1.0;
 }
 
+/* pbrt-v4 HairMaterial::GetBxDF: the roughnesses clamped to [0.01, 1], the offset across the
+ * fibre h = -1 + 2 v (a curve's v runs across its width), each lane's absorption >= 0. */
+static void hair(const material_t *m, const surface_t *sf, const double *lambda, int n, bsdf_t *b)
+{
+    b->kind = BSDF_HAIR;
+    b->hair_h = fmin(1.0, fmax(-1.0, -1.0 + 2.0 * sf->v));
+    b->hair_eta = shading_texture(m->hair.eta, sf, 550.0);
+    b->hair_eta = b->hair_eta > 0.0 ? b->hair_eta : 1.55;
+    b->hair_beta_m = fmin(1.0, fmax(0.01, shading_texture(m->hair.beta_m, sf, 550.0)));
+    b->hair_beta_n = fmin(1.0, fmax(0.01, shading_texture(m->hair.beta_n, sf, 550.0)));
+    b->hair_alpha = shading_texture(m->hair.alpha, sf, 550.0);
+    double ce = 0.0, cp = 0.0;
+    if (!m->hair.sigma_a && !m->hair.reflectance) {
+        ce = fmax(0.0, shading_texture(m->hair.eumelanin, sf, 550.0));
+        cp = fmax(0.0, shading_texture(m->hair.pheomelanin, sf, 550.0));
+    }
+    for (int j = 0; j < n; j++) {
+        double sa;
+        if (m->hair.sigma_a)
+            sa = shading_texture(m->hair.sigma_a, sf, lambda[j]);
+        else if (m->hair.reflectance)
+            sa = hair_sigma_a_from_reflectance(
+                clamp01(shading_texture(m->hair.reflectance, sf, lambda[j])), b->hair_beta_n);
+        else
+            sa = ce * shading_texture(m->hair.eu_sigma, sf, lambda[j]) +
+                 cp * shading_texture(m->hair.pheo_sigma, sf, lambda[j]);
+        b->sigma_a[j] = isfinite(sa) && sa > 0.0 ? sa : 0.0;
+    }
+}
+
 void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda, int n,
                   bsdf_mode_t mode, bsdf_t *b)
 {
@@ -146,6 +177,9 @@ void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda
         for (int j = 0; j < n; j++)
             b->lambda[j] = lambda[j];
         return;
+    case MATERIAL_HAIR:
+        hair(m, sf, lambda, n, b);
+        return;
     case MATERIAL_DIFFUSE:
     default:
         b->kind = BSDF_DIFFUSE;
@@ -193,6 +227,15 @@ static vec3_t gram_schmidt(vec3_t v, vec3_t w)
 
 void shading_perturb(const material_t *m, surface_t *sf)
 {
+    if (m->kind == MATERIAL_HAIR) {
+        /* The fibre's model sees the normal only up to a rotation about the fibre (bsdf/hair.h),
+         * so a "cylinder" curve's tilted normal changes nothing in it but would let the
+         * renderer's geometric-side test cut its lobes (5 % of a fibre's light in a white
+         * furnace): it shades with the geometric normal. */
+        sf->ns = sf->ng;
+        sf->smooth = 0;
+        return;
+    }
     if (!m->displacement && !m->normalmap)
         return;
     vec3_t n = sf->ns, ng = sf->ng;

@@ -44,7 +44,8 @@ void shading_conductor_index(const material_t *m, const surface_t *sf, double la
  * product. Either way ns is turned to ng's side (pbrt-v4 SetShadingGeometry), dp/du and dp/dv
  * follow and sf->smooth is set, so that every material, the diffuse one and the delta code
  * included, shades with it. Nothing is done (a pointer test) when m has neither. Call it once
- * per hit, after scene_surface and shading_resolve, in the camera and photon passes alike. */
+ * per hit, after scene_surface and shading_resolve, in the camera and photon passes alike. A
+ * hair fibre (no maps: pbrt-v4 has none for it) gets ng as its shading normal. */
 void shading_perturb(const material_t *m, surface_t *sf);
 
 /* pbrt-v4's alpha test (GeometricPrimitive::Intersect) at a hit sf reached along org + t dir:

@@ -27,7 +27,7 @@ typedef struct instance {
     int swaps; /* to_world swaps handedness */
 } instance_t;
 
-typedef enum { GEOM_MESH, GEOM_ANALYTIC, GEOM_INSTANCE } geom_kind_t;
+typedef enum { GEOM_MESH, GEOM_ANALYTIC, GEOM_INSTANCE, GEOM_CURVES } geom_kind_t;
 
 /* A mesh's view of Embree's own vertex and index buffers (owned by the Embree geometry, which
  * its scene keeps alive): hit points are rebuilt from barycentrics, and the filter functions
@@ -37,6 +37,12 @@ typedef struct mesh {
     const float *verts;
     const unsigned *tris;
 } mesh_t;
+
+/* Curves' view of Embree's vertex buffer (x, y, z, radius; 4 per segment, segment k's first at
+ * 4 k: the index buffer is 0, 4, 8, ...). */
+typedef struct curves {
+    const float *verts;
+} curves_t;
 
 /* What one Embree geometry id of a group is. Analytic shapes and instances are allocated one
  * by one because Embree keeps a pointer to each analytic shape as user data: they must not
@@ -48,6 +54,7 @@ typedef struct geom_info {
     analytic_t *analytic;
     instance_t *instance;
     mesh_t *mesh;
+    curves_t *curves;
 } geom_info_t;
 
 /* An Embree scene: group 0 is the world, group k > 0 is object k - 1. */
@@ -167,6 +174,7 @@ void geometry_destroy(geometry_t **self_p)
             free(g->info[i].analytic);
             free(g->info[i].instance);
             free(g->info[i].mesh);
+            free(g->info[i].curves);
         }
         free(g->info);
     }
@@ -321,6 +329,140 @@ int geometry_object_add_mesh(geometry_t *self, int object, const double *positio
     grp->hi = hi;
     grp->nshapes++;
     return 0;
+}
+
+void geometry_bezier(const double *cp, double u, vec3_t *p, vec3_t *dpdu)
+{
+    double s = 1.0 - u;
+    double b[4] = {s * s * s, 3.0 * s * s * u, 3.0 * s * u * u, u * u * u};
+    double d[4] = {-3.0 * s * s, 3.0 * s * s - 6.0 * s * u, 6.0 * s * u - 3.0 * u * u, 3.0 * u * u};
+    vec3_t q = {0, 0, 0}, t = {0, 0, 0};
+    for (int k = 0; k < 4; k++) {
+        vec3_t c = vec3_make(cp[3 * k], cp[3 * k + 1], cp[3 * k + 2]);
+        q = vec3_fma(q, c, b[k]);
+        t = vec3_fma(t, c, d[k]);
+    }
+    *p = q;
+    *dpdu = t;
+}
+
+/* The radius of segment prim of a curve set at u (a cubic Bezier of the control radii). */
+static double curve_radius(const curves_t *c, unsigned prim, double u)
+{
+    const float *v = c->verts + 16 * (size_t)prim;
+    double s = 1.0 - u;
+    return s * s * s * v[3] + 3.0 * s * s * u * v[7] + 3.0 * s * u * u * v[11] + u * u * u * v[15];
+}
+
+/* Drops a curve hit nearer the ray's origin than 2.5 radii (geometry.h). A ray leaving a fibre
+ * starts within a radius of its centre line, and the ribbon that faces it crosses its path
+ * within another, so its own fibre is always dropped. Layouts as in mesh_filter; tfar holds
+ * the candidate's distance, u is at 3N of the hit. */
+static void curve_filter(const struct RTCFilterFunctionNArguments *args)
+{
+    const curves_t *c = args->geometryUserPtr;
+    const float *ray = (const float *)args->ray, *hitf = (const float *)args->hit;
+    const unsigned *hit = (const unsigned *)args->hit;
+    const unsigned N = args->N;
+    for (unsigned i = 0; i < N; i++) {
+        if (!args->valid[i])
+            continue;
+        vec3_t d = vec3_make(ray[4 * N + i], ray[5 * N + i], ray[6 * N + i]);
+        double dist = (double)ray[8 * N + i] * vec3_length(d);
+        if (dist < 2.5 * curve_radius(c, hit[5 * N + i], hitf[3 * N + i]))
+            args->valid[i] = 0;
+    }
+}
+
+int geometry_object_add_curves(geometry_t *self, int object, const double *cp, const double *radii,
+                               size_t nseg, uint32_t shape, err_t *err)
+{
+    group_t *grp = target(self, object, shape, err);
+    if (!grp)
+        return -1;
+    if (nseg == 0 || nseg > UINT32_MAX / 4)
+        return err_set(err, "shape %u: a curve needs 1 to %u segments", shape, UINT32_MAX / 4);
+    for (size_t i = 0; i < 12 * nseg; i++)
+        if (!isfinite(cp[i]))
+            return err_set(err, "shape %u: control point %zu is not finite", shape, i / 3);
+    for (size_t i = 0; i < 4 * nseg; i++)
+        if (!(radii[i] > 0.0) || !isfinite(radii[i]))
+            return err_set(err, "shape %u: radius %zu is not positive", shape, i);
+    RTCGeometry g = rtcNewGeometry(self->device, RTC_GEOMETRY_TYPE_FLAT_BEZIER_CURVE);
+    if (!g)
+        return check_device(self, "creating a curve", err)
+                   ? -1
+                   : err_set(err, "Embree: rtcNewGeometry failed");
+    float *v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4,
+                                       4 * sizeof(float), 4 * nseg);
+    unsigned *ix = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT,
+                                           sizeof(unsigned), nseg);
+    curves_t *c = v && ix ? malloc(sizeof *c) : NULL;
+    if (!c) {
+        rtcReleaseGeometry(g);
+        return check_device(self, "allocating curve buffers", err) ? -1
+                                                                   : err_set(err, "out of memory");
+    }
+    vec3_t lo = grp->lo, hi = grp->hi;
+    for (size_t i = 0; i < 4 * nseg; i++) {
+        for (int k = 0; k < 3; k++)
+            v[4 * i + k] = (float)cp[3 * i + k];
+        v[4 * i + 3] = (float)radii[i];
+        double r = radii[i];
+        grow_bounds(&lo, &hi, vec3_make(cp[3 * i] - r, cp[3 * i + 1] - r, cp[3 * i + 2] - r));
+        grow_bounds(&lo, &hi, vec3_make(cp[3 * i] + r, cp[3 * i + 1] + r, cp[3 * i + 2] + r));
+    }
+    for (size_t k = 0; k < nseg; k++)
+        ix[k] = (unsigned)(4 * k);
+    c->verts = v;
+    rtcSetGeometryUserData(g, c);
+    rtcSetGeometryIntersectFilterFunction(g, curve_filter);
+    rtcSetGeometryOccludedFilterFunction(g, curve_filter);
+    rtcCommitGeometry(g);
+    unsigned id = rtcAttachGeometry(grp->scene, g);
+    rtcReleaseGeometry(g);
+    if (check_device(self, "adding a curve", err) ||
+        record(grp, id, (geom_info_t){.kind = GEOM_CURVES, .shape = shape, .curves = c}, err)) {
+        free(c);
+        return -1;
+    }
+    grp->lo = lo;
+    grp->hi = hi;
+    grp->nshapes++;
+    return 0;
+}
+
+/* A curve hit in the group's space (org, dir there too): the point along the ray (a flat
+ * ribbon is no surface to refine against), h across the ribbon, the normal facing the ray. */
+static void curve_surface(const curves_t *c, unsigned prim, vec3_t org, vec3_t dir, hit_t *out,
+                          vec3_t *p, vec3_t *n)
+{
+    const float *f = c->verts + 16 * (size_t)prim;
+    double cp[12];
+    for (int k = 0; k < 4; k++)
+        for (int j = 0; j < 3; j++)
+            cp[3 * k + j] = f[4 * k + j];
+    double u = fmin(1.0, fmax(0.0, out->u));
+    vec3_t centre, t;
+    geometry_bezier(cp, u, &centre, &t);
+    *p = vec3_fma(org, dir, out->t);
+    vec3_t tn = vec3_normalize(t), d = vec3_normalize(dir);
+    vec3_t across = vec3_cross(d, tn);
+    double len = vec3_length(across);
+    vec3_t x, y;
+    if (!(len > 1e-12) || !isfinite(len)) {
+        /* The ray runs along the fibre: any perpendicular will do. */
+        vec3_basis(tn, &x, &y);
+        across = x;
+        *n = y;
+    } else {
+        across = vec3_scale(across, 1.0 / len);
+        *n = vec3_cross(tn, across); /* = -(d - (d.t) t) / |...|: toward the ray's origin */
+    }
+    double r = curve_radius(c, prim, u);
+    double h = r > 0.0 ? vec3_dot(vec3_sub(*p, centre), across) / r : 0.0;
+    h = isfinite(h) ? fmin(1.0, fmax(-1.0, h)) : 0.0;
+    out->v = 0.5 * (h + 1.0);
 }
 
 int geometry_add_mesh(geometry_t *self, const double *positions, size_t nverts,
@@ -723,6 +865,20 @@ int geometry_intersect(const geometry_t *self, vec3_t org, vec3_t dir, double tm
         out->p = in ? transform_point(&in->to_world, p) : p;
         if (in)
             ng = transform_normal(&in->to_world, ng);
+    } else if (info->kind == GEOM_CURVES) {
+        vec3_t p;
+        out->u = rh.hit.u;
+        if (in) {
+            vec3_t o = transform_point(&in->to_object, org),
+                   d = transform_vector(&in->to_object, dir);
+            curve_surface(info->curves, rh.hit.primID, o, d, out, &p, &ng);
+            out->p = transform_point(&in->to_world, p);
+            ng = transform_normal(&in->to_world, ng);
+        } else {
+            curve_surface(info->curves, rh.hit.primID, org, dir, out, &p, &ng);
+            out->p = p;
+        }
+        flip = 0; /* a ribbon that faces the ray has no outside */
     } else {
         vec3_t p;
         if (in) {

@@ -48,6 +48,20 @@ int geometry_add_sphere(geometry_t *self, const transform_t *to_world, double ra
 int geometry_add_disk(geometry_t *self, const transform_t *to_world, double radius, double height,
                       uint32_t shape, int flip, err_t *err);
 
+/* Curves: nseg cubic Bezier segments, 4 control points each (cp: 12 numbers per segment) with
+ * the radius at each control point (radii: 4 per segment; equal steps make the radius linear
+ * in u), intersected by Embree as flat ribbons that face the ray (pbrt-v4's "flat" curve).
+ * A hit reports u along its segment (prim), v = (h + 1) / 2 where h in [-1, 1] is the offset
+ * from the centre line across the ribbon in units of the radius, positive along
+ * dir x dp/du (pbrt-v4's v), and ng facing the ray (perpendicular to the curve). A ray
+ * never hits a curve closer than 2.5 radii to its origin: a ray leaving a fibre would
+ * otherwise find the ribbon that faces it through its own origin (pbrt-v4 moves such a
+ * ray's origin off by the width for the same reason). */
+int geometry_object_add_curves(geometry_t *self, int object, const double *cp, const double *radii,
+                               size_t nseg, uint32_t shape, err_t *err);
+/* A cubic Bezier segment (4 control points, 12 numbers) at u: its point and derivative. */
+void geometry_bezier(const double *cp, double u, vec3_t *p, vec3_t *dpdu);
+
 /* A new, empty object (its own Embree scene); returns its id (>= 0) or -1. */
 int geometry_object_new(geometry_t *self, err_t *err);
 /* The same shapes added to an object (or to the world with GEOMETRY_WORLD), in the object's

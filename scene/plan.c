@@ -217,6 +217,8 @@ const char *plan_material_kind_name(material_kind_t kind)
         return "retarder";
     case MATERIAL_MEASURED:
         return "measured";
+    case MATERIAL_HAIR:
+        return "hair";
     }
     return "?";
 }
@@ -369,6 +371,8 @@ static int shape_point(const shape_t *sh, const double *cdf, const transform_t *
                        const double u[3], vec3_t *p, vec3_t *n)
 {
     vec3_t ns = vec3_make(0, 0, 0);
+    if (sh->kind == SHAPE_CURVE)
+        return 0; /* a ribbon that faces each ray has no normal of its own to place */
     if (sh->kind == SHAPE_MESH) {
         if (sh->ntris == 0)
             return 0;
@@ -454,7 +458,7 @@ static void box_grow(vec3_t *lo, vec3_t *hi, vec3_t q)
 /* Grows lo..hi by a shape's world-space box (inst places an object's shape). */
 static void shape_box(const shape_t *sh, const transform_t *inst, vec3_t *lo, vec3_t *hi)
 {
-    if (sh->kind == SHAPE_MESH) {
+    if (sh->kind == SHAPE_MESH || sh->kind == SHAPE_CURVE) { /* a curve: its control points */
         for (size_t v = 0; v < sh->nverts; v++) {
             vec3_t q =
                 vec3_make(sh->positions[3 * v], sh->positions[3 * v + 1], sh->positions[3 * v + 2]);

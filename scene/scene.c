@@ -80,6 +80,7 @@ void scene_destroy(scene_t **self_p)
         free(s->indices);
         free(s->normals);
         free(s->uvs);
+        free(s->radii);
         alias_destroy(&s->triangles);
     }
     free(self->shapes);
@@ -429,6 +430,57 @@ int scene_add_disk(scene_t *self, const transform_t *to_world, double radius, do
                         err);
 }
 
+int scene_add_curves(scene_t *self, int object, const double *cp, const double *radii, size_t nseg,
+                     int cylinder, int material, err_t *err)
+{
+    if (check_object(self, object, err) || check_refs(self, material, -1, err))
+        return -1;
+    uint32_t id = (uint32_t)self->nshapes;
+    if (geometry_object_add_curves(self->geometry, object, cp, radii, nseg, id, err))
+        return -1;
+    shape_t *s = new_shape(self, object, material, -1, 0, err);
+    if (!s)
+        return -1;
+    s->kind = SHAPE_CURVE;
+    s->cylinder = cylinder;
+    int failed = 0;
+    s->positions = copy_array(cp, 12 * nseg * sizeof(double), &failed);
+    s->radii = copy_array(radii, 4 * nseg * sizeof(double), &failed);
+    s->nverts = 4 * nseg;
+    s->ntris = nseg;
+    if (failed)
+        return err_set(err, "out of memory copying a curve of %zu segments", nseg);
+    return (int)id;
+}
+
+/* A curve hit (geometry.h): dp/du the centre line's tangent, dp/dv across the ribbon (its
+ * width long, toward h = 1), and for pbrt-v4's "cylinder" type the shading normal turned
+ * toward dp/dv by 90 h degrees, as a round fibre's normal turns across its width. */
+static void curve_surface(const scene_t *self, const shape_t *s, const hit_t *h, surface_t *out)
+{
+    if (h->prim >= s->ntris)
+        return;
+    vec3_t c, t;
+    double u = fmin(1.0, fmax(0.0, h->u));
+    geometry_bezier(s->positions + 12 * (size_t)h->prim, u, &c, &t);
+    const double *r = s->radii + 4 * (size_t)h->prim;
+    double v = 1.0 - u;
+    double radius =
+        v * v * v * r[0] + 3.0 * v * v * u * r[1] + 3.0 * v * u * u * r[2] + u * u * u * r[3];
+    if (h->instance != GEOMETRY_NO_INSTANCE && h->instance < self->ninstances)
+        t = transform_vector(&self->instances[h->instance].to_world, t);
+    vec3_t across = vec3_normalize(vec3_cross(out->ng, t)); /* = dir x t: toward h = 1 */
+    if (!(vec3_dot(across, across) > 0.5))
+        return;
+    out->dpdu = t;
+    out->dpdv = vec3_scale(across, 2.0 * radius);
+    if (s->cylinder) {
+        double a = (PF_PI / 2.0) * (2.0 * out->v - 1.0);
+        out->ns = vec3_normalize(vec3_add(vec3_scale(out->ng, cos(a)), vec3_scale(across, sin(a))));
+        out->smooth = 1;
+    }
+}
+
 int scene_add_object(scene_t *self, err_t *err)
 {
     int g = geometry_object_new(self->geometry, err);
@@ -511,6 +563,10 @@ void scene_surface(const scene_t *self, const hit_t *h, surface_t *out)
     const transform_t *inst = h->instance != GEOMETRY_NO_INSTANCE && h->instance < self->ninstances
                                   ? &self->instances[h->instance].to_world
                                   : NULL;
+    if (s->kind == SHAPE_CURVE) {
+        curve_surface(self, s, h, out);
+        return;
+    }
     if (s->kind != SHAPE_MESH) {
         /* pbrt-v4's full sphere and disk: u = phi / 2 pi with phi counterclockwise about the
          * shape's z axis, so dp/du = 2 pi (-y, x, 0) in its own space; a sphere's

@@ -50,6 +50,7 @@ typedef enum material_kind {
     MATERIAL_POLARISER,            /* a thin linear polariser sheet, crossed straight */
     MATERIAL_RETARDER,             /* a thin linear retarder sheet (a wave plate) */
     MATERIAL_MEASURED,             /* RGL's measured BSDF data (bsdf/measured.h) */
+    MATERIAL_HAIR,                 /* a hair fibre (bsdf/hair.h) */
 } material_kind_t;
 
 /* The numbers of a material; textures are NULL where the material has no such input (a
@@ -112,6 +113,14 @@ typedef struct material {
     double retardance;
     /* measured: the file's data (owned by the scene, scene_own_measured) */
     const measured_t *measured;
+    /* A hair fibre (pbrt-v4 HairMaterial, bsdf/hair.h): the absorption per unit radius from
+     * sigma_a (an unbounded spectrum), else from reflectance (Chiang et al.'s inversion), else
+     * eumelanin eu_sigma + pheomelanin pheo_sigma (the pigments' own absorption spectra); the
+     * index, the roughnesses and the scales' tilt in degrees. */
+    struct {
+        const texture_t *sigma_a, *reflectance, *eumelanin, *pheomelanin, *eu_sigma, *pheo_sigma;
+        const texture_t *eta, *beta_m, *beta_n, *alpha;
+    } hair;
 } material_t;
 
 typedef enum light_kind {
@@ -163,7 +172,7 @@ typedef struct light {
     transform_t to_light, from_light;
 } light_t;
 
-typedef enum shape_kind { SHAPE_MESH, SHAPE_SPHERE, SHAPE_DISK } shape_kind_t;
+typedef enum shape_kind { SHAPE_MESH, SHAPE_SPHERE, SHAPE_DISK, SHAPE_CURVE } shape_kind_t;
 
 typedef struct shape {
     shape_kind_t kind;
@@ -181,6 +190,11 @@ typedef struct shape {
     double *normals;
     double *uvs;
     size_t nverts, ntris;
+    /* Curves (scene_add_curves): ntris cubic Bezier segments, 4 control points each in
+     * positions (nverts = 4 ntris) with their radii, and whether pbrt-v4's "cylinder" shading
+     * normal applies. */
+    double *radii;
+    int cylinder;
     /* Area sampling: total world-space area and, for meshes, a distribution over triangles
      * by area. */
     double area;
@@ -449,6 +463,14 @@ int scene_add_sphere(scene_t *self, const transform_t *to_world, double radius, 
                      int area_light, int flip, err_t *err);
 int scene_add_disk(scene_t *self, const transform_t *to_world, double radius, double height,
                    int material, int area_light, int flip, err_t *err);
+
+/* Curves (pbrt-v4 "curve"; geometry.h geometry_object_add_curves): nseg cubic Bezier
+ * segments, 4 control points (cp, 12 numbers per segment) with their radii (4 per segment), in
+ * world space, or in an object's space when object >= 0 (no area lights). A hit's v is
+ * pbrt-v4's, across the width; cylinder turns the shading normal as pbrt-v4's "cylinder"
+ * type does. Arrays are copied. */
+int scene_add_curves(scene_t *self, int object, const double *cp, const double *radii, size_t nseg,
+                     int cylinder, int material, err_t *err);
 
 /* Objects: scene_add_object returns a new object's index (or -1); the scene_add_object_*
  * functions add shapes in the object's own space (no area lights: pbrt-v4 has none in

@@ -4,13 +4,14 @@
 #include "colour.h"
 #include "files.h"
 #include "glass.h"
-#include "microfacet.h"
-#include "named_spectra.h"
+#include "hair.h"
 #include "image_exr.h"
 #include "image_info.h"
 #include "image_pfm.h"
 #include "image_png.h"
 #include "image_stb.h"
+#include "microfacet.h"
+#include "named_spectra.h"
 #include "pbrt_parser.h"
 #include "plan.h"
 #include "pool.h"
@@ -803,6 +804,40 @@ static int uniaxial_inputs(loader_t *L, const scene_material_t *dm, material_t *
     return 0;
 }
 
+/* pbrt-v4 HairMaterial: the fibre's numbers and its absorption's source. Constant melanin
+ * concentrations become one absorption spectrum, the uplift of pbrt-v4's RGB sum
+ * (SigmaAFromConcentration); textured ones weigh each pigment's own spectrum per hit. */
+static int hair_inputs(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+{
+    m->kind = MATERIAL_HAIR;
+    if (!(m->hair.eta = float_input(L, &dm->hair_eta, err)) ||
+        !(m->hair.beta_m = float_input(L, &dm->beta_m, err)) ||
+        !(m->hair.beta_n = float_input(L, &dm->beta_n, err)) ||
+        !(m->hair.alpha = float_input(L, &dm->hair_alpha, err)))
+        return -1;
+    if (dm->hair_from == SCENE_HAIR_SIGMA_A)
+        return (m->hair.sigma_a = spectrum_input(L, &dm->sigma_a, SPEC_UNBOUNDED, err)) ? 0 : -1;
+    if (dm->hair_from == SCENE_HAIR_REFLECTANCE)
+        return (m->hair.reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err))
+                   ? 0
+                   : -1;
+    scene_spectrum_input_t in = {.texture = -1,
+                                 .spectrum = {.kind = SCENE_SPECTRUM_RGB, .loc = dm->loc}};
+    if (dm->eumelanin.texture < 0 && dm->pheomelanin.texture < 0) {
+        hair_sigma_a_from_concentration(dm->eumelanin.value, dm->pheomelanin.value,
+                                        in.spectrum.rgb);
+        return (m->hair.sigma_a = spectrum_input(L, &in, SPEC_UNBOUNDED, err)) ? 0 : -1;
+    }
+    if (!(m->hair.eumelanin = float_input(L, &dm->eumelanin, err)) ||
+        !(m->hair.pheomelanin = float_input(L, &dm->pheomelanin, err)))
+        return -1;
+    hair_sigma_a_from_concentration(1.0, 0.0, in.spectrum.rgb);
+    if (!(m->hair.eu_sigma = spectrum_input(L, &in, SPEC_UNBOUNDED, err)))
+        return -1;
+    hair_sigma_a_from_concentration(0.0, 1.0, in.spectrum.rgb);
+    return (m->hair.pheo_sigma = spectrum_input(L, &in, SPEC_UNBOUNDED, err)) ? 0 : -1;
+}
+
 /* The material a shape placed by to_world uses: a crystal's optic axis is given in the shape's
  * object space, so each differently turned crystal shape gets its own copy with the axis in
  * world space (in an object's space for shapes of instanced objects: instances do not turn it,
@@ -919,6 +954,9 @@ static int load_materials(loader_t *L, err_t *err)
             break;
         case SCENE_MATERIAL_UNIAXIAL:
             rc = uniaxial_inputs(L, dm, &m, err);
+            break;
+        case SCENE_MATERIAL_HAIR:
+            rc = hair_inputs(L, dm, &m, err);
             break;
         case SCENE_MATERIAL_POLARIZER:
         case SCENE_MATERIAL_RETARDER:
@@ -1292,6 +1330,39 @@ static int load_media(loader_t *L, err_t *err)
     return 0;
 }
 
+/* pbrt-v4 "curve": its Bezier segments placed by the shape's transform; the widths scale by
+ * the transform's mean linear scale (pbrt-v4 intersects in the curve's own space, so a
+ * non-uniform scale widens it unevenly there), and a segment's radius is linear in u from half
+ * its first width to half its last, as pbrt-v4 lerps the width. */
+static int load_curve(loader_t *L, const scene_shape_t *s, int object, int material, err_t *err)
+{
+    const transform_t *m = &s->to_world;
+    vec3_t ex = transform_vector(m, vec3_make(1, 0, 0)),
+           ey = transform_vector(m, vec3_make(0, 1, 0)),
+           ez = transform_vector(m, vec3_make(0, 0, 1));
+    double scale = cbrt(fabs(vec3_dot(vec3_cross(ex, ey), ez)));
+    size_t n = s->curve_segments;
+    double *cp = malloc(12 * n * sizeof *cp), *radii = malloc(4 * n * sizeof *radii);
+    if (!cp || !radii) {
+        free(cp);
+        free(radii);
+        return err_set(err, "out of memory for a curve of %zu segments", n);
+    }
+    for (size_t i = 0; i < 4 * n; i++) {
+        vec3_t p = transform_point(
+            m, vec3_make(s->curve_cp[3 * i], s->curve_cp[3 * i + 1], s->curve_cp[3 * i + 2]));
+        cp[3 * i] = p.x;
+        cp[3 * i + 1] = p.y;
+        cp[3 * i + 2] = p.z;
+        const double *w = s->curve_width + 2 * (i / 4);
+        radii[i] = 0.5 * scale * (w[0] + (w[1] - w[0]) * (double)(i % 4) / 3.0);
+    }
+    int r = scene_add_curves(L->sc, object, cp, radii, n, s->curve_cylinder, material, err);
+    free(cp);
+    free(radii);
+    return r;
+}
+
 static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *err)
 {
     const scene_desc_t *d = L->desc;
@@ -1322,6 +1393,8 @@ static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *er
         r = object < 0 ? scene_add_disk(L->sc, to_world, s->radius, s->height, material, light, flip, err)
                        : scene_add_object_disk(L->sc, object, to_world, s->radius, s->height, material,
                                                flip, err);
+    } else if (s->type == SCENE_SHAPE_CURVE) {
+        r = load_curve(L, s, object, material, err);
     } else {
         const scene_mesh_t *m = &s->mesh;
         double *P = malloc(3 * m->nvertices * sizeof *P);

@@ -228,6 +228,7 @@ static const pbrt_name_t MATERIALS[] = {
     {"polarizer", SCENE_MATERIAL_POLARIZER},
     {"retarder", SCENE_MATERIAL_RETARDER},
     {"measured", SCENE_MATERIAL_MEASURED},
+    {"hair", SCENE_MATERIAL_HAIR},
     {NULL, 0},
     {"polariser", SCENE_MATERIAL_POLARIZER},
     {"", SCENE_MATERIAL_INTERFACE},
@@ -323,6 +324,42 @@ static int get_measured(parser_t *P, params_t *ps, scene_material_t *m)
     return pbrt_inputs_data_file(P, fp, filename, "measured BSDF", SCENE_FILE_BSDF, &m->filename);
 }
 
+/* pbrt-v4 HairMaterial::Create: the absorption from "sigma_a", else from "reflectance" (or its
+ * older name "color"), else from the melanin concentrations, brown hair (eumelanin 1.3) when
+ * none is given; what the first given one overrides is ignored with a warning, as in pbrt-v4. */
+static int get_hair(parser_t *P, params_t *ps, scene_material_t *m)
+{
+    param_t *sa = params_find(ps, "sigma_a"), *refl = params_find(ps, "reflectance");
+    if (!refl)
+        refl = params_find(ps, "color");
+    param_t *eu = params_find(ps, "eumelanin"), *ph = params_find(ps, "pheomelanin");
+    m->hair_from = sa ? SCENE_HAIR_SIGMA_A : refl ? SCENE_HAIR_REFLECTANCE : SCENE_HAIR_MELANIN;
+    const param_t *given = sa ? sa : refl ? refl : NULL;
+    const param_t *other[3] = {refl, eu, ph};
+    for (int i = sa ? 0 : 1; given && i < 3; i++)
+        if (other[i] && warnings_add(P->scene->warnings, other[i]->loc,
+                                     "Material \"hair\": \"%s\" is ignored since \"%s\" is given",
+                                     other[i]->name, given->name))
+            return pbrt_error(P->err, other[i]->loc, "out of memory");
+    const bool melanin = eu || ph;
+    if (pbrt_inputs_float(P, ps, "eta", 1.55, &m->hair_eta) != 0)
+        return -1;
+    if (m->hair_eta.texture < 0 && !(m->hair_eta.value > 0.0))
+        return pbrt_state_check_positive(P, ps, "eta", m->hair_eta.value);
+    return pbrt_inputs_spectrum_input(P, ps, "sigma_a", pbrt_inputs_constant(0.0, m->loc),
+                                      SPECTRUM_ANY, &m->sigma_a) ||
+                   pbrt_inputs_spectrum_input(P, ps, refl ? refl->name : "reflectance",
+                                              pbrt_inputs_constant(0.5, m->loc), SPECTRUM_ALBEDO,
+                                              &m->reflectance) ||
+                   pbrt_inputs_float(P, ps, "eumelanin", melanin ? 0.0 : 1.3, &m->eumelanin) ||
+                   pbrt_inputs_float(P, ps, "pheomelanin", 0.0, &m->pheomelanin) ||
+                   pbrt_inputs_float(P, ps, "beta_m", 0.3, &m->beta_m) ||
+                   pbrt_inputs_float(P, ps, "beta_n", 0.3, &m->beta_n) ||
+                   pbrt_inputs_float(P, ps, "alpha", 2.0, &m->hair_alpha)
+               ? -1
+               : 0;
+}
+
 static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_t type_loc,
                           scene_material_t *m)
 {
@@ -395,6 +432,9 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
     }
     if (m->type == SCENE_MATERIAL_MEASURED) {
         return get_measured(P, ps, m);
+    }
+    if (m->type == SCENE_MATERIAL_HAIR) {
+        return get_hair(P, ps, m);
     }
     if (m->type == SCENE_MATERIAL_POLARIZER || m->type == SCENE_MATERIAL_RETARDER) {
         /* Thin polarising sheets (docs/physics.md §14): the axis angle in degrees, and a

@@ -253,15 +253,125 @@ static int loopsubdiv_shape(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_lo
     return pbrt_meshes_queue(P, s, &j);
 }
 
+/* One segment's cubic Bezier control points from pbrt-v4's bases (shapes.cpp Curve::Create):
+ * a quadratic Bezier raised to a cubic, and a uniform B-spline's span as a Bezier (its knot
+ * averages, the blossoms at 0..3). q holds degree + 1 points, b gets 4. */
+static void curve_to_bezier(const double *q, int degree, bool bspline, double *b)
+{
+    for (int c = 0; c < 3; c++) {
+        double p0 = q[c], p1 = q[3 + c], p2 = q[6 + c];
+        if (degree == 3 && !bspline) {
+            b[c] = p0, b[3 + c] = p1, b[6 + c] = p2, b[9 + c] = q[9 + c];
+            continue;
+        }
+        if (degree == 3) {
+            double p3 = q[9 + c];
+            b[c] = (p0 + 4.0 * p1 + p2) / 6.0;
+            b[3 + c] = (2.0 * p1 + p2) / 3.0;
+            b[6 + c] = (p1 + 2.0 * p2) / 3.0;
+            b[9 + c] = (p1 + 4.0 * p2 + p3) / 6.0;
+            continue;
+        }
+        if (bspline) { /* the quadratic B-spline's span as a quadratic Bezier */
+            double a = 0.5 * (p0 + p1), e = 0.5 * (p1 + p2);
+            p0 = a;
+            p2 = e;
+        }
+        b[c] = p0;
+        b[3 + c] = p0 + 2.0 / 3.0 * (p1 - p0);
+        b[6 + c] = p2 + 2.0 / 3.0 * (p1 - p2);
+        b[9 + c] = p2;
+    }
+}
+
+/* pbrt-v4 "curve": "point3 P", "string basis" ("bezier", "bspline"), "integer degree" (3 or 2),
+ * "string type" ("flat", "cylinder"; "ribbon", whose normals Embree's curves would need as a
+ * spline of their own, is refused), "float width" (1) or "width0"/"width1" (pbrt-v4 lerps them
+ * over the whole curve), "integer splitdepth" (read; Embree needs no splitting). */
+static int curve_shape(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t loc)
+{
+    double width, w0, w1;
+    int degree, split;
+    const char *basis, *type;
+    param_t *pp;
+    if (params_get_float(ps, "width", 1.0, &width, P->err) != 0 ||
+        params_get_float(ps, "width0", width, &w0, P->err) != 0 ||
+        params_get_float(ps, "width1", width, &w1, P->err) != 0 ||
+        params_get_int(ps, "degree", 3, &degree, P->err) != 0 ||
+        params_get_int(ps, "splitdepth", 3, &split, P->err) != 0 ||
+        params_get_string(ps, "basis", "bezier", &basis, P->err) != 0 ||
+        params_get_string(ps, "type", "flat", &type, P->err) != 0 ||
+        params_get_array(ps, "P", PARAM_POINT3, &pp, P->err) != 0)
+        return -1;
+    if (!(w0 > 0.0) || !(w1 > 0.0) || !isfinite(w0 + w1))
+        return pbrt_error(P->err, loc, "Shape \"curve\": widths must be positive, got %g and %g",
+                          w0, w1);
+    if (degree != 2 && degree != 3)
+        return pbrt_error(P->err, params_find(ps, "degree")->loc,
+                          "Shape \"curve\": \"integer degree\" must be 2 or 3, got %d", degree);
+    const bool bspline = !strcmp(basis, "bspline");
+    if (!bspline && strcmp(basis, "bezier"))
+        return pbrt_error(P->err, params_find(ps, "basis")->loc,
+                          "Shape \"curve\": unsupported basis \"%s\" (\"bezier\" or \"bspline\")",
+                          basis);
+    if (!strcmp(type, "ribbon"))
+        return pbrt_error(P->err, params_find(ps, "type")->loc,
+                          "Shape \"curve\": \"ribbon\" curves are not supported (\"flat\" and "
+                          "\"cylinder\" are)");
+    if (strcmp(type, "flat") && strcmp(type, "cylinder"))
+        return pbrt_error(P->err, params_find(ps, "type")->loc,
+                          "Shape \"curve\": unsupported type \"%s\" (\"flat\" or \"cylinder\")",
+                          type);
+    (void)params_find(ps, "N"); /* pbrt-v4 ignores normals but for ribbons, with a warning */
+    if (!pp)
+        return pbrt_error(P->err, loc, "Shape \"curve\" needs \"point3 P\"");
+    size_t np = pp->count / 3, nseg;
+    if (!bspline) {
+        if (np < (size_t)degree + 1 || (np - 1) % (size_t)degree != 0)
+            return pbrt_error(P->err, pp->loc,
+                              "Shape \"curve\": a degree-%d Bezier curve needs %d + n * %d points "
+                              "in \"point3 P\", got %zu",
+                              degree, degree + 1, degree, np);
+        nseg = (np - 1) / (size_t)degree;
+    } else {
+        if (np < (size_t)degree + 1)
+            return pbrt_error(P->err, pp->loc,
+                              "Shape \"curve\": a degree-%d B-spline needs at least %d points in "
+                              "\"point3 P\", got %zu",
+                              degree, degree + 1, np);
+        nseg = np - (size_t)degree;
+    }
+    for (size_t i = 0; i < pp->count; i++)
+        if (!isfinite(pp->numbers[i]))
+            return pbrt_error(P->err, pp->loc, "Shape \"curve\": point %zu is not finite", i / 3);
+    if (pbrt_meshes_budget_triangles(P, nseg, loc) != 0)
+        return -1;
+    double *cp = scene_desc_alloc(P->scene, 12 * nseg * sizeof *cp, P->err);
+    double *w = scene_desc_alloc(P->scene, 2 * nseg * sizeof *w, P->err);
+    if (!cp || !w)
+        return -1;
+    for (size_t k = 0; k < nseg; k++) {
+        size_t first = bspline ? k : k * (size_t)degree;
+        curve_to_bezier(pp->numbers + 3 * first, degree, bspline, cp + 12 * k);
+        w[2 * k] = w0 + (w1 - w0) * (double)k / (double)nseg;
+        w[2 * k + 1] = w0 + (w1 - w0) * (double)(k + 1) / (double)nseg;
+    }
+    s->curve_segments = nseg;
+    s->curve_cp = cp;
+    s->curve_width = w;
+    s->curve_cylinder = !strcmp(type, "cylinder");
+    return 0;
+}
+
 int pbrt_shapes_read(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
 {
     /* Each shape's name and what it becomes (the value: the index into TYPES). */
     static const pbrt_name_t KINDS[] = {{"sphere", 0},       {"disk", 1},    {"cylinder", 2},
                                         {"trianglemesh", 3}, {"plymesh", 4}, {"bilinearmesh", 5},
-                                        {"loopsubdiv", 6}};
+                                        {"loopsubdiv", 6},   {"curve", 7}};
     static const scene_shape_type_t TYPES[] = {
         SCENE_SHAPE_SPHERE, SCENE_SHAPE_DISK, SCENE_SHAPE_MESH, SCENE_SHAPE_MESH,
-        SCENE_SHAPE_MESH,   SCENE_SHAPE_MESH, SCENE_SHAPE_MESH};
+        SCENE_SHAPE_MESH,   SCENE_SHAPE_MESH, SCENE_SHAPE_MESH, SCENE_SHAPE_CURVE};
     int ki;
     if (pbrt_state_lookup(P, "unsupported shape", type->s, type->loc, KINDS, COUNT_OF(KINDS),
                           &ki) != 0 ||
@@ -348,6 +458,12 @@ int pbrt_shapes_read(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_
         if (!strcmp(s->kind, "loopsubdiv"))
             return loopsubdiv_shape(P, ps, s, loc);
         return mesh_from_params(P, ps, s, !strcmp(s->kind, "bilinearmesh"), loc);
+    case SCENE_SHAPE_CURVE:
+        if (s->area_light >= 0)
+            return pbrt_error(P->err, loc,
+                              "an area light on a \"curve\" is not supported (pbrt-v4 cannot "
+                              "sample curves either)");
+        return curve_shape(P, ps, s, loc);
     }
     return 0;
 }

@@ -148,11 +148,19 @@ typedef enum scene_material_type {
     SCENE_MATERIAL_COATEDDIFFUSE,
     SCENE_MATERIAL_COATEDCONDUCTOR,
     SCENE_MATERIAL_MIX,
-    SCENE_MATERIAL_UNIAXIAL, /* extension: a uniaxial birefringent crystal */
+    SCENE_MATERIAL_UNIAXIAL,  /* extension: a uniaxial birefringent crystal */
     SCENE_MATERIAL_POLARIZER, /* prismfarm: a thin linear polariser sheet */
     SCENE_MATERIAL_RETARDER,  /* prismfarm: a thin linear retarder sheet (wave plate) */
     SCENE_MATERIAL_MEASURED,  /* pbrt-v4's measured BSDF: an RGL .bsdf file */
+    SCENE_MATERIAL_HAIR,      /* pbrt-v4's hair fibre */
 } scene_material_type_t;
+
+/* Where a hair's absorption comes from (pbrt-v4 HairMaterial, in its order of precedence). */
+typedef enum scene_hair_from {
+    SCENE_HAIR_SIGMA_A,     /* "sigma_a", per unit of the fibre's radius */
+    SCENE_HAIR_REFLECTANCE, /* "reflectance" (or "color"), by Chiang et al.'s inversion */
+    SCENE_HAIR_MELANIN,     /* "eumelanin", "pheomelanin" (neither given: eumelanin 1.3) */
+} scene_hair_from_t;
 
 typedef enum scene_ior_kind {
     SCENE_IOR_SPECTRUM,  /* "float eta" 1.5 or "spectrum eta" "glass-BK7" or (lambda, n) pairs */
@@ -233,6 +241,12 @@ typedef struct scene_material {
      * checked real path), written at filename_loc; the loader reads it. */
     const char *filename;
     pbrt_loc_t filename_loc;
+    /* HAIR (pbrt-v4 HairMaterial): the absorption from sigma_a, reflectance (the field above)
+     * or eumelanin and pheomelanin, as hair_from says; "eta" (1.55), "beta_m" and "beta_n"
+     * (0.3), "alpha" in degrees (2). */
+    scene_hair_from_t hair_from;
+    scene_spectrum_input_t sigma_a;
+    scene_float_input_t eumelanin, pheomelanin, hair_eta, beta_m, beta_n, hair_alpha;
 } scene_material_t;
 
 /* ---- lights ---- */
@@ -292,6 +306,7 @@ typedef enum scene_shape_type {
     SCENE_SHAPE_DISK,   /* radius (1) at z = height (0), normal +z */
     SCENE_SHAPE_MESH,   /* triangles: trianglemesh, plymesh, bilinearmesh, loopsubdiv, cylinder
                          * or a cut sphere, made into triangles by the parser */
+    SCENE_SHAPE_CURVE,  /* pbrt-v4 "curve": cubic Bezier segments (curve_*) */
 } scene_shape_type_t;
 
 /* Shapes that name the same PLY file may share one mesh's arrays (the scene owns them once). */
@@ -307,7 +322,7 @@ typedef struct scene_mesh {
 typedef struct scene_shape {
     scene_shape_type_t type;
     const char *kind; /* as written: "sphere", "disk", "cylinder", "trianglemesh", "plymesh",
-                       * "bilinearmesh", "loopsubdiv" */
+                       * "bilinearmesh", "loopsubdiv", "curve" */
     pbrt_loc_t loc;
     transform_t to_world;     /* object to world (or to instance space inside an object) */
     bool reverse_orientation; /* ReverseOrientation was in effect */
@@ -325,6 +340,14 @@ typedef struct scene_shape {
     bool has_alpha;
     scene_float_input_t alpha;
     scene_mesh_t mesh;
+    /* CURVE: curve_segments cubic Bezier segments in object space (pbrt-v4 converts its
+     * "bspline" and degree-2 curves to these), 4 control points (xyz) each in curve_cp, the
+     * full width at each segment's ends in curve_width (2 each), and whether the type is
+     * "cylinder" (else "flat"). */
+    size_t curve_segments;
+    const double *curve_cp;
+    const double *curve_width;
+    bool curve_cylinder;
     /* pbrt-v4's MediumInterface in effect at the shape: indices into media, -1 for none
      * (vacuum). A shape whose two differ is a boundary between media (pbrt-v4
      * IsMediumTransition); rays through any other shape keep the medium they are in. */

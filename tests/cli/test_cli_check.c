@@ -15,8 +15,8 @@
 
 static const char *BAD = "WorldBegin\n"
                          "PixelFilter \"box\"\n"
-                         "Material \"hair\"\n"
-                         "Shape \"curve\" \"point3 P\" [0 0 0 1 1 1 2 2 2 3 3 3]\n"
+                         "Material \"subsurface\"\n"
+                         "Shape \"hyperboloid\"\n"
                          "Material \"diffuse\" \"float bogus\" 1\n"
                          "LightSource \"point\"\n"
                          "Shape \"sphere\"\n"
@@ -32,9 +32,9 @@ static void test_every_refusal_at_once(void **state)
     char line[512];
     snprintf(line, sizeof line, "error: %s:2:1: PixelFilter must come before WorldBegin", path);
     expect_in(r->out, line);
-    snprintf(line, sizeof line, "error: %s:3:10: unsupported material \"hair\"", path);
+    snprintf(line, sizeof line, "error: %s:3:10: unsupported material \"subsurface\"", path);
     expect_in(r->out, line);
-    snprintf(line, sizeof line, "error: %s:4:7: unsupported shape \"curve\"", path);
+    snprintf(line, sizeof line, "error: %s:4:7: unsupported shape \"hyperboloid\"", path);
     expect_in(r->out, line);
     snprintf(line, sizeof line, "error: %s:5:20: unsupported parameter \"float bogus\"", path);
     expect_in(r->out, line);

@@ -1177,15 +1177,15 @@ static void test_error_messages(void **state)
          "t.pbrt:2:10: unsupported material \"difuse\" (did you mean \"diffuse\"? \"diffuse\", "
          "\"conductor\", \"dielectric\", \"thindielectric\", \"diffusetransmission\", "
          "\"coateddiffuse\", \"coatedconductor\", \"mix\", \"uniaxial\", \"interface\", "
-         "\"polarizer\", "
-         "\"retarder\" or \"measured\")"},
+         "\"polarizer\", \"retarder\", \"measured\" or \"hair\")"},
         {"Sampler \"sobel\"\nWorldBegin\n",
          "t.pbrt:1:9: unsupported sampler \"sobel\" (did you mean \"sobol\"? \"halton\", "
          "\"independent\", \"paddedsobol\", \"pmj02bn\", \"sobol\", \"stratified\" or \"zsobol\")"},
-        {"WorldBegin\nMaterial \"hair\"\n",
-         "t.pbrt:2:10: unsupported material \"hair\" (\"diffuse\", \"conductor\", \"dielectric\", "
-         "\"thindielectric\", \"diffusetransmission\", \"coateddiffuse\", \"coatedconductor\", "
-         "\"mix\", \"uniaxial\", \"interface\", \"polarizer\", \"retarder\" or \"measured\")"},
+        {"WorldBegin\nMaterial \"subsurface\"\n",
+         "t.pbrt:2:10: unsupported material \"subsurface\" (\"diffuse\", \"conductor\", "
+         "\"dielectric\", \"thindielectric\", \"diffusetransmission\", \"coateddiffuse\", "
+         "\"coatedconductor\", \"mix\", \"uniaxial\", \"interface\", \"polarizer\", "
+         "\"retarder\", \"measured\" or \"hair\")"},
         {"WorldBegin\nMaterial \"mix\" \"string materials\" [\"a\" \"b\"]\n",
          "t.pbrt:2:16: mix: named material \"a\" is not defined (a MakeNamedMaterial must come "
          "before the mix that uses it)"},
@@ -1259,7 +1259,7 @@ static void test_error_messages(void **state)
          "not supported)"},
         {"WorldBegin\nShape \"hyperboloid\"\n",
          "t.pbrt:2:7: unsupported shape \"hyperboloid\" (\"sphere\", \"disk\", \"cylinder\", "
-         "\"trianglemesh\", \"plymesh\", \"bilinearmesh\" or \"loopsubdiv\")"},
+         "\"trianglemesh\", \"plymesh\", \"bilinearmesh\", \"loopsubdiv\" or \"curve\")"},
         {"WorldBegin\nTexture \"t\" \"color\" \"constant\"\n",
          "t.pbrt:2:13: texture type \"color\" is pbrt-v3's (\"spectrum\"): a pbrt-v3 file: "
          "`prismfarm upgrade FILE -o NEW.pbrt` rewrites it for pbrt-v4, as `pbrt --upgrade` does"},
