@@ -3,6 +3,8 @@
 #include "fresnel.h"
 #include "layered.h"
 #include "lobe.h"
+#include "polar_frame.h"
+#include "polar_fresnel.h"
 #include "sample.h"
 
 #include <math.h>
@@ -283,4 +285,40 @@ bool bsdf_lanes_disperse(const bsdf_t *b)
         if (!eta_same(b->eta[j], b->eta[0]))
             return true;
     return false;
+}
+
+bool bsdf_mueller(const bsdf_t *b, int j, vec3_t wo, vec3_t wi, mueller_t *m, vec3_t *wm)
+{
+    if (j < 0 || j >= lanes(b) || wo.z == 0.0 || wi.z == 0.0)
+        return false;
+    if (b->kind == BSDF_CONDUCTOR) {
+        vec3_t h = vec3_add(wo, wi);
+        if (wo.z * wi.z < 0.0 || vec3_dot(h, h) == 0.0)
+            return false;
+        *wm = vec3_normalize(h);
+        const polar_fresnel_t f = polar_fresnel_eval(fmin(1.0, fabs(vec3_dot(wi, *wm))), 1.0,
+                                                     b->cond_eta[j] + I * b->cond_k[j]);
+        const mueller_t r = polar_fresnel_reflection(&f);
+        *m = mueller_normalised(&r);
+        return true;
+    }
+    if (b->kind != BSDF_DIELECTRIC)
+        return false;
+    const double eta = b->eta[j];
+    if (eta == 1.0) { /* pbrt-v4's pass-through: nothing to polarise */
+        *m = mueller_identity();
+        *wm = vec3_make(0.0, 0.0, 1.0);
+        return true;
+    }
+    double etap;
+    bool reflect;
+    if (!lobe_half(eta, wo, wi, wm, &etap, &reflect))
+        return false;
+    /* The light comes from wi's side: outside (+z) in index 1, or inside in eta. */
+    const bool light_outside = wi.z > 0.0;
+    const double n_i = light_outside ? 1.0 : eta, n_t = light_outside ? eta : 1.0;
+    const polar_fresnel_t f = polar_fresnel_eval(fmin(1.0, fabs(vec3_dot(wi, *wm))), n_i, n_t);
+    const mueller_t r = reflect ? polar_fresnel_reflection(&f) : polar_fresnel_transmission(&f);
+    *m = mueller_normalised(&r);
+    return true;
 }

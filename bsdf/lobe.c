@@ -136,12 +136,8 @@ bool lobe_refract(vec3_t wo, vec3_t n, double eta, double *etap, vec3_t *wi)
     return true;
 }
 
-/* The generalized half vector of Walter et al. 2007 (eq. 16), pbrt-v4 eq. 9.34:
- * wm = normalize(etap wi + wo) facing +z, etap = 1 for reflection, eta or 1/eta for
- * refraction from outside or inside. False for the configurations with no microfacet
- * (in-plane directions, wm = 0, or wm back-facing either direction). */
-static bool generalized_half(double eta, vec3_t wo, vec3_t wi, vec3_t *wm, double *etap,
-                             bool *reflect)
+/* Walter et al. 2007 eq. 16 (lobe.h). */
+bool lobe_half(double eta, vec3_t wo, vec3_t wi, vec3_t *wm, double *etap, bool *reflect)
 {
     double co = wo.z, ci = wi.z;
     *reflect = co * ci > 0.0;
@@ -179,7 +175,7 @@ double lobe_dielectric_f(const microfacet_t *mf, double eta, bsdf_mode_t mode, v
     vec3_t wm;
     double etap;
     bool reflect;
-    if (!generalized_half(eta, wo, wi, &wm, &etap, &reflect))
+    if (!lobe_half(eta, wo, wi, &wm, &etap, &reflect))
         return 0.0;
     double fr = fr_dielectric(vec3_dot(wo, wm), eta);
     double co = wo.z, ci = wi.z;
@@ -206,7 +202,7 @@ double lobe_dielectric_pdf(const microfacet_t *mf, double eta, vec3_t wo, vec3_t
     vec3_t wm;
     double etap;
     bool reflect;
-    if (!generalized_half(eta, wo, wi, &wm, &etap, &reflect))
+    if (!lobe_half(eta, wo, wi, &wm, &etap, &reflect))
         return 0.0;
     double pr, pt;
     lobe_choice(fr_dielectric(vec3_dot(wo, wm), eta), allowed, &pr, &pt);

@@ -56,4 +56,11 @@ bool lobe_dielectric_sample(const microfacet_t *mf, double eta, bsdf_mode_t mode
  * total internal reflection; *etap is the relative index along wi. */
 bool lobe_refract(vec3_t wo, vec3_t n, double eta, double *etap, vec3_t *wi);
 
+/* The generalized half vector of Walter et al. 2007 (eq. 16), pbrt-v4 eq. 9.34, of a dielectric
+ * of relative index eta: wm = normalize(etap wi + wo) facing +z, etap = 1 for reflection, eta
+ * or 1/eta for refraction from outside or inside (*reflect: wo and wi on one side). False for
+ * the configurations with no microfacet (in-plane directions, wm = 0, or wm back-facing
+ * either direction). */
+bool lobe_half(double eta, vec3_t wo, vec3_t wi, vec3_t *wm, double *etap, bool *reflect);
+
 #endif
