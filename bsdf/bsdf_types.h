@@ -14,14 +14,17 @@
 
 typedef enum bsdf_kind {
     BSDF_DIFFUSE,              /* Lambertian: reflectance[j] */
-    BSDF_DIFFUSE_TRANSMISSION, /* Lambertian reflection reflectance[j], transmission transmittance[j] */
-    BSDF_CONDUCTOR,            /* Fresnel of the complex index cond_eta[j] + i cond_k[j]; mf (smooth: mirror) */
-    BSDF_DIELECTRIC,           /* index eta[j] (inside over outside, +z is outside); mf (smooth: delta) */
-    BSDF_THIN_DIELECTRIC,      /* a thin slab of index eta[j]: reflection and straight transmission */
-    BSDF_COATED_DIFFUSE,       /* dielectric interface (eta[j], mf) over a medium (thickness, albedo[j], g)
-                                * over Lambertian reflectance[j] */
-    BSDF_COATED_CONDUCTOR,     /* dielectric interface (eta[j], mf) over a medium over a conductor
-                                * (cond_eta[j], cond_k[j] relative to the coating, mf_base) */
+    BSDF_DIFFUSE_TRANSMISSION, /* Lambertian reflection reflectance[j], transmission
+                                  transmittance[j] */
+    BSDF_CONDUCTOR,  /* Fresnel of the complex index cond_eta[j] + i cond_k[j]; mf (smooth: mirror);
+                        film */
+    BSDF_DIELECTRIC, /* index eta[j] (inside over outside, +z is outside); mf (smooth: delta); film
+                      */
+    BSDF_THIN_DIELECTRIC,  /* a thin slab of index eta[j]: reflection and straight transmission */
+    BSDF_COATED_DIFFUSE,   /* dielectric interface (eta[j], mf) over a medium (thickness, albedo[j],
+                            * g)   over Lambertian reflectance[j] */
+    BSDF_COATED_CONDUCTOR, /* dielectric interface (eta[j], mf) over a medium over a conductor
+                            * (cond_eta[j], cond_k[j] relative to the coating, mf_base) */
 } bsdf_kind_t;
 
 /* pbrt-v4's TransportMode: radiance for camera paths, importance for light (photon) paths;
@@ -50,6 +53,11 @@ typedef struct bsdf {
     double albedo[BSDF_MAX_LANES];  /* medium single-scattering albedo, 0: no medium */
     double g;                       /* Henyey-Greenstein asymmetry */
     int maxdepth, nsamples;         /* pbrt-v4 defaults 10 and 1 */
+    /* A thin-film coating (polar/thinfilm.h) on a conductor or dielectric, on the outside:
+     * its thickness in nm (0: none), and per lane the film's index and the wavelength. */
+    double film_nm;
+    double film_n[BSDF_MAX_LANES];
+    double lambda[BSDF_MAX_LANES];
 } bsdf_t;
 
 typedef struct bsdf_sample {

@@ -1442,8 +1442,7 @@ static void trace(ctx_t *c, path_t *start)
             if (p->depth >= maxdepth)
                 break;
             vec3_t wo = vec3_neg(p->dir);
-            /* pbrt-v4's anyNonSpecularBounces; a smooth surface becomes a rough bsdf/ lobe
-             * (a thin-film coat, which bsdf/ does not model, stays smooth). */
+            /* pbrt-v4's anyNonSpecularBounces; a smooth surface becomes a rough bsdf/ lobe. */
             const int regularized = c->rs->regularize && !c->photons && p->diffuse_bounces > 0;
             if (m->kind == MATERIAL_DIFFUSE) {
                 /* Lambertian with the shading normal n: cosine sampling around it and the
@@ -1482,10 +1481,10 @@ static void trace(ctx_t *c, path_t *start)
                 start_bounce(p, &sf, p->dir, 1, 0.0);
                 /* The photon pass ends at sheets (photon.c): light through one is path traced. */
                 p->specular_since_diffuse = CHAIN_BROKEN;
-            } else if (!shading_is_delta(m, &sf) ||
-                       (regularized && m->film_thickness <= 0.0 && !m->uniaxial)) {
-                /* regularize roughens smooth glass and metal, not films or crystals (whose two
-                 * waves no rough model carries): docs/compatibility.md, "Regularize". */
+            } else if (!shading_is_delta(m, &sf) || (regularized && !m->uniaxial)) {
+                /* regularize roughens smooth glass and metal, films included, not crystals
+                 * (whose two waves no rough model carries): docs/compatibility.md,
+                 * "Regularize". */
                 if (scatter_bsdf(c, p, &sf, m, regularized))
                     break;
             } else if (m->kind == MATERIAL_CONDUCTOR) {

@@ -408,6 +408,34 @@ static void test_rough_s0(void **state)
     }
 }
 
+/* Thin films on rough surfaces reach the renderer: at alpha 0.002 a filmed metal (which
+ * reflects every sample, so S0 is not a count of random reflections) reflects what the smooth
+ * filmed one does, S0 to 2e-3 and S1/S0 to 1e-3 (test_polar_bsdf checks the rough film's lobe
+ * against the Airy sum, test_thinfilm the smooth one). */
+static void test_rough_film(void **state)
+{
+    (void)state;
+    const char *mats[] = {
+        "Material \"conductor\" \"spectrum eta\" [300 0.2 900 0.2] \"spectrum k\" [300 3 900 3] "
+        "\"float filmthickness\" [250] \"float filmeta\" [1.45] \"float roughness\" [%g] "
+        "\"bool remaproughness\" false",
+    };
+    for (size_t i = 0; i < sizeof mats / sizeof mats[0]; i++) {
+        double S[2][4];
+        for (int rough = 0; rough < 2; rough++) {
+            char mat[512];
+            snprintf(mat, sizeof mat, mats[i], rough ? 0.002 : 0.0);
+            scene_t *s = tilted_plane(mat, 50.0, "\"bool stokes\" true", "path");
+            render_stokes(s, 4, 8, S[rough]);
+            scene_destroy(&s);
+        }
+        if (!(fabs(S[1][0] / S[0][0] - 1.0) <= 2e-3) ||
+            !(fabs(S[1][1] / S[1][0] - S[0][1] / S[0][0]) <= 1e-3))
+            fail_msg("%s: rough S0 %.6f S1/S0 %.6f, smooth S0 %.6f S1/S0 %.6f", mats[i], S[1][0],
+                     S[1][1] / S[1][0], S[0][0], S[0][1] / S[0][0]);
+    }
+}
+
 static int furnace_with(integrator_kind_t integ, dispersion_kind_t disp, material_kind_t kind,
                         const char *glass_name, double film_thickness, double roughness,
                         int polarised, double *means)
@@ -510,6 +538,7 @@ static void test_furnaces(void **state)
     furnace(INTEGRATOR_PATH, DISPERSION_HERO, MATERIAL_CONDUCTOR, NULL, 0.0, 0.0);
     furnace(INTEGRATOR_PATH, DISPERSION_HERO, MATERIAL_DIELECTRIC, NULL, 0.0, 0.3);
     furnace(INTEGRATOR_PATH, DISPERSION_HERO, MATERIAL_DIELECTRIC, "N-SF11", 0.0, 0.1);
+    furnace(INTEGRATOR_PATH, DISPERSION_HERO, MATERIAL_DIELECTRIC, NULL, 120.0, 0.3);
 }
 
 /* The parser's refusals name the file and line. */
@@ -541,6 +570,7 @@ int main(void)
         cmocka_unit_test(test_furnaces),
         cmocka_unit_test(test_rough_converges),
         cmocka_unit_test(test_rough_s0),
+        cmocka_unit_test(test_rough_film),
         cmocka_unit_test(test_parse_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
