@@ -5,9 +5,13 @@
 #include "layered.h"
 #include "lobe.h"
 #include "measured.h"
+#include "polar_frame.h"
+#include "polar_fresnel.h"
 #include "sample.h"
+#include "thinfilm.h"
 
 #include <math.h>
+#include <stddef.h>
 
 /* Two lanes share a delta refraction when their indices agree to 1e-9 (relative): closer
  * than any dispersion the renderer models, far above rounding. */
@@ -19,6 +23,15 @@ static bool eta_same(double a, double b)
 static int lanes(const bsdf_t *b)
 {
     return b->n < 1 ? 0 : b->n > BSDF_MAX_LANES ? BSDF_MAX_LANES : b->n;
+}
+
+/* Lane j's thin film (in *tmp), or NULL without one. */
+static const lobe_film_t *lane_film(const bsdf_t *b, int j, lobe_film_t *tmp)
+{
+    if (!(b->film_nm > 0.0))
+        return NULL;
+    *tmp = (lobe_film_t){b->film_nm, b->film_n[j], b->lambda[j]};
+    return tmp;
 }
 
 static bool coated(const bsdf_t *b)
@@ -58,6 +71,7 @@ static double dt_f(double r, double t, vec3_t wo, vec3_t wi)
 void bsdf_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *f)
 {
     int n = lanes(b);
+    lobe_film_t film;
     if (coated(b)) {
         if (n > 0)
             layered_eval(b, wo, wi, rng, f);
@@ -80,10 +94,12 @@ void bsdf_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double 
             f[j] = dt_f(b->reflectance[j], b->transmittance[j], wo, wi);
             break;
         case BSDF_CONDUCTOR:
-            f[j] = lobe_conductor_f(&b->mf, b->cond_eta[j], b->cond_k[j], wo, wi);
+            f[j] = lobe_conductor_f_film(&b->mf, b->cond_eta[j], b->cond_k[j],
+                                         lane_film(b, j, &film), wo, wi);
             break;
         case BSDF_DIELECTRIC:
-            f[j] = lobe_dielectric_f(&b->mf, b->eta[j], b->mode, wo, wi);
+            f[j] =
+                lobe_dielectric_f_film(&b->mf, b->eta[j], lane_film(b, j, &film), b->mode, wo, wi);
             break;
         default:
             f[j] = 0.0;
@@ -95,6 +111,7 @@ void bsdf_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double 
 void bsdf_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *pdf)
 {
     int n = lanes(b);
+    lobe_film_t film;
     if (coated(b)) {
         if (n > 0)
             layered_pdf(b, wo, wi, rng, pdf);
@@ -122,7 +139,8 @@ void bsdf_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *
             pdf[j] = lobe_conductor_pdf(&b->mf, wo, wi, LOBE_ALL);
             break;
         case BSDF_DIELECTRIC:
-            pdf[j] = lobe_dielectric_pdf(&b->mf, b->eta[j], wo, wi, LOBE_ALL);
+            pdf[j] = lobe_dielectric_pdf_film(&b->mf, b->eta[j], lane_film(b, j, &film), wo, wi,
+                                              LOBE_ALL);
             break;
         default:
             pdf[j] = 0.0;
@@ -151,7 +169,9 @@ static bool sample_dielectric(const bsdf_t *b, vec3_t wo, int hero, double uc, d
 {
     int n = lanes(b);
     lobe_sample_t s;
-    if (!lobe_dielectric_sample(&b->mf, b->eta[hero], b->mode, wo, uc, u1, u2, LOBE_ALL, &s))
+    lobe_film_t film;
+    if (!lobe_dielectric_sample_film(&b->mf, b->eta[hero], lane_film(b, hero, &film), b->mode, wo,
+                                     uc, u1, u2, LOBE_ALL, &s))
         return false;
     out->wi = s.wi;
     out->flags = s.flags;
@@ -172,15 +192,15 @@ static bool sample_dielectric(const bsdf_t *b, vec3_t wo, int hero, double uc, d
             continue;
         if (s.flags & BSDF_REFLECTION) {
             /* uc = 0 picks reflection whenever lane j reflects at all. */
-            if (lobe_dielectric_sample(&b->mf, b->eta[j], b->mode, wo, 0.0, u1, u2, LOBE_ALL,
-                                       &sj) &&
+            if (lobe_dielectric_sample_film(&b->mf, b->eta[j], lane_film(b, j, &film), b->mode, wo,
+                                            0.0, u1, u2, LOBE_ALL, &sj) &&
                 (sj.flags & BSDF_REFLECTION)) {
                 out->f[j] = sj.f;
                 out->pdf[j] = sj.pdf;
             }
         } else if (eta_same(b->eta[j], b->eta[hero]) || j == hero) {
-            if (lobe_dielectric_sample(&b->mf, b->eta[j], b->mode, wo, 1.0, u1, u2, LOBE_ALL,
-                                       &sj) &&
+            if (lobe_dielectric_sample_film(&b->mf, b->eta[j], lane_film(b, j, &film), b->mode, wo,
+                                            1.0, u1, u2, LOBE_ALL, &sj) &&
                 (sj.flags & BSDF_TRANSMISSION)) {
                 out->f[j] = sj.f;
                 out->pdf[j] = sj.pdf;
@@ -204,6 +224,7 @@ bool bsdf_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, dou
     out->eta = 1.0;
     out->pdf_is_estimate = false;
     lobe_sample_t s;
+    lobe_film_t film;
     switch (b->kind) {
     case BSDF_DIFFUSE:
         if (!lobe_diffuse_sample(b->reflectance[hero], wo, u1, u2, LOBE_ALL, &s))
@@ -233,15 +254,17 @@ bool bsdf_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, dou
         return out->pdf[hero] > 0.0;
     }
     case BSDF_CONDUCTOR:
-        if (!lobe_conductor_sample(&b->mf, b->cond_eta[hero], b->cond_k[hero], wo, u1, u2,
-                                   LOBE_ALL, &s))
+        if (!lobe_conductor_sample_film(&b->mf, b->cond_eta[hero], b->cond_k[hero],
+                                        lane_film(b, hero, &film), wo, u1, u2, LOBE_ALL, &s))
             return false;
         out->wi = s.wi;
         out->flags = s.flags;
         if (s.flags & BSDF_SPECULAR) {
             double c = fabs(s.wi.z);
             for (int j = 0; j < n; j++) {
-                out->f[j] = lobe_finite(fresnel_conductor(c, b->cond_eta[j], b->cond_k[j]) / c);
+                out->f[j] = lobe_finite(lobe_fresnel_conductor(c, b->cond_eta[j], b->cond_k[j],
+                                                               lane_film(b, j, &film)) /
+                                        c);
                 out->pdf[j] = 1.0;
             }
             return true;
@@ -314,4 +337,53 @@ bool bsdf_lanes_disperse(const bsdf_t *b)
         if (!eta_same(b->eta[j], b->eta[0]))
             return true;
     return false;
+}
+
+/* The normalised Mueller matrix of lane j's interface for light in n_i meeting n_t at incidence
+ * cosine cos_i: Fresnel's, or with a film (on the outside, index 1's side) the Airy sum's. */
+static mueller_t interface_mueller(const bsdf_t *b, int j, double cos_i, double complex n_i,
+                                   double complex n_t, bool reflect)
+{
+    cos_i = fmin(1.0, cos_i);
+    mueller_t m;
+    if (b->film_nm > 0.0) {
+        const thinfilm_t f = thinfilm_eval(cos_i, n_i, b->film_n[j], b->film_nm, n_t, b->lambda[j]);
+        m = reflect ? thinfilm_reflection(&f) : thinfilm_transmission(&f);
+    } else {
+        const polar_fresnel_t f = polar_fresnel_eval(cos_i, n_i, n_t);
+        m = reflect ? polar_fresnel_reflection(&f) : polar_fresnel_transmission(&f);
+    }
+    return mueller_normalised(&m);
+}
+
+bool bsdf_mueller(const bsdf_t *b, int j, vec3_t wo, vec3_t wi, mueller_t *m, vec3_t *wm)
+{
+    if (j < 0 || j >= lanes(b) || wo.z == 0.0 || wi.z == 0.0)
+        return false;
+    if (b->kind == BSDF_CONDUCTOR) {
+        vec3_t h = vec3_add(wo, wi);
+        if (wo.z * wi.z < 0.0 || vec3_dot(h, h) == 0.0)
+            return false;
+        *wm = vec3_normalize(h);
+        *m = interface_mueller(b, j, fabs(vec3_dot(wi, *wm)), 1.0,
+                               b->cond_eta[j] + I * b->cond_k[j], true);
+        return true;
+    }
+    if (b->kind != BSDF_DIELECTRIC)
+        return false;
+    const double eta = b->eta[j];
+    if (eta == 1.0) { /* pbrt-v4's pass-through: nothing to polarise */
+        *m = mueller_identity();
+        *wm = vec3_make(0.0, 0.0, 1.0);
+        return true;
+    }
+    double etap;
+    bool reflect;
+    if (!lobe_half(eta, wo, wi, wm, &etap, &reflect))
+        return false;
+    /* The light comes from wi's side: outside (+z) in index 1, or inside in eta. */
+    const bool light_outside = wi.z > 0.0;
+    const double n_i = light_outside ? 1.0 : eta, n_t = light_outside ? eta : 1.0;
+    *m = interface_mueller(b, j, fabs(vec3_dot(wi, *wm)), n_i, n_t, reflect);
+    return true;
 }

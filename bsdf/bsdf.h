@@ -41,6 +41,7 @@
 
 #include "bsdf_types.h"
 #include "rng.h"
+#include "stokes.h"
 #include "vec3.h"
 
 #include <stdbool.h>
@@ -58,6 +59,19 @@ void bsdf_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double 
 /* The pdf of sampling wi from wo under each lane's own sampling (solid angle; 0 for delta
  * lobes). */
 void bsdf_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *pdf);
+
+/* Polarised transport (docs/physics.md §14): lane j's Mueller matrix for light arriving along
+ * -wi and leaving along wo (local frame, radiance mode: wo toward the camera) where the model
+ * is a conductor or dielectric, smooth or microfacet: the Fresnel matrix (polar/polar_fresnel.h)
+ * of the microfacet that scatters wi into wo -- the half vector, or the generalized one for a
+ * refraction (lobe.h's lobe_half) -- at the incidence cosine |wi . wm|, in that microfacet's
+ * s-p frames (polar/polar_frame.h's polar_event_interface with n = *wm), divided by its
+ * M[0][0]: the scalar Fresnel term that bsdf_eval and the sample's f already carry, so that
+ * the lobe's matrix is f (the scalar) times this. D, G and the Jacobians are scalars and do not
+ * polarise (Baek et al. 2018, "Simulating Polarization using Polarized Microfacet Models";
+ * Mitsuba 3's polarized roughconductor / roughdielectric do the same). False for every other
+ * model (diffuse, thin and layered: depolarising) and for directions no microfacet joins. */
+bool bsdf_mueller(const bsdf_t *b, int j, vec3_t wo, vec3_t wi, mueller_t *m, vec3_t *wm);
 
 /* The model has only delta lobes (smooth conductor or dielectric, thin dielectric): no light
  * sampling at it. */

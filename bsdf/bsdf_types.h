@@ -15,8 +15,8 @@
 typedef enum bsdf_kind {
     BSDF_DIFFUSE,              /* Lambertian: reflectance[j] */
     BSDF_DIFFUSE_TRANSMISSION, /* Lambertian reflection reflectance[j], transmission transmittance[j] */
-    BSDF_CONDUCTOR,            /* Fresnel of the complex index cond_eta[j] + i cond_k[j]; mf (smooth: mirror) */
-    BSDF_DIELECTRIC,           /* index eta[j] (inside over outside, +z is outside); mf (smooth: delta) */
+    BSDF_CONDUCTOR,            /* Fresnel of the complex index cond_eta[j] + i cond_k[j]; mf (smooth: mirror); film */
+    BSDF_DIELECTRIC,           /* index eta[j] (inside over outside, +z is outside); mf (smooth: delta); film */
     BSDF_THIN_DIELECTRIC,      /* a thin slab of index eta[j]: reflection and straight transmission */
     BSDF_COATED_DIFFUSE,       /* dielectric interface (eta[j], mf) over a medium (thickness, albedo[j], g)
                                 * over Lambertian reflectance[j] */
@@ -54,14 +54,19 @@ typedef struct bsdf {
     double albedo[BSDF_MAX_LANES];  /* medium single-scattering albedo, 0: no medium */
     double g;                       /* Henyey-Greenstein asymmetry */
     int maxdepth, nsamples;         /* pbrt-v4 defaults 10 and 1 */
-    /* Measured: the data (the scene's) and each lane's wavelength in nm. */
-    const struct measured *measured;
+    /* Each lane's wavelength in nm (measured data and thin films are read at it). */
     double lambda[BSDF_MAX_LANES];
+    /* Measured: the data (the scene's). */
+    const struct measured *measured;
     /* Hair (bsdf/hair.h): the offset h in [-1, 1] across the fibre, its index (one for every
      * lane), longitudinal and azimuthal roughness in [0.01, 1], the scales' tilt in degrees,
      * and each lane's absorption per unit radius. */
     double hair_h, hair_eta, hair_beta_m, hair_beta_n, hair_alpha;
     double sigma_a[BSDF_MAX_LANES];
+    /* A thin-film coating (polar/thinfilm.h) on a conductor or dielectric, on the outside:
+     * its thickness in nm (0: none), and per lane the film's index. */
+    double film_nm;
+    double film_n[BSDF_MAX_LANES];
 } bsdf_t;
 
 typedef struct bsdf_sample {

@@ -2,8 +2,10 @@
 
 #include "fresnel.h"
 #include "sample.h"
+#include "thinfilm.h"
 
 #include <math.h>
+#include <stddef.h>
 
 static bool same_hemisphere(vec3_t a, vec3_t b)
 {
@@ -15,6 +17,31 @@ static bool same_hemisphere(vec3_t a, vec3_t b)
 static double fr_dielectric(double cos_i, double eta)
 {
     return fresnel_dielectric(cos_i, 1.0, eta);
+}
+
+/* The Fresnel reflectance at a microfacet under a thin film (film not NULL): the film's
+ * unpolarised Airy reflectance (R_s + R_p) / 2 for light on the side cos_i says (> 0: outside,
+ * index 1; < 0: inside, index eta), which for a lossless film is the same from either side, so
+ * that 1 - R is its transmittance both ways (bsdf/delta.h's delta_dielectric_coat does the same
+ * on smooth glass). */
+static double fr_dielectric_film(double cos_i, double eta, const lobe_film_t *film)
+{
+    if (!film)
+        return fr_dielectric(cos_i, eta);
+    const double c = fmin(1.0, fabs(cos_i));
+    const thinfilm_t f =
+        cos_i > 0.0 ? thinfilm_eval(c, 1.0, film->n, film->thickness_nm, eta, film->lambda)
+                    : thinfilm_eval(c, eta, film->n, film->thickness_nm, 1.0, film->lambda);
+    return thinfilm_reflectance(&f);
+}
+
+double lobe_fresnel_conductor(double cos_i, double eta, double k, const lobe_film_t *film)
+{
+    if (!film)
+        return fresnel_conductor(cos_i, eta, k);
+    const thinfilm_t f = thinfilm_eval(fmin(1.0, fabs(cos_i)), 1.0, film->n, film->thickness_nm,
+                                       eta + I * k, film->lambda);
+    return thinfilm_reflectance(&f);
 }
 
 /* ---- Lambertian ---- */
@@ -53,7 +80,8 @@ bool lobe_conductor_specular(const microfacet_t *mf)
 
 /* Torrance-Sparrow (pbrt-v4 eq. 9.33): f = D(wm) F(wo.wm) G(wo, wi) / (4 |cos_o| |cos_i|),
  * wm the half vector. */
-double lobe_conductor_f(const microfacet_t *mf, double eta, double k, vec3_t wo, vec3_t wi)
+double lobe_conductor_f_film(const microfacet_t *mf, double eta, double k, const lobe_film_t *film,
+                             vec3_t wo, vec3_t wi)
 {
     if (!same_hemisphere(wo, wi) || microfacet_smooth(mf))
         return 0.0;
@@ -62,7 +90,7 @@ double lobe_conductor_f(const microfacet_t *mf, double eta, double k, vec3_t wo,
     if (co == 0.0 || ci == 0.0 || vec3_dot(wm, wm) == 0.0)
         return 0.0;
     wm = vec3_normalize(wm);
-    double fr = fresnel_conductor(fabs(vec3_dot(wo, wm)), eta, k);
+    double fr = lobe_fresnel_conductor(fabs(vec3_dot(wo, wm)), eta, k, film);
     return lobe_finite(microfacet_d(mf, wm) * fr * microfacet_g(mf, wo, wi) / (4.0 * co * ci));
 }
 
@@ -81,15 +109,16 @@ double lobe_conductor_pdf(const microfacet_t *mf, vec3_t wo, vec3_t wi, int allo
     return d > 0.0 ? lobe_finite(microfacet_pdf(mf, wo, wm) / (4.0 * d)) : 0.0;
 }
 
-bool lobe_conductor_sample(const microfacet_t *mf, double eta, double k, vec3_t wo, double u1,
-                           double u2, int allowed, lobe_sample_t *out)
+bool lobe_conductor_sample_film(const microfacet_t *mf, double eta, double k,
+                                const lobe_film_t *film, vec3_t wo, double u1, double u2,
+                                int allowed, lobe_sample_t *out)
 {
     if (!(allowed & LOBE_R) || wo.z == 0.0)
         return false;
     if (microfacet_smooth(mf)) {
         vec3_t wi = vec3_make(-wo.x, -wo.y, wo.z);
         double c = fabs(wi.z);
-        *out = (lobe_sample_t){wi, lobe_finite(fresnel_conductor(c, eta, k) / c), 1.0,
+        *out = (lobe_sample_t){wi, lobe_finite(lobe_fresnel_conductor(c, eta, k, film) / c), 1.0,
                                BSDF_REFLECTION | BSDF_SPECULAR, 1.0};
         return true;
     }
@@ -102,7 +131,7 @@ bool lobe_conductor_sample(const microfacet_t *mf, double eta, double k, vec3_t 
     if (d == 0.0 || ci == 0.0)
         return false;
     double pdf = lobe_finite(microfacet_pdf(mf, wo, wm) / (4.0 * d));
-    double fr = fresnel_conductor(d, eta, k);
+    double fr = lobe_fresnel_conductor(d, eta, k, film);
     double f = lobe_finite(microfacet_d(mf, wm) * fr * microfacet_g(mf, wo, wi) / (4.0 * co * ci));
     *out = (lobe_sample_t){wi, f, pdf, BSDF_REFLECTION, 1.0};
     return pdf > 0.0;
@@ -136,12 +165,8 @@ bool lobe_refract(vec3_t wo, vec3_t n, double eta, double *etap, vec3_t *wi)
     return true;
 }
 
-/* The generalized half vector of Walter et al. 2007 (eq. 16), pbrt-v4 eq. 9.34:
- * wm = normalize(etap wi + wo) facing +z, etap = 1 for reflection, eta or 1/eta for
- * refraction from outside or inside. False for the configurations with no microfacet
- * (in-plane directions, wm = 0, or wm back-facing either direction). */
-static bool generalized_half(double eta, vec3_t wo, vec3_t wi, vec3_t *wm, double *etap,
-                             bool *reflect)
+/* Walter et al. 2007 eq. 16 (lobe.h). */
+bool lobe_half(double eta, vec3_t wo, vec3_t wi, vec3_t *wm, double *etap, bool *reflect)
 {
     double co = wo.z, ci = wi.z;
     *reflect = co * ci > 0.0;
@@ -171,17 +196,17 @@ static void lobe_choice(double r, int allowed, double *pr, double *pt)
  *   f_t = T D G |wi.wm| |wo.wm| / (|cos_i| |cos_o| (wi.wm + wo.wm / etap)^2),
  * divided by etap^2 for radiance (non-symmetric scattering, Veach 1997 sec. 5.2); eq. 20 for
  * reflection: D G R / (4 |cos_i| |cos_o|). */
-double lobe_dielectric_f(const microfacet_t *mf, double eta, bsdf_mode_t mode, vec3_t wo,
-                         vec3_t wi)
+double lobe_dielectric_f_film(const microfacet_t *mf, double eta, const lobe_film_t *film,
+                              bsdf_mode_t mode, vec3_t wo, vec3_t wi)
 {
     if (lobe_dielectric_specular(mf, eta))
         return 0.0;
     vec3_t wm;
     double etap;
     bool reflect;
-    if (!generalized_half(eta, wo, wi, &wm, &etap, &reflect))
+    if (!lobe_half(eta, wo, wi, &wm, &etap, &reflect))
         return 0.0;
-    double fr = fr_dielectric(vec3_dot(wo, wm), eta);
+    double fr = fr_dielectric_film(vec3_dot(wo, wm), eta, film);
     double co = wo.z, ci = wi.z;
     if (reflect)
         return lobe_finite(microfacet_d(mf, wm) * microfacet_g(mf, wo, wi) * fr /
@@ -198,18 +223,18 @@ double lobe_dielectric_f(const microfacet_t *mf, double eta, bsdf_mode_t mode, v
 /* The visible-normal pdf times the Jacobian of wm -> wi: 1 / (4 |wo.wm|) for reflection,
  * |wi.wm| / (wi.wm + wo.wm / etap)^2 for refraction (Walter et al. 2007 eq. 17), times the
  * probability of the lobe chosen at wm. */
-double lobe_dielectric_pdf(const microfacet_t *mf, double eta, vec3_t wo, vec3_t wi,
-                           int allowed)
+double lobe_dielectric_pdf_film(const microfacet_t *mf, double eta, const lobe_film_t *film,
+                                vec3_t wo, vec3_t wi, int allowed)
 {
     if (lobe_dielectric_specular(mf, eta))
         return 0.0;
     vec3_t wm;
     double etap;
     bool reflect;
-    if (!generalized_half(eta, wo, wi, &wm, &etap, &reflect))
+    if (!lobe_half(eta, wo, wi, &wm, &etap, &reflect))
         return 0.0;
     double pr, pt;
-    lobe_choice(fr_dielectric(vec3_dot(wo, wm), eta), allowed, &pr, &pt);
+    lobe_choice(fr_dielectric_film(vec3_dot(wo, wm), eta, film), allowed, &pr, &pt);
     if (pr == 0.0 && pt == 0.0)
         return 0.0;
     double pdf;
@@ -222,14 +247,15 @@ double lobe_dielectric_pdf(const microfacet_t *mf, double eta, vec3_t wo, vec3_t
     return lobe_finite(pdf);
 }
 
-bool lobe_dielectric_sample(const microfacet_t *mf, double eta, bsdf_mode_t mode, vec3_t wo,
-                            double uc, double u1, double u2, int allowed, lobe_sample_t *out)
+bool lobe_dielectric_sample_film(const microfacet_t *mf, double eta, const lobe_film_t *film,
+                                 bsdf_mode_t mode, vec3_t wo, double uc, double u1, double u2,
+                                 int allowed, lobe_sample_t *out)
 {
     if (wo.z == 0.0)
         return false;
     if (lobe_dielectric_specular(mf, eta)) {
         /* pbrt-v4 DielectricBxDF::Sample_f, specular branch: reflect with R / (R + T). */
-        double r = fr_dielectric(wo.z, eta), pr, pt;
+        double r = fr_dielectric_film(wo.z, eta, film), pr, pt;
         lobe_choice(r, allowed, &pr, &pt);
         if (pr == 0.0 && pt == 0.0)
             return false;
@@ -252,7 +278,7 @@ bool lobe_dielectric_sample(const microfacet_t *mf, double eta, bsdf_mode_t mode
     }
     vec3_t wm = microfacet_sample_wm(mf, wo, u1, u2);
     double dwm = vec3_dot(wo, wm);
-    double r = fr_dielectric(dwm, eta), pr, pt;
+    double r = fr_dielectric_film(dwm, eta, film), pr, pt;
     lobe_choice(r, allowed, &pr, &pt);
     if (pr == 0.0 && pt == 0.0)
         return false;
@@ -278,4 +304,31 @@ bool lobe_dielectric_sample(const microfacet_t *mf, double eta, bsdf_mode_t mode
         ft /= etap * etap;
     *out = (lobe_sample_t){wi, lobe_finite(ft), lobe_finite(pdf), BSDF_TRANSMISSION, etap};
     return out->pdf > 0.0;
+}
+
+double lobe_conductor_f(const microfacet_t *mf, double eta, double k, vec3_t wo, vec3_t wi)
+{
+    return lobe_conductor_f_film(mf, eta, k, NULL, wo, wi);
+}
+
+bool lobe_conductor_sample(const microfacet_t *mf, double eta, double k, vec3_t wo, double u1,
+                           double u2, int allowed, lobe_sample_t *out)
+{
+    return lobe_conductor_sample_film(mf, eta, k, NULL, wo, u1, u2, allowed, out);
+}
+
+double lobe_dielectric_f(const microfacet_t *mf, double eta, bsdf_mode_t mode, vec3_t wo, vec3_t wi)
+{
+    return lobe_dielectric_f_film(mf, eta, NULL, mode, wo, wi);
+}
+
+double lobe_dielectric_pdf(const microfacet_t *mf, double eta, vec3_t wo, vec3_t wi, int allowed)
+{
+    return lobe_dielectric_pdf_film(mf, eta, NULL, wo, wi, allowed);
+}
+
+bool lobe_dielectric_sample(const microfacet_t *mf, double eta, bsdf_mode_t mode, vec3_t wo,
+                            double uc, double u1, double u2, int allowed, lobe_sample_t *out)
+{
+    return lobe_dielectric_sample_film(mf, eta, NULL, mode, wo, uc, u1, u2, allowed, out);
 }

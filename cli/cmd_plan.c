@@ -10,6 +10,7 @@
 #include "local_render.h"
 #include "pbrt_parser.h"
 #include "plan.h"
+#include "polar_pilot.h"
 #include "pool.h"
 #include "predict.h"
 #include "scene_load.h"
@@ -303,6 +304,8 @@ int cmd_plan(int argc, char **argv)
     scene_desc_t *desc = pbrt_parse_file(path, &err);
     scene_t *scene = desc ? scene_load(desc, &ov, &err) : NULL;
     plan_t *plan = NULL;
+    if (scene && polar_pilot_apply(scene, &err) < 0)
+        scene_destroy(&scene);
     if (scene) {
         cli_warn_print("plan", scene->warnings);
         plan_request_t req = plan_request_make(desc, &ov);

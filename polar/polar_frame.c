@@ -31,6 +31,14 @@ polar_event_t polar_event_interface(vec3_t k_in, vec3_t k_out, vec3_t n, vec3_t 
         .k_in = k_in, .x_in = s, .k_out = k_out, .x_out = polar_frame_perp(s, k_out)};
 }
 
+mueller_t polar_event_rebase(const mueller_t *m, const polar_event_t *from, const polar_event_t *to)
+{
+    const mueller_t a = polar_frame_change(from->x_out, to->x_out, to->k_out);
+    const mueller_t b = polar_frame_change(to->x_in, from->x_in, to->k_in);
+    const mueller_t mb = mueller_mul(m, &b);
+    return mueller_mul(&a, &mb);
+}
+
 polar_event_t polar_event_sheet(vec3_t k, vec3_t axis)
 {
     const vec3_t x = polar_frame_perp(axis, k);

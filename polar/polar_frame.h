@@ -46,6 +46,13 @@ typedef struct polar_event {
  * the plane of incidence is undefined, s is the path's frame hint made perpendicular. */
 polar_event_t polar_event_interface(vec3_t k_in, vec3_t k_out, vec3_t n, vec3_t hint);
 
+/* The matrix m of an event given in the frames of `from` re-expressed in those of `to` (the same
+ * k_in and k_out): R(from.x_out -> to.x_out) m R(to.x_in -> from.x_in). Lanes whose events
+ * differ only in their frames (a rough dispersive refraction, each lane's microfacet its own)
+ * are carried together in one pair of frames this way. */
+mueller_t polar_event_rebase(const mueller_t *m, const polar_event_t *from,
+                             const polar_event_t *to);
+
 /* A thin sheet crossed straight along k: both frames have x along the sheet's axis (made
  * perpendicular to k), so that an element "at angle 0" (mueller_polariser(0),
  * mueller_retarder(0, delta)) acts along the axis. */

@@ -595,6 +595,42 @@ static int lanes_select(const path_t *p, double *sel)
 
 /* Next-event estimation at a surface with a non-delta bsdf b, the lanes weighted by MIS
  * against the BSDF sampling that lanes_pdf describes. */
+/* Polarised transport at a bsdf/ model (docs/physics.md §14): q's carrier takes lane j's
+ * bsdf_mueller for light arriving along -wi and leaving along wo (local: wo, wi_local; world:
+ * wi), each lane's matrix in the s-p frames of its own microfacet re-expressed in the first
+ * lane's (a rough dispersive refraction bends each lane through its own half vector). The
+ * models without a matrix (diffuse, thin, layered) and directions no microfacet joins
+ * depolarise. */
+static void polar_bsdf(path_t *q, const bsdf_t *b, const shading_frame_t *fr, vec3_t wo,
+                       vec3_t wi_local, vec3_t wi)
+{
+    mueller_t mm[LANES];
+    polar_event_t ref;
+    vec3_t ref_wm = vec3_make(0.0, 0.0, 0.0);
+    int have = 0;
+    const vec3_t k_in = vec3_neg(wi), k_out = vec3_neg(q->dir);
+    for (int j = 0; j < q->n; j++) {
+        vec3_t wm;
+        if (!bsdf_mueller(b, j, wo, wi_local, &mm[j], &wm)) {
+            mm[j] = mueller_identity(); /* a lane no microfacet joins carries f = 0 */
+            continue;
+        }
+        if (!have) {
+            ref = polar_event_interface(k_in, k_out, shading_to_world(fr, wm), q->polar_x);
+            ref_wm = wm;
+            have = 1;
+        } else if (wm.x != ref_wm.x || wm.y != ref_wm.y || wm.z != ref_wm.z) {
+            const polar_event_t ev =
+                polar_event_interface(k_in, k_out, shading_to_world(fr, wm), q->polar_x);
+            mm[j] = polar_event_rebase(&mm[j], &ev, &ref);
+        }
+    }
+    if (have)
+        polar_carrier_apply(q->polar_t, q->n, &q->polar_x, &ref, mm, 1);
+    else
+        polar_carrier_depolarise(q->polar_t, q->n, &q->polar_x, k_in);
+}
+
 static void direct_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, const bsdf_t *b,
                               const shading_frame_t *fr, vec3_t wo_local, const double *sel)
 {
@@ -612,13 +648,22 @@ static void direct_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, co
         w = power_heuristic(ls.pdf, lanes_pdf(pdf, sel, p->n));
     }
     const double cos_i = fabs(wi.z);
+    /* With polarisation the light (unpolarised) is scattered toward the path by the lobe's
+     * Mueller matrix: a copy of the path's carrier takes it. */
+    const path_t *q = p;
+    path_t polarised;
+    if (p->polar) {
+        path_copy(&polarised, p);
+        polar_bsdf(&polarised, b, fr, wo_local, wi, ls.wi);
+        q = &polarised;
+    }
     for (int j = 0; j < p->n; j++) {
         if (!(f[j] > 0.0))
             continue;
         double le = lights_sample_emission_of(c->scene, &ls,
                                               light_value_lane(c, ls.light, j, p->lambda[j]),
                                               p->lambda[j]);
-        splat(c, p, j, w * f[j] * cos_i * le * tr[j] / ls.pdf);
+        splat(c, q, j, w * f[j] * cos_i * le * tr[j] / ls.pdf);
     }
 }
 
@@ -1200,10 +1245,11 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
         bsdf_pdf(&b, wo, bs.wi, &c->rng, pdfs);
         mis_pdf = pdfs[0];
     }
-    /* Rough and layered surfaces depolarise (docs/physics.md §14: a simplification; a smooth
-     * coat's specular lobe sampled here is depolarised too). */
+    /* Conductors and dielectrics, rough or smooth, polarise by their microfacets' Fresnel
+     * matrices; diffuse, thin and layered models depolarise (docs/physics.md §14: a
+     * simplification; a smooth coat's specular lobe sampled here is depolarised too). */
     if (p->polar)
-        polar_carrier_depolarise(p->polar_t, p->n, &p->polar_x, vec3_neg(wi));
+        polar_bsdf(p, &b, &fr, wo, bs.wi, wi);
     start_bounce(p, sf, wi, specular, specular ? 0.0 : mis_pdf);
     p->prev_n = fr.z;
     if (!specular)
@@ -1396,8 +1442,7 @@ static void trace(ctx_t *c, path_t *start)
             if (p->depth >= maxdepth)
                 break;
             vec3_t wo = vec3_neg(p->dir);
-            /* pbrt-v4's anyNonSpecularBounces; a smooth surface becomes a rough bsdf/ lobe
-             * (a thin-film coat, which bsdf/ does not model, stays smooth). */
+            /* pbrt-v4's anyNonSpecularBounces; a smooth surface becomes a rough bsdf/ lobe. */
             const int regularized = c->rs->regularize && !c->photons && p->diffuse_bounces > 0;
             if (m->kind == MATERIAL_DIFFUSE) {
                 /* Lambertian with the shading normal n: cosine sampling around it and the
@@ -1436,10 +1481,10 @@ static void trace(ctx_t *c, path_t *start)
                 start_bounce(p, &sf, p->dir, 1, 0.0);
                 /* The photon pass ends at sheets (photon.c): light through one is path traced. */
                 p->specular_since_diffuse = CHAIN_BROKEN;
-            } else if (!shading_is_delta(m, &sf) ||
-                       (regularized && m->film_thickness <= 0.0 && !m->uniaxial)) {
-                /* regularize roughens smooth glass and metal, not films or crystals (whose two
-                 * waves no rough model carries): docs/compatibility.md, "Regularize". */
+            } else if (!shading_is_delta(m, &sf) || (regularized && !m->uniaxial)) {
+                /* regularize roughens smooth glass and metal, films included, not crystals
+                 * (whose two waves no rough model carries): docs/compatibility.md,
+                 * "Regularize". */
                 if (scatter_bsdf(c, p, &sf, m, regularized))
                     break;
             } else if (m->kind == MATERIAL_CONDUCTOR) {

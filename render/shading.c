@@ -132,6 +132,16 @@ void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda
     b->n = n;
     b->mf = distribution(m->uroughness, m->vroughness, m->remaproughness, sf);
     b->mf_base = distribution(m->base_uroughness, m->base_vroughness, m->remaproughness, sf);
+    /* A thin film on glass or metal (bsdf_types.h: the Airy reflectance at each microfacet). */
+    b->film_nm = 0.0;
+    if (m->film_thickness > 0.0 &&
+        (m->kind == MATERIAL_CONDUCTOR || m->kind == MATERIAL_DIELECTRIC)) {
+        b->film_nm = m->film_thickness;
+        for (int j = 0; j < n; j++) {
+            b->film_n[j] = ior_eval(&m->film_ior, lambda[j]);
+            b->lambda[j] = lambda[j];
+        }
+    }
     switch (m->kind) {
     case MATERIAL_CONDUCTOR:
         b->kind = BSDF_CONDUCTOR;

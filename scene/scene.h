@@ -354,6 +354,16 @@ typedef struct render_settings {
      * of grid.n, S0 (the spectral image as without it) then S1, S2, S3 in the image's frame
      * (x right, y up): render_settings_buckets. */
     int stokes;
+    /* What the polarisation pilot measured (render/polar_pilot.h), for the plan's report; run
+     * 0: it did not run (a polariser, analyser or Stokes output already asked for polarisation,
+     * no Fresnel interface, or the caller did not run it). */
+    struct {
+        int run;
+        double change;    /* relative RMS change of pixel luminance, polarised against not */
+        double change_hi; /* its bound two standard errors up: what the decision compares */
+        double target;    /* the error it was compared with */
+        double seconds_plain, seconds_polarised; /* the pilot's renders, wall clock */
+    } polar_pilot;
 } render_settings_t;
 
 typedef struct scene {

@@ -235,9 +235,8 @@ static const pbrt_name_t MATERIALS[] = {
     {"none", SCENE_MATERIAL_INTERFACE},
 };
 
-/* A thin film on smooth glass or metal (scene_material_t.film_thickness): simulated on the
- * smooth surfaces only (bsdf/delta), so a rough one with a film is refused rather than
- * rendered without it. */
+/* A thin film on glass or metal (scene_material_t.film_thickness), smooth (bsdf/delta) or
+ * rough (the Airy reflectance at each microfacet, bsdf/lobe). */
 static int get_film(parser_t *P, params_t *ps, scene_material_t *m)
 {
     if (params_get_float(ps, "filmthickness", 0.0, &m->film_thickness, P->err) != 0 ||
@@ -245,12 +244,6 @@ static int get_film(parser_t *P, params_t *ps, scene_material_t *m)
         pbrt_state_check_range(P, ps, "filmthickness", m->film_thickness, 0.0, 1e5) != 0 ||
         pbrt_state_check_range(P, ps, "filmeta", m->film_eta, 1.0, 5.0) != 0)
         return -1;
-    const bool rough = m->uroughness.texture >= 0 || m->vroughness.texture >= 0 ||
-                       m->uroughness.value > 0.0 || m->vroughness.value > 0.0;
-    if (m->film_thickness > 0.0 && rough)
-        return pbrt_error(P->err, params_find(ps, "filmthickness")->loc,
-                          "\"float filmthickness\" needs a smooth surface (roughness 0): thin "
-                          "films are simulated on smooth glass and mirrors only");
     return 0;
 }
 

@@ -1,6 +1,7 @@
 #include "scene_cache.h"
 
 #include "photon_wire.h"
+#include "polar_pilot.h"
 #include "settings.h"
 
 #include <stdio.h>
@@ -32,7 +33,12 @@ typedef struct bundle_load {
 static scene_t *load_bundle(void *arg, err_t *err)
 {
     bundle_load_t *b = arg;
-    return bundle_cache_load(b->bundles, b->hash, b->main, &b->ov, err);
+    scene_t *s = bundle_cache_load(b->bundles, b->hash, b->main, &b->ov, err);
+    /* The plan's polarisation pilot, as prismfarm render's client runs it (deterministic: the
+     * same decision here as there). */
+    if (s && polar_pilot_apply(s, err) < 0)
+        scene_destroy(&s);
+    return s;
 }
 
 /* Decodes the photon store for a scene slot that has none yet. Called with the lock held;

@@ -1487,8 +1487,8 @@ static void test_option_directive(void **state)
     assert_non_null(strstr(err.msg, "t.pbrt:1:8: unknown option \"turbo\" (\"seed\", \"disablepixeljitter\", "));
 }
 
-/* The thin-film extension on smooth dielectrics and conductors: read with its defaults,
- * bounded, and refused on a rough surface, where it is not simulated. */
+/* The thin-film extension on dielectrics and conductors: read with its defaults, bounded, on
+ * smooth and rough surfaces. */
 static void test_thin_film(void **state)
 {
     (void)state;
@@ -1509,10 +1509,14 @@ static void test_thin_film(void **state)
     assert_int_equal(metal, 1);
     assert_int_equal(plain, 1);
     scene_desc_destroy(&s);
-    expect_error("WorldBegin\nMaterial \"dielectric\" \"float roughness\" [ 0.1 ] "
-                 "\"float filmthickness\" [ 400 ]\n",
-                 "t.pbrt:2:49: \"float filmthickness\" needs a smooth surface (roughness 0): "
-                 "thin films are simulated on smooth glass and mirrors only");
+    /* Rough surfaces take the film at each microfacet (bsdf/lobe). */
+    s = parse_text_ok("WorldBegin\nMaterial \"dielectric\" \"float roughness\" [ 0.1 ] "
+                      "\"float filmthickness\" [ 400 ]\nShape \"sphere\"\n");
+    int rough_film = 0;
+    for (size_t i = 0; i < s->nmaterials; i++)
+        rough_film += s->materials[i].film_thickness == 400.0;
+    assert_int_equal(rough_film, 1);
+    scene_desc_destroy(&s);
     expect_error("WorldBegin\nMaterial \"dielectric\" \"float filmthickness\" [ -1 ]\n",
                  "t.pbrt:2:23: \"float filmthickness\" must be within [0, 100000], got -1");
 }

@@ -5,8 +5,11 @@
  * quarter-wave plate turning 45-degree light circular (S3 = S0, and -S0 for -45); a glass slab
  * at 60 degrees transmitting the polarised sum of its inter-reflections, (T_s + T_p)/2 with
  * T_x = (1 - R_x)/(1 + R_x), partly p-polarised, which the unpolarised sum does not give; every
- * furnace (bare and coated glass, hero and fan-out, path and Whitted, a mirror, rough glass)
- * still exactly 1 with polarisation on; and polarisation is on only where the scene asks. */
+ * furnace (bare and coated glass, hero and fan-out, path and Whitted, a mirror) still exactly
+ * 1 with polarisation on, and rough glass keeping the energy it keeps without; rough conductors
+ * and dielectrics converging to the smooth Fresnel polarisation as alpha goes to 0, a rough
+ * Brewster reflection partly polarised, and a rough lobe's unpolarised S0 the intensity
+ * without polarisation; and polarisation is on only where the scene asks. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -14,6 +17,7 @@
 
 #include <cmocka.h> /* after the four headers above, which it needs */
 
+#include <complex.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -291,6 +295,147 @@ static void test_slab(void **state)
         fail_msg("slab unpolarised: T %.6f, want %.6f", T[0], t_unpolarised);
 }
 
+/* A plane of material `mat` tilted by deg about the camera's horizontal under a constant,
+ * unpolarised environment, seen by a narrow orthographic camera along -z, with a black backing
+ * behind it (what the plane transmits is lost): the light the camera records is the plane's
+ * reflection of the environment. `film` adds to the Film line. */
+static scene_t *tilted_plane(const char *mat, double deg, const char *film, const char *integ)
+{
+    char text[4096];
+    snprintf(text, sizeof text,
+             "LookAt 0 0 0  0 0 -1  0 1 0\n"
+             "Camera \"orthographic\" \"float screenwindow\" [-0.01 0.01 -0.01 0.01]\n"
+             "Film \"spectral\" \"integer xresolution\" [4] \"integer yresolution\" [4] %s\n"
+             "Integrator \"%s\" \"integer maxdepth\" [3]\n"
+             "WorldBegin\n"
+             "LightSource \"infinite\" \"spectrum L\" [300 1 900 1]\n"
+             "AttributeBegin\n%s\n"
+             "Translate 0 0 -1\nRotate %.12f 1 0 0\n" QUAD "AttributeEnd\n"
+             "AttributeBegin\nMaterial \"diffuse\" \"spectrum reflectance\" [300 0 900 0]\n"
+             "Translate 0 0 -1\nRotate %.12f 1 0 0\nTranslate 0 0 -0.05\n" QUAD "AttributeEnd\n",
+             film, integ, mat, deg, deg);
+    return sb_load_text(text, NULL);
+}
+
+/* Fresnel's reflectances of an interface from index 1 into n + i k at incidence theta,
+ * written out (Born & Wolf §1.5.2, §14.2: Snell's law with the complex index). */
+static void fresnel_rs_rp(double theta, double n, double k, double *Rs, double *Rp)
+{
+    const double complex m = n + I * k, ci = cos(theta), si = sin(theta);
+    const double complex ct = csqrt(1.0 - si * si / (m * m));
+    const double complex rs = (ci - m * ct) / (ci + m * ct), rp = (m * ci - ct) / (m * ci + ct);
+    *Rs = creal(rs * conj(rs));
+    *Rp = creal(rp * conj(rp));
+}
+
+/* Rough conductors and dielectrics polarise by their microfacets' Fresnel matrices: as alpha
+ * goes to 0 the reflection's S1/S0 converges to the smooth surface's (R_s - R_p)/(R_s + R_p)
+ * (a dielectric 10 degrees off Brewster's angle, a metal of index 0.2 + 3i at 60 degrees), and
+ * at Brewster's angle a rough dielectric's reflection is polarised less than the smooth one's
+ * (microfacets tilted off the plane of incidence and off the angle) but clearly polarised. */
+static void test_rough_converges(void **state)
+{
+    (void)state;
+    const double brewster = atan(1.5) * 180.0 / PI;
+    struct {
+        const char *mat;
+        double deg, n, k;
+    } cases[] = {
+        {"Material \"dielectric\" \"float eta\" [1.5] \"float roughness\" [%g] "
+         "\"bool remaproughness\" false",
+         brewster - 10.0, 1.5, 0.0},
+        {"Material \"conductor\" \"spectrum eta\" [300 0.2 900 0.2] \"spectrum k\" [300 3 900 3] "
+         "\"float roughness\" [%g] \"bool remaproughness\" false",
+         60.0, 0.2, 3.0},
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        double Rs, Rp;
+        fresnel_rs_rp(cases[i].deg * PI / 180.0, cases[i].n, cases[i].k, &Rs, &Rp);
+        const double want = (Rs - Rp) / (Rs + Rp);
+        const double alphas[] = {0.1, 0.002};
+        for (size_t a = 0; a < sizeof alphas / sizeof alphas[0]; a++) {
+            char mat[512];
+            snprintf(mat, sizeof mat, cases[i].mat, alphas[a]);
+            scene_t *s = tilted_plane(mat, cases[i].deg, "\"bool stokes\" true", "path");
+            double S[4];
+            render_stokes(s, 4, 8, S);
+            scene_destroy(&s);
+            const double err = fabs(S[1] / S[0] - want);
+            /* At alpha 0.002 the microfacets tilt by about 0.1 degree: S1/S0 within 1e-3. */
+            if (alphas[a] < 0.005 && !(err <= 1e-3))
+                fail_msg("case %zu alpha %g: S1/S0 %.6f, smooth Fresnel %.6f", i, alphas[a],
+                         S[1] / S[0], want);
+            if (!(fabs(S[3]) <= 1e-9 * S[0]))
+                fail_msg("case %zu: unpolarised light reflected with S3 %g", i, S[3] / S[0]);
+        }
+    }
+    /* Brewster's angle, rough: DoP below the smooth 1, well above 0. */
+    scene_t *s = tilted_plane("Material \"dielectric\" \"float eta\" [1.5] \"float roughness\" "
+                              "[0.2] \"bool remaproughness\" false",
+                              brewster, "\"bool stokes\" true", "path");
+    double S[4];
+    render_stokes(s, 4, 16, S);
+    scene_destroy(&s);
+    const double dop = sqrt(S[1] * S[1] + S[2] * S[2] + S[3] * S[3]) / S[0];
+    if (!(dop < 0.95) || !(dop > 0.3) || !(S[1] > 0.0))
+        fail_msg("rough Brewster (alpha 0.2): S = (%g, %g, %g, %g), DoP %.4f", S[0], S[1], S[2],
+                 S[3], dop);
+}
+
+/* Unpolarised light reflected once by a rough lobe: the polarised S0 is the intensity the
+ * unpolarised renderer gives (the scalar weights are the same; only the carrier's other rows
+ * differ), to rounding. */
+static void test_rough_s0(void **state)
+{
+    (void)state;
+    const char *mats[] = {
+        "Material \"dielectric\" \"float eta\" [1.5] \"float roughness\" [0.3]",
+        "Material \"conductor\" \"float roughness\" [0.2]",
+    };
+    for (size_t i = 0; i < sizeof mats / sizeof mats[0]; i++) {
+        double P[4], U[4];
+        scene_t *s = tilted_plane(mats[i], 40.0, "\"bool stokes\" true", "path");
+        assert_true(s->settings.polarised);
+        render_stokes(s, 4, 8, P);
+        scene_destroy(&s);
+        s = tilted_plane(mats[i], 40.0, "", "path");
+        assert_false(s->settings.polarised);
+        render_stokes(s, 4, 8, U);
+        scene_destroy(&s);
+        if (!(fabs(P[0] - U[0]) <= 1e-12 * U[0]) || !(fabs(P[1]) > 1e-3 * P[0]))
+            fail_msg("%s: polarised S0 %.15g (S1 %g), unpolarised %.15g", mats[i], P[0], P[1],
+                     U[0]);
+    }
+}
+
+/* Thin films on rough surfaces reach the renderer: at alpha 0.002 a filmed metal (which
+ * reflects every sample, so S0 is not a count of random reflections) reflects what the smooth
+ * filmed one does, S0 to 2e-3 and S1/S0 to 1e-3 (test_polar_bsdf checks the rough film's lobe
+ * against the Airy sum, test_thinfilm the smooth one). */
+static void test_rough_film(void **state)
+{
+    (void)state;
+    const char *mats[] = {
+        "Material \"conductor\" \"spectrum eta\" [300 0.2 900 0.2] \"spectrum k\" [300 3 900 3] "
+        "\"float filmthickness\" [250] \"float filmeta\" [1.45] \"float roughness\" [%g] "
+        "\"bool remaproughness\" false",
+    };
+    for (size_t i = 0; i < sizeof mats / sizeof mats[0]; i++) {
+        double S[2][4];
+        for (int rough = 0; rough < 2; rough++) {
+            char mat[512];
+            snprintf(mat, sizeof mat, mats[i], rough ? 0.002 : 0.0);
+            scene_t *s = tilted_plane(mat, 50.0, "\"bool stokes\" true", "path");
+            render_stokes(s, 4, 8, S[rough]);
+            scene_destroy(&s);
+        }
+        if (!(fabs(S[1][0] / S[0][0] - 1.0) <= 2e-3) ||
+            !(fabs(S[1][1] / S[1][0] - S[0][1] / S[0][0]) <= 1e-3))
+            fail_msg("%s: rough S0 %.6f S1/S0 %.6f, smooth S0 %.6f S1/S0 %.6f", mats[i], S[1][0],
+                     S[1][1] / S[1][0], S[0][0], S[0][1] / S[0][0]);
+    }
+}
+
 static int furnace_with(integrator_kind_t integ, dispersion_kind_t disp, material_kind_t kind,
                         const char *glass_name, double film_thickness, double roughness,
                         int polarised, double *means)
@@ -365,13 +510,19 @@ static void furnace(integrator_kind_t integ, dispersion_kind_t disp, material_ki
     const int nb = furnace_with(integ, disp, kind, glass_name, film_thickness, roughness, 1, pol);
     if (!(roughness > 0.0))
         return;
-    /* Rough glass loses what its microfacets scatter more than once (docs/physics.md §10.5)
-     * and depolarises: polarised transport must give what the unpolarised does. */
+    /* Rough glass loses what its microfacets scatter more than once (docs/physics.md §10.5):
+     * the polarised render must keep the energy the unpolarised one does, up to the noise and
+     * to what its polarised Fresnel terms change in the light that two or more interfaces
+     * pass (within 1 %; the sphere's mean over the buckets). */
     furnace_with(integ, disp, kind, glass_name, film_thickness, roughness, 0, unpol);
-    for (int b = 0; b < nb; b++)
-        if (!(fabs(pol[b] - unpol[b]) <= 1e-12 * unpol[b]))
-            fail_msg("rough glass, bucket %d: polarised %.15g, unpolarised %.15g", b, pol[b],
-                     unpol[b]);
+    double sp = 0.0, su = 0.0;
+    for (int b = 0; b < nb; b++) {
+        sp += pol[b];
+        su += unpol[b];
+    }
+    if (!(fabs(sp - su) <= 0.01 * su))
+        fail_msg("rough furnace (kind %d, film %g): polarised %.6f, unpolarised %.6f", (int)kind,
+                 film_thickness, sp / nb, su / nb);
 }
 
 static void test_furnaces(void **state)
@@ -386,6 +537,8 @@ static void test_furnaces(void **state)
     furnace(INTEGRATOR_PATH, DISPERSION_HERO, MATERIAL_CONDUCTOR, NULL, 250.0, 0.0);
     furnace(INTEGRATOR_PATH, DISPERSION_HERO, MATERIAL_CONDUCTOR, NULL, 0.0, 0.0);
     furnace(INTEGRATOR_PATH, DISPERSION_HERO, MATERIAL_DIELECTRIC, NULL, 0.0, 0.3);
+    furnace(INTEGRATOR_PATH, DISPERSION_HERO, MATERIAL_DIELECTRIC, "N-SF11", 0.0, 0.1);
+    furnace(INTEGRATOR_PATH, DISPERSION_HERO, MATERIAL_DIELECTRIC, NULL, 120.0, 0.3);
 }
 
 /* The parser's refusals name the file and line. */
@@ -409,9 +562,15 @@ static void test_parse_errors(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_malus),        cmocka_unit_test(test_analyser),
-        cmocka_unit_test(test_quarter_wave), cmocka_unit_test(test_brewster),
-        cmocka_unit_test(test_slab),         cmocka_unit_test(test_furnaces),
+        cmocka_unit_test(test_malus),
+        cmocka_unit_test(test_analyser),
+        cmocka_unit_test(test_quarter_wave),
+        cmocka_unit_test(test_brewster),
+        cmocka_unit_test(test_slab),
+        cmocka_unit_test(test_furnaces),
+        cmocka_unit_test(test_rough_converges),
+        cmocka_unit_test(test_rough_s0),
+        cmocka_unit_test(test_rough_film),
         cmocka_unit_test(test_parse_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
