@@ -1012,12 +1012,23 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
         if (s->camera.analyser)
             text_add(&r, "the camera has an analyser at %g degrees; ",
                      s->camera.analyser_angle * 180.0 / PF_PI);
-        if (s->polarised_lights)
-            text_add(&r,
-                     "%d light%s emit%s polarised light (seen directly and through smooth "
-                     "surfaces; diffuse surfaces depolarise it); ",
-                     s->polarised_lights, s->polarised_lights > 1 ? "s" : "",
-                     s->polarised_lights > 1 ? "" : "s");
+        if (s->polarised_lights) {
+            int area = 0;
+            for (size_t i = 0; i < s->nlights; i++)
+                area += s->lights[i].polarisation > 0.0 && s->lights[i].kind == LIGHT_AREA;
+            text_add(&r, "%d light%s emit%s polarised light", s->polarised_lights,
+                     s->polarised_lights > 1 ? "s" : "", s->polarised_lights > 1 ? "" : "s");
+            if (area)
+                text_add(&r, " (%d area light%s: seen directly and through smooth surfaces)",
+                         area, area > 1 ? "s" : "");
+            if (area < s->polarised_lights)
+                text_add(&r,
+                         " (%d point, spot or distant: reached only by next-event estimation, "
+                         "whose diffuse, rough and medium vertices depolarise, so their "
+                         "polarisation changes no pixel yet)",
+                         s->polarised_lights - area);
+            text_add(&r, "; ");
+        }
         if (rs->stokes)
             text_add(&r, "the film writes the Stokes layers S1-S3; ");
         if (!sheets && !s->camera.analyser && !rs->stokes && !s->polarised_lights)

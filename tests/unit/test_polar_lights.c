@@ -20,6 +20,7 @@
 #include <string.h>
 
 #include "lights.h"
+#include "plan.h"
 #include "render.h"
 #include "scene.h"
 #include "scene_builders.h"
@@ -232,6 +233,33 @@ static void test_delta_lights(void **state)
     }
 }
 
+/* The plan turns polarisation on for a polarised light and says which kind sees it. */
+static void test_plan(void **state)
+{
+    (void)state;
+    const char *text =
+        "Camera \"orthographic\"\nWorldBegin\n"
+        "LightSource \"spot\" \"float polarization\" [0.5]\n"
+        "AttributeBegin\nAreaLightSource \"diffuse\" \"float polarization\" [1]\n" QUAD
+        "AttributeEnd\n";
+    err_t err = {{0}};
+    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
+    assert_non_null(d);
+    scene_t *s = scene_load(d, NULL, &err);
+    assert_non_null(s);
+    plan_request_t req = plan_request_make(d, NULL);
+    plan_t *p = plan_new(s, &req, &err);
+    assert_non_null(p);
+    const plan_decision_t *pd = plan_decision_of(p, PLAN_POLARISATION);
+    assert_true(pd->on);
+    if (!strstr(pd->reason, "2 lights emit polarised light") ||
+        !strstr(pd->reason, "1 area light") || !strstr(pd->reason, "1 point, spot or distant"))
+        fail_msg("plan: %s", pd->reason);
+    plan_destroy(&p);
+    scene_destroy(&s);
+    scene_desc_destroy(&d);
+}
+
 static void test_syntax(void **state)
 {
     (void)state;
@@ -256,9 +284,9 @@ static void test_syntax(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_malus),  cmocka_unit_test(test_unpolarised),
-        cmocka_unit_test(test_slab),   cmocka_unit_test(test_delta_lights),
-        cmocka_unit_test(test_syntax),
+        cmocka_unit_test(test_malus), cmocka_unit_test(test_unpolarised),
+        cmocka_unit_test(test_slab),  cmocka_unit_test(test_delta_lights),
+        cmocka_unit_test(test_plan),  cmocka_unit_test(test_syntax),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
