@@ -1019,8 +1019,8 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
             text_add(&r, "%d light%s emit%s polarised light", s->polarised_lights,
                      s->polarised_lights > 1 ? "s" : "", s->polarised_lights > 1 ? "" : "s");
             if (area)
-                text_add(&r, " (%d area light%s: seen directly and through smooth surfaces)",
-                         area, area > 1 ? "s" : "");
+                text_add(&r, " (%d area light%s: seen directly and through smooth surfaces)", area,
+                         area > 1 ? "s" : "");
             if (area < s->polarised_lights)
                 text_add(&r,
                          " (%d point, spot or distant: reached only by next-event estimation, "
