@@ -2,7 +2,7 @@
  * optic axis in the plate's plane (a wave plate, a petrographic thin section) -- between its
  * ordinary and extraordinary waves, at any angle of incidence from air (Veiras, Perez &
  * Garea, "Phase shift formulas in uniaxial media: an application to waveplates", Appl. Opt.
- * 49, 2769, 2010; Born & Wolf, Principles of Optics, §15.3; the index surface of
+ * 49, 2769, 2010; Born & Wolf, Principles of Optics, ch. 15; the index surface of
  * docs/physics.md §15).
  *
  * Guarantees: finite for finite input; exactly 2 pi (n_o - n_e) t / lambda at normal

@@ -128,6 +128,51 @@ static void test_malus(void **state)
     }
 }
 
+/* The Stokes output of a lamp seen directly: degree P, horizontal in the image at 0 degrees
+ * (S1 = P S0) and, the world's +45 being the image's -45 (pbrt's LookAt mirrors x), S2 = -P S0
+ * at 45 degrees; no circular part. */
+static void test_stokes_output(void **state)
+{
+    (void)state;
+    const double cases[][3] = {
+        {1.0, 0.0, 1.0}, {0.5, 0.0, 1.0}, {1.0, 45.0, 0.0}, {0.6, 45.0, 0.0}};
+    for (size_t i = 0; i < 4; i++) {
+        char light[128], text[4096];
+        snprintf(light, sizeof light,
+                 "\"float polarization\" [%g] \"float polarizationangle\" [%g]", cases[i][0],
+                 cases[i][1]);
+        snprintf(text, sizeof text,
+                 "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"orthographic\"\n"
+                 "Film \"spectral\" \"integer xresolution\" [4] \"integer yresolution\" [4] "
+                 "\"bool stokes\" true\n"
+                 "Sampler \"independent\" \"integer pixelsamples\" [4]\n"
+                 "WorldBegin\nAttributeBegin\n"
+                 "AreaLightSource \"diffuse\" \"spectrum L\" [300 1 900 1] %s\n"
+                 "Translate 0 0 -1\n" QUAD "AttributeEnd\n",
+                 light);
+        scene_t *s = sb_load_text(text, NULL);
+        err_t err;
+        const int nb = s->settings.grid.n;
+        tilebuf_t *t = tilebuf_new(0, 0, 4, 4, 4 * nb, &err);
+        assert_non_null(t);
+        render_stats_t st = {0};
+        if (render_tile(s, NULL, 0, 0, 4, 4, 0, 4, t, &st, &err))
+            fail_msg("render_tile: %s", err.msg);
+        double S[4] = {0, 0, 0, 0};
+        for (int y = 0; y < 4; y++)
+            for (int x = 0; x < 4; x++)
+                for (int k = 0; k < 4; k++)
+                    for (int b = 0; b < nb; b++)
+                        S[k] += tilebuf_sum(t, x, y, k * nb + b) / (double)tilebuf_count(t, x, y);
+        const double p = cases[i][0], s1 = cases[i][2] * p, s2 = cases[i][1] == 45.0 ? -p : 0.0;
+        if (!(S[0] > 0.0) || !(fabs(S[1] / S[0] - s1) <= 1e-9) ||
+            !(fabs(S[2] / S[0] - s2) <= 1e-9) || !(fabs(S[3]) <= 1e-9 * S[0]))
+            fail_msg("lamp %s: S = (%g, %g, %g, %g)", light, S[0], S[1], S[2], S[3]);
+        tilebuf_destroy(&t);
+        scene_destroy(&s);
+    }
+}
+
 /* An unpolarised lamp is unchanged: "polarization" 0 is the default, polarisation stays off
  * and the image is the same to the bit. */
 static void test_unpolarised(void **state)
@@ -284,9 +329,10 @@ static void test_syntax(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_malus), cmocka_unit_test(test_unpolarised),
-        cmocka_unit_test(test_slab),  cmocka_unit_test(test_delta_lights),
-        cmocka_unit_test(test_plan),  cmocka_unit_test(test_syntax),
+        cmocka_unit_test(test_malus),         cmocka_unit_test(test_unpolarised),
+        cmocka_unit_test(test_slab),          cmocka_unit_test(test_delta_lights),
+        cmocka_unit_test(test_stokes_output), cmocka_unit_test(test_plan),
+        cmocka_unit_test(test_syntax),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

@@ -36,7 +36,7 @@
  * incidence at azimuth phi from the optic axis (in the plate's plane, the normal z): the wave
  * vector K = (s cos phi, s sin phi, N) with s = sin_i in the axis's frame (x along the axis)
  * must have |K| = n(theta), 1/n^2 = cos^2 theta / n_o^2 + sin^2 theta / n_e^2, theta the angle
- * between K and the axis (Born & Wolf §15.3.3). Solved for N by bisection on
+ * between K and the axis (Born & Wolf §15.3). Solved for N by bisection on
  * g(N) = |K|^2 - n(theta(N))^2, which changes sign once on [0, 3 max(n_o, n_e)]. */
 static double ne_normal_bisect(double n_o, double n_e, double sin_i, double phi)
 {
