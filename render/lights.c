@@ -1,6 +1,7 @@
 #include "lights.h"
 
 #include "emitters.h"
+#include "polar_frame.h"
 #include "sample.h"
 
 #include <math.h>
@@ -372,6 +373,19 @@ int lights_sample(const scene_t *scene, const lights_at_t *at, const double u[4]
 double lights_value(const light_t *l, double lambda)
 {
     return light_value(l, lambda);
+}
+
+void lights_stokes(const light_t *l, vec3_t k, vec3_t x, double s[4])
+{
+    s[0] = 1.0;
+    s[1] = s[2] = s[3] = 0.0;
+    if (!(l->polarisation > 0.0))
+        return;
+    const vec3_t e = polar_frame_perp(l->polarisation_axis, k);
+    const double c = vec3_dot(e, x), sn = vec3_dot(e, vec3_cross(k, x));
+    /* cos 2psi and sin 2psi from the unit (c, sn) = (cos psi, sin psi). */
+    s[1] = l->polarisation * (c * c - sn * sn);
+    s[2] = l->polarisation * 2.0 * c * sn;
 }
 
 int lights_area_faces(const light_t *l, vec3_t ng, vec3_t wo)

@@ -84,6 +84,13 @@ int lights_sample_shape(const shape_t *shape, double u0, double u1, double u2, v
  * lights_value(l, lambda) times this (1 for a light without an image). */
 double lights_area_image(const light_t *l, double u, double v, double lambda);
 
+/* The normalised Stokes vector s (s[0] = 1) of light l's emission travelling along unit k,
+ * measured in the frame x (unit, perpendicular to k; y = k x x, polar/polar_frame.h):
+ * (1, P cos 2psi, P sin 2psi, 0) with P the light's degree of polarisation and psi the angle
+ * from x toward y of its polarisation axis made perpendicular to k (docs/physics.md §14.2);
+ * (1, 0, 0, 0) for an unpolarised light. */
+void lights_stokes(const light_t *l, vec3_t k, vec3_t x, double s[4]);
+
 /* A spot light's falloff at the cosine of the angle to its axis: 1 inside the inner cone, 0
  * outside the outer one, pbrt-v4's smoothstep between. */
 double lights_spot_falloff(const light_t *l, double cos_theta);

@@ -17,6 +17,7 @@
 #include "specular.h"
 #include "volume.h"
 #include "wavelength.h"
+#include "waveplate.h"
 
 #include <math.h>
 #include <stddef.h>
@@ -263,11 +264,13 @@ static double fanout_inverse_density(const ctx_t *c, const path_t *p, double lam
  * splatted into each plane as the S0 bucket is; no XYZ. The carried frame's y is k x right,
  * which for a camera that shows its up as image up reversed (c->frame_sign -1: pbrt's LookAt)
  * is image down, so S2 takes that sign and the planes are in the image's (right, up) frame. */
-static void splat_stokes(ctx_t *c, const path_t *p, int j, double v)
+static void splat_stokes(ctx_t *c, const path_t *p, int j, double v, const double *ls)
 {
     const int nb = c->rs->grid.n;
     for (int k = 1; k < 4; k++) {
-        double vk = v * p->polar_t[j].m[k][0] * (k == 2 ? c->frame_sign : 1.0);
+        const double *t = p->polar_t[j].m[k];
+        double vk = v * (ls ? t[0] + t[1] * ls[1] + t[2] * ls[2] + t[3] * ls[3] : t[0]) *
+                    (k == 2 ? c->frame_sign : 1.0);
         if (vk == 0.0)
             continue;
         double *plane = c->contrib + k * nb;
@@ -284,14 +287,16 @@ static void splat_stokes(ctx_t *c, const path_t *p, int j, double v)
  * the lane's wavelength was drawn with (the hero tuple's pdf over its lanes' count, or the
  * fan-out lane's), so that the colour is an unbiased estimate of the spectrum's XYZ (pbrt-v4's
  * RGBFilm::AddSample, SampledSpectrum::ToXYZ), whatever the buckets. */
-static void splat(ctx_t *c, const path_t *p, int j, double value)
+static void splat_polarised(ctx_t *c, const path_t *p, int j, double value, const double *ls)
 {
     double v = value * p->beta[j];
     if (p->polar) {
-        /* Every emitter is unpolarised, (L, 0, 0, 0): the camera records T's first column. */
+        /* The light's normalised Stokes vector ls in the path's frame (NULL: unpolarised,
+         * (1, 0, 0, 0), so that the camera records T's first column). */
         if (c->stokes)
-            splat_stokes(c, p, j, v);
-        v *= p->polar_t[j].m[0][0];
+            splat_stokes(c, p, j, v, ls);
+        const double *t = p->polar_t[j].m[0];
+        v *= ls ? t[0] + t[1] * ls[1] + t[2] * ls[2] + t[3] * ls[3] : t[0];
     }
     if (v == 0.0)
         return;
@@ -315,6 +320,12 @@ static void splat(ctx_t *c, const path_t *p, int j, double value)
     c->xyz[0] += k * m.x;
     c->xyz[1] += k * m.y;
     c->xyz[2] += k * m.z;
+}
+
+/* splat for unpolarised light. */
+static void splat(ctx_t *c, const path_t *p, int j, double value)
+{
+    splat_polarised(c, p, j, value, NULL);
 }
 
 static double max_beta(const path_t *p)
@@ -413,11 +424,17 @@ static void add_emission_hit(ctx_t *c, const path_t *p, const surface_t *sf, con
         w = power_heuristic(p->bsdf_pdf, lp);
     }
     const int faces = lights_area_faces(l, sf->ng, vec3_neg(p->dir));
+    /* A polarised lamp's Stokes vector along the ray, in the path's frame (§14.2). */
+    double ls[4];
+    const int polarised = p->polar && l->polarisation > 0.0;
+    if (polarised)
+        lights_stokes(l, vec3_neg(p->dir), p->polar_x, ls);
     for (int j = 0; j < p->n; j++)
-        splat(c, p, j,
-              w * (faces ? light_value_lane(c, li, j, p->lambda[j]) *
-                               lights_area_image(l, sf->u, sf->v, p->lambda[j])
-                         : 0.0));
+        splat_polarised(c, p, j,
+                        w * (faces ? light_value_lane(c, li, j, p->lambda[j]) *
+                                         lights_area_image(l, sf->u, sf->v, p->lambda[j])
+                                   : 0.0),
+                        polarised ? ls : NULL);
 }
 
 static void add_environment(ctx_t *c, const path_t *p)
@@ -535,6 +552,8 @@ static void direct_light(ctx_t *c, const path_t *p, const surface_t *sf, vec3_t 
     double tr[LANES];
     if (!light_visible(c, p, sf, n, &ls, above_both, &hs, tr))
         return;
+    /* A polarised light's Stokes vector meets the diffuse vertex's depolariser (§14, §14.2):
+     * only its S0 reaches the carrier, so the light is splatted as unpolarised. */
     double cos_s = vec3_dot(n, ls.wi);
     double w = 1.0;
     if (!ls.is_delta && c->rs->integrator == INTEGRATOR_PATH)
@@ -1379,10 +1398,26 @@ static void cross_sheet(path_t *p, const surface_t *sf, const material_t *m)
     b = vec3_cross(sf->ng, t);
     const vec3_t axis =
         vec3_add(vec3_scale(t, cos(m->sheet_angle)), vec3_scale(b, sin(m->sheet_angle)));
-    const mueller_t e = polariser ? mueller_polariser(0.0) : mueller_retarder(0.0, m->retardance);
-    const mueller_t mm = mueller_normalised(&e);
     const polar_event_t ev = polar_event_sheet(vec3_neg(p->dir), axis);
-    polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &ev, &mm, 0);
+    if (polariser || m->retarder_mode == RETARDER_CONSTANT) {
+        const mueller_t e =
+            polariser ? mueller_polariser(0.0) : mueller_retarder(0.0, m->retardance);
+        const mueller_t mm = mueller_normalised(&e);
+        polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &ev, &mm, 0);
+        return;
+    }
+    /* A retardance per lane (§14.1): 2 pi Gamma / lambda, or the crystal plate's. */
+    mueller_t mm[LANES];
+    for (int j = 0; j < p->n; j++) {
+        const double l = p->lambda[j];
+        const double delta =
+            m->retarder_mode == RETARDER_RETARDATION
+                ? 2.0 * PF_PI * m->retardation_nm / l
+                : waveplate_retardance(ior_eval(&m->crystal.no, l), ior_eval(&m->crystal.ne, l),
+                                       m->plate_thickness_nm, l, p->dir, sf->ng, axis);
+        mm[j] = mueller_retarder(0.0, delta);
+    }
+    polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &ev, mm, 1);
 }
 
 /* Traces one path (and, via the stack, its branches) and splats what it finds. */

@@ -981,7 +981,7 @@ static int decide_splitting(plan_t *p, const scene_t *s)
 /* Polarised transport (docs/physics.md §14) is carried only where the scene tells polarisations
  * apart: a polariser or retarder sheet, the camera's analyser, or a Stokes output (scene_finish
  * turns render_settings_t.polarised on for them, scene_load for the output; this says which and
- * why). Polarised emitters do not exist yet. A uniaxial crystal does not turn it on by itself:
+ * why), and lights that emit polarised light. A uniaxial crystal does not turn it on by itself:
  * its o and e images are polarised across each other, which an intensity camera does not see
  * (only where light meets a later polarising interface, by a few per cent); with polarisation
  * on for another reason, it applies its Mueller matrices (docs/physics.md §15). Without any of them
@@ -1020,6 +1020,23 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
         if (s->camera.analyser)
             text_add(&r, "the camera has an analyser at %g degrees; ",
                      s->camera.analyser_angle * 180.0 / PF_PI);
+        if (s->polarised_lights) {
+            int area = 0;
+            for (size_t i = 0; i < s->nlights; i++)
+                area += s->lights[i].polarisation > 0.0 && s->lights[i].kind == LIGHT_AREA;
+            text_add(&r, "%d light%s emit%s polarised light", s->polarised_lights,
+                     s->polarised_lights > 1 ? "s" : "", s->polarised_lights > 1 ? "" : "s");
+            if (area)
+                text_add(&r, " (%d area light%s: seen directly and through smooth surfaces)", area,
+                         area > 1 ? "s" : "");
+            if (area < s->polarised_lights)
+                text_add(&r,
+                         " (%d point, spot or distant: reached only by next-event estimation, "
+                         "which still takes their light as unpolarised, so their polarisation "
+                         "changes no pixel yet)",
+                         s->polarised_lights - area);
+            text_add(&r, "; ");
+        }
         if (rs->stokes)
             text_add(&r, "the film writes the Stokes layers S1-S3; ");
         if (rs->polar_pilot.run)
@@ -1032,7 +1049,8 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
                      100.0 * rs->polar_pilot.change, 100.0 * rs->polar_pilot.change_hi,
                      100.0 * rs->polar_pilot.target, rs->polar_pilot.seconds_polarised,
                      rs->polar_pilot.seconds_plain);
-        if (!sheets && !s->camera.analyser && !rs->stokes && !rs->polar_pilot.run)
+        if (!sheets && !s->camera.analyser && !rs->stokes && !rs->polar_pilot.run &&
+            !s->polarised_lights)
             text_add(&r, "the caller asked for it; ");
         text_add(&r, "a 4x4 Mueller matrix per lane at every glass and metal interface (smooth or "
                      "rough) and sheet; diffuse, thin and layered surfaces depolarise. ");
@@ -1046,7 +1064,7 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
     } else {
         text_add(&c, "off");
         text_add(&r, "nothing tells polarisations apart (no polariser or retarder sheet, no "
-                     "analyser, no Stokes output)");
+                     "analyser, no Stokes output, no polarised light)");
         if (glass)
             text_add(&r,
                      "; the %d smooth glass and mirror material%s polarise what they reflect, "

@@ -734,10 +734,17 @@ int scene_finish(scene_t *self, err_t *err)
     /* Polarisation is carried only where something in the scene tells polarisations apart
      * (issue 28: simulate only what the scene calls for); it is never turned off here, so
      * that a caller may ask for it (the energy tests). */
-    if (self->polarising_sheets > 0 || self->camera.analyser)
+    self->polarised_lights = 0;
+    for (size_t i = 0; i < self->nlights; i++)
+        self->polarised_lights += self->lights[i].polarisation > 0.0;
+    if (self->polarising_sheets > 0 || self->camera.analyser || self->polarised_lights > 0)
         self->settings.polarised = 1;
     for (size_t i = 0; i < self->nmaterials; i++) {
         material_t *m = &self->materials[i];
+        if (m->kind == MATERIAL_RETARDER && m->retarder_mode == RETARDER_PLATE &&
+            (ior_validate(&m->crystal.no, m->name, g.lambda_min, g.lambda_max, err) ||
+             ior_validate(&m->crystal.ne, m->name, g.lambda_min, g.lambda_max, err)))
+            return -1;
         if (!material_has_ior(m->kind))
             continue;
         if (ior_validate(&m->ior, m->name, g.lambda_min, g.lambda_max, err))

@@ -53,6 +53,13 @@ typedef enum material_kind {
     MATERIAL_HAIR,                 /* a hair fibre (bsdf/hair.h) */
 } material_kind_t;
 
+/* How a retarder sheet's retardance depends on wavelength (material_t.retarder_mode). */
+typedef enum retarder_mode {
+    RETARDER_CONSTANT,    /* the same retardance (radians) at every wavelength */
+    RETARDER_RETARDATION, /* a dispersion-free optical path difference in nm */
+    RETARDER_PLATE,       /* a crystal plate of given thickness: dispersion, oblique incidence */
+} retarder_mode_t;
+
 /* The numbers of a material; textures are NULL where the material has no such input (a
  * NULL roughness is 0). The models themselves are bsdf/'s (pbrt-v4's BxDFs). */
 typedef struct material {
@@ -121,6 +128,12 @@ typedef struct material {
         const texture_t *sigma_a, *reflectance, *eumelanin, *pheomelanin, *eu_sigma, *pheo_sigma;
         const texture_t *eta, *beta_m, *beta_n, *alpha;
     } hair;
+    /* A retarder's retardance per wavelength (docs/physics.md §14.1): the constant retardance
+     * above, a dispersion-free optical path difference retardation_nm (delta = 2 pi Gamma /
+     * lambda), or a crystal plate (the crystal's indices above, optic axis along sheet_angle)
+     * of plate_thickness_nm (polar/waveplate.h). */
+    retarder_mode_t retarder_mode;
+    double retardation_nm, plate_thickness_nm;
 } material_t;
 
 typedef enum light_kind {
@@ -170,6 +183,12 @@ typedef struct light {
      * outside; to_light includes pbrt-v4's flip of y. */
     const projmap_t *projmap;
     transform_t to_light, from_light;
+    /* Partially linearly polarised emission (docs/physics.md §14.2; area, point, spot and
+     * distant lights): the degree of polarisation in [0, 1] (0: unpolarised, the default) and
+     * the unit world direction whose part perpendicular to a ray is the plane of polarisation
+     * of the light along it (lights_stokes). */
+    double polarisation;
+    vec3_t polarisation_axis;
 } light_t;
 
 typedef enum shape_kind { SHAPE_MESH, SHAPE_SPHERE, SHAPE_DISK, SHAPE_CURVE } shape_kind_t;
@@ -408,8 +427,10 @@ typedef struct scene {
     int has_dispersion;   /* any dispersive material: spectral fan-out is ever needed */
     int has_interface;    /* a shape with an "interface" material (shadow rays pass it) */
     /* Why polarisation is carried (render_settings_t.polarised; scene/plan.c reports it):
-     * shapes with a polariser or retarder sheet, the camera's analyser. */
+     * shapes with a polariser or retarder sheet, the camera's analyser, lights that emit
+     * polarised light. */
     int polarising_sheets;
+    int polarised_lights;
     int has_alpha;        /* some shape has an alpha: shadow rays test it (shading_occluded) */
     /* Participating media, owned; a NULL entry is a medium that is not simulated (vacuum).
      * camera_medium: the medium camera rays start in, -1 for vacuum. has_medium_boundary:

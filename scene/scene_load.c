@@ -774,10 +774,10 @@ static int layer_inputs(loader_t *L, const scene_material_t *dm, material_t *m, 
 }
 
 /* A uniaxial crystal: a smooth dielectric whose ior is the ordinary index (material_t). */
-static int uniaxial_inputs(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+/* A crystal's indices (a uniaxial material's, a retarder plate's): the catalogue's, or the
+ * given ones, which replace them. */
+static int crystal_inputs(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
 {
-    m->kind = MATERIAL_DIELECTRIC;
-    m->uniaxial = 1;
     if (dm->crystal) {
         const crystal_t *c = crystal_find(dm->crystal);
         if (!c)
@@ -792,6 +792,15 @@ static int uniaxial_inputs(loader_t *L, const scene_material_t *dm, material_t *
     if (dm->has_o && build_ior(L->sc, &dm->ior_o, m->name, &m->crystal.no, err))
         return -1;
     if (dm->has_e && build_ior(L->sc, &dm->ior_e, m->name, &m->crystal.ne, err))
+        return -1;
+    return 0;
+}
+
+static int uniaxial_inputs(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+{
+    m->kind = MATERIAL_DIELECTRIC;
+    m->uniaxial = 1;
+    if (crystal_inputs(L, dm, m, err))
         return -1;
     if (dm->has_sigma) {
         /* Constant coefficients replace the catalogue's table. */
@@ -963,6 +972,11 @@ static int load_materials(loader_t *L, err_t *err)
             m.kind = dm->type == SCENE_MATERIAL_POLARIZER ? MATERIAL_POLARISER : MATERIAL_RETARDER;
             m.sheet_angle = dm->sheet_angle * (PF_PI / 180.0);
             m.retardance = dm->retardance * (PF_PI / 180.0);
+            m.retarder_mode = dm->type == SCENE_MATERIAL_RETARDER ? dm->retarder_mode : 0;
+            m.retardation_nm = dm->retardation;
+            m.plate_thickness_nm = dm->plate_thickness * 1000.0;
+            if (m.retarder_mode == RETARDER_PLATE)
+                rc = crystal_inputs(L, dm, &m, err);
             break;
         case SCENE_MATERIAL_MEASURED:
             rc = measured_input(L, dm, &m, err);
@@ -1156,6 +1170,20 @@ static const projmap_t *load_projmap(loader_t *L, const scene_light_t *dl, err_t
     return m;
 }
 
+/* A light's polarisation (docs/physics.md §14.2): its degree, and its plane's direction in
+ * world space from the angle in the x-y plane of the space to_world maps (the light's CTM, or
+ * the emitting shape's). A transform that flattens that plane leaves the light unpolarised. */
+static void light_polarisation(light_t *l, const transform_t *to_world, double degree,
+                               double angle_deg)
+{
+    const double a = angle_deg * (PF_PI / 180.0);
+    const vec3_t axis = transform_vector(to_world, vec3_make(cos(a), sin(a), 0.0));
+    if (!(degree > 0.0) || !(vec3_length(axis) > 0.0))
+        return;
+    l->polarisation = degree;
+    l->polarisation_axis = vec3_normalize(axis);
+}
+
 static int load_lights(loader_t *L, err_t *err)
 {
     const scene_desc_t *d = L->desc;
@@ -1247,6 +1275,7 @@ static int load_lights(loader_t *L, err_t *err)
                                                     : "\"power\" cannot be met by a black image");
             l.scale *= dl->power / k_e;
         }
+        light_polarisation(&l, &dl->to_world, dl->polarization, dl->polarization_angle);
         if (scene_add_light(L->sc, &l, err) < 0)
             return err_prefix(err, "%s:%d:%d: ", dl->loc.file, dl->loc.line, dl->loc.col);
     }
@@ -1377,6 +1406,7 @@ static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *er
             return -1;
         if (a->filename && !(l.area_image = load_area_image(L, a, &l.area_image_y, err)))
             return -1;
+        light_polarisation(&l, &s->to_world, a->polarization, a->polarization_angle);
         if ((light = scene_add_light(L->sc, &l, err)) < 0)
             return err_prefix(err, "%s:%d:%d: ", a->loc.file, a->loc.line, a->loc.col);
     }

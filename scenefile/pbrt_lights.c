@@ -18,6 +18,18 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+/* Partially linearly polarised emission (docs/physics.md §14.2): the degree 0..1 and the
+ * angle of the plane of polarisation in degrees in the light's (or the shape's) x-y plane. */
+static int get_polarisation(parser_t *P, params_t *ps, double *degree, double *angle)
+{
+    return params_get_float(ps, "polarization", 0.0, degree, P->err) != 0 ||
+                   pbrt_state_check_range(P, ps, "polarization", *degree, 0.0, 1.0) != 0 ||
+                   params_get_float(ps, "polarizationangle", 0.0, angle, P->err) != 0 ||
+                   pbrt_state_check_range(P, ps, "polarizationangle", *angle, -360.0, 360.0) != 0
+               ? -1
+               : 0;
+}
+
 int pbrt_lights_read_area(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_t loc)
 {
     static const pbrt_name_t TYPES[] = {{"diffuse", SCENE_AREA_DIFFUSE},
@@ -39,6 +51,10 @@ int pbrt_lights_read_area(parser_t *P, params_t *ps, const str_arg_t *type, pbrt
         params_get_float(ps, "scale", 1.0, &a->scale, P->err) != 0 ||
         pbrt_state_check_range(P, ps, "scale", a->scale, 0.0, INFINITY) != 0 ||
         params_get_float(ps, "power", -1.0, &a->power, P->err) != 0)
+        return -1;
+    /* A collimated light reaches photons only, which carry no polarisation (§14.2). */
+    if (at == SCENE_AREA_DIFFUSE &&
+        get_polarisation(P, ps, &a->polarization, &a->polarization_angle) != 0)
         return -1;
     if (at == SCENE_AREA_DIFFUSE &&
         params_get_bool(ps, "twosided", false, &a->twosided, P->err) != 0)
@@ -180,6 +196,12 @@ int pbrt_lights_read(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_loc_
     if (params_get_float(ps, "scale", 1.0, &l->scale, P->err) != 0 ||
         pbrt_state_check_range(P, ps, "scale", l->scale, 0.0, INFINITY) != 0 ||
         params_get_float(ps, pname, -1.0, &l->power, P->err) != 0)
+        return -1;
+    /* Point, spot and distant lights may emit polarised light; environments and image lights
+     * do not (yet). */
+    if ((l->type == SCENE_LIGHT_POINT || l->type == SCENE_LIGHT_SPOT ||
+         l->type == SCENE_LIGHT_DISTANT) &&
+        get_polarisation(P, ps, &l->polarization, &l->polarization_angle) != 0)
         return -1;
     if (l->type == SCENE_LIGHT_INFINITE)
         return infinite_light_image(P, ps, l);

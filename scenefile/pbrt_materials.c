@@ -250,9 +250,27 @@ static int get_film(parser_t *P, params_t *ps, scene_material_t *m)
 /* A uniaxial crystal (scene_material_t.crystal ...): a catalogue crystal, or both indices
  * given with the "o." and "e." prefixes of get_ior (which override the catalogue's), the optic
  * axis and the absorption. The catalogue name is checked by the loader, which owns it. */
-static int get_uniaxial(parser_t *P, params_t *ps, scene_material_t *m)
+static const char *CRYSTAL_IOR_KINDS[] = {"eta", "glass", "sellmeier", "cauchy"};
+
+/* Whether the parameters name a crystal or an "o." or "e." index (a retarder's plate mode). */
+static bool names_crystal(params_t *ps)
 {
-    static const char *KINDS[] = {"eta", "glass", "sellmeier", "cauchy"};
+    if (params_find(ps, "crystal"))
+        return true;
+    for (size_t i = 0; i < 2 * COUNT_OF(CRYSTAL_IOR_KINDS); i++) {
+        char name[16];
+        snprintf(name, sizeof name, "%s%s", i % 2 ? "e." : "o.", CRYSTAL_IOR_KINDS[i / 2]);
+        if (params_find(ps, name))
+            return true;
+    }
+    return false;
+}
+
+/* A crystal's principal indices: "string crystal" from the catalogue, or both indices with
+ * the "o." and "e." prefixes of get_ior (which override the catalogue's). what names the
+ * material in the error. */
+static int get_crystal_indices(parser_t *P, params_t *ps, scene_material_t *m, const char *what)
+{
     const char *pre[2] = {"o.", "e."};
     bool *has[2] = {&m->has_o, &m->has_e};
     scene_ior_t *out[2] = {&m->ior_o, &m->ior_e};
@@ -261,20 +279,28 @@ static int get_uniaxial(parser_t *P, params_t *ps, scene_material_t *m)
     if (m->crystal && !(m->crystal = scene_desc_strdup(P->scene, m->crystal, P->err)))
         return -1;
     for (int w = 0; w < 2; w++) {
-        for (size_t i = 0; i < COUNT_OF(KINDS); i++) {
+        for (size_t i = 0; i < COUNT_OF(CRYSTAL_IOR_KINDS); i++) {
             char name[16];
-            snprintf(name, sizeof name, "%s%s", pre[w], KINDS[i]);
+            snprintf(name, sizeof name, "%s%s", pre[w], CRYSTAL_IOR_KINDS[i]);
             *has[w] |= params_find(ps, name) != NULL;
         }
         if (!*has[w] && !m->crystal)
             return pbrt_error(P->err, m->loc,
-                              "Material \"uniaxial\" needs \"string crystal\" or both indices "
+                              "Material \"%s\" needs \"string crystal\" or both indices "
                               "(\"float o.eta\", \"float e.eta\" or their glass, sellmeier, "
-                              "cauchy forms)");
+                              "cauchy forms)",
+                              what);
         if (*has[w] && get_ior(P, ps, m, pre[w]) != 0)
             return -1;
         *out[w] = m->ior;
     }
+    return 0;
+}
+
+static int get_uniaxial(parser_t *P, params_t *ps, scene_material_t *m)
+{
+    if (get_crystal_indices(P, ps, m, "uniaxial") != 0)
+        return -1;
     param_t *axis;
     if (params_get_array(ps, "opticaxis", PARAM_VECTOR3, &axis, P->err) != 0)
         return -1;
@@ -351,6 +377,46 @@ static int get_hair(parser_t *P, params_t *ps, scene_material_t *m)
                    pbrt_inputs_float(P, ps, "alpha", 2.0, &m->hair_alpha)
                ? -1
                : 0;
+}
+
+/* A retarder's retardation, one of three ways (docs/physics.md §14.1): "float retardance" in
+ * degrees, the same at every wavelength (90 by default); "float retardation" Gamma in nm, the
+ * optical path difference of a dispersion-free plate (delta = 2 pi Gamma / lambda, as the
+ * Michel-Levy chart assumes); or a crystal plate, "string crystal" or "o."/"e." indices with
+ * "float thickness" in micrometres, whose retardance follows the indices' dispersion and the
+ * angle of incidence (polar/waveplate.h). */
+static int get_retarder(parser_t *P, params_t *ps, scene_material_t *m)
+{
+    const bool deg = params_find(ps, "retardance") != NULL;
+    const bool nm = params_find(ps, "retardation") != NULL;
+    const bool plate = names_crystal(ps);
+    if (deg + nm + plate > 1)
+        return pbrt_error(P->err, m->loc,
+                          "Material \"retarder\": give one of \"float retardance\" (degrees), "
+                          "\"float retardation\" (nm) or a crystal plate (\"string crystal\" or "
+                          "indices, with \"float thickness\" in micrometres)");
+    if (params_get_float(ps, "retardance", 90.0, &m->retardance, P->err) != 0 ||
+        pbrt_state_check_range(P, ps, "retardance", m->retardance, 0.0, 360.0) != 0 ||
+        params_get_float(ps, "retardation", 0.0, &m->retardation, P->err) != 0 ||
+        pbrt_state_check_range(P, ps, "retardation", m->retardation, -1e6, 1e6) != 0 ||
+        params_get_float(ps, "thickness", 0.0, &m->plate_thickness, P->err) != 0 ||
+        pbrt_state_check_range(P, ps, "thickness", m->plate_thickness, 0.0, 1e5) != 0)
+        return -1;
+    m->retarder_mode = nm ? 1 : plate ? 2 : 0;
+    if (!plate) {
+        if (params_find(ps, "thickness"))
+            return pbrt_error(P->err, params_find(ps, "thickness")->loc,
+                              "Material \"retarder\": \"float thickness\" needs a crystal "
+                              "(\"string crystal\" or \"o.\" and \"e.\" indices)");
+        return 0;
+    }
+    if (get_crystal_indices(P, ps, m, "retarder") != 0)
+        return -1;
+    if (!params_find(ps, "thickness"))
+        return pbrt_error(P->err, m->loc,
+                          "Material \"retarder\" with a crystal needs \"float thickness\" (in "
+                          "micrometres)");
+    return 0;
 }
 
 static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_t type_loc,
@@ -437,10 +503,7 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
             return -1;
         if (m->type == SCENE_MATERIAL_POLARIZER)
             return 0;
-        return params_get_float(ps, "retardance", 90.0, &m->retardance, P->err) != 0 ||
-                       pbrt_state_check_range(P, ps, "retardance", m->retardance, 0.0, 360.0) != 0
-                   ? -1
-                   : 0;
+        return get_retarder(P, ps, m);
     }
     return 0; /* interface */
 }

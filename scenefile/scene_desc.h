@@ -235,7 +235,10 @@ typedef struct scene_material {
     double sigma_o, sigma_e, mm_per_unit;
     /* POLARIZER and RETARDER (prismfarm extensions, docs/scene-format.md): "angle" of the
      * transmission or fast axis in degrees from the surface's u direction (0), and the
-     * retarder's "retardance" in degrees (90: a quarter-wave plate). */
+     * retarder's "retardance" in degrees (90: a quarter-wave plate). A retarder is one of
+     * (retarder_mode) 0: that retardance; 1: "retardation" in nm, a dispersion-free optical path
+     * difference; 2: a crystal plate (crystal, ior_o, ior_e above) of "thickness" micrometres
+     * with its optic axis along the angle (docs/physics.md §14.1). */
     double sheet_angle, retardance;
     /* MEASURED: "string filename", the RGL .bsdf file's path as opened (a confined parse: its
      * checked real path), written at filename_loc; the loader reads it. */
@@ -247,6 +250,8 @@ typedef struct scene_material {
     scene_hair_from_t hair_from;
     scene_spectrum_input_t sigma_a;
     scene_float_input_t eumelanin, pheomelanin, hair_eta, beta_m, beta_n, hair_alpha;
+    int retarder_mode;
+    double retardation, plate_thickness;
 } scene_material_t;
 
 /* ---- lights ---- */
@@ -278,6 +283,10 @@ typedef struct scene_light {
      * "filename" was written. */
     const char *filename;
     pbrt_loc_t filename_loc;
+    /* prismfarm extension (docs/physics.md §14.2): "float polarization", the degree of linear
+     * polarisation of the emitted light (0, unpolarised), and "float polarizationangle", the
+     * angle of its plane in degrees from the CTM's x axis toward its y axis. */
+    double polarization, polarization_angle;
 } scene_light_t;
 
 typedef enum scene_area_light_type {
@@ -297,6 +306,8 @@ typedef struct scene_area_light {
      * NULL without one. filename_loc is where it was written. */
     const char *filename;
     pbrt_loc_t filename_loc;
+    /* As scene_light_t's, the angle from the shape's object-space x axis toward its y. */
+    double polarization, polarization_angle;
 } scene_area_light_t;
 
 /* ---- shapes ---- */

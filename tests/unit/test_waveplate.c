@@ -1,0 +1,381 @@
+/* waveplate: the retardance of a thin birefringent plate (polar/waveplate.h, docs/physics.md
+ * §14.1) against optics, not against the code: at oblique incidence against Snell's law solved
+ * by bisection on the extraordinary index n(theta) of the index ellipsoid (Born & Wolf §15.3),
+ * a route that never uses the closed form's quadratic; and rendered, the Michel-Levy chart --
+ * a plate of retardation Gamma at 45 degrees between crossed polarisers over a D65 light box --
+ * against the closed-form colour, the integral of D65 (1/2) sin^2(pi Gamma / lambda) times the
+ * CIE 1931 matching functions, for Gamma = 0 to 2000 nm every 100 nm, within 0.01 in linear
+ * sRGB with the open light box's Y = 1; the dispersion-free plate ("o.eta", "e.eta" and
+ * "thickness") and the path difference ("retardation") alike; the quartz plate by its own
+ * dispersion; and the scene syntax's errors. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h> /* after the four headers above, which it needs */
+
+#include <math.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "cie.h"
+#include "crystal.h"
+#include "render.h"
+#include "scene.h"
+#include "scene_builders.h"
+#include "spectrum.h"
+#include "wavelength.h"
+#include "waveplate.h"
+
+#define PI 3.14159265358979323846
+
+/* ---- the retardance against Snell's law ---- */
+
+/* The e-wave's normal component N_e for a ray from air at incidence sin_i in a plane of
+ * incidence at azimuth phi from the optic axis (in the plate's plane, the normal z): the wave
+ * vector K = (s cos phi, s sin phi, N) with s = sin_i in the axis's frame (x along the axis)
+ * must have |K| = n(theta), 1/n^2 = cos^2 theta / n_o^2 + sin^2 theta / n_e^2, theta the angle
+ * between K and the axis (Born & Wolf §15.3). Solved for N by bisection on
+ * g(N) = |K|^2 - n(theta(N))^2, which changes sign once on [0, 3 max(n_o, n_e)]. */
+static double ne_normal_bisect(double n_o, double n_e, double sin_i, double phi)
+{
+    const double kx = sin_i * cos(phi), ky = sin_i * sin(phi);
+    double lo = 0.0, hi = 3.0 * fmax(n_o, n_e);
+    for (int it = 0; it < 200; it++) {
+        const double mid = 0.5 * (lo + hi);
+        const double k2 = kx * kx + ky * ky + mid * mid;
+        const double c2 = kx * kx / k2, s2 = 1.0 - c2;
+        const double n2 = 1.0 / (c2 / (n_o * n_o) + s2 / (n_e * n_e));
+        if (k2 - n2 < 0.0)
+            lo = mid;
+        else
+            hi = mid;
+    }
+    return 0.5 * (lo + hi);
+}
+
+static void test_oblique(void **state)
+{
+    (void)state;
+    const double idx[][2] = {{1.6584, 1.4864}, {1.5443, 1.5534}, {1.7682, 1.7601}, {2.613, 2.909}};
+    const vec3_t nrm = vec3_make(0, 0, 1), axis = vec3_make(1, 0, 0);
+    const double t_nm = 25000.0, lambda = 550.0;
+    int checked = 0;
+    for (size_t c = 0; c < sizeof idx / sizeof idx[0]; c++)
+        for (int ia = 0; ia <= 80; ia += 10)
+            for (int ip = 0; ip < 360; ip += 30) {
+                const double th = ia * PI / 180.0, ph = ip * PI / 180.0;
+                const double s = sin(th);
+                /* The ray travels into the plate (-z) or out of it (+z): the same retardance. */
+                for (int side = -1; side <= 1; side += 2) {
+                    const vec3_t dir = vec3_make(s * cos(ph), s * sin(ph), side * cos(th));
+                    const double got =
+                        waveplate_retardance(idx[c][0], idx[c][1], t_nm, lambda, dir, nrm, axis);
+                    const double no = sqrt(idx[c][0] * idx[c][0] - s * s); /* Snell with n_o */
+                    const double ne = ne_normal_bisect(idx[c][0], idx[c][1], s, ph);
+                    const double want = 2.0 * PI * t_nm * (no - ne) / lambda;
+                    if (!(fabs(got - want) <= 1e-9 * fabs(2.0 * PI * t_nm / lambda)))
+                        fail_msg("n (%g, %g) at %d deg, azimuth %d: %.12g, want %.12g", idx[c][0],
+                                 idx[c][1], ia, ip, got, want);
+                    checked++;
+                }
+            }
+    assert_int_equal(checked, 4 * 9 * 12 * 2);
+    /* Normal incidence: 2 pi (n_o - n_e) t / lambda, positive for calcite (the axis fast). */
+    const double d =
+        waveplate_retardance(1.6584, 1.4864, 1000.0, 500.0, vec3_make(0, 0, -1), nrm, axis);
+    assert_true(fabs(d - 2.0 * PI * (1.6584 - 1.4864) * 2.0) <= 1e-12);
+    /* Absurd input stays finite. */
+    assert_true(
+        isfinite(waveplate_retardance(0.0, 1.5, 1e3, 500.0, vec3_make(0, 0, -1), nrm, axis)));
+    assert_true(isfinite(waveplate_retardance(1.5, 1.5, 1e3, 0.0, vec3_make(0, 0, -1), nrm, axis)));
+}
+
+/* ---- the Michel-Levy chart, rendered ---- */
+
+#define QUAD                                                                                       \
+    "Shape \"trianglemesh\" \"point3 P\" [-2 -2 0  2 -2 0  2 2 0  -2 2 0] \"integer indices\" "    \
+    "[0 1 2 0 2 3] \"point2 uv\" [0 0 1 0 1 1 0 1]\n"
+
+/* The chart's renders carry 47 lanes, one per 10 nm from 360 to 830 nm ("fanout" lanes:
+ * wavelengths stratified over the range, so that few samples estimate the colour integral
+ * well); the default hero wavelengths are checked at a few retardations with more samples. */
+typedef struct chart_setup {
+    int res, spp, fan;
+} chart_setup_t;
+
+static const chart_setup_t FAN = {8, 16, 1}, HERO = {16, 256, 0};
+
+/* An orthographic camera on +z looking at a two-sided D65 light box behind a polariser at 0
+ * degrees (z = 0), the plate (Material and transform lines, z = 1.5) and a polariser at 90 (z = 3);
+ * plate
+ * "" for the open light box with no sheet at all. */
+static scene_t *chart_scene(const char *plate, chart_setup_t cs)
+{
+    char text[4096];
+    int n = snprintf(text, sizeof text,
+                     "LookAt 0 0 5  0 0 0  0 1 0\n"
+                     "Camera \"orthographic\"\n"
+                     "Film \"spectral\" \"integer xresolution\" [%d] \"integer yresolution\" [%d] "
+                     "%s\n"
+                     "Sampler \"zsobol\" \"integer pixelsamples\" [%d]\n"
+                     "Integrator \"path\" \"integer maxdepth\" [5] %s\n"
+                     "WorldBegin\n"
+                     "AttributeBegin\n"
+                     "AreaLightSource \"diffuse\" \"spectrum L\" \"stdillum-D65\" "
+                     "\"bool twosided\" true\n"
+                     "Translate 0 0 -1\n" QUAD "AttributeEnd\n",
+                     cs.res, cs.res,
+                     cs.fan ? "\"integer nbuckets\" [47] \"float lambdamin\" [360] "
+                              "\"float lambdamax\" [830]"
+                            : "",
+                     cs.spp, cs.fan ? "\"string dispersion\" \"fanout\"" : "");
+    if (plate[0])
+        snprintf(
+            text + n, sizeof text - (size_t)n,
+            "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [0]\n" QUAD "AttributeEnd\n"
+            "AttributeBegin\nTranslate 0 0 1.5\n%s\n" QUAD "AttributeEnd\n"
+            "AttributeBegin\nTranslate 0 0 3\nMaterial \"polarizer\" \"float angle\" [90]\n" QUAD
+            "AttributeEnd\n",
+            plate);
+    return sb_load_text(text, NULL);
+}
+
+/* The image's mean XYZ. */
+static void render_xyz(scene_t *s, chart_setup_t cs, double xyz[3])
+{
+    err_t err;
+    const int res = cs.res;
+    tilebuf_t *t = tilebuf_new(0, 0, res, res, render_settings_buckets(&s->settings), &err);
+    assert_non_null(t);
+    render_stats_t st = {0};
+    if (render_tile(s, NULL, 0, 0, res, res, 0, (uint32_t)cs.spp, t, &st, &err))
+        fail_msg("render_tile: %s", err.msg);
+    assert_int_equal(st.nonfinite, 0);
+    xyz[0] = xyz[1] = xyz[2] = 0.0;
+    for (int y = 0; y < res; y++)
+        for (int x = 0; x < res; x++)
+            for (int k = 0; k < 3; k++)
+                xyz[k] +=
+                    tilebuf_xyz_sum(t, x, y, k) / (double)tilebuf_count(t, x, y) / (res * res);
+    tilebuf_destroy(&t);
+}
+
+/* Linear sRGB (IEC 61966-2-1's matrix, D65 white) of XYZ. */
+static void srgb_of(const double xyz[3], double rgb[3])
+{
+    rgb[0] = 3.2404542 * xyz[0] - 1.5371385 * xyz[1] - 0.4985314 * xyz[2];
+    rgb[1] = -0.9692660 * xyz[0] + 1.8760108 * xyz[1] + 0.0415560 * xyz[2];
+    rgb[2] = 0.0556434 * xyz[0] - 0.2040259 * xyz[1] + 1.0572252 * xyz[2];
+}
+
+/* A plate's retardation G(lambda) in nm: gamma_nm; or a catalogue crystal's
+ * (n_e - n_o) thickness; or, at incidence sin_i across a dispersion-free plate's axis (the
+ * e-wave then sees n_e at every angle), (sqrt(n_e^2 - sin_i^2) - sqrt(n_o^2 - sin_i^2)) t,
+ * Snell's law for each wave (Born & Wolf §15.3; Hecht §8.7). */
+typedef struct plate {
+    double gamma_nm;
+    const crystal_t *crystal;
+    double thickness_nm, n_o, n_e, sin_i;
+} plate_t;
+
+static double plate_gamma(const plate_t *p, double lambda)
+{
+    if (p->crystal)
+        return (ior_eval(&p->crystal->ne, lambda) - ior_eval(&p->crystal->no, lambda)) *
+               p->thickness_nm;
+    if (p->thickness_nm > 0.0) {
+        const double s2 = p->sin_i * p->sin_i;
+        return (sqrt(p->n_e * p->n_e - s2) - sqrt(p->n_o * p->n_o - s2)) * p->thickness_nm;
+    }
+    return p->gamma_nm;
+}
+
+/* The closed form: XYZ of D65 (1/2) sin^2(pi G(lambda) / lambda) over [lo, hi], divided by
+ * the Y of D65 alone over it, by the midpoint rule at 0.05 nm. */
+static void chart_colour(const spectrum_t *d65, double lo, double hi, const plate_t *p,
+                         double xyz[3])
+{
+    double sum[3] = {0, 0, 0}, y = 0.0;
+    const double h = 0.05;
+    for (double l = lo + 0.5 * h; l < hi; l += h) {
+        const double e = spectrum_eval(d65, l);
+        const xyz_t m = cie_cmf_eval(l);
+        const double sn = sin(PI * plate_gamma(p, l) / l), f = 0.5 * sn * sn;
+        sum[0] += e * f * m.x;
+        sum[1] += e * f * m.y;
+        sum[2] += e * f * m.z;
+        y += e * m.y;
+    }
+    for (int k = 0; k < 3; k++)
+        xyz[k] = sum[k] / y;
+}
+
+/* Renders the plate and returns the largest linear-sRGB difference from the closed form. */
+static double chart_error(const char *plate, chart_setup_t cs, const double open[3],
+                          const spectrum_t *d65, const plate_t *p, double got_rgb[3],
+                          double want_rgb[3])
+{
+    scene_t *s = chart_scene(plate, cs);
+    assert_true(s->settings.polarised);
+    double xyz[3], want[3];
+    render_xyz(s, cs, xyz);
+    for (int k = 0; k < 3; k++)
+        xyz[k] /= open[1];
+    /* The colour is estimated over the wavelengths the lanes are drawn from: hero lanes over
+     * the visible range (pbrt-v4's SampleVisibleWavelengths, the default), fan-out lanes over
+     * the film's. */
+    const int vis = !cs.fan && s->settings.visible_sampling;
+    chart_colour(d65, vis ? WAVELENGTH_VISIBLE_MIN : s->settings.grid.lambda_min,
+                 vis ? WAVELENGTH_VISIBLE_MAX : s->settings.grid.lambda_max, p, want);
+    scene_destroy(&s);
+    srgb_of(xyz, got_rgb);
+    srgb_of(want, want_rgb);
+    double e = 0.0;
+    for (int k = 0; k < 3; k++)
+        e = fmax(e, fabs(got_rgb[k] - want_rgb[k]));
+    return e;
+}
+
+static void test_michel_levy(void **state)
+{
+    (void)state;
+    err_t err;
+    spectrum_t *d65 = spectrum_new_cie_d65(&err);
+    assert_non_null(d65);
+    double open[3], open_hero[3];
+    scene_t *o = chart_scene("", FAN);
+    render_xyz(o, FAN, open);
+    scene_destroy(&o);
+    o = chart_scene("", HERO);
+    render_xyz(o, HERO, open_hero);
+    scene_destroy(&o);
+    assert_true(open[1] > 0.0 && open_hero[1] > 0.0);
+    double worst = 0.0, spread = 0.0;
+    for (int g = 0; g <= 2000; g += 100) {
+        /* A dispersion-free plate, n_e - n_o = 0.01, t = Gamma / 0.01, every 100 nm; the path
+         * difference itself every 200 (the two must agree). */
+        char plate[256];
+        snprintf(plate, sizeof plate,
+                 "Material \"retarder\" \"float angle\" [45] \"float o.eta\" [1.54] "
+                 "\"float e.eta\" [1.55] \"float thickness\" [%.17g]",
+                 g / 0.01 / 1000.0);
+        double got[3], want[3];
+        double e = chart_error(plate, FAN, open, d65, &(plate_t){.gamma_nm = g}, got, want);
+        if (!(e <= 0.01))
+            fail_msg("Gamma %d nm: linear sRGB (%.4f, %.4f, %.4f), want (%.4f, %.4f, %.4f)", g,
+                     got[0], got[1], got[2], want[0], want[1], want[2]);
+        worst = fmax(worst, e);
+        spread = fmax(spread, fmax(want[0], fmax(want[1], want[2])));
+        if (g % 200 == 0) {
+            snprintf(plate, sizeof plate,
+                     "Material \"retarder\" \"float angle\" [-45] \"float retardation\" [%d]", g);
+            e = chart_error(plate, FAN, open, d65, &(plate_t){.gamma_nm = g}, got, want);
+            if (!(e <= 0.01))
+                fail_msg("retardation %d nm: (%.4f, %.4f, %.4f), want (%.4f, %.4f, %.4f)", g,
+                         got[0], got[1], got[2], want[0], want[1], want[2]);
+            worst = fmax(worst, e);
+        }
+    }
+    /* The chart is not trivially passed: its colours reach far past the tolerance. */
+    assert_true(spread > 0.3);
+    /* A quartz plate of 30 um (a petrographic thin section) and of 100 um, with the
+     * catalogue's dispersion of n_e - n_o. */
+    const crystal_t *q = crystal_find("quartz");
+    assert_non_null(q);
+    const double um[] = {30.0, 100.0};
+    for (size_t i = 0; i < 2; i++) {
+        char plate[256];
+        snprintf(plate, sizeof plate,
+                 "Material \"retarder\" \"float angle\" [45] \"string crystal\" \"quartz\" "
+                 "\"float thickness\" [%g]",
+                 um[i]);
+        double got[3], want[3];
+        const double e =
+            chart_error(plate, FAN, open, d65,
+                        &(plate_t){.crystal = q, .thickness_nm = um[i] * 1000.0}, got, want);
+        if (!(e <= 0.01))
+            fail_msg("quartz %g um: (%.4f, %.4f, %.4f), want (%.4f, %.4f, %.4f)", um[i], got[0],
+                     got[1], got[2], want[0], want[1], want[2]);
+    }
+    printf("Michel-Levy chart with 47 stratified lanes: largest linear sRGB error %.4f\n", worst);
+    /* Oblique incidence, rendered: the plate turned 40 degrees about its own optic axis (at
+     * 45 degrees, so that the axis stays across the ray and at 45 degrees to both
+     * polarisers), 100 um of n_o 1.54, n_e 1.55: a retardation of 1000 nm at normal
+     * incidence, 1100 nm at 40 degrees (a different colour: the check fails for a plate that
+     * ignored the angle). */
+    for (int deg = 20; deg <= 40; deg += 20) {
+        char plate[256];
+        snprintf(plate, sizeof plate,
+                 "Rotate %d 1 1 0\nMaterial \"retarder\" \"float angle\" [45] \"float o.eta\" "
+                 "[1.54] \"float e.eta\" [1.55] \"float thickness\" [100]",
+                 deg);
+        const plate_t pl = {
+            .thickness_nm = 1e5, .n_o = 1.54, .n_e = 1.55, .sin_i = sin(deg * PI / 180.0)};
+        double got[3], want[3];
+        const double e = chart_error(plate, FAN, open, d65, &pl, got, want);
+        if (!(e <= 0.01))
+            fail_msg("plate turned %d degrees: (%.4f, %.4f, %.4f), want (%.4f, %.4f, %.4f)", deg,
+                     got[0], got[1], got[2], want[0], want[1], want[2]);
+        worst = fmax(worst, e);
+    }
+    /* The default hero wavelengths, drawn by visible importance over 360-830 nm. */
+    for (int g = 500; g <= 1500; g += 500) {
+        char plate[128];
+        snprintf(plate, sizeof plate,
+                 "Material \"retarder\" \"float angle\" [45] \"float retardation\" [%d]", g);
+        double got[3], want[3];
+        const double e =
+            chart_error(plate, HERO, open_hero, d65, &(plate_t){.gamma_nm = g}, got, want);
+        if (!(e <= 0.01))
+            fail_msg("hero lanes, %d nm: (%.4f, %.4f, %.4f), want (%.4f, %.4f, %.4f)", g, got[0],
+                     got[1], got[2], want[0], want[1], want[2]);
+        worst = fmax(worst, e);
+    }
+    printf("with hero lanes as well: %.4f\n", worst);
+    spectrum_destroy(&d65);
+}
+
+/* The syntax's errors, each with the file and line. */
+static void test_syntax(void **state)
+{
+    (void)state;
+    static const char *bad[] = {
+        /* two ways at once */
+        "Material \"retarder\" \"float retardance\" [90] \"float retardation\" [500]",
+        "Material \"retarder\" \"float retardation\" [500] \"string crystal\" \"quartz\" "
+        "\"float thickness\" [30]",
+        /* a crystal without thickness, a thickness without a crystal */
+        "Material \"retarder\" \"string crystal\" \"quartz\"",
+        "Material \"retarder\" \"float thickness\" [30]",
+        /* one index only */
+        "Material \"retarder\" \"float o.eta\" [1.5] \"float thickness\" [30]",
+        /* out of range */
+        "Material \"retarder\" \"string crystal\" \"quartz\" \"float thickness\" [-1]",
+        "Material \"retarder\" \"float retardation\" [1e9]",
+        /* an unknown crystal */
+        "Material \"retarder\" \"string crystal\" \"unobtainium\" \"float thickness\" [30]",
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
+        char text[1024];
+        snprintf(text, sizeof text, "Camera \"orthographic\"\nWorldBegin\n%s\n" QUAD, bad[i]);
+        err_t err = {{0}};
+        scene_t *s = sb_load_text(text, &err);
+        if (s)
+            fail_msg("accepted: %s", bad[i]);
+        if (!strstr(err.msg, "t.pbrt:3"))
+            fail_msg("no line in \"%s\" for %s", err.msg, bad[i]);
+        printf("  %s\n", err.msg);
+    }
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_oblique),
+        cmocka_unit_test(test_michel_levy),
+        cmocka_unit_test(test_syntax),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
