@@ -877,15 +877,16 @@ static void polar_dielectric(path_t *p, const dielectric_site_t *d, vec3_t out, 
  * Fresnel factor, removes that noise at the cost of a second path; in ordinary glass (R about
  * 0.04) the reflected branch rarely pays for its path, so only materials of index n_d >=
  * SPLIT_MIN_IOR split, and only at a path's first split_depth such events, which bounds the
- * branches of one camera sample by 2^split_depth. The branches draw the path's later dimensions
- * as Whitted's do, so the image stays a function of (seed, pixel, sample); each branch is an
- * unbiased estimate of its share, so their sum is one of the whole. Whitted splits every event
- * already. */
+ * branches of one camera sample by 2^split_depth (each refraction's hero lanes split too:
+ * split_lanes). The branches draw the path's later dimensions as Whitted's do, so the image
+ * stays a function of (seed, pixel, sample); each branch is an unbiased estimate of its share,
+ * so their sum is one of the whole. Whitted splits every event already. */
 #define SPLIT_MIN_IOR 1.9
 #define SPLIT_LAMBDA_D 587.56
 
 /* Whether material m is a dense stone that splitting applies to (render_settings_t.split_depth
- * > 0; not Whitted, which splits everything). At such a stone Russian roulette is also told
+ * > 0; the path integrator only: Whitted splits everything, and the thesis's simple path tracer
+ * stays as it is written). At such a stone Russian roulette is also told
  * which of an event's factors are not losses (path_t.rr_scale): a split branch's Fresnel share
  * (the branch is part of the light, not light lost: rouletted by its weight it would be killed
  * with probability 1 - R and its survivors scaled by 1/R, the random choice's noise again) and
@@ -893,7 +894,7 @@ static void polar_dielectric(path_t *p, const dielectric_site_t *d, vec3_t out, 
  * the exit; pbrt-v4's etaScale). A lossless stone then never ends a path by roulette. */
 static int split_dense(const ctx_t *c, const material_t *m)
 {
-    return c->rs->split_depth > 0 && c->rs->integrator != INTEGRATOR_WHITTED &&
+    return c->rs->split_depth > 0 && c->rs->integrator == INTEGRATOR_PATH &&
            ior_eval(&m->ior, SPLIT_LAMBDA_D) >= SPLIT_MIN_IOR;
 }
 
