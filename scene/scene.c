@@ -14,7 +14,7 @@ render_settings_t render_settings_default(void)
         .integrator = INTEGRATOR_PATH,
         .dispersion = DISPERSION_HERO,
         .spectral_mis = 1,
-        .split_depth = 2,
+        .split_depth = 1,
         .maxdepth = 5,
         .spp = 16,
         .seed = 1,
