@@ -872,9 +872,10 @@ static void polar_dielectric(path_t *p, const dielectric_site_t *d, vec3_t out, 
 /* Ray splitting at dense stones (render_settings_t.split_depth). Light enters a stone of index
  * 2.4 with T about 0.83, stays by total internal reflection and leaves where a facet lets it:
  * both branches of such an event carry light of the same order (the crown's reflection of a lamp
- * and the fire inside), so a random choice between them is the largest noise in a gem's image
- * (a facet is white in one sample, dark in the next). Following both, each weighted by its
- * Fresnel factor, removes that noise at the cost of a second path; in ordinary glass (R about
+ * and the fire inside), so a random choice between them makes a facet white in one sample and
+ * dark in the next. Following both, each weighted by its Fresnel factor, removes that noise at
+ * the cost of a second path (with roulette told of it, split_dense, which measured the larger
+ * part: docs/performance.md, "The demo"); in ordinary glass (R about
  * 0.04) the reflected branch rarely pays for its path, so only materials of index n_d >=
  * SPLIT_MIN_IOR split, and only at a path's first split_depth such events, which bounds the
  * branches of one camera sample by 2^split_depth (each refraction's hero lanes split too:
@@ -1116,6 +1117,7 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
         for (int j = 1; j < nb; j++)
             n[j] = ior_eval(&m->ior, p->lambda[j]);
     const dielectric_site_t fsite = {fan_nrm, entering, n, 1, m};
+    /* A split fan-out event does not tell roulette its shares (split_dense): not measured. */
     int both = 0;
     if (RP > 0.0 && RP < 1.0 &&
         (whitted ? c->branches < c->max_branches
