@@ -55,6 +55,11 @@ typedef struct path {
     vec3_t prev_n;    /* the normal next-event estimation used there (0 in a medium) */
     int mono;         /* every lane refracts alike: one physical wavelength */
     int dispersed;    /* the path has had its first dispersive refraction */
+    int splits;       /* dense-stone events it followed both ways (split_here) */
+    /* What Russian roulette multiplies the throughput by before it compares it with 1: 1,
+     * except after events at a dense stone with splitting on, whose factors that are not losses
+     * it undoes (split_dense). */
+    double rr_scale;
     /* The photon integrator's split: diffuse bounces so far, and specular ones since the
      * last (or since the camera). */
     int diffuse_bounces;
@@ -928,13 +933,55 @@ static void polar_dielectric(path_t *p, const dielectric_site_t *d, vec3_t out, 
     polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &ev, mm, d->per_lane);
 }
 
+/* Ray splitting at dense stones (render_settings_t.split_depth). Light enters a stone of index
+ * 2.4 with T about 0.83, stays by total internal reflection and leaves where a facet lets it:
+ * both branches of such an event carry light of the same order (the crown's reflection of a lamp
+ * and the fire inside), so a random choice between them makes a facet white in one sample and
+ * dark in the next. Following both, each weighted by its Fresnel factor, removes that noise at
+ * the cost of a second path (with roulette told of it, split_dense, which measured the larger
+ * part: docs/performance.md, "The demo"); in ordinary glass (R about
+ * 0.04) the reflected branch rarely pays for its path, so only materials of index n_d >=
+ * SPLIT_MIN_IOR split, and only at a path's first split_depth such events, which bounds the
+ * branches of one camera sample by 2^split_depth (each refraction's hero lanes split too:
+ * split_lanes). The branches draw the path's later dimensions as Whitted's do, so the image
+ * stays a function of (seed, pixel, sample); each branch is an unbiased estimate of its share,
+ * so their sum is one of the whole. Whitted splits every event already. */
+#define SPLIT_MIN_IOR 1.9
+#define SPLIT_LAMBDA_D 587.56
+
+/* Whether material m is a dense stone that splitting applies to (render_settings_t.split_depth
+ * > 0; the path integrator only: Whitted splits everything, and the thesis's simple path tracer
+ * stays as it is written). At such a stone Russian roulette is also told
+ * which of an event's factors are not losses (path_t.rr_scale): a split branch's Fresnel share
+ * (the branch is part of the light, not light lost: rouletted by its weight it would be killed
+ * with probability 1 - R and its survivors scaled by 1/R, the random choice's noise again) and
+ * the refraction's (n_i / n_t)^2 (radiance compressed by 1/n^2 inside the stone comes back at
+ * the exit; pbrt-v4's etaScale). A lossless stone then never ends a path by roulette. */
+static int split_dense(const ctx_t *c, const material_t *m)
+{
+    return c->rs->split_depth > 0 && c->rs->integrator == INTEGRATOR_PATH &&
+           ior_eval(&m->ior, SPLIT_LAMBDA_D) >= SPLIT_MIN_IOR;
+}
+
+/* Whether the event at a dense stone splits, counted on p when it does. */
+static int split_here(path_t *p, int dense, int depth)
+{
+    if (!dense || p->splits >= depth)
+        return 0;
+    p->splits++; /* before the push, so that both branches count this event */
+    return 1;
+}
+
 /* Pushes a copy of p on the reflected branch of a delta event (Whitted follows both branches):
- * its lanes weighted by w (one factor) or by the hero event's per-lane factors. 0 when pushed. */
+ * its lanes weighted by w (one factor) or by the hero event's per-lane factors, its roulette
+ * scale divided by rr_share (split_dense; 1 elsewhere). 0 when pushed. */
 static int push_reflection(ctx_t *c, const path_t *p, const surface_t *h, vec3_t refl, double w,
-                           const delta_dielectric_t *lanes, const dielectric_site_t *site)
+                           const delta_dielectric_t *lanes, const dielectric_site_t *site,
+                           double rr_share)
 {
     path_t r;
     path_copy(&r, p);
+    r.rr_scale /= rr_share;
     for (int j = 0; j < r.n; j++)
         r.beta[j] *= lanes ? delta_dielectric_reflect_lane(lanes, j, false) : w;
     if (r.polar)
@@ -942,6 +989,47 @@ static int push_reflection(ctx_t *c, const path_t *p, const surface_t *h, vec3_t
     start_bounce(&r, h, refl, 1, 0.0);
     r.depth++;
     return push(c, &r);
+}
+
+/* The refraction of a hero event whose branches are both followed (split_here), lane by lane:
+ * lanes 1..n-1 of p, each with its own index n[j], normal and refracted direction, are pushed
+ * as monochrome paths weighted by their own transmission, so that the caller's lane 0 goes on
+ * without the lane count's factor (the hero estimator's sum over the tuple, each lane at its own
+ * wavelength, instead of the hero's alone). Lanes totally reflected carry nothing here (their
+ * reflection went with the reflected branch, R_j = 1). Returns -1, pushing nothing, when the
+ * stack has no room for them: the caller then ends the secondaries as usual. */
+static int split_lanes(ctx_t *c, const path_t *p, const surface_t *h, const material_t *m,
+                       const double *n, int entering)
+{
+    if (c->top + p->n - 1 > STACK_MAX)
+        return -1;
+    for (int j = 1; j < p->n; j++) {
+        vec3_t nrm = specular_normal(h, p->dir, delta_eta_ratio(n[j], entering), NULL);
+        delta_dielectric_t e;
+        delta_dielectric_make(p->dir, nrm, entering, &n[j], 1, BSDF_RADIANCE, &e);
+        if (!e.refracts || !(p->beta[j] > 0.0))
+            continue;
+        path_t q;
+        path_copy(&q, p);
+        q.n = 1;
+        q.lambda[0] = p->lambda[j];
+        q.pdf[0] = p->pdf[j];
+        q.bucket[0] = p->bucket[j];
+        const double t = delta_dielectric_weight(&e, false, 1.0);
+        q.beta[0] = p->beta[j] * t;
+        q.rr_scale = p->rr_scale / t; /* a dense stone's event: split_dense */
+        q.mono = 1;
+        q.dispersed = 1;
+        if (q.polar) {
+            q.polar_t[0] = p->polar_t[j];
+            const dielectric_site_t site = {nrm, entering, &n[j], 0, m};
+            polar_dielectric(&q, &site, e.refract, false);
+        }
+        start_bounce(&q, h, e.refract, 1, 0.0);
+        q.depth++; /* the caller counts the current path's bounce */
+        push(c, &q);
+    }
+    return 0;
 }
 
 /* Fan-out lanes that cannot go on together (a coating's or a crystal's event depends on the
@@ -961,7 +1049,8 @@ static void fanout_pick_one(ctx_t *c, path_t *p)
 }
 
 /* Smooth dielectric: the physics is bsdf/delta.h's (radiance mode); this is the camera
- * pass's policy for its branches -- one chosen at random, or both (Whitted), and at a
+ * pass's policy for its branches -- one chosen at random, or both (Whitted, and a path's first
+ * events at a dense stone: split_here), and at a
  * dispersive interface the hero's termination of the secondaries or the thesis's fan-out.
  * Returns 0 to continue the path, 1 when it ends (its sub-paths were pushed or it carries
  * nothing). */
@@ -1010,10 +1099,13 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
         }
         const dielectric_site_t site = {nrm, entering, n, lanes, m};
         const double R = e.prob_reflect;
+        const int dense = split_dense(c, m);
         int both = 0;
-        if (whitted && R > 0.0 && R < 1.0 && c->branches < c->max_branches)
+        if (R > 0.0 && R < 1.0 &&
+            (whitted ? c->branches < c->max_branches : split_here(p, dense, c->rs->split_depth)))
             both = push_reflection(c, p, h, e.reflect, delta_dielectric_weight(&e, true, 1.0),
-                                   lanes ? &e : NULL, &site) == 0;
+                                   lanes ? &e : NULL, &site,
+                                   dense ? delta_dielectric_weight(&e, true, 1.0) : 1.0) == 0;
         double scale = 1.0;
         if (!both && choose_reflect(c, R, &scale)) {
             for (int j = 0; j < p->n; j++)
@@ -1024,8 +1116,16 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
             start_bounce(p, h, e.reflect, 1, 0.0);
             return 0;
         }
+        /* At a dense stone roulette is told lane 0's factor (split_dense): T (n_i/n_t)^2 on a
+         * split, (n_i/n_t)^2 after a random choice. */
+        if (dense)
+            p->rr_scale /= lanes ? delta_dielectric_transmit_lane(&e, 0, scale)
+                                 : delta_dielectric_weight(&e, false, scale);
         if (hero) {
-            p->beta[0] *= delta_dielectric_transmit_lane(&e, 0, scale) * p->n;
+            /* A split event (both branches followed, scale 1) refracts every lane its own way
+             * (split_lanes); elsewhere the secondaries end. */
+            const int each = both && !whitted && split_lanes(c, p, h, m, n, entering) == 0;
+            p->beta[0] *= delta_dielectric_transmit_lane(&e, 0, scale) * (each ? 1 : p->n);
             p->n = 1;
             p->mono = 1;
             p->dispersed = 1;
@@ -1081,9 +1181,12 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
         for (int j = 1; j < nb; j++)
             n[j] = ior_eval(&m->ior, p->lambda[j]);
     const dielectric_site_t fsite = {fan_nrm, entering, n, 1, m};
+    /* A split fan-out event does not tell roulette its shares (split_dense): not measured. */
     int both = 0;
-    if (whitted && RP > 0.0 && RP < 1.0 && c->branches < c->max_branches)
-        both = push_reflection(c, p, h, fan.reflect, RP, NULL, &fsite) == 0;
+    if (RP > 0.0 && RP < 1.0 &&
+        (whitted ? c->branches < c->max_branches
+                 : split_here(p, split_dense(c, m), c->rs->split_depth)))
+        both = push_reflection(c, p, h, fan.reflect, RP, NULL, &fsite, 1.0) == 0;
     double scale = 1.0;
     int reflect = both ? 0 : choose_reflect(c, RP, &scale);
     if (reflect) {
@@ -1290,8 +1393,10 @@ static int roulette(ctx_t *c, path_t *p)
     if (!(mb > 0.0))
         return 1;
     if (p->depth >= RR_DEPTH && c->rs->integrator != INTEGRATOR_WHITTED) {
-        /* fmin(1, fmax(RR_MIN, mb)) for the positive mb here, without libm calls. */
-        double q = mb > RR_MIN ? mb : RR_MIN;
+        /* fmin(1, fmax(RR_MIN, mb)) for the positive mb here, without libm calls; mb times
+         * the path's roulette scale (1 but at dense stones: split_dense). */
+        double q = mb * p->rr_scale;
+        q = q > RR_MIN ? q : RR_MIN;
         if (q > 1.0)
             q = 1.0;
         if (q < 1.0) {
@@ -1720,6 +1825,7 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                 c.xyz[0] = c.xyz[1] = c.xyz[2] = 0.0;
                 path_t p;
                 memset(&p, 0, offsetof(path_t, lambda));
+                p.rr_scale = 1.0;
                 /* The camera's block of dimensions (DIM_FILM...): the position in the
                  * pixel, the wavelengths, the lens. */
                 double film[2], lens[2];

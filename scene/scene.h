@@ -336,6 +336,12 @@ typedef struct render_settings {
      * the lanes by spectral MIS (render.c) rather than ending the secondary lanes as pbrt-v4
      * does ("bool spectralmis", default true). */
     int spectral_mis;
+    /* Ray splitting at dense stones ("integer splitdepth", the path integrators; render.c,
+     * split_here): at the first split_depth smooth-dielectric events of a camera path whose
+     * choice is real (0 < R < 1) at a material of index n_d >= 1.9 (a dense stone), both the
+     * reflected and the refracted branch are followed, each weighted by its Fresnel factor,
+     * instead of one chosen at random. 0: never (every event chooses). */
+    int split_depth;
     char filename[512];   /* output named by the scene's Film, may be empty */
     int film_spectral;    /* Film "spectral" (else "rgb") */
     photon_settings_t photon;

@@ -1676,17 +1676,23 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
     const integrator_name_t *file_named = integrators_find(in->type);
     if (file_named && load_pbrt_mapping(L, file_named, !strcmp(type, in->type), err))
         return -1;
-    int maxdepth;
+    int maxdepth, split_depth;
     const char *disp, *wl;
     bool spectral_mis;
     if (params_get_int(p, "maxdepth", 5, &maxdepth, err) ||
+        params_get_int(p, "splitdepth", rs->split_depth, &split_depth, err) ||
         params_get_bool(p, "spectralmis", true, &spectral_mis, err) ||
-        params_get_string(p, "dispersion", integrators_dispersion_name(DISPERSION_HERO), &disp, err) ||
+        params_get_string(p, "dispersion", integrators_dispersion_name(DISPERSION_HERO), &disp,
+                          err) ||
         params_get_string(p, "wavelengths", "uniform", &wl, err))
         return -1;
     if (maxdepth < 0 || maxdepth > 10000)
         return pbrt_error(err, in->loc, "\"integer maxdepth\" must be in 0..10000, got %d", maxdepth);
     rs->maxdepth = maxdepth;
+    if (split_depth < 0 || split_depth > 8)
+        return pbrt_error(err, in->loc, "\"integer splitdepth\" must be in 0..8, got %d",
+                          split_depth);
+    rs->split_depth = split_depth;
     rs->spectral_mis = spectral_mis;
     if (!strcmp(named->name, "sppm") || !strcmp(in->type, "sppm")) {
         if (load_sppm(L, p, !strcmp(named->name, "sppm"), err))

@@ -123,44 +123,44 @@ static void test_same_pixels_with_any_thread_count(void **state)
     image_exr_destroy(&y);
 }
 
-/* pbrt-v4's "bool regularize" is the scene file's and reaches every worker: the farm's pixels
- * are --direct's, and differ from the same scene without it. */
-static void test_regularize_through_the_farm(void **state)
+/* An Integrator option of scene (its text `on` in the file) is the scene file's and reaches
+ * every worker: the farm's pixels are --direct's, and differ from the same scene with `off`
+ * in its place. */
+static void expect_option_through_the_farm(const char *scene, const char *on, const char *off,
+                                           const char *tag)
 {
-    (void)state;
-    const char *farm = testutil_scratch("reg_farm.exr"),
-               *direct = testutil_scratch("reg_direct.exr");
-    const char *plain = testutil_scratch("reg_plain.exr");
-    const char *off = testutil_scratch("noreg.pbrt");
+    char farm[64], direct[64], plain[64], off_scene[64];
+    snprintf(farm, sizeof farm, "%s_farm.exr", tag);
+    snprintf(direct, sizeof direct, "%s_direct.exr", tag);
+    snprintf(plain, sizeof plain, "%s_plain.exr", tag);
+    snprintf(off_scene, sizeof off_scene, "%s_off.pbrt", tag);
+    const char *f = testutil_scratch(farm), *d = testutil_scratch(direct),
+               *o = testutil_scratch(off_scene);
     uint8_t *text;
     size_t len;
     err_t err;
-    assert_int_equal(files_read("data/render/regularize.pbrt", 1 << 20, &text, &len, &err), 0);
+    assert_int_equal(files_read(scene, 1 << 20, &text, &len, &err), 0);
     /* files_read's bytes end without a NUL: strstr and %s need one. */
     uint8_t *ended = realloc(text, len + 1);
     assert_non_null(ended);
     text = ended;
     text[len] = 0;
-    const char *on = "\"bool regularize\" true";
     char *at = strstr((char *)text, on);
     assert_non_null(at);
-    char *copy = malloc(len + 2);
+    size_t size = len + strlen(off) + 1;
+    char *copy = malloc(size);
     assert_non_null(copy);
     size_t head = (size_t)(at - (char *)text);
-    snprintf(copy, len + 2, "%.*s\"bool regularize\" false%s", (int)head, (const char *)text,
-             at + strlen(on));
-    testutil_write_text(off, copy, 0644);
+    snprintf(copy, size, "%.*s%s%s", (int)head, (const char *)text, off, at + strlen(on));
+    testutil_write_text(o, copy, 0644);
     free(copy);
     free(text);
-    assert_int_equal(
-        run("render", "data/render/regularize.pbrt", "-o", farm, "--quiet", NULL)->status, 0);
-    assert_int_equal(
-        run("render", "data/render/regularize.pbrt", "-o", direct, "--direct", "--quiet", NULL)
-            ->status,
-        0);
-    assert_int_equal(run("render", off, "-o", plain, "--quiet", NULL)->status, 0);
-    image_exr_t *x = image_exr_read(farm, NULL), *y = image_exr_read(direct, NULL),
-                *z = image_exr_read(plain, NULL);
+    assert_int_equal(run("render", scene, "-o", f, "--quiet", NULL)->status, 0);
+    assert_int_equal(run("render", scene, "-o", d, "--direct", "--quiet", NULL)->status, 0);
+    const char *p = testutil_scratch(plain);
+    assert_int_equal(run("render", o, "-o", p, "--quiet", NULL)->status, 0);
+    image_exr_t *x = image_exr_read(f, NULL), *y = image_exr_read(d, NULL),
+                *z = image_exr_read(p, NULL);
     assert_non_null(x);
     assert_non_null(y);
     assert_non_null(z);
@@ -169,6 +169,23 @@ static void test_regularize_through_the_farm(void **state)
     image_exr_destroy(&x);
     image_exr_destroy(&y);
     image_exr_destroy(&z);
+}
+
+/* pbrt-v4's "bool regularize". */
+static void test_regularize_through_the_farm(void **state)
+{
+    (void)state;
+    expect_option_through_the_farm("data/render/regularize.pbrt", "\"bool regularize\" true",
+                                   "\"bool regularize\" false", "reg");
+}
+
+/* Ray splitting at a dense stone ("integer splitdepth"): deterministic per sample, so the
+ * farm's pixels are --direct's. */
+static void test_split_through_the_farm(void **state)
+{
+    (void)state;
+    expect_option_through_the_farm("data/render/split.pbrt", "\"integer splitdepth\" 3",
+                                   "\"integer splitdepth\" 0", "split");
 }
 
 /* Two files hold the same bytes. */
@@ -453,6 +470,7 @@ int main(void)
         cmocka_unit_test(test_renders_spectral_exr_and_png),
         cmocka_unit_test(test_same_pixels_with_any_thread_count),
         cmocka_unit_test(test_regularize_through_the_farm),
+        cmocka_unit_test(test_split_through_the_farm),
         cmocka_unit_test(test_stokes_through_the_farm),
         cmocka_unit_test(test_farm_png_matches_direct),
         cmocka_unit_test(test_overrides),
