@@ -29,17 +29,32 @@
 # bounds; variances do not depend on load.
 # Needs python3 with OpenImageIO and numpy (deploy/install-deps.sh installs them). About
 # 40 minutes on 2 idle cores with the farm, 20 without.
+# Scenes whose noise figure one small region decides get more seeds (--scene-seeds, default
+# veach-mis=16): on veach-mis a 4x4 block around the smallest, brightest lamp carries about
+# three quarters of the variance, and two pairs of seeds of it spread over a factor of ten
+# (docs/performance.md, "veach-mis: more seeds"); our variance is then the mean over 8 pairs.
+# pbrt-v4's stays that of its own 4 renders (reference/spp64), the comparison's floor of noise.
 # usage: bash bench/efficiency.sh [--only SUBSTRING] [--seeds N] [--bin PRISMFARM] [--spp N]
 #        [--skip-farm] [--skip-demo] [--budget S] [--corpus DIR] [--keep DIR]
+#        [--scene-seeds SUBSTRING=N ...]
 #        (defaults: every scene, 4, build/cli/prismfarm, 64, farm on, demo scenes on, 60,
-#         ../shared/pbrt-scenes; --keep copies every render into DIR)
+#         ../shared/pbrt-scenes; --keep copies every render into DIR; veach-mis=16)
+#   --scene-seeds SUBSTRING=N  N seeds (even, at least --seeds) for the corpus scenes whose
+#                     <folder>__<stem> holds SUBSTRING; repeatable; "--scene-seeds none" drops
+#                     the defaults
 #   --only SUBSTRING  only the corpus scenes whose <folder>__<stem> holds SUBSTRING, and the demo
 #                     scenes only when their name holds it
 set -euo pipefail
 cd "$(dirname "$0")/.."
 spp=64 seeds=4 bin=build/cli/prismfarm corpus=../shared/pbrt-scenes only= farm=1 demo=1 budget=60 keep=
+scene_seeds=(veach-mis=16)
 while [ $# -gt 0 ]; do
   case "$1" in
+    --scene-seeds)
+      if [ "$2" = none ]; then scene_seeds=()
+      elif [[ "$2" =~ ^[^=]+=[0-9]+$ ]]; then scene_seeds+=("$2")
+      else echo "efficiency.sh: --scene-seeds takes SUBSTRING=N or none" >&2; exit 2; fi
+      shift 2 ;;
     --only) only=$2; shift 2 ;;
     --seeds) seeds=$2; shift 2 ;;
     --bin) bin=$2; shift 2 ;;
@@ -49,7 +64,7 @@ while [ $# -gt 0 ]; do
     --budget) budget=$2; shift 2 ;;
     --corpus) corpus=$2; shift 2 ;;
     --keep) keep=$2; shift 2 ;;
-    -h|--help) sed -n '2,37p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,46p' "$0"; exit 0 ;;
     *) echo "efficiency.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -87,7 +102,7 @@ cpu_of() {
                                   printf "%.2f", t }' <<<"$t")"
 }
 
-echo "Efficiency against pbrt-v4: $(date -u '+%Y-%m-%d %H:%M UTC'), $(nproc) cores, $spp spp, seeds 1-$seeds, 2 threads"
+echo "Efficiency against pbrt-v4: $(date -u '+%Y-%m-%d %H:%M UTC'), $(nproc) cores, $spp spp, seeds 1-$seeds (more where a row says), 2 threads"
 echo "binary: $bin_in (the tree it was built from is at $bin_rev)"
 echo "load before: $(uptime)"
 echo "method: $(realpath "$tool"): $(sed -n '/^Noise:/,/^with pbrt-v4/p' "$tool" | tr '\n' ' ' | sed 's/  */ /g')"
@@ -104,8 +119,13 @@ for tag in $tags; do
     echo "| $tag | - | - | - | - | no scene file or size |"
     continue
   fi
+  n_seeds=$seeds
+  for e in "${scene_seeds[@]}"; do
+    case "$tag" in *"${e%%=*}"*) ((${e#*=} > n_seeds)) && n_seeds=${e#*=} ;; esac
+  done
+  ((n_seeds % 2 == 0)) || n_seeds=$((n_seeds + 1))
   direct_cpu=() farm_cpu=() imgs=() failed=
-  for ((s = 1; s <= seeds; s++)); do
+  for ((s = 1; s <= n_seeds; s++)); do
     args=(render "$scene" --res "$size" --spp "$spp" --seed "$s" --threads 2 --quiet)
     if ! cpu_of c "$bin" "${args[@]}" --direct -o "$tmp/d$s.exr"; then
       failed="direct seed $s: $(grep -v warning "$tmp/msg" | head -1)"; break
@@ -132,7 +152,9 @@ for tag in $tags; do
   line=$("$py" "$tool" "$tag" "$cpu" "${imgs[@]}" 2>&1) || {
     echo "| $tag | - | - | - | - | equal_error.py: $line |"; continue; }
   # tag: relvar ours A pbrt-v4 B (ratio X); CPU s ours C pbrt-v4 D; mean ratio R/G/B r/g/b; efficiency ours/pbrt-v4 E
-  awk -v tag="$tag" -v line="$line" -v fcpu="$fcpu" -v cpu="$cpu" 'BEGIN {
+  label=$tag
+  ((n_seeds == seeds)) || label="$tag ($n_seeds seeds)"
+  awk -v tag="$label" -v line="$line" -v fcpu="$fcpu" -v cpu="$cpu" 'BEGIN {
     n = split(line, w, /[ ;()]+/)
     for (i = 1; i <= n; i++) {
       if (w[i] == "relvar") { vo = w[i + 2]; vt = w[i + 4]; vr = w[i + 6] }

@@ -182,6 +182,39 @@ static int nsamples_of(const bsdf_t *b)
     return b->nsamples > 0 ? b->nsamples : 1;
 }
 
+/* The probability that a sample of the coated model takes the coating's reflection rather
+ * than entering the layer. pbrt-v4 reflects with the Fresnel share R / (R + T) of the sampled
+ * microfacet, about 4 % on glass, although everything under the coating comes back at most
+ * with the base's albedo a: where a glossy coat mirrors a small bright source (the sun, a
+ * lamp) that light sampling cannot find inside its narrow lobe, 1 sample in 25 carries the
+ * whole highlight (material-testball's sun glint and the floor's fireflies, docs/rendering.md
+ * "Coated surfaces"). Mitsuba's roughplastic reallocates the choice by the components'
+ * expected weights (Jakob, Mitsuba 0.6 src/bsdfs/roughplastic.cpp, "Reallocate samples"):
+ *   q = R / (R + (1 - R) a),
+ * with R the Fresnel reflectance at the macro normal, a the lanes' mean base albedo (a
+ * diffuse base's reflectance, a conductor's normal-incidence reflectance, or the medium's
+ * albedo where larger). q is kept between R (pbrt-v4's share: a white base) and 1/2, so that a
+ * transmitted sample's weight grows at most to 2 (1 - R) times pbrt-v4's. A sample's weight
+ * and the MIS pdf both use q, so the estimate stays unbiased; only which paths it spends its
+ * samples on changes. */
+static double top_reflect_prob(const group_t *g, vec3_t wo)
+{
+    const bsdf_t *b = g->b;
+    const double r = fresnel_dielectric(fabs(wo.z), 1.0, g->eta);
+    if (!(r > 0.0))
+        return 0.0;
+    double a = 0.0;
+    for (int i = 0; i < g->n; i++) {
+        int j = g->lo + i;
+        double base = b->kind == BSDF_COATED_CONDUCTOR
+                          ? fresnel_conductor(1.0, b->cond_eta[j], b->cond_k[j])
+                          : b->reflectance[j];
+        a += fmax(base, b->albedo[j]) / g->n;
+    }
+    double q = r / (r + (1.0 - r) * fmin(1.0, fmax(a, 0.0)));
+    return fmax(r, fmin(q, 0.5));
+}
+
 /* A sample of the exponential free-flight distance along w in a unit-extinction medium,
  * projected on z: -ln(1 - u) |w.z|. */
 static double free_flight_dz(double u, vec3_t w)
@@ -331,15 +364,16 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
 /* ---- pdf: pbrt-v4 LayeredBxDF::PDF, the TRT / TT approximations mixed with a uniform
  * sphere: 0.1 / (4 pi) + 0.9 estimate ----
  *
- * One departure: the top's reflection counts at the density group_sample really gives it, the
- * coating's reflection lobe times the probability R / (R + T) that the first event reflects,
- * where pbrt-v4 counts the reflection lobe's whole density (its reflection-only PDF), 1 / R
- * times too high (25x at normal incidence on glass). The estimate serves only as the MIS
- * weight's density; with pbrt-v4's, MIS gave the glossy reflection of a small bright light
- * (the sun in an environment map) to BSDF sampling, which picks the reflection 4 % of the
- * time, even where sampling the light finds it far more often: on material-testball's sun
- * glint (docs/rendering.md, "Image lights") the weight from the true density has 1.3x less
- * variance. Either weight is unbiased (both strategies' weights use the same estimate). */
+ * Two departures. The top's reflection counts at the density group_sample really gives it, the
+ * coating's reflection lobe times the probability q that the first event reflects
+ * (top_reflect_prob), where pbrt-v4 counts the reflection lobe's whole density (its
+ * reflection-only PDF), 1 / R times too high (25x at normal incidence on glass). The estimate
+ * serves only as the MIS weight's density; with pbrt-v4's, MIS gave the glossy reflection of a
+ * small bright light (the sun in an environment map) to BSDF sampling even where sampling the
+ * light finds it far more often: on material-testball's sun glint (docs/rendering.md, "Image
+ * lights") the weight from the true density had 1.3x less variance. And the paths through the
+ * layer count with their probability 1 - q (pbrt-v4: 1). Either weight is unbiased (both
+ * strategies' weights use the same estimate). */
 
 static double group_pdf(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng)
 {
@@ -350,7 +384,8 @@ static double group_pdf(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rn
         wi = vec3_neg(wi);
     }
     bool same = wo.z * wi.z > 0.0;
-    double sum = same ? ns * iface_pdf(g, TOP, wo, wi, LOBE_ALL) : 0.0; /* R / (R + T) in */
+    const double q = top_reflect_prob(g, wo);
+    double sum = 0.0;
     for (int s = 0; s < ns; s++) {
         isample_t wos, wis, rs;
         double a[9];
@@ -391,7 +426,10 @@ static double group_pdf(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rn
                               iface_pdf(g, BOTTOM, vec3_neg(wos.wi), wi, LOBE_ALL));
         }
     }
-    return lobe_finite(0.1 / (4.0 * PF_PI) + 0.9 * sum / ns);
+    /* The mixture group_sample draws from: the coating's reflection with probability q, the
+     * paths through the layer with 1 - q. */
+    double top = same ? q * iface_pdf(g, TOP, wo, wi, LOBE_R) : 0.0;
+    return lobe_finite(0.1 / (4.0 * PF_PI) + 0.9 * (top + (1.0 - q) * sum / ns));
 }
 
 /* ---- Sample_f: pbrt-v4 LayeredBxDF::Sample_f, a random walk until the path leaves ---- */
@@ -407,8 +445,15 @@ static bool group_sample(const group_t *g, vec3_t wo, double uc, double u1, doub
     if (flip)
         wo = vec3_neg(wo);
     isample_t bs;
-    if (!iface_sample(g, TOP, wo, uc, u1, u2, b->mode, LOBE_ALL, &bs))
+    /* The first event: reflection with probability q (top_reflect_prob), its uniform
+     * rescaled to [0, 1) for the interface's own use of it. */
+    const double q = top_reflect_prob(g, wo);
+    const bool refl = uc < q;
+    const double ur = refl ? uc / q : (uc - q) / (1.0 - q);
+    if (!iface_sample(g, TOP, wo, fmin(ur, 1.0 - DBL_EPSILON / 2.0), u1, u2, b->mode,
+                      refl ? LOBE_R : LOBE_T, &bs))
         return false;
+    bs.pdf *= refl ? q : 1.0 - q;
     if (bs.flags & BSDF_REFLECTION) {
         memcpy(f, bs.f, sizeof(double) * (size_t)n);
         *pdf_out = bs.pdf;
@@ -568,7 +613,7 @@ bool layered_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, 
     if (!group_sample(&g, wo, uc, u1, u2, rng, &fh, &pdfh, &out->wi, &out->flags))
         return false;
     /* The top's mirror reflection is the one delta direction every lane shares; its weight is
-     * the lane's own Fresnel reflectance (the probability of that lobe under its sampling). */
+     * the lane's own Fresnel reflectance, its probability the lane's own choice of it. */
     bool top_mirror = (out->flags & BSDF_SPECULAR) && (out->flags & BSDF_REFLECTION) &&
                       lobe_dielectric_specular(&b->mf, b->eta[hero]) &&
                       fabs(out->wi.x + wo.x) + fabs(out->wi.y + wo.y) < 1e-12;
@@ -577,9 +622,10 @@ bool layered_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, 
             out->f[j] = fh;
             out->pdf[j] = pdfh;
         } else if (out->flags & BSDF_SPECULAR) {
+            group_t gj = group_make(b, j, 1);
             double r = top_mirror ? fresnel_dielectric(fabs(wo.z), 1.0, b->eta[j]) : 0.0;
             out->f[j] = lobe_finite(r / fabs(out->wi.z));
-            out->pdf[j] = r;
+            out->pdf[j] = top_mirror ? top_reflect_prob(&gj, wo) : 0.0;
         } else {
             group_t gj = group_make(b, j, 1);
             group_eval(&gj, wo, out->wi, rng, &out->f[j]);

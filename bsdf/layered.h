@@ -4,7 +4,10 @@
  * unit extinction between them, two-sided (a wo below is flipped to the top). f, the sampled
  * weights and the pdf are stochastic estimates whose randomness comes from the rng stream
  * only (a NULL stream is replaced by one keyed by the directions' bits, so the value is then
- * a pure function of the arguments, as in pbrt-v4). Internal to bsdf/.
+ * a pure function of the arguments, as in pbrt-v4). One departure from pbrt-v4: a sample
+ * reflects off the coating first with Mitsuba roughplastic's probability R / (R + (1 - R) a)
+ * (a the base's albedo; layered.c, top_reflect_prob), not the Fresnel share, and the pdf
+ * estimate mixes with that probability. Internal to bsdf/.
  *
  * Lanes: when every lane has the same coating eta, one walk (its directions are
  * lane-independent) carries every lane's throughput, and the pdf is the same for every lane.

@@ -135,6 +135,10 @@ typedef struct ctx {
     double *irradiance; /* grid.n buckets, for one estimate */
     le_entry_t le_cache[LE_CACHE_LIGHTS + 1][LANES];
     int media; /* the scene's media are simulated (render/volume.h) */
+    /* The pdf of a BSDF-sampled direction weighs the emission that direction finds: with the
+     * path integrator's MIS and a light that a ray can hit (an area or infinite light). Else
+     * the coated models skip their stochastic pdf estimate (a random walk of its own). */
+    int bsdf_mis;
     /* Polarised transport: the tile's Stokes planes S1-S3 follow the S0 buckets (stokes), and
      * +1 or -1 as the camera's k x right is its image up or down (splat_stokes). */
     int stokes;
@@ -1362,7 +1366,7 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
      * next-event estimation uses: for the coated models bsdf_pdf's estimate (pbrt-v4 does the
      * same when its sample's pdf is only proportional). */
     double mis_pdf = pdf;
-    if (bs.pdf_is_estimate && !specular) {
+    if (bs.pdf_is_estimate && !specular && c->bsdf_mis) {
         double pdfs[LANES];
         bsdf_pdf(&b, wo, bs.wi, &c->rng, pdfs);
         mis_pdf = pdfs[0];
@@ -1773,6 +1777,10 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
         for (int j = 0; j < LANES; j++)
             c.le_cache[i][j].lambda = NAN;
     c.media = rs->media && scene->nmedia > 0;
+    for (size_t i = 0; i < scene->nlights && rs->integrator == INTEGRATOR_PATH; i++)
+        if (scene->lights[i].kind == LIGHT_AREA || scene->lights[i].kind == LIGHT_COLLIMATED ||
+            scene->lights[i].kind == LIGHT_INFINITE)
+            c.bsdf_mis = 1;
     /* Polarised transport: every camera ray starts with the analyser's matrix (or the
      * identity) in the frame x = the image's right, y = k x x (k toward the camera); for a
      * camera whose k x right is the image's down (frame_sign -1) the analyser's angle, given

@@ -802,11 +802,17 @@ static void test_layered_consistency(void **state)
     }
 
     /* Sampling and evaluation agree on the albedo. maxdepth 100 so that the two walks'
-     * different truncation at maxdepth does not matter (Russian roulette ends them). */
-    const bsdf_kind_t kinds[] = {BSDF_COATED_DIFFUSE, BSDF_COATED_CONDUCTOR};
-    for (int k = 0; k < 2; k++)
+     * different truncation at maxdepth does not matter (Russian roulette ends them). The third
+     * model is a dark coated diffuse, whose sampling reflects off the coating half the time
+     * (layered.c's top_reflect_prob at its bound), not with the Fresnel share. */
+    const bsdf_kind_t kinds[] = {BSDF_COATED_DIFFUSE, BSDF_COATED_CONDUCTOR, BSDF_COATED_DIFFUSE};
+    for (int k = 0; k < 3; k++)
         for (int t = 0; t < 2; t++) {
             b = coated(kinds[k], 1, 0.3, 1.5);
+            if (k == 2) {
+                b.reflectance[0] = 0.05;
+                b.albedo[0] = 0.0;
+            }
             b.maxdepth = 100;
             vec3_t wo = sph(t ? PI - 0.8 : 0.8, 0.1);
             rng_stream_t rng = rng_stream_make(seed++, 4, 0);
@@ -870,8 +876,8 @@ static void test_layered_consistency(void **state)
 }
 
 /* The layered pdf counts the coating's reflection at the density sampling gives it, the lobe
- * times the Fresnel probability of reflecting first (pbrt-v4 counts the whole lobe, 1 / R times
- * more: layered.c): in a cone of 0.15 rad about the mirror direction of a glossy coat (alpha
+ * times the probability of reflecting first (test_layered_reflect_choice; pbrt-v4 counts the
+ * whole lobe, about 1 / R times more: layered.c): in a cone of 0.15 rad about the mirror direction of a glossy coat (alpha
  * 0.1, eta 1.5) over a diffuse base, the averaged pdf estimate integrated over the cone is
  * within a factor 1.6 of the share of samples that land in it (measured 1.26; pbrt-v4's is 14
  * times it). */
@@ -915,6 +921,44 @@ static void test_layered_pdf_reflection(void **state)
     assert_true(in > 20 * sd);
     if (!(pint < 1.6 * in && in < 1.6 * pint))
         fail_msg("reflection cone: samples %g, pdf estimate %g", in, pint);
+}
+
+/* The coated diffuse's sampling reflects off the coating first with Mitsuba roughplastic's
+ * probability q = R / (R + (1 - R) a) for a base of albedo a, bounded to [R, 1/2] (layered.c,
+ * top_reflect_prob), not with pbrt-v4's Fresnel share R: for a glossy coat (alpha 0.01, eta
+ * 1.5, no medium) seen at 0.5 rad, R = 0.041, the share of samples in a cone of 0.15 rad about
+ * the mirror direction is q plus the few diffuse walks that end in the cone (under 0.03): q =
+ * 0.30 over a base of albedo 0.1 (pbrt-v4's choice would give 0.04-0.07), 0.05 over 0.8 and
+ * 0.5 over a black base. */
+static void test_layered_reflect_choice(void **state)
+{
+    (void)state;
+    uint64_t seed = 1400;
+    const double albedos[] = {0.1, 0.8, 0.0};
+    const vec3_t wo = sph(0.5, 0.3), mirror = vec3_make(-wo.x, -wo.y, wo.z);
+    for (int k = 0; k < 3; k++) {
+        bsdf_t b = coated(BSDF_COATED_DIFFUSE, 1, 0.0001, 1.5);
+        b.reflectance[0] = albedos[k];
+        b.albedo[0] = 0.0;
+        rng_stream_t rng = rng_stream_make(seed, 8, (uint64_t)k);
+        enum { N = 20000 };
+        double in = 0;
+        for (int s = 0; s < N; s++) {
+            bsdf_sample_t bs;
+            if (bsdf_sample(&b, wo, 0, testutil_splitmix_u(&seed), testutil_splitmix_u(&seed),
+                            testutil_splitmix_u(&seed), &rng, &bs) &&
+                vec3_dot(bs.wi, mirror) > cos(0.15))
+                in += 1.0 / N;
+        }
+        double r = fresnel_dielectric(cos(0.5), 1.0, 1.5);
+        double q = fmax(r, fmin(0.5, r / (r + (1.0 - r) * albedos[k])));
+        double sd = sqrt(q * (1.0 - q) / N);
+        if (getenv("BSDF_TEST_VERBOSE"))
+            printf("coat's reflection choice over albedo %.1f: share in the cone %.4f, q %.4f\n",
+                   albedos[k], in, q);
+        if (!(in > q - 5 * sd && in < q + 0.03 + 5 * sd))
+            fail_msg("base albedo %g: share in the mirror cone %g, q %g", albedos[k], in, q);
+    }
 }
 
 /* With equal parameters every lane of a layered bsdf gives the same numbers (one walk carries
@@ -985,6 +1029,7 @@ int main(void)
         cmocka_unit_test(test_no_nan),
         cmocka_unit_test(test_layered_consistency),
         cmocka_unit_test(test_layered_pdf_reflection),
+        cmocka_unit_test(test_layered_reflect_choice),
         cmocka_unit_test(test_layered_lanes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
