@@ -590,6 +590,35 @@ static bool json_number(const char *json, const char *key, double *v)
     return p && sscanf(p + strlen(k), " %lf", v) == 1;
 }
 
+/* A master on spool with one worker, job 1 (scene at spp) submitted to it, and the journal
+ * waited on until it holds a checkpoint and camera results after it: what the kill tests start
+ * from. tag names the logs ("TAG-master1.log", "TAG-w.log"); wep and cep get the endpoints. */
+typedef struct started {
+    pid_t master, worker;
+    char wep[256], cep[256];
+} started_t;
+
+static started_t start_until_checkpoint(const char *scene, const char *spp, const char *spool,
+                                        const char *tag)
+{
+    started_t st;
+    char name[64];
+    snprintf(name, sizeof name, "%s-master1.log", tag);
+    const char *mlog = testutil_scratch(name);
+    st.master = testutil_journal_master(mlog, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
+    testutil_read_endpoints(spool, st.wep, st.cep, mlog);
+    snprintf(name, sizeof name, "%s-w.log", tag);
+    st.worker = testutil_journal_worker(testutil_scratch(name), st.wep, "w");
+    const run_t *r = run("submit", scene, "--master", st.cep, "--spp", spp, "--insecure", NULL);
+    if (r->status != 0)
+        fail_msg("submit: exit %d: %s", r->status, r->err);
+    assert_string_equal(r->out, "1\n");
+    testutil_wait_journal(spool, test_wait_s(), "a checkpoint and results after it",
+                          "SELECT checkpoint FROM jobs WHERE id=1",
+                          "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
+    return st;
+}
+
 /* A camera job whose master dies after a checkpoint, with results journaled after it: the
  * restarted master restores the checkpoint, merges those results again and finishes with the
  * pixels of an uninterrupted render. */
@@ -597,19 +626,10 @@ static void test_master_killed_camera_job(void **state)
 {
     (void)state;
     const char *ref = testutil_journal_reference(SCENE, SPP, "tiny-ref.exr");
-    const char *spool = testutil_scratch("cam-spool"), *mlog1 = testutil_scratch("cam-master1.log"),
-               *mlog2 = testutil_scratch("cam-master2.log");
-    pid_t master = testutil_journal_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
-    char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep, mlog1);
-    pid_t w = testutil_journal_worker(testutil_scratch("cam-w.log"), wep, "w");
-    const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP, "--insecure", NULL);
-    if (r->status != 0)
-        fail_msg("submit: exit %d: %s", r->status, r->err);
-    assert_string_equal(r->out, "1\n");
-    testutil_wait_journal(spool, test_wait_s(), "a checkpoint and results after it",
-                 "SELECT checkpoint FROM jobs WHERE id=1",
-                 "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
+    const char *spool = testutil_scratch("cam-spool"), *mlog2 = testutil_scratch("cam-master2.log");
+    started_t job = start_until_checkpoint(SCENE, SPP, spool, "cam");
+    pid_t master = job.master, w = job.worker;
+    const char *wep = job.wep, *cep = job.cep;
     testutil_stop(master, SIGKILL);
     long long ckpt = testutil_journal_query(spool, "SELECT checkpoint FROM jobs WHERE id=1");
     long long kept = testutil_journal_query(spool, "SELECT COUNT(*) FROM results WHERE job=1");
@@ -671,18 +691,10 @@ static void test_version8_spool_resumes(void **state)
 {
     (void)state;
     const char *ref = testutil_journal_reference(SCENE, SPP, "tiny-ref.exr");
-    const char *spool = testutil_scratch("v8-spool"), *mlog1 = testutil_scratch("v8-master1.log"),
-               *mlog2 = testutil_scratch("v8-master2.log");
-    pid_t master = testutil_journal_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
-    char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep, mlog1);
-    pid_t w = testutil_journal_worker(testutil_scratch("v8-w.log"), wep, "w");
-    const run_t *r = run("submit", SCENE, "--master", cep, "--spp", SPP, "--insecure", NULL);
-    if (r->status != 0)
-        fail_msg("submit: exit %d: %s", r->status, r->err);
-    testutil_wait_journal(spool, test_wait_s(), "a checkpoint and results after it",
-                          "SELECT checkpoint FROM jobs WHERE id=1",
-                          "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
+    const char *spool = testutil_scratch("v8-spool"), *mlog2 = testutil_scratch("v8-master2.log");
+    started_t job = start_until_checkpoint(SCENE, SPP, spool, "v8");
+    pid_t master = job.master, w = job.worker;
+    const char *wep = job.wep, *cep = job.cep;
     testutil_stop(w, SIGKILL);
     testutil_stop(master, SIGKILL);
 
@@ -773,18 +785,10 @@ static void test_master_killed_stokes_job(void **state)
 {
     (void)state;
     const char *ref = testutil_journal_reference(STOKES_SCENE, SPP, "stokes-ref.exr");
-    const char *spool = testutil_scratch("st-spool"), *mlog1 = testutil_scratch("st-master1.log"),
-               *mlog2 = testutil_scratch("st-master2.log");
-    pid_t master = testutil_journal_master(mlog1, spool, "tcp://127.0.0.1:*", "tcp://127.0.0.1:*");
-    char wep[256], cep[256];
-    testutil_read_endpoints(spool, wep, cep, mlog1);
-    pid_t w = testutil_journal_worker(testutil_scratch("st-w.log"), wep, "w");
-    const run_t *r = run("submit", STOKES_SCENE, "--master", cep, "--spp", SPP, "--insecure", NULL);
-    if (r->status != 0)
-        fail_msg("submit: exit %d: %s", r->status, r->err);
-    testutil_wait_journal(spool, test_wait_s(), "a checkpoint and results after it",
-                          "SELECT checkpoint FROM jobs WHERE id=1",
-                          "SELECT COUNT(*) FROM results WHERE job=1 AND kind=0", NULL);
+    const char *spool = testutil_scratch("st-spool"), *mlog2 = testutil_scratch("st-master2.log");
+    started_t job = start_until_checkpoint(STOKES_SCENE, SPP, spool, "st");
+    pid_t master = job.master, w = job.worker;
+    const char *wep = job.wep, *cep = job.cep;
     testutil_stop(master, SIGKILL);
     master = testutil_journal_master(mlog2, spool, wep, cep);
     testutil_journal_finish(cep, ref, testutil_scratch("st-out.exr"), mlog2);
