@@ -18,7 +18,6 @@
 #include "pbrt_parser.h"
 #include "photon_pass.h"
 #include "plan.h"
-#include "polar_pilot.h"
 #include "pool.h"
 #include "progress.h"
 #include "scene_bundle.h"
@@ -493,13 +492,6 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
     scene_desc_destroy(&desc);
     if (!scene) {
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
-        return 1;
-    }
-    /* The plan's polarisation pilot (render/polar_pilot.h): the client measures, and the
-     * master and workers of the local farm share this scene, so they render alike. */
-    if (polar_pilot_apply(scene, &err) < 0) {
-        fprintf(stderr, "prismfarm render: polarisation pilot: %s\n", err.msg);
-        scene_destroy(&scene);
         return 1;
     }
     const double loaded = clock_now_s(), load_s = loaded - t0;

@@ -141,7 +141,5 @@ int polar_pilot_apply(scene_t *scene, err_t *err)
     rs->polar_pilot.target = POLAR_PILOT_TARGET;
     rs->polar_pilot.seconds_plain = r.seconds_plain;
     rs->polar_pilot.seconds_polarised = r.seconds_polarised;
-    if (r.change_hi > POLAR_PILOT_TARGET)
-        rs->polarised = 1;
     return 0;
 }

@@ -22,10 +22,9 @@
  * master's and the scene must not depend on them (settings/settings.h), or a worker that loads
  * the scene itself and a client that shares its own would render one job two ways.
  *
- * Guarantees: deterministic -- fixed tiles and sample indices, one thread, no clock in the
- * decision -- so every worker, a client and `--direct` decide alike and the farm's images stay
- * the same for any number of workers; the scene's images are unchanged unless the decision
- * turns polarisation on. */
+ * Guarantees: the same figure for the same build on the same CPU (fixed tiles and sample
+ * indices, one thread, no clock in it), but not across builds or CPUs; so it advises and never
+ * decides (polar_pilot_apply). */
 #ifndef PRISMFARM_POLAR_PILOT_H
 #define PRISMFARM_POLAR_PILOT_H
 
@@ -62,10 +61,13 @@ typedef struct polar_pilot_result {
 int polar_pilot_measure(scene_t *scene, int grid, int tile, int spp, polar_pilot_result_t *out,
                         err_t *err);
 
-/* Runs the pilot when polar_pilot_needed and it has not run on this scene, records what it
- * measured in scene->settings.polar_pilot and switches scene->settings.polarised on when the
- * change exceeds POLAR_PILOT_TARGET. Returns 0 (also when nothing was needed), -1 with err when
- * a render failed. */
+/* Runs the pilot when polar_pilot_needed and it has not run on this scene and records what it
+ * measured in scene->settings.polar_pilot, for the plan to report (above POLAR_PILOT_TARGET it
+ * advises Integrator "bool polarized" true). It does not switch polarisation on: the decision
+ * rests on rendered floats, which another build or another CPU's Embree path can move across
+ * the threshold (a sanitizer build did, on tests/data/render/tiny.pbrt), and a farm whose
+ * workers decided apart would render one job two ways; the scene file's option is the same on
+ * every host. Returns 0 (also when nothing was needed), -1 with err when a render failed. */
 int polar_pilot_apply(scene_t *scene, err_t *err);
 
 #endif

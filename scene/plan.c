@@ -990,8 +990,8 @@ static int decide_splitting(plan_t *p, const scene_t *s)
  * a window, light inside a gem): the intensity ignoring it is off by up to a few per cent there
  * (a slab at 60 degrees transmits 0.836 unpolarised against 0.848 polarised: test_polar_render's
  * oracle), which the plan names; where the polarisation pilot ran (render/polar_pilot.h, before
- * the plan: it switches polarisation on when the change it measures exceeds its target) this
- * states its figure. */
+ * the plan) this states its figure and, above its target, advises Integrator "bool polarized"
+ * true: the pilot only advises, since its figure may differ between builds and CPUs. */
 static int decide_polarisation(plan_t *p, const scene_t *s)
 {
     text_t c = {0}, r = {0};
@@ -1039,17 +1039,17 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
         }
         if (rs->stokes)
             text_add(&r, "the film writes the Stokes layers S1-S3; ");
+        if (rs->polarised_asked)
+            text_add(&r, "the file asks for it (Integrator \"bool polarized\" true); ");
         if (rs->polar_pilot.run)
             text_add(&r,
                      "a pilot (render/polar_pilot.h: the same samples with and without it) "
                      "measured that ignoring it changes the image by %.2f %% (RMS per pixel over "
-                     "the mean luminance; up to %.2f %% at two standard errors), which does not "
-                     "rule out more than the %g %% target; its renders took %.2f s against "
-                     "%.2f s; ",
+                     "the mean luminance; up to %.2f %% at two standard errors); its renders "
+                     "took %.2f s against %.2f s; ",
                      100.0 * rs->polar_pilot.change, 100.0 * rs->polar_pilot.change_hi,
-                     100.0 * rs->polar_pilot.target, rs->polar_pilot.seconds_polarised,
-                     rs->polar_pilot.seconds_plain);
-        if (!sheets && !s->camera.analyser && !rs->stokes && !rs->polar_pilot.run &&
+                     rs->polar_pilot.seconds_polarised, rs->polar_pilot.seconds_plain);
+        if (!sheets && !s->camera.analyser && !rs->stokes && !rs->polarised_asked &&
             !s->polarised_lights)
             text_add(&r, "the caller asked for it; ");
         text_add(&r, "a 4x4 Mueller matrix per lane at every glass and metal interface (smooth or "
@@ -1077,9 +1077,15 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
                      "; a pilot (render/polar_pilot.h: the same samples with and without "
                      "polarisation) measured that ignoring it changes the image by %.2f %% (RMS "
                      "per pixel over the mean luminance; at most %.2f %% at two standard "
-                     "errors), within the %g %% target",
+                     "errors), %s the %g %% target%s",
                      100.0 * rs->polar_pilot.change, 100.0 * rs->polar_pilot.change_hi,
-                     100.0 * rs->polar_pilot.target);
+                     rs->polar_pilot.change_hi > rs->polar_pilot.target ? "above" : "within",
+                     100.0 * rs->polar_pilot.target,
+                     rs->polar_pilot.change_hi > rs->polar_pilot.target
+                         ? ": carry it with Integrator \"bool polarized\" true (the pilot "
+                           "advises, it does not decide: its figure may differ between builds "
+                           "and CPUs, and a farm's workers must render alike)"
+                         : "");
         if (crystals)
             text_add(&r,
                      "; uniaxial crystals (%d material%s) do not turn it on by themselves: "

@@ -375,6 +375,8 @@ typedef struct render_settings {
      * 0 (the default): intensities only, as before, not one bit different. scene_finish turns
      * it on where the scene calls for it (scene_t.polarising); a test may set it besides. */
     int polarised;
+    /* The file asked for it (Integrator "bool polarized" true): the plan says so. */
+    int polarised_asked;
     /* Stokes output (Film "bool stokes"; needs polarised): the image's buckets are four planes
      * of grid.n, S0 (the spectral image as without it) then S1, S2, S3 in the image's frame
      * (x right, y up): render_settings_buckets. */

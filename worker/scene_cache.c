@@ -1,7 +1,6 @@
 #include "scene_cache.h"
 
 #include "photon_wire.h"
-#include "polar_pilot.h"
 #include "settings.h"
 
 #include <stdio.h>
@@ -34,10 +33,6 @@ static scene_t *load_bundle(void *arg, err_t *err)
 {
     bundle_load_t *b = arg;
     scene_t *s = bundle_cache_load(b->bundles, b->hash, b->main, &b->ov, err);
-    /* The plan's polarisation pilot, as prismfarm render's client runs it (deterministic: the
-     * same decision here as there). */
-    if (s && polar_pilot_apply(s, err) < 0)
-        scene_destroy(&s);
     return s;
 }
 

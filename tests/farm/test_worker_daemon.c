@@ -22,7 +22,6 @@
 #include "clock.h"
 #include "files_testutil.h"
 #include "net.h"
-#include "polar_pilot.h"
 #include "render.h"
 #include "scene_load.h"
 #include "scene_shelf.h"
@@ -194,13 +193,11 @@ static void test_task_round_trip(void **state)
     assert_int_equal(m.result.tile.rect.x0, 8);
     assert_int_equal(m.result.tile.nbuckets, 8);
 
-    /* The same tile rendered here, with the same overrides and the plan's polarisation pilot as
-     * the worker runs it (render/polar_pilot.h), gives the same bytes. */
+    /* The same tile rendered here, with the same overrides, gives the same bytes. */
     scene_overrides_t ov = {.seed = -1, .dispersion = "fanout"};
     err_t err;
     scene_t *sc = scene_load_file("data/render/tiny.pbrt", &ov, &err);
     assert_non_null(sc);
-    assert_int_equal(polar_pilot_apply(sc, &err), 0);
     tilebuf_t *t = tilebuf_new(8, 4, 8, 6, sc->settings.grid.n, &err);
     assert_int_equal(render_tile(sc, NULL, 8, 4, 8, 6, 2, 4, t, NULL, &err), 0);
     /* The worker sends its pass's sums rounded by tilebuf's rule (float32 on the wire). */
