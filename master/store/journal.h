@@ -138,9 +138,8 @@ journal_stats_t journal_stats(const journal_t *self);
 int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err);
 
 /* A task's result, as received: kind 0 a camera tile (tile, pass), 1 a photon batch (tile =
- * batch, pass = -1); data is the journal's blob (journal_pack_tile or the batch's wire form
- * with its range, journal_pack_photons), appended to the job's open segment before the row is
- * committed. A result journaled again (the same task: the same bytes) keeps its one row. */
+ * batch, pass = -1); data is the RESULT message's bytes as the worker sent them (the blobs
+ * below), appended to the job's open segment before the row is committed. A result journaled again (the same task: the same bytes) keeps its one row. */
 int journal_add_result(journal_t *self, uint64_t job, uint32_t round, uint32_t task, int kind,
                        int tile, int pass, const void *data, size_t size, err_t *err);
 
