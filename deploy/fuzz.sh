@@ -4,11 +4,11 @@
 # corpus never grows). Any crash, leak, sanitizer report, timeout (10 s on one input) or
 # out-of-memory (2 GiB) fails the script; the input that caused it is kept in
 # build-fuzz/fuzz-artifacts/ with the fuzzer's log. docs/fuzzing.md explains the rest.
-# usage: deploy/fuzz.sh [SECONDS]   (default: $PRISMFARM_FUZZ_SECONDS, else 30; the build folder
+# usage: deploy/fuzz.sh [SECONDS]   (default: $PRISMFARM_FUZZ_SECONDS, else 20; the build folder
 #        is $PRISMFARM_FUZZ_BUILD_DIR, else build-fuzz)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-seconds=${1:-${PRISMFARM_FUZZ_SECONDS:-30}}
+seconds=${1:-${PRISMFARM_FUZZ_SECONDS:-20}}
 case "$seconds" in
   '' | *[!0-9]*) echo "fuzz.sh: SECONDS must be a whole number, got '$seconds'" >&2; exit 2 ;;
 esac

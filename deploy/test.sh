@@ -12,5 +12,5 @@ ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:ha
   ctest --test-dir build-asan --output-on-failure -j "$jobs"
 echo "== tests: release build (build) =="
 ctest --test-dir build --output-on-failure -j "$jobs"
-# libFuzzer harnesses (tests/fuzz): each runs PRISMFARM_FUZZ_SECONDS (default 30) on its seeds.
+# libFuzzer harnesses (tests/fuzz): each runs PRISMFARM_FUZZ_SECONDS (default 20) on its seeds.
 bash deploy/fuzz.sh
