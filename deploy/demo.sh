@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The main job in one command: installs dependencies, builds the prismfarm binary (Release; the
 # tests, fuzzers and benches are left to deploy/test.sh) and renders the shipped jewel scene (a
-# diamond in a gold setting: its fire, the gold) at the scene file's own settings, on all cores,
+# diamond in a gold setting: its fire, the rainbow caustic it throws on the wall, the gold) at
+# the scene file's own settings (a photon pass, then the camera pass), on all cores,
 # into out/jewel.exr (spectral) and out/jewel.png. What that costs is measured in one place:
 # docs/performance.md, "The demo".
 set -euo pipefail

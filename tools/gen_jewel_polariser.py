@@ -6,7 +6,8 @@ jewel.pbrt with the camera's analyser ("float analyzer", docs/physics.md 14) at 
 its Include paths made relative to the frames' folder and its output named after the frame.
 Light that left the diamond after reflections at its facets, and the gold's reflections, are
 partly polarised, each facet's flash its own way, so the flashes brighten and fade at different
-angles as the filter turns, while the unpolarised sky and table stay at half.
+angles as the filter turns, while the wall and the table (diffuse: they depolarise, the
+caustic's specks on them too) stay at half.
 
 Rerun after editing scenes/jewel.pbrt (the frames are copies). Only the standard library.
 Run from the repository root: python3 tools/gen_jewel_polariser.py
