@@ -21,6 +21,14 @@ typedef struct crystal_polar {
     vec3_t x;
     polar_event_t ev;
     mueller_t m;
+    /* A photon's polarisation (importance mode; NULL for a camera path): lane 0's Stokes
+     * vector in the frame x (photon_polar.h). The branch is then chosen in proportion to its
+     * power fraction for that vector, p_b = (M_b R s)_0 over their sum, and m is M_b / p_b:
+     * the photon keeps its power. The sum is 1 for unpolarised light and, by the model's
+     * construction, within a few per cent of it otherwise (the modes' polarisations are
+     * nearly, not exactly, orthogonal in the light's frame; light reflected inside is not
+     * converted between the modes); dividing by it conserves the flux. */
+    const stokes_t *s_in;
 } crystal_polar_t;
 
 /* m: a material with m->uniaxial; sf: the hit; org, dir: the ray that reached it (org where
