@@ -1,4 +1,4 @@
-/* photon_polar: polarised photon paths (docs/physics.md §14.4): a photon's Stokes vector per
+/* photon_polar: polarised photon paths (docs/physics.md §14.3): a photon's Stokes vector per
  * wavelength lane, measured in one frame for all its lanes (they share the direction), through
  * every event the photon pass follows -- smooth dielectrics (coated or not), smooth
  * conductors, polariser and retarder sheets; uniaxial crystals go through

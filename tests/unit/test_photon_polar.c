@@ -1,4 +1,4 @@
-/* photon_polar: polarised photon paths (docs/physics.md §14.4) against optics, not against the
+/* photon_polar: polarised photon paths (docs/physics.md §14.3) against optics, not against the
  * code, on the photon map itself (deposits are stored as floats: 1e-6): a collimated beam
  * through two polarisers deposits cos^2(theta) / 2 of its power (Malus's law, 0 to 90 degrees:
  * crossed polarisers are dark), and a quarter-wave plate at 45 degrees between crossed ones passes
@@ -37,7 +37,8 @@
 
 /* A scene with a collimated beam of radius r along +z from z = -1 (its disk passes what comes
  * back), then `world`. */
-static scene_t *beam_scene(double r, const char *integrator, const char *world)
+static scene_t *beam_scene_lit(double r, const char *light, const char *integrator,
+                               const char *world)
 {
     char text[8192];
     snprintf(text, sizeof text,
@@ -46,13 +47,18 @@ static scene_t *beam_scene(double r, const char *integrator, const char *world)
              "Integrator \"photon\" %s\n"
              "WorldBegin\n"
              "AttributeBegin\n"
-             "AreaLightSource \"collimated\" \"spectrum L\" [300 1 900 1]\n"
+             "AreaLightSource \"collimated\" \"spectrum L\" [300 1 900 1] %s\n"
              "Material \"interface\"\n"
              "Translate 0 0 -1\n"
              "Shape \"disk\" \"float radius\" [%g]\n"
              "AttributeEnd\n%s",
-             integrator, r, world);
+             integrator, light, r, world);
     return sb_load_text(text, NULL);
+}
+
+static scene_t *beam_scene(double r, const char *integrator, const char *world)
+{
+    return beam_scene_lit(r, "", integrator, world);
 }
 
 typedef struct traced {
@@ -155,6 +161,31 @@ static void test_malus(void **state)
         "Translate 0 0 0.5\n" QUAD "AttributeEnd\n");
     if (!(fabs(got - 0.25) <= 1e-6))
         fail_msg("crossed polarisers with a quarter-wave plate at 45 degrees: %.12f", got);
+    /* A beam polarised (degree 1 and 0.5) at 20 degrees through one polariser at theta: the
+     * light's angle and the sheet's are both from the shapes' x toward y, so it passes
+     * (1 + P cos 2(theta - 20)) / 2. */
+    for (int d = 1; d <= 2; d++)
+        for (int theta = 0; theta < 180; theta += 45) {
+            char light[128], world[1024];
+            snprintf(light, sizeof light,
+                     "\"float polarization\" [%g] \"float polarizationangle\" [20]", 1.0 / d);
+            snprintf(world, sizeof world,
+                     "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [%d]\n" QUAD
+                     "AttributeEnd\n"
+                     "AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 1\n" QUAD
+                     "AttributeEnd\n",
+                     theta);
+            scene_t *s = beam_scene_lit(0.05, light, "", world);
+            assert_int_equal(s->polarised_lights, 1);
+            traced_t t = trace(s, 1000);
+            const double got = spot(&t, vec3_make(0, 0, 1), 0.1, NULL);
+            const double want = 0.5 * (1.0 + cos(2.0 * (theta - 20) * PI / 180.0) / d);
+            if (!(fabs(got - want) <= 1e-6))
+                fail_msg("beam of degree %g at 20 through a polariser at %d: %.9f, want %.9f",
+                         1.0 / d, theta, got, want);
+            trace_destroy(&t);
+            scene_destroy(&s);
+        }
 }
 
 /* Fresnel's equations written out (Hecht §4.6.2) for light from index 1 into n. */

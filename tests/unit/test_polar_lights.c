@@ -394,7 +394,8 @@ static void test_plan(void **state)
     const plan_decision_t *pd = plan_decision_of(p, PLAN_POLARISATION);
     assert_true(pd->on);
     if (!strstr(pd->reason, "2 lights emit polarised light") ||
-        !strstr(pd->reason, "1 area light") || !strstr(pd->reason, "1 point, spot or distant"))
+        !strstr(pd->reason, "1 area light") ||
+        !strstr(pd->reason, "1 point, spot, distant or collimated"))
         fail_msg("plan: %s", pd->reason);
     plan_destroy(&p);
     scene_destroy(&s);
