@@ -447,6 +447,8 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
             f->dir = sample_local_to_world(sample_cosine_hemisphere(u0, u1), g);
             f->org = geometry_offset(sf.p, sf.ng, f->dir);
             f->diffuse = 1;
+            if (f->pol)
+                photon_polar_depolarise(f->pol, f->dir, f->nl);
         } else if (!sheet && !shading_is_delta(m, &sf)) {
             /* A glossy receiver (any other non-delta surface: coated, rough conductor or
              * dielectric, diffuse transmission). A store that keeps directions (a photon map)

@@ -20,6 +20,13 @@ void photon_polar_emit(photon_polar_t *pp, const light_t *l, vec3_t dir, int n)
         pp->s[j] = stokes_make(s[0], s[1], s[2], s[3]);
 }
 
+void photon_polar_depolarise(photon_polar_t *pp, vec3_t dir, int n)
+{
+    pp->x = polar_frame_perp(pp->x, dir);
+    for (int j = 0; j < n; j++)
+        pp->s[j] = stokes_unpolarised(1.0);
+}
+
 /* s in the frame x_to (about k) from the frame x_from. */
 static stokes_t rebase(stokes_t s, vec3_t x_from, vec3_t x_to, vec3_t k)
 {

@@ -42,6 +42,10 @@ typedef struct photon_polar {
  * or unpolarised) for lanes [0, n), in a frame of its own. */
 void photon_polar_emit(photon_polar_t *pp, const light_t *l, vec3_t dir, int n);
 
+/* A diffuse bounce into unit dir: an ideal depolariser, every lane unpolarised (1, 0, 0, 0)
+ * in a frame perpendicular to dir; the powers are the caller's. */
+void photon_polar_depolarise(photon_polar_t *pp, vec3_t dir, int n);
+
 /* Sheet material m at sf crossed along dir by lanes [0, n) at wavelengths lambda with powers w:
  * a polariser passes (M s)_0 of each (Malus's law: cos^2 of the angle between the light's
  * plane and the axis for linear light, 1/2 for unpolarised), a retarder all. */
