@@ -56,6 +56,7 @@ typedef struct path {
     int mono;         /* every lane refracts alike: one physical wavelength */
     int dispersed;    /* the path has had its first dispersive refraction */
     int splits;       /* dense-stone events it followed both ways (split_here) */
+    int sheets;       /* polariser and retarder sheets crossed: not bounces for the roulette */
     /* What Russian roulette multiplies the throughput by before it compares it with 1: 1,
      * except after events at a dense stone with splitting on, whose factors that are not losses
      * it undoes (split_dense). */
@@ -1398,13 +1399,15 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
 
 /* Russian roulette after a bounce (thesis eq. 2.32-2.33): from RR_DEPTH bounces on, the path
  * survives with probability min(1, max(RR_MIN, max beta)) and is divided by it. Returns 1
- * when the path ends. */
+ * when the path ends. Sheets crossed are not counted as bounces here (they count toward
+ * maxdepth): light behind two polarisers, whose beta is a quarter, was otherwise rouletted from
+ * its first diffuse bounce on, at a fifth, and speckled. */
 static int roulette(ctx_t *c, path_t *p)
 {
     double mb = max_beta(p);
     if (!(mb > 0.0))
         return 1;
-    if (p->depth >= RR_DEPTH && c->rs->integrator != INTEGRATOR_WHITTED) {
+    if (p->depth - p->sheets >= RR_DEPTH && c->rs->integrator != INTEGRATOR_WHITTED) {
         /* fmin(1, fmax(RR_MIN, mb)) for the positive mb here, without libm calls; mb times
          * the path's roulette scale (1 but at dense stones: split_dense). */
         double q = mb * p->rr_scale;
@@ -1609,6 +1612,7 @@ static void trace(ctx_t *c, path_t *start)
             } else if (material_is_sheet(m->kind)) {
                 cross_sheet(p, &sf, m);
                 start_bounce(p, &sf, p->dir, 1, 0.0);
+                p->sheets++;
                 /* With polarisation photons cross sheets as a specular event (photon.c), so
                  * the chain counts them; without, photons end there and light through a sheet
                  * is path traced. */
