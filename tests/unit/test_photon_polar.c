@@ -7,8 +7,9 @@
  * mean of the s and p slabs' (1 - R) / (1 + R), not the unpolarised (1 - R) / (1 + R) of the mean
  * R; a calcite plate splits a beam into two spots t tan(rho) apart (rho the walk-off from the two
  * indices), each carrying (1 - R) / (2 (1 + R)) at its own wave's index, polarised across each
- * other (a polariser behind the plate keeps one spot and removes the other); and no photon
- * ever carries more than it was emitted with. */
+ * other (a polariser behind the plate keeps one spot and removes the other); behind a
+ * polariser at 30 degrees and a quarter-wave plate the o and e waves take the light's y and x
+ * shares (sin^2 30, cos^2 30); and no photon ever carries more than it was emitted with. */
 #include <setjmp.h>
 #include <stdarg.h>
 #include <stddef.h>
@@ -332,13 +333,57 @@ static void test_calcite(void **state)
     }
 }
 
+/* A chain: the beam through a polariser at 30 degrees, a quarter-wave plate along x (which
+ * changes neither the x nor the y share of the light, only their phase) and the calcite plate
+ * of test_calcite at normal incidence: the o wave (D along y) takes the light's y share,
+ * sin^2 30 of the polariser's half, the e wave (D along x) its x share, cos^2 30, each then
+ * crossing the plate as in test_calcite: the o spot (1/8) (1 - R_o)/(1 + R_o), the e spot
+ * (3/8) (1 - R_e)/(1 + R_e), where an unpolarised split would give both the same share. No
+ * photon gains power on the way (trace). */
+static void test_chain(void **state)
+{
+    (void)state;
+    const double no = 1.658, ne = 1.486, th = 44.6 * PI / 180.0;
+    const double rho = atan(no * no / (ne * ne) * tan(th)) - th;
+    const double n_e_wave = 1.0 / sqrt(pow(cos(th) / no, 2.0) + pow(sin(th) / ne, 2.0));
+    const double r_o = pow((no - 1) / (no + 1), 2.0),
+                 r_e = pow((n_e_wave - 1) / (n_e_wave + 1), 2.0);
+    const double want_o = 0.125 * (1 - r_o) / (1 + r_o), want_e = 0.375 * (1 - r_e) / (1 + r_e);
+    char world[4096];
+    snprintf(
+        world, sizeof world,
+        "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [30]\nTranslate 0 0 -0.6\n" QUAD
+        "AttributeEnd\n"
+        "AttributeBegin\nMaterial \"retarder\" \"float retardance\" [90]\n"
+        "Translate 0 0 -0.3\n" QUAD "AttributeEnd\n"
+        "AttributeBegin\nMaterial \"uniaxial\" \"float o.eta\" [%g] \"float e.eta\" [%g] "
+        "\"vector3 opticaxis\" [%.12f 0 %.12f]\n" QUAD_BACK "Translate 0 0 1\n" QUAD
+        "AttributeEnd\n"
+        "AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 2\n" QUAD "AttributeEnd\n",
+        no, ne, sin(th), cos(th));
+    scene_t *s = beam_scene(1e-4, "", world);
+    const uint64_t N = 40000;
+    traced_t t = trace(s, N);
+    const double po = spot(&t, vec3_make(0, 0, 2), 0.02, NULL);
+    const double pe = spot(&t, vec3_make(-tan(rho), 0, 2), 0.02, NULL);
+    /* Each photon carries half its power past the polariser, so a spot's share has standard
+     * error (1/2) sqrt(q (1 - q) / N), q = 2 x its share. */
+    const double se_o = 0.5 * sqrt(2 * want_o * (1 - 2 * want_o) / N),
+                 se_e = 0.5 * sqrt(2 * want_e * (1 - 2 * want_e) / N);
+    print_message("chain: o %.5f (want %.5f, se %.5f), e %.5f (want %.5f, se %.5f)\n", po, want_o,
+                  se_o, pe, want_e, se_e);
+    if (!(fabs(po - want_o) <= 4 * se_o) || !(fabs(pe - want_e) <= 4 * se_e))
+        fail_msg("chain: o %.6f (want %.6f), e %.6f (want %.6f)", po, want_o, pe, want_e);
+    trace_destroy(&t);
+    scene_destroy(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_malus),
-        cmocka_unit_test(test_brewster),
-        cmocka_unit_test(test_slab),
-        cmocka_unit_test(test_calcite),
+        cmocka_unit_test(test_malus), cmocka_unit_test(test_brewster),
+        cmocka_unit_test(test_slab),  cmocka_unit_test(test_calcite),
+        cmocka_unit_test(test_chain),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
