@@ -50,9 +50,18 @@ static int choose_polarised(const uniaxial_event_t *e, vec3_t nrm, vec3_t dir, d
     return 0;
 }
 
-int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t org, vec3_t dir, int *wave,
-                    int n, const double *lambda, double *weight, bsdf_mode_t mode, double u,
-                    vec3_t *out, int *end_secondaries, crystal_polar_t *pol)
+vec3_t crystal_axis(const scene_t *scene, const hit_t *h, const material_t *m)
+{
+    if (h->instance == GEOMETRY_NO_INSTANCE || h->instance >= scene->ninstances)
+        return m->optic_axis;
+    const vec3_t a = transform_vector(&scene->instances[h->instance].to_world, m->optic_axis);
+    const double l = vec3_length(a);
+    return l > 0.0 && isfinite(l) ? vec3_scale(a, 1.0 / l) : m->optic_axis;
+}
+
+int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t axis, vec3_t org, vec3_t dir,
+                    int *wave, int n, const double *lambda, double *weight, bsdf_mode_t mode,
+                    double u, vec3_t *out, int *end_secondaries, crystal_polar_t *pol)
 {
     if (n < 1)
         return 1;
@@ -61,7 +70,6 @@ int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t org, vec3_t
     /* Which side the ray is on comes from the geometric surface alone, as at glass. */
     const bool entering = vec3_dot(dir, sf->ng) < 0.0;
     const uniaxial_wave_t inside = *wave == UNIAXIAL_E ? UNIAXIAL_E : UNIAXIAL_O;
-    const vec3_t axis = m->optic_axis;
     double no[BSDF_MAX_LANES], ne[BSDF_MAX_LANES];
     for (int j = 0; j < n; j++) {
         no[j] = ior_eval(&m->crystal.no, lambda[j]);

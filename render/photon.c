@@ -501,9 +501,9 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
                 int end;
                 crystal_polar_t cp = {.x = f->pol ? f->pol->x : f->dir,
                                       .s_in = f->pol ? &f->pol->s[0] : NULL};
-                if (crystal_scatter(m, &sf, f->org, f->dir, &f->wave, f->nl, f->lambda, f->w,
-                                    BSDF_IMPORTANCE, next(t), &f->dir, &end,
-                                    f->pol ? &cp : NULL))
+                if (crystal_scatter(m, &sf, crystal_axis(s, &h, m), f->org, f->dir, &f->wave,
+                                    f->nl, f->lambda, f->w, BSDF_IMPORTANCE, next(t), &f->dir,
+                                    &end, f->pol ? &cp : NULL))
                     return 0;
                 if (f->pol)
                     photon_polar_apply(f->pol, &cp.ev, &cp.m, 0, f->nl, f->w);

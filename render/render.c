@@ -1259,15 +1259,16 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
  * uniformly (as at a coated dispersive glass); hero lanes end at a refraction whose indices
  * differ; with polarisation the carrier takes the branch's Mueller matrix. Returns 0 to
  * continue the path, 1 when it ends. */
-static int scatter_crystal(ctx_t *c, path_t *p, const surface_t *h, const material_t *m)
+static int scatter_crystal(ctx_t *c, path_t *p, const surface_t *h, const material_t *m,
+                           vec3_t axis)
 {
     if (p->n > 1 && !p->mono && c->rs->dispersion == DISPERSION_FANOUT)
         fanout_pick_one(c, p);
     vec3_t dir;
     int end = 0;
     crystal_polar_t pol = {.x = p->polar_x};
-    if (crystal_scatter(m, h, p->org, p->dir, &p->wave, p->n, p->lambda, p->beta, BSDF_RADIANCE,
-                        draw1(c, VD_REFLECT), &dir, &end, p->polar ? &pol : NULL))
+    if (crystal_scatter(m, h, axis, p->org, p->dir, &p->wave, p->n, p->lambda, p->beta,
+                        BSDF_RADIANCE, draw1(c, VD_REFLECT), &dir, &end, p->polar ? &pol : NULL))
         return 1;
     if (end) {
         p->n = 1;
@@ -1652,7 +1653,8 @@ static void trace(ctx_t *c, path_t *start)
             } else {
                 /* Counted before the event, so that the branches it pushes carry it too. */
                 p->specular_since_diffuse++;
-                if (m->uniaxial ? scatter_crystal(c, p, &sf, m) : scatter_dielectric(c, p, &sf, m))
+                if (m->uniaxial ? scatter_crystal(c, p, &sf, m, crystal_axis(s, &h, m))
+                                : scatter_dielectric(c, p, &sf, m))
                     break;
             }
             p->depth++;

@@ -378,12 +378,42 @@ static void test_chain(void **state)
     scene_destroy(&s);
 }
 
+/* The optic axis under an object instance: the calcite plate of test_calcite as an object,
+ * placed turned 90 degrees about z, turns its axis to the y-z plane, so the e spot is tan(rho)
+ * along -y from the o spot, not along -x. */
+static void test_instanced_axis(void **state)
+{
+    (void)state;
+    const double no = 1.658, ne = 1.486, th = 44.6 * PI / 180.0;
+    const double rho = atan(no * no / (ne * ne) * tan(th)) - th;
+    char world[4096];
+    snprintf(world, sizeof world,
+             "ObjectBegin \"plate\"\n"
+             "Material \"uniaxial\" \"float o.eta\" [%g] \"float e.eta\" [%g] "
+             "\"vector3 opticaxis\" [%.12f 0 %.12f]\n" QUAD_BACK "Translate 0 0 1\n" QUAD
+             "ObjectEnd\n"
+             "AttributeBegin\nRotate 90 0 0 1\nObjectInstance \"plate\"\nAttributeEnd\n"
+             "AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 2\n" QUAD "AttributeEnd\n",
+             no, ne, sin(th), cos(th));
+    scene_t *s = beam_scene(1e-4, "", world);
+    traced_t t = trace(s, 4000);
+    vec3_t ce;
+    const double po = spot(&t, vec3_make(0, 0, 2), 0.02, NULL);
+    const double pe = spot(&t, vec3_make(0, -tan(rho), 2), 0.02, &ce);
+    print_message("instanced plate: o %.4f, e %.4f at (%.6f, %.6f)\n", po, pe, ce.x, ce.y);
+    if (!(po > 0.4 && pe > 0.4) || !(fabs(ce.y + tan(rho)) <= 1e-5) || !(fabs(ce.x) <= 1e-5))
+        fail_msg("instanced plate: o %.4f, e %.4f at (%.7f, %.7f), want (0, %.7f)", po, pe, ce.x,
+                 ce.y, -tan(rho));
+    trace_destroy(&t);
+    scene_destroy(&s);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_malus), cmocka_unit_test(test_brewster),
         cmocka_unit_test(test_slab),  cmocka_unit_test(test_calcite),
-        cmocka_unit_test(test_chain),
+        cmocka_unit_test(test_chain), cmocka_unit_test(test_instanced_axis),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
