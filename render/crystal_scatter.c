@@ -5,9 +5,63 @@
 
 #include <math.h>
 
-int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t org, vec3_t dir, int *wave,
-                    int n, const double *lambda, double *weight, bsdf_mode_t mode, double u,
-                    vec3_t *out, int *end_secondaries, crystal_polar_t *pol)
+/* A photon's branch chosen by its Stokes vector (crystal_polar_t.s_in). Photons reach a
+ * crystal one lane at a time (photon.c splits them first), so lane 0 is the photon; every lane
+ * keeps its weight (importance mode: each branch's factor is 1). */
+static int choose_polarised(const uniaxial_event_t *e, vec3_t nrm, vec3_t dir, double u,
+                            double *weight, int n, vec3_t *out, int *wave, crystal_polar_t *pol)
+{
+    polar_event_t ev[UNIAXIAL_MAX_BRANCHES];
+    mueller_t mm[UNIAXIAL_MAX_BRANCHES];
+    double p[UNIAXIAL_MAX_BRANCHES], sum = 0.0;
+    stokes_t s = *pol->s_in;
+    for (int b = 0; b < e->nbranch; b++) {
+        ev[b] = polar_event_interface(dir, e->branch[b].dir, nrm, pol->x);
+        if (b == 0) {
+            /* Every branch's entry frame is s = k_in x n: the vector is rebased once. */
+            const mueller_t r = polar_frame_change(pol->x, ev[0].x_in, dir);
+            s = mueller_apply(&r, s);
+        }
+        mm[b] = uniaxial_branch_mueller_frames(e, b, &ev[b]);
+        const double pb = mueller_apply(&mm[b], s).s[0];
+        p[b] = pb > 0.0 && isfinite(pb) ? pb : 0.0;
+        sum += p[b];
+    }
+    if (!(sum > 0.0))
+        return 1;
+    double acc = 0.0;
+    int b = -1;
+    for (int k = 0; k < e->nbranch; k++) {
+        if (!(p[k] > 0.0))
+            continue;
+        b = k;
+        acc += p[k];
+        if (u * sum < acc)
+            break;
+    }
+    const uniaxial_branch_t *br = &e->branch[b];
+    for (int j = 0; j < n; j++)
+        weight[j] *= br->factor;
+    *out = br->dir;
+    pol->ev = ev[b];
+    pol->m = mueller_scale(&mm[b], 1.0 / p[b]);
+    if (br->after != UNIAXIAL_OUTSIDE)
+        *wave = br->after;
+    return 0;
+}
+
+vec3_t crystal_axis(const scene_t *scene, const hit_t *h, const material_t *m)
+{
+    if (h->instance == GEOMETRY_NO_INSTANCE || h->instance >= scene->ninstances)
+        return m->optic_axis;
+    const vec3_t a = transform_vector(&scene->instances[h->instance].to_world, m->optic_axis);
+    const double l = vec3_length(a);
+    return l > 0.0 && isfinite(l) ? vec3_scale(a, 1.0 / l) : m->optic_axis;
+}
+
+int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t axis, vec3_t org, vec3_t dir,
+                    int *wave, int n, const double *lambda, double *weight, bsdf_mode_t mode,
+                    double u, vec3_t *out, int *end_secondaries, crystal_polar_t *pol)
 {
     if (n < 1)
         return 1;
@@ -16,7 +70,6 @@ int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t org, vec3_t
     /* Which side the ray is on comes from the geometric surface alone, as at glass. */
     const bool entering = vec3_dot(dir, sf->ng) < 0.0;
     const uniaxial_wave_t inside = *wave == UNIAXIAL_E ? UNIAXIAL_E : UNIAXIAL_O;
-    const vec3_t axis = m->optic_axis;
     double no[BSDF_MAX_LANES], ne[BSDF_MAX_LANES];
     for (int j = 0; j < n; j++) {
         no[j] = ior_eval(&m->crystal.no, lambda[j]);
@@ -36,6 +89,10 @@ int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t org, vec3_t
     const vec3_t nrm = specular_normal(sf, dir, entering ? 1.0 / no[0] : no[0], NULL);
     uniaxial_event_t e;
     uniaxial_event_make(dir, nrm, entering, inside, axis, no, ne, n, mode, &e);
+    if (pol && pol->s_in && mode == BSDF_IMPORTANCE) {
+        *end_secondaries = 0;
+        return choose_polarised(&e, nrm, dir, u, weight, n, out, wave, pol);
+    }
     const int b = uniaxial_choose(&e, u);
     const uniaxial_branch_t *br = &e.branch[b];
     *end_secondaries = 0;

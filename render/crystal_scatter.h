@@ -21,19 +21,32 @@ typedef struct crystal_polar {
     vec3_t x;
     polar_event_t ev;
     mueller_t m;
+    /* A photon's polarisation (importance mode; NULL for a camera path): lane 0's Stokes
+     * vector in the frame x (photon_polar.h). The branch is then chosen in proportion to its
+     * power fraction for that vector, p_b = (M_b R s)_0 over their sum, and m is M_b / p_b:
+     * the photon keeps its power. The sum is 1 for unpolarised light and, by the model's
+     * construction, within a few per cent of it otherwise (the modes' polarisations are
+     * nearly, not exactly, orthogonal in the light's frame; light reflected inside is not
+     * converted between the modes); dividing by it conserves the flux. */
+    const stokes_t *s_in;
 } crystal_polar_t;
 
-/* m: a material with m->uniaxial; sf: the hit; org, dir: the ray that reached it (org where
- * the last segment started, for the absorption inside); *wave: the wave the path travels in
- * inside the crystal (UNIAXIAL_O or UNIAXIAL_E; read only when the hit is from inside),
+/* The crystal's optic axis in world space at hit h: the material's (turned with its shape by the
+ * loader) and, for an instanced object's shape, further by the instance's transform (an object
+ * placed turned turns its crystal's axis with it). */
+vec3_t crystal_axis(const scene_t *scene, const hit_t *h, const material_t *m);
+
+/* m: a material with m->uniaxial; sf: the hit; axis: crystal_axis's; org, dir: the ray that reached
+ * it (org where the last segment started, for the absorption inside); *wave: the wave the path
+ * travels in inside the crystal (UNIAXIAL_O or UNIAXIAL_E; read only when the hit is from inside),
  * updated. Lanes [0, n) at wavelengths lambda with throughputs weight, multiplied in place.
  * On a refraction whose lanes' indices differ, only lane 0 can follow (its direction is lane
  * 0's): its weight takes the lane count and *end_secondaries is set, and the caller ends the
  * other lanes (pbrt-v4's TerminateSecondary, as at a dispersive glass). *out: the direction
  * to follow. pol: NULL without polarisation (then nothing else differs), else filled as above.
  * Returns 1 when the path carries nothing on (every weight 0), else 0. */
-int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t org, vec3_t dir, int *wave,
-                    int n, const double *lambda, double *weight, bsdf_mode_t mode, double u,
-                    vec3_t *out, int *end_secondaries, crystal_polar_t *pol);
+int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t axis, vec3_t org, vec3_t dir,
+                    int *wave, int n, const double *lambda, double *weight, bsdf_mode_t mode,
+                    double u, vec3_t *out, int *end_secondaries, crystal_polar_t *pol);
 
 #endif

@@ -3,6 +3,7 @@
 #include "crystal_scatter.h"
 #include "delta.h"
 #include "lights.h"
+#include "photon_polar.h"
 #include "rng.h"
 #include "sample.h"
 #include "sampler.h"
@@ -253,8 +254,9 @@ static void shape_box(const shape_t *sh, vec3_t *lo, vec3_t *hi, transform_t *to
     }
 }
 
-/* The aim sphere: around the world-space boxes of every mirror and glass shape, instanced
- * copies included. Returns 0 when there is none. */
+/* The aim sphere: around the world-space boxes of every mirror and glass shape, and with
+ * polarisation every sheet (photons cross them), instanced copies included. Returns 0 when
+ * there is none. */
 static int specular_sphere(const scene_t *s, vec3_t *centre, double *radius)
 {
     vec3_t lo = vec3_make(INFINITY, INFINITY, INFINITY),
@@ -265,7 +267,9 @@ static int specular_sphere(const scene_t *s, vec3_t *centre, double *radius)
         const material_t *m = &s->materials[sh->material];
         /* Aim at what the pass follows: smooth mirrors and glass (a roughness texture may be
          * smooth in places). */
-        if ((m->kind != MATERIAL_DIELECTRIC && m->kind != MATERIAL_CONDUCTOR) || m->rough)
+        const int sheet = s->settings.polarised && material_is_sheet(m->kind);
+        if (((m->kind != MATERIAL_DIELECTRIC && m->kind != MATERIAL_CONDUCTOR) || m->rough) &&
+            !sheet)
             continue;
         vec3_t blo, bhi;
         transform_t own;
@@ -301,6 +305,7 @@ static int specular_sphere(const scene_t *s, vec3_t *centre, double *radius)
 
 /* The most monochrome rays a photon may follow (photon_job_t.monochromerays). */
 #define MAX_LANES PHOTON_MAX_MONOCHROME_RAYS
+_Static_assert(MAX_LANES <= PHOTON_POLAR_MAX_LANES, "a photon's lanes fit its polarisation");
 
 /* A photon in flight: one geometric ray carrying nl wavelengths ("lanes") that have refracted
  * alike so far, each with its own raw power. */
@@ -313,6 +318,9 @@ typedef struct flight {
     int depth, specular, diffuse, passthrough;
     int collimated;
     int wave; /* inside a uniaxial crystal: the wave (bsdf/uniaxial.h) */
+    /* The lanes' polarisation (render_settings_t.polarised; photon_polar.h), NULL without:
+     * then sheets end the photon and every interface acts on intensities. */
+    photon_polar_t *pol;
 } flight_t;
 
 static int deposit_lanes(tracer_t *t, const flight_t *f, const hit_t *h, const surface_t *sf,
@@ -347,12 +355,18 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err);
  * (photon, 2 + lane), so the result does not depend on the order they are traced in. */
 static int split_flight(tracer_t *t, const flight_t *f, uint64_t i, err_t *err)
 {
+    photon_polar_t pol;
     for (int j = 0; j < f->nl; j++) {
         flight_t one = *f;
         one.nl = 1;
         one.lambda[0] = f->lambda[j];
         one.w[0] = f->w[j];
         one.w0[0] = f->w0[j];
+        if (f->pol) {
+            pol.x = f->pol->x;
+            pol.s[0] = f->pol->s[j];
+            one.pol = &pol;
+        }
         t->rng = rng_stream_make(t->job->seed ^ PHOTON_SEED_MIX, i, 2 + (uint64_t)j);
         t->ld_index = UINT64_MAX;
         if (trace_flight(t, &one, i, err))
@@ -392,9 +406,11 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
             f->org = geometry_offset(sf.p, sf.ng, f->dir);
             continue;
         }
-        /* Photons carry no polarisation: a polariser or retarder sheet ends them, and the
-         * camera pass path traces the light through it (render.c breaks its chain there). */
-        if (material_is_sheet(m->kind))
+        /* Without polarisation a polariser or retarder sheet ends a photon, and the camera
+         * pass path traces the light through it (render.c breaks its chain there); with it the
+         * photon crosses, a specular event (below). */
+        const int sheet = material_is_sheet(m->kind);
+        if (sheet && !f->pol)
             return 0;
         shading_perturb(m, &sf);
         if (m->kind == MATERIAL_DIFFUSE) {
@@ -431,7 +447,9 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
             f->dir = sample_local_to_world(sample_cosine_hemisphere(u0, u1), g);
             f->org = geometry_offset(sf.p, sf.ng, f->dir);
             f->diffuse = 1;
-        } else if (!shading_is_delta(m, &sf)) {
+            if (f->pol)
+                photon_polar_depolarise(f->pol, f->dir, f->nl);
+        } else if (!sheet && !shading_is_delta(m, &sf)) {
             /* A glossy receiver (any other non-delta surface: coated, rough conductor or
              * dielectric, diffuse transmission). A store that keeps directions (a photon map)
              * takes the caustic here as at a diffuse surface, L S+ G by the same rule, and the
@@ -453,7 +471,18 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
                 st->culled++;
                 return 0;
             }
-            if (m->kind == MATERIAL_CONDUCTOR) {
+            if (sheet) {
+                photon_polar_sheet(f->pol, &sf, m, f->dir, f->nl, f->lambda, f->w);
+            } else if (m->kind == MATERIAL_CONDUCTOR && f->pol) {
+                const vec3_t nrm = specular_normal(&sf, f->dir, 0.0, NULL);
+                const delta_conductor_t e = delta_conductor_make(f->dir, nrm);
+                double eta[MAX_LANES], k[MAX_LANES];
+                for (int j = 0; j < f->nl; j++)
+                    shading_conductor_index(m, &sf, f->lambda[j], &eta[j], &k[j]);
+                photon_polar_conductor(f->pol, f->dir, e.reflect, nrm, eta, k, f->lambda,
+                                       m->film_thickness, &m->film_ior, f->nl, f->w);
+                f->dir = e.reflect;
+            } else if (m->kind == MATERIAL_CONDUCTOR) {
                 const delta_conductor_t e =
                     delta_conductor_make(f->dir, specular_normal(&sf, f->dir, 0.0, NULL));
                 const delta_film_t film = {m->film_thickness, &m->film_ior};
@@ -470,9 +499,14 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
                 if (f->nl > 1)
                     return split_flight(t, f, i, err);
                 int end;
-                if (crystal_scatter(m, &sf, f->org, f->dir, &f->wave, f->nl, f->lambda, f->w,
-                                    BSDF_IMPORTANCE, next(t), &f->dir, &end, NULL))
+                crystal_polar_t cp = {.x = f->pol ? f->pol->x : f->dir,
+                                      .s_in = f->pol ? &f->pol->s[0] : NULL};
+                if (crystal_scatter(m, &sf, crystal_axis(s, &h, m), f->org, f->dir, &f->wave,
+                                    f->nl, f->lambda, f->w, BSDF_IMPORTANCE, next(t), &f->dir,
+                                    &end, f->pol ? &cp : NULL))
                     return 0;
+                if (f->pol)
+                    photon_polar_apply(f->pol, &cp.ev, &cp.m, 0, f->nl, f->w);
             } else {
                 if (m->dispersive && f->nl > 1)
                     return split_flight(t, f, i, err);
@@ -483,7 +517,11 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
                 const double n = ior_eval(&m->ior, f->lambda[0]);
                 vec3_t nrm = specular_normal(&sf, f->dir, delta_eta_ratio(n, entering), NULL);
                 delta_dielectric_t e;
-                if (m->film_thickness > 0.0) {
+                if (f->pol) {
+                    photon_polar_dielectric(f->pol, f->dir, nrm, entering, n, m->film_thickness,
+                                            &m->film_ior, f->lambda, f->nl, next(t), f->w,
+                                            &f->dir);
+                } else if (m->film_thickness > 0.0) {
                     /* A coating: every lane its own reflectance (interference), the branch
                      * chosen with their mean, each lane weighed by its own over it. */
                     double ns[MAX_LANES];
@@ -588,6 +626,11 @@ static int trace_one(tracer_t *t, uint64_t i, err_t *err)
     }
     if (!alive)
         return 0;
+    photon_polar_t pol;
+    if (s->settings.polarised) {
+        photon_polar_emit(&pol, l, f.dir, f.nl);
+        f.pol = &pol;
+    }
     return trace_flight(t, &f, i, err);
 }
 

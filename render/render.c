@@ -13,11 +13,11 @@
 #include "sample.h"
 #include "sampler.h"
 #include "shading.h"
+#include "sheet.h"
 #include "spectral_grid.h"
 #include "specular.h"
 #include "volume.h"
 #include "wavelength.h"
-#include "waveplate.h"
 
 #include <math.h>
 #include <stddef.h>
@@ -56,6 +56,7 @@ typedef struct path {
     int mono;         /* every lane refracts alike: one physical wavelength */
     int dispersed;    /* the path has had its first dispersive refraction */
     int splits;       /* dense-stone events it followed both ways (split_here) */
+    int sheets;       /* polariser and retarder sheets crossed: not bounces for the roulette */
     /* What Russian roulette multiplies the throughput by before it compares it with 1: 1,
      * except after events at a dense stone with splitting on, whose factors that are not losses
      * it undoes (split_dense). */
@@ -676,14 +677,22 @@ static void direct_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, co
         w = power_heuristic(ls.pdf, lanes_pdf(pdf, sel, p->n));
     }
     const double cos_i = fabs(wi.z);
-    /* With polarisation the light (unpolarised) is scattered toward the path by the lobe's
-     * Mueller matrix: a copy of the path's carrier takes it. */
+    /* With polarisation the light is scattered toward the path by the lobe's Mueller matrix:
+     * a copy of the path's carrier takes it, and a polarised light's Stokes vector, travelling
+     * along -wi, is measured in the frame the carrier is left in (§14.2). */
     const path_t *q = p;
     path_t polarised;
+    double lstokes[4];
+    const double *lsp = NULL;
     if (p->polar) {
         path_copy(&polarised, p);
         polar_bsdf(&polarised, b, fr, wo_local, wi, ls.wi);
         q = &polarised;
+        const light_t *l = &c->scene->lights[ls.light];
+        if (l->polarisation > 0.0) {
+            lights_stokes(l, vec3_neg(ls.wi), q->polar_x, lstokes);
+            lsp = lstokes;
+        }
     }
     for (int j = 0; j < p->n; j++) {
         if (!(f[j] > 0.0))
@@ -691,7 +700,7 @@ static void direct_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, co
         double le = lights_sample_emission_of(c->scene, &ls,
                                               light_value_lane(c, ls.light, j, p->lambda[j]),
                                               p->lambda[j]);
-        splat(c, q, j, w * f[j] * cos_i * le * tr[j] / ls.pdf);
+        splat_polarised(c, q, j, w * f[j] * cos_i * le * tr[j] / ls.pdf, lsp);
     }
 }
 
@@ -1250,15 +1259,16 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
  * uniformly (as at a coated dispersive glass); hero lanes end at a refraction whose indices
  * differ; with polarisation the carrier takes the branch's Mueller matrix. Returns 0 to
  * continue the path, 1 when it ends. */
-static int scatter_crystal(ctx_t *c, path_t *p, const surface_t *h, const material_t *m)
+static int scatter_crystal(ctx_t *c, path_t *p, const surface_t *h, const material_t *m,
+                           vec3_t axis)
 {
     if (p->n > 1 && !p->mono && c->rs->dispersion == DISPERSION_FANOUT)
         fanout_pick_one(c, p);
     vec3_t dir;
     int end = 0;
     crystal_polar_t pol = {.x = p->polar_x};
-    if (crystal_scatter(m, h, p->org, p->dir, &p->wave, p->n, p->lambda, p->beta, BSDF_RADIANCE,
-                        draw1(c, VD_REFLECT), &dir, &end, p->polar ? &pol : NULL))
+    if (crystal_scatter(m, h, axis, p->org, p->dir, &p->wave, p->n, p->lambda, p->beta,
+                        BSDF_RADIANCE, draw1(c, VD_REFLECT), &dir, &end, p->polar ? &pol : NULL))
         return 1;
     if (end) {
         p->n = 1;
@@ -1390,13 +1400,15 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
 
 /* Russian roulette after a bounce (thesis eq. 2.32-2.33): from RR_DEPTH bounces on, the path
  * survives with probability min(1, max(RR_MIN, max beta)) and is divided by it. Returns 1
- * when the path ends. */
+ * when the path ends. Sheets crossed are not counted as bounces here (they count toward
+ * maxdepth): light behind two polarisers, whose beta is a quarter, was otherwise rouletted from
+ * its first diffuse bounce on, at a fifth, and speckled. */
 static int roulette(ctx_t *c, path_t *p)
 {
     double mb = max_beta(p);
     if (!(mb > 0.0))
         return 1;
-    if (p->depth >= RR_DEPTH && c->rs->integrator != INTEGRATOR_WHITTED) {
+    if (p->depth - p->sheets >= RR_DEPTH && c->rs->integrator != INTEGRATOR_WHITTED) {
         /* fmin(1, fmax(RR_MIN, mb)) for the positive mb here, without libm calls; mb times
          * the path's roulette scale (1 but at dense stones: split_dense). */
         double q = mb * p->rr_scale;
@@ -1487,11 +1499,9 @@ static int medium_flight(ctx_t *c, path_t *p, double tmax)
     return roulette(c, p) ? FLIGHT_ENDS : FLIGHT_SCATTERED;
 }
 
-/* A polariser or retarder sheet crossed straight: its element acts along the axis at
- * sheet_angle from dp/du toward ng x dp/du (a surface without dp/du: from vec3_basis's
- * tangent of ng). Without polarisation a polariser passes half of the (unpolarised) light and
- * a retarder all; with it the carrier takes the element's normalised matrix (docs/physics.md
- * §14). The sheet is thin and has no index: no Fresnel reflection, no change of direction. */
+/* A polariser or retarder sheet crossed straight (render/sheet.h). Without polarisation a
+ * polariser passes half of the (unpolarised) light and a retarder all; with it the carrier
+ * takes the element's normalised matrix (docs/physics.md §14). */
 static void cross_sheet(path_t *p, const surface_t *sf, const material_t *m)
 {
     const int polariser = m->kind == MATERIAL_POLARISER;
@@ -1500,33 +1510,13 @@ static void cross_sheet(path_t *p, const surface_t *sf, const material_t *m)
             p->beta[j] *= 0.5;
     if (!p->polar)
         return;
-    vec3_t t = sf->dpdu, b;
-    if (!(vec3_length(t) > 0.0))
-        vec3_basis(sf->ng, &t, &b);
-    t = vec3_normalize(polar_frame_perp(t, sf->ng));
-    b = vec3_cross(sf->ng, t);
-    const vec3_t axis =
-        vec3_add(vec3_scale(t, cos(m->sheet_angle)), vec3_scale(b, sin(m->sheet_angle)));
+    const vec3_t axis = sheet_axis(sf, m);
     const polar_event_t ev = polar_event_sheet(vec3_neg(p->dir), axis);
-    if (polariser || m->retarder_mode == RETARDER_CONSTANT) {
-        const mueller_t e =
-            polariser ? mueller_polariser(0.0) : mueller_retarder(0.0, m->retardance);
-        const mueller_t mm = mueller_normalised(&e);
-        polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &ev, &mm, 0);
-        return;
-    }
-    /* A retardance per lane (§14.1): 2 pi Gamma / lambda, or the crystal plate's. */
     mueller_t mm[LANES];
-    for (int j = 0; j < p->n; j++) {
-        const double l = p->lambda[j];
-        const double delta =
-            m->retarder_mode == RETARDER_RETARDATION
-                ? 2.0 * PF_PI * m->retardation_nm / l
-                : waveplate_retardance(ior_eval(&m->crystal.no, l), ior_eval(&m->crystal.ne, l),
-                                       m->plate_thickness_nm, l, p->dir, sf->ng, axis);
-        mm[j] = mueller_retarder(0.0, delta);
-    }
-    polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &ev, mm, 1);
+    const int per_lane = sheet_mueller(sf, m, axis, p->dir, p->n, p->lambda, mm);
+    if (!per_lane)
+        mm[0] = mueller_normalised(&mm[0]);
+    polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &ev, mm, per_lane);
 }
 
 /* Traces one path (and, via the stack, its branches) and splats what it finds. */
@@ -1623,8 +1613,14 @@ static void trace(ctx_t *c, path_t *start)
             } else if (material_is_sheet(m->kind)) {
                 cross_sheet(p, &sf, m);
                 start_bounce(p, &sf, p->dir, 1, 0.0);
-                /* The photon pass ends at sheets (photon.c): light through one is path traced. */
-                p->specular_since_diffuse = CHAIN_BROKEN;
+                p->sheets++;
+                /* With polarisation photons cross sheets as a specular event (photon.c), so
+                 * the chain counts them; without, photons end there and light through a sheet
+                 * is path traced. */
+                if (p->polar)
+                    p->specular_since_diffuse++;
+                else
+                    p->specular_since_diffuse = CHAIN_BROKEN;
             } else if (!shading_is_delta(m, &sf) || (regularized && !m->uniaxial)) {
                 /* regularize roughens smooth glass and metal, films included, not crystals
                  * (whose two waves no rough model carries): docs/compatibility.md,
@@ -1657,7 +1653,8 @@ static void trace(ctx_t *c, path_t *start)
             } else {
                 /* Counted before the event, so that the branches it pushes carry it too. */
                 p->specular_since_diffuse++;
-                if (m->uniaxial ? scatter_crystal(c, p, &sf, m) : scatter_dielectric(c, p, &sf, m))
+                if (m->uniaxial ? scatter_crystal(c, p, &sf, m, crystal_axis(s, &h, m))
+                                : scatter_dielectric(c, p, &sf, m))
                     break;
             }
             p->depth++;

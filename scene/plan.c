@@ -1031,9 +1031,9 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
                          area > 1 ? "s" : "");
             if (area < s->polarised_lights)
                 text_add(&r,
-                         " (%d point, spot or distant: reached only by next-event estimation, "
-                         "which still takes their light as unpolarised, so their polarisation "
-                         "changes no pixel yet)",
+                         " (%d point, spot, distant or collimated: reached by next-event "
+                         "estimation, whose light sample carries the light's Stokes vector "
+                         "through the surface's Mueller matrix, and by photons)",
                          s->polarised_lights - area);
             text_add(&r, "; ");
         }
@@ -1054,6 +1054,10 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
             text_add(&r, "the caller asked for it; ");
         text_add(&r, "a 4x4 Mueller matrix per lane at every glass and metal interface (smooth or "
                      "rough) and sheet; diffuse, thin and layered surfaces depolarise. ");
+        if (rs->photon.enabled)
+            text_add(&r, "Photons carry a Stokes vector per lane through sheets, smooth glass, "
+                         "metal and crystals, choose reflection or refraction by their own "
+                         "polarisation, and deposit S0 (the receivers depolarise). ");
         if (crystals)
             text_add(&r,
                      "The %d uniaxial crystal material%s split%s light into o and e waves "

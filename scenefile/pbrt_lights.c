@@ -52,9 +52,8 @@ int pbrt_lights_read_area(parser_t *P, params_t *ps, const str_arg_t *type, pbrt
         pbrt_state_check_range(P, ps, "scale", a->scale, 0.0, INFINITY) != 0 ||
         params_get_float(ps, "power", -1.0, &a->power, P->err) != 0)
         return -1;
-    /* A collimated light reaches photons only, which carry no polarisation (§14.2). */
-    if (at == SCENE_AREA_DIFFUSE &&
-        get_polarisation(P, ps, &a->polarization, &a->polarization_angle) != 0)
+    /* Polarised emission (§14.2); a collimated light's reaches the photons only (§14.3). */
+    if (get_polarisation(P, ps, &a->polarization, &a->polarization_angle) != 0)
         return -1;
     if (at == SCENE_AREA_DIFFUSE &&
         params_get_bool(ps, "twosided", false, &a->twosided, P->err) != 0)

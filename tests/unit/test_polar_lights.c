@@ -278,6 +278,102 @@ static void test_delta_lights(void **state)
     }
 }
 
+/* Next-event estimation of a polarised delta light (docs/physics.md §14.2): a distant light of
+ * degree P polarised at phi shines straight down (-z) on a glossy metal (a rough conductor, so
+ * that only light sampling finds it), seen straight from above through the camera's analyser
+ * at theta. Every sample meets the metal at normal incidence, where its Fresnel matrix keeps
+ * the light's plane, so the analyser passes (1 + P cos 2(theta + phi)) / 2 of what the open
+ * camera sees (Malus's law; +phi in the world is -phi in the image, pbrt's LookAt mirroring x,
+ * as in test_malus), to rounding: the same samples, only the matrices differ. */
+static double glossy_metal(double degree, double phi, const char *camera)
+{
+    char text[4096];
+    snprintf(text, sizeof text,
+             "LookAt 0 0 5  0 0 0  0 1 0\n"
+             "Camera \"orthographic\" %s\n"
+             "Film \"spectral\" \"integer xresolution\" [4] \"integer yresolution\" [4]\n"
+             "Sampler \"independent\" \"integer pixelsamples\" [4]\n"
+             "Integrator \"path\" \"integer maxdepth\" [1]\n"
+             "WorldBegin\n"
+             "LightSource \"distant\" \"point3 from\" [0 0 1] \"point3 to\" [0 0 0] "
+             "\"spectrum L\" [300 1 900 1] \"float polarization\" [%g] "
+             "\"float polarizationangle\" [%g]\n"
+             "Material \"conductor\" \"float roughness\" [0.2] \"spectrum eta\" [300 0.2 900 0.2] "
+             "\"spectrum k\" [300 3 900 3]\n" QUAD,
+             camera, degree, phi);
+    scene_t *s = sb_load_text(text, NULL);
+    assert_true(s->settings.polarised);
+    const double v = render_s0(s, NULL);
+    scene_destroy(&s);
+    return v;
+}
+
+static void test_nee_malus(void **state)
+{
+    (void)state;
+    const double degree[] = {1.0, 0.5}, phi = 20.0;
+    for (int d = 0; d < 2; d++) {
+        const double open = glossy_metal(degree[d], phi, "");
+        assert_true(open > 0.0);
+        for (int theta = 0; theta < 180; theta += 30) {
+            char cam[64];
+            snprintf(cam, sizeof cam, "\"float analyzer\" [%d]", theta);
+            const double got = glossy_metal(degree[d], phi, cam) / open;
+            const double want = 0.5 * (1.0 + degree[d] * cos(2.0 * (theta + phi) * PI / 180.0));
+            if (!(fabs(got - want) <= 1e-9))
+                fail_msg("distant light of degree %g at %g on metal, analyser at %d: %.12f, want "
+                         "%.12f",
+                         degree[d], phi, theta, got, want);
+        }
+    }
+}
+
+/* A polarised spot light on glossy glass (a rough dielectric, alpha 0.05) at Brewster's angle
+ * (tan theta_B = n = 1.5), the camera at the mirror direction with a narrow view: p-polarised
+ * light (its plane the plane of incidence, x-z) is hardly reflected (R_p vanishes at theta_B
+ * and stays below 1e-3 within the few degrees the lobe and the view spread over), s-polarised
+ * light is reflected twice as brightly as unpolarised (R_s against (R_s + R_p) / 2), and the two
+ * average to the unpolarised light (Stokes vectors add; to 1e-3, as the two axes made
+ * perpendicular to beams that leave the spot a little off the plane x-z are not quite
+ * perpendicular to each other). */
+static double glossy_brewster(const char *polarisation)
+{
+    const double tb = atan(1.5), d = 6.0;
+    char text[4096];
+    snprintf(text, sizeof text,
+             "LookAt %.9f 0 %.9f  0 0 0  0 0 1\n"
+             "Camera \"perspective\" \"float fov\" [1]\n"
+             "Film \"spectral\" \"integer xresolution\" [4] \"integer yresolution\" [4]\n"
+             "Sampler \"independent\" \"integer pixelsamples\" [4]\n"
+             "Integrator \"path\" \"integer maxdepth\" [1]\n"
+             "WorldBegin\n"
+             "LightSource \"spot\" \"point3 from\" [%.9f 0 %.9f] \"point3 to\" [0 0 0] "
+             "\"float coneangle\" [10] \"spectrum I\" [300 1 900 1] %s\n"
+             "Material \"dielectric\" \"float eta\" [1.5] \"float roughness\" [0.05]\n" QUAD,
+             d * sin(tb), d * cos(tb), -d * sin(tb), d * cos(tb), polarisation);
+    scene_t *s = sb_load_text(text, NULL);
+    const double v = render_s0(s, NULL);
+    scene_destroy(&s);
+    return v;
+}
+
+static void test_nee_brewster(void **state)
+{
+    (void)state;
+    /* The light's CTM is the identity: angle 0 is world x (made perpendicular to the beam: in
+     * the plane of incidence, p), 90 world y (s). */
+    const double unpolarised = glossy_brewster("");
+    const double p = glossy_brewster("\"float polarization\" [1] \"float polarizationangle\" [0]");
+    const double sp =
+        glossy_brewster("\"float polarization\" [1] \"float polarizationangle\" [90]");
+    print_message("glossy glass at Brewster's angle: s %.6g, p %.6g, unpolarised %.6g\n", sp, p,
+                  unpolarised);
+    assert_true(unpolarised > 0.0);
+    if (!(p <= 2e-3 * unpolarised) || !(fabs(sp / unpolarised - 2.0) <= 4e-3) ||
+        !(fabs(0.5 * (sp + p) - unpolarised) <= 1e-3 * unpolarised))
+        fail_msg("s %.9g, p %.9g, unpolarised %.9g", sp, p, unpolarised);
+}
+
 /* The plan turns polarisation on for a polarised light and says which kind sees it. */
 static void test_plan(void **state)
 {
@@ -298,7 +394,8 @@ static void test_plan(void **state)
     const plan_decision_t *pd = plan_decision_of(p, PLAN_POLARISATION);
     assert_true(pd->on);
     if (!strstr(pd->reason, "2 lights emit polarised light") ||
-        !strstr(pd->reason, "1 area light") || !strstr(pd->reason, "1 point, spot or distant"))
+        !strstr(pd->reason, "1 area light") ||
+        !strstr(pd->reason, "1 point, spot, distant or collimated"))
         fail_msg("plan: %s", pd->reason);
     plan_destroy(&p);
     scene_destroy(&s);
@@ -332,7 +429,8 @@ int main(void)
         cmocka_unit_test(test_malus),         cmocka_unit_test(test_unpolarised),
         cmocka_unit_test(test_slab),          cmocka_unit_test(test_delta_lights),
         cmocka_unit_test(test_stokes_output), cmocka_unit_test(test_plan),
-        cmocka_unit_test(test_syntax),
+        cmocka_unit_test(test_syntax),        cmocka_unit_test(test_nee_malus),
+        cmocka_unit_test(test_nee_brewster),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

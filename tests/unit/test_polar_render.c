@@ -542,6 +542,63 @@ static void test_furnaces(void **state)
 }
 
 /* The parser's refusals name the file and line. */
+/* Sheets are not bounces for Russian roulette: a diffuse floor (albedo 0.5) under a uniform sky,
+ * seen from above through two aligned polarisers (wide enough that every bounce leaves through
+ * them again) by simple path tracing (no light sampling): every sample is camera, two sheets,
+ * the floor, two sheets, the sky, so every pixel is exactly a quarter (half through the sheets
+ * each way) of what it is without them -- unless the roulette, counting the sheets as bounces,
+ * ends some paths at the floor and weighs the others up (the speckle behind two sheets). */
+#define WIDE_QUAD                                                                                  \
+    "Shape \"trianglemesh\" \"point3 P\" [-1e4 -1e4 0  1e4 -1e4 0  1e4 1e4 0  -1e4 1e4 0] "        \
+    "\"integer indices\" [0 1 2 0 2 3] \"point2 uv\" [0 0 1 0 1 1 0 1]\n"
+
+static void floor_pixels(const char *sheets, double px[16])
+{
+    char text[4096];
+    snprintf(text, sizeof text,
+             "LookAt 0 0 5  0 0 0  0 1 0\n"
+             "Camera \"orthographic\" \"float screenwindow\" [-0.3 0.3 -0.3 0.3]\n"
+             "Film \"spectral\" \"integer xresolution\" [4] \"integer yresolution\" [4]\n"
+             "Sampler \"independent\" \"integer pixelsamples\" [16]\n"
+             "Integrator \"simplepath\" \"integer maxdepth\" [8] \"bool polarized\" true\n"
+             "WorldBegin\n"
+             "LightSource \"infinite\" \"spectrum L\" [300 1 900 1]\n"
+             "%s"
+             "Material \"diffuse\" \"spectrum reflectance\" [300 0.5 900 0.5]\n" QUAD,
+             sheets);
+    scene_t *s = sb_load_text(text, NULL);
+    err_t err;
+    const int nb = s->settings.grid.n;
+    tilebuf_t *t = tilebuf_new(0, 0, 4, 4, render_settings_buckets(&s->settings), &err);
+    assert_non_null(t);
+    render_stats_t st = {0};
+    if (render_tile(s, NULL, 0, 0, 4, 4, 0, 16, t, &st, &err))
+        fail_msg("render_tile: %s", err.msg);
+    for (int i = 0; i < 16; i++) {
+        px[i] = 0.0;
+        for (int b = 0; b < nb; b++)
+            px[i] += tilebuf_sum(t, i % 4, i / 4, b) / (double)tilebuf_count(t, i % 4, i / 4);
+    }
+    tilebuf_destroy(&t);
+    scene_destroy(&s);
+}
+
+static void test_sheets_roulette(void **state)
+{
+    (void)state;
+    double open[16], behind[16];
+    floor_pixels("", open);
+    floor_pixels(
+        "AttributeBegin\nMaterial \"polarizer\"\nTranslate 0 0 2\n" WIDE_QUAD
+        "AttributeEnd\nAttributeBegin\nMaterial \"polarizer\"\nTranslate 0 0 2.5\n" WIDE_QUAD
+        "AttributeEnd\n",
+        behind);
+    for (int i = 0; i < 16; i++)
+        if (!(open[i] > 0.0) || !(fabs(behind[i] / open[i] - 0.25) <= 1e-9))
+            fail_msg("pixel %d behind two aligned polarisers: %.9g of the open %.9g", i, behind[i],
+                     open[i]);
+}
+
 static void test_parse_errors(void **state)
 {
     (void)state;
@@ -571,6 +628,7 @@ int main(void)
         cmocka_unit_test(test_rough_converges),
         cmocka_unit_test(test_rough_s0),
         cmocka_unit_test(test_rough_film),
+        cmocka_unit_test(test_sheets_roulette),
         cmocka_unit_test(test_parse_errors),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);

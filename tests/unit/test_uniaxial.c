@@ -616,7 +616,7 @@ static void test_dichroic_plate(void **state)
         int wave = 0, end;
         vec3_t dir;
         const double u = (i + 0.5) / N;
-        assert_int_equal(crystal_scatter(&m, &top, vec3_make(0, 0, 1), vec3_make(0, 0, -1), &wave,
+        assert_int_equal(crystal_scatter(&m, &top, m.optic_axis, vec3_make(0, 0, 1), vec3_make(0, 0, -1), &wave,
                                          1, &lambda, &w, BSDF_IMPORTANCE, u, &dir, &end, NULL),
                          0);
         if (dir.z > 0)
@@ -625,7 +625,7 @@ static void test_dichroic_plate(void **state)
         /* Straight down to the bottom (normal incidence, k across the axis: no walk-off), and
          * leaving with the second uniform (a stratified second dimension). */
         const double u2 = fmod(u * 7919.0, 1.0);
-        if (crystal_scatter(&m, &bottom, top.p, dir, &wave, 1, &lambda, &w, BSDF_IMPORTANCE, u2,
+        if (crystal_scatter(&m, &bottom, m.optic_axis, top.p, dir, &wave, 1, &lambda, &w, BSDF_IMPORTANCE, u2,
                             &dir, &end, NULL))
             continue;
         if (dir.z < 0)

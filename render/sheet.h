@@ -1,0 +1,24 @@
+/* sheet: a polariser or retarder sheet (MATERIAL_POLARISER, MATERIAL_RETARDER; docs/physics.md
+ * §14) crossed straight by a ray: the axis its element acts along and the element's Mueller
+ * matrix per lane, one rule for the camera pass (render.c) and the photon pass (photon_polar.h),
+ * so that light crosses a sheet the same way in both directions. The sheet is thin and has no
+ * index: no Fresnel reflection, no change of direction. Pure functions of their arguments. */
+#ifndef PRISMFARM_SHEET_H
+#define PRISMFARM_SHEET_H
+
+#include "polar_frame.h"
+#include "scene.h"
+
+/* The unit axis of the sheet's element at sf: at m->sheet_angle from dp/du toward ng x dp/du
+ * (a surface without dp/du: from vec3_basis's tangent of ng), in the sheet's plane. */
+vec3_t sheet_axis(const surface_t *sf, const material_t *m);
+
+/* The element for lanes [0, n) at wavelengths lambda crossing along dir, in the frames of
+ * polar_event_sheet(k, axis) (k = dir or -dir: the element and the retardance are even in the
+ * direction): an ideal polariser (M[0][0] = 1/2) or a lossless retarder -- a constant
+ * retardance, 2 pi Gamma / lambda, or a crystal plate's (polar/waveplate.h) --, into mm[0]
+ * for every lane (returns 0) or mm[j] per lane (returns 1). */
+int sheet_mueller(const surface_t *sf, const material_t *m, vec3_t axis, vec3_t dir, int n,
+                  const double *lambda, mueller_t *mm);
+
+#endif
