@@ -265,7 +265,8 @@ static int specular_sphere(const scene_t *s, vec3_t *centre, double *radius)
         const material_t *m = &s->materials[sh->material];
         /* Aim at what the pass follows: smooth mirrors and glass (a roughness texture may be
          * smooth in places). */
-        if ((m->kind != MATERIAL_DIELECTRIC && m->kind != MATERIAL_CONDUCTOR) || m->rough)
+        if ((m->kind != MATERIAL_DIELECTRIC && m->kind != MATERIAL_CONDUCTOR) || m->rough ||
+            m->sss.table)
             continue;
         vec3_t blo, bhi;
         transform_t own;
@@ -395,6 +396,10 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
         /* Photons carry no polarisation: a polariser or retarder sheet ends them, and the
          * camera pass path traces the light through it (render.c breaks its chain there). */
         if (material_is_sheet(m->kind))
+            return 0;
+        /* Nor do they enter a subsurface material (render/subsurface.h): light beneath it is
+         * diffused, and the camera pass path traces what leaves it. */
+        if (m->sss.table)
             return 0;
         shading_perturb(m, &sf);
         if (m->kind == MATERIAL_DIFFUSE) {
