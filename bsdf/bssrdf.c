@@ -39,27 +39,35 @@ double bssrdf_fresnel_moment2(double eta)
  * the beam's exponential attenuation, as pbrt-v4 does (so that the table is its table). */
 #define PBD_SAMPLES 100
 
+/* The quadrature's unit-rate exponential depths -ln(1 - (i + 1/2) / PBD_SAMPLES). */
+static void pbd_depths(double q[PBD_SAMPLES])
+{
+    for (int i = 0; i < PBD_SAMPLES; i++)
+        q[i] = -log(1.0 - (i + 0.5) / PBD_SAMPLES);
+}
+
 /* Multiple scattering (Habel et al. 2013, eqs. 7-11; pbrt-v4 BeamDiffusionMS): the dipole of
  * Grosjean's diffusion coefficient D_G = (2 sigma_a + sigma_s') / (3 sigma_t'^2) for a source at
  * depth z_r along the refracted beam, mirrored about the extrapolated boundary
  * z_e = -2 D_G (1 + 3 M2) / (1 - 2 M1) (Fresnel moments M1, M2 of the inside), its exitance
  * c_phi phi + c_E E.n with c_phi = (1 - 2 M1) / 4 and c_E = (1 - 3 M2) / 2, each depth weighted
  * by rho'^2 and the correction kappa = 1 - exp(-2 sigma_t' (d_r + z_r)). */
-double bssrdf_beam_diffusion_ms(double sigma_s, double sigma_a, double g, double eta, double r)
+static double beam_ms(const double *q, double sigma_s, double sigma_a, double g, double eta,
+                      double r)
 {
     const double sps = sigma_s * (1.0 - g), spt = sigma_a + sps;
     if (!(spt > 0.0))
         return 0.0;
     const double rhop = sps / spt;
     const double dg = (2.0 * sigma_a + sps) / (3.0 * spt * spt);
-    const double q = sigma_a / dg, str = q > 0.0 ? sqrt(q) : 0.0;
+    const double ratio = sigma_a / dg, str = ratio > 0.0 ? sqrt(ratio) : 0.0;
     const double m1 = bssrdf_fresnel_moment1(eta), m2 = bssrdf_fresnel_moment2(eta);
     const double ze = -2.0 * dg * (1.0 + 3.0 * m2) / (1.0 - 2.0 * m1);
     const double c_phi = 0.25 * (1.0 - 2.0 * m1), c_e = 0.5 * (1.0 - 3.0 * m2);
     const double inv4pi = 1.0 / (4.0 * PF_PI);
     double sum = 0.0;
     for (int i = 0; i < PBD_SAMPLES; i++) {
-        const double zr = -log(1.0 - (i + 0.5) / PBD_SAMPLES) / spt;
+        const double zr = q[i] / spt;
         const double zv = -zr + 2.0 * ze;
         const double dr = sqrt(r * r + zr * zr), dv = sqrt(r * r + zv * zv);
         const double er = exp(-str * dr), ev = exp(-str * dv);
@@ -76,7 +84,8 @@ double bssrdf_beam_diffusion_ms(double sigma_s, double sigma_a, double g, double
  * once at depth t along the beam toward the exit point at distance d = sqrt(r^2 + t^2), only
  * from below the critical depth t_crit = r sqrt(eta^2 - 1), with the HG phase function and the
  * exit's Fresnel transmission. */
-double bssrdf_beam_diffusion_ss(double sigma_s, double sigma_a, double g, double eta, double r)
+static double beam_ss(const double *q, double sigma_s, double sigma_a, double g, double eta,
+                      double r)
 {
     const double st = sigma_a + sigma_s;
     if (!(st > 0.0))
@@ -85,7 +94,7 @@ double bssrdf_beam_diffusion_ss(double sigma_s, double sigma_a, double g, double
     const double e = eta * eta - 1.0, tcrit = r * (e > 0.0 ? sqrt(e) : 0.0);
     double sum = 0.0;
     for (int i = 0; i < PBD_SAMPLES; i++) {
-        const double ti = tcrit - log(1.0 - (i + 0.5) / PBD_SAMPLES) / st;
+        const double ti = tcrit + q[i] / st;
         const double d = sqrt(r * r + ti * ti), cos_o = ti / d;
         const double den = 1.0 + g * g + 2.0 * g * cos_o;
         const double hg = (1.0 - g * g) / (4.0 * PF_PI * den * sqrt(den));
@@ -94,6 +103,20 @@ double bssrdf_beam_diffusion_ss(double sigma_s, double sigma_a, double g, double
         sum += rho * exp(-st * (d + tcrit)) / (d * d) * hg * tr * fabs(cos_o);
     }
     return sum / PBD_SAMPLES;
+}
+
+double bssrdf_beam_diffusion_ms(double sigma_s, double sigma_a, double g, double eta, double r)
+{
+    double q[PBD_SAMPLES];
+    pbd_depths(q);
+    return beam_ms(q, sigma_s, sigma_a, g, eta, r);
+}
+
+double bssrdf_beam_diffusion_ss(double sigma_s, double sigma_a, double g, double eta, double r)
+{
+    double q[PBD_SAMPLES];
+    pbd_depths(q);
+    return beam_ss(q, sigma_s, sigma_a, g, eta, r);
 }
 
 bssrdf_table_t *bssrdf_table_new(double g, double eta)
@@ -111,14 +134,16 @@ bssrdf_table_t *bssrdf_table_new(double g, double eta)
         t->radius[i] = t->radius[i - 1] * 1.2;
     for (int i = 0; i < BSSRDF_RHO_SAMPLES; i++)
         t->rho[i] = (1.0 - exp(-8.0 * i / (BSSRDF_RHO_SAMPLES - 1.0))) / (1.0 - exp(-8.0));
+    double q[PBD_SAMPLES];
+    pbd_depths(q);
     for (int i = 0; i < BSSRDF_RHO_SAMPLES; i++) {
         double *row = t->profile + (size_t)i * BSSRDF_RADIUS_SAMPLES;
         const double rho = t->rho[i];
         for (int j = 0; j < BSSRDF_RADIUS_SAMPLES; j++) {
             const double r = t->radius[j];
-            row[j] = 2.0 * PF_PI * r *
-                     (bssrdf_beam_diffusion_ss(rho, 1.0 - rho, g, eta, r) +
-                      bssrdf_beam_diffusion_ms(rho, 1.0 - rho, g, eta, r));
+            row[j] =
+                2.0 * PF_PI * r *
+                (beam_ss(q, rho, 1.0 - rho, g, eta, r) + beam_ms(q, rho, 1.0 - rho, g, eta, r));
         }
         t->rho_eff[i] = catmull_rom_integrate(t->radius, row, BSSRDF_RADIUS_SAMPLES,
                                               t->cdf + (size_t)i * BSSRDF_RADIUS_SAMPLES);
@@ -137,6 +162,11 @@ void bssrdf_table_destroy(bssrdf_table_t **self_p)
 double bssrdf_table_eta(const bssrdf_table_t *t)
 {
     return t->eta;
+}
+
+double bssrdf_table_g(const bssrdf_table_t *t)
+{
+    return t->g;
 }
 
 static double clamp01(double v)

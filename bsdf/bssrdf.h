@@ -31,6 +31,7 @@ bssrdf_table_t *bssrdf_table_new(double g, double eta);
 void bssrdf_table_destroy(bssrdf_table_t **self_p);
 
 double bssrdf_table_eta(const bssrdf_table_t *t);
+double bssrdf_table_g(const bssrdf_table_t *t);
 
 /* The effective albedo (the profile's integral over the plane) at single-scattering albedo
  * rho, interpolated; and its inverse, the rho that gives rho_eff (pbrt-v4

@@ -396,8 +396,10 @@ static int get_subsurface(parser_t *P, params_t *ps, scene_material_t *m)
         get_roughness(P, ps, m, "", &m->uroughness, &m->vroughness) != 0 ||
         params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err) != 0)
         return -1;
-    if (!(m->sss_eta > 0.0))
-        return pbrt_state_check_positive(P, ps, "eta", m->sss_eta);
+    /* The Fresnel moments' polynomial fits (bsdf/bssrdf.h) hold over this range; pbrt-v4 takes
+     * any index and goes wrong outside it. */
+    if (!(m->sss_eta >= 0.5 && m->sss_eta <= 3.0))
+        return pbrt_state_check_range(P, ps, "eta", m->sss_eta, 0.5, 3.0);
     if (!(m->sss_g > -1.0 && m->sss_g < 1.0))
         return pbrt_state_check_range(P, ps, "g", m->sss_g, -0.999, 0.999);
     m->sigma_a.texture = m->sss_sigma_s.texture = m->sss_mfp.texture = -1;
