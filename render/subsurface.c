@@ -37,7 +37,7 @@ bool subsurface_find_exit(const scene_t *scene, const material_t *m, const surfa
                           const double *lambda, int n, int hero, const double *sel,
                           const double u[3], rng_stream_t *rng, subsurface_exit_t *out)
 {
-    double sigma_t[RENDER_MAX_BUCKETS], rho[RENDER_MAX_BUCKETS];
+    double sigma_t[BSDF_MAX_LANES], rho[BSDF_MAX_LANES];
     for (int j = 0; j < n; j++)
         medium_at(m, sf, lambda[j], &sigma_t[j], &rho[j]);
     const bssrdf_table_t *t = m->sss.table;
@@ -80,7 +80,7 @@ bool subsurface_find_exit(const scene_t *scene, const material_t *m, const surfa
     shading_perturb(m, &out->sf);
     const vec3_t pi = out->sf.p, ni = out->sf.ng;
     const double r = vec3_length(vec3_sub(pi, po));
-    double pdf[RENDER_MAX_BUCKETS];
+    double pdf[BSDF_MAX_LANES];
     for (int j = 0; j < n; j++)
         pdf[j] = bssrdf_pdf_sp(t, sigma_t[j], rho[j], po, ns, pi, ni);
     double mix = 0.0;

@@ -16,14 +16,13 @@
 #define PRISMFARM_SUBSURFACE_H
 
 #include "bsdf.h"
-#include "render.h"
 #include "rng.h"
 #include "scene.h"
 
 typedef struct subsurface_exit {
-    surface_t sf;                      /* the exit point's surface */
-    double weight[RENDER_MAX_BUCKETS]; /* per lane: S_p / (choice probability x density) */
-    int rays;                          /* probe rays traced, for the statistics */
+    surface_t sf;                  /* the exit point's surface */
+    double weight[BSDF_MAX_LANES]; /* per lane: S_p / (choice probability x density) */
+    int rays;                      /* probe rays traced, for the statistics */
 } subsurface_exit_t;
 
 /* The exit for light that entered material m (m->sss.table set) at sf, for n lanes of
