@@ -1,5 +1,6 @@
 #include "bsdf.h"
 
+#include "bssrdf.h"
 #include "fresnel.h"
 #include "hair.h"
 #include "layered.h"
@@ -61,6 +62,20 @@ static double dt_pdf(double r, double t, vec3_t wo, vec3_t wi)
     return p * sample_cosine_hemisphere_pdf(fabs(wi.z));
 }
 
+/* pbrt-v4's NormalizedFresnelBxDF, the BSSRDF's directional factor S_w where light leaves:
+ * the outside's Fresnel transmission (1 - F_r(cos wi)) normalised by its cosine-weighted
+ * integral c pi, c = 1 - 2 M1(1 / eta) (bssrdf.h's moment of the outside), so that
+ * int S_w cos = 1; in radiance mode times eta^2, which undoes the 1 / eta^2 of the refraction
+ * that took the light in. Reflection only, on wo's side. */
+static double sss_exit_f(double eta, bsdf_mode_t mode, vec3_t wo, vec3_t wi)
+{
+    if (!(wo.z * wi.z > 0.0) || !(eta > 0.0))
+        return 0.0;
+    const double c = 1.0 - 2.0 * bssrdf_fresnel_moment1(1.0 / eta);
+    const double f = (1.0 - fresnel_dielectric(fabs(wi.z), 1.0, eta)) / (c * PF_PI);
+    return lobe_finite(mode == BSDF_RADIANCE ? f * eta * eta : f);
+}
+
 static double dt_f(double r, double t, vec3_t wo, vec3_t wi)
 {
     if (wo.z == 0.0 || wi.z == 0.0)
@@ -101,6 +116,9 @@ void bsdf_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double 
             f[j] =
                 lobe_dielectric_f_film(&b->mf, b->eta[j], lane_film(b, j, &film), b->mode, wo, wi);
             break;
+        case BSDF_SSS_EXIT:
+            f[j] = sss_exit_f(b->eta[j], b->mode, wo, wi);
+            break;
         default:
             f[j] = 0.0;
             break;
@@ -130,6 +148,7 @@ void bsdf_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *
     for (int j = 0; j < n; j++) {
         switch (b->kind) {
         case BSDF_DIFFUSE:
+        case BSDF_SSS_EXIT:
             pdf[j] = lobe_diffuse_pdf(wo, wi, LOBE_ALL);
             break;
         case BSDF_DIFFUSE_TRANSMISSION:
@@ -305,6 +324,20 @@ bool bsdf_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, dou
     }
     case BSDF_HAIR:
         return hair_sample(b, wo, hero, uc, u1, u2, out);
+    case BSDF_SSS_EXIT: {
+        vec3_t wi = sample_cosine_hemisphere(u1, u2);
+        if (wo.z < 0.0)
+            wi.z = -wi.z;
+        if (wi.z == 0.0)
+            return false;
+        out->wi = wi;
+        out->flags = BSDF_REFLECTION;
+        for (int j = 0; j < n; j++) {
+            out->f[j] = sss_exit_f(b->eta[j], b->mode, wo, wi);
+            out->pdf[j] = sample_cosine_hemisphere_pdf(fabs(wi.z));
+        }
+        return out->pdf[hero] > 0.0;
+    }
     }
     return false;
 }

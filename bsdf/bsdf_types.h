@@ -24,6 +24,8 @@ typedef enum bsdf_kind {
                                 * (cond_eta[j], cond_k[j] relative to the coating, mf_base) */
     BSDF_MEASURED,             /* RGL's measured BRDF data (measured.h) read at lambda[j] */
     BSDF_HAIR,                 /* a hair fibre (bsdf/hair.h): hair_* and sigma_a[j] */
+    BSDF_SSS_EXIT,             /* where a BSSRDF's light leaves (bssrdf.h): pbrt-v4's
+                                * NormalizedFresnelBxDF of index eta[j] */
 } bsdf_kind_t;
 
 /* pbrt-v4's TransportMode: radiance for camera paths, importance for light (photon) paths;

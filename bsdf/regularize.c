@@ -34,7 +34,8 @@ void regularize_bsdf(bsdf_t *b)
     case BSDF_DIFFUSE_TRANSMISSION:
     case BSDF_THIN_DIELECTRIC:
     case BSDF_MEASURED: /* pbrt-v4's MeasuredBxDF::Regularize does nothing */
-    case BSDF_HAIR: /* pbrt-v4's HairBxDF::Regularize does nothing */
+    case BSDF_HAIR:     /* pbrt-v4's HairBxDF::Regularize does nothing */
+    case BSDF_SSS_EXIT: /* nor does its NormalizedFresnelBxDF's */
         return;
     }
 }

@@ -268,7 +268,8 @@ static int specular_sphere(const scene_t *s, vec3_t *centre, double *radius)
         /* Aim at what the pass follows: smooth mirrors and glass (a roughness texture may be
          * smooth in places). */
         const int sheet = s->settings.polarised && material_is_sheet(m->kind);
-        if (((m->kind != MATERIAL_DIELECTRIC && m->kind != MATERIAL_CONDUCTOR) || m->rough) &&
+        if (((m->kind != MATERIAL_DIELECTRIC && m->kind != MATERIAL_CONDUCTOR) || m->rough ||
+             m->sss.table) &&
             !sheet)
             continue;
         vec3_t blo, bhi;
@@ -411,6 +412,10 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
          * photon crosses, a specular event (below). */
         const int sheet = material_is_sheet(m->kind);
         if (sheet && !f->pol)
+            return 0;
+        /* Nor do they enter a subsurface material (render/subsurface.h): light beneath it is
+         * diffused, and the camera pass path traces what leaves it. */
+        if (m->sss.table)
             return 0;
         shading_perturb(m, &sf);
         if (m->kind == MATERIAL_DIFFUSE) {

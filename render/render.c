@@ -16,6 +16,7 @@
 #include "sheet.h"
 #include "spectral_grid.h"
 #include "specular.h"
+#include "subsurface.h"
 #include "volume.h"
 #include "wavelength.h"
 
@@ -1300,6 +1301,25 @@ static int scatter_crystal(ctx_t *c, path_t *p, const surface_t *h, const materi
  * instead of ending. With "spectralmis" false,
  * a surface whose lobes differ ends the secondary lanes as pbrt-v4 does (the hero, lane 0,
  * carries n times its weight). Lanes whose lobes agree give the same numbers either way. */
+static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *bp, int gather,
+                        int *sampled);
+
+/* The lane that samples under spectral MIS: lane j with probability sel[j] for the uniform u,
+ * never a lane of probability 0. */
+static int lanes_pick(const double *sel, int n, double u)
+{
+    double acc = 0.0;
+    int hero = n - 1;
+    for (int j = 0; j < n; j++)
+        if (u < (acc += sel[j]) && sel[j] > 0.0) {
+            hero = j;
+            break;
+        }
+    while (hero > 0 && !(sel[hero] > 0.0))
+        hero--;
+    return hero;
+}
+
 static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material_t *m,
                         int regularized)
 {
@@ -1307,6 +1327,15 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
     shading_bsdf(m, sf, p->lambda, p->n, BSDF_RADIANCE, &b);
     if (regularized)
         regularize_bsdf(&b);
+    return scatter_with(c, p, sf, &b, 1, NULL);
+}
+
+/* scatter_bsdf with the model b at sf; gather 0 keeps the caustic store's photons away (none
+ * are stored where they cannot arrive); *sampled (when not NULL) gets the sample's flags. */
+static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *bp, int gather,
+                        int *sampled)
+{
+    const bsdf_t b = *bp;
     const vec3_t wo_world = vec3_neg(p->dir);
     const shading_frame_t fr = shading_frame_make(sf, wo_world);
     const vec3_t wo = shading_to_local(&fr, wo_world);
@@ -1329,23 +1358,12 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
         direct_light_bsdf(c, p, sf, &b, &fr, wo, sel);
     /* The glossy receiver's photons, at the path's first non-specular vertex, as caustic_light
      * at a diffuse one; only a store with directions has them (photon.c). */
-    const int gathers = c->glossy_photons && !delta && p->diffuse_bounces == 0;
+    const int gathers = gather && c->glossy_photons && !delta && p->diffuse_bounces == 0;
     if (gathers)
         caustic_light_bsdf(c, p, sf, &b, &fr, wo);
     if (!delta && c->rs->integrator == INTEGRATOR_WHITTED)
         return 1;
-    int hero = 0;
-    if (sel) {
-        double u = draw1(c, VD_LANE), acc = 0.0;
-        hero = p->n - 1;
-        for (int j = 0; j < p->n; j++)
-            if (u < (acc += sel[j]) && sel[j] > 0.0) {
-                hero = j;
-                break;
-            }
-        while (hero > 0 && !(sel[hero] > 0.0))
-            hero--;
-    }
+    const int hero = sel ? lanes_pick(sel, p->n, draw1(c, VD_LANE)) : 0;
     double uc = draw1(c, VD_LOBE), ud[2];
     draw2(c, VD_DIRECTION, ud);
     bsdf_sample_t bs;
@@ -1395,7 +1413,59 @@ static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material
      * (a smooth coat's mirror lobe, which the BSDF evaluation and so the gather leave out)
      * and every surface that did not gather break it: light through them is path traced. */
     p->specular_since_diffuse = gathers && !specular ? 0 : CHAIN_BROKEN;
+    if (sampled)
+        *sampled = bs.flags;
     return 0;
+}
+
+/* pbrt-v4's subsurface material under "path" and "simplepath" (render/subsurface.h): its
+ * dielectric boundary scatters as any bsdf/ model; light it refracts inside leaves at a point
+ * a BSSRDF probe finds, weighted by the profile, and scatters there by the exit lobe (next-event
+ * estimation and a cosine-sampled continuation) in a vertex block of its own, whose mix, glass
+ * and fan-out slots (unused at an exit) place the probe. Returns 1 when the path ends. */
+enum {
+    VD_PROBE_AXIS = VD_MIX,
+    VD_PROBE_RADIUS = VD_REFLECT,
+    VD_PROBE_PHI = VD_FAN_JITTER,
+    VD_PROBE_LANE = VD_FAN_PICK,
+};
+
+static int scatter_subsurface(ctx_t *c, path_t *p, const surface_t *sf, const material_t *m,
+                              int regularized)
+{
+    bsdf_t b;
+    shading_bsdf(m, sf, p->lambda, p->n, BSDF_RADIANCE, &b);
+    if (regularized)
+        regularize_bsdf(&b);
+    int flags = 0;
+    /* Photons stop at subsurface materials (photon.c): no gather here or at the exit. */
+    if (scatter_with(c, p, sf, &b, 0, &flags))
+        return 1;
+    if (!(flags & BSDF_TRANSMISSION))
+        return 0; /* the boundary reflected it */
+    vertex_begin(c, p);
+    double sel[LANES];
+    const int mis = p->n > 1;
+    if (mis && !lanes_select(p, sel))
+        return 1;
+    const int hero = mis ? lanes_pick(sel, p->n, draw1(c, VD_PROBE_LANE)) : 0;
+    const double u[3] = {draw1(c, VD_PROBE_AXIS), draw1(c, VD_PROBE_RADIUS),
+                         draw1(c, VD_PROBE_PHI)};
+    subsurface_exit_t ex;
+    const bool found = subsurface_find_exit(c->scene, m, sf, p->lambda, p->n, hero,
+                                            mis ? sel : NULL, u, &c->rng, &ex);
+    c->stats->rays += (uint64_t)ex.rays;
+    if (!found)
+        return 1;
+    for (int j = 0; j < p->n; j++)
+        p->beta[j] *= ex.weight[j];
+    if (!(max_beta(p) > 0.0))
+        return 1;
+    bsdf_t exit;
+    subsurface_exit_bsdf(m, p->n, BSDF_RADIANCE, &exit);
+    /* pbrt-v4 takes the light's way out to be along the exit's shading normal. */
+    p->dir = vec3_neg(ex.sf.ns);
+    return scatter_with(c, p, &ex.sf, &exit, 0, NULL);
 }
 
 /* Russian roulette after a bounce (thesis eq. 2.32-2.33): from RR_DEPTH bounces on, the path
@@ -1621,6 +1691,9 @@ static void trace(ctx_t *c, path_t *start)
                     p->specular_since_diffuse++;
                 else
                     p->specular_since_diffuse = CHAIN_BROKEN;
+            } else if (m->sss.table && c->rs->integrator != INTEGRATOR_WHITTED) {
+                if (scatter_subsurface(c, p, &sf, m, regularized))
+                    break;
             } else if (!shading_is_delta(m, &sf) || (regularized && !m->uniaxial)) {
                 /* regularize roughens smooth glass and metal, films included, not crystals
                  * (whose two waves no rough model carries): docs/compatibility.md,

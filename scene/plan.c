@@ -59,7 +59,7 @@
 static const char *const EFFECT_NAMES[PLAN_EFFECT_COUNT] = {
     "wavelength splitting", "spectral colour",   "dispersion strategy",
     "photon pass",          "photon parameters", "integrator",
-    "polarisation",
+    "polarisation",         "subsurface scattering",
 };
 
 /* ---- a growing string ---- */
@@ -337,7 +337,8 @@ static int texture_varies(const texture_t *t, spectral_grid_t g)
 /* A smooth mirror or glass: what carries a caustic (and what the photon pass follows). */
 static int is_specular(const material_t *m)
 {
-    return (m->kind == MATERIAL_CONDUCTOR || m->kind == MATERIAL_DIELECTRIC) && !m->rough;
+    return (m->kind == MATERIAL_CONDUCTOR || m->kind == MATERIAL_DIELECTRIC) && !m->rough &&
+           !m->sss.table; /* light entering a subsurface material is diffused beneath */
 }
 
 
@@ -1417,6 +1418,46 @@ static int decide_integrator(plan_t *p)
     return set_decision(p, PLAN_INTEGRATOR, 1, &c, &r);
 }
 
+/* Subsurface materials (scene.h material_t sss): named, and how the integrator that renders
+ * treats them; pbrt-v4's path-sampled BSSRDF under "path" and "simplepath", their dielectric
+ * boundary alone under "whitted" (render.c). */
+static int decide_subsurface(plan_t *p, const scene_t *s)
+{
+    text_t c = {0}, r = {0};
+    int n = 0;
+    for (size_t i = 0; i < s->nmaterials; i++) {
+        const material_t *m = &s->materials[i];
+        if (!m->sss.table)
+            continue;
+        if (!n)
+            text_add(&r, "subsurface scattering: ");
+        text_add(&r, "%smaterial %s%s%s (eta %.4g, g %.3g, %s)", n ? "; " : "",
+                 m->named ? "\"" : "", m->name, m->named ? "\"" : "",
+                 bssrdf_table_eta(m->sss.table), bssrdf_table_g(m->sss.table),
+                 m->sss.sigma_a ? "sigma_a and sigma_s" : "reflectance and mfp");
+        n++;
+    }
+    const int whitted = p->current_integrator == INTEGRATOR_WHITTED;
+    if (!n) {
+        text_add(&c, "-");
+        text_add(&r, "no material is \"subsurface\".");
+    } else if (whitted) {
+        text_add(&c, "boundary only");
+        text_add(&r, ". The \"whitted\" integrator renders %s as "
+                     "%s dielectric boundary only (no light leaves from beneath); \"path\" "
+                     "renders the BSSRDF.",
+                 n > 1 ? "them" : "it", n > 1 ? "their" : "its");
+    } else {
+        text_add(&c, "BSSRDF");
+        text_add(&r, ". Light refracted into %s leaves at a point a probe "
+                     "ray finds, weighted by pbrt-v4's tabulated photon beam diffusion profile "
+                     "(docs/physics.md §18); photons stop at %s, the camera pass path traces "
+                     "the light beneath.",
+                 n > 1 ? "them" : "it", n > 1 ? "them" : "it");
+    }
+    return set_decision(p, PLAN_SUBSURFACE, n > 0, &c, &r);
+}
+
 plan_t *plan_new(const scene_t *scene, const plan_request_t *req, err_t *err)
 {
     plan_t *p = calloc(1, sizeof *p);
@@ -1462,7 +1503,8 @@ plan_t *plan_new(const scene_t *scene, const plan_request_t *req, err_t *err)
         p->nplacements = t.max_hops > 0 ? (size_t)npl : 0;
         rc = decide_splitting(p, scene) || decide_colour(p, scene) || decide_strategy(p, scene) ||
              decide_photon(p, scene) || decide_photon_params(p, scene, lo, hi, (size_t)npl) ||
-             decide_integrator(p) || decide_polarisation(p, scene);
+             decide_integrator(p) || decide_polarisation(p, scene) ||
+             decide_subsurface(p, scene);
     }
     free(pls);
     for (size_t i = 0; cdfs && i < scene->nshapes; i++)
@@ -1721,6 +1763,9 @@ int plan_write_text(const plan_t *p, FILE *out)
             break;
         case PLAN_POLARISATION:
             why = "nothing polarising is seen or asked for (intensities only)";
+            break;
+        case PLAN_SUBSURFACE:
+            why = "no subsurface material";
             break;
         default:
             break;

@@ -51,6 +51,7 @@ typedef enum plan_effect {
     PLAN_PHOTON_PARAMS, /* its photon count and gather radius */
     PLAN_INTEGRATOR,    /* the camera pass's integrator */
     PLAN_POLARISATION,  /* Stokes carriers on camera paths (render_settings_t.polarised) */
+    PLAN_SUBSURFACE,    /* subsurface materials' BSSRDF (render/subsurface.h) */
     PLAN_EFFECT_COUNT,
 } plan_effect_t;
 

@@ -117,6 +117,9 @@ void scene_destroy(scene_t **self_p)
     }
     free(self->measured);
     free(self->measured_paths);
+    for (size_t i = 0; i < self->nbssrdf; i++)
+        bssrdf_table_destroy(&self->bssrdf[i]);
+    free(self->bssrdf);
     for (size_t i = 0; i < self->nmedia; i++)
         medium_destroy(&self->media[i]);
     free(self->media);
@@ -214,6 +217,17 @@ const measured_t *scene_find_measured(const scene_t *self, const char *path)
         if (!strcmp(self->measured_paths[i], path))
             return self->measured[i];
     return NULL;
+}
+
+int scene_own_bssrdf(scene_t *self, bssrdf_table_t *t, err_t *err)
+{
+    long i = grow((void **)&self->bssrdf, &self->nbssrdf, sizeof *self->bssrdf, err);
+    if (i < 0) {
+        bssrdf_table_destroy(&t);
+        return -1;
+    }
+    self->bssrdf[i] = t;
+    return 0;
 }
 
 int scene_add_medium(scene_t *self, medium_t *m, err_t *err)

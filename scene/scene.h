@@ -23,6 +23,7 @@
 #include "integrators.h"
 #include "lens.h"
 #include "light_bvh.h"
+#include "bssrdf.h"
 #include "measured.h"
 #include "medium.h"
 #include "sensor.h"
@@ -134,6 +135,17 @@ typedef struct material {
      * of plate_thickness_nm (polar/waveplate.h). */
     retarder_mode_t retarder_mode;
     double retardation_nm, plate_thickness_nm;
+    /* pbrt-v4's SubsurfaceMaterial (scene/subsurface_load.h): a MATERIAL_DIELECTRIC (its ior
+     * and roughness are the boundary's) with a BSSRDF beneath, when table is not NULL: the
+     * profile table for its (g, eta) (owned by the scene), the medium's coefficients per unit
+     * length (sigma_a and sigma_s, else reflectance and mfp, which SubsurfaceFromDiffuse
+     * turns into them), all times scale. The path integrator follows it (render/subsurface.h);
+     * the other integrators see the dielectric (the plan warns). */
+    struct {
+        const bssrdf_table_t *table;
+        const texture_t *sigma_a, *sigma_s, *reflectance, *mfp;
+        double scale;
+    } sss;
 } material_t;
 
 typedef enum light_kind {
@@ -424,6 +436,8 @@ typedef struct scene {
     measured_t **measured; /* owned; with the path each was read from (measured_paths) */
     char **measured_paths;
     size_t nmeasured;
+    bssrdf_table_t **bssrdf; /* owned: the subsurface materials' tables (scene_own_bssrdf) */
+    size_t nbssrdf;
     camera_t camera;
     filter_sampler_t *filter; /* settings.filter's sampler (owned); NULL: the box of radius 0.5 */
     /* The Film's sensor (owned); NULL: cie1931 without white balance, the film records XYZ. */
@@ -474,6 +488,9 @@ int scene_own_projmap(scene_t *self, projmap_t *m, err_t *err);
  * scene_find_measured finds by that path (NULL: none yet). */
 int scene_own_measured(scene_t *self, measured_t *m, const char *path, err_t *err);
 const measured_t *scene_find_measured(const scene_t *self, const char *path);
+
+/* Likewise for a subsurface material's BSSRDF table (destroyed on failure too). */
+int scene_own_bssrdf(scene_t *self, bssrdf_table_t *t, err_t *err);
 /* Appends a medium (owned from here on, also on failure; NULL: one that is not simulated) and
  * returns its index, or -1. */
 int scene_add_medium(scene_t *self, medium_t *m, err_t *err);

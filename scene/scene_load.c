@@ -15,6 +15,7 @@
 #include "pbrt_parser.h"
 #include "plan.h"
 #include "pool.h"
+#include "subsurface_load.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -904,7 +905,8 @@ static int load_materials(loader_t *L, err_t *err)
         const int has_roughness = dm->type == SCENE_MATERIAL_CONDUCTOR ||
                                   dm->type == SCENE_MATERIAL_DIELECTRIC ||
                                   dm->type == SCENE_MATERIAL_COATEDDIFFUSE ||
-                                  dm->type == SCENE_MATERIAL_COATEDCONDUCTOR;
+                                  dm->type == SCENE_MATERIAL_COATEDCONDUCTOR ||
+                                  dm->type == SCENE_MATERIAL_SUBSURFACE;
         if (has_roughness && (roughness_input(L, &dm->uroughness, &m.uroughness, err) ||
                               roughness_input(L, &dm->vroughness, &m.vroughness, err)))
             return -1;
@@ -966,6 +968,14 @@ static int load_materials(loader_t *L, err_t *err)
             break;
         case SCENE_MATERIAL_HAIR:
             rc = hair_inputs(L, dm, &m, err);
+            break;
+        case SCENE_MATERIAL_SUBSURFACE: /* scene/subsurface_load.h */
+            rc = (m.sss.sigma_a = spectrum_input(L, &dm->sigma_a, SPEC_UNBOUNDED, err)) &&
+                         (m.sss.sigma_s = spectrum_input(L, &dm->sss_sigma_s, SPEC_UNBOUNDED, err)) &&
+                         (m.sss.reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) &&
+                         (m.sss.mfp = spectrum_input(L, &dm->sss_mfp, SPEC_UNBOUNDED, err))
+                     ? subsurface_load(L->sc, dm, &m, err)
+                     : -1;
             break;
         case SCENE_MATERIAL_POLARIZER:
         case SCENE_MATERIAL_RETARDER:

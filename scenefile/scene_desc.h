@@ -153,6 +153,7 @@ typedef enum scene_material_type {
     SCENE_MATERIAL_RETARDER,  /* prismfarm: a thin linear retarder sheet (wave plate) */
     SCENE_MATERIAL_MEASURED,  /* pbrt-v4's measured BSDF: an RGL .bsdf file */
     SCENE_MATERIAL_HAIR,      /* pbrt-v4's hair fibre */
+    SCENE_MATERIAL_SUBSURFACE, /* pbrt-v4's subsurface (a tabulated BSSRDF under a dielectric) */
 } scene_material_type_t;
 
 /* Where a hair's absorption comes from (pbrt-v4 HairMaterial, in its order of precedence). */
@@ -252,6 +253,16 @@ typedef struct scene_material {
     scene_float_input_t eumelanin, pheomelanin, hair_eta, beta_m, beta_n, hair_alpha;
     int retarder_mode;
     double retardation, plate_thickness;
+    /* SUBSURFACE (pbrt-v4 SubsurfaceMaterial): a dielectric boundary of index "eta" (sss_eta,
+     * 1.33) and roughness (the fields above) over a scattering medium: "sigma_a" and
+     * "sigma_s" (sigma_a above, sss_sigma_s; both or neither), else a named measured medium
+     * ("string name", read into them as RGB in 1/mm), else "reflectance" (the field above)
+     * with the mean free path "mfp" (sss_from_reflectance; mfp 1), else pbrt-v4's default
+     * skin-like coefficients; all times "scale" (the field above, 1); HG "g" (sss_g, 0, which a
+     * name forces). */
+    bool sss_from_reflectance;
+    scene_spectrum_input_t sss_sigma_s, sss_mfp;
+    double sss_eta, sss_g;
 } scene_material_t;
 
 /* ---- lights ---- */

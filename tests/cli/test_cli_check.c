@@ -15,7 +15,7 @@
 
 static const char *BAD = "WorldBegin\n"
                          "PixelFilter \"box\"\n"
-                         "Material \"subsurface\"\n"
+                         "Material \"skin\"\n"
                          "Shape \"hyperboloid\"\n"
                          "Material \"diffuse\" \"float bogus\" 1\n"
                          "LightSource \"point\"\n"
@@ -32,7 +32,7 @@ static void test_every_refusal_at_once(void **state)
     char line[512];
     snprintf(line, sizeof line, "error: %s:2:1: PixelFilter must come before WorldBegin", path);
     expect_in(r->out, line);
-    snprintf(line, sizeof line, "error: %s:3:10: unsupported material \"subsurface\"", path);
+    snprintf(line, sizeof line, "error: %s:3:10: unsupported material \"skin\"", path);
     expect_in(r->out, line);
     snprintf(line, sizeof line, "error: %s:4:7: unsupported shape \"hyperboloid\"", path);
     expect_in(r->out, line);

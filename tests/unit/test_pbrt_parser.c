@@ -1177,15 +1177,21 @@ static void test_error_messages(void **state)
          "t.pbrt:2:10: unsupported material \"difuse\" (did you mean \"diffuse\"? \"diffuse\", "
          "\"conductor\", \"dielectric\", \"thindielectric\", \"diffusetransmission\", "
          "\"coateddiffuse\", \"coatedconductor\", \"mix\", \"uniaxial\", \"interface\", "
-         "\"polarizer\", \"retarder\", \"measured\" or \"hair\")"},
+         "\"polarizer\", \"retarder\", \"measured\", \"hair\" or \"subsurface\")"},
         {"Sampler \"sobel\"\nWorldBegin\n",
          "t.pbrt:1:9: unsupported sampler \"sobel\" (did you mean \"sobol\"? \"halton\", "
          "\"independent\", \"paddedsobol\", \"pmj02bn\", \"sobol\", \"stratified\" or \"zsobol\")"},
-        {"WorldBegin\nMaterial \"subsurface\"\n",
-         "t.pbrt:2:10: unsupported material \"subsurface\" (\"diffuse\", \"conductor\", "
+        {"WorldBegin\nMaterial \"skin\"\n",
+         "t.pbrt:2:10: unsupported material \"skin\" (\"diffuse\", \"conductor\", "
          "\"dielectric\", \"thindielectric\", \"diffusetransmission\", \"coateddiffuse\", "
          "\"coatedconductor\", \"mix\", \"uniaxial\", \"interface\", \"polarizer\", "
-         "\"retarder\", \"measured\" or \"hair\")"},
+         "\"retarder\", \"measured\", \"hair\" or \"subsurface\")"},
+        {"WorldBegin\nMaterial \"subsurface\" \"rgb sigma_a\" [1 1 1]\n",
+         "t.pbrt:2:23: Material \"subsurface\": \"sigma_a\" is given without \"sigma_s\""},
+        {"WorldBegin\nMaterial \"subsurface\" \"string name\" \"Cheese\"\n",
+         "t.pbrt:2:23: Material \"subsurface\": named medium \"Cheese\" is not in pbrt-v4's "
+         "table of measured media (e.g. \"Skin1\", \"Ketchup\", \"Apple\", \"Wholemilk\"; "
+         "docs/scene-format.md lists them)"},
         {"WorldBegin\nMaterial \"mix\" \"string materials\" [\"a\" \"b\"]\n",
          "t.pbrt:2:16: mix: named material \"a\" is not defined (a MakeNamedMaterial must come "
          "before the mix that uses it)"},
