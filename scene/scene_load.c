@@ -1321,8 +1321,29 @@ static int area_light_power(loader_t *L, const scene_area_light_t *a, const shap
     return 0;
 }
 
-/* Adds one shape to the world (object < 0, in world space) or to a scene object (in the
- * object's space); the shape's own transform is applied here. */
+/* A shape's AreaLightSource as a light of the scene (its index into *light, -1 when the shape
+ * has none); the shape itself is added after it. */
+static int load_lights_area(loader_t *L, const scene_shape_t *s, int object, int *light,
+                            err_t *err)
+{
+    *light = -1;
+    if (s->area_light < 0)
+        return 0;
+    const scene_area_light_t *a = &L->desc->area_lights[s->area_light];
+    if (object >= 0)
+        return pbrt_error(err, s->loc, "area lights are not supported in instanced objects");
+    light_t l = {.kind = a->type == SCENE_AREA_COLLIMATED ? LIGHT_COLLIMATED : LIGHT_AREA,
+                 .scale = a->scale, .twosided = a->twosided};
+    if (!(l.spectrum = light_spectrum(L->sc, &a->L, err)))
+        return -1;
+    if (a->filename && !(l.area_image = load_area_image(L, a, &l.area_image_y, err)))
+        return -1;
+    light_polarisation(&l, &s->to_world, a->polarization, a->polarization_angle);
+    if ((*light = scene_add_light(L->sc, &l, err)) < 0)
+        return err_prefix(err, "%s:%d:%d: ", a->loc.file, a->loc.line, a->loc.col);
+    return 0;
+}
+
 /* MakeNamedMedium into the scene's media, in the description's order (shapes and the camera
  * name them by index). The coefficients are unbounded spectra (pbrt-v4
  * SpectrumType::Unbounded); the emission Le is normalised as a light's spectrum is (pbrt-v4
@@ -1392,24 +1413,14 @@ static int load_curve(loader_t *L, const scene_shape_t *s, int object, int mater
     return r;
 }
 
+/* Adds one shape to the world (object < 0, in world space) or to a scene object (in the
+ * object's space); the shape's own transform is applied here. */
 static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *err)
 {
     const scene_desc_t *d = L->desc;
-    int light = -1;
-    if (s->area_light >= 0) {
-        const scene_area_light_t *a = &d->area_lights[s->area_light];
-        if (object >= 0)
-            return pbrt_error(err, s->loc, "area lights are not supported in instanced objects");
-        light_t l = {.kind = a->type == SCENE_AREA_COLLIMATED ? LIGHT_COLLIMATED : LIGHT_AREA,
-                     .scale = a->scale, .twosided = a->twosided};
-        if (!(l.spectrum = light_spectrum(L->sc, &a->L, err)))
-            return -1;
-        if (a->filename && !(l.area_image = load_area_image(L, a, &l.area_image_y, err)))
-            return -1;
-        light_polarisation(&l, &s->to_world, a->polarization, a->polarization_angle);
-        if ((light = scene_add_light(L->sc, &l, err)) < 0)
-            return err_prefix(err, "%s:%d:%d: ", a->loc.file, a->loc.line, a->loc.col);
-    }
+    int light;
+    if (load_lights_area(L, s, object, &light, err))
+        return -1;
     const transform_t *to_world = &s->to_world;
     int flip = s->flip_normals;
     const int material = material_for_shape(L, s->material, to_world, err);
@@ -1468,6 +1479,15 @@ static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *er
     if (light >= 0 && d->area_lights[s->area_light].power > 0.0)
         return area_light_power(L, &d->area_lights[s->area_light], &L->sc->shapes[r],
                                 &L->sc->lights[light], err);
+    return 0;
+}
+
+/* The world's shapes, in file order. */
+static int load_shapes(loader_t *L, err_t *err)
+{
+    for (size_t i = 0; i < L->desc->nshapes; i++)
+        if (load_shape(L, &L->desc->shapes[i], -1, err))
+            return -1;
     return 0;
 }
 
@@ -1743,9 +1763,6 @@ static int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
     return params_check_unused(p, err);
 }
 
-/* pbrt-v4 FilmBaseParameters: pixelbounds [x0 x1 y0 y1] clipped to the film, or the crop
- * window [x0 x1 y0 y1] (clamped to [0, 1]) as pixels ceil(res * x0) .. ceil(res * x1). The
- * rendered image is the bounds' size; full_xres keeps the film's (see scene.h). */
 /* Camera "realistic": the lens system for the full film (its diagonal and aspect), focused
  * and its exit pupil bounded over the film's wavelengths (optics/lens.h). pbrt-v4 warns when
  * the stop is clamped; prismfarm also says which elements got a default glass. */
@@ -1796,6 +1813,9 @@ static int load_lens(loader_t *L, err_t *err)
     return 0;
 }
 
+/* pbrt-v4 FilmBaseParameters: pixelbounds [x0 x1 y0 y1] clipped to the film, or the crop
+ * window [x0 x1 y0 y1] (clamped to [0, 1]) as pixels ceil(res * x0) .. ceil(res * x1). The
+ * rendered image is the bounds' size; full_xres keeps the film's (see scene.h). */
 static int load_film_crop(loader_t *L, err_t *err)
 {
     const scene_film_t *f = &L->desc->film;
@@ -1926,7 +1946,7 @@ static int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
         return pbrt_error(err, d->sampler.loc, "unsupported sampler \"%s\"", d->sampler.type);
     if (why && warnings_add(L->sc->warnings, d->sampler.loc, "%s", why))
         return err_set(err, "out of memory");
-    return load_integrator(L, ov, err);
+    return 0;
 }
 
 scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t *err)
@@ -1943,6 +1963,8 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
     if (!r)
         r = load_options(&L, ov, err);
     if (!r)
+        r = load_integrator(&L, ov, err);
+    if (!r)
         r = load_textures(&L, err);
     if (!r)
         r = load_materials(&L, err);
@@ -1950,8 +1972,8 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
         r = load_lights(&L, err);
     if (!r)
         r = load_media(&L, err);
-    for (size_t i = 0; !r && i < desc->nshapes; i++)
-        r = load_shape(&L, &desc->shapes[i], -1, err);
+    if (!r)
+        r = load_shapes(&L, err);
     if (!r)
         r = load_instances(&L, err);
     free(L.tex);
