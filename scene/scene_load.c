@@ -1,5 +1,7 @@
 #include "scene_load.h"
 
+#include "load_images.h"
+#include "loader.h"
 #include "cie.h"
 #include "colour.h"
 #include "files.h"
@@ -22,310 +24,6 @@
 #include <string.h>
 #include <strings.h>
 
-typedef enum { SPEC_REFLECTANCE, SPEC_ILLUMINANT, SPEC_UNBOUNDED } spec_use_t;
-
-/* The message for a string that is neither a named spectrum nor a file (pbrt-v4 looks for the
- * name first, then for a file; the parser found no file). */
-static void unknown_spectrum(const scene_spectrum_t *s, const char *what, err_t *err)
-{
-    char names[1024];
-    pbrt_error(err, s->loc, "\"%s\" is neither a named spectrum nor a spectrum file (looked for %s); %s: %s",
-               s->name, s->searched ? s->searched : "no file", what, named_spectra_list(names, sizeof names));
-}
-
-/* A named spectrum (pbrt-v4 spectrum.cpp Spectra::Init). stdillum-D65 and stdillum-A keep
- * prismfarm's CIE D65 table (data/d65_5nm.csv: pbrt-v4's table within 5.5e-8 relative) and the
- * CIE formula for A (pbrt-v4 tabulates it at 5 nm), so lights, which normalise their spectrum
- * anyway, are as before; used otherwise they are normalised to luminance 1 as pbrt-v4 does. */
-static spectrum_t *named_spectrum(const scene_spectrum_t *s, spec_use_t use, err_t *err)
-{
-    const named_spectrum_t *e = named_spectra_find(s->name);
-    if (!e) {
-        unknown_spectrum(s, "named spectra", err);
-        return NULL;
-    }
-    spectrum_t *r = NULL;
-    int d65 = !strcmp(s->name, "stdillum-D65"), a = !strcmp(s->name, "stdillum-A");
-    if (d65 || a) {
-        r = d65 ? spectrum_new_cie_d65(err) : spectrum_new_cie_a(err);
-        if (r && use != SPEC_ILLUMINANT) {
-            spectrum_t *n = spectrum_new_scaled(r, CIE_Y_INTEGRAL / spectrum_photometric(r), err);
-            spectrum_destroy(&r);
-            r = n;
-        }
-    } else {
-        r = named_spectrum_new(e, err);
-    }
-    if (!r)
-        err_prefix(err, "%s:%d:%d: ", s->loc.file, s->loc.line, s->loc.col);
-    return r;
-}
-
-static spectrum_t *build_spectrum(const scene_spectrum_t *s, spec_use_t use, err_t *err)
-{
-    spectrum_t *r = NULL;
-    switch (s->kind) {
-    case SCENE_SPECTRUM_CONSTANT:
-        r = spectrum_new_constant(s->constant, err);
-        break;
-    case SCENE_SPECTRUM_RGB: {
-        rgb_t c = {s->rgb[0], s->rgb[1], s->rgb[2]};
-        if (use == SPEC_ILLUMINANT)
-            r = spectrum_new_rgb_illuminant(c, err);
-        else if (use == SPEC_REFLECTANCE)
-            r = spectrum_new_rgb_reflectance(c, err);
-        else {
-            /* An unbounded RGB (a conductor's eta or k): the uplift of the colour scaled into
-             * [0, 1] by its maximum, scaled back. */
-            double m = fmax(c.r, fmax(c.g, c.b));
-            if (!(m > 0)) {
-                r = spectrum_new_constant(0.0, err);
-            } else {
-                spectrum_t *u = spectrum_new_rgb_reflectance((rgb_t){c.r / m, c.g / m, c.b / m}, err);
-                r = u ? spectrum_new_scaled(u, m, err) : NULL;
-                spectrum_destroy(&u);
-            }
-        }
-        break;
-    }
-    case SCENE_SPECTRUM_BLACKBODY:
-        r = spectrum_new_blackbody(s->temperature, 1, err);
-        break;
-    case SCENE_SPECTRUM_NAMED:
-        r = named_spectrum(s, use, err);
-        if (!r)
-            return NULL; /* the message names the parameter */
-        break;
-    case SCENE_SPECTRUM_SAMPLED:
-        /* pbrt-v4 takes a named spectrum before a file of the same name. */
-        if (s->file && named_spectra_find(s->name))
-            r = named_spectrum(s, use, err);
-        else
-            r = spectrum_new_tabulated(s->lambda, s->value, s->count, err);
-        break;
-    }
-    if (!r)
-        err_prefix(err, "%s:%d:%d: ", s->loc.file, s->loc.line, s->loc.col);
-    return r;
-}
-
-/* Builds a spectrum the scene owns. */
-static spectrum_t *owned_spectrum(scene_t *sc, const scene_spectrum_t *s, spec_use_t use, err_t *err)
-{
-    spectrum_t *r = build_spectrum(s, use, err);
-    if (!r || scene_own_spectrum(sc, r, err))
-        return NULL;
-    return r;
-}
-
-/* pbrt-v4 normalises every light's spectrum by its photometric value (SpectrumToPhotometric),
- * so the spectrum gives the colour and "scale" the luminance: here the result has luminance
- * Y = 1 (Y = integral of s y-bar / integral of y-bar), and the light multiplies it by scale.
- * As in pbrt-v4, an "rgb" spectrum is normalised by its illuminant (D65) alone, so rgb
- * [r g b] keeps the luminance of that colour (rgb [1 1 1] has Y = 1, [10 10 10] Y = 10).
- * prismfarm's "float L" v (pbrt-v4 has none) is likewise not normalised: an equal-energy
- * spectrum of luminance v. */
-static spectrum_t *light_spectrum(scene_t *sc, const scene_spectrum_t *s, err_t *err)
-{
-    spectrum_t *raw = build_spectrum(s, SPEC_ILLUMINANT, err);
-    if (!raw)
-        return NULL;
-    double photometric = s->kind == SCENE_SPECTRUM_CONSTANT ? CIE_Y_INTEGRAL * (s->constant > 0 ? 1.0 : 0.0)
-                                                            : spectrum_photometric_light(raw);
-    if (!(photometric > 0.0) || !isfinite(photometric)) {
-        spectrum_destroy(&raw);
-        pbrt_error(err, s->loc, "light spectrum has no energy in the visible range (360-830 nm)");
-        return NULL;
-    }
-    spectrum_t *n = spectrum_new_scaled(raw, CIE_Y_INTEGRAL / photometric, err);
-    spectrum_destroy(&raw);
-    if (!n || scene_own_spectrum(sc, n, err))
-        return NULL;
-    return n;
-}
-
-typedef struct loader {
-    const scene_desc_t *desc;
-    scene_t *sc;
-    texture_t **tex;    /* by desc texture index (borrowed from the scene) */
-    int *area_light_of; /* unused */
-    const scene_budget_t *budget; /* the overrides' (budget.h); NULL: none */
-    uint64_t texels;              /* image pixels read so far, against it */
-    int threads;                  /* the overrides' (<= 0: all cores) */
-} loader_t;
-
-/* budget.h: an image of w x h pixels, decoded but not yet made a texture (its uplift
- * coefficients and pyramid, the larger allocation). */
-static int budget_texels(loader_t *L, int w, int h, err_t *err)
-{
-    if (!L->budget || !L->budget->texels)
-        return 0;
-    uint64_t n = (uint64_t)w * (uint64_t)h;
-    if (n <= L->budget->texels - L->texels) {
-        L->texels += n;
-        return 0;
-    }
-    return err_set(err,
-                   "this %dx%d image takes the scene over %llu texels, the master's budget "
-                   "(prismfarm master --max-texels)",
-                   w, h, (unsigned long long)L->budget->texels);
-}
-
-/* budget.h: an image's texels charged from its header (image_info.h), before anything decodes
- * it: 1 charged (or no texel budget), 0 when the header cannot be read (the decoder says why;
- * the texels are charged once decoded), -1 over the budget. */
-static int budget_texels_header(loader_t *L, const char *path, err_t *err)
-{
-    int w, h;
-    err_t unread;
-    if (!L->budget || !L->budget->texels)
-        return 1;
-    if (image_info_read(path, &w, &h, &unread) != 0)
-        return 0;
-    return budget_texels(L, w, h, err) ? -1 : 1;
-}
-
-static const texture_t *spectrum_input(loader_t *L, const scene_spectrum_input_t *in, spec_use_t use,
-                                       err_t *err)
-{
-    if (in->texture >= 0)
-        return L->tex[in->texture];
-    spectrum_t *s = build_spectrum(&in->spectrum, use, err);
-    if (!s)
-        return NULL;
-    texture_t *t = texture_new_constant(s, err);
-    if (!t || scene_own_texture(L->sc, t, err))
-        return NULL;
-    return t;
-}
-
-static const texture_t *float_input(loader_t *L, const scene_float_input_t *in, err_t *err)
-{
-    if (in->texture >= 0)
-        return L->tex[in->texture];
-    texture_t *t = texture_new_constant_value(in->value, err);
-    if (!t || scene_own_texture(L->sc, t, err))
-        return NULL;
-    return t;
-}
-
-static int ends_with_ci(const char *s, const char *suffix)
-{
-    size_t n = strlen(s), k = strlen(suffix);
-    return n >= k && !strcasecmp(s + n - k, suffix);
-}
-
-/* pbrt-v4 ColorEncoding for 8- and 16-bit files: "sRGB" (the default), "linear", or
- * "gamma G" (v^G). Float files (EXR, PFM, HDR) are linear whatever it says, as in pbrt-v4. */
-typedef struct encoding {
-    int linear;
-    double gamma; /* > 0: gamma; else sRGB unless linear */
-    float lut[256];
-} encoding_t;
-
-static double srgb_to_linear(double v)
-{
-    return v <= 0.04045 ? v / 12.92 : pow((v + 0.055) / 1.055, 2.4);
-}
-
-static double decode(const encoding_t *e, double v)
-{
-    return e->linear ? v : e->gamma > 0.0 ? pow(v, e->gamma) : srgb_to_linear(v);
-}
-
-static int encoding_parse(const char *s, encoding_t *e)
-{
-    char tail;
-    memset(e, 0, sizeof *e);
-    e->linear = !strcmp(s, "linear");
-    if (!e->linear && strcmp(s, "sRGB") != 0 &&
-        !(sscanf(s, "gamma %lf%c", &e->gamma, &tail) == 1 && isfinite(e->gamma) && e->gamma > 0.0))
-        return -1;
-    for (int i = 0; i < 256; i++)
-        e->lut[i] = (float)decode(e, i / 255.0);
-    return 0;
-}
-
-/* A stored value v in [0, 1] decoded, through the table when v is k / 255. */
-static float decode_stored(const encoding_t *e, float v)
-{
-    long k = lrintf(v * 255.0f);
-    return k >= 0 && k < 256 && (float)(k / 255.0) == v ? e->lut[k] : (float)decode(e, v);
-}
-
-/* Reads an image file for a texture or a normal map as linear RGB (top row first), and its
- * alpha channel into *alpha when the file has one (else NULL), both malloc'ed: OpenEXR and
- * PFM by their extension, PNG through libpng, the rest (TGA, JPEG, BMP, HDR, ...) through
- * stb_image. 8- and 16-bit values are decoded by enc (the alpha too, as pbrt-v4 does). */
-static int read_image(const char *path, const encoding_t *enc, int *w, int *h, float **rgb,
-                      float **alpha, err_t *err)
-{
-    *rgb = NULL;
-    *alpha = NULL;
-    if (ends_with_ci(path, ".exr")) {
-        image_exr_t *im = image_exr_read(path, err);
-        if (!im)
-            return -1;
-        *w = image_exr_width(im);
-        *h = image_exr_height(im);
-        size_t n = (size_t)*w * (size_t)*h;
-        *rgb = malloc(n * 3 * sizeof **rgb);
-        const float *a = image_exr_alpha(im);
-        if (a && *rgb)
-            *alpha = malloc(n * sizeof **alpha);
-        if (!*rgb || (a && !*alpha)) {
-            image_exr_destroy(&im);
-            free(*rgb);
-            return err_set(err, "%s: out of memory", path);
-        }
-        memcpy(*rgb, image_exr_rgb(im), n * 3 * sizeof **rgb);
-        if (a)
-            memcpy(*alpha, a, n * sizeof **alpha);
-        image_exr_destroy(&im);
-        return 0;
-    }
-    if (ends_with_ci(path, ".pfm"))
-        return image_pfm_read(path, w, h, rgb, err);
-    if (ends_with_ci(path, ".png")) {
-        image_png_t *png = image_png_read(path, err);
-        if (!png)
-            return -1;
-        *w = image_png_width(png);
-        *h = image_png_height(png);
-        size_t n = (size_t)*w * (size_t)*h;
-        int has_alpha = image_png_channels(png) == 2 || image_png_channels(png) == 4;
-        *rgb = malloc(n * 3 * sizeof **rgb);
-        if (has_alpha && *rgb)
-            *alpha = malloc(n * sizeof **alpha);
-        if (!*rgb || (has_alpha && !*alpha)) {
-            image_png_destroy(&png);
-            free(*rgb);
-            return err_set(err, "%s: out of memory", path);
-        }
-        const uint8_t *px = image_png_rgba(png);
-        for (size_t i = 0; i < n; i++) {
-            for (int c = 0; c < 3; c++)
-                (*rgb)[3 * i + c] = enc->lut[px[4 * i + c]];
-            if (has_alpha)
-                (*alpha)[i] = enc->lut[px[4 * i + 3]];
-        }
-        image_png_destroy(&png);
-        return 0;
-    }
-    int is_float;
-    if (image_stb_read_encoded(path, w, h, rgb, alpha, &is_float, err))
-        return -1;
-    if (!is_float) {
-        size_t n = (size_t)*w * (size_t)*h;
-        for (size_t i = 0; i < 3 * n; i++)
-            (*rgb)[i] = decode_stored(enc, (*rgb)[i]);
-        if (*alpha)
-            for (size_t i = 0; i < n; i++)
-                (*alpha)[i] = decode_stored(enc, (*alpha)[i]);
-    }
-    return 0;
-}
-
 /* pbrt-v4 ImageTexture (textures.cpp, mipmap.cpp). A spectrum texture's texel is
  * clamp(scale rgb, or 1 - scale rgb with "invert", to [0, 1]) (pbrt-v4 clamps to >= 0 after
  * invert and reads reflectances as RGBAlbedoSpectrum, clamped to [0, 1]). A float texture
@@ -343,7 +41,7 @@ typedef struct image_job {
     float *rgb; /* the texels, scaled, inverted and clamped as above */
     texture_t *tex;
     int state; /* 0 not run, 1 decoded, 2 built, 3 skipped (after a failure), -1 failed (err) */
-    int charged; /* its texels charged from its header (budget_texels_header) */
+    int charged; /* its texels charged from its header (loader_budget_texels_header) */
     err_t err;
 } image_job_t;
 
@@ -364,14 +62,14 @@ static int image_decode(image_job_t *j)
                 : !strcmp(t->image.filter, "bilinear") ? TEXTURE_FILTER_BILINEAR
                                                        : TEXTURE_FILTER_TRILINEAR;
     o->grey = t->type == SCENE_TEXTURE_FLOAT;
-    encoding_t enc;
-    if (encoding_parse(t->image.encoding, &enc))
+    load_encoding_t enc;
+    if (load_images_encoding_parse(t->image.encoding, &enc))
         return err_set(
             &j->err,
             "imagemap encoding \"%s\" is not supported (\"sRGB\", \"linear\" or \"gamma G\")",
             t->image.encoding);
     float *rgb, *alpha;
-    if (read_image(t->image.filename, &enc, &j->w, &j->h, &rgb, &alpha, &j->err))
+    if (load_images_read(t->image.filename, &enc, &j->w, &j->h, &rgb, &alpha, &j->err))
         return -1; /* the caller names the texture and its line */
     size_t n = (size_t)j->w * (size_t)j->h;
     int use_alpha = 0;
@@ -445,7 +143,7 @@ static int load_image_textures(loader_t *L, image_job_t *jobs, size_t n, err_t *
             image_job_t *j = group[q];
             if (over) {
                 j->state = 3;
-            } else if ((j->charged = budget_texels_header(L, j->t->image.filename, &j->err)) < 0) {
+            } else if ((j->charged = loader_budget_texels_header(L, j->t->image.filename, &j->err)) < 0) {
                 j->state = -1;
                 over = 1;
             }
@@ -460,7 +158,7 @@ static int load_image_textures(loader_t *L, image_job_t *jobs, size_t n, err_t *
                 j->state = 3;
                 continue;
             }
-            if (j->state == 1 && !j->charged && budget_texels(L, j->w, j->h, &j->err))
+            if (j->state == 1 && !j->charged && loader_budget_texels(L, j->w, j->h, &j->err))
                 j->state = -1;
             if (j->state != 1)
                 failed = 1;
@@ -477,20 +175,20 @@ static int load_image_textures(loader_t *L, image_job_t *jobs, size_t n, err_t *
 
 /* A material's "normalmap": the image read linear (pbrt-v4 reads normal maps with
  * ColorEncoding::Linear), as a texture the scene owns. */
-static const texture_t *normal_map(loader_t *L, const scene_material_t *dm, err_t *err)
+static const texture_t *load_textures_normal_map(loader_t *L, const scene_material_t *dm, err_t *err)
 {
-    encoding_t enc;
-    encoding_parse("linear", &enc);
+    load_encoding_t enc;
+    load_images_encoding_parse("linear", &enc);
     int w, h;
     float *rgb = NULL, *alpha;
-    int charged = budget_texels_header(L, dm->normalmap, err);
-    if (charged < 0 || read_image(dm->normalmap, &enc, &w, &h, &rgb, &alpha, err)) {
+    int charged = loader_budget_texels_header(L, dm->normalmap, err);
+    if (charged < 0 || load_images_read(dm->normalmap, &enc, &w, &h, &rgb, &alpha, err)) {
         err_prefix(err, "%s:%d:%d: normalmap: ", dm->normalmap_loc.file, dm->normalmap_loc.line,
                    dm->normalmap_loc.col);
         return NULL;
     }
     free(alpha);
-    if (!charged && budget_texels(L, w, h, err)) {
+    if (!charged && loader_budget_texels(L, w, h, err)) {
         err_prefix(err, "%s:%d:%d: normalmap: ", dm->normalmap_loc.file, dm->normalmap_loc.line,
                    dm->normalmap_loc.col);
         free(rgb);
@@ -516,7 +214,7 @@ static texture_t *load_procedural(loader_t *L, const scene_texture_t *t, err_t *
                                                                                       : 0;
     const texture_t *in[4] = {NULL};
     for (int k = 0; k < ninputs; k++)
-        if (!(in[k] = spectral ? spectrum_input(L, si[k], SPEC_REFLECTANCE, err) : float_input(L, fi[k], err)))
+        if (!(in[k] = spectral ? loader_spectrum_input(L, si[k], SPEC_REFLECTANCE, err) : loader_float_input(L, fi[k], err)))
             return NULL;
     const texture_uv_map_t map = {t->uscale, t->vscale, t->udelta, t->vdelta};
     const transform_t to_texture = transform_inverse(t->to_world);
@@ -556,14 +254,14 @@ static int load_textures_in_order(loader_t *L, image_job_t *jobs, err_t *err)
         texture_t *made = NULL;
         switch (t->cls) {
         case SCENE_TEX_CONSTANT:
-            a = spectral ? spectrum_input(L, &t->spec_in1, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in1, err);
+            a = spectral ? loader_spectrum_input(L, &t->spec_in1, SPEC_REFLECTANCE, err) : loader_float_input(L, &t->float_in1, err);
             if (!a)
                 return -1;
             L->tex[i] = (texture_t *)a;
             continue;
         case SCENE_TEX_CHECKERBOARD:
-            a = spectral ? spectrum_input(L, &t->spec_in1, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in1, err);
-            b = spectral ? spectrum_input(L, &t->spec_in2, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in2, err);
+            a = spectral ? loader_spectrum_input(L, &t->spec_in1, SPEC_REFLECTANCE, err) : loader_float_input(L, &t->float_in1, err);
+            b = spectral ? loader_spectrum_input(L, &t->spec_in2, SPEC_REFLECTANCE, err) : loader_float_input(L, &t->float_in2, err);
             if (!a || !b)
                 return -1;
             made = t->dimension == 3 ? texture_new_checkerboard3d(a, b, transform_inverse(t->to_world), err)
@@ -579,17 +277,17 @@ static int load_textures_in_order(loader_t *L, image_job_t *jobs, err_t *err)
             made = load_procedural(L, t, err);
             break;
         case SCENE_TEX_SCALE: {
-            a = spectral ? spectrum_input(L, &t->spec_in1, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in1, err);
-            const texture_t *s = float_input(L, &t->amount, err);
+            a = spectral ? loader_spectrum_input(L, &t->spec_in1, SPEC_REFLECTANCE, err) : loader_float_input(L, &t->float_in1, err);
+            const texture_t *s = loader_float_input(L, &t->amount, err);
             if (!a || !s)
                 return -1;
             made = texture_new_scale(a, s, err);
             break;
         }
         case SCENE_TEX_MIX: {
-            a = spectral ? spectrum_input(L, &t->spec_in1, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in1, err);
-            b = spectral ? spectrum_input(L, &t->spec_in2, SPEC_REFLECTANCE, err) : float_input(L, &t->float_in2, err);
-            const texture_t *m = float_input(L, &t->amount, err);
+            a = spectral ? loader_spectrum_input(L, &t->spec_in1, SPEC_REFLECTANCE, err) : loader_float_input(L, &t->float_in1, err);
+            b = spectral ? loader_spectrum_input(L, &t->spec_in2, SPEC_REFLECTANCE, err) : loader_float_input(L, &t->float_in2, err);
+            const texture_t *m = loader_float_input(L, &t->amount, err);
             if (!a || !b || !m)
                 return -1;
             made = texture_new_mix(a, b, m, err);
@@ -746,18 +444,18 @@ static int roughness_input(loader_t *L, const scene_float_input_t *in, const tex
     *out = NULL;
     if (in->texture < 0 && in->value == 0.0)
         return 0;
-    return (*out = float_input(L, in, err)) ? 0 : -1;
+    return (*out = loader_float_input(L, in, err)) ? 0 : -1;
 }
 
 /* A conductor's eta and k (or its reflectance, pbrt-v4's alternative). */
 static int conductor_inputs(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
 {
     if (dm->use_reflectance)
-        return (m->reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) ? 0 : -1;
+        return (m->reflectance = loader_spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) ? 0 : -1;
     if (dm->eta.texture >= 0 || dm->k.texture >= 0)
         return pbrt_error(err, dm->loc, "material \"%s\": textured eta/k are not supported", m->name);
-    return (m->eta = owned_spectrum(L->sc, &dm->eta.spectrum, SPEC_UNBOUNDED, err)) &&
-                   (m->k = owned_spectrum(L->sc, &dm->k.spectrum, SPEC_UNBOUNDED, err))
+    return (m->eta = loader_owned_spectrum(L->sc, &dm->eta.spectrum, SPEC_UNBOUNDED, err)) &&
+                   (m->k = loader_owned_spectrum(L->sc, &dm->k.spectrum, SPEC_UNBOUNDED, err))
                ? 0
                : -1;
 }
@@ -766,9 +464,9 @@ static int layer_inputs(loader_t *L, const scene_material_t *dm, material_t *m, 
 {
     m->maxdepth = dm->maxdepth;
     m->nsamples = dm->nsamples;
-    return (m->thickness = float_input(L, &dm->thickness, err)) &&
-                   (m->g = float_input(L, &dm->g, err)) &&
-                   (m->albedo = spectrum_input(L, &dm->albedo, SPEC_REFLECTANCE, err))
+    return (m->thickness = loader_float_input(L, &dm->thickness, err)) &&
+                   (m->g = loader_float_input(L, &dm->g, err)) &&
+                   (m->albedo = loader_spectrum_input(L, &dm->albedo, SPEC_REFLECTANCE, err))
                ? 0
                : -1;
 }
@@ -819,15 +517,15 @@ static int uniaxial_inputs(loader_t *L, const scene_material_t *dm, material_t *
 static int hair_inputs(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
 {
     m->kind = MATERIAL_HAIR;
-    if (!(m->hair.eta = float_input(L, &dm->hair_eta, err)) ||
-        !(m->hair.beta_m = float_input(L, &dm->beta_m, err)) ||
-        !(m->hair.beta_n = float_input(L, &dm->beta_n, err)) ||
-        !(m->hair.alpha = float_input(L, &dm->hair_alpha, err)))
+    if (!(m->hair.eta = loader_float_input(L, &dm->hair_eta, err)) ||
+        !(m->hair.beta_m = loader_float_input(L, &dm->beta_m, err)) ||
+        !(m->hair.beta_n = loader_float_input(L, &dm->beta_n, err)) ||
+        !(m->hair.alpha = loader_float_input(L, &dm->hair_alpha, err)))
         return -1;
     if (dm->hair_from == SCENE_HAIR_SIGMA_A)
-        return (m->hair.sigma_a = spectrum_input(L, &dm->sigma_a, SPEC_UNBOUNDED, err)) ? 0 : -1;
+        return (m->hair.sigma_a = loader_spectrum_input(L, &dm->sigma_a, SPEC_UNBOUNDED, err)) ? 0 : -1;
     if (dm->hair_from == SCENE_HAIR_REFLECTANCE)
-        return (m->hair.reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err))
+        return (m->hair.reflectance = loader_spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err))
                    ? 0
                    : -1;
     scene_spectrum_input_t in = {.texture = -1,
@@ -835,23 +533,23 @@ static int hair_inputs(loader_t *L, const scene_material_t *dm, material_t *m, e
     if (dm->eumelanin.texture < 0 && dm->pheomelanin.texture < 0) {
         hair_sigma_a_from_concentration(dm->eumelanin.value, dm->pheomelanin.value,
                                         in.spectrum.rgb);
-        return (m->hair.sigma_a = spectrum_input(L, &in, SPEC_UNBOUNDED, err)) ? 0 : -1;
+        return (m->hair.sigma_a = loader_spectrum_input(L, &in, SPEC_UNBOUNDED, err)) ? 0 : -1;
     }
-    if (!(m->hair.eumelanin = float_input(L, &dm->eumelanin, err)) ||
-        !(m->hair.pheomelanin = float_input(L, &dm->pheomelanin, err)))
+    if (!(m->hair.eumelanin = loader_float_input(L, &dm->eumelanin, err)) ||
+        !(m->hair.pheomelanin = loader_float_input(L, &dm->pheomelanin, err)))
         return -1;
     hair_sigma_a_from_concentration(1.0, 0.0, in.spectrum.rgb);
-    if (!(m->hair.eu_sigma = spectrum_input(L, &in, SPEC_UNBOUNDED, err)))
+    if (!(m->hair.eu_sigma = loader_spectrum_input(L, &in, SPEC_UNBOUNDED, err)))
         return -1;
     hair_sigma_a_from_concentration(0.0, 1.0, in.spectrum.rgb);
-    return (m->hair.pheo_sigma = spectrum_input(L, &in, SPEC_UNBOUNDED, err)) ? 0 : -1;
+    return (m->hair.pheo_sigma = loader_spectrum_input(L, &in, SPEC_UNBOUNDED, err)) ? 0 : -1;
 }
 
 /* The material a shape placed by to_world uses: a crystal's optic axis is given in the shape's
  * object space, so each differently turned crystal shape gets its own copy with the axis in
  * world space (in an object's space for shapes of instanced objects: instances do not turn it,
  * docs/physics.md §15). Any other material is used as it is. */
-static int material_for_shape(loader_t *L, int idx, const transform_t *to_world, err_t *err)
+static int load_materials_for_shape(loader_t *L, int idx, const transform_t *to_world, err_t *err)
 {
     if (idx < 0 || (size_t)idx >= L->sc->nmaterials || !L->sc->materials[idx].uniaxial)
         return idx;
@@ -916,7 +614,7 @@ static int load_materials(loader_t *L, err_t *err)
         switch (dm->type) {
         case SCENE_MATERIAL_DIFFUSE:
             m.kind = MATERIAL_DIFFUSE;
-            rc = (m.reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) ? 0 : -1;
+            rc = (m.reflectance = loader_spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) ? 0 : -1;
             break;
         case SCENE_MATERIAL_CONDUCTOR:
             m.kind = MATERIAL_CONDUCTOR;
@@ -933,14 +631,14 @@ static int load_materials(loader_t *L, err_t *err)
         case SCENE_MATERIAL_DIFFUSETRANSMISSION:
             m.kind = MATERIAL_DIFFUSE_TRANSMISSION;
             m.scale = dm->scale;
-            rc = (m.reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) &&
-                         (m.transmittance = spectrum_input(L, &dm->transmittance, SPEC_REFLECTANCE, err))
+            rc = (m.reflectance = loader_spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) &&
+                         (m.transmittance = loader_spectrum_input(L, &dm->transmittance, SPEC_REFLECTANCE, err))
                      ? 0
                      : -1;
             break;
         case SCENE_MATERIAL_COATEDDIFFUSE:
             m.kind = MATERIAL_COATED_DIFFUSE;
-            rc = (m.reflectance = spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) &&
+            rc = (m.reflectance = loader_spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) &&
                          !build_ior(L->sc, &dm->ior, m.name, &m.ior, err) && !layer_inputs(L, dm, &m, err)
                      ? 0
                      : -1;
@@ -956,7 +654,7 @@ static int load_materials(loader_t *L, err_t *err)
             m.kind = MATERIAL_MIX;
             m.mix[0] = dm->mix[0];
             m.mix[1] = dm->mix[1];
-            rc = (m.amount = float_input(L, &dm->amount, err)) ? 0 : -1;
+            rc = (m.amount = loader_float_input(L, &dm->amount, err)) ? 0 : -1;
             break;
         case SCENE_MATERIAL_INTERFACE:
             m.kind = MATERIAL_INTERFACE;
@@ -999,7 +697,7 @@ static int load_materials(loader_t *L, err_t *err)
             m.smooth = microfacet_smooth(&mf);
             m.rough = !m.smooth;
         }
-        if (dm->normalmap && !(m.normalmap = normal_map(L, dm, err)))
+        if (dm->normalmap && !(m.normalmap = load_textures_normal_map(L, dm, err)))
             return -1;
         if (!m.normalmap && dm->displacement.texture >= 0)
             m.displacement = L->tex[dm->displacement.texture];
@@ -1015,51 +713,11 @@ static const char *light_kind_word(scene_light_type_t t)
     return t == SCENE_LIGHT_GONIOMETRIC ? "goniometric" : t == SCENE_LIGHT_PROJECTION ? "projection" : "infinite";
 }
 
-/* A light's image at path, by its extension: OpenEXR, PFM, or whatever stb_image reads (HDR,
- * PNG, JPEG, TGA, BMP), as w * h * 3 linear floats (*rgb, the caller frees), charged to the
- * texel budget. Errors name the "filename" parameter at loc and the directive what. */
-static int read_image_at(loader_t *L, const char *path, pbrt_loc_t loc, const char *what, float **rgb,
-                         int *w, int *h, err_t *err)
-{
-    int rc;
-    *rgb = NULL;
-    *w = *h = 0;
-    int charged = budget_texels_header(L, path, err);
-    if (charged < 0) {
-        rc = -1;
-    } else if (ends_with_ci(path, ".exr")) {
-        image_exr_t *im = image_exr_read(path, err);
-        rc = im ? 0 : -1;
-        if (im) {
-            *w = image_exr_width(im);
-            *h = image_exr_height(im);
-            *rgb = malloc((size_t)*w * (size_t)*h * 3 * sizeof **rgb);
-            if (*rgb)
-                memcpy(*rgb, image_exr_rgb(im), (size_t)*w * (size_t)*h * 3 * sizeof **rgb);
-            else
-                rc = err_set(err, "%s: out of memory", path);
-            image_exr_destroy(&im);
-        }
-    } else if (ends_with_ci(path, ".pfm")) {
-        rc = image_pfm_read(path, w, h, rgb, err);
-    } else {
-        rc = image_stb_read(path, w, h, rgb, err);
-    }
-    if (rc == 0 && !charged && budget_texels(L, *w, *h, err))
-        rc = -1;
-    if (rc) {
-        free(*rgb);
-        *rgb = NULL;
-        return err_prefix(err, "%s:%d:%d: %s: ", loc.file, loc.line, loc.col, what);
-    }
-    return 0;
-}
-
 static int read_light_image(loader_t *L, const scene_light_t *dl, float **rgb, int *w, int *h, err_t *err)
 {
     char what[64];
     snprintf(what, sizeof what, "LightSource \"%s\"", light_kind_word(dl->type));
-    return read_image_at(L, dl->filename, dl->filename_loc, what, rgb, w, h, err);
+    return load_images_read_at(L, dl->filename, dl->filename_loc, what, rgb, w, h, err);
 }
 
 /* A diffuse area light's image (pbrt-v4 DiffuseAreaLight with "filename") into a texture the
@@ -1071,7 +729,7 @@ static const texture_t *load_area_image(loader_t *L, const scene_area_light_t *a
 {
     float *rgb;
     int w, h;
-    if (read_image_at(L, a->filename, a->filename_loc, "AreaLightSource \"diffuse\"", &rgb, &w, &h, err))
+    if (load_images_read_at(L, a->filename, a->filename_loc, "AreaLightSource \"diffuse\"", &rgb, &w, &h, err))
         return NULL;
     double sum = 0.0;
     size_t n = (size_t)w * (size_t)h;
@@ -1190,7 +848,7 @@ static int load_lights(loader_t *L, err_t *err)
     for (size_t i = 0; i < d->nlights; i++) {
         const scene_light_t *dl = &d->lights[i];
         light_t l = {.scale = dl->scale, .shape = -1};
-        if (!(l.spectrum = light_spectrum(L->sc, &dl->spectrum, err)))
+        if (!(l.spectrum = loader_light_spectrum(L->sc, &dl->spectrum, err)))
             return -1;
         vec3_t from = transform_point(&dl->to_world, dl->from);
         vec3_t to = transform_point(&dl->to_world, dl->to);
@@ -1288,7 +946,7 @@ static int load_lights(loader_t *L, err_t *err)
  * light is the whole mesh, so it follows pbrt-v4 exactly when the triangles have equal areas
  * (quads, regular meshes: n triangles emit n times the power) and refuses other meshes.
  * A collimated light carries its radiance through its area: k_e = A. */
-static int area_light_power(loader_t *L, const scene_area_light_t *a, const shape_t *sh, light_t *l,
+static int load_lights_area_power(loader_t *L, const scene_area_light_t *a, const shape_t *sh, light_t *l,
                             err_t *err)
 {
     (void)L;
@@ -1334,7 +992,7 @@ static int load_lights_area(loader_t *L, const scene_shape_t *s, int object, int
         return pbrt_error(err, s->loc, "area lights are not supported in instanced objects");
     light_t l = {.kind = a->type == SCENE_AREA_COLLIMATED ? LIGHT_COLLIMATED : LIGHT_AREA,
                  .scale = a->scale, .twosided = a->twosided};
-    if (!(l.spectrum = light_spectrum(L->sc, &a->L, err)))
+    if (!(l.spectrum = loader_light_spectrum(L->sc, &a->L, err)))
         return -1;
     if (a->filename && !(l.area_image = load_area_image(L, a, &l.area_image_y, err)))
         return -1;
@@ -1357,14 +1015,14 @@ static int load_media(loader_t *L, err_t *err)
         medium_t *m = NULL;
         if (dm->type != SCENE_MEDIUM_IGNORED) {
             medium_params_t p = {.scale = dm->scale, .g = dm->g, .Le_scale = dm->Le_scale};
-            if (!(p.sigma_a = owned_spectrum(L->sc, &dm->sigma_a, SPEC_UNBOUNDED, err)) ||
-                !(p.sigma_s = owned_spectrum(L->sc, &dm->sigma_s, SPEC_UNBOUNDED, err)))
+            if (!(p.sigma_a = loader_owned_spectrum(L->sc, &dm->sigma_a, SPEC_UNBOUNDED, err)) ||
+                !(p.sigma_s = loader_owned_spectrum(L->sc, &dm->sigma_s, SPEC_UNBOUNDED, err)))
                 return -1;
             int black = dm->Le.kind == SCENE_SPECTRUM_CONSTANT ? !(dm->Le.constant > 0.0)
                         : dm->Le.kind == SCENE_SPECTRUM_RGB
                             ? !(dm->Le.rgb[0] > 0.0 || dm->Le.rgb[1] > 0.0 || dm->Le.rgb[2] > 0.0)
                             : 0;
-            if (dm->has_Le && !black && dm->Le_scale > 0.0 && !(p.Le = light_spectrum(L->sc, &dm->Le, err)))
+            if (dm->has_Le && !black && dm->Le_scale > 0.0 && !(p.Le = loader_light_spectrum(L->sc, &dm->Le, err)))
                 return -1;
             m = dm->type == SCENE_MEDIUM_GRID
                     ? medium_new_grid(&p, dm->nx, dm->ny, dm->nz, dm->density, dm->p0, dm->p1, &dm->to_world, err)
@@ -1415,7 +1073,7 @@ static int load_curve(loader_t *L, const scene_shape_t *s, int object, int mater
 
 /* Adds one shape to the world (object < 0, in world space) or to a scene object (in the
  * object's space); the shape's own transform is applied here. */
-static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *err)
+static int load_shapes_add(loader_t *L, const scene_shape_t *s, int object, err_t *err)
 {
     const scene_desc_t *d = L->desc;
     int light;
@@ -1423,7 +1081,7 @@ static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *er
         return -1;
     const transform_t *to_world = &s->to_world;
     int flip = s->flip_normals;
-    const int material = material_for_shape(L, s->material, to_world, err);
+    const int material = load_materials_for_shape(L, s->material, to_world, err);
     if (material < 0 && s->material >= 0)
         return -1;
     int r;
@@ -1472,12 +1130,12 @@ static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *er
     L->sc->shapes[r].medium_inside = s->inside_medium;
     L->sc->shapes[r].medium_outside = s->outside_medium;
     if (s->has_alpha) {
-        if (!(L->sc->shapes[r].alpha = float_input(L, &s->alpha, err)))
+        if (!(L->sc->shapes[r].alpha = loader_float_input(L, &s->alpha, err)))
             return -1;
         L->sc->has_alpha = 1;
     }
     if (light >= 0 && d->area_lights[s->area_light].power > 0.0)
-        return area_light_power(L, &d->area_lights[s->area_light], &L->sc->shapes[r],
+        return load_lights_area_power(L, &d->area_lights[s->area_light], &L->sc->shapes[r],
                                 &L->sc->lights[light], err);
     return 0;
 }
@@ -1486,7 +1144,7 @@ static int load_shape(loader_t *L, const scene_shape_t *s, int object, err_t *er
 static int load_shapes(loader_t *L, err_t *err)
 {
     for (size_t i = 0; i < L->desc->nshapes; i++)
-        if (load_shape(L, &L->desc->shapes[i], -1, err))
+        if (load_shapes_add(L, &L->desc->shapes[i], -1, err))
             return -1;
     return 0;
 }
@@ -1517,7 +1175,7 @@ static int load_instances(loader_t *L, err_t *err)
                 break;
             }
             for (size_t k = 0; !r && k < o->nshapes; k++)
-                r = load_shape(L, &d->object_shapes[o->first_shape + k], obj, err);
+                r = load_shapes_add(L, &d->object_shapes[o->first_shape + k], obj, err);
             made[in->object] = obj;
         }
         if (!r && scene_add_instance(L->sc, made[in->object], &in->to_world, err) < 0)
