@@ -1,16 +1,5 @@
 #include "scene_load.h"
 
-#include "cie.h"
-#include "colour.h"
-#include "files.h"
-#include "glass.h"
-#include "hair.h"
-#include "image_exr.h"
-#include "image_info.h"
-#include "image_pfm.h"
-#include "image_png.h"
-#include "image_stb.h"
-#include "load_images.h"
 #include "load_instances.h"
 #include "load_integrator.h"
 #include "load_lights.h"
@@ -20,18 +9,15 @@
 #include "load_shapes.h"
 #include "load_textures.h"
 #include "loader.h"
-#include "microfacet.h"
-#include "named_spectra.h"
 #include "pbrt_parser.h"
 #include "plan.h"
-#include "pool.h"
 
-#include <math.h>
-#include <stdio.h>
 #include <stdlib.h>
-#include <string.h>
-#include <strings.h>
 
+/* The entities in the order their dependencies ask: the film before the integrator (sppm's
+ * photon count) and before any texture (the image budget is checked first); textures before
+ * the materials and lights that take them; materials, lights and media before the shapes that
+ * name them by index; the plan last, on the finished scene. */
 scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t *err)
 {
     scene_t *sc = scene_new(err);
