@@ -1,8 +1,23 @@
 #include "load_integrator.h"
 
+#include "pbrt_names.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
+
+#define COUNT_OF(a) (sizeof(a) / sizeof((a)[0]))
+
+/* A string parameter's value in its table (pbrt_names.h), refused at the parameter, or at
+ * fallback when the value is the default. */
+static int lookup_string(params_t *p, const char *name, const char *value, pbrt_loc_t fallback,
+                         const pbrt_name_t *table, size_t n, int *out, err_t *err)
+{
+    const param_t *q = params_find(p, name);
+    char what[64];
+    snprintf(what, sizeof what, "unsupported \"string %s\"", name);
+    return pbrt_names_lookup(table, n, what, value, q ? q->loc : fallback, out, err);
+}
 
 /* Integrator "photon" (docs/rendering.md): the photon pass's parameters; the gather decides
  * the camera pass's integrator. Read whenever the file names "photon", so that an override to
@@ -26,10 +41,14 @@ static int load_photon(loader_t *L, params_t *p, int enable, err_t *err)
     if (photons < 1)
         return pbrt_error(err, params_find(p, "photons")->loc,
                           "\"integer photons\" must be at least 1, got %d", photons);
-    if (strcmp(store, "photonmap") != 0 && strcmp(store, "lightmap") != 0)
-        return pbrt_error(err, params_find(p, "store")->loc,
-                          "\"string store\" must be \"photonmap\" or \"lightmap\", got \"%s\"",
-                          store);
+    static const pbrt_name_t STORES[] = {{"photonmap", PHOTON_STORE_PHOTONMAP},
+                                         {"lightmap", PHOTON_STORE_LIGHTMAP}};
+    static const pbrt_name_t GATHERS[] = {{"path", INTEGRATOR_PATH},
+                                          {"whitted", INTEGRATOR_WHITTED}};
+    int st, g;
+    if (lookup_string(p, "store", store, L->desc->integrator.loc, STORES, COUNT_OF(STORES), &st,
+                      err))
+        return -1;
     if (!(radius >= 0.0) || !isfinite(radius))
         return pbrt_error(err, params_find(p, "radius")->loc,
                           "\"float radius\" must be positive, got %g", radius);
@@ -53,17 +72,12 @@ static int load_photon(loader_t *L, params_t *p, int enable, err_t *err)
     if (mono < 1 || mono > 64)
         return pbrt_error(err, params_find(p, "monochromerays")->loc,
                           "\"integer monochromerays\" must be in 1..64, got %d", mono);
-    integrator_kind_t g;
-    if (!strcmp(gather, "path"))
-        g = INTEGRATOR_PATH;
-    else if (!strcmp(gather, "whitted"))
-        g = INTEGRATOR_WHITTED;
-    else
-        return pbrt_error(err, params_find(p, "gather")->loc,
-                          "\"string gather\" must be \"path\" or \"whitted\", got \"%s\"", gather);
+    if (lookup_string(p, "gather", gather, L->desc->integrator.loc, GATHERS, COUNT_OF(GATHERS), &g,
+                      err))
+        return -1;
     if (!enable)
         return 0;
-    rs->integrator = g;
+    rs->integrator = (integrator_kind_t)g;
     ph->enabled = 1;
     ph->photons = (uint64_t)photons;
     ph->radius = radius;
@@ -71,7 +85,7 @@ static int load_photon(loader_t *L, params_t *p, int enable, err_t *err)
     ph->maxdepth = rs->maxdepth;
     ph->threshold = threshold;
     ph->monochromerays = mono;
-    ph->store = !strcmp(store, "lightmap") ? PHOTON_STORE_LIGHTMAP : PHOTON_STORE_PHOTONMAP;
+    ph->store = (photon_store_kind_t)st;
     ph->lightmap_density = density;
     ph->mindepth = mindepth;
     return 0;
@@ -219,17 +233,18 @@ int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
     }
     if (ov && ov->dispersion)
         disp = ov->dispersion;
-    if (!integrators_dispersion_find(disp, &rs->dispersion))
-        return pbrt_error(err, in->loc,
-                          "\"string dispersion\" must be \"hero\" or \"fanout\", got \"%s\"", disp);
-    if (!strcmp(wl, "uniform"))
-        rs->visible_sampling = 0;
-    else if (!strcmp(wl, "visible"))
-        rs->visible_sampling = 1;
-    else
-        return pbrt_error(err, in->loc,
-                          "\"string wavelengths\" must be \"uniform\" or \"visible\", got \"%s\"",
-                          wl);
+    const pbrt_name_t dispersions[] = {
+        {integrators_dispersion_name(DISPERSION_HERO), DISPERSION_HERO},
+        {integrators_dispersion_name(DISPERSION_FANOUT), DISPERSION_FANOUT}};
+    static const pbrt_name_t WAVELENGTHS[] = {{"uniform", 0}, {"visible", 1}};
+    int dk, visible;
+    if (pbrt_names_lookup(dispersions, COUNT_OF(dispersions), "unsupported \"string dispersion\"",
+                          disp, in->loc, &dk, err) ||
+        pbrt_names_lookup(WAVELENGTHS, COUNT_OF(WAVELENGTHS), "unsupported \"string wavelengths\"",
+                          wl, in->loc, &visible, err))
+        return -1;
+    rs->dispersion = (dispersion_kind_t)dk;
+    rs->visible_sampling = visible;
     if (rs->integrator == INTEGRATOR_PATH) {
         /* pbrt-v4's PathIntegrator options: how next-event estimation chooses lights (the
          * light BVH by default, scene/emitters.h) and regularisation (a biased blur of
@@ -245,17 +260,13 @@ int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
                          "\"bool regularize\" is ignored with a photon pass: its store already "
                          "carries the caustics that regularisation would blur"))
             return err_set(err, "out of memory");
-        if (!strcmp(ls, "bvh"))
-            rs->light_sampler = LIGHT_SAMPLER_BVH;
-        else if (!strcmp(ls, "power"))
-            rs->light_sampler = LIGHT_SAMPLER_POWER;
-        else if (!strcmp(ls, "uniform"))
-            rs->light_sampler = LIGHT_SAMPLER_UNIFORM;
-        else
-            return pbrt_error(
-                err, params_find(p, "lightsampler")->loc,
-                "\"string lightsampler\" must be \"bvh\", \"power\" or \"uniform\", got \"%s\"",
-                ls);
+        static const pbrt_name_t SAMPLERS[] = {{"bvh", LIGHT_SAMPLER_BVH},
+                                               {"power", LIGHT_SAMPLER_POWER},
+                                               {"uniform", LIGHT_SAMPLER_UNIFORM}};
+        int k;
+        if (lookup_string(p, "lightsampler", ls, in->loc, SAMPLERS, COUNT_OF(SAMPLERS), &k, err))
+            return -1;
+        rs->light_sampler = (light_sampler_kind_t)k;
     }
     return params_check_unused(p, err);
 }

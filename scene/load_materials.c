@@ -148,12 +148,12 @@ static int layer_inputs(loader_t *L, const scene_material_t *dm, material_t *m, 
 static int crystal_inputs(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
 {
     if (dm->crystal) {
-        const crystal_t *c = crystal_find(dm->crystal);
-        if (!c)
-            return pbrt_error(err, dm->loc,
-                              "material \"%s\": unknown crystal \"%s\" (known: calcite, quartz, "
-                              "sapphire, rutile, MgF2, tourmaline)",
-                              m->name, dm->crystal);
+        const crystal_t *c = crystal_lookup(dm->crystal, err);
+        if (!c) {
+            char why[sizeof err->msg]; /* err->msg cannot be its own argument */
+            snprintf(why, sizeof why, "%s", err->msg);
+            return pbrt_error(err, dm->loc, "material \"%s\": %s", m->name, why);
+        }
         m->crystal = *c;
     } else {
         m->crystal = (crystal_t){.name = "(given)", .description = "", .source = "the scene file"};

@@ -1,5 +1,7 @@
 #include "load_options.h"
 
+#include "pbrt_names.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -123,19 +125,15 @@ int load_options(loader_t *L, const scene_overrides_t *ov, err_t *err)
     const scene_desc_t *d = L->desc;
     scene_t *sc = L->sc;
     render_settings_t *rs = &sc->settings;
-    if (!strcmp(d->camera.type, "perspective"))
-        sc->camera.kind = CAMERA_PERSPECTIVE;
-    else if (!strcmp(d->camera.type, "orthographic"))
-        sc->camera.kind = CAMERA_ORTHOGRAPHIC;
-    else if (!strcmp(d->camera.type, "spherical"))
-        sc->camera.kind = CAMERA_SPHERICAL;
-    else if (!strcmp(d->camera.type, "realistic"))
-        sc->camera.kind = CAMERA_REALISTIC;
-    else
-        return pbrt_error(
-            err, d->camera.loc,
-            "Camera \"%s\" is not supported (perspective, orthographic, spherical or realistic)",
-            d->camera.type);
+    static const pbrt_name_t CAMERAS[] = {{"perspective", CAMERA_PERSPECTIVE},
+                                          {"orthographic", CAMERA_ORTHOGRAPHIC},
+                                          {"spherical", CAMERA_SPHERICAL},
+                                          {"realistic", CAMERA_REALISTIC}};
+    int kind;
+    if (pbrt_names_lookup(CAMERAS, sizeof CAMERAS / sizeof CAMERAS[0], "unsupported camera",
+                          d->camera.type, d->camera.loc, &kind, err))
+        return -1;
+    sc->camera.kind = (camera_kind_t)kind;
     if (d->camera.camera_from_world.singular)
         return pbrt_error(err, d->camera.loc, "the camera transform is singular");
     sc->camera.camera_to_world = transform_inverse(d->camera.camera_from_world);
