@@ -3,7 +3,10 @@
  * pbrt-v4 does), glasses, textures and image files, transforms shapes to world space, turns
  * each instanced object into one scene object placed by Embree instances, and reads the
  * integrator's parameters. Everything it cannot build fails with "file:line:col: what is
- * wrong". docs/scene-format.md is the user's description of the result. */
+ * wrong". docs/scene-format.md is the user's description of the result. Each entity is read by
+ * its own module (load_options, load_integrator, load_textures, load_materials, load_lights,
+ * load_media, load_shapes, load_instances) over the context they share (loader.h); this one
+ * calls them in order. */
 #ifndef PRISMFARM_SCENE_LOAD_H
 #define PRISMFARM_SCENE_LOAD_H
 

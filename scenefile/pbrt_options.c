@@ -130,15 +130,16 @@ int pbrt_options_camera(parser_t *P, params_t *ps, const str_arg_t *type, pbrt_l
         if (do_camera_lens(P, ps, c, loc) != 0)
             return -1;
     } else if (k == 2) {
+        static const pbrt_name_t MAPPINGS[] = {{"equalarea", 0}, {"equirectangular", 1}};
         const char *mapping;
+        int equirect;
         if (params_get_string(ps, "mapping", "equalarea", &mapping, P->err) != 0)
             return -1;
-        if (strcmp(mapping, "equalarea") != 0 && strcmp(mapping, "equirectangular") != 0)
-            return pbrt_error(P->err, params_find(ps, "mapping")->loc,
-                              "\"string mapping\" must be \"equalarea\" or \"equirectangular\", "
-                              "got \"%s\"",
-                              mapping);
-        c->equirect = !strcmp(mapping, "equirectangular");
+        if (pbrt_state_lookup(P, "unsupported \"string mapping\"", mapping,
+                              params_find(ps, "mapping") ? params_find(ps, "mapping")->loc : loc,
+                              MAPPINGS, COUNT_OF(MAPPINGS), &equirect) != 0)
+            return -1;
+        c->equirect = equirect;
     } else {
         if ((k == 0 && params_get_float(ps, "fov", 90.0, &c->fov, P->err) != 0) ||
             params_get_float(ps, "lensradius", 0.0, &c->lensradius, P->err) != 0 ||
@@ -463,12 +464,13 @@ int pbrt_options_option(parser_t *P, pbrt_loc_t loc)
     case OPT_STRING:
         if (t.kind != PBRT_TOKEN_STRING)
             return pbrt_error(P->err, vloc, "Option \"%s\" expects a quoted string", name.s);
-        if (!strcmp(name.s, "rendercoordsys") && strcmp(t.text, "camera") &&
-            strcmp(t.text, "cameraworld") && strcmp(t.text, "world"))
-            return pbrt_error(P->err, vloc,
-                              "Option \"rendercoordsys\" expects \"camera\", \"cameraworld\" "
-                              "or \"world\", got \"%.64s\"",
-                              t.text);
+        if (!strcmp(name.s, "rendercoordsys")) {
+            static const pbrt_name_t SYSTEMS[] = {{"camera", 0}, {"cameraworld", 1}, {"world", 2}};
+            int sys;
+            if (pbrt_state_lookup(P, "Option \"rendercoordsys\": unknown coordinate system",
+                                  t.text, vloc, SYSTEMS, COUNT_OF(SYSTEMS), &sys) != 0)
+                return -1;
+        }
         break;
     case OPT_FLOAT:
     case OPT_INT:

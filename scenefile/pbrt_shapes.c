@@ -309,19 +309,21 @@ static int curve_shape(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t l
     if (degree != 2 && degree != 3)
         return pbrt_error(P->err, params_find(ps, "degree")->loc,
                           "Shape \"curve\": \"integer degree\" must be 2 or 3, got %d", degree);
-    const bool bspline = !strcmp(basis, "bspline");
-    if (!bspline && strcmp(basis, "bezier"))
-        return pbrt_error(P->err, params_find(ps, "basis")->loc,
-                          "Shape \"curve\": unsupported basis \"%s\" (\"bezier\" or \"bspline\")",
-                          basis);
+    static const pbrt_name_t BASES[] = {{"bezier", 0}, {"bspline", 1}};
+    static const pbrt_name_t TYPES[] = {{"flat", 0}, {"cylinder", 1}};
+    int bspline, cylinder;
+    if (pbrt_state_lookup(P, "Shape \"curve\": unsupported basis", basis,
+                          params_find(ps, "basis") ? params_find(ps, "basis")->loc : loc, BASES,
+                          COUNT_OF(BASES), &bspline) != 0)
+        return -1;
     if (!strcmp(type, "ribbon"))
         return pbrt_error(P->err, params_find(ps, "type")->loc,
                           "Shape \"curve\": \"ribbon\" curves are not supported (\"flat\" and "
                           "\"cylinder\" are)");
-    if (strcmp(type, "flat") && strcmp(type, "cylinder"))
-        return pbrt_error(P->err, params_find(ps, "type")->loc,
-                          "Shape \"curve\": unsupported type \"%s\" (\"flat\" or \"cylinder\")",
-                          type);
+    if (pbrt_state_lookup(P, "Shape \"curve\": unsupported type", type,
+                          params_find(ps, "type") ? params_find(ps, "type")->loc : loc, TYPES,
+                          COUNT_OF(TYPES), &cylinder) != 0)
+        return -1;
     (void)params_find(ps, "N"); /* pbrt-v4 ignores normals but for ribbons, with a warning */
     if (!pp)
         return pbrt_error(P->err, loc, "Shape \"curve\" needs \"point3 P\"");
@@ -359,7 +361,7 @@ static int curve_shape(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t l
     s->curve_segments = nseg;
     s->curve_cp = cp;
     s->curve_width = w;
-    s->curve_cylinder = !strcmp(type, "cylinder");
+    s->curve_cylinder = cylinder;
     return 0;
 }
 

@@ -14,6 +14,7 @@
 #include "params.h"
 #include "pbrt_lexer.h"
 #include "pbrt_limits.h"
+#include "pbrt_names.h"
 #include "scene_desc.h"
 #include "transform.h"
 #include "warnings.h"
@@ -169,24 +170,10 @@ typedef struct str_arg {
 
 bool pbrt_state_in_list(const char *s, const char **list, size_t n);
 
-/* One row of a name table: a name the scene may write and what it means to the reader. Rows
- * after a row whose name is NULL are aliases (pbrt-v4's "" and "none" for the interface
- * material): accepted, but not listed. */
-typedef struct pbrt_name {
-    const char *name;
-    int value;
-} pbrt_name_t;
-
-/* Looks the name s (written at loc) up in table[0..n): its value into *value. An unknown name fails
- * at loc with
- * "<what> \"s\" (did you mean \"x\"? \"a\", \"b\" or \"c\")": the list is written from the
- * table (aliases left out), and the suggestion (base/suggest.h) is given only when a name is
- * near enough. The one place an entity's "unsupported X" message is made. */
+/* Looks the name s (written at loc) up in table[0..n) (pbrt_names.h, whose message it gives):
+ * its value into *value. The one place an entity's "unsupported X" message is made. */
 int pbrt_state_lookup(parser_t *P, const char *what, const char *s, pbrt_loc_t loc,
                       const pbrt_name_t *table, size_t n, int *value);
-
-/* The table's listed names as the lookup's message gives them ("a", "b" or "c"), into buf. */
-void pbrt_state_list_names(const pbrt_name_t *table, size_t n, char *buf, size_t size);
 
 /* How a token reads in a message. */
 void pbrt_state_describe(const pbrt_token_t *t, char *buf, size_t n);

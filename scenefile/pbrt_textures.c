@@ -30,20 +30,17 @@ static int tex_input(parser_t *P, params_t *ps, scene_texture_t *t, const char *
 static int do_texture(parser_t *P, params_t *ps, const str_arg_t *name, const str_arg_t *type,
                       const str_arg_t *cls, pbrt_loc_t loc)
 {
-    scene_texture_type_t tt;
-    if (!strcmp(type->s, "float"))
-        tt = SCENE_TEXTURE_FLOAT;
-    else if (!strcmp(type->s, "spectrum"))
-        tt = SCENE_TEXTURE_SPECTRUM;
-    else if (!strcmp(type->s, "color"))
+    static const pbrt_name_t TYPES[] = {{"float", SCENE_TEXTURE_FLOAT},
+                                        {"spectrum", SCENE_TEXTURE_SPECTRUM}};
+    int kt;
+    if (!strcmp(type->s, "color"))
         return pbrt_error(P->err, type->loc,
                           "texture type \"color\" is pbrt-v3's (\"spectrum\"): %s",
                           PBRT_UPGRADE_HINT);
-    else
-        return pbrt_error(P->err, type->loc,
-                          "texture type must be \"float\" or \"spectrum\", "
-                          "got \"%s\"",
-                          type->s);
+    if (pbrt_state_lookup(P, "unsupported texture type", type->s, type->loc, TYPES,
+                          COUNT_OF(TYPES), &kt) != 0)
+        return -1;
+    const scene_texture_type_t tt = (scene_texture_type_t)kt;
     int prev = scene_desc_find_texture(P->scene, name->s, tt);
     if (prev >= 0)
         return pbrt_error(P->err, name->loc, "%s texture \"%s\" is already defined (line %d)",
@@ -272,7 +269,7 @@ int pbrt_textures_read(parser_t *P, pbrt_loc_t loc)
 {
     str_arg_t name, type, cls;
     if (pbrt_state_read_string(P, "Texture", loc, "texture name", &name) != 0 ||
-        pbrt_state_read_string(P, "Texture", loc, "texture type (\"float\" or \"spectrum\")",
+        pbrt_state_read_string(P, "Texture", loc, "texture type",
                                &type) != 0 ||
         pbrt_state_read_string(P, "Texture", loc, "texture class", &cls) != 0)
         return -1;

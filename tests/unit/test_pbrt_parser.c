@@ -1270,7 +1270,7 @@ static void test_error_messages(void **state)
          "t.pbrt:2:13: texture type \"color\" is pbrt-v3's (\"spectrum\"): a pbrt-v3 file: "
          "`prismfarm upgrade FILE -o NEW.pbrt` rewrites it for pbrt-v4, as `pbrt --upgrade` does"},
         {"WorldBegin\nTexture \"t\" \"colour\" \"constant\"\n",
-         "t.pbrt:2:13: texture type must be \"float\" or \"spectrum\", got \"colour\""},
+         "t.pbrt:2:13: unsupported texture type \"colour\" (\"float\" or \"spectrum\")"},
         {"WorldBegin\nMaterial \"uber\"\n",
          "t.pbrt:2:10: pbrt-v3's material \"uber\" (pbrt-v4's \"coateddiffuse\"): a pbrt-v3 file: "
          "`prismfarm upgrade FILE -o NEW.pbrt` rewrites it for pbrt-v4, as `pbrt --upgrade` does"},
@@ -1485,8 +1485,8 @@ static void test_option_directive(void **state)
     expect_error("Option \"pixelstats\" 1\nWorldBegin\n",
                  "t.pbrt:1:21: Option \"pixelstats\" expects true or false");
     expect_error("Option \"rendercoordsys\" \"screen\"\nWorldBegin\n",
-                 "t.pbrt:1:25: Option \"rendercoordsys\" expects \"camera\", \"cameraworld\" "
-                 "or \"world\", got \"screen\"");
+                 "t.pbrt:1:25: Option \"rendercoordsys\": unknown coordinate system \"screen\" "
+                 "(\"camera\", \"cameraworld\" or \"world\")");
     err_t err = {{0}};
     const char *text = "Option \"turbo\" true\nWorldBegin\n";
     assert_null(pbrt_parse_string(text, strlen(text), "t.pbrt", &err));

@@ -504,10 +504,11 @@ static void test_scene_parameters(void **state)
     assert_int_equal(s->settings.integrator, INTEGRATOR_WHITTED);
     scene_destroy(&s);
 
-    expect_error("Integrator \"photon\" \"string store\" \"box\"", "must be \"photonmap\" or \"lightmap\"");
+    expect_error("Integrator \"photon\" \"string store\" \"box\"",
+                 "\"box\" (\"photonmap\" or \"lightmap\")");
     expect_error("Integrator \"photon\" \"integer monochromerays\" 65", "1..64");
     expect_error("Integrator \"photon\" \"string gather\" \"simplepath\"",
-                 "\"string gather\" must be");
+                 "unsupported \"string gather\" \"simplepath\" (\"path\" or \"whitted\")");
     expect_error("Integrator \"photon\" \"integer photons\" 0", "at least 1");
     expect_error("Integrator \"photon\" \"float radius\" 0", "must be positive");
     expect_error("Integrator \"photon\" \"integer k\" 5000", "0..1024");

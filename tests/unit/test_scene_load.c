@@ -253,6 +253,13 @@ static void test_integrator_options(void **state)
     expect_load_error("Integrator \"whitted\" \"string lightsampler\" \"bvh\"\nWorldBegin\n",
                       "t.pbrt:1:22: unsupported parameter \"string lightsampler\" for Integrator "
                       "\"whitted\"");
+    /* The loader's names are looked up in their tables, whose names its messages list. */
+    expect_load_error("Integrator \"path\" \"string lightsampler\" \"powr\"\nWorldBegin\n",
+                      "t.pbrt:1:19: unsupported \"string lightsampler\" \"powr\" (did you mean "
+                      "\"power\"? \"bvh\", \"power\" or \"uniform\")");
+    expect_load_error("Integrator \"photon\" \"string store\" \"grid\"\nWorldBegin\n",
+                      "t.pbrt:1:21: unsupported \"string store\" \"grid\" (\"photonmap\" or "
+                      "\"lightmap\")");
 }
 
 /* What a scene asks for that is accepted without being simulated comes back as warnings
