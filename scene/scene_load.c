@@ -10,6 +10,7 @@
 #include "image_pfm.h"
 #include "image_png.h"
 #include "image_stb.h"
+#include "medium_file.h"
 #include "microfacet.h"
 #include "named_spectra.h"
 #include "pbrt_parser.h"
@@ -1345,9 +1346,15 @@ static int load_media(loader_t *L, err_t *err)
                             : 0;
             if (dm->has_Le && !black && dm->Le_scale > 0.0 && !(p.Le = light_spectrum(L->sc, &dm->Le, err)))
                 return -1;
-            m = dm->type == SCENE_MEDIUM_GRID
-                    ? medium_new_grid(&p, dm->nx, dm->ny, dm->nz, dm->density, dm->p0, dm->p1, &dm->to_world, err)
-                    : medium_new_homogeneous(&p, err);
+            if (dm->type == SCENE_MEDIUM_NANOVDB) {
+                /* its voxels share the texel budget: both are samples a scene makes the master hold */
+                uint64_t budget = L->budget ? L->budget->texels : 0;
+                m = medium_file_load_nanovdb(dm, &p, budget, &L->texels, err);
+            } else {
+                m = dm->type == SCENE_MEDIUM_GRID ? medium_new_grid(&p, dm->nx, dm->ny, dm->nz, dm->density, dm->p0,
+                                                                    dm->p1, &dm->to_world, err)
+                                                  : medium_new_homogeneous(&p, err);
+            }
             if (!m)
                 return err_prefix(err, "%s:%d:%d: MakeNamedMedium \"%s\": ", dm->loc.file, dm->loc.line,
                                   dm->loc.col, dm->name);
