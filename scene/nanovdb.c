@@ -93,8 +93,23 @@ typedef struct walk {
     float background;
     item_t *items;
     size_t nitems, cap;
+    /* the bricks a lookup inside the grid's bounds can reach (half-open): the table covers no
+     * more, whatever the tree's tiles span (a 4096^3 root tile is 512^3 bricks) */
+    int64_t clip_lo[3], clip_hi[3];
     err_t *err;
 } walk_t;
+
+/* The bricks of item it inside the clip, per axis [r0, r1); 0 when none. */
+static int item_range(const walk_t *w, const item_t *it, int64_t r0[3], int64_t r1[3])
+{
+    for (int a = 0; a < 3; a++) {
+        r0[a] = it->origin[a] > w->clip_lo[a] ? it->origin[a] : w->clip_lo[a];
+        r1[a] = it->origin[a] + it->size < w->clip_hi[a] ? it->origin[a] + it->size : w->clip_hi[a];
+        if (r0[a] >= r1[a])
+            return 0;
+    }
+    return 1;
+}
 
 static int add_item(walk_t *w, const int64_t o[3], int64_t size, uint64_t leaf_at, float value)
 {
@@ -309,12 +324,16 @@ static int decode(const uint8_t *src, uint64_t src_len, uint64_t src_at, unsigne
 static int build(nanovdb_grid_t *g, walk_t *w, uint64_t left, uint64_t *charged, err_t *err)
 {
     int64_t lo[3] = {INT64_MAX, INT64_MAX, INT64_MAX}, hi[3] = {INT64_MIN, INT64_MIN, INT64_MIN};
-    size_t nleaves = 0, nconsts = 1;
+    size_t nleaves = 0, nconsts = 1, inside = 0;
     for (size_t i = 0; i < w->nitems; i++) {
         const item_t *it = &w->items[i];
+        int64_t r0[3], r1[3];
+        if (!item_range(w, it, r0, r1))
+            continue;
+        inside++;
         for (int a = 0; a < 3; a++) {
-            lo[a] = it->origin[a] < lo[a] ? it->origin[a] : lo[a];
-            hi[a] = it->origin[a] + it->size > hi[a] ? it->origin[a] + it->size : hi[a];
+            lo[a] = r0[a] < lo[a] ? r0[a] : lo[a];
+            hi[a] = r1[a] > hi[a] ? r1[a] : hi[a];
         }
         if (it->leaf_at)
             nleaves++;
@@ -322,7 +341,7 @@ static int build(nanovdb_grid_t *g, walk_t *w, uint64_t left, uint64_t *charged,
             nconsts++;
     }
     uint64_t entries = 0;
-    if (w->nitems) {
+    if (inside) {
         /* at most 2^29 bricks a side (index coordinates are 32-bit): no overflow below */
         entries = 1;
         for (int a = 0; a < 3; a++) {
@@ -351,15 +370,16 @@ static int build(nanovdb_grid_t *g, walk_t *w, uint64_t left, uint64_t *charged,
     for (uint64_t e = 0; e < entries; e++)
         g->table[e] = -1;
     for (int a = 0; a < 3; a++) {
-        g->lo[a] = w->nitems ? lo[a] : 0;
-        g->nb[a] = w->nitems ? hi[a] - lo[a] : 0;
+        g->lo[a] = inside ? lo[a] : 0;
+        g->nb[a] = inside ? hi[a] - lo[a] : 0;
     }
     /* Tiles first, leaves after: a leaf always wins over a tile it overlaps (it cannot, in a
      * sound tree, but a damaged one must still give a defined grid). */
     for (int pass = 0; pass < 2; pass++)
         for (size_t i = 0; i < w->nitems; i++) {
             const item_t *it = &w->items[i];
-            if ((pass == 0) != (it->leaf_at == 0))
+            int64_t r0[3], r1[3];
+            if ((pass == 0) != (it->leaf_at == 0) || !item_range(w, it, r0, r1))
                 continue;
             int32_t entry;
             if (it->leaf_at) {
@@ -376,13 +396,10 @@ static int build(nanovdb_grid_t *g, walk_t *w, uint64_t left, uint64_t *charged,
                 g->min = it->value < g->min ? it->value : g->min;
                 entry = -1 - (int32_t)g->nconsts++;
             }
-            for (int64_t z = 0; z < it->size; z++)
-                for (int64_t y = 0; y < it->size; y++)
-                    for (int64_t x = 0; x < it->size; x++) {
-                        int64_t b[3] = {it->origin[0] + x - g->lo[0], it->origin[1] + y - g->lo[1],
-                                        it->origin[2] + z - g->lo[2]};
-                        g->table[(b[2] * g->nb[1] + b[1]) * g->nb[0] + b[0]] = entry;
-                    }
+            for (int64_t z = r0[2]; z < r1[2]; z++)
+                for (int64_t y = r0[1]; y < r1[1]; y++)
+                    for (int64_t x = r0[0]; x < r1[0]; x++)
+                        g->table[((z - g->lo[2]) * g->nb[1] + (y - g->lo[1])) * g->nb[0] + (x - g->lo[0])] = entry;
         }
     return 0;
 }
@@ -418,9 +435,29 @@ static int read_grid(nanovdb_grid_t *g, const uint8_t *b, uint64_t size, uint64_
     g->medium_to_index = inv;
     g->bbox_lo = vec3_make(bb[0], bb[1], bb[2]);
     g->bbox_hi = vec3_make(bb[3], bb[4], bb[5]);
+    /* The voxels a trilinear lookup inside the bounds reaches: the box's corners in index
+     * space, floor(min) to floor(max) + 1, in bricks, one brick of margin each side. */
+    double ilo[3] = {INFINITY, INFINITY, INFINITY}, ihi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int c = 0; c < 8; c++) {
+        vec3_t q = transform_point(&inv, vec3_make(bb[c & 1 ? 3 : 0], bb[c & 2 ? 4 : 1], bb[c & 4 ? 5 : 2]));
+        const double qa[3] = {q.x, q.y, q.z};
+        for (int a = 0; a < 3; a++) {
+            ilo[a] = fmin(ilo[a], qa[a]);
+            ihi[a] = fmax(ihi[a], qa[a]);
+        }
+    }
+    int64_t clip_lo[3], clip_hi[3];
+    for (int a = 0; a < 3; a++) {
+        /* index coordinates are 32-bit: nothing is stored beyond */
+        double l = fmax(fmin(floor(ilo[a]), 3e9), -3e9), h = fmax(fmin(floor(ihi[a]) + 1.0, 3e9), -3e9);
+        clip_lo[a] = ((int64_t)l >> 3) - 1;
+        clip_hi[a] = ((int64_t)h >> 3) + 2;
+    }
 
     const uint8_t *tree = b + GRID_BYTES;
     walk_t w = {.g = b, .size = size, .err = err};
+    memcpy(w.clip_lo, clip_lo, sizeof clip_lo);
+    memcpy(w.clip_hi, clip_hi, sizeof clip_hi);
     uint64_t root = GRID_BYTES + le_get_u64(tree + 24);
     for (int l = 0; l < 3; l++) {
         static const uint64_t bytes[3] = {LEAF_BYTES, LOWER_BYTES, UPPER_BYTES};

@@ -1,7 +1,10 @@
 /* nanovdb: float grids read from NanoVDB files (.nvdb: the layout of OpenVDB's
  * nanovdb/NanoVDB.h and nanovdb/util/IO.h, major version 32), as pbrt-v4's NanoVDBMedium reads
  * them: one grid found by name, its values trilinear between the voxels' integer index
- * coordinates, the background value outside the tree. The file may be uncompressed or use the
+ * coordinates, the background value outside the tree. Only the voxels a lookup inside the
+ * grid's bounding box can reach are kept (a brick of margin around it): beyond, every value
+ * reads as the background (pbrt-v4 never looks there), so a tree whose tiles span 4096^3
+ * voxels costs no more than its bounds. The file may be uncompressed or use the
  * ZIP (zlib) or BLOSC codec (BLOSC only in builds with Debian's libblosc; refused by name
  * otherwise).
  *
