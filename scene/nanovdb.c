@@ -399,7 +399,8 @@ static int build(nanovdb_grid_t *g, walk_t *w, uint64_t left, uint64_t *charged,
             for (int64_t z = r0[2]; z < r1[2]; z++)
                 for (int64_t y = r0[1]; y < r1[1]; y++)
                     for (int64_t x = r0[0]; x < r1[0]; x++)
-                        g->table[((z - g->lo[2]) * g->nb[1] + (y - g->lo[1])) * g->nb[0] + (x - g->lo[0])] = entry;
+                        g->table[((z - g->lo[2]) * g->nb[1] + (y - g->lo[1])) * g->nb[0] +
+                                 (x - g->lo[0])] = entry;
         }
     return 0;
 }
@@ -439,7 +440,8 @@ static int read_grid(nanovdb_grid_t *g, const uint8_t *b, uint64_t size, uint64_
      * space, floor(min) to floor(max) + 1, in bricks, one brick of margin each side. */
     double ilo[3] = {INFINITY, INFINITY, INFINITY}, ihi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (int c = 0; c < 8; c++) {
-        vec3_t q = transform_point(&inv, vec3_make(bb[c & 1 ? 3 : 0], bb[c & 2 ? 4 : 1], bb[c & 4 ? 5 : 2]));
+        vec3_t q = transform_point(
+            &inv, vec3_make(bb[c & 1 ? 3 : 0], bb[c & 2 ? 4 : 1], bb[c & 4 ? 5 : 2]));
         const double qa[3] = {q.x, q.y, q.z};
         for (int a = 0; a < 3; a++) {
             ilo[a] = fmin(ilo[a], qa[a]);
@@ -449,7 +451,8 @@ static int read_grid(nanovdb_grid_t *g, const uint8_t *b, uint64_t size, uint64_
     int64_t clip_lo[3], clip_hi[3];
     for (int a = 0; a < 3; a++) {
         /* index coordinates are 32-bit: nothing is stored beyond */
-        double l = fmax(fmin(floor(ilo[a]), 3e9), -3e9), h = fmax(fmin(floor(ihi[a]) + 1.0, 3e9), -3e9);
+        double l = fmax(fmin(floor(ilo[a]), 3e9), -3e9),
+               h = fmax(fmin(floor(ihi[a]) + 1.0, 3e9), -3e9);
         clip_lo[a] = ((int64_t)l >> 3) - 1;
         clip_hi[a] = ((int64_t)h >> 3) + 2;
     }

@@ -41,7 +41,8 @@ static int fuzz_nanovdb(const uint8_t *data, size_t size)
     nanovdb_grid_t *g = NULL;
     uint64_t voxels = 0;
     if (nanovdb_read(data, size, "density", (uint64_t)1 << 20, &g, &voxels, &err) != 0) {
-        check(memchr(err.msg, 0, sizeof err.msg) && err.msg[0], "nanovdb refused without a message");
+        check(memchr(err.msg, 0, sizeof err.msg) && err.msg[0],
+              "nanovdb refused without a message");
         check(g == NULL, "a refused grid was returned");
         return 0;
     }
@@ -52,7 +53,8 @@ static int fuzz_nanovdb(const uint8_t *data, size_t size)
     nanovdb_bounds(g, &lo, &hi);
     transform_t to_index = nanovdb_medium_to_index(g);
     for (int i = 0; i < 8; i++) {
-        vec3_t p = vec3_make(i & 1 ? hi.x : lo.x + 0.3 * (hi.x - lo.x), i & 2 ? hi.y : lo.y, i & 4 ? hi.z : lo.z);
+        vec3_t p = vec3_make(i & 1 ? hi.x : lo.x + 0.3 * (hi.x - lo.x), i & 2 ? hi.y : lo.y,
+                             i & 4 ? hi.z : lo.z);
         double v = nanovdb_sample(g, p);
         check(isfinite(v), "a sample is not finite");
         vec3_t q = transform_point(&to_index, p);
