@@ -14,7 +14,7 @@ set -euo pipefail
 PACKAGES=(
   build-essential cmake pkg-config git
   libzmq3-dev libmsgpack-dev libopenexr-dev openexr libembree-dev
-  libpng-dev libstb-dev zlib1g-dev libjansson-dev libsodium-dev
+  libpng-dev libstb-dev zlib1g-dev libjansson-dev libsodium-dev libblosc-dev
   libcmocka-dev libsqlite3-dev
   libmicrohttpd-dev
   python3

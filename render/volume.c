@@ -8,12 +8,14 @@ void volume_lanes_make(const medium_t *m, const double *lambda, int n, volume_la
     out->n = n;
     out->sigma_t_max = 0.0;
     out->emissive = 0;
+    out->Le_varies = medium_Le_varies(m) && medium_is_emissive(m);
     for (int j = 0; j < n; j++) {
         medium_coeffs_t c = medium_coeffs(m, lambda[j]);
         out->sigma_a[j] = c.sigma_a;
         out->sigma_s[j] = c.sigma_s;
         out->Le[j] = c.Le;
-        out->emissive |= c.Le > 0.0 && c.sigma_a > 0.0;
+        out->lambda[j] = lambda[j];
+        out->emissive |= (c.Le > 0.0 || out->Le_varies) && c.sigma_a > 0.0;
         double st = c.sigma_a + c.sigma_s;
         if (st > out->sigma_t_max)
             out->sigma_t_max = st;
@@ -147,7 +149,8 @@ static void sample_grid(const medium_t *m, const volume_lanes_t *k, vec3_t org, 
                 out->event = VOLUME_ABSORBED;
                 return;
             }
-            double d = medium_density(m, vec3_fma(org, dir, t));
+            vec3_t at = vec3_fma(org, dir, t);
+            double d = medium_density(m, at);
             double A = 0.0, S = 0.0, N = 0.0;
             if (!lanes_share(beta, w, n, sel)) {
                 out->event = VOLUME_ABSORBED;
@@ -163,7 +166,8 @@ static void sample_grid(const medium_t *m, const volume_lanes_t *k, vec3_t org, 
                 S += sel[j] * ss[j];
                 N += sel[j] * sn[j];
                 if (k->emissive)
-                    out->emitted[j] += w[j] * sa[j] * k->Le[j] / smaj;
+                    out->emitted[j] +=
+                        w[j] * sa[j] * (k->Le_varies ? medium_Le_at(m, at, k->lambda[j]) : k->Le[j]) / smaj;
             }
             double x = next(rng) * (A + S + N);
             if (x < A || !(A + S + N > 0.0)) {

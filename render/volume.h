@@ -44,6 +44,8 @@ typedef struct volume_lanes {
     double sigma_a[VOLUME_MAX_LANES], sigma_s[VOLUME_MAX_LANES], Le[VOLUME_MAX_LANES];
     double sigma_t_max; /* max over lanes of sigma_a + sigma_s */
     int emissive;
+    int Le_varies;                    /* Le is read per point (medium_Le_at), not from Le[] */
+    double lambda[VOLUME_MAX_LANES]; /* for medium_Le_at */
 } volume_lanes_t;
 
 void volume_lanes_make(const medium_t *m, const double *lambda, int n, volume_lanes_t *out);

@@ -1,4 +1,5 @@
 #include "load_media.h"
+#include "medium_file.h"
 
 int load_media(loader_t *L, err_t *err)
 {
@@ -18,10 +19,17 @@ int load_media(loader_t *L, err_t *err)
             if (dm->has_Le && !black && dm->Le_scale > 0.0 &&
                 !(p.Le = loader_light_spectrum(L->sc, &dm->Le, err)))
                 return -1;
-            m = dm->type == SCENE_MEDIUM_GRID
-                    ? medium_new_grid(&p, dm->nx, dm->ny, dm->nz, dm->density, dm->p0, dm->p1,
-                                      &dm->to_world, err)
-                    : medium_new_homogeneous(&p, err);
+            if (dm->type == SCENE_MEDIUM_NANOVDB) {
+                /* its voxels share the texel budget: both are samples a scene makes the master
+                 * hold */
+                uint64_t budget = L->budget ? L->budget->texels : 0;
+                m = medium_file_load_nanovdb(dm, &p, budget, &L->texels, err);
+            } else {
+                m = dm->type == SCENE_MEDIUM_GRID
+                        ? medium_new_grid(&p, dm->nx, dm->ny, dm->nz, dm->density, dm->p0,
+                                          dm->p1, &dm->to_world, err)
+                        : medium_new_homogeneous(&p, err);
+            }
             if (!m)
                 return err_prefix(err, "%s:%d:%d: MakeNamedMedium \"%s\": ", dm->loc.file,
                                   dm->loc.line, dm->loc.col, dm->name);

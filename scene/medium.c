@@ -1,5 +1,6 @@
 #include "medium.h"
 
+#include "nanovdb.h"
 #include "phase_hg.h"
 
 #include <math.h>
@@ -7,18 +8,20 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define R MEDIUM_MAJORANT_RES
-
 struct medium {
     medium_kind_t kind;
     medium_params_t p;
     double g;
-    /* grid */
+    /* grid: dense samples (uniformgrid) or a NanoVDB grid */
     int n[3];
     double *density;
-    vec3_t p0, extent;         /* the box in medium space: p0 + u extent, u in [0, 1]^3 */
-    transform_t world_to_unit; /* world to the box's unit coordinates u */
-    float majorant[R * R * R]; /* max density over each cell of the box's R^3 subdivision */
+    nanovdb_grid_t *vdb, *temperature;
+    double t_offset, t_scale;     /* temperature: (T - offset) scale kelvin */
+    transform_t world_to_medium;  /* NanoVDB grids are looked up in medium space */
+    vec3_t p0, extent;            /* the box in medium space: p0 + u extent, u in [0, 1]^3 */
+    transform_t world_to_unit;    /* world to the box's unit coordinates u */
+    int res;                      /* majorant cells per axis */
+    float *majorant;              /* max density over each cell of the box's res^3 subdivision */
 };
 
 static double clamp_sigma(double s)
@@ -80,8 +83,18 @@ static void sample_range(double a, double b, int n, int *i0, int *i1)
         *i1 = n - 1;
 }
 
+/* A bound rounded up to float, so that it still holds. */
+static float round_up(double mx)
+{
+    float f = (float)mx;
+    if ((double)f < mx)
+        f = nextafterf(f, INFINITY);
+    return f;
+}
+
 static void build_majorants(medium_t *m)
 {
+    const int R = m->res;
     for (int z = 0; z < R; z++)
         for (int y = 0; y < R; y++)
             for (int x = 0; x < R; x++) {
@@ -94,12 +107,50 @@ static void build_majorants(medium_t *m)
                     for (int j = lo[1]; j <= hi[1]; j++)
                         for (int i = lo[0]; i <= hi[0]; i++)
                             mx = fmax(mx, sample_at(m, i, j, k));
-                /* Rounded up to float, so the bound still holds. */
-                float f = (float)mx;
-                if ((double)f < mx)
-                    f = nextafterf(f, INFINITY);
-                m->majorant[(z * R + y) * R + x] = f;
+                m->majorant[(z * R + y) * R + x] = round_up(mx);
             }
+}
+
+/* A NanoVDB grid's majorants (pbrt-v4 NanoVDBMedium: 64^3 cells over the bounds): the cell's
+ * corners taken to index space (all eight, so a rotated map stays bounded), widened to the
+ * voxels a trilinear lookup inside can reach, and the grid's maximum there. */
+static void build_vdb_majorants(medium_t *m)
+{
+    const int R = m->res;
+    const transform_t to_index = nanovdb_medium_to_index(m->vdb);
+    for (int z = 0; z < R; z++)
+        for (int y = 0; y < R; y++)
+            for (int x = 0; x < R; x++) {
+                double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+                for (int c = 0; c < 8; c++) {
+                    vec3_t u = vec3_make((double)(x + (c & 1)) / R, (double)(y + (c >> 1 & 1)) / R,
+                                         (double)(z + (c >> 2)) / R);
+                    vec3_t pm = vec3_make(m->p0.x + u.x * m->extent.x, m->p0.y + u.y * m->extent.y,
+                                          m->p0.z + u.z * m->extent.z);
+                    vec3_t q = transform_point(&to_index, pm);
+                    const double qa[3] = {q.x, q.y, q.z};
+                    for (int a = 0; a < 3; a++) {
+                        lo[a] = fmin(lo[a], qa[a]);
+                        hi[a] = fmax(hi[a], qa[a]);
+                    }
+                }
+                int64_t ilo[3], ihi[3];
+                for (int a = 0; a < 3; a++) {
+                    /* index coordinates are 32-bit: beyond, every voxel is the background */
+                    ilo[a] = (int64_t)floor(fmax(lo[a], -3e9));
+                    ihi[a] = (int64_t)floor(fmin(hi[a], 3e9)) + 1;
+                }
+                double mx = nanovdb_max_in(m->vdb, ilo, ihi);
+                m->majorant[(z * R + y) * R + x] = round_up(mx > 0.0 ? mx : 0.0);
+            }
+}
+
+static int alloc_majorants(medium_t *m, int res, err_t *err)
+{
+    m->res = res;
+    if (!(m->majorant = malloc((size_t)res * res * res * sizeof *m->majorant)))
+        return err_set(err, "out of memory");
+    return 0;
 }
 
 medium_t *medium_new_grid(const medium_params_t *p, int nx, int ny, int nz, const double *density,
@@ -138,6 +189,10 @@ medium_t *medium_new_grid(const medium_params_t *p, int nx, int ny, int nz, cons
         return NULL;
     }
     memcpy(m->density, density, count * sizeof *density);
+    if (alloc_majorants(m, MEDIUM_MAJORANT_RES, err)) {
+        medium_destroy(&m);
+        return NULL;
+    }
     m->n[0] = nx;
     m->n[1] = ny;
     m->n[2] = nz;
@@ -151,18 +206,94 @@ medium_t *medium_new_grid(const medium_params_t *p, int nx, int ny, int nz, cons
     return m;
 }
 
+medium_t *medium_new_nanovdb(const medium_params_t *p, nanovdb_grid_t **density, nanovdb_grid_t **temperature,
+                             double temperature_offset, double temperature_scale,
+                             const transform_t *medium_to_world, err_t *err)
+{
+    nanovdb_grid_t *d = *density, *t = temperature ? *temperature : NULL;
+    *density = NULL;
+    if (temperature)
+        *temperature = NULL;
+    medium_t *m = NULL;
+    if (!(nanovdb_min(d) >= 0.0))
+        err_set(err, "the density grid holds a negative value (%g)", nanovdb_min(d));
+    else if (!isfinite(temperature_offset) || !isfinite(temperature_scale))
+        err_set(err, "\"temperatureoffset\" and \"temperaturescale\" must be finite");
+    else if (medium_to_world->singular || !transform_is_finite(medium_to_world))
+        err_set(err, "the medium's transform (the CTM at MakeNamedMedium) is not invertible");
+    else
+        m = alloc_medium(p, MEDIUM_GRID, err);
+    if (!m) {
+        nanovdb_destroy(&d);
+        nanovdb_destroy(&t);
+        return NULL;
+    }
+    m->vdb = d;
+    m->temperature = t;
+    m->t_offset = temperature_offset;
+    m->t_scale = temperature_scale;
+    /* pbrt-v4: the bounds are the density grid's, joined with the temperature grid's */
+    vec3_t lo, hi;
+    nanovdb_bounds(d, &lo, &hi);
+    if (t) {
+        vec3_t tlo, thi;
+        nanovdb_bounds(t, &tlo, &thi);
+        lo = vec3_make(fmin(lo.x, tlo.x), fmin(lo.y, tlo.y), fmin(lo.z, tlo.z));
+        hi = vec3_make(fmax(hi.x, thi.x), fmax(hi.y, thi.y), fmax(hi.z, thi.z));
+    }
+    m->p0 = lo;
+    m->extent = vec3_sub(hi, lo);
+    m->world_to_medium = transform_inverse(*medium_to_world);
+    transform_t to_unit = transform_compose(
+        transform_scale(1.0 / m->extent.x, 1.0 / m->extent.y, 1.0 / m->extent.z), transform_translate(vec3_neg(lo)));
+    m->world_to_unit = transform_compose(to_unit, m->world_to_medium);
+    if (!transform_is_finite(&m->world_to_unit)) {
+        err_set(err, "the grid's bounds are too small or too large to map");
+        medium_destroy(&m);
+        return NULL;
+    }
+    if (alloc_majorants(m, MEDIUM_VDB_MAJORANT_RES, err)) {
+        medium_destroy(&m);
+        return NULL;
+    }
+    build_vdb_majorants(m);
+    return m;
+}
+
 void medium_destroy(medium_t **self_p)
 {
     if (!self_p || !*self_p)
         return;
     free((*self_p)->density);
+    free((*self_p)->majorant);
+    nanovdb_destroy(&(*self_p)->vdb);
+    nanovdb_destroy(&(*self_p)->temperature);
     free(*self_p);
     *self_p = NULL;
 }
 
 medium_kind_t medium_kind(const medium_t *self) { return self->kind; }
 double medium_g(const medium_t *self) { return self->g; }
-int medium_is_emissive(const medium_t *self) { return self->p.Le && self->p.Le_scale > 0.0; }
+int medium_is_emissive(const medium_t *self)
+{
+    return (self->p.Le || self->temperature) && self->p.Le_scale > 0.0;
+}
+
+int medium_Le_varies(const medium_t *self) { return self->temperature != NULL; }
+
+/* pbrt-v4 NanoVDBMedium::Le: the temperature grid's value T at p, (T - offset) scale kelvin,
+ * no emission at or below 100 K, else Lescale times the blackbody normalised to its peak. */
+double medium_Le_at(const medium_t *self, vec3_t p, double lambda)
+{
+    if (!self->temperature || !(self->p.Le_scale > 0.0))
+        return 0.0;
+    double T = (nanovdb_sample(self->temperature, transform_point(&self->world_to_medium, p)) - self->t_offset) *
+               self->t_scale;
+    if (!(T > 100.0) || !isfinite(T))
+        return 0.0;
+    double le = self->p.Le_scale * spectrum_blackbody_eval(lambda, T);
+    return le > 0.0 && isfinite(le) ? le : 0.0;
+}
 
 medium_coeffs_t medium_coeffs(const medium_t *self, double lambda)
 {
@@ -170,7 +301,7 @@ medium_coeffs_t medium_coeffs(const medium_t *self, double lambda)
     medium_coeffs_t c;
     c.sigma_a = clamp_sigma(p->scale * spectrum_eval(p->sigma_a, lambda));
     c.sigma_s = clamp_sigma(p->scale * spectrum_eval(p->sigma_s, lambda));
-    double le = medium_is_emissive(self) ? p->Le_scale * spectrum_eval(p->Le, lambda) : 0.0;
+    double le = medium_is_emissive(self) && p->Le ? p->Le_scale * spectrum_eval(p->Le, lambda) : 0.0;
     c.Le = le > 0.0 && isfinite(le) ? le : 0.0;
     return c;
 }
@@ -182,6 +313,10 @@ double medium_density(const medium_t *self, vec3_t p)
     vec3_t u = transform_point(&self->world_to_unit, p);
     if (!(u.x >= 0.0 && u.x <= 1.0 && u.y >= 0.0 && u.y <= 1.0 && u.z >= 0.0 && u.z <= 1.0))
         return 0.0;
+    if (self->vdb) {
+        double v = nanovdb_sample(self->vdb, transform_point(&self->world_to_medium, p));
+        return v > 0.0 ? v : 0.0;
+    }
     double ps[3] = {u.x * self->n[0] - 0.5, u.y * self->n[1] - 0.5, u.z * self->n[2] - 0.5};
     int i[3];
     double f[3];
@@ -214,6 +349,7 @@ void medium_segments_begin(const medium_t *self, vec3_t org, vec3_t dir, double 
     }
     if (self->kind == MEDIUM_HOMOGENEOUS)
         return;
+    const int R = self->res;
     /* The ray in the box's unit coordinates (an affine map keeps the parameter t). */
     vec3_t o = transform_point(&self->world_to_unit, org);
     vec3_t d = transform_vector(&self->world_to_unit, dir);
@@ -280,6 +416,7 @@ int medium_segments_next(medium_segments_t *it, double *t0, double *t1, double *
     *t1 = it->t_next[a] < it->t_end ? it->t_next[a] : it->t_end;
     if (*t1 < *t0)
         *t1 = *t0;
+    const int R = it->m->res;
     *dmax = it->m->majorant[(it->voxel[2] * R + it->voxel[1]) * R + it->voxel[0]];
     it->t = *t1;
     if (!(it->t < it->t_end)) {

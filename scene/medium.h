@@ -4,11 +4,13 @@
  * optional emission. Guarantees: every coefficient is finite and >= 0 (sigma is clamped to
  * MEDIUM_SIGMA_MAX, so a huge "scale" cannot overflow), the density is trilinear, >= 0 and 0
  * outside the grid's bounds, and the majorant segments bound the density from above on every
- * point of each segment. Immutable after medium_new_*: safe to read from many threads. */
+ * point of each segment. A grid is dense (uniformgrid) or a NanoVDB file's (nanovdb.h).
+ * Immutable after medium_new_*: safe to read from many threads. */
 #ifndef PRISMFARM_MEDIUM_H
 #define PRISMFARM_MEDIUM_H
 
 #include "err.h"
+#include "nanovdb.h"
 #include "spectrum.h"
 #include "transform.h"
 #include "vec3.h"
@@ -26,8 +28,9 @@ typedef enum medium_kind {
  * overflow for any distance a double scene holds, and exp(-sigma t) is exactly 0 long before. */
 #define MEDIUM_SIGMA_MAX 1e150
 
-/* The majorant grid's resolution per axis (pbrt-v4 GridMedium: 16^3). */
+/* The majorant grid's resolution per axis (pbrt-v4 GridMedium: 16^3; NanoVDBMedium: 64^3). */
 #define MEDIUM_MAJORANT_RES 16
+#define MEDIUM_VDB_MAJORANT_RES 64
 
 /* The spectral description shared by both kinds. Spectra are borrowed (the scene owns them)
  * and must outlive the medium; Le may be NULL (no emission). */
@@ -47,11 +50,26 @@ medium_t *medium_new_homogeneous(const medium_params_t *p, err_t *err);
 medium_t *medium_new_grid(const medium_params_t *p, int nx, int ny, int nz, const double *density,
                           vec3_t p0, vec3_t p1, const transform_t *medium_to_world, err_t *err);
 
+/* pbrt-v4's "nanovdb" medium (NanoVDBMedium): the density grid's values (>= 0) over its
+ * bounds, joined with the optional temperature grid's; outside, no density. Both grids are
+ * taken (the pointers are nulled, the grids freed on failure too); temperature may be NULL.
+ * The emission is p->Le_scale times the blackbody of (T - temperature_offset)
+ * temperature_scale kelvin where that exceeds 100 K (p->Le must be NULL). A kind of
+ * MEDIUM_GRID with 64^3 majorant cells. */
+medium_t *medium_new_nanovdb(const medium_params_t *p, nanovdb_grid_t **density, nanovdb_grid_t **temperature,
+                             double temperature_offset, double temperature_scale,
+                             const transform_t *medium_to_world, err_t *err);
+
 void medium_destroy(medium_t **self_p);
 
 medium_kind_t medium_kind(const medium_t *self);
 double medium_g(const medium_t *self); /* clamped as phase_hg uses it */
 int medium_is_emissive(const medium_t *self);
+
+/* The emission varies over the medium (a temperature grid): read it at each point with
+ * medium_Le_at, not from medium_coeffs. */
+int medium_Le_varies(const medium_t *self);
+double medium_Le_at(const medium_t *self, vec3_t p, double lambda);
 
 /* The coefficients at lambda per unit density, scale applied and clamped: sigma_a, sigma_s
  * and the emitted radiance Le (0 without emission). */

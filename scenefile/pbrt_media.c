@@ -20,8 +20,9 @@
 #include <unistd.h>
 
 /* MakeNamedMedium "name" "string type" ... (pbrt-v4 media.cpp): "homogeneous" and
- * "uniformgrid" are read with pbrt-v4's parameters and defaults; "rgbgrid", "cloud" and
- * "nanovdb" are accepted with a warning and render as vacuum. Whether media are simulated at
+ * "uniformgrid" are read with pbrt-v4's parameters and defaults, "nanovdb" names its file and
+ * grids (the loader reads them); "rgbgrid" and "cloud" are accepted with a warning and render
+ * as vacuum. Whether media are simulated at
  * all depends on the integrator (the loader says so). */
 static int read_medium_common(parser_t *P, params_t *ps, scene_medium_t *m)
 {
@@ -71,7 +72,7 @@ static int read_medium_common(parser_t *P, params_t *ps, scene_medium_t *m)
         param_t *q = params_find(ps, "g");
         return pbrt_error(P->err, q ? q->loc : at, "\"float g\" must be in (-1, 1), got %g", m->g);
     }
-    if (params_find(ps, "Le")) {
+    if (m->type != SCENE_MEDIUM_NANOVDB && params_find(ps, "Le")) {
         m->has_Le = true;
         if (pbrt_inputs_spectrum(P, ps, "Le", pbrt_inputs_constant(0.0, at), SPECTRUM_ANY,
                                  &m->Le) != 0)
@@ -85,31 +86,34 @@ static int read_medium_common(parser_t *P, params_t *ps, scene_medium_t *m)
     return 0;
 }
 
-/* A "nanovdb" medium is not simulated, but its file must exist where the scene says, so that
- * `check` finds a scene's missing assets in one run (a public snapshot without its .nvdb files
- * renders a sky without its cloud otherwise). Checked where the scene is read from the user's
- * folders; a confined load (the farm's, from a bundle) does not look: the file, never read,
- * does not travel with the job. */
-static int check_nanovdb_file(parser_t *P, params_t *ps, pbrt_loc_t loc)
+/* "nanovdb" (pbrt-v4 NanoVDBMedium::Create): the file is a data file of the scene (noted, so
+ * that bundles carry it and `check` lists it when missing; opened and read by the loader),
+ * the grids are named by "gridname" and "temperaturename", the emission set by "Lescale",
+ * "temperatureoffset" (or "temperaturecutoff") and "temperaturescale". */
+static int read_medium_nanovdb(parser_t *P, params_t *ps, scene_medium_t *m)
 {
     const char *filename;
     if (params_get_string(ps, "filename", NULL, &filename, P->err) != 0)
         return -1;
-    if (!filename)
-        return pbrt_error(P->err, loc, "MakeNamedMedium \"nanovdb\" needs \"string filename\"");
+    if (!filename || !filename[0])
+        return pbrt_error(P->err, m->loc, "MakeNamedMedium \"nanovdb\" needs \"string filename\"");
     const param_t *fp = params_find(ps, "filename");
-    if (P->root_real)
-        return 0;
-    const char *path = pbrt_confine_scene_path(P, filename, fp->loc);
-    if (!path)
+    m->filename_loc = fp->loc;
+    if (pbrt_inputs_data_file(P, fp, filename, "the nanovdb medium's file", SCENE_FILE_VOLUME, &m->filename) != 0)
         return -1;
-    const char *kind;
-    char why[96];
-    FILE *f = pbrt_confine_open_regular(path, &kind);
-    if (!f)
-        return pbrt_error(P->err, fp->loc, "cannot open the nanovdb medium's file \"%s\": %s", path,
-                          pbrt_confine_open_failure(kind, why, sizeof why));
-    fclose(f);
+    const char *gridname, *tempname;
+    double cutoff;
+    if (params_get_string(ps, "gridname", "density", &gridname, P->err) != 0 ||
+        params_get_string(ps, "temperaturename", "temperature", &tempname, P->err) != 0 ||
+        params_get_float(ps, "Lescale", 1.0, &m->Le_scale, P->err) != 0 ||
+        pbrt_state_check_range(P, ps, "Lescale", m->Le_scale, 0.0, INFINITY) != 0 ||
+        params_get_float(ps, "temperaturecutoff", 0.0, &cutoff, P->err) != 0 ||
+        params_get_float(ps, "temperatureoffset", cutoff, &m->temperature_offset, P->err) != 0 ||
+        params_get_float(ps, "temperaturescale", 1.0, &m->temperature_scale, P->err) != 0)
+        return -1;
+    if (!(m->gridname = scene_desc_strdup(P->scene, gridname, P->err)) ||
+        !(m->temperaturename = scene_desc_strdup(P->scene, tempname, P->err)))
+        return -1;
     return 0;
 }
 
@@ -205,14 +209,16 @@ int pbrt_media_read(parser_t *P, pbrt_loc_t loc)
                                             {"uniformgrid", SCENE_MEDIUM_GRID},
                                             {"rgbgrid", SCENE_MEDIUM_IGNORED},
                                             {"cloud", SCENE_MEDIUM_IGNORED},
-                                            {"nanovdb", SCENE_MEDIUM_IGNORED}};
+                                            {"nanovdb", SCENE_MEDIUM_NANOVDB}};
         int k;
         rc = pbrt_state_lookup(P, "unknown medium type", type, params_find(ps, "type")->loc, TYPES,
                                COUNT_OF(TYPES), &k);
         kind = (scene_medium_type_t)k;
     }
-    if (rc == 0 && kind == SCENE_MEDIUM_GRID &&
-        pbrt_state_check_transform(P, &P->gs.ctm, "MakeNamedMedium \"uniformgrid\"", loc) != 0)
+    if (rc == 0 && (kind == SCENE_MEDIUM_GRID || kind == SCENE_MEDIUM_NANOVDB) &&
+        pbrt_state_check_transform(P, &P->gs.ctm, kind == SCENE_MEDIUM_GRID ? "MakeNamedMedium \"uniformgrid\""
+                                                                           : "MakeNamedMedium \"nanovdb\"",
+                                   loc) != 0)
         rc = -1;
     int idx = rc == 0 ? scene_desc_add_medium(P->scene, P->err) : -1;
     if (rc == 0 && idx < 0)
@@ -227,8 +233,6 @@ int pbrt_media_read(parser_t *P, pbrt_loc_t loc)
             rc = -1;
         if (!P->scene->media_loc.file)
             P->scene->media_loc = loc;
-        if (rc == 0 && kind == SCENE_MEDIUM_IGNORED && !strcmp(type, "nanovdb"))
-            rc = check_nanovdb_file(P, ps, loc);
         if (rc == 0 && kind == SCENE_MEDIUM_IGNORED) {
             params_accept_all(ps);
             if (warnings_add(P->scene->warnings, loc,
@@ -240,6 +244,8 @@ int pbrt_media_read(parser_t *P, pbrt_loc_t loc)
             rc = read_medium_common(P, ps, m);
             if (rc == 0 && kind == SCENE_MEDIUM_GRID)
                 rc = read_medium_grid(P, ps, m);
+            if (rc == 0 && kind == SCENE_MEDIUM_NANOVDB)
+                rc = read_medium_nanovdb(P, ps, m);
             if (rc == 0)
                 rc = params_check_unused(ps, P->err);
         }

@@ -1,5 +1,6 @@
 /* pbrt_media: MakeNamedMedium (pbrt-v4 media.cpp: "homogeneous" and "uniformgrid" read,
- * "rgbgrid", "cloud" and "nanovdb" accepted with a warning and rendered as vacuum) and
+ * "nanovdb" naming its file for the loader, "rgbgrid" and "cloud" accepted with a warning and
+ * rendered as vacuum) and
  * MediumInterface. */
 #ifndef PRISMFARM_PBRT_MEDIA_H
 #define PRISMFARM_PBRT_MEDIA_H

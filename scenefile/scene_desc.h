@@ -395,7 +395,8 @@ typedef struct scene_instance {
 typedef enum scene_medium_type {
     SCENE_MEDIUM_HOMOGENEOUS, /* "homogeneous" */
     SCENE_MEDIUM_GRID,        /* "uniformgrid": a density grid */
-    SCENE_MEDIUM_IGNORED,     /* "rgbgrid", "cloud", "nanovdb": warned, rendered as vacuum */
+    SCENE_MEDIUM_IGNORED,     /* "rgbgrid", "cloud": warned, rendered as vacuum */
+    SCENE_MEDIUM_NANOVDB,     /* "nanovdb": density (and temperature) grids from a file */
 } scene_medium_type_t;
 
 /* MakeNamedMedium (pbrt-v4 media.cpp): the parameters as pbrt-v4 reads them, defaults filled
@@ -416,6 +417,14 @@ typedef struct scene_medium {
     int nx, ny, nz;
     const double *density;
     vec3_t p0, p1;
+    /* SCENE_MEDIUM_NANOVDB (pbrt-v4 NanoVDBMedium::Create): the .nvdb file (a path to open,
+     * as for any data file), the grids' names ("density", "temperature"), and the
+     * temperature's offset ("temperatureoffset", defaulting to "temperaturecutoff", 0) and
+     * scale (1); Le_scale is its "Lescale" */
+    const char *filename;
+    pbrt_loc_t filename_loc;
+    const char *gridname, *temperaturename;
+    double temperature_offset, temperature_scale;
 } scene_medium_t;
 
 /* ---- files read ---- */
@@ -428,6 +437,7 @@ typedef enum scene_file_kind {
     SCENE_FILE_SPECTRUM, /* "spectrum x" "file.spd": a pbrt-v4 spectrum file */
     SCENE_FILE_LENS,     /* Camera "realistic" "string lensfile" */
     SCENE_FILE_BSDF,     /* Material "measured" "string filename": an RGL .bsdf file */
+    SCENE_FILE_VOLUME,   /* MakeNamedMedium "nanovdb" "string filename": a .nvdb file */
 } scene_file_kind_t;
 
 typedef struct scene_file {

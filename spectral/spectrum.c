@@ -148,6 +148,15 @@ static double planck(double lambda_nm, double kelvin)
     return isfinite(b) ? b * 1e-9 : 0.0;
 }
 
+double spectrum_blackbody_eval(double lambda_nm, double kelvin)
+{
+    if (!isfinite(kelvin) || !(kelvin > 0.0))
+        return 0.0;
+    double peak = planck(WIEN_B / kelvin * 1e9, kelvin);
+    double v = peak > 0.0 ? planck(lambda_nm, kelvin) / peak : 0.0;
+    return isfinite(v) ? v : 0.0;
+}
+
 spectrum_t *spectrum_new_blackbody(double kelvin, int normalise, err_t *err)
 {
     if (!isfinite(kelvin) || kelvin <= 0.0) {

@@ -43,6 +43,10 @@ spectrum_t *spectrum_new_tabulated_zero_outside(const double *lambda_nm, const d
  * (pbrt-v4 BlackbodySpectrum). */
 spectrum_t *spectrum_new_blackbody(double kelvin, int normalise, err_t *err);
 
+/* The normalised blackbody above at one wavelength, without a spectrum object (a medium's
+ * temperature varies from point to point); 0 for a kelvin that is not finite and > 0. */
+double spectrum_blackbody_eval(double lambda_nm, double kelvin);
+
 /* CIE standard illuminant D65 (tabulated 300-830 nm at 5 nm, linear between, 0 outside) and
  * illuminant A (CIE 15:2004 eq. for a 2848 K Planckian with c2 = 1.435e-2 m K:
  * S_A = 100 (560/lambda)^5 (exp(1.435e7/(2848*560)) - 1) / (exp(1.435e7/(2848 lambda)) - 1),

@@ -1,9 +1,16 @@
-/* fuzz_bsdf: libFuzzer harness for the measured BSDF reader (bsdf/measured.h over
- * bsdf/tensor_file.h): each input is a .bsdf file's bytes. A file that is refused must say why
+/* fuzz_bsdf: libFuzzer harness for the binary data files a scene names: the measured BSDF
+ * reader (bsdf/measured.h over bsdf/tensor_file.h) and the NanoVDB reader (scene/nanovdb.h,
+ * an input that starts with NanoVDB's magic "NanoVDB0": seeds nvdb_*: a grid of root tiles
+ * only, one with a non-zero background, and OpenVDB's own ZIP-coded file of
+ * tests/data/scenes/cloud_ref.nvdb). A grid read within a voxel budget of 2^20 must give
+ * finite values at a few points and a majorant no less than them; one refused must say why.
+ * One harness for both keeps the fuzzing time of CI (deploy/fuzz.sh) as it was. Each other
+ * input is a .bsdf file's bytes. A file that is refused must say why
  * (a non-empty message); a file that is read must give finite, non-negative f and pdf and
  * samples that agree with them for a few directions. Never a crash, a leak, a read past the
  * input or an allocation beyond a small multiple of its length (-rss_limit_mb catches one). */
 #include "measured.h"
+#include "nanovdb.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -28,8 +35,43 @@ static void check(bool ok, const char *what)
     }
 }
 
+static int fuzz_nanovdb(const uint8_t *data, size_t size)
+{
+    err_t err = {{0}};
+    nanovdb_grid_t *g = NULL;
+    uint64_t voxels = 0;
+    if (nanovdb_read(data, size, "density", (uint64_t)1 << 20, &g, &voxels, &err) != 0) {
+        check(memchr(err.msg, 0, sizeof err.msg) && err.msg[0],
+              "nanovdb refused without a message");
+        check(g == NULL, "a refused grid was returned");
+        return 0;
+    }
+    check(voxels <= (uint64_t)1 << 20, "the grid took more than its voxel budget");
+    if (!g)
+        return 0;
+    vec3_t lo, hi;
+    nanovdb_bounds(g, &lo, &hi);
+    transform_t to_index = nanovdb_medium_to_index(g);
+    for (int i = 0; i < 8; i++) {
+        vec3_t p = vec3_make(i & 1 ? hi.x : lo.x + 0.3 * (hi.x - lo.x), i & 2 ? hi.y : lo.y,
+                             i & 4 ? hi.z : lo.z);
+        double v = nanovdb_sample(g, p);
+        check(isfinite(v), "a sample is not finite");
+        vec3_t q = transform_point(&to_index, p);
+        if (fabs(q.x) < 1e9 && fabs(q.y) < 1e9 && fabs(q.z) < 1e9) {
+            int64_t a[3] = {(int64_t)floor(q.x), (int64_t)floor(q.y), (int64_t)floor(q.z)};
+            int64_t b[3] = {a[0] + 1, a[1] + 1, a[2] + 1};
+            check(nanovdb_max_in(g, a, b) >= v - 1e-6 * fabs(v), "the maximum is below a sample");
+        }
+    }
+    nanovdb_destroy(&g);
+    return 0;
+}
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
+    if (size >= 8 && !memcmp(data, "NanoVDB0", 8))
+        return fuzz_nanovdb(data, size);
     err_t err = {{0}};
     measured_t *m = measured_new(data, size, "input.bsdf", &err);
     if (!m) {

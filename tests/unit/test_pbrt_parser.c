@@ -313,8 +313,8 @@ static void test_more_materials(void **state)
 }
 
 /* What pbrt-v4 has and prismfarm does not simulate is accepted with a warning naming the
- * place: the media prismfarm does not simulate ("cloud", "rgbgrid", "nanovdb": vacuum; a nanovdb
- * medium's file must exist all the same), motion blur (the
+ * place: the media prismfarm does not simulate ("cloud", "rgbgrid": vacuum; a nanovdb medium's
+ * file must exist, as every data file must), motion blur (the
  * scene renders as at the shutter's opening: EndTime-only transforms leave the CTM alone, and
  * AttributeEnd restores the active transform as pbrt-v4's graphics state does), TransformTimes;
  * ColorSpace "srgb" and Accelerator are accepted silently. */
@@ -356,7 +356,7 @@ static void test_accepted_not_simulated(void **state)
     scene_desc_destroy(&d);
     expect_error("WorldBegin\nMediumInterface \"smoke\"\n",
                  "t.pbrt:2:17: medium \"smoke\" is not defined (MakeNamedMedium must come before its use)");
-    /* A nanovdb medium is vacuum too, but its file must be there (check lists missing assets). */
+    /* A nanovdb medium's file must be there (check lists missing assets). */
     expect_error("WorldBegin\nMakeNamedMedium \"c\" \"string type\" \"nanovdb\" \"string filename\" "
                  "\"data/scenes/missing.nvdb\"\n",
                  "t.pbrt:2:45: cannot open the nanovdb medium's file \"data/scenes/missing.nvdb\": No "

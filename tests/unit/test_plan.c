@@ -497,6 +497,38 @@ static void test_glossy_receiver_and_bdpt(void **state)
     loaded_free(&l);
 }
 
+/* A scene with simulated media (bdpt and "auto" simulate them) whose spot light's caustic
+ * calls for photons: the photon pass carries no media, so the plan keeps the medium in the
+ * camera pass, leaves the pass off, says so in the photon and integrator decisions, and the
+ * loader warns what is lost. */
+static void test_media_keep_camera_pass(void **state)
+{
+    (void)state;
+    const char *integrators[2] = {"Integrator \"bdpt\"", ""};
+    for (int k = 0; k < 2; k++) {
+        loaded_t l = load_world(integrators[k],
+                                "MakeNamedMedium \"fog\" \"string type\" \"homogeneous\" \"rgb sigma_s\" "
+                                "[0.05 0.05 0.05] \"rgb sigma_a\" [0 0 0]\n"
+                                "AttributeBegin\nMediumInterface \"\" \"fog\"\n" FLOOR_AT(0) GLASS_SPHERE
+                                "AttributeEnd\n"
+                                "LightSource \"spot\" \"point3 from\" [ 0 2 0 ] \"point3 to\" [ 0 0 0 ] "
+                                "\"float coneangle\" 20\n");
+        assert_int_equal(light(&l, 0)->verdict, PLAN_LIGHT_NEEDED);
+        assert_false(on(&l, PLAN_PHOTON));
+        assert_int_equal(plan_choice(l.plan).photon_off_for_media, 1);
+        assert_non_null(strstr(plan_decision_of(l.plan, PLAN_PHOTON)->reason, "carries the medium"));
+        assert_non_null(strstr(plan_decision_of(l.plan, PLAN_PHOTON)->reason, "volumetric caustic"));
+        assert_non_null(strstr(plan_decision_of(l.plan, PLAN_INTEGRATOR)->reason, "carried by the camera pass"));
+        assert_true(l.scene->settings.media);
+        assert_false(l.scene->settings.photon.enabled);
+        int warned = 0;
+        for (size_t i = 0; i < warnings_count(l.scene->warnings); i++)
+            warned |= strstr(warnings_at(l.scene->warnings, i), "media are kept") != NULL;
+        assert_true(warned);
+        loaded_free(&l);
+    }
+}
+
 /* The point light shut in a small diffuse box: it reaches no glass. */
 static void test_blocked_light(void **state)
 {
@@ -873,6 +905,7 @@ int main(void)
         cmocka_unit_test(test_point_light_behind_glass),
         cmocka_unit_test(test_gather_radius_one_footprint),
         cmocka_unit_test(test_glossy_receiver_and_bdpt),
+        cmocka_unit_test(test_media_keep_camera_pass),
         cmocka_unit_test(test_blocked_light),
         cmocka_unit_test(test_diffuse_only),
         cmocka_unit_test(test_mirror_nobody_sees),
