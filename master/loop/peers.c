@@ -147,8 +147,10 @@ void peers_lost(master_t *m, mworker_t *w, const char *why)
     sched_worker_leave(m->sched, w->id);
     w->alive = false;
     w->has_unsent = false;
-    master_log(m, "worker %llu '%s' lost (%s); %d task%s back in the queue",
-               (unsigned long long)w->id, w->name, why, busy, busy == 1 ? "" : "s");
+    /* Tasks it held count as expired (sched_worker_leave): said as a take-over says it. */
+    master_log(m, "worker %llu '%s' lost (%s); %d task%s back in the queue%s",
+               (unsigned long long)w->id, w->name, why, busy, busy == 1 ? "" : "s",
+               busy > 0 ? " (counted as expired: on probation, one strike)" : "");
 }
 
 int peers_send(master_t *m, mworker_t *w, const proto_msg_t *msg)
