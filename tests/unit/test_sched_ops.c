@@ -306,8 +306,8 @@ static sched_worker_info_t worker_info(const sched_t *s, uint64_t id)
     return wi[0];
 }
 
-/* A worker killed mid-task (SIGKILL: its connection drops, or it falls silent, holding tasks)
- * is struck as if its tasks had expired, and the same key's next connection takes the strike
+/* A worker killed mid-task (SIGKILL: its connection drops holding tasks) is struck as if its
+ * tasks had expired, and the same key's next connection takes the strike
  * and the probation over: a key that keeps dying mid-task is blocked (issue 26). On the code
  * before, a dropped connection cost nothing and the key came back with a clean row each time. */
 static void test_worker_dying_mid_task_is_struck(void **state)
@@ -321,12 +321,12 @@ static void test_worker_dying_mid_task_is_struck(void **state)
     assert_int_equal(sched_worker_join(s, 1, 1, 0.0, &err), 0);
     /* Leaving without a task held is no strike. */
     assert_int_equal(sched_worker_join(s, 10, 1, 0.0, &err), 0);
-    sched_worker_leave(s, 10);
+    sched_worker_dropped(s, 10);
     assert_int_equal(worker_info(s, 10).fail_streak, 0);
     /* The key's connections 10, 11, 12 each die holding a task. */
     assert_int_equal(sched_worker_join(s, 10, 1, 0.0, &err), 0);
     assert_int_equal(sched_next_task(s, 10, 0.0, &t), 1);
-    sched_worker_leave(s, 10);
+    sched_worker_dropped(s, 10);
     assert_int_equal(worker_info(s, 10).fail_streak, 1);
     sched_event_t ev[8];
     assert_int_equal(sched_events_take(s, ev, 8, NULL), 1);
@@ -339,13 +339,13 @@ static void test_worker_dying_mid_task_is_struck(void **state)
     assert_int_equal(sched_next_task(s, 11, 0.0, &t), 0);
     assert_int_equal(sched_next_task(s, 1, 0.0, &honest), 1);
     assert_int_equal(sched_next_task(s, 11, 0.0, &t), 1);
-    sched_worker_leave(s, 11);
+    sched_worker_dropped(s, 11);
     assert_int_equal(worker_info(s, 11).fail_streak, 2);
     assert_false(worker_info(s, 11).blocked);
     assert_int_equal(sched_worker_join(s, 12, 1, 0.0, &err), 0);
     assert_int_equal(sched_worker_take_over(s, 12, 11), 0);
     assert_int_equal(sched_next_task(s, 12, 0.0, &t), 1);
-    sched_worker_leave(s, 12); /* the third strike in a row */
+    sched_worker_dropped(s, 12); /* the third strike in a row */
     sched_worker_info_t wi = worker_info(s, 12);
     assert_int_equal(wi.fail_streak, 3);
     assert_true(wi.blocked);
@@ -358,8 +358,13 @@ static void test_worker_dying_mid_task_is_struck(void **state)
     assert_int_equal(sched_worker_take_over(s, 13, 12), 0);
     assert_true(worker_info(s, 13).blocked);
     assert_int_equal(sched_next_task(s, 13, 0.0, &t), 0);
-    /* The honest worker returns its task and leaves with nothing held: no strike. */
+    /* The honest worker returns its task and drops with nothing held: no strike; one that
+     * only leaves (silent: sched_worker_leave) holding a task is not struck either. */
     finish(s, 1, &honest);
+    sched_worker_dropped(s, 1);
+    assert_int_equal(worker_info(s, 1).fail_streak, 0);
+    assert_int_equal(sched_worker_join(s, 1, 1, 0.0, &err), 0);
+    assert_int_equal(sched_next_task(s, 1, 0.0, &honest), 1);
     sched_worker_leave(s, 1);
     assert_int_equal(worker_info(s, 1).fail_streak, 0);
     sched_destroy(&s);
