@@ -16,9 +16,10 @@
 
 /* ---- the shared tables -------------------------------------------------------------------- */
 
+/* --res sets xres and yres: dst is xres's place in the settings. */
 static int parse_res(const char *cmd, const char *flag, const char *val, void *dst)
 {
-    proto_settings_t *ov = dst;
+    proto_settings_t *ov = (proto_settings_t *)((char *)dst - offsetof(proto_settings_t, xres));
     int w, h;
     char extra;
     if (sscanf(val, "%dx%d%c", &w, &h, &extra) != 2 || w < 1 || h < 1 || w > 32768 || h > 32768) {
@@ -74,69 +75,34 @@ static int parse_adaptive(const char *cmd, const char *flag, const char *val, vo
     return 0;
 }
 
-const cli_opt_t CLI_OVERRIDE_OPTS[] = {
-    {.name = "spp",
-     .kind = CLI_INT,
-     .off = offsetof(proto_settings_t, spp),
-     .lo = 1,
-     .hi = 1 << 24,
-     .arg = "N",
-     .help = "samples per pixel"},
-    {.name = "res",
-     .kind = CLI_CUSTOM,
-     .parse = parse_res,
-     .arg = "WxH",
-     .help = "image resolution"},
-    {.name = "seed",
-     .kind = CLI_LLONG,
-     .off = offsetof(proto_settings_t, seed),
-     .lo = 0,
-     .hi = 4294967295.0,
-     .arg = "N",
-     .help = "random seed (default: the Sampler's seed)"},
-    {.name = "integrator",
-     .kind = CLI_CUSTOM,
-     .off = offsetof(proto_settings_t, integrator),
-     .parse = parse_integrator,
-     .arg = "NAME",
-     .help =
-         "any name Integrator takes: auto, path,\nphoton, volpath, bdpt, ... (docs/rendering.md)"},
-    {.name = "dispersion",
-     .kind = CLI_CUSTOM,
-     .off = offsetof(proto_settings_t, dispersion),
-     .parse = parse_dispersion,
-     .arg = "NAME",
-     .help = "hero | fanout"},
-    {0},
-};
+/* The settings' options (job_settings.h), each in its group's table. */
+#define IN_OVERRIDE_OVERRIDE(x) x
+#define IN_OVERRIDE_STOP(x)
+#define IN_OVERRIDE_NONE(x)
+#define IN_STOP_OVERRIDE(x)
+#define IN_STOP_STOP(x) x
+#define IN_STOP_NONE(x)
+#define SETTING_OPT(field, cli) {.off = offsetof(proto_settings_t, field), JOB_SETTING_UNPAREN cli},
+#define OVERRIDE_OPT(field, kind, keep, key, wire, load, group, cli)                               \
+    IN_OVERRIDE_##group(SETTING_OPT(field, cli))
+#define STOP_OPT(field, kind, keep, key, wire, load, group, cli)                                   \
+    IN_STOP_##group(SETTING_OPT(field, cli))
+const cli_opt_t CLI_OVERRIDE_OPTS[] = {JOB_SETTINGS(OVERRIDE_OPT){0}};
+const cli_opt_t CLI_STOP_OPTS[] = {JOB_SETTINGS(STOP_OPT){0}};
 
-const cli_opt_t CLI_STOP_OPTS[] = {
-    {.name = "target-error",
-     .kind = CLI_DOUBLE,
-     .off = offsetof(proto_settings_t, target_error),
-     .lo = 0,
-     .hi = 1,
-     .open = 1,
-     .unit = "a relative error",
-     .example = "e.g. 0.02",
-     .arg = "E",
-     .help = "stop at the first pass whose relative error estimate is <= E\n"
-             "(0 < E < 1; RMSE of the mean luminance over its mean)"},
-    {.name = "time-limit",
-     .kind = CLI_SECONDS,
-     .off = offsetof(proto_settings_t, time_limit),
-     .hi = PROTO_MAX_TIME_LIMIT,
-     .arg = "T",
-     .help = "stop at T seconds (or Ns, Nm, Nh) with the whole passes so far"},
-    {.name = "adaptive",
-     .kind = CLI_CUSTOM,
-     .off = offsetof(proto_settings_t, adaptive),
-     .parse = parse_adaptive,
-     .arg = "on|off",
-     .help = "with --target-error: each tile stops once it reaches its share\n"
-             "of the target (on), or every tile runs every pass (off, the default)"},
-    {0},
-};
+static const cli_opt_t *find_in(const cli_opt_t *table, const char *name)
+{
+    for (const cli_opt_t *o = table; o->kind != CLI_END; o++)
+        if (!strcmp(o->name, name))
+            return o;
+    return NULL;
+}
+
+const cli_opt_t *cli_args_setting(const char *name)
+{
+    const cli_opt_t *o = find_in(CLI_OVERRIDE_OPTS, name);
+    return o ? o : find_in(CLI_STOP_OPTS, name);
+}
 
 /* --key and --master-key also note that the keys came from flags, not only from the
  * environment (client_security_load). */

@@ -85,13 +85,20 @@ void cli_args_help(FILE *out, const cli_opt_t *opts);
  * PROTO_SETTINGS_FILE), whether the job goes to a master, to the in-process farm or to --direct
  * (settings_to_overrides gives the loader its part): one struct from the flag to the wire. */
 
-/* The options that override a scene file: --spp, --res, --seed, --integrator, --dispersion. */
+/* The options of the settings (proto/job_settings.h, each declared there once) that override
+ * a scene file: --spp, --res, --seed, --integrator, --dispersion. */
 extern const cli_opt_t CLI_OVERRIDE_OPTS[];
 
 /* The stopping rules of a progressive render (docs/farm.md, "Accuracy"): --target-error E
  * (0 < E < 1), --time-limit T (seconds, or with a suffix s, m or h; at most a year) and
  * --adaptive on|off. */
 extern const cli_opt_t CLI_STOP_OPTS[];
+
+/* The entry of the setting whose flag is name ("target-error") in CLI_OVERRIDE_OPTS or
+ * CLI_STOP_OPTS, or NULL: for a command that takes one setting with its own help (plan's
+ * --target-error), copied and given .dst (its .off is the setting's place in proto_settings_t),
+ * so that the bounds and their messages stay the declaration's. */
+const cli_opt_t *cli_args_setting(const char *name);
 
 /* How a client or a worker secures its link (docs/security.md): --key FILE, --master-key FILE,
  * --insecure, into a client_security_t (start it with client_security_default()). */

@@ -257,19 +257,14 @@ int cmd_plan(int argc, char **argv)
     int json = 0;
     proto_settings_t job = PROTO_SETTINGS_FILE;
     double pilot = 4.0;
+    /* The setting's own entry (its bounds and messages), with plan's example and help. */
+    cli_opt_t target = *cli_args_setting("target-error");
+    target.dst = &job;
+    target.example = "e.g. 0.05";
+    target.help = "predict the samples and time that reach E from a pilot render";
     const cli_opt_t opts[] = {
         CLI_OPT_JSON(.dst = &json, .help = "print JSON instead of the report"),
-        {.name = "target-error",
-         .kind = CLI_DOUBLE,
-         .off = offsetof(proto_settings_t, target_error),
-         .dst = &job,
-         .lo = 0,
-         .hi = 1,
-         .open = 1,
-         .unit = "a relative error",
-         .example = "e.g. 0.05",
-         .arg = "E",
-         .help = "predict the samples and time that reach E from a pilot render"},
+        target,
         {.name = "pilot",
          .kind = CLI_DOUBLE,
          .dst = &pilot,

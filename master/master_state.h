@@ -62,8 +62,8 @@ typedef struct job {
     char hash[PROTO_HASH_HEX + 1];
     char *main; /* the bundle's main file, to load the scene again (a refinement, a restarted
                  * master) */
-    proto_settings_t settings;           /* strings point into integrator / dispersion */
-    char integrator[PROTO_SETTING_NAME_MAX + 1], dispersion[PROTO_SETTING_NAME_MAX + 1];
+    proto_settings_t settings; /* its names point into setting_names */
+    proto_setting_names_t setting_names;
     job_state_t state;
     char *error;
     /* Who may act on it (access.h): the submitting key's name, proto_peer_t.user; "" when

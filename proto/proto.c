@@ -723,8 +723,6 @@ static int ck_store_hash(const cx_t *cx, const void *obj)
 /* A shape_t's initializer: {SHAPE(...)} */
 #define SHAPE(type, fields, rule) (fields), N(fields), sizeof(type), (rule)
 
-#define SETTING_NAME_MAX PROTO_SETTING_NAME_MAX
-
 static const names_t KINDS = {KIND_NAMES, PROTO_KIND_COUNT, PROTO_KIND_CAMERA_TILE};
 static const names_t JOB_STATES = {JOB_STATE_NAMES, JOB_STATE_COUNT, 0};
 static const names_t WORKER_STATES = {WORKER_STATE_NAMES, PROTO_WORKER_STATE_COUNT, 0};
@@ -732,23 +730,15 @@ static const names_t FETCH_WHATS = {FETCH_NAMES, PROTO_FETCH_COUNT, 0};
 static const names_t STOPS = {STOP_NAMES, PROTO_STOP_COUNT, PROTO_STOP_TARGET};
 static const names_t ACTS = {ACT_NAMES, PROTO_ACT_COUNT, PROTO_ACT_PRIORITY};
 
-#define SET(m) offsetof(proto_settings_t, m)
-static const field_t SETTINGS_FIELDS[] = {
-    {F("spp", FT_INT, SET(spp)), RANGE(0, INT_MAX)},
-    {F("xres", FT_INT, SET(xres)), RANGE(0, PROTO_MAX_IMAGE_SIDE)},
-    {F("yres", FT_INT, SET(yres)), RANGE(0, PROTO_MAX_IMAGE_SIDE)},
-    {F("seed", FT_SINT, SET(seed)), RANGE(-1, LLONG_MAX)},
-    {F("integ", FT_STR, SET(integrator)), .presence = UNLESS_ZERO, NAME(SETTING_NAME_MAX)},
-    {F("disp", FT_STR, SET(dispersion)), .presence = UNLESS_ZERO, NAME(SETTING_NAME_MAX)},
-    /* 0 means "no rule" and is never written; anything else must be a usable rule. */
-    {F("tgt", FT_FLOAT, SET(target_error)), .presence = UNLESS_ZERO, .absent = "no target",
-     .check = ck_target_error},
-    {F("tlim", FT_FLOAT, SET(time_limit)), .presence = UNLESS_ZERO, .absent = "no time limit",
-     .check = ck_time_limit},
-    /* Absent: no adaptive sampling, the default. */
-    {F("adapt", FT_INT, SET(adaptive)), .presence = UNLESS_ZERO, .absent = "no adaptive sampling",
-     RANGE(0, 1)},
-};
+/* The SETTINGS map: each setting's key, wire type and check (job_settings.h). */
+#define FT_OF_INT FT_INT
+#define FT_OF_LLONG FT_SINT
+#define FT_OF_DOUBLE FT_FLOAT
+#define FT_OF_NAME FT_STR
+#define SETTING_FIELD(field, kind, keep, key, wire, ...)                                           \
+    {F(key, FT_OF_##kind, offsetof(proto_settings_t, field)), JOB_SETTING_UNPAREN wire},
+static const field_t SETTINGS_FIELDS[] = {JOB_SETTINGS(SETTING_FIELD)};
+#undef SETTING_FIELD
 static const shape_t SETTINGS = {SHAPE(proto_settings_t, SETTINGS_FIELDS, NULL)};
 
 #define RECT(m) offsetof(proto_tile_t, m)
@@ -2099,17 +2089,18 @@ int proto_task_parse(const char *s, uint32_t *task)
 }
 
 void proto_settings_copy(proto_settings_t *dst, const proto_settings_t *src,
-                         char integrator[PROTO_SETTING_NAME_MAX + 1],
-                         char dispersion[PROTO_SETTING_NAME_MAX + 1])
+                         proto_setting_names_t *names)
 {
     *dst = *src;
-    dst->integrator = dst->dispersion = NULL;
-    if (src->integrator) {
-        snprintf(integrator, PROTO_SETTING_NAME_MAX + 1, "%s", src->integrator);
-        dst->integrator = integrator;
+#define COPY_INT(field)
+#define COPY_LLONG(field)
+#define COPY_DOUBLE(field)
+#define COPY_NAME(field)                                                                           \
+    if (src->field) {                                                                              \
+        snprintf(names->field, sizeof names->field, "%s", src->field);                             \
+        dst->field = names->field;                                                                 \
     }
-    if (src->dispersion) {
-        snprintf(dispersion, PROTO_SETTING_NAME_MAX + 1, "%s", src->dispersion);
-        dst->dispersion = dispersion;
-    }
+#define COPY(field, kind, ...) COPY_##kind(field)
+    JOB_SETTINGS(COPY)
+#undef COPY
 }

@@ -8,6 +8,7 @@
 
 #include "bundle.h"
 #include "err.h"
+#include "job_settings.h"
 #include "proto_limits.h"
 
 #include <msgpack.h>
@@ -122,34 +123,41 @@ typedef enum proto_fetch_what {
     PROTO_FETCH_COUNT
 } proto_fetch_what_t;
 
-/* Job settings: mirror scene_overrides_t (scene/scene_load.h; settings/settings.h converts: 0 /
- * NULL / -1 keep the scene file's value), then the stopping rules of a progressive job (0: none),
- * which only the master reads. */
+/* Job settings, declared once in job_settings.h (name, type, default, wire key and checks,
+ * flag and help, journal column): the fields mirror scene_overrides_t (scene/overrides.h;
+ * settings/settings.h converts: 0 / NULL / -1 keep the scene file's value), then the stopping
+ * rules of a progressive job (0: none), which only the master reads. */
 typedef struct proto_settings {
-    int spp;                /* samples per pixel of the whole job; 0: the file's */
-    int xres, yres;         /* 0: the file's */
-    long long seed;         /* -1: the file's */
-    const char *integrator; /* NULL: the file's ("path", "simplepath", "whitted") */
-    const char *dispersion; /* NULL: the file's ("hero", "fanout") */
-    double target_error;    /* 0, or 0 < E < 1: done at the first pass whose estimate is <= E */
-    double time_limit;      /* 0, or 0 < T <= PROTO_MAX_TIME_LIMIT seconds after the start */
-    int adaptive;           /* 1: under a target error tiles stop one by one (adaptive sampling,
-                             * film/adaptive.h); 0 (the default): every tile runs every pass */
+#define PROTO_SETTING_FIELD(field, kind, ...) JOB_SETTING_CTYPE_##kind field;
+    JOB_SETTINGS(PROTO_SETTING_FIELD)
+#undef PROTO_SETTING_FIELD
 } proto_settings_t;
 
-/* A job's settings before any is given: each the scene file's, no stopping rule. */
-#define PROTO_SETTINGS_FILE ((proto_settings_t){.seed = -1})
+/* A job's settings before any is given: each the scene file's, no stopping rule (each
+ * setting's KEEP). */
+#define PROTO_SETTING_KEEP(field, kind, keep, ...) .field = (keep),
+#define PROTO_SETTINGS_FILE ((proto_settings_t){JOB_SETTINGS(PROTO_SETTING_KEEP)})
 
-/* The longest integrator or dispersion name a SETTINGS map may carry (the decoder refuses
- * longer). */
+/* The longest name (a NAME setting: integrator, dispersion) a SETTINGS map may carry (the
+ * decoder refuses longer). */
 #define PROTO_SETTING_NAME_MAX 64
 
-/* Copies src into *dst with its names copied into integrator and dispersion (cut at
- * PROTO_SETTING_NAME_MAX bytes), so that *dst outlives what src points into (a message, a
- * journal row): the one deep copy of a job's settings. */
+/* Room for a copy of each NAME setting (proto_settings_copy). */
+typedef struct proto_setting_names {
+#define PROTO_SETTING_NAMEBUF_INT(field)
+#define PROTO_SETTING_NAMEBUF_LLONG(field)
+#define PROTO_SETTING_NAMEBUF_DOUBLE(field)
+#define PROTO_SETTING_NAMEBUF_NAME(field) char field[PROTO_SETTING_NAME_MAX + 1];
+#define PROTO_SETTING_NAMEBUF(field, kind, ...) PROTO_SETTING_NAMEBUF_##kind(field)
+    JOB_SETTINGS(PROTO_SETTING_NAMEBUF)
+#undef PROTO_SETTING_NAMEBUF
+} proto_setting_names_t;
+
+/* Copies src into *dst with its names copied into *names (cut at PROTO_SETTING_NAME_MAX bytes),
+ * so that *dst outlives what src points into (a message, a journal row): the one deep copy of a
+ * job's settings. */
 void proto_settings_copy(proto_settings_t *dst, const proto_settings_t *src,
-                         char integrator[PROTO_SETTING_NAME_MAX + 1],
-                         char dispersion[PROTO_SETTING_NAME_MAX + 1]);
+                         proto_setting_names_t *names);
 
 /* A camera tile: pixels [x0, x0+w) x [y0, y0+h), sample indices [sample_begin, sample_end). */
 typedef struct proto_tile {

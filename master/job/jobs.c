@@ -108,7 +108,7 @@ static void job_take_scene(job_t *j, const scene_t *scene)
 
 static void job_set_settings(job_t *j, const proto_settings_t *set)
 {
-    proto_settings_copy(&j->settings, set, j->integrator, j->dispersion);
+    proto_settings_copy(&j->settings, set, &j->setting_names);
 }
 
 /* What the shelf loads on a miss: the job's scene, confined to its bundle's folder. */

@@ -626,12 +626,33 @@ static void requeue_worker_tasks(sched_t *self, uint64_t id)
 void sched_worker_leave(sched_t *self, uint64_t id)
 {
     worker_t *w = find_worker(self, id);
-    if (!w)
+    if (!w || !w->alive)
         return;
     requeue_worker_tasks(self, id);
     self->idle_threads -= idle_of(w);
     w->alive = false;
     w->busy = 0;
+}
+
+static void strike(sched_t *self, worker_t *w, uint64_t job, uint32_t task, uint32_t attempt);
+
+void sched_worker_dropped(sched_t *self, uint64_t id)
+{
+    worker_t *w = find_worker(self, id);
+    if (!w || !w->alive)
+        return;
+    int held = w->busy;
+    sched_worker_leave(self, id);
+    if (held > 0) {
+        /* Its connection dropped (a SIGKILL, a crash) with tasks it never returned: they count
+         * as expired, so a key that keeps dying mid-task is put on probation when it comes back
+         * and, in a row, blocked, as a peer that holds tasks until their deadline is (issue 26).
+         * The standing stays on this record: a HELLO on a new connection takes it over
+         * (sched_worker_take_over). */
+        if (w->missed < UINT32_MAX)
+            w->missed++;
+        strike(self, w, 0, 0, 0);
+    }
 }
 
 /* One more strike in the worker's row (a failed task, a refused result, a task that expired or

@@ -162,12 +162,18 @@ int sched_worker_set_threads(sched_t *self, uint64_t worker, int threads, err_t 
 void sched_worker_seen(sched_t *self, uint64_t worker, double now);
 /* The worker is gone: its tasks go back to the queue. */
 void sched_worker_leave(sched_t *self, uint64_t worker);
+/* The worker's connection dropped (killed, crashed: not merely silent, which a loaded machine
+ * can be): it leaves, and if it held tasks they count as expired -- probation and one more
+ * strike in its row, which a later connection of the same worker takes over
+ * (sched_worker_take_over) -- so a worker that keeps dying mid-task gets blocked. */
+void sched_worker_dropped(sched_t *self, uint64_t worker);
 /* Worker `to` is worker `from` again (the same key and name said HELLO on a new connection):
  * from is gone at once (its tasks back in the queue, whatever their deadline) and to takes over
  * its standing -- the tasks it returned (its claim, sched_config_t claim_start), its probation,
  * its strikes in a row and a block -- so none of them restarts with a connection. When from
  * still held tasks, to starts on probation with one more strike (abandoned tasks count as
- * expired). Returns the tasks from held. */
+ * expired), as it does when from's connection had dropped holding tasks (sched_worker_dropped
+ * struck it then). Returns the tasks from held. */
 int sched_worker_take_over(sched_t *self, uint64_t to, uint64_t from);
 /* A strike in the worker's row that is not a task's failure (a result refused as not its own,
  * stale or malformed): max_worker_failures_in_row of them, with failed and expired tasks, and no

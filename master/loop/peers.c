@@ -144,11 +144,18 @@ void peers_lost(master_t *m, mworker_t *w, const char *why)
     size_t n = peers_sched_table(m);
     const sched_worker_info_t *si = peers_sched_info(m, n, w->id);
     int busy = si ? si->busy : 0;
-    sched_worker_leave(m->sched, w->id);
+    /* A dropped connection is the worker's failure (killed, crashed): the tasks it held count
+     * as expired (sched_worker_dropped). Silence is not: a loaded machine can be slow to answer. */
+    bool dropped = !strcmp(why, PEERS_DISCONNECTED);
+    if (dropped)
+        sched_worker_dropped(m->sched, w->id);
+    else
+        sched_worker_leave(m->sched, w->id);
     w->alive = false;
     w->has_unsent = false;
-    master_log(m, "worker %llu '%s' lost (%s); %d task%s back in the queue",
-               (unsigned long long)w->id, w->name, why, busy, busy == 1 ? "" : "s");
+    master_log(m, "worker %llu '%s' lost (%s); %d task%s back in the queue%s",
+               (unsigned long long)w->id, w->name, why, busy, busy == 1 ? "" : "s",
+               dropped && busy > 0 ? " (counted as expired: on probation, one strike)" : "");
 }
 
 int peers_send(master_t *m, mworker_t *w, const proto_msg_t *msg)
@@ -156,7 +163,7 @@ int peers_send(master_t *m, mworker_t *w, const proto_msg_t *msg)
     err_t err;
     int rc = net_send(m->wnet, &w->peer, msg, &err);
     if (rc == PROTO_EUNREACHABLE)
-        peers_lost(m, w, "disconnected");
+        peers_lost(m, w, PEERS_DISCONNECTED);
     else if (rc < 0 && rc != PROTO_EAGAIN)
         master_log(m, "cannot send to worker %llu: %s", (unsigned long long)w->id, err.msg);
     return rc;

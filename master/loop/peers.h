@@ -29,6 +29,9 @@ const sched_worker_info_t *peers_sched_info(master_t *m, size_t n, uint64_t id);
 
 /* The worker is gone (why, for the log): its tasks go back to the queue. Nothing for a worker
  * lost already. */
+/* why PEERS_DISCONNECTED: its connection dropped, and the tasks it held count as expired
+ * (sched_worker_dropped); any other why (silence): they only go back to the queue. */
+#define PEERS_DISCONNECTED "disconnected"
 void peers_lost(master_t *m, mworker_t *w, const char *why);
 /* Forgets the lost worker seen longest ago once more than MAX_LOST_WORKERS are listed. */
 void peers_prune_lost(master_t *m);

@@ -31,8 +31,8 @@ struct submission {
     char hash[PROTO_HASH_HEX + 1];
     char dir[PATH_MAX];
     bool staged;
-    proto_settings_t settings; /* its strings point into integrator / dispersion */
-    char integrator[PROTO_SETTING_NAME_MAX + 1], dispersion[PROTO_SETTING_NAME_MAX + 1];
+    proto_settings_t settings; /* its names point into setting_names */
+    proto_setting_names_t setting_names;
     int priority; /* SUBMIT's (ops.h) */
     scene_budget_t budget;
     int load_threads; /* frames loaded at once (master_opts_t) */
@@ -263,7 +263,7 @@ static void submit_accept(master_t *m, const proto_peer_t *from, const proto_msg
     }
     s->peer = *from;
     memcpy(s->hash, hash, sizeof s->hash);
-    proto_settings_copy(&s->settings, &msg->submit.settings, s->integrator, s->dispersion);
+    proto_settings_copy(&s->settings, &msg->submit.settings, &s->setting_names);
     s->priority = (int)msg->submit.priority;
     s->budget = m->opts->budget;
     s->load_threads = m->opts->load_threads;

@@ -45,7 +45,7 @@ static void fill_job(master_t *m, const job_t *j, double now, dash_job_t *o)
         .xres = j->scene.xres,
         .yres = j->scene.yres,
         .spp = j->scene.spp,
-        .integrator = j->scene.integrator ? j->scene.integrator : j->integrator,
+        .integrator = j->scene.integrator ? j->scene.integrator : j->settings.integrator,
         .samples_done = j->sched.samples_done,
         .samples_total = j->sched.samples_total,
         .nonfinite = j->sched.nonfinite,

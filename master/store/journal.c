@@ -108,12 +108,12 @@ journal_stats_t journal_stats(const journal_t *self)
     return self->stats;
 }
 
+/* clang-format off */
 static const char *SCHEMA =
     "CREATE TABLE IF NOT EXISTS meta(key TEXT PRIMARY KEY, value INTEGER NOT NULL);"
     "CREATE TABLE IF NOT EXISTS jobs("
     " id INTEGER PRIMARY KEY, name TEXT NOT NULL, hash TEXT NOT NULL, main TEXT NOT NULL,"
-    " spp INTEGER NOT NULL, xres INTEGER NOT NULL, yres INTEGER NOT NULL, seed INTEGER NOT NULL,"
-    " integrator TEXT, dispersion TEXT, target_error REAL NOT NULL, time_limit REAL NOT NULL,"
+    JOB_SETTINGS(JDB_SETTING_DDL)
     " state INTEGER NOT NULL, error TEXT, round INTEGER NOT NULL DEFAULT 0,"
     " photon_base INTEGER NOT NULL DEFAULT 0, photons_saved INTEGER NOT NULL DEFAULT 0,"
     " round_photons INTEGER NOT NULL DEFAULT 0, refine_photons INTEGER NOT NULL DEFAULT 0,"
@@ -135,6 +135,7 @@ static const char *SCHEMA =
     " job INTEGER NOT NULL, round INTEGER NOT NULL, pass INTEGER NOT NULL, spp INTEGER NOT NULL,"
     " elapsed REAL NOT NULL, valid INTEGER NOT NULL, rel_error REAL NOT NULL,"
     " PRIMARY KEY(job, round, pass));";
+/* clang-format on */
 
 /* Version 6 to 7: the jobs' priority and pause columns (the blocked table came with SCHEMA).
  * One transaction: a master killed half-way leaves version 6, migrated again next time. */
@@ -168,6 +169,60 @@ static int migrate_7_to_8(journal_t *self, err_t *err)
 static int migrate_8_to_9(journal_t *self, err_t *err)
 {
     return jdb_exec(self, "UPDATE meta SET value=9 WHERE key='version'", err);
+}
+
+/* Whether the jobs table has the column: 1, 0, or -1 with err. */
+static int has_column(journal_t *self, const char *column, err_t *err)
+{
+    sqlite3_stmt *st;
+    if (jdb_prepare(self, "SELECT COUNT(*) FROM pragma_table_info('jobs') WHERE name=?1", &st,
+                    err) < 0)
+        return -1;
+    sqlite3_bind_text(st, 1, column, -1, SQLITE_STATIC);
+    int rc = sqlite3_step(st), n = rc == SQLITE_ROW ? sqlite3_column_int(st, 0) : -1;
+    sqlite3_finalize(st);
+    return n < 0 ? jdb_error(self, err, "reading the jobs table's columns") : n > 0;
+}
+
+/* A journal of version 9 (or one migrated to it) up to this version: the column of each job
+ * setting it lacks (proto/job_settings.h; JDB_SETTING_DDL gives the setting's KEEP as the
+ * default), and adaptive sampling, which version 9 kept as a negative target_error, becomes its
+ * column. One transaction, as migrate_6_to_7. */
+static int migrate_settings(journal_t *self, long long version, err_t *err)
+{
+    static const struct {
+        const char *name, *ddl;
+    } columns[] = {
+#define SETTING_COLUMN(field, ...) {#field, JDB_SETTING_DDL(field, __VA_ARGS__)},
+        JOB_SETTINGS(SETTING_COLUMN)
+#undef SETTING_COLUMN
+    };
+    if (jdb_begin(self, err) < 0)
+        return -1;
+    int rc = 0;
+    for (size_t i = 0; i < sizeof columns / sizeof columns[0] && rc == 0; i++) {
+        int has = has_column(self, columns[i].name, err);
+        if (has < 0) {
+            rc = -1;
+        } else if (!has) {
+            /* The DDL ends with the comma it has in SCHEMA. */
+            char sql[256];
+            snprintf(sql, sizeof sql, "ALTER TABLE jobs ADD COLUMN%.*s",
+                     (int)strlen(columns[i].ddl) - 1, columns[i].ddl);
+            rc = jdb_exec(self, sql, err);
+        }
+    }
+    if (rc == 0 && version <= 9)
+        rc = jdb_exec(self,
+                      "UPDATE jobs SET adaptive=1, target_error=-target_error "
+                      "WHERE target_error < 0",
+                      err);
+    if (rc == 0) {
+        char sql[96];
+        snprintf(sql, sizeof sql, "UPDATE meta SET value=%d WHERE key='version'", JOURNAL_VERSION);
+        rc = jdb_exec(self, sql, err);
+    }
+    return jdb_commit(self, rc, err);
 }
 
 journal_t *journal_open(const char *dir, err_t *err)
@@ -258,10 +313,16 @@ journal_t *journal_open(const char *dir, err_t *err)
         err_prefix(err, "journal %s: migrating version 8 to 9: ", path);
         journal_close(&self);
         return NULL;
-    } else if (version >= 0 && (version < 5 || version > 8) && version != JOURNAL_VERSION) {
+    } else if (version >= 0 && (version < 5 || version > JOURNAL_VERSION)) {
         err_set(err, "journal %s: version %lld, this master reads version %d (move the spool "
                      "aside or use a matching prismfarm)",
                 path, version, JOURNAL_VERSION);
+        journal_close(&self);
+        return NULL;
+    }
+    if (version >= 5 && version < JOURNAL_VERSION && migrate_settings(self, version, err) < 0) {
+        err_prefix(err, "journal %s: migrating version %lld to %d: ", path, version,
+                   JOURNAL_VERSION);
         journal_close(&self);
         return NULL;
     }

@@ -38,8 +38,8 @@ typedef struct journal journal_t;
 typedef struct journal_job {
     uint64_t id;
     char *name, *hash, *main; /* the client's name, the bundle's hash and main file */
-    proto_settings_t settings;  /* integrator / dispersion point into the strings below */
-    char integrator[PROTO_SETTING_NAME_MAX + 1], dispersion[PROTO_SETTING_NAME_MAX + 1];
+    proto_settings_t settings; /* its names point into setting_names */
+    proto_setting_names_t setting_names;
     job_state_t state;
     char *error; /* NULL unless failed */
     uint32_t round;          /* refinements so far (task ids carry it) */

@@ -25,8 +25,12 @@
  * frame number and, for a sequence, its count of frames; a version-7 journal is migrated in place
  * (migrate_7_to_8: its jobs are single scenes), older ones through 7. 9: a result's blob is
  * the RESULT message as received (journal.h); a version-8 journal is only marked 9, since its
- * blobs still read (journal_blob_is_v8). */
-#define JOURNAL_VERSION 9
+ * blobs still read (journal_blob_is_v8). 10: a column per job setting, each from
+ * proto/job_settings.h (adaptive sampling had been the sign of target_error: a version-9
+ * journal gets the column, its negative targets made the flag; migrate_settings). A new
+ * setting bumps the version too: migrate_settings gives an older spool the missing columns,
+ * each filled with its setting's KEEP, which is how that spool's jobs ran. */
+#define JOURNAL_VERSION 10
 
 /* The segment a job's results are appended to (journal.h): open until the job's next prune. */
 typedef struct segment {
@@ -51,6 +55,20 @@ struct journal {
     bool in_turn, turn_open;
     double t_turn; /* when the turn's transaction began */
 };
+
+/* The jobs table's column per job setting (proto/job_settings.h), named as the field: its
+ * type and the default an older spool's rows get (JDB_SETTING_DDL: " spp INTEGER NOT NULL
+ * DEFAULT 0,"), the column names and placeholders of an INSERT or SELECT (JDB_SETTING_COLUMNS:
+ * "spp, xres, ..., ", JDB_SETTING_PLACES: "?, ?, ..., "). */
+#define JDB_SQL_INT(keep) " INTEGER NOT NULL DEFAULT " #keep
+#define JDB_SQL_LLONG(keep) " INTEGER NOT NULL DEFAULT " #keep
+#define JDB_SQL_DOUBLE(keep) " REAL NOT NULL DEFAULT " #keep
+#define JDB_SQL_NAME(keep) " TEXT"
+#define JDB_SETTING_DDL(field, kind, keep, ...) " " #field JDB_SQL_##kind(keep) ","
+#define JDB_SETTING_COLUMN(field, ...) #field ", "
+#define JDB_SETTING_PLACE(field, ...) "?, "
+#define JDB_SETTING_COLUMNS JOB_SETTINGS(JDB_SETTING_COLUMN)
+#define JDB_SETTING_PLACES JOB_SETTINGS(JDB_SETTING_PLACE)
 
 /* An SQLite error of the journal's database, with what was being done. Returns -1. */
 int jdb_error(journal_t *self, err_t *err, const char *what);

@@ -40,43 +40,38 @@ int journal_add_job(journal_t *self, const journal_job_t *j, err_t *err)
     return journal_add_jobs(self, j, 1, err);
 }
 
+/* Each setting bound to its column (JDB_SETTING_COLUMNS) at *i, then the next. */
+#define BIND_INT(field) sqlite3_bind_int64(st, i++, j->settings.field);
+#define BIND_LLONG(field) sqlite3_bind_int64(st, i++, j->settings.field);
+#define BIND_DOUBLE(field) sqlite3_bind_double(st, i++, j->settings.field);
+#define BIND_NAME(field) bind_text_or_null(st, i++, j->settings.field);
+#define BIND_SETTING(field, kind, ...) BIND_##kind(field)
+
 static int insert_job(journal_t *self, const journal_job_t *j, err_t *err)
 {
     sqlite3_stmt *st;
     if (jdb_prepare(self,
-                "INSERT OR REPLACE INTO jobs(id, name, hash, main, spp, xres, yres, seed, "
-                "integrator, dispersion, target_error, time_limit, state, round_photons, "
-                "samples_total, owner, priority, paused, parent, frame, nframes) VALUES(?1, ?2, "
-                "?3, ?4, ?5, ?6, ?7, ?8, ?9, ?10, ?11, ?12, ?13, ?14, ?15, ?16, ?17, ?18, ?19, "
-                "?20, ?21)",
-                &st, err) < 0)
+                    "INSERT OR REPLACE INTO jobs(id, name, hash, main, " JDB_SETTING_COLUMNS
+                    "state, round_photons, samples_total, owner, priority, paused, parent, frame, "
+                    "nframes) VALUES(?, ?, ?, ?, " JDB_SETTING_PLACES "?, ?, ?, ?, ?, ?, ?, ?, ?)",
+                    &st, err) < 0)
         return -1;
     double t0 = clock_now_s();
-    sqlite3_bind_int64(st, 1, (sqlite3_int64)j->id);
-    sqlite3_bind_text(st, 2, j->name, -1, SQLITE_TRANSIENT);
-    sqlite3_bind_text(st, 3, j->hash, -1, SQLITE_TRANSIENT);
-    sqlite3_bind_text(st, 4, j->main, -1, SQLITE_TRANSIENT);
-    sqlite3_bind_int(st, 5, j->settings.spp);
-    sqlite3_bind_int(st, 6, j->settings.xres);
-    sqlite3_bind_int(st, 7, j->settings.yres);
-    sqlite3_bind_int64(st, 8, j->settings.seed);
-    bind_text_or_null(st, 9, j->settings.integrator);
-    bind_text_or_null(st, 10, j->settings.dispersion);
-    /* A job with adaptive sampling keeps its target negated: the column's sign is the setting,
-     * so the schema (and the version) stay as they were, and a journal of a master before
-     * adaptive sampling reads as without it, which is how its jobs ran. */
-    sqlite3_bind_double(st, 11, j->settings.adaptive ? -j->settings.target_error
-                                                     : j->settings.target_error);
-    sqlite3_bind_double(st, 12, j->settings.time_limit);
-    sqlite3_bind_int(st, 13, j->state);
-    sqlite3_bind_int64(st, 14, (sqlite3_int64)j->round_photons);
-    sqlite3_bind_int64(st, 15, (sqlite3_int64)j->samples_total);
-    sqlite3_bind_text(st, 16, j->owner, -1, SQLITE_TRANSIENT);
-    sqlite3_bind_int(st, 17, j->priority);
-    sqlite3_bind_int(st, 18, j->paused);
-    sqlite3_bind_int64(st, 19, (sqlite3_int64)j->parent);
-    sqlite3_bind_int64(st, 20, (sqlite3_int64)j->frame);
-    sqlite3_bind_int64(st, 21, (sqlite3_int64)j->nframes);
+    int i = 1;
+    sqlite3_bind_int64(st, i++, (sqlite3_int64)j->id);
+    sqlite3_bind_text(st, i++, j->name, -1, SQLITE_TRANSIENT);
+    sqlite3_bind_text(st, i++, j->hash, -1, SQLITE_TRANSIENT);
+    sqlite3_bind_text(st, i++, j->main, -1, SQLITE_TRANSIENT);
+    JOB_SETTINGS(BIND_SETTING)
+    sqlite3_bind_int(st, i++, j->state);
+    sqlite3_bind_int64(st, i++, (sqlite3_int64)j->round_photons);
+    sqlite3_bind_int64(st, i++, (sqlite3_int64)j->samples_total);
+    sqlite3_bind_text(st, i++, j->owner, -1, SQLITE_TRANSIENT);
+    sqlite3_bind_int(st, i++, j->priority);
+    sqlite3_bind_int(st, i++, j->paused);
+    sqlite3_bind_int64(st, i++, (sqlite3_int64)j->parent);
+    sqlite3_bind_int64(st, i++, (sqlite3_int64)j->frame);
+    sqlite3_bind_int64(st, i++, (sqlite3_int64)j->nframes);
     int rc = jdb_step_done(self, st, "adding a job", err);
     jdb_count_write(self, t0);
     return rc;
@@ -250,18 +245,30 @@ static char *col_dup(sqlite3_stmt *st, int i)
     return s ? strdup((const char *)s) : NULL;
 }
 
+/* Each setting read from its column (JDB_SETTING_COLUMNS) at col, then the next; a name into the
+ * record's setting_names. */
+#define READ_INT(field) j->settings.field = sqlite3_column_int(st, col++);
+#define READ_LLONG(field) j->settings.field = sqlite3_column_int64(st, col++);
+#define READ_DOUBLE(field) j->settings.field = sqlite3_column_double(st, col++);
+#define READ_NAME(field)                                                                           \
+    if ((s = sqlite3_column_text(st, col++))) {                                                    \
+        snprintf(j->setting_names.field, sizeof j->setting_names.field, "%s", (const char *)s);    \
+        j->settings.field = j->setting_names.field;                                                \
+    }
+#define READ_SETTING(field, kind, ...) READ_##kind(field)
+
 int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err)
 {
     *jobs = NULL;
     *n = 0;
     sqlite3_stmt *st;
     if (jdb_prepare(self,
-                "SELECT id, name, hash, main, spp, xres, yres, seed, integrator, dispersion, "
-                "target_error, time_limit, state, error, round, photon_base, photons_saved, "
-                "round_photons, refine_photons, checkpoint, elapsed, stop, outputs, "
-                "samples_done, samples_total, nonfinite, spp_done, owner, priority, paused, "
-                "parent, frame, nframes FROM jobs ORDER BY id",
-                &st, err) < 0)
+                    "SELECT id, name, hash, main, " JDB_SETTING_COLUMNS
+                    "state, error, round, photon_base, photons_saved, round_photons, "
+                    "refine_photons, checkpoint, elapsed, stop, outputs, samples_done, "
+                    "samples_total, nonfinite, spp_done, owner, priority, paused, parent, frame, "
+                    "nframes FROM jobs ORDER BY id",
+                    &st, err) < 0)
         return -1;
     size_t cap = 0;
     int rc;
@@ -283,46 +290,31 @@ int journal_jobs(journal_t *self, journal_job_t **jobs, size_t *n, err_t *err)
         j->name = col_dup(st, 1);
         j->hash = col_dup(st, 2);
         j->main = col_dup(st, 3);
-        j->settings.spp = sqlite3_column_int(st, 4);
-        j->settings.xres = sqlite3_column_int(st, 5);
-        j->settings.yres = sqlite3_column_int(st, 6);
-        j->settings.seed = sqlite3_column_int64(st, 7);
-        const unsigned char *s = sqlite3_column_text(st, 8);
-        if (s) {
-            snprintf(j->integrator, sizeof j->integrator, "%s", (const char *)s);
-            j->settings.integrator = j->integrator;
-        }
-        if ((s = sqlite3_column_text(st, 9))) {
-            snprintf(j->dispersion, sizeof j->dispersion, "%s", (const char *)s);
-            j->settings.dispersion = j->dispersion;
-        }
-        j->settings.target_error = sqlite3_column_double(st, 10);
-        j->settings.adaptive = j->settings.target_error < 0; /* insert_job */
-        if (j->settings.adaptive)
-            j->settings.target_error = -j->settings.target_error;
-        j->settings.time_limit = sqlite3_column_double(st, 11);
-        j->state = sqlite3_column_int(st, 12);
-        j->error = col_dup(st, 13);
-        j->round = (uint32_t)sqlite3_column_int64(st, 14);
-        j->photon_base = (uint32_t)sqlite3_column_int64(st, 15);
-        j->photons_saved = (uint64_t)sqlite3_column_int64(st, 16);
-        j->round_photons = (uint64_t)sqlite3_column_int64(st, 17);
-        j->refine_photons = (uint64_t)sqlite3_column_int64(st, 18);
-        j->checkpoint = (uint64_t)sqlite3_column_int64(st, 19);
-        j->elapsed = sqlite3_column_double(st, 20);
-        j->stop = sqlite3_column_int(st, 21);
-        j->outputs = sqlite3_column_int(st, 22) != 0;
-        j->samples_done = (uint64_t)sqlite3_column_int64(st, 23);
-        j->samples_total = (uint64_t)sqlite3_column_int64(st, 24);
-        j->nonfinite = (uint64_t)sqlite3_column_int64(st, 25);
-        j->spp_done = sqlite3_column_int(st, 26);
-        if ((s = sqlite3_column_text(st, 27)))
+        int col = 4;
+        const unsigned char *s;
+        JOB_SETTINGS(READ_SETTING)
+        j->state = sqlite3_column_int(st, col++);
+        j->error = col_dup(st, col++);
+        j->round = (uint32_t)sqlite3_column_int64(st, col++);
+        j->photon_base = (uint32_t)sqlite3_column_int64(st, col++);
+        j->photons_saved = (uint64_t)sqlite3_column_int64(st, col++);
+        j->round_photons = (uint64_t)sqlite3_column_int64(st, col++);
+        j->refine_photons = (uint64_t)sqlite3_column_int64(st, col++);
+        j->checkpoint = (uint64_t)sqlite3_column_int64(st, col++);
+        j->elapsed = sqlite3_column_double(st, col++);
+        j->stop = sqlite3_column_int(st, col++);
+        j->outputs = sqlite3_column_int(st, col++) != 0;
+        j->samples_done = (uint64_t)sqlite3_column_int64(st, col++);
+        j->samples_total = (uint64_t)sqlite3_column_int64(st, col++);
+        j->nonfinite = (uint64_t)sqlite3_column_int64(st, col++);
+        j->spp_done = sqlite3_column_int(st, col++);
+        if ((s = sqlite3_column_text(st, col++)))
             snprintf(j->owner, sizeof j->owner, "%s", (const char *)s);
-        j->priority = sqlite3_column_int(st, 28);
-        j->paused = sqlite3_column_int(st, 29) != 0;
-        j->parent = (uint64_t)sqlite3_column_int64(st, 30);
-        j->frame = (uint32_t)sqlite3_column_int64(st, 31);
-        j->nframes = (uint32_t)sqlite3_column_int64(st, 32);
+        j->priority = sqlite3_column_int(st, col++);
+        j->paused = sqlite3_column_int(st, col++) != 0;
+        j->parent = (uint64_t)sqlite3_column_int64(st, col++);
+        j->frame = (uint32_t)sqlite3_column_int64(st, col++);
+        j->nframes = (uint32_t)sqlite3_column_int64(st, col++);
         if (!j->name || !j->hash || !j->main || j->state < 0 || j->state > 4) {
             rc = SQLITE_CORRUPT;
             break;

@@ -103,6 +103,13 @@ static void test_errors(void **state)
     expect_fails(run("jobs", "7", NULL), "prismfarm jobs: unexpected argument '7'");
     expect_fails(run("status", "1", "2", NULL), "prismfarm status: unexpected argument '2'");
     expect_fails(run("plan", SCENE, SCENE, NULL), "unexpected argument 'data/render/tiny.pbrt'");
+    /* plan words --target-error its own way, with the setting's bounds (proto/job_settings.h). */
+    expect_fails(run("plan", SCENE, "--target-error", "1", NULL),
+                 "prismfarm plan: --target-error expects a relative error in (0, 1), e.g. 0.05, "
+                 "got '1'");
+    expect_fails(run("submit", SCENE, "--time-limit", "2y", NULL),
+                 "prismfarm submit: --time-limit expects seconds in (0, 31536000], optionally "
+                 "with s, m or h, got '2y'");
     expect_fails(run("keygen", "a", "b", NULL), "one NAME only ('a' and 'b' given)");
     /* Errors come in the order of the arguments. */
     expect_fails(run("render", "--spp", "x", SCENE, "--res", "0x0", NULL), "--spp expects");

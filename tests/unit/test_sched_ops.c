@@ -295,6 +295,81 @@ static void test_events_on_deadline_and_loss(void **state)
     sched_destroy(&s);
 }
 
+static sched_worker_info_t worker_info(const sched_t *s, uint64_t id)
+{
+    sched_worker_info_t wi[16];
+    size_t n = sched_workers(s, wi, 16);
+    for (size_t i = 0; i < n; i++)
+        if (wi[i].id == id)
+            return wi[i];
+    fail_msg("no worker %llu", (unsigned long long)id);
+    return wi[0];
+}
+
+/* A worker killed mid-task (SIGKILL: its connection drops holding tasks) is struck as if its
+ * tasks had expired, and the same key's next connection takes the strike
+ * and the probation over: a key that keeps dying mid-task is blocked (issue 26). On the code
+ * before, a dropped connection cost nothing and the key came back with a clean row each time. */
+static void test_worker_dying_mid_task_is_struck(void **state)
+{
+    (void)state;
+    sched_t *s = new_sched(3);
+    err_t err;
+    add_job(s, 1, "", 0);
+    add_job(s, 2, "", 0);
+    sched_task_t t, honest;
+    assert_int_equal(sched_worker_join(s, 1, 1, 0.0, &err), 0);
+    /* Leaving without a task held is no strike. */
+    assert_int_equal(sched_worker_join(s, 10, 1, 0.0, &err), 0);
+    sched_worker_dropped(s, 10);
+    assert_int_equal(worker_info(s, 10).fail_streak, 0);
+    /* The key's connections 10, 11, 12 each die holding a task. */
+    assert_int_equal(sched_worker_join(s, 10, 1, 0.0, &err), 0);
+    assert_int_equal(sched_next_task(s, 10, 0.0, &t), 1);
+    sched_worker_dropped(s, 10);
+    assert_int_equal(worker_info(s, 10).fail_streak, 1);
+    sched_event_t ev[8];
+    assert_int_equal(sched_events_take(s, ev, 8, NULL), 1);
+    assert_int_equal(ev[0].kind, SCHED_EV_REQUEUED_LOST);
+    assert_int_equal(ev[0].task, t.task);
+    assert_int_equal(sched_worker_join(s, 11, 1, 0.0, &err), 0);
+    assert_int_equal(sched_worker_take_over(s, 11, 10), 0); /* 10 held nothing any more */
+    assert_int_equal(worker_info(s, 11).fail_streak, 1);
+    /* On probation: nothing while the honest worker has room, one task once it has none. */
+    assert_int_equal(sched_next_task(s, 11, 0.0, &t), 0);
+    assert_int_equal(sched_next_task(s, 1, 0.0, &honest), 1);
+    assert_int_equal(sched_next_task(s, 11, 0.0, &t), 1);
+    sched_worker_dropped(s, 11);
+    assert_int_equal(worker_info(s, 11).fail_streak, 2);
+    assert_false(worker_info(s, 11).blocked);
+    assert_int_equal(sched_worker_join(s, 12, 1, 0.0, &err), 0);
+    assert_int_equal(sched_worker_take_over(s, 12, 11), 0);
+    assert_int_equal(sched_next_task(s, 12, 0.0, &t), 1);
+    sched_worker_dropped(s, 12); /* the third strike in a row */
+    sched_worker_info_t wi = worker_info(s, 12);
+    assert_int_equal(wi.fail_streak, 3);
+    assert_true(wi.blocked);
+    size_t n = sched_events_take(s, ev, 8, NULL);
+    assert_int_equal(n, 3); /* two tasks lost, then the block */
+    assert_int_equal(ev[2].kind, SCHED_EV_WORKER_BLOCKED);
+    assert_int_equal(ev[2].worker, 12);
+    /* The key's next connection is blocked from the start, even with no one else to run. */
+    assert_int_equal(sched_worker_join(s, 13, 1, 0.0, &err), 0);
+    assert_int_equal(sched_worker_take_over(s, 13, 12), 0);
+    assert_true(worker_info(s, 13).blocked);
+    assert_int_equal(sched_next_task(s, 13, 0.0, &t), 0);
+    /* The honest worker returns its task and drops with nothing held: no strike; one that
+     * only leaves (silent: sched_worker_leave) holding a task is not struck either. */
+    finish(s, 1, &honest);
+    sched_worker_dropped(s, 1);
+    assert_int_equal(worker_info(s, 1).fail_streak, 0);
+    assert_int_equal(sched_worker_join(s, 1, 1, 0.0, &err), 0);
+    assert_int_equal(sched_next_task(s, 1, 0.0, &honest), 1);
+    sched_worker_leave(s, 1);
+    assert_int_equal(worker_info(s, 1).fail_streak, 0);
+    sched_destroy(&s);
+}
+
 /* Two schedules of the same job -- one with pauses, priorities, a rival owner's job and a
  * requeue, one plain -- give the same image bytes. */
 static void test_operations_leave_pixels_alone(void **state)
@@ -346,6 +421,7 @@ int main(void)
         cmocka_unit_test(test_requeue_by_hand),
         cmocka_unit_test(test_worker_blocked_in_a_row_and_unblocked),
         cmocka_unit_test(test_events_on_deadline_and_loss),
+        cmocka_unit_test(test_worker_dying_mid_task_is_struck),
         cmocka_unit_test(test_operations_leave_pixels_alone),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
