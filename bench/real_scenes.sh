@@ -11,8 +11,9 @@
 #             seeds 1 and 2; kept in --refs DIR (reused when they are there: pbrt-v4's images do
 #             not change with prismfarm);
 #   prismfarm `render FILE --res WxH --spp N --seed S --threads 2` with --direct for seeds 1 and
-#             2, and seed 1 again in the default mode (the in-process farm), whose EXR must be
-#             byte for byte --direct's ("farm = direct": yes / NO); kept in --ours DIR and reused
+#             2, and seed 1 again in the default mode (the in-process farm), whose pixels must be
+#             --direct's bit for bit, every channel ("farm = direct": yes / NO; the files differ
+#             in the header's "prismfarm" attribute, which names the mode); kept in --ours DIR and reused
 #             from there (empty it for another binary).
 # Reported per scene: R/G/B mean ratios, ours over pbrt-v4's (both the mean of the two seeds),
 # and a per-region check: the image cut into 4x4 regions, each region's R, G, B means compared
@@ -50,7 +51,7 @@ while [ $# -gt 0 ]; do
     --ours) ours_dir=$2; shift 2 ;;
     --skip-ours) ours=0; shift ;;
     --skip-pbrt) with_pbrt=0; shift ;;
-    -h|--help) sed -n '2,36p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,37p' "$0"; exit 0 ;;
     *) echo "real_scenes.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -158,13 +159,25 @@ print(f'{ratio[0]:.4f} / {ratio[1]:.4f} / {ratio[2]:.4f}|{worst}|{verdict}')
 EOF
 }
 
+same_pixels() { # same_pixels A.exr B.exr: every channel's pixels bit for bit (the EXR header's
+  # "prismfarm" attribute says how each was made, so the files' bytes differ)
+  "$py" - "$1" "$2" <<'EOF'
+import sys, numpy as np, OpenImageIO as oiio
+a, b = oiio.ImageBuf(sys.argv[1]), oiio.ImageBuf(sys.argv[2])
+if list(a.spec().channelnames) != list(b.spec().channelnames): sys.exit(1)
+A = np.asarray(a.get_pixels(oiio.FLOAT)); B = np.asarray(b.get_pixels(oiio.FLOAT))
+sys.exit(0 if A.shape == B.shape and A.view(np.uint32).tobytes() == B.view(np.uint32).tobytes() else 1)
+EOF
+}
+
 png_of() { # png_of EXR PNG: a tone-mapped (clamp, sRGB) PNG to look at
   "$py" - "$1" "$2" <<'EOF' || true
 import sys, numpy as np, OpenImageIO as oiio
 b = oiio.ImageBuf(sys.argv[1]); n = list(b.spec().channelnames)
 a = np.asarray(b.get_pixels(oiio.FLOAT), dtype=np.float64)[:, :, [n.index(c) for c in 'RGB']]
 a = np.clip(a, 0, 1); a = np.where(a <= 0.0031308, 12.92 * a, 1.055 * a ** (1 / 2.4) - 0.055)
-o = oiio.ImageBuf(oiio.ImageSpec(a.shape[1], a.shape[0], 3, oiio.UINT8)); o.set_pixels(oiio.ROI(), a.astype(np.float32))
+o = oiio.ImageBuf(oiio.ImageSpec(a.shape[1], a.shape[0], 3, oiio.UINT8))
+o.set_pixels(oiio.ROI(0, a.shape[1], 0, a.shape[0], 0, 1, 0, 3), np.ascontiguousarray(a, dtype=np.float32))
 o.write(sys.argv[2])
 EOF
 }
@@ -212,7 +225,7 @@ for entry in "${list[@]}"; do
         if ! "$bin" render "$scene" --res "$size" --spp "$spp" --threads 2 --quiet --seed 1 \
           -o "$tmp/f.exr" >"$tmp/msg" 2>&1; then
           same="refused: $(grep -iv warning "$tmp/msg" | grep . | head -1)"
-        elif cmp -s "$ours_dir/${stem}__s1.exr" "$tmp/f.exr"; then same=yes
+        elif same_pixels "$ours_dir/${stem}__s1.exr" "$tmp/f.exr"; then same=yes
         else same=NO
         fi
         echo "$same" >"$ours_dir/${stem}__farm.txt"
