@@ -34,9 +34,19 @@
 # three quarters of the variance, and two pairs of seeds of it spread over a factor of ten
 # (docs/performance.md, "veach-mis: more seeds"); our variance is then the mean over 8 pairs.
 # pbrt-v4's stays that of its own 4 renders (reference/spp64), the comparison's floor of noise.
+# With --pbrt BIN, pbrt-v4 is measured beside ours instead of read from reference/spp64: for each
+# scene and seed 1-4 it renders the scene the way the stored references were made
+# (REFERENCE.md, spp64/EFFICIENCY.md: a copy of the file that changes only the Film's
+# resolution to the reference's size and adds "bool savefp16" [false], rendered as
+# `pbrt --nthreads 2 --spp N --seed S --outfile X.exr copy.pbrt`), right after our renders of
+# the same seed (direct, farm, pbrt-v4, next seed ...), so that both CPU figures see the same
+# load; equal_error.py then takes pbrt-v4's variance from those four images and its CPU from
+# their mean (--pbrt-cpu). The row gives these side-by-side figures, and its last column the
+# efficiency against the stored references (reference/spp64 images, EFFICIENCY.md's CPU) from
+# the same renders of ours.
 # usage: bash bench/efficiency.sh [--only SUBSTRING] [--seeds N] [--bin PRISMFARM] [--spp N]
 #        [--skip-farm] [--skip-demo] [--budget S] [--corpus DIR] [--keep DIR]
-#        [--scene-seeds SUBSTRING=N ...]
+#        [--scene-seeds SUBSTRING=N ...] [--pbrt PBRT]
 #        (defaults: every scene, 4, build/cli/prismfarm, 64, farm on, demo scenes on, 60,
 #         ../shared/pbrt-scenes; --keep copies every render into DIR; veach-mis=16)
 #   --scene-seeds SUBSTRING=N  N seeds (even, at least --seeds) for the corpus scenes whose
@@ -46,7 +56,7 @@
 #                     scenes only when their name holds it
 set -euo pipefail
 cd "$(dirname "$0")/.."
-spp=64 seeds=4 bin=build/cli/prismfarm corpus=../shared/pbrt-scenes only= farm=1 demo=1 budget=60 keep=
+spp=64 seeds=4 bin=build/cli/prismfarm corpus=../shared/pbrt-scenes only= farm=1 demo=1 budget=60 keep= pbrt=
 scene_seeds=(veach-mis=16)
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -64,7 +74,8 @@ while [ $# -gt 0 ]; do
     --budget) budget=$2; shift 2 ;;
     --corpus) corpus=$2; shift 2 ;;
     --keep) keep=$2; shift 2 ;;
-    -h|--help) sed -n '2,46p' "$0"; exit 0 ;;
+    --pbrt) pbrt=$2; shift 2 ;;
+    -h|--help) sed -n '2,56p' "$0"; exit 0 ;;
     *) echo "efficiency.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -77,6 +88,7 @@ tool=$corpus/../tools/equal_error.py
 [ -f "$eff_md" ] || { echo "efficiency.sh: no $eff_md" >&2; exit 2; }
 [ -f "$tool" ] || { echo "efficiency.sh: no $tool" >&2; exit 2; }
 [ -x "$bin" ] || { echo "efficiency.sh: no $bin (build first, or --bin)" >&2; exit 2; }
+[ -z "$pbrt" ] || [ -x "$pbrt" ] || { echo "efficiency.sh: --pbrt $pbrt is not an executable" >&2; exit 2; }
 # Debian's python3 (the packages are Debian's), else the first on PATH.
 py=
 for p in /usr/bin/python3 python3; do
@@ -91,6 +103,39 @@ trap 'rm -rf "$tmp"' EXIT
 bin_rev=$(git -C "$(dirname "$bin")" rev-parse --short HEAD 2>/dev/null || echo '?')
 cp "$bin" "$tmp/prismfarm"
 bin_in=$bin bin=$tmp/prismfarm
+if [ -n "$pbrt" ]; then
+  cp "$pbrt" "$tmp/pbrt"
+  pbrt_in=$pbrt pbrt=$tmp/pbrt
+  # equal_error.py reads pbrt-v4's four images from ../pbrt-scenes/reference/spp64 beside itself:
+  # a copy of it beside a folder of this run's pbrt-v4 renders uses them with the same method.
+  mkdir -p "$tmp/eq/tools" "$tmp/eq/pbrt-scenes/reference/spp64"
+  cp "$tool" "$tmp/eq/tools/equal_error.py"
+fi
+
+# pbrt_copy SCENE WxH OUT: OUT = SCENE with the Film's xresolution / yresolution set to W and H and
+# "bool savefp16" [ false ] added (REFERENCE.md), in a folder of links to SCENE's folder's
+# entries so that the file's relative paths resolve as beside the original.
+pbrt_copy() {
+  local d
+  d=$(dirname "$3")
+  mkdir -p "$d"
+  for e in "$(dirname "$1")"/*; do ln -sfn "$(realpath "$e")" "$d/"; done
+  "$py" - "$1" "$2" "$3" <<'EOF'
+import re, sys
+src, size, out = sys.argv[1:4]
+w, h = size.split('x')
+t = open(src).read()
+m = re.search(r'Film\s+"[a-z]+"', t)
+if not m: sys.exit(f'{src}: no Film statement')
+for name, v in (('xresolution', w), ('yresolution', h)):
+    pat = r'("integer\s+' + name + r'"\s*)\[?\s*\d+\s*\]?'
+    if re.search(pat, t): t = re.sub(pat, lambda mm: mm.group(1) + f'[ {v} ]', t, count=1)
+    else: t = t[:m.end()] + f' "integer {name}" [ {v} ]' + t[m.end():]
+    m = re.search(r'Film\s+"[a-z]+"', t)
+t = t[:m.end()] + ' "bool savefp16" [ false ]' + t[m.end():]
+open(out, 'w').write(t)
+EOF
+}
 
 # cpu_of OUT_VAR CMD...: runs CMD (its output to $tmp/msg), sets OUT_VAR to its user + system
 # seconds (the children's line of `times` in a subshell that ran only CMD); fails as CMD does.
@@ -104,11 +149,17 @@ cpu_of() {
 
 echo "Efficiency against pbrt-v4: $(date -u '+%Y-%m-%d %H:%M UTC'), $(nproc) cores, $spp spp, seeds 1-$seeds (more where a row says), 2 threads"
 echo "binary: $bin_in (the tree it was built from is at $bin_rev)"
+[ -z "$pbrt" ] || echo "pbrt-v4: $pbrt_in, rendered beside ours (seeds 1-4, alternating scene by scene and seed by seed)"
 echo "load before: $(uptime)"
 echo "method: $(realpath "$tool"): $(sed -n '/^Noise:/,/^with pbrt-v4/p' "$tool" | tr '\n' ' ' | sed 's/  */ /g')"
 echo
-echo "| scene | variance ours / pbrt-v4 | CPU s ours / pbrt-v4 | efficiency ours/pbrt-v4 | farm CPU / direct CPU | mean ratio R/G/B |"
-echo "| --- | --- | --- | --- | --- | --- |"
+if [ -n "$pbrt" ]; then
+  echo "| scene | variance ours / pbrt-v4 (side by side) | CPU s ours / pbrt-v4 (side by side) | efficiency ours/pbrt-v4 (side by side) | farm CPU / direct CPU | mean ratio R/G/B | against the stored references: efficiency (pbrt-v4 variance, CPU s) |"
+  echo "| --- | --- | --- | --- | --- | --- | --- |"
+else
+  echo "| scene | variance ours / pbrt-v4 | CPU s ours / pbrt-v4 | efficiency ours/pbrt-v4 | farm CPU / direct CPU | mean ratio R/G/B |"
+  echo "| --- | --- | --- | --- | --- | --- |"
+fi
 tags=$(awk -F'|' '/^\| [a-z].*__/ { t = $2; gsub(/ /, "", t); print t }' "$eff_md")
 for tag in $tags; do
   case "$tag" in *"$only"*) ;; *) continue ;; esac
@@ -124,7 +175,8 @@ for tag in $tags; do
     case "$tag" in *"${e%%=*}"*) ((${e#*=} > n_seeds)) && n_seeds=${e#*=} ;; esac
   done
   ((n_seeds % 2 == 0)) || n_seeds=$((n_seeds + 1))
-  direct_cpu=() farm_cpu=() imgs=() failed=
+  direct_cpu=() farm_cpu=() pbrt_cpu=() imgs=() failed=
+  [ -z "$pbrt" ] || pbrt_copy "$scene" "$size" "$tmp/pbrt_scene/${tag%%__*}/.efficiency_${tag#*__}.pbrt"
   for ((s = 1; s <= n_seeds; s++)); do
     args=(render "$scene" --res "$size" --spp "$spp" --seed "$s" --threads 2 --quiet)
     if ! cpu_of c "$bin" "${args[@]}" --direct -o "$tmp/d$s.exr"; then
@@ -136,6 +188,14 @@ for tag in $tags; do
         failed="farm seed $s: $(grep -v warning "$tmp/msg" | head -1)"; break
       fi
       farm_cpu+=("$c")
+    fi
+    if [ -n "$pbrt" ] && ((s <= 4)); then
+      if ! cpu_of c "$pbrt" --nthreads 2 --spp "$spp" --seed "$s" \
+        --outfile "$tmp/eq/pbrt-scenes/reference/spp64/${tag}__s$s.exr" \
+        "$tmp/pbrt_scene/${tag%%__*}/.efficiency_${tag#*__}.pbrt"; then
+        failed="pbrt-v4 seed $s: $(grep -iv warning "$tmp/msg" | grep . | tail -1)"; break
+      fi
+      pbrt_cpu+=("$c")
     fi
   done
   if [ -n "$failed" ]; then
@@ -149,12 +209,32 @@ for tag in $tags; do
   cpu=$(printf '%s\n' "${direct_cpu[@]}" | awk '{ t += $1 } END { printf "%.2f", t / NR }')
   fcpu=-
   ((farm)) && fcpu=$(printf '%s\n' "${farm_cpu[@]}" | awk '{ t += $1 } END { printf "%.2f", t / NR }')
-  line=$("$py" "$tool" "$tag" "$cpu" "${imgs[@]}" 2>&1) || {
-    echo "| $tag | - | - | - | - | equal_error.py: $line |"; continue; }
+  stored=
+  if [ -n "$pbrt" ]; then
+    if ((${#pbrt_cpu[@]} < 4)); then
+      echo "| $tag | - | - | - | - | pbrt-v4 rendered ${#pbrt_cpu[@]} of 4 seeds (--seeds below 4?) | - |"; continue
+    fi
+    pcpu=$(printf '%s\n' "${pbrt_cpu[@]}" | awk '{ t += $1 } END { printf "%.2f", t / NR }')
+    sline=$("$py" "$tool" "$tag" "$cpu" "${imgs[@]}" 2>&1) || sline=
+    stored=$(awk -v line="$sline" 'BEGIN { n = split(line, w, /[ ;()]+/)
+      for (i = 1; i <= n; i++) {
+        if (w[i] == "relvar") vt = w[i + 4]
+        if (w[i] == "CPU") ct = w[i + 5]
+        if (w[i] == "efficiency") eff = w[i + 2] }
+      if (eff == "") print "-"; else printf "%s (%s, %s)", eff, vt, ct }')
+    line=$("$py" "$tmp/eq/tools/equal_error.py" --pbrt-cpu "$pcpu" "$tag" "$cpu" "${imgs[@]}" 2>&1) || {
+      echo "| $tag | - | - | - | - | equal_error.py: $line | - |"; continue; }
+    [ -z "$keep" ] || for s in 1 2 3 4; do
+      cp "$tmp/eq/pbrt-scenes/reference/spp64/${tag}__s$s.exr" "$keep/${tag}__pbrt_s$s.exr"; done
+    rm -f "$tmp/eq/pbrt-scenes/reference/spp64/${tag}"__s*.exr
+  else
+    line=$("$py" "$tool" "$tag" "$cpu" "${imgs[@]}" 2>&1) || {
+      echo "| $tag | - | - | - | - | equal_error.py: $line |"; continue; }
+  fi
   # tag: relvar ours A pbrt-v4 B (ratio X); CPU s ours C pbrt-v4 D; mean ratio R/G/B r/g/b; efficiency ours/pbrt-v4 E
   label=$tag
   ((n_seeds == seeds)) || label="$tag ($n_seeds seeds)"
-  awk -v tag="$label" -v line="$line" -v fcpu="$fcpu" -v cpu="$cpu" 'BEGIN {
+  awk -v tag="$label" -v line="$line" -v fcpu="$fcpu" -v cpu="$cpu" -v stored="$stored" 'BEGIN {
     n = split(line, w, /[ ;()]+/)
     for (i = 1; i <= n; i++) {
       if (w[i] == "relvar") { vo = w[i + 2]; vt = w[i + 4]; vr = w[i + 6] }
@@ -162,8 +242,8 @@ for tag in $tags; do
       if (w[i] == "R/G/B") mr = w[i + 1]
       if (w[i] == "efficiency") eff = w[i + 2] }
     f = fcpu == "-" ? "-" : sprintf("%.2f (%.1f s)", fcpu / cpu, fcpu)
-    printf "| %s | %s / %s (%sx) | %.1f / %s (%.2fx) | **%s** | %s | %s |\n",
-      tag, vo, vt, vr, cpu, ct, cpu / ct, eff, f, mr }'
+    printf "| %s | %s / %s (%sx) | %.1f / %s (%.2fx) | **%s** | %s | %s |%s\n",
+      tag, vo, vt, vr, cpu, ct, cpu / ct, eff, f, mr, stored == "" ? "" : " " stored " |" }'
   rm -f "$tmp"/d*.* "$tmp"/f*.*
 done
 
