@@ -1289,19 +1289,8 @@ static int scatter_crystal(ctx_t *c, path_t *p, const surface_t *h, const materi
  * it is path traced and never both gathered and found (docs/rendering.md). */
 #define CHAIN_BROKEN (-(1 << 20))
 
-/* Every surface that is not Lambertian, a smooth mirror or smooth glass: its bsdf/ model,
- * with next-event estimation where it has a non-delta lobe. Returns 0 to continue the path,
- * 1 when it ends.
- *
- * Lanes: the direction is sampled from one lane's lobe. With spectral MIS (the default) that
- * lane is chosen at random in proportion to the lanes' throughputs (lanes_select), so the
- * direction's density is the mixture sum_k sel_k pdf_k(wi) of the lanes' densities, and lane j
- * is weighted f_j |cos| / sum_k sel_k pdf_k: every lane keeps a bounded weight even where the
- * lobes differ (a rough dispersive dielectric refracts each wavelength into its own lobe),
- * instead of ending. With "spectralmis" false,
- * a surface whose lobes differ ends the secondary lanes as pbrt-v4 does (the hero, lane 0,
- * carries n times its weight). Lanes whose lobes agree give the same numbers either way. */
-static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *bp, int gather,
+/* Defined below scatter_bsdf, which it serves (and scatter_subsurface). */
+static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *b, int gather,
                         int *sampled);
 
 /* The lane that samples under spectral MIS: lane j with probability sel[j] for the uniform u,
@@ -1320,22 +1309,40 @@ static int lanes_pick(const double *sel, int n, double u)
     return hero;
 }
 
+/* The material's model at sf for the path's lanes, roughened when regularize applies. */
+static void path_bsdf(const path_t *p, const surface_t *sf, const material_t *m, int regularized,
+                      bsdf_t *b)
+{
+    shading_bsdf(m, sf, p->lambda, p->n, BSDF_RADIANCE, b);
+    if (regularized)
+        regularize_bsdf(b);
+}
+
+/* Every surface that is not Lambertian, a smooth mirror or smooth glass: its bsdf/ model,
+ * with next-event estimation where it has a non-delta lobe. Returns 0 to continue the path,
+ * 1 when it ends.
+ *
+ * Lanes: the direction is sampled from one lane's lobe. With spectral MIS (the default) that
+ * lane is chosen at random in proportion to the lanes' throughputs (lanes_select), so the
+ * direction's density is the mixture sum_k sel_k pdf_k(wi) of the lanes' densities, and lane j
+ * is weighted f_j |cos| / sum_k sel_k pdf_k: every lane keeps a bounded weight even where the
+ * lobes differ (a rough dispersive dielectric refracts each wavelength into its own lobe),
+ * instead of ending. With "spectralmis" false,
+ * a surface whose lobes differ ends the secondary lanes as pbrt-v4 does (the hero, lane 0,
+ * carries n times its weight). Lanes whose lobes agree give the same numbers either way. */
 static int scatter_bsdf(ctx_t *c, path_t *p, const surface_t *sf, const material_t *m,
                         int regularized)
 {
     bsdf_t b;
-    shading_bsdf(m, sf, p->lambda, p->n, BSDF_RADIANCE, &b);
-    if (regularized)
-        regularize_bsdf(&b);
+    path_bsdf(p, sf, m, regularized, &b);
     return scatter_with(c, p, sf, &b, 1, NULL);
 }
 
 /* scatter_bsdf with the model b at sf; gather 0 keeps the caustic store's photons away (none
  * are stored where they cannot arrive); *sampled (when not NULL) gets the sample's flags. */
-static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *bp, int gather,
+static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *b, int gather,
                         int *sampled)
 {
-    const bsdf_t b = *bp;
     const vec3_t wo_world = vec3_neg(p->dir);
     const shading_frame_t fr = shading_frame_make(sf, wo_world);
     const vec3_t wo = shading_to_local(&fr, wo_world);
@@ -1344,8 +1351,8 @@ static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *
     /* The coated models' sample gives each lane an unbiased weight f / pdf, but their pdf is
      * pbrt-v4's approximation for MIS, not a density: their lanes cannot be mixed, and a
      * dispersive coat ends the secondaries as pbrt-v4 does. */
-    const int layered = b.kind == BSDF_COATED_DIFFUSE || b.kind == BSDF_COATED_CONDUCTOR;
-    const int terminate = (!c->rs->spectral_mis || layered) && p->n > 1 && bsdf_lanes_disperse(&b);
+    const int layered = b->kind == BSDF_COATED_DIFFUSE || b->kind == BSDF_COATED_CONDUCTOR;
+    const int terminate = (!c->rs->spectral_mis || layered) && p->n > 1 && bsdf_lanes_disperse(b);
     double sel_lanes[LANES];
     const double *sel = NULL;
     if (!terminate && !layered && p->n > 1) {
@@ -1353,21 +1360,21 @@ static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *
             return 1;
         sel = sel_lanes;
     }
-    const int delta = bsdf_is_specular(&b);
+    const int delta = bsdf_is_specular(b);
     if (!delta && c->rs->integrator != INTEGRATOR_SIMPLEPATH)
-        direct_light_bsdf(c, p, sf, &b, &fr, wo, sel);
+        direct_light_bsdf(c, p, sf, b, &fr, wo, sel);
     /* The glossy receiver's photons, at the path's first non-specular vertex, as caustic_light
      * at a diffuse one; only a store with directions has them (photon.c). */
     const int gathers = gather && c->glossy_photons && !delta && p->diffuse_bounces == 0;
     if (gathers)
-        caustic_light_bsdf(c, p, sf, &b, &fr, wo);
+        caustic_light_bsdf(c, p, sf, b, &fr, wo);
     if (!delta && c->rs->integrator == INTEGRATOR_WHITTED)
         return 1;
     const int hero = sel ? lanes_pick(sel, p->n, draw1(c, VD_LANE)) : 0;
     double uc = draw1(c, VD_LOBE), ud[2];
     draw2(c, VD_DIRECTION, ud);
     bsdf_sample_t bs;
-    if (!bsdf_sample(&b, wo, hero, uc, ud[0], ud[1], &c->rng, &bs))
+    if (!bsdf_sample(b, wo, hero, uc, ud[0], ud[1], &c->rng, &bs))
         return 1;
     const vec3_t wi = shading_to_world(&fr, bs.wi);
     const sides_t sd = {&fr, sf->ng};
@@ -1396,14 +1403,14 @@ static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *
     double mis_pdf = pdf;
     if (bs.pdf_is_estimate && !specular && c->bsdf_mis) {
         double pdfs[LANES];
-        bsdf_pdf(&b, wo, bs.wi, &c->rng, pdfs);
+        bsdf_pdf(b, wo, bs.wi, &c->rng, pdfs);
         mis_pdf = pdfs[0];
     }
     /* Conductors and dielectrics, rough or smooth, polarise by their microfacets' Fresnel
      * matrices; diffuse, thin and layered models depolarise (docs/physics.md §14: a
      * simplification; a smooth coat's specular lobe sampled here is depolarised too). */
     if (p->polar)
-        polar_bsdf(p, &b, &fr, wo, bs.wi, wi);
+        polar_bsdf(p, b, &fr, wo, bs.wi, wi);
     start_bounce(p, sf, wi, specular, specular ? 0.0 : mis_pdf);
     p->prev_n = fr.z;
     if (!specular)
@@ -1434,9 +1441,7 @@ static int scatter_subsurface(ctx_t *c, path_t *p, const surface_t *sf, const ma
                               int regularized)
 {
     bsdf_t b;
-    shading_bsdf(m, sf, p->lambda, p->n, BSDF_RADIANCE, &b);
-    if (regularized)
-        regularize_bsdf(&b);
+    path_bsdf(p, sf, m, regularized, &b);
     int flags = 0;
     /* Photons stop at subsurface materials (photon.c): no gather here or at the exit. */
     if (scatter_with(c, p, sf, &b, 0, &flags))
