@@ -23,6 +23,16 @@
 /* ------------------------------------------------------------------------------------------ */
 /* Scene pieces. */
 
+/* A 4 x 4 quad in the x-y plane as pbrt-v4 scene text, for tests that build a scene from a
+ * file: normal +z and u along +x (PBRT_QUAD), or the same quad wound to face -z
+ * (PBRT_QUAD_BACK). */
+#define PBRT_QUAD                                                                                  \
+    "Shape \"trianglemesh\" \"point3 P\" [-2 -2 0  2 -2 0  2 2 0  -2 2 0] \"integer indices\" "    \
+    "[0 1 2 0 2 3] \"point2 uv\" [0 0 1 0 1 1 0 1]\n"
+#define PBRT_QUAD_BACK                                                                             \
+    "Shape \"trianglemesh\" \"point3 P\" [-2 -2 0  2 -2 0  2 2 0  -2 2 0] \"integer indices\" "    \
+    "[0 2 1 0 3 2] \"point2 uv\" [0 0 1 0 1 1 0 1]\n"
+
 /* An empty scene with seed 7. */
 static inline scene_t *sb_new_scene(void)
 {

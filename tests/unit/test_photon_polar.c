@@ -28,14 +28,6 @@
 
 #define PI 3.14159265358979323846
 
-/* A 4 x 4 quad in the x-y plane, normal +z, u along +x. */
-#define QUAD                                                                                       \
-    "Shape \"trianglemesh\" \"point3 P\" [-2 -2 0  2 -2 0  2 2 0  -2 2 0] \"integer indices\" "    \
-    "[0 1 2 0 2 3] \"point2 uv\" [0 0 1 0 1 1 0 1]\n"
-#define QUAD_BACK                                                                                  \
-    "Shape \"trianglemesh\" \"point3 P\" [-2 -2 0  2 -2 0  2 2 0  -2 2 0] \"integer indices\" "    \
-    "[0 2 1 0 3 2] \"point2 uv\" [0 0 1 0 1 1 0 1]\n"
-
 /* A scene with a collimated beam of radius r along +z from z = -1 (its disk passes what comes
  * back), then `world`. */
 static scene_t *beam_scene_lit(double r, const char *light, const char *integrator,
@@ -123,7 +115,7 @@ static double through_sheets(const char *sheets)
     char world[4096];
     snprintf(world, sizeof world,
              "%s"
-             "AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 1\n" QUAD "AttributeEnd\n",
+             "AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 1\n" PBRT_QUAD "AttributeEnd\n",
              sheets);
     scene_t *s = beam_scene(0.05, "", world);
     assert_true(s->settings.polarised);
@@ -141,10 +133,10 @@ static void test_malus(void **state)
     for (size_t i = 0; i < 5; i++) {
         char sheets[1024];
         snprintf(sheets, sizeof sheets,
-                 "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [0]\n" QUAD
+                 "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [0]\n" PBRT_QUAD
                  "AttributeEnd\n"
                  "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [%d]\n"
-                 "Translate 0 0 0.5\n" QUAD "AttributeEnd\n",
+                 "Translate 0 0 0.5\n" PBRT_QUAD "AttributeEnd\n",
                  angles[i]);
         const double got = through_sheets(sheets);
         const double c = cos(angles[i] * PI / 180.0), want = 0.5 * c * c;
@@ -155,11 +147,11 @@ static void test_malus(void **state)
     /* A quarter-wave plate at 45 degrees between crossed polarisers makes the light circular,
      * of which the second passes half. */
     const double got = through_sheets(
-        "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [0]\n" QUAD "AttributeEnd\n"
+        "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [0]\n" PBRT_QUAD "AttributeEnd\n"
         "AttributeBegin\nMaterial \"retarder\" \"float retardance\" [90] \"float angle\" [45]\n"
-        "Translate 0 0 0.25\n" QUAD "AttributeEnd\n"
+        "Translate 0 0 0.25\n" PBRT_QUAD "AttributeEnd\n"
         "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [90]\n"
-        "Translate 0 0 0.5\n" QUAD "AttributeEnd\n");
+        "Translate 0 0 0.5\n" PBRT_QUAD "AttributeEnd\n");
     if (!(fabs(got - 0.25) <= 1e-6))
         fail_msg("crossed polarisers with a quarter-wave plate at 45 degrees: %.12f", got);
     /* A beam polarised (degree 1 and 0.5) at 20 degrees through one polariser at theta: the
@@ -171,9 +163,9 @@ static void test_malus(void **state)
             snprintf(light, sizeof light,
                      "\"float polarization\" [%g] \"float polarizationangle\" [20]", 1.0 / d);
             snprintf(world, sizeof world,
-                     "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [%d]\n" QUAD
+                     "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [%d]\n" PBRT_QUAD
                      "AttributeEnd\n"
-                     "AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 1\n" QUAD
+                     "AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 1\n" PBRT_QUAD
                      "AttributeEnd\n",
                      theta);
             scene_t *s = beam_scene_lit(0.05, light, "", world);
@@ -217,11 +209,11 @@ static void test_brewster(void **state)
         const double a = 2.0 * tb;
         snprintf(world, sizeof world,
                  "AttributeBegin\nMaterial \"dielectric\" \"float eta\" [1.5]\n"
-                 "Rotate %.9f 0 1 0\n" QUAD_BACK "AttributeEnd\n"
+                 "Rotate %.9f 0 1 0\n" PBRT_QUAD_BACK "AttributeEnd\n"
                  "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [%d]\n"
-                 "Translate %.9f 0 %.9f\nRotate %.9f 0 1 0\n" QUAD "AttributeEnd\n"
+                 "Translate %.9f 0 %.9f\nRotate %.9f 0 1 0\n" PBRT_QUAD "AttributeEnd\n"
                  "AttributeBegin\nMaterial \"diffuse\"\n"
-                 "Translate %.9f 0 %.9f\nRotate %.9f 0 1 0\n" QUAD "AttributeEnd\n",
+                 "Translate %.9f 0 %.9f\nRotate %.9f 0 1 0\n" PBRT_QUAD "AttributeEnd\n",
                  -tb * deg, 90 * k, 0.5 * sin(a), -0.5 * cos(a), 180.0 - a * deg, sin(a), -cos(a),
                  180.0 - a * deg);
         scene_t *s = beam_scene(0.05, "", world);
@@ -248,11 +240,11 @@ static void test_slab(void **state)
     fresnel_rs_rp(cos(60.0 * PI / 180.0), 1.5, &Rs, &Rp);
     const double want = 0.5 * ((1 - Rs) / (1 + Rs) + (1 - Rp) / (1 + Rp));
     const double R = 0.5 * (Rs + Rp), unpolarised = (1 - R) / (1 + R);
-    scene_t *s =
-        beam_scene(0.02, "\"bool polarized\" true",
-                   "AttributeBegin\nMaterial \"dielectric\" \"float eta\" [1.5]\nRotate 60 1 0 0\n"
-                   "Translate 0 0 0.05\n" QUAD "Translate 0 0 -0.1\n" QUAD_BACK "AttributeEnd\n"
-                   "AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 1\n" QUAD "AttributeEnd\n");
+    scene_t *s = beam_scene(
+        0.02, "\"bool polarized\" true",
+        "AttributeBegin\nMaterial \"dielectric\" \"float eta\" [1.5]\nRotate 60 1 0 0\n"
+        "Translate 0 0 0.05\n" PBRT_QUAD "Translate 0 0 -0.1\n" PBRT_QUAD_BACK "AttributeEnd\n"
+        "AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 1\n" PBRT_QUAD "AttributeEnd\n");
     assert_true(s->settings.polarised);
     const uint64_t N = 100000;
     traced_t t = trace(s, N);
@@ -293,13 +285,14 @@ static void test_calcite(void **state)
         if (analyser[k][0])
             snprintf(sheet, sizeof sheet,
                      "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [%s]\n"
-                     "Translate 0 0 1.5\n" QUAD "AttributeEnd\n",
+                     "Translate 0 0 1.5\n" PBRT_QUAD "AttributeEnd\n",
                      analyser[k]);
         snprintf(world, sizeof world,
                  "AttributeBegin\nMaterial \"uniaxial\" \"float o.eta\" [%g] \"float e.eta\" [%g] "
-                 "\"vector3 opticaxis\" [%.12f 0 %.12f]\n" QUAD_BACK "Translate 0 0 1\n" QUAD
-                 "AttributeEnd\n%s"
-                 "AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 2\n" QUAD "AttributeEnd\n",
+                 "\"vector3 opticaxis\" [%.12f 0 %.12f]\n" PBRT_QUAD_BACK
+                 "Translate 0 0 1\n" PBRT_QUAD "AttributeEnd\n%s"
+                 "AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 2\n" PBRT_QUAD
+                 "AttributeEnd\n",
                  no, ne, sin(th), cos(th), sheet);
         scene_t *s = beam_scene(1e-4, "\"bool polarized\" true", world);
         assert_true(s->settings.polarised);
@@ -350,17 +343,16 @@ static void test_chain(void **state)
                  r_e = pow((n_e_wave - 1) / (n_e_wave + 1), 2.0);
     const double want_o = 0.125 * (1 - r_o) / (1 + r_o), want_e = 0.375 * (1 - r_e) / (1 + r_e);
     char world[4096];
-    snprintf(
-        world, sizeof world,
-        "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [30]\nTranslate 0 0 -0.6\n" QUAD
-        "AttributeEnd\n"
-        "AttributeBegin\nMaterial \"retarder\" \"float retardance\" [90]\n"
-        "Translate 0 0 -0.3\n" QUAD "AttributeEnd\n"
-        "AttributeBegin\nMaterial \"uniaxial\" \"float o.eta\" [%g] \"float e.eta\" [%g] "
-        "\"vector3 opticaxis\" [%.12f 0 %.12f]\n" QUAD_BACK "Translate 0 0 1\n" QUAD
-        "AttributeEnd\n"
-        "AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 2\n" QUAD "AttributeEnd\n",
-        no, ne, sin(th), cos(th));
+    snprintf(world, sizeof world,
+             "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [30]\nTranslate 0 0 "
+             "-0.6\n" PBRT_QUAD "AttributeEnd\n"
+             "AttributeBegin\nMaterial \"retarder\" \"float retardance\" [90]\n"
+             "Translate 0 0 -0.3\n" PBRT_QUAD "AttributeEnd\n"
+             "AttributeBegin\nMaterial \"uniaxial\" \"float o.eta\" [%g] \"float e.eta\" [%g] "
+             "\"vector3 opticaxis\" [%.12f 0 %.12f]\n" PBRT_QUAD_BACK "Translate 0 0 1\n" PBRT_QUAD
+             "AttributeEnd\n"
+             "AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 2\n" PBRT_QUAD "AttributeEnd\n",
+             no, ne, sin(th), cos(th));
     scene_t *s = beam_scene(1e-4, "", world);
     const uint64_t N = 40000;
     traced_t t = trace(s, N);
@@ -390,10 +382,10 @@ static void test_instanced_axis(void **state)
     snprintf(world, sizeof world,
              "ObjectBegin \"plate\"\n"
              "Material \"uniaxial\" \"float o.eta\" [%g] \"float e.eta\" [%g] "
-             "\"vector3 opticaxis\" [%.12f 0 %.12f]\n" QUAD_BACK "Translate 0 0 1\n" QUAD
+             "\"vector3 opticaxis\" [%.12f 0 %.12f]\n" PBRT_QUAD_BACK "Translate 0 0 1\n" PBRT_QUAD
              "ObjectEnd\n"
              "AttributeBegin\nRotate 90 0 0 1\nObjectInstance \"plate\"\nAttributeEnd\n"
-             "AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 2\n" QUAD "AttributeEnd\n",
+             "AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 2\n" PBRT_QUAD "AttributeEnd\n",
              no, ne, sin(th), cos(th));
     scene_t *s = beam_scene(1e-4, "", world);
     traced_t t = trace(s, 4000);

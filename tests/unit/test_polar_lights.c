@@ -27,14 +27,6 @@
 
 #define PI 3.14159265358979323846
 
-#define QUAD                                                                                       \
-    "Shape \"trianglemesh\" \"point3 P\" [-2 -2 0  2 -2 0  2 2 0  -2 2 0] \"integer indices\" "    \
-    "[0 1 2 0 2 3] \"point2 uv\" [0 0 1 0 1 1 0 1]\n"
-
-#define QUAD_BACK                                                                                  \
-    "Shape \"trianglemesh\" \"point3 P\" [-2 -2 0  2 -2 0  2 2 0  -2 2 0] \"integer indices\" "    \
-    "[0 2 1 0 3 2] \"point2 uv\" [0 0 1 0 1 1 0 1]\n"
-
 /* The image's summed S0 (the buckets' means over the pixels), and its tile for comparisons. */
 static double render_s0(scene_t *s, tilebuf_t **keep)
 {
@@ -74,10 +66,10 @@ static scene_t *lamp_scene(const char *light, const char *camera, const char *sh
              "WorldBegin\n"
              "AttributeBegin\n"
              "AreaLightSource \"diffuse\" \"spectrum L\" [300 1 900 1] \"bool twosided\" true %s\n"
-             "Translate 0 0 -1\n" QUAD "AttributeEnd\n"
+             "Translate 0 0 -1\n" PBRT_QUAD "AttributeEnd\n"
              "%s%s%s",
              camera, light, sheet[0] ? "AttributeBegin\n" : "", sheet,
-             sheet[0] ? "\n" QUAD "AttributeEnd\n" : "");
+             sheet[0] ? "\n" PBRT_QUAD "AttributeEnd\n" : "");
     return sb_load_text(text, NULL);
 }
 
@@ -148,7 +140,7 @@ static void test_stokes_output(void **state)
                  "Sampler \"independent\" \"integer pixelsamples\" [4]\n"
                  "WorldBegin\nAttributeBegin\n"
                  "AreaLightSource \"diffuse\" \"spectrum L\" [300 1 900 1] %s\n"
-                 "Translate 0 0 -1\n" QUAD "AttributeEnd\n",
+                 "Translate 0 0 -1\n" PBRT_QUAD "AttributeEnd\n",
                  light);
         scene_t *s = sb_load_text(text, NULL);
         err_t err;
@@ -218,7 +210,7 @@ static void test_slab(void **state)
                  "AttributeBegin\n"
                  "AreaLightSource \"diffuse\" \"spectrum L\" [300 1 900 1] \"bool twosided\" true "
                  "\"float polarization\" [1] \"float polarizationangle\" [%d]\n"
-                 "Translate 0 0 -3\nScale 0.5 0.5 1\n" QUAD "AttributeEnd\n",
+                 "Translate 0 0 -3\nScale 0.5 0.5 1\n" PBRT_QUAD "AttributeEnd\n",
                  90 * k);
         scene_t *open = sb_load_text(head, NULL);
         assert_true(open->settings.polarised);
@@ -226,7 +218,8 @@ static void test_slab(void **state)
         scene_destroy(&open);
         snprintf(text, sizeof text,
                  "%sAttributeBegin\nMaterial \"dielectric\" \"float eta\" [1.5]\nRotate 60 1 0 0\n"
-                 "Translate 0 0 0.05\n" QUAD "Translate 0 0 -0.1\n" QUAD_BACK "AttributeEnd\n",
+                 "Translate 0 0 0.05\n" PBRT_QUAD "Translate 0 0 -0.1\n" PBRT_QUAD_BACK
+                 "AttributeEnd\n",
                  head);
         scene_t *s = sb_load_text(text, NULL);
         const double got = render_s0(s, NULL) / o;
@@ -299,7 +292,7 @@ static double glossy_metal(double degree, double phi, const char *camera)
              "\"spectrum L\" [300 1 900 1] \"float polarization\" [%g] "
              "\"float polarizationangle\" [%g]\n"
              "Material \"conductor\" \"float roughness\" [0.2] \"spectrum eta\" [300 0.2 900 0.2] "
-             "\"spectrum k\" [300 3 900 3]\n" QUAD,
+             "\"spectrum k\" [300 3 900 3]\n" PBRT_QUAD,
              camera, degree, phi);
     scene_t *s = sb_load_text(text, NULL);
     assert_true(s->settings.polarised);
@@ -349,7 +342,7 @@ static double glossy_brewster(const char *polarisation)
              "WorldBegin\n"
              "LightSource \"spot\" \"point3 from\" [%.9f 0 %.9f] \"point3 to\" [0 0 0] "
              "\"float coneangle\" [10] \"spectrum I\" [300 1 900 1] %s\n"
-             "Material \"dielectric\" \"float eta\" [1.5] \"float roughness\" [0.05]\n" QUAD,
+             "Material \"dielectric\" \"float eta\" [1.5] \"float roughness\" [0.05]\n" PBRT_QUAD,
              d * sin(tb), d * cos(tb), -d * sin(tb), d * cos(tb), polarisation);
     scene_t *s = sb_load_text(text, NULL);
     const double v = render_s0(s, NULL);
@@ -381,7 +374,7 @@ static void test_plan(void **state)
     const char *text =
         "Camera \"orthographic\"\nWorldBegin\n"
         "LightSource \"spot\" \"float polarization\" [0.5]\n"
-        "AttributeBegin\nAreaLightSource \"diffuse\" \"float polarization\" [1]\n" QUAD
+        "AttributeBegin\nAreaLightSource \"diffuse\" \"float polarization\" [1]\n" PBRT_QUAD
         "AttributeEnd\n";
     err_t err = {{0}};
     scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
@@ -409,7 +402,7 @@ static void test_syntax(void **state)
         "LightSource \"point\" \"float polarization\" [1.5]",
         "LightSource \"spot\" \"float polarization\" [-0.1]",
         "LightSource \"distant\" \"float polarizationangle\" [400]",
-        "AreaLightSource \"diffuse\" \"float polarization\" [2]\n" QUAD,
+        "AreaLightSource \"diffuse\" \"float polarization\" [2]\n" PBRT_QUAD,
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         char text[1024];

@@ -22,13 +22,6 @@
 
 #define PI 3.14159265358979323846
 
-#define QUAD                                                                                       \
-    "Shape \"trianglemesh\" \"point3 P\" [-2 -2 0  2 -2 0  2 2 0  -2 2 0] \"integer indices\" "    \
-    "[0 1 2 0 2 3] \"point2 uv\" [0 0 1 0 1 1 0 1]\n"
-#define QUAD_BACK                                                                                  \
-    "Shape \"trianglemesh\" \"point3 P\" [-2 -2 0  2 -2 0  2 2 0  -2 2 0] \"integer indices\" "    \
-    "[0 2 1 0 3 2] \"point2 uv\" [0 0 1 0 1 1 0 1]\n"
-
 /* An orthographic camera on +z, a two-sided lamp filling the view at z = -3, and `between`;
  * the integrator's parameters end with `options`. */
 static scene_t *lamp_scene_with(const char *options, const char *between)
@@ -42,7 +35,7 @@ static scene_t *lamp_scene_with(const char *options, const char *between)
              "WorldBegin\n"
              "AttributeBegin\n"
              "AreaLightSource \"diffuse\" \"spectrum L\" [300 1 900 1] \"bool twosided\" true\n"
-             "Translate 0 0 -3\nScale 0.5 0.5 1\n" QUAD "AttributeEnd\n%s",
+             "Translate 0 0 -3\nScale 0.5 0.5 1\n" PBRT_QUAD "AttributeEnd\n%s",
              options, between);
     return sb_load_text(text, NULL);
 }
@@ -64,8 +57,8 @@ static void test_slab(void **state)
     double got[2];
     for (int k = 0; k < 2; k++) {
         scene_t *s = lamp_scene("AttributeBegin\nMaterial \"dielectric\" \"float eta\" [1.5]\n"
-                                "Rotate 60 1 0 0\nTranslate 0 0 0.05\n" QUAD
-                                "Translate 0 0 -0.1\n" QUAD_BACK "AttributeEnd\n");
+                                "Rotate 60 1 0 0\nTranslate 0 0 0.05\n" PBRT_QUAD
+                                "Translate 0 0 -0.1\n" PBRT_QUAD_BACK "AttributeEnd\n");
         assert_non_null(s);
         assert_false(s->settings.polarised);
         assert_true(polar_pilot_needed(s));
@@ -86,8 +79,8 @@ static void test_slab(void **state)
     /* What the pilot advises, the file asks for: polarised transport carried. */
     scene_t *s = lamp_scene_with("\"bool polarized\" true",
                                  "AttributeBegin\nMaterial \"dielectric\" \"float eta\" [1.5]\n"
-                                 "Rotate 60 1 0 0\nTranslate 0 0 0.05\n" QUAD
-                                 "Translate 0 0 -0.1\n" QUAD_BACK "AttributeEnd\n");
+                                 "Rotate 60 1 0 0\nTranslate 0 0 0.05\n" PBRT_QUAD
+                                 "Translate 0 0 -0.1\n" PBRT_QUAD_BACK "AttributeEnd\n");
     assert_non_null(s);
     assert_true(s->settings.polarised);
     assert_true(s->settings.polarised_asked);
@@ -100,15 +93,15 @@ static void test_mirror_and_none(void **state)
     err_t err;
     /* A rough metal tilted 30 degrees reflecting a constant sky: one interface, and unpolarised
      * light reflected once is recorded as without polarisation -- nothing changes. */
-    scene_t *s = sb_load_text(
-        "LookAt 0 0 5  0 0 0  0 1 0\n"
-        "Camera \"orthographic\" \"float screenwindow\" [-0.5 0.5 -0.5 0.5]\n"
-        "Film \"spectral\" \"integer xresolution\" [4] \"integer yresolution\" [4]\n"
-        "Integrator \"path\" \"integer maxdepth\" [5]\n"
-        "WorldBegin\nLightSource \"infinite\" \"spectrum L\" [300 1 900 1]\n"
-        "AttributeBegin\nMaterial \"conductor\" \"float roughness\" [0.2]\nRotate 30 1 0 0\n" QUAD
-        "AttributeEnd\n",
-        NULL);
+    scene_t *s =
+        sb_load_text("LookAt 0 0 5  0 0 0  0 1 0\n"
+                     "Camera \"orthographic\" \"float screenwindow\" [-0.5 0.5 -0.5 0.5]\n"
+                     "Film \"spectral\" \"integer xresolution\" [4] \"integer yresolution\" [4]\n"
+                     "Integrator \"path\" \"integer maxdepth\" [5]\n"
+                     "WorldBegin\nLightSource \"infinite\" \"spectrum L\" [300 1 900 1]\n"
+                     "AttributeBegin\nMaterial \"conductor\" \"float roughness\" [0.2]\nRotate 30 "
+                     "1 0 0\n" PBRT_QUAD "AttributeEnd\n",
+                     NULL);
     assert_non_null(s);
     assert_int_equal(polar_pilot_apply(s, &err), 0);
     assert_true(s->settings.polar_pilot.run);
@@ -116,7 +109,7 @@ static void test_mirror_and_none(void **state)
     assert_false(s->settings.polarised);
     scene_destroy(&s);
     /* Nothing that polarises: no pilot. */
-    s = lamp_scene("AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 -1\n" QUAD
+    s = lamp_scene("AttributeBegin\nMaterial \"diffuse\"\nTranslate 0 0 -1\n" PBRT_QUAD
                    "AttributeEnd\n");
     assert_non_null(s);
     assert_false(polar_pilot_needed(s));

@@ -53,15 +53,7 @@ static void render_stokes(scene_t *s, int res, int spp, double S[4])
     tilebuf_destroy(&t);
 }
 
-#define QUAD                                                                                       \
-    "Shape \"trianglemesh\" \"point3 P\" [-2 -2 0  2 -2 0  2 2 0  -2 2 0] \"integer indices\" "    \
-    "[0 1 2 0 2 3] \"point2 uv\" [0 0 1 0 1 1 0 1]\n"
-
 /* The same quad facing -z (its winding reversed): the far face of a slab. */
-#define QUAD_BACK                                                                                  \
-    "Shape \"trianglemesh\" \"point3 P\" [-2 -2 0  2 -2 0  2 2 0  -2 2 0] \"integer indices\" "    \
-    "[0 2 1 0 3 2] \"point2 uv\" [0 0 1 0 1 1 0 1]\n"
-
 /* An orthographic camera on +z looking at a two-sided area light of constant spectrum behind
  * up to two sheets (each a Material line, "" for none) at z = 0 and z = 1; the camera's
  * extra parameters and the film's. */
@@ -78,12 +70,12 @@ static scene_t *sheets_scene(const char *sheet0, const char *sheet1, const char 
              "WorldBegin\n"
              "AttributeBegin\n"
              "AreaLightSource \"diffuse\" \"spectrum L\" [300 1 900 1] \"bool twosided\" true\n"
-             "Translate 0 0 -1\n" QUAD "AttributeEnd\n"
+             "Translate 0 0 -1\n" PBRT_QUAD "AttributeEnd\n"
              "AttributeBegin\n%s\n%s"
              "AttributeEnd\n"
              "AttributeBegin\n%s\nTranslate 0 0 1\n%s"
              "AttributeEnd\n",
-             camera, film, sheet0, sheet0[0] ? QUAD : "", sheet1, sheet1[0] ? QUAD : "");
+             camera, film, sheet0, sheet0[0] ? PBRT_QUAD : "", sheet1, sheet1[0] ? PBRT_QUAD : "");
     return sb_load_text(text, NULL);
 }
 
@@ -203,9 +195,10 @@ static void test_brewster(void **state)
              "WorldBegin\n"
              "LightSource \"infinite\" \"spectrum L\" [300 1 900 1]\n"
              "AttributeBegin\nMaterial \"dielectric\" \"float eta\" [1.5]\n"
-             "Translate 0 0 -1\nRotate %.12f 1 0 0\n" QUAD "AttributeEnd\n"
+             "Translate 0 0 -1\nRotate %.12f 1 0 0\n" PBRT_QUAD "AttributeEnd\n"
              "AttributeBegin\nMaterial \"diffuse\" \"spectrum reflectance\" [300 0 900 0]\n"
-             "Translate 0 0 -1\nRotate %.12f 1 0 0\nTranslate 0 0 -0.05\n" QUAD "AttributeEnd\n",
+             "Translate 0 0 -1\nRotate %.12f 1 0 0\nTranslate 0 0 -0.05\n" PBRT_QUAD
+             "AttributeEnd\n",
              brewster, brewster);
     scene_t *s = sb_load_text(text, NULL);
     double S[4];
@@ -230,9 +223,10 @@ static void test_brewster(void **state)
              "WorldBegin\n"
              "LightSource \"infinite\" \"spectrum L\" [300 1 900 1]\n"
              "AttributeBegin\nMaterial \"dielectric\" \"float eta\" [1.5]\n"
-             "Translate 0 0 -1\nRotate %.12f 1 0 0\n" QUAD "AttributeEnd\n"
+             "Translate 0 0 -1\nRotate %.12f 1 0 0\n" PBRT_QUAD "AttributeEnd\n"
              "AttributeBegin\nMaterial \"diffuse\" \"spectrum reflectance\" [300 0 900 0]\n"
-             "Translate 0 0 -1\nRotate %.12f 1 0 0\nTranslate 0 0 -0.05\n" QUAD "AttributeEnd\n",
+             "Translate 0 0 -1\nRotate %.12f 1 0 0\nTranslate 0 0 -0.05\n" PBRT_QUAD
+             "AttributeEnd\n",
              brewster - 10.0, brewster - 10.0);
     s = sb_load_text(text, NULL);
     render_stokes(s, 4, 8, S);
@@ -267,7 +261,7 @@ static void test_slab(void **state)
                  "WorldBegin\n"
                  "AttributeBegin\n"
                  "AreaLightSource \"diffuse\" \"spectrum L\" [300 1 900 1] \"bool twosided\" true\n"
-                 "Translate 0 0 -3\nScale 0.5 0.5 1\n" QUAD "AttributeEnd\n",
+                 "Translate 0 0 -3\nScale 0.5 0.5 1\n" PBRT_QUAD "AttributeEnd\n",
                  pol ? "\"bool stokes\" true" : "");
         scene_t *open = sb_load_text(head, NULL);
         double O[4], S[4];
@@ -275,7 +269,8 @@ static void test_slab(void **state)
         scene_destroy(&open);
         snprintf(text, sizeof text,
                  "%sAttributeBegin\nMaterial \"dielectric\" \"float eta\" [1.5]\nRotate 60 1 0 0\n"
-                 "Translate 0 0 0.05\n" QUAD "Translate 0 0 -0.1\n" QUAD_BACK "AttributeEnd\n",
+                 "Translate 0 0 0.05\n" PBRT_QUAD "Translate 0 0 -0.1\n" PBRT_QUAD_BACK
+                 "AttributeEnd\n",
                  head);
         scene_t *s = sb_load_text(text, NULL);
         assert_int_equal(s->settings.polarised, pol);
@@ -310,9 +305,10 @@ static scene_t *tilted_plane(const char *mat, double deg, const char *film, cons
              "WorldBegin\n"
              "LightSource \"infinite\" \"spectrum L\" [300 1 900 1]\n"
              "AttributeBegin\n%s\n"
-             "Translate 0 0 -1\nRotate %.12f 1 0 0\n" QUAD "AttributeEnd\n"
+             "Translate 0 0 -1\nRotate %.12f 1 0 0\n" PBRT_QUAD "AttributeEnd\n"
              "AttributeBegin\nMaterial \"diffuse\" \"spectrum reflectance\" [300 0 900 0]\n"
-             "Translate 0 0 -1\nRotate %.12f 1 0 0\nTranslate 0 0 -0.05\n" QUAD "AttributeEnd\n",
+             "Translate 0 0 -1\nRotate %.12f 1 0 0\nTranslate 0 0 -0.05\n" PBRT_QUAD
+             "AttributeEnd\n",
              film, integ, mat, deg, deg);
     return sb_load_text(text, NULL);
 }
@@ -564,7 +560,7 @@ static void floor_pixels(const char *sheets, double px[16])
              "WorldBegin\n"
              "LightSource \"infinite\" \"spectrum L\" [300 1 900 1]\n"
              "%s"
-             "Material \"diffuse\" \"spectrum reflectance\" [300 0.5 900 0.5]\n" QUAD,
+             "Material \"diffuse\" \"spectrum reflectance\" [300 0.5 900 0.5]\n" PBRT_QUAD,
              sheets);
     scene_t *s = sb_load_text(text, NULL);
     err_t err;

@@ -94,10 +94,6 @@ static void test_oblique(void **state)
 
 /* ---- the Michel-Levy chart, rendered ---- */
 
-#define QUAD                                                                                       \
-    "Shape \"trianglemesh\" \"point3 P\" [-2 -2 0  2 -2 0  2 2 0  -2 2 0] \"integer indices\" "    \
-    "[0 1 2 0 2 3] \"point2 uv\" [0 0 1 0 1 1 0 1]\n"
-
 /* The chart's renders carry 47 lanes, one per 10 nm from 360 to 830 nm ("fanout" lanes:
  * wavelengths stratified over the range, so that few samples estimate the colour integral
  * well); the default hero wavelengths are checked at a few retardations with more samples. */
@@ -125,20 +121,20 @@ static scene_t *chart_scene(const char *plate, chart_setup_t cs)
                      "AttributeBegin\n"
                      "AreaLightSource \"diffuse\" \"spectrum L\" \"stdillum-D65\" "
                      "\"bool twosided\" true\n"
-                     "Translate 0 0 -1\n" QUAD "AttributeEnd\n",
+                     "Translate 0 0 -1\n" PBRT_QUAD "AttributeEnd\n",
                      cs.res, cs.res,
                      cs.fan ? "\"integer nbuckets\" [47] \"float lambdamin\" [360] "
                               "\"float lambdamax\" [830]"
                             : "",
                      cs.spp, cs.fan ? "\"string dispersion\" \"fanout\"" : "");
     if (plate[0])
-        snprintf(
-            text + n, sizeof text - (size_t)n,
-            "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [0]\n" QUAD "AttributeEnd\n"
-            "AttributeBegin\nTranslate 0 0 1.5\n%s\n" QUAD "AttributeEnd\n"
-            "AttributeBegin\nTranslate 0 0 3\nMaterial \"polarizer\" \"float angle\" [90]\n" QUAD
-            "AttributeEnd\n",
-            plate);
+        snprintf(text + n, sizeof text - (size_t)n,
+                 "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [0]\n" PBRT_QUAD
+                 "AttributeEnd\n"
+                 "AttributeBegin\nTranslate 0 0 1.5\n%s\n" PBRT_QUAD "AttributeEnd\n"
+                 "AttributeBegin\nTranslate 0 0 3\nMaterial \"polarizer\" \"float angle\" "
+                 "[90]\n" PBRT_QUAD "AttributeEnd\n",
+                 plate);
     return sb_load_text(text, NULL);
 }
 
@@ -359,7 +355,7 @@ static void test_syntax(void **state)
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; i++) {
         char text[1024];
-        snprintf(text, sizeof text, "Camera \"orthographic\"\nWorldBegin\n%s\n" QUAD, bad[i]);
+        snprintf(text, sizeof text, "Camera \"orthographic\"\nWorldBegin\n%s\n" PBRT_QUAD, bad[i]);
         err_t err = {{0}};
         scene_t *s = sb_load_text(text, &err);
         if (s)
