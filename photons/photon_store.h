@@ -82,6 +82,24 @@ size_t photon_store_memory_bytes(const photon_store_t *self);
  * the radius of the scene's bounding sphere. */
 double photon_gather_radius(const scene_t *scene);
 
+/* The volume photons (docs/physics.md §12, "Media and the photon pass"): a store made for a
+ * scene whose participating media are simulated (settings.media with media present) holds a
+ * second photon map of photons stored where they scatter in a medium after a specular chain,
+ * each with power Phi / sigma_s(lambda, x) (raw, W/nm per unit scattering coefficient), so
+ * that the camera pass's point estimate needs no coefficient of its own. The volume map merges,
+ * counts emitted photons and travels with the surface store: its wire form is the volume map's
+ * (photon_map_encode) followed by the surface store's, only for such scenes (every other store's
+ * bytes are unchanged); a store of such a scene without its volume part is refused. */
+int photon_store_has_volume(const photon_store_t *self);
+int photon_store_deposit_volume(photon_store_t *self, vec3_t p, vec3_t dir, double lambda,
+                                double power, err_t *err);
+/* Every volume photon within the scene's gather radius r of p (a sphere, no normal test)
+ * handed to fn; *scale = 1 / (N_emitted * bucket width * 4/3 pi r^3). Returns the photons handed
+ * over (0, *scale 0, without a volume map). Only on a finished store. */
+int photon_store_volume_gather(const photon_store_t *self, vec3_t p, photon_map_visit_fn fn,
+                               void *user, double *scale);
+const photon_map_t *photon_store_volume_map(const photon_store_t *self);
+
 /* The photon map or light map inside a store of that kind, else NULL (tests and statistics). */
 const photon_map_t *photon_store_map(const photon_store_t *self);
 const lightmap_t *photon_store_lightmap(const photon_store_t *self);
