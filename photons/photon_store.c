@@ -4,6 +4,7 @@
 
 #include "le_bytes.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -294,12 +295,17 @@ int photon_store_volume_gather(const photon_store_t *self, vec3_t p, photon_map_
     *scale = 0.0;
     if (!self->volume)
         return 0;
-    /* A fixed radius (k = 0), so that the sphere's volume is known: photon_map_gather's disk
-     * scale 1 / (N w pi r^2) times pi r^2 / (4/3 pi r^3). Every photon's normal is +z, so the
-     * two-sided normal test passes them all. */
-    const double r = photon_gather_radius(self->scene);
-    const int used =
-        photon_map_gather(self->volume, p, vec3_make(0.0, 0.0, 1.0), r, 0, fn, user, scale);
+    /* The k nearest within R: photon_map_gather's disk scale 1 / (N w pi r^2) gives back the
+     * radius r it used (the k-th photon's distance, or R), and times pi r^2 / (4/3 pi r^3) it is
+     * the sphere's. Every photon's normal is +z, so the two-sided normal test passes them all. */
+    const double R = PHOTON_VOLUME_RADIUS_SCALE * photon_gather_radius(self->scene);
+    const int used = photon_map_gather(self->volume, p, vec3_make(0.0, 0.0, 1.0), R,
+                                       PHOTON_VOLUME_K, fn, user, scale);
+    if (used == 0 || !(*scale > 0.0))
+        return used;
+    const spectral_grid_t g = photon_map_grid(self->volume);
+    const double r = sqrt(1.0 / ((double)photon_map_emitted(self->volume) *
+                                 spectral_grid_width(g) * PF_PI * *scale));
     *scale *= 0.75 / r;
     return used;
 }

@@ -93,9 +93,14 @@ double photon_gather_radius(const scene_t *scene);
 int photon_store_has_volume(const photon_store_t *self);
 int photon_store_deposit_volume(photon_store_t *self, vec3_t p, vec3_t dir, double lambda,
                                 double power, err_t *err);
-/* Every volume photon within the scene's gather radius r of p (a sphere, no normal test)
- * handed to fn; *scale = 1 / (N_emitted * bucket width * 4/3 pi r^3). Returns the photons handed
- * over (0, *scale 0, without a volume map). Only on a finished store. */
+/* The PHOTON_VOLUME_K volume photons nearest to p within R = PHOTON_VOLUME_RADIUS_SCALE times
+ * the scene's gather radius (a sphere, no normal test) handed to fn; *scale = 1 / (N_emitted *
+ * bucket width * 4/3 pi r^3), r the k-th photon's distance (R when fewer are found). A sphere
+ * holds far fewer photons than a surface's disk of the same radius (they spread over a volume),
+ * so it is wider, and the k nearest keep a focus sharp where photons crowd. Returns the photons
+ * handed over (0, *scale 0, without a volume map). Only on a finished store. */
+#define PHOTON_VOLUME_K 64
+#define PHOTON_VOLUME_RADIUS_SCALE 4.0
 int photon_store_volume_gather(const photon_store_t *self, vec3_t p, photon_map_visit_fn fn,
                                void *user, double *scale);
 const photon_map_t *photon_store_volume_map(const photon_store_t *self);
