@@ -639,7 +639,7 @@ static int decide_photon(plan_t *p, const scene_t *s)
                  "participating media are carried by both passes: photons fly through the media "
                  "(delta tracking, as the camera pass's volpath), and those that scatter in a "
                  "medium after a specular chain are stored as volume photons, which the camera "
-                 "path gathers at its first scattering point (the volumetric caustic, "
+                 "path gathers at its scattering points (the volumetric caustic, "
                  "docs/physics.md §12).");
     else if (on)
         text_add(&r, " The photon pass stores these paths (docs/rendering.md).");
