@@ -6,7 +6,8 @@
  * both kinds divide by the photons emitted only when asked for irradiance, so merged batches,
  * a re-run batch or a later refinement all come out normalised by what was actually emitted
  * (docs/physics.md §5.2). A photon map also answers the radiance at a glossy receiver
- * (photon_store_gather), from the photons' directions. */
+ * (photon_store_gather), from the photons' directions. A scene whose media are simulated also
+ * gets volume photons, kept in a photon map of their own (photon_store_has_volume). */
 #ifndef PRISMFARM_PHOTON_STORE_H
 #define PRISMFARM_PHOTON_STORE_H
 
