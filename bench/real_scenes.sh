@@ -21,7 +21,8 @@
 # from its 4x4-pixel blocks: var(block) = mean over blocks of (seed1 - seed2)^2 / 2 (two
 # independent renders differ by sqrt 2 times either's noise; REFERENCE.md's 4x4 downsample),
 # se^2 = var(block) / blocks / 2 (a region of that many blocks, averaged over two seeds).
-# Verdict "match": every channel's mean within 2 % and every region within 4 standard errors or
+# Verdict "match": every channel's mean within 2 % or 4 standard errors (the image's blocks, as a
+# region's) and every region within 4 standard errors or
 # 2 % (48 region-channel tests: at 4 sigma noise alone fails one scene in about 300);
 # "mean only": means match, some region does not; "differs" otherwise; a refused render prints
 # the first line of its message.
@@ -154,7 +155,17 @@ bad = (np.abs(z) > 4) & (rel > 0.02)
 i = np.unravel_index(np.argmax(np.where(bad, np.abs(z), 0)) if bad.any() else np.argmax(rel), z.shape)
 worst = f'{bad.any(axis=2).sum()} of 16 regions off; worst row {i[0]} col {i[1]} {"RGB"[i[2]]}: ' \
         f'ours/pbrt {mo[i] / mp[i] if mp[i] else float("inf"):.3f}, z {z[i]:+.1f}'
-means_ok = bool((np.abs(ratio - 1) <= 0.02).all())
+# the image mean's own noise, as a region's (every block of the image): a light smaller than a
+# pixel seen directly (volumetric-caustic's 5 mm quad) puts a few samples of radiance 5e5 in one
+# pixel, the seeds differ by half the image's mean in either renderer, and only z says so
+def image_z():
+    def one(a1, a2):
+        b1, b2 = blocks(a1).reshape(-1, 3), blocks(a2).reshape(-1, 3)
+        return (b1.mean(axis=0) + b2.mean(axis=0)) / 2, ((b1 - b2) ** 2 / 2).mean(axis=0) / b1.shape[0] / 2
+    (m1, v1), (m2, v2) = one(o1, o2), one(p1, p2)
+    return (m1 - m2) / np.sqrt(v1 + v2 + 1e-300)
+zi = image_z()
+means_ok = bool(((np.abs(ratio - 1) <= 0.02) | (np.abs(zi) <= 4)).all())
 verdict = 'match' if means_ok and not bad.any() else ('mean only' if means_ok else 'differs')
 print(f'{ratio[0]:.4f} / {ratio[1]:.4f} / {ratio[2]:.4f}|{worst}|{verdict}')
 EOF

@@ -2,13 +2,18 @@
 
 #include "lightmap.h"
 
+#include "le_bytes.h"
+
+#include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 struct photon_store {
     const scene_t *scene;
     photon_store_kind_t kind;
     photon_map_t *map;     /* PHOTON_STORE_PHOTONMAP */
     lightmap_t *lightmap;  /* PHOTON_STORE_LIGHTMAP */
+    photon_map_t *volume;  /* the volume photons (photon_store_has_volume), or NULL */
     int finished;
 };
 
@@ -25,6 +30,13 @@ static photon_store_t *store_alloc(const scene_t *scene, err_t *err)
     self->scene = scene;
     self->kind = scene->settings.photon.store;
     return self;
+}
+
+/* Whether stores of this scene carry volume photons: decided by the scene alone, so that the
+ * master and every worker agree on the wire form. */
+static int scene_wants_volume(const scene_t *scene)
+{
+    return scene->settings.media && scene->nmedia > 0;
 }
 
 double photon_gather_radius(const scene_t *scene)
@@ -51,6 +63,8 @@ photon_store_t *photon_store_new(const scene_t *scene, err_t *err)
         free(self);
         return NULL;
     }
+    if (scene_wants_volume(scene) && !(self->volume = photon_map_new(scene->settings.grid, err)))
+        photon_store_destroy(&self);
     return self;
 }
 
@@ -60,6 +74,7 @@ void photon_store_destroy(photon_store_t **self_p)
         return;
     photon_map_destroy(&(*self_p)->map);
     lightmap_destroy(&(*self_p)->lightmap);
+    photon_map_destroy(&(*self_p)->volume);
     free(*self_p);
     *self_p = NULL;
 }
@@ -81,6 +96,8 @@ int photon_store_deposit(photon_store_t *self, const hit_t *h, vec3_t p, vec3_t 
 
 void photon_store_add_emitted(photon_store_t *self, uint64_t n)
 {
+    if (self->volume)
+        photon_map_add_emitted(self->volume, n);
     if (self->lightmap)
         lightmap_add_emitted(self->lightmap, n);
     else
@@ -100,6 +117,10 @@ int photon_store_merge(photon_store_t *dst, const photon_store_t *src, err_t *er
                        dst->kind == PHOTON_STORE_LIGHTMAP ? "light map" : "photon map");
     if (dst->finished || src->finished)
         return err_set(err, "photon store: only unfinished stores merge");
+    if (!dst->volume != !src->volume)
+        return err_set(err, "photon store: cannot merge a store with volume photons and one without");
+    if (dst->volume && photon_map_append(dst->volume, src->volume, err))
+        return -1;
     if (dst->lightmap)
         return lightmap_merge(dst->lightmap, src->lightmap, err);
     return photon_map_append(dst->map, src->map, err);
@@ -112,6 +133,8 @@ int photon_store_finish(photon_store_t *self, err_t *err)
     /* A light map needs nothing more: its texels are read as they are. */
     if (self->map && photon_map_build(self->map, err))
         return -1;
+    if (self->volume && photon_map_build(self->volume, err))
+        return -1;
     self->finished = 1;
     return 0;
 }
@@ -121,13 +144,48 @@ int photon_store_finished(const photon_store_t *self)
     return self->finished;
 }
 
+static int encode_surface(const photon_store_t *self, uint8_t **out, size_t *out_len, err_t *err)
+{
+    if (self->lightmap)
+        return lightmap_encode(self->lightmap, out, out_len, err);
+    return photon_map_encode(self->map, out, out_len, err);
+}
+
+/* The volume map's wire form first (its header says its length: 32 + 24 n bytes), then the
+ * surface store's. */
+static int encode_with_volume(const photon_store_t *self, uint8_t **out, size_t *out_len,
+                              err_t *err)
+{
+    uint8_t *v = NULL, *sfc = NULL;
+    size_t vn = 0, sn = 0;
+    *out = NULL;
+    *out_len = 0;
+    if (photon_map_encode(self->volume, &v, &vn, err) || encode_surface(self, &sfc, &sn, err)) {
+        free(v);
+        return -1;
+    }
+    uint8_t *b = vn + sn >= vn ? malloc(vn + sn) : NULL;
+    if (!b) {
+        free(v);
+        free(sfc);
+        return err_set(err, "out of memory encoding the photon store");
+    }
+    memcpy(b, v, vn);
+    memcpy(b + vn, sfc, sn);
+    free(v);
+    free(sfc);
+    *out = b;
+    *out_len = vn + sn;
+    return 0;
+}
+
 int photon_store_encode(const photon_store_t *self, uint8_t **out, size_t *out_len, err_t *err)
 {
     if (self->finished)
         return err_set(err, "photon store: only an unfinished store can be encoded");
-    if (self->lightmap)
-        return lightmap_encode(self->lightmap, out, out_len, err);
-    return photon_map_encode(self->map, out, out_len, err);
+    if (self->volume)
+        return encode_with_volume(self, out, out_len, err);
+    return encode_surface(self, out, out_len, err);
 }
 
 photon_store_t *photon_store_decode(const scene_t *scene, const uint8_t *data, size_t len,
@@ -136,6 +194,26 @@ photon_store_t *photon_store_decode(const scene_t *scene, const uint8_t *data, s
     photon_store_t *self = store_alloc(scene, err);
     if (!self)
         return NULL;
+    if (scene_wants_volume(scene)) {
+        /* The volume part's length from its header (photon_map.c's wire form: the photon count
+         * at byte 16, 24 bytes a photon after 32); its decoder checks everything else. */
+        const uint64_t n = len >= 24 ? le_get_u64(data + 16) : UINT64_MAX;
+        if (len < 32 || n > (len - 32) / 24) {
+            err_set(err, "photon store data: the scene's media call for volume photons, and "
+                         "%zu bytes hold no volume part",
+                    len);
+            free(self);
+            return NULL;
+        }
+        const size_t vlen = 32 + (size_t)n * 24;
+        if (!(self->volume = photon_map_decode(scene->settings.grid, data, vlen, err))) {
+            err_prefix(err, "volume photons: ");
+            free(self);
+            return NULL;
+        }
+        data += vlen;
+        len -= vlen;
+    }
     switch (self->kind) {
     case PHOTON_STORE_PHOTONMAP:
         self->map = photon_map_decode(scene->settings.grid, data, len, err);
@@ -146,6 +224,7 @@ photon_store_t *photon_store_decode(const scene_t *scene, const uint8_t *data, s
         break;
     }
     if (!self->map && !self->lightmap) {
+        photon_map_destroy(&self->volume);
         free(self);
         return NULL;
     }
@@ -188,8 +267,52 @@ size_t photon_store_count(const photon_store_t *self)
 
 size_t photon_store_memory_bytes(const photon_store_t *self)
 {
-    return sizeof *self + (self->lightmap ? lightmap_memory_bytes(self->lightmap)
-                                          : photon_map_memory_bytes(self->map));
+    return sizeof *self +
+           (self->lightmap ? lightmap_memory_bytes(self->lightmap)
+                           : photon_map_memory_bytes(self->map)) +
+           (self->volume ? photon_map_memory_bytes(self->volume) : 0);
+}
+
+int photon_store_has_volume(const photon_store_t *self)
+{
+    return self->volume != NULL;
+}
+
+int photon_store_deposit_volume(photon_store_t *self, vec3_t p, vec3_t dir, double lambda,
+                                double power, err_t *err)
+{
+    if (self->finished)
+        return err_set(err, "photon store: deposit after it was finished");
+    if (!self->volume)
+        return err_set(err, "photon store: a volume photon in a store without media");
+    /* The normal is unused (photon_store_volume_gather queries with the same one, two-sided). */
+    return photon_map_deposit(self->volume, p, dir, vec3_make(0.0, 0.0, 1.0), lambda, power, err);
+}
+
+int photon_store_volume_gather(const photon_store_t *self, vec3_t p, photon_map_visit_fn fn,
+                               void *user, double *scale)
+{
+    *scale = 0.0;
+    if (!self->volume)
+        return 0;
+    /* The k nearest within R: photon_map_gather's disk scale 1 / (N w pi r^2) gives back the
+     * radius r it used (the k-th photon's distance, or R), and times pi r^2 / (4/3 pi r^3) it is
+     * the sphere's. Every photon's normal is +z, so the two-sided normal test passes them all. */
+    const double R = PHOTON_VOLUME_RADIUS_SCALE * photon_gather_radius(self->scene);
+    const int used = photon_map_gather(self->volume, p, vec3_make(0.0, 0.0, 1.0), R,
+                                       PHOTON_VOLUME_K, fn, user, scale);
+    if (used == 0 || !(*scale > 0.0))
+        return used;
+    const spectral_grid_t g = photon_map_grid(self->volume);
+    const double r = sqrt(1.0 / ((double)photon_map_emitted(self->volume) *
+                                 spectral_grid_width(g) * PF_PI * *scale));
+    *scale *= 0.75 / r;
+    return used;
+}
+
+const photon_map_t *photon_store_volume_map(const photon_store_t *self)
+{
+    return self->volume;
 }
 
 const lightmap_t *photon_store_lightmap(const photon_store_t *self)

@@ -6,7 +6,8 @@
  * both kinds divide by the photons emitted only when asked for irradiance, so merged batches,
  * a re-run batch or a later refinement all come out normalised by what was actually emitted
  * (docs/physics.md §5.2). A photon map also answers the radiance at a glossy receiver
- * (photon_store_gather), from the photons' directions. */
+ * (photon_store_gather), from the photons' directions. A scene whose media are simulated also
+ * gets volume photons, kept in a photon map of their own (photon_store_has_volume). */
 #ifndef PRISMFARM_PHOTON_STORE_H
 #define PRISMFARM_PHOTON_STORE_H
 
@@ -81,6 +82,29 @@ size_t photon_store_memory_bytes(const photon_store_t *self);
 /* The photon map's gather radius: settings.photon.radius, or when that is 0 a hundredth of
  * the radius of the scene's bounding sphere. */
 double photon_gather_radius(const scene_t *scene);
+
+/* The volume photons (docs/physics.md §12, "Media and the photon pass"): a store made for a
+ * scene whose participating media are simulated (settings.media with media present) holds a
+ * second photon map of photons stored where they scatter in a medium after a specular chain,
+ * each with power Phi / sigma_s(lambda, x) (raw, W/nm per unit scattering coefficient), so
+ * that the camera pass's point estimate needs no coefficient of its own. The volume map merges,
+ * counts emitted photons and travels with the surface store: its wire form is the volume map's
+ * (photon_map_encode) followed by the surface store's, only for such scenes (every other store's
+ * bytes are unchanged); a store of such a scene without its volume part is refused. */
+int photon_store_has_volume(const photon_store_t *self);
+int photon_store_deposit_volume(photon_store_t *self, vec3_t p, vec3_t dir, double lambda,
+                                double power, err_t *err);
+/* The PHOTON_VOLUME_K volume photons nearest to p within R = PHOTON_VOLUME_RADIUS_SCALE times
+ * the scene's gather radius (a sphere, no normal test) handed to fn; *scale = 1 / (N_emitted *
+ * bucket width * 4/3 pi r^3), r the k-th photon's distance (R when fewer are found). A sphere
+ * holds far fewer photons than a surface's disk of the same radius (they spread over a volume),
+ * so it is wider, and the k nearest keep a focus sharp where photons crowd. Returns the photons
+ * handed over (0, *scale 0, without a volume map). Only on a finished store. */
+#define PHOTON_VOLUME_K 64
+#define PHOTON_VOLUME_RADIUS_SCALE 4.0
+int photon_store_volume_gather(const photon_store_t *self, vec3_t p, photon_map_visit_fn fn,
+                               void *user, double *scale);
+const photon_map_t *photon_store_volume_map(const photon_store_t *self);
 
 /* The photon map or light map inside a store of that kind, else NULL (tests and statistics). */
 const photon_map_t *photon_store_map(const photon_store_t *self);

@@ -3,12 +3,15 @@
 #include "crystal_scatter.h"
 #include "delta.h"
 #include "lights.h"
+#include "phase_hg.h"
 #include "photon_polar.h"
+#include "photon_volume.h"
 #include "rng.h"
 #include "sample.h"
 #include "sampler.h"
 #include "shading.h"
 #include "specular.h"
+#include "volume.h"
 #include "wavelength.h"
 
 #include <float.h>
@@ -60,6 +63,11 @@ typedef struct tracer {
      * Halton survival draws left one bucket of a furnace 9 % short). */
     uint64_t ld_index;
     uint32_t ld_dim;
+    /* The scene's media are simulated: photons fly through them and the store keeps volume
+     * photons (photon_store_has_volume); light_medium[l] is the medium of a light with a fixed
+     * position (point, spot, goniometric, projection; -2: found per photon). */
+    int media;
+    int *light_medium;
 } tracer_t;
 
 #define PHOTON_LD_DIMS 12
@@ -319,6 +327,8 @@ typedef struct flight {
     int depth, specular, diffuse, passthrough;
     int collimated;
     int wave; /* inside a uniaxial crystal: the wave (bsdf/uniaxial.h) */
+    int medium; /* the medium it travels in (index into scene->media, -1: vacuum) when media
+                 * are simulated */
     /* The lanes' polarisation (render_settings_t.polarised; photon_polar.h), NULL without:
      * then sheets end the photon and every interface acts on intensities. */
     photon_polar_t *pol;
@@ -350,6 +360,71 @@ static int deposit_lanes(tracer_t *t, const flight_t *f, const hit_t *h, const s
 }
 
 static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err);
+
+enum { STEP_ENDS, STEP_PASSED, STEP_SCATTERED };
+
+/* The photon's free flight through its medium up to the next surface at tmax, with volume.h's
+ * sampling (the camera pass's: the lanes share one flight, each weighted by its own density
+ * over the mixture; f->w chooses). A scattering event is where the caustic store keeps a
+ * volume photon, by the rule of a surface's (after mindepth specular events and no diffuse
+ * one, or straight from a collimated light), with power Phi / sigma_s(lambda, x)
+ * (photon_store_deposit_volume); there the caustic store's photon ends, as at a diffuse
+ * surface (the camera pass path traces what it scatters on), the full store's goes on in a
+ * direction from the phase function (weight 1). Returns STEP_* or -1 when the store cannot
+ * take a deposit. */
+static int medium_step(tracer_t *t, flight_t *f, double tmax, err_t *err)
+{
+    const medium_t *m = t->scene->media[f->medium];
+    const photon_job_t *job = t->job;
+    photon_stats_t *st = t->stats;
+    if (!m)
+        return STEP_PASSED;
+    volume_lanes_t k;
+    volume_lanes_make(m, f->lambda, f->nl, &k);
+    volume_flight_t fl;
+    volume_sample(m, &k, f->org, f->dir, tmax, f->w, &t->rng, &fl);
+    if (fl.event == VOLUME_ABSORBED) {
+        st->culled++;
+        return STEP_ENDS;
+    }
+    for (int j = 0; j < f->nl; j++)
+        f->w[j] *= fl.weight[j];
+    if (fl.event == VOLUME_PASSED)
+        return STEP_PASSED;
+    const vec3_t x = vec3_fma(f->org, f->dir, fl.t);
+    const int store = job->policy == PHOTON_STORE_CAUSTIC
+                          ? (f->specular >= job->mindepth || (f->collimated && !f->specular)) &&
+                                !f->diffuse
+                          : f->depth >= job->mindepth;
+    if (store && isfinite(x.x) && isfinite(x.y) && isfinite(x.z)) {
+        const double density = medium_density(m, x);
+        for (int j = 0; j < f->nl; j++) {
+            const double sigma_s = density * medium_coeffs(m, f->lambda[j]).sigma_s;
+            const double power = sigma_s > 0.0 ? f->w[j] / sigma_s : 0.0;
+            if (!(power <= FLT_MAX)) {
+                st->nonfinite++;
+                continue;
+            }
+            if (!(power > 0.0))
+                continue;
+            if (photon_store_deposit_volume(t->out, x, f->dir, f->lambda[j], power, err))
+                return -1;
+            st->deposited++;
+            st->power_deposited += f->w[j];
+        }
+    }
+    if (job->policy == PHOTON_STORE_CAUSTIC || f->depth >= job->maxdepth)
+        return STEP_ENDS;
+    double pdf;
+    const double u0 = next(t), u1 = next(t);
+    f->dir = phase_hg_sample(vec3_neg(f->dir), medium_g(m), u0, u1, &pdf);
+    f->org = x;
+    f->diffuse = 1;
+    f->depth++;
+    if (f->pol)
+        photon_polar_depolarise(f->pol, f->dir, f->nl);
+    return STEP_SCATTERED;
+}
 
 /* At a dispersive interface a photon of several lanes splits into one photon per lane (thesis
  * 5.5, following every monochrome ray); each continues with numbers of its own, keyed by
@@ -386,7 +461,17 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
     for (;;) {
         hit_t h;
         st->rays++;
-        if (!geometry_intersect(s->geometry, f->org, f->dir, 0.0, INFINITY, &h)) {
+        const int hit = geometry_intersect(s->geometry, f->org, f->dir, 0.0, INFINITY, &h);
+        if (t->media && f->medium >= 0) {
+            const int fl = medium_step(t, f, hit ? h.t : INFINITY, err);
+            if (fl < 0)
+                return -1;
+            if (fl == STEP_ENDS)
+                return 0;
+            if (fl == STEP_SCATTERED)
+                continue;
+        }
+        if (!hit) {
             st->escaped++;
             return 0;
         }
@@ -405,6 +490,7 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
             if (++f->passthrough > MAX_PASSTHROUGH)
                 return 0;
             f->org = geometry_offset(sf.p, sf.ng, f->dir);
+            f->medium = scene_medium_after(&sf, f->dir, f->medium);
             continue;
         }
         /* Without polarisation a polariser or retarder sheet ends a photon, and the camera
@@ -451,6 +537,7 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
             double u0 = next(t), u1 = next(t);
             f->dir = sample_local_to_world(sample_cosine_hemisphere(u0, u1), g);
             f->org = geometry_offset(sf.p, sf.ng, f->dir);
+            f->medium = scene_medium_after(&sf, f->dir, f->medium);
             f->diffuse = 1;
             if (f->pol)
                 photon_polar_depolarise(f->pol, f->dir, f->nl);
@@ -550,6 +637,7 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
                 }
             }
             f->org = geometry_offset(sf.p, sf.ng, f->dir);
+            f->medium = scene_medium_after(&sf, f->dir, f->medium);
             f->specular++;
         }
         f->depth++;
@@ -601,7 +689,10 @@ static int trace_one(tracer_t *t, uint64_t i, err_t *err)
      * uniform, so the estimate stays unbiased, and every bucket receives its share of any N
      * photons to within a few, which removes the colour noise of independent draws. */
     flight_t f = {.org = org, .dir = dir, .nl = job->monochromerays,
-                  .collimated = l->kind == LIGHT_COLLIMATED};
+                  .collimated = l->kind == LIGHT_COLLIMATED, .medium = -1};
+    if (t->media)
+        f.medium = t->light_medium[l - s->lights] != -2 ? t->light_medium[l - s->lights]
+                                                         : photon_volume_medium_at(s, org, dir);
     uint64_t ui =
         (uint64_t)(sampler_index_1d(job->seed ^ PHOTON_SEED_MIX, i, PHOTON_DIM_WAVELENGTH) *
                    0x1p64);
@@ -746,10 +837,25 @@ int photon_trace(const scene_t *scene, const photon_job_t *job, uint64_t i0, uin
             return -1;
         t.no_target = 2; /* nothing to trace: every photon is emitted and lost */
     }
+    t.media = photon_store_has_volume(out);
+    if (t.media) {
+        if (!(t.light_medium = malloc((scene->nlights ? scene->nlights : 1) * sizeof(int)))) {
+            alias_destroy(&t.lights);
+            return err_set(err, "out of memory");
+        }
+        for (size_t l = 0; l < scene->nlights; l++) {
+            const light_t *li = &scene->lights[l];
+            const int fixed = li->kind == LIGHT_POINT || li->kind == LIGHT_SPOT ||
+                              li->kind == LIGHT_GONIOMETRIC || li->kind == LIGHT_PROJECTION;
+            t.light_medium[l] =
+                fixed ? photon_volume_medium_at(scene, li->position, li->direction) : -2;
+        }
+    }
     int r = 0;
     for (uint64_t i = i0; i < i1 && !r && t.no_target != 2; i++)
         r = trace_one(&t, i, err);
     alias_destroy(&t.lights);
+    free(t.light_medium);
     if (r)
         return -1;
     /* Every lane is a monochrome photon of the estimate: the store divides by all of them. */

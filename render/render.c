@@ -7,6 +7,7 @@
 #include "fanout.h"
 #include "lights.h"
 #include "phase_hg.h"
+#include "photon_volume.h"
 #include "regularize.h"
 #include "polar_frame.h"
 #include "rng.h"
@@ -1288,6 +1289,11 @@ static int scatter_crystal(ctx_t *c, path_t *p, const surface_t *h, const materi
  * follows as specular (L S+ D); any other surface breaks the chain, so that light through
  * it is path traced and never both gathered and found (docs/rendering.md). */
 #define CHAIN_BROKEN (-(1 << 20))
+/* specular_since_diffuse after a medium scattering point that gathered the volume photons
+ * (volume_caustic), plus the smooth events since: that point takes the store's L S+ V light at
+ * any depth of the path, so light reached from it through mindepth or more smooth surfaces is
+ * the store's, whatever came before. */
+#define CHAIN_VOLUME (1 << 20)
 
 /* Defined below scatter_bsdf, which it serves (and scatter_subsurface). */
 static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *b, int gather,
@@ -1529,6 +1535,26 @@ static void direct_light_medium(ctx_t *c, const path_t *p, vec3_t x, double g)
     }
 }
 
+/* The volume caustic at a scattering point x of the path (every one: unlike a diffuse
+ * surface's, whose later vertices are path traced, since a medium's photons are gathered over a
+ * sphere and blur), in a medium of phase g: the in-scattered radiance of the light paths
+ * L S+ V that the photon pass stored (render/photon_volume.h), per lane the bucket its light
+ * goes to. medium_flight then marks the chain (CHAIN_VOLUME), so the area light that the path
+ * reaches from x through mindepth or more smooth surfaces is not counted again
+ * (docs/physics.md §12). */
+static void volume_caustic(ctx_t *c, const path_t *p, vec3_t x, double g)
+{
+    int bk[LANES];
+    double L[LANES];
+    for (int j = 0; j < p->n; j++)
+        bk[j] = p->bucket[j] >= 0 ? p->bucket[j] : spectral_table_index(c->table, p->lambda[j]);
+    if (!photon_volume_radiance(c->photons, x, vec3_neg(p->dir), g, p->n, bk, L))
+        return;
+    for (int j = 0; j < p->n; j++)
+        if (L[j] > 0.0)
+            splat(c, p, j, L[j]);
+}
+
 enum { FLIGHT_ENDS, FLIGHT_PASSED, FLIGHT_SCATTERED };
 
 /* The path's free flight through its medium up to the next surface at tmax (volume.h): the
@@ -1557,6 +1583,9 @@ static int medium_flight(ctx_t *c, path_t *p, double tmax)
     const double g = medium_g(m);
     if (c->rs->integrator != INTEGRATOR_SIMPLEPATH)
         direct_light_medium(c, p, x, g);
+    const int gathers = c->photons && photon_store_has_volume(c->photons);
+    if (gathers)
+        volume_caustic(c, p, x, g);
     double ud[2], pdf;
     draw2(c, VD_DIRECTION, ud);
     vec3_t wi = phase_hg_sample(vec3_neg(p->dir), g, ud[0], ud[1], &pdf);
@@ -1569,7 +1598,7 @@ static int medium_flight(ctx_t *c, path_t *p, double tmax)
     p->specular = 0;
     p->bsdf_pdf = pdf;
     p->diffuse_bounces++;
-    p->specular_since_diffuse = CHAIN_BROKEN;
+    p->specular_since_diffuse = gathers ? CHAIN_VOLUME : CHAIN_BROKEN;
     p->depth++;
     return roulette(c, p) ? FLIGHT_ENDS : FLIGHT_SCATTERED;
 }
@@ -1635,7 +1664,10 @@ static void trace(ctx_t *c, path_t *start)
              * (L S+ D S* E) comes from the photons: the path that finds it the other way is
              * not counted again. */
             if (sf.light >= 0 && s->lights[sf.light].kind == LIGHT_AREA &&
-                !(c->photons && p->diffuse_bounces == 1 && p->specular_since_diffuse >= c->mindepth))
+                !(c->photons && (p->specular_since_diffuse >= CHAIN_VOLUME
+                                     ? p->specular_since_diffuse - CHAIN_VOLUME >= c->mindepth
+                                     : p->diffuse_bounces == 1 &&
+                                           p->specular_since_diffuse >= c->mindepth)))
                 add_emission_hit(c, p, &sf, &s->lights[sf.light], sf.light, h.prim);
             const material_t *m = sf.material;
             if (m->kind == MATERIAL_MIX)

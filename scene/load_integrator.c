@@ -171,7 +171,8 @@ int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
     }
     /* Media are simulated by the integrators whose pbrt-v4 counterparts simulate them
      * (integrators.h); pbrt-v4's "path" ignores them as well (its PathIntegrator has no
-     * medium code), so there the image is pbrt-v4's. The photon passes do not carry them. */
+     * medium code), so there the image is pbrt-v4's. The photon integrators carry them in both
+     * passes (render/photon_volume.h: photons fly through media, volume photons). */
     size_t simulated = 0;
     for (size_t i = 0; i < L->desc->nmedia; i++)
         simulated += L->desc->media[i].type != SCENE_MEDIUM_IGNORED;
@@ -179,8 +180,7 @@ int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
     if (simulated > 0) {
         const char *fmt = NULL;
         if (named->photon)
-            fmt = "the scene's %zu %s ignored: the \"%s\" integrator's photon pass and its gather "
-                  "do not simulate participating media (Integrator \"volpath\" does)";
+            rs->media = 1;
         else if (!named->media && !named->mapped_from_pbrt)
             fmt = "the scene's %zu %s ignored; pbrt-v4's \"%s\" integrator ignores media too, so "
                   "the image is the one pbrt-v4 renders (Integrator \"volpath\" renders them)";

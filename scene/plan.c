@@ -611,19 +611,11 @@ static int decide_photon(plan_t *p, const scene_t *s)
         advised += p->lights[i].verdict == PLAN_LIGHT_ADVISED;
     }
     int on = needed + advised > 0;
-    /* The photon pass carries no participating media (its photons would cross fog without
-     * attenuation and store nothing in it), so where the scene's media are simulated the
-     * camera pass keeps them (volpath: delta tracking with next-event estimation) and the
-     * pass stays off: the medium changes every pixel, a missing caustic only some. */
-    if (on && p->current_media) {
-        p->choice.photon_off_for_media = needed + advised;
-        on = 0;
-    }
+    /* Where the scene's media are simulated both passes carry them (render/photon_volume.h):
+     * photons fly through the media, and the store keeps volume photons for the volumetric
+     * caustic. */
     p->choice.photon = on;
-    if (p->choice.photon_off_for_media)
-        text_add(&c, "off (the media are carried by the camera pass)");
-    else
-        text_add(&c, "%s", on ? (needed ? "on (needed)" : "on (advised)") : "off");
+    text_add(&c, "%s", on ? (needed ? "on (needed)" : "on (advised)") : "off");
     if (p->nlights == 0)
         text_add(&r, "the scene has no lights.");
     int k = 0;
@@ -641,16 +633,14 @@ static int decide_photon(plan_t *p, const scene_t *s)
         }
     if (p->nlights > 0)
         text_add(&r, ".");
-    if (p->choice.photon_off_for_media)
+    if (on && p->current_media)
         text_add(&r,
-                 " The scene's participating media are simulated, and the photon pass carries no "
-                 "media (its photons would cross the fog unattenuated and store nothing in it), so "
-                 "the camera pass (volpath: delta tracking, next-event estimation in the medium) "
-                 "carries the medium and the pass is off. Lost: the caustics that only light paths "
-                 "find -- those of point, spot, distant and projection lights through smooth glass "
-                 "and mirrors, on surfaces and in the medium (the volumetric caustic) -- are missing, "
-                 "as in pbrt-v4's volpath; an area light's, its volumetric caustic included, are "
-                 "path traced (the same mean, more noise).");
+                 " The photon pass stores these paths (docs/rendering.md), and the scene's "
+                 "participating media are carried by both passes: photons fly through the media "
+                 "(delta tracking, as the camera pass's volpath), and those that scatter in a "
+                 "medium after a specular chain are stored as volume photons, which the camera "
+                 "path gathers at its scattering points (the volumetric caustic, "
+                 "docs/physics.md §12).");
     else if (on)
         text_add(&r, " The photon pass stores these paths (docs/rendering.md).");
     else
@@ -755,10 +745,6 @@ static int decide_integrator(plan_t *p)
     if (p->choice.photon)
         text_add(&r, "A photon pass is called for, gathered by the path tracer (next-event "
                      "estimation with MIS for everything else).");
-    else if (p->choice.photon_off_for_media)
-        text_add(&r, "The scene's media are carried by the camera pass (volpath's delta tracking "
-                     "and next-event estimation); the photon pass, which cannot carry them, is off "
-                     "(see the photon pass).");
     else
         text_add(&r, "No photon pass is called for: the path tracer (next-event estimation with "
                      "MIS) finds every light path this scene has.");
@@ -967,15 +953,6 @@ int plan_apply_auto(scene_t *scene, const scene_desc_t *desc, const scene_overri
     if (!p)
         return -1;
     int rc = 0;
-    const int off = plan_choice(p).photon_off_for_media;
-    if (off && warnings_add(scene->warnings, desc->media_loc,
-                            "the scene's media are kept, so the plan's photon pass is off for the %d "
-                            "light%s whose caustics called for it (its photons cannot cross media): "
-                            "their caustics through smooth glass and mirrors, which only light paths "
-                            "find, are path traced for area lights and missing for point, spot and "
-                            "distant lights (`prismfarm plan` says which)",
-                            off, off == 1 ? "" : "s"))
-        rc = err_set(err, "out of memory");
     if (is_auto) {
         plan_apply(p, &scene->settings);
     } else {

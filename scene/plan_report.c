@@ -106,9 +106,10 @@ static void write_wrapped(FILE *out, const char *text, int indent, int width)
 static void current_settings(const plan_t *p, char *buf, size_t n)
 {
     if (p->current_photon.enabled)
-        snprintf(buf, n, "photon (%s gather, %llu photons), %s",
+        snprintf(buf, n, "photon (%s gather, %llu photons%s), %s",
                  integrators_kind_name(p->current_integrator),
                  (unsigned long long)p->current_photon.photons,
+                 p->current_media ? ", media in both passes: volume photons" : "",
                  integrators_dispersion_name(p->current_dispersion));
     else
         snprintf(buf, n, "%s, %s",

@@ -94,10 +94,6 @@ typedef struct plan_choice {
     uint64_t photons; /* when photon: photons to emit */
     double radius;    /* when photon: gather radius in scene units */
     int differs;      /* an explicit integrator differs from this choice */
-    /* Lights whose caustics called for a photon pass that the plan left off because the
-     * scene's media are simulated (the camera pass carries them, the photon pass cannot):
-     * their caustics through smooth glass and mirrors are left to the path tracer. */
-    int photon_off_for_media;
 } plan_choice_t;
 
 #endif

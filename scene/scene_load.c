@@ -60,15 +60,8 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
     /* Integrator "auto" (also when the file names none) follows the plan (plan.h). */
     if (!r)
         r = plan_apply_auto(sc, desc, ov, err);
-    /* The plan may choose the photon integrator for "auto": its passes carry no media. */
-    if (!r && sc->settings.media && sc->settings.photon.enabled) {
-        sc->settings.media = 0;
-        if (warnings_add(sc->warnings, desc->media_loc,
-                         "the scene's media are ignored: the plan chose the photon integrator, "
-                         "whose passes do not simulate participating media (Integrator "
-                         "\"volpath\" does)"))
-            r = err_set(err, "out of memory");
-    }
+    /* The plan may choose the photon integrator for "auto": both its passes carry the media
+     * (render/photon_volume.h). */
     if (r) {
         scene_destroy(&sc);
         return NULL;

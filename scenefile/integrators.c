@@ -92,6 +92,8 @@ const char *integrators_used_name(integrator_kind_t kind, bool photon, bool medi
         return "volpath";
     if (!photon)
         return integrators_kind_name(kind);
+    if (kind == INTEGRATOR_PATH && media)
+        return "photon+volpath";
     return kind == INTEGRATOR_WHITTED ? "photon+whitted" : "photon+path";
 }
 

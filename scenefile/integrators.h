@@ -66,7 +66,8 @@ const char *integrators_suggest(const char *name);
 const char *integrators_kind_name(integrator_kind_t kind);
 
 /* What ran, as outputs name it: the kind's name, "volpath" for the path tracer simulating
- * participating media, or "photon+path" / "photon+whitted" after a photon pass. */
+ * participating media, or "photon+path" / "photon+whitted" after a photon pass ("photon+volpath"
+ * when the path tracer carries media). */
 const char *integrators_used_name(integrator_kind_t kind, bool photon, bool media);
 
 /* Every name for a message (refused names left out), quoted, in table order: "\"simplepath\", ..., \"photon\" or \"auto\"";

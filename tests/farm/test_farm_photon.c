@@ -30,12 +30,14 @@ static void render_direct(const char *scene, const char *out)
 }
 
 /* The in-process farm (`prismfarm render`) with two workers of one thread against --direct,
- * for both stores. */
+ * for both stores, and with volume photons in fog. */
 static void test_in_process_both_stores(void **state)
 {
     (void)state;
-    const char *scenes[] = {"data/photon/beam.pbrt", "data/photon/beam_lightmap.pbrt"};
-    for (int i = 0; i < 2; i++) {
+    /* beam_fog: volume photons travel and merge with the surface photons. */
+    const char *scenes[] = {"data/photon/beam.pbrt", "data/photon/beam_lightmap.pbrt",
+                            "data/photon/beam_fog.pbrt"};
+    for (int i = 0; i < 3; i++) {
         render_direct(scenes[i], testutil_scratch("direct.exr"));
         const run_t *r = run("render", scenes[i], "--workers", "2", "--threads", "1", "--tile",
                              "16", "-o", testutil_scratch("farm.exr"), "--quiet", NULL);

@@ -498,9 +498,8 @@ static void test_glossy_receiver_and_bdpt(void **state)
 }
 
 /* A scene with simulated media (bdpt and "auto" simulate them) whose spot light's caustic
- * calls for photons: the photon pass carries no media, so the plan keeps the medium in the
- * camera pass, leaves the pass off, says so in the photon and integrator decisions, and the
- * loader warns what is lost. */
+ * calls for photons: both passes carry the media (render/photon_volume.h), so the plan keeps
+ * the photon pass and the media, and says so in the photon decision. */
 static void test_media_keep_camera_pass(void **state)
 {
     (void)state;
@@ -514,17 +513,11 @@ static void test_media_keep_camera_pass(void **state)
                                 "LightSource \"spot\" \"point3 from\" [ 0 2 0 ] \"point3 to\" [ 0 0 0 ] "
                                 "\"float coneangle\" 20\n");
         assert_int_equal(light(&l, 0)->verdict, PLAN_LIGHT_NEEDED);
-        assert_false(on(&l, PLAN_PHOTON));
-        assert_int_equal(plan_choice(l.plan).photon_off_for_media, 1);
-        assert_non_null(strstr(plan_decision_of(l.plan, PLAN_PHOTON)->reason, "carries the medium"));
+        assert_true(on(&l, PLAN_PHOTON));
+        assert_non_null(strstr(plan_decision_of(l.plan, PLAN_PHOTON)->reason, "volume photons"));
         assert_non_null(strstr(plan_decision_of(l.plan, PLAN_PHOTON)->reason, "volumetric caustic"));
-        assert_non_null(strstr(plan_decision_of(l.plan, PLAN_INTEGRATOR)->reason, "carried by the camera pass"));
         assert_true(l.scene->settings.media);
-        assert_false(l.scene->settings.photon.enabled);
-        int warned = 0;
-        for (size_t i = 0; i < warnings_count(l.scene->warnings); i++)
-            warned |= strstr(warnings_at(l.scene->warnings, i), "media are kept") != NULL;
-        assert_true(warned);
+        assert_true(l.scene->settings.photon.enabled);
         loaded_free(&l);
     }
 }
