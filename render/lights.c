@@ -496,3 +496,67 @@ double lights_pdf(const scene_t *scene, const lights_at_t *at, int light, size_t
         return 0.0;
     return pmf * d2 / (cos_l * emitter_area(s, tri));
 }
+
+void lights_probes_make(const scene_t *scene, lights_probes_t *out)
+{
+    out->n = 0;
+    for (size_t i = 0; i < scene->nlights; i++) {
+        const light_t *l = &scene->lights[i];
+        if (l->kind != LIGHT_AREA)
+            continue;
+        const shape_t *s = &scene->shapes[l->shape];
+        if (s->kind != SHAPE_SPHERE)
+            continue;
+        /* A sphere light in an object, with an alpha texture, or past the set's size: off. */
+        if (s->object >= 0 || s->alpha || out->n == LIGHTS_PROBE_MAX) {
+            out->n = 0;
+            return;
+        }
+        vec3_t c;
+        double r, d2;
+        sphere_outside(s, vec3_make(0, 0, 0), &c, &r, &d2);
+        const double rw = r * (1.0 + 1e-3);
+        out->light[out->n] = (int)i;
+        out->centre[out->n] = c;
+        out->r2[out->n] = rw * rw;
+        out->n++;
+    }
+}
+
+int lights_probes_has(const lights_probes_t *pr, int light)
+{
+    for (int i = 0; i < pr->n; i++)
+        if (pr->light[i] == light)
+            return 1;
+    return 0;
+}
+
+int lights_probes_may_hit(const lights_probes_t *pr, vec3_t o, vec3_t d)
+{
+    for (int i = 0; i < pr->n; i++) {
+        /* The ray's closest approach to the centre, ahead of o (or o inside the sphere). */
+        const vec3_t oc = vec3_sub(pr->centre[i], o);
+        const double t = vec3_dot(oc, d), oc2 = vec3_dot(oc, oc);
+        if (oc2 <= pr->r2[i])
+            return 1;
+        if (t > 0.0 && oc2 - t * t <= pr->r2[i])
+            return 1;
+    }
+    return 0;
+}
+
+int lights_probes_in_cone(const lights_probes_t *pr, vec3_t o, vec3_t axis, double half)
+{
+    for (int i = 0; i < pr->n; i++) {
+        const vec3_t oc = vec3_sub(pr->centre[i], o);
+        const double d2 = vec3_dot(oc, oc);
+        if (d2 <= pr->r2[i])
+            return 1;
+        const double d = sqrt(d2);
+        const double angle = acos(fmax(-1.0, fmin(1.0, vec3_dot(oc, axis) / d)));
+        /* The sphere's angular radius seen from o, and a margin for rounding. */
+        if (angle <= half + asin(fmin(1.0, sqrt(pr->r2[i]) / d)) + 1e-6)
+            return 1;
+    }
+    return 0;
+}

@@ -122,4 +122,31 @@ double lights_envmap_radiance(const light_t *l, size_t texel, double value, doub
 double lights_pdf(const scene_t *scene, const lights_at_t *at, int l, size_t tri, vec3_t wi,
                   vec3_t p_light, vec3_t ng);
 
+/* Lamp probes (docs/rendering.md, "Small lamps seen directly"): the world sphere area lights
+ * (opaque, at most LIGHTS_PROBE_MAX of them) whose directly seen emission a render estimates
+ * from several positions in the pixel, and a cheap test that says when a ray may hit one, so
+ * that only such rays are traced. */
+#define LIGHTS_PROBE_MAX 16
+typedef struct lights_probes {
+    int n; /* 0: the scene has none, or more than LIGHTS_PROBE_MAX, or a sphere light of
+            * another kind (probing is then off) */
+    int light[LIGHTS_PROBE_MAX];
+    vec3_t centre[LIGHTS_PROBE_MAX];
+    double r2[LIGHTS_PROBE_MAX]; /* the squared radius, widened by 1e-3 relative */
+} lights_probes_t;
+
+/* The scene's probe set into *out. */
+void lights_probes_make(const scene_t *scene, lights_probes_t *out);
+
+/* Whether light index `light` is one of the set's. */
+int lights_probes_has(const lights_probes_t *pr, int light);
+
+/* 0 when the ray from o along unit d certainly misses every sphere of the set (conservative:
+ * the widened radius), 1 when it may hit one. */
+int lights_probes_may_hit(const lights_probes_t *pr, vec3_t o, vec3_t d);
+
+/* 0 when no ray from o whose direction lies within the cone about unit axis of half-angle
+ * `half` (radians) can meet a sphere of the set (conservative), 1 otherwise. */
+int lights_probes_in_cone(const lights_probes_t *pr, vec3_t o, vec3_t axis, double half);
+
 #endif

@@ -146,6 +146,11 @@ typedef struct ctx {
      * +1 or -1 as the camera's k x right is its image up or down (splat_stokes). */
     int stokes;
     double frame_sign;
+    /* Lamp probes (probe_lamps): the sphere lights whose directly seen emission each camera
+     * sample estimates from LAMP_PROBES positions, when on for this render (probing). */
+    lights_probes_t probes;
+    int probing;
+    int probe_pixel; /* probing, and the current pixel's rays may meet a probe lamp */
 } ctx_t;
 
 /* The dimension layout of a camera sample (docs/rendering.md, "Sampler"): dimension d means
@@ -423,17 +428,18 @@ static const path_t *direct_lanes(const ctx_t *c, const path_t *p, path_t *tmp)
     return tmp;
 }
 
-/* Emission seen by the path at a hit on triangle tri (0 for analytic shapes) of an area light. */
+/* Emission seen by the path at a hit on triangle tri (0 for analytic shapes) of an area light,
+ * times share (1 but for probe_lamps' lamps). */
 static void add_emission_hit(ctx_t *c, const path_t *p, const surface_t *sf, const light_t *l,
-                             int li, size_t tri)
+                             int li, size_t tri, double share)
 {
     path_t direct;
     p = direct_lanes(c, p, &direct);
-    double w = 1.0;
+    double w = share;
     if (c->rs->integrator == INTEGRATOR_PATH && !p->specular) {
         const lights_at_t at = light_site_behind(p);
         double lp = lights_pdf(c->scene, &at, li, tri, p->dir, sf->p, sf->ng);
-        w = power_heuristic(p->bsdf_pdf, lp);
+        w *= power_heuristic(p->bsdf_pdf, lp);
     }
     const int faces = lights_area_faces(l, sf->ng, vec3_neg(p->dir));
     /* A polarised lamp's Stokes vector along the ray, in the path's frame (§14.2). */
@@ -1623,6 +1629,94 @@ static void cross_sheet(path_t *p, const surface_t *sf, const material_t *m)
     polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &ev, mm, per_lane);
 }
 
+/* Small lamps seen directly (docs/rendering.md, "Small lamps seen directly"): the emission of
+ * a probe lamp (lights_probes_t) that the camera ray itself finds, before any vertex, is a
+ * sample's whole light on veach-mis's smallest sphere, and the only noise left there is where
+ * in the pixel the sample fell (the direct lanes made its colour exact). So each camera
+ * sample estimates that term from LAMP_PROBES positions: its own, at weight 1 / LAMP_PROBES,
+ * and LAMP_PROBES - 1 more (sampler_pixel_extra) whose rays look only for those lamps: a ray
+ * that may hit one (lights_probes_may_hit) is intersected with the scene, and its emission
+ * added at the same weight times its filter weight over the sample's when the first surface
+ * it meets is a probe lamp. Every position is uniform on its own, so the average is unbiased;
+ * under "halton" a pixel's positions together are a (0,2)-net of LAMP_PROBES times the spp.
+ * The term is the camera ray's own: its first intersection, no pass-through surface before,
+ * no medium, a camera whose rays carry weight 1. */
+#define LAMP_PROBES 4
+
+static double probe_share(const ctx_t *c, const path_t *p, int light)
+{
+    return c->probe_pixel && p->vertex == 1 && p->passthrough == 0 &&
+                   lights_probes_has(&c->probes, light)
+               ? 1.0 / LAMP_PROBES
+               : 1.0;
+}
+
+/* Whether pixel (fx, fy)'s camera rays may meet a probe lamp: for a pinhole perspective camera
+ * every ray of the pixel's filter support lies in the cone about its centre's ray that holds the
+ * support's corner rays (the image plane maps convex sets to convex cones of directions); other
+ * cameras probe every pixel. A pure function of the pixel, so the estimate stays unbiased. */
+static int probe_pixel(const ctx_t *c, const camera_frame_t *f, int fx, int fy)
+{
+    const camera_t *cam = &c->scene->camera;
+    if (cam->kind != CAMERA_PERSPECTIVE || cam->lens_radius > 0.0)
+        return 1;
+    double rx = 0.5, ry = 0.5;
+    if (c->scene->filter) {
+        const filter_params_t *fp = filter_sampler_params(c->scene->filter);
+        rx = fp->xradius;
+        ry = fp->yradius;
+    }
+    vec3_t org, axis, d;
+    camera_frame_ray(f, fx + 0.5, fy + 0.5, 0.5, 0.5, &org, &axis);
+    double cos_min = 1.0;
+    for (int k = 0; k < 4; k++) {
+        camera_frame_ray(f, fx + 0.5 + (k & 1 ? rx : -rx), fy + 0.5 + (k & 2 ? ry : -ry), 0.5, 0.5,
+                         &org, &d);
+        cos_min = fmin(cos_min, vec3_dot(d, axis));
+    }
+    return lights_probes_in_cone(&c->probes, org, axis, acos(fmax(-1.0, fmin(1.0, cos_min))));
+}
+
+/* The probes of a camera sample whose path started as `start` (its lanes and throughput) with
+ * film position u0 and filter weight w0. */
+static void probe_lamps(ctx_t *c, const path_t *start, const camera_frame_t *f, int fx, int fy,
+                        const double u0[2], double w0, const double lens[2])
+{
+    const scene_t *s = c->scene;
+    for (uint32_t k = 1; k < LAMP_PROBES; k++) {
+        double u[2];
+        sampler_pixel_extra(&c->smp, k, LAMP_PROBES, u0, u);
+        double weight = 1.0, px = fx + u[0], py = fy + u[1];
+        if (s->filter) {
+            filter_sample_t fs = filter_sampler_sample(s->filter, u[0], u[1]);
+            px = fx + 0.5 + fs.dx;
+            py = fy + 0.5 + fs.dy;
+            weight = fs.weight;
+        }
+        vec3_t org, dir;
+        camera_frame_ray(f, px, py, lens[0], lens[1], &org, &dir);
+        if (!lights_probes_may_hit(&c->probes, org, dir))
+            continue;
+        hit_t h;
+        c->stats->rays++;
+        if (!geometry_intersect(s->geometry, org, dir, 0.0, INFINITY, &h))
+            continue;
+        surface_t sf;
+        scene_surface(s, &h, &sf);
+        if (sf.light < 0 || !lights_probes_has(&c->probes, sf.light))
+            continue;
+        path_t q;
+        path_copy(&q, start);
+        q.org = org;
+        q.dir = dir;
+        q.specular = 1;
+        q.prev_p = org;
+        q.vertex = 1;
+        add_emission_hit(c, &q, &sf, &s->lights[sf.light], sf.light, h.prim,
+                         weight / (w0 * LAMP_PROBES));
+    }
+}
+
 /* Traces one path (and, via the stack, its branches) and splats what it finds. */
 static void trace(ctx_t *c, path_t *start)
 {
@@ -1668,7 +1762,8 @@ static void trace(ctx_t *c, path_t *start)
                                      ? p->specular_since_diffuse - CHAIN_VOLUME >= c->mindepth
                                      : p->diffuse_bounces == 1 &&
                                            p->specular_since_diffuse >= c->mindepth)))
-                add_emission_hit(c, p, &sf, &s->lights[sf.light], sf.light, h.prim);
+                add_emission_hit(c, p, &sf, &s->lights[sf.light], sf.light, h.prim,
+                                 probe_share(c, p, sf.light));
             const material_t *m = sf.material;
             if (m->kind == MATERIAL_MIX)
                 m = shading_resolve(s, m, &sf, draw1(c, VD_MIX));
@@ -1884,6 +1979,10 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
         for (int j = 0; j < LANES; j++)
             c.le_cache[i][j].lambda = NAN;
     c.media = rs->media && scene->nmedia > 0;
+    lights_probes_make(scene, &c.probes);
+    /* Not with polarised transport: a probe ray's Stokes frame would be its own. */
+    c.probing = c.probes.n > 0 && !c.media && !rs->polarised &&
+                scene->camera.kind != CAMERA_REALISTIC && scene->camera_medium < 0;
     for (size_t i = 0; i < scene->nlights && rs->integrator == INTEGRATOR_PATH; i++)
         if (scene->lights[i].kind == LIGHT_AREA || scene->lights[i].kind == LIGHT_COLLIMATED ||
             scene->lights[i].kind == LIGHT_INFINITE)
@@ -1932,6 +2031,7 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
         for (int x = x0; x < x0 + w; x++) {
             const int fx = x + rs->crop_x0, fy = y + rs->crop_y0;
             uint64_t pixel = (uint64_t)fy * (uint64_t)full_w + (uint64_t)fx;
+            c.probe_pixel = c.probing && probe_pixel(&c, &frame, fx, fy);
             for (uint32_t s = sample_begin; s < sample_end; s++) {
                 c.smp = sampler_start(&setup, fx, fy, full_w, s);
                 sampler_use_cache(&c.smp, &c.smp_cache);
@@ -1993,6 +2093,8 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
                             p.polar_t[j] = polar_start;
                     }
                     trace(&c, &p);
+                    if (c.probe_pixel)
+                        probe_lamps(&c, &p, &frame, fx, fy, film, weight, lens);
                 }
                 sensor_weight(rs, c.sensor, weight, contrib, nplanes, c.xyz);
                 if (tilebuf_add_sample(out, x, y, contrib, c.xyz))

@@ -10,7 +10,16 @@ struct distrib2d {
     double *row;      /* nv row sums */
     double *marginal; /* nv + 1 cumulative row sums, normalised */
     double mean;      /* mean of f: the density is f / mean */
+    /* Guide tables (the cutpoint method: Chen and Asau 1974, "On generating random variates
+     * from an empirical distribution", AIIE Transactions 6(2)): for u in [g / G, (g + 1) / G),
+     * guide[g] is invert's bin for u = g / G, a lower bound of u's bin, from which a short
+     * forward scan finds exactly the bin the binary search finds. GUIDE entries per row (in
+     * row_guide, nv * GUIDE) and for the marginal. */
+    int *row_guide;
+    int *marginal_guide;
 };
+
+enum { GUIDE = 64 };
 
 void distrib2d_destroy(distrib2d_t **self_p)
 {
@@ -21,8 +30,17 @@ void distrib2d_destroy(distrib2d_t **self_p)
     free(d->cdf);
     free(d->row);
     free(d->marginal);
+    free(d->row_guide);
+    free(d->marginal_guide);
     free(d);
     *self_p = NULL;
+}
+
+static int invert_search(const double *cdf, int n, double u);
+static void guide_fill(const double *cdf, int n, int *guide)
+{
+    for (int g = 0; g < GUIDE; g++)
+        guide[g] = invert_search(cdf, n, (double)g / GUIDE);
 }
 
 distrib2d_t *distrib2d_new(const double *f, int nu, int nv, err_t *err)
@@ -36,7 +54,9 @@ distrib2d_t *distrib2d_new(const double *f, int nu, int nv, err_t *err)
     if (!d || !(d->f = malloc(n * sizeof *d->f)) ||
         !(d->cdf = malloc((size_t)nv * (size_t)(nu + 1) * sizeof *d->cdf)) ||
         !(d->row = malloc((size_t)nv * sizeof *d->row)) ||
-        !(d->marginal = malloc((size_t)(nv + 1) * sizeof *d->marginal))) {
+        !(d->marginal = malloc((size_t)(nv + 1) * sizeof *d->marginal)) ||
+        !(d->row_guide = malloc((size_t)nv * GUIDE * sizeof *d->row_guide)) ||
+        !(d->marginal_guide = malloc(GUIDE * sizeof *d->marginal_guide))) {
         distrib2d_destroy(&d);
         err_set(err, "out of memory for a %dx%d distribution", nu, nv);
         return NULL;
@@ -77,11 +97,14 @@ distrib2d_t *distrib2d_new(const double *f, int nu, int nv, err_t *err)
     }
     for (int iv = 1; iv <= nv; iv++)
         d->marginal[iv] /= d->marginal[nv];
+    for (int iv = 0; iv < nv; iv++)
+        guide_fill(d->cdf + (size_t)iv * (size_t)(nu + 1), nu, d->row_guide + (size_t)iv * GUIDE);
+    guide_fill(d->marginal, nv, d->marginal_guide);
     return d;
 }
 
-/* The index i in [0, n) with cdf[i] <= u < cdf[i + 1], skipping empty bins, and u's place in it. */
-static int invert(const double *cdf, int n, double u, double *frac)
+/* The index i in [0, n) with cdf[i] <= u < cdf[i + 1] (u in [0, 1), cdf[0] = 0, cdf[n] = 1). */
+static int invert_search(const double *cdf, int n, double u)
 {
     int lo = 0, hi = n; /* cdf[lo] <= u < cdf[hi] */
     while (hi - lo > 1) {
@@ -91,6 +114,17 @@ static int invert(const double *cdf, int n, double u, double *frac)
         else
             hi = mid;
     }
+    return lo;
+}
+
+/* invert_search's index from the guide's lower bound, then empty bins skipped, and u's place
+ * in the bin. */
+static int invert(const double *cdf, const int *guide, int n, double u, double *frac)
+{
+    int g = (int)(u * GUIDE);
+    int lo = guide[g < GUIDE ? g : GUIDE - 1];
+    while (lo < n - 1 && cdf[lo + 1] <= u)
+        lo++;
     while (lo < n - 1 && !(cdf[lo + 1] > cdf[lo]))
         lo++;
     while (lo > 0 && !(cdf[lo + 1] > cdf[lo]))
@@ -109,8 +143,9 @@ static double clamp_u(double u)
 void distrib2d_sample(const distrib2d_t *d, double u0, double u1, double *u, double *v, double *pdf)
 {
     double fv, fu;
-    int iv = invert(d->marginal, d->nv, clamp_u(u1), &fv);
-    int iu = invert(d->cdf + (size_t)iv * (size_t)(d->nu + 1), d->nu, clamp_u(u0), &fu);
+    int iv = invert(d->marginal, d->marginal_guide, d->nv, clamp_u(u1), &fv);
+    int iu = invert(d->cdf + (size_t)iv * (size_t)(d->nu + 1), d->row_guide + (size_t)iv * GUIDE,
+                    d->nu, clamp_u(u0), &fu);
     *u = (iu + fu) / d->nu;
     *v = (iv + fv) / d->nv;
     *pdf = d->f[(size_t)iv * (size_t)d->nu + (size_t)iu] / d->mean;

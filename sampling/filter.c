@@ -89,7 +89,34 @@ struct filter_sampler {
     double *row_cdf; /* [ny + 1] marginal CDF of the rows' sums of |f| */
     double *col_cdf; /* [ny][nx + 1] each row's conditional CDF */
     double weight;   /* integral of |f| / integral of f over the table */
+    /* Guide tables (distrib2d.c's cutpoint method): for u in [g / FGUIDE, (g + 1) / FGUIDE),
+     * the cell cdf_search finds for u = g / FGUIDE, a lower bound of u's cell. */
+    int *row_guide; /* [FGUIDE] */
+    int *col_guide; /* [ny][FGUIDE] */
 };
+
+enum { FGUIDE = 32 };
+
+/* The last cell i in [0, n) with c[i] <= u * c[n] (c nondecreasing, c[0] = 0). */
+static int cdf_search(const double *c, int n, double u)
+{
+    double t = u * c[n];
+    int lo = 0, hi = n - 1;
+    while (lo < hi) { /* the last i with c[i] <= t */
+        int mid = (lo + hi + 1) / 2;
+        if (c[mid] <= t)
+            lo = mid;
+        else
+            hi = mid - 1;
+    }
+    return lo;
+}
+
+static void guide_fill(const double *c, int n, int *guide)
+{
+    for (int g = 0; g < FGUIDE; g++)
+        guide[g] = cdf_search(c, n, (double)g / FGUIDE);
+}
 
 void filter_sampler_destroy(filter_sampler_t **self_p)
 {
@@ -98,6 +125,8 @@ void filter_sampler_destroy(filter_sampler_t **self_p)
     free((*self_p)->f);
     free((*self_p)->row_cdf);
     free((*self_p)->col_cdf);
+    free((*self_p)->row_guide);
+    free((*self_p)->col_guide);
     free(*self_p);
     *self_p = NULL;
 }
@@ -158,22 +187,30 @@ filter_sampler_t *filter_sampler_new(const filter_params_t *params, err_t *err)
         return NULL;
     }
     self->weight = sum_abs / sum;
+    self->row_guide = malloc(FGUIDE * sizeof *self->row_guide);
+    self->col_guide = malloc(ny * FGUIDE * sizeof *self->col_guide);
+    if (!self->row_guide || !self->col_guide) {
+        filter_sampler_destroy(&self);
+        err_set(err, "out of memory for a filter table");
+        return NULL;
+    }
+    guide_fill(self->row_cdf, (int)ny, self->row_guide);
+    for (size_t y = 0; y < ny; y++)
+        guide_fill(self->col_cdf + y * (nx + 1), (int)nx, self->col_guide + y * FGUIDE);
     return self;
 }
 
 /* The cell i of a CDF c[0..n] (c[0] = 0) with c[i] <= u * c[n] < c[i + 1], and the position of
  * u inside it in [0, 1). Cells of zero width are never chosen. */
-static int cdf_find(const double *c, int n, double u, double *frac)
+static int cdf_find(const double *c, const int *guide, int n, double u, double *frac)
 {
     double t = u * c[n];
-    int lo = 0, hi = n - 1;
-    while (lo < hi) { /* the last i with c[i] <= t */
-        int mid = (lo + hi + 1) / 2;
-        if (c[mid] <= t)
-            lo = mid;
-        else
-            hi = mid - 1;
-    }
+    /* cdf_search's cell: from the guide's lower bound (g / FGUIDE <= u, so its t is <= this
+     * t), forward while the next cell still starts at or below t. */
+    int g = (int)(u * FGUIDE);
+    int lo = guide[g < FGUIDE ? g : FGUIDE - 1];
+    while (lo < n - 1 && c[lo + 1] <= t)
+        lo++;
     while (lo > 0 && !(c[lo + 1] > c[lo]))
         lo--;
     double w = c[lo + 1] - c[lo];
@@ -196,8 +233,9 @@ filter_sample_t filter_sampler_sample(const filter_sampler_t *self, double u1, d
     if (p->kind == FILTER_TRIANGLE)
         return (filter_sample_t){sample_tent(u1, p->xradius), sample_tent(u2, p->yradius), 1.0};
     double fy, fx;
-    int y = cdf_find(self->row_cdf, self->ny, u2, &fy);
-    int x = cdf_find(self->col_cdf + (size_t)y * (size_t)(self->nx + 1), self->nx, u1, &fx);
+    int y = cdf_find(self->row_cdf, self->row_guide, self->ny, u2, &fy);
+    int x = cdf_find(self->col_cdf + (size_t)y * (size_t)(self->nx + 1),
+                     self->col_guide + (size_t)y * FGUIDE, self->nx, u1, &fx);
     double v = self->f[(size_t)y * (size_t)self->nx + (size_t)x];
     return (filter_sample_t){
         .dx = -p->xradius + 2.0 * p->xradius * ((double)x + fx) / self->nx,

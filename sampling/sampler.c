@@ -3,6 +3,7 @@
 #include "lowdisc.h"
 #include "rng.h"
 
+#include <math.h>
 #include <string.h>
 
 static const struct {
@@ -312,6 +313,44 @@ void sampler_2d(const sampler_t *s, uint32_t dim, double out[2])
     }
     out[0] = rng_uniform(st->seed, s->pixel, s->sample, dim);
     out[1] = rng_uniform(st->seed, s->pixel, s->sample, dim + 1);
+}
+
+void sampler_pixel_extra(const sampler_t *s, uint32_t k, uint32_t K, const double u0[2],
+                         double out[2])
+{
+    const sampler_setup_t *st = s->setup;
+    const int L = st->log2_block;
+    const int pow2 = K > 0 && (K & (K - 1)) == 0;
+    if (pow2 && s->epoch == 0 && (uint64_t)K << L <= (1ull << 32) &&
+        (st->kind == SAMPLER_HALTON || st->kind == SAMPLER_PADDEDSOBOL)) {
+        /* The same scramble as dimensions 0 and 1 (sampler_2d), at an index outside the
+         * pixel's block: the scrambled points of an aligned block of K 2^L indices form a
+         * (0,2)-net. */
+        uint32_t i, seed0, seed1;
+        if (st->kind == SAMPLER_HALTON) {
+            const uint64_t h = lowdisc_hash(salt_of(s, 0, 1), 1);
+            seed0 = (uint32_t)h;
+            seed1 = (uint32_t)(h >> 32);
+            i = s->sample;
+        } else {
+            uint32_t seeds[2];
+            i = sobol_index(s, 0, seeds);
+            seed0 = seeds[0];
+            seed1 = seeds[1];
+        }
+        /* XOR, not +: paddedsobol's indices carry constant bits above the block (the Owen
+         * shuffle's), and the K blocks must be one aligned block of K 2^L indices. */
+        i ^= k << L;
+        out[0] = lowdisc_unit(lowdisc_owen_sobol(i, 0, seed0));
+        out[1] = lowdisc_unit(lowdisc_owen_sobol(i, 1, seed1));
+        return;
+    }
+    const double fk = (double)k;
+    double x = u0[0] + fk / (double)(K > 0 ? K : 1), y = u0[1] + fk * 0.61803398874989485;
+    x -= floor(x);
+    y -= floor(y);
+    out[0] = x < 1.0 ? x : 0x1.fffffffffffffp-1;
+    out[1] = y < 1.0 ? y : 0x1.fffffffffffffp-1;
 }
 
 double sampler_index_1d(uint64_t seed, uint64_t index, uint32_t dim)

@@ -110,6 +110,18 @@ static inline void sampler_next_2d(sampler_t *s, double out[2])
     s->dim += 2;
 }
 
+/* The k-th of K - 1 further positions in the pixel (k = 1 .. K - 1) for sample s, whose own
+ * position (dimensions 0 and 1) is u0: a render that estimates part of a sample's light from K
+ * positions instead of one (render.c's lamp probes) takes them from here. Each is uniform
+ * over [0, 1)^2 on its own, as u0 is, so any average of a function over the K positions is an
+ * unbiased estimate of its mean. Under "halton" and "paddedsobol" (K a power of two) they are
+ * the points of indices i XOR k 2^log2_block of the pixel's own scrambled (0,2)-sequence, i its
+ * sample's index there: a pixel's spp x K positions are then one (0,2)-net, as if it had K
+ * times the samples. The other kinds shift u0 by the rank-1 lattice (k / K, frac(k g)), g the
+ * golden ratio's fraction (a Cranley-Patterson rotation of the sample's own point). */
+void sampler_pixel_extra(const sampler_t *s, uint32_t k, uint32_t K, const double u0[2],
+                         double out[2]);
+
 /* A low-discrepancy sequence over one long index (a photon's): dimension dim < LOWDISC_PRIMES
  * is the Owen-scrambled radical inverse of the index in the dim-th prime base (a scrambled
  * Halton sequence, whose dimensions are jointly uniform over any long run of indices), past

@@ -434,6 +434,59 @@ static void test_direct_light_colour_exact(void **state)
     scene_destroy(&s);
 }
 
+/* render.c's lamp probes: a sphere lamp (radiance 1, radius 0.3, 5 ahead of a pinhole
+ * camera with a 30-degree view over 9 x 9 pixels, box filter) covers a disc of radius
+ * tan(asin(0.06)) / tan(15 deg) 4.5 = 1.0097 pixels, pi 1.0097^2 = 3.2028 pixel areas. Its
+ * directly seen emission, estimated from 4 positions per sample (the sample's own at weight
+ * 1/4 and 3 probe rays), must sum to that over the image in every bucket, within 4 standard
+ * errors of the mean of 8 seeds, under zsobol (the probes a lattice shift of the sample's
+ * position) and halton (the probes the pixel's own (0,2)-net, 4 times finer): a probe weighed
+ * wrong, or the sample's own share not cut to 1/4, is off by a quarter or more. */
+static void test_lamp_probes(void **state)
+{
+    (void)state;
+    enum { W = 9, SPP = 16, SEEDS = 8 };
+    err_t err;
+    const sampler_kind_t kinds[] = {SAMPLER_ZSOBOL, SAMPLER_HALTON};
+    for (int q = 0; q < 2; q++) {
+        scene_t *s = sb_render_scene(INTEGRATOR_PATH, DISPERSION_HERO, W, SPP);
+        sb_look_at(s, vec3_make(0, 0, -5), vec3_make(0, 0, 0), 30);
+        s->settings.sampler = kinds[q];
+        spectrum_t *le = spectrum_new_constant(1.0, &err);
+        assert_non_null(le);
+        assert_int_equal(scene_own_spectrum(s, le, &err), 0);
+        light_t l = {.kind = LIGHT_AREA, .spectrum = le, .scale = 1.0};
+        int li = scene_add_light(s, &l, &err);
+        assert_true(li >= 0);
+        const transform_t id = transform_identity();
+        assert_true(scene_add_sphere(s, &id, 0.3, sb_diffuse(s, 0.0), li, 0, &err) >= 0);
+        if (scene_finish(s, &err))
+            fail_msg("%s", err.msg);
+        const int nb = s->settings.grid.n;
+        double sum = 0.0, sq = 0.0;
+        for (int k = 0; k < SEEDS; k++) {
+            s->settings.seed = (uint64_t)k + 1;
+            tilebuf_t *t = tilebuf_new(0, 0, W, W, nb, &err);
+            assert_non_null(t);
+            if (render_tile(s, NULL, 0, 0, W, W, 0, SPP, t, NULL, &err))
+                fail_msg("render_tile: %s", err.msg);
+            double img = 0.0;
+            for (int y = 0; y < W; y++)
+                for (int x = 0; x < W; x++)
+                    img += tilebuf_sum(t, x, y, 3) / (double)tilebuf_count(t, x, y);
+            sum += img;
+            sq += img * img;
+            tilebuf_destroy(&t);
+        }
+        const double mean = sum / SEEDS, var = fmax(0.0, (sq - SEEDS * mean * mean) / (SEEDS - 1));
+        const double expect = PF_PI * pow(tan(asin(0.06)) / tan(15.0 * PF_PI / 180.0) * 4.5, 2);
+        if (!(fabs(mean - expect) <= 4.0 * sqrt(var / SEEDS) + 1e-3 * expect))
+            fail_msg("%s: the lamp sums to %.4f (standard error %.4f), its disc is %.4f",
+                     sampler_kind_name(kinds[q]), mean, sqrt(var / SEEDS), expect);
+        scene_destroy(&s);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -454,6 +507,7 @@ int main(void)
         cmocka_unit_test(test_tiles_are_deterministic),
         cmocka_unit_test(test_edge_coverage_between_seeds),
         cmocka_unit_test(test_direct_light_colour_exact),
+        cmocka_unit_test(test_lamp_probes),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

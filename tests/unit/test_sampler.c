@@ -423,6 +423,62 @@ static void test_scene_sampler(void **state)
     }
 }
 
+/* sampler_pixel_extra: under halton and paddedsobol a pixel's spp positions and their K - 1
+ * further ones are one (0,2)-net of K spp points; under every kind each further position is
+ * uniform on its own (mean, variance, E[u0 u1] within 5 standard errors) and differs from the
+ * sample's own. */
+static void test_pixel_extra(void **state)
+{
+    (void)state;
+    static double p[1 << 12][2];
+    const sampler_kind_t nets[] = {SAMPLER_HALTON, SAMPLER_PADDEDSOBOL};
+    for (int k = 0; k < 2; k++)
+        for (int m = 0; m <= 7; m++)
+            for (uint32_t K = 2; K <= 8; K *= 2) {
+                const uint32_t spp = 1u << m;
+                sampler_setup_t st = sampler_setup_make(nets[k], 5, spp, 50, 40);
+                int n = 0;
+                for (uint32_t s = 0; s < spp; s++) {
+                    sampler_t smp = sampler_start(&st, 13, 7, 50, s);
+                    sampler_2d(&smp, 0, p[n++]);
+                    for (uint32_t j = 1; j < K; j++, n++)
+                        sampler_pixel_extra(&smp, j, K, p[n - j], p[n]);
+                }
+                int mk = m;
+                while ((1u << mk) < spp * K)
+                    mk++;
+                if (!is_net((const double(*)[2])p, mk))
+                    fail_msg("%s, spp %u, K %u: the positions are not a (0,2)-net",
+                             sampler_kind_name(nets[k]), spp, K);
+            }
+    for (size_t k = 0; k < NKINDS; k++) {
+        sampler_setup_t st = sampler_setup_make(KINDS[k], 3, 16, 40, 30);
+        double sum = 0, sum2 = 0, prod = 0, n = 0;
+        for (int y = 0; y < 30; y += 2)
+            for (int x = 0; x < 40; x += 2)
+                for (uint32_t s = 0; s < 16; s++) {
+                    sampler_t smp = sampler_start(&st, x, y, 40, s);
+                    double u0[2], u[2];
+                    sampler_2d(&smp, 0, u0);
+                    for (uint32_t j = 1; j < 4; j++) {
+                        sampler_pixel_extra(&smp, j, 4, u0, u);
+                        assert_true(u[0] >= 0.0 && u[0] < 1.0 && u[1] >= 0.0 && u[1] < 1.0);
+                        assert_false(u[0] == u0[0] && u[1] == u0[1]);
+                        sum += u[0] + u[1];
+                        sum2 += (u[0] - 0.5) * (u[0] - 0.5) + (u[1] - 0.5) * (u[1] - 0.5);
+                        prod += u[0] * u[1];
+                        n++;
+                    }
+                }
+        const double mean = sum / (2 * n), var = sum2 / (2 * n), pm = prod / n;
+        if (fabs(mean - 0.5) > 5 * sqrt(1.0 / 12 / (2 * n)) ||
+            fabs(var - 1.0 / 12) > 5 * sqrt(1.0 / 180 / (2 * n)) ||
+            fabs(pm - 0.25) > 5 * sqrt((1.0 / 9 - 1.0 / 16) / n))
+            fail_msg("%s: further positions: mean %.5f, variance %.5f, E[u0 u1] %.5f",
+                     sampler_kind_name(KINDS[k]), mean, var, pm);
+    }
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -439,6 +495,7 @@ int main(void)
         cmocka_unit_test(test_index_sequence),
         cmocka_unit_test(test_names),
         cmocka_unit_test(test_scene_sampler),
+        cmocka_unit_test(test_pixel_extra),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
