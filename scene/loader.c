@@ -61,9 +61,12 @@ spectrum_t *loader_build_spectrum(const scene_spectrum_t *s, spec_use_t use, err
         else if (use == SPEC_REFLECTANCE)
             r = spectrum_new_rgb_reflectance(c, err);
         else {
-            /* An unbounded RGB (a conductor's eta or k): the uplift of the colour scaled into
-             * [0, 1] by its maximum, scaled back. */
-            double m = fmax(c.r, fmax(c.g, c.b));
+            /* An unbounded RGB (a conductor's eta or k, an absorption): pbrt-v4's
+             * RGBUnboundedSpectrum, the uplift of the colour scaled to a maximum of 1/2, scaled
+             * back by m = 2 max. The scale shapes the spectrum: scaled to a maximum of 1, the
+             * uplift saturates into a step whose exp(-sigma_a d) differs (hair of eumelanin 2:
+             * G 4 % brighter than pbrt-v4's, docs/compatibility.md). */
+            double m = 2.0 * fmax(c.r, fmax(c.g, c.b));
             if (!(m > 0)) {
                 r = spectrum_new_constant(0.0, err);
             } else {
