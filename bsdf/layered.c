@@ -2,6 +2,8 @@
 
 #include "fresnel.h"
 #include "lobe.h"
+#include "microfacet.h"
+#include "sample.h"
 
 #include <float.h>
 #include <math.h>
@@ -107,8 +109,7 @@ static bool iface_specular(const group_t *g, int which)
     return g->b->kind == BSDF_COATED_CONDUCTOR && lobe_conductor_specular(&g->b->mf_base);
 }
 
-static void iface_f(const group_t *g, int which, vec3_t wo, vec3_t wi, bsdf_mode_t mode,
-                    double *f)
+static void iface_f(const group_t *g, int which, vec3_t wo, vec3_t wi, bsdf_mode_t mode, double *f)
 {
     const bsdf_t *b = g->b;
     if (which == TOP) {
@@ -117,11 +118,28 @@ static void iface_f(const group_t *g, int which, vec3_t wo, vec3_t wi, bsdf_mode
             f[i] = v;
         return;
     }
+    if (b->kind != BSDF_COATED_CONDUCTOR) {
+        for (int i = 0; i < g->n; i++)
+            f[i] = lobe_diffuse_f(b->reflectance[g->lo + i], wo, wi);
+        return;
+    }
+    /* lobe_conductor_f per lane, with the lane-independent D, G and half vector computed once
+     * (the same operations in the same order: the same bits). */
+    for (int i = 0; i < g->n; i++)
+        f[i] = 0.0;
+    const microfacet_t *mf = &b->mf_base;
+    if (!(wo.z * wi.z > 0.0) || microfacet_smooth(mf))
+        return;
+    double co = fabs(wo.z), ci = fabs(wi.z);
+    vec3_t wm = vec3_add(wo, wi);
+    if (co == 0.0 || ci == 0.0 || vec3_dot(wm, wm) == 0.0)
+        return;
+    wm = vec3_normalize(wm);
+    double cm = fabs(vec3_dot(wo, wm)), d = microfacet_d(mf, wm), gg = microfacet_g(mf, wo, wi);
     for (int i = 0; i < g->n; i++) {
         int j = g->lo + i;
-        f[i] = b->kind == BSDF_COATED_CONDUCTOR
-                   ? lobe_conductor_f(&b->mf_base, b->cond_eta[j], b->cond_k[j], wo, wi)
-                   : lobe_diffuse_f(b->reflectance[j], wo, wi);
+        double fr = fresnel_conductor(cm, b->cond_eta[j], b->cond_k[j]);
+        f[i] = lobe_finite(d * fr * gg / (4.0 * co * ci));
     }
 }
 
@@ -134,36 +152,84 @@ static double iface_pdf(const group_t *g, int which, vec3_t wo, vec3_t wi, int a
                                             : lobe_diffuse_pdf(wo, wi, allowed);
 }
 
+/* The base's sample for every lane of the group at once. Its direction, pdf and (for a
+ * conductor) D and G depend on neither the lane's reflectance nor its conductor index, so they
+ * are computed once and only the reflectance or the Fresnel term per lane: the numbers of
+ * lobe_diffuse_sample / lobe_conductor_sample called lane by lane (the same operations in the
+ * same order), at a quarter of their cost with four hero lanes. */
+static bool base_sample(const group_t *g, vec3_t wo, double u1, double u2, int allowed,
+                        isample_t *s)
+{
+    const bsdf_t *b = g->b;
+    if (!(allowed & LOBE_R) || wo.z == 0.0)
+        return false;
+    if (b->kind != BSDF_COATED_CONDUCTOR) {
+        vec3_t wi = sample_cosine_hemisphere(u1, u2);
+        if (wo.z < 0.0)
+            wi.z = -wi.z;
+        s->pdf = lobe_diffuse_pdf(wo, wi, LOBE_R);
+        if (!(s->pdf > 0.0))
+            return false;
+        for (int i = 0; i < g->n; i++)
+            s->f[i] = lobe_diffuse_f(b->reflectance[g->lo + i], wo, wi);
+        s->wi = wi;
+        s->flags = BSDF_REFLECTION;
+        return true;
+    }
+    const microfacet_t *mf = &b->mf_base;
+    if (microfacet_smooth(mf)) {
+        vec3_t wi = vec3_make(-wo.x, -wo.y, wo.z);
+        double c = fabs(wi.z);
+        for (int i = 0; i < g->n; i++) {
+            int j = g->lo + i;
+            s->f[i] = lobe_finite(fresnel_conductor(c, b->cond_eta[j], b->cond_k[j]) / c);
+        }
+        s->wi = wi;
+        s->pdf = 1.0;
+        s->flags = BSDF_REFLECTION | BSDF_SPECULAR;
+        return true;
+    }
+    vec3_t wm = microfacet_sample_wm(mf, wo, u1, u2);
+    vec3_t wi = fresnel_reflect(vec3_neg(wo), wm);
+    if (!(wo.z * wi.z > 0.0))
+        return false;
+    double d = fabs(vec3_dot(wo, wm));
+    double co = fabs(wo.z), ci = fabs(wi.z);
+    if (d == 0.0 || ci == 0.0)
+        return false;
+    s->pdf = lobe_finite(microfacet_pdf(mf, wo, wm) / (4.0 * d));
+    if (!(s->pdf > 0.0))
+        return false;
+    double dd = microfacet_d(mf, wm), gg = microfacet_g(mf, wo, wi);
+    for (int i = 0; i < g->n; i++) {
+        int j = g->lo + i;
+        double fr = fresnel_conductor(d, b->cond_eta[j], b->cond_k[j]);
+        s->f[i] = lobe_finite(dd * fr * gg / (4.0 * co * ci));
+    }
+    s->wi = wi;
+    s->flags = BSDF_REFLECTION;
+    return true;
+}
+
 /* pbrt-v4's test after every interface sample: a sample, some f, pdf > 0, wi off the plane. */
 static bool iface_sample(const group_t *g, int which, vec3_t wo, double uc, double u1, double u2,
                          bsdf_mode_t mode, int allowed, isample_t *s)
 {
     const bsdf_t *b = g->b;
-    lobe_sample_t ls = {0};
     if (g->n < 1)
         return false;
     if (which == TOP) {
+        lobe_sample_t ls = {0};
         if (!lobe_dielectric_sample(&b->mf, g->eta, mode, wo, uc, u1, u2, allowed, &ls))
             return false;
         for (int i = 0; i < g->n; i++)
             s->f[i] = ls.f;
-    } else {
-        /* The base's direction does not depend on the lane's reflectance or conductor index,
-         * so each lane's sample with the same uniforms has the same wi; only f differs. */
-        for (int i = 0; i < g->n; i++) {
-            int j = g->lo + i;
-            bool ok = b->kind == BSDF_COATED_CONDUCTOR
-                          ? lobe_conductor_sample(&b->mf_base, b->cond_eta[j], b->cond_k[j], wo,
-                                                  u1, u2, allowed, &ls)
-                          : lobe_diffuse_sample(b->reflectance[j], wo, u1, u2, allowed, &ls);
-            if (!ok)
-                return false;
-            s->f[i] = ls.f;
-        }
+        s->wi = ls.wi;
+        s->pdf = ls.pdf;
+        s->flags = ls.flags;
+    } else if (!base_sample(g, wo, u1, u2, allowed, s)) {
+        return false;
     }
-    s->wi = ls.wi;
-    s->pdf = ls.pdf;
-    s->flags = ls.flags;
     return max_lane(s->f, g->n) > 0.0 && s->pdf > 0.0 && s->wi.z != 0.0;
 }
 
@@ -330,7 +396,7 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
                     double wt = 1.0;
                     if (!exit_spec)
                         wt = power_heuristic(wis.pdf, iface_pdf(g, nonexit_if, vec3_neg(w),
-                                                                 vec3_neg(wis.wi), LOBE_ALL));
+                                                                vec3_neg(wis.wi), LOBE_ALL));
                     iface_f(g, nonexit_if, vec3_neg(w), vec3_neg(wis.wi), b->mode, tmp);
                     double c = fabs(wis.wi.z) * wt * layer_tr(th, wis.wi) / wis.pdf;
                     for (int i = 0; i < n; i++)
@@ -347,8 +413,8 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
                     if (max_lane(tmp, n) > 0.0) {
                         double wt = 1.0;
                         if (!nonexit_spec) /* PDF(wi, -w), as above */
-                            wt = power_heuristic(
-                                bs.pdf, iface_pdf(g, exit_if, wi, vec3_neg(w), LOBE_T));
+                            wt = power_heuristic(bs.pdf,
+                                                 iface_pdf(g, exit_if, wi, vec3_neg(w), LOBE_T));
                         double tr = layer_tr(th, bs.wi);
                         for (int i = 0; i < n; i++)
                             f[i] += beta[i] * tr * tmp[i] * wt;
@@ -404,7 +470,8 @@ static double group_pdf(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rn
                     sum += iface_pdf(g, TOP, vec3_neg(rs.wi), wi, LOBE_ALL);
                 } else {
                     /* MIS of the two ways to estimate the product of the three pdfs. */
-                    double rpdf = iface_pdf(g, BOTTOM, vec3_neg(wos.wi), vec3_neg(wis.wi), LOBE_ALL);
+                    double rpdf =
+                        iface_pdf(g, BOTTOM, vec3_neg(wos.wi), vec3_neg(wis.wi), LOBE_ALL);
                     sum += power_heuristic(wis.pdf, rpdf) * rpdf;
                     double tpdf = iface_pdf(g, TOP, vec3_neg(rs.wi), wi, LOBE_ALL);
                     sum += power_heuristic(rs.pdf, tpdf) * tpdf;
