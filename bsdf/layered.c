@@ -2,6 +2,7 @@
 
 #include "fresnel.h"
 #include "lobe.h"
+#include "lowdisc.h"
 #include "microfacet.h"
 #include "sample.h"
 
@@ -48,6 +49,62 @@ static double max_lane(const double *v, int n)
 static double next_u(rng_stream_t *rng)
 {
     return fmin(rng_stream_next(rng), 1.0 - DBL_EPSILON / 2.0);
+}
+
+/* A walk's random numbers. Its first WALK_LD_EVENTS interface events (the directions in and
+ * out of the coating, the first bounce at the base) take stratified numbers: for event e, a
+ * 2D point and a 1D number of the Owen-scrambled (0,2)-sequence at the stream's sample index,
+ * the index shuffled by an Owen scramble of its bits (Burley 2020 sec. 4, as paddedsobol),
+ * both keyed by (seed, pixel, the stream's position at the walk's start, e). A caller that
+ * starts the same decision at the same stream position in every sample of a pixel (render.c
+ * does, per vertex and decision) gets a (0,2)-net over the pixel's samples for each of those
+ * events, where pbrt-v4's walk draws independent numbers; every other draw is the stream's
+ * Philox. Each number is uniform and independent of the sample's other numbers (its own
+ * scramble), so the estimates stay unbiased. The walk advances the stream by one at its
+ * start, so two walks of one sample never share a key. */
+enum { WALK_LD_EVENTS = 3 };
+
+typedef struct walk {
+    rng_stream_t *rng;
+    uint64_t key;
+    uint32_t sample;
+    int event;
+} walk_t;
+
+static walk_t walk_begin(rng_stream_t *rng)
+{
+    walk_t w = {rng, lowdisc_hash(lowdisc_hash(rng->seed, rng->index), rng->next_dim), rng->sample,
+                0};
+    (void)rng_stream_next(rng);
+    return w;
+}
+
+static double walk_1d(walk_t *w)
+{
+    return next_u(w->rng);
+}
+
+static double walk_unit(uint32_t v)
+{
+    return fmin(lowdisc_unit(v), 1.0 - DBL_EPSILON / 2.0);
+}
+
+/* One interface event's numbers: uc (the lobe choice), u1, u2 (the direction, a 2D pair). */
+static void walk_event(walk_t *w, double *uc, double *u1, double *u2)
+{
+    if (w->event >= WALK_LD_EVENTS) {
+        *uc = walk_1d(w);
+        *u1 = walk_1d(w);
+        *u2 = walk_1d(w);
+        return;
+    }
+    const uint64_t h = lowdisc_hash(w->key, (uint64_t)w->event++);
+    const uint64_t h2 = lowdisc_hash(h, 2), h1 = lowdisc_hash(h, 1);
+    const uint32_t i2 = lowdisc_owen(w->sample, (uint32_t)h);
+    const uint32_t i1 = lowdisc_owen(w->sample, (uint32_t)(h >> 32));
+    *u1 = walk_unit(lowdisc_owen_sobol(i2, 0, (uint32_t)h2));
+    *u2 = walk_unit(lowdisc_owen_sobol(i2, 1, (uint32_t)(h2 >> 32)));
+    *uc = walk_unit(lowdisc_owen_sobol(i1, 0, (uint32_t)h1));
 }
 
 /* The power heuristic with one sample each (Veach & Guibas 1995). */
@@ -291,7 +348,7 @@ static double free_flight_dz(double u, vec3_t w)
 /* ---- f: pbrt-v4 LayeredBxDF::f, the estimator of Guo et al. 2018 sec. 5 with NEE through
  * the exit interface and MIS against the phase function or the other interface ---- */
 
-static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *f)
+static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, walk_t *wk, double *f)
 {
     const bsdf_t *b = g->b;
     const int n = g->n, ns = nsamples_of(b);
@@ -315,11 +372,12 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
     }
     for (int s = 0; s < ns; s++) {
         isample_t wos, wis, bs;
-        double uc = next_u(rng), u1 = next_u(rng), u2 = next_u(rng);
+        double uc, u1, u2;
+        walk_event(wk, &uc, &u1, &u2);
         if (!iface_sample(g, TOP, wo, uc, u1, u2, b->mode, LOBE_T, &wos))
             continue;
         /* The adjoint walk from wi: a "virtual light" through the exit interface. */
-        uc = next_u(rng), u1 = next_u(rng), u2 = next_u(rng);
+        walk_event(wk, &uc, &u1, &u2);
         if (!iface_sample(g, exit_if, wi, uc, u1, u2, adjoint(b->mode), LOBE_T, &wis))
             continue;
         for (int i = 0; i < n; i++)
@@ -330,7 +388,7 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
             double bmax = max_lane(beta, n);
             if (depth > 3 && bmax < 0.25) { /* Russian roulette */
                 double q = fmax(0.0, 1.0 - bmax);
-                if (next_u(rng) < q)
+                if (walk_1d(wk) < q)
                     break;
                 for (int i = 0; i < n; i++)
                     beta[i] /= 1.0 - q;
@@ -341,7 +399,7 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
                 for (int i = 0; i < n; i++)
                     beta[i] *= tr;
             } else {
-                double dz = free_flight_dz(next_u(rng), w);
+                double dz = free_flight_dz(walk_1d(wk), w);
                 double zp = w.z > 0.0 ? z + dz : z - dz;
                 if (zp == z)
                     continue;
@@ -354,7 +412,7 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
                     for (int i = 0; i < n; i++)
                         f[i] += beta[i] * b->albedo[g->lo + i] * ph * wt * tr * wis.f[i] / wis.pdf;
                     double ppdf;
-                    u1 = next_u(rng), u2 = next_u(rng);
+                    u1 = walk_1d(wk), u2 = walk_1d(wk);
                     vec3_t pwi = hg_sample(vec3_neg(w), b->g, u1, u2, &ppdf);
                     if (!(ppdf > 0.0) || pwi.z == 0.0)
                         continue;
@@ -384,7 +442,7 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
                 z = fmin(fmax(zp, 0.0), th);
             }
             if (z == exit_z) {
-                uc = next_u(rng), u1 = next_u(rng), u2 = next_u(rng);
+                walk_event(wk, &uc, &u1, &u2);
                 if (!iface_sample(g, exit_if, vec3_neg(w), uc, u1, u2, b->mode, LOBE_R, &bs))
                     break;
                 for (int i = 0; i < n; i++)
@@ -402,7 +460,7 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
                     for (int i = 0; i < n; i++)
                         f[i] += beta[i] * tmp[i] * c * wis.f[i];
                 }
-                uc = next_u(rng), u1 = next_u(rng), u2 = next_u(rng);
+                walk_event(wk, &uc, &u1, &u2);
                 if (!iface_sample(g, nonexit_if, vec3_neg(w), uc, u1, u2, b->mode, LOBE_R, &bs))
                     break;
                 for (int i = 0; i < n; i++)
@@ -441,7 +499,7 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
  * layer count with their probability 1 - q (pbrt-v4: 1). Either weight is unbiased (both
  * strategies' weights use the same estimate). */
 
-static double group_pdf(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng)
+static double group_pdf(const group_t *g, vec3_t wo, vec3_t wi, walk_t *wk)
 {
     const bsdf_t *b = g->b;
     const int ns = nsamples_of(b);
@@ -455,8 +513,8 @@ static double group_pdf(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rn
     for (int s = 0; s < ns; s++) {
         isample_t wos, wis, rs;
         double a[9];
-        for (int k = 0; k < 9; k++)
-            a[k] = next_u(rng);
+        for (int k = 0; k < 9; k += 3)
+            walk_event(wk, &a[k], &a[k + 1], &a[k + 2]);
         if (same) {
             bool ok_o = iface_sample(g, TOP, wo, a[0], a[1], a[2], b->mode, LOBE_T, &wos);
             bool ok_i = iface_sample(g, TOP, wi, a[3], a[4], a[5], adjoint(b->mode), LOBE_T, &wis);
@@ -501,9 +559,8 @@ static double group_pdf(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rn
 
 /* ---- Sample_f: pbrt-v4 LayeredBxDF::Sample_f, a random walk until the path leaves ---- */
 
-static bool group_sample(const group_t *g, vec3_t wo, double uc, double u1, double u2,
-                         rng_stream_t *rng, double *f, double *pdf_out, vec3_t *wi_out,
-                         int *flags_out)
+static bool group_sample(const group_t *g, vec3_t wo, double uc, double u1, double u2, walk_t *wk,
+                         double *f, double *pdf_out, vec3_t *wi_out, int *flags_out)
 {
     const bsdf_t *b = g->b;
     const int n = g->n;
@@ -537,19 +594,19 @@ static bool group_sample(const group_t *g, vec3_t wo, double uc, double u1, doub
         double rr = max_lane(f, n) / pdf;
         if (depth > 3 && rr < 0.25) {
             double q = fmax(0.0, 1.0 - rr);
-            if (next_u(rng) < q)
+            if (walk_1d(wk) < q)
                 return false;
             pdf *= 1.0 - q;
         }
         if (w.z == 0.0)
             return false;
         if (g->albedo) {
-            double dz = free_flight_dz(next_u(rng), w);
+            double dz = free_flight_dz(walk_1d(wk), w);
             double zp = w.z > 0.0 ? z + dz : z - dz;
             if (zp == z)
                 return false;
             if (0.0 < zp && zp < th) {
-                double ppdf, a1 = next_u(rng), a2 = next_u(rng);
+                double ppdf, a1 = walk_1d(wk), a2 = walk_1d(wk);
                 vec3_t pwi = hg_sample(vec3_neg(w), b->g, a1, a2, &ppdf);
                 if (!(ppdf > 0.0) || pwi.z == 0.0)
                     return false;
@@ -569,7 +626,8 @@ static bool group_sample(const group_t *g, vec3_t wo, double uc, double u1, doub
                 f[i] *= tr;
         }
         int which = z == 0.0 ? BOTTOM : TOP;
-        double c = next_u(rng), a1 = next_u(rng), a2 = next_u(rng);
+        double c, a1, a2;
+        walk_event(wk, &c, &a1, &a2);
         if (!iface_sample(g, which, vec3_neg(w), c, a1, a2, b->mode, LOBE_ALL, &bs))
             return false;
         for (int i = 0; i < n; i++)
@@ -631,12 +689,14 @@ void layered_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, doub
         rng = &local;
     if (!coating_disperses(b)) {
         group_t g = group_make(b, 0, b->n);
-        group_eval(&g, wo, wi, rng, f);
+        walk_t wk = walk_begin(rng);
+        group_eval(&g, wo, wi, &wk, f);
         return;
     }
     for (int j = 0; j < b->n; j++) {
         group_t g = group_make(b, j, 1);
-        group_eval(&g, wo, wi, rng, &f[j]);
+        walk_t wk = walk_begin(rng);
+        group_eval(&g, wo, wi, &wk, &f[j]);
     }
 }
 
@@ -647,14 +707,16 @@ void layered_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, doubl
         rng = &local;
     if (!coating_disperses(b)) {
         group_t g = group_make(b, 0, b->n);
-        double p = group_pdf(&g, wo, wi, rng);
+        walk_t wk = walk_begin(rng);
+        double p = group_pdf(&g, wo, wi, &wk);
         for (int j = 0; j < b->n; j++)
             pdf[j] = p;
         return;
     }
     for (int j = 0; j < b->n; j++) {
         group_t g = group_make(b, j, 1);
-        pdf[j] = group_pdf(&g, wo, wi, rng);
+        walk_t wk = walk_begin(rng);
+        pdf[j] = group_pdf(&g, wo, wi, &wk);
     }
 }
 
@@ -669,7 +731,8 @@ bool layered_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, 
     if (!coating_disperses(b)) {
         group_t g = group_make(b, 0, b->n);
         double pdf;
-        if (!group_sample(&g, wo, uc, u1, u2, rng, out->f, &pdf, &out->wi, &out->flags))
+        walk_t wk = walk_begin(rng);
+        if (!group_sample(&g, wo, uc, u1, u2, &wk, out->f, &pdf, &out->wi, &out->flags))
             return false;
         for (int j = 0; j < b->n; j++)
             out->pdf[j] = pdf;
@@ -677,7 +740,8 @@ bool layered_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, 
     }
     group_t g = group_make(b, hero, 1);
     double fh, pdfh;
-    if (!group_sample(&g, wo, uc, u1, u2, rng, &fh, &pdfh, &out->wi, &out->flags))
+    walk_t wk = walk_begin(rng);
+    if (!group_sample(&g, wo, uc, u1, u2, &wk, &fh, &pdfh, &out->wi, &out->flags))
         return false;
     /* The top's mirror reflection is the one delta direction every lane shares; its weight is
      * the lane's own Fresnel reflectance, its probability the lane's own choice of it. */
@@ -695,8 +759,10 @@ bool layered_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, 
             out->pdf[j] = top_mirror ? top_reflect_prob(&gj, wo) : 0.0;
         } else {
             group_t gj = group_make(b, j, 1);
-            group_eval(&gj, wo, out->wi, rng, &out->f[j]);
-            out->pdf[j] = group_pdf(&gj, wo, out->wi, rng);
+            walk_t we = walk_begin(rng);
+            group_eval(&gj, wo, out->wi, &we, &out->f[j]);
+            walk_t wp = walk_begin(rng);
+            out->pdf[j] = group_pdf(&gj, wo, out->wi, &wp);
         }
     }
     return true;

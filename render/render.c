@@ -188,6 +188,16 @@ static void draw2(ctx_t *c, int slot, double u[2])
     sampler_2d(&c->smp, c->dim_base + (uint32_t)slot, u);
 }
 
+/* Puts the walk stream at a position fixed by the vertex's block and a slot of it, before a
+ * layered BSDF's walk: the walk keys its first events' stratified numbers by that position
+ * (bsdf/layered.c, walk_begin), so one decision draws from one sequence over the pixel's
+ * samples. Positions are 2^16 numbers apart, more than any walk draws. */
+static void walk_position(ctx_t *c, int slot)
+{
+    c->rng.next_dim = (c->dim_base + (uint32_t)slot) << 16;
+    c->rng.has_spare = 0;
+}
+
 /* The path's next vertex takes the next block of dimensions. */
 static void vertex_begin(ctx_t *c, path_t *p)
 {
@@ -671,9 +681,11 @@ static void direct_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, co
         return;
     vec3_t wi = shading_to_local(fr, ls.wi);
     double f[LANES], pdf[LANES];
+    walk_position(c, VD_LIGHT);
     bsdf_eval(b, wo_local, wi, &c->rng, f);
     double w = 1.0;
     if (!ls.is_delta && c->rs->integrator == INTEGRATOR_PATH) {
+        walk_position(c, VD_LIGHT_PART);
         bsdf_pdf(b, wo_local, wi, &c->rng, pdf);
         w = power_heuristic(ls.pdf, lanes_pdf(pdf, sel, p->n));
     }
@@ -1374,6 +1386,7 @@ static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *
     double uc = draw1(c, VD_LOBE), ud[2];
     draw2(c, VD_DIRECTION, ud);
     bsdf_sample_t bs;
+    walk_position(c, VD_LOBE);
     if (!bsdf_sample(b, wo, hero, uc, ud[0], ud[1], &c->rng, &bs))
         return 1;
     const vec3_t wi = shading_to_world(&fr, bs.wi);
@@ -1403,6 +1416,7 @@ static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *
     double mis_pdf = pdf;
     if (bs.pdf_is_estimate && !specular && c->bsdf_mis) {
         double pdfs[LANES];
+        walk_position(c, VD_DIRECTION);
         bsdf_pdf(b, wo, bs.wi, &c->rng, pdfs);
         mis_pdf = pdfs[0];
     }
