@@ -83,6 +83,11 @@ static double dt_f(double r, double t, vec3_t wo, vec3_t wi)
     return (wo.z * wi.z > 0.0 ? lobe_finite(r) : lobe_finite(t)) / PF_PI;
 }
 
+double bsdf_guide(const bsdf_t *b, vec3_t wo, vec3_t wi)
+{
+    return coated(b) ? layered_guide(b, wo, wi) : 1.0;
+}
+
 void bsdf_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *f)
 {
     int n = lanes(b);

@@ -56,6 +56,13 @@ bool bsdf_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, dou
 /* f(wo, wi) for every lane (without the cosine); 0 for delta lobes. */
 void bsdf_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *f);
 
+/* A cheap, deterministic stand-in for f(wo, wi), positive wherever f can be, for choosing
+ * among many directions in proportion to it (the glossy photon gather): the coated models'
+ * coating lobe plus a Lambertian guess at what the layer returns (layered.h); 1 for every
+ * other model (a choice in proportion to power alone). Any positive guide keeps such a choice
+ * unbiased; the closer to f, the less noise. */
+double bsdf_guide(const bsdf_t *b, vec3_t wo, vec3_t wi);
+
 /* The pdf of sampling wi from wo under each lane's own sampling (solid angle; 0 for delta
  * lobes). */
 void bsdf_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *pdf);

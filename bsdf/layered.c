@@ -2,6 +2,9 @@
 
 #include "fresnel.h"
 #include "lobe.h"
+#include "lowdisc.h"
+#include "microfacet.h"
+#include "sample.h"
 
 #include <float.h>
 #include <math.h>
@@ -46,6 +49,62 @@ static double max_lane(const double *v, int n)
 static double next_u(rng_stream_t *rng)
 {
     return fmin(rng_stream_next(rng), 1.0 - DBL_EPSILON / 2.0);
+}
+
+/* A walk's random numbers. Its first WALK_LD_EVENTS interface events (the directions in and
+ * out of the coating, the first bounce at the base) take stratified numbers: for event e, a
+ * 2D point and a 1D number of the Owen-scrambled (0,2)-sequence at the stream's sample index,
+ * the index shuffled by an Owen scramble of its bits (Burley 2020 sec. 4, as paddedsobol),
+ * both keyed by (seed, pixel, the stream's position at the walk's start, e). A caller that
+ * starts the same decision at the same stream position in every sample of a pixel (render.c
+ * does, per vertex and decision) gets a (0,2)-net over the pixel's samples for each of those
+ * events, where pbrt-v4's walk draws independent numbers; every other draw is the stream's
+ * Philox. Each number is uniform and independent of the sample's other numbers (its own
+ * scramble), so the estimates stay unbiased. The walk advances the stream by one at its
+ * start, so two walks of one sample never share a key. */
+enum { WALK_LD_EVENTS = 3 };
+
+typedef struct walk {
+    rng_stream_t *rng;
+    uint64_t key;
+    uint32_t sample;
+    int event;
+} walk_t;
+
+static walk_t walk_begin(rng_stream_t *rng)
+{
+    walk_t w = {rng, lowdisc_hash(lowdisc_hash(rng->seed, rng->index), rng->next_dim), rng->sample,
+                0};
+    (void)rng_stream_next(rng);
+    return w;
+}
+
+static double walk_1d(walk_t *w)
+{
+    return next_u(w->rng);
+}
+
+static double walk_unit(uint32_t v)
+{
+    return fmin(lowdisc_unit(v), 1.0 - DBL_EPSILON / 2.0);
+}
+
+/* One interface event's numbers: uc (the lobe choice), u1, u2 (the direction, a 2D pair). */
+static void walk_event(walk_t *w, double *uc, double *u1, double *u2)
+{
+    if (w->event >= WALK_LD_EVENTS) {
+        *uc = walk_1d(w);
+        *u1 = walk_1d(w);
+        *u2 = walk_1d(w);
+        return;
+    }
+    const uint64_t h = lowdisc_hash(w->key, (uint64_t)w->event++);
+    const uint64_t h2 = lowdisc_hash(h, 2), h1 = lowdisc_hash(h, 1);
+    const uint32_t i2 = lowdisc_owen(w->sample, (uint32_t)h);
+    const uint32_t i1 = lowdisc_owen(w->sample, (uint32_t)(h >> 32));
+    *u1 = walk_unit(lowdisc_owen_sobol(i2, 0, (uint32_t)h2));
+    *u2 = walk_unit(lowdisc_owen_sobol(i2, 1, (uint32_t)(h2 >> 32)));
+    *uc = walk_unit(lowdisc_owen_sobol(i1, 0, (uint32_t)h1));
 }
 
 /* The power heuristic with one sample each (Veach & Guibas 1995). */
@@ -107,8 +166,7 @@ static bool iface_specular(const group_t *g, int which)
     return g->b->kind == BSDF_COATED_CONDUCTOR && lobe_conductor_specular(&g->b->mf_base);
 }
 
-static void iface_f(const group_t *g, int which, vec3_t wo, vec3_t wi, bsdf_mode_t mode,
-                    double *f)
+static void iface_f(const group_t *g, int which, vec3_t wo, vec3_t wi, bsdf_mode_t mode, double *f)
 {
     const bsdf_t *b = g->b;
     if (which == TOP) {
@@ -117,11 +175,28 @@ static void iface_f(const group_t *g, int which, vec3_t wo, vec3_t wi, bsdf_mode
             f[i] = v;
         return;
     }
+    if (b->kind != BSDF_COATED_CONDUCTOR) {
+        for (int i = 0; i < g->n; i++)
+            f[i] = lobe_diffuse_f(b->reflectance[g->lo + i], wo, wi);
+        return;
+    }
+    /* lobe_conductor_f per lane, with the lane-independent D, G and half vector computed once
+     * (the same operations in the same order: the same bits). */
+    for (int i = 0; i < g->n; i++)
+        f[i] = 0.0;
+    const microfacet_t *mf = &b->mf_base;
+    if (!(wo.z * wi.z > 0.0) || microfacet_smooth(mf))
+        return;
+    double co = fabs(wo.z), ci = fabs(wi.z);
+    vec3_t wm = vec3_add(wo, wi);
+    if (co == 0.0 || ci == 0.0 || vec3_dot(wm, wm) == 0.0)
+        return;
+    wm = vec3_normalize(wm);
+    double cm = fabs(vec3_dot(wo, wm)), d = microfacet_d(mf, wm), gg = microfacet_g(mf, wo, wi);
     for (int i = 0; i < g->n; i++) {
         int j = g->lo + i;
-        f[i] = b->kind == BSDF_COATED_CONDUCTOR
-                   ? lobe_conductor_f(&b->mf_base, b->cond_eta[j], b->cond_k[j], wo, wi)
-                   : lobe_diffuse_f(b->reflectance[j], wo, wi);
+        double fr = fresnel_conductor(cm, b->cond_eta[j], b->cond_k[j]);
+        f[i] = lobe_finite(d * fr * gg / (4.0 * co * ci));
     }
 }
 
@@ -134,36 +209,84 @@ static double iface_pdf(const group_t *g, int which, vec3_t wo, vec3_t wi, int a
                                             : lobe_diffuse_pdf(wo, wi, allowed);
 }
 
+/* The base's sample for every lane of the group at once. Its direction, pdf and (for a
+ * conductor) D and G depend on neither the lane's reflectance nor its conductor index, so they
+ * are computed once and only the reflectance or the Fresnel term per lane: the numbers of
+ * lobe_diffuse_sample / lobe_conductor_sample called lane by lane (the same operations in the
+ * same order), at a quarter of their cost with four hero lanes. */
+static bool base_sample(const group_t *g, vec3_t wo, double u1, double u2, int allowed,
+                        isample_t *s)
+{
+    const bsdf_t *b = g->b;
+    if (!(allowed & LOBE_R) || wo.z == 0.0)
+        return false;
+    if (b->kind != BSDF_COATED_CONDUCTOR) {
+        vec3_t wi = sample_cosine_hemisphere(u1, u2);
+        if (wo.z < 0.0)
+            wi.z = -wi.z;
+        s->pdf = lobe_diffuse_pdf(wo, wi, LOBE_R);
+        if (!(s->pdf > 0.0))
+            return false;
+        for (int i = 0; i < g->n; i++)
+            s->f[i] = lobe_diffuse_f(b->reflectance[g->lo + i], wo, wi);
+        s->wi = wi;
+        s->flags = BSDF_REFLECTION;
+        return true;
+    }
+    const microfacet_t *mf = &b->mf_base;
+    if (microfacet_smooth(mf)) {
+        vec3_t wi = vec3_make(-wo.x, -wo.y, wo.z);
+        double c = fabs(wi.z);
+        for (int i = 0; i < g->n; i++) {
+            int j = g->lo + i;
+            s->f[i] = lobe_finite(fresnel_conductor(c, b->cond_eta[j], b->cond_k[j]) / c);
+        }
+        s->wi = wi;
+        s->pdf = 1.0;
+        s->flags = BSDF_REFLECTION | BSDF_SPECULAR;
+        return true;
+    }
+    vec3_t wm = microfacet_sample_wm(mf, wo, u1, u2);
+    vec3_t wi = fresnel_reflect(vec3_neg(wo), wm);
+    if (!(wo.z * wi.z > 0.0))
+        return false;
+    double d = fabs(vec3_dot(wo, wm));
+    double co = fabs(wo.z), ci = fabs(wi.z);
+    if (d == 0.0 || ci == 0.0)
+        return false;
+    s->pdf = lobe_finite(microfacet_pdf(mf, wo, wm) / (4.0 * d));
+    if (!(s->pdf > 0.0))
+        return false;
+    double dd = microfacet_d(mf, wm), gg = microfacet_g(mf, wo, wi);
+    for (int i = 0; i < g->n; i++) {
+        int j = g->lo + i;
+        double fr = fresnel_conductor(d, b->cond_eta[j], b->cond_k[j]);
+        s->f[i] = lobe_finite(dd * fr * gg / (4.0 * co * ci));
+    }
+    s->wi = wi;
+    s->flags = BSDF_REFLECTION;
+    return true;
+}
+
 /* pbrt-v4's test after every interface sample: a sample, some f, pdf > 0, wi off the plane. */
 static bool iface_sample(const group_t *g, int which, vec3_t wo, double uc, double u1, double u2,
                          bsdf_mode_t mode, int allowed, isample_t *s)
 {
     const bsdf_t *b = g->b;
-    lobe_sample_t ls = {0};
     if (g->n < 1)
         return false;
     if (which == TOP) {
+        lobe_sample_t ls = {0};
         if (!lobe_dielectric_sample(&b->mf, g->eta, mode, wo, uc, u1, u2, allowed, &ls))
             return false;
         for (int i = 0; i < g->n; i++)
             s->f[i] = ls.f;
-    } else {
-        /* The base's direction does not depend on the lane's reflectance or conductor index,
-         * so each lane's sample with the same uniforms has the same wi; only f differs. */
-        for (int i = 0; i < g->n; i++) {
-            int j = g->lo + i;
-            bool ok = b->kind == BSDF_COATED_CONDUCTOR
-                          ? lobe_conductor_sample(&b->mf_base, b->cond_eta[j], b->cond_k[j], wo,
-                                                  u1, u2, allowed, &ls)
-                          : lobe_diffuse_sample(b->reflectance[j], wo, u1, u2, allowed, &ls);
-            if (!ok)
-                return false;
-            s->f[i] = ls.f;
-        }
+        s->wi = ls.wi;
+        s->pdf = ls.pdf;
+        s->flags = ls.flags;
+    } else if (!base_sample(g, wo, u1, u2, allowed, s)) {
+        return false;
     }
-    s->wi = ls.wi;
-    s->pdf = ls.pdf;
-    s->flags = ls.flags;
     return max_lane(s->f, g->n) > 0.0 && s->pdf > 0.0 && s->wi.z != 0.0;
 }
 
@@ -225,7 +348,7 @@ static double free_flight_dz(double u, vec3_t w)
 /* ---- f: pbrt-v4 LayeredBxDF::f, the estimator of Guo et al. 2018 sec. 5 with NEE through
  * the exit interface and MIS against the phase function or the other interface ---- */
 
-static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *f)
+static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, walk_t *wk, double *f)
 {
     const bsdf_t *b = g->b;
     const int n = g->n, ns = nsamples_of(b);
@@ -249,11 +372,12 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
     }
     for (int s = 0; s < ns; s++) {
         isample_t wos, wis, bs;
-        double uc = next_u(rng), u1 = next_u(rng), u2 = next_u(rng);
+        double uc, u1, u2;
+        walk_event(wk, &uc, &u1, &u2);
         if (!iface_sample(g, TOP, wo, uc, u1, u2, b->mode, LOBE_T, &wos))
             continue;
         /* The adjoint walk from wi: a "virtual light" through the exit interface. */
-        uc = next_u(rng), u1 = next_u(rng), u2 = next_u(rng);
+        walk_event(wk, &uc, &u1, &u2);
         if (!iface_sample(g, exit_if, wi, uc, u1, u2, adjoint(b->mode), LOBE_T, &wis))
             continue;
         for (int i = 0; i < n; i++)
@@ -264,7 +388,7 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
             double bmax = max_lane(beta, n);
             if (depth > 3 && bmax < 0.25) { /* Russian roulette */
                 double q = fmax(0.0, 1.0 - bmax);
-                if (next_u(rng) < q)
+                if (walk_1d(wk) < q)
                     break;
                 for (int i = 0; i < n; i++)
                     beta[i] /= 1.0 - q;
@@ -275,7 +399,7 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
                 for (int i = 0; i < n; i++)
                     beta[i] *= tr;
             } else {
-                double dz = free_flight_dz(next_u(rng), w);
+                double dz = free_flight_dz(walk_1d(wk), w);
                 double zp = w.z > 0.0 ? z + dz : z - dz;
                 if (zp == z)
                     continue;
@@ -288,7 +412,7 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
                     for (int i = 0; i < n; i++)
                         f[i] += beta[i] * b->albedo[g->lo + i] * ph * wt * tr * wis.f[i] / wis.pdf;
                     double ppdf;
-                    u1 = next_u(rng), u2 = next_u(rng);
+                    u1 = walk_1d(wk), u2 = walk_1d(wk);
                     vec3_t pwi = hg_sample(vec3_neg(w), b->g, u1, u2, &ppdf);
                     if (!(ppdf > 0.0) || pwi.z == 0.0)
                         continue;
@@ -318,7 +442,7 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
                 z = fmin(fmax(zp, 0.0), th);
             }
             if (z == exit_z) {
-                uc = next_u(rng), u1 = next_u(rng), u2 = next_u(rng);
+                walk_event(wk, &uc, &u1, &u2);
                 if (!iface_sample(g, exit_if, vec3_neg(w), uc, u1, u2, b->mode, LOBE_R, &bs))
                     break;
                 for (int i = 0; i < n; i++)
@@ -330,13 +454,13 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
                     double wt = 1.0;
                     if (!exit_spec)
                         wt = power_heuristic(wis.pdf, iface_pdf(g, nonexit_if, vec3_neg(w),
-                                                                 vec3_neg(wis.wi), LOBE_ALL));
+                                                                vec3_neg(wis.wi), LOBE_ALL));
                     iface_f(g, nonexit_if, vec3_neg(w), vec3_neg(wis.wi), b->mode, tmp);
                     double c = fabs(wis.wi.z) * wt * layer_tr(th, wis.wi) / wis.pdf;
                     for (int i = 0; i < n; i++)
                         f[i] += beta[i] * tmp[i] * c * wis.f[i];
                 }
-                uc = next_u(rng), u1 = next_u(rng), u2 = next_u(rng);
+                walk_event(wk, &uc, &u1, &u2);
                 if (!iface_sample(g, nonexit_if, vec3_neg(w), uc, u1, u2, b->mode, LOBE_R, &bs))
                     break;
                 for (int i = 0; i < n; i++)
@@ -347,8 +471,8 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
                     if (max_lane(tmp, n) > 0.0) {
                         double wt = 1.0;
                         if (!nonexit_spec) /* PDF(wi, -w), as above */
-                            wt = power_heuristic(
-                                bs.pdf, iface_pdf(g, exit_if, wi, vec3_neg(w), LOBE_T));
+                            wt = power_heuristic(bs.pdf,
+                                                 iface_pdf(g, exit_if, wi, vec3_neg(w), LOBE_T));
                         double tr = layer_tr(th, bs.wi);
                         for (int i = 0; i < n; i++)
                             f[i] += beta[i] * tr * tmp[i] * wt;
@@ -375,7 +499,7 @@ static void group_eval(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng
  * layer count with their probability 1 - q (pbrt-v4: 1). Either weight is unbiased (both
  * strategies' weights use the same estimate). */
 
-static double group_pdf(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rng)
+static double group_pdf(const group_t *g, vec3_t wo, vec3_t wi, walk_t *wk)
 {
     const bsdf_t *b = g->b;
     const int ns = nsamples_of(b);
@@ -389,8 +513,8 @@ static double group_pdf(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rn
     for (int s = 0; s < ns; s++) {
         isample_t wos, wis, rs;
         double a[9];
-        for (int k = 0; k < 9; k++)
-            a[k] = next_u(rng);
+        for (int k = 0; k < 9; k += 3)
+            walk_event(wk, &a[k], &a[k + 1], &a[k + 2]);
         if (same) {
             bool ok_o = iface_sample(g, TOP, wo, a[0], a[1], a[2], b->mode, LOBE_T, &wos);
             bool ok_i = iface_sample(g, TOP, wi, a[3], a[4], a[5], adjoint(b->mode), LOBE_T, &wis);
@@ -404,7 +528,8 @@ static double group_pdf(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rn
                     sum += iface_pdf(g, TOP, vec3_neg(rs.wi), wi, LOBE_ALL);
                 } else {
                     /* MIS of the two ways to estimate the product of the three pdfs. */
-                    double rpdf = iface_pdf(g, BOTTOM, vec3_neg(wos.wi), vec3_neg(wis.wi), LOBE_ALL);
+                    double rpdf =
+                        iface_pdf(g, BOTTOM, vec3_neg(wos.wi), vec3_neg(wis.wi), LOBE_ALL);
                     sum += power_heuristic(wis.pdf, rpdf) * rpdf;
                     double tpdf = iface_pdf(g, TOP, vec3_neg(rs.wi), wi, LOBE_ALL);
                     sum += power_heuristic(rs.pdf, tpdf) * tpdf;
@@ -434,9 +559,8 @@ static double group_pdf(const group_t *g, vec3_t wo, vec3_t wi, rng_stream_t *rn
 
 /* ---- Sample_f: pbrt-v4 LayeredBxDF::Sample_f, a random walk until the path leaves ---- */
 
-static bool group_sample(const group_t *g, vec3_t wo, double uc, double u1, double u2,
-                         rng_stream_t *rng, double *f, double *pdf_out, vec3_t *wi_out,
-                         int *flags_out)
+static bool group_sample(const group_t *g, vec3_t wo, double uc, double u1, double u2, walk_t *wk,
+                         double *f, double *pdf_out, vec3_t *wi_out, int *flags_out)
 {
     const bsdf_t *b = g->b;
     const int n = g->n;
@@ -470,19 +594,19 @@ static bool group_sample(const group_t *g, vec3_t wo, double uc, double u1, doub
         double rr = max_lane(f, n) / pdf;
         if (depth > 3 && rr < 0.25) {
             double q = fmax(0.0, 1.0 - rr);
-            if (next_u(rng) < q)
+            if (walk_1d(wk) < q)
                 return false;
             pdf *= 1.0 - q;
         }
         if (w.z == 0.0)
             return false;
         if (g->albedo) {
-            double dz = free_flight_dz(next_u(rng), w);
+            double dz = free_flight_dz(walk_1d(wk), w);
             double zp = w.z > 0.0 ? z + dz : z - dz;
             if (zp == z)
                 return false;
             if (0.0 < zp && zp < th) {
-                double ppdf, a1 = next_u(rng), a2 = next_u(rng);
+                double ppdf, a1 = walk_1d(wk), a2 = walk_1d(wk);
                 vec3_t pwi = hg_sample(vec3_neg(w), b->g, a1, a2, &ppdf);
                 if (!(ppdf > 0.0) || pwi.z == 0.0)
                     return false;
@@ -502,7 +626,8 @@ static bool group_sample(const group_t *g, vec3_t wo, double uc, double u1, doub
                 f[i] *= tr;
         }
         int which = z == 0.0 ? BOTTOM : TOP;
-        double c = next_u(rng), a1 = next_u(rng), a2 = next_u(rng);
+        double c, a1, a2;
+        walk_event(wk, &c, &a1, &a2);
         if (!iface_sample(g, which, vec3_neg(w), c, a1, a2, b->mode, LOBE_ALL, &bs))
             return false;
         for (int i = 0; i < n; i++)
@@ -564,12 +689,14 @@ void layered_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, doub
         rng = &local;
     if (!coating_disperses(b)) {
         group_t g = group_make(b, 0, b->n);
-        group_eval(&g, wo, wi, rng, f);
+        walk_t wk = walk_begin(rng);
+        group_eval(&g, wo, wi, &wk, f);
         return;
     }
     for (int j = 0; j < b->n; j++) {
         group_t g = group_make(b, j, 1);
-        group_eval(&g, wo, wi, rng, &f[j]);
+        walk_t wk = walk_begin(rng);
+        group_eval(&g, wo, wi, &wk, &f[j]);
     }
 }
 
@@ -580,14 +707,16 @@ void layered_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, doubl
         rng = &local;
     if (!coating_disperses(b)) {
         group_t g = group_make(b, 0, b->n);
-        double p = group_pdf(&g, wo, wi, rng);
+        walk_t wk = walk_begin(rng);
+        double p = group_pdf(&g, wo, wi, &wk);
         for (int j = 0; j < b->n; j++)
             pdf[j] = p;
         return;
     }
     for (int j = 0; j < b->n; j++) {
         group_t g = group_make(b, j, 1);
-        pdf[j] = group_pdf(&g, wo, wi, rng);
+        walk_t wk = walk_begin(rng);
+        pdf[j] = group_pdf(&g, wo, wi, &wk);
     }
 }
 
@@ -602,7 +731,8 @@ bool layered_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, 
     if (!coating_disperses(b)) {
         group_t g = group_make(b, 0, b->n);
         double pdf;
-        if (!group_sample(&g, wo, uc, u1, u2, rng, out->f, &pdf, &out->wi, &out->flags))
+        walk_t wk = walk_begin(rng);
+        if (!group_sample(&g, wo, uc, u1, u2, &wk, out->f, &pdf, &out->wi, &out->flags))
             return false;
         for (int j = 0; j < b->n; j++)
             out->pdf[j] = pdf;
@@ -610,7 +740,8 @@ bool layered_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, 
     }
     group_t g = group_make(b, hero, 1);
     double fh, pdfh;
-    if (!group_sample(&g, wo, uc, u1, u2, rng, &fh, &pdfh, &out->wi, &out->flags))
+    walk_t wk = walk_begin(rng);
+    if (!group_sample(&g, wo, uc, u1, u2, &wk, &fh, &pdfh, &out->wi, &out->flags))
         return false;
     /* The top's mirror reflection is the one delta direction every lane shares; its weight is
      * the lane's own Fresnel reflectance, its probability the lane's own choice of it. */
@@ -628,11 +759,42 @@ bool layered_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, 
             out->pdf[j] = top_mirror ? top_reflect_prob(&gj, wo) : 0.0;
         } else {
             group_t gj = group_make(b, j, 1);
-            group_eval(&gj, wo, out->wi, rng, &out->f[j]);
-            out->pdf[j] = group_pdf(&gj, wo, out->wi, rng);
+            walk_t we = walk_begin(rng);
+            group_eval(&gj, wo, out->wi, &we, &out->f[j]);
+            walk_t wp = walk_begin(rng);
+            out->pdf[j] = group_pdf(&gj, wo, out->wi, &wp);
         }
     }
     return true;
+}
+
+/* The coating's own reflection lobe (exact, lane 0's index) plus what comes through it, as if
+ * the layer were a Lambertian of the lanes' mean base albedo behind two Fresnel
+ * transmissions: (1 - R(wo)) (1 - R(wi)) a / pi. The glossy photon gather picks photons in
+ * proportion to power times this (render.c), so the coat's sharp lobe, where f is tens of
+ * times the rest, gets its picks instead of one in many; a floor of 0.05 on a keeps it
+ * positive wherever f can be. */
+double layered_guide(const bsdf_t *b, vec3_t wo, vec3_t wi)
+{
+    if (b->n < 1)
+        return 1.0;
+    if (wo.z < 0.0) {
+        wo = vec3_neg(wo);
+        wi = vec3_neg(wi);
+    }
+    const double eta = b->eta[0];
+    double top = wi.z > 0.0 ? lobe_dielectric_f(&b->mf, eta, b->mode, wo, wi) : 0.0;
+    double a = 0.0;
+    for (int j = 0; j < b->n; j++) {
+        double base = b->kind == BSDF_COATED_CONDUCTOR
+                          ? fresnel_conductor(1.0, b->cond_eta[j], b->cond_k[j])
+                          : b->reflectance[j];
+        a += fmax(base, b->albedo[j]) / b->n;
+    }
+    a = fmax(fmin(a, 1.0), 0.05);
+    double t = (1.0 - fresnel_dielectric(fabs(wo.z), 1.0, eta)) *
+               (1.0 - fresnel_dielectric(fabs(wi.z), 1.0, eta));
+    return lobe_finite(top) + fmax(t, 0.0) * a / PF_PI + 1e-12;
 }
 
 bool layered_is_specular(const bsdf_t *b)

@@ -24,6 +24,8 @@ void layered_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, doub
 void layered_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *pdf);
 bool layered_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, double u2,
                     rng_stream_t *rng, bsdf_sample_t *out);
+/* A cheap, deterministic, positive stand-in for f(wo, wi) (bsdf_guide). */
+double layered_guide(const bsdf_t *b, vec3_t wo, vec3_t wi);
 /* Only delta lobes: smooth coating over a smooth conductor with no medium. */
 bool layered_is_specular(const bsdf_t *b);
 

@@ -194,6 +194,16 @@ static void draw2(ctx_t *c, int slot, double u[2])
     sampler_2d(&c->smp, c->dim_base + (uint32_t)slot, u);
 }
 
+/* Puts the walk stream at a position fixed by the vertex's block and a slot of it, before a
+ * layered BSDF's walk: the walk keys its first events' stratified numbers by that position
+ * (bsdf/layered.c, walk_begin), so one decision draws from one sequence over the pixel's
+ * samples. Positions are 2^16 numbers apart, more than any walk draws. */
+static void walk_position(ctx_t *c, int slot)
+{
+    c->rng.next_dim = (c->dim_base + (uint32_t)slot) << 16;
+    c->rng.has_spare = 0;
+}
+
 /* The path's next vertex takes the next block of dimensions. */
 static void vertex_begin(ctx_t *c, path_t *p)
 {
@@ -678,9 +688,11 @@ static void direct_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, co
         return;
     vec3_t wi = shading_to_local(fr, ls.wi);
     double f[LANES], pdf[LANES];
+    walk_position(c, VD_LIGHT);
     bsdf_eval(b, wo_local, wi, &c->rng, f);
     double w = 1.0;
     if (!ls.is_delta && c->rs->integrator == INTEGRATOR_PATH) {
+        walk_position(c, VD_LIGHT_PART);
         bsdf_pdf(b, wo_local, wi, &c->rng, pdf);
         w = power_heuristic(ls.pdf, lanes_pdf(pdf, sel, p->n));
     }
@@ -746,13 +758,15 @@ static void caustic_light(ctx_t *c, const path_t *p, const hit_t *h, const surfa
  * one). So the sum is estimated from about GLOSSY_GATHER_EVALS of them, shared out equally
  * between the lanes' buckets (a group: the lanes of one bucket), so that every lane's
  * estimate has picks of its own and the colour stays smooth. A first pass over the disk sums,
- * per group, the power W_g of the photons that can count (of the group's bucket, on the
- * viewer's sides); a second picks M_g of them by systematic sampling in proportion to power
- * -- the m-th pick where the group's running sum passes (m + xi) W_g / M_g -- and each pick
- * adds W_g / M_g f_j to the group's lanes. A photon is picked M_g power / W_g times on
- * average, so the estimate is unbiased; the photons of a caustic arrive from nearly one
- * direction, so f varies little between them and few picks cost little noise
- * (docs/accuracy.md measures M). A group with no more photons than M_g evaluates each once. */
+ * per group, W_g = sum of power x g over the photons that can count (of the group's bucket, on
+ * the viewer's sides), g = bsdf_guide(wo, wi) a cheap positive stand-in for f; a second picks
+ * M_g of them by systematic sampling in proportion to power x g -- the m-th pick where the
+ * group's running sum passes (m + xi) W_g / M_g -- and each pick adds W_g / (M_g g) f_j to the
+ * group's lanes. A photon is picked M_g power g / W_g times on average, so the estimate is
+ * unbiased for any positive g (importance sampling of the sum); g = 1 (power alone) for all
+ * but the coated models, whose coat lobe makes f vary tenfold between photons arriving from
+ * different facets of a glass (docs/performance.md, caustic-glass). A group with no more
+ * photons than M_g evaluates each once. */
 #define GLOSSY_GATHER_EVALS 4
 /* The first pass keeps the photons that can count, up to this many (40 bytes each, on the
  * stack), so that the second picks from them instead of searching the map again: the search
@@ -771,6 +785,7 @@ typedef struct glossy_group {
 typedef struct glossy_kept {
     vec3_t wi; /* the direction the photon's light comes from, -dir */
     double power;
+    double guide; /* bsdf_guide at wi */
     int group;
 } glossy_kept_t;
 
@@ -792,13 +807,13 @@ typedef struct glossy_gather {
 
 /* Pass 1 for a photon of group gi that can count: the picks that fall on it, if any, add
  * f(wo, wi) times their weight to the group's lanes. */
-static void glossy_pick(glossy_gather_t *gg, int gi, vec3_t wi_world, double power)
+static void glossy_pick(glossy_gather_t *gg, int gi, vec3_t wi_world, double power, double guide)
 {
     glossy_group_t *g = &gg->groups[gi];
     double weight = power;
     if (g->step > 0.0) {
         double lo = g->running;
-        g->running += power;
+        g->running += power * guide;
         int picks = 0;
         while (g->next < g->running && g->next >= lo && picks < GLOSSY_GATHER_EVALS) {
             picks++;
@@ -806,7 +821,7 @@ static void glossy_pick(glossy_gather_t *gg, int gi, vec3_t wi_world, double pow
         }
         if (picks == 0)
             return;
-        weight = picks * g->step;
+        weight = picks * g->step / guide;
     }
     double f[LANES];
     bsdf_eval(gg->b, gg->wo, shading_to_local(gg->fr, wi_world), &gg->c->rng, f);
@@ -826,15 +841,19 @@ static void glossy_photon(void *user, vec3_t dir, int bucket, double power)
     const vec3_t wi_world = vec3_neg(dir);
     if (gi == gg->ngroups || !(power > 0.0) || !sides_agree(&gg->sd, wi_world))
         return;
+    const double guide = bsdf_guide(gg->b, gg->wo, shading_to_local(gg->fr, wi_world));
+    if (!(guide > 0.0) || !isfinite(guide))
+        return;
     if (gg->pass == 1) {
-        glossy_pick(gg, gi, wi_world, power);
+        glossy_pick(gg, gi, wi_world, power, guide);
         return;
     }
     glossy_group_t *g = &gg->groups[gi];
     g->count++;
-    g->total += power;
+    g->total += power * guide;
     if (gg->nkept < GLOSSY_KEEP)
-        gg->kept[gg->nkept] = (glossy_kept_t){.wi = wi_world, .power = power, .group = gi};
+        gg->kept[gg->nkept] =
+            (glossy_kept_t){.wi = wi_world, .power = power, .guide = guide, .group = gi};
     if (gg->nkept <= GLOSSY_KEEP)
         gg->nkept++;
 }
@@ -880,7 +899,8 @@ static void caustic_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, c
     if (gg.nkept <= GLOSSY_KEEP) {
         for (int i = 0; i < gg.nkept; i++)
             if (gg.groups[gg.kept[i].group].bucket != -2)
-                glossy_pick(&gg, gg.kept[i].group, gg.kept[i].wi, gg.kept[i].power);
+                glossy_pick(&gg, gg.kept[i].group, gg.kept[i].wi, gg.kept[i].power,
+                            gg.kept[i].guide);
     } else {
         photon_store_gather(c->photons, sf->p, sf->ng, glossy_photon, &gg, &scale);
     }
@@ -1386,6 +1406,7 @@ static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *
     double uc = draw1(c, VD_LOBE), ud[2];
     draw2(c, VD_DIRECTION, ud);
     bsdf_sample_t bs;
+    walk_position(c, VD_LOBE);
     if (!bsdf_sample(b, wo, hero, uc, ud[0], ud[1], &c->rng, &bs))
         return 1;
     const vec3_t wi = shading_to_world(&fr, bs.wi);
@@ -1415,6 +1436,7 @@ static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *
     double mis_pdf = pdf;
     if (bs.pdf_is_estimate && !specular && c->bsdf_mis) {
         double pdfs[LANES];
+        walk_position(c, VD_DIRECTION);
         bsdf_pdf(b, wo, bs.wi, &c->rng, pdfs);
         mis_pdf = pdfs[0];
     }
