@@ -1811,8 +1811,11 @@ static void trace(ctx_t *c, path_t *start)
                 vec3_t g = vec3_dot(sf.ng, wo) >= 0.0 ? sf.ng : vec3_neg(sf.ng);
                 vec3_t n = vec3_dot(sf.ns, g) >= 0.0 ? sf.ns : vec3_neg(sf.ns);
                 double albedo[LANES];
-                for (int j = 0; j < p->n; j++)
-                    albedo[j] = m->reflectance ? shading_texture(m->reflectance, &sf, p->lambda[j]) : 0.5;
+                if (m->reflectance)
+                    shading_texture_lanes(m->reflectance, &sf, p->lambda, p->n, albedo);
+                else
+                    for (int j = 0; j < p->n; j++)
+                        albedo[j] = 0.5;
                 if (c->rs->integrator != INTEGRATOR_SIMPLEPATH)
                     direct_light(c, p, &sf, n, g, albedo);
                 if (c->photons && p->diffuse_bounces == 0)

@@ -13,10 +13,28 @@
  * defined before it), so this only bounds a pathological chain. */
 #define MIX_DEPTH_MAX 32
 
+static double clamp01(double v) { return v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; }
+
 double shading_texture(const texture_t *t, const surface_t *sf, double lambda)
 {
     const texture_point_t at = {sf->u, sf->v, sf->p, sf->ng};
     return texture_eval_at(t, &at, lambda);
+}
+
+void shading_texture_lanes(const texture_t *t, const surface_t *sf, const double *lambda, int n,
+                           double *out)
+{
+    const texture_point_t at = {sf->u, sf->v, sf->p, sf->ng};
+    texture_eval_lanes(t, &at, lambda, n, out);
+}
+
+/* shading_texture_lanes clamped to [0, 1]. */
+static void texture_lanes01(const texture_t *t, const surface_t *sf, const double *lambda, int n,
+                            double *out)
+{
+    shading_texture_lanes(t, sf, lambda, n, out);
+    for (int j = 0; j < n; j++)
+        out[j] = clamp01(out[j]);
 }
 
 const material_t *shading_resolve(const scene_t *scene, const material_t *m, const surface_t *sf,
@@ -54,7 +72,6 @@ int shading_is_delta(const material_t *m, const surface_t *sf)
     return microfacet_smooth(&mf);
 }
 
-static double clamp01(double v) { return v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; }
 
 void shading_conductor_index(const material_t *m, const surface_t *sf, double lambda, double *eta,
                              double *k)
@@ -165,10 +182,9 @@ void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda
     case MATERIAL_COATED_DIFFUSE:
         b->kind = BSDF_COATED_DIFFUSE;
         layer(m, sf, lambda, n, b);
-        for (int j = 0; j < n; j++) {
+        for (int j = 0; j < n; j++)
             b->eta[j] = coat_eta(m, lambda[j]);
-            b->reflectance[j] = clamp01(shading_texture(m->reflectance, sf, lambda[j]));
-        }
+        texture_lanes01(m->reflectance, sf, lambda, n, b->reflectance);
         return;
     case MATERIAL_COATED_CONDUCTOR:
         b->kind = BSDF_COATED_CONDUCTOR;
@@ -193,9 +209,11 @@ void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda
     case MATERIAL_DIFFUSE:
     default:
         b->kind = BSDF_DIFFUSE;
-        for (int j = 0; j < n; j++)
-            b->reflectance[j] =
-                m->reflectance ? clamp01(shading_texture(m->reflectance, sf, lambda[j])) : 0.5;
+        if (m->reflectance)
+            texture_lanes01(m->reflectance, sf, lambda, n, b->reflectance);
+        else
+            for (int j = 0; j < n; j++)
+                b->reflectance[j] = 0.5;
         return;
     }
 }

@@ -19,6 +19,10 @@ const material_t *shading_resolve(const scene_t *scene, const material_t *m, con
 /* Texture t at the surface point sf (its uv, and its point and normal for pbrt-v4's 3D and
  * direction textures: texture_eval_at). */
 double shading_texture(const texture_t *t, const surface_t *sf, double lambda);
+/* shading_texture at the n wavelengths lambda[0..n-1] into out: the same values, with the
+ * texture's wavelength-free work (an image's texel addresses) done once (texture_eval_lanes). */
+void shading_texture_lanes(const texture_t *t, const surface_t *sf, const double *lambda, int n,
+                           double *out);
 
 /* A smooth conductor or dielectric at sf (its roughness, textured or not, is below pbrt-v4's
  * EffectivelySmooth there): the delta code applies. */

@@ -36,6 +36,9 @@ typedef struct level {
 } level_t;
 
 #define LEVELS_MAX 32
+/* Lanes texture_eval_lanes combines at once (a path's most: render.h RENDER_MAX_BUCKETS); more
+ * read lane by lane. */
+#define TEXTURE_MAX_LANES 64
 
 struct texture {
     tex_kind_t kind;
@@ -553,6 +556,54 @@ static double image_lookup(const texture_t *t, double u, double v, double width,
     return (1 - d) * bilerp(t, il, s, tt, lambda) + d * bilerp(t, il + 1, s, tt, lambda);
 }
 
+/* One texel's value from its address i (-1: black, remap refused it). */
+static double texel_at(const level_t *lv, long i, double lambda)
+{
+    if (i < 0)
+        return 0.0;
+    return lv->val ? lv->val[i] : rgb_uplift_eval(lv->coef + 4 * (size_t)i, lambda);
+}
+
+static long texel_index(const texture_t *t, int l, long x, long y)
+{
+    const level_t *lv = &t->level[l];
+    if (!remap(t->wrap, lv->w, lv->h, &x, &y))
+        return -1;
+    return (long)((size_t)y * (size_t)lv->w + (size_t)x);
+}
+
+/* image_lookup at n wavelengths, for the lookups of width 0 (texture_eval_lanes): the bilinear
+ * read of level 0, the bilinear and trilinear filters' (a trilinear filter's level at width 0
+ * is below 1: level 0). The same products and sums in the same order as bilerp, so the same
+ * bits; the point filter and the rest read lane by lane. */
+static void image_lookup_lanes(const texture_t *t, double u, double v, const double *lambda, int n,
+                               double *out)
+{
+    double s = t->uscale * u + t->udelta, tt = 1.0 - (t->vscale * v + t->vdelta);
+    int lanes = isfinite(s) && isfinite(tt) &&
+                (t->filter == TEXTURE_FILTER_BILINEAR ||
+                 (t->filter == TEXTURE_FILTER_TRILINEAR &&
+                  !(t->nlevels - 1 + log2(1e-8) >= t->nlevels - 1) &&
+                  !(t->nlevels - 1 + log2(1e-8) >= 1.0)));
+    if (!lanes) {
+        for (int j = 0; j < n; j++)
+            out[j] = image_lookup(t, u, v, 0.0, lambda[j]);
+        return;
+    }
+    const level_t *lv = &t->level[0];
+    double x = s * lv->w - 0.5, y = tt * lv->h - 0.5;
+    double fx = floor(x), fy = floor(y);
+    double dx = x - fx, dy = y - fy;
+    long ix = to_index(fx), iy = to_index(fy);
+    const long i00 = texel_index(t, 0, ix, iy), i10 = texel_index(t, 0, ix + 1, iy);
+    const long i01 = texel_index(t, 0, ix, iy + 1), i11 = texel_index(t, 0, ix + 1, iy + 1);
+    for (int j = 0; j < n; j++)
+        out[j] = (1 - dx) * (1 - dy) * texel_at(lv, i00, lambda[j]) +
+                 dx * (1 - dy) * texel_at(lv, i10, lambda[j]) +
+                 (1 - dx) * dy * texel_at(lv, i01, lambda[j]) +
+                 dx * dy * texel_at(lv, i11, lambda[j]);
+}
+
 vec3_t texture_eval_normalmap(const texture_t *t, double u, double v)
 {
     if (t->kind != TEX_NORMALMAP)
@@ -732,4 +783,30 @@ double texture_eval(const texture_t *t, double u, double v, double lambda)
 double texture_eval_at(const texture_t *t, const texture_point_t *at, double lambda)
 {
     return eval(t, at, 0.0, lambda);
+}
+
+void texture_eval_lanes(const texture_t *t, const texture_point_t *at, const double *lambda, int n,
+                        double *out)
+{
+    switch (t->kind) {
+    case TEX_IMAGE:
+        image_lookup_lanes(t, at->u, at->v, lambda, n, out);
+        return;
+    case TEX_SCALE: {
+        /* eval's a * b lane by lane, each factor read for all lanes first. */
+        double b[TEXTURE_MAX_LANES];
+        if (n <= TEXTURE_MAX_LANES) {
+            texture_eval_lanes(t->a, at, lambda, n, out);
+            texture_eval_lanes(t->b, at, lambda, n, b);
+            for (int j = 0; j < n; j++)
+                out[j] *= b[j];
+            return;
+        }
+        break;
+    }
+    default:
+        break;
+    }
+    for (int j = 0; j < n; j++)
+        out[j] = eval(t, at, 0.0, lambda[j]);
 }

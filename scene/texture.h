@@ -132,6 +132,12 @@ typedef struct texture_point {
  * p and n zero: the 2D textures give the same values, the 3D ones their value at the origin. */
 double texture_eval_at(const texture_t *self, const texture_point_t *at, double lambda_nm);
 
+/* texture_eval_at at n wavelengths at once: out[j] = texture_eval_at(self, at, lambda_nm[j]),
+ * the same bits, with what does not depend on the wavelength (an image's texel addresses and
+ * weights, a scale's or mix's branches) computed once for all lanes. */
+void texture_eval_lanes(const texture_t *self, const texture_point_t *at, const double *lambda_nm,
+                        int n, double *out);
+
 double texture_eval(const texture_t *self, double u, double v, double lambda_nm);
 /* The same with a filter width in (s, t) (pbrt-v4 MIPMap: twice the largest screen-space
  * derivative); texture_eval is width 0. Only a trilinear image texture reads it: prismfarm's

@@ -189,6 +189,47 @@ static void test_wrap_modes(void **state)
     texture_destroy(&o);
 }
 
+/* texture_eval_lanes gives texture_eval_at's bits at every lane: coloured texels (uplifted
+ * spectra, not flat), each wrap and filter, on and off the texels' grid and outside [0, 1]^2,
+ * alone and under a scale (whose lanes it multiplies itself). */
+static void test_lanes_same_bits(void **state)
+{
+    (void)state;
+    const float rgb[3 * 6] = {0.9f, 0.1f, 0.1f, 0.1f, 0.8f, 0.2f, 0.2f, 0.3f, 0.9f,
+                              0.5f, 0.5f, 0.0f, 0.0f, 0.0f, 0.0f, 1.0f, 1.0f, 1.0f};
+    const double lambda[5] = {380.0, 451.5, 538.25, 612.0, 779.0};
+    err_t err;
+    texture_t *half = texture_new_constant_value(0.5, &err);
+    assert_non_null(half);
+    for (int wrap = TEXTURE_WRAP_REPEAT; wrap <= TEXTURE_WRAP_OCTAHEDRAL_SPHERE; wrap++) {
+        for (int filter = TEXTURE_FILTER_POINT; filter <= TEXTURE_FILTER_TRILINEAR; filter++) {
+            texture_image_opts_t o = texture_image_opts_default();
+            o.wrap = (texture_wrap_t)wrap;
+            o.filter = (texture_filter_t)filter;
+            o.threads = 1;
+            texture_t *img = texture_new_image(rgb, 3, 2, &o, &err);
+            assert_non_null(img);
+            texture_t *sc = texture_new_scale(img, half, &err);
+            assert_non_null(sc);
+            for (int k = 0; k < 49; k++) {
+                const texture_point_t at = {.u = -0.4 + 0.037 * k, .v = 1.3 - 0.041 * k};
+                for (int w = 0; w < 2; w++) {
+                    const texture_t *t = w ? sc : img;
+                    double out[5];
+                    texture_eval_lanes(t, &at, lambda, 5, out);
+                    for (int j = 0; j < 5; j++) {
+                        double one = texture_eval_at(t, &at, lambda[j]);
+                        assert_memory_equal(&out[j], &one, sizeof one);
+                    }
+                }
+            }
+            texture_destroy(&sc);
+            texture_destroy(&img);
+        }
+    }
+    texture_destroy(&half);
+}
+
 static void test_trilinear_levels(void **state)
 {
     (void)state;
@@ -304,7 +345,8 @@ int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_png_encodings),  cmocka_unit_test(test_tga_hdr_pfm_exr),
-        cmocka_unit_test(test_wrap_modes),     cmocka_unit_test(test_trilinear_levels),
+        cmocka_unit_test(test_wrap_modes),     cmocka_unit_test(test_lanes_same_bits),
+        cmocka_unit_test(test_trilinear_levels),
         cmocka_unit_test(test_uplift_reproduces_rgb), cmocka_unit_test(test_load_time_1024),
     };
     return cmocka_run_group_tests(tests, setup, teardown);
