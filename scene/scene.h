@@ -135,6 +135,10 @@ typedef struct material {
      * of plate_thickness_nm (polar/waveplate.h). */
     retarder_mode_t retarder_mode;
     double retardation_nm, plate_thickness_nm;
+    /* A crystal plate cut across its optic axis ("bool axial"; waveplate_axial_mueller): light
+     * along the axis, turned by the crystal's optical activity (quartz) and retarded by the
+     * linear birefringence of oblique incidence. 0: the axis in the plate, along sheet_angle. */
+    int plate_axial;
     /* pbrt-v4's SubsurfaceMaterial (scene/subsurface_load.h): a MATERIAL_DIELECTRIC (its ior
      * and roughness are the boundary's) with a BSSRDF beneath, when table is not NULL: the
      * profile table for its (g, eta) (owned by the scene), the medium's coefficients per unit
