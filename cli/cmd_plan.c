@@ -299,8 +299,13 @@ int cmd_plan(int argc, char **argv)
     scene_desc_t *desc = pbrt_parse_file(path, &err);
     scene_t *scene = desc ? scene_load(desc, &ov, &err) : NULL;
     plan_t *plan = NULL;
-    if (scene && polar_pilot_apply(scene, &err) < 0)
+    /* Polarisation as a job of this scene would carry it: the one rule the master and
+     * `render` apply before a job starts, against the job's target error. */
+    polar_decision_t polar;
+    if (scene && polar_pilot_decide(scene, job.target_error, &polar, &err) < 0)
         scene_destroy(&scene);
+    if (scene)
+        polar_pilot_record(scene, &polar);
     if (scene) {
         cli_warn_print("plan", scene->warnings);
         plan_request_t req = plan_request_make(desc, &ov);

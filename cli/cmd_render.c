@@ -18,6 +18,7 @@
 #include "pbrt_parser.h"
 #include "photon_pass.h"
 #include "plan.h"
+#include "polar_pilot.h"
 #include "pool.h"
 #include "progress.h"
 #include "scene_bundle.h"
@@ -475,7 +476,7 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
 {
     const char *output = c->output;
     const scene_overrides_t ov = settings_to_overrides(&c->job);
-    const proto_settings_t *stop = &c->job;
+    const proto_settings_t *stop = &c->job; /* the stopping rules (polarized: job, below) */
     const long long threads = c->threads, workers = c->workers, tile = c->tile;
     const int quiet = c->quiet;
     const double exposure = c->exposure;
@@ -493,6 +494,20 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
     if (!scene) {
         fprintf(stderr, "prismfarm render: %s\n", err.msg);
         return 1;
+    }
+    /* Polarised transport decided once, before the job starts, by the rule the master applies
+     * to a submitted job (render/polar_pilot.h): --direct renders with it, the in-process farm
+     * gets it as the job's setting and every worker obeys it. */
+    proto_settings_t job = c->job;
+    polar_decision_t polar = {0};
+    if (job.polarized == SCENE_POLARIZED_FILE) {
+        if (polar_pilot_decide(scene, job.target_error, &polar, &err) < 0) {
+            fprintf(stderr, "prismfarm render: the polarisation pilot: %s\n", err.msg);
+            scene_destroy(&scene);
+            return 1;
+        }
+        polar_pilot_record(scene, &polar);
+        job.polarized = polar.setting;
     }
     const double loaded = clock_now_s(), load_s = loaded - t0;
     cli_warn_print("render", scene->warnings);
@@ -547,6 +562,13 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
             fprintf(stderr, "render: why: %s asks for photons\n",
                     plan_req.overridden ? "--integrator photon"
                                         : "the scene's Integrator directive");
+        if (polar.measured)
+            fprintf(stderr,
+                    "render: polarisation %s: the plan's pilot measured that ignoring it changes "
+                    "the image by %.2f %% (up to %.2f %%), %s the target error of %g %%\n",
+                    polar.setting == SCENE_POLARIZED_ON ? "on" : "off", 100.0 * polar.pilot.change,
+                    100.0 * polar.pilot.change_hi,
+                    polar.setting == SCENE_POLARIZED_ON ? "above" : "within", 100.0 * polar.target);
         if (rs->photon.enabled)
             fprintf(stderr, "render: photon integrator: %llu photons into a photon map, gathered by %s\n",
                     (unsigned long long)rs->photon.photons, integrators_kind_name(rs->integrator));
@@ -588,7 +610,7 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
                                 .name = name,
                                 .exr_path = exr,
                                 .png_path = master_png ? png : NULL,
-                                .settings = c->job,
+                                .settings = job,
                                 .workers = (int)workers,
                                 .threads =
                                     threads ? (int)threads

@@ -55,6 +55,13 @@ typedef struct mworker {
 /* A job, in the master's list from its submission (or the journal) on. Its fields by concern:
  * what was submitted, what its scene says, its place in the scheduler, its outputs, its photon
  * phase, its accuracy and the journal's view of it. */
+/* The polarisation pilot's figures of a submitted job (render/polar_pilot.h). */
+typedef struct job_polar {
+    int measured;             /* the pilot ran */
+    double change, change_hi; /* its figure and bound */
+    double target;            /* the error the bound was compared with */
+} job_polar_t;
+
 typedef struct job {
     uint64_t id;
     char *name;
@@ -81,6 +88,9 @@ typedef struct job {
          * (persist_load_figures; integrator then points here). */
         char integrator_kept[32];
     } scene;
+    /* What the plan's polarisation pilot measured when the job was submitted (jobs.c job_new;
+     * the decision itself is settings.polarized), for the master's log. */
+    job_polar_t polar;
     /* Its place in the scheduler. */
     struct {
         bool known; /* false once finished: its image is on disk and the scheduler forgot it */

@@ -22,6 +22,16 @@ typedef struct crystal_absorption {
     double e_per_mm[CRYSTAL_MAX_ABSORPTION];
 } crystal_absorption_t;
 
+/* Optical activity (natural optical rotation) for light along the optic axis, by Drude's
+ * one-term rotary dispersion rho(lambda) = a / (lambda^2 - lambda0^2) in degrees per mm, lambda
+ * in micrometres (P. Drude, Lehrbuch der Optik, 1900; Born & Wolf, Principles of Optics, 7th
+ * ed., §15.7). a > 0: dextrorotatory (the plane of polarisation turns clockwise as seen facing
+ * the light), a < 0 laevorotatory, a = 0: not optically active. */
+typedef struct crystal_rotation {
+    double a_deg_um2_per_mm;
+    double lambda0_um2;
+} crystal_rotation_t;
+
 typedef struct crystal {
     const char *name;                         /* canonical, e.g. "calcite" */
     const char *aliases[CRYSTAL_MAX_ALIASES]; /* unused slots are NULL */
@@ -29,6 +39,7 @@ typedef struct crystal {
     const char *source; /* short citation of the indices (and of the absorption, if any) */
     ior_model_t no, ne; /* ordinary and extraordinary (principal) indices */
     crystal_absorption_t absorption;
+    crystal_rotation_t rotation; /* quartz's optical activity; zero for the others */
 } crystal_t;
 
 /* Number of entries, and entry i (NULL when out of range), in catalogue order. */
@@ -45,5 +56,9 @@ const crystal_t *crystal_lookup(const char *name, err_t *err);
  * at lambda_nm: 0 for a crystal without absorption. */
 void crystal_absorption_eval(const crystal_absorption_t *a, double lambda_nm, double *o_per_mm,
                              double *e_per_mm);
+
+/* The rotary power rho(lambda_nm) in degrees per mm (signed as crystal_rotation_t's a); 0 for
+ * a crystal that is not optically active. */
+double crystal_rotary_power(const crystal_rotation_t *r, double lambda_nm);
 
 #endif

@@ -1,5 +1,7 @@
 #include "stokes.h"
 
+#include <complex.h>
+
 #include <math.h>
 
 stokes_t stokes_make(double s0, double s1, double s2, double s3)
@@ -112,4 +114,31 @@ mueller_t mueller_jones_diagonal(double a_re, double a_im, double b_re, double b
                         {0.5 * (aa - bb), 0.5 * (aa + bb), 0.0, 0.0},
                         {0.0, 0.0, re, -im},
                         {0.0, 0.0, im, re}}};
+}
+
+mueller_t mueller_jones(const double j[2][2][2])
+{
+    double complex J[2][2];
+    for (int r = 0; r < 2; r++)
+        for (int c = 0; c < 2; c++)
+            J[r][c] = j[r][c][0] + I * j[r][c][1];
+    mueller_t m;
+    for (int col = 0; col < 4; col++) {
+        const double e[4] = {col == 0, col == 1, col == 2, col == 3};
+        const double complex C[2][2] = {{0.5 * (e[0] + e[1]), 0.5 * (e[2] + I * e[3])},
+                                        {0.5 * (e[2] - I * e[3]), 0.5 * (e[0] - e[1])}};
+        /* C' = J C J^dagger */
+        double complex JC[2][2], Cp[2][2];
+        for (int r = 0; r < 2; r++)
+            for (int c = 0; c < 2; c++)
+                JC[r][c] = J[r][0] * C[0][c] + J[r][1] * C[1][c];
+        for (int r = 0; r < 2; r++)
+            for (int c = 0; c < 2; c++)
+                Cp[r][c] = JC[r][0] * conj(J[c][0]) + JC[r][1] * conj(J[c][1]);
+        m.m[0][col] = creal(Cp[0][0] + Cp[1][1]);
+        m.m[1][col] = creal(Cp[0][0] - Cp[1][1]);
+        m.m[2][col] = 2.0 * creal(Cp[0][1]);
+        m.m[3][col] = 2.0 * cimag(Cp[0][1]);
+    }
+    return m;
 }

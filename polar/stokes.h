@@ -61,4 +61,12 @@ mueller_t mueller_retarder(double theta, double delta);
  * retarder above is diag(1, e^{-i delta}) up to a common phase. */
 mueller_t mueller_jones_diagonal(double a_re, double a_im, double b_re, double b_im);
 
+/* The Mueller matrix of any non-depolarising element, its Jones matrix J (row-major, complex
+ * entries as real and imaginary parts: j[r][c][0] + i j[r][c][1]): column c is the Stokes
+ * vector of J C J^dagger for the coherency matrix C = E E^dagger of the unit Stokes vector e_c,
+ * with C = 1/2 [[S0 + S1, S2 + i S3], [S2 - i S3, S0 - S1]] from the definitions above (Azzam
+ * & Bashara, Ellipsometry and Polarized Light, 1977, §2.6). For diagonal J it is
+ * mueller_jones_diagonal. */
+mueller_t mueller_jones(const double j[2][2][2]);
+
 #endif

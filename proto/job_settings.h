@@ -34,6 +34,10 @@
  *   time_limit   0: no limit; else 0 < T <= PROTO_MAX_TIME_LIMIT seconds after the start
  *   adaptive     1: under a target error tiles stop one by one (film/adaptive.h); 0: every
  *                tile runs every pass
+ *   polarized    polarised transport as the plan decided it once, before the job started
+ *                (render/polar_pilot.h polar_pilot_decide, issue 28): 0 not decided (the
+ *                scene file's own, as before: a worker never decides), 1 off, 2 on; the
+ *                master and `render` decide, workers obey, the journal keeps it
  * A stopping rule's 0 is never written to the wire; anything else there must be a usable rule. */
 #ifndef PRISMFARM_JOB_SETTINGS_H
 #define PRISMFARM_JOB_SETTINGS_H
@@ -73,7 +77,9 @@
       (.presence = UNLESS_ZERO, .absent = "no adaptive sampling", RANGE(0, 1)), MASTER, STOP,      \
       (.name = "adaptive", .kind = CLI_CUSTOM, .parse = parse_adaptive, .arg = "on|off",           \
        .help = "with --target-error: each tile stops once it reaches its share\n"                  \
-               "of the target (on), or every tile runs every pass (off, the default)"))
+               "of the target (on), or every tile runs every pass (off, the default)"))          \
+    X(polarized, INT, 0, "polar", (.presence = UNLESS_ZERO, .absent = "the file's", RANGE(0, 2)), \
+      LOADER, NONE, ())
 /* clang-format on */
 
 /* Helpers for the expansions: a parenthesised list without its parentheses, and each KIND's C

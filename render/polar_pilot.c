@@ -1,11 +1,13 @@
 #include "polar_pilot.h"
 
 #include "clock.h"
+#include "pool.h"
 #include "render.h"
 #include "tilebuf.h"
 
 #include <math.h>
 #include <stdlib.h>
+#include <string.h>
 
 int polar_pilot_needed(const scene_t *scene)
 {
@@ -68,37 +70,63 @@ static int pilot_render(const scene_t *scene, const pilot_tile_t *tiles, int nti
     return 0;
 }
 
-int polar_pilot_measure(scene_t *scene, int grid, int tile, int spp, polar_pilot_result_t *out,
-                        err_t *err)
+/* The pilot's four runs: 0, 1 plain and polarised over samples A, 2, 3 over B. */
+typedef struct pilot_runs {
+    scene_t *view;
+    const pilot_tile_t *tiles;
+    int ntiles, npix, spp;
+    double *lum;
+    double seconds[2]; /* plain, polarised */
+} pilot_runs_t;
+
+static int pilot_run(void *user, int run, err_t *err)
 {
-    render_settings_t *rs = &scene->settings;
-    if (grid < 1 || grid > POLAR_PILOT_GRID || tile < 1 || spp < 1)
+    pilot_runs_t *r = user;
+    r->view->settings.polarised = run & 1;
+    const uint32_t begin = (uint32_t)(run >> 1) * (uint32_t)r->spp;
+    return pilot_render(r->view, r->tiles, r->ntiles, begin, begin + (uint32_t)r->spp,
+                        r->lum + (size_t)run * (size_t)r->npix, &r->seconds[run & 1], err);
+}
+
+int polar_pilot_measure(const scene_t *scene, int grid, int tile, int spp,
+                        polar_pilot_result_t *out, err_t *err)
+{
+    /* A view of the scene with settings of its own: everything else is shared and read only,
+     * so the scene itself (perhaps on a shelf, rendered by other threads) never changes. */
+    scene_t *view = malloc(sizeof *view);
+    if (!view)
+        return err_set(err, "out of memory");
+    memcpy(view, scene, sizeof *view);
+    render_settings_t *rs = &view->settings;
+    if (grid < 1 || grid > POLAR_PILOT_GRID || tile < 1 || spp < 1) {
+        free(view);
         return err_set(err, "polarisation pilot: grid %d, tile %d, spp %d out of range", grid, tile,
                        spp);
+    }
     pilot_tile_t tiles[POLAR_PILOT_GRID * POLAR_PILOT_GRID];
     const int ntiles = pilot_tiles(rs, grid, tile, tiles);
     int npix = 0;
     for (int i = 0; i < ntiles; i++)
         npix += tiles[i].w * tiles[i].h;
     double *lum = malloc(4 * (size_t)npix * sizeof *lum);
-    if (!lum)
+    if (!lum) {
+        free(view);
         return err_set(err, "out of memory");
+    }
     /* The camera pass alone (no photon store: the caustics are path traced, the same way both
      * times), with directly seen light on the hero lanes both ways (render.c's direct_lanes is
      * not taken with polarisation), intensities only. */
-    const render_settings_t saved = *rs;
     rs->photon.enabled = 0;
     rs->stokes = 0;
     rs->direct_hero_only = 1;
-    double t_plain = 0.0, t_pol = 0.0;
-    int rc = 0;
-    for (int run = 0; run < 4 && !rc; run++) {
-        rs->polarised = run & 1;
-        const uint32_t begin = (uint32_t)(run >> 1) * (uint32_t)spp;
-        rc = pilot_render(scene, tiles, ntiles, begin, begin + (uint32_t)spp,
-                          lum + (size_t)run * npix, run & 1 ? &t_pol : &t_plain, err);
-    }
-    *rs = saved;
+    /* The four runs on one compute thread of the pool, in order: the floating-point mode of
+     * every render thread (base/pool.h), so that the master's loader thread, `render`'s main
+     * thread and a test measure the same figure. */
+    pilot_runs_t runs = {
+        .view = view, .tiles = tiles, .ntiles = ntiles, .npix = npix, .spp = spp, .lum = lum};
+    const int rc = pool_for(1, 4, pilot_run, &runs, err) < 0 ? -1 : 0;
+    const double t_plain = runs.seconds[0], t_pol = runs.seconds[1];
+    free(view);
     if (rc) {
         free(lum);
         return -1;
@@ -127,19 +155,39 @@ int polar_pilot_measure(scene_t *scene, int grid, int tile, int spp, polar_pilot
     return 0;
 }
 
-int polar_pilot_apply(scene_t *scene, err_t *err)
+int polar_pilot_decide(const scene_t *scene, double target_error, polar_decision_t *out, err_t *err)
+{
+    *out = (polar_decision_t){.setting = SCENE_POLARIZED_OFF,
+                              .target = target_error > 0.0 ? fmin(target_error, POLAR_PILOT_TARGET)
+                                                           : POLAR_PILOT_TARGET};
+    if (scene->settings.polarised) {
+        out->setting = SCENE_POLARIZED_ON;
+        out->cause_file = 1;
+        return 0;
+    }
+    if (!polar_pilot_needed(scene))
+        return 0;
+    if (polar_pilot_measure(scene, POLAR_PILOT_GRID, POLAR_PILOT_TILE, POLAR_PILOT_SPP, &out->pilot,
+                            err))
+        return -1;
+    out->measured = 1;
+    if (out->pilot.change_hi > out->target)
+        out->setting = SCENE_POLARIZED_ON;
+    return 0;
+}
+
+void polar_pilot_record(scene_t *scene, const polar_decision_t *d)
 {
     render_settings_t *rs = &scene->settings;
-    if (rs->polar_pilot.run || !polar_pilot_needed(scene))
-        return 0;
-    polar_pilot_result_t r;
-    if (polar_pilot_measure(scene, POLAR_PILOT_GRID, POLAR_PILOT_TILE, POLAR_PILOT_SPP, &r, err))
-        return -1;
+    if (d->setting == SCENE_POLARIZED_ON)
+        rs->polarised = 1;
+    if (!d->measured)
+        return;
     rs->polar_pilot.run = 1;
-    rs->polar_pilot.change = r.change;
-    rs->polar_pilot.change_hi = r.change_hi;
-    rs->polar_pilot.target = POLAR_PILOT_TARGET;
-    rs->polar_pilot.seconds_plain = r.seconds_plain;
-    rs->polar_pilot.seconds_polarised = r.seconds_polarised;
-    return 0;
+    rs->polar_pilot.on = d->setting == SCENE_POLARIZED_ON;
+    rs->polar_pilot.change = d->pilot.change;
+    rs->polar_pilot.change_hi = d->pilot.change_hi;
+    rs->polar_pilot.target = d->target;
+    rs->polar_pilot.seconds_plain = d->pilot.seconds_plain;
+    rs->polar_pilot.seconds_polarised = d->pilot.seconds_polarised;
 }

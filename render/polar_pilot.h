@@ -15,24 +15,35 @@
  * the mean luminance). A few samples leave that figure noisy (the jewel's reads 0.96 % at 4 spp,
  * 1.7-2.6 % at 16-64: docs/accuracy.md), so the decision takes its bound two standard errors
  * up -- the mean product plus twice its standard error over the pixels -- and carries
- * polarisation unless the pilot shows the change below POLAR_PILOT_TARGET: a wrong "on" costs
+ * polarisation unless the pilot shows the change below the target: a wrong "on" costs
  * 10-50 % more time, a wrong "off" an image off by more than the target.
  *
- * The threshold is fixed rather than the job's --target-error: the stopping rules are the
- * master's and the scene must not depend on them (settings/settings.h), or a worker that loads
- * the scene itself and a client that shares its own would render one job two ways.
+ * The decision (polar_pilot_decide) is the one rule, made once per job before it starts: by the
+ * master for a submitted job, by `prismfarm render` for its own (--direct or its in-process
+ * farm), by `prismfarm plan` for its report. It goes to every worker as the job setting
+ * `polarized` (proto/job_settings.h), which they obey without measuring, and the journal keeps
+ * it, so a restarted master does not decide again. The pilot's figure comes from rendered
+ * floats, which another build or CPU may move a little (a sanitizer build read
+ * tests/data/render/tiny.pbrt's bound above 1 % where the release build read it below): made
+ * once, it cannot make the hosts of one job render it two ways. The target is the job's
+ * --target-error, or POLAR_PILOT_TARGET without one or above it: a target error bounds the
+ * noise a job accepts, which more samples would lower, while ignoring polarisation is a bias
+ * no sample removes, so a loose target does not license one above 1 % (and stopping rules of
+ * 1 % or more then never change which samples a job renders: tests/cli/test_cli_accuracy.c).
  *
  * Guarantees: the same figure for the same build on the same CPU (fixed tiles and sample
- * indices, one thread, no clock in it), but not across builds or CPUs; so it advises and never
- * decides (polar_pilot_apply). */
+ * indices, one thread, no clock in it); the scene measured is not changed (the pilot renders a
+ * copy of its settings), so a scene shared between threads may be measured. */
 #ifndef PRISMFARM_POLAR_PILOT_H
 #define PRISMFARM_POLAR_PILOT_H
 
 #include "err.h"
+#include "overrides.h"
 #include "scene.h"
 
-/* The change above which polarisation is carried: 1 % of the mean luminance, the error a
- * finished render is commonly taken to (docs/plan.md, "Polarisation"). */
+/* The change above which polarisation is carried when the job has no --target-error: 1 % of
+ * the mean luminance, the error a finished render is commonly taken to (docs/plan.md,
+ * "Polarisation"). */
 #define POLAR_PILOT_TARGET 0.01
 /* Samples per pixel of each of the four pilot renders, and the grid of tiles (of
  * POLAR_PILOT_TILE square pixels) spread over the image. */
@@ -56,18 +67,34 @@ typedef struct polar_pilot_result {
 
 /* Measures the change on a grid x grid of tiles (1..POLAR_PILOT_GRID, tile x tile pixels, the
  * whole image when smaller) at spp samples per pixel per run, whatever the scene's
- * polarisation setting (restored after). bench/polar_pilot.c takes it further than the pilot's
- * defaults for docs/accuracy.md. -1 with err when a render failed. */
-int polar_pilot_measure(scene_t *scene, int grid, int tile, int spp, polar_pilot_result_t *out,
-                        err_t *err);
+ * polarisation setting. bench/polar_pilot.c takes it further than the pilot's defaults for
+ * docs/accuracy.md. -1 with err when a render failed. */
+int polar_pilot_measure(const scene_t *scene, int grid, int tile, int spp,
+                        polar_pilot_result_t *out, err_t *err);
 
-/* Runs the pilot when polar_pilot_needed and it has not run on this scene and records what it
- * measured in scene->settings.polar_pilot, for the plan to report (above POLAR_PILOT_TARGET it
- * advises Integrator "bool polarized" true). It does not switch polarisation on: the decision
- * rests on rendered floats, which another build or another CPU's Embree path can move across
- * the threshold (a sanitizer build did, on tests/data/render/tiny.pbrt), and a farm whose
- * workers decided apart would render one job two ways; the scene file's option is the same on
- * every host. Returns 0 (also when nothing was needed), -1 with err when a render failed. */
-int polar_pilot_apply(scene_t *scene, err_t *err);
+/* The plan's decision for one job. setting is the job setting `polarized`: SCENE_POLARIZED_ON
+ * where the scene already carries polarisation (a sheet, an analyser, a Stokes output, a
+ * polarised light, the file's "bool polarized": cause_file) or where the pilot's bound
+ * change_hi exceeds the target; else SCENE_POLARIZED_OFF. */
+typedef struct polar_decision {
+    int setting;
+    int cause_file; /* the scene itself asked for polarisation: no pilot */
+    int measured;   /* the pilot ran (a Fresnel interface, nothing asked) */
+    polar_pilot_result_t pilot;
+    double target; /* the error its bound was compared with */
+} polar_decision_t;
+
+/* The decision for scene, whose job has target_error (0: none; the target is
+ * min(target_error, POLAR_PILOT_TARGET), POLAR_PILOT_TARGET without one).
+ * Runs the pilot when polar_pilot_needed; the scene is not changed. -1 with err when a pilot
+ * render failed. */
+int polar_pilot_decide(const scene_t *scene, double target_error, polar_decision_t *out,
+                       err_t *err);
+
+/* Applies a decision to a scene loaded with the setting left to the file (what loading it with
+ * the decision's setting does: polarised on for SCENE_POLARIZED_ON) and records the pilot's
+ * figures in scene->settings.polar_pilot for the plan's report. Call before the scene is
+ * shared. */
+void polar_pilot_record(scene_t *scene, const polar_decision_t *d);
 
 #endif

@@ -1645,7 +1645,7 @@ static void cross_sheet(path_t *p, const surface_t *sf, const material_t *m)
     const vec3_t axis = sheet_axis(sf, m);
     const polar_event_t ev = polar_event_sheet(vec3_neg(p->dir), axis);
     mueller_t mm[LANES];
-    const int per_lane = sheet_mueller(sf, m, axis, p->dir, p->n, p->lambda, mm);
+    const int per_lane = sheet_mueller(sf, m, axis, vec3_neg(p->dir), p->n, p->lambda, mm);
     if (!per_lane)
         mm[0] = mueller_normalised(&mm[0]);
     polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &ev, mm, per_lane);

@@ -14,7 +14,7 @@ vec3_t sheet_axis(const surface_t *sf, const material_t *m)
     return vec3_add(vec3_scale(t, cos(m->sheet_angle)), vec3_scale(b, sin(m->sheet_angle)));
 }
 
-int sheet_mueller(const surface_t *sf, const material_t *m, vec3_t axis, vec3_t dir, int n,
+int sheet_mueller(const surface_t *sf, const material_t *m, vec3_t axis, vec3_t k, int n,
                   const double *lambda, mueller_t *mm)
 {
     if (m->kind == MATERIAL_POLARISER) {
@@ -25,14 +25,25 @@ int sheet_mueller(const surface_t *sf, const material_t *m, vec3_t axis, vec3_t 
         mm[0] = mueller_retarder(0.0, m->retardance);
         return 0;
     }
-    /* A retardance per lane (§14.1): 2 pi Gamma / lambda, or the crystal plate's. */
+    /* A retardance per lane (§14.1): 2 pi Gamma / lambda, or the crystal plate's; a plate cut
+     * across its axis turns the light by the crystal's optical activity (quartz's), clockwise
+     * seen facing the light for a dextrorotatory crystal: -rho t in the frame (x, k x x). */
+    const vec3_t x = polar_frame_perp(axis, k);
     for (int j = 0; j < n; j++) {
         const double l = lambda[j];
+        if (m->retarder_mode == RETARDER_PLATE && m->plate_axial) {
+            const double psi = -crystal_rotary_power(&m->crystal.rotation, l) * (PF_PI / 180.0) *
+                               (m->plate_thickness_nm * 1e-6);
+            mm[j] =
+                waveplate_axial_mueller(ior_eval(&m->crystal.no, l), ior_eval(&m->crystal.ne, l),
+                                        psi, m->plate_thickness_nm, l, k, sf->ng, x);
+            continue;
+        }
         const double delta =
             m->retarder_mode == RETARDER_RETARDATION
                 ? 2.0 * PF_PI * m->retardation_nm / l
                 : waveplate_retardance(ior_eval(&m->crystal.no, l), ior_eval(&m->crystal.ne, l),
-                                       m->plate_thickness_nm, l, dir, sf->ng, axis);
+                                       m->plate_thickness_nm, l, k, sf->ng, axis);
         mm[j] = mueller_retarder(0.0, delta);
     }
     return 1;

@@ -13,12 +13,13 @@
  * (a surface without dp/du: from vec3_basis's tangent of ng), in the sheet's plane. */
 vec3_t sheet_axis(const surface_t *sf, const material_t *m);
 
-/* The element for lanes [0, n) at wavelengths lambda crossing along dir, in the frames of
- * polar_event_sheet(k, axis) (k = dir or -dir: the element and the retardance are even in the
- * direction): an ideal polariser (M[0][0] = 1/2) or a lossless retarder -- a constant
- * retardance, 2 pi Gamma / lambda, or a crystal plate's (polar/waveplate.h) --, into mm[0]
- * for every lane (returns 0) or mm[j] per lane (returns 1). */
-int sheet_mueller(const surface_t *sf, const material_t *m, vec3_t axis, vec3_t dir, int n,
+/* The element for lanes [0, n) at wavelengths lambda for light crossing along k (the light's
+ * direction, not the path's), in the frames of polar_event_sheet(k, axis): an ideal polariser
+ * (M[0][0] = 1/2) or a lossless retarder -- a constant retardance, 2 pi Gamma / lambda, or a
+ * crystal plate's (polar/waveplate.h: with its axis in the plate, even in k; cut across it,
+ * the optical rotation and the oblique linear retardance in k's own frame) --, into mm[0] for
+ * every lane (returns 0) or mm[j] per lane (returns 1). */
+int sheet_mueller(const surface_t *sf, const material_t *m, vec3_t axis, vec3_t k, int n,
                   const double *lambda, mueller_t *mm);
 
 #endif

@@ -225,6 +225,10 @@ int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
      * advises where ignoring polarisation would change the image by more than 1 %. */
     rs->polarised |= polarized;
     rs->polarised_asked = polarized;
+    /* The plan's decision (render/polar_pilot.h), made once for the job and given to every
+     * host that renders it: the same as setting it on the loaded scene (polar_pilot_record). */
+    if (ov && ov->polarized == SCENE_POLARIZED_ON)
+        rs->polarised = 1;
     if (!strcmp(named->name, "sppm") || !strcmp(in->type, "sppm")) {
         if (load_sppm(L, p, !strcmp(named->name, "sppm"), err))
             return -1;

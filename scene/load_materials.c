@@ -361,6 +361,7 @@ int load_materials(loader_t *L, err_t *err)
             m.retarder_mode = dm->type == SCENE_MATERIAL_RETARDER ? dm->retarder_mode : 0;
             m.retardation_nm = dm->retardation;
             m.plate_thickness_nm = dm->plate_thickness * 1000.0;
+            m.plate_axial = dm->plate_axial;
             if (m.retarder_mode == RETARDER_PLATE)
                 rc = crystal_inputs(L, dm, &m, err);
             break;

@@ -6,6 +6,11 @@
 
 #include "budget.h"
 
+/* The values of scene_overrides_t.polarized (the job setting `polarized`). */
+#define SCENE_POLARIZED_FILE 0
+#define SCENE_POLARIZED_OFF 1
+#define SCENE_POLARIZED_ON 2
+
 /* Command-line overrides of the scene file; 0 / NULL / -1 leave the file's value. */
 typedef struct scene_overrides {
     int spp;
@@ -13,6 +18,9 @@ typedef struct scene_overrides {
     long long seed;         /* -1: keep */
     const char *integrator; /* "path", "simplepath", "whitted" (scenefile/integrators.h) */
     const char *dispersion; /* "hero", "fanout" */
+    /* Polarised transport as the plan decided it (render/polar_pilot.h): SCENE_POLARIZED_FILE
+     * leaves the file's, _OFF too (the decision found nothing to carry), _ON carries it. */
+    int polarized;
     /* What a scene from an untrusted source may make the loader build (budget.h): checked
      * by scene_load_file_confined; NULL: no budget. */
     const scene_budget_t *budget;

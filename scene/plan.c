@@ -310,9 +310,10 @@ static int decide_splitting(plan_t *p, const scene_t *s)
  * records intensity only sees it where light meets a second polarising surface (a glass seen in
  * a window, light inside a gem): the intensity ignoring it is off by up to a few per cent there
  * (a slab at 60 degrees transmits 0.836 unpolarised against 0.848 polarised: test_polar_render's
- * oracle), which the plan names; where the polarisation pilot ran (render/polar_pilot.h, before
- * the plan) this states its figure and, above its target, advises Integrator "bool polarized"
- * true: the pilot only advises, since its figure may differ between builds and CPUs. */
+ * oracle), which the plan names. Where nothing asks for it, the plan's pilot decides
+ * (render/polar_pilot.h polar_pilot_decide, run before the plan: by `prismfarm plan`, by the
+ * master before a job starts, by `prismfarm render`): on when its bound on the change exceeds
+ * the job's target error (1 % without one). This states its figure against the target. */
 static int decide_polarisation(plan_t *p, const scene_t *s)
 {
     text_t c = {0}, r = {0};
@@ -362,16 +363,18 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
             text_add(&r, "the film writes the Stokes layers S1-S3; ");
         if (rs->polarised_asked)
             text_add(&r, "the file asks for it (Integrator \"bool polarized\" true); ");
-        if (rs->polar_pilot.run)
+        if (rs->polar_pilot.run && rs->polar_pilot.on)
             text_add(&r,
-                     "a pilot (render/polar_pilot.h: the same samples with and without it) "
-                     "measured that ignoring it changes the image by %.2f %% (RMS per pixel over "
-                     "the mean luminance; up to %.2f %% at two standard errors); its renders "
-                     "took %.2f s against %.2f s; ",
+                     "the plan's pilot (render/polar_pilot.h: the same samples with and without "
+                     "it) measured that ignoring it changes the image by %.2f %% (RMS per pixel "
+                     "over the mean luminance), up to %.2f %% at two standard errors, above the "
+                     "job's target error of %g %%; its renders took %.2f s against %.2f s "
+                     "(decided once, before the job starts, and given to every worker); ",
                      100.0 * rs->polar_pilot.change, 100.0 * rs->polar_pilot.change_hi,
-                     rs->polar_pilot.seconds_polarised, rs->polar_pilot.seconds_plain);
+                     100.0 * rs->polar_pilot.target, rs->polar_pilot.seconds_polarised,
+                     rs->polar_pilot.seconds_plain);
         if (!sheets && !s->camera.analyser && !rs->stokes && !rs->polarised_asked &&
-            !s->polarised_lights)
+            !s->polarised_lights && !(rs->polar_pilot.run && rs->polar_pilot.on))
             text_add(&r, "the caller asked for it; ");
         text_add(&r, "a 4x4 Mueller matrix per lane at every glass and metal interface (smooth or "
                      "rough) and sheet; diffuse, thin and layered surfaces depolarise. ");
@@ -399,18 +402,13 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
                      glass, glass > 1 ? "s" : "");
         if (rs->polar_pilot.run)
             text_add(&r,
-                     "; a pilot (render/polar_pilot.h: the same samples with and without "
-                     "polarisation) measured that ignoring it changes the image by %.2f %% (RMS "
-                     "per pixel over the mean luminance; at most %.2f %% at two standard "
-                     "errors), %s the %g %% target%s",
+                     "; the plan's pilot (render/polar_pilot.h: the same samples with and "
+                     "without polarisation) measured that ignoring it changes the image by "
+                     "%.2f %% (RMS per pixel over the mean luminance; at most %.2f %% at two "
+                     "standard errors), within the job's target error of %g %%, so it is left "
+                     "off (decided once, before the job starts)",
                      100.0 * rs->polar_pilot.change, 100.0 * rs->polar_pilot.change_hi,
-                     rs->polar_pilot.change_hi > rs->polar_pilot.target ? "above" : "within",
-                     100.0 * rs->polar_pilot.target,
-                     rs->polar_pilot.change_hi > rs->polar_pilot.target
-                         ? ": carry it with Integrator \"bool polarized\" true (the pilot "
-                           "advises, it does not decide: its figure may differ between builds "
-                           "and CPUs, and a farm's workers must render alike)"
-                         : "");
+                     100.0 * rs->polar_pilot.target);
         if (crystals)
             text_add(&r,
                      "; uniaxial crystals (%d material%s) do not turn it on by themselves: "

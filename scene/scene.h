@@ -135,6 +135,10 @@ typedef struct material {
      * of plate_thickness_nm (polar/waveplate.h). */
     retarder_mode_t retarder_mode;
     double retardation_nm, plate_thickness_nm;
+    /* A crystal plate cut across its optic axis ("bool axial"; waveplate_axial_mueller): light
+     * along the axis, turned by the crystal's optical activity (quartz) and retarded by the
+     * linear birefringence of oblique incidence. 0: the axis in the plate, along sheet_angle. */
+    int plate_axial;
     /* pbrt-v4's SubsurfaceMaterial (scene/subsurface_load.h): a MATERIAL_DIELECTRIC (its ior
      * and roughness are the boundary's) with a BSSRDF beneath, when table is not NULL: the
      * profile table for its (g, eta) (owned by the scene), the medium's coefficients per unit
@@ -393,11 +397,13 @@ typedef struct render_settings {
      * of grid.n, S0 (the spectral image as without it) then S1, S2, S3 in the image's frame
      * (x right, y up): render_settings_buckets. */
     int stokes;
-    /* What the polarisation pilot measured (render/polar_pilot.h), for the plan's report; run
-     * 0: it did not run (a polariser, analyser or Stokes output already asked for polarisation,
-     * no Fresnel interface, or the caller did not run it). */
+    /* What the polarisation pilot measured and decided (render/polar_pilot.h
+     * polar_pilot_record), for the plan's report; run 0: it did not run (a polariser, analyser
+     * or Stokes output already asked for polarisation, no Fresnel interface, the caller did not
+     * decide, or the job's setting came decided: a worker's scene). */
     struct {
         int run;
+        int on;           /* the decision (polar_pilot_decide): polarisation carried */
         double change;    /* relative RMS change of pixel luminance, polarised against not */
         double change_hi; /* its bound two standard errors up: what the decision compares */
         double target;    /* the error it was compared with */

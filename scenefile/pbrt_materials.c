@@ -486,7 +486,8 @@ static int get_retarder(parser_t *P, params_t *ps, scene_material_t *m)
                               "(\"string crystal\" or \"o.\" and \"e.\" indices)");
         return 0;
     }
-    if (get_crystal_indices(P, ps, m, "retarder") != 0)
+    if (get_crystal_indices(P, ps, m, "retarder") != 0 ||
+        params_get_bool(ps, "axial", false, &m->plate_axial, P->err) != 0)
         return -1;
     if (!params_find(ps, "thickness"))
         return pbrt_error(P->err, m->loc,

@@ -253,6 +253,7 @@ typedef struct scene_material {
     scene_float_input_t eumelanin, pheomelanin, hair_eta, beta_m, beta_n, hair_alpha;
     int retarder_mode;
     double retardation, plate_thickness;
+    bool plate_axial; /* a crystal plate's "bool axial": cut across its optic axis */
     /* SUBSURFACE (pbrt-v4 SubsurfaceMaterial): a dielectric boundary of index "eta" (sss_eta,
      * 1.33) and roughness (the fields above) over a scattering medium: "sigma_a" and
      * "sigma_s" (sigma_a above, sss_sigma_s; both or neither), else a named measured medium

@@ -7,6 +7,7 @@
 #include "jobinfo.h"
 #include "peers.h"
 #include "persist.h"
+#include "polar_pilot.h"
 #include "scene_load.h"
 #include "settings.h"
 
@@ -126,8 +127,8 @@ static scene_t *load_confined(void *arg, err_t *err)
 /* The scene reads nothing outside dir, so no message can show a client a file of the master's
  * host; a photon job's phase keeps the scene to check and merge batches against. */
 job_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
-                const proto_settings_t *set, const char *dir, const scene_budget_t *budget,
-                scene_shelf_t *shelf, int threads, err_t *err)
+               const proto_settings_t *set, const char *dir, const scene_budget_t *budget,
+               scene_shelf_t *shelf, int threads, bool decide, err_t *err)
 {
     size_t main_size = strlen(dir) + strlen(main) + 2;
     char *main_path = malloc(main_size);
@@ -152,6 +153,23 @@ job_t *job_new(uint64_t id, const char *name, const char *hash, const char *main
         return NULL;
     }
     job_take_scene(j, scene);
+    /* Polarisation decided once, here, for every host that renders the job (the pilot reads
+     * the scene without changing it: it may be shared on the shelf). */
+    proto_settings_t decided = *set;
+    polar_decision_t polar = {0};
+    if (decide && set->polarized == SCENE_POLARIZED_FILE) {
+        if (polar_pilot_decide(scene, set->target_error, &polar, err) < 0) {
+            err_prefix(err, "the polarisation pilot: ");
+            scene_destroy(&scene);
+            job_destroy(&j);
+            return NULL;
+        }
+        decided.polarized = polar.setting;
+    }
+    j->polar = (job_polar_t){.measured = polar.measured,
+                             .change = polar.pilot.change,
+                             .change_hi = polar.pilot.change_hi,
+                             .target = polar.target};
     bool photon = scene->settings.photon.enabled;
     uint64_t photons = scene->settings.photon.photons;
     if (photon && !(j->photons.phase = photon_phase_new(&scene, err))) {
@@ -162,7 +180,7 @@ job_t *job_new(uint64_t id, const char *name, const char *hash, const char *main
     j->id = id;
     make_stem(j->name, j->stem, sizeof j->stem);
     snprintf(j->hash, sizeof j->hash, "%s", hash);
-    job_set_settings(j, set);
+    job_set_settings(j, &decided);
     j->photons.enabled = photon;
     j->journal.round_photons = photon ? photons : 0;
     j->state = JOB_QUEUED;

@@ -18,11 +18,15 @@ int jobs_append(master_t *m, job_t *j);
 /* A job made from its scene, dir/main loaded with the settings and confined to dir, within
  * budget (budget.h; NULL: none), on threads threads (0: all cores; the scene is the same
  * whatever the number) -- or taken from shelf when it holds the scene of that hash and settings
- * (NULL: no shelf); a photon job gets a fresh photon phase. Not yet scheduled (job_schedule).
- * Touches nothing of the master's, so several may run at once. NULL with err. */
+ * (NULL: no shelf); a photon job gets a fresh photon phase. With decide (a submission, never a
+ * resumed job: the journal keeps the decision) and the setting `polarized` not given, the plan
+ * decides polarised transport once here (render/polar_pilot.h polar_pilot_decide, its pilot
+ * against the job's target error) and the job's settings carry the decision to every worker.
+ * Not yet scheduled (job_schedule). Touches nothing of the master's, so several may run at
+ * once. NULL with err. */
 job_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
-                const proto_settings_t *set, const char *dir, const scene_budget_t *budget,
-                scene_shelf_t *shelf, int threads, err_t *err);
+               const proto_settings_t *set, const char *dir, const scene_budget_t *budget,
+               scene_shelf_t *shelf, int threads, bool decide, err_t *err);
 /* A job of the journal as the master lists it without rendering it: one that is over, or one
  * that cannot be resumed. NULL when out of memory. */
 job_t *job_from_record(const journal_job_t *r);

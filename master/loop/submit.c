@@ -6,6 +6,7 @@
 #include "jobs.h"
 #include "loader.h"
 #include "ops.h"
+#include "overrides.h"
 #include "persist.h"
 #include "pool.h"
 
@@ -103,7 +104,7 @@ static int load_frame(void *user, int index, err_t *err)
     scene_budget_t budget = s->budget; /* each frame's parse has its own clock */
     scene_budget_start(&budget, clock_now_s());
     s->frames[k] = job_new(0, s->frame_main[k], s->hash, s->frame_main[k], &s->settings, s->dir,
-                           &budget, s->shelf, fl->inner, &e);
+                           &budget, s->shelf, fl->inner, true, &e);
     if (s->frames[k]) {
         s->frames[k]->seq.frame = s->frame_number[k];
         return 0;
@@ -177,7 +178,7 @@ static void submission_load(void *arg)
     scene_budget_start(&s->budget, clock_now_s());
     s->job = s->nframes > 0 ? load_frames(s)
                             : job_new(0, s->name, s->hash, s->main, &s->settings, s->dir,
-                                      &s->budget, s->shelf, 0, &s->err);
+                                      &s->budget, s->shelf, 0, true, &s->err);
     if (s->job) {
         if (spool_scene_commit(s->spool, s->scene_msg, s->scene_size, s->hash, s->dir, s->staged,
                                &s->err) < 0) {
@@ -436,12 +437,22 @@ static void submission_finish(master_t *m, submission_t *s, double now)
     if (set->time_limit > 0)
         snprintf(rules + strlen(rules), sizeof rules - strlen(rules), ", time limit %g s",
                  set->time_limit);
+    /* The plan's polarisation decision, made once at the load (jobs.c job_new), with the
+     * pilot's figure where it measured one. */
+    char polar[160] = "";
+    if (j->polar.measured)
+        snprintf(polar, sizeof polar,
+                 ", polarisation %s (the pilot measured %.2f %%, up to %.2f %%, against %g %%)",
+                 j->settings.polarized == SCENE_POLARIZED_ON ? "on" : "off",
+                 100.0 * j->polar.change, 100.0 * j->polar.change_hi, 100.0 * j->polar.target);
+    else if (j->settings.polarized == SCENE_POLARIZED_ON)
+        snprintf(polar, sizeof polar, ", polarisation on");
     master_log(m,
                "job %llu '%s' submitted by %s: %dx%d, %d spp, %d buckets, %d tiles x %d passes, "
-               "%u photon batches, scene %.12s loaded in %.2f s (off the loop)%s",
+               "%u photon batches, scene %.12s loaded in %.2f s (off the loop)%s%s",
                (unsigned long long)id, j->name, who, j->scene.xres, j->scene.yres, j->scene.spp,
                j->scene.grid.n, info.ntiles, info.npasses, info.photon_batches, s->hash, s->load_s,
-               rules);
+               rules, polar);
 }
 
 void submit_loads(master_t *m, double now)

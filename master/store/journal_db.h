@@ -29,8 +29,10 @@
  * proto/job_settings.h (adaptive sampling had been the sign of target_error: a version-9
  * journal gets the column, its negative targets made the flag; migrate_settings). A new
  * setting bumps the version too: migrate_settings gives an older spool the missing columns,
- * each filled with its setting's KEEP, which is how that spool's jobs ran. */
-#define JOURNAL_VERSION 10
+ * each filled with its setting's KEEP, which is how that spool's jobs ran. 11: `polarized`,
+ * the plan's decision on polarised transport (render/polar_pilot.h), kept so that a restarted
+ * master does not decide again; a version-10 spool's jobs get 0, the file's, as they ran. */
+#define JOURNAL_VERSION 11
 
 /* The segment a job's results are appended to (journal.h): open until the job's next prune. */
 typedef struct segment {

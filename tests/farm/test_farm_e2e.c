@@ -16,6 +16,7 @@
 #include "farm_testutil.h"
 #include "image_exr.h"
 #include "passes.h"
+#include "polar_pilot.h"
 #include "pool.h"
 #include "render.h"
 #include "scene_load.h"
@@ -55,6 +56,28 @@ static void test_render_any_worker_count(void **state)
     testutil_assert_same_pixels(testutil_scratch("one.exr"), testutil_scratch("three.exr"));
     struct stat st;
     assert_int_equal(stat(testutil_scratch("three.png"), &st), 0);
+
+    /* The plan decides polarisation once, before the job starts, and every worker renders
+     * with its decision (render/polar_pilot.h): one scene it turns on (glass plates, a 6 %
+     * change), one it leaves off (a metal reflects once: no change), 1 and 3 workers the same
+     * bytes each. */
+    const char *const polar[2][2] = {{"data/render/polar_on.pbrt", "polarisation on: "},
+                                     {"data/render/polar_off.pbrt", "polarisation off: "}};
+    for (int k = 0; k < 2; k++) {
+        char one[64], three[64];
+        snprintf(one, sizeof one, "polar%d_1.exr", k);
+        snprintf(three, sizeof three, "polar%d_3.exr", k);
+        r = run("render", polar[k][0], "-o", testutil_scratch(one), "--workers", "1", "--threads",
+                "1", "--tile", "8", NULL);
+        if (r->status != 0)
+            fail_msg("%s: exit %d: %s", polar[k][0], r->status, r->err);
+        expect_in(r->err, polar[k][1]);
+        r = run("render", polar[k][0], "-o", testutil_scratch(three), "--workers", "3", "--threads",
+                "1", "--tile", "4", "--quiet", NULL);
+        if (r->status != 0)
+            fail_msg("%s: exit %d: %s", polar[k][0], r->status, r->err);
+        testutil_assert_same_pixels(testutil_scratch(one), testutil_scratch(three));
+    }
 }
 
 /* The image docs/farm.md ("Same pixels") defines, computed here from render_tile alone: per
@@ -69,6 +92,11 @@ static tilebuf_t *reference_image(const char *scene_path, int spp, int tile, int
     scene_t *sc = scene_load_file(scene_path, &ov, &err);
     if (!sc)
         fail_msg("%s", err.msg);
+    /* Polarisation as the plan decides it for the job (render/polar_pilot.h). */
+    polar_decision_t polar;
+    if (polar_pilot_decide(sc, 0.0, &polar, &err) < 0)
+        fail_msg("%s", err.msg);
+    polar_pilot_record(sc, &polar);
     const render_settings_t *rs = &sc->settings;
 #if defined(__SSE__)
     /* The floating-point mode of every render thread (base/pool.h sets it). */
@@ -267,6 +295,19 @@ static void test_processes_and_a_killed_worker(void **state)
     if (r->status != 0)
         fail_msg("render: exit %d: %s", r->status, r->err);
     testutil_assert_same_pixels(testutil_scratch("single.exr"), testutil_scratch("render.exr"));
+    /* The master decides polarisation for a submitted job as `render` does for its own: the
+     * glass plates' pilot turns it on (its log says so), and the bytes are render's. */
+    r = run("submit", "data/render/polar_on.pbrt", "--master", cep, "--name", "polar", "--wait",
+            "-o", testutil_scratch("polar_farm.exr"), "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("submit polar_on: exit %d: %s", r->status, r->err);
+    testutil_wait_file_has(testutil_scratch("master.log"), "polarisation on (the pilot measured");
+    r = run("render", "data/render/polar_on.pbrt", "-o", testutil_scratch("polar_render.exr"),
+            "--direct", "--quiet", NULL);
+    if (r->status != 0)
+        fail_msg("render polar_on: exit %d: %s", r->status, r->err);
+    testutil_assert_same_pixels(testutil_scratch("polar_farm.exr"),
+                                testutil_scratch("polar_render.exr"));
 
     /* Errors a user sees: a broken scene, a job that does not exist. */
     r = run("submit", "data/render/broken.pbrt", "--master", cep, NULL);

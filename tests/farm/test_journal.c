@@ -15,8 +15,9 @@
 
 #include "cli_run.h"
 #include "farm_testutil.h"
-#include "journal_testutil.h"
 #include "journal.h"
+#include "journal_db.h" /* JOURNAL_VERSION */
+#include "journal_testutil.h"
 #include "rng.h"
 
 #include <dirent.h>
@@ -496,7 +497,7 @@ static void test_journal_tables(void **state)
                                         &vst, NULL),
                      SQLITE_OK);
     assert_int_equal(sqlite3_step(vst), SQLITE_ROW);
-    assert_int_equal(sqlite3_column_int(vst, 0), 10);
+    assert_int_equal(sqlite3_column_int(vst, 0), JOURNAL_VERSION);
     sqlite3_finalize(vst);
     sqlite3_close(db);
 
@@ -534,7 +535,37 @@ static void test_journal_tables(void **state)
         journal_job_clear(&rows[i]);
     free(rows);
     journal_close(&jn);
-    assert_int_equal(testutil_journal_query(dir, "SELECT value FROM meta WHERE key='version'"), 10);
+    assert_int_equal(testutil_journal_query(dir, "SELECT value FROM meta WHERE key='version'"),
+                     JOURNAL_VERSION);
+
+    /* Version 11 keeps the plan's polarisation decision (render/polar_pilot.h), so that a
+     * restarted master does not decide again: a job's 2 ("on") comes back as it went in, and a
+     * version-10 journal gets the column with 0, the file's, as its jobs ran. */
+    assert_non_null(jn = journal_open(dir, &err));
+    journal_job_t polar = job;
+    polar.id = 9;
+    polar.settings.polarized = 2;
+    assert_int_equal(journal_add_job(jn, &polar, &err), 0);
+    journal_close(&jn);
+    assert_int_equal(testutil_journal_query(dir, "SELECT polarized FROM jobs WHERE id=9"), 2);
+    assert_int_equal(sqlite3_open(path, &db), SQLITE_OK);
+    assert_int_equal(sqlite3_exec(db,
+                                  "ALTER TABLE jobs DROP COLUMN polarized; UPDATE meta SET "
+                                  "value=10 WHERE key='version'",
+                                  NULL, NULL, NULL),
+                     SQLITE_OK);
+    sqlite3_close(db);
+    assert_non_null(jn = journal_open(dir, &err));
+    assert_int_equal(journal_jobs(jn, &rows, &n, &err), 0);
+    assert_int_equal(n, 3);
+    for (size_t i = 0; i < n; i++) {
+        assert_int_equal(rows[i].settings.polarized, 0);
+        journal_job_clear(&rows[i]);
+    }
+    free(rows);
+    journal_close(&jn);
+    assert_int_equal(testutil_journal_query(dir, "SELECT value FROM meta WHERE key='version'"),
+                     JOURNAL_VERSION);
 
     /* A journal of another version is refused with a message, not reused. */
     assert_int_equal(sqlite3_open(path, &db), SQLITE_OK);

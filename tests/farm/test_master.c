@@ -27,11 +27,12 @@
 #include "bundle.h"
 #include "clock.h"
 #include "farm_testutil.h"
-#include "master_testutil.h"
 #include "image_exr.h"
 #include "local_render.h"
 #include "master.h"
+#include "master_testutil.h"
 #include "net.h"
+#include "polar_pilot.h"
 #include "render.h"
 #include "scene_load.h"
 #include "settings.h"
@@ -136,12 +137,24 @@ static void fw_result(fake_worker_t *w, const proto_msg_t *t, const tilebuf_t *t
 /* The job rendered here by farm.md's rule, independently of sched: 8-pixel tiles, passes of
  * sample indices [0,1) [1,2) [2,4), each pass's sums rounded (tilebuf_round_sums) and each
  * tile's passes summed in pass order. */
-static tilebuf_t *expected_image(void)
+/* tiny.pbrt as the master renders the job: polarisation as the plan decides it once for the job
+ * (render/polar_pilot.h), which the TASKs carry to the workers. */
+static scene_t *load_tiny_as_planned(void)
 {
     err_t err;
     scene_overrides_t ov = {.spp = SPP, .seed = -1};
     scene_t *sc = scene_load_file("data/render/tiny.pbrt", &ov, &err);
     assert_non_null(sc);
+    polar_decision_t polar;
+    assert_int_equal(polar_pilot_decide(sc, 0.0, &polar, &err), 0);
+    polar_pilot_record(sc, &polar);
+    return sc;
+}
+
+static tilebuf_t *expected_image(void)
+{
+    err_t err;
+    scene_t *sc = load_tiny_as_planned();
     tilebuf_t *image = tilebuf_new(0, 0, XRES, YRES, NBUCKETS, &err);
     static const uint32_t passes[][2] = {{0, 1}, {1, 2}, {2, 4}};
     for (int p = 0; p < 3; p++)
@@ -189,9 +202,7 @@ static void check_exr(fx_t *f, uint64_t job)
     const float *spec = image_exr_spectral(exr);
 
     tilebuf_t *want = expected_image();
-    scene_overrides_t ov = {.spp = SPP, .seed = -1};
-    scene_t *sc = scene_load_file("data/render/tiny.pbrt", &ov, &err);
-    assert_non_null(sc);
+    scene_t *sc = load_tiny_as_planned();
     tilebuf_t *local = tilebuf_new(0, 0, XRES, YRES, NBUCKETS, &err);
     local_render_opts_t lo = {.threads = 1, .tile_size = TILE};
     assert_int_equal(local_render(sc, &lo, local, NULL, NULL, &err), 0);

@@ -139,8 +139,8 @@ static proto_msg_t *add(seed_t out[NSEEDS_MAX], int *n, const char *name, proto_
  * with every setting, an empty JOBS_REPLY, TASK and RESULT of both kinds. Returns the count. */
 static int seeds_list(const seeds_t *s, seed_t out[NSEEDS_MAX])
 {
-    const proto_settings_t all = {64, 320, 240, 7, "whitted", "hero", 0, 0, 0};
-    const proto_settings_t keep = {0, 0, 0, -1, NULL, NULL, 0, 0, 0};
+    const proto_settings_t all = {64, 320, 240, 7, "whitted", "hero", 0, 0, 0, 1};
+    const proto_settings_t keep = {0, 0, 0, -1, NULL, NULL, 0, 0, 0, 0};
     int n = 0;
 #define SEED(nm, ty) add(out, &n, nm, ty)
     proto_msg_t *m = SEED("hello", PROTO_HELLO);

@@ -99,7 +99,7 @@ static void fill_arrays(void)
     assert_int_equal(proto_bundle_hash(&g_bundle, g_hash, &err), 0);
 }
 
-static const proto_settings_t g_settings = {256, 640, 480, 42, "path", "fanout", 0.01, 90.5, 0};
+static const proto_settings_t g_settings = {256, 640, 480, 42, "path", "fanout", 0.01, 90.5, 0, 2};
 
 static proto_msg_t sample(proto_type_t t)
 {
@@ -119,7 +119,7 @@ static proto_msg_t sample(proto_type_t t)
         m.task.task = 4242;
         m.task.attempt = 2;
         memcpy(m.task.scene, g_hash, sizeof g_hash);
-        m.task.settings = (proto_settings_t){0, 0, 0, -1, NULL, NULL, 0, 0, 0}; /* all "keep" */
+        m.task.settings = (proto_settings_t){0, 0, 0, -1, NULL, NULL, 0, 0, 0, 0}; /* all "keep" */
         m.task.kind = PROTO_KIND_CAMERA_TILE;
         m.task.tile = (proto_tile_t){64, 32, 32, 32, 100, 164};
         break;

@@ -9,7 +9,7 @@
 
 #include "settings.h"
 
-static const proto_settings_t g_settings = {256, 640, 480, 42, "path", "fanout", 0.01, 90.5, 0};
+static const proto_settings_t g_settings = {256, 640, 480, 42, "path", "fanout", 0.01, 90.5, 0, 2};
 
 static void test_settings_mirror_overrides(void **state)
 {
@@ -21,6 +21,7 @@ static void test_settings_mirror_overrides(void **state)
     assert_int_equal(ov.seed, 42);
     assert_string_equal(ov.integrator, "path");
     assert_string_equal(ov.dispersion, "fanout");
+    assert_int_equal(ov.polarized, SCENE_POLARIZED_ON);
     assert_ptr_equal(ov.integrator, g_settings.integrator); /* strings are not copied */
     assert_ptr_equal(ov.dispersion, g_settings.dispersion);
 }
@@ -37,6 +38,7 @@ static void test_keep_values_pass_through(void **state)
     assert_int_equal(ov.seed, -1);
     assert_null(ov.integrator);
     assert_null(ov.dispersion);
+    assert_int_equal(ov.polarized, SCENE_POLARIZED_FILE);
 }
 
 int main(void)

@@ -15,6 +15,7 @@
 
 #include <cmocka.h> /* after the four headers above, which it needs */
 
+#include <complex.h>
 #include <math.h>
 #include <stdio.h>
 #include <string.h>
@@ -333,6 +334,149 @@ static void test_michel_levy(void **state)
     spectrum_destroy(&d65);
 }
 
+/* ---- Optical activity: a quartz plate cut across its optic axis (polar/waveplate.h) ---- */
+
+/* The Jones-to-Mueller conversion against what does not come from it: the diagonal form and
+ * the rotator R(psi), which turns linear light at 0 to psi. */
+static void test_jones_mueller(void **state)
+{
+    (void)state;
+    const double a[2] = {0.8, -0.3}, b[2] = {-0.2, 0.55};
+    const double jd[2][2][2] = {{{a[0], a[1]}, {0, 0}}, {{0, 0}, {b[0], b[1]}}};
+    const mueller_t md = mueller_jones(jd), want = mueller_jones_diagonal(a[0], a[1], b[0], b[1]);
+    for (int r = 0; r < 4; r++)
+        for (int c = 0; c < 4; c++)
+            assert_true(fabs(md.m[r][c] - want.m[r][c]) < 1e-12);
+    for (double psi = -1.2; psi < 1.3; psi += 0.3) {
+        const double jr[2][2][2] = {{{cos(psi), 0}, {-sin(psi), 0}},
+                                    {{sin(psi), 0}, {cos(psi), 0}}};
+        const mueller_t mr = mueller_jones(jr);
+        const stokes_t out = mueller_apply(&mr, stokes_linear(1.0, 0.0));
+        assert_true(fabs(out.s[0] - 1.0) < 1e-12 && fabs(stokes_dop(out) - 1.0) < 1e-12);
+        assert_true(fabs(stokes_aop(out) - psi) < 1e-12);
+        assert_true(fabs(out.s[3]) < 1e-12);
+    }
+}
+
+/* The plate's elliptical retarder against Jones's equivalence theorem written out: the
+ * product of many thin slices, each a rotator by psi/N between halves of a linear retarder of
+ * delta/N with the o wave (along s) lagging, converges to one homogeneous plate (1e-6 with
+ * 20000 slices);
+ * delta from the index surface with the axis along the normal, computed here. */
+static void test_axial_slices(void **state)
+{
+    (void)state;
+    const double n_o = 1.5443, n_e = 1.5534, t_nm = 2e5, lambda = 589.3;
+    for (double deg = 0.0; deg <= 30.0; deg += 2.5) {
+        const double a = deg * PI / 180.0, q = sin(a);
+        const vec3_t k = vec3_make(sin(a), 0.0, cos(a)), n = vec3_make(0.0, 0.0, 1.0);
+        const vec3_t x = vec3_make(0.0, -1.0, 0.0); /* s = k x n */
+        const double No = sqrt(n_o * n_o - q * q), Ne = n_o * sqrt(1.0 - q * q / (n_e * n_e));
+        const double delta = 2.0 * PI * t_nm * (No - Ne) / lambda, psi = -0.379;
+        const int N = 20000;
+        double complex J[2][2] = {{1, 0}, {0, 1}};
+        const double complex h = cexp(-I * delta / (2 * N)); /* half a slice's lag */
+        const double cr = cos(psi / N), sr = sin(psi / N);
+        for (int i = 0; i < N; i++) {
+            /* slice = diag(h, 1) R(psi/N) diag(h, 1) (the symmetric split: error 1/N^2) */
+            const double complex S[2][2] = {{h * cr * h, -h * sr}, {sr * h, cr}};
+            double complex P[2][2];
+            for (int r = 0; r < 2; r++)
+                for (int c = 0; c < 2; c++)
+                    P[r][c] = S[r][0] * J[0][c] + S[r][1] * J[1][c];
+            memcpy(J, P, sizeof J);
+        }
+        double jj[2][2][2];
+        for (int r = 0; r < 2; r++)
+            for (int c = 0; c < 2; c++)
+                jj[r][c][0] = creal(J[r][c]), jj[r][c][1] = cimag(J[r][c]);
+        const mueller_t want = mueller_jones(jj),
+                        got = waveplate_axial_mueller(n_o, n_e, psi, t_nm, lambda, k, n, x);
+        for (int r = 0; r < 4; r++)
+            for (int c = 0; c < 4; c++)
+                if (!(fabs(got.m[r][c] - want.m[r][c]) < 1e-6))
+                    fail_msg("%g deg: M[%d][%d] %.9f, slices %.9f", deg, r, c, got.m[r][c],
+                             want.m[r][c]);
+        /* Light sent back through the plate sees the same element in its own frame. */
+        const mueller_t back =
+            waveplate_axial_mueller(n_o, n_e, psi, t_nm, lambda, vec3_neg(k), n, vec3_neg(x));
+        for (int r = 0; r < 4; r++)
+            for (int c = 0; c < 4; c++)
+                assert_true(fabs(back.m[r][c] - got.m[r][c]) < 1e-12);
+    }
+}
+
+/* Rendered: unpolarised light through a polariser along x, a right-handed quartz plate 1 mm
+ * thick cut across its axis and an analyser at theta, in a narrow band about a spectral line:
+ * quartz turns the plane clockwise seen facing the light, so I / I_open = 1/2 cos^2(theta +
+ * rho t), rho the handbook's rotation of quartz at 20 C (21.724 deg/mm at 589.3 nm, 41.548 at
+ * 435.8 nm: Lowry 1912, not the catalogue's Drude fit), and the dispersion of the fit within
+ * 0.2 % of the table at 404.7, 546.1 and 670.8 nm. */
+static void test_quartz_rotation(void **state)
+{
+    (void)state;
+    const crystal_t *q = crystal_find("quartz");
+    assert_non_null(q);
+    const double table[5][2] = {
+        {404.7, 48.945}, {435.8, 41.548}, {546.1, 25.538}, {589.3, 21.724}, {670.8, 16.535}};
+    for (int i = 0; i < 5; i++) {
+        const double got = crystal_rotary_power(&q->rotation, table[i][0]);
+        if (!(fabs(got / table[i][1] - 1.0) < 2e-3))
+            fail_msg("rho(%g nm) = %.3f deg/mm, table %.3f", table[i][0], got, table[i][1]);
+    }
+    assert_true(crystal_rotary_power(&crystal_find("calcite")->rotation, 589.3) == 0.0);
+    const double lines[2][2] = {{589.3, 21.724}, {435.8, 41.548}};
+    const double thetas[6] = {0.0, 30.0, 45.0, 60.0, 90.0, 135.0};
+    for (int l = 0; l < 2; l++) {
+        for (int i = 0; i < 7; i++) {
+            /* i = 6: the analyser at extinction, 90 - rho t */
+            const double th = i < 6 ? thetas[i] : 90.0 - lines[l][1];
+            char text[4096];
+            snprintf(text, sizeof text,
+                     "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"orthographic\"\n"
+                     "Film \"spectral\" \"integer xresolution\" [4] \"integer yresolution\" [4] "
+                     "\"integer nbuckets\" [4] \"float lambdamin\" [%g] \"float lambdamax\" [%g]\n"
+                     "Sampler \"zsobol\" \"integer pixelsamples\" [4]\n"
+                     "Integrator \"path\" \"integer maxdepth\" [5]\nWorldBegin\n"
+                     "AttributeBegin\nAreaLightSource \"diffuse\" \"spectrum L\" [300 1 900 1] "
+                     "\"bool twosided\" true\nTranslate 0 0 -1\n" PBRT_QUAD "AttributeEnd\n"
+                     "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [0]\n" PBRT_QUAD
+                     "AttributeEnd\n"
+                     "AttributeBegin\nTranslate 0 0 1.5\nMaterial \"retarder\" \"string crystal\" "
+                     "\"quartz\" \"float thickness\" [1000] \"bool axial\" true\n" PBRT_QUAD
+                     "AttributeEnd\n"
+                     "AttributeBegin\nTranslate 0 0 3\nMaterial \"polarizer\" \"float angle\" "
+                     "[%g]\n" PBRT_QUAD "AttributeEnd\n",
+                     lines[l][0] - 0.3, lines[l][0] + 0.3, th);
+            scene_t *s = sb_load_text(text, NULL);
+            const chart_setup_t cs = {4, 4, 0};
+            double xyz[3];
+            render_xyz(s, cs, xyz);
+            scene_destroy(&s);
+            /* The open light box: the same film without the sheets. */
+            char open[2048];
+            snprintf(open, sizeof open,
+                     "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"orthographic\"\n"
+                     "Film \"spectral\" \"integer xresolution\" [4] \"integer yresolution\" [4] "
+                     "\"integer nbuckets\" [4] \"float lambdamin\" [%g] \"float lambdamax\" [%g]\n"
+                     "Sampler \"zsobol\" \"integer pixelsamples\" [4]\n"
+                     "Integrator \"path\" \"integer maxdepth\" [5]\nWorldBegin\n"
+                     "AttributeBegin\nAreaLightSource \"diffuse\" \"spectrum L\" [300 1 900 1] "
+                     "\"bool twosided\" true\nTranslate 0 0 -1\n" PBRT_QUAD "AttributeEnd\n",
+                     lines[l][0] - 0.3, lines[l][0] + 0.3);
+            scene_t *o = sb_load_text(open, NULL);
+            double xyz_open[3];
+            render_xyz(o, cs, xyz_open);
+            scene_destroy(&o);
+            const double want = 0.5 * pow(cos((th + lines[l][1]) * PI / 180.0), 2.0);
+            const double got = xyz[1] / xyz_open[1];
+            if (!(fabs(got - want) < 2e-3))
+                fail_msg("%g nm, analyser %g deg: %.5f of the open box, want %.5f", lines[l][0], th,
+                         got, want);
+        }
+    }
+}
+
 /* The syntax's errors, each with the file and line. */
 static void test_syntax(void **state)
 {
@@ -369,9 +513,9 @@ static void test_syntax(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_oblique),
-        cmocka_unit_test(test_michel_levy),
-        cmocka_unit_test(test_syntax),
+        cmocka_unit_test(test_oblique),      cmocka_unit_test(test_michel_levy),
+        cmocka_unit_test(test_syntax),       cmocka_unit_test(test_jones_mueller),
+        cmocka_unit_test(test_axial_slices), cmocka_unit_test(test_quartz_rotation),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
