@@ -99,6 +99,18 @@ double fresnel_dielectric(double cos_theta_i, double n_outside, double n_inside)
     return fresnel_dielectric_terms(cos_theta_i, n_outside, n_inside).reflectance;
 }
 
+/* The complex form (pbrt-v4 FrComplex), kept for the indices the real form below does not
+ * take: libgcc's complex division and csqrt rescale, so extreme magnitudes stay finite. */
+static double conductor_complex(double cos_i, double eta, double k)
+{
+    double complex e = eta + I * k;
+    double sin2_i = fmax(0.0, 1.0 - cos_i * cos_i);
+    double complex cos_t = csqrt(1.0 - sin2_i / (e * e));
+    double complex r_parl = (e * cos_i - cos_t) / (e * cos_i + cos_t);
+    double complex r_perp = (cos_i - e * cos_t) / (cos_i + e * cos_t);
+    return 0.5 * (creal(r_parl * conj(r_parl)) + creal(r_perp * conj(r_perp)));
+}
+
 double fresnel_conductor(double cos_i, double eta, double k)
 {
     cos_i = fmin(1.0, fabs(cos_i));
@@ -106,11 +118,38 @@ double fresnel_conductor(double cos_i, double eta, double k)
         cos_i = 0.0;
     if (!isfinite(eta) || !isfinite(k))
         return 1.0;
-    double complex e = eta + I * k;
-    double sin2_i = fmax(0.0, 1.0 - cos_i * cos_i);
-    double complex cos_t = csqrt(1.0 - sin2_i / (e * e));
-    double complex r_parl = (e * cos_i - cos_t) / (e * cos_i + cos_t);
-    double complex r_perp = (cos_i - e * cos_t) / (cos_i + e * cos_t);
-    double r = 0.5 * (creal(r_parl * conj(r_parl)) + creal(r_perp * conj(r_perp)));
+    double r;
+    const double m = fmax(eta, k);
+    if (eta >= 0.0 && k >= 0.0 && m > 1e-100 && m < 1e100) {
+        /* The same quantities in real arithmetic (issue 24: the complex calls cost more than
+         * the rest of the BSDF). With e = eta + i k and w = e cos_t = sqrt(e^2 - sin^2_i)
+         * (the principal root: for e in the first quadrant its argument is half that of
+         * e^2 - sin^2_i, in [0, pi/2]), r_perp = (cos_i - w) / (cos_i + w) and
+         * r_parl = (e^2 cos_i - w) / (e^2 cos_i + w) (r_parl's terms times e), so only
+         * moduli are needed: no complex division. The bounds on eta and k keep every square
+         * below finite range and above underflow. */
+        const double sin2_i = fmax(0.0, 1.0 - cos_i * cos_i);
+        const double p = (eta - k) * (eta + k), q = 2.0 * eta * k; /* e^2 = p + i q */
+        const double ur = p - sin2_i;                              /* w^2 = ur + i q */
+        const double mod = sqrt(ur * ur + q * q);
+        /* The root without cancellation: the larger part from the square root, the other
+         * from q = 2 a b (q >= 0, so a, b >= 0). */
+        double a, b;
+        if (ur >= 0.0) {
+            a = sqrt(0.5 * (mod + ur));
+            b = a > 0.0 ? 0.5 * q / a : 0.0;
+        } else {
+            b = sqrt(0.5 * (mod - ur));
+            a = 0.5 * q / b;
+        }
+        const double rperp =
+            ((cos_i - a) * (cos_i - a) + b * b) / ((cos_i + a) * (cos_i + a) + b * b);
+        const double pc = p * cos_i, qc = q * cos_i;
+        const double rparl = ((pc - a) * (pc - a) + (qc - b) * (qc - b)) /
+                             ((pc + a) * (pc + a) + (qc + b) * (qc + b));
+        r = 0.5 * (rperp + rparl);
+    } else {
+        r = conductor_complex(cos_i, eta, k);
+    }
     return isfinite(r) ? fmin(1.0, fmax(0.0, r)) : 1.0;
 }
