@@ -1,7 +1,5 @@
 #include "lowdisc.h"
 
-#include <limits.h>
-
 /* The finaliser of SplitMix64 (Steele, Lea and Flood 2014) over a + a multiple of b: every
  * input bit reaches every output bit. */
 uint64_t lowdisc_hash(uint64_t a, uint64_t b)
@@ -41,12 +39,11 @@ uint32_t lowdisc_permute(uint32_t i, uint32_t n, uint64_t seed)
     return x;
 }
 
-/* The nested scramble for `levels` digits (counting the index's own), the rest one uniform. */
-static double halton_levels(uint64_t index, uint32_t b, uint64_t seed, int levels, int mixed)
+double lowdisc_halton(uint64_t index, uint32_t b, uint64_t seed)
 {
     /* Indices past 2^32 take another scramble (their digits there lie below the 2^-32 that
-     * the strata below resolve); a seed that is already a hash is taken as it is below. */
-    uint64_t h = mixed && !(index >> 32) ? seed : lowdisc_hash(seed, index >> 32);
+     * the strata below resolve). */
+    uint64_t h = lowdisc_hash(seed, index >> 32);
     uint32_t i = (uint32_t)index;
     if (b == 2) {
         /* Base 2: the radical inverse is the reversed bits, and nested scrambling is
@@ -57,7 +54,6 @@ static double halton_levels(uint64_t index, uint32_t b, uint64_t seed, int level
     }
     const double inv_b = 1.0 / b;
     double v = 0.0, scale = inv_b;
-    int level = 0;
     /* Digit by digit down to 2^-32: the index's digits, then its zeros, each through its
      * affine map; h carries the digits so far (one multiply and shift per digit). */
     while (i) {
@@ -69,34 +65,17 @@ static double halton_levels(uint64_t index, uint32_t b, uint64_t seed, int level
         scale *= inv_b;
         h = (h ^ (d + 1)) * 0x9E3779B97F4A7C15ull;
         h ^= h >> 32;
-        level++;
     }
     /* The index's zeros: digit 0 goes to c (the same arithmetic, without the divisions). */
-    while (scale > 0x1p-32 && level < levels) {
+    while (scale > 0x1p-32) {
         v += (double)(uint32_t)(((h & 0xFFFFFFFFu) * b) >> 32) * scale;
         scale *= inv_b;
         h = (h ^ 1u) * 0x9E3779B97F4A7C15ull;
         h ^= h >> 32;
-        level++;
     }
-    /* Below that, the remaining digits are uniform: one number over the last interval (each
-     * node below `levels` holds one index of the sequence, so its digits there are
-     * independent uniform ones under the nested scramble too). */
+    /* Below that, the remaining digits are uniform: one number over the last interval. */
     v += (double)(lowdisc_hash(h, 0x7A11u) >> 11) * 0x1p-53 * scale * b;
     return v < 1.0 ? v : 0x1.fffffffffffffp-1;
-}
-
-double lowdisc_halton(uint64_t index, uint32_t b, uint64_t seed)
-{
-    return halton_levels(index, b, seed, INT_MAX, 0);
-}
-
-double lowdisc_halton_n(uint64_t index, uint32_t b, uint64_t seed, uint64_t n)
-{
-    int levels = 0;
-    for (uint64_t span = 1; span < n && levels < 64; span *= b)
-        levels++;
-    return halton_levels(index, b, seed, levels, 1);
 }
 
 static const uint16_t PRIMES[LOWDISC_PRIMES] = {

@@ -40,17 +40,6 @@ uint32_t lowdisc_permute(uint32_t i, uint32_t n, uint64_t seed);
  * lowdisc_owen of the reversed bits. Index bits past 32 choose another scramble. In [0, 1). */
 double lowdisc_halton(uint64_t index, uint32_t b, uint64_t seed);
 
-/* lowdisc_halton for a sequence of n indices [0, n): the nested scramble only down to the
- * digit L with b^L >= n (and the index's own digits), the digits below it one hashed uniform.
- * Over [0, n) the points have the distribution of the full nested scramble (below digit L
- * each node of the scramble's tree holds one index of the sequence, whose digits there are
- * then independent and uniform either way), so any b^k aligned indices below n still fill the
- * b^k intervals once each; indices past n get the same kind of numbers but no strata shared
- * with those below. The digits of the 2^-32 range cost a hash each, so for a pixel's few
- * samples this is several times cheaper (issue 24). The values are not lowdisc_halton's: the
- * seed must be well mixed (a lowdisc_hash), as below 2^32 it is the scramble's first hash. */
-double lowdisc_halton_n(uint64_t index, uint32_t b, uint64_t seed, uint64_t n);
-
 /* The i-th prime (i = 0: 2), for i < LOWDISC_PRIMES. */
 #define LOWDISC_PRIMES 128
 uint32_t lowdisc_prime(int i);

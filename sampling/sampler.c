@@ -49,17 +49,6 @@ const char *sampler_kind_name(sampler_kind_t kind)
     return "?";
 }
 
-/* The key that takes the seed's place in the pixel dimensions of SAMPLER_SOBOL, which keeps
- * them fixed (SAMPLER_PIXEL_DIMS). */
-static const uint64_t PIXEL_DIMS_KEY = 0x5DEECE66Dull;
-
-/* The first hash of a dimension's salt (salt_of): of the seed, or of PIXEL_DIMS_KEY. */
-static uint64_t first_salt(sampler_kind_t kind, uint64_t seed, uint32_t dim)
-{
-    const int fixed = dim < SAMPLER_PIXEL_DIMS && kind == SAMPLER_SOBOL;
-    return lowdisc_hash(fixed ? PIXEL_DIMS_KEY : seed, dim);
-}
-
 static int ceil_log2(uint64_t n)
 {
     int k = 0;
@@ -75,8 +64,6 @@ sampler_setup_t sampler_setup_make(sampler_kind_t kind, uint64_t seed, uint32_t 
     st.log2_block = ceil_log2(st.spp);
     int res = full_w > full_h ? full_w : full_h;
     st.base4_digits = ceil_log2(res > 0 ? (uint64_t)res : 1) + (st.log2_block + 1) / 2;
-    for (uint32_t dim = 0; dim < SAMPLER_SALT_DIMS; dim++)
-        st.dim_salt[dim] = first_salt(kind, seed, dim);
     return st;
 }
 
@@ -180,12 +167,17 @@ static uint64_t zsobol_index(const sampler_t *s, uint32_t dim, uint64_t salt)
     return out;
 }
 
+/* The key that takes the seed's place in the pixel dimensions of SAMPLER_SOBOL, which keeps
+ * them fixed (SAMPLER_PIXEL_DIMS). */
+static const uint64_t PIXEL_DIMS_KEY = 0x5DEECE66Dull;
+
 /* The salt of one dimension of one sample: the job's seed (or PIXEL_DIMS_KEY), the dimension
  * and the epoch (sample bits above the block), and for the per-pixel kinds the pixel. */
 static uint64_t salt_of(const sampler_t *s, uint32_t dim, int per_pixel)
 {
-    uint64_t h = dim < SAMPLER_SALT_DIMS ? s->setup->dim_salt[dim]
-                                         : first_salt(s->setup->kind, s->setup->seed, dim);
+    const sampler_kind_t kind = s->setup->kind;
+    const int fixed = dim < SAMPLER_PIXEL_DIMS && kind == SAMPLER_SOBOL;
+    uint64_t h = lowdisc_hash(fixed ? PIXEL_DIMS_KEY : s->setup->seed, dim);
     if (per_pixel)
         h = lowdisc_hash(h, s->pixel);
     if (s->epoch)
@@ -243,8 +235,7 @@ double sampler_1d(const sampler_t *s, uint32_t dim)
             return u[dim];
         }
         if (dim < LOWDISC_PRIMES)
-            return lowdisc_halton_n(s->sample, lowdisc_prime((int)dim), salt_of(s, dim, 1),
-                                    st->spp);
+            return lowdisc_halton(s->sample, lowdisc_prime((int)dim), salt_of(s, dim, 1));
         break;
     case SAMPLER_STRATIFIED:
         if (s->sample < st->spp)
@@ -297,10 +288,8 @@ void sampler_2d(const sampler_t *s, uint32_t dim, double out[2])
             return;
         }
         if (dim + 1 < LOWDISC_PRIMES) {
-            out[0] =
-                lowdisc_halton_n(s->sample, lowdisc_prime((int)dim), salt_of(s, dim, 1), st->spp);
-            out[1] = lowdisc_halton_n(s->sample, lowdisc_prime((int)dim + 1),
-                                      salt_of(s, dim + 1, 1), st->spp);
+            out[0] = lowdisc_halton(s->sample, lowdisc_prime((int)dim), salt_of(s, dim, 1));
+            out[1] = lowdisc_halton(s->sample, lowdisc_prime((int)dim + 1), salt_of(s, dim + 1, 1));
             return;
         }
         break;

@@ -46,9 +46,6 @@ int sampler_kind_parse(const char *name, sampler_kind_t *kind, const char **mapp
 /* The kind's pbrt-v4 name. */
 const char *sampler_kind_name(sampler_kind_t kind);
 
-/* Dimensions whose salt's first hash sampler_setup_make tabulates. */
-#define SAMPLER_SALT_DIMS 128
-
 /* A job's fixed sampler settings. log2_block is the power of two >= spp that the sample
  * index's bits are based on: nothing extends a job's spp afterwards, and a sample index past
  * it (never in a render) still gets well-defined numbers, from another scramble. */
@@ -58,9 +55,6 @@ typedef struct sampler_setup {
     uint32_t spp;
     int log2_block;   /* ceil(log2 spp) */
     int base4_digits; /* zsobol: base-4 digits of a Morton index and sample index */
-    /* The first hash of each dimension's salt (of the seed, or of the fixed key of the pixel
-     * dimensions, and the dimension), computed once here rather than for every number. */
-    uint64_t dim_salt[SAMPLER_SALT_DIMS];
 } sampler_setup_t;
 
 /* The setup for a film of full_w x full_h pixels (a crop's full film) and spp samples. */
