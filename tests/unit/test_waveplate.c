@@ -427,47 +427,43 @@ static void test_quartz_rotation(void **state)
     assert_true(crystal_rotary_power(&crystal_find("calcite")->rotation, 589.3) == 0.0);
     const double lines[2][2] = {{589.3, 21.724}, {435.8, 41.548}};
     const double thetas[6] = {0.0, 30.0, 45.0, 60.0, 90.0, 135.0};
+    /* The film, the light box and its lamp, a narrow band about the line (two %g). */
+#define QUARTZ_BOX                                                                                 \
+    "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"orthographic\"\n"                                        \
+    "Film \"spectral\" \"integer xresolution\" [4] \"integer yresolution\" [4] "                   \
+    "\"integer nbuckets\" [4] \"float lambdamin\" [%g] \"float lambdamax\" [%g]\n"                 \
+    "Sampler \"zsobol\" \"integer pixelsamples\" [4]\n"                                            \
+    "Integrator \"path\" \"integer maxdepth\" [5]\nWorldBegin\n"                                   \
+    "AttributeBegin\nAreaLightSource \"diffuse\" \"spectrum L\" [300 1 900 1] "                    \
+    "\"bool twosided\" true\nTranslate 0 0 -1\n" PBRT_QUAD "AttributeEnd\n"
+    const chart_setup_t cs = {4, 4, 0};
     for (int l = 0; l < 2; l++) {
+        /* The open light box: the same film without the sheets, once per line. */
+        char open[2048];
+        snprintf(open, sizeof open, QUARTZ_BOX, lines[l][0] - 0.3, lines[l][0] + 0.3);
+        scene_t *o = sb_load_text(open, NULL);
+        double xyz_open[3];
+        render_xyz(o, cs, xyz_open);
+        scene_destroy(&o);
         for (int i = 0; i < 7; i++) {
             /* i = 6: the analyser at extinction, 90 - rho t */
             const double th = i < 6 ? thetas[i] : 90.0 - lines[l][1];
             char text[4096];
-            snprintf(text, sizeof text,
-                     "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"orthographic\"\n"
-                     "Film \"spectral\" \"integer xresolution\" [4] \"integer yresolution\" [4] "
-                     "\"integer nbuckets\" [4] \"float lambdamin\" [%g] \"float lambdamax\" [%g]\n"
-                     "Sampler \"zsobol\" \"integer pixelsamples\" [4]\n"
-                     "Integrator \"path\" \"integer maxdepth\" [5]\nWorldBegin\n"
-                     "AttributeBegin\nAreaLightSource \"diffuse\" \"spectrum L\" [300 1 900 1] "
-                     "\"bool twosided\" true\nTranslate 0 0 -1\n" PBRT_QUAD "AttributeEnd\n"
-                     "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [0]\n" PBRT_QUAD
-                     "AttributeEnd\n"
-                     "AttributeBegin\nTranslate 0 0 1.5\nMaterial \"retarder\" \"string crystal\" "
-                     "\"quartz\" \"float thickness\" [1000] \"bool axial\" true\n" PBRT_QUAD
-                     "AttributeEnd\n"
-                     "AttributeBegin\nTranslate 0 0 3\nMaterial \"polarizer\" \"float angle\" "
-                     "[%g]\n" PBRT_QUAD "AttributeEnd\n",
-                     lines[l][0] - 0.3, lines[l][0] + 0.3, th);
+            snprintf(
+                text, sizeof text,
+                QUARTZ_BOX
+                "AttributeBegin\nMaterial \"polarizer\" \"float angle\" [0]\n" PBRT_QUAD
+                "AttributeEnd\n"
+                "AttributeBegin\nTranslate 0 0 1.5\nMaterial \"retarder\" \"string "
+                "crystal\" \"quartz\" \"float thickness\" [1000] \"bool axial\" true\n" PBRT_QUAD
+                "AttributeEnd\n"
+                "AttributeBegin\nTranslate 0 0 3\nMaterial \"polarizer\" \"float "
+                "angle\" [%g]\n" PBRT_QUAD "AttributeEnd\n",
+                lines[l][0] - 0.3, lines[l][0] + 0.3, th);
             scene_t *s = sb_load_text(text, NULL);
-            const chart_setup_t cs = {4, 4, 0};
             double xyz[3];
             render_xyz(s, cs, xyz);
             scene_destroy(&s);
-            /* The open light box: the same film without the sheets. */
-            char open[2048];
-            snprintf(open, sizeof open,
-                     "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"orthographic\"\n"
-                     "Film \"spectral\" \"integer xresolution\" [4] \"integer yresolution\" [4] "
-                     "\"integer nbuckets\" [4] \"float lambdamin\" [%g] \"float lambdamax\" [%g]\n"
-                     "Sampler \"zsobol\" \"integer pixelsamples\" [4]\n"
-                     "Integrator \"path\" \"integer maxdepth\" [5]\nWorldBegin\n"
-                     "AttributeBegin\nAreaLightSource \"diffuse\" \"spectrum L\" [300 1 900 1] "
-                     "\"bool twosided\" true\nTranslate 0 0 -1\n" PBRT_QUAD "AttributeEnd\n",
-                     lines[l][0] - 0.3, lines[l][0] + 0.3);
-            scene_t *o = sb_load_text(open, NULL);
-            double xyz_open[3];
-            render_xyz(o, cs, xyz_open);
-            scene_destroy(&o);
             const double want = 0.5 * pow(cos((th + lines[l][1]) * PI / 180.0), 2.0);
             const double got = xyz[1] / xyz_open[1];
             if (!(fabs(got - want) < 2e-3))
@@ -475,6 +471,7 @@ static void test_quartz_rotation(void **state)
                          got, want);
         }
     }
+#undef QUARTZ_BOX
 }
 
 /* The syntax's errors, each with the file and line. */
