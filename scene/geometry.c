@@ -39,9 +39,12 @@ typedef struct mesh {
 } mesh_t;
 
 /* Curves' view of Embree's vertex buffer (x, y, z, radius; 4 per segment, segment k's first at
- * 4 k: the index buffer is 0, 4, 8, ...). */
+ * 4 k: the index buffer is 0, 4, 8, ...) and, for ribbons, each segment's two end normals in
+ * double (6 numbers per segment), which the shading normal slerps between exactly. */
 typedef struct curves {
     const float *verts;
+    int ribbon;
+    double n[]; /* 6 per segment when ribbon */
 } curves_t;
 
 /* What one Embree geometry id of a group is. Analytic shapes and instances are allocated one
@@ -374,8 +377,30 @@ static void curve_filter(const struct RTCFilterFunctionNArguments *args)
     }
 }
 
+/* A ribbon segment's normals for Embree, which interpolates them with the Bezier basis of the
+ * points: the quarter-circle rule's cubic through the great arc from n0 to n1 (control points
+ * n0, n0 + k T0, n1 - k T1 with the arc's unit tangents T at its ends and
+ * k = 4/3 tan(theta / 4)). Embree normalises the normal it interpolates, and this cubic stays
+ * within 2.7e-4 of the unit sphere for a quarter turn, so the ribbon turns along the great arc
+ * as pbrt-v4's slerp does, at a pace within a degree of the slerp's for theta up to 90 degrees
+ * (tests/unit/test_curves.c measures the ribbon's turn). */
+static void ribbon_normal_cp(const double *n0, const double *n1, float *out)
+{
+    double c = fmax(-1.0, fmin(1.0, n0[0] * n1[0] + n0[1] * n1[1] + n0[2] * n1[2]));
+    double theta = acos(c), s = sin(theta);
+    double k = s > 1e-9 ? 4.0 / 3.0 * tan(0.25 * theta) / s : 0.0;
+    for (int j = 0; j < 3; j++) {
+        double t0 = n1[j] - c * n0[j], t1 = c * n1[j] - n0[j]; /* the tangents times sin theta */
+        out[j] = (float)n0[j];
+        out[3 + j] = (float)(n0[j] + k * t0);
+        out[6 + j] = (float)(n1[j] - k * t1);
+        out[9 + j] = (float)n1[j];
+    }
+}
+
 int geometry_object_add_curves(geometry_t *self, int object, const double *cp, const double *radii,
-                               size_t nseg, uint32_t shape, err_t *err)
+                               const double *normals, size_t nseg, uint32_t shape, int flip,
+                               err_t *err)
 {
     group_t *grp = target(self, object, shape, err);
     if (!grp)
@@ -388,7 +413,13 @@ int geometry_object_add_curves(geometry_t *self, int object, const double *cp, c
     for (size_t i = 0; i < 4 * nseg; i++)
         if (!(radii[i] > 0.0) || !isfinite(radii[i]))
             return err_set(err, "shape %u: radius %zu is not positive", shape, i);
-    RTCGeometry g = rtcNewGeometry(self->device, RTC_GEOMETRY_TYPE_FLAT_BEZIER_CURVE);
+    if (normals)
+        for (size_t i = 0; i < 6 * nseg; i++)
+            if (!isfinite(normals[i]))
+                return err_set(err, "shape %u: ribbon normal %zu is not finite", shape, i / 3);
+    RTCGeometry g =
+        rtcNewGeometry(self->device, normals ? RTC_GEOMETRY_TYPE_NORMAL_ORIENTED_BEZIER_CURVE
+                                             : RTC_GEOMETRY_TYPE_FLAT_BEZIER_CURVE);
     if (!g)
         return check_device(self, "creating a curve", err)
                    ? -1
@@ -397,7 +428,12 @@ int geometry_object_add_curves(geometry_t *self, int object, const double *cp, c
                                        4 * sizeof(float), 4 * nseg);
     unsigned *ix = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT,
                                            sizeof(unsigned), nseg);
-    curves_t *c = v && ix ? malloc(sizeof *c) : NULL;
+    float *nv = normals ? rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_NORMAL, 0, RTC_FORMAT_FLOAT3,
+                                                  3 * sizeof(float), 4 * nseg)
+                        : NULL;
+    curves_t *c = v && ix && (nv || !normals)
+                      ? malloc(sizeof *c + (normals ? 6 * nseg * sizeof(double) : 0))
+                      : NULL;
     if (!c) {
         rtcReleaseGeometry(g);
         return check_device(self, "allocating curve buffers", err) ? -1
@@ -415,6 +451,12 @@ int geometry_object_add_curves(geometry_t *self, int object, const double *cp, c
     for (size_t k = 0; k < nseg; k++)
         ix[k] = (unsigned)(4 * k);
     c->verts = v;
+    c->ribbon = normals != NULL;
+    if (normals) {
+        memcpy(c->n, normals, 6 * nseg * sizeof(double));
+        for (size_t k = 0; k < nseg; k++)
+            ribbon_normal_cp(normals + 6 * k, normals + 6 * k + 3, nv + 12 * k);
+    }
     rtcSetGeometryUserData(g, c);
     rtcSetGeometryIntersectFilterFunction(g, curve_filter);
     rtcSetGeometryOccludedFilterFunction(g, curve_filter);
@@ -422,7 +464,9 @@ int geometry_object_add_curves(geometry_t *self, int object, const double *cp, c
     unsigned id = rtcAttachGeometry(grp->scene, g);
     rtcReleaseGeometry(g);
     if (check_device(self, "adding a curve", err) ||
-        record(grp, id, (geom_info_t){.kind = GEOM_CURVES, .shape = shape, .curves = c}, err)) {
+        record(grp, id,
+               (geom_info_t){.kind = GEOM_CURVES, .shape = shape, .flip = flip, .curves = c},
+               err)) {
         free(c);
         return -1;
     }
@@ -432,8 +476,21 @@ int geometry_object_add_curves(geometry_t *self, int object, const double *cp, c
     return 0;
 }
 
+/* A ribbon segment's normal at u: pbrt-v4's slerp from its first end normal to its second. */
+static vec3_t ribbon_normal(const double *n, double u)
+{
+    vec3_t a = vec3_make(n[0], n[1], n[2]), b = vec3_make(n[3], n[4], n[5]);
+    double theta = acos(fmax(-1.0, fmin(1.0, vec3_dot(a, b)))), s = sin(theta);
+    if (!(s > 1e-9))
+        return a;
+    return vec3_add(vec3_scale(a, sin((1.0 - u) * theta) / s), vec3_scale(b, sin(u * theta) / s));
+}
+
 /* A curve hit in the group's space (org, dir there too): the point along the ray (a flat
- * ribbon is no surface to refine against), h across the ribbon, the normal facing the ray. */
+ * ribbon is no surface to refine against), h across the ribbon, the normal facing the ray;
+ * a ribbon's normal is its own (the slerped normal made perpendicular to the curve, as
+ * pbrt-v4's dp/du x (n x dp/du)), and its h is pbrt-v4's: the distance across in the plane
+ * seen from the ray over the ribbon's narrowed half width r |n . d|. */
 static void curve_surface(const curves_t *c, unsigned prim, vec3_t org, vec3_t dir, hit_t *out,
                           vec3_t *p, vec3_t *n)
 {
@@ -460,6 +517,14 @@ static void curve_surface(const curves_t *c, unsigned prim, vec3_t org, vec3_t d
         *n = vec3_cross(tn, across); /* = -(d - (d.t) t) / |...|: toward the ray's origin */
     }
     double r = curve_radius(c, prim, u);
+    if (c->ribbon) {
+        vec3_t nr = ribbon_normal(c->n + 6 * (size_t)prim, u);
+        vec3_t perp = vec3_sub(nr, vec3_scale(tn, vec3_dot(nr, tn)));
+        double lp = vec3_length(perp);
+        if (lp > 1e-12 && isfinite(lp))
+            *n = vec3_scale(perp, 1.0 / lp);
+        r *= fabs(vec3_dot(nr, d));
+    }
     double h = r > 0.0 ? vec3_dot(vec3_sub(*p, centre), across) / r : 0.0;
     h = isfinite(h) ? fmin(1.0, fmax(-1.0, h)) : 0.0;
     out->v = 0.5 * (h + 1.0);
@@ -878,7 +943,8 @@ int geometry_intersect(const geometry_t *self, vec3_t org, vec3_t dir, double tm
             curve_surface(info->curves, rh.hit.primID, org, dir, out, &p, &ng);
             out->p = p;
         }
-        flip = 0; /* a ribbon that faces the ray has no outside */
+        if (!info->curves->ribbon)
+            flip = 0; /* a ribbon that faces the ray has no outside */
     } else {
         vec3_t p;
         if (in) {

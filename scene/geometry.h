@@ -56,9 +56,15 @@ int geometry_add_disk(geometry_t *self, const transform_t *to_world, double radi
  * dir x dp/du (pbrt-v4's v), and ng facing the ray (perpendicular to the curve). A ray
  * never hits a curve closer than 2.5 radii to its origin: a ray leaving a fibre would
  * otherwise find the ribbon that faces it through its own origin (pbrt-v4 moves such a
- * ray's origin off by the width for the same reason). */
+ * ray's origin off by the width for the same reason).
+ * With normals (6 per segment: unit normals at its two ends), a segment is pbrt-v4's "ribbon"
+ * instead: a flat strip across n x dp/du, n turning along the great arc from the first normal
+ * to the second (Embree's normal-oriented curve), seen narrowed by |n . dir| from aside; its
+ * hit's ng is the slerped normal made perpendicular to the curve (flipped when flip is set),
+ * h as pbrt-v4 computes it, over the narrowed width. */
 int geometry_object_add_curves(geometry_t *self, int object, const double *cp, const double *radii,
-                               size_t nseg, uint32_t shape, err_t *err);
+                               const double *normals, size_t nseg, uint32_t shape, int flip,
+                               err_t *err);
 /* A cubic Bezier segment (4 control points, 12 numbers) at u: its point and derivative. */
 void geometry_bezier(const double *cp, double u, vec3_t *p, vec3_t *dpdu);
 

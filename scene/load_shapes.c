@@ -19,10 +19,22 @@ static int load_curve(loader_t *L, const scene_shape_t *s, int object, int mater
     double scale = cbrt(fabs(vec3_dot(vec3_cross(ex, ey), ez)));
     size_t n = s->curve_segments;
     double *cp = malloc(12 * n * sizeof *cp), *radii = malloc(4 * n * sizeof *radii);
-    if (!cp || !radii) {
+    double *normals = s->curve_normals ? malloc(6 * n * sizeof *normals) : NULL;
+    if (!cp || !radii || (s->curve_normals && !normals)) {
         free(cp);
         free(radii);
+        free(normals);
         return err_set(err, "out of memory for a curve of %zu segments", n);
+    }
+    /* A ribbon's normals map as normals (pbrt-v4 maps the hit's dp/du and dp/dv, whose cross
+     * product then points along the inverse transpose's image of the object-space normal). */
+    for (size_t i = 0; normals && i < 2 * n; i++) {
+        vec3_t q = vec3_normalize(
+            transform_normal(m, vec3_make(s->curve_normals[3 * i], s->curve_normals[3 * i + 1],
+                                          s->curve_normals[3 * i + 2])));
+        normals[3 * i] = q.x;
+        normals[3 * i + 1] = q.y;
+        normals[3 * i + 2] = q.z;
     }
     for (size_t i = 0; i < 4 * n; i++) {
         vec3_t p = transform_point(
@@ -33,9 +45,11 @@ static int load_curve(loader_t *L, const scene_shape_t *s, int object, int mater
         const double *w = s->curve_width + 2 * (i / 4);
         radii[i] = 0.5 * scale * (w[0] + (w[1] - w[0]) * (double)(i % 4) / 3.0);
     }
-    int r = scene_add_curves(L->sc, object, cp, radii, n, s->curve_cylinder, material, err);
+    int r = scene_add_curves(L->sc, object, cp, radii, normals, n, s->curve_cylinder,
+                             s->flip_normals, material, err);
     free(cp);
     free(radii);
+    free(normals);
     return r;
 }
 

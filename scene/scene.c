@@ -452,13 +452,15 @@ int scene_add_disk(scene_t *self, const transform_t *to_world, double radius, do
                         err);
 }
 
-int scene_add_curves(scene_t *self, int object, const double *cp, const double *radii, size_t nseg,
-                     int cylinder, int material, err_t *err)
+int scene_add_curves(scene_t *self, int object, const double *cp, const double *radii,
+                     const double *normals, size_t nseg, int cylinder, int flip, int material,
+                     err_t *err)
 {
     if (check_object(self, object, err) || check_refs(self, material, -1, err))
         return -1;
     uint32_t id = (uint32_t)self->nshapes;
-    if (geometry_object_add_curves(self->geometry, object, cp, radii, nseg, id, err))
+    if (geometry_object_add_curves(self->geometry, object, cp, radii, normals, nseg, id, flip,
+                                   err))
         return -1;
     shape_t *s = new_shape(self, object, material, -1, 0, err);
     if (!s)

@@ -530,9 +530,11 @@ int scene_add_disk(scene_t *self, const transform_t *to_world, double radius, do
  * segments, 4 control points (cp, 12 numbers per segment) with their radii (4 per segment), in
  * world space, or in an object's space when object >= 0 (no area lights). A hit's v is
  * pbrt-v4's, across the width; cylinder turns the shading normal as pbrt-v4's "cylinder"
- * type does. Arrays are copied. */
-int scene_add_curves(scene_t *self, int object, const double *cp, const double *radii, size_t nseg,
-                     int cylinder, int material, err_t *err);
+ * type does; normals (6 per segment, or NULL) make the segments pbrt-v4's "ribbon", whose
+ * normal flip reverses. Arrays are copied. */
+int scene_add_curves(scene_t *self, int object, const double *cp, const double *radii,
+                     const double *normals, size_t nseg, int cylinder, int flip, int material,
+                     err_t *err);
 
 /* Objects: scene_add_object returns a new object's index (or -1); the scene_add_object_*
  * functions add shapes in the object's own space (no area lights: pbrt-v4 has none in

@@ -284,9 +284,50 @@ static void curve_to_bezier(const double *q, int degree, bool bspline, double *b
     }
 }
 
+/* A ribbon's normals (pn: nseg + 1 of them) as each segment's two ends, normalised (6 numbers
+ * per segment, in the scene's memory). Refused: a wrong count, a zero or non-finite normal,
+ * and a segment whose two normals are opposite (pbrt-v4's slerp divides by sin of their angle,
+ * which is then 0, and no plane of rotation is preferred). */
+static int curve_normals(parser_t *P, const param_t *pn, size_t nseg, double **out)
+{
+    if (pn->count / 3 != nseg + 1)
+        return pbrt_error(P->err, pn->loc,
+                          "Shape \"curve\": a ribbon of %zu segments needs %zu normals in "
+                          "\"normal N\", got %zu",
+                          nseg, nseg + 1, pn->count / 3);
+    double *n = scene_desc_alloc(P->scene, 6 * nseg * sizeof *n, P->err);
+    if (!n)
+        return -1;
+    for (size_t k = 0; k <= nseg; k++) {
+        const double *q = pn->numbers + 3 * k;
+        double len = sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2]);
+        if (!(len > 0.0) || !isfinite(len))
+            return pbrt_error(P->err, pn->loc,
+                              "Shape \"curve\": normal %zu of \"normal N\" is zero or not finite",
+                              k);
+        for (int c = 0; c < 3; c++) {
+            if (k < nseg)
+                n[6 * k + c] = q[c] / len;
+            if (k > 0)
+                n[6 * (k - 1) + 3 + c] = q[c] / len;
+        }
+        if (k > 0) {
+            const double *a = n + 6 * (k - 1);
+            if (a[0] * a[3] + a[1] * a[4] + a[2] * a[5] < -1.0 + 1e-12)
+                return pbrt_error(P->err, pn->loc,
+                                  "Shape \"curve\": normals %zu and %zu of \"normal N\" are "
+                                  "opposite: a ribbon cannot turn half a turn in one segment",
+                                  k - 1, k);
+        }
+    }
+    *out = n;
+    return 0;
+}
+
 /* pbrt-v4 "curve": "point3 P", "string basis" ("bezier", "bspline"), "integer degree" (3 or 2),
- * "string type" ("flat", "cylinder"; "ribbon", whose normals Embree's curves would need as a
- * spline of their own, is refused), "float width" (1) or "width0"/"width1" (pbrt-v4 lerps them
+ * "string type" ("flat", "cylinder", "ribbon"), "normal N" (a ribbon's: one per segment end,
+ * segment k from N[k] to N[k + 1], as pbrt-v4's Curve::Create; ignored by the other types, as
+ * pbrt-v4 does after a warning), "float width" (1) or "width0"/"width1" (pbrt-v4 lerps them
  * over the whole curve), "integer splitdepth" (read; Embree needs no splitting). */
 static int curve_shape(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t loc)
 {
@@ -310,21 +351,22 @@ static int curve_shape(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t l
         return pbrt_error(P->err, params_find(ps, "degree")->loc,
                           "Shape \"curve\": \"integer degree\" must be 2 or 3, got %d", degree);
     static const pbrt_name_t BASES[] = {{"bezier", 0}, {"bspline", 1}};
-    static const pbrt_name_t TYPES[] = {{"flat", 0}, {"cylinder", 1}};
-    int bspline, cylinder;
+    static const pbrt_name_t TYPES[] = {{"flat", 0}, {"cylinder", 1}, {"ribbon", 2}};
+    int bspline, kind;
     if (pbrt_state_lookup(P, "Shape \"curve\": unsupported basis", basis,
                           params_find(ps, "basis") ? params_find(ps, "basis")->loc : loc, BASES,
                           COUNT_OF(BASES), &bspline) != 0)
         return -1;
-    if (!strcmp(type, "ribbon"))
-        return pbrt_error(P->err, params_find(ps, "type")->loc,
-                          "Shape \"curve\": \"ribbon\" curves are not supported (\"flat\" and "
-                          "\"cylinder\" are)");
     if (pbrt_state_lookup(P, "Shape \"curve\": unsupported type", type,
                           params_find(ps, "type") ? params_find(ps, "type")->loc : loc, TYPES,
-                          COUNT_OF(TYPES), &cylinder) != 0)
+                          COUNT_OF(TYPES), &kind) != 0)
         return -1;
-    (void)params_find(ps, "N"); /* pbrt-v4 ignores normals but for ribbons, with a warning */
+    param_t *pn;
+    if (params_get_array(ps, "N", PARAM_NORMAL3, &pn, P->err) != 0)
+        return -1;
+    if (kind == 2 && !pn)
+        return pbrt_error(P->err, loc,
+                          "Shape \"curve\": a \"ribbon\" needs \"normal N\" at its segments' ends");
     if (!pp)
         return pbrt_error(P->err, loc, "Shape \"curve\" needs \"point3 P\"");
     size_t np = pp->count / 3, nseg;
@@ -346,6 +388,9 @@ static int curve_shape(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t l
     for (size_t i = 0; i < pp->count; i++)
         if (!isfinite(pp->numbers[i]))
             return pbrt_error(P->err, pp->loc, "Shape \"curve\": point %zu is not finite", i / 3);
+    double *n = NULL;
+    if (kind == 2 && curve_normals(P, pn, nseg, &n) != 0)
+        return -1;
     if (pbrt_meshes_budget_triangles(P, nseg, loc) != 0)
         return -1;
     double *cp = scene_desc_alloc(P->scene, 12 * nseg * sizeof *cp, P->err);
@@ -361,7 +406,8 @@ static int curve_shape(parser_t *P, params_t *ps, scene_shape_t *s, pbrt_loc_t l
     s->curve_segments = nseg;
     s->curve_cp = cp;
     s->curve_width = w;
-    s->curve_cylinder = cylinder;
+    s->curve_normals = n;
+    s->curve_cylinder = kind == 1;
     return 0;
 }
 

@@ -366,10 +366,12 @@ typedef struct scene_shape {
     /* CURVE: curve_segments cubic Bezier segments in object space (pbrt-v4 converts its
      * "bspline" and degree-2 curves to these), 4 control points (xyz) each in curve_cp, the
      * full width at each segment's ends in curve_width (2 each), and whether the type is
-     * "cylinder" (else "flat"). */
+     * "cylinder" (else "flat"). A "ribbon" has curve_normals: each segment's two end normals
+     * (unit, 6 numbers per segment; pbrt-v4 slerps between them along the segment). */
     size_t curve_segments;
     const double *curve_cp;
     const double *curve_width;
+    const double *curve_normals;
     bool curve_cylinder;
     /* pbrt-v4's MediumInterface in effect at the shape: indices into media, -1 for none
      * (vacuum). A shape whose two differ is a boundary between media (pbrt-v4

@@ -1,0 +1,174 @@
+/* Curves (pbrt-v4 "curve"), through the parser, the loader and Embree: a "ribbon" is a flat
+ * strip that faces its normal (face-on it covers its width, at 60 degrees half of it, edge-on
+ * nothing, where a "flat" curve covers its width from every side), its normal slerps from the
+ * segment's first normal to its second (the hit's normal exactly, the strip Embree intersects
+ * within a degree), v runs across the narrowed width as pbrt-v4's, ReverseOrientation flips
+ * the normal, and the parser refuses ribbons without their normals. No rendering. */
+#include <setjmp.h>
+#include <stdarg.h>
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cmocka.h>
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "geometry.h"
+#include "pbrt_parser.h"
+#include "scene.h"
+#include "scene_load.h"
+
+static const double PI = 3.14159265358979323846;
+
+static scene_t *load(const char *text)
+{
+    err_t err = {{0}};
+    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
+    if (!d)
+        fail_msg("did not parse: %s\n%s", err.msg, text);
+    scene_t *s = scene_load(d, NULL, &err);
+    scene_desc_destroy(&d);
+    if (!s)
+        fail_msg("did not load: %s\n%s", err.msg, text);
+    return s;
+}
+
+/* A straight segment along x from -1 to 1, 0.2 wide (u = (x + 1) / 2: its control points are
+ * evenly spaced). */
+#define STRAIGHT                                                                                   \
+    "\"float width\" 0.2 \"point3 P\" [-1 0 0 -0.333333333333 0 0 0.333333333333 0 0 1 0 0]"
+
+/* The fraction of n rays that hit, each along dir from 5 units back, through x = 0 and an
+ * offset from -0.2 to 0.2 along across (perpendicular to dir and to x), cell centres so that
+ * no ray grazes the strip's own plane. */
+static double coverage(const scene_t *s, vec3_t dir, vec3_t across, int n)
+{
+    int hits = 0;
+    for (int i = 0; i < n; i++) {
+        double o = -0.2 + 0.4 * (i + 0.5) / n;
+        vec3_t target = vec3_scale(across, o);
+        hit_t h;
+        hits += geometry_intersect(s->geometry, vec3_fma(target, dir, -5.0), dir, 0, INFINITY, &h);
+    }
+    return (double)hits / n;
+}
+
+static void test_ribbon_faces_its_normal(void **state)
+{
+    (void)state;
+    scene_t *r = load("WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" " STRAIGHT
+                      " \"normal N\" [0 0 1 0 0 1]\n");
+    scene_t *f = load("WorldBegin\nShape \"curve\" \"string type\" \"flat\" " STRAIGHT "\n");
+    const double a = PI / 3; /* 60 degrees off the normal */
+    vec3_t face = vec3_make(0, 0, -1), edge = vec3_make(0, -1, 0),
+           tilt = vec3_make(0, -sin(a), -cos(a));
+    vec3_t face_x = vec3_make(0, 1, 0), edge_x = vec3_make(0, 0, 1),
+           tilt_x = vec3_make(0, cos(a), -sin(a));
+    /* Of 400 offsets over 0.4: the 0.2 width is half of them face-on, 0.2 cos 60 = 0.1 a
+     * quarter at 60 degrees (pbrt-v4 narrows the width by |n . d|), none edge-on. */
+    double rf = coverage(r, face, face_x, 400), rt = coverage(r, tilt, tilt_x, 400),
+           re = coverage(r, edge, edge_x, 400);
+    if (fabs(rf - 0.5) > 0.01 || fabs(rt - 0.25) > 0.01 || re != 0.0)
+        fail_msg("ribbon coverage face-on %.4f (0.5), at 60 degrees %.4f (0.25), edge-on %.4f (0)",
+                 rf, rt, re);
+    /* The flat curve faces every ray. */
+    double ff = coverage(f, face, face_x, 400), fe = coverage(f, edge, edge_x, 400);
+    if (fabs(ff - 0.5) > 0.01 || fabs(fe - 0.5) > 0.01)
+        fail_msg("flat coverage face-on %.4f, edge-on %.4f (0.5 both)", ff, fe);
+    /* The ribbon's hit: its own normal, +z whichever side the ray comes from, and v across
+     * the narrowed width (pbrt-v4: 0.5 + distance / width on the side of dir x dp/du). */
+    hit_t h;
+    assert_int_equal(
+        geometry_intersect(r->geometry, vec3_make(0.2, 0.05, 5), face, 0, INFINITY, &h), 1);
+    assert_true(h.ng.z > 1 - 1e-9 && fabs(h.t - 5) < 1e-4);
+    double want_v = 0.5 + 0.05 / 0.2 * (vec3_cross(face, vec3_make(1, 0, 0)).y > 0 ? 1 : -1);
+    if (fabs(h.v - want_v) > 1e-3)
+        fail_msg("face-on v %.5f, expected %.5f", h.v, want_v);
+    assert_int_equal(geometry_intersect(r->geometry, vec3_fma(vec3_make(0.2, 0.05, 0), tilt, -5),
+                                        tilt, 0, INFINITY, &h),
+                     1);
+    assert_true(h.ng.z > 1 - 1e-9);
+    /* 0.05 across in the strip is 0.05 cos 60 seen from the ray, over the width narrowed to
+     * 0.2 cos 60: v = 0.5 -+ 0.25 again. */
+    if (fabs(fabs(h.v - 0.5) - 0.25) > 1e-3)
+        fail_msg("v at 60 degrees %.5f, expected 0.5 -+ 0.25", h.v);
+    scene_destroy(&r);
+    scene_destroy(&f);
+}
+
+static void test_ribbon_normal_interpolates(void **state)
+{
+    (void)state;
+    /* A quarter turn about the curve: +z at x = -1 to +y at x = 1; and the same reversed. */
+    scene_t *s = load("WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" " STRAIGHT
+                      " \"normal N\" [0 0 1 0 1 0]\n");
+    scene_t *rev = load("WorldBegin\nReverseOrientation\nShape \"curve\" \"string type\" "
+                        "\"ribbon\" " STRAIGHT " \"normal N\" [0 0 1 0 1 0]\n");
+    double worst = 0.0;
+    for (int k = 1; k < 16; k++) {
+        double u = k / 16.0, x = -1 + 2 * u, phi = u * PI / 2;
+        vec3_t n = vec3_make(0, sin(phi), cos(phi)), b = vec3_make(0, cos(phi), -sin(phi));
+        /* Face-on along -n, a little off the centre line: the hit's normal is the slerp. */
+        hit_t h;
+        vec3_t at = vec3_fma(vec3_make(x, 0, 0), b, 0.03);
+        assert_int_equal(
+            geometry_intersect(s->geometry, vec3_fma(at, n, 5), vec3_neg(n), 0, INFINITY, &h), 1);
+        if (vec3_dot(h.ng, n) < 1 - 1e-9)
+            fail_msg("u %.4f: normal (%g %g %g), slerp (%g %g %g)", u, h.ng.x, h.ng.y, h.ng.z, n.x,
+                     n.y, n.z);
+        assert_int_equal(
+            geometry_intersect(rev->geometry, vec3_fma(at, n, 5), vec3_neg(n), 0, INFINITY, &h), 1);
+        assert_true(vec3_dot(h.ng, n) < -1 + 1e-9);
+        /* Edge-on along the strip's width direction b: a ray 0.0017 off its plane (a degree's
+         * tilt over the half width 0.1) misses it, one 0.01 off it too (5.7 degrees), and
+         * the strip Embree intersects is tilted from the slerp by under that. */
+        for (int side = -1; side <= 1; side += 2) {
+            vec3_t o = vec3_fma(vec3_make(x, 0, 0), n, side * 0.0017);
+            if (geometry_intersect(s->geometry, vec3_fma(o, b, -5), b, 0, INFINITY, &h))
+                worst = fmax(worst, u);
+        }
+    }
+    if (worst > 0)
+        fail_msg("the strip Embree intersects is tilted over a degree from the slerp (at u %.4f)",
+                 worst);
+    scene_destroy(&s);
+    scene_destroy(&rev);
+}
+
+static void test_ribbon_refused(void **state)
+{
+    (void)state;
+    static const char *bad[] = {
+        "WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" " STRAIGHT "\n",
+        "WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" " STRAIGHT
+        " \"normal N\" [0 0 1]\n",
+        "WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" " STRAIGHT
+        " \"normal N\" [0 0 1 0 0 0]\n",
+        "WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" " STRAIGHT
+        " \"normal N\" [0 0 1 0 0 -1]\n",
+    };
+    static const char *why[] = {"needs \"normal N\"", "needs 2 normals", "is zero", "opposite"};
+    for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+        err_t err = {{0}};
+        scene_desc_t *d = pbrt_parse_string(bad[i], strlen(bad[i]), "t.pbrt", &err);
+        if (d || !strstr(err.msg, why[i]))
+            fail_msg("case %zu: %s (wanted \"%s\")", i, d ? "accepted" : err.msg, why[i]);
+    }
+    /* Normals on a flat curve are ignored, as pbrt-v4 does. */
+    scene_t *s = load("WorldBegin\nShape \"curve\" " STRAIGHT " \"normal N\" [0 0 1 0 0 1]\n");
+    assert_true(fabs(coverage(s, vec3_make(0, -1, 0), vec3_make(0, 0, 1), 100) - 0.5) < 0.02);
+    scene_destroy(&s);
+}
+
+int main(void)
+{
+    const struct CMUnitTest tests[] = {
+        cmocka_unit_test(test_ribbon_faces_its_normal),
+        cmocka_unit_test(test_ribbon_normal_interpolates),
+        cmocka_unit_test(test_ribbon_refused),
+    };
+    return cmocka_run_group_tests(tests, NULL, NULL);
+}
