@@ -377,6 +377,35 @@ static void curve_filter(const struct RTCFilterFunctionNArguments *args)
     }
 }
 
+/* How many straight pieces Embree cuts each segment of a curve set into (its tessellation
+ * rate; Embree's default is 4). Embree intersects flat and normal-oriented curves as those
+ * pieces, so the strip it finds lies off the true centre line by up to the chord's sagitta,
+ * and a hit's h, measured from the true centre line, is off by that over the radius. A cubic
+ * Bezier cut into n equal steps of u departs from its chords by at most
+ * max|B''| / (8 n^2) <= 6 L0 / (8 n^2), L0 the largest second difference of its control
+ * points; pbrt-v4 refines until that is under a twentieth of the width (Curve::IntersectRay's
+ * eps), and so does this, n = sqrt(7.5 sqrt(3) L0 / r_min) (L0 per coordinate), up to
+ * Embree 3's limit of 16 pieces (it clamps the rate there: a curve bent more tightly than
+ * that, for its width, keeps an error of (n / 16)^2 / 10 radii). The wavy hairs of
+ * hair-eumel-2's substitute (width 0.02-0.035) ask for 5-26 pieces (median 14), where
+ * Embree's default 4 left the strip up to 2 radii off its centre line: grazing h, whose
+ * Fresnel reflects most, came up too often and the image was 4 % bright
+ * (docs/compatibility.md). */
+static float curve_tessellation(const double *cp, const double *radii, size_t nseg)
+{
+    double l0 = 0.0, rmin = INFINITY;
+    for (size_t k = 0; k < nseg; k++) {
+        const double *q = cp + 12 * k;
+        for (int i = 0; i < 2; i++)
+            for (int j = 0; j < 3; j++)
+                l0 = fmax(l0, fabs(q[3 * i + j] - 2.0 * q[3 * (i + 1) + j] + q[3 * (i + 2) + j]));
+        for (int i = 0; i < 4; i++)
+            rmin = fmin(rmin, radii[4 * k + i]);
+    }
+    double n = ceil(sqrt(7.5 * l0 * sqrt(3.0) / rmin));
+    return (float)fmin(16.0, fmax(4.0, isfinite(n) ? n : 16.0));
+}
+
 /* A ribbon segment's normals for Embree, which interpolates them with the Bezier basis of the
  * points: the quarter-circle rule's cubic through the great arc from n0 to n1 (control points
  * n0, n0 + k T0, n1 - k T1 with the arc's unit tangents T at its ends and
@@ -457,6 +486,7 @@ int geometry_object_add_curves(geometry_t *self, int object, const double *cp, c
         for (size_t k = 0; k < nseg; k++)
             ribbon_normal_cp(normals + 6 * k, normals + 6 * k + 3, nv + 12 * k);
     }
+    rtcSetGeometryTessellationRate(g, curve_tessellation(cp, radii, nseg));
     rtcSetGeometryUserData(g, c);
     rtcSetGeometryIntersectFilterFunction(g, curve_filter);
     rtcSetGeometryOccludedFilterFunction(g, curve_filter);
