@@ -178,19 +178,14 @@ void uniaxial_event_make(vec3_t dir, vec3_t nrm, bool entering, uniaxial_wave_t 
     e->count = count;
     e->grey = true;
     one_event(dir, nrm, entering, inside, axis, no[0], ne[0], mode, e);
-    for (int b = 0; b < UNIAXIAL_MAX_BRANCHES; b++)
-        e->lane_prob[b][0] = e->branch[b].prob;
-    for (int j = 1; j < count; j++) {
-        if (no[j] == no[0] && ne[j] == ne[0]) {
-            for (int b = 0; b < UNIAXIAL_MAX_BRANCHES; b++)
-                e->lane_prob[b][j] = e->branch[b].prob;
-            continue;
-        }
-        e->grey = false;
-        uniaxial_event_t lane;
-        one_event(dir, nrm, entering, inside, axis, no[j], ne[j], mode, &lane);
-        for (int b = 0; b < UNIAXIAL_MAX_BRANCHES; b++)
-            e->lane_prob[b][j] = lane.branch[b].prob;
+    e->dir_in = dir;
+    e->nrm = nrm;
+    e->entering = entering;
+    e->inside = inside;
+    for (int j = 0; j < count; j++) {
+        e->lane_no[j] = no[j];
+        e->lane_ne[j] = ne[j];
+        e->grey = e->grey && no[j] == no[0] && ne[j] == ne[0];
     }
 }
 
@@ -215,9 +210,15 @@ double uniaxial_lane_weight(const uniaxial_event_t *e, int b, int j)
     if (b < 0 || b >= e->nbranch || j < 0 || j >= e->count)
         return 0.0;
     const uniaxial_branch_t *br = &e->branch[b];
-    if (!br->reflects || e->grey || j == 0)
+    if (!br->reflects || e->grey || j == 0 ||
+        (e->lane_no[j] == e->lane_no[0] && e->lane_ne[j] == e->lane_ne[0]))
         return br->factor;
-    return br->prob > 0.0 ? e->lane_prob[b][j] / br->prob * br->factor : 0.0;
+    if (!(br->prob > 0.0))
+        return 0.0;
+    uniaxial_event_t lane;
+    one_event(e->dir_in, e->nrm, e->entering, e->inside, e->axis, e->lane_no[j], e->lane_ne[j],
+              e->mode, &lane);
+    return lane.branch[b].prob / br->prob * br->factor;
 }
 
 /* The solver's wave kind of a path's wave. */

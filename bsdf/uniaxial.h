@@ -97,9 +97,14 @@ typedef struct uniaxial_event {
     vec3_t m;               /* the unit normal from the crystal toward the outside */
     vec3_t t;               /* the tangential wave vector (units of the vacuum wavenumber) */
     vec3_t axis;
-    double no, ne;                                           /* lane 0's principal indices */
-    uniaxial_fresnel_t fres;                                 /* lane 0's boundary amplitudes */
-    double lane_prob[UNIAXIAL_MAX_BRANCHES][BSDF_MAX_LANES]; /* each lane's branch shares */
+    double no, ne;           /* lane 0's principal indices */
+    uniaxial_fresnel_t fres; /* lane 0's boundary amplitudes */
+    /* The inputs, for the other lanes' shares (computed when a reflection asks for them:
+     * refraction goes on with lane 0 alone, and each lane costs a boundary solve). */
+    vec3_t dir_in, nrm;
+    bool entering;
+    uniaxial_wave_t inside;
+    double lane_no[BSDF_MAX_LANES], lane_ne[BSDF_MAX_LANES];
 } uniaxial_event_t;
 
 /* One crossing of the crystal's surface by a ray travelling along dir toward it, about the
@@ -114,7 +119,8 @@ void uniaxial_event_make(vec3_t dir, vec3_t nrm, bool entering, uniaxial_wave_t 
 int uniaxial_choose(const uniaxial_event_t *e, double u);
 
 /* Lane j's factor on branch b after b was chosen with uniaxial_choose: the branch's radiance
- * factor, times on a reflection lane j's reflection probability over lane 0's. On a refraction
+ * factor, times on a reflection lane j's probability of that branch over lane 0's (a boundary
+ * solve at lane j's indices, made here). On a refraction
  * of a non-grey event only lane 0 is meaningful (the caller ends the others, as at a dispersive
  * glass). */
 double uniaxial_lane_weight(const uniaxial_event_t *e, int b, int j);

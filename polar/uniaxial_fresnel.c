@@ -63,6 +63,29 @@ static void wave_make(uniaxial_fresnel_wave_t *w, int kind, const cplx K[3], boo
 {
     memcpy(w->K, K, sizeof w->K);
     w->propagating = propagating;
+    if (propagating) {
+        /* A real wave vector: the same fields in real arithmetic (the common case, and the
+         * cheaper one). */
+        const vec3_t k = vec3_make(creal(K[0]), creal(K[1]), creal(K[2]));
+        const vec3_t kxc = vec3_cross(k, axis);
+        const bool ax = !(vec3_dot(kxc, kxc) > AXIAL_EPS * AXIAL_EPS * vec3_dot(k, k));
+        vec3_t e;
+        if (kind == UF_S || (kind == UF_O && ax))
+            e = s;
+        else if (kind == UF_P || (kind == UF_E && ax))
+            e = vec3_cross(k, s);
+        else if (kind == UF_O)
+            e = kxc;
+        else
+            e = vec3_fma(vec3_scale(axis, no * no), k, -vec3_dot(k, axis));
+        const double l = vec3_length(e);
+        if (l > 0.0 && isfinite(l))
+            e = vec3_scale(e, 1.0 / l);
+        cv_real(e, w->E);
+        const vec3_t h = vec3_cross(k, e);
+        w->flux = vec3_dot(vec3_cross(e, h), m);
+        return;
+    }
     cplx S[3], C[3], E[3];
     cv_real(s, S);
     cv_real(axis, C);
@@ -107,6 +130,20 @@ static void tangential(const uniaxial_fresnel_wave_t *w, vec3_t u1, vec3_t u2, c
     f[3] = cv_dot_real(H, u2);
 }
 
+/* |re| + |im|: a magnitude for pivoting, without cabs's hypot. */
+static double cmag(cplx z)
+{
+    return fabs(creal(z)) + fabs(cimag(z));
+}
+
+/* 1 / z by its conjugate over |z|^2: no C99 Annex G division (__divdc3) in the inner loop; the
+ * pivot is never tiny (solve4 refuses those). */
+static cplx crecip(cplx z)
+{
+    const double re = creal(z), im = cimag(z), d = re * re + im * im;
+    return CMPLX(re / d, -im / d);
+}
+
 /* Gauss-Jordan elimination with partial pivoting of a (4 x 4) x = b for four right-hand sides
  * (b[row][rhs], overwritten by x). False for a (numerically) singular a. */
 static bool solve4(cplx a[4][4], cplx b[4][4])
@@ -114,15 +151,15 @@ static bool solve4(cplx a[4][4], cplx b[4][4])
     double scale = 0.0;
     for (int r = 0; r < 4; r++)
         for (int c = 0; c < 4; c++)
-            scale = fmax(scale, cabs(a[r][c]));
+            scale = fmax(scale, cmag(a[r][c]));
     if (!(scale > 0.0) || !isfinite(scale))
         return false;
     for (int c = 0; c < 4; c++) {
         int piv = c;
         for (int r = c + 1; r < 4; r++)
-            if (cabs(a[r][c]) > cabs(a[piv][c]))
+            if (cmag(a[r][c]) > cmag(a[piv][c]))
                 piv = r;
-        if (!(cabs(a[piv][c]) > 1e-12 * scale))
+        if (!(cmag(a[piv][c]) > 1e-12 * scale))
             return false;
         for (int k = 0; k < 4; k++) {
             cplx t = a[c][k];
@@ -132,7 +169,7 @@ static bool solve4(cplx a[4][4], cplx b[4][4])
             b[c][k] = b[piv][k];
             b[piv][k] = t;
         }
-        const cplx inv = 1.0 / a[c][c];
+        const cplx inv = crecip(a[c][c]);
         for (int r = 0; r < 4; r++) {
             if (r == c)
                 continue;
@@ -145,9 +182,11 @@ static bool solve4(cplx a[4][4], cplx b[4][4])
             }
         }
     }
-    for (int r = 0; r < 4; r++)
+    for (int r = 0; r < 4; r++) {
+        const cplx inv = crecip(a[r][r]);
         for (int k = 0; k < 4; k++)
-            b[r][k] /= a[r][r];
+            b[r][k] *= inv;
+    }
     return true;
 }
 
