@@ -65,162 +65,103 @@ vec3_t uniaxial_polarisation(uniaxial_wave_t w, vec3_t k, vec3_t axis)
     return w == UNIAXIAL_E ? vec3_normalize(vec3_cross(o, k)) : o;
 }
 
-/* (D . s)^2 for wave w along k: o has D along k x c, e in the principal plane (k, c),
- * perpendicular to k and to o's D. 1/2 where s or the principal plane is undefined. */
-static double share_s(uniaxial_wave_t w, vec3_t k, vec3_t axis, vec3_t s)
-{
-    const vec3_t d = vec3_cross(k, axis);
-    const double len = vec3_length(d);
-    if (!(len > PARALLEL_EPS) || !(vec3_dot(s, s) > 0.0))
-        return 0.5;
-    const double c = vec3_dot(d, s) / len, f = fmin(1.0, c * c);
-    return w == UNIAXIAL_E ? 1.0 - f : f;
-}
-
-/* The e-wave vectors K = t + beta m with tangential part t: the roots beta of
- * (K.c)^2 A + |K|^2 / n_e^2 = 1, A = 1/n_o^2 - 1/n_e^2, a quadratic whose leading coefficient
- * (m.c)^2 / n_o^2 + (1 - (m.c)^2) / n_e^2 is positive. The larger root carries energy along
- * +m (the line through the convex wave surface leaves it there), the smaller along -m.
- * Returns false when the line misses the surface (no e-wave with this t). */
-static bool e_roots(vec3_t t, vec3_t m, vec3_t axis, double no, double ne, double *lo, double *hi)
-{
-    const double A = 1.0 / (no * no) - 1.0 / (ne * ne), ine2 = 1.0 / (ne * ne);
-    const double a = vec3_dot(t, axis), b = vec3_dot(m, axis);
-    const double qa = A * b * b + ine2, qb = A * a * b,
-                 qc = A * a * a + vec3_dot(t, t) * ine2 - 1.0;
-    const double disc = qb * qb - qa * qc;
-    if (!(disc >= 0.0))
-        return false;
-    const double r = sqrt(disc);
-    *hi = (-qb + r) / qa;
-    *lo = (-qb - r) / qa;
-    return true;
-}
-
-/* The transmitted share T = 1 - f_s R_s - (1 - f_s) R_p at an interface from index n1 to n2,
- * with the incidence cosine cos_i > 0 on n1's side; writes the terms used. */
-static double transmit(double cos_i, double n1, double n2, double fs, double *rs2, double *rp2)
-{
-    const fresnel_terms_t f = fresnel_dielectric_terms(cos_i, n1, n2);
-    *rs2 = f.tir ? 1.0 : f.rs * f.rs;
-    *rp2 = f.tir ? 1.0 : f.rp * f.rp;
-    const double t = 1.0 - fs * *rs2 - (1.0 - fs) * *rp2;
-    return fmin(1.0, fmax(0.0, t));
-}
-
 static double sq(double x)
 {
     return x * x;
 }
 
-/* The event for one pair of indices: lane 0's in full; for other lanes only the
- * reflection probability is read. */
+/* The solver's outgoing wave of branch kind w (outside: s; o; e) as the path's direction, wave
+ * normal and index. */
+static void branch_geometry(const uniaxial_fresnel_t *f, int w, vec3_t axis, double no, double ne,
+                            uniaxial_branch_t *b)
+{
+    const vec3_t K = vec3_make(creal(f->out[w].K[0]), creal(f->out[w].K[1]), creal(f->out[w].K[2]));
+    const double n = vec3_length(K);
+    b->n_after = n;
+    b->wave = n > 0.0 ? vec3_scale(K, 1.0 / n) : K;
+    b->dir = w == UF_E ? uniaxial_ray_from_wave(UNIAXIAL_E, b->wave, axis, no, ne) : b->wave;
+}
+
+/* The event for one pair of indices: lane 0's in full; for other lanes only the branches'
+ * probabilities are read. */
 static void one_event(vec3_t dir, vec3_t nrm, bool entering, uniaxial_wave_t inside, vec3_t axis,
                       double no, double ne, bsdf_mode_t mode, uniaxial_event_t *e)
 {
-    /* m: the unit normal along the way the ray travels (toward the transmission side). */
-    const vec3_t m = vec3_dot(dir, nrm) > 0.0 ? nrm : vec3_neg(nrm);
+    /* m: the unit normal from the crystal toward the outside. */
+    const bool along = vec3_dot(dir, nrm) > 0.0;
+    const vec3_t m = along == !entering ? nrm : vec3_neg(nrm);
     const uniaxial_wave_t w_in = entering ? UNIAXIAL_OUTSIDE : inside;
     const vec3_t k_in = entering ? dir : uniaxial_wave_from_ray(w_in, dir, axis, no, ne);
     const double n_in = entering ? 1.0 : uniaxial_index(w_in, k_in, axis, no, ne);
     const vec3_t K = vec3_scale(k_in, n_in);
-    const double kn = vec3_dot(K, m);
-    const vec3_t t = vec3_fma(K, m, -kn);
-    const double tt = vec3_dot(t, t);
-    const double cos_i = vec3_dot(k_in, m);
-    const vec3_t sx = vec3_cross(k_in, m);
-    const double sl = vec3_length(sx);
-    e->s_dir = sl > PARALLEL_EPS ? vec3_scale(sx, 1.0 / sl) : vec3_make(0.0, 0.0, 0.0);
-    e->d_in = uniaxial_polarisation(w_in, k_in, axis);
+    const vec3_t t = vec3_fma(K, m, -vec3_dot(K, m));
+    e->before = w_in;
+    e->m = m;
+    e->t = t;
+    e->axis = axis;
+    e->no = no;
+    e->ne = ne;
+    uniaxial_fresnel_t *f = &e->fres;
+    uniaxial_fresnel_solve(t, m, axis, no, ne, 1.0, vec3_cross(dir, m), f);
     const bool radiance = mode == BSDF_RADIANCE;
-    uniaxial_branch_t *r = &e->branch[0];
-    *r = (uniaxial_branch_t){.reflects = true, .factor = 1.0};
-
+    for (int b = 0; b < UNIAXIAL_MAX_BRANCHES; b++)
+        e->branch[b] = (uniaxial_branch_t){.factor = 1.0};
+    e->nbranch = 3;
+    double p[3];
     if (entering) {
-        e->nbranch = 3;
-        r->dir = r->wave = fresnel_reflect(dir, m);
+        /* Unpolarised light: the mean of s and p incidence. */
+        uniaxial_branch_t *r = &e->branch[0];
+        r->reflects = true;
         r->after = UNIAXIAL_OUTSIDE;
+        r->dir = r->wave = fresnel_reflect(dir, vec3_neg(m));
         r->n_after = 1.0;
-        r->nmodes = 2;
-        double p_t = 0.0;
+        p[0] = 0.5 * (f->power[UF_S][UF_S] + f->power[UF_S][UF_P] + f->power[UF_P][UF_S] +
+                      f->power[UF_P][UF_P]);
         for (int w = UNIAXIAL_O; w <= UNIAXIAL_E; w++) {
             uniaxial_branch_t *b = &e->branch[1 + w];
-            *b = (uniaxial_branch_t){.after = (uniaxial_wave_t)w, .nmodes = 1};
-            vec3_t Kt;
-            if (w == UNIAXIAL_O) {
-                const double q = no * no - tt;
-                if (!(q > 0.0))
-                    continue;
-                Kt = vec3_fma(t, m, sqrt(q));
-            } else {
-                double lo, hi;
-                if (!e_roots(t, m, axis, no, ne, &lo, &hi) || !(hi > 0.0))
-                    continue;
-                Kt = vec3_fma(t, m, hi);
-            }
-            const double n_t = vec3_length(Kt);
-            b->wave = vec3_scale(Kt, 1.0 / n_t);
-            b->dir = uniaxial_ray_from_wave((uniaxial_wave_t)w, b->wave, axis, no, ne);
-            b->n_after = n_t;
-            b->d_after = uniaxial_polarisation((uniaxial_wave_t)w, b->wave, axis);
-            const double fs = share_s((uniaxial_wave_t)w, b->wave, axis, e->s_dir);
-            double rs2, rp2;
-            /* Snell holds at the wave's own index: n_t sin(theta_t) = |t| by construction. */
-            const double T = transmit(cos_i, 1.0, n_t, fs, &rs2, &rp2);
-            b->prob = 0.5 * T;
-            b->factor = radiance ? 1.0 / (n_t * n_t) : 1.0;
-            b->term_s[0] = 1.0 - rs2;
-            b->term_p[0] = 1.0 - rp2;
-            b->frac_s[0] = fs;
-            r->term_s[w] = rs2;
-            r->term_p[w] = rp2;
-            r->frac_s[w] = fs;
-            p_t += b->prob;
+            b->after = (uniaxial_wave_t)w;
+            const int fw = w == UNIAXIAL_O ? UF_O : UF_E;
+            p[1 + w] = 0.5 * (f->power[UF_S][fw] + f->power[UF_P][fw]);
+            if (!(p[1 + w] > 0.0))
+                continue;
+            branch_geometry(f, fw, axis, no, ne, b);
+            b->factor = radiance ? 1.0 / sq(b->n_after) : 1.0;
         }
-        r->prob = fmax(0.0, 1.0 - p_t);
-        return;
-    }
-
-    e->nbranch = 2;
-    uniaxial_branch_t *x = &e->branch[1];
-    *x = (uniaxial_branch_t){.after = UNIAXIAL_OUTSIDE, .nmodes = 1, .n_after = 1.0};
-    /* The reflected wave, in the same mode: o mirrors k; e takes the other root of its wave
-     * surface for the same tangential wave vector (the incident one is K.m). */
-    r->after = inside;
-    r->nmodes = 1;
-    if (inside == UNIAXIAL_E) {
-        double lo, hi;
-        const double sum = e_roots(t, m, axis, no, ne, &lo, &hi) ? lo + hi : kn;
-        const vec3_t Kr = vec3_fma(t, m, sum - kn);
-        const double n_r = vec3_length(Kr);
-        r->wave = n_r > 0.0 ? vec3_scale(Kr, 1.0 / n_r) : fresnel_reflect(k_in, m);
-        r->n_after = n_r > 0.0 ? n_r : n_in;
-        r->dir = uniaxial_ray_from_wave(UNIAXIAL_E, r->wave, axis, no, ne);
-        r->factor = radiance ? sq(n_in / r->n_after) : 1.0;
+        if (!f->ok) {
+            p[0] = 1.0;
+            p[1] = p[2] = 0.0;
+        }
     } else {
-        r->wave = r->dir = fresnel_reflect(k_in, m);
-        r->n_after = n_in;
+        /* Light in wave `inside` (in its polarisation): reflected into the same wave, leaving,
+         * reflected into the other wave. */
+        const int fin = inside == UNIAXIAL_E ? UF_E : UF_O;
+        const int fother = inside == UNIAXIAL_E ? UF_O : UF_E;
+        const int kind[3] = {fin, UF_S, fother};
+        for (int b = 0; b < 3; b++) {
+            uniaxial_branch_t *br = &e->branch[b];
+            br->reflects = b != 1;
+            br->after = b == 1 ? UNIAXIAL_OUTSIDE : kind[b] == UF_E ? UNIAXIAL_E : UNIAXIAL_O;
+            p[b] = b == 1 ? f->power[fin][UF_S] + f->power[fin][UF_P] : f->power[fin][kind[b]];
+            if (!(p[b] > 0.0) && b != 0)
+                continue;
+            branch_geometry(f, kind[b], axis, no, ne, br);
+            if (!(br->n_after > 0.0)) {
+                /* The same wave's reflection even where it carries nothing (a fallback). */
+                br->dir = br->wave = fresnel_reflect(k_in, m);
+                br->n_after = n_in;
+            }
+            br->factor = radiance ? sq(n_in / br->n_after) : 1.0;
+        }
+        if (!f->ok) {
+            p[0] = 1.0;
+            p[1] = p[2] = 0.0;
+        }
     }
-    const double fs = share_s(inside, k_in, axis, e->s_dir);
-    r->frac_s[0] = x->frac_s[0] = fs;
-    r->d_after = uniaxial_polarisation(inside, r->wave, axis);
-    if (!(tt < 1.0) || !(cos_i > 0.0)) {
-        /* Total internal reflection (or a wave normal that, walked off, points away from the
-         * surface its ray reaches: nothing can leave). */
-        r->prob = 1.0;
-        r->term_s[0] = r->term_p[0] = 1.0;
-        return;
-    }
-    x->dir = x->wave = vec3_fma(t, m, sqrt(1.0 - tt));
-    double rs2, rp2;
-    const double T = transmit(cos_i, n_in, 1.0, fs, &rs2, &rp2);
-    x->prob = T;
-    x->factor = radiance ? n_in * n_in : 1.0;
-    x->term_s[0] = 1.0 - rs2;
-    x->term_p[0] = 1.0 - rp2;
-    r->term_s[0] = rs2;
-    r->term_p[0] = rp2;
-    r->prob = 1.0 - T;
+    /* The power fractions sum to 1 for a lossless boundary; the division keeps the event's
+     * probabilities exact under rounding. */
+    const double sum = p[0] + p[1] + p[2];
+    for (int b = 0; b < 3; b++)
+        e->branch[b].prob = sum > 0.0 ? fmin(1.0, fmax(0.0, p[b] / sum)) : b == 0;
 }
 
 void uniaxial_event_make(vec3_t dir, vec3_t nrm, bool entering, uniaxial_wave_t inside, vec3_t axis,
@@ -237,16 +178,14 @@ void uniaxial_event_make(vec3_t dir, vec3_t nrm, bool entering, uniaxial_wave_t 
     e->count = count;
     e->grey = true;
     one_event(dir, nrm, entering, inside, axis, no[0], ne[0], mode, e);
-    e->lane_reflect[0] = e->branch[0].prob;
-    for (int j = 1; j < count; j++) {
-        if (no[j] == no[0] && ne[j] == ne[0]) {
-            e->lane_reflect[j] = e->lane_reflect[0];
-            continue;
-        }
-        e->grey = false;
-        uniaxial_event_t lane;
-        one_event(dir, nrm, entering, inside, axis, no[j], ne[j], mode, &lane);
-        e->lane_reflect[j] = lane.branch[0].prob;
+    e->dir_in = dir;
+    e->nrm = nrm;
+    e->entering = entering;
+    e->inside = inside;
+    for (int j = 0; j < count; j++) {
+        e->lane_no[j] = no[j];
+        e->lane_ne[j] = ne[j];
+        e->grey = e->grey && no[j] == no[0] && ne[j] == ne[0];
     }
 }
 
@@ -271,88 +210,64 @@ double uniaxial_lane_weight(const uniaxial_event_t *e, int b, int j)
     if (b < 0 || b >= e->nbranch || j < 0 || j >= e->count)
         return 0.0;
     const uniaxial_branch_t *br = &e->branch[b];
-    if (!br->reflects || e->grey || j == 0)
+    if (!br->reflects || e->grey || j == 0 ||
+        (e->lane_no[j] == e->lane_no[0] && e->lane_ne[j] == e->lane_ne[0]))
         return br->factor;
-    return br->prob > 0.0 ? e->lane_reflect[j] / br->prob * br->factor : 0.0;
+    if (!(br->prob > 0.0))
+        return 0.0;
+    uniaxial_event_t lane;
+    one_event(e->dir_in, e->nrm, e->entering, e->inside, e->axis, e->lane_no[j], e->lane_ne[j],
+              e->mode, &lane);
+    return lane.branch[b].prob / br->prob * br->factor;
 }
 
-mueller_t uniaxial_branch_mueller(const uniaxial_event_t *e, int b)
+/* The solver's wave kind of a path's wave. */
+static int fresnel_kind(uniaxial_wave_t w)
 {
-    mueller_t sum = {{{0}}};
-    if (b < 0 || b >= e->nbranch)
-        return sum;
-    const uniaxial_branch_t *br = &e->branch[b];
-    /* Entering, the unpolarised light is split into the modes' polarisations (a polariser at
-     * psi, cos^2 psi = f_s, from s toward p) and each part takes its Fresnel amplitudes; light
-     * inside is already in its mode, so there the polariser's 1/2 is undone. */
-    const bool in_mode =
-        br->after == UNIAXIAL_OUTSIDE ? !br->reflects : br->reflects && br->nmodes == 1;
-    for (int k = 0; k < br->nmodes; k++) {
-        const double psi = acos(sqrt(fmin(1.0, fmax(0.0, br->frac_s[k]))));
-        const mueller_t p = mueller_polariser(psi);
-        const mueller_t d = mueller_jones_diagonal(sqrt(fmax(0.0, br->term_s[k])), 0.0,
-                                                   sqrt(fmax(0.0, br->term_p[k])), 0.0);
-        mueller_t m = mueller_mul(&d, &p);
-        if (in_mode)
-            m = mueller_scale(&m, 2.0);
-        for (int i = 0; i < 4; i++)
-            for (int c = 0; c < 4; c++)
-                sum.m[i][c] += m.m[i][c];
-    }
-    return sum;
-}
-
-/* A linear polariser along the line d for light along k in the frame x (angles from x toward
- * y = k x x); half of any state where d is undefined. */
-static mueller_t mode_polariser(vec3_t d, vec3_t k, vec3_t x)
-{
-    if (!(vec3_dot(d, d) > 0.0)) {
-        const mueller_t id = mueller_identity();
-        return mueller_scale(&id, 0.5);
-    }
-    const vec3_t y = vec3_cross(k, x);
-    return mueller_polariser(atan2(vec3_dot(d, y), vec3_dot(d, x)));
-}
-
-/* Mode k's Fresnel amplitudes on branch br as a diagonal Jones matrix in the s-p frame. */
-static mueller_t mode_fresnel(const uniaxial_branch_t *br, int k)
-{
-    return mueller_jones_diagonal(sqrt(fmax(0.0, br->term_s[k])), 0.0,
-                                  sqrt(fmax(0.0, br->term_p[k])), 0.0);
+    return w == UNIAXIAL_E ? UF_E : UF_O;
 }
 
 mueller_t uniaxial_branch_mueller_frames(const uniaxial_event_t *e, int b, const polar_event_t *ev)
 {
-    mueller_t sum = {{{0}}};
+    mueller_t zero = {{{0}}};
     if (b < 0 || b >= e->nbranch)
-        return sum;
+        return zero;
     const uniaxial_branch_t *br = &e->branch[b];
-    if (br->nmodes == 2) {
-        /* Reflected outside: each transmitted mode's share of the light, reflected with that
-         * mode's amplitudes (the event's branches 1 and 2 are o and e). */
-        for (int k = 0; k < 2; k++) {
-            const mueller_t p = mode_polariser(e->branch[1 + k].d_after, ev->k_in, ev->x_in);
-            const mueller_t f = mode_fresnel(br, k);
-            const mueller_t m = mueller_mul(&f, &p);
-            for (int i = 0; i < 4; i++)
-                for (int c = 0; c < 4; c++)
-                    sum.m[i][c] += m.m[i][c];
-        }
-        return sum;
+    double j[2][2][2];
+    if (e->mode == BSDF_RADIANCE) {
+        /* The light runs the branch backward: it arrives in the branch's wave reversed (the
+         * tangential wave vector -t) and leaves in the path's arriving wave reversed. */
+        uniaxial_fresnel_t rev;
+        uniaxial_fresnel_solve(vec3_neg(e->t), e->m, e->axis, e->no, e->ne, 1.0, ev->x_in, &rev);
+        uniaxial_fresnel_jones(&rev, br->after == UNIAXIAL_OUTSIDE, fresnel_kind(br->after),
+                               e->before == UNIAXIAL_OUTSIDE, fresnel_kind(e->before), ev->k_in,
+                               ev->x_in, ev->k_out, ev->x_out, j);
+    } else {
+        uniaxial_fresnel_jones(&e->fres, e->before == UNIAXIAL_OUTSIDE, fresnel_kind(e->before),
+                               br->after == UNIAXIAL_OUTSIDE, fresnel_kind(br->after), ev->k_in,
+                               ev->x_in, ev->k_out, ev->x_out, j);
     }
-    const bool backward = e->mode == BSDF_RADIANCE;
-    const vec3_t d_entry = backward ? br->d_after : e->d_in;
-    const vec3_t d_exit = backward ? e->d_in : br->d_after;
-    const bool from_inside = backward ? br->after != UNIAXIAL_OUTSIDE : e->nbranch == 2;
-    const bool to_inside = backward ? e->nbranch == 2 : br->after != UNIAXIAL_OUTSIDE;
-    const mueller_t f = mode_fresnel(br, 0);
-    if (from_inside) {
-        const mueller_t p = mode_polariser(d_entry, ev->k_in, ev->x_in);
-        return mueller_mul(&f, &p);
-    }
-    if (to_inside) {
-        const mueller_t p = mode_polariser(d_exit, ev->k_out, ev->x_out);
-        return mueller_mul(&p, &f);
-    }
-    return f;
+    return mueller_jones(j);
+}
+
+mueller_t uniaxial_branch_mueller(const uniaxial_event_t *e, int b)
+{
+    if (b < 0 || b >= e->nbranch)
+        return (mueller_t){{{0}}};
+    /* The ray arriving is k_in x m's plane; its frame's x = s. */
+    const vec3_t k_in =
+        e->before == UNIAXIAL_OUTSIDE
+            ? vec3_normalize(vec3_fma(e->t, e->m, -sqrt(fmax(0.0, 1.0 - vec3_dot(e->t, e->t)))))
+            : vec3_make(creal(e->fres.in[fresnel_kind(e->before)].K[0]),
+                        creal(e->fres.in[fresnel_kind(e->before)].K[1]),
+                        creal(e->fres.in[fresnel_kind(e->before)].K[2]));
+    const vec3_t ray =
+        e->before == UNIAXIAL_E
+            ? uniaxial_ray_from_wave(UNIAXIAL_E, vec3_normalize(k_in), e->axis, e->no, e->ne)
+            : vec3_normalize(k_in);
+    const polar_event_t ev =
+        polar_event_interface(ray, e->branch[b].dir, e->m, vec3_cross(ray, e->m));
+    uniaxial_event_t fwd = *e;
+    fwd.mode = BSDF_IMPORTANCE;
+    return uniaxial_branch_mueller_frames(&fwd, b, &ev);
 }

@@ -12,20 +12,17 @@
  * crystal interface the caller says which wave (o or e) the path is inside and the wave normal
  * is recovered from s.
  *
- * Weights (an approximation of unpolarised transport, docs/physics.md §14.3): the light
- * entering is split into the two eigen-polarisations of the transmitted waves (o: D along
- * k x c, perpendicular to the principal plane; e: D in it), each projected on the s and p
- * directions of the plane of incidence with the share f_s = (D . s)^2; mode m transmits
- * T_m = f_s T_s + (1 - f_s) T_p (isotropic Fresnel at its own index, which for the e-wave
- * is n(theta) along its refracted wave normal). Entering: P(o) = T_o / 2, P(e) = T_e / 2,
- * P(reflect) = 1 - P(o) - P(e). Leaving in mode m: P(exit) = T_m, P(reflect) = 1 - T_m, the
- * reflected wave in the same mode (o -> o, e -> e; no mode conversion at internal reflection),
- * total internal reflection where the tangential wave vector exceeds 1. The sum is 1 exactly
- * (energy is conserved by construction); a branch chosen in proportion to its probability
- * weighs 1 in importance mode, times (n_i / n_t)^2 in radiance mode, n the index of the wave
- * before and after (so that the factors telescope to 1 on any path from outside to outside,
- * e -> e internal reflections included). uniaxial_branch_mueller gives each branch's Mueller
- * matrix in the same approximation, for a polarised transport to use later.
+ * Weights (docs/physics.md §15.1): the exact plane-wave amplitudes of the boundary
+ * (polar/uniaxial_fresnel.h: tangential E and H continuous). Entering, unpolarised light (the
+ * mean of s and p) splits into the reflected light and the o and e waves by their power
+ * fractions. Inside, the light is in its wave's polarisation, so a wave reaching the surface
+ * splits exactly into the light leaving, the o wave reflected and the e wave reflected (mode
+ * conversion: each reflected wave with its own direction, the tangential wave vector
+ * conserved), total internal reflection where no outside wave propagates. A branch chosen in
+ * proportion to lane 0's power fraction weighs 1 in importance mode, times (n_i / n_t)^2 in
+ * radiance mode, n the index of the wave before and after (the factors telescope to 1 on any
+ * path from outside to outside, converted reflections included). uniaxial_branch_mueller_frames
+ * gives each branch's Mueller matrix from the same amplitudes, phases included.
  *
  * Guarantees: directions unit or zero, every probability in [0, 1] summing to 1, every
  * weight finite and >= 0 for finite inputs with n_o, n_e >= 1. */
@@ -35,6 +32,7 @@
 #include "bsdf_types.h"
 #include "polar_frame.h"
 #include "stokes.h"
+#include "uniaxial_fresnel.h"
 #include "vec3.h"
 
 #include <stdbool.h>
@@ -86,23 +84,27 @@ typedef struct uniaxial_branch {
     double prob;           /* lane 0's share of the energy */
     double factor;         /* radiance mode (n_i / n_t)^2, importance 1 */
     double n_after;        /* the index of the wave afterwards (1 outside) */
-    /* The approximation's pieces, for uniaxial_branch_mueller: the Fresnel intensity terms
-     * (R or T) for s and p of each contributing mode, and each mode's share f_s. A reflection
-     * entering sums both modes (mode 0 o, 1 e); every other branch has one. */
-    int nmodes;
-    double term_s[2], term_p[2], frac_s[2];
-    vec3_t d_after; /* uniaxial_polarisation of the wave afterwards (zero outside) */
 } uniaxial_branch_t;
 
 typedef struct uniaxial_event {
     bsdf_mode_t mode;
     int count;   /* lanes */
     bool grey;   /* every lane has lane 0's indices: every lane weighs the same */
-    int nbranch; /* entering: reflect, o, e; leaving: reflect, exit */
+    int nbranch; /* entering: reflect, o, e; leaving: reflect in the same wave, exit, reflect
+                    converted into the other wave */
     uniaxial_branch_t branch[UNIAXIAL_MAX_BRANCHES];
-    vec3_t s_dir; /* unit normal of the plane of incidence (the zero vector at normal incidence) */
-    vec3_t d_in;  /* uniaxial_polarisation of the wave arriving (zero from outside) */
-    double lane_reflect[BSDF_MAX_LANES]; /* each lane's reflection probability */
+    uniaxial_wave_t before; /* the wave arriving (UNIAXIAL_OUTSIDE entering) */
+    vec3_t m;               /* the unit normal from the crystal toward the outside */
+    vec3_t t;               /* the tangential wave vector (units of the vacuum wavenumber) */
+    vec3_t axis;
+    double no, ne;           /* lane 0's principal indices */
+    uniaxial_fresnel_t fres; /* lane 0's boundary amplitudes */
+    /* The inputs, for the other lanes' shares (computed when a reflection asks for them:
+     * refraction goes on with lane 0 alone, and each lane costs a boundary solve). */
+    vec3_t dir_in, nrm;
+    bool entering;
+    uniaxial_wave_t inside;
+    double lane_no[BSDF_MAX_LANES], lane_ne[BSDF_MAX_LANES];
 } uniaxial_event_t;
 
 /* One crossing of the crystal's surface by a ray travelling along dir toward it, about the
@@ -117,29 +119,25 @@ void uniaxial_event_make(vec3_t dir, vec3_t nrm, bool entering, uniaxial_wave_t 
 int uniaxial_choose(const uniaxial_event_t *e, double u);
 
 /* Lane j's factor on branch b after b was chosen with uniaxial_choose: the branch's radiance
- * factor, times on a reflection lane j's reflection probability over lane 0's. On a refraction
+ * factor, times on a reflection lane j's probability of that branch over lane 0's (a boundary
+ * solve at lane j's indices, made here). On a refraction
  * of a non-grey event only lane 0 is meaningful (the caller ends the others, as at a dispersive
  * glass). */
 double uniaxial_lane_weight(const uniaxial_event_t *e, int b, int j);
 
-/* Branch b's Mueller matrix in the incident light's (s, p) frame under the approximation above
- * (each mode a partial linear polariser along its D after the Fresnel terms); its [0][0] is the
- * branch's probability. For a polarised transport to replace the unpolarised split later. */
-mueller_t uniaxial_branch_mueller(const uniaxial_event_t *e, int b);
-
 /* Branch b's Mueller matrix for the light that crosses the interface, in the frames ev
  * (polar/polar_frame.h: polar_event_interface about the event's normal, k_in and k_out the
- * light's directions). In radiance mode the light travels the branch backward (a camera path:
- * from the wave after to the wave before), in importance mode forward. The same magnitudes as
- * uniaxial_branch_mueller, with each mode's polariser at its D's signed angle in the frame of
- * the crystal's side: light leaving a mode (out of the crystal, or reflected inside) is
- * projected on the mode's D and then takes the s and p Fresnel amplitudes; light entering a
- * mode takes them first and is then projected, so that it travels inside in its mode; light
- * reflected outside takes the two modes' sum. No phases (no retardance between s and p, none
- * between o and e). Where a mode's D is undefined (along the axis) it passes half of any
- * state. For unpolarised light its [0][0] is the branch's probability where the light comes
- * from outside; light leaving a mode is taken to be in it (it entered through a projection), so
- * a carrier divides the matrix by the probability, not by its own [0][0]. */
+ * light's directions), from lane 0's exact amplitudes (uniaxial_fresnel_jones; phases
+ * included). In radiance mode the light travels the branch backward (a camera path: from the
+ * wave after to the wave before; the boundary solved again for the reversed waves), in
+ * importance mode forward. Light leaving a crystal wave is projected on that wave's field (it
+ * is in that wave), so for light in the wave the power passed is the branch's probability; for
+ * light from outside [0][0] is the probability (unpolarised light). A carrier divides by the
+ * probability. */
 mueller_t uniaxial_branch_mueller_frames(const uniaxial_event_t *e, int b, const polar_event_t *ev);
+
+/* The same in the event's own s-p frames (x = s = k_in x n), importance mode: the light
+ * travels the path's way. */
+mueller_t uniaxial_branch_mueller(const uniaxial_event_t *e, int b);
 
 #endif

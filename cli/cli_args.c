@@ -1,6 +1,7 @@
 #include "cli_args.h"
 
 #include "integrators.h"
+#include "overrides.h"
 #include "proto.h"
 #include "suggest.h"
 
@@ -73,6 +74,24 @@ static int parse_adaptive(const char *cmd, const char *flag, const char *val, vo
     }
     *(int *)dst = !strcmp(val, "on");
     return 0;
+}
+
+/* --polarized: the job setting's values (scene/overrides.h): auto leaves the decision to the
+ * plan (SCENE_POLARIZED_FILE), on and off force it. */
+static int parse_polarized(const char *cmd, const char *flag, const char *val, void *dst)
+{
+    const struct {
+        const char *name;
+        int setting;
+    } values[] = {
+        {"auto", SCENE_POLARIZED_FILE}, {"off", SCENE_POLARIZED_OFF}, {"on", SCENE_POLARIZED_ON}};
+    for (size_t i = 0; i < sizeof values / sizeof values[0]; i++)
+        if (!strcmp(val, values[i].name)) {
+            *(int *)dst = values[i].setting;
+            return 0;
+        }
+    fprintf(stderr, "prismfarm %s: %s expects on, off or auto, got '%s'\n", cmd, flag, val);
+    return -1;
 }
 
 /* The settings' options (job_settings.h), each in its group's table. */

@@ -302,10 +302,15 @@ int cmd_plan(int argc, char **argv)
     /* Polarisation as a job of this scene would carry it: the one rule the master and
      * `render` apply before a job starts, against the job's target error. */
     polar_decision_t polar;
-    if (scene && polar_pilot_decide(scene, job.target_error, &polar, &err) < 0)
-        scene_destroy(&scene);
-    if (scene)
-        polar_pilot_record(scene, &polar);
+    if (scene && job.polarized != SCENE_POLARIZED_FILE) {
+        /* --polarized on|off: the user's, no pilot (the scene was loaded with it). */
+        scene->settings.polar_pilot.forced = 1;
+    } else {
+        if (scene && polar_pilot_decide(scene, job.target_error, &polar, &err) < 0)
+            scene_destroy(&scene);
+        if (scene)
+            polar_pilot_record(scene, &polar);
+    }
     if (scene) {
         cli_warn_print("plan", scene->warnings);
         plan_request_t req = plan_request_make(desc, &ov);

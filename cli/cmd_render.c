@@ -508,6 +508,8 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
         }
         polar_pilot_record(scene, &polar);
         job.polarized = polar.setting;
+    } else {
+        scene->settings.polar_pilot.forced = 1; /* --polarized on|off: the user's */
     }
     const double loaded = clock_now_s(), load_s = loaded - t0;
     cli_warn_print("render", scene->warnings);

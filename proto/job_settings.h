@@ -37,7 +37,8 @@
  *   polarized    polarised transport as the plan decided it once, before the job started
  *                (render/polar_pilot.h polar_pilot_decide, issue 28): 0 not decided (the
  *                scene file's own, as before: a worker never decides), 1 off, 2 on; the
- *                master and `render` decide, workers obey, the journal keeps it
+ *                master and `render` decide, workers obey, the journal keeps it; a user may
+ *                force it with --polarized on|off (auto: 0), and then nothing decides
  * A stopping rule's 0 is never written to the wire; anything else there must be a usable rule. */
 #ifndef PRISMFARM_JOB_SETTINGS_H
 #define PRISMFARM_JOB_SETTINGS_H
@@ -79,7 +80,10 @@
        .help = "with --target-error: each tile stops once it reaches its share\n"                  \
                "of the target (on), or every tile runs every pass (off, the default)"))          \
     X(polarized, INT, 0, "polar", (.presence = UNLESS_ZERO, .absent = "the file's", RANGE(0, 2)), \
-      LOADER, NONE, ())
+      LOADER, OVERRIDE,                                                                            \
+      (.name = "polarized", .kind = CLI_CUSTOM, .parse = parse_polarized, .arg = "on|off|auto",    \
+       .help = "polarised transport forced on or off, or auto (the default):\n"                   \
+               "the plan decides (its pilot where nothing asks for it)"))
 /* clang-format on */
 
 /* Helpers for the expansions: a parenthesised list without its parentheses, and each KIND's C

@@ -1,7 +1,8 @@
 /* crystal_scatter: a path's event at the surface of a uniaxial crystal (bsdf/uniaxial.h), one
  * rule for the camera pass (radiance mode) and the photon tracer (importance mode): the dichroic
  * absorption along the segment just travelled inside the crystal, the lanes' principal indices,
- * the branch (reflect; refract into the o or e wave; leave) chosen in proportion to lane 0's
+ * the branch (reflect; refract into the o or e wave; leave; reflect inside into either wave)
+ * chosen in proportion to lane 0's
  * probabilities, the lanes' weights, and the wave the path travels in afterwards. Its callers
  * keep only their path policy. Pure: the randomness is the caller's u. */
 #ifndef PRISMFARM_CRYSTAL_SCATTER_H
@@ -24,10 +25,9 @@ typedef struct crystal_polar {
     /* A photon's polarisation (importance mode; NULL for a camera path): lane 0's Stokes
      * vector in the frame x (photon_polar.h). The branch is then chosen in proportion to its
      * power fraction for that vector, p_b = (M_b R s)_0 over their sum, and m is M_b / p_b:
-     * the photon keeps its power. The sum is 1 for unpolarised light and, by the model's
-     * construction, within a few per cent of it otherwise (the modes' polarisations are
-     * nearly, not exactly, orthogonal in the light's frame; light reflected inside is not
-     * converted between the modes); dividing by it conserves the flux. */
+     * the photon keeps its power. The sum is 1 for any state arriving from outside and for
+     * light inside in its wave's polarisation (bsdf/uniaxial.h: the boundary's exact
+     * amplitudes); dividing by it guards rounding. */
     const stokes_t *s_in;
 } crystal_polar_t;
 

@@ -229,6 +229,7 @@ int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
      * host that renders it: the same as setting it on the loaded scene (polar_pilot_record). */
     if (ov && ov->polarized == SCENE_POLARIZED_ON)
         rs->polarised = 1;
+    rs->polarised_setting = ov ? ov->polarized : SCENE_POLARIZED_FILE;
     if (!strcmp(named->name, "sppm") || !strcmp(in->type, "sppm")) {
         if (load_sppm(L, p, !strcmp(named->name, "sppm"), err))
             return -1;

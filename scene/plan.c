@@ -373,8 +373,10 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
                      100.0 * rs->polar_pilot.change, 100.0 * rs->polar_pilot.change_hi,
                      100.0 * rs->polar_pilot.target, rs->polar_pilot.seconds_polarised,
                      rs->polar_pilot.seconds_plain);
-        if (!sheets && !s->camera.analyser && !rs->stokes && !rs->polarised_asked &&
-            !s->polarised_lights && !(rs->polar_pilot.run && rs->polar_pilot.on))
+        if (rs->polar_pilot.forced)
+            text_add(&r, "forced by the user (--polarized on: no pilot); ");
+        else if (!sheets && !s->camera.analyser && !rs->stokes && !rs->polarised_asked &&
+                 !s->polarised_lights && !(rs->polar_pilot.run && rs->polar_pilot.on))
             text_add(&r, "the caller asked for it; ");
         text_add(&r, "a 4x4 Mueller matrix per lane at every glass and metal interface (smooth or "
                      "rough) and sheet; diffuse, thin and layered surfaces depolarise. ");
@@ -385,14 +387,19 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
         if (crystals)
             text_add(&r,
                      "The %d uniaxial crystal material%s split%s light into o and e waves "
-                     "polarised across each other (magnitudes only, no retardance); crystals "
-                     "alone do not turn polarisation on. ",
+                     "by the boundary's exact amplitudes (phases included; reflections inside "
+                     "convert between the waves); crystals alone do not turn polarisation on. ",
                      crystals, crystals > 1 ? "s" : "", crystals > 1 ? "" : "s");
         text_add(&r, "Images without any of these are left unpolarised, bit for bit as before.");
     } else {
         text_add(&c, "off");
-        text_add(&r, "nothing tells polarisations apart (no polariser or retarder sheet, no "
-                     "analyser, no Stokes output, no polarised light)");
+        if (rs->polar_pilot.forced)
+            text_add(&r, "forced by the user (--polarized off: no pilot; sheets pass their "
+                         "unpolarised share, an analyser and polarised lights are seen as "
+                         "intensities)");
+        else
+            text_add(&r, "nothing tells polarisations apart (no polariser or retarder sheet, "
+                         "no analyser, no Stokes output, no polarised light)");
         if (glass)
             text_add(&r,
                      "; the %d smooth glass and mirror material%s polarise what they reflect, "

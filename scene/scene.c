@@ -1,6 +1,7 @@
 #include "scene.h"
 
 #include "cie.h"
+#include "overrides.h"
 
 #include <float.h>
 #include <math.h>
@@ -763,6 +764,15 @@ int scene_finish(scene_t *self, err_t *err)
         self->polarised_lights += self->lights[i].polarisation > 0.0;
     if (self->polarising_sheets > 0 || self->camera.analyser || self->polarised_lights > 0)
         self->settings.polarised = 1;
+    /* Forced off (--polarized off): sheets pass their unpolarised share, the analyser and
+     * polarised lights are seen as intensities (the analyser passes all); a Stokes output
+     * cannot be written so. */
+    if (self->settings.polarised_setting == SCENE_POLARIZED_OFF) {
+        if (self->settings.stokes)
+            return err_set(err, "--polarized off: the film writes Stokes layers (Film \"bool "
+                                "stokes\" true), which need polarised transport");
+        self->settings.polarised = 0;
+    }
     for (size_t i = 0; i < self->nmaterials; i++) {
         material_t *m = &self->materials[i];
         if (m->kind == MATERIAL_RETARDER && m->retarder_mode == RETARDER_PLATE &&

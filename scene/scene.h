@@ -393,6 +393,9 @@ typedef struct render_settings {
     int polarised;
     /* The file asked for it (Integrator "bool polarized" true): the plan says so. */
     int polarised_asked;
+    /* The job's setting `polarized` (scene/overrides.h: FILE, OFF, ON; a user's --polarized or
+     * the plan's decision): OFF keeps polarisation off whatever the scene has (scene_finish). */
+    int polarised_setting;
     /* Stokes output (Film "bool stokes"; needs polarised): the image's buckets are four planes
      * of grid.n, S0 (the spectral image as without it) then S1, S2, S3 in the image's frame
      * (x right, y up): render_settings_buckets. */
@@ -408,6 +411,7 @@ typedef struct render_settings {
         double change_hi; /* its bound two standard errors up: what the decision compares */
         double target;    /* the error it was compared with */
         double seconds_plain, seconds_polarised; /* the pilot's renders, wall clock */
+        int forced; /* the user forced the setting (--polarized on|off): no pilot, no rule */
     } polar_pilot;
 } render_settings_t;
 

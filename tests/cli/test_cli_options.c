@@ -200,6 +200,67 @@ static void test_plan_prediction(void **state)
     expect_fails(run("plan", SCENE, "--target-error", "1.5", NULL), "--target-error expects");
 }
 
+/* Whether two EXRs' spectral pixels differ anywhere. */
+static int pixels_differ(const char *a, const char *b)
+{
+    err_t err;
+    image_exr_t *x = image_exr_read(a, &err), *y = x ? image_exr_read(b, &err) : NULL;
+    if (!x || !y)
+        fail_msg("%s", err.msg);
+    const size_t n = (size_t)image_exr_width(x) * image_exr_height(x) * image_exr_n_spectral(x);
+    const int differ = memcmp(image_exr_spectral(x), image_exr_spectral(y), n * sizeof(float));
+    image_exr_destroy(&x);
+    image_exr_destroy(&y);
+    return differ != 0;
+}
+
+/* --polarized on|off|auto (proto/job_settings.h): the user forces polarised transport and the
+ * plan says so; auto is the plan's own decision, so forcing what the plan decides renders the
+ * same bytes (polar_off: the plan leaves it off; polar_on: its pilot turns it on), forcing the
+ * other changes them; off with a Stokes output is refused. 16 x 12 pixels at 4 spp. */
+static void test_polarized_switch(void **state)
+{
+    (void)state;
+    expect_fails(run("render", SCENE, "--polarized", "maybe", NULL),
+                 "prismfarm render: --polarized expects on, off or auto, got 'maybe'");
+    const run_t *r = run("plan", "data/render/polar_on.pbrt", "--polarized", "off", NULL);
+    if (r->status != 0)
+        fail_msg("plan --polarized off: exit %d: %s", r->status, r->err);
+    expect_in(r->out, "forced by the user (--polarized off");
+    r = run("plan", "data/render/polar_off.pbrt", "--polarized", "on", NULL);
+    if (r->status != 0)
+        fail_msg("plan --polarized on: exit %d: %s", r->status, r->err);
+    expect_in(r->out, "forced by the user (--polarized on");
+    r = run("plan", "data/render/polar_off.pbrt", "--polarized", "auto", NULL);
+    assert_int_equal(r->status, 0);
+    assert_null(strstr(r->out, "forced by the user"));
+
+    const char *scenes[2] = {"data/render/polar_off.pbrt", "data/render/polar_on.pbrt"};
+    const char *forced[2][2] = {{"off", "on"}, {"on", "off"}}; /* the plan's, the other */
+    for (int i = 0; i < 2; i++) {
+        char a[512], b[512], c[512];
+        snprintf(a, sizeof a, "%s", testutil_scratch(i ? "pon_auto.exr" : "poff_auto.exr"));
+        snprintf(b, sizeof b, "%s", testutil_scratch(i ? "pon_same.exr" : "poff_same.exr"));
+        snprintf(c, sizeof c, "%s", testutil_scratch(i ? "pon_other.exr" : "poff_other.exr"));
+        const char *outs[3] = {a, b, c};
+        const char *values[3] = {"auto", forced[i][0], forced[i][1]};
+        for (int k = 0; k < 3; k++) {
+            r = run("render", scenes[i], "--direct", "--quiet", "--polarized", values[k], "-o",
+                    outs[k], NULL);
+            if (r->status != 0)
+                fail_msg("render %s --polarized %s: exit %d: %s", scenes[i], values[k], r->status,
+                         r->err);
+        }
+        testutil_assert_same_pixels(a, b);
+        if (i == 1) /* polar_on's plates change the image by 6 % (its file says why) */
+            assert_true(pixels_differ(a, c));
+    }
+    r = run("render", "data/render/stokes.pbrt", "--direct", "--quiet", "--polarized", "off", "-o",
+            testutil_scratch("stokes_off.exr"), NULL);
+    assert_int_not_equal(r->status, 0);
+    expect_in(r->err, "--polarized off: the film writes Stokes layers");
+}
+
 /* -h and --help anywhere print the usage with every option the command takes, exit 0. */
 static void test_help(void **state)
 {
@@ -261,6 +322,7 @@ int main(void)
         cmocka_unit_test(test_integrator_names),
         cmocka_unit_test(test_plan_prediction),
         cmocka_unit_test(test_help),
+        cmocka_unit_test(test_polarized_switch),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);
 }

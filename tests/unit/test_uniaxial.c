@@ -20,6 +20,7 @@
 #include "crystal.h"
 #include "delta.h"
 #include "numeric_testutil.h"
+#include "polar_fresnel.h"
 #include "scene_builders.h"
 #include "uniaxial.h"
 
@@ -184,7 +185,9 @@ static void test_double_image_traced(void **state)
             x[w] = s * b->dir.x;
             uniaxial_event_make(b->dir, up, false, b->after, axis, &no, &ne, 1, BSDF_RADIANCE,
                                 &out);
-            assert_int_equal(out.nbranch, 2);
+            assert_int_equal(out.nbranch, 3);
+            /* At normal incidence nothing is converted: the waves' fields are s and p. */
+            testutil_assert_near(out.branch[2].prob, 0.0, 1e-20);
             testutil_assert_near(vec3_dot(out.branch[1].dir, down), 1.0, 1e-12);
             testutil_assert_near(b->factor * out.branch[1].factor, 1.0, 1e-12);
             /* Normal incidence: the same transmittance in and out, 4 n / (n + 1)^2. */
@@ -239,7 +242,9 @@ static void test_tir(void **state)
 }
 
 /* Every event conserves energy: the branch probabilities sum to 1, entering and leaving, over
- * many directions, axes and crystals; the Mueller matrices' [0][0] are the probabilities. */
+ * many directions, axes and crystals; the Mueller matrices' [0][0] are the probabilities from
+ * outside, half of them inside (light in a wave is fully polarised: unpolarised light would
+ * pass half). */
 static void test_energy_events(void **state)
 {
     (void)state;
@@ -267,12 +272,204 @@ static void test_energy_events(void **state)
                 assert_true(e.branch[b].prob >= 0.0 && e.branch[b].prob <= 1.0);
                 sum += e.branch[b].prob;
                 mueller_t m = uniaxial_branch_mueller(&e, b);
-                testutil_assert_near(m.m[0][0], e.branch[b].prob, 1e-12);
+                testutil_assert_near(m.m[0][0], (entering ? 1.0 : 0.5) * e.branch[b].prob, 1e-12);
                 if (e.branch[b].prob > 0.0)
                     testutil_assert_near(vec3_length(e.branch[b].dir), 1.0, 1e-12);
             }
             testutil_assert_near(sum, 1.0, 1e-12);
         }
+    }
+}
+
+/* ---- the boundary's exact amplitudes and mode conversion (polar/uniaxial_fresnel.h) ---- */
+
+static double lcg01(uint64_t *x)
+{
+    *x = *x * 6364136223846793005ULL + 1442695040888963407ULL;
+    return (double)(*x >> 11) / 9007199254740992.0;
+}
+
+/* Energy at the interface, from each incident wave (outside s and p, inside o and e): the
+ * power reflected into o and e plus the power transmitted is the incident power, for a lossless
+ * crystal, over many angles, axis orientations and crystals (the solver's raw fractions, not
+ * renormalised). The reflection law of each mode: every wave leaving has the incident tangential
+ * wave vector, lies on its own index surface and carries energy away from the face; an o wave
+ * reflected inside a tilted crystal feeds the e wave, which leaves at another angle (mode
+ * conversion happens: the old model kept the mode). Reciprocity (Stokes-Helmholtz): the power
+ * from wave i into wave o equals that from o reversed into i reversed. */
+static void test_mode_conversion_energy(void **state)
+{
+    (void)state;
+    uint64_t x = 777;
+    int converted = 0, cases = 0;
+    double max_conv = 0.0, max_err = 0.0, max_rec = 0.0;
+    const vec3_t nrm = vec3_make(0, 0, 1);
+    for (int i = 0; i < 3000; i++) {
+        const crystal_t *c = crystal_get(i % crystal_count());
+        const double lam = 400 + 300 * lcg01(&x);
+        const double no = n_at(&c->no, lam), ne = n_at(&c->ne, lam);
+        vec3_t axis = vec3_normalize(vec3_make(lcg01(&x) - 0.5, lcg01(&x) - 0.5, lcg01(&x) - 0.5));
+        if (i % 7 == 0) /* the axis in the face, as in a cleaved plate */
+            axis = vec3_normalize(vec3_make(axis.x, axis.y, 0.0));
+        /* A wave inside travelling toward the face z = 0 from below. */
+        const double ct = 0.02 + 0.98 * lcg01(&x), ph = 2 * PI * lcg01(&x);
+        const vec3_t k = vec3_make(sqrt(1 - ct * ct) * cos(ph), sqrt(1 - ct * ct) * sin(ph), ct);
+        for (int w = 0; w < 2; w++) {
+            const double n_in = uniaxial_index((uniaxial_wave_t)w, k, axis, no, ne);
+            const vec3_t ray = uniaxial_ray_from_wave((uniaxial_wave_t)w, k, axis, no, ne);
+            if (!(ray.z > 1e-3))
+                continue;
+            cases++;
+            uniaxial_event_t e;
+            uniaxial_event_make(ray, nrm, false, (uniaxial_wave_t)w, axis, &no, &ne, 1,
+                                BSDF_IMPORTANCE, &e);
+            assert_true(e.fres.ok);
+            const int fin = w ? UF_E : UF_O;
+            double sum = 0.0;
+            for (int o = 0; o < UF_WAVES; o++)
+                sum += e.fres.power[fin][o];
+            max_err = fmax(max_err, fabs(sum - 1.0));
+            testutil_assert_near(sum, 1.0, 1e-9);
+            for (int b = 0; b < e.nbranch; b++) {
+                const uniaxial_branch_t *br = &e.branch[b];
+                if (!(br->prob > 0.0))
+                    continue;
+                /* n_after k_after - n_in k_in is along the normal. */
+                testutil_assert_near(br->n_after * br->wave.x, n_in * k.x, 1e-12);
+                testutil_assert_near(br->n_after * br->wave.y, n_in * k.y, 1e-12);
+                if (br->after != UNIAXIAL_OUTSIDE) {
+                    testutil_assert_near(br->n_after,
+                                         uniaxial_index(br->after, br->wave, axis, no, ne), 1e-12);
+                    assert_true(br->dir.z < 0.0);
+                } else {
+                    testutil_assert_near(br->n_after, 1.0, 1e-12);
+                    assert_true(br->dir.z > 0.0);
+                }
+            }
+            const double conv = e.branch[2].prob;
+            max_conv = fmax(max_conv, conv);
+            if (conv > 1e-3)
+                converted++;
+            /* Reciprocity with the boundary solved for -t. */
+            uniaxial_fresnel_t rev;
+            uniaxial_fresnel_solve(vec3_neg(e.t), e.m, axis, no, ne, 1.0, vec3_make(1, 0, 0), &rev);
+            for (int o = 0; o < UF_WAVES; o++) {
+                const double back = o < UF_O ? rev.power[o][fin]  /* outside back into fin */
+                                             : rev.power[o][fin]; /* the mode back into fin */
+                max_rec = fmax(max_rec, fabs(back - e.fres.power[fin][o]));
+                testutil_assert_near(back, e.fres.power[fin][o], 1e-9);
+            }
+        }
+        /* From outside, s and p separately. */
+        const vec3_t d = vec3_make(-k.x, -k.y, -k.z);
+        uniaxial_event_t e;
+        uniaxial_event_make(d, nrm, true, UNIAXIAL_O, axis, &no, &ne, 1, BSDF_IMPORTANCE, &e);
+        for (int in = UF_S; in <= UF_P; in++) {
+            double sum = 0.0;
+            for (int o = 0; o < UF_WAVES; o++)
+                sum += e.fres.power[in][o];
+            max_err = fmax(max_err, fabs(sum - 1.0));
+            testutil_assert_near(sum, 1.0, 1e-9);
+        }
+    }
+    printf("interface energy over %d inside cases: |sum - 1| <= %.1e, reciprocity to %.1e; "
+           "converted > 1e-3 in %d, at most %.4f\n",
+           cases, max_err, max_rec, converted, max_conv);
+    assert_true(converted > cases / 10);
+}
+
+/* Closed forms. With the axis across the plane of incidence the o wave is p-polarised at n_o
+ * and the e wave s-polarised at n_e: each reflects inside with Fresnel's term of an isotropic
+ * medium of its index and nothing is converted. With the axis along the normal the o wave is s
+ * (n_o) and the e wave p with r_p = (n_o n_e cos i - sqrt(n_e^2 - sin^2 i)) / (n_o n_e cos i +
+ * sqrt(n_e^2 - sin^2 i)) from outside (the TM admittances eps_x / k_z; Yeh 1979, Lekner 1991).
+ * In the isotropic limit n_o = n_e a wave's total reflection is its field's s and p shares of
+ * Fresnel's R_s and R_p, however the converted part is split. */
+static void test_mode_conversion_closed_forms(void **state)
+{
+    (void)state;
+    const double no = 1.6584, ne = 1.4864;
+    const vec3_t nrm = vec3_make(0, 0, 1);
+    for (double deg = 0.0; deg < 89.0; deg += 4.0) {
+        const double th = deg * PI / 180.0, si = sin(th), ci = cos(th);
+        /* Inside, the axis along y. */
+        const vec3_t y = vec3_make(0, 1, 0);
+        for (int w = 0; w < 2; w++) {
+            const double n = w ? ne : no;
+            uniaxial_event_t e;
+            uniaxial_event_make(vec3_make(si, 0, ci), nrm, false, (uniaxial_wave_t)w, y, &no, &ne,
+                                1, BSDF_IMPORTANCE, &e);
+            const polar_fresnel_t f = polar_fresnel_eval(ci, n, 1.0);
+            testutil_assert_near(e.branch[0].prob, w ? f.Rs : f.Rp, 1e-12);
+            testutil_assert_near(e.branch[2].prob, 0.0, 1e-14);
+        }
+        /* From outside, the axis along the normal. */
+        uniaxial_event_t e;
+        uniaxial_event_make(vec3_make(si, 0, -ci), nrm, true, UNIAXIAL_O, nrm, &no, &ne, 1,
+                            BSDF_IMPORTANCE, &e);
+        const double q = sqrt(ne * ne - si * si);
+        const double rp = (no * ne * ci - q) / (no * ne * ci + q);
+        const polar_fresnel_t fs = polar_fresnel_eval(ci, 1.0, no);
+        const double Rp = e.fres.power[UF_P][UF_S] + e.fres.power[UF_P][UF_P];
+        const double Rs = e.fres.power[UF_S][UF_S] + e.fres.power[UF_S][UF_P];
+        testutil_assert_near(Rp, rp * rp, 1e-12);
+        testutil_assert_near(Rs, fs.Rs, 1e-12);
+        testutil_assert_near(e.fres.power[UF_P][UF_O], 0.0, 1e-14);
+        testutil_assert_near(e.fres.power[UF_S][UF_E], 0.0, 1e-14);
+    }
+    /* The isotropic limit, random axes and angles below the critical angle. */
+    uint64_t x = 99;
+    double max_conv = 0.0;
+    for (int i = 0; i < 500; i++) {
+        const double n = 1.5;
+        const vec3_t axis =
+            vec3_normalize(vec3_make(lcg01(&x) - 0.5, lcg01(&x) - 0.5, lcg01(&x) - 0.5));
+        const double th = asin(1 / n) * 0.99 * lcg01(&x);
+        const vec3_t k = vec3_make(sin(th), 0, cos(th));
+        for (int w = 0; w < 2; w++) {
+            uniaxial_event_t e;
+            uniaxial_event_make(k, nrm, false, (uniaxial_wave_t)w, axis, &n, &n, 1, BSDF_IMPORTANCE,
+                                &e);
+            /* The wave's field and its share along s = y (perpendicular to the plane xz). */
+            const vec3_t o = vec3_normalize(vec3_cross(k, axis));
+            const vec3_t d = w ? vec3_cross(o, k) : o;
+            const double fs = d.y * d.y;
+            const polar_fresnel_t f = polar_fresnel_eval(cos(th), n, 1.0);
+            testutil_assert_near(e.branch[0].prob + e.branch[2].prob, fs * f.Rs + (1 - fs) * f.Rp,
+                                 1e-12);
+            testutil_assert_near(e.branch[1].prob, fs * f.Ts + (1 - fs) * f.Tp, 1e-12);
+            max_conv = fmax(max_conv, e.branch[2].prob);
+        }
+    }
+    /* The split is not trivial: light of mixed s and p reflects into the other mode. */
+    assert_true(max_conv > 1e-3);
+}
+
+/* Polarised light from outside: the branches' Mueller matrices pass, summed, exactly the light's
+ * power whatever its state (the old model's polarisers did so only for unpolarised light); light
+ * arriving inside in its wave's polarisation likewise (each branch's [0][0] is half of it). */
+static void test_mode_conversion_mueller(void **state)
+{
+    (void)state;
+    uint64_t x = 4242;
+    const vec3_t nrm = vec3_make(0, 0, 1);
+    const double no = 1.6584, ne = 1.4864;
+    for (int i = 0; i < 400; i++) {
+        const vec3_t axis =
+            vec3_normalize(vec3_make(lcg01(&x) - 0.5, lcg01(&x) - 0.5, lcg01(&x) - 0.5));
+        const double ct = 0.05 + 0.95 * lcg01(&x), ph = 2 * PI * lcg01(&x);
+        const vec3_t d = vec3_make(sqrt(1 - ct * ct) * cos(ph), sqrt(1 - ct * ct) * sin(ph), -ct);
+        const double a = PI * lcg01(&x), chi = 0.5 * PI * (lcg01(&x) - 0.5);
+        const stokes_t s =
+            stokes_make(1.0, cos(2 * chi) * cos(2 * a), cos(2 * chi) * sin(2 * a), sin(2 * chi));
+        uniaxial_event_t e;
+        uniaxial_event_make(d, nrm, true, UNIAXIAL_O, axis, &no, &ne, 1, BSDF_IMPORTANCE, &e);
+        double sum = 0.0;
+        for (int b = 0; b < e.nbranch; b++) {
+            const mueller_t m = uniaxial_branch_mueller(&e, b);
+            sum += mueller_apply(&m, s).s[0];
+        }
+        testutil_assert_near(sum, 1.0, 1e-9);
     }
 }
 
@@ -616,8 +813,9 @@ static void test_dichroic_plate(void **state)
         int wave = 0, end;
         vec3_t dir;
         const double u = (i + 0.5) / N;
-        assert_int_equal(crystal_scatter(&m, &top, m.optic_axis, vec3_make(0, 0, 1), vec3_make(0, 0, -1), &wave,
-                                         1, &lambda, &w, BSDF_IMPORTANCE, u, &dir, &end, NULL),
+        assert_int_equal(crystal_scatter(&m, &top, m.optic_axis, vec3_make(0, 0, 1),
+                                         vec3_make(0, 0, -1), &wave, 1, &lambda, &w,
+                                         BSDF_IMPORTANCE, u, &dir, &end, NULL),
                          0);
         if (dir.z > 0)
             continue; /* reflected */
@@ -625,8 +823,8 @@ static void test_dichroic_plate(void **state)
         /* Straight down to the bottom (normal incidence, k across the axis: no walk-off), and
          * leaving with the second uniform (a stratified second dimension). */
         const double u2 = fmod(u * 7919.0, 1.0);
-        if (crystal_scatter(&m, &bottom, m.optic_axis, top.p, dir, &wave, 1, &lambda, &w, BSDF_IMPORTANCE, u2,
-                            &dir, &end, NULL))
+        if (crystal_scatter(&m, &bottom, m.optic_axis, top.p, dir, &wave, 1, &lambda, &w,
+                            BSDF_IMPORTANCE, u2, &dir, &end, NULL))
             continue;
         if (dir.z < 0)
             out[inw] += w / N;
@@ -682,6 +880,9 @@ int main(void)
         cmocka_unit_test(test_double_image_traced),
         cmocka_unit_test(test_tir),
         cmocka_unit_test(test_energy_events),
+        cmocka_unit_test(test_mode_conversion_energy),
+        cmocka_unit_test(test_mode_conversion_closed_forms),
+        cmocka_unit_test(test_mode_conversion_mueller),
         cmocka_unit_test(test_dichroic_plate),
         cmocka_unit_test(test_syntax),
         cmocka_unit_test(test_double_image_rendered),
