@@ -189,7 +189,6 @@ static int uniaxial_inputs(loader_t *L, const scene_material_t *dm, material_t *
  * (SigmaAFromConcentration); textured ones weigh each pigment's own spectrum per hit. */
 static int hair_inputs(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
 {
-    m->kind = MATERIAL_HAIR;
     if (!(m->hair.eta = loader_float_input(L, &dm->hair_eta, err)) ||
         !(m->hair.beta_m = loader_float_input(L, &dm->beta_m, err)) ||
         !(m->hair.beta_n = loader_float_input(L, &dm->beta_n, err)) ||
@@ -236,7 +235,6 @@ int load_materials_for_shape(loader_t *L, int idx, const transform_t *to_world, 
  * pbrt-v4 does), its bytes bounded as any file a scene reads is. */
 static int measured_input(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
 {
-    m->kind = MATERIAL_MEASURED;
     if ((m->measured = scene_find_measured(L->sc, dm->filename)))
         return 0;
     const pbrt_loc_t at = dm->filename_loc;
@@ -271,38 +269,35 @@ int load_materials(loader_t *L, err_t *err)
         m.remaproughness = dm->remaproughness;
         m.mix[0] = m.mix[1] = -1;
         const int has_roughness =
-            dm->type == SCENE_MATERIAL_CONDUCTOR || dm->type == SCENE_MATERIAL_DIELECTRIC ||
-            dm->type == SCENE_MATERIAL_COATEDDIFFUSE || dm->type == SCENE_MATERIAL_COATEDCONDUCTOR ||
-            dm->type == SCENE_MATERIAL_SUBSURFACE;
+            dm->kind == MATERIAL_CONDUCTOR || dm->kind == MATERIAL_DIELECTRIC ||
+            dm->kind == MATERIAL_COATED_DIFFUSE || dm->kind == MATERIAL_COATED_CONDUCTOR ||
+            dm->kind == MATERIAL_SUBSURFACE;
         if (has_roughness && (roughness_input(L, &dm->uroughness, &m.uroughness, err) ||
                               roughness_input(L, &dm->vroughness, &m.vroughness, err)))
             return -1;
-        if (dm->type == SCENE_MATERIAL_COATEDCONDUCTOR &&
+        if (dm->kind == MATERIAL_COATED_CONDUCTOR &&
             (roughness_input(L, &dm->base_uroughness, &m.base_uroughness, err) ||
              roughness_input(L, &dm->base_vroughness, &m.base_vroughness, err)))
             return -1;
+        /* Uniaxial and subsurface set their own kind (material_kind.h). */
+        m.kind = dm->kind;
         int rc = 0;
-        switch (dm->type) {
-        case SCENE_MATERIAL_DIFFUSE:
-            m.kind = MATERIAL_DIFFUSE;
+        switch (dm->kind) {
+        case MATERIAL_DIFFUSE:
             rc = (m.reflectance = loader_spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err))
                      ? 0
                      : -1;
             break;
-        case SCENE_MATERIAL_CONDUCTOR:
-            m.kind = MATERIAL_CONDUCTOR;
+        case MATERIAL_CONDUCTOR:
             rc = conductor_inputs(L, dm, &m, err);
             break;
-        case SCENE_MATERIAL_DIELECTRIC:
-            m.kind = MATERIAL_DIELECTRIC;
+        case MATERIAL_DIELECTRIC:
             rc = build_ior(L->sc, &dm->ior, m.name, &m.ior, err);
             break;
-        case SCENE_MATERIAL_THINDIELECTRIC:
-            m.kind = MATERIAL_THIN_DIELECTRIC;
+        case MATERIAL_THIN_DIELECTRIC:
             rc = build_ior(L->sc, &dm->ior, m.name, &m.ior, err);
             break;
-        case SCENE_MATERIAL_DIFFUSETRANSMISSION:
-            m.kind = MATERIAL_DIFFUSE_TRANSMISSION;
+        case MATERIAL_DIFFUSE_TRANSMISSION:
             m.scale = dm->scale;
             rc = (m.reflectance =
                       loader_spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) &&
@@ -311,8 +306,7 @@ int load_materials(loader_t *L, err_t *err)
                      ? 0
                      : -1;
             break;
-        case SCENE_MATERIAL_COATEDDIFFUSE:
-            m.kind = MATERIAL_COATED_DIFFUSE;
+        case MATERIAL_COATED_DIFFUSE:
             rc = (m.reflectance =
                       loader_spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) &&
                          !build_ior(L->sc, &dm->ior, m.name, &m.ior, err) &&
@@ -320,30 +314,27 @@ int load_materials(loader_t *L, err_t *err)
                      ? 0
                      : -1;
             break;
-        case SCENE_MATERIAL_COATEDCONDUCTOR:
-            m.kind = MATERIAL_COATED_CONDUCTOR;
+        case MATERIAL_COATED_CONDUCTOR:
             rc = conductor_inputs(L, dm, &m, err) ||
                          build_ior(L->sc, &dm->ior, m.name, &m.ior, err) ||
                          layer_inputs(L, dm, &m, err)
                      ? -1
                      : 0;
             break;
-        case SCENE_MATERIAL_MIX:
-            m.kind = MATERIAL_MIX;
+        case MATERIAL_MIX:
             m.mix[0] = dm->mix[0];
             m.mix[1] = dm->mix[1];
             rc = (m.amount = loader_float_input(L, &dm->amount, err)) ? 0 : -1;
             break;
-        case SCENE_MATERIAL_INTERFACE:
-            m.kind = MATERIAL_INTERFACE;
+        case MATERIAL_INTERFACE:
             break;
-        case SCENE_MATERIAL_UNIAXIAL:
+        case MATERIAL_UNIAXIAL:
             rc = uniaxial_inputs(L, dm, &m, err);
             break;
-        case SCENE_MATERIAL_HAIR:
+        case MATERIAL_HAIR:
             rc = hair_inputs(L, dm, &m, err);
             break;
-        case SCENE_MATERIAL_SUBSURFACE: /* scene/subsurface_load.h */
+        case MATERIAL_SUBSURFACE: /* scene/subsurface_load.h */
             rc = (m.sss.sigma_a = loader_spectrum_input(L, &dm->sigma_a, SPEC_UNBOUNDED, err)) &&
                          (m.sss.sigma_s =
                               loader_spectrum_input(L, &dm->sss_sigma_s, SPEC_UNBOUNDED, err)) &&
@@ -353,19 +344,18 @@ int load_materials(loader_t *L, err_t *err)
                      ? subsurface_load(L->sc, dm, &m, err)
                      : -1;
             break;
-        case SCENE_MATERIAL_POLARIZER:
-        case SCENE_MATERIAL_RETARDER:
-            m.kind = dm->type == SCENE_MATERIAL_POLARIZER ? MATERIAL_POLARISER : MATERIAL_RETARDER;
+        case MATERIAL_POLARISER:
+        case MATERIAL_RETARDER:
             m.sheet_angle = dm->sheet_angle * (PF_PI / 180.0);
             m.retardance = dm->retardance * (PF_PI / 180.0);
-            m.retarder_mode = dm->type == SCENE_MATERIAL_RETARDER ? dm->retarder_mode : 0;
+            m.retarder_mode = dm->kind == MATERIAL_RETARDER ? dm->retarder_mode : 0;
             m.retardation_nm = dm->retardation;
             m.plate_thickness_nm = dm->plate_thickness * 1000.0;
             m.plate_axial = dm->plate_axial;
             if (m.retarder_mode == RETARDER_PLATE)
                 rc = crystal_inputs(L, dm, &m, err);
             break;
-        case SCENE_MATERIAL_MEASURED:
+        case MATERIAL_MEASURED:
             rc = measured_input(L, dm, &m, err);
             break;
         }
@@ -373,7 +363,7 @@ int load_materials(loader_t *L, err_t *err)
             return -1;
         /* A thin film on smooth glass or metal (the parser refuses one on a rough surface). */
         if (dm->film_thickness > 0.0 &&
-            (dm->type == SCENE_MATERIAL_DIELECTRIC || dm->type == SCENE_MATERIAL_CONDUCTOR)) {
+            (dm->kind == MATERIAL_DIELECTRIC || dm->kind == MATERIAL_CONDUCTOR)) {
             m.film_thickness = dm->film_thickness;
             m.film_ior = ior_constant(dm->film_eta);
         }

@@ -57,6 +57,10 @@ const char *plan_material_kind_name(material_kind_t kind)
         return "measured";
     case MATERIAL_HAIR:
         return "hair";
+    case MATERIAL_UNIAXIAL:
+        return "uniaxial";
+    case MATERIAL_SUBSURFACE:
+        return "subsurface";
     }
     return "?";
 }
