@@ -213,30 +213,6 @@ static int get_mix(parser_t *P, params_t *ps, scene_material_t *m)
     return pbrt_inputs_float(P, ps, "amount", 0.5, &m->amount);
 }
 
-/* Every material prismfarm reads, in the order its messages list them. pbrt-v4 reads "" and
- * "none" as no material too (a boundary between media). */
-static const pbrt_name_t MATERIALS[] = {
-    {"diffuse", MATERIAL_DIFFUSE},
-    {"conductor", MATERIAL_CONDUCTOR},
-    {"dielectric", MATERIAL_DIELECTRIC},
-    {"thindielectric", MATERIAL_THIN_DIELECTRIC},
-    {"diffusetransmission", MATERIAL_DIFFUSE_TRANSMISSION},
-    {"coateddiffuse", MATERIAL_COATED_DIFFUSE},
-    {"coatedconductor", MATERIAL_COATED_CONDUCTOR},
-    {"mix", MATERIAL_MIX},
-    {"uniaxial", MATERIAL_UNIAXIAL},
-    {"interface", MATERIAL_INTERFACE},
-    {"polarizer", MATERIAL_POLARISER},
-    {"retarder", MATERIAL_RETARDER},
-    {"measured", MATERIAL_MEASURED},
-    {"hair", MATERIAL_HAIR},
-    {"subsurface", MATERIAL_SUBSURFACE},
-    {NULL, 0},
-    {"polariser", MATERIAL_POLARISER},
-    {"", MATERIAL_INTERFACE},
-    {"none", MATERIAL_INTERFACE},
-};
-
 /* A thin film on glass or metal (scene_material_t.film_thickness), smooth (bsdf/delta) or
  * rough (the Airy reflectance at each microfacet, bsdf/lobe). */
 static int get_film(parser_t *P, params_t *ps, scene_material_t *m)
@@ -500,12 +476,13 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
                           scene_material_t *m)
 {
     int t;
+    size_t nnames;
+    const pbrt_name_t *names = material_kind_names(&nnames);
     const char *v4 = pbrt_upgrade_v3_material(type);
     if (v4)
         return pbrt_error(P->err, type_loc, "pbrt-v3's material \"%s\" (pbrt-v4's \"%s\"): %s",
                           type, v4, PBRT_UPGRADE_HINT);
-    if (pbrt_state_lookup(P, "unsupported material", type, type_loc, MATERIALS, COUNT_OF(MATERIALS),
-                          &t) != 0)
+    if (pbrt_state_lookup(P, "unsupported material", type, type_loc, names, nnames, &t) != 0)
         return -1;
     m->kind = (material_kind_t)t;
     if (m->kind == MATERIAL_DIFFUSE) {
