@@ -104,7 +104,7 @@ static json_t *plan_json(const char *path, const scene_t *scene, const plan_t *p
         json_t *jm = json_object();
         json_object_set_new(jm, "index", json_integer(m->index));
         json_object_set_new(jm, "name", cli_json_string(m->name));
-        json_object_set_new(jm, "kind", json_string(plan_material_kind_name(m->kind)));
+        json_object_set_new(jm, "kind", json_string(material_kind_name(m->kind)));
         json_object_set_new(jm, "dispersive", json_boolean(m->dispersive));
         json_object_set_new(jm, "spectral", json_boolean(m->spectral));
         if (m->kind == MATERIAL_DIELECTRIC) {

@@ -2,7 +2,8 @@
 
 #include "volume.h"
 
-#include "hair.h"
+#include "material_class.h"
+#include "material_inputs.h"
 #include "microfacet.h"
 
 #include <math.h>
@@ -13,28 +14,15 @@
  * defined before it), so this only bounds a pathological chain. */
 #define MIX_DEPTH_MAX 32
 
-static double clamp01(double v) { return v > 0.0 ? (v < 1.0 ? v : 1.0) : 0.0; }
-
 double shading_texture(const texture_t *t, const surface_t *sf, double lambda)
 {
-    const texture_point_t at = {sf->u, sf->v, sf->p, sf->ng};
-    return texture_eval_at(t, &at, lambda);
+    return material_inputs_texture(t, sf, lambda);
 }
 
 void shading_texture_lanes(const texture_t *t, const surface_t *sf, const double *lambda, int n,
                            double *out)
 {
-    const texture_point_t at = {sf->u, sf->v, sf->p, sf->ng};
-    texture_eval_lanes(t, &at, lambda, n, out);
-}
-
-/* shading_texture_lanes clamped to [0, 1]. */
-static void texture_lanes01(const texture_t *t, const surface_t *sf, const double *lambda, int n,
-                            double *out)
-{
-    shading_texture_lanes(t, sf, lambda, n, out);
-    for (int j = 0; j < n; j++)
-        out[j] = clamp01(out[j]);
+    material_inputs_texture_lanes(t, sf, lambda, n, out);
 }
 
 const material_t *shading_resolve(const scene_t *scene, const material_t *m, const surface_t *sf,
@@ -72,74 +60,10 @@ int shading_is_delta(const material_t *m, const surface_t *sf)
     return microfacet_smooth(&mf);
 }
 
-
 void shading_conductor_index(const material_t *m, const surface_t *sf, double lambda, double *eta,
                              double *k)
 {
-    if (m->eta && m->k) {
-        *eta = spectrum_eval(m->eta, lambda);
-        *k = spectrum_eval(m->k, lambda);
-        return;
-    }
-    if (!m->reflectance) {
-        /* No index and no reflectance (a scene built in code): a perfect mirror,
-         * eta 0 and k > 0 (fresnel_conductor's R = 1). */
-        *eta = 0.0;
-        *k = 1.0;
-        return;
-    }
-    double r = fmin(fmax(shading_texture(m->reflectance, sf, lambda), 0.0), 0.9999);
-    *eta = 1.0;
-    *k = 2.0 * sqrt(r) / sqrt(1.0 - r);
-}
-
-static void layer(const material_t *m, const surface_t *sf, const double *lambda, int n, bsdf_t *b)
-{
-    double th = m->thickness ? shading_texture(m->thickness, sf, 550.0) : 0.01;
-    b->thickness = fmax(th, 1e-7); /* pbrt-v4: max(thickness, epsilon) */
-    double g = m->g ? shading_texture(m->g, sf, 550.0) : 0.0;
-    b->g = fmin(fmax(g, -0.999), 0.999);
-    b->maxdepth = m->maxdepth > 0 ? m->maxdepth : 10;
-    b->nsamples = m->nsamples > 0 ? m->nsamples : 1;
-    for (int j = 0; j < n; j++)
-        b->albedo[j] = m->albedo ? clamp01(shading_texture(m->albedo, sf, lambda[j])) : 0.0;
-}
-
-/* pbrt-v4 replaces a zero index by 1 (a coating of eta 0 is no coating). */
-static double coat_eta(const material_t *m, double lambda)
-{
-    double e = ior_eval(&m->ior, lambda);
-    return e > 0.0 ? e : 1.0;
-}
-
-/* pbrt-v4 HairMaterial::GetBxDF: the roughnesses clamped to [0.01, 1], the offset across the
- * fibre h = -1 + 2 v (a curve's v runs across its width), each lane's absorption >= 0. */
-static void hair(const material_t *m, const surface_t *sf, const double *lambda, int n, bsdf_t *b)
-{
-    b->kind = BSDF_HAIR;
-    b->hair_h = fmin(1.0, fmax(-1.0, -1.0 + 2.0 * sf->v));
-    b->hair_eta = shading_texture(m->hair.eta, sf, 550.0);
-    b->hair_eta = b->hair_eta > 0.0 ? b->hair_eta : 1.55;
-    b->hair_beta_m = fmin(1.0, fmax(0.01, shading_texture(m->hair.beta_m, sf, 550.0)));
-    b->hair_beta_n = fmin(1.0, fmax(0.01, shading_texture(m->hair.beta_n, sf, 550.0)));
-    b->hair_alpha = shading_texture(m->hair.alpha, sf, 550.0);
-    double ce = 0.0, cp = 0.0;
-    if (!m->hair.sigma_a && !m->hair.reflectance) {
-        ce = fmax(0.0, shading_texture(m->hair.eumelanin, sf, 550.0));
-        cp = fmax(0.0, shading_texture(m->hair.pheomelanin, sf, 550.0));
-    }
-    for (int j = 0; j < n; j++) {
-        double sa;
-        if (m->hair.sigma_a)
-            sa = shading_texture(m->hair.sigma_a, sf, lambda[j]);
-        else if (m->hair.reflectance)
-            sa = hair_sigma_a_from_reflectance(
-                clamp01(shading_texture(m->hair.reflectance, sf, lambda[j])), b->hair_beta_n);
-        else
-            sa = ce * shading_texture(m->hair.eu_sigma, sf, lambda[j]) +
-                 cp * shading_texture(m->hair.pheo_sigma, sf, lambda[j]);
-        b->sigma_a[j] = isfinite(sa) && sa > 0.0 ? sa : 0.0;
-    }
+    material_inputs_conductor_index(m, sf, lambda, eta, k);
 }
 
 void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda, int n,
@@ -159,63 +83,8 @@ void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda
             b->lambda[j] = lambda[j];
         }
     }
-    switch (m->kind) {
-    case MATERIAL_CONDUCTOR:
-        b->kind = BSDF_CONDUCTOR;
-        for (int j = 0; j < n; j++)
-            shading_conductor_index(m, sf, lambda[j], &b->cond_eta[j], &b->cond_k[j]);
-        return;
-    case MATERIAL_DIELECTRIC:
-    case MATERIAL_THIN_DIELECTRIC:
-        b->kind = m->kind == MATERIAL_DIELECTRIC ? BSDF_DIELECTRIC : BSDF_THIN_DIELECTRIC;
-        for (int j = 0; j < n; j++)
-            b->eta[j] = ior_eval(&m->ior, lambda[j]);
-        return;
-    case MATERIAL_DIFFUSE_TRANSMISSION:
-        b->kind = BSDF_DIFFUSE_TRANSMISSION;
-        for (int j = 0; j < n; j++) {
-            b->reflectance[j] = clamp01(m->scale * shading_texture(m->reflectance, sf, lambda[j]));
-            b->transmittance[j] =
-                clamp01(m->scale * shading_texture(m->transmittance, sf, lambda[j]));
-        }
-        return;
-    case MATERIAL_COATED_DIFFUSE:
-        b->kind = BSDF_COATED_DIFFUSE;
-        layer(m, sf, lambda, n, b);
-        for (int j = 0; j < n; j++)
-            b->eta[j] = coat_eta(m, lambda[j]);
-        texture_lanes01(m->reflectance, sf, lambda, n, b->reflectance);
-        return;
-    case MATERIAL_COATED_CONDUCTOR:
-        b->kind = BSDF_COATED_CONDUCTOR;
-        layer(m, sf, lambda, n, b);
-        for (int j = 0; j < n; j++) {
-            b->eta[j] = coat_eta(m, lambda[j]);
-            /* pbrt-v4 CoatedConductorMaterial: the conductor's index relative to the coat. */
-            shading_conductor_index(m, sf, lambda[j], &b->cond_eta[j], &b->cond_k[j]);
-            b->cond_eta[j] /= b->eta[j];
-            b->cond_k[j] /= b->eta[j];
-        }
-        return;
-    case MATERIAL_MEASURED:
-        b->kind = BSDF_MEASURED;
-        b->measured = m->measured;
-        for (int j = 0; j < n; j++)
-            b->lambda[j] = lambda[j];
-        return;
-    case MATERIAL_HAIR:
-        hair(m, sf, lambda, n, b);
-        return;
-    case MATERIAL_DIFFUSE:
-    default:
-        b->kind = BSDF_DIFFUSE;
-        if (m->reflectance)
-            texture_lanes01(m->reflectance, sf, lambda, n, b->reflectance);
-        else
-            for (int j = 0; j < n; j++)
-                b->reflectance[j] = 0.5;
-        return;
-    }
+    /* The rest is the material's own (scene/material_<name>.c). */
+    material_class_bsdf(m, sf, lambda, n, b);
 }
 
 shading_frame_t shading_frame_make(const surface_t *sf, vec3_t wo)

@@ -28,8 +28,9 @@ void shading_texture_lanes(const texture_t *t, const surface_t *sf, const double
  * EffectivelySmooth there): the delta code applies. */
 int shading_is_delta(const material_t *m, const surface_t *sf);
 
-/* Fills *b for material m (not a mix, not diffuse, not interface; any roughness) at sf for
- * the n lanes' wavelengths, in radiance or importance mode. */
+/* Fills *b for material m (not a mix, not interface; any roughness) at sf for the n lanes'
+ * wavelengths, in radiance or importance mode: the microfacets and thin film every kind
+ * shares, then the rest from m's class (scene/material_class.h). */
 void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda, int n,
                   bsdf_mode_t mode, bsdf_t *b);
 

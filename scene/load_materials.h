@@ -1,8 +1,8 @@
 /* load_materials: the description's materials (Material, MakeNamedMaterial) made into the
- * scene's material_t, in the description's order (shapes name them by index): indices of
- * refraction from numbers, pairs, files, named spectra or the glass catalogue; texture-or-constant
- * inputs; a measured material's file read once. A new material is its case in load_materials
- * (with a reader beside it when it takes more than a line). */
+ * scene's material_t, in the description's order (shapes name them by index): its name, what
+ * its class loads (material_class.h: each kind's own inputs, in scene/material_<name>.c), and
+ * what every material shares (a thin film, the smooth and rough flags, bump and normal maps).
+ * It names no material: a new one is its class. */
 #ifndef PRISMFARM_LOAD_MATERIALS_H
 #define PRISMFARM_LOAD_MATERIALS_H
 

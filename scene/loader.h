@@ -2,7 +2,8 @@
  * shares: the loader's context (the description read, the scene being built, the textures made
  * so far, the texel budget) and the inputs every entity takes: spectra (uplifted as pbrt-v4
  * does, lights' normalised by their luminance), texture-or-constant inputs, and the texel
- * budget's count. Internal to the loader: only scene_load.c and the load_*.c files include it.
+ * budget's count. Internal to the loader: only scene_load.c, the load_*.c files and the
+ * material classes' files (material_*.c) include it.
  * Every function that fails returns -1 (or NULL) with err saying why, at the scene file's
  * line where the description gives one. */
 #ifndef PRISMFARM_LOADER_H

@@ -336,7 +336,7 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
             for (size_t i = 0; i < s->nmaterials; i++)
                 if (material_is_sheet(s->materials[i].kind))
                     text_add(&r, "%s%s (%s)", k++ ? ", " : "", p->materials[i].name,
-                             plan_material_kind_name(s->materials[i].kind));
+                             material_kind_name(s->materials[i].kind));
             text_add(&r, "; ");
         }
         if (s->camera.analyser)

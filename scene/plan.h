@@ -66,7 +66,6 @@ int plan_apply_auto(scene_t *scene, const scene_desc_t *desc, const scene_overri
 int plan_write_text(const plan_t *self, FILE *out);
 
 const char *plan_light_kind_name(light_kind_t kind);
-const char *plan_material_kind_name(material_kind_t kind);
 const char *plan_verdict_name(plan_verdict_t verdict);
 
 #endif

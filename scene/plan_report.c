@@ -28,39 +28,6 @@ const char *plan_light_kind_name(light_kind_t kind)
     return "?";
 }
 
-const char *plan_material_kind_name(material_kind_t kind)
-{
-    switch (kind) {
-    case MATERIAL_DIFFUSE:
-        return "diffuse";
-    case MATERIAL_CONDUCTOR:
-        return "conductor";
-    case MATERIAL_DIELECTRIC:
-        return "dielectric";
-    case MATERIAL_INTERFACE:
-        return "interface";
-    case MATERIAL_THIN_DIELECTRIC:
-        return "thindielectric";
-    case MATERIAL_DIFFUSE_TRANSMISSION:
-        return "diffusetransmission";
-    case MATERIAL_COATED_DIFFUSE:
-        return "coateddiffuse";
-    case MATERIAL_COATED_CONDUCTOR:
-        return "coatedconductor";
-    case MATERIAL_MIX:
-        return "mix";
-    case MATERIAL_POLARISER:
-        return "polarizer";
-    case MATERIAL_RETARDER:
-        return "retarder";
-    case MATERIAL_MEASURED:
-        return "measured";
-    case MATERIAL_HAIR:
-        return "hair";
-    }
-    return "?";
-}
-
 const char *plan_verdict_name(plan_verdict_t verdict)
 {
     switch (verdict) {
@@ -152,8 +119,8 @@ int plan_write_text(const plan_t *p, FILE *out)
             if (!material_has_ior(m->kind))
                 continue;
             fprintf(out, "%-*s %-11s %-6s %-9.5f %-9.5f %-8.5f %-9.5f ", w, m->name,
-                    plan_material_kind_name(m->kind), m->dispersive ? "yes" : "no", m->n_lo,
-                    m->n_hi, m->n_lo - m->n_hi, m->n_d);
+                    material_kind_name(m->kind), m->dispersive ? "yes" : "no", m->n_lo, m->n_hi,
+                    m->n_lo - m->n_hi, m->n_d);
             if (m->has_v_d)
                 fprintf(out, "%.2f\n", m->v_d);
             else

@@ -12,20 +12,21 @@
 #define PRISMFARM_SCENE_H
 
 #include "alias.h"
+#include "bssrdf.h"
 #include "crystal.h"
 #include "dispersion.h"
 #include "envmap.h"
-#include "projmap.h"
-#include "sampler.h"
 #include "err.h"
-#include "geometry.h"
 #include "filter.h"
+#include "geometry.h"
 #include "integrators.h"
 #include "lens.h"
 #include "light_bvh.h"
-#include "bssrdf.h"
+#include "material_kind.h"
 #include "measured.h"
 #include "medium.h"
+#include "projmap.h"
+#include "sampler.h"
 #include "sensor.h"
 #include "spectral_grid.h"
 #include "spectrum.h"
@@ -38,22 +39,6 @@
 #include <stddef.h>
 #include <stdint.h>
 
-typedef enum material_kind {
-    MATERIAL_DIFFUSE,              /* Lambertian with a reflectance texture */
-    MATERIAL_CONDUCTOR,            /* Fresnel from eta/k (or a reflectance); a mirror when smooth */
-    MATERIAL_DIELECTRIC,           /* glass with an index-of-refraction model; smooth or rough */
-    MATERIAL_INTERFACE,            /* no surface: rays pass straight through */
-    MATERIAL_THIN_DIELECTRIC,      /* a thin slab: reflection and straight transmission */
-    MATERIAL_DIFFUSE_TRANSMISSION, /* Lambertian reflection and transmission */
-    MATERIAL_COATED_DIFFUSE,       /* a dielectric coat over a medium over a diffuse base */
-    MATERIAL_COATED_CONDUCTOR,     /* a dielectric coat over a medium over a conductor */
-    MATERIAL_MIX,                  /* one of two materials, chosen per hit by amount */
-    MATERIAL_POLARISER,            /* a thin linear polariser sheet, crossed straight */
-    MATERIAL_RETARDER,             /* a thin linear retarder sheet (a wave plate) */
-    MATERIAL_MEASURED,             /* RGL's measured BSDF data (bsdf/measured.h) */
-    MATERIAL_HAIR,                 /* a hair fibre (bsdf/hair.h) */
-} material_kind_t;
-
 /* How a retarder sheet's retardance depends on wavelength (material_t.retarder_mode). */
 typedef enum retarder_mode {
     RETARDER_CONSTANT,    /* the same retardance (radians) at every wavelength */
@@ -64,7 +49,7 @@ typedef enum retarder_mode {
 /* The numbers of a material; textures are NULL where the material has no such input (a
  * NULL roughness is 0). The models themselves are bsdf/'s (pbrt-v4's BxDFs). */
 typedef struct material {
-    material_kind_t kind;
+    material_kind_t kind; /* never MATERIAL_UNIAXIAL or MATERIAL_SUBSURFACE (material_kind.h) */
     /* How outputs name it: its MakeNamedMaterial name (named = 1), else where the file made it,
      * "jewel.pbrt:57" (the file's base name and line), else "(unnamed)" (built in code). */
     char name[64];

@@ -9,7 +9,7 @@
 #include "scene.h"
 #include "scene_desc.h"
 
-/* Completes m from the description dm (type SCENE_MATERIAL_SUBSURFACE) once the caller has
+/* Completes m from the description dm (kind MATERIAL_SUBSURFACE) once the caller has
  * built m->sss's four textures from dm's sigma_a, sss_sigma_s, reflectance and sss_mfp: kind,
  * ior, scale and the table. 0, or -1 with err set (out of memory). */
 int subsurface_load(scene_t *sc, const scene_material_t *dm, material_t *m, err_t *err);

@@ -213,30 +213,6 @@ static int get_mix(parser_t *P, params_t *ps, scene_material_t *m)
     return pbrt_inputs_float(P, ps, "amount", 0.5, &m->amount);
 }
 
-/* Every material prismfarm reads, in the order its messages list them. pbrt-v4 reads "" and
- * "none" as no material too (a boundary between media). */
-static const pbrt_name_t MATERIALS[] = {
-    {"diffuse", SCENE_MATERIAL_DIFFUSE},
-    {"conductor", SCENE_MATERIAL_CONDUCTOR},
-    {"dielectric", SCENE_MATERIAL_DIELECTRIC},
-    {"thindielectric", SCENE_MATERIAL_THINDIELECTRIC},
-    {"diffusetransmission", SCENE_MATERIAL_DIFFUSETRANSMISSION},
-    {"coateddiffuse", SCENE_MATERIAL_COATEDDIFFUSE},
-    {"coatedconductor", SCENE_MATERIAL_COATEDCONDUCTOR},
-    {"mix", SCENE_MATERIAL_MIX},
-    {"uniaxial", SCENE_MATERIAL_UNIAXIAL},
-    {"interface", SCENE_MATERIAL_INTERFACE},
-    {"polarizer", SCENE_MATERIAL_POLARIZER},
-    {"retarder", SCENE_MATERIAL_RETARDER},
-    {"measured", SCENE_MATERIAL_MEASURED},
-    {"hair", SCENE_MATERIAL_HAIR},
-    {"subsurface", SCENE_MATERIAL_SUBSURFACE},
-    {NULL, 0},
-    {"polariser", SCENE_MATERIAL_POLARIZER},
-    {"", SCENE_MATERIAL_INTERFACE},
-    {"none", SCENE_MATERIAL_INTERFACE},
-};
-
 /* A thin film on glass or metal (scene_material_t.film_thickness), smooth (bsdf/delta) or
  * rough (the Airy reflectance at each microfacet, bsdf/lobe). */
 static int get_film(parser_t *P, params_t *ps, scene_material_t *m)
@@ -500,19 +476,20 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
                           scene_material_t *m)
 {
     int t;
+    size_t nnames;
+    const pbrt_name_t *names = material_kind_names(&nnames);
     const char *v4 = pbrt_upgrade_v3_material(type);
     if (v4)
         return pbrt_error(P->err, type_loc, "pbrt-v3's material \"%s\" (pbrt-v4's \"%s\"): %s",
                           type, v4, PBRT_UPGRADE_HINT);
-    if (pbrt_state_lookup(P, "unsupported material", type, type_loc, MATERIALS, COUNT_OF(MATERIALS),
-                          &t) != 0)
+    if (pbrt_state_lookup(P, "unsupported material", type, type_loc, names, nnames, &t) != 0)
         return -1;
-    m->type = (scene_material_type_t)t;
-    if (m->type == SCENE_MATERIAL_DIFFUSE) {
+    m->kind = (material_kind_t)t;
+    if (m->kind == MATERIAL_DIFFUSE) {
         return pbrt_inputs_spectrum_input(P, ps, "reflectance", pbrt_inputs_constant(0.5, m->loc),
                                           SPECTRUM_ALBEDO, &m->reflectance);
     }
-    if (m->type == SCENE_MATERIAL_CONDUCTOR) {
+    if (m->kind == MATERIAL_CONDUCTOR) {
         return get_conductor(P, ps, m, "") ||
                        get_roughness(P, ps, m, "", &m->uroughness, &m->vroughness) ||
                        params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err) ||
@@ -520,7 +497,7 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
                    ? -1
                    : 0;
     }
-    if (m->type == SCENE_MATERIAL_DIELECTRIC) {
+    if (m->kind == MATERIAL_DIELECTRIC) {
         return get_ior(P, ps, m, "") ||
                        get_roughness(P, ps, m, "", &m->uroughness, &m->vroughness) ||
                        params_get_bool(ps, "remaproughness", true, &m->remaproughness, P->err) ||
@@ -528,10 +505,10 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
                    ? -1
                    : 0;
     }
-    if (m->type == SCENE_MATERIAL_THINDIELECTRIC) {
+    if (m->kind == MATERIAL_THIN_DIELECTRIC) {
         return get_ior(P, ps, m, "");
     }
-    if (m->type == SCENE_MATERIAL_DIFFUSETRANSMISSION) {
+    if (m->kind == MATERIAL_DIFFUSE_TRANSMISSION) {
         if (pbrt_inputs_spectrum_input(P, ps, "reflectance", pbrt_inputs_constant(0.25, m->loc),
                                        SPECTRUM_ALBEDO, &m->reflectance) != 0 ||
             pbrt_inputs_spectrum_input(P, ps, "transmittance", pbrt_inputs_constant(0.25, m->loc),
@@ -540,7 +517,7 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
             return -1;
         return m->scale >= 0.0 ? 0 : pbrt_state_check_range(P, ps, "scale", m->scale, 0.0, 1.0);
     }
-    if (m->type == SCENE_MATERIAL_COATEDDIFFUSE) {
+    if (m->kind == MATERIAL_COATED_DIFFUSE) {
         return pbrt_inputs_spectrum_input(P, ps, "reflectance", pbrt_inputs_constant(0.5, m->loc),
                                           SPECTRUM_ALBEDO, &m->reflectance) ||
                        get_ior(P, ps, m, "") ||
@@ -550,7 +527,7 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
                    ? -1
                    : 0;
     }
-    if (m->type == SCENE_MATERIAL_COATEDCONDUCTOR) {
+    if (m->kind == MATERIAL_COATED_CONDUCTOR) {
         return get_conductor(P, ps, m, "conductor.") || get_ior(P, ps, m, "interface.") ||
                        get_roughness(P, ps, m, "interface.", &m->uroughness, &m->vroughness) ||
                        get_roughness(P, ps, m, "conductor.", &m->base_uroughness,
@@ -560,28 +537,28 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
                    ? -1
                    : 0;
     }
-    if (m->type == SCENE_MATERIAL_MIX) {
+    if (m->kind == MATERIAL_MIX) {
         return get_mix(P, ps, m);
     }
-    if (m->type == SCENE_MATERIAL_UNIAXIAL) {
+    if (m->kind == MATERIAL_UNIAXIAL) {
         return get_uniaxial(P, ps, m);
     }
-    if (m->type == SCENE_MATERIAL_MEASURED) {
+    if (m->kind == MATERIAL_MEASURED) {
         return get_measured(P, ps, m);
     }
-    if (m->type == SCENE_MATERIAL_HAIR) {
+    if (m->kind == MATERIAL_HAIR) {
         return get_hair(P, ps, m);
     }
-    if (m->type == SCENE_MATERIAL_SUBSURFACE) {
+    if (m->kind == MATERIAL_SUBSURFACE) {
         return get_subsurface(P, ps, m);
     }
-    if (m->type == SCENE_MATERIAL_POLARIZER || m->type == SCENE_MATERIAL_RETARDER) {
+    if (m->kind == MATERIAL_POLARISER || m->kind == MATERIAL_RETARDER) {
         /* Thin polarising sheets (docs/physics.md §14): the axis angle in degrees, and a
          * retarder's retardance in degrees (90 a quarter wave, 180 a half wave). */
         if (params_get_float(ps, "angle", 0.0, &m->sheet_angle, P->err) != 0 ||
             pbrt_state_check_range(P, ps, "angle", m->sheet_angle, -360.0, 360.0) != 0)
             return -1;
-        if (m->type == SCENE_MATERIAL_POLARIZER)
+        if (m->kind == MATERIAL_POLARISER)
             return 0;
         return get_retarder(P, ps, m);
     }
@@ -591,7 +568,7 @@ static int build_material(parser_t *P, params_t *ps, const char *type, pbrt_loc_
 /* pbrt-v4's "displacement" and "normalmap" of every material but mix and interface. */
 static int surface_maps(parser_t *P, params_t *ps, scene_material_t *m)
 {
-    if (m->type == SCENE_MATERIAL_MIX || m->type == SCENE_MATERIAL_INTERFACE)
+    if (m->kind == MATERIAL_MIX || m->kind == MATERIAL_INTERFACE)
         return 0;
     const char *normalmap;
     if (pbrt_inputs_float(P, ps, "displacement", 0.0, &m->displacement) != 0 ||

@@ -1,6 +1,6 @@
 /* pbrt_materials: Material and MakeNamedMaterial: each material's parameters as pbrt-v4's
- * materials.cpp reads them, into a scene_material_t. A new material is a row of the table in
- * pbrt_materials.c and its reader there. */
+ * materials.cpp reads them, into a scene_material_t. A new material is its name's row in
+ * material_kind.c and its reader here (its class in scene/material_<name>.c loads it). */
 #ifndef PRISMFARM_PBRT_MATERIALS_H
 #define PRISMFARM_PBRT_MATERIALS_H
 

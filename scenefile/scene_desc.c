@@ -163,7 +163,7 @@ scene_desc_t *scene_desc_new(err_t *err)
         return NULL;
     }
     scene_material_t *mat = &self->materials[m];
-    mat->type = SCENE_MATERIAL_DIFFUSE;
+    mat->kind = MATERIAL_DIFFUSE;
     mat->reflectance.texture = mat->eta.texture = mat->k.texture = -1;
     mat->uroughness.texture = mat->vroughness.texture = -1;
     mat->base_uroughness.texture = mat->base_vroughness.texture = -1;

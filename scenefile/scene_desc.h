@@ -18,6 +18,7 @@
 #define PRISMFARM_SCENE_DESC_H
 
 #include "err.h"
+#include "material_kind.h"
 #include "params.h"
 #include "pbrt_lexer.h"
 #include "transform.h"
@@ -138,24 +139,6 @@ typedef struct scene_texture {
 
 /* ---- materials ---- */
 
-typedef enum scene_material_type {
-    SCENE_MATERIAL_DIFFUSE,
-    SCENE_MATERIAL_CONDUCTOR,
-    SCENE_MATERIAL_DIELECTRIC,
-    SCENE_MATERIAL_INTERFACE, /* no surface: marks a boundary between media */
-    SCENE_MATERIAL_THINDIELECTRIC,
-    SCENE_MATERIAL_DIFFUSETRANSMISSION,
-    SCENE_MATERIAL_COATEDDIFFUSE,
-    SCENE_MATERIAL_COATEDCONDUCTOR,
-    SCENE_MATERIAL_MIX,
-    SCENE_MATERIAL_UNIAXIAL,  /* extension: a uniaxial birefringent crystal */
-    SCENE_MATERIAL_POLARIZER, /* prismfarm: a thin linear polariser sheet */
-    SCENE_MATERIAL_RETARDER,  /* prismfarm: a thin linear retarder sheet (wave plate) */
-    SCENE_MATERIAL_MEASURED,  /* pbrt-v4's measured BSDF: an RGL .bsdf file */
-    SCENE_MATERIAL_HAIR,      /* pbrt-v4's hair fibre */
-    SCENE_MATERIAL_SUBSURFACE, /* pbrt-v4's subsurface (a tabulated BSSRDF under a dielectric) */
-} scene_material_type_t;
-
 /* Where a hair's absorption comes from (pbrt-v4 HairMaterial, in its order of precedence). */
 typedef enum scene_hair_from {
     SCENE_HAIR_SIGMA_A,     /* "sigma_a", per unit of the fibre's radius */
@@ -181,7 +164,7 @@ typedef struct scene_ior {
 } scene_ior_t;
 
 typedef struct scene_material {
-    scene_material_type_t type;
+    material_kind_t kind;
     const char *name; /* MakeNamedMaterial name, or NULL for Material */
     pbrt_loc_t loc;
     /* DIFFUSE (0.5), COATEDDIFFUSE (0.5), DIFFUSETRANSMISSION (0.25), or CONDUCTOR and

@@ -17,6 +17,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "material_class.h"
+#include "material_kind.h"
 #include "scene_builders.h"
 #include "shading.h"
 
@@ -259,6 +261,40 @@ static void test_interface_lets_light_through(void **state)
     scene_destroy(&b);
 }
 
+/* Every name a scene may write for a material has a class (scene/material_class.h) and is the
+ * name reports give its kind; every kind that keeps its own kind when loaded and is a surface
+ * makes its own BSDF, and a kind without one (a mix, an interface, a sheet) gets the diffuse
+ * class's 0.5, as shading_bsdf's switch gave it before the classes. */
+static void test_every_material_has_a_class(void **state)
+{
+    (void)state;
+    size_t n;
+    const pbrt_name_t *names = material_kind_names(&n);
+    int seen = 0;
+    for (size_t i = 0; i < n && names[i].name; i++, seen++) {
+        const material_kind_t kind = (material_kind_t)names[i].value;
+        if (!material_class_of(kind))
+            fail_msg("material \"%s\" has no class", names[i].name);
+        if (strcmp(material_kind_name(kind), names[i].name) != 0)
+            fail_msg("kind of \"%s\" is named \"%s\"", names[i].name, material_kind_name(kind));
+        const int own_bsdf = kind != MATERIAL_MIX && kind != MATERIAL_INTERFACE &&
+                             kind != MATERIAL_POLARISER && kind != MATERIAL_RETARDER &&
+                             kind != MATERIAL_UNIAXIAL && kind != MATERIAL_SUBSURFACE;
+        if (own_bsdf != (material_class_of(kind)->bsdf != NULL))
+            fail_msg("material \"%s\": a BSDF of its own is %s", names[i].name,
+                     own_bsdf ? "missing" : "unexpected");
+    }
+    assert_int_equal(seen, MATERIAL_SUBSURFACE + 1);
+    assert_null(material_class_of((material_kind_t)(MATERIAL_SUBSURFACE + 1)));
+    const material_t mix = {.kind = MATERIAL_MIX};
+    const surface_t sf = {.ns = {0, 0, 1}, .ng = {0, 0, 1}};
+    const double lambda[2] = {450.0, 650.0};
+    bsdf_t b;
+    shading_bsdf(&mix, &sf, lambda, 2, BSDF_RADIANCE, &b);
+    assert_int_equal(b.kind, BSDF_DIFFUSE);
+    assert_true(b.reflectance[0] == 0.5 && b.reflectance[1] == 0.5);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -269,6 +305,7 @@ int main(void)
         cmocka_unit_test(test_rough_dispersion_agrees),
         cmocka_unit_test(test_frame_follows_u),
         cmocka_unit_test(test_interface_lets_light_through),
+        cmocka_unit_test(test_every_material_has_a_class),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }

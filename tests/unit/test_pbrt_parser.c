@@ -143,7 +143,7 @@ static void test_defaults(void **state)
     assert_int_equal(s->film.loc.line, 0);
     assert_string_equal(s->camera.loc.file, "t.pbrt");
     assert_int_equal(s->nmaterials, 1);
-    assert_int_equal(s->materials[0].type, SCENE_MATERIAL_DIFFUSE);
+    assert_int_equal(s->materials[0].kind, MATERIAL_DIFFUSE);
     assert_int_equal(s->materials[0].reflectance.spectrum.kind, SCENE_SPECTRUM_CONSTANT);
     testutil_assert_near(s->materials[0].reflectance.spectrum.constant, 0.5, TOL);
     scene_desc_destroy(&s);
@@ -195,7 +195,7 @@ static void test_materials_and_textures(void **state)
 
     assert_int_equal(s->nmaterials, 14);
     const scene_material_t *m = s->materials;
-    assert_int_equal(m[1].type, SCENE_MATERIAL_DIFFUSE);
+    assert_int_equal(m[1].kind, MATERIAL_DIFFUSE);
     assert_int_equal(m[1].reflectance.texture, 0);
     assert_null(m[1].name);
     assert_int_equal(m[2].reflectance.spectrum.kind, SCENE_SPECTRUM_RGB);
@@ -208,7 +208,7 @@ static void test_materials_and_textures(void **state)
     testutil_assert_near(sp->value[1], 0.5, TOL);
 
     assert_string_equal(m[4].name, "bk7");
-    assert_int_equal(m[4].type, SCENE_MATERIAL_DIELECTRIC);
+    assert_int_equal(m[4].kind, MATERIAL_DIELECTRIC);
     assert_int_equal(m[4].ior.kind, SCENE_IOR_SPECTRUM);
     assert_int_equal(m[4].ior.spectrum.kind, SCENE_SPECTRUM_NAMED);
     assert_string_equal(m[4].ior.spectrum.name, "glass-BK7");
@@ -226,7 +226,7 @@ static void test_materials_and_textures(void **state)
     testutil_assert_near(m[9].ior.spectrum.constant, 1.5, TOL); /* pbrt-v4's default eta */
     testutil_assert_near(m[9].uroughness.value, 0, TOL);
 
-    assert_int_equal(m[10].type, SCENE_MATERIAL_CONDUCTOR);
+    assert_int_equal(m[10].kind, MATERIAL_CONDUCTOR);
     assert_false(m[10].use_reflectance);
     assert_string_equal(m[10].eta.spectrum.name, "metal-Cu-eta"); /* pbrt-v4 default */
     assert_string_equal(m[10].k.spectrum.name, "metal-Cu-k");
@@ -241,7 +241,7 @@ static void test_materials_and_textures(void **state)
     testutil_assert_near(m[12].uroughness.value, 0.1, TOL);
     testutil_assert_near(m[12].vroughness.value, 0.2, TOL);
     assert_false(m[12].remaproughness);
-    assert_int_equal(m[13].type, SCENE_MATERIAL_INTERFACE);
+    assert_int_equal(m[13].kind, MATERIAL_INTERFACE);
 
     assert_int_equal(s->nshapes, 2);
     assert_int_equal(s->shapes[0].material, 1);
@@ -258,7 +258,7 @@ static void test_more_materials(void **state)
     const scene_material_t *m = s->materials;
     assert_int_equal(s->nmaterials, 10);
     /* coateddiffuse defaults */
-    assert_int_equal(m[1].type, SCENE_MATERIAL_COATEDDIFFUSE);
+    assert_int_equal(m[1].kind, MATERIAL_COATED_DIFFUSE);
     testutil_assert_near(m[1].reflectance.spectrum.constant, 0.5, TOL);
     testutil_assert_near(m[1].ior.spectrum.constant, 1.5, TOL);
     testutil_assert_near(m[1].uroughness.value, 0, TOL);
@@ -280,7 +280,7 @@ static void test_more_materials(void **state)
     assert_int_equal(m[2].nsamples, 4);
     assert_false(m[2].remaproughness);
     /* coatedconductor: interface.* and conductor.* */
-    assert_int_equal(m[3].type, SCENE_MATERIAL_COATEDCONDUCTOR);
+    assert_int_equal(m[3].kind, MATERIAL_COATED_CONDUCTOR);
     testutil_assert_near(m[3].uroughness.value, 0.02, TOL);
     testutil_assert_near(m[3].base_uroughness.value, 0.002, TOL);
     testutil_assert_near(m[3].base_vroughness.value, 0.002, TOL);
@@ -291,14 +291,14 @@ static void test_more_materials(void **state)
     assert_string_equal(m[4].eta.spectrum.name, "metal-Cu-eta"); /* pbrt-v4's default */
     testutil_assert_near(m[4].ior.spectrum.constant, 1.5, TOL);
     /* diffusetransmission: reflectance 0.25 by default */
-    assert_int_equal(m[5].type, SCENE_MATERIAL_DIFFUSETRANSMISSION);
+    assert_int_equal(m[5].kind, MATERIAL_DIFFUSE_TRANSMISSION);
     testutil_assert_near(m[5].reflectance.spectrum.constant, 0.25, TOL);
     testutil_assert_near(m[5].transmittance.spectrum.rgb[1], 0.5, TOL);
     testutil_assert_near(m[5].scale, 0.9, TOL);
-    assert_int_equal(m[6].type, SCENE_MATERIAL_THINDIELECTRIC);
+    assert_int_equal(m[6].kind, MATERIAL_THIN_DIELECTRIC);
     testutil_assert_near(m[6].ior.spectrum.constant, 1.52, TOL);
     /* mix: the names resolve to the named materials' indices */
-    assert_int_equal(m[7].type, SCENE_MATERIAL_MIX);
+    assert_int_equal(m[7].kind, MATERIAL_MIX);
     assert_int_equal(m[7].mix[0], 1);
     assert_int_equal(m[7].mix[1], 6);
     assert_int_equal(m[7].amount.texture, 0);
@@ -306,7 +306,7 @@ static void test_more_materials(void **state)
     assert_int_equal(m[8].mix[1], 7);
     testutil_assert_near(m[8].amount.value, 0.5, TOL);
     /* an anisotropic rough dielectric */
-    assert_int_equal(m[9].type, SCENE_MATERIAL_DIELECTRIC);
+    assert_int_equal(m[9].kind, MATERIAL_DIELECTRIC);
     testutil_assert_near(m[9].uroughness.value, 0.1, TOL);
     testutil_assert_near(m[9].vroughness.value, 0.3, TOL);
     scene_desc_destroy(&s);
@@ -851,7 +851,7 @@ static void test_includes(void **state)
     assert_point(&sh[0].to_world, vec3_make(0, 0, 0), 0, 1, 0); /* Include is textual */
     testutil_assert_near(sh[1].radius, 4, TOL);
     assert_point(&sh[1].to_world, vec3_make(0, 0, 0), 100, 1, 0);
-    assert_int_equal(s->materials[sh[1].material].type, SCENE_MATERIAL_CONDUCTOR);
+    assert_int_equal(s->materials[sh[1].material].kind, MATERIAL_CONDUCTOR);
     /* Import does not leak its CTM or material */
     testutil_assert_near(sh[2].radius, 5, TOL);
     assert_point(&sh[2].to_world, vec3_make(0, 0, 0), 0, 1, 0);
@@ -1505,11 +1505,10 @@ static void test_thin_film(void **state)
     int glass = 0, metal = 0, plain = 0;
     for (size_t i = 0; i < s->nmaterials; i++) {
         const scene_material_t *m = &s->materials[i];
-        glass += m->type == SCENE_MATERIAL_DIELECTRIC && m->film_thickness == 450.0 &&
-                 m->film_eta == 1.33;
-        metal += m->type == SCENE_MATERIAL_CONDUCTOR && m->film_thickness == 300.0 &&
-                 m->film_eta == 1.5;
-        plain += m->type == SCENE_MATERIAL_DIELECTRIC && m->film_thickness == 0.0;
+        glass +=
+            m->kind == MATERIAL_DIELECTRIC && m->film_thickness == 450.0 && m->film_eta == 1.33;
+        metal += m->kind == MATERIAL_CONDUCTOR && m->film_thickness == 300.0 && m->film_eta == 1.5;
+        plain += m->kind == MATERIAL_DIELECTRIC && m->film_thickness == 0.0;
     }
     assert_int_equal(glass, 1);
     assert_int_equal(metal, 1);

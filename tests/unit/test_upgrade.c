@@ -101,8 +101,8 @@ static void test_v3_file(void **state)
     if (!d)
         fail_msg("parse: %s\n--\n%s", err.msg, text);
     const scene_material_t *shiny = named(d, "shiny"), *dull = named(d, "dull");
-    assert_int_equal(shiny->type, SCENE_MATERIAL_COATEDDIFFUSE);
-    assert_int_equal(dull->type, SCENE_MATERIAL_DIFFUSE);
+    assert_int_equal(shiny->kind, MATERIAL_COATED_DIFFUSE);
+    assert_int_equal(dull->kind, MATERIAL_DIFFUSE);
     scene_desc_destroy(&d);
     free(text);
     warnings_destroy(&w);
