@@ -33,8 +33,13 @@ typedef enum { GEOM_MESH, GEOM_ANALYTIC, GEOM_INSTANCE, GEOM_CURVES } geom_kind_
  * its scene keeps alive): hit points are rebuilt from barycentrics, and the filter functions
  * decide in double which side of a triangle a ray starts on. Allocated one by one, as Embree's
  * user data pointer to it must not move. */
+/* First members of the user data of meshes and curves: a context filter sees the user data of
+ * whatever geometry a candidate lies on. */
+#define MESH_TAG 0x6D657368u   /* "mesh" */
+#define CURVES_TAG 0x63757276u /* "curv" */
+
 typedef struct mesh {
-    int kind; /* GEOM_MESH: what mesh_context_filter tells a mesh from a curve set by */
+    uint32_t tag; /* MESH_TAG: what mesh_context_filter tells a mesh's user data by */
     const float *verts;
     const unsigned *tris;
     int world; /* in the world's scene: checked by geometry_intersect and _occluded, not by a
@@ -44,7 +49,7 @@ typedef struct mesh {
 /* Curves' view of Embree's vertex buffer (x, y, z, radius; 4 per segment, segment k's first at
  * 4 k: the index buffer is 0, 4, 8, ...). */
 typedef struct curves {
-    int kind; /* GEOM_CURVES */
+    uint32_t tag; /* CURVES_TAG */
     const float *verts;
 } curves_t;
 
@@ -278,7 +283,7 @@ static int mesh_accepts(const mesh_t *m, unsigned prim, const float org[3], cons
 static void filter_candidates(const struct RTCFilterFunctionNArguments *args, int only_world)
 {
     const mesh_t *m = args->geometryUserPtr;
-    if (!m || m->kind != GEOM_MESH || (only_world && !m->world))
+    if (!m || m->tag != MESH_TAG || (only_world && !m->world))
         return;
     const float *ray = (const float *)args->ray;
     const unsigned *hit = (const unsigned *)args->hit;
@@ -301,14 +306,16 @@ static void mesh_filter(const struct RTCFilterFunctionNArguments *args)
 }
 
 /* The world's meshes carry no geometry filter: a filter on every candidate costs Embree its
- * fast path (7 % of the CPU of caustic-glass, 2.4 % of its instructions). geometry_intersect
- * traces without a filter and checks only the nearest candidate; should mesh_accepts refuse it
- * (a false self-hit: rare), it traces again with this context filter, which judges every
- * candidate of a world mesh as the geometry filter did. The nearest candidate that passes is
- * the nearest hit the filtered trace finds, so the answer is the same either way.
- * geometry_occluded does the same: no candidate without the filter means none with it; a
- * candidate is confirmed by the filtered trace. Callers of Embree must set the scene flag
- * RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION for Embree to call it. */
+ * fast path (6-7 % of the CPU of caustic-glass, 2.4 % of its instructions; docs/performance.md).
+ * geometry_intersect traces without a filter and checks only the nearest candidate with
+ * mesh_accepts; should it refuse it (a false self-hit: rare), it traces again with this context
+ * filter, which judges every candidate of a world mesh as the geometry filter did. Either way
+ * the hit returned is the nearest candidate that passes mesh_accepts, the hit the filtered
+ * trace found before, so the guarantee above (and the furnace on a 2e4-unit plane:
+ * tests/unit/test_numeric_hard.c) holds for every hit, and the pixels are the same.
+ * geometry_occluded likewise: no candidate without the filter means none with it, and a
+ * candidate is confirmed by the filtered trace. Embree calls a context filter only in scenes
+ * with RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION (new_group sets it). */
 static void mesh_context_filter(const struct RTCFilterFunctionNArguments *args)
 {
     filter_candidates(args, 1);
@@ -359,7 +366,7 @@ int geometry_object_add_mesh(geometry_t *self, int object, const double *positio
         rtcReleaseGeometry(g);
         return err_set(err, "out of memory");
     }
-    *m = (mesh_t){.kind = GEOM_MESH, .verts = v, .tris = ix, .world = object == GEOMETRY_WORLD};
+    *m = (mesh_t){.tag = MESH_TAG, .verts = v, .tris = ix, .world = object == GEOMETRY_WORLD};
     rtcSetGeometryUserData(g, m);
     if (!m->world) {
         rtcSetGeometryIntersectFilterFunction(g, mesh_filter);
@@ -463,7 +470,7 @@ int geometry_object_add_curves(geometry_t *self, int object, const double *cp, c
     }
     for (size_t k = 0; k < nseg; k++)
         ix[k] = (unsigned)(4 * k);
-    c->kind = GEOM_CURVES;
+    c->tag = CURVES_TAG;
     c->verts = v;
     rtcSetGeometryUserData(g, c);
     rtcSetGeometryIntersectFilterFunction(g, curve_filter);
@@ -998,13 +1005,13 @@ int geometry_occluded(const geometry_t *self, vec3_t org, vec3_t dir, double tmi
     struct RTCRay ray = make_ray(org, dir, tmin, tmax);
     if (self->query_hook)
         report_query(self, &ray, 1);
-#ifndef PF_OCC_ALWAYS
+    /* No candidate without the filter: none with it. A candidate is confirmed by the filtered
+     * trace (mesh_context_filter), which most blocked shadow rays pass at their first leaf. */
     const struct RTCRay ray0 = ray;
     rtcOccluded1(self->groups[0].scene, &ctx, &ray);
     if (ray.tfar != -INFINITY)
         return 0;
     ray = ray0;
-#endif
     ctx.filter = mesh_context_filter;
     rtcOccluded1(self->groups[0].scene, &ctx, &ray);
     return ray.tfar == -INFINITY;
