@@ -255,28 +255,7 @@ static double tabulated_eval(const spectrum_t *s, double lambda)
         return s->value[0];
     if (lambda >= s->lambda[n - 1])
         return s->value[n - 1];
-    /* The interval lambda[lo] <= lambda < lambda[lo + 1] is unique (the wavelengths increase
-     * strictly), so any search that finds it gives the same bits. Most tables are (nearly)
-     * evenly spaced: the proportional guess and its neighbours hold it, and otherwise a
-     * bisection between the bounds the guess set finds it (a lane's wavelength is evaluated in
-     * every tabulated spectrum it meets: the bisection from the whole table was the larger
-     * part of a conductor's cost). */
-    size_t lo = 0, hi = n - 1; /* lambda[lo] <= lambda < lambda[hi] */
-    size_t g =
-        (size_t)((lambda - s->lambda[0]) / (s->lambda[n - 1] - s->lambda[0]) * (double)(n - 1));
-    if (g > n - 2)
-        g = n - 2;
-    if (s->lambda[g] <= lambda) {
-        lo = g;
-        if (lambda < s->lambda[g + 1])
-            hi = g + 1;
-        else
-            lo = g + 1;
-    } else {
-        hi = g;
-        if (g > 0 && s->lambda[g - 1] <= lambda)
-            lo = g - 1;
-    }
+    size_t lo = 0, hi = n - 1; /* lambda[lo] < lambda < lambda[hi] */
     while (hi - lo > 1) {
         size_t mid = lo + (hi - lo) / 2;
         if (s->lambda[mid] <= lambda)
