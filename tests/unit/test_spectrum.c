@@ -83,10 +83,9 @@ static void test_tabulated(void **state)
     assert_null(spectrum_new_constant(NAN, &err));
 }
 
-/* The interval search (a proportional guess, then bisection) against a linear scan, on tables
- * whose spacing the guess gets wrong by far: clustered nodes, one wide gap, two nodes; at every
- * node, between nodes and just off them. The interpolation is the same arithmetic, so the
- * values must be the same bits. */
+/* The interval search against a linear scan, on tables whose spacing is far from even (clustered
+ * nodes, one wide gap, two nodes): at nodes, between them and one ulp below, so that a faster
+ * search (a proportional guess was tried: docs/performance.md) must give the same bits. */
 static void test_tabulated_search(void **state)
 {
     (void)state;
