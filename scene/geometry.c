@@ -33,15 +33,24 @@ typedef enum { GEOM_MESH, GEOM_ANALYTIC, GEOM_INSTANCE, GEOM_CURVES } geom_kind_
  * its scene keeps alive): hit points are rebuilt from barycentrics, and the filter functions
  * decide in double which side of a triangle a ray starts on. Allocated one by one, as Embree's
  * user data pointer to it must not move. */
+/* First members of the user data of meshes and curves: a context filter sees the user data of
+ * whatever geometry a candidate lies on. */
+#define MESH_TAG 0x6D657368u   /* "mesh" */
+#define CURVES_TAG 0x63757276u /* "curv" */
+
 typedef struct mesh {
+    uint32_t tag; /* MESH_TAG: what mesh_context_filter tells a mesh's user data by */
     const float *verts;
     const unsigned *tris;
+    int world; /* in the world's scene: checked by geometry_intersect and _occluded, not by a
+                * geometry filter (see mesh_context_filter) */
 } mesh_t;
 
 /* Curves' view of Embree's vertex buffer (x, y, z, radius; 4 per segment, segment k's first at
  * 4 k: the index buffer is 0, 4, 8, ...) and, for ribbons, each segment's two end normals in
  * double (6 numbers per segment), which the shading normal slerps between exactly. */
 typedef struct curves {
+    uint32_t tag; /* CURVES_TAG */
     const float *verts;
     int ribbon;
     double n[]; /* 6 per segment when ribbon */
@@ -103,13 +112,20 @@ static int check_device(geometry_t *self, const char *what, err_t *err)
     enum RTCError code = rtcGetDeviceError(self->device);
     if (code == RTC_ERROR_NONE && !self->device_error[0])
         return 0;
-    int r = err_set(err, "%s: %s", what, self->device_error[0] ? self->device_error : "Embree error");
+    int r =
+        err_set(err, "%s: %s", what, self->device_error[0] ? self->device_error : "Embree error");
     self->device_error[0] = 0;
     return r;
 }
 
-static vec3_t empty_lo(void) { return vec3_make(INFINITY, INFINITY, INFINITY); }
-static vec3_t empty_hi(void) { return vec3_make(-INFINITY, -INFINITY, -INFINITY); }
+static vec3_t empty_lo(void)
+{
+    return vec3_make(INFINITY, INFINITY, INFINITY);
+}
+static vec3_t empty_hi(void)
+{
+    return vec3_make(-INFINITY, -INFINITY, -INFINITY);
+}
 
 /* Appends a group with a new Embree scene; returns its index or -1. */
 static int new_group(geometry_t *self, err_t *err)
@@ -128,9 +144,11 @@ static int new_group(geometry_t *self, err_t *err)
     g->hi = empty_hi();
     g->scene = rtcNewScene(self->device);
     if (!g->scene)
-        return check_device(self, "creating an Embree scene", err) ? -1 : err_set(err, "Embree: rtcNewScene failed");
+        return check_device(self, "creating an Embree scene", err)
+                   ? -1
+                   : err_set(err, "Embree: rtcNewScene failed");
     self->ngroups++;
-    rtcSetSceneFlags(g->scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneFlags(g->scene, RTC_SCENE_FLAG_ROBUST | RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION);
     rtcSetSceneBuildQuality(g->scene, RTC_BUILD_QUALITY_HIGH);
     if (check_device(self, "creating an Embree scene", err))
         return -1;
@@ -249,28 +267,61 @@ int geometry_object_new(geometry_t *self, err_t *err)
  * their differences and the cross product are exact or nearly so in double, so this rejects
  * exactly the false hits and never a true one. Rays and hits come in Embree's SOA layout
  * (rtcore_ray.h): org x, y, z at 0N, 1N, 2N, dir at 4N, 5N, 6N; primID at 5N of the hit. */
-static void mesh_filter(const struct RTCFilterFunctionNArguments *args)
+static int mesh_accepts(const mesh_t *m, unsigned prim, const float org[3], const float dir[3])
+{
+    const unsigned *tri = m->tris + 3 * (size_t)prim;
+    const float *a = m->verts + 3 * (size_t)tri[0], *b = m->verts + 3 * (size_t)tri[1],
+                *c = m->verts + 3 * (size_t)tri[2];
+    vec3_t e1 = vec3_make((double)b[0] - a[0], (double)b[1] - a[1], (double)b[2] - a[2]);
+    vec3_t e2 = vec3_make((double)c[0] - a[0], (double)c[1] - a[1], (double)c[2] - a[2]);
+    vec3_t n = vec3_cross(e1, e2);
+    vec3_t o = vec3_make((double)org[0] - a[0], (double)org[1] - a[1], (double)org[2] - a[2]);
+    vec3_t d = vec3_make(dir[0], dir[1], dir[2]);
+    double side = vec3_dot(o, n), toward = vec3_dot(d, n);
+    return (side > 0.0 && toward < 0.0) || (side < 0.0 && toward > 0.0);
+}
+
+/* mesh_accepts on every valid candidate of a packet; only_world: leave the candidates of
+ * meshes that are not in the world's scene alone (their geometry filter has judged them). */
+static void filter_candidates(const struct RTCFilterFunctionNArguments *args, int only_world)
 {
     const mesh_t *m = args->geometryUserPtr;
+    if (!m || m->tag != MESH_TAG || (only_world && !m->world))
+        return;
     const float *ray = (const float *)args->ray;
     const unsigned *hit = (const unsigned *)args->hit;
     const unsigned N = args->N;
     for (unsigned i = 0; i < N; i++) {
         if (!args->valid[i])
             continue;
-        const unsigned *tri = m->tris + 3 * (size_t)hit[5 * N + i];
-        const float *a = m->verts + 3 * (size_t)tri[0], *b = m->verts + 3 * (size_t)tri[1],
-                    *c = m->verts + 3 * (size_t)tri[2];
-        vec3_t e1 = vec3_make((double)b[0] - a[0], (double)b[1] - a[1], (double)b[2] - a[2]);
-        vec3_t e2 = vec3_make((double)c[0] - a[0], (double)c[1] - a[1], (double)c[2] - a[2]);
-        vec3_t n = vec3_cross(e1, e2);
-        vec3_t o = vec3_make((double)ray[0 * N + i] - a[0], (double)ray[1 * N + i] - a[1],
-                             (double)ray[2 * N + i] - a[2]);
-        vec3_t d = vec3_make(ray[4 * N + i], ray[5 * N + i], ray[6 * N + i]);
-        double side = vec3_dot(o, n), toward = vec3_dot(d, n);
-        if (!((side > 0.0 && toward < 0.0) || (side < 0.0 && toward > 0.0)))
+        const float org[3] = {ray[0 * N + i], ray[1 * N + i], ray[2 * N + i]};
+        const float dir[3] = {ray[4 * N + i], ray[5 * N + i], ray[6 * N + i]};
+        if (!mesh_accepts(m, hit[5 * N + i], org, dir))
             args->valid[i] = 0;
     }
+}
+
+/* The geometry filter of the meshes of objects (instanced): Embree hands it the ray in the
+ * object's space, as Embree itself transformed it in float, which only a filter sees. */
+static void mesh_filter(const struct RTCFilterFunctionNArguments *args)
+{
+    filter_candidates(args, 0);
+}
+
+/* The world's meshes carry no geometry filter: a filter on every candidate costs Embree its
+ * fast path (6-7 % of the CPU of caustic-glass, 2.4 % of its instructions; docs/performance.md).
+ * geometry_intersect traces without a filter and checks only the nearest candidate with
+ * mesh_accepts; should it refuse it (a false self-hit: rare), it traces again with this context
+ * filter, which judges every candidate of a world mesh as the geometry filter did. Either way
+ * the hit returned is the nearest candidate that passes mesh_accepts, the hit the filtered
+ * trace found before, so the guarantee above (and the furnace on a 2e4-unit plane:
+ * tests/unit/test_numeric_hard.c) holds for every hit, and the pixels are the same.
+ * geometry_occluded likewise: no candidate without the filter means none with it, and a
+ * candidate is confirmed by the filtered trace. Embree calls a context filter only in scenes
+ * with RTC_SCENE_FLAG_CONTEXT_FILTER_FUNCTION (new_group sets it). */
+static void mesh_context_filter(const struct RTCFilterFunctionNArguments *args)
+{
+    filter_candidates(args, 1);
 }
 
 int geometry_object_add_mesh(geometry_t *self, int object, const double *positions, size_t nverts,
@@ -291,7 +342,9 @@ int geometry_object_add_mesh(geometry_t *self, int object, const double *positio
             return err_set(err, "shape %u: vertex %zu is not finite", shape, i / 3);
     RTCGeometry g = rtcNewGeometry(self->device, RTC_GEOMETRY_TYPE_TRIANGLE);
     if (!g)
-        return check_device(self, "creating a mesh", err) ? -1 : err_set(err, "Embree: rtcNewGeometry failed");
+        return check_device(self, "creating a mesh", err)
+                   ? -1
+                   : err_set(err, "Embree: rtcNewGeometry failed");
     /* rtcSetNewGeometryBuffer pads the buffer as Embree's SSE loads require. */
     float *v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                        3 * sizeof(float), nverts);
@@ -300,14 +353,15 @@ int geometry_object_add_mesh(geometry_t *self, int object, const double *positio
     if (!v || !ix) {
         rtcReleaseGeometry(g);
         return check_device(self, "allocating mesh buffers", err) ? -1
-                                                                 : err_set(err, "out of memory");
+                                                                  : err_set(err, "out of memory");
     }
     vec3_t lo = grp->lo, hi = grp->hi;
     for (size_t i = 0; i < nverts; i++) {
         v[3 * i + 0] = (float)positions[3 * i + 0];
         v[3 * i + 1] = (float)positions[3 * i + 1];
         v[3 * i + 2] = (float)positions[3 * i + 2];
-        grow_bounds(&lo, &hi, vec3_make(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]));
+        grow_bounds(&lo, &hi,
+                    vec3_make(positions[3 * i], positions[3 * i + 1], positions[3 * i + 2]));
     }
     memcpy(ix, indices, 3 * ntris * sizeof(unsigned));
     mesh_t *m = malloc(sizeof *m);
@@ -315,10 +369,12 @@ int geometry_object_add_mesh(geometry_t *self, int object, const double *positio
         rtcReleaseGeometry(g);
         return err_set(err, "out of memory");
     }
-    *m = (mesh_t){.verts = v, .tris = ix};
+    *m = (mesh_t){.tag = MESH_TAG, .verts = v, .tris = ix, .world = object == GEOMETRY_WORLD};
     rtcSetGeometryUserData(g, m);
-    rtcSetGeometryIntersectFilterFunction(g, mesh_filter);
-    rtcSetGeometryOccludedFilterFunction(g, mesh_filter);
+    if (!m->world) {
+        rtcSetGeometryIntersectFilterFunction(g, mesh_filter);
+        rtcSetGeometryOccludedFilterFunction(g, mesh_filter);
+    }
     rtcCommitGeometry(g);
     unsigned id = rtcAttachGeometry(grp->scene, g);
     rtcReleaseGeometry(g);
@@ -479,6 +535,7 @@ int geometry_object_add_curves(geometry_t *self, int object, const double *cp, c
     }
     for (size_t k = 0; k < nseg; k++)
         ix[k] = (unsigned)(4 * k);
+    c->tag = CURVES_TAG;
     c->verts = v;
     c->ribbon = normals != NULL;
     if (normals) {
@@ -628,8 +685,9 @@ static void box_corners_bounds(const transform_t *t, vec3_t lo_in, vec3_t hi_in,
     *lo = empty_lo();
     *hi = empty_hi();
     for (int c = 0; c < 8; c++) {
-        vec3_t p = transform_point(t, vec3_make(c & 1 ? hi_in.x : lo_in.x, c & 2 ? hi_in.y : lo_in.y,
-                                                c & 4 ? hi_in.z : lo_in.z));
+        vec3_t p =
+            transform_point(t, vec3_make(c & 1 ? hi_in.x : lo_in.x, c & 2 ? hi_in.y : lo_in.y,
+                                         c & 4 ? hi_in.z : lo_in.z));
         grow_bounds(lo, hi, p);
     }
 }
@@ -648,10 +706,12 @@ static void analytic_bounds(const struct RTCBoundsFunctionArguments *args)
     vec3_t lo, hi;
     analytic_box(a, &lo, &hi);
     /* Float rounding of the bounds must never cut off a hit. */
-    double pad = 1e-6 * fmax(1.0, fmax(fmax(fabs(lo.x), fabs(hi.x)), fmax(fmax(fabs(lo.y), fabs(hi.y)),
-                                                                           fmax(fabs(lo.z), fabs(hi.z)))));
-    *args->bounds_o = (struct RTCBounds){(float)(lo.x - pad), (float)(lo.y - pad), (float)(lo.z - pad), 0,
-                                         (float)(hi.x + pad), (float)(hi.y + pad), (float)(hi.z + pad), 0};
+    double pad =
+        1e-6 * fmax(1.0, fmax(fmax(fabs(lo.x), fabs(hi.x)),
+                              fmax(fmax(fabs(lo.y), fabs(hi.y)), fmax(fabs(lo.z), fabs(hi.z)))));
+    *args->bounds_o =
+        (struct RTCBounds){(float)(lo.x - pad), (float)(lo.y - pad), (float)(lo.z - pad), 0,
+                           (float)(hi.x + pad), (float)(hi.y + pad), (float)(hi.z + pad), 0};
 }
 
 /* rtcIntersect1/rtcOccluded1 call user geometry with N = 1, so the ray packet is a plain
@@ -717,7 +777,9 @@ static int add_analytic(geometry_t *self, int object, analytic_t proto, uint32_t
     RTCGeometry g = rtcNewGeometry(self->device, RTC_GEOMETRY_TYPE_USER);
     if (!g) {
         free(a);
-        return check_device(self, "creating an analytic shape", err) ? -1 : err_set(err, "Embree: rtcNewGeometry failed");
+        return check_device(self, "creating an analytic shape", err)
+                   ? -1
+                   : err_set(err, "Embree: rtcNewGeometry failed");
     }
     rtcSetGeometryUserPrimitiveCount(g, 1);
     rtcSetGeometryUserData(g, a);
@@ -728,7 +790,8 @@ static int add_analytic(geometry_t *self, int object, analytic_t proto, uint32_t
     unsigned id = rtcAttachGeometry(grp->scene, g);
     rtcReleaseGeometry(g);
     if (check_device(self, "adding an analytic shape", err) ||
-        record(grp, id, (geom_info_t){.kind = GEOM_ANALYTIC, .shape = shape, .flip = flip, .analytic = a},
+        record(grp, id,
+               (geom_info_t){.kind = GEOM_ANALYTIC, .shape = shape, .flip = flip, .analytic = a},
                err)) {
         free(a);
         return -1;
@@ -744,22 +807,24 @@ static int add_analytic(geometry_t *self, int object, analytic_t proto, uint32_t
 int geometry_object_add_sphere(geometry_t *self, int object, const transform_t *to_world,
                                double radius, uint32_t shape, int flip, err_t *err)
 {
-    return add_analytic(self, object,
-                        (analytic_t){.kind = ANALYTIC_SPHERE, .to_world = *to_world, .radius = radius},
-                        shape, flip, err);
+    return add_analytic(
+        self, object,
+        (analytic_t){.kind = ANALYTIC_SPHERE, .to_world = *to_world, .radius = radius}, shape, flip,
+        err);
 }
 
 int geometry_object_add_disk(geometry_t *self, int object, const transform_t *to_world,
                              double radius, double height, uint32_t shape, int flip, err_t *err)
 {
-    return add_analytic(self, object,
-                        (analytic_t){.kind = ANALYTIC_DISK, .to_world = *to_world, .radius = radius,
-                                     .height = height},
-                        shape, flip, err);
+    return add_analytic(
+        self, object,
+        (analytic_t){
+            .kind = ANALYTIC_DISK, .to_world = *to_world, .radius = radius, .height = height},
+        shape, flip, err);
 }
 
-int geometry_add_sphere(geometry_t *self, const transform_t *to_world, double radius, uint32_t shape,
-                        int flip, err_t *err)
+int geometry_add_sphere(geometry_t *self, const transform_t *to_world, double radius,
+                        uint32_t shape, int flip, err_t *err)
 {
     return geometry_object_add_sphere(self, GEOMETRY_WORLD, to_world, radius, shape, flip, err);
 }
@@ -767,7 +832,8 @@ int geometry_add_sphere(geometry_t *self, const transform_t *to_world, double ra
 int geometry_add_disk(geometry_t *self, const transform_t *to_world, double radius, double height,
                       uint32_t shape, int flip, err_t *err)
 {
-    return geometry_object_add_disk(self, GEOMETRY_WORLD, to_world, radius, height, shape, flip, err);
+    return geometry_object_add_disk(self, GEOMETRY_WORLD, to_world, radius, height, shape, flip,
+                                    err);
 }
 
 int geometry_add_instance(geometry_t *self, int object, const transform_t *to_world,
@@ -793,7 +859,9 @@ int geometry_add_instance(geometry_t *self, int object, const transform_t *to_wo
     instance_t *in = malloc(sizeof *in);
     if (!in)
         return err_set(err, "out of memory");
-    *in = (instance_t){.group = k, .id = instance, .to_world = *to_world,
+    *in = (instance_t){.group = k,
+                       .id = instance,
+                       .to_world = *to_world,
                        .to_object = transform_inverse(*to_world),
                        .swaps = transform_swaps_handedness(to_world)};
     /* RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR: the three columns of the linear part, then the
@@ -805,7 +873,9 @@ int geometry_add_instance(geometry_t *self, int object, const transform_t *to_wo
     RTCGeometry g = rtcNewGeometry(self->device, RTC_GEOMETRY_TYPE_INSTANCE);
     if (!g) {
         free(in);
-        return check_device(self, "creating an instance", err) ? -1 : err_set(err, "Embree: rtcNewGeometry failed");
+        return check_device(self, "creating an instance", err)
+                   ? -1
+                   : err_set(err, "Embree: rtcNewGeometry failed");
     }
     rtcSetGeometryInstancedScene(g, self->groups[k].scene);
     rtcSetGeometryTimeStepCount(g, 1);
@@ -814,7 +884,8 @@ int geometry_add_instance(geometry_t *self, int object, const transform_t *to_wo
     unsigned id = rtcAttachGeometry(world->scene, g);
     rtcReleaseGeometry(g);
     if (check_device(self, "adding an instance", err) ||
-        record(world, id, (geom_info_t){.kind = GEOM_INSTANCE, .shape = instance, .instance = in}, err)) {
+        record(world, id, (geom_info_t){.kind = GEOM_INSTANCE, .shape = instance, .instance = in},
+               err)) {
         free(in);
         return -1;
     }
@@ -855,18 +926,26 @@ struct RTCSceneTy *geometry_embree_scene(const geometry_t *self)
 /* Out of line, so that the queries' hot path carries only the pointer test. */
 static void report_query(const geometry_t *self, const struct RTCRay *r, int occluded)
 {
-    geometry_query_t q = {.org = {r->org_x, r->org_y, r->org_z}, .tnear = r->tnear,
-                          .dir = {r->dir_x, r->dir_y, r->dir_z}, .tfar = r->tfar,
+    geometry_query_t q = {.org = {r->org_x, r->org_y, r->org_z},
+                          .tnear = r->tnear,
+                          .dir = {r->dir_x, r->dir_y, r->dir_z},
+                          .tfar = r->tfar,
                           .occluded = occluded};
     self->query_hook(self->query_user, &q);
 }
 
 static struct RTCRay make_ray(vec3_t org, vec3_t dir, double tmin, double tmax)
 {
-    return (struct RTCRay){.org_x = (float)org.x, .org_y = (float)org.y, .org_z = (float)org.z,
-                           .tnear = (float)tmin, .dir_x = (float)dir.x, .dir_y = (float)dir.y,
-                           .dir_z = (float)dir.z, .tfar = (float)fmin(tmax, FLT_MAX),
-                           .mask = 0xFFFFFFFFu, .flags = 0};
+    return (struct RTCRay){.org_x = (float)org.x,
+                           .org_y = (float)org.y,
+                           .org_z = (float)org.z,
+                           .tnear = (float)tmin,
+                           .dir_x = (float)dir.x,
+                           .dir_y = (float)dir.y,
+                           .dir_z = (float)dir.z,
+                           .tfar = (float)fmin(tmax, FLT_MAX),
+                           .mask = 0xFFFFFFFFu,
+                           .flags = 0};
 }
 
 /* Refines an analytic hit in double and fills its point (in the group's space), surface
@@ -912,11 +991,28 @@ int geometry_intersect(const geometry_t *self, vec3_t org, vec3_t dir, double tm
     rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
     if (self->query_hook)
         report_query(self, &rh.ray, 0);
+    const struct RTCRay ray = rh.ray;
     rtcIntersect1(self->groups[0].scene, &ctx, &rh);
     unsigned id = rh.hit.geomID;
     if (id == RTC_INVALID_GEOMETRY_ID)
         return 0;
     const group_t *grp = &self->groups[0];
+    if (rh.hit.instID[0] == RTC_INVALID_GEOMETRY_ID && id < grp->ngeoms &&
+        grp->info[id].kind == GEOM_MESH) {
+        const float o[3] = {ray.org_x, ray.org_y, ray.org_z},
+                    d[3] = {ray.dir_x, ray.dir_y, ray.dir_z};
+        if (!mesh_accepts(grp->info[id].mesh, rh.hit.primID, o, d)) {
+            /* A false self-hit: trace again judging every candidate (mesh_context_filter). */
+            rh = (struct RTCRayHit){.ray = ray};
+            rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+            rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+            ctx.filter = mesh_context_filter;
+            rtcIntersect1(self->groups[0].scene, &ctx, &rh);
+            id = rh.hit.geomID;
+            if (id == RTC_INVALID_GEOMETRY_ID)
+                return 0;
+        }
+    }
     const instance_t *in = NULL;
     if (rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID) {
         unsigned iid = rh.hit.instID[0];
@@ -978,7 +1074,8 @@ int geometry_intersect(const geometry_t *self, vec3_t org, vec3_t dir, double tm
     } else {
         vec3_t p;
         if (in) {
-            vec3_t o = transform_point(&in->to_object, org), d = transform_vector(&in->to_object, dir);
+            vec3_t o = transform_point(&in->to_object, org),
+                   d = transform_vector(&in->to_object, dir);
             analytic_surface(info->analytic, o, d, tmin, out, &p, &ng);
             out->p = transform_point(&in->to_world, p);
             ng = transform_normal(&in->to_world, ng);
@@ -1004,6 +1101,14 @@ int geometry_occluded(const geometry_t *self, vec3_t org, vec3_t dir, double tmi
     struct RTCRay ray = make_ray(org, dir, tmin, tmax);
     if (self->query_hook)
         report_query(self, &ray, 1);
+    /* No candidate without the filter: none with it. A candidate is confirmed by the filtered
+     * trace (mesh_context_filter), which most blocked shadow rays pass at their first leaf. */
+    const struct RTCRay ray0 = ray;
+    rtcOccluded1(self->groups[0].scene, &ctx, &ray);
+    if (ray.tfar != -INFINITY)
+        return 0;
+    ray = ray0;
+    ctx.filter = mesh_context_filter;
     rtcOccluded1(self->groups[0].scene, &ctx, &ray);
     return ray.tfar == -INFINITY;
 }

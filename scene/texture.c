@@ -298,7 +298,9 @@ texture_t *texture_new_mapped(const texture_t *inner, texture_mapping_t mapping,
 
 texture_image_opts_t texture_image_opts_default(void)
 {
-    return (texture_image_opts_t){.uscale = 1.0, .vscale = 1.0, .wrap = TEXTURE_WRAP_REPEAT,
+    return (texture_image_opts_t){.uscale = 1.0,
+                                  .vscale = 1.0,
+                                  .wrap = TEXTURE_WRAP_REPEAT,
                                   .filter = TEXTURE_FILTER_BILINEAR};
 }
 
@@ -322,8 +324,9 @@ static float *halve(const float *src, int w, int h, int nc, int *nw, int *nh)
             int x1 = x0 + 1 < w ? x0 + 1 : x0, y1 = y0 + 1 < h ? y0 + 1 : y0;
             for (int c = 0; c < nc; c++)
                 dst[((size_t)y * *nw + x) * nc + c] =
-                    0.25f * (src[((size_t)y0 * w + x0) * nc + c] + src[((size_t)y0 * w + x1) * nc + c] +
-                             src[((size_t)y1 * w + x0) * nc + c] + src[((size_t)y1 * w + x1) * nc + c]);
+                    0.25f *
+                    (src[((size_t)y0 * w + x0) * nc + c] + src[((size_t)y0 * w + x1) * nc + c] +
+                     src[((size_t)y1 * w + x0) * nc + c] + src[((size_t)y1 * w + x1) * nc + c]);
         }
     return dst;
 }
@@ -354,7 +357,8 @@ texture_t *texture_new_image(const float *rgb, int w, int h, const texture_image
         err_set(err, "image texture of %dx%d texels is empty or too large", w, h);
         return NULL;
     }
-    if (!isfinite(o->uscale) || !isfinite(o->vscale) || !isfinite(o->udelta) || !isfinite(o->vdelta)) {
+    if (!isfinite(o->uscale) || !isfinite(o->vscale) || !isfinite(o->udelta) ||
+        !isfinite(o->vdelta)) {
         err_set(err, "image texture with a non-finite uscale, vscale, udelta or vdelta");
         return NULL;
     }
@@ -408,7 +412,8 @@ texture_t *texture_new_image(const float *rgb, int w, int h, const texture_image
         if (!(t->level[l].coef = malloc(4 * n * sizeof *t->level[l].coef)))
             goto oom;
         coef_job_t job = {table, lv[l], t->level[l].coef, n};
-        if (pool_for(o->threads, (int)((n + COEF_CHUNK - 1) / COEF_CHUNK), coef_chunk, &job, err) < 0)
+        if (pool_for(o->threads, (int)((n + COEF_CHUNK - 1) / COEF_CHUNK), coef_chunk, &job, err) <
+            0)
             goto fail;
         free(lv[l]);
         lv[l] = NULL;
@@ -526,8 +531,10 @@ static double bilerp(const texture_t *t, int l, double s, double tt, double lamb
     double fx = floor(x), fy = floor(y);
     double dx = x - fx, dy = y - fy;
     long ix = to_index(fx), iy = to_index(fy);
-    return (1 - dx) * (1 - dy) * texel(t, l, ix, iy, lambda) + dx * (1 - dy) * texel(t, l, ix + 1, iy, lambda) +
-           (1 - dx) * dy * texel(t, l, ix, iy + 1, lambda) + dx * dy * texel(t, l, ix + 1, iy + 1, lambda);
+    return (1 - dx) * (1 - dy) * texel(t, l, ix, iy, lambda) +
+           dx * (1 - dy) * texel(t, l, ix + 1, iy, lambda) +
+           (1 - dx) * dy * texel(t, l, ix, iy + 1, lambda) +
+           dx * dy * texel(t, l, ix + 1, iy + 1, lambda);
 }
 
 /* pbrt-v4 MIPMap::Filter for the point, bilinear and trilinear filters. */
@@ -538,8 +545,8 @@ static double image_lookup(const texture_t *t, double u, double v, double width,
         return 0.0;
     switch (t->filter) {
     case TEXTURE_FILTER_POINT:
-        return texel(t, 0, to_index(round(s * t->level[0].w - 0.5)), to_index(round(tt * t->level[0].h - 0.5)),
-                     lambda);
+        return texel(t, 0, to_index(round(s * t->level[0].w - 0.5)),
+                     to_index(round(tt * t->level[0].h - 0.5)), lambda);
     case TEXTURE_FILTER_BILINEAR:
         return bilerp(t, 0, s, tt, lambda);
     case TEXTURE_FILTER_TRILINEAR:
@@ -595,13 +602,33 @@ static void image_lookup_lanes(const texture_t *t, double u, double v, const dou
     double fx = floor(x), fy = floor(y);
     double dx = x - fx, dy = y - fy;
     long ix = to_index(fx), iy = to_index(fy);
-    const long i00 = texel_index(t, 0, ix, iy), i10 = texel_index(t, 0, ix + 1, iy);
-    const long i01 = texel_index(t, 0, ix, iy + 1), i11 = texel_index(t, 0, ix + 1, iy + 1);
-    for (int j = 0; j < n; j++)
-        out[j] = (1 - dx) * (1 - dy) * texel_at(lv, i00, lambda[j]) +
-                 dx * (1 - dy) * texel_at(lv, i10, lambda[j]) +
-                 (1 - dx) * dy * texel_at(lv, i01, lambda[j]) +
-                 dx * dy * texel_at(lv, i11, lambda[j]);
+    const long at[4] = {texel_index(t, 0, ix, iy), texel_index(t, 0, ix + 1, iy),
+                        texel_index(t, 0, ix, iy + 1), texel_index(t, 0, ix + 1, iy + 1)};
+    const double w[4] = {(1 - dx) * (1 - dy), dx * (1 - dy), (1 - dx) * dy, dx * dy};
+    /* A texel whose value does not depend on the wavelength (black, a float texture's, a grey
+     * one: rgb_uplift_eval's flat coefficients) is read once for all lanes, and when all four
+     * are, so is their sum: the same value texel_at gives at every lambda, so the same bits. */
+    double tv[4];
+    int varies = 0;
+    for (int k = 0; k < 4; k++) {
+        const double *c = at[k] >= 0 && !lv->val ? lv->coef + 4 * (size_t)at[k] : NULL;
+        if (c && !(c[0] == 0.0 && c[1] == 0.0 && c[2] == 0.0))
+            varies |= 1 << k;
+        else
+            tv[k] = texel_at(lv, at[k], 0.0);
+    }
+    if (!varies) {
+        const double r = w[0] * tv[0] + w[1] * tv[1] + w[2] * tv[2] + w[3] * tv[3];
+        for (int j = 0; j < n; j++)
+            out[j] = r;
+        return;
+    }
+    for (int j = 0; j < n; j++) {
+        for (int k = 0; k < 4; k++)
+            if (varies & (1 << k))
+                tv[k] = texel_at(lv, at[k], lambda[j]);
+        out[j] = w[0] * tv[0] + w[1] * tv[1] + w[2] * tv[2] + w[3] * tv[3];
+    }
 }
 
 vec3_t texture_eval_normalmap(const texture_t *t, double u, double v)
@@ -789,6 +816,11 @@ void texture_eval_lanes(const texture_t *t, const texture_point_t *at, const dou
                         double *out)
 {
     switch (t->kind) {
+    case TEX_CONSTANT:
+        /* eval's case, without its dispatch per lane. */
+        for (int j = 0; j < n; j++)
+            out[j] = spectrum_eval(t->spectrum, lambda[j]);
+        return;
     case TEX_IMAGE:
         image_lookup_lanes(t, at->u, at->v, lambda, n, out);
         return;

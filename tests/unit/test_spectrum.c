@@ -83,6 +83,56 @@ static void test_tabulated(void **state)
     assert_null(spectrum_new_constant(NAN, &err));
 }
 
+/* The interval search against a linear scan, on tables whose spacing is far from even (clustered
+ * nodes, one wide gap, two nodes): at nodes, between them and one ulp below, so that a faster
+ * search (a proportional guess was tried: docs/performance.md) must give the same bits. */
+static void test_tabulated_search(void **state)
+{
+    (void)state;
+    const double clustered[] = {360, 360.5, 361, 361.25, 380, 700, 701, 829, 830};
+    const double wide[] = {300, 310, 320, 330, 340, 350, 360, 900};
+    const double two[] = {400, 700};
+    const struct {
+        const double *l;
+        size_t n;
+    } tables[] = {{clustered, 9}, {wide, 8}, {two, 2}};
+    for (size_t k = 0; k < sizeof tables / sizeof tables[0]; k++) {
+        const double *l = tables[k].l;
+        size_t n = tables[k].n;
+        double v[16];
+        for (size_t i = 0; i < n; i++)
+            v[i] = 1.0 + 0.37 * (double)i * (double)(i % 3);
+        err_t err = {0};
+        spectrum_t *s = spectrum_new_tabulated(l, v, n, &err);
+        assert_non_null(s);
+        for (int j = 0; j <= 4000; j++) {
+            const double x = 290.0 + 0.15 * j;
+            double lam[3] = {x, nextafter(x, 0.0), x};
+            if (j % 7 == 0)
+                lam[2] = l[(size_t)j % n];
+            for (int q = 0; q < 3; q++) {
+                double want;
+                if (lam[q] <= l[0])
+                    want = v[0];
+                else if (lam[q] >= l[n - 1])
+                    want = v[n - 1];
+                else {
+                    size_t lo = 0;
+                    while (l[lo + 1] <= lam[q])
+                        lo++;
+                    double f = (lam[q] - l[lo]) / (l[lo + 1] - l[lo]);
+                    want = v[lo] + f * (v[lo + 1] - v[lo]);
+                }
+                double got = spectrum_eval(s, lam[q]);
+                if (memcmp(&got, &want, sizeof got))
+                    fail_msg("table %zu at %.17g nm: %.17g, the scan gives %.17g", k, lam[q], got,
+                             want);
+            }
+        }
+        spectrum_destroy(&s);
+    }
+}
+
 /* pi * integral of B over all wavelengths = sigma T^4 (Stefan-Boltzmann, sigma = 5.670374419e-8
  * W m^-2 K^-4, CODATA 2018). Integrated in ln(lambda) from 10 nm to 1e7 nm by the trapezoid
  * rule with 40000 steps (error ~1e-9 for this smooth integrand); the Rayleigh-Jeans tail beyond
@@ -460,11 +510,17 @@ static void test_concurrent_eval(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
-        cmocka_unit_test(test_tabulated),         cmocka_unit_test(test_blackbody_stefan_boltzmann),
-        cmocka_unit_test(test_blackbody_wien),    cmocka_unit_test(test_cie_illuminants),
-        cmocka_unit_test(test_photometric),       cmocka_unit_test(test_rgb_uplift_round_trip),
-        cmocka_unit_test(test_rgb_uplift_timing), cmocka_unit_test(test_rgb_illuminant),
-        cmocka_unit_test(test_rgb_uplift_baked),  cmocka_unit_test(test_concurrent_eval),
+        cmocka_unit_test(test_tabulated),
+        cmocka_unit_test(test_tabulated_search),
+        cmocka_unit_test(test_blackbody_stefan_boltzmann),
+        cmocka_unit_test(test_blackbody_wien),
+        cmocka_unit_test(test_cie_illuminants),
+        cmocka_unit_test(test_photometric),
+        cmocka_unit_test(test_rgb_uplift_round_trip),
+        cmocka_unit_test(test_rgb_uplift_timing),
+        cmocka_unit_test(test_rgb_illuminant),
+        cmocka_unit_test(test_rgb_uplift_baked),
+        cmocka_unit_test(test_concurrent_eval),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
