@@ -4,7 +4,7 @@
  * closed mid-transfer. Here a master runs on one host and a worker and a client on another
  * (network namespaces joined by a veth pair), each direction shaped to 80 Mbit/s (tc tbf): a 40 MB bundle takes about 4 s to reach the
  * master and again to reach the worker, longer than the old 3 s; the job completes, no link
- * drops, and the pixels are those of `prismfarm render --direct`. Needs root, iproute2 and the tbf
+ * drops, and the pixels are those of `prismfarm render`. Needs root, iproute2 and the tbf
  * qdisc; skipped with the reason otherwise (PRISMFARM_REQUIRE_NETNS=1 makes a missing
  * namespace a failure, for CI; a missing tbf stays a skip, said as such). */
 #include <setjmp.h>
@@ -141,10 +141,7 @@ static void test_large_bundle_on_slow_link(void **state)
         testutil_fail_quoting(wlog, "the worker's link dropped; its log:");
     if (testutil_file_count(mlog, "lost"))
         testutil_fail_quoting(mlog, "the master gave the worker up; its log:");
-    /* The reference: one machine's render (--direct, the same pixels as any farm's), which
-     * parses the 40 MB but does not bundle, store and hash it again as `render`'s in-process
-     * farm does (seconds of disk, tens of seconds under the sanitizer on a busy disk). */
-    const run_t *r = run("render", main_path, "--spp", "4", "--direct", "-o",
+    const run_t *r = run("render", main_path, "--spp", "4", "-o",
                          testutil_scratch("slow-ref.exr"), "--quiet", NULL);
     assert_int_equal(r->status, 0);
     testutil_assert_same_pixels(out, testutil_scratch("slow-ref.exr"));
