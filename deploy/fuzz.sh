@@ -5,7 +5,8 @@
 # out-of-memory (2 GiB) fails the script; the input that caused it is kept in
 # build-fuzz/fuzz-artifacts/ with the fuzzer's log. docs/fuzzing.md explains the rest.
 # usage: deploy/fuzz.sh [SECONDS]   (default: $PRISMFARM_FUZZ_SECONDS, else 20; the build folder
-#        is $PRISMFARM_FUZZ_BUILD_DIR, else build-fuzz)
+#        is $PRISMFARM_FUZZ_BUILD_DIR, else build-fuzz; harnesses at once: $PRISMFARM_FUZZ_JOBS,
+#        else the number of cores)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds=${1:-${PRISMFARM_FUZZ_SECONDS:-20}}
@@ -40,21 +41,48 @@ mkdir -p "$artifacts"
 scratch=$(mktemp -d "${TMPDIR:-/tmp}/prismfarm-fuzz.XXXXXX")
 trap 'rm -rf "$scratch"' EXIT
 
+# Each harness is one process on one core (libFuzzer without -jobs/-workers), so they run side by
+# side, as many at once as there are cores ($PRISMFARM_FUZZ_JOBS sets another number): each still
+# gets SECONDS of a core to itself, as when they ran one after another, and the whole takes
+# about ceil(5 / cores) x SECONDS instead of 5 x SECONDS.
+lanes=${PRISMFARM_FUZZ_JOBS:-$(nproc)}
+case "$lanes" in
+  '' | *[!0-9]* | 0) echo "fuzz.sh: PRISMFARM_FUZZ_JOBS must be a whole number above 0, got '$lanes'" >&2
+                     exit 2 ;;
+esac
+# One harness: its scratch corpus, its log, and its exit status in $artifacts/NAME.status.
+fuzz_one() {
+  local name=$1 max_len=$2
+  local corpus=$scratch/corpus-$name log=$artifacts/$name.log rc=0
+  mkdir -p "$corpus"
+  cp tests/fuzz/corpus/"$name"/* "$corpus"/
+  # detect_leaks: a leak is a failure; the harness's own exit paths free everything.
+  ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
+    UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 TMPDIR=$scratch \
+    "$dir/tests/fuzz/$name" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+    -max_len="$max_len" -dict="tests/fuzz/${name#fuzz_}.dict" -print_final_stats=1 \
+    -artifact_prefix="$artifacts/$name-" "$corpus" >"$log" 2>&1 || rc=$?
+  echo "$rc" >"$artifacts/$name.status"
+}
+
+running=0
+for h in "${harnesses[@]}"; do
+  read -r name max_len <<<"$h"
+  if [ "$running" -ge "$lanes" ]; then
+    wait -n || true
+    running=$((running - 1))
+  fi
+  echo "== fuzz: $name for ${seconds} s (seeds: $(ls tests/fuzz/corpus/"$name" | wc -l)) =="
+  fuzz_one "$name" "$max_len" &
+  running=$((running + 1))
+done
+wait
+
 failed=0
 for h in "${harnesses[@]}"; do
   read -r name max_len <<<"$h"
-  corpus=$scratch/corpus-$name
-  mkdir -p "$corpus"
-  cp tests/fuzz/corpus/"$name"/* "$corpus"/
-  dict=tests/fuzz/${name#fuzz_}.dict
   log=$artifacts/$name.log
-  echo "== fuzz: $name for ${seconds} s (seeds: $(ls "$corpus" | wc -l)) =="
-  # detect_leaks: a leak is a failure; the harness's own exit paths free everything.
-  if ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 \
-     UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 TMPDIR=$scratch \
-     "$dir/tests/fuzz/$name" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
-       -max_len="$max_len" -dict="$dict" -print_final_stats=1 \
-       -artifact_prefix="$artifacts/$name-" "$corpus" >"$log" 2>&1; then
+  if [ "$(cat "$artifacts/$name.status" 2>/dev/null)" = 0 ]; then
     grep -E '^stat::number_of_executed_units|^Done ' "$log" | sed "s/^/  $name: /" || true
   else
     failed=1

@@ -16,6 +16,7 @@
 #include "files_testutil.h"
 
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <time.h>
 
 static void assert_fifo(const char *path)
@@ -115,11 +116,83 @@ static void test_fifo_scene_refused(void **state)
     assert_fifo(fifo);
 }
 
+/* A command started in the background (its stderr to a log in the scratch folder), to wait on
+ * with the others: the commands below wait on the clock (their --timeout), so they wait side by
+ * side, not one after another. */
+typedef struct bg {
+    pid_t pid;
+    char log[600];
+} bg_t;
+
+static bg_t bg_start(const char *name, const char *const *args)
+{
+    bg_t b;
+    snprintf(b.log, sizeof b.log, "%s", testutil_scratch(name));
+    b.pid = testutil_spawn_argv(b.log, args);
+    if (b.pid < 0)
+        fail_msg("cannot start prismfarm %s (is PRISMFARM_BIN set?)", args[0]);
+    return b;
+}
+
+/* Waits for the command to end (within the deadline of a wait) and returns its exit status and
+ * its stderr (free it); a command killed by a signal fails the test. */
+static int bg_finish(const bg_t *b, char **err)
+{
+    int st = testutil_stop(b->pid, 0); /* signal 0: only waits for its exit */
+    if (!WIFEXITED(st))
+        testutil_fail_quoting(b->log, "prismfarm did not exit (wait status %d); its stderr:", st);
+    *err = testutil_slurp(b->log, NULL);
+    assert_non_null(*err);
+    return WEXITSTATUS(st);
+}
+
 /* A master that cannot be there is named: a bad port or host at once, one that does not listen
- * after the command's --timeout (at most 10 s, not the call's 60 s), saying at once why it waits. */
+ * after the command's --timeout (at most 10 s, not the call's 60 s), saying at once why it waits.
+ * The commands that wait for port 1 run side by side (each its own process and deadline). */
 static void test_client_endpoint_errors(void **state)
 {
     (void)state;
+    /* Port 1 on loopback: nothing listens there (tcpmux is not run on a build machine). Every
+     * command waits for a master that does not listen yet up to its --timeout (a master starting
+     * or restarting refuses for a moment), says so at once, then gives up with one message. */
+    static const char *const submit_args[] = {"submit",     "data/render/tiny.pbrt",
+                                              "--master",   "tcp://127.0.0.1:1",
+                                              "--insecure", "--timeout",
+                                              "3",          NULL};
+    char fetch_out[600];
+    snprintf(fetch_out, sizeof fetch_out, "%s", testutil_scratch("f.exr"));
+    const char *const fetch_args[] = {
+        "fetch",      "1",         "-o",  fetch_out, "--master", "tcp://127.0.0.1:1",
+        "--insecure", "--timeout", "0.5", NULL};
+    /* refine without --timeout: the default wait, which ends too. */
+    static const char *const refine_args[] = {
+        "refine", "1", "--photons", "1000", "--master", "tcp://127.0.0.1:1", "--insecure", NULL};
+    /* One rule for every command that needs its master now: the queries and the operations
+     * say the same (jobs waited 10 s and said "no answer", submit refused at once). */
+    static const char *const cmds[][2] = {{"jobs", NULL},  {"workers", NULL}, {"status", "1"},
+                                          {"cancel", "1"}, {"pause", "1"},    {"logs", "1"},
+                                          {"resume", "1"}};
+    enum { NCMDS = sizeof cmds / sizeof cmds[0] };
+    bg_t refine = bg_start("refine.log", refine_args);
+    bg_t submit = bg_start("submit.log", submit_args);
+    bg_t fetch = bg_start("fetch.log", fetch_args);
+    bg_t query[NCMDS];
+    for (size_t i = 0; i < NCMDS; i++) {
+        const char *args[8];
+        int n = 0;
+        args[n++] = cmds[i][0];
+        if (cmds[i][1])
+            args[n++] = cmds[i][1];
+        const char *const tail[] = {"--master", "tcp://127.0.0.1:1", "--insecure", "--timeout",
+                                    "0.5"};
+        for (int k = 0; k < 5; k++)
+            args[n++] = tail[k];
+        args[n] = NULL;
+        char log[64];
+        snprintf(log, sizeof log, "query%zu.log", i);
+        query[i] = bg_start(log, args);
+    }
+
     const run_t *r = run("submit", "data/render/tiny.pbrt", "--master", "tcp://127.0.0.1:99999",
                          "--insecure", NULL);
     assert_int_equal(r->status, 1);
@@ -127,36 +200,26 @@ static void test_client_endpoint_errors(void **state)
     r = run("jobs", "--master", "tcp://no-such-host.invalid:5556", "--insecure", NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "cannot resolve the host 'no-such-host.invalid'");
-    /* Port 1 on loopback: nothing listens there (tcpmux is not run on a build machine). Every
-     * command waits for a master that does not listen yet up to its --timeout (a master starting
-     * or restarting refuses for a moment), says so at once, then gives up with one message. */
-    r = run("submit", "data/render/tiny.pbrt", "--master", "tcp://127.0.0.1:1", "--insecure",
-            "--timeout", "3", NULL);
-    assert_int_equal(r->status, 1);
-    expect_in(r->err, "prismfarm submit: nothing listens at tcp://127.0.0.1:1 yet: waiting up to 3 s");
-    expect_in(r->err, "refused the connection");
-    expect_in(r->err, "waited 3 s");
-    r = run("fetch", "1", "-o", testutil_scratch("f.exr"), "--master", "tcp://127.0.0.1:1",
-            "--insecure", "--timeout", "0.5", NULL);
-    assert_int_equal(r->status, 1);
-    expect_in(r->err, "refused the connection");
-    /* One rule for every command that needs its master now: the queries and the operations
-     * say the same (jobs waited 10 s and said "no answer", submit refused at once). */
-    static const char *const cmds[][2] = {{"jobs", NULL}, {"workers", NULL}, {"status", "1"},
-                                          {"cancel", "1"}, {"pause", "1"}, {"logs", "1"},
-                                          {"resume", "1"}};
-    for (size_t i = 0; i < sizeof cmds / sizeof cmds[0]; i++) {
-        r = cmds[i][1] ? run(cmds[i][0], cmds[i][1], "--master", "tcp://127.0.0.1:1", "--insecure",
-                             "--timeout", "0.5", NULL)
-                       : run(cmds[i][0], "--master", "tcp://127.0.0.1:1", "--insecure",
-                             "--timeout", "0.5", NULL);
-        if (r->status != 1 || !strstr(r->err, "refused the connection") ||
-            !strstr(r->err, "nothing listens at tcp://127.0.0.1:1 yet"))
-            fail_msg("%s: exit %d: %s", cmds[i][0], r->status, r->err);
+
+    char *err;
+    assert_int_equal(bg_finish(&submit, &err), 1);
+    expect_in(err, "prismfarm submit: nothing listens at tcp://127.0.0.1:1 yet: waiting up to 3 s");
+    expect_in(err, "refused the connection");
+    expect_in(err, "waited 3 s");
+    free(err);
+    assert_int_equal(bg_finish(&fetch, &err), 1);
+    expect_in(err, "refused the connection");
+    free(err);
+    for (size_t i = 0; i < NCMDS; i++) {
+        int status = bg_finish(&query[i], &err);
+        if (status != 1 || !strstr(err, "refused the connection") ||
+            !strstr(err, "nothing listens at tcp://127.0.0.1:1 yet"))
+            fail_msg("%s: exit %d: %s", cmds[i][0], status, err);
+        free(err);
     }
-    r = run("refine", "1", "--photons", "1000", "--master", "tcp://127.0.0.1:1", "--insecure", NULL);
-    assert_int_equal(r->status, 1);
-    expect_in(r->err, "refused the connection");
+    assert_int_equal(bg_finish(&refine, &err), 1);
+    expect_in(err, "refused the connection");
+    free(err);
 }
 
 /* Options the issue found taken: a non-finite exposure, an authorised folder that does not
@@ -172,8 +235,7 @@ static void test_bad_values_refused(void **state)
     assert_int_equal(r->status, 2);
     struct stat st;
     assert_int_not_equal(stat(exr, &st), 0);
-    r = run("master", "--authorized", "/nonexistent", "--spool", testutil_scratch("m-spool"),
-            NULL);
+    r = run("master", "--authorized", "/nonexistent", "--spool", testutil_scratch("m-spool"), NULL);
     assert_int_equal(r->status, 2);
     r = run("master", "--insecure", "--authorized", "/nonexistent", "--spool",
             testutil_scratch("m-spool"), NULL);
@@ -186,7 +248,7 @@ int main(void)
         cmocka_unit_test(test_output_fifo_refused),
         cmocka_unit_test(test_output_folder_missing),
         cmocka_unit_test(test_fifo_scene_refused),
-        cmocka_unit_test(test_client_endpoint_errors),
+        cmocka_unit_test_teardown(test_client_endpoint_errors, testutil_kill_children),
         cmocka_unit_test(test_bad_values_refused),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_setup, testutil_scratch_teardown);

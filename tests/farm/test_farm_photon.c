@@ -1,6 +1,6 @@
-/* The photon pass on the farm (docs/farm.md, "Photon jobs"): photon batches traced by the workers, merged by the
- * master in batch order and sent back as one store for the camera phase, give the pixels of
- * `prismfarm render --direct` (one machine, every photon) -- with the photon map and with
+/* The photon pass on the farm (docs/farm.md, "Photon jobs"): photon batches traced by the workers,
+ * merged by the master in batch order and sent back as one store for the camera phase, give the
+ * pixels of `prismfarm render --direct` (one machine, every photon) -- with the photon map and with
  * light maps, with one or two workers, with a worker killed during the photon phase -- and a
  * job refined with more photons gives the pixels of the scene rendered with that many from the
  * start. */
@@ -22,11 +22,25 @@
 #include <string.h>
 #include <sys/stat.h>
 
-static void render_direct(const char *scene, const char *out)
+/* `prismfarm render --direct` of data/photon/NAME.pbrt (one machine, every photon): the
+ * reference the farm's pixels must equal, in the scratch folder as direct-NAME.exr. Rendered
+ * once per run: the cases that compare with the same scene share it. */
+static const char *direct(const char *name)
 {
-    const run_t *r = run("render", scene, "--direct", "-o", out, "--quiet", NULL);
+    static char out[16][600];
+    static int n;
+    char file[64], scene[128];
+    snprintf(file, sizeof file, "direct-%s.exr", name);
+    snprintf(scene, sizeof scene, "data/photon/%s.pbrt", name);
+    char *path = out[n++ % 16];
+    snprintf(path, sizeof out[0], "%s", testutil_scratch(file));
+    struct stat st;
+    if (stat(path, &st) == 0)
+        return path;
+    const run_t *r = run("render", scene, "--direct", "-o", path, "--quiet", NULL);
     if (r->status != 0)
         fail_msg("render --direct %s: exit %d: %s", scene, r->status, r->err);
+    return path;
 }
 
 /* The in-process farm (`prismfarm render`) with two workers of one thread against --direct,
@@ -35,15 +49,15 @@ static void test_in_process_both_stores(void **state)
 {
     (void)state;
     /* beam_fog: volume photons travel and merge with the surface photons. */
-    const char *scenes[] = {"data/photon/beam.pbrt", "data/photon/beam_lightmap.pbrt",
-                            "data/photon/beam_fog.pbrt"};
+    const char *names[] = {"beam", "beam_lightmap", "beam_fog"};
     for (int i = 0; i < 3; i++) {
-        render_direct(scenes[i], testutil_scratch("direct.exr"));
-        const run_t *r = run("render", scenes[i], "--workers", "2", "--threads", "1", "--tile",
-                             "16", "-o", testutil_scratch("farm.exr"), "--quiet", NULL);
+        char scene[128];
+        snprintf(scene, sizeof scene, "data/photon/%s.pbrt", names[i]);
+        const run_t *r = run("render", scene, "--workers", "2", "--threads", "1", "--tile", "16",
+                             "-o", testutil_scratch("farm.exr"), "--quiet", NULL);
         if (r->status != 0)
-            fail_msg("render %s: exit %d: %s", scenes[i], r->status, r->err);
-        testutil_assert_same_pixels(testutil_scratch("direct.exr"), testutil_scratch("farm.exr"));
+            fail_msg("render %s: exit %d: %s", scene, r->status, r->err);
+        testutil_assert_same_pixels(direct(names[i]), testutil_scratch("farm.exr"));
     }
 }
 
@@ -116,8 +130,7 @@ static void test_processes_refine_and_kill(void **state)
     if (!phases_in_order)
         testutil_fail_quoting(wlog, "the samples' line began before the photon phase ended:");
     const run_t *r;
-    render_direct("data/photon/beam.pbrt", testutil_scratch("direct.exr"));
-    testutil_assert_same_pixels(testutil_scratch("job.exr"), testutil_scratch("direct.exr"));
+    testutil_assert_same_pixels(testutil_scratch("job.exr"), direct("beam"));
     expect_photons(testutil_scratch("job.exr"), "30000");
 
     /* 20000 more photons: the store then holds photons [0, 50000), as beam_more.pbrt's. */
@@ -126,8 +139,7 @@ static void test_processes_refine_and_kill(void **state)
     if (r->status != 0)
         fail_msg("refine --wait: exit %d: %s", r->status, r->err);
     expect_in(r->out, "job 1 refined");
-    render_direct("data/photon/beam_more.pbrt", testutil_scratch("more.exr"));
-    testutil_assert_same_pixels(testutil_scratch("refined.exr"), testutil_scratch("more.exr"));
+    testutil_assert_same_pixels(testutil_scratch("refined.exr"), direct("beam_more"));
     expect_photons(testutil_scratch("refined.exr"), "50000");
     /* The job's log holds the refinement with every other action on it, and names photon
      * batches as requeue and logs JOB TASK take them (p0, not the wire's 2147483648). */
@@ -184,16 +196,14 @@ static void test_processes_refine_and_kill(void **state)
     for (double until = testutil_now_s() + test_wait_s();; testutil_sleep_ms(100)) {
         r = run("status", "3", "--master", cep, "--json", NULL);
         assert_int_equal(r->status, 0);
-        if (strstr(r->out, "\"done\"") || strstr(r->out, "\"failed\"") ||
-            testutil_now_s() > until)
+        if (strstr(r->out, "\"done\"") || strstr(r->out, "\"failed\"") || testutil_now_s() > until)
             break;
     }
     expect_in(r->out, "\"state\": \"done\"");
     r = run("fetch", "3", "-o", testutil_scratch("big.exr"), "--master", cep, NULL);
     if (r->status != 0)
         fail_msg("fetch: %s", r->err);
-    render_direct("data/photon/beam_big.pbrt", testutil_scratch("big_direct.exr"));
-    testutil_assert_same_pixels(testutil_scratch("big.exr"), testutil_scratch("big_direct.exr"));
+    testutil_assert_same_pixels(testutil_scratch("big.exr"), direct("beam_big"));
 
     testutil_stop(w1, SIGTERM);
     testutil_stop(master, SIGTERM);
@@ -280,9 +290,8 @@ static void test_refine_sequence(void **state)
     if (r->status != 0)
         fail_msg("refine 4 --wait: exit %d: %s", r->status, r->err);
     expect_in(r->out, "job 4 refined");
-    render_direct("data/photon/beam_more.pbrt", testutil_scratch("more.exr"));
     snprintf(exr, sizeof exr, "%s/r1.exr", testutil_scratch_dir());
-    testutil_assert_same_pixels(exr, testutil_scratch("more.exr"));
+    testutil_assert_same_pixels(exr, direct("beam_more"));
     expect_photons(exr, "50000");
     snprintf(exr, sizeof exr, "%s/r2.exr", testutil_scratch_dir());
     testutil_assert_same_pixels(exr, testutil_scratch("s2.exr"));

@@ -41,7 +41,9 @@
  * checkpoint with results after it, a few passes in (a checkpoint follows the results' bytes,
  * persist.c), with most of the samples left for the restarted master: the test's cost. */
 #define SPP "1024"
-#define PHOTON_SPP "256" /* beam_big: 1.5 M photons, then a camera phase of 9 passes */
+/* beam_big: 1.5 M photons, then a camera phase of 8 passes: the second master is killed at the
+ * phase's first results, with all but a pass of 1 spp of it left to render. */
+#define PHOTON_SPP "128"
 
 /* ---------------------------------------------------------------- blobs and tables */
 

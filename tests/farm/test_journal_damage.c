@@ -24,13 +24,13 @@
 #include <unistd.h>
 
 #define SCENE "data/render/tiny.pbrt"
-/* 12 passes. A checkpoint follows the results' bytes (persist.c: about 4 passes' results of
- * this image), so the second comes after about pass 7, when 1/32 of the samples are rendered:
- * the job is far from done when the master is killed on any machine (the kill's pass is
- * printed), and what the restarted master renders, the test's cost, is a quarter of what 8192
- * spp took. */
-#define SPP "2048"
-#define NPASSES 12
+/* 11 passes. A checkpoint follows the results' bytes (persist.c: about 4 passes' results of
+ * this image, whatever their spp), so the second comes after about pass 8, when 1/8 of the
+ * samples are rendered: the job is far from done when the master is killed on any machine (the
+ * kill's pass is printed, and the test fails if the job was over). What the restarted master
+ * renders is the test's cost: half of what 2048 spp (12 passes) took, a quarter of 8192. */
+#define SPP "1024"
+#define NPASSES 11
 
 static const char *reference(void)
 {

@@ -17,7 +17,9 @@
 #include "farm_testutil.h"
 
 #include <arpa/inet.h>
+#include <errno.h>
 #include <netinet/in.h>
+#include <pthread.h>
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/socket.h>
@@ -237,41 +239,59 @@ static void test_slow_load(void **state)
  * locked every client out): one host's connections beyond --max-connections-per-host are shut
  * down at once, refusals are logged at most 20 per 10 s with the number held back, and a client
  * from another address still gets in. The flood comes from 127.0.0.2 (all of 127/8 is the
- * loopback), the client from 127.0.0.1. */
+ * loopback), the client from 127.0.0.1. The number held back is logged once the 10 s window is
+ * over: test_connection_flood (run first) leaves its master and flood, and
+ * test_connection_flood_held (run last) checks it, so that the window passes
+ * while they run instead of in a wait of its own. */
+enum { NFLOOD = 60 };
+static struct {
+    pid_t master;
+    int fds[NFLOOD];
+    char log[700];
+} flood = {.master = -1};
+
 static void test_connection_flood(void **state)
 {
     (void)state;
     char cep[256];
-    pid_t master = start_master("flood", cep, "--max-connections-per-host", "16", NULL);
+    flood.master = start_master("flood", cep, "--max-connections-per-host", "16", NULL);
     const char *colon = strrchr(cep, ':');
     assert_non_null(colon);
     int port = atoi(colon + 1);
-    enum { NFLOOD = 60 };
-    int fds[NFLOOD];
     for (int i = 0; i < NFLOOD; i++) {
-        fds[i] = socket(AF_INET, SOCK_STREAM, 0);
-        assert_true(fds[i] >= 0);
+        flood.fds[i] = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0); /* not for the children */
+        assert_true(flood.fds[i] >= 0);
         struct sockaddr_in from = {.sin_family = AF_INET}, to = {.sin_family = AF_INET};
         inet_pton(AF_INET, "127.0.0.2", &from.sin_addr);
         inet_pton(AF_INET, "127.0.0.1", &to.sin_addr);
         to.sin_port = htons((uint16_t)port);
-        assert_int_equal(bind(fds[i], (struct sockaddr *)&from, sizeof from), 0);
-        assert_int_equal(connect(fds[i], (struct sockaddr *)&to, sizeof to), 0);
+        assert_int_equal(bind(flood.fds[i], (struct sockaddr *)&from, sizeof from), 0);
+        assert_int_equal(connect(flood.fds[i], (struct sockaddr *)&to, sizeof to), 0);
     }
-    char log[700];
-    snprintf(log, sizeof log, "%s/flood.log", testutil_scratch_dir());
+    snprintf(flood.log, sizeof flood.log, "%s/flood.log", testutil_scratch_dir());
     /* Each beyond the host's 16 makes room by closing the host's oldest idle connection (none
      * of them finished a handshake), so the host holds 16 at most. */
-    testutil_wait_file_has(log, "closed an unfinished handshake to the clients endpoint from "
-                                "127.0.0.2 to make room for a new connection from 127.0.0.2 "
-                                "(that host holds its limit of open connections, 16)");
+    testutil_wait_file_has(flood.log, "closed an unfinished handshake to the clients endpoint from "
+                                      "127.0.0.2 to make room for a new connection from 127.0.0.2 "
+                                      "(that host holds its limit of open connections, 16)");
     /* Another host is not locked out. */
     const run_t *r = run("jobs", "--master", cep, NULL);
     if (r->status != 0)
-        testutil_fail_quoting(log, "a client during the flood: %s\nmaster log:", r->err);
-    /* 44 refusals: 20 logged, the rest counted once their window is over. */
-    testutil_wait_file_has(log, "more refused connections not logged (at most 20 per 10 s)");
-    char *text = testutil_slurp(log, NULL);
+        testutil_fail_quoting(flood.log, "a client during the flood: %s\nmaster log:", r->err);
+    /* The master and the flood stay for test_connection_flood_held: off the list the
+     * teardown kills (the master still dies with the test: testutil_spawn_argv). */
+    testutil_forget_child(flood.master);
+}
+
+/* The flood's 44 refusals: 20 logged, the rest counted once their window is over. */
+static void test_connection_flood_held(void **state)
+{
+    (void)state;
+    if (flood.master <= 0)
+        fail_msg("test_connection_flood did not leave its master running");
+    testutil_track_child(flood.master);
+    testutil_wait_file_has(flood.log, "more refused connections not logged (at most 20 per 10 s)");
+    char *text = testutil_slurp(flood.log, NULL);
     assert_non_null(text);
     int lines = 0;
     for (const char *p = text; (p = strstr(p, "from 127.0.0.2 to make room")); p++)
@@ -280,8 +300,9 @@ static void test_connection_flood(void **state)
     print_message("%d of %d refusals logged\n", lines, NFLOOD - 16);
     assert_true(lines >= 1 && lines <= 20);
     for (int i = 0; i < NFLOOD; i++)
-        close(fds[i]);
-    testutil_stop(master, SIGTERM);
+        close(flood.fds[i]);
+    testutil_stop(flood.master, SIGTERM);
+    flood.master = -1;
 }
 
 /* 2000 idle TCP connections from the address a client connects from (issue 26, finding 4:
@@ -289,31 +310,78 @@ static void test_connection_flood(void **state)
  * is one address): `prismfarm jobs` from it is answered within the run's generous deadline,
  * the flood's connections making room for it, and the flood holds at most the host's bound
  * (512) at once. The test's descriptors: its soft file limit raised to the hard one, the
- * flood cut to fit. Nothing is timed. */
-static void test_flood_same_address(void **state)
+ * flood cut to fit. Nothing is timed.
+ *
+ * The connections take seconds to make (each connect that meets the master's full accept queue
+ * waits for a SYN to be sent again), so a thread makes them while the cases between
+ * test_flood_same_address_start and test_flood_same_address run; the connects are the same,
+ * one after another, each blocking until it is made. */
+static struct {
+    pid_t master;
+    char cep[256];
+    int *fds, nflood, made, error; /* made: connections made; error: errno of the first failure */
+    pthread_t thread;
+    bool started;
+} flood2k = {.master = -1};
+
+static void *flood2k_connect(void *arg)
+{
+    (void)arg;
+    struct sockaddr_in to = {.sin_family = AF_INET,
+                             .sin_port = htons((uint16_t)atoi(strrchr(flood2k.cep, ':') + 1))};
+    inet_pton(AF_INET, "127.0.0.1", &to.sin_addr);
+    for (int i = 0; i < flood2k.nflood; i++) {
+        flood2k.fds[i] = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0); /* not for the children */
+        if (flood2k.fds[i] < 0 || connect(flood2k.fds[i], (struct sockaddr *)&to, sizeof to) != 0) {
+            flood2k.error = errno;
+            break;
+        }
+        flood2k.made = i + 1;
+    }
+    return NULL;
+}
+
+static void test_flood_same_address_start(void **state)
 {
     (void)state;
-    char cep[256];
-    pid_t master = start_master("flood2000", cep, NULL);
-    int port = atoi(strrchr(cep, ':') + 1);
+    flood2k.master = start_master("flood2000", flood2k.cep, NULL);
     struct rlimit rl;
     assert_int_equal(getrlimit(RLIMIT_NOFILE, &rl), 0);
     rl.rlim_cur = rl.rlim_max;
     (void)setrlimit(RLIMIT_NOFILE, &rl);
     assert_int_equal(getrlimit(RLIMIT_NOFILE, &rl), 0);
-    int nflood = rl.rlim_cur > 2200 ? 2000 : (int)rl.rlim_cur - 200;
+    /* 200 left for the cases that run meanwhile. */
+    int nflood = rl.rlim_cur > 2400 ? 2000 : (int)rl.rlim_cur - 400;
     if (nflood < 1000)
         fail_msg("a file limit of %llu leaves too few descriptors for the flood",
                  (unsigned long long)rl.rlim_cur);
-    int *fds = calloc((size_t)nflood, sizeof *fds);
-    assert_non_null(fds);
-    struct sockaddr_in to = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port)};
-    inet_pton(AF_INET, "127.0.0.1", &to.sin_addr);
-    for (int i = 0; i < nflood; i++) {
-        fds[i] = socket(AF_INET, SOCK_STREAM, 0);
-        assert_true(fds[i] >= 0);
-        assert_int_equal(connect(fds[i], (struct sockaddr *)&to, sizeof to), 0);
-    }
+    flood2k.nflood = nflood;
+    flood2k.fds = calloc((size_t)nflood, sizeof *flood2k.fds);
+    assert_non_null(flood2k.fds);
+    for (int i = 0; i < nflood; i++)
+        flood2k.fds[i] = -1;
+    assert_int_equal(pthread_create(&flood2k.thread, NULL, flood2k_connect, NULL), 0);
+    flood2k.started = true;
+    /* The master stays for test_flood_same_address: off the list the teardown kills (it still
+     * dies with the test: testutil_spawn_argv). */
+    testutil_forget_child(flood2k.master);
+}
+
+static void test_flood_same_address(void **state)
+{
+    (void)state;
+    if (!flood2k.started)
+        fail_msg("test_flood_same_address_start did not start the flood");
+    testutil_track_child(flood2k.master);
+    /* The connects block without a deadline of their own: the kernel gives up on one after its
+     * SYN retransmissions (about two minutes), and ctest's timeout stops a hang. */
+    assert_int_equal(pthread_join(flood2k.thread, NULL), 0);
+    flood2k.started = false;
+    int nflood = flood2k.nflood, *fds = flood2k.fds;
+    if (flood2k.made < nflood)
+        fail_msg("connection %d of the flood: %s", flood2k.made, strerror(flood2k.error));
+    const char *cep = flood2k.cep;
+    pid_t master = flood2k.master;
     char log[700];
     snprintf(log, sizeof log, "%s/flood2000.log", testutil_scratch_dir());
     testutil_wait_file_has(log, "to make room for a new connection from 127.0.0.1 (that host "
@@ -370,13 +438,17 @@ static void test_command_line(void **state)
 int main(void)
 {
     const struct CMUnitTest tests[] = {
+        /* First: its window passes while the others run (test_connection_flood_held). */
+        cmocka_unit_test_teardown(test_connection_flood, testutil_kill_children),
+        /* Its connections are made while the cases up to test_flood_same_address run. */
+        cmocka_unit_test_teardown(test_flood_same_address_start, testutil_kill_children),
         cmocka_unit_test_teardown(test_max_jobs, testutil_kill_children),
         cmocka_unit_test_teardown(test_bundle_limits, testutil_kill_children),
         cmocka_unit_test_teardown(test_max_message, testutil_kill_children),
         cmocka_unit_test_teardown(test_scene_budget, testutil_kill_children),
         cmocka_unit_test_teardown(test_slow_load, testutil_kill_children),
-        cmocka_unit_test_teardown(test_connection_flood, testutil_kill_children),
         cmocka_unit_test_teardown(test_flood_same_address, testutil_kill_children),
+        cmocka_unit_test_teardown(test_connection_flood_held, testutil_kill_children),
         cmocka_unit_test(test_command_line),
     };
     return cmocka_run_group_tests(tests, testutil_scratch_keys_setup, testutil_scratch_teardown);
