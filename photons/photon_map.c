@@ -21,6 +21,9 @@ typedef struct photon {
 
 #define BUCKET_MASK 0x3FFFu
 #define AXIS_SHIFT 14
+/* A white photon's bucket field (photon_map_deposit_white): no grid has this many buckets
+ * (photon_map_new), and its lambda field holds the spectrum's index instead. */
+#define WHITE_BUCKET BUCKET_MASK
 
 /* Every octahedral code's unit vector: the gather's normal test decodes a normal per photon
  * in range, which took an eighth of a caustic render's time; a table lookup gives exactly
@@ -34,6 +37,9 @@ struct photon_map {
     uint64_t emitted;
     int built;
     vec3_t *normals; /* [OCT_CODES], made by photon_map_build */
+    /* White photons' spectra (photon_map_set_spectra): nspectra rows of grid.n. */
+    int nspectra;
+    double *spectra;
 };
 
 /* Octahedral encoding of a unit vector (Meyer et al. 2010, "On floating-point normal
@@ -73,8 +79,8 @@ photon_map_t *photon_map_new(spectral_grid_t grid, err_t *err)
 {
     if (spectral_grid_validate(grid, err))
         return NULL;
-    if (grid.n > (int)BUCKET_MASK + 1) {
-        err_set(err, "a photon map holds at most %u buckets, the grid has %d", BUCKET_MASK + 1,
+    if (grid.n > (int)WHITE_BUCKET) {
+        err_set(err, "a photon map holds at most %u buckets, the grid has %d", WHITE_BUCKET,
                 grid.n);
         return NULL;
     }
@@ -93,6 +99,7 @@ void photon_map_destroy(photon_map_t **self_p)
         return;
     free((*self_p)->ph);
     free((*self_p)->normals);
+    free((*self_p)->spectra);
     free(*self_p);
     *self_p = NULL;
 }
@@ -140,6 +147,58 @@ int photon_map_deposit(photon_map_t *self, vec3_t p, vec3_t dir, vec3_t normal, 
     return 0;
 }
 
+int photon_map_deposit_white(photon_map_t *self, vec3_t p, vec3_t dir, vec3_t normal, int spectrum,
+                             double power, err_t *err)
+{
+    if (self->built)
+        return err_set(err, "photon map: deposit after the kd-tree was built");
+    if (!(power >= 0.0 && power <= FLT_MAX) || !isfinite(p.x) || !isfinite(p.y) || !isfinite(p.z))
+        return err_set(err, "photon map: non-finite deposit (power %g)", power);
+    if (spectrum < 0 || spectrum >= self->nspectra)
+        return err_set(err, "photon map: white photon of spectrum %d, the map has %d", spectrum,
+                       self->nspectra);
+    if (reserve(self, 1, err))
+        return -1;
+    photon_t *ph = &self->ph[self->n++];
+    ph->p[0] = (float)p.x;
+    ph->p[1] = (float)p.y;
+    ph->p[2] = (float)p.z;
+    ph->power = (float)power;
+    ph->bucket = WHITE_BUCKET;
+    ph->lambda = (uint16_t)spectrum;
+    ph->dir = oct_encode(dir);
+    ph->normal = oct_encode(normal);
+    return 0;
+}
+
+int photon_map_set_spectra(photon_map_t *self, int n, const double *shape, err_t *err)
+{
+    if (n < 0 || n > PHOTON_MAP_MAX_SPECTRA)
+        return err_set(err, "photon map: %d white spectra, at most %d", n, PHOTON_MAP_MAX_SPECTRA);
+    size_t len = (size_t)n * (size_t)self->grid.n;
+    double *c = len ? malloc(len * sizeof *c) : NULL;
+    if (len && !c)
+        return err_set(err, "out of memory");
+    for (size_t i = 0; i < len; i++)
+        if (!(shape[i] >= 0.0 && shape[i] <= DBL_MAX)) {
+            free(c);
+            return err_set(err, "photon map: a white spectrum's bucket is %g", shape[i]);
+        }
+    if (len)
+        memcpy(c, shape, len * sizeof *c);
+    free(self->spectra);
+    self->spectra = c;
+    self->nspectra = n;
+    return 0;
+}
+
+const double *photon_map_spectrum(const photon_map_t *self, int spectrum)
+{
+    return spectrum >= 0 && spectrum < self->nspectra
+               ? self->spectra + (size_t)spectrum * (size_t)self->grid.n
+               : NULL;
+}
+
 void photon_map_add_emitted(photon_map_t *self, uint64_t n)
 {
     self->emitted += n;
@@ -179,6 +238,11 @@ int photon_map_append(photon_map_t *dst, const photon_map_t *src, err_t *err)
         return err_set(err, "photon map: merging maps of different wavelength grids");
     if (reserve(dst, src->n, err))
         return -1;
+    for (size_t i = 0; i < src->n; i++)
+        if ((src->ph[i].bucket & BUCKET_MASK) == WHITE_BUCKET && src->ph[i].lambda >= dst->nspectra)
+            return err_set(err,
+                           "photon map: merging a white photon of spectrum %u into a map of %d",
+                           src->ph[i].lambda, dst->nspectra);
     if (src->n)
         memcpy(dst->ph + dst->n, src->ph, src->n * sizeof *src->ph);
     dst->n += src->n;
@@ -195,18 +259,32 @@ photon_info_t photon_map_photon(const photon_map_t *self, size_t i)
     r.p = vec3_make(ph->p[0], ph->p[1], ph->p[2]);
     r.dir = oct_decode(ph->dir);
     r.normal = oct_decode(ph->normal);
+    r.power = ph->power;
+    if ((ph->bucket & BUCKET_MASK) == WHITE_BUCKET) {
+        r.bucket = PHOTON_MAP_WHITE(ph->lambda);
+        r.lambda = 0.0;
+        return r;
+    }
     r.lambda = self->grid.lambda_min +
                ph->lambda / 65535.0 * (self->grid.lambda_max - self->grid.lambda_min);
     r.bucket = ph->bucket & BUCKET_MASK;
-    r.power = ph->power;
     return r;
 }
 
 double photon_map_power_sum(const photon_map_t *self)
 {
     double s = 0.0;
-    for (size_t i = 0; i < self->n; i++)
-        s += self->ph[i].power;
+    for (size_t i = 0; i < self->n; i++) {
+        const photon_t *ph = &self->ph[i];
+        double w = 1.0;
+        if ((ph->bucket & BUCKET_MASK) == WHITE_BUCKET) {
+            const double *c = photon_map_spectrum(self, ph->lambda);
+            w = 0.0;
+            for (int b = 0; c && b < self->grid.n; b++)
+                w += c[b];
+        }
+        s += ph->power * w;
+    }
     return s;
 }
 
@@ -275,6 +353,11 @@ int photon_map_build(photon_map_t *self, err_t *err)
 {
     if (self->built)
         return err_set(err, "photon map: built twice");
+    for (size_t i = 0; i < self->n; i++)
+        if ((self->ph[i].bucket & BUCKET_MASK) == WHITE_BUCKET &&
+            self->ph[i].lambda >= self->nspectra)
+            return err_set(err, "photon map: a white photon of spectrum %u, the map knows %d",
+                           self->ph[i].lambda, self->nspectra);
     self->normals = malloc(OCT_CODES * sizeof *self->normals);
     if (!self->normals)
         return err_set(err, "photon map: out of memory for its normal table");
@@ -299,6 +382,8 @@ int photon_map_build(photon_map_t *self, err_t *err)
 typedef struct query {
     const photon_t *ph;
     const vec3_t *normals; /* the map's decoded octahedral codes */
+    const double *spectra; /* white photons' rows of nb */
+    int nb;
     double q[3];
     vec3_t n;
     int two_sided; /* the normal test takes photons on either side of n */
@@ -325,10 +410,17 @@ static int normal_ok(const query_t *qr, const photon_t *ph)
 /* A photon found by a fixed-radius query: into E, or handed to the visitor. */
 static inline void take(query_t *qr, const photon_t *ph)
 {
-    if (qr->fn)
-        qr->fn(qr->user, qr->normals[ph->dir], ph->bucket & BUCKET_MASK, ph->power);
-    else
-        qr->E[ph->bucket & BUCKET_MASK] += ph->power;
+    const unsigned b = ph->bucket & BUCKET_MASK;
+    if (qr->fn) {
+        qr->fn(qr->user, qr->normals[ph->dir],
+               b == WHITE_BUCKET ? PHOTON_MAP_WHITE(ph->lambda) : (int)b, ph->power);
+    } else if (b == WHITE_BUCKET) {
+        const double *c = qr->spectra + (size_t)ph->lambda * (size_t)qr->nb;
+        for (int k = 0; k < qr->nb; k++)
+            qr->E[k] += ph->power * c[k];
+    } else {
+        qr->E[b] += ph->power;
+    }
     qr->used++;
 }
 
@@ -441,6 +533,8 @@ static int search(const photon_map_t *self, vec3_t p, vec3_t n, int two_sided, d
     query_t query, *qr = &query;
     qr->ph = self->ph;
     qr->normals = self->normals;
+    qr->spectra = self->spectra;
+    qr->nb = self->grid.n;
     qr->q[0] = p.x;
     qr->q[1] = p.y;
     qr->q[2] = p.z;
@@ -507,7 +601,9 @@ int photon_map_gather(const photon_map_t *self, vec3_t p, vec3_t n, double radiu
  * receivers (render/photon.c), which the camera pass no longer finds itself: a version-1
  * store (a journal's photons.store, an older worker's batch) would lose those caustics, so
  * it is refused rather than used. */
-#define WIRE_VERSION 2u
+/* 3: the same record, but a bucket field of 0x3FFF is a white photon whose lambda field is its
+ * spectrum (photon_map_deposit_white); a version-2 store has none and reads the same. */
+#define WIRE_VERSION 3u
 #define WIRE_HEADER 32
 #define WIRE_RECORD 24
 
@@ -556,7 +652,7 @@ photon_map_t *photon_map_decode(spectral_grid_t grid, const uint8_t *data, size_
         err_set(err, "photon map data: bad magic (not a prismfarm photon map)");
         return NULL;
     }
-    if (le_get_u32(data + 4) != WIRE_VERSION) {
+    if (le_get_u32(data + 4) != WIRE_VERSION && le_get_u32(data + 4) != 2u) {
         err_set(err, "photon map data: format version %u, expected %u", le_get_u32(data + 4),
                 WIRE_VERSION);
         return NULL;
@@ -592,7 +688,8 @@ photon_map_t *photon_map_decode(spectral_grid_t grid, const uint8_t *data, size_
         /* The map is trusted by the renderer afterwards: no NaN, Inf, negative power or bucket
          * outside the film may come in from the network. */
         if (!isfinite(ph->p[0]) || !isfinite(ph->p[1]) || !isfinite(ph->p[2]) ||
-            !(ph->power >= 0.0f && ph->power <= FLT_MAX) || ph->bucket >= (unsigned)grid.n) {
+            !(ph->power >= 0.0f && ph->power <= FLT_MAX) ||
+            (ph->bucket >= (unsigned)grid.n && ph->bucket != WHITE_BUCKET)) {
             err_set(err, "photon map data: photon %llu is invalid (position, power or bucket)",
                     (unsigned long long)i);
             photon_map_destroy(&self);

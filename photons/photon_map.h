@@ -27,7 +27,8 @@ typedef struct photon_info {
     vec3_t dir;    /* unit direction it was travelling in */
     vec3_t normal; /* unit geometric normal on the side it arrived from */
     double lambda; /* nm */
-    int bucket;    /* framebuffer bucket of lambda */
+    int bucket;    /* framebuffer bucket of lambda; a white photon: PHOTON_MAP_WHITE(spectrum)
+                    * (and lambda 0) */
     double power;  /* raw spectral power, W/nm before division by the photons emitted */
 } photon_info_t;
 
@@ -40,6 +41,24 @@ void photon_map_destroy(photon_map_t **self_p);
  * power or position, or running out of memory, returns -1. */
 int photon_map_deposit(photon_map_t *self, vec3_t p, vec3_t dir, vec3_t normal, double lambda,
                        double power, err_t *err);
+
+/* White photons: a photon whose path did not depend on the wavelength (photon.c) counts in
+ * every bucket at once, with power `power` x shape[b] in bucket b, shape the row `spectrum` of
+ * the map's spectra (photon_map_set_spectra: for a light, its power integrated over each
+ * bucket). It stands for the photons of every wavelength that took its path, so each bucket's
+ * estimate has every such photon instead of 1/n of them (docs/rendering.md, "White
+ * photons"). Stored in the same 24 bytes, the bucket field marking it and the wavelength field
+ * holding the spectrum. A visitor (photon_map_gather) gets bucket PHOTON_MAP_WHITE(spectrum),
+ * a negative number. The spectra must be set before any white deposit, merge or build and be
+ * the same in every map that merges (they come from the scene). */
+#define PHOTON_MAP_MAX_SPECTRA 65535
+#define PHOTON_MAP_WHITE(spectrum) (-1 - (int)(spectrum))
+#define PHOTON_MAP_WHITE_SPECTRUM(bucket) (-1 - (bucket))
+int photon_map_set_spectra(photon_map_t *self, int n, const double *shape, err_t *err);
+/* Row `spectrum` of the spectra (grid.n doubles), or NULL when there is no such row. */
+const double *photon_map_spectrum(const photon_map_t *self, int spectrum);
+int photon_map_deposit_white(photon_map_t *self, vec3_t p, vec3_t dir, vec3_t normal, int spectrum,
+                             double power, err_t *err);
 
 /* Counts photons emitted into the map (the N that normalises every estimate). */
 void photon_map_add_emitted(photon_map_t *self, uint64_t n);

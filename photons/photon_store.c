@@ -4,6 +4,7 @@
 
 #include "le_bytes.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -45,6 +46,58 @@ double photon_gather_radius(const scene_t *scene)
     return r > 0.0 ? r : 0.01 * scene->scene_radius;
 }
 
+/* The white photons' spectra (photon_map.h): for each light, scale x its spectrum integrated
+ * over each bucket -- what a photon of a uniformly drawn wavelength adds to that bucket's sum
+ * on average, so that a white photon's estimate has the coloured one's expectation. Midpoint
+ * rule on WHITE_STEPS points a bucket (a smooth spectrum's error is below 1e-4; a tabulated
+ * one's kinks and lines move a bucket by at most a step's share). A scene of more lights
+ * than a photon's field can name gets no spectra: its photons stay coloured (photon.c). */
+#define WHITE_STEPS 64
+static int set_white_spectra(photon_map_t *map, const scene_t *scene, err_t *err)
+{
+    const spectral_grid_t g = scene->settings.grid;
+    if (scene->nlights == 0 || scene->nlights > PHOTON_MAP_MAX_SPECTRA)
+        return 0;
+    double *c = malloc(scene->nlights * (size_t)g.n * sizeof *c);
+    if (!c)
+        return err_set(err, "out of memory");
+    const double width = spectral_grid_width(g);
+    for (size_t l = 0; l < scene->nlights; l++) {
+        const light_t *li = &scene->lights[l];
+        for (int b = 0; b < g.n; b++) {
+            double sum = 0.0;
+            for (int k = 0; k < WHITE_STEPS && li->spectrum; k++)
+                sum += spectrum_eval(li->spectrum,
+                                     g.lambda_min + width * (b + (k + 0.5) / WHITE_STEPS));
+            const double v = li->scale * sum * width / WHITE_STEPS;
+            c[l * (size_t)g.n + (size_t)b] = v > 0.0 && v <= DBL_MAX ? v : 0.0;
+        }
+    }
+    const int r = photon_map_set_spectra(map, (int)scene->nlights, c, err);
+    free(c);
+    return r;
+}
+
+int photon_store_white(const photon_store_t *self)
+{
+    return self->map && photon_map_spectrum(self->map, 0) != NULL;
+}
+
+const double *photon_store_white_spectrum(const photon_store_t *self, int bucket)
+{
+    return self->map ? photon_map_spectrum(self->map, PHOTON_MAP_WHITE_SPECTRUM(bucket)) : NULL;
+}
+
+int photon_store_deposit_white(photon_store_t *self, vec3_t p, vec3_t dir, vec3_t n, int light,
+                               double power, err_t *err)
+{
+    if (self->finished)
+        return err_set(err, "photon store: deposit after it was finished");
+    if (!self->map)
+        return err_set(err, "photon store: white photons need a photon map");
+    return photon_map_deposit_white(self->map, p, dir, n, light, power, err);
+}
+
 photon_store_t *photon_store_new(const scene_t *scene, err_t *err)
 {
     photon_store_t *self = store_alloc(scene, err);
@@ -53,6 +106,8 @@ photon_store_t *photon_store_new(const scene_t *scene, err_t *err)
     switch (self->kind) {
     case PHOTON_STORE_PHOTONMAP:
         self->map = photon_map_new(scene->settings.grid, err);
+        if (self->map && set_white_spectra(self->map, scene, err))
+            photon_map_destroy(&self->map);
         break;
     case PHOTON_STORE_LIGHTMAP:
         self->lightmap = lightmap_new(scene, scene->settings.photon.lightmap_density,
@@ -217,6 +272,8 @@ photon_store_t *photon_store_decode(const scene_t *scene, const uint8_t *data, s
     switch (self->kind) {
     case PHOTON_STORE_PHOTONMAP:
         self->map = photon_map_decode(scene->settings.grid, data, len, err);
+        if (self->map && set_white_spectra(self->map, scene, err))
+            photon_map_destroy(&self->map);
         break;
     case PHOTON_STORE_LIGHTMAP:
         self->lightmap = lightmap_decode(scene, scene->settings.photon.lightmap_density,

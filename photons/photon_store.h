@@ -35,6 +35,19 @@ photon_store_kind_t photon_store_kind(const photon_store_t *self);
 int photon_store_deposit(photon_store_t *self, const hit_t *h, vec3_t p, vec3_t dir, vec3_t n,
                          double lambda, double power, err_t *err);
 
+/* A white photon (photon_map.h) of light `light` (an index into scene->lights) with raw power
+ * `power` per unit of the light's spectrum: only into a photon map whose spectra are set
+ * (photon_store_white). */
+int photon_store_deposit_white(photon_store_t *self, vec3_t p, vec3_t dir, vec3_t n, int light,
+                               double power, err_t *err);
+/* Whether the store takes white photons: a photon map, which gets every light's spectrum
+ * integrated over the film's buckets when it is made or decoded. */
+int photon_store_white(const photon_store_t *self);
+/* For a bucket a visitor got (photon_store_gather) that is a white photon's,
+ * PHOTON_MAP_WHITE(light): the light's row of grid.n bucket weights (the photon's power in
+ * bucket b is its power times row[b]); NULL for any other bucket. */
+const double *photon_store_white_spectrum(const photon_store_t *self, int bucket);
+
 void photon_store_add_emitted(photon_store_t *self, uint64_t n);
 /* Photons emitted into the store: the N of every estimate's 1/N. */
 uint64_t photon_store_emitted(const photon_store_t *self);

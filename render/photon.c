@@ -68,6 +68,9 @@ typedef struct tracer {
      * position (point, spot, goniometric, projection; -2: found per photon). */
     int media;
     int *light_medium;
+    /* Photons start white (photon_store_deposit_white) when the store takes them and nothing
+     * makes a lane's path its own: one lane, no polarisation, no simulated media. */
+    int white;
 } tracer_t;
 
 #define PHOTON_LD_DIMS 12
@@ -332,7 +335,47 @@ typedef struct flight {
     /* The lanes' polarisation (render_settings_t.polarised; photon_polar.h), NULL without:
      * then sheets end the photon and every interface acts on intensities. */
     photon_polar_t *pol;
+    /* A white photon (docs/rendering.md, "White photons"): its path so far did not depend on
+     * the wavelength, so it stands for every wavelength at once; w[0] and w0[0] are then its
+     * power per unit of its light's spectrum (scale x spectrum(lambda) x w[0] is the power of
+     * the coloured photon it would be at lambda, before the wavelength's pdf), lambda[0]
+     * unused. light: its light's index. The first event that depends on the wavelength makes
+     * it coloured (colour_flight). */
+    int white, light;
 } flight_t;
+
+/* The total over the film's buckets of a white photon's power per unit spectrum (the stats'
+ * power, as a coloured photon's sum). */
+static double white_total(const tracer_t *t, int light)
+{
+    const double *c = photon_store_white_spectrum(t->out, PHOTON_MAP_WHITE(light));
+    double s = 0.0;
+    for (int b = 0; c && b < t->scene->settings.grid.n; b++)
+        s += c[b];
+    return s;
+}
+
+/* A white photon becomes the coloured photon of the wavelength it would have been emitted
+ * with (dimension 0 of photon i's sequence, as trace_one draws it): power scale x
+ * spectrum(lambda) / pdf(lambda) per unit of what it carries. Its path so far was the same at
+ * every wavelength, so this is the coloured photon traced so far, and the estimate keeps its
+ * expectation. */
+static void colour_flight(tracer_t *t, flight_t *f, uint64_t i)
+{
+    if (!f->white)
+        return;
+    const spectral_grid_t grid = t->scene->settings.grid;
+    const light_t *l = &t->scene->lights[f->light];
+    const double u = sampler_index_1d(t->job->seed ^ PHOTON_SEED_MIX, i, PHOTON_DIM_WAVELENGTH);
+    const wavelength_sample_t ws =
+        t->job->visible ? wavelength_sample_visible(u)
+                        : wavelength_sample_uniform(u, grid.lambda_min, grid.lambda_max);
+    const double k = ws.pdf > 0.0 ? l->scale * spectrum_eval(l->spectrum, ws.lambda) / ws.pdf : 0.0;
+    f->lambda[0] = ws.lambda;
+    f->w[0] = isfinite(k) ? f->w[0] * k : 0.0;
+    f->w0[0] = isfinite(k) ? f->w0[0] * k : 0.0;
+    f->white = 0;
+}
 
 static int deposit_lanes(tracer_t *t, const flight_t *f, const hit_t *h, const surface_t *sf,
                          vec3_t g, err_t *err)
@@ -342,6 +385,19 @@ static int deposit_lanes(tracer_t *t, const flight_t *f, const hit_t *h, const s
      * store); the store refuses them too. */
     if (!isfinite(sf->p.x) || !isfinite(sf->p.y) || !isfinite(sf->p.z)) {
         st->nonfinite++;
+        return 0;
+    }
+    if (f->white) {
+        if (!(f->w[0] <= FLT_MAX)) {
+            st->nonfinite++;
+            return 0;
+        }
+        if (!(f->w[0] > 0.0))
+            return 0;
+        if (photon_store_deposit_white(t->out, sf->p, f->dir, g, f->light, f->w[0], err))
+            return -1;
+        st->deposited++;
+        st->power_deposited += f->w[0] * white_total(t, f->light);
         return 0;
     }
     for (int j = 0; j < f->nl; j++) {
@@ -563,6 +619,11 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
                 st->culled++;
                 return 0;
             }
+            /* Mirrors, crystals and coated or dispersive glass treat each wavelength their
+             * own way: a white photon takes its wavelength here. */
+            if (m->kind == MATERIAL_CONDUCTOR || m->uniaxial || m->dispersive ||
+                m->film_thickness > 0.0 || sheet)
+                colour_flight(t, f, i);
             if (sheet) {
                 photon_polar_sheet(f->pol, &sf, m, f->dir, f->nl, f->lambda, f->w);
             } else if (m->kind == MATERIAL_CONDUCTOR && f->pol) {
@@ -693,6 +754,21 @@ static int trace_one(tracer_t *t, uint64_t i, err_t *err)
     if (t->media)
         f.medium = t->light_medium[l - s->lights] != -2 ? t->light_medium[l - s->lights]
                                                          : photon_volume_medium_at(s, org, dir);
+    if (t->white && texel == PHOTON_NO_TEXEL && !l->area_image) {
+        /* White: the power per unit of the light's spectrum; the wavelength waits until the
+         * path depends on it (colour_flight). */
+        const double w = geom / pmf;
+        f.white = 1;
+        f.light = (int)(l - s->lights);
+        f.lambda[0] = 0.5 * (grid.lambda_min + grid.lambda_max);
+        f.w[0] = f.w0[0] = isfinite(w) ? w : 0.0;
+        if (!isfinite(w))
+            st->nonfinite++;
+        st->power_emitted += f.w[0] * white_total(t, f.light);
+        if (!(f.w[0] > 0.0))
+            return 0;
+        return trace_flight(t, &f, i, err);
+    }
     uint64_t ui =
         (uint64_t)(sampler_index_1d(job->seed ^ PHOTON_SEED_MIX, i, PHOTON_DIM_WAVELENGTH) *
                    0x1p64);
@@ -838,6 +914,8 @@ int photon_trace(const scene_t *scene, const photon_job_t *job, uint64_t i0, uin
         t.no_target = 2; /* nothing to trace: every photon is emitted and lost */
     }
     t.media = photon_store_has_volume(out);
+    t.white = job->policy == PHOTON_STORE_CAUSTIC && photon_store_white(out) && !t.media &&
+              job->monochromerays == 1 && !scene->settings.polarised;
     if (t.media) {
         if (!(t.light_medium = malloc((scene->nlights ? scene->nlights : 1) * sizeof(int)))) {
             alias_destroy(&t.lights);

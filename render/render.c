@@ -769,10 +769,11 @@ static void caustic_light(ctx_t *c, const path_t *p, const hit_t *h, const surfa
  * photons than M_g evaluates each once. */
 #define GLOSSY_GATHER_EVALS 4
 /* The first pass keeps the photons that can count, up to this many (40 bytes each, on the
- * stack), so that the second picks from them instead of searching the map again: the search
- * was a fifth of caustic-glass's camera pass (docs/performance.md, "caustic-glass"). A disk
- * holding more is searched again, which visits the same photons in the same order. */
-#define GLOSSY_KEEP 512
+ * stack; a white photon is kept once per group), so that the second picks from them instead of
+ * searching the map again: the search was a fifth of caustic-glass's camera pass
+ * (docs/performance.md, "caustic-glass"). A disk holding more is searched again, which visits the
+ * same photons in the same order. */
+#define GLOSSY_KEEP 1024
 
 typedef struct glossy_group {
     int bucket;
@@ -830,20 +831,9 @@ static void glossy_pick(glossy_gather_t *gg, int gi, vec3_t wi_world, double pow
             gg->sum[j] += f[j] * weight;
 }
 
-static void glossy_photon(void *user, vec3_t dir, int bucket, double power)
+/* A photon's share in group gi: pass 0 counts and keeps it, pass 1 places the picks. */
+static void glossy_take(glossy_gather_t *gg, int gi, vec3_t wi_world, double power, double guide)
 {
-    glossy_gather_t *gg = user;
-    int gi = 0;
-    while (gi < gg->ngroups && gg->groups[gi].bucket != bucket)
-        gi++;
-    /* The photon's light comes from -dir; a direction the geometric surface and the shading
-     * frame put on different sides would pass through the mesh (as in next-event estimation). */
-    const vec3_t wi_world = vec3_neg(dir);
-    if (gi == gg->ngroups || !(power > 0.0) || !sides_agree(&gg->sd, wi_world))
-        return;
-    const double guide = bsdf_guide(gg->b, gg->wo, shading_to_local(gg->fr, wi_world));
-    if (!(guide > 0.0) || !isfinite(guide))
-        return;
     if (gg->pass == 1) {
         glossy_pick(gg, gi, wi_world, power, guide);
         return;
@@ -856,6 +846,40 @@ static void glossy_photon(void *user, vec3_t dir, int bucket, double power)
             (glossy_kept_t){.wi = wi_world, .power = power, .guide = guide, .group = gi};
     if (gg->nkept <= GLOSSY_KEEP)
         gg->nkept++;
+}
+
+static void glossy_photon(void *user, vec3_t dir, int bucket, double power)
+{
+    glossy_gather_t *gg = user;
+    /* A white photon (photon_map.h) counts in every group, with its power in that group's
+     * bucket; a coloured one in its bucket's group only. */
+    const double *white = bucket < 0 ? photon_store_white_spectrum(gg->c->photons, bucket) : NULL;
+    int gi = 0;
+    while (!white && gi < gg->ngroups && gg->groups[gi].bucket != bucket)
+        gi++;
+    /* The photon's light comes from -dir; a direction the geometric surface and the shading
+     * frame put on different sides would pass through the mesh (as in next-event estimation). */
+    const vec3_t wi_world = vec3_neg(dir);
+    if ((!white && (bucket < 0 || gi == gg->ngroups)) || !(power > 0.0) ||
+        !sides_agree(&gg->sd, wi_world))
+        return;
+    /* A white photon is picked by power alone (g = 1): every photon of the disk is in every
+     * group, and the coat lobe's guide for each took 40 % more CPU than the picks it improves
+     * (docs/performance.md, "caustic-glass: white photons"). */
+    const double guide =
+        white ? 1.0 : bsdf_guide(gg->b, gg->wo, shading_to_local(gg->fr, wi_world));
+    if (!(guide > 0.0) || !isfinite(guide))
+        return;
+    if (!white) {
+        glossy_take(gg, gi, wi_world, power, guide);
+        return;
+    }
+    for (gi = 0; gi < gg->ngroups; gi++) {
+        const int bk = gg->groups[gi].bucket;
+        const double pw = bk >= 0 ? power * white[bk] : 0.0;
+        if (pw > 0.0)
+            glossy_take(gg, gi, wi_world, pw, guide);
+    }
 }
 
 static void caustic_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, const bsdf_t *b,

@@ -338,7 +338,15 @@ static double store_relative_se(uint64_t n, uint64_t n_twin)
         vec3_t to_eye = vec3_sub(eye, ph.p);
         double d = vec3_length(to_eye), cos_t = fabs(vec3_dot(ph.normal, to_eye)) / d,
                cos_a = q.z / d;
-        double a = ph.power * wts[ph.bucket].y * cos_t / (d * d * cos_a * cos_a * cos_a);
+        /* A white photon (photon_map.h) counts in every bucket by its light's spectrum. */
+        const double *white = photon_store_white_spectrum(ps, ph.bucket);
+        double y = 0.0;
+        if (white)
+            for (int b = 0; b < s->settings.grid.n; b++)
+                y += white[b] * wts[b].y;
+        else
+            y = wts[ph.bucket].y;
+        double a = ph.power * y * cos_t / (d * d * cos_a * cos_a * cos_a);
         sum += a;
         sq += a * a;
     }

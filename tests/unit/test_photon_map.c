@@ -382,6 +382,92 @@ static void test_coincident_photons(void **state)
     photon_map_destroy(&m);
 }
 
+/* White photons (photon_map_deposit_white): a white photon of spectrum s and power P counts
+ * as P x shape[s][b] in every bucket b, so a map of white photons estimates what a map of
+ * coloured photons of those powers does, in the irradiance (to rounding) and in what the
+ * gather hands over (bucket PHOTON_MAP_WHITE(s), the row from photon_map_spectrum); the wire
+ * form keeps them, a map refuses a white photon of a spectrum it does not know (a deposit, or
+ * a build after decoding without spectra), and the power sum weighs them by their row. */
+static void visit_white(void *user, vec3_t dir, int bucket, double power)
+{
+    (void)dir;
+    double *sum = user;
+    assert_true(bucket == PHOTON_MAP_WHITE(0) || bucket == PHOTON_MAP_WHITE(1));
+    sum[PHOTON_MAP_WHITE_SPECTRUM(bucket)] += power;
+}
+
+static void test_white_photons(void **state)
+{
+    (void)state;
+    err_t err;
+    const spectral_grid_t g = grid8();
+    double shape[2 * 8];
+    for (int b = 0; b < 8; b++) {
+        shape[b] = 1.0 + b;
+        shape[8 + b] = b % 2 ? 0.25 : 2.0;
+    }
+    photon_map_t *w = photon_map_new(g, &err), *c = photon_map_new(g, &err);
+    assert_non_null(w);
+    assert_non_null(c);
+    assert_int_not_equal(photon_map_deposit_white(w, vec3_make(0, 0, 0), vec3_make(0, 0, -1),
+                                                  vec3_make(0, 0, 1), 0, 1.0, &err),
+                         0);
+    assert_int_equal(photon_map_set_spectra(w, 2, shape, &err), 0);
+    double total = 0.0;
+    for (size_t i = 0; i < 400; i++) {
+        double u[4];
+        rng_uniform4(11, i, 0, 0, u);
+        const vec3_t p = vec3_make(u[0], u[1], 0.0), n = vec3_make(0, 0, 1);
+        const int sp = u[3] < 0.5;
+        const double power = 0.5 + u[2];
+        assert_int_equal(photon_map_deposit_white(w, p, vec3_neg(n), n, sp, power, &err), 0);
+        for (int b = 0; b < 8; b++) {
+            const double lambda = 400.0 + 40.0 * (b + 0.5);
+            assert_int_equal(
+                photon_map_deposit(c, p, vec3_neg(n), n, lambda, power * shape[8 * sp + b], &err),
+                0);
+            total += (float)power * shape[8 * sp + b];
+        }
+    }
+    assert_int_not_equal(photon_map_deposit_white(w, vec3_make(0, 0, 0), vec3_make(0, 0, -1),
+                                                  vec3_make(0, 0, 1), 2, 1.0, &err),
+                         0);
+    assert_true(fabs(photon_map_power_sum(w) / total - 1.0) < 1e-6);
+    photon_map_add_emitted(w, 1000);
+    photon_map_add_emitted(c, 1000);
+    uint8_t *bytes;
+    size_t len;
+    assert_int_equal(photon_map_encode(w, &bytes, &len, &err), 0);
+    photon_map_t *d = photon_map_decode(g, bytes, len, &err);
+    free(bytes);
+    assert_non_null(d);
+    assert_int_not_equal(photon_map_build(d, &err), 0); /* no spectra: refused */
+    photon_map_destroy(&d);
+    assert_int_equal(photon_map_build(w, &err), 0);
+    assert_int_equal(photon_map_build(c, &err), 0);
+    assert_true(photon_map_spectrum(w, 1) != NULL && photon_map_spectrum(w, 1)[1] == 0.25);
+    assert_null(photon_map_spectrum(w, 2));
+    for (int q = 0; q < 20; q++) {
+        const vec3_t p = vec3_make(0.1 + 0.04 * q, 0.9 - 0.04 * q, 0.0), n = vec3_make(0, 0, 1);
+        double E[8], F[8];
+        const int a = photon_map_irradiance(w, p, n, 0.15, 0, E);
+        const int b = photon_map_irradiance(c, p, n, 0.15, 0, F);
+        assert_int_equal(8 * a, b);
+        for (int k = 0; k < 8; k++)
+            assert_true(fabs(E[k] - F[k]) <= 1e-6 * F[k] + 1e-300);
+        double sum[2] = {0, 0}, scale;
+        assert_int_equal(photon_map_gather(w, p, n, 0.15, 0, visit_white, sum, &scale), a);
+        double e0 = 0.0;
+        for (int k = 0; k < 8; k++)
+            e0 += E[k];
+        const double from_gather =
+            (sum[0] * (1 + 2 + 3 + 4 + 5 + 6 + 7 + 8) + sum[1] * 9.0) * scale;
+        assert_true(fabs(from_gather - e0) <= 1e-9 * e0 + 1e-300);
+    }
+    photon_map_destroy(&w);
+    photon_map_destroy(&c);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -392,6 +478,7 @@ int main(void)
         cmocka_unit_test(test_append_and_build_are_deterministic),
         cmocka_unit_test(test_encoding),
         cmocka_unit_test(test_coincident_photons),
+        cmocka_unit_test(test_white_photons),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
