@@ -28,6 +28,7 @@
 #include "glass.h"
 #include "lightmap.h"
 #include "photon_pass.h"
+#include "photon_testutil.h"
 #include "render.h"
 #include "scene.h"
 #include "scene_builders.h"
@@ -324,36 +325,10 @@ static double store_relative_se(uint64_t n, uint64_t n_twin)
     assert_non_null(ps);
     photon_job_t job = photon_job_from_settings(&s->settings);
     assert_int_equal(photon_trace(s, &job, 0, n_twin, ps, NULL, &err), 0);
-    const photon_map_t *m = photon_store_map(ps);
-    xyz_t wts[NB];
-    colour_grid_weights(s->settings.grid, wts);
-    transform_t to_cam = transform_inverse(s->camera.camera_to_world);
-    vec3_t eye = transform_point(&s->camera.camera_to_world, vec3_make(0, 0, 0));
-    double tanh_ = tan(0.5 * s->camera.fov_deg * PF_PI / 180.0), sum = 0, sq = 0;
-    for (size_t i = 0; i < photon_map_count(m); i++) {
-        photon_info_t ph = photon_map_photon(m, i);
-        vec3_t q = transform_point(&to_cam, ph.p);
-        if (!(q.z > 0) || fabs(q.x / q.z) > tanh_ || fabs(q.y / q.z) > tanh_)
-            continue;
-        vec3_t to_eye = vec3_sub(eye, ph.p);
-        double d = vec3_length(to_eye), cos_t = fabs(vec3_dot(ph.normal, to_eye)) / d,
-               cos_a = q.z / d;
-        /* A white photon (photon_map.h) counts in every bucket by its light's spectrum. */
-        const double *white = photon_store_white_spectrum(ps, ph.bucket);
-        double y = 0.0;
-        if (white)
-            for (int b = 0; b < s->settings.grid.n; b++)
-                y += white[b] * wts[b].y;
-        else
-            y = wts[ph.bucket].y;
-        double a = ph.power * y * cos_t / (d * d * cos_a * cos_a * cos_a);
-        sum += a;
-        sq += a * a;
-    }
-    assert_true(sum > 0);
+    double se = testutil_photon_relative_se(s, ps);
     photon_store_destroy(&ps);
     scene_destroy(&s);
-    return sqrt(sq) / sum * sqrt((double)n_twin / (double)n);
+    return se * sqrt((double)n_twin / (double)n);
 }
 
 /* Tolerance: the means differ by the path tracer's noise, the photon render's camera noise

@@ -18,6 +18,7 @@
 
 #include "colour.h"
 #include "photon_pass.h"
+#include "photon_testutil.h"
 #include "render.h"
 #include "scene.h"
 #include "scene_builders.h"
@@ -36,47 +37,9 @@ static scene_t *ball_scene(int photons)
     return sb_ball_build(s, photons, RES);
 }
 
-/* The photon map's own noise in the image mean. Photon i, of luminance-weighted power a_i,
- * adds to the mean over pixels in proportion to the pixel density at its landing point x:
- * pixels per unit floor area = (pixels per steradian, proportional to 1 / cos^3 alpha off
- * the axis) times (steradians per unit area, cos theta / d^2), so its share is
- * a_i w_i with w_i = cos theta / (d^2 cos^3 alpha), and the mean's relative standard error is
- * sqrt(sum (a_i w_i)^2) / sum a_i w_i over the photons in view (photons are independent). */
-static double map_relative_se(const scene_t *s, const photon_store_t *ps)
-{
-    const photon_map_t *m = photon_store_map(ps);
-    xyz_t wts[64];
-    colour_grid_weights(s->settings.grid, wts);
-    transform_t to_cam = transform_inverse(s->camera.camera_to_world);
-    vec3_t eye = transform_point(&s->camera.camera_to_world, vec3_make(0, 0, 0));
-    double tanh_ = tan(0.5 * s->camera.fov_deg * PF_PI / 180.0), sum = 0, sq = 0;
-    for (size_t i = 0; i < photon_map_count(m); i++) {
-        photon_info_t ph = photon_map_photon(m, i);
-        vec3_t q = transform_point(&to_cam, ph.p);
-        if (!(q.z > 0) || fabs(q.x / q.z) > tanh_ || fabs(q.y / q.z) > tanh_)
-            continue;
-        vec3_t to_eye = vec3_sub(eye, ph.p);
-        double d = vec3_length(to_eye), cos_t = fabs(vec3_dot(ph.normal, to_eye)) / d,
-               cos_a = q.z / d;
-        /* A white photon (photon_map.h) counts in every bucket by its light's spectrum. */
-        const double *white = photon_store_white_spectrum(ps, ph.bucket);
-        double y = 0.0;
-        if (white)
-            for (int b = 0; b < s->settings.grid.n; b++)
-                y += white[b] * wts[b].y;
-        else
-            y = wts[ph.bucket].y;
-        double a = ph.power * y * cos_t / (d * d * cos_a * cos_a * cos_a);
-        sum += a;
-        sq += a * a;
-    }
-    assert_true(sum > 0);
-    return sqrt(sq) / sum;
-}
-
 /* Tolerance: the two means differ by the path tracer's noise (per-sample variances), the
- * photon render's camera noise (likewise) and the photon map's noise (map_relative_se), all
- * independent, so |photon - path| < 4 sigma of their sum; the kernel's blur (radius 0.02
+ * photon render's camera noise (likewise) and the photon map's noise (testutil_photon_relative_se),
+ * all independent, so |photon - path| < 4 sigma of their sum; the kernel's blur (radius 0.02
  * against a caustic 0.4 across, all inside the image but for a faint rim) moves light
  * within the image and leaves the mean alone. At the test size sigma is about 0.9 %, so the
  * fixed 5 % bound, asserted as well, is met with 4 sigma to spare. (With 4096 path samples and
@@ -90,7 +53,7 @@ static void test_caustic_agrees_with_path(void **state)
     assert_non_null(store);
     sb_image_stats_t a = sb_render_stats(path, RES, 2048),
                      b = sb_render_stats_with(ph, store, RES, 16);
-    double map_se = b.mean * map_relative_se(ph, store);
+    double map_se = b.mean * testutil_photon_relative_se(ph, store);
     double se = sqrt(a.se * a.se + b.se * b.se + map_se * map_se);
     print_message("caustic mean luminance: path %.4f +- %.4f (2048 spp), photon %.4f +- %.4f (16 "
                   "spp) +- %.4f "
@@ -140,8 +103,8 @@ static int glossy_floor(scene_t *s, material_kind_t kind, double r, double alpha
     assert_non_null(rough);
     assert_int_equal(scene_own_texture(s, refl, &err), 0);
     assert_int_equal(scene_own_texture(s, rough, &err), 0);
-    material_t m = {.kind = kind, .reflectance = refl, .uroughness = rough, .vroughness = rough,
-                    .rough = 1};
+    material_t m = {
+        .kind = kind, .reflectance = refl, .uroughness = rough, .vroughness = rough, .rough = 1};
     m.ior = ior_constant(1.5);
     snprintf(m.name, sizeof m.name, "glossy floor");
     int i = scene_add_material(s, &m, &err);
@@ -161,8 +124,8 @@ static scene_t *glossy_ball_scene(int photons, material_kind_t kind, double r, d
 /* The glossy receiver's photon estimate (photon_store_gather with the floor's BSDF) against
  * the path tracer, which finds the same light by sampling the floor's lobe through the ball
  * to the light: means within 4 sigma as in test_caustic_agrees_with_path (the map's own
- * noise estimated with the diffuse weights of map_relative_se, which for a lobe this wide
- * differ from the glossy ones by a factor of order one), and within 6 %. A rough conductor
+ * noise estimated with the diffuse weights of testutil_photon_relative_se, which for a lobe this
+ * wide differ from the glossy ones by a factor of order one), and within 6 %. A rough conductor
  * (every photon is evaluated exactly once or picked by the gather's subsampling) and a coated
  * diffuse floor (the stochastic layered evaluation, and a coat whose smooth part the camera
  * path carries on) both; without the glossy estimate the photon render would lose the whole
@@ -178,7 +141,7 @@ static void check_glossy(material_kind_t kind, double r, double alpha, const cha
     assert_true(photon_store_count(store) > 1000);
     sb_image_stats_t a = sb_render_stats(path, RES, 2048),
                      b = sb_render_stats_with(ph, store, RES, 64);
-    double map_se = b.mean * map_relative_se(ph, store);
+    double map_se = b.mean * testutil_photon_relative_se(ph, store);
     double se = sqrt(a.se * a.se + b.se * b.se + map_se * map_se);
     print_message("%s caustic: path %.4f +- %.4f (2048 spp), photon %.4f +- %.4f (64 spp) +- "
                   "%.4f (map): %+.2f%%, sigma %.2f%%; photon render at 64 spp per-sample "
