@@ -122,53 +122,58 @@ static int reserve(photon_map_t *self, size_t more, err_t *err)
     return 0;
 }
 
-int photon_map_deposit(photon_map_t *self, vec3_t p, vec3_t dir, vec3_t normal, double lambda,
-                       double power, err_t *err)
+/* The checks every deposit makes before it is stored: the map still open, a finite point and
+ * a power a float holds. */
+static int deposit_check(const photon_map_t *self, vec3_t p, double power, err_t *err)
 {
     if (self->built)
         return err_set(err, "photon map: deposit after the kd-tree was built");
     if (!(power >= 0.0 && power <= FLT_MAX) || !isfinite(p.x) || !isfinite(p.y) || !isfinite(p.z))
         return err_set(err, "photon map: non-finite deposit (power %g)", power);
-    int b = spectral_grid_index(self->grid, lambda);
-    if (b < 0)
-        return 0;
+    return 0;
+}
+
+/* Stores one checked photon; bucket and lambda as photon_t keeps them (a white photon:
+ * WHITE_BUCKET and its spectrum's index). */
+static int append(photon_map_t *self, vec3_t p, vec3_t dir, vec3_t normal, double power,
+                  uint16_t bucket, uint16_t lambda, err_t *err)
+{
     if (reserve(self, 1, err))
         return -1;
-    double t = (lambda - self->grid.lambda_min) / (self->grid.lambda_max - self->grid.lambda_min);
     photon_t *ph = &self->ph[self->n++];
     ph->p[0] = (float)p.x;
     ph->p[1] = (float)p.y;
     ph->p[2] = (float)p.z;
     ph->power = (float)power;
-    ph->bucket = (uint16_t)b;
-    ph->lambda = (uint16_t)lround(fmin(1.0, fmax(0.0, t)) * 65535.0);
+    ph->bucket = bucket;
+    ph->lambda = lambda;
     ph->dir = oct_encode(dir);
     ph->normal = oct_encode(normal);
     return 0;
 }
 
+int photon_map_deposit(photon_map_t *self, vec3_t p, vec3_t dir, vec3_t normal, double lambda,
+                       double power, err_t *err)
+{
+    if (deposit_check(self, p, power, err))
+        return -1;
+    int b = spectral_grid_index(self->grid, lambda);
+    if (b < 0)
+        return 0;
+    double t = (lambda - self->grid.lambda_min) / (self->grid.lambda_max - self->grid.lambda_min);
+    return append(self, p, dir, normal, power, (uint16_t)b,
+                  (uint16_t)lround(fmin(1.0, fmax(0.0, t)) * 65535.0), err);
+}
+
 int photon_map_deposit_white(photon_map_t *self, vec3_t p, vec3_t dir, vec3_t normal, int spectrum,
                              double power, err_t *err)
 {
-    if (self->built)
-        return err_set(err, "photon map: deposit after the kd-tree was built");
-    if (!(power >= 0.0 && power <= FLT_MAX) || !isfinite(p.x) || !isfinite(p.y) || !isfinite(p.z))
-        return err_set(err, "photon map: non-finite deposit (power %g)", power);
+    if (deposit_check(self, p, power, err))
+        return -1;
     if (spectrum < 0 || spectrum >= self->nspectra)
         return err_set(err, "photon map: white photon of spectrum %d, the map has %d", spectrum,
                        self->nspectra);
-    if (reserve(self, 1, err))
-        return -1;
-    photon_t *ph = &self->ph[self->n++];
-    ph->p[0] = (float)p.x;
-    ph->p[1] = (float)p.y;
-    ph->p[2] = (float)p.z;
-    ph->power = (float)power;
-    ph->bucket = WHITE_BUCKET;
-    ph->lambda = (uint16_t)spectrum;
-    ph->dir = oct_encode(dir);
-    ph->normal = oct_encode(normal);
-    return 0;
+    return append(self, p, dir, normal, power, WHITE_BUCKET, (uint16_t)spectrum, err);
 }
 
 int photon_map_set_spectra(photon_map_t *self, int n, const double *shape, err_t *err)
