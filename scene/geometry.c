@@ -46,14 +46,24 @@ typedef struct mesh {
                 * geometry filter (see mesh_context_filter) */
 } mesh_t;
 
-/* Curves' view of Embree's vertex buffer (x, y, z, radius; 4 per segment, segment k's first at
- * 4 k: the index buffer is 0, 4, 8, ...) and, for ribbons, each segment's two end normals in
- * double (6 numbers per segment), which the shading normal slerps between exactly. */
+/* Where an Embree primitive of a split curve lies on the caller's segment: u from j / m to
+ * (j + 1) / m of segment seg. */
+typedef struct curve_piece {
+    uint32_t seg;
+    uint16_t j, m;
+} curve_piece_t;
+
+/* Curves' view of Embree's vertex buffer (x, y, z, radius; 4 per primitive, primitive k's first
+ * at 4 k: the index buffer is 0, 4, 8, ...), where each primitive is one of the caller's
+ * segments or, where a segment was split (curve_splits), a piece of one (piece says which);
+ * and, for ribbons, each of the caller's segments' two end normals in double (6 numbers per
+ * segment), which the shading normal slerps between exactly. */
 typedef struct curves {
     uint32_t tag; /* CURVES_TAG */
     const float *verts;
     int ribbon;
-    double n[]; /* 6 per segment when ribbon */
+    const curve_piece_t *piece; /* by primitive; NULL when no segment was split */
+    double n[];                 /* 6 per segment when ribbon, then the pieces when split */
 } curves_t;
 
 /* What one Embree geometry id of a group is. Analytic shapes and instances are allocated one
@@ -441,12 +451,11 @@ static void curve_filter(const struct RTCFilterFunctionNArguments *args)
  * max|B''| / (8 n^2) <= 6 L0 / (8 n^2), L0 the largest second difference of its control
  * points; pbrt-v4 refines until that is under a twentieth of the width (Curve::IntersectRay's
  * eps), and so does this, n = sqrt(7.5 sqrt(3) L0 / r_min) (L0 per coordinate), up to
- * Embree 3's limit of 16 pieces (it clamps the rate there: a curve bent more tightly than
- * that, for its width, keeps an error of (n / 16)^2 / 10 radii). The wavy hairs of
- * hair-eumel-2's substitute (width 0.02-0.035) ask for 5-26 pieces (median 14), where
- * Embree's default 4 left the strip up to 2 radii off its centre line: grazing h, whose
- * Fresnel reflects most, came up too often and the image was 4 % bright
- * (docs/compatibility.md). */
+ * Embree 3's limit of 16 pieces (it clamps the rate there), which a segment that wants more
+ * never reaches: it is split first (curve_splits). The wavy hairs of hair-eumel-2's
+ * substitute (width 0.02-0.035) ask for 5-26 pieces (median 14), where Embree's default 4
+ * left the strip up to 2 radii off its centre line: grazing h, whose Fresnel reflects most,
+ * came up too often and the image was 4 % bright (docs/compatibility.md). */
 static float curve_tessellation(const double *cp, const double *radii, size_t nseg)
 {
     double l0 = 0.0, rmin = INFINITY;
@@ -460,6 +469,73 @@ static float curve_tessellation(const double *cp, const double *radii, size_t ns
     }
     double n = ceil(sqrt(7.5 * l0 * sqrt(3.0) / rmin));
     return (float)fmin(16.0, fmax(4.0, isfinite(n) ? n : 16.0));
+}
+
+/* Embree 3's most pieces per segment, and the most sub-segments one segment is split into
+ * (so at most 256 pieces: a curve thinner still for its bend keeps (n / 256)^2 / 10 radii of
+ * error rather than costing unbounded memory; pbrt-v4 bounds its own refinement too, at 2^10
+ * steps of each eighth of a segment). */
+#define CURVE_PIECES_MAX 16
+#define CURVE_SPLITS_MAX 16
+
+/* Into how many sub-segments, at equal steps of u, one segment (4 control points q, radii r)
+ * is split so that each wants at most 16 pieces by curve_tessellation's rule: its own
+ * n = sqrt(7.5 sqrt(3) L0 / r_min) over 16, rounded up. A piece of 1/m of the segment has
+ * second differences at most L0 / m^2 (B'' is linear in u with control values 6 x the
+ * second differences, and the piece's are B'' / (6 m^2) at its ends) and no smaller radius,
+ * so it wants at most n / m <= 16 pieces. 1 (no split) wherever the rule wants 16 or fewer,
+ * so such curves go to Embree as before, bit for bit. */
+static unsigned curve_splits(const double *q, const double *r)
+{
+    double l0 = 0.0, rmin = INFINITY;
+    for (int i = 0; i < 2; i++)
+        for (int j = 0; j < 3; j++)
+            l0 = fmax(l0, fabs(q[3 * i + j] - 2.0 * q[3 * (i + 1) + j] + q[3 * (i + 2) + j]));
+    for (int i = 0; i < 4; i++)
+        rmin = fmin(rmin, r[i]);
+    double n = ceil(sqrt(7.5 * l0 * sqrt(3.0) / rmin));
+    if (n <= CURVE_PIECES_MAX)
+        return 1;
+    double m = ceil(n / CURVE_PIECES_MAX);
+    return isfinite(m) && m < CURVE_SPLITS_MAX ? (unsigned)m : CURVE_SPLITS_MAX;
+}
+
+/* The blossom (polar form) of a cubic Bezier with control values c[0], c[s], c[2s], c[3s] at
+ * (t1, t2, t3): de Casteljau's steps, each at its own parameter. The cubic on [a, b] has the
+ * control values f(a,a,a), f(a,a,b), f(a,b,b), f(b,b,b) (Ramshaw 1989, "Blossoms are polar
+ * forms"), the same curve exactly: for a = 0, b = 1/2 they are de Casteljau's left half. Each
+ * step is (1 - t) x + t y, so f(a,a,a) is exactly the point at a that the previous piece ends
+ * on. */
+static double bezier_blossom(const double *c, size_t s, double t1, double t2, double t3)
+{
+    double p[4] = {c[0], c[s], c[2 * s], c[3 * s]};
+    const double t[3] = {t1, t2, t3};
+    for (int level = 0; level < 3; level++)
+        for (int k = 0; k < 3 - level; k++)
+            p[k] = (1.0 - t[level]) * p[k] + t[level] * p[k + 1];
+    return p[0];
+}
+
+/* Piece j of m of segment q (control points, radii r, ribbon normals nrm or NULL): its
+ * control points, radii (the blossom of the segment's, so linear radii, pbrt-v4's lerp of the
+ * width, stay linear) and end normals (pbrt-v4's slerp at its two ends, so the slerp between
+ * them is the segment's over that span). */
+static vec3_t ribbon_normal(const double *n, double u);
+static void curve_piece(const double *q, const double *r, const double *nrm, unsigned j, unsigned m,
+                        double *q_out, double *r_out, double *n_out)
+{
+    double a = (double)j / m, b = (double)(j + 1) / m;
+    const double t[4][3] = {{a, a, a}, {a, a, b}, {a, b, b}, {b, b, b}};
+    for (int i = 0; i < 4; i++) {
+        for (int k = 0; k < 3; k++)
+            q_out[3 * i + k] = bezier_blossom(q + k, 3, t[i][0], t[i][1], t[i][2]);
+        r_out[i] = bezier_blossom(r, 1, t[i][0], t[i][1], t[i][2]);
+    }
+    if (nrm) {
+        vec3_t n0 = ribbon_normal(nrm, a), n1 = ribbon_normal(nrm, b);
+        const double v[6] = {n0.x, n0.y, n0.z, n1.x, n1.y, n1.z};
+        memcpy(n_out, v, sizeof v);
+    }
 }
 
 /* A ribbon segment's normals for Embree, which interpolates them with the Bezier basis of the
@@ -483,6 +559,41 @@ static void ribbon_normal_cp(const double *n0, const double *n1, float *out)
     }
 }
 
+/* The primitives Embree gets for a curve set: the caller's segments, or, where one wants more
+ * than 16 pieces, its pieces (curve_splits, curve_piece), with the map back in piece. The
+ * arrays are the caller's when nothing is split; else new ones, freed with curve_prims_free. */
+typedef struct curve_prims {
+    const double *cp, *radii, *normals;
+    size_t n;
+    double *own; /* cp, radii and normals of the pieces in one allocation, or NULL */
+} curve_prims_t;
+
+static int curve_prims_make(const double *cp, const double *radii, const double *normals,
+                            size_t nseg, curve_prims_t *out, curve_piece_t *piece, err_t *err)
+{
+    *out = (curve_prims_t){.cp = cp, .radii = radii, .normals = normals, .n = nseg};
+    if (!piece)
+        return 0;
+    size_t per = 16 + (normals ? 6 : 0), n = out->n;
+    for (size_t k = 0; k < nseg; k++)
+        n += curve_splits(cp + 12 * k, radii + 4 * k) - 1;
+    double *own = malloc(per * n * sizeof *own);
+    if (!own)
+        return err_set(err, "out of memory splitting a curve into %zu pieces", n);
+    double *q = own, *r = own + 12 * n, *nn = normals ? own + 16 * n : NULL;
+    size_t i = 0;
+    for (size_t k = 0; k < nseg; k++) {
+        unsigned m = curve_splits(cp + 12 * k, radii + 4 * k);
+        for (unsigned j = 0; j < m; j++, i++) {
+            curve_piece(cp + 12 * k, radii + 4 * k, normals ? normals + 6 * k : NULL, j, m,
+                        q + 12 * i, r + 4 * i, nn ? nn + 6 * i : NULL);
+            piece[i] = (curve_piece_t){.seg = (uint32_t)k, .j = (uint16_t)j, .m = (uint16_t)m};
+        }
+    }
+    *out = (curve_prims_t){.cp = q, .radii = r, .normals = nn, .n = n, .own = own};
+    return 0;
+}
+
 int geometry_object_add_curves(geometry_t *self, int object, const double *cp, const double *radii,
                                const double *normals, size_t nseg, uint32_t shape, int flip,
                                err_t *err)
@@ -502,6 +613,13 @@ int geometry_object_add_curves(geometry_t *self, int object, const double *cp, c
         for (size_t i = 0; i < 6 * nseg; i++)
             if (!isfinite(normals[i]))
                 return err_set(err, "shape %u: ribbon normal %zu is not finite", shape, i / 3);
+    size_t nprim = 0;
+    for (size_t k = 0; k < nseg; k++)
+        nprim += curve_splits(cp + 12 * k, radii + 4 * k);
+    if (nprim > UINT32_MAX / 4)
+        return err_set(err, "shape %u: a curve of %zu segments split into %zu pieces, over %u",
+                       shape, nseg, nprim, UINT32_MAX / 4);
+    int split = nprim > nseg;
     RTCGeometry g =
         rtcNewGeometry(self->device, normals ? RTC_GEOMETRY_TYPE_NORMAL_ORIENTED_BEZIER_CURVE
                                              : RTC_GEOMETRY_TYPE_FLAT_BEZIER_CURVE);
@@ -510,40 +628,53 @@ int geometry_object_add_curves(geometry_t *self, int object, const double *cp, c
                    ? -1
                    : err_set(err, "Embree: rtcNewGeometry failed");
     float *v = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4,
-                                       4 * sizeof(float), 4 * nseg);
+                                       4 * sizeof(float), 4 * nprim);
     unsigned *ix = rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT,
-                                           sizeof(unsigned), nseg);
+                                           sizeof(unsigned), nprim);
     float *nv = normals ? rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_NORMAL, 0, RTC_FORMAT_FLOAT3,
-                                                  3 * sizeof(float), 4 * nseg)
+                                                  3 * sizeof(float), 4 * nprim)
                         : NULL;
+    size_t nbytes = (normals ? 6 * nseg * sizeof(double) : 0);
     curves_t *c = v && ix && (nv || !normals)
-                      ? malloc(sizeof *c + (normals ? 6 * nseg * sizeof(double) : 0))
+                      ? malloc(sizeof *c + nbytes + (split ? nprim * sizeof(curve_piece_t) : 0))
                       : NULL;
     if (!c) {
         rtcReleaseGeometry(g);
         return check_device(self, "allocating curve buffers", err) ? -1
                                                                    : err_set(err, "out of memory");
     }
+    curve_piece_t *piece = split ? (curve_piece_t *)((char *)c->n + nbytes) : NULL;
+    curve_prims_t pr;
+    if (curve_prims_make(cp, radii, normals, nseg, &pr, piece, err)) {
+        free(c);
+        rtcReleaseGeometry(g);
+        return -1;
+    }
+    /* The bounds are the caller's control points' (the pieces' lie within them). */
     vec3_t lo = grp->lo, hi = grp->hi;
     for (size_t i = 0; i < 4 * nseg; i++) {
-        for (int k = 0; k < 3; k++)
-            v[4 * i + k] = (float)cp[3 * i + k];
-        v[4 * i + 3] = (float)radii[i];
         double r = radii[i];
         grow_bounds(&lo, &hi, vec3_make(cp[3 * i] - r, cp[3 * i + 1] - r, cp[3 * i + 2] - r));
         grow_bounds(&lo, &hi, vec3_make(cp[3 * i] + r, cp[3 * i + 1] + r, cp[3 * i + 2] + r));
     }
-    for (size_t k = 0; k < nseg; k++)
+    for (size_t i = 0; i < 4 * nprim; i++) {
+        for (int k = 0; k < 3; k++)
+            v[4 * i + k] = (float)pr.cp[3 * i + k];
+        v[4 * i + 3] = (float)pr.radii[i];
+    }
+    for (size_t k = 0; k < nprim; k++)
         ix[k] = (unsigned)(4 * k);
     c->tag = CURVES_TAG;
     c->verts = v;
     c->ribbon = normals != NULL;
+    c->piece = piece;
     if (normals) {
         memcpy(c->n, normals, 6 * nseg * sizeof(double));
-        for (size_t k = 0; k < nseg; k++)
-            ribbon_normal_cp(normals + 6 * k, normals + 6 * k + 3, nv + 12 * k);
+        for (size_t k = 0; k < nprim; k++)
+            ribbon_normal_cp(pr.normals + 6 * k, pr.normals + 6 * k + 3, nv + 12 * k);
     }
-    rtcSetGeometryTessellationRate(g, curve_tessellation(cp, radii, nseg));
+    rtcSetGeometryTessellationRate(g, curve_tessellation(pr.cp, pr.radii, nprim));
+    free(pr.own);
     rtcSetGeometryUserData(g, c);
     rtcSetGeometryIntersectFilterFunction(g, curve_filter);
     rtcSetGeometryOccludedFilterFunction(g, curve_filter);
@@ -586,7 +717,18 @@ static void curve_surface(const curves_t *c, unsigned prim, vec3_t org, vec3_t d
     for (int k = 0; k < 4; k++)
         for (int j = 0; j < 3; j++)
             cp[3 * k + j] = f[4 * k + j];
-    double u = fmin(1.0, fmax(0.0, out->u));
+    /* u along Embree's primitive; a piece's hit reports its segment and u along that, which
+     * runs on across the pieces' ends: piece j ends at (j + 1) / m exactly where piece j + 1
+     * starts. */
+    double u = fmin(1.0, fmax(0.0, out->u)), useg = u;
+    uint32_t seg = prim;
+    if (c->piece) {
+        const curve_piece_t *q = &c->piece[prim];
+        seg = q->seg;
+        out->prim = q->seg;
+        out->u = (q->j + out->u) / q->m;
+        useg = (q->j + u) / q->m;
+    }
     vec3_t centre, t;
     geometry_bezier(cp, u, &centre, &t);
     *p = vec3_fma(org, dir, out->t);
@@ -605,7 +747,7 @@ static void curve_surface(const curves_t *c, unsigned prim, vec3_t org, vec3_t d
     }
     double r = curve_radius(c, prim, u);
     if (c->ribbon) {
-        vec3_t nr = ribbon_normal(c->n + 6 * (size_t)prim, u);
+        vec3_t nr = ribbon_normal(c->n + 6 * (size_t)seg, useg);
         vec3_t perp = vec3_sub(nr, vec3_scale(tn, vec3_dot(nr, tn)));
         double lp = vec3_length(perp);
         if (lp > 1e-12 && isfinite(lp))

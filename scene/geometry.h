@@ -61,7 +61,11 @@ int geometry_add_disk(geometry_t *self, const transform_t *to_world, double radi
  * instead: a flat strip across n x dp/du, n turning along the great arc from the first normal
  * to the second (Embree's normal-oriented curve), seen narrowed by |n . dir| from aside; its
  * hit's ng is the slerped normal made perpendicular to the curve (flipped when flip is set),
- * h as pbrt-v4 computes it, over the narrowed width. */
+ * h as pbrt-v4 computes it, over the narrowed width.
+ * Embree intersects each segment as straight pieces, as many as bring them within a tenth of
+ * the radius of the curve (pbrt-v4's refinement tolerance); a segment that wants more than
+ * Embree 3's 16 goes to it as up to 16 sub-segments at equal steps of u (the same curve,
+ * radii and slerped normals), whose hits still report the segment and u along it. */
 int geometry_object_add_curves(geometry_t *self, int object, const double *cp, const double *radii,
                                const double *normals, size_t nseg, uint32_t shape, int flip,
                                err_t *err);

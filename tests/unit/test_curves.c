@@ -182,6 +182,126 @@ static void test_thin_wavy_curve(void **state)
     scene_destroy(&s);
 }
 
+/* The centre line of a planar Bezier at u: its point and in-plane unit normal. */
+static void centre_at(const double *cp, double u, vec3_t *c, vec3_t *nrm)
+{
+    vec3_t t;
+    geometry_bezier(cp, u, c, &t);
+    *nrm = vec3_normalize(vec3_make(-t.y, t.x, 0));
+}
+
+/* Whether a ray down -z through the point at offset o along nrm from c hits the scene. */
+static int hit_down(const scene_t *s, vec3_t c, vec3_t nrm, double o, hit_t *h)
+{
+    return geometry_intersect(s->geometry, vec3_add(vec3_fma(c, nrm, o), vec3_make(0, 0, 5)),
+                              vec3_make(0, 0, -1), 0, INFINITY, h);
+}
+
+/* A curve that wants 40 pieces by pbrt-v4's rule (radius 0.01, second differences 1.23:
+ * sqrt(7.5 sqrt 3 1.23 / 0.01) = 40), more than Embree 3's 16: the segment goes to Embree as
+ * 3 sub-segments of 14 pieces each, and each hit maps back to the segment (prim 0) and its u.
+ * Across the curve at 96 places, the edge between hits and misses (bisected to 2e-5 radii on
+ * either side) lies within a tenth of a radius of the true centre line's (pbrt-v4's
+ * tolerance; Embree's 16 pieces alone put it up to a third of a radius off near the ends);
+ * hits nearer the centre line have v across it and u the true centre line's to 1e-3, also
+ * at 1e-4 to 4e-3 either side of the split points u = 1/3 and 2/3, where u runs on without
+ * going back. (Not at them: a ray through the very point where two of Embree's segments join
+ * misses them within a float ulp either side, as it does at the joint of the same two pieces
+ * given as a two-segment curve, measured before the split existed.) With
+ * normals, the same curve is a ribbon whose hit normal is pbrt-v4's slerp at the segment's u
+ * (not at the sub-segment's). */
+static void test_curve_split_beyond_16(void **state)
+{
+    (void)state;
+    const double cp[12] = {0, 0, 0, 1, 0.41, 0, 2, -0.41, 0, 3, 0, 0}, r = 0.01;
+    scene_t *s = load("WorldBegin\nShape \"curve\" \"float width\" 0.02 "
+                      "\"point3 P\" [0 0 0 1 0.41 0 2 -0.41 0 3 0 0]\n");
+    int wrong = 0, bad_v = 0, bad_u = 0, bad_prim = 0, n = 0;
+    double worst_edge = 0.0, worst_u = 0.0;
+    hit_t h;
+    for (int i = 0; i < 96; i++) {
+        double u = 0.01 + 0.98 * (i + 0.5) / 96;
+        vec3_t c, nrm;
+        centre_at(cp, u, &c, &nrm);
+        for (int side = -1; side <= 1; side += 2) {
+            double in = 0.5 * r, out = 1.5 * r;
+            n += 2;
+            if (!hit_down(s, c, nrm, side * in, &h) || hit_down(s, c, nrm, side * out, &h)) {
+                wrong++;
+                continue;
+            }
+            for (int it = 0; it < 16; it++, n++) {
+                double o = 0.5 * (in + out);
+                *(hit_down(s, c, nrm, side * o, &h) ? &in : &out) = o;
+            }
+            worst_edge = fmax(worst_edge, fabs(0.5 * (in + out) - r) / r);
+        }
+        for (int j = -5; j <= 5; j++, n++) {
+            double o = 0.1 * r * j;
+            if (!hit_down(s, c, nrm, o, &h)) {
+                wrong++;
+                continue;
+            }
+            /* dir x t = (0, 0, -1) x t = -nrm: v = 0.5 - o / (2 r). */
+            bad_v += fabs(h.v - (0.5 - o / (2 * r))) > 0.05;
+            bad_prim += h.prim != 0;
+            worst_u = fmax(worst_u, fabs(h.u - u));
+            bad_u += fabs(h.u - u) > 1e-3;
+        }
+    }
+    for (int k = 1; k <= 2; k++) {
+        double last = -1;
+        for (int i = -20; i < 20; i++, n++) {
+            double u = k / 3.0 + 2e-4 * (i + 0.5);
+            vec3_t c, nrm;
+            centre_at(cp, u, &c, &nrm);
+            if (!hit_down(s, c, nrm, 0, &h)) {
+                wrong++;
+                continue;
+            }
+            worst_u = fmax(worst_u, fabs(h.u - u));
+            bad_u += fabs(h.u - u) > 1e-3 || h.u < last;
+            bad_prim += h.prim != 0;
+            last = h.u;
+        }
+    }
+    if (wrong || worst_edge > 0.1 || bad_v || bad_u || bad_prim)
+        fail_msg("of %d rays: %d missed within half a radius or hit at 1.5 radii; the edge up to "
+                 "%.3f radii off the centre line's (0.1 allowed); %d with v off by 0.05, %d with "
+                 "u off by 1e-3 (worst %.2e) or going back, %d not on segment 0",
+                 n, wrong, worst_edge, bad_v, bad_u, worst_u, bad_prim);
+    scene_destroy(&s);
+
+    /* The ribbon: normals +z at u = 0, turning a third of a turn about x to u = 1. */
+    scene_t *rb =
+        load("WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" \"float width\" 0.02 "
+             "\"point3 P\" [0 0 0 1 0.41 0 2 -0.41 0 3 0 0] "
+             "\"normal N\" [0 0 1 0 -0.866025403784 0.5]\n");
+    int bad_n = 0;
+    double worst_n = 1.0;
+    for (int i = 0; i < 90; i++) {
+        double u = 0.01 + 0.98 * (i + 0.5) / 90;
+        double phi = u * PI / 3;
+        vec3_t ns = vec3_make(0, -sin(phi), cos(phi));
+        vec3_t c, t;
+        geometry_bezier(cp, u, &c, &t);
+        vec3_t tn = vec3_normalize(t);
+        vec3_t want = vec3_normalize(vec3_sub(ns, vec3_scale(tn, vec3_dot(ns, tn))));
+        if (!geometry_intersect(rb->geometry, vec3_fma(c, ns, 5), vec3_neg(ns), 0, INFINITY, &h) ||
+            h.prim != 0 || fabs(h.u - u) > 1e-3) {
+            bad_n++;
+            continue;
+        }
+        worst_n = fmin(worst_n, vec3_dot(h.ng, want));
+        bad_n += vec3_dot(h.ng, want) < 1 - 1e-4;
+    }
+    if (bad_n)
+        fail_msg("ribbon: %d of 90 rays missed, left segment 0, or found a normal off the slerp "
+                 "(worst cos %.9f)",
+                 bad_n, worst_n);
+    scene_destroy(&rb);
+}
+
 static void test_ribbon_refused(void **state)
 {
     (void)state;
@@ -213,6 +333,7 @@ int main(void)
         cmocka_unit_test(test_ribbon_faces_its_normal),
         cmocka_unit_test(test_ribbon_normal_interpolates),
         cmocka_unit_test(test_thin_wavy_curve),
+        cmocka_unit_test(test_curve_split_beyond_16),
         cmocka_unit_test(test_ribbon_refused),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
