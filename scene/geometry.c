@@ -561,7 +561,7 @@ static void ribbon_normal_cp(const double *n0, const double *n1, float *out)
 
 /* The primitives Embree gets for a curve set: the caller's segments, or, where one wants more
  * than 16 pieces, its pieces (curve_splits, curve_piece), with the map back in piece. The
- * arrays are the caller's when nothing is split; else new ones, freed with curve_prims_free. */
+ * arrays are the caller's when nothing is split; else the pieces', in one allocation (own). */
 typedef struct curve_prims {
     const double *cp, *radii, *normals;
     size_t n;

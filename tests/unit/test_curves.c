@@ -143,7 +143,8 @@ static void test_ribbon_normal_interpolates(void **state)
  * tenth of the radius, pbrt-v4's tolerance), and v says where across: Embree intersects
  * straight pieces of each segment, and with its default 4 this one (radius 0.03, second
  * differences 0.6) was found up to a radius off its centre line (the hair scene's 4 %
- * excess, docs/compatibility.md); it needs Embree's most, 16. */
+ * excess, docs/compatibility.md); it wants 17 pieces by the rule, so it
+ * goes to Embree as two sub-segments of 9 (test_curve_split_beyond_16 wants 40). */
 static void test_thin_wavy_curve(void **state)
 {
     (void)state;
