@@ -57,6 +57,13 @@ typedef struct uniaxial_fresnel {
 void uniaxial_fresnel_solve(vec3_t t, vec3_t m, vec3_t axis, double no, double ne, double n1,
                             vec3_t s_hint, uniaxial_fresnel_t *f);
 
+/* The same solve always in complex arithmetic. uniaxial_fresnel_solve takes a real system
+ * where every one of the eight waves propagates (the common case) and this one only where a
+ * wave is evanescent; the real path performs the complex one's operations on the real parts,
+ * so the two agree bit for bit. For tests. */
+void uniaxial_fresnel_solve_complex(vec3_t t, vec3_t m, vec3_t axis, double no, double ne,
+                                    double n1, vec3_t s_hint, uniaxial_fresnel_t *f);
+
 /* The Jones matrix (j[row][col] = re, im) that takes the field of light arriving along k_in,
  * in the frame (x_in, k_in x x_in), to the field leaving along k_out in (x_out, k_out x x_out),
  * scaled so that |J e|^2 is power (the Stokes S0 of a beam, Poynting flux across the
