@@ -999,7 +999,8 @@ static void test_maxwell_oracle(void **state)
  * grazing, near each wave's critical angle (|t| within 1e-6..1e-2 of 1, n_o or the e index) or
  * anywhere -- agree in every amplitude and power fraction. The real path repeats the complex
  * path's operations on real parts, so they agree bit for bit; the bound 1e-12 leaves room for
- * a compiler's contraction. */
+ * a compiler's contraction. A solve of some incident waves only (uniaxial_fresnel_solve_incident)
+ * gives those rows exactly as the full solve. */
 static void test_real_solve(void **state)
 {
     (void)state;
@@ -1031,6 +1032,16 @@ static void test_real_solve(void **state)
         uniaxial_fresnel_t a, b;
         uniaxial_fresnel_solve(t, m, axis, no, ne, 1.0, vec3_make(1, 0, 0), &a);
         uniaxial_fresnel_solve_complex(t, m, axis, no, ne, 1.0, vec3_make(1, 0, 0), &b);
+        /* A subset of the incident waves: its rows as the full solve's, the others zero. */
+        const unsigned mask = 1u + (unsigned)(lcg01(&x) * 15.0);
+        uniaxial_fresnel_t sub;
+        uniaxial_fresnel_solve_incident(t, m, axis, no, ne, 1.0, vec3_make(1, 0, 0), mask, &sub);
+        for (int in = 0; in < UF_WAVES; in++)
+            for (int o = 0; o < UF_WAVES; o++) {
+                const bool on = mask >> in & 1u;
+                assert_true(sub.power[in][o] == (on ? a.power[in][o] : 0.0));
+                assert_true(sub.amp[in][o] == (on ? a.amp[in][o] : 0.0));
+            }
         assert_int_equal(a.ok, b.ok);
         bool all = true;
         for (int w = 0; w < UF_WAVES; w++)
