@@ -102,7 +102,11 @@ static void one_event(vec3_t dir, vec3_t nrm, bool entering, uniaxial_wave_t ins
     e->no = no;
     e->ne = ne;
     uniaxial_fresnel_t *f = &e->fres;
-    uniaxial_fresnel_solve(t, m, axis, no, ne, 1.0, vec3_cross(dir, m), f);
+    /* Only the light arriving: from outside its s and p, from inside its own wave. */
+    const unsigned incident = entering               ? 1u << UF_S | 1u << UF_P
+                              : inside == UNIAXIAL_E ? 1u << UF_E
+                                                     : 1u << UF_O;
+    uniaxial_fresnel_solve_incident(t, m, axis, no, ne, 1.0, vec3_cross(dir, m), incident, f);
     const bool radiance = mode == BSDF_RADIANCE;
     for (int b = 0; b < UNIAXIAL_MAX_BRANCHES; b++)
         e->branch[b] = (uniaxial_branch_t){.factor = 1.0};
@@ -238,7 +242,10 @@ mueller_t uniaxial_branch_mueller_frames(const uniaxial_event_t *e, int b, const
         /* The light runs the branch backward: it arrives in the branch's wave reversed (the
          * tangential wave vector -t) and leaves in the path's arriving wave reversed. */
         uniaxial_fresnel_t rev;
-        uniaxial_fresnel_solve(vec3_neg(e->t), e->m, e->axis, e->no, e->ne, 1.0, ev->x_in, &rev);
+        const unsigned incident =
+            br->after == UNIAXIAL_OUTSIDE ? 1u << UF_S | 1u << UF_P : 1u << fresnel_kind(br->after);
+        uniaxial_fresnel_solve_incident(vec3_neg(e->t), e->m, e->axis, e->no, e->ne, 1.0, ev->x_in,
+                                        incident, &rev);
         uniaxial_fresnel_jones(&rev, br->after == UNIAXIAL_OUTSIDE, fresnel_kind(br->after),
                                e->before == UNIAXIAL_OUTSIDE, fresnel_kind(e->before), ev->k_in,
                                ev->x_in, ev->k_out, ev->x_out, j);

@@ -144,9 +144,11 @@ static cplx crecip(cplx z)
     return CMPLX(re / d, -im / d);
 }
 
-/* Gauss-Jordan elimination with partial pivoting of a (4 x 4) x = b for four right-hand sides
- * (b[row][rhs], overwritten by x). False for a (numerically) singular a. */
-static bool solve4(cplx a[4][4], cplx b[4][4])
+/* Gauss-Jordan elimination with partial pivoting of a (4 x 4) x = b for the right-hand sides
+ * in the bit mask cols (b[row][rhs], overwritten by x; each column's arithmetic is its own, so
+ * a column's solution does not depend on which others are solved). False for a (numerically)
+ * singular a. */
+static bool solve4(cplx a[4][4], cplx b[4][4], unsigned cols)
 {
     double scale = 0.0;
     for (int r = 0; r < 4; r++)
@@ -176,22 +178,95 @@ static bool solve4(cplx a[4][4], cplx b[4][4])
             const cplx f = a[r][c] * inv;
             if (f == 0.0)
                 continue;
-            for (int k = 0; k < 4; k++) {
+            for (int k = 0; k < 4; k++)
                 a[r][k] -= f * a[c][k];
-                b[r][k] -= f * b[c][k];
-            }
+            for (int k = 0; k < 4; k++)
+                if (cols >> k & 1u)
+                    b[r][k] -= f * b[c][k];
         }
     }
     for (int r = 0; r < 4; r++) {
         const cplx inv = crecip(a[r][r]);
         for (int k = 0; k < 4; k++)
-            b[r][k] *= inv;
+            if (cols >> k & 1u)
+                b[r][k] *= inv;
     }
     return true;
 }
 
-void uniaxial_fresnel_solve(vec3_t t, vec3_t m, vec3_t axis, double no, double ne, double n1,
-                            vec3_t s_hint, uniaxial_fresnel_t *f)
+/* The tangential field of a propagating wave, whose K and E are real. */
+static void tangential_real(const uniaxial_fresnel_wave_t *w, vec3_t u1, vec3_t u2, double f[4])
+{
+    const vec3_t k = vec3_make(creal(w->K[0]), creal(w->K[1]), creal(w->K[2]));
+    const vec3_t e = vec3_make(creal(w->E[0]), creal(w->E[1]), creal(w->E[2]));
+    const vec3_t h = vec3_cross(k, e);
+    f[0] = vec3_dot(e, u1);
+    f[1] = vec3_dot(e, u2);
+    f[2] = vec3_dot(h, u1);
+    f[3] = vec3_dot(h, u2);
+}
+
+/* solve4 on real numbers, for a boundary where every wave propagates (real K, real E: the
+ * system and its solution are real). It performs solve4's operations on the real parts --
+ * the same pivots, the pivot's reciprocal as crecip forms it (re / re^2), the same order --
+ * and a complex product with zero imaginary parts rounds as the real one, so the two agree
+ * bit for bit (test_uniaxial.c's test_real_solve) at about a quarter of the arithmetic. */
+static bool solve4_real(double a[4][4], double b[4][4], unsigned cols)
+{
+    double scale = 0.0;
+    for (int r = 0; r < 4; r++)
+        for (int c = 0; c < 4; c++)
+            scale = fmax(scale, fabs(a[r][c]));
+    if (!(scale > 0.0) || !isfinite(scale))
+        return false;
+    for (int c = 0; c < 4; c++) {
+        int piv = c;
+        for (int r = c + 1; r < 4; r++)
+            if (fabs(a[r][c]) > fabs(a[piv][c]))
+                piv = r;
+        if (!(fabs(a[piv][c]) > 1e-12 * scale))
+            return false;
+        for (int k = 0; k < 4; k++) {
+            double t = a[c][k];
+            a[c][k] = a[piv][k];
+            a[piv][k] = t;
+            t = b[c][k];
+            b[c][k] = b[piv][k];
+            b[piv][k] = t;
+        }
+        const double inv = a[c][c] / (a[c][c] * a[c][c]);
+        for (int r = 0; r < 4; r++) {
+            if (r == c)
+                continue;
+            const double f = a[r][c] * inv;
+            if (f == 0.0)
+                continue;
+            for (int k = 0; k < 4; k++)
+                a[r][k] -= f * a[c][k];
+            for (int k = 0; k < 4; k++)
+                if (cols >> k & 1u)
+                    b[r][k] -= f * b[c][k];
+        }
+    }
+    for (int r = 0; r < 4; r++) {
+        const double inv = a[r][r] / (a[r][r] * a[r][r]);
+        for (int k = 0; k < 4; k++)
+            if (cols >> k & 1u)
+                b[r][k] *= inv;
+    }
+    return true;
+}
+
+/* The power fraction from incident wave i into outgoing wave o for amplitude magnitude^2 c2. */
+static double power_of(const uniaxial_fresnel_t *f, int i, int o, double c2)
+{
+    const double fi = fabs(f->in[i].flux), fo = fabs(f->out[o].flux);
+    const double p = f->in[i].propagating && f->out[o].propagating && fi > 0.0 ? c2 * fo / fi : 0.0;
+    return isfinite(p) ? p : 0.0;
+}
+
+static void solve_waves(vec3_t t, vec3_t m, vec3_t axis, double no, double ne, double n1,
+                        vec3_t s_hint, unsigned incident, bool real_path, uniaxial_fresnel_t *f)
 {
     memset(f, 0, sizeof *f);
     t = vec3_fma(t, m, -vec3_dot(t, m));
@@ -214,8 +289,10 @@ void uniaxial_fresnel_solve(vec3_t t, vec3_t m, vec3_t axis, double no, double n
      * as exp(-kappa z) beyond the critical angle). */
     const double b1 = n1 * n1 - tt, r1 = sqrt(fabs(b1));
     wave_vector(t, m, -r1, K);
-    wave_make(&f->in[UF_S], UF_S, K, b1 > 0.0, s, axis, no, m);
-    wave_make(&f->in[UF_P], UF_P, K, b1 > 0.0, s, axis, no, m);
+    if (incident >> UF_S & 1u)
+        wave_make(&f->in[UF_S], UF_S, K, b1 > 0.0, s, axis, no, m);
+    if (incident >> UF_P & 1u)
+        wave_make(&f->in[UF_P], UF_P, K, b1 > 0.0, s, axis, no, m);
     wave_vector(t, m, b1 > 0.0 ? (cplx)r1 : I * r1, K);
     wave_make(&f->out[UF_S], UF_S, K, b1 > 0.0, s, axis, no, m);
     wave_make(&f->out[UF_P], UF_P, K, b1 > 0.0, s, axis, no, m);
@@ -223,7 +300,8 @@ void uniaxial_fresnel_solve(vec3_t t, vec3_t m, vec3_t axis, double no, double n
      * z < 0, as exp(kappa z)). */
     const double bo = no * no - tt, ro = sqrt(fabs(bo));
     wave_vector(t, m, ro, K);
-    wave_make(&f->in[UF_O], UF_O, K, bo > 0.0, s, axis, no, m);
+    if (incident >> UF_O & 1u)
+        wave_make(&f->in[UF_O], UF_O, K, bo > 0.0, s, axis, no, m);
     wave_vector(t, m, bo > 0.0 ? (cplx)-ro : -I * ro, K);
     wave_make(&f->out[UF_O], UF_O, K, bo > 0.0, s, axis, no, m);
     /* The e wave: K = t + beta m on the index surface, a quadratic in beta with a positive
@@ -234,38 +312,79 @@ void uniaxial_fresnel_solve(vec3_t t, vec3_t m, vec3_t axis, double no, double n
     const double qa = A * b * b + ine2, qb = A * a * b, qc = A * a * a + tt * ine2 - 1.0;
     const double disc = qb * qb - qa * qc, rd = sqrt(fabs(disc));
     wave_vector(t, m, (-qb + rd) / qa, K);
-    wave_make(&f->in[UF_E], UF_E, K, disc > 0.0, s, axis, no, m);
+    if (incident >> UF_E & 1u)
+        wave_make(&f->in[UF_E], UF_E, K, disc > 0.0, s, axis, no, m);
     wave_vector(t, m, disc > 0.0 ? (cplx)((-qb - rd) / qa) : (-qb - I * rd) / qa, K);
     wave_make(&f->out[UF_E], UF_E, K, disc > 0.0, s, axis, no, m);
 
     /* Continuity of tangential E and H: outside (incident + outgoing) = inside (incident +
      * outgoing), the unknowns the four outgoing amplitudes. */
     const vec3_t u1 = s, u2 = vec3_cross(m, s);
+    if (real_path && b1 > 0.0 && bo > 0.0 && disc > 0.0) {
+        /* Every wave propagates (the common case): a real system. */
+        double A4r[4][4], B4r[4][4];
+        for (int w = 0; w < UF_WAVES; w++) {
+            double fo[4], fi[4] = {0, 0, 0, 0};
+            tangential_real(&f->out[w], u1, u2, fo);
+            if (incident >> w & 1u)
+                tangential_real(&f->in[w], u1, u2, fi);
+            const double sign = w < UF_O ? 1.0 : -1.0;
+            for (int r = 0; r < 4; r++) {
+                A4r[r][w] = sign * fo[r];
+                B4r[r][w] = -sign * fi[r];
+            }
+        }
+        if (!(f->ok = solve4_real(A4r, B4r, incident)))
+            return;
+        for (int i = 0; i < UF_WAVES; i++)
+            for (int o = 0; o < UF_WAVES && (incident >> i & 1u); o++) {
+                const double x = B4r[o][i];
+                f->amp[i][o] = isfinite(x) ? x : 0.0;
+                f->power[i][o] = power_of(f, i, o, x * x);
+            }
+        return;
+    }
     cplx A4[4][4], B4[4][4];
     for (int w = 0; w < UF_WAVES; w++) {
-        cplx fo[4], fi[4];
+        cplx fo[4], fi[4] = {0, 0, 0, 0};
         tangential(&f->out[w], u1, u2, fo);
-        tangential(&f->in[w], u1, u2, fi);
+        if (incident >> w & 1u)
+            tangential(&f->in[w], u1, u2, fi);
         const double sign = w < UF_O ? 1.0 : -1.0;
         for (int r = 0; r < 4; r++) {
             A4[r][w] = sign * fo[r];
             B4[r][w] = -sign * fi[r];
         }
     }
-    if (!(f->ok = solve4(A4, B4)))
+    if (!(f->ok = solve4(A4, B4, incident)))
         return;
     for (int i = 0; i < UF_WAVES; i++) {
-        for (int o = 0; o < UF_WAVES; o++) {
+        for (int o = 0; o < UF_WAVES && (incident >> i & 1u); o++) {
             f->amp[i][o] = B4[o][i];
-            const double fi = fabs(f->in[i].flux), fo = fabs(f->out[o].flux);
-            const double c2 = creal(B4[o][i] * conj(B4[o][i]));
-            const double p =
-                f->in[i].propagating && f->out[o].propagating && fi > 0.0 ? c2 * fo / fi : 0.0;
-            f->power[i][o] = isfinite(p) ? p : 0.0;
+            f->power[i][o] = power_of(f, i, o, creal(B4[o][i] * conj(B4[o][i])));
             if (!isfinite(creal(f->amp[i][o])) || !isfinite(cimag(f->amp[i][o])))
                 f->amp[i][o] = 0.0;
         }
     }
+}
+
+void uniaxial_fresnel_solve(vec3_t t, vec3_t m, vec3_t axis, double no, double ne, double n1,
+                            vec3_t s_hint, uniaxial_fresnel_t *f)
+{
+    solve_waves(t, m, axis, no, ne, n1, s_hint, UF_ALL, true, f);
+}
+
+void uniaxial_fresnel_solve_incident(vec3_t t, vec3_t m, vec3_t axis, double no, double ne,
+                                     double n1, vec3_t s_hint, unsigned incident,
+                                     uniaxial_fresnel_t *f)
+{
+    solve_waves(t, m, axis, no, ne, n1, s_hint, incident & UF_ALL, true, f);
+}
+
+void uniaxial_fresnel_solve_complex(vec3_t t, vec3_t m, vec3_t axis, double no, double ne,
+                                    double n1, vec3_t s_hint, uniaxial_fresnel_t *f)
+{
+    solve_waves(t, m, axis, no, ne, n1, s_hint, UF_ALL, false, f);
 }
 
 void uniaxial_fresnel_jones(const uniaxial_fresnel_t *f, bool in_outside, int in_mode,

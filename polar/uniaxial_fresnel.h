@@ -33,6 +33,7 @@
 /* The waves at the boundary, incident or outgoing: the outside medium's s and p (s along the
  * unit vector s_dir perpendicular to the plane of incidence, p = k x s) and the crystal's modes. */
 enum { UF_S = 0, UF_P = 1, UF_O = 2, UF_E = 3, UF_WAVES = 4 };
+#define UF_ALL 15u /* every incident wave (bit 1 << UF_S ...) */
 
 typedef struct uniaxial_fresnel_wave {
     double complex K[3]; /* wave vector in units of the vacuum wavenumber */
@@ -56,6 +57,21 @@ typedef struct uniaxial_fresnel {
  * normalised. */
 void uniaxial_fresnel_solve(vec3_t t, vec3_t m, vec3_t axis, double no, double ne, double n1,
                             vec3_t s_hint, uniaxial_fresnel_t *f);
+
+/* The same for the incident waves in the bit mask incident (1u << UF_S | ...) only: the other
+ * rows of amp and power are zero and their in[] waves unset. A solved row equals
+ * uniaxial_fresnel_solve's bit for bit (each incident wave is its own right-hand side); an
+ * event that needs only the light arriving in one wave (or from outside) saves the rest. */
+void uniaxial_fresnel_solve_incident(vec3_t t, vec3_t m, vec3_t axis, double no, double ne,
+                                     double n1, vec3_t s_hint, unsigned incident,
+                                     uniaxial_fresnel_t *f);
+
+/* The same solve always in complex arithmetic. uniaxial_fresnel_solve takes a real system
+ * where every one of the eight waves propagates (the common case) and this one only where a
+ * wave is evanescent; the real path performs the complex one's operations on the real parts,
+ * so the two agree bit for bit. For tests. */
+void uniaxial_fresnel_solve_complex(vec3_t t, vec3_t m, vec3_t axis, double no, double ne,
+                                    double n1, vec3_t s_hint, uniaxial_fresnel_t *f);
 
 /* The Jones matrix (j[row][col] = re, im) that takes the field of light arriving along k_in,
  * in the frame (x_in, k_in x x_in), to the field leaving along k_out in (x_out, k_out x x_out),
