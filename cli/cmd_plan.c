@@ -7,10 +7,12 @@
 #include "cli_json.h"
 #include "cli_warn.h"
 #include "clock.h"
+#include "frame_list.h"
 #include "local_render.h"
 #include "pbrt_parser.h"
 #include "plan.h"
 #include "polar_pilot.h"
+#include "polar_seq.h"
 #include "pool.h"
 #include "predict.h"
 #include "scene_load.h"
@@ -18,11 +20,13 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <string.h>
 
 static void usage(FILE *out, const cli_opt_t *opts)
 {
     fprintf(out,
             "usage: prismfarm plan SCENE.pbrt [--json] [options]\n"
+            "       prismfarm plan FRAME.pbrt ... | 'frame%%04d.pbrt' --frames A-B [options]\n"
             "\n"
             "Prints the effect plan of SCENE: whether paths split their wavelengths (a dispersive\n"
             "material), whether emission or reflectance varies with wavelength, the dispersion\n"
@@ -34,6 +38,8 @@ static void usage(FILE *out, const cli_opt_t *opts)
             "With --target-error E it then renders a short pilot on this machine (--pilot\n"
             "seconds of whole passes, the photon pass first) and predicts the samples per pixel\n"
             "and the time that reach E (the error falls as 1/sqrt(spp): a prediction, docs/plan.md).\n"
+            "A frame sequence (as for render and submit) is planned by its first frame, then\n"
+            "the polarisation decided once for all its frames is said with its reason.\n"
             "Options override the scene file as for prismfarm render:\n");
     cli_args_help(out, opts);
     fprintf(out, "\n"
@@ -252,9 +258,40 @@ static json_t *prediction_json(const local_render_result_t *res, double target)
     return o;
 }
 
+/* The rest of a sequence's polarisation decision (polar_seq.h, as the master makes it): frame
+ * 0's part is d0 (the pilot always measures the first frame); frames 1.. are loaded, their
+ * parts taken, and dropped. Returns 0, or 1 with a message. */
+static int plan_sequence_polar(const frame_list_t *fl, const scene_overrides_t *ov,
+                               double target_error, const polar_decision_t *d0, polar_seq_t *out)
+{
+    *out = polar_seq_make(target_error);
+    polar_seq_add(out, 0, d0);
+    for (size_t k = 1; k < fl->n; k++) {
+        err_t err;
+        scene_desc_t *desc = pbrt_parse_file(fl->paths[k], &err);
+        scene_t *scene = desc ? scene_load(desc, ov, &err) : NULL;
+        scene_desc_destroy(&desc);
+        polar_decision_t d;
+        bool pilot = polar_seq_pilots(k, fl->n);
+        if (!scene || polar_seq_frame(scene, pilot, target_error, &d, &err) < 0) {
+            fprintf(stderr, "prismfarm plan: frame %u (%s): %s%s\n", fl->numbers[k], fl->paths[k],
+                    scene ? "the polarisation pilot: " : "", err.msg);
+            scene_destroy(&scene);
+            return 1;
+        }
+        scene_destroy(&scene);
+        polar_seq_add(out, k, &d);
+    }
+    return 0;
+}
+
+static int plan_frames(const frame_list_t *fl, const proto_settings_t *jobp, int json,
+                       double pilot);
+
 int cmd_plan(int argc, char **argv)
 {
     int json = 0;
+    const char *range = NULL;
     proto_settings_t job = PROTO_SETTINGS_FILE;
     double pilot = 4.0;
     /* The setting's own entry (its bounds and messages), with plan's example and help. */
@@ -264,6 +301,12 @@ int cmd_plan(int argc, char **argv)
     target.help = "predict the samples and time that reach E from a pilot render";
     const cli_opt_t opts[] = {
         CLI_OPT_JSON(.dst = &json, .help = "print JSON instead of the report"),
+        {.name = "frames",
+         .kind = CLI_STRING,
+         .dst = &range,
+         .arg = "FIRST-LAST",
+         .help = "a frame sequence: SCENE is a pattern such as frame%04d.pbrt, formatted with "
+                 "each number FIRST..LAST"},
         target,
         {.name = "pilot",
          .kind = CLI_DOUBLE,
@@ -283,17 +326,36 @@ int cmd_plan(int argc, char **argv)
     int parsed = cli_args_parse(&cmd, argc, argv, &first);
     if (parsed != CLI_ARGS_GO)
         return parsed;
-    if (argc - first > 1) {
-        fprintf(stderr, "prismfarm plan: unexpected argument '%s' (one scene at a time)\n",
-                argv[first + 1]);
-        return 2;
-    }
     if (first == argc) {
         fprintf(stderr, "prismfarm plan: no scene given\n");
         usage(stderr, opts);
         return 2;
     }
-    const char *path = argv[first];
+    frame_list_t fl;
+    int flrc = frame_list_parse(&fl, argv + first, (size_t)(argc - first), range, "plan");
+    /* A file given twice is no sequence (submit and render refuse it as their bundle does). */
+    for (size_t k = 1; flrc == 0 && k < fl.n; k++)
+        for (size_t i = 0; flrc == 0 && i < k; i++)
+            if (!strcmp(fl.paths[i], fl.paths[k])) {
+                fprintf(stderr, "prismfarm plan: %s is given twice as a frame\n", fl.paths[k]);
+                flrc = 2;
+            }
+    if (flrc != 0) {
+        frame_list_free(&fl);
+        return flrc;
+    }
+    int rc = plan_frames(&fl, &job, json, pilot);
+    frame_list_free(&fl);
+    return rc;
+}
+
+/* The plan of one scene, or of a sequence's first frame followed by the sequence's
+ * polarisation decision. */
+static int plan_frames(const frame_list_t *fl, const proto_settings_t *jobp, int json,
+                       double pilot)
+{
+    const proto_settings_t job = *jobp;
+    const char *path = fl->paths[0];
     const scene_overrides_t ov = settings_to_overrides(&job);
     err_t err;
     scene_desc_t *desc = pbrt_parse_file(path, &err);
@@ -302,15 +364,30 @@ int cmd_plan(int argc, char **argv)
     /* Polarisation as a job of this scene would carry it: the one rule the master and
      * `render` apply before a job starts, against the job's target error. */
     polar_decision_t polar;
+    /* A sequence: its one decision (polar_seq.h), said after the first frame's plan. */
+    char seq_why[512] = "";
+    const char *seq_setting = NULL;
     if (scene && job.polarized != SCENE_POLARIZED_FILE) {
         /* --polarized on|off: the user's, no pilot (the scene was loaded with it). */
         scene->settings.polar_pilot.forced = 1;
+        seq_setting = job.polarized == SCENE_POLARIZED_ON ? "on" : "off";
+        snprintf(seq_why, sizeof seq_why, "polarisation %s for all %zu frames: forced by the user "
+                 "(--polarized %s)", seq_setting, fl->n, seq_setting);
     } else {
         if (scene && polar_pilot_decide(scene, job.target_error, &polar, &err) < 0)
             scene_destroy(&scene);
         if (scene)
             polar_pilot_record(scene, &polar);
+        polar_seq_t ps;
+        if (scene && fl->sequence) {
+            if (plan_sequence_polar(fl, &ov, job.target_error, &polar, &ps) != 0)
+                return finish(&plan, &scene, &desc, 1);
+            polar_seq_why(&ps, fl->numbers, seq_why, sizeof seq_why);
+            seq_setting = ps.setting == SCENE_POLARIZED_ON ? "on" : "off";
+        }
     }
+    if (!fl->sequence)
+        seq_setting = NULL;
     if (scene) {
         cli_warn_print("plan", scene->warnings);
         plan_request_t req = plan_request_make(desc, &ov);
@@ -326,6 +403,13 @@ int cmd_plan(int argc, char **argv)
     const int pilot_asked = job.target_error > 0.0;
     if (json) {
         json_t *o = plan_json(path, scene, plan);
+        if (seq_setting) {
+            json_t *sq = json_object();
+            json_object_set_new(sq, "frames", json_integer((json_int_t)fl->n));
+            json_object_set_new(sq, "polarization", json_string(seq_setting));
+            json_object_set_new(sq, "why", cli_json_string(seq_why));
+            json_object_set_new(o, "sequence", sq);
+        }
         if (pilot_asked) {
             if (run_pilot(scene, job.target_error, pilot, &res, &err) < 0) {
                 fprintf(stderr, "prismfarm plan: pilot render: %s\n", err.msg);
@@ -348,6 +432,9 @@ int cmd_plan(int argc, char **argv)
         fprintf(stderr, "prismfarm plan: cannot write the report\n");
         return finish(&plan, &scene, &desc, 1);
     }
+    if (seq_setting)
+        printf("\nsequence of %zu frames (the plan above is frame %u's alone): %s\n", fl->n,
+               fl->numbers[0], seq_why);
     if (pilot_asked) {
         fflush(stdout);
         if (run_pilot(scene, job.target_error, pilot, &res, &err) < 0) {

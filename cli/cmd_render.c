@@ -19,6 +19,7 @@
 #include "photon_pass.h"
 #include "plan.h"
 #include "polar_pilot.h"
+#include "polar_seq.h"
 #include "pool.h"
 #include "progress.h"
 #include "scene_bundle.h"
@@ -50,8 +51,9 @@ static void usage(FILE *out, const cli_opt_t *opts)
             "this process over inproc://); writes a spectral OpenEXR (Fichet et al. layout, float32,\n"
             "with linear sRGB R,G,B channels) and a tone-mapped PNG preview beside it.\n"
             "A frame sequence (several files, or a pattern with --frames) is one job of that farm,\n"
-            "each frame's pixels those it has rendered alone; a frame's number is the last number\n"
-            "in its file name (else its place in the list, from 1), and -o takes a pattern.\n"
+            "each frame's pixels those it has rendered alone with the polarisation decided once\n"
+            "for the whole sequence (docs/plan.md); a frame's number is the last number in its\n"
+            "file name (else its place in the list, from 1), and -o takes a pattern.\n"
             "Options override the scene file:\n");
     cli_args_help(out, opts);
 }
@@ -283,7 +285,43 @@ typedef struct render_cfg {
 } render_cfg_t;
 
 static int render_scene(const render_cfg_t *c, const char *scene_path, const char *seq_exr,
-                        const char *seq_png);
+                        const char *seq_png, const polar_seq_t *seq_polar);
+
+/* A frame loaded as render_scene loads it. NULL with err. */
+static scene_t *load_frame_scene(const render_cfg_t *c, const char *path, err_t *err)
+{
+    const scene_overrides_t ov = settings_to_overrides(&c->job);
+    scene_desc_t *desc = pbrt_parse_file_opts(
+        path, &(pbrt_parse_opts_t){.threads = ov.threads, .bundle = !c->direct}, err);
+    scene_t *scene = desc ? scene_load(desc, &ov, err) : NULL;
+    scene_desc_destroy(&desc);
+    return scene;
+}
+
+/* A sequence rendered frame by frame (--direct, or frames of several folders) decides its
+ * polarisation once, as the master decides a submitted sequence (polar_seq.h, the same frames
+ * measured by the same pilot): each frame loaded, its part taken, and dropped -- a second load
+ * of every frame, the price of one decision before the first frame renders. Returns 0, or 1
+ * with a message. */
+static int render_frames_polar(const render_cfg_t *c, const frame_list_t *fl, polar_seq_t *out)
+{
+    *out = polar_seq_make(c->job.target_error);
+    for (size_t k = 0; k < fl->n; k++) {
+        err_t err;
+        scene_t *scene = load_frame_scene(c, fl->paths[k], &err);
+        polar_decision_t d;
+        if (!scene || polar_seq_frame(scene, polar_seq_pilots(k, fl->n), c->job.target_error, &d,
+                                      &err) < 0) {
+            fprintf(stderr, "prismfarm render: frame %u (%s): %s%s\n", fl->numbers[k],
+                    fl->paths[k], scene ? "the polarisation pilot: " : "", err.msg);
+            scene_destroy(&scene);
+            return 1;
+        }
+        scene_destroy(&scene);
+        polar_seq_add(out, k, &d);
+    }
+    return 0;
+}
 
 /* The sequence as one job of the in-process farm (local_farm.h): one bundle with the files the
  * frames share once, the master loading the frames (several at once) and the workers rendering
@@ -329,7 +367,8 @@ static int render_frames_farm(const render_cfg_t *c, const frame_list_t *fl, con
 
 /* A frame sequence: every frame's outputs named (job_follow_frame_paths, as `submit --wait`
  * names them) and checked before the first frame is rendered; then each frame rendered as
- * `prismfarm render FRAME -o ITS.exr` renders it alone, so its bytes are the same. */
+ * `prismfarm render FRAME -o ITS.exr --polarized D` renders it alone, D the sequence's one
+ * polarisation decision (polar_seq.h), so its bytes are the same. */
 static int render_frames(const render_cfg_t *c, const frame_list_t *fl, const char *pattern)
 {
     err_t err;
@@ -368,11 +407,21 @@ static int render_frames(const render_cfg_t *c, const frame_list_t *fl, const ch
         free(png);
         return rc;
     }
+    polar_seq_t polar, *seq_polar = NULL;
+    if (rc == 0 && c->job.polarized == SCENE_POLARIZED_FILE) {
+        rc = render_frames_polar(c, fl, &polar);
+        seq_polar = &polar;
+        if (rc == 0 && !c->quiet) {
+            char why[512];
+            polar_seq_why(&polar, fl->numbers, why, sizeof why);
+            fprintf(stderr, "render: %s\n", why);
+        }
+    }
     for (size_t k = 0; rc == 0 && k < fl->n; k++) {
         if (!c->quiet)
             fprintf(stderr, "render: frame %u (%zu of %zu): %s\n", fl->numbers[k], k + 1, fl->n,
                     fl->paths[k]);
-        if ((rc = render_scene(c, fl->paths[k], exr[k], png[k])) != 0)
+        if ((rc = render_scene(c, fl->paths[k], exr[k], png[k], seq_polar)) != 0)
             fprintf(stderr, "prismfarm render: frame %u (%s) failed; %zu of %zu frames written\n",
                     fl->numbers[k], fl->paths[k], k, fl->n);
     }
@@ -466,13 +515,14 @@ int cmd_render(int argc, char **argv)
                       .quiet = quiet,
                       .exposure = exposure};
     if (rc == 0)
-        rc = fl.sequence ? render_frames(&c, &fl, output) : render_scene(&c, fl.paths[0], NULL, NULL);
+        rc = fl.sequence ? render_frames(&c, &fl, output)
+                         : render_scene(&c, fl.paths[0], NULL, NULL, NULL);
     frame_list_free(&fl);
     return rc;
 }
 
 static int render_scene(const render_cfg_t *c, const char *scene_path, const char *seq_exr,
-                        const char *seq_png)
+                        const char *seq_png, const polar_seq_t *seq_polar)
 {
     const char *output = c->output;
     const scene_overrides_t ov = settings_to_overrides(&c->job);
@@ -500,7 +550,13 @@ static int render_scene(const render_cfg_t *c, const char *scene_path, const cha
      * gets it as the job's setting and every worker obeys it. */
     proto_settings_t job = c->job;
     polar_decision_t polar = {0};
-    if (job.polarized == SCENE_POLARIZED_FILE) {
+    if (seq_polar) {
+        /* A frame of a sequence: the sequence's decision (render_frames_polar), as its job's
+         * setting and on the loaded scene. */
+        polar.setting = seq_polar->setting;
+        polar_pilot_record(scene, &polar);
+        job.polarized = polar.setting;
+    } else if (job.polarized == SCENE_POLARIZED_FILE) {
         if (polar_pilot_decide(scene, job.target_error, &polar, &err) < 0) {
             fprintf(stderr, "prismfarm render: the polarisation pilot: %s\n", err.msg);
             scene_destroy(&scene);

@@ -57,6 +57,7 @@ typedef struct mworker {
  * phase, its accuracy and the journal's view of it. */
 /* The polarisation pilot's figures of a submitted job (render/polar_pilot.h). */
 typedef struct job_polar {
+    int cause_file;           /* the scene asks for polarisation itself (no pilot) */
     int measured;             /* the pilot ran */
     double change, change_hi; /* its figure and bound */
     double target;            /* the error the bound was compared with */

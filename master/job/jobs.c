@@ -8,6 +8,7 @@
 #include "peers.h"
 #include "persist.h"
 #include "polar_pilot.h"
+#include "polar_seq.h"
 #include "scene_load.h"
 #include "settings.h"
 
@@ -128,7 +129,7 @@ static scene_t *load_confined(void *arg, err_t *err)
  * host; a photon job's phase keeps the scene to check and merge batches against. */
 job_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
                const proto_settings_t *set, const char *dir, const scene_budget_t *budget,
-               scene_shelf_t *shelf, int threads, bool decide, err_t *err)
+               scene_shelf_t *shelf, int threads, job_polar_mode_t mode, err_t *err)
 {
     size_t main_size = strlen(dir) + strlen(main) + 2;
     char *main_path = malloc(main_size);
@@ -157,16 +158,22 @@ job_t *job_new(uint64_t id, const char *name, const char *hash, const char *main
      * the scene without changing it: it may be shared on the shelf). */
     proto_settings_t decided = *set;
     polar_decision_t polar = {0};
-    if (decide && set->polarized == SCENE_POLARIZED_FILE) {
-        if (polar_pilot_decide(scene, set->target_error, &polar, err) < 0) {
+    if (mode != JOB_POLAR_KEEP && set->polarized == SCENE_POLARIZED_FILE) {
+        int rc = mode == JOB_POLAR_DECIDE
+                     ? polar_pilot_decide(scene, set->target_error, &polar, err)
+                     : polar_seq_frame(scene, mode == JOB_POLAR_FRAME_PILOT, set->target_error,
+                                       &polar, err);
+        if (rc < 0) {
             err_prefix(err, "the polarisation pilot: ");
             scene_destroy(&scene);
             job_destroy(&j);
             return NULL;
         }
-        decided.polarized = polar.setting;
+        if (mode == JOB_POLAR_DECIDE)
+            decided.polarized = polar.setting;
     }
-    j->polar = (job_polar_t){.measured = polar.measured,
+    j->polar = (job_polar_t){.cause_file = polar.cause_file,
+                             .measured = polar.measured,
                              .change = polar.pilot.change,
                              .change_hi = polar.pilot.change_hi,
                              .target = polar.target};

@@ -15,18 +15,33 @@ job_t *jobs_find(const master_t *m, uint64_t id);
 /* Appends a job to the list (its id above every other's); -1 when out of memory. */
 int jobs_append(master_t *m, job_t *j);
 
+/* What job_new does with the setting `polarized` when it is not given (SCENE_POLARIZED_FILE). */
+typedef enum job_polar_mode {
+    /* Left as given: a resumed job (the journal keeps the decision). */
+    JOB_POLAR_KEEP,
+    /* A submitted job: the plan decides once here (polar_pilot_decide). */
+    JOB_POLAR_DECIDE,
+    /* A frame of a sequence: its part of the sequence's decision in j->polar (polar_seq_frame
+     * without the pilot), the setting left to the caller, who decides for every frame at once
+     * (polar_seq.h). */
+    JOB_POLAR_FRAME,
+    /* The same, with the pilot (polar_seq_pilots chose the frame). */
+    JOB_POLAR_FRAME_PILOT,
+} job_polar_mode_t;
+
 /* A job made from its scene, dir/main loaded with the settings and confined to dir, within
  * budget (budget.h; NULL: none), on threads threads (0: all cores; the scene is the same
  * whatever the number) -- or taken from shelf when it holds the scene of that hash and settings
- * (NULL: no shelf); a photon job gets a fresh photon phase. With decide (a submission, never a
- * resumed job: the journal keeps the decision) and the setting `polarized` not given, the plan
- * decides polarised transport once here (render/polar_pilot.h polar_pilot_decide, its pilot
- * against the job's target error) and the job's settings carry the decision to every worker.
- * Not yet scheduled (job_schedule). Touches nothing of the master's, so several may run at
- * once. NULL with err. */
+ * (NULL: no shelf); a photon job gets a fresh photon phase. With polar JOB_POLAR_DECIDE (a
+ * submission, never a resumed job: the journal keeps the decision) and the setting `polarized`
+ * not given, the plan decides polarised transport once here (render/polar_pilot.h
+ * polar_pilot_decide, its pilot against the job's target error) and the job's settings carry
+ * the decision to every worker; a sequence's frames are decided together by the caller
+ * (JOB_POLAR_FRAME*). Not yet scheduled (job_schedule). Touches nothing of the master's, so
+ * several may run at once. NULL with err. */
 job_t *job_new(uint64_t id, const char *name, const char *hash, const char *main,
                const proto_settings_t *set, const char *dir, const scene_budget_t *budget,
-               scene_shelf_t *shelf, int threads, bool decide, err_t *err);
+               scene_shelf_t *shelf, int threads, job_polar_mode_t polar, err_t *err);
 /* A job of the journal as the master lists it without rendering it: one that is over, or one
  * that cannot be resumed. NULL when out of memory. */
 job_t *job_from_record(const journal_job_t *r);

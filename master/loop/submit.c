@@ -8,6 +8,7 @@
 #include "ops.h"
 #include "overrides.h"
 #include "persist.h"
+#include "polar_seq.h"
 #include "pool.h"
 
 #include <limits.h>
@@ -53,6 +54,7 @@ struct submission {
     job_t *job;
     err_t err;
     double load_s;
+    char polar_why[512]; /* a sequence's polarisation decision, for the log ("" when forced) */
 };
 
 static void submission_free(void *arg);
@@ -103,8 +105,12 @@ static int load_frame(void *user, int index, err_t *err)
     err_t e;
     scene_budget_t budget = s->budget; /* each frame's parse has its own clock */
     scene_budget_start(&budget, clock_now_s());
+    /* Each frame's part of the sequence's one polarisation decision (polar_seq.h): the pilot
+     * measures a few frames spread over the sequence, on the load threads. */
+    job_polar_mode_t polar =
+        polar_seq_pilots(k, s->nframes) ? JOB_POLAR_FRAME_PILOT : JOB_POLAR_FRAME;
     s->frames[k] = job_new(0, s->frame_main[k], s->hash, s->frame_main[k], &s->settings, s->dir,
-                           &budget, s->shelf, fl->inner, true, &e);
+                           &budget, s->shelf, fl->inner, polar, &e);
     if (s->frames[k]) {
         s->frames[k]->seq.frame = s->frame_number[k];
         return 0;
@@ -142,6 +148,23 @@ static job_t *load_frames(submission_t *s)
     pthread_mutex_destroy(&fl.lock);
     if (rc < 0)
         return NULL; /* s->err: the first failing frame's (the frames loaded are freed with s) */
+    /* One polarisation decision for every frame, from their parts (unless --polarized forced
+     * one): the frames' settings carry it to the workers and into the journal, so a restart
+     * resumes each frame with it. The sequence's record shows it too. */
+    if (s->settings.polarized == SCENE_POLARIZED_FILE) {
+        polar_seq_t ps = polar_seq_make(s->settings.target_error);
+        for (size_t k = 0; k < s->nframes; k++) {
+            const job_polar_t *jp = &s->frames[k]->polar;
+            polar_decision_t d = {.cause_file = jp->cause_file,
+                                  .measured = jp->measured,
+                                  .pilot = {.change = jp->change, .change_hi = jp->change_hi}};
+            polar_seq_add(&ps, k, &d);
+        }
+        for (size_t k = 0; k < s->nframes; k++)
+            s->frames[k]->settings.polarized = ps.setting;
+        s->settings.polarized = ps.setting;
+        polar_seq_why(&ps, s->frame_number, s->polar_why, sizeof s->polar_why);
+    }
     /* The sequence's own record, which job_new_sequence fills without a scene. */
     job_t *seq =
         job_new_sequence(s->name, s->hash, s->frame_main[0], &s->settings, (uint32_t)s->nframes);
@@ -178,7 +201,7 @@ static void submission_load(void *arg)
     scene_budget_start(&s->budget, clock_now_s());
     s->job = s->nframes > 0 ? load_frames(s)
                             : job_new(0, s->name, s->hash, s->main, &s->settings, s->dir,
-                                      &s->budget, s->shelf, 0, true, &s->err);
+                                      &s->budget, s->shelf, 0, JOB_POLAR_DECIDE, &s->err);
     if (s->job) {
         if (spool_scene_commit(s->spool, s->scene_msg, s->scene_size, s->hash, s->dir, s->staged,
                                &s->err) < 0) {
@@ -374,10 +397,10 @@ static void sequence_finish(master_t *m, submission_t *s, const char *who, doubl
     const job_t *f0 = jobs_find(m, id + 1);
     master_log(m,
                "job %llu '%s' submitted by %s: %zu frames (jobs %llu..%llu), the first %dx%d, %d "
-               "spp, scene %.12s loaded in %.2f s (off the loop)",
+               "spp, scene %.12s loaded in %.2f s (off the loop)%s%s",
                (unsigned long long)id, seq->name, who, n, (unsigned long long)(id + 1),
                (unsigned long long)(id + n), f0->scene.xres, f0->scene.yres, f0->scene.spp, s->hash,
-               s->load_s);
+               s->load_s, s->polar_why[0] ? "; " : "", s->polar_why);
 }
 
 /* A submission whose scene has loaded (or failed to): scheduled, journaled and answered. */

@@ -140,7 +140,7 @@ static int resume_job(master_t *m, const journal_job_t *r, double now, err_t *er
     char dir[PATH_MAX];
     snprintf(dir, sizeof dir, "%s/scenes/%s", spool_path(m->spool), r->hash);
     job_t *j = job_new(r->id, r->name, r->hash, r->main, &r->settings, dir, &m->opts->budget,
-                       m->opts->shelf, 0, false, err);
+                       m->opts->shelf, 0, JOB_POLAR_KEEP, err);
     if (!j)
         return -1;
     snprintf(j->owner, sizeof j->owner, "%s", r->owner);

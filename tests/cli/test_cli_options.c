@@ -102,7 +102,9 @@ static void test_errors(void **state)
     expect_fails(run("worker", "stray", NULL), "prismfarm worker: unexpected argument 'stray'");
     expect_fails(run("jobs", "7", NULL), "prismfarm jobs: unexpected argument '7'");
     expect_fails(run("status", "1", "2", NULL), "prismfarm status: unexpected argument '2'");
-    expect_fails(run("plan", SCENE, SCENE, NULL), "unexpected argument 'data/render/tiny.pbrt'");
+    /* plan takes a sequence's frames (docs/plan.md, "Polarisation"), each once. */
+    expect_fails(run("plan", SCENE, SCENE, NULL),
+                 "prismfarm plan: data/render/tiny.pbrt is given twice as a frame");
     /* plan words --target-error its own way, with the setting's bounds (proto/job_settings.h). */
     expect_fails(run("plan", SCENE, "--target-error", "1", NULL),
                  "prismfarm plan: --target-error expects a relative error in (0, 1), e.g. 0.05, "

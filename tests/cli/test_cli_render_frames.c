@@ -170,8 +170,16 @@ static void test_bad_sequences(void **state)
     expect_in(r->err, "frame 2 of 2: ");
     expect_in(r->err, "walk0005.pbrt:");
     assert_false(exists(testutil_scratch("out/e0001.exr")));
-    /* With --direct the frames render one by one: the frames before a broken one are written. */
+    /* With --direct every frame is loaded first, for the sequence's one polarisation decision
+     * (polar_seq.h): a broken frame is refused before any is written. */
     r = run("render", frame(1), "data/render/broken.pbrt", "-o", out, "--quiet", "--direct", NULL);
+    assert_int_equal(r->status, 1);
+    expect_in(r->err, "frame 2 (data/render/broken.pbrt): data/render/broken.pbrt:4:");
+    assert_false(exists(testutil_scratch("out/e0001.exr")));
+    /* With the decision forced there is nothing to load first: the frames render one by one,
+     * and the frames before a broken one are written. */
+    r = run("render", frame(1), "data/render/broken.pbrt", "-o", out, "--quiet", "--direct",
+            "--polarized", "off", NULL);
     assert_int_equal(r->status, 1);
     expect_in(r->err, "data/render/broken.pbrt:4:");
     expect_in(r->err, "1 of 2 frames written");
