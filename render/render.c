@@ -63,9 +63,12 @@ typedef struct path {
      * except after events at a dense stone with splitting on, whose factors that are not losses
      * it undoes (split_dense). */
     double rr_scale;
-    /* The photon integrator's split: diffuse bounces so far, and specular ones since the
-     * last (or since the camera). */
+    /* The photon integrator's split: non-specular bounces so far (surfaces and medium
+     * scatterings), the surfaces' among them (the surface store is gathered at the first:
+     * medium scatterings before it take the volume store and leave the surface rule alone), and
+     * specular ones since the last (or since the camera). */
     int diffuse_bounces;
+    int surface_bounces;
     int specular_since_diffuse;
     /* The medium the path travels in (an index into scene->media, -1: vacuum); read only when
      * the scene's media are simulated (render_settings_t.media). */
@@ -1421,7 +1424,7 @@ static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *
         direct_light_bsdf(c, p, sf, b, &fr, wo, sel);
     /* The glossy receiver's photons, at the path's first non-specular vertex, as caustic_light
      * at a diffuse one; only a store with directions has them (photon.c). */
-    const int gathers = gather && c->glossy_photons && !delta && p->diffuse_bounces == 0;
+    const int gathers = gather && c->glossy_photons && !delta && p->surface_bounces == 0;
     if (gathers)
         caustic_light_bsdf(c, p, sf, b, &fr, wo);
     if (!delta && c->rs->integrator == INTEGRATOR_WHITTED)
@@ -1471,8 +1474,10 @@ static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *
         polar_bsdf(p, b, &fr, wo, bs.wi, wi);
     start_bounce(p, sf, wi, specular, specular ? 0.0 : mis_pdf);
     p->prev_n = fr.z;
-    if (!specular)
+    if (!specular) {
         p->diffuse_bounces++;
+        p->surface_bounces++;
+    }
     /* A receiver that gathered photons starts the chain, like a diffuse vertex: light that
      * reaches it through smooth mirrors and glass only came from the store. A specular sample
      * (a smooth coat's mirror lobe, which the BSDF evaluation and so the gather leave out)
@@ -1804,10 +1809,10 @@ static void trace(ctx_t *c, path_t *start)
              * (L S+ D S* E) comes from the photons: the path that finds it the other way is
              * not counted again. */
             if (sf.light >= 0 && s->lights[sf.light].kind == LIGHT_AREA &&
-                !(c->photons && (p->specular_since_diffuse >= CHAIN_VOLUME
-                                     ? p->specular_since_diffuse - CHAIN_VOLUME >= c->mindepth
-                                     : p->diffuse_bounces == 1 &&
-                                           p->specular_since_diffuse >= c->mindepth)))
+                !(c->photons &&
+                  (p->specular_since_diffuse >= CHAIN_VOLUME
+                       ? p->specular_since_diffuse - CHAIN_VOLUME >= c->mindepth
+                       : p->surface_bounces == 1 && p->specular_since_diffuse >= c->mindepth)))
                 add_emission_hit(c, p, &sf, &s->lights[sf.light], sf.light, h.prim,
                                  probe_share(c, p, sf.light));
             const material_t *m = sf.material;
@@ -1842,7 +1847,7 @@ static void trace(ctx_t *c, path_t *start)
                         albedo[j] = 0.5;
                 if (c->rs->integrator != INTEGRATOR_SIMPLEPATH)
                     direct_light(c, p, &sf, n, g, albedo);
-                if (c->photons && p->diffuse_bounces == 0)
+                if (c->photons && p->surface_bounces == 0)
                     caustic_light(c, p, &h, &sf, g, albedo);
                 if (c->rs->integrator == INTEGRATOR_WHITTED)
                     break;
@@ -1860,6 +1865,7 @@ static void trace(ctx_t *c, path_t *start)
                 start_bounce(p, &sf, wi, 0, cos_i / PF_PI);
                 p->prev_n = n;
                 p->diffuse_bounces++;
+                p->surface_bounces++;
                 p->specular_since_diffuse = 0;
             } else if (material_is_sheet(m->kind)) {
                 cross_sheet(p, &sf, m);
