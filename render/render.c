@@ -64,8 +64,8 @@ typedef struct path {
      * it undoes (split_dense). */
     double rr_scale;
     /* The photon integrator's split: non-specular bounces so far (surfaces and medium
-     * scatterings), the surfaces' among them (the surface store is gathered at the first:
-     * medium scatterings before it take the volume store and leave the surface rule alone), and
+     * scatterings), the surfaces' among them (a glossy receiver gathers at the first; medium
+     * scatterings before it take the volume store and leave the surface rule alone), and
      * specular ones since the last (or since the camera). */
     int diffuse_bounces;
     int surface_bounces;
@@ -729,12 +729,12 @@ static void direct_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, co
 
 /* The caustic store's share at a diffuse point with geometric normal g facing the viewer:
  * Lambertian radiance (rho / pi) E_b from the store's irradiance (photon_store.h),
- * for each lane the bucket its light goes to. Added at the path's first diffuse vertex (seen
- * from the camera directly or through specular surfaces), where the store replaces exactly
- * the paths that leave that vertex through specular surfaces to a light (trace does not
- * count them). Later diffuse vertices are path traced as without photons: the store's
- * light reflected diffusely again would be found there only by hitting a small, bright
- * caustic by chance, which is the firefly the photons are meant to remove. */
+ * for each lane the bucket its light goes to. Added at every diffuse vertex of the path, where
+ * the store replaces exactly the paths that leave that vertex through specular surfaces to a
+ * light (trace does not count them). At a vertex behind a diffuse bounce or a medium
+ * scattering, path tracing would find the store's light only by reaching the caustic and then
+ * the light through the glass: missing for a delta light, and from a small one a tail too heavy
+ * to converge (docs/physics.md §5, the path-space split). */
 static void caustic_light(ctx_t *c, const path_t *p, const hit_t *h, const surface_t *sf,
                           vec3_t g, const double *albedo)
 {
@@ -750,7 +750,7 @@ static void caustic_light(ctx_t *c, const path_t *p, const hit_t *h, const surfa
 /* The caustic store's share at a glossy receiver (any surface scatter_bsdf shades), from a
  * store that keeps directions: the photon density estimate with the receiver's BSDF inside
  * the sum (photon_store_gather), L_j = scale x sum over the photons of lane j's bucket of
- * f_j(wo, -dir) power. Added where caustic_light is (the path's first non-specular vertex);
+ * f_j(wo, -dir) power. Added at the path's first non-specular surface vertex;
  * scatter_bsdf then lets the chain count from here, so that the paths it would find the other
  * way (L S+ G S* E: the next vertex's emission) are not counted twice. f is bsdf_eval's: the
  * coated models' stochastic estimate, unbiased, and without a smooth coat's delta reflection,
@@ -1592,9 +1592,8 @@ static void direct_light_medium(ctx_t *c, const path_t *p, vec3_t x, double g)
     }
 }
 
-/* The volume caustic at a scattering point x of the path (every one: unlike a diffuse
- * surface's, whose later vertices are path traced, since a medium's photons are gathered over a
- * sphere and blur), in a medium of phase g: the in-scattered radiance of the light paths
+/* The volume caustic at a scattering point x of the path (every one, as caustic_light at every
+ * diffuse vertex), in a medium of phase g: the in-scattered radiance of the light paths
  * L S+ V that the photon pass stored (render/photon_volume.h), per lane the bucket its light
  * goes to. medium_flight then marks the chain (CHAIN_VOLUME), so the area light that the path
  * reaches from x through mindepth or more smooth surfaces is not counted again
@@ -1804,15 +1803,15 @@ static void trace(ctx_t *c, path_t *start)
                 p->org = geometry_offset(sf.p, sf.ng, p->dir);
                 continue;
             }
-            /* With a caustic store, light that left an area light and reached the path's
-             * first diffuse vertex through mindepth or more specular surfaces only
-             * (L S+ D S* E) comes from the photons: the path that finds it the other way is
-             * not counted again. */
+            /* With a caustic store, light that left an area light and reached a diffuse
+             * vertex of the path (or its first glossy one) through mindepth or more specular
+             * surfaces only (L S+ D S* E) comes from the photons gathered there: the path that
+             * finds it the other way is not counted again. */
             if (sf.light >= 0 && s->lights[sf.light].kind == LIGHT_AREA &&
                 !(c->photons &&
                   (p->specular_since_diffuse >= CHAIN_VOLUME
                        ? p->specular_since_diffuse - CHAIN_VOLUME >= c->mindepth
-                       : p->surface_bounces == 1 && p->specular_since_diffuse >= c->mindepth)))
+                       : p->surface_bounces >= 1 && p->specular_since_diffuse >= c->mindepth)))
                 add_emission_hit(c, p, &sf, &s->lights[sf.light], sf.light, h.prim,
                                  probe_share(c, p, sf.light));
             const material_t *m = sf.material;
@@ -1847,7 +1846,7 @@ static void trace(ctx_t *c, path_t *start)
                         albedo[j] = 0.5;
                 if (c->rs->integrator != INTEGRATOR_SIMPLEPATH)
                     direct_light(c, p, &sf, n, g, albedo);
-                if (c->photons && p->surface_bounces == 0)
+                if (c->photons)
                     caustic_light(c, p, &h, &sf, g, albedo);
                 if (c->rs->integrator == INTEGRATOR_WHITTED)
                     break;

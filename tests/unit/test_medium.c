@@ -1112,11 +1112,11 @@ static void patch_and_fog(const scene_t *s, const photon_store_t *ps, double *pa
     *fog = box_mean(s, ps, PATCH_FOG_SPP, 23, 12, 5, 5);
 }
 
-/* Before the surface store was gathered at the first surface vertex after medium scatterings
- * (it was gathered only where no scattering came before), the lit patch's light in the fog
- * was path traced from the patch, which cannot find a distant light through glass: the fog
- * read 0 here; in Bitterli's volumetric-caustic the same paths, from a 5 mm light, were a
- * heavy tail that left the fog beside the caustic 12 % dark at 64 spp. */
+/* Before the surface store was gathered at every diffuse vertex (it was gathered only at the
+ * first, and only where no scattering came before), the lit patch's light in the fog was path
+ * traced from the patch, which cannot find a distant light through glass: the fog read 0 here;
+ * in Bitterli's volumetric-caustic the same paths, from a 5 mm light, were a heavy tail that
+ * left the red wall and floor 12 % dark at 64 spp (docs/compatibility.md). */
 static void test_surface_caustic_through_fog(void **state)
 {
     (void)state;
