@@ -63,9 +63,12 @@ typedef struct path {
      * except after events at a dense stone with splitting on, whose factors that are not losses
      * it undoes (split_dense). */
     double rr_scale;
-    /* The photon integrator's split: diffuse bounces so far, and specular ones since the
-     * last (or since the camera). */
+    /* The photon integrator's split: non-specular bounces so far (surfaces and medium
+     * scatterings), the surfaces' among them (a glossy receiver gathers at the first; medium
+     * scatterings before it take the volume store and leave the surface rule alone), and
+     * specular ones since the last (or since the camera). */
     int diffuse_bounces;
+    int surface_bounces;
     int specular_since_diffuse;
     /* The medium the path travels in (an index into scene->media, -1: vacuum); read only when
      * the scene's media are simulated (render_settings_t.media). */
@@ -726,12 +729,12 @@ static void direct_light_bsdf(ctx_t *c, const path_t *p, const surface_t *sf, co
 
 /* The caustic store's share at a diffuse point with geometric normal g facing the viewer:
  * Lambertian radiance (rho / pi) E_b from the store's irradiance (photon_store.h),
- * for each lane the bucket its light goes to. Added at the path's first diffuse vertex (seen
- * from the camera directly or through specular surfaces), where the store replaces exactly
- * the paths that leave that vertex through specular surfaces to a light (trace does not
- * count them). Later diffuse vertices are path traced as without photons: the store's
- * light reflected diffusely again would be found there only by hitting a small, bright
- * caustic by chance, which is the firefly the photons are meant to remove. */
+ * for each lane the bucket its light goes to. Added at every diffuse vertex of the path, where
+ * the store replaces exactly the paths that leave that vertex through specular surfaces to a
+ * light (trace does not count them). At a vertex behind a diffuse bounce or a medium
+ * scattering, path tracing would find the store's light only by reaching the caustic and then
+ * the light through the glass: missing for a delta light, and from a small one a tail too heavy
+ * to converge (docs/physics.md §5, the path-space split). */
 static void caustic_light(ctx_t *c, const path_t *p, const hit_t *h, const surface_t *sf,
                           vec3_t g, const double *albedo)
 {
@@ -747,7 +750,7 @@ static void caustic_light(ctx_t *c, const path_t *p, const hit_t *h, const surfa
 /* The caustic store's share at a glossy receiver (any surface scatter_bsdf shades), from a
  * store that keeps directions: the photon density estimate with the receiver's BSDF inside
  * the sum (photon_store_gather), L_j = scale x sum over the photons of lane j's bucket of
- * f_j(wo, -dir) power. Added where caustic_light is (the path's first non-specular vertex);
+ * f_j(wo, -dir) power. Added at the path's first non-specular surface vertex;
  * scatter_bsdf then lets the chain count from here, so that the paths it would find the other
  * way (L S+ G S* E: the next vertex's emission) are not counted twice. f is bsdf_eval's: the
  * coated models' stochastic estimate, unbiased, and without a smooth coat's delta reflection,
@@ -1421,7 +1424,7 @@ static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *
         direct_light_bsdf(c, p, sf, b, &fr, wo, sel);
     /* The glossy receiver's photons, at the path's first non-specular vertex, as caustic_light
      * at a diffuse one; only a store with directions has them (photon.c). */
-    const int gathers = gather && c->glossy_photons && !delta && p->diffuse_bounces == 0;
+    const int gathers = gather && c->glossy_photons && !delta && p->surface_bounces == 0;
     if (gathers)
         caustic_light_bsdf(c, p, sf, b, &fr, wo);
     if (!delta && c->rs->integrator == INTEGRATOR_WHITTED)
@@ -1471,8 +1474,10 @@ static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *
         polar_bsdf(p, b, &fr, wo, bs.wi, wi);
     start_bounce(p, sf, wi, specular, specular ? 0.0 : mis_pdf);
     p->prev_n = fr.z;
-    if (!specular)
+    if (!specular) {
         p->diffuse_bounces++;
+        p->surface_bounces++;
+    }
     /* A receiver that gathered photons starts the chain, like a diffuse vertex: light that
      * reaches it through smooth mirrors and glass only came from the store. A specular sample
      * (a smooth coat's mirror lobe, which the BSDF evaluation and so the gather leave out)
@@ -1587,9 +1592,8 @@ static void direct_light_medium(ctx_t *c, const path_t *p, vec3_t x, double g)
     }
 }
 
-/* The volume caustic at a scattering point x of the path (every one: unlike a diffuse
- * surface's, whose later vertices are path traced, since a medium's photons are gathered over a
- * sphere and blur), in a medium of phase g: the in-scattered radiance of the light paths
+/* The volume caustic at a scattering point x of the path (every one, as caustic_light at every
+ * diffuse vertex), in a medium of phase g: the in-scattered radiance of the light paths
  * L S+ V that the photon pass stored (render/photon_volume.h), per lane the bucket its light
  * goes to. medium_flight then marks the chain (CHAIN_VOLUME), so the area light that the path
  * reaches from x through mindepth or more smooth surfaces is not counted again
@@ -1799,15 +1803,15 @@ static void trace(ctx_t *c, path_t *start)
                 p->org = geometry_offset(sf.p, sf.ng, p->dir);
                 continue;
             }
-            /* With a caustic store, light that left an area light and reached the path's
-             * first diffuse vertex through mindepth or more specular surfaces only
-             * (L S+ D S* E) comes from the photons: the path that finds it the other way is
-             * not counted again. */
+            /* With a caustic store, light that left an area light and reached a diffuse
+             * vertex of the path (or its first glossy one) through mindepth or more specular
+             * surfaces only (L S+ D S* E) comes from the photons gathered there: the path that
+             * finds it the other way is not counted again. */
             if (sf.light >= 0 && s->lights[sf.light].kind == LIGHT_AREA &&
-                !(c->photons && (p->specular_since_diffuse >= CHAIN_VOLUME
-                                     ? p->specular_since_diffuse - CHAIN_VOLUME >= c->mindepth
-                                     : p->diffuse_bounces == 1 &&
-                                           p->specular_since_diffuse >= c->mindepth)))
+                !(c->photons &&
+                  (p->specular_since_diffuse >= CHAIN_VOLUME
+                       ? p->specular_since_diffuse - CHAIN_VOLUME >= c->mindepth
+                       : p->surface_bounces >= 1 && p->specular_since_diffuse >= c->mindepth)))
                 add_emission_hit(c, p, &sf, &s->lights[sf.light], sf.light, h.prim,
                                  probe_share(c, p, sf.light));
             const material_t *m = sf.material;
@@ -1842,7 +1846,7 @@ static void trace(ctx_t *c, path_t *start)
                         albedo[j] = 0.5;
                 if (c->rs->integrator != INTEGRATOR_SIMPLEPATH)
                     direct_light(c, p, &sf, n, g, albedo);
-                if (c->photons && p->diffuse_bounces == 0)
+                if (c->photons)
                     caustic_light(c, p, &h, &sf, g, albedo);
                 if (c->rs->integrator == INTEGRATOR_WHITTED)
                     break;
@@ -1860,6 +1864,7 @@ static void trace(ctx_t *c, path_t *start)
                 start_bounce(p, &sf, wi, 0, cos_i / PF_PI);
                 p->prev_n = n;
                 p->diffuse_bounces++;
+                p->surface_bounces++;
                 p->specular_since_diffuse = 0;
             } else if (material_is_sheet(m->kind)) {
                 cross_sheet(p, &sf, m);
