@@ -317,11 +317,12 @@ static int decide_splitting(plan_t *p, const scene_t *s)
 static int decide_polarisation(plan_t *p, const scene_t *s)
 {
     text_t c = {0}, r = {0};
-    int sheets = 0, glass = 0, crystals = 0;
+    int sheets = 0, glass = 0, crystals = 0, coherent = 0;
     for (size_t i = 0; i < s->nmaterials; i++) {
         const material_t *m = &s->materials[i];
         sheets += material_is_sheet(m->kind);
         crystals += m->uniaxial != 0;
+        coherent += m->uniaxial && m->coherent;
         glass += (m->kind == MATERIAL_DIELECTRIC || m->kind == MATERIAL_CONDUCTOR) && !m->rough &&
                  !m->uniaxial;
     }
@@ -337,6 +338,14 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
                 if (material_is_sheet(s->materials[i].kind))
                     text_add(&r, "%s%s (%s)", k++ ? ", " : "", p->materials[i].name,
                              material_kind_name(s->materials[i].kind));
+            text_add(&r, "; ");
+        }
+        if (coherent) {
+            text_add(&r, "of coherent crystals (their o and e waves interfere and optical "
+                         "activity turns the light: both live in the Stokes carrier): ");
+            for (size_t i = 0, k2 = 0; i < s->nmaterials; i++)
+                if (s->materials[i].uniaxial && s->materials[i].coherent)
+                    text_add(&r, "%s%s", k2++ ? ", " : "", p->materials[i].name);
             text_add(&r, "; ");
         }
         if (s->camera.analyser)
@@ -375,8 +384,9 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
                      rs->polar_pilot.seconds_plain);
         if (rs->polar_pilot.forced)
             text_add(&r, "forced by the user (--polarized on: no pilot); ");
-        else if (!sheets && !s->camera.analyser && !rs->stokes && !rs->polarised_asked &&
-                 !s->polarised_lights && !(rs->polar_pilot.run && rs->polar_pilot.on))
+        else if (!sheets && !coherent && !s->camera.analyser && !rs->stokes &&
+                 !rs->polarised_asked && !s->polarised_lights &&
+                 !(rs->polar_pilot.run && rs->polar_pilot.on))
             text_add(&r, "the caller asked for it; ");
         text_add(&r, "a 4x4 Mueller matrix per lane at every glass and metal interface (smooth or "
                      "rough) and sheet; diffuse, thin and layered surfaces depolarise. ");
