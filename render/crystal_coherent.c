@@ -29,6 +29,16 @@ static vec3_t mean_ray_back(const uniaxial_fresnel_t *f, vec3_t axis, double no,
     return vec3_neg(unit_or(r, ko));
 }
 
+/* The wave whose index surface lies inside the other's: e in a negative crystal (n_e < n_o),
+ * o in a positive one. Any tangential wave vector within its surface's shadow is within the
+ * other's, so a segment's next face, solved with this wave's tangential wave vector, has both
+ * waves propagating (with the other wave's, a negative crystal's e wave could come out
+ * evanescent there, and the light it carried would be lost). */
+static int inner_wave(double no, double ne)
+{
+    return ne < no ? UF_E : UF_O;
+}
+
 void crystal_coherent_enter(crystal_coherent_t *c, vec3_t axis, vec3_t dir, vec3_t m, int n,
                             const double *no, const double *ne, double prob, vec3_t x, vec3_t *out)
 {
@@ -45,7 +55,7 @@ void crystal_coherent_enter(crystal_coherent_t *c, vec3_t axis, vec3_t dir, vec3
         c->j[j] = jones_uniaxial_exit(&f, c->k_exit, c->x_exit);
         if (j == 0) {
             *out = mean_ray_back(&f, axis, no[0], ne[0]);
-            c->k_seg = re3(f.in[UF_O].K);
+            c->k_seg = re3(f.in[inner_wave(no[0], ne[0])].K);
         }
     }
 }
@@ -88,8 +98,8 @@ int crystal_coherent_inside(crystal_coherent_t *c, const material_t *mat, vec3_t
                             vec3_t p, vec3_t m, const double *lambda, const double *no,
                             const double *ne, double u, vec3_t *out, polar_event_t *ev)
 {
-    /* The light's tangential wave vector here: lane 0's o wave on the segment (for parallel
-     * faces every wave's and every lane's). */
+    /* The light's tangential wave vector here: lane 0's inner wave's on the segment (for
+     * parallel faces every wave's and every lane's). */
     const vec3_t t = vec3_fma(c->k_seg, m, -vec3_dot(c->k_seg, m));
     const vec3_t dr = vec3_sub(org, p);
     uniaxial_fresnel_t f0;
@@ -129,7 +139,7 @@ int crystal_coherent_inside(crystal_coherent_t *c, const material_t *mat, vec3_t
         return 1;
     }
     c->prob *= pb;
-    c->k_seg = re3(f0.in[UF_O].K);
+    c->k_seg = re3(f0.in[inner_wave(no[0], ne[0])].K);
     *out = mean_ray_back(&f0, axis, no[0], ne[0]);
     return 0;
 }

@@ -32,7 +32,7 @@ typedef struct crystal_coherent {
     mueller_t mm[BSDF_MAX_LANES]; /* the traversal's matrices once the path has left */
     double prob;                  /* product of the branch probabilities so far */
     vec3_t k_exit, x_exit;        /* the light leaving the crystal, and its frame */
-    vec3_t k_seg;                 /* lane 0's o wave vector (light's way) on the segment */
+    vec3_t k_seg;                 /* lane 0's inner wave's K (light's way) on the segment */
     vec3_t hint;                  /* the s direction at normal incidence */
 } crystal_coherent_t;
 
