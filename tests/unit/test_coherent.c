@@ -19,6 +19,8 @@
 #include <string.h>
 
 #include "michel_levy_testutil.h"
+#include "overrides.h"
+#include "pbrt_parser.h"
 
 /* A slab 0.1 scene units thick (faces at z = 1.5 facing the camera and 1.4 facing the light,
  * chart_scene's quad the front) of the material text. */
@@ -186,12 +188,73 @@ static void test_quartz_rotation(void **state)
     }
 }
 
+/* Polarisation forced off (--polarized off): a coherent crystal is traced as the crystal always
+ * was, bit for bit (the o and e waves apart); left to the file, "coherent" turns it on. */
+static scene_t *load_with(const char *text, int polarized)
+{
+    err_t err;
+    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
+    if (!d)
+        fail_msg("%s", err.msg);
+    const scene_overrides_t ov = {.seed = -1, .polarized = polarized};
+    scene_t *s = scene_load(d, &ov, &err);
+    scene_desc_destroy(&d);
+    if (!s)
+        fail_msg("%s", err.msg);
+    return s;
+}
+
+static void test_polarisation_off(void **state)
+{
+    (void)state;
+    const char *fmt = "LookAt 0 0 5  0 0 0  0 1 0\nCamera \"perspective\" \"float fov\" [30]\n"
+                      "Film \"spectral\" \"integer xresolution\" [8] \"integer yresolution\" [8]\n"
+                      "Sampler \"zsobol\" \"integer pixelsamples\" [8]\n"
+                      "Integrator \"path\" \"integer maxdepth\" [8]\nWorldBegin\n"
+                      "LightSource \"infinite\" \"spectrum L\" [300 1 900 1]\n"
+                      "Rotate 30 1 1 0\nMaterial \"uniaxial\" \"string crystal\" \"calcite\" "
+                      "\"vector3 opticaxis\" [0.3 1 0.2] %s\n"
+                      "Shape \"sphere\" \"float radius\" [1]\n";
+    char a[2048], b[2048];
+    snprintf(a, sizeof a, fmt, "\"bool coherent\" true");
+    snprintf(b, sizeof b, fmt, "");
+    scene_t *on = load_with(a, SCENE_POLARIZED_FILE), *off = load_with(a, SCENE_POLARIZED_OFF),
+            *plain = load_with(b, SCENE_POLARIZED_FILE);
+    assert_true(on->settings.polarised);
+    assert_false(off->settings.polarised);
+    assert_false(plain->settings.polarised);
+    err_t err;
+    tilebuf_t *t[2];
+    scene_t *sc[2] = {off, plain};
+    for (int k = 0; k < 2; k++) {
+        t[k] = tilebuf_new(0, 0, 8, 8, render_settings_buckets(&sc[k]->settings), &err);
+        assert_non_null(t[k]);
+        render_stats_t st = {0};
+        if (render_tile(sc[k], NULL, 0, 0, 8, 8, 0, 8, t[k], &st, &err))
+            fail_msg("render_tile: %s", err.msg);
+    }
+    double sum = 0.0;
+    for (int y = 0; y < 8; y++)
+        for (int x = 0; x < 8; x++)
+            for (int k = 0; k < 3; k++) {
+                assert_true(tilebuf_xyz_sum(t[0], x, y, k) == tilebuf_xyz_sum(t[1], x, y, k));
+                sum += tilebuf_xyz_sum(t[0], x, y, k);
+            }
+    assert_true(sum > 0.0);
+    tilebuf_destroy(&t[0]);
+    tilebuf_destroy(&t[1]);
+    scene_destroy(&on);
+    scene_destroy(&off);
+    scene_destroy(&plain);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
         cmocka_unit_test(test_per_wavelength),
         cmocka_unit_test(test_chart),
         cmocka_unit_test(test_quartz_rotation),
+        cmocka_unit_test(test_polarisation_off),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
