@@ -302,7 +302,8 @@ static int decide_splitting(plan_t *p, const scene_t *s)
 /* Polarised transport (docs/physics.md §14) is carried only where the scene tells polarisations
  * apart: a polariser or retarder sheet, the camera's analyser, or a Stokes output (scene_finish
  * turns render_settings_t.polarised on for them, scene_load for the output; this says which and
- * why), and lights that emit polarised light. A uniaxial crystal does not turn it on by itself:
+ * why), lights that emit polarised light and coherent crystals (their o and e waves interfere,
+ * render/crystal_coherent.h). A uniaxial crystal does not turn it on by itself otherwise:
  * its o and e images are polarised across each other, which an intensity camera does not see
  * (only where light meets a later polarising interface, by a few per cent); with polarisation
  * on for another reason, it applies its Mueller matrices (docs/physics.md §15). Without any of them
@@ -398,7 +399,8 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
             text_add(&r,
                      "The %d uniaxial crystal material%s split%s light into o and e waves "
                      "by the boundary's exact amplitudes (phases included; reflections inside "
-                     "convert between the waves); crystals alone do not turn polarisation on. ",
+                     "convert between the waves); crystals alone do not turn polarisation on, "
+                     "unless coherent (\"bool coherent\": a thin crystal's two waves as one ray). ",
                      crystals, crystals > 1 ? "s" : "", crystals > 1 ? "" : "s");
         text_add(&r, "Images without any of these are left unpolarised, bit for bit as before.");
     } else {
