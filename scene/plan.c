@@ -344,9 +344,16 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
         if (coherent) {
             text_add(&r, "of coherent crystals (their o and e waves interfere and optical "
                          "activity turns the light: both live in the Stokes carrier): ");
-            for (size_t i = 0, k2 = 0; i < s->nmaterials; i++)
-                if (s->materials[i].uniaxial && s->materials[i].coherent)
+            for (size_t i = 0, k2 = 0; i < s->nmaterials; i++) {
+                if (!s->materials[i].uniaxial || !s->materials[i].coherent)
+                    continue;
+                /* Once per material written: each turned shape has its own copy. */
+                size_t j = 0;
+                while (j < i && strcmp(p->materials[j].name, p->materials[i].name) != 0)
+                    j++;
+                if (j == i)
                     text_add(&r, "%s%s", k2++ ? ", " : "", p->materials[i].name);
+            }
             text_add(&r, "; ");
         }
         if (s->camera.analyser)
