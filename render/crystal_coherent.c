@@ -50,6 +50,10 @@ void crystal_coherent_enter(crystal_coherent_t *c, vec3_t axis, vec3_t dir, vec3
     /* The light leaves along k_exit: its tangential wave vector (outside index 1). */
     const vec3_t t = vec3_fma(c->k_exit, m, -vec3_dot(c->k_exit, m));
     for (int j = 0; j < c->n; j++) {
+        if (j > 0 && no[j] == no[0] && ne[j] == ne[0]) {
+            c->j[j] = c->j[0];
+            continue;
+        }
         uniaxial_fresnel_t f;
         uniaxial_fresnel_solve(t, m, axis, no[j], ne[j], 1.0, c->hint, &f);
         c->j[j] = jones_uniaxial_exit(&f, c->k_exit, c->x_exit);
