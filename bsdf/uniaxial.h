@@ -41,6 +41,7 @@ typedef enum uniaxial_wave {
     UNIAXIAL_OUTSIDE = -1, /* in the isotropic outside medium */
     UNIAXIAL_O = 0,        /* the ordinary wave */
     UNIAXIAL_E = 1,        /* the extraordinary wave */
+    UNIAXIAL_COHERENT = 2, /* both, as one ray (render/crystal_coherent.h); never an event's */
 } uniaxial_wave_t;
 
 /* The extraordinary index along a wave normal at angle theta to the optic axis:

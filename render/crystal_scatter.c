@@ -75,6 +75,21 @@ int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t axis, vec3_
         no[j] = ior_eval(&m->crystal.no, lambda[j]);
         ne[j] = ior_eval(&m->crystal.ne, lambda[j]);
     }
+    /* A coherent crystal on a camera path (crystal_coherent.h): inside, both waves as one ray. */
+    const int coherent = m->coherent && pol && pol->coh && mode == BSDF_RADIANCE;
+    if (coherent && *wave == UNIAXIAL_COHERENT) {
+        vec3_t mo = specular_normal(sf, dir, no[0], NULL);
+        if (vec3_dot(mo, dir) < 0.0)
+            mo = vec3_neg(mo);
+        *end_secondaries = 0;
+        pol->pending = !crystal_coherent_inside(pol->coh, m, axis, org, sf->p, mo, lambda, no, ne,
+                                                u, out, &pol->ev);
+        if (!pol->pending) {
+            pol->lanes = pol->coh->mm;
+            *wave = UNIAXIAL_O;
+        }
+        return 0;
+    }
     if (!entering && m->crystal.absorption.rows > 0) {
         /* Beer-Lambert along the segment inside, at the wave's own coefficient (uniaxial.h). */
         const double d_mm = vec3_length(vec3_sub(sf->p, org)) * m->mm_per_unit;
@@ -96,6 +111,13 @@ int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t axis, vec3_
     const int b = uniaxial_choose(&e, u);
     const uniaxial_branch_t *br = &e.branch[b];
     *end_secondaries = 0;
+    if (coherent && entering && !br->reflects) {
+        crystal_coherent_enter(pol->coh, axis, dir, e.m, n, no, ne,
+                               e.branch[1].prob + e.branch[2].prob, pol->x, out);
+        *wave = UNIAXIAL_COHERENT;
+        pol->pending = 1;
+        return 0;
+    }
     double any = 0.0;
     if (!br->reflects && !e.grey && n > 1) {
         weight[0] *= uniaxial_lane_weight(&e, b, 0) * n;

@@ -9,6 +9,7 @@
 #define PRISMFARM_CRYSTAL_SCATTER_H
 
 #include "bsdf_types.h"
+#include "crystal_coherent.h"
 #include "polar_frame.h"
 #include "scene.h"
 
@@ -29,6 +30,13 @@ typedef struct crystal_polar {
      * light inside in its wave's polarisation (bsdf/uniaxial.h: the boundary's exact
      * amplitudes); dividing by it guards rounding. */
     const stokes_t *s_in;
+    /* A camera path's state through a coherent crystal (material_t.coherent; NULL: its waves
+     * are traced apart). Then, out: pending, nothing to apply yet (the path entered or was
+     * reflected inside); lanes, when not NULL, one matrix per lane (the traversal's, applied
+     * as it leaves) instead of m for all. */
+    crystal_coherent_t *coh;
+    int pending;
+    const mueller_t *lanes;
 } crystal_polar_t;
 
 /* The crystal's optic axis in world space at hit h: the material's (turned with its shape by the

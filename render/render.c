@@ -141,6 +141,9 @@ typedef struct ctx {
     double *irradiance; /* grid.n buckets, for one estimate */
     le_entry_t le_cache[LE_CACHE_LIGHTS + 1][LANES];
     int media; /* the scene's media are simulated (render/volume.h) */
+    /* The current camera path's traversal of a coherent crystal (render/crystal_coherent.h):
+     * read only while its wave is UNIAXIAL_COHERENT; nothing splits a path inside one. */
+    crystal_coherent_t coh;
     /* The pdf of a BSDF-sampled direction weighs the emission that direction finds: with the
      * path integrator's MIS and a light that a ray can hit (an area or infinite light). Else
      * the coated models skip their stochastic pdf estimate (a random walk of its own). */
@@ -1317,11 +1320,13 @@ static int scatter_dielectric(ctx_t *c, path_t *p, const surface_t *h, const mat
 static int scatter_crystal(ctx_t *c, path_t *p, const surface_t *h, const material_t *m,
                            vec3_t axis)
 {
-    if (p->n > 1 && !p->mono && c->rs->dispersion == DISPERSION_FANOUT)
+    /* A coherent crystal keeps every lane on its one ray (render/crystal_coherent.h). */
+    const int coherent = m->coherent && p->polar;
+    if (p->n > 1 && !p->mono && c->rs->dispersion == DISPERSION_FANOUT && !coherent)
         fanout_pick_one(c, p);
     vec3_t dir;
     int end = 0;
-    crystal_polar_t pol = {.x = p->polar_x};
+    crystal_polar_t pol = {.x = p->polar_x, .coh = coherent ? &c->coh : NULL};
     if (crystal_scatter(m, h, axis, p->org, p->dir, &p->wave, p->n, p->lambda, p->beta,
                         BSDF_RADIANCE, draw1(c, VD_REFLECT), &dir, &end, p->polar ? &pol : NULL))
         return 1;
@@ -1332,8 +1337,9 @@ static int scatter_crystal(ctx_t *c, path_t *p, const surface_t *h, const materi
     }
     /* Polarised transport: the branch's Mueller matrix, lane 0's for every lane (a crystal's
      * lanes differ only in magnitudes, docs/physics.md §15). */
-    if (p->polar)
-        polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &pol.ev, &pol.m, 0);
+    if (p->polar && !pol.pending)
+        polar_carrier_apply(p->polar_t, p->n, &p->polar_x, &pol.ev, pol.lanes ? pol.lanes : &pol.m,
+                            pol.lanes != NULL);
     start_bounce(p, h, dir, 1, 0.0);
     return 0;
 }

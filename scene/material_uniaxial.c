@@ -23,6 +23,7 @@ static int load(loader_t *L, const scene_material_t *dm, material_t *m, err_t *e
     m->optic_axis =
         vec3_normalize(vec3_make(dm->optic_axis[0], dm->optic_axis[1], dm->optic_axis[2]));
     m->mm_per_unit = dm->mm_per_unit;
+    m->coherent = dm->coherent;
     return 0;
 }
 

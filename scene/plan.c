@@ -302,7 +302,8 @@ static int decide_splitting(plan_t *p, const scene_t *s)
 /* Polarised transport (docs/physics.md §14) is carried only where the scene tells polarisations
  * apart: a polariser or retarder sheet, the camera's analyser, or a Stokes output (scene_finish
  * turns render_settings_t.polarised on for them, scene_load for the output; this says which and
- * why), and lights that emit polarised light. A uniaxial crystal does not turn it on by itself:
+ * why), lights that emit polarised light and coherent crystals (their o and e waves interfere,
+ * render/crystal_coherent.h). A uniaxial crystal does not turn it on by itself otherwise:
  * its o and e images are polarised across each other, which an intensity camera does not see
  * (only where light meets a later polarising interface, by a few per cent); with polarisation
  * on for another reason, it applies its Mueller matrices (docs/physics.md §15). Without any of them
@@ -317,11 +318,12 @@ static int decide_splitting(plan_t *p, const scene_t *s)
 static int decide_polarisation(plan_t *p, const scene_t *s)
 {
     text_t c = {0}, r = {0};
-    int sheets = 0, glass = 0, crystals = 0;
+    int sheets = 0, glass = 0, crystals = 0, coherent = 0;
     for (size_t i = 0; i < s->nmaterials; i++) {
         const material_t *m = &s->materials[i];
         sheets += material_is_sheet(m->kind);
         crystals += m->uniaxial != 0;
+        coherent += m->uniaxial && m->coherent;
         glass += (m->kind == MATERIAL_DIELECTRIC || m->kind == MATERIAL_CONDUCTOR) && !m->rough &&
                  !m->uniaxial;
     }
@@ -337,6 +339,21 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
                 if (material_is_sheet(s->materials[i].kind))
                     text_add(&r, "%s%s (%s)", k++ ? ", " : "", p->materials[i].name,
                              material_kind_name(s->materials[i].kind));
+            text_add(&r, "; ");
+        }
+        if (coherent) {
+            text_add(&r, "of coherent crystals (their o and e waves interfere and optical "
+                         "activity turns the light: both live in the Stokes carrier): ");
+            for (size_t i = 0, k2 = 0; i < s->nmaterials; i++) {
+                if (!s->materials[i].uniaxial || !s->materials[i].coherent)
+                    continue;
+                /* Once per material written: each turned shape has its own copy. */
+                size_t j = 0;
+                while (j < i && strcmp(p->materials[j].name, p->materials[i].name) != 0)
+                    j++;
+                if (j == i)
+                    text_add(&r, "%s%s", k2++ ? ", " : "", p->materials[i].name);
+            }
             text_add(&r, "; ");
         }
         if (s->camera.analyser)
@@ -375,8 +392,9 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
                      rs->polar_pilot.seconds_plain);
         if (rs->polar_pilot.forced)
             text_add(&r, "forced by the user (--polarized on: no pilot); ");
-        else if (!sheets && !s->camera.analyser && !rs->stokes && !rs->polarised_asked &&
-                 !s->polarised_lights && !(rs->polar_pilot.run && rs->polar_pilot.on))
+        else if (!sheets && !coherent && !s->camera.analyser && !rs->stokes &&
+                 !rs->polarised_asked && !s->polarised_lights &&
+                 !(rs->polar_pilot.run && rs->polar_pilot.on))
             text_add(&r, "the caller asked for it; ");
         text_add(&r, "a 4x4 Mueller matrix per lane at every glass and metal interface (smooth or "
                      "rough) and sheet; diffuse, thin and layered surfaces depolarise. ");
@@ -388,7 +406,8 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
             text_add(&r,
                      "The %d uniaxial crystal material%s split%s light into o and e waves "
                      "by the boundary's exact amplitudes (phases included; reflections inside "
-                     "convert between the waves); crystals alone do not turn polarisation on. ",
+                     "convert between the waves); crystals alone do not turn polarisation on, "
+                     "unless coherent (\"bool coherent\": a thin crystal's two waves as one ray). ",
                      crystals, crystals > 1 ? "s" : "", crystals > 1 ? "" : "s");
         text_add(&r, "Images without any of these are left unpolarised, bit for bit as before.");
     } else {

@@ -762,7 +762,13 @@ int scene_finish(scene_t *self, err_t *err)
     self->polarised_lights = 0;
     for (size_t i = 0; i < self->nlights; i++)
         self->polarised_lights += self->lights[i].polarisation > 0.0;
-    if (self->polarising_sheets > 0 || self->camera.analyser || self->polarised_lights > 0)
+    /* A coherent crystal's interference colours and optical activity live in the carrier
+     * (render/crystal_coherent.h). */
+    int coherent = 0;
+    for (size_t i = 0; i < self->nmaterials; i++)
+        coherent += self->materials[i].uniaxial && self->materials[i].coherent;
+    if (self->polarising_sheets > 0 || self->camera.analyser || self->polarised_lights > 0 ||
+        coherent > 0)
         self->settings.polarised = 1;
     /* Forced off (--polarized off): sheets pass their unpolarised share, the analyser and
      * polarised lights are seen as intensities (the analyser passes all); a Stokes output

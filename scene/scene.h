@@ -98,6 +98,9 @@ typedef struct material {
     crystal_t crystal;
     vec3_t optic_axis;
     double mm_per_unit;
+    /* "bool coherent": a thin crystal whose o and e waves cross it as one ray, their phases
+     * (and quartz's optical activity) carried (render/crystal_coherent.h; with polarisation). */
+    int coherent;
     /* Polariser and retarder sheets (docs/physics.md §14): the transmission axis or fast axis,
      * in radians from the surface's dp/du toward ng x dp/du (ng the geometric normal, the side
      * the shape's orientation calls outside), and a retarder's retardance in radians (pi/2: a

@@ -299,6 +299,7 @@ static int get_uniaxial(parser_t *P, params_t *ps, scene_material_t *m)
     return params_get_float(ps, "sigma_o", 0.0, &m->sigma_o, P->err) ||
                    params_get_float(ps, "sigma_e", 0.0, &m->sigma_e, P->err) ||
                    params_get_float(ps, "mmperunit", 1.0, &m->mm_per_unit, P->err) ||
+                   params_get_bool(ps, "coherent", false, &m->coherent, P->err) ||
                    pbrt_state_check_range(P, ps, "sigma_o", m->sigma_o, 0.0, 1e6) ||
                    pbrt_state_check_range(P, ps, "sigma_e", m->sigma_e, 0.0, 1e6) ||
                    pbrt_state_check_range(P, ps, "mmperunit", m->mm_per_unit, 1e-12, 1e12)

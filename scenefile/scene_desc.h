@@ -217,6 +217,9 @@ typedef struct scene_material {
     bool has_o, has_e, has_sigma;
     double optic_axis[3];
     double sigma_o, sigma_e, mm_per_unit;
+    /* "bool coherent" (false): the o and e waves cross the crystal as one ray, coherently
+     * (docs/physics.md §15.2: a thin plate's interference colours, optical activity). */
+    bool coherent;
     /* POLARIZER and RETARDER (prismfarm extensions, docs/scene-format.md): "angle" of the
      * transmission or fast axis in degrees from the surface's u direction (0), and the
      * retarder's "retardance" in degrees (90: a quarter-wave plate). A retarder is one of

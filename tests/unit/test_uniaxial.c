@@ -778,6 +778,14 @@ static void test_furnace(void **state)
     /* Dispersive: the hero's termination and the fan-out's pick add spectral noise only. */
     furnace("\"string crystal\" \"calcite\"", "", 64, 0.005);
     furnace("\"string crystal\" \"calcite\"", "\"string dispersion\" \"fanout\"", 64, 0.005);
+    /* Coherent (render/crystal_coherent.h; polarisation on): both waves as one ray, every
+     * internal reflection converting between them in one Jones matrix, the branches chosen by
+     * the unpolarised transmittance and divided out of the carrier. */
+    furnace("\"float o.eta\" [ 1.6584 ] \"float e.eta\" [ 1.4864 ] \"bool coherent\" true", "", 16,
+            1e-3);
+    furnace("\"string crystal\" \"quartz\" \"bool coherent\" true", "", 16, 1e-3);
+    furnace("\"string crystal\" \"calcite\" \"bool coherent\" true",
+            "\"string dispersion\" \"fanout\"", 16, 0.005);
 }
 
 /* A tourmaline plate 1 mm thick at normal incidence with its axis in the plate (the e-wave
