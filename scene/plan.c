@@ -700,7 +700,12 @@ static int decide_photon_params(plan_t *p, const scene_t *s, vec3_t lo, vec3_t h
     double aim = 0.5 * vec3_length(vec3_sub(hi, lo));
     vec3_t eye = transform_point(&s->camera.camera_to_world, vec3_make(0, 0, 0));
     double d = fmax(vec3_length(vec3_sub(centre, eye)), aim);
-    int short_side = rs->xres < rs->yres ? rs->xres : rs->yres;
+    /* A crop renders part of the full film with the full film's pixels (scene.h), so the
+     * footprint, and with it the photon pass, is the full film's: the same photons for a crop
+     * as for the whole image, whose pixels the crop's must equal. */
+    const int fx = rs->full_xres ? rs->full_xres : rs->xres;
+    const int fy = rs->full_yres ? rs->full_yres : rs->yres;
+    int short_side = fx < fy ? fx : fy;
     double footprint = 2.0 * d * tan(0.5 * s->camera.fov_deg * PF_PI / 180.0) / short_side;
     double radius = PLAN_GATHER_PIXELS * footprint;
     double rmin = PLAN_RADIUS_MIN * s->scene_radius, rmax = PLAN_RADIUS_MAX * s->scene_radius;

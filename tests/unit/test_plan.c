@@ -432,6 +432,30 @@ static void test_gather_radius_one_footprint(void **state)
     loaded_free(&l);
 }
 
+/* A cropped film renders the full film's pixels (scene.h: same camera, same random numbers), so
+ * its photon pass must be the full film's too: sized from the cropped image, a quarter crop of
+ * volumetric-caustic got 110000 photons and a 4x radius instead of 1.74 million, and its pixels
+ * were not the full render's. */
+static void test_crop_keeps_photon_pass(void **state)
+{
+    (void)state;
+    static char text[8192], cropped[8192];
+    scene_text(text, sizeof text, "", FLOOR_AT(0) GLASS_SPHERE POINT_ABOVE);
+    const char *film = "Film \"rgb\"";
+    const char *at = strstr(text, film);
+    assert_non_null(at);
+    snprintf(cropped, sizeof cropped, "%.*s%s \"float cropwindow\" [ 0 0.5 0.5 1 ]%s",
+             (int)(at - text), text, film, at + strlen(film));
+    loaded_t full = load("full.pbrt", text, NULL), crop = load("crop.pbrt", cropped, NULL);
+    assert_int_equal(crop.scene->settings.xres, 12); /* the crop did take */
+    assert_true(on(&full, PLAN_PHOTON) && on(&crop, PLAN_PHOTON));
+    assert_int_equal(plan_choice(crop.plan).photons, plan_choice(full.plan).photons);
+    assert_true(plan_choice(crop.plan).radius == plan_choice(full.plan).radius);
+    assert_int_equal(crop.scene->settings.photon.photons, full.scene->settings.photon.photons);
+    loaded_free(&full);
+    loaded_free(&crop);
+}
+
 /* A glossy receiver (coated diffuse, rough conductor) under the glass receives its caustic as a
  * diffuse one does (the photon map stores L S+ G photons with their directions), so the spot
  * light behind glass needs photons there too. pbrt-v4's light-path integrators (bdpt, mlt,
@@ -897,6 +921,7 @@ int main(void)
         cmocka_unit_test(test_every_shipped_scene),
         cmocka_unit_test(test_point_light_behind_glass),
         cmocka_unit_test(test_gather_radius_one_footprint),
+        cmocka_unit_test(test_crop_keeps_photon_pass),
         cmocka_unit_test(test_glossy_receiver_and_bdpt),
         cmocka_unit_test(test_media_keep_camera_pass),
         cmocka_unit_test(test_blocked_light),
