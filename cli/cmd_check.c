@@ -50,7 +50,8 @@ int cmd_check(int argc, char **argv)
     if (parsed != CLI_ARGS_GO)
         return parsed;
     if (argc - first != 1) {
-        fprintf(stderr, "prismfarm check: %s\n", first == argc ? "no scene given" : "one scene at a time");
+        fprintf(stderr, "prismfarm check: %s\n",
+                first == argc ? "no scene given" : "one scene at a time");
         usage(stderr, opts);
         return 2;
     }
@@ -68,7 +69,11 @@ int cmd_check(int argc, char **argv)
     if (!desc)
         warnings_add_text(errors, err.msg);
     scene_t *scene = NULL;
-    /* A scene with refusals may miss what was refused: loading it would report the holes. */
+    /* A scene with refusals may miss what was refused: loading it would report the holes.
+     * Its materials' parameters, which their classes read when the scene loads, are read all
+     * the same, so their refusals come in the same look. */
+    if (desc && warnings_count(errors) > 0 && scene_load_check_materials(desc, errors, &err) != 0)
+        warnings_add_text(errors, err.msg);
     if (desc && warnings_count(errors) == 0) {
         scene_overrides_t ov = {.seed = -1};
         scene = scene_load(desc, &ov, &err);
@@ -84,7 +89,8 @@ int cmd_check(int argc, char **argv)
         json_object_set_new(o, "renders", json_boolean(renders));
         json_object_set_new(o, "errors", lines_json(errors));
         json_object_set_new(o, "warnings", lines_json(warnings));
-        json_object_set_new(o, "warnings_dropped", json_integer((json_int_t)warnings_dropped(warnings)));
+        json_object_set_new(o, "warnings_dropped",
+                            json_integer((json_int_t)warnings_dropped(warnings)));
         if (cli_json_print(o, JSON_INDENT(2)) != 0) {
             fprintf(stderr, "prismfarm check: cannot write JSON\n");
             rc = 1;

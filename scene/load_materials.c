@@ -2,7 +2,9 @@
 
 #include "load_textures.h"
 #include "material_class.h"
-#include "microfacet.h"
+#include "material_params.h"
+
+#include "pbrt_parser.h"
 
 #include <stdio.h>
 #include <string.h>
@@ -19,50 +21,81 @@ int load_materials_for_shape(loader_t *L, int idx, const transform_t *to_world, 
     return scene_add_material(L->sc, &m, err);
 }
 
+/* pbrt-v4's "displacement" and "normalmap" of every material but mix and interface (its
+ * BumpMap and NormalMap; the normal map wins when both are given, as in pbrt-v4). */
+static int surface_maps(material_params_t *mp, material_t *m)
+{
+    if (mp->dm->kind == MATERIAL_MIX || mp->dm->kind == MATERIAL_INTERFACE)
+        return 0;
+    scene_float_input_t displacement;
+    const char *normalmap;
+    if (material_params_float(mp, "displacement", 0.0, &displacement) != 0 ||
+        params_get_string(mp->ps, "normalmap", NULL, &normalmap, mp->err) != 0)
+        return -1;
+    const param_t *np = params_find(mp->ps, "normalmap");
+    const char *path = material_params_file(mp, np);
+    if (normalmap && !path)
+        return pbrt_error(mp->err, np->loc, "\"string normalmap\" names no file");
+    if (path && !(m->normalmap = load_textures_normal_map(mp->L, path, np->loc, mp->err)))
+        return -1;
+    if (!m->normalmap && displacement.texture >= 0)
+        m->displacement = mp->L->tex[displacement.texture];
+    return 0;
+}
+
+/* One material: its class reads its parameters and loads it, then what every material shares;
+ * a parameter nothing read is refused, as the parser refuses any other directive's. */
+static int load_one(loader_t *L, const scene_material_t *dm, err_t *err)
+{
+    material_t m = {0};
+    if (dm->name) {
+        snprintf(m.name, sizeof m.name, "%s", dm->name);
+        m.named = 1;
+    } else if (dm->loc.file && dm->loc.line > 0) {
+        const char *base = strrchr(dm->loc.file, '/');
+        snprintf(m.name, sizeof m.name, "%s:%d", base ? base + 1 : dm->loc.file, dm->loc.line);
+    } else {
+        snprintf(m.name, sizeof m.name, "(unnamed)");
+    }
+    m.remaproughness = 1;
+    m.mix[0] = m.mix[1] = -1;
+    /* The class loads its own inputs; uniaxial and subsurface set their kind to dielectric
+     * (material_kind.h). */
+    m.kind = dm->kind;
+    params_t *none = NULL;
+    if (!dm->params) {
+        char context[64];
+        snprintf(context, sizeof context, "Material \"%s\"", material_kind_name(dm->kind));
+        if (!(none = params_new(context, err)))
+            return -1;
+    }
+    material_params_t mp = {
+        .L = L, .dm = dm, .ps = dm->params ? dm->params : none, .name = m.name, .err = err};
+    const material_class_t *c = material_class_of(dm->kind);
+    int rc = (c && c->load && c->load(&mp, &m)) || surface_maps(&mp, &m) ||
+                     params_check_unused(mp.ps, err) || scene_add_material(L->sc, &m, err) < 0
+                 ? -1
+                 : 0;
+    material_params_finish(&mp);
+    params_destroy(&none);
+    return rc;
+}
+
 int load_materials(loader_t *L, err_t *err)
 {
-    const scene_desc_t *d = L->desc;
-    for (size_t i = 0; i < d->nmaterials; i++) {
-        const scene_material_t *dm = &d->materials[i];
-        material_t m = {0};
-        if (dm->name) {
-            snprintf(m.name, sizeof m.name, "%s", dm->name);
-            m.named = 1;
-        } else if (dm->loc.file && dm->loc.line > 0) {
-            const char *base = strrchr(dm->loc.file, '/');
-            snprintf(m.name, sizeof m.name, "%s:%d", base ? base + 1 : dm->loc.file, dm->loc.line);
-        } else {
-            snprintf(m.name, sizeof m.name, "(unnamed)");
-        }
-        m.remaproughness = dm->remaproughness;
-        m.mix[0] = m.mix[1] = -1;
-        /* The class loads its own inputs; uniaxial and subsurface set their kind to
-         * dielectric (material_kind.h). */
-        m.kind = dm->kind;
-        const material_class_t *c = material_class_of(dm->kind);
-        if (c && c->load && c->load(L, dm, &m, err))
+    for (size_t i = 0; i < L->desc->nmaterials; i++)
+        if (load_one(L, &L->desc->materials[i], err) != 0)
             return -1;
-        /* A thin film on smooth glass or metal (the parser refuses one on a rough surface). */
-        if (dm->film_thickness > 0.0 &&
-            (dm->kind == MATERIAL_DIELECTRIC || dm->kind == MATERIAL_CONDUCTOR)) {
-            m.film_thickness = dm->film_thickness;
-            m.film_ior = ior_constant(dm->film_eta);
-        }
-        /* Smooth everywhere: constant roughness that pbrt-v4 calls effectively smooth. A
-         * roughness texture may still be smooth at a hit; render decides there. */
-        if ((m.kind == MATERIAL_CONDUCTOR || m.kind == MATERIAL_DIELECTRIC) &&
-            dm->uroughness.texture < 0 && dm->vroughness.texture < 0) {
-            microfacet_t mf =
-                microfacet_make(dm->uroughness.value, dm->vroughness.value, dm->remaproughness);
-            m.smooth = microfacet_smooth(&mf);
-            m.rough = !m.smooth;
-        }
-        if (dm->normalmap && !(m.normalmap = load_textures_normal_map(L, dm, err)))
-            return -1;
-        if (!m.normalmap && dm->displacement.texture >= 0)
-            m.displacement = L->tex[dm->displacement.texture];
-        if (scene_add_material(L->sc, &m, err) < 0)
-            return -1;
+    return 0;
+}
+
+int load_materials_check(loader_t *L, warnings_t *refusals, err_t *err)
+{
+    for (size_t i = 0; i < L->desc->nmaterials; i++) {
+        err_t why = {{0}};
+        if (load_one(L, &L->desc->materials[i], &why) != 0 &&
+            warnings_add_text(refusals, why.msg) != 0)
+            return err_set(err, "out of memory");
     }
     return 0;
 }

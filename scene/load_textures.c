@@ -159,22 +159,20 @@ static int load_image_textures(loader_t *L, image_job_t *jobs, size_t n, err_t *
     return 0;
 }
 
-const texture_t *load_textures_normal_map(loader_t *L, const scene_material_t *dm, err_t *err)
+const texture_t *load_textures_normal_map(loader_t *L, const char *path, pbrt_loc_t at, err_t *err)
 {
     load_encoding_t enc;
     load_images_encoding_parse("linear", &enc);
     int w, h;
     float *rgb = NULL, *alpha;
-    int charged = loader_budget_texels_header(L, dm->normalmap, err);
-    if (charged < 0 || load_images_read(dm->normalmap, &enc, &w, &h, &rgb, &alpha, err)) {
-        err_prefix(err, "%s:%d:%d: normalmap: ", dm->normalmap_loc.file, dm->normalmap_loc.line,
-                   dm->normalmap_loc.col);
+    int charged = loader_budget_texels_header(L, path, err);
+    if (charged < 0 || load_images_read(path, &enc, &w, &h, &rgb, &alpha, err)) {
+        err_prefix(err, "%s:%d:%d: normalmap: ", at.file, at.line, at.col);
         return NULL;
     }
     free(alpha);
     if (!charged && loader_budget_texels(L, w, h, err)) {
-        err_prefix(err, "%s:%d:%d: normalmap: ", dm->normalmap_loc.file, dm->normalmap_loc.line,
-                   dm->normalmap_loc.col);
+        err_prefix(err, "%s:%d:%d: normalmap: ", at.file, at.line, at.col);
         free(rgb);
         return NULL;
     }

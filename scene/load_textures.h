@@ -7,9 +7,9 @@
 
 #include "loader.h"
 
-/* A material's "normalmap": the image read linear (pbrt-v4 reads normal maps with
- * ColorEncoding::Linear), as a texture the scene owns. */
-const texture_t *load_textures_normal_map(loader_t *L, const scene_material_t *dm, err_t *err);
+/* A material's "normalmap", the image at path (named at at), read linear (pbrt-v4 reads normal
+ * maps with ColorEncoding::Linear), as a texture the scene owns. */
+const texture_t *load_textures_normal_map(loader_t *L, const char *path, pbrt_loc_t at, err_t *err);
 
 /* The scene's textures in file order, its image textures made beforehand on the pool
  * (load_image_textures): the same textures, and the same first failure, for any threads. */

@@ -2,8 +2,8 @@
  * pbrt-v4's Material classes (materials.h: each keeps its Create and its GetBxDF together):
  * its loading from the scene description into a material_t and its BSDF at a hit. Each class
  * lives in its own file, scene/material_<name>.c, and is registered by one line of
- * MATERIAL_CLASS_LIST; its scene-file name is material_kind.h's. The parser's reading of its
- * parameters stays in scenefile/pbrt_materials.c (the layers: scenefile/ cannot see the scene).
+ * MATERIAL_CLASS_LIST; its scene-file name is material_kind.h's. Its load reads its own
+ * parameters, which the description keeps unread (scene_desc.h, scene_material_t).
  * The classes are constant data: no state, safe from any thread. */
 #ifndef PRISMFARM_MATERIAL_CLASS_H
 #define PRISMFARM_MATERIAL_CLASS_H
@@ -11,16 +11,16 @@
 #include "bsdf.h"
 #include "material_kind.h"
 #include "scene.h"
-#include "scene_desc.h"
 
-struct loader; /* loader.h, the loader's own: render/ sees only the classes' BSDFs */
+struct material_params; /* material_params.h, the loader's own: render/ sees only the BSDFs */
 
 typedef struct material_class {
-    /* Fills m from the description dm. The caller has set m's name, kind (dm's),
-     * remaproughness and mix (-1, -1), and completes m afterwards with what every material
-     * shares (a thin film, the smooth and rough flags, bump and normal maps). Returns 0, or -1
-     * with err naming dm's place in the scene file. NULL: nothing to load. */
-    int (*load)(struct loader *L, const scene_material_t *dm, material_t *m, err_t *err);
+    /* Reads the material's parameters (mp, material_params.h: pbrt-v4's Material::Create) and
+     * fills m. The caller has set m's name and kind (the description's), remaproughness (1) and
+     * mix (-1, -1), and completes m afterwards with what every material but mix and interface
+     * shares (its bump or normal map), then refuses the parameters nothing read. Returns 0, or
+     * -1 with mp->err naming the parameter's place in the scene file. NULL: no parameters. */
+    int (*load)(struct material_params *mp, material_t *m);
     /* Fills b's kind and the kind's own fields at sf for the n lanes' wavelengths; the caller
      * (render/shading.c, shading_bsdf) has set b's mode, lanes, microfacets and thin film.
      * NULL: the kind has no BSDF of its own (a mix is resolved before, an interface or a sheet

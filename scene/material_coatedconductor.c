@@ -3,18 +3,18 @@
 #include "material_class.h"
 #include "material_inputs.h"
 
-#include "loader.h"
+#include "material_params.h"
 
-static int load(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+static int load(material_params_t *mp, material_t *m)
 {
-    if (material_inputs_roughness(L, &dm->uroughness, &m->uroughness, err) ||
-        material_inputs_roughness(L, &dm->vroughness, &m->vroughness, err) ||
-        material_inputs_roughness(L, &dm->base_uroughness, &m->base_uroughness, err) ||
-        material_inputs_roughness(L, &dm->base_vroughness, &m->base_vroughness, err))
-        return -1;
-    return material_inputs_conductor(L, dm, m, err) ||
-                   material_inputs_ior(L->sc, &dm->ior, m->name, &m->ior, err) ||
-                   material_inputs_layer(L, dm, m, err)
+    scene_float_input_t u, v, bu, bv;
+    return material_inputs_load_conductor(mp, "conductor.", m) ||
+                   material_inputs_load_ior(mp, "interface.", &m->ior) ||
+                   material_inputs_load_roughness(mp, "interface.", &u, &v, &m->uroughness,
+                                                  &m->vroughness) ||
+                   material_inputs_load_roughness(mp, "conductor.", &bu, &bv, &m->base_uroughness,
+                                                  &m->base_vroughness) ||
+                   material_inputs_load_remap(mp, m) || material_inputs_load_layer(mp, m)
                ? -1
                : 0;
 }

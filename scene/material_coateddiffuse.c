@@ -3,16 +3,17 @@
 #include "material_class.h"
 #include "material_inputs.h"
 
-#include "loader.h"
+#include "material_params.h"
 
-static int load(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+static int load(material_params_t *mp, material_t *m)
 {
-    if (material_inputs_roughness(L, &dm->uroughness, &m->uroughness, err) ||
-        material_inputs_roughness(L, &dm->vroughness, &m->vroughness, err))
-        return -1;
-    return (m->reflectance = loader_spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) &&
-                   !material_inputs_ior(L->sc, &dm->ior, m->name, &m->ior, err) &&
-                   !material_inputs_layer(L, dm, m, err)
+    scene_float_input_t u, v;
+    return (m->reflectance = material_params_spectrum_texture(
+                mp, "reflectance", material_params_constant(0.5, mp->dm->loc), SPEC_REFLECTANCE)) &&
+                   !material_inputs_load_ior(mp, "", &m->ior) &&
+                   !material_inputs_load_roughness(mp, "", &u, &v, &m->uroughness,
+                                                   &m->vroughness) &&
+                   !material_inputs_load_remap(mp, m) && !material_inputs_load_layer(mp, m)
                ? 0
                : -1;
 }

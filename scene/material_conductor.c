@@ -3,15 +3,17 @@
 #include "material_class.h"
 #include "material_inputs.h"
 
-#include "loader.h"
+#include "material_params.h"
 
-static int load(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+static int load(material_params_t *mp, material_t *m)
 {
-    return material_inputs_roughness(L, &dm->uroughness, &m->uroughness, err) ||
-                   material_inputs_roughness(L, &dm->vroughness, &m->vroughness, err) ||
-                   material_inputs_conductor(L, dm, m, err)
-               ? -1
-               : 0;
+    scene_float_input_t u, v;
+    if (material_inputs_load_conductor(mp, "", m) ||
+        material_inputs_load_roughness(mp, "", &u, &v, &m->uroughness, &m->vroughness) ||
+        material_inputs_load_remap(mp, m) || material_inputs_load_film(mp, m))
+        return -1;
+    material_inputs_smoothness(m, &u, &v);
+    return 0;
 }
 
 static void bsdf(const material_t *m, const surface_t *sf, const double *lambda, int n, bsdf_t *b)

@@ -2,11 +2,12 @@
 #include "material_class.h"
 #include "material_inputs.h"
 
-#include "loader.h"
+#include "material_params.h"
 
-static int load(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+static int load(material_params_t *mp, material_t *m)
 {
-    return (m->reflectance = loader_spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err))
+    return (m->reflectance = material_params_spectrum_texture(
+                mp, "reflectance", material_params_constant(0.5, mp->dm->loc), SPEC_REFLECTANCE))
                ? 0
                : -1;
 }

@@ -3,16 +3,18 @@
 #include "material_class.h"
 #include "material_inputs.h"
 
-#include "loader.h"
+#include "material_params.h"
 
-static int load(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+static int load(material_params_t *mp, material_t *m)
 {
-    m->scale = dm->scale;
-    return (m->reflectance = loader_spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err)) &&
-                   (m->transmittance =
-                        loader_spectrum_input(L, &dm->transmittance, SPEC_REFLECTANCE, err))
-               ? 0
-               : -1;
+    const pbrt_loc_t loc = mp->dm->loc;
+    if (!(m->reflectance = material_params_spectrum_texture(
+              mp, "reflectance", material_params_constant(0.25, loc), SPEC_REFLECTANCE)) ||
+        !(m->transmittance = material_params_spectrum_texture(
+              mp, "transmittance", material_params_constant(0.25, loc), SPEC_REFLECTANCE)) ||
+        params_get_float(mp->ps, "scale", 1.0, &m->scale, mp->err) != 0)
+        return -1;
+    return m->scale >= 0.0 ? 0 : material_params_range(mp, "scale", m->scale, 0.0, 1.0);
 }
 
 static void bsdf(const material_t *m, const surface_t *sf, const double *lambda, int n, bsdf_t *b)

@@ -3,39 +3,70 @@
 #include "material_class.h"
 #include "material_inputs.h"
 
-#include "loader.h"
+#include "material_params.h"
+
+#include "pbrt_parser.h"
 
 #include "hair.h"
 
 #include <math.h>
 
-/* pbrt-v4 HairMaterial: the fibre's numbers and its absorption's source. Constant melanin
- * concentrations become one absorption spectrum, the uplift of pbrt-v4's RGB sum
- * (SigmaAFromConcentration); textured ones weigh each pigment's own spectrum per hit. */
-static int load(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+/* pbrt-v4 HairMaterial::Create: the absorption from "sigma_a", else from "reflectance" (or its
+ * older name "color"), else from the melanin concentrations, brown hair (eumelanin 1.3) when
+ * none is given; what the first given one overrides is ignored with a warning, as in pbrt-v4.
+ * Constant melanin concentrations become one absorption spectrum, the uplift of pbrt-v4's RGB
+ * sum (SigmaAFromConcentration); textured ones weigh each pigment's own spectrum per hit. */
+static int load(material_params_t *mp, material_t *m)
 {
-    if (!(m->hair.eta = loader_float_input(L, &dm->hair_eta, err)) ||
-        !(m->hair.beta_m = loader_float_input(L, &dm->beta_m, err)) ||
-        !(m->hair.beta_n = loader_float_input(L, &dm->beta_n, err)) ||
-        !(m->hair.alpha = loader_float_input(L, &dm->hair_alpha, err)))
+    params_t *ps = mp->ps;
+    const pbrt_loc_t loc = mp->dm->loc;
+    param_t *sa = params_find(ps, "sigma_a"), *refl = params_find(ps, "reflectance");
+    if (!refl)
+        refl = params_find(ps, "color");
+    param_t *eu = params_find(ps, "eumelanin"), *ph = params_find(ps, "pheomelanin");
+    const param_t *given = sa ? sa : refl ? refl : NULL;
+    const param_t *other[3] = {refl, eu, ph};
+    for (int i = sa ? 0 : 1; given && i < 3; i++)
+        if (other[i] && warnings_add(mp->L->sc->warnings, other[i]->loc,
+                                     "Material \"hair\": \"%s\" is ignored since \"%s\" is given",
+                                     other[i]->name, given->name))
+            return pbrt_error(mp->err, other[i]->loc, "out of memory");
+    const bool melanin = eu || ph;
+    scene_float_input_t eta;
+    if (material_params_float(mp, "eta", 1.55, &eta) != 0)
         return -1;
-    if (dm->hair_from == SCENE_HAIR_SIGMA_A)
-        return (m->hair.sigma_a = loader_spectrum_input(L, &dm->sigma_a, SPEC_UNBOUNDED, err)) ? 0
-                                                                                               : -1;
-    if (dm->hair_from == SCENE_HAIR_REFLECTANCE)
-        return (m->hair.reflectance =
-                    loader_spectrum_input(L, &dm->reflectance, SPEC_REFLECTANCE, err))
+    if (eta.texture < 0 && !(eta.value > 0.0))
+        return material_params_positive(mp, "eta", eta.value);
+    scene_spectrum_input_t sigma_a, reflectance;
+    scene_float_input_t ce, cp;
+    if (material_params_spectrum_input(mp, "sigma_a", material_params_constant(0.0, loc),
+                                       SPEC_UNBOUNDED, &sigma_a) ||
+        material_params_spectrum_input(mp, refl ? refl->name : "reflectance",
+                                       material_params_constant(0.5, loc), SPEC_REFLECTANCE,
+                                       &reflectance) ||
+        material_params_float(mp, "eumelanin", melanin ? 0.0 : 1.3, &ce) ||
+        material_params_float(mp, "pheomelanin", 0.0, &cp) ||
+        !(m->hair.eta = loader_float_input(mp->L, &eta, mp->err)) ||
+        !(m->hair.beta_m = material_params_float_texture(mp, "beta_m", 0.3)) ||
+        !(m->hair.beta_n = material_params_float_texture(mp, "beta_n", 0.3)) ||
+        !(m->hair.alpha = material_params_float_texture(mp, "alpha", 2.0)))
+        return -1;
+    loader_t *L = mp->L;
+    err_t *err = mp->err;
+    if (sa)
+        return (m->hair.sigma_a = loader_spectrum_input(L, &sigma_a, SPEC_UNBOUNDED, err)) ? 0 : -1;
+    if (refl)
+        return (m->hair.reflectance = loader_spectrum_input(L, &reflectance, SPEC_REFLECTANCE, err))
                    ? 0
                    : -1;
     scene_spectrum_input_t in = {.texture = -1,
-                                 .spectrum = {.kind = SCENE_SPECTRUM_RGB, .loc = dm->loc}};
-    if (dm->eumelanin.texture < 0 && dm->pheomelanin.texture < 0) {
-        hair_sigma_a_from_concentration(dm->eumelanin.value, dm->pheomelanin.value,
-                                        in.spectrum.rgb);
+                                 .spectrum = {.kind = SCENE_SPECTRUM_RGB, .loc = loc}};
+    if (ce.texture < 0 && cp.texture < 0) {
+        hair_sigma_a_from_concentration(ce.value, cp.value, in.spectrum.rgb);
         return (m->hair.sigma_a = loader_spectrum_input(L, &in, SPEC_UNBOUNDED, err)) ? 0 : -1;
     }
-    if (!(m->hair.eumelanin = loader_float_input(L, &dm->eumelanin, err)) ||
-        !(m->hair.pheomelanin = loader_float_input(L, &dm->pheomelanin, err)))
+    if (!(m->hair.eumelanin = loader_float_input(L, &ce, err)) ||
+        !(m->hair.pheomelanin = loader_float_input(L, &cp, err)))
         return -1;
     hair_sigma_a_from_concentration(1.0, 0.0, in.spectrum.rgb);
     if (!(m->hair.eu_sigma = loader_spectrum_input(L, &in, SPEC_UNBOUNDED, err)))

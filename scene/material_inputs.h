@@ -12,31 +12,78 @@
 #include "scene.h"
 #include "scene_desc.h"
 
-struct loader; /* loader.h: the loading parts are the loader's (material_class.h) */
+#include <stdbool.h>
 
-/* ---- loading ---- */
+struct material_params; /* material_params.h: the loading parts are the loader's */
+
+/* ---- loading: reading a class's parameters (material_params.h) into the material_t ---- */
+
+/* An index of refraction as a scene writes it (a desc-form value, checked; material_inputs_ior
+ * makes the model). */
+typedef enum scene_ior_kind {
+    SCENE_IOR_SPECTRUM,  /* "float eta" 1.5 or "spectrum eta" "glass-BK7" or (lambda, n) pairs */
+    SCENE_IOR_GLASS,     /* extension "string glass" "N-BK7": a catalogue name */
+    SCENE_IOR_SELLMEIER, /* extension "float sellmeier" [B1 C1 B2 C2 ...], C in um^2 */
+    SCENE_IOR_CAUCHY,    /* extension "float cauchy" [A B]: n = A + B / lambda_um^2 */
+} scene_ior_kind_t;
+
+typedef struct scene_ior {
+    scene_ior_kind_t kind;
+    scene_spectrum_t spectrum; /* SPECTRUM */
+    const char *glass;         /* GLASS */
+    size_t nterms;             /* SELLMEIER: number of (B, C) pairs */
+    const double *sellmeier;   /* SELLMEIER: B1 C1 B2 C2 ... */
+    double cauchy[2];          /* CAUCHY: A, B (B in um^2) */
+    pbrt_loc_t loc;
+} scene_ior_t;
+
+/* The index "<prefix>eta" (pbrt-v4; default 1.5) or prismfarm's "<prefix>glass",
+ * "<prefix>sellmeier", "<prefix>cauchy", at most one of them, as written. */
+int material_inputs_read_ior(struct material_params *mp, const char *prefix, scene_ior_t *out);
 
 /* The index of refraction in into *out; material names the material in messages. A tabulated
  * index's pairs are copied into a spectrum the scene owns (the model borrows them). */
 int material_inputs_ior(scene_t *sc, const scene_ior_t *in, const char *material, ior_model_t *out,
                         err_t *err);
 
-/* A roughness input: NULL when it is the constant 0 (the smooth case needs no texture). */
-int material_inputs_roughness(struct loader *L, const scene_float_input_t *in,
-                              const texture_t **out, err_t *err);
+/* Both: "<prefix>eta" or its forms into *out. */
+int material_inputs_load_ior(struct material_params *mp, const char *prefix, ior_model_t *out);
 
-/* A conductor's eta and k (or its reflectance, pbrt-v4's alternative); a textured eta or k
- * fails. */
-int material_inputs_conductor(struct loader *L, const scene_material_t *dm, material_t *m,
-                              err_t *err);
+/* pbrt-v4's roughness: "<prefix>uroughness" and "<prefix>vroughness" over "<prefix>roughness"
+ * (0), none negative, into *u and *v as written (for material_inputs_smoothness) and into the
+ * textures *tu and *tv (NULL for the constant 0: the smooth case needs no texture). */
+int material_inputs_load_roughness(struct material_params *mp, const char *prefix,
+                                   scene_float_input_t *u, scene_float_input_t *v,
+                                   const texture_t **tu, const texture_t **tv);
 
-/* A coating's medium (pbrt-v4's LayeredBxDF): thickness, g, albedo, maxdepth, nsamples. */
-int material_inputs_layer(struct loader *L, const scene_material_t *dm, material_t *m, err_t *err);
+/* "bool remaproughness" (true) into m. */
+int material_inputs_load_remap(struct material_params *mp, material_t *m);
 
-/* A crystal's indices (a uniaxial material's, a retarder plate's): the catalogue's, or the
- * given ones, which replace them. */
-int material_inputs_crystal(struct loader *L, const scene_material_t *dm, material_t *m,
-                            err_t *err);
+/* m->smooth and m->rough for a constant roughness (u, v): what pbrt-v4 calls effectively smooth
+ * (the delta code everywhere) or not (nowhere); neither when a texture decides per hit. */
+void material_inputs_smoothness(material_t *m, const scene_float_input_t *u,
+                                const scene_float_input_t *v);
+
+/* A conductor's complex index ("<prefix>eta", "<prefix>k": default metal-Cu) or its
+ * "reflectance", pbrt-v4's alternative (not both); a textured eta or k fails. */
+int material_inputs_load_conductor(struct material_params *mp, const char *prefix, material_t *m);
+
+/* A coating's medium (pbrt-v4's LayeredBxDF): "thickness" (0.01), "g" (0), "albedo" (0),
+ * "maxdepth" (10), "nsamples" (1). */
+int material_inputs_load_layer(struct material_params *mp, material_t *m);
+
+/* prismfarm's thin film on smooth glass or metal: "filmthickness" in nm (0: none) of index
+ * "filmeta" (1.33). */
+int material_inputs_load_film(struct material_params *mp, material_t *m);
+
+/* Whether the parameters name a crystal or an "o." or "e." index (a retarder's plate mode). */
+bool material_inputs_names_crystal(struct material_params *mp);
+
+/* A crystal's principal indices (a uniaxial material's, a retarder plate's): "string crystal"
+ * from the catalogue, or both indices with the "o." and "e." prefixes of
+ * material_inputs_read_ior, which replace the catalogue's; what names the material kind in
+ * messages. */
+int material_inputs_load_crystal(struct material_params *mp, const char *what, material_t *m);
 
 /* ---- at a hit ---- */
 

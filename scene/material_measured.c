@@ -1,31 +1,42 @@
 /* pbrt-v4's MeasuredMaterial: RGL's measured BSDF data (bsdf/measured.h) from a .bsdf file. */
 #include "material_class.h"
 
-#include "loader.h"
+#include "material_params.h"
 
 #include "files.h"
 #include "pbrt_parser.h"
 
 #include <stdlib.h>
 
-/* pbrt-v4's MeasuredMaterial: the .bsdf file, read once however many materials name it (as
- * pbrt-v4 does), its bytes bounded as any file a scene reads is. */
-static int load(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+/* pbrt-v4's MeasuredMaterial: "string filename", an RGL .bsdf file, confined and listed like
+ * every file a scene names when the scene was parsed (so a bundle carries it), read here once
+ * however many materials name it (as pbrt-v4 does), its bytes bounded as any file a scene
+ * reads is. */
+static int load(material_params_t *mp, material_t *m)
 {
-    if ((m->measured = scene_find_measured(L->sc, dm->filename)))
+    const char *filename;
+    if (params_get_string(mp->ps, "filename", NULL, &filename, mp->err) != 0)
+        return -1;
+    const param_t *fp = params_find(mp->ps, "filename");
+    const char *path = material_params_file(mp, fp);
+    if (!filename || !*filename || !path)
+        return pbrt_error(mp->err, mp->dm->loc,
+                          "Material \"measured\" needs \"string filename\" (an RGL .bsdf file)");
+    if ((m->measured = scene_find_measured(mp->L->sc, path)))
         return 0;
-    const pbrt_loc_t at = dm->filename_loc;
+    const pbrt_loc_t at = fp->loc;
+    err_t *err = mp->err;
     uint8_t *bytes;
     size_t len;
     measured_t *md = NULL;
-    if (files_read(dm->filename, PBRT_FILE_BYTES_MAX, &bytes, &len, err) == 0) {
-        md = measured_new(bytes, len, dm->filename, err);
+    if (files_read(path, PBRT_FILE_BYTES_MAX, &bytes, &len, err) == 0) {
+        md = measured_new(bytes, len, path, err);
         free(bytes);
     }
     if (!md)
         return err_prefix(err, "%s:%d:%d: Material \"measured\": ", at.file, at.line, at.col);
     m->measured = md;
-    return scene_own_measured(L->sc, md, dm->filename, err);
+    return scene_own_measured(mp->L->sc, md, path, err);
 }
 
 static void bsdf(const material_t *m, const surface_t *sf, const double *lambda, int n, bsdf_t *b)

@@ -1,14 +1,34 @@
 /* pbrt-v4's MixMaterial: one of two named materials, the second with probability "amount",
  * chosen per hit (render/shading.h shading_resolve) before any BSDF is made. */
 #include "material_class.h"
+#include "material_params.h"
 
-#include "loader.h"
+#include "pbrt_parser.h"
 
-static int load(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+/* "string materials": two materials made by MakeNamedMaterial before the mix; "amount" (0.5). */
+static int load(material_params_t *mp, material_t *m)
 {
-    m->mix[0] = dm->mix[0];
-    m->mix[1] = dm->mix[1];
-    return (m->amount = loader_float_input(L, &dm->amount, err)) ? 0 : -1;
+    const param_t *p = params_find(mp->ps, "materials");
+    if (!p)
+        return pbrt_error(mp->err, mp->dm->loc,
+                          "mix: \"string materials\" (two named materials) is missing");
+    if (p->type != PARAM_STRING)
+        return params_wrong_type(mp->ps, p, "\"string materials\"", mp->err);
+    if (p->count != 2)
+        return pbrt_error(mp->err, p->loc,
+                          "expected 2 material names after \"string materials\", got %zu",
+                          p->count);
+    const scene_desc_t *d = mp->L->desc;
+    const int self = (int)(mp->dm - d->materials);
+    for (int i = 0; i < 2; i++) {
+        m->mix[i] = scene_desc_find_material(d, p->strings[i]);
+        if (m->mix[i] < 0 || m->mix[i] >= self)
+            return pbrt_error(mp->err, p->loc,
+                              "mix: named material \"%s\" is not defined (a MakeNamedMaterial must "
+                              "come before the mix that uses it)",
+                              p->strings[i]);
+    }
+    return (m->amount = material_params_float_texture(mp, "amount", 0.5)) ? 0 : -1;
 }
 
 const material_class_t material_mix = {.load = load};

@@ -3,11 +3,11 @@
 #include "material_class.h"
 #include "material_inputs.h"
 
-#include "loader.h"
+#include "material_params.h"
 
-static int load(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+static int load(material_params_t *mp, material_t *m)
 {
-    return material_inputs_ior(L->sc, &dm->ior, m->name, &m->ior, err);
+    return material_inputs_load_ior(mp, "", &m->ior);
 }
 
 static void bsdf(const material_t *m, const surface_t *sf, const double *lambda, int n, bsdf_t *b)

@@ -6,24 +6,64 @@
 #include "material_class.h"
 #include "material_inputs.h"
 
-#include "loader.h"
+#include "material_params.h"
 
-static int load(loader_t *L, const scene_material_t *dm, material_t *m, err_t *err)
+#include "pbrt_parser.h"
+
+#include <math.h>
+
+/* The crystal (material_inputs_load_crystal), "vector3 opticaxis" in the shape's object space
+ * ([0 0 1]), the absorption "float sigma_o", "sigma_e" in 1/mm (either given: both replace the
+ * catalogue's table) and "float mmperunit", the millimetres in a scene unit (1). */
+static int load(material_params_t *mp, material_t *m)
 {
+    params_t *ps = mp->ps;
+    err_t *err = mp->err;
+    if (material_inputs_load_crystal(mp, "uniaxial", m) != 0)
+        return -1;
+    param_t *axis;
+    if (params_get_array(ps, "opticaxis", PARAM_VECTOR3, &axis, err) != 0)
+        return -1;
+    double a[3] = {0.0, 0.0, 1.0};
+    if (axis) {
+        if (axis->count != 3)
+            return pbrt_error(err, axis->loc,
+                              "expected 3 numbers after \"vector3 opticaxis\", got %zu",
+                              axis->count);
+        const double *g = axis->numbers;
+        if (!(g[0] * g[0] + g[1] * g[1] + g[2] * g[2] > 0.0) || !isfinite(g[0] + g[1] + g[2]))
+            return pbrt_error(err, axis->loc,
+                              "\"vector3 opticaxis\" must be a finite non-zero vector");
+        a[0] = g[0];
+        a[1] = g[1];
+        a[2] = g[2];
+    }
+    const bool has_sigma = params_find(ps, "sigma_o") || params_find(ps, "sigma_e");
+    double sigma_o, sigma_e;
+    bool coherent;
+    if (params_get_float(ps, "sigma_o", 0.0, &sigma_o, err) ||
+        params_get_float(ps, "sigma_e", 0.0, &sigma_e, err) ||
+        params_get_float(ps, "mmperunit", 1.0, &m->mm_per_unit, err) ||
+        params_get_bool(ps, "coherent", false, &coherent, err) ||
+        material_params_range(mp, "sigma_o", sigma_o, 0.0, 1e6) ||
+        material_params_range(mp, "sigma_e", sigma_e, 0.0, 1e6) ||
+        material_params_range(mp, "mmperunit", m->mm_per_unit, 1e-12, 1e12))
+        return -1;
     m->kind = MATERIAL_DIELECTRIC;
     m->uniaxial = 1;
-    if (material_inputs_crystal(L, dm, m, err))
-        return -1;
-    if (dm->has_sigma) {
+    if (has_sigma) {
         /* Constant coefficients replace the catalogue's table. */
         m->crystal.absorption = (crystal_absorption_t){
-            .rows = 1, .lambda_nm = {550.0}, .o_per_mm = {dm->sigma_o}, .e_per_mm = {dm->sigma_e}};
+            .rows = 1, .lambda_nm = {550.0}, .o_per_mm = {sigma_o}, .e_per_mm = {sigma_e}};
     }
     m->ior = m->crystal.no;
-    m->optic_axis =
-        vec3_normalize(vec3_make(dm->optic_axis[0], dm->optic_axis[1], dm->optic_axis[2]));
-    m->mm_per_unit = dm->mm_per_unit;
-    m->coherent = dm->coherent;
+    m->optic_axis = vec3_normalize(vec3_make(a[0], a[1], a[2]));
+    /* "bool coherent" (false): the o and e waves cross the crystal as one ray, coherently
+     * (docs/physics.md §15.2: a thin plate's interference colours, optical activity). */
+    m->coherent = coherent;
+    /* Smooth everywhere (a crystal has no roughness). */
+    const scene_float_input_t zero = {-1, 0.0};
+    material_inputs_smoothness(m, &zero, &zero);
     return 0;
 }
 

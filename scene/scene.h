@@ -127,7 +127,7 @@ typedef struct material {
      * along the axis, turned by the crystal's optical activity (quartz) and retarded by the
      * linear birefringence of oblique incidence. 0: the axis in the plate, along sheet_angle. */
     int plate_axial;
-    /* pbrt-v4's SubsurfaceMaterial (scene/subsurface_load.h): a MATERIAL_DIELECTRIC (its ior
+    /* pbrt-v4's SubsurfaceMaterial (scene/material_subsurface.c): a MATERIAL_DIELECTRIC (its ior
      * and roughness are the boundary's) with a BSSRDF beneath, when table is not NULL: the
      * profile table for its (g, eta) (owned by the scene), the medium's coefficients per unit
      * length (sigma_a and sigma_s, else reflectance and mfp, which SubsurfaceFromDiffuse

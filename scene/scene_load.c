@@ -69,6 +69,27 @@ scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t
     return sc;
 }
 
+int scene_load_check_materials(const scene_desc_t *desc, warnings_t *refusals, err_t *err)
+{
+    scene_t *sc = scene_new(err);
+    if (!sc)
+        return -1;
+    loader_t L = {.desc = desc, .sc = sc};
+    L.tex = calloc(desc->ntextures ? desc->ntextures : 1, sizeof *L.tex);
+    texture_t *stand_in = NULL;
+    int r = L.tex && (sc->warnings = warnings_new(err)) ? 0 : err_set(err, "out of memory");
+    if (!r && (!(stand_in = texture_new_constant_value(0.5, err)) ||
+               scene_own_texture(sc, stand_in, err)))
+        r = -1;
+    for (size_t i = 0; !r && i < desc->ntextures; i++)
+        L.tex[i] = stand_in;
+    if (!r)
+        r = load_materials_check(&L, refusals, err);
+    free(L.tex);
+    scene_destroy(&sc);
+    return r;
+}
+
 scene_t *scene_load_file(const char *path, const scene_overrides_t *ov, err_t *err)
 {
     scene_desc_t *d =

@@ -17,6 +17,12 @@
 
 scene_t *scene_load(const scene_desc_t *desc, const scene_overrides_t *ov, err_t *err);
 
+/* Every material of desc read by its class (scene/material_<name>.c), each refusal added to
+ * refusals: what prismfarm check reports of a scene that did not parse cleanly, beside the
+ * parser's refusals (the textures stand in as constants; nothing else is loaded). -1 with err
+ * only when out of memory. */
+int scene_load_check_materials(const scene_desc_t *desc, warnings_t *refusals, err_t *err);
+
 /* Parses the file and loads it (the user's own files: whatever the scene names is read). */
 scene_t *scene_load_file(const char *path, const scene_overrides_t *ov, err_t *err);
 

@@ -120,15 +120,16 @@ static int param_directive(parser_t *P, const char *dir, pbrt_loc_t loc)
         goto done;
     } else if (!strcmp(dir, "Shape")) {
         rc = pbrt_state_need_world(P, dir, loc) || pbrt_shapes_read(P, ps, &type, loc) ? -1 : 0;
-    } else if (!strcmp(dir, "Material")) {
-        rc = pbrt_state_need_world(P, dir, loc) ||
-                     pbrt_materials_read(P, ps, &type, NULL, loc, type.loc)
-                 ? -1
-                 : 0;
-    } else if (!strcmp(dir, "MakeNamedMaterial")) {
+    } else if (!strcmp(dir, "Material") || !strcmp(dir, "MakeNamedMaterial")) {
         if (pbrt_state_need_world(P, dir, loc) != 0)
             goto done;
-        rc = pbrt_materials_read_named(P, ps, &type, loc);
+        rc = !strcmp(dir, "MakeNamedMaterial")
+                 ? pbrt_materials_read_named(P, ps, &type, loc)
+                 : pbrt_materials_read(P, ps, &type, NULL, loc, type.loc);
+        /* The scene holds the parameters: the material's class reads them, and refuses the
+         * ones it does not use, when the scene loads. */
+        keep = rc == 0;
+        goto done;
     } else if (!strcmp(dir, "AreaLightSource")) {
         rc =
             pbrt_state_need_world(P, dir, loc) || pbrt_lights_read_area(P, ps, &type, loc) ? -1 : 0;
@@ -771,7 +772,7 @@ static scene_desc_t *run(const char *name, const char *text, size_t len, const c
     pbrt_loc_t none = {main_name, 0, 0};
     P.scene->camera.loc = P.scene->film.loc = P.scene->sampler.loc = none;
     P.scene->integrator.loc = none;
-    P.scene->materials[0].loc = P.scene->materials[0].reflectance.spectrum.loc = none;
+    P.scene->materials[0].loc = none;
     P.main_name = main_name;
     int rc = text ? parse_buffer(&P, name, text, len)
                   : parse_file(&P, name, NULL, SCENE_FILE_MAIN, name);

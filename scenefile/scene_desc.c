@@ -162,18 +162,7 @@ scene_desc_t *scene_desc_new(err_t *err)
         scene_desc_destroy(&self);
         return NULL;
     }
-    scene_material_t *mat = &self->materials[m];
-    mat->kind = MATERIAL_DIFFUSE;
-    mat->reflectance.texture = mat->eta.texture = mat->k.texture = -1;
-    mat->uroughness.texture = mat->vroughness.texture = -1;
-    mat->base_uroughness.texture = mat->base_vroughness.texture = -1;
-    mat->transmittance.texture = mat->albedo.texture = -1;
-    mat->thickness.texture = mat->g.texture = mat->amount.texture = -1;
-    mat->displacement.texture = -1;
-    mat->mix[0] = mat->mix[1] = -1;
-    mat->remaproughness = true;
-    mat->reflectance.spectrum.kind = SCENE_SPECTRUM_CONSTANT;
-    mat->reflectance.spectrum.constant = 0.5;
+    self->materials[m].kind = MATERIAL_DIFFUSE; /* no parameters: its class's defaults */
     return self;
 }
 
@@ -183,6 +172,8 @@ void scene_desc_destroy(scene_desc_t **self_p)
         return;
     scene_desc_t *self = *self_p;
     params_destroy(&self->integrator.params);
+    for (size_t i = 0; i < self->nmaterials; i++)
+        params_destroy(&self->materials[i].params);
     for (size_t i = 0; i < self->nowned; i++)
         free(self->owned[i]);
     free(self->owned);

@@ -139,117 +139,33 @@ typedef struct scene_texture {
 
 /* ---- materials ---- */
 
-/* Where a hair's absorption comes from (pbrt-v4 HairMaterial, in its order of precedence). */
-typedef enum scene_hair_from {
-    SCENE_HAIR_SIGMA_A,     /* "sigma_a", per unit of the fibre's radius */
-    SCENE_HAIR_REFLECTANCE, /* "reflectance" (or "color"), by Chiang et al.'s inversion */
-    SCENE_HAIR_MELANIN,     /* "eumelanin", "pheomelanin" (neither given: eumelanin 1.3) */
-} scene_hair_from_t;
+/* What the parser made of a material's parameter while the scene was parsed, by one rule keyed
+ * on the parameter's declared type and name that knows no material (pbrt_materials.c): a
+ * "spectrum" given by a string (a spectrum file, read, confined and listed for the bundle, or a
+ * name the loader resolves), or a file named by a "string" parameter ("filename",
+ * "normalmap": confined, charged and listed, path the path to open). */
+typedef struct scene_material_resolved {
+    const char *param;         /* the parameter's name */
+    const char *path;          /* a file parameter's path to open; NULL for a spectrum */
+    scene_spectrum_t spectrum; /* a spectrum parameter's value */
+} scene_material_resolved_t;
 
-typedef enum scene_ior_kind {
-    SCENE_IOR_SPECTRUM,  /* "float eta" 1.5 or "spectrum eta" "glass-BK7" or (lambda, n) pairs */
-    SCENE_IOR_GLASS,     /* extension "string glass" "N-BK7": a catalogue name */
-    SCENE_IOR_SELLMEIER, /* extension "float sellmeier" [B1 C1 B2 C2 ...], C in um^2 */
-    SCENE_IOR_CAUCHY,    /* extension "float cauchy" [A B]: n = A + B / lambda_um^2 */
-} scene_ior_kind_t;
-
-typedef struct scene_ior {
-    scene_ior_kind_t kind;
-    scene_spectrum_t spectrum; /* SPECTRUM */
-    const char *glass;         /* GLASS */
-    size_t nterms;             /* SELLMEIER: number of (B, C) pairs */
-    const double *sellmeier;   /* SELLMEIER: B1 C1 B2 C2 ... */
-    double cauchy[2];          /* CAUCHY: A, B (B in um^2) */
-    pbrt_loc_t loc;
-} scene_ior_t;
-
+/* A material as the scene wrote it (pbrt-v4's Material and MakeNamedMaterial): its kind and
+ * its parameters unread. Its class reads them when the scene loads (scene/material_<name>.c,
+ * through scene/material_params.h), as pbrt-v4's Material::Create reads the
+ * ParameterDictionary that outlives its parse; the description names no material's fields. */
 typedef struct scene_material {
     material_kind_t kind;
     const char *name; /* MakeNamedMaterial name, or NULL for Material */
     pbrt_loc_t loc;
-    /* DIFFUSE (0.5), COATEDDIFFUSE (0.5), DIFFUSETRANSMISSION (0.25), or CONDUCTOR and
-     * COATEDCONDUCTOR when use_reflectance */
-    scene_spectrum_input_t reflectance;
-    /* CONDUCTOR and COATEDCONDUCTOR ("conductor.eta", "conductor.k"): eta, k (default
-     * metal-Cu-eta, metal-Cu-k) unless use_reflectance */
-    bool use_reflectance;
-    scene_spectrum_input_t eta, k;
-    /* CONDUCTOR and DIELECTRIC, and the coatings' interface ("interface.roughness" for
-     * COATEDCONDUCTOR): "roughness" sets both; 0 is a perfect mirror / smooth glass */
-    scene_float_input_t uroughness, vroughness;
-    /* COATEDCONDUCTOR: the conductor's "conductor.uroughness", "conductor.vroughness" */
-    scene_float_input_t base_uroughness, base_vroughness;
-    bool remaproughness; /* true */
-    /* DIELECTRIC, THINDIELECTRIC and the coatings' interface ("interface.eta" for
-     * COATEDCONDUCTOR): the index of refraction (default constant 1.5) */
-    scene_ior_t ior;
-    /* DIFFUSETRANSMISSION: "transmittance" (0.25), and "scale" (1) multiplying both */
-    scene_spectrum_input_t transmittance;
-    double scale;
-    /* COATEDDIFFUSE, COATEDCONDUCTOR: the medium between interface and base (pbrt-v4's
-     * LayeredBxDF): "thickness" (0.01), "albedo" (0), "g" (0), "maxdepth" (10),
-     * "nsamples" (1) */
-    scene_float_input_t thickness, g;
-    scene_spectrum_input_t albedo;
-    int maxdepth, nsamples;
-    /* MIX: the two named materials (indices into materials) and "amount" (0.5): the second
-     * is chosen with probability amount */
-    int mix[2];
-    scene_float_input_t amount;
-    /* Every material but mix and interface (pbrt-v4 BumpMap and NormalMap): "displacement"
-     * (a float texture; a constant displaces nothing) and "normalmap", the path of a
-     * tangent-space RGB image as opened (NULL: none), written at normalmap_loc. */
-    scene_float_input_t displacement;
-    const char *normalmap;
-    pbrt_loc_t normalmap_loc;
-    /* DIELECTRIC and CONDUCTOR, smooth (a prismfarm extension, docs/scene-format.md): a thin
-     * film on the surface, "filmthickness" in nm (0, the default: none) of index "filmeta"
-     * (1.33, soapy water), whose Airy reflectance colours the reflection (bsdf/delta.h). */
-    double film_thickness, film_eta;
-    /* UNIAXIAL (a prismfarm extension, docs/scene-format.md): "string crystal", a name of the
-     * crystal catalogue (optics/crystal.h; NULL: none); the ordinary and extraordinary indices
-     * "o.eta" / "o.glass" / "o.sellmeier" / "o.cauchy" and the same with "e." (has_o, has_e:
-     * given, replacing the catalogue's); "vector3 opticaxis" in the shape's object space
-     * ([0 0 1]); the absorption "float sigma_o", "sigma_e" in 1/mm (has_sigma: one given,
-     * replacing the catalogue's) and "float mmperunit", the millimetres in a scene unit (1). */
-    const char *crystal;
-    scene_ior_t ior_o, ior_e;
-    bool has_o, has_e, has_sigma;
-    double optic_axis[3];
-    double sigma_o, sigma_e, mm_per_unit;
-    /* "bool coherent" (false): the o and e waves cross the crystal as one ray, coherently
-     * (docs/physics.md §15.2: a thin plate's interference colours, optical activity). */
-    bool coherent;
-    /* POLARIZER and RETARDER (prismfarm extensions, docs/scene-format.md): "angle" of the
-     * transmission or fast axis in degrees from the surface's u direction (0), and the
-     * retarder's "retardance" in degrees (90: a quarter-wave plate). A retarder is one of
-     * (retarder_mode) 0: that retardance; 1: "retardation" in nm, a dispersion-free optical path
-     * difference; 2: a crystal plate (crystal, ior_o, ior_e above) of "thickness" micrometres
-     * with its optic axis along the angle (docs/physics.md §14.1). */
-    double sheet_angle, retardance;
-    /* MEASURED: "string filename", the RGL .bsdf file's path as opened (a confined parse: its
-     * checked real path), written at filename_loc; the loader reads it. */
-    const char *filename;
-    pbrt_loc_t filename_loc;
-    /* HAIR (pbrt-v4 HairMaterial): the absorption from sigma_a, reflectance (the field above)
-     * or eumelanin and pheomelanin, as hair_from says; "eta" (1.55), "beta_m" and "beta_n"
-     * (0.3), "alpha" in degrees (2). */
-    scene_hair_from_t hair_from;
-    scene_spectrum_input_t sigma_a;
-    scene_float_input_t eumelanin, pheomelanin, hair_eta, beta_m, beta_n, hair_alpha;
-    int retarder_mode;
-    double retardation, plate_thickness;
-    bool plate_axial; /* a crystal plate's "bool axial": cut across its optic axis */
-    /* SUBSURFACE (pbrt-v4 SubsurfaceMaterial): a dielectric boundary of index "eta" (sss_eta,
-     * 1.33) and roughness (the fields above) over a scattering medium: "sigma_a" and
-     * "sigma_s" (sigma_a above, sss_sigma_s; both or neither), else a named measured medium
-     * ("string name", read into them as RGB in 1/mm), else "reflectance" (the field above)
-     * with the mean free path "mfp" (sss_from_reflectance; mfp 1), else pbrt-v4's default
-     * skin-like coefficients; all times "scale" (the field above, 1); HG "g" (sss_g, 0, which a
-     * name forces). */
-    bool sss_from_reflectance;
-    scene_spectrum_input_t sss_sigma_s, sss_mfp;
-    double sss_eta, sss_g;
+    /* The directive's parameters (the description owns them; NULL for the default material):
+     * the loader marks what the class reads and refuses the rest (params_check_unused). */
+    params_t *params;
+    /* The textures defined before the material: the ones its "texture" parameters may name
+     * (a Texture must come before its use). */
+    size_t ntextures;
+    scene_material_resolved_t *resolved; /* in the description's memory */
+    size_t nresolved;
 } scene_material_t;
 
 /* ---- lights ---- */

@@ -21,6 +21,7 @@
 #include "mesh_import.h"
 #include "numeric_testutil.h"
 #include "pbrt_parser.h"
+#include "scene_load.h"
 
 /* Values in the scene files are short decimals parsed by strtod (correctly rounded) and
  * pushed through at most two 4x4 products of small integers: a few ulps, far below 1e-12. */
@@ -49,8 +50,14 @@ static void expect_error_named(const char *name, const char *text, const char *e
     err_t err = {{0}};
     scene_desc_t *s = pbrt_parse_string(text, strlen(text), name, &err);
     if (s) {
+        /* A material's parameters are read by its class when the scene loads (pbrt-v4's
+         * Material::Create): their errors come from the loader, in the same words. */
+        scene_t *sc = scene_load(s, NULL, &err);
         scene_desc_destroy(&s);
-        fail_msg("parsed but should have failed with: %s\n--\n%s", expected, text);
+        if (sc) {
+            scene_destroy(&sc);
+            fail_msg("parsed and loaded but should have failed with: %s\n--\n%s", expected, text);
+        }
     }
     if (strcmp(err.msg, expected) != 0)
         fail_msg("wrong message for\n%s\n  got:      %s\n  expected: %s", text, err.msg, expected);
@@ -144,8 +151,7 @@ static void test_defaults(void **state)
     assert_string_equal(s->camera.loc.file, "t.pbrt");
     assert_int_equal(s->nmaterials, 1);
     assert_int_equal(s->materials[0].kind, MATERIAL_DIFFUSE);
-    assert_int_equal(s->materials[0].reflectance.spectrum.kind, SCENE_SPECTRUM_CONSTANT);
-    testutil_assert_near(s->materials[0].reflectance.spectrum.constant, 0.5, TOL);
+    assert_null(s->materials[0].params); /* its class's defaults: reflectance 0.5 */
     scene_desc_destroy(&s);
 
     s = parse_text_ok("Film \"spectral\"\nSampler \"stratified\" \"integer xsamples\" 2 "
@@ -158,6 +164,75 @@ static void test_defaults(void **state)
 }
 
 /* ---- materials and textures ---- */
+
+/* A material's parameters are read by its class when the scene loads (scene/material_*.c):
+ * what they give is the loaded scene's material_t. */
+static scene_t *load_scene_ok(scene_desc_t *d)
+{
+    err_t err = {{0}};
+    scene_t *sc = scene_load(d, NULL, &err);
+    if (!sc)
+        fail_msg("did not load: %s", err.msg);
+    return sc;
+}
+
+/* Texture t at the middle of the uv square. */
+static double tex_at(const texture_t *t, double lambda)
+{
+    assert_non_null(t);
+    const texture_point_t at = {0.5, 0.5, {0, 0, 0}, {0, 0, 1}};
+    return texture_eval_at(t, &at, lambda);
+}
+
+/* The materials of data/scenes/materials.pbrt as pbrt-v4 reads their parameters: textures by
+ * name, RGB and sampled reflectances, every form of an index, conductors' defaults. */
+static void test_materials_loaded(void **state)
+{
+    (void)state;
+    scene_desc_t *d = parse_ok("data/scenes/materials.pbrt");
+    scene_t *sc = load_scene_ok(d);
+    assert_true(sc->nmaterials >= 14);
+    const material_t *m = sc->materials;
+    testutil_assert_near(tex_at(m[0].reflectance, 550), 0.5, 1e-12); /* pbrt-v4's default */
+    assert_int_equal(m[1].kind, MATERIAL_DIFFUSE);
+    /* "texture reflectance" "checks": the checkerboard, 1 and 0 */
+    const texture_point_t a = {0.01, 0.01, {0, 0, 0}, {0, 0, 1}};
+    const texture_point_t b = {0.13, 0.01, {0, 0, 0}, {0, 0, 1}};
+    assert_true(fabs(texture_eval_at(m[1].reflectance, &a, 550) -
+                     texture_eval_at(m[1].reflectance, &b, 550)) > 0.5);
+    assert_true(tex_at(m[2].reflectance, 460) > tex_at(m[2].reflectance, 640)); /* rgb, bluish */
+    testutil_assert_near(tex_at(m[3].reflectance, 500), 0.5, 1e-12); /* (lambda, value) pairs */
+    testutil_assert_near(tex_at(m[3].reflectance, 600), 0.7, 1e-12);
+    assert_true(m[4].named);
+    assert_string_equal(m[4].name, "bk7");
+    assert_int_equal(m[4].kind, MATERIAL_DIELECTRIC);
+    /* BK7 four ways: pbrt-v4's named spectrum, the catalogue, Sellmeier terms (n_d 1.5168) */
+    testutil_assert_near(ior_eval(&m[4].ior, 587.56), 1.5168, 2e-4);
+    testutil_assert_near(ior_eval(&m[5].ior, 587.56), 1.5168, 2e-4);
+    testutil_assert_near(ior_eval(&m[6].ior, 587.56), 1.5168, 2e-4);
+    testutil_assert_near(ior_eval(&m[7].ior, 500.0), 1.5046 + 0.0042 / 0.25, 1e-12); /* Cauchy */
+    testutil_assert_near(ior_eval(&m[8].ior, 500.0), 1.33, 1e-12);
+    testutil_assert_near(ior_eval(&m[9].ior, 500.0), 1.5, 1e-12); /* pbrt-v4's default eta */
+    assert_null(m[9].uroughness);
+    assert_true(m[9].smooth);
+    assert_int_equal(m[10].kind, MATERIAL_CONDUCTOR);
+    assert_non_null(m[10].eta); /* pbrt-v4's default, copper */
+    assert_non_null(m[10].k);
+    assert_null(m[10].reflectance);
+    assert_null(m[10].uroughness);
+    assert_true(m[10].remaproughness);
+    assert_true(spectrum_eval(m[11].eta, 650) != spectrum_eval(m[10].eta, 650)); /* gold */
+    testutil_assert_near(tex_at(m[11].uroughness, 550), 0.25, 1e-12); /* "texture roughness" */
+    testutil_assert_near(tex_at(m[11].vroughness, 550), 0.25, 1e-12);
+    assert_null(m[12].eta); /* "reflectance" instead */
+    assert_true(tex_at(m[12].reflectance, 650) > tex_at(m[12].reflectance, 450));
+    testutil_assert_near(tex_at(m[12].uroughness, 550), 0.1, 1e-12);
+    testutil_assert_near(tex_at(m[12].vroughness, 550), 0.2, 1e-12);
+    assert_false(m[12].remaproughness);
+    assert_int_equal(m[13].kind, MATERIAL_INTERFACE);
+    scene_destroy(&sc);
+    scene_desc_destroy(&d);
+}
 
 static void test_materials_and_textures(void **state)
 {
@@ -194,54 +269,17 @@ static void test_materials_and_textures(void **state)
     assert_int_equal(t[4].amount.texture, 1);
 
     assert_int_equal(s->nmaterials, 14);
-    const scene_material_t *m = s->materials;
-    assert_int_equal(m[1].kind, MATERIAL_DIFFUSE);
-    assert_int_equal(m[1].reflectance.texture, 0);
-    assert_null(m[1].name);
-    assert_int_equal(m[2].reflectance.spectrum.kind, SCENE_SPECTRUM_RGB);
-    testutil_assert_near(m[2].reflectance.spectrum.rgb[0], 0.2, TOL);
-    testutil_assert_near(m[2].reflectance.spectrum.rgb[2], 0.6, TOL);
-    const scene_spectrum_t *sp = &m[3].reflectance.spectrum;
-    assert_int_equal(sp->kind, SCENE_SPECTRUM_SAMPLED);
-    assert_int_equal(sp->count, 3);
-    testutil_assert_near(sp->lambda[2], 700, TOL);
-    testutil_assert_near(sp->value[1], 0.5, TOL);
-
-    assert_string_equal(m[4].name, "bk7");
-    assert_int_equal(m[4].kind, MATERIAL_DIELECTRIC);
-    assert_int_equal(m[4].ior.kind, SCENE_IOR_SPECTRUM);
-    assert_int_equal(m[4].ior.spectrum.kind, SCENE_SPECTRUM_NAMED);
-    assert_string_equal(m[4].ior.spectrum.name, "glass-BK7");
-    assert_int_equal(m[5].ior.kind, SCENE_IOR_GLASS);
-    assert_string_equal(m[5].ior.glass, "N-BK7");
-    assert_int_equal(m[6].ior.kind, SCENE_IOR_SELLMEIER);
-    assert_int_equal(m[6].ior.nterms, 3);
-    testutil_assert_near(m[6].ior.sellmeier[0], 1.03961212, TOL);
-    testutil_assert_near(m[6].ior.sellmeier[5], 103.560653, TOL);
-    assert_int_equal(m[7].ior.kind, SCENE_IOR_CAUCHY);
-    testutil_assert_near(m[7].ior.cauchy[0], 1.5046, TOL);
-    testutil_assert_near(m[7].ior.cauchy[1], 0.0042, TOL);
-    assert_int_equal(m[8].ior.spectrum.kind, SCENE_SPECTRUM_CONSTANT);
-    testutil_assert_near(m[8].ior.spectrum.constant, 1.33, TOL);
-    testutil_assert_near(m[9].ior.spectrum.constant, 1.5, TOL); /* pbrt-v4's default eta */
-    testutil_assert_near(m[9].uroughness.value, 0, TOL);
-
-    assert_int_equal(m[10].kind, MATERIAL_CONDUCTOR);
-    assert_false(m[10].use_reflectance);
-    assert_string_equal(m[10].eta.spectrum.name, "metal-Cu-eta"); /* pbrt-v4 default */
-    assert_string_equal(m[10].k.spectrum.name, "metal-Cu-k");
-    testutil_assert_near(m[10].uroughness.value, 0, TOL);
-    assert_true(m[10].remaproughness);
-    assert_string_equal(m[11].eta.spectrum.name, "metal-Au-eta");
-    assert_string_equal(m[11].k.spectrum.name, "metal-Au-k");
-    assert_int_equal(m[11].uroughness.texture, 1);
-    assert_int_equal(m[11].vroughness.texture, 1);
-    assert_true(m[12].use_reflectance);
-    testutil_assert_near(m[12].reflectance.spectrum.rgb[1], 0.8, TOL);
-    testutil_assert_near(m[12].uroughness.value, 0.1, TOL);
-    testutil_assert_near(m[12].vroughness.value, 0.2, TOL);
-    assert_false(m[12].remaproughness);
-    assert_int_equal(m[13].kind, MATERIAL_INTERFACE);
+    assert_int_equal(s->materials[1].kind, MATERIAL_DIFFUSE);
+    assert_null(s->materials[1].name);
+    assert_string_equal(s->materials[4].name, "bk7");
+    assert_int_equal(s->materials[4].kind, MATERIAL_DIELECTRIC);
+    assert_int_equal(s->materials[10].kind, MATERIAL_CONDUCTOR);
+    assert_int_equal(s->materials[13].kind, MATERIAL_INTERFACE);
+    /* A "spectrum" given by a string is read while parsing (a file would be listed). */
+    assert_int_equal(s->materials[4].nresolved, 1);
+    assert_string_equal(s->materials[4].resolved[0].param, "eta");
+    assert_int_equal(s->materials[4].resolved[0].spectrum.kind, SCENE_SPECTRUM_NAMED);
+    assert_string_equal(s->materials[4].resolved[0].spectrum.name, "glass-BK7");
 
     assert_int_equal(s->nshapes, 2);
     assert_int_equal(s->shapes[0].material, 1);
@@ -254,62 +292,64 @@ static void test_materials_and_textures(void **state)
 static void test_more_materials(void **state)
 {
     (void)state;
-    scene_desc_t *s = parse_ok("data/scenes/layered.pbrt");
-    const scene_material_t *m = s->materials;
-    assert_int_equal(s->nmaterials, 10);
+    scene_desc_t *d = parse_ok("data/scenes/layered.pbrt");
+    assert_int_equal(d->nmaterials, 10);
+    scene_t *sc = load_scene_ok(d);
+    const material_t *m = sc->materials;
     /* coateddiffuse defaults */
     assert_int_equal(m[1].kind, MATERIAL_COATED_DIFFUSE);
-    testutil_assert_near(m[1].reflectance.spectrum.constant, 0.5, TOL);
-    testutil_assert_near(m[1].ior.spectrum.constant, 1.5, TOL);
-    testutil_assert_near(m[1].uroughness.value, 0, TOL);
-    testutil_assert_near(m[1].thickness.value, 0.01, TOL);
-    testutil_assert_near(m[1].albedo.spectrum.constant, 0, TOL);
-    testutil_assert_near(m[1].g.value, 0, TOL);
+    testutil_assert_near(tex_at(m[1].reflectance, 550), 0.5, 1e-12);
+    testutil_assert_near(ior_eval(&m[1].ior, 550), 1.5, 1e-12);
+    assert_null(m[1].uroughness);
+    testutil_assert_near(tex_at(m[1].thickness, 550), 0.01, 1e-12);
+    testutil_assert_near(tex_at(m[1].albedo, 550), 0, 1e-12);
+    testutil_assert_near(tex_at(m[1].g, 550), 0, 1e-12);
     assert_int_equal(m[1].maxdepth, 10);
     assert_int_equal(m[1].nsamples, 1);
     assert_true(m[1].remaproughness);
     /* coateddiffuse, everything given */
-    testutil_assert_near(m[2].reflectance.spectrum.rgb[2], 0.3, TOL);
-    testutil_assert_near(m[2].uroughness.value, 0.05, TOL);
-    testutil_assert_near(m[2].vroughness.value, 0.05, TOL);
-    testutil_assert_near(m[2].ior.spectrum.constant, 1.6, TOL);
-    testutil_assert_near(m[2].thickness.value, 0.02, TOL);
-    testutil_assert_near(m[2].albedo.spectrum.rgb[0], 0.5, TOL);
-    testutil_assert_near(m[2].g.value, 0.3, TOL);
+    assert_true(tex_at(m[2].reflectance, 450) > tex_at(m[2].reflectance, 650));
+    testutil_assert_near(tex_at(m[2].uroughness, 550), 0.05, 1e-12);
+    testutil_assert_near(tex_at(m[2].vroughness, 550), 0.05, 1e-12);
+    testutil_assert_near(ior_eval(&m[2].ior, 550), 1.6, 1e-12);
+    testutil_assert_near(tex_at(m[2].thickness, 550), 0.02, 1e-12);
+    testutil_assert_near(tex_at(m[2].g, 550), 0.3, 1e-12);
+    assert_true(tex_at(m[2].albedo, 550) > 0.4 && tex_at(m[2].albedo, 550) < 0.6);
     assert_int_equal(m[2].maxdepth, 20);
     assert_int_equal(m[2].nsamples, 4);
     assert_false(m[2].remaproughness);
     /* coatedconductor: interface.* and conductor.* */
     assert_int_equal(m[3].kind, MATERIAL_COATED_CONDUCTOR);
-    testutil_assert_near(m[3].uroughness.value, 0.02, TOL);
-    testutil_assert_near(m[3].base_uroughness.value, 0.002, TOL);
-    testutil_assert_near(m[3].base_vroughness.value, 0.002, TOL);
-    assert_string_equal(m[3].eta.spectrum.name, "metal-Au-eta");
-    assert_string_equal(m[3].k.spectrum.name, "metal-Au-k");
-    testutil_assert_near(m[3].ior.spectrum.constant, 1.4, TOL);
-    assert_false(m[3].use_reflectance);
-    assert_string_equal(m[4].eta.spectrum.name, "metal-Cu-eta"); /* pbrt-v4's default */
-    testutil_assert_near(m[4].ior.spectrum.constant, 1.5, TOL);
+    testutil_assert_near(tex_at(m[3].uroughness, 550), 0.02, 1e-12);
+    testutil_assert_near(tex_at(m[3].base_uroughness, 550), 0.002, 1e-12);
+    testutil_assert_near(tex_at(m[3].base_vroughness, 550), 0.002, 1e-12);
+    testutil_assert_near(ior_eval(&m[3].ior, 550), 1.4, 1e-12);
+    assert_non_null(m[3].eta);
+    assert_null(m[3].reflectance);
+    assert_true(spectrum_eval(m[3].eta, 650) != spectrum_eval(m[4].eta, 650)); /* Au, Cu */
+    testutil_assert_near(ior_eval(&m[4].ior, 550), 1.5, 1e-12);
     /* diffusetransmission: reflectance 0.25 by default */
     assert_int_equal(m[5].kind, MATERIAL_DIFFUSE_TRANSMISSION);
-    testutil_assert_near(m[5].reflectance.spectrum.constant, 0.25, TOL);
-    testutil_assert_near(m[5].transmittance.spectrum.rgb[1], 0.5, TOL);
+    testutil_assert_near(tex_at(m[5].reflectance, 550), 0.25, 1e-12);
+    assert_true(tex_at(m[5].transmittance, 550) > tex_at(m[5].transmittance, 450));
     testutil_assert_near(m[5].scale, 0.9, TOL);
     assert_int_equal(m[6].kind, MATERIAL_THIN_DIELECTRIC);
-    testutil_assert_near(m[6].ior.spectrum.constant, 1.52, TOL);
+    testutil_assert_near(ior_eval(&m[6].ior, 550), 1.52, 1e-12);
     /* mix: the names resolve to the named materials' indices */
     assert_int_equal(m[7].kind, MATERIAL_MIX);
     assert_int_equal(m[7].mix[0], 1);
     assert_int_equal(m[7].mix[1], 6);
-    assert_int_equal(m[7].amount.texture, 0);
+    testutil_assert_near(tex_at(m[7].amount, 550), 0.3, 1e-12); /* "texture amount" "amt" */
     assert_int_equal(m[8].mix[0], 5);
     assert_int_equal(m[8].mix[1], 7);
-    testutil_assert_near(m[8].amount.value, 0.5, TOL);
+    testutil_assert_near(tex_at(m[8].amount, 550), 0.5, 1e-12);
     /* an anisotropic rough dielectric */
     assert_int_equal(m[9].kind, MATERIAL_DIELECTRIC);
-    testutil_assert_near(m[9].uroughness.value, 0.1, TOL);
-    testutil_assert_near(m[9].vroughness.value, 0.3, TOL);
-    scene_desc_destroy(&s);
+    testutil_assert_near(tex_at(m[9].uroughness, 550), 0.1, 1e-12);
+    testutil_assert_near(tex_at(m[9].vroughness, 550), 0.3, 1e-12);
+    assert_true(m[9].rough);
+    scene_destroy(&sc);
+    scene_desc_destroy(&d);
 }
 
 /* What pbrt-v4 has and prismfarm does not simulate is accepted with a warning naming the
@@ -1502,25 +1542,30 @@ static void test_thin_film(void **state)
         "WorldBegin\nMaterial \"dielectric\" \"float filmthickness\" [ 450 ]\n"
         "Shape \"sphere\"\nMaterial \"conductor\" \"float filmthickness\" [ 300 ] "
         "\"float filmeta\" [ 1.5 ]\nShape \"sphere\"\nMaterial \"dielectric\"\nShape \"sphere\"\n");
+    scene_t *sc = load_scene_ok(s);
     int glass = 0, metal = 0, plain = 0;
-    for (size_t i = 0; i < s->nmaterials; i++) {
-        const scene_material_t *m = &s->materials[i];
-        glass +=
-            m->kind == MATERIAL_DIELECTRIC && m->film_thickness == 450.0 && m->film_eta == 1.33;
-        metal += m->kind == MATERIAL_CONDUCTOR && m->film_thickness == 300.0 && m->film_eta == 1.5;
+    for (size_t i = 0; i < sc->nmaterials; i++) {
+        const material_t *m = &sc->materials[i];
+        glass += m->kind == MATERIAL_DIELECTRIC && m->film_thickness == 450.0 &&
+                 ior_eval(&m->film_ior, 550) == 1.33;
+        metal += m->kind == MATERIAL_CONDUCTOR && m->film_thickness == 300.0 &&
+                 ior_eval(&m->film_ior, 550) == 1.5;
         plain += m->kind == MATERIAL_DIELECTRIC && m->film_thickness == 0.0;
     }
     assert_int_equal(glass, 1);
     assert_int_equal(metal, 1);
     assert_int_equal(plain, 1);
+    scene_destroy(&sc);
     scene_desc_destroy(&s);
     /* Rough surfaces take the film at each microfacet (bsdf/lobe). */
     s = parse_text_ok("WorldBegin\nMaterial \"dielectric\" \"float roughness\" [ 0.1 ] "
                       "\"float filmthickness\" [ 400 ]\nShape \"sphere\"\n");
+    sc = load_scene_ok(s);
     int rough_film = 0;
-    for (size_t i = 0; i < s->nmaterials; i++)
-        rough_film += s->materials[i].film_thickness == 400.0;
+    for (size_t i = 0; i < sc->nmaterials; i++)
+        rough_film += sc->materials[i].film_thickness == 400.0;
     assert_int_equal(rough_film, 1);
+    scene_destroy(&sc);
     scene_desc_destroy(&s);
     expect_error("WorldBegin\nMaterial \"dielectric\" \"float filmthickness\" [ -1 ]\n",
                  "t.pbrt:2:23: \"float filmthickness\" must be within [0, 100000], got -1");
@@ -1532,6 +1577,7 @@ int main(void)
         cmocka_unit_test(test_options),
         cmocka_unit_test(test_defaults),
         cmocka_unit_test(test_materials_and_textures),
+        cmocka_unit_test(test_materials_loaded),
         cmocka_unit_test(test_more_materials),
         cmocka_unit_test(test_thin_film),
         cmocka_unit_test(test_accepted_not_simulated),
