@@ -4,6 +4,7 @@
 
 #include "paths.h"
 #include "pbrt_confine.h"
+#include "spectrum_param.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -298,110 +299,30 @@ static int spectrum_string(parser_t *P, const param_t *p, const char *name, int 
     return rc;
 }
 
+static void *desc_alloc(void *ctx, size_t size)
+{
+    parser_t *P = ctx;
+    return scene_desc_alloc(P->scene, size, P->err);
+}
+
 /* A spectrum-valued parameter in its raw form: float (constant), rgb, blackbody, or spectrum
- * given as (lambda, value) pairs or by name (pbrt-v4 paramdict.cpp extractSpectrumArray). */
+ * given as (lambda, value) pairs (spectrum_param.h, the reader the material loader shares) or
+ * by name (pbrt-v4 paramdict.cpp extractSpectrumArray). */
 int pbrt_inputs_spectrum_param(parser_t *P, params_t *ps, const param_t *p, int use,
                                scene_spectrum_t *out)
 {
-    memset(out, 0, sizeof *out);
-    out->loc = p->loc;
-    switch (p->type) {
-    case PARAM_FLOAT:
-        if (p->count != 1)
-            return pbrt_error(P->err, p->loc, "expected 1 number after \"%s %s\", got %zu",
-                              p->type_name, p->name, p->count);
-        if (use == SPECTRUM_ALBEDO && (p->numbers[0] < 0.0 || p->numbers[0] > 1.0))
-            return pbrt_error(P->err, p->loc, "\"%s %s\" must be within [0, 1], got %g",
-                              p->type_name, p->name, p->numbers[0]);
-        out->kind = SCENE_SPECTRUM_CONSTANT;
-        out->constant = p->numbers[0];
-        return 0;
-    case PARAM_RGB:
-        if (p->count != 3)
-            return pbrt_error(P->err, p->loc, "expected 3 numbers after \"%s %s\", got %zu",
-                              p->type_name, p->name, p->count);
-        for (int i = 0; i < 3; i++) {
-            if (p->numbers[i] < 0.0)
-                return pbrt_error(P->err, p->loc, "\"%s %s\" has a negative component",
-                                  p->type_name, p->name);
-            if (use == SPECTRUM_ALBEDO && p->numbers[i] > 1.0)
-                return pbrt_error(P->err, p->loc,
-                                  "\"%s %s\" has a component above 1 (a "
-                                  "reflectance is at most 1)",
-                                  p->type_name, p->name);
-            out->rgb[i] = p->numbers[i];
-        }
-        out->kind = SCENE_SPECTRUM_RGB;
-        return 0;
-    case PARAM_BLACKBODY:
-        if (p->count != 1)
-            return pbrt_error(P->err, p->loc,
-                              "expected 1 number after \"%s %s\", got %zu "
-                              "(pbrt-v4 takes only the temperature)",
-                              p->type_name, p->name, p->count);
-        if (!(p->numbers[0] > 0.0))
-            return pbrt_error(P->err, p->loc, "\"%s %s\" needs a temperature above 0 K, got %g",
-                              p->type_name, p->name, p->numbers[0]);
-        out->kind = SCENE_SPECTRUM_BLACKBODY;
-        out->temperature = p->numbers[0];
-        return 0;
-    case PARAM_SPECTRUM:
-        if (p->values == PARAM_VALUES_STRINGS) {
-            if (p->count != 1)
-                return pbrt_error(P->err, p->loc, "expected 1 string after \"%s %s\", got %zu",
-                                  p->type_name, p->name, p->count);
-            const char *name = p->strings[0];
-            if (!*name)
-                return pbrt_error(P->err, p->loc, "empty spectrum name in \"%s %s\"", p->type_name,
-                                  p->name);
-            return spectrum_string(P, p, name, use, out);
-        }
-        if (p->count == 0)
-            return pbrt_error(P->err, p->loc, "no values after \"%s %s\"", p->type_name, p->name);
-        if (p->count % 2 != 0)
-            return pbrt_error(P->err, p->loc,
-                              "\"%s %s\" needs (wavelength, value) pairs, got %zu "
-                              "numbers",
-                              p->type_name, p->name, p->count);
-        size_t n = p->count / 2;
-        for (size_t i = 0; i < n; i++) {
-            double l = p->numbers[2 * i], v = p->numbers[2 * i + 1];
-            if (!(l > 0.0))
-                return pbrt_error(P->err, p->loc,
-                                  "\"%s %s\": wavelength %g in pair %zu is not "
-                                  "positive",
-                                  p->type_name, p->name, l, i + 1);
-            if (i > 0 && !(l > p->numbers[2 * i - 2]))
-                return pbrt_error(P->err, p->loc,
-                                  "\"%s %s\": wavelengths must increase, but pair "
-                                  "%zu has %g nm after %g nm",
-                                  p->type_name, p->name, i + 1, l, p->numbers[2 * i - 2]);
-            if (use == SPECTRUM_ALBEDO && (v < 0.0 || v > 1.0))
-                return pbrt_error(P->err, p->loc,
-                                  "\"%s %s\": value %g in pair %zu is outside "
-                                  "[0, 1] (a reflectance)",
-                                  p->type_name, p->name, v, i + 1);
-        }
-        double *lv = scene_desc_alloc(P->scene, 2 * n * sizeof *lv, P->err);
-        if (!lv)
-            return -1;
-        for (size_t i = 0; i < n; i++) {
-            lv[i] = p->numbers[2 * i];
-            lv[n + i] = p->numbers[2 * i + 1];
-        }
-        out->kind = SCENE_SPECTRUM_SAMPLED;
-        out->count = n;
-        out->lambda = lv;
-        out->value = lv + n;
-        return 0;
-    default:
-        break;
-    }
-    char expected[256];
-    snprintf(expected, sizeof expected,
-             "\"spectrum %s\", \"rgb %s\", \"blackbody %s\" or \"float %s\"", p->name, p->name,
-             p->name, p->name);
-    return params_wrong_type(ps, p, expected, P->err);
+    const int rc =
+        spectrum_param_numbers(ps, p, use == SPECTRUM_ALBEDO, desc_alloc, P, out, P->err);
+    if (rc != 1)
+        return rc;
+    if (p->count != 1)
+        return pbrt_error(P->err, p->loc, "expected 1 string after \"%s %s\", got %zu",
+                          p->type_name, p->name, p->count);
+    const char *name = p->strings[0];
+    if (!*name)
+        return pbrt_error(P->err, p->loc, "empty spectrum name in \"%s %s\"", p->type_name,
+                          p->name);
+    return spectrum_string(P, p, name, use, out);
 }
 
 int pbrt_inputs_spectrum(parser_t *P, params_t *ps, const char *name, scene_spectrum_t def, int use,
