@@ -114,6 +114,12 @@ extern const cli_opt_t CLI_SECURITY_OPTS[];
      __VA_ARGS__}
 #define CLI_OPT_JSON(...) {.name = "json", .kind = CLI_FLAG, __VA_ARGS__}
 #define CLI_OPT_QUIET(...) {.name = "quiet", .kind = CLI_FLAG, __VA_ARGS__}
+/* A frame sequence's range (render, submit and plan word it alike). */
+#define CLI_OPT_FRAMES(...)                                                                        \
+    {.name = "frames", .kind = CLI_STRING, .arg = "FIRST-LAST",                                    \
+     .help = "a frame sequence: SCENE is a pattern such as frame%04d.pbrt, formatted with each "  \
+             "number FIRST..LAST",                                                                \
+     __VA_ARGS__}
 #define CLI_OPT_GROUP(table, ...) {.kind = CLI_GROUP, .group = (table), __VA_ARGS__}
 
 #endif

@@ -301,12 +301,7 @@ int cmd_plan(int argc, char **argv)
     target.help = "predict the samples and time that reach E from a pilot render";
     const cli_opt_t opts[] = {
         CLI_OPT_JSON(.dst = &json, .help = "print JSON instead of the report"),
-        {.name = "frames",
-         .kind = CLI_STRING,
-         .dst = &range,
-         .arg = "FIRST-LAST",
-         .help = "a frame sequence: SCENE is a pattern such as frame%04d.pbrt, formatted with "
-                 "each number FIRST..LAST"},
+        CLI_OPT_FRAMES(.dst = &range),
         target,
         {.name = "pilot",
          .kind = CLI_DOUBLE,

@@ -448,12 +448,7 @@ int cmd_render(int argc, char **argv)
          .arg = "OUT.exr",
          .help = "output file (default: the Film's filename, else SCENE.exr); a sequence: a "
                  "pattern such as out/f%04d.exr (default: each frame file's name with .exr)"},
-        {.name = "frames",
-         .kind = CLI_STRING,
-         .dst = &range,
-         .arg = "FIRST-LAST",
-         .help = "a frame sequence: SCENE is a pattern such as frame%04d.pbrt, formatted with "
-                 "each number FIRST..LAST"},
+        CLI_OPT_FRAMES(.dst = &range),
         CLI_OPT_GROUP(CLI_OVERRIDE_OPTS, .dst = &job),
         CLI_OPT_GROUP(CLI_STOP_OPTS, .dst = &job),
         {.name = "threads",

@@ -107,12 +107,7 @@ int cmd_submit(int argc, char **argv)
          .hi = PROTO_MAX_PRIORITY,
          .arg = "N",
          .help = "higher runs first (default 0; -1000..1000; `prismfarm priority` changes it)"},
-        {.name = "frames",
-         .kind = CLI_STRING,
-         .dst = &range,
-         .arg = "FIRST-LAST",
-         .help = "a frame sequence: SCENE is a pattern such as frame%04d.pbrt, formatted with "
-                 "each number FIRST..LAST"},
+        CLI_OPT_FRAMES(.dst = &range),
         {.name = "wait",
          .kind = CLI_FLAG,
          .dst = &wait,
