@@ -455,9 +455,11 @@ static inline sb_image_stats_t sb_render_stats(scene_t *s, int res, int spp)
 /* ------------------------------------------------------------------------------------------ */
 /* Scenes loaded from pbrt-v4. */
 
-/* The scene of a pbrt-v4 text (t.pbrt in messages) with its own settings. With err NULL it must
- * load: an error fails the test, quoting the text; otherwise NULL, and the error in *err. */
-static inline scene_t *sb_load_text(const char *text, err_t *err)
+/* The scene of a pbrt-v4 text (t.pbrt in messages) under the overrides ov (NULL: its own
+ * settings). With err NULL it must load: an error fails the test, quoting the text; otherwise
+ * NULL, and the error in *err. */
+static inline scene_t *sb_load_text_with(const char *text, const scene_overrides_t *ov,
+                                         err_t *err)
 {
     err_t own = {{0}};
     err_t *e = err ? err : &own;
@@ -466,11 +468,17 @@ static inline scene_t *sb_load_text(const char *text, err_t *err)
         fail_msg("parse: %s\n--\n%s", own.msg, text);
     if (!d)
         return NULL;
-    scene_t *s = scene_load(d, NULL, e);
+    scene_t *s = scene_load(d, ov, e);
     scene_desc_destroy(&d);
     if (!s && !err)
         fail_msg("load: %s\n--\n%s", own.msg, text);
     return s;
+}
+
+/* sb_load_text_with the text's own settings. */
+static inline scene_t *sb_load_text(const char *text, err_t *err)
+{
+    return sb_load_text_with(text, NULL, err);
 }
 
 /* The scene of the pbrt-v4 file at path with its own settings (seed included); an error fails

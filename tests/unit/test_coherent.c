@@ -192,16 +192,8 @@ static void test_quartz_rotation(void **state)
  * was, bit for bit (the o and e waves apart); left to the file, "coherent" turns it on. */
 static scene_t *load_with(const char *text, int polarized)
 {
-    err_t err;
-    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
-    if (!d)
-        fail_msg("%s", err.msg);
     const scene_overrides_t ov = {.seed = -1, .polarized = polarized};
-    scene_t *s = scene_load(d, &ov, &err);
-    scene_desc_destroy(&d);
-    if (!s)
-        fail_msg("%s", err.msg);
-    return s;
+    return sb_load_text_with(text, &ov, NULL);
 }
 
 static void test_polarisation_off(void **state)

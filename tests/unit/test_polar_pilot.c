@@ -64,15 +64,8 @@ static scene_t *slab_with_setting(int polarized)
              "AttributeBegin\n"
              "AreaLightSource \"diffuse\" \"spectrum L\" [300 1 900 1] \"bool twosided\" true\n"
              "Translate 0 0 -3\nScale 0.5 0.5 1\n" PBRT_QUAD "AttributeEnd\n" SLAB);
-    err_t err;
-    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
-    assert_non_null(d);
     const scene_overrides_t ov = {.seed = -1, .polarized = polarized};
-    scene_t *s = scene_load(d, &ov, &err);
-    scene_desc_destroy(&d);
-    if (!s)
-        fail_msg("%s", err.msg);
-    return s;
+    return sb_load_text_with(text, &ov, NULL);
 }
 
 /* The luminance sum of the 4 x 4 image at 8 spp. */
