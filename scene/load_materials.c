@@ -23,9 +23,9 @@ int load_materials_for_shape(loader_t *L, int idx, const transform_t *to_world, 
 
 /* pbrt-v4's "displacement" and "normalmap" of every material but mix and interface (its
  * BumpMap and NormalMap; the normal map wins when both are given, as in pbrt-v4). */
-static int surface_maps(material_params_t *mp, material_t *m)
+static int surface_maps(material_params_t *mp, material_kind_t kind, material_t *m)
 {
-    if (mp->dm->kind == MATERIAL_MIX || mp->dm->kind == MATERIAL_INTERFACE)
+    if (kind == MATERIAL_MIX || kind == MATERIAL_INTERFACE)
         return 0;
     scene_float_input_t displacement;
     const char *normalmap;
@@ -47,6 +47,9 @@ static int surface_maps(material_params_t *mp, material_t *m)
  * a parameter nothing read is refused, as the parser refuses any other directive's. */
 static int load_one(loader_t *L, const scene_material_t *dm, err_t *err)
 {
+    material_kind_t kind;
+    if (material_class_lookup(dm->type, dm->type_loc, &kind, err) != 0)
+        return -1;
     material_t m = {0};
     if (dm->name) {
         snprintf(m.name, sizeof m.name, "%s", dm->name);
@@ -61,18 +64,18 @@ static int load_one(loader_t *L, const scene_material_t *dm, err_t *err)
     m.mix[0] = m.mix[1] = -1;
     /* The class loads its own inputs; uniaxial and subsurface set their kind to dielectric
      * (material_kind.h). */
-    m.kind = dm->kind;
+    m.kind = kind;
     params_t *none = NULL;
     if (!dm->params) {
         char context[64];
-        snprintf(context, sizeof context, "Material \"%s\"", material_kind_name(dm->kind));
+        snprintf(context, sizeof context, "Material \"%s\"", material_kind_name(kind));
         if (!(none = params_new(context, err)))
             return -1;
     }
     material_params_t mp = {
         .L = L, .dm = dm, .ps = dm->params ? dm->params : none, .name = m.name, .err = err};
-    const material_class_t *c = material_class_of(dm->kind);
-    int rc = (c && c->load && c->load(&mp, &m)) || surface_maps(&mp, &m) ||
+    const material_class_t *c = material_class_of(kind);
+    int rc = (c->load && c->load(&mp, &m)) || surface_maps(&mp, kind, &m) ||
                      params_check_unused(mp.ps, err) || scene_add_material(L->sc, &m, err) < 0
                  ? -1
                  : 0;

@@ -32,4 +32,5 @@ static void bsdf(const material_t *m, const surface_t *sf, const double *lambda,
     }
 }
 
-const material_class_t material_coatedconductor = {.load = load, .bsdf = bsdf};
+const material_class_t material_coatedconductor = {
+    .name = "coatedconductor", .load = load, .bsdf = bsdf};

@@ -27,4 +27,5 @@ static void bsdf(const material_t *m, const surface_t *sf, const double *lambda,
     material_inputs_texture_lanes01(m->reflectance, sf, lambda, n, b->reflectance);
 }
 
-const material_class_t material_coateddiffuse = {.load = load, .bsdf = bsdf};
+const material_class_t material_coateddiffuse = {
+    .name = "coateddiffuse", .load = load, .bsdf = bsdf};

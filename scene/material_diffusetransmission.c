@@ -28,4 +28,5 @@ static void bsdf(const material_t *m, const surface_t *sf, const double *lambda,
     }
 }
 
-const material_class_t material_diffusetransmission = {.load = load, .bsdf = bsdf};
+const material_class_t material_diffusetransmission = {
+    .name = "diffusetransmission", .load = load, .bsdf = bsdf};

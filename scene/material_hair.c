@@ -106,4 +106,4 @@ static void bsdf(const material_t *m, const surface_t *sf, const double *lambda,
     }
 }
 
-const material_class_t material_hair = {.load = load, .bsdf = bsdf};
+const material_class_t material_hair = {.name = "hair", .load = load, .bsdf = bsdf};

@@ -48,4 +48,4 @@ static void bsdf(const material_t *m, const surface_t *sf, const double *lambda,
         b->lambda[j] = lambda[j];
 }
 
-const material_class_t material_measured = {.load = load, .bsdf = bsdf};
+const material_class_t material_measured = {.name = "measured", .load = load, .bsdf = bsdf};

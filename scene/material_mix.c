@@ -31,4 +31,4 @@ static int load(material_params_t *mp, material_t *m)
     return (m->amount = material_params_float_texture(mp, "amount", 0.5)) ? 0 : -1;
 }
 
-const material_class_t material_mix = {.load = load};
+const material_class_t material_mix = {.name = "mix", .load = load};

@@ -71,5 +71,7 @@ static int load_retarder(material_params_t *mp, material_t *m)
     return 0;
 }
 
-const material_class_t material_polarizer = {.load = load_polarizer};
-const material_class_t material_retarder = {.load = load_retarder};
+const material_class_t material_polarizer = {.name = "polarizer",
+                                             .aliases = (const char *const[]){"polariser", NULL},
+                                             .load = load_polarizer};
+const material_class_t material_retarder = {.name = "retarder", .load = load_retarder};

@@ -127,4 +127,4 @@ static int load(material_params_t *mp, material_t *m)
     return profile_table(sc, g, eta, m, mp->err);
 }
 
-const material_class_t material_subsurface = {.load = load};
+const material_class_t material_subsurface = {.name = "subsurface", .load = load};

@@ -67,4 +67,4 @@ static int load(material_params_t *mp, material_t *m)
     return 0;
 }
 
-const material_class_t material_uniaxial = {.load = load};
+const material_class_t material_uniaxial = {.name = "uniaxial", .load = load};

@@ -150,7 +150,7 @@ static void test_defaults(void **state)
     assert_int_equal(s->film.loc.line, 0);
     assert_string_equal(s->camera.loc.file, "t.pbrt");
     assert_int_equal(s->nmaterials, 1);
-    assert_int_equal(s->materials[0].kind, MATERIAL_DIFFUSE);
+    assert_string_equal(s->materials[0].type, "diffuse");
     assert_null(s->materials[0].params); /* its class's defaults: reflectance 0.5 */
     scene_desc_destroy(&s);
 
@@ -269,12 +269,12 @@ static void test_materials_and_textures(void **state)
     assert_int_equal(t[4].amount.texture, 1);
 
     assert_int_equal(s->nmaterials, 14);
-    assert_int_equal(s->materials[1].kind, MATERIAL_DIFFUSE);
+    assert_string_equal(s->materials[1].type, "diffuse");
     assert_null(s->materials[1].name);
     assert_string_equal(s->materials[4].name, "bk7");
-    assert_int_equal(s->materials[4].kind, MATERIAL_DIELECTRIC);
-    assert_int_equal(s->materials[10].kind, MATERIAL_CONDUCTOR);
-    assert_int_equal(s->materials[13].kind, MATERIAL_INTERFACE);
+    assert_string_equal(s->materials[4].type, "dielectric");
+    assert_string_equal(s->materials[10].type, "conductor");
+    assert_string_equal(s->materials[13].type, "interface");
     /* A "spectrum" given by a string is read while parsing (a file would be listed). */
     assert_int_equal(s->materials[4].nresolved, 1);
     assert_string_equal(s->materials[4].resolved[0].param, "eta");
@@ -891,7 +891,7 @@ static void test_includes(void **state)
     assert_point(&sh[0].to_world, vec3_make(0, 0, 0), 0, 1, 0); /* Include is textual */
     testutil_assert_near(sh[1].radius, 4, TOL);
     assert_point(&sh[1].to_world, vec3_make(0, 0, 0), 100, 1, 0);
-    assert_int_equal(s->materials[sh[1].material].kind, MATERIAL_CONDUCTOR);
+    assert_string_equal(s->materials[sh[1].material].type, "conductor");
     /* Import does not leak its CTM or material */
     testutil_assert_near(sh[2].radius, 5, TOL);
     assert_point(&sh[2].to_world, vec3_make(0, 0, 0), 0, 1, 0);
