@@ -7,6 +7,7 @@
 #include "pbrt_parser.h"
 
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 int load_materials_for_shape(loader_t *L, int idx, const transform_t *to_world, err_t *err)
@@ -61,7 +62,6 @@ static int load_one(loader_t *L, const scene_material_t *dm, err_t *err)
         snprintf(m.name, sizeof m.name, "(unnamed)");
     }
     m.remaproughness = 1;
-    m.mix[0] = m.mix[1] = -1;
     /* The class loads its own inputs; uniaxial and subsurface set their kind to dielectric
      * (material_kind.h). */
     m.kind = kind;
@@ -72,15 +72,27 @@ static int load_one(loader_t *L, const scene_material_t *dm, err_t *err)
         if (!(none = params_new(context, err)))
             return -1;
     }
-    material_params_t mp = {
-        .L = L, .dm = dm, .ps = dm->params ? dm->params : none, .name = m.name, .err = err};
     const material_class_t *c = material_class_of(kind);
+    void *data = c->data_size ? calloc(1, c->data_size) : NULL;
+    if (c->data_size && !data) {
+        params_destroy(&none);
+        return err_set(err, "out of memory");
+    }
+    material_params_t mp = {.L = L,
+                            .dm = dm,
+                            .ps = dm->params ? dm->params : none,
+                            .name = m.name,
+                            .err = err,
+                            .data = data};
+    m.data_kind = kind;
+    m.data = data;
     int rc = (c->load && c->load(&mp, &m)) || surface_maps(&mp, kind, &m) ||
                      params_check_unused(mp.ps, err) || scene_add_material(L->sc, &m, err) < 0
                  ? -1
                  : 0;
     material_params_finish(&mp);
     params_destroy(&none);
+    free(data);
     return rc;
 }
 

@@ -19,6 +19,12 @@ const char *material_kind_name(material_kind_t kind)
     return c ? c->name : "?";
 }
 
+size_t material_kind_data_size(material_kind_t kind)
+{
+    const material_class_t *c = material_class_of(kind);
+    return c ? c->data_size : 0;
+}
+
 /* The name table is written from the classes at each lookup (once per material a scene
  * makes): the listed names in the registry's order, then the aliases (pbrt_names.h). */
 int material_class_lookup(const char *type, pbrt_loc_t loc, material_kind_t *kind, err_t *err)

@@ -23,11 +23,16 @@ typedef struct material_class {
      * and "none" for an interface, the British "polariser"). */
     const char *name;
     const char *const *aliases;
+    /* The size of the class's own record (its struct in scene/material_<name>.h; 0: none),
+     * which the loader allocates zeroed for load (material_params_t.data) and the scene keeps
+     * a copy of behind material_t.data, read through the header's typed accessor. */
+    size_t data_size;
     /* Reads the material's parameters (mp, material_params.h: pbrt-v4's Material::Create) and
-     * fills m. The caller has set m's name and kind (the description's), remaproughness (1) and
-     * mix (-1, -1), and completes m afterwards with what every material but mix and interface
-     * shares (its bump or normal map), then refuses the parameters nothing read. Returns 0, or
-     * -1 with mp->err naming the parameter's place in the scene file. NULL: no parameters. */
+     * fills m and its own record (mp->data). The caller has set m's name and kind (the
+     * description's) and remaproughness (1), and completes m afterwards with what every material
+     * but mix and interface shares (its bump or normal map), then refuses the parameters nothing
+     * read. Returns 0, or -1 with mp->err naming the parameter's place in the scene file. NULL: no
+     * parameters. */
     int (*load)(struct material_params *mp, material_t *m);
     /* Fills b's kind and the kind's own fields at sf for the n lanes' wavelengths; the caller
      * (render/shading.c, shading_bsdf) has set b's mode, lanes, microfacets and thin film.

@@ -366,7 +366,7 @@ bool material_inputs_names_crystal(material_params_t *mp)
     return false;
 }
 
-int material_inputs_load_crystal(material_params_t *mp, const char *what, material_t *m)
+int material_inputs_load_crystal(material_params_t *mp, const char *what, crystal_t *out)
 {
     const char *pre[2] = {"o.", "e."};
     bool has[2] = {false, false};
@@ -395,15 +395,15 @@ int material_inputs_load_crystal(material_params_t *mp, const char *what, materi
         if (!c) {
             char why[sizeof err->msg]; /* err->msg cannot be its own argument */
             snprintf(why, sizeof why, "%s", err->msg);
-            return pbrt_error(err, mp->dm->loc, "material \"%s\": %s", m->name, why);
+            return pbrt_error(err, mp->dm->loc, "material \"%s\": %s", mp->name, why);
         }
-        m->crystal = *c;
+        *out = *c;
     } else {
-        m->crystal = (crystal_t){.name = "(given)", .description = "", .source = "the scene file"};
+        *out = (crystal_t){.name = "(given)", .description = "", .source = "the scene file"};
     }
-    if (has[0] && material_inputs_ior(mp->L->sc, &ior[0], m->name, &m->crystal.no, err))
+    if (has[0] && material_inputs_ior(mp->L->sc, &ior[0], mp->name, &out->no, err))
         return -1;
-    if (has[1] && material_inputs_ior(mp->L->sc, &ior[1], m->name, &m->crystal.ne, err))
+    if (has[1] && material_inputs_ior(mp->L->sc, &ior[1], mp->name, &out->ne, err))
         return -1;
     return 0;
 }

@@ -83,7 +83,7 @@ bool material_inputs_names_crystal(struct material_params *mp);
  * from the catalogue, or both indices with the "o." and "e." prefixes of
  * material_inputs_read_ior, which replace the catalogue's; what names the material kind in
  * messages. */
-int material_inputs_load_crystal(struct material_params *mp, const char *what, material_t *m);
+int material_inputs_load_crystal(struct material_params *mp, const char *what, crystal_t *out);
 
 /* ---- at a hit ---- */
 

@@ -13,6 +13,8 @@
 #ifndef PRISMFARM_MATERIAL_KIND_H
 #define PRISMFARM_MATERIAL_KIND_H
 
+#include <stddef.h>
+
 #define MATERIAL_CLASS_LIST(X)                                                                     \
     X(MATERIAL_DIFFUSE, material_diffuse)       /* Lambertian with a reflectance texture */        \
     X(MATERIAL_CONDUCTOR, material_conductor)   /* Fresnel from eta/k; a mirror when smooth */     \
@@ -35,6 +37,10 @@ typedef enum material_kind {
     MATERIAL_CLASS_LIST(MATERIAL_KIND_ENUM) MATERIAL_KIND_COUNT
 } material_kind_t;
 #undef MATERIAL_KIND_ENUM
+
+/* The size of the kind's class record (material_class_t.data_size); 0 for none or a value
+ * outside the enum. scene.c copies a record by it without seeing the classes. */
+size_t material_kind_data_size(material_kind_t kind);
 
 /* The kind's scene-file name ("diffuse", "thindielectric", ...: its class's); "?" for a value
  * outside the enum. */

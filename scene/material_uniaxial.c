@@ -19,7 +19,7 @@ static int load(material_params_t *mp, material_t *m)
 {
     params_t *ps = mp->ps;
     err_t *err = mp->err;
-    if (material_inputs_load_crystal(mp, "uniaxial", m) != 0)
+    if (material_inputs_load_crystal(mp, "uniaxial", &m->crystal) != 0)
         return -1;
     param_t *axis;
     if (params_get_array(ps, "opticaxis", PARAM_VECTOR3, &axis, err) != 0)

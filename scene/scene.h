@@ -39,13 +39,6 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* How a retarder sheet's retardance depends on wavelength (material_t.retarder_mode). */
-typedef enum retarder_mode {
-    RETARDER_CONSTANT,    /* the same retardance (radians) at every wavelength */
-    RETARDER_RETARDATION, /* a dispersion-free optical path difference in nm */
-    RETARDER_PLATE,       /* a crystal plate of given thickness: dispersion, oblique incidence */
-} retarder_mode_t;
-
 /* The numbers of a material; textures are NULL where the material has no such input (a
  * NULL roughness is 0). The models themselves are bsdf/'s (pbrt-v4's BxDFs). */
 typedef struct material {
@@ -54,6 +47,14 @@ typedef struct material {
      * "jewel.pbrt:57" (the file's base name and line), else "(unnamed)" (built in code). */
     char name[64];
     int named;
+    /* The numbers only one class reads, in its own record (scene/material_<name>.h, e.g.
+     * material_sheet_t): data points at a record of class data_kind's (its kind, or
+     * MATERIAL_UNIAXIAL or MATERIAL_SUBSURFACE for a dielectric they loaded as), owned by the
+     * scene (scene_add_material copies it, scene_destroy frees it); NULL: none. Read it only
+     * through the class header's accessor (material_sheet_of(m), ...), which checks data_kind
+     * and gives NULL for another class's material. */
+    material_kind_t data_kind;
+    const void *data;
     /* diffuse albedo, coated diffuse base, diffuse transmission reflectance; a conductor's
      * reflectance when eta is NULL */
     const texture_t *reflectance;
@@ -76,9 +77,6 @@ typedef struct material {
     /* coated: the medium between interface and base */
     const texture_t *thickness, *albedo, *g;
     int maxdepth, nsamples;
-    /* mix: two material indices and the probability of the second */
-    int mix[2];
-    const texture_t *amount;
     /* Shading-normal perturbation (pbrt-v4 BumpMap, NormalMap; render/shading.h
      * shading_perturb): a float displacement texture, or a tangent-space normal map
      * (texture_new_normalmap), which wins when both are given, as in pbrt-v4. NULL: none. */
@@ -101,32 +99,8 @@ typedef struct material {
     /* "bool coherent": a thin crystal whose o and e waves cross it as one ray, their phases
      * (and quartz's optical activity) carried (render/crystal_coherent.h; with polarisation). */
     int coherent;
-    /* Polariser and retarder sheets (docs/physics.md §14): the transmission axis or fast axis,
-     * in radians from the surface's dp/du toward ng x dp/du (ng the geometric normal, the side
-     * the shape's orientation calls outside), and a retarder's retardance in radians (pi/2: a
-     * quarter-wave plate, the same at every wavelength). */
-    double sheet_angle;
-    double retardance;
     /* measured: the file's data (owned by the scene, scene_own_measured) */
     const measured_t *measured;
-    /* A hair fibre (pbrt-v4 HairMaterial, bsdf/hair.h): the absorption per unit radius from
-     * sigma_a (an unbounded spectrum), else from reflectance (Chiang et al.'s inversion), else
-     * eumelanin eu_sigma + pheomelanin pheo_sigma (the pigments' own absorption spectra); the
-     * index, the roughnesses and the scales' tilt in degrees. */
-    struct {
-        const texture_t *sigma_a, *reflectance, *eumelanin, *pheomelanin, *eu_sigma, *pheo_sigma;
-        const texture_t *eta, *beta_m, *beta_n, *alpha;
-    } hair;
-    /* A retarder's retardance per wavelength (docs/physics.md §14.1): the constant retardance
-     * above, a dispersion-free optical path difference retardation_nm (delta = 2 pi Gamma /
-     * lambda), or a crystal plate (the crystal's indices above, optic axis along sheet_angle)
-     * of plate_thickness_nm (polar/waveplate.h). */
-    retarder_mode_t retarder_mode;
-    double retardation_nm, plate_thickness_nm;
-    /* A crystal plate cut across its optic axis ("bool axial"; waveplate_axial_mueller): light
-     * along the axis, turned by the crystal's optical activity (quartz) and retarded by the
-     * linear birefringence of oblique incidence. 0: the axis in the plate, along sheet_angle. */
-    int plate_axial;
     /* pbrt-v4's SubsurfaceMaterial (scene/material_subsurface.c): a MATERIAL_DIELECTRIC (its ior
      * and roughness are the boundary's) with a BSSRDF beneath, when table is not NULL: the
      * profile table for its (g, eta) (owned by the scene), the medium's coefficients per unit
@@ -504,7 +478,8 @@ int render_settings_buckets(const render_settings_t *rs);
 /* A polariser or retarder sheet: crossed straight, a Mueller matrix with polarisation. */
 int material_is_sheet(material_kind_t kind);
 
-/* Returns the new material's index, or -1. */
+/* Returns the new material's index, or -1. The scene keeps its own copy of m->data (the
+ * class's record, of material_class_of(m->data_kind)->data_size bytes). */
 int scene_add_material(scene_t *self, const material_t *m, err_t *err);
 /* Returns the new light's index, or -1. Area lights are attached by scene_add_* shape calls. */
 int scene_add_light(scene_t *self, const light_t *l, err_t *err);

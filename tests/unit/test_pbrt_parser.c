@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include "files_testutil.h"
+#include "material_mix.h"
 #include "mesh_import.h"
 #include "numeric_testutil.h"
 #include "pbrt_parser.h"
@@ -337,12 +338,12 @@ static void test_more_materials(void **state)
     testutil_assert_near(ior_eval(&m[6].ior, 550), 1.52, 1e-12);
     /* mix: the names resolve to the named materials' indices */
     assert_int_equal(m[7].kind, MATERIAL_MIX);
-    assert_int_equal(m[7].mix[0], 1);
-    assert_int_equal(m[7].mix[1], 6);
-    testutil_assert_near(tex_at(m[7].amount, 550), 0.3, 1e-12); /* "texture amount" "amt" */
-    assert_int_equal(m[8].mix[0], 5);
-    assert_int_equal(m[8].mix[1], 7);
-    testutil_assert_near(tex_at(m[8].amount, 550), 0.5, 1e-12);
+    assert_int_equal(material_mix_of(&m[7])->materials[0], 1);
+    assert_int_equal(material_mix_of(&m[7])->materials[1], 6);
+    testutil_assert_near(tex_at(material_mix_of(&m[7])->amount, 550), 0.3, 1e-12); /* "amt" */
+    assert_int_equal(material_mix_of(&m[8])->materials[0], 5);
+    assert_int_equal(material_mix_of(&m[8])->materials[1], 7);
+    testutil_assert_near(tex_at(material_mix_of(&m[8])->amount, 550), 0.5, 1e-12);
     /* an anisotropic rough dielectric */
     assert_int_equal(m[9].kind, MATERIAL_DIELECTRIC);
     testutil_assert_near(tex_at(m[9].uroughness, 550), 0.1, 1e-12);
