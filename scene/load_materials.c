@@ -3,6 +3,7 @@
 #include "load_textures.h"
 #include "material_class.h"
 #include "material_params.h"
+#include "material_uniaxial.h"
 
 #include "pbrt_parser.h"
 
@@ -12,13 +13,19 @@
 
 int load_materials_for_shape(loader_t *L, int idx, const transform_t *to_world, err_t *err)
 {
-    if (idx < 0 || (size_t)idx >= L->sc->nmaterials || !L->sc->materials[idx].uniaxial)
+    if (idx < 0 || (size_t)idx >= L->sc->nmaterials)
         return idx;
+    const material_uniaxial_t *u = material_uniaxial_of(&L->sc->materials[idx]);
+    if (!u)
+        return idx;
+    const vec3_t a = vec3_normalize(transform_vector(to_world, u->optic_axis));
+    if (a.x == u->optic_axis.x && a.y == u->optic_axis.y && a.z == u->optic_axis.z)
+        return idx;
+    /* The turned shape's own copy, record and all (scene_add_material copies the record). */
     material_t m = L->sc->materials[idx];
-    const vec3_t a = vec3_normalize(transform_vector(to_world, m.optic_axis));
-    if (a.x == m.optic_axis.x && a.y == m.optic_axis.y && a.z == m.optic_axis.z)
-        return idx;
-    m.optic_axis = a;
+    material_uniaxial_t turned = *u;
+    turned.optic_axis = a;
+    m.data = &turned;
     return scene_add_material(L->sc, &m, err);
 }
 

@@ -779,7 +779,7 @@ int scene_finish(scene_t *self, err_t *err)
      * (render/crystal_coherent.h). */
     int coherent = 0;
     for (size_t i = 0; i < self->nmaterials; i++)
-        coherent += self->materials[i].uniaxial && self->materials[i].coherent;
+        coherent += self->materials[i].needs_polarisation;
     if (self->polarising_sheets > 0 || self->camera.analyser || self->polarised_lights > 0 ||
         coherent > 0)
         self->settings.polarised = 1;
@@ -797,8 +797,6 @@ int scene_finish(scene_t *self, err_t *err)
         if (!material_has_ior(m->kind))
             continue;
         if (ior_validate(&m->ior, m->name, g.lambda_min, g.lambda_max, err))
-            return -1;
-        if (m->uniaxial && ior_validate(&m->crystal.ne, m->name, g.lambda_min, g.lambda_max, err))
             return -1;
         /* A thin slab transmits straight through at every wavelength: its index changes
          * weights, never directions, so it never splits a path's wavelengths. */

@@ -86,32 +86,12 @@ typedef struct material {
      * scene files yet (the parser's parameters are still to be added). */
     double film_thickness;
     ior_model_t film_ior;
-    /* A uniaxial birefringent crystal (uniaxial 1; bsdf/uniaxial.h, docs/physics.md §15): a
-     * smooth MATERIAL_DIELECTRIC whose ior is the ordinary index (what reads a dielectric's
-     * index sees n_o), with its principal indices and dichroic absorption (crystal), the
-     * optic axis (unit; object space as the material gives it, world space once the loader
-     * has turned it with the shape: scene_material_for_shape) and the millimetres in a scene
-     * unit that the absorption (1/mm) is scaled by. */
-    int uniaxial;
-    crystal_t crystal;
-    vec3_t optic_axis;
-    double mm_per_unit;
-    /* "bool coherent": a thin crystal whose o and e waves cross it as one ray, their phases
-     * (and quartz's optical activity) carried (render/crystal_coherent.h; with polarisation). */
-    int coherent;
+    /* The material needs polarised transport even in a scene without sheets, analyser or
+     * polarised lights (a coherent crystal's interference colours: render/crystal_coherent.h);
+     * scene_finish turns it on. */
+    int needs_polarisation;
     /* measured: the file's data (owned by the scene, scene_own_measured) */
     const measured_t *measured;
-    /* pbrt-v4's SubsurfaceMaterial (scene/material_subsurface.c): a MATERIAL_DIELECTRIC (its ior
-     * and roughness are the boundary's) with a BSSRDF beneath, when table is not NULL: the
-     * profile table for its (g, eta) (owned by the scene), the medium's coefficients per unit
-     * length (sigma_a and sigma_s, else reflectance and mfp, which SubsurfaceFromDiffuse
-     * turns into them), all times scale. The path integrator follows it (render/subsurface.h);
-     * the other integrators see the dielectric (the plan warns). */
-    struct {
-        const bssrdf_table_t *table;
-        const texture_t *sigma_a, *sigma_s, *reflectance, *mfp;
-        double scale;
-    } sss;
 } material_t;
 
 typedef enum light_kind {
