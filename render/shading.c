@@ -76,7 +76,8 @@ void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda
     b->mode = mode;
     b->n = n;
     b->mf = distribution(m->uroughness, m->vroughness, m->remaproughness, sf);
-    b->mf_base = distribution(m->base_uroughness, m->base_vroughness, m->remaproughness, sf);
+    /* Smooth; a coated conductor's class sets its base's own (material_coatedconductor.h). */
+    b->mf_base = distribution(NULL, NULL, m->remaproughness, sf);
     /* A thin film on glass or metal (bsdf_types.h: the Airy reflectance at each microfacet). */
     b->film_nm = 0.0;
     if (m->film_thickness > 0.0 &&

@@ -58,25 +58,20 @@ typedef struct material {
     /* diffuse albedo, coated diffuse base, diffuse transmission reflectance; a conductor's
      * reflectance when eta is NULL */
     const texture_t *reflectance;
-    const texture_t *transmittance; /* diffuse transmission */
-    double scale;                   /* diffuse transmission: multiplies both */
     /* conductor's (or coated conductor's base) complex index (both or neither) */
     const spectrum_t *eta, *k;
     /* dielectric, thin dielectric, and the coatings' interface */
     ior_model_t ior;
     int dispersive; /* the index varies over the film's range */
-    /* Roughness (NULL: 0) of the conductor, dielectric or coating interface, and of a coated
-     * conductor's base; remapped by pbrt-v4's RoughnessToAlpha when remaproughness. */
+    /* Roughness (NULL: 0) of the conductor, dielectric or coating interface (a coated
+     * conductor's base keeps its own: material_coatedconductor.h); remapped by pbrt-v4's
+     * RoughnessToAlpha when remaproughness. */
     const texture_t *uroughness, *vroughness;
-    const texture_t *base_uroughness, *base_vroughness;
     int remaproughness;
     /* A conductor or dielectric whose constant roughness pbrt-v4 calls effectively smooth
      * (smooth: the delta code everywhere) or not (rough: nowhere); neither when a texture
      * decides per hit. Set by the loader; a material without roughness is smooth anyway. */
     int smooth, rough;
-    /* coated: the medium between interface and base */
-    const texture_t *thickness, *albedo, *g;
-    int maxdepth, nsamples;
     /* Shading-normal perturbation (pbrt-v4 BumpMap, NormalMap; render/shading.h
      * shading_perturb): a float displacement texture, or a tangent-space normal map
      * (texture_new_normalmap), which wins when both are given, as in pbrt-v4. NULL: none. */
@@ -90,8 +85,6 @@ typedef struct material {
      * polarised lights (a coherent crystal's interference colours: render/crystal_coherent.h);
      * scene_finish turns it on. */
     int needs_polarisation;
-    /* measured: the file's data (owned by the scene, scene_own_measured) */
-    const measured_t *measured;
 } material_t;
 
 typedef enum light_kind {

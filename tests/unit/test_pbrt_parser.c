@@ -18,6 +18,9 @@
 #include <unistd.h>
 
 #include "files_testutil.h"
+#include "material_coatedconductor.h"
+#include "material_coateddiffuse.h"
+#include "material_diffusetransmission.h"
 #include "material_mix.h"
 #include "mesh_import.h"
 #include "numeric_testutil.h"
@@ -302,28 +305,29 @@ static void test_more_materials(void **state)
     testutil_assert_near(tex_at(m[1].reflectance, 550), 0.5, 1e-12);
     testutil_assert_near(ior_eval(&m[1].ior, 550), 1.5, 1e-12);
     assert_null(m[1].uroughness);
-    testutil_assert_near(tex_at(m[1].thickness, 550), 0.01, 1e-12);
-    testutil_assert_near(tex_at(m[1].albedo, 550), 0, 1e-12);
-    testutil_assert_near(tex_at(m[1].g, 550), 0, 1e-12);
-    assert_int_equal(m[1].maxdepth, 10);
-    assert_int_equal(m[1].nsamples, 1);
+    testutil_assert_near(tex_at(material_coateddiffuse_of(&m[1])->layer.thickness, 550), 0.01, 1e-12);
+    testutil_assert_near(tex_at(material_coateddiffuse_of(&m[1])->layer.albedo, 550), 0, 1e-12);
+    testutil_assert_near(tex_at(material_coateddiffuse_of(&m[1])->layer.g, 550), 0, 1e-12);
+    assert_int_equal(material_coateddiffuse_of(&m[1])->layer.maxdepth, 10);
+    assert_int_equal(material_coateddiffuse_of(&m[1])->layer.nsamples, 1);
     assert_true(m[1].remaproughness);
     /* coateddiffuse, everything given */
     assert_true(tex_at(m[2].reflectance, 450) > tex_at(m[2].reflectance, 650));
     testutil_assert_near(tex_at(m[2].uroughness, 550), 0.05, 1e-12);
     testutil_assert_near(tex_at(m[2].vroughness, 550), 0.05, 1e-12);
     testutil_assert_near(ior_eval(&m[2].ior, 550), 1.6, 1e-12);
-    testutil_assert_near(tex_at(m[2].thickness, 550), 0.02, 1e-12);
-    testutil_assert_near(tex_at(m[2].g, 550), 0.3, 1e-12);
-    assert_true(tex_at(m[2].albedo, 550) > 0.4 && tex_at(m[2].albedo, 550) < 0.6);
-    assert_int_equal(m[2].maxdepth, 20);
-    assert_int_equal(m[2].nsamples, 4);
+    testutil_assert_near(tex_at(material_coateddiffuse_of(&m[2])->layer.thickness, 550), 0.02, 1e-12);
+    testutil_assert_near(tex_at(material_coateddiffuse_of(&m[2])->layer.g, 550), 0.3, 1e-12);
+    const texture_t *albedo2 = material_coateddiffuse_of(&m[2])->layer.albedo;
+    assert_true(tex_at(albedo2, 550) > 0.4 && tex_at(albedo2, 550) < 0.6);
+    assert_int_equal(material_coateddiffuse_of(&m[2])->layer.maxdepth, 20);
+    assert_int_equal(material_coateddiffuse_of(&m[2])->layer.nsamples, 4);
     assert_false(m[2].remaproughness);
     /* coatedconductor: interface.* and conductor.* */
     assert_int_equal(m[3].kind, MATERIAL_COATED_CONDUCTOR);
     testutil_assert_near(tex_at(m[3].uroughness, 550), 0.02, 1e-12);
-    testutil_assert_near(tex_at(m[3].base_uroughness, 550), 0.002, 1e-12);
-    testutil_assert_near(tex_at(m[3].base_vroughness, 550), 0.002, 1e-12);
+    testutil_assert_near(tex_at(material_coatedconductor_of(&m[3])->base_uroughness, 550), 0.002, 1e-12);
+    testutil_assert_near(tex_at(material_coatedconductor_of(&m[3])->base_vroughness, 550), 0.002, 1e-12);
     testutil_assert_near(ior_eval(&m[3].ior, 550), 1.4, 1e-12);
     assert_non_null(m[3].eta);
     assert_null(m[3].reflectance);
@@ -332,8 +336,9 @@ static void test_more_materials(void **state)
     /* diffusetransmission: reflectance 0.25 by default */
     assert_int_equal(m[5].kind, MATERIAL_DIFFUSE_TRANSMISSION);
     testutil_assert_near(tex_at(m[5].reflectance, 550), 0.25, 1e-12);
-    assert_true(tex_at(m[5].transmittance, 550) > tex_at(m[5].transmittance, 450));
-    testutil_assert_near(m[5].scale, 0.9, TOL);
+    const material_diffusetransmission_t *dt = material_diffusetransmission_of(&m[5]);
+    assert_true(tex_at(dt->transmittance, 550) > tex_at(dt->transmittance, 450));
+    testutil_assert_near(dt->scale, 0.9, TOL);
     assert_int_equal(m[6].kind, MATERIAL_THIN_DIELECTRIC);
     testutil_assert_near(ior_eval(&m[6].ior, 550), 1.52, 1e-12);
     /* mix: the names resolve to the named materials' indices */
