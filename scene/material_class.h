@@ -1,11 +1,15 @@
 /* material_class: what each kind of material is in the loaded scene, one class per kind, after
  * pbrt-v4's Material classes (materials.h: each keeps its Create and its GetBxDF together):
  * its scene-file names, its loading from the scene description into a material_t and its
- * BSDF at a hit. Each class lives in its own file, scene/material_<name>.c, and is registered
- * by one line of MATERIAL_CLASS_LIST (material_kind.h), which is where its kind and the name
- * table come from. Its load reads its own parameters, which the description keeps unread
- * (scene_desc.h, scene_material_t). The classes are constant data: no state, safe from any
- * thread. docs/architecture.md, "Adding a material", lists the files a new one touches. */
+ * BSDF at a hit. Each class lives in its own file pair, scene/material_<name>.c and .h (the
+ * header only for a class that keeps a record; the two sheets share one pair), and is
+ * registered by one line of MATERIAL_CLASS_LIST (material_kind.h), which is where its kind and
+ * the name table come from. Its load reads its own parameters, which the description keeps
+ * unread (scene_desc.h, scene_material_t), into the shared material_t and into its own record:
+ * a struct its header declares, with a typed accessor (material_<name>_of) that checks
+ * material_t.data_kind, the only way render/ and the plan read a class's own numbers. The
+ * classes are constant data: no state, safe from any thread. docs/architecture.md, "Adding a
+ * material", lists the files a new one touches: its file pair, its registry line, its test. */
 #ifndef PRISMFARM_MATERIAL_CLASS_H
 #define PRISMFARM_MATERIAL_CLASS_H
 
