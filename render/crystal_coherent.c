@@ -1,5 +1,6 @@
 #include "crystal_coherent.h"
 
+#include "material_uniaxial.h"
 #include "uniaxial.h"
 
 #include <math.h>
@@ -74,21 +75,22 @@ void crystal_coherent_enter(crystal_coherent_t *c, vec3_t axis, vec3_t dir, vec3
 static jones_t propagate(const uniaxial_fresnel_t *f, const material_t *mat, vec3_t axis, vec3_t dr,
                          double lambda)
 {
-    const double len_mm = vec3_length(dr) * mat->mm_per_unit;
-    const double k0 = 2.0 * PF_PI / lambda * mat->mm_per_unit * 1e6; /* per scene unit */
+    const material_uniaxial_t *cr = material_uniaxial_of(mat);
+    const double len_mm = vec3_length(dr) * cr->mm_per_unit;
+    const double k0 = 2.0 * PF_PI / lambda * cr->mm_per_unit * 1e6; /* per scene unit */
     const vec3_t Ko = re3(f->out[UF_O].K), Ke = re3(f->out[UF_E].K);
     const vec3_t ko = unit_or(Ko, vec3_make(0.0, 0.0, 1.0));
     const vec3_t eo = re3(f->out[UF_O].E), ee = re3(f->out[UF_E].E);
     const double cth = vec3_dot(ko, axis);
-    const double psi = -crystal_rotary_power(&mat->crystal.rotation, lambda) * (PF_PI / 180.0) *
-                       len_mm * cth * cth;
+    const double psi =
+        -crystal_rotary_power(&cr->crystal.rotation, lambda) * (PF_PI / 180.0) * len_mm * cth * cth;
     /* The waves' basis (E_o, E_e) turned right-handed about k (jones_elliptical's): the
      * rotation's sign flips with E_e's. */
     const double sigma = vec3_dot(vec3_cross(ko, eo), ee) < 0.0 ? -1.0 : 1.0;
     jones_t r = jones_elliptical(k0 * vec3_dot(Ko, dr), k0 * vec3_dot(Ke, dr), sigma * psi);
-    if (mat->crystal.absorption.rows > 0) {
+    if (cr->crystal.absorption.rows > 0) {
         double ao, ae;
-        crystal_absorption_eval(&mat->crystal.absorption, lambda, &ao, &ae);
+        crystal_absorption_eval(&cr->crystal.absorption, lambda, &ao, &ae);
         const double a[2] = {uniaxial_absorption(UNIAXIAL_O, ko, axis, ao, ae),
                              uniaxial_absorption(UNIAXIAL_E, unit_or(Ke, ko), axis, ao, ae)};
         for (int w = 0; w < 2; w++)

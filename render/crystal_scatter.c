@@ -52,17 +52,19 @@ static int choose_polarised(const uniaxial_event_t *e, vec3_t nrm, vec3_t dir, d
 
 vec3_t crystal_axis(const scene_t *scene, const hit_t *h, const material_t *m)
 {
+    const vec3_t axis = material_uniaxial_of(m)->optic_axis;
     if (h->instance == GEOMETRY_NO_INSTANCE || h->instance >= scene->ninstances)
-        return m->optic_axis;
-    const vec3_t a = transform_vector(&scene->instances[h->instance].to_world, m->optic_axis);
+        return axis;
+    const vec3_t a = transform_vector(&scene->instances[h->instance].to_world, axis);
     const double l = vec3_length(a);
-    return l > 0.0 && isfinite(l) ? vec3_scale(a, 1.0 / l) : m->optic_axis;
+    return l > 0.0 && isfinite(l) ? vec3_scale(a, 1.0 / l) : axis;
 }
 
 int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t axis, vec3_t org, vec3_t dir,
                     int *wave, int n, const double *lambda, double *weight, bsdf_mode_t mode,
                     double u, vec3_t *out, int *end_secondaries, crystal_polar_t *pol)
 {
+    const material_uniaxial_t *cr = material_uniaxial_of(m);
     if (n < 1)
         return 1;
     if (n > BSDF_MAX_LANES)
@@ -72,11 +74,11 @@ int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t axis, vec3_
     const uniaxial_wave_t inside = *wave == UNIAXIAL_E ? UNIAXIAL_E : UNIAXIAL_O;
     double no[BSDF_MAX_LANES], ne[BSDF_MAX_LANES];
     for (int j = 0; j < n; j++) {
-        no[j] = ior_eval(&m->crystal.no, lambda[j]);
-        ne[j] = ior_eval(&m->crystal.ne, lambda[j]);
+        no[j] = ior_eval(&cr->crystal.no, lambda[j]);
+        ne[j] = ior_eval(&cr->crystal.ne, lambda[j]);
     }
     /* A coherent crystal on a camera path (crystal_coherent.h): inside, both waves as one ray. */
-    const int coherent = m->coherent && pol && pol->coh && mode == BSDF_RADIANCE;
+    const int coherent = cr->coherent && pol && pol->coh && mode == BSDF_RADIANCE;
     if (coherent && *wave == UNIAXIAL_COHERENT) {
         vec3_t mo = specular_normal(sf, dir, no[0], NULL);
         if (vec3_dot(mo, dir) < 0.0)
@@ -90,12 +92,12 @@ int crystal_scatter(const material_t *m, const surface_t *sf, vec3_t axis, vec3_
         }
         return 0;
     }
-    if (!entering && m->crystal.absorption.rows > 0) {
+    if (!entering && cr->crystal.absorption.rows > 0) {
         /* Beer-Lambert along the segment inside, at the wave's own coefficient (uniaxial.h). */
-        const double d_mm = vec3_length(vec3_sub(sf->p, org)) * m->mm_per_unit;
+        const double d_mm = vec3_length(vec3_sub(sf->p, org)) * cr->mm_per_unit;
         for (int j = 0; j < n; j++) {
             double ao, ae;
-            crystal_absorption_eval(&m->crystal.absorption, lambda[j], &ao, &ae);
+            crystal_absorption_eval(&cr->crystal.absorption, lambda[j], &ao, &ae);
             const vec3_t k = uniaxial_wave_from_ray(inside, dir, axis, no[j], ne[j]);
             weight[j] *= exp(-uniaxial_absorption(inside, k, axis, ao, ae) * d_mm);
         }

@@ -10,6 +10,7 @@
 
 #include "bsdf_types.h"
 #include "crystal_coherent.h"
+#include "material_uniaxial.h"
 #include "polar_frame.h"
 #include "scene.h"
 
@@ -30,7 +31,7 @@ typedef struct crystal_polar {
      * light inside in its wave's polarisation (bsdf/uniaxial.h: the boundary's exact
      * amplitudes); dividing by it guards rounding. */
     const stokes_t *s_in;
-    /* A camera path's state through a coherent crystal (material_t.coherent; NULL: its waves
+    /* A camera path's state through a coherent crystal (material_uniaxial_t.coherent; NULL: its waves
      * are traced apart). Then, out: pending, nothing to apply yet (the path entered or was
      * reflected inside); lanes, when not NULL, one matrix per lane (the traversal's, applied
      * as it leaves) instead of m for all. */
@@ -44,7 +45,7 @@ typedef struct crystal_polar {
  * placed turned turns its crystal's axis with it). */
 vec3_t crystal_axis(const scene_t *scene, const hit_t *h, const material_t *m);
 
-/* m: a material with m->uniaxial; sf: the hit; axis: crystal_axis's; org, dir: the ray that reached
+/* m: a material with a crystal record (material_uniaxial_of(m) not NULL); sf: the hit; axis: crystal_axis's; org, dir: the ray that reached
  * it (org where the last segment started, for the absorption inside); *wave: the wave the path
  * travels in inside the crystal (UNIAXIAL_O or UNIAXIAL_E; read only when the hit is from inside),
  * updated. Lanes [0, n) at wavelengths lambda with throughputs weight, multiplied in place.

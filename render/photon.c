@@ -3,6 +3,7 @@
 #include "crystal_scatter.h"
 #include "delta.h"
 #include "lights.h"
+#include "material_subsurface.h"
 #include "phase_hg.h"
 #include "photon_polar.h"
 #include "photon_volume.h"
@@ -280,7 +281,7 @@ static int specular_sphere(const scene_t *s, vec3_t *centre, double *radius)
          * smooth in places). */
         const int sheet = s->settings.polarised && material_is_sheet(m->kind);
         if (((m->kind != MATERIAL_DIELECTRIC && m->kind != MATERIAL_CONDUCTOR) || m->rough ||
-             m->sss.table) &&
+             material_subsurface_table(m)) &&
             !sheet)
             continue;
         vec3_t blo, bhi;
@@ -557,7 +558,7 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
             return 0;
         /* Nor do they enter a subsurface material (render/subsurface.h): light beneath it is
          * diffused, and the camera pass path traces what leaves it. */
-        if (m->sss.table)
+        if (material_subsurface_table(m))
             return 0;
         shading_perturb(m, &sf);
         if (m->kind == MATERIAL_DIFFUSE) {
@@ -621,7 +622,7 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
             }
             /* Mirrors, crystals and coated or dispersive glass treat each wavelength their
              * own way: a white photon takes its wavelength here. */
-            if (m->kind == MATERIAL_CONDUCTOR || m->uniaxial || m->dispersive ||
+            if (m->kind == MATERIAL_CONDUCTOR || material_uniaxial_of(m) || m->dispersive ||
                 m->film_thickness > 0.0 || sheet)
                 colour_flight(t, f, i);
             if (sheet) {
@@ -647,7 +648,7 @@ static int trace_flight(tracer_t *t, flight_t *f, uint64_t i, err_t *err)
                                    : delta_conductor_weight(&e, eta, k);
                 }
                 f->dir = e.reflect;
-            } else if (m->uniaxial) {
+            } else if (material_uniaxial_of(m)) {
                 /* A crystal splits every wavelength its own way (render/crystal_scatter.h). */
                 if (f->nl > 1)
                     return split_flight(t, f, i, err);

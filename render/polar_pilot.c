@@ -1,6 +1,7 @@
 #include "polar_pilot.h"
 
 #include "clock.h"
+#include "material_uniaxial.h"
 #include "pool.h"
 #include "render.h"
 #include "tilebuf.h"
@@ -15,7 +16,8 @@ int polar_pilot_needed(const scene_t *scene)
         return 0;
     for (size_t i = 0; i < scene->nmaterials; i++) {
         const material_t *m = &scene->materials[i];
-        if ((m->kind == MATERIAL_DIELECTRIC || m->kind == MATERIAL_CONDUCTOR) && !m->uniaxial)
+        if ((m->kind == MATERIAL_DIELECTRIC || m->kind == MATERIAL_CONDUCTOR) &&
+            !material_uniaxial_of(m))
             return 1;
     }
     return 0;

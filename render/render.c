@@ -1321,7 +1321,7 @@ static int scatter_crystal(ctx_t *c, path_t *p, const surface_t *h, const materi
                            vec3_t axis)
 {
     /* A coherent crystal keeps every lane on its one ray (render/crystal_coherent.h). */
-    const int coherent = m->coherent && p->polar;
+    const int coherent = material_uniaxial_of(m)->coherent && p->polar;
     if (p->n > 1 && !p->mono && c->rs->dispersion == DISPERSION_FANOUT && !coherent)
         fanout_pick_one(c, p);
     vec3_t dir;
@@ -1883,10 +1883,10 @@ static void trace(ctx_t *c, path_t *start)
                     p->specular_since_diffuse++;
                 else
                     p->specular_since_diffuse = CHAIN_BROKEN;
-            } else if (m->sss.table && c->rs->integrator != INTEGRATOR_WHITTED) {
+            } else if (material_subsurface_table(m) && c->rs->integrator != INTEGRATOR_WHITTED) {
                 if (scatter_subsurface(c, p, &sf, m, regularized))
                     break;
-            } else if (!shading_is_delta(m, &sf) || (regularized && !m->uniaxial)) {
+            } else if (!shading_is_delta(m, &sf) || (regularized && !material_uniaxial_of(m))) {
                 /* regularize roughens smooth glass and metal, films included, not crystals
                  * (whose two waves no rough model carries): docs/compatibility.md,
                  * "Regularize". */
@@ -1918,7 +1918,7 @@ static void trace(ctx_t *c, path_t *start)
             } else {
                 /* Counted before the event, so that the branches it pushes carry it too. */
                 p->specular_since_diffuse++;
-                if (m->uniaxial ? scatter_crystal(c, p, &sf, m, crystal_axis(s, &h, m))
+                if (material_uniaxial_of(m) ? scatter_crystal(c, p, &sf, m, crystal_axis(s, &h, m))
                                 : scatter_dielectric(c, p, &sf, m))
                     break;
             }

@@ -4,6 +4,7 @@
 
 #include "material_class.h"
 #include "material_inputs.h"
+#include "material_mix.h"
 #include "microfacet.h"
 
 #include <math.h>
@@ -29,12 +30,15 @@ const material_t *shading_resolve(const scene_t *scene, const material_t *m, con
                                   double u)
 {
     for (int d = 0; m->kind == MATERIAL_MIX && d < MIX_DEPTH_MAX; d++) {
-        double a = m->amount ? shading_texture(m->amount, sf, 550.0) : 0.5;
+        const material_mix_t *mix = material_mix_of(m);
+        if (!mix)
+            break; /* a mix built in code without its materials */
+        double a = mix->amount ? shading_texture(mix->amount, sf, 550.0) : 0.5;
         int second = a >= 1.0 || (a > 0.0 && u < a);
         /* Rescale u so that a nested mix gets a fresh uniform (stratification survives). */
         if (a > 0.0 && a < 1.0)
             u = second ? u / a : (u - a) / (1.0 - a);
-        m = &scene->materials[m->mix[second]];
+        m = &scene->materials[mix->materials[second]];
     }
     return m;
 }
@@ -72,7 +76,8 @@ void shading_bsdf(const material_t *m, const surface_t *sf, const double *lambda
     b->mode = mode;
     b->n = n;
     b->mf = distribution(m->uroughness, m->vroughness, m->remaproughness, sf);
-    b->mf_base = distribution(m->base_uroughness, m->base_vroughness, m->remaproughness, sf);
+    /* Smooth; a coated conductor's class sets its base's own (material_coatedconductor.h). */
+    b->mf_base = distribution(NULL, NULL, m->remaproughness, sf);
     /* A thin film on glass or metal (bsdf_types.h: the Airy reflectance at each microfacet). */
     b->film_nm = 0.0;
     if (m->film_thickness > 0.0 &&

@@ -9,7 +9,7 @@
 #include "polar_frame.h"
 #include "scene.h"
 
-/* The unit axis of the sheet's element at sf: at m->sheet_angle from dp/du toward ng x dp/du
+/* The unit axis of the sheet's element at sf: at the sheet's angle (material_sheet.h) from dp/du toward ng x dp/du
  * (a surface without dp/du: from vec3_basis's tangent of ng), in the sheet's plane. */
 vec3_t sheet_axis(const surface_t *sf, const material_t *m);
 

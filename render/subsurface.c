@@ -15,15 +15,16 @@
 static void medium_at(const material_t *m, const surface_t *sf, double lambda, double *sigma_t,
                       double *rho)
 {
+    const material_subsurface_t *sss = material_subsurface_of(m);
     double sa, ss;
-    if (m->sss.sigma_a) {
-        sa = fmax(0.0, m->sss.scale * shading_texture(m->sss.sigma_a, sf, lambda));
-        ss = fmax(0.0, m->sss.scale * shading_texture(m->sss.sigma_s, sf, lambda));
+    if (sss->sigma_a) {
+        sa = fmax(0.0, sss->scale * shading_texture(sss->sigma_a, sf, lambda));
+        ss = fmax(0.0, sss->scale * shading_texture(sss->sigma_s, sf, lambda));
     } else {
-        const double mfp = fmax(0.0, m->sss.scale * shading_texture(m->sss.mfp, sf, lambda));
-        double r = shading_texture(m->sss.reflectance, sf, lambda);
+        const double mfp = fmax(0.0, sss->scale * shading_texture(sss->mfp, sf, lambda));
+        double r = shading_texture(sss->reflectance, sf, lambda);
         r = r > 0.0 ? (r < 1.0 ? r : 1.0) : 0.0;
-        const double a = bssrdf_rho_from_eff(m->sss.table, r);
+        const double a = bssrdf_rho_from_eff(material_subsurface_table(m), r);
         sa = mfp > 0.0 ? (1.0 - a) / mfp : 0.0;
         ss = mfp > 0.0 ? a / mfp : 0.0;
     }
@@ -40,7 +41,7 @@ bool subsurface_find_exit(const scene_t *scene, const material_t *m, const surfa
     double sigma_t[BSDF_MAX_LANES], rho[BSDF_MAX_LANES];
     for (int j = 0; j < n; j++)
         medium_at(m, sf, lambda[j], &sigma_t[j], &rho[j]);
-    const bssrdf_table_t *t = m->sss.table;
+    const bssrdf_table_t *t = material_subsurface_table(m);
     const vec3_t po = sf->p, ns = sf->ns;
     vec3_t p0, p1;
     out->rays = 0;
@@ -105,7 +106,7 @@ void subsurface_exit_bsdf(const material_t *m, int n, bsdf_mode_t mode, bsdf_t *
     b->mode = mode;
     b->n = n;
     b->film_nm = 0.0;
-    const double eta = bssrdf_table_eta(m->sss.table);
+    const double eta = bssrdf_table_eta(material_subsurface_table(m));
     for (int j = 0; j < n; j++)
         b->eta[j] = eta;
 }

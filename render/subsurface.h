@@ -1,4 +1,4 @@
-/* subsurface: where light that entered a subsurface material (scene.h material_t sss, pbrt-v4's
+/* subsurface: where light that entered a subsurface material (scene/material_subsurface.h, pbrt-v4's
  * SubsurfaceMaterial) leaves again, as pbrt-v4's VolPathIntegrator finds it: a probe segment
  * sampled from the BSSRDF's profile of one lane (bsdf/bssrdf.h) is traced through the scene;
  * of the surfaces of the same material it crosses, one is chosen uniformly (pbrt-v4's
@@ -15,6 +15,7 @@
 #ifndef PRISMFARM_SUBSURFACE_H
 #define PRISMFARM_SUBSURFACE_H
 
+#include "material_subsurface.h"
 #include "bsdf.h"
 #include "rng.h"
 #include "scene.h"
@@ -25,7 +26,7 @@ typedef struct subsurface_exit {
     int rays;                      /* probe rays traced, for the statistics */
 } subsurface_exit_t;
 
-/* The exit for light that entered material m (m->sss.table set) at sf, for n lanes of
+/* The exit for light that entered material m (material_subsurface_table(m) set) at sf, for n lanes of
  * wavelengths lambda: u[0..2] place the probe (axis, radius, azimuth); rng chooses among its
  * hits. False when there is none (the probe found no surface of m, or the lane's medium has
  * no profile): the path ends, as in pbrt-v4. */

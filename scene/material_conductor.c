@@ -23,4 +23,4 @@ static void bsdf(const material_t *m, const surface_t *sf, const double *lambda,
         material_inputs_conductor_index(m, sf, lambda[j], &b->cond_eta[j], &b->cond_k[j]);
 }
 
-const material_class_t material_conductor = {.load = load, .bsdf = bsdf};
+const material_class_t material_conductor = {.name = "conductor", .load = load, .bsdf = bsdf};

@@ -25,4 +25,4 @@ static void bsdf(const material_t *m, const surface_t *sf, const double *lambda,
         b->eta[j] = ior_eval(&m->ior, lambda[j]);
 }
 
-const material_class_t material_dielectric = {.load = load, .bsdf = bsdf};
+const material_class_t material_dielectric = {.name = "dielectric", .load = load, .bsdf = bsdf};

@@ -24,4 +24,4 @@ static void bsdf(const material_t *m, const surface_t *sf, const double *lambda,
             b->reflectance[j] = 0.5;
 }
 
-const material_class_t material_diffuse = {.load = load, .bsdf = bsdf};
+const material_class_t material_diffuse = {.name = "diffuse", .load = load, .bsdf = bsdf};

@@ -1,5 +1,6 @@
 /* pbrt-v4's HairMaterial: a hair fibre (bsdf/hair.h), its absorption from "sigma_a", else
  * "reflectance", else the melanin concentrations. */
+#include "material_hair.h"
 #include "material_class.h"
 #include "material_inputs.h"
 
@@ -18,6 +19,8 @@
  * sum (SigmaAFromConcentration); textured ones weigh each pigment's own spectrum per hit. */
 static int load(material_params_t *mp, material_t *m)
 {
+    (void)m;
+    material_hair_t *hair = mp->data;
     params_t *ps = mp->ps;
     const pbrt_loc_t loc = mp->dm->loc;
     param_t *sa = params_find(ps, "sigma_a"), *refl = params_find(ps, "reflectance");
@@ -46,64 +49,67 @@ static int load(material_params_t *mp, material_t *m)
                                        &reflectance) ||
         material_params_float(mp, "eumelanin", melanin ? 0.0 : 1.3, &ce) ||
         material_params_float(mp, "pheomelanin", 0.0, &cp) ||
-        !(m->hair.eta = loader_float_input(mp->L, &eta, mp->err)) ||
-        !(m->hair.beta_m = material_params_float_texture(mp, "beta_m", 0.3)) ||
-        !(m->hair.beta_n = material_params_float_texture(mp, "beta_n", 0.3)) ||
-        !(m->hair.alpha = material_params_float_texture(mp, "alpha", 2.0)))
+        !(hair->eta = loader_float_input(mp->L, &eta, mp->err)) ||
+        !(hair->beta_m = material_params_float_texture(mp, "beta_m", 0.3)) ||
+        !(hair->beta_n = material_params_float_texture(mp, "beta_n", 0.3)) ||
+        !(hair->alpha = material_params_float_texture(mp, "alpha", 2.0)))
         return -1;
     loader_t *L = mp->L;
     err_t *err = mp->err;
     if (sa)
-        return (m->hair.sigma_a = loader_spectrum_input(L, &sigma_a, SPEC_UNBOUNDED, err)) ? 0 : -1;
+        return (hair->sigma_a = loader_spectrum_input(L, &sigma_a, SPEC_UNBOUNDED, err)) ? 0 : -1;
     if (refl)
-        return (m->hair.reflectance = loader_spectrum_input(L, &reflectance, SPEC_REFLECTANCE, err))
+        return (hair->reflectance = loader_spectrum_input(L, &reflectance, SPEC_REFLECTANCE, err))
                    ? 0
                    : -1;
     scene_spectrum_input_t in = {.texture = -1,
                                  .spectrum = {.kind = SCENE_SPECTRUM_RGB, .loc = loc}};
     if (ce.texture < 0 && cp.texture < 0) {
         hair_sigma_a_from_concentration(ce.value, cp.value, in.spectrum.rgb);
-        return (m->hair.sigma_a = loader_spectrum_input(L, &in, SPEC_UNBOUNDED, err)) ? 0 : -1;
+        return (hair->sigma_a = loader_spectrum_input(L, &in, SPEC_UNBOUNDED, err)) ? 0 : -1;
     }
-    if (!(m->hair.eumelanin = loader_float_input(L, &ce, err)) ||
-        !(m->hair.pheomelanin = loader_float_input(L, &cp, err)))
+    if (!(hair->eumelanin = loader_float_input(L, &ce, err)) ||
+        !(hair->pheomelanin = loader_float_input(L, &cp, err)))
         return -1;
     hair_sigma_a_from_concentration(1.0, 0.0, in.spectrum.rgb);
-    if (!(m->hair.eu_sigma = loader_spectrum_input(L, &in, SPEC_UNBOUNDED, err)))
+    if (!(hair->eu_sigma = loader_spectrum_input(L, &in, SPEC_UNBOUNDED, err)))
         return -1;
     hair_sigma_a_from_concentration(0.0, 1.0, in.spectrum.rgb);
-    return (m->hair.pheo_sigma = loader_spectrum_input(L, &in, SPEC_UNBOUNDED, err)) ? 0 : -1;
+    return (hair->pheo_sigma = loader_spectrum_input(L, &in, SPEC_UNBOUNDED, err)) ? 0 : -1;
 }
 
 /* pbrt-v4 HairMaterial::GetBxDF: the roughnesses clamped to [0.01, 1], the offset across the
  * fibre h = -1 + 2 v (a curve's v runs across its width), each lane's absorption >= 0. */
 static void bsdf(const material_t *m, const surface_t *sf, const double *lambda, int n, bsdf_t *b)
 {
+    static const material_hair_t NO_HAIR = {0}; /* a hair built in code without a record */
+    const material_hair_t *hair = material_hair_of(m) ? material_hair_of(m) : &NO_HAIR;
     b->kind = BSDF_HAIR;
     b->hair_h = fmin(1.0, fmax(-1.0, -1.0 + 2.0 * sf->v));
-    b->hair_eta = material_inputs_texture(m->hair.eta, sf, 550.0);
+    b->hair_eta = material_inputs_texture(hair->eta, sf, 550.0);
     b->hair_eta = b->hair_eta > 0.0 ? b->hair_eta : 1.55;
-    b->hair_beta_m = fmin(1.0, fmax(0.01, material_inputs_texture(m->hair.beta_m, sf, 550.0)));
-    b->hair_beta_n = fmin(1.0, fmax(0.01, material_inputs_texture(m->hair.beta_n, sf, 550.0)));
-    b->hair_alpha = material_inputs_texture(m->hair.alpha, sf, 550.0);
+    b->hair_beta_m = fmin(1.0, fmax(0.01, material_inputs_texture(hair->beta_m, sf, 550.0)));
+    b->hair_beta_n = fmin(1.0, fmax(0.01, material_inputs_texture(hair->beta_n, sf, 550.0)));
+    b->hair_alpha = material_inputs_texture(hair->alpha, sf, 550.0);
     double ce = 0.0, cp = 0.0;
-    if (!m->hair.sigma_a && !m->hair.reflectance) {
-        ce = fmax(0.0, material_inputs_texture(m->hair.eumelanin, sf, 550.0));
-        cp = fmax(0.0, material_inputs_texture(m->hair.pheomelanin, sf, 550.0));
+    if (!hair->sigma_a && !hair->reflectance) {
+        ce = fmax(0.0, material_inputs_texture(hair->eumelanin, sf, 550.0));
+        cp = fmax(0.0, material_inputs_texture(hair->pheomelanin, sf, 550.0));
     }
     for (int j = 0; j < n; j++) {
         double sa;
-        if (m->hair.sigma_a)
-            sa = material_inputs_texture(m->hair.sigma_a, sf, lambda[j]);
-        else if (m->hair.reflectance)
-            sa = hair_sigma_a_from_reflectance(material_inputs_clamp01(material_inputs_texture(
-                                                   m->hair.reflectance, sf, lambda[j])),
-                                               b->hair_beta_n);
+        if (hair->sigma_a)
+            sa = material_inputs_texture(hair->sigma_a, sf, lambda[j]);
+        else if (hair->reflectance)
+            sa = hair_sigma_a_from_reflectance(
+                material_inputs_clamp01(material_inputs_texture(hair->reflectance, sf, lambda[j])),
+                b->hair_beta_n);
         else
-            sa = ce * material_inputs_texture(m->hair.eu_sigma, sf, lambda[j]) +
-                 cp * material_inputs_texture(m->hair.pheo_sigma, sf, lambda[j]);
+            sa = ce * material_inputs_texture(hair->eu_sigma, sf, lambda[j]) +
+                 cp * material_inputs_texture(hair->pheo_sigma, sf, lambda[j]);
         b->sigma_a[j] = isfinite(sa) && sa > 0.0 ? sa : 0.0;
     }
 }
 
-const material_class_t material_hair = {.load = load, .bsdf = bsdf};
+const material_class_t material_hair = {
+    .name = "hair", .data_size = sizeof(material_hair_t), .load = load, .bsdf = bsdf};

@@ -308,7 +308,7 @@ int material_inputs_load_conductor(material_params_t *mp, const char *prefix, ma
                : -1;
 }
 
-int material_inputs_load_layer(material_params_t *mp, material_t *m)
+int material_inputs_load_layer(material_params_t *mp, material_layer_t *layer)
 {
     scene_float_input_t thickness, g;
     scene_spectrum_input_t albedo;
@@ -317,18 +317,19 @@ int material_inputs_load_layer(material_params_t *mp, material_t *m)
         material_params_float(mp, "g", 0.0, &g) != 0 ||
         material_params_spectrum_input(mp, "albedo", material_params_constant(0.0, mp->dm->loc),
                                        SPEC_REFLECTANCE, &albedo) != 0 ||
-        params_get_int(ps, "maxdepth", 10, &m->maxdepth, mp->err) != 0 ||
-        params_get_int(ps, "nsamples", 1, &m->nsamples, mp->err) != 0 ||
-        material_params_range(mp, "maxdepth", m->maxdepth, 1, 1000) != 0 ||
-        material_params_range(mp, "nsamples", m->nsamples, 1, 1000) != 0)
+        params_get_int(ps, "maxdepth", 10, &layer->maxdepth, mp->err) != 0 ||
+        params_get_int(ps, "nsamples", 1, &layer->nsamples, mp->err) != 0 ||
+        material_params_range(mp, "maxdepth", layer->maxdepth, 1, 1000) != 0 ||
+        material_params_range(mp, "nsamples", layer->nsamples, 1, 1000) != 0)
         return -1;
     if (thickness.texture < 0 && !(thickness.value > 0.0))
         return material_params_positive(mp, "thickness", thickness.value);
     if (g.texture < 0 && !(g.value > -1.0 && g.value < 1.0))
         return material_params_range(mp, "g", g.value, -0.999, 0.999);
-    return (m->thickness = loader_float_input(mp->L, &thickness, mp->err)) &&
-                   (m->g = loader_float_input(mp->L, &g, mp->err)) &&
-                   (m->albedo = loader_spectrum_input(mp->L, &albedo, SPEC_REFLECTANCE, mp->err))
+    return (layer->thickness = loader_float_input(mp->L, &thickness, mp->err)) &&
+                   (layer->g = loader_float_input(mp->L, &g, mp->err)) &&
+                   (layer->albedo =
+                        loader_spectrum_input(mp->L, &albedo, SPEC_REFLECTANCE, mp->err))
                ? 0
                : -1;
 }
@@ -366,7 +367,7 @@ bool material_inputs_names_crystal(material_params_t *mp)
     return false;
 }
 
-int material_inputs_load_crystal(material_params_t *mp, const char *what, material_t *m)
+int material_inputs_load_crystal(material_params_t *mp, const char *what, crystal_t *out)
 {
     const char *pre[2] = {"o.", "e."};
     bool has[2] = {false, false};
@@ -395,15 +396,15 @@ int material_inputs_load_crystal(material_params_t *mp, const char *what, materi
         if (!c) {
             char why[sizeof err->msg]; /* err->msg cannot be its own argument */
             snprintf(why, sizeof why, "%s", err->msg);
-            return pbrt_error(err, mp->dm->loc, "material \"%s\": %s", m->name, why);
+            return pbrt_error(err, mp->dm->loc, "material \"%s\": %s", mp->name, why);
         }
-        m->crystal = *c;
+        *out = *c;
     } else {
-        m->crystal = (crystal_t){.name = "(given)", .description = "", .source = "the scene file"};
+        *out = (crystal_t){.name = "(given)", .description = "", .source = "the scene file"};
     }
-    if (has[0] && material_inputs_ior(mp->L->sc, &ior[0], m->name, &m->crystal.no, err))
+    if (has[0] && material_inputs_ior(mp->L->sc, &ior[0], mp->name, &out->no, err))
         return -1;
-    if (has[1] && material_inputs_ior(mp->L->sc, &ior[1], m->name, &m->crystal.ne, err))
+    if (has[1] && material_inputs_ior(mp->L->sc, &ior[1], mp->name, &out->ne, err))
         return -1;
     return 0;
 }
@@ -450,9 +451,11 @@ void material_inputs_conductor_index(const material_t *m, const surface_t *sf, d
     *k = 2.0 * sqrt(r) / sqrt(1.0 - r);
 }
 
-void material_inputs_layer_at(const material_t *m, const surface_t *sf, const double *lambda, int n,
-                              bsdf_t *b)
+void material_inputs_layer_at(const material_layer_t *layer, const surface_t *sf,
+                              const double *lambda, int n, bsdf_t *b)
 {
+    static const material_layer_t DEFAULTS = {0};
+    const material_layer_t *m = layer ? layer : &DEFAULTS;
     double th = m->thickness ? material_inputs_texture(m->thickness, sf, 550.0) : 0.01;
     b->thickness = fmax(th, 1e-7); /* pbrt-v4: max(thickness, epsilon) */
     double g = m->g ? material_inputs_texture(m->g, sf, 550.0) : 0.0;

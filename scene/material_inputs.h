@@ -68,9 +68,16 @@ void material_inputs_smoothness(material_t *m, const scene_float_input_t *u,
  * "reflectance", pbrt-v4's alternative (not both); a textured eta or k fails. */
 int material_inputs_load_conductor(struct material_params *mp, const char *prefix, material_t *m);
 
-/* A coating's medium (pbrt-v4's LayeredBxDF): "thickness" (0.01), "g" (0), "albedo" (0),
- * "maxdepth" (10), "nsamples" (1). */
-int material_inputs_load_layer(struct material_params *mp, material_t *m);
+/* A coating's medium (pbrt-v4's LayeredBxDF), which both coated classes keep in their record:
+ * textures NULL and counts 0 where a coating built in code gives none (the defaults then). */
+typedef struct material_layer {
+    const texture_t *thickness, *albedo, *g;
+    int maxdepth, nsamples;
+} material_layer_t;
+
+/* A coating's medium: "thickness" (0.01), "g" (0), "albedo" (0), "maxdepth" (10),
+ * "nsamples" (1). */
+int material_inputs_load_layer(struct material_params *mp, material_layer_t *layer);
 
 /* prismfarm's thin film on smooth glass or metal: "filmthickness" in nm (0: none) of index
  * "filmeta" (1.33). */
@@ -83,7 +90,7 @@ bool material_inputs_names_crystal(struct material_params *mp);
  * from the catalogue, or both indices with the "o." and "e." prefixes of
  * material_inputs_read_ior, which replace the catalogue's; what names the material kind in
  * messages. */
-int material_inputs_load_crystal(struct material_params *mp, const char *what, material_t *m);
+int material_inputs_load_crystal(struct material_params *mp, const char *what, crystal_t *out);
 
 /* ---- at a hit ---- */
 
@@ -114,9 +121,9 @@ void material_inputs_conductor_index(const material_t *m, const surface_t *sf, d
                                      double *eta, double *k);
 
 /* A coating's medium at sf into b (thickness, g, maxdepth, nsamples, each lane's albedo), with
- * pbrt-v4's defaults and clamps. */
-void material_inputs_layer_at(const material_t *m, const surface_t *sf, const double *lambda, int n,
-                              bsdf_t *b);
+ * pbrt-v4's defaults and clamps (all of them for a NULL layer). */
+void material_inputs_layer_at(const material_layer_t *layer, const surface_t *sf,
+                              const double *lambda, int n, bsdf_t *b);
 
 /* A coating's index at lambda; pbrt-v4 replaces a zero index by 1 (a coating of eta 0 is no
  * coating). */

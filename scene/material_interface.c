@@ -2,4 +2,5 @@
  * cross straight (render/shading.c, render/render.c). Nothing to load, no BSDF. */
 #include "material_class.h"
 
-const material_class_t material_interface = {0};
+const material_class_t material_interface = {.name = "interface",
+                                             .aliases = (const char *const[]){"", "none", NULL}};

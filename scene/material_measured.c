@@ -1,4 +1,5 @@
 /* pbrt-v4's MeasuredMaterial: RGL's measured BSDF data (bsdf/measured.h) from a .bsdf file. */
+#include "material_measured.h"
 #include "material_class.h"
 
 #include "material_params.h"
@@ -14,6 +15,8 @@
  * reads is. */
 static int load(material_params_t *mp, material_t *m)
 {
+    (void)m;
+    material_measured_t *rec = mp->data;
     const char *filename;
     if (params_get_string(mp->ps, "filename", NULL, &filename, mp->err) != 0)
         return -1;
@@ -22,7 +25,7 @@ static int load(material_params_t *mp, material_t *m)
     if (!filename || !*filename || !path)
         return pbrt_error(mp->err, mp->dm->loc,
                           "Material \"measured\" needs \"string filename\" (an RGL .bsdf file)");
-    if ((m->measured = scene_find_measured(mp->L->sc, path)))
+    if ((rec->bsdf = scene_find_measured(mp->L->sc, path)))
         return 0;
     const pbrt_loc_t at = fp->loc;
     err_t *err = mp->err;
@@ -35,7 +38,7 @@ static int load(material_params_t *mp, material_t *m)
     }
     if (!md)
         return err_prefix(err, "%s:%d:%d: Material \"measured\": ", at.file, at.line, at.col);
-    m->measured = md;
+    rec->bsdf = md;
     return scene_own_measured(mp->L->sc, md, path, err);
 }
 
@@ -43,9 +46,11 @@ static void bsdf(const material_t *m, const surface_t *sf, const double *lambda,
 {
     (void)sf;
     b->kind = BSDF_MEASURED;
-    b->measured = m->measured;
+    const material_measured_t *rec = material_measured_of(m);
+    b->measured = rec ? rec->bsdf : NULL;
     for (int j = 0; j < n; j++)
         b->lambda[j] = lambda[j];
 }
 
-const material_class_t material_measured = {.load = load, .bsdf = bsdf};
+const material_class_t material_measured = {
+    .name = "measured", .data_size = sizeof(material_measured_t), .load = load, .bsdf = bsdf};

@@ -1,5 +1,6 @@
 /* pbrt-v4's MixMaterial: one of two named materials, the second with probability "amount",
  * chosen per hit (render/shading.h shading_resolve) before any BSDF is made. */
+#include "material_mix.h"
 #include "material_class.h"
 #include "material_params.h"
 
@@ -8,6 +9,8 @@
 /* "string materials": two materials made by MakeNamedMaterial before the mix; "amount" (0.5). */
 static int load(material_params_t *mp, material_t *m)
 {
+    (void)m;
+    material_mix_t *mix = mp->data;
     const param_t *p = params_find(mp->ps, "materials");
     if (!p)
         return pbrt_error(mp->err, mp->dm->loc,
@@ -21,14 +24,15 @@ static int load(material_params_t *mp, material_t *m)
     const scene_desc_t *d = mp->L->desc;
     const int self = (int)(mp->dm - d->materials);
     for (int i = 0; i < 2; i++) {
-        m->mix[i] = scene_desc_find_material(d, p->strings[i]);
-        if (m->mix[i] < 0 || m->mix[i] >= self)
+        mix->materials[i] = scene_desc_find_material(d, p->strings[i]);
+        if (mix->materials[i] < 0 || mix->materials[i] >= self)
             return pbrt_error(mp->err, p->loc,
                               "mix: named material \"%s\" is not defined (a MakeNamedMaterial must "
                               "come before the mix that uses it)",
                               p->strings[i]);
     }
-    return (m->amount = material_params_float_texture(mp, "amount", 0.5)) ? 0 : -1;
+    return (mix->amount = material_params_float_texture(mp, "amount", 0.5)) ? 0 : -1;
 }
 
-const material_class_t material_mix = {.load = load};
+const material_class_t material_mix = {
+    .name = "mix", .data_size = sizeof(material_mix_t), .load = load};

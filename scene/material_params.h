@@ -20,6 +20,9 @@ typedef struct material_params {
     params_t *ps;               /* its parameters (dm's, or an empty list) */
     const char *name;           /* the material's name in messages (material_t.name) */
     err_t *err;
+    /* The class's own record, data_size zeroed bytes (material_class.h) that load fills and
+     * the scene keeps a copy of (material_t.data); NULL for a class without one. */
+    void *data;
     void **scratch; /* memory a reading needs until the material is loaded */
     size_t nscratch;
 } material_params_t;

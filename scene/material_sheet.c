@@ -6,17 +6,20 @@
 #include "material_inputs.h"
 
 #include "material_params.h"
+#include "material_sheet.h"
 
 #include "pbrt_parser.h"
 
 /* The axis "angle" in degrees from the surface's u direction (0). */
 static int load_polarizer(material_params_t *mp, material_t *m)
 {
+    (void)m;
+    material_sheet_t *sheet = mp->data;
     double angle;
     if (params_get_float(mp->ps, "angle", 0.0, &angle, mp->err) != 0 ||
         material_params_range(mp, "angle", angle, -360.0, 360.0) != 0)
         return -1;
-    m->sheet_angle = angle * (PF_PI / 180.0);
+    sheet->angle = angle * (PF_PI / 180.0);
     return 0;
 }
 
@@ -30,6 +33,7 @@ static int load_retarder(material_params_t *mp, material_t *m)
 {
     params_t *ps = mp->ps;
     err_t *err = mp->err;
+    material_sheet_t *sheet = mp->data;
     if (load_polarizer(mp, m) != 0)
         return -1;
     const bool deg = params_find(ps, "retardance") != NULL;
@@ -48,10 +52,10 @@ static int load_retarder(material_params_t *mp, material_t *m)
         params_get_float(ps, "thickness", 0.0, &thickness, err) != 0 ||
         material_params_range(mp, "thickness", thickness, 0.0, 1e5) != 0)
         return -1;
-    m->retardance = retardance * (PF_PI / 180.0);
-    m->retardation_nm = retardation;
-    m->plate_thickness_nm = thickness * 1000.0;
-    m->retarder_mode = nm ? RETARDER_RETARDATION : plate ? RETARDER_PLATE : RETARDER_CONSTANT;
+    sheet->retardance = retardance * (PF_PI / 180.0);
+    sheet->retardation_nm = retardation;
+    sheet->plate_thickness_nm = thickness * 1000.0;
+    sheet->retarder_mode = nm ? RETARDER_RETARDATION : plate ? RETARDER_PLATE : RETARDER_CONSTANT;
     if (!plate) {
         if (params_find(ps, "thickness"))
             return pbrt_error(err, params_find(ps, "thickness")->loc,
@@ -60,16 +64,25 @@ static int load_retarder(material_params_t *mp, material_t *m)
         return 0;
     }
     bool axial;
-    if (material_inputs_load_crystal(mp, "retarder", m) != 0 ||
+    if (material_inputs_load_crystal(mp, "retarder", &sheet->crystal) != 0 ||
         params_get_bool(ps, "axial", false, &axial, err) != 0)
         return -1;
-    m->plate_axial = axial;
+    sheet->plate_axial = axial;
     if (!params_find(ps, "thickness"))
         return pbrt_error(err, mp->dm->loc,
                           "Material \"retarder\" with a crystal needs \"float thickness\" (in "
                           "micrometres)");
+    /* The plate's indices over the film's range, which load_options has set. */
+    const spectral_grid_t g = mp->L->sc->settings.grid;
+    if (ior_validate(&sheet->crystal.no, m->name, g.lambda_min, g.lambda_max, err) ||
+        ior_validate(&sheet->crystal.ne, m->name, g.lambda_min, g.lambda_max, err))
+        return -1;
     return 0;
 }
 
-const material_class_t material_polarizer = {.load = load_polarizer};
-const material_class_t material_retarder = {.load = load_retarder};
+const material_class_t material_polarizer = {.name = "polarizer",
+                                             .aliases = (const char *const[]){"polariser", NULL},
+                                             .data_size = sizeof(material_sheet_t),
+                                             .load = load_polarizer};
+const material_class_t material_retarder = {
+    .name = "retarder", .data_size = sizeof(material_sheet_t), .load = load_retarder};

@@ -1,6 +1,7 @@
 /* pbrt-v4's SubsurfaceMaterial: a dielectric boundary (index, roughness) over a scattering
  * medium, loaded as a dielectric with a BSSRDF beneath (material_kind.h); at a hit it is the
  * dielectric class, and the path integrator follows the BSSRDF (render/subsurface.h). */
+#include "material_subsurface.h"
 #include "material_class.h"
 #include "material_inputs.h"
 #include "material_params.h"
@@ -12,11 +13,11 @@
 
 /* The BSSRDF's profile table for (g, eta), computed once and shared by the materials that have
  * those (the scene owns it). */
-static int profile_table(scene_t *sc, double g, double eta, material_t *m, err_t *err)
+static int profile_table(scene_t *sc, double g, double eta, material_subsurface_t *sss, err_t *err)
 {
     for (size_t i = 0; i < sc->nbssrdf; i++)
         if (bssrdf_table_g(sc->bssrdf[i]) == g && bssrdf_table_eta(sc->bssrdf[i]) == eta) {
-            m->sss.table = sc->bssrdf[i];
+            sss->table = sc->bssrdf[i];
             return 0;
         }
     bssrdf_table_t *t = bssrdf_table_new(g, eta);
@@ -24,7 +25,7 @@ static int profile_table(scene_t *sc, double g, double eta, material_t *m, err_t
         return err_set(err, "out of memory");
     if (scene_own_bssrdf(sc, t, err) != 0)
         return -1;
-    m->sss.table = t;
+    sss->table = t;
     return 0;
 }
 
@@ -33,8 +34,9 @@ static int profile_table(scene_t *sc, double g, double eta, material_t *m, err_t
  * with "mfp" (SubsurfaceFromDiffuse turns them into coefficients at a hit); else pbrt-v4's
  * defaults, RGB (.0011, .0024, .014) and (2.55, 3.21, 3.77) per mm. *g is forced to 0 by a
  * name (its coefficients are reduced ones). */
-static int coefficients(material_params_t *mp, material_t *m, double *g)
+static int coefficients(material_params_t *mp, double *g)
 {
+    material_subsurface_t *sss = mp->data;
     params_t *ps = mp->ps;
     const pbrt_loc_t loc = mp->dm->loc;
     const char *name = NULL;
@@ -73,9 +75,9 @@ static int coefficients(material_params_t *mp, material_t *m, double *g)
                                            SPEC_UNBOUNDED, &ss))
             return -1;
     } else if (params_find(ps, "reflectance")) {
-        return (m->sss.reflectance = material_params_spectrum_texture(
+        return (sss->reflectance = material_params_spectrum_texture(
                     mp, "reflectance", material_params_constant(0.5, loc), SPEC_REFLECTANCE)) &&
-                       (m->sss.mfp = material_params_spectrum_texture(
+                       (sss->mfp = material_params_spectrum_texture(
                             mp, "mfp", material_params_constant(1.0, loc), SPEC_UNBOUNDED))
                    ? 0
                    : -1;
@@ -85,8 +87,8 @@ static int coefficients(material_params_t *mp, material_t *m, double *g)
         ss.spectrum =
             (scene_spectrum_t){.kind = SCENE_SPECTRUM_RGB, .rgb = {2.55, 3.21, 3.77}, .loc = loc};
     }
-    return (m->sss.sigma_a = loader_spectrum_input(mp->L, &sa, SPEC_UNBOUNDED, mp->err)) &&
-                   (m->sss.sigma_s = loader_spectrum_input(mp->L, &ss, SPEC_UNBOUNDED, mp->err))
+    return (sss->sigma_a = loader_spectrum_input(mp->L, &sa, SPEC_UNBOUNDED, mp->err)) &&
+                   (sss->sigma_s = loader_spectrum_input(mp->L, &ss, SPEC_UNBOUNDED, mp->err))
                ? 0
                : -1;
 }
@@ -95,13 +97,14 @@ static int coefficients(material_params_t *mp, material_t *m, double *g)
  * roughness. */
 static int load(material_params_t *mp, material_t *m)
 {
+    material_subsurface_t *sss = mp->data;
     params_t *ps = mp->ps;
     double g, eta;
     scene_float_input_t u, v;
     if (params_get_float(ps, "g", 0.0, &g, mp->err) != 0 ||
         params_get_float(ps, "eta", 1.33, &eta, mp->err) != 0 ||
-        params_get_float(ps, "scale", 1.0, &m->sss.scale, mp->err) != 0 ||
-        material_params_range(mp, "scale", m->sss.scale, 0.0, INFINITY) != 0 ||
+        params_get_float(ps, "scale", 1.0, &sss->scale, mp->err) != 0 ||
+        material_params_range(mp, "scale", sss->scale, 0.0, INFINITY) != 0 ||
         material_inputs_load_roughness(mp, "", &u, &v, &m->uroughness, &m->vroughness) != 0 ||
         material_inputs_load_remap(mp, m) != 0)
         return -1;
@@ -111,7 +114,7 @@ static int load(material_params_t *mp, material_t *m)
         return material_params_range(mp, "eta", eta, 0.5, 3.0);
     if (!(g > -1.0 && g < 1.0))
         return material_params_range(mp, "g", g, -0.999, 0.999);
-    if (coefficients(mp, m, &g) != 0)
+    if (coefficients(mp, &g) != 0)
         return -1;
     m->kind = MATERIAL_DIELECTRIC;
     m->ior = ior_constant(eta);
@@ -124,7 +127,8 @@ static int load(material_params_t *mp, material_t *m)
                      "dielectric boundary (no light leaves from beneath); \"path\" renders its "
                      "subsurface scattering"))
         return err_set(mp->err, "out of memory");
-    return profile_table(sc, g, eta, m, mp->err);
+    return profile_table(sc, g, eta, sss, mp->err);
 }
 
-const material_class_t material_subsurface = {.load = load};
+const material_class_t material_subsurface = {
+    .name = "subsurface", .data_size = sizeof(material_subsurface_t), .load = load};

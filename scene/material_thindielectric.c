@@ -18,4 +18,5 @@ static void bsdf(const material_t *m, const surface_t *sf, const double *lambda,
         b->eta[j] = ior_eval(&m->ior, lambda[j]);
 }
 
-const material_class_t material_thindielectric = {.load = load, .bsdf = bsdf};
+const material_class_t material_thindielectric = {
+    .name = "thindielectric", .load = load, .bsdf = bsdf};

@@ -3,6 +3,9 @@
 #include "plan_detect.h"
 #include "plan_internal.h"
 
+#include "material_subsurface.h"
+#include "material_uniaxial.h"
+
 #include "rng.h"
 #include "sample.h"
 
@@ -322,10 +325,11 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
     for (size_t i = 0; i < s->nmaterials; i++) {
         const material_t *m = &s->materials[i];
         sheets += material_is_sheet(m->kind);
-        crystals += m->uniaxial != 0;
-        coherent += m->uniaxial && m->coherent;
+        const material_uniaxial_t *u = material_uniaxial_of(m);
+        crystals += u != NULL;
+        coherent += u && u->coherent;
         glass += (m->kind == MATERIAL_DIELECTRIC || m->kind == MATERIAL_CONDUCTOR) && !m->rough &&
-                 !m->uniaxial;
+                 !u;
     }
     const render_settings_t *rs = &s->settings;
     const int on = rs->polarised;
@@ -345,7 +349,8 @@ static int decide_polarisation(plan_t *p, const scene_t *s)
             text_add(&r, "of coherent crystals (their o and e waves interfere and optical "
                          "activity turns the light: both live in the Stokes carrier): ");
             for (size_t i = 0, k2 = 0; i < s->nmaterials; i++) {
-                if (!s->materials[i].uniaxial || !s->materials[i].coherent)
+                const material_uniaxial_t *u = material_uniaxial_of(&s->materials[i]);
+                if (!u || !u->coherent)
                     continue;
                 /* Once per material written: each turned shape has its own copy. */
                 size_t j = 0;
@@ -780,7 +785,7 @@ static int decide_integrator(plan_t *p)
     return set_decision(p, PLAN_INTEGRATOR, 1, &c, &r);
 }
 
-/* Subsurface materials (scene.h material_t sss): named, and how the integrator that renders
+/* Subsurface materials (material_subsurface.h): named, and how the integrator that renders
  * treats them; pbrt-v4's path-sampled BSSRDF under "path" and "simplepath", their dielectric
  * boundary alone under "whitted" (render.c). */
 static int decide_subsurface(plan_t *p, const scene_t *s)
@@ -789,14 +794,15 @@ static int decide_subsurface(plan_t *p, const scene_t *s)
     int n = 0;
     for (size_t i = 0; i < s->nmaterials; i++) {
         const material_t *m = &s->materials[i];
-        if (!m->sss.table)
+        const material_subsurface_t *sss = material_subsurface_of(m);
+        if (!sss || !sss->table)
             continue;
         if (!n)
             text_add(&r, "subsurface scattering: ");
         text_add(&r, "%smaterial %s%s%s (eta %.4g, g %.3g, %s)", n ? "; " : "",
                  m->named ? "\"" : "", m->name, m->named ? "\"" : "",
-                 bssrdf_table_eta(m->sss.table), bssrdf_table_g(m->sss.table),
-                 m->sss.sigma_a ? "sigma_a and sigma_s" : "reflectance and mfp");
+                 bssrdf_table_eta(sss->table), bssrdf_table_g(sss->table),
+                 sss->sigma_a ? "sigma_a and sigma_s" : "reflectance and mfp");
         n++;
     }
     const int whitted = p->current_integrator == INTEGRATOR_WHITTED;

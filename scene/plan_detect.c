@@ -1,5 +1,7 @@
 #include "plan_detect.h"
 
+#include "material_subsurface.h"
+
 #include "rng.h"
 #include "sample.h"
 
@@ -53,7 +55,8 @@ int plan_detect_texture_varies(const texture_t *t, spectral_grid_t g)
 static int is_specular(const material_t *m)
 {
     return (m->kind == MATERIAL_CONDUCTOR || m->kind == MATERIAL_DIELECTRIC) && !m->rough &&
-           !m->sss.table; /* light entering a subsurface material is diffused beneath */
+           !material_subsurface_table(
+               m); /* light entering a subsurface material is diffused beneath */
 }
 
 /* A surface that receives a caustic: a diffuse surface that reflects some light at the hit

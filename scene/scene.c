@@ -94,6 +94,8 @@ void scene_destroy(scene_t **self_p)
     }
     free(self->shapes);
     free(self->instances);
+    for (size_t i = 0; i < self->nmaterials; i++)
+        free((void *)self->materials[i].data);
     free(self->materials);
     free(self->lights);
     alias_destroy(&self->light_power);
@@ -252,10 +254,21 @@ int scene_medium_after(const surface_t *sf, vec3_t w, int current)
 
 int scene_add_material(scene_t *self, const material_t *m, err_t *err)
 {
+    const size_t size = m->data ? material_kind_data_size(m->data_kind) : 0;
+    if (m->data && !size)
+        return err_set(err, "material \"%s\": kind %d keeps no record of its own", m->name,
+                       (int)m->data_kind);
+    void *data = size ? malloc(size) : NULL;
+    if (size && !data)
+        return err_set(err, "out of memory");
     long i = grow((void **)&self->materials, &self->nmaterials, sizeof *self->materials, err);
-    if (i < 0)
+    if (i < 0) {
+        free(data);
         return -1;
+    }
     self->materials[i] = *m;
+    if (data)
+        self->materials[i].data = memcpy(data, m->data, size);
     return (int)i;
 }
 
@@ -766,7 +779,7 @@ int scene_finish(scene_t *self, err_t *err)
      * (render/crystal_coherent.h). */
     int coherent = 0;
     for (size_t i = 0; i < self->nmaterials; i++)
-        coherent += self->materials[i].uniaxial && self->materials[i].coherent;
+        coherent += self->materials[i].needs_polarisation;
     if (self->polarising_sheets > 0 || self->camera.analyser || self->polarised_lights > 0 ||
         coherent > 0)
         self->settings.polarised = 1;
@@ -781,15 +794,9 @@ int scene_finish(scene_t *self, err_t *err)
     }
     for (size_t i = 0; i < self->nmaterials; i++) {
         material_t *m = &self->materials[i];
-        if (m->kind == MATERIAL_RETARDER && m->retarder_mode == RETARDER_PLATE &&
-            (ior_validate(&m->crystal.no, m->name, g.lambda_min, g.lambda_max, err) ||
-             ior_validate(&m->crystal.ne, m->name, g.lambda_min, g.lambda_max, err)))
-            return -1;
         if (!material_has_ior(m->kind))
             continue;
         if (ior_validate(&m->ior, m->name, g.lambda_min, g.lambda_max, err))
-            return -1;
-        if (m->uniaxial && ior_validate(&m->crystal.ne, m->name, g.lambda_min, g.lambda_max, err))
             return -1;
         /* A thin slab transmits straight through at every wavelength: its index changes
          * weights, never directions, so it never splits a path's wavelengths. */

@@ -39,13 +39,6 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* How a retarder sheet's retardance depends on wavelength (material_t.retarder_mode). */
-typedef enum retarder_mode {
-    RETARDER_CONSTANT,    /* the same retardance (radians) at every wavelength */
-    RETARDER_RETARDATION, /* a dispersion-free optical path difference in nm */
-    RETARDER_PLATE,       /* a crystal plate of given thickness: dispersion, oblique incidence */
-} retarder_mode_t;
-
 /* The numbers of a material; textures are NULL where the material has no such input (a
  * NULL roughness is 0). The models themselves are bsdf/'s (pbrt-v4's BxDFs). */
 typedef struct material {
@@ -54,31 +47,31 @@ typedef struct material {
      * "jewel.pbrt:57" (the file's base name and line), else "(unnamed)" (built in code). */
     char name[64];
     int named;
+    /* The numbers only one class reads, in its own record (scene/material_<name>.h, e.g.
+     * material_sheet_t): data points at a record of class data_kind's (its kind, or
+     * MATERIAL_UNIAXIAL or MATERIAL_SUBSURFACE for a dielectric they loaded as), owned by the
+     * scene (scene_add_material copies it, scene_destroy frees it); NULL: none. Read it only
+     * through the class header's accessor (material_sheet_of(m), ...), which checks data_kind
+     * and gives NULL for another class's material. */
+    material_kind_t data_kind;
+    const void *data;
     /* diffuse albedo, coated diffuse base, diffuse transmission reflectance; a conductor's
      * reflectance when eta is NULL */
     const texture_t *reflectance;
-    const texture_t *transmittance; /* diffuse transmission */
-    double scale;                   /* diffuse transmission: multiplies both */
     /* conductor's (or coated conductor's base) complex index (both or neither) */
     const spectrum_t *eta, *k;
     /* dielectric, thin dielectric, and the coatings' interface */
     ior_model_t ior;
     int dispersive; /* the index varies over the film's range */
-    /* Roughness (NULL: 0) of the conductor, dielectric or coating interface, and of a coated
-     * conductor's base; remapped by pbrt-v4's RoughnessToAlpha when remaproughness. */
+    /* Roughness (NULL: 0) of the conductor, dielectric or coating interface (a coated
+     * conductor's base keeps its own: material_coatedconductor.h); remapped by pbrt-v4's
+     * RoughnessToAlpha when remaproughness. */
     const texture_t *uroughness, *vroughness;
-    const texture_t *base_uroughness, *base_vroughness;
     int remaproughness;
     /* A conductor or dielectric whose constant roughness pbrt-v4 calls effectively smooth
      * (smooth: the delta code everywhere) or not (rough: nowhere); neither when a texture
      * decides per hit. Set by the loader; a material without roughness is smooth anyway. */
     int smooth, rough;
-    /* coated: the medium between interface and base */
-    const texture_t *thickness, *albedo, *g;
-    int maxdepth, nsamples;
-    /* mix: two material indices and the probability of the second */
-    int mix[2];
-    const texture_t *amount;
     /* Shading-normal perturbation (pbrt-v4 BumpMap, NormalMap; render/shading.h
      * shading_perturb): a float displacement texture, or a tangent-space normal map
      * (texture_new_normalmap), which wins when both are given, as in pbrt-v4. NULL: none. */
@@ -88,56 +81,10 @@ typedef struct material {
      * scene files yet (the parser's parameters are still to be added). */
     double film_thickness;
     ior_model_t film_ior;
-    /* A uniaxial birefringent crystal (uniaxial 1; bsdf/uniaxial.h, docs/physics.md §15): a
-     * smooth MATERIAL_DIELECTRIC whose ior is the ordinary index (what reads a dielectric's
-     * index sees n_o), with its principal indices and dichroic absorption (crystal), the
-     * optic axis (unit; object space as the material gives it, world space once the loader
-     * has turned it with the shape: scene_material_for_shape) and the millimetres in a scene
-     * unit that the absorption (1/mm) is scaled by. */
-    int uniaxial;
-    crystal_t crystal;
-    vec3_t optic_axis;
-    double mm_per_unit;
-    /* "bool coherent": a thin crystal whose o and e waves cross it as one ray, their phases
-     * (and quartz's optical activity) carried (render/crystal_coherent.h; with polarisation). */
-    int coherent;
-    /* Polariser and retarder sheets (docs/physics.md §14): the transmission axis or fast axis,
-     * in radians from the surface's dp/du toward ng x dp/du (ng the geometric normal, the side
-     * the shape's orientation calls outside), and a retarder's retardance in radians (pi/2: a
-     * quarter-wave plate, the same at every wavelength). */
-    double sheet_angle;
-    double retardance;
-    /* measured: the file's data (owned by the scene, scene_own_measured) */
-    const measured_t *measured;
-    /* A hair fibre (pbrt-v4 HairMaterial, bsdf/hair.h): the absorption per unit radius from
-     * sigma_a (an unbounded spectrum), else from reflectance (Chiang et al.'s inversion), else
-     * eumelanin eu_sigma + pheomelanin pheo_sigma (the pigments' own absorption spectra); the
-     * index, the roughnesses and the scales' tilt in degrees. */
-    struct {
-        const texture_t *sigma_a, *reflectance, *eumelanin, *pheomelanin, *eu_sigma, *pheo_sigma;
-        const texture_t *eta, *beta_m, *beta_n, *alpha;
-    } hair;
-    /* A retarder's retardance per wavelength (docs/physics.md §14.1): the constant retardance
-     * above, a dispersion-free optical path difference retardation_nm (delta = 2 pi Gamma /
-     * lambda), or a crystal plate (the crystal's indices above, optic axis along sheet_angle)
-     * of plate_thickness_nm (polar/waveplate.h). */
-    retarder_mode_t retarder_mode;
-    double retardation_nm, plate_thickness_nm;
-    /* A crystal plate cut across its optic axis ("bool axial"; waveplate_axial_mueller): light
-     * along the axis, turned by the crystal's optical activity (quartz) and retarded by the
-     * linear birefringence of oblique incidence. 0: the axis in the plate, along sheet_angle. */
-    int plate_axial;
-    /* pbrt-v4's SubsurfaceMaterial (scene/material_subsurface.c): a MATERIAL_DIELECTRIC (its ior
-     * and roughness are the boundary's) with a BSSRDF beneath, when table is not NULL: the
-     * profile table for its (g, eta) (owned by the scene), the medium's coefficients per unit
-     * length (sigma_a and sigma_s, else reflectance and mfp, which SubsurfaceFromDiffuse
-     * turns into them), all times scale. The path integrator follows it (render/subsurface.h);
-     * the other integrators see the dielectric (the plan warns). */
-    struct {
-        const bssrdf_table_t *table;
-        const texture_t *sigma_a, *sigma_s, *reflectance, *mfp;
-        double scale;
-    } sss;
+    /* The material needs polarised transport even in a scene without sheets, analyser or
+     * polarised lights (a coherent crystal's interference colours: render/crystal_coherent.h);
+     * scene_finish turns it on. */
+    int needs_polarisation;
 } material_t;
 
 typedef enum light_kind {
@@ -504,7 +451,8 @@ int render_settings_buckets(const render_settings_t *rs);
 /* A polariser or retarder sheet: crossed straight, a Mueller matrix with polarisation. */
 int material_is_sheet(material_kind_t kind);
 
-/* Returns the new material's index, or -1. */
+/* Returns the new material's index, or -1. The scene keeps its own copy of m->data (the
+ * class's record, of material_class_of(m->data_kind)->data_size bytes). */
 int scene_add_material(scene_t *self, const material_t *m, err_t *err);
 /* Returns the new light's index, or -1. Area lights are attached by scene_add_* shape calls. */
 int scene_add_light(scene_t *self, const light_t *l, err_t *err);

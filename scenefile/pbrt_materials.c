@@ -63,17 +63,14 @@ int pbrt_materials_read(parser_t *P, params_t *ps, const str_arg_t *type, const 
     if (v4)
         return pbrt_error(P->err, type_loc, "pbrt-v3's material \"%s\" (pbrt-v4's \"%s\"): %s",
                           type->s, v4, PBRT_UPGRADE_HINT);
-    int kind;
-    size_t nnames;
-    const pbrt_name_t *names = material_kind_names(&nnames);
-    if (pbrt_state_lookup(P, "unsupported material", type->s, type_loc, names, nnames, &kind) != 0)
-        return -1;
     int idx = scene_desc_add_material(P->scene, P->err);
     if (idx < 0)
         return -1;
     scene_material_t *m = &P->scene->materials[idx];
-    m->kind = (material_kind_t)kind;
+    m->type_loc = type_loc;
     m->loc = loc;
+    if (!(m->type = scene_desc_strdup(P->scene, type->s, P->err)))
+        return -1;
     m->ntextures = P->scene->ntextures;
     if (name && !(m->name = scene_desc_strdup(P->scene, name, P->err)))
         return -1;

@@ -1,6 +1,7 @@
-/* pbrt_materials: Material and MakeNamedMaterial into the description: the material's kind
- * (material_kind.c's names) and its parameters, kept unread for its class to read when the
- * scene loads (scene/material_<name>.c), as pbrt-v4 keeps a material's ParameterDictionary.
+/* pbrt_materials: Material and MakeNamedMaterial into the description: the material's type as
+ * written, which the loader looks up in its registry of classes (scene/material_kind.h), and its
+ * parameters, kept unread for its class to read when the scene loads
+ * (scene/material_<name>.c), as pbrt-v4 keeps a material's ParameterDictionary.
  * What must happen while the scene is parsed -- the files a material names confined, charged
  * and listed for the bundle -- is one rule keyed on the parameters' declared types and names
  * that knows no material: a new material needs nothing here. */

@@ -162,7 +162,7 @@ scene_desc_t *scene_desc_new(err_t *err)
         scene_desc_destroy(&self);
         return NULL;
     }
-    self->materials[m].kind = MATERIAL_DIFFUSE; /* no parameters: its class's defaults */
+    self->materials[m].type = "diffuse"; /* no parameters: its class's defaults */
     return self;
 }
 

@@ -18,7 +18,6 @@
 #define PRISMFARM_SCENE_DESC_H
 
 #include "err.h"
-#include "material_kind.h"
 #include "params.h"
 #include "pbrt_lexer.h"
 #include "transform.h"
@@ -150,12 +149,15 @@ typedef struct scene_material_resolved {
     scene_spectrum_t spectrum; /* a spectrum parameter's value */
 } scene_material_resolved_t;
 
-/* A material as the scene wrote it (pbrt-v4's Material and MakeNamedMaterial): its kind and
- * its parameters unread. Its class reads them when the scene loads (scene/material_<name>.c,
- * through scene/material_params.h), as pbrt-v4's Material::Create reads the
- * ParameterDictionary that outlives its parse; the description names no material's fields. */
+/* A material as the scene wrote it (pbrt-v4's Material and MakeNamedMaterial): its type and
+ * its parameters unread. The loader finds the type's class and refuses an unknown one at
+ * type_loc (scene/material_kind.h, the registry); the class reads the parameters when the scene
+ * loads (scene/material_<name>.c, through scene/material_params.h), as pbrt-v4's
+ * Material::Create reads the ParameterDictionary that outlives its parse. The description
+ * knows no material: neither the list of types nor their fields. */
 typedef struct scene_material {
-    material_kind_t kind;
+    const char *type;    /* as written ("diffuse", "none", ...), in the description's memory */
+    pbrt_loc_t type_loc; /* where the type was written (line 0: the default material) */
     const char *name; /* MakeNamedMaterial name, or NULL for Material */
     pbrt_loc_t loc;
     /* The directive's parameters (the description owns them; NULL for the default material):

@@ -261,31 +261,52 @@ static void test_interface_lets_light_through(void **state)
     scene_destroy(&b);
 }
 
-/* Every name a scene may write for a material has a class (scene/material_class.h) and is the
- * name reports give its kind; every kind that keeps its own kind when loaded and is a surface
- * makes its own BSDF, and a kind without one (a mix, an interface, a sheet) gets the diffuse
- * class's 0.5, as shading_bsdf's switch gave it before the classes. */
+/* Every kind of the registry (material_kind.h) has a class, whose name the loader's lookup
+ * finds and reports give; the aliases find their kind too, and an unknown type is refused at
+ * its place with the list written from the classes. Every kind that keeps its own kind when
+ * loaded and is a surface makes its own BSDF, and a kind without one (a mix, an interface, a
+ * sheet) gets the diffuse class's 0.5, as shading_bsdf's switch gave it before the classes. */
 static void test_every_material_has_a_class(void **state)
 {
     (void)state;
-    size_t n;
-    const pbrt_name_t *names = material_kind_names(&n);
-    int seen = 0;
-    for (size_t i = 0; i < n && names[i].name; i++, seen++) {
-        const material_kind_t kind = (material_kind_t)names[i].value;
-        if (!material_class_of(kind))
-            fail_msg("material \"%s\" has no class", names[i].name);
-        if (strcmp(material_kind_name(kind), names[i].name) != 0)
-            fail_msg("kind of \"%s\" is named \"%s\"", names[i].name, material_kind_name(kind));
+    const pbrt_loc_t loc = {.file = "t.pbrt", .line = 7, .col = 3};
+    err_t err = {{0}};
+    for (int k = 0; k < MATERIAL_KIND_COUNT; k++) {
+        const material_kind_t kind = (material_kind_t)k;
+        const material_class_t *c = material_class_of(kind);
+        if (!c || !c->name)
+            fail_msg("kind %d has no class or no name", k);
+        material_kind_t found;
+        if (material_class_lookup(c->name, loc, &found, &err) != 0 || found != kind)
+            fail_msg("\"%s\" does not find its own kind: %s", c->name, err.msg);
+        assert_string_equal(material_kind_name(kind), c->name);
         const int own_bsdf = kind != MATERIAL_MIX && kind != MATERIAL_INTERFACE &&
                              kind != MATERIAL_POLARISER && kind != MATERIAL_RETARDER &&
                              kind != MATERIAL_UNIAXIAL && kind != MATERIAL_SUBSURFACE;
-        if (own_bsdf != (material_class_of(kind)->bsdf != NULL))
-            fail_msg("material \"%s\": a BSDF of its own is %s", names[i].name,
+        if (own_bsdf != (c->bsdf != NULL))
+            fail_msg("material \"%s\": a BSDF of its own is %s", c->name,
                      own_bsdf ? "missing" : "unexpected");
     }
-    assert_int_equal(seen, MATERIAL_SUBSURFACE + 1);
-    assert_null(material_class_of((material_kind_t)(MATERIAL_SUBSURFACE + 1)));
+    assert_null(material_class_of(MATERIAL_KIND_COUNT));
+    assert_string_equal(material_kind_name(MATERIAL_KIND_COUNT), "?");
+    static const struct {
+        const char *alias;
+        material_kind_t kind;
+    } ALIASES[] = {
+        {"polariser", MATERIAL_POLARISER}, {"", MATERIAL_INTERFACE}, {"none", MATERIAL_INTERFACE}};
+    for (size_t i = 0; i < sizeof ALIASES / sizeof ALIASES[0]; i++) {
+        material_kind_t found;
+        assert_int_equal(material_class_lookup(ALIASES[i].alias, loc, &found, &err), 0);
+        assert_int_equal(found, ALIASES[i].kind);
+    }
+    material_kind_t found;
+    assert_int_equal(material_class_lookup("polarisr", loc, &found, &err), -1);
+    assert_string_equal(err.msg, "t.pbrt:7:3: unsupported material \"polarisr\" (did you mean "
+                                 "\"polarizer\"? \"diffuse\", \"conductor\", \"dielectric\", "
+                                 "\"thindielectric\", \"diffusetransmission\", \"coateddiffuse\", "
+                                 "\"coatedconductor\", \"mix\", \"uniaxial\", \"interface\", "
+                                 "\"polarizer\", \"retarder\", \"measured\", \"hair\" or "
+                                 "\"subsurface\")");
     const material_t mix = {.kind = MATERIAL_MIX};
     const surface_t sf = {.ns = {0, 0, 1}, .ng = {0, 0, 1}};
     const double lambda[2] = {450.0, 650.0};

@@ -1224,7 +1224,7 @@ static void test_scene_format(void **state)
     /* AttributeEnd restored the outer interface; one name means both sides */
     assert_int_equal(d->shapes[1].inside_medium, 2);
     assert_int_equal(d->shapes[1].outside_medium, 2);
-    assert_int_equal(d->materials[d->shapes[1].material].kind, MATERIAL_INTERFACE);
+    assert_string_equal(d->materials[d->shapes[1].material].type, ""); /* interface */
     scene_desc_destroy(&d);
 
     scene_t *s = foggy("Integrator \"volpath\"\n");

@@ -18,6 +18,10 @@
 #include <unistd.h>
 
 #include "files_testutil.h"
+#include "material_coatedconductor.h"
+#include "material_coateddiffuse.h"
+#include "material_diffusetransmission.h"
+#include "material_mix.h"
 #include "mesh_import.h"
 #include "numeric_testutil.h"
 #include "pbrt_parser.h"
@@ -150,7 +154,7 @@ static void test_defaults(void **state)
     assert_int_equal(s->film.loc.line, 0);
     assert_string_equal(s->camera.loc.file, "t.pbrt");
     assert_int_equal(s->nmaterials, 1);
-    assert_int_equal(s->materials[0].kind, MATERIAL_DIFFUSE);
+    assert_string_equal(s->materials[0].type, "diffuse");
     assert_null(s->materials[0].params); /* its class's defaults: reflectance 0.5 */
     scene_desc_destroy(&s);
 
@@ -269,12 +273,12 @@ static void test_materials_and_textures(void **state)
     assert_int_equal(t[4].amount.texture, 1);
 
     assert_int_equal(s->nmaterials, 14);
-    assert_int_equal(s->materials[1].kind, MATERIAL_DIFFUSE);
+    assert_string_equal(s->materials[1].type, "diffuse");
     assert_null(s->materials[1].name);
     assert_string_equal(s->materials[4].name, "bk7");
-    assert_int_equal(s->materials[4].kind, MATERIAL_DIELECTRIC);
-    assert_int_equal(s->materials[10].kind, MATERIAL_CONDUCTOR);
-    assert_int_equal(s->materials[13].kind, MATERIAL_INTERFACE);
+    assert_string_equal(s->materials[4].type, "dielectric");
+    assert_string_equal(s->materials[10].type, "conductor");
+    assert_string_equal(s->materials[13].type, "interface");
     /* A "spectrum" given by a string is read while parsing (a file would be listed). */
     assert_int_equal(s->materials[4].nresolved, 1);
     assert_string_equal(s->materials[4].resolved[0].param, "eta");
@@ -301,28 +305,29 @@ static void test_more_materials(void **state)
     testutil_assert_near(tex_at(m[1].reflectance, 550), 0.5, 1e-12);
     testutil_assert_near(ior_eval(&m[1].ior, 550), 1.5, 1e-12);
     assert_null(m[1].uroughness);
-    testutil_assert_near(tex_at(m[1].thickness, 550), 0.01, 1e-12);
-    testutil_assert_near(tex_at(m[1].albedo, 550), 0, 1e-12);
-    testutil_assert_near(tex_at(m[1].g, 550), 0, 1e-12);
-    assert_int_equal(m[1].maxdepth, 10);
-    assert_int_equal(m[1].nsamples, 1);
+    testutil_assert_near(tex_at(material_coateddiffuse_of(&m[1])->layer.thickness, 550), 0.01, 1e-12);
+    testutil_assert_near(tex_at(material_coateddiffuse_of(&m[1])->layer.albedo, 550), 0, 1e-12);
+    testutil_assert_near(tex_at(material_coateddiffuse_of(&m[1])->layer.g, 550), 0, 1e-12);
+    assert_int_equal(material_coateddiffuse_of(&m[1])->layer.maxdepth, 10);
+    assert_int_equal(material_coateddiffuse_of(&m[1])->layer.nsamples, 1);
     assert_true(m[1].remaproughness);
     /* coateddiffuse, everything given */
     assert_true(tex_at(m[2].reflectance, 450) > tex_at(m[2].reflectance, 650));
     testutil_assert_near(tex_at(m[2].uroughness, 550), 0.05, 1e-12);
     testutil_assert_near(tex_at(m[2].vroughness, 550), 0.05, 1e-12);
     testutil_assert_near(ior_eval(&m[2].ior, 550), 1.6, 1e-12);
-    testutil_assert_near(tex_at(m[2].thickness, 550), 0.02, 1e-12);
-    testutil_assert_near(tex_at(m[2].g, 550), 0.3, 1e-12);
-    assert_true(tex_at(m[2].albedo, 550) > 0.4 && tex_at(m[2].albedo, 550) < 0.6);
-    assert_int_equal(m[2].maxdepth, 20);
-    assert_int_equal(m[2].nsamples, 4);
+    testutil_assert_near(tex_at(material_coateddiffuse_of(&m[2])->layer.thickness, 550), 0.02, 1e-12);
+    testutil_assert_near(tex_at(material_coateddiffuse_of(&m[2])->layer.g, 550), 0.3, 1e-12);
+    const texture_t *albedo2 = material_coateddiffuse_of(&m[2])->layer.albedo;
+    assert_true(tex_at(albedo2, 550) > 0.4 && tex_at(albedo2, 550) < 0.6);
+    assert_int_equal(material_coateddiffuse_of(&m[2])->layer.maxdepth, 20);
+    assert_int_equal(material_coateddiffuse_of(&m[2])->layer.nsamples, 4);
     assert_false(m[2].remaproughness);
     /* coatedconductor: interface.* and conductor.* */
     assert_int_equal(m[3].kind, MATERIAL_COATED_CONDUCTOR);
     testutil_assert_near(tex_at(m[3].uroughness, 550), 0.02, 1e-12);
-    testutil_assert_near(tex_at(m[3].base_uroughness, 550), 0.002, 1e-12);
-    testutil_assert_near(tex_at(m[3].base_vroughness, 550), 0.002, 1e-12);
+    testutil_assert_near(tex_at(material_coatedconductor_of(&m[3])->base_uroughness, 550), 0.002, 1e-12);
+    testutil_assert_near(tex_at(material_coatedconductor_of(&m[3])->base_vroughness, 550), 0.002, 1e-12);
     testutil_assert_near(ior_eval(&m[3].ior, 550), 1.4, 1e-12);
     assert_non_null(m[3].eta);
     assert_null(m[3].reflectance);
@@ -331,18 +336,19 @@ static void test_more_materials(void **state)
     /* diffusetransmission: reflectance 0.25 by default */
     assert_int_equal(m[5].kind, MATERIAL_DIFFUSE_TRANSMISSION);
     testutil_assert_near(tex_at(m[5].reflectance, 550), 0.25, 1e-12);
-    assert_true(tex_at(m[5].transmittance, 550) > tex_at(m[5].transmittance, 450));
-    testutil_assert_near(m[5].scale, 0.9, TOL);
+    const material_diffusetransmission_t *dt = material_diffusetransmission_of(&m[5]);
+    assert_true(tex_at(dt->transmittance, 550) > tex_at(dt->transmittance, 450));
+    testutil_assert_near(dt->scale, 0.9, TOL);
     assert_int_equal(m[6].kind, MATERIAL_THIN_DIELECTRIC);
     testutil_assert_near(ior_eval(&m[6].ior, 550), 1.52, 1e-12);
     /* mix: the names resolve to the named materials' indices */
     assert_int_equal(m[7].kind, MATERIAL_MIX);
-    assert_int_equal(m[7].mix[0], 1);
-    assert_int_equal(m[7].mix[1], 6);
-    testutil_assert_near(tex_at(m[7].amount, 550), 0.3, 1e-12); /* "texture amount" "amt" */
-    assert_int_equal(m[8].mix[0], 5);
-    assert_int_equal(m[8].mix[1], 7);
-    testutil_assert_near(tex_at(m[8].amount, 550), 0.5, 1e-12);
+    assert_int_equal(material_mix_of(&m[7])->materials[0], 1);
+    assert_int_equal(material_mix_of(&m[7])->materials[1], 6);
+    testutil_assert_near(tex_at(material_mix_of(&m[7])->amount, 550), 0.3, 1e-12); /* "amt" */
+    assert_int_equal(material_mix_of(&m[8])->materials[0], 5);
+    assert_int_equal(material_mix_of(&m[8])->materials[1], 7);
+    testutil_assert_near(tex_at(material_mix_of(&m[8])->amount, 550), 0.5, 1e-12);
     /* an anisotropic rough dielectric */
     assert_int_equal(m[9].kind, MATERIAL_DIELECTRIC);
     testutil_assert_near(tex_at(m[9].uroughness, 550), 0.1, 1e-12);
@@ -891,7 +897,7 @@ static void test_includes(void **state)
     assert_point(&sh[0].to_world, vec3_make(0, 0, 0), 0, 1, 0); /* Include is textual */
     testutil_assert_near(sh[1].radius, 4, TOL);
     assert_point(&sh[1].to_world, vec3_make(0, 0, 0), 100, 1, 0);
-    assert_int_equal(s->materials[sh[1].material].kind, MATERIAL_CONDUCTOR);
+    assert_string_equal(s->materials[sh[1].material].type, "conductor");
     /* Import does not leak its CTM or material */
     testutil_assert_near(sh[2].radius, 5, TOL);
     assert_point(&sh[2].to_world, vec3_make(0, 0, 0), 0, 1, 0);

@@ -797,14 +797,14 @@ static void test_furnace(void **state)
 static void test_dichroic_plate(void **state)
 {
     (void)state;
-    material_t m = {.kind = MATERIAL_DIELECTRIC, .uniaxial = 1, .mm_per_unit = 1.0};
-    m.crystal = *crystal_find("tourmaline");
-    m.ior = m.crystal.no;
-    m.optic_axis = vec3_make(1, 0, 0);
+    const material_uniaxial_t cr = {
+        .crystal = *crystal_find("tourmaline"), .optic_axis = {1, 0, 0}, .mm_per_unit = 1.0};
+    material_t m = {.kind = MATERIAL_DIELECTRIC, .data_kind = MATERIAL_UNIAXIAL, .data = &cr};
+    m.ior = cr.crystal.no;
     const double lambda = 550.0;
-    const double no = n_at(&m.crystal.no, lambda), ne = n_at(&m.crystal.ne, lambda);
+    const double no = n_at(&cr.crystal.no, lambda), ne = n_at(&cr.crystal.ne, lambda);
     double ao, ae;
-    crystal_absorption_eval(&m.crystal.absorption, lambda, &ao, &ae);
+    crystal_absorption_eval(&cr.crystal.absorption, lambda, &ao, &ae);
     shape_t sh = {0};
     surface_t top = {.shape = &sh,
                      .material = &m,
@@ -821,7 +821,7 @@ static void test_dichroic_plate(void **state)
         int wave = 0, end;
         vec3_t dir;
         const double u = (i + 0.5) / N;
-        assert_int_equal(crystal_scatter(&m, &top, m.optic_axis, vec3_make(0, 0, 1),
+        assert_int_equal(crystal_scatter(&m, &top, cr.optic_axis, vec3_make(0, 0, 1),
                                          vec3_make(0, 0, -1), &wave, 1, &lambda, &w,
                                          BSDF_IMPORTANCE, u, &dir, &end, NULL),
                          0);
@@ -831,7 +831,7 @@ static void test_dichroic_plate(void **state)
         /* Straight down to the bottom (normal incidence, k across the axis: no walk-off), and
          * leaving with the second uniform (a stratified second dimension). */
         const double u2 = fmod(u * 7919.0, 1.0);
-        if (crystal_scatter(&m, &bottom, m.optic_axis, top.p, dir, &wave, 1, &lambda, &w,
+        if (crystal_scatter(&m, &bottom, cr.optic_axis, top.p, dir, &wave, 1, &lambda, &w,
                             BSDF_IMPORTANCE, u2, &dir, &end, NULL))
             continue;
         if (dir.z < 0)
@@ -857,12 +857,13 @@ static void test_syntax(void **state)
         "Shape \"sphere\"\n",
         NULL);
     const material_t *m = &s->materials[s->shapes[0].material];
-    assert_true(m->uniaxial && m->kind == MATERIAL_DIELECTRIC);
-    testutil_assert_near(n_at(&m->crystal.no, 500), 1.6, 1e-15);
-    testutil_assert_near(n_at(&m->crystal.ne, 500), 1.5 + 0.004 / 0.25, 1e-12);
-    testutil_assert_near(m->mm_per_unit, 10.0, 0.0);
+    const material_uniaxial_t *u = material_uniaxial_of(m);
+    assert_true(u && m->kind == MATERIAL_DIELECTRIC);
+    testutil_assert_near(n_at(&u->crystal.no, 500), 1.6, 1e-15);
+    testutil_assert_near(n_at(&u->crystal.ne, 500), 1.5 + 0.004 / 0.25, 1e-12);
+    testutil_assert_near(u->mm_per_unit, 10.0, 0.0);
     /* The axis [0 0 1] turned with the shape: a rotation of 90 degrees about y takes z to x. */
-    testutil_assert_near(m->optic_axis.x, 1.0, 1e-12);
+    testutil_assert_near(u->optic_axis.x, 1.0, 1e-12);
     scene_destroy(&s);
     err_t err;
     assert_null(sb_load_text(

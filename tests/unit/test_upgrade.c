@@ -101,8 +101,8 @@ static void test_v3_file(void **state)
     if (!d)
         fail_msg("parse: %s\n--\n%s", err.msg, text);
     const scene_material_t *shiny = named(d, "shiny"), *dull = named(d, "dull");
-    assert_int_equal(shiny->kind, MATERIAL_COATED_DIFFUSE);
-    assert_int_equal(dull->kind, MATERIAL_DIFFUSE);
+    assert_string_equal(shiny->type, "coateddiffuse");
+    assert_string_equal(dull->type, "diffuse");
     scene_desc_destroy(&d);
     free(text);
     warnings_destroy(&w);
