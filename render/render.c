@@ -142,6 +142,9 @@ typedef struct ctx {
     double *irradiance; /* grid.n buckets, for one estimate */
     le_entry_t le_cache[LE_CACHE_LIGHTS + 1][LANES];
     int media; /* the scene's media are simulated (render/volume.h) */
+    /* Equiangular sampling is on (render_settings_t.medium_sampling) and the scene has a light
+     * it samples toward (eq_light_ok). */
+    int eq_lights;
     /* The current camera path's traversal of a coherent crystal (render/crystal_coherent.h):
      * read only while its wave is UNIAXIAL_COHERENT; nothing splits a path inside one. */
     crystal_coherent_t coh;
@@ -1587,9 +1590,10 @@ static int roulette(ctx_t *c, path_t *p)
  * cancels in the ratio). Each technique's sample is weighted by the power heuristic of the two
  * joint densities (Veach 1997 §9.2), which sum to one at every (t, y), so the pair is unbiased
  * for I; the rest of the path (the phase-sampled continuation, the photon gather) stays the
- * free flight's alone. B applies only where it can do better: point and spot lights, and area
- * lights whose shapes are sampled by area (not spheres, sampled by their cone); a grid medium
- * has no closed form for q_s, so its segments keep free flight alone (docs/physics.md §12). */
+ * free flight's alone. B applies only where it can do better: point and spot lights, and small
+ * area lights whose shapes are sampled by area (eq_light_ok; not spheres, sampled by their
+ * cone); a grid medium has no closed form for q_s, so its segments keep free flight alone
+ * (docs/physics.md §12). */
 typedef struct eq_segment {
     vec3_t org, dir;
     double tmax;
@@ -1597,11 +1601,33 @@ typedef struct eq_segment {
     const double *beta; /* the lanes' throughputs before the flight: what shared it */
 } eq_segment_t;
 
+/* Which lights B samples toward: point and spot lights, and area lights sampled by area whose
+ * area is at most (EQ_SMALL_LIGHT scene_radius)^2. The singularity equiangular sampling removes
+ * is a small light's (1/d^2 down to its size); a large one's light free flight and next-event
+ * estimation already sample well, and B's extra light sample and shadow ray then cost more than
+ * they save (docs/accuracy.md, "Equiangular sampling in fog": Bitterli's 5 mm light, sqrt(area)
+ * 0.003 of the scene's radius, 1.2-3.9 times the efficiency; cornell-box-volume's, 0.24 of it,
+ * 0.8 times). A property of the light alone, so A's weights and B's sampling agree on it. */
+#define EQ_SMALL_LIGHT 0.05
+
 static int eq_light_ok(const scene_t *s, int light)
 {
     const light_t *l = &s->lights[light];
-    return l->kind == LIGHT_POINT || l->kind == LIGHT_SPOT ||
-           (l->kind == LIGHT_AREA && s->shapes[l->shape].kind != SHAPE_SPHERE);
+    if (l->kind == LIGHT_POINT || l->kind == LIGHT_SPOT)
+        return 1;
+    if (l->kind != LIGHT_AREA || s->shapes[l->shape].kind == SHAPE_SPHERE)
+        return 0;
+    const double r = EQ_SMALL_LIGHT * s->scene_radius;
+    return s->shapes[l->shape].area <= r * r;
+}
+
+/* Whether any light of the scene is one B samples toward: else no segment runs it. */
+static int eq_any_light(const scene_t *s)
+{
+    for (size_t i = 0; i < s->nlights; i++)
+        if (eq_light_ok(s, (int)i))
+            return 1;
+    return 0;
 }
 
 /* The light point of sample ls taken at x: the light's position or the sampled point. */
@@ -1790,7 +1816,7 @@ static int medium_flight(ctx_t *c, path_t *p, double tmax)
     volume_lanes_make(m, p->lambda, p->n, &k);
     /* Equiangular sampling's pair (eq_segment_t) where it applies: the vertex a scattering here
      * makes gets next-event estimation (below the maxdepth, not under simplepath). */
-    const int eq = c->rs->medium_sampling == MEDIUM_SAMPLING_EQUIANGULAR &&
+    const int eq = c->eq_lights &&
                    medium_kind(m) == MEDIUM_HOMOGENEOUS && p->depth < c->rs->maxdepth &&
                    c->rs->integrator != INTEGRATOR_SIMPLEPATH;
     double beta0[LANES];
@@ -2210,6 +2236,7 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
         for (int j = 0; j < LANES; j++)
             c.le_cache[i][j].lambda = NAN;
     c.media = rs->media && scene->nmedia > 0;
+    c.eq_lights = c.media && rs->medium_sampling == MEDIUM_SAMPLING_EQUIANGULAR && eq_any_light(scene);
     lights_probes_make(scene, &c.probes);
     /* Not with polarised transport: a probe ray's Stokes frame would be its own. */
     c.probing = c.probes.n > 0 && !c.media && !rs->polarised &&

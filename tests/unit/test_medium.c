@@ -1305,6 +1305,10 @@ static void eq_render(int area, medium_sampling_kind_t ms, double *mean, double 
     s->settings.medium_sampling = ms;
     sb_look_at(s, vec3_make(0, 0, 0), vec3_make(0, 0, 1), 0.05);
     s->camera_medium = add_homogeneous(s, sb_constant(s, EQ_SA), sb_constant(s, EQ_SS), 1.0, EQ_G);
+    /* The fog's bounds for the scene's size (a light is "small" beside it, render.c
+     * eq_light_ok): a pass-through sphere of radius 30, fog on both sides (its light is
+     * e^-18 of the ray's). */
+    add_medium_sphere(s, 30.0, s->camera_medium, s->camera_medium);
     if (area) {
         light_t l = {.kind = LIGHT_AREA, .spectrum = sb_constant(s, 1.0), .scale = EQ_AREA_L, .twosided = 1};
         int li = scene_add_light(s, &l, &err);
