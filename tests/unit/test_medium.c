@@ -5,7 +5,9 @@
  * grid's analytic optical depth, white furnaces (albedo 1, grey and chromatic, camera outside
  * and inside, isotropic and forward scattering) that must conserve energy, an emitting medium
  * whose radiance is its Le, a uniform grid rendering the mean of the homogeneous medium it
- * equals, numbers that stay finite for extreme coefficients, and the pbrt-v4 syntax
+ * equals, numbers that stay finite for extreme coefficients, equiangular sampling (its sampler
+ * against its density, and single scattering from a point and a small area light against
+ * numerical integration, with its variance gain over free flight), and the pbrt-v4 syntax
  * (MakeNamedMedium, MediumInterface, presets, which integrators simulate media). Statistical
  * checks use fixed seeds and tolerances of 5 standard errors from the sample count. */
 #include <setjmp.h>
@@ -1470,6 +1472,16 @@ static void test_scene_format(void **state)
     assert_true(s->settings.media);
     assert_false(has_warning(s, "ignored"));
     scene_destroy(&s);
+    /* "string mediumsampling": equiangular by default (volpath, bdpt), freeflight asked for. */
+    s = foggy("Integrator \"bdpt\"\n");
+    assert_int_equal(s->settings.medium_sampling, MEDIUM_SAMPLING_EQUIANGULAR);
+    scene_destroy(&s);
+    s = foggy("Integrator \"volpath\" \"string mediumsampling\" \"freeflight\"\n");
+    assert_int_equal(s->settings.medium_sampling, MEDIUM_SAMPLING_FREEFLIGHT);
+    scene_destroy(&s);
+    snprintf(text, sizeof text, FOGGY, "Integrator \"volpath\" \"string mediumsampling\" \"beams\"\n");
+    assert_null(sb_load_text(text, &err));
+    assert_non_null(strstr(err.msg, "unsupported \"string mediumsampling\""));
 
     struct {
         const char *text, *msg;
