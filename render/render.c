@@ -1606,7 +1606,7 @@ typedef struct eq_segment {
  * is a small light's (1/d^2 down to its size); a large one's light free flight and next-event
  * estimation already sample well, and B's extra light sample and shadow ray then cost more than
  * they save (docs/accuracy.md, "Equiangular sampling in fog": Bitterli's 5 mm light, sqrt(area)
- * 0.003 of the scene's radius, 1.2-3.9 times the efficiency; cornell-box-volume's, 0.24 of it,
+ * 0.003 of the scene's radius, 1.0 to 6 times the efficiency; cornell-box-volume's, 0.24 of it,
  * 0.8 times). A property of the light alone, so A's weights and B's sampling agree on it. */
 #define EQ_SMALL_LIGHT 0.05
 
