@@ -4,6 +4,7 @@
 #include "colour.h"
 #include "crystal_scatter.h"
 #include "delta.h"
+#include "equiangular.h"
 #include "fanout.h"
 #include "lights.h"
 #include "phase_hg.h"
@@ -141,6 +142,9 @@ typedef struct ctx {
     double *irradiance; /* grid.n buckets, for one estimate */
     le_entry_t le_cache[LE_CACHE_LIGHTS + 1][LANES];
     int media; /* the scene's media are simulated (render/volume.h) */
+    /* Equiangular sampling is on (render_settings_t.medium_sampling) and the scene has a light
+     * it samples toward (eq_light_ok). */
+    int eq_lights;
     /* The current camera path's traversal of a coherent crystal (render/crystal_coherent.h):
      * read only while its wave is UNIAXIAL_COHERENT; nothing splits a path inside one. */
     crystal_coherent_t coh;
@@ -1569,12 +1573,124 @@ static int roulette(ctx_t *c, path_t *p)
     return 0;
 }
 
+/* Equiangular sampling toward a light point combined by MIS with free flight
+ * (render_settings_t.medium_sampling; docs/physics.md §12, "Equiangular sampling"). Both
+ * estimate the single-scattered light of one camera path segment of a homogeneous medium,
+ *
+ *     I = ∫_0^tmax ∫ T(t) sigma_s p(wo, w(x_t, y)) L_e(y) G(x_t, y) T(x_t, y) w_dir dA(y) dt,
+ *
+ * w_dir the power heuristic of next-event estimation against phase sampling at x_t (a
+ * function of x_t and y, so the same integrand whichever technique samples it):
+ *   A (free flight): t from the flight's scattering density q_s(t) (volume_scatter_pdf), y
+ *     from next-event estimation at x_t: p_A(t, y) = q_s(t) P(y | x_t);
+ *   B (equiangular): y from lights_sample at the segment's origin r, then t from the
+ *     equiangular density toward y (sampling/equiangular.h): p_B(t, y) = P(y | r) pe(t | y).
+ * P is the light sampler's density of the point in the area measure (lights_pdf's solid-angle
+ * density times |cos| / d^2; for point and spot lights their probability alone: the delta
+ * cancels in the ratio). Each technique's sample is weighted by the power heuristic of the two
+ * joint densities (Veach 1997 §9.2), which sum to one at every (t, y), so the pair is unbiased
+ * for I; the rest of the path (the phase-sampled continuation, the photon gather) stays the
+ * free flight's alone. B applies only where it can do better: point and spot lights, and small
+ * area lights whose shapes are sampled by area (eq_light_ok; not spheres, sampled by their
+ * cone); a grid medium has no closed form for q_s, so its segments keep free flight alone
+ * (docs/physics.md §12). */
+typedef struct eq_segment {
+    vec3_t org, dir;
+    double tmax;
+    const volume_lanes_t *k;
+    const double *beta; /* the lanes' throughputs before the flight: what shared it */
+} eq_segment_t;
+
+/* Which lights B samples toward: point and spot lights, and area lights sampled by area whose
+ * area is at most (EQ_SMALL_LIGHT scene_radius)^2. The singularity equiangular sampling removes
+ * is a small light's (1/d^2 down to its size); a large one's light free flight and next-event
+ * estimation already sample well, and B's extra light sample and shadow ray then cost more than
+ * they save (docs/accuracy.md, "Equiangular sampling in fog": Bitterli's 5 mm light, sqrt(area)
+ * 0.003 of the scene's radius, 1.0 to 6 times the efficiency; cornell-box-volume's, 0.24 of it,
+ * 0.8 times). A property of the light alone, so A's weights and B's sampling agree on it. */
+#define EQ_SMALL_LIGHT 0.05
+
+static int eq_light_ok(const scene_t *s, int light)
+{
+    const light_t *l = &s->lights[light];
+    if (l->kind == LIGHT_POINT || l->kind == LIGHT_SPOT)
+        return 1;
+    if (l->kind != LIGHT_AREA || s->shapes[l->shape].kind == SHAPE_SPHERE)
+        return 0;
+    const double r = EQ_SMALL_LIGHT * s->scene_radius;
+    return s->shapes[l->shape].area <= r * r;
+}
+
+/* Whether any light of the scene is one B samples toward: else no segment runs it. */
+static int eq_any_light(const scene_t *s)
+{
+    for (size_t i = 0; i < s->nlights; i++)
+        if (eq_light_ok(s, (int)i))
+            return 1;
+    return 0;
+}
+
+/* The light point of sample ls taken at x: the light's position or the sampled point. */
+static vec3_t eq_light_point(const scene_t *s, const light_sample_t *ls)
+{
+    const light_t *l = &s->lights[ls->light];
+    return l->kind == LIGHT_AREA ? ls->p_light : l->position;
+}
+
+/* A light sampler's density for point y (of light sample ls) seen from p, given its solid-angle
+ * pdf there (lights_sample's or lights_pdf's): in the area measure, pdf |cos| / d^2; a delta
+ * light's probability as it is. */
+static double eq_area_density(const light_sample_t *ls, double pdf, vec3_t p, vec3_t y)
+{
+    if (ls->is_delta)
+        return pdf;
+    const vec3_t d = vec3_sub(y, p);
+    const double d2 = vec3_dot(d, d);
+    if (!(d2 > 0.0) || !(d2 < INFINITY))
+        return 0.0;
+    return pdf * fabs(vec3_dot(ls->n_light, d)) / (d2 * sqrt(d2));
+}
+
+/* P(y | at): the density with which lights_sample at point `at` (in a medium) picks point y
+ * of light sample ls (area measure; a delta light's probability), 0 where it cannot. *sa, when
+ * asked, gets the solid-angle pdf (next-event estimation's own number). */
+static double eq_light_density(const ctx_t *c, vec3_t at_p, const light_sample_t *ls, vec3_t y,
+                               double *sa)
+{
+    const lights_at_t at = light_site(c, at_p, vec3_make(0.0, 0.0, 0.0));
+    if (!eq_light_ok(c->scene, ls->light))
+        return 0.0;
+    double pdf;
+    if (ls->is_delta) {
+        pdf = lights_pmf(c->scene, &at, ls->light, 0);
+    } else {
+        const vec3_t d = vec3_sub(y, at_p);
+        const double len = vec3_length(d);
+        if (!(len > 0.0) || !(len < INFINITY))
+            return 0.0;
+        pdf = lights_pdf(c->scene, &at, ls->light, ls->tri, vec3_scale(d, 1.0 / len), y, ls->n_light);
+    }
+    if (sa)
+        *sa = pdf;
+    return eq_area_density(ls, pdf, at_p, y);
+}
+
+/* p_B(t, y) / P(y | r) for segment sg: the equiangular density of t toward y (0 where the
+ * segment cannot be sampled toward y). */
+static double eq_pdf(const eq_segment_t *sg, vec3_t y, double t)
+{
+    equiangular_t e;
+    return equiangular_make(sg->org, sg->dir, sg->tmax, y, &e) ? equiangular_pdf(&e, t) : 0.0;
+}
+
 /* Next-event estimation at a scattering point x in medium m (phase function HG with the
  * medium's g): the light's emission times the phase function times the shadow ray's
  * transmittance, MIS-weighted against phase sampling by the power heuristic on the two
  * directional densities (either estimator is unbiased for the transmittance, so weights of
- * the direction alone sum to one). */
-static void direct_light_medium(ctx_t *c, const path_t *p, vec3_t x, double g)
+ * the direction alone sum to one). With sg (equiangular sampling on for the segment x lies on,
+ * at distance t) also weighted as technique A of the pair above. */
+static void direct_light_medium(ctx_t *c, const path_t *p, vec3_t x, double g,
+                                const eq_segment_t *sg, double t)
 {
     double u[4];
     light_uniforms(c, u);
@@ -1587,7 +1703,14 @@ static void direct_light_medium(ctx_t *c, const path_t *p, vec3_t x, double g)
     if (!shadow_segment(x, x, &ls, &dir, &tmax) || !shadow_ray(c, p, x, dir, tmax, p->medium, tr))
         return;
     const double ph = phase_hg_eval(vec3_neg(p->dir), ls.wi, g);
-    const double w = ls.is_delta ? 1.0 : power_heuristic(ls.pdf, ph);
+    double w = ls.is_delta ? 1.0 : power_heuristic(ls.pdf, ph);
+    if (sg && eq_light_ok(c->scene, ls.light)) {
+        const vec3_t y = eq_light_point(c->scene, &ls);
+        /* next-event estimation's own pdf at x: lights_pdf's number to the last bit */
+        const double pa = volume_scatter_pdf(sg->k, sg->beta, t) * eq_area_density(&ls, ls.pdf, x, y);
+        const double pb = eq_light_density(c, sg->org, &ls, y, NULL) * eq_pdf(sg, y, t);
+        w *= power_heuristic(pa, pb);
+    }
     for (int j = 0; j < p->n; j++) {
         if (!(tr[j] > 0.0))
             continue;
@@ -1595,6 +1718,69 @@ static void direct_light_medium(ctx_t *c, const path_t *p, vec3_t x, double g)
                                               light_value_lane(c, ls.light, j, p->lambda[j]),
                                               p->lambda[j]);
         splat(c, p, j, w * ph * le * tr[j] / ls.pdf);
+    }
+}
+
+/* Technique B of the pair above for segment sg of the path p (its throughputs before the
+ * flight), in a homogeneous medium of coefficients sg->k and phase g: a light point y from the
+ * segment's origin, a distance from the equiangular density toward it, next-event estimation
+ * at that point toward y, weighted against A. Its numbers come from the walk stream (c->rng):
+ * a vertex block's dimensions are all spoken for, and free flight alone draws none of these. */
+static void equiangular_scatter(ctx_t *c, const path_t *p, const eq_segment_t *sg, double g)
+{
+    double u[4];
+    for (int i = 0; i < 4; i++)
+        u[i] = rng_stream_next(&c->rng);
+    const double ut = rng_stream_next(&c->rng);
+    light_sample_t ls;
+    const lights_at_t at_r = light_site(c, sg->org, vec3_make(0.0, 0.0, 0.0));
+    if (!lights_sample(c->scene, &at_r, u, &ls) || !(ls.pdf > 0.0) || !eq_light_ok(c->scene, ls.light))
+        return;
+    const vec3_t y = eq_light_point(c->scene, &ls);
+    const double pr = eq_area_density(&ls, ls.pdf, sg->org, y);
+    equiangular_t e;
+    if (!(pr > 0.0) || !equiangular_make(sg->org, sg->dir, sg->tmax, y, &e))
+        return;
+    const double t = equiangular_sample(&e, ut);
+    const double pe = equiangular_pdf(&e, t);
+    const vec3_t x = vec3_fma(sg->org, sg->dir, t);
+    /* The sample as next-event estimation at x would see it. y on the ray (x = y) has no
+     * direction: a measure-zero event, left out (shadow_segment refuses the empty segment). */
+    const vec3_t d = vec3_sub(y, x);
+    const double dist = vec3_length(d);
+    if (!(pe > 0.0) || !(dist > 0.0) || !(dist < INFINITY))
+        return;
+    ls.wi = vec3_scale(d, 1.0 / dist);
+    ls.dist = dist;
+    double sa = 0.0;
+    const double px = eq_light_density(c, x, &ls, y, &sa);
+    const double qs = volume_scatter_pdf(sg->k, sg->beta, t);
+    const double pb = pr * pe;
+    const double w = power_heuristic(pb, qs * px);
+    const double ph = phase_hg_eval(vec3_neg(sg->dir), ls.wi, g);
+    /* Solid-angle pdf for the direction's MIS against phase sampling, as direct_light_medium
+     * weights it (a light that next-event estimation at x cannot pick gives phase sampling all
+     * of it: weight 0 here, as the integrand's w_dir says). */
+    const double w_dir = ls.is_delta ? 1.0 : power_heuristic(sa, ph);
+    /* G / P(y | r): cos_y / dist^2 over the area density; a delta light's 1 / dist^2 is in its
+     * emission (lights_sample_emission_of), over its probability. */
+    const double geo = ls.is_delta ? 1.0 / pr : fabs(vec3_dot(ls.n_light, ls.wi)) / (dist * dist) / pr;
+    if (!(w * w_dir * ph * geo > 0.0))
+        return;
+    vec3_t dir;
+    double tmax, tr[LANES];
+    if (!shadow_segment(x, x, &ls, &dir, &tmax) || !shadow_ray(c, p, x, dir, tmax, p->medium, tr))
+        return;
+    const volume_lanes_t *k = sg->k;
+    for (int j = 0; j < p->n; j++) {
+        if (!(tr[j] > 0.0))
+            continue;
+        const double st = k->sigma_a[j] + k->sigma_s[j];
+        const double T = st > 0.0 ? exp(-st * t) : 1.0;
+        double le = lights_sample_emission_of(c->scene, &ls,
+                                              light_value_lane(c, ls.light, j, p->lambda[j]),
+                                              p->lambda[j]);
+        splat(c, p, j, w * w_dir * k->sigma_s[j] * T * ph * le * geo * tr[j] / pe);
     }
 }
 
@@ -1628,6 +1814,17 @@ static int medium_flight(ctx_t *c, path_t *p, double tmax)
     const medium_t *m = c->scene->media[p->medium];
     volume_lanes_t k;
     volume_lanes_make(m, p->lambda, p->n, &k);
+    /* Equiangular sampling's pair (eq_segment_t) where it applies: the vertex a scattering here
+     * makes gets next-event estimation (below the maxdepth, not under simplepath). */
+    const int eq = c->eq_lights &&
+                   medium_kind(m) == MEDIUM_HOMOGENEOUS && p->depth < c->rs->maxdepth &&
+                   c->rs->integrator != INTEGRATOR_SIMPLEPATH;
+    double beta0[LANES];
+    eq_segment_t sg = {p->org, p->dir, tmax, &k, beta0};
+    if (eq) {
+        memcpy(beta0, p->beta, (size_t)p->n * sizeof beta0[0]);
+        equiangular_scatter(c, p, &sg, medium_g(m));
+    }
     volume_flight_t f;
     volume_sample(m, &k, p->org, p->dir, tmax, p->beta, &c->rng, &f);
     if (k.emissive && p->depth < c->rs->maxdepth)
@@ -1644,7 +1841,7 @@ static int medium_flight(ctx_t *c, path_t *p, double tmax)
     const vec3_t x = vec3_fma(p->org, p->dir, f.t);
     const double g = medium_g(m);
     if (c->rs->integrator != INTEGRATOR_SIMPLEPATH)
-        direct_light_medium(c, p, x, g);
+        direct_light_medium(c, p, x, g, eq ? &sg : NULL, f.t);
     const int gathers = c->photons && photon_store_has_volume(c->photons);
     if (gathers)
         volume_caustic(c, p, x, g);
@@ -2039,6 +2236,7 @@ int render_tile(const scene_t *scene, const photon_store_t *photons, int x0, int
         for (int j = 0; j < LANES; j++)
             c.le_cache[i][j].lambda = NAN;
     c.media = rs->media && scene->nmedia > 0;
+    c.eq_lights = c.media && rs->medium_sampling == MEDIUM_SAMPLING_EQUIANGULAR && eq_any_light(scene);
     lights_probes_make(scene, &c.probes);
     /* Not with polarised transport: a probe ray's Stokes frame would be its own. */
     c.probing = c.probes.n > 0 && !c.media && !rs->polarised &&

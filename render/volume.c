@@ -205,6 +205,16 @@ void volume_sample(const medium_t *m, const volume_lanes_t *k, vec3_t org, vec3_
         sample_grid(m, k, org, dir, tmax, beta, rng, out);
 }
 
+double volume_scatter_pdf(const volume_lanes_t *k, const double *beta, double t)
+{
+    double sel[VOLUME_MAX_LANES], q = 0.0;
+    if (!lanes_share(beta, NULL, k->n, sel))
+        return 0.0;
+    for (int j = 0; j < k->n; j++)
+        q += sel[j] * k->sigma_s[j] * transmit(k->sigma_a[j] + k->sigma_s[j], t);
+    return q;
+}
+
 /* Ratio tracking (Novák et al. 2014): each tentative collision of the grey majorant multiplies
  * lane j by its null-collision probability sigma_n,j / sigma_maj, an unbiased estimate of
  * exp(-int sigma_t,j) whatever the majorant. */

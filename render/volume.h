@@ -71,6 +71,13 @@ typedef struct volume_flight {
 void volume_sample(const medium_t *m, const volume_lanes_t *k, vec3_t org, vec3_t dir, double tmax,
                    const double *beta, rng_stream_t *rng, volume_flight_t *out);
 
+/* The density with which volume_sample, given the same k and beta, returns VOLUME_SCATTERED at
+ * distance t in [0, tmax) of a homogeneous medium: the lanes' mixture
+ * sum_j sel_j sigma_s,j exp(-sigma_t,j t), sel in proportion to beta (0 when no lane carries
+ * anything). What the equiangular estimator's MIS weights (render.c) compare with; a grid has
+ * no closed form for it, so it is not asked there. */
+double volume_scatter_pdf(const volume_lanes_t *k, const double *beta, double t);
+
 /* Multiplies T[j] by an unbiased estimate of lane j's transmittance exp(-int sigma_t,j) over
  * [0, tmax): exact for a homogeneous medium, ratio tracking (with its Russian roulette) for a
  * grid. */

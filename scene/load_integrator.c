@@ -255,9 +255,10 @@ int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
          * light BVH by default, scene/emitters.h) and regularisation (a biased blur of
          * specular paths after a non-specular bounce, bsdf/regularize.h). */
         bool regularize;
-        const char *ls;
+        const char *ls, *ms;
         if (params_get_bool(p, "regularize", false, &regularize, err) ||
-            params_get_string(p, "lightsampler", "bvh", &ls, err))
+            params_get_string(p, "lightsampler", "bvh", &ls, err) ||
+            params_get_string(p, "mediumsampling", "equiangular", &ms, err))
             return -1;
         rs->regularize = regularize;
         if (regularize && photon &&
@@ -272,6 +273,13 @@ int load_integrator(loader_t *L, const scene_overrides_t *ov, err_t *err)
         if (lookup_string(p, "lightsampler", ls, in->loc, SAMPLERS, COUNT_OF(SAMPLERS), &k, err))
             return -1;
         rs->light_sampler = (light_sampler_kind_t)k;
+        /* An extension: where camera paths scatter in media (docs/physics.md §12). */
+        static const pbrt_name_t MEDIUM_SAMPLINGS[] = {
+            {"freeflight", MEDIUM_SAMPLING_FREEFLIGHT}, {"equiangular", MEDIUM_SAMPLING_EQUIANGULAR}};
+        if (lookup_string(p, "mediumsampling", ms, in->loc, MEDIUM_SAMPLINGS,
+                          COUNT_OF(MEDIUM_SAMPLINGS), &k, err))
+            return -1;
+        rs->medium_sampling = (medium_sampling_kind_t)k;
     }
     return params_check_unused(p, err);
 }

@@ -39,6 +39,7 @@ render_settings_t render_settings_default(void)
         .filter = filter_params_default(FILTER_BOX),
         .imaging_ratio = 1.0,
         .max_component = INFINITY,
+        .medium_sampling = MEDIUM_SAMPLING_EQUIANGULAR,
     };
 }
 

@@ -267,6 +267,15 @@ typedef enum light_sampler_kind {
     LIGHT_SAMPLER_UNIFORM, /* every emitter alike */
 } light_sampler_kind_t;
 
+/* How a camera path samples where it scatters in a medium (Integrator "string mediumsampling";
+ * render/render.c medium_flight, docs/physics.md §12): free flight alone, or free flight
+ * combined by MIS with equiangular sampling toward a light point (sampling/equiangular.h) for
+ * the single-scattered light of point, spot and small area lights in homogeneous media. */
+typedef enum medium_sampling_kind {
+    MEDIUM_SAMPLING_FREEFLIGHT,
+    MEDIUM_SAMPLING_EQUIANGULAR,
+} medium_sampling_kind_t;
+
 typedef struct render_settings {
     /* The camera pass's integrator; with photon.enabled it is the gather (path or Whitted). */
     integrator_kind_t integrator;
@@ -314,6 +323,8 @@ typedef struct render_settings {
      * integrators whose pbrt-v4 counterparts do; render/volume.h). 0: media are ignored, as
      * pbrt-v4's "path" ignores them. */
     int media;
+    /* Where camera paths scatter in media (render_settings_default: equiangular+MIS). */
+    medium_sampling_kind_t medium_sampling;
     /* How next-event estimation picks a light (LIGHT_SAMPLER_BVH, the zero value, by default);
      * the photon pass always emits by power. */
     light_sampler_kind_t light_sampler;
