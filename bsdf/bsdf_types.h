@@ -1,6 +1,7 @@
-/* bsdf_types: the plain data of bsdf.h (the model's parameters, its samples, the lobe flags
- * and the transport mode), in their own header so that bsdf/'s internal modules (lobe,
- * layered) can use them without a circle through bsdf.h. Include bsdf.h, not this. */
+/* bsdf_types: the plain data of bsdf.h (the models' list and kinds, their parameters, their
+ * samples, the lobe flags and the transport mode), in their own header so that bsdf/'s
+ * internal modules (lobe, the models) can use them without a circle through bsdf.h. Include
+ * bsdf.h, not this. */
 #ifndef PRISMFARM_BSDF_TYPES_H
 #define PRISMFARM_BSDF_TYPES_H
 

@@ -2,8 +2,8 @@
 
 #include "bsdf_model.h"
 #include "catmull_rom.h"
+#include "diffuse.h"
 #include "fresnel.h"
-
 #include "sample.h"
 
 #include <math.h>
@@ -328,14 +328,6 @@ static void exit_eval(const bsdf_t *b, int n, vec3_t wo, vec3_t wi, rng_stream_t
         f[j] = exit_f(b->eta[j], b->mode, wo, wi);
 }
 
-static void exit_pdf(const bsdf_t *b, int n, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *pdf)
-{
-    (void)b;
-    (void)rng;
-    for (int j = 0; j < n; j++)
-        pdf[j] = lobe_diffuse_pdf(wo, wi, LOBE_ALL);
-}
-
 static bsdf_sampled_t exit_sample(const bsdf_t *b, int n, vec3_t wo, int hero, double uc, double u1,
                                   double u2, rng_stream_t *rng, bsdf_sample_t *out)
 {
@@ -356,4 +348,4 @@ static bsdf_sampled_t exit_sample(const bsdf_t *b, int n, vec3_t wo, int hero, d
 }
 
 const bsdf_model_t bsdf_model_sss_exit = {
-    .eval = exit_eval, .pdf = exit_pdf, .sample = exit_sample};
+    .eval = exit_eval, .pdf = diffuse_pdf, .sample = exit_sample};

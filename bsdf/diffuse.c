@@ -1,6 +1,6 @@
 /* pbrt-v4's DiffuseBxDF, Lambertian reflection of each lane's reflectance[j] on wo's side (the
  * lobe is lobe.h's). */
-#include "bsdf_model.h"
+#include "diffuse.h"
 
 static void eval(const bsdf_t *b, int n, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *f)
 {
@@ -9,7 +9,7 @@ static void eval(const bsdf_t *b, int n, vec3_t wo, vec3_t wi, rng_stream_t *rng
         f[j] = lobe_diffuse_f(b->reflectance[j], wo, wi);
 }
 
-static void pdf(const bsdf_t *b, int n, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *pdf)
+void diffuse_pdf(const bsdf_t *b, int n, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *pdf)
 {
     (void)b;
     (void)rng;
@@ -33,4 +33,4 @@ static bsdf_sampled_t sample(const bsdf_t *b, int n, vec3_t wo, int hero, double
     return BSDF_SAMPLED_HERO;
 }
 
-const bsdf_model_t bsdf_model_diffuse = {.eval = eval, .pdf = pdf, .sample = sample};
+const bsdf_model_t bsdf_model_diffuse = {.eval = eval, .pdf = diffuse_pdf, .sample = sample};
