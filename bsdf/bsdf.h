@@ -35,7 +35,11 @@
  * top's mirror reflection). One departure from pbrt-v4: f's next-event estimate through the
  * exit interface is MIS-weighed against that interface's own sampling density
  * PDF(wi, -w), where pbrt-v4 uses PDF(-w, wi) and is biased bright by 9-27 % against a
- * path-sampled ground truth (tests/unit/test_bsdf_layered.c, docs/physics.md §10.4). */
+ * path-sampled ground truth (tests/unit/test_bsdf_layered.c, docs/physics.md §10.4).
+ *
+ * The models: each kind of bsdf_types.h's BSDF_MODEL_LIST is a row of operations
+ * (bsdf_model.h) in its own file (diffuse.c, conductor.c, dielectric.c, layered.c, ...); the
+ * functions below do what every model shares and call the row once per call. */
 #ifndef PRISMFARM_BSDF_H
 #define PRISMFARM_BSDF_H
 
@@ -87,5 +91,9 @@ bool bsdf_is_specular(const bsdf_t *b);
 /* The lanes' lobes differ in direction, not only in value: a dielectric (or coating) whose eta
  * differs between lanes. */
 bool bsdf_lanes_disperse(const bsdf_t *b);
+
+/* The model's f and pdf are stochastic estimates (the coated models): a sample's f / pdf is an
+ * unbiased weight, but its pdf is not a density to mix the lanes by. */
+bool bsdf_pdf_is_estimate(const bsdf_t *b);
 
 #endif

@@ -1,6 +1,7 @@
-/* bsdf_types: the plain data of bsdf.h (the model's parameters, its samples, the lobe flags
- * and the transport mode), in their own header so that bsdf/'s internal modules (lobe,
- * layered) can use them without a circle through bsdf.h. Include bsdf.h, not this. */
+/* bsdf_types: the plain data of bsdf.h (the models' list and kinds, their parameters, their
+ * samples, the lobe flags and the transport mode), in their own header so that bsdf/'s
+ * internal modules (lobe, the models) can use them without a circle through bsdf.h. Include
+ * bsdf.h, not this. */
 #ifndef PRISMFARM_BSDF_TYPES_H
 #define PRISMFARM_BSDF_TYPES_H
 
@@ -12,21 +13,40 @@
 /* At least the renderer's lane count (render.h RENDER_MAX_BUCKETS). */
 #define BSDF_MAX_LANES 64
 
-typedef enum bsdf_kind {
-    BSDF_DIFFUSE,              /* Lambertian: reflectance[j] */
-    BSDF_DIFFUSE_TRANSMISSION, /* Lambertian reflection reflectance[j], transmission transmittance[j] */
-    BSDF_CONDUCTOR,            /* Fresnel of the complex index cond_eta[j] + i cond_k[j]; mf (smooth: mirror); film */
-    BSDF_DIELECTRIC,           /* index eta[j] (inside over outside, +z is outside); mf (smooth: delta); film */
-    BSDF_THIN_DIELECTRIC,      /* a thin slab of index eta[j]: reflection and straight transmission */
-    BSDF_COATED_DIFFUSE,       /* dielectric interface (eta[j], mf) over a medium (thickness, albedo[j], g)
-                                * over Lambertian reflectance[j] */
-    BSDF_COATED_CONDUCTOR,     /* dielectric interface (eta[j], mf) over a medium over a conductor
-                                * (cond_eta[j], cond_k[j] relative to the coating, mf_base) */
-    BSDF_MEASURED,             /* RGL's measured BRDF data (measured.h) read at lambda[j] */
-    BSDF_HAIR,                 /* a hair fibre (bsdf/hair.h): hair_* and sigma_a[j] */
-    BSDF_SSS_EXIT,             /* where a BSSRDF's light leaves (bssrdf.h): pbrt-v4's
-                                * NormalizedFresnelBxDF of index eta[j] */
-} bsdf_kind_t;
+/* The models, one line each: its kind and its row of operations (bsdf_model.h, the row defined
+ * in the model's own file in bsdf/). A new model is its file and one line here; the kind's
+ * fields in bsdf_t are its parameters. */
+#define BSDF_MODEL_LIST(X)                                                                         \
+    /* Lambertian: reflectance[j] (diffuse.c) */                                                   \
+    X(BSDF_DIFFUSE, bsdf_model_diffuse)                                                            \
+    /* Lambertian reflection reflectance[j], transmission transmittance[j]                         \
+     * (diffuse_transmission.c) */                                                                 \
+    X(BSDF_DIFFUSE_TRANSMISSION, bsdf_model_diffuse_transmission)                                  \
+    /* Fresnel of the complex index cond_eta[j] + i cond_k[j]; mf (smooth: mirror); film           \
+     * (conductor.c) */                                                                            \
+    X(BSDF_CONDUCTOR, bsdf_model_conductor)                                                        \
+    /* index eta[j] (inside over outside, +z is outside); mf (smooth: delta); film                 \
+     * (dielectric.c) */                                                                           \
+    X(BSDF_DIELECTRIC, bsdf_model_dielectric)                                                      \
+    /* a thin slab of index eta[j]: reflection and straight transmission (thin_dielectric.c) */    \
+    X(BSDF_THIN_DIELECTRIC, bsdf_model_thin_dielectric)                                            \
+    /* dielectric interface (eta[j], mf) over a medium (thickness, albedo[j], g) over Lambertian   \
+     * reflectance[j] (layered.c) */                                                               \
+    X(BSDF_COATED_DIFFUSE, bsdf_model_coated_diffuse)                                              \
+    /* dielectric interface (eta[j], mf) over a medium over a conductor (cond_eta[j], cond_k[j]    \
+     * relative to the coating, mf_base) (layered.c) */                                            \
+    X(BSDF_COATED_CONDUCTOR, bsdf_model_coated_conductor)                                          \
+    /* RGL's measured BRDF data (measured.h) read at lambda[j] (measured.c) */                     \
+    X(BSDF_MEASURED, bsdf_model_measured)                                                          \
+    /* a hair fibre (hair.h): hair_* and sigma_a[j] (hair.c) */                                    \
+    X(BSDF_HAIR, bsdf_model_hair)                                                                  \
+    /* where a BSSRDF's light leaves (bssrdf.h): pbrt-v4's NormalizedFresnelBxDF of index eta[j]   \
+     * (bssrdf.c) */                                                                               \
+    X(BSDF_SSS_EXIT, bsdf_model_sss_exit)
+
+#define BSDF_KIND_ENUM(kind, row) kind,
+typedef enum bsdf_kind { BSDF_MODEL_LIST(BSDF_KIND_ENUM) } bsdf_kind_t;
+#undef BSDF_KIND_ENUM
 
 /* pbrt-v4's TransportMode: radiance for camera paths, importance for light (photon) paths;
  * it decides the 1/eta^2 scaling of refracted radiance. */

@@ -1,7 +1,10 @@
 #include "bssrdf.h"
 
+#include "bsdf_model.h"
 #include "catmull_rom.h"
+#include "diffuse.h"
 #include "fresnel.h"
+#include "sample.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -301,3 +304,48 @@ double bssrdf_pdf_sp(const bssrdf_table_t *t, double sigma_t, double rho, vec3_t
     }
     return pdf;
 }
+
+/* ---- Where the light leaves (BSDF_SSS_EXIT) ---- */
+
+/* pbrt-v4's NormalizedFresnelBxDF, the BSSRDF's directional factor S_w where light leaves:
+ * the outside's Fresnel transmission (1 - F_r(cos wi)) normalised by its cosine-weighted
+ * integral c pi, c = 1 - 2 M1(1 / eta) (the moment of the outside), so that int S_w cos = 1;
+ * in radiance mode times eta^2, which undoes the 1 / eta^2 of the refraction that took the
+ * light in. Reflection only, on wo's side, sampled by the cosine. */
+static double exit_f(double eta, bsdf_mode_t mode, vec3_t wo, vec3_t wi)
+{
+    if (!(wo.z * wi.z > 0.0) || !(eta > 0.0))
+        return 0.0;
+    const double c = 1.0 - 2.0 * bssrdf_fresnel_moment1(1.0 / eta);
+    const double f = (1.0 - fresnel_dielectric(fabs(wi.z), 1.0, eta)) / (c * PF_PI);
+    return lobe_finite(mode == BSDF_RADIANCE ? f * eta * eta : f);
+}
+
+static void exit_eval(const bsdf_t *b, int n, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *f)
+{
+    (void)rng;
+    for (int j = 0; j < n; j++)
+        f[j] = exit_f(b->eta[j], b->mode, wo, wi);
+}
+
+static bsdf_sampled_t exit_sample(const bsdf_t *b, int n, vec3_t wo, int hero, double uc, double u1,
+                                  double u2, rng_stream_t *rng, bsdf_sample_t *out)
+{
+    (void)uc;
+    (void)rng;
+    vec3_t wi = sample_cosine_hemisphere(u1, u2);
+    if (wo.z < 0.0)
+        wi.z = -wi.z;
+    if (wi.z == 0.0)
+        return BSDF_SAMPLED_NONE;
+    out->wi = wi;
+    out->flags = BSDF_REFLECTION;
+    for (int j = 0; j < n; j++) {
+        out->f[j] = exit_f(b->eta[j], b->mode, wo, wi);
+        out->pdf[j] = sample_cosine_hemisphere_pdf(fabs(wi.z));
+    }
+    return out->pdf[hero] > 0.0 ? BSDF_SAMPLED_ALL : BSDF_SAMPLED_NONE;
+}
+
+const bsdf_model_t bsdf_model_sss_exit = {
+    .eval = exit_eval, .pdf = diffuse_pdf, .sample = exit_sample};

@@ -7,6 +7,8 @@
  * medium is (sigma_t, rho) in inverse scene units; the profile scales with sigma_t. The
  * surface point where light enters is found by probe rays (bssrdf_probe) along three axes,
  * with the multiple-importance density bssrdf_pdf_sp. docs/physics.md §18 has the equations.
+ * Where the light leaves, the BSDF is pbrt-v4's NormalizedFresnelBxDF, the row
+ * bsdf_model_sss_exit (BSDF_SSS_EXIT, bsdf_model.h) defined in bssrdf.c.
  *
  * Guarantees: every value returned is finite and >= 0 for sigma_t >= 0, rho in [0, 1] and any
  * radius (sigma_t = 0: no profile, no sample); the profile integrates over the plane to the

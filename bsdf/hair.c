@@ -1,5 +1,6 @@
 #include "hair.h"
 
+#include "bsdf_model.h"
 #include "fresnel.h"
 #include "lobe.h"
 
@@ -171,11 +172,6 @@ static void lobes(const frame_t *fr, vec3_t wi, double mn[P_MAX + 1])
     mn[P_MAX] = longitudinal(cos_i, fr->cos_o, sin_i, fr->sin_o, fr->v[P_MAX]) / (2.0 * PF_PI);
 }
 
-static int lanes(const bsdf_t *b)
-{
-    return b->n < 1 ? 0 : b->n > BSDF_MAX_LANES ? BSDF_MAX_LANES : b->n;
-}
-
 void hair_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, double *f)
 {
     frame_t fr;
@@ -184,7 +180,7 @@ void hair_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, double *f)
     lobes(&fr, wi, mn);
     /* pbrt-v4 divides by |cos| to the normal so that the renderer's cosine cancels. */
     double c = fabs(wi.z) > 0.0 ? fabs(wi.z) : 1.0;
-    for (int j = 0; j < lanes(b); j++) {
+    for (int j = 0; j < bsdf_lanes(b); j++) {
         attenuation(&fr, b->sigma_a[j], ap);
         double sum = 0.0;
         for (int p = 0; p <= P_MAX; p++)
@@ -213,7 +209,7 @@ void hair_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, double *pdf)
     double mn[P_MAX + 1], pick[P_MAX + 1];
     frame_make(b, wo, &fr);
     lobes(&fr, wi, mn);
-    for (int j = 0; j < lanes(b); j++) {
+    for (int j = 0; j < bsdf_lanes(b); j++) {
         double sum = 0.0;
         if (lobe_pdf(&fr, b->sigma_a[j], pick))
             for (int p = 0; p <= P_MAX; p++)
@@ -261,6 +257,30 @@ bool hair_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, dou
     out->pdf_is_estimate = false;
     return out->pdf[hero] > 0.0;
 }
+
+static void eval(const bsdf_t *b, int n, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *f)
+{
+    (void)n;
+    (void)rng;
+    hair_eval(b, wo, wi, f);
+}
+
+static void pdf(const bsdf_t *b, int n, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *pdf)
+{
+    (void)n;
+    (void)rng;
+    hair_pdf(b, wo, wi, pdf);
+}
+
+static bsdf_sampled_t sample(const bsdf_t *b, int n, vec3_t wo, int hero, double uc, double u1,
+                             double u2, rng_stream_t *rng, bsdf_sample_t *out)
+{
+    (void)n;
+    (void)rng;
+    return hair_sample(b, wo, hero, uc, u1, u2, out) ? BSDF_SAMPLED_ALL : BSDF_SAMPLED_NONE;
+}
+
+const bsdf_model_t bsdf_model_hair = {.eval = eval, .pdf = pdf, .sample = sample};
 
 double hair_sigma_a_from_reflectance(double c, double beta_n)
 {

@@ -27,7 +27,8 @@
 
 #include "bsdf_types.h"
 
-/* f for every lane of b (kind BSDF_HAIR). */
+/* f for every lane of b (kind BSDF_HAIR; these three are the row bsdf_model_hair's,
+ * bsdf_model.h). */
 void hair_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, double *f);
 /* Each lane's pdf of sampling wi from wo (solid angle). */
 void hair_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, double *pdf);

@@ -4,6 +4,7 @@
 #include "lobe.h"
 #include "lowdisc.h"
 #include "microfacet.h"
+#include "regularize.h"
 #include "sample.h"
 
 #include <float.h>
@@ -654,19 +655,6 @@ static bool group_sample(const group_t *g, vec3_t wo, double uc, double u1, doub
 
 /* ---- The lanes ---- */
 
-static bool eta_same(double a, double b)
-{
-    return fabs(a - b) <= 1e-9 * fabs(b);
-}
-
-static bool coating_disperses(const bsdf_t *b)
-{
-    for (int j = 1; j < b->n; j++)
-        if (!eta_same(b->eta[j], b->eta[0]))
-            return true;
-    return false;
-}
-
 /* A stream keyed by the directions' bits, for callers that pass none (pbrt-v4 hashes wo and
  * wi the same way). */
 static rng_stream_t direction_stream(vec3_t a, vec3_t b)
@@ -682,73 +670,71 @@ static rng_stream_t direction_stream(vec3_t a, vec3_t b)
     return rng_stream_make(h[0], h[1], 0);
 }
 
-void layered_eval(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *f)
+static void eval(const bsdf_t *b, int n, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *f)
 {
     rng_stream_t local = direction_stream(wo, wi);
     if (!rng)
         rng = &local;
-    if (!coating_disperses(b)) {
-        group_t g = group_make(b, 0, b->n);
+    if (!bsdf_eta_varies(b, n)) {
+        group_t g = group_make(b, 0, n);
         walk_t wk = walk_begin(rng);
         group_eval(&g, wo, wi, &wk, f);
         return;
     }
-    for (int j = 0; j < b->n; j++) {
+    for (int j = 0; j < n; j++) {
         group_t g = group_make(b, j, 1);
         walk_t wk = walk_begin(rng);
         group_eval(&g, wo, wi, &wk, &f[j]);
     }
 }
 
-void layered_pdf(const bsdf_t *b, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *pdf)
+static void pdf(const bsdf_t *b, int n, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *pdf)
 {
     rng_stream_t local = direction_stream(wi, wo);
     if (!rng)
         rng = &local;
-    if (!coating_disperses(b)) {
-        group_t g = group_make(b, 0, b->n);
+    if (!bsdf_eta_varies(b, n)) {
+        group_t g = group_make(b, 0, n);
         walk_t wk = walk_begin(rng);
         double p = group_pdf(&g, wo, wi, &wk);
-        for (int j = 0; j < b->n; j++)
+        for (int j = 0; j < n; j++)
             pdf[j] = p;
         return;
     }
-    for (int j = 0; j < b->n; j++) {
+    for (int j = 0; j < n; j++) {
         group_t g = group_make(b, j, 1);
         walk_t wk = walk_begin(rng);
         pdf[j] = group_pdf(&g, wo, wi, &wk);
     }
 }
 
-bool layered_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, double u2,
-                    rng_stream_t *rng, bsdf_sample_t *out)
+static bsdf_sampled_t sample(const bsdf_t *b, int n, vec3_t wo, int hero, double uc, double u1,
+                             double u2, rng_stream_t *rng, bsdf_sample_t *out)
 {
     rng_stream_t local = direction_stream(wo, vec3_make(uc, u1, u2));
     if (!rng)
         rng = &local;
-    out->pdf_is_estimate = true;
-    out->eta = 1.0;
-    if (!coating_disperses(b)) {
-        group_t g = group_make(b, 0, b->n);
+    if (!bsdf_eta_varies(b, n)) {
+        group_t g = group_make(b, 0, n);
         double pdf;
         walk_t wk = walk_begin(rng);
         if (!group_sample(&g, wo, uc, u1, u2, &wk, out->f, &pdf, &out->wi, &out->flags))
-            return false;
-        for (int j = 0; j < b->n; j++)
+            return BSDF_SAMPLED_NONE;
+        for (int j = 0; j < n; j++)
             out->pdf[j] = pdf;
-        return true;
+        return BSDF_SAMPLED_ALL;
     }
     group_t g = group_make(b, hero, 1);
     double fh, pdfh;
     walk_t wk = walk_begin(rng);
     if (!group_sample(&g, wo, uc, u1, u2, &wk, &fh, &pdfh, &out->wi, &out->flags))
-        return false;
+        return BSDF_SAMPLED_NONE;
     /* The top's mirror reflection is the one delta direction every lane shares; its weight is
      * the lane's own Fresnel reflectance, its probability the lane's own choice of it. */
     bool top_mirror = (out->flags & BSDF_SPECULAR) && (out->flags & BSDF_REFLECTION) &&
                       lobe_dielectric_specular(&b->mf, b->eta[hero]) &&
                       fabs(out->wi.x + wo.x) + fabs(out->wi.y + wo.y) < 1e-12;
-    for (int j = 0; j < b->n; j++) {
+    for (int j = 0; j < n; j++) {
         if (j == hero) {
             out->f[j] = fh;
             out->pdf[j] = pdfh;
@@ -765,7 +751,7 @@ bool layered_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, 
             out->pdf[j] = group_pdf(&gj, wo, out->wi, &wp);
         }
     }
-    return true;
+    return BSDF_SAMPLED_ALL;
 }
 
 /* The coating's own reflection lobe (exact, lane 0's index) plus what comes through it, as if
@@ -774,10 +760,8 @@ bool layered_sample(const bsdf_t *b, vec3_t wo, int hero, double uc, double u1, 
  * proportion to power times this (render.c), so the coat's sharp lobe, where f is tens of
  * times the rest, gets its picks instead of one in many; a floor of 0.05 on a keeps it
  * positive wherever f can be. */
-double layered_guide(const bsdf_t *b, vec3_t wo, vec3_t wi)
+static double guide(const bsdf_t *b, int n, vec3_t wo, vec3_t wi)
 {
-    if (b->n < 1)
-        return 1.0;
     if (wo.z < 0.0) {
         wo = vec3_neg(wo);
         wi = vec3_neg(wi);
@@ -785,11 +769,11 @@ double layered_guide(const bsdf_t *b, vec3_t wo, vec3_t wi)
     const double eta = b->eta[0];
     double top = wi.z > 0.0 ? lobe_dielectric_f(&b->mf, eta, b->mode, wo, wi) : 0.0;
     double a = 0.0;
-    for (int j = 0; j < b->n; j++) {
+    for (int j = 0; j < n; j++) {
         double base = b->kind == BSDF_COATED_CONDUCTOR
                           ? fresnel_conductor(1.0, b->cond_eta[j], b->cond_k[j])
                           : b->reflectance[j];
-        a += fmax(base, b->albedo[j]) / b->n;
+        a += fmax(base, b->albedo[j]) / n;
     }
     a = fmax(fmin(a, 1.0), 0.05);
     double t = (1.0 - fresnel_dielectric(fabs(wo.z), 1.0, eta)) *
@@ -797,13 +781,36 @@ double layered_guide(const bsdf_t *b, vec3_t wo, vec3_t wi)
     return lobe_finite(top) + fmax(t, 0.0) * a / PF_PI + 1e-12;
 }
 
-bool layered_is_specular(const bsdf_t *b)
+/* Only the coated conductor can be: a smooth coating over a smooth conductor with no medium. */
+static bool is_specular(const bsdf_t *b, int n)
 {
-    if (b->kind != BSDF_COATED_CONDUCTOR || !microfacet_smooth(&b->mf) ||
-        !microfacet_smooth(&b->mf_base))
+    if (!microfacet_smooth(&b->mf) || !microfacet_smooth(&b->mf_base))
         return false;
-    for (int j = 0; j < b->n; j++)
+    for (int j = 0; j < n; j++)
         if (b->albedo[j] > 0.0)
             return false;
     return true;
 }
+
+static void regularize_conductor(bsdf_t *b)
+{
+    b->mf = regularize_microfacet(b->mf);
+    b->mf_base = regularize_microfacet(b->mf_base);
+}
+
+const bsdf_model_t bsdf_model_coated_diffuse = {.eval = eval,
+                                                .pdf = pdf,
+                                                .sample = sample,
+                                                .guide = guide,
+                                                .regularize = regularize_interface,
+                                                .flags = BSDF_MODEL_DISPERSIVE |
+                                                         BSDF_MODEL_PDF_ESTIMATE};
+
+const bsdf_model_t bsdf_model_coated_conductor = {.eval = eval,
+                                                  .pdf = pdf,
+                                                  .sample = sample,
+                                                  .guide = guide,
+                                                  .is_specular = is_specular,
+                                                  .regularize = regularize_conductor,
+                                                  .flags = BSDF_MODEL_DISPERSIVE |
+                                                           BSDF_MODEL_PDF_ESTIMATE};

@@ -192,6 +192,18 @@ static void lobe_choice(double r, int allowed, double *pr, double *pt)
     *pt = allowed & LOBE_T ? 1.0 - r : 0.0;
 }
 
+/* The rough dielectric's microfacet wm joining wo and wi (lobe_half) and the Fresnel term fr
+ * (bare or filmed) at it: what f and pdf both start from. False when the interface is smooth
+ * (delta lobes only: f = pdf = 0 off them) or no microfacet joins the two. */
+static bool rough_facet(const microfacet_t *mf, double eta, const lobe_film_t *film, vec3_t wo,
+                        vec3_t wi, vec3_t *wm, double *etap, bool *reflect, double *fr)
+{
+    if (lobe_dielectric_specular(mf, eta) || !lobe_half(eta, wo, wi, wm, etap, reflect))
+        return false;
+    *fr = fr_dielectric_film(vec3_dot(wo, *wm), eta, film);
+    return true;
+}
+
 /* Walter et al. 2007 eq. 21 (pbrt-v4 eq. 9.40) for transmission:
  *   f_t = T D G |wi.wm| |wo.wm| / (|cos_i| |cos_o| (wi.wm + wo.wm / etap)^2),
  * divided by etap^2 for radiance (non-symmetric scattering, Veach 1997 sec. 5.2); eq. 20 for
@@ -199,14 +211,11 @@ static void lobe_choice(double r, int allowed, double *pr, double *pt)
 double lobe_dielectric_f_film(const microfacet_t *mf, double eta, const lobe_film_t *film,
                               bsdf_mode_t mode, vec3_t wo, vec3_t wi)
 {
-    if (lobe_dielectric_specular(mf, eta))
-        return 0.0;
     vec3_t wm;
-    double etap;
+    double etap, fr;
     bool reflect;
-    if (!lobe_half(eta, wo, wi, &wm, &etap, &reflect))
+    if (!rough_facet(mf, eta, film, wo, wi, &wm, &etap, &reflect, &fr))
         return 0.0;
-    double fr = fr_dielectric_film(vec3_dot(wo, wm), eta, film);
     double co = wo.z, ci = wi.z;
     if (reflect)
         return lobe_finite(microfacet_d(mf, wm) * microfacet_g(mf, wo, wi) * fr /
@@ -226,15 +235,13 @@ double lobe_dielectric_f_film(const microfacet_t *mf, double eta, const lobe_fil
 double lobe_dielectric_pdf_film(const microfacet_t *mf, double eta, const lobe_film_t *film,
                                 vec3_t wo, vec3_t wi, int allowed)
 {
-    if (lobe_dielectric_specular(mf, eta))
-        return 0.0;
     vec3_t wm;
-    double etap;
+    double etap, fr;
     bool reflect;
-    if (!lobe_half(eta, wo, wi, &wm, &etap, &reflect))
+    if (!rough_facet(mf, eta, film, wo, wi, &wm, &etap, &reflect, &fr))
         return 0.0;
     double pr, pt;
-    lobe_choice(fr_dielectric_film(vec3_dot(wo, wm), eta, film), allowed, &pr, &pt);
+    lobe_choice(fr, allowed, &pr, &pt);
     if (pr == 0.0 && pt == 0.0)
         return 0.0;
     double pdf;

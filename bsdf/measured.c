@@ -1,5 +1,6 @@
 #include "measured.h"
 
+#include "bsdf_model.h"
 #include "plinear2d.h"
 #include "tensor_file.h"
 
@@ -353,3 +354,37 @@ size_t measured_bytes(const measured_t *m)
     return sizeof *m + plinear2d_bytes(m->ndf) + plinear2d_bytes(m->sigma) +
            plinear2d_bytes(m->vndf) + plinear2d_bytes(m->luminance) + plinear2d_bytes(m->spectra);
 }
+
+/* ---- The model (BSDF_MEASURED): the scene's data read at each lane's wavelength ---- */
+
+static void eval(const bsdf_t *b, int n, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *f)
+{
+    (void)rng;
+    measured_eval(b->measured, wo, wi, b->lambda, n, f);
+}
+
+/* One density for every lane: the warps do not depend on the wavelength. */
+static void pdf(const bsdf_t *b, int n, vec3_t wo, vec3_t wi, rng_stream_t *rng, double *pdf)
+{
+    (void)rng;
+    double p = measured_pdf(b->measured, wo, wi);
+    for (int j = 0; j < n; j++)
+        pdf[j] = p;
+}
+
+static bsdf_sampled_t sample(const bsdf_t *b, int n, vec3_t wo, int hero, double uc, double u1,
+                             double u2, rng_stream_t *rng, bsdf_sample_t *out)
+{
+    (void)hero;
+    (void)uc;
+    (void)rng;
+    double p;
+    if (!measured_sample(b->measured, wo, u1, u2, b->lambda, n, &out->wi, out->f, &p))
+        return BSDF_SAMPLED_NONE;
+    out->flags = BSDF_REFLECTION;
+    for (int j = 0; j < n; j++)
+        out->pdf[j] = p;
+    return BSDF_SAMPLED_ALL;
+}
+
+const bsdf_model_t bsdf_model_measured = {.eval = eval, .pdf = pdf, .sample = sample};

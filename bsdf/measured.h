@@ -14,7 +14,9 @@
  * the file's length. Every f and pdf is finite and >= 0; sample's f and pdf are eval's and
  * pdf's at the returned direction. The model reflects on both sides (a wo below the surface
  * sees the data mirrored, as pbrt-v4's), never transmits. A lane's wavelength outside the
- * file's range takes the nearest end's value. Immutable once made: shared between threads. */
+ * file's range takes the nearest end's value. Immutable once made: shared between threads.
+ * The BSDF that reads it at a hit's lanes is the row bsdf_model_measured (BSDF_MEASURED,
+ * bsdf_model.h) in measured.c. */
 #ifndef PRISMFARM_MEASURED_H
 #define PRISMFARM_MEASURED_H
 

@@ -17,7 +17,12 @@
 /* The roughened distribution; finite for any input (a non-finite alpha reads as 0). */
 microfacet_t regularize_microfacet(microfacet_t m);
 
-/* Regularizes the model's lobes in place. */
+/* Roughens b->mf alone: the row's regularize of the models with one interface (conductor,
+ * dielectric, coated diffuse). */
+void regularize_interface(bsdf_t *b);
+
+/* Regularizes the model's lobes in place: its row's regularize (bsdf_model.h), which applies
+ * regularize_microfacet to the microfacets the model has. */
 void regularize_bsdf(bsdf_t *b);
 
 #endif

@@ -1420,7 +1420,7 @@ static int scatter_with(ctx_t *c, path_t *p, const surface_t *sf, const bsdf_t *
     /* The coated models' sample gives each lane an unbiased weight f / pdf, but their pdf is
      * pbrt-v4's approximation for MIS, not a density: their lanes cannot be mixed, and a
      * dispersive coat ends the secondaries as pbrt-v4 does. */
-    const int layered = b->kind == BSDF_COATED_DIFFUSE || b->kind == BSDF_COATED_CONDUCTOR;
+    const int layered = bsdf_pdf_is_estimate(b);
     const int terminate = (!c->rs->spectral_mis || layered) && p->n > 1 && bsdf_lanes_disperse(b);
     double sel_lanes[LANES];
     const double *sel = NULL;

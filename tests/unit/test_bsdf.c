@@ -1067,6 +1067,58 @@ static void test_layered_walk_stratified(void **state)
     testutil_assert_near(pix[0].mean, pix[1].mean, 5 * se);
 }
 
+/* What bsdf.c decides from a model's row rather than its kind (bsdf_model.h): which models'
+ * pdfs are estimates (the coated ones, and their samples say so), which disperse with the
+ * lanes' eta (dielectric and coated, not the thin slab or the SSS exit, whose directions do not
+ * follow eta), which are only delta lobes; and a kind outside the list evaluates to 0 and
+ * samples nothing. */
+static void test_model_rows(void **state)
+{
+    (void)state;
+#define KIND(kind, row) kind,
+    static const bsdf_kind_t KINDS[] = {BSDF_MODEL_LIST(KIND)};
+#undef KIND
+    assert_int_equal(sizeof KINDS / sizeof KINDS[0], BSDF_SSS_EXIT + 1);
+    for (size_t i = 0; i < sizeof KINDS / sizeof KINDS[0]; i++) {
+        const bsdf_kind_t k = KINDS[i];
+        const bool is_coated = k == BSDF_COATED_DIFFUSE || k == BSDF_COATED_CONDUCTOR;
+        bsdf_t b = make(k, 4);
+        assert_int_equal(bsdf_pdf_is_estimate(&b), is_coated);
+        assert_false(bsdf_lanes_disperse(&b));
+        b.eta[2] = 1.6;
+        assert_int_equal(bsdf_lanes_disperse(&b), is_coated || k == BSDF_DIELECTRIC);
+        /* make's microfacets are smooth and its layers empty: mirrors and glass, and a
+         * smooth coat over a mirror; a coat over a Lambertian base never is. */
+        assert_int_equal(bsdf_is_specular(&b), k == BSDF_CONDUCTOR || k == BSDF_DIELECTRIC ||
+                                                   k == BSDF_THIN_DIELECTRIC ||
+                                                   k == BSDF_COATED_CONDUCTOR);
+        if (is_coated) {
+            b = coated(k, 4, 0.3, 1.5);
+            bsdf_sample_t s;
+            assert_true(bsdf_sample(&b, vec3_normalize(vec3_make(0.3, 0.1, 0.9)), 1, 0.5, 0.3, 0.7,
+                                    NULL, &s));
+            assert_true(s.pdf_is_estimate);
+        }
+    }
+    bsdf_t b = make((bsdf_kind_t)(BSDF_SSS_EXIT + 7), 4);
+    const vec3_t wo = vec3_make(0.0, 0.0, 1.0), wi = vec3_normalize(vec3_make(0.2, 0.1, 0.8));
+    double f[BSDF_MAX_LANES] = {1, 1, 1, 1}, pdf[BSDF_MAX_LANES] = {1, 1, 1, 1};
+    bsdf_eval(&b, wo, wi, NULL, f);
+    bsdf_pdf(&b, wo, wi, NULL, pdf);
+    for (int j = 0; j < 4; j++) {
+        assert_true(f[j] == 0.0);
+        assert_true(pdf[j] == 0.0);
+    }
+    bsdf_sample_t s;
+    mueller_t m;
+    vec3_t wm;
+    assert_false(bsdf_sample(&b, wo, 0, 0.5, 0.5, 0.5, NULL, &s));
+    assert_false(bsdf_mueller(&b, 0, wo, wi, &m, &wm));
+    assert_false(bsdf_is_specular(&b));
+    assert_false(bsdf_pdf_is_estimate(&b));
+    assert_true(bsdf_guide(&b, wo, wi) == 1.0);
+}
+
 int main(void)
 {
     const struct CMUnitTest tests[] = {
@@ -1087,6 +1139,7 @@ int main(void)
         cmocka_unit_test(test_layered_reflect_choice),
         cmocka_unit_test(test_layered_lanes),
         cmocka_unit_test(test_layered_walk_stratified),
+        cmocka_unit_test(test_model_rows),
     };
     return cmocka_run_group_tests(tests, NULL, NULL);
 }
