@@ -20,22 +20,10 @@
 #include "geometry.h"
 #include "pbrt_parser.h"
 #include "scene.h"
+#include "scene_builders.h"
 #include "scene_load.h"
 
 static const double PI = 3.14159265358979323846;
-
-static scene_t *load(const char *text)
-{
-    err_t err = {{0}};
-    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
-    if (!d)
-        fail_msg("did not parse: %s\n%s", err.msg, text);
-    scene_t *s = scene_load(d, NULL, &err);
-    scene_desc_destroy(&d);
-    if (!s)
-        fail_msg("did not load: %s\n%s", err.msg, text);
-    return s;
-}
 
 /* A straight segment along x from -1 to 1, 0.2 wide (u = (x + 1) / 2: its control points are
  * evenly spaced). */
@@ -60,9 +48,11 @@ static double coverage(const scene_t *s, vec3_t dir, vec3_t across, int n)
 static void test_ribbon_faces_its_normal(void **state)
 {
     (void)state;
-    scene_t *r = load("WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" " STRAIGHT
-                      " \"normal N\" [0 0 1 0 0 1]\n");
-    scene_t *f = load("WorldBegin\nShape \"curve\" \"string type\" \"flat\" " STRAIGHT "\n");
+    scene_t *r = sb_load_text("WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" " STRAIGHT
+                              " \"normal N\" [0 0 1 0 0 1]\n",
+                              NULL);
+    scene_t *f =
+        sb_load_text("WorldBegin\nShape \"curve\" \"string type\" \"flat\" " STRAIGHT "\n", NULL);
     const double a = PI / 3; /* 60 degrees off the normal */
     vec3_t face = vec3_make(0, 0, -1), edge = vec3_make(0, -1, 0),
            tilt = vec3_make(0, -sin(a), -cos(a));
@@ -104,10 +94,12 @@ static void test_ribbon_normal_interpolates(void **state)
 {
     (void)state;
     /* A quarter turn about the curve: +z at x = -1 to +y at x = 1; and the same reversed. */
-    scene_t *s = load("WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" " STRAIGHT
-                      " \"normal N\" [0 0 1 0 1 0]\n");
-    scene_t *rev = load("WorldBegin\nReverseOrientation\nShape \"curve\" \"string type\" "
-                        "\"ribbon\" " STRAIGHT " \"normal N\" [0 0 1 0 1 0]\n");
+    scene_t *s = sb_load_text("WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" " STRAIGHT
+                              " \"normal N\" [0 0 1 0 1 0]\n",
+                              NULL);
+    scene_t *rev = sb_load_text("WorldBegin\nReverseOrientation\nShape \"curve\" \"string type\" "
+                                "\"ribbon\" " STRAIGHT " \"normal N\" [0 0 1 0 1 0]\n",
+                                NULL);
     double worst = 0.0;
     for (int k = 1; k < 16; k++) {
         double u = k / 16.0, x = -1 + 2 * u, phi = u * PI / 2;
@@ -148,8 +140,9 @@ static void test_ribbon_normal_interpolates(void **state)
 static void test_thin_wavy_curve(void **state)
 {
     (void)state;
-    scene_t *s = load("WorldBegin\nShape \"curve\" \"float width\" 0.06 "
-                      "\"point3 P\" [0 0 0 1 0.2 0 2 -0.2 0 3 0 0]\n");
+    scene_t *s = sb_load_text("WorldBegin\nShape \"curve\" \"float width\" 0.06 "
+                              "\"point3 P\" [0 0 0 1 0.2 0 2 -0.2 0 3 0 0]\n",
+                              NULL);
     const double cp[12] = {0, 0, 0, 1, 0.2, 0, 2, -0.2, 0, 3, 0, 0}, r = 0.03;
     int wrong = 0, bad_v = 0, n = 0;
     for (int i = 0; i < 60; i++) {
@@ -215,8 +208,9 @@ static void test_curve_split_beyond_16(void **state)
 {
     (void)state;
     const double cp[12] = {0, 0, 0, 1, 0.41, 0, 2, -0.41, 0, 3, 0, 0}, r = 0.01;
-    scene_t *s = load("WorldBegin\nShape \"curve\" \"float width\" 0.02 "
-                      "\"point3 P\" [0 0 0 1 0.41 0 2 -0.41 0 3 0 0]\n");
+    scene_t *s = sb_load_text("WorldBegin\nShape \"curve\" \"float width\" 0.02 "
+                              "\"point3 P\" [0 0 0 1 0.41 0 2 -0.41 0 3 0 0]\n",
+                              NULL);
     int wrong = 0, bad_v = 0, bad_u = 0, bad_prim = 0, n = 0;
     double worst_edge = 0.0, worst_u = 0.0;
     hit_t h;
@@ -275,9 +269,10 @@ static void test_curve_split_beyond_16(void **state)
 
     /* The ribbon: normals +z at u = 0, turning a third of a turn about x to u = 1. */
     scene_t *rb =
-        load("WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" \"float width\" 0.02 "
-             "\"point3 P\" [0 0 0 1 0.41 0 2 -0.41 0 3 0 0] "
-             "\"normal N\" [0 0 1 0 -0.866025403784 0.5]\n");
+        sb_load_text("WorldBegin\nShape \"curve\" \"string type\" \"ribbon\" \"float width\" 0.02 "
+                     "\"point3 P\" [0 0 0 1 0.41 0 2 -0.41 0 3 0 0] "
+                     "\"normal N\" [0 0 1 0 -0.866025403784 0.5]\n",
+                     NULL);
     int bad_n = 0;
     double worst_n = 1.0;
     for (int i = 0; i < 90; i++) {
@@ -323,7 +318,8 @@ static void test_ribbon_refused(void **state)
             fail_msg("case %zu: %s (wanted \"%s\")", i, d ? "accepted" : err.msg, why[i]);
     }
     /* Normals on a flat curve are ignored, as pbrt-v4 does. */
-    scene_t *s = load("WorldBegin\nShape \"curve\" " STRAIGHT " \"normal N\" [0 0 1 0 0 1]\n");
+    scene_t *s =
+        sb_load_text("WorldBegin\nShape \"curve\" " STRAIGHT " \"normal N\" [0 0 1 0 0 1]\n", NULL);
     assert_true(fabs(coverage(s, vec3_make(0, -1, 0), vec3_make(0, 0, 1), 100) - 0.5) < 0.02);
     scene_destroy(&s);
 }

@@ -20,6 +20,7 @@
 #include "filter.h"
 #include "pbrt_parser.h"
 #include "render.h"
+#include "scene_builders.h"
 #include "scene_load.h"
 #include "warnings.h"
 
@@ -186,19 +187,6 @@ static void test_mitchell_sinc_weights(void **state)
 
 /* ---- rendered ---- */
 
-static scene_t *load_text(const char *text)
-{
-    err_t err = {{0}};
-    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
-    if (!d)
-        fail_msg("parse: %s", err.msg);
-    scene_t *s = scene_load(d, NULL, &err);
-    scene_desc_destroy(&d);
-    if (!s)
-        fail_msg("load: %s", err.msg);
-    return s;
-}
-
 static tilebuf_t *render(scene_t *s)
 {
     err_t err;
@@ -248,7 +236,7 @@ static void test_edge_spread(void **state)
     char text[2048];
     /* Box 0.5: the step stays a step (columns 3 | 4 are 1 | 0 up to spectral noise). */
     edge_text(text, sizeof text, "PixelFilter \"box\"", "");
-    scene_t *s = load_text(text);
+    scene_t *s = sb_load_text(text, NULL);
     tilebuf_t *t = render(s);
     double se, c3 = column(t, 3, &se), c4 = column(t, 4, &se);
     assert_true(fabs(c3 - 1.0) < 0.05 && c4 == 0.0);
@@ -264,7 +252,7 @@ static void test_edge_spread(void **state)
     double total = erf(r / (sg * sqrt(2.0))) - 2 * r * gr;
     double p = (G - Gm - (0.5 + r) * gr) / total;
     edge_text(text, sizeof text, "", "");
-    s = load_text(text);
+    s = sb_load_text(text, NULL);
     t = render(s);
     double se3, se4;
     c3 = column(t, 3, &se3);
@@ -297,26 +285,26 @@ static void test_iso_exposure(void **state)
     (void)state;
     char text[2048];
     edge_text(text, sizeof text, "", "");
-    scene_t *s = load_text(text);
+    scene_t *s = sb_load_text(text, NULL);
     tilebuf_t *a = render(s);
     scene_destroy(&s);
     /* 400 x 0.5 / 100 = 2: a power of two scales every sum exactly. */
     edge_text(text, sizeof text, "", "\"float iso\" 400 \"float exposuretime\" 0.5");
-    s = load_text(text);
+    s = sb_load_text(text, NULL);
     assert_true(s->settings.imaging_ratio == 2.0);
     tilebuf_t *b = render(s);
     scene_destroy(&s);
     compare_scaled(a, b, 2.0, 0.0);
     tilebuf_destroy(&b);
     edge_text(text, sizeof text, "", "\"float iso\" 150");
-    s = load_text(text);
+    s = sb_load_text(text, NULL);
     b = render(s);
     scene_destroy(&s);
     compare_scaled(a, b, 1.5, 1e-12);
     tilebuf_destroy(&b);
     /* maxcomponentvalue 0.25: no sample's Y exceeds it (an emitter of Y = 1 seen directly). */
     edge_text(text, sizeof text, "", "\"float maxcomponentvalue\" 0.25");
-    s = load_text(text);
+    s = sb_load_text(text, NULL);
     b = render(s);
     scene_destroy(&s);
     for (int y = 0; y < 8; y++)
@@ -333,7 +321,7 @@ static void test_crop_identical(void **state)
     (void)state;
     char text[2048];
     edge_text(text, sizeof text, "PixelFilter \"mitchell\"", "");
-    scene_t *s = load_text(text);
+    scene_t *s = sb_load_text(text, NULL);
     tilebuf_t *full = render(s);
     scene_destroy(&s);
     struct {
@@ -346,7 +334,7 @@ static void test_crop_identical(void **state)
     };
     for (size_t c = 0; c < sizeof cases / sizeof cases[0]; c++) {
         edge_text(text, sizeof text, "PixelFilter \"mitchell\"", cases[c].film);
-        s = load_text(text);
+        s = sb_load_text(text, NULL);
         assert_int_equal(s->settings.xres, cases[c].w);
         assert_int_equal(s->settings.yres, cases[c].h);
         tilebuf_t *crop = render(s);
@@ -367,7 +355,7 @@ static void test_crop_identical(void **state)
 
 static void expect_warning(const char *text, const char *expected)
 {
-    scene_t *s = load_text(text);
+    scene_t *s = sb_load_text(text, NULL);
     for (size_t i = 0; i < warnings_count(s->warnings); i++)
         if (!strcmp(warnings_at(s->warnings, i), expected)) {
             scene_destroy(&s);
@@ -398,14 +386,16 @@ static void test_pbrt_names_warn(void **state)
                    "t.pbrt:1:6: Film \"gbuffer\" is rendered as \"rgb\": its albedo, normal and depth "
                    "layers are not written");
     /* volpath without media is path: no warning at all. */
-    scene_t *s = load_text("Integrator \"volpath\" \"integer maxdepth\" 7 \"string lightsampler\" \"bvh\"\n" LIGHT);
+    scene_t *s = sb_load_text(
+        "Integrator \"volpath\" \"integer maxdepth\" 7 \"string lightsampler\" \"bvh\"\n" LIGHT, NULL);
     assert_int_equal(warnings_count(s->warnings), 0);
     assert_int_equal(s->settings.integrator, INTEGRATOR_PATH);
     assert_int_equal(s->settings.maxdepth, 7);
     scene_destroy(&s);
     /* sppm: photons = photonsperiteration x pixelsamples, radius kept. */
-    s = load_text("Sampler \"halton\" \"integer pixelsamples\" 8\n"
-                  "Integrator \"sppm\" \"integer photonsperiteration\" 1000 \"float radius\" 0.25\n" LIGHT);
+    s = sb_load_text("Sampler \"halton\" \"integer pixelsamples\" 8\n"
+                     "Integrator \"sppm\" \"integer photonsperiteration\" 1000 \"float radius\" 0.25\n" LIGHT,
+                     NULL);
     assert_true(s->settings.photon.enabled && s->settings.photon.photons == 8000 &&
                 s->settings.photon.radius == 0.25);
     scene_destroy(&s);

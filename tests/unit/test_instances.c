@@ -20,6 +20,7 @@
 #include "pbrt_parser.h"
 #include "render.h"
 #include "scene.h"
+#include "scene_builders.h"
 #include "scene_load.h"
 
 static void assert_vec_near(vec3_t a, vec3_t b, double tol, const char *what)
@@ -365,13 +366,7 @@ static const char *FLATTENED = SCENE_HEAD "AttributeBegin\n" PLACE_A OBJECT_SHAP
 static tilebuf_t *render_text(const char *text, size_t *ninstances)
 {
     err_t err;
-    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "instances.pbrt", &err);
-    if (!d)
-        fail_msg("parse: %s", err.msg);
-    scene_t *s = scene_load(d, NULL, &err);
-    scene_desc_destroy(&d);
-    if (!s)
-        fail_msg("load: %s", err.msg);
+    scene_t *s = sb_load_text(text, NULL);
     *ninstances = s->ninstances;
     int w = s->settings.xres, h = s->settings.yres;
     tilebuf_t *t = tilebuf_new(0, 0, w, h, s->settings.grid.n, &err);

@@ -22,6 +22,8 @@
 
 #include <cmocka.h>
 
+#include "scene_builders.h"
+
 /* The lens of scenes/lenses/landscape-bk7-100mm.dat. */
 static const char *LANDSCAPE = "# stop, then LB1676\n"
                                "0       50.0   0       12.0\n"
@@ -317,13 +319,7 @@ static void test_rendered_fringe(void **state)
         "\"integer indices\" [0 1 2 0 2 3]\n",
         FX, FY);
     err_t err = {{0}};
-    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
-    if (!d)
-        fail_msg("parse: %s", err.msg);
-    scene_t *sc = scene_load(d, NULL, &err);
-    scene_desc_destroy(&d);
-    if (!sc)
-        fail_msg("load: %s", err.msg);
+    scene_t *sc = sb_load_text(text, NULL);
     assert_int_equal(sc->camera.kind, CAMERA_REALISTIC);
     assert_true(sc->camera.lens_dispersive);
     const render_settings_t *rs = &sc->settings;
@@ -370,11 +366,7 @@ static void brightest_quadrant(const char *camera, int *qx, int *qy)
         "\"integer indices\" [0 1 2 0 2 3]\n",
         camera);
     err_t err = {{0}};
-    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
-    scene_t *sc = d ? scene_load(d, NULL, &err) : NULL;
-    scene_desc_destroy(&d);
-    if (!sc)
-        fail_msg("%s", err.msg);
+    scene_t *sc = sb_load_text(text, NULL);
     const render_settings_t *rs = &sc->settings;
     tilebuf_t *t = tilebuf_new(0, 0, rs->xres, rs->yres, rs->grid.n, &err);
     if (!t || render_tile(sc, NULL, 0, 0, rs->xres, rs->yres, 0, (uint32_t)rs->spp, t, NULL, &err))

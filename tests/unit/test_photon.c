@@ -494,12 +494,8 @@ static void test_scene_parameters(void **state)
     /* An override to another integrator leaves the photon parameters unused but accepted. */
     const char *text =
         "Integrator \"photon\" \"integer photons\" 10\nWorldBegin\nLightSource \"point\"\n";
-    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", &err);
     scene_overrides_t ov = {.seed = -1, .integrator = "whitted"};
-    s = scene_load(d, &ov, &err);
-    scene_desc_destroy(&d);
-    if (!s)
-        fail_msg("%s", err.msg);
+    s = sb_load_text_with(text, &ov, NULL);
     assert_false(s->settings.photon.enabled);
     assert_int_equal(s->settings.integrator, INTEGRATOR_WHITTED);
     scene_destroy(&s);

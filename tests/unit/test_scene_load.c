@@ -308,23 +308,14 @@ static void test_warnings(void **state)
 {
     (void)state;
     err_t err = {{0}};
-    const char *dark = "WorldBegin\nShape \"sphere\"\n";
-    scene_desc_t *d = pbrt_parse_string(dark, strlen(dark), "t.pbrt", &err);
-    assert_non_null(d);
-    scene_t *s = scene_load(d, NULL, &err);
-    assert_non_null(s);
+    scene_t *s = sb_load_text("WorldBegin\nShape \"sphere\"\n", NULL);
     assert_int_equal(warnings_count(s->warnings), 1);
     assert_string_equal(warnings_at(s->warnings, 0),
                         "t.pbrt:1:1: the scene has no light source: the image will be black");
     scene_destroy(&s);
-    scene_desc_destroy(&d);
-    const char *lit = "WorldBegin\nLightSource \"point\"\nShape \"sphere\"\n";
-    d = pbrt_parse_string(lit, strlen(lit), "t.pbrt", &err);
-    s = scene_load(d, NULL, &err);
-    assert_non_null(s);
+    s = sb_load_text("WorldBegin\nLightSource \"point\"\nShape \"sphere\"\n", NULL);
     assert_int_equal(warnings_count(s->warnings), 0);
     scene_destroy(&s);
-    scene_desc_destroy(&d);
 
     warnings_t *w = warnings_new(&err);
     pbrt_loc_t at = {"a.pbrt", 3, 7};

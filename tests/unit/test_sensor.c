@@ -19,6 +19,8 @@
 
 #include <cmocka.h>
 
+#include "scene_builders.h"
+
 static const char *CAMERAS[] = {
     "canon_eos_100d", "canon_eos_1dx_mkii", "canon_eos_200d",     "canon_eos_200d_mkii",
     "canon_eos_5d",   "canon_eos_5d_mkii",  "canon_eos_5d_mkiii", "canon_eos_5d_mkiv",
@@ -219,16 +221,6 @@ static void test_bad_names(void **state)
 
 /* ---- rendered ---- */
 
-static scene_t *load_text(const char *text, err_t *err)
-{
-    scene_desc_t *d = pbrt_parse_string(text, strlen(text), "t.pbrt", err);
-    if (!d)
-        return NULL;
-    scene_t *s = scene_load(d, NULL, err);
-    scene_desc_destroy(&d);
-    return s;
-}
-
 static tilebuf_t *render(scene_t *s)
 {
     err_t err;
@@ -274,13 +266,13 @@ static void test_rendered(void **state)
     err_t err;
     /* "cie1931" named explicitly is the default, bit for bit. */
     card_text(text, sizeof text, "");
-    scene_t *s = load_text(text, &err);
+    scene_t *s = sb_load_text(text, &err);
     assert_non_null(s);
     assert_null(s->sensor);
     tilebuf_t *a = render(s);
     scene_destroy(&s);
     card_text(text, sizeof text, "\"string sensor\" \"cie1931\"");
-    s = load_text(text, &err);
+    s = sb_load_text(text, &err);
     assert_null(s->sensor);
     tilebuf_t *b = render(s);
     scene_destroy(&s);
@@ -293,7 +285,7 @@ static void test_rendered(void **state)
     /* book.pbrt's camera: the grey card under D65 is neutral and as bright as cie1931's. The
      * spectral buckets (the radiance) are the same; only what the film records differs. */
     card_text(text, sizeof text, "\"string sensor\" \"canon_eos_100d\"");
-    s = load_text(text, &err);
+    s = sb_load_text(text, &err);
     if (!s)
         fail_msg("%s", err.msg);
     assert_non_null(s->sensor);
@@ -310,7 +302,7 @@ static void test_rendered(void **state)
     tilebuf_destroy(&b);
     /* Balanced for 3000 K, D65 light looks blue. */
     card_text(text, sizeof text, "\"string sensor\" \"nikon_d850\" \"float whitebalance\" 3000");
-    s = load_text(text, &err);
+    s = sb_load_text(text, &err);
     b = render(s);
     scene_destroy(&s);
     rgb_t cold = mean_rgb(b);
@@ -319,7 +311,7 @@ static void test_rendered(void **state)
     tilebuf_destroy(&a);
     /* An unknown sensor is an error at its parameter. */
     card_text(text, sizeof text, "\"string sensor\" \"canon_eos_99\"");
-    assert_null(load_text(text, &err));
+    assert_null(sb_load_text(text, &err));
     assert_non_null(strstr(err.msg, "t.pbrt:2:"));
     assert_non_null(strstr(err.msg, "unknown sensor \"canon_eos_99\""));
 }
