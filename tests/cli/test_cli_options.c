@@ -202,20 +202,6 @@ static void test_plan_prediction(void **state)
     expect_fails(run("plan", SCENE, "--target-error", "1.5", NULL), "--target-error expects");
 }
 
-/* Whether two EXRs' spectral pixels differ anywhere. */
-static int pixels_differ(const char *a, const char *b)
-{
-    err_t err;
-    image_exr_t *x = image_exr_read(a, &err), *y = x ? image_exr_read(b, &err) : NULL;
-    if (!x || !y)
-        fail_msg("%s", err.msg);
-    const size_t n = (size_t)image_exr_width(x) * image_exr_height(x) * image_exr_n_spectral(x);
-    const int differ = memcmp(image_exr_spectral(x), image_exr_spectral(y), n * sizeof(float));
-    image_exr_destroy(&x);
-    image_exr_destroy(&y);
-    return differ != 0;
-}
-
 /* --polarized on|off|auto (proto/job_settings.h): the user forces polarised transport and the
  * plan says so; auto is the plan's own decision, so forcing what the plan decides renders the
  * same bytes (polar_off: the plan leaves it off; polar_on: its pilot turns it on), forcing the
@@ -255,7 +241,7 @@ static void test_polarized_switch(void **state)
         }
         testutil_assert_same_pixels(a, b);
         if (i == 1) /* polar_on's plates change the image by 6 % (its file says why) */
-            assert_true(pixels_differ(a, c));
+            assert_true(testutil_pixels_differ(a, c));
     }
     r = run("render", "data/render/stokes.pbrt", "--direct", "--quiet", "--polarized", "off", "-o",
             testutil_scratch("stokes_off.exr"), NULL);

@@ -387,6 +387,29 @@ static inline void testutil_assert_same_pixels(const char *a, const char *b)
     image_exr_destroy(&y);
 }
 
+/* Whether two EXRs of the same size and spectral channels (the test fails otherwise, or when
+ * either cannot be read) differ anywhere in their spectral pixels: what makes a comparison of
+ * renders that should agree prove something. */
+static inline int testutil_pixels_differ(const char *a, const char *b)
+{
+    err_t err;
+    image_exr_t *x = image_exr_read(a, &err);
+    if (!x)
+        fail_msg("%s", err.msg);
+    image_exr_t *y = image_exr_read(b, &err);
+    if (!y)
+        fail_msg("%s", err.msg);
+    int w = image_exr_width(x), h = image_exr_height(x), n = image_exr_n_spectral(x);
+    assert_int_equal(w, image_exr_width(y));
+    assert_int_equal(h, image_exr_height(y));
+    assert_int_equal(n, image_exr_n_spectral(y));
+    const int differ =
+        memcmp(image_exr_spectral(x), image_exr_spectral(y), (size_t)w * h * n * sizeof(float));
+    image_exr_destroy(&x);
+    image_exr_destroy(&y);
+    return differ != 0;
+}
+
 /* ------------------------------------------------------------------------------------------ */
 /* The master's dashboard (docs/dashboard.md) over plain HTTP/1.1. */
 
