@@ -353,6 +353,25 @@ static inline char *testutil_exr_info(const char *exr)
     return copy;
 }
 
+/* Reads EXRs a and b into *x and *y (the caller destroys both) and returns their pixel count:
+ * the test fails when either cannot be read or their sizes or spectral channels differ. */
+static inline size_t testutil_exr_pair(const char *a, const char *b, image_exr_t **x,
+                                       image_exr_t **y)
+{
+    err_t err;
+    *x = image_exr_read(a, &err);
+    if (!*x)
+        fail_msg("%s", err.msg);
+    *y = image_exr_read(b, &err);
+    if (!*y)
+        fail_msg("%s", err.msg);
+    const int w = image_exr_width(*x), h = image_exr_height(*x);
+    assert_int_equal(w, image_exr_width(*y));
+    assert_int_equal(h, image_exr_height(*y));
+    assert_int_equal(image_exr_n_spectral(*x), image_exr_n_spectral(*y));
+    return (size_t)w * h;
+}
+
 /* Both EXRs have the same size and spectral channels and byte-identical spectral and RGB
  * pixel data. Two paths to the same file fail: the comparison would prove nothing (a path held
  * too long in testutil_scratch's rotating buffers shows that way). */
@@ -362,26 +381,16 @@ static inline void testutil_assert_same_pixels(const char *a, const char *b)
     if (!strcmp(a, b) || (stat(a, &sa) == 0 && stat(b, &sb) == 0 && sa.st_dev == sb.st_dev &&
                           sa.st_ino == sb.st_ino))
         fail_msg("%s and %s are the same file: nothing to compare", a, b);
-    err_t err;
-    image_exr_t *x = image_exr_read(a, &err);
-    if (!x)
-        fail_msg("%s", err.msg);
-    image_exr_t *y = image_exr_read(b, &err);
-    if (!y)
-        fail_msg("%s", err.msg);
-    int w = image_exr_width(x), h = image_exr_height(x), n = image_exr_n_spectral(x);
-    assert_int_equal(w, image_exr_width(y));
-    assert_int_equal(h, image_exr_height(y));
-    assert_int_equal(n, image_exr_n_spectral(y));
-    assert_memory_equal(image_exr_spectral(x), image_exr_spectral(y),
-                        (size_t)w * h * n * sizeof(float));
-    assert_memory_equal(image_exr_rgb(x), image_exr_rgb(y), (size_t)w * h * 3 * sizeof(float));
+    image_exr_t *x, *y;
+    const size_t px = testutil_exr_pair(a, b, &x, &y), nv = px * image_exr_n_spectral(x);
+    assert_memory_equal(image_exr_spectral(x), image_exr_spectral(y), nv * sizeof(float));
+    assert_memory_equal(image_exr_rgb(x), image_exr_rgb(y), px * 3 * sizeof(float));
     /* A Stokes output's S1-S3 layers too (Film "bool stokes"): both have them or neither. */
     for (int k = 1; k <= 3; k++) {
         const float *sx = image_exr_stokes(x, k), *sy = image_exr_stokes(y, k);
         assert_true(!sx == !sy);
         if (sx)
-            assert_memory_equal(sx, sy, (size_t)w * h * n * sizeof(float));
+            assert_memory_equal(sx, sy, nv * sizeof(float));
     }
     image_exr_destroy(&x);
     image_exr_destroy(&y);
@@ -392,19 +401,9 @@ static inline void testutil_assert_same_pixels(const char *a, const char *b)
  * renders that should agree prove something. */
 static inline int testutil_pixels_differ(const char *a, const char *b)
 {
-    err_t err;
-    image_exr_t *x = image_exr_read(a, &err);
-    if (!x)
-        fail_msg("%s", err.msg);
-    image_exr_t *y = image_exr_read(b, &err);
-    if (!y)
-        fail_msg("%s", err.msg);
-    int w = image_exr_width(x), h = image_exr_height(x), n = image_exr_n_spectral(x);
-    assert_int_equal(w, image_exr_width(y));
-    assert_int_equal(h, image_exr_height(y));
-    assert_int_equal(n, image_exr_n_spectral(y));
-    const int differ =
-        memcmp(image_exr_spectral(x), image_exr_spectral(y), (size_t)w * h * n * sizeof(float));
+    image_exr_t *x, *y;
+    const size_t nv = testutil_exr_pair(a, b, &x, &y) * image_exr_n_spectral(x);
+    const int differ = memcmp(image_exr_spectral(x), image_exr_spectral(y), nv * sizeof(float));
     image_exr_destroy(&x);
     image_exr_destroy(&y);
     return differ != 0;
